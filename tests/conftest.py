@@ -1,0 +1,43 @@
+"""Shared fixtures: the reference data in ../shared (skipped when absent) and tiny test models."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+TEST_DATA = REPO / "tests" / "data"
+
+
+def _find_shared() -> Path | None:
+    env = os.environ.get("RELIGHT_RT_SHARED")
+    if env:
+        return Path(env) if Path(env, "reference").is_dir() else None
+    for parent in REPO.parents:  # ../shared beside the checkout (or beside a worktree folder)
+        candidate = parent / "shared"
+        if (candidate / "reference").is_dir():
+            return candidate
+    return None
+
+
+@pytest.fixture(scope="session")
+def shared_dir() -> Path:
+    """The ../shared folder (DESIGN.md §8); the test is skipped when it is absent."""
+    path = _find_shared()
+    if path is None:
+        pytest.skip("../shared/reference is not present")
+    return path
+
+
+@pytest.fixture(scope="session")
+def reference_dir(shared_dir: Path) -> Path:
+    """../shared/reference: the reference implementation's test data (CC BY-NC-SA 4.0; never copied)."""
+    return shared_dir / "reference"
+
+
+@pytest.fixture(scope="session")
+def test_data_dir() -> Path:
+    """tests/data: tiny ONNX models with random weights and other small committed fixtures."""
+    return TEST_DATA
