@@ -534,10 +534,15 @@ def load_envmap(path) -> np.ndarray:
         logger.debug("decoding %s failed: %s", p, exc)
         img = None
     if img is None:
+        if ext == ".exr" and os.environ.get("OPENCV_IO_ENABLE_OPENEXR", "").lower() not in ("1", "true", "on"):
+            raise RelightError(
+                f"{p}: OpenCV's .exr reader is disabled; set the environment variable OPENCV_IO_ENABLE_OPENEXR=1 "
+                "before starting Python (needs an OpenCV built with OpenEXR), or convert the map to .hdr"
+            )
         if ext == ".exr":
             raise RelightError(
-                f"{p}: this OpenCV cannot read .exr; set the environment variable OPENCV_IO_ENABLE_OPENEXR=1 "
-                "before starting Python (needs an OpenCV build with OpenEXR), or convert the map to .hdr"
+                f"{p}: cannot decode .exr (corrupt file, or this OpenCV was built without OpenEXR; "
+                "OPENCV_IO_ENABLE_OPENEXR is set); convert the map to .hdr"
             )
         raise RelightError(f"{p}: cannot decode environment map (corrupt or not a {ext} image)")
     if img.ndim == 2:
