@@ -277,6 +277,8 @@ def test_rotate_z_rejects_bad_input():
         sh.rotate_z(random_light(), float("nan"))
     with pytest.raises(RelightError, match="light"):
         sh.rotate_z(np.zeros((9, 2)), 0.1)
+    with pytest.raises(RelightError, match="broadcast"):
+        sh.rotate_z(np.zeros((4, 9, 3)), np.zeros(3))
 
 
 def test_rotation_matrix_axes_and_order():
@@ -443,6 +445,18 @@ def test_load_envmap_png_is_linearised(tmp_path):
     assert cv2.imwrite(str(path), np.full((4, 8, 3), 128, np.uint8))
     env = sh.load_envmap(path)
     np.testing.assert_allclose(env, ((128 / 255 + 0.055) / 1.055) ** 2.4, rtol=1e-5)
+
+
+def test_load_envmap_grey_and_rgba(tmp_path):
+    grey = tmp_path / "grey.png"
+    assert cv2.imwrite(str(grey), np.full((4, 8), 255, np.uint8))
+    np.testing.assert_allclose(sh.load_envmap(grey), 1.0)
+    rgba = tmp_path / "rgba.png"
+    bgra = np.zeros((4, 8, 4), np.uint8)
+    bgra[..., 0] = 255  # blue
+    bgra[..., 3] = 10  # alpha is ignored
+    assert cv2.imwrite(str(rgba), bgra)
+    np.testing.assert_allclose(sh.load_envmap(rgba)[0, 0], [0.0, 0.0, 1.0])
 
 
 def test_load_envmap_wrong_aspect(tmp_path):
