@@ -28,7 +28,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from . import sh
+from . import lights, sh
 from ._errors import RelightError
 from ._geometry import CropGeometry
 from ._io import IMAGE_SUFFIXES, read_image, read_mask, sibling_mask
@@ -155,6 +155,23 @@ def diffuse_batch(albedo_chw: np.ndarray, transport_chw: np.ndarray, lights: np.
     out *= albedo_chw
     np.clip(out, 0, 1, out=out)
     return out
+
+
+def _unpremultiply(premult: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """(R, R, 3) colour ⊙ alpha → colour where alpha > 0.5 (stable), 0 elsewhere."""
+    a = alpha[..., None]
+    return np.divide(premult, a, out=np.zeros(premult.shape, np.float32), where=a > 0.5)
+
+
+def _extend_outward(values: np.ndarray, inner: np.ndarray, sigma: float = 2.0) -> np.ndarray:
+    """Keep (R, R, C) ``values`` where ``inner``; outside, fill with a Gaussian-weighted average of nearby inner
+    values (normalised convolution), so that upsampling near the outline does not mix in meaningless values.
+    Far from the person (no inner pixel near) the fill is 1."""
+    w = inner.astype(np.float32)
+    num = cv2.GaussianBlur(values * w[..., None], (0, 0), sigma)
+    den = cv2.GaussianBlur(w, (0, 0), sigma)[..., None]
+    filled = np.divide(num, den, out=np.ones_like(num), where=den > 1e-3)
+    return np.where(inner[..., None], values, filled)
 
 
 class Relighter:
@@ -284,8 +301,6 @@ class Relighter:
                 raise RelightError(f"light: {p} is neither a light file (.npy/.json), an HDR map nor a photo")
             if suffix or os.sep in str(light):
                 raise RelightError(f"light: file {p} not found")
-            from . import lights  # presets
-
             return sh.check_light(lights.preset(str(light)), "light").astype(np.float32)
         return sh.check_light(light, "light").astype(np.float32)
 
@@ -318,11 +333,11 @@ class Relighter:
                 yield diffuse[i], out["residual"][i], out["relit"][i]
 
     def _reconstruction(self, dec: Decomposition) -> np.ndarray:
-        """(3, R, R) the pipeline's output under the photo's own light (cached per decomposition)."""
+        """(R, R, 3) straight colour of the pipeline's output under the photo's own light (cached)."""
         key = ("reconstruction", id(self))
         if key not in dec._cache:
             _, _, relit = next(self._network_relit(dec, dec.light[None], 1))
-            dec._cache[key] = _readonly(relit)
+            dec._cache[key] = _readonly(_unpremultiply(relit.transpose(1, 2, 0), dec.network_mask))
         return dec._cache[key]
 
     def _background(self, background, dec: Decomposition) -> np.ndarray | None:
@@ -348,9 +363,10 @@ class Relighter:
         geom = dec.geometry
         relit_hwc = relit.transpose(1, 2, 0)
         if self.detail and geom.side > geom.resolution:
-            recon = self._reconstruction(dec).transpose(1, 2, 0)
-            ratio = (relit_hwc + _RATIO_EPS) / (recon + _RATIO_EPS)
-            ratio = geom.to_crop(ratio)
+            inner = dec.network_mask > 0.5
+            colour_net = _unpremultiply(relit_hwc, dec.network_mask)
+            ratio = (colour_net + _RATIO_EPS) / (self._reconstruction(dec) + _RATIO_EPS)
+            ratio = geom.to_crop(_extend_outward(ratio, inner))
             guide = np.ascontiguousarray(geom.crop(dec.image))
             radius = max(2, round(2 * geom.scale))
             ratio = cv2.ximgproc.guidedFilter(guide, ratio, radius, _GUIDE_EPS)
