@@ -139,6 +139,12 @@ def read_mask(src: str | os.PathLike | np.ndarray, shape: tuple[int, int], name:
     return m
 
 
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
 def _check_target(path: Path, protect: Iterable[str | os.PathLike]) -> None:
     target = path.resolve()
     for p in protect:
@@ -157,6 +163,7 @@ def _atomic(path: str | os.PathLike, protect: Iterable[str | os.PathLike], write
     try:
         with os.fdopen(fd, "wb") as f:
             write(f)
+        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give the file the usual permissions
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
