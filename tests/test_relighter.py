@@ -307,3 +307,29 @@ def test_property_only_correct_results_or_relight_error(relighter, inputs, light
 def test_lobe_matches_sh_module():
     """The analytic graph's transport is sh's cosine lobe times the basis at +x (sanity of the fixture)."""
     np.testing.assert_allclose(LOBE, sh.cosine_lobe() * sh.basis(np.array([1.0, 0, 0])), rtol=1e-6)
+
+
+@pytest.fixture(scope="module")
+def tiny_models(test_data_dir, tmp_path_factory):
+    """The export helper's tiny random-weight graphs (tests/data), under the names a models folder uses."""
+    import shutil
+
+    if not (test_data_dir / "tiny_stage1.onnx").is_file():
+        pytest.skip("tests/data/tiny_*.onnx not present")
+    folder = tmp_path_factory.mktemp("tiny")
+    for kind in ("stage1", "stage2", "dvp"):
+        shutil.copy(test_data_dir / f"tiny_{kind}.onnx", folder / f"{kind}.onnx")
+    return folder
+
+
+def test_exported_tiny_models_run_end_to_end(tiny_models):
+    r = Relighter(tiny_models, device="cpu")
+    assert r.resolution == 128 and not r.diffuse_only and r.dvp is not None
+    img, mask = person(300, 200, seed=13, box=(20, 280, 50, 150))
+    dec = r.decompose(img, mask)
+    assert dec.transport.shape == (128, 128, 9) and np.isfinite(dec.light).all()
+    outs = r.relight_many(dec, np.stack([lights.preset(n) for n in ("studio", "rim", "neon")]), batch_size=2)
+    assert outs.shape == (3, 300, 200, 3) and np.isfinite(outs).all() and 0 <= outs.min() and outs.max() <= 1
+    np.testing.assert_array_equal(outs[:, mask == 0], np.broadcast_to(img[mask == 0], (3,) + img[mask == 0].shape))
+    np.testing.assert_allclose(outs[1], r.relight(dec, lights.preset("rim")), atol=1e-5)  # batch items independent
+    np.testing.assert_allclose(r.relight(dec, dec), img, atol=1e-5)  # own light through detail transfer
