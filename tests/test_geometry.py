@@ -128,7 +128,7 @@ def test_window_origin_matches_the_whole_frame():
     net = np.random.default_rng(5).random((64, 64, 3)).astype(np.float32)
     whole = geom.to_crop(net)
     part = geom.to_crop(net[:, 10:54], origin=(0, 10))  # the crop covers network columns ~11..52
-    np.testing.assert_allclose(part, whole, atol=1e-6)
+    np.testing.assert_allclose(part, whole, atol=1e-4)  # warpAffine works in fixed point
     small = CropGeometry.from_mask(blob(40, 40, (10, 30, 10, 30)), 64)
     with pytest.raises(RelightError, match="origin"):
         small.to_crop(net, origin=(1, 1))
