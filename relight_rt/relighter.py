@@ -32,6 +32,7 @@ import cv2
 import numpy as np
 
 from . import lights, sh
+from ._chain import DeviceChain
 from ._errors import RelightError
 from ._geometry import CropGeometry
 from ._io import IMAGE_SUFFIXES, read_image, read_mask, sibling_mask
@@ -284,6 +285,9 @@ class Relighter:
         else:
             log.warning("%s has no stage2.onnx: results are diffuse-only (no residual/specular)", self.models_dir)
         self._dvp: Model | None = None
+        self._chain = None  # CUDA: stage 1 → shading → stage 2 without host round trips
+        if self.stage1.on_cuda and (self.stage2 is None or self.stage2.on_cuda):
+            self._chain = DeviceChain(self.stage1, self.stage2, "cuda", device_id)
         self.preprocess = preprocess
         self.detail = bool(detail)
         CropGeometry.from_mask(np.ones((1, 1), np.float32), self.resolution, preprocess)  # checks the mode
@@ -331,12 +335,19 @@ class Relighter:
         geom = CropGeometry.from_mask(m, self.resolution, self.preprocess)
         net_img = geom.to_network(rgb)
         net_mask = geom.to_network(m)
-        out = self.stage1.run({"image": net_img.transpose(2, 0, 1)[None], "mask": net_mask[None, None]})
+        feeds = {"image": net_img.transpose(2, 0, 1)[None], "mask": net_mask[None, None]}
+        if self._chain is not None:
+            out, on_device = self._chain.run_stage1(feeds["image"], feeds["mask"])
+        else:
+            out = self.stage1.run(feeds)
         light = out["light"][0]
         if not np.isfinite(light).all():
             raise RelightError(f"{self.stage1.name}: stage 1 estimated a non-finite light for this image")
         albedo, skin, transport = out["albedo"][0], out["skin"][0, 0], out["transport"][0]
-        return Decomposition(albedo, skin, transport, light, net_mask, net_img, m, rgb, geom)
+        dec = Decomposition(albedo, skin, transport, light, net_mask, net_img, m, rgb, geom)
+        if self._chain is not None:
+            dec._cache[("device", id(self))] = on_device
+        return dec
 
     # ------------------------------------------------------------------------------------ lights
 
@@ -380,9 +391,17 @@ class Relighter:
 
     # ------------------------------------------------------------------------------------ relight
 
-    def _network_relit(self, dec: Decomposition, lights: np.ndarray, batch_size: int) -> Iterator[tuple]:
-        """Yield (diffuse, residual or None, relit), each (3, R, R) float32, per light, in batches."""
+    def _network_relit(
+        self, dec: Decomposition, lights: np.ndarray, batch_size: int, want_layers: bool = True
+    ) -> Iterator[tuple]:
+        """Yield (diffuse, residual, relit), each (3, R, R) float32, per light, in batches.
+
+        residual is None when diffuse-only; on CUDA diffuse and residual are None unless ``want_layers``.
+        """
         net_mask = dec.network_mask[None, None]
+        if self._chain is not None:
+            yield from self._device_relit(dec, lights, batch_size, want_layers)
+            return
         for start in range(0, lights.shape[0], batch_size):
             diffuse = diffuse_batch(dec._albedo, dec._transport, lights[start : start + batch_size])
             if self.stage2 is None:
@@ -394,11 +413,28 @@ class Relighter:
             for i in range(n):
                 yield diffuse[i], out["residual"][i], out["relit"][i]
 
+    def _device_relit(self, dec: Decomposition, lights: np.ndarray, batch_size: int, want_layers: bool) -> Iterator:
+        """``_network_relit`` on CUDA through the DeviceChain (stage-1 outputs stay on the device)."""
+        chain = self._chain
+        key = ("device", id(self))
+        if key not in dec._cache:  # a decomposition made elsewhere: upload its stage-1 outputs once
+            dec._cache[key] = {
+                "albedo": chain.upload(dec._albedo[None]),
+                "transport": chain.upload(dec._transport[None]),
+            }
+        for start in range(0, lights.shape[0], batch_size):
+            batch = lights[start : start + batch_size]
+            mask_key = ("device-mask", id(self), batch.shape[0])
+            if mask_key not in dec._cache:
+                shape = (batch.shape[0], 1) + dec.network_mask.shape
+                dec._cache[mask_key] = chain.upload(np.broadcast_to(dec.network_mask, shape))
+            yield from chain.relit(dec._cache[key], dec._cache[mask_key], batch, want_layers)
+
     def _reconstruction(self, dec: Decomposition) -> np.ndarray:
         """(R, R, 3) straight colour of the pipeline's output under the photo's own light (cached)."""
         key = ("reconstruction", id(self))
         if key not in dec._cache:
-            _, _, relit = next(self._network_relit(dec, dec.light[None], 1))
+            _, _, relit = next(self._network_relit(dec, dec.light[None], 1, want_layers=False))
             dec._cache[key] = _readonly(_unpremultiply(relit.transpose(1, 2, 0), dec.network_mask))
         return dec._cache[key]
 
@@ -487,7 +523,7 @@ class Relighter:
         dec = self._prepare(image, mask)
         lit = self.resolve_light(light)
         bg = self._background(background, dec)
-        diffuse, residual, relit = next(self._network_relit(dec, lit[None], 1))
+        diffuse, residual, relit = next(self._network_relit(dec, lit[None], 1, want_layers=return_layers))
         out = self._compose(dec, relit, bg)
         if not return_layers:
             return out
@@ -517,7 +553,7 @@ class Relighter:
         dec = self._prepare(image, mask)
         lits = self._resolve_lights(lights)
         bg = self._background(background, dec)
-        for _, _, relit in self._network_relit(dec, lits, batch_size):
+        for _, _, relit in self._network_relit(dec, lits, batch_size, want_layers=False):
             yield self._compose(dec, relit, bg)
 
     def relight_many(

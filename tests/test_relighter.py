@@ -333,3 +333,54 @@ def test_exported_tiny_models_run_end_to_end(tiny_models):
     np.testing.assert_array_equal(outs[:, mask == 0], np.broadcast_to(img[mask == 0], (3,) + img[mask == 0].shape))
     np.testing.assert_allclose(outs[1], r.relight(dec, lights.preset("rim")), atol=1e-5)  # batch items independent
     np.testing.assert_allclose(r.relight(dec, dec), img, atol=1e-5)  # own light through detail transfer
+
+
+def test_shade_graph_is_the_numpy_formula():
+    """The hand-encoded ONNX shading graph used on CUDA (relight_rt._chain) equals diffuse_batch (run on CPU)."""
+    import onnx
+    import onnxruntime as ort
+
+    from relight_rt._chain import shade_graph
+
+    onnx.checker.check_model(onnx.load_from_string(shade_graph()), full_check=True)
+    session = ort.InferenceSession(shade_graph(), providers=["CPUExecutionProvider"])
+    rng = np.random.default_rng(14)
+    albedo = rng.random((3, 16, 12)).astype(np.float32)
+    transport = rng.normal(size=(9, 16, 12)).astype(np.float32)
+    lits = rng.normal(size=(5, 9, 3)).astype(np.float32)
+    got = session.run(None, {"albedo": albedo[None], "transport": transport[None], "light": lits})[0]
+    np.testing.assert_allclose(got, diffuse_batch(albedo, transport, lits), atol=1e-6)
+
+
+@pytest.mark.parametrize("with_stage2", [True, False])
+def test_io_binding_chain_matches_numpy_path(tiny_models, diffuse_models_dir, with_stage2):
+    """The CUDA chain's IO-binding logic, run with device "cpu" (no GPU here): same results as numpy."""
+    from relight_rt._chain import DeviceChain
+
+    folder = tiny_models if with_stage2 else diffuse_models_dir
+    ref = Relighter(folder, device="cpu")
+    chained = Relighter(folder, device="cpu")
+    chained._chain = DeviceChain(chained.stage1, chained.stage2, device="cpu")
+    img, mask = person(200, 150, seed=15, box=(10, 190, 40, 110))
+    dec_a, dec_b = ref.decompose(img, mask), chained.decompose(img, mask)
+    np.testing.assert_allclose(dec_b.transport, dec_a.transport, atol=1e-6)
+    lits = np.stack([lights.preset(n) for n in ("studio", "rim", "neon")])
+    want = ref.relight_many(dec_a, lits)
+    np.testing.assert_allclose(chained.relight_many(dec_b, lits, batch_size=2), want, atol=1e-5)
+    la, lb = ref.relight(dec_a, lits[0], return_layers=True), chained.relight(dec_a, lits[0], return_layers=True)
+    for name in la.layers:
+        np.testing.assert_allclose(lb.layers[name], la.layers[name], atol=1e-5)
+
+
+@pytest.mark.gpu
+def test_cuda_matches_cpu(tiny_models):
+    import onnxruntime as ort
+
+    if "CUDAExecutionProvider" not in ort.get_available_providers():
+        pytest.skip("needs onnxruntime-gpu and a CUDA device")
+    gpu, cpu = Relighter(tiny_models, device="cuda"), Relighter(tiny_models, device="cpu")
+    assert gpu._chain is not None and gpu.stage1.on_cuda
+    img, mask = person(300, 200, seed=16, box=(20, 280, 50, 150))
+    lits = np.stack([lights.preset(n) for n in ("studio", "rim")])
+    want = cpu.relight_many(img, lits, mask=mask)
+    np.testing.assert_allclose(gpu.relight_many(img, lits, mask=mask), want, atol=2e-3)
