@@ -377,17 +377,16 @@ class Relighter:
             return sh.check_light(lights.preset(str(light)), "light").astype(np.float32)
         return sh.check_light(light, "light").astype(np.float32)
 
-    def _resolve_lights(self, lights) -> np.ndarray:
-        if isinstance(lights, (list, tuple)) and not (lights and np.ndim(lights[0]) == 1):
-            return np.stack([self.resolve_light(x) for x in lights]) if lights else np.zeros((0, 9, 3), np.float32)
-        arr = np.asarray(lights)
-        if arr.ndim == 2:
-            return self.resolve_light(arr)[None]
-        if arr.ndim != 3 or arr.shape[1:] != (9, 3) or arr.dtype.kind not in "fiu":
-            raise RelightError(f"lights: expected (K, 9, 3) SH lights, got {arr.shape} {arr.dtype}")
-        if not np.isfinite(arr).all():
-            raise RelightError("lights: SH lights contain NaN or Inf")
-        return arr.astype(np.float32)
+    def _resolve_lights(self, values) -> np.ndarray:
+        """A (K, 9, 3) array, or a list of anything ``resolve_light`` accepts → (K, 9, 3) float32, K >= 1."""
+        if isinstance(values, np.ndarray):
+            if values.ndim != 3 or values.shape[1:] != (9, 3):
+                raise RelightError(f"lights: expected (K, 9, 3) SH lights, got {values.shape} {values.dtype}")
+        elif not isinstance(values, (list, tuple)):
+            raise RelightError(f"lights: expected a (K, 9, 3) array or a list of lights, got {type(values).__name__}")
+        if len(values) == 0:
+            raise RelightError("lights: expected at least one light, got none")
+        return np.stack([self.resolve_light(v) for v in values])
 
     # ------------------------------------------------------------------------------------ relight
 

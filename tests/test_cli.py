@@ -218,3 +218,15 @@ def test_models_option_wins_over_environment(work, capsys, tmp_path_factory):
     other = make_models_dir(tmp_path_factory.mktemp("other"), 64, stage2=False)
     code, _, err = run(["relight", "p.png", "--preset", "studio", "--models", other, "-o", "o.png"], capsys)
     assert code == 0, err
+
+
+def test_reference_photo_from_the_cli(work, capsys, reference_dir):
+    """Done-criterion of issue 5: sample.jpg relit from the CLI (its mask found beside it) keeps its size and
+    its background outside the mask, bit for bit."""
+    photo = reference_dir / "photo" / "sample.jpg"
+    code, _, err = run(["relight", photo, "--preset", "golden-hour", "-o", work / "sample_relit.png"], capsys)
+    assert code == 0, err
+    out, src = cv2.imread(str(work / "sample_relit.png")), cv2.imread(str(photo))
+    mask = cv2.imread(str(reference_dir / "photo" / "sample_mask.png"), cv2.IMREAD_GRAYSCALE)
+    assert out.shape == src.shape
+    np.testing.assert_array_equal(out[mask == 0], src[mask == 0])

@@ -154,6 +154,10 @@ def test_relight_many_matches_relight_in_any_batch_size(relighter):
         relighter.relight_many(dec, lights, batch_size=0)
     with pytest.raises(RelightError, match=r"\(K, 9, 3\)"):
         relighter.relight_many(dec, np.zeros((2, 9, 4)))
+    with pytest.raises(RelightError, match="at least one"):
+        relighter.relight_many(dec, [])
+    with pytest.raises(RelightError, match="NaN"):
+        relighter.relight_many(dec, np.full((2, 9, 3), np.nan))
 
 
 def test_diffuse_batch_is_sh_shading():
