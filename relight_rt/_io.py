@@ -66,8 +66,8 @@ def read_image(src: str | os.PathLike | np.ndarray, name: str = "image") -> np.n
     """Read a colour image from a file or an array.
 
     Args:
-        src: a path (8-bit PNG/JPEG/... with 3 or 4 channels) or an array (H, W, 3|4), uint8 (0-255)
-            or float (0-1), channel order RGB(A).
+        src: a path (8-bit PNG/JPEG/... with 3 or 4 channels; JPEGs get their EXIF orientation applied,
+            as cv2.imread does) or an array (H, W, 3|4), uint8 (0-255) or float (0-1), channel order RGB(A).
         name: what to call the input in error messages.
 
     Returns:
@@ -83,6 +83,8 @@ def read_image(src: str | os.PathLike | np.ndarray, name: str = "image") -> np.n
         path = Path(src)
         a = _decode(path, name)
         label = f"{name} {path}"
+        if a.ndim == 3 and a.shape[2] == 3 and a.dtype == np.uint8 and path.suffix.lower() in (".jpg", ".jpeg"):
+            a = _decode(path, name, cv2.IMREAD_COLOR)  # applies the EXIF orientation, as the reference's imread
     else:
         raise RelightError(f"{name}: expected a path or an (H, W, 3) array, got {type(src).__name__}")
     if a.ndim == 2 or (a.ndim == 3 and a.shape[2] == 1):
