@@ -266,6 +266,7 @@ class Relighter:
         detail: bool = True,
         warmup: bool | None = None,
     ) -> None:
+        self._token = object()  # keys this Relighter's entries in a Decomposition's cache
         self.models_dir = find_models(models)
         self._session_args = {"device": device, "device_id": device_id, "providers": providers}
         self.stage1: Model = load_model(self.models_dir / "stage1.onnx", "stage1", warmup=False, **self._session_args)
@@ -346,7 +347,7 @@ class Relighter:
         albedo, skin, transport = out["albedo"][0], out["skin"][0, 0], out["transport"][0]
         dec = Decomposition(albedo, skin, transport, light, net_mask, net_img, m, rgb, geom)
         if self._chain is not None:
-            dec._cache[("device", id(self))] = on_device
+            dec._cache[("device", self._token)] = on_device
         return dec
 
     # ------------------------------------------------------------------------------------ lights
@@ -415,7 +416,7 @@ class Relighter:
     def _device_relit(self, dec: Decomposition, lights: np.ndarray, batch_size: int, want_layers: bool) -> Iterator:
         """``_network_relit`` on CUDA through the DeviceChain (stage-1 outputs stay on the device)."""
         chain = self._chain
-        key = ("device", id(self))
+        key = ("device", self._token)
         if key not in dec._cache:  # a decomposition made elsewhere: upload its stage-1 outputs once
             dec._cache[key] = {
                 "albedo": chain.upload(dec._albedo[None]),
@@ -423,7 +424,7 @@ class Relighter:
             }
         for start in range(0, lights.shape[0], batch_size):
             batch = lights[start : start + batch_size]
-            mask_key = ("device-mask", id(self), batch.shape[0])
+            mask_key = ("device-mask", self._token, batch.shape[0])
             if mask_key not in dec._cache:
                 shape = (batch.shape[0], 1) + dec.network_mask.shape
                 dec._cache[mask_key] = chain.upload(np.broadcast_to(dec.network_mask, shape))
@@ -431,7 +432,7 @@ class Relighter:
 
     def _reconstruction(self, dec: Decomposition) -> np.ndarray:
         """(R, R, 3) straight colour of the pipeline's output under the photo's own light (cached)."""
-        key = ("reconstruction", id(self))
+        key = ("reconstruction", self._token)
         if key not in dec._cache:
             _, _, relit = next(self._network_relit(dec, dec.light[None], 1, want_layers=False))
             dec._cache[key] = _readonly(_unpremultiply(relit.transpose(1, 2, 0), dec.network_mask))
