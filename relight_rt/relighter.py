@@ -28,11 +28,11 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 from . import lights, sh
 from ._chain import DeviceChain
+from ._detail import extend_outward, guided_upsample, unpremultiply, window
 from ._errors import RelightError
 from ._geometry import CropGeometry
 from ._io import IMAGE_SUFFIXES, read_image, read_mask, sibling_mask
@@ -42,8 +42,6 @@ log = logging.getLogger(__name__)
 
 ImageLike = str | os.PathLike | np.ndarray
 _RATIO_EPS = np.float32(0.02)  # keeps relit/reconstruction stable in dark pixels
-_GUIDE_EPS = 1e-3  # guided-filter regulariser (guide values in [0, 1])
-_GUIDE_RADIUS = 2  # guided-filter window radius, in network pixels
 _ALPHA_MIN = np.float32(1e-3)
 _ENVMAP_SUFFIXES = (".hdr", ".pic", ".exr")
 
@@ -162,77 +160,6 @@ def diffuse_batch(albedo_chw: np.ndarray, transport_chw: np.ndarray, lights: np.
     np.maximum(out, 0, out=out)
     out *= albedo_chw
     np.clip(out, 0, 1, out=out)
-    return out
-
-
-def _window(dec: Decomposition, margin: int = 8) -> tuple[int, int, int, int]:
-    """(y0, y1, x0, x1): the network-frame box of the mask (> 0) widened by ``margin`` (cached)."""
-    if "window" not in dec._cache:
-        m = dec.network_mask > 0
-        rows, cols = np.flatnonzero(m.any(axis=1)), np.flatnonzero(m.any(axis=0))
-        r = dec.resolution
-        if rows.size == 0:
-            dec._cache["window"] = (0, r, 0, r)
-        else:
-            y0, y1 = max(int(rows[0]) - margin, 0), min(int(rows[-1]) + 1 + margin, r)
-            x0, x1 = max(int(cols[0]) - margin, 0), min(int(cols[-1]) + 1 + margin, r)
-            dec._cache["window"] = (y0, y1, x0, x1)
-    return dec._cache["window"]
-
-
-def _unpremultiply(premult: np.ndarray, alpha: np.ndarray) -> np.ndarray:
-    """(R, R, 3) colour ⊙ alpha → colour where alpha > 0.5 (stable), 0 elsewhere."""
-    a = alpha[..., None]
-    return np.divide(premult, a, out=np.zeros(premult.shape, np.float32), where=a > 0.5)
-
-
-def _extend_outward(values: np.ndarray, inner: np.ndarray, sigma: float = 2.0) -> np.ndarray:
-    """Keep (R, R, C) ``values`` where ``inner``; outside, fill with a Gaussian-weighted average of nearby inner
-    values (normalised convolution), so that upsampling near the outline does not mix in meaningless values.
-    Far from the person (no inner pixel near) the fill is 1."""
-    w = inner.astype(np.float32)
-    num = cv2.GaussianBlur(values * w[..., None], (0, 0), sigma)
-    den = cv2.GaussianBlur(w, (0, 0), sigma)[..., None]
-    filled = np.divide(num, den, out=np.ones_like(num), where=den > 1e-3)
-    return np.where(inner[..., None], values, filled)
-
-
-def _guided_upsample(
-    geom: CropGeometry, src: np.ndarray, guide_net: np.ndarray, guide: np.ndarray, origin: tuple[int, int]
-) -> np.ndarray:
-    """Edge-aware upsampling of a network-frame (R, R, C) map to the crop box, by the fast guided filter.
-
-    The local linear model src ≈ a·I + b (I: gray guide) is fitted in (2r+1)² windows at network resolution,
-    the window-averaged a and b are mapped to the crop box, and applied there with the full-resolution
-    gray guide, so edges of the full-resolution input carry into the result (He & Sun, "Fast Guided
-    Filter", 2015; He, Sun & Tang, "Guided Image Filtering", 2013).
-
-    Args:
-        geom: the crop geometry.
-        src: (r, r', C) float32 map: a window of the network frame starting at ``origin``.
-        guide_net: (r, r', 3) RGB input, the same window.
-        guide: (h, w, 3) RGB input in the crop box, full resolution.
-        origin: (y, x) of the window in the network frame.
-
-    Returns:
-        (h, w, C) float32.
-    """
-    k = 2 * _GUIDE_RADIUS + 1
-
-    def box(x: np.ndarray) -> np.ndarray:
-        return cv2.boxFilter(x, -1, (k, k), borderType=cv2.BORDER_REFLECT)
-
-    i_net = cv2.cvtColor(guide_net, cv2.COLOR_RGB2GRAY)
-    mean_i = box(i_net)
-    var_i = box(i_net * i_net) - mean_i * mean_i
-    mean_p = box(src)
-    cov = box(src * i_net[..., None]) - mean_i[..., None] * mean_p
-    a = cov / (var_i[..., None] + _GUIDE_EPS)
-    b = mean_p - a * mean_i[..., None]
-    ab = geom.to_crop(np.concatenate([box(a), box(b)], axis=2), origin)
-    c = src.shape[2]
-    out = ab[..., :c] * cv2.cvtColor(guide, cv2.COLOR_RGB2GRAY)[..., None]
-    out += ab[..., c:]
     return out
 
 
@@ -435,7 +362,7 @@ class Relighter:
         key = ("reconstruction", self._token)
         if key not in dec._cache:
             _, _, relit = next(self._network_relit(dec, dec.light[None], 1, want_layers=False))
-            dec._cache[key] = _readonly(_unpremultiply(relit.transpose(1, 2, 0), dec.network_mask))
+            dec._cache[key] = _readonly(unpremultiply(relit.transpose(1, 2, 0), dec.network_mask))
         return dec._cache[key]
 
     def _background(self, background, dec: Decomposition) -> np.ndarray | None:
@@ -461,13 +388,15 @@ class Relighter:
         geom = dec.geometry
         relit_hwc = relit.transpose(1, 2, 0)
         if self.detail and geom.side > geom.resolution:
-            y0, y1, x0, x1 = _window(dec)  # the network pixels near the person: all the rest is padding
+            if "window" not in dec._cache:
+                dec._cache["window"] = window(dec.network_mask)
+            y0, y1, x0, x1 = dec._cache["window"]  # the network pixels near the person; the rest is padding
             alpha = dec.network_mask[y0:y1, x0:x1]
-            colour_net = _unpremultiply(relit_hwc[y0:y1, x0:x1], alpha)
+            colour_net = unpremultiply(relit_hwc[y0:y1, x0:x1], alpha)
             ratio = (colour_net + _RATIO_EPS) / (self._reconstruction(dec)[y0:y1, x0:x1] + _RATIO_EPS)
-            ratio = _extend_outward(ratio, alpha > 0.5)
+            ratio = extend_outward(ratio, alpha > 0.5)
             image = np.ascontiguousarray(geom.crop(dec.image))
-            colour = image * _guided_upsample(geom, ratio, dec.network_image[y0:y1, x0:x1], image, (y0, x0))
+            colour = image * guided_upsample(geom, ratio, dec.network_image[y0:y1, x0:x1], image, (y0, x0))
         else:
             premult = geom.to_crop(relit_hwc)
             alpha = geom.to_crop(dec.network_mask)[..., None]

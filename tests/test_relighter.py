@@ -388,3 +388,18 @@ def test_cuda_matches_cpu(tiny_models):
     lits = np.stack([lights.preset(n) for n in ("studio", "rim")])
     want = cpu.relight_many(img, lits, mask=mask)
     np.testing.assert_allclose(gpu.relight_many(img, lits, mask=mask), want, atol=2e-3)
+
+
+def test_detail_helpers():
+    from relight_rt._detail import extend_outward, unpremultiply, window
+
+    m = np.zeros((20, 20), np.float32)
+    m[5:10, 6:12] = 1
+    assert window(m, margin=2) == (3, 12, 4, 14)
+    assert window(np.zeros((4, 4)), margin=2) == (0, 4, 0, 4)
+    premult = np.full((20, 20, 3), 0.4, np.float32) * m[..., None]
+    np.testing.assert_allclose(unpremultiply(premult, m)[m == 1], 0.4)
+    assert not unpremultiply(premult, m)[m == 0].any()
+    filled = extend_outward(np.full((20, 20, 1), 3.0, np.float32), m == 1)
+    np.testing.assert_allclose(filled[4:11, 5:13], 3.0, rtol=1e-5)  # next to the person: its values
+    assert filled[19, 0, 0] == 1.0  # far away: neutral
