@@ -41,7 +41,7 @@ def extend_outward(values: np.ndarray, inner: np.ndarray, sigma: float = 2.0) ->
     values (normalised convolution), so that upsampling near the outline does not mix in meaningless values.
     Far from the person (no inner pixel near) the fill is 1."""
     w = inner.astype(np.float32)
-    num = cv2.GaussianBlur(values * w[..., None], (0, 0), sigma)
+    num = cv2.GaussianBlur(values * w[..., None], (0, 0), sigma).reshape(values.shape)  # cv2 drops a C=1 axis
     den = cv2.GaussianBlur(w, (0, 0), sigma)[..., None]
     filled = np.divide(num, den, out=np.ones_like(num), where=den > 1e-3)
     return np.where(inner[..., None], values, filled)
