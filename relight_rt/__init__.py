@@ -10,6 +10,8 @@ from ._errors import RelightError
 from ._version import __version__
 from .color import linear_to_srgb, srgb_to_linear
 from .lights import ambient, directional, interpolate, list_presets, preset, rotation_sequence, sky
+from .relighter import Decomposition, Relighter, RelightResult
+from .session import create_session, find_models, load_model
 from .sh import (
     basis,
     check_light,
@@ -32,6 +34,13 @@ from .sh import (
 __all__ = [
     "RelightError",
     "__version__",
+    # relighting
+    "Decomposition",
+    "Relighter",
+    "RelightResult",
+    "create_session",
+    "find_models",
+    "load_model",
     # modules
     "color",
     "lights",

@@ -5,6 +5,12 @@ import relight_rt
 PUBLIC = {
     "RelightError",
     "__version__",
+    "Decomposition",
+    "Relighter",
+    "RelightResult",
+    "create_session",
+    "find_models",
+    "load_model",
     "basis",
     "check_light",
     "cosine_lobe",
