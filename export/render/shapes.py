@@ -75,3 +75,25 @@ def bowl(
     uv = np.stack([p / (2 * np.pi), (t - theta[0]) / (theta[-1] - theta[0])], -1).reshape(-1, 2)
     faces = _grid_faces(rows, 2 * rows)
     return _part(name, v * radius + np.asarray(center), faces, uv, albedo, **material)
+
+
+def random_scene(seed: int) -> list[Part]:
+    """A small figure of touching spheres with random colours: a stand-in subject for tests and demos
+    that has some self-occlusion (neck, "armpits", between the legs) but needs no body model."""
+    rng = np.random.default_rng(seed)
+
+    def color():
+        return rng.uniform(0.2, 0.9, 3)
+
+    skin = dict(skin=1.0, subsurface=1.0, specular=0.5, roughness=0.35)
+    cloth = dict(skin=0.0, specular=float(rng.uniform(0, 1.5)), roughness=float(rng.uniform(0.1, 0.8)))
+    tone = rng.uniform(0.35, 0.85) * np.array([1.0, 0.78, 0.62])
+    arm = rng.uniform(0.22, 0.3)
+    return [
+        sphere((0, 0, 1.0), 0.3, color(), name="torso", **cloth),
+        sphere((0, 0, 1.45), 0.15, tone, name="head", **skin),
+        sphere((0, -arm - 0.05, 0.95), 0.09, tone, name="hand_l", **skin),
+        sphere((0, arm + 0.05, 0.95), 0.09, tone, name="hand_r", **skin),
+        sphere((0, -0.12, 0.55), 0.13, color(), name="leg_l", **cloth),
+        sphere((0, 0.12, 0.55), 0.13, color(), name="leg_r", **cloth),
+    ]
