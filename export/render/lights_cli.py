@@ -57,6 +57,8 @@ def _maps(args):
         return math.exp(rng.uniform(math.log(lo), math.log(hi)))
 
     if args.hdr is not None:
+        if not Path(args.hdr).is_dir():
+            raise RelightError(f"--hdr {args.hdr}: folder does not exist")
         files = sorted(p for p in Path(args.hdr).iterdir() if p.suffix.lower() in MAP_EXTS)
         if not files:
             raise RelightError(f"--hdr {args.hdr}: no environment maps (.hdr, .exr, .png, .jpg) found")
