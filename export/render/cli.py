@@ -12,6 +12,7 @@ import argparse
 import json
 import logging
 import multiprocessing
+import os
 import time
 from pathlib import Path
 
@@ -128,13 +129,20 @@ def run_pool(func, jobs: list, workers: int, desc: str):
                 bar.update()
             return
         ctx = multiprocessing.get_context("spawn")
-        with ctx.Pool(min(workers, len(jobs))) as pool:
+        with ctx.Pool(min(workers, len(jobs)), initializer=_init_worker) as pool:
             futures = [(job, pool.apply_async(_guard, (func, job))) for job in jobs]
             for job, fut in futures:
                 yield job, fut.get()
                 bar.update()
     finally:
         bar.close()
+
+
+def _init_worker() -> None:
+    """One thread per worker process: the workers already fill the cores (torch, used by the body model,
+    would otherwise start a thread per core in every worker)."""
+    for var in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
+        os.environ[var] = "1"
 
 
 def _guard(func, job):

@@ -63,10 +63,11 @@ def sample_row(root: str | Path, name: str, light: np.ndarray | None = None) -> 
     s = dataset.read_sample(root, name)
     light = light_from_above() if light is None else light
     shade = shading(s["transport"], light) * s["mask"][..., None]
-    skin = s["albedo"] * (0.35 + 0.65 * s["skin"][..., None]) * s["mask"][..., None]
+    grey = s["albedo"].mean(axis=-1, keepdims=True) * s["mask"][..., None]
+    skin = grey * 0.6 + s["skin"][..., None] * np.array([0.4, 0.0, 0.0], np.float32)  # skin in red
     return [
         (f"{name} albedo", s["albedo"]),
-        ("skin", skin),
+        ("skin (red)", skin),
         ("shading (light above)", shade),
         ("diffuse", s["albedo"] * shade),
     ]

@@ -5,8 +5,10 @@ photo = albedo ⊙ S' + specular, where
   SH projection of the environment map), and the diffuse image is albedo ⊙ S;
 - S' is S with a soft subsurface look on skin: S blurred within the subject's mask, more in red than
   in blue (light scatters further in red), mixed in by ``subsurface × skin`` per pixel;
-- specular is a GGX microfacet lobe (Walter et al. 2007; Schlick Fresnel with F0 = 0.04, Smith
-  masking) scaled by the material's ``specular`` strength and lit by the full environment map with
+- specular is a GGX microfacet lobe (Walter et al. 2007; Smith masking; Schlick's Fresnel) whose
+  reflectance at normal incidence is the material's ``specular`` value (about 0.04 for a dielectric
+  such as skin or cotton, more for oily skin, satin or leather; Schlick's rise toward grazing angles is
+  scaled along, so that 0 means no specular at all), lit by the full environment map with
   visibility: each pixel casts ``n_samples`` rays sampled from the lobe and ``n_samples`` from the
   map's brightness, combined with the balance heuristic (multiple importance sampling, Veach 1997).
 
@@ -25,7 +27,7 @@ from relight_rt.sh import project_envmap, shading, solid_angles_envmap
 from .raycast import Tracer
 from .transport import GBuffer, tangent_frame
 
-F0 = 0.04  # Fresnel reflectance at normal incidence of a dielectric (skin, cloth, leather)
+F0 = 0.04  # the dielectric whose Schlick curve shapes the Fresnel rise; Part.specular rescales it
 SSS_RADIUS_M = np.array([0.008, 0.004, 0.0025])  # blur radius (Gaussian sigma) per RGB channel, metres
 
 
@@ -120,7 +122,9 @@ def specular(
     nh = np.clip(np.einsum("pnd,pd->pn", hv, n), 0.0, 1.0)
     vh = np.clip(np.einsum("pnd,pd->pn", hv, v), 1e-6, 1.0)
     d = _ggx_d(nh, alpha)
-    fresnel = F0 + (1.0 - F0) * (1.0 - vh) ** 5
+    # Schlick's curve for F0 = 0.04, rescaled to reach the material's reflectance at normal incidence
+    strength = gbuffer.specular[sel].astype(np.float64)[:, None]
+    fresnel = np.minimum(1.0, strength * (1.0 + (1.0 / F0 - 1.0) * (1.0 - vh) ** 5))
     g = _smith_g1(np.clip(nl, 0, 1), alpha) * _smith_g1(nv, alpha)
     ok = (nl > 0) & (np.einsum("pnd,pd->pn", dirs, gbuffer.geo_normal[sel]) > 0)
     # f·cos = D F G / (4 n·v); the BRDF-sampling density of l is D n·h / (4 v·h)
@@ -133,7 +137,7 @@ def specular(
     visible[ok] = ~tracer.occluded(rays_o, dirs[ok])
     weight = np.where(visible, f_cos / np.maximum(n_samples * (pdf_brdf + pdf_env), 1e-12), 0.0)
     spec = np.einsum("pn,pnc->pc", weight, radiance.astype(np.float64))
-    out[sel] = (spec * gbuffer.specular[sel, None]).astype(np.float32)
+    out[sel] = spec.astype(np.float32)
     return out
 
 

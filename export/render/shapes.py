@@ -85,8 +85,8 @@ def random_scene(seed: int) -> list[Part]:
     def color():
         return rng.uniform(0.2, 0.9, 3)
 
-    skin = dict(skin=1.0, subsurface=1.0, specular=0.5, roughness=0.35)
-    cloth = dict(skin=0.0, specular=float(rng.uniform(0, 1.5)), roughness=float(rng.uniform(0.1, 0.8)))
+    skin = dict(skin=1.0, subsurface=1.0, specular=0.06, roughness=0.4)
+    cloth = dict(skin=0.0, specular=float(rng.uniform(0.01, 0.3)), roughness=float(rng.uniform(0.15, 0.9)))
     tone = rng.uniform(0.35, 0.85) * np.array([1.0, 0.78, 0.62])
     arm = rng.uniform(0.22, 0.3)
     return [
