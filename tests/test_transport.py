@@ -108,3 +108,23 @@ def test_bad_direction_count():
     g = render_gbuffer(subject, fit_camera(subject, 4), tracer)
     with pytest.raises(RelightError, match="n_dirs"):
         transport(tracer, g, 0, rng=np.random.default_rng(0))
+
+
+@pytest.mark.slow
+def test_anny_body_has_self_occlusion(tmp_path):
+    """On a rendered body, crevices (armpits, between the legs, under the chin) receive much less of the sky
+    than open surfaces such as the chest, and the sample reads back with the right channel order."""
+    pytest.importorskip("anny")
+    from export import dataset
+    from export.render.subjects import random_subject
+
+    subject = random_subject(0, clothing=False)
+    out = render_sample(subject, fit_camera(subject, 96), 64, seed=0)
+    t0 = out["transport"][..., 0][out["mask"] > 0] / (np.pi * basis(np.zeros(3))[0])
+    assert t0.max() > 0.9  # open surfaces see nearly the whole hemisphere
+    assert (t0 < 0.5).mean() > 0.01  # crevices
+    assert (out["skin"][out["mask"] > 0] > 0.5).mean() > 0.3  # a bare body is mostly skin
+    dataset.write_sample(tmp_path, "body", **out)
+    back = dataset.read_sample(tmp_path, "body")
+    np.testing.assert_allclose(back["albedo"], out["albedo"], atol=0.5 / 255 + 1e-6)
+    np.testing.assert_array_equal(back["transport"], out["transport"])

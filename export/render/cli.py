@@ -36,7 +36,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="anny: random clothed people (export.render.subjects); shapes: a sphere figure (no body model)",
     )
     parser.add_argument("--no-clothing", action="store_true", help="anny bodies without garments")
-    parser.add_argument("--mesh", type=Path, nargs="+", help="render these textured .obj meshes instead")
+    parser.add_argument("--mesh", type=Path, nargs="+",
+                        help="render these textured .obj meshes instead (skin labels: NAME_skin.png beside NAME.obj)")
     parser.add_argument("--camera", choices=("orthographic", "perspective"), default="orthographic")
     parser.add_argument("--fov", type=float, default=20.0, help="perspective field of view, degrees")
     parser.add_argument("--margin", type=float, default=0.05, help="free border, fraction of the image side")
@@ -61,7 +62,7 @@ def make_subject(source: dict):
     if kind == "mesh":
         from .subjects import load_subject
 
-        return load_subject(source["path"])
+        return load_subject(source["path"], source.get("skin"))
     raise RelightError(f"subject source {source!r}: expected kind 'anny', 'shapes' or 'mesh'")
 
 
@@ -104,8 +105,12 @@ def _jobs(args) -> list[dict]:
     common = {"resolution": args.resolution, "dirs": args.dirs, "margin": args.margin, "camera": args.camera,
               "fov": args.fov, "out": str(args.out)}
     if args.mesh:
-        return [{**common, "name": p.stem, "seed": args.seed + i, "source": {"kind": "mesh", "path": str(p.resolve())}}
-                for i, p in enumerate(args.mesh)]
+        jobs = []
+        for i, p in enumerate(args.mesh):
+            skin = p.with_name(f"{p.stem}_skin.png")  # optional skin-label texture beside the mesh
+            source = {"kind": "mesh", "path": str(p.resolve()), "skin": str(skin.resolve()) if skin.is_file() else None}
+            jobs.append({**common, "name": p.stem, "seed": args.seed + i, "source": source})
+        return jobs
     jobs = []
     for i in range(args.n):
         seed = args.seed + i

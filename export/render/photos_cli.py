@@ -29,7 +29,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--envmaps", required=True, type=Path, help="output of `lights`, or a folder of .hdr maps")
     parser.add_argument("--out", required=True, type=Path, help="output folder for the photos")
     parser.add_argument("--k", type=int, default=3, help="photos (environment maps) per sample")
-    parser.add_argument("--samples", type=int, default=16, help="specular rays per pixel (lobe + map, each)")
+    parser.add_argument("--samples", type=int, default=32, help="specular rays per pixel (lobe + map, each)")
     parser.add_argument("--env-height", type=int, default=None, help="resize maps to this height (default: as stored)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--workers", type=int, default=2)
