@@ -4,8 +4,9 @@ night), their rotation about the vertical axis, scale normalisation and .hdr fil
 Maps are equirectangular (H, 2H, 3) float32 linear RGB radiance in the layout of DESIGN.md §3
 (top row = sky; pixel directions from ``relight_rt.sh.directions_envmap``). Their SH projection is
 ``relight_rt.sh.project_envmap``. Scale convention: a map is scaled so that the brightest
-irradiance (luminance) an unoccluded surface receives from it is ``target`` (by default drawn
-log-uniformly in [0.7, 2.0], the range of the reference's ten test lights: 0.78–2.07).
+irradiance an unoccluded surface receives from it, in its brightest colour channel, is ``target``
+(by default drawn log-uniformly in [0.9, 2.6], the range of the reference's ten test lights:
+0.91–2.65; their median 1.5).
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ from relight_rt.sh import directions_envmap, irradiance, project_envmap, solid_a
 log = logging.getLogger(__name__)
 
 LUMA = np.array([0.2126, 0.7152, 0.0722])  # Rec. 709 luminance of linear RGB
-TARGET_RANGE = (0.7, 2.0)
+TARGET_RANGE = (0.9, 2.6)
 
 
 # ------------------------------------------------------------------------------------ building blocks
@@ -181,17 +182,17 @@ KINDS = tuple(_KINDS)
 
 
 def max_irradiance(light: np.ndarray) -> float:
-    """Brightest irradiance luminance Σ_k A_l Y_k(n) light[k] · luma over normals n (a 2,000-point spiral)."""
+    """Brightest irradiance Σ_k A_l Y_k(n) light[k, c] over normals n (a 2,000-point spiral) and channels c."""
     k = np.arange(2000) + 0.5
     z = 1.0 - 2.0 * k / 2000
     phi = math.pi * (1.0 + math.sqrt(5.0)) * k
     r = np.sqrt(1.0 - z * z)
     normals = np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
-    return float((irradiance(light, normals) @ LUMA).max())
+    return float(irradiance(light, normals).max())
 
 
 def normalize_envmap(env: np.ndarray, target: float = 1.0) -> np.ndarray:
-    """Scale a map so that the brightest irradiance (luminance) of its SH projection is ``target``."""
+    """Scale a map so that the brightest irradiance (any channel) of its SH projection is ``target``."""
     e = max_irradiance(project_envmap(env))
     if not e > 0:
         raise RelightError("env: the environment map has no positive irradiance anywhere")

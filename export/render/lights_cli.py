@@ -9,7 +9,7 @@ Writes into OUT:
 
 Maps are procedural (``export.render.envmaps``) or, with ``--hdr DIR``, every .hdr/.exr/.png/.jpg
 map in DIR (resized to ``--height``); both are scaled so the brightest irradiance of a map lies in
-``--target`` (default 0.7–2.0, like the reference's test lights) unless ``--keep-scale``.
+``--target`` (default 0.9–2.6, like the reference's test lights) unless ``--keep-scale``.
 """
 
 from __future__ import annotations
@@ -105,9 +105,9 @@ def run(args) -> int:
     dataset.atomic_write(out / INDEX, lambda tmp: Path(tmp).write_text(text))
     if coeff0:
         c = np.asarray(coeff0)
-        log.info("%d maps × %d rotations = %d lights in %s; SH coefficient 0 per channel: min %.2f, median %.2f, "
-                 "max %.2f (reference test lights: 0.2–1.4)", len(c), args.rotations, len(index["lights"]), out,
-                 c.min(), np.median(c), c.max())
+        log.info("%d maps × %d rotations = %d lights in %s", len(c), args.rotations, len(index["lights"]), out)
+        log.info("SH coefficient 0 per channel: min %.2f, median %.2f, max %.2f (reference test lights: 0.22–1.42, "
+                 "median 0.63)", c.min(), np.median(c), c.max())
     return 0
 
 
