@@ -7,6 +7,9 @@ Stage-1 sample ``NAME`` in a folder:
     ``NAME_mask.png``       foreground mask, 8-bit single channel (0 or 255)
     ``NAME_parsing.png``    skin mask, 8-bit single channel (255 = exposed skin)
     ``NAME_transport.npz``  key ``T``: float32 (H, W, 9) occlusion-aware transport, zero off the mask
+                            (deflate-compressed, fixed timestamps, so the same render gives the same bytes;
+                            float32 like the reference: about 0.4 MB at 256², 2.3 MB at 512², ~9 MB at 1024²
+                            for a person covering 13-15 % of the image, so float16 was not worth its precision)
 
 Light folder: ``NAME.npy`` float (9, 3) SH coefficients with columns B, G, R (the reference's order).
 
