@@ -87,11 +87,10 @@ def test_subject_frame_and_size(subject):
     assert np.abs(hi[:2]).max() < 1.0 and np.abs(lo[:2]).max() < 1.0
 
 
-def test_skin_on_face_and_hands_not_under_garments(subject):
+def test_skin_on_hands_not_under_garments(subject):
     template = bodies.get_template()
     body = next(p for p in subject.parts if p.name == "body")
     covered = next(p for p in subject.parts if p.name == "body_covered")
-    faces = template.faces
     # hands: skin (no gloves in any outfit)
     hand_faces = np.isin(body.faces, np.nonzero(template.hand > 0.95)[0]).all(axis=1)
     hand_skin = _centroid_values(Part("h", body.vertices, body.faces[hand_faces], body.uv[hand_faces], body.albedo),
