@@ -47,14 +47,17 @@ def _region_of(bone: str) -> str:
 
 
 def _import_anny():
-    os.environ.setdefault("ANNY_CACHE_DIR", str(DEFAULT_CACHE))
+    cache = os.environ.setdefault("ANNY_CACHE_DIR", str(DEFAULT_CACHE))
     try:
         import anny
+        import anny.paths
         import torch
     except ImportError as exc:  # pragma: no cover - depends on the environment
         raise RelightError(
             "bodies need the 'render' extra (anny, torch): pip install 'relight-rt[render,export]'"
         ) from exc
+    # anny reads ANNY_CACHE_DIR when it is first imported, which may have happened before us
+    anny.paths.set_anny_cache_path(cache)
     return torch, anny
 
 

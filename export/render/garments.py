@@ -269,16 +269,24 @@ def offset_shell(garment: Garment, body: Body, faces: np.ndarray, uv: np.ndarray
     )
 
 
-def skirt_shell(garment: Garment, body: Body, rng: np.random.Generator, rings: int = 24, sectors: int = 72,
-                texture_size: int = 256) -> Part:
+def skirt_shell(garment: Garment, body: Body, region: np.ndarray, rng: np.random.Generator, rings: int = 24,
+                sectors: int = 72, texture_size: int = 256) -> Part:
     """A frustum-like shell from the waist down that bridges the legs, with hanging folds.
 
-    Built on the posed body: each ring's radius (about the hips' vertical axis) hugs the widest body
-    point in its angular sector, never narrows going down, flares, and ripples with folds that grow
-    toward the hem. Its own texture is the garment pattern evaluated on the shell.
+    Built on the posed body: each ring's radius (about the hips' vertical axis) hugs the widest torso
+    or leg point in its angular sector (arms and hands are ignored), never narrows going down, flares,
+    and ripples with folds that grow toward the hem. Its own texture is the garment pattern evaluated
+    on the shell (texture_size × 2·texture_size, u around, v down from the waist).
+
+    Args:
+        garment: a Garment of kind "skirt".
+        body: the posed Body.
+        region: (V,) per-vertex index into REGIONS (Template.region).
+        rng: random generator for the folds.
     """
     lm = body.landmarks
-    v = body.vertices
+    hangs_on = np.isin(region, [REGIONS.index(r) for r in ("torso", "leg_l", "leg_r")])
+    v = body.vertices[hangs_on]
     hip_z = 0.5 * (lm["upperleg01.L"][2] + lm["upperleg01.R"][2])
     knee_z = 0.5 * (lm["lowerleg01.L"][2] + lm["lowerleg01.R"][2])
     ankle_z = 0.5 * (lm["foot.L"][2] + lm["foot.R"][2])

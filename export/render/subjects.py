@@ -14,8 +14,11 @@ from pathlib import Path
 import numpy as np
 
 from export.render import bodies, garments
+from export.render.preview import preview_subject
 from export.render.scene import Part, Subject
-from export.render.textures import UVRaster, fbm, rasterize_uv, skin_detail_masks, skin_tone
+from export.render.textures import UVRaster, fbm, rasterize_uv, skin_detail_masks, skin_tone, value_noise
+
+__all__ = ["load_subject", "preview_subject", "random_subject"]
 
 log = logging.getLogger(__name__)
 
@@ -63,11 +66,18 @@ def _landmarks(body: bodies.Body) -> dict[str, np.ndarray]:
     return lm
 
 
-def _skin_albedo(points: np.ndarray, tone: np.ndarray, seed: int, masks: dict[str, np.ndarray],
+def _skin_albedo(points: np.ndarray, rest: np.ndarray, tone: np.ndarray, seed: int, masks: dict[str, np.ndarray],
                  raster: UVRaster) -> np.ndarray:
-    """Skin albedo per texel: the tone with blotchy low-frequency variation and anny's detail masks."""
-    var = 1.0 + 0.10 * fbm(points, 25.0, 3, seed) + 0.04 * fbm(points, 150.0, 2, seed + 1)
-    red = 0.04 * fbm(points, 12.0, 2, seed + 2)
+    """Skin albedo per texel: the tone with blotchy variation and anny's detail masks.
+
+    Low-frequency variation is computed on the (V, 3) rest vertices and interpolated (fast); fine
+    grain on the (N, 3) texel points.
+    """
+    faces = bodies.get_template().faces
+    low = np.stack([fbm(rest, 25.0, 3, seed), fbm(rest, 12.0, 2, seed + 2)], axis=1)
+    low = raster.interpolate(faces, low)
+    var = 1.0 + 0.10 * low[:, 0] + 0.03 * (value_noise(points, 180.0, seed + 1) - 0.5)
+    red = 0.04 * low[:, 1]
     col = tone[None] * var[:, None]
     col[:, 0] *= 1 + red
     detail = {k: m[raster.rows, raster.cols][:, None] for k, m in masks.items()}
@@ -95,7 +105,7 @@ def _body_textures(body: bodies.Body, tone: np.ndarray, outfit: list[garments.Ga
     lm = _landmarks(body)
     seed = int(rng.integers(1 << 30))
 
-    albedo = _skin_albedo(points, tone, seed, skin_detail_masks(TEXTURE_SIZE), raster)
+    albedo = _skin_albedo(points, body.rest, tone, seed, skin_detail_masks(TEXTURE_SIZE), raster)
     skin = np.ones(len(points), dtype=np.float32)
     (r0, r1), (s0, s1) = garments.MATERIALS["skin"]
     rough = np.full(len(points), rng.uniform(r0, r1), dtype=np.float32)
@@ -123,10 +133,11 @@ def _body_textures(body: bodies.Body, tone: np.ndarray, outfit: list[garments.Ga
     brow_col = hair_col if hair_col is not None else tone * 0.3
     for side in ("L", "R"):
         e = lm[f"eye.{side}"]
-        dy = np.abs(points[:, 1] - e[1] - 0.004 * np.sign(e[1]))
-        dz = points[:, 2] - e[2]
-        brow = (points[:, 0] > e[0] - 0.01) & (dy < 0.026) & (dz > 0.016 + 0.004 * (dy / 0.026) ** 2) & (dz < 0.026)
-        albedo[brow] = 0.35 * albedo[brow] + 0.65 * brow_col
+        dy = (points[:, 1] - e[1]) * np.sign(e[1])  # outward from the face's middle
+        arch = e[2] + 0.021 + 0.004 * (1 - ((dy - 0.002) / 0.024) ** 2)
+        thick = 0.0035 * (1 - 0.5 * np.clip((dy + 0.02) / 0.045, 0, 1))
+        brow = (points[:, 0] > e[0] - 0.005) & (np.abs(dy - 0.002) < 0.024) & (np.abs(points[:, 2] - arch) < thick)
+        albedo[brow] = 0.45 * albedo[brow] + 0.55 * brow_col
 
     covered_v = np.zeros(len(body.rest), dtype=bool)
     for g in outfit:
@@ -182,7 +193,7 @@ def random_subject(seed: int, *, clothing: bool = True) -> Subject:
     lm = _landmarks(body)
     for g in outfit:
         if g.kind == "skirt":
-            parts.append(garments.skirt_shell(g, body, rng))
+            parts.append(garments.skirt_shell(g, body, template.region, rng))
         elif g.loose > 0:
             shell = garments.offset_shell(g, body, faces, uv, garments.coverage(g, vsurf, lm), tex)
             if shell is not None:
