@@ -36,6 +36,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="anny: random clothed people (export.render.subjects); shapes: a sphere figure (no body model)",
     )
     parser.add_argument("--no-clothing", action="store_true", help="anny bodies without garments")
+    parser.add_argument(
+        "--views", type=int, default=1,
+        help="samples per subject: view 0 faces the camera, the others turn the subject about +z by a random "
+             "angle within --max-yaw (building a body costs far more than ray casting it)",
+    )
+    parser.add_argument("--max-yaw", type=float, default=45.0, help="largest turn of the extra views, degrees")
     parser.add_argument("--mesh", type=Path, nargs="+",
                         help="render these textured .obj meshes instead (skin labels: NAME_skin.png beside NAME.obj)")
     parser.add_argument("--camera", choices=("orthographic", "perspective"), default="orthographic")
@@ -54,7 +60,8 @@ def make_subject(source: dict):
     if kind == "anny":
         from .subjects import random_subject
 
-        return random_subject(int(source["seed"]), clothing=bool(source.get("clothing", True)))
+        subject = random_subject(int(source["seed"]), clothing=bool(source.get("clothing", True)))
+        return turn_subject(subject, float(source.get("yaw", 0.0)))
     if kind == "shapes":
         from .shapes import random_scene
 
@@ -66,7 +73,37 @@ def make_subject(source: dict):
     raise RelightError(f"subject source {source!r}: expected kind 'anny', 'shapes' or 'mesh'")
 
 
-def render_one(job: dict) -> dict:
+def turn_subject(subject, yaw_deg: float):
+    """The subject turned about +z (its vertical axis through the centre of its bounds) by ``yaw_deg``;
+    positive turns carry +x (toward the camera) toward +y. Returns a new Subject."""
+    from dataclasses import replace
+
+    if yaw_deg == 0.0:
+        return subject
+    from relight_rt.sh import rotation_matrix
+
+    rot = rotation_matrix(yaw=yaw_deg, degrees=True).astype(np.float32)
+    lo, hi = subject.bounds()
+    centre = ((lo + hi) / 2).astype(np.float32)
+    centre[2] = 0.0
+    parts = [replace(p, vertices=((p.vertices - centre) @ rot.T + centre).astype(np.float32)) for p in subject.parts]
+    return replace(subject, parts=parts)
+
+
+def render_views(job: dict) -> list[dict]:
+    """Build one subject and render each of its views (``job['views']``: a list of (name, yaw)).
+    Runs in a worker process; returns timing statistics per view."""
+    t0 = time.perf_counter()
+    base = make_subject({**job["source"], "yaw": 0.0})
+    build_s = time.perf_counter() - t0
+    stats = []
+    for name, yaw in job["views"]:
+        view = {**job, "name": name, "source": {**job["source"], "yaw": yaw}}
+        stats.append(render_one(view, turn_subject(base, yaw), build_s / len(job["views"])))
+    return stats
+
+
+def render_one(job: dict, subject=None, build_s: float | None = None) -> dict:
     """Render and write one sample (runs in a worker process). Returns timing statistics."""
     from .. import dataset
     from .camera import fit_camera
@@ -74,8 +111,11 @@ def render_one(job: dict) -> dict:
     from .transport import render_gbuffer, transport
 
     t0 = time.perf_counter()
-    subject = make_subject(job["source"])
+    if subject is None:
+        subject = make_subject(job["source"])
     t1 = time.perf_counter()
+    if build_s is not None:
+        t0 = t1 - build_s
     cam = fit_camera(subject, job["resolution"], margin=job["margin"], kind=job["camera"], fov_deg=job["fov"])
     tracer = Tracer(subject)
     g = render_gbuffer(subject, cam, tracer)
@@ -117,7 +157,13 @@ def _jobs(args) -> list[dict]:
         source = {"kind": args.subject, "seed": seed}
         if args.subject == "anny":
             source["clothing"] = not args.no_clothing
-        jobs.append({**common, "name": f"{args.subject}_{seed:06d}", "seed": seed, "source": source})
+        name = f"{args.subject}_{seed:06d}"
+        views = [(name, 0.0)]
+        if args.views > 1 and args.subject == "anny":
+            rng = np.random.default_rng([seed, 0x7E35])
+            yaws = rng.uniform(-args.max_yaw, args.max_yaw, args.views - 1)
+            views += [(f"{name}_v{v}", round(float(y), 3)) for v, y in enumerate(yaws, start=1)]
+        jobs.append({**common, "name": name, "seed": seed, "source": source, "views": views})
     return jobs
 
 
@@ -163,20 +209,30 @@ def run(args) -> int:
     if args.resolution < 8 or args.dirs < 1 or args.n < 0 or args.workers < 1:
         raise RelightError("expected --resolution >= 8, --dirs >= 1, --n >= 0 and --workers >= 1")
     args.out.mkdir(parents=True, exist_ok=True)
+    if args.views < 1:
+        raise RelightError(f"expected --views >= 1, got {args.views}")
     jobs = _jobs(args)
     if not args.overwrite:
         done = set(dataset.list_samples(args.out))
-        skipped = [j["name"] for j in jobs if j["name"] in done and (args.out / f"{j['name']}_meta.json").is_file()]
+
+        def exists(name: str) -> bool:
+            return name in done and (args.out / f"{name}_meta.json").is_file()
+
+        skipped = [j["name"] for j in jobs if all(exists(n) for n, _ in j.get("views", [(j["name"], 0.0)]))]
         if skipped:
-            log.info("%d samples already exist (use --overwrite to re-render)", len(skipped))
+            log.info("%d subjects already rendered (use --overwrite to re-render)", len(skipped))
         jobs = [j for j in jobs if j["name"] not in skipped]
     start = time.perf_counter()
     failures, stats = [], []
-    for job, res in run_pool(render_one, jobs, args.workers, "render"):
+    views = [j for j in jobs if "views" in j]
+    singles = [j for j in jobs if "views" not in j]
+    results = list(run_pool(render_views, views, args.workers, "render")) if views else []
+    results += list(run_pool(render_one, singles, args.workers, "render")) if singles else []
+    for job, res in results:
         if isinstance(res, Exception):
             failures.append(f"{job['name']}: {res}")
         else:
-            stats.append(res)
+            stats.extend(res if isinstance(res, list) else [res])
     wall = time.perf_counter() - start
     if stats:
         render_s = sum(s["render_s"] for s in stats)
