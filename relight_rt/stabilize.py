@@ -1,0 +1,126 @@
+"""Training-free temporal stabiliser of the intrinsic layers (albedo, transport) of a video.
+
+In relighting the new light is an explicit input, so flicker in a relit video comes from the
+per-frame estimates of albedo and light transport, not from the light. This module filters those
+layers over time and leaves the light alone: each frame's own light is applied afterwards, so a
+moving light still moves the shading.
+
+For frame t, the previous frame's *stabilised* layers are warped onto frame t with DIS optical
+flow of the INPUT frames (which the new light does not touch), then blended with frame t's own
+estimate where the warp can be trusted:
+
+    out_t = w * warp(out_{t-1}) + (1 - w) * estimate_t
+    w = strength * [forward-backward flow consistent] * exp(-(photometric error / tolerance)²)
+              * [pixel inside both masks]
+
+The photometric error is the mean absolute difference, over RGB, between input frame t and the
+warped input frame t-1: large where the flow is wrong, at occlusions and at scene cuts. The
+recursion is an exponential moving average along motion trajectories: with ``strength`` s, white
+per-frame noise in the estimate keeps a standard deviation of sqrt((1 - s) / (1 + s)) of its own
+(0.33 at s = 0.8) where the warp is reliable, and the layers lag by about s / (1 - s) frames
+(4 at s = 0.8) where the true layer changes (e.g. the transport of a turning body).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Iterable, Iterator
+
+import numpy as np
+
+from ._errors import RelightError
+from .metrics import _DIS_PRESETS, as_bool_mask, as_float_image, consistent_flow, dis_flow, to_gray_u8, warp
+
+logger = logging.getLogger(__name__)
+
+
+class Stabilizer:
+    """Stateful stabiliser: feed frames in order with :meth:`update`; :meth:`reset` at a cut.
+
+    Args:
+        strength: weight in [0, 1) of the warped history where the warp is fully reliable
+            (0 turns the stabiliser off).
+        photometric_tolerance: input-frame difference (RGB mean, [0, 1] units) at which the
+            blend weight falls to 1/e of ``strength``.
+        flow_preset: DIS preset, "ultrafast", "fast" or "medium".
+    """
+
+    def __init__(self, strength: float = 0.8, photometric_tolerance: float = 0.05, flow_preset: str = "fast"):
+        if not 0.0 <= strength < 1.0:
+            raise RelightError(f"strength: expected a value in [0, 1), got {strength}")
+        if not photometric_tolerance > 0.0:
+            raise RelightError(f"photometric_tolerance: expected a positive value, got {photometric_tolerance}")
+        if flow_preset not in _DIS_PRESETS:
+            raise RelightError(f"flow_preset: expected one of {sorted(_DIS_PRESETS)}, got {flow_preset!r}")
+        self.strength = float(strength)
+        self.photometric_tolerance = float(photometric_tolerance)
+        self.flow_preset = flow_preset
+        self.last_weight: np.ndarray | None = None  # (H, W) blend weight of the last frame, for inspection
+        self._prev: dict | None = None
+
+    def reset(self) -> None:
+        """Forget the history (call at a scene cut or before another video)."""
+        self._prev = None
+        self.last_weight = None
+
+    def update(self, frame: np.ndarray, mask: np.ndarray | None, albedo: np.ndarray,
+               transport: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Stabilise one frame's layers.
+
+        Args:
+            frame: (H, W, 3) input frame, RGB float [0, 1] or uint8 (flow source).
+            mask: (H, W) person mask in [0, 1] (or uint8), None for every pixel.
+            albedo: (H, W, 3) float albedo estimate of this frame, RGB [0, 1].
+            transport: (H, W, 9) float transport estimate of this frame (DESIGN.md §3).
+
+        Returns:
+            New arrays (albedo (H, W, 3), transport (H, W, 9)) float32, stabilised.
+        """
+        img = as_float_image(frame, "frame")
+        shape = img.shape[:2]
+        m = as_bool_mask(mask, shape)
+        alb = np.asarray(albedo, np.float32)
+        tra = np.asarray(transport, np.float32)
+        if alb.shape != (*shape, 3):
+            raise RelightError(f"albedo: expected {(*shape, 3)} float array, got {alb.shape}")
+        if tra.shape != (*shape, 9):
+            raise RelightError(f"transport: expected {(*shape, 9)} float array, got {tra.shape}")
+        gray = to_gray_u8(img)
+        prev = self._prev
+        if prev is None or prev["gray"].shape != shape or self.strength == 0.0:
+            out_a, out_t = alb.copy(), tra.copy()
+            self.last_weight = np.zeros(shape, np.float32)
+        else:
+            backward = dis_flow(gray, prev["gray"], self.flow_preset)  # frame t -> t-1
+            forward = dis_flow(prev["gray"], gray, self.flow_preset)
+            stack = np.concatenate([prev["albedo"], prev["transport"], prev["frame"],
+                                    prev["mask"][..., None].astype(np.float32)], axis=2)
+            warped = warp(stack, backward)
+            w_albedo, w_transport = warped[..., :3], warped[..., 3:12]
+            w_frame, w_mask = warped[..., 12:15], warped[..., 15]
+            photometric = np.abs(img - w_frame).mean(-1)
+            weight = self.strength * np.exp(-((photometric / self.photometric_tolerance) ** 2))
+            weight *= consistent_flow(backward, forward) & m & (w_mask > 0.5)
+            weight = weight.astype(np.float32)[..., None]
+            out_a = weight * w_albedo + (1.0 - weight) * alb
+            out_t = weight * w_transport + (1.0 - weight) * tra
+            self.last_weight = weight[..., 0]
+            if m.any():
+                logger.debug("stabiliser: mean weight %.3f inside the mask", float(self.last_weight[m].mean()))
+        self._prev = {"gray": gray, "frame": img, "mask": m, "albedo": out_a, "transport": out_t}
+        return out_a.copy(), out_t.copy()
+
+
+def stabilize(frames: Iterable[np.ndarray], masks: Iterable[np.ndarray | None], albedos: Iterable[np.ndarray],
+              transports: Iterable[np.ndarray], strength: float = 0.8,
+              photometric_tolerance: float = 0.05) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """Stabilise a stream of layers; yields (albedo, transport) per frame, holding one frame of history.
+
+    Args:
+        frames: (H, W, 3) input frames in order; masks: (H, W) or None per frame;
+        albedos: (H, W, 3) per-frame estimates; transports: (H, W, 9) per-frame estimates.
+        strength, photometric_tolerance: see :class:`Stabilizer`.
+    """
+    stab = Stabilizer(strength, photometric_tolerance)
+    for frame, mask, albedo, transport in zip(frames, masks, albedos, transports, strict=True):
+        yield stab.update(frame, mask, albedo, transport)
