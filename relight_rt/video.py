@@ -1,0 +1,547 @@
+"""Streaming video relighting: frame sources, per-frame lights, stabiliser, DVP, sinks.
+
+A video flows through in batches of ``batch_size`` frames; only that batch, one frame of
+stabiliser history and the writer's buffer are ever held, so memory does not grow with the
+video's length.
+
+    source ──► batch of (frame, mask) ──► engine.decompose ──► Stabilizer ──► engine.render(light_t)
+                                       └─► (with a fitted DVP) dvp(frame, mask, light_t) ───────────┴─► sink
+
+- Sources: a video file (``cv2.VideoCapture``) or a folder of frames. Masks: a folder (same stem,
+  or ``STEM_mask``), per-frame ``STEM_mask.EXT`` files beside the frames (the reference layout),
+  the alpha channel of RGBA frames, or a mask video.
+- Lights per frame (:class:`LightSchedule`): one light, an (N, 9, 3) sequence, a rotation about
+  +z at a number of turns per second, or an interpolation between keyframe lights.
+- Sinks: a video file (``cv2.VideoWriter``, written to a temporary file and renamed when
+  complete) and/or a folder of PNG frames (each written atomically).
+
+Frames are RGB float32 in [0, 1], (H, W, 3); masks float32 (H, W) in [0, 1]; lights (9, 3) RGB SH
+(DESIGN.md §3).
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import time
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Protocol
+
+import cv2
+import numpy as np
+
+from ._errors import RelightError
+from .stabilize import Stabilizer
+
+logger = logging.getLogger(__name__)
+
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp", ".exr")
+VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".webm", ".m4v")
+_FOURCC = {".mp4": "mp4v", ".m4v": "mp4v", ".mov": "mp4v", ".avi": "MJPG", ".mkv": "MJPG"}
+
+
+# ---------------------------------------------------------------------------------------------
+# images
+
+
+def _to_float(img: np.ndarray, name: str) -> np.ndarray:
+    if img.dtype == np.uint8:
+        return img.astype(np.float32) / 255.0
+    if img.dtype == np.uint16:
+        return img.astype(np.float32) / 65535.0
+    if np.issubdtype(img.dtype, np.floating):
+        return img.astype(np.float32)
+    raise RelightError(f"{name}: expected an 8-bit, 16-bit or float image, got {img.dtype}")
+
+
+def read_frame(path: str | os.PathLike) -> np.ndarray:
+    """Read an image file as RGB(A) float32 (H, W, 3|4) in [0, 1]."""
+    img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    if img is None:
+        raise RelightError(f"{path}: cannot read this image (missing or corrupt)")
+    if img.ndim == 2:
+        img = cv2.cvtColor(img, cv2.COLOR_GRAY2BGR)
+    elif img.shape[2] == 4:
+        img = cv2.cvtColor(img, cv2.COLOR_BGRA2RGBA)
+        return _to_float(img, str(path))
+    elif img.shape[2] != 3:
+        raise RelightError(f"{path}: expected a 1, 3 or 4 channel image, got {img.shape[2]} channels")
+    return _to_float(cv2.cvtColor(img, cv2.COLOR_BGR2RGB), str(path))
+
+
+def read_mask_file(path: str | os.PathLike, shape: tuple[int, int]) -> np.ndarray:
+    """Read a mask image (grey, or colour whose first channel is used) as float32 (H, W) in [0, 1]."""
+    img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    if img is None:
+        raise RelightError(f"{path}: cannot read this mask (missing or corrupt)")
+    if img.ndim == 3:
+        img = img[..., 0]
+    mask = _to_float(img, str(path))
+    if mask.shape != tuple(shape):
+        raise RelightError(f"{path}: expected mask of size {shape[1]}x{shape[0]}, got {mask.shape[1]}x{mask.shape[0]}")
+    return mask
+
+
+def _atomic_imwrite(path: Path, rgb: np.ndarray) -> None:
+    """Write an RGB float [0, 1] (H, W, 3) frame as 8-bit via a temporary file and a rename."""
+    bgr = cv2.cvtColor(np.clip(np.rint(rgb * 255.0), 0, 255).astype(np.uint8), cv2.COLOR_RGB2BGR)
+    tmp = path.with_name(f".{path.stem}.tmp{os.getpid()}{path.suffix}")
+    try:
+        if not cv2.imwrite(str(tmp), bgr):
+            raise RelightError(f"{path}: OpenCV could not write this image")
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+# ---------------------------------------------------------------------------------------------
+# sources
+
+
+@dataclass(frozen=True)
+class Frame:
+    """One input frame: ``index`` from 0, ``name`` (file stem or frame_NNNNNN), RGB, mask."""
+
+    index: int
+    name: str
+    image: np.ndarray  # (H, W, 3) float32 RGB [0, 1]
+    mask: np.ndarray  # (H, W) float32 [0, 1]
+
+
+class FrameSource:
+    """Frames of a video file or a folder of images, with their masks, read one at a time.
+
+    Args:
+        path: a video file or a folder of frames (sorted by file name; ``*_mask.*`` files excluded).
+        masks: None (per-frame ``STEM_mask.*`` beside the frames, else the alpha channel of RGBA
+            frames), a folder (``STEM.*`` or ``STEM_mask.*``; for a video, or frames without a
+            match, the folder's images in sorted order), or a mask video file.
+
+    Attributes:
+        fps: frames per second (from the video; 25 for a folder unless given).
+        frame_count: number of frames (a video container's count may be approximate).
+        paths: the input files (never to be overwritten).
+    """
+
+    def __init__(self, path: str | os.PathLike, masks: str | os.PathLike | None = None, fps: float | None = None):
+        self.path = Path(path)
+        self.masks = None if masks is None else Path(masks)
+        if not self.path.exists():
+            raise RelightError(f"{self.path}: input video or folder does not exist")
+        self._files: list[Path] | None = None
+        if self.path.is_dir():
+            self._files = sorted(p for p in self.path.iterdir()
+                                 if p.suffix.lower() in IMAGE_SUFFIXES and not p.stem.endswith("_mask"))
+            if not self._files:
+                raise RelightError(f"{self.path}: expected image frames ({', '.join(IMAGE_SUFFIXES)}), found none")
+            self.frame_count = len(self._files)
+            self.fps = float(fps or 25.0)
+        else:
+            cap = cv2.VideoCapture(str(self.path))
+            if not cap.isOpened():
+                raise RelightError(f"{self.path}: OpenCV cannot open this video")
+            self.frame_count = int(cap.get(cv2.CAP_PROP_FRAME_COUNT))
+            self.fps = float(fps or cap.get(cv2.CAP_PROP_FPS) or 25.0)
+            cap.release()
+        self._mask_files: list[Path] | None = None
+        if self.masks is not None:
+            if not self.masks.exists():
+                raise RelightError(f"{self.masks}: mask folder or video does not exist")
+            if self.masks.is_dir():
+                self._mask_files = sorted(p for p in self.masks.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
+        self.paths = tuple(self._files or (self.path,))
+
+    def __len__(self) -> int:
+        return self.frame_count
+
+    def _mask_path(self, index: int, frame_path: Path | None) -> Path | None:
+        if frame_path is not None:
+            folder = self.masks if self._mask_files is not None else frame_path.parent
+            for stem in ((f"{frame_path.stem}_mask",) if self._mask_files is None
+                         else (frame_path.stem, f"{frame_path.stem}_mask")):
+                for suffix in (".png", frame_path.suffix, *IMAGE_SUFFIXES):
+                    candidate = folder / f"{stem}{suffix}"
+                    if candidate.is_file() and candidate != frame_path:
+                        return candidate
+        if self._mask_files is not None:
+            if index >= len(self._mask_files):
+                raise RelightError(f"{self.masks}: expected a mask for frame {index}, the folder has "
+                                   f"{len(self._mask_files)} masks")
+            return self._mask_files[index]
+        return None
+
+    def __iter__(self) -> Iterator[Frame]:
+        mask_cap = None
+        if self.masks is not None and self._mask_files is None:
+            mask_cap = cv2.VideoCapture(str(self.masks))
+            if not mask_cap.isOpened():
+                raise RelightError(f"{self.masks}: OpenCV cannot open this mask video")
+        cap = None if self._files is not None else cv2.VideoCapture(str(self.path))
+        try:
+            index = 0
+            while True:
+                if cap is None:
+                    if index >= len(self._files):
+                        return
+                    frame_path = self._files[index]
+                    rgba = read_frame(frame_path)
+                    name = frame_path.stem
+                else:
+                    ok, bgr = cap.read()
+                    if not ok:
+                        return
+                    frame_path = None
+                    rgba = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB).astype(np.float32) / 255.0
+                    name = f"frame_{index:06d}"
+                shape = rgba.shape[:2]
+                if mask_cap is not None:
+                    ok, mbgr = mask_cap.read()
+                    if not ok:
+                        raise RelightError(f"{self.masks}: mask video ended before frame {index}")
+                    mask = mbgr[..., 0].astype(np.float32) / 255.0
+                    if mask.shape != shape:
+                        raise RelightError(f"{self.masks}: mask frame {index} is {mask.shape}, frame is {shape}")
+                else:
+                    mask_path = self._mask_path(index, frame_path)
+                    if mask_path is not None:
+                        mask = read_mask_file(mask_path, shape)
+                    elif rgba.shape[2] == 4:
+                        mask = rgba[..., 3].copy()
+                    else:
+                        where = frame_path or f"{self.path} frame {index}"
+                        raise RelightError(f"{where}: no mask found (expected a STEM_mask file, a --masks folder "
+                                           f"or an RGBA frame)")
+                yield Frame(index, name, np.ascontiguousarray(rgba[..., :3]), mask)
+                index += 1
+        finally:
+            if cap is not None:
+                cap.release()
+            if mask_cap is not None:
+                mask_cap.release()
+
+
+def batched(frames: Iterator[Frame] | FrameSource, batch_size: int) -> Iterator[list[Frame]]:
+    """Group a stream of frames into lists of at most ``batch_size`` (never reads ahead further)."""
+    if batch_size < 1:
+        raise RelightError(f"batch_size: expected a positive integer, got {batch_size}")
+    batch: list[Frame] = []
+    for frame in frames:
+        batch.append(frame)
+        if len(batch) == batch_size:
+            yield batch
+            batch = []
+    if batch:
+        yield batch
+
+
+# ---------------------------------------------------------------------------------------------
+# lights
+
+
+def _check_light(light: np.ndarray, name: str) -> np.ndarray:
+    arr = np.asarray(light, dtype=np.float64)
+    if arr.shape != (9, 3) or not np.isfinite(arr).all():
+        raise RelightError(f"{name}: expected a finite (9, 3) SH light, got {np.asarray(light).shape}")
+    return arr.copy()
+
+
+def resolve_light(spec: str | os.PathLike) -> np.ndarray:
+    """A light from a file (.npy/.json SH, RGB), an environment map (.hdr/.exr/.png/.jpg) or a preset name.
+
+    Returns:
+        (9, 3) float64 RGB SH coefficients.
+    """
+    from . import lights as _lights
+    from . import sh
+
+    path = Path(spec)
+    if path.is_file():
+        if path.suffix.lower() in (".npy", ".json"):
+            return np.asarray(sh.load_light(path), np.float64)
+        return np.asarray(sh.project_envmap(sh.load_envmap(path)), np.float64)
+    try:
+        return np.asarray(_lights.preset(str(spec)), np.float64)
+    except RelightError as exc:
+        raise RelightError(f"light {str(spec)!r}: not a file, and {exc}") from None
+
+
+class LightSchedule:
+    """The light of each frame. Build with one of the class methods; call ``schedule(index, fps)``."""
+
+    def __init__(self, fn: Callable[[int, float], np.ndarray], description: str, length: int | None = None):
+        self._fn = fn
+        self.description = description
+        self.length = length  # frames covered, None = unbounded
+
+    def __call__(self, index: int, fps: float) -> np.ndarray:
+        """(9, 3) float32 RGB light of frame ``index`` (0-based) of a video at ``fps`` frames per second."""
+        if self.length is not None and index >= self.length:
+            raise RelightError(f"lights: {self.description} covers {self.length} frames, frame {index} needs one")
+        return np.asarray(self._fn(index, fps), np.float32)
+
+    @classmethod
+    def constant(cls, light: np.ndarray) -> LightSchedule:
+        fixed = _check_light(light, "light")
+        return cls(lambda i, fps: fixed, "one light")
+
+    @classmethod
+    def sequence(cls, lights: np.ndarray) -> LightSchedule:
+        """One light per frame from an (N, 9, 3) RGB array."""
+        arr = np.asarray(lights, np.float64)
+        if arr.ndim != 3 or arr.shape[1:] != (9, 3) or not np.isfinite(arr).all():
+            raise RelightError(f"lights: expected a finite (N, 9, 3) light sequence, got {np.asarray(lights).shape}")
+        arr = arr.copy()
+        return cls(lambda i, fps: arr[i], f"a sequence of {len(arr)} lights", len(arr))
+
+    @classmethod
+    def from_file(cls, path: str | os.PathLike) -> LightSchedule:
+        """An (N, 9, 3) RGB .npy light sequence."""
+        try:
+            arr = np.load(path, allow_pickle=False)
+        except (OSError, ValueError) as exc:
+            raise RelightError(f"{path}: cannot read this light sequence ({exc})") from None
+        try:
+            return cls.sequence(arr)
+        except RelightError as exc:
+            raise RelightError(f"{path}: {exc}") from None
+
+    @classmethod
+    def rotating(cls, light: np.ndarray, turns_per_second: float) -> LightSchedule:
+        """``light`` turned about +z (DESIGN.md §3 rotate_z) by ``2π · turns_per_second · index / fps``."""
+        from . import sh
+
+        base = _check_light(light, "light")
+        rate = float(turns_per_second)
+        return cls(lambda i, fps: sh.rotate_z(base, 2.0 * np.pi * rate * i / fps), f"{rate} turns per second")
+
+    @classmethod
+    def interpolated(cls, keys: Sequence[np.ndarray], n_frames: int) -> LightSchedule:
+        """Interpolate between keyframe lights over ``n_frames`` (relight_rt.lights.interpolate)."""
+        from . import lights as _lights
+
+        if len(keys) < 2 or n_frames < 1:
+            raise RelightError(f"lights: expected at least two keyframe lights and frames, got {len(keys)}, {n_frames}")
+        arr = np.asarray(_lights.interpolate([_check_light(k, f"key light {j}") for j, k in enumerate(keys)],
+                                             n_frames), np.float64)
+        return cls(lambda i, fps: arr[i], f"an interpolation over {n_frames} frames", n_frames)
+
+
+# ---------------------------------------------------------------------------------------------
+# engines
+
+
+class Engine(Protocol):
+    """What the pipeline needs from a relighting runtime (e.g. relight_rt.Relighter via an adapter).
+
+    ``decompose`` gets a batch of frames and masks and returns per frame (albedo (H, W, 3) RGB [0, 1],
+    transport (H, W, 9)) at the frame's own resolution. ``render`` turns one frame's (stabilised)
+    layers and that frame's light into the output frame (H, W, 3) RGB [0, 1], composited.
+    """
+
+    def decompose(self, images: Sequence[np.ndarray], masks: Sequence[np.ndarray]) -> list[tuple[np.ndarray,
+                                                                                                  np.ndarray]]: ...
+
+    def render(self, image: np.ndarray, mask: np.ndarray, albedo: np.ndarray, transport: np.ndarray,
+               light: np.ndarray) -> np.ndarray: ...
+
+
+class DVPModel:
+    """A fitted deep video prior graph (contract kind "dvp"), run on batches of frames.
+
+    Args:
+        path: the .onnx file.
+        providers: onnxruntime execution providers (default: CPU).
+    """
+
+    def __init__(self, path: str | os.PathLike, providers: Sequence[str] | None = None):
+        import onnxruntime as ort
+
+        from .contract import KINDS, config_from_metadata
+
+        self.path = Path(path)
+        if not self.path.is_file():
+            raise RelightError(f"{self.path}: DVP model file does not exist")
+        try:
+            self.session = ort.InferenceSession(str(self.path), providers=list(providers or ["CPUExecutionProvider"]))
+        except Exception as exc:  # onnxruntime raises its own types for corrupt files
+            raise RelightError(f"{self.path}: cannot load this ONNX model ({exc})") from None
+        meta = self.session.get_modelmeta().custom_metadata_map
+        self.config = config_from_metadata(meta, str(self.path))
+        if self.config.kind != "dvp":
+            raise RelightError(f"{self.path}: expected a graph of kind 'dvp', got {self.config.kind!r}")
+        names = [i.name for i in self.session.get_inputs()]
+        want = [t.name for t in KINDS["dvp"].inputs]
+        if names != want:
+            raise RelightError(f"{self.path}: expected inputs {want}, got {names}")
+
+    def __call__(self, images: Sequence[np.ndarray], masks: Sequence[np.ndarray],
+                 lights: Sequence[np.ndarray]) -> list[np.ndarray]:
+        """Relit frames (H, W, 3) float32 RGB [0, 1], masked; frames are zero-padded to multiples of 64."""
+        h, w = images[0].shape[:2]
+        ph, pw = -h % 64, -w % 64
+        x = np.zeros((len(images), 3, h + ph, w + pw), np.float32)
+        m = np.zeros((len(images), 1, h + ph, w + pw), np.float32)
+        for b, (img, mask) in enumerate(zip(images, masks, strict=True)):
+            x[b, :, :h, :w] = img.transpose(2, 0, 1)
+            m[b, 0, :h, :w] = mask
+        light = np.stack([np.asarray(v, np.float32) for v in lights])
+        (relit,) = self.session.run(None, {"frame": x, "mask": m, "light": light})
+        return [np.ascontiguousarray(r[:, :h, :w].transpose(1, 2, 0)) for r in relit]
+
+
+# ---------------------------------------------------------------------------------------------
+# sinks
+
+
+class FrameSink:
+    """Writes relit frames to a video file and/or a folder of PNGs; nothing half-written is left.
+
+    Args:
+        video: output video path (.mp4 → mp4v, .avi/.mkv → MJPG) or None.
+        frames_dir: output folder for NAME.png frames or None.
+        fps: frame rate of the video.
+        protect: input paths that must never be overwritten.
+    """
+
+    def __init__(self, video: str | os.PathLike | None = None, frames_dir: str | os.PathLike | None = None,
+                 fps: float = 25.0, protect: Sequence[os.PathLike | str] = ()):
+        if video is None and frames_dir is None:
+            raise RelightError("output: expected a video file and/or a frames folder, got neither")
+        protected = {Path(p).resolve() for p in protect}
+        self.video = None if video is None else Path(video)
+        self.frames_dir = None if frames_dir is None else Path(frames_dir)
+        if self.video is not None:
+            if self.video.suffix.lower() not in _FOURCC:
+                raise RelightError(f"{self.video}: expected a video file name ending in {sorted(_FOURCC)}")
+            if self.video.resolve() in protected:
+                raise RelightError(f"{self.video}: refusing to overwrite an input")
+        if self.frames_dir is not None:
+            self.frames_dir.mkdir(parents=True, exist_ok=True)
+            if self.frames_dir.resolve() in {p.parent for p in protected}:
+                raise RelightError(f"{self.frames_dir}: refusing to write frames into the input folder")
+        self.fps = float(fps)
+        self._writer: cv2.VideoWriter | None = None
+        self._tmp: Path | None = None
+        self.count = 0
+
+    def write(self, name: str, rgb: np.ndarray) -> None:
+        """Add one frame (H, W, 3) RGB float [0, 1]."""
+        if self.frames_dir is not None:
+            _atomic_imwrite(self.frames_dir / f"{name}.png", rgb)
+        if self.video is not None:
+            if self._writer is None:
+                self.video.parent.mkdir(parents=True, exist_ok=True)
+                self._tmp = self.video.with_name(f".{self.video.stem}.tmp{os.getpid()}{self.video.suffix}")
+                fourcc = cv2.VideoWriter_fourcc(*_FOURCC[self.video.suffix.lower()])
+                self._writer = cv2.VideoWriter(str(self._tmp), fourcc, self.fps, (rgb.shape[1], rgb.shape[0]))
+                if not self._writer.isOpened():
+                    raise RelightError(f"{self.video}: OpenCV cannot write this video format")
+            bgr = cv2.cvtColor(np.clip(np.rint(rgb * 255.0), 0, 255).astype(np.uint8), cv2.COLOR_RGB2BGR)
+            self._writer.write(bgr)
+        self.count += 1
+
+    def close(self, ok: bool = True) -> None:
+        """Finish the video (rename into place when ``ok``; delete the partial file otherwise)."""
+        if self._writer is not None:
+            self._writer.release()
+            self._writer = None
+            if ok:
+                os.replace(self._tmp, self.video)
+            elif self._tmp.exists():
+                self._tmp.unlink()
+
+    def __enter__(self) -> FrameSink:
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        self.close(ok=exc_type is None)
+
+
+# ---------------------------------------------------------------------------------------------
+# pipeline
+
+
+@dataclass(frozen=True)
+class VideoReport:
+    """What :func:`relight_video` did: frames written and seconds per frame (processing only)."""
+
+    frames: int
+    seconds_per_frame: float
+
+
+def composite(relit: np.ndarray, image: np.ndarray, mask: np.ndarray, background: str = "original") -> np.ndarray:
+    """Put a masked relit person over the original frame ("original") or black ("black")."""
+    if background == "black":
+        return relit * mask[..., None]
+    if background == "original":
+        return relit * mask[..., None] + image * (1.0 - mask[..., None])
+    raise RelightError(f"background: expected 'original' or 'black', got {background!r}")
+
+
+def relight_frames(source: Iterator[Frame] | FrameSource, lights: LightSchedule, fps: float,
+                   engine: Engine | None = None, dvp: DVPModel | None = None, stabilizer: Stabilizer | None = None,
+                   batch_size: int = 4, background: str = "original") -> Iterator[tuple[Frame, np.ndarray, dict]]:
+    """Relight a stream of frames; yields (frame, output (H, W, 3) RGB [0, 1], extras) in order.
+
+    ``extras`` holds "light" (9, 3) and, on the engine path, the stabilised "albedo" and
+    "transport" (what the metrics' light-following score needs). With ``dvp`` the fitted network
+    maps each frame and its light straight to the relit frame; otherwise ``engine`` decomposes each
+    batch, ``stabilizer`` (None = off) filters the layers, and ``engine.render`` applies each
+    frame's own light.
+    """
+    if (engine is None) == (dvp is None):
+        raise RelightError("video: expected exactly one of an engine (stage 1/2 models) or a DVP model")
+    for batch in batched(source, batch_size):
+        batch_lights = [lights(f.index, fps) for f in batch]
+        if dvp is not None:
+            outs = dvp([f.image for f in batch], [f.mask for f in batch], batch_lights)
+            for f, out, light in zip(batch, outs, batch_lights, strict=True):
+                yield f, composite(out, f.image, f.mask, background), {"light": light}
+            continue
+        layers = engine.decompose([f.image for f in batch], [f.mask for f in batch])
+        for f, (albedo, transport), light in zip(batch, layers, batch_lights, strict=True):
+            if stabilizer is not None:
+                albedo, transport = stabilizer.update(f.image, f.mask, albedo, transport)
+            out = engine.render(f.image, f.mask, albedo, transport, light)
+            yield f, composite(out, f.image, f.mask, background), {"light": light, "albedo": albedo,
+                                                                   "transport": transport}
+
+
+def relight_video(source: FrameSource, lights: LightSchedule, sink: FrameSink, engine: Engine | None = None,
+                  dvp: DVPModel | None = None, stabilizer: Stabilizer | None = None, batch_size: int = 4,
+                  background: str = "original", on_frame: Callable[[Frame, np.ndarray, dict], None] | None = None
+                  ) -> VideoReport:
+    """Relight a whole video from ``source`` into ``sink`` in bounded memory.
+
+    Args:
+        source: frames and masks; lights: the light of each frame.
+        sink: where frames go (closed here: the video is renamed into place only on success).
+        engine / dvp: exactly one (see :func:`relight_frames`).
+        stabilizer: a fresh :class:`Stabilizer` (on by default in the CLI) or None.
+        batch_size: frames decomposed together.
+        on_frame: called with (frame, output, extras) after each frame is written (metrics, progress).
+
+    Returns:
+        VideoReport with the number of frames and the mean seconds per frame (reading and writing included).
+    """
+    start = time.perf_counter()
+    n = 0
+    try:
+        for frame, out, extras in relight_frames(source, lights, source.fps, engine, dvp, stabilizer, batch_size,
+                                                 background):
+            sink.write(frame.name, out)
+            n += 1
+            if on_frame is not None:
+                on_frame(frame, out, extras)
+    except BaseException:
+        sink.close(ok=False)
+        raise
+    sink.close(ok=n > 0)
+    if n == 0:
+        raise RelightError(f"{source.path}: no frames could be read")
+    spf = (time.perf_counter() - start) / n
+    logger.info("relit %d frames, %.3f s per frame", n, spf)
+    return VideoReport(n, spf)
