@@ -33,6 +33,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from . import sh
 from ._errors import RelightError
 
 logger = logging.getLogger(__name__)
@@ -163,7 +164,7 @@ def predicted_light_change(albedo: np.ndarray, transport: np.ndarray, light_a: n
     b = np.asarray(light_b, np.float32)
     if t.ndim != 3 or t.shape[2] != 9 or a.shape != (9, 3) or b.shape != (9, 3):
         raise RelightError(f"expected transport (H, W, 9) and lights (9, 3), got {t.shape}, {a.shape}, {b.shape}")
-    return np.asarray(albedo, np.float32) * (np.maximum(t @ b, 0.0) - np.maximum(t @ a, 0.0))
+    return np.asarray(albedo, np.float32) * (sh.shading(t, b) - sh.shading(t, a))
 
 
 @dataclass(frozen=True)

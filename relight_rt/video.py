@@ -32,6 +32,7 @@ from typing import Protocol
 import cv2
 import numpy as np
 
+from . import sh
 from ._errors import RelightError
 from .stabilize import Stabilizer
 
@@ -241,13 +242,6 @@ def batched(frames: Iterator[Frame] | FrameSource, batch_size: int) -> Iterator[
 # lights
 
 
-def _check_light(light: np.ndarray, name: str) -> np.ndarray:
-    arr = np.asarray(light, dtype=np.float64)
-    if arr.shape != (9, 3) or not np.isfinite(arr).all():
-        raise RelightError(f"{name}: expected a finite (9, 3) SH light, got {np.asarray(light).shape}")
-    return arr.copy()
-
-
 def resolve_light(spec: str | os.PathLike) -> np.ndarray:
     """A light from a file (.npy/.json SH, RGB), an environment map (.hdr/.exr/.png/.jpg) or a preset name.
 
@@ -255,7 +249,6 @@ def resolve_light(spec: str | os.PathLike) -> np.ndarray:
         (9, 3) float64 RGB SH coefficients.
     """
     from . import lights as _lights
-    from . import sh
 
     path = Path(spec)
     if path.is_file():
@@ -284,7 +277,7 @@ class LightSchedule:
 
     @classmethod
     def constant(cls, light: np.ndarray) -> LightSchedule:
-        fixed = _check_light(light, "light")
+        fixed = sh.check_light(light, "light")
         return cls(lambda i, fps: fixed, "one light")
 
     @classmethod
@@ -311,9 +304,7 @@ class LightSchedule:
     @classmethod
     def rotating(cls, light: np.ndarray, turns_per_second: float) -> LightSchedule:
         """``light`` turned about +z (DESIGN.md §3 rotate_z) by ``2π · turns_per_second · index / fps``."""
-        from . import sh
-
-        base = _check_light(light, "light")
+        base = sh.check_light(light, "light")
         rate = float(turns_per_second)
         return cls(lambda i, fps: sh.rotate_z(base, 2.0 * np.pi * rate * i / fps), f"{rate} turns per second")
 
@@ -324,7 +315,7 @@ class LightSchedule:
 
         if len(keys) < 2 or n_frames < 1:
             raise RelightError(f"lights: expected at least two keyframe lights and frames, got {len(keys)}, {n_frames}")
-        arr = np.asarray(_lights.interpolate([_check_light(k, f"key light {j}") for j, k in enumerate(keys)],
+        arr = np.asarray(_lights.interpolate([sh.check_light(k, f"key light {j}") for j, k in enumerate(keys)],
                                              n_frames), np.float64)
         return cls(lambda i, fps: arr[i], f"an interpolation over {n_frames} frames", n_frames)
 

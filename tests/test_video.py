@@ -149,7 +149,7 @@ def test_light_schedules():
     np.testing.assert_array_equal(const(100, 25.0), lights[0])
     with pytest.raises(RelightError, match=r"\(N, 9, 3\)"):
         LightSchedule.sequence(np.zeros((4, 9)))
-    with pytest.raises(RelightError, match=r"\(9, 3\)"):
+    with pytest.raises(RelightError, match="NaN or Inf"):
         LightSchedule.constant(np.full((9, 3), np.nan))
 
 
