@@ -84,6 +84,7 @@ class Stage1Dataset(torch.utils.data.Dataset):
             gets the same light (drawn from the seed) and no flip.
         seed: base seed.
         cache: keep the resized samples in memory (float16 transport), recommended at ≤ 256².
+        flip: allow random horizontal flips when augmenting.
 
     Items are dicts of float32 tensors: albedo (3,R,R) RGB in [0,1], mask (1,R,R), skin (1,R,R),
     transport (9,R,R), light (9,3) RGB, and ``index`` (int).
@@ -98,6 +99,7 @@ class Stage1Dataset(torch.utils.data.Dataset):
         augment: bool = True,
         seed: int = 0,
         cache: bool = True,
+        flip: bool = True,
     ):
         from . import dataset
 
@@ -111,6 +113,7 @@ class Stage1Dataset(torch.utils.data.Dataset):
         self.lights = lights
         self.resolution = int(resolution)
         self.augment = augment
+        self.flip = flip
         self.seed = int(seed)
         self.epoch = 0
         self._cache: dict[int, dict[str, np.ndarray]] | None = {} if cache else None
@@ -145,9 +148,9 @@ class Stage1Dataset(torch.utils.data.Dataset):
         if self.augment:
             rng = item_rng(self.seed, self.epoch, index)
             light = self.lights[rng.integers(len(self.lights))]
-            flip = bool(rng.integers(2))
+            flip = bool(rng.integers(2)) and self.flip
         else:
-            light = self.lights[item_rng(self.seed, -1, index).integers(len(self.lights))]
+            light = self.lights[item_rng(self.seed, 2**31 - 2, index).integers(len(self.lights))]
             flip = False
         albedo, mask, skin = s["albedo"], s["mask"], s["skin"]
         transport = s["transport"].astype(np.float32)
