@@ -106,7 +106,7 @@ class Stage1Dataset(torch.utils.data.Dataset):
         self.root = Path(root)
         self.names = list(dataset.list_samples(self.root) if names is None else names)
         if not self.names:
-            raise RelightError(f"{self.root}: no stage-1 samples found (expected NAME_tex.png, NAME_transport.npz, ...)")
+            raise RelightError(f"{self.root}: no stage-1 samples found (expected NAME_tex.png, NAME_mask.png, ...)")
         lights = np.asarray(lights, dtype=np.float32)
         if lights.ndim != 3 or lights.shape[1:] != (9, 3) or len(lights) == 0:
             raise RelightError(f"lights: expected (M, 9, 3) training lights with M >= 1, got {lights.shape}")

@@ -41,13 +41,13 @@ log = logging.getLogger(__name__)
 def add_arguments(parser) -> None:
     parser.add_argument("--data", required=True, help="folder of stage-1 samples (NAME_tex.png, ...)")
     parser.add_argument("--lights", required=True, help="folder of training lights (NAME.npy, BGR (9,3))")
-    parser.add_argument("--resolution", type=int, default=256, help="training size, a multiple of 64 (default %(default)s)")
+    parser.add_argument("--resolution", type=int, default=256, help="training size, k·64 (default %(default)s)")
     parser.add_argument("--width", type=int, default=64, help="base channel count (reference: 64; default %(default)s)")
     parser.add_argument("--norm", choices=("batch", "instance"), default="batch",
                         help="normalisation layers (see the module docs for the tradeoff; default %(default)s)")
     parser.add_argument("--no-sf", action="store_true", help="drop the spatial-frequency loss (the ablation baseline)")
     parser.add_argument("--no-flip", action="store_true", help="no horizontal-flip augmentation")
-    parser.add_argument("--restart-epochs", type=int, default=20, help="cosine warm-restart period (default %(default)s)")
+    parser.add_argument("--restart-epochs", type=int, default=20, help="cosine restart period (default %(default)s)")
     parser.add_argument("--val-fraction", type=float, default=0.05,
                         help="fraction of the samples held out for validation (0: none; default %(default)s)")
     parser.add_argument("--no-cache", action="store_true", help="re-read samples from disk every epoch")
