@@ -177,8 +177,7 @@ def render_input(batch: dict[str, torch.Tensor]) -> torch.Tensor:
     Returns:
         (N, 3, H, W) float image in [0, 1], RGB.
     """
-    shading = torch.einsum("nkhw,nkc->nchw", batch["transport"], batch["light"]).clamp_min(0.0)
-    return (batch["albedo"] * shading).clamp(0.0, 1.0) * batch["mask"]
+    return render_diffuse(batch["albedo"], batch["transport"], batch["light"], batch["mask"])
 
 
 def subject_of(photo_name: str) -> str:
@@ -230,3 +229,28 @@ class PhotoDataset(torch.utils.data.Dataset):
         if self._cache is not None:
             self._cache[index] = item
         return dict(item)
+
+
+def decompose(model: torch.nn.Module, image: torch.Tensor, mask: torch.Tensor) -> dict[str, torch.Tensor]:
+    """Run a stage-1 network on images and mask its outputs (no grad, the model's current mode).
+
+    Args:
+        model: a Stage1Net.
+        image: (N, 3, R, R) RGB in [0, 1].
+        mask: (N, 1, R, R) in [0, 1].
+
+    Returns:
+        transport (N,9,R,R), albedo (N,3,R,R), skin (N,1,R,R) (all masked) and light (N,9,3), float32.
+    """
+    with torch.no_grad():
+        transport, albedo, skin, light = model((2.0 * image - 1.0) * mask)
+    return {"transport": transport.float() * mask, "albedo": albedo.float() * mask, "skin": skin.float() * mask,
+            "light": light.float()}
+
+
+def render_diffuse(
+    albedo: torch.Tensor, transport: torch.Tensor, light: torch.Tensor, mask: torch.Tensor
+) -> torch.Tensor:
+    """clip(albedo ⊙ max(0, T·L), 0, 1) ⊙ mask for (N,3,H,W), (N,9,H,W), (N,9,3), (N,1,H,W) -> (N,3,H,W)."""
+    shading = torch.einsum("nkhw,nkc->nchw", transport, light).clamp_min(0.0)
+    return (albedo * shading).clamp(0.0, 1.0) * mask
