@@ -1,0 +1,233 @@
+"""Reading images and masks, and writing results atomically.
+
+Images are returned as float32 RGB(A) in [0, 1], (H, W, 3) or (H, W, 4); files are read and written
+with OpenCV, whose BGR order is converted here, at the boundary (DESIGN.md §3). Every writer goes
+through a temporary file in the destination folder and ``os.replace``, so an interrupted run never
+leaves a half-written file, and refuses to write over any path in ``protect`` (the inputs).
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import tempfile
+from collections.abc import Callable, Iterable
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from ._errors import RelightError
+
+log = logging.getLogger(__name__)
+
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp")
+_FLOAT_SLACK = 1e-3  # float images may stray this far outside [0, 1] (rounding); they are clipped
+
+
+def _describe(a: np.ndarray) -> str:
+    return f"{tuple(a.shape)} {a.dtype}"
+
+
+def _decode(path: Path, name: str) -> np.ndarray:
+    """Decode an image file as stored (depth and channel count unchanged), BGR(A) as OpenCV gives it."""
+    try:
+        data = np.fromfile(path, dtype=np.uint8)  # works for non-ASCII paths, unlike cv2.imread
+    except OSError as exc:
+        raise RelightError(f"{name}: cannot read {path}: {exc.strerror or exc}") from None
+    image = cv2.imdecode(data, cv2.IMREAD_UNCHANGED) if data.size else None
+    if image is None:
+        raise RelightError(f"{name}: cannot decode {path} as an image (unreadable, empty or not an image file)")
+    return image
+
+
+def _to_unit_float(a: np.ndarray, name: str, *, allow_uint16: bool) -> np.ndarray:
+    """Any accepted dtype → new float32 array in [0, 1]."""
+    if a.dtype == np.uint8:
+        return a.astype(np.float32) * np.float32(1 / 255)
+    if a.dtype == np.bool_:
+        return a.astype(np.float32)
+    if a.dtype == np.uint16 and allow_uint16:
+        return a.astype(np.float32) * np.float32(1 / 65535)
+    if a.dtype.kind == "f":
+        out = a.astype(np.float32)  # always a copy: never alias the caller's array
+        if not np.isfinite(out).all():
+            raise RelightError(f"{name}: expected finite values in [0, 1], got NaN or Inf ({_describe(a)})")
+        lo, hi = float(out.min()), float(out.max())
+        if lo < -_FLOAT_SLACK or hi > 1 + _FLOAT_SLACK:
+            raise RelightError(f"{name}: expected float values in [0, 1], got [{lo:.4g}, {hi:.4g}] ({_describe(a)})")
+        np.clip(out, 0.0, 1.0, out=out)
+        return out
+    allowed = "uint8, uint16 or float" if allow_uint16 else "uint8 or float in [0, 1]"
+    raise RelightError(f"{name}: expected {allowed}, got {_describe(a)}")
+
+
+def read_image(src: str | os.PathLike | np.ndarray, name: str = "image") -> np.ndarray:
+    """Read a colour image from a file or an array.
+
+    Args:
+        src: a path (8-bit PNG/JPEG/... with 3 or 4 channels) or an array (H, W, 3|4), uint8 (0-255)
+            or float (0-1), channel order RGB(A).
+        name: what to call the input in error messages.
+
+    Returns:
+        New float32 array (H, W, 3) RGB or (H, W, 4) RGBA, values in [0, 1].
+
+    Raises:
+        RelightError: unreadable file, grayscale, 16-bit, wrong channel count, NaN/Inf, values out of range.
+    """
+    if isinstance(src, np.ndarray):
+        a = src
+        label = name
+    elif isinstance(src, (str, os.PathLike)):
+        path = Path(src)
+        a = _decode(path, name)
+        label = f"{name} {path}"
+    else:
+        raise RelightError(f"{name}: expected a path or an (H, W, 3) array, got {type(src).__name__}")
+    if a.ndim == 2 or (a.ndim == 3 and a.shape[2] == 1):
+        raise RelightError(f"{label}: expected an (H, W, 3) colour image, got grayscale {_describe(a)}")
+    if a.ndim != 3 or a.shape[2] not in (3, 4):
+        raise RelightError(f"{label}: expected an (H, W, 3) RGB or (H, W, 4) RGBA image, got {_describe(a)}")
+    if a.shape[0] < 2 or a.shape[1] < 2:
+        raise RelightError(f"{label}: image is too small, got {_describe(a)}")
+    if a.dtype == np.uint16:
+        raise RelightError(f"{label}: expected an 8-bit or float image, got 16-bit {_describe(a)}; convert it to 8-bit")
+    out = _to_unit_float(a, label, allow_uint16=False)
+    if not isinstance(src, np.ndarray):  # files are BGR(A)
+        out = cv2.cvtColor(out, cv2.COLOR_BGR2RGB if out.shape[2] == 3 else cv2.COLOR_BGRA2RGBA)
+    return out
+
+
+def read_mask(src: str | os.PathLike | np.ndarray, shape: tuple[int, int], name: str = "mask") -> np.ndarray:
+    """Read a person mask (binary or soft) and check it against the image.
+
+    Args:
+        src: a path (8- or 16-bit, 1 or 3 channels) or an array (H, W), (H, W, 1) or (H, W, 3); bool, uint8,
+            uint16 or float in [0, 1]. Three channels are averaged.
+        shape: (H, W) of the image the mask belongs to.
+        name: what to call the input in error messages.
+
+    Returns:
+        New float32 array (H, W) in [0, 1].
+
+    Raises:
+        RelightError: unreadable, wrong shape or dtype, size differs from ``shape``, empty (no pixel >= 0.5),
+            or all foreground (every pixel >= 0.5: no outline to relight).
+    """
+    if isinstance(src, np.ndarray):
+        a, label = src, name
+    elif isinstance(src, (str, os.PathLike)):
+        a, label = _decode(Path(src), name), f"{name} {src}"
+    else:
+        raise RelightError(f"{name}: expected a path or an (H, W) array, got {type(src).__name__}")
+    if a.ndim == 3 and a.shape[2] in (1, 3):
+        a = a[..., 0] if a.shape[2] == 1 else a
+    elif a.ndim != 2:
+        raise RelightError(f"{label}: expected an (H, W) or (H, W, 3) mask, got {_describe(a)}")
+    if tuple(a.shape[:2]) != tuple(shape):
+        raise RelightError(f"{label}: mask is {a.shape[0]}x{a.shape[1]} (HxW), the image is {shape[0]}x{shape[1]}")
+    m = _to_unit_float(a, label, allow_uint16=True)
+    if m.ndim == 3:
+        m = m.mean(axis=2, dtype=np.float32)
+    if not (m >= 0.5).any():
+        raise RelightError(f"{label}: mask is empty (no pixel >= 0.5); expected the person in white")
+    if (m >= 0.5).all():
+        raise RelightError(f"{label}: mask covers the whole image (every pixel >= 0.5); expected the person only")
+    return m
+
+
+def _check_target(path: Path, protect: Iterable[str | os.PathLike]) -> None:
+    target = path.resolve()
+    for p in protect:
+        if Path(p).resolve() == target:
+            raise RelightError(f"refusing to overwrite the input {p}; choose another output path")
+
+
+def _atomic(path: str | os.PathLike, protect: Iterable[str | os.PathLike], write: Callable[[object], None]) -> Path:
+    """Write through ``write(fileobj)`` into a temporary file beside ``path``, then rename it into place."""
+    path = Path(path)
+    _check_target(path, protect)
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        raise RelightError(f"cannot write {path}: folder {folder} does not exist")
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            write(f)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def encode_image(image: np.ndarray, suffix: str, name: str = "image") -> bytes:
+    """Encode a float [0, 1] RGB(A) (H, W, 3|4) or gray (H, W) image as 8-bit PNG/JPEG/... bytes."""
+    a = np.asarray(image)
+    if a.ndim not in (2, 3) or (a.ndim == 3 and a.shape[2] not in (1, 3, 4)):
+        raise RelightError(f"{name}: expected (H, W), (H, W, 3) or (H, W, 4) to write, got {_describe(a)}")
+    if a.dtype != np.uint8:
+        a = np.clip(np.nan_to_num(a, nan=0.0), 0.0, 1.0) * 255.0 + 0.5
+        a = a.astype(np.uint8)
+    if a.ndim == 3 and a.shape[2] == 3:
+        a = cv2.cvtColor(a, cv2.COLOR_RGB2BGR)
+    elif a.ndim == 3 and a.shape[2] == 4:
+        if suffix.lower() in (".jpg", ".jpeg", ".bmp"):
+            raise RelightError(f"{name}: {suffix} cannot hold transparency; write a .png")
+        a = cv2.cvtColor(a, cv2.COLOR_RGBA2BGRA)
+    try:
+        ok, buf = cv2.imencode(suffix, a)
+    except cv2.error:
+        ok = False
+    if not ok:
+        raise RelightError(f"{name}: cannot encode an image as {suffix!r}; use one of {', '.join(IMAGE_SUFFIXES)}")
+    return buf.tobytes()
+
+
+def write_image(path: str | os.PathLike, image: np.ndarray, protect: Iterable[str | os.PathLike] = ()) -> Path:
+    """Write a float [0, 1] image (RGB, RGBA or gray) as 8-bit, atomically; format from the suffix.
+
+    Raises:
+        RelightError: ``path`` is one of ``protect``, its folder is missing, or the format is unknown.
+    """
+    path = Path(path)
+    data = encode_image(image, path.suffix or ".png", name=str(path))
+    return _atomic(path, protect, lambda f: f.write(data))
+
+
+def write_npy(path: str | os.PathLike, array: np.ndarray, protect: Iterable[str | os.PathLike] = ()) -> Path:
+    """Save one array as .npy atomically (never pickled)."""
+    arr = np.asarray(array)
+    return _atomic(path, protect, lambda f: np.save(f, arr, allow_pickle=False))
+
+
+def write_npz(
+    path: str | os.PathLike,
+    arrays: dict[str, np.ndarray],
+    protect: Iterable[str | os.PathLike] = (),
+    compressed: bool = True,
+) -> Path:
+    """Save named arrays as .npz atomically (compressed by default)."""
+    save = np.savez_compressed if compressed else np.savez
+    return _atomic(path, protect, lambda f: save(f, **{k: np.asarray(v) for k, v in arrays.items()}))
+
+
+def list_images(folder: str | os.PathLike) -> list[Path]:
+    """Image files in ``folder`` (sorted), leaving out masks (``*_mask.*``)."""
+    folder = Path(folder)
+    return sorted(
+        p
+        for p in folder.iterdir()
+        if p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES and not p.stem.endswith("_mask")
+    )
+
+
+def sibling_mask(image_path: str | os.PathLike) -> Path | None:
+    """The reference's mask naming: NAME_mask.png beside NAME.jpg; None when there is none."""
+    p = Path(image_path)
+    for suffix in (".png", p.suffix):
+        candidate = p.with_name(f"{p.stem}_mask{suffix}")
+        if candidate.is_file():
+            return candidate
+    return None

@@ -1,0 +1,235 @@
+"""ONNX Runtime sessions: device choice, contract checks at load, and where the models live.
+
+``create_session`` opens a graph on the requested device and checks, after creation, that the
+provider asked for is the one really running it. ``load_model`` also checks the graph against the
+contract (DESIGN.md §5, ``relight_rt.contract``) and wraps it as a :class:`Model`. onnxruntime's
+global logging is never touched; ``RELIGHT_RT_THREADS`` sets the intra-op thread count.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import onnxruntime as ort
+
+from ._errors import RelightError
+from .contract import KINDS, ModelConfig, config_from_metadata
+
+log = logging.getLogger(__name__)
+
+DEVICES = ("auto", "cuda", "cpu")
+CUDA = "CUDAExecutionProvider"
+CPU = "CPUExecutionProvider"
+ENV_MODELS = "RELIGHT_RT_MODELS"
+ENV_THREADS = "RELIGHT_RT_THREADS"
+_CHANNELS = {"image": 3, "mask": 1, "albedo": 3, "skin": 1, "transport": 9, "diffuse": 3, "residual": 3,
+             "relit": 3, "frame": 3}  # fmt: skip
+_CUDA_HELP = (
+    "likely causes: both 'onnxruntime' and 'onnxruntime-gpu' are installed (uninstall both, then install "
+    "onnxruntime-gpu only), or the CUDA / cuDNN libraries that this onnxruntime-gpu build needs are missing "
+    "(see `relight-rt doctor`)"
+)
+
+
+def thread_count() -> int:
+    """Intra-op threads from $RELIGHT_RT_THREADS (0 = onnxruntime's default)."""
+    text = os.environ.get(ENV_THREADS, "").strip()
+    if not text:
+        return 0
+    try:
+        n = int(text)
+    except ValueError:
+        n = -1
+    if n < 0:
+        raise RelightError(f"${ENV_THREADS} is {text!r}, expected a whole number >= 0")
+    return n
+
+
+def _providers_for(device: str, device_id: int) -> list:
+    if device not in DEVICES:
+        raise RelightError(f"device is {device!r}, expected one of {list(DEVICES)}")
+    available = ort.get_available_providers()
+    if device == "cpu":
+        return [CPU]
+    if CUDA in available:
+        return [(CUDA, {"device_id": int(device_id)}), CPU]
+    if device == "cuda":
+        raise RelightError(
+            f"device 'cuda' asked for, but this onnxruntime {ort.__version__} offers only {available}; {_CUDA_HELP}"
+        )
+    return [CPU]
+
+
+def _warmup_feeds(session: ort.InferenceSession, resolution: int) -> dict[str, np.ndarray]:
+    feeds = {}
+    size = resolution or 64
+    for inp in session.get_inputs():
+        dims = [d if isinstance(d, int) and d > 0 else None for d in inp.shape]
+        if inp.name == "light" or len(dims) == 3:
+            shape = [1, 9, 3]
+        else:
+            shape = [dims[0] or 1, dims[1] or _CHANNELS.get(inp.name, 3), dims[2] or size, dims[3] or size]
+        feeds[inp.name] = np.zeros(shape, np.float32)
+    return feeds
+
+
+def create_session(
+    model: str | os.PathLike | ort.InferenceSession,
+    *,
+    device: str = "auto",
+    device_id: int = 0,
+    providers: Sequence | None = None,
+    sess_options: ort.SessionOptions | None = None,
+    warmup: bool = True,
+) -> ort.InferenceSession:
+    """Open an ONNX graph with onnxruntime on the requested device, checked against the contract.
+
+    Args:
+        model: path of a .onnx file, or an existing InferenceSession (checked and returned as is).
+        device: "auto" (CUDA when onnxruntime offers it, else CPU), "cuda" or "cpu".
+        device_id: CUDA device index.
+        providers: explicit onnxruntime providers; they win over ``device``.
+        sess_options: onnxruntime SessionOptions; by default new ones with $RELIGHT_RT_THREADS threads.
+        warmup: run the graph once on zeros (CUDA: allocates memory and picks kernels up front).
+
+    Raises:
+        RelightError: missing, unreadable or corrupt file; a graph that breaks the contract; CUDA asked for
+            but not active (with the likely causes). With ``device="auto"`` a CPU fallback is only logged.
+    """
+    if isinstance(model, ort.InferenceSession):
+        validate_session(model, "session")
+        return model
+    path = Path(model)
+    if not path.is_file():
+        raise RelightError(f"model file {path} not found")
+    wanted = list(providers) if providers is not None else _providers_for(device, device_id)
+    if sess_options is None:
+        sess_options = ort.SessionOptions()
+        sess_options.intra_op_num_threads = thread_count()
+    try:
+        session = ort.InferenceSession(str(path), sess_options=sess_options, providers=wanted)
+    except Exception as exc:  # onnxruntime raises its own classes (InvalidProtobuf, Fail, ...)
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise RelightError(f"model {path}: not a readable ONNX graph ({first})") from None
+    active = session.get_providers()
+    asked_cuda = any((p[0] if isinstance(p, tuple) else p) == CUDA for p in wanted)
+    if asked_cuda and CUDA not in active:
+        if device == "cuda" or providers is not None:
+            raise RelightError(f"model {path}: CUDA was asked for but onnxruntime runs it on {active}; {_CUDA_HELP}")
+        log.warning("%s: CUDA is offered but not active (running on %s); %s", path, active, _CUDA_HELP)
+    config = validate_session(session, str(path))
+    log.debug("%s: %s on %s", path, config, active)
+    if warmup:
+        session.run(None, _warmup_feeds(session, config.resolution))
+    return session
+
+
+def validate_session(session: ort.InferenceSession, name: str, kind: str | None = None) -> ModelConfig:
+    """Check a session's metadata and inputs/outputs against the contract; return its ModelConfig.
+
+    Checks names (exact set), ranks, element type float32 and the fixed dimensions (channels; for stage 1
+    the spatial size equals the metadata resolution). Symbolic dimensions are accepted.
+
+    Raises:
+        RelightError: naming the graph and the field that is wrong.
+    """
+    meta = session.get_modelmeta().custom_metadata_map
+    config = config_from_metadata(meta, name)
+    if kind is not None and config.kind != kind:
+        raise RelightError(f"{name}: metadata relight_rt.kind is {config.kind!r}, expected {kind!r} here")
+    spec = KINDS[config.kind]
+    sides = (("input", session.get_inputs(), spec.inputs), ("output", session.get_outputs(), spec.outputs))
+    for role, args, specs in sides:
+        got = {a.name: a for a in args}
+        want = [s.name for s in specs]
+        if sorted(got) != sorted(want):
+            raise RelightError(f"{name}: {config.kind} graph {role}s are {sorted(got)}, expected {want}")
+        for s in specs:
+            arg = got[s.name]
+            if arg.type != "tensor(float)":
+                raise RelightError(f"{name}: {role} {s.name!r} has type {arg.type}, expected tensor(float) (float32)")
+            if len(arg.shape) != s.rank:
+                raise RelightError(f"{name}: {role} {s.name!r} has rank {len(arg.shape)} ({arg.shape}), expected {s.rank}")
+            expect = [None, 9, 3] if s.rank == 3 else [None, _CHANNELS.get(s.name)]
+            if s.rank == 4 and spec.fixed_size:
+                expect += [config.resolution, config.resolution]
+            for axis, (have, need) in enumerate(zip(arg.shape, expect, strict=False)):
+                if need is not None and isinstance(have, int) and have != need:
+                    raise RelightError(
+                        f"{name}: {role} {s.name!r} has shape {arg.shape}, expected size {need} on axis {axis}"
+                    )
+    return config
+
+
+@dataclass(frozen=True)
+class Model:
+    """One checked graph: its session, its contract settings and what to call it."""
+
+    session: ort.InferenceSession
+    config: ModelConfig
+    name: str
+
+    @property
+    def on_cuda(self) -> bool:
+        """True when CUDA runs this graph."""
+        return self.session.get_providers()[0] == CUDA
+
+    def warm_up(self) -> None:
+        """Run the graph once on zeros (allocates memory, picks CUDA kernels)."""
+        self.session.run(None, _warmup_feeds(self.session, self.config.resolution))
+
+    def run(self, feeds: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Run on host arrays (float32, NCHW); returns every output by name."""
+        names = [o.name for o in self.session.get_outputs()]
+        values = self.session.run(names, {k: np.ascontiguousarray(v, dtype=np.float32) for k, v in feeds.items()})
+        return dict(zip(names, values, strict=True))
+
+
+def load_model(
+    path: str | os.PathLike | ort.InferenceSession,
+    kind: str,
+    *,
+    device: str = "auto",
+    device_id: int = 0,
+    providers: Sequence | None = None,
+    sess_options: ort.SessionOptions | None = None,
+    warmup: bool = True,
+) -> Model:
+    """``create_session`` plus a check that the graph is of ``kind``; see there for the arguments."""
+    name = "session" if isinstance(path, ort.InferenceSession) else str(path)
+    session = create_session(
+        path, device=device, device_id=device_id, providers=providers, sess_options=sess_options, warmup=False
+    )
+    model = Model(session, validate_session(session, name, kind), name)
+    if warmup:
+        model.warm_up()
+    return model
+
+
+def bundled_models_dir() -> Path:
+    """relight_rt/models inside the installed package."""
+    return Path(__file__).resolve().parent / "models"
+
+
+def find_models(models: str | os.PathLike | None = None) -> Path:
+    """The folder holding stage1.onnx: ``models`` if given, else $RELIGHT_RT_MODELS, else the bundled models.
+
+    Raises:
+        RelightError: nothing found; the message lists every place looked.
+    """
+    if models is not None:
+        places = [Path(models)]
+    else:
+        env = os.environ.get(ENV_MODELS, "").strip()
+        places = ([Path(env)] if env else []) + [bundled_models_dir()]
+    for place in places:
+        if (place / "stage1.onnx").is_file():
+            return place
+    looked = "; ".join(f"{p} ({'no stage1.onnx' if p.is_dir() else 'no such folder'})" for p in places)
+    hint = "" if models is not None else f"; pass --models DIR / models=DIR or set ${ENV_MODELS}"
+    raise RelightError(f"no relight_rt models found, looked in: {looked}{hint}")
