@@ -57,11 +57,32 @@ class Stabilizer:
         self.flow_preset = flow_preset
         self.last_weight: np.ndarray | None = None  # (H, W) blend weight of the last frame, for inspection
         self._prev: dict | None = None
+        self._light: np.ndarray | None = None
 
     def reset(self) -> None:
         """Forget the history (call at a scene cut or before another video)."""
         self._prev = None
+        self._light = None
         self.last_weight = None
+
+    def smooth_light(self, light: np.ndarray) -> np.ndarray:
+        """Exponential moving average of a per-frame estimate of the ORIGINAL video's light.
+
+        The input video's own illumination is estimated per frame (stage 1's light head) and
+        flickers like the layers; where the runtime divides by the reconstruction under that light
+        (detail transfer), the flicker reaches the output. The average uses ``strength``.
+
+        Args:
+            light: (9, 3) float RGB estimate for this frame.
+
+        Returns:
+            (9, 3) float32 smoothed light (a new array).
+        """
+        arr = np.asarray(light, np.float32)
+        if arr.shape != (9, 3) or not np.isfinite(arr).all():
+            raise RelightError(f"light: expected a finite (9, 3) SH light, got {arr.shape}")
+        self._light = arr.copy() if self._light is None else self.strength * self._light + (1 - self.strength) * arr
+        return self._light.copy()
 
     def update(self, frame: np.ndarray, mask: np.ndarray | None, albedo: np.ndarray,
                transport: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

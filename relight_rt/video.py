@@ -34,6 +34,7 @@ import numpy as np
 
 from . import sh
 from ._errors import RelightError
+from ._io import read_image, write_image
 from .stabilize import Stabilizer
 
 logger = logging.getLogger(__name__)
@@ -58,18 +59,8 @@ def _to_float(img: np.ndarray, name: str) -> np.ndarray:
 
 
 def read_frame(path: str | os.PathLike) -> np.ndarray:
-    """Read an image file as RGB(A) float32 (H, W, 3|4) in [0, 1]."""
-    img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
-    if img is None:
-        raise RelightError(f"{path}: cannot read this image (missing or corrupt)")
-    if img.ndim == 2:
-        img = cv2.cvtColor(img, cv2.COLOR_GRAY2BGR)
-    elif img.shape[2] == 4:
-        img = cv2.cvtColor(img, cv2.COLOR_BGRA2RGBA)
-        return _to_float(img, str(path))
-    elif img.shape[2] != 3:
-        raise RelightError(f"{path}: expected a 1, 3 or 4 channel image, got {img.shape[2]} channels")
-    return _to_float(cv2.cvtColor(img, cv2.COLOR_BGR2RGB), str(path))
+    """Read an image file as RGB(A) float32 (H, W, 3|4) in [0, 1] (relight_rt._io.read_image)."""
+    return read_image(path, "frame")
 
 
 def read_mask_file(path: str | os.PathLike, shape: tuple[int, int]) -> np.ndarray:
@@ -83,19 +74,6 @@ def read_mask_file(path: str | os.PathLike, shape: tuple[int, int]) -> np.ndarra
     if mask.shape != tuple(shape):
         raise RelightError(f"{path}: expected mask of size {shape[1]}x{shape[0]}, got {mask.shape[1]}x{mask.shape[0]}")
     return mask
-
-
-def _atomic_imwrite(path: Path, rgb: np.ndarray) -> None:
-    """Write an RGB float [0, 1] (H, W, 3) frame as 8-bit via a temporary file and a rename."""
-    bgr = cv2.cvtColor(np.clip(np.rint(rgb * 255.0), 0, 255).astype(np.uint8), cv2.COLOR_RGB2BGR)
-    tmp = path.with_name(f".{path.stem}.tmp{os.getpid()}{path.suffix}")
-    try:
-        if not cv2.imwrite(str(tmp), bgr):
-            raise RelightError(f"{path}: OpenCV could not write this image")
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
 
 
 # ---------------------------------------------------------------------------------------------
@@ -324,19 +302,87 @@ class LightSchedule:
 # engines
 
 
-class Engine(Protocol):
-    """What the pipeline needs from a relighting runtime (e.g. relight_rt.Relighter via an adapter).
+@dataclass(frozen=True)
+class FrameLayers:
+    """One frame's intrinsic layers in the engine's working frame (what the stabiliser filters).
 
-    ``decompose`` gets a batch of frames and masks and returns per frame (albedo (H, W, 3) RGB [0, 1],
-    transport (H, W, 9)) at the frame's own resolution. ``render`` turns one frame's (stabilised)
-    layers and that frame's light into the output frame (H, W, 3) RGB [0, 1], composited.
+    Attributes:
+        image: (h, w, 3) the input frame in the working frame, RGB [0, 1] (the optical-flow source).
+        mask: (h, w) person mask in [0, 1].
+        albedo: (h, w, 3) RGB [0, 1]; transport: (h, w, 9) (DESIGN.md §3).
+        light: (9, 3) the original frame's estimated light, or None.
+        state: engine-specific data (e.g. the runtime's Decomposition).
     """
 
-    def decompose(self, images: Sequence[np.ndarray], masks: Sequence[np.ndarray]) -> list[tuple[np.ndarray,
-                                                                                                  np.ndarray]]: ...
+    image: np.ndarray
+    mask: np.ndarray
+    albedo: np.ndarray
+    transport: np.ndarray
+    light: np.ndarray | None = None
+    state: object = None
 
-    def render(self, image: np.ndarray, mask: np.ndarray, albedo: np.ndarray, transport: np.ndarray,
-               light: np.ndarray) -> np.ndarray: ...
+
+class Engine(Protocol):
+    """What the pipeline needs from a relighting runtime (see :class:`RelighterEngine`).
+
+    ``decompose`` gets a batch of full frames (H, W, 3) and masks (H, W) and returns FrameLayers
+    per frame. ``render`` puts a frame's (stabilised) albedo/transport back into its FrameLayers,
+    applies ``light`` (9, 3) and returns the full output frame (H, W, 3) RGB [0, 1], composited over
+    ``background`` ("original" or "black"). ``to_input`` maps a working-frame layer to the input frame.
+    """
+
+    def decompose(self, images: Sequence[np.ndarray], masks: Sequence[np.ndarray]) -> list[FrameLayers]: ...
+
+    def render(self, layers: FrameLayers, albedo: np.ndarray, transport: np.ndarray, own_light: np.ndarray | None,
+               light: np.ndarray, background: str) -> np.ndarray: ...
+
+    def to_input(self, layers: FrameLayers, layer: np.ndarray) -> np.ndarray: ...
+
+
+class RelighterEngine:
+    """Adapter of :class:`relight_rt.relighter.Relighter` for video: batched stage 1 in the network frame.
+
+    The working frame is each frame's network square (R x R crop of the person); the stabiliser's
+    optical flow runs between consecutive network-frame images, so it also absorbs the small
+    shift and scale of the crop box from one frame to the next.
+
+    Args:
+        relighter: a loaded Relighter (stage 1, optional stage 2).
+    """
+
+    def __init__(self, relighter):
+        self.relighter = relighter
+
+    def decompose(self, images: Sequence[np.ndarray], masks: Sequence[np.ndarray]) -> list[FrameLayers]:
+        from ._geometry import CropGeometry
+        from .relighter import Decomposition
+
+        rl = self.relighter
+        geoms = [CropGeometry.from_mask(m, rl.resolution, rl.preprocess) for m in masks]
+        net_imgs = np.stack([g.to_network(img) for g, img in zip(geoms, images, strict=True)])
+        net_masks = np.stack([g.to_network(m) for g, m in zip(geoms, masks, strict=True)])
+        out = rl.stage1.run({"image": net_imgs.transpose(0, 3, 1, 2), "mask": net_masks[:, None]})
+        layers = []
+        for i, geom in enumerate(geoms):
+            dec = Decomposition(out["albedo"][i], out["skin"][i, 0], out["transport"][i], out["light"][i],
+                                net_masks[i], masks[i], images[i], geom)
+            layers.append(FrameLayers(net_imgs[i], net_masks[i], np.array(dec.albedo), np.array(dec.transport),
+                                      np.array(dec.light), dec))
+        return layers
+
+    def render(self, layers: FrameLayers, albedo: np.ndarray, transport: np.ndarray, own_light: np.ndarray | None,
+               light: np.ndarray, background: str) -> np.ndarray:
+        from .relighter import Decomposition
+
+        dec = layers.state
+        stab = Decomposition(albedo.transpose(2, 0, 1), dec.skin, transport.transpose(2, 0, 1),
+                             dec.light if own_light is None else own_light, dec.network_mask, dec.mask, dec.image,
+                             dec.geometry)
+        bg = np.zeros_like(dec.image) if background == "black" else "original"
+        return self.relighter.relight(stab, light, background=bg)
+
+    def to_input(self, layers: FrameLayers, layer: np.ndarray) -> np.ndarray:
+        return layers.state.to_input(layer)
 
 
 class DVPModel:
@@ -344,43 +390,43 @@ class DVPModel:
 
     Args:
         path: the .onnx file.
-        providers: onnxruntime execution providers (default: CPU).
+        device: "auto", "cuda" or "cpu" (relight_rt.session).
+        size: working size of the long side (the size it was fitted at, see ``python -m export fit-dvp
+            --size``); None: the frames' own size. Frames are zero-padded to multiples of 64.
     """
 
-    def __init__(self, path: str | os.PathLike, providers: Sequence[str] | None = None):
-        import onnxruntime as ort
-
-        from .contract import KINDS, config_from_metadata
+    def __init__(self, path: str | os.PathLike, device: str = "cpu", size: int | None = None):
+        from .session import load_model
 
         self.path = Path(path)
         if not self.path.is_file():
             raise RelightError(f"{self.path}: DVP model file does not exist")
-        try:
-            self.session = ort.InferenceSession(str(self.path), providers=list(providers or ["CPUExecutionProvider"]))
-        except Exception as exc:  # onnxruntime raises its own types for corrupt files
-            raise RelightError(f"{self.path}: cannot load this ONNX model ({exc})") from None
-        meta = self.session.get_modelmeta().custom_metadata_map
-        self.config = config_from_metadata(meta, str(self.path))
-        if self.config.kind != "dvp":
-            raise RelightError(f"{self.path}: expected a graph of kind 'dvp', got {self.config.kind!r}")
-        names = [i.name for i in self.session.get_inputs()]
-        want = [t.name for t in KINDS["dvp"].inputs]
-        if names != want:
-            raise RelightError(f"{self.path}: expected inputs {want}, got {names}")
+        self.model = load_model(self.path, "dvp", device=device, warmup=False)
+        self.size = size
 
     def __call__(self, images: Sequence[np.ndarray], masks: Sequence[np.ndarray],
                  lights: Sequence[np.ndarray]) -> list[np.ndarray]:
-        """Relit frames (H, W, 3) float32 RGB [0, 1], masked; frames are zero-padded to multiples of 64."""
-        h, w = images[0].shape[:2]
+        """Relit frames (H, W, 3) float32 RGB [0, 1], masked, at the frames' own size."""
+        h0, w0 = images[0].shape[:2]
+        h, w = h0, w0
+        if self.size is not None and max(h0, w0) != self.size:
+            scale = self.size / max(h0, w0)
+            h, w = max(1, round(h0 * scale)), max(1, round(w0 * scale))
         ph, pw = -h % 64, -w % 64
         x = np.zeros((len(images), 3, h + ph, w + pw), np.float32)
         m = np.zeros((len(images), 1, h + ph, w + pw), np.float32)
         for b, (img, mask) in enumerate(zip(images, masks, strict=True)):
+            if (h, w) != (h0, w0):
+                img = cv2.resize(img, (w, h), interpolation=cv2.INTER_AREA)
+                mask = cv2.resize(mask, (w, h), interpolation=cv2.INTER_LINEAR)
             x[b, :, :h, :w] = img.transpose(2, 0, 1)
             m[b, 0, :h, :w] = mask
         light = np.stack([np.asarray(v, np.float32) for v in lights])
-        (relit,) = self.session.run(None, {"frame": x, "mask": m, "light": light})
-        return [np.ascontiguousarray(r[:, :h, :w].transpose(1, 2, 0)) for r in relit]
+        relit = self.model.run({"frame": x, "mask": m, "light": light})["relit"]
+        outs = [np.ascontiguousarray(r[:, :h, :w].transpose(1, 2, 0)) for r in relit]
+        if (h, w) != (h0, w0):
+            outs = [cv2.resize(o, (w0, h0), interpolation=cv2.INTER_LINEAR) for o in outs]
+        return outs
 
 
 # ---------------------------------------------------------------------------------------------
@@ -402,6 +448,7 @@ class FrameSink:
         if video is None and frames_dir is None:
             raise RelightError("output: expected a video file and/or a frames folder, got neither")
         protected = {Path(p).resolve() for p in protect}
+        self._protect = tuple(protected)
         self.video = None if video is None else Path(video)
         self.frames_dir = None if frames_dir is None else Path(frames_dir)
         if self.video is not None:
@@ -421,7 +468,7 @@ class FrameSink:
     def write(self, name: str, rgb: np.ndarray) -> None:
         """Add one frame (H, W, 3) RGB float [0, 1]."""
         if self.frames_dir is not None:
-            _atomic_imwrite(self.frames_dir / f"{name}.png", rgb)
+            write_image(self.frames_dir / f"{name}.png", rgb, self._protect)
         if self.video is not None:
             if self._writer is None:
                 self.video.parent.mkdir(parents=True, exist_ok=True)
@@ -474,37 +521,58 @@ def composite(relit: np.ndarray, image: np.ndarray, mask: np.ndarray, background
 
 def relight_frames(source: Iterator[Frame] | FrameSource, lights: LightSchedule, fps: float,
                    engine: Engine | None = None, dvp: DVPModel | None = None, stabilizer: Stabilizer | None = None,
-                   batch_size: int = 4, background: str = "original") -> Iterator[tuple[Frame, np.ndarray, dict]]:
+                   batch_size: int = 4, background: str = "original",
+                   with_layers: bool = False) -> Iterator[tuple[Frame, np.ndarray, dict]]:
     """Relight a stream of frames; yields (frame, output (H, W, 3) RGB [0, 1], extras) in order.
 
-    ``extras`` holds "light" (9, 3) and, on the engine path, the stabilised "albedo" and
-    "transport" (what the metrics' light-following score needs). With ``dvp`` the fitted network
-    maps each frame and its light straight to the relit frame; otherwise ``engine`` decomposes each
-    batch, ``stabilizer`` (None = off) filters the layers, and ``engine.render`` applies each
-    frame's own light.
+    With ``dvp`` the fitted network maps each frame and its light straight to the relit frame.
+    Otherwise ``engine`` decomposes each batch, ``stabilizer`` (None = off) filters the layers (and
+    the original video's estimated light), and ``engine.render`` applies each frame's own light.
+    Frames whose mask is empty pass through unchanged.
+
+    ``extras`` holds "light" (9, 3) and, on the engine path with ``with_layers``, the stabilised
+    "albedo" (H, W, 3) and "transport" (H, W, 9) in the input frame (what the light-following
+    metric needs).
     """
     if (engine is None) == (dvp is None):
         raise RelightError("video: expected exactly one of an engine (stage 1/2 models) or a DVP model")
+    composite(np.zeros((1, 1, 3), np.float32), np.zeros((1, 1, 3), np.float32), np.ones((1, 1), np.float32),
+              background)  # checks the name before any work
     for batch in batched(source, batch_size):
         batch_lights = [lights(f.index, fps) for f in batch]
-        if dvp is not None:
-            outs = dvp([f.image for f in batch], [f.mask for f in batch], batch_lights)
-            for f, out, light in zip(batch, outs, batch_lights, strict=True):
-                yield f, composite(out, f.image, f.mask, background), {"light": light}
-            continue
-        layers = engine.decompose([f.image for f in batch], [f.mask for f in batch])
-        for f, (albedo, transport), light in zip(batch, layers, batch_lights, strict=True):
-            if stabilizer is not None:
-                albedo, transport = stabilizer.update(f.image, f.mask, albedo, transport)
-            out = engine.render(f.image, f.mask, albedo, transport, light)
-            yield f, composite(out, f.image, f.mask, background), {"light": light, "albedo": albedo,
-                                                                   "transport": transport}
+        people = [i for i, f in enumerate(batch) if (f.mask >= 0.5).any()]
+        outs: list = [None] * len(batch)
+        extras: list[dict] = [{"light": light} for light in batch_lights]
+        if dvp is not None and people:
+            relit = dvp([batch[i].image for i in people], [batch[i].mask for i in people],
+                        [batch_lights[i] for i in people])
+            for i, out in zip(people, relit, strict=True):
+                outs[i] = composite(out, batch[i].image, batch[i].mask, background)
+        elif people:
+            layers = engine.decompose([batch[i].image for i in people], [batch[i].mask for i in people])
+            for i, lay in zip(people, layers, strict=True):
+                albedo, transport, own = lay.albedo, lay.transport, lay.light
+                if stabilizer is not None:
+                    albedo, transport = stabilizer.update(lay.image, lay.mask, albedo, transport)
+                    own = None if own is None else stabilizer.smooth_light(own)
+                outs[i] = engine.render(lay, albedo, transport, own, batch_lights[i], background)
+                if with_layers:
+                    extras[i]["albedo"] = engine.to_input(lay, albedo)
+                    extras[i]["transport"] = engine.to_input(lay, transport)
+        for i, f in enumerate(batch):
+            if outs[i] is None:  # nobody in this frame
+                logger.debug("frame %s: empty mask, passed through", f.name)
+                outs[i] = composite(f.image, f.image, f.mask, background)
+                if with_layers and engine is not None:
+                    extras[i]["albedo"] = np.zeros_like(f.image)
+                    extras[i]["transport"] = np.zeros((*f.image.shape[:2], 9), np.float32)
+            yield f, outs[i], extras[i]
 
 
 def relight_video(source: FrameSource, lights: LightSchedule, sink: FrameSink, engine: Engine | None = None,
                   dvp: DVPModel | None = None, stabilizer: Stabilizer | None = None, batch_size: int = 4,
-                  background: str = "original", on_frame: Callable[[Frame, np.ndarray, dict], None] | None = None
-                  ) -> VideoReport:
+                  background: str = "original", on_frame: Callable[[Frame, np.ndarray, dict], None] | None = None,
+                  with_layers: bool = False) -> VideoReport:
     """Relight a whole video from ``source`` into ``sink`` in bounded memory.
 
     Args:
@@ -514,6 +582,7 @@ def relight_video(source: FrameSource, lights: LightSchedule, sink: FrameSink, e
         stabilizer: a fresh :class:`Stabilizer` (on by default in the CLI) or None.
         batch_size: frames decomposed together.
         on_frame: called with (frame, output, extras) after each frame is written (metrics, progress).
+        with_layers: put the input-frame layers into ``extras`` (see :func:`relight_frames`).
 
     Returns:
         VideoReport with the number of frames and the mean seconds per frame (reading and writing included).
@@ -522,7 +591,7 @@ def relight_video(source: FrameSource, lights: LightSchedule, sink: FrameSink, e
     n = 0
     try:
         for frame, out, extras in relight_frames(source, lights, source.fps, engine, dvp, stabilizer, batch_size,
-                                                 background):
+                                                 background, with_layers):
             sink.write(frame.name, out)
             n += 1
             if on_frame is not None:

@@ -13,6 +13,7 @@ from relight_rt import RelightError, metrics
 from relight_rt.stabilize import Stabilizer
 from relight_rt.video import (
     DVPModel,
+    FrameLayers,
     FrameSink,
     FrameSource,
     LightSchedule,
@@ -26,7 +27,8 @@ H, W = 24, 32
 
 
 class FakeEngine:
-    """Stage 1 stand-in: albedo = frame + per-frame noise, constant transport; render = albedo · shading."""
+    """Stage 1 stand-in in the input frame: albedo = frame + per-frame noise, constant transport;
+    render = albedo · shading, composited."""
 
     def __init__(self, noise: float = 0.0, seed: int = 0):
         self.rng = np.random.default_rng(seed)
@@ -36,16 +38,20 @@ class FakeEngine:
     def decompose(self, images, masks):
         self.batches.append(len(images))
         out = []
-        for img in images:
+        for img, mask in zip(images, masks, strict=True):
             transport = np.zeros((*img.shape[:2], 9), np.float32)
             transport[..., 0] = 3.0
             transport[..., 1] = 1.0
             albedo = np.clip(img + self.rng.normal(0, self.noise, img.shape), 0, 1).astype(np.float32)
-            out.append((albedo, transport))
+            out.append(FrameLayers(img, mask, albedo, transport, None))
         return out
 
-    def render(self, image, mask, albedo, transport, light):
-        return np.clip(albedo * np.maximum(transport @ light, 0), 0, 1)
+    def render(self, layers, albedo, transport, own_light, light, background):
+        relit = np.clip(albedo * np.maximum(transport @ light, 0), 0, 1)
+        return composite(relit, layers.image, layers.mask, background)
+
+    def to_input(self, layers, layer):
+        return np.array(layer)
 
 
 def _frame(t: int, h: int = H, w: int = W) -> np.ndarray:
@@ -192,7 +198,8 @@ def test_stabiliser_reduces_flicker_in_pipeline(tmp_path):
     scores = {}
     for name, stab in (("raw", None), ("stab", Stabilizer())):
         acc = metrics.TemporalMetrics()
-        for f, out, ex in relight_frames(FrameSource(frames), lights, 25.0, FakeEngine(noise=0.05), stabilizer=stab):
+        for f, out, ex in relight_frames(FrameSource(frames), lights, 25.0, FakeEngine(noise=0.05), stabilizer=stab,
+                                         with_layers=True):
             acc.update(out, f.mask, f.image, ex["albedo"], ex["transport"], ex["light"])
         scores[name] = acc.result()
     assert scores["stab"].warping_error < 0.7 * scores["raw"].warping_error
@@ -300,10 +307,59 @@ def test_dvp_model_applied(tmp_path):
 
 
 def test_dvp_model_checks_kind(tmp_path):
-    with pytest.raises(RelightError, match="kind 'dvp'"):
+    with pytest.raises(RelightError, match="dvp"):
         DVPModel(_identity_dvp(tmp_path / "s2.onnx", kind="stage2"))
     with pytest.raises(RelightError, match="does not exist"):
         DVPModel(tmp_path / "none.onnx")
     (tmp_path / "junk.onnx").write_bytes(b"junk")
-    with pytest.raises(RelightError, match="cannot load"):
+    with pytest.raises(RelightError, match="not a readable ONNX"):
         DVPModel(tmp_path / "junk.onnx")
+
+
+def test_empty_mask_frames_pass_through(tmp_path):
+    frames = _write_folder(tmp_path / "in", 3)
+    cv2.imwrite(str(frames / "f_0001_mask.png"), np.zeros((H, W), np.uint8))
+    engine = FakeEngine()
+    outs = list(relight_frames(FrameSource(frames), LightSchedule.constant(_lights(1)[0]), 25.0, engine,
+                               stabilizer=Stabilizer(), with_layers=True))
+    np.testing.assert_array_equal(outs[1][1], outs[1][0].image)
+    assert engine.batches == [2]
+    assert outs[1][2]["transport"].shape == (H, W, 9)
+
+
+def test_relighter_engine_with_tiny_models(tmp_path, test_data_dir):
+    """The runtime's Relighter behind the video pipeline: batched stage 1 equals one-by-one decompose."""
+    from relight_rt.relighter import Relighter
+    from relight_rt.video import RelighterEngine
+
+    models = tmp_path / "models"
+    models.mkdir()
+    for kind in ("stage1", "stage2"):
+        (models / f"{kind}.onnx").write_bytes((test_data_dir / f"tiny_{kind}.onnx").read_bytes())
+    relighter = Relighter(models, device="cpu")
+    engine = RelighterEngine(relighter)
+    frames = _write_folder(tmp_path / "in", 3, h=96, w=80)
+    src = list(FrameSource(frames))
+    layers = engine.decompose([f.image for f in src], [f.mask for f in src])
+    one = relighter.decompose(src[1].image, src[1].mask)
+    np.testing.assert_allclose(layers[1].albedo, one.albedo, atol=1e-5)
+    np.testing.assert_allclose(layers[1].transport, one.transport, atol=1e-4)
+    assert layers[1].image.shape == (relighter.resolution, relighter.resolution, 3)
+    light = _lights(1)[0]
+    plain = engine.render(layers[1], layers[1].albedo, layers[1].transport, None, light, "original")
+    np.testing.assert_allclose(plain, relighter.relight(one, light), atol=1e-4)
+    outs = list(relight_frames(iter(src), LightSchedule.sequence(_lights(3)), 25.0, engine, stabilizer=Stabilizer(),
+                               batch_size=2, with_layers=True))
+    assert [o[1].shape for o in outs] == [(96, 80, 3)] * 3
+    assert outs[2][2]["albedo"].shape == (96, 80, 3)
+
+
+def test_tiny_dvp_graph_runs_on_any_frame_size(test_data_dir):
+    dvp = DVPModel(test_data_dir / "tiny_dvp.onnx")
+    img = _frame(0, 50, 70)
+    mask = _mask(50, 70).astype(np.float32) / 255
+    a = dvp([img, img], [mask, mask], _lights(2))
+    assert [x.shape for x in a] == [(50, 70, 3)] * 2
+    assert np.all(a[0][mask == 0] == 0) and a[0].min() >= 0 and a[0].max() <= 1
+    small = DVPModel(test_data_dir / "tiny_dvp.onnx", size=64)([img], [mask], _lights(1))
+    assert small[0].shape == (50, 70, 3)
