@@ -10,7 +10,7 @@ the relighting without its flicker.
   27 channels, channel 3 + 3k + c = light[k, c] at every pixel (DESIGN.md §1). The light is an
   explicit input, so the network can follow a moving light instead of averaging it away.
 - Unconditioned (``--unconditioned``): the frame only (3 channels), for comparison; its ONNX graph
-  still has the contract's ``light`` input, which it ignores.
+  still has the contract's ``light`` input, which it ignores (see :func:`export_dvp`).
 - Output: ``tanh``; the relit frame is ``clip((out + 1) / 2, 0, 1)``, masked (as the exported graph
   computes it), so the loss compares ``(out + 1) / 2`` with the target inside the mask.
 - Loss: perceptual (L1 + VGG19 features, ``export.vgg``) when ``--vgg-weights`` names a local
@@ -306,11 +306,47 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--fp16", action="store_true", help="export float16 weights")
 
 
+def _ignore_light(model):
+    """Wrap an unconditioned DVPNet so it takes the contract's 30-channel input and ignores channels 3..29.
+
+    export.onnx_export wraps only light-conditioned DVP networks (the dvp contract always has a light
+    input); this adapter looks like a conditioned one (kind, conditioned, resolution, norm, config)
+    and passes the frame channels alone to the fitted network, so the graph has the ``light`` input
+    but its output does not depend on it.
+    """
+    from torch import nn
+
+    class IgnoreLight(nn.Module):
+        kind = "dvp"
+        conditioned = True
+
+        def __init__(self, net):
+            super().__init__()
+            self.net = net
+            self.resolution, self.norm = net.resolution, net.norm
+
+        @property
+        def config(self) -> dict:
+            return {**self.net.config, "ignores_light": True}
+
+        def forward(self, x):
+            return self.net(x[:, :3])
+
+    return IgnoreLight(model)
+
+
 def export_dvp(model, out: str | os.PathLike, source: str, fp16: bool = False) -> dict:
-    """Export a fitted DVPNet to ONNX (contract kind dvp) with export.onnx_export."""
+    """Export a fitted DVPNet to ONNX (contract kind dvp, resolution 0 = any size divisible by 64).
+
+    An unconditioned network is exported through :func:`_ignore_light`: its graph has the ``light``
+    input of the contract and ignores it.
+    """
     from export.onnx_export import export_onnx
 
-    return export_onnx(model.cpu().eval(), out, source=source, fp16=fp16)
+    net = model.cpu().eval()
+    if not net.conditioned:
+        net = _ignore_light(net).eval()
+    return export_onnx(net, out, source=source, fp16=fp16, resolution=0)
 
 
 def run(args: argparse.Namespace) -> int:
