@@ -363,3 +363,66 @@ def test_tiny_dvp_graph_runs_on_any_frame_size(test_data_dir):
     assert np.all(a[0][mask == 0] == 0) and a[0].min() >= 0 and a[0].max() <= 1
     small = DVPModel(test_data_dir / "tiny_dvp.onnx", size=64)([img], [mask], _lights(1))
     assert small[0].shape == (50, 70, 3)
+
+
+def _run_cli(argv: list[str]) -> int:
+    import argparse
+
+    from relight_rt.video_cli import add_parser
+
+    parser = argparse.ArgumentParser(prog="relight-rt")
+    add_parser(parser.add_subparsers(dest="command"))
+    args = parser.parse_args(argv)
+    return args.func(args)
+
+
+@pytest.fixture()
+def tiny_models(tmp_path, test_data_dir) -> Path:
+    models = tmp_path / "models"
+    models.mkdir()
+    for kind in ("stage1", "stage2"):
+        (models / f"{kind}.onnx").write_bytes((test_data_dir / f"tiny_{kind}.onnx").read_bytes())
+    return models
+
+
+def test_cli_rotating_light_with_metrics(tmp_path, tiny_models):
+    import json
+
+    frames = _write_folder(tmp_path / "in", 4, h=96, w=80)
+    out = tmp_path / "out.avi"
+    code = _run_cli(["video", str(frames), "-o", str(out), "--frames-out", str(tmp_path / "of"), "--models",
+                     str(tiny_models), "--light", "studio", "--rotate-per-second", "6.25", "--device", "cpu",
+                     "--metrics", str(tmp_path / "m.json"), "--batch-size", "3"])
+    assert code == 0 and out.is_file() and len(list((tmp_path / "of").iterdir())) == 4
+    data = json.loads((tmp_path / "m.json").read_text())
+    assert data["frames"] == 4 and data["stabilizer"] is True
+    assert np.isfinite([data["temporal_error"], data["warping_error"], data["light_following"]]).all()
+
+
+def test_cli_sequence_interpolation_and_dvp(tmp_path, tiny_models, test_data_dir):
+    frames = _write_folder(tmp_path / "in", 3, h=64, w=64)
+    np.save(tmp_path / "l.npy", _lights(3))
+    assert _run_cli(["video", str(frames), "--frames-out", str(tmp_path / "a"), "--models", str(tiny_models),
+                     "--lights", str(tmp_path / "l.npy"), "--no-stabilize", "--device", "cpu"]) == 0
+    assert _run_cli(["video", str(frames), "--frames-out", str(tmp_path / "b"), "--models", str(tiny_models),
+                     "--interpolate", "studio", "night", "--device", "cpu"]) == 0
+    assert _run_cli(["video", str(frames), "--frames-out", str(tmp_path / "c"), "--dvp",
+                     str(test_data_dir / "tiny_dvp.onnx"), "--light", "studio", "--device", "cpu"]) == 0
+    assert len(list((tmp_path / "c").iterdir())) == 3
+
+
+@pytest.mark.parametrize(
+    ("extra", "match"),
+    [([], "expected --light"), (["--interpolate", "studio"], "at least two"),
+     (["--lights", "x.npy", "--light", "studio"], "not both"), (["--light", "no-such-preset"], "no-such-preset")],
+)
+def test_cli_bad_light_options(tmp_path, tiny_models, extra, match):
+    frames = _write_folder(tmp_path / "in", 2)
+    with pytest.raises(RelightError, match=match):
+        _run_cli(["video", str(frames), "-o", str(tmp_path / "o.avi"), "--models", str(tiny_models), *extra])
+
+
+def test_cli_needs_an_output(tmp_path):
+    frames = _write_folder(tmp_path / "in", 2)
+    with pytest.raises(RelightError, match="output"):
+        _run_cli(["video", str(frames), "--light", "studio"])
