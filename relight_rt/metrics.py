@@ -19,6 +19,11 @@ bounded memory with :class:`TemporalMetrics`; the functions :func:`temporal_erro
   do not match the light's). The correlation ignores the size of the response; the least-squares
   gain (output change per unit of predicted change) is reported beside it by
   :class:`TemporalMetrics`.
+- Residual error (ours, for dynamic lights): mean ``|warp(out[t+1]) - out[t] - predicted light
+  change|`` over the same pixels: the change that neither the motion nor the light explains. With
+  a moving light the temporal and warping errors also count the change the light is meant to
+  make (a frozen light lowers them); the residual error does not reward that: a frozen light
+  leaves the whole predicted change as residual.
 
 Frames are (H, W, 3) RGB, float in [0, 1] or uint8; masks (H, W) float in [0, 1] or uint8
 (thresholded at half their range).
@@ -178,6 +183,8 @@ class MetricsResult:
         light_following: Pearson correlation of output change and light-predicted change; NaN when
             no intrinsic layers and lights were given, 0 when either change is constant.
         light_gain: least-squares slope of output change on predicted change (1 = full response).
+        residual_error: mean |output change − predicted light change| over non-occluded mask pixels
+            (motion-compensated when input frames were given), [0, 1] units; NaN without layers.
         pairs: number of frame pairs measured.
     """
 
@@ -185,6 +192,7 @@ class MetricsResult:
     warping_error: float
     light_following: float
     light_gain: float
+    residual_error: float
     pairs: int
 
 
@@ -205,6 +213,7 @@ class TemporalMetrics:
         self._temporal: list[float] = []
         self._warping: list[float] = []
         self._sums = np.zeros(6, np.float64)  # n, Σx, Σy, Σxx, Σyy, Σxy (x predicted, y output)
+        self._residual: list[float] = []
 
     def update(self, output: np.ndarray, mask: np.ndarray | None = None, input_frame: np.ndarray | None = None,
                albedo: np.ndarray | None = None, transport: np.ndarray | None = None,
@@ -245,6 +254,8 @@ class TemporalMetrics:
                 x = predicted_light_change(p_albedo, p_transport, p_light, light)[valid].astype(np.float64).ravel()
                 y = (warped - prev["out"])[valid].astype(np.float64).ravel()
                 self._sums += [x.size, x.sum(), y.sum(), x @ x, y @ y, x @ y]
+                if x.size:
+                    self._residual.append(float(np.abs(y - x).mean()))
         self._prev = {
             "out": out, "mask": m, "gray": gray,
             "layers": (np.asarray(albedo, np.float32), np.asarray(transport, np.float32),
@@ -270,6 +281,7 @@ class TemporalMetrics:
             warping_error=float(np.mean(self._warping)) if self._warping else float("nan"),
             light_following=corr,
             light_gain=gain,
+            residual_error=float(np.mean(self._residual)) if self._residual else float("nan"),
             pairs=len(self._temporal),
         )
 

@@ -112,6 +112,7 @@ def run(args: argparse.Namespace) -> int:
         data = {"frames": report.frames, "seconds_per_frame": report.seconds_per_frame,
                 "temporal_error": res.temporal_error, "warping_error": res.warping_error,
                 "light_following": res.light_following, "light_gain": res.light_gain,
+                "residual_error": res.residual_error,
                 "stabilizer": stabilizer is not None, "dvp": args.dvp}
         path = Path(args.metrics)
         tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")

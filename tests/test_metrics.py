@@ -117,6 +117,7 @@ def test_light_gain_catches_damped_light():
         acc_full.update(_relit(albedo, transport, light), None, None, albedo, transport, light)
         acc_half.update(_relit(albedo, transport, light_half), None, None, albedo, transport, light)
     assert acc_full.result().light_gain == pytest.approx(1.0, abs=0.02)
+    assert acc_full.result().residual_error < 0.2 * acc_half.result().residual_error
     assert acc_half.result().light_gain == pytest.approx(0.5, abs=0.05)
     assert acc_half.result().light_following > 0.95
 
@@ -175,3 +176,23 @@ def test_bad_inputs():
         metrics.temporal_error([np.full((4, 4, 3), np.nan)] * 2)
     with pytest.raises(RelightError, match="preset"):
         metrics.TemporalMetrics("slowest")
+
+
+def test_residual_error_penalises_frozen_light_and_flicker():
+    albedo, transport = _layers()
+    lights = _rotating_lights(12)
+    rng = np.random.default_rng(3)
+    results = {}
+    for name in ("correct", "frozen", "flicker"):
+        acc = metrics.TemporalMetrics()
+        for light in lights:
+            out = _relit(albedo, transport, lights[0] if name == "frozen" else light)
+            if name == "flicker":
+                out = np.clip(out * rng.uniform(0.9, 1.1), 0, 1)
+            acc.update(out, None, None, albedo, transport, light)
+        results[name] = acc.result()
+    assert results["correct"].residual_error < 1e-3
+    assert results["frozen"].residual_error > 0.01
+    assert results["flicker"].residual_error > 0.01
+    # the paper's temporal error rewards the frozen light; the residual error does not
+    assert results["frozen"].temporal_error < results["correct"].temporal_error
