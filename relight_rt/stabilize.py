@@ -26,6 +26,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Iterable, Iterator
 
+import cv2
 import numpy as np
 
 from ._errors import RelightError
@@ -43,9 +44,12 @@ class Stabilizer:
         photometric_tolerance: input-frame difference (RGB mean, [0, 1] units) at which the
             blend weight falls to 1/e of ``strength``.
         flow_preset: DIS preset, "ultrafast", "fast" or "medium".
+        flow_max_side: optical flow runs on frames shrunk so that their long side is at most this
+            (then the flow is scaled back up); None: at full size.
     """
 
-    def __init__(self, strength: float = 0.8, photometric_tolerance: float = 0.05, flow_preset: str = "fast"):
+    def __init__(self, strength: float = 0.8, photometric_tolerance: float = 0.05, flow_preset: str = "fast",
+                 flow_max_side: int | None = 512):
         if not 0.0 <= strength < 1.0:
             raise RelightError(f"strength: expected a value in [0, 1), got {strength}")
         if not photometric_tolerance > 0.0:
@@ -55,6 +59,9 @@ class Stabilizer:
         self.strength = float(strength)
         self.photometric_tolerance = float(photometric_tolerance)
         self.flow_preset = flow_preset
+        if flow_max_side is not None and flow_max_side < 16:
+            raise RelightError(f"flow_max_side: expected None or at least 16 pixels, got {flow_max_side}")
+        self.flow_max_side = flow_max_side
         self.last_weight: np.ndarray | None = None  # (H, W) blend weight of the last frame, for inspection
         self._prev: dict | None = None
         self._light: np.ndarray | None = None
@@ -84,6 +91,17 @@ class Stabilizer:
         self._light = arr.copy() if self._light is None else self.strength * self._light + (1 - self.strength) * arr
         return self._light.copy()
 
+    def _flow(self, src: np.ndarray, dst: np.ndarray) -> np.ndarray:
+        h, w = src.shape
+        if self.flow_max_side is None or max(h, w) <= self.flow_max_side:
+            return dis_flow(src, dst, self.flow_preset)
+        k = self.flow_max_side / max(h, w)
+        size = (max(8, round(w * k)), max(8, round(h * k)))
+        small = dis_flow(cv2.resize(src, size, interpolation=cv2.INTER_AREA),
+                         cv2.resize(dst, size, interpolation=cv2.INTER_AREA), self.flow_preset)
+        flow = cv2.resize(small, (w, h), interpolation=cv2.INTER_LINEAR)
+        return flow * np.array([w / size[0], h / size[1]], np.float32)
+
     def update(self, frame: np.ndarray, mask: np.ndarray | None, albedo: np.ndarray,
                transport: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Stabilise one frame's layers.
@@ -112,8 +130,8 @@ class Stabilizer:
             out_a, out_t = alb.copy(), tra.copy()
             self.last_weight = np.zeros(shape, np.float32)
         else:
-            backward = dis_flow(gray, prev["gray"], self.flow_preset)  # frame t -> t-1
-            forward = dis_flow(prev["gray"], gray, self.flow_preset)
+            backward = self._flow(gray, prev["gray"])  # frame t -> t-1
+            forward = self._flow(prev["gray"], gray)
             stack = np.concatenate([prev["albedo"], prev["transport"], prev["frame"],
                                     prev["mask"][..., None].astype(np.float32)], axis=2)
             warped = warp(stack, backward)

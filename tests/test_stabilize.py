@@ -108,6 +108,19 @@ def test_occlusion_and_cut_fall_back_to_estimate():
     assert np.abs(a_s - est).mean() < 0.05
 
 
+def test_downscaled_flow_still_stabilises():
+    clip = _moving_square_clip(10)
+    full, small = Stabilizer(flow_max_side=None), Stabilizer(flow_max_side=32)
+    err = {"full": [], "small": []}
+    for frame, mask, albedo, noisy_a, noisy_t, _ in clip:
+        for name, stab in (("full", full), ("small", small)):
+            a_s, _ = stab.update(frame, mask, noisy_a, noisy_t)
+            err[name].append(np.abs(a_s - albedo)[mask > 0.5].mean())
+    noise = np.mean([np.abs(c[3] - c[2])[c[1] > 0.5].mean() for c in clip[5:]])
+    assert np.mean(err["small"][5:]) < 0.8 * noise
+    assert np.mean(err["small"][5:]) < 1.5 * np.mean(err["full"][5:])
+
+
 def test_strength_zero_is_identity_and_inputs_untouched():
     clip = _moving_square_clip(3)
     stab = Stabilizer(strength=0.0)
@@ -144,6 +157,8 @@ def test_shapes(shape):
 def test_bad_inputs():
     with pytest.raises(RelightError, match="strength"):
         Stabilizer(strength=1.0)
+    with pytest.raises(RelightError, match="flow_max_side"):
+        Stabilizer(flow_max_side=4)
     with pytest.raises(RelightError, match="photometric_tolerance"):
         Stabilizer(photometric_tolerance=0)
     stab = Stabilizer()
