@@ -122,7 +122,7 @@ def test_vgg_loads_torchvision_layout_and_gives_five_maps(tmp_path):
     loss = PerceptualLoss(path)
     x = torch.rand(1, 3, 32, 32, requires_grad=True)
     mask = torch.ones(1, 1, 32, 32)
-    assert float(loss(x, x.detach(), mask)) == 0.0
+    assert float(loss(x, x.detach(), mask).detach()) == 0.0
     value = loss(x, torch.rand(1, 3, 32, 32), mask)
     value.backward()
     assert value > 0 and x.grad is not None
