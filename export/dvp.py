@@ -22,12 +22,20 @@ the relighting without its flicker.
 Stopping. After every epoch the network is run on all frames (dropout off) and two numbers are
 measured, both as mean absolute differences in [0, 1] units inside the mask: the fit error E
 (prediction vs. per-frame relit target) and the flicker W (warping error of the predictions, with
-DIS flow of the INPUT frames, non-occluded pixels only; ``relight_rt.metrics``). E falls as the
-network fits; W first falls (the random initial output settles) and then rises back toward the
-targets' own flicker once the network starts to reproduce per-frame inconsistencies. The score
-E + W weighs one unit of fit error against one unit of flicker; fitting stops when the score has
-not improved for ``--patience`` epochs (or at ``--max-epochs`` / ``--max-minutes``), and the
-epoch with the lowest score is kept. Every epoch's E, W and score go to the fit log (JSON).
+DIS flow of the INPUT frames, non-occluded pixels only; ``relight_rt.metrics``). The score is
+E + W; fitting stops when it has not improved for ``--patience`` epochs (or at ``--max-epochs`` /
+``--max-minutes``, never before ``--min-epochs``), and the epoch with the lowest score is kept.
+Every epoch's E, W and score go to the fit log (JSON).
+
+Why E + W: write each target as a temporally consistent relit frame plus per-frame flicker of
+mean size a. Fitting the consistent part lowers E and leaves W near the consistent video's own
+(which includes the light's real change, the same for every epoch), so the score falls. Fitting
+the flicker lowers E by at most about a but raises W by about √2·a (the difference of two
+independent per-frame errors is larger than either), so the score rises: its minimum is the point
+where the network has taken what is consistent and has not yet taken the flicker, which is the
+point the reference picks by eye ("before noise appears"). Both terms are in the same units, so
+no weight has to be tuned; E alone would never stop, W alone would prefer an under-fitted (blurry,
+or for the unconditioned net light-frozen) result.
 
 Frames are held in memory at the working size (``--size``, long side; padded with zeros to a
 multiple of 64): fitting needs every frame every epoch.

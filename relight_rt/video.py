@@ -510,13 +510,19 @@ class VideoReport:
     seconds_per_frame: float
 
 
-def composite(relit: np.ndarray, image: np.ndarray, mask: np.ndarray, background: str = "original") -> np.ndarray:
-    """Put a masked relit person over the original frame ("original") or black ("black")."""
-    if background == "black":
-        return relit * mask[..., None]
-    if background == "original":
-        return relit * mask[..., None] + image * (1.0 - mask[..., None])
-    raise RelightError(f"background: expected 'original' or 'black', got {background!r}")
+def composite(relit: np.ndarray, image: np.ndarray, mask: np.ndarray, background: str = "original",
+              premultiplied: bool = False) -> np.ndarray:
+    """Put the relit person over the original frame ("original") or black ("black").
+
+    Args:
+        relit: (H, W, 3) RGB [0, 1]; already multiplied by the mask when ``premultiplied`` (a DVP output).
+        image: (H, W, 3) the original frame; mask: (H, W) in [0, 1].
+    """
+    if background not in ("original", "black"):
+        raise RelightError(f"background: expected 'original' or 'black', got {background!r}")
+    m = mask[..., None]
+    person = relit if premultiplied else relit * m
+    return person if background == "black" else person + image * (1.0 - m)
 
 
 def relight_frames(source: Iterator[Frame] | FrameSource, lights: LightSchedule, fps: float,
@@ -547,7 +553,7 @@ def relight_frames(source: Iterator[Frame] | FrameSource, lights: LightSchedule,
             relit = dvp([batch[i].image for i in people], [batch[i].mask for i in people],
                         [batch_lights[i] for i in people])
             for i, out in zip(people, relit, strict=True):
-                outs[i] = composite(out, batch[i].image, batch[i].mask, background)
+                outs[i] = composite(out, batch[i].image, batch[i].mask, background, premultiplied=True)
         elif people:
             layers = engine.decompose([batch[i].image for i in people], [batch[i].mask for i in people])
             for i, lay in zip(people, layers, strict=True):

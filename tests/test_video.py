@@ -240,6 +240,8 @@ def test_composite():
     mask = np.array([[1, 0], [0, 1]], np.float32)
     np.testing.assert_array_equal(composite(relit, img, mask)[0, 1], [0.5, 0.5, 0.5])
     np.testing.assert_array_equal(composite(relit, img, mask, "black")[0, 1], [0, 0, 0])
+    soft = np.full((2, 2), 0.5, np.float32)
+    np.testing.assert_allclose(composite(relit * 0.5, img, soft, premultiplied=True), composite(relit, img, soft))
     with pytest.raises(RelightError, match="background"):
         composite(relit, img, mask, "green")
 
