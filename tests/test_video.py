@@ -428,3 +428,26 @@ def test_cli_needs_an_output(tmp_path):
     frames = _write_folder(tmp_path / "in", 2)
     with pytest.raises(RelightError, match="output"):
         _run_cli(["video", str(frames), "--light", "studio"])
+
+
+def test_reference_video_stabiliser_on_real_motion(reference_dir):
+    """The reference's walking-person frames (3-channel 8-bit masks): real motion, synthetic layer noise."""
+    src = FrameSource(reference_dir / "video")
+    assert len(src) == 24
+
+    def small_frames():
+        for f in src:
+            if f.index >= 8:
+                return
+            size = (f.image.shape[1] // 4, f.image.shape[0] // 4)
+            yield type(f)(f.index, f.name, cv2.resize(f.image, size, interpolation=cv2.INTER_AREA),
+                          cv2.resize(f.mask, size, interpolation=cv2.INTER_AREA))
+
+    light = LightSchedule.constant(_lights(1)[0])
+    results = {}
+    for name, stab in (("raw", None), ("stab", Stabilizer())):
+        acc = metrics.TemporalMetrics()
+        for f, out, _ in relight_frames(small_frames(), light, 25.0, FakeEngine(noise=0.05), stabilizer=stab):
+            acc.update(out, f.mask, f.image)
+        results[name] = acc.result()
+    assert results["stab"].warping_error < 0.75 * results["raw"].warping_error
