@@ -107,18 +107,24 @@ class CropGeometry:
 
         return _by_four(square_and_resize, crop)
 
-    def to_crop(self, net: np.ndarray) -> np.ndarray:
-        """Network frame (R, R[, C]) → the crop box (h, w[, C]) in input pixels (new float32 array)."""
+    def to_crop(self, net: np.ndarray, origin: tuple[int, int] = (0, 0)) -> np.ndarray:
+        """Network frame (R, R[, C]) → the crop box (h, w[, C]) in input pixels (new float32 array).
+
+        ``origin`` (y, x): ``net`` is only the window of the network frame that starts there (enlarging
+        only; what lies beyond the window repeats its border).
+        """
         h, w = self.crop_shape
         oy, ox = self.offset
         r, s = self.resolution, self.side
         net = np.ascontiguousarray(net, dtype=np.float32)
+        if origin != (0, 0) and s <= r:
+            raise RelightError("to_crop: a window origin needs an enlarging geometry (side > resolution)")
         if s == r:
             return net[oy : oy + h, ox : ox + w].copy()
         if s > r:
             # enlarging: sample only the crop box (no S x S intermediate); the same mapping as cv2.resize
             k = r / s
-            m = np.array([[k, 0.0, (ox + 0.5) * k - 0.5], [0.0, k, (oy + 0.5) * k - 0.5]])
+            m = np.array([[k, 0.0, (ox + 0.5) * k - 0.5 - origin[1]], [0.0, k, (oy + 0.5) * k - 0.5 - origin[0]]])
             flags = cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP
             return _by_four(lambda a: cv2.warpAffine(a, m, (w, h), flags=flags, borderMode=cv2.BORDER_REPLICATE), net)
         return _by_four(lambda a: cv2.resize(a, (s, s), interpolation=cv2.INTER_AREA)[oy : oy + h, ox : ox + w], net)

@@ -29,13 +29,13 @@ def _describe(a: np.ndarray) -> str:
     return f"{tuple(a.shape)} {a.dtype}"
 
 
-def _decode(path: Path, name: str) -> np.ndarray:
-    """Decode an image file as stored (depth and channel count unchanged), BGR(A) as OpenCV gives it."""
+def _decode(path: Path, name: str, flags: int = cv2.IMREAD_UNCHANGED) -> np.ndarray:
+    """Decode an image file (default: as stored, depth and channels unchanged, BGR(A) as OpenCV gives it)."""
     try:
         data = np.fromfile(path, dtype=np.uint8)  # works for non-ASCII paths, unlike cv2.imread
     except OSError as exc:
         raise RelightError(f"{name}: cannot read {path}: {exc.strerror or exc}") from None
-    image = cv2.imdecode(data, cv2.IMREAD_UNCHANGED) if data.size else None
+    image = cv2.imdecode(data, flags) if data.size else None
     if image is None:
         raise RelightError(f"{name}: cannot decode {path} as an image (unreadable, empty or not an image file)")
     return image
@@ -44,11 +44,11 @@ def _decode(path: Path, name: str) -> np.ndarray:
 def _to_unit_float(a: np.ndarray, name: str, *, allow_uint16: bool) -> np.ndarray:
     """Any accepted dtype → new float32 array in [0, 1]."""
     if a.dtype == np.uint8:
-        return a.astype(np.float32) * np.float32(1 / 255)
+        return np.multiply(a, np.float32(1 / 255), dtype=np.float32)
     if a.dtype == np.bool_:
         return a.astype(np.float32)
     if a.dtype == np.uint16 and allow_uint16:
-        return a.astype(np.float32) * np.float32(1 / 65535)
+        return np.multiply(a, np.float32(1 / 65535), dtype=np.float32)
     if a.dtype.kind == "f":
         out = a.astype(np.float32)  # always a copy: never alias the caller's array
         if not np.isfinite(out).all():
@@ -66,8 +66,8 @@ def read_image(src: str | os.PathLike | np.ndarray, name: str = "image") -> np.n
     """Read a colour image from a file or an array.
 
     Args:
-        src: a path (8-bit PNG/JPEG/... with 3 or 4 channels) or an array (H, W, 3|4), uint8 (0-255)
-            or float (0-1), channel order RGB(A).
+        src: a path (8-bit PNG/JPEG/... with 3 or 4 channels; JPEGs get their EXIF orientation applied,
+            as cv2.imread does) or an array (H, W, 3|4), uint8 (0-255) or float (0-1), channel order RGB(A).
         name: what to call the input in error messages.
 
     Returns:
@@ -83,6 +83,8 @@ def read_image(src: str | os.PathLike | np.ndarray, name: str = "image") -> np.n
         path = Path(src)
         a = _decode(path, name)
         label = f"{name} {path}"
+        if a.ndim == 3 and a.shape[2] == 3 and a.dtype == np.uint8 and path.suffix.lower() in (".jpg", ".jpeg"):
+            a = _decode(path, name, cv2.IMREAD_COLOR)  # applies the EXIF orientation, as the reference's imread
     else:
         raise RelightError(f"{name}: expected a path or an (H, W, 3) array, got {type(src).__name__}")
     if a.ndim == 2 or (a.ndim == 3 and a.shape[2] == 1):
@@ -103,8 +105,9 @@ def read_mask(src: str | os.PathLike | np.ndarray, shape: tuple[int, int], name:
     """Read a person mask (binary or soft) and check it against the image.
 
     Args:
-        src: a path (8- or 16-bit, 1 or 3 channels) or an array (H, W), (H, W, 1) or (H, W, 3); bool, uint8,
-            uint16 or float in [0, 1]. Three channels are averaged.
+        src: a path (8- or 16-bit, any channels) or an array (H, W), (H, W, 1) or (H, W, 3); bool, uint8,
+            uint16 or float in [0, 1]. Colour is turned to gray as the reference does (a file is decoded with
+            cv2.IMREAD_GRAYSCALE; an RGB array goes through cv2.COLOR_RGB2GRAY: 0.299 R + 0.587 G + 0.114 B).
         shape: (H, W) of the image the mask belongs to.
         name: what to call the input in error messages.
 
@@ -117,24 +120,31 @@ def read_mask(src: str | os.PathLike | np.ndarray, shape: tuple[int, int], name:
     """
     if isinstance(src, np.ndarray):
         a, label = src, name
+        if a.ndim == 3 and a.shape[2] == 3 and a.dtype in (np.uint8, np.uint16, np.float32, np.float64):
+            a = cv2.cvtColor(np.ascontiguousarray(a), cv2.COLOR_RGB2GRAY)
     elif isinstance(src, (str, os.PathLike)):
-        a, label = _decode(Path(src), name), f"{name} {src}"
+        label = f"{name} {src}"
+        a = _decode(Path(src), name, cv2.IMREAD_GRAYSCALE | cv2.IMREAD_ANYDEPTH)  # as the reference reads masks
     else:
         raise RelightError(f"{name}: expected a path or an (H, W) array, got {type(src).__name__}")
-    if a.ndim == 3 and a.shape[2] in (1, 3):
-        a = a[..., 0] if a.shape[2] == 1 else a
+    if a.ndim == 3 and a.shape[2] == 1:
+        a = a[..., 0]
     elif a.ndim != 2:
         raise RelightError(f"{label}: expected an (H, W) or (H, W, 3) mask, got {_describe(a)}")
     if tuple(a.shape[:2]) != tuple(shape):
         raise RelightError(f"{label}: mask is {a.shape[0]}x{a.shape[1]} (HxW), the image is {shape[0]}x{shape[1]}")
     m = _to_unit_float(a, label, allow_uint16=True)
-    if m.ndim == 3:
-        m = m.mean(axis=2, dtype=np.float32)
     if not (m >= 0.5).any():
         raise RelightError(f"{label}: mask is empty (no pixel >= 0.5); expected the person in white")
     if (m >= 0.5).all():
         raise RelightError(f"{label}: mask covers the whole image (every pixel >= 0.5); expected the person only")
     return m
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
 
 
 def _check_target(path: Path, protect: Iterable[str | os.PathLike]) -> None:
@@ -155,6 +165,7 @@ def _atomic(path: str | os.PathLike, protect: Iterable[str | os.PathLike], write
     try:
         with os.fdopen(fd, "wb") as f:
             write(f)
+        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give the file the usual permissions
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)

@@ -154,7 +154,8 @@ def validate_session(session: ort.InferenceSession, name: str, kind: str | None 
             if arg.type != "tensor(float)":
                 raise RelightError(f"{name}: {role} {s.name!r} has type {arg.type}, expected tensor(float) (float32)")
             if len(arg.shape) != s.rank:
-                raise RelightError(f"{name}: {role} {s.name!r} has rank {len(arg.shape)} ({arg.shape}), expected {s.rank}")
+                rank = len(arg.shape)
+                raise RelightError(f"{name}: {role} {s.name!r} has rank {rank} ({arg.shape}), expected {s.rank}")
             expect = [None, 9, 3] if s.rank == 3 else [None, _CHANNELS.get(s.name)]
             if s.rank == 4 and spec.fixed_size:
                 expect += [config.resolution, config.resolution]

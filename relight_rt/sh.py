@@ -318,7 +318,10 @@ def rotate_z(light, angle) -> np.ndarray:
         raise RelightError(f"angle: expected finite radians, got {angle!r}")
     a = a[..., None]  # broadcast over the colour column
     c1, s1, c2, s2 = np.cos(a), np.sin(a), np.cos(2 * a), np.sin(2 * a)
-    lead = np.broadcast_shapes(lit.shape[:-2], a.shape[:-1])
+    try:
+        lead = np.broadcast_shapes(lit.shape[:-2], a.shape[:-1])
+    except ValueError:
+        raise RelightError(f"angle: shape {a.shape[:-1]} does not broadcast with lights {lit.shape}") from None
     out = np.empty(lead + (N_COEFFS, 3))
     k = [lit[..., i, :] for i in range(N_COEFFS)]
     out[..., 0, :] = k[0]
@@ -495,8 +498,8 @@ def envmap_from_light(light, height: int) -> np.ndarray:
     per_col = np.zeros((6, 2 * h, 3))
     for k in range(N_COEFFS):
         per_col[_SEP_T[k]] += _SEP_C[k] * cols[_SEP_F[k]][:, None] * lit[k][None, :]
-    env = rows.T @ per_col.reshape(6, 2 * h * 3)
-    return env.reshape(h, 2 * h, 3).astype(np.float32)
+    env = np.ascontiguousarray(rows.T, dtype=np.float32) @ per_col.reshape(6, 2 * h * 3).astype(np.float32)
+    return env.reshape(h, 2 * h, 3)
 
 
 _ENV_EXTS = (".hdr", ".pic", ".exr", ".png", ".jpg", ".jpeg")

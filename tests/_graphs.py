@@ -50,8 +50,9 @@ def _model(nodes, inputs, outputs, inits, meta, opset=17) -> onnx.ModelProto:
     return model
 
 
-def meta_for(kind: str, resolution: int, **overrides) -> dict[str, str]:
-    meta = ModelConfig(kind=kind, resolution=resolution, norm="instance", source="tests/_graphs.py").metadata()
+def meta_for(kind_: str, resolution: int, **overrides) -> dict[str, str]:
+    """Good metadata for a graph of kind ``kind_``; overrides set relight_rt.KEY (None removes it)."""
+    meta = ModelConfig(kind=kind_, resolution=resolution, norm="instance", source="tests/_graphs.py").metadata()
     for key, value in overrides.items():
         full = f"relight_rt.{key}"
         if value is None:
@@ -65,7 +66,7 @@ def stage1_model(resolution=64, *, meta=None, image_name="image", elem=TensorPro
                  light=OWN_LIGHT) -> onnx.ModelProto:  # fmt: skip
     """The analytic stage 1 (see the module docstring); keyword arguments break the contract on purpose."""
     r = resolution if size is None else size
-    img_shape = ["N", 3, r, r] if rank == 4 else ["N", 3, r]
+    img_shape = ["N", 3, r, r] if rank == 4 else ["N", 3 * r * r]  # rank != 4: flat, reshaped inside
     inits = [
         numpy_helper.from_array(LOBE.reshape(1, 9, 1, 1), "lobe"),
         numpy_helper.from_array(np.asarray(light, np.float32).reshape(1, 9, 3), "own_light"),
@@ -73,6 +74,8 @@ def stage1_model(resolution=64, *, meta=None, image_name="image", elem=TensorPro
         numpy_helper.from_array(np.array(0.0, np.float32), "zero"),
         numpy_helper.from_array(np.array([-1, 1, 1], np.int64), "shape3"),
     ]
+    if rank != 4:
+        inits.append(numpy_helper.from_array(np.array([-1, 3, r, r], np.int64), "shape4"))
     nodes = [
         helper.make_node("Identity", [image_name], ["img"]),
         helper.make_node("Mul", ["img", "mask"], ["albedo"]),
@@ -85,6 +88,8 @@ def stage1_model(resolution=64, *, meta=None, image_name="image", elem=TensorPro
     ]
     if elem != TensorProto.FLOAT:
         nodes[0] = helper.make_node("Cast", [image_name], ["img"], to=TensorProto.FLOAT)
+    if rank != 4:
+        nodes[0] = helper.make_node("Reshape", [image_name, "shape4"], ["img"])
     # ReduceMean without axes reduces everything; per-sample mean over C,H,W instead:
     nodes[4] = helper.make_node("ReduceMean", ["mask"], ["m_mean"], keepdims=1, axes=[1, 2, 3])
     inputs = [_value(image_name, img_shape, elem), _value("mask", ["N", 1, r, r])]
@@ -94,8 +99,6 @@ def stage1_model(resolution=64, *, meta=None, image_name="image", elem=TensorPro
         _value("transport", ["N", 9, r, r]),
         _value("light", ["N", 9, 3]),
     ]
-    if rank != 4:
-        inputs[0] = _value(image_name, img_shape, elem)
     return _model(nodes, inputs, outputs, inits, meta if meta is not None else meta_for("stage1", resolution), opset=13)
 
 

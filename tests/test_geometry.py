@@ -120,3 +120,15 @@ def test_bad_mode_and_empty_mask():
         CropGeometry.from_mask(blob(10, 10, (2, 8, 2, 8)), 64, mode="bicubic")
     with pytest.raises(RelightError, match="empty"):
         CropGeometry.from_mask(np.zeros((10, 10), np.float32), 64)
+
+
+def test_window_origin_matches_the_whole_frame():
+    mask = blob(300, 200, (10, 290, 40, 160))
+    geom = CropGeometry.from_mask(mask, 64)
+    net = np.random.default_rng(5).random((64, 64, 3)).astype(np.float32)
+    whole = geom.to_crop(net)
+    part = geom.to_crop(net[:, 10:54], origin=(0, 10))  # the crop covers network columns ~11..52
+    np.testing.assert_allclose(part, whole, atol=1e-4)  # warpAffine works in fixed point
+    small = CropGeometry.from_mask(blob(40, 40, (10, 30, 10, 30)), 64)
+    with pytest.raises(RelightError, match="origin"):
+        small.to_crop(net, origin=(1, 1))

@@ -1,0 +1,232 @@
+"""relight_rt.cli: every command, and every bad input as one line on stderr + exit 2 + no output left."""
+
+import json
+
+import cv2
+import numpy as np
+import pytest
+from _graphs import OWN_LIGHT, make_models_dir, meta_for, models_dir, person, save, stage1_model
+
+from relight_rt import cli
+
+__all__ = ["models_dir"]  # fixture
+
+
+def write_photo(folder, name="p", seed=0, h=150, w=100):
+    img, mask = person(h, w, seed=seed)
+    cv2.imwrite(str(folder / f"{name}.png"), (img[..., ::-1] * 255).round().astype(np.uint8))
+    cv2.imwrite(str(folder / f"{name}_mask.png"), (mask * 255).astype(np.uint8))
+    return folder / f"{name}.png"
+
+
+@pytest.fixture
+def work(tmp_path, models_dir, monkeypatch):
+    monkeypatch.setenv("RELIGHT_RT_MODELS", str(models_dir))
+    monkeypatch.chdir(tmp_path)
+    np.save(tmp_path / "light.npy", OWN_LIGHT.astype(np.float64))
+    return tmp_path
+
+
+def run(argv, capsys):
+    code = cli.main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_relight_one_file(work, capsys):
+    photo = write_photo(work)
+    code, _, err = run(["relight", photo, "--light", "light.npy", "-o", "out.png", "--device", "cpu"], capsys)
+    assert code == 0, err
+    out = cv2.imread("out.png")
+    assert out.shape == (150, 100, 3)
+    np.testing.assert_allclose(out.astype(int), cv2.imread(str(photo)).astype(int), atol=1)  # own light: input back
+
+
+@pytest.mark.parametrize(
+    "light_args",
+    [["--preset", "studio"], ["--light", "light.npy", "--rotate", "90"], ["--light-from", "p.png"],
+     ["--envmap", "env.hdr"], ["--light", "light.npy", "--bgr"]],
+)  # fmt: skip
+def test_light_options(work, capsys, light_args):
+    write_photo(work)
+    cv2.imwrite("env.hdr", np.full((8, 16, 3), 0.3, np.float32))
+    code, _, err = run(["relight", "p.png", *light_args, "-o", "o.png"], capsys)
+    assert code == 0, err
+    assert cv2.imread("o.png").shape == (150, 100, 3)
+
+
+def test_transparent_background(work, capsys):
+    write_photo(work)
+    code, _, err = run(["relight", "p.png", "--preset", "front", "--background", "transparent", "-o", "o.png"], capsys)
+    assert code == 0, err
+    assert cv2.imread("o.png", cv2.IMREAD_UNCHANGED).shape == (150, 100, 4)
+
+
+def test_folder_goes_on_past_bad_files_and_reports_all(work, capsys):
+    (work / "in").mkdir()
+    write_photo(work / "in", "a", 1)
+    write_photo(work / "in", "b", 2)
+    (work / "in" / "c.png").write_bytes(b"broken")
+    cv2.imwrite(str(work / "in" / "d.png"), np.zeros((20, 20, 3), np.uint8))  # no mask, no alpha
+    code, _, err = run(["relight", "in", "--light", "light.npy", "-o", "out"], capsys)
+    assert code == 2
+    assert sorted(p.name for p in (work / "out").iterdir()) == ["a_relit.png", "b_relit.png"]
+    lines = [x for x in err.splitlines() if x.startswith("relight-rt: error:")]
+    assert len(lines) == 2 and "c.png" in lines[0] and "d.png" in lines[1]
+    assert "2 failed, 2 written" in err
+
+
+def test_mask_folder_and_mask_file(work, capsys):
+    write_photo(work, "a")
+    (work / "masks").mkdir()
+    (work / "a_mask.png").rename(work / "masks" / "a_mask.png")
+    code, _, err = run(["relight", "a.png", "--mask", "masks", "--preset", "studio", "-o", "o1.png"], capsys)
+    assert code == 0, err
+    code, _, err = run(["relight", "a.png", "--mask", "masks/a_mask.png", "--preset", "studio", "-o", "o2.png"], capsys)
+    assert code == 0, err
+
+
+def test_decompose(work, capsys):
+    write_photo(work)
+    code, _, err = run(["decompose", "p.png", "-o", "dec"], capsys)
+    assert code == 0, err
+    names = sorted(p.name for p in (work / "dec").iterdir())
+    assert names == ["albedo.png", "light.npy", "shading.png", "skin.png", "transport.npz"]
+    np.testing.assert_allclose(np.load(work / "dec" / "light.npy"), OWN_LIGHT, rtol=1e-6)
+    with np.load(work / "dec" / "transport.npz") as z:
+        assert z["T"].shape == (150, 100, 9)
+    assert cv2.imread(str(work / "dec" / "skin.png"), cv2.IMREAD_UNCHANGED).ndim == 2
+
+
+def test_lights_commands(work, capsys):
+    code, out, _ = run(["lights", "list"], capsys)
+    assert code == 0 and out.splitlines()[0].split()[0] == "studio"
+    code, _, err = run(["lights", "show", "studio", "--size", "32", "-o", "s.png"], capsys)
+    assert code == 0, err
+    assert cv2.imread("s.png").shape == (32, 32, 3)
+    code, _, err = run(["lights", "show", "light.npy", "-o", "s2.png"], capsys)
+    assert code == 0, err
+    cv2.imwrite("env.hdr", np.ones((8, 16, 3), np.float32))
+    for target in ("l.npy", "l.json"):
+        code, _, err = run(["lights", "from-envmap", "env.hdr", "-o", target], capsys)
+        assert code == 0, err
+    np.testing.assert_allclose(np.load("l.npy")[0], np.sqrt(4 * np.pi), rtol=0.02)
+    assert len(json.loads((work / "l.json").read_text())["sh"]) == 9
+    code, _, err = run(["lights", "show", "nope", "-o", "x.png"], capsys)
+    assert code == 2 and "known presets" in err and not (work / "x.png").exists()
+
+
+def test_doctor(work, capsys):
+    code, out, _ = run(["doctor", "--device", "cpu"], capsys)
+    assert code == 0 and "onnxruntime" in out and "stage1: resolution 64" in out and out.rstrip().endswith("ok")
+
+
+def test_help_and_usage_errors(capsys):
+    assert cli.main([]) == 0
+    assert cli.main(["--version"]) == 0
+    assert cli.main(["relight", "x.png"]) == 2  # no light, no -o: argparse usage error
+
+
+def bad_case(work, kind):
+    """Make one bad input in ``work``; return the relight arguments (without -o)."""
+    photo = write_photo(work)
+    args = [photo, "--light", "light.npy"]
+    if kind == "size-mismatch":
+        cv2.imwrite("p_mask.png", np.full((10, 10), 255, np.uint8))
+    elif kind == "empty-mask":
+        cv2.imwrite("p_mask.png", np.zeros((150, 100), np.uint8))
+    elif kind == "full-mask":
+        cv2.imwrite("p_mask.png", np.full((150, 100), 255, np.uint8))
+    elif kind == "grayscale":
+        cv2.imwrite("p.png", np.full((150, 100), 128, np.uint8))
+    elif kind == "16-bit":
+        cv2.imwrite("p.png", np.full((150, 100, 3), 30000, np.uint16))
+    elif kind == "light-shape":
+        np.save("light.npy", np.zeros((9, 4)))
+    elif kind == "light-nan":
+        np.save("light.npy", np.full((9, 3), np.nan))
+    elif kind == "no-models":
+        args += ["--models", work / "nowhere"]
+    elif kind == "corrupt-onnx":
+        (work / "m").mkdir()
+        (work / "m" / "stage1.onnx").write_bytes(b"\x08\x01garbage")
+        args += ["--models", work / "m"]
+    elif kind == "contract-onnx":
+        (work / "m").mkdir()
+        save(stage1_model(64, meta=meta_for("stage1", 64, sh_degree="3")), work / "m" / "stage1.onnx")
+        args += ["--models", work / "m"]
+    elif kind == "unreadable":
+        (work / "p.png").write_bytes(b"\x89PNG\r\n\x1a\n truncated")
+    return args
+
+
+MATCH = {
+    "size-mismatch": "10x10",
+    "empty-mask": "empty",
+    "full-mask": "whole image",
+    "grayscale": "grayscale",
+    "16-bit": "16-bit",
+    "light-shape": r"\(9, 3\)",
+    "light-nan": "NaN",
+    "no-models": "looked in",
+    "corrupt-onnx": "not a readable ONNX",
+    "contract-onnx": "sh_degree",
+    "unreadable": "cannot decode",
+}
+BAD = list(MATCH)
+
+
+@pytest.mark.parametrize("kind", BAD)
+def test_bad_input_is_one_line_and_exit_2(work, capsys, kind):
+    import re
+
+    args = bad_case(work, kind)
+    code, _, err = run(["relight", *args, "-o", "out.png"], capsys)
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("relight-rt: error: "), err
+    assert re.search(MATCH[kind], lines[0]), lines[0]
+    assert not (work / "out.png").exists()
+    assert not [p for p in work.iterdir() if p.name.startswith(".")]  # no temporary files left
+
+
+def test_refuses_to_overwrite_inputs(work, capsys):
+    photo = write_photo(work)
+    before = photo.read_bytes()
+    cv2.imwrite("bg.png", np.zeros((150, 100, 3), np.uint8))
+    for target in ("p.png", "p_mask.png", "bg.png", "./p.png"):
+        argv = ["relight", "p.png", "--light", "light.npy", "--background", "bg.png", "-o", target]
+        code, _, err = run(argv, capsys)
+        assert code == 2 and "refusing to overwrite" in err, err
+    assert photo.read_bytes() == before
+    code, _, err = run(["relight", "p.png", "--light", "light.npy", "-o", "o.xyz"], capsys)
+    assert code == 2 and "unknown image type" in err
+
+
+def test_same_stem_twice_is_reported(work, capsys):
+    (work / "x").mkdir()
+    (work / "y").mkdir()
+    write_photo(work / "x", "a")
+    write_photo(work / "y", "a")
+    code, _, err = run(["relight", "x", "y", "--preset", "studio", "-o", "out"], capsys)
+    assert code == 2 and "would both write" in err
+    assert [p.name for p in (work / "out").iterdir()] == ["a_relit.png"]
+
+
+def test_models_option_wins_over_environment(work, capsys, tmp_path_factory):
+    write_photo(work)
+    other = make_models_dir(tmp_path_factory.mktemp("other"), 64, stage2=False)
+    code, _, err = run(["relight", "p.png", "--preset", "studio", "--models", other, "-o", "o.png"], capsys)
+    assert code == 0, err
+
+
+def test_reference_photo_from_the_cli(work, capsys, reference_dir):
+    """Done-criterion of issue 5: sample.jpg relit from the CLI (its mask found beside it) keeps its size and
+    its background outside the mask, bit for bit."""
+    photo = reference_dir / "photo" / "sample.jpg"
+    code, _, err = run(["relight", photo, "--preset", "golden-hour", "-o", work / "sample_relit.png"], capsys)
+    assert code == 0, err
+    out, src = cv2.imread(str(work / "sample_relit.png")), cv2.imread(str(photo))
+    mask = cv2.imread(str(reference_dir / "photo" / "sample_mask.png"), cv2.IMREAD_GRAYSCALE)
+    assert out.shape == src.shape
+    np.testing.assert_array_equal(out[mask == 0], src[mask == 0])
