@@ -198,8 +198,12 @@ class RelighterEngine:
         out = rl.stage1.run({"image": net_imgs.transpose(0, 3, 1, 2), "mask": net_masks[:, None]})
         layers = []
         for i, geom in enumerate(geoms):
-            dec = Decomposition(out["albedo"][i], out["skin"][i, 0], out["transport"][i], out["light"][i],
-                                net_masks[i], masks[i], images[i], geom)
+            light = out["light"][i]
+            if not np.isfinite(light).all():
+                raise RelightError(f"{rl.stage1.name}: stage 1 estimated a non-finite light for a frame")
+            dec = Decomposition(albedo_chw=out["albedo"][i], skin=out["skin"][i, 0], transport_chw=out["transport"][i],
+                                light=light, network_mask=net_masks[i], network_image=net_imgs[i], mask=masks[i],
+                                image=images[i], geometry=geom)
             layers.append(FrameLayers(net_imgs[i], net_masks[i], np.array(dec.albedo), np.array(dec.transport),
                                       np.array(dec.light), dec))
         return layers
@@ -209,9 +213,10 @@ class RelighterEngine:
         from .relighter import Decomposition
 
         dec = layers.state
-        stab = Decomposition(albedo.transpose(2, 0, 1), dec.skin, transport.transpose(2, 0, 1),
-                             dec.light if own_light is None else own_light, dec.network_mask, dec.mask, dec.image,
-                             dec.geometry)
+        stab = Decomposition(albedo_chw=albedo.transpose(2, 0, 1), skin=dec.skin,
+                             transport_chw=transport.transpose(2, 0, 1),
+                             light=dec.light if own_light is None else own_light, network_mask=dec.network_mask,
+                             network_image=dec.network_image, mask=dec.mask, image=dec.image, geometry=dec.geometry)
         bg = np.zeros_like(dec.image) if background == "black" else "original"
         return self.relighter.relight(stab, light, background=bg)
 
