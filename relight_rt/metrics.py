@@ -31,6 +31,7 @@ Frames are (H, W, 3) RGB, float in [0, 1] or uint8; masks (H, W) float in [0, 1]
 
 from __future__ import annotations
 
+import functools
 import logging
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -108,6 +109,15 @@ def dis_flow(src: np.ndarray, dst: np.ndarray, preset: str = "fast") -> np.ndarr
     return dis.calc(src, dst, None)
 
 
+@functools.lru_cache(maxsize=4)
+def _pixel_grid(h: int, w: int) -> np.ndarray:
+    """(h, w, 2) float32 pixel coordinates (x, y), read-only, cached per size."""
+    gx, gy = np.meshgrid(np.arange(w, dtype=np.float32), np.arange(h, dtype=np.float32))
+    grid = np.stack([gx, gy], axis=-1)
+    grid.flags.writeable = False
+    return grid
+
+
 def warp(image: np.ndarray, flow: np.ndarray, border_value: float = 0.0) -> np.ndarray:
     """Sample ``image`` at ``p + flow[p]`` (bilinear): moves ``dst`` of :func:`dis_flow` onto ``src``.
 
@@ -119,19 +129,23 @@ def warp(image: np.ndarray, flow: np.ndarray, border_value: float = 0.0) -> np.n
         New array of ``image``'s shape; pixels that sample outside get ``border_value``.
     """
     h, w = flow.shape[:2]
-    gx, gy = np.meshgrid(np.arange(w, dtype=np.float32), np.arange(h, dtype=np.float32))
-    map_x = gx + flow[..., 0]
-    map_y = gy + flow[..., 1]
+    coords = _pixel_grid(h, w) + flow.astype(np.float32, copy=False)  # (h, w, 2): one CV_32FC2 map
     src = np.ascontiguousarray(image, dtype=np.float32)
     channels = 1 if src.ndim == 2 else src.shape[2]
     if channels <= 4:
-        out = cv2.remap(src, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=border_value)
-    else:  # remap's constant border handles at most 4 channels: do it in slices
-        out = np.concatenate(
-            [cv2.remap(np.ascontiguousarray(src[..., i:i + 4]), map_x, map_y, cv2.INTER_LINEAR,
-                       borderMode=cv2.BORDER_CONSTANT, borderValue=border_value).reshape(h, w, -1)
-             for i in range(0, channels, 4)], axis=2)
-    return out.reshape(image.shape)
+        out = cv2.remap(src, coords, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=border_value)
+        return out.reshape(image.shape)
+    out = np.empty((h, w, channels), np.float32)  # remap's constant border handles at most 4 channels
+    for i in range(0, channels, 4):
+        part = cv2.remap(np.ascontiguousarray(src[..., i:i + 4]), coords, None, cv2.INTER_LINEAR,
+                         borderMode=cv2.BORDER_CONSTANT, borderValue=border_value)
+        out[..., i:i + 4] = part.reshape(h, w, -1)
+    return out
+
+
+def _sq_norm(v: np.ndarray) -> np.ndarray:
+    """|v|² of (..., 2) vectors (explicit: a reduction over a length-2 axis is slow in numpy)."""
+    return v[..., 0] * v[..., 0] + v[..., 1] * v[..., 1]
 
 
 def consistent_flow(forward: np.ndarray, backward: np.ndarray, alpha: float = 0.01, beta: float = 0.5) -> np.ndarray:
@@ -145,11 +159,9 @@ def consistent_flow(forward: np.ndarray, backward: np.ndarray, alpha: float = 0.
         (H, W) bool, True where ``|f + b(p+f)|² < alpha (|f|² + |b(p+f)|²) + beta`` and p + f stays
         inside the frame.
     """
-    h, w = forward.shape[:2]
     back = warp(backward, forward, border_value=np.nan)
-    total = forward + back
-    ok = (total**2).sum(-1) < alpha * ((forward**2).sum(-1) + (back**2).sum(-1)) + beta
-    return ok & np.isfinite(back).all(-1)
+    ok = _sq_norm(forward + back) < alpha * (_sq_norm(forward) + _sq_norm(back)) + beta
+    return ok  # NaN (outside the frame) compares False
 
 
 def predicted_light_change(albedo: np.ndarray, transport: np.ndarray, light_a: np.ndarray,

@@ -137,14 +137,16 @@ class Stabilizer:
             warped = warp(stack, backward)
             w_albedo, w_transport = warped[..., :3], warped[..., 3:12]
             w_frame, w_mask = warped[..., 12:15], warped[..., 15]
-            photometric = np.abs(img - w_frame).mean(-1)
-            weight = self.strength * np.exp(-((photometric / self.photometric_tolerance) ** 2))
+            diff = np.abs(img - w_frame)
+            photometric = (diff[..., 0] + diff[..., 1] + diff[..., 2]) * np.float32(1 / 3)
+            weight = np.exp(-np.square(photometric * np.float32(1 / self.photometric_tolerance)))
+            weight *= np.float32(self.strength)
             weight *= consistent_flow(backward, forward) & m & (w_mask > 0.5)
-            weight = weight.astype(np.float32)[..., None]
-            out_a = weight * w_albedo + (1.0 - weight) * alb
-            out_t = weight * w_transport + (1.0 - weight) * tra
+            weight = weight[..., None]
+            out_a = alb + weight * (w_albedo - alb)
+            out_t = tra + weight * (w_transport - tra)
             self.last_weight = weight[..., 0]
-            if m.any():
+            if m.any() and logger.isEnabledFor(logging.DEBUG):
                 logger.debug("stabiliser: mean weight %.3f inside the mask", float(self.last_weight[m].mean()))
         self._prev = {"gray": gray, "frame": img, "mask": m, "albedo": out_a, "transport": out_t}
         return out_a.copy(), out_t.copy()
