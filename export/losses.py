@@ -1,0 +1,246 @@
+"""Losses of stage-1 and stage-2 training (Tajima et al. 2021, §4; Kanamori & Endo 2018, §5).
+
+Every image-space loss is a mean over the pixels inside the mask: with a soft mask m (N,1,H,W)
+in [0, 1] the L1 loss of x, y (N,C,H,W) is ``Σ m·|x − y| / (C · Σ m)``, summed over the whole
+batch (a sample with a larger mask counts more, as in a batch of one pixel set). The light loss
+is the plain mean over the 27 coefficients.
+
+Shading in the losses is the raw product ``T·L`` without the max(0, ·) clamp (the clamp only
+hides a few ringing pixels and would cut their gradient); rendering is ``albedo ⊙ (T·L)``. Both
+sides of every comparison are computed the same way, so the clamp would not change the minimum.
+
+Spatial-frequency (SF) loss. For each σ in (0.6, 1.2, 2.4, 4.8, 9.6, 19.2) pixels, with weights
+(600, 500, 400, 20, 10, 10), the difference of the two masked images is filtered by a
+Laplacian-of-Gaussian kernel K_σ and the squared response is averaged inside the mask. Our
+normalisation of K_σ (the paper does not state one):
+
+- K_σ = g''(x)·g(y) + g(x)·g''(y), where g is a sampled 1-D Gaussian of radius ceil(3σ) scaled to
+  sum 1 and g'' its sampled second derivative with its sum removed along g (g'' − (Σg'')·g). The
+  2-D kernel therefore has zero mean exactly (a flat region gives zero response however the
+  Gaussian is truncated), and it is separable into two rank-1 terms, so filtering costs four 1-D
+  convolutions per σ.
+- K_σ is then scaled to unit L1 norm (Σ|K_σ| = 1). An image in [0, 1] then gives responses in
+  [−0.5, 0.5] at every σ, so the weights compare bands on one scale.
+- Images are zero-padded (outside the mask both images are zero anyway). For an image smaller
+  than the kernel, taps further than the image's size from the centre only ever meet padding;
+  they are dropped, which is exact, not an approximation (the normalisation is computed on the
+  full kernel first). So small training images (64², 128²) cost little even at σ = 19.2.
+
+Focal loss (Lin et al. 2017) on the skin mask with γ = 2 and no class weight, on soft labels:
+``−[y(1 − p)^γ log p + (1 − y) p^γ log(1 − p)]`` averaged inside the mask.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import torch
+import torch.nn.functional as F
+
+SF_SIGMAS: tuple[float, ...] = (0.6, 1.2, 2.4, 4.8, 9.6, 19.2)
+SF_WEIGHTS: tuple[float, ...] = (600.0, 500.0, 400.0, 20.0, 10.0, 10.0)
+
+# SH coefficients odd in y (DESIGN.md §3: Y1 ∝ y, Y4 ∝ xy, Y5 ∝ yz) change sign under a horizontal flip.
+FLIP_SIGNS: tuple[float, ...] = (1.0, -1.0, 1.0, 1.0, -1.0, -1.0, 1.0, 1.0, 1.0)
+
+_EPS = 1e-6
+
+
+def masked_l1(pred: torch.Tensor, target: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+    """Mean absolute difference inside the mask.
+
+    Args:
+        pred, target: (N, C, H, W) float.
+        mask: (N, 1, H, W) float in [0, 1].
+
+    Returns:
+        Scalar tensor: Σ m·|pred − target| / (C · Σ m).
+    """
+    channels = pred.shape[1]
+    return (mask * (pred - target).abs()).sum() / (channels * mask.sum() + _EPS)
+
+
+def masked_mse(pred: torch.Tensor, target: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+    """Mean squared difference inside the mask, shapes as :func:`masked_l1`."""
+    channels = pred.shape[1]
+    return (mask * (pred - target).square()).sum() / (channels * mask.sum() + _EPS)
+
+
+def shade(transport: torch.Tensor, light: torch.Tensor) -> torch.Tensor:
+    """Raw SH shading T·L (no clamp).
+
+    Args:
+        transport: (N, 9, H, W).
+        light: (N, 9, 3), column c = colour channel c (RGB).
+
+    Returns:
+        (N, 3, H, W) shading.
+    """
+    return torch.einsum("nkhw,nkc->nchw", transport, light)
+
+
+def flip_sh(coeffs: torch.Tensor, dim: int) -> torch.Tensor:
+    """Flip the sign of the SH coefficients odd in y (k = 1, 4, 5) along dimension ``dim`` (size 9).
+
+    A horizontal image flip mirrors y (+y points to the image's right, DESIGN.md §3); transport
+    and light must both get this sign change so that the flipped image is still their product.
+    """
+    shape = [1] * coeffs.ndim
+    shape[dim] = 9
+    signs = torch.tensor(FLIP_SIGNS, dtype=coeffs.dtype, device=coeffs.device).reshape(shape)
+    return coeffs * signs
+
+
+# ---------------------------------------------------------------------------------------------
+# spatial-frequency loss
+
+
+def _log_kernel_1d(sigma: float) -> tuple[torch.Tensor, torch.Tensor, float]:
+    """The separable factors (g, g'') of a zero-mean LoG kernel and the 2-D kernel's L1 norm."""
+    radius = max(1, math.ceil(3.0 * sigma))
+    x = torch.arange(-radius, radius + 1, dtype=torch.float64)
+    g = torch.exp(-(x**2) / (2 * sigma**2))
+    g = g / g.sum()
+    g2 = (x**2 / sigma**4 - 1.0 / sigma**2) * g
+    g2 = g2 - g2.sum() * g  # zero sum along each axis -> the 2-D kernel has zero sum
+    kernel_2d = g2[:, None] * g[None, :] + g[:, None] * g2[None, :]
+    return g, g2, float(kernel_2d.abs().sum())
+
+
+class SpatialFrequencyLoss(torch.nn.Module):
+    """Weighted multi-scale LoG loss of two masked images (see the module docstring).
+
+    Args:
+        sigmas: Gaussian σ in pixels per band.
+        weights: weight per band.
+    """
+
+    def __init__(self, sigmas: Sequence[float] = SF_SIGMAS, weights: Sequence[float] = SF_WEIGHTS):
+        super().__init__()
+        if len(sigmas) != len(weights):
+            raise ValueError(f"expected one weight per sigma, got {len(sigmas)} sigmas and {len(weights)} weights")
+        self.sigmas = tuple(float(s) for s in sigmas)
+        self.weights = tuple(float(w) for w in weights)
+        for i, sigma in enumerate(self.sigmas):
+            g, g2, norm = _log_kernel_1d(sigma)
+            # fold the unit-L1 scale into g'' (both rank-1 terms hold exactly one g'' factor)
+            self.register_buffer(f"g_{i}", g.float(), persistent=False)
+            self.register_buffer(f"g2_{i}", (g2 / norm).float(), persistent=False)
+
+    @staticmethod
+    def _conv(x: torch.Tensor, taps: torch.Tensor, axis: int) -> torch.Tensor:
+        """Zero-padded 1-D correlation of x (B, 1, H, W) along H (axis 2) or W (axis 3)."""
+        size = x.shape[axis]
+        radius = (taps.numel() - 1) // 2
+        keep = min(radius, size - 1)  # taps further out only ever meet padding
+        taps = taps[radius - keep : radius + keep + 1].to(x.dtype)
+        if axis == 2:
+            return F.conv2d(x, taps.reshape(1, 1, -1, 1), padding=(keep, 0))
+        return F.conv2d(x, taps.reshape(1, 1, 1, -1), padding=(0, keep))
+
+    def filter(self, image: torch.Tensor, band: int) -> torch.Tensor:
+        """LoG response of band ``band`` for (N, C, H, W) -> (N, C, H, W)."""
+        n, c, h, w = image.shape
+        x = image.reshape(n * c, 1, h, w)
+        g, g2 = getattr(self, f"g_{band}"), getattr(self, f"g2_{band}")
+        a = self._conv(self._conv(x, g, 2), g2, 3)
+        b = self._conv(self._conv(x, g2, 2), g, 3)
+        return (a + b).reshape(n, c, h, w)
+
+    def forward(self, pred: torch.Tensor, target: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+        """Σ_σ w_σ · masked mean of (K_σ * ((pred − target) ⊙ mask))².
+
+        Args:
+            pred, target: (N, C, H, W) float.
+            mask: (N, 1, H, W) float in [0, 1].
+
+        Returns:
+            Scalar tensor, ≥ 0, zero when pred equals target inside the mask.
+        """
+        diff = ((pred - target) * mask).float()  # the filter is linear: filter the difference once
+        mask = mask.float()
+        total = diff.new_zeros(())
+        for band, weight in enumerate(self.weights):
+            total = total + weight * masked_mse(self.filter(diff, band), torch.zeros_like(diff), mask)
+        return total
+
+
+def focal_loss(pred: torch.Tensor, target: torch.Tensor, mask: torch.Tensor, gamma: float = 2.0) -> torch.Tensor:
+    """Binary focal loss of a probability map inside the mask.
+
+    Args:
+        pred: (N, 1, H, W) probabilities in [0, 1] (after the sigmoid).
+        target: (N, 1, H, W) labels in [0, 1] (soft labels allowed).
+        mask: (N, 1, H, W) in [0, 1].
+        gamma: focusing parameter.
+
+    Returns:
+        Scalar tensor, masked mean.
+    """
+    p = pred.float().clamp(1e-6, 1.0 - 1e-6)
+    y = target.float()
+    loss = -(y * (1.0 - p).pow(gamma) * torch.log(p) + (1.0 - y) * p.pow(gamma) * torch.log1p(-p))
+    return (mask * loss).sum() / (mask.sum() + _EPS)
+
+
+# ---------------------------------------------------------------------------------------------
+# the stage-1 objective
+
+
+class Stage1Loss(torch.nn.Module):
+    """All stage-1 terms, each with weight 1 (the paper's choice).
+
+    Terms (names as in the returned dict): ``transport``, ``albedo``, ``light`` (unary L1);
+    ``shading_TL`` (T̂·L), ``shading_tL`` (T·L̂), ``shading_TLhat`` (T̂·L̂) against T·L; seven
+    ``render_*`` terms, one per combination of predicted (upper case letter) and true (lower
+    case) albedo, transport and light with at least one predicted, against a ⊙ (t·l); ``skin``
+    (focal); ``sf_albedo`` and ``sf_shading`` (SF loss of Â and of T̂·L̂), unless ``use_sf`` is off.
+
+    Args:
+        use_sf: include the two SF terms (off for the "without SF loss" baseline).
+    """
+
+    def __init__(self, use_sf: bool = True):
+        super().__init__()
+        self.use_sf = use_sf
+        self.sf = SpatialFrequencyLoss()
+
+    def forward(self, pred: dict[str, torch.Tensor], true: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
+        """Compute every term and their sum.
+
+        Args:
+            pred: transport (N,9,H,W), albedo (N,3,H,W), skin (N,1,H,W), light (N,9,3); unmasked
+                network outputs are fine (every term is restricted to the mask).
+            true: the same keys plus mask (N,1,H,W).
+
+        Returns:
+            dict of scalar tensors: each term and ``total``.
+        """
+        m = true["mask"].float()
+        T, A, L = (pred[k].float() for k in ("transport", "albedo", "light"))
+        t, a, l = (true[k].float() for k in ("transport", "albedo", "light"))
+        terms: dict[str, torch.Tensor] = {
+            "transport": masked_l1(T, t, m),
+            "albedo": masked_l1(A, a, m),
+            "light": (L - l).abs().mean(),
+        }
+        s_true = shade(t, l)
+        s_TL, s_tL, s_hat = shade(T, l), shade(t, L), shade(T, L)
+        terms["shading_TL"] = masked_l1(s_TL, s_true, m)
+        terms["shading_tL"] = masked_l1(s_tL, s_true, m)
+        terms["shading_TLhat"] = masked_l1(s_hat, s_true, m)
+        img_true = a * s_true
+        shadings = {"tl": s_true, "Tl": s_TL, "tL": s_tL, "TL": s_hat}
+        for alb_name, alb in (("a", a), ("A", A)):
+            for sh_name, s in shadings.items():
+                name = alb_name + sh_name
+                if name == "atl":
+                    continue
+                terms[f"render_{name}"] = masked_l1(alb * s, img_true, m)
+        terms["skin"] = focal_loss(pred["skin"], true["skin"], m)
+        if self.use_sf:
+            terms["sf_albedo"] = self.sf(A, a, m)
+            terms["sf_shading"] = self.sf(s_hat, s_true, m)
+        terms["total"] = torch.stack(list(terms.values())).sum()
+        return terms

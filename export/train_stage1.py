@@ -1,0 +1,131 @@
+"""``python -m export train-stage1``: train the stage-1 inverse-rendering network.
+
+Every step renders its own input from a sample and a random training light (see
+:mod:`export.torch_data`), runs the network on ``(2·image − 1)·mask`` and minimises the sum of
+the terms of :class:`export.losses.Stage1Loss` (all weight 1). Adam with betas (0.5, 0.999);
+learning rate cosine-annealed from ``--lr`` to ``--lr-min`` with warm restarts every
+``--restart-epochs`` epochs (the paper: 1e-3 → 1e-4, every 20 epochs).
+
+Normalisation (``--norm``): "batch" trains with batch statistics and exports running statistics
+(fast, standard, but with the paper's batch size of 1 the running statistics average over very
+different single images, so eval-mode outputs can drift from training-mode ones); "instance"
+uses per-sample statistics in training and at inference (what the reference effectively did at
+inference; robust at batch size 1, a little slower, and every image is normalised on its own,
+which removes some absolute-brightness information the light head could use). Use "instance"
+with --batch-size 1, "batch" with batches of 4 or more.
+
+Example::
+
+    python -m export train-stage1 --data data/train --lights data/lights --out runs/s1 \\
+        --resolution 128 --width 16 --epochs 40 --max-minutes 60 --export-onnx
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from relight_rt import RelightError
+
+from .losses import Stage1Loss
+from .torch_data import Stage1Dataset, render_input
+from .training import LoopConfig, add_loop_arguments, collate, export_best, to_device, train_loop, write_json
+
+log = logging.getLogger(__name__)
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("--data", required=True, help="folder of stage-1 samples (NAME_tex.png, ...)")
+    parser.add_argument("--lights", required=True, help="folder of training lights (NAME.npy, BGR (9,3))")
+    parser.add_argument("--resolution", type=int, default=256, help="training size, k·64 (default %(default)s)")
+    parser.add_argument("--width", type=int, default=64, help="base channel count (reference: 64; default %(default)s)")
+    parser.add_argument("--norm", choices=("batch", "instance"), default="batch",
+                        help="normalisation layers (see the module docs for the tradeoff; default %(default)s)")
+    parser.add_argument("--no-sf", action="store_true", help="drop the spatial-frequency loss (the ablation baseline)")
+    parser.add_argument("--no-flip", action="store_true", help="no horizontal-flip augmentation")
+    parser.add_argument("--restart-epochs", type=int, default=20, help="cosine restart period (default %(default)s)")
+    parser.add_argument("--val-fraction", type=float, default=0.05,
+                        help="fraction of the samples held out for validation (0: none; default %(default)s)")
+    parser.add_argument("--no-cache", action="store_true", help="re-read samples from disk every epoch")
+    add_loop_arguments(parser, epochs=60)
+
+
+def split_names(names: list[str], fraction: float, seed: int) -> tuple[list[str], list[str]]:
+    """Deterministic (train, val) split of sample names; val is empty when fraction is 0 or too few samples."""
+    n_val = int(round(len(names) * fraction)) if fraction > 0 else 0
+    if n_val == 0 or n_val >= len(names):
+        return list(names), []
+    order = np.random.default_rng([seed, 7]).permutation(len(names))
+    val = sorted(names[i] for i in order[:n_val])
+    return [n for n in names if n not in set(val)], val
+
+
+def stage1_step(loss_fn: Stage1Loss):
+    """The loss of one batch: render the input, run the network, all Stage1Loss terms."""
+
+    def step(model: torch.nn.Module, batch: dict) -> dict:
+        mask = batch["mask"]
+        image = render_input(batch)
+        transport, albedo, skin, light = model((2.0 * image - 1.0) * mask)
+        pred = {"transport": transport, "albedo": albedo, "skin": skin, "light": light}
+        return loss_fn(pred, batch)
+
+    return step
+
+
+def validation_fn(dataset: Stage1Dataset, loss_fn: Stage1Loss, device: torch.device, batch_size: int):
+    """Mean total loss over a fixed-light, unflipped validation set."""
+    step = stage1_step(loss_fn)
+
+    def val(model: torch.nn.Module) -> float:
+        total, count = 0.0, 0
+        for i in range(0, len(dataset), batch_size):
+            batch = to_device(collate([dataset[j] for j in range(i, min(i + batch_size, len(dataset)))]), device)
+            total += float(step(model, batch)["total"]) * len(batch["index"])
+            count += len(batch["index"])
+        return total / max(count, 1)
+
+    return val
+
+
+def run(args) -> int:
+    from . import dataset
+    from .networks import Stage1Net
+
+    if args.resolution % 64 or args.resolution < 64:
+        raise RelightError(f"--resolution: expected a positive multiple of 64, got {args.resolution}")
+    cfg = LoopConfig.from_args(args, restart_epochs=args.restart_epochs)
+    lights = dataset.read_lights(args.lights)
+    names = dataset.list_samples(args.data)
+    if not names:
+        raise RelightError(f"--data {args.data}: no stage-1 samples found")
+    train_names, val_names = split_names(names, args.val_fraction, args.seed)
+    log.info("stage 1: %d training samples, %d validation, %d lights, %d² px, width %d, norm %s, SF %s",
+             len(train_names), len(val_names), len(lights), args.resolution, args.width, args.norm,
+             "off" if args.no_sf else "on")
+    cache = not args.no_cache
+    train_set = Stage1Dataset(args.data, lights, args.resolution, train_names, augment=True, seed=args.seed,
+                              cache=cache, flip=not args.no_flip)
+    torch.manual_seed(args.seed)
+    model = Stage1Net(width=args.width, resolution=args.resolution, norm=args.norm).to(cfg.device)
+    loss_fn = Stage1Loss(use_sf=not args.no_sf).to(cfg.device)
+    optimizer = torch.optim.Adam(model.parameters(), lr=args.lr, betas=(0.5, 0.999))
+    val_fn = None
+    if val_names:
+        val_set = Stage1Dataset(args.data, lights, args.resolution, val_names, augment=False, seed=args.seed,
+                                cache=cache)
+        val_fn = validation_fn(val_set, loss_fn, cfg.device, max(args.batch_size, 1))
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    write_json(out / "args.json", {**vars(args), "command": "train-stage1", "val_names": val_names})
+    meta = {"command": "train-stage1", "data": str(args.data), "sf": not args.no_sf}
+    summary = train_loop(model, optimizer, train_set, stage1_step(loss_fn), cfg, val_fn=val_fn, meta=meta)
+    log.info("stage 1 finished: %s", json.dumps(summary))
+    if args.export_onnx:
+        source = f"relight_rt train-stage1 on {args.data} ({summary['epochs_done']} epochs, width {args.width})"
+        export_best(out, "stage1", source)
+    return 0

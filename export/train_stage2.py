@@ -1,0 +1,196 @@
+"""``python -m export train-stage2``: train the stage-2 residual network on non-diffuse photos.
+
+Stage 1 is frozen (eval mode). Each photo is decomposed once, its diffuse reconstruction under its
+own estimated light, ``D = clip(Â ⊙ max(0, T̂·L̂), 0, 1) ⊙ mask``, is cached in
+``RUN/diffuse_cache.npz`` (keyed by the stage-1 checkpoint's path, size and modification time and
+the resolution, so a changed checkpoint recomputes it), and the residual network is trained with
+the masked L1 loss between ``clip(D + residual, 0, 1) ⊙ mask`` and the masked photo. RAdam
+(torch's own); learning rate cosine-annealed from ``--lr`` to ``--lr-min`` over ``--epochs``.
+Augmentation: random horizontal flips (images only; no SH is involved here).
+
+Example::
+
+    python -m export train-stage2 --photos data/photos --stage1 runs/s1/best.pt --out runs/s2 \\
+        --width 16 --epochs 30 --max-minutes 20 --export-onnx
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+
+from relight_rt import RelightError
+
+from .losses import masked_l1
+from .torch_data import PhotoDataset, decompose, item_rng, render_diffuse, subject_of
+from .training import (
+    LoopConfig,
+    add_loop_arguments,
+    collate,
+    export_best,
+    pick_device,
+    to_device,
+    train_loop,
+    write_json,
+)
+
+log = logging.getLogger(__name__)
+
+CACHE_NAME = "diffuse_cache.npz"
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("--photos", required=True, help="folder of photos (SUBJECT__L{j}_photo.png, ...)")
+    parser.add_argument("--stage1", required=True, help="stage-1 checkpoint (RUN/best.pt of train-stage1)")
+    parser.add_argument("--resolution", type=int, default=None,
+                        help="training size, a multiple of 64 (default: stage 1's resolution)")
+    parser.add_argument("--width", type=int, default=64, help="base channel count (default %(default)s)")
+    parser.add_argument("--norm", choices=("batch", "instance"), default="batch",
+                        help="normalisation layers (default %(default)s)")
+    parser.add_argument("--val-fraction", type=float, default=0.1,
+                        help="fraction of the subjects held out for validation (default %(default)s)")
+    add_loop_arguments(parser, epochs=60)
+
+
+def _stage1_id(path: Path, resolution: int) -> str:
+    st = Path(path).stat()
+    return f"{Path(path).resolve()}|{st.st_size}|{st.st_mtime_ns}|{resolution}"
+
+
+def diffuse_cache(stage1: torch.nn.Module, photos: PhotoDataset, path: Path, key: str,
+                  device: torch.device, batch_size: int = 4) -> dict[str, np.ndarray]:
+    """Diffuse reconstructions of every photo by a frozen stage 1, computed once and cached in ``path``.
+
+    Returns:
+        dict: names (N,) str, diffuse (N,3,R,R) float16 RGB in [0,1] (masked), light (N,9,3) float32
+        estimated lights, key (the cache key).
+    """
+    if path.exists():
+        with np.load(path, allow_pickle=False) as z:
+            if str(z["key"]) == key and list(z["names"]) == photos.names:
+                log.info("using cached diffuse reconstructions %s", path)
+                return {k: z[k] for k in z.files}
+    stage1.eval()
+    diffuse, lights = [], []
+    for i in range(0, len(photos), batch_size):
+        b = to_device(collate([photos[j] for j in range(i, min(i + batch_size, len(photos)))]), device)
+        out = decompose(stage1, b["photo"], b["mask"])
+        diffuse.append(render_diffuse(out["albedo"], out["transport"], out["light"], b["mask"]).cpu().numpy())
+        lights.append(out["light"].cpu().numpy())
+    cache = {"names": np.asarray(photos.names), "diffuse": np.concatenate(diffuse).astype(np.float16),
+             "light": np.concatenate(lights).astype(np.float32), "key": np.asarray(key)}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".npz", dir=path.parent)
+    with os.fdopen(fd, "wb") as f:
+        np.savez(f, **cache)
+    os.replace(tmp, path)
+    log.info("cached %d diffuse reconstructions in %s", len(photos), path)
+    return cache
+
+
+class Stage2Dataset(torch.utils.data.Dataset):
+    """Photos with their cached diffuse reconstructions, resized to ``resolution``, random flips.
+
+    Items: photo (3,R,R), mask (1,R,R), diffuse (3,R,R) (stage 1's reconstruction), index.
+    """
+
+    def __init__(self, photos: PhotoDataset, diffuse: np.ndarray, indices: list[int], resolution: int,
+                 augment: bool = True, seed: int = 0):
+        self.photos, self.diffuse, self.indices = photos, diffuse, list(indices)
+        self.resolution, self.augment, self.seed, self.epoch = resolution, augment, seed, 0
+
+    def __len__(self) -> int:
+        return len(self.indices)
+
+    def set_epoch(self, epoch: int) -> None:
+        self.epoch = int(epoch)
+
+    def __getitem__(self, index: int) -> dict:
+        k = self.indices[index]
+        p = self.photos[k]
+        d = torch.from_numpy(self.diffuse[k].astype(np.float32))
+        photo, mask = p["photo"], p["mask"]
+        if d.shape[-1] != self.resolution:
+            d = F.interpolate(d[None], size=(self.resolution,) * 2, mode="bilinear", align_corners=False)[0]
+        d = d * mask
+        if self.augment and item_rng(self.seed, self.epoch, index).integers(2):
+            photo, mask, d = (t.flip(-1) for t in (photo, mask, d))
+        return {"photo": photo, "mask": mask, "diffuse": d, "index": index}
+
+
+def stage2_step(model: torch.nn.Module, batch: dict) -> dict:
+    """Masked L1 between clip(D + residual, 0, 1) ⊙ mask and the masked photo."""
+    mask, diffuse = batch["mask"], batch["diffuse"]
+    residual = model((2.0 * diffuse - 1.0) * mask).float()
+    relit = (diffuse + residual).clamp(0.0, 1.0) * mask
+    loss = masked_l1(relit, batch["photo"] * mask, mask)
+    return {"l1": loss, "total": loss}
+
+
+def split_subjects(names: list[str], fraction: float, seed: int) -> tuple[list[int], list[int]]:
+    """Indices of (train, val) photos; whole subjects go to validation."""
+    subjects = sorted({subject_of(n) for n in names})
+    n_val = int(round(len(subjects) * fraction)) if fraction > 0 else 0
+    if n_val == 0 or n_val >= len(subjects):
+        return list(range(len(names))), []
+    order = np.random.default_rng([seed, 11]).permutation(len(subjects))
+    val_subjects = {subjects[i] for i in order[:n_val]}
+    train = [i for i, n in enumerate(names) if subject_of(n) not in val_subjects]
+    val = [i for i, n in enumerate(names) if subject_of(n) in val_subjects]
+    return train, val
+
+
+def run(args) -> int:
+    from .checkpoint import load_checkpoint
+    from .networks import Stage2Net
+
+    device = pick_device(args.device)
+    stage1, _ = load_checkpoint(args.stage1)
+    if stage1.kind != "stage1":
+        raise RelightError(f"--stage1 {args.stage1}: expected a stage1 checkpoint, got {stage1.kind}")
+    stage1 = stage1.to(device).eval()
+    for p in stage1.parameters():
+        p.requires_grad_(False)
+    r1 = stage1.resolution
+    r2 = args.resolution or r1
+    if r2 % 64 or r2 < 64:
+        raise RelightError(f"--resolution: expected a positive multiple of 64, got {r2}")
+    cfg = LoopConfig.from_args(args)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    photos_r1 = PhotoDataset(args.photos, r1)
+    cache = diffuse_cache(stage1, photos_r1, out / CACHE_NAME, _stage1_id(Path(args.stage1), r1), device)
+    del stage1
+    photos = photos_r1 if r2 == r1 else PhotoDataset(args.photos, r2)
+    train_idx, val_idx = split_subjects(photos.names, args.val_fraction, args.seed)
+    log.info("stage 2: %d training photos, %d validation, %d² px, width %d, norm %s",
+             len(train_idx), len(val_idx), r2, args.width, args.norm)
+    train_set = Stage2Dataset(photos, cache["diffuse"], train_idx, r2, augment=True, seed=args.seed)
+    torch.manual_seed(args.seed)
+    model = Stage2Net(width=args.width, resolution=r2, norm=args.norm).to(cfg.device)
+    optimizer = torch.optim.RAdam(model.parameters(), lr=args.lr)
+    val_fn = None
+    if val_idx:
+        val_set = Stage2Dataset(photos, cache["diffuse"], val_idx, r2, augment=False)
+
+        def val_fn(m: torch.nn.Module) -> float:
+            total = 0.0
+            for i in range(len(val_set)):
+                total += float(stage2_step(m, to_device(collate([val_set[i]]), cfg.device))["total"])
+            return total / len(val_set)
+
+    write_json(out / "args.json", {**vars(args), "command": "train-stage2",
+                                   "val_names": [photos.names[i] for i in val_idx]})
+    meta = {"command": "train-stage2", "photos": str(args.photos), "stage1": str(args.stage1)}
+    summary = train_loop(model, optimizer, train_set, stage2_step, cfg, val_fn=val_fn, meta=meta)
+    log.info("stage 2 finished: %s", json.dumps(summary))
+    if args.export_onnx:
+        export_best(out, "stage2", f"relight_rt train-stage2 on {args.photos} ({summary['epochs_done']} epochs)")
+    return 0

@@ -1,0 +1,387 @@
+"""Streaming video relighting: frame sources, per-frame lights, stabiliser, DVP, sinks.
+
+A video flows through in batches of ``batch_size`` frames; only that batch, one frame of
+stabiliser history and the writer's buffer are ever held, so memory does not grow with the
+video's length.
+
+    source ──► batch of (frame, mask) ──► engine.decompose ──► Stabilizer ──► engine.render(light_t)
+                                       └─► (with a fitted DVP) dvp(frame, mask, light_t) ───────────┴─► sink
+
+- Sources (relight_rt._video_io, re-exported here): a video file (``cv2.VideoCapture``) or a folder
+  of frames. Masks: a folder (same stem, or ``STEM_mask``), per-frame ``STEM_mask.EXT`` files beside
+  the frames (the reference layout), the alpha channel of RGBA frames, or a mask video.
+- Lights per frame (:class:`LightSchedule`): one light, an (N, 9, 3) sequence, a rotation about
+  +z at a number of turns per second, or an interpolation between keyframe lights.
+- Engines: :class:`RelighterEngine` (the runtime's stage 1 + stage 2, batched stage 1) or a fitted
+  DVP graph (:class:`DVPModel`).
+- Sinks (relight_rt._video_io): a video file (``cv2.VideoWriter``, written to a temporary file and
+  renamed when complete) and/or a folder of PNG frames (each written atomically).
+
+Frames are RGB float32 in [0, 1], (H, W, 3); masks float32 (H, W) in [0, 1]; lights (9, 3) RGB SH
+(DESIGN.md §3).
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import time
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Protocol
+
+import cv2
+import numpy as np
+
+from . import sh
+from ._errors import RelightError
+from ._video_io import (  # noqa: F401  (re-exported: the video API in one place)
+    IMAGE_SUFFIXES,
+    VIDEO_SUFFIXES,
+    Frame,
+    FrameSink,
+    FrameSource,
+    batched,
+    read_frame,
+    read_mask_file,
+)
+from .stabilize import Stabilizer
+
+logger = logging.getLogger(__name__)
+
+# ---------------------------------------------------------------------------------------------
+# lights
+
+
+def resolve_light(spec: str | os.PathLike) -> np.ndarray:
+    """A light from a file (.npy/.json SH, RGB), an environment map (.hdr/.exr/.png/.jpg) or a preset name.
+
+    Returns:
+        (9, 3) float64 RGB SH coefficients.
+    """
+    from . import lights as _lights
+
+    path = Path(spec)
+    if path.is_file():
+        if path.suffix.lower() in (".npy", ".json"):
+            return np.asarray(sh.load_light(path), np.float64)
+        return np.asarray(sh.project_envmap(sh.load_envmap(path)), np.float64)
+    try:
+        return np.asarray(_lights.preset(str(spec)), np.float64)
+    except RelightError as exc:
+        raise RelightError(f"light {str(spec)!r}: not a file, and {exc}") from None
+
+
+class LightSchedule:
+    """The light of each frame. Build with one of the class methods; call ``schedule(index, fps)``."""
+
+    def __init__(self, fn: Callable[[int, float], np.ndarray], description: str, length: int | None = None):
+        self._fn = fn
+        self.description = description
+        self.length = length  # frames covered, None = unbounded
+
+    def __call__(self, index: int, fps: float) -> np.ndarray:
+        """(9, 3) float32 RGB light of frame ``index`` (0-based) of a video at ``fps`` frames per second."""
+        if self.length is not None and index >= self.length:
+            raise RelightError(f"lights: {self.description} covers {self.length} frames, frame {index} needs one")
+        return np.asarray(self._fn(index, fps), np.float32)
+
+    @classmethod
+    def constant(cls, light: np.ndarray) -> LightSchedule:
+        fixed = sh.check_light(light, "light")
+        return cls(lambda i, fps: fixed, "one light")
+
+    @classmethod
+    def sequence(cls, lights: np.ndarray) -> LightSchedule:
+        """One light per frame from an (N, 9, 3) RGB array."""
+        arr = np.asarray(lights, np.float64)
+        if arr.ndim != 3 or arr.shape[1:] != (9, 3) or not np.isfinite(arr).all():
+            raise RelightError(f"lights: expected a finite (N, 9, 3) light sequence, got {np.asarray(lights).shape}")
+        arr = arr.copy()
+        return cls(lambda i, fps: arr[i], f"a sequence of {len(arr)} lights", len(arr))
+
+    @classmethod
+    def from_file(cls, path: str | os.PathLike) -> LightSchedule:
+        """An (N, 9, 3) RGB .npy light sequence."""
+        try:
+            arr = np.load(path, allow_pickle=False)
+        except (OSError, ValueError) as exc:
+            raise RelightError(f"{path}: cannot read this light sequence ({exc})") from None
+        try:
+            return cls.sequence(arr)
+        except RelightError as exc:
+            raise RelightError(f"{path}: {exc}") from None
+
+    @classmethod
+    def rotating(cls, light: np.ndarray, turns_per_second: float) -> LightSchedule:
+        """``light`` turned about +z (DESIGN.md §3 rotate_z) by ``2π · turns_per_second · index / fps``."""
+        base = sh.check_light(light, "light")
+        rate = float(turns_per_second)
+        return cls(lambda i, fps: sh.rotate_z(base, 2.0 * np.pi * rate * i / fps), f"{rate} turns per second")
+
+    @classmethod
+    def interpolated(cls, keys: Sequence[np.ndarray], n_frames: int) -> LightSchedule:
+        """Interpolate between keyframe lights over ``n_frames`` (relight_rt.lights.interpolate)."""
+        from . import lights as _lights
+
+        if len(keys) < 2 or n_frames < 1:
+            raise RelightError(f"lights: expected at least two keyframe lights and frames, got {len(keys)}, {n_frames}")
+        arr = np.asarray(_lights.interpolate([sh.check_light(k, f"key light {j}") for j, k in enumerate(keys)],
+                                             n_frames), np.float64)
+        return cls(lambda i, fps: arr[i], f"an interpolation over {n_frames} frames", n_frames)
+
+
+# ---------------------------------------------------------------------------------------------
+# engines
+
+
+@dataclass(frozen=True)
+class FrameLayers:
+    """One frame's intrinsic layers in the engine's working frame (what the stabiliser filters).
+
+    Attributes:
+        image: (h, w, 3) the input frame in the working frame, RGB [0, 1] (the optical-flow source).
+        mask: (h, w) person mask in [0, 1].
+        albedo: (h, w, 3) RGB [0, 1]; transport: (h, w, 9) (DESIGN.md §3).
+        light: (9, 3) the original frame's estimated light, or None.
+        state: engine-specific data (e.g. the runtime's Decomposition).
+    """
+
+    image: np.ndarray
+    mask: np.ndarray
+    albedo: np.ndarray
+    transport: np.ndarray
+    light: np.ndarray | None = None
+    state: object = None
+
+
+class Engine(Protocol):
+    """What the pipeline needs from a relighting runtime (see :class:`RelighterEngine`).
+
+    ``decompose`` gets a batch of full frames (H, W, 3) and masks (H, W) and returns FrameLayers
+    per frame. ``render`` puts a frame's (stabilised) albedo/transport back into its FrameLayers,
+    applies ``light`` (9, 3) and returns the full output frame (H, W, 3) RGB [0, 1], composited over
+    ``background`` ("original" or "black"). ``to_input`` maps a working-frame layer to the input frame.
+    """
+
+    def decompose(self, images: Sequence[np.ndarray], masks: Sequence[np.ndarray]) -> list[FrameLayers]: ...
+
+    def render(self, layers: FrameLayers, albedo: np.ndarray, transport: np.ndarray, own_light: np.ndarray | None,
+               light: np.ndarray, background: str) -> np.ndarray: ...
+
+    def to_input(self, layers: FrameLayers, layer: np.ndarray) -> np.ndarray: ...
+
+
+class RelighterEngine:
+    """Adapter of :class:`relight_rt.relighter.Relighter` for video: batched stage 1 in the network frame.
+
+    The working frame is each frame's network square (R x R crop of the person); the stabiliser's
+    optical flow runs between consecutive network-frame images, so it also absorbs the small
+    shift and scale of the crop box from one frame to the next.
+
+    Args:
+        relighter: a loaded Relighter (stage 1, optional stage 2).
+    """
+
+    def __init__(self, relighter):
+        self.relighter = relighter
+
+    def decompose(self, images: Sequence[np.ndarray], masks: Sequence[np.ndarray]) -> list[FrameLayers]:
+        from ._geometry import CropGeometry
+        from .relighter import Decomposition
+
+        rl = self.relighter
+        geoms = [CropGeometry.from_mask(m, rl.resolution, rl.preprocess) for m in masks]
+        net_imgs = np.stack([g.to_network(img) for g, img in zip(geoms, images, strict=True)])
+        net_masks = np.stack([g.to_network(m) for g, m in zip(geoms, masks, strict=True)])
+        out = rl.stage1.run({"image": net_imgs.transpose(0, 3, 1, 2), "mask": net_masks[:, None]})
+        layers = []
+        for i, geom in enumerate(geoms):
+            light = out["light"][i]
+            if not np.isfinite(light).all():
+                raise RelightError(f"{rl.stage1.name}: stage 1 estimated a non-finite light for a frame")
+            dec = Decomposition(albedo_chw=out["albedo"][i], skin=out["skin"][i, 0], transport_chw=out["transport"][i],
+                                light=light, network_mask=net_masks[i], network_image=net_imgs[i], mask=masks[i],
+                                image=images[i], geometry=geom)
+            layers.append(FrameLayers(net_imgs[i], net_masks[i], np.array(dec.albedo), np.array(dec.transport),
+                                      np.array(dec.light), dec))
+        return layers
+
+    def render(self, layers: FrameLayers, albedo: np.ndarray, transport: np.ndarray, own_light: np.ndarray | None,
+               light: np.ndarray, background: str) -> np.ndarray:
+        from .relighter import Decomposition
+
+        dec = layers.state
+        stab = Decomposition(albedo_chw=albedo.transpose(2, 0, 1), skin=dec.skin,
+                             transport_chw=transport.transpose(2, 0, 1),
+                             light=dec.light if own_light is None else own_light, network_mask=dec.network_mask,
+                             network_image=dec.network_image, mask=dec.mask, image=dec.image, geometry=dec.geometry)
+        bg = np.zeros_like(dec.image) if background == "black" else "original"
+        return self.relighter.relight(stab, light, background=bg)
+
+    def to_input(self, layers: FrameLayers, layer: np.ndarray) -> np.ndarray:
+        return layers.state.to_input(layer)
+
+
+class DVPModel:
+    """A fitted deep video prior graph (contract kind "dvp"), run on batches of frames.
+
+    Args:
+        path: the .onnx file.
+        device: "auto", "cuda" or "cpu" (relight_rt.session).
+        size: working size of the long side (the size it was fitted at, see ``python -m export fit-dvp
+            --size``); None: the frames' own size. Frames are zero-padded to multiples of 64.
+    """
+
+    def __init__(self, path: str | os.PathLike, device: str = "cpu", size: int | None = None):
+        from .session import load_model
+
+        self.path = Path(path)
+        if not self.path.is_file():
+            raise RelightError(f"{self.path}: DVP model file does not exist")
+        self.model = load_model(self.path, "dvp", device=device, warmup=False)
+        self.size = size
+
+    def __call__(self, images: Sequence[np.ndarray], masks: Sequence[np.ndarray],
+                 lights: Sequence[np.ndarray]) -> list[np.ndarray]:
+        """Relit frames (H, W, 3) float32 RGB [0, 1], masked, at the frames' own size."""
+        h0, w0 = images[0].shape[:2]
+        h, w = h0, w0
+        if self.size is not None and max(h0, w0) != self.size:
+            scale = self.size / max(h0, w0)
+            h, w = max(1, round(h0 * scale)), max(1, round(w0 * scale))
+        ph, pw = -h % 64, -w % 64
+        x = np.zeros((len(images), 3, h + ph, w + pw), np.float32)
+        m = np.zeros((len(images), 1, h + ph, w + pw), np.float32)
+        for b, (img, mask) in enumerate(zip(images, masks, strict=True)):
+            if (h, w) != (h0, w0):
+                img = cv2.resize(img, (w, h), interpolation=cv2.INTER_AREA)
+                mask = cv2.resize(mask, (w, h), interpolation=cv2.INTER_LINEAR)
+            x[b, :, :h, :w] = img.transpose(2, 0, 1)
+            m[b, 0, :h, :w] = mask
+        light = np.stack([np.asarray(v, np.float32) for v in lights])
+        relit = self.model.run({"frame": x, "mask": m, "light": light})["relit"]
+        outs = [np.ascontiguousarray(r[:, :h, :w].transpose(1, 2, 0)) for r in relit]
+        if (h, w) != (h0, w0):
+            outs = [cv2.resize(o, (w0, h0), interpolation=cv2.INTER_LINEAR) for o in outs]
+        return outs
+
+
+# ---------------------------------------------------------------------------------------------
+# pipeline
+
+
+@dataclass(frozen=True)
+class VideoReport:
+    """What :func:`relight_video` did: frames written and seconds per frame (processing only)."""
+
+    frames: int
+    seconds_per_frame: float
+
+
+def composite(relit: np.ndarray, image: np.ndarray, mask: np.ndarray, background: str = "original",
+              premultiplied: bool = False) -> np.ndarray:
+    """Put the relit person over the original frame ("original") or black ("black").
+
+    Args:
+        relit: (H, W, 3) RGB [0, 1]; already multiplied by the mask when ``premultiplied`` (a DVP output).
+        image: (H, W, 3) the original frame; mask: (H, W) in [0, 1].
+    """
+    if background not in ("original", "black"):
+        raise RelightError(f"background: expected 'original' or 'black', got {background!r}")
+    m = mask[..., None]
+    person = relit if premultiplied else relit * m
+    return person if background == "black" else person + image * (1.0 - m)
+
+
+def relight_frames(source: Iterator[Frame] | FrameSource, lights: LightSchedule, fps: float,
+                   engine: Engine | None = None, dvp: DVPModel | None = None, stabilizer: Stabilizer | None = None,
+                   batch_size: int = 4, background: str = "original",
+                   with_layers: bool = False) -> Iterator[tuple[Frame, np.ndarray, dict]]:
+    """Relight a stream of frames; yields (frame, output (H, W, 3) RGB [0, 1], extras) in order.
+
+    With ``dvp`` the fitted network maps each frame and its light straight to the relit frame.
+    Otherwise ``engine`` decomposes each batch, ``stabilizer`` (None = off) filters the layers (and
+    the original video's estimated light), and ``engine.render`` applies each frame's own light.
+    Frames whose mask is empty pass through unchanged.
+
+    ``extras`` holds "light" (9, 3) and, on the engine path with ``with_layers``, the stabilised
+    "albedo" (H, W, 3) and "transport" (H, W, 9) in the input frame (what the light-following
+    metric needs).
+    """
+    if (engine is None) == (dvp is None):
+        raise RelightError("video: expected exactly one of an engine (stage 1/2 models) or a DVP model")
+    composite(np.zeros((1, 1, 3), np.float32), np.zeros((1, 1, 3), np.float32), np.ones((1, 1), np.float32),
+              background)  # checks the name before any work
+    for batch in batched(source, batch_size):
+        batch_lights = [lights(f.index, fps) for f in batch]
+        people = [i for i, f in enumerate(batch) if (f.mask >= 0.5).any()]
+        outs: list = [None] * len(batch)
+        extras: list[dict] = [{"light": light} for light in batch_lights]
+        if dvp is not None and people:
+            relit = dvp([batch[i].image for i in people], [batch[i].mask for i in people],
+                        [batch_lights[i] for i in people])
+            for i, out in zip(people, relit, strict=True):
+                outs[i] = composite(out, batch[i].image, batch[i].mask, background, premultiplied=True)
+        elif people:
+            layers = engine.decompose([batch[i].image for i in people], [batch[i].mask for i in people])
+            for i, lay in zip(people, layers, strict=True):
+                albedo, transport, own = lay.albedo, lay.transport, lay.light
+                if stabilizer is not None:
+                    albedo, transport = stabilizer.update(lay.image, lay.mask, albedo, transport)
+                    own = None if own is None else stabilizer.smooth_light(own)
+                outs[i] = engine.render(lay, albedo, transport, own, batch_lights[i], background)
+                if with_layers:
+                    extras[i]["albedo"] = engine.to_input(lay, albedo)
+                    extras[i]["transport"] = engine.to_input(lay, transport)
+        for i, f in enumerate(batch):
+            if outs[i] is None:  # nobody in this frame
+                logger.debug("frame %s: empty mask, passed through", f.name)
+                outs[i] = composite(f.image, f.image, f.mask, background)
+                if with_layers and engine is not None:
+                    extras[i]["albedo"] = np.zeros_like(f.image)
+                    extras[i]["transport"] = np.zeros((*f.image.shape[:2], 9), np.float32)
+            yield f, outs[i], extras[i]
+
+
+def relight_video(source: FrameSource, lights: LightSchedule, sink: FrameSink, engine: Engine | None = None,
+                  dvp: DVPModel | None = None, stabilizer: Stabilizer | None = None, batch_size: int = 4,
+                  background: str = "original", on_frame: Callable[[Frame, np.ndarray, dict], None] | None = None,
+                  with_layers: bool = False) -> VideoReport:
+    """Relight a whole video from ``source`` into ``sink`` in bounded memory.
+
+    Args:
+        source: frames and masks; lights: the light of each frame.
+        sink: where frames go (closed here: the video is renamed into place only on success).
+        engine / dvp: exactly one (see :func:`relight_frames`).
+        stabilizer: a fresh :class:`Stabilizer` (on by default in the CLI) or None.
+        batch_size: frames decomposed together.
+        on_frame: called with (frame, output, extras) after each frame is written (metrics, progress).
+        with_layers: put the input-frame layers into ``extras`` (see :func:`relight_frames`).
+
+    Returns:
+        VideoReport with the number of frames and the mean seconds per frame (reading and writing
+        included, ``on_frame`` excluded).
+    """
+    start = time.perf_counter()
+    n = 0
+    callback = 0.0  # time spent in on_frame (metrics, progress): not the pipeline's
+    try:
+        for frame, out, extras in relight_frames(source, lights, source.fps, engine, dvp, stabilizer, batch_size,
+                                                 background, with_layers):
+            sink.write(frame.name, out)
+            n += 1
+            if on_frame is not None:
+                t0 = time.perf_counter()
+                on_frame(frame, out, extras)
+                callback += time.perf_counter() - t0
+    except BaseException:
+        sink.close(ok=False)
+        raise
+    sink.close(ok=n > 0)
+    if n == 0:
+        raise RelightError(f"{source.path}: no frames could be read")
+    spf = (time.perf_counter() - start - callback) / n
+    logger.info("relit %d frames, %.3f s per frame", n, spf)
+    return VideoReport(n, spf)

@@ -1,0 +1,122 @@
+"""``relight-rt video``: relight a video under a light that may change over time.
+
+Registered by relight_rt.cli through :func:`add_parser`. Examples::
+
+    relight-rt video clip.mp4 --masks masks/ -o out.mp4 --light studio --rotate-per-second 0.25
+    relight-rt video frames/ -o out.mp4 --frames-out out_frames/ --lights per_frame.npy
+    relight-rt video frames/ -o out.mp4 --interpolate golden-hour sky.hdr night
+    relight-rt video frames/ -o out.mp4 --lights per_frame.npy --dvp dvp.onnx
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import os
+from pathlib import Path
+
+from ._errors import RelightError
+
+logger = logging.getLogger(__name__)
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    """Add the ``video`` command to the ``relight-rt`` subparsers; returns its parser."""
+    p = subparsers.add_parser("video", help="relight a video (file or frame folder) with per-frame lights",
+                              description=__doc__.splitlines()[0])
+    p.add_argument("input", help="video file (OpenCV) or folder of frames")
+    p.add_argument("-o", "--output", help="output video file (.mp4, .avi, .mkv)")
+    p.add_argument("--frames-out", help="also (or only) write the relit frames as PNGs into this folder")
+    p.add_argument("--masks", help="mask folder or mask video (default: STEM_mask files beside the frames, "
+                                   "or the alpha channel of RGBA frames)")
+    lights = p.add_mutually_exclusive_group()
+    lights.add_argument("--lights", help="(N, 9, 3) RGB .npy: one light per frame")
+    lights.add_argument("--interpolate", nargs="+", metavar="LIGHT",
+                        help="key lights (files, env maps or presets) interpolated over the whole clip")
+    p.add_argument("--light", help="one light: .npy/.json SH file, env map (.hdr/.exr/.png) or preset name")
+    p.add_argument("--rotate-per-second", type=float, metavar="TURNS",
+                   help="turn --light about the vertical axis at TURNS revolutions per second")
+    p.add_argument("--models", help="folder with stage1.onnx [stage2.onnx] (default: $RELIGHT_RT_MODELS, bundled)")
+    p.add_argument("--dvp", help="a fitted dvp.onnx (python -m export fit-dvp): used instead of stage 1/2")
+    p.add_argument("--dvp-size", type=int, help="long side the DVP was fitted at (fit-dvp --size)")
+    p.add_argument("--no-stabilize", action="store_true", help="turn the training-free stabiliser off")
+    p.add_argument("--stabilize-strength", type=float, default=0.8,
+                   help="weight of the warped history where the flow is reliable, in [0, 1) (default 0.8)")
+    p.add_argument("--batch-size", type=int, default=4, help="frames per stage-1 / DVP run")
+    p.add_argument("--background", choices=("original", "black"), default="original")
+    p.add_argument("--fps", type=float, help="frame rate of a frame folder (default 25) or override the video's")
+    p.add_argument("--device", choices=("auto", "cpu", "cuda"), default="auto")
+    p.add_argument("--metrics", help="write temporal error, warping error and light-following to this JSON file")
+    p.set_defaults(func=run)
+    return p
+
+
+def _schedule(args, frame_count: int):
+    from . import video
+
+    if args.lights:
+        if args.light or args.rotate_per_second is not None:
+            raise RelightError("--lights: give either a per-frame sequence or --light [--rotate-per-second], not both")
+        return video.LightSchedule.from_file(args.lights)
+    if args.interpolate:
+        if args.light or args.rotate_per_second is not None:
+            raise RelightError("--interpolate: give either key lights or --light [--rotate-per-second], not both")
+        if len(args.interpolate) < 2:
+            raise RelightError("--interpolate: expected at least two key lights")
+        if frame_count < 1:
+            raise RelightError(f"{args.input}: the frame count is unknown; --interpolate needs it, use --lights")
+        return video.LightSchedule.interpolated([video.resolve_light(k) for k in args.interpolate], frame_count)
+    if not args.light:
+        raise RelightError("light: expected --light, --lights or --interpolate")
+    base = video.resolve_light(args.light)
+    if args.rotate_per_second is not None:
+        return video.LightSchedule.rotating(base, args.rotate_per_second)
+    return video.LightSchedule.constant(base)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``relight-rt video``; returns 0 (RelightError goes up to the CLI's main)."""
+    from . import metrics as rt_metrics
+    from . import video
+    from .stabilize import Stabilizer
+
+    if not args.output and not args.frames_out:
+        raise RelightError("output: expected -o VIDEO and/or --frames-out DIR")
+    source = video.FrameSource(args.input, args.masks, args.fps)
+    schedule = _schedule(args, len(source))
+    engine = dvp = None
+    if args.dvp:
+        dvp = video.DVPModel(args.dvp, device=args.device, size=args.dvp_size)
+    else:
+        from .relighter import Relighter
+
+        engine = video.RelighterEngine(Relighter(args.models, device=args.device))
+    stabilizer = None if (args.no_stabilize or dvp is not None) else Stabilizer(args.stabilize_strength)
+    sink = video.FrameSink(args.output, args.frames_out, source.fps, protect=source.paths)
+    acc = rt_metrics.TemporalMetrics() if args.metrics else None
+
+    def on_frame(frame, out, extras):
+        if acc is not None:
+            acc.update(out, frame.mask, frame.image, extras.get("albedo"), extras.get("transport"), extras["light"])
+        if frame.index % 50 == 0:
+            logger.info("frame %d / %d", frame.index + 1, len(source))
+
+    report = video.relight_video(source, schedule, sink, engine=engine, dvp=dvp, stabilizer=stabilizer,
+                                 batch_size=args.batch_size, background=args.background, on_frame=on_frame,
+                                 with_layers=acc is not None)
+    logger.info("%d frames, %.3f s per frame, lights: %s", report.frames, report.seconds_per_frame,
+                schedule.description)
+    if acc is not None and report.frames >= 2:
+        res = acc.result()
+        data = {"frames": report.frames, "seconds_per_frame": report.seconds_per_frame,
+                "temporal_error": res.temporal_error, "warping_error": res.warping_error,
+                "light_following": res.light_following, "light_gain": res.light_gain,
+                "residual_error": res.residual_error,
+                "stabilizer": stabilizer is not None, "dvp": args.dvp}
+        path = Path(args.metrics)
+        tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+        tmp.write_text(json.dumps(data, indent=1))
+        os.replace(tmp, path)
+        logger.info("metrics: %s", json.dumps(data))
+    return 0
