@@ -28,13 +28,15 @@ BatchNorm's affine weight and bias), in training and in eval; running statistics
 nor updated. That is exactly what the reference code computes at inference, since it never calls
 ``eval()`` and runs one image at a time ("BatchNorm in training mode on a batch of one"). A 1×1
 feature map (the bottleneck of a 64×64 input) normalises to the layer's bias, the limit of that
-formula. It exports to ONNX as InstanceNormalization, so each image of a batch gives what it gives
-alone.
+formula. In ONNX the statistics are explicit ReduceMean/Sub/Mul/Sqrt ops over each image's own H×W
+(row means first, then their mean: onnxruntime's InstanceNormalization is not accurate enough at 1024²),
+so each image of a batch gives exactly what it gives alone.
 
 **Outputs** (never masked here; callers mask): stage 1 returns the transport raw, albedo and skin
 through a sigmoid, and the light (N, 9, 3) with output channel 3k + c → light[k, c]. Stage 2 and the
 DVP net return ``tanh`` of decoder ``b`` (values in [-1, 1]), as the reference code does for both
-(its ``train_baseline = False`` path). Colour order is that of the weights: RGB for ours, BGR for the
+(its ``train_baseline = False`` path; DESIGN.md §1 says "none", which would not reproduce
+``model_2nd.pth``). Colour order is that of the weights: RGB for ours, BGR for the
 reference's (``export.convert`` permutes those to RGB).
 """
 

@@ -217,8 +217,11 @@ def _session(model_bytes: bytes):
     return ort.InferenceSession(model_bytes, sess_options=opts, providers=["CPUExecutionProvider"])
 
 
-def _run_ort(model_bytes: bytes, inputs: dict[str, np.ndarray]) -> list[np.ndarray]:
-    return _session(model_bytes).run(None, inputs)
+def _run_ort(model_bytes: bytes, inputs: dict[str, np.ndarray], name: str) -> list[np.ndarray]:
+    try:
+        return _session(model_bytes).run(None, inputs)
+    except Exception as exc:  # onnxruntime raises its own types (Fail, InvalidArgument, NotImplemented...)
+        raise RelightError(f"{name}: onnxruntime (CPU) could not run the graph: {exc}") from None
 
 
 def _run_torch(wrapper: nn.Module, inputs: dict[str, np.ndarray], kind: str) -> list[np.ndarray]:
@@ -393,7 +396,7 @@ def export_onnx(
     graph = _with_metadata(_torch_to_onnx(wrapper, inputs, kind, opset), meta)
     check_graph(graph, kind, str(out_path))
     expected = _run_torch(wrapper, inputs, kind)
-    parity = parity_errors(expected, _run_ort(graph, inputs), names)
+    parity = parity_errors(expected, _run_ort(graph, inputs, str(out_path)), names)
     log.info("%s parity (relative error, torch vs onnxruntime CPU): %s", out_path.name, _fmt(parity, "{:.2e}"))
     worst = max(parity, key=parity.get)
     if not parity[worst] <= PARITY_TOLERANCE:
@@ -413,7 +416,7 @@ def export_onnx(
         graph16 = to_fp16(graph)
         path16 = _fp16_path(out_path)
         check_graph(graph16, kind, str(path16))
-        psnr = fp16_psnr(expected, _run_ort(graph16, inputs), names)
+        psnr = fp16_psnr(expected, _run_ort(graph16, inputs, str(path16)), names)
         log.info("%s PSNR vs fp32 (dB): %s", path16.name, _fmt(psnr, "{:.1f}"))
         worst16 = min(psnr, key=psnr.get)
         if not psnr[worst16] >= FP16_MIN_PSNR:
