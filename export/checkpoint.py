@@ -14,6 +14,7 @@ from __future__ import annotations
 import logging
 import os
 import pickle
+import re
 import tempfile
 from collections.abc import Mapping
 from pathlib import Path
@@ -89,11 +90,16 @@ def read_weights(path: str | os.PathLike, map_location: str | torch.device = "cp
     try:
         return torch.load(path, map_location=map_location, weights_only=True)
     except pickle.UnpicklingError as exc:
-        first = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
-        raise RelightError(
-            f"{path}: refused: the checkpoint holds pickled objects that are not plain tensors/containers "
-            f"(torch.load weights_only=True: {first})"
-        ) from None
+        text = str(exc)
+        found = re.search(r"Unsupported global: GLOBAL ([\w.]+)", text)
+        if found:
+            raise RelightError(
+                f"{path}: refused: the checkpoint holds pickled objects that are not plain tensors/containers "
+                f"({found.group(1)}); torch.load(weights_only=True) does not unpickle arbitrary objects"
+            ) from None
+        detail = re.search(r"WeightsUnpickler error:\s*(.+)", text)
+        why = detail.group(1).strip() if detail else type(exc).__name__
+        raise RelightError(f"{path}: not a readable torch checkpoint ({why})") from None
     except (RuntimeError, EOFError, OSError, ValueError) as exc:
         raise RelightError(f"{path}: not a readable torch checkpoint ({type(exc).__name__}: {exc})") from None
 

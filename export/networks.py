@@ -28,13 +28,15 @@ BatchNorm's affine weight and bias), in training and in eval; running statistics
 nor updated. That is exactly what the reference code computes at inference, since it never calls
 ``eval()`` and runs one image at a time ("BatchNorm in training mode on a batch of one"). A 1×1
 feature map (the bottleneck of a 64×64 input) normalises to the layer's bias, the limit of that
-formula. It exports to ONNX as InstanceNormalization, so each image of a batch gives what it gives
-alone.
+formula. In ONNX the statistics are explicit ReduceMean/Sub/Mul/Sqrt ops over each image's own H×W
+(row means first, then their mean: onnxruntime's InstanceNormalization is not accurate enough at 1024²),
+so each image of a batch gives exactly what it gives alone.
 
 **Outputs** (never masked here; callers mask): stage 1 returns the transport raw, albedo and skin
 through a sigmoid, and the light (N, 9, 3) with output channel 3k + c → light[k, c]. Stage 2 and the
 DVP net return ``tanh`` of decoder ``b`` (values in [-1, 1]), as the reference code does for both
-(its ``train_baseline = False`` path). Colour order is that of the weights: RGB for ours, BGR for the
+(its ``train_baseline = False`` path; DESIGN.md §1 says "none", which would not reproduce
+``model_2nd.pth``). Colour order is that of the weights: RGB for ours, BGR for the
 reference's (``export.convert`` permutes those to RGB).
 """
 
@@ -72,10 +74,28 @@ class _Norm(nn.BatchNorm2d):
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         if not self.per_sample:
             return super().forward(x)
+        if torch.onnx.is_in_onnx_export():
+            return self._exported_per_sample(x)
         if x.shape[-1] * x.shape[-2] == 1:
             # (x - mean) is exactly zero over a 1×1 map: the output is the bias (F.instance_norm refuses 1×1).
             return x * 0.0 + self.bias.view(1, -1, 1, 1)
         return F.instance_norm(x, weight=self.weight, bias=self.bias, eps=self.eps)
+
+    def _exported_per_sample(self, x: torch.Tensor) -> torch.Tensor:
+        """The same per-sample normalisation written for onnxruntime's float32 accuracy.
+
+        onnxruntime's InstanceNormalization and ReduceMean over H×W accumulate one long float32 sum
+        (relative error ~1e-5 per layer at 256², ~1e-4 at the end of a 1024² network). Averaging rows
+        first and then the row means keeps every sum short (two-pass: mean, then the centred variance).
+        """
+
+        def spatial_mean(t: torch.Tensor) -> torch.Tensor:
+            return t.mean(dim=3, keepdim=True).mean(dim=2, keepdim=True)
+
+        centred = x - spatial_mean(x)
+        var = spatial_mean(centred * centred)
+        scale = self.weight.view(1, -1, 1, 1) * torch.rsqrt(var + self.eps)
+        return centred * scale + self.bias.view(1, -1, 1, 1)
 
 
 class _ResidualBlock(nn.Module):

@@ -52,6 +52,7 @@ __all__ = [
     "parity_errors",
     "run",
     "sample_inputs",
+    "to_fp16",
     "wrap",
 ]
 
@@ -140,7 +141,10 @@ def _dynamic_axes(kind: str) -> dict[str, dict[int, str]]:
 
 
 def _torch_to_onnx(wrapper: nn.Module, inputs: dict[str, np.ndarray], kind: str, opset: int) -> bytes:
-    """Trace ``wrapper`` (fp32 inputs) with the TorchScript exporter (deterministic, fast); the serialized model."""
+    """Trace ``wrapper`` (fp32 inputs) with the TorchScript exporter (deterministic, fast), fold constants.
+
+    Returns the serialized model.
+    """
     spec = KINDS[kind]
     args = tuple(torch.from_numpy(inputs[t.name]) for t in spec.inputs)
     buf = io.BytesIO()
@@ -155,9 +159,22 @@ def _torch_to_onnx(wrapper: nn.Module, inputs: dict[str, np.ndarray], kind: str,
             output_names=[t.name for t in spec.outputs],
             dynamic_axes=_dynamic_axes(kind),
             opset_version=opset,
-            do_constant_folding=True,
+            # torch's own folding deduplicates equal initializers and can leave dangling Identity inputs
+            # (seen with freshly initialised norms, all ones); onnxscript's optimizer folds correctly.
+            do_constant_folding=False,
         )
-    return buf.getvalue()
+    import onnx
+    from onnxscript import optimizer
+
+    quiet = [logging.getLogger(name) for name in ("onnxscript", "onnx_ir")]  # they log every folded constant
+    levels = [q.level for q in quiet]
+    for q in quiet:
+        q.setLevel(logging.WARNING)
+    try:
+        return optimizer.optimize(onnx.load_from_string(buf.getvalue())).SerializeToString()
+    finally:
+        for q, level in zip(quiet, levels, strict=True):
+            q.setLevel(level)
 
 
 def check_graph(model_bytes: bytes, kind: str, name: str = "graph") -> None:
@@ -200,8 +217,11 @@ def _session(model_bytes: bytes):
     return ort.InferenceSession(model_bytes, sess_options=opts, providers=["CPUExecutionProvider"])
 
 
-def _run_ort(model_bytes: bytes, inputs: dict[str, np.ndarray]) -> list[np.ndarray]:
-    return _session(model_bytes).run(None, inputs)
+def _run_ort(model_bytes: bytes, inputs: dict[str, np.ndarray], name: str) -> list[np.ndarray]:
+    try:
+        return _session(model_bytes).run(None, inputs)
+    except Exception as exc:  # onnxruntime raises its own types (Fail, InvalidArgument, NotImplemented...)
+        raise RelightError(f"{name}: onnxruntime (CPU) could not run the graph: {exc}") from None
 
 
 def _run_torch(wrapper: nn.Module, inputs: dict[str, np.ndarray], kind: str) -> list[np.ndarray]:
@@ -238,6 +258,62 @@ def fp16_psnr(reference: list[np.ndarray], candidate: list[np.ndarray], names: l
         peak = float(np.abs(ref64).max()) or 1.0
         result[name] = math.inf if mse == 0 else 10 * math.log10(peak**2 / mse)
     return result
+
+
+def to_fp16(model_bytes: bytes) -> bytes:
+    """The graph with fp16 weights and compute and fp32 inputs/outputs (a Cast at every boundary).
+
+    Float initializers, Constant/ConstantOfShape values and Cast targets become float16, except the
+    ``roi``/``scales`` inputs of Resize, which the operator requires in float32. Metadata is kept.
+    """
+    import onnx
+    from onnx import TensorProto, helper, numpy_helper
+
+    model = onnx.load_from_string(model_bytes)
+    graph = model.graph
+    keep32 = {name for n in graph.node if n.op_type == "Resize" for name in n.input[1:3] if name}
+
+    def halve(t: onnx.TensorProto) -> None:
+        if t.data_type == TensorProto.FLOAT:
+            t.CopyFrom(numpy_helper.from_array(numpy_helper.to_array(t).astype(np.float16), t.name))
+
+    for init in graph.initializer:
+        if init.name not in keep32:
+            halve(init)
+    for node in graph.node:
+        if node.op_type in ("Constant", "ConstantOfShape") and node.output[0] not in keep32:
+            for attr in node.attribute:
+                if attr.name == "value":
+                    halve(attr.t)
+        elif node.op_type == "Cast":
+            for attr in node.attribute:
+                if attr.name == "to" and attr.i == TensorProto.FLOAT:
+                    attr.i = TensorProto.FLOAT16
+
+    def rename_uses(old: str, new: str) -> None:
+        for node in graph.node:
+            for i, name in enumerate(node.input):
+                if name == old:
+                    node.input[i] = new
+
+    casts_in = []
+    for inp in graph.input:
+        if inp.type.tensor_type.elem_type == TensorProto.FLOAT:
+            rename_uses(inp.name, inp.name + "_fp16")
+            casts_in.append(helper.make_node("Cast", [inp.name], [inp.name + "_fp16"], to=TensorProto.FLOAT16))
+    for out in graph.output:
+        if out.type.tensor_type.elem_type == TensorProto.FLOAT:
+            inner = out.name + "_fp16"
+            rename_uses(out.name, inner)
+            for node in graph.node:
+                for i, name in enumerate(node.output):
+                    if name == out.name:
+                        node.output[i] = inner
+            graph.node.append(helper.make_node("Cast", [inner], [out.name], to=TensorProto.FLOAT))
+    for i, cast in enumerate(casts_in):
+        graph.node.insert(i, cast)
+    del graph.value_info[:]
+    return model.SerializeToString()
 
 
 def _with_metadata(model_bytes: bytes, meta: dict[str, str]) -> bytes:
@@ -320,7 +396,7 @@ def export_onnx(
     graph = _with_metadata(_torch_to_onnx(wrapper, inputs, kind, opset), meta)
     check_graph(graph, kind, str(out_path))
     expected = _run_torch(wrapper, inputs, kind)
-    parity = parity_errors(expected, _run_ort(graph, inputs), names)
+    parity = parity_errors(expected, _run_ort(graph, inputs, str(out_path)), names)
     log.info("%s parity (relative error, torch vs onnxruntime CPU): %s", out_path.name, _fmt(parity, "{:.2e}"))
     worst = max(parity, key=parity.get)
     if not parity[worst] <= PARITY_TOLERANCE:
@@ -337,11 +413,10 @@ def export_onnx(
         "parity": parity,
     }
     if fp16:
-        half = wrap(copy.deepcopy(net).half()).eval()
-        graph16 = _with_metadata(_torch_to_onnx(_Fp32Boundary(half), inputs, kind, opset), meta)
+        graph16 = to_fp16(graph)
         path16 = _fp16_path(out_path)
         check_graph(graph16, kind, str(path16))
-        psnr = fp16_psnr(expected, _run_ort(graph16, inputs), names)
+        psnr = fp16_psnr(expected, _run_ort(graph16, inputs, str(path16)), names)
         log.info("%s PSNR vs fp32 (dB): %s", path16.name, _fmt(psnr, "{:.1f}"))
         worst16 = min(psnr, key=psnr.get)
         if not psnr[worst16] >= FP16_MIN_PSNR:
@@ -355,20 +430,6 @@ def export_onnx(
         _write_atomic(_fp16_path(out_path), graph16)
     summary["seconds"] = time.perf_counter() - t0
     return summary
-
-
-class _Fp32Boundary(nn.Module):
-    """fp32 in, fp16 compute, fp32 out: a Cast at every graph input and output."""
-
-    def __init__(self, half_wrapper: nn.Module) -> None:
-        super().__init__()
-        self.inner = half_wrapper
-
-    def forward(self, *inputs):
-        out = self.inner(*(x.half() for x in inputs))
-        if isinstance(out, torch.Tensor):
-            return out.float()
-        return tuple(o.float() for o in out)
 
 
 def _fmt(values: dict[str, float], pattern: str) -> str:

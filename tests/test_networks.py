@@ -89,7 +89,6 @@ def test_instance_norm_is_per_sample_and_matches_train_mode_batch_of_one(monkeyp
         torch.testing.assert_close(s0, r, rtol=1e-4, atol=1e-5)
 
 
-
 def test_dropout_only_in_training():
     net = Stage2Net(width=4, resolution=128, norm="instance")
     x = torch.randn(1, 3, 128, 128)
