@@ -172,3 +172,19 @@ def test_sample_outfit_is_deterministic_and_complete():
             assert g.material in garments.MATERIALS
             (r0, r1), (s0, s1) = garments.MATERIALS[g.material]
             assert r0 <= g.roughness <= r1 and s0 <= g.specular <= s1
+
+
+def test_long_hair_curtain_leaves_the_face_open():
+    subject = subjects.random_subject(205)  # an outfit with long hair
+    curtain = next(p for p in subject.parts if p.name == "hair_long")
+    _check_part(curtain)
+    body = next(p for p in subject.parts if p.name == "body")
+    template = bodies.get_template()
+    head = body.vertices[template.region == bodies.REGIONS.index("head")]
+    axis = head[head[:, 2] > head[:, 2].max() - 0.06, :2].mean(axis=0)
+    nose = head[np.argmax(head @ np.array([1.0, 0.0, 0.0]))]  # the turn is below ±35°: the front-most point
+    facing = np.arctan2(*(nose[:2] - axis)[::-1])
+    ang = np.arctan2(curtain.vertices[:, 1] - axis[1], curtain.vertices[:, 0] - axis[0])
+    off = np.abs(np.angle(np.exp(1j * (ang - facing))))
+    assert off.min() > np.radians(45)  # nothing hangs in front of the face
+    assert curtain.vertices[:, 2].min() < head[:, 2].min()  # it reaches below the chin

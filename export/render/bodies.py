@@ -124,15 +124,15 @@ def get_template() -> Template:
 def sample_phenotype(rng: np.random.Generator) -> dict[str, float]:
     """Adult anny phenotypes: gender, age, muscle, weight, height, proportions, each in [0, 1].
 
-    anny's age axis runs newborn (−1/3) .. baby .. child .. young (2/3?) .. old (1); adults are
-    sampled between "young" and "old" here.
+    anny's age anchors are newborn (−1/3), baby (0), child (1/3), young (2/3) and old (1); adults
+    are drawn from 0.62 to 1. Height 0.15..0.62 gives people of about 1.5 to 1.95 m.
     """
     return {
         "gender": float(rng.uniform(0.0, 1.0)),
-        "age": float(rng.uniform(0.55, 1.0)),
+        "age": float(rng.uniform(0.62, 1.0)),
         "muscle": float(np.clip(rng.normal(0.5, 0.18), 0.05, 0.95)),
         "weight": float(np.clip(rng.normal(0.5, 0.2), 0.05, 0.95)),
-        "height": float(rng.uniform(0.1, 0.8)),
+        "height": float(rng.uniform(0.15, 0.62)),
         "proportions": float(rng.uniform(0.3, 0.9)),
     }
 

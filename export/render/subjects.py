@@ -198,6 +198,10 @@ def random_subject(seed: int, *, clothing: bool = True) -> Subject:
             shell = garments.offset_shell(g, body, faces, uv, garments.coverage(g, vsurf, lm), tex)
             if shell is not None:
                 parts.append(shell)
+        if g.kind == "hair":
+            curtain = garments.hair_curtain(g, body, template.region, rng)
+            if curtain is not None:
+                parts.append(curtain)
     log.info("subject %d: %s, %s, %s", seed, pose.name, ", ".join(g.name for g in outfit),
              {k: round(v, 2) for k, v in phenotype.items()})
     return Subject(parts, f"anny_{seed:06d}")
