@@ -95,10 +95,16 @@ def sample_outfit(rng: np.random.Generator) -> list[Garment]:
     sleeve = float(rng.choice([0.0, 0.45, 0.6, 1.0, 1.95], p=[0.15, 0.3, 0.15, 0.1, 0.3]))
     top_pat = random_pattern(rng)
     top_mat = str(rng.choice(["cotton", "knit", "satin", "synthetic"], p=[0.5, 0.2, 0.15, 0.15]))
+    # the hem, relative to the hips, overlaps the trousers' waistband most of the time (crop tops otherwise);
+    # under a skirt it ends just below the skirt's lowest waistline
     if dress:
-        hem = 0.1
+        hem = 0.08
+    elif bottom == "skirt":
+        hem = 0.05
     else:
-        hem = float(rng.uniform(-0.02, 0.12)) if bottom != "skirt" else 0.14
+        u = float(rng.uniform(0.0, 1.0))
+        waist = out[-1].params["waist"]
+        hem = waist - 0.1 * u / 0.85 if u < 0.85 else waist + 0.02 + 0.5 * (u - 0.85)
     loose = 0.0 if rng.random() < 0.3 else float(rng.uniform(0.008, 0.025))
     out.append(_garment(rng, "top", "dress_top" if dress else "top", top_pat, top_mat, loose=loose,
                         folds=rng.uniform(0.004, 0.014), sleeve=sleeve, hem=hem, neck=rng.uniform(0.01, 0.12)))
