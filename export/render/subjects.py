@@ -145,7 +145,9 @@ def _body_textures(body: bodies.Body, tone: np.ndarray, outfit: list[garments.Ga
         covered_v |= garments.coverage(g, vsurf, lm)
         if g.kind == "skirt" or not cov.any():
             continue
-        albedo[cov] = garments.evaluate_pattern(g.pattern, points[cov])
+        # hair: strands along the head's vertical, fine across it
+        where = points[cov] * np.array([3.0, 3.0, 0.3]) if g.kind == "hair" else points[cov]
+        albedo[cov] = garments.evaluate_pattern(g.pattern, where)
         skin[cov] = 0.0
         rough[cov] = g.roughness
         spec[cov] = g.specular
