@@ -74,17 +74,24 @@ def _garment(rng, kind, name, pattern, material, loose=0.0, folds=0.0, **params)
                    {k: float(v) for k, v in params.items()})
 
 
-def sample_outfit(rng: np.random.Generator) -> list[Garment]:
+def sample_outfit(rng: np.random.Generator, feminine: float = 0.5) -> list[Garment]:
     """A random outfit, in painting order (later garments cover earlier ones on the body texture).
 
     Always underwear-like cover of the pelvis, then one of: top + trousers/shorts/skirt, or a dress;
     shoes most of the time; hair most of the time.
+
+    Args:
+        rng: the random generator.
+        feminine: 0..1 (anny's gender phenotype: 0 male, 1 female); shifts the odds of dresses, skirts
+            and long hair, never excludes them.
     """
+    f = float(np.clip(feminine, 0.0, 1.0))
     out: list[Garment] = []
     under = Pattern("solid", np.stack([random_color(rng, dark=True)] * 3), 0.05, int(rng.integers(1 << 30)))
     out.append(_garment(rng, "underwear", "underwear", under, "cotton"))
-    dress = rng.random() < 0.15
-    bottom = "skirt" if dress else str(rng.choice(["trousers", "jeans", "shorts", "skirt"], p=[0.3, 0.3, 0.2, 0.2]))
+    dress = rng.random() < 0.03 + 0.22 * f
+    odds = np.array([0.32, 0.32, 0.22, 0.03 + 0.3 * f])
+    bottom = "skirt" if dress else str(rng.choice(["trousers", "jeans", "shorts", "skirt"], p=odds / odds.sum()))
     if bottom in ("trousers", "jeans", "shorts"):
         pat = random_pattern(rng, ("denim",) if bottom == "jeans" else ("solid", "checks", "noise", "stripes"))
         mat = "denim" if bottom == "jeans" else str(rng.choice(["cotton", "synthetic", "knit"]))
@@ -120,7 +127,7 @@ def sample_outfit(rng: np.random.Generator) -> list[Garment]:
         mat = "leather" if rng.random() < 0.6 else "synthetic"
         out.append(_garment(rng, "shoes", "boots" if boot else "shoes", pat, mat, loose=0.007, folds=0.001,
                             height=rng.uniform(0.12, 0.3) if boot else 0.03))
-    if rng.random() < 0.9:
+    if rng.random() < 0.97 - 0.17 * (1 - f):
         shade = rng.random()
         base = (np.array([0.04, 0.03, 0.025]) if shade < 0.45 else np.array([0.22, 0.13, 0.07]) if shade < 0.75
                 else np.array([0.6, 0.45, 0.25]) if shade < 0.88 else np.array([0.5, 0.2, 0.08]) if shade < 0.94
@@ -128,7 +135,8 @@ def sample_outfit(rng: np.random.Generator) -> list[Garment]:
         base = np.clip(base * rng.uniform(0.8, 1.25), 0, 1)
         pat = Pattern("noise", np.stack([base, np.clip(base * 1.5 + 0.03, 0, 1), base]).astype(np.float32),
                       0.004, int(rng.integers(1 << 30)))
-        length = float(rng.choice([0.0, 0.5, 1.0], p=[0.45, 0.3, 0.25]))
+        p_long = 0.1 + 0.35 * f
+        length = float(rng.choice([0.0, 0.5, 1.0], p=[1 - 2 * p_long, p_long, p_long]))
         out.append(_garment(rng, "hair", "hair", pat, "hair", loose=rng.uniform(0.008, 0.02), folds=0.004,
                             length=length, front=rng.uniform(0.04, 0.08)))
     return out

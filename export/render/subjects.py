@@ -178,7 +178,7 @@ def random_subject(seed: int, *, clothing: bool = True) -> Subject:
     phenotype = bodies.sample_phenotype(rng)
     pose = bodies.sample_pose(rng)
     tone = skin_tone(float(rng.uniform(0, 1)))
-    outfit = garments.sample_outfit(rng)
+    outfit = garments.sample_outfit(rng, feminine=phenotype["gender"])
     if not clothing:
         outfit = [g for g in outfit if g.kind == "underwear"]
     body = bodies.posed_body(phenotype, pose)
