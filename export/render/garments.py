@@ -10,6 +10,7 @@ Frame: the subject frame of DESIGN.md §3 (person faces +x, +z up, metres).
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 from dataclasses import dataclass, field
@@ -34,7 +35,7 @@ MATERIALS = {
     "hair": ((0.35, 0.45), (0.08, 0.15)),
 }
 
-GARMENT_KINDS = ("top", "bottom", "skirt", "shoes", "hair", "underwear")
+GARMENT_KINDS = ("top", "bottom", "skirt", "shoes", "hair", "underwear", "jacket")
 
 
 @dataclass(frozen=True)
@@ -139,6 +140,14 @@ def sample_outfit(rng: np.random.Generator, feminine: float = 0.5) -> list[Garme
         length = float(rng.choice([0.0, 0.5, 1.0], p=[1 - 2 * p_long, p_long, p_long]))
         out.append(_garment(rng, "hair", "hair", pat, "hair", loose=rng.uniform(0.008, 0.02), folds=0.004,
                             length=length, front=rng.uniform(0.04, 0.08)))
+    if not dress and rng.random() < 0.2:  # drawn last so that the rest of the outfit does not depend on it
+        mat = str(rng.choice(["denim", "leather", "cotton", "synthetic"]))
+        pat = random_pattern(rng, ("denim",) if mat == "denim" else ("solid", "checks", "noise"))
+        top = next(i for i, g in enumerate(out) if g.kind == "top")
+        jacket = _garment(rng, "jacket", "jacket", pat, mat, loose=rng.uniform(0.02, 0.035),
+                          folds=rng.uniform(0.008, 0.016), hem=out[top].params["hem"] - rng.uniform(0.0, 0.12),
+                          opening=rng.uniform(0.03, 0.1))
+        out.insert(top + 1, jacket)
     return out
 
 
@@ -200,6 +209,10 @@ def coverage(garment: Garment, surf: Surface, lm: dict[str, np.ndarray]) -> np.n
     if k == "skirt":
         waist = hip_z + prm["waist"]
         return torso & (z < waist) & (z > hip_z - 0.02)
+    if k == "jacket":  # a long-sleeved top open down the front
+        shut = dataclasses.replace(garment, kind="top", params={"hem": prm["hem"], "neck": 0.02, "sleeve": 1.9})
+        opening = torso & (x > lm["spine03"][0]) & (np.abs(p[:, 1] - lm["neck01"][1]) < prm["opening"])
+        return coverage(shut, surf, lm) & ~opening
     if k == "top":
         hem = hip_z + prm["hem"]
         front = np.clip((x - lm["neck01"][0]) / 0.08, 0.0, 1.0)
