@@ -222,6 +222,12 @@ def test_coverage_rules(bare_body):
                & (z > lm["wrist.L"][2] + 0.04))
     assert long_sleeve[forearm].mean() > 0.95 and tee[forearm].mean() < 0.05
     assert not (tee | long_sleeve)[head | hands].any()
+    jacket = garments.coverage(_one("jacket", hem=0.0, opening=0.06), surf, lm)
+    torso = template.region == bodies.REGIONS.index("torso")
+    chest = torso & (np.abs(z - lm["spine01"][2]) < 0.04) & (np.abs(body.rest[:, 1] - lm["neck01"][1]) < 0.03)
+    front, back = chest & (body.rest[:, 0] > lm["spine01"][0]), chest & (body.rest[:, 0] < lm["spine01"][0])
+    assert front.sum() > 5 and back.sum() > 5
+    assert not jacket[front].any() and jacket[back].all() and long_sleeve[front].all()
     shoes = garments.coverage(_one("shoes", height=0.03), surf, lm)
     assert shoes[feet].all() and not shoes[near_knees | hands | head].any()
     hair = garments.coverage(_one("hair", length=1.0, front=0.06), surf, lm)
