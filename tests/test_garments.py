@@ -172,3 +172,67 @@ def test_sample_outfit_is_deterministic_and_complete():
             assert g.material in garments.MATERIALS
             (r0, r1), (s0, s1) = garments.MATERIALS[g.material]
             assert r0 <= g.roughness <= r1 and s0 <= g.specular <= s1
+
+
+def test_long_hair_curtain_leaves_the_face_open():
+    subject = subjects.random_subject(205)  # an outfit with long hair
+    curtain = next(p for p in subject.parts if p.name == "hair_long")
+    _check_part(curtain)
+    body = next(p for p in subject.parts if p.name == "body")
+    template = bodies.get_template()
+    head = body.vertices[template.region == bodies.REGIONS.index("head")]
+    axis = head[head[:, 2] > head[:, 2].max() - 0.06, :2].mean(axis=0)
+    nose = head[np.argmax(head @ np.array([1.0, 0.0, 0.0]))]  # the turn is below ±35°: the front-most point
+    facing = np.arctan2(*(nose[:2] - axis)[::-1])
+    ang = np.arctan2(curtain.vertices[:, 1] - axis[1], curtain.vertices[:, 0] - axis[0])
+    off = np.abs(np.angle(np.exp(1j * (ang - facing))))
+    assert off.min() > np.radians(45)  # nothing hangs in front of the face
+    assert curtain.vertices[:, 2].min() < head[:, 2].min()  # it reaches below the chin
+
+
+@pytest.fixture(scope="module")
+def bare_body() -> tuple[bodies.Body, garments.Surface, dict]:
+    rng = np.random.default_rng(21)
+    body = bodies.posed_body(bodies.sample_phenotype(rng), bodies.sample_pose(rng, "relaxed"))
+    template = bodies.get_template()
+    return body, garments.Surface(body.rest, template.region, template.foot), subjects._landmarks(body)
+
+
+def _one(kind: str, **params) -> garments.Garment:
+    pat = garments.Pattern("solid", np.full((3, 3), 0.5, np.float32))
+    return garments.Garment(kind, kind, pat, "cotton", 0.8, 0.02, params=params)
+
+
+def test_coverage_rules(bare_body):
+    body, surf, lm = bare_body
+    template = bodies.get_template()
+    head = template.region == bodies.REGIONS.index("head")
+    hands = template.hand > 0.9
+    feet = template.foot > 0.9
+    knee_z = lm["lowerleg01.L"][2]
+    near_knees = (np.abs(body.rest[:, 2] - knee_z) < 0.03) & ~hands
+    trousers = garments.coverage(_one("bottom", waist=0.1, leg_end=0.0), surf, lm)
+    shorts = garments.coverage(_one("bottom", waist=0.1, leg_end=0.7), surf, lm)
+    assert trousers[near_knees].all() and not shorts[near_knees].any()
+    assert not trousers[feet | head | hands].any()
+    tee = garments.coverage(_one("top", sleeve=0.45, hem=0.05, neck=0.05), surf, lm)
+    long_sleeve = garments.coverage(_one("top", sleeve=1.95, hem=0.05, neck=0.05), surf, lm)
+    z = body.rest[:, 2]
+    forearm = (np.isin(template.region, [2, 3]) & (template.hand < 0.01) & (z < lm["lowerarm01.L"][2] - 0.04)
+               & (z > lm["wrist.L"][2] + 0.04))
+    assert long_sleeve[forearm].mean() > 0.95 and tee[forearm].mean() < 0.05
+    assert not (tee | long_sleeve)[head | hands].any()
+    jacket = garments.coverage(_one("jacket", hem=0.0, opening=0.06), surf, lm)
+    torso = template.region == bodies.REGIONS.index("torso")
+    chest = torso & (np.abs(z - lm["spine01"][2]) < 0.04) & (np.abs(body.rest[:, 1] - lm["neck01"][1]) < 0.03)
+    front, back = chest & (body.rest[:, 0] > lm["spine01"][0]), chest & (body.rest[:, 0] < lm["spine01"][0])
+    assert front.sum() > 5 and back.sum() > 5
+    assert not jacket[front].any() and jacket[back].all() and long_sleeve[front].all()
+    shoes = garments.coverage(_one("shoes", height=0.03), surf, lm)
+    assert shoes[feet].all() and not shoes[near_knees | hands | head].any()
+    hair = garments.coverage(_one("hair", length=1.0, front=0.06), surf, lm)
+    face = head & (body.rest[:, 0] > lm["eye.L"][0] - 0.01) & (body.rest[:, 2] < lm["eye.L"][2] + 0.01)
+    assert face.sum() > 100 and not hair[face].any()
+    assert hair[head & (body.rest[:, 2] > body.rest[:, 2].max() - 0.02)].all()  # the crown
+    with pytest.raises(ValueError, match="unknown garment kind"):
+        garments.coverage(_one("cape"), surf, lm)

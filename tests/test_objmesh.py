@@ -105,3 +105,14 @@ def test_preview_shows_the_texture(tmp_path):
     assert img[24, 16, 2] > 0.9 and img[24, 16, 0] < 0.1  # bottom: blue
     out = preview_subject(subject, tmp_path / "p.png", size=32)
     assert cv2.imread(str(out)).shape == (32, 96, 3)
+
+
+def test_centimetre_scans_are_scaled_to_metres(tmp_path):
+    obj = _OBJ.replace("v 1 1 0", "v 170 170 0").replace("v 0 1 0", "v 0 170 0").replace("v 1 0 0", "v 170 0 0")
+    (tmp_path / "big.obj").write_text(obj.replace("mtllib quad.mtl\n", ""))
+    part = load_obj(tmp_path / "big.obj", up="y").parts[0]
+    assert abs(float(part.vertices[:, 2].max()) - 1.7) < 1e-5  # 170 cm tall, y up -> 1.7 m along +z
+    part = load_obj(tmp_path / "big.obj", up="y", scale=1.0).parts[0]
+    assert float(part.vertices[:, 2].max()) == 170.0
+    with pytest.raises(RelightError, match="positive scale"):
+        load_obj(tmp_path / "big.obj", scale=-1.0)

@@ -5,9 +5,10 @@ a 104-bone rig and shape phenotypes. Its own frame has +z up, the person facing 
 hand on +x; :func:`posed_body` turns that into the subject frame of DESIGN.md §3 (the person faces
 +x, the camera; their left hand is on +y, the image's right; +z up; feet at z = 0; metres).
 
-The model is built once per process (about a minute the first time, cached on disk under
-``ANNY_CACHE_DIR``, which defaults here to ``~/.cache/relight_rt/anny``) and a posed mesh then
-takes milliseconds. Everything works offline: anny ships its assets in the wheel.
+The model data is built about a minute the first time and cached on disk under ``ANNY_CACHE_DIR``
+(default here ``~/.cache/relight_rt/anny``, ~0.8 GB); later processes load it in under a second
+(plus ~2 s for anny's warp skinning kernel the first time a process poses a body), and a posed
+mesh then takes ~0.1 s. Everything works offline: anny ships its assets in the wheel.
 """
 
 from __future__ import annotations
@@ -124,15 +125,15 @@ def get_template() -> Template:
 def sample_phenotype(rng: np.random.Generator) -> dict[str, float]:
     """Adult anny phenotypes: gender, age, muscle, weight, height, proportions, each in [0, 1].
 
-    anny's age axis runs newborn (−1/3) .. baby .. child .. young (2/3?) .. old (1); adults are
-    sampled between "young" and "old" here.
+    anny's age anchors are newborn (−1/3), baby (0), child (1/3), young (2/3) and old (1); adults
+    are drawn from 0.62 to 1. Height 0.15..0.62 gives people of about 1.5 to 1.95 m.
     """
     return {
         "gender": float(rng.uniform(0.0, 1.0)),
-        "age": float(rng.uniform(0.55, 1.0)),
+        "age": float(rng.uniform(0.62, 1.0)),
         "muscle": float(np.clip(rng.normal(0.5, 0.18), 0.05, 0.95)),
         "weight": float(np.clip(rng.normal(0.5, 0.2), 0.05, 0.95)),
-        "height": float(rng.uniform(0.1, 0.8)),
+        "height": float(rng.uniform(0.15, 0.62)),
         "proportions": float(rng.uniform(0.3, 0.9)),
     }
 

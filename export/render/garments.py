@@ -10,7 +10,9 @@ Frame: the subject frame of DESIGN.md §3 (person faces +x, +z up, metres).
 
 from __future__ import annotations
 
+import dataclasses
 import logging
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -33,7 +35,7 @@ MATERIALS = {
     "hair": ((0.35, 0.45), (0.08, 0.15)),
 }
 
-GARMENT_KINDS = ("top", "bottom", "skirt", "shoes", "hair", "underwear")
+GARMENT_KINDS = ("top", "bottom", "skirt", "shoes", "hair", "underwear", "jacket")
 
 
 @dataclass(frozen=True)
@@ -73,17 +75,24 @@ def _garment(rng, kind, name, pattern, material, loose=0.0, folds=0.0, **params)
                    {k: float(v) for k, v in params.items()})
 
 
-def sample_outfit(rng: np.random.Generator) -> list[Garment]:
+def sample_outfit(rng: np.random.Generator, feminine: float = 0.5) -> list[Garment]:
     """A random outfit, in painting order (later garments cover earlier ones on the body texture).
 
     Always underwear-like cover of the pelvis, then one of: top + trousers/shorts/skirt, or a dress;
     shoes most of the time; hair most of the time.
+
+    Args:
+        rng: the random generator.
+        feminine: 0..1 (anny's gender phenotype: 0 male, 1 female); shifts the odds of dresses, skirts
+            and long hair, never excludes them.
     """
+    f = float(np.clip(feminine, 0.0, 1.0))
     out: list[Garment] = []
     under = Pattern("solid", np.stack([random_color(rng, dark=True)] * 3), 0.05, int(rng.integers(1 << 30)))
     out.append(_garment(rng, "underwear", "underwear", under, "cotton"))
-    dress = rng.random() < 0.15
-    bottom = "skirt" if dress else str(rng.choice(["trousers", "jeans", "shorts", "skirt"], p=[0.3, 0.3, 0.2, 0.2]))
+    dress = rng.random() < 0.03 + 0.22 * f
+    odds = np.array([0.32, 0.32, 0.22, 0.03 + 0.3 * f])
+    bottom = "skirt" if dress else str(rng.choice(["trousers", "jeans", "shorts", "skirt"], p=odds / odds.sum()))
     if bottom in ("trousers", "jeans", "shorts"):
         pat = random_pattern(rng, ("denim",) if bottom == "jeans" else ("solid", "checks", "noise", "stripes"))
         mat = "denim" if bottom == "jeans" else str(rng.choice(["cotton", "synthetic", "knit"]))
@@ -94,10 +103,16 @@ def sample_outfit(rng: np.random.Generator) -> list[Garment]:
     sleeve = float(rng.choice([0.0, 0.45, 0.6, 1.0, 1.95], p=[0.15, 0.3, 0.15, 0.1, 0.3]))
     top_pat = random_pattern(rng)
     top_mat = str(rng.choice(["cotton", "knit", "satin", "synthetic"], p=[0.5, 0.2, 0.15, 0.15]))
+    # the hem, relative to the hips, overlaps the trousers' waistband most of the time (crop tops otherwise);
+    # under a skirt it ends just below the skirt's lowest waistline
     if dress:
-        hem = 0.1
+        hem = 0.08
+    elif bottom == "skirt":
+        hem = 0.05
     else:
-        hem = float(rng.uniform(-0.02, 0.12)) if bottom != "skirt" else 0.14
+        u = float(rng.uniform(0.0, 1.0))
+        waist = out[-1].params["waist"]
+        hem = waist - 0.1 * u / 0.85 if u < 0.85 else waist + 0.02 + 0.5 * (u - 0.85)
     loose = 0.0 if rng.random() < 0.3 else float(rng.uniform(0.008, 0.025))
     out.append(_garment(rng, "top", "dress_top" if dress else "top", top_pat, top_mat, loose=loose,
                         folds=rng.uniform(0.004, 0.014), sleeve=sleeve, hem=hem, neck=rng.uniform(0.01, 0.12)))
@@ -113,7 +128,7 @@ def sample_outfit(rng: np.random.Generator) -> list[Garment]:
         mat = "leather" if rng.random() < 0.6 else "synthetic"
         out.append(_garment(rng, "shoes", "boots" if boot else "shoes", pat, mat, loose=0.007, folds=0.001,
                             height=rng.uniform(0.12, 0.3) if boot else 0.03))
-    if rng.random() < 0.9:
+    if rng.random() < 0.97 - 0.17 * (1 - f):
         shade = rng.random()
         base = (np.array([0.04, 0.03, 0.025]) if shade < 0.45 else np.array([0.22, 0.13, 0.07]) if shade < 0.75
                 else np.array([0.6, 0.45, 0.25]) if shade < 0.88 else np.array([0.5, 0.2, 0.08]) if shade < 0.94
@@ -121,9 +136,18 @@ def sample_outfit(rng: np.random.Generator) -> list[Garment]:
         base = np.clip(base * rng.uniform(0.8, 1.25), 0, 1)
         pat = Pattern("noise", np.stack([base, np.clip(base * 1.5 + 0.03, 0, 1), base]).astype(np.float32),
                       0.004, int(rng.integers(1 << 30)))
-        length = float(rng.choice([0.0, 0.5, 1.0], p=[0.45, 0.3, 0.25]))
+        p_long = 0.1 + 0.35 * f
+        length = float(rng.choice([0.0, 0.5, 1.0], p=[1 - 2 * p_long, p_long, p_long]))
         out.append(_garment(rng, "hair", "hair", pat, "hair", loose=rng.uniform(0.008, 0.02), folds=0.004,
                             length=length, front=rng.uniform(0.04, 0.08)))
+    if not dress and rng.random() < 0.2:  # drawn last so that the rest of the outfit does not depend on it
+        mat = str(rng.choice(["denim", "leather", "cotton", "synthetic"]))
+        pat = random_pattern(rng, ("denim",) if mat == "denim" else ("solid", "checks", "noise"))
+        top = next(i for i, g in enumerate(out) if g.kind == "top")
+        jacket = _garment(rng, "jacket", "jacket", pat, mat, loose=rng.uniform(0.02, 0.035),
+                          folds=rng.uniform(0.008, 0.016), hem=out[top].params["hem"] - rng.uniform(0.0, 0.12),
+                          opening=rng.uniform(0.03, 0.1))
+        out.insert(top + 1, jacket)
     return out
 
 
@@ -185,6 +209,10 @@ def coverage(garment: Garment, surf: Surface, lm: dict[str, np.ndarray]) -> np.n
     if k == "skirt":
         waist = hip_z + prm["waist"]
         return torso & (z < waist) & (z > hip_z - 0.02)
+    if k == "jacket":  # a long-sleeved top open down the front
+        shut = dataclasses.replace(garment, kind="top", params={"hem": prm["hem"], "neck": 0.02, "sleeve": 1.9})
+        opening = torso & (x > lm["spine03"][0]) & (np.abs(p[:, 1] - lm["neck01"][1]) < prm["opening"])
+        return coverage(shut, surf, lm) & ~opening
     if k == "top":
         hem = hip_z + prm["hem"]
         front = np.clip((x - lm["neck01"][0]) / 0.08, 0.0, 1.0)
@@ -359,3 +387,86 @@ def hair_color_of(garments: list[Garment]) -> np.ndarray | None:
         if g.kind == "hair":
             return np.asarray(g.pattern.colors[0], dtype=np.float32)
     return None
+
+
+def hair_curtain(garment: Garment, body: Body, region: np.ndarray, rng: np.random.Generator, rings: int = 20,
+                 sectors: int = 40, texture_size: int = 128) -> Part | None:
+    """Long hair hanging from the head's sides and back down toward (or past) the shoulders.
+
+    An open, vertical curtain around the head's vertical axis that spans the sides and the back
+    (the face's ±70° stay open). Each ring hangs from the widest head section above it; at the back
+    it is pushed outside the neck and upper back; at the sides it ends in the shoulders, as hair
+    resting on them does. Its own texture has vertical strands (texture_size × 2·texture_size).
+
+    Returns:
+        Part (skin 0), or None for short hair (params["length"] == 0).
+    """
+    length = garment.params.get("length", 0.0)
+    if length <= 0:
+        return None
+    lm = body.landmarks
+    head_v = body.vertices[region == REGIONS.index("head")]
+    torso_v = body.vertices[region == REGIONS.index("torso")]
+    eyes = [body.vertices[int(np.argmin(np.linalg.norm(body.rest - lm[f"eye.{s}"], axis=1)))] for s in "LR"]
+    eye_mid = 0.5 * (eyes[0] + eyes[1])
+    top = head_v[:, 2].max()
+    crown = head_v[head_v[:, 2] > top - 0.06]
+    cxy = crown[:, :2].mean(axis=0)
+    facing = eye_mid[:2] - cxy
+    phi0 = math.atan2(facing[1], facing[0])
+    z_top = top - 0.045  # starts under the scalp shell, so the two overlap
+    shoulder_z = 0.5 * (lm["shoulder01.L"][2] + lm["shoulder01.R"][2])
+    z_bot = float(min(shoulder_z - 0.02 - 0.3 * (length - 0.5), z_top - 0.12))
+    zs = np.linspace(z_top, z_bot, rings)
+    open_half = math.radians(70.0)
+    theta = phi0 + np.linspace(open_half, 2 * np.pi - open_half, sectors)
+    pts = np.concatenate([head_v, torso_v])
+    is_head = np.arange(len(pts)) < len(head_v)
+    rel = pts[:, :2] - cxy
+    ang = np.mod(np.arctan2(rel[:, 1], rel[:, 0]) - theta[0], 2 * np.pi)
+    sector = np.round(ang / (theta[-1] - theta[0]) * (sectors - 1)).astype(np.int64)
+    ok = (sector >= 0) & (sector < sectors)
+    rad = np.linalg.norm(rel, axis=1)
+    ring = np.round((z_top - pts[:, 2]) / (z_top - z_bot) * (rings - 1)).astype(np.int64)
+    ok &= (ring >= 0) & (ring < rings)
+    head_r = np.zeros((rings, sectors))
+    np.maximum.at(head_r, (ring[ok & is_head], sector[ok & is_head]), rad[ok & is_head])
+    head_r = np.maximum.accumulate(head_r, axis=0)  # hangs from the widest section above
+    back_r = np.zeros((rings, sectors))
+    np.maximum.at(back_r, (ring[ok & ~is_head], sector[ok & ~is_head]), rad[ok & ~is_head])
+    behind = np.abs(np.mod(theta - phi0, 2 * np.pi) - np.pi) < math.radians(35.0)
+    back_r = np.minimum(back_r, head_r.max() + 0.04)  # over the nape and upper back, not the shoulder blades
+    radius = np.where(behind[None], np.maximum(head_r, back_r), head_r)
+    for _ in range(3):
+        radius[:, 1:-1] = np.maximum(radius[:, 1:-1], 0.5 * (radius[:, :-2] + radius[:, 2:]))
+    radius = np.maximum.accumulate(radius, axis=0)
+    waves = garment.folds * np.sin(rng.integers(8, 16) * (theta - phi0) + rng.uniform(0, 2 * np.pi))
+    depth = np.linspace(0, 1, rings)[:, None]
+    tuck = np.clip(np.linspace(-1.0, 3.0, rings), 0.0, 1.0)[:, None]  # the top rings tuck under the scalp shell
+    r = radius + (garment.loose + 0.01) * tuck + waves[None] * (0.3 + depth)
+    verts = np.stack([cxy[0] + r * np.cos(theta)[None], cxy[1] + r * np.sin(theta)[None],
+                      np.broadcast_to(zs[:, None], r.shape)], axis=-1).reshape(-1, 3)
+    i, j = np.meshgrid(np.arange(rings - 1), np.arange(sectors - 1), indexing="ij")
+    a, b = i * sectors + j, i * sectors + j + 1
+    c, d = (i + 1) * sectors + j + 1, (i + 1) * sectors + j
+    faces = np.concatenate([np.stack([a, d, c], -1).reshape(-1, 3), np.stack([a, c, b], -1).reshape(-1, 3)])
+    uu = np.concatenate([np.stack([j, j, j + 1], -1).reshape(-1, 3), np.stack([j, j + 1, j + 1], -1).reshape(-1, 3)])
+    vv = np.concatenate([np.stack([i, i + 1, i + 1], -1).reshape(-1, 3), np.stack([i, i + 1, i], -1).reshape(-1, 3)])
+    uv = np.stack([uu / (sectors - 1), 1.0 - vv / (rings - 1)], axis=-1).astype(np.float32)
+    # strands: noise stretched along the hair (v), fine across it (u)
+    tr, tc = np.meshgrid(np.arange(texture_size), np.arange(2 * texture_size), indexing="ij")
+    grid = np.stack([tc * 0.6, tr * 0.04, np.zeros_like(tr, dtype=np.float64)], -1).reshape(-1, 3)
+    streak = value_noise(grid, 1.0, garment.pattern.seed) * 0.6 + 0.4 * value_noise(grid, 0.37, garment.pattern.seed)
+    base = np.asarray(garment.pattern.colors[0], dtype=np.float64)
+    albedo = np.clip(base[None] * (0.7 + 0.6 * streak[:, None]), 0, 1).reshape(texture_size, 2 * texture_size, 3)
+    return Part(
+        name=garment.name + "_long",
+        vertices=verts.astype(np.float32),
+        faces=faces.astype(np.int32),
+        uv=uv,
+        albedo=albedo.astype(np.float32),
+        skin=0.0,
+        roughness=garment.roughness,
+        specular=garment.specular,
+        subsurface=0.0,
+    )

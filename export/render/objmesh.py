@@ -35,8 +35,17 @@ def _read_image(path: Path, grey: bool) -> np.ndarray:
     return img if grey else np.ascontiguousarray(img[..., ::-1])
 
 
+def _unit_scale(height: float) -> float:
+    """Metres per file unit, guessed from the mesh's height: scans come in m, cm or mm."""
+    if height > 300.0:
+        return 0.001
+    if height > 10.0:
+        return 0.01
+    return 1.0
+
+
 def load_obj(path: str | Path, skin_path: str | Path | None = None, *, up: str = "y",
-             name: str | None = None) -> Subject:
+             name: str | None = None, scale: float | None = None) -> Subject:
     """Load a textured .obj (its .mtl's ``map_Kd`` texture, or its ``Kd`` colour) as a Subject.
 
     Args:
@@ -44,6 +53,7 @@ def load_obj(path: str | Path, skin_path: str | Path | None = None, *, up: str =
         skin_path: optional skin-label image in the mesh's UV layout (white = skin, black = not), any size.
         up: the scan's up axis, "y" (faces +z, the common OBJ habit) or "z" (already the subject frame).
         name: the Subject's name (default: the file stem).
+        scale: metres per file unit; None guesses from the height (over 10 units: cm, over 300: mm).
 
     Returns:
         Subject with one Part per material/texture ("mesh" when there is one), albedo in [0, 1] RGB,
@@ -71,9 +81,14 @@ def load_obj(path: str | Path, skin_path: str | Path | None = None, *, up: str =
         raise RelightError(f"mesh {path} has no triangles")
     skin_tex = _read_image(Path(skin_path), grey=True) if skin_path is not None else None
     axes = _AXES[up]
+    if scale is None:
+        heights = np.concatenate([np.asarray(m.vertices) @ axes.T for m in meshes])[:, 2]
+        scale = _unit_scale(float(heights.max() - heights.min()))
+    if not (np.isfinite(scale) and scale > 0):
+        raise RelightError(f"expected a positive scale in metres per unit, got {scale}")
     parts = []
     for i, mesh in enumerate(meshes):
-        verts = (np.asarray(mesh.vertices, dtype=np.float64) @ axes.T).astype(np.float32)
+        verts = (np.asarray(mesh.vertices, dtype=np.float64) @ axes.T * scale).astype(np.float32)
         faces = np.asarray(mesh.faces, dtype=np.int32)
         visual = mesh.visual
         uv_v = getattr(visual, "uv", None)

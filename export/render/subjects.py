@@ -145,7 +145,9 @@ def _body_textures(body: bodies.Body, tone: np.ndarray, outfit: list[garments.Ga
         covered_v |= garments.coverage(g, vsurf, lm)
         if g.kind == "skirt" or not cov.any():
             continue
-        albedo[cov] = garments.evaluate_pattern(g.pattern, points[cov])
+        # hair: strands along the head's vertical, fine across it
+        where = points[cov] * np.array([3.0, 3.0, 0.3]) if g.kind == "hair" else points[cov]
+        albedo[cov] = garments.evaluate_pattern(g.pattern, where)
         skin[cov] = 0.0
         rough[cov] = g.roughness
         spec[cov] = g.specular
@@ -176,7 +178,7 @@ def random_subject(seed: int, *, clothing: bool = True) -> Subject:
     phenotype = bodies.sample_phenotype(rng)
     pose = bodies.sample_pose(rng)
     tone = skin_tone(float(rng.uniform(0, 1)))
-    outfit = garments.sample_outfit(rng)
+    outfit = garments.sample_outfit(rng, feminine=phenotype["gender"])
     if not clothing:
         outfit = [g for g in outfit if g.kind == "underwear"]
     body = bodies.posed_body(phenotype, pose)
@@ -198,6 +200,10 @@ def random_subject(seed: int, *, clothing: bool = True) -> Subject:
             shell = garments.offset_shell(g, body, faces, uv, garments.coverage(g, vsurf, lm), tex)
             if shell is not None:
                 parts.append(shell)
+        if g.kind == "hair":
+            curtain = garments.hair_curtain(g, body, template.region, rng)
+            if curtain is not None:
+                parts.append(curtain)
     log.info("subject %d: %s, %s, %s", seed, pose.name, ", ".join(g.name for g in outfit),
              {k: round(v, 2) for k, v in phenotype.items()})
     return Subject(parts, f"anny_{seed:06d}")
