@@ -29,7 +29,6 @@ import io
 import logging
 import math
 import os
-import tempfile
 import time
 import warnings
 from pathlib import Path
@@ -39,6 +38,7 @@ import torch
 from torch import nn
 
 from relight_rt import RelightError
+from relight_rt._io import atomic_path
 from relight_rt.contract import KINDS, ModelConfig
 
 __all__ = [
@@ -326,23 +326,12 @@ def _with_metadata(model_bytes: bytes, meta: dict[str, str]) -> bytes:
     return model.SerializeToString()
 
 
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
 
 
 def _write_atomic(path: Path, data: bytes) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
-    try:
-        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give the file the usual permissions
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(data)
 
 
 def _fp16_path(path: Path) -> Path:

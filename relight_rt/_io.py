@@ -8,10 +8,11 @@ leaves a half-written file, and refuses to write over any path in ``protect`` (t
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 import tempfile
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
 import cv2
@@ -154,23 +155,36 @@ def _check_target(path: Path, protect: Iterable[str | os.PathLike]) -> None:
             raise RelightError(f"refusing to overwrite the input {p}; choose another output path")
 
 
-def _atomic(path: str | os.PathLike, protect: Iterable[str | os.PathLike], write: Callable[[object], None]) -> Path:
-    """Write through ``write(fileobj)`` into a temporary file beside ``path``, then rename it into place."""
+@contextlib.contextmanager
+def atomic_path(path: str | os.PathLike, protect: Iterable[str | os.PathLike] = ()) -> Iterator[Path]:
+    """A temporary path beside ``path`` (same suffix, so writers that go by it work) that replaces
+    ``path`` when the ``with`` block succeeds and is removed when it fails: readers never see a
+    half-written file. The one atomic writer of the project; everything that writes files uses it.
+
+    Raises:
+        RelightError: ``path`` is one of ``protect`` (an input), or its folder does not exist.
+    """
     path = Path(path)
     _check_target(path, protect)
     folder = path.parent if str(path.parent) else Path(".")
     if not folder.is_dir():
         raise RelightError(f"cannot write {path}: folder {folder} does not exist")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".tmp{path.suffix}", dir=folder)
+    os.close(fd)
     try:
-        with os.fdopen(fd, "wb") as f:
-            write(f)
+        yield Path(tmp)
         os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give the file the usual permissions
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
-    return path
+
+
+def _atomic(path: str | os.PathLike, protect: Iterable[str | os.PathLike], write: Callable[[object], None]) -> Path:
+    """Write through ``write(fileobj)`` into a temporary file beside ``path``, then rename it into place."""
+    with atomic_path(path, protect) as tmp, open(tmp, "wb") as f:
+        write(f)
+    return Path(path)
 
 
 def encode_image(image: np.ndarray, suffix: str, name: str = "image") -> bytes:

@@ -23,7 +23,6 @@ import json
 import logging
 import math
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -664,15 +663,11 @@ def save_light(path, light, bgr: bool = False) -> None:
     if not p.parent.is_dir():
         raise RelightError(f"{p}: folder {p.parent} does not exist")
     data = lit[:, ::-1].copy() if bgr else lit
-    fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=f".{p.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            if ext == ".npy":
-                np.save(f, data, allow_pickle=False)
-            else:
-                doc = {"sh": data.tolist(), "order": "bgr" if bgr else "rgb"}
-                f.write(json.dumps(doc, indent=1).encode("utf-8"))
-        os.replace(tmp, p)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    from ._io import atomic_path
+
+    with atomic_path(p) as tmp, open(tmp, "wb") as f:
+        if ext == ".npy":
+            np.save(f, data, allow_pickle=False)
+        else:
+            doc = {"sh": data.tolist(), "order": "bgr" if bgr else "rgb"}
+            f.write(json.dumps(doc, indent=1).encode("utf-8"))

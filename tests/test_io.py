@@ -164,3 +164,22 @@ def test_list_images_and_sibling_mask(tmp_path):
     assert [p.name for p in list_images(tmp_path)] == ["a.png", "b.jpg"]
     assert sibling_mask(tmp_path / "a.png") == tmp_path / "a_mask.png"
     assert sibling_mask(tmp_path / "b.jpg") is None
+
+
+def test_atomic_path_gives_usual_permissions_and_cleans_up(tmp_path):
+    import os
+    import stat
+
+    from relight_rt._io import atomic_path
+
+    target = tmp_path / "out.bin"
+    with atomic_path(target) as tmp:
+        assert tmp.suffix == ".bin" and tmp.parent == tmp_path
+        tmp.write_bytes(b"abc")
+    umask = os.umask(0)
+    os.umask(umask)
+    assert stat.S_IMODE(target.stat().st_mode) == 0o666 & ~umask
+    with pytest.raises(RuntimeError), atomic_path(tmp_path / "broken.bin") as tmp:
+        tmp.write_bytes(b"half")
+        raise RuntimeError("writer failed")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.bin"]
