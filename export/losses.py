@@ -125,8 +125,8 @@ class SpatialFrequencyLoss(torch.nn.Module):
         for i, sigma in enumerate(self.sigmas):
             g, g2, norm = _log_kernel_1d(sigma)
             # fold the unit-L1 scale into g'' (both rank-1 terms hold exactly one g'' factor)
-            self.register_buffer(f"g_{i}", g.float(), persistent=False)
-            self.register_buffer(f"g2_{i}", (g2 / norm).float(), persistent=False)
+            self.register_buffer(f"g_{i}", g, persistent=False)  # float64; cast per call
+            self.register_buffer(f"g2_{i}", g2 / norm, persistent=False)
 
     @staticmethod
     def _conv(x: torch.Tensor, taps: torch.Tensor, axis: int) -> torch.Tensor:
