@@ -1,0 +1,620 @@
+"""relight_rt.sh: basis, rotations, env-map projection, irradiance, light files (DESIGN.md §3)."""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+
+import cv2
+import numpy as np
+import pytest
+
+from relight_rt import RelightError, sh
+
+RNG_SEED = 1234
+
+
+def random_dirs(n, seed=RNG_SEED):
+    v = np.random.default_rng(seed).normal(size=(n, 3))
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
+def random_light(seed=RNG_SEED, batch=()):
+    return np.random.default_rng(seed).normal(size=batch + (9, 3))
+
+
+def random_rotation(seed=RNG_SEED):
+    q, r = np.linalg.qr(np.random.default_rng(seed).normal(size=(3, 3)))
+    q = q * np.sign(np.diag(r))
+    return q if np.linalg.det(q) > 0 else -q
+
+
+def band_energy(light):
+    return np.stack([(light[..., s, :] ** 2).sum(axis=-2) for s in (slice(0, 1), slice(1, 4), slice(4, 9))])
+
+
+# ----------------------------------------------------------------------------------------- basis
+
+
+# Golden values copied from ../shared/vectors/sh_golden.json ("basis", computed with pyshtools 4.14,
+# norm=4, csphase=1, converted to DESIGN.md §3 order): directions[6] and basis[6].
+GOLDEN_DIR = [-0.38323720870680267, 0.11624417424290794, -0.9163059171571484]
+GOLDEN_BASIS = [
+    0.28209479177387814,
+    0.05679719552916553,
+    -0.4477093727944916,
+    -0.18725066282880748,
+    -0.04867204149426166,
+    -0.11637304157339914,
+    0.47903235318498916,
+    0.38366206230787664,
+    0.07285006416739868,
+]
+
+
+def test_basis_inline_golden():
+    np.testing.assert_allclose(sh.basis(np.array(GOLDEN_DIR)), GOLDEN_BASIS, rtol=0, atol=1e-12)
+
+
+def test_basis_axes():
+    # DESIGN.md §3 table at the axes: Y_3 = 0.488603 x, Y_8 = 0.546274 (x² − y²), Y_6 = 0.315392 (3z² − 1).
+    y = sh.basis(np.eye(3))
+    np.testing.assert_allclose(y[0, [0, 3, 6, 8]], [0.282095, 0.488603, -0.315392, 0.546274], atol=1e-6)
+    np.testing.assert_allclose(y[1, [1, 6, 8]], [0.488603, -0.315392, -0.546274], atol=1e-6)
+    np.testing.assert_allclose(y[2, [2, 6]], [0.488603, 0.630783], atol=1e-6)
+
+
+def test_basis_golden_file(shared_dir):
+    golden = json.loads((shared_dir / "vectors" / "sh_golden.json").read_text())
+    dirs = np.array(golden["directions"])
+    np.testing.assert_allclose(sh.basis(dirs), np.array(golden["basis"]), rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("shape", [(3,), (5, 3), (2, 4, 3), (0, 3)])
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_basis_shapes_and_dtype(shape, dtype):
+    dirs = random_dirs(max(1, int(np.prod(shape[:-1])))).astype(dtype)[: int(np.prod(shape[:-1]))].reshape(shape)
+    out = sh.basis(dirs)
+    assert out.shape == shape[:-1] + (9,)
+    assert out.dtype == dtype
+    if out.size:
+        np.testing.assert_allclose(out.reshape(-1, 9), sh.basis(dirs.reshape(-1, 3).astype(np.float64)), atol=1e-6)
+
+
+def test_basis_orthonormal_by_quadrature():
+    h = 128
+    y = sh.basis(sh.directions_envmap(h)).reshape(-1, 9)
+    w = sh.solid_angles_envmap(h).reshape(-1)
+    gram = (y * w[:, None]).T @ y
+    np.testing.assert_allclose(gram, np.eye(9), atol=2e-4)
+
+
+@pytest.mark.parametrize("bad", [np.zeros((4, 2)), np.zeros(4), np.array(["a", "b", "c"]), np.float64(1.0)])
+def test_basis_rejects_bad_dirs(bad):
+    with pytest.raises(RelightError, match=r"dirs: expected \(\.\.\., 3\)"):
+        sh.basis(bad)
+
+
+def test_cosine_lobe_matches_quadrature():
+    """Unoccluded transport ∫ max(0, n·ω) Y_k(ω) dω equals A_l Y_k(n)."""
+    a = sh.cosine_lobe()
+    np.testing.assert_allclose(a, [math.pi] + [2 * math.pi / 3] * 3 + [math.pi / 4] * 5, rtol=0, atol=0)
+    h = 256
+    dirs = sh.directions_envmap(h).reshape(-1, 3)
+    w = sh.solid_angles_envmap(h).reshape(-1)
+    y = sh.basis(dirs)
+    for n in random_dirs(3):
+        transport = (np.maximum(0, dirs @ n) * w) @ y
+        np.testing.assert_allclose(transport, a * sh.basis(n), atol=2e-4)
+
+
+# ----------------------------------------------------------------------------------------- lights / shading
+
+
+def test_check_light_returns_float64_copy():
+    light = random_light().astype(np.float32)
+    out = sh.check_light(light)
+    assert out.dtype == np.float64 and out.shape == (9, 3)
+    out[0, 0] = 99
+    assert light[0, 0] != 99
+
+
+@pytest.mark.parametrize(
+    ("bad", "match"),
+    [
+        (np.zeros((9, 4)), r"shape \(9, 3\)"),
+        (np.zeros(27), r"shape \(9, 3\)"),
+        (np.zeros((2, 9, 3)), r"shape \(9, 3\)"),
+        (np.full((9, 3), np.nan), "NaN or Inf"),
+        (np.full((9, 3), np.inf), "NaN or Inf"),
+        (np.full((9, 3), "x"), "numeric|unreadable"),
+        ([[1, 2], [3]], "unreadable|shape"),
+    ],
+)
+def test_check_light_rejects(bad, match):
+    with pytest.raises(RelightError, match=match):
+        sh.check_light(bad, name="my_light")
+
+
+def test_check_light_names_input():
+    with pytest.raises(RelightError, match="^new_light:"):
+        sh.check_light(np.zeros(3), name="new_light")
+
+
+@pytest.mark.parametrize("shape", [(9,), (4, 9), (3, 5, 9)])
+def test_shading_matches_definition(shape):
+    rng = np.random.default_rng(0)
+    transport = rng.normal(size=shape).astype(np.float32)
+    light = rng.normal(size=(9, 3))
+    before = transport.copy()
+    out = sh.shading(transport, light)
+    assert out.dtype == np.float32 and out.shape == shape[:-1] + (3,)
+    np.testing.assert_allclose(out, np.maximum(0, transport.astype(np.float64) @ light), rtol=1e-5, atol=1e-5)
+    assert (out >= 0).all()
+    np.testing.assert_array_equal(transport, before)
+
+
+def test_shading_non_contiguous_and_float64_transport():
+    transport = np.random.default_rng(1).normal(size=(6, 8, 9))[:, ::2]
+    light = random_light()
+    np.testing.assert_allclose(sh.shading(transport, light), np.maximum(0, transport @ light), rtol=1e-5, atol=1e-5)
+
+
+def test_shading_of_unoccluded_sphere_is_irradiance():
+    n = random_dirs(20)
+    light = random_light()
+    transport = sh.cosine_lobe() * sh.basis(n)
+    np.testing.assert_allclose(sh.shading(transport, light), np.maximum(0, sh.irradiance(light, n)), atol=1e-5)
+
+
+def test_shading_rejects_bad_input():
+    with pytest.raises(RelightError, match=r"transport: expected \(\.\.\., 9\)"):
+        sh.shading(np.zeros((4, 4, 8), np.float32), random_light())
+    with pytest.raises(RelightError, match="light"):
+        sh.shading(np.zeros((4, 4, 9), np.float32), np.zeros((3, 9)))
+
+
+# ----------------------------------------------------------------------------------------- rotation
+
+
+def test_rotate_z_inline_golden():
+    # ../shared/vectors/sh_golden.json rotations[0] (pyshtools SHRotateRealCoef, converted to §3), column 0.
+    light = np.zeros((9, 3))
+    light[:, 0] = [-0.5190133298294971, 0.8767181724687065, -0.8258165208830098, 0.7197279364283922,
+                   2.5594577984058473, 0.8271065315552476, -0.4426921491035081, 0.2838299564910305,
+                   -0.9854038336302882]  # fmt: skip
+    expected = [-0.5190133298294971, 0.8236181965493566, -0.8258165208830097, -0.7799334091607598,
+                -2.723848789929132, 0.38493725514424315, -0.442692149103508, -0.7851674778956831,
+                0.3201448215345313]  # fmt: skip
+    np.testing.assert_allclose(sh.rotate_z(light, 1.4455383750553397)[:, 0], expected, atol=1e-12)
+
+
+def test_rotate_golden_file(shared_dir):
+    golden = json.loads((shared_dir / "vectors" / "sh_golden.json").read_text())
+    assert len(golden["rotations"]) == 6
+    for case in golden["rotations"]:
+        light, angle, expected = np.array(case["light"]), case["angle"], np.array(case["rotate_z"])
+        np.testing.assert_allclose(sh.rotate_z(light, angle), expected, atol=1e-12)
+        np.testing.assert_allclose(sh.rotate(light, sh.rotation_matrix(yaw=angle)), expected, atol=1e-12)
+        # The reference's sh_rotate(light, a) is rotate_z(light, -a): undoing our rotation restores it.
+        np.testing.assert_allclose(sh.rotate_z(expected, -angle), light, atol=1e-12)
+
+
+def test_rotate_z_carries_x_toward_y():
+    light = sh.basis(np.array([1.0, 0.0, 0.0]))[:, None] * np.ones(3)
+    np.testing.assert_allclose(sh.rotate_z(light, math.pi / 2)[:, 0], sh.basis(np.array([0.0, 1.0, 0.0])), atol=1e-12)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_rotate_moves_a_delta_light_with_r(seed):
+    r = random_rotation(seed)
+    d = random_dirs(5, seed)
+    lights = sh.basis(d)[..., None] * np.array([1.0, 0.5, 2.0])  # (5, 9, 3) point lights
+    np.testing.assert_allclose(sh.rotate(lights, r), sh.basis(d @ r.T)[..., None] * [1.0, 0.5, 2.0], atol=1e-12)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_rotate_preserves_band_energy(seed):
+    light = random_light(seed)
+    out = sh.rotate(light, random_rotation(seed + 10))
+    np.testing.assert_allclose(band_energy(out), band_energy(light), rtol=1e-12)
+
+
+def test_rotation_by_two_pi_is_identity():
+    light = random_light()
+    np.testing.assert_allclose(sh.rotate_z(light, 2 * math.pi), light, atol=1e-12)
+    for kw in ({"yaw": 2 * math.pi}, {"pitch": 2 * math.pi}, {"roll": 360.0, "degrees": True}):
+        np.testing.assert_allclose(sh.rotate(light, sh.rotation_matrix(**kw)), light, atol=1e-12)
+
+
+@pytest.mark.parametrize("angle", [-2.0, 0.0, 0.3, math.pi, 5.0])
+def test_rotate_z_equals_rotate_of_rz(angle):
+    light = random_light()
+    c, s = math.cos(angle), math.sin(angle)
+    rz = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
+    np.testing.assert_allclose(sh.rotate_z(light, angle), sh.rotate(light, rz), atol=1e-12)
+
+
+def test_rotate_composition():
+    light = random_light()
+    r1, r2 = random_rotation(1), random_rotation(2)
+    np.testing.assert_allclose(sh.rotate(sh.rotate(light, r1), r2), sh.rotate(light, r2 @ r1), atol=1e-12)
+    np.testing.assert_allclose(sh.rotate(sh.rotate(light, r1), r1.T), light, atol=1e-12)
+
+
+def test_rotate_batches_and_does_not_modify_input():
+    lights = random_light(batch=(4,))
+    before = lights.copy()
+    rots = np.stack([random_rotation(s) for s in range(4)])
+    out = sh.rotate(lights, rots)
+    assert out.shape == (4, 9, 3)
+    for i in range(4):
+        np.testing.assert_allclose(out[i], sh.rotate(lights[i], rots[i]), atol=1e-12)
+    np.testing.assert_array_equal(lights, before)
+    angles = np.array([0.1, 0.2, 0.3])
+    assert sh.rotate_z(lights[0], angles).shape == (3, 9, 3)
+    np.testing.assert_allclose(sh.rotate_z(lights[0], angles)[2], sh.rotate_z(lights[0], 0.3), atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("bad", "match"),
+    [
+        (np.diag([1.0, 1.0, -1.0]), "reflection"),
+        (2 * np.eye(3), "not orthonormal"),
+        (np.eye(3) + 0.01, "not orthonormal"),
+        (np.eye(4), r"\(3, 3\)"),
+        (np.full((3, 3), np.nan), "NaN"),
+    ],
+)
+def test_rotate_rejects_non_rotations(bad, match):
+    with pytest.raises(RelightError, match=match):
+        sh.rotate(random_light(), bad)
+
+
+def test_rotate_z_rejects_bad_input():
+    with pytest.raises(RelightError, match="angle"):
+        sh.rotate_z(random_light(), float("nan"))
+    with pytest.raises(RelightError, match="light"):
+        sh.rotate_z(np.zeros((9, 2)), 0.1)
+    with pytest.raises(RelightError, match="broadcast"):
+        sh.rotate_z(np.zeros((4, 9, 3)), np.zeros(3))
+
+
+def test_rotation_matrix_axes_and_order():
+    q = math.pi / 2
+    np.testing.assert_allclose(sh.rotation_matrix(yaw=q) @ [1, 0, 0], [0, 1, 0], atol=1e-15)  # +x → +y
+    np.testing.assert_allclose(sh.rotation_matrix(pitch=q) @ [0, 0, 1], [1, 0, 0], atol=1e-15)  # +z → +x
+    np.testing.assert_allclose(sh.rotation_matrix(roll=q) @ [0, 1, 0], [0, 0, 1], atol=1e-15)  # +y → +z
+    yaw, pitch, roll = 0.4, -0.7, 1.9
+    expected = sh.rotation_matrix(yaw=yaw) @ sh.rotation_matrix(pitch=pitch) @ sh.rotation_matrix(roll=roll)
+    np.testing.assert_allclose(sh.rotation_matrix(yaw, pitch, roll), expected, atol=1e-15)
+    np.testing.assert_allclose(
+        sh.rotation_matrix(30, 45, -60, degrees=True), sh.rotation_matrix(*np.deg2rad([30, 45, -60])), atol=1e-15
+    )
+    r = sh.rotation_matrix(yaw, pitch, roll)
+    np.testing.assert_allclose(r @ r.T, np.eye(3), atol=1e-14)
+    assert np.linalg.det(r) == pytest.approx(1.0)
+    assert sh.rotation_matrix(yaw=np.zeros(5)).shape == (5, 3, 3)
+    with pytest.raises(RelightError, match="finite"):
+        sh.rotation_matrix(yaw=float("inf"))
+
+
+# ----------------------------------------------------------------------------------------- env maps
+
+
+def test_envmap_layout():
+    h = 8
+    d = sh.directions_envmap(h)
+    assert d.shape == (h, 2 * h, 3)
+    np.testing.assert_allclose(np.linalg.norm(d, axis=-1), 1, atol=1e-12)
+    assert (d[0, :, 2] > 0.9).all() and (d[-1, :, 2] < -0.9).all()  # top row = sky
+    # Pixel (H/2, W/2) sits just past the centre: straight ahead of the camera, behind the subject (−x).
+    assert d[h // 2, h, 0] < -0.95
+    assert d[h // 2, h // 2, 1] < -0.95  # the quarter left of centre lies to the image's left (−y)
+    assert d[h // 2, 0, 0] > 0.95 and d[h // 2, -1, 0] > 0.95  # the edges are behind the camera (+x)
+    w = sh.solid_angles_envmap(h)
+    assert w.shape == (h, 2 * h)
+    assert w.sum() == pytest.approx(4 * math.pi, rel=1e-2)
+
+
+def test_project_constant_map_gives_only_dc():
+    value = np.array([0.5, 1.0, 2.0])
+    env = np.broadcast_to(value, (64, 128, 3)).astype(np.float32)
+    light = sh.project_envmap(env)
+    # ∫ c · Y_0 dω = c · 4π / (2√π) = c · √(4π); the midpoint rule in θ errs by ≈ (π/H)²/24 = 1e-4.
+    np.testing.assert_allclose(light[0], value * math.sqrt(4 * math.pi), rtol=2e-4)
+    np.testing.assert_allclose(light[[2, 6]], 0, atol=2e-3)  # even in θ about the equator: midpoint error only
+    np.testing.assert_allclose(light[[1, 3, 4, 5, 7, 8]], 0, atol=1e-6)  # odd in φ: cancel exactly
+
+
+def test_project_single_pixel_is_basis_times_power():
+    h = 32
+    i, j = 9, 41
+    power = np.array([1.0, 2.0, 3.0])
+    env = np.zeros((h, 2 * h, 3))
+    env[i, j] = power / sh.solid_angles_envmap(h)[i, j]
+    direction = sh.directions_envmap(h)[i, j]
+    np.testing.assert_allclose(sh.project_envmap(env), sh.basis(direction)[:, None] * power, atol=1e-12)
+
+
+def test_project_small_bright_spot_matches_basis():
+    h = 256
+    dirs = sh.directions_envmap(h)
+    target = np.array([0.3, -0.8, 0.5]) / np.linalg.norm([0.3, -0.8, 0.5])
+    spot = (dirs @ target) > math.cos(math.radians(2.0))
+    env = np.zeros((h, 2 * h, 3), np.float32)
+    env[spot] = [10.0, 5.0, 1.0]
+    power = (sh.solid_angles_envmap(h) * spot).sum() * np.array([10.0, 5.0, 1.0])
+    np.testing.assert_allclose(sh.project_envmap(env), sh.basis(target)[:, None] * power, atol=2e-3 * power.max())
+
+
+def test_envmap_round_trip():
+    light = random_light()
+    env = sh.envmap_from_light(light, 64)
+    assert env.shape == (64, 128, 3) and env.dtype == np.float32
+    np.testing.assert_allclose(sh.project_envmap(env.astype(np.float64)), light, atol=2e-3)
+    np.testing.assert_allclose(env, sh.basis(sh.directions_envmap(64)) @ light, atol=1e-5)
+
+
+def brute_force_irradiance(env, normals):
+    h = env.shape[0]
+    dirs = sh.directions_envmap(h).reshape(-1, 3)
+    radiance = env.reshape(-1, 3) * sh.solid_angles_envmap(h).reshape(-1, 1)
+    return np.maximum(0, normals @ dirs.T) @ radiance
+
+
+def test_irradiance_matches_brute_force_within_degree2_bound():
+    """The degree-2 irradiance of a projected map vs ∫ L(ω) max(0, n·ω) dω over the same pixels.
+
+    By the addition theorem the difference is ∫ L(ω) (max(0, t) − K₂(t)) dω with t = n·ω and K₂ the
+    degree-2 truncation of the clamped cosine, K₂(t) = 1/4 + t/2 + 5(3t² − 1)/32. On [−1, 1]
+    |max(0, t) − K₂(t)| ≤ 3/32 (at t = 0), so for a non-negative map |error| ≤ (3/32) ∫ L dω.
+    Smooth maps do much better; we check both the bound on a spiky map and 3% on a smooth one.
+    """
+    h = 48
+    dirs = sh.directions_envmap(h)
+    rng = np.random.default_rng(5)
+    normals = random_dirs(40, seed=6)
+    spiky = np.zeros((h, 2 * h, 3))
+    for d in random_dirs(4, seed=7):
+        spiky += ((dirs @ d) > 0.97)[..., None] * rng.uniform(1, 5, size=3)
+    power = (spiky * sh.solid_angles_envmap(h)[..., None]).sum(axis=(0, 1))
+    err = sh.irradiance(sh.project_envmap(spiky), normals) - brute_force_irradiance(spiky, normals)
+    assert (np.abs(err) <= 3 / 32 * power + 1e-9).all()
+    assert np.abs(err).max() > 0.01 * power.max()  # the bound is not vacuous here: truncation shows
+
+    smooth = 1.0 + 0.5 * dirs[..., 2:3] * np.array([1.0, 0.5, 0.2]) + 0.3 * dirs[..., 0:1] ** 2
+    exact = brute_force_irradiance(smooth, normals)
+    approx = sh.irradiance(sh.project_envmap(smooth), normals)
+    np.testing.assert_allclose(approx, exact, rtol=0.03)
+
+
+def test_project_envmap_is_fast():
+    env = np.random.default_rng(0).random((1024, 2048, 3), dtype=np.float32)
+    sh.project_envmap(env)  # warm the per-size factor cache
+    start = time.perf_counter()
+    light = sh.project_envmap(env)
+    elapsed = time.perf_counter() - start
+    assert light.shape == (9, 3)
+    assert elapsed < 1.0, f"projecting 1024×2048 took {elapsed:.3f} s"
+
+
+@pytest.mark.parametrize(
+    ("bad", "match"),
+    [
+        (np.zeros((8, 8, 3), np.float32), r"\(H, 2H, 3\)"),
+        (np.zeros((8, 16), np.float32), r"\(H, 2H, 3\)"),
+        (np.zeros((8, 16, 4), np.float32), r"\(H, 2H, 3\)"),
+        (np.zeros((8, 16, 3), np.uint8), "float linear RGB"),
+    ],
+)
+def test_project_envmap_rejects_bad_maps(bad, match):
+    with pytest.raises(RelightError, match=match):
+        sh.project_envmap(bad)
+
+
+def test_project_envmap_rejects_nan():
+    env = np.ones((8, 16, 3), np.float32)
+    env[3, 4, 1] = np.nan
+    with pytest.raises(RelightError, match="NaN or Inf"):
+        sh.project_envmap(env)
+
+
+def test_envmap_height_checked():
+    for fn in (sh.directions_envmap, sh.solid_angles_envmap):
+        with pytest.raises(RelightError, match="height"):
+            fn(0)
+    with pytest.raises(RelightError, match="height"):
+        sh.envmap_from_light(random_light(), 2.5)
+
+
+def test_load_envmap_hdr_is_rgb(tmp_path):
+    bgr = np.zeros((8, 16, 3), np.float32)
+    bgr[..., 2] = 4.0  # red, in OpenCV's B, G, R order
+    bgr[..., 0] = 0.25
+    path = tmp_path / "red.hdr"
+    assert cv2.imwrite(str(path), bgr)
+    env = sh.load_envmap(path)
+    assert env.shape == (8, 16, 3) and env.dtype == np.float32
+    np.testing.assert_allclose(env[0, 0], [4.0, 0.0, 0.25], rtol=0.02)  # RGBE keeps ~1% precision
+
+
+def test_load_envmap_png_is_linearised(tmp_path):
+    path = tmp_path / "grey.png"
+    assert cv2.imwrite(str(path), np.full((4, 8, 3), 128, np.uint8))
+    env = sh.load_envmap(path)
+    np.testing.assert_allclose(env, ((128 / 255 + 0.055) / 1.055) ** 2.4, rtol=1e-5)
+
+
+def test_load_envmap_grey_and_rgba(tmp_path):
+    grey = tmp_path / "grey.png"
+    assert cv2.imwrite(str(grey), np.full((4, 8), 255, np.uint8))
+    np.testing.assert_allclose(sh.load_envmap(grey), 1.0)
+    rgba = tmp_path / "rgba.png"
+    bgra = np.zeros((4, 8, 4), np.uint8)
+    bgra[..., 0] = 255  # blue
+    bgra[..., 3] = 10  # alpha is ignored
+    assert cv2.imwrite(str(rgba), bgra)
+    np.testing.assert_allclose(sh.load_envmap(rgba)[0, 0], [0.0, 0.0, 1.0])
+
+
+def test_load_envmap_wrong_aspect(tmp_path):
+    path = tmp_path / "square.hdr"
+    assert cv2.imwrite(str(path), np.ones((8, 8, 3), np.float32))
+    with pytest.raises(RelightError, match=r"width = 2 × height, got 8×8"):
+        sh.load_envmap(path)
+
+
+def test_load_envmap_bad_files(tmp_path, monkeypatch):
+    with pytest.raises(RelightError, match="not found"):
+        sh.load_envmap(tmp_path / "missing.hdr")
+    with pytest.raises(RelightError, match="unsupported"):
+        sh.load_envmap(tmp_path / "map.bmp")
+    corrupt = tmp_path / "corrupt.hdr"
+    corrupt.write_bytes(b"not an image")
+    with pytest.raises(RelightError, match="cannot decode"):
+        sh.load_envmap(corrupt)
+    exr = tmp_path / "map.exr"
+    exr.write_bytes(b"not an exr")
+    monkeypatch.delenv("OPENCV_IO_ENABLE_OPENEXR", raising=False)
+    with pytest.raises(RelightError, match="OPENCV_IO_ENABLE_OPENEXR=1"):
+        sh.load_envmap(exr)
+
+
+# ----------------------------------------------------------------------------------------- irradiance / preview
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_irradiance_shapes(dtype):
+    n = random_dirs(12).reshape(3, 4, 3).astype(dtype)
+    e = sh.irradiance(random_light(), n)
+    assert e.shape == (3, 4, 3) and e.dtype == dtype
+
+
+def test_irradiance_of_constant_radiance_is_pi_times_it():
+    light = sh.project_envmap(np.full((32, 64, 3), 0.5))
+    np.testing.assert_allclose(sh.irradiance(light, random_dirs(10)), 0.5 * math.pi, rtol=1e-3)
+
+
+def test_render_sphere_orientation():
+    size = 32
+    # A point light from the image's right (+y) and one from above (+z).
+    right = sh.basis(np.array([0.0, 1.0, 0.0]))[:, None] * np.ones(3)
+    top = sh.basis(np.array([0.0, 0.0, 1.0]))[:, None] * np.ones(3)
+    img, mask = sh.render_sphere(right, size, return_mask=True)
+    assert img.shape == (size, size, 3) and img.dtype == np.float32 and mask.shape == (size, size)
+    assert (img[~mask] == 0).all() and (img >= 0).all()
+    mid = size // 2
+    assert img[mid, size - 4, 0] > img[mid, 3, 0]  # column → +y
+    img = sh.render_sphere(top, size)
+    assert img[3, mid, 0] > img[size - 4, mid, 0]  # row → −z
+    assert mask.sum() == pytest.approx(math.pi * size**2 / 4, rel=0.05)
+    # The centre pixel looks along +x: its value is the irradiance at n = +x.
+    light = random_light()
+    centre = sh.render_sphere(light, 33)[16, 16]
+    np.testing.assert_allclose(centre, np.maximum(0, sh.irradiance(light, np.array([1.0, 0.0, 0.0]))), rtol=1e-5)
+
+
+@pytest.mark.parametrize("size", [0, -3, 2.5, True])
+def test_render_sphere_rejects_bad_size(size):
+    with pytest.raises(RelightError, match="size"):
+        sh.render_sphere(random_light(), size)
+
+
+# ----------------------------------------------------------------------------------------- light files
+
+
+@pytest.mark.parametrize("ext", [".npy", ".json"])
+@pytest.mark.parametrize("bgr", [False, True])
+def test_save_load_round_trip(tmp_path, ext, bgr):
+    light = random_light()
+    path = tmp_path / f"light{ext}"
+    sh.save_light(path, light, bgr=bgr)
+    np.testing.assert_array_equal(sh.load_light(path, bgr=bgr), light)
+    assert [p.name for p in tmp_path.iterdir()] == [path.name]  # no temporary file left behind
+    stored = np.load(path) if ext == ".npy" else np.array(json.loads(path.read_text())["sh"])
+    np.testing.assert_array_equal(stored, light[:, ::-1] if bgr else light)
+
+
+def test_load_light_bgr_swaps_columns(tmp_path):
+    light = random_light()
+    path = tmp_path / "l.npy"
+    np.save(path, light)
+    np.testing.assert_array_equal(sh.load_light(path, bgr=True), light[:, ::-1])
+    np.testing.assert_array_equal(sh.load_light(path), light)
+
+
+def test_load_light_json_order(tmp_path):
+    light = random_light()
+    path = tmp_path / "l.json"
+    path.write_text(json.dumps({"sh": light[:, ::-1].tolist(), "order": "bgr"}))
+    np.testing.assert_allclose(sh.load_light(path), light)
+    path.write_text(json.dumps({"sh": light.tolist()}))
+    np.testing.assert_allclose(sh.load_light(path), light)  # "order" defaults to rgb
+    path.write_text(json.dumps({"sh": light.tolist(), "order": "rgb"}))
+    with pytest.raises(RelightError, match="bgr=True but"):
+        sh.load_light(path, bgr=True)
+
+
+def test_load_light_layouts(tmp_path):
+    light = random_light()
+    flat = tmp_path / "flat.npy"
+    np.save(flat, light.reshape(27))  # index 3k + c
+    transposed = tmp_path / "t.npy"
+    np.save(transposed, light.T)
+    np.testing.assert_array_equal(sh.load_light(flat, layout="27-kc"), light)
+    np.testing.assert_array_equal(sh.load_light(transposed, layout="3x9"), light)
+    for path in (flat, transposed):
+        with pytest.raises(RelightError, match="say how to read it"):
+            sh.load_light(path)
+    with pytest.raises(RelightError, match="expects shape"):
+        sh.load_light(flat, layout="3x9")
+    with pytest.raises(RelightError, match="layout"):
+        sh.load_light(flat, layout="27-ck")
+
+
+def test_load_light_bad_files(tmp_path):
+    with pytest.raises(RelightError, match="missing.npy: light file not found"):
+        sh.load_light(tmp_path / "missing.npy")
+    with pytest.raises(RelightError, match="unsupported"):
+        sh.load_light(tmp_path / "light.txt")
+    cases = {
+        "shape.npy": lambda p: np.save(p, np.zeros((9, 4))),
+        "nan.npy": lambda p: np.save(p, np.full((9, 3), np.nan)),
+        "corrupt.npy": lambda p: p.write_bytes(b"garbage"),
+        "pickle.npy": lambda p: np.save(p, np.array([{"a": 1}], dtype=object), allow_pickle=True),
+        "text.npy": lambda p: np.save(p, np.full((9, 3), "a")),
+        "corrupt.json": lambda p: p.write_text("{not json"),
+        "list.json": lambda p: p.write_text("[1, 2, 3]"),
+        "ragged.json": lambda p: p.write_text(json.dumps({"sh": [[1, 2, 3], [1]]})),
+        "order.json": lambda p: p.write_text(json.dumps({"sh": np.zeros((9, 3)).tolist(), "order": "xyz"})),
+        "inf.json": lambda p: p.write_text(json.dumps({"sh": [[1e999, 0, 0]] * 9})),
+    }
+    for name, write in cases.items():
+        path = tmp_path / name
+        write(path)
+        with pytest.raises(RelightError, match=name.replace(".", r"\.")):
+            sh.load_light(path)
+
+
+def test_save_light_rejects_bad_input(tmp_path):
+    with pytest.raises(RelightError, match="NaN"):
+        sh.save_light(tmp_path / "l.npy", np.full((9, 3), np.nan))
+    with pytest.raises(RelightError, match="unsupported"):
+        sh.save_light(tmp_path / "l.txt", random_light())
+    with pytest.raises(RelightError, match="does not exist"):
+        sh.save_light(tmp_path / "nope" / "l.npy", random_light())
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_reference_lights_load_bgr(reference_dir):
+    files = sorted((reference_dir / "lights").glob("*.npy"))
+    assert len(files) == 10
+    for path in files:
+        raw = np.load(path, allow_pickle=False)
+        light = sh.load_light(path, bgr=True)
+        np.testing.assert_array_equal(light, raw[:, ::-1])
+        # Scale of the reference's lights (measured): DC 0.2-1.5 per channel, sphere peak 0.9-2.5.
+        assert 0.4 <= light[0].max() <= 1.5
+        assert 0.5 <= sh.render_sphere(light, 32).max() <= 3.0
