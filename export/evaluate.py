@@ -25,13 +25,14 @@ from __future__ import annotations
 
 import json
 import logging
-import math
 from pathlib import Path
 
 import numpy as np
 import torch
 
 from relight_rt import RelightError
+from relight_rt.sh import basis as sh_basis
+from relight_rt.sh import cosine_lobe
 
 from .metrics_img import masked_rmse, masked_ssim
 from .torch_data import PhotoDataset, Stage1Dataset, decompose, render_diffuse, subject_of
@@ -39,11 +40,8 @@ from .training import collate, pick_device, write_json
 
 log = logging.getLogger(__name__)
 
-_COSINE_LOBE = np.array([math.pi] + [2 * math.pi / 3] * 3 + [math.pi / 4] * 5)
-# Y_k(+x) for the DESIGN.md §3 basis: Y0 = 1/(2√π), Y3 = √(3/(4π)) x, Y6 = √5/(4√π)(3z² − 1), Y8 = √15/(4√π)(x² − y²)
-_Y_PLUS_X = np.array([1 / (2 * math.sqrt(math.pi)), 0, 0, math.sqrt(3 / (4 * math.pi)), 0, 0,
-                      -math.sqrt(5 / math.pi) / 4, 0, math.sqrt(15 / math.pi) / 4])
-FRONT_TRANSPORT = (_COSINE_LOBE * _Y_PLUS_X).astype(np.float32)  # (9,)
+# unoccluded transport of a camera-facing normal n = +x: A_l · Y_k(+x), (9,)
+FRONT_TRANSPORT = (cosine_lobe() * sh_basis(np.array([1.0, 0.0, 0.0]))).astype(np.float32)
 
 
 def add_arguments(parser) -> None:

@@ -9,7 +9,7 @@ import pytest
 
 torch = pytest.importorskip("torch")
 
-from _train_fixtures import make_lights, make_photos, make_samples, sh_basis  # noqa: E402
+from _train_fixtures import make_lights, make_photos, make_samples  # noqa: E402
 
 from export.metrics_img import mask_bbox, masked_rmse, masked_ssim, ssim  # noqa: E402
 from relight_rt import RelightError  # noqa: E402
@@ -60,8 +60,10 @@ def test_metrics_refuse_bad_input():
 def test_front_transport_is_the_cosine_lobe_of_a_camera_facing_normal():
     from export.evaluate import FRONT_TRANSPORT
 
-    lobe = np.array([np.pi] + [2 * np.pi / 3] * 3 + [np.pi / 4] * 5)
-    np.testing.assert_allclose(FRONT_TRANSPORT, lobe * sh_basis(np.array([1.0, 0.0, 0.0])), rtol=1e-6)
+    # DESIGN.md §3 table at (x, y, z) = (1, 0, 0), times A_l = π, 2π/3, π/4
+    expected = [np.pi * 0.282095, 0, 0, 2 * np.pi / 3 * 0.488603, 0, 0, np.pi / 4 * -0.315392, 0,
+                np.pi / 4 * 0.546274]
+    np.testing.assert_allclose(FRONT_TRANSPORT, expected, rtol=2e-6, atol=1e-12)
 
 
 @pytest.fixture(scope="module")
