@@ -19,14 +19,17 @@ Stage-2 photo ``SUBJECT__L{j}`` in a folder (the same SUBJECT under several ligh
 
 from __future__ import annotations
 
+import io
 import os
 import tempfile
+import zipfile
 from pathlib import Path
 
 import cv2
 import numpy as np
 
 from relight_rt._errors import RelightError
+from relight_rt.sh import load_light
 
 _SAMPLE_SUFFIXES = ("_tex.png", "_mask.png", "_parsing.png", "_transport.npz")
 _PHOTO_SUFFIXES = ("_photo.png", "_diffuse.png", "_mask.png", "_light.npy")
@@ -37,7 +40,7 @@ _PHOTO_SUFFIXES = ("_photo.png", "_diffuse.png", "_mask.png", "_light.npy")
 # ----------------------------------------------------------------------------------------------
 
 
-def _atomic_write(path: Path, write) -> None:
+def atomic_write(path: Path, write) -> None:
     """Call ``write(tmp_path)`` on a temporary file beside ``path``, then rename it into place."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -57,7 +60,7 @@ def _write_png(path: Path, image: np.ndarray) -> None:
         if not cv2.imwrite(tmp, image):
             raise RelightError(f"could not write image {path}")
 
-    _atomic_write(path, write)
+    atomic_write(path, write)
 
 
 def _write_npy(path: Path, array: np.ndarray) -> None:
@@ -65,15 +68,22 @@ def _write_npy(path: Path, array: np.ndarray) -> None:
         with open(tmp, "wb") as f:
             np.save(f, array, allow_pickle=False)
 
-    _atomic_write(path, write)
+    atomic_write(path, write)
 
 
 def _write_npz(path: Path, **arrays: np.ndarray) -> None:
-    def write(tmp: str) -> None:
-        with open(tmp, "wb") as f:
-            np.savez_compressed(f, **arrays)
+    """Like ``np.savez_compressed`` but byte-for-byte reproducible (fixed member timestamps)."""
 
-    _atomic_write(path, write)
+    def write(tmp: str) -> None:
+        with zipfile.ZipFile(tmp, "w", compression=zipfile.ZIP_DEFLATED) as zf:
+            for key, value in arrays.items():
+                buf = io.BytesIO()
+                np.save(buf, np.ascontiguousarray(value), allow_pickle=False)
+                info = zipfile.ZipInfo(f"{key}.npy", date_time=(1980, 1, 1, 0, 0, 0))
+                info.compress_type = zipfile.ZIP_DEFLATED
+                zf.writestr(info, buf.getvalue())
+
+    atomic_write(path, write)
 
 
 def _to_uint8(x: np.ndarray) -> np.ndarray:
@@ -138,13 +148,7 @@ def _read_png(path: Path, color: bool) -> np.ndarray:
 
 
 def _read_light_bgr(path: Path) -> np.ndarray:
-    if not path.is_file():
-        raise RelightError(f"missing light file {path}")
-    try:
-        arr = np.load(path, allow_pickle=False)
-    except (ValueError, OSError) as exc:
-        raise RelightError(f"could not read light file {path}: {exc}") from None
-    return _check_light(arr, str(path))[:, ::-1].copy()
+    return load_light(path, bgr=True).astype(np.float32)
 
 
 def _names(root: Path, suffixes: tuple[str, ...]) -> list[str]:
