@@ -9,8 +9,11 @@ Everything lands in ``--out`` (default ``models/quickstart``)::
     relit.png  relit_side_by_side.png          a rendered subject relit under a preset light
 
 Data: ``--data-source render`` runs the renderer (``python -m export lights``, ``render`` and
-``render-photos``; needs the ``render`` extra: anny, trimesh, embreex); ``toy`` writes sphere
-samples (:mod:`export.toy_data`, no extra needed); ``auto`` (default) renders when the renderer is
+``render-photos``; needs the ``render`` extra: trimesh, embreex, and anny for people): stage-1
+samples of ``--samples`` subjects, and photos of ``--photo-subjects`` other subjects under
+``--photo-lights`` environment maps each. ``--subject auto`` renders anny people when anny and the
+body code import, else the renderer's sphere figures. ``toy`` writes sphere samples
+(:mod:`export.toy_data`, no extra needed); ``auto`` (default) renders when the renderer is
 importable and falls back to toy data with a warning otherwise.
 
 Budgets (defaults sized for ≤ 20 minutes on a 2-core CPU): ``--stage1-minutes`` and
@@ -41,10 +44,14 @@ def add_arguments(parser) -> None:
     parser.add_argument("--out", default="models/quickstart", help="output folder (default %(default)s)")
     parser.add_argument("--data-source", choices=("auto", "render", "toy"), default="auto",
                         help="renderer or toy spheres (default %(default)s)")
+    parser.add_argument("--subject", choices=("auto", "anny", "shapes"), default="auto",
+                        help="rendered subjects: anny people when available, else sphere figures (default %(default)s)")
+    parser.add_argument("--dirs", type=int, default=128, help="transport directions per pixel (default %(default)s)")
     parser.add_argument("--samples", type=int, default=32, help="stage-1 samples to render (default %(default)s)")
     parser.add_argument("--photo-subjects", type=int, default=6, help="subjects for photos (default %(default)s)")
     parser.add_argument("--photo-lights", type=int, default=3, help="lights per photo subject (default %(default)s)")
-    parser.add_argument("--n-lights", type=int, default=60, help="training lights (default %(default)s)")
+    parser.add_argument("--n-lights", type=int, default=60,
+                        help="training lights, rounded up to maps × 10 rotations (default %(default)s)")
     parser.add_argument("--resolution", type=int, default=128, help="network resolution (default %(default)s)")
     parser.add_argument("--width", type=int, default=8, help="network width (default %(default)s)")
     parser.add_argument("--norm", choices=("batch", "instance"), default="instance",
@@ -76,9 +83,10 @@ def run_command(name: str, argv: list[str]) -> int:
 
 
 def renderer_available() -> bool:
-    """True when the renderer's commands and their extras (anny, trimesh, embreex) import."""
+    """True when the renderer's commands and their extras (trimesh, embreex) import."""
     try:
-        for module in ("export.render.cli", "export.render.lights_cli", "export.render.photos_cli"):
+        for module in ("export.render.cli", "export.render.lights_cli", "export.render.photos_cli",
+                       "export.render.raycast"):
             importlib.import_module(module)
     except ImportError as exc:
         log.info("renderer not available (%s)", exc)
@@ -86,15 +94,35 @@ def renderer_available() -> bool:
     return True
 
 
+def anny_available() -> bool:
+    """True when random clothed anny people can be rendered (``export.render.subjects`` and anny import)."""
+    try:
+        importlib.import_module("export.render.subjects")
+        importlib.import_module("anny")
+    except ImportError as exc:
+        log.info("anny subjects not available (%s)", exc)
+        return False
+    return True
+
+
 def render_data(data: Path, args) -> None:
-    """Render lights, stage-1 samples and photos with the renderer's commands."""
-    seed = str(args.seed)
-    run_command("lights", ["--out", str(data / "lights"), "--n", str(args.n_lights), "--seed", seed])
-    run_command("render", ["--out", str(data / "samples"), "--n", str(args.samples),
-                           "--resolution", str(args.resolution), "--seed", seed])
-    run_command("render-photos", ["--out", str(data / "photos"), "--n-subjects", str(args.photo_subjects),
-                                  "--n-lights", str(args.photo_lights), "--resolution", str(args.resolution),
-                                  "--seed", str(args.seed + 1)])
+    """Render lights, stage-1 samples, and photos of other subjects, with the renderer's commands."""
+    subject = args.subject if args.subject != "auto" else ("anny" if anny_available() else "shapes")
+    if subject == "shapes":
+        log.warning("rendering sphere figures (--subject shapes): anny people are not available")
+    common = ["--resolution", str(args.resolution), "--dirs", str(args.dirs), "--subject", subject,
+              "--workers", str(args.threads)]
+    maps = max(1, -(-args.n_lights // 10))
+    run_command("lights", ["--out", str(data / "lights"), "--n", str(maps), "--rotations", "10",
+                           "--seed", str(args.seed)])
+    run_command("render", ["--out", str(data / "samples"), "--n", str(args.samples), "--seed", str(args.seed),
+                           *common])
+    # photo subjects are other people than the stage-1 samples (seeds after them)
+    run_command("render", ["--out", str(data / "photo_subjects"), "--n", str(args.photo_subjects),
+                           "--seed", str(args.seed + args.samples), *common])
+    run_command("render-photos", ["--data", str(data / "photo_subjects"), "--envmaps", str(data / "lights"),
+                                  "--out", str(data / "photos"), "--k", str(args.photo_lights),
+                                  "--seed", str(args.seed), "--workers", str(args.threads)])
 
 
 def toy_data(data: Path, args) -> None:
@@ -206,7 +234,8 @@ def run(args) -> int:
                                  "--max-minutes", str(args.stage1_minutes), *common, *resume])
     resume = ["--resume"] if (s2 / "last.pt").exists() else []
     run_command("train-stage2", ["--photos", str(data / "photos"), "--stage1", str(s1 / "best.pt"), "--out", str(s2),
-                                 "--epochs", str(args.stage2_epochs), "--max-minutes", str(args.stage2_minutes), *common, *resume])
+                                 "--epochs", str(args.stage2_epochs), "--max-minutes", str(args.stage2_minutes),
+                                 *common, *resume])
     for kind, run_dir in (("stage1", s1), ("stage2", s2)):
         shutil.copyfile(run_dir / f"{kind}.onnx", out / f"{kind}.onnx")
     run_command("evaluate", ["--stage1", str(s1 / "best.pt"), "--stage2", str(s2 / "best.pt"), "--data",
