@@ -161,3 +161,24 @@ def test_args_json_is_written(data, tmp_path):
     assert _stage1(data, run, "--epochs", "1", "--max-steps", "1") == 0
     args = json.loads((run / "args.json").read_text())
     assert args["command"] == "train-stage1" and args["width"] == 4
+
+
+@pytest.mark.parametrize("source", ["toy", "render"])
+def test_quickstart_end_to_end(tmp_path, source):
+    """Tiny data, a few training steps, ONNX export, evaluation and a relit image."""
+    pytest.importorskip("onnxruntime")
+    if source == "render":
+        pytest.importorskip("embreex")
+    out = tmp_path / "qs"
+    argv = ["quickstart", "--out", str(out), "--data-source", source, "--subject", "shapes", "--samples", "3",
+            "--photo-subjects", "2", "--photo-lights", "2", "--n-lights", "10", "--resolution", "64", "--width", "4",
+            "--dirs", "16", "--stage1-minutes", "0.002", "--stage2-minutes", "0.002", "--stage2-epochs", "2",
+            "--threads", "1"]
+    assert main(argv) == 0
+    for name in ("stage1.onnx", "stage2.onnx", "relit.png", "relit_side_by_side.png", "eval/results.md"):
+        assert (out / name).stat().st_size > 0, name
+    assert (out / "data" / "SOURCE").read_text().strip() == source
+    import cv2
+
+    relit = cv2.imread(str(out / "relit.png"))
+    assert relit.shape == (64, 64, 3) and relit.max() > 0
