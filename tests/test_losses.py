@@ -18,6 +18,7 @@ from export.losses import (  # noqa: E402
     Stage1Loss,
     flip_sh,
     focal_loss,
+    log_kernel,
     masked_l1,
     shade,
 )
@@ -57,32 +58,28 @@ def test_sf_ignores_differences_outside_the_mask():
     assert _sf()(a, b, mask).item() == 0.0
 
 
-def _kernel_2d(sf: SpatialFrequencyLoss, band: int, size: int) -> torch.Tensor:
-    """The 2-D kernel as the response to a centred delta."""
-    delta = torch.zeros(1, 1, size, size, dtype=torch.float64)
-    delta[..., size // 2, size // 2] = 1.0
-    return sf.filter(delta, band)[0, 0]
-
-
 @pytest.mark.parametrize("band", range(len(SF_SIGMAS)))
 def test_log_kernels_are_zero_mean_with_unit_l1_norm(band):
-    sf = _sf()
-    radius = math.ceil(3 * SF_SIGMAS[band])
-    kernel = _kernel_2d(sf, band, 2 * radius + 3)  # the whole kernel fits
+    sigma = SF_SIGMAS[band]
+    kernel = log_kernel(sigma)
+    radius = math.ceil(3 * sigma)
+    assert kernel.shape == (2 * radius + 1, 2 * radius + 1)
     assert kernel.sum().item() == pytest.approx(0.0, abs=1e-12)
-    assert kernel.abs().sum().item() == pytest.approx(1.0, rel=1e-9)
-    assert kernel[radius + 1, radius + 1] < 0  # centre of a LoG is negative (a bright blob gives a negative response)
+    assert kernel.abs().sum().item() == pytest.approx(1.0, rel=1e-12)
+    assert kernel[radius, radius] < 0  # centre of a LoG is negative (a bright blob gives a negative response)
+    torch.testing.assert_close(kernel, kernel.T)
 
 
-def test_capped_kernel_equals_the_full_kernel_on_small_images():
-    """Dropping taps further than the image size is exact: compare with a direct full 2-D convolution."""
-    sf = _sf()
-    band = len(SF_SIGMAS) - 1  # σ = 19.2, radius 58
-    radius = math.ceil(3 * SF_SIGMAS[band])
-    full = _kernel_2d(sf, band, 2 * radius + 1)
-    image = torch.rand(1, 1, 24, 20, dtype=torch.float64)
-    direct = torch.nn.functional.conv2d(image, full[None, None], padding=radius)
-    assert torch.allclose(sf.filter(image, band), direct, atol=1e-12)
+@pytest.mark.parametrize("band", [0, 3, 5])
+@pytest.mark.parametrize("shape", [(24, 20), (40, 33), (7, 70)])
+def test_fft_filter_equals_direct_zero_padded_convolution(band, shape):
+    """FFT filtering with the capped kernel equals a direct zero-padded 2-D convolution with the full kernel."""
+    sf = SpatialFrequencyLoss()
+    full = log_kernel(SF_SIGMAS[band])
+    radius = (full.shape[0] - 1) // 2
+    image = torch.rand(1, 2, *shape, dtype=torch.float64)
+    direct = torch.nn.functional.conv2d(image.reshape(2, 1, *shape), full[None, None], padding=radius)
+    torch.testing.assert_close(sf.filter(image, band), direct.reshape(1, 2, *shape), atol=1e-12, rtol=0)
 
 
 def test_sf_flat_regions_give_no_response():
