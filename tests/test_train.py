@@ -182,3 +182,17 @@ def test_quickstart_end_to_end(tmp_path, source):
 
     relit = cv2.imread(str(out / "relit.png"))
     assert relit.shape == (64, 64, 3) and relit.max() > 0
+
+
+def test_stage2_starts_from_a_zero_residual():
+    from export.networks import Stage2Net
+    from export.train_stage2 import stage2_step, zero_residual_init
+
+    torch.manual_seed(0)
+    model = Stage2Net(width=4, resolution=64, norm="instance")
+    diffuse = torch.rand(1, 3, 64, 64)
+    mask = torch.ones(1, 1, 64, 64)
+    batch = {"diffuse": diffuse, "mask": mask, "photo": diffuse.clone()}
+    assert stage2_step(model, batch)["l1"] > 0  # a random last layer adds a residual
+    zero_residual_init(model)
+    assert stage2_step(model, batch)["l1"] == 0
