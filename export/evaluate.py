@@ -17,6 +17,9 @@ Rows: the trained network(s) and baselines:
   light, and a constant albedo = the image's mean colour inside the mask divided by that shading
   (so its reconstruction is the flat mean colour). Relighting keeps the albedo and swaps the light.
 - ``stage 1 (no SF)``: a network trained with ``--no-sf`` when ``--nosf`` gives its checkpoint.
+- ``oracle: true diffuse`` (Table 2, reconstruction only): the renderer's own diffuse image of the
+  photo, i.e. the size of the non-diffuse part; ``+ stage 2``: stage 2 applied to it, which shows
+  whether stage 2 learned the non-diffuse residual independently of stage 1's errors.
 
 Writes ``OUT/results.md`` (markdown tables) and ``OUT/results.json``. Metrics are means over samples.
 """
@@ -145,6 +148,11 @@ def evaluate_photos(stage1: torch.nn.Module, stage2: torch.nn.Module | None, pho
     decomps: dict[str, list[dict]] = {name: [] for name in decomposers}
     for it in items:
         photo, m = it["photo"] * it["mask"], it["mask"]
+        gt_diffuse = it["diffuse"] * m  # the renderer's diffuse part: how far a perfect stage 1 gets
+        recon.setdefault("oracle: true diffuse", []).append(_photo_rows(gt_diffuse[0], photo[0], m[0], "recon"))
+        if stage2 is not None:
+            recon.setdefault("oracle: true diffuse + stage 2", []).append(
+                _photo_rows(residual(gt_diffuse, m)[0], photo[0], m[0], "recon"))
         for name, fn in decomposers.items():
             d = fn(photo, m)
             decomps[name].append(d)

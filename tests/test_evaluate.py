@@ -98,7 +98,8 @@ def test_evaluate_writes_both_tables(checkpoints, tmp_path):
     for key in ("albedo_rmse", "albedo_ssim", "light_rmse", "shading_rmse", "shading_ssim", "recon_rmse",
                 "recon_ssim", "transport_rmse"):
         assert np.isfinite(syn["trivial"][key])
-    assert set(photos) == {"trivial", "stage 1", "stage 1 + 2", "stage 1 (no SF)"}
+    assert set(photos) == {"trivial", "stage 1", "stage 1 + 2", "stage 1 (no SF)", "oracle: true diffuse",
+                           "oracle: true diffuse + stage 2"}
     assert photos["stage 1 + 2"]["n_pairs"] == 12  # 2 subjects × 3 × 2 ordered pairs
     assert photos["stage 1"]["n_photos"] == 6
     text = (out / "results.md").read_text()
