@@ -191,8 +191,8 @@ def markdown(results: dict) -> str:
         cols = [k for k in next(iter(rows.values())) if k not in ("n", "n_photos", "n_pairs")]
         for r in rows.values():
             cols += [k for k in r if k not in cols and k not in ("n", "n_photos", "n_pairs")]
-        counts = next(iter(rows.values()))
-        count_text = ", ".join(f"{k} = {v}" for k, v in counts.items() if k in ("n", "n_photos", "n_pairs"))
+        counts = {k: max(r.get(k, 0) for r in rows.values()) for k in ("n", "n_photos", "n_pairs")}
+        count_text = ", ".join(f"{k} = {v}" for k, v in counts.items() if v)
         lines += [f"### {titles[section]} ({count_text})", "",
                   "| method | " + " | ".join(cols) + " |", "|---" * (len(cols) + 1) + "|"]
         for name, r in rows.items():
