@@ -56,6 +56,8 @@ def add_arguments(parser) -> None:
     parser.add_argument("--width", type=int, default=8, help="network width (default %(default)s)")
     parser.add_argument("--norm", choices=("batch", "instance"), default="instance",
                         help="normalisation (default %(default)s: batch size 1)")
+    parser.add_argument("--sf-scale", type=float, default=0.1,
+                        help="factor on the SF loss weights (0.1 suits ≤ 256²; default %(default)s)")
     parser.add_argument("--stage1-minutes", type=float, default=11.0, help="stage-1 budget (default %(default)s)")
     parser.add_argument("--stage2-minutes", type=float, default=4.0, help="stage-2 budget (default %(default)s)")
     parser.add_argument("--stage2-epochs", type=int, default=40,
@@ -231,7 +233,8 @@ def run(args) -> int:
     resume = ["--resume"] if (s1 / "last.pt").exists() else []
     run_command("train-stage1", ["--data", str(data / "samples"), "--lights", str(data / "lights"), "--out", str(s1),
                                  "--resolution", str(args.resolution), "--epochs", "1000", "--restart-epochs", "20",
-                                 "--max-minutes", str(args.stage1_minutes), *common, *resume])
+                                 "--max-minutes", str(args.stage1_minutes), "--sf-scale", str(args.sf_scale),
+                                 *common, *resume])
     resume = ["--resume"] if (s2 / "last.pt").exists() else []
     run_command("train-stage2", ["--photos", str(data / "photos"), "--stage1", str(s1 / "best.pt"), "--out", str(s2),
                                  "--epochs", str(args.stage2_epochs), "--max-minutes", str(args.stage2_minutes),
