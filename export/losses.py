@@ -17,14 +17,15 @@ normalisation of K_σ (the paper does not state one):
 - K_σ = g''(x)·g(y) + g(x)·g''(y), where g is a sampled 1-D Gaussian of radius ceil(3σ) scaled to
   sum 1 and g'' its sampled second derivative with its sum removed along g (g'' − (Σg'')·g). The
   2-D kernel therefore has zero mean exactly (a flat region gives zero response however the
-  Gaussian is truncated), and it is separable into two rank-1 terms, so filtering costs four 1-D
-  convolutions per σ.
+  Gaussian is truncated). Size 2·ceil(3σ)+1: 5 px at σ = 0.6 up to 117 px at σ = 19.2.
 - K_σ is then scaled to unit L1 norm (Σ|K_σ| = 1). An image in [0, 1] then gives responses in
   [−0.5, 0.5] at every σ, so the weights compare bands on one scale.
 - Images are zero-padded (outside the mask both images are zero anyway). For an image smaller
   than the kernel, taps further than the image's size from the centre only ever meet padding;
   they are dropped, which is exact, not an approximation (the normalisation is computed on the
-  full kernel first). So small training images (64², 128²) cost little even at σ = 19.2.
+  full kernel first).
+- Filtering is by FFT on a (2H, 2W) zero-padded grid: one forward transform of the difference
+  image and one inverse per band, whatever σ (see :class:`SpatialFrequencyLoss`).
 
 Focal loss (Lin et al. 2017) on the skin mask with γ = 2 and no class weight, on soft labels:
 ``−[y(1 − p)^γ log p + (1 − y) p^γ log(1 − p)]`` averaged inside the mask.
@@ -36,7 +37,6 @@ import math
 from collections.abc import Sequence
 
 import torch
-import torch.nn.functional as F
 
 SF_SIGMAS: tuple[float, ...] = (0.6, 1.2, 2.4, 4.8, 9.6, 19.2)
 SF_WEIGHTS: tuple[float, ...] = (600.0, 500.0, 400.0, 20.0, 10.0, 10.0)
@@ -96,20 +96,32 @@ def flip_sh(coeffs: torch.Tensor, dim: int) -> torch.Tensor:
 # spatial-frequency loss
 
 
-def _log_kernel_1d(sigma: float) -> tuple[torch.Tensor, torch.Tensor, float]:
-    """The separable factors (g, g'') of a zero-mean LoG kernel and the 2-D kernel's L1 norm."""
+def log_kernel(sigma: float) -> torch.Tensor:
+    """The normalised LoG kernel of the SF loss (module docstring), float64 (2r+1, 2r+1), r = ceil(3σ).
+
+    Built from separable factors: g (sampled Gaussian, sum 1) and g'' (its sampled second derivative
+    minus (Σg'')·g, so that it sums to 0); K = g''(x)g(y) + g(x)g''(y) then sums to exactly 0 and is
+    scaled to Σ|K| = 1. Symmetric, so correlation and convolution agree. Its centre is negative.
+    """
     radius = max(1, math.ceil(3.0 * sigma))
     x = torch.arange(-radius, radius + 1, dtype=torch.float64)
     g = torch.exp(-(x**2) / (2 * sigma**2))
     g = g / g.sum()
     g2 = (x**2 / sigma**4 - 1.0 / sigma**2) * g
-    g2 = g2 - g2.sum() * g  # zero sum along each axis -> the 2-D kernel has zero sum
-    kernel_2d = g2[:, None] * g[None, :] + g[:, None] * g2[None, :]
-    return g, g2, float(kernel_2d.abs().sum())
+    g2 = g2 - g2.sum() * g
+    kernel = g2[:, None] * g[None, :] + g[:, None] * g2[None, :]
+    return kernel / kernel.abs().sum()
 
 
 class SpatialFrequencyLoss(torch.nn.Module):
     """Weighted multi-scale LoG loss of two masked images (see the module docstring).
+
+    Filtering is done by FFT (one forward transform of the difference image, one inverse per band)
+    on a grid padded to (2H, 2W), which makes the circular convolution equal to zero-padded linear
+    filtering for every output pixel (the kernel radius is capped at H − 1, W − 1, see the module
+    docstring). On a CPU at 128² this is about ten times faster than separable 1-D convolutions,
+    whose 117-tap kernels at σ = 19.2 dominate the step time. Kernel spectra are cached per image
+    size, device and dtype.
 
     Args:
         sigmas: Gaussian σ in pixels per band.
@@ -122,31 +134,37 @@ class SpatialFrequencyLoss(torch.nn.Module):
             raise ValueError(f"expected one weight per sigma, got {len(sigmas)} sigmas and {len(weights)} weights")
         self.sigmas = tuple(float(s) for s in sigmas)
         self.weights = tuple(float(w) for w in weights)
-        for i, sigma in enumerate(self.sigmas):
-            g, g2, norm = _log_kernel_1d(sigma)
-            # fold the unit-L1 scale into g'' (both rank-1 terms hold exactly one g'' factor)
-            self.register_buffer(f"g_{i}", g.float(), persistent=False)
-            self.register_buffer(f"g2_{i}", (g2 / norm).float(), persistent=False)
+        self.kernels = [log_kernel(s) for s in self.sigmas]
+        self._spectra: dict[tuple, list[torch.Tensor]] = {}
 
-    @staticmethod
-    def _conv(x: torch.Tensor, taps: torch.Tensor, axis: int) -> torch.Tensor:
-        """Zero-padded 1-D correlation of x (B, 1, H, W) along H (axis 2) or W (axis 3)."""
-        size = x.shape[axis]
-        radius = (taps.numel() - 1) // 2
-        keep = min(radius, size - 1)  # taps further out only ever meet padding
-        taps = taps[radius - keep : radius + keep + 1].to(x.dtype)
-        if axis == 2:
-            return F.conv2d(x, taps.reshape(1, 1, -1, 1), padding=(keep, 0))
-        return F.conv2d(x, taps.reshape(1, 1, 1, -1), padding=(0, keep))
+    def spectra(self, h: int, w: int, device: torch.device, dtype: torch.dtype) -> list[torch.Tensor]:
+        """rfft2 of each band's kernel, capped and centred at the origin of a (2h, 2w) grid."""
+        key = (h, w, str(device), dtype)
+        if key not in self._spectra:
+            out = []
+            for kernel in self.kernels:
+                r = (kernel.shape[0] - 1) // 2
+                rh, rw = min(r, h - 1), min(r, w - 1)  # taps further out only ever meet padding
+                k = kernel[r - rh : r + rh + 1, r - rw : r + rw + 1]
+                grid = torch.zeros(2 * h, 2 * w, dtype=torch.float64)
+                grid[: 2 * rh + 1, : 2 * rw + 1] = k
+                grid = torch.roll(grid, shifts=(-rh, -rw), dims=(0, 1))
+                out.append(torch.fft.rfft2(grid.to(dtype)).to(device))
+            self._spectra[key] = out
+        return self._spectra[key]
+
+    def _responses(self, image: torch.Tensor):
+        """Yield (band, LoG response (N, C, H, W)) for every band."""
+        h, w = image.shape[-2:]
+        spec = torch.fft.rfft2(image, s=(2 * h, 2 * w))
+        for band, k in enumerate(self.spectra(h, w, image.device, image.dtype)):
+            yield band, torch.fft.irfft2(spec * k, s=(2 * h, 2 * w))[..., :h, :w]
 
     def filter(self, image: torch.Tensor, band: int) -> torch.Tensor:
-        """LoG response of band ``band`` for (N, C, H, W) -> (N, C, H, W)."""
-        n, c, h, w = image.shape
-        x = image.reshape(n * c, 1, h, w)
-        g, g2 = getattr(self, f"g_{band}"), getattr(self, f"g2_{band}")
-        a = self._conv(self._conv(x, g, 2), g2, 3)
-        b = self._conv(self._conv(x, g2, 2), g, 3)
-        return (a + b).reshape(n, c, h, w)
+        """LoG response of band ``band`` for (N, C, H, W) float32/64 -> (N, C, H, W), zero padding."""
+        h, w = image.shape[-2:]
+        k = self.spectra(h, w, image.device, image.dtype)[band]
+        return torch.fft.irfft2(torch.fft.rfft2(image, s=(2 * h, 2 * w)) * k, s=(2 * h, 2 * w))[..., :h, :w]
 
     def forward(self, pred: torch.Tensor, target: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
         """Σ_σ w_σ · masked mean of (K_σ * ((pred − target) ⊙ mask))².
@@ -158,11 +176,14 @@ class SpatialFrequencyLoss(torch.nn.Module):
         Returns:
             Scalar tensor, ≥ 0, zero when pred equals target inside the mask.
         """
-        diff = ((pred - target) * mask).float()  # the filter is linear: filter the difference once
-        mask = mask.float()
+        diff = (pred - target) * mask  # the filter is linear: filter the difference once
+        if diff.dtype != torch.float64:
+            diff = diff.float()
+        mask = mask.to(diff.dtype)
         total = diff.new_zeros(())
-        for band, weight in enumerate(self.weights):
-            total = total + weight * masked_mse(self.filter(diff, band), torch.zeros_like(diff), mask)
+        zero = torch.zeros((), dtype=diff.dtype, device=diff.device)
+        for band, response in self._responses(diff):
+            total = total + self.weights[band] * masked_mse(response, zero.expand_as(response), mask)
         return total
 
 
@@ -199,12 +220,15 @@ class Stage1Loss(torch.nn.Module):
 
     Args:
         use_sf: include the two SF terms (off for the "without SF loss" baseline).
+        sf_scale: a common factor on the SF band weights (1 = the paper's 600 … 10). At low training
+            resolutions the mask outline is a large share of the pixels and its LoG response makes the
+            SF terms dominate (at 128² with scale 1 they were ~75% of the objective after 5 epochs).
     """
 
-    def __init__(self, use_sf: bool = True):
+    def __init__(self, use_sf: bool = True, sf_scale: float = 1.0):
         super().__init__()
         self.use_sf = use_sf
-        self.sf = SpatialFrequencyLoss()
+        self.sf = SpatialFrequencyLoss(weights=[w * sf_scale for w in SF_WEIGHTS])
 
     def forward(self, pred: dict[str, torch.Tensor], true: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
         """Compute every term and their sum.

@@ -46,6 +46,8 @@ def add_arguments(parser) -> None:
     parser.add_argument("--norm", choices=("batch", "instance"), default="batch",
                         help="normalisation layers (see the module docs for the tradeoff; default %(default)s)")
     parser.add_argument("--no-sf", action="store_true", help="drop the spatial-frequency loss (the ablation baseline)")
+    parser.add_argument("--sf-scale", type=float, default=1.0,
+                        help="factor on the SF band weights (1 = paper's 600…10; default %(default)s)")
     parser.add_argument("--no-flip", action="store_true", help="no horizontal-flip augmentation")
     parser.add_argument("--restart-epochs", type=int, default=20, help="cosine restart period (default %(default)s)")
     parser.add_argument("--val-fraction", type=float, default=0.05,
@@ -112,7 +114,7 @@ def run(args) -> int:
                               cache=cache, flip=not args.no_flip)
     torch.manual_seed(args.seed)
     model = Stage1Net(width=args.width, resolution=args.resolution, norm=args.norm).to(cfg.device)
-    loss_fn = Stage1Loss(use_sf=not args.no_sf).to(cfg.device)
+    loss_fn = Stage1Loss(use_sf=not args.no_sf, sf_scale=args.sf_scale).to(cfg.device)
     optimizer = torch.optim.Adam(model.parameters(), lr=args.lr, betas=(0.5, 0.999))
     val_fn = None
     if val_names:
@@ -122,7 +124,7 @@ def run(args) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     write_json(out / "args.json", {**vars(args), "command": "train-stage1", "val_names": val_names})
-    meta = {"command": "train-stage1", "data": str(args.data), "sf": not args.no_sf}
+    meta = {"command": "train-stage1", "data": str(args.data), "sf": not args.no_sf, "sf_scale": args.sf_scale}
     summary = train_loop(model, optimizer, train_set, stage1_step(loss_fn), cfg, val_fn=val_fn, meta=meta)
     log.info("stage 1 finished: %s", json.dumps(summary))
     if args.export_onnx:

@@ -4,7 +4,8 @@ Stage 1 is frozen (eval mode). Each photo is decomposed once, its diffuse recons
 own estimated light, ``D = clip(Â ⊙ max(0, T̂·L̂), 0, 1) ⊙ mask``, is cached in
 ``RUN/diffuse_cache.npz`` (keyed by the stage-1 checkpoint's path, size and modification time and
 the resolution, so a changed checkpoint recomputes it), and the residual network is trained with
-the masked L1 loss between ``clip(D + residual, 0, 1) ⊙ mask`` and the masked photo. RAdam
+the masked L1 loss between ``clip(D + residual, 0, 1) ⊙ mask`` and the masked photo, starting from a
+zero residual (the last layer is zero-initialised; ``--random-init`` keeps it random). RAdam
 (torch's own); learning rate cosine-annealed from ``--lr`` to ``--lr-min`` over ``--epochs``.
 Augmentation: random horizontal flips (images only; no SH is involved here).
 
@@ -54,6 +55,8 @@ def add_arguments(parser) -> None:
     parser.add_argument("--width", type=int, default=64, help="base channel count (default %(default)s)")
     parser.add_argument("--norm", choices=("batch", "instance"), default="batch",
                         help="normalisation layers (default %(default)s)")
+    parser.add_argument("--random-init", action="store_true",
+                        help="keep the random last layer (default: zero it, so training starts from residual 0)")
     parser.add_argument("--val-fraction", type=float, default=0.1,
                         help="fraction of the subjects held out for validation (default %(default)s)")
     add_loop_arguments(parser, epochs=60)
@@ -134,6 +137,17 @@ def stage2_step(model: torch.nn.Module, batch: dict) -> dict:
     return {"l1": loss, "total": loss}
 
 
+def zero_residual_init(model: torch.nn.Module) -> None:
+    """Zero the last conv of the residual decoder, so stage 1 + 2 starts exactly at stage 1's reconstruction.
+
+    Its weight gradient is not zero (it is the product of its input features and the loss gradient), so
+    training moves it at the first step; the rest of the network follows from the second.
+    """
+    with torch.no_grad():
+        model.dc5b.weight.zero_()
+        model.dc5b.bias.zero_()
+
+
 def split_subjects(names: list[str], fraction: float, seed: int) -> tuple[list[int], list[int]]:
     """Indices of (train, val) photos; whole subjects go to validation."""
     subjects = sorted({subject_of(n) for n in names})
@@ -175,6 +189,8 @@ def run(args) -> int:
     train_set = Stage2Dataset(photos, cache["diffuse"], train_idx, r2, augment=True, seed=args.seed)
     torch.manual_seed(args.seed)
     model = Stage2Net(width=args.width, resolution=r2, norm=args.norm).to(cfg.device)
+    if not args.random_init:
+        zero_residual_init(model)
     optimizer = torch.optim.RAdam(model.parameters(), lr=args.lr)
     val_fn = None
     if val_idx:

@@ -121,7 +121,8 @@ def add_loop_arguments(parser, *, epochs: int, lr_max: float = 1e-3, lr_min: flo
     g.add_argument("--seed", type=int, default=0, help="seed of weights, data order and augmentation")
     g.add_argument("--device", default="auto", help="auto (CUDA when present), cpu, cuda, cuda:1, ...")
     g.add_argument("--no-amp", action="store_true", help="no mixed precision on CUDA")
-    g.add_argument("--workers", type=int, default=0, help="data-loader worker processes (default %(default)s)")
+    g.add_argument("--workers", type=int, default=0,
+                   help="data-loader processes (0 is best on a CPU: each keeps its own cache; default %(default)s)")
     g.add_argument("--threads", type=int, default=None, help="torch CPU threads (default: torch's choice)")
     g.add_argument("--log-every", type=int, default=50, help="write a step record every N steps")
     g.add_argument("--resume", action="store_true", help="continue from RUN/last.pt")

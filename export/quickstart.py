@@ -1,0 +1,249 @@
+"""``python -m export quickstart``: render a small data set, train tiny models on the CPU, export, relight.
+
+Everything lands in ``--out`` (default ``models/quickstart``)::
+
+    data/samples  data/lights  data/photos     the rendered data set
+    stage1/  stage2/                           training runs (checkpoints, log.jsonl)
+    stage1.onnx  stage2.onnx                   the exported graphs (DESIGN.md §5 contract)
+    eval/results.md                            the evaluation tables on the rendered data
+    relit.png  relit_side_by_side.png          a rendered subject relit under a preset light
+
+Data: ``--data-source render`` runs the renderer (``python -m export lights``, ``render`` and
+``render-photos``; needs the ``render`` extra: trimesh, embreex, and anny for people): stage-1
+samples of ``--samples`` subjects, and photos of ``--photo-subjects`` other subjects under
+``--photo-lights`` environment maps each. ``--subject auto`` renders anny people when anny and the
+body code import, else the renderer's sphere figures. ``toy`` writes sphere samples
+(:mod:`export.toy_data`, no extra needed); ``auto`` (default) renders when the renderer is
+importable and falls back to toy data with a warning otherwise.
+
+Budgets (defaults sized for ≤ 20 minutes on a 2-core CPU): ``--stage1-minutes`` and
+``--stage2-minutes`` bound the training loops; the data size is set by ``--samples``,
+``--photo-subjects`` and ``--photo-lights``. A second call with the same ``--out`` reuses the data
+and continues the training runs (``--fresh`` starts over).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import logging
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from relight_rt import RelightError
+
+log = logging.getLogger(__name__)
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("--out", default="models/quickstart", help="output folder (default %(default)s)")
+    parser.add_argument("--data-source", choices=("auto", "render", "toy"), default="auto",
+                        help="renderer or toy spheres (default %(default)s)")
+    parser.add_argument("--subject", choices=("auto", "anny", "shapes"), default="auto",
+                        help="rendered subjects: anny people when available, else sphere figures (default %(default)s)")
+    parser.add_argument("--dirs", type=int, default=128, help="transport directions per pixel (default %(default)s)")
+    parser.add_argument("--samples", type=int, default=32, help="stage-1 samples to render (default %(default)s)")
+    parser.add_argument("--photo-subjects", type=int, default=6, help="subjects for photos (default %(default)s)")
+    parser.add_argument("--photo-lights", type=int, default=3, help="lights per photo subject (default %(default)s)")
+    parser.add_argument("--n-lights", type=int, default=60,
+                        help="training lights, rounded up to maps × 10 rotations (default %(default)s)")
+    parser.add_argument("--resolution", type=int, default=128, help="network resolution (default %(default)s)")
+    parser.add_argument("--width", type=int, default=8, help="network width (default %(default)s)")
+    parser.add_argument("--norm", choices=("batch", "instance"), default="instance",
+                        help="normalisation (default %(default)s: batch size 1)")
+    parser.add_argument("--sf-scale", type=float, default=0.1,
+                        help="factor on the SF loss weights (0.1 suits ≤ 256²; default %(default)s)")
+    parser.add_argument("--stage1-minutes", type=float, default=11.0, help="stage-1 budget (default %(default)s)")
+    parser.add_argument("--stage2-minutes", type=float, default=4.0, help="stage-2 budget (default %(default)s)")
+    parser.add_argument("--stage2-epochs", type=int, default=40,
+                        help="stage-2 epochs (its cosine schedule spans them; default %(default)s)")
+    parser.add_argument("--light", default="golden-hour", help="preset light of the relighting demo")
+    parser.add_argument("--threads", type=int, default=2, help="torch CPU threads (default %(default)s)")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--fresh", action="store_true", help="delete --out's data and runs first")
+
+
+# ------------------------------------------------------------------------------------------ data
+
+
+def run_command(name: str, argv: list[str]) -> int:
+    """Run ``python -m export NAME ARGV`` in this process (the command's add_arguments/run API)."""
+    from .__main__ import COMMANDS
+
+    module = importlib.import_module(COMMANDS[name][0])
+    parser = argparse.ArgumentParser(prog=f"python -m export {name}")
+    module.add_arguments(parser)
+    code = int(module.run(parser.parse_args(argv)) or 0)
+    if code:
+        raise RelightError(f"python -m export {name} {' '.join(argv)} failed with exit code {code}")
+    return code
+
+
+def renderer_available() -> bool:
+    """True when the renderer's commands and their extras (trimesh, embreex) import."""
+    try:
+        for module in ("export.render.cli", "export.render.lights_cli", "export.render.photos_cli",
+                       "export.render.raycast"):
+            importlib.import_module(module)
+    except ImportError as exc:
+        log.info("renderer not available (%s)", exc)
+        return False
+    return True
+
+
+def anny_available() -> bool:
+    """True when random clothed anny people can be rendered (``export.render.subjects`` and anny import)."""
+    try:
+        importlib.import_module("export.render.subjects")
+        importlib.import_module("anny")
+    except ImportError as exc:
+        log.info("anny subjects not available (%s)", exc)
+        return False
+    return True
+
+
+def render_data(data: Path, args) -> None:
+    """Render lights, stage-1 samples, and photos of other subjects, with the renderer's commands."""
+    subject = args.subject if args.subject != "auto" else ("anny" if anny_available() else "shapes")
+    if subject == "shapes":
+        log.warning("rendering sphere figures (--subject shapes): anny people are not available")
+    common = ["--resolution", str(args.resolution), "--dirs", str(args.dirs), "--subject", subject,
+              "--workers", str(args.threads)]
+    maps = max(1, -(-args.n_lights // 10))
+    run_command("lights", ["--out", str(data / "lights"), "--n", str(maps), "--rotations", "10",
+                           "--seed", str(args.seed)])
+    run_command("render", ["--out", str(data / "samples"), "--n", str(args.samples), "--seed", str(args.seed),
+                           *common])
+    # photo subjects are other people than the stage-1 samples (seeds after them)
+    run_command("render", ["--out", str(data / "photo_subjects"), "--n", str(args.photo_subjects),
+                           "--seed", str(args.seed + args.samples), *common])
+    run_command("render-photos", ["--data", str(data / "photo_subjects"), "--envmaps", str(data / "lights"),
+                                  "--out", str(data / "photos"), "--k", str(args.photo_lights),
+                                  "--seed", str(args.seed), "--workers", str(args.threads)])
+
+
+def toy_data(data: Path, args) -> None:
+    """Sphere samples, random lights and photos with a highlight (:mod:`export.toy_data`)."""
+    from . import toy_data as toy
+
+    toy.make_lights(data / "lights", args.n_lights, seed=args.seed + 1)
+    toy.make_samples(data / "samples", args.samples, args.resolution, seed=args.seed)
+    toy.make_photos(data / "photos", args.photo_subjects, args.photo_lights, args.resolution, seed=args.seed + 2)
+
+
+def make_data(data: Path, args) -> str:
+    """Write the data set unless it is there already; returns the source used."""
+    marker = data / "SOURCE"
+    if marker.exists():
+        log.info("reusing the data in %s", data)
+        return marker.read_text().strip()
+    source = args.data_source
+    if source == "auto":
+        source = "render" if renderer_available() else "toy"
+        if source == "toy":
+            log.warning("the renderer is not available: using toy sphere data (install the 'render' extra)")
+    (render_data if source == "render" else toy_data)(data, args)
+    marker.write_text(source + "\n")
+    return source
+
+
+# ------------------------------------------------------------------------------------------ relighting
+
+
+def relight_onnx(stage1: Path, stage2: Path, photo: np.ndarray, mask: np.ndarray, light: np.ndarray) -> np.ndarray:
+    """Relight a (R,R,3) RGB photo with the exported graphs (onnxruntime, no torch).
+
+    Args:
+        stage1, stage2: ONNX files (DESIGN.md §5).
+        photo: (R, R, 3) float32 RGB in [0, 1] at stage 1's resolution.
+        mask: (R, R) float32 in [0, 1].
+        light: (9, 3) RGB target light.
+
+    Returns:
+        (R, R, 3) float32 relit image in [0, 1], masked.
+    """
+    import onnxruntime as ort
+
+    opts = ort.SessionOptions()
+    s1 = ort.InferenceSession(str(stage1), opts, providers=["CPUExecutionProvider"])
+    s2 = ort.InferenceSession(str(stage2), opts, providers=["CPUExecutionProvider"])
+    image = photo.transpose(2, 0, 1)[None].astype(np.float32)
+    m = mask[None, None].astype(np.float32)
+    out = dict(zip([o.name for o in s1.get_outputs()], s1.run(None, {"image": image, "mask": m}), strict=True))
+    shading = np.maximum(0.0, np.einsum("nkhw,kc->nchw", out["transport"], light.astype(np.float32)))
+    diffuse = np.clip(out["albedo"] * shading, 0.0, 1.0) * m
+    res = dict(zip([o.name for o in s2.get_outputs()], s2.run(None, {"diffuse": diffuse.astype(np.float32),
+                                                                     "mask": m}), strict=True))
+    return res["relit"][0].transpose(1, 2, 0)
+
+
+def _write_png(path: Path, rgb: np.ndarray) -> None:
+    img = (np.clip(rgb, 0, 1) * 255 + 0.5).astype(np.uint8)[:, :, ::-1]
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".png", dir=path.parent)
+    os.close(fd)
+    if not cv2.imwrite(tmp, img):
+        os.remove(tmp)
+        raise RelightError(f"could not write {path}")
+    os.replace(tmp, path)
+
+
+def demo_relight(out: Path, photos: Path, resolution: int, light_name: str) -> Path:
+    """Relight the first photo of ``photos`` under a preset light; writes relit.png and a side-by-side."""
+    from relight_rt.lights import preset
+
+    from . import dataset
+    from .torch_data import fit_square
+
+    names = dataset.list_photos(photos)
+    p = dataset.read_photo(photos, names[0])
+    photo, mask = fit_square(p["photo"], resolution), fit_square(p["mask"], resolution)
+    photo = photo * mask[..., None]
+    relit = relight_onnx(out / "stage1.onnx", out / "stage2.onnx", photo, mask, preset(light_name))
+    _write_png(out / "relit.png", relit)
+    _write_png(out / "relit_side_by_side.png", np.concatenate([photo, relit], axis=1))
+    log.info("relit %s under %r: %s", names[0], light_name, out / "relit.png")
+    return out / "relit.png"
+
+
+# ------------------------------------------------------------------------------------------ main
+
+
+def run(args) -> int:
+    import torch
+
+    if args.threads:
+        torch.set_num_threads(args.threads)
+    out = Path(args.out)
+    if args.fresh and out.exists():
+        for sub in ("data", "stage1", "stage2", "eval"):
+            shutil.rmtree(out / sub, ignore_errors=True)
+    out.mkdir(parents=True, exist_ok=True)
+    data = out / "data"
+    source = make_data(data, args)
+    log.info("quickstart data (%s) in %s", source, data)
+
+    common = ["--width", str(args.width), "--norm", args.norm, "--seed", str(args.seed), "--threads",
+              str(args.threads), "--log-every", "20", "--export-onnx"]
+    s1, s2 = out / "stage1", out / "stage2"
+    resume = ["--resume"] if (s1 / "last.pt").exists() else []
+    run_command("train-stage1", ["--data", str(data / "samples"), "--lights", str(data / "lights"), "--out", str(s1),
+                                 "--resolution", str(args.resolution), "--epochs", "1000", "--restart-epochs", "20",
+                                 "--max-minutes", str(args.stage1_minutes), "--sf-scale", str(args.sf_scale),
+                                 *common, *resume])
+    resume = ["--resume"] if (s2 / "last.pt").exists() else []
+    run_command("train-stage2", ["--photos", str(data / "photos"), "--stage1", str(s1 / "best.pt"), "--out", str(s2),
+                                 "--epochs", str(args.stage2_epochs), "--max-minutes", str(args.stage2_minutes),
+                                 *common, *resume])
+    for kind, run_dir in (("stage1", s1), ("stage2", s2)):
+        shutil.copyfile(run_dir / f"{kind}.onnx", out / f"{kind}.onnx")
+    run_command("evaluate", ["--stage1", str(s1 / "best.pt"), "--stage2", str(s2 / "best.pt"), "--data",
+                             str(data / "samples"), "--lights", str(data / "lights"), "--photos", str(data / "photos"),
+                             "--out", str(out / "eval"), "--max-samples", "16", "--max-pairs", "24"])
+    demo_relight(out, data / "photos", args.resolution, args.light)
+    log.info("quickstart done: %s", out)
+    return 0
