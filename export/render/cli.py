@@ -1,0 +1,199 @@
+"""``python -m export render``: render stage-1 training samples (albedo, mask, skin, transport).
+
+Writes, per sample, the reference's layout (``NAME_tex.png``, ``NAME_mask.png``, ``NAME_parsing.png``,
+``NAME_transport.npz``; see export.dataset) plus ``NAME_meta.json`` (how to re-create the subject and
+the camera; ``render-photos`` reads it). Samples are rendered in parallel worker processes; the same
+``--seed`` gives identical files.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import multiprocessing
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+
+from relight_rt._errors import RelightError
+
+log = logging.getLogger(__name__)
+
+META_FORMAT = "relight_rt.sample/1"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--out", required=True, type=Path, help="output folder")
+    parser.add_argument("--n", type=int, default=8, help="number of random subjects (ignored with --mesh)")
+    parser.add_argument("--seed", type=int, default=0, help="sample i renders subject seed SEED + i")
+    parser.add_argument("--resolution", type=int, default=1024, help="square image size")
+    parser.add_argument("--dirs", type=int, default=256, help="Monte Carlo directions per pixel for the transport")
+    parser.add_argument(
+        "--subject", choices=("anny", "shapes"), default="anny",
+        help="anny: random clothed people (export.render.subjects); shapes: a sphere figure (no body model)",
+    )
+    parser.add_argument("--no-clothing", action="store_true", help="anny bodies without garments")
+    parser.add_argument("--mesh", type=Path, nargs="+",
+                        help="render these textured .obj meshes instead (skin labels: NAME_skin.png beside NAME.obj)")
+    parser.add_argument("--camera", choices=("orthographic", "perspective"), default="orthographic")
+    parser.add_argument("--fov", type=float, default=20.0, help="perspective field of view, degrees")
+    parser.add_argument("--margin", type=float, default=0.05, help="free border, fraction of the image side")
+    parser.add_argument("--workers", type=int, default=2, help="parallel processes")
+    parser.add_argument("--preview", action="store_true", help="also write OUT/contact_sheet.png")
+    parser.add_argument("--overwrite", action="store_true", help="re-render samples that already exist")
+
+
+def make_subject(source: dict):
+    """Re-create a subject from its ``NAME_meta.json`` ``source`` entry."""
+    kind = source.get("kind")
+    from .scene import Subject
+
+    if kind == "anny":
+        from .subjects import random_subject
+
+        return random_subject(int(source["seed"]), clothing=bool(source.get("clothing", True)))
+    if kind == "shapes":
+        from .shapes import random_scene
+
+        return Subject(random_scene(int(source["seed"])), name=f"shapes_{int(source['seed']):06d}")
+    if kind == "mesh":
+        from .subjects import load_subject
+
+        return load_subject(source["path"], source.get("skin"))
+    raise RelightError(f"subject source {source!r}: expected kind 'anny', 'shapes' or 'mesh'")
+
+
+def render_one(job: dict) -> dict:
+    """Render and write one sample (runs in a worker process). Returns timing statistics."""
+    from .. import dataset
+    from .camera import fit_camera
+    from .raycast import Tracer
+    from .transport import render_gbuffer, transport
+
+    t0 = time.perf_counter()
+    subject = make_subject(job["source"])
+    t1 = time.perf_counter()
+    cam = fit_camera(subject, job["resolution"], margin=job["margin"], kind=job["camera"], fov_deg=job["fov"])
+    tracer = Tracer(subject)
+    g = render_gbuffer(subject, cam, tracer)
+    rng = np.random.default_rng([job["seed"], 0x5A17])
+    t = transport(tracer, g, job["dirs"], rng=rng)
+    t2 = time.perf_counter()
+    out = Path(job["out"])
+    name = job["name"]
+    dataset.write_sample(out, name, g.image(g.albedo), g.mask, g.image(g.skin), g.image(t))
+    meta = {
+        "format": META_FORMAT,
+        "name": name,
+        "source": job["source"],
+        "seed": job["seed"],
+        "camera": cam.to_dict(),
+        "dirs": job["dirs"],
+        "pixels": int(len(g.index)),
+        "triangles": int(len(tracer.faces)),
+    }
+    text = json.dumps(meta, indent=1)
+    dataset.atomic_write(out / f"{name}_meta.json", lambda tmp: Path(tmp).write_text(text))
+    return {"name": name, "build_s": t1 - t0, "render_s": t2 - t1, "write_s": time.perf_counter() - t2,
+            "rays": len(g.index) * job["dirs"] + cam.resolution**2}
+
+
+def _jobs(args) -> list[dict]:
+    common = {"resolution": args.resolution, "dirs": args.dirs, "margin": args.margin, "camera": args.camera,
+              "fov": args.fov, "out": str(args.out)}
+    if args.mesh:
+        jobs = []
+        for i, p in enumerate(args.mesh):
+            skin = p.with_name(f"{p.stem}_skin.png")  # optional skin-label texture beside the mesh
+            source = {"kind": "mesh", "path": str(p.resolve()), "skin": str(skin.resolve()) if skin.is_file() else None}
+            jobs.append({**common, "name": p.stem, "seed": args.seed + i, "source": source})
+        return jobs
+    jobs = []
+    for i in range(args.n):
+        seed = args.seed + i
+        source = {"kind": args.subject, "seed": seed}
+        if args.subject == "anny":
+            source["clothing"] = not args.no_clothing
+        jobs.append({**common, "name": f"{args.subject}_{seed:06d}", "seed": seed, "source": source})
+    return jobs
+
+
+def run_pool(func, jobs: list, workers: int, desc: str):
+    """Run ``func`` over ``jobs`` in ``workers`` processes (in this one when 1) with a progress bar;
+    yields (job, result or exception)."""
+    from tqdm import tqdm
+
+    bar = tqdm(total=len(jobs), desc=desc, unit="sample")
+    try:
+        if workers <= 1 or len(jobs) <= 1:
+            for job in jobs:
+                yield job, _guard(func, job)
+                bar.update()
+            return
+        ctx = multiprocessing.get_context("spawn")
+        with ctx.Pool(min(workers, len(jobs)), initializer=_init_worker) as pool:
+            futures = [(job, pool.apply_async(_guard, (func, job))) for job in jobs]
+            for job, fut in futures:
+                yield job, fut.get()
+                bar.update()
+    finally:
+        bar.close()
+
+
+def _init_worker() -> None:
+    """One thread per worker process: the workers already fill the cores (torch, used by the body model,
+    would otherwise start a thread per core in every worker)."""
+    for var in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
+        os.environ[var] = "1"
+
+
+def _guard(func, job):
+    try:
+        return func(job)
+    except (RelightError, OSError, ValueError) as exc:  # reported per sample, the batch goes on
+        return exc
+
+
+def run(args) -> int:
+    from .. import dataset
+
+    if args.resolution < 8 or args.dirs < 1 or args.n < 0 or args.workers < 1:
+        raise RelightError("expected --resolution >= 8, --dirs >= 1, --n >= 0 and --workers >= 1")
+    args.out.mkdir(parents=True, exist_ok=True)
+    jobs = _jobs(args)
+    if not args.overwrite:
+        done = set(dataset.list_samples(args.out))
+        skipped = [j["name"] for j in jobs if j["name"] in done and (args.out / f"{j['name']}_meta.json").is_file()]
+        if skipped:
+            log.info("%d samples already exist (use --overwrite to re-render)", len(skipped))
+        jobs = [j for j in jobs if j["name"] not in skipped]
+    start = time.perf_counter()
+    failures, stats = [], []
+    for job, res in run_pool(render_one, jobs, args.workers, "render"):
+        if isinstance(res, Exception):
+            failures.append(f"{job['name']}: {res}")
+        else:
+            stats.append(res)
+    wall = time.perf_counter() - start
+    if stats:
+        render_s = sum(s["render_s"] for s in stats)
+        rays = sum(s["rays"] for s in stats)
+        log.info(
+            "%d samples in %.1f s (%d workers): subject %.1f s, ray casting + transport %.1f s and writing %.1f s "
+            "per sample; %.2f M rays/s per process", len(stats), wall, args.workers,
+            np.mean([s["build_s"] for s in stats]), render_s / len(stats), np.mean([s["write_s"] for s in stats]),
+            rays / max(render_s, 1e-9) / 1e6,
+        )
+    if args.preview:
+        from .contact_sheet import sample_row, write_sheet
+
+        names = dataset.list_samples(args.out)[:16]
+        if names:
+            write_sheet(args.out / "contact_sheet.png", [sample_row(args.out, n) for n in names])
+            log.info("contact sheet: %s", args.out / "contact_sheet.png")
+    for f in failures:
+        log.error("failed: %s", f)
+    return 1 if failures else 0

@@ -1,0 +1,118 @@
+"""``python -m export render-photos``: non-diffuse "photos" of rendered samples under environment maps.
+
+For every sample of ``--data`` (written by ``python -m export render``, which leaves ``NAME_meta.json``
+beside it) the subject and camera are re-created, and K photos are rendered under K environment maps
+drawn (deterministically, from ``--seed`` and the sample's name) from ``--envmaps``: a folder written
+by ``python -m export lights`` (its ``lights.json``, with rotations) or any folder of .hdr maps.
+Writes ``SUBJECT__L{j}_photo.png``, ``_diffuse.png``, ``_mask.png`` and ``_light.npy`` per photo
+(see export.dataset), and ``SUBJECT__L{j}_env.txt`` naming the environment used.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import time
+import zlib
+from pathlib import Path
+
+import numpy as np
+
+from relight_rt._errors import RelightError
+
+log = logging.getLogger(__name__)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--data", required=True, type=Path, help="folder of rendered samples (with NAME_meta.json)")
+    parser.add_argument("--envmaps", required=True, type=Path, help="output of `lights`, or a folder of .hdr maps")
+    parser.add_argument("--out", required=True, type=Path, help="output folder for the photos")
+    parser.add_argument("--k", type=int, default=3, help="photos (environment maps) per sample")
+    parser.add_argument("--samples", type=int, default=32, help="specular rays per pixel (lobe + map, each)")
+    parser.add_argument("--env-height", type=int, default=None, help="resize maps to this height (default: as stored)")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--preview", action="store_true", help="also write OUT/contact_sheet.png")
+
+
+def photo_one(job: dict) -> dict:
+    """Render the K photos of one sample (runs in a worker process)."""
+    from .. import dataset
+    from .camera import Camera
+    from .cli import make_subject
+    from .lights_cli import load_environment
+    from .photos import pixel_size, render_photo
+    from .raycast import Tracer
+    from .transport import render_gbuffer
+
+    t0 = time.perf_counter()
+    data, name = Path(job["data"]), job["name"]
+    meta = json.loads((data / f"{name}_meta.json").read_text())
+    sample = dataset.read_sample(data, name)
+    subject = make_subject(meta["source"])
+    cam = Camera.from_dict(meta["camera"])
+    tracer = Tracer(subject)
+    g = render_gbuffer(subject, cam, tracer)
+    mismatch = float(np.abs(g.mask - sample["mask"]).mean())
+    if mismatch > 1e-3:
+        raise RelightError(
+            f"sample {name}: the re-created subject covers other pixels than the stored mask ({mismatch:.2%} differ); "
+            "was it rendered with another version of the subject generator?"
+        )
+    flat = g.index
+    albedo = sample["albedo"].reshape(-1, 3)[flat]
+    transport = sample["transport"].reshape(-1, 9)[flat]
+    for j, env_name in enumerate(job["envs"]):
+        env = load_environment(job["envmaps"], env_name, job["env_height"])
+        rng = np.random.default_rng([job["seed"], zlib.crc32(name.encode()), j])
+        out = render_photo(tracer, g, transport, env, pixel_size=pixel_size(cam.half_extent, cam.resolution),
+                           albedo=albedo, n_samples=job["samples"], rng=rng)
+        pname = dataset.photo_name(name, j)
+        dataset.write_photo(job["out"], pname, out["photo"], out["diffuse"], out["mask"], out["light"])
+        text = f"{env_name}\n"
+        dataset.atomic_write(Path(job["out"]) / f"{pname}_env.txt", lambda tmp, t=text: Path(tmp).write_text(t))
+    return {"name": name, "s": time.perf_counter() - t0}
+
+
+def run(args) -> int:
+    from .. import dataset
+    from .cli import run_pool
+    from .lights_cli import list_environments
+
+    if args.k < 1 or args.samples < 0 or args.workers < 1:
+        raise RelightError("expected --k >= 1, --samples >= 0 and --workers >= 1")
+    names = [n for n in dataset.list_samples(args.data) if (args.data / f"{n}_meta.json").is_file()]
+    if not names:
+        raise RelightError(f"--data {args.data}: no rendered samples with NAME_meta.json found")
+    envs = list_environments(args.envmaps)
+    if len(envs) < args.k:
+        raise RelightError(f"--envmaps {args.envmaps}: expected at least {args.k} environment maps, found {len(envs)}")
+    jobs = []
+    for name in names:
+        rng = np.random.default_rng([args.seed, zlib.crc32(name.encode())])
+        pick = rng.choice(len(envs), size=args.k, replace=False)
+        jobs.append({"data": str(args.data), "name": name, "envmaps": str(args.envmaps),
+                     "envs": [envs[i] for i in pick], "env_height": args.env_height, "samples": args.samples,
+                     "seed": args.seed, "out": str(args.out)})
+    args.out.mkdir(parents=True, exist_ok=True)
+    start = time.perf_counter()
+    failures, times = [], []
+    for job, res in run_pool(photo_one, jobs, args.workers, "photos"):
+        if isinstance(res, Exception):
+            failures.append(f"{job['name']}: {res}")
+        else:
+            times.append(res["s"])
+    if times:
+        log.info("%d samples × %d photos in %.1f s (%.1f s per sample per process)", len(times), args.k,
+                 time.perf_counter() - start, float(np.mean(times)))
+    if args.preview:
+        from .contact_sheet import photo_row, write_sheet
+
+        photos = dataset.list_photos(args.out)[:16]
+        if photos:
+            write_sheet(args.out / "contact_sheet.png", [photo_row(args.out, p, args.data) for p in photos])
+            log.info("contact sheet: %s", args.out / "contact_sheet.png")
+    for f in failures:
+        log.error("failed: %s", f)
+    return 1 if failures else 0

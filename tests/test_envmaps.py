@@ -1,0 +1,99 @@
+"""export.render.envmaps and the `lights` command: procedural maps, scale, rotation, files."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from export import dataset
+from export.__main__ import main
+from export.render import envmaps
+from export.render.lights_cli import environment, list_environments, load_environment
+from relight_rt import RelightError
+from relight_rt.sh import load_envmap, project_envmap, rotate_z
+
+
+@pytest.mark.parametrize("kind", envmaps.KINDS)
+def test_kinds_are_valid_and_normalised(kind):
+    env = envmaps.procedural_envmap(kind, np.random.default_rng(1), height=20, target=1.3)
+    assert env.shape == (20, 40, 3) and env.dtype == np.float32
+    assert np.isfinite(env).all() and env.min() >= 0
+    assert envmaps.max_irradiance(project_envmap(env)) == pytest.approx(1.3, rel=1e-4)
+
+
+@pytest.mark.parametrize("kind", ["sun_sky", "overcast"])
+def test_skies_light_from_above(kind):
+    for seed in range(3):
+        light = project_envmap(envmaps.procedural_envmap(kind, np.random.default_rng(seed), height=16))
+        assert (light[2] > 0).all()  # coefficient 2 ∝ z: more light from above than from below
+
+
+def test_default_scale_is_in_the_reference_range():
+    rng = np.random.default_rng(0)
+    peaks = [envmaps.max_irradiance(project_envmap(envmaps.procedural_envmap(k, rng, 16))) for k in envmaps.KINDS * 3]
+    assert envmaps.TARGET_RANGE[0] - 1e-6 <= min(peaks) and max(peaks) <= envmaps.TARGET_RANGE[1] + 1e-6
+
+
+def test_same_seed_same_map():
+    a = envmaps.procedural_envmap("window", np.random.default_rng(7), 16)
+    b = envmaps.procedural_envmap("window", np.random.default_rng(7), 16)
+    np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("steps", [1, 3, 7])
+def test_rotation_matches_sh_rotate_z(steps):
+    """Turning the map by whole columns is the same rotation as relight_rt.sh.rotate_z (+x toward +y)."""
+    env = envmaps.procedural_envmap("softbox", np.random.default_rng(3), height=20)
+    turned = project_envmap(envmaps.rotate_envmap(env, steps, 10))
+    expected = rotate_z(project_envmap(env), 2 * math.pi * steps / 10)
+    np.testing.assert_allclose(turned, expected, atol=1e-5 * np.abs(expected).max())
+    np.testing.assert_array_equal(envmaps.rotate_envmap(env, 10, 10), env)
+
+
+def test_rotation_needs_whole_columns():
+    with pytest.raises(RelightError, match="divisible"):
+        envmaps.rotate_envmap(np.zeros((16, 32, 3), np.float32), 1, 10)
+
+
+def test_bad_kind_and_dark_map():
+    with pytest.raises(RelightError, match="expected one of"):
+        envmaps.procedural_envmap("disco", np.random.default_rng(0))
+    with pytest.raises(RelightError, match="no positive irradiance"):
+        envmaps.normalize_envmap(np.zeros((8, 16, 3), np.float32))
+
+
+def test_hdr_round_trip(tmp_path):
+    env = envmaps.procedural_envmap("lamps", np.random.default_rng(2), height=16)
+    envmaps.write_hdr(tmp_path / "a.hdr", env)
+    back = load_envmap(tmp_path / "a.hdr")
+    np.testing.assert_allclose(back, env, rtol=2e-2, atol=1e-3 * env.max())  # RGBE keeps ~8 bits of mantissa
+
+
+def test_lights_command(tmp_path):
+    out = tmp_path / "lights"
+    assert main(["lights", "--out", str(out), "--n", "3", "--height", "10", "--rotations", "10"]) == 0
+    lights = dataset.read_lights(out)
+    assert lights.shape == (30, 9, 3)
+    names = list_environments(out)
+    assert len(names) == 30 and names[0] == "env0000_sun_sky_r00"
+    # the light file is the SH of the (rotated) map that render-photos will use
+    for name in (names[0], names[4]):
+        proj = project_envmap(environment(out, name))
+        np.testing.assert_allclose(proj, dataset.read_light(out, name), rtol=0.03, atol=0.01)
+    assert (out / "hdr" / "env0001_overcast.hdr").is_file()
+
+
+def test_lights_from_real_hdr_folder(tmp_path):
+    src = tmp_path / "maps"
+    src.mkdir()
+    for i in range(2):
+        envmaps.write_hdr(src / f"m{i}.hdr", 5.0 * envmaps.procedural_envmap("window", np.random.default_rng(i), 20))
+    out = tmp_path / "lights"
+    assert main(["lights", "--out", str(out), "--hdr", str(src), "--height", "10", "--rotations", "2"]) == 0
+    assert sorted(dataset.list_lights(out)) == ["m0_r00", "m0_r01", "m1_r00", "m1_r01"]
+    peak = envmaps.max_irradiance(dataset.read_light(out, "m0_r00"))
+    assert envmaps.TARGET_RANGE[0] * 0.97 <= peak <= envmaps.TARGET_RANGE[1] * 1.03  # rescaled
+    assert load_environment(src, "m1.hdr", height=10).shape == (10, 20, 3)  # a plain folder of maps works too
+    assert main(["lights", "--out", str(out), "--hdr", str(tmp_path / "none")]) == 2
