@@ -137,3 +137,38 @@ def test_precision_int8_falls_back_to_fp32_when_absent(tiny_models, caplog):
 def test_precision_unknown_is_refused(tiny_models):
     with pytest.raises(RelightError, match="precision"):
         Relighter(tiny_models, device="cpu", precision="int4")
+
+
+# ------------------------------------------------------------------------------ session performance settings
+
+
+def test_cpu_session_options(monkeypatch):
+    import onnxruntime as ort
+
+    from relight_rt.session import cpu_session_options
+
+    monkeypatch.setenv("RELIGHT_RT_THREADS", "3")
+    opts = cpu_session_options()
+    assert opts.graph_optimization_level == ort.GraphOptimizationLevel.ORT_ENABLE_ALL
+    assert opts.execution_mode == ort.ExecutionMode.ORT_SEQUENTIAL
+    assert opts.intra_op_num_threads == 3 and opts.enable_mem_pattern and opts.enable_cpu_mem_arena
+
+
+def test_cuda_and_tensorrt_provider_chain_without_a_gpu(monkeypatch, tmp_path):
+    """The provider list asked for when CUDA / TensorRT are offered (nothing runs: no GPU needed)."""
+    import onnxruntime as ort
+
+    from relight_rt import session
+
+    offered = ["TensorrtExecutionProvider", "CUDAExecutionProvider", "CPUExecutionProvider"]
+    monkeypatch.setattr(ort, "get_available_providers", lambda: offered)
+    monkeypatch.delenv("RELIGHT_RT_TENSORRT", raising=False)
+    chain = session._providers_for("auto", 1)
+    assert [p if isinstance(p, str) else p[0] for p in chain] == ["CUDAExecutionProvider", "CPUExecutionProvider"]
+    assert chain[0][1]["device_id"] == "1" and chain[0][1]["cudnn_conv_algo_search"] == "EXHAUSTIVE"
+    cache = tmp_path / "trt"
+    monkeypatch.setenv("RELIGHT_RT_TENSORRT", str(cache))
+    chain = session._providers_for("cuda", 0)
+    assert chain[0][0] == "TensorrtExecutionProvider" and chain[1][0] == "CUDAExecutionProvider"
+    assert chain[0][1]["trt_engine_cache_path"] == str(cache) and cache.is_dir()
+    assert session._providers_for("cpu", 0) == ["CPUExecutionProvider"]
