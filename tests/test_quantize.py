@@ -48,3 +48,12 @@ def test_psnr_values():
     assert psnr(a, a) == np.inf
     assert psnr(a, a + 0.1) == pytest.approx(20.0)  # peak 1, mse 0.01
     assert psnr(a, np.array([0, np.nan, 0], np.float32)) == -np.inf
+
+
+def test_stage1_light_stays_exactly_fp32(test_data_dir, tmp_path):
+    """KEEP_FP32 leaves every conv that the light depends on in fp32, and no quantised tensor reaches it."""
+    cal = [network_inputs("stage1", 1, 128, seed=i) for i in range(2)]
+    held = [network_inputs("stage1", 1, 128, seed=10)]
+    summary = quantize(test_data_dir / "tiny_stage1.onnx", tmp_path / "s1.onnx", cal, held, min_psnr=20)
+    assert summary["psnr"]["light"] == np.inf
+    assert summary["quantized_convs"] > 0 and summary["fp32_convs"] > 0
