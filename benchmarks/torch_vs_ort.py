@@ -98,7 +98,7 @@ class TorchModel:
         net, _ = load_checkpoint(checkpoint)
         self.wrapper = wrap(net.eval()).eval()
         self.config = model.config
-        self.session = model.session  # only for get_providers() in the report
+        self.session = None  # the onnxruntime session is dropped, so its memory does not count against torch
         self.name = f"torch:{checkpoint}"
         self.on_cuda = False
         from relight_rt.contract import KINDS

@@ -257,7 +257,7 @@ def run(
         "device": device,
         "precision": precision,
         "graphs": [m.name for m in (relighter.stage1, relighter.stage2) if m is not None],
-        "providers": relighter.stage1.session.get_providers(),
+        "providers": relighter.stage1.session.get_providers() if relighter.stage1.session is not None else None,
         "resolution": r,
         "stage1_source": relighter.stage1.config.source,
         "diffuse_only": relighter.diffuse_only,
