@@ -79,8 +79,9 @@ def guided_upsample(
     cov = box(src * i_net[..., None]) - mean_i[..., None] * mean_p
     a = cov / (var_i[..., None] + GUIDE_EPS)
     b = mean_p - a * mean_i[..., None]
-    ab = geom.to_crop(np.concatenate([box(a), box(b)], axis=2), origin)
-    c = src.shape[2]
-    out = ab[..., :c] * cv2.cvtColor(guide, cv2.COLOR_RGB2GRAY)[..., None]
-    out += ab[..., c:]
+    # a and b mapped separately: each has <= 4 channels, which OpenCV resamples in one call (a 6-channel
+    # stack would be resampled in slices and concatenated: a full-size copy, ~40 % of this function's time)
+    out = geom.to_crop(box(a), origin).reshape(guide.shape[:2] + (-1,))
+    out *= cv2.cvtColor(guide, cv2.COLOR_RGB2GRAY)[..., None]
+    out += geom.to_crop(box(b), origin).reshape(out.shape)
     return out

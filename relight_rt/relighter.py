@@ -44,6 +44,8 @@ ImageLike = str | os.PathLike | np.ndarray
 _RATIO_EPS = np.float32(0.02)  # keeps relit/reconstruction stable in dark pixels
 _ALPHA_MIN = np.float32(1e-3)
 _ENVMAP_SUFFIXES = (".hdr", ".pic", ".exr")
+PRECISIONS = ("fp32", "fp16", "int8")
+_SHADE_BLOCK = 1 << 19  # multiply-adds per block of diffuse_batch (about 2 MB of float32 temporaries)
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:
@@ -154,13 +156,22 @@ def diffuse_batch(albedo_chw: np.ndarray, transport_chw: np.ndarray, lights: np.
     """
     k = lights.shape[0]
     _, h, w = transport_chw.shape
+    n = h * w
     coeffs = np.ascontiguousarray(lights.transpose(0, 2, 1).reshape(3 * k, 9), dtype=np.float32)
-    out = coeffs @ transport_chw.reshape(9, h * w)  # (3K, R*R)
-    out = out.reshape(k, 3, h, w)
-    np.maximum(out, 0, out=out)
-    out *= albedo_chw
-    np.clip(out, 0, 1, out=out)
-    return out
+    transport = transport_chw.reshape(9, n)
+    albedo = albedo_chw.reshape(1, 3, n)
+    out = np.empty((k, 3, n), np.float32)
+    # In pixel blocks of ~_SHADE_BLOCK multiply-adds: each block's product, ReLU, albedo product and clip run
+    # while it is in cache (one pass over memory instead of four), and BLAS stays on one thread for such
+    # small products (its threads only add start-up and contention for a 9-deep inner dimension).
+    step = max(256, _SHADE_BLOCK // (27 * k))
+    for s in range(0, n, step):
+        e = min(s + step, n)
+        block = (coeffs @ transport[:, s:e]).reshape(k, 3, e - s)
+        np.maximum(block, 0, out=block)
+        block *= albedo[:, :, s:e]
+        np.clip(block, 0, 1, out=out[:, :, s:e])
+    return out.reshape(k, 3, h, w)
 
 
 class Relighter:
@@ -177,9 +188,13 @@ class Relighter:
         detail: carry the input's full-resolution detail into the result when the person is larger
             than the network's square (see the module docstring); False: plain upsampling.
         warmup: run each graph once at load; None: only on CUDA.
+        precision: which graphs of the folder to run: "fp32" (``stage1.onnx``, ``stage2.onnx``), "fp16"
+            (``stage1_fp16.onnx``, ... as ``python -m export onnx --fp16`` writes them; for CUDA, slow on
+            most CPUs) or "int8" (``stage1_int8.onnx``, ... from ``python -m export.quantize``; CPU). A
+            graph missing in that precision is taken in fp32 (logged). The DVP graph is always fp32.
 
     Raises:
-        RelightError: no models found, a model file unreadable or breaking the contract.
+        RelightError: no models found, a model file unreadable or breaking the contract, unknown precision.
     """
 
     def __init__(
@@ -192,17 +207,21 @@ class Relighter:
         preprocess: str = "quality",
         detail: bool = True,
         warmup: bool | None = None,
+        precision: str = "fp32",
     ) -> None:
+        if precision not in PRECISIONS:
+            raise RelightError(f"precision is {precision!r}, expected one of {list(PRECISIONS)}")
         self._token = object()  # keys this Relighter's entries in a Decomposition's cache
         self.models_dir = find_models(models)
+        self.precision = precision
         self._session_args = {"device": device, "device_id": device_id, "providers": providers}
-        self.stage1: Model = load_model(self.models_dir / "stage1.onnx", "stage1", warmup=False, **self._session_args)
+        self.stage1: Model = load_model(self._graph("stage1"), "stage1", warmup=False, **self._session_args)
         if warmup is None:
             warmup = self.stage1.on_cuda
         if warmup:
             self.stage1.warm_up()
         self.stage2: Model | None = None
-        stage2_path = self.models_dir / "stage2.onnx"
+        stage2_path = self._graph("stage2")
         if stage2_path.is_file():
             self.stage2 = load_model(stage2_path, "stage2", warmup=warmup, **self._session_args)
             res2 = self.stage2.config.resolution
@@ -219,6 +238,17 @@ class Relighter:
         self.preprocess = preprocess
         self.detail = bool(detail)
         CropGeometry.from_mask(np.ones((1, 1), np.float32), self.resolution, preprocess)  # checks the mode
+
+    def _graph(self, kind: str) -> Path:
+        """The file of ``kind`` in this Relighter's precision, falling back to fp32 (logged) when absent."""
+        fp32 = self.models_dir / f"{kind}.onnx"
+        if self.precision == "fp32":
+            return fp32
+        path = self.models_dir / f"{kind}_{self.precision}.onnx"
+        if path.is_file() or not fp32.is_file():
+            return path
+        log.warning("%s: no %s, running %s in fp32", self.models_dir, path.name, kind)
+        return fp32
 
     @property
     def resolution(self) -> int:

@@ -4,6 +4,20 @@
 provider asked for is the one really running it. ``load_model`` also checks the graph against the
 contract (DESIGN.md §5, ``relight_rt.contract``) and wraps it as a :class:`Model`. onnxruntime's
 global logging is never touched; ``RELIGHT_RT_THREADS`` sets the intra-op thread count.
+
+Performance settings (docs/BENCHMARKS.md has the figures):
+
+- CPU (``cpu_session_options``): all graph optimisations (with the NCHWc layout transform that suits
+  these convolution-heavy graphs), a memory arena and memory patterns (fixed shapes), sequential
+  execution, intra-op threads = cores (``RELIGHT_RT_THREADS`` to change).
+- CUDA (``cuda_provider_options``) — UNTESTED ON A GPU so far: exhaustive cuDNN algorithm search (these
+  graphs run at fixed shapes, so the one-off search at warm-up pays back), the largest cuDNN workspace,
+  copies on the default stream, an arena that grows by what is asked. CUDA graphs are not switched on:
+  onnxruntime replays a captured graph on the device addresses of its first run, and the chain in
+  relight_rt._chain binds fresh buffers per run (docs/BENCHMARKS.md says what that needs).
+- TensorRT, opt-in and UNTESTED ON A GPU so far: ``RELIGHT_RT_TENSORRT=CACHE_DIR`` puts
+  TensorrtExecutionProvider first (fp16, engines and timing cache kept in CACHE_DIR: the first load
+  builds them, minutes; later loads read them), CUDA and CPU after it for what TensorRT does not take.
 """
 
 from __future__ import annotations
@@ -27,6 +41,8 @@ CUDA = "CUDAExecutionProvider"
 CPU = "CPUExecutionProvider"
 ENV_MODELS = "RELIGHT_RT_MODELS"
 ENV_THREADS = "RELIGHT_RT_THREADS"
+ENV_TENSORRT = "RELIGHT_RT_TENSORRT"
+TENSORRT = "TensorrtExecutionProvider"
 _CHANNELS = {"image": 3, "mask": 1, "albedo": 3, "skin": 1, "transport": 9, "diffuse": 3, "residual": 3,
              "relit": 3, "frame": 3}  # fmt: skip
 _CUDA_HELP = (
@@ -50,6 +66,42 @@ def thread_count() -> int:
     return n
 
 
+def cpu_session_options() -> ort.SessionOptions:
+    """SessionOptions for these graphs on CPU (module docstring); intra-op threads from $RELIGHT_RT_THREADS."""
+    opts = ort.SessionOptions()
+    opts.graph_optimization_level = ort.GraphOptimizationLevel.ORT_ENABLE_ALL
+    opts.execution_mode = ort.ExecutionMode.ORT_SEQUENTIAL
+    opts.enable_cpu_mem_arena = True
+    opts.enable_mem_pattern = True
+    opts.intra_op_num_threads = thread_count()
+    return opts
+
+
+def cuda_provider_options(device_id: int = 0) -> dict[str, str]:
+    """CUDAExecutionProvider options for fixed-shape convolution graphs. UNTESTED ON A GPU so far."""
+    return {
+        "device_id": str(int(device_id)),
+        "cudnn_conv_algo_search": "EXHAUSTIVE",
+        "cudnn_conv_use_max_workspace": "1",
+        "do_copy_in_default_stream": "1",
+        "arena_extend_strategy": "kSameAsRequested",
+    }
+
+
+def tensorrt_provider_options(device_id: int, cache: str | os.PathLike) -> dict[str, str]:
+    """TensorrtExecutionProvider options: fp16, engine + timing cache in ``cache``. UNTESTED ON A GPU so far."""
+    return {
+        "device_id": str(int(device_id)),
+        "trt_fp16_enable": "True",
+        "trt_engine_cache_enable": "True",
+        "trt_engine_cache_path": str(cache),
+        "trt_timing_cache_enable": "True",
+        "trt_timing_cache_path": str(cache),
+        "trt_max_workspace_size": str(8 << 30),
+        "trt_builder_optimization_level": "3",
+    }
+
+
 def _providers_for(device: str, device_id: int) -> list:
     if device not in DEVICES:
         raise RelightError(f"device is {device!r}, expected one of {list(DEVICES)}")
@@ -57,7 +109,14 @@ def _providers_for(device: str, device_id: int) -> list:
     if device == "cpu":
         return [CPU]
     if CUDA in available:
-        return [(CUDA, {"device_id": int(device_id)}), CPU]
+        chain: list = [(CUDA, cuda_provider_options(device_id)), CPU]
+        cache = os.environ.get(ENV_TENSORRT, "").strip()
+        if cache and TENSORRT in available:  # opt-in, untested on a GPU so far
+            Path(cache).mkdir(parents=True, exist_ok=True)
+            chain.insert(0, (TENSORRT, tensorrt_provider_options(device_id, cache)))
+        elif cache:
+            log.warning("$%s is set but this onnxruntime offers no %s; using CUDA", ENV_TENSORRT, TENSORRT)
+        return chain
     if device == "cuda":
         raise RelightError(
             f"device 'cuda' asked for, but this onnxruntime {ort.__version__} offers only {available}; {_CUDA_HELP}"
@@ -109,15 +168,14 @@ def create_session(
         raise RelightError(f"model file {path} not found")
     wanted = list(providers) if providers is not None else _providers_for(device, device_id)
     if sess_options is None:
-        sess_options = ort.SessionOptions()
-        sess_options.intra_op_num_threads = thread_count()
+        sess_options = cpu_session_options()
     try:
         session = ort.InferenceSession(str(path), sess_options=sess_options, providers=wanted)
     except Exception as exc:  # onnxruntime raises its own classes (InvalidProtobuf, Fail, ...)
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise RelightError(f"model {path}: not a readable ONNX graph ({first})") from None
     active = session.get_providers()
-    asked_cuda = any((p[0] if isinstance(p, tuple) else p) == CUDA for p in wanted)
+    asked_cuda = any((p[0] if isinstance(p, tuple) else p) in (CUDA, TENSORRT) for p in wanted)
     if asked_cuda and CUDA not in active:
         if device == "cuda" or providers is not None:
             raise RelightError(f"model {path}: CUDA was asked for but onnxruntime runs it on {active}; {_CUDA_HELP}")
@@ -177,8 +235,8 @@ class Model:
 
     @property
     def on_cuda(self) -> bool:
-        """True when CUDA runs this graph."""
-        return self.session.get_providers()[0] == CUDA
+        """True when CUDA (or TensorRT on CUDA) runs this graph."""
+        return self.session.get_providers()[0] in (CUDA, TENSORRT)
 
     def warm_up(self) -> None:
         """Run the graph once on zeros (allocates memory, picks CUDA kernels)."""
