@@ -270,7 +270,8 @@ def cmd_doctor(args: argparse.Namespace) -> int:
 # ------------------------------------------------------------------------------------------- main
 
 COMMANDS = [add_relight, add_decompose, add_lights, add_doctor]
-PLUGINS = ["relight_rt.video_cli", "relight_rt.demo"]  # modules with add_parser(subparsers), added when present
+# modules with add_parser(subparsers), added when present
+PLUGINS = ["relight_rt.video_cli", "relight_rt.demo", "relight_rt.bench"]
 
 
 def build_parser() -> argparse.ArgumentParser:
