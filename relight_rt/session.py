@@ -285,10 +285,17 @@ def find_models(models: str | os.PathLike | None = None) -> Path:
         places = [Path(models)]
     else:
         env = os.environ.get(ENV_MODELS, "").strip()
-        places = ([Path(env)] if env else []) + [bundled_models_dir()]
+        # A $RELIGHT_RT_MODELS that holds no models is a mistake to report, not a reason to fall back
+        # silently to the bundled models.
+        places = [Path(env)] if env else [bundled_models_dir()]
     for place in places:
         if (place / "stage1.onnx").is_file():
             return place
     looked = "; ".join(f"{p} ({'no stage1.onnx' if p.is_dir() else 'no such folder'})" for p in places)
-    hint = "" if models is not None else f"; pass --models DIR / models=DIR or set ${ENV_MODELS}"
+    if models is not None:
+        hint = ""
+    elif os.environ.get(ENV_MODELS, "").strip():
+        hint = f" (from ${ENV_MODELS}; unset it to use the bundled models)"
+    else:
+        hint = f"; pass --models DIR / models=DIR or set ${ENV_MODELS}"
     raise RelightError(f"no relight_rt models found, looked in: {looked}{hint}")

@@ -10,6 +10,7 @@ from relight_rt import RelightError
 from relight_rt.session import (
     CPU,
     CUDA,
+    bundled_models_dir,
     create_session,
     find_models,
     load_model,
@@ -136,9 +137,11 @@ def test_find_models_order(tmp_path, monkeypatch):
     assert find_models() == env
     with pytest.raises(RelightError, match=r"looked in: .*nowhere \(no such folder\)$"):
         find_models(tmp_path / "nowhere")
-    monkeypatch.setenv("RELIGHT_RT_MODELS", str(tmp_path))
-    with pytest.raises(RelightError, match=r"no stage1.onnx.*relight_rt/models.*RELIGHT_RT_MODELS"):
+    monkeypatch.setenv("RELIGHT_RT_MODELS", str(tmp_path))  # set but empty: an error, no silent fallback
+    with pytest.raises(RelightError, match=r"no stage1.onnx.*from \$RELIGHT_RT_MODELS"):
         find_models()
+    monkeypatch.delenv("RELIGHT_RT_MODELS")
+    assert find_models() == bundled_models_dir()
 
 
 @pytest.mark.gpu
