@@ -59,6 +59,8 @@ def run_demo(output: str | Path, preset: str = "golden-hour", models=None, devic
 
 
 def add_parser(subparsers) -> None:
+    from .cli import _add_model_options
+
     p = subparsers.add_parser(
         "demo",
         help="relight the bundled example person under a preset",
@@ -67,10 +69,7 @@ def add_parser(subparsers) -> None:
     )
     p.add_argument("--preset", default="golden-hour", metavar="NAME", help=f"one of {', '.join(lights.list_presets())}")
     p.add_argument("-o", "--output", default="demo.png", metavar="OUT", help="image to write (default demo.png)")
-    p.add_argument(
-        "--models", metavar="DIR", help="model folder (default: $RELIGHT_RT_MODELS, then the bundled models)"
-    )
-    p.add_argument("--device", choices=("auto", "cpu", "cuda"), default="auto")
+    _add_model_options(p)
     p.set_defaults(func=_cmd_demo)
 
 
