@@ -258,6 +258,25 @@ def test_cli_onnx(tmp_path, capsys):
     assert "holds a dvp network, --kind says stage2" in capsys.readouterr().err
 
 
+def _same_graph_up_to_rounding(committed, made) -> None:
+    """Nodes, I/O and metadata equal; weights equal up to float32 rounding.
+
+    Not byte for byte: tiny_stage2's BatchNorm running statistics come from torch convolutions on noise,
+    whose last bit depends on the CPU's kernels (an AMD and an Intel machine differ by ~1 ulp), so the
+    folded weights can differ in their last bit between the machine that made the file and this one.
+    """
+    a, b = onnx.load(str(committed)), onnx.load(str(made))
+    for field in ("node", "input", "output"):
+        assert list(getattr(a.graph, field)) == list(getattr(b.graph, field)), f"regenerate {committed.name}: {field}"
+    assert list(a.metadata_props) == list(b.metadata_props), f"regenerate {committed.name}: metadata"
+    wa = {t.name: onnx.numpy_helper.to_array(t) for t in a.graph.initializer}
+    wb = {t.name: onnx.numpy_helper.to_array(t) for t in b.graph.initializer}
+    assert sorted(wa) == sorted(wb), f"regenerate {committed.name}: initializer names"
+    for name, value in wa.items():
+        assert value.shape == wb[name].shape and value.dtype == wb[name].dtype, f"regenerate {committed.name}: {name}"
+        np.testing.assert_allclose(value, wb[name], rtol=1e-5, atol=1e-6, err_msg=f"regenerate {committed.name}")
+
+
 def test_committed_tiny_models_are_what_the_script_makes(test_data_dir, tmp_path):
     from export.make_test_models import make_test_models
 
@@ -265,6 +284,6 @@ def test_committed_tiny_models_are_what_the_script_makes(test_data_dir, tmp_path
     for kind in ("stage1", "stage2", "dvp"):
         committed = test_data_dir / f"tiny_{kind}.onnx"
         assert committed.stat().st_size < 400_000
-        assert committed.read_bytes() == (tmp_path / committed.name).read_bytes(), f"regenerate {committed.name}"
+        _same_graph_up_to_rounding(committed, tmp_path / committed.name)
         meta = _session(committed).get_modelmeta().custom_metadata_map
         assert config_from_metadata(meta).resolution == (128 if kind == "stage1" else 0)
