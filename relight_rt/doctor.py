@@ -54,7 +54,8 @@ def report(models: str | Path | None = None, device: str = "auto") -> tuple[list
         )
     if not hasattr(cv2, "ximgproc"):
         problems.append(
-            "cv2.ximgproc is missing (full-resolution detail needs it): install opencv-contrib-python-headless"
+            "cv2.ximgproc is missing: the cv2 that Python imports is not the opencv-contrib-python-headless build "
+            "relight_rt depends on (another OpenCV package shadows it); uninstall the others"
         )
     available = ort.get_available_providers()
     lines.append(f"onnxruntime providers available: {', '.join(available)}")
