@@ -37,6 +37,7 @@ from relight_rt import RelightError
 from relight_rt.sh import basis as sh_basis
 from relight_rt.sh import cosine_lobe
 
+from .frozen import apply_stage2, load_frozen
 from .metrics_img import masked_rmse, masked_ssim
 from .torch_data import PhotoDataset, Stage1Dataset, decompose, render_diffuse, subject_of
 from .training import collate, pick_device, write_json
@@ -48,9 +49,9 @@ FRONT_TRANSPORT = (cosine_lobe() * sh_basis(np.array([1.0, 0.0, 0.0]))).astype(n
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--stage1", required=True, help="stage-1 checkpoint")
-    parser.add_argument("--stage2", default=None, help="stage-2 checkpoint (photo tables)")
-    parser.add_argument("--nosf", default=None, help="stage-1 checkpoint trained with --no-sf (baseline row)")
+    parser.add_argument("--stage1", required=True, help="stage-1 checkpoint (.pt) or ONNX graph (.onnx)")
+    parser.add_argument("--stage2", default=None, help="stage-2 checkpoint or ONNX graph (photo tables)")
+    parser.add_argument("--nosf", default=None, help="stage-1 network trained with --no-sf (baseline row)")
     parser.add_argument("--data", default=None, help="held-out stage-1 samples (Table 1)")
     parser.add_argument("--lights", default=None, help="lights to render the samples under (Table 1)")
     parser.add_argument("--photos", default=None, help="held-out photos SUBJECT__L{j} (Table 2, relighting)")
@@ -136,8 +137,7 @@ def evaluate_photos(stage1: torch.nn.Module, stage2: torch.nn.Module | None, pho
              for i in range(n)]
 
     def residual(d: torch.Tensor, m: torch.Tensor) -> torch.Tensor:
-        with torch.no_grad():
-            return (d + stage2((2 * d - 1) * m).float()).clamp(0, 1) * m
+        return apply_stage2(stage2, d, m)
 
     decomposers: dict[str, object] = {"trivial": lambda img, m: trivial_decomposition(img, m, lights_mean),
                                       "stage 1": lambda img, m: decompose(stage1, img, m)}
@@ -202,13 +202,8 @@ def markdown(results: dict) -> str:
     return "\n".join(lines)
 
 
-def _load_stage(path: str, kind: str, device: torch.device) -> torch.nn.Module:
-    from .checkpoint import load_checkpoint
-
-    model, _ = load_checkpoint(path)
-    if model.kind != kind:
-        raise RelightError(f"{path}: expected a {kind} checkpoint, got {model.kind}")
-    return model.to(device).eval()
+def _load_stage(path: str, kind: str, device: torch.device, threads: int | None = None):
+    return load_frozen(path, kind, device, threads=threads)
 
 
 def run(args) -> int:
@@ -221,9 +216,9 @@ def run(args) -> int:
     if args.data is not None and args.lights is None:
         raise RelightError("evaluate: --data needs --lights (the lights the samples are rendered under)")
     device = pick_device(args.device)
-    stage1 = _load_stage(args.stage1, "stage1", device)
-    stage2 = _load_stage(args.stage2, "stage2", device) if args.stage2 else None
-    extra = {"stage 1 (no SF)": _load_stage(args.nosf, "stage1", device)} if args.nosf else {}
+    stage1 = _load_stage(args.stage1, "stage1", device, args.threads)
+    stage2 = _load_stage(args.stage2, "stage2", device, args.threads) if args.stage2 else None
+    extra = {"stage 1 (no SF)": _load_stage(args.nosf, "stage1", device, args.threads)} if args.nosf else {}
     lights = dataset.read_lights(args.lights) if args.lights else None
     results: dict = {"args": {k: v for k, v in vars(args).items() if k != "func"}}
     if args.data is not None:

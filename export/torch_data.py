@@ -26,6 +26,7 @@ import torch
 
 from relight_rt import RelightError
 
+from .frozen import OnnxStage
 from .losses import FLIP_SIGNS
 
 _FLIP = np.asarray(FLIP_SIGNS, dtype=np.float32)
@@ -235,13 +236,16 @@ def decompose(model: torch.nn.Module, image: torch.Tensor, mask: torch.Tensor) -
     """Run a stage-1 network on images and mask its outputs (no grad, the model's current mode).
 
     Args:
-        model: a Stage1Net.
+        model: a Stage1Net, or a stage-1 ONNX graph loaded by :func:`export.frozen.load_frozen`.
         image: (N, 3, R, R) RGB in [0, 1].
         mask: (N, 1, R, R) in [0, 1].
 
     Returns:
         transport (N,9,R,R), albedo (N,3,R,R), skin (N,1,R,R) (all masked) and light (N,9,3), float32.
     """
+    if isinstance(model, OnnxStage):  # the graph scales and masks its input and masks its outputs itself
+        out = model.run({"image": image, "mask": mask})
+        return {k: out[k] for k in ("transport", "albedo", "skin", "light")}
     with torch.no_grad():
         transport, albedo, skin, light = model((2.0 * image - 1.0) * mask)
     return {"transport": transport.float() * mask, "albedo": albedo.float() * mask, "skin": skin.float() * mask,

@@ -9,6 +9,19 @@ zero residual (the last layer is zero-initialised; ``--random-init`` keeps it ra
 (torch's own); learning rate cosine-annealed from ``--lr`` to ``--lr-min`` over ``--epochs``.
 Augmentation: random horizontal flips (images only; no SH is involved here).
 
+``--stage1`` takes a torch checkpoint or a stage-1 ONNX graph (the bundled ``relight_rt/models/stage1.onnx``,
+a converted reference checkpoint): stage 1 only runs forward here.
+
+Relighting pairs (``--cross-light P``, beyond the paper). The paper trains stage 2 on reconstruction
+only, because a real photo is seen under one light. Stage 2 then learns, besides the non-diffuse
+residual, to correct stage 1's reconstruction under stage 1's *own* light estimate, and that correction
+does not carry over to a new light (see docs/RESULTS.md). The renderer photographs each sample under
+several environment maps, so a relighting pair exists: with probability P a training item uses the
+diffuse image of photo i relit with the true SH light of photo j of the same sample,
+``clip(Â_i ⊙ max(0, T̂_i·L_j), 0, 1) ⊙ mask``, and photo j as the target: exactly what stage 2 sees
+at relighting time. P = 0 (the default) is the paper's training. The cache then also keeps every
+photo's estimated albedo and transport (float16).
+
 Example::
 
     python -m export train-stage2 --photos data/photos --stage1 runs/s1/best.pt --out runs/s2 \\
@@ -49,7 +62,8 @@ CACHE_NAME = "diffuse_cache.npz"
 
 def add_arguments(parser) -> None:
     parser.add_argument("--photos", required=True, help="folder of photos (SUBJECT__L{j}_photo.png, ...)")
-    parser.add_argument("--stage1", required=True, help="stage-1 checkpoint (RUN/best.pt of train-stage1)")
+    parser.add_argument("--stage1", required=True,
+                        help="frozen stage 1: a checkpoint (RUN/best.pt of train-stage1) or a stage-1 .onnx graph")
     parser.add_argument("--resolution", type=int, default=None,
                         help="training size, a multiple of 64 (default: stage 1's resolution)")
     parser.add_argument("--width", type=int, default=64, help="base channel count (default %(default)s)")
@@ -57,6 +71,10 @@ def add_arguments(parser) -> None:
                         help="normalisation layers (default %(default)s)")
     parser.add_argument("--random-init", action="store_true",
                         help="keep the random last layer (default: zero it, so training starts from residual 0)")
+    parser.add_argument("--cross-light", type=float, default=0.0, metavar="P",
+                        help="probability that a training item is a relighting pair (photo i relit with the light "
+                             "of photo j of the same sample, target photo j) instead of a reconstruction "
+                             "(default %(default)s = the paper's training; see the module docstring)")
     parser.add_argument("--val-fraction", type=float, default=0.1,
                         help="fraction of the subjects held out for validation (default %(default)s)")
     add_loop_arguments(parser, epochs=60)
@@ -67,28 +85,40 @@ def _stage1_id(path: Path, resolution: int) -> str:
     return f"{Path(path).resolve()}|{st.st_size}|{st.st_mtime_ns}|{resolution}"
 
 
-def diffuse_cache(stage1: torch.nn.Module, photos: PhotoDataset, path: Path, key: str,
-                  device: torch.device, batch_size: int = 4) -> dict[str, np.ndarray]:
+def diffuse_cache(stage1, photos: PhotoDataset, path: Path, key: str, device: torch.device, batch_size: int = 4,
+                  layers: bool = False) -> dict[str, np.ndarray]:
     """Diffuse reconstructions of every photo by a frozen stage 1, computed once and cached in ``path``.
+
+    Args:
+        stage1: a frozen stage 1 (:func:`export.frozen.load_frozen`).
+        layers: also keep the estimated albedo and transport (for relighting pairs); a cache without
+            them is recomputed.
 
     Returns:
         dict: names (N,) str, diffuse (N,3,R,R) float16 RGB in [0,1] (masked), light (N,9,3) float32
-        estimated lights, key (the cache key).
+        estimated lights, key (the cache key); with ``layers`` also albedo (N,3,R,R) and transport
+        (N,9,R,R), float16, masked.
     """
     if path.exists():
         with np.load(path, allow_pickle=False) as z:
-            if str(z["key"]) == key and list(z["names"]) == photos.names:
+            if (str(z["key"]) == key and list(z["names"]) == photos.names
+                    and (not layers or {"albedo", "transport"} <= set(z.files))):
                 log.info("using cached diffuse reconstructions %s", path)
                 return {k: z[k] for k in z.files}
     stage1.eval()
-    diffuse, lights = [], []
+    parts: dict[str, list[np.ndarray]] = {"diffuse": [], "light": [], "albedo": [], "transport": []}
     for i in range(0, len(photos), batch_size):
         b = to_device(collate([photos[j] for j in range(i, min(i + batch_size, len(photos)))]), device)
         out = decompose(stage1, b["photo"], b["mask"])
-        diffuse.append(render_diffuse(out["albedo"], out["transport"], out["light"], b["mask"]).cpu().numpy())
-        lights.append(out["light"].cpu().numpy())
-    cache = {"names": np.asarray(photos.names), "diffuse": np.concatenate(diffuse).astype(np.float16),
-             "light": np.concatenate(lights).astype(np.float32), "key": np.asarray(key)}
+        parts["diffuse"].append(render_diffuse(out["albedo"], out["transport"], out["light"], b["mask"]).cpu().numpy())
+        parts["light"].append(out["light"].cpu().numpy())
+        if layers:
+            parts["albedo"].append(out["albedo"].cpu().numpy().astype(np.float16))
+            parts["transport"].append(out["transport"].cpu().numpy().astype(np.float16))
+    cache = {"names": np.asarray(photos.names), "diffuse": np.concatenate(parts["diffuse"]).astype(np.float16),
+             "light": np.concatenate(parts["light"]).astype(np.float32), "key": np.asarray(key)}
+    if layers:
+        cache.update(albedo=np.concatenate(parts["albedo"]), transport=np.concatenate(parts["transport"]))
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".npz", dir=path.parent)
     with os.fdopen(fd, "wb") as f:
@@ -98,32 +128,63 @@ def diffuse_cache(stage1: torch.nn.Module, photos: PhotoDataset, path: Path, key
     return cache
 
 
-class Stage2Dataset(torch.utils.data.Dataset):
-    """Photos with their cached diffuse reconstructions, resized to ``resolution``, random flips.
+def relighting_partners(names: list[str]) -> list[list[int]]:
+    """For each photo, the indices of the other photos of the same sample (other lights, same view)."""
+    by_subject: dict[str, list[int]] = {}
+    for i, n in enumerate(names):
+        by_subject.setdefault(subject_of(n), []).append(i)
+    return [[j for j in by_subject[subject_of(n)] if j != i] for i, n in enumerate(names)]
 
-    Items: photo (3,R,R), mask (1,R,R), diffuse (3,R,R) (stage 1's reconstruction), index.
+
+class Stage2Dataset(torch.utils.data.Dataset):
+    """Stage-2 training items from photos and their cached stage-1 results, resized to ``resolution``.
+
+    Each entry of ``pairs`` is ``(i, j)``: the diffuse image of photo i under the light of photo j, and
+    photo j as the target. ``i == j`` is a reconstruction (stage 1's cached diffuse image under its own
+    estimated light, the paper's training); ``i != j`` a relighting pair (stage 1's albedo and transport
+    of photo i under the true SH light of photo j; needs the cache's layers). With ``cross_light`` > 0
+    a reconstruction entry becomes, with that probability per epoch, a pair with a random partner.
+
+    Items: photo (3,R,R) (the target), mask (1,R,R), diffuse (3,R,R), index. Random flips when ``augment``.
     """
 
-    def __init__(self, photos: PhotoDataset, diffuse: np.ndarray, indices: list[int], resolution: int,
-                 augment: bool = True, seed: int = 0):
-        self.photos, self.diffuse, self.indices = photos, diffuse, list(indices)
+    def __init__(self, photos: PhotoDataset, cache: dict[str, np.ndarray], pairs: list[tuple[int, int]],
+                 resolution: int, augment: bool = True, seed: int = 0, cross_light: float = 0.0):
+        self.photos, self.cache, self.pairs = photos, cache, list(pairs)
         self.resolution, self.augment, self.seed, self.epoch = resolution, augment, seed, 0
+        self.cross_light = float(cross_light)
+        self.partners = relighting_partners(photos.names) if self.cross_light > 0 else None
+        if (self.cross_light > 0 or any(i != j for i, j in self.pairs)) and "transport" not in cache:
+            raise RelightError("relighting pairs need the stage-1 albedo and transport in the cache")
 
     def __len__(self) -> int:
-        return len(self.indices)
+        return len(self.pairs)
 
     def set_epoch(self, epoch: int) -> None:
         self.epoch = int(epoch)
 
+    def _diffuse(self, i: int, j: int) -> torch.Tensor:
+        if i == j:
+            return torch.from_numpy(self.cache["diffuse"][i].astype(np.float32))
+        albedo = torch.from_numpy(self.cache["albedo"][i].astype(np.float32))
+        transport = torch.from_numpy(self.cache["transport"][i].astype(np.float32))
+        light = self.photos[j]["light"]
+        shading = torch.einsum("khw,kc->chw", transport, light).clamp_min(0.0)
+        return (albedo * shading).clamp(0.0, 1.0)
+
     def __getitem__(self, index: int) -> dict:
-        k = self.indices[index]
-        p = self.photos[k]
-        d = torch.from_numpy(self.diffuse[k].astype(np.float32))
-        photo, mask = p["photo"], p["mask"]
+        i, j = self.pairs[index]
+        rng = item_rng(self.seed, self.epoch, index)
+        flip = bool(rng.integers(2))
+        if self.partners is not None and i == j and self.partners[i] and rng.random() < self.cross_light:
+            j = int(rng.choice(self.partners[i]))
+        p = self.photos[j]
+        d = self._diffuse(i, j)
+        photo, mask = p["photo"], p["mask"] * self.photos[i]["mask"]
         if d.shape[-1] != self.resolution:
             d = F.interpolate(d[None], size=(self.resolution,) * 2, mode="bilinear", align_corners=False)[0]
         d = d * mask
-        if self.augment and item_rng(self.seed, self.epoch, index).integers(2):
+        if self.augment and flip:
             photo, mask, d = (t.flip(-1) for t in (photo, mask, d))
         return {"photo": photo, "mask": mask, "diffuse": d, "index": index}
 
@@ -162,16 +223,13 @@ def split_subjects(names: list[str], fraction: float, seed: int) -> tuple[list[i
 
 
 def run(args) -> int:
-    from .checkpoint import load_checkpoint
+    from .frozen import load_frozen
     from .networks import Stage2Net
 
     device = pick_device(args.device)
-    stage1, _ = load_checkpoint(args.stage1)
-    if stage1.kind != "stage1":
-        raise RelightError(f"--stage1 {args.stage1}: expected a stage1 checkpoint, got {stage1.kind}")
-    stage1 = stage1.to(device).eval()
-    for p in stage1.parameters():
-        p.requires_grad_(False)
+    if not 0.0 <= args.cross_light <= 1.0:
+        raise RelightError(f"--cross-light: expected a probability in [0, 1], got {args.cross_light}")
+    stage1 = load_frozen(args.stage1, "stage1", device, threads=args.threads)
     r1 = stage1.resolution
     r2 = args.resolution or r1
     if r2 % 64 or r2 < 64:
@@ -180,13 +238,15 @@ def run(args) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     photos_r1 = PhotoDataset(args.photos, r1)
-    cache = diffuse_cache(stage1, photos_r1, out / CACHE_NAME, _stage1_id(Path(args.stage1), r1), device)
+    cache = diffuse_cache(stage1, photos_r1, out / CACHE_NAME, _stage1_id(Path(args.stage1), r1), device,
+                          layers=args.cross_light > 0)
     del stage1
     photos = photos_r1 if r2 == r1 else PhotoDataset(args.photos, r2)
     train_idx, val_idx = split_subjects(photos.names, args.val_fraction, args.seed)
-    log.info("stage 2: %d training photos, %d validation, %d² px, width %d, norm %s",
-             len(train_idx), len(val_idx), r2, args.width, args.norm)
-    train_set = Stage2Dataset(photos, cache["diffuse"], train_idx, r2, augment=True, seed=args.seed)
+    log.info("stage 2: %d training photos, %d validation, %d² px, width %d, norm %s, relighting pairs %.2f",
+             len(train_idx), len(val_idx), r2, args.width, args.norm, args.cross_light)
+    train_set = Stage2Dataset(photos, cache, [(i, i) for i in train_idx], r2, augment=True, seed=args.seed,
+                              cross_light=args.cross_light)
     torch.manual_seed(args.seed)
     model = Stage2Net(width=args.width, resolution=r2, norm=args.norm).to(cfg.device)
     if not args.random_init:
@@ -194,7 +254,13 @@ def run(args) -> int:
     optimizer = torch.optim.RAdam(model.parameters(), lr=args.lr)
     val_fn = None
     if val_idx:
-        val_set = Stage2Dataset(photos, cache["diffuse"], val_idx, r2, augment=False)
+        # validation measures what the training aims at: reconstructions, plus every relighting pair of
+        # the held-out subjects when pairs are trained
+        val_pairs = [(i, i) for i in val_idx]
+        if args.cross_light > 0:
+            partners = relighting_partners(photos.names)
+            val_pairs += [(i, j) for i in val_idx for j in partners[i]]
+        val_set = Stage2Dataset(photos, cache, val_pairs, r2, augment=False)
 
         def val_fn(m: torch.nn.Module) -> float:
             total = 0.0
@@ -204,7 +270,8 @@ def run(args) -> int:
 
     write_json(out / "args.json", {**vars(args), "command": "train-stage2",
                                    "val_names": [photos.names[i] for i in val_idx]})
-    meta = {"command": "train-stage2", "photos": str(args.photos), "stage1": str(args.stage1)}
+    meta = {"command": "train-stage2", "photos": str(args.photos), "stage1": str(args.stage1),
+            "cross_light": args.cross_light}
     summary = train_loop(model, optimizer, train_set, stage2_step, cfg, val_fn=val_fn, meta=meta)
     log.info("stage 2 finished: %s", json.dumps(summary))
     if args.export_onnx:

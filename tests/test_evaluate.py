@@ -129,3 +129,39 @@ def test_evaluate_needs_some_data(checkpoints, tmp_path, capsys):
     assert main(["evaluate", "--stage1", str(checkpoints / "s2.pt"), "--photos", str(checkpoints / "photos"),
                  "--out", str(tmp_path)]) == 2
     assert "expected a stage1 checkpoint" in capsys.readouterr().err
+
+
+def test_evaluate_gives_the_same_tables_from_onnx_graphs(checkpoints, tmp_path):
+    """The shipped artefacts can be measured directly: .onnx graphs give the checkpoints' numbers."""
+    pytest.importorskip("onnxruntime")
+    from export.__main__ import main
+
+    root = checkpoints
+    for kind in ("stage1", "stage2"):
+        short = kind.replace("stage", "s")
+        argv = ["onnx", "--checkpoint", str(root / f"{short}.pt"), "--kind", kind, "--out", str(tmp_path / f"{kind}.onnx")]
+        assert main(argv) == 0
+    common = ["--data", str(root / "samples"), "--lights", str(root / "lights"), "--photos", str(root / "photos"),
+              "--threads", "1"]
+    assert main(["evaluate", "--stage1", str(root / "s1.pt"), "--stage2", str(root / "s2.pt"),
+                 "--out", str(tmp_path / "pt"), *common]) == 0
+    assert main(["evaluate", "--stage1", str(tmp_path / "stage1.onnx"), "--stage2", str(tmp_path / "stage2.onnx"),
+                 "--out", str(tmp_path / "onnx"), *common]) == 0
+    a = json.loads((tmp_path / "pt" / "results.json").read_text())
+    b = json.loads((tmp_path / "onnx" / "results.json").read_text())
+    for section in ("synthetic", "photos"):
+        assert set(a[section]) == set(b[section])
+        for method, row in a[section].items():
+            for key, value in row.items():
+                assert b[section][method][key] == pytest.approx(value, rel=1e-3, abs=1e-5), (section, method, key)
+
+
+def test_evaluate_refuses_a_graph_of_the_wrong_kind(checkpoints, tmp_path, capsys):
+    pytest.importorskip("onnxruntime")
+    from export.__main__ import main
+
+    root = checkpoints
+    graph = tmp_path / "s2.onnx"
+    assert main(["onnx", "--checkpoint", str(root / "s2.pt"), "--kind", "stage2", "--out", str(graph)]) == 0
+    assert main(["evaluate", "--stage1", str(graph), "--photos", str(root / "photos"), "--out", str(tmp_path / "e")]) == 2
+    assert "stage1" in capsys.readouterr().err

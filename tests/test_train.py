@@ -196,3 +196,56 @@ def test_stage2_starts_from_a_zero_residual():
     assert stage2_step(model, batch)["l1"] > 0  # a random last layer adds a residual
     zero_residual_init(model)
     assert stage2_step(model, batch)["l1"] == 0
+
+
+def test_stage2_relighting_pairs_use_the_other_photos_light(data, tmp_path):
+    """An (i, j) item is stage 1's albedo and transport of photo i under photo j's true light, target photo j."""
+    from export.torch_data import PhotoDataset
+    from export.train_stage2 import Stage2Dataset, relighting_partners
+
+    photos = PhotoDataset(data / "photos", 64)
+    assert relighting_partners(photos.names) == [[1], [0], [3], [2]]  # subj0__L0/L1, subj1__L0/L1
+    gen = torch.Generator().manual_seed(0)
+    cache = {"diffuse": torch.rand(4, 3, 64, 64, generator=gen).numpy().astype(np.float16),
+             "albedo": torch.rand(4, 3, 64, 64, generator=gen).numpy().astype(np.float16),
+             "transport": torch.randn(4, 9, 64, 64, generator=gen).numpy().astype(np.float16)}
+    ds = Stage2Dataset(photos, cache, [(0, 0), (0, 1)], 64, augment=False)
+    self_item, pair = ds[0], ds[1]
+    mask = photos[0]["mask"] * photos[1]["mask"]
+    torch.testing.assert_close(self_item["diffuse"], torch.from_numpy(cache["diffuse"][0].astype(np.float32))
+                               * photos[0]["mask"])
+    shading = torch.einsum("khw,kc->chw", torch.from_numpy(cache["transport"][0].astype(np.float32)),
+                           photos[1]["light"]).clamp_min(0)
+    expected = (torch.from_numpy(cache["albedo"][0].astype(np.float32)) * shading).clamp(0, 1) * mask
+    torch.testing.assert_close(pair["diffuse"], expected)
+    torch.testing.assert_close(pair["photo"], photos[1]["photo"])
+    assert not torch.equal(photos[0]["light"], photos[1]["light"])  # the test can fail
+    # with cross_light = 1 every reconstruction entry becomes a pair with the sample's other photo
+    mixed = Stage2Dataset(photos, cache, [(0, 0)], 64, augment=False, cross_light=1.0)
+    torch.testing.assert_close(mixed[0]["diffuse"], pair["diffuse"])
+    with pytest.raises(RelightError, match="albedo and transport"):
+        Stage2Dataset(photos, {"diffuse": cache["diffuse"]}, [(0, 1)], 64)
+
+
+def test_stage2_trains_on_a_frozen_onnx_stage1_with_relighting_pairs(data, tmp_path):
+    pytest.importorskip("onnxruntime")
+    s1 = tmp_path / "s1"
+    assert _stage1(data, s1, "--epochs", "1", "--max-steps", "2", "--export-onnx") == 0
+    run = tmp_path / "s2"
+    argv = ["train-stage2", "--photos", str(data / "photos"), "--stage1", str(s1 / "stage1.onnx"), "--out", str(run),
+            "--width", "4", "--norm", "instance", "--threads", "1", "--log-every", "1", "--val-fraction", "0.5",
+            "--cross-light", "0.5", "--epochs", "8", "--lr", "2e-3"]
+    assert main(argv) == 0
+    with np.load(run / "diffuse_cache.npz", allow_pickle=False) as z:
+        assert z["transport"].shape == (4, 9, 64, 64) and z["albedo"].shape == (4, 3, 64, 64)
+    totals = _totals(run)
+    assert len(totals) == 16 and np.mean(totals[-4:]) < np.mean(totals[:4])
+    epochs = [r for r in read_jsonl(run / "log.jsonl") if r["event"] == "epoch"]
+    assert all(np.isfinite(r["val"]) for r in epochs)
+
+
+def test_stage2_refuses_a_bad_cross_light(data, tmp_path, capsys):
+    argv = ["train-stage2", "--photos", str(data / "photos"), "--stage1", str(tmp_path / "none.onnx"), "--out",
+            str(tmp_path / "o"), "--cross-light", "1.5"]
+    assert main(argv) == 2
+    assert "--cross-light" in capsys.readouterr().err
