@@ -199,7 +199,7 @@ def cmd_decompose(args: argparse.Namespace) -> int:
 
 def add_lights(subparsers) -> None:
     p = subparsers.add_parser("lights", help="list, show and make SH lights")
-    sub = p.add_subparsers(dest="lights_command", required=True, metavar="{list,show,from-envmap}")
+    sub = p.add_subparsers(dest="lights_command", required=True, metavar="{list,show,from-envmap,from-photo}")
     ls = sub.add_parser("list", help="the named lights, one per line, name first")
     ls.set_defaults(func=cmd_lights_list)
     show = sub.add_parser("show", help="render a light on a diffuse sphere")
@@ -211,6 +211,13 @@ def add_lights(subparsers) -> None:
     env.add_argument("envmap", metavar="HDR")
     env.add_argument("-o", "--output", required=True, metavar="LIGHT", help=".npy or .json")
     env.set_defaults(func=cmd_lights_from_envmap)
+    photo = sub.add_parser("from-photo", help="estimate the light of a photo of a person (stage 1)")
+    photo.add_argument("photo", metavar="PHOTO")
+    photo.add_argument("--mask", help="mask image (default: the photo's alpha, or PHOTO_mask.png beside it)")
+    photo.add_argument("-o", "--output", required=True, metavar="LIGHT", help=".npy or .json")
+    photo.set_defaults(func=cmd_lights_from_photo)
+    for q in (ls, show, env, photo):  # every command takes them; only from-photo runs a model
+        _add_model_options(q)
 
 
 def cmd_lights_list(args: argparse.Namespace) -> int:
@@ -238,11 +245,31 @@ def cmd_lights_from_envmap(args: argparse.Namespace) -> int:
     if out.resolve() == Path(args.envmap).resolve():
         raise RelightError(f"refusing to overwrite the input {args.envmap}")
     light = sh.project_envmap(sh.load_envmap(args.envmap))
+    _write_light(out, light, args.envmap)
+    log.info("%s -> %s", args.envmap, out)
+    return 0
+
+
+def _write_light(out: Path, light: np.ndarray, source: str) -> None:
+    if out.suffix.lower() not in (".npy", ".json"):
+        raise RelightError(f"output {out}: expected a .npy or .json light file")
+    if out.resolve() == Path(source).resolve():
+        raise RelightError(f"refusing to overwrite the input {source}")
     if out.suffix.lower() == ".npy":
-        write_npy(out, light, protect=[args.envmap])
+        write_npy(out, light, protect=[source])
     else:
         sh.save_light(out, light)
-    log.info("%s -> %s", args.envmap, out)
+
+
+def cmd_lights_from_photo(args: argparse.Namespace) -> int:
+    photo = Path(args.photo)
+    out = Path(args.output)
+    if out.suffix.lower() not in (".npy", ".json"):  # before the models load
+        raise RelightError(f"output {out}: expected a .npy or .json light file")
+    mask = Path(args.mask) if args.mask else sibling_mask(photo)
+    light = np.asarray(_relighter(args).decompose(photo, mask).light, dtype=np.float32)
+    _write_light(out, light, args.photo)
+    log.info("%s -> %s", args.photo, out)
     return 0
 
 

@@ -116,6 +116,23 @@ def test_lights_commands(work, capsys):
     assert code == 2 and "known presets" in err and not (work / "x.png").exists()
 
 
+def test_lights_from_photo_takes_the_model_options(work, capsys, models_dir, monkeypatch):
+    """Every command takes --models/--device; from-photo is the lights command that runs stage 1."""
+    monkeypatch.delenv("RELIGHT_RT_MODELS")
+    write_photo(work)
+    for target in ("own.npy", "own.json"):
+        code, _, err = run(["lights", "from-photo", "p.png", "--models", models_dir, "--device", "cpu", "-o", target],
+                           capsys)
+        assert code == 0, err
+    np.testing.assert_allclose(np.load("own.npy"), OWN_LIGHT, rtol=1e-6)  # the test stage 1 returns OWN_LIGHT
+    code, _, err = run(["lights", "list", "--models", models_dir, "--device", "cpu"], capsys)
+    assert code == 0, err
+    code, _, err = run(["lights", "from-photo", "p.png", "--models", models_dir, "-o", "own.png"], capsys)
+    assert code == 2 and "expected a .npy or .json" in err and not (work / "own.png").exists()
+    code, _, err = run(["lights", "from-photo", "missing.png", "--models", models_dir, "-o", "m.npy"], capsys)
+    assert code == 2 and len(err.strip().splitlines()) == 1 and not (work / "m.npy").exists()
+
+
 def test_doctor(work, capsys):
     code, out, _ = run(["doctor", "--device", "cpu"], capsys)
     assert code == 0 and "onnxruntime" in out and "stage1: resolution 64" in out and out.rstrip().endswith("ok")

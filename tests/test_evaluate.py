@@ -139,8 +139,8 @@ def test_evaluate_gives_the_same_tables_from_onnx_graphs(checkpoints, tmp_path):
     root = checkpoints
     for kind in ("stage1", "stage2"):
         short = kind.replace("stage", "s")
-        argv = ["onnx", "--checkpoint", str(root / f"{short}.pt"), "--kind", kind, "--out", str(tmp_path / f"{kind}.onnx")]
-        assert main(argv) == 0
+        out = tmp_path / f"{kind}.onnx"
+        assert main(["onnx", "--checkpoint", str(root / f"{short}.pt"), "--kind", kind, "--out", str(out)]) == 0
     common = ["--data", str(root / "samples"), "--lights", str(root / "lights"), "--photos", str(root / "photos"),
               "--threads", "1"]
     assert main(["evaluate", "--stage1", str(root / "s1.pt"), "--stage2", str(root / "s2.pt"),
@@ -163,5 +163,6 @@ def test_evaluate_refuses_a_graph_of_the_wrong_kind(checkpoints, tmp_path, capsy
     root = checkpoints
     graph = tmp_path / "s2.onnx"
     assert main(["onnx", "--checkpoint", str(root / "s2.pt"), "--kind", "stage2", "--out", str(graph)]) == 0
-    assert main(["evaluate", "--stage1", str(graph), "--photos", str(root / "photos"), "--out", str(tmp_path / "e")]) == 2
+    argv = ["evaluate", "--stage1", str(graph), "--photos", str(root / "photos"), "--out", str(tmp_path / "e")]
+    assert main(argv) == 2
     assert "stage1" in capsys.readouterr().err
