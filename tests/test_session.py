@@ -75,6 +75,12 @@ def test_threads_from_environment(stage1_path, monkeypatch):
             create_session(stage1_path, device="cpu")
 
 
+def test_cpu_threads_do_not_spin(stage1_path):
+    """Stage 1 and stage 2 take turns on the same cores: idle intra-op threads must not spin-wait."""
+    sess = create_session(stage1_path, device="cpu")
+    assert sess.get_session_options().get_session_config_entry("session.intra_op.allow_spinning") == "0"
+
+
 def test_global_log_level_is_never_touched(stage1_path, monkeypatch):
     def forbidden(*args):
         raise AssertionError("set_default_logger_severity called")
