@@ -93,6 +93,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--dvp-patience", type=int, default=8)
     parser.add_argument("--vgg-weights", help="local VGG19 weights for the DVP perceptual loss")
     parser.add_argument("--skip-dvp", action="store_true", help="only frame-by-frame and the stabiliser")
+    parser.add_argument("--dvp-variants", default="unconditioned,conditioned",
+                        help="which DVP fits to run, comma-separated (default: both)")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     from relight_rt.relighter import Relighter
@@ -128,7 +130,12 @@ def main(argv: list[str] | None = None) -> int:
         from export.dvp import export_dvp, fit_dvp, load_clip
 
         clip = load_clip(frames, out / "framewise", out / "lights.npy")
+        variants = {v.strip() for v in args.dvp_variants.split(",") if v.strip()}
+        if not variants or variants - {"unconditioned", "conditioned"}:
+            parser.error(f"--dvp-variants: expected unconditioned and/or conditioned, got {args.dvp_variants!r}")
         for conditioned, label in ((False, "DVP, unconditioned"), (True, "DVP, light-conditioned")):
+            if ("conditioned" if conditioned else "unconditioned") not in variants:
+                continue
             tag = "dvp_conditioned" if conditioned else "dvp_unconditioned"
             t0 = time.perf_counter()
             model, history = fit_dvp(clip, conditioned=conditioned, width=args.dvp_width, vgg_weights=args.vgg_weights,
