@@ -75,6 +75,10 @@ def add_arguments(parser) -> None:
                         help="probability that a training item is a relighting pair (photo i relit with the light "
                              "of photo j of the same sample, target photo j) instead of a reconstruction "
                              "(default %(default)s = the paper's training; see the module docstring)")
+    parser.add_argument("--true-diffuse", type=float, default=0.0, metavar="P",
+                        help="probability that a training item's input is the renderer's own diffuse image of the "
+                             "target photo (NAME_diffuse.png) instead of stage 1's, so that stage 2 learns the "
+                             "non-diffuse residual alone (default %(default)s)")
     parser.add_argument("--val-fraction", type=float, default=0.1,
                         help="fraction of the subjects held out for validation (default %(default)s)")
     add_loop_arguments(parser, epochs=60)
@@ -143,16 +147,19 @@ class Stage2Dataset(torch.utils.data.Dataset):
     photo j as the target. ``i == j`` is a reconstruction (stage 1's cached diffuse image under its own
     estimated light, the paper's training); ``i != j`` a relighting pair (stage 1's albedo and transport
     of photo i under the true SH light of photo j; needs the cache's layers). With ``cross_light`` > 0
-    a reconstruction entry becomes, with that probability per epoch, a pair with a random partner.
+    a reconstruction entry becomes, with that probability per epoch, a pair with a random partner. With
+    ``true_diffuse`` > 0 the input is, with that probability, the renderer's own diffuse image of the
+    target photo instead of stage 1's (the non-diffuse residual alone).
 
     Items: photo (3,R,R) (the target), mask (1,R,R), diffuse (3,R,R), index. Random flips when ``augment``.
     """
 
     def __init__(self, photos: PhotoDataset, cache: dict[str, np.ndarray], pairs: list[tuple[int, int]],
-                 resolution: int, augment: bool = True, seed: int = 0, cross_light: float = 0.0):
+                 resolution: int, augment: bool = True, seed: int = 0, cross_light: float = 0.0,
+                 true_diffuse: float = 0.0):
         self.photos, self.cache, self.pairs = photos, cache, list(pairs)
         self.resolution, self.augment, self.seed, self.epoch = resolution, augment, seed, 0
-        self.cross_light = float(cross_light)
+        self.cross_light, self.true_diffuse = float(cross_light), float(true_diffuse)
         self.partners = relighting_partners(photos.names) if self.cross_light > 0 else None
         if (self.cross_light > 0 or any(i != j for i, j in self.pairs)) and "transport" not in cache:
             raise RelightError("relighting pairs need the stage-1 albedo and transport in the cache")
@@ -179,7 +186,12 @@ class Stage2Dataset(torch.utils.data.Dataset):
         if self.partners is not None and i == j and self.partners[i] and rng.random() < self.cross_light:
             j = int(rng.choice(self.partners[i]))
         p = self.photos[j]
-        d = self._diffuse(i, j)
+        if self.true_diffuse > 0 and rng.random() < self.true_diffuse:
+            if not p["diffuse"].any():
+                raise RelightError(f"--true-diffuse: {self.photos.names[j]} has no diffuse image (NAME_diffuse.png)")
+            d = p["diffuse"]
+        else:
+            d = self._diffuse(i, j)
         photo, mask = p["photo"], p["mask"] * self.photos[i]["mask"]
         if d.shape[-1] != self.resolution:
             d = F.interpolate(d[None], size=(self.resolution,) * 2, mode="bilinear", align_corners=False)[0]
@@ -227,8 +239,9 @@ def run(args) -> int:
     from .networks import Stage2Net
 
     device = pick_device(args.device)
-    if not 0.0 <= args.cross_light <= 1.0:
-        raise RelightError(f"--cross-light: expected a probability in [0, 1], got {args.cross_light}")
+    for name, value in (("--cross-light", args.cross_light), ("--true-diffuse", args.true_diffuse)):
+        if not 0.0 <= value <= 1.0:
+            raise RelightError(f"{name}: expected a probability in [0, 1], got {value}")
     stage1 = load_frozen(args.stage1, "stage1", device, threads=args.threads)
     r1 = stage1.resolution
     r2 = args.resolution or r1
@@ -246,7 +259,7 @@ def run(args) -> int:
     log.info("stage 2: %d training photos, %d validation, %d² px, width %d, norm %s, relighting pairs %.2f",
              len(train_idx), len(val_idx), r2, args.width, args.norm, args.cross_light)
     train_set = Stage2Dataset(photos, cache, [(i, i) for i in train_idx], r2, augment=True, seed=args.seed,
-                              cross_light=args.cross_light)
+                              cross_light=args.cross_light, true_diffuse=args.true_diffuse)
     torch.manual_seed(args.seed)
     model = Stage2Net(width=args.width, resolution=r2, norm=args.norm).to(cfg.device)
     if not args.random_init:
@@ -271,7 +284,7 @@ def run(args) -> int:
     write_json(out / "args.json", {**vars(args), "command": "train-stage2",
                                    "val_names": [photos.names[i] for i in val_idx]})
     meta = {"command": "train-stage2", "photos": str(args.photos), "stage1": str(args.stage1),
-            "cross_light": args.cross_light}
+            "cross_light": args.cross_light, "true_diffuse": args.true_diffuse}
     summary = train_loop(model, optimizer, train_set, stage2_step, cfg, val_fn=val_fn, meta=meta)
     log.info("stage 2 finished: %s", json.dumps(summary))
     if args.export_onnx:

@@ -225,6 +225,11 @@ def test_stage2_relighting_pairs_use_the_other_photos_light(data, tmp_path):
     torch.testing.assert_close(mixed[0]["diffuse"], pair["diffuse"])
     with pytest.raises(RelightError, match="albedo and transport"):
         Stage2Dataset(photos, {"diffuse": cache["diffuse"]}, [(0, 1)], 64)
+    # with true_diffuse = 1 the input is the renderer's own diffuse image of the target photo
+    oracle = Stage2Dataset(photos, cache, [(0, 0), (0, 1)], 64, augment=False, true_diffuse=1.0)
+    torch.testing.assert_close(oracle[0]["diffuse"], photos[0]["diffuse"] * photos[0]["mask"])
+    torch.testing.assert_close(oracle[1]["diffuse"], photos[1]["diffuse"] * mask)
+    assert photos[0]["diffuse"].any() and not torch.equal(oracle[0]["diffuse"], self_item["diffuse"])
 
 
 def test_stage2_trains_on_a_frozen_onnx_stage1_with_relighting_pairs(data, tmp_path):
