@@ -96,6 +96,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--dvp-variants", default="unconditioned,conditioned",
                         help="which DVP fits to run, comma-separated (default: both)")
     args = parser.parse_args(argv)
+    variants = {v.strip() for v in args.dvp_variants.split(",") if v.strip()}
+    if not variants or variants - {"unconditioned", "conditioned"}:
+        parser.error(f"--dvp-variants: expected unconditioned and/or conditioned, got {args.dvp_variants!r}")
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     from relight_rt.relighter import Relighter
 
@@ -130,9 +133,6 @@ def main(argv: list[str] | None = None) -> int:
         from export.dvp import export_dvp, fit_dvp, load_clip
 
         clip = load_clip(frames, out / "framewise", out / "lights.npy")
-        variants = {v.strip() for v in args.dvp_variants.split(",") if v.strip()}
-        if not variants or variants - {"unconditioned", "conditioned"}:
-            parser.error(f"--dvp-variants: expected unconditioned and/or conditioned, got {args.dvp_variants!r}")
         for conditioned, label in ((False, "DVP, unconditioned"), (True, "DVP, light-conditioned")):
             if ("conditioned" if conditioned else "unconditioned") not in variants:
                 continue

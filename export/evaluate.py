@@ -202,10 +202,6 @@ def markdown(results: dict) -> str:
     return "\n".join(lines)
 
 
-def _load_stage(path: str, kind: str, device: torch.device, threads: int | None = None):
-    return load_frozen(path, kind, device, threads=threads)
-
-
 def run(args) -> int:
     from . import dataset
 
@@ -216,9 +212,9 @@ def run(args) -> int:
     if args.data is not None and args.lights is None:
         raise RelightError("evaluate: --data needs --lights (the lights the samples are rendered under)")
     device = pick_device(args.device)
-    stage1 = _load_stage(args.stage1, "stage1", device, args.threads)
-    stage2 = _load_stage(args.stage2, "stage2", device, args.threads) if args.stage2 else None
-    extra = {"stage 1 (no SF)": _load_stage(args.nosf, "stage1", device, args.threads)} if args.nosf else {}
+    stage1 = load_frozen(args.stage1, "stage1", device, threads=args.threads)
+    stage2 = load_frozen(args.stage2, "stage2", device, threads=args.threads) if args.stage2 else None
+    extra = {"stage 1 (no SF)": load_frozen(args.nosf, "stage1", device, threads=args.threads)} if args.nosf else {}
     lights = dataset.read_lights(args.lights) if args.lights else None
     results: dict = {"args": {k: v for k, v in vars(args).items() if k != "func"}}
     if args.data is not None:

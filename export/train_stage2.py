@@ -171,13 +171,12 @@ class Stage2Dataset(torch.utils.data.Dataset):
         self.epoch = int(epoch)
 
     def _diffuse(self, i: int, j: int) -> torch.Tensor:
+        """Unmasked diffuse image of photo i under photo j's light (i == j: the cached reconstruction)."""
         if i == j:
             return torch.from_numpy(self.cache["diffuse"][i].astype(np.float32))
-        albedo = torch.from_numpy(self.cache["albedo"][i].astype(np.float32))
-        transport = torch.from_numpy(self.cache["transport"][i].astype(np.float32))
-        light = self.photos[j]["light"]
-        shading = torch.einsum("khw,kc->chw", transport, light).clamp_min(0.0)
-        return (albedo * shading).clamp(0.0, 1.0)
+        albedo = torch.from_numpy(self.cache["albedo"][i][None].astype(np.float32))
+        transport = torch.from_numpy(self.cache["transport"][i][None].astype(np.float32))
+        return render_diffuse(albedo, transport, self.photos[j]["light"][None], torch.ones(1, 1, 1, 1))[0]
 
     def __getitem__(self, index: int) -> dict:
         i, j = self.pairs[index]
@@ -186,13 +185,13 @@ class Stage2Dataset(torch.utils.data.Dataset):
         if self.partners is not None and i == j and self.partners[i] and rng.random() < self.cross_light:
             j = int(rng.choice(self.partners[i]))
         p = self.photos[j]
+        photo, mask = p["photo"], p["mask"] if i == j else p["mask"] * self.photos[i]["mask"]
         if self.true_diffuse > 0 and rng.random() < self.true_diffuse:
             if not p["diffuse"].any():
                 raise RelightError(f"--true-diffuse: {self.photos.names[j]} has no diffuse image (NAME_diffuse.png)")
             d = p["diffuse"]
         else:
             d = self._diffuse(i, j)
-        photo, mask = p["photo"], p["mask"] * self.photos[i]["mask"]
         if d.shape[-1] != self.resolution:
             d = F.interpolate(d[None], size=(self.resolution,) * 2, mode="bilinear", align_corners=False)[0]
         d = d * mask

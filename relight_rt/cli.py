@@ -238,38 +238,36 @@ def cmd_lights_show(args: argparse.Namespace) -> int:
     return 0
 
 
-def cmd_lights_from_envmap(args: argparse.Namespace) -> int:
-    out = Path(args.output)
-    if out.suffix.lower() not in (".npy", ".json"):
-        raise RelightError(f"output {out}: expected a .npy or .json light file")
-    if out.resolve() == Path(args.envmap).resolve():
-        raise RelightError(f"refusing to overwrite the input {args.envmap}")
-    light = sh.project_envmap(sh.load_envmap(args.envmap))
-    _write_light(out, light, args.envmap)
-    log.info("%s -> %s", args.envmap, out)
-    return 0
-
-
-def _write_light(out: Path, light: np.ndarray, source: str) -> None:
+def _light_output(output: str, source: str) -> Path:
+    """The output light file, checked before any work: .npy or .json, and not the input."""
+    out = Path(output)
     if out.suffix.lower() not in (".npy", ".json"):
         raise RelightError(f"output {out}: expected a .npy or .json light file")
     if out.resolve() == Path(source).resolve():
         raise RelightError(f"refusing to overwrite the input {source}")
+    return out
+
+
+def _write_light(out: Path, light: np.ndarray, source: str) -> None:
     if out.suffix.lower() == ".npy":
         write_npy(out, light, protect=[source])
     else:
         sh.save_light(out, light)
+    log.info("%s -> %s", source, out)
+
+
+def cmd_lights_from_envmap(args: argparse.Namespace) -> int:
+    out = _light_output(args.output, args.envmap)
+    _write_light(out, sh.project_envmap(sh.load_envmap(args.envmap)), args.envmap)
+    return 0
 
 
 def cmd_lights_from_photo(args: argparse.Namespace) -> int:
+    out = _light_output(args.output, args.photo)  # before the models load
     photo = Path(args.photo)
-    out = Path(args.output)
-    if out.suffix.lower() not in (".npy", ".json"):  # before the models load
-        raise RelightError(f"output {out}: expected a .npy or .json light file")
     mask = Path(args.mask) if args.mask else sibling_mask(photo)
     light = np.asarray(_relighter(args).decompose(photo, mask).light, dtype=np.float32)
     _write_light(out, light, args.photo)
-    log.info("%s -> %s", args.photo, out)
     return 0
 
 
