@@ -18,7 +18,8 @@ Steps (everything at one working size, the frames' long side scaled to ``--size`
    (correlation) and its gain; seconds per frame measured around the
    runtime's processing (reading and writing included; DVP fitting time listed apart).
 
-Writes OUT/results.json and OUT/table.md (the markdown table for docs/RESULTS.md).
+Writes OUT/results.json, OUT/table.md (the markdown table for docs/RESULTS.md) and OUT/comparison.png
+(the outputs side by side at six frames, and each method's mean frame-to-frame change).
 """
 
 from __future__ import annotations
@@ -76,6 +77,41 @@ def measure(out_dir: Path, frames: Path, layers_dir: Path, lights: np.ndarray) -
             albedo, transport = layer["albedo"].astype(np.float32), layer["transport"].astype(np.float32)
         acc.update(out, frame.mask, frame.image, albedo, transport, lights[frame.index])
     return acc.result()
+
+
+def write_comparison(path: Path, frames: Path, rows: dict[str, dict], columns: int = 6, tile: int = 192) -> None:
+    """A PNG to look at: the input and every method's output at ``columns`` evenly spaced frames, one row
+    each, then per method the mean |output[t+1] − output[t]| over the clip (×8, inside both masks), where
+    flicker shows as speckle and the light's own change as smooth shading."""
+    from export.render.contact_sheet import write_sheet
+
+    def square(img: np.ndarray) -> np.ndarray:  # pad to a square tile without distorting the person
+        h, w = img.shape[:2]
+        side = max(h, w)
+        top, left = (side - h) // 2, (side - w) // 2
+        pad = [(top, side - h - top), (left, side - w - left)] + [(0, 0)] * (img.ndim - 2)
+        return np.pad(img, pad)
+
+    def read(folder: Path, name: str) -> np.ndarray:
+        return cv2.cvtColor(cv2.imread(str(folder / f"{name}.png")), cv2.COLOR_BGR2RGB).astype(np.float32) / 255
+
+    source = list(FrameSource(frames))
+    picks = np.linspace(0, len(source) - 1, min(columns, len(source))).round().astype(int)
+    sheet = [[(f"input {source[i].name}", square(source[i].image)) for i in picks]]
+    changes = []
+    for label, row in rows.items():
+        folder = path.parent / row["dir"]
+        sheet.append([(label if j == 0 else source[i].name, square(read(folder, source[i].name)))
+                      for j, i in enumerate(picks)])
+        total = np.zeros(source[0].image.shape, np.float32)
+        prev = read(folder, source[0].name)
+        for a, b in zip(source[:-1], source[1:], strict=True):
+            cur = read(folder, b.name)
+            total += np.abs(cur - prev) * ((a.mask >= 0.5) & (b.mask >= 0.5))[..., None]
+            prev = cur
+        changes.append((f"{label}: mean |change| x8", square(8 * total / (len(source) - 1))))
+    sheet.append(changes)
+    write_sheet(path, sheet, tile=tile)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -167,6 +203,7 @@ def main(argv: list[str] | None = None) -> int:
                      f"{row['seconds_per_frame']:.3f}{fit} |")
     table = "\n".join(lines) + "\n"
     (out / "table.md").write_text(table)
+    write_comparison(out / "comparison.png", frames, rows)
     print(table)
     return 0
 
