@@ -102,8 +102,31 @@ def test_evaluate_writes_both_tables(checkpoints, tmp_path):
                            "oracle: true diffuse + stage 2"}
     assert photos["stage 1 + 2"]["n_pairs"] == 12  # 2 subjects × 3 × 2 ordered pairs
     assert photos["stage 1"]["n_photos"] == 6
+    effect = results["stage2_effect"]
+    assert effect["relight_rmse"]["n"] == 12 and effect["relight_rmse"]["subjects"] == 2
+    assert effect["recon_rmse"]["n"] == 6
+    expected = np.mean([photos["stage 1 + 2"]["recon_rmse"] - photos["stage 1"]["recon_rmse"]])
+    assert effect["recon_rmse"]["mean"] == pytest.approx(expected, abs=1e-9)  # same photos, so mean of differences
     text = (out / "results.md").read_text()
-    assert "| stage 1 + 2 |" in text and "Table 1" in text and "Table 2" in text
+    assert "| stage 1 + 2 |" in text and "Table 1" in text and "Table 2" in text and "Stage 2's effect" in text
+
+
+def test_paired_change_resamples_subjects_and_counts_improvements():
+    from export.evaluate import paired_change
+
+    base = [{"e": 1.0}] * 6
+    # subject a: stage 2 lowers the error by 0.1 on all 4 items; subject b: raises it by 0.3 on both
+    new = [{"e": 0.9}] * 4 + [{"e": 1.3}] * 2
+    groups = ["a"] * 4 + ["b"] * 2
+    out = paired_change(base, new, "e", groups, resamples=4000, seed=1)
+    assert out["mean"] == pytest.approx((4 * -0.1 + 2 * 0.3) / 6)
+    assert out["improved"] == pytest.approx(4 / 6)
+    assert (out["n"], out["subjects"]) == (6, 2)
+    low, high = out["ci95"]
+    # resampling whole subjects: the extremes are "a twice" (-0.1) and "b twice" (+0.3)
+    assert low == pytest.approx(-0.1) and high == pytest.approx(0.3)
+    same = paired_change(base, base, "e", groups)
+    assert same["mean"] == 0 and same["ci95"] == [0, 0] and same["improved"] == 0
 
 
 def test_trivial_baseline_reconstructs_the_mean_colour(checkpoints):
