@@ -40,7 +40,7 @@ if str(REPO) not in sys.path:
 
 from relight_rt import lights as rt_lights  # noqa: E402
 from relight_rt import metrics as rt_metrics  # noqa: E402
-from relight_rt._io import write_image  # noqa: E402
+from relight_rt._io import read_image, write_image  # noqa: E402
 from relight_rt.stabilize import Stabilizer  # noqa: E402
 from relight_rt.video import (  # noqa: E402
     DVPModel,
@@ -72,7 +72,7 @@ def measure(out_dir: Path, frames: Path, layers_dir: Path, lights: np.ndarray) -
     """Metrics of the frames in out_dir against the inputs, with the frame-by-frame layers as reference."""
     acc = rt_metrics.TemporalMetrics(flow_preset="medium")
     for frame in FrameSource(frames):
-        out = cv2.cvtColor(cv2.imread(str(out_dir / f"{frame.name}.png")), cv2.COLOR_BGR2RGB)
+        out = read_image(out_dir / f"{frame.name}.png", frame.name)
         with np.load(layers_dir / f"{frame.name}.npz", allow_pickle=False) as layer:
             albedo, transport = layer["albedo"].astype(np.float32), layer["transport"].astype(np.float32)
         acc.update(out, frame.mask, frame.image, albedo, transport, lights[frame.index])
@@ -85,31 +85,21 @@ def write_comparison(path: Path, frames: Path, rows: dict[str, dict], columns: i
     flicker shows as speckle and the light's own change as smooth shading."""
     from export.render.contact_sheet import write_sheet
 
-    def square(img: np.ndarray) -> np.ndarray:  # pad to a square tile without distorting the person
-        h, w = img.shape[:2]
-        side = max(h, w)
-        top, left = (side - h) // 2, (side - w) // 2
-        pad = [(top, side - h - top), (left, side - w - left)] + [(0, 0)] * (img.ndim - 2)
-        return np.pad(img, pad)
-
-    def read(folder: Path, name: str) -> np.ndarray:
-        return cv2.cvtColor(cv2.imread(str(folder / f"{name}.png")), cv2.COLOR_BGR2RGB).astype(np.float32) / 255
-
     source = list(FrameSource(frames))
     picks = np.linspace(0, len(source) - 1, min(columns, len(source))).round().astype(int)
-    sheet = [[(f"input {source[i].name}", square(source[i].image)) for i in picks]]
+    sheet = [[(f"input {source[i].name}", source[i].image) for i in picks]]
     changes = []
     for label, row in rows.items():
-        folder = path.parent / row["dir"]
-        sheet.append([(label if j == 0 else source[i].name, square(read(folder, source[i].name)))
-                      for j, i in enumerate(picks)])
-        total = np.zeros(source[0].image.shape, np.float32)
-        prev = read(folder, source[0].name)
-        for a, b in zip(source[:-1], source[1:], strict=True):
-            cur = read(folder, b.name)
-            total += np.abs(cur - prev) * ((a.mask >= 0.5) & (b.mask >= 0.5))[..., None]
+        tiles, total, prev = [], np.zeros(source[0].image.shape, np.float32), None
+        for t, frame in enumerate(source):  # one pass over the outputs, two at a time
+            cur = read_image(path.parent / row["dir"] / f"{frame.name}.png", label)
+            if t in picks:
+                tiles.append((label if not tiles else frame.name, cur))
+            if prev is not None:
+                total += np.abs(cur - prev) * ((source[t - 1].mask >= 0.5) & (frame.mask >= 0.5))[..., None]
             prev = cur
-        changes.append((f"{label}: mean |change| x8", square(8 * total / (len(source) - 1))))
+        sheet.append(tiles)
+        changes.append((f"{label}: mean |change| x8", 8 * total / (len(source) - 1)))
     sheet.append(changes)
     write_sheet(path, sheet, tile=tile)
 

@@ -33,6 +33,11 @@ def _tile(img: np.ndarray, size: int) -> np.ndarray:
     img = np.clip(np.asarray(img, np.float32), 0.0, 1.0)
     if img.ndim == 2:
         img = np.repeat(img[..., None], 3, axis=2)
+    h, w = img.shape[:2]
+    if h != w:  # letterbox to a square (black bars) rather than stretch the person
+        side = max(h, w)
+        top, left = (side - h) // 2, (side - w) // 2
+        img = cv2.copyMakeBorder(img, top, side - h - top, left, side - w - left, cv2.BORDER_CONSTANT, value=0)
     return cv2.resize(img, (size, size), interpolation=cv2.INTER_AREA if img.shape[0] > size else cv2.INTER_NEAREST)
 
 
@@ -43,7 +48,8 @@ def _label(tile: np.ndarray, text: str) -> np.ndarray:
 
 
 def write_sheet(path: str | Path, rows: list[list[tuple[str, np.ndarray]]], tile: int = 192) -> None:
-    """Write a grid of labelled RGB tiles as an 8-bit PNG (rows may have different lengths)."""
+    """Write a grid of labelled RGB tiles as an 8-bit PNG (rows may have different lengths; non-square
+    images are letterboxed)."""
     width = max(len(r) for r in rows)
     blank = np.zeros((tile, tile, 3), np.uint8)
     lines = []
