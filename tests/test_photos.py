@@ -14,12 +14,12 @@ from export import dataset  # noqa: E402
 from export.__main__ import main  # noqa: E402
 from export.render import envmaps, shapes  # noqa: E402
 from export.render.camera import fit_camera  # noqa: E402
-from export.render.photos import EnvSampler, pixel_size, render_photo  # noqa: E402
+from export.render.photos import EnvSampler, full_shading, median_cut, pixel_size, render_photo  # noqa: E402
 from export.render.raycast import Tracer  # noqa: E402
 from export.render.scene import Subject  # noqa: E402
 from export.render.transport import render_gbuffer, transport  # noqa: E402
 from relight_rt import RelightError  # noqa: E402
-from relight_rt.sh import project_envmap  # noqa: E402
+from relight_rt.sh import directions_envmap, project_envmap, solid_angles_envmap  # noqa: E402
 
 RES = 24
 
@@ -84,6 +84,57 @@ def test_subsurface_changes_only_skin():
     assert (diff[~skin] == 0).all()
 
 
+def test_median_cut_keeps_the_power_and_finds_the_sun():
+    h = 32
+    env = np.full((h, 2 * h, 3), 0.05, np.float32)
+    env[5, 40] = (400.0, 300.0, 200.0)  # a one-pixel sun
+    dirs, power = median_cut(env, 64)
+    assert dirs.shape == power.shape == (64, 3)
+    np.testing.assert_allclose(np.linalg.norm(dirs, axis=1), 1, atol=1e-9)
+    total = (env * solid_angles_envmap(h)[..., None]).sum(axis=(0, 1))
+    np.testing.assert_allclose(power.sum(axis=0), total, rtol=1e-9)
+    sun = np.argmax(power[:, 0])
+    # the sun's region is cut down to the sun: its light points at the sun's pixel and carries nearly all of it
+    assert dirs[sun] @ directions_envmap(h)[5, 40] > 0.99
+    assert power[sun, 0] > 0.95 * 400.0 * solid_angles_envmap(h)[5, 40]
+    # a uniform map is cut into regions of equal power
+    _, even = median_cut(np.ones((h, 2 * h, 3), np.float32), 16)
+    assert even[:, 0].max() < 1.3 * even[:, 0].min()
+
+
+def test_full_shading_agrees_with_sh_shading_where_sh_suffices(env):
+    """On a lone convex sphere (nothing casts a shadow) under a soft map, the SH irradiance is close to the
+    exact one; a wrong direction convention in the point lights would make them disagree grossly."""
+    tracer, g, t, _ = _setup()
+    t = transport(tracer, g, 256, rng=np.random.default_rng(1))
+    exact = full_shading(tracer, g, env)
+    sh = np.maximum(0.0, t @ project_envmap(env).astype(np.float32))
+    assert np.abs(exact - sh).mean() < 0.06 * sh.mean()
+    uniform = full_shading(tracer, g, np.ones((16, 32, 3), np.float32))
+    np.testing.assert_allclose(uniform, np.pi, rtol=0.04)  # ∫ max(0, n·ω) dω = π
+
+
+def test_full_shading_casts_hard_shadows():
+    """A sun straight above (+z, DESIGN.md §3) and a ball above a big ball: the shadow on the big ball is
+    black in the exact shading, while the SH projection of the same map can only dim it."""
+    big = shapes.sphere(radius=0.5, rows=24, name="big")
+    blocker = shapes.sphere(center=(0, 0, 0.9), radius=0.2, rows=12, name="blocker")
+    subject = Subject([big, blocker])
+    cam = fit_camera(subject, RES)
+    tracer = Tracer(subject)
+    g = render_gbuffer(subject, cam, tracer)
+    h = 16
+    env = np.zeros((h, 2 * h, 3), np.float32)
+    env[0, :] = 50.0  # the top row: a small bright cap around +z
+    exact = full_shading(tracer, g, env)
+    t = transport(tracer, g, 64, rng=np.random.default_rng(0))
+    sh = np.maximum(0.0, t @ project_envmap(env).astype(np.float32))
+    top_of_big = (g.part == 0) & (g.normal[:, 2] > 0.9)  # under the blocker
+    assert top_of_big.any()
+    assert exact[top_of_big].max() < 0.05 * exact.max()
+    assert sh[top_of_big].mean() > 0.1 * sh.max()
+
+
 def test_env_sampler_density_integrates_to_one(env):
     s = EnvSampler(env)
     d = s.sample((4000,), np.random.default_rng(0))
@@ -141,5 +192,12 @@ def test_render_photos_end_to_end(tmp_path):
     env_name = (photos / f"{names[0]}_env.txt").read_text().strip()
     np.testing.assert_allclose(p["light"], dataset.read_light(lights, env_name), rtol=0.03, atol=0.01)
     assert (photos / "contact_sheet.png").is_file()
+    # --full-shading: same light, mask and (SH) diffuse image; another photo
+    full = tmp_path / "full"
+    assert main([*args[:6], str(full), *args[7:], "--full-shading"]) == 0
+    q = dataset.read_photo(full, names[0])
+    for key in ("mask", "diffuse", "light"):
+        np.testing.assert_array_equal(q[key], p[key])
+    assert np.abs(q["photo"] - p["photo"]).max() > 0.01
     assert main(["render-photos", "--data", str(tmp_path / "empty"), "--envmaps", str(lights),
                  "--out", str(photos)]) == 2

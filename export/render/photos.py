@@ -1,8 +1,12 @@
 """Non-diffuse "photos" of a rendered subject under an environment map, for stage 2.
 
 photo = albedo ⊙ S' + specular, where
-- S = max(0, T·L) is the diffuse shading of the stage-1 model (T the occlusion-aware transport, L the
-  SH projection of the environment map), and the diffuse image is albedo ⊙ S;
+- S is the diffuse shading: by default S = max(0, T·L), the stage-1 model (T the occlusion-aware
+  transport, L the SH projection of the environment map); with ``full_shading`` the shading a camera
+  would record, S = ∫ V(ω) max(0, n·ω) E(ω) dω under the full environment map E, whose hard shadows
+  and sharp terminators the 9 SH coefficients cannot hold (same normalisation: T·L is S with E
+  band-limited to SH order 2). The diffuse image is always albedo ⊙ max(0, T·L), what stage 1 can
+  represent, so photo − diffuse is everything stage 2 has to add;
 - S' is S with a soft subsurface look on skin: S blurred within the subject's mask, more in red than
   in blue (light scatters further in red), mixed in by ``subsurface × skin`` per pixel;
 - specular is a GGX microfacet lobe (Walter et al. 2007; Smith masking; Schlick's Fresnel) whose
@@ -12,7 +16,7 @@ photo = albedo ⊙ S' + specular, where
   visibility: each pixel casts ``n_samples`` rays sampled from the lobe and ``n_samples`` from the
   map's brightness, combined with the balance heuristic (multiple importance sampling, Veach 1997).
 
-With zero specular strength and zero subsurface the photo equals the diffuse image exactly.
+With zero specular strength and zero subsurface (and SH shading) the photo equals the diffuse image exactly.
 Every image is linear (no gamma), like the albedo.
 """
 
@@ -22,10 +26,10 @@ import cv2
 import numpy as np
 
 from relight_rt._errors import RelightError
-from relight_rt.sh import project_envmap, shading, solid_angles_envmap
+from relight_rt.sh import directions_envmap, project_envmap, shading, solid_angles_envmap
 
 from .raycast import Tracer
-from .transport import GBuffer, tangent_frame
+from .transport import RAYS_PER_BATCH, GBuffer, tangent_frame
 
 F0 = 0.04  # the dielectric whose Schlick curve shapes the Fresnel rise; Part.specular rescales it
 SSS_RADIUS_M = np.array([0.008, 0.004, 0.0025])  # blur radius (Gaussian sigma) per RGB channel, metres
@@ -141,6 +145,84 @@ def specular(
     return out
 
 
+def median_cut(env: np.ndarray, n_lights: int) -> tuple[np.ndarray, np.ndarray]:
+    """Split an environment map into ``n_lights`` regions of about equal power, one point light each.
+
+    Median cut (Debevec 2005): the region with the most power is halved along its longer side
+    (measured in angle, columns shortened by sin θ), at the row or column where its luminance × solid
+    angle reaches half, until there are ``n_lights`` regions. Each light sits at its region's
+    power-weighted mean direction and carries the region's integral ∫ E dω (RGB), so Σ power = ∫ E dω.
+
+    Returns:
+        directions (K, 3) float64 unit vectors, power (K, 3) float64; K ≤ ``n_lights`` (regions of a
+        single pixel are not split further).
+    """
+    env = np.asarray(env, np.float64)
+    h, w = env.shape[:2]
+    omega = solid_angles_envmap(h).astype(np.float64)
+    energy = env * omega[..., None]  # (H, W, 3) radiance × solid angle
+    lum = energy @ [0.2126, 0.7152, 0.0722] + 1e-9 * omega
+    sin_t = np.sin(np.pi * (np.arange(h) + 0.5) / h)
+
+    def power(r0: int, r1: int, c0: int, c1: int) -> float:
+        return float(lum[r0:r1, c0:c1].sum()) if (r1 - r0) * (c1 - c0) > 1 else -1.0  # one pixel: final
+
+    regions, powers = [(0, h, 0, w)], [power(0, h, 0, w)]
+    while len(regions) < n_lights and max(powers) >= 0:
+        i = int(np.argmax(powers))
+        r0, r1, c0, c1 = regions.pop(i)
+        powers.pop(i)
+        rows, cols = r1 - r0, c1 - c0
+        tall = cols == 1 or (rows > 1 and rows >= cols * sin_t[r0:r1].mean())
+        profile = lum[r0:r1, c0:c1].sum(axis=1 if tall else 0)
+        half = int(np.searchsorted(np.cumsum(profile), 0.5 * profile.sum())) + 1
+        cut = (r0 if tall else c0) + min(max(half, 1), len(profile) - 1)
+        parts = [(r0, cut, c0, c1), (cut, r1, c0, c1)] if tall else [(r0, r1, c0, cut), (r0, r1, cut, c1)]
+        regions += parts
+        powers += [power(*p) for p in parts]
+    dirs = directions_envmap(h).astype(np.float64)
+    out_dirs, out_power = [], []
+    for r0, r1, c0, c1 in regions:
+        wgt = lum[r0:r1, c0:c1, None]
+        d = (dirs[r0:r1, c0:c1] * wgt).sum(axis=(0, 1))
+        out_dirs.append(d / max(np.linalg.norm(d), 1e-12))
+        out_power.append(energy[r0:r1, c0:c1].sum(axis=(0, 1)))
+    return np.asarray(out_dirs), np.asarray(out_power)
+
+
+def full_shading(
+    tracer: Tracer,
+    gbuffer: GBuffer,
+    env: np.ndarray,
+    *,
+    n_lights: int = 256,
+    offset: float | None = None,
+) -> np.ndarray:
+    """Diffuse shading (M, 3) float32 of the covered pixels under the full environment map, with visibility.
+
+    S(p) = ∫ V(p,ω) max(0, n·ω) E(ω) dω, with E replaced by the ``n_lights`` point lights of
+    :func:`median_cut`: deterministic (no Monte Carlo grain, which stage 2 could not predict), a sun
+    keeps its hard shadow, and a broad sky becomes many dim lights whose shadows overlap softly.
+    Shadow rays start as in :func:`export.render.transport.transport`.
+    """
+    m = len(gbuffer.index)
+    dirs, power = median_cut(env, n_lights)
+    eps = 1e-4 * tracer.scale if offset is None else float(offset)
+    out = np.zeros((m, 3), np.float64)
+    chunk = max(1, RAYS_PER_BATCH // len(dirs))
+    for s in range(0, m, chunk):
+        e = min(m, s + chunk)
+        nl = gbuffer.normal[s:e].astype(np.float64) @ dirs.T  # (P, K)
+        ok = nl > 0
+        origins = gbuffer.position[s:e] + eps * gbuffer.geo_normal[s:e]
+        origins = np.broadcast_to(origins[:, None], (e - s, len(dirs), 3))
+        rays = np.broadcast_to(dirs[None], origins.shape)
+        visible = np.zeros(ok.shape, bool)
+        visible[ok] = ~tracer.occluded(origins[ok], rays[ok])
+        out[s:e] = np.where(visible, nl, 0.0) @ power
+    return out.astype(np.float32)
+
+
 def _subsurface(shade_img: np.ndarray, mask: np.ndarray, pixel_size: float) -> np.ndarray:
     """Shading blurred within the mask, a Gaussian of SSS_RADIUS_M per channel; (R, R, 3) float32."""
     out = np.empty_like(shade_img)
@@ -165,6 +247,7 @@ def render_photo(
     pixel_size: float,
     albedo: np.ndarray | None = None,
     n_samples: int = 16,
+    full: bool = False,
     rng: np.random.Generator,
 ) -> dict[str, np.ndarray]:
     """Render a photo of a subject under an environment map.
@@ -176,7 +259,8 @@ def render_photo(
         env: (H, 2H, 3) float linear RGB environment map (DESIGN.md §3 layout).
         pixel_size: side of one pixel at the subject, metres (sets the subsurface blur in pixels).
         albedo: (M, 3) RGB albedo to use instead of the G-buffer's (e.g. the 8-bit one written to disk).
-        n_samples: lobe samples and environment samples per pixel (each).
+        n_samples: lobe (or cosine) samples and environment samples per pixel, each.
+        full: shade with the full environment map (:func:`full_shading`) instead of its SH projection.
         rng: random generator.
 
     Returns:
@@ -191,7 +275,9 @@ def render_photo(
     light = project_envmap(sampler.env)
     shade = shading(transport, light).astype(np.float32)  # (M, 3)
     diffuse = alb * shade
-    photo = diffuse
+    if full:
+        shade = full_shading(tracer, gbuffer, sampler.env)
+    photo = alb * shade
     w = gbuffer.subsurface * gbuffer.skin
     if np.any(w > 0):
         blurred = _subsurface(gbuffer.image(shade), gbuffer.mask, pixel_size).reshape(-1, 3)[gbuffer.index]
@@ -206,4 +292,4 @@ def pixel_size(half_extent: float, resolution: int) -> float:
     return 2.0 * half_extent / max(int(resolution), 1)
 
 
-__all__ = ["EnvSampler", "F0", "SSS_RADIUS_M", "pixel_size", "render_photo", "specular"]
+__all__ = ["EnvSampler", "F0", "SSS_RADIUS_M", "full_shading", "median_cut", "pixel_size", "render_photo", "specular"]

@@ -5,7 +5,9 @@ beside it) the subject and camera are re-created, and K photos are rendered unde
 drawn (deterministically, from ``--seed`` and the sample's name) from ``--envmaps``: a folder written
 by ``python -m export lights`` (its ``lights.json``, with rotations) or any folder of .hdr maps.
 Writes ``SUBJECT__L{j}_photo.png``, ``_diffuse.png``, ``_mask.png`` and ``_light.npy`` per photo
-(see export.dataset), and ``SUBJECT__L{j}_env.txt`` naming the environment used.
+(see export.dataset), and ``SUBJECT__L{j}_env.txt`` naming the environment used. With ``--full-shading``
+the photo's diffuse part is shaded by the full environment map (hard shadows, sharp terminators) rather
+than by its SH projection, as a camera would record it; ``_diffuse.png`` stays stage 1's SH image.
 """
 
 from __future__ import annotations
@@ -30,6 +32,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", required=True, type=Path, help="output folder for the photos")
     parser.add_argument("--k", type=int, default=3, help="photos (environment maps) per sample")
     parser.add_argument("--samples", type=int, default=32, help="specular rays per pixel (lobe + map, each)")
+    parser.add_argument("--full-shading", action="store_true",
+                        help="shade with the full environment map (hard shadows; median cut into 256 point lights) "
+                             "instead of its SH projection; _diffuse.png stays the SH image (export.render.photos)")
     parser.add_argument("--env-height", type=int, default=None, help="resize maps to this height (default: as stored)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--workers", type=int, default=2)
@@ -67,7 +72,7 @@ def photo_one(job: dict) -> dict:
         env = load_environment(job["envmaps"], env_name, job["env_height"])
         rng = np.random.default_rng([job["seed"], zlib.crc32(name.encode()), j])
         out = render_photo(tracer, g, transport, env, pixel_size=pixel_size(cam.half_extent, cam.resolution),
-                           albedo=albedo, n_samples=job["samples"], rng=rng)
+                           albedo=albedo, n_samples=job["samples"], full=job["full"], rng=rng)
         pname = dataset.photo_name(name, j)
         dataset.write_photo(job["out"], pname, out["photo"], out["diffuse"], out["mask"], out["light"])
         text = f"{env_name}\n"
@@ -94,7 +99,7 @@ def run(args) -> int:
         pick = rng.choice(len(envs), size=args.k, replace=False)
         jobs.append({"data": str(args.data), "name": name, "envmaps": str(args.envmaps),
                      "envs": [envs[i] for i in pick], "env_height": args.env_height, "samples": args.samples,
-                     "seed": args.seed, "out": str(args.out)})
+                     "full": args.full_shading, "seed": args.seed, "out": str(args.out)})
     args.out.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
     failures, times = [], []
