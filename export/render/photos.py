@@ -259,7 +259,7 @@ def render_photo(
         env: (H, 2H, 3) float linear RGB environment map (DESIGN.md §3 layout).
         pixel_size: side of one pixel at the subject, metres (sets the subsurface blur in pixels).
         albedo: (M, 3) RGB albedo to use instead of the G-buffer's (e.g. the 8-bit one written to disk).
-        n_samples: lobe (or cosine) samples and environment samples per pixel, each.
+        n_samples: specular lobe samples and environment samples per pixel (each).
         full: shade with the full environment map (:func:`full_shading`) instead of its SH projection.
         rng: random generator.
 
