@@ -28,6 +28,7 @@ import numpy as np
 from relight_rt._errors import RelightError
 from relight_rt.sh import directions_envmap, project_envmap, shading, solid_angles_envmap
 
+from .envmaps import LUMA
 from .raycast import Tracer
 from .transport import RAYS_PER_BATCH, GBuffer, tangent_frame
 
@@ -47,7 +48,7 @@ class EnvSampler:
         self.env = env
         self.h, self.w = env.shape[:2]
         omega = solid_angles_envmap(self.h).astype(np.float64)
-        weight = (env.astype(np.float64) @ [0.2126, 0.7152, 0.0722] + 1e-4 * env.mean()) * omega
+        weight = (env.astype(np.float64) @ LUMA + 1e-4 * env.mean()) * omega
         self.prob = (weight / weight.sum()).ravel()  # probability of each pixel
         self.cdf = np.cumsum(self.prob)
         self.pdf_solid = (self.prob / omega.ravel())  # density per steradian inside each pixel
@@ -161,8 +162,9 @@ def median_cut(env: np.ndarray, n_lights: int) -> tuple[np.ndarray, np.ndarray]:
     h, w = env.shape[:2]
     omega = solid_angles_envmap(h).astype(np.float64)
     energy = env * omega[..., None]  # (H, W, 3) radiance × solid angle
-    lum = energy @ [0.2126, 0.7152, 0.0722] + 1e-9 * omega
-    sin_t = np.sin(np.pi * (np.arange(h) + 0.5) / h)
+    lum = energy @ LUMA + 1e-9 * omega
+    dirs = directions_envmap(h)
+    sin_t = np.sqrt(1.0 - dirs[:, 0, 2] ** 2)  # per row
 
     def power(r0: int, r1: int, c0: int, c1: int) -> float:
         return float(lum[r0:r1, c0:c1].sum()) if (r1 - r0) * (c1 - c0) > 1 else -1.0  # one pixel: final
@@ -176,11 +178,10 @@ def median_cut(env: np.ndarray, n_lights: int) -> tuple[np.ndarray, np.ndarray]:
         tall = cols == 1 or (rows > 1 and rows >= cols * sin_t[r0:r1].mean())
         profile = lum[r0:r1, c0:c1].sum(axis=1 if tall else 0)
         half = int(np.searchsorted(np.cumsum(profile), 0.5 * profile.sum())) + 1
-        cut = (r0 if tall else c0) + min(max(half, 1), len(profile) - 1)
+        cut = (r0 if tall else c0) + min(half, len(profile) - 1)  # both halves non-empty
         parts = [(r0, cut, c0, c1), (cut, r1, c0, c1)] if tall else [(r0, r1, c0, cut), (r0, r1, cut, c1)]
         regions += parts
         powers += [power(*p) for p in parts]
-    dirs = directions_envmap(h).astype(np.float64)
     out_dirs, out_power = [], []
     for r0, r1, c0, c1 in regions:
         wgt = lum[r0:r1, c0:c1, None]
