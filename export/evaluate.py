@@ -20,11 +20,16 @@ Rows: the trained network(s) and baselines:
 - ``oracle: true diffuse`` (Table 2, reconstruction only): the renderer's own diffuse image of the
   photo, i.e. the size of the non-diffuse part; ``+ stage 2``: stage 2 applied to it, which shows
   whether stage 2 learned the non-diffuse residual independently of stage 1's errors.
+- ``oracle: stage 1 + true residual`` (Table 2, relighting only): stage 1's relit diffuse image plus
+  the renderer's own non-diffuse part of the target photo (photo j minus its diffuse image), i.e.
+  what a perfect stage 2 would give on top of this stage 1: the ceiling of stage 2's relighting gain.
 
 Stage 2's effect (Table 2 with ``--stage2``): the differences are small, so each photo and each pair
 is compared with itself: mean change of RMSE (stage 1 + 2 minus stage 1; negative = stage 2 helps),
 a 95 % bootstrap interval that resamples whole subjects (the photos and pairs of one person are not
-independent), and the share of photos / pairs that stage 2 improves.
+independent), and the share of photos / pairs that stage 2 improves. With pairs, the same for the
+oracle row ("a perfect stage 2"): if even that change is within noise, no stage 2 can show a
+relighting gain on these photos, whatever its training.
 
 Writes ``OUT/results.md`` (markdown tables) and ``OUT/results.json``. Metrics are means over samples.
 """
@@ -179,12 +184,17 @@ def evaluate_photos(stage1: torch.nn.Module, stage2: torch.nn.Module | None, pho
             d = decomps[name][i]
             diffuse = render_diffuse(d["albedo"], d["transport"], items[j]["light"], m)
             relight.setdefault(name, []).append(_photo_rows(diffuse[0], target[0], m[0], "relight"))
-            if stage2 is not None and name == "stage 1":
+            if name != "stage 1":
+                continue
+            true_residual = (items[j]["photo"] - items[j]["diffuse"]) * m
+            relight.setdefault("oracle: stage 1 + true residual", []).append(
+                _photo_rows((diffuse + true_residual).clamp(0, 1)[0], target[0], m[0], "relight"))
+            if stage2 is not None:
                 relight.setdefault("stage 1 + 2", []).append(_photo_rows(residual(diffuse, m)[0], target[0],
                                                                          m[0], "relight"))
     results = {}
-    for name in recon:
-        results[name] = {"n_photos": len(recon[name]), **_mean(recon[name])}
+    for name in [*recon, *(k for k in relight if k not in recon)]:
+        results[name] = {"n_photos": len(recon[name]), **_mean(recon[name])} if name in recon else {}
         if relight.get(name):
             results[name].update({"n_pairs": len(relight[name]), **_mean(relight[name])})
     effect = {}
@@ -192,8 +202,11 @@ def evaluate_photos(stage1: torch.nn.Module, stage2: torch.nn.Module | None, pho
         subjects = [subject_of(name) for name in ds.names[:n]]
         effect["recon_rmse"] = paired_change(recon["stage 1"], recon["stage 1 + 2"], "recon_rmse", subjects)
         if pairs:
+            pair_subjects = [subjects[i] for i, _ in pairs]
             effect["relight_rmse"] = paired_change(relight["stage 1"], relight["stage 1 + 2"], "relight_rmse",
-                                                   [subjects[i] for i, _ in pairs])
+                                                   pair_subjects)
+            effect["relight_ceiling"] = paired_change(relight["stage 1"], relight["oracle: stage 1 + true residual"],
+                                                      "relight_rmse", pair_subjects)
     return results, effect
 
 
@@ -241,8 +254,11 @@ def markdown(results: dict) -> str:
             lines += ["Stage 2's effect, photo by photo and pair by pair (stage 1 + 2 minus stage 1; negative: stage 2 "
                       "helps; 95 % interval resampling subjects):", "",
                       "| RMSE | mean change | 95 % interval | improved | n (subjects) |", "|---|---|---|---|---|"]
+            labels = {"recon_rmse": "recon", "relight_rmse": "relight",
+                      "relight_ceiling": "relight, a perfect stage 2 (oracle)"}
             for key, e in results["stage2_effect"].items():
-                lines.append(f"| {key.split('_')[0]} | {e['mean']:+.4f} | [{e['ci95'][0]:+.4f}, {e['ci95'][1]:+.4f}] "
+                low, high = e["ci95"]
+                lines.append(f"| {labels.get(key, key)} | {e['mean']:+.4f} | [{low:+.4f}, {high:+.4f}] "
                              f"| {100 * e['improved']:.0f} % | {e['n']} ({e['subjects']}) |")
             lines.append("")
     return "\n".join(lines)

@@ -99,7 +99,7 @@ def test_evaluate_writes_both_tables(checkpoints, tmp_path):
                 "recon_ssim", "transport_rmse"):
         assert np.isfinite(syn["trivial"][key])
     assert set(photos) == {"trivial", "stage 1", "stage 1 + 2", "stage 1 (no SF)", "oracle: true diffuse",
-                           "oracle: true diffuse + stage 2"}
+                           "oracle: true diffuse + stage 2", "oracle: stage 1 + true residual"}
     assert photos["stage 1 + 2"]["n_pairs"] == 12  # 2 subjects × 3 × 2 ordered pairs
     assert photos["stage 1"]["n_photos"] == 6
     effect = results["stage2_effect"]
@@ -108,8 +108,14 @@ def test_evaluate_writes_both_tables(checkpoints, tmp_path):
     # the same photos in both rows, so the mean of the differences is the difference of the means
     expected = photos["stage 1 + 2"]["recon_rmse"] - photos["stage 1"]["recon_rmse"]
     assert effect["recon_rmse"]["mean"] == pytest.approx(expected, abs=1e-9)
+    # the ceiling: stage 1 plus the photos' true non-diffuse part, on the same pairs
+    ceiling = effect["relight_ceiling"]
+    assert ceiling["n"] == 12 and ceiling["subjects"] == 2
+    expected = photos["oracle: stage 1 + true residual"]["relight_rmse"] - photos["stage 1"]["relight_rmse"]
+    assert ceiling["mean"] == pytest.approx(expected, abs=1e-9) and ceiling["mean"] != 0
     text = (out / "results.md").read_text()
     assert "| stage 1 + 2 |" in text and "Table 1" in text and "Table 2" in text and "Stage 2's effect" in text
+    assert "a perfect stage 2 (oracle)" in text
 
 
 def test_paired_change_resamples_subjects_and_counts_improvements():
