@@ -84,6 +84,24 @@ def test_fit_reduces_fit_error():
     assert fits[-1] < fits[0]
 
 
+def test_fit_weight_average():
+    from export.dvp import fit_dvp
+
+    torch.set_num_threads(1)
+    kwargs = dict(width=4, max_epochs=2, min_epochs=2, patience=10, lr=1e-3)
+    _, plain = fit_dvp(_clip(), **kwargs)
+    # decay 0: the average is the latest weights, so every epoch's prediction is the plain fit's
+    _, zero = fit_dvp(_clip(), ema=0.0, **kwargs)
+    assert [e["fit_error"] for e in zero["epochs"]] == pytest.approx([e["fit_error"] for e in plain["epochs"]],
+                                                                      rel=1e-5)
+    # a real average predicts with other weights than the last step's
+    model, avg = fit_dvp(_clip(), ema=0.9, **kwargs)
+    assert avg["ema"] == 0.9 and not model.training and model.conditioned
+    assert avg["epochs"][-1]["fit_error"] != pytest.approx(plain["epochs"][-1]["fit_error"], rel=1e-3)
+    with pytest.raises(RelightError, match="ema"):
+        fit_dvp(_clip(), ema=1.0, **kwargs)
+
+
 def test_load_clip(tmp_path):
     from export.dvp import load_clip
 
