@@ -148,7 +148,8 @@ def _umask() -> int:
     return mask
 
 
-def _check_target(path: Path, protect: Iterable[str | os.PathLike]) -> None:
+def check_target(path: Path, protect: Iterable[str | os.PathLike]) -> None:
+    """Raise RelightError when ``path`` is one of the ``protect`` inputs (an output must never replace one)."""
     target = path.resolve()
     for p in protect:
         if Path(p).resolve() == target:
@@ -165,7 +166,7 @@ def atomic_path(path: str | os.PathLike, protect: Iterable[str | os.PathLike] = 
         RelightError: ``path`` is one of ``protect`` (an input), or its folder does not exist.
     """
     path = Path(path)
-    _check_target(path, protect)
+    check_target(path, protect)
     folder = path.parent if str(path.parent) else Path(".")
     if not folder.is_dir():
         raise RelightError(f"cannot write {path}: folder {folder} does not exist")

@@ -6,6 +6,11 @@ Registered by relight_rt.cli through :func:`add_parser`. Examples::
     relight-rt video frames/ -o out.mp4 --frames-out out_frames/ --lights per_frame.npy
     relight-rt video frames/ -o out.mp4 --interpolate golden-hour sky.hdr night
     relight-rt video frames/ -o out.mp4 --lights per_frame.npy --dvp dvp.onnx
+
+Deep video prior, from any light schedule: relight frame by frame keeping the frames and the lights
+used (``--no-stabilize --frames-out relit/ --lights-out lights.npy``), fit it (``python -m export
+fit-dvp --frames frames/ --relit relit/ --lights lights.npy --out dvp.onnx``), then apply it
+(``--lights lights.npy --dvp dvp.onnx``).
 """
 
 from __future__ import annotations
@@ -15,6 +20,8 @@ import json
 import logging
 import os
 from pathlib import Path
+
+import numpy as np
 
 from ._errors import RelightError
 
@@ -47,6 +54,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--background", choices=("original", "black"), default="original")
     p.add_argument("--fps", type=float, help="frame rate of a frame folder (default 25) or override the video's")
     p.add_argument("--device", choices=("auto", "cpu", "cuda"), default="auto")
+    p.add_argument("--lights-out", help="write the (N, 9, 3) RGB light of every frame to this .npy "
+                                        "(e.g. for python -m export fit-dvp --lights)")
     p.add_argument("--metrics", help="write temporal error, warping error and light-following to this JSON file")
     p.set_defaults(func=run)
     return p
@@ -79,12 +88,16 @@ def run(args: argparse.Namespace) -> int:
     """Run ``relight-rt video``; returns 0 (RelightError goes up to the CLI's main)."""
     from . import metrics as rt_metrics
     from . import video
+    from ._io import check_target
     from .stabilize import Stabilizer
 
     if not args.output and not args.frames_out:
         raise RelightError("output: expected -o VIDEO and/or --frames-out DIR")
     source = video.FrameSource(args.input, args.masks, args.fps)
     schedule = _schedule(args, len(source))
+    inputs = [*source.paths, *([args.lights] if args.lights else [])]
+    if args.lights_out:
+        check_target(Path(args.lights_out), inputs)  # before the work, not after it
     engine = dvp = None
     if args.dvp:
         dvp = video.DVPModel(args.dvp, device=args.device, size=args.dvp_size)
@@ -95,8 +108,11 @@ def run(args: argparse.Namespace) -> int:
     stabilizer = None if (args.no_stabilize or dvp is not None) else Stabilizer(args.stabilize_strength)
     sink = video.FrameSink(args.output, args.frames_out, source.fps, protect=source.paths)
     acc = rt_metrics.TemporalMetrics() if args.metrics else None
+    used_lights: list = []  # (9, 3) per frame: 108 bytes each, bounded for any realistic clip
 
     def on_frame(frame, out, extras):
+        if args.lights_out:
+            used_lights.append(extras["light"])
         if acc is not None:
             acc.update(out, frame.mask, frame.image, extras.get("albedo"), extras.get("transport"), extras["light"])
         if frame.index % 50 == 0:
@@ -107,6 +123,11 @@ def run(args: argparse.Namespace) -> int:
                                  with_layers=acc is not None)
     logger.info("%d frames, %.3f s per frame, lights: %s", report.frames, report.seconds_per_frame,
                 schedule.description)
+    if args.lights_out:
+        from ._io import write_npy
+
+        path = write_npy(args.lights_out, np.stack(used_lights).astype(np.float32), protect=inputs)
+        logger.info("wrote the %d frames' lights to %s", len(used_lights), path)
     if acc is not None and report.frames >= 2:
         res = acc.result()
         data = {"frames": report.frames, "seconds_per_frame": report.seconds_per_frame,

@@ -413,6 +413,27 @@ def test_cli_sequence_interpolation_and_dvp(tmp_path, tiny_models, test_data_dir
     assert len(list((tmp_path / "c").iterdir())) == 3
 
 
+def test_cli_lights_out_records_the_schedule_for_fit_dvp(tmp_path, tiny_models):
+    from relight_rt import video
+
+    frames = _write_folder(tmp_path / "in", 3, h=64, w=64)
+    out = tmp_path / "lights.npy"
+    assert _run_cli(["video", str(frames), "--frames-out", str(tmp_path / "relit"), "--models", str(tiny_models),
+                     "--light", "studio", "--rotate-per-second", "2", "--fps", "8", "--no-stabilize",
+                     "--lights-out", str(out), "--device", "cpu"]) == 0
+    saved = np.load(out, allow_pickle=False)
+    schedule = video.LightSchedule.rotating(video.resolve_light("studio"), 2.0)
+    assert saved.shape == (3, 9, 3) and saved.dtype == np.float32
+    np.testing.assert_allclose(saved, [schedule(i, 8.0) for i in range(3)], atol=1e-6)
+    assert not np.allclose(saved[0], saved[1])  # a quarter turn per frame
+    # the sequence read back is the one written; it never replaces the input sequence
+    with pytest.raises(RelightError, match="input"):
+        _run_cli(["video", str(frames), "--frames-out", str(tmp_path / "again"), "--models", str(tiny_models),
+                  "--lights", str(out), "--lights-out", str(out), "--device", "cpu"])
+    np.testing.assert_array_equal(np.load(out, allow_pickle=False), saved)
+    assert not (tmp_path / "again").exists()  # refused before any frame was relit
+
+
 @pytest.mark.parametrize(
     ("extra", "match"),
     [([], "expected --light"), (["--interpolate", "studio"], "at least two"),
