@@ -28,8 +28,9 @@ Stage 2's effect (Table 2 with ``--stage2``): the differences are small, so each
 is compared with itself: mean change of RMSE (stage 1 + 2 minus stage 1; negative = stage 2 helps),
 a 95 % bootstrap interval that resamples whole subjects (the photos and pairs of one person are not
 independent), and the share of photos / pairs that stage 2 improves. With pairs, the same for the
-oracle row ("a perfect stage 2"): if even that change is within noise, no stage 2 can show a
-relighting gain on these photos, whatever its training.
+oracle row ("a perfect stage 2"): if even that change is within noise, a stage 2 that adds the
+non-diffuse part cannot show a relighting gain on these photos (only one that also repairs stage 1's
+errors could).
 
 Writes ``OUT/results.md`` (markdown tables) and ``OUT/results.json``. Metrics are means over samples.
 """
