@@ -18,7 +18,6 @@ from __future__ import annotations
 import argparse
 import json
 import logging
-import os
 from pathlib import Path
 
 import numpy as np
@@ -88,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
     """Run ``relight-rt video``; returns 0 (RelightError goes up to the CLI's main)."""
     from . import metrics as rt_metrics
     from . import video
-    from ._io import check_target
+    from ._io import atomic_path, check_target, write_npy
     from .stabilize import Stabilizer
 
     if not args.output and not args.frames_out:
@@ -96,8 +95,9 @@ def run(args: argparse.Namespace) -> int:
     source = video.FrameSource(args.input, args.masks, args.fps)
     schedule = _schedule(args, len(source))
     inputs = [*source.paths, *([args.lights] if args.lights else [])]
-    if args.lights_out:
-        check_target(Path(args.lights_out), inputs)  # before the work, not after it
+    for written_last in (args.lights_out, args.metrics):  # files written after the work: refuse before it
+        if written_last:
+            check_target(Path(written_last), inputs)
     engine = dvp = None
     if args.dvp:
         dvp = video.DVPModel(args.dvp, device=args.device, size=args.dvp_size)
@@ -124,9 +124,7 @@ def run(args: argparse.Namespace) -> int:
     logger.info("%d frames, %.3f s per frame, lights: %s", report.frames, report.seconds_per_frame,
                 schedule.description)
     if args.lights_out:
-        from ._io import write_npy
-
-        path = write_npy(args.lights_out, np.stack(used_lights).astype(np.float32), protect=inputs)
+        path = write_npy(args.lights_out, np.stack(used_lights), protect=inputs)
         logger.info("wrote the %d frames' lights to %s", len(used_lights), path)
     if acc is not None and report.frames >= 2:
         res = acc.result()
@@ -135,9 +133,7 @@ def run(args: argparse.Namespace) -> int:
                 "light_following": res.light_following, "light_gain": res.light_gain,
                 "residual_error": res.residual_error,
                 "stabilizer": stabilizer is not None, "dvp": args.dvp}
-        path = Path(args.metrics)
-        tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-        tmp.write_text(json.dumps(data, indent=1))
-        os.replace(tmp, path)
+        with atomic_path(args.metrics, protect=inputs) as tmp:
+            tmp.write_text(json.dumps(data, indent=1))
         logger.info("metrics: %s", json.dumps(data))
     return 0
