@@ -102,7 +102,9 @@ def read_image(src: str | os.PathLike | np.ndarray, name: str = "image") -> np.n
     return out
 
 
-def read_mask(src: str | os.PathLike | np.ndarray, shape: tuple[int, int], name: str = "mask") -> np.ndarray:
+def read_mask(
+    src: str | os.PathLike | np.ndarray, shape: tuple[int, int], name: str = "mask", *, allow_empty: bool = False
+) -> np.ndarray:
     """Read a person mask (binary or soft) and check it against the image.
 
     Args:
@@ -111,13 +113,15 @@ def read_mask(src: str | os.PathLike | np.ndarray, shape: tuple[int, int], name:
             cv2.IMREAD_GRAYSCALE; an RGB array goes through cv2.COLOR_RGB2GRAY: 0.299 R + 0.587 G + 0.114 B).
         shape: (H, W) of the image the mask belongs to.
         name: what to call the input in error messages.
+        allow_empty: accept a mask with no pixel >= 0.5 or with every pixel >= 0.5 (a video frame with
+            nobody in it); a photo needs an outline to relight.
 
     Returns:
         New float32 array (H, W) in [0, 1].
 
     Raises:
         RelightError: unreadable, wrong shape or dtype, size differs from ``shape``, empty (no pixel >= 0.5),
-            or all foreground (every pixel >= 0.5: no outline to relight).
+            or all foreground (every pixel >= 0.5: no outline to relight), unless ``allow_empty``.
     """
     if isinstance(src, np.ndarray):
         a, label = src, name
@@ -135,6 +139,8 @@ def read_mask(src: str | os.PathLike | np.ndarray, shape: tuple[int, int], name:
     if tuple(a.shape[:2]) != tuple(shape):
         raise RelightError(f"{label}: mask is {a.shape[0]}x{a.shape[1]} (HxW), the image is {shape[0]}x{shape[1]}")
     m = _to_unit_float(a, label, allow_uint16=True)
+    if allow_empty:
+        return m
     if not (m >= 0.5).any():
         raise RelightError(f"{label}: mask is empty (no pixel >= 0.5); expected the person in white")
     if (m >= 0.5).all():

@@ -2,9 +2,9 @@
 
 - :class:`FrameSource` reads a video file (``cv2.VideoCapture``) or a folder of frames, one frame at a
   time, with its mask: a mask folder (``STEM.*`` / ``STEM_mask.*``, else sorted order), per-frame
-  ``STEM_mask.*`` files beside the frames (the reference layout; 3-channel masks use their first
-  channel), the alpha channel of RGBA frames, or a mask video. An empty mask is allowed (nobody in
-  that frame).
+  ``STEM_mask.*`` files beside the frames (the reference layout), the alpha channel of RGBA frames,
+  or a mask video; every mask is read by the photos' rule (relight_rt._io.read_mask: grey, colour
+  through Rec. 601 grey). An empty mask is allowed (nobody in that frame).
 - :class:`FrameSink` writes a video file (``cv2.VideoWriter`` into a temporary file, renamed when
   complete, deleted on failure) and/or PNG frames (each atomic, relight_rt._io.write_image), and
   refuses to overwrite an input.
@@ -23,9 +23,8 @@ import cv2
 import numpy as np
 
 from ._errors import RelightError
-from ._io import read_image, write_image
+from ._io import IMAGE_SUFFIXES, read_image, read_mask, write_image
 
-IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp", ".exr")
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".webm", ".m4v")
 _FOURCC = {".mp4": "mp4v", ".m4v": "mp4v", ".mov": "mp4v", ".avi": "MJPG", ".mkv": "MJPG"}
 
@@ -34,32 +33,17 @@ _FOURCC = {".mp4": "mp4v", ".m4v": "mp4v", ".mov": "mp4v", ".avi": "MJPG", ".mkv
 # images
 
 
-def _to_float(img: np.ndarray, name: str) -> np.ndarray:
-    if img.dtype == np.uint8:
-        return img.astype(np.float32) / 255.0
-    if img.dtype == np.uint16:
-        return img.astype(np.float32) / 65535.0
-    if np.issubdtype(img.dtype, np.floating):
-        return img.astype(np.float32)
-    raise RelightError(f"{name}: expected an 8-bit, 16-bit or float image, got {img.dtype}")
-
-
 def read_frame(path: str | os.PathLike) -> np.ndarray:
     """Read an image file as RGB(A) float32 (H, W, 3|4) in [0, 1] (relight_rt._io.read_image)."""
     return read_image(path, "frame")
 
 
 def read_mask_file(path: str | os.PathLike, shape: tuple[int, int]) -> np.ndarray:
-    """Read a mask image (grey, or colour whose first channel is used) as float32 (H, W) in [0, 1]."""
-    img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
-    if img is None:
-        raise RelightError(f"{path}: cannot read this mask (missing or corrupt)")
-    if img.ndim == 3:
-        img = img[..., 0]
-    mask = _to_float(img, str(path))
-    if mask.shape != tuple(shape):
-        raise RelightError(f"{path}: expected mask of size {shape[1]}x{shape[0]}, got {mask.shape[1]}x{mask.shape[0]}")
-    return mask
+    """Read a frame's mask file as float32 (H, W) in [0, 1], by the photos' rule (relight_rt._io.read_mask).
+
+    A frame may have nobody in it: an empty (or full) mask is accepted.
+    """
+    return read_mask(path, shape, "mask", allow_empty=True)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -139,6 +123,7 @@ class FrameSource:
         return None
 
     def __iter__(self) -> Iterator[Frame]:
+        where_of = lambda frame_path, index: frame_path or f"{self.path} frame {index}"  # noqa: E731
         mask_cap = None
         if self.masks is not None and self._mask_files is None:
             mask_cap = cv2.VideoCapture(str(self.masks))
@@ -166,17 +151,16 @@ class FrameSource:
                     ok, mbgr = mask_cap.read()
                     if not ok:
                         raise RelightError(f"{self.masks}: mask video ended before frame {index}")
-                    mask = mbgr[..., 0].astype(np.float32) / 255.0
-                    if mask.shape != shape:
-                        raise RelightError(f"{self.masks}: mask frame {index} is {mask.shape}, frame is {shape}")
+                    mask = read_mask(cv2.cvtColor(mbgr, cv2.COLOR_BGR2RGB), shape, f"{self.masks} frame {index}",
+                                     allow_empty=True)
                 else:
                     mask_path = self._mask_path(index, frame_path)
                     if mask_path is not None:
                         mask = read_mask_file(mask_path, shape)
                     elif rgba.shape[2] == 4:
-                        mask = rgba[..., 3].copy()
+                        mask = read_mask(rgba[..., 3], shape, f"{where_of(frame_path, index)} alpha", allow_empty=True)
                     else:
-                        where = frame_path or f"{self.path} frame {index}"
+                        where = where_of(frame_path, index)
                         raise RelightError(f"{where}: no mask found (expected a STEM_mask file, a --masks folder "
                                            f"or an RGBA frame)")
                 yield Frame(index, name, np.ascontiguousarray(rgba[..., :3]), mask)

@@ -228,12 +228,11 @@ def run(
     sweep = sweep_lights(n_lights)
     if "shade" in sections:
         for k in sorted({1, n_lights}):
-            t = timed(lambda k=k: diffuse_batch(dec._albedo, dec._transport, sweep[:k]))
+            t = timed(lambda k=k: diffuse_batch(dec.albedo_chw, dec.transport_chw, sweep[:k]))
             rows.append(row("shade", "numpy", t, batch=k))
     if "compose" in sections:
-        relit = np.ascontiguousarray(dec._albedo)
-        bg = relighter._background("original", dec)
-        rows.append(row("compose", "numpy", timed(lambda: relighter._compose(dec, relit, bg))))
+        relit = np.ascontiguousarray(dec.albedo_chw)
+        rows.append(row("compose", "numpy", timed(lambda: relighter.to_photo(dec, relit))))
     if "decompose" in sections:
         rows.append(row("decompose", backend, timed(lambda: relighter.decompose(img, mask))))
     if "end_to_end" in sections:

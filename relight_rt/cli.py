@@ -15,7 +15,6 @@ import argparse
 import importlib
 import importlib.util
 import logging
-import math
 import sys
 from pathlib import Path
 
@@ -24,21 +23,25 @@ import numpy as np
 from . import __version__, lights, sh
 from ._errors import RelightError
 from ._io import IMAGE_SUFFIXES, list_images, sibling_mask, write_image, write_npy, write_npz
+from ._options import (
+    add_background_option,
+    add_light_options,
+    add_mask_option,
+    add_runtime_options,
+    background,
+    light_spec,
+    paths_of,
+    relighter,
+)
+from .lightspec import LightSpec
+from .masks import find_mask_file
 
 log = logging.getLogger("relight_rt.cli")
 
 
 def _add_model_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument(
-        "--models", metavar="DIR", help="model folder (default: $RELIGHT_RT_MODELS, then the bundled models)"
-    )
-    p.add_argument("--device", choices=("auto", "cpu", "cuda"), default="auto", help="where to run (default: auto)")
-
-
-def _relighter(args: argparse.Namespace):
-    from .relighter import Relighter
-
-    return Relighter(args.models, device=args.device)
+    """The runtime options (kept under this name for plugins written against it)."""
+    add_runtime_options(p)
 
 
 # ------------------------------------------------------------------------------------------- relight
@@ -49,20 +52,14 @@ def add_relight(subparsers) -> None:
         "relight",
         help="relight photos of people",
         description="Relight photos (files or folders). Masks: --mask, else NAME_mask.png beside NAME.jpg, "
-        "else the image's alpha channel.",
+        "else the image's alpha channel, else the automatic matte.",
     )
     p.add_argument("inputs", nargs="+", metavar="INPUT", help="image files or folders of images")
-    p.add_argument("--mask", metavar="M", help="mask file (one input) or folder holding NAME_mask.png")
-    light = p.add_mutually_exclusive_group(required=True)
-    light.add_argument("--light", metavar="L", help="SH light file: .npy (9, 3) RGB or .json")
-    light.add_argument("--preset", metavar="NAME", help=f"named light: {', '.join(lights.list_presets())}")
-    light.add_argument("--envmap", metavar="HDR", help="equirectangular environment map (.hdr/.exr/.png/.jpg)")
-    light.add_argument("--light-from", metavar="PHOTO", help="borrow the light of another photo of a person")
-    p.add_argument("--bgr", action="store_true", help="the --light file's columns are B, G, R (reference files)")
-    p.add_argument("--rotate", type=float, default=0.0, metavar="DEG", help="turn the light about the vertical axis")
-    p.add_argument("--background", default="original", metavar="B", help="original | transparent | IMAGE")
+    add_mask_option(p)
+    add_light_options(p)
+    add_background_option(p)
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="output file (one input) or folder")
-    _add_model_options(p)
+    add_runtime_options(p)
     p.set_defaults(func=cmd_relight)
 
 
@@ -82,34 +79,6 @@ def _gather_inputs(inputs: list[str]) -> tuple[list[Path], list[tuple[str, str]]
     return files, failures
 
 
-def _light_from_args(args: argparse.Namespace, relighter) -> np.ndarray:
-    if args.light:
-        light = sh.load_light(args.light, bgr=args.bgr)
-    elif args.preset:
-        light = lights.preset(args.preset)
-    elif args.envmap:
-        light = sh.project_envmap(sh.load_envmap(args.envmap))
-    else:
-        light = relighter.resolve_light(Path(args.light_from))
-    if args.rotate:
-        light = sh.rotate_z(light, math.radians(args.rotate))
-    return np.asarray(light, dtype=np.float32)
-
-
-def _mask_for(image: Path, mask_arg: str | None, single: bool) -> Path | None:
-    if mask_arg is None:
-        return sibling_mask(image)
-    m = Path(mask_arg)
-    if m.is_dir():
-        found = sibling_mask(m / image.name)
-        if found is None:
-            raise RelightError(f"mask folder {m} has no {image.stem}_mask.png")
-        return found
-    if not single:
-        raise RelightError("--mask FILE works with one input; for several, give a folder with NAME_mask.png files")
-    return m
-
-
 def _progress(items: list, enabled: bool):
     if not enabled:
         return items
@@ -127,13 +96,12 @@ def cmd_relight(args: argparse.Namespace) -> int:
     to_file = single and out.suffix.lower() in IMAGE_SUFFIXES
     if single and not to_file and out.suffix:
         raise RelightError(f"output {out}: unknown image type {out.suffix!r}; use one of {', '.join(IMAGE_SUFFIXES)}")
-    background = args.background
-    if background not in ("original", "transparent") and not Path(background).is_file():
-        raise RelightError(f"--background {background}: expected original, transparent or an image file")
-    relighter = _relighter(args)
-    light = _light_from_args(args, relighter)
+    spec = light_spec(args)
+    bg = background(args)
+    rl = relighter(args)
+    light = rl.resolve_light(spec)
     protect = set(files)
-    protect.update(p for p in (args.mask, args.light, args.envmap, args.light_from, background) if p)
+    protect.update(paths_of(args.mask if args.mask != "auto" else None, *spec.paths, bg.path))
     protect.update(m for m in (sibling_mask(f) for f in files) if m)
     if not to_file and files:
         out.mkdir(parents=True, exist_ok=True)
@@ -144,8 +112,8 @@ def cmd_relight(args: argparse.Namespace) -> int:
         try:
             if target.resolve() in written:
                 raise RelightError(f"two inputs named {path.stem} would both write {target}")
-            mask = _mask_for(path, args.mask, single)
-            image = relighter.relight(path, light, mask=mask, background=background)
+            mask = find_mask_file(path, args.mask, single=single)
+            image = rl.relight(path, light, mask=mask, background=bg)
             write_image(target, image, protect=protect)
             written.add(target.resolve())
             if not show_bar:
@@ -171,20 +139,19 @@ def add_decompose(subparsers) -> None:
         "transport.npz (key T, (H, W, 9) float32, input size) into DIR.",
     )
     p.add_argument("input", metavar="INPUT", help="image file")
-    p.add_argument("--mask", metavar="M", help="mask file (default: NAME_mask.png beside it, else alpha)")
+    add_mask_option(p, several=False)
     p.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
-    _add_model_options(p)
+    add_runtime_options(p)
     p.set_defaults(func=cmd_decompose)
 
 
 def cmd_decompose(args: argparse.Namespace) -> int:
     src = Path(args.input)
-    mask = Path(args.mask) if args.mask else sibling_mask(src)
-    relighter = _relighter(args)
-    dec = relighter.decompose(src, mask)
+    mask = find_mask_file(src, args.mask)
+    dec = relighter(args).decompose(src, mask)
     folder = Path(args.output)
     folder.mkdir(parents=True, exist_ok=True)
-    protect = [p for p in (src, mask) if p]
+    protect = [src, *paths_of(mask if mask != "auto" else None)]
     write_image(folder / "albedo.png", dec.to_input(np.ascontiguousarray(dec.albedo)), protect)
     write_image(folder / "shading.png", dec.to_input(dec.shading()), protect)
     write_image(folder / "skin.png", dec.to_input(dec.skin), protect)
@@ -205,6 +172,8 @@ def add_lights(subparsers) -> None:
     show = sub.add_parser("show", help="render a light on a diffuse sphere")
     show.add_argument("name", metavar="NAME", help="preset name or light file (.npy/.json)")
     show.add_argument("--size", type=int, default=256, help="sphere image size in pixels (default 256)")
+    show.add_argument("--rotate", type=float, default=0.0, metavar="DEG", help="turn the light about the vertical axis")
+    show.add_argument("--bgr", action="store_true", help="the light file's columns are B, G, R (reference files)")
     show.add_argument("-o", "--output", required=True, metavar="PNG")
     show.set_defaults(func=cmd_lights_show)
     env = sub.add_parser("from-envmap", help="project an environment map to a (9, 3) SH light")
@@ -213,11 +182,11 @@ def add_lights(subparsers) -> None:
     env.set_defaults(func=cmd_lights_from_envmap)
     photo = sub.add_parser("from-photo", help="estimate the light of a photo of a person (stage 1)")
     photo.add_argument("photo", metavar="PHOTO")
-    photo.add_argument("--mask", help="mask image (default: the photo's alpha, or PHOTO_mask.png beside it)")
+    add_mask_option(photo, several=False)
     photo.add_argument("-o", "--output", required=True, metavar="LIGHT", help=".npy or .json")
     photo.set_defaults(func=cmd_lights_from_photo)
     for q in (ls, show, env, photo):  # every command takes them; only from-photo runs a model
-        _add_model_options(q)
+        add_runtime_options(q)
 
 
 def cmd_lights_list(args: argparse.Namespace) -> int:
@@ -232,8 +201,13 @@ def cmd_lights_show(args: argparse.Namespace) -> int:
     if not 8 <= args.size <= 8192:
         raise RelightError(f"--size is {args.size}, expected 8 to 8192")
     name = Path(args.name)
-    light = sh.load_light(name) if name.suffix.lower() in (".npy", ".json") else lights.preset(args.name)
-    write_image(args.output, sh.render_sphere(light, size=args.size), protect=[name])
+    if name.suffix.lower() in (".npy", ".json"):
+        spec = LightSpec.file(name, bgr=args.bgr, rotate=args.rotate)
+    elif args.bgr:
+        raise RelightError("--bgr: it says how to read a light file; a preset has no colour order to choose")
+    else:
+        spec = LightSpec.preset(args.name, rotate=args.rotate)
+    write_image(args.output, sh.render_sphere(spec.resolve(), size=args.size), protect=[name])
     log.info("%s -> %s", args.name, args.output)
     return 0
 
@@ -265,8 +239,7 @@ def cmd_lights_from_envmap(args: argparse.Namespace) -> int:
 def cmd_lights_from_photo(args: argparse.Namespace) -> int:
     out = _light_output(args.output, args.photo)  # before the models load
     photo = Path(args.photo)
-    mask = Path(args.mask) if args.mask else sibling_mask(photo)
-    light = np.asarray(_relighter(args).decompose(photo, mask).light, dtype=np.float32)
+    light = np.asarray(relighter(args).decompose(photo, find_mask_file(photo, args.mask)).light, dtype=np.float32)
     _write_light(out, light, args.photo)
     return 0
 
@@ -310,14 +283,26 @@ def build_parser() -> argparse.ArgumentParser:
     for name in PLUGINS:
         if importlib.util.find_spec(name) is not None:
             importlib.import_module(name).add_parser(subparsers)
+    _remember_parsers(parser)
     return parser
+
+
+def _remember_parsers(parser: argparse.ArgumentParser) -> None:
+    """Give every (sub)command's parsed arguments its own parser, so a usage error shows that command's usage."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in action.choices.values():
+                sub.set_defaults(_parser=sub)
+                _remember_parsers(sub)
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run the CLI; returns the process exit code (0 ok, 1 doctor found problems, 2 bad input)."""
     parser = build_parser()
     try:
-        args = parser.parse_args(argv)
+        args, extra = parser.parse_known_args(argv)
+        if extra:  # an unrecognised argument: the subcommand's usage, not the top-level one
+            getattr(args, "_parser", parser).error(f"unrecognized arguments: {' '.join(extra)}")
     except SystemExit as exc:  # argparse: --help / --version (0) or a usage error (2)
         return int(exc.code or 0)
     level = logging.DEBUG if args.verbose else logging.WARNING if args.quiet else logging.INFO

@@ -1,8 +1,13 @@
-"""The ONNX model contract, format version 1 (DESIGN.md §5).
+"""The ONNX model contract, format version 1 (DESIGN.md §5), with every model kind declared once.
 
-One place that says what a relight_rt graph must look like: the metadata keys, the kinds, and
-the names and ranks of every input and output. The exporter writes graphs from these constants
-and the runtime checks graphs against them.
+One place that says what a relight_rt graph must look like: the metadata keys, and for each kind
+(a :class:`KindSpec` in the :data:`KINDS` registry) the names, ranks and channel counts of its inputs
+and outputs, the file name it has in a models folder, and the metadata it must carry. The exporter
+writes graphs from these specs; the runtime's session validation, warm-up and model discovery read
+only them. A new kind is one :func:`register_kind` call::
+
+    register_kind(KindSpec("matte", inputs=(TensorSpec("image", 4, 3),), outputs=(TensorSpec("alpha", 4, 1),),
+                           fixed_size=True, filename="matte.onnx", metadata=()))
 """
 
 from __future__ import annotations
@@ -23,42 +28,105 @@ META_NORM = "relight_rt.norm"
 META_SOURCE = "relight_rt.source"
 
 NORMS = ("batch", "instance")
+LIGHT_SHAPE = (9, 3)  # an SH light input or output: (N, 9, 3), DESIGN.md §3
 
 
 @dataclass(frozen=True)
 class TensorSpec:
-    """One graph input or output: its name and rank (all are float32, NCHW or N×9×3)."""
+    """One graph input or output, float32.
+
+    Attributes:
+        name: the tensor's name in the graph.
+        rank: 4 for images (N, C, H, W); 3 for SH lights (N, 9, 3).
+        channels: C of a rank-4 tensor (None: any); unused for lights.
+    """
 
     name: str
     rank: int
+    channels: int | None = None
+
+    def fixed_dims(self, resolution: int | None) -> list[int | None]:
+        """The sizes every axis must have (None where any size goes); ``resolution`` for fixed-size kinds."""
+        if self.rank == 3:
+            return [None, *LIGHT_SHAPE]
+        return [None, self.channels, resolution, resolution][: self.rank]
+
+    def zeros_shape(self, size: int) -> tuple[int, ...]:
+        """A batch-of-one shape for this tensor at spatial ``size`` (warm-up feeds, sample inputs)."""
+        if self.rank == 3:
+            return (1, *LIGHT_SHAPE)
+        return (1, self.channels or 3, size, size)
 
 
 @dataclass(frozen=True)
 class KindSpec:
-    """The inputs and outputs, in order, of one kind of graph."""
+    """Everything the contract says about one kind of graph.
 
+    Attributes:
+        name: the value of ``relight_rt.kind``.
+        inputs, outputs: in order.
+        fixed_size: True: H = W = the metadata resolution; False: any H, W divisible by 64.
+        filename: the graph's file name in a models folder (precision variants add ``_fp16`` / ``_int8``).
+        metadata: keys this kind must carry beyond format, kind, resolution, color and source
+            (relighting kinds: sh_degree and norm; a person-matting graph needs neither).
+    """
+
+    name: str
     inputs: tuple[TensorSpec, ...]
     outputs: tuple[TensorSpec, ...]
-    fixed_size: bool  # True: H = W = resolution; False: any H, W divisible by 64
+    fixed_size: bool
+    filename: str
+    metadata: tuple[str, ...] = (META_SH_DEGREE, META_NORM)
+
+    def tensor(self, name: str) -> TensorSpec:
+        """The input or output called ``name``."""
+        for t in (*self.inputs, *self.outputs):
+            if t.name == name:
+                return t
+        raise RelightError(f"kind {self.name!r} has no tensor {name!r}")
 
 
-KINDS: dict[str, KindSpec] = {
-    "stage1": KindSpec(
-        inputs=(TensorSpec("image", 4), TensorSpec("mask", 4)),
-        outputs=(TensorSpec("albedo", 4), TensorSpec("skin", 4), TensorSpec("transport", 4), TensorSpec("light", 3)),
-        fixed_size=True,
-    ),
-    "stage2": KindSpec(
-        inputs=(TensorSpec("diffuse", 4), TensorSpec("mask", 4)),
-        outputs=(TensorSpec("residual", 4), TensorSpec("relit", 4)),
-        fixed_size=False,
-    ),
-    "dvp": KindSpec(
-        inputs=(TensorSpec("frame", 4), TensorSpec("mask", 4), TensorSpec("light", 3)),
-        outputs=(TensorSpec("relit", 4),),
-        fixed_size=False,
-    ),
-}
+KINDS: dict[str, KindSpec] = {}
+
+
+def register_kind(spec: KindSpec) -> KindSpec:
+    """Add a kind to :data:`KINDS` (session validation, warm-up, discovery and export read it from there)."""
+    if spec.name in KINDS and KINDS[spec.name] != spec:
+        raise RelightError(f"model kind {spec.name!r} is already registered with another spec")
+    KINDS[spec.name] = spec
+    return spec
+
+
+def kind_spec(kind: str) -> KindSpec:
+    """The spec of ``kind``; an unknown kind raises and lists the known ones."""
+    try:
+        return KINDS[kind]
+    except KeyError:
+        raise RelightError(f"model kind {kind!r} is unknown; known kinds: {sorted(KINDS)}") from None
+
+
+register_kind(KindSpec(
+    "stage1",
+    inputs=(TensorSpec("image", 4, 3), TensorSpec("mask", 4, 1)),
+    outputs=(TensorSpec("albedo", 4, 3), TensorSpec("skin", 4, 1), TensorSpec("transport", 4, 9),
+             TensorSpec("light", 3)),
+    fixed_size=True,
+    filename="stage1.onnx",
+))
+register_kind(KindSpec(
+    "stage2",
+    inputs=(TensorSpec("diffuse", 4, 3), TensorSpec("mask", 4, 1)),
+    outputs=(TensorSpec("residual", 4, 3), TensorSpec("relit", 4, 3)),
+    fixed_size=False,
+    filename="stage2.onnx",
+))
+register_kind(KindSpec(
+    "dvp",
+    inputs=(TensorSpec("frame", 4, 3), TensorSpec("mask", 4, 1), TensorSpec("light", 3)),
+    outputs=(TensorSpec("relit", 4, 3),),
+    fixed_size=False,
+    filename="dvp.onnx",
+))
 
 
 @dataclass(frozen=True)
@@ -66,10 +134,10 @@ class ModelConfig:
     """Per-model settings read from a graph's metadata_props.
 
     Attributes:
-        kind: "stage1", "stage2" or "dvp".
+        kind: a registered kind ("stage1", "stage2", "dvp", ...).
         resolution: native square size in pixels; 0 means any size divisible by 64.
-        norm: "batch" (running statistics) or "instance" (per-sample statistics).
-        source: free text, what the graph was trained or converted from.
+        norm: "batch" (running statistics) or "instance" (per-sample statistics); "" for a kind without it.
+        source: free text, what the graph was trained or converted from (and under which licence).
     """
 
     kind: str
@@ -80,9 +148,14 @@ class ModelConfig:
     sh_degree: int = 2
     format: str = FORMAT_VERSION
 
+    @property
+    def spec(self) -> KindSpec:
+        """The kind's contract spec."""
+        return kind_spec(self.kind)
+
     def metadata(self) -> dict[str, str]:
-        """The metadata_props that describe this model, as strings."""
-        return {
+        """The metadata_props that describe this model, as strings (only the keys its kind carries)."""
+        meta = {
             META_FORMAT: self.format,
             META_KIND: self.kind,
             META_RESOLUTION: str(self.resolution),
@@ -91,6 +164,8 @@ class ModelConfig:
             META_NORM: self.norm,
             META_SOURCE: self.source,
         }
+        optional = {META_SH_DEGREE, META_NORM} - set(self.spec.metadata)
+        return {k: v for k, v in meta.items() if k not in optional}
 
 
 def config_from_metadata(meta: Mapping[str, str], name: str = "model") -> ModelConfig:
@@ -115,23 +190,28 @@ def config_from_metadata(meta: Mapping[str, str], name: str = "model") -> ModelC
     kind = need(META_KIND)
     if kind not in KINDS:
         raise RelightError(f"{name}: metadata {META_KIND} is {kind!r}, expected one of {sorted(KINDS)}")
+    spec = KINDS[kind]
     res_text = need(META_RESOLUTION)
     try:
         resolution = int(res_text)
     except ValueError:
         raise RelightError(f"{name}: metadata {META_RESOLUTION} is {res_text!r}, expected an integer") from None
-    if resolution < 0 or (resolution and resolution % 64):
+    # relighting kinds (those with SH metadata) work at multiples of 64: six stride-2 convolutions
+    if resolution < 0 or (resolution % 64 and META_SH_DEGREE in spec.metadata):
         raise RelightError(f"{name}: metadata {META_RESOLUTION} is {resolution}, expected 0 or a multiple of 64")
-    if kind == "stage1" and resolution == 0:
-        raise RelightError(f"{name}: a stage1 graph needs a fixed resolution, metadata {META_RESOLUTION} is 0")
+    if spec.fixed_size and resolution == 0:
+        raise RelightError(f"{name}: a {kind} graph needs a fixed resolution, metadata {META_RESOLUTION} is 0")
     color = need(META_COLOR)
     if color != "RGB":
         raise RelightError(f"{name}: metadata {META_COLOR} is {color!r}, expected 'RGB'")
-    degree = need(META_SH_DEGREE)
-    if degree != "2":
-        raise RelightError(f"{name}: metadata {META_SH_DEGREE} is {degree!r}, expected '2'")
-    norm = need(META_NORM)
-    if norm not in NORMS:
-        raise RelightError(f"{name}: metadata {META_NORM} is {norm!r}, expected one of {list(NORMS)}")
+    sh_degree, norm = 2, ""
+    if META_SH_DEGREE in spec.metadata:
+        degree = need(META_SH_DEGREE)
+        if degree != "2":
+            raise RelightError(f"{name}: metadata {META_SH_DEGREE} is {degree!r}, expected '2'")
+    if META_NORM in spec.metadata:
+        norm = need(META_NORM)
+        if norm not in NORMS:
+            raise RelightError(f"{name}: metadata {META_NORM} is {norm!r}, expected one of {list(NORMS)}")
     source = str(meta.get(META_SOURCE, ""))
-    return ModelConfig(kind=kind, resolution=resolution, norm=norm, source=source)
+    return ModelConfig(kind=kind, resolution=resolution, norm=norm, source=source, sh_degree=sh_degree)

@@ -22,20 +22,28 @@ warning is logged at load, and ``RelightResult.diffuse_only`` says so.
 
 from __future__ import annotations
 
+import importlib.util
 import logging
 import os
-from collections.abc import Iterator
-from dataclasses import dataclass
+import threading
+import weakref
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 import numpy as np
 
-from . import lights, sh
+from . import sh
 from ._chain import DeviceChain
 from ._detail import extend_outward, guided_upsample, unpremultiply, window
 from ._errors import RelightError
 from ._geometry import CropGeometry
-from ._io import IMAGE_SUFFIXES, read_image, read_mask, sibling_mask
+from ._io import read_image, sibling_mask
+from .compositing import Background, over_box, parse_background
+from .config import RuntimeConfig
+from .contract import kind_spec
+from .lightspec import LightSpec, parse_light
+from .masks import Matter, resolve_mask
 from .session import Model, find_models, load_model
 
 log = logging.getLogger(__name__)
@@ -43,8 +51,6 @@ log = logging.getLogger(__name__)
 ImageLike = str | os.PathLike | np.ndarray
 _RATIO_EPS = np.float32(0.02)  # keeps relit/reconstruction stable in dark pixels
 _ALPHA_MIN = np.float32(1e-3)
-_ENVMAP_SUFFIXES = (".hdr", ".pic", ".exr")
-PRECISIONS = ("fp32", "fp16", "int8")
 _SHADE_BLOCK = 1 << 19  # multiply-adds per block of diffuse_batch (about 2 MB of float32 temporaries)
 
 
@@ -53,16 +59,20 @@ def _readonly(a: np.ndarray) -> np.ndarray:
     return a
 
 
+@dataclass(frozen=True, eq=False)
 class Decomposition:
-    """Stage 1's answer for one photo, with what is needed to put results back into the photo.
+    """Stage 1's answer for one photo, with what is needed to put results back into the photo: plain data.
 
-    Network-frame arrays are R x R views of the crop/pad/resize square (see ``geometry``); input-frame
-    arrays have the photo's (H, W). All arrays are float32 and read-only; colours are RGB.
+    Only arrays and the crop geometry: a Decomposition pickles (to another process, a Ray worker) and
+    holds no session or device memory; a Relighter keeps whatever it prepares for one (device copies, the
+    reconstruction) on its own side, keyed to it. Network-frame arrays are R x R views of the
+    crop/pad/resize square (see ``geometry``); input-frame arrays have the photo's (H, W). All arrays are
+    float32 and read-only; colours are RGB.
 
     Attributes:
-        albedo: (R, R, 3) in [0, 1], masked.
+        albedo_chw: (3, R, R) albedo in [0, 1], masked (``albedo`` is the (R, R, 3) view).
         skin: (R, R) skin probability in [0, 1], masked.
-        transport: (R, R, 9) SH light transport (DESIGN.md §3 order), masked.
+        transport_chw: (9, R, R) SH light transport (DESIGN.md §3 order), masked (``transport``: (R, R, 9)).
         light: (9, 3) the photo's estimated SH light, RGB columns.
         network_mask: (R, R) the mask in the network frame, in [0, 1].
         network_image: (R, R, 3) the input photo in the network frame (what stage 1 saw, before masking).
@@ -71,38 +81,36 @@ class Decomposition:
         geometry: the CropGeometry mapping network pixels to input pixels.
     """
 
-    def __init__(
-        self,
-        albedo_chw: np.ndarray,
-        skin: np.ndarray,
-        transport_chw: np.ndarray,
-        light: np.ndarray,
-        network_mask: np.ndarray,
-        network_image: np.ndarray,
-        mask: np.ndarray,
-        image: np.ndarray,
-        geometry: CropGeometry,
-    ) -> None:
-        self._albedo = _readonly(np.ascontiguousarray(albedo_chw, dtype=np.float32))  # (3, R, R)
-        self._transport = _readonly(np.ascontiguousarray(transport_chw, dtype=np.float32))  # (9, R, R)
-        self.skin = _readonly(np.ascontiguousarray(skin, dtype=np.float32))
-        self.light = _readonly(np.array(light, dtype=np.float32))
-        self.network_mask = _readonly(np.ascontiguousarray(network_mask, dtype=np.float32))
-        self.network_image = _readonly(np.ascontiguousarray(network_image, dtype=np.float32))
-        self.mask = _readonly(mask)
-        self.image = _readonly(image)
-        self.geometry = geometry
-        self._cache: dict = {}
+    albedo_chw: np.ndarray
+    skin: np.ndarray
+    transport_chw: np.ndarray
+    light: np.ndarray
+    network_mask: np.ndarray
+    network_image: np.ndarray
+    mask: np.ndarray
+    image: np.ndarray
+    geometry: CropGeometry
+
+    def __post_init__(self) -> None:
+        put = lambda name, value: object.__setattr__(self, name, _readonly(value))  # noqa: E731
+        for name in ("albedo_chw", "transport_chw", "skin", "network_mask", "network_image"):
+            put(name, np.ascontiguousarray(getattr(self, name), dtype=np.float32))
+        put("light", np.array(self.light, dtype=np.float32))
+        put("mask", np.asarray(self.mask, dtype=np.float32))
+        put("image", np.asarray(self.image, dtype=np.float32))
+
+    def __reduce__(self):  # unpickled through the constructor, so the arrays come back read-only
+        return (type(self), tuple(getattr(self, f.name) for f in fields(self)))
 
     @property
     def albedo(self) -> np.ndarray:
         """(R, R, 3) albedo, RGB in [0, 1] (a view)."""
-        return self._albedo.transpose(1, 2, 0)
+        return self.albedo_chw.transpose(1, 2, 0)
 
     @property
     def transport(self) -> np.ndarray:
         """(R, R, 9) light transport (a view)."""
-        return self._transport.transpose(1, 2, 0)
+        return self.transport_chw.transpose(1, 2, 0)
 
     @property
     def resolution(self) -> int:
@@ -124,7 +132,7 @@ class Decomposition:
 
 @dataclass(frozen=True)
 class RelightResult:
-    """What ``relight(..., return_layers=True)`` returns.
+    """What ``relight_layers`` returns: the relit photo and the layers that made it.
 
     Attributes:
         image: (H, W, 3) RGB or (H, W, 4) RGBA float32 in [0, 1], the relit photo.
@@ -192,9 +200,14 @@ class Relighter:
             (``stage1_fp16.onnx``, ... as ``python -m export onnx --fp16`` writes them; for CUDA, slow on
             most CPUs) or "int8" (``stage1_int8.onnx``, ... from ``python -m export.quantize``; CPU). A
             graph missing in that precision is taken in fp32 (logged). The DVP graph is always fp32.
+        matting: "auto": photos with neither a mask nor alpha get an automatic person matte when a
+            matting model is installed; "off": they are an error.
+
+    All of these but ``providers`` form the Relighter's :class:`relight_rt.config.RuntimeConfig`
+    (``self.config``); ``Relighter.from_config(config)`` builds one from it.
 
     Raises:
-        RelightError: no models found, a model file unreadable or breaking the contract, unknown precision.
+        RelightError: no models found, a model file unreadable or breaking the contract, a bad setting.
     """
 
     def __init__(
@@ -208,12 +221,14 @@ class Relighter:
         detail: bool = True,
         warmup: bool | None = None,
         precision: str = "fp32",
+        matting: str = "auto",
     ) -> None:
-        if precision not in PRECISIONS:
-            raise RelightError(f"precision is {precision!r}, expected one of {list(PRECISIONS)}")
-        self._token = object()  # keys this Relighter's entries in a Decomposition's cache
+        self.config = RuntimeConfig(models=models, device=device, device_id=device_id, precision=precision,
+                                    preprocess=preprocess, detail=bool(detail), warmup=warmup, matting=matting)
         self.models_dir = find_models(models)
         self.precision = precision
+        self.preprocess = preprocess
+        self.detail = bool(detail)
         self._session_args = {"device": device, "device_id": device_id, "providers": providers}
         self.stage1: Model = load_model(self._graph("stage1"), "stage1", warmup=False, **self._session_args)
         if warmup is None:
@@ -232,19 +247,32 @@ class Relighter:
         else:
             log.warning("%s has no stage2.onnx: results are diffuse-only (no residual/specular)", self.models_dir)
         self._dvp: Model | None = None
+        self._matter: Matter | None = None
+        self._matter_loaded = False
         self._chain = None  # CUDA: stage 1 → shading → stage 2 without host round trips
         if self.stage1.on_cuda and (self.stage2 is None or self.stage2.on_cuda):
             self._chain = DeviceChain(self.stage1, self.stage2, "cuda", device_id)
-        self.preprocess = preprocess
-        self.detail = bool(detail)
+        # What this Relighter prepares for a Decomposition (device copies, reconstruction, window), kept
+        # here rather than on the (plain-data) Decomposition, and dropped with it.
+        self._state: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+        self._state_lock = threading.Lock()
         CropGeometry.from_mask(np.ones((1, 1), np.float32), self.resolution, preprocess)  # checks the mode
+
+    @classmethod
+    def from_config(cls, config: RuntimeConfig, providers: list | None = None) -> Relighter:
+        """A Relighter set up as ``config`` says (``providers``: explicit onnxruntime providers)."""
+        if not isinstance(config, RuntimeConfig):
+            raise RelightError(f"config: expected a RuntimeConfig, got {type(config).__name__}")
+        return cls(config.models, device=config.device, device_id=config.device_id, providers=providers,
+                   preprocess=config.preprocess, detail=config.detail, warmup=config.warmup,
+                   precision=config.precision, matting=config.matting)
 
     def _graph(self, kind: str) -> Path:
         """The file of ``kind`` in this Relighter's precision, falling back to fp32 (logged) when absent."""
-        fp32 = self.models_dir / f"{kind}.onnx"
+        fp32 = self.models_dir / kind_spec(kind).filename
         if self.precision == "fp32":
             return fp32
-        path = self.models_dir / f"{kind}_{self.precision}.onnx"
+        path = fp32.with_name(f"{fp32.stem}_{self.precision}{fp32.suffix}")
         if path.is_file() or not fp32.is_file():
             return path
         log.warning("%s: no %s, running %s in fp32", self.models_dir, path.name, kind)
@@ -263,10 +291,29 @@ class Relighter:
     @property
     def dvp(self) -> Model | None:
         """The deep-video-prior graph (``dvp.onnx`` in the models folder), loaded on first use; None if absent."""
-        path = self.models_dir / "dvp.onnx"
+        path = self.models_dir / kind_spec("dvp").filename
         if self._dvp is None and path.is_file():
             self._dvp = load_model(path, "dvp", warmup=False, **self._session_args)
         return self._dvp
+
+    @property
+    def matter(self) -> Matter | None:
+        """The automatic person matte (relight_rt.matting), loaded on first use; None when off or not installed."""
+        if not self._matter_loaded:
+            self._matter_loaded = True
+            if self.config.matting == "auto" and importlib.util.find_spec(f"{__package__}.matting") is not None:
+                from .matting import default_matter
+
+                self._matter = default_matter(device=self.config.device)
+        return self._matter
+
+    def _prepared(self, dec: Decomposition) -> dict:
+        """This Relighter's per-decomposition state (created on first use; freed with the Decomposition)."""
+        with self._state_lock:
+            state = self._state.get(dec)
+            if state is None:
+                state = self._state[dec] = {}
+            return state
 
     # ------------------------------------------------------------------------------------ stage 1
 
@@ -276,63 +323,85 @@ class Relighter:
         Args:
             image: a path or an array (H, W, 3) RGB / (H, W, 4) RGBA, uint8 or float in [0, 1].
             mask: a path or an array (H, W), (H, W, 1) or (H, W, 3), binary or soft, same H x W as the
-                image. None: the image's alpha channel.
+                image; ``"auto"``: the automatic matte; None: the image's alpha channel, else the automatic
+                matte (relight_rt.masks.resolve_mask).
 
         Raises:
-            RelightError: bad image or mask (see relight_rt._io.read_image / read_mask), no mask at all.
+            RelightError: bad image or mask (see relight_rt._io.read_image / read_mask), no mask to be had.
         """
-        img = read_image(image, "image")
-        shape = img.shape[:2]
-        if mask is not None:
-            m = read_mask(mask, shape, "mask")
-        elif img.shape[2] == 4:
-            m = read_mask(img[..., 3], shape, "image alpha (used as the mask)")
-        else:
-            raise RelightError("image: no mask given and the image has no alpha channel; pass mask=PATH_OR_ARRAY")
-        rgb = np.ascontiguousarray(img[..., :3]) if img.shape[2] == 4 else img
-        geom = CropGeometry.from_mask(m, self.resolution, self.preprocess)
-        net_img = geom.to_network(rgb)
-        net_mask = geom.to_network(m)
-        feeds = {"image": net_img.transpose(2, 0, 1)[None], "mask": net_mask[None, None]}
+        return self.decompose_batch([image], [mask])[0]
+
+    def decompose_batch(
+        self, images: Sequence[ImageLike], masks: Sequence[ImageLike | None] | None = None, *,
+        allow_full: bool = False,
+    ) -> list[Decomposition]:
+        """Run stage 1 on several photos in one batch (video frames, folders).
+
+        Args:
+            images: photos as for ``decompose`` (any sizes).
+            masks: one per image (None entries: alpha, else the automatic matte); None: all None.
+            allow_full: accept a mask that covers the whole image (a video frame filled by the person).
+
+        Returns:
+            One Decomposition per image, in order.
+        """
+        if masks is None:
+            masks = [None] * len(images)
+        if len(masks) != len(images):
+            raise RelightError(f"masks: expected one per image ({len(images)}), got {len(masks)}")
+        if not images:
+            return []
+        rgbs, ms, geoms = [], [], []
+        for i, (image, mask) in enumerate(zip(images, masks, strict=True)):
+            name = str(image) if isinstance(image, (str, os.PathLike)) else f"image {i}" if len(images) > 1 else "image"
+            img = read_image(image, "image")
+            m = resolve_mask(img, mask, matter=self.matter if mask is None or isinstance(mask, str) else None,
+                             allow_empty=allow_full, name=name)
+            rgbs.append(np.ascontiguousarray(img[..., :3]) if img.shape[2] == 4 else img)
+            ms.append(m)
+            geoms.append(CropGeometry.from_mask(m, self.resolution, self.preprocess))
+        net_imgs = [g.to_network(rgb) for g, rgb in zip(geoms, rgbs, strict=True)]
+        net_masks = [g.to_network(m) for g, m in zip(geoms, ms, strict=True)]
+        on_device: list = [None] * len(images)
         if self._chain is not None:
-            out, on_device = self._chain.run_stage1(feeds["image"], feeds["mask"])
+            outs = []
+            for i, (ni, nm) in enumerate(zip(net_imgs, net_masks, strict=True)):
+                out, on_device[i] = self._chain.run_stage1(ni.transpose(2, 0, 1)[None], nm[None, None])
+                outs.append(out)
+            out = {k: np.concatenate([o[k] for o in outs]) for k in outs[0]}
         else:
-            out = self.stage1.run(feeds)
-        light = out["light"][0]
-        if not np.isfinite(light).all():
-            raise RelightError(f"{self.stage1.name}: stage 1 estimated a non-finite light for this image")
-        albedo, skin, transport = out["albedo"][0], out["skin"][0, 0], out["transport"][0]
-        dec = Decomposition(albedo, skin, transport, light, net_mask, net_img, m, rgb, geom)
-        if self._chain is not None:
-            dec._cache[("device", self._token)] = on_device
-        return dec
+            out = self.stage1.run({"image": np.stack(net_imgs).transpose(0, 3, 1, 2),
+                                   "mask": np.stack(net_masks)[:, None]})
+        decs = []
+        for i, geom in enumerate(geoms):
+            light = out["light"][i]
+            if not np.isfinite(light).all():
+                raise RelightError(f"{self.stage1.name}: stage 1 estimated a non-finite light for this image")
+            dec = Decomposition(out["albedo"][i], out["skin"][i, 0], out["transport"][i], light, net_masks[i],
+                                net_imgs[i], ms[i], rgbs[i], geom)
+            if on_device[i] is not None:
+                self._prepared(dec)["device"] = on_device[i]
+            decs.append(dec)
+        return decs
 
     # ------------------------------------------------------------------------------------ lights
+
+    def _estimate_light(self, photo: Path, mask: str | None) -> np.ndarray:
+        return np.array(self.decompose(photo, mask if mask is not None else sibling_mask(photo)).light, np.float32)
 
     def resolve_light(self, light) -> np.ndarray:
         """Any accepted light argument → (9, 3) float32 RGB SH light.
 
         Accepted: an array (9, 3); a ``Decomposition`` (its estimated light: "light me like that photo");
-        a light file (.npy / .json, RGB); an HDR environment map (.hdr / .pic / .exr, projected to SH);
-        a photo (.png / .jpg / ...) of a person, whose light is estimated (its mask: its alpha channel
-        or NAME_mask.png beside it); otherwise a preset name (relight_rt.lights).
+        a :class:`relight_rt.lightspec.LightSpec`; a string or path, read by the one rule of
+        relight_rt.lightspec (light file, environment map, photo of a person, or preset name).
         """
         if isinstance(light, Decomposition):
             return np.array(light.light, dtype=np.float32)
         if isinstance(light, (str, os.PathLike)):
-            p = Path(light)
-            suffix = p.suffix.lower()
-            if p.is_file():
-                if suffix in (".npy", ".json"):
-                    return sh.load_light(p).astype(np.float32)
-                if suffix in _ENVMAP_SUFFIXES:
-                    return sh.project_envmap(sh.load_envmap(p)).astype(np.float32)
-                if suffix in IMAGE_SUFFIXES:
-                    return np.array(self.decompose(p, sibling_mask(p)).light, dtype=np.float32)
-                raise RelightError(f"light: {p} is neither a light file (.npy/.json), an HDR map nor a photo")
-            if suffix or os.sep in str(light):
-                raise RelightError(f"light: file {p} not found")
-            return sh.check_light(lights.preset(str(light)), "light").astype(np.float32)
+            light = parse_light(light)
+        if isinstance(light, LightSpec):
+            return light.resolve(self._estimate_light)
         return sh.check_light(light, "light").astype(np.float32)
 
     def _resolve_lights(self, values) -> np.ndarray:
@@ -360,7 +429,7 @@ class Relighter:
             yield from self._device_relit(dec, lights, batch_size, want_layers)
             return
         for start in range(0, lights.shape[0], batch_size):
-            diffuse = diffuse_batch(dec._albedo, dec._transport, lights[start : start + batch_size])
+            diffuse = diffuse_batch(dec.albedo_chw, dec.transport_chw, lights[start : start + batch_size])
             if self.stage2 is None:
                 for d in diffuse:
                     yield d, None, d
@@ -373,54 +442,35 @@ class Relighter:
     def _device_relit(self, dec: Decomposition, lights: np.ndarray, batch_size: int, want_layers: bool) -> Iterator:
         """``_network_relit`` on CUDA through the DeviceChain (stage-1 outputs stay on the device)."""
         chain = self._chain
-        key = ("device", self._token)
-        if key not in dec._cache:  # a decomposition made elsewhere: upload its stage-1 outputs once
-            dec._cache[key] = {
-                "albedo": chain.upload(dec._albedo[None]),
-                "transport": chain.upload(dec._transport[None]),
-            }
+        state = self._prepared(dec)
+        if "device" not in state:  # a decomposition made elsewhere: upload its stage-1 outputs once
+            state["device"] = {"albedo": chain.upload(dec.albedo_chw[None]),
+                               "transport": chain.upload(dec.transport_chw[None])}
         for start in range(0, lights.shape[0], batch_size):
             batch = lights[start : start + batch_size]
-            mask_key = ("device-mask", self._token, batch.shape[0])
-            if mask_key not in dec._cache:
+            mask_key = ("device-mask", batch.shape[0])
+            if mask_key not in state:
                 shape = (batch.shape[0], 1) + dec.network_mask.shape
-                dec._cache[mask_key] = chain.upload(np.broadcast_to(dec.network_mask, shape))
-            yield from chain.relit(dec._cache[key], dec._cache[mask_key], batch, want_layers)
+                state[mask_key] = chain.upload(np.broadcast_to(dec.network_mask, shape))
+            yield from chain.relit(state["device"], state[mask_key], batch, want_layers)
 
     def _reconstruction(self, dec: Decomposition) -> np.ndarray:
         """(R, R, 3) straight colour of the pipeline's output under the photo's own light (cached)."""
-        key = ("reconstruction", self._token)
-        if key not in dec._cache:
+        state = self._prepared(dec)
+        if "reconstruction" not in state:
             _, _, relit = next(self._network_relit(dec, dec.light[None], 1, want_layers=False))
-            dec._cache[key] = _readonly(unpremultiply(relit.transpose(1, 2, 0), dec.network_mask))
-        return dec._cache[key]
-
-    def _background(self, background, dec: Decomposition) -> np.ndarray | None:
-        if isinstance(background, str) and background == "original":
-            return dec.image
-        if isinstance(background, str) and background == "transparent":
-            return None
-        if not isinstance(background, (str, os.PathLike, np.ndarray)):
-            raise RelightError(
-                "background: expected 'original', 'transparent', a path or an image array, "
-                f"got {type(background).__name__}"
-            )
-        bg = read_image(background, "background")
-        if bg.shape[:2] != dec.image.shape[:2]:
-            raise RelightError(
-                f"background: is {bg.shape[0]}x{bg.shape[1]} (HxW), expected the input's size "
-                f"{dec.image.shape[0]}x{dec.image.shape[1]}"
-            )
-        return bg[..., :3]
+            state["reconstruction"] = _readonly(unpremultiply(relit.transpose(1, 2, 0), dec.network_mask))
+        return state["reconstruction"]
 
     def _person_colour(self, dec: Decomposition, relit: np.ndarray) -> np.ndarray:
         """(h, w, 3) straight (not premultiplied) colour of the relit person inside the crop box."""
         geom = dec.geometry
         relit_hwc = relit.transpose(1, 2, 0)
         if self.detail and geom.side > geom.resolution:
-            if "window" not in dec._cache:
-                dec._cache["window"] = window(dec.network_mask)
-            y0, y1, x0, x1 = dec._cache["window"]  # the network pixels near the person; the rest is padding
+            state = self._prepared(dec)
+            if "window" not in state:
+                state["window"] = window(dec.network_mask)
+            y0, y1, x0, x1 = state["window"]  # the network pixels near the person; the rest is padding
             alpha = dec.network_mask[y0:y1, x0:x1]
             colour_net = unpremultiply(relit_hwc[y0:y1, x0:x1], alpha)
             ratio = (colour_net + _RATIO_EPS) / (self._reconstruction(dec)[y0:y1, x0:x1] + _RATIO_EPS)
@@ -434,20 +484,19 @@ class Relighter:
         np.clip(colour, 0, 1, out=colour)
         return colour
 
-    def _compose(self, dec: Decomposition, relit: np.ndarray, background: np.ndarray | None) -> np.ndarray:
+    def to_photo(self, dec: Decomposition, relit: np.ndarray, background="original") -> np.ndarray:
+        """Put one relit network image (3, R, R) back into the photo, over ``background``.
+
+        Returns:
+            (H, W, 3) float32 RGB, or (H, W, 4) RGBA for a transparent background.
+        """
+        bg = parse_background(background)
+        return self._compose(dec, relit, bg.backdrop(dec.image))
+
+    def _compose(self, dec: Decomposition, relit: np.ndarray, backdrop: np.ndarray | None) -> np.ndarray:
         geom = dec.geometry
-        y0, y1, x0, x1 = geom.box
         colour = self._person_colour(dec, relit)
-        m = geom.crop(dec.mask)[..., None]
-        if background is None:  # RGBA, straight alpha
-            out = np.zeros(geom.frame + (4,), np.float32)
-            out[y0:y1, x0:x1, :3] = np.where(m > 0, colour, 0)
-            out[..., 3] = dec.mask
-            return out
-        out = np.array(background, dtype=np.float32)  # the result: one full-size copy
-        region = out[y0:y1, x0:x1]
-        region += (colour - region) * m
-        return out
+        return over_box(colour, geom.crop(dec.mask)[..., None], geom.box, backdrop, dec.mask)
 
     def _prepare(self, image, mask) -> Decomposition:
         if isinstance(image, Decomposition):
@@ -462,30 +511,43 @@ class Relighter:
         light,
         *,
         mask: ImageLike | None = None,
-        background="original",
-        return_layers: bool = False,
-    ) -> np.ndarray | RelightResult:
+        background: Background | str | os.PathLike | np.ndarray = "original",
+    ) -> np.ndarray:
         """Relight a photo (or a Decomposition) under a new light.
 
         Args:
             image: a photo (see ``decompose``) or a ``Decomposition`` (no stage-1 pass).
-            light: see ``resolve_light``: (9, 3) array, light file, HDR map, photo, Decomposition or preset.
-            mask: the photo's mask (None: its alpha channel); not with a Decomposition.
-            background: "original" (the photo), "transparent" (RGBA output, alpha = mask) or an image
-                (path or array) of the photo's size.
-            return_layers: return a ``RelightResult`` with the layers instead of the image alone.
+            light: see ``resolve_light``: (9, 3) array, LightSpec, light file, HDR map, photo, Decomposition or
+                preset.
+            mask: the photo's mask (see ``decompose``); not with a Decomposition.
+            background: a :class:`relight_rt.compositing.Background`, or its shorthand: "original" (the
+                photo), "transparent" (RGBA output, alpha = mask), a colour ("black", "#RRGGBB") or an image
+                (path or array; fitted to the photo by "cover").
 
         Returns:
             (H, W, 3) float32 RGB in [0, 1] at the input's size ((H, W, 4) RGBA for "transparent"); pixels
-            where the mask is 0 are the background's, untouched. With ``return_layers``, a RelightResult.
+            where the mask is 0 are the background's, untouched. ``relight_layers`` also returns the layers.
         """
         dec = self._prepare(image, mask)
         lit = self.resolve_light(light)
-        bg = self._background(background, dec)
-        diffuse, residual, relit = next(self._network_relit(dec, lit[None], 1, want_layers=return_layers))
-        out = self._compose(dec, relit, bg)
-        if not return_layers:
-            return out
+        bg = parse_background(background)
+        _, _, relit = next(self._network_relit(dec, lit[None], 1, want_layers=False))
+        return self._compose(dec, relit, bg.backdrop(dec.image))
+
+    def relight_layers(
+        self,
+        image: ImageLike | Decomposition,
+        light,
+        *,
+        mask: ImageLike | None = None,
+        background: Background | str | os.PathLike | np.ndarray = "original",
+    ) -> RelightResult:
+        """``relight`` plus the input-frame layers that made the picture (see :class:`RelightResult`)."""
+        dec = self._prepare(image, mask)
+        lit = self.resolve_light(light)
+        bg = parse_background(background)
+        diffuse, residual, relit = next(self._network_relit(dec, lit[None], 1, want_layers=True))
+        out = self._compose(dec, relit, bg.backdrop(dec.image))
         chw = lambda a: dec.to_input(np.ascontiguousarray(a.transpose(1, 2, 0)))  # noqa: E731
         layers = {
             "albedo": dec.to_input(np.ascontiguousarray(dec.albedo)),
@@ -503,7 +565,7 @@ class Relighter:
         lights,
         *,
         mask: ImageLike | None = None,
-        background="original",
+        background: Background | str | os.PathLike | np.ndarray = "original",
         batch_size: int = 4,
     ) -> Iterator[np.ndarray]:
         """Like ``relight_many`` but yields one (H, W, 3|4) result at a time (for long sweeps and video)."""
@@ -511,9 +573,9 @@ class Relighter:
             raise RelightError(f"batch_size: expected a whole number >= 1, got {batch_size!r}")
         dec = self._prepare(image, mask)
         lits = self._resolve_lights(lights)
-        bg = self._background(background, dec)
+        backdrop = parse_background(background).backdrop(dec.image)
         for _, _, relit in self._network_relit(dec, lits, batch_size, want_layers=False):
-            yield self._compose(dec, relit, bg)
+            yield self._compose(dec, relit, backdrop)
 
     def relight_many(
         self,
@@ -521,7 +583,7 @@ class Relighter:
         lights,
         *,
         mask: ImageLike | None = None,
-        background="original",
+        background: Background | str | os.PathLike | np.ndarray = "original",
         batch_size: int = 4,
     ) -> np.ndarray:
         """One stage-1 pass, then K relights through stage 2 in batches of ``batch_size``.
@@ -538,9 +600,8 @@ class Relighter:
         """
         dec = self._prepare(image, mask)
         lits = self._resolve_lights(lights)
-        channels = 4 if isinstance(background, str) and background == "transparent" else 3
-        out = np.empty((lits.shape[0],) + dec.geometry.frame + (channels,), np.float32)
-        for i, img in enumerate(self.iter_relight(dec, lits, background=background, batch_size=batch_size)):
+        bg = parse_background(background)
+        out = np.empty((lits.shape[0],) + dec.geometry.frame + (bg.channels,), np.float32)
+        for i, img in enumerate(self.iter_relight(dec, lits, background=bg, batch_size=batch_size)):
             out[i] = img
         return out
-

@@ -35,7 +35,7 @@ import numpy as np
 import onnxruntime as ort
 
 from ._errors import RelightError
-from .contract import KINDS, ModelConfig, config_from_metadata
+from .contract import KINDS, ModelConfig, config_from_metadata, kind_spec
 
 log = logging.getLogger(__name__)
 
@@ -46,8 +46,6 @@ ENV_MODELS = "RELIGHT_RT_MODELS"
 ENV_THREADS = "RELIGHT_RT_THREADS"
 ENV_TENSORRT = "RELIGHT_RT_TENSORRT"
 TENSORRT = "TensorrtExecutionProvider"
-_CHANNELS = {"image": 3, "mask": 1, "albedo": 3, "skin": 1, "transport": 9, "diffuse": 3, "residual": 3,
-             "relit": 3, "frame": 3}  # fmt: skip
 _CUDA_HELP = (
     "likely causes: both 'onnxruntime' and 'onnxruntime-gpu' are installed (uninstall both, then install "
     "onnxruntime-gpu only), or the CUDA / cuDNN libraries that this onnxruntime-gpu build needs are missing "
@@ -129,15 +127,15 @@ def _providers_for(device: str, device_id: int) -> list:
     return [CPU]
 
 
-def _warmup_feeds(session: ort.InferenceSession, resolution: int) -> dict[str, np.ndarray]:
+def _warmup_feeds(session: ort.InferenceSession, config: ModelConfig) -> dict[str, np.ndarray]:
+    """Zeros for every input of the graph, shaped by its kind's spec (batch 1, the native or a 64 px size)."""
+    spec = config.spec
+    size = config.resolution or 64
     feeds = {}
-    size = resolution or 64
     for inp in session.get_inputs():
-        dims = [d if isinstance(d, int) and d > 0 else None for d in inp.shape]
-        if inp.name == "light" or len(dims) == 3:
-            shape = [1, 9, 3]
-        else:
-            shape = [dims[0] or 1, dims[1] or _CHANNELS.get(inp.name, 3), dims[2] or size, dims[3] or size]
+        shape = list(spec.tensor(inp.name).zeros_shape(size))
+        fixed = [d if isinstance(d, int) and d > 0 else None for d in inp.shape]
+        shape = [f or d for f, d in zip(fixed, shape, strict=False)]
         feeds[inp.name] = np.zeros(shape, np.float32)
     return feeds
 
@@ -188,7 +186,7 @@ def create_session(
     config = validate_session(session, str(path))
     log.debug("%s: %s on %s", path, config, active)
     if warmup:
-        session.run(None, _warmup_feeds(session, config.resolution))
+        session.run(None, _warmup_feeds(session, config))
     return session
 
 
@@ -205,7 +203,7 @@ def validate_session(session: ort.InferenceSession, name: str, kind: str | None 
     config = config_from_metadata(meta, name)
     if kind is not None and config.kind != kind:
         raise RelightError(f"{name}: metadata relight_rt.kind is {config.kind!r}, expected {kind!r} here")
-    spec = KINDS[config.kind]
+    spec = kind_spec(config.kind)
     sides = (("input", session.get_inputs(), spec.inputs), ("output", session.get_outputs(), spec.outputs))
     for role, args, specs in sides:
         got = {a.name: a for a in args}
@@ -219,9 +217,7 @@ def validate_session(session: ort.InferenceSession, name: str, kind: str | None 
             if len(arg.shape) != s.rank:
                 rank = len(arg.shape)
                 raise RelightError(f"{name}: {role} {s.name!r} has rank {rank} ({arg.shape}), expected {s.rank}")
-            expect = [None, 9, 3] if s.rank == 3 else [None, _CHANNELS.get(s.name)]
-            if s.rank == 4 and spec.fixed_size:
-                expect += [config.resolution, config.resolution]
+            expect = s.fixed_dims(config.resolution if spec.fixed_size else None)
             for axis, (have, need) in enumerate(zip(arg.shape, expect, strict=False)):
                 if need is not None and isinstance(have, int) and have != need:
                     raise RelightError(
@@ -245,7 +241,7 @@ class Model:
 
     def warm_up(self) -> None:
         """Run the graph once on zeros (allocates memory, picks CUDA kernels)."""
-        self.session.run(None, _warmup_feeds(self.session, self.config.resolution))
+        self.session.run(None, _warmup_feeds(self.session, self.config))
 
     def run(self, feeds: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Run on host arrays (float32, NCHW); returns every output by name."""
@@ -281,11 +277,12 @@ def bundled_models_dir() -> Path:
 
 
 def find_models(models: str | os.PathLike | None = None) -> Path:
-    """The folder holding stage1.onnx: ``models`` if given, else $RELIGHT_RT_MODELS, else the bundled models.
+    """The folder holding the stage-1 graph: ``models`` if given, else $RELIGHT_RT_MODELS, else the bundled models.
 
     Raises:
         RelightError: nothing found; the message lists every place looked.
     """
+    required = KINDS["stage1"].filename
     if models is not None:
         places = [Path(models)]
     else:
@@ -294,9 +291,9 @@ def find_models(models: str | os.PathLike | None = None) -> Path:
         # silently to the bundled models.
         places = [Path(env)] if env else [bundled_models_dir()]
     for place in places:
-        if (place / "stage1.onnx").is_file():
+        if (place / required).is_file():
             return place
-    looked = "; ".join(f"{p} ({'no stage1.onnx' if p.is_dir() else 'no such folder'})" for p in places)
+    looked = "; ".join(f"{p} ({'no ' + required if p.is_dir() else 'no such folder'})" for p in places)
     if models is not None:
         hint = ""
     elif os.environ.get(ENV_MODELS, "").strip():

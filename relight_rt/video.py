@@ -46,6 +46,8 @@ from ._video_io import (  # noqa: F401  (re-exported: the video API in one place
     read_frame,
     read_mask_file,
 )
+from .compositing import Background, over_premultiplied, parse_background
+from .lightspec import LightSpec, parse_light
 from .stabilize import Stabilizer
 
 logger = logging.getLogger(__name__)
@@ -54,23 +56,22 @@ logger = logging.getLogger(__name__)
 # lights
 
 
-def resolve_light(spec: str | os.PathLike) -> np.ndarray:
-    """A light from a file (.npy/.json SH, RGB), an environment map (.hdr/.exr/.png/.jpg) or a preset name.
+def resolve_light(spec, relighter=None) -> np.ndarray:
+    """One light, by the rule of relight_rt.lightspec (light file, environment map, photo, preset name).
+
+    Args:
+        spec: a :class:`relight_rt.lightspec.LightSpec`, a (9, 3) array, or a string / path.
+        relighter: estimates the light of a photo of a person (None: a photo is an error).
 
     Returns:
         (9, 3) float64 RGB SH coefficients.
     """
-    from . import lights as _lights
-
-    path = Path(spec)
-    if path.is_file():
-        if path.suffix.lower() in (".npy", ".json"):
-            return np.asarray(sh.load_light(path), np.float64)
-        return np.asarray(sh.project_envmap(sh.load_envmap(path)), np.float64)
-    try:
-        return np.asarray(_lights.preset(str(spec)), np.float64)
-    except RelightError as exc:
-        raise RelightError(f"light {str(spec)!r}: not a file, and {exc}") from None
+    if isinstance(spec, (str, os.PathLike)):
+        spec = parse_light(spec)
+    if not isinstance(spec, LightSpec):
+        spec = LightSpec.from_array(spec)
+    estimate = None if relighter is None else relighter._estimate_light
+    return spec.resolve(estimate, dtype=np.float64)
 
 
 class LightSchedule:
@@ -161,14 +162,15 @@ class Engine(Protocol):
 
     ``decompose`` gets a batch of full frames (H, W, 3) and masks (H, W) and returns FrameLayers
     per frame. ``render`` puts a frame's (stabilised) albedo/transport back into its FrameLayers,
-    applies ``light`` (9, 3) and returns the full output frame (H, W, 3) RGB [0, 1], composited over
-    ``background`` ("original" or "black"). ``to_input`` maps a working-frame layer to the input frame.
+    applies ``light`` (9, 3) and returns the full output frame (H, W, 3|4) RGB[A] [0, 1], composited over
+    ``background`` (a relight_rt.compositing.Background). ``to_input`` maps a working-frame layer to the
+    input frame.
     """
 
     def decompose(self, images: Sequence[np.ndarray], masks: Sequence[np.ndarray]) -> list[FrameLayers]: ...
 
     def render(self, layers: FrameLayers, albedo: np.ndarray, transport: np.ndarray, own_light: np.ndarray | None,
-               light: np.ndarray, background: str) -> np.ndarray: ...
+               light: np.ndarray, background: Background) -> np.ndarray: ...
 
     def to_input(self, layers: FrameLayers, layer: np.ndarray) -> np.ndarray: ...
 
@@ -188,28 +190,12 @@ class RelighterEngine:
         self.relighter = relighter
 
     def decompose(self, images: Sequence[np.ndarray], masks: Sequence[np.ndarray]) -> list[FrameLayers]:
-        from ._geometry import CropGeometry
-        from .relighter import Decomposition
-
-        rl = self.relighter
-        geoms = [CropGeometry.from_mask(m, rl.resolution, rl.preprocess) for m in masks]
-        net_imgs = np.stack([g.to_network(img) for g, img in zip(geoms, images, strict=True)])
-        net_masks = np.stack([g.to_network(m) for g, m in zip(geoms, masks, strict=True)])
-        out = rl.stage1.run({"image": net_imgs.transpose(0, 3, 1, 2), "mask": net_masks[:, None]})
-        layers = []
-        for i, geom in enumerate(geoms):
-            light = out["light"][i]
-            if not np.isfinite(light).all():
-                raise RelightError(f"{rl.stage1.name}: stage 1 estimated a non-finite light for a frame")
-            dec = Decomposition(albedo_chw=out["albedo"][i], skin=out["skin"][i, 0], transport_chw=out["transport"][i],
-                                light=light, network_mask=net_masks[i], network_image=net_imgs[i], mask=masks[i],
-                                image=images[i], geometry=geom)
-            layers.append(FrameLayers(net_imgs[i], net_masks[i], np.array(dec.albedo), np.array(dec.transport),
-                                      np.array(dec.light), dec))
-        return layers
+        decs = self.relighter.decompose_batch(images, masks, allow_full=True)
+        return [FrameLayers(d.network_image, d.network_mask, np.array(d.albedo), np.array(d.transport),
+                            np.array(d.light), d) for d in decs]
 
     def render(self, layers: FrameLayers, albedo: np.ndarray, transport: np.ndarray, own_light: np.ndarray | None,
-               light: np.ndarray, background: str) -> np.ndarray:
+               light: np.ndarray, background: Background) -> np.ndarray:
         from .relighter import Decomposition
 
         dec = layers.state
@@ -217,8 +203,7 @@ class RelighterEngine:
                              transport_chw=transport.transpose(2, 0, 1),
                              light=dec.light if own_light is None else own_light, network_mask=dec.network_mask,
                              network_image=dec.network_image, mask=dec.mask, image=dec.image, geometry=dec.geometry)
-        bg = np.zeros_like(dec.image) if background == "black" else "original"
-        return self.relighter.relight(stab, light, background=bg)
+        return self.relighter.relight(stab, light, background=background)
 
     def to_input(self, layers: FrameLayers, layer: np.ndarray) -> np.ndarray:
         return layers.state.to_input(layer)
@@ -234,7 +219,7 @@ class DVPModel:
             --size``); None: the frames' own size. Frames are zero-padded to multiples of 64.
     """
 
-    def __init__(self, path: str | os.PathLike, device: str = "cpu", size: int | None = None):
+    def __init__(self, path: str | os.PathLike, device: str = "auto", size: int | None = None):
         from .session import load_model
 
         self.path = Path(path)
@@ -280,26 +265,31 @@ class VideoReport:
     seconds_per_frame: float
 
 
-def composite(relit: np.ndarray, image: np.ndarray, mask: np.ndarray, background: str = "original",
+def composite(relit: np.ndarray, image: np.ndarray, mask: np.ndarray, background="original",
               premultiplied: bool = False) -> np.ndarray:
-    """Put the relit person over the original frame ("original") or black ("black").
+    """Put a relit person over a frame's background (relight_rt.compositing).
 
     Args:
         relit: (H, W, 3) RGB [0, 1]; already multiplied by the mask when ``premultiplied`` (a DVP output).
         image: (H, W, 3) the original frame; mask: (H, W) in [0, 1].
+        background: a Background or its shorthand ("original", "transparent", "black", "#RRGGBB", an image).
+
+    Returns:
+        (H, W, 3) float32, or (H, W, 4) RGBA for a transparent background.
     """
-    if background not in ("original", "black"):
-        raise RelightError(f"background: expected 'original' or 'black', got {background!r}")
-    m = mask[..., None]
-    person = relit if premultiplied else relit * m
-    return person if background == "black" else person + image * (1.0 - m)
+    bg = parse_background(background)
+    person = relit if premultiplied else relit * mask[..., None]
+    return over_premultiplied(person, mask, bg.backdrop(image))
 
 
-def relight_frames(source: Iterator[Frame] | FrameSource, lights: LightSchedule, fps: float,
+def relight_frames(source: Iterator[Frame] | FrameSource, lights: LightSchedule, *, fps: float | None = None,
                    engine: Engine | None = None, dvp: DVPModel | None = None, stabilizer: Stabilizer | None = None,
-                   batch_size: int = 4, background: str = "original",
+                   batch_size: int = 4, background: Background | str = "original",
                    with_layers: bool = False) -> Iterator[tuple[Frame, np.ndarray, dict]]:
-    """Relight a stream of frames; yields (frame, output (H, W, 3) RGB [0, 1], extras) in order.
+    """Relight a stream of frames; yields (frame, output (H, W, 3|4) RGB[A] [0, 1], extras) in order.
+
+    ``fps`` (for light schedules that depend on time) defaults to the source's; ``background`` is a
+    relight_rt.compositing.Background or its shorthand ("original", "transparent", "black", an image).
 
     With ``dvp`` the fitted network maps each frame and its light straight to the relit frame.
     Otherwise ``engine`` decomposes each batch, ``stabilizer`` (None = off) filters the layers (and
@@ -312,8 +302,21 @@ def relight_frames(source: Iterator[Frame] | FrameSource, lights: LightSchedule,
     """
     if (engine is None) == (dvp is None):
         raise RelightError("video: expected exactly one of an engine (stage 1/2 models) or a DVP model")
-    composite(np.zeros((1, 1, 3), np.float32), np.zeros((1, 1, 3), np.float32), np.ones((1, 1), np.float32),
-              background)  # checks the name before any work
+    bg = parse_background(background)  # checked before any work
+    if fps is None:
+        fps = getattr(source, "fps", None)
+        if fps is None:
+            raise RelightError("video: fps is needed for a stream of frames without one")
+    fitted: dict[tuple[int, int], Background] = {}
+
+    def backdrop_for(frame: Frame) -> Background:  # an image background is read and fitted once per frame size
+        if bg.kind != "image":
+            return bg
+        shape = frame.image.shape[:2]
+        if shape not in fitted:
+            fitted[shape] = Background.from_image(bg.backdrop(frame.image), fit="exact")
+        return fitted[shape]
+
     for batch in batched(source, batch_size):
         batch_lights = [lights(f.index, fps) for f in batch]
         people = [i for i, f in enumerate(batch) if (f.mask >= 0.5).any()]
@@ -323,7 +326,7 @@ def relight_frames(source: Iterator[Frame] | FrameSource, lights: LightSchedule,
             relit = dvp([batch[i].image for i in people], [batch[i].mask for i in people],
                         [batch_lights[i] for i in people])
             for i, out in zip(people, relit, strict=True):
-                outs[i] = composite(out, batch[i].image, batch[i].mask, background, premultiplied=True)
+                outs[i] = composite(out, batch[i].image, batch[i].mask, backdrop_for(batch[i]), premultiplied=True)
         elif people:
             layers = engine.decompose([batch[i].image for i in people], [batch[i].mask for i in people])
             for i, lay in zip(people, layers, strict=True):
@@ -331,23 +334,24 @@ def relight_frames(source: Iterator[Frame] | FrameSource, lights: LightSchedule,
                 if stabilizer is not None:
                     albedo, transport = stabilizer.update(lay.image, lay.mask, albedo, transport)
                     own = None if own is None else stabilizer.smooth_light(own)
-                outs[i] = engine.render(lay, albedo, transport, own, batch_lights[i], background)
+                outs[i] = engine.render(lay, albedo, transport, own, batch_lights[i], backdrop_for(batch[i]))
                 if with_layers:
                     extras[i]["albedo"] = engine.to_input(lay, albedo)
                     extras[i]["transport"] = engine.to_input(lay, transport)
         for i, f in enumerate(batch):
             if outs[i] is None:  # nobody in this frame
                 logger.debug("frame %s: empty mask, passed through", f.name)
-                outs[i] = composite(f.image, f.image, f.mask, background)
+                outs[i] = composite(f.image, f.image, f.mask, backdrop_for(f))
                 if with_layers and engine is not None:
                     extras[i]["albedo"] = np.zeros_like(f.image)
                     extras[i]["transport"] = np.zeros((*f.image.shape[:2], 9), np.float32)
             yield f, outs[i], extras[i]
 
 
-def relight_video(source: FrameSource, lights: LightSchedule, sink: FrameSink, engine: Engine | None = None,
+def relight_video(source: FrameSource, lights: LightSchedule, sink: FrameSink, *, engine: Engine | None = None,
                   dvp: DVPModel | None = None, stabilizer: Stabilizer | None = None, batch_size: int = 4,
-                  background: str = "original", on_frame: Callable[[Frame, np.ndarray, dict], None] | None = None,
+                  background: Background | str = "original",
+                  on_frame: Callable[[Frame, np.ndarray, dict], None] | None = None,
                   with_layers: bool = False) -> VideoReport:
     """Relight a whole video from ``source`` into ``sink`` in bounded memory.
 
@@ -368,8 +372,9 @@ def relight_video(source: FrameSource, lights: LightSchedule, sink: FrameSink, e
     n = 0
     callback = 0.0  # time spent in on_frame (metrics, progress): not the pipeline's
     try:
-        for frame, out, extras in relight_frames(source, lights, source.fps, engine, dvp, stabilizer, batch_size,
-                                                 background, with_layers):
+        frames = relight_frames(source, lights, fps=source.fps, engine=engine, dvp=dvp, stabilizer=stabilizer,
+                                batch_size=batch_size, background=background, with_layers=with_layers)
+        for frame, out, extras in frames:
             sink.write(frame.name, out)
             n += 1
             if on_frame is not None:

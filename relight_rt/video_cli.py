@@ -2,7 +2,7 @@
 
 Registered by relight_rt.cli through :func:`add_parser`. Examples::
 
-    relight-rt video clip.mp4 --masks masks/ -o out.mp4 --light studio --rotate-per-second 0.25
+    relight-rt video clip.mp4 --masks masks/ -o out.mp4 --preset studio --rotate-per-second 0.25
     relight-rt video frames/ -o out.mp4 --frames-out out_frames/ --lights per_frame.npy
     relight-rt video frames/ -o out.mp4 --interpolate golden-hour sky.hdr night
     relight-rt video frames/ -o out.mp4 --lights per_frame.npy --dvp dvp.onnx
@@ -29,6 +29,8 @@ logger = logging.getLogger(__name__)
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
     """Add the ``video`` command to the ``relight-rt`` subparsers; returns its parser."""
+    from ._options import add_background_option, add_light_options, add_runtime_options
+
     p = subparsers.add_parser("video", help="relight a video (file or frame folder) with per-frame lights",
                               description=__doc__.splitlines()[0])
     p.add_argument("input", help="video file (OpenCV) or folder of frames")
@@ -36,23 +38,22 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--frames-out", help="also (or only) write the relit frames as PNGs into this folder")
     p.add_argument("--masks", help="mask folder or mask video (default: STEM_mask files beside the frames, "
                                    "or the alpha channel of RGBA frames)")
-    lights = p.add_mutually_exclusive_group()
-    lights.add_argument("--lights", help="(N, 9, 3) RGB .npy: one light per frame")
-    lights.add_argument("--interpolate", nargs="+", metavar="LIGHT",
-                        help="key lights (files, env maps or presets) interpolated over the whole clip")
-    p.add_argument("--light", help="one light: .npy/.json SH file, env map (.hdr/.exr/.png) or preset name")
+    group = p.add_mutually_exclusive_group()
+    add_light_options(p, group=group)
+    group.add_argument("--lights", help="(N, 9, 3) RGB .npy: one light per frame")
+    group.add_argument("--interpolate", nargs="+", metavar="LIGHT",
+                       help="key lights (files, env maps or presets) interpolated over the whole clip")
     p.add_argument("--rotate-per-second", type=float, metavar="TURNS",
-                   help="turn --light about the vertical axis at TURNS revolutions per second")
-    p.add_argument("--models", help="folder with stage1.onnx [stage2.onnx] (default: $RELIGHT_RT_MODELS, bundled)")
+                   help="turn the light about the vertical axis at TURNS revolutions per second")
     p.add_argument("--dvp", help="a fitted dvp.onnx (python -m export fit-dvp): used instead of stage 1/2")
     p.add_argument("--dvp-size", type=int, help="long side the DVP was fitted at (fit-dvp --size)")
     p.add_argument("--no-stabilize", action="store_true", help="turn the training-free stabiliser off")
     p.add_argument("--stabilize-strength", type=float, default=0.8,
                    help="weight of the warped history where the flow is reliable, in [0, 1) (default 0.8)")
     p.add_argument("--batch-size", type=int, default=4, help="frames per stage-1 / DVP run")
-    p.add_argument("--background", choices=("original", "black"), default="original")
+    add_background_option(p)
     p.add_argument("--fps", type=float, help="frame rate of a frame folder (default 25) or override the video's")
-    p.add_argument("--device", choices=("auto", "cpu", "cuda"), default="auto")
+    add_runtime_options(p)
     p.add_argument("--lights-out", help="write the (N, 9, 3) RGB light of every frame to this .npy "
                                         "(e.g. for python -m export fit-dvp --lights)")
     p.add_argument("--metrics", help="write temporal error, warping error and light-following to this JSON file")
@@ -60,24 +61,28 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     return p
 
 
-def _schedule(args, frame_count: int):
+def _schedule(args, frame_count: int, relighter=None):
     from . import video
+    from ._options import light_spec
 
+    spec = None if args.lights or args.interpolate else light_spec(args)
+    if args.lights or args.interpolate:
+        what = "--lights" if args.lights else "--interpolate"
+        if args.rotate or args.rotate_per_second is not None or args.bgr:
+            raise RelightError(f"{what}: give either a per-frame schedule or one light [--rotate-per-second], "
+                               "not both")
     if args.lights:
-        if args.light or args.rotate_per_second is not None:
-            raise RelightError("--lights: give either a per-frame sequence or --light [--rotate-per-second], not both")
         return video.LightSchedule.from_file(args.lights)
     if args.interpolate:
-        if args.light or args.rotate_per_second is not None:
-            raise RelightError("--interpolate: give either key lights or --light [--rotate-per-second], not both")
         if len(args.interpolate) < 2:
             raise RelightError("--interpolate: expected at least two key lights")
         if frame_count < 1:
             raise RelightError(f"{args.input}: the frame count is unknown; --interpolate needs it, use --lights")
-        return video.LightSchedule.interpolated([video.resolve_light(k) for k in args.interpolate], frame_count)
-    if not args.light:
-        raise RelightError("light: expected --light, --lights or --interpolate")
-    base = video.resolve_light(args.light)
+        keys = [video.resolve_light(k, relighter) for k in args.interpolate]
+        return video.LightSchedule.interpolated(keys, frame_count)
+    if spec is None:
+        raise RelightError("light: expected --preset, --light, --envmap, --light-from, --lights or --interpolate")
+    base = video.resolve_light(spec, relighter)
     if args.rotate_per_second is not None:
         return video.LightSchedule.rotating(base, args.rotate_per_second)
     return video.LightSchedule.constant(base)
@@ -92,19 +97,23 @@ def run(args: argparse.Namespace) -> int:
 
     if not args.output and not args.frames_out:
         raise RelightError("output: expected -o VIDEO and/or --frames-out DIR")
+    from ._options import background, relighter
+
     source = video.FrameSource(args.input, args.masks, args.fps)
-    schedule = _schedule(args, len(source))
-    inputs = [*source.paths, *([args.lights] if args.lights else [])]
-    for written_last in (args.lights_out, args.metrics):  # files written after the work: refuse before it
-        if written_last:
-            check_target(Path(written_last), inputs)
-    engine = dvp = None
+    bg = background(args)
+    if bg.kind == "transparent" and args.output:
+        raise RelightError("--background transparent: a video file has no alpha channel; use --frames-out DIR")
+    engine = dvp = rl = None
     if args.dvp:
         dvp = video.DVPModel(args.dvp, device=args.device, size=args.dvp_size)
     else:
-        from .relighter import Relighter
-
-        engine = video.RelighterEngine(Relighter(args.models, device=args.device))
+        rl = relighter(args)
+        engine = video.RelighterEngine(rl)
+    schedule = _schedule(args, len(source), rl)
+    inputs = [*source.paths, *([args.lights] if args.lights else []), *([bg.path] if bg.path else [])]
+    for written_last in (args.lights_out, args.metrics):  # files written after the work: refuse before it
+        if written_last:
+            check_target(Path(written_last), inputs)
     stabilizer = None if (args.no_stabilize or dvp is not None) else Stabilizer(args.stabilize_strength)
     sink = video.FrameSink(args.output, args.frames_out, source.fps, protect=source.paths)
     acc = rt_metrics.TemporalMetrics() if args.metrics else None
@@ -119,7 +128,7 @@ def run(args: argparse.Namespace) -> int:
             logger.info("frame %d / %d", frame.index + 1, len(source))
 
     report = video.relight_video(source, schedule, sink, engine=engine, dvp=dvp, stabilizer=stabilizer,
-                                 batch_size=args.batch_size, background=args.background, on_frame=on_frame,
+                                 batch_size=args.batch_size, background=bg, on_frame=on_frame,
                                  with_layers=acc is not None)
     logger.info("%d frames, %.3f s per frame, lights: %s", report.frames, report.seconds_per_frame,
                 schedule.description)

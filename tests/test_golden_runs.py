@@ -42,7 +42,8 @@ def _soft_mask(h: int, w: int, seed: int) -> np.ndarray:
 def _photo(h: int, w: int, seed: int) -> np.ndarray:
     rng = np.random.default_rng(seed)
     yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
-    base = np.stack([0.5 + 0.3 * np.sin(xx / 7 + seed), 0.4 + 0.3 * np.cos(yy / 9), 0.3 + 0.2 * np.sin((xx + yy) / 11)], -1)
+    base = np.stack([0.5 + 0.3 * np.sin(xx / 7 + seed), 0.4 + 0.3 * np.cos(yy / 9),
+                     0.3 + 0.2 * np.sin((xx + yy) / 11)], -1)
     return np.clip(base + 0.08 * rng.standard_normal((h, w, 3)), 0, 1).astype(np.float32)
 
 
@@ -103,7 +104,8 @@ def golden_runs(work: Path) -> dict[str, np.ndarray]:
           "-o", str(work / "layers")])
     for name in ("albedo", "shading", "skin"):
         out[f"decompose_{name}"] = _read(work / "layers" / f"{name}.png")
-    out["decompose_light"] = np.load(work / "layers" / "light.npy", allow_pickle=False).astype(np.float32).view(np.uint8)
+    light = np.load(work / "layers" / "light.npy", allow_pickle=False)
+    out["decompose_light"] = light.astype(np.float32).view(np.uint8)
 
     # video from a frame folder: a person moving right
     frames = work / "frames"
@@ -112,9 +114,9 @@ def golden_runs(work: Path) -> dict[str, np.ndarray]:
     for t in range(6):
         _write_png(frames / f"f{t:02d}.png", np.roll(base, 2 * t, axis=1))
         _write_png(frames / f"f{t:02d}_mask.png", np.roll(_soft_mask(72, 96, 5), 2 * t, axis=1))
-    _run(["video", str(frames), "--light", "studio", "--rotate-per-second", "2", "--fps", "10", "--models",
+    _run(["video", str(frames), "--preset", "studio", "--rotate-per-second", "2", "--fps", "10", "--models",
           str(models), "--device", "cpu", "--frames-out", str(work / "vid_stab")])
-    _run(["video", str(frames), "--light", "neon", "--no-stabilize", "--background", "black", "--models",
+    _run(["video", str(frames), "--preset", "neon", "--no-stabilize", "--background", "black", "--models",
           str(models), "--device", "cpu", "--frames-out", str(work / "vid_black")])
     for t in range(6):
         out[f"video_stab_{t}"] = _read(work / "vid_stab" / f"f{t:02d}.png")
@@ -130,7 +132,8 @@ def golden_runs(work: Path) -> dict[str, np.ndarray]:
     from relight_rt import Relighter, lights
 
     r = Relighter(models, device="cpu")
-    sweep = r.relight_many(work / "p.png", lights.rotation_sequence(lights.preset("rim"), 3), mask=work / "p_mask_soft.png")
+    turns = lights.rotation_sequence(lights.preset("rim"), 3)
+    sweep = r.relight_many(work / "p.png", turns, mask=work / "p_mask_soft.png")
     for k, img in enumerate(sweep):
         out[f"many_{k}"] = np.round(img * 255).astype(np.uint8)
     return out

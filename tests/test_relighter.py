@@ -16,6 +16,7 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from relight_rt import RelightError, lights, sh
+from relight_rt.compositing import Background
 from relight_rt.relighter import Decomposition, Relighter, RelightResult, diffuse_batch
 
 __all__ = ["models_dir", "diffuse_models_dir"]  # fixtures
@@ -108,15 +109,20 @@ def test_transparent_and_image_backgrounds(relighter):
     out = relighter.relight(img, OWN_LIGHT, mask=mask, background=bg)
     np.testing.assert_array_equal(out[mask == 0], bg[mask == 0])
     np.testing.assert_allclose(out[inside(mask)], img[inside(mask)], atol=1e-5)
-    with pytest.raises(RelightError, match="background: is 10x10"):
-        relighter.relight(img, OWN_LIGHT, mask=mask, background=np.zeros((10, 10, 3)))
+    with pytest.raises(RelightError, match="background: is 10x10"):  # "exact": sizes must match
+        relighter.relight(img, OWN_LIGHT, mask=mask, background=Background.from_image(np.zeros((10, 10, 3)), "exact"))
+    small = np.zeros((10, 10, 3), np.float32)
+    small[:, 5:] = 1.0  # left half black, right half white: "cover" keeps the halves, scaled to the photo
+    out = relighter.relight(img, OWN_LIGHT, mask=mask, background=small)
+    assert out.shape == (150, 100, 3)
+    assert out[0, 10].max() == 0 and out[0, 90].min() == 1
     with pytest.raises(RelightError, match="background: expected"):
         relighter.relight(img, OWN_LIGHT, mask=mask, background=3)
 
 
 def test_layers(relighter):
     img, mask = person(seed=4)
-    res = relighter.relight(img, 2 * OWN_LIGHT, mask=mask, return_layers=True)
+    res = relighter.relight_layers(img, 2 * OWN_LIGHT, mask=mask)
     assert isinstance(res, RelightResult) and not res.diffuse_only
     for name in ("albedo", "shading", "diffuse", "residual", "relit"):
         assert res.layers[name].shape == (150, 100, 3) and res.layers[name].dtype == np.float32
@@ -132,7 +138,7 @@ def test_diffuse_only_without_stage2(diffuse_models_dir, caplog):
         r = Relighter(diffuse_models_dir, device="cpu")
     assert r.diffuse_only and "diffuse-only" in caplog.text
     img, mask = person(seed=7)
-    res = r.relight(img, 0.5 * OWN_LIGHT, mask=mask, return_layers=True)
+    res = r.relight_layers(img, 0.5 * OWN_LIGHT, mask=mask)
     assert res.diffuse_only and not res.layers["residual"].any()
     m = inside(mask)
     np.testing.assert_allclose(res.image[m], 0.5 * img[m], atol=0.03)  # ratio (0.5 c + eps) / (c + eps)
@@ -243,7 +249,7 @@ def test_missing_models_and_mismatched_stage2(tmp_path, monkeypatch):
     save(stage2_model(128), folder / "stage2.onnx")
     with pytest.raises(RelightError, match="resolution 128 does not match stage 1's 64"):
         Relighter(folder, device="cpu")
-    with pytest.raises(RelightError, match="mode"):
+    with pytest.raises(RelightError, match="preprocess"):
         Relighter(make_models_dir(tmp_path / "n", 64, stage2=False), device="cpu", preprocess="nearest")
 
 
@@ -371,7 +377,7 @@ def test_io_binding_chain_matches_numpy_path(tiny_models, diffuse_models_dir, wi
     lits = np.stack([lights.preset(n) for n in ("studio", "rim", "neon")])
     want = ref.relight_many(dec_a, lits)
     np.testing.assert_allclose(chained.relight_many(dec_b, lits, batch_size=2), want, atol=1e-5)
-    la, lb = ref.relight(dec_a, lits[0], return_layers=True), chained.relight(dec_a, lits[0], return_layers=True)
+    la, lb = ref.relight_layers(dec_a, lits[0]), chained.relight_layers(dec_a, lits[0])
     for name in la.layers:
         np.testing.assert_allclose(lb.layers[name], la.layers[name], atol=1e-5)
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gc
 import tracemalloc
 from pathlib import Path
 
@@ -198,7 +199,8 @@ def test_stabiliser_reduces_flicker_in_pipeline(tmp_path):
     scores = {}
     for name, stab in (("raw", None), ("stab", Stabilizer())):
         acc = metrics.TemporalMetrics()
-        for f, out, ex in relight_frames(FrameSource(frames), lights, 25.0, FakeEngine(noise=0.05), stabilizer=stab,
+        for f, out, ex in relight_frames(FrameSource(frames), lights, fps=25.0, engine=FakeEngine(noise=0.05),
+                                         stabilizer=stab,
                                          with_layers=True):
             acc.update(out, f.mask, f.image, ex["albedo"], ex["transport"], ex["light"])
         scores[name] = acc.result()
@@ -231,7 +233,7 @@ def test_failure_leaves_no_partial_video(tmp_path):
 
 def test_engine_xor_dvp():
     with pytest.raises(RelightError, match="exactly one"):
-        list(relight_frames(iter([]), LightSchedule.constant(_lights(1)[0]), 25.0))
+        list(relight_frames(iter([]), LightSchedule.constant(_lights(1)[0]), fps=25.0))
 
 
 def test_composite():
@@ -243,15 +245,17 @@ def test_composite():
     soft = np.full((2, 2), 0.5, np.float32)
     np.testing.assert_allclose(composite(relit * 0.5, img, soft, premultiplied=True), composite(relit, img, soft))
     with pytest.raises(RelightError, match="background"):
-        composite(relit, img, mask, "green")
+        composite(relit, img, mask, "no-such-background")
 
 
 def _peak_bytes(folder: Path) -> int:
     src = FrameSource(folder)
+    gc.collect()  # garbage left by earlier tests must not be freed (or grown) inside the measurement
     tracemalloc.start()
     tracemalloc.reset_peak()
     try:
-        for _ in relight_frames(src, LightSchedule.constant(_lights(1)[0]), 25.0, FakeEngine(), stabilizer=Stabilizer(),
+        for _ in relight_frames(src, LightSchedule.constant(_lights(1)[0]), fps=25.0, engine=FakeEngine(),
+                                stabilizer=Stabilizer(),
                                 batch_size=4):
             pass
         return tracemalloc.get_traced_memory()[1]
@@ -301,7 +305,7 @@ def _identity_dvp(path: Path, kind: str = "dvp") -> Path:
 def test_dvp_model_applied(tmp_path):
     dvp = DVPModel(_identity_dvp(tmp_path / "dvp.onnx"))
     frames = _write_folder(tmp_path / "in", 3)
-    outs = list(relight_frames(FrameSource(frames), LightSchedule.constant(_lights(1)[0]), 25.0, dvp=dvp,
+    outs = list(relight_frames(FrameSource(frames), LightSchedule.constant(_lights(1)[0]), fps=25.0, dvp=dvp,
                                background="black"))
     f, out, extras = outs[1]
     np.testing.assert_allclose(out, f.image * f.mask[..., None], atol=1e-6)
@@ -322,7 +326,7 @@ def test_empty_mask_frames_pass_through(tmp_path):
     frames = _write_folder(tmp_path / "in", 3)
     cv2.imwrite(str(frames / "f_0001_mask.png"), np.zeros((H, W), np.uint8))
     engine = FakeEngine()
-    outs = list(relight_frames(FrameSource(frames), LightSchedule.constant(_lights(1)[0]), 25.0, engine,
+    outs = list(relight_frames(FrameSource(frames), LightSchedule.constant(_lights(1)[0]), fps=25.0, engine=engine,
                                stabilizer=Stabilizer(), with_layers=True))
     np.testing.assert_array_equal(outs[1][1], outs[1][0].image)
     assert engine.batches == [2]
@@ -350,7 +354,8 @@ def test_relighter_engine_with_tiny_models(tmp_path, test_data_dir):
     light = _lights(1)[0]
     plain = engine.render(layers[1], layers[1].albedo, layers[1].transport, None, light, "original")
     np.testing.assert_allclose(plain, relighter.relight(one, light), atol=1e-4)
-    outs = list(relight_frames(iter(src), LightSchedule.sequence(_lights(3)), 25.0, engine, stabilizer=Stabilizer(),
+    outs = list(relight_frames(iter(src), LightSchedule.sequence(_lights(3)), fps=25.0, engine=engine,
+                               stabilizer=Stabilizer(),
                                batch_size=2, with_layers=True))
     assert [o[1].shape for o in outs] == [(96, 80, 3)] * 3
     assert outs[2][2]["albedo"].shape == (96, 80, 3)
@@ -393,7 +398,7 @@ def test_cli_rotating_light_with_metrics(tmp_path, tiny_models):
     frames = _write_folder(tmp_path / "in", 4, h=96, w=80)
     out = tmp_path / "out.avi"
     code = _run_cli(["video", str(frames), "-o", str(out), "--frames-out", str(tmp_path / "of"), "--models",
-                     str(tiny_models), "--light", "studio", "--rotate-per-second", "6.25", "--device", "cpu",
+                     str(tiny_models), "--preset", "studio", "--rotate-per-second", "6.25", "--device", "cpu",
                      "--metrics", str(tmp_path / "m.json"), "--batch-size", "3"])
     assert code == 0 and out.is_file() and len(list((tmp_path / "of").iterdir())) == 4
     data = json.loads((tmp_path / "m.json").read_text())
@@ -409,7 +414,7 @@ def test_cli_sequence_interpolation_and_dvp(tmp_path, tiny_models, test_data_dir
     assert _run_cli(["video", str(frames), "--frames-out", str(tmp_path / "b"), "--models", str(tiny_models),
                      "--interpolate", "studio", "night", "--device", "cpu"]) == 0
     assert _run_cli(["video", str(frames), "--frames-out", str(tmp_path / "c"), "--dvp",
-                     str(test_data_dir / "tiny_dvp.onnx"), "--light", "studio", "--device", "cpu"]) == 0
+                     str(test_data_dir / "tiny_dvp.onnx"), "--preset", "studio", "--device", "cpu"]) == 0
     assert len(list((tmp_path / "c").iterdir())) == 3
 
 
@@ -419,7 +424,7 @@ def test_cli_lights_out_records_the_schedule_for_fit_dvp(tmp_path, tiny_models):
     frames = _write_folder(tmp_path / "in", 3, h=64, w=64)
     out = tmp_path / "lights.npy"
     assert _run_cli(["video", str(frames), "--frames-out", str(tmp_path / "relit"), "--models", str(tiny_models),
-                     "--light", "studio", "--rotate-per-second", "2", "--fps", "8", "--no-stabilize",
+                     "--preset", "studio", "--rotate-per-second", "2", "--fps", "8", "--no-stabilize",
                      "--lights-out", str(out), "--device", "cpu"]) == 0
     saved = np.load(out, allow_pickle=False)
     schedule = video.LightSchedule.rotating(video.resolve_light("studio"), 2.0)
@@ -436,8 +441,10 @@ def test_cli_lights_out_records_the_schedule_for_fit_dvp(tmp_path, tiny_models):
 
 @pytest.mark.parametrize(
     ("extra", "match"),
-    [([], "expected --light"), (["--interpolate", "studio"], "at least two"),
-     (["--lights", "x.npy", "--light", "studio"], "not both"), (["--light", "no-such-preset"], "no-such-preset")],
+    [([], "expected --preset, --light"), (["--interpolate", "studio"], "at least two"),
+     (["--lights", "x.npy", "--rotate-per-second", "1"], "not both"),
+     (["--preset", "no-such-preset"], "no-such-preset"),
+     (["--light", "studio"], "is a preset: use --preset studio")],
 )
 def test_cli_bad_light_options(tmp_path, tiny_models, extra, match):
     frames = _write_folder(tmp_path / "in", 2)
@@ -448,7 +455,7 @@ def test_cli_bad_light_options(tmp_path, tiny_models, extra, match):
 def test_cli_needs_an_output(tmp_path):
     frames = _write_folder(tmp_path / "in", 2)
     with pytest.raises(RelightError, match="output"):
-        _run_cli(["video", str(frames), "--light", "studio"])
+        _run_cli(["video", str(frames), "--preset", "studio"])
 
 
 def test_reference_video_stabiliser_on_real_motion(reference_dir):
@@ -468,7 +475,8 @@ def test_reference_video_stabiliser_on_real_motion(reference_dir):
     results = {}
     for name, stab in (("raw", None), ("stab", Stabilizer())):
         acc = metrics.TemporalMetrics()
-        for f, out, _ in relight_frames(small_frames(), light, 25.0, FakeEngine(noise=0.05), stabilizer=stab):
+        for f, out, _ in relight_frames(small_frames(), light, fps=25.0, engine=FakeEngine(noise=0.05),
+                                        stabilizer=stab):
             acc.update(out, f.mask, f.image)
         results[name] = acc.result()
     assert results["stab"].warping_error < 0.75 * results["raw"].warping_error
@@ -485,5 +493,7 @@ def test_resolve_light_file_envmap_and_preset(tmp_path):
     env = sh.envmap_from_light(light, 32)
     cv2.imwrite(str(tmp_path / "env.hdr"), np.ascontiguousarray(np.maximum(env, 0)[..., ::-1]))
     assert resolve_light(tmp_path / "env.hdr").shape == (9, 3)
-    with pytest.raises(RelightError, match="not a file"):
+    with pytest.raises(RelightError, match="unknown light preset 'no-such-light'"):
         resolve_light("no-such-light")
+    with pytest.raises(RelightError, match="not found"):
+        resolve_light("no-such-light.npy")

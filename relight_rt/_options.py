@@ -1,0 +1,119 @@
+"""The options every CLI command shares, declared once: runtime configuration, lights, masks, backgrounds.
+
+Each ``add_*`` function adds a group of options to a command's parser; the matching reader turns
+the parsed values into the runtime's typed objects (RuntimeConfig, LightSpec, Background), so every
+command spells and checks them the same way.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+from pathlib import Path
+
+from . import lights
+from ._errors import RelightError
+from .compositing import Background, parse_background
+from .config import DEVICES, PRECISIONS, PREPROCESS, RuntimeConfig
+from .lightspec import HDR_SUFFIXES, SH_FILE_SUFFIXES, LightSpec
+
+# ------------------------------------------------------------------------------------------- runtime
+
+
+def add_runtime_options(p: argparse.ArgumentParser, *, device_default: str = "auto") -> None:
+    """--models, --device, --precision, --preprocess, --no-detail (a RuntimeConfig)."""
+    g = p.add_argument_group("runtime")
+    g.add_argument("--models", metavar="DIR",
+                   help="model folder (default: $RELIGHT_RT_MODELS, then the bundled models)")
+    g.add_argument("--device", choices=DEVICES, default=device_default,
+                   help=f"where to run (default: {device_default})")
+    g.add_argument("--precision", choices=PRECISIONS, default="fp32",
+                   help="graphs to run: stage1.onnx (fp32), stage1_fp16.onnx or stage1_int8.onnx (default fp32)")
+    g.add_argument("--preprocess", choices=PREPROCESS, default="quality",
+                   help="quality (INTER_AREA when shrinking, default) or reference (the reference's resize)")
+    g.add_argument("--no-detail", action="store_true",
+                   help="plain upsampling instead of carrying the photo's full-resolution detail")
+
+
+def runtime_config(args: argparse.Namespace) -> RuntimeConfig:
+    """The RuntimeConfig that ``add_runtime_options`` describes."""
+    return RuntimeConfig(models=args.models, device=args.device, precision=args.precision,
+                         preprocess=args.preprocess, detail=not args.no_detail)
+
+
+def relighter(args: argparse.Namespace):
+    """A Relighter as the runtime options say."""
+    from .relighter import Relighter
+
+    return Relighter.from_config(runtime_config(args))
+
+
+# ------------------------------------------------------------------------------------------- lights
+
+
+def add_light_options(p: argparse.ArgumentParser, *, required: bool = True, group=None):
+    """--preset | --light FILE | --envmap MAP | --light-from PHOTO, with --rotate DEG and --bgr.
+
+    Returns the mutually exclusive group, so a command can add its own alternatives (video: --lights).
+    """
+    light = group if group is not None else p.add_mutually_exclusive_group(required=required)
+    light.add_argument("--preset", metavar="NAME", help=f"named light: {', '.join(lights.list_presets())}")
+    light.add_argument("--light", metavar="FILE", help="SH light file: .npy (9, 3) or .json, RGB (see --bgr)")
+    light.add_argument("--envmap", metavar="MAP", help="equirectangular environment map (.hdr/.exr/.png/.jpg)")
+    light.add_argument("--light-from", metavar="PHOTO", help="borrow the light of another photo of a person")
+    p.add_argument("--rotate", type=float, default=0.0, metavar="DEG", help="turn the light about the vertical axis")
+    p.add_argument("--bgr", action="store_true", help="the --light file's columns are B, G, R (reference files)")
+    return light
+
+
+def light_spec(args: argparse.Namespace) -> LightSpec | None:
+    """The LightSpec of ``add_light_options``' values; None when none was given."""
+    if args.bgr and not args.light:
+        raise RelightError("--bgr: it says how to read a --light file; give one")
+    if args.preset:
+        return LightSpec.preset(args.preset, rotate=args.rotate)
+    if args.light:
+        path = Path(args.light)
+        suffix = path.suffix.lower()
+        if not path.exists() and not suffix and args.light in lights.list_presets():
+            raise RelightError(f"--light expects a light file; {args.light!r} is a preset: use --preset {args.light}")
+        if not path.is_file():
+            raise RelightError(f"--light {args.light}: file not found")
+        if suffix in SH_FILE_SUFFIXES:
+            return LightSpec.file(path, bgr=args.bgr, rotate=args.rotate)
+        if suffix in HDR_SUFFIXES and not args.bgr:
+            return LightSpec.envmap(path, rotate=args.rotate)
+        raise RelightError(f"--light {args.light}: expected a .npy or .json SH light file; for an environment map "
+                           "use --envmap, for a photo of a person --light-from")
+    if args.envmap:
+        return LightSpec.envmap(args.envmap, rotate=args.rotate)
+    if args.light_from:
+        return LightSpec.photo(args.light_from, rotate=args.rotate)
+    if args.rotate:
+        raise RelightError("--rotate: it turns a light; give one (--preset, --light, --envmap or --light-from)")
+    return None
+
+
+# ------------------------------------------------------------------------------------------- masks, backgrounds
+
+
+def add_mask_option(p: argparse.ArgumentParser, *, several: bool = True) -> None:
+    """--mask M: a file, a folder of NAME_mask.png (``several``), or "auto" (the automatic matte)."""
+    what = "mask file (one input) or folder holding NAME_mask.png" if several else "mask file"
+    p.add_argument("--mask", metavar="M", help=f"{what}; 'auto': the automatic matte (default: NAME_mask.png "
+                                               "beside the photo, else its alpha, else the automatic matte)")
+
+
+def add_background_option(p: argparse.ArgumentParser, default: str = "original") -> None:
+    p.add_argument("--background", default=default, metavar="B",
+                   help="original | transparent | a colour (black, white, #RRGGBB) | IMAGE (fitted by cover); "
+                        f"default {default}")
+
+
+def background(args: argparse.Namespace) -> Background:
+    return parse_background(args.background)
+
+
+def paths_of(*values) -> list[str]:
+    """The file paths among option values (None and non-paths dropped), to protect them from being overwritten."""
+    return [os.fspath(v) for v in values if isinstance(v, (str, os.PathLike)) and v]

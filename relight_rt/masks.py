@@ -1,0 +1,115 @@
+"""Where a photo's person mask comes from: one resolver for photos, the CLI and video.
+
+Order (DESIGN.md §3, "Mattes"): a mask the caller gives always wins, then the image's alpha
+channel, then an automatic matte (a :class:`Matter`), else a :class:`RelightError` that says how to
+give one. Every mask is read by one rule (``relight_rt._io.read_mask``): files as 8/16-bit grey,
+colour arrays through Rec. 601 grey, floats in [0, 1], the image's size. Photos need an outline to
+relight (not empty, not all foreground); a video frame may have nobody in it.
+
+On disk (the reference's layout): ``NAME_mask.png`` beside ``NAME.jpg``, or a folder of such files
+(:func:`find_mask_file`).
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+from ._errors import RelightError
+from ._io import read_mask, sibling_mask
+
+AUTO = "auto"  # as a mask argument: use the automatic matte even when a mask file or alpha exists
+
+MaskLike = str | os.PathLike | np.ndarray
+
+
+@runtime_checkable
+class Matter(Protocol):
+    """An automatic person matte: RGB photo in, soft alpha out, at the photo's full resolution.
+
+    ``matter(rgb)`` takes (H, W, 3) float32 RGB in [0, 1] and returns (H, W) float32 in [0, 1]
+    (1 = person). It raises RelightError when it finds no person.
+    """
+
+    def __call__(self, rgb: np.ndarray) -> np.ndarray: ...
+
+
+def _no_mask_message(name: str, matter_note: str) -> str:
+    return (f"{name}: no mask given and the image has no alpha channel{matter_note}; give a mask "
+            "(--mask FILE in the CLI, mask= in the API) or an RGBA image whose alpha is the person")
+
+
+def resolve_mask(
+    image: np.ndarray,
+    mask: MaskLike | None = None,
+    *,
+    matter: Matter | None = None,
+    allow_empty: bool = False,
+    name: str = "image",
+) -> np.ndarray:
+    """The person mask of one image.
+
+    Args:
+        image: (H, W, 3) RGB or (H, W, 4) RGBA float32 in [0, 1] (as ``relight_rt._io.read_image`` returns).
+        mask: a path or array (see ``relight_rt._io.read_mask``), ``"auto"`` (the automatic matte, even when
+            the image has alpha), or None (alpha, else the automatic matte).
+        matter: the automatic matte; None: there is none.
+        allow_empty: accept a mask with no person or no background (video frames); photos need an outline.
+        name: what to call the image in error messages.
+
+    Returns:
+        New float32 (H, W) in [0, 1].
+
+    Raises:
+        RelightError: a bad mask, or no mask to be had (the message says how to give one).
+    """
+    shape = image.shape[:2]
+    if isinstance(mask, str) and mask == AUTO:
+        if matter is None:
+            raise RelightError(f"{name}: mask 'auto' asked for, but no automatic matting model is available")
+        return _check_matte(matter(np.ascontiguousarray(image[..., :3])), shape, name, allow_empty)
+    if mask is not None:
+        return read_mask(mask, shape, "mask", allow_empty=allow_empty)
+    if image.ndim == 3 and image.shape[2] == 4:
+        return read_mask(image[..., 3], shape, f"{name} alpha (used as the mask)", allow_empty=allow_empty)
+    if matter is None:
+        raise RelightError(_no_mask_message(name, ""))
+    return _check_matte(matter(np.ascontiguousarray(image[..., :3])), shape, name, allow_empty)
+
+
+def _check_matte(alpha: np.ndarray, shape: tuple[int, int], name: str, allow_empty: bool) -> np.ndarray:
+    a = np.asarray(alpha)
+    if a.shape != tuple(shape) or a.dtype.kind != "f":
+        raise RelightError(f"{name}: the automatic matte returned {a.shape} {a.dtype}, expected {tuple(shape)} float")
+    return read_mask(a.astype(np.float32), shape, f"{name} automatic matte", allow_empty=allow_empty)
+
+
+def find_mask_file(image_path: str | os.PathLike, mask_arg: str | os.PathLike | None, *, single: bool = True
+                   ) -> Path | str | None:
+    """The mask file the CLI uses for ``image_path``.
+
+    Args:
+        image_path: the photo.
+        mask_arg: the ``--mask`` value: None (``NAME_mask.png`` beside the photo, if any), a folder
+            holding ``NAME_mask.png``, a file (one input only), or ``"auto"`` (returned as is).
+        single: whether this is the only input (a mask file cannot serve several).
+
+    Returns:
+        A path, ``"auto"``, or None (no file: the resolver goes on to alpha, then the automatic matte).
+    """
+    if mask_arg is None:
+        return sibling_mask(image_path)
+    if isinstance(mask_arg, str) and mask_arg == AUTO:
+        return AUTO
+    m = Path(mask_arg)
+    if m.is_dir():
+        found = sibling_mask(m / Path(image_path).name)
+        if found is None:
+            raise RelightError(f"mask folder {m} has no {Path(image_path).stem}_mask.png")
+        return found
+    if not single:
+        raise RelightError("--mask FILE works with one input; for several, give a folder with NAME_mask.png files")
+    return m
