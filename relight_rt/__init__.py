@@ -5,13 +5,18 @@ Relighting with Domain Adaptation" (Pacific Graphics 2021). Conventions (SH orde
 colour order) are those of DESIGN.md §3: RGB, real orthonormal degree-2 SH, +x toward the camera.
 """
 
-from . import color, lights, sh
+from . import color, compositing, config, contract, lights, lightspec, masks, sh
 from ._errors import RelightError
 from ._version import __version__
 from .color import linear_to_srgb, srgb_to_linear
+from .compositing import Background, parse_background
+from .config import RuntimeConfig
+from .contract import KindSpec, ModelConfig, TensorSpec, register_kind
 from .lights import ambient, directional, interpolate, list_presets, preset, rotation_sequence, sky
+from .lightspec import LightSpec, parse_light
+from .masks import Matter, resolve_mask
 from .relighter import Decomposition, Relighter, RelightResult
-from .session import create_session, find_models, load_model
+from .session import Model, create_session, find_models, load_model
 from .sh import (
     basis,
     check_light,
@@ -38,12 +43,31 @@ __all__ = [
     "Decomposition",
     "Relighter",
     "RelightResult",
+    "RuntimeConfig",
     "create_session",
     "find_models",
     "load_model",
+    "Model",
+    # the model contract
+    "KindSpec",
+    "ModelConfig",
+    "TensorSpec",
+    "register_kind",
+    # lights, masks and backgrounds
+    "LightSpec",
+    "parse_light",
+    "Matter",
+    "resolve_mask",
+    "Background",
+    "parse_background",
     # modules
     "color",
+    "compositing",
+    "config",
+    "contract",
     "lights",
+    "lightspec",
+    "masks",
     "sh",
     # spherical harmonics and environment maps
     "basis",

@@ -56,3 +56,45 @@ def test_relight_error_is_value_error():
 def test_version_is_a_string():
     parts = relight_rt.__version__.split(".")
     assert len(parts) >= 2 and all(p.isdigit() for p in parts[:2])
+
+
+# The public modules' own surfaces: names users import from them (a rename breaks them, so it breaks this).
+MODULE_SURFACE = {
+    "relight_rt.video": {"FrameSource", "FrameSink", "LightSchedule", "RelighterEngine", "DVPModel", "Engine",
+                         "FrameLayers", "VideoReport", "composite", "relight_frames", "relight_video", "resolve_light"},
+    "relight_rt.contract": {"KINDS", "KindSpec", "ModelConfig", "TensorSpec", "config_from_metadata", "kind_spec",
+                            "register_kind", "FORMAT_VERSION"},
+    "relight_rt.lights": {"ambient", "directional", "interpolate", "list_presets", "preset", "rotation_sequence",
+                          "sky"},
+    "relight_rt.lightspec": {"LightSpec", "parse_light"},
+    "relight_rt.compositing": {"Background", "parse_background", "fit_image", "over_box", "over_premultiplied"},
+    "relight_rt.masks": {"Matter", "resolve_mask", "find_mask_file"},
+    "relight_rt.config": {"RuntimeConfig"},
+    "relight_rt.relighter": {"Decomposition", "Relighter", "RelightResult", "diffuse_batch"},
+    "relight_rt.session": {"Model", "create_session", "load_model", "find_models", "validate_session"},
+}
+
+
+def test_public_modules_keep_their_names():
+    import importlib
+
+    for module, names in MODULE_SURFACE.items():
+        mod = importlib.import_module(module)
+        missing = sorted(n for n in names if not hasattr(mod, n))
+        assert not missing, f"{module} lost {missing}"
+
+
+def test_what_public_functions_return_is_exported():
+    """load_model returns a Model with a ModelConfig; both are importable from the package itself."""
+    assert relight_rt.Model is relight_rt.session.Model
+    assert relight_rt.ModelConfig is relight_rt.contract.ModelConfig
+    assert "Model" in relight_rt.__all__ and "ModelConfig" in relight_rt.__all__
+
+
+def test_relight_has_one_return_type():
+    import inspect
+
+    sig = inspect.signature(relight_rt.Relighter.relight)
+    assert "return_layers" not in sig.parameters
+    assert sig.return_annotation in ("np.ndarray", relight_rt.Relighter.relight.__annotations__["return"])
+    assert "RelightResult" in str(inspect.signature(relight_rt.Relighter.relight_layers).return_annotation)
