@@ -119,13 +119,16 @@ def sample_inputs(kind: str, batch: int, height: int, width: int, seed: int = 0)
     yy, xx = np.meshgrid(np.linspace(-1, 1, height), np.linspace(-1, 1, width), indexing="ij")
     mask = np.clip((1 - (xx / 0.7) ** 2 - (yy / 0.9) ** 2) * 8, 0, 1).astype(np.float32)
     mask = np.broadcast_to(mask, (batch, 1, height, width)).copy()
-    image = rng.random((batch, 3, height, width), dtype=np.float32)
-    names = [spec.name for spec in KINDS[kind].inputs]
-    out = {names[0]: image, "mask": mask}
-    if kind == "dvp":
-        light = rng.uniform(-0.5, 0.5, (batch, 9, 3)).astype(np.float32)
-        light[:, 0] = rng.uniform(0.4, 1.4, (batch, 3))
-        out["light"] = light
+    out = {}
+    for spec in KINDS[kind].inputs:  # by the contract's spec: a light, a mask, or an image of its channels
+        if spec.rank == 3:
+            light = rng.uniform(-0.5, 0.5, (batch, 9, 3)).astype(np.float32)
+            light[:, 0] = rng.uniform(0.4, 1.4, (batch, 3))
+            out[spec.name] = light
+        elif spec.name == "mask":
+            out[spec.name] = mask
+        else:
+            out[spec.name] = rng.random((batch, spec.channels or 3, height, width), dtype=np.float32)
     return out
 
 
