@@ -135,8 +135,9 @@ def add_decompose(subparsers) -> None:
     p = subparsers.add_parser(
         "decompose",
         help="albedo, shading, skin, light and transport of a photo",
-        description="Writes albedo.png, shading.png, skin.png (input size), light.npy ((9, 3) RGB SH) and "
-        "transport.npz (key T, (H, W, 9) float32, input size) into DIR.",
+        description="Writes albedo.png, shading.png, skin.png (the photo's size and detail, see "
+        "Relighter.layers), light.npy ((9, 3) RGB SH) and transport.npz (key T, (H, W, 9) float32, input size) "
+        "into DIR.",
     )
     p.add_argument("input", metavar="INPUT", help="image file")
     add_mask_option(p, several=False)
@@ -148,13 +149,15 @@ def add_decompose(subparsers) -> None:
 def cmd_decompose(args: argparse.Namespace) -> int:
     src = Path(args.input)
     mask = find_mask_file(src, args.mask)
-    dec = relighter(args).decompose(src, mask)
+    rl = relighter(args)
+    dec = rl.decompose(src, mask)
     folder = Path(args.output)
     folder.mkdir(parents=True, exist_ok=True)
     protect = [src, *paths_of(mask if mask != "auto" else None)]
-    write_image(folder / "albedo.png", dec.to_input(np.ascontiguousarray(dec.albedo)), protect)
-    write_image(folder / "shading.png", dec.to_input(dec.shading()), protect)
-    write_image(folder / "skin.png", dec.to_input(dec.skin), protect)
+    layers = rl.layers(dec)  # at the photo's resolution, with its detail in the albedo
+    write_image(folder / "albedo.png", layers["albedo"], protect)
+    write_image(folder / "shading.png", layers["shading"], protect)
+    write_image(folder / "skin.png", layers["skin"], protect)
     write_npy(folder / "light.npy", np.asarray(dec.light, np.float64), protect)
     write_npz(folder / "transport.npz", {"T": dec.to_input(np.ascontiguousarray(dec.transport))}, protect)
     log.info("%s -> %s (albedo.png, shading.png, skin.png, light.npy, transport.npz)", src, folder)

@@ -51,6 +51,8 @@ log = logging.getLogger(__name__)
 ImageLike = str | os.PathLike | np.ndarray
 _RATIO_EPS = np.float32(0.02)  # keeps relit/reconstruction stable in dark pixels
 _ALPHA_MIN = np.float32(1e-3)
+_SHADING_MIN = np.float32(1e-3)  # full-resolution albedo: photo / shading, shading floored here
+_SHADING_TRUST = np.float32(0.1)  # ... and trusted fully from this shading up (blended into the network's below)
 _SHADE_BLOCK = 1 << 19  # multiply-adds per block of diffuse_batch (about 2 MB of float32 temporaries)
 
 
@@ -483,6 +485,47 @@ class Relighter:
             colour = np.divide(premult, alpha, out=np.zeros_like(premult), where=alpha > _ALPHA_MIN)
         np.clip(colour, 0, 1, out=colour)
         return colour
+
+    def layers(self, dec: Decomposition) -> dict[str, np.ndarray]:
+        """The photo's intrinsic layers at its own resolution, with its own detail (input frame).
+
+        The network's shading under the photo's own light is smooth (it comes from the transport), so it
+        is upsampled plainly; the photo's high frequencies (clothing pattern, hair, skin texture) then go
+        into the albedo: albedo = photo / shading, where the shading is large enough for the ratio to be
+        stable, blending into the network's upsampled albedo where it is dark (below 0.1). The skin map is
+        upsampled edge-aware, guided by the photo. Outside the person every layer is 0; each is multiplied
+        by the (soft) mask, as the network's outputs are.
+
+        Returns:
+            {"albedo": (H, W, 3), "shading": (H, W, 3) not clipped, "skin": (H, W), "mask": (H, W)},
+            float32, albedo and skin in [0, 1].
+        """
+        geom = dec.geometry
+        alpha = dec.network_mask
+        inner = alpha > 0.5
+        shading_net = extend_outward(unpremultiply(dec.shading(), alpha), inner)
+        albedo_net = extend_outward(unpremultiply(np.ascontiguousarray(dec.albedo), alpha), inner)
+        skin_net = extend_outward(unpremultiply(np.repeat(dec.skin[..., None], 3, axis=2), alpha), inner)
+        photo = np.ascontiguousarray(geom.crop(dec.image))
+        shading = np.maximum(geom.to_crop(shading_net), 0)
+        albedo_up = np.clip(geom.to_crop(albedo_net), 0, 1)
+        if geom.side > geom.resolution:
+            y0, y1, x0, x1 = window(alpha)
+            skin = guided_upsample(geom, skin_net[y0:y1, x0:x1], dec.network_image[y0:y1, x0:x1], photo, (y0, x0))
+        else:
+            skin = geom.to_crop(skin_net)
+        ratio = np.clip(photo / np.maximum(shading, _SHADING_MIN), 0, 1)
+        trust = np.clip(shading / _SHADING_TRUST, 0, 1)  # dark pixels: the ratio amplifies noise; trust the network
+        albedo = albedo_up + (ratio - albedo_up) * trust
+        m = geom.crop(dec.mask)[..., None]
+        h, w = geom.frame
+        y0, y1, x0, x1 = geom.box
+        out = {"albedo": np.zeros((h, w, 3), np.float32), "shading": np.zeros((h, w, 3), np.float32),
+               "skin": np.zeros((h, w), np.float32), "mask": np.array(dec.mask)}
+        out["albedo"][y0:y1, x0:x1] = albedo * m
+        out["shading"][y0:y1, x0:x1] = shading * m
+        out["skin"][y0:y1, x0:x1] = np.clip(skin[..., 0], 0, 1) * m[..., 0]
+        return out
 
     def to_photo(self, dec: Decomposition, relit: np.ndarray, background="original") -> np.ndarray:
         """Put one relit network image (3, R, R) back into the photo, over ``background``.

@@ -245,3 +245,28 @@ def test_a_new_kind_is_one_registration(tmp_path):
             register_kind(KindSpec("test_matte", inputs=(), outputs=(), fixed_size=True, filename="x.onnx"))
     finally:
         KINDS.pop("test_matte", None)
+
+
+# ------------------------------------------------------------------------------ full-resolution layers (issue 22)
+
+
+def test_layers_have_the_photos_size_and_detail(relighter):
+    import cv2
+
+    h, w = 300, 200  # larger than the network's 64 px square: the detail has to come from the photo
+    rng = np.random.default_rng(3)
+    img = (0.3 + 0.5 * rng.random((h, w, 3))).astype(np.float32)  # per-pixel texture
+    mask = np.zeros((h, w), np.float32)
+    mask[40:260, 50:150] = 1
+    dec = relighter.decompose(img, mask)
+    layers = relighter.layers(dec)
+    assert layers["albedo"].shape == (h, w, 3) and layers["skin"].shape == (h, w)
+    inside = cv2.erode(mask, np.ones((9, 9), np.uint8)) > 0
+    # the photo is explained: albedo x shading gives it back where nothing clips
+    recon = layers["albedo"] * layers["shading"]
+    np.testing.assert_allclose(recon[inside], img[inside], atol=2e-3)
+    # and the albedo carries the photo's pixel-level texture, which the 64 px network albedo cannot
+    up = dec.to_input(np.ascontiguousarray(dec.albedo))
+    lap = lambda a: np.abs(cv2.Laplacian(a, cv2.CV_32F))[inside].mean()  # noqa: E731
+    assert lap(layers["albedo"]) > 3 * lap(up)
+    assert not layers["albedo"][mask == 0].any() and not layers["shading"][mask == 0].any()
