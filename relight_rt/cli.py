@@ -21,9 +21,10 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__, lights, sh
+from . import __version__, batch, lights, sh
 from ._errors import RelightError
-from ._io import IMAGE_SUFFIXES, list_images, sibling_mask, write_image, write_npy, write_npz
+from ._io import sibling_mask, write_image, write_npy, write_npz
+from .distributed import add_ray_options
 
 log = logging.getLogger("relight_rt.cli")
 
@@ -63,23 +64,8 @@ def add_relight(subparsers) -> None:
     p.add_argument("--background", default="original", metavar="B", help="original | transparent | IMAGE")
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="output file (one input) or folder")
     _add_model_options(p)
+    add_ray_options(p)  # --ray [ADDRESS|local] and its options (Ray itself is imported only with --ray)
     p.set_defaults(func=cmd_relight)
-
-
-def _gather_inputs(inputs: list[str]) -> tuple[list[Path], list[tuple[str, str]]]:
-    files, failures = [], []
-    for item in inputs:
-        path = Path(item)
-        if path.is_dir():
-            found = list_images(path)
-            if not found:
-                failures.append((item, f"folder {item} holds no images ({', '.join(IMAGE_SUFFIXES)})"))
-            files.extend(found)
-        elif path.is_file():
-            files.append(path)
-        else:
-            failures.append((item, f"input {item} not found"))
-    return files, failures
 
 
 def _light_from_args(args: argparse.Namespace, relighter) -> np.ndarray:
@@ -96,20 +82,6 @@ def _light_from_args(args: argparse.Namespace, relighter) -> np.ndarray:
     return np.asarray(light, dtype=np.float32)
 
 
-def _mask_for(image: Path, mask_arg: str | None, single: bool) -> Path | None:
-    if mask_arg is None:
-        return sibling_mask(image)
-    m = Path(mask_arg)
-    if m.is_dir():
-        found = sibling_mask(m / image.name)
-        if found is None:
-            raise RelightError(f"mask folder {m} has no {image.stem}_mask.png")
-        return found
-    if not single:
-        raise RelightError("--mask FILE works with one input; for several, give a folder with NAME_mask.png files")
-    return m
-
-
 def _progress(items: list, enabled: bool):
     if not enabled:
         return items
@@ -121,12 +93,13 @@ def _progress(items: list, enabled: bool):
 
 
 def cmd_relight(args: argparse.Namespace) -> int:
-    files, failures = _gather_inputs(args.inputs)
+    if getattr(args, "ray", None):  # relight_rt.distributed: the same work on a Ray cluster
+        from .distributed import cmd_relight_ray
+
+        return cmd_relight_ray(args)
+    plan = batch.plan(args.inputs, args.output)
+    files, failures, single = plan.inputs, plan.failures, plan.single
     out = Path(args.output)
-    single = len(files) == 1 and len(args.inputs) == 1 and not Path(args.inputs[0]).is_dir()
-    to_file = single and out.suffix.lower() in IMAGE_SUFFIXES
-    if single and not to_file and out.suffix:
-        raise RelightError(f"output {out}: unknown image type {out.suffix!r}; use one of {', '.join(IMAGE_SUFFIXES)}")
     background = args.background
     if background not in ("original", "transparent") and not Path(background).is_file():
         raise RelightError(f"--background {background}: expected original, transparent or an image file")
@@ -135,19 +108,15 @@ def cmd_relight(args: argparse.Namespace) -> int:
     protect = set(files)
     protect.update(p for p in (args.mask, args.light, args.envmap, args.light_from, background) if p)
     protect.update(m for m in (sibling_mask(f) for f in files) if m)
-    if not to_file and files:
+    if not plan.to_file and files:
         out.mkdir(parents=True, exist_ok=True)
-    written: set[Path] = set()
+    written = 0
     show_bar = len(files) > 1
-    for path in _progress(files, show_bar):
-        target = out if to_file else out / f"{path.stem}_relit.png"
+    for path, target in _progress(plan.pairs, show_bar):
         try:
-            if target.resolve() in written:
-                raise RelightError(f"two inputs named {path.stem} would both write {target}")
-            mask = _mask_for(path, args.mask, single)
-            image = relighter.relight(path, light, mask=mask, background=background)
-            write_image(target, image, protect=protect)
-            written.add(target.resolve())
+            batch.relight_file(relighter, path, target, light, mask_arg=args.mask, single=single,
+                               background=background, protect=protect)
+            written += 1
             if not show_bar:
                 log.info("%s -> %s", path, target)
         except (RelightError, OSError) as exc:
@@ -156,7 +125,7 @@ def cmd_relight(args: argparse.Namespace) -> int:
         text = message if item in message else f"{item}: {message}"
         print(f"relight-rt: error: {text}", file=sys.stderr)
     if failures and len(files) > 1:
-        print(f"relight-rt: {len(failures)} failed, {len(written)} written", file=sys.stderr)
+        print(f"relight-rt: {len(failures)} failed, {written} written", file=sys.stderr)
     return 2 if failures else 0
 
 
