@@ -8,8 +8,9 @@ runs, so the outputs are the same files byte for byte. Videos run one clip per R
 stabiliser goes through a clip in order), each through ``relight-rt video``'s own pipeline.
 
 Every photo or clip gives one row of a manifest, JSON lines appended by the driver as results come
-back: ``input``, ``output``, ``status`` (ok | failed | skipped), ``error``, ``seconds`` and ``job``
-(a hash of the settings that shape the output: light, models, mask, background). A bad file is a
+back: ``input``, ``output``, ``status`` (ok | failed | skipped), ``error``, ``seconds`` (the work on
+that file) and ``job`` (a hash of the settings that shape the output: light, models, mask,
+background); photos also give ``worker`` (host:pid:device) and ``rss_mb`` (the actor's peak memory). A bad file is a
 failed row, never the end of the job. A rerun skips every output that exists and is listed ok for
 the same job; an output written but not yet listed when a job was killed is simply done again (the
 atomic writer never leaves a half-written one).
@@ -33,6 +34,8 @@ import hashlib
 import json
 import logging
 import os
+import socket
+import sys
 import time
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
@@ -68,16 +71,30 @@ def add_ray_options(parser: argparse.ArgumentParser, *, video: bool = False) -> 
     g.add_argument("--ray", nargs="?", const="local", metavar="ADDRESS",
                    help="run on Ray: local (a private Ray on this machine; the default without ADDRESS), "
                         "auto (the cluster this machine belongs to) or ray://HOST:10001")  # fmt: skip
-    g.add_argument("--ray-gpus", type=float, metavar="G",
-                   help="GPUs per " + ("task" if video else "actor") + " (default: 1 when the cluster has GPUs, else 0)")
-    g.add_argument("--ray-cpus", type=float, default=1.0, metavar="C",
-                   help="CPUs per " + ("task" if video else "actor") + " (default 1; the onnxruntime thread count)")
+    g.add_argument(
+        "--ray-gpus",
+        type=float,
+        metavar="G",
+        help="GPUs per " + ("task" if video else "actor") + " (default: 1 when the cluster has GPUs, else 0)",
+    )
+    g.add_argument(
+        "--ray-cpus",
+        type=float,
+        default=1.0,
+        metavar="C",
+        help="CPUs per " + ("task" if video else "actor") + " (default 1; the onnxruntime thread count)",
+    )
     if not video:
-        g.add_argument("--ray-actors", type=int, metavar="N",
-                       help="actors, each with one Relighter (default: one per GPU, or per --ray-cpus CPUs)")
+        g.add_argument(
+            "--ray-actors",
+            type=int,
+            metavar="N",
+            help="actors, each with one Relighter (default: one per GPU, or per --ray-cpus CPUs)",
+        )
         g.add_argument("--ray-batch-size", type=int, default=8, metavar="B", help="photos per actor call (default 8)")
-    g.add_argument("--manifest", metavar="JSONL",
-                   help=f"manifest of the job (default: {MANIFEST_NAME} in the output folder)")
+    g.add_argument(
+        "--manifest", metavar="JSONL", help=f"manifest of the job (default: {MANIFEST_NAME} in the output folder)"
+    )
 
 
 # ------------------------------------------------------------------------------------------- Ray session
@@ -228,6 +245,19 @@ class Report:
 # ------------------------------------------------------------------------------------------- photos
 
 
+_ACTOR_FIELDS = ("input", "output", "status", "error", "seconds", "job", "worker", "rss_mb")
+
+
+def _peak_rss_mb() -> float:
+    """Peak resident memory of this process so far, MiB (Linux and macOS; 0 where unknown)."""
+    try:
+        import resource
+    except ImportError:
+        return 0.0
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return round(peak / (1024 * 1024 if sys.platform == "darwin" else 1024), 1)
+
+
 class RelightActor:
     """Ray Data callable class: one Relighter per actor; each call relights a batch of (input, output)
     rows and returns their manifest rows. Every error is a failed row, never an exception."""
@@ -245,20 +275,32 @@ class RelightActor:
         self.relighter = Relighter(models, device=device)
         self.light = np.asarray(light, np.float32)
         self.mask_arg, self.single, self.background, self.job = mask_arg, single, background, job
+        self.worker = f"{socket.gethostname()}:{os.getpid()}:{device}"
 
     def __call__(self, rows: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-        out: dict[str, list] = {k: [] for k in ("index", "input", "output", "status", "error", "seconds", "job")}
-        for index, src, target, protect in zip(rows["index"], rows["input"], rows["output"], rows["protect"]):
+        out: dict[str, list] = {k: [] for k in ("index", *_ACTOR_FIELDS)}
+        for index, src, target, protect in zip(
+            rows["index"], rows["input"], rows["output"], rows["protect"], strict=True
+        ):
             start = time.perf_counter()
             try:
-                batch.relight_file(self.relighter, Path(src), Path(target), self.light, mask_arg=self.mask_arg,
-                                   single=self.single, background=self.background, protect=json.loads(protect))
+                batch.relight_file(
+                    self.relighter,
+                    Path(src),
+                    Path(target),
+                    self.light,
+                    mask_arg=self.mask_arg,
+                    single=self.single,
+                    background=self.background,
+                    protect=json.loads(protect),
+                )
                 status, error = "ok", ""
             except (RelightError, OSError) as exc:  # what the single-process CLI reports
                 status, error = "failed", str(exc)
             except Exception as exc:  # anything else: one failed row, the job goes on
                 status, error = "failed", f"{type(exc).__name__}: {exc}"
             row = _row(src, target, status, error, time.perf_counter() - start, self.job)
+            row.update(worker=self.worker, rss_mb=_peak_rss_mb())
             out["index"].append(int(index))
             for key, value in row.items():
                 out[key].append(value)
@@ -359,8 +401,24 @@ def relight_folder(
         writer.write(r for _, r in rows)
         if todo:
             with ray_session(ray_address) as ray:
-                rows.extend(_run_actors(ray, todo, writer, models_dir, device, light, mask_arg, plan.single,
-                                        background, job, actors, gpus_per_actor, cpus_per_actor, batch_size))
+                rows.extend(
+                    _run_actors(
+                        ray,
+                        todo,
+                        writer,
+                        models_dir,
+                        device,
+                        light,
+                        mask_arg,
+                        plan.single,
+                        background,
+                        job,
+                        actors,
+                        gpus_per_actor,
+                        cpus_per_actor,
+                        batch_size,
+                    )
+                )
     rows.sort(key=lambda r: r[0])
     report.rows = [r for _, r in rows]
     report.failures.extend((r["input"], r["error"]) for r in report.rows if r["status"] == "failed")
@@ -383,10 +441,6 @@ def _run_actors(ray, todo, writer, models_dir, device, light, mask_arg, single, 
     if actors is None:
         actors = int(total.get("GPU", 0) // gpus) if gpus > 0 else int(total.get("CPU", 1) // cpus)
         actors = max(1, min(actors, len(todo)))
-    ctx = ray.data.DataContext.get_current()
-    ctx.enable_progress_bars = False  # the manifest is the record; Ray Data's own lines only with -v
-    if not log.isEnabledFor(logging.DEBUG):
-        logging.getLogger("ray.data").setLevel(logging.WARNING)
     remote = {"num_gpus": gpus} if gpus > 0 else {}
     ds = ray.data.from_items(todo, override_num_blocks=max(1, min(len(todo), actors * 4)))
     ds = ds.map_batches(
@@ -401,13 +455,17 @@ def _run_actors(ray, todo, writer, models_dir, device, light, mask_arg, single, 
     )  # fmt: skip
     log.info("Ray: %d photos on %d actor(s), %s GPU and %s CPU each", len(todo), actors, gpus, cpus)
     done: list[tuple[int, dict]] = []
+    start = time.perf_counter()
     for part in ds.iter_batches(batch_size=None, batch_format="numpy"):
         rows = []
         for i in range(len(part["index"])):
-            row = {k: _plain(part[k][i]) for k in ("input", "output", "status", "error", "seconds", "job")}
+            row = {k: _plain(part[k][i]) for k in _ACTOR_FIELDS}
             rows.append(row)
             done.append((int(part["index"][i]), row))
         writer.write(rows)
+    seconds = time.perf_counter() - start
+    log.info("Ray: %d photos in %.2f s (%.2f photos/s, actor start-up included)", len(done), seconds,
+             len(done) / max(seconds, 1e-9))  # fmt: skip
     return done
 
 
@@ -416,8 +474,15 @@ def _plain(value):
     return value.item() if isinstance(value, np.generic) else value
 
 
+def _quiet_ray_data() -> None:
+    """The CLI: Ray Data's progress lines only with -v (the manifest is the record)."""
+    if not log.isEnabledFor(logging.DEBUG):
+        os.environ.setdefault("RAY_DATA_LOG_LEVEL", "WARNING")
+
+
 def cmd_relight_ray(args: argparse.Namespace) -> int:
     """``relight-rt relight ... --ray``: as the single-process command, with a manifest."""
+    _quiet_ray_data()
     from .cli import _light_from_args
 
     relighter = None

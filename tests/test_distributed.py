@@ -63,7 +63,9 @@ def make_shoot(folder: Path, size=(150, 100)) -> Path:
             name = name.with_suffix(".jpg")
         _write(name, img)
         bad_mask = {11: np.zeros_like(mask), 17: mask[:-7]}.get(i)
-        cv2.imwrite(str(folder / f"{name.stem}_mask.png"), ((mask if bad_mask is None else bad_mask) * 255).astype(np.uint8))
+        cv2.imwrite(
+            str(folder / f"{name.stem}_mask.png"), ((mask if bad_mask is None else bad_mask) * 255).astype(np.uint8)
+        )
     data = (folder / "p23.png").read_bytes()
     (folder / "p23.png").write_bytes(data[: len(data) // 2])  # truncated
     _write(folder / "old_relit.png", np.zeros((h, w, 3)))  # an earlier result: not an input
