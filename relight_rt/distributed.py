@@ -115,6 +115,9 @@ def ray_session(address: str | None) -> Iterator:
     if ray.is_initialized():
         yield ray
         return
+    if address not in (None, "local", "auto") and ":" not in address and Path(address).exists():
+        raise RelightError(f"--ray {address}: that is a file or folder, not a Ray address; put --ray after the "
+                           "inputs, or write --ray local")  # fmt: skip
     kwargs = {"include_dashboard": False, "logging_level": logging.WARNING, "log_to_driver": False}
     if address in (None, "local"):
         ray.init(address="local", runtime_env=worker_env(), **kwargs)
@@ -129,10 +132,12 @@ def ray_session(address: str | None) -> Iterator:
         ray.shutdown()
 
 
-def _resources(ray, gpus: float | None, cpus: float) -> tuple[float, float, dict]:
+def _resources(ray, gpus: float | None, cpus: float, device: str = "auto") -> tuple[float, float, dict]:
+    """(GPUs, CPUs) per worker and the cluster's resources; by default one GPU per worker when the
+    cluster has GPUs and the device is not "cpu"."""
     total = ray.cluster_resources()
     if gpus is None:
-        gpus = 1.0 if total.get("GPU", 0) >= 1 else 0.0
+        gpus = 1.0 if total.get("GPU", 0) >= 1 and device != "cpu" else 0.0
     if gpus < 0 or cpus <= 0:
         raise RelightError(f"Ray resources: expected GPUs >= 0 and CPUs > 0 per worker, got {gpus} and {cpus}")
     return gpus, cpus, total
@@ -359,6 +364,7 @@ def relight_folder(
     Raises:
         RelightError: Ray missing or unreachable, bad options, a light that cannot be resolved.
     """
+    _import_ray()  # missing: say so before anything is written
     if isinstance(inputs, (str, os.PathLike)):
         inputs = [inputs]
     inputs = [str(i) for i in inputs]
@@ -401,24 +407,16 @@ def relight_folder(
         writer.write(r for _, r in rows)
         if todo:
             with ray_session(ray_address) as ray:
-                rows.extend(
-                    _run_actors(
-                        ray,
-                        todo,
-                        writer,
-                        models_dir,
-                        device,
-                        light,
-                        mask_arg,
-                        plan.single,
-                        background,
-                        job,
-                        actors,
-                        gpus_per_actor,
-                        cpus_per_actor,
-                        batch_size,
-                    )
-                )
+                gpus, cpus, total = _resources(ray, gpus_per_actor, cpus_per_actor, device)
+                # the actors find the models themselves: --models or $RELIGHT_RT_MODELS as given, else the
+                # bundled models of their own install (the driver's path may not exist on another node)
+                actor_kwargs = {"models": str(models) if models else os.environ.get("RELIGHT_RT_MODELS"),
+                                "device": device, "cpus": cpus, "light": light, "mask_arg": mask_arg,
+                                "single": plan.single, "background": background, "job": job}  # fmt: skip
+                if actors is None:
+                    actors = int(total.get("GPU", 0) // gpus) if gpus > 0 else int(total.get("CPU", 1) // cpus)
+                    actors = max(1, min(actors, len(todo)))
+                rows.extend(_run_actors(ray, todo, writer, actor_kwargs, actors, gpus, cpus, batch_size))
     rows.sort(key=lambda r: r[0])
     report.rows = [r for _, r in rows]
     report.failures.extend((r["input"], r["error"]) for r in report.rows if r["status"] == "failed")
@@ -435,18 +433,13 @@ def _resolve_light(light, models) -> np.ndarray:
     return Relighter(models, device="cpu").resolve_light(light)
 
 
-def _run_actors(ray, todo, writer, models_dir, device, light, mask_arg, single, background, job, actors,
-                gpus, cpus, batch_size) -> list[tuple[int, dict]]:  # fmt: skip
-    gpus, cpus, total = _resources(ray, gpus, cpus)
-    if actors is None:
-        actors = int(total.get("GPU", 0) // gpus) if gpus > 0 else int(total.get("CPU", 1) // cpus)
-        actors = max(1, min(actors, len(todo)))
+def _run_actors(ray, todo, writer, actor_kwargs, actors, gpus, cpus, batch_size) -> list[tuple[int, dict]]:
+    """Run the Ray Data job; append each result batch to the manifest as it comes back."""
     remote = {"num_gpus": gpus} if gpus > 0 else {}
     ds = ray.data.from_items(todo, override_num_blocks=max(1, min(len(todo), actors * 4)))
     ds = ds.map_batches(
         RelightActor,
-        fn_constructor_kwargs={"models": str(models_dir), "device": device, "cpus": cpus, "light": light,
-                               "mask_arg": mask_arg, "single": single, "background": background, "job": job},
+        fn_constructor_kwargs=actor_kwargs,
         batch_size=batch_size,
         batch_format="numpy",
         compute=ray.data.ActorPoolStrategy(size=actors),
@@ -456,13 +449,18 @@ def _run_actors(ray, todo, writer, models_dir, device, light, mask_arg, single, 
     log.info("Ray: %d photos on %d actor(s), %s GPU and %s CPU each", len(todo), actors, gpus, cpus)
     done: list[tuple[int, dict]] = []
     start = time.perf_counter()
-    for part in ds.iter_batches(batch_size=None, batch_format="numpy"):
-        rows = []
-        for i in range(len(part["index"])):
-            row = {k: _plain(part[k][i]) for k in _ACTOR_FIELDS}
-            rows.append(row)
-            done.append((int(part["index"][i]), row))
-        writer.write(rows)
+    try:
+        for part in ds.iter_batches(batch_size=None, batch_format="numpy"):
+            rows = []
+            for i in range(len(part["index"])):
+                row = {k: _plain(part[k][i]) for k in _ACTOR_FIELDS}
+                rows.append(row)
+                done.append((int(part["index"][i]), row))
+            writer.write(rows)
+    except ray.exceptions.RayError as exc:  # an actor that cannot start (models, CUDA), a lost node, ...
+        reason = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
+        raise RelightError(f"the Ray job stopped after {len(done)} of {len(todo)} photos (the manifest lists "
+                           f"them; a rerun goes on): {reason}") from None  # fmt: skip
     seconds = time.perf_counter() - start
     log.info("Ray: %d photos in %.2f s (%.2f photos/s, actor start-up included)", len(done), seconds,
              len(done) / max(seconds, 1e-9))  # fmt: skip
@@ -571,6 +569,7 @@ def plan_videos(args: argparse.Namespace) -> tuple[list[dict], list[tuple[str, s
 
 def cmd_video_ray(args: argparse.Namespace) -> int:
     """``relight-rt video SRC... -o DST/ --ray``: one Ray task per clip, a manifest of the clips."""
+    _import_ray()
     clips, failures = plan_videos(args)
     for folder in (args.output, args.frames_out, args.lights_out, args.metrics):
         if folder:
@@ -591,7 +590,7 @@ def cmd_video_ray(args: argparse.Namespace) -> int:
         writer.write(r for _, r in rows)
         if todo:
             with ray_session(args.ray) as ray:
-                gpus, cpus, _ = _resources(ray, args.ray_gpus, args.ray_cpus)
+                gpus, cpus, _ = _resources(ray, args.ray_gpus, args.ray_cpus, args.device)
                 task = ray.remote(_video_clip).options(num_cpus=cpus, num_gpus=gpus, max_retries=0)
                 pending = {task.remote(s, cpus): i for i, s in todo}
                 log.info("Ray: %d clip(s), one task each, %s GPU and %s CPU per task", len(todo), gpus, cpus)
