@@ -207,8 +207,10 @@ class ManifestWriter:
 
     def write(self, rows: Iterable[dict]) -> None:
         data = b"".join(json.dumps(r, ensure_ascii=False).encode() + b"\n" for r in rows)
+        view = memoryview(data)
+        while view:  # a regular file takes it in one write; loop in case it does not
+            view = view[os.write(self._fd, view) :]
         if data:
-            os.write(self._fd, data)
             os.fsync(self._fd)
 
     def close(self) -> None:
@@ -593,12 +595,20 @@ def cmd_video_ray(args: argparse.Namespace) -> int:
                 gpus, cpus, _ = _resources(ray, args.ray_gpus, args.ray_cpus, args.device)
                 task = ray.remote(_video_clip).options(num_cpus=cpus, num_gpus=gpus, max_retries=0)
                 pending = {task.remote(s, cpus): i for i, s in todo}
+                clips_by_index = dict(todo)
                 log.info("Ray: %d clip(s), one task each, %s GPU and %s CPU per task", len(todo), gpus, cpus)
                 while pending:
                     ready, _ = ray.wait(list(pending), num_returns=1)
                     for ref in ready:
-                        row = ray.get(ref)
-                        rows.append((pending.pop(ref), row))
+                        index = pending.pop(ref)
+                        try:
+                            row = ray.get(ref)
+                        except ray.exceptions.RayError as exc:  # the worker died (memory, a lost node)
+                            settings = clips_by_index[index]
+                            reason = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
+                            row = _row(settings["input"], settings["output"] or settings["frames_out"], "failed",
+                                       f"{settings['input']}: the Ray task failed: {reason}", job=job)  # fmt: skip
+                        rows.append((index, row))
                         writer.write([row])
     rows.sort(key=lambda r: r[0])
     report.rows = [r for _, r in rows]
