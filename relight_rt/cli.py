@@ -20,9 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__, lights, sh
+from . import __version__, batch, lights, sh
 from ._errors import RelightError
-from ._io import IMAGE_SUFFIXES, list_images, sibling_mask, write_image, write_npy, write_npz
+from ._io import sibling_mask, write_image, write_npy, write_npz
 from ._options import (
     add_background_option,
     add_light_options,
@@ -33,6 +33,7 @@ from ._options import (
     paths_of,
     relighter,
 )
+from .distributed import add_ray_options
 from .lightspec import LightSpec
 from .masks import find_mask_file
 
@@ -60,23 +61,8 @@ def add_relight(subparsers) -> None:
     add_background_option(p)
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="output file (one input) or folder")
     add_runtime_options(p)
+    add_ray_options(p)  # --ray [ADDRESS|local] and its options (Ray itself is imported only with --ray)
     p.set_defaults(func=cmd_relight)
-
-
-def _gather_inputs(inputs: list[str]) -> tuple[list[Path], list[tuple[str, str]]]:
-    files, failures = [], []
-    for item in inputs:
-        path = Path(item)
-        if path.is_dir():
-            found = list_images(path)
-            if not found:
-                failures.append((item, f"folder {item} holds no images ({', '.join(IMAGE_SUFFIXES)})"))
-            files.extend(found)
-        elif path.is_file():
-            files.append(path)
-        else:
-            failures.append((item, f"input {item} not found"))
-    return files, failures
 
 
 def _progress(items: list, enabled: bool):
@@ -90,12 +76,13 @@ def _progress(items: list, enabled: bool):
 
 
 def cmd_relight(args: argparse.Namespace) -> int:
-    files, failures = _gather_inputs(args.inputs)
+    if getattr(args, "ray", None):  # relight_rt.distributed: the same work on a Ray cluster
+        from .distributed import cmd_relight_ray
+
+        return cmd_relight_ray(args)
+    plan = batch.plan(args.inputs, args.output)
+    files, failures, single = plan.inputs, plan.failures, plan.single
     out = Path(args.output)
-    single = len(files) == 1 and len(args.inputs) == 1 and not Path(args.inputs[0]).is_dir()
-    to_file = single and out.suffix.lower() in IMAGE_SUFFIXES
-    if single and not to_file and out.suffix:
-        raise RelightError(f"output {out}: unknown image type {out.suffix!r}; use one of {', '.join(IMAGE_SUFFIXES)}")
     spec = light_spec(args)
     bg = background(args)
     rl = relighter(args)
@@ -103,19 +90,15 @@ def cmd_relight(args: argparse.Namespace) -> int:
     protect = set(files)
     protect.update(paths_of(args.mask if args.mask != "auto" else None, *spec.paths, bg.path))
     protect.update(m for m in (sibling_mask(f) for f in files) if m)
-    if not to_file and files:
+    if not plan.to_file and files:
         out.mkdir(parents=True, exist_ok=True)
-    written: set[Path] = set()
+    written = 0
     show_bar = len(files) > 1
-    for path in _progress(files, show_bar):
-        target = out if to_file else out / f"{path.stem}_relit.png"
+    for path, target in _progress(plan.pairs, show_bar):
         try:
-            if target.resolve() in written:
-                raise RelightError(f"two inputs named {path.stem} would both write {target}")
-            mask = find_mask_file(path, args.mask, single=single)
-            image = rl.relight(path, light, mask=mask, background=bg)
-            write_image(target, image, protect=protect)
-            written.add(target.resolve())
+            batch.relight_file(rl, path, target, light, mask_arg=args.mask, single=single, background=bg,
+                               protect=protect)
+            written += 1
             if not show_bar:
                 log.info("%s -> %s", path, target)
         except (RelightError, OSError) as exc:
@@ -124,7 +107,7 @@ def cmd_relight(args: argparse.Namespace) -> int:
         text = message if item in message else f"{item}: {message}"
         print(f"relight-rt: error: {text}", file=sys.stderr)
     if failures and len(files) > 1:
-        print(f"relight-rt: {len(failures)} failed, {len(written)} written", file=sys.stderr)
+        print(f"relight-rt: {len(failures)} failed, {written} written", file=sys.stderr)
     return 2 if failures else 0
 
 

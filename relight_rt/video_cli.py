@@ -33,8 +33,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
     p = subparsers.add_parser("video", help="relight a video (file or frame folder) with per-frame lights",
                               description=__doc__.splitlines()[0])
-    p.add_argument("input", help="video file (OpenCV) or folder of frames")
-    p.add_argument("-o", "--output", help="output video file (.mp4, .avi, .mkv)")
+    p.add_argument("input", nargs="+", help="video file (OpenCV) or folder of frames; several with --ray")
+    p.add_argument("-o", "--output", help="output video file (.mp4, .avi, .mkv); with --ray, a folder")
     p.add_argument("--frames-out", help="also (or only) write the relit frames as PNGs into this folder")
     p.add_argument("--masks", help="mask folder or mask video (default: STEM_mask files beside the frames, "
                                    "or the alpha channel of RGBA frames)")
@@ -57,6 +57,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--lights-out", help="write the (N, 9, 3) RGB light of every frame to this .npy "
                                         "(e.g. for python -m export fit-dvp --lights)")
     p.add_argument("--metrics", help="write temporal error, warping error and light-following to this JSON file")
+    from .distributed import add_ray_options
+
+    add_ray_options(p, video=True)  # --ray: one clip per Ray task (relight_rt.distributed)
     p.set_defaults(func=run)
     return p
 
@@ -95,6 +98,14 @@ def run(args: argparse.Namespace) -> int:
     from ._io import atomic_path, check_target, write_npy
     from .stabilize import Stabilizer
 
+    if getattr(args, "ray", None):
+        from .distributed import cmd_video_ray
+
+        return cmd_video_ray(args)
+    if isinstance(args.input, list):  # from the parser; several clips need --ray
+        if len(args.input) != 1:
+            raise RelightError(f"{len(args.input)} inputs: one clip at a time, or several with --ray")
+        args.input = args.input[0]
     if not args.output and not args.frames_out:
         raise RelightError("output: expected -o VIDEO and/or --frames-out DIR")
     from ._options import background, relighter

@@ -1,0 +1,623 @@
+"""Relight folders of photos and many video clips on a Ray cluster (optional extra ``ray``).
+
+Photos go through Ray Data: a dataset of (input, output) paths, never decoded pixels, and
+``map_batches`` with a callable class that holds one ``Relighter`` per actor (CUDA when the actor was
+given a GPU, CPU otherwise). Each actor reads, relights and writes its photos atomically through
+:func:`relight_rt.batch.relight_file`, the very function the single-process ``relight-rt relight``
+runs, so the outputs are the same files byte for byte. Videos run one clip per Ray task (the
+stabiliser goes through a clip in order), each through ``relight-rt video``'s own pipeline.
+
+Every photo or clip gives one row of a manifest, JSON lines appended by the driver as results come
+back: ``input``, ``output``, ``status`` (ok | failed | skipped), ``error``, ``seconds`` (the work on
+that file) and ``job`` (a hash of the settings that shape the output: light, models, mask,
+background); photos also give ``worker`` (host:pid:device) and ``rss_mb`` (the actor's peak memory). A bad file is a
+failed row, never the end of the job. A rerun skips every output that exists and is listed ok for
+the same job; an output written but not yet listed when a job was killed is simply done again (the
+atomic writer never leaves a half-written one).
+
+Paths are read and written by the actors: on a cluster they must name shared storage that every node
+sees, and relight_rt must be installed on every node (or shipped with ``runtime_env``). ``--ray local``
+starts a private Ray on this machine whose workers import the same relight_rt as the driver.
+
+Python::
+
+    from relight_rt.distributed import relight_folder
+    report = relight_folder(["shoot/"], "relit/", light="studio", ray_address="auto", gpus_per_actor=1)
+    print(report.written, report.failures)
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import hashlib
+import json
+import logging
+import os
+import socket
+import sys
+import time
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import batch
+from ._errors import RelightError
+from ._io import sibling_mask
+from .compositing import parse_background
+from .config import RuntimeConfig
+
+log = logging.getLogger(__name__)
+
+EXTRA_HINT = 'pip install "relight-rt[ray]"'
+MANIFEST_NAME = "relight_manifest.jsonl"
+STATUSES = ("ok", "failed", "skipped")
+
+
+def _import_ray():
+    try:
+        import ray
+    except ImportError:
+        raise RelightError(f"--ray needs Ray, which is not installed: {EXTRA_HINT}") from None
+    return ray
+
+
+# ------------------------------------------------------------------------------------------- CLI options
+
+
+def add_ray_options(parser: argparse.ArgumentParser, *, video: bool = False) -> None:
+    """Add ``--ray [ADDRESS|local]`` and its options to a command's parser (imports no Ray)."""
+    g = parser.add_argument_group(f"Ray cluster (optional extra: {EXTRA_HINT})")
+    g.add_argument("--ray", nargs="?", const="local", metavar="ADDRESS",
+                   help="run on Ray: local (a private Ray on this machine; the default without ADDRESS), "
+                        "auto (the cluster this machine belongs to) or ray://HOST:10001")  # fmt: skip
+    g.add_argument(
+        "--ray-gpus",
+        type=float,
+        metavar="G",
+        help="GPUs per " + ("task" if video else "actor") + " (default: 1 when the cluster has GPUs, else 0)",
+    )
+    g.add_argument(
+        "--ray-cpus",
+        type=float,
+        default=1.0,
+        metavar="C",
+        help="CPUs per " + ("task" if video else "actor") + " (default 1; the onnxruntime thread count)",
+    )
+    if not video:
+        g.add_argument(
+            "--ray-actors",
+            type=int,
+            metavar="N",
+            help="actors, each with one Relighter (default: one per GPU, or per --ray-cpus CPUs)",
+        )
+        g.add_argument("--ray-batch-size", type=int, default=8, metavar="B", help="photos per actor call (default 8)")
+    g.add_argument(
+        "--manifest", metavar="JSONL", help=f"manifest of the job (default: {MANIFEST_NAME} in the output folder)"
+    )
+
+
+# ------------------------------------------------------------------------------------------- Ray session
+
+
+def worker_env() -> dict:
+    """A runtime_env whose workers import this very relight_rt (the one the driver runs) first."""
+    root = str(Path(__file__).resolve().parents[1])
+    path = os.pathsep.join(p for p in (root, os.environ.get("PYTHONPATH", "")) if p)
+    return {"env_vars": {"PYTHONPATH": path}}
+
+
+@contextlib.contextmanager
+def ray_session(address: str | None) -> Iterator:
+    """Ray, connected: an existing connection as it is (left open), else ``address`` (None or "local":
+    a private Ray on this machine, shut down at the end)."""
+    ray = _import_ray()
+    if ray.is_initialized():
+        yield ray
+        return
+    if address not in (None, "local", "auto") and ":" not in address and Path(address).exists():
+        raise RelightError(f"--ray {address}: that is a file or folder, not a Ray address; put --ray after the "
+                           "inputs, or write --ray local")  # fmt: skip
+    kwargs = {"include_dashboard": False, "logging_level": logging.WARNING, "log_to_driver": False}
+    if address in (None, "local"):
+        ray.init(address="local", runtime_env=worker_env(), **kwargs)
+    else:
+        try:
+            ray.init(address=address, **kwargs)
+        except (ConnectionError, ValueError, RuntimeError) as exc:
+            raise RelightError(f"--ray {address}: cannot connect to a Ray cluster: {exc}") from None
+    try:
+        yield ray
+    finally:
+        ray.shutdown()
+
+
+def _resources(ray, gpus: float | None, cpus: float, device: str = "auto") -> tuple[float, float, dict]:
+    """(GPUs, CPUs) per worker and the cluster's resources; by default one GPU per worker when the
+    cluster has GPUs and the device is not "cpu"."""
+    total = ray.cluster_resources()
+    if gpus is None:
+        gpus = 1.0 if total.get("GPU", 0) >= 1 and device != "cpu" else 0.0
+    if gpus < 0 or cpus <= 0:
+        raise RelightError(f"Ray resources: expected GPUs >= 0 and CPUs > 0 per worker, got {gpus} and {cpus}")
+    return gpus, cpus, total
+
+
+# ------------------------------------------------------------------------------------------- manifest
+
+
+def job_key(**settings) -> str:
+    """A short hash of the settings that shape the outputs (arrays by their bytes)."""
+    h = hashlib.sha256()
+    for key in sorted(settings):
+        value = settings[key]
+        h.update(key.encode())
+        if isinstance(value, np.ndarray):
+            h.update(str(value.dtype).encode() + str(value.shape).encode() + value.tobytes())
+        else:
+            h.update(repr(value).encode())
+    return h.hexdigest()[:16]
+
+
+def read_manifest(path: str | os.PathLike) -> list[dict]:
+    """The rows of a manifest; lines that do not parse (a job killed mid-line) are left out."""
+    path = Path(path)
+    if not path.is_file():
+        return []
+    rows = []
+    with open(path, encoding="utf-8", errors="replace") as f:
+        for line in f:
+            try:
+                row = json.loads(line)
+            except json.JSONDecodeError:
+                continue
+            if isinstance(row, dict):
+                rows.append(row)
+    return rows
+
+
+def done_outputs(manifest: str | os.PathLike, job: str) -> set[str]:
+    """Outputs (resolved paths: files, or frame folders for videos) listed ok or skipped for ``job`` that
+    still exist."""
+    done = set()
+    for row in read_manifest(manifest):
+        if row.get("job") == job and row.get("status") in ("ok", "skipped") and isinstance(row.get("output"), str):
+            if Path(row["output"]).exists():
+                done.add(str(Path(row["output"]).resolve()))
+    return done
+
+
+class ManifestWriter:
+    """Appends rows to a JSON-lines manifest: one write per row, flushed and synced per call, so a
+    killed job leaves at most one torn last line (which :func:`read_manifest` skips)."""
+
+    def __init__(self, path: str | os.PathLike, protect: Iterable[str | os.PathLike] = ()) -> None:
+        from ._io import check_target
+
+        self.path = Path(path)
+        check_target(self.path, protect)
+        if not self.path.parent.is_dir():
+            raise RelightError(f"manifest {self.path}: folder {self.path.parent} does not exist")
+        self._fd = os.open(self.path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o666)
+        if os.fstat(self._fd).st_size:  # a torn last line of a killed job: start on a fresh line
+            with open(self.path, "rb") as f:
+                f.seek(-1, os.SEEK_END)
+                if f.read(1) != b"\n":
+                    os.write(self._fd, b"\n")
+
+    def write(self, rows: Iterable[dict]) -> None:
+        data = b"".join(json.dumps(r, ensure_ascii=False).encode() + b"\n" for r in rows)
+        view = memoryview(data)
+        while view:  # a regular file takes it in one write; loop in case it does not
+            view = view[os.write(self._fd, view) :]
+        if data:
+            os.fsync(self._fd)
+
+    def close(self) -> None:
+        os.close(self._fd)
+
+    def __enter__(self) -> ManifestWriter:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def _row(src, target, status: str, error: str = "", seconds: float = 0.0, job: str = "") -> dict:
+    return {"input": str(src), "output": str(target), "status": status, "error": error,
+            "seconds": round(float(seconds), 4), "job": job}  # fmt: skip
+
+
+@dataclass
+class Report:
+    """What a distributed job did: its manifest rows (this run) and the failures, in input order."""
+
+    manifest: Path
+    inputs: int = 0  # image files found
+    rows: list[dict] = field(default_factory=list)
+    failures: list[tuple[str, str]] = field(default_factory=list)
+
+    def count(self, status: str) -> int:
+        return sum(r["status"] == status for r in self.rows)
+
+    @property
+    def written(self) -> int:
+        return self.count("ok")
+
+    @property
+    def skipped(self) -> int:
+        return self.count("skipped")
+
+
+# ------------------------------------------------------------------------------------------- photos
+
+
+_ACTOR_FIELDS = ("input", "output", "status", "error", "seconds", "job", "worker", "rss_mb")
+
+
+def _peak_rss_mb() -> float:
+    """Peak resident memory of this process so far, MiB (Linux and macOS; 0 where unknown)."""
+    try:
+        import resource
+    except ImportError:
+        return 0.0
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return round(peak / (1024 * 1024 if sys.platform == "darwin" else 1024), 1)
+
+
+class RelightActor:
+    """Ray Data callable class: one Relighter per actor; each call relights a batch of (input, output)
+    rows and returns their manifest rows. Every error is a failed row, never an exception."""
+
+    def __init__(self, config: RuntimeConfig, cpus: float, light: np.ndarray, mask_arg, single: bool,
+                 background, job: str) -> None:  # fmt: skip
+        import ray
+
+        from .relighter import Relighter
+
+        device = config.device
+        if device == "auto":
+            device = "cuda" if ray.get_gpu_ids() else "cpu"
+        if device == "cpu" and not os.environ.get("RELIGHT_RT_THREADS"):
+            os.environ["RELIGHT_RT_THREADS"] = str(max(1, int(cpus)))  # the CPUs Ray gave this actor
+        self.relighter = Relighter.from_config(config.replace(device=device))
+        self.light = np.asarray(light, np.float32)
+        self.mask_arg, self.single, self.background, self.job = mask_arg, single, background, job
+        self.worker = f"{socket.gethostname()}:{os.getpid()}:{device}"
+
+    def __call__(self, rows: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        out: dict[str, list] = {k: [] for k in ("index", *_ACTOR_FIELDS)}
+        for index, src, target, protect in zip(
+            rows["index"], rows["input"], rows["output"], rows["protect"], strict=True
+        ):
+            start = time.perf_counter()
+            try:
+                batch.relight_file(
+                    self.relighter,
+                    Path(src),
+                    Path(target),
+                    self.light,
+                    mask_arg=self.mask_arg,
+                    single=self.single,
+                    background=self.background,
+                    protect=json.loads(protect),
+                )
+                status, error = "ok", ""
+            except (RelightError, OSError) as exc:  # what the single-process CLI reports
+                status, error = "failed", str(exc)
+            except Exception as exc:  # anything else: one failed row, the job goes on
+                status, error = "failed", f"{type(exc).__name__}: {exc}"
+            row = _row(src, target, status, error, time.perf_counter() - start, self.job)
+            row.update(worker=self.worker, rss_mb=_peak_rss_mb())
+            out["index"].append(int(index))
+            for key, value in row.items():
+                out[key].append(value)
+        return {k: np.asarray(v) for k, v in out.items()}
+
+
+def _protect_per_output(plan: batch.Plan, extra: Iterable) -> dict[Path, list[str]]:
+    """For each output (resolved), the inputs it would replace: all an actor needs to refuse it."""
+    protect = [*plan.inputs, *(p for p in extra if p), *(m for m in map(sibling_mask, plan.inputs) if m)]
+    by_path: dict[Path, list[str]] = {}
+    for p in protect:
+        by_path.setdefault(Path(p).resolve(), []).append(str(p))
+    return by_path
+
+
+def relight_folder(
+    inputs: str | os.PathLike | Iterable[str | os.PathLike],
+    output: str | os.PathLike,
+    light,
+    *,
+    ray_address: str | None = None,
+    models: str | os.PathLike | None = None,
+    mask: str | os.PathLike | None = None,
+    background="original",
+    device: str = "auto",
+    actors: int | None = None,
+    gpus_per_actor: float | None = None,
+    cpus_per_actor: float = 1.0,
+    batch_size: int = 8,
+    manifest: str | os.PathLike | None = None,
+    protect: Iterable[str | os.PathLike] = (),
+    config: RuntimeConfig | None = None,
+) -> Report:
+    """Relight photos (files and folders) on Ray: the work of ``relight-rt relight``, spread over actors.
+
+    Args:
+        inputs: image files and folders (as for the CLI; folders leave out ``*_relit``, ``*_mask`` and
+            hidden files).
+        output: output folder (NAME_relit.png per photo), or a file for one photo.
+        light: a (9, 3) RGB SH light, or anything ``Relighter.resolve_light`` accepts (resolved here,
+            once; the actors get the array).
+        ray_address: None or "local" (a private Ray on this machine), "auto", "ray://HOST:PORT";
+            ignored when Ray is already initialised in this process.
+        models, device: as for ``Relighter`` ("auto": CUDA on actors given a GPU).
+        mask: ``--mask``: a folder of NAME_mask.png (default: beside each photo, else its alpha).
+        background: a Background or its shorthand ("original", "transparent", a colour, an image path).
+        actors: actor pool size (default: one per GPU, else one per ``cpus_per_actor`` CPUs).
+        gpus_per_actor: GPUs per actor (fractions share a GPU); default 1 when the cluster has GPUs.
+        cpus_per_actor: CPUs per actor (and its onnxruntime threads on CPU).
+        batch_size: photos per actor call.
+        manifest: JSON-lines manifest, appended (default: ``relight_manifest.jsonl`` in the output folder).
+        protect: more paths no output may replace (light files, ...).
+        config: the rest of the runtime's settings (precision, preprocessing, detail) for every actor;
+            ``models`` and ``device`` above win over its own.
+
+    Returns:
+        A Report: this run's manifest rows and the failures (planning ones first), in input order.
+
+    Raises:
+        RelightError: Ray missing or unreachable, bad options, a light that cannot be resolved.
+    """
+    _import_ray()  # missing: say so before anything is written
+    if isinstance(inputs, (str, os.PathLike)):
+        inputs = [inputs]
+    inputs = [str(i) for i in inputs]
+    if not isinstance(batch_size, int) or batch_size < 1:
+        raise RelightError(f"batch size: expected a whole number >= 1, got {batch_size!r}")
+    if actors is not None and (not isinstance(actors, int) or actors < 1):
+        raise RelightError(f"actors: expected a whole number >= 1, got {actors!r}")
+    background = parse_background(background)
+    if background.kind == "image" and background.path is None:
+        raise RelightError("background: an image array cannot be sent to a distributed job; give its path")
+    bg_key = f"{background.kind}:{background.color}:{background.path}:{background.fit}"
+    plan = batch.plan(inputs, output)
+    out = Path(output)
+    light = _resolve_light(light, models)
+    from .session import find_models
+
+    models_dir = find_models(models)
+    mask_arg = None if mask is None else str(mask)
+    config = (config or RuntimeConfig()).replace(models=str(models_dir.resolve()), device=device)
+    job = job_key(light=light, models=str(models_dir.resolve()), mask=mask_arg, background=bg_key,
+                  single=plan.single, precision=config.precision, preprocess=config.preprocess,
+                  detail=config.detail)  # fmt: skip
+    if not plan.to_file and plan.pairs:
+        out.mkdir(parents=True, exist_ok=True)
+    manifest_path = Path(manifest) if manifest else (out.parent / f"{out.name}.manifest.jsonl" if plan.to_file
+                                                      else out / MANIFEST_NAME)  # fmt: skip
+    extra = [mask_arg if mask_arg != "auto" else None, background.path, *map(str, protect)]
+    by_path = _protect_per_output(plan, extra)
+    report = Report(manifest_path, len(plan.inputs), failures=list(plan.failures))
+    done = done_outputs(manifest_path, job)
+    todo, rows = [], []
+    for index, (src, target) in enumerate(plan.pairs):
+        key = target.resolve()
+        if str(key) in done:
+            rows.append((index, _row(src, target, "skipped", job=job)))
+        else:
+            todo.append({"index": index, "input": str(src), "output": str(target),
+                         "protect": json.dumps(by_path.get(key, []))})  # fmt: skip
+    with ManifestWriter(manifest_path, protect=[*plan.inputs, *(p for p in extra if p)]) as writer:
+        writer.write(r for _, r in rows)
+        if todo:
+            with ray_session(ray_address) as ray:
+                gpus, cpus, total = _resources(ray, gpus_per_actor, cpus_per_actor, device)
+                # the actors find the models themselves: --models or $RELIGHT_RT_MODELS as given, else the
+                # bundled models of their own install (the driver's path may not exist on another node)
+                actor_kwargs = {"config": config, "cpus": cpus, "light": light, "mask_arg": mask_arg,
+                                "single": plan.single, "background": background, "job": job}  # fmt: skip
+                if actors is None:
+                    actors = int(total.get("GPU", 0) // gpus) if gpus > 0 else int(total.get("CPU", 1) // cpus)
+                    actors = max(1, min(actors, len(todo)))
+                rows.extend(_run_actors(ray, todo, writer, actor_kwargs, actors, gpus, cpus, batch_size))
+    rows.sort(key=lambda r: r[0])
+    report.rows = [r for _, r in rows]
+    report.failures.extend((r["input"], r["error"]) for r in report.rows if r["status"] == "failed")
+    return report
+
+
+def _resolve_light(light, models) -> np.ndarray:
+    from . import sh
+
+    if isinstance(light, np.ndarray) or (isinstance(light, (list, tuple)) and len(light) == 9):
+        return sh.check_light(np.asarray(light), "light").astype(np.float32)
+    from .relighter import Relighter
+
+    return Relighter(models, device="cpu").resolve_light(light)
+
+
+def _run_actors(ray, todo, writer, actor_kwargs, actors, gpus, cpus, batch_size) -> list[tuple[int, dict]]:
+    """Run the Ray Data job; append each result batch to the manifest as it comes back."""
+    remote = {"num_gpus": gpus} if gpus > 0 else {}
+    ds = ray.data.from_items(todo, override_num_blocks=max(1, min(len(todo), actors * 4)))
+    ds = ds.map_batches(
+        RelightActor,
+        fn_constructor_kwargs=actor_kwargs,
+        batch_size=batch_size,
+        batch_format="numpy",
+        compute=ray.data.ActorPoolStrategy(size=actors),
+        num_cpus=cpus,
+        **remote,
+    )  # fmt: skip
+    log.info("Ray: %d photos on %d actor(s), %s GPU and %s CPU each", len(todo), actors, gpus, cpus)
+    done: list[tuple[int, dict]] = []
+    start = time.perf_counter()
+    try:
+        for part in ds.iter_batches(batch_size=None, batch_format="numpy"):
+            rows = []
+            for i in range(len(part["index"])):
+                row = {k: _plain(part[k][i]) for k in _ACTOR_FIELDS}
+                rows.append(row)
+                done.append((int(part["index"][i]), row))
+            writer.write(rows)
+    except ray.exceptions.RayError as exc:  # an actor that cannot start (models, CUDA), a lost node, ...
+        reason = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
+        raise RelightError(f"the Ray job stopped after {len(done)} of {len(todo)} photos (the manifest lists "
+                           f"them; a rerun goes on): {reason}") from None  # fmt: skip
+    seconds = time.perf_counter() - start
+    log.info("Ray: %d photos in %.2f s (%.2f photos/s, actor start-up included)", len(done), seconds,
+             len(done) / max(seconds, 1e-9))  # fmt: skip
+    return done
+
+
+def _plain(value):
+    """A numpy scalar (or a str Ray gave back as is) → a plain Python value for JSON."""
+    return value.item() if isinstance(value, np.generic) else value
+
+
+def _quiet_ray_data() -> None:
+    """The CLI: Ray Data's progress lines only with -v (the manifest is the record)."""
+    if not log.isEnabledFor(logging.DEBUG):
+        os.environ.setdefault("RAY_DATA_LOG_LEVEL", "WARNING")
+
+
+def cmd_relight_ray(args: argparse.Namespace) -> int:
+    """``relight-rt relight ... --ray``: as the single-process command, with a manifest."""
+    _quiet_ray_data()
+    from ._options import background, light_spec, runtime_config
+
+    spec = light_spec(args)
+    config = runtime_config(args)
+    if spec.source == "photo":  # the light of a photo: estimated once, here
+        from .relighter import Relighter
+
+        light = Relighter.from_config(config.replace(device="cpu")).resolve_light(spec)
+    else:
+        light = spec.resolve()
+    report = relight_folder(
+        args.inputs, args.output, light, ray_address=args.ray, models=args.models, mask=args.mask,
+        background=background(args), device=args.device, actors=args.ray_actors, gpus_per_actor=args.ray_gpus,
+        cpus_per_actor=args.ray_cpus, batch_size=args.ray_batch_size, manifest=args.manifest,
+        protect=list(spec.paths), config=config,
+    )  # fmt: skip
+    return _finish(report, many=report.inputs > 1)
+
+
+def _finish(report: Report, many: bool) -> int:
+    import sys
+
+    for item, message in report.failures:
+        text = message if item in message else f"{item}: {message}"
+        print(f"relight-rt: error: {text}", file=sys.stderr)
+    log.info("manifest: %s (%d ok, %d skipped, %d failed)", report.manifest, report.written, report.skipped,
+             report.count("failed"))  # fmt: skip
+    if report.failures and many:
+        print(f"relight-rt: {len(report.failures)} failed, {report.written} written", file=sys.stderr)
+    return 2 if report.failures else 0
+
+
+# ------------------------------------------------------------------------------------------- videos
+
+_PER_CLIP = ("input", "output", "frames_out", "lights_out", "metrics")  # paths that differ from clip to clip
+_NOT_SETTINGS = (*_PER_CLIP, "func", "ray", "ray_gpus", "ray_cpus", "manifest", "command", "verbose", "quiet")
+
+
+def _video_clip(settings: dict, cpus: float) -> dict:
+    """Ray task: one clip through ``relight-rt video``'s pipeline; every error is a failed row."""
+    import ray
+
+    from . import video_cli
+
+    args = argparse.Namespace(**settings)
+    if args.device == "auto":
+        args.device = "cuda" if ray.get_gpu_ids() else "cpu"
+    if args.device == "cpu" and not os.environ.get("RELIGHT_RT_THREADS"):
+        os.environ["RELIGHT_RT_THREADS"] = str(max(1, int(cpus)))
+    start = time.perf_counter()
+    try:
+        video_cli.run(args)
+        status, error = "ok", ""
+    except (RelightError, OSError) as exc:
+        status, error = "failed", str(exc)
+    except Exception as exc:
+        status, error = "failed", f"{type(exc).__name__}: {exc}"
+    return _row(args.input, args.output or args.frames_out, status, error, time.perf_counter() - start,
+                settings["_job"])  # fmt: skip
+
+
+def plan_videos(args: argparse.Namespace) -> tuple[list[dict], list[tuple[str, str]]]:
+    """Per-clip settings for ``relight-rt video SRC... --ray``: -o DST/ gives DST/STEM_relit.mp4;
+    --frames-out, --lights-out and --metrics name folders that get STEM/, STEM_lights.npy and
+    STEM_metrics.json. Returns (settings per clip, failures)."""
+    if not args.output and not args.frames_out:
+        raise RelightError("output: expected -o FOLDER and/or --frames-out FOLDER (with --ray, one file per clip)")
+    for name in ("output", "frames_out", "lights_out", "metrics"):
+        value = getattr(args, name, None)
+        if value and Path(value).suffix and not Path(value).is_dir():
+            raise RelightError(f"--{name.replace('_', '-')} {value}: with --ray, expected a folder (one file per clip)")
+    base = {k: v for k, v in vars(args).items() if k not in ("func", "ray", "ray_gpus", "ray_cpus", "manifest")}
+    clips, failures, seen = [], [], {}
+    for clip in args.input:
+        stem = Path(clip).stem
+        if stem in seen:
+            failures.append((clip, f"two clips named {stem} would both write {stem}_relit.mp4 ({seen[stem]})"))
+            continue
+        seen[stem] = clip
+        settings = dict(base, input=clip)
+        settings["output"] = str(Path(args.output) / f"{stem}_relit.mp4") if args.output else None
+        settings["frames_out"] = str(Path(args.frames_out) / stem) if args.frames_out else None
+        settings["lights_out"] = str(Path(args.lights_out) / f"{stem}_lights.npy") if args.lights_out else None
+        settings["metrics"] = str(Path(args.metrics) / f"{stem}_metrics.json") if args.metrics else None
+        clips.append(settings)
+    return clips, failures
+
+
+def cmd_video_ray(args: argparse.Namespace) -> int:
+    """``relight-rt video SRC... -o DST/ --ray``: one Ray task per clip, a manifest of the clips."""
+    _import_ray()
+    clips, failures = plan_videos(args)
+    for folder in (args.output, args.frames_out, args.lights_out, args.metrics):
+        if folder:
+            Path(folder).mkdir(parents=True, exist_ok=True)
+    job = job_key(**{k: v for k, v in vars(args).items() if k not in _NOT_SETTINGS})
+    manifest = Path(args.manifest) if args.manifest else Path(args.output or args.frames_out) / MANIFEST_NAME
+    report = Report(manifest, len(args.input), failures=list(failures))
+    done = done_outputs(manifest, job)
+    rows: list[tuple[int, dict]] = []
+    with ManifestWriter(manifest, protect=args.input) as writer:
+        todo = []
+        for index, settings in enumerate(clips):
+            target = settings["output"] or settings["frames_out"]
+            if str(Path(target).resolve()) in done:
+                rows.append((index, _row(settings["input"], target, "skipped", job=job)))
+            else:
+                todo.append((index, dict(settings, _job=job, ray=None)))
+        writer.write(r for _, r in rows)
+        if todo:
+            with ray_session(args.ray) as ray:
+                gpus, cpus, _ = _resources(ray, args.ray_gpus, args.ray_cpus, args.device)
+                task = ray.remote(_video_clip).options(num_cpus=cpus, num_gpus=gpus, max_retries=0)
+                pending = {task.remote(s, cpus): i for i, s in todo}
+                clips_by_index = dict(todo)
+                log.info("Ray: %d clip(s), one task each, %s GPU and %s CPU per task", len(todo), gpus, cpus)
+                while pending:
+                    ready, _ = ray.wait(list(pending), num_returns=1)
+                    for ref in ready:
+                        index = pending.pop(ref)
+                        try:
+                            row = ray.get(ref)
+                        except ray.exceptions.RayError as exc:  # the worker died (memory, a lost node)
+                            settings = clips_by_index[index]
+                            reason = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
+                            row = _row(settings["input"], settings["output"] or settings["frames_out"], "failed",
+                                       f"{settings['input']}: the Ray task failed: {reason}", job=job)  # fmt: skip
+                        rows.append((index, row))
+                        writer.write([row])
+    rows.sort(key=lambda r: r[0])
+    report.rows = [r for _, r in rows]
+    report.failures.extend((r["input"], r["error"]) for r in report.rows if r["status"] == "failed")
+    return _finish(report, many=len(args.input) > 1)
