@@ -23,6 +23,7 @@ import numpy as np
 
 from . import __version__, lights, sh
 from ._errors import RelightError
+from .exposure import parse_exposure
 from ._io import IMAGE_SUFFIXES, list_images, sibling_mask, write_image, write_npy, write_npz
 
 log = logging.getLogger("relight_rt.cli")
@@ -61,9 +62,18 @@ def add_relight(subparsers) -> None:
     p.add_argument("--bgr", action="store_true", help="the --light file's columns are B, G, R (reference files)")
     p.add_argument("--rotate", type=float, default=0.0, metavar="DEG", help="turn the light about the vertical axis")
     p.add_argument("--background", default="original", metavar="B", help="original | transparent | IMAGE")
+    add_exposure_option(p)
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="output file (one input) or folder")
     _add_model_options(p)
     p.set_defaults(func=cmd_relight)
+
+
+def add_exposure_option(p: argparse.ArgumentParser, reference: str = "the input person's") -> None:
+    p.add_argument(
+        "--exposure", default="auto", metavar="E",
+        help=f"auto (default: scale the light so the person keeps {reference} mean luminance), an EV offset "
+        "from auto (+1 twice as bright, -0.5) or physical (the light's own intensity)",
+    )  # fmt: skip
 
 
 def _gather_inputs(inputs: list[str]) -> tuple[list[Path], list[tuple[str, str]]]:
@@ -128,6 +138,7 @@ def cmd_relight(args: argparse.Namespace) -> int:
     if single and not to_file and out.suffix:
         raise RelightError(f"output {out}: unknown image type {out.suffix!r}; use one of {', '.join(IMAGE_SUFFIXES)}")
     background = args.background
+    exposure = parse_exposure(args.exposure)
     if background not in ("original", "transparent") and not Path(background).is_file():
         raise RelightError(f"--background {background}: expected original, transparent or an image file")
     relighter = _relighter(args)
@@ -145,7 +156,7 @@ def cmd_relight(args: argparse.Namespace) -> int:
             if target.resolve() in written:
                 raise RelightError(f"two inputs named {path.stem} would both write {target}")
             mask = _mask_for(path, args.mask, single)
-            image = relighter.relight(path, light, mask=mask, background=background)
+            image = relighter.relight(path, light, mask=mask, background=background, exposure=exposure)
             write_image(target, image, protect=protect)
             written.add(target.resolve())
             if not show_bar:

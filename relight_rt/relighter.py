@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import exposure as _exposure
 from . import lights, sh
 from ._chain import DeviceChain
 from ._detail import extend_outward, guided_upsample, unpremultiply, window
@@ -464,6 +465,7 @@ class Relighter:
         mask: ImageLike | None = None,
         background="original",
         return_layers: bool = False,
+        exposure="auto",
     ) -> np.ndarray | RelightResult:
         """Relight a photo (or a Decomposition) under a new light.
 
@@ -474,13 +476,15 @@ class Relighter:
             background: "original" (the photo), "transparent" (RGBA output, alpha = mask) or an image
                 (path or array) of the photo's size.
             return_layers: return a ``RelightResult`` with the layers instead of the image alone.
+            exposure: "auto" (default: the light is scaled so the person keeps its mean luminance), an EV
+                offset from auto (+1 twice as bright), or "physical" (the light as given); relight_rt.exposure.
 
         Returns:
             (H, W, 3) float32 RGB in [0, 1] at the input's size ((H, W, 4) RGBA for "transparent"); pixels
             where the mask is 0 are the background's, untouched. With ``return_layers``, a RelightResult.
         """
         dec = self._prepare(image, mask)
-        lit = self.resolve_light(light)
+        lit = _exposure.expose(dec, self.resolve_light(light), exposure)
         bg = self._background(background, dec)
         diffuse, residual, relit = next(self._network_relit(dec, lit[None], 1, want_layers=return_layers))
         out = self._compose(dec, relit, bg)
@@ -505,12 +509,13 @@ class Relighter:
         mask: ImageLike | None = None,
         background="original",
         batch_size: int = 4,
+        exposure="auto",
     ) -> Iterator[np.ndarray]:
         """Like ``relight_many`` but yields one (H, W, 3|4) result at a time (for long sweeps and video)."""
         if not isinstance(batch_size, int) or batch_size < 1:
             raise RelightError(f"batch_size: expected a whole number >= 1, got {batch_size!r}")
         dec = self._prepare(image, mask)
-        lits = self._resolve_lights(lights)
+        lits = _exposure.expose(dec, self._resolve_lights(lights), exposure)
         bg = self._background(background, dec)
         for _, _, relit in self._network_relit(dec, lits, batch_size, want_layers=False):
             yield self._compose(dec, relit, bg)
@@ -523,6 +528,7 @@ class Relighter:
         mask: ImageLike | None = None,
         background="original",
         batch_size: int = 4,
+        exposure="auto",
     ) -> np.ndarray:
         """One stage-1 pass, then K relights through stage 2 in batches of ``batch_size``.
 
@@ -531,6 +537,7 @@ class Relighter:
             lights: (K, 9, 3) array or a list of anything ``resolve_light`` accepts.
             mask, background: as for ``relight``.
             batch_size: lights per stage-2 run.
+            exposure: as for ``relight``, for each light on its own.
 
         Returns:
             (K, H, W, 3) float32 RGB ((K, H, W, 4) for "transparent"); K full-size images are held in memory,
@@ -540,7 +547,16 @@ class Relighter:
         lits = self._resolve_lights(lights)
         channels = 4 if isinstance(background, str) and background == "transparent" else 3
         out = np.empty((lits.shape[0],) + dec.geometry.frame + (channels,), np.float32)
-        for i, img in enumerate(self.iter_relight(dec, lits, background=background, batch_size=batch_size)):
+        for i, img in enumerate(self.iter_relight(dec, lits, background=background, batch_size=batch_size, exposure=exposure)):
             out[i] = img
         return out
 
+    def composite(self, image: ImageLike, background, **kwargs) -> np.ndarray:
+        """Relight the person of ``image`` for the scene of ``background`` and put it there.
+
+        A thin wrapper of ``relight_rt.scene.composite(self, image, background, **kwargs)``; keywords: mask,
+        light, position, height, shadow, exposure, fov, white_balance. Returns (H_bg, W_bg, 3) float32 sRGB.
+        """
+        from .scene import composite
+
+        return composite(self, image, background, **kwargs)
