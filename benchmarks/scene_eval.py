@@ -22,7 +22,8 @@ For a person P and maps A != B:
 - (ii) also with the scale that keeps the input person's mean luminance (``relight``'s "auto" exposure).
 - (ii') the estimated light with the overall scale of the truth (diagnostic: direction and colour only).
 - (iii) oracle: the true SH light of B (k_B · its projection), same two pipelines.
-RMSE inside the mask (linear values, all clipped to [0, 1] as a camera records them), mean over pairs with a 95 % bootstrap interval.
+RMSE inside the mask (linear values, all clipped to [0, 1] as a camera records them), mean over pairs with
+a 95 % bootstrap interval.
 """
 
 from __future__ import annotations
@@ -123,7 +124,7 @@ def main(argv=None) -> int:
             l_est, l_true = est_light[b], true_light[b]
             r_est = diffuse(albedo, transport, l_est)
             r_true = diffuse(albedo, transport, l_true)
-            lum = lambda img: float((img[inside] @ REC709).mean())  # noqa: E731
+            lum = lambda img, m=inside: float((img[m] @ REC709).mean())  # noqa: E731
             scale = lum(gt) / max(lum(r_est), 1e-8)
             others = [a for a in envs if a != b]
             for a in rng.choice(others, size=min(args.pairs_per_target, len(others)), replace=False):

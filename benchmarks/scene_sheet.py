@@ -13,7 +13,6 @@ of each row pair: the background's estimated light on a sphere.
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from pathlib import Path
 

@@ -47,7 +47,8 @@ __all__ = ["FOV_RANGE", "HIGHLIGHT_GAIN", "MIN_SIZE", "envmap_view", "light_from
 
 MIN_SIZE = 64  #: smallest accepted background side, pixels
 FOV_RANGE = (10.0, 170.0)  #: open interval of accepted horizontal fields of view, degrees
-HIGHLIGHT_GAIN = 3.0  #: linear gain on saturated pixels (see the module docstring; docs/RESULTS.md: 1 and 3 measure alike, 6 and 12 worse)
+#: linear gain on saturated pixels (see the module docstring; docs/RESULTS.md: 1 and 3 measure alike, 6 and 12 worse)
+HIGHLIGHT_GAIN = 3.0
 _CLIP_LEVEL = 250  # 8-bit value from which a pixel counts as saturated
 _SIDE_BLUR = 0.35  # blur level of the parts beside and behind the camera (0 sharp, 0.5 blurred, 1 band mean)
 _BAND = 8  # the sky / floor colour at the poles: the mean of the top / bottom 1/_BAND of the rows

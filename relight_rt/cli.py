@@ -23,8 +23,8 @@ import numpy as np
 
 from . import __version__, lights, sh
 from ._errors import RelightError
-from .exposure import parse_exposure
 from ._io import IMAGE_SUFFIXES, list_images, sibling_mask, write_image, write_npy, write_npz
+from .exposure import parse_exposure
 
 log = logging.getLogger("relight_rt.cli")
 
@@ -210,7 +210,8 @@ def cmd_decompose(args: argparse.Namespace) -> int:
 
 def add_lights(subparsers) -> None:
     p = subparsers.add_parser("lights", help="list, show and make SH lights")
-    sub = p.add_subparsers(dest="lights_command", required=True, metavar="{list,show,from-envmap,from-photo}")
+    metavar = "{list,show,from-envmap,from-photo,from-background}"
+    sub = p.add_subparsers(dest="lights_command", required=True, metavar=metavar)
     ls = sub.add_parser("list", help="the named lights, one per line, name first")
     ls.set_defaults(func=cmd_lights_list)
     show = sub.add_parser("show", help="render a light on a diffuse sphere")
@@ -227,7 +228,10 @@ def add_lights(subparsers) -> None:
     photo.add_argument("--mask", help="mask image (default: the photo's alpha, or PHOTO_mask.png beside it)")
     photo.add_argument("-o", "--output", required=True, metavar="LIGHT", help=".npy or .json")
     photo.set_defaults(func=cmd_lights_from_photo)
-    for q in (ls, show, env, photo):  # every command takes them; only from-photo runs a model
+    extra = []  # lights from-background, when relight_rt.scene_cli is present
+    if importlib.util.find_spec("relight_rt.scene_cli") is not None:
+        extra.append(importlib.import_module("relight_rt.scene_cli").add_from_background(sub))
+    for q in (ls, show, env, photo, *extra):  # every command takes them; only from-photo runs a model
         _add_model_options(q)
 
 
@@ -307,7 +311,7 @@ def cmd_doctor(args: argparse.Namespace) -> int:
 
 COMMANDS = [add_relight, add_decompose, add_lights, add_doctor]
 # modules with add_parser(subparsers), added when present
-PLUGINS = ["relight_rt.video_cli", "relight_rt.demo", "relight_rt.bench"]
+PLUGINS = ["relight_rt.video_cli", "relight_rt.demo", "relight_rt.bench", "relight_rt.scene_cli"]
 
 
 def build_parser() -> argparse.ArgumentParser:

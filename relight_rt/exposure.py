@@ -50,7 +50,7 @@ def parse_exposure(value) -> str | float:
         try:
             ev = float(text)
         except ValueError:
-            raise RelightError(f"exposure: expected 'auto', 'physical' or an EV number such as +1, got {value!r}") from None
+            raise RelightError(f"exposure: expected 'auto', 'physical' or an EV number (+1), got {value!r}") from None
     elif isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool):
         ev = float(value)
     else:

@@ -547,7 +547,8 @@ class Relighter:
         lits = self._resolve_lights(lights)
         channels = 4 if isinstance(background, str) and background == "transparent" else 3
         out = np.empty((lits.shape[0],) + dec.geometry.frame + (channels,), np.float32)
-        for i, img in enumerate(self.iter_relight(dec, lits, background=background, batch_size=batch_size, exposure=exposure)):
+        results = self.iter_relight(dec, lits, background=background, batch_size=batch_size, exposure=exposure)
+        for i, img in enumerate(results):
             out[i] = img
         return out
 

@@ -67,7 +67,7 @@ def _check_height(height) -> float | None:
     try:
         h = float(height)
     except (TypeError, ValueError):
-        raise RelightError(f"height: expected a fraction of the background's height in (0, 1], got {height!r}") from None
+        raise RelightError(f"height: expected a fraction of the background height in (0, 1], got {height!r}") from None
     if not 0 < h <= 1:
         raise RelightError(f"height: expected a fraction of the background's height in (0, 1], got {height!r}")
     return h
@@ -211,7 +211,7 @@ def composite(
 
     # the region of the background that changes: the person's box and its shadow
     sh_w, sh_h = 0.5 * new_w, max(2.0, new_h / 25)
-    foot_x, foot_y = left + new_w / 2, top + new_h - 0.5 * sh_h
+    foot_x, foot_y = left + new_w / 2, top + new_h - 0.25 * sh_h
     ry0, ry1, rx0, rx1 = top, top + new_h, left, left + new_w
     if shadow:
         ry0, ry1 = min(ry0, int(foot_y - 3 * sh_h)), max(ry1, int(math.ceil(foot_y + 3 * sh_h)))
