@@ -85,11 +85,16 @@ def main(argv=None) -> int:
     p.add_argument("--subjects", default=None, help="comma-separated subjects (default: all)")
     p.add_argument("--pairs-per-target", type=int, default=2, help="maps A drawn per (person, B)")
     p.add_argument("--gain", type=float, default=None, help="override background.HIGHLIGHT_GAIN")
+    p.add_argument("--behind-blur", type=float, default=None, help="override background._BEHIND_BLUR (tuning)")
+    p.add_argument("--max-exposure", type=float, default=None,
+                   help="leave out maps B whose view needs an exposure k above this (near-black views)")
     p.add_argument("--no-stage1", action="store_true", help="skip the bundled-model rows")
     p.add_argument("--seed", type=int, default=0)
     args = p.parse_args(argv)
     if args.gain is not None:
         bgmod.HIGHLIGHT_GAIN = args.gain
+    if args.behind_blur is not None:
+        bgmod._BEHIND_BLUR = args.behind_blur
     args.out.mkdir(parents=True, exist_ok=True)
 
     photos = dataset.list_photos(args.photos)
@@ -106,6 +111,10 @@ def main(argv=None) -> int:
         views[e], exposure[e] = view_photo(env)
         true_light[e] = sh.project_envmap(env) * exposure[e]  # the renders' units: image = albedo ⊙ T·L
         est_light[e] = bgmod.light_from_background(views[e], 60.0)[0].astype(np.float64)
+    if args.max_exposure is not None:
+        left_out = [e for e in envs if exposure[e] > args.max_exposure]
+        print(f"left out (k > {args.max_exposure:g}): {', '.join(left_out) or 'none'}", file=sys.stderr)
+        envs = [e for e in envs if e not in left_out]
     relighter = None
     if not args.no_stage1:
         from relight_rt import Relighter

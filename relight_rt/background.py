@@ -51,6 +51,7 @@ FOV_RANGE = (10.0, 170.0)  #: open interval of accepted horizontal fields of vie
 HIGHLIGHT_GAIN = 3.0
 _CLIP_LEVEL = 250  # 8-bit value from which a pixel counts as saturated
 _SIDE_BLUR = 0.35  # blur level of the parts beside and behind the camera (0 sharp, 0.5 blurred, 1 band mean)
+_BEHIND_BLUR = _SIDE_BLUR  # blur level of the mirrored part behind the camera
 _BAND = 8  # the sky / floor colour at the poles: the mean of the top / bottom 1/_BAND of the rows
 _LUT = srgb_to_linear(np.arange(256, dtype=np.uint8))  # 8-bit sRGB → linear float32
 
@@ -131,8 +132,8 @@ def _fill(lin: np.ndarray, fov: float, height: int) -> np.ndarray:
     mapx = ((u + 1) * 0.5 * pw - 0.5).astype(np.float32)
     mapy = ((1 - v) * 0.5 * ph - 0.5).astype(np.float32)
     beta_v = np.clip((np.abs(elev) - edge) / (math.pi / 2 - edge), 0, 1)
-    outside = (x > 0) | (np.abs(psi) > half)
-    beta = np.maximum(beta_v, np.where(outside, _SIDE_BLUR, 0.0)).astype(np.float32)[..., None]
+    beside = np.where(np.abs(psi) > half, _SIDE_BLUR, 0.0)
+    beta = np.maximum(beta_v, np.where(x > 0, _BEHIND_BLUR, beside)).astype(np.float32)[..., None]
 
     sigma = max(pw / 8, 0.5)
     blurred = cv2.GaussianBlur(lin, (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
