@@ -1,5 +1,6 @@
 """Light from a background photo, measured on rendered scenes (the "into any scene" table of docs/RESULTS.md).
 
+    python benchmarks/scene_eval.py --prepare-envs ../shared/hdri --envs ENVS
     python benchmarks/scene_eval.py --photos PHOTOS --people PEOPLE --envs ENVS --out runs/scene_eval \\
         [--pairs-per-target 2] [--subjects anny_100004,...] [--gain 6] [--no-stage1]
 
@@ -59,6 +60,18 @@ def view_photo(env: np.ndarray) -> tuple[np.ndarray, float]:
     return (disp * 255 + 0.5).astype(np.uint8), k
 
 
+def prepare_envs(hdri: Path, out: Path, height: int = 128) -> None:
+    """The evaluation maps: every .hdr of ``hdri`` area-resized to ``height``, normalised (brightest SH
+    irradiance 1, export.render.envmaps.normalize_envmap) and turned by 0/90/180/270° about +z."""
+    from export.render.envmaps import normalize_envmap, resize_envmap, rotate_envmap, write_hdr
+
+    out.mkdir(parents=True, exist_ok=True)
+    for path in sorted(hdri.glob("*.hdr")):
+        env = normalize_envmap(resize_envmap(sh.load_envmap(path), height), 1.0)
+        for step in range(4):
+            write_hdr(out / f"{path.stem}_y{step * 90:03d}.hdr", rotate_envmap(env, step, 4))
+
+
 def rmse(a, b, inside) -> float:
     """RMSE inside the mask of two linear images, both clipped to [0, 1] as the camera records them."""
     d = np.clip(a[inside], 0, 1) - np.clip(b[inside], 0, 1)
@@ -78,10 +91,11 @@ def bootstrap(values, n=2000, seed=0):
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--photos", type=Path, required=True)
-    p.add_argument("--people", type=Path, required=True)
+    p.add_argument("--prepare-envs", type=Path, metavar="HDRI", help="only write the maps of HDRI into --envs")
+    p.add_argument("--photos", type=Path)
+    p.add_argument("--people", type=Path)
     p.add_argument("--envs", type=Path, required=True)
-    p.add_argument("--out", type=Path, required=True)
+    p.add_argument("--out", type=Path)
     p.add_argument("--subjects", default=None, help="comma-separated subjects (default: all)")
     p.add_argument("--pairs-per-target", type=int, default=2, help="maps A drawn per (person, B)")
     p.add_argument("--gain", type=float, default=None, help="override background.HIGHLIGHT_GAIN")
@@ -91,6 +105,11 @@ def main(argv=None) -> int:
     p.add_argument("--no-stage1", action="store_true", help="skip the bundled-model rows")
     p.add_argument("--seed", type=int, default=0)
     args = p.parse_args(argv)
+    if args.prepare_envs:
+        prepare_envs(args.prepare_envs, args.envs)
+        return 0
+    if not (args.photos and args.people and args.out):
+        p.error("--photos, --people and --out are needed (unless --prepare-envs)")
     if args.gain is not None:
         bgmod.HIGHLIGHT_GAIN = args.gain
     if args.behind_blur is not None:

@@ -51,6 +51,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="weight of the warped history where the flow is reliable, in [0, 1) (default 0.8)")
     p.add_argument("--batch-size", type=int, default=4, help="frames per stage-1 / DVP run")
     p.add_argument("--background", choices=("original", "black"), default="original")
+    from .cli import add_exposure_option
+
+    add_exposure_option(p)
     p.add_argument("--fps", type=float, help="frame rate of a frame folder (default 25) or override the video's")
     p.add_argument("--device", choices=("auto", "cpu", "cuda"), default="auto")
     p.add_argument("--lights-out", help="write the (N, 9, 3) RGB light of every frame to this .npy "
@@ -104,7 +107,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         from .relighter import Relighter
 
-        engine = video.RelighterEngine(Relighter(args.models, device=args.device))
+        engine = video.RelighterEngine(Relighter(args.models, device=args.device), exposure=args.exposure)
     stabilizer = None if (args.no_stabilize or dvp is not None) else Stabilizer(args.stabilize_strength)
     sink = video.FrameSink(args.output, args.frames_out, source.fps, protect=source.paths)
     acc = rt_metrics.TemporalMetrics() if args.metrics else None
