@@ -75,7 +75,7 @@ def main(argv=None) -> int:
     for suffix in (".jpg", ".png"):
         out = args.work / f"out{suffix}"
 
-        def once():
+        def once(out=out):
             t = time.perf_counter()
             write_image(out, relighter.composite(person, bg, mask=mask, shadow=True), protect=[person, mask, bg])
             return time.perf_counter() - t

@@ -17,7 +17,7 @@ import numpy as np
 
 from . import lights, sh
 from ._errors import RelightError
-from ._io import IMAGE_SUFFIXES, sibling_mask, write_image
+from ._io import IMAGE_SUFFIXES, check_target, sibling_mask, write_image
 from .exposure import parse_exposure
 
 log = logging.getLogger("relight_rt.cli")
@@ -76,6 +76,7 @@ def cmd_composite(args: argparse.Namespace) -> int:
     position = parse_position(args.position) if args.position is not None else None
     _check_fov(args.fov)
     protect = [p for p in (person, mask, args.background, args.light, args.envmap) if p]
+    check_target(out, protect)  # before any work
     relighter = _relighter(args)
     light = None
     if args.preset:
@@ -130,6 +131,8 @@ def cmd_from_background(args: argparse.Namespace) -> int:
     out = _light_output(args.output, args.background)
     if args.preview and Path(args.preview).suffix.lower() not in IMAGE_SUFFIXES:
         raise RelightError(f"--preview {args.preview}: expected an image file ({', '.join(IMAGE_SUFFIXES)})")
+    if args.preview:
+        check_target(Path(args.preview), [args.background, out])
     photo = read_background(args.background)
     light, env = light_from_background(photo, args.fov)
     _write_light(out, light.astype(np.float64), args.background)
