@@ -100,8 +100,12 @@ def main(argv=None) -> int:
     p.add_argument("--pairs-per-target", type=int, default=2, help="maps A drawn per (person, B)")
     p.add_argument("--gain", type=float, default=None, help="override background.HIGHLIGHT_GAIN")
     p.add_argument("--behind-blur", type=float, default=None, help="override background._BEHIND_BLUR (tuning)")
-    p.add_argument("--max-exposure", type=float, default=None,
-                   help="leave out maps B whose view needs an exposure k above this (near-black views)")
+    p.add_argument(
+        "--max-exposure",
+        type=float,
+        default=None,
+        help="leave out maps B whose view needs an exposure k above this (near-black views)",
+    )
     p.add_argument("--no-stage1", action="store_true", help="skip the bundled-model rows")
     p.add_argument("--seed", type=int, default=0)
     args = p.parse_args(argv)
