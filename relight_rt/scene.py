@@ -219,7 +219,7 @@ def composite(
     ry0, ry1, rx0, rx1 = max(ry0, 0), min(ry1, hb), max(rx0, 0), min(rx1, wb)
     out = bg.astype(np.float32) * np.float32(1 / 255) if bg.dtype == np.uint8 else bg.astype(np.float32, copy=True)
     if ry1 <= ry0 or rx1 <= rx0:
-        return out  # placed entirely outside (cannot happen with position in [0, 1]; kept for safety)
+        return out  # nothing of the person lands inside (feet on the top edge: y = 0)
     region_bg = bg[ry0:ry1, rx0:rx1]
     lin = _LUT[region_bg] if region_bg.dtype == np.uint8 else srgb_to_linear(region_bg)
     if shadow:

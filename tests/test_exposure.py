@@ -96,3 +96,18 @@ def test_cli_relight_exposure(tmp_path, models_dir, monkeypatch, capsys):
     assert outs["physical"] < 0.7 * src and outs["+1"] > 1.6 * src
     assert cli.main(["relight", "p.png", "--light", "half.npy", "--exposure", "bright", "-o", "x.png"]) == 2
     assert "relight-rt: error: exposure" in capsys.readouterr().err
+
+
+def test_video_engine_takes_the_same_exposure(diffuse):
+    from relight_rt import video
+
+    img, mask = person(seed=6)
+    img = 0.5 * img
+    engine = video.RelighterEngine(diffuse, exposure="physical")
+    layers = engine.decompose([img], [mask])[0]
+    dim = engine.render(layers, layers.albedo, layers.transport, None, 0.3 * OWN_LIGHT, "original")
+    auto = video.RelighterEngine(diffuse).render(layers, layers.albedo, layers.transport, None, 0.3 * OWN_LIGHT,
+                                                 "original")  # fmt: skip
+    assert lum_inside(dim, mask) == pytest.approx(0.3 * lum_inside(auto, mask), rel=0.03)
+    with pytest.raises(RelightError, match="exposure"):
+        video.RelighterEngine(diffuse, exposure="bright")
