@@ -110,6 +110,15 @@ def add_background_option(p: argparse.ArgumentParser, default: str = "original")
                         f"default {default}")
 
 
+def add_exposure_option(p: argparse.ArgumentParser, reference: str = "the input person's") -> None:
+    """--exposure auto | EV | physical (relight_rt.exposure), one meaning in every command."""
+    p.add_argument(
+        "--exposure", default="auto", metavar="E",
+        help=f"auto (default: scale the light so the person keeps {reference} mean luminance), an EV offset "
+        "from auto (+1 twice as bright, -0.5) or physical (the light's own intensity)",
+    )  # fmt: skip
+
+
 def background(args: argparse.Namespace) -> Background:
     return parse_background(args.background)
 

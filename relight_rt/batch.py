@@ -119,6 +119,7 @@ def relight_file(
     single: bool = False,
     background="original",
     protect: Iterable[str | os.PathLike] = (),
+    exposure="auto",
 ) -> Path:
     """Relight one photo and write it atomically: the one-file work of ``relight-rt relight``.
 
@@ -129,10 +130,11 @@ def relight_file(
         mask_arg, single: ``--mask`` and whether one file was named (see :func:`mask_for`).
         background: a relight_rt.compositing.Background or its shorthand ("original", "transparent", ...).
         protect: inputs the output must never replace.
+        exposure: "auto", an EV offset or "physical" (relight_rt.exposure).
 
     Raises:
         RelightError, OSError: a bad photo or mask, an output that would replace an input, a failed write.
     """
     mask = mask_for(src, mask_arg, single)
-    image = relighter.relight(src, light, mask=mask, background=background)
+    image = relighter.relight(src, light, mask=mask, background=background, exposure=exposure)
     return write_image(target, image, protect=protect)

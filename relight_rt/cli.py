@@ -25,6 +25,7 @@ from ._errors import RelightError
 from ._io import sibling_mask, write_image, write_npy, write_npz
 from ._options import (
     add_background_option,
+    add_exposure_option,
     add_light_options,
     add_mask_option,
     add_runtime_options,
@@ -34,6 +35,7 @@ from ._options import (
     relighter,
 )
 from .distributed import add_ray_options
+from .exposure import parse_exposure
 from .lightspec import LightSpec
 from .masks import find_mask_file
 
@@ -59,6 +61,7 @@ def add_relight(subparsers) -> None:
     add_mask_option(p)
     add_light_options(p)
     add_background_option(p)
+    add_exposure_option(p)
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="output file (one input) or folder")
     add_runtime_options(p)
     add_ray_options(p)  # --ray [ADDRESS|local] and its options (Ray itself is imported only with --ray)
@@ -87,6 +90,7 @@ def cmd_relight(args: argparse.Namespace) -> int:
     bg = background(args)
     rl = relighter(args)
     light = rl.resolve_light(spec)
+    exposure = parse_exposure(args.exposure)
     protect = set(files)
     protect.update(paths_of(args.mask if args.mask != "auto" else None, *spec.paths, bg.path))
     protect.update(m for m in (sibling_mask(f) for f in files) if m)
@@ -97,7 +101,7 @@ def cmd_relight(args: argparse.Namespace) -> int:
     for path, target in _progress(plan.pairs, show_bar):
         try:
             batch.relight_file(rl, path, target, light, mask_arg=args.mask, single=single, background=bg,
-                               protect=protect)
+                               protect=protect, exposure=exposure)
             written += 1
             if not show_bar:
                 log.info("%s -> %s", path, target)
@@ -152,7 +156,8 @@ def cmd_decompose(args: argparse.Namespace) -> int:
 
 def add_lights(subparsers) -> None:
     p = subparsers.add_parser("lights", help="list, show and make SH lights")
-    sub = p.add_subparsers(dest="lights_command", required=True, metavar="{list,show,from-envmap,from-photo}")
+    metavar = "{list,show,from-envmap,from-photo,from-background}"
+    sub = p.add_subparsers(dest="lights_command", required=True, metavar=metavar)
     ls = sub.add_parser("list", help="the named lights, one per line, name first")
     ls.set_defaults(func=cmd_lights_list)
     show = sub.add_parser("show", help="render a light on a diffuse sphere")
@@ -171,7 +176,10 @@ def add_lights(subparsers) -> None:
     add_mask_option(photo, several=False)
     photo.add_argument("-o", "--output", required=True, metavar="LIGHT", help=".npy or .json")
     photo.set_defaults(func=cmd_lights_from_photo)
-    for q in (ls, show, env, photo):  # every command takes them; only from-photo runs a model
+    extra = []  # lights from-background, when relight_rt.scene_cli is present
+    if importlib.util.find_spec("relight_rt.scene_cli") is not None:
+        extra.append(importlib.import_module("relight_rt.scene_cli").add_from_background(sub))
+    for q in (ls, show, env, photo, *extra):  # every command takes them; only from-photo runs a model
         add_runtime_options(q)
 
 
@@ -255,7 +263,7 @@ def cmd_doctor(args: argparse.Namespace) -> int:
 
 COMMANDS = [add_relight, add_decompose, add_lights, add_doctor]
 # modules with add_parser(subparsers), added when present
-PLUGINS = ["relight_rt.video_cli", "relight_rt.demo", "relight_rt.bench"]
+PLUGINS = ["relight_rt.video_cli", "relight_rt.demo", "relight_rt.bench", "relight_rt.scene_cli"]
 
 
 def build_parser() -> argparse.ArgumentParser:

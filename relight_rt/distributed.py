@@ -272,7 +272,7 @@ class RelightActor:
     rows and returns their manifest rows. Every error is a failed row, never an exception."""
 
     def __init__(self, config: RuntimeConfig, cpus: float, light: np.ndarray, mask_arg, single: bool,
-                 background, job: str) -> None:  # fmt: skip
+                 background, job: str, exposure="auto") -> None:  # fmt: skip
         import ray
 
         from .relighter import Relighter
@@ -285,6 +285,7 @@ class RelightActor:
         self.relighter = Relighter.from_config(config.replace(device=device))
         self.light = np.asarray(light, np.float32)
         self.mask_arg, self.single, self.background, self.job = mask_arg, single, background, job
+        self.exposure = exposure
         self.worker = f"{socket.gethostname()}:{os.getpid()}:{device}"
 
     def __call__(self, rows: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -302,6 +303,7 @@ class RelightActor:
                     mask_arg=self.mask_arg,
                     single=self.single,
                     background=self.background,
+                    exposure=self.exposure,
                     protect=json.loads(protect),
                 )
                 status, error = "ok", ""
@@ -343,6 +345,7 @@ def relight_folder(
     manifest: str | os.PathLike | None = None,
     protect: Iterable[str | os.PathLike] = (),
     config: RuntimeConfig | None = None,
+    exposure="auto",
 ) -> Report:
     """Relight photos (files and folders) on Ray: the work of ``relight-rt relight``, spread over actors.
 
@@ -363,6 +366,7 @@ def relight_folder(
         batch_size: photos per actor call.
         manifest: JSON-lines manifest, appended (default: ``relight_manifest.jsonl`` in the output folder).
         protect: more paths no output may replace (light files, ...).
+        exposure: "auto", an EV offset or "physical" (relight_rt.exposure), for every photo.
         config: the rest of the runtime's settings (precision, preprocessing, detail) for every actor;
             ``models`` and ``device`` above win over its own.
 
@@ -394,7 +398,7 @@ def relight_folder(
     config = (config or RuntimeConfig()).replace(models=str(models_dir.resolve()), device=device)
     job = job_key(light=light, models=str(models_dir.resolve()), mask=mask_arg, background=bg_key,
                   single=plan.single, precision=config.precision, preprocess=config.preprocess,
-                  detail=config.detail)  # fmt: skip
+                  detail=config.detail, exposure=repr(exposure))  # fmt: skip
     if not plan.to_file and plan.pairs:
         out.mkdir(parents=True, exist_ok=True)
     manifest_path = Path(manifest) if manifest else (out.parent / f"{out.name}.manifest.jsonl" if plan.to_file
@@ -419,7 +423,8 @@ def relight_folder(
                 # the actors find the models themselves: --models or $RELIGHT_RT_MODELS as given, else the
                 # bundled models of their own install (the driver's path may not exist on another node)
                 actor_kwargs = {"config": config, "cpus": cpus, "light": light, "mask_arg": mask_arg,
-                                "single": plan.single, "background": background, "job": job}  # fmt: skip
+                                "single": plan.single, "background": background, "job": job,
+                                "exposure": exposure}  # fmt: skip
                 if actors is None:
                     actors = int(total.get("GPU", 0) // gpus) if gpus > 0 else int(total.get("CPU", 1) // cpus)
                     actors = max(1, min(actors, len(todo)))
@@ -489,6 +494,7 @@ def cmd_relight_ray(args: argparse.Namespace) -> int:
     """``relight-rt relight ... --ray``: as the single-process command, with a manifest."""
     _quiet_ray_data()
     from ._options import background, light_spec, runtime_config
+    from .exposure import parse_exposure
 
     spec = light_spec(args)
     config = runtime_config(args)
@@ -502,7 +508,7 @@ def cmd_relight_ray(args: argparse.Namespace) -> int:
         args.inputs, args.output, light, ray_address=args.ray, models=args.models, mask=args.mask,
         background=background(args), device=args.device, actors=args.ray_actors, gpus_per_actor=args.ray_gpus,
         cpus_per_actor=args.ray_cpus, batch_size=args.ray_batch_size, manifest=args.manifest,
-        protect=list(spec.paths), config=config,
+        protect=list(spec.paths), config=config, exposure=parse_exposure(args.exposure),
     )  # fmt: skip
     return _finish(report, many=report.inputs > 1)
 

@@ -33,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import exposure as _exposure
 from . import sh
 from ._chain import DeviceChain
 from ._detail import extend_outward, guided_upsample, unpremultiply, window
@@ -555,6 +556,7 @@ class Relighter:
         *,
         mask: ImageLike | None = None,
         background: Background | str | os.PathLike | np.ndarray = "original",
+        exposure="auto",
     ) -> np.ndarray:
         """Relight a photo (or a Decomposition) under a new light.
 
@@ -566,13 +568,15 @@ class Relighter:
             background: a :class:`relight_rt.compositing.Background`, or its shorthand: "original" (the
                 photo), "transparent" (RGBA output, alpha = mask), a colour ("black", "#RRGGBB") or an image
                 (path or array; fitted to the photo by "cover").
+            exposure: "auto" (default: the light is scaled so the person keeps its mean luminance), an EV
+                offset from auto (+1 twice as bright), or "physical" (the light as given); relight_rt.exposure.
 
         Returns:
             (H, W, 3) float32 RGB in [0, 1] at the input's size ((H, W, 4) RGBA for "transparent"); pixels
             where the mask is 0 are the background's, untouched. ``relight_layers`` also returns the layers.
         """
         dec = self._prepare(image, mask)
-        lit = self.resolve_light(light)
+        lit = _exposure.expose(dec, self.resolve_light(light), exposure)
         bg = parse_background(background)
         _, _, relit = next(self._network_relit(dec, lit[None], 1, want_layers=False))
         return self._compose(dec, relit, bg.backdrop(dec.image))
@@ -584,10 +588,11 @@ class Relighter:
         *,
         mask: ImageLike | None = None,
         background: Background | str | os.PathLike | np.ndarray = "original",
+        exposure="auto",
     ) -> RelightResult:
         """``relight`` plus the input-frame layers that made the picture (see :class:`RelightResult`)."""
         dec = self._prepare(image, mask)
-        lit = self.resolve_light(light)
+        lit = _exposure.expose(dec, self.resolve_light(light), exposure)
         bg = parse_background(background)
         diffuse, residual, relit = next(self._network_relit(dec, lit[None], 1, want_layers=True))
         out = self._compose(dec, relit, bg.backdrop(dec.image))
@@ -610,12 +615,13 @@ class Relighter:
         mask: ImageLike | None = None,
         background: Background | str | os.PathLike | np.ndarray = "original",
         batch_size: int = 4,
+        exposure="auto",
     ) -> Iterator[np.ndarray]:
         """Like ``relight_many`` but yields one (H, W, 3|4) result at a time (for long sweeps and video)."""
         if not isinstance(batch_size, int) or batch_size < 1:
             raise RelightError(f"batch_size: expected a whole number >= 1, got {batch_size!r}")
         dec = self._prepare(image, mask)
-        lits = self._resolve_lights(lights)
+        lits = _exposure.expose(dec, self._resolve_lights(lights), exposure)
         backdrop = parse_background(background).backdrop(dec.image)
         for _, _, relit in self._network_relit(dec, lits, batch_size, want_layers=False):
             yield self._compose(dec, relit, backdrop)
@@ -628,6 +634,7 @@ class Relighter:
         mask: ImageLike | None = None,
         background: Background | str | os.PathLike | np.ndarray = "original",
         batch_size: int = 4,
+        exposure="auto",
     ) -> np.ndarray:
         """One stage-1 pass, then K relights through stage 2 in batches of ``batch_size``.
 
@@ -636,6 +643,7 @@ class Relighter:
             lights: (K, 9, 3) array or a list of anything ``resolve_light`` accepts.
             mask, background: as for ``relight``.
             batch_size: lights per stage-2 run.
+            exposure: as for ``relight``, for each light on its own.
 
         Returns:
             (K, H, W, 3) float32 RGB ((K, H, W, 4) for "transparent"); K full-size images are held in memory,
@@ -645,6 +653,30 @@ class Relighter:
         lits = self._resolve_lights(lights)
         bg = parse_background(background)
         out = np.empty((lits.shape[0],) + dec.geometry.frame + (bg.channels,), np.float32)
-        for i, img in enumerate(self.iter_relight(dec, lits, background=bg, batch_size=batch_size)):
+        results = self.iter_relight(dec, lits, background=bg, batch_size=batch_size, exposure=exposure)
+        for i, img in enumerate(results):
             out[i] = img
         return out
+
+    def composite(
+        self,
+        image: ImageLike,
+        background,
+        *,
+        mask: ImageLike | None = None,
+        light=None,
+        position=None,
+        height: float | None = None,
+        shadow: bool = False,
+        exposure="auto",
+        fov: float = 60.0,
+        white_balance: bool = True,
+    ) -> np.ndarray:
+        """Relight the person of ``image`` for the scene of ``background`` and put it there.
+
+        See ``relight_rt.scene.composite`` for the arguments. Returns (H_bg, W_bg, 3) float32 sRGB.
+        """
+        from .scene import composite
+
+        return composite(self, image, background, mask=mask, light=light, position=position, height=height,
+                         shadow=shadow, exposure=exposure, fov=fov, white_balance=white_balance)

@@ -184,10 +184,15 @@ class RelighterEngine:
 
     Args:
         relighter: a loaded Relighter (stage 1, optional stage 2).
+        exposure: "auto" (each frame keeps its person's mean luminance), an EV offset or "physical"
+            (relight_rt.exposure).
     """
 
-    def __init__(self, relighter):
+    def __init__(self, relighter, exposure="auto"):
+        from .exposure import parse_exposure
+
         self.relighter = relighter
+        self.exposure = parse_exposure(exposure)
 
     def decompose(self, images: Sequence[np.ndarray], masks: Sequence[np.ndarray]) -> list[FrameLayers]:
         decs = self.relighter.decompose_batch(images, masks, allow_full=True)
@@ -203,7 +208,7 @@ class RelighterEngine:
                              transport_chw=transport.transpose(2, 0, 1),
                              light=dec.light if own_light is None else own_light, network_mask=dec.network_mask,
                              network_image=dec.network_image, mask=dec.mask, image=dec.image, geometry=dec.geometry)
-        return self.relighter.relight(stab, light, background=background)
+        return self.relighter.relight(stab, light, background=background, exposure=self.exposure)
 
     def to_input(self, layers: FrameLayers, layer: np.ndarray) -> np.ndarray:
         return layers.state.to_input(layer)

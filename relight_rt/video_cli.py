@@ -29,7 +29,7 @@ logger = logging.getLogger(__name__)
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
     """Add the ``video`` command to the ``relight-rt`` subparsers; returns its parser."""
-    from ._options import add_background_option, add_light_options, add_runtime_options
+    from ._options import add_background_option, add_exposure_option, add_light_options, add_runtime_options
 
     p = subparsers.add_parser("video", help="relight a video (file or frame folder) with per-frame lights",
                               description=__doc__.splitlines()[0])
@@ -52,6 +52,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="weight of the warped history where the flow is reliable, in [0, 1) (default 0.8)")
     p.add_argument("--batch-size", type=int, default=4, help="frames per stage-1 / DVP run")
     add_background_option(p)
+    add_exposure_option(p)
     p.add_argument("--fps", type=float, help="frame rate of a frame folder (default 25) or override the video's")
     add_runtime_options(p)
     p.add_argument("--lights-out", help="write the (N, 9, 3) RGB light of every frame to this .npy "
@@ -109,6 +110,7 @@ def run(args: argparse.Namespace) -> int:
     if not args.output and not args.frames_out:
         raise RelightError("output: expected -o VIDEO and/or --frames-out DIR")
     from ._options import background, relighter
+    from .exposure import parse_exposure
 
     source = video.FrameSource(args.input, args.masks, args.fps)
     bg = background(args)
@@ -119,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
         dvp = video.DVPModel(args.dvp, device=args.device, size=args.dvp_size)
     else:
         rl = relighter(args)
-        engine = video.RelighterEngine(rl)
+        engine = video.RelighterEngine(rl, exposure=parse_exposure(args.exposure))
     schedule = _schedule(args, len(source), rl)
     inputs = [*source.paths, *([args.lights] if args.lights else []), *([bg.path] if bg.path else [])]
     for written_last in (args.lights_out, args.metrics):  # files written after the work: refuse before it

@@ -46,7 +46,8 @@ def test_bundled_models_relight_better_than_trivial(relighter, test_data_dir):
     def rmse(image):
         return float(np.sqrt(np.mean((image[inside] - target[..., :3][inside]) ** 2)))
 
-    relit = relighter.relight(src, l1, background=np.zeros(src.shape[:2] + (3,), np.float32))
+    black = np.zeros(src.shape[:2] + (3,), np.float32)
+    relit = relighter.relight(src, l1, background=black, exposure="physical")  # the true light's own intensity
     assert relit.shape == src.shape[:2] + (3,)
     # Baselines: the photo left as it is, and a flat person (mean colour) whose brightness follows
     # the true old -> new irradiance ratio of a camera-facing normal (it even knows the true old light).

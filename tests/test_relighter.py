@@ -85,16 +85,16 @@ def test_detail_transfer_follows_another_light(relighter, plain, k):
     m = inside(mask)
     d = np.clip(k * img, 0, 1)
     expect = np.clip(d + 0.1 * (d - 0.5), 0, 1)
-    out = relighter.relight(dec, k * dec.light)
+    out = relighter.relight(dec, k * dec.light, exposure="physical")  # tests the absolute intensity
     err = np.abs(out - expect)[m].mean()
-    err_plain = np.abs(plain.relight(dec, k * dec.light) - expect)[m].mean()
+    err_plain = np.abs(plain.relight(dec, k * dec.light, exposure="physical") - expect)[m].mean()
     assert err < 0.02 and err_plain > 5 * err, (err, err_plain)
     np.testing.assert_array_equal(out[~m], img[~m])  # background untouched outside the mask
 
 
 def test_background_untouched_outside_the_mask(relighter):
     img, mask = person(seed=2)
-    out = relighter.relight(img, 0.3 * OWN_LIGHT, mask=mask)
+    out = relighter.relight(img, 0.3 * OWN_LIGHT, mask=mask, exposure="physical")
     np.testing.assert_array_equal(out[mask == 0], img[mask == 0])
     assert np.abs(out[inside(mask)] - img[inside(mask)]).mean() > 0.1
 
@@ -122,7 +122,7 @@ def test_transparent_and_image_backgrounds(relighter):
 
 def test_layers(relighter):
     img, mask = person(seed=4)
-    res = relighter.relight_layers(img, 2 * OWN_LIGHT, mask=mask)
+    res = relighter.relight_layers(img, 2 * OWN_LIGHT, mask=mask, exposure="physical")
     assert isinstance(res, RelightResult) and not res.diffuse_only
     for name in ("albedo", "shading", "diffuse", "residual", "relit"):
         assert res.layers[name].shape == (150, 100, 3) and res.layers[name].dtype == np.float32
@@ -138,7 +138,7 @@ def test_diffuse_only_without_stage2(diffuse_models_dir, caplog):
         r = Relighter(diffuse_models_dir, device="cpu")
     assert r.diffuse_only and "diffuse-only" in caplog.text
     img, mask = person(seed=7)
-    res = r.relight_layers(img, 0.5 * OWN_LIGHT, mask=mask)
+    res = r.relight_layers(img, 0.5 * OWN_LIGHT, mask=mask, exposure="physical")
     assert res.diffuse_only and not res.layers["residual"].any()
     m = inside(mask)
     np.testing.assert_allclose(res.image[m], 0.5 * img[m], atol=0.03)  # ratio (0.5 c + eps) / (c + eps)
@@ -150,9 +150,10 @@ def test_relight_many_matches_relight_in_any_batch_size(relighter):
     img, mask = person(seed=8)
     dec = relighter.decompose(img, mask)
     lights = np.stack([OWN_LIGHT * k for k in (0.5, 0.9, 1.3, 1.7, 0.2)])
-    one = np.stack([relighter.relight(dec, lit) for lit in lights])
+    one = np.stack([relighter.relight(dec, lit, exposure="physical") for lit in lights])
     for bs in (1, 2, 5, 8):
-        np.testing.assert_allclose(relighter.relight_many(dec, lights, batch_size=bs), one, atol=1e-6)
+        many = relighter.relight_many(dec, lights, batch_size=bs, exposure="physical")
+        np.testing.assert_allclose(many, one, atol=1e-6)
     rgba = relighter.relight_many(img, list(lights[:2]), mask=mask, background="transparent")
     assert rgba.shape == (2, 150, 100, 4)
     assert sum(1 for _ in relighter.iter_relight(dec, lights[:3])) == 3
@@ -256,7 +257,7 @@ def test_missing_models_and_mismatched_stage2(tmp_path, monkeypatch):
 def test_reference_photo_end_to_end(relighter, reference_dir):
     """The reference's real photo (1950 x 1302, person ~8%): output has its size, background untouched."""
     photo, mask_path = reference_dir / "photo" / "sample.jpg", reference_dir / "photo" / "sample_mask.png"
-    out = relighter.relight(photo, 1.2 * OWN_LIGHT, mask=mask_path)
+    out = relighter.relight(photo, 1.2 * OWN_LIGHT, mask=mask_path, exposure="physical")
     img = cv2.cvtColor(cv2.imread(str(photo)), cv2.COLOR_BGR2RGB).astype(np.float32) / 255
     mask = cv2.imread(str(mask_path), cv2.IMREAD_GRAYSCALE)  # the reference reads its masks this way
     assert out.shape == img.shape

@@ -1,0 +1,136 @@
+"""``relight-rt composite`` (put a person into a scene, lit like it) and ``lights from-background``.
+
+``relight-rt composite PERSON [--mask M] --background BG -o OUT [--preset P | --light L | --envmap E]
+[--position X,Y] [--height H] [--shadow] [--exposure auto|EV|physical] [--fov 60]``
+
+``relight-rt lights from-background BG -o light.npy [--fov 60] [--preview sheet.png]`` (registered by
+``relight_rt.cli.add_lights`` through ``add_from_background``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+from pathlib import Path
+
+import numpy as np
+
+from . import sh
+from ._errors import RelightError
+from ._io import IMAGE_SUFFIXES, check_target, write_image
+from .exposure import parse_exposure
+
+log = logging.getLogger("relight_rt.cli")
+
+
+def _fov(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected degrees, got {text!r}") from None
+
+
+def add_parser(subparsers) -> None:
+    from ._options import add_exposure_option, add_light_options, add_mask_option, add_runtime_options
+
+    p = subparsers.add_parser(
+        "composite",
+        help="put a person into a background photo, relit by the background's light",
+        description="Relight the person of PERSON for the scene of --background and composite it there. Without "
+        "a light option the light is estimated from the background (relight_rt.background). The person "
+        "is matched to the background's exposure and white balance, placed (default: the same relative height and "
+        "position as in its own photo) and laid over it with its soft matte. The output has the background's size.",
+    )
+    p.add_argument("person", metavar="PERSON", help="photo of the person")
+    add_mask_option(p, several=False)
+    p.add_argument("--background", required=True, metavar="BG", help="the scene photo (RGB, >= 64 px a side)")
+    p.add_argument("-o", "--output", required=True, metavar="OUT", help="output image (.png, .jpg, ...)")
+    add_light_options(p, required=False)
+    p.add_argument("--position", metavar="X,Y", help="the person's bottom centre, fractions of the background")
+    p.add_argument("--height", type=float, metavar="H", help="the person's height, fraction of the background's")
+    p.add_argument("--shadow", action="store_true", help="add a soft contact shadow under the feet")
+    add_exposure_option(p, "the brightness the background's light gives it, as")
+    p.add_argument("--fov", type=_fov, default=60.0, metavar="DEG", help="background's horizontal field of view")
+    add_runtime_options(p)
+    p.set_defaults(func=cmd_composite)
+
+
+def cmd_composite(args: argparse.Namespace) -> int:
+    from ._options import light_spec, relighter
+    from .background import _check_fov
+    from .masks import find_mask_file
+    from .scene import composite, parse_position
+
+    out = Path(args.output)
+    if out.suffix.lower() not in IMAGE_SUFFIXES:
+        raise RelightError(f"output {out}: expected an image file ({', '.join(IMAGE_SUFFIXES)})")
+    person = Path(args.person)
+    if not person.is_file():
+        raise RelightError(f"person {person}: file not found")
+    if not Path(args.background).is_file():
+        raise RelightError(f"--background {args.background}: file not found")
+    mask = find_mask_file(person, args.mask)
+    exposure = parse_exposure(args.exposure)  # checked before the models load
+    position = parse_position(args.position) if args.position is not None else None
+    _check_fov(args.fov)
+    spec = light_spec(args)
+    protect = [p for p in (person, mask if mask != "auto" else None, args.background, *(spec.paths if spec else ()))
+               if p]  # fmt: skip
+    check_target(out, protect)  # before any work
+    rl = relighter(args)
+    light = None if spec is None else rl.resolve_light(spec)
+    image = composite(rl, person, args.background, mask=mask, light=light, position=position,
+                      height=args.height, shadow=args.shadow, exposure=exposure, fov=args.fov)  # fmt: skip
+    write_image(out, image, protect=protect)
+    log.info("%s + %s -> %s", person, args.background, out)
+    return 0
+
+
+# ------------------------------------------------------------------------------------ lights from-background
+
+
+def add_from_background(sub) -> argparse.ArgumentParser:
+    """Add ``from-background`` to the ``lights`` subcommands (called by relight_rt.cli.add_lights)."""
+    p = sub.add_parser("from-background", help="estimate a scene's SH light from one ordinary photo of it")
+    p.add_argument("background", metavar="BG", help="the scene photo (RGB, >= 64 px a side)")
+    p.add_argument("-o", "--output", required=True, metavar="LIGHT", help=".npy or .json")
+    p.add_argument("--fov", type=_fov, default=60.0, metavar="DEG", help="horizontal field of view (default 60)")
+    p.add_argument("--preview", metavar="PNG", help="also write a sheet: background | filled env map | sphere")
+    p.set_defaults(func=cmd_from_background)
+    return p
+
+
+def preview_sheet(background: np.ndarray, env: np.ndarray, light: np.ndarray, height: int = 256) -> np.ndarray:
+    """(height, W, 3) sRGB sheet: the background, its filled env map, a white sphere under the light."""
+    import cv2
+
+    from .color import linear_to_srgb
+
+    bg = background.astype(np.float32) / 255 if background.dtype == np.uint8 else background.astype(np.float32)
+    panels = [cv2.resize(bg, (max(1, round(bg.shape[1] * height / bg.shape[0])), height), interpolation=cv2.INTER_AREA)]
+    # the env map and the sphere share one exposure: the env map's 99th percentile at display white
+    level = float(np.percentile(env, 99)) or 1.0
+    env_big = cv2.resize(env, (2 * height, height), interpolation=cv2.INTER_LINEAR)
+    panels.append(linear_to_srgb(np.clip(env_big / level, 0, 1)))
+    sphere = sh.render_sphere(light, size=height) / np.float32(level)  # the light's scale: uniform v shades v
+    panels.append(linear_to_srgb(np.clip(sphere, 0, 1)))
+    gap = np.full((height, 4, 3), 1.0, np.float32)
+    return np.concatenate([panels[0], gap, panels[1], gap, panels[2]], axis=1)
+
+
+def cmd_from_background(args: argparse.Namespace) -> int:
+    from .background import light_from_background, read_background
+    from .cli import _light_output, _write_light
+
+    out = _light_output(args.output, args.background)
+    if args.preview and Path(args.preview).suffix.lower() not in IMAGE_SUFFIXES:
+        raise RelightError(f"--preview {args.preview}: expected an image file ({', '.join(IMAGE_SUFFIXES)})")
+    if args.preview:
+        check_target(Path(args.preview), [args.background, out])
+    photo = read_background(args.background)
+    light, env = light_from_background(photo, args.fov)
+    _write_light(out, light.astype(np.float64), args.background)
+    if args.preview:
+        write_image(args.preview, preview_sheet(photo, env, light), protect=[args.background, out])
+        log.info("preview -> %s", args.preview)
+    return 0

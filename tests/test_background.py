@@ -1,0 +1,96 @@
+"""relight_rt.background: light from one background photo (direction, band 0, bad inputs) and the view helper."""
+
+import math
+
+import cv2
+import numpy as np
+import pytest
+
+from relight_rt import RelightError, sh
+from relight_rt.background import envmap_view, light_from_background
+
+
+def test_bright_right_side_gives_light_from_plus_y():
+    img = np.full((100, 150, 3), 40, np.uint8)
+    img[:, 100:] = 230  # the photo's right third is bright
+    light, env = light_from_background(img)
+    assert light.shape == (9, 3) and light.dtype == np.float32
+    assert env.shape == (64, 128, 3) and env.dtype == np.float32 and env.min() >= 0
+    assert np.all(light[1] > 0.5 * light[0])  # strong +y (image right) component
+    assert np.all(np.abs(light[3]) < 0.05 * light[0])  # mirrored behind the camera: no front/back bias
+    flipped, _ = light_from_background(img[:, ::-1].copy())
+    np.testing.assert_allclose(flipped[1], -light[1], rtol=1e-4, atol=1e-6)  # unmirrored: flip → −y
+
+
+def test_bright_top_gives_light_from_above():
+    img = np.full((120, 160, 3), 30, np.uint8)
+    img[:40] = 220
+    light, _ = light_from_background(img)
+    assert np.all(light[2] > 0.3 * light[0])
+
+
+def test_uniform_grey_is_mostly_band_0_at_the_photos_level():
+    grey = np.full((80, 120, 3), 128, np.uint8)
+    light, env = light_from_background(grey)
+    v = ((128 / 255 + 0.055) / 1.055) ** 2.4  # sRGB → linear
+    np.testing.assert_allclose(env, v, rtol=1e-5)
+    assert np.abs(light[1:]).max() < 1e-3 * light[0].min()
+    # scale: a white surface facing any way gets shading v (the photo's own linear units)
+    np.testing.assert_allclose(sh.irradiance(light, np.array([[1.0, 0, 0], [0, 0, 1.0]])), v, rtol=1e-3)
+
+
+def test_clipped_highlights_are_boosted():
+    img = np.full((100, 100, 3), 100, np.uint8)
+    img[10:30, 40:60] = 255
+    boosted, _ = light_from_background(img)
+    img[10:30, 40:60] = 249  # just below the clip level: counted as is
+    plain, _ = light_from_background(img)
+    assert np.all(boosted[0] > 1.1 * plain[0]) and np.all(boosted[2] > 2 * plain[2])  # brighter, and from above
+
+
+def test_float_and_file_inputs_agree(tmp_path):
+    rng = np.random.default_rng(0)
+    img = rng.integers(0, 256, (90, 120, 3), dtype=np.uint8)
+    cv2.imwrite(str(tmp_path / "bg.png"), img[..., ::-1])
+    a, _ = light_from_background(img)
+    b, _ = light_from_background(tmp_path / "bg.png")
+    c, _ = light_from_background(img.astype(np.float32) / 255)
+    np.testing.assert_allclose(a, b)
+    np.testing.assert_allclose(a, c, rtol=1e-4, atol=1e-6)
+
+
+@pytest.mark.parametrize(
+    "image, fov, match",
+    [
+        (np.zeros((63, 200, 3), np.uint8), 60, "at least 64"),
+        (np.zeros((100, 100), np.uint8), 60, "grayscale"),
+        (np.zeros((100, 100, 1), np.uint8), 60, "grayscale"),
+        (np.zeros((100, 100, 4), np.uint8), 60, "RGBA"),
+        (np.zeros((100, 100, 3), np.uint8), 10, "field of view"),
+        (np.zeros((100, 100, 3), np.uint8), 170, "field of view"),
+        (np.zeros((100, 100, 3), np.uint8), "wide", "field of view"),
+        (np.full((100, 100, 3), 2.0, np.float32), 60, r"\[0, 1\]"),
+        ("missing.png", 60, "cannot read|cannot decode"),
+    ],
+)
+def test_bad_inputs(image, fov, match):
+    with pytest.raises(RelightError, match=match):
+        light_from_background(image, fov)
+
+
+def test_view_of_a_map_and_back():
+    """A view of a map with one bright patch straight ahead-right: envmap_view puts it right of centre and the
+    light estimated from the view comes from there (+y, −x side mirrored, so only y and z signs are checked)."""
+    h = 64
+    d = sh.directions_envmap(h)
+    target = np.array([-math.cos(0.3), math.sin(0.3), 0.1])
+    patch = (d @ (target / np.linalg.norm(target)) > 0.97)[..., None]
+    env = np.repeat(np.where(patch, 5.0, 0.2), 3, axis=2).astype(np.float32)
+    view = envmap_view(env, (96, 128), 60.0)
+    cols = np.flatnonzero(view.max(axis=(0, 2)) > 1)
+    assert cols.min() > 64  # right half of the view
+    photo = (np.clip(view / 5.0, 0, 1) ** (1 / 2.2) * 255).astype(np.uint8)
+    light, _ = light_from_background(photo)
+    assert np.all(light[1] > 0) and np.all(light[2] > 0)
+    with pytest.raises(RelightError, match="equirectangular"):
+        envmap_view(np.zeros((4, 4, 3)), (8, 8))
