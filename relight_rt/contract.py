@@ -58,6 +58,18 @@ KINDS: dict[str, KindSpec] = {
         outputs=(TensorSpec("relit", 4),),
         fixed_size=False,
     ),
+    # --- person matting (issue 20, relight_rt.matting); converted from MediaPipe by export/mask_models.py
+    "matte_pose": KindSpec(  # square person region -> person logits + pose-presence probability
+        inputs=(TensorSpec("image", 4),),
+        outputs=(TensorSpec("segmentation", 4), TensorSpec("presence", 2)),
+        fixed_size=True,
+    ),
+    "matte_roi": KindSpec(  # whole letterboxed image -> person probability (finds the region)
+        inputs=(TensorSpec("image", 4),),
+        outputs=(TensorSpec("segmentation", 4),),
+        fixed_size=True,
+    ),
+    # --- end person matting
 }
 
 

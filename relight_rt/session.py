@@ -47,7 +47,7 @@ ENV_THREADS = "RELIGHT_RT_THREADS"
 ENV_TENSORRT = "RELIGHT_RT_TENSORRT"
 TENSORRT = "TensorrtExecutionProvider"
 _CHANNELS = {"image": 3, "mask": 1, "albedo": 3, "skin": 1, "transport": 9, "diffuse": 3, "residual": 3,
-             "relit": 3, "frame": 3}  # fmt: skip
+             "relit": 3, "frame": 3, "segmentation": 1}  # fmt: skip
 _CUDA_HELP = (
     "likely causes: both 'onnxruntime' and 'onnxruntime-gpu' are installed (uninstall both, then install "
     "onnxruntime-gpu only), or the CUDA / cuDNN libraries that this onnxruntime-gpu build needs are missing "
