@@ -50,6 +50,7 @@ PERSON_MODES = ("largest", "all")
 MIN_SIDE = 16  # smaller images cannot show a person to these models
 _ROI_SCALE = 1.25  # square region side = this x the person's longest box side (MediaPipe's choice)
 _COARSE_MIN_AREA = 24  # canvas pixels: smaller blobs of the region finder are noise or far-away people
+_TILE_LEVELS = (1, 2, 3, 4)  # whole image, then n x n overlapping tiles while nobody is found
 _PRESENCE_MIN = 0.5  # pose-presence probability below which a region holds no person
 _WORK_MAX = 512  # long side of the working grid (guided-filter fit, temporal blend)
 _GF_EPS = 2e-3  # guided-filter regulariser (gray guide in [0, 1])
@@ -222,6 +223,7 @@ class Person:
     region: Region
     logits: np.ndarray  # (256, 256) float32 person logits in the region's canvas
     presence: float
+    source: str = "pose"  # which graph's segmentation: "pose" (bodies) or "roi" (head-and-shoulders)
 
 
 class PersonMatter:
@@ -273,7 +275,7 @@ class PersonMatter:
         first; empty when nobody is found. Whole image first, then 2x2 and 3x3 overlapping tiles."""
         h, w = rgb.shape[:2]
         big = max(h, w)
-        for level in (1, 2, 3):
+        for level in _TILE_LEVELS:
             if level == 1:
                 windows = [Region(w / 2, h / 2, big)]
             else:
@@ -303,23 +305,19 @@ class PersonMatter:
         for _ in range(self.max_passes):
             out = self.pose.run({"image": crop_region(rgb, region).transpose(2, 0, 1)[None]})
             person = Person(region, out["segmentation"][0, 0], float(out["presence"].reshape(-1)[0]))
-            comps = _components(person.logits > 0, _COARSE_MIN_AREA)  # logits > 0 <=> prob > 0.5
-            if not comps:
+            box = person_box(person, rgb.shape[:2])
+            if box is None or box[2] <= box[0] or box[3] <= box[1]:
                 break
-            k, bx, by = _grid_of_region(region)
-            boxes = [b for _, b in comps]
-            x0 = min(b[0] for b in boxes)
-            y0 = min(b[1] for b in boxes)
-            x1 = max(b[2] for b in boxes)
-            y1 = max(b[3] for b in boxes)
-            h, w = rgb.shape[:2]
-            box = ((x0 - bx - 0.5) / k, (y0 - by - 0.5) / k, (x1 - bx - 0.5) / k, (y1 - by - 0.5) / k)
-            box = (max(box[0], 0.0), max(box[1], 0.0), min(box[2], float(w)), min(box[3], float(h)))
             nxt = Region.around(*box)
             if nxt.iou(region) > 0.9:
                 break
             region = nxt
-        return person
+        if person is None:
+            return None
+        prob = self._roi_prob(rgb, person.region).astype(np.float64)
+        logits = np.log(np.clip(prob, 1e-7, 1.0)) - np.log(np.clip(1.0 - prob, 1e-7, 1.0))
+        roi = Person(person.region, logits.astype(np.float32), person.presence, "roi")
+        return roi if _is_portrait(person_box(roi, rgb.shape[:2]), rgb.shape[:2]) else person
 
     def people(self, rgb: np.ndarray, name: str = "image") -> list[Person]:
         """Segmented people (one for person="largest", everyone for "all"); empty when nobody is found."""
@@ -361,8 +359,37 @@ class PersonMatter:
         return alpha
 
 
+def _is_portrait(box: tuple[float, float, float, float] | None, shape: tuple[int, int]) -> bool:
+    """Head-and-shoulders (or chest-up) framing: the person (as the selfie graph sees them in the region)
+    runs off the bottom of the image and their visible box is less than 1.8x as tall as wide. The pose
+    graph was trained on bodies and loses the shoulders of such crops (IoU 0.71-0.85 on crops of the
+    reference video); the selfie graph, made for them, keeps them (0.97-0.99). Full bodies and knee-up
+    crops stay with the pose graph (0.97-0.99 there, the selfie graph 0.92-0.97)."""
+    if box is None:
+        return False
+    x0, y0, x1, y1 = box
+    return y1 >= shape[0] - 2 and (y1 - y0) < 1.8 * (x1 - x0)
+
+
+def person_box(person: Person, shape: tuple[int, int]) -> tuple[float, float, float, float] | None:
+    """Image-space box (x0, y0, x1, y1) of the person's segmentation (logits > 0), clipped to the image;
+    None when it is empty."""
+    comps = _components(person.logits > 0, _COARSE_MIN_AREA)
+    if not comps:
+        return None
+    k, bx, by = _grid_of_region(person.region)
+    x0 = min(b[0] for _, b in comps)
+    y0 = min(b[1] for _, b in comps)
+    x1 = max(b[2] for _, b in comps)
+    y1 = max(b[3] for _, b in comps)
+    h, w = shape
+    box = ((x0 - bx - 0.5) / k, (y0 - by - 0.5) / k, (x1 - bx - 0.5) / k, (y1 - by - 0.5) / k)
+    return max(box[0], 0.0), max(box[1], 0.0), min(box[2], float(w)), min(box[3], float(h))
+
+
 def _merge_boxes(found: list[tuple[float, tuple[float, float, float, float]]]):
-    """Merge overlapping boxes (one person seen by two tiles); largest area first."""
+    """Merge boxes that overlap or nearly touch (one person seen by two tiles, or split in two by the
+    coarse finder); largest area first."""
     items = [(a, list(b)) for a, b in sorted(found, key=lambda t: -t[0])]
     merged = True
     while merged:
@@ -370,7 +397,8 @@ def _merge_boxes(found: list[tuple[float, tuple[float, float, float, float]]]):
         for i in range(len(items)):
             for j in range(i + 1, len(items)):
                 a, b = items[i][1], items[j][1]
-                if min(a[2], b[2]) > max(a[0], b[0]) and min(a[3], b[3]) > max(a[1], b[1]):
+                gap = 0.25 * min(max(a[2] - a[0], a[3] - a[1]), max(b[2] - b[0], b[3] - b[1]))
+                if min(a[2], b[2]) + gap > max(a[0], b[0]) and min(a[3], b[3]) + gap > max(a[1], b[1]):
                     box = [min(a[0], b[0]), min(a[1], b[1]), max(a[2], b[2]), max(a[3], b[3])]
                     items[i] = (max(items[i][0], items[j][0]), box)
                     del items[j]
@@ -454,3 +482,155 @@ def region_alpha(
     k_canvas = SIZE / person.region.side
     radius = max(2, int(round(1.5 * grid[2] / k_canvas)))
     return guided_refine(prob, gray_small, gray_full, radius)
+
+
+# --------------------------------------------------------------------------------------------- video
+
+
+def _flow_to(dis: cv2.DISOpticalFlow, cur: np.ndarray, prev: np.ndarray) -> np.ndarray:
+    """Backward flow (H, W, 2) as sampling maps: pixel p of ``cur`` was at maps[p] in ``prev``."""
+    a = np.clip(cur * 255.0, 0, 255).astype(np.uint8)
+    b = np.clip(prev * 255.0, 0, 255).astype(np.uint8)
+    flow = dis.calc(a, b, None)
+    h, w = cur.shape
+    flow[..., 0] += np.arange(w, dtype=np.float32)[None, :]
+    flow[..., 1] += np.arange(h, dtype=np.float32)[:, None]
+    return flow
+
+
+_REGION_KEEP_IOU = 0.8
+
+
+def _inside(box: tuple[float, float, float, float], region: Region, margin: float = 0.05) -> bool:
+    """True when ``box`` lies inside ``region`` with ``margin`` x side to spare on every side."""
+    x0, y0, x1, y1 = region.box()
+    m = margin * region.side
+    return box[0] >= x0 + m and box[1] >= y0 + m and box[2] <= x1 - m and box[3] <= y1 - m
+
+
+def _remap(x: np.ndarray, maps: np.ndarray) -> np.ndarray:
+    return cv2.remap(x, maps, None, interpolation=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+
+
+class VideoMatter:
+    """Person alpha for the frames of a video, steady over time (module docstring).
+
+    The region the pose graph sees follows the person from the previous frame's matte (the region finder
+    runs on the first frame, when the person is lost, and every ``redetect_every`` frames if > 0). The
+    person probability on the working grid is blended with the previous frame's, warped by DIS optical
+    flow: ``p = (1 - w) p_now + w p_prev_warped``, ``w = smoothing * exp(-|I_now - I_prev_warped| / 0.05)``
+    (the history counts only where the flow explains the picture), then refined by the guided filter.
+
+    Args:
+        matter: a :class:`PersonMatter` to use (default: a new one with ``models`` and ``device``).
+        smoothing: weight of the warped history in [0, 1); 0 turns temporal smoothing off.
+        redetect_every: run the region finder every N frames even when the person is tracked (0: never).
+        refine: guided-filter edge refinement (as in PersonMatter).
+
+    Calling it on each frame in order: ``alpha = vm(rgb)``; a frame with nobody in it gives an all-zero
+    alpha (no error) and the next frame searches again. Only the largest person is followed.
+    """
+
+    def __init__(
+        self,
+        matter: PersonMatter | None = None,
+        *,
+        models: str | os.PathLike | None = None,
+        device: str = "cpu",
+        smoothing: float = 0.7,
+        redetect_every: int = 0,
+        refine: bool = True,
+    ):
+        if not 0.0 <= float(smoothing) < 1.0:
+            raise RelightError(f"smoothing: expected a value in [0, 1), got {smoothing}")
+        if int(redetect_every) < 0:
+            raise RelightError(f"redetect_every: expected >= 0, got {redetect_every}")
+        self.matter = matter if matter is not None else PersonMatter(models, device=device)
+        self.smoothing = float(smoothing)
+        self.redetect_every = int(redetect_every)
+        self.refine = bool(refine)
+        self._dis = cv2.DISOpticalFlow_create(cv2.DISOPTICAL_FLOW_PRESET_ULTRAFAST)
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the previous frames (call between videos)."""
+        self._region: Region | None = None
+        self._prev_prob: np.ndarray | None = None
+        self._prev_gray: np.ndarray | None = None
+        self._shape: tuple[int, int] | None = None
+        self.index = 0
+
+    def __call__(self, image: np.ndarray, name: str = "frame") -> np.ndarray:
+        rgb = as_rgb(image, name)
+        h, w = rgb.shape[:2]
+        if self._shape is not None and self._shape != (h, w):
+            raise RelightError(f"{name}: frame is {h}x{w}, the previous frames were {self._shape[0]}x{self._shape[1]}")
+        self._shape = (h, w)
+        index, self.index = self.index, self.index + 1
+        region = self._region
+        if region is None or (self.redetect_every and index % self.redetect_every == 0):
+            found = self.matter.find_people(rgb)
+            region = Region.around(*found[0][1]) if found else None
+        person = self.matter.segment(rgb, region) if region is not None else None
+        box = person_box(person, (h, w)) if person is not None else None
+        if person is None or box is None or person.presence < _PRESENCE_MIN:
+            log.debug("%s: no person found; searching again on the next frame", name)
+            self._region, self._prev_prob, self._prev_gray = None, None, None
+            return np.zeros((h, w), np.float32)
+        new = Region.around(*box)
+        # hysteresis: the pose graph's answer shifts with its crop, so the region stays put while the
+        # person stays well inside it (a crop that moves every frame makes the outline shimmer)
+        if self._region is None or new.iou(self._region) < _REGION_KEEP_IOU or not _inside(box, self._region):
+            self._region = new
+
+        rect = (0, 0, w, h)
+        grid = _working_grid(rect)
+        prob = _sigmoid(logits_on_grid(person, grid)).astype(np.float32)
+        gray_full = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
+        gray_small = gray_full if grid[:2] == (w, h) else cv2.resize(gray_full, grid[:2], interpolation=cv2.INTER_AREA)
+        if self.smoothing > 0 and self._prev_prob is not None:
+            maps = _flow_to(self._dis, gray_small, self._prev_gray)
+            prev_prob = _remap(self._prev_prob, maps)
+            agree = np.exp(-np.abs(gray_small - _remap(self._prev_gray, maps)) / np.float32(0.05))
+            wgt = np.float32(self.smoothing) * agree
+            prob = prob + wgt * (prev_prob - prob)
+        self._prev_prob, self._prev_gray = prob, gray_small
+        if not self.refine:
+            return cv2.resize(prob, (w, h), interpolation=cv2.INTER_LINEAR) if grid[:2] != (w, h) else prob
+        k_canvas = SIZE / person.region.side
+        radius = max(2, int(round(1.5 * grid[2] / k_canvas)))
+        return guided_refine(prob, gray_small, gray_full, radius)
+
+
+def outline_flicker(
+    alphas: list[np.ndarray], frames: list[np.ndarray] | None = None, band: int = 4
+) -> float:
+    """Outline flicker of a matte sequence: mean |alpha_t - alpha_{t-1}| over a band of ``band`` pixels on
+    each side of frame t's outline (alpha = 0.5), averaged over frames 1..N-1.
+
+    With ``frames`` (the RGB frames), alpha_{t-1} is first warped onto frame t by DIS optical flow
+    (medium preset, full resolution), so the person's own motion is not counted: what remains is the
+    edge jumping about. Without frames the raw change is measured (motion included).
+    """
+    if len(alphas) < 2:
+        raise RelightError(f"outline_flicker: expected at least 2 frames, got {len(alphas)}")
+    if frames is not None and len(frames) != len(alphas):
+        raise RelightError(f"outline_flicker: {len(frames)} frames for {len(alphas)} alphas")
+    dis = cv2.DISOpticalFlow_create(cv2.DISOPTICAL_FLOW_PRESET_MEDIUM) if frames is not None else None
+    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * band + 1, 2 * band + 1))
+    total, count = 0.0, 0
+    for t in range(1, len(alphas)):
+        cur = np.asarray(alphas[t], np.float32)
+        prev = np.asarray(alphas[t - 1], np.float32)
+        if cur.shape != prev.shape:
+            raise RelightError(f"outline_flicker: alpha {t} is {cur.shape}, alpha {t - 1} is {prev.shape}")
+        if dis is not None:
+            g1 = cv2.cvtColor(np.asarray(frames[t], np.float32), cv2.COLOR_RGB2GRAY)
+            g0 = cv2.cvtColor(np.asarray(frames[t - 1], np.float32), cv2.COLOR_RGB2GRAY)
+            prev = _remap(prev, _flow_to(dis, g1, g0))
+        fg = (cur >= 0.5).astype(np.uint8)
+        ring = cv2.dilate(fg, kernel) != cv2.erode(fg, kernel)
+        if ring.any():
+            total += float(np.abs(cur - prev)[ring].sum())
+            count += int(ring.sum())
+    return total / max(count, 1)
