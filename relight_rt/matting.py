@@ -53,8 +53,11 @@ _COARSE_MIN_AREA = 24  # canvas pixels: smaller blobs of the region finder are n
 _TILE_LEVELS = (1, 2, 3, 4)  # whole image, then n x n overlapping tiles while nobody is found
 _PRESENCE_MIN = 0.5  # pose-presence probability below which a region holds no person
 _WORK_MAX = 512  # long side of the working grid (guided-filter fit, temporal blend)
-_GF_EPS = 2e-3  # guided-filter regulariser (gray guide in [0, 1])
+_GF_EPS = 1e-3  # guided-filter regulariser (guide in [0, 1]); benchmarks/matting_eval.py picked it
+_GF_COLOR = True  # colour guide (pale shoes on a white floor differ in colour, not in gray)
+_GF_RADIUS = 1.0  # guided-filter window radius, in pixels of the 256² segmentation
 _LOGIT_CLIP = 30.0
+_ONES_1x3 = np.ones((1, 3), np.float32)
 
 
 @dataclass(frozen=True)
@@ -325,7 +328,9 @@ class PersonMatter:
         out = []
         for _, box in found:
             p = self.segment(rgb, Region.around(*box))
-            if p.presence >= _PRESENCE_MIN or (p.logits > 0).sum() >= _COARSE_MIN_AREA * 4:
+            # the pose graph segments something in any region; its presence output says whether a person
+            # is there (0.0000 on a colour gradient the region finder took for one, >= 0.87 on people)
+            if p.presence >= _PRESENCE_MIN:
                 out.append(p)
                 if self.person == "largest":
                     break
@@ -455,6 +460,44 @@ def guided_refine(prob: np.ndarray, gray_small: np.ndarray, gray_full: np.ndarra
     return np.clip(out, 0.0, 1.0, out=out)
 
 
+def guided_refine_color(prob: np.ndarray, rgb_small: np.ndarray, rgb_full: np.ndarray, radius: int) -> np.ndarray:
+    """Fast guided filter with a colour guide (He et al. 2013, eq. 14): fit prob ≈ a·I + b (a: 3-vector per
+    window) on the small grid; upsample a, b and apply them with the full-size RGB guide."""
+    k = 2 * radius + 1
+
+    def box(x: np.ndarray) -> np.ndarray:
+        return cv2.boxFilter(x, -1, (k, k), borderType=cv2.BORDER_REFLECT)
+
+    i = rgb_small
+    mean_i = box(i)  # (h, w, 3)
+    mean_p = box(prob)
+    cov_ip = box(i * prob[..., None]) - mean_i * mean_p[..., None]
+    # covariance of the guide: six distinct entries, + eps on the diagonal
+    rr = box(i[..., 0] * i[..., 0]) - mean_i[..., 0] ** 2 + _GF_EPS
+    rg = box(i[..., 0] * i[..., 1]) - mean_i[..., 0] * mean_i[..., 1]
+    rb = box(i[..., 0] * i[..., 2]) - mean_i[..., 0] * mean_i[..., 2]
+    gg = box(i[..., 1] * i[..., 1]) - mean_i[..., 1] ** 2 + _GF_EPS
+    gb = box(i[..., 1] * i[..., 2]) - mean_i[..., 1] * mean_i[..., 2]
+    bb = box(i[..., 2] * i[..., 2]) - mean_i[..., 2] ** 2 + _GF_EPS
+    # inverse of the symmetric 3x3 by cofactors
+    c00, c01, c02 = gg * bb - gb * gb, gb * rb - rg * bb, rg * gb - gg * rb
+    c11, c12, c22 = rr * bb - rb * rb, rg * rb - rr * gb, rr * gg - rg * rg
+    det = rr * c00 + rg * c01 + rb * c02
+    x, y, z = cov_ip[..., 0], cov_ip[..., 1], cov_ip[..., 2]
+    a = np.stack([c00 * x + c01 * y + c02 * z, c01 * x + c11 * y + c12 * z, c02 * x + c12 * y + c22 * z], -1)
+    a /= det[..., None]
+    b = mean_p - (a * mean_i).sum(-1)
+    a, b = box(a), box(b)
+    size = (rgb_full.shape[1], rgb_full.shape[0])
+    if size != (prob.shape[1], prob.shape[0]):
+        a = cv2.resize(a, size, interpolation=cv2.INTER_LINEAR)
+        b = cv2.resize(b, size, interpolation=cv2.INTER_LINEAR)
+    # sum_c a_c I_c + b with OpenCV's vectorised kernels (numpy's strided channel slices cost 5x more)
+    out = cv2.transform(cv2.multiply(a, rgb_full), _ONES_1x3)
+    out = cv2.add(out, b)
+    return np.clip(out, 0.0, 1.0, out=out)
+
+
 def region_alpha(
     rgb: np.ndarray, person: Person, rect: tuple[int, int, int, int], *, refine: bool = True,
     prob: np.ndarray | None = None,
@@ -473,14 +516,20 @@ def region_alpha(
         if (gw, gh) == (rx1 - rx0, ry1 - ry0):
             return prob
         return cv2.resize(prob, (rx1 - rx0, ry1 - ry0), interpolation=cv2.INTER_LINEAR)
+    k_canvas = SIZE / person.region.side
+    radius = max(2, int(round(_GF_RADIUS * grid[2] / k_canvas)))
+    if _GF_COLOR:
+        sub = np.ascontiguousarray(sub)
+        small = sub if (gw, gh) == (rx1 - rx0, ry1 - ry0) else cv2.resize(sub, (gw, gh), interpolation=cv2.INTER_AREA)
+        return guided_refine_color(prob, small, sub, radius)
     gray_full = cv2.cvtColor(np.ascontiguousarray(sub), cv2.COLOR_RGB2GRAY)
     if (gw, gh) == (rx1 - rx0, ry1 - ry0):
         gray_small = gray_full
     else:
         gray_small = cv2.resize(gray_full, (gw, gh), interpolation=cv2.INTER_AREA)
-    # radius: about 1.5 canvas pixels of the segmentation, in working-grid pixels (at least 2)
+    # radius: _GF_RADIUS canvas pixels of the segmentation, in working-grid pixels (at least 2)
     k_canvas = SIZE / person.region.side
-    radius = max(2, int(round(1.5 * grid[2] / k_canvas)))
+    radius = max(2, int(round(_GF_RADIUS * grid[2] / k_canvas)))
     return guided_refine(prob, gray_small, gray_full, radius)
 
 
@@ -598,7 +647,7 @@ class VideoMatter:
         if not self.refine:
             return cv2.resize(prob, (w, h), interpolation=cv2.INTER_LINEAR) if grid[:2] != (w, h) else prob
         k_canvas = SIZE / person.region.side
-        radius = max(2, int(round(1.5 * grid[2] / k_canvas)))
+        radius = max(2, int(round(_GF_RADIUS * grid[2] / k_canvas)))
         return guided_refine(prob, gray_small, gray_full, radius)
 
 
