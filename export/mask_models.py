@@ -22,7 +22,8 @@ Both: converted with tf2onnx, NHWC I/O turned to NCHW by a Transpose at each end
 them), weights stored as float16 with a Cast to float32 (fp16 storage, fp32 compute) where every
 weight survives the round trip exactly (MediaPipe ships these weights in fp16 already, so nothing is
 lost), the format-1 metadata of DESIGN.md §5, and a check against the TFLite interpreter on a
-few inputs before the file is written (atomically).
+few inputs before the file is written (atomically). It also writes NOTICE-mediapipe.txt (attribution,
+the changes made, and the Apache-2.0 text), which ships beside the graphs.
 """
 
 from __future__ import annotations
@@ -302,6 +303,36 @@ def verify(onnx_bytes: bytes, tflite: Path, outputs: dict[str, str], inputs: lis
     return worst
 
 
+NOTICE_FILE = "NOTICE-mediapipe.txt"
+NOTICE_HEAD = """relight_rt/models/matte_pose.onnx and relight_rt/models/matte_roi.onnx
+
+These two files are derived from models of Google MediaPipe {version}
+(https://github.com/google-ai-edge/mediapipe), Copyright The MediaPipe Authors / Google LLC,
+licensed under the Apache License, Version 2.0 (the text follows):
+
+- matte_pose.onnx from mediapipe/modules/pose_landmark/pose_landmark_full.tflite
+- matte_roi.onnx from mediapipe/modules/selfie_segmentation/selfie_segmentation.tflite
+
+Changes made by relight_rt (python -m export mask-models, export/mask_models.py): converted from
+TFLite to ONNX with tf2onnx; the custom op Convolution2DTransposeBias rewritten as ConvTranspose;
+inputs and outputs renamed and turned from NHWC to NCHW; the landmark, heat-map and world-landmark
+outputs of the pose model removed; weights stored as float16 (exactly the values MediaPipe ships);
+relight_rt metadata added. The weights themselves are unchanged.
+
+"""
+
+
+def notice_text(root: Path) -> str:
+    """NOTICE for the converted graphs: attribution, changes, and the Apache-2.0 text from the wheel."""
+    dist = sorted(root.parent.glob("mediapipe-*.dist-info"))
+    licence = (dist[-1] / "LICENSE").read_text(encoding="utf-8") if dist else ""
+    marker = "=" * 20  # the wheel's LICENSE appends third-party notices (for code we do not use) after the Apache text
+    licence = licence.split(marker)[0].rstrip() + "\n"
+    if "Apache License" not in licence:
+        raise SystemExit(f"could not read the Apache-2.0 text from the mediapipe wheel ({dist})")
+    return NOTICE_HEAD.format(version=MEDIAPIPE_VERSION) + licence
+
+
 def run(args: argparse.Namespace) -> int:
     from relight_rt._io import atomic_path
 
@@ -323,4 +354,7 @@ def run(args: argparse.Namespace) -> int:
         with atomic_path(out / name) as tmp:
             tmp.write_bytes(data)
         log.info("wrote %s (%.2f MB, kind %s)", out / name, len(data) / 1e6, kind)
+    with atomic_path(out / NOTICE_FILE) as tmp:
+        tmp.write_text(notice_text(root), encoding="utf-8")
+    log.info("wrote %s", out / NOTICE_FILE)
     return 0
