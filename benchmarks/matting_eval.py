@@ -98,17 +98,17 @@ def grabcut(rgb: np.ndarray, box: tuple[float, float, float, float], long_side: 
 
 def accuracy(ref: Path) -> None:
     pm = M.PersonMatter()
-    rows = {"PersonMatter (guided-filter edges)": [], "PersonMatter (no refinement)": [], "GrabCut, same box": []}
+    pm_color = M.PersonMatter(guide="color")
+    pm_raw = M.PersonMatter(refine=False)
+    rows = {"PersonMatter (default: gray-guided edges)": [], "PersonMatter, guide='color'": [],
+            "PersonMatter, refine=False": [], "GrabCut, same box": []}
     per_case = []
     for name, img_path, gt_path in cases(ref):
         rgb, gt = read_rgb(img_path), read_gt(gt_path)
-        pm.refine = True
-        a = pm(rgb, name)
-        pm.refine = False
-        b = pm(rgb, name)
+        a, c, b = pm(rgb, name), pm_color(rgb, name), pm_raw(rgb, name)
         box = pm.find_people(rgb)[0][1]
         g = grabcut(rgb, box)
-        vals = [(iou(x, gt), boundary_f(x, gt)) for x in (a, b, g)]
+        vals = [(iou(x, gt), boundary_f(x, gt)) for x in (a, c, b, g)]
         for key, v in zip(rows, vals, strict=True):
             rows[key].append((name, *v))
         per_case.append((name, vals))
@@ -149,9 +149,13 @@ def speed(ref: Path, repeat: int) -> None:
     photo = cv2.resize(read_rgb(ref / "photo" / "sample.jpg"), (1732, 1155), interpolation=cv2.INTER_AREA)
     print(f"threads: {os.environ.get('RELIGHT_RT_THREADS') or 'onnxruntime default'}; cores: {os.cpu_count()}")
     full = _median_ms(lambda: pm(photo), repeat)
+    pm.guide = "color"
+    color = _median_ms(lambda: pm(photo), repeat)
+    pm.guide = "gray"
     pm.refine = False
     coarse = _median_ms(lambda: pm(photo), repeat)
-    print(f"2-megapixel photo {photo.shape[1]}x{photo.shape[0]}: PersonMatter {full:.1f} ms (no refinement: {coarse:.1f} ms)")
+    print(f"2-megapixel photo {photo.shape[1]}x{photo.shape[0]}: PersonMatter {full:.1f} ms "
+          f"(guide='color': {color:.1f} ms; refine=False: {coarse:.1f} ms)")
     pm.refine = True
     found = pm.find_people(photo)
     region = M.Region.around(*found[0][1])

@@ -47,14 +47,15 @@ POSE_FILE = "matte_pose.onnx"
 ROI_FILE = "matte_roi.onnx"
 SIZE = 256  # both graphs' input side
 PERSON_MODES = ("largest", "all")
+GUIDES = ("gray", "color")
 MIN_SIDE = 16  # smaller images cannot show a person to these models
 _ROI_SCALE = 1.25  # square region side = this x the person's longest box side (MediaPipe's choice)
 _COARSE_MIN_AREA = 24  # canvas pixels: smaller blobs of the region finder are noise or far-away people
 _TILE_LEVELS = (1, 2, 3, 4)  # whole image, then n x n overlapping tiles while nobody is found
 _PRESENCE_MIN = 0.5  # pose-presence probability below which a region holds no person
+_SETTLED_IOU = 0.9  # the region has settled when the next one overlaps it this much
 _WORK_MAX = 512  # long side of the working grid (guided-filter fit, temporal blend)
 _GF_EPS = 1e-3  # guided-filter regulariser (guide in [0, 1]); benchmarks/matting_eval.py picked it
-_GF_COLOR = True  # colour guide (pale shoes on a white floor differ in colour, not in gray)
 _GF_RADIUS = 1.0  # guided-filter window radius, in pixels of the 256² segmentation
 _LOGIT_CLIP = 30.0
 _ONES_1x3 = np.ones((1, 3), np.float32)
@@ -238,6 +239,8 @@ class PersonMatter:
         device: "cpu" (default), "cuda" or "auto".
         person: "largest" (default: the person with the largest area) or "all" (everyone found).
         refine: refine the edges with the photo (guided filter); False gives the upsampled segmentation.
+        guide: "gray" (default, fast) or "color" (a colour guide: separates edges that differ in colour
+            but not in brightness, e.g. pale shoes on a white floor; ~4x the refinement time).
         max_passes: pose-graph runs per person while the region settles (>= 1).
 
     Calling it: ``alpha = matter(rgb)``, rgb (H, W, 3) float32 [0, 1] (uint8, RGBA and grayscale are
@@ -254,8 +257,11 @@ class PersonMatter:
         device: str = "cpu",
         person: str = "largest",
         refine: bool = True,
+        guide: str = "gray",
         max_passes: int = 3,
     ):
+        if guide not in GUIDES:
+            raise RelightError(f"guide: expected one of {list(GUIDES)}, got {guide!r}")
         if person not in PERSON_MODES:
             raise RelightError(f"person: expected one of {list(PERSON_MODES)}, got {person!r}")
         if int(max_passes) < 1:
@@ -265,6 +271,7 @@ class PersonMatter:
         self.roi: Model = load_model(folder / ROI_FILE, "matte_roi", device=device)
         self.person = person
         self.refine = bool(refine)
+        self.guide = guide
         self.max_passes = int(max_passes)
 
     # -- detection ----------------------------------------------------------------------------------
@@ -312,7 +319,7 @@ class PersonMatter:
             if box is None or box[2] <= box[0] or box[3] <= box[1]:
                 break
             nxt = Region.around(*box)
-            if nxt.iou(region) > 0.9:
+            if nxt.iou(region) > _SETTLED_IOU:
                 break
             region = nxt
         if person is None:
@@ -349,7 +356,7 @@ class PersonMatter:
             rx1, ry1 = min(int(np.ceil(x1)), w), min(int(np.ceil(y1)), h)
             if rx1 <= rx0 or ry1 <= ry0:
                 continue
-            a = region_alpha(rgb, p, (rx0, ry0, rx1, ry1), refine=refine)
+            a = region_alpha(rgb, p, (rx0, ry0, rx1, ry1), refine=refine, guide=self.guide)
             np.maximum(alpha[ry0:ry1, rx0:rx1], a, out=alpha[ry0:ry1, rx0:rx1])
         return alpha
 
@@ -500,7 +507,7 @@ def guided_refine_color(prob: np.ndarray, rgb_small: np.ndarray, rgb_full: np.nd
 
 def region_alpha(
     rgb: np.ndarray, person: Person, rect: tuple[int, int, int, int], *, refine: bool = True,
-    prob: np.ndarray | None = None,
+    prob: np.ndarray | None = None, guide: str = "gray",
 ) -> np.ndarray:  # fmt: skip
     """Soft alpha of one person over the image rectangle ``rect`` = (x0, y0, x1, y1), full resolution.
 
@@ -516,9 +523,10 @@ def region_alpha(
         if (gw, gh) == (rx1 - rx0, ry1 - ry0):
             return prob
         return cv2.resize(prob, (rx1 - rx0, ry1 - ry0), interpolation=cv2.INTER_LINEAR)
+    # radius: _GF_RADIUS canvas pixels of the segmentation, in working-grid pixels (at least 2)
     k_canvas = SIZE / person.region.side
     radius = max(2, int(round(_GF_RADIUS * grid[2] / k_canvas)))
-    if _GF_COLOR:
+    if guide == "color":
         sub = np.ascontiguousarray(sub)
         small = sub if (gw, gh) == (rx1 - rx0, ry1 - ry0) else cv2.resize(sub, (gw, gh), interpolation=cv2.INTER_AREA)
         return guided_refine_color(prob, small, sub, radius)
@@ -527,9 +535,6 @@ def region_alpha(
         gray_small = gray_full
     else:
         gray_small = cv2.resize(gray_full, (gw, gh), interpolation=cv2.INTER_AREA)
-    # radius: _GF_RADIUS canvas pixels of the segmentation, in working-grid pixels (at least 2)
-    k_canvas = SIZE / person.region.side
-    radius = max(2, int(round(_GF_RADIUS * grid[2] / k_canvas)))
     return guided_refine(prob, gray_small, gray_full, radius)
 
 
