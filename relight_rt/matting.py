@@ -120,10 +120,10 @@ def as_rgb(image: np.ndarray, name: str = "image") -> np.ndarray:
     if a.dtype.kind != "f":
         raise RelightError(f"{name}: expected uint8 or float in [0, 1], got {a.dtype}")
     out = np.ascontiguousarray(a, dtype=np.float32)
-    if not np.isfinite(out).all():
-        raise RelightError(f"{name}: expected finite values in [0, 1], got NaN or Inf")
-    lo, hi = float(out.min()), float(out.max())
-    if lo < -1e-3 or hi > 1 + 1e-3:
+    lo, hi = float(out.min()), float(out.max())  # NaN propagates into min/max: one pass checks everything
+    if np.isnan(lo) or np.isnan(hi):
+        raise RelightError(f"{name}: expected finite values in [0, 1], got NaN")
+    if not (lo >= -1e-3 and hi <= 1 + 1e-3):
         raise RelightError(f"{name}: expected float values in [0, 1], got [{lo:.4g}, {hi:.4g}]")
     return np.clip(out, 0.0, 1.0) if lo < 0 or hi > 1 else out
 
