@@ -322,8 +322,8 @@ class PersonMatter:
             if nxt.iou(region) > _SETTLED_IOU:
                 break
             region = nxt
-        if person is None:
-            return None
+        if person is None or person.region.box()[3] <= rgb.shape[0]:
+            return person  # a portrait runs off the bottom, so its region reaches past it: no check needed
         prob = self._roi_prob(rgb, person.region).astype(np.float64)
         logits = np.log(np.clip(prob, 1e-7, 1.0)) - np.log(np.clip(1.0 - prob, 1e-7, 1.0))
         roi = Person(person.region, logits.astype(np.float32), person.presence, "roi")

@@ -130,7 +130,7 @@ def test_example_person_is_found_at_full_resolution(matter, example):
     alpha = matter(rgb)
     assert alpha.shape == rgb.shape[:2] and alpha.dtype == np.float32
     assert 0.0 <= alpha.min() and alpha.max() <= 1.0
-    assert iou(alpha, truth) > 0.93  # measured 0.962
+    assert iou(alpha, truth) > 0.93  # measured 0.958
 
 
 @pytest.mark.parametrize(
@@ -141,7 +141,7 @@ def test_example_person_is_found_at_full_resolution(matter, example):
 def test_person_cut_by_the_border(matter, example, crop, floor):
     rgb, truth = example
     alpha = matter(np.ascontiguousarray(rgb[crop]))
-    assert iou(alpha, truth[crop]) > floor  # measured 0.915 and 0.937
+    assert iou(alpha, truth[crop]) > floor  # measured 0.913 and 0.935
 
 
 def test_uint8_rgba_and_grayscale_inputs(matter, example):
@@ -151,7 +151,7 @@ def test_uint8_rgba_and_grayscale_inputs(matter, example):
     rgba = np.dstack([rgb, np.zeros_like(truth)])  # an empty alpha channel is ignored: matting looks at the picture
     np.testing.assert_array_equal(matter(rgba), ref)
     gray = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
-    assert iou(matter(gray), truth) > 0.9 and iou(matter(gray[..., None]), truth) > 0.9  # measured 0.942
+    assert iou(matter(gray), truth) > 0.9 and iou(matter(gray[..., None]), truth) > 0.9  # measured 0.940
 
 
 def test_no_person_raises(matter):
