@@ -51,7 +51,8 @@ GUIDES = ("gray", "color")
 MIN_SIDE = 16  # smaller images cannot show a person to these models
 _ROI_SCALE = 1.25  # square region side = this x the person's longest box side (MediaPipe's choice)
 _COARSE_MIN_AREA = 24  # canvas pixels: smaller blobs of the region finder are noise or far-away people
-_TILE_LEVELS = (1, 2, 3, 4)  # whole image, then n x n overlapping tiles while nobody is found
+_TILE_LEVELS = (1, 2, 3, 4, 6)  # whole image, then n x n overlapping tiles while nobody is found ...
+_MIN_TILE = SIZE  # ... as long as the tiles stay at least 256 px (a smaller tile would only be upsampled)
 _PRESENCE_MIN = 0.5  # pose-presence probability below which a region holds no person
 _SETTLED_IOU = 0.9  # the region has settled when the next one overlaps it this much
 _WORK_MAX = 512  # long side of the working grid (guided-filter fit, temporal blend)
@@ -258,7 +259,7 @@ class PersonMatter:
         person: str = "largest",
         refine: bool = True,
         guide: str = "gray",
-        max_passes: int = 3,
+        max_passes: int = 4,
     ):
         if guide not in GUIDES:
             raise RelightError(f"guide: expected one of {list(GUIDES)}, got {guide!r}")
@@ -282,7 +283,8 @@ class PersonMatter:
 
     def find_people(self, rgb: np.ndarray) -> list[tuple[float, tuple[float, float, float, float]]]:
         """Where people are, from the image alone: [(area in image pixels, (x0, y0, x1, y1))], largest
-        first; empty when nobody is found. Whole image first, then 2x2 and 3x3 overlapping tiles."""
+        first; empty when nobody is found. Whole image first, then 2x2, 3x3, 4x4 and 6x6 overlapping tiles
+        (each 1.5x its share of the image, at least 256 px: small images stop early)."""
         h, w = rgb.shape[:2]
         big = max(h, w)
         for level in _TILE_LEVELS:
@@ -291,6 +293,8 @@ class PersonMatter:
             else:
                 side = min(big / level * 1.5, max(h, w))
                 side = max(side, min(h, w) / level * 1.5)
+                if side < _MIN_TILE:
+                    break
                 xs = np.linspace(side / 2, max(w - side / 2, side / 2), level) if w > side else [w / 2]
                 ys = np.linspace(side / 2, max(h - side / 2, side / 2), level) if h > side else [h / 2]
                 windows = [Region(float(x), float(y), side) for y in ys for x in xs]
@@ -318,7 +322,7 @@ class PersonMatter:
             box = person_box(person, rgb.shape[:2])
             if box is None or box[2] <= box[0] or box[3] <= box[1]:
                 break
-            nxt = Region.around(*box)
+            nxt = Region.around(*_grow_where_cut(box, region, rgb.shape[:2]))
             if nxt.iou(region) > _SETTLED_IOU:
                 break
             region = nxt
@@ -369,6 +373,25 @@ class PersonMatter:
         if not (alpha >= 0.5).any():
             raise RelightError(f"no person found in {name}")
         return alpha
+
+
+def _grow_where_cut(
+    box: tuple[float, float, float, float], region: Region, shape: tuple[int, int]
+) -> tuple[float, float, float, float]:
+    """Extend ``box`` by half its size past each side where the segmentation runs into the region's edge
+    inside the image: the person goes on beyond the region (the region finder saw only part of them,
+    e.g. the head of a small person), so the next region must reach further."""
+    h, w = shape
+    x0, y0, x1, y1 = box
+    rx0, ry0, rx1, ry1 = region.box()
+    m = 0.03 * region.side
+    bw, bh = x1 - x0, y1 - y0
+    grow = 0.5 * max(bw, bh)
+    nx0 = x0 - grow if x0 <= rx0 + m and rx0 > 0 else x0
+    ny0 = y0 - grow if y0 <= ry0 + m and ry0 > 0 else y0
+    nx1 = x1 + grow if x1 >= rx1 - m and rx1 < w else x1
+    ny1 = y1 + grow if y1 >= ry1 - m and ry1 < h else y1
+    return max(nx0, 0.0), max(ny0, 0.0), min(nx1, float(w)), min(ny1, float(h))
 
 
 def _is_portrait(box: tuple[float, float, float, float] | None, shape: tuple[int, int]) -> bool:
