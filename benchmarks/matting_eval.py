@@ -100,8 +100,12 @@ def accuracy(ref: Path) -> None:
     pm = M.PersonMatter()
     pm_color = M.PersonMatter(guide="color")
     pm_raw = M.PersonMatter(refine=False)
-    rows = {"PersonMatter (default: gray-guided edges)": [], "PersonMatter, guide='color'": [],
-            "PersonMatter, refine=False": [], "GrabCut, same box": []}
+    rows = {
+        "PersonMatter (default: gray-guided edges)": [],
+        "PersonMatter, guide='color'": [],
+        "PersonMatter, refine=False": [],
+        "GrabCut, same box": [],
+    }
     per_case = []
     for name, img_path, gt_path in cases(ref):
         rgb, gt = read_rgb(img_path), read_gt(gt_path)
@@ -118,8 +122,10 @@ def accuracy(ref: Path) -> None:
     for key, r in rows.items():
         photo = r[0]
         vid = np.array([x[1:] for x in r[1:]])
-        print(f"| {key} | {photo[1]:.4f} | {photo[2]:.4f} | {vid[:, 0].mean():.4f} ({vid[:, 0].min():.4f}) "
-              f"| {vid[:, 1].mean():.4f} ({vid[:, 1].min():.4f}) |")
+        print(
+            f"| {key} | {photo[1]:.4f} | {photo[2]:.4f} | {vid[:, 0].mean():.4f} ({vid[:, 0].min():.4f}) "
+            f"| {vid[:, 1].mean():.4f} ({vid[:, 1].min():.4f}) |"
+        )
 
 
 def _median_ms(fn, repeat: int) -> float:
@@ -160,16 +166,20 @@ def speed(ref: Path, repeat: int) -> None:
     pm.guide = "gray"
     pm.refine = False
     coarse = _times_ms(lambda: pm(photo), repeat)
-    print(f"2-megapixel photo {photo.shape[1]}x{photo.shape[0]}, median (best) ms: PersonMatter {full[0]:.1f} "
-          f"({full[1]:.1f}); guide='color' {color[0]:.1f} ({color[1]:.1f}); refine=False {coarse[0]:.1f} ({coarse[1]:.1f})")
+    size = f"{photo.shape[1]}x{photo.shape[0]}"
+    print(f"2-megapixel photo {size}, median (best) ms: PersonMatter {full[0]:.1f} ({full[1]:.1f}); ", end="")
+    print(f"guide='color' {color[0]:.1f} ({color[1]:.1f}); refine=False {coarse[0]:.1f} ({coarse[1]:.1f})")
     pm.refine = True
     found = pm.find_people(photo)
     region = M.Region.around(*found[0][1])
     person = pm.segment(photo, region)
-    print(f"  region finder {_median_ms(lambda: pm.find_people(photo), repeat):.1f} ms; "
-          f"pose graph (one run) {_median_ms(lambda: pm.pose.run({'image': np.zeros((1, 3, 256, 256), np.float32)}), repeat):.1f} ms; "
-          f"segment (passes until stable + portrait check) {_median_ms(lambda: pm.segment(photo, region), repeat):.1f} ms; "
-          f"full-resolution alpha {_median_ms(lambda: pm.alpha(photo, [person]), repeat):.1f} ms")
+    zeros = {"image": np.zeros((1, 3, 256, 256), np.float32)}
+    finder = _median_ms(lambda: pm.find_people(photo), repeat)
+    pose = _median_ms(lambda: pm.pose.run(zeros), repeat)
+    seg = _median_ms(lambda: pm.segment(photo, region), repeat)
+    alpha = _median_ms(lambda: pm.alpha(photo, [person]), repeat)
+    print(f"  region finder {finder:.1f} ms; pose graph (one run) {pose:.1f} ms; ", end="")
+    print(f"segment (passes until stable + portrait check) {seg:.1f} ms; full-resolution alpha {alpha:.1f} ms")
     frames = frames_720p(ref)
     for smoothing in (0.7, 0.0):
         vm = M.VideoMatter(pm, smoothing=smoothing)
@@ -181,8 +191,10 @@ def speed(ref: Path, repeat: int) -> None:
                 vm(f)
                 times.append(time.perf_counter() - t)
         med, best = float(np.median(times)), float(np.min(times))
-        print(f"720p video (1280x720), VideoMatter smoothing {smoothing}: median {1000 * med:.1f} ms/frame = "
-              f"{1 / med:.1f} frames/s (best {1000 * best:.1f} ms)")
+        print(
+            f"720p video (1280x720), VideoMatter smoothing {smoothing}: median {1000 * med:.1f} ms/frame = "
+            f"{1 / med:.1f} frames/s (best {1000 * best:.1f} ms)"
+        )
     print(f"load average after: {os.getloadavg()[0]:.1f}")
 
 

@@ -126,7 +126,9 @@ def rewrite_transpose_conv_bias(model) -> int:
             "ConvTranspose", [pre.input[0], w_new, b_new], [y_nchw], name=f"{node.name}_convT",
             kernel_shape=[kh, kw], strides=list(stride), pads=[0, 0, 0, 0],
         )  # fmt: skip
-        back = helper.make_node("Transpose", [y_nchw], list(node.output), name=f"{node.name}_to_nhwc", perm=[0, 2, 3, 1])
+        back = helper.make_node(
+            "Transpose", [y_nchw], list(node.output), name=f"{node.name}_to_nhwc", perm=[0, 2, 3, 1]
+        )
         g.node.remove(node)
         g.node.insert(index, back)
         g.node.insert(index, conv)
@@ -342,7 +344,9 @@ def run(args: argparse.Namespace) -> int:
     for name, (rel, kind, outputs) in SOURCES.items():
         tflite = root / rel
         if not tflite.is_file():
-            raise SystemExit(f"{tflite} not found: install mediapipe=={MEDIAPIPE_VERSION} (later wheels hold no .tflite)")
+            raise SystemExit(
+                f"{tflite} not found: install mediapipe=={MEDIAPIPE_VERSION} (later wheels hold no .tflite)"
+            )
         source = LICENCE.format(version=MEDIAPIPE_VERSION, path=f"mediapipe/{rel}")
         model = convert(tflite, kind, outputs, source, fp16=not args.fp32)
         data = model.SerializeToString()

@@ -3,7 +3,7 @@
 Registered by relight_rt.cli through :func:`add_parser`. Examples::
 
     relight-rt mask photo.jpg -o photo_mask.png          # one 8-bit PNG
-    relight-rt mask photos/ -o masks/                     # NAME_mask.png per image (bad files are listed, the rest go on)
+    relight-rt mask photos/ -o masks/                     # NAME_mask.png per image (past bad files)
     relight-rt mask clip.mp4 -o clip_mask.avi             # a mask video (temporal smoothing)
     relight-rt mask clip.mp4 -o clip_masks/               # or one frame_NNNNNN_mask.png per frame
     relight-rt mask frames/ --sequence -o masks/          # a folder of video frames, smoothed over time
@@ -45,7 +45,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--no-refine", action="store_true", help="skip the guided-filter edge refinement")
     p.add_argument("--binary", action="store_true", help="write 0/255 masks (threshold 0.5) instead of soft ones")
     p.add_argument("--sequence", action="store_true",
-                   help="a folder is one video's frames: follow the person and smooth the outline over time")  # fmt: skip
+                   help="a folder is one video's frames: follow the person, smooth the outline over time")  # fmt: skip
     p.add_argument("--smoothing", type=float, default=0.7,
                    help="video: weight of the motion-compensated history in [0, 1) (default 0.7; 0 = off)")  # fmt: skip
     p.add_argument("--models", metavar="DIR", help="folder with matte_pose.onnx and matte_roi.onnx (default: bundled)")

@@ -4,12 +4,13 @@ Two graphs converted from Google MediaPipe (Apache-2.0; ``python -m export mask-
 
 - ``matte_roi.onnx`` (MediaPipe selfie segmentation, 250 kB) runs on the whole image letterboxed to
   256x256 and says where people are (connected regions of its probability map). When it finds nobody
-  at that scale, overlapping tiles (2x2, then 3x3) are searched, so a small person in a big photo is
-  still found.
+  at that scale, overlapping tiles (2x2 up to 6x6, each >= 256 px) are searched, so a small person in
+  a big photo is still found.
 - ``matte_pose.onnx`` (MediaPipe pose landmark "full", segmentation head, 5.7 MB) runs on a square
   region 1.25x the person's box (zero-padded past the image border, as MediaPipe does) and gives
   person logits at 256x256 plus a pose-presence probability. The region is re-centred on that
-  segmentation until it is stable (at most ``max_passes`` runs), so a crude first box is corrected.
+  segmentation until it is stable (at most ``max_passes`` runs), so a crude first box is corrected;
+  where the segmentation runs into the region's edge, the next region reaches further that way.
 
 The 256² logits are mapped back onto a working grid (the region at <= 512 px), turned into a
 probability, and refined to full resolution by a fast guided filter steered by the photo (He & Sun
@@ -679,9 +680,7 @@ class VideoMatter:
         return guided_refine(prob, gray_small, gray_full, radius)
 
 
-def outline_flicker(
-    alphas: list[np.ndarray], frames: list[np.ndarray] | None = None, band: int = 4
-) -> float:
+def outline_flicker(alphas: list[np.ndarray], frames: list[np.ndarray] | None = None, band: int = 4) -> float:
     """Outline flicker of a matte sequence: mean |alpha_t - alpha_{t-1}| over a band of ``band`` pixels on
     each side of frame t's outline (alpha = 0.5), averaged over frames 1..N-1.
 
