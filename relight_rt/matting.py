@@ -26,13 +26,14 @@ dragging it behind a moving person. :func:`outline_flicker` measures what is lef
 
 Public API (the matting protocol of relight_rt.masks: rgb (H, W, 3) float32 in [0, 1] -> soft alpha
 (H, W) float32 in [0, 1] at full resolution): ``PersonMatter``, ``VideoMatter``, ``outline_flicker``,
-``find_matting_models``.
+``find_matting_models``, ``shared_matter``.
 """
 
 from __future__ import annotations
 
 import logging
 import os
+import threading
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -374,6 +375,23 @@ class PersonMatter:
         if not (alpha >= 0.5).any():
             raise RelightError(f"no person found in {name}")
         return alpha
+
+
+_SHARED: dict[tuple[str, str, str], PersonMatter] = {}
+_SHARED_LOCK = threading.Lock()
+
+
+def shared_matter(
+    models: str | os.PathLike | None = None, *, device: str = "cpu", person: str = "largest"
+) -> PersonMatter:
+    """A PersonMatter per (models folder, device, person), loaded on first use and reused afterwards
+    (loading the two graphs takes ~0.3 s). A PersonMatter keeps no state between calls and onnxruntime
+    sessions may run from several threads, so the shared one can serve them all."""
+    key = (str(find_matting_models(models).resolve()), device, person)
+    with _SHARED_LOCK:
+        if key not in _SHARED:
+            _SHARED[key] = PersonMatter(key[0], device=device, person=person)
+        return _SHARED[key]
 
 
 def _grow_where_cut(

@@ -192,6 +192,15 @@ def test_largest_or_all_people(matter, example):
         M.PersonMatter(person="tallest")
 
 
+def test_shared_matter_is_loaded_once(example):
+    a = M.shared_matter()
+    assert M.shared_matter() is a and M.shared_matter(person="all") is not a
+    rgb, truth = example
+    assert iou(a(rgb), truth) > 0.93
+    with pytest.raises(RelightError, match="not found"):
+        M.shared_matter("/nonexistent/models")
+
+
 def test_reference_photo_iou(matter, reference_dir):
     rgb = read_image(reference_dir / "photo" / "sample.jpg")
     truth = cv2.imread(str(reference_dir / "photo" / "sample_mask.png"), cv2.IMREAD_GRAYSCALE) / 255.0
