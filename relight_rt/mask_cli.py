@@ -85,12 +85,14 @@ def run(args: argparse.Namespace) -> int:
     if not 0.0 <= args.smoothing < 1.0:
         raise RelightError(f"--smoothing: expected a value in [0, 1), got {args.smoothing}")
     matter = PersonMatter(args.models, device=args.device, person=args.person, refine=not args.no_refine)
+    if videos or args.sequence:
+        vm = VideoMatter(matter, smoothing=args.smoothing, refine=not args.no_refine)
     if videos:
-        return _run_video(videos[0], out, VideoMatter(matter, smoothing=args.smoothing), args.binary)
+        return _run_video(videos[0], out, vm, args.binary)
     if args.sequence:
         if len(inputs) != 1 or not inputs[0].is_dir():
             raise RelightError("--sequence: expected one folder of video frames")
-        return _run_sequence(inputs[0], out, VideoMatter(matter, smoothing=args.smoothing), args.binary)
+        return _run_sequence(inputs[0], out, vm, args.binary)
 
     files: list[Path] = []
     failures: list[tuple[str, str]] = []

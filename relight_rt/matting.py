@@ -621,7 +621,7 @@ class VideoMatter:
         matter: a :class:`PersonMatter` to use (default: a new one with ``models`` and ``device``).
         smoothing: weight of the warped history in [0, 1); 0 turns temporal smoothing off.
         redetect_every: run the region finder every N frames even when the person is tracked (0: never).
-        refine: guided-filter edge refinement (as in PersonMatter).
+        refine: guided-filter edge refinement (as in PersonMatter; always with the gray guide, for speed).
 
     Calling it on each frame in order: ``alpha = vm(rgb)``; a frame with nobody in it gives an all-zero
     alpha (no error) and the next frame searches again. Only the largest person is followed.
