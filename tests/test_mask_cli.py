@@ -99,3 +99,16 @@ def test_video_gives_a_mask_video_and_frames(tmp_path):
 def test_help_lists_the_command(capsys):
     assert cli.main(["mask", "--help"]) == 0
     assert "NAME_mask.png" in capsys.readouterr().out
+
+
+def test_frame_folder_as_a_sequence(tmp_path):
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    rgb = cv2.imread(str(EXAMPLE), cv2.IMREAD_COLOR)
+    for t in range(3):
+        cv2.imwrite(str(frames / f"f{t}.png"), np.roll(rgb, 2 * t, axis=1))
+    assert run(frames, "--sequence", "--smoothing", "0.5", "-o", tmp_path / "masks") == 0
+    names = sorted(p.name for p in (tmp_path / "masks").iterdir())
+    assert names == ["f0_mask.png", "f1_mask.png", "f2_mask.png"]
+    assert iou(cv2.imread(str(tmp_path / "masks" / "f2_mask.png"), cv2.IMREAD_GRAYSCALE), np.roll(truth(), 4, 1)) > 0.9
+    assert run(frames, "--sequence", "--smoothing", "1.5", "-o", tmp_path / "m2") == 2
