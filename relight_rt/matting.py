@@ -240,7 +240,9 @@ class PersonMatter:
         models: folder holding matte_pose.onnx and matte_roi.onnx (default: $RELIGHT_RT_MODELS when it
             holds them, else the bundled ones).
         device: "cpu" (default), "cuda" or "auto".
-        person: "largest" (default: the person with the largest area) or "all" (everyone found).
+        person: "largest" (default: the person with the largest area) or "all" (everyone found at the
+            first scale where anybody is found: a photo with one big person and far-away passers-by gets
+            the big person only, as the whole-image pass does not see the small ones).
         refine: refine the edges with the photo (guided filter); False gives the upsampled segmentation.
         guide: "gray" (default, fast) or "color" (a colour guide: separates edges that differ in colour
             but not in brightness, e.g. pale shoes on a white floor; ~4x the refinement time).
