@@ -24,6 +24,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "evaluate": ("export.evaluate", "evaluate trained networks on a held-out synthetic split"),
     "quickstart": ("export.quickstart", "render, train tiny models on the CPU, export and relight"),
     "fit-dvp": ("export.dvp", "fit an illumination-conditioned deep video prior to one video"),
+    "mask-models": ("export.mask_models", "convert MediaPipe's person segmentation to the bundled matting graphs"),
 }
 
 

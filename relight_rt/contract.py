@@ -37,7 +37,7 @@ class TensorSpec:
 
     Attributes:
         name: the tensor's name in the graph.
-        rank: 4 for images (N, C, H, W); 3 for SH lights (N, 9, 3).
+        rank: 4 for images (N, C, H, W); 3 for SH lights (N, 9, 3); 2 for per-image scores (N, C).
         channels: C of a rank-4 tensor (None: any); unused for lights.
     """
 
@@ -126,6 +126,24 @@ register_kind(KindSpec(
     outputs=(TensorSpec("relit", 4, 3),),
     fixed_size=False,
     filename="dvp.onnx",
+))
+# Person matting (issue 20, relight_rt.matting), converted from MediaPipe by export/mask_models.py. Neither
+# carries SH degree or norm: they are not relighting networks.
+register_kind(KindSpec(  # a square person region -> person logits and a pose-presence probability
+    "matte_pose",
+    inputs=(TensorSpec("image", 4, 3),),
+    outputs=(TensorSpec("segmentation", 4, 1), TensorSpec("presence", 2, 1)),
+    fixed_size=True,
+    filename="matte_pose.onnx",
+    metadata=(),
+))
+register_kind(KindSpec(  # the whole letterboxed image -> person probability (finds the region)
+    "matte_roi",
+    inputs=(TensorSpec("image", 4, 3),),
+    outputs=(TensorSpec("segmentation", 4, 1),),
+    fixed_size=True,
+    filename="matte_roi.onnx",
+    metadata=(),
 ))
 
 

@@ -30,11 +30,12 @@ MaskLike = str | os.PathLike | np.ndarray
 class Matter(Protocol):
     """An automatic person matte: RGB photo in, soft alpha out, at the photo's full resolution.
 
-    ``matter(rgb)`` takes (H, W, 3) float32 RGB in [0, 1] and returns (H, W) float32 in [0, 1]
-    (1 = person). It raises RelightError when it finds no person.
+    ``matter(rgb, name)`` takes (H, W, 3) float32 RGB in [0, 1] and returns (H, W) float32 in [0, 1]
+    (1 = person). It raises RelightError when it finds no person (naming the image by ``name``).
+    relight_rt.matting.PersonMatter is the bundled one.
     """
 
-    def __call__(self, rgb: np.ndarray) -> np.ndarray: ...
+    def __call__(self, rgb: np.ndarray, name: str = "image") -> np.ndarray: ...
 
 
 def _no_mask_message(name: str, matter_note: str) -> str:
@@ -70,14 +71,14 @@ def resolve_mask(
     if isinstance(mask, str) and mask == AUTO:
         if matter is None:
             raise RelightError(f"{name}: mask 'auto' asked for, but no automatic matting model is available")
-        return _check_matte(matter(np.ascontiguousarray(image[..., :3])), shape, name, allow_empty)
+        return _check_matte(matter(np.ascontiguousarray(image[..., :3]), name=name), shape, name, allow_empty)
     if mask is not None:
         return read_mask(mask, shape, "mask", allow_empty=allow_empty)
     if image.ndim == 3 and image.shape[2] == 4:
         return read_mask(image[..., 3], shape, f"{name} alpha (used as the mask)", allow_empty=allow_empty)
     if matter is None:
         raise RelightError(_no_mask_message(name, ""))
-    return _check_matte(matter(np.ascontiguousarray(image[..., :3])), shape, name, allow_empty)
+    return _check_matte(matter(np.ascontiguousarray(image[..., :3]), name=name), shape, name, allow_empty)
 
 
 def _check_matte(alpha: np.ndarray, shape: tuple[int, int], name: str, allow_empty: bool) -> np.ndarray:

@@ -305,9 +305,14 @@ class Relighter:
         if not self._matter_loaded:
             self._matter_loaded = True
             if self.config.matting == "auto" and importlib.util.find_spec(f"{__package__}.matting") is not None:
-                from .matting import default_matter
+                from .matting import find_matting_models, shared_matter
 
-                self._matter = default_matter(device=self.config.device)
+                try:
+                    find_matting_models()
+                except RelightError as exc:  # the graphs are not installed: photos then need a mask or alpha
+                    log.debug("no automatic matting: %s", exc)
+                else:
+                    self._matter = shared_matter(device=self.config.device)
         return self._matter
 
     def _prepared(self, dec: Decomposition) -> dict:

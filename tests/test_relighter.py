@@ -221,7 +221,7 @@ def test_bad_lights(relighter, light, match):
         (np.zeros((20, 20), np.uint8), np.ones((20, 20)), "grayscale"),
         (np.zeros((20, 20, 3), np.uint16), np.ones((20, 20)), "16-bit"),
         (np.full((20, 20, 3), np.nan, np.float32), np.ones((20, 20)), "NaN"),
-        (np.zeros((20, 20, 3), np.float32), None, "no mask given"),
+        (np.zeros((20, 20, 3), np.float32), None, "no person found in image"),  # the automatic matte looked
         ("missing.png", None, "cannot read"),
     ],
 )
@@ -410,3 +410,10 @@ def test_detail_helpers():
     filled = extend_outward(np.full((20, 20, 1), 3.0, np.float32), m == 1)
     np.testing.assert_allclose(filled[4:11, 5:13], 3.0, rtol=1e-5)  # next to the person: its values
     assert filled[19, 0, 0] == 1.0  # far away: neutral
+
+
+def test_no_mask_without_matting_says_how_to_give_one(models_dir):
+    r = Relighter(models_dir, device="cpu", matting="off")
+    assert r.matter is None
+    with pytest.raises(RelightError, match="no mask given.*--mask FILE in the CLI, mask= in the API"):
+        r.decompose(np.zeros((20, 20, 3), np.float32))

@@ -98,7 +98,7 @@ def test_mask_resolver_order():
     class Matte:
         calls = 0
 
-        def __call__(self, rgb):
+        def __call__(self, rgb, name="image"):
             Matte.calls += 1
             assert rgb.shape == (20, 30, 3)
             out = np.zeros(rgb.shape[:2], np.float32)
@@ -118,7 +118,7 @@ def test_mask_resolver_order():
     with pytest.raises(RelightError, match="no automatic matting model"):
         resolve_mask(img, "auto")
     with pytest.raises(RelightError, match="automatic matte returned"):
-        resolve_mask(img[..., :3], None, matter=lambda rgb: np.zeros((3, 3), np.float32))
+        resolve_mask(img[..., :3], None, matter=lambda rgb, name: np.zeros((3, 3), np.float32))
 
 
 def test_soft_mask_values_survive_and_video_masks_may_be_empty():

@@ -1,0 +1,180 @@
+"""``relight-rt mask``: automatic person masks, to inspect, fix by hand and reuse.
+
+Registered by relight_rt.cli through :func:`add_parser`. Examples::
+
+    relight-rt mask photo.jpg -o photo_mask.png          # one 8-bit PNG
+    relight-rt mask photos/ -o masks/                     # NAME_mask.png per image (past bad files)
+    relight-rt mask clip.mp4 -o clip_mask.avi             # a mask video (temporal smoothing)
+    relight-rt mask clip.mp4 -o clip_masks/               # or one frame_NNNNNN_mask.png per frame
+    relight-rt mask frames/ --sequence -o masks/          # a folder of video frames, smoothed over time
+
+The masks come from relight_rt.matting (MediaPipe-derived graphs bundled with the package). Outputs are
+written atomically and never over an input (nor over an existing file in an input folder).
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from ._errors import RelightError
+from ._io import IMAGE_SUFFIXES, _decode, list_images, write_image
+from ._video_io import VIDEO_SUFFIXES
+
+log = logging.getLogger(__name__)
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    """Add the ``mask`` command to the ``relight-rt`` subparsers; returns its parser."""
+    p = subparsers.add_parser(
+        "mask",
+        help="automatic person masks for photos, folders and videos",
+        description="Write an automatic person mask (8-bit PNG; white = person) for each input: a PNG for one "
+        "image, NAME_mask.png per image of a folder, a mask video or PNG frames for a video.",
+    )
+    p.add_argument("inputs", nargs="+", metavar="INPUT", help="image files, folders of images, or one video file")
+    p.add_argument("-o", "--output", required=True, metavar="OUT",
+                   help="output .png (one image), folder, or video file (.avi/.mp4/.mkv; a video input)")  # fmt: skip
+    p.add_argument("--person", choices=("largest", "all"), default="largest",
+                   help="which people to mask: the largest (default) or everyone found")  # fmt: skip
+    p.add_argument("--no-refine", action="store_true", help="skip the guided-filter edge refinement")
+    p.add_argument("--binary", action="store_true", help="write 0/255 masks (threshold 0.5) instead of soft ones")
+    p.add_argument("--sequence", action="store_true",
+                   help="a folder is one video's frames: follow the person, smooth the outline over time")  # fmt: skip
+    p.add_argument("--smoothing", type=float, default=0.7,
+                   help="video: weight of the motion-compensated history in [0, 1) (default 0.7; 0 = off)")  # fmt: skip
+    p.add_argument("--models", metavar="DIR", help="folder with matte_pose.onnx and matte_roi.onnx (default: bundled)")
+    p.add_argument("--device", choices=("auto", "cpu", "cuda"), default="cpu", help="where to run (default: cpu)")
+    p.set_defaults(func=run)
+    return p
+
+
+def read_photo(path: Path) -> np.ndarray:
+    """Any readable image file as float32 RGB (H, W, 3) in [0, 1] (gray and 16-bit files converted,
+    alpha dropped, EXIF orientation applied)."""
+    bgr = _decode(path, "image", cv2.IMREAD_COLOR)
+    return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB).astype(np.float32) * np.float32(1 / 255)
+
+
+def _finish(alpha: np.ndarray, binary: bool) -> np.ndarray:
+    return (alpha >= 0.5).astype(np.float32) if binary else alpha
+
+
+def _report(failures: list[tuple[str, str]], written: int, total: int) -> int:
+    for item, message in failures:
+        text = message if item in message else f"{item}: {message}"
+        print(f"relight-rt: error: {text}", file=sys.stderr)
+    if failures and total > 1:
+        print(f"relight-rt: {len(failures)} failed, {written} written", file=sys.stderr)
+    return 2 if failures else 0
+
+
+def run(args: argparse.Namespace) -> int:
+    from .matting import PersonMatter, VideoMatter
+
+    inputs = [Path(p) for p in args.inputs]
+    out = Path(args.output)
+    videos = [p for p in inputs if p.is_file() and p.suffix.lower() in VIDEO_SUFFIXES]
+    if videos and len(inputs) > 1:
+        raise RelightError(f"{videos[0]}: a video input must be the only input")
+    if not 0.0 <= args.smoothing < 1.0:
+        raise RelightError(f"--smoothing: expected a value in [0, 1), got {args.smoothing}")
+    matter = PersonMatter(args.models, device=args.device, person=args.person, refine=not args.no_refine)
+    if videos or args.sequence:
+        vm = VideoMatter(matter, smoothing=args.smoothing, refine=not args.no_refine)
+    if videos:
+        return _run_video(videos[0], out, vm, args.binary)
+    if args.sequence:
+        if len(inputs) != 1 or not inputs[0].is_dir():
+            raise RelightError("--sequence: expected one folder of video frames")
+        return _run_sequence(inputs[0], out, vm, args.binary)
+
+    files: list[Path] = []
+    failures: list[tuple[str, str]] = []
+    protect: set[Path] = set()
+    for item in inputs:
+        if item.is_dir():
+            found = list_images(item)
+            if not found:
+                failures.append((str(item), f"folder {item} holds no images ({', '.join(IMAGE_SUFFIXES)})"))
+            files.extend(found)
+            protect.update(p for p in item.iterdir() if p.is_file())  # existing masks there too
+        elif item.is_file():
+            files.append(item)
+            protect.add(item)
+        else:
+            failures.append((str(item), f"input {item} not found"))
+    single = len(inputs) == 1 and inputs[0].is_file()
+    to_file = single and out.suffix != ""
+    if to_file and out.suffix.lower() != ".png":
+        raise RelightError(f"output {out}: masks are written as .png (8-bit); got {out.suffix!r}")
+    if not to_file and files:
+        out.mkdir(parents=True, exist_ok=True)
+    written: set[Path] = set()
+    for path in files:
+        target = out if to_file else out / f"{path.stem}_mask.png"
+        try:
+            if target.resolve() in written:
+                raise RelightError(f"two inputs named {path.stem} would both write {target}")
+            alpha = matter(read_photo(path), str(path))
+            write_image(target, _finish(alpha, args.binary), protect=protect)
+            written.add(target.resolve())
+            log.info("%s -> %s", path, target)
+        except (RelightError, OSError) as exc:
+            failures.append((str(path), str(exc)))
+    return _report(failures, len(written), len(files))
+
+
+def _run_sequence(folder: Path, out: Path, vm, binary: bool) -> int:
+    files = list_images(folder)
+    if not files:
+        raise RelightError(f"folder {folder} holds no images ({', '.join(IMAGE_SUFFIXES)})")
+    protect = [p for p in folder.iterdir() if p.is_file()]
+    out.mkdir(parents=True, exist_ok=True)
+    failures: list[tuple[str, str]] = []
+    written = 0
+    for path in files:
+        try:
+            alpha = vm(read_photo(path), str(path))
+            write_image(out / f"{path.stem}_mask.png", _finish(alpha, binary), protect=protect)
+            written += 1
+        except (RelightError, OSError) as exc:  # an unreadable frame: the others still get masks
+            failures.append((str(path), str(exc)))
+    log.info("%s: %d masks -> %s", folder, written, out)
+    return _report(failures, written, len(files))
+
+
+def _run_video(video: Path, out: Path, vm, binary: bool) -> int:
+    from ._video_io import FrameSink
+
+    cap = cv2.VideoCapture(str(video))
+    if not cap.isOpened():
+        raise RelightError(f"{video}: OpenCV cannot open this video")
+    fps = float(cap.get(cv2.CAP_PROP_FPS) or 25.0)
+    as_video = out.suffix.lower() in VIDEO_SUFFIXES
+    if out.suffix and not as_video:
+        cap.release()
+        raise RelightError(f"output {out}: expected a video file ({', '.join(VIDEO_SUFFIXES)}) or a folder")
+    sink = FrameSink(video=out if as_video else None, frames_dir=None if as_video else out, fps=fps, protect=[video])
+    count = 0
+    try:
+        with sink:
+            while True:
+                ok, bgr = cap.read()
+                if not ok:
+                    break
+                rgb = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB).astype(np.float32) * np.float32(1 / 255)
+                alpha = _finish(vm(rgb, f"{video} frame {count}"), binary)
+                sink.write(f"frame_{count:06d}_mask", np.repeat(alpha[..., None], 3, axis=2))
+                count += 1
+            if count == 0:
+                raise RelightError(f"{video}: no frames could be read")
+    finally:
+        cap.release()
+    log.info("%s: %d mask frames -> %s", video, count, out)
+    return 0

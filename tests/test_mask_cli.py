@@ -1,0 +1,114 @@
+"""``relight-rt mask`` (relight_rt.mask_cli) end to end on the bundled example person."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from relight_rt import cli
+
+REPO = Path(__file__).resolve().parents[1]
+EXAMPLE = REPO / "relight_rt" / "data" / "example.png"
+
+
+def run(*argv) -> int:
+    return cli.main(["mask", *[str(a) for a in argv]])
+
+
+def truth() -> np.ndarray:
+    return cv2.imread(str(EXAMPLE), cv2.IMREAD_UNCHANGED)[..., 3] >= 128
+
+
+def iou(mask_u8: np.ndarray, t: np.ndarray) -> float:
+    m = mask_u8 >= 128
+    return float((m & t).sum() / (m | t).sum())
+
+
+@pytest.fixture
+def photos(tmp_path) -> Path:
+    folder = tmp_path / "photos"
+    folder.mkdir()
+    shutil.copy(EXAMPLE, folder / "person.png")
+    bgr = cv2.imread(str(EXAMPLE), cv2.IMREAD_COLOR)
+    cv2.imwrite(str(folder / "person_gray.jpg"), cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY))
+    yy, xx = np.mgrid[0:120, 0:160]
+    cv2.imwrite(str(folder / "gradient.png"), np.dstack([xx, yy, xx + yy]).astype(np.uint8))
+    (folder / "broken.jpg").write_bytes(b"not an image")
+    return folder
+
+
+def test_one_image_gives_an_8bit_png(tmp_path, capsys):
+    out = tmp_path / "person_mask.png"
+    assert run(EXAMPLE, "-o", out) == 0
+    m = cv2.imread(str(out), cv2.IMREAD_UNCHANGED)
+    assert m.dtype == np.uint8 and m.ndim == 2 and m.shape == truth().shape
+    assert iou(m, truth()) > 0.93
+    assert run(EXAMPLE, "-o", tmp_path / "b.png", "--binary") == 0
+    assert set(np.unique(cv2.imread(str(tmp_path / "b.png"), cv2.IMREAD_UNCHANGED))) <= {0, 255}
+    assert run(EXAMPLE, "-o", tmp_path / "m.jpg") == 2
+    assert "error: output" in capsys.readouterr().err
+
+
+def test_folder_goes_on_past_bad_files(photos, tmp_path, capsys):
+    out = tmp_path / "masks"
+    assert run(photos, "-o", out) == 2
+    err = capsys.readouterr().err
+    assert "broken.jpg" in err and "no person found in" in err and "gradient.png" in err
+    assert "2 failed, 2 written" in err
+    assert sorted(p.name for p in out.iterdir()) == ["person_gray_mask.png", "person_mask.png"]
+    assert iou(cv2.imread(str(out / "person_gray_mask.png"), cv2.IMREAD_GRAYSCALE), truth()) > 0.9
+
+
+def test_never_writes_over_an_input(photos, capsys):
+    src = photos / "person.png"
+    before = src.read_bytes()
+    assert run(src, "-o", src) == 2
+    assert "refusing to overwrite" in capsys.readouterr().err
+    (photos / "person_mask.png").write_bytes(b"a hand-made mask")
+    assert run(photos, "-o", photos) == 2  # writing beside the photos must not replace the user's mask
+    assert (photos / "person_mask.png").read_bytes() == b"a hand-made mask"
+    assert src.read_bytes() == before
+    assert not list(photos.glob(".*tmp*"))
+
+
+def test_video_gives_a_mask_video_and_frames(tmp_path):
+    rgb = cv2.imread(str(EXAMPLE), cv2.IMREAD_COLOR)[:, :288]  # even size for the codec
+    clip = tmp_path / "clip.avi"
+    writer = cv2.VideoWriter(str(clip), cv2.VideoWriter_fourcc(*"MJPG"), 10, (rgb.shape[1], rgb.shape[0]))
+    for t in range(3):
+        writer.write(np.roll(rgb, 2 * t, axis=1))
+    writer.release()
+    assert run(clip, "-o", tmp_path / "clip_mask.avi") == 0
+    cap = cv2.VideoCapture(str(tmp_path / "clip_mask.avi"))
+    frames = []
+    while True:
+        ok, f = cap.read()
+        if not ok:
+            break
+        frames.append(f[..., 0])
+    cap.release()
+    assert len(frames) == 3 and iou(frames[0], truth()[:, :288]) > 0.9
+    assert run(clip, "-o", tmp_path / "frames") == 0
+    assert sorted(p.name for p in (tmp_path / "frames").iterdir()) == [f"frame_{i:06d}_mask.png" for i in range(3)]
+
+
+def test_help_lists_the_command(capsys):
+    assert cli.main(["mask", "--help"]) == 0
+    assert "NAME_mask.png" in capsys.readouterr().out
+
+
+def test_frame_folder_as_a_sequence(tmp_path):
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    rgb = cv2.imread(str(EXAMPLE), cv2.IMREAD_COLOR)
+    for t in range(3):
+        cv2.imwrite(str(frames / f"f{t}.png"), np.roll(rgb, 2 * t, axis=1))
+    assert run(frames, "--sequence", "--smoothing", "0.5", "-o", tmp_path / "masks") == 0
+    names = sorted(p.name for p in (tmp_path / "masks").iterdir())
+    assert names == ["f0_mask.png", "f1_mask.png", "f2_mask.png"]
+    assert iou(cv2.imread(str(tmp_path / "masks" / "f2_mask.png"), cv2.IMREAD_GRAYSCALE), np.roll(truth(), 4, 1)) > 0.9
+    assert run(frames, "--sequence", "--smoothing", "1.5", "-o", tmp_path / "m2") == 2

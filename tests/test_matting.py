@@ -1,0 +1,250 @@
+"""relight_rt.matting: the bundled person-matting graphs, PersonMatter, VideoMatter, outline_flicker, and the
+conversion (export/mask_models.py)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from relight_rt import RelightError
+from relight_rt import matting as M
+from relight_rt._io import read_image
+from relight_rt.session import bundled_models_dir, load_model
+
+REPO = Path(__file__).resolve().parents[1]
+EXAMPLE = REPO / "relight_rt" / "data" / "example.png"  # a rendered person; its alpha channel is the true mask
+
+
+def iou(a: np.ndarray, b: np.ndarray) -> float:
+    a, b = a >= 0.5, b >= 0.5
+    return float((a & b).sum() / max((a | b).sum(), 1))
+
+
+@pytest.fixture(scope="module")
+def matter() -> M.PersonMatter:
+    return M.PersonMatter()
+
+
+@pytest.fixture(scope="module")
+def example() -> tuple[np.ndarray, np.ndarray]:
+    rgba = read_image(EXAMPLE)
+    return np.ascontiguousarray(rgba[..., :3]), rgba[..., 3].copy()
+
+
+def gradient(h: int = 240, w: int = 320) -> np.ndarray:
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+    return np.stack([xx / w, yy / h, 1 - xx / w], -1).astype(np.float32)
+
+
+# ------------------------------------------------------------------------------------------ bundled graphs
+
+
+def test_bundled_graphs_follow_the_contract():
+    folder = bundled_models_dir()
+    for file, kind in ((M.POSE_FILE, "matte_pose"), (M.ROI_FILE, "matte_roi")):
+        model = load_model(folder / file, kind, device="cpu", warmup=False)
+        assert model.config.kind == kind and model.config.resolution == 256
+        assert "MediaPipe" in model.config.source and "Apache" in model.config.source
+    pose = load_model(folder / M.POSE_FILE, "matte_pose", device="cpu", warmup=False)
+    assert [o.name for o in pose.session.get_outputs()] == ["segmentation", "presence"]
+
+
+def test_all_bundled_graphs_stay_within_40_mb():
+    total = sum(p.stat().st_size for p in (REPO / "relight_rt").rglob("*.onnx"))
+    assert total <= 40 * 1000 * 1000, f"bundled .onnx files total {total / 1e6:.1f} MB > 40 MB"
+
+
+def test_converted_graphs_match_tflite():
+    """Parity of the committed graphs with MediaPipe's TFLite models (only where mediapipe is installed:
+    the conversion venv, see export/mask_models.py)."""
+    mediapipe = pytest.importorskip("mediapipe")
+    pytest.importorskip("tensorflow")
+    from export import mask_models
+
+    root = Path(mediapipe.__file__).resolve().parent
+    for name, (rel, _, outputs) in mask_models.SOURCES.items():
+        data = (bundled_models_dir() / name).read_bytes()
+        err = mask_models.verify(data, root / rel, outputs, mask_models.test_inputs())
+        assert err <= mask_models.PARITY_TOL, f"{name}: {err}"
+
+
+def test_transpose_conv_bias_rewrite_matches_its_definition():
+    """MediaPipe's Convolution2DTransposeBias (NHWC, OHWI weights, stride = kernel) -> ONNX ConvTranspose."""
+    onnx = pytest.importorskip("onnx")
+    import onnxruntime as ort
+    from onnx import TensorProto, helper, numpy_helper
+
+    from export.mask_models import rewrite_transpose_conv_bias
+
+    rng = np.random.default_rng(0)
+    w = rng.standard_normal((2, 2, 2, 4)).astype(np.float32)  # (out, kh, kw, in)
+    b = rng.standard_normal(2).astype(np.float32)
+    nodes = [
+        helper.make_node("Transpose", ["x"], ["x_nhwc"], perm=[0, 2, 3, 1]),
+        helper.make_node("TFL_Convolution2DTransposeBias", ["x_nhwc", "w", "b"], ["y"], name="up"),
+    ]
+    graph = helper.make_graph(
+        nodes, "g", [helper.make_tensor_value_info("x", TensorProto.FLOAT, [1, 4, 3, 3])],
+        [helper.make_tensor_value_info("y", TensorProto.FLOAT, [1, 6, 6, 2])],
+        [numpy_helper.from_array(w, "w"), numpy_helper.from_array(b, "b")],
+    )  # fmt: skip
+    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)])
+    assert rewrite_transpose_conv_bias(model) == 1
+    assert not any(n.op_type.startswith("TFL_") for n in model.graph.node)
+    x = rng.standard_normal((1, 4, 3, 3)).astype(np.float32)
+    y = ort.InferenceSession(model.SerializeToString(), providers=["CPUExecutionProvider"]).run(None, {"x": x})[0]
+    want = np.zeros((1, 6, 6, 2), np.float32)
+    for di in range(2):
+        for dj in range(2):
+            want[0, di::2, dj::2, :] = np.einsum("cij,oc->ijo", x[0], w[:, di, dj, :]) + b
+    np.testing.assert_allclose(y, want, atol=1e-5)
+    assert onnx is not None
+
+
+# ---------------------------------------------------------------------------------------------- geometry
+
+
+def test_crop_region_of_the_whole_square_image_is_the_image():
+    rng = np.random.default_rng(1)
+    img = rng.random((256, 256, 3), dtype=np.float32)
+    out = M.crop_region(img, M.Region(128.0, 128.0, 256.0))
+    np.testing.assert_allclose(out, img, atol=1e-5)
+    big = cv2.resize(img, (1024, 1024), interpolation=cv2.INTER_NEAREST)  # 4x4 blocks: area-averaging is exact
+    np.testing.assert_allclose(M.crop_region(big, M.Region(512.0, 512.0, 1024.0)), img, atol=1e-4)
+
+
+def test_crop_region_pads_with_zeros_past_the_border():
+    img = np.ones((100, 100, 3), np.float32)
+    out = M.crop_region(img, M.Region(0.0, 50.0, 200.0))  # left half of the region is outside
+    assert out[:, :120].max() == 0.0 and out[:60].max() == 0.0 and out[70:186, 134:250].min() > 0.99
+
+
+# ----------------------------------------------------------------------------------------------- photos
+
+
+def test_example_person_is_found_at_full_resolution(matter, example):
+    rgb, truth = example
+    alpha = matter(rgb)
+    assert alpha.shape == rgb.shape[:2] and alpha.dtype == np.float32
+    assert 0.0 <= alpha.min() and alpha.max() <= 1.0
+    assert iou(alpha, truth) > 0.93  # measured 0.958
+
+
+@pytest.mark.parametrize(
+    ("crop", "floor"),
+    [((slice(None), slice(110, None)), 0.88), ((slice(0, 300), slice(None)), 0.90)],
+    ids=["cut-left", "cut-bottom"],
+)  # fmt: skip
+def test_person_cut_by_the_border(matter, example, crop, floor):
+    rgb, truth = example
+    alpha = matter(np.ascontiguousarray(rgb[crop]))
+    assert iou(alpha, truth[crop]) > floor  # measured 0.913 and 0.935
+
+
+def test_small_person_in_a_big_photo(matter, example):
+    """200 px high in 2400x1800 (11 % of the height): the whole-image pass misses them, the tiles find them."""
+    rgb, truth = example
+    big = np.full((1800, 2400, 3), (0.35, 0.35, 0.45), np.float32)
+    small = cv2.resize(rgb, (114, 200), interpolation=cv2.INTER_AREA)
+    alpha = cv2.resize(truth, (114, 200), interpolation=cv2.INTER_AREA)[..., None]
+    big[1200:1400, 1700:1814] = small * alpha + big[1200:1400, 1700:1814] * (1 - alpha)
+    want = np.zeros(big.shape[:2], np.float32)
+    want[1200:1400, 1700:1814] = alpha[..., 0]
+    assert iou(matter(big), want) > 0.9  # measured 0.973
+
+
+def test_uint8_rgba_and_grayscale_inputs(matter, example):
+    rgb, truth = example
+    ref = matter(rgb)
+    np.testing.assert_allclose(matter((rgb * 255 + 0.5).astype(np.uint8)), ref, atol=0.02)
+    rgba = np.dstack([rgb, np.zeros_like(truth)])  # an empty alpha channel is ignored: matting looks at the picture
+    np.testing.assert_array_equal(matter(rgba), ref)
+    gray = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
+    assert iou(matter(gray), truth) > 0.9 and iou(matter(gray[..., None]), truth) > 0.9  # measured 0.940
+
+
+def test_no_person_raises(matter):
+    with pytest.raises(RelightError, match="no person found in gradient.png"):
+        matter(gradient(), "gradient.png")
+    with pytest.raises(RelightError, match="no person found"):
+        matter(np.zeros((64, 80, 3), np.float32))
+
+
+@pytest.mark.parametrize(
+    ("bad", "words"),
+    [
+        (np.zeros((1, 1, 3), np.float32), "too small"),
+        (np.zeros((8, 300, 3), np.float32), "too small"),
+        (np.full((32, 32, 3), np.nan, np.float32), "NaN"),
+        (np.full((32, 32, 3), 2.0, np.float32), r"\[0, 1\]"),
+        (np.zeros((32, 32, 2), np.float32), "shape"),
+        (np.zeros((32, 32, 3), np.int32), "uint8 or float"),
+        ("photo.jpg", "array"),
+    ],
+)
+def test_bad_inputs_raise_relight_error(matter, bad, words):
+    with pytest.raises(RelightError, match=words):
+        matter(bad, "photo")
+
+
+def test_largest_or_all_people(matter, example):
+    rgb, truth = example
+    small = cv2.resize(rgb, None, fx=0.6, fy=0.6, interpolation=cv2.INTER_AREA)
+    canvas = np.zeros((508, 620, 3), np.float32)
+    canvas[:, :290] = rgb
+    canvas[100 : 100 + small.shape[0], 330 : 330 + small.shape[1]] = small
+    largest = matter(canvas)
+    assert (largest[:, :290] >= 0.5).sum() > 0.9 * (truth >= 0.5).sum() and not (largest[:, 320:] >= 0.5).any()
+    everyone = M.PersonMatter(person="all")(canvas)
+    assert (everyone[:, 320:] >= 0.5).sum() > 0.5 * (0.36 * (truth >= 0.5).sum())
+    with pytest.raises(RelightError, match="person"):
+        M.PersonMatter(person="tallest")
+
+
+def test_shared_matter_is_loaded_once(example):
+    a = M.shared_matter()
+    assert M.shared_matter() is a and M.shared_matter(person="all") is not a
+    rgb, truth = example
+    assert iou(a(rgb), truth) > 0.93
+    with pytest.raises(RelightError, match="not found"):
+        M.shared_matter("/nonexistent/models")
+
+
+def test_reference_photo_iou(matter, reference_dir):
+    rgb = read_image(reference_dir / "photo" / "sample.jpg")
+    truth = cv2.imread(str(reference_dir / "photo" / "sample_mask.png"), cv2.IMREAD_GRAYSCALE) / 255.0
+    assert iou(matter(rgb), truth) > 0.95  # measured 0.970 (docs/RESULTS.md)
+
+
+# ------------------------------------------------------------------------------------------------ video
+
+
+def test_video_matter_follows_and_survives_empty_frames(matter, example):
+    rgb, truth = example
+    vm = M.VideoMatter(matter, smoothing=0.7)
+    frames = [np.roll(rgb, 3 * t, axis=1) for t in range(4)]
+    alphas = [vm(f) for f in frames]
+    for t, a in enumerate(alphas):
+        assert iou(a, np.roll(truth, 3 * t, axis=1)) > 0.9
+    assert vm(np.zeros_like(rgb)).max() == 0.0  # nobody: an empty matte, no error
+    assert iou(vm(rgb), truth) > 0.9  # found again
+    with pytest.raises(RelightError, match="previous frames"):
+        vm(rgb[:200])
+    flicker = M.outline_flicker(alphas, frames)
+    assert 0.0 <= flicker < 0.05
+
+
+def test_outline_flicker_measures_edge_change(matter):
+    a = np.zeros((64, 64), np.float32)
+    a[16:48, 16:48] = 1.0
+    assert M.outline_flicker([a, a, a]) == 0.0
+    b = a.copy()
+    b[16:48, 46:48] = 0.0  # the right edge moves by 2 pixels
+    assert M.outline_flicker([a, b]) > 0.05
+    with pytest.raises(RelightError, match="at least 2"):
+        M.outline_flicker([a])
+    with pytest.raises(RelightError):
+        M.VideoMatter(matter, smoothing=1.0)
