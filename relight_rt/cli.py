@@ -23,7 +23,9 @@ import numpy as np
 
 from . import __version__, lights, sh
 from ._errors import RelightError
-from ._io import IMAGE_SUFFIXES, list_images, sibling_mask, write_image, write_npy, write_npz
+from ._io import IMAGE_SUFFIXES, atomic_path, check_target, list_images, sibling_mask, write_image, write_npy, write_npz
+from ._limits import DEFAULT_MAX_PIXELS, pixel_limit
+from ._process import interrupt_handling, quiet_native_libraries
 
 log = logging.getLogger("relight_rt.cli")
 
@@ -33,6 +35,15 @@ def _add_model_options(p: argparse.ArgumentParser) -> None:
         "--models", metavar="DIR", help="model folder (default: $RELIGHT_RT_MODELS, then the bundled models)"
     )
     p.add_argument("--device", choices=("auto", "cpu", "cuda"), default="auto", help="where to run (default: auto)")
+    add_max_pixels(p)
+
+
+def add_max_pixels(p: argparse.ArgumentParser) -> None:
+    """``--max-pixels N``: refuse images larger than N pixels, read from the file header before decoding."""
+    p.add_argument(
+        "--max-pixels", type=int, default=DEFAULT_MAX_PIXELS, metavar="N",
+        help=f"refuse images of more than N pixels, before decoding them (default {DEFAULT_MAX_PIXELS:,}; 0: no limit)",
+    )  # fmt: skip
 
 
 def _relighter(args: argparse.Namespace):
@@ -62,6 +73,7 @@ def add_relight(subparsers) -> None:
     p.add_argument("--rotate", type=float, default=0.0, metavar="DEG", help="turn the light about the vertical axis")
     p.add_argument("--background", default="original", metavar="B", help="original | transparent | IMAGE")
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="output file (one input) or folder")
+    p.add_argument("--skip-existing", action="store_true", help="leave outputs that exist alone (resume a batch)")
     _add_model_options(p)
     p.set_defaults(func=cmd_relight)
 
@@ -110,6 +122,19 @@ def _mask_for(image: Path, mask_arg: str | None, single: bool) -> Path | None:
     return m
 
 
+def _read_inputs(args: argparse.Namespace, files: list[Path], relighter) -> set:
+    """Every file ``relight`` reads, never to be written over: images, masks (beside them or anywhere in a
+    --mask folder), light files, the background and the model graphs."""
+    protect = set(files)
+    named = [Path(p) for p in (args.mask, args.light, args.envmap, args.light_from, args.background) if p]
+    protect.update(p for p in named if p.is_file())
+    protect.update(m for m in (sibling_mask(f) for f in (*files, *(p for p in named if p.is_file()))) if m)
+    for folder in (Path(args.mask),) if args.mask and Path(args.mask).is_dir() else ():
+        protect.update(p for p in folder.iterdir() if p.is_file())
+    protect.update(Path(relighter.models_dir).glob("*.onnx"))
+    return protect
+
+
 def _progress(items: list, enabled: bool):
     if not enabled:
         return items
@@ -132,9 +157,7 @@ def cmd_relight(args: argparse.Namespace) -> int:
         raise RelightError(f"--background {background}: expected original, transparent or an image file")
     relighter = _relighter(args)
     light = _light_from_args(args, relighter)
-    protect = set(files)
-    protect.update(p for p in (args.mask, args.light, args.envmap, args.light_from, background) if p)
-    protect.update(m for m in (sibling_mask(f) for f in files) if m)
+    protect = _read_inputs(args, files, relighter)
     if not to_file and files:
         out.mkdir(parents=True, exist_ok=True)
     written: set[Path] = set()
@@ -144,6 +167,9 @@ def cmd_relight(args: argparse.Namespace) -> int:
         try:
             if target.resolve() in written:
                 raise RelightError(f"two inputs named {path.stem} would both write {target}")
+            if args.skip_existing and target.exists():
+                log.info("%s exists, skipped (--skip-existing)", target)
+                continue
             mask = _mask_for(path, args.mask, single)
             image = relighter.relight(path, light, mask=mask, background=background)
             write_image(target, image, protect=protect)
@@ -184,7 +210,7 @@ def cmd_decompose(args: argparse.Namespace) -> int:
     dec = relighter.decompose(src, mask)
     folder = Path(args.output)
     folder.mkdir(parents=True, exist_ok=True)
-    protect = [p for p in (src, mask) if p]
+    protect = [p for p in (src, mask) if p] + list(Path(relighter.models_dir).glob("*.onnx"))
     write_image(folder / "albedo.png", dec.to_input(np.ascontiguousarray(dec.albedo)), protect)
     write_image(folder / "shading.png", dec.to_input(dec.shading()), protect)
     write_image(folder / "skin.png", dec.to_input(dec.skin), protect)
@@ -243,16 +269,17 @@ def _light_output(output: str, source: str) -> Path:
     out = Path(output)
     if out.suffix.lower() not in (".npy", ".json"):
         raise RelightError(f"output {out}: expected a .npy or .json light file")
-    if out.resolve() == Path(source).resolve():
-        raise RelightError(f"refusing to overwrite the input {source}")
+    check_target(out, [source, *filter(None, [sibling_mask(source)])])
     return out
 
 
-def _write_light(out: Path, light: np.ndarray, source: str) -> None:
+def _write_light(out: Path, light: np.ndarray, source: str, protect: tuple = ()) -> None:
+    protect = [source, *protect]
     if out.suffix.lower() == ".npy":
-        write_npy(out, light, protect=[source])
+        write_npy(out, light, protect=protect)
     else:
-        sh.save_light(out, light)
+        with atomic_path(out, protect) as tmp:  # checked against the inputs first, then sh.save_light's format
+            sh.save_light(tmp, light)
     log.info("%s -> %s", source, out)
 
 
@@ -266,8 +293,9 @@ def cmd_lights_from_photo(args: argparse.Namespace) -> int:
     out = _light_output(args.output, args.photo)  # before the models load
     photo = Path(args.photo)
     mask = Path(args.mask) if args.mask else sibling_mask(photo)
-    light = np.asarray(_relighter(args).decompose(photo, mask).light, dtype=np.float32)
-    _write_light(out, light, args.photo)
+    relighter = _relighter(args)
+    light = np.asarray(relighter.decompose(photo, mask).light, dtype=np.float32)
+    _write_light(out, light, args.photo, (*filter(None, [mask]), *Path(relighter.models_dir).glob("*.onnx")))
     return 0
 
 
@@ -313,20 +341,47 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _os_error(exc: OSError) -> str:
+    """One line for an OSError: the file and the reason, as a person reads it."""
+    where = f"{exc.filename}: " if exc.filename else ""
+    return f"{where}{exc.strerror or exc}"
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Run the CLI; returns the process exit code (0 ok, 1 doctor found problems, 2 bad input)."""
+    """Run the CLI; returns the process exit code (0 ok, 1 doctor found problems, 2 bad input or a file that
+    cannot be read or written, 130 Ctrl-C, 143 SIGTERM). Every failure is one line on stderr, never a
+    traceback; SIGTERM and Ctrl-C unwind through the atomic writers, which remove their temporary files."""
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # argparse: --help / --version (0) or a usage error (2)
         return int(exc.code or 0)
-    level = logging.DEBUG if args.verbose else logging.WARNING if args.quiet else logging.INFO
-    logging.basicConfig(level=level, format="%(message)s")
     if args.command is None:
         parser.print_help()
         return 0
-    try:
-        return int(args.func(args))
-    except RelightError as exc:
-        print(f"relight-rt: error: {exc}", file=sys.stderr)
+    with quiet_native_libraries(enabled=not args.verbose):
+        level = logging.DEBUG if args.verbose else logging.WARNING if args.quiet else logging.INFO
+        logging.basicConfig(level=level, format="%(message)s")
+        return _run(args)
+
+
+def _run(args: argparse.Namespace) -> int:
+    def fail(message: str) -> int:
+        print(f"relight-rt: error: {message}", file=sys.stderr)
         return 2
+
+    with interrupt_handling() as interrupted:
+        try:
+            with pixel_limit(getattr(args, "max_pixels", DEFAULT_MAX_PIXELS)):
+                return int(args.func(args))
+        except RelightError as exc:
+            return fail(str(exc))
+        except RecursionError:
+            return fail("an input is nested too deeply to read (a malformed file?)")
+        except MemoryError:
+            return fail("out of memory; lower --max-pixels or the batch size, or use a machine with more memory")
+        except OSError as exc:
+            return fail(_os_error(exc))
+        except KeyboardInterrupt:
+            print(f"relight-rt: {interrupted.reason or 'interrupted'}; partial files removed", file=sys.stderr)
+            return interrupted.code or 130

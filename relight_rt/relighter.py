@@ -36,7 +36,7 @@ from ._detail import extend_outward, guided_upsample, unpremultiply, window
 from ._errors import RelightError
 from ._geometry import CropGeometry
 from ._io import IMAGE_SUFFIXES, read_image, read_mask, sibling_mask
-from .session import Model, find_models, load_model
+from .session import Model, check_finite, find_models, load_model
 
 log = logging.getLogger(__name__)
 
@@ -46,6 +46,14 @@ _ALPHA_MIN = np.float32(1e-3)
 _ENVMAP_SUFFIXES = (".hdr", ".pic", ".exr")
 PRECISIONS = ("fp32", "fp16", "int8")
 _SHADE_BLOCK = 1 << 19  # multiply-adds per block of diffuse_batch (about 2 MB of float32 temporaries)
+
+
+def _float32_light(light, name: str) -> np.ndarray:
+    """A checked (9, 3) light in float32, the dtype it is used in (too large or non-finite there: RelightError)."""
+    arr = sh.check_light(light, name).astype(np.float32)
+    if not np.isfinite(arr).all():
+        raise RelightError(f"{name}: SH light overflows float32 (|value| must be <= {sh.MAX_COEFF:g})")
+    return arr
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:
@@ -288,7 +296,10 @@ class Relighter:
         elif img.shape[2] == 4:
             m = read_mask(img[..., 3], shape, "image alpha (used as the mask)")
         else:
-            raise RelightError("image: no mask given and the image has no alpha channel; pass mask=PATH_OR_ARRAY")
+            raise RelightError(
+                "image: no mask given and the image has no alpha channel; give a mask (--mask FILE, or NAME_mask.png "
+                "beside the image; mask= in Python)"
+            )
         rgb = np.ascontiguousarray(img[..., :3]) if img.shape[2] == 4 else img
         geom = CropGeometry.from_mask(m, self.resolution, self.preprocess)
         net_img = geom.to_network(rgb)
@@ -296,6 +307,7 @@ class Relighter:
         feeds = {"image": net_img.transpose(2, 0, 1)[None], "mask": net_mask[None, None]}
         if self._chain is not None:
             out, on_device = self._chain.run_stage1(feeds["image"], feeds["mask"])
+            check_finite(out, self.stage1.name)
         else:
             out = self.stage1.run(feeds)
         light = out["light"][0]
@@ -324,16 +336,18 @@ class Relighter:
             suffix = p.suffix.lower()
             if p.is_file():
                 if suffix in (".npy", ".json"):
-                    return sh.load_light(p).astype(np.float32)
-                if suffix in _ENVMAP_SUFFIXES:
-                    return sh.project_envmap(sh.load_envmap(p)).astype(np.float32)
-                if suffix in IMAGE_SUFFIXES:
+                    value = sh.load_light(p)
+                elif suffix in _ENVMAP_SUFFIXES:
+                    value = sh.project_envmap(sh.load_envmap(p))
+                elif suffix in IMAGE_SUFFIXES:
                     return np.array(self.decompose(p, sibling_mask(p)).light, dtype=np.float32)
-                raise RelightError(f"light: {p} is neither a light file (.npy/.json), an HDR map nor a photo")
+                else:
+                    raise RelightError(f"light: {p} is neither a light file (.npy/.json), an HDR map nor a photo")
+                return _float32_light(value, f"light {p}")
             if suffix or os.sep in str(light):
                 raise RelightError(f"light: file {p} not found")
-            return sh.check_light(lights.preset(str(light)), "light").astype(np.float32)
-        return sh.check_light(light, "light").astype(np.float32)
+            return _float32_light(lights.preset(str(light)), "light")
+        return _float32_light(light, "light")
 
     def _resolve_lights(self, values) -> np.ndarray:
         """A (K, 9, 3) array, or a list of anything ``resolve_light`` accepts → (K, 9, 3) float32, K >= 1."""
@@ -361,6 +375,8 @@ class Relighter:
             return
         for start in range(0, lights.shape[0], batch_size):
             diffuse = diffuse_batch(dec._albedo, dec._transport, lights[start : start + batch_size])
+            if not np.isfinite(diffuse).all():  # a NaN here is the light's or stage 1's, not stage 2's
+                raise RelightError(f"light: shading under this light is not finite (stage 1: {self.stage1.name})")
             if self.stage2 is None:
                 for d in diffuse:
                     yield d, None, d
@@ -385,7 +401,9 @@ class Relighter:
             if mask_key not in dec._cache:
                 shape = (batch.shape[0], 1) + dec.network_mask.shape
                 dec._cache[mask_key] = chain.upload(np.broadcast_to(dec.network_mask, shape))
-            yield from chain.relit(dec._cache[key], dec._cache[mask_key], batch, want_layers)
+            for diffuse, residual, relit in chain.relit(dec._cache[key], dec._cache[mask_key], batch, want_layers):
+                check_finite({"relit": relit}, self.stage2.name if self.stage2 is not None else "shading")
+                yield diffuse, residual, relit
 
     def _reconstruction(self, dec: Decomposition) -> np.ndarray:
         """(R, R, 3) straight colour of the pipeline's output under the photo's own light (cached)."""

@@ -18,6 +18,8 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -56,6 +58,11 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--lights-out", help="write the (N, 9, 3) RGB light of every frame to this .npy "
                                         "(e.g. for python -m export fit-dvp --lights)")
     p.add_argument("--metrics", help="write temporal error, warping error and light-following to this JSON file")
+    p.add_argument("--skip-bad-frames", action="store_true",
+                   help="leave out frames that cannot be decoded or differ in size, report each, exit 2")
+    from .cli import add_max_pixels
+
+    add_max_pixels(p)
     p.set_defaults(func=run)
     return p
 
@@ -92,21 +99,27 @@ def run(args: argparse.Namespace) -> int:
 
     if not args.output and not args.frames_out:
         raise RelightError("output: expected -o VIDEO and/or --frames-out DIR")
-    source = video.FrameSource(args.input, args.masks, args.fps)
+    if args.fps is not None and not (math.isfinite(args.fps) and args.fps > 0):
+        raise RelightError(f"--fps: must be > 0, got {args.fps:g}")
+    source = video.FrameSource(args.input, args.masks, args.fps, skip_bad=args.skip_bad_frames)
     schedule = _schedule(args, len(source))
-    inputs = [*source.paths, *([args.lights] if args.lights else [])]
-    for written_last in (args.lights_out, args.metrics):  # files written after the work: refuse before it
-        if written_last:
-            check_target(Path(written_last), inputs)
+    light_files = [args.lights, args.light, *(args.interpolate or []), args.dvp]
+    inputs = [*source.paths, *(Path(p) for p in light_files if p and Path(p).is_file())]
     engine = dvp = None
     if args.dvp:
         dvp = video.DVPModel(args.dvp, device=args.device, size=args.dvp_size)
     else:
         from .relighter import Relighter
 
-        engine = video.RelighterEngine(Relighter(args.models, device=args.device))
+        relighter = Relighter(args.models, device=args.device)
+        inputs += Path(relighter.models_dir).glob("*.onnx")
+        engine = video.RelighterEngine(relighter)
+    for written_last in (args.lights_out, args.metrics):  # files written after the work: refuse before it
+        if written_last:
+            check_target(Path(written_last), inputs)
     stabilizer = None if (args.no_stabilize or dvp is not None) else Stabilizer(args.stabilize_strength)
-    sink = video.FrameSink(args.output, args.frames_out, source.fps, protect=source.paths)
+    audio = source.path if source.has_audio else None
+    sink = video.FrameSink(args.output, args.frames_out, source.rate, protect=inputs, audio_from=audio)
     acc = rt_metrics.TemporalMetrics() if args.metrics else None
     used_lights: list = []  # (9, 3) per frame: 108 bytes each, bounded for any realistic clip
 
@@ -136,4 +149,9 @@ def run(args: argparse.Namespace) -> int:
         with atomic_path(args.metrics, protect=inputs) as tmp:
             tmp.write_text(json.dumps(data, indent=1))
         logger.info("metrics: %s", json.dumps(data))
+    for message in source.skipped:  # --skip-bad-frames: the output is kept, the run still fails
+        print(f"relight-rt: error: {message}", file=sys.stderr)
+    if source.skipped:
+        print(f"relight-rt: {len(source.skipped)} bad frame(s) left out, {report.frames} written", file=sys.stderr)
+        return 2
     return 0
