@@ -148,7 +148,8 @@ def _tiff(f) -> tuple[int, int] | None:
             return None
         tag, kind, _count = struct.unpack(order + "HHI", entry[:8])
         if tag in (256, 257):
-            found[tag] = struct.unpack(order + ("H" if kind == 3 else "I"), entry[8:10] if kind == 3 else entry[8:12])[0]
+            value = entry[8:10] if kind == 3 else entry[8:12]  # SHORT or LONG
+            found[tag] = struct.unpack(order + ("H" if kind == 3 else "I"), value)[0]
     if 256 in found and 257 in found:
         return found[256], found[257]
     return None

@@ -649,7 +649,8 @@ def load_light(path, bgr: bool = False, layout: str | None = None) -> np.ndarray
             raw = load_npy(p, "light", max_bytes=1 << 20)
         else:
             if p.stat().st_size > _JSON_MAX_BYTES:
-                raise RelightError(f"{p}: {p.stat().st_size:,} bytes is too large for a light file (a light is 27 numbers)")
+                size = p.stat().st_size
+                raise RelightError(f"{p}: {size:,} bytes is too large for a light file (a light is 27 numbers)")
             doc = json.loads(p.read_text(encoding="utf-8"))
             if not isinstance(doc, dict) or "sh" not in doc:
                 raise RelightError(f'{p}: expected a JSON object {{"sh": [[r, g, b] x 9], "order": "rgb"}}')
