@@ -156,9 +156,12 @@ MAX_COEFF = 1e30
 transport overflows to Inf and the result turns to NaN. Presets have coefficients of about 1."""
 
 
+_MAX_COEFF_F32 = float(np.float32(MAX_COEFF))  # MAX_COEFF as float32 holds it: a checked light's float32 copy passes
+
+
 def _check_magnitude(arr: np.ndarray, name: str) -> None:
     peak = float(np.max(np.abs(arr))) if arr.size else 0.0
-    if peak > MAX_COEFF:
+    if peak > _MAX_COEFF_F32:
         raise RelightError(
             f"{name}: SH light coefficient {peak:.3g} is too large (|value| must be <= {MAX_COEFF:g}; "
             "float32 shading would overflow)"
