@@ -11,12 +11,14 @@ import cv2
 import numpy as np
 import pytest
 from _graphs import LOBE, OWN_LIGHT, diffuse_models_dir, make_models_dir, models_dir, person, save, stage2_model
-from hypothesis import HealthCheck, given, settings
-from hypothesis import strategies as st
-from hypothesis.extra import numpy as hnp
 
-from relight_rt import RelightError, lights, sh
-from relight_rt.relighter import Decomposition, Relighter, RelightResult, diffuse_batch
+pytest.importorskip("hypothesis", reason='property tests; pip install "relight-rt[test]"')
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+from hypothesis.extra import numpy as hnp  # noqa: E402
+
+from relight_rt import RelightError, lights, sh  # noqa: E402
+from relight_rt.relighter import Decomposition, Relighter, RelightResult, diffuse_batch  # noqa: E402
 
 __all__ = ["models_dir", "diffuse_models_dir"]  # fixtures
 
