@@ -34,7 +34,7 @@ import cv2
 import numpy as np
 
 from ._errors import RelightError
-from ._io import _decode, is_own_file, read_image, same_file, write_image
+from ._io import _decode, read_image, same_file, write_image
 from ._limits import check_pixels
 
 log = logging.getLogger(__name__)
@@ -209,8 +209,9 @@ class Frame:
 
 
 def _image_files(folder: Path) -> list[Path]:
+    """Image files of a folder, sorted, without hidden files (an interrupted writer's temporary files)."""
     return sorted(p for p in folder.iterdir()
-                  if p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES and not is_own_file(p))
+                  if p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES and not p.name.startswith("."))
 
 
 class FrameSource:

@@ -176,8 +176,8 @@ def cmd_relight(args: argparse.Namespace) -> int:
             written.add(target.resolve())
             if not show_bar:
                 log.info("%s -> %s", path, target)
-        except (RelightError, OSError) as exc:
-            failures.append((str(path), str(exc)))
+        except (RelightError, OSError, MemoryError) as exc:  # the batch goes on past any bad file
+            failures.append((str(path), _os_error(exc) if isinstance(exc, OSError) else str(exc) or "out of memory"))
     for item, message in failures:
         text = message if item in message else f"{item}: {message}"
         print(f"relight-rt: error: {text}", file=sys.stderr)

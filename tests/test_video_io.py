@@ -300,3 +300,11 @@ def test_source_paths_hold_every_input(tmp_path):
     _mask_folder(tmp_path / "masks", 2)
     src = FrameSource(tmp_path / "in", tmp_path / "masks")
     assert {p.name for p in src.paths} >= {"m_000.png", "m_001.png"}
+
+
+def test_hidden_temp_files_are_not_frames(tmp_path):
+    """Temporary files a SIGKILLed writer left behind (.NAME.XXXX.tmp.png) are not taken as frames."""
+    _frames(tmp_path / "in", 2)
+    (tmp_path / "in" / ".f_002.png.k2j3.tmp.png").write_bytes(b"half a png")
+    src = FrameSource(tmp_path / "in")
+    assert len(src) == 2 and len(list(src)) == 2
