@@ -34,7 +34,7 @@ import cv2
 import numpy as np
 
 from ._errors import RelightError
-from ._io import _decode, read_image, same_file, write_image
+from ._io import _decode, _umask, read_image, same_file, write_image
 from ._limits import check_pixels
 
 log = logging.getLogger(__name__)
@@ -544,6 +544,7 @@ class FrameSink:
             else:
                 writer.release()
             if ok:
+                os.chmod(self._tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give the file the usual permissions
                 os.replace(self._tmp, self.video)
         finally:
             if self._file is not None and not self._file.closed:

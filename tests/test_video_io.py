@@ -210,6 +210,9 @@ def test_video_temp_file_is_not_predictable(work, capsys):
     code, _, err = run(["video", "in", "--light", "studio", "-o", "out/o.mp4", "--device", "cpu"], capsys)
     assert code == 0, err
     assert victim.read_text() == "keep me" and (work / "out" / "o.mp4").stat().st_size > 0
+    umask = os.umask(0)
+    os.umask(umask)
+    assert (work / "out" / "o.mp4").stat().st_mode & 0o777 == 0o666 & ~umask  # not mkstemp's 0600
     assert len([p for p in (work / "out").iterdir() if p.name.startswith(".")]) == 2  # only the planted links
 
 
