@@ -133,7 +133,10 @@ def _deny_writes(monkeypatch, folder: Path):
      ["lights", "from-photo", "img/a.png", "--mask", "masks/a_mask.png", "-o", "ro/l.npy"],
      ["lights", "from-envmap", "env.hdr", "-o", "ro/l.json"],
      ["relight", "img", "--mask", "masks", "--preset", "studio", "-o", "ro/new"],
-     ["relight", "img/a.png", "--mask", "masks", "--preset", "studio", "-o", "ro/a.png"]],
+     ["relight", "img/a.png", "--mask", "masks", "--preset", "studio", "-o", "ro/a.png"],
+     ["video", "img", "--masks", "masks", "--light", "studio", "--frames-out", "ro/frames"],
+     ["video", "img", "--masks", "masks", "--light", "studio", "-o", "ro/o.mp4"],
+     ["video", "img", "--masks", "masks", "--light", "studio", "-o", "ro/new/o.avi"]],
 )  # fmt: skip
 def test_read_only_output_folder(work, capsys, monkeypatch, argv):
     cv2.imwrite("env.hdr", np.ones((8, 16, 3), np.float32))
