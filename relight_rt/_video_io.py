@@ -191,7 +191,9 @@ def _decoded_frames(path: Path, name: str, bad: list[str] | None) -> Iterator[np
                 bad.append(f"{where} cannot be decoded, skipped")
                 continue
             for frame in frames:
-                yield frame.to_ndarray(format="rgb24")
+                rgb = frame.to_ndarray(format="rgb24")
+                turns = round(frame.rotation / 90) % 4  # display matrix (phone videos), as OpenCV applies it
+                yield np.ascontiguousarray(np.rot90(rgb, turns)) if turns else rgb
 
 
 # ---------------------------------------------------------------------------------------------

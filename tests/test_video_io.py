@@ -311,3 +311,21 @@ def test_hidden_temp_files_are_not_frames(tmp_path):
     (tmp_path / "in" / ".f_002.png.k2j3.tmp.png").write_bytes(b"half a png")
     src = FrameSource(tmp_path / "in")
     assert len(src) == 2 and len(list(src)) == 2
+
+
+def test_rotated_video_is_read_upright_as_opencv_reads_it(tmp_path):
+    """A phone video's display matrix (here a 90° turn patched into the track header) is applied by both
+    readers, so masks made with other tools line up."""
+    import struct
+
+    _av_clip(tmp_path / "r.mp4", 2)
+    data = bytearray((tmp_path / "r.mp4").read_bytes())
+    i = data.find(b"tkhd")
+    matrix = i + 4 + 4 + (32 if data[i + 4] == 1 else 20) + 16  # version/flags, times + ids, reserved, layer...
+    assert struct.unpack(">9i", data[matrix : matrix + 36])[0] == 0x10000  # the identity is there
+    data[matrix : matrix + 36] = struct.pack(">9i", 0, 0x10000, 0, -0x10000, 0, 0, 0, 0, 0x40000000)
+    (tmp_path / "r.mp4").write_bytes(bytes(data))
+    via_av = next(_video_io._decoded_frames(tmp_path / "r.mp4", "video", None))
+    ok, bgr = cv2.VideoCapture(str(tmp_path / "r.mp4")).read()
+    assert ok and via_av.shape == bgr.shape == (W, H, 3)
+    assert np.abs(via_av.astype(int) - bgr[..., ::-1].astype(int)).mean() < 2
