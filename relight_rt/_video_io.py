@@ -15,7 +15,11 @@ not installed (a note is logged once).
   unpredictable name, in the target folder (``tempfile.mkstemp``), renamed into place when complete and
   deleted on failure. With PyAV: H.264 (yuv420p, even width and height: an odd last row or column is
   repeated), the frame rate as an exact fraction, and the audio of ``audio_from`` copied packet by packet
-  (no re-encoding). With OpenCV: MPEG-4 part 2 (.mp4) or MJPEG (.avi/.mkv), no audio.
+  (no re-encoding; an audio codec the output container cannot hold is left out with a warning). With
+  OpenCV: MPEG-4 part 2 (.mp4) or MJPEG (.avi/.mkv), no audio.
+
+With a mask video, masks are matched to frames in decoding order: a damaged packet of the main video
+skipped with ``skip_bad`` shifts that order, so skipping bad frames is meant for mask folders or files.
 
 Frames are RGB float32 (H, W, 3) in [0, 1]; masks float32 (H, W) in [0, 1].
 """
@@ -385,8 +389,27 @@ class _AVWriter:
     def __init__(self, av, file, suffix: str, rate: fractions.Fraction, width: int, height: int,
                  audio_from: Path | None):
         self.av = av
+        self.file = file
+        self.audio_from = audio_from
+        self.index = 0
+        try:
+            self._start(suffix, rate, width, height, audio_from)
+        except av.error.FFmpegError as exc:
+            if not self.audio:
+                raise
+            # the container refuses the input's audio codec (e.g. Vorbis in .mp4): start again without it
+            log.warning("%s: its audio (%s) cannot go into a %s file, left out: %s", audio_from,
+                        ", ".join(s.codec_context.name for _, s in self.audio), suffix, exc.strerror or exc)
+            self.abort()
+            file.seek(0)
+            file.truncate()
+            self._start(suffix, rate, width, height, None)
+
+    def _start(self, suffix: str, rate: fractions.Fraction, width: int, height: int, audio_from: Path | None):
+        """Open the container and its streams and write the header (where an unsupported codec shows)."""
+        av = self.av
         fmt = {".mkv": "matroska", ".avi": "avi", ".mov": "mov"}.get(suffix, "mp4")
-        self.container = av.open(file, mode="w", format=fmt)
+        self.container = av.open(self.file, mode="w", format=fmt)
         codec = "mjpeg" if suffix == ".avi" else "libx264"
         self.stream = self.container.add_stream(codec, rate=rate)
         self.stream.width, self.stream.height = width + width % 2, height + height % 2
@@ -402,8 +425,7 @@ class _AVWriter:
                     except (ValueError, av.error.FFmpegError) as exc:
                         log.warning("%s: audio stream %d (%s) cannot go into %s, left out: %s", audio_from, a.index,
                                     a.codec_context.name, suffix, exc)
-        self.audio_from = audio_from
-        self.index = 0
+        self.container.start_encoding()
 
     def write(self, rgb8: np.ndarray) -> None:
         h, w = rgb8.shape[:2]

@@ -329,3 +329,27 @@ def test_rotated_video_is_read_upright_as_opencv_reads_it(tmp_path):
     ok, bgr = cv2.VideoCapture(str(tmp_path / "r.mp4")).read()
     assert ok and via_av.shape == bgr.shape == (W, H, 3)
     assert np.abs(via_av.astype(int) - bgr[..., ::-1].astype(int)).mean() < 2
+
+
+def test_audio_the_output_cannot_hold_is_left_out_with_a_warning(tmp_path, caplog):
+    av = pytest.importorskip("av")
+    clip = tmp_path / "in.avi"
+    with av.open(str(clip), "w") as out:
+        v = out.add_stream("mjpeg", rate=25)
+        v.width, v.height, v.pix_fmt = W, H, "yuvj420p"
+        a = out.add_stream("pcm_u8", rate=8000)  # .mp4 cannot hold unsigned 8-bit PCM
+        for t in range(5):
+            out.mux(v.encode(av.VideoFrame.from_ndarray(_rgb(t), format="rgb24")))
+        out.mux(v.encode(None))
+        frame = av.AudioFrame.from_ndarray(np.full((1, 1600), 128, np.uint8), format="u8", layout="mono")
+        frame.sample_rate, frame.pts = 8000, 0
+        out.mux(a.encode(frame))
+        out.mux(a.encode(None))
+    src = FrameSource(clip, _mask_folder(tmp_path / "m", 5))
+    assert src.has_audio
+    with caplog.at_level(logging.WARNING), FrameSink(video=tmp_path / "o.mp4", fps=src.rate, audio_from=clip) as sink:
+        for f in src:
+            sink.write(f.name, f.image)
+    assert "pcm_u8" in caplog.text and "left out" in caplog.text
+    with av.open(str(tmp_path / "o.mp4")) as c:
+        assert [s.type for s in c.streams] == ["video"] and c.streams.video[0].frames == 5
