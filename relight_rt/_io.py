@@ -38,6 +38,9 @@ def _decode(path: Path, name: str, flags: int = cv2.IMREAD_UNCHANGED) -> np.ndar
     (relight_rt._limits.header_size); formats whose header is not parsed here are checked after decoding.
     """
     path = Path(path)
+    if not path.is_file():  # also keeps FIFOs and devices (/dev/zero) from blocking or filling memory
+        what = "not found" if not path.exists() else "not a regular file"
+        raise RelightError(f"{name}: cannot read {path}: {what}")
     try:
         size = header_size(path)
         if size is not None:

@@ -230,6 +230,8 @@ def load_npy(path: str | os.PathLike, name: str = "array", max_bytes: int = NPY_
     """
     p = Path(path)
     label = f"{name} {p}"
+    if p.exists() and not p.is_file():
+        raise RelightError(f"{label}: not a regular file")
     try:
         with open(p, "rb") as f:
             size = os.fstat(f.fileno()).st_size

@@ -1,5 +1,6 @@
 """relight_rt._limits: image sizes from headers (checked against OpenCV's decoder), the pixel limit, .npy headers."""
 
+import os
 import struct
 
 import cv2
@@ -105,3 +106,17 @@ def test_load_npy_checks_the_header_first(tmp_path):
             load_npy(tmp_path / name)
     with pytest.raises(RelightError, match="more than 1,000"):
         load_npy(tmp_path / "big.npy", max_bytes=1000)
+
+
+def test_special_files_are_refused_without_blocking(tmp_path):
+    fifo = tmp_path / "pipe.png"
+    os.mkfifo(fifo)  # opening it for reading would block forever
+    with pytest.raises(RelightError, match="not a regular file"):
+        read_image(fifo)
+    with pytest.raises(RelightError, match="not a regular file"):
+        read_mask(tmp_path, (2, 2))
+    os.mkfifo(tmp_path / "pipe.npy")
+    with pytest.raises(RelightError, match="not a regular file"):
+        load_npy(tmp_path / "pipe.npy")
+    with pytest.raises(RelightError, match="not found"):
+        read_image(tmp_path / "missing.png")
