@@ -18,8 +18,9 @@ not installed (a note is logged once).
   (no re-encoding; an audio codec the output container cannot hold is left out with a warning). With
   OpenCV: MPEG-4 part 2 (.mp4) or MJPEG (.avi/.mkv), no audio.
 
-With a mask video, masks are matched to frames in decoding order: a damaged packet of the main video
-skipped with ``skip_bad`` shifts that order, so skipping bad frames is meant for mask folders or files.
+Frames keep their place in the video when others are left out (``Frame.index``, from the timestamps with
+PyAV), so the light schedule and the masks (a mask video's frame at the same place, a mask folder's in
+sorted order) stay aligned after a damaged stretch.
 
 Frames are RGB float32 (H, W, 3) in [0, 1]; masks float32 (H, W) in [0, 1].
 """
@@ -30,7 +31,7 @@ import fractions
 import logging
 import os
 import tempfile
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -160,20 +161,27 @@ def probe(path: str | os.PathLike, name: str = "video") -> VideoInfo:
     return info
 
 
-def _decoded_frames(path: Path, name: str, bad: list[str] | None) -> Iterator[np.ndarray]:
-    """RGB uint8 (H, W, 3) frames of a video file, one at a time. A packet that cannot be decoded raises
-    RelightError, or, when ``bad`` is a list, is recorded there and skipped."""
+def _decoded_frames(path: Path, name: str, on_bad: Callable[[str, int], None] | None = None
+                    ) -> Iterator[tuple[int, np.ndarray]]:
+    """(position, RGB uint8 (H, W, 3)) for each frame of a video file, one at a time.
+
+    The position is the frame's place in the video (from its timestamp with PyAV, so frames after a
+    skipped packet keep theirs; the running count with OpenCV). A packet that cannot be decoded raises
+    RelightError, or, with ``on_bad``, is skipped after ``on_bad(message, position)``.
+    """
     av = _av()
     if av is None:
         cap = cv2.VideoCapture(str(path))
         if not cap.isOpened():
             raise RelightError(f"{path}: OpenCV cannot open this {name}")
         try:
+            position = 0
             while True:
                 ok, bgr = cap.read()
                 if not ok:
                     return
-                yield cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+                yield position, cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+                position += 1
         finally:
             cap.release()
     try:
@@ -183,21 +191,31 @@ def _decoded_frames(path: Path, name: str, bad: list[str] | None) -> Iterator[np
     with container:
         stream = container.streams.video[0]
         stream.thread_type = "AUTO"
+        rate = stream.average_rate or stream.guessed_rate
+        start = stream.start_time or 0
+        last = -1
+
+        def place(pts) -> int:  # the frame's position from its timestamp, never going back
+            if pts is None or not rate or not stream.time_base:
+                return last + 1
+            return max(last + 1, round(float((pts - start) * stream.time_base * rate)))
+
         for packet in container.demux(stream):
             try:
                 frames = packet.decode()
             except av.error.FFmpegError as exc:
                 where = f"{path}: {name} packet at {float(packet.pts * packet.time_base):.3f} s" \
                     if packet.pts is not None and packet.time_base else f"{path}: a {name} packet"
-                if bad is None:
+                if on_bad is None:
                     raise RelightError(f"{where} cannot be decoded ({exc.strerror or exc}); the file is damaged "
                                        "(--skip-bad-frames leaves such frames out and reports them)") from None
-                bad.append(f"{where} cannot be decoded, skipped")
+                on_bad(f"{where} cannot be decoded", place(packet.pts))
                 continue
             for frame in frames:
+                last = place(frame.pts)
                 rgb = frame.to_ndarray(format="rgb24")
                 turns = round(frame.rotation / 90) % 4  # display matrix (phone videos), as OpenCV applies it
-                yield np.ascontiguousarray(np.rot90(rgb, turns)) if turns else rgb
+                yield last, np.ascontiguousarray(np.rot90(rgb, turns)) if turns else rgb
 
 
 # ---------------------------------------------------------------------------------------------
@@ -247,6 +265,7 @@ class FrameSource:
         self.masks = None if masks is None else Path(masks)
         self.skip_bad = bool(skip_bad)
         self.skipped: list[str] = []
+        self.lost = 0  # frames left out (a damaged stretch of a video may lose many in one message)
         if fps is not None and not (np.isfinite(fps) and fps > 0):
             raise RelightError(f"fps: must be > 0, got {fps}")
         if not self.path.exists():
@@ -300,11 +319,12 @@ class FrameSource:
             return self._mask_files[index]
         return None
 
-    def _bad(self, message: str) -> None:
-        """A frame that cannot be used: raise, or record it when skipping bad frames."""
+    def _bad(self, message: str, frames: int = 1) -> None:
+        """``frames`` frames that cannot be used: raise, or record them when skipping bad frames."""
         if not self.skip_bad:
             raise RelightError(f"{message} (--skip-bad-frames leaves such frames out and reports them)")
         self.skipped.append(f"{message}, skipped")
+        self.lost += frames
 
     def _images(self) -> Iterator[tuple[int, str, Path | None, np.ndarray | None]]:
         """(index, name, file or None, RGB(A) float32 image) per frame; the image is None for a bad frame."""
@@ -317,19 +337,25 @@ class FrameSource:
                     image = None
                 yield index, frame_path.stem, frame_path, image
             return
-        index = 0
-        for rgb in _decoded_frames(self.path, "video", self.skipped if self.skip_bad else None):
+        lost_before = self.lost
+        decoded, index = 0, 0  # index: the next frame's position in the video
+
+        def on_bad(message: str, position: int) -> None:  # one packet: one frame
+            self._bad(f"{message} (frame {position})")
+
+        for index, rgb in _decoded_frames(self.path, "video", on_bad if self.skip_bad else None):
             yield index, f"frame_{index:06d}", None, rgb.astype(np.float32) / 255.0
-            index += 1
+            decoded += 1
         info = self._info
-        if info is not None and info.exact_count and index < info.frames:
-            self._bad(f"{self.path}: the video's header announces {info.frames} frames, only {index} could be "
-                      f"decoded (a damaged file)")
+        missing = info.frames - decoded - (self.lost - lost_before) if info is not None and info.exact_count else 0
+        if missing > 0:
+            self._bad(f"{self.path}: the video's header announces {info.frames} frames, {missing} of them could "
+                      f"not be read (a damaged file)", missing)
 
     def __iter__(self) -> Iterator[Frame]:
         mask_frames = None
         if self.masks is not None and self._mask_files is None:
-            mask_frames = _decoded_frames(self.masks, "mask video", None)
+            mask_frames = _decoded_frames(self.masks, "mask video")
         shape = None
         try:
             for index, name, frame_path, rgba in self._images():
@@ -343,7 +369,9 @@ class FrameSource:
                               f"{shape[1]}x{shape[0]} (W x H)")
                     continue
                 if mask_frames is not None:
-                    mrgb = next(mask_frames, None)
+                    mpos, mrgb = next(mask_frames, (None, None))
+                    while mrgb is not None and mpos < index:  # the masks of frames left out
+                        mpos, mrgb = next(mask_frames, (None, None))
                     if mrgb is None:
                         raise RelightError(f"{self.masks}: mask video ended before frame {index}")
                     mask = mrgb[..., 0].astype(np.float32) / 255.0

@@ -152,6 +152,6 @@ def run(args: argparse.Namespace) -> int:
     for message in source.skipped:  # --skip-bad-frames: the output is kept, the run still fails
         print(f"relight-rt: error: {message}", file=sys.stderr)
     if source.skipped:
-        print(f"relight-rt: {len(source.skipped)} bad frame(s) left out, {report.frames} written", file=sys.stderr)
+        print(f"relight-rt: {source.lost} frame(s) left out, {report.frames} written", file=sys.stderr)
         return 2
     return 0

@@ -202,7 +202,7 @@ def test_fuzz_video_frames_skip_bad_frames(tmp_path, models_dir, monkeypatch, ca
     assert cli.main([*argv, "--skip-bad-frames"]) == 2
     lines = capsys.readouterr().err.strip().splitlines()
     assert "Traceback" not in "\n".join(lines)
-    assert len(lines) == 5 and lines[-1] == "relight-rt: 4 bad frame(s) left out, 4 written"
+    assert len(lines) == 5 and lines[-1] == "relight-rt: 4 frame(s) left out, 4 written"
     for name, line in zip(["f1b.png", "f2b.png", "f3b.png", "f3c.png"], lines, strict=False):
         assert line.startswith("relight-rt: error: ") and name in line and "skipped" in line
     after = snapshot(tmp_path)
