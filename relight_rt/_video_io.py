@@ -190,7 +190,8 @@ def _decoded_frames(path: Path, name: str, on_bad: Callable[[str, int], None] | 
         raise RelightError(f"{path}: cannot open this {name} ({exc.strerror or exc})") from None
     with container:
         stream = container.streams.video[0]
-        stream.thread_type = "AUTO"
+        # no frame threading: a decoding error then belongs to the packet just sent (so a skipped frame's place
+        # is known), and decoding costs little beside relighting
         rate = stream.average_rate or stream.guessed_rate
         start = stream.start_time or 0
         last = -1
