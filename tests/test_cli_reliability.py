@@ -308,6 +308,23 @@ def test_native_library_warnings_stay_off_stderr(work):
     assert "libpng" in proc.stderr  # -v shows them
 
 
+def test_onnxruntime_warnings_stay_off_stderr(work, tmp_path_factory):
+    from onnx import numpy_helper
+
+    folder = tmp_path_factory.mktemp("warn_models")
+    model = stage1_model(64)
+    model.graph.initializer.append(numpy_helper.from_array(np.zeros(3, np.float32), "unused"))  # ort warns
+    save(model, folder / "stage1.onnx")
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    argv = [sys.executable, "-m", "relight_rt", "relight", "img/a.png", "--mask", "masks", "--preset", "studio",
+            "--models", str(folder), "-o", "o.png"]  # fmt: skip
+    proc = subprocess.run(argv, capture_output=True, text=True, env=env, timeout=120)
+    assert proc.returncode == 0 and "onnxruntime" not in proc.stderr, proc.stderr
+    proc = subprocess.run([*argv[:3], "-v", *argv[3:-1], "o2.png"], capture_output=True, text=True, env=env,
+                          timeout=120)  # fmt: skip
+    assert "Removing initializer 'unused'" in proc.stderr  # it is there to be silenced
+
+
 def test_models_are_protected(work, capsys, tmp_path_factory):
     folder = make_models_dir(tmp_path_factory.mktemp("m"), 64, stage2=False)
     before = (folder / "stage1.onnx").read_bytes()
