@@ -176,15 +176,51 @@ def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
         return False
 
 
+class ProtectedPaths:
+    """Input files that outputs must never replace, resolved once: each check is O(1), so a batch of N
+    files does not cost N² path resolutions. Iterating gives the paths as they were named."""
+
+    def __init__(self, paths: Iterable[str | os.PathLike] = ()) -> None:
+        self._resolved: dict[Path, Path] = {}
+        self._inodes: dict[tuple[int, int], Path] = {}
+        for p in paths:
+            self.add(p)
+
+    def add(self, path: str | os.PathLike) -> None:
+        named = Path(path)
+        resolved = named.resolve()
+        self._resolved.setdefault(resolved, named)
+        with contextlib.suppress(OSError):
+            st = os.stat(resolved)
+            self._inodes.setdefault((st.st_dev, st.st_ino), named)
+
+    def find(self, path: str | os.PathLike) -> Path | None:
+        """The protected input that ``path`` names (resolved, or the same inode), or None."""
+        resolved = Path(path).resolve()
+        if resolved in self._resolved:
+            return self._resolved[resolved]
+        try:
+            st = os.stat(resolved)
+        except OSError:
+            return None
+        return self._inodes.get((st.st_dev, st.st_ino))
+
+    def __iter__(self) -> Iterator[Path]:
+        return iter(self._resolved.values())
+
+    def __len__(self) -> int:
+        return len(self._resolved)
+
+
 def check_target(path: str | os.PathLike, protect: Iterable[str | os.PathLike]) -> None:
     """Raise RelightError when ``path`` is one of the ``protect`` inputs (an output must never replace one).
 
     Paths are compared resolved (a symlink, ``./x`` or ``dir/../x`` is the file it names) and, for files
-    that exist, by inode.
+    that exist, by inode (hard links). Pass a :class:`ProtectedPaths` when checking many outputs.
     """
-    for p in protect:
-        if same_file(path, p):
-            raise RelightError(f"refusing to overwrite the input {p}; choose another output path")
+    found = (protect if isinstance(protect, ProtectedPaths) else ProtectedPaths(protect)).find(path)
+    if found is not None:
+        raise RelightError(f"refusing to overwrite the input {found}; choose another output path")
 
 
 @contextlib.contextmanager

@@ -39,7 +39,7 @@ import cv2
 import numpy as np
 
 from ._errors import RelightError
-from ._io import _decode, _umask, read_image, same_file, write_image
+from ._io import ProtectedPaths, _decode, _umask, read_image, same_file, write_image
 from ._limits import check_pixels
 
 log = logging.getLogger(__name__)
@@ -508,16 +508,16 @@ class FrameSink:
             raise RelightError("output: expected a video file and/or a frames folder, got neither")
         if not (np.isfinite(float(fps)) and float(fps) > 0):
             raise RelightError(f"fps: must be > 0, got {fps}")
-        self._protect = tuple(Path(p) for p in protect)
+        self._protect = ProtectedPaths(protect)  # checked for every frame written: resolved once
         self.video = None if video is None else Path(video)
         self.frames_dir = None if frames_dir is None else Path(frames_dir)
         if self.video is not None:
             if self.video.suffix.lower() not in _FOURCC:
                 raise RelightError(f"{self.video}: expected a video file name ending in {sorted(_FOURCC)}")
-            if any(same_file(self.video, p) for p in self._protect):
+            if self._protect.find(self.video) is not None:
                 raise RelightError(f"{self.video}: refusing to overwrite an input")
         if self.frames_dir is not None:
-            if any(same_file(self.frames_dir, p.parent) for p in self._protect):
+            if any(same_file(self.frames_dir, folder) for folder in {p.parent for p in self._protect}):
                 raise RelightError(f"{self.frames_dir}: refusing to write frames into the input folder")
             self.frames_dir.mkdir(parents=True, exist_ok=True)
         self.rate = fps if isinstance(fps, fractions.Fraction) else fractions.Fraction(float(fps)).limit_denominator(

@@ -23,7 +23,17 @@ import numpy as np
 
 from . import __version__, lights, sh
 from ._errors import RelightError
-from ._io import IMAGE_SUFFIXES, atomic_path, check_target, list_images, sibling_mask, write_image, write_npy, write_npz
+from ._io import (
+    IMAGE_SUFFIXES,
+    ProtectedPaths,
+    atomic_path,
+    check_target,
+    list_images,
+    sibling_mask,
+    write_image,
+    write_npy,
+    write_npz,
+)
 from ._limits import DEFAULT_MAX_PIXELS, pixel_limit
 from ._process import interrupt_handling, quiet_native_libraries
 
@@ -122,7 +132,7 @@ def _mask_for(image: Path, mask_arg: str | None, single: bool) -> Path | None:
     return m
 
 
-def _read_inputs(args: argparse.Namespace, files: list[Path], relighter) -> set:
+def _read_inputs(args: argparse.Namespace, files: list[Path], relighter) -> ProtectedPaths:
     """Every file ``relight`` reads, never to be written over: images, masks (beside them or anywhere in a
     --mask folder), light files, the background and the model graphs."""
     protect = set(files)
@@ -132,7 +142,7 @@ def _read_inputs(args: argparse.Namespace, files: list[Path], relighter) -> set:
     for folder in (Path(args.mask),) if args.mask and Path(args.mask).is_dir() else ():
         protect.update(p for p in folder.iterdir() if p.is_file())
     protect.update(Path(relighter.models_dir).glob("*.onnx"))
-    return protect
+    return ProtectedPaths(protect)
 
 
 def _progress(items: list, enabled: bool):

@@ -337,3 +337,18 @@ def test_models_are_protected(work, capsys, tmp_path_factory):
                         "-o", "alias.npy"], capsys)  # fmt: skip
     one_error(code, err, "refusing to overwrite the input")
     assert (folder / "stage1.onnx").read_bytes() == before
+
+
+def test_protected_paths_follow_links_and_inodes(tmp_path):
+    from relight_rt._io import ProtectedPaths, check_target
+
+    (tmp_path / "a.png").write_bytes(b"a")
+    (tmp_path / "sym.png").symlink_to(tmp_path / "a.png")
+    os.link(tmp_path / "a.png", tmp_path / "hard.png")
+    protect = ProtectedPaths([tmp_path / "a.png", tmp_path / "not_yet.png"])
+    for alias in ("a.png", "sym.png", "hard.png", "./a.png", "x/../a.png", "not_yet.png"):
+        assert protect.find(tmp_path / alias) is not None, alias
+        with pytest.raises(Exception, match="refusing to overwrite the input"):
+            check_target(tmp_path / alias, protect)
+    assert protect.find(tmp_path / "b.png") is None and len(protect) == 2
+    check_target(tmp_path / "b.png", [tmp_path / "a.png"])  # plain iterables work too
