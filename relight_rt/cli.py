@@ -4,9 +4,12 @@ Commands: ``relight``, ``decompose``, ``lights list|show|from-envmap``, ``doctor
 relight_rt.video_cli is present). Each command is registered by its own ``add_*`` function; another
 module adds one with an ``add_parser(subparsers)`` function that sets ``func`` on its parser.
 
-Errors: bad input is one line on stderr (``relight-rt: error: ...``) and exit code 2; in batch mode
-every file is tried and every failure is listed at the end. Outputs are written atomically and never
-over an input.
+Errors: bad input, a malformed file or one that cannot be read or written (any OSError) is one line on
+stderr (``relight-rt: error: ...``) and exit code 2, never a traceback; in batch mode every file is tried
+and every failure is listed at the end. Ctrl-C exits 130 and SIGTERM 143, with one line, after the
+atomic writers removed their temporary files. Outputs are written atomically and never over a file the
+command reads (relight_rt._io.ProtectedPaths). Native libraries' own stderr output is silenced unless
+``-v`` (relight_rt._process).
 """
 
 from __future__ import annotations
