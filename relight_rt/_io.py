@@ -19,6 +19,7 @@ import cv2
 import numpy as np
 
 from ._errors import RelightError
+from ._limits import check_pixels, header_size, load_npy, max_pixels  # noqa: F401  (re-exported)
 
 log = logging.getLogger(__name__)
 
@@ -31,14 +32,29 @@ def _describe(a: np.ndarray) -> str:
 
 
 def _decode(path: Path, name: str, flags: int = cv2.IMREAD_UNCHANGED) -> np.ndarray:
-    """Decode an image file (default: as stored, depth and channels unchanged, BGR(A) as OpenCV gives it)."""
+    """Decode an image file (default: as stored, depth and channels unchanged, BGR(A) as OpenCV gives it).
+
+    The size in the file's header is checked against :func:`max_pixels` before anything is decoded
+    (relight_rt._limits.header_size); formats whose header is not parsed here are checked after decoding.
+    """
+    path = Path(path)
+    if not path.is_file():  # also keeps FIFOs and devices (/dev/zero) from blocking or filling memory
+        what = "not found" if not path.exists() else "not a regular file"
+        raise RelightError(f"{name}: cannot read {path}: {what}")
     try:
+        size = header_size(path)
+        if size is not None:
+            check_pixels(size[0], size[1], f"{name} {path}")
         data = np.fromfile(path, dtype=np.uint8)  # works for non-ASCII paths, unlike cv2.imread
     except OSError as exc:
         raise RelightError(f"{name}: cannot read {path}: {exc.strerror or exc}") from None
-    image = cv2.imdecode(data, flags) if data.size else None
+    try:
+        image = cv2.imdecode(data, flags) if data.size else None
+    except cv2.error:  # OpenCV's own limits (e.g. OPENCV_IO_MAX_IMAGE_PIXELS) raise instead of returning None
+        image = None
     if image is None:
         raise RelightError(f"{name}: cannot decode {path} as an image (unreadable, empty or not an image file)")
+    check_pixels(image.shape[1], image.shape[0], f"{name} {path}")
     return image
 
 
@@ -154,12 +170,63 @@ def _umask() -> int:
     return mask
 
 
-def check_target(path: Path, protect: Iterable[str | os.PathLike]) -> None:
-    """Raise RelightError when ``path`` is one of the ``protect`` inputs (an output must never replace one)."""
-    target = path.resolve()
-    for p in protect:
-        if Path(p).resolve() == target:
-            raise RelightError(f"refusing to overwrite the input {p}; choose another output path")
+def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
+    """True when ``a`` and ``b`` name the same file: equal resolved paths (symlinks followed) or, when both
+    exist, the same inode (hard links, bind mounts, case-insensitive file systems)."""
+    pa, pb = Path(a), Path(b)
+    if pa.resolve() == pb.resolve():
+        return True
+    try:
+        return os.path.samefile(pa, pb)
+    except OSError:
+        return False
+
+
+class ProtectedPaths:
+    """Input files that outputs must never replace, resolved once: each check is O(1), so a batch of N
+    files does not cost N² path resolutions. Iterating gives the paths as they were named."""
+
+    def __init__(self, paths: Iterable[str | os.PathLike] = ()) -> None:
+        self._resolved: dict[Path, Path] = {}
+        self._inodes: dict[tuple[int, int], Path] = {}
+        for p in paths:
+            self.add(p)
+
+    def add(self, path: str | os.PathLike) -> None:
+        named = Path(path)
+        resolved = named.resolve()
+        self._resolved.setdefault(resolved, named)
+        with contextlib.suppress(OSError):
+            st = os.stat(resolved)
+            self._inodes.setdefault((st.st_dev, st.st_ino), named)
+
+    def find(self, path: str | os.PathLike) -> Path | None:
+        """The protected input that ``path`` names (resolved, or the same inode), or None."""
+        resolved = Path(path).resolve()
+        if resolved in self._resolved:
+            return self._resolved[resolved]
+        try:
+            st = os.stat(resolved)
+        except OSError:
+            return None
+        return self._inodes.get((st.st_dev, st.st_ino))
+
+    def __iter__(self) -> Iterator[Path]:
+        return iter(self._resolved.values())
+
+    def __len__(self) -> int:
+        return len(self._resolved)
+
+
+def check_target(path: str | os.PathLike, protect: Iterable[str | os.PathLike]) -> None:
+    """Raise RelightError when ``path`` is one of the ``protect`` inputs (an output must never replace one).
+
+    Paths are compared resolved (a symlink, ``./x`` or ``dir/../x`` is the file it names) and, for files
+    that exist, by inode (hard links). Pass a :class:`ProtectedPaths` when checking many outputs.
+    """
+    found = (protect if isinstance(protect, ProtectedPaths) else ProtectedPaths(protect)).find(path)
+    if found is not None:
+        raise RelightError(f"refusing to overwrite the input {found}; choose another output path")
 
 
 @contextlib.contextmanager
@@ -175,8 +242,14 @@ def atomic_path(path: str | os.PathLike, protect: Iterable[str | os.PathLike] = 
     check_target(path, protect)
     folder = path.parent if str(path.parent) else Path(".")
     if not folder.is_dir():
-        raise RelightError(f"cannot write {path}: folder {folder} does not exist")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".tmp{path.suffix}", dir=folder)
+        what = "is not a folder" if folder.exists() or _under_a_file(folder) else "does not exist"
+        raise RelightError(f"cannot write {path}: {folder} {what}")
+    if path.is_dir():
+        raise RelightError(f"cannot write {path}: it is a folder")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".tmp{path.suffix}", dir=folder)
+    except OSError as exc:
+        raise RelightError(f"cannot write {path}: {exc.strerror or exc} (folder {folder})") from None
     os.close(fd)
     try:
         yield Path(tmp)
@@ -185,6 +258,11 @@ def atomic_path(path: str | os.PathLike, protect: Iterable[str | os.PathLike] = 
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+def _under_a_file(folder: Path) -> bool:
+    """True when some parent of ``folder`` is a file (``-o photo.png/sub``)."""
+    return any(p.is_file() for p in (folder, *folder.parents))
 
 
 def _atomic(path: str | os.PathLike, protect: Iterable[str | os.PathLike], write: Callable[[object], None]) -> Path:
@@ -245,13 +323,25 @@ def write_npz(
     return _atomic(path, protect, lambda f: save(f, **{k: np.asarray(v) for k, v in arrays.items()}))
 
 
+OUTPUT_STEM = "_relit"  # ``relight`` writes NAME_relit.png into its output folder
+
+
+def is_own_file(path: str | os.PathLike) -> bool:
+    """True for names this project writes and never takes as input when listing a folder: hidden files
+    (``.NAME.XXXX.tmp.png``, the atomic writers' temporary files, left behind only by SIGKILL) and
+    ``relight``'s outputs (``NAME_relit.png``)."""
+    p = Path(path)
+    return p.name.startswith(".") or p.stem.endswith(OUTPUT_STEM)
+
+
 def list_images(folder: str | os.PathLike) -> list[Path]:
-    """Image files in ``folder`` (sorted), leaving out masks (``*_mask.*``)."""
+    """Image files in ``folder`` (sorted), leaving out masks (``*_mask.*``) and this project's own
+    temporary and output files (:func:`is_own_file`)."""
     folder = Path(folder)
     return sorted(
         p
         for p in folder.iterdir()
-        if p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES and not p.stem.endswith("_mask")
+        if p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES and not p.stem.endswith("_mask") and not is_own_file(p)
     )
 
 

@@ -13,6 +13,7 @@ from pathlib import Path
 
 from . import lights
 from ._errors import RelightError
+from ._limits import DEFAULT_MAX_PIXELS
 from .compositing import Background, parse_background
 from .config import DEVICES, PRECISIONS, PREPROCESS, RuntimeConfig
 from .lightspec import HDR_SUFFIXES, SH_FILE_SUFFIXES, LightSpec
@@ -33,6 +34,15 @@ def add_runtime_options(p: argparse.ArgumentParser, *, device_default: str = "au
                    help="quality (INTER_AREA when shrinking, default) or reference (the reference's resize)")
     g.add_argument("--no-detail", action="store_true",
                    help="plain upsampling instead of carrying the photo's full-resolution detail")
+    add_max_pixels(g)
+
+
+def add_max_pixels(p) -> None:
+    """``--max-pixels N``: refuse images larger than N pixels, read from the file header before decoding."""
+    p.add_argument(
+        "--max-pixels", type=int, default=DEFAULT_MAX_PIXELS, metavar="N",
+        help=f"refuse images of more than N pixels, before decoding them (default {DEFAULT_MAX_PIXELS:,}; 0: no limit)",
+    )  # fmt: skip
 
 
 def runtime_config(args: argparse.Namespace) -> RuntimeConfig:

@@ -4,9 +4,12 @@ Commands: ``relight``, ``decompose``, ``lights list|show|from-envmap``, ``doctor
 relight_rt.video_cli is present). Each command is registered by its own ``add_*`` function; another
 module adds one with an ``add_parser(subparsers)`` function that sets ``func`` on its parser.
 
-Errors: bad input is one line on stderr (``relight-rt: error: ...``) and exit code 2; in batch mode
-every file is tried and every failure is listed at the end. Outputs are written atomically and never
-over an input.
+Errors: bad input, a malformed file or one that cannot be read or written (any OSError) is one line on
+stderr (``relight-rt: error: ...``) and exit code 2, never a traceback; in batch mode every file is tried
+and every failure is listed at the end. Ctrl-C exits 130 and SIGTERM 143, with one line, after the
+atomic writers removed their temporary files. Outputs are written atomically and never over a file the
+command reads (relight_rt._io.ProtectedPaths). Native libraries' own stderr output is silenced unless
+``-v`` (relight_rt._process).
 """
 
 from __future__ import annotations
@@ -22,7 +25,16 @@ import numpy as np
 
 from . import __version__, batch, lights, sh
 from ._errors import RelightError
-from ._io import sibling_mask, write_image, write_npy, write_npz
+from ._io import (
+    ProtectedPaths,
+    atomic_path,
+    check_target,
+    sibling_mask,
+    write_image,
+    write_npy,
+    write_npz,
+)
+from ._limits import DEFAULT_MAX_PIXELS, pixel_limit
 from ._options import (
     add_background_option,
     add_exposure_option,
@@ -34,6 +46,7 @@ from ._options import (
     paths_of,
     relighter,
 )
+from ._process import interrupt_handling, quiet_native_libraries
 from .distributed import add_ray_options
 from .exposure import parse_exposure
 from .lightspec import LightSpec
@@ -63,9 +76,24 @@ def add_relight(subparsers) -> None:
     add_background_option(p)
     add_exposure_option(p)
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="output file (one input) or folder")
+    p.add_argument("--skip-existing", action="store_true", help="leave outputs that exist alone (resume a batch)")
     add_runtime_options(p)
     add_ray_options(p)  # --ray [ADDRESS|local] and its options (Ray itself is imported only with --ray)
     p.set_defaults(func=cmd_relight)
+
+
+def _read_inputs(args: argparse.Namespace, files: list[Path], relighter, spec, bg) -> ProtectedPaths:
+    """Every file ``relight`` reads, never to be written over: images, masks (beside them or anywhere in a
+    --mask folder), light files, the background and the model graphs."""
+    protect = set(files)
+    mask_arg = args.mask if args.mask != "auto" else None
+    named = [Path(p) for p in (mask_arg, *spec.paths, bg.path) if p]
+    protect.update(p for p in named if p.is_file())
+    protect.update(m for m in (sibling_mask(f) for f in (*files, *(p for p in named if p.is_file()))) if m)
+    for folder in (Path(mask_arg),) if mask_arg and Path(mask_arg).is_dir() else ():
+        protect.update(p for p in folder.iterdir() if p.is_file())
+    protect.update(Path(relighter.models_dir).glob("*.onnx"))
+    return ProtectedPaths(protect)
 
 
 def _progress(items: list, enabled: bool):
@@ -91,22 +119,23 @@ def cmd_relight(args: argparse.Namespace) -> int:
     rl = relighter(args)
     light = rl.resolve_light(spec)
     exposure = parse_exposure(args.exposure)
-    protect = set(files)
-    protect.update(paths_of(args.mask if args.mask != "auto" else None, *spec.paths, bg.path))
-    protect.update(m for m in (sibling_mask(f) for f in files) if m)
+    protect = _read_inputs(args, files, rl, spec, bg)
     if not plan.to_file and files:
         out.mkdir(parents=True, exist_ok=True)
     written = 0
     show_bar = len(files) > 1
     for path, target in _progress(plan.pairs, show_bar):
         try:
+            if args.skip_existing and target.exists():
+                log.info("%s exists, skipped (--skip-existing)", target)
+                continue
             batch.relight_file(rl, path, target, light, mask_arg=args.mask, single=single, background=bg,
                                protect=protect, exposure=exposure)
             written += 1
             if not show_bar:
                 log.info("%s -> %s", path, target)
-        except (RelightError, OSError) as exc:
-            failures.append((str(path), str(exc)))
+        except (RelightError, OSError, MemoryError) as exc:  # the batch goes on past any bad file
+            failures.append((str(path), _os_error(exc) if isinstance(exc, OSError) else str(exc) or "out of memory"))
     for item, message in failures:
         text = message if item in message else f"{item}: {message}"
         print(f"relight-rt: error: {text}", file=sys.stderr)
@@ -140,7 +169,7 @@ def cmd_decompose(args: argparse.Namespace) -> int:
     dec = rl.decompose(src, mask)
     folder = Path(args.output)
     folder.mkdir(parents=True, exist_ok=True)
-    protect = [src, *paths_of(mask if mask != "auto" else None)]
+    protect = [src, *paths_of(mask if mask != "auto" else None), *Path(rl.models_dir).glob("*.onnx")]
     layers = rl.layers(dec)  # at the photo's resolution, with its detail in the albedo
     write_image(folder / "albedo.png", layers["albedo"], protect)
     write_image(folder / "shading.png", layers["shading"], protect)
@@ -211,16 +240,17 @@ def _light_output(output: str, source: str) -> Path:
     out = Path(output)
     if out.suffix.lower() not in (".npy", ".json"):
         raise RelightError(f"output {out}: expected a .npy or .json light file")
-    if out.resolve() == Path(source).resolve():
-        raise RelightError(f"refusing to overwrite the input {source}")
+    check_target(out, [source, *filter(None, [sibling_mask(source)])])
     return out
 
 
-def _write_light(out: Path, light: np.ndarray, source: str) -> None:
+def _write_light(out: Path, light: np.ndarray, source: str, protect: tuple = ()) -> None:
+    protect = [source, *protect]
     if out.suffix.lower() == ".npy":
-        write_npy(out, light, protect=[source])
+        write_npy(out, light, protect=protect)
     else:
-        sh.save_light(out, light)
+        with atomic_path(out, protect) as tmp:  # checked against the inputs first, then sh.save_light's format
+            sh.save_light(tmp, light)
     log.info("%s -> %s", source, out)
 
 
@@ -233,8 +263,11 @@ def cmd_lights_from_envmap(args: argparse.Namespace) -> int:
 def cmd_lights_from_photo(args: argparse.Namespace) -> int:
     out = _light_output(args.output, args.photo)  # before the models load
     photo = Path(args.photo)
-    light = np.asarray(relighter(args).decompose(photo, find_mask_file(photo, args.mask)).light, dtype=np.float32)
-    _write_light(out, light, args.photo)
+    mask = find_mask_file(photo, args.mask)
+    rl = relighter(args)
+    light = np.asarray(rl.decompose(photo, mask).light, dtype=np.float32)
+    _write_light(out, light, args.photo, (*paths_of(mask if mask != "auto" else None),
+                                          *Path(rl.models_dir).glob("*.onnx")))
     return 0
 
 
@@ -290,8 +323,16 @@ def _remember_parsers(parser: argparse.ArgumentParser) -> None:
                 _remember_parsers(sub)
 
 
+def _os_error(exc: OSError) -> str:
+    """One line for an OSError: the file and the reason, as a person reads it."""
+    where = f"{exc.filename}: " if exc.filename else ""
+    return f"{where}{exc.strerror or exc}"
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Run the CLI; returns the process exit code (0 ok, 1 doctor found problems, 2 bad input)."""
+    """Run the CLI; returns the process exit code (0 ok, 1 doctor found problems, 2 bad input or a file that
+    cannot be read or written, 130 Ctrl-C, 143 SIGTERM). Every failure is one line on stderr, never a
+    traceback; SIGTERM and Ctrl-C unwind through the atomic writers, which remove their temporary files."""
     parser = build_parser()
     try:
         args, extra = parser.parse_known_args(argv)
@@ -299,13 +340,32 @@ def main(argv: list[str] | None = None) -> int:
             getattr(args, "_parser", parser).error(f"unrecognized arguments: {' '.join(extra)}")
     except SystemExit as exc:  # argparse: --help / --version (0) or a usage error (2)
         return int(exc.code or 0)
-    level = logging.DEBUG if args.verbose else logging.WARNING if args.quiet else logging.INFO
-    logging.basicConfig(level=level, format="%(message)s")
     if args.command is None:
         parser.print_help()
         return 0
-    try:
-        return int(args.func(args))
-    except RelightError as exc:
-        print(f"relight-rt: error: {exc}", file=sys.stderr)
+    with quiet_native_libraries(enabled=not args.verbose):
+        level = logging.DEBUG if args.verbose else logging.WARNING if args.quiet else logging.INFO
+        logging.basicConfig(level=level, format="%(message)s")
+        return _run(args)
+
+
+def _run(args: argparse.Namespace) -> int:
+    def fail(message: str) -> int:
+        print(f"relight-rt: error: {message}", file=sys.stderr)
         return 2
+
+    with interrupt_handling() as interrupted:
+        try:
+            with pixel_limit(getattr(args, "max_pixels", DEFAULT_MAX_PIXELS)):
+                return int(args.func(args))
+        except RelightError as exc:
+            return fail(str(exc))
+        except RecursionError:
+            return fail("an input is nested too deeply to read (a malformed file?)")
+        except MemoryError:
+            return fail("out of memory; lower --max-pixels or the batch size, or use a machine with more memory")
+        except OSError as exc:
+            return fail(_os_error(exc))
+        except KeyboardInterrupt:
+            print(f"relight-rt: {interrupted.reason or 'interrupted'}; partial files removed", file=sys.stderr)
+            return interrupted.code or 130

@@ -62,7 +62,8 @@ def report(models: str | Path | None = None, device: str = "auto") -> tuple[list
     try:
         folder = find_models(models)
     except RelightError as exc:
-        lines.append(f"models: none ({exc})")
+        lines.append("models: none")
+        problems.append(str(exc))  # nothing can be relit without them
         return lines, problems
     lines.append(f"models: {folder}")
     for name in ("stage1", "stage2", "dvp"):
@@ -71,7 +72,7 @@ def report(models: str | Path | None = None, device: str = "auto") -> tuple[list
             lines.append(f"  {name}: absent")
             continue
         try:
-            session = create_session(path, device=device, warmup=False)
+            session = create_session(path, device=device, warmup=False, kind=name)
         except RelightError as exc:
             problems.append(str(exc))
             continue

@@ -71,14 +71,23 @@ def resolve_mask(
     if isinstance(mask, str) and mask == AUTO:
         if matter is None:
             raise RelightError(f"{name}: mask 'auto' asked for, but no automatic matting model is available")
-        return _check_matte(matter(np.ascontiguousarray(image[..., :3]), name=name), shape, name, allow_empty)
+        return _check_matte(_run_matter(matter, image, name), shape, name, allow_empty)
     if mask is not None:
         return read_mask(mask, shape, "mask", allow_empty=allow_empty)
     if image.ndim == 3 and image.shape[2] == 4:
         return read_mask(image[..., 3], shape, f"{name} alpha (used as the mask)", allow_empty=allow_empty)
     if matter is None:
         raise RelightError(_no_mask_message(name, ""))
-    return _check_matte(matter(np.ascontiguousarray(image[..., :3]), name=name), shape, name, allow_empty)
+    return _check_matte(_run_matter(matter, image, name), shape, name, allow_empty)
+
+
+def _run_matter(matter: Matter, image: np.ndarray, name: str) -> np.ndarray:
+    try:
+        return matter(np.ascontiguousarray(image[..., :3]), name=name)
+    except RelightError as exc:
+        if "no person found" not in str(exc):
+            raise
+        raise RelightError(f"{exc}; if there is one, give its mask (--mask FILE in the CLI, mask= in the API)") from None
 
 
 def _check_matte(alpha: np.ndarray, shape: tuple[int, int], name: str, allow_empty: bool) -> np.ndarray:

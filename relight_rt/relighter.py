@@ -45,7 +45,7 @@ from .config import RuntimeConfig
 from .contract import kind_spec
 from .lightspec import LightSpec, parse_light
 from .masks import Matter, resolve_mask
-from .session import Model, find_models, load_model
+from .session import Model, check_finite, find_models, load_model
 
 log = logging.getLogger(__name__)
 
@@ -55,6 +55,14 @@ _ALPHA_MIN = np.float32(1e-3)
 _SHADING_MIN = np.float32(1e-3)  # full-resolution albedo: photo / shading, shading floored here
 _SHADING_TRUST = np.float32(0.1)  # ... and trusted fully from this shading up (blended into the network's below)
 _SHADE_BLOCK = 1 << 19  # multiply-adds per block of diffuse_batch (about 2 MB of float32 temporaries)
+
+
+def _float32_light(light, name: str) -> np.ndarray:
+    """A checked (9, 3) light in float32, the dtype it is used in (too large or non-finite there: RelightError)."""
+    arr = sh.check_light(light, name).astype(np.float32)
+    if not np.isfinite(arr).all():
+        raise RelightError(f"{name}: SH light overflows float32 (|value| must be <= {sh.MAX_COEFF:g})")
+    return arr
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:
@@ -375,6 +383,7 @@ class Relighter:
             outs = []
             for i, (ni, nm) in enumerate(zip(net_imgs, net_masks, strict=True)):
                 out, on_device[i] = self._chain.run_stage1(ni.transpose(2, 0, 1)[None], nm[None, None])
+                check_finite(out, self.stage1.name)
                 outs.append(out)
             out = {k: np.concatenate([o[k] for o in outs]) for k in outs[0]}
         else:
@@ -409,8 +418,8 @@ class Relighter:
         if isinstance(light, (str, os.PathLike)):
             light = parse_light(light)
         if isinstance(light, LightSpec):
-            return light.resolve(self._estimate_light)
-        return sh.check_light(light, "light").astype(np.float32)
+            return _float32_light(light.resolve(self._estimate_light, dtype=np.float64), "light")
+        return _float32_light(light, "light")
 
     def _resolve_lights(self, values) -> np.ndarray:
         """A (K, 9, 3) array, or a list of anything ``resolve_light`` accepts → (K, 9, 3) float32, K >= 1."""
@@ -438,6 +447,8 @@ class Relighter:
             return
         for start in range(0, lights.shape[0], batch_size):
             diffuse = diffuse_batch(dec.albedo_chw, dec.transport_chw, lights[start : start + batch_size])
+            if not np.isfinite(diffuse).all():  # a NaN here is the light's or stage 1's, not stage 2's
+                raise RelightError(f"light: shading under this light is not finite (stage 1: {self.stage1.name})")
             if self.stage2 is None:
                 for d in diffuse:
                     yield d, None, d
@@ -460,7 +471,9 @@ class Relighter:
             if mask_key not in state:
                 shape = (batch.shape[0], 1) + dec.network_mask.shape
                 state[mask_key] = chain.upload(np.broadcast_to(dec.network_mask, shape))
-            yield from chain.relit(state["device"], state[mask_key], batch, want_layers)
+            for diffuse, residual, relit in chain.relit(state["device"], state[mask_key], batch, want_layers):
+                check_finite({"relit": relit}, self.stage2.name if self.stage2 is not None else "shading")
+                yield diffuse, residual, relit
 
     def _reconstruction(self, dec: Decomposition) -> np.ndarray:
         """(R, R, 3) straight colour of the pipeline's output under the photo's own light (cached)."""

@@ -148,6 +148,7 @@ def create_session(
     providers: Sequence | None = None,
     sess_options: ort.SessionOptions | None = None,
     warmup: bool = True,
+    kind: str | None = None,
 ) -> ort.InferenceSession:
     """Open an ONNX graph with onnxruntime on the requested device, checked against the contract.
 
@@ -158,13 +159,15 @@ def create_session(
         providers: explicit onnxruntime providers; they win over ``device``.
         sess_options: onnxruntime SessionOptions; by default new ones with $RELIGHT_RT_THREADS threads.
         warmup: run the graph once on zeros (CUDA: allocates memory and picks kernels up front).
+        kind: the contract kind expected ("stage1", ...); a graph whose metadata names another kind is
+            reported as the wrong kind before its inputs and outputs are compared.
 
     Raises:
         RelightError: missing, unreadable or corrupt file; a graph that breaks the contract; CUDA asked for
             but not active (with the likely causes). With ``device="auto"`` a CPU fallback is only logged.
     """
     if isinstance(model, ort.InferenceSession):
-        validate_session(model, "session")
+        validate_session(model, "session", kind)
         return model
     path = Path(model)
     if not path.is_file():
@@ -183,7 +186,7 @@ def create_session(
         if device == "cuda" or providers is not None:
             raise RelightError(f"model {path}: CUDA was asked for but onnxruntime runs it on {active}; {_CUDA_HELP}")
         log.warning("%s: CUDA is offered but not active (running on %s); %s", path, active, _CUDA_HELP)
-    config = validate_session(session, str(path))
+    config = validate_session(session, str(path), kind)
     log.debug("%s: %s on %s", path, config, active)
     if warmup:
         session.run(None, _warmup_feeds(session, config))
@@ -244,10 +247,23 @@ class Model:
         self.session.run(None, _warmup_feeds(self.session, self.config))
 
     def run(self, feeds: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
-        """Run on host arrays (float32, NCHW); returns every output by name."""
+        """Run on host arrays (float32, NCHW); returns every output by name.
+
+        Raises:
+            RelightError: an output holds NaN or Inf (naming this model and the output).
+        """
         names = [o.name for o in self.session.get_outputs()]
         values = self.session.run(names, {k: np.ascontiguousarray(v, dtype=np.float32) for k, v in feeds.items()})
-        return dict(zip(names, values, strict=True))
+        out = dict(zip(names, values, strict=True))
+        check_finite(out, self.name)
+        return out
+
+
+def check_finite(outputs: Mapping[str, np.ndarray], model: str) -> None:
+    """Raise RelightError when a network output holds NaN or Inf (a broken graph or inputs it cannot take)."""
+    for key, value in outputs.items():
+        if not np.isfinite(value).all():
+            raise RelightError(f"model {model}: output {key!r} holds NaN or Inf (a broken or mis-exported graph?)")
 
 
 def load_model(
@@ -263,7 +279,8 @@ def load_model(
     """``create_session`` plus a check that the graph is of ``kind``; see there for the arguments."""
     name = "session" if isinstance(path, ort.InferenceSession) else str(path)
     session = create_session(
-        path, device=device, device_id=device_id, providers=providers, sess_options=sess_options, warmup=False
+        path, device=device, device_id=device_id, providers=providers, sess_options=sess_options, warmup=False,
+        kind=kind,
     )
     model = Model(session, validate_session(session, name, kind), name)
     if warmup:

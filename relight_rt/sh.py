@@ -146,7 +146,26 @@ def _check_lights(light, name: str) -> np.ndarray:
         raise RelightError(f"{name}: expected an SH light of shape (9, 3) (or (N, 9, 3)), got {_describe(src)}")
     if not np.all(np.isfinite(arr)):
         raise RelightError(f"{name}: SH light contains NaN or Inf")
+    _check_magnitude(arr, name)
     return arr
+
+
+MAX_COEFF = 1e30
+"""Largest |coefficient| of a light that is accepted. Lights are used in float32 (whose largest value is
+3.4e38); shading sums 9 products of a coefficient with the transport, so beyond this a plausible
+transport overflows to Inf and the result turns to NaN. Presets have coefficients of about 1."""
+
+
+_MAX_COEFF_F32 = float(np.float32(MAX_COEFF))  # MAX_COEFF as float32 holds it: a checked light's float32 copy passes
+
+
+def _check_magnitude(arr: np.ndarray, name: str) -> None:
+    peak = float(np.max(np.abs(arr))) if arr.size else 0.0
+    if peak > _MAX_COEFF_F32:
+        raise RelightError(
+            f"{name}: SH light coefficient {peak:.3g} is too large (|value| must be <= {MAX_COEFF:g}; "
+            "float32 shading would overflow)"
+        )
 
 
 def check_light(light, name: str = "light") -> np.ndarray:
@@ -529,7 +548,12 @@ def load_envmap(path) -> np.ndarray:
         raise RelightError(f"{p}: unsupported environment map type {ext!r}; expected one of {', '.join(_ENV_EXTS)}")
     if not p.is_file():
         raise RelightError(f"{p}: environment map not found")
+    from ._limits import check_pixels, header_size
+
     try:
+        size = header_size(p)
+        if size is not None:
+            check_pixels(size[0], size[1], f"environment map {p}")
         data = np.fromfile(p, dtype=np.uint8)
         img = cv2.imdecode(data, cv2.IMREAD_UNCHANGED) if data.size else None
     except (OSError, cv2.error) as exc:
@@ -547,6 +571,7 @@ def load_envmap(path) -> np.ndarray:
                 "OPENCV_IO_ENABLE_OPENEXR is set); convert the map to .hdr"
             )
         raise RelightError(f"{p}: cannot decode environment map (corrupt or not a {ext} image)")
+    check_pixels(img.shape[1], img.shape[0], f"environment map {p}")
     if img.ndim == 2:
         img = np.repeat(img[:, :, None], 3, axis=2)
     if img.shape[2] == 4:
@@ -572,6 +597,7 @@ def load_envmap(path) -> np.ndarray:
 # --------------------------------------------------------------------------------------------- files
 
 _LAYOUTS = (None, "27-kc", "3x9")
+_JSON_MAX_BYTES = 1 << 20
 
 
 def _shape_light(arr: np.ndarray, layout, p: Path) -> np.ndarray:
@@ -621,8 +647,13 @@ def load_light(path, bgr: bool = False, layout: str | None = None) -> np.ndarray
     swap = bool(bgr)
     try:
         if ext == ".npy":
-            raw = np.load(p, allow_pickle=False)
+            from ._limits import load_npy
+
+            raw = load_npy(p, "light", max_bytes=1 << 20)
         else:
+            if p.stat().st_size > _JSON_MAX_BYTES:
+                size = p.stat().st_size
+                raise RelightError(f"{p}: {size:,} bytes is too large for a light file (a light is 27 numbers)")
             doc = json.loads(p.read_text(encoding="utf-8"))
             if not isinstance(doc, dict) or "sh" not in doc:
                 raise RelightError(f'{p}: expected a JSON object {{"sh": [[r, g, b] x 9], "order": "rgb"}}')
@@ -635,6 +666,8 @@ def load_light(path, bgr: bool = False, layout: str | None = None) -> np.ndarray
             raw = np.array(doc["sh"], dtype=np.float64)
     except RelightError:
         raise
+    except RecursionError:
+        raise RelightError(f"{p}: cannot read light file (JSON nested too deeply)") from None
     except (OSError, EOFError, ValueError, TypeError, UnicodeDecodeError) as exc:
         raise RelightError(f"{p}: cannot read light file ({exc})") from None
     if raw.dtype.kind not in "fiu":
@@ -642,6 +675,7 @@ def load_light(path, bgr: bool = False, layout: str | None = None) -> np.ndarray
     arr = _shape_light(np.asarray(raw, dtype=np.float64), layout, p)
     if not np.all(np.isfinite(arr)):
         raise RelightError(f"{p}: light contains NaN or Inf")
+    _check_magnitude(arr, str(p))
     if swap:
         arr = arr[:, ::-1]
     return np.array(arr, dtype=np.float64, copy=True)

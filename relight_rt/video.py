@@ -99,16 +99,18 @@ class LightSchedule:
         arr = np.asarray(lights, np.float64)
         if arr.ndim != 3 or arr.shape[1:] != (9, 3) or not np.isfinite(arr).all():
             raise RelightError(f"lights: expected a finite (N, 9, 3) light sequence, got {np.asarray(lights).shape}")
-        arr = arr.copy()
+        arr = sh._check_lights(arr, "lights")  # a copy; too large for float32: RelightError
         return cls(lambda i, fps: arr[i], f"a sequence of {len(arr)} lights", len(arr))
 
     @classmethod
     def from_file(cls, path: str | os.PathLike) -> LightSchedule:
-        """An (N, 9, 3) RGB .npy light sequence."""
-        try:
-            arr = np.load(path, allow_pickle=False)
-        except (OSError, ValueError) as exc:
-            raise RelightError(f"{path}: cannot read this light sequence ({exc})") from None
+        """An (N, 9, 3) RGB .npy light sequence (its header checked before anything is allocated)."""
+        from ._limits import load_npy
+
+        if Path(path).suffix.lower() == ".json":
+            raise RelightError(f"{path}: --lights takes an (N, 9, 3) .npy sequence, one light per frame; "
+                               "for one light from a .json file use --light")
+        arr = load_npy(path, "light sequence")
         try:
             return cls.sequence(arr)
         except RelightError as exc:
@@ -389,9 +391,13 @@ def relight_video(source: FrameSource, lights: LightSchedule, sink: FrameSink, *
     except BaseException:
         sink.close(ok=False)
         raise
-    sink.close(ok=n > 0)
     if n == 0:
+        sink.close(ok=False)
         raise RelightError(f"{source.path}: no frames could be read")
+    if sink.count != n:  # frames written must equal frames read
+        sink.close(ok=False)
+        raise RelightError(f"{source.path}: {n} frames relit but {sink.count} written")
+    sink.close(ok=True)
     spf = (time.perf_counter() - start - callback) / n
     logger.info("relit %d frames, %.3f s per frame", n, spf)
     return VideoReport(n, spf)

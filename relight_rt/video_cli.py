@@ -18,6 +18,8 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -58,6 +60,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--lights-out", help="write the (N, 9, 3) RGB light of every frame to this .npy "
                                         "(e.g. for python -m export fit-dvp --lights)")
     p.add_argument("--metrics", help="write temporal error, warping error and light-following to this JSON file")
+    p.add_argument("--skip-bad-frames", action="store_true",
+                   help="leave out frames that cannot be decoded or differ in size, report each, exit 2")
     from .distributed import add_ray_options
 
     add_ray_options(p, video=True)  # --ray: one clip per Ray task (relight_rt.distributed)
@@ -109,10 +113,12 @@ def run(args: argparse.Namespace) -> int:
         args.input = args.input[0]
     if not args.output and not args.frames_out:
         raise RelightError("output: expected -o VIDEO and/or --frames-out DIR")
+    if args.fps is not None and not (math.isfinite(args.fps) and args.fps > 0):
+        raise RelightError(f"--fps: must be > 0, got {args.fps:g}")
     from ._options import background, relighter
     from .exposure import parse_exposure
 
-    source = video.FrameSource(args.input, args.masks, args.fps)
+    source = video.FrameSource(args.input, args.masks, args.fps, skip_bad=args.skip_bad_frames)
     bg = background(args)
     if bg.kind == "transparent" and args.output:
         raise RelightError("--background transparent: a video file has no alpha channel; use --frames-out DIR")
@@ -123,12 +129,17 @@ def run(args: argparse.Namespace) -> int:
         rl = relighter(args)
         engine = video.RelighterEngine(rl, exposure=parse_exposure(args.exposure))
     schedule = _schedule(args, len(source), rl)
-    inputs = [*source.paths, *([args.lights] if args.lights else []), *([bg.path] if bg.path else [])]
+    light_files = [args.lights, args.light, args.envmap, args.light_from, *(args.interpolate or []), args.dvp,
+                   bg.path]
+    inputs = [*source.paths, *(Path(p) for p in light_files if p and Path(p).is_file())]
+    if rl is not None:
+        inputs += Path(rl.models_dir).glob("*.onnx")
     for written_last in (args.lights_out, args.metrics):  # files written after the work: refuse before it
         if written_last:
             check_target(Path(written_last), inputs)
     stabilizer = None if (args.no_stabilize or dvp is not None) else Stabilizer(args.stabilize_strength)
-    sink = video.FrameSink(args.output, args.frames_out, source.fps, protect=source.paths)
+    audio = source.path if source.has_audio else None
+    sink = video.FrameSink(args.output, args.frames_out, source.rate, protect=inputs, audio_from=audio)
     acc = rt_metrics.TemporalMetrics() if args.metrics else None
     used_lights: list = []  # (9, 3) per frame: 108 bytes each, bounded for any realistic clip
 
@@ -158,4 +169,9 @@ def run(args: argparse.Namespace) -> int:
         with atomic_path(args.metrics, protect=inputs) as tmp:
             tmp.write_text(json.dumps(data, indent=1))
         logger.info("metrics: %s", json.dumps(data))
+    for message in source.skipped:  # --skip-bad-frames: the output is kept, the run still fails
+        print(f"relight-rt: error: {message}", file=sys.stderr)
+    if source.skipped:
+        print(f"relight-rt: {source.lost} frame(s) left out, {report.frames} written", file=sys.stderr)
+        return 2
     return 0

@@ -13,10 +13,12 @@ import math
 from pathlib import Path
 
 import numpy as np
-import onnx
-from onnx import TensorProto, helper, numpy_helper
+import pytest
 
-from relight_rt.contract import ModelConfig
+onnx = pytest.importorskip("onnx", reason='builds test graphs; pip install "relight-rt[test]"')
+from onnx import TensorProto, helper, numpy_helper  # noqa: E402
+
+from relight_rt.contract import ModelConfig  # noqa: E402
 
 # unoccluded transport of normal +x: A_l * Y_k(1, 0, 0) (DESIGN.md §3)
 LOBE = np.array(
@@ -161,7 +163,6 @@ def make_models_dir(folder: Path, resolution=64, stage2=True, dvp=False) -> Path
 # ------------------------------------------------------------------------------ shared test fixtures
 # (imported by the runtime test modules: ``from _graphs import models_dir, ...``)
 
-import pytest  # noqa: E402
 
 
 @pytest.fixture(scope="session")

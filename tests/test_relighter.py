@@ -11,13 +11,15 @@ import cv2
 import numpy as np
 import pytest
 from _graphs import LOBE, OWN_LIGHT, diffuse_models_dir, make_models_dir, models_dir, person, save, stage2_model
-from hypothesis import HealthCheck, given, settings
-from hypothesis import strategies as st
-from hypothesis.extra import numpy as hnp
 
-from relight_rt import RelightError, lights, sh
-from relight_rt.compositing import Background
-from relight_rt.relighter import Decomposition, Relighter, RelightResult, diffuse_batch
+pytest.importorskip("hypothesis", reason='property tests; pip install "relight-rt[test]"')
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+from hypothesis.extra import numpy as hnp  # noqa: E402
+
+from relight_rt import RelightError, lights, sh  # noqa: E402
+from relight_rt.compositing import Background  # noqa: E402
+from relight_rt.relighter import Decomposition, Relighter, RelightResult, diffuse_batch  # noqa: E402
 
 __all__ = ["models_dir", "diffuse_models_dir"]  # fixtures
 
@@ -301,6 +303,7 @@ def photo_and_mask(draw):
         st.just(OWN_LIGHT),
         hnp.arrays(np.float64, st.sampled_from([(9, 3), (3, 9), (9,)]), elements=st.floats(-1e3, 1e3)),
         st.just(np.full((9, 3), np.nan)),
+        st.builds(lambda v: np.full((9, 3), v), st.sampled_from([1e30, 4e38, 5e-324, -0.0, 1e300])),
     ),
     background=st.sampled_from(["original", "transparent"]),
 )
@@ -313,6 +316,68 @@ def test_property_only_correct_results_or_relight_error(relighter, inputs, light
     channels = 4 if background == "transparent" else 3
     assert out.dtype == np.float32 and out.shape == image.shape[:2] + (channels,)
     assert np.isfinite(out).all() and out.min() >= 0 and out.max() <= 1
+
+
+EXTREMES = [0.0, -0.0, 1e30, -1e30, 1.0000001e30, 3.4e38, 4e38, -4e38, 1e300, 5e-324, 1e-45, 1.1754942e-38,
+            2.2250738585072014e-308, np.nan, np.inf, -np.inf]  # fmt: skip
+
+
+def _light_values():
+    """Light coefficients: ordinary, extreme (overflowing float32, subnormal, signed zero) and non-finite."""
+    return st.one_of(st.floats(-2.0, 2.0), st.sampled_from(EXTREMES), st.floats(allow_nan=True, allow_infinity=True))
+
+
+@st.composite
+def extreme_light(draw):
+    """A (9, 3) light: a sane light with the coefficients of a random bit pattern set to one drawn value
+    (ordinary, extreme or non-finite), in a drawn dtype, as an array or a nested list. Drawn from a few
+    scalars rather than 27 elements, so that 1,000 examples take seconds."""
+    value = draw(_light_values())
+    bits = draw(st.integers(0, (1 << 27) - 1))
+    scale = draw(st.floats(-2.0, 2.0))
+    dtype = draw(st.sampled_from([np.float64, np.float64, np.float32, np.float16, np.int64]))
+    chosen = ((bits >> np.arange(27)) & 1).astype(bool).reshape(9, 3)
+    base = np.where(chosen, value, scale * OWN_LIGHT.astype(np.float64))
+    with np.errstate(all="ignore"):
+        light = base.astype(dtype) if dtype != np.int64 else np.nan_to_num(base).clip(-1e18, 1e18).astype(dtype)
+    return light if draw(st.booleans()) else light.tolist()
+
+
+@pytest.fixture(scope="module")
+def small_decomposition(relighter):
+    img, mask = person(40, 30, seed=21, box=(5, 35, 8, 22))
+    return relighter.decompose(img, mask)
+
+
+@settings(max_examples=1000, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(light=extreme_light())
+def test_property_extreme_lights(relighter, small_decomposition, light):
+    """Issue 18: every light is either refused with RelightError or gives finite pixels in [0, 1], and ``relight``
+    and ``relight_many`` agree on which (a light valid in float64 but not in float32 was accepted by one only)."""
+    dec = small_decomposition
+    try:
+        out = relighter.relight(dec, light)
+    except RelightError as exc:
+        with pytest.raises(RelightError):
+            relighter.relight_many(dec, [light])
+        assert "NaN or Inf" in str(exc) or "too large" in str(exc) or "overflows" in str(exc) or "(9, 3)" in str(exc)
+        return
+    assert out.shape == (40, 30, 3) and out.dtype == np.float32
+    assert np.isfinite(out).all() and out.min() >= 0 and out.max() <= 1
+    np.testing.assert_allclose(relighter.relight_many(dec, [light])[0], out, atol=1e-6)
+
+
+@pytest.mark.parametrize("value", [1e30, -0.0, 5e-324, 1e-45])
+def test_extreme_but_valid_lights_give_finite_images(relighter, small_decomposition, value):
+    out = relighter.relight(small_decomposition, np.full((9, 3), value))
+    assert np.isfinite(out).all() and 0 <= out.min() and out.max() <= 1
+
+
+@pytest.mark.parametrize("value", [4e38, -4e38, 1e300, 1.0000001e30])
+def test_lights_too_large_for_float32_are_refused(relighter, small_decomposition, value):
+    for call in (relighter.relight, lambda d, v: relighter.relight_many(d, [v])):
+        with pytest.raises(RelightError, match="too large"):
+            call(small_decomposition, np.full((9, 3), value))
 
 
 def test_lobe_matches_sh_module():

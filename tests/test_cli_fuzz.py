@@ -1,0 +1,225 @@
+"""A fuzz test of the CLI over folders of generated bad files (issue 18, "must show").
+
+For every bad file: exactly one line on stderr naming it, a non-zero exit, no traceback, no output for it;
+afterwards the inputs are byte-identical and no partial or temporary file is left anywhere. The image
+batch runs as a real process, so what native libraries (libpng, libjpeg, OpenCV, onnxruntime) write to
+the process's stderr is checked too.
+"""
+
+from __future__ import annotations
+
+import os
+import struct
+import subprocess
+import sys
+import zlib
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+from _graphs import OWN_LIGHT, models_dir, person
+
+from relight_rt import cli
+
+__all__ = ["models_dir"]  # fixture
+
+REPO = Path(__file__).resolve().parents[1]
+H, W = 60, 40
+
+
+def _png(img: np.ndarray) -> bytes:
+    ok, buf = cv2.imencode(".png", img)
+    assert ok
+    return buf.tobytes()
+
+
+def _chunk(kind: bytes, data: bytes) -> bytes:
+    return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+
+def bad_images(folder: Path, seed: int = 0) -> list[str]:
+    """Write bad image files (and their masks) into ``folder``; return the bad files' names."""
+    rng = np.random.default_rng(seed)
+    img, mask = person(H, W, seed=seed, box=(10, 50, 10, 30))
+    bgr = (img[..., ::-1] * 255).round().astype(np.uint8)
+    m8 = (mask * 255).astype(np.uint8)
+    good = _png(bgr)
+    files: dict[str, bytes] = {
+        "garbage.png": rng.integers(0, 256, 500, dtype=np.uint8).tobytes(),
+        "zero.png": b"",
+        "truncated.png": good[: len(good) // 2],
+        "text.jpg": b"this is not a jpeg\n" * 10,
+        "truncated.jpg": cv2.imencode(".jpg", bgr)[1].tobytes()[:40],
+        "bomb.png": b"\x89PNG\r\n\x1a\n" + _chunk(b"IHDR", struct.pack(">IIBBBBB", 90000, 90000, 8, 2, 0, 0, 0)),
+        "gray.png": _png(bgr[..., 0]),
+        "deep16.png": _png(bgr.astype(np.uint16) * 257),
+        "tiny.png": _png(bgr[:1, :1]),
+        "nomask.png": good,
+        "wrongmask.png": good,
+        "emptymask.png": good,
+        "fullmask.png": good,
+        "clearalpha.png": _png(np.dstack([bgr, np.zeros((H, W), np.uint8)])),
+        "json.png": b'{"sh": [[1, 2, 3]]}',
+    }
+    masks = {"wrongmask": m8[:-1], "emptymask": np.zeros_like(m8), "fullmask": np.full_like(m8, 255)}
+    # random damage to a good PNG: IHDR/IDAT bytes flipped (the CRCs then fail), chunks cut out
+    body = bytearray(good)
+    for k in range(12):
+        damaged = bytearray(body)
+        for pos in rng.integers(8, len(damaged), size=1 + k % 4):
+            damaged[pos] ^= int(rng.integers(1, 256))
+        files[f"damaged{k:02d}.png"] = bytes(damaged)
+    i = good.find(b"IDAT")
+    files["noidat.png"] = good[: i - 4] + good[i + 8 + struct.unpack(">I", good[i - 4 : i])[0] :]
+    for name, data in files.items():
+        (folder / name).write_bytes(data)
+        stem = Path(name).stem
+        if stem not in ("nomask", "clearalpha"):
+            cv2.imwrite(str(folder / f"{stem}_mask.png"), masks.get(stem, m8))
+    return sorted(files)
+
+
+def snapshot(folder: Path) -> dict:
+    return {p: p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def test_fuzz_relight_over_a_folder_of_bad_images(tmp_path, models_dir):
+    inputs = tmp_path / "in"
+    inputs.mkdir()
+    bad = bad_images(inputs)
+    for k in range(2):  # two good photos: the batch goes on past the bad ones
+        img, mask = person(H, W, seed=10 + k, box=(10, 50, 10, 30))
+        cv2.imwrite(str(inputs / f"good{k}.png"), (img[..., ::-1] * 255).round().astype(np.uint8))
+        cv2.imwrite(str(inputs / f"good{k}_mask.png"), (mask * 255).astype(np.uint8))
+    (inputs / "folder.png").mkdir()  # not a file: not listed
+    (inputs / "dangling.png").symlink_to(tmp_path / "nowhere.png")
+    before = snapshot(tmp_path)
+    env = {**os.environ, "PYTHONPATH": str(REPO), "RELIGHT_RT_MODELS": str(models_dir)}
+    proc = subprocess.run([sys.executable, "-m", "relight_rt", "relight", str(inputs), "--preset", "studio",
+                           "-o", str(tmp_path / "out"), "--device", "cpu"],
+                          capture_output=True, text=True, env=env, timeout=300)  # fmt: skip
+    assert proc.returncode == 2
+    assert "Traceback" not in proc.stderr
+    lines = [x for x in proc.stderr.splitlines() if x.strip() and "image/s" not in x]  # not the progress bar
+    assert all(x.startswith("relight-rt: ") for x in lines), proc.stderr  # nothing from native libraries
+    errors = [x for x in lines if x.startswith("relight-rt: error: ")]
+    written = {p.name for p in (tmp_path / "out").iterdir()}
+    for name in bad + ["good0.png", "good1.png"]:
+        stem = Path(name).stem
+        mentioned = [x for x in errors if f"/{name}" in x or f" {name}" in x]
+        if f"{stem}_relit.png" in written:  # some random damage is harmless (e.g. in a CRC libpng skips)
+            assert mentioned == [], (name, mentioned)
+        else:
+            assert len(mentioned) == 1, (name, errors)
+    assert {"good0_relit.png", "good1_relit.png"} <= written
+    assert not {"garbage_relit.png", "bomb_relit.png", "nomask_relit.png", "fullmask_relit.png"} & written
+    assert len(errors) == len(bad) + 2 - len(written)  # one line per bad file, nothing else
+    assert lines[-1] == f"relight-rt: {len(errors)} failed, {len(written)} written"
+    after = snapshot(tmp_path)
+    assert {p: after[p] for p in before} == before  # inputs byte-identical
+    assert set(after) - set(before) == {tmp_path / "out" / n for n in written}  # no temporary files anywhere
+    for name in written:
+        assert cv2.imread(str(tmp_path / "out" / name)).shape == (H, W, 3)  # complete files
+
+
+def bad_lights(folder: Path, seed: int = 0) -> dict[str, str]:
+    """Bad light files; returns name → a word the one-line error must contain."""
+    rng = np.random.default_rng(seed)
+    header = np.lib.format.header_data_from_array_1_0(np.zeros(3))
+    header["shape"] = (1 << 21, 1 << 20, 1 << 20)
+    with open(folder / "huge.npy", "wb") as f:
+        np.lib.format.write_array_header_1_0(f, header)
+    np.savez(folder / "npz.npz", OWN_LIGHT)
+    (folder / "npz.npz").rename(folder / "npz.npy")
+    np.save(folder / "obj.npy", np.array([None, 1], dtype=object), allow_pickle=True)
+    for name, value in {"nan.npy": np.nan, "inf.npy": np.inf, "e300.npy": 1e300, "e38.npy": 4e38}.items():
+        np.save(folder / name, np.full((9, 3), value))
+    np.save(folder / "shape.npy", np.zeros((9, 4)))
+    np.save(folder / "flat.npy", np.zeros(27))
+    np.save(folder / "strings.npy", np.array(["a"] * 27))
+    good = (folder / "huge.npy").read_bytes()
+    (folder / "cut.npy").write_bytes(good[:30])
+    texts = {
+        "deep.json": '{"sh": ' + "[" * 100_000 + "]" * 100_000 + "}",
+        "list.json": "[1, 2, 3]",
+        "order.json": '{"sh": [[0, 0, 0]], "order": "xyz"}',
+        "ragged.json": '{"sh": [[1, 2], [3]]}',
+        "strings.json": '{"sh": [["a", "b", "c"]]}',
+        "broken.json": '{"sh": [[1, 2, 3]',
+        "e300.json": '{"sh": ' + str([[1e300] * 3] * 9) + "}",
+        "binary.json": rng.integers(0, 256, 200, dtype=np.uint8).tobytes().decode("latin-1"),
+    }
+    for name, text in texts.items():
+        (folder / name).write_bytes(text.encode("latin-1"))
+    (folder / "zero.npy").write_bytes(b"")
+    (folder / "zero.json").write_bytes(b"")
+    return {"huge.npy": "announces", "npz.npy": "npz", "obj.npy": "pickled", "nan.npy": "NaN", "inf.npy": "NaN",
+            "e300.npy": "too large", "e38.npy": "too large", "shape.npy": "(9, 3)", "flat.npy": "layout",
+            "strings.npy": "numbers", "cut.npy": "npy", "deep.json": "nested", "list.json": "JSON object",
+            "order.json": "order", "ragged.json": "cannot read", "strings.json": "cannot read",
+            "broken.json": "cannot read", "e300.json": "too large", "binary.json": "cannot read",
+            "zero.npy": "empty", "zero.json": "cannot read"}  # fmt: skip
+
+
+def test_fuzz_light_files(tmp_path, models_dir, monkeypatch, capsys):
+    monkeypatch.setenv("RELIGHT_RT_MODELS", str(models_dir))
+    monkeypatch.chdir(tmp_path)
+    img, mask = person(H, W, box=(10, 50, 10, 30))
+    cv2.imwrite("p.png", (img[..., ::-1] * 255).round().astype(np.uint8))
+    cv2.imwrite("p_mask.png", (mask * 255).astype(np.uint8))
+    expected = bad_lights(tmp_path)
+    before = snapshot(tmp_path)
+    for name, word in expected.items():
+        for argv in (["relight", "p.png", "--light", name, "-o", "o.png"], ["lights", "show", name, "-o", "o.png"]):
+            code = cli.main(argv)
+            out, err = capsys.readouterr()
+            lines = err.strip().splitlines()
+            assert code == 2 and len(lines) == 1 and lines[0].startswith("relight-rt: error: "), (argv, err)
+            assert name in lines[0] and word in lines[0], (argv, lines[0])
+    assert snapshot(tmp_path) == before  # nothing written, nothing changed, no temporary files
+
+
+def test_fuzz_video_frames_skip_bad_frames(tmp_path, models_dir, monkeypatch, capsys):
+    """A folder of frames with bad ones among them: with --skip-bad-frames one line per bad frame, the good
+    frames written, exit 2; without it, one line and nothing written."""
+    monkeypatch.setenv("RELIGHT_RT_MODELS", str(models_dir))
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    for k in range(4):
+        img, mask = person(H, W, seed=k, box=(10, 50, 10, 30))
+        cv2.imwrite(str(frames / f"f{k}.png"), (img[..., ::-1] * 255).round().astype(np.uint8))
+        cv2.imwrite(str(frames / f"f{k}_mask.png"), (mask * 255).astype(np.uint8))
+    bad = {"f1b.png": b"garbage", "f2b.png": b"", "f3b.png": (frames / "f0.png").read_bytes()[:60]}
+    for name, data in bad.items():
+        (frames / name).write_bytes(data)
+    cv2.imwrite(str(frames / "f3c.png"), np.zeros((H + 2, W, 3), np.uint8))  # another size
+    before = snapshot(tmp_path)
+    argv = ["video", str(frames), "--preset", "studio", "-o", str(tmp_path / "o.avi"), "--device", "cpu"]
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "f1b.png" in err and not (tmp_path / "o.avi").exists()
+    assert cli.main([*argv, "--skip-bad-frames"]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert "Traceback" not in "\n".join(lines)
+    assert len(lines) == 5 and lines[-1] == "relight-rt: 4 frame(s) left out, 4 written"
+    for name, line in zip(["f1b.png", "f2b.png", "f3b.png", "f3c.png"], lines, strict=False):
+        assert line.startswith("relight-rt: error: ") and name in line and "skipped" in line
+    after = snapshot(tmp_path)
+    assert {p: after[p] for p in before} == before and set(after) - set(before) == {tmp_path / "o.avi"}
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_fuzz_relight_in_process_random_damage(tmp_path, models_dir, monkeypatch, capsys, seed):
+    """More random damage, in-process (fast): only correct outputs or one RelightError line per file."""
+    monkeypatch.setenv("RELIGHT_RT_MODELS", str(models_dir))
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "in").mkdir()
+    bad_images(tmp_path / "in", seed)
+    before = snapshot(tmp_path)
+    code = cli.main(["relight", "in", "--preset", "night", "-o", "out"])
+    err = capsys.readouterr().err
+    assert code == 2 and "Traceback" not in err
+    after = snapshot(tmp_path)
+    assert {p: after[p] for p in before} == before
+    assert not [p for p in after if p.name.startswith(".")]

@@ -1,0 +1,122 @@
+"""relight_rt._limits: image sizes from headers (checked against OpenCV's decoder), the pixel limit, .npy headers."""
+
+import os
+import struct
+
+import cv2
+import numpy as np
+import pytest
+
+from relight_rt import RelightError
+from relight_rt._io import read_image, read_mask
+from relight_rt._limits import check_pixels, header_size, load_npy, max_pixels, pixel_limit
+
+
+@pytest.mark.parametrize("suffix", [".png", ".jpg", ".bmp", ".webp", ".tif", ".hdr"])
+@pytest.mark.parametrize(("h", "w"), [(37, 53), (1, 300), (480, 2)])
+def test_header_size_matches_the_decoder(tmp_path, suffix, h, w):
+    img = np.random.default_rng(0).integers(0, 255, (h, w, 3), dtype=np.uint8)
+    path = tmp_path / f"x{suffix}"
+    assert cv2.imwrite(str(path), img.astype(np.float32) / 255 if suffix == ".hdr" else img)
+    decoded = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    assert header_size(path) == (decoded.shape[1], decoded.shape[0])
+
+
+def test_header_size_variants(tmp_path):
+    img = np.zeros((21, 34, 4), np.uint8)
+    cv2.imwrite(str(tmp_path / "lossless.webp"), img[..., :3], [cv2.IMWRITE_WEBP_QUALITY, 101])  # VP8L
+    cv2.imwrite(str(tmp_path / "alpha.webp"), img)
+    cv2.imwrite(str(tmp_path / "prog.jpg"), img[..., :3], [cv2.IMWRITE_JPEG_PROGRESSIVE, 1])
+    for name in ("lossless.webp", "alpha.webp", "prog.jpg"):
+        assert header_size(tmp_path / name) == (34, 21), name
+    # an OpenEXR header (this OpenCV may not write EXR): magic, version, then attributes up to dataWindow
+    attr = b"channels\x00chlist\x00" + struct.pack("<i", 1) + b"\x00"
+    attr += b"dataWindow\x00box2i\x00" + struct.pack("<i", 16) + struct.pack("<iiii", 0, 0, 4999, 2999)
+    (tmp_path / "e.exr").write_bytes(b"v/1\x01" + struct.pack("<I", 2) + attr + b"\x00")
+    assert header_size(tmp_path / "e.exr") == (5000, 3000)
+    cv2.imwrite(str(tmp_path / "x.ppm"), img[..., :3])
+    assert header_size(tmp_path / "x.ppm") is None  # not parsed: checked after decoding
+    (tmp_path / "t.png").write_bytes(b"\x89PNG\r\n\x1a\n\x00\x00")  # truncated: the decoder will say so
+    assert header_size(tmp_path / "t.png") is None
+
+
+def _png_header(w: int, h: int) -> bytes:
+    """A PNG signature and IHDR claiming w x h, without any image data (a 'decompression bomb' header)."""
+    return b"\x89PNG\r\n\x1a\n" + struct.pack(">I", 13) + b"IHDR" + struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)
+
+
+def test_huge_image_is_refused_from_its_header(tmp_path):
+    path = tmp_path / "bomb.png"
+    path.write_bytes(_png_header(60000, 60000) + b"\x00" * 64)
+    with pytest.raises(RelightError, match=r"60000x60000 \(3600.0 megapixels\), more than the limit of 100 megapixels"):
+        read_image(path)
+    with pytest.raises(RelightError, match="more than the limit"):
+        read_mask(path, (60000, 60000))
+
+
+def test_pixel_limit_is_scoped_and_checked_after_decoding_too(tmp_path):
+    cv2.imwrite(str(tmp_path / "x.ppm"), np.zeros((20, 30, 3), np.uint8))  # no header parser: after decoding
+    cv2.imwrite(str(tmp_path / "x.png"), np.zeros((20, 30, 3), np.uint8))
+    assert max_pixels() == 100_000_000
+    with pixel_limit(599):
+        for name in ("x.ppm", "x.png"):
+            with pytest.raises(RelightError, match="30x20"):
+                read_image(tmp_path / name)
+        with pixel_limit(0):  # no limit
+            assert read_image(tmp_path / "x.png").shape == (20, 30, 3)
+    assert max_pixels() == 100_000_000
+    check_pixels(10_000, 10_000, "x")
+    with pytest.raises(RelightError, match="whole number"):
+        with pixel_limit(-1):
+            pass
+
+
+def test_load_npy_checks_the_header_first(tmp_path):
+    good = np.arange(27.0).reshape(9, 3)
+    np.save(tmp_path / "good.npy", good)
+    np.testing.assert_array_equal(load_npy(tmp_path / "good.npy"), good)
+    np.save(tmp_path / "v2.npy", good)  # version 2.0 header
+    with open(tmp_path / "v2.npy", "wb") as f:
+        np.lib.format.write_array(f, good, version=(2, 0))
+    np.testing.assert_array_equal(load_npy(tmp_path / "v2.npy"), good)
+
+    header = np.lib.format.header_data_from_array_1_0(good)
+    header["shape"] = (1 << 20, 1 << 20, 2)  # 16 TiB claimed, 100 bytes present
+    with open(tmp_path / "huge.npy", "wb") as f:
+        np.lib.format.write_array_header_1_0(f, header)
+        f.write(b"\x00" * 100)
+    np.savez(tmp_path / "z.npz", a=good)
+    (tmp_path / "z.npz").rename(tmp_path / "z.npy")
+    (tmp_path / "zero.npy").write_bytes(b"")
+    (tmp_path / "text.npy").write_text('{"sh": []}')
+    np.save(tmp_path / "obj.npy", np.array([{"a": 1}], dtype=object), allow_pickle=True)
+    np.save(tmp_path / "str.npy", np.array(["a", "b"]))
+    np.save(tmp_path / "big.npy", np.zeros(2000))
+    cases = {
+        "huge.npy": r"announces a \(1048576, 1048576, 2\) float64 array .* holds 100 bytes",
+        "z.npy": r"zip archive \(an \.npz\)",
+        "zero.npy": r"empty \(0 bytes\)",
+        "text.npy": "not a .npy file .*JSON",
+        "obj.npy": "pickled",
+        "str.npy": "expected numbers",
+        "missing.npy": "cannot read",
+    }
+    for name, match in cases.items():
+        with pytest.raises(RelightError, match=match):
+            load_npy(tmp_path / name)
+    with pytest.raises(RelightError, match="more than 1,000"):
+        load_npy(tmp_path / "big.npy", max_bytes=1000)
+
+
+def test_special_files_are_refused_without_blocking(tmp_path):
+    fifo = tmp_path / "pipe.png"
+    os.mkfifo(fifo)  # opening it for reading would block forever
+    with pytest.raises(RelightError, match="not a regular file"):
+        read_image(fifo)
+    with pytest.raises(RelightError, match="not a regular file"):
+        read_mask(tmp_path, (2, 2))
+    os.mkfifo(tmp_path / "pipe.npy")
+    with pytest.raises(RelightError, match="not a regular file"):
+        load_npy(tmp_path / "pipe.npy")
+    with pytest.raises(RelightError, match="not found"):
+        read_image(tmp_path / "missing.png")
