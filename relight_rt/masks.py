@@ -87,7 +87,8 @@ def _run_matter(matter: Matter, image: np.ndarray, name: str) -> np.ndarray:
     except RelightError as exc:
         if "no person found" not in str(exc):
             raise
-        raise RelightError(f"{exc}; if there is one, give its mask (--mask FILE in the CLI, mask= in the API)") from None
+        hint = "if there is one, give its mask (--mask FILE in the CLI, mask= in the API)"
+        raise RelightError(f"{exc}; {hint}") from None
 
 
 def _check_matte(alpha: np.ndarray, shape: tuple[int, int], name: str, allow_empty: bool) -> np.ndarray:
