@@ -1,0 +1,191 @@
+// The live preview: diffuse = clip(albedo ⊙ max(0, T·L), 0, 1) per pixel, composited over the
+// background (albedo and the result are premultiplied by the mask): out = bg · (1 − mask) + diffuse.
+// WebGL 2 (a fragment shader, float textures) where available, otherwise Canvas 2D in JavaScript.
+
+// Decode the server's layer binary (relight_rt.studio.core.Studio.layers_bytes) into float planes.
+export function decodeLayers(buffer, meta) {
+  const n = meta.width * meta.height;
+  const q16 = new Uint16Array(buffer, 0, 9 * n);
+  const q8 = new Uint8Array(buffer, 18 * n, 7 * n);
+  const transport = [];
+  for (let k = 0; k < 9; k++) {
+    const plane = new Float32Array(n);
+    const lo = meta.transport_offset[k], s = meta.transport_scale[k];
+    for (let p = 0; p < n; p++) plane[p] = lo + q16[k * n + p] * s;
+    transport.push(plane);
+  }
+  const eight = (i) => {
+    const plane = new Float32Array(n);
+    for (let p = 0; p < n; p++) plane[p] = q8[i * n + p] / 255;
+    return plane;
+  };
+  return {
+    width: meta.width,
+    height: meta.height,
+    transport,
+    albedo: [eight(0), eight(1), eight(2)],
+    mask: eight(3),
+    background: [eight(4), eight(5), eight(6)],
+  };
+}
+
+const VERTEX = `#version 300 es
+in vec2 pos;
+void main() { gl_Position = vec4(pos, 0.0, 1.0); }`;
+
+const FRAGMENT = `#version 300 es
+precision highp float;
+precision highp sampler2D;
+uniform sampler2D t0;  // T0..T3
+uniform sampler2D t1;  // T4..T7
+uniform sampler2D t2;  // T8, albedo r, g, b (premultiplied)
+uniform sampler2D t3;  // background r, g, b, mask
+uniform vec3 L[9];
+uniform int height;
+uniform bool checker;
+out vec4 colour;
+void main() {
+  ivec2 p = ivec2(int(gl_FragCoord.x), height - 1 - int(gl_FragCoord.y));
+  vec4 a = texelFetch(t0, p, 0), b = texelFetch(t1, p, 0), c = texelFetch(t2, p, 0), d = texelFetch(t3, p, 0);
+  vec3 s = a.x * L[0] + a.y * L[1] + a.z * L[2] + a.w * L[3]
+         + b.x * L[4] + b.y * L[5] + b.z * L[6] + b.w * L[7] + c.x * L[8];
+  vec3 diffuse = clamp(c.yzw * max(s, 0.0), 0.0, 1.0);
+  vec3 bg = d.rgb;
+  if (checker) {
+    bool odd = ((p.x / 12) + (p.y / 12)) % 2 == 1;
+    bg = vec3(odd ? 0.78 : 0.9);
+  }
+  colour = vec4(bg * (1.0 - d.a) + diffuse, 1.0);
+}`;
+
+function compile(gl, type, source) {
+  const shader = gl.createShader(type);
+  gl.shaderSource(shader, source);
+  gl.compileShader(shader);
+  if (!gl.getShaderParameter(shader, gl.COMPILE_STATUS)) throw new Error(gl.getShaderInfoLog(shader));
+  return shader;
+}
+
+class WebGLPreview {
+  constructor(canvas, layers, checker) {
+    const gl = canvas.getContext("webgl2", { preserveDrawingBuffer: true, antialias: false });
+    if (!gl) throw new Error("no WebGL 2");
+    this.kind = "WebGL 2";
+    this.canvas = canvas;
+    this.gl = gl;
+    this.layers = layers;
+    const prog = gl.createProgram();
+    gl.attachShader(prog, compile(gl, gl.VERTEX_SHADER, VERTEX));
+    gl.attachShader(prog, compile(gl, gl.FRAGMENT_SHADER, FRAGMENT));
+    gl.linkProgram(prog);
+    if (!gl.getProgramParameter(prog, gl.LINK_STATUS)) throw new Error(gl.getProgramInfoLog(prog));
+    gl.useProgram(prog);
+    this.prog = prog;
+    const buf = gl.createBuffer();
+    gl.bindBuffer(gl.ARRAY_BUFFER, buf);
+    gl.bufferData(gl.ARRAY_BUFFER, new Float32Array([-1, -1, 3, -1, -1, 3]), gl.STATIC_DRAW);
+    const loc = gl.getAttribLocation(prog, "pos");
+    gl.enableVertexAttribArray(loc);
+    gl.vertexAttribPointer(loc, 2, gl.FLOAT, false, 0, 0);
+    const { width: w, height: h, transport: T, albedo: A, mask: M, background: B } = layers;
+    const n = w * h;
+    const pack = (planes) => {
+      const out = new Float32Array(4 * n);
+      for (let i = 0; i < 4; i++) {
+        const src = planes[i];
+        for (let p = 0; p < n; p++) out[4 * p + i] = src[p];
+      }
+      return out;
+    };
+    const floatTexture = (unit, data) => {
+      const tex = gl.createTexture();
+      gl.activeTexture(gl.TEXTURE0 + unit);
+      gl.bindTexture(gl.TEXTURE_2D, tex);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
+      gl.pixelStorei(gl.UNPACK_ALIGNMENT, 1);
+      gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA32F, w, h, 0, gl.RGBA, gl.FLOAT, data);
+    };
+    floatTexture(0, pack([T[0], T[1], T[2], T[3]]));
+    floatTexture(1, pack([T[4], T[5], T[6], T[7]]));
+    floatTexture(2, pack([T[8], A[0], A[1], A[2]]));
+    floatTexture(3, pack([B[0], B[1], B[2], M]));
+    for (let i = 0; i < 4; i++) gl.uniform1i(gl.getUniformLocation(prog, `t${i}`), i);
+    gl.uniform1i(gl.getUniformLocation(prog, "height"), h);
+    gl.uniform1i(gl.getUniformLocation(prog, "checker"), checker ? 1 : 0);
+    this.lightLoc = gl.getUniformLocation(prog, "L");
+    gl.viewport(0, 0, w, h);
+  }
+
+  draw(light) {
+    const gl = this.gl;
+    gl.uniform3fv(this.lightLoc, new Float32Array(light));
+    gl.drawArrays(gl.TRIANGLES, 0, 3);
+  }
+
+  finish() {  // wait until the frame is really drawn (benchmarks)
+    const px = new Uint8Array(4);
+    this.gl.readPixels(0, 0, 1, 1, this.gl.RGBA, this.gl.UNSIGNED_BYTE, px);
+  }
+}
+
+class CanvasPreview {
+  constructor(canvas, layers, checker) {
+    this.kind = "Canvas 2D";
+    this.canvas = canvas;
+    this.ctx = canvas.getContext("2d");
+    this.layers = layers;
+    this.image = this.ctx.createImageData(layers.width, layers.height);
+    const n = layers.width * layers.height;
+    this.bg = new Float32Array(3 * n);  // background already multiplied by (1 − mask), 0..255
+    const { mask: M, background: B } = layers;
+    for (let p = 0; p < n; p++) {
+      let r = B[0][p], g = B[1][p], b = B[2][p];
+      if (checker) {
+        const x = p % layers.width, y = (p / layers.width) | 0;
+        r = g = b = ((((x / 12) | 0) + ((y / 12) | 0)) % 2 === 1) ? 0.78 : 0.9;
+      }
+      const k = 255 * (1 - M[p]);
+      this.bg[3 * p] = r * k; this.bg[3 * p + 1] = g * k; this.bg[3 * p + 2] = b * k;
+    }
+  }
+
+  draw(light) {
+    const { transport: T, albedo: A } = this.layers;
+    const L = Float32Array.from(light);
+    const data = this.image.data, bg = this.bg;
+    const n = this.layers.width * this.layers.height;
+    const [t0, t1, t2, t3, t4, t5, t6, t7, t8] = T;
+    for (let p = 0; p < n; p++) {
+      const q = [t0[p], t1[p], t2[p], t3[p], t4[p], t5[p], t6[p], t7[p], t8[p]];
+      for (let c = 0; c < 3; c++) {
+        let s = 0;
+        for (let k = 0; k < 9; k++) s += q[k] * L[3 * k + c];
+        let d = A[c][p] * (s > 0 ? s : 0);
+        d = d < 0 ? 0 : d > 1 ? 1 : d;
+        data[4 * p + c] = bg[3 * p + c] + 255 * d;
+      }
+      data[4 * p + 3] = 255;
+    }
+    this.ctx.putImageData(this.image, 0, 0);
+  }
+
+  finish() {}
+}
+
+// A preview on `canvas`: WebGL 2 unless `force2d` or WebGL fails, then Canvas 2D.
+export function createPreview(canvas, layers, { checker = false, force2d = false } = {}) {
+  canvas.width = layers.width;
+  canvas.height = layers.height;
+  if (!force2d) {
+    try {
+      return new WebGLPreview(canvas, layers, checker);
+    } catch (err) {
+      console.warn("WebGL 2 preview unavailable, using Canvas 2D:", err);
+      const fresh = canvas.cloneNode(false);  // a canvas that asked for webgl2 cannot give a 2d context
+      canvas.replaceWith(fresh);
+      return new CanvasPreview(fresh, layers, checker);
+    }
+  }
+  return new CanvasPreview(canvas, layers, checker);
+}
