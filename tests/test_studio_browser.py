@@ -100,8 +100,10 @@ def open_page(browser, url: str):
 
 
 def canvas_rgb(page) -> np.ndarray:
-    """The preview canvas as (h, w, 3) uint8 RGB."""
-    url = page.evaluate("document.getElementById('preview').toDataURL('image/png')")
+    """The preview canvas as (h, w, 3) uint8 RGB (painted and read in one task: WebGL keeps no drawing buffer)."""
+    url = page.evaluate(
+        "() => { studio.state.dirty = true; studio.paint(); return document.getElementById('preview').toDataURL('image/png'); }"
+    )
     data = base64.b64decode(url.split(",", 1)[1])
     return cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)[..., ::-1]
 
@@ -164,14 +166,13 @@ def test_js_lights_match_python(browser, server):
 
 @pytest.mark.parametrize("renderer", ["webgl", "canvas"])
 def test_preview_is_the_diffuse_image(browser, server, studio, renderer):
-    page = open_page(browser, server + ("/?renderer=canvas" if renderer == "canvas" else "/"))
+    page = open_page(browser, f"{server}/?renderer={renderer}")
     kind = page.evaluate("studio.state.preview.kind")
     if renderer == "webgl" and kind != "WebGL 2":
         pytest.skip(f"no WebGL 2 in this chromium (preview runs on {kind})")
     light = lights.preset("neon") + lights.directional((0.5, 0.7, 0.5), (1, 0.9, 0.8), 0.8, 0.2)
     page.evaluate(
-        """L => { const s = studio.state; s.lamp.on = false; s.ambient = 0; s.base.light = L; s.base.rotate = 0;
-                  s.base.level = 1; s.dirty = true; studio.paint(); }""",
+        "L => { const s = studio.state; s.lamp.on = false; s.ambient = 0; s.base.light = L; s.base.rotate = 0; s.base.level = 1; }",
         light.ravel().tolist(),
     )
     got = canvas_rgb(page).astype(np.int16)

@@ -68,7 +68,7 @@ function compile(gl, type, source) {
 
 class WebGLPreview {
   constructor(canvas, layers, checker) {
-    const gl = canvas.getContext("webgl2", { preserveDrawingBuffer: true, antialias: false });
+    const gl = canvas.getContext("webgl2", { preserveDrawingBuffer: false, antialias: false });
     if (!gl) throw new Error("no WebGL 2");
     this.kind = "WebGL 2";
     this.canvas = canvas;
@@ -156,16 +156,19 @@ class CanvasPreview {
     const data = this.image.data, bg = this.bg;
     const n = this.layers.width * this.layers.height;
     const [t0, t1, t2, t3, t4, t5, t6, t7, t8] = T;
-    for (let p = 0; p < n; p++) {
-      const q = [t0[p], t1[p], t2[p], t3[p], t4[p], t5[p], t6[p], t7[p], t8[p]];
-      for (let c = 0; c < 3; c++) {
-        let s = 0;
-        for (let k = 0; k < 9; k++) s += q[k] * L[3 * k + c];
-        let d = A[c][p] * (s > 0 ? s : 0);
-        d = d < 0 ? 0 : d > 1 ? 1 : d;
-        data[4 * p + c] = bg[3 * p + c] + 255 * d;
-      }
-      data[4 * p + 3] = 255;
+    const [a0, a1, a2] = A;
+    for (let p = 0, o = 0, b = 0; p < n; p++, o += 4, b += 3) {
+      const q0 = t0[p], q1 = t1[p], q2 = t2[p], q3 = t3[p], q4 = t4[p], q5 = t5[p], q6 = t6[p], q7 = t7[p], q8 = t8[p];
+      const r = q0 * L[0] + q1 * L[3] + q2 * L[6] + q3 * L[9] + q4 * L[12] + q5 * L[15] + q6 * L[18] + q7 * L[21] + q8 * L[24];
+      const g = q0 * L[1] + q1 * L[4] + q2 * L[7] + q3 * L[10] + q4 * L[13] + q5 * L[16] + q6 * L[19] + q7 * L[22] + q8 * L[25];
+      const v = q0 * L[2] + q1 * L[5] + q2 * L[8] + q3 * L[11] + q4 * L[14] + q5 * L[17] + q6 * L[20] + q7 * L[23] + q8 * L[26];
+      const dr = r > 0 ? Math.min(1, a0[p] * r) : 0;
+      const dg = g > 0 ? Math.min(1, a1[p] * g) : 0;
+      const dv = v > 0 ? Math.min(1, a2[p] * v) : 0;
+      data[o] = bg[b] + 255 * dr;  // Uint8ClampedArray: rounds and clips
+      data[o + 1] = bg[b + 1] + 255 * dg;
+      data[o + 2] = bg[b + 2] + 255 * dv;
+      data[o + 3] = 255;
     }
     this.ctx.putImageData(this.image, 0, 0);
   }
@@ -173,19 +176,49 @@ class CanvasPreview {
   finish() {}
 }
 
-// A preview on `canvas`: WebGL 2 unless `force2d` or WebGL fails, then Canvas 2D.
-export function createPreview(canvas, layers, { checker = false, force2d = false } = {}) {
+function timeDraws(preview, light, n) {
+  const times = [];
+  for (let i = 0; i < n; i++) {
+    const t0 = performance.now();
+    preview.draw(light);
+    preview.finish();
+    times.push(performance.now() - t0);
+  }
+  times.sort((a, b) => a - b);
+  return times[Math.floor(n / 2)];
+}
+
+// A preview on `canvas`. renderer: "webgl" (Canvas 2D only if WebGL 2 fails), "canvas", or "auto": both
+// are timed on a few frames of `light` and the faster one is kept (software WebGL, as in a headless
+// browser without a GPU, can be slower than the JavaScript loop; with a GPU, WebGL wins by far).
+// The returned object's `canvas` is the element on the page (it may replace the one given).
+export function createPreview(canvas, layers, { checker = false, renderer = "auto", light = null } = {}) {
   canvas.width = layers.width;
   canvas.height = layers.height;
-  if (!force2d) {
-    try {
-      return new WebGLPreview(canvas, layers, checker);
-    } catch (err) {
-      console.warn("WebGL 2 preview unavailable, using Canvas 2D:", err);
-      const fresh = canvas.cloneNode(false);  // a canvas that asked for webgl2 cannot give a 2d context
-      canvas.replaceWith(fresh);
-      return new CanvasPreview(fresh, layers, checker);
-    }
+  if (renderer === "canvas") return new CanvasPreview(canvas, layers, checker);
+  let gl;
+  try {
+    gl = new WebGLPreview(canvas, layers, checker);
+  } catch (err) {
+    console.warn("WebGL 2 preview unavailable, using Canvas 2D:", err);
+    const fresh = canvas.cloneNode(false);  // a canvas that asked for webgl2 cannot give a 2d context
+    canvas.replaceWith(fresh);
+    return new CanvasPreview(fresh, layers, checker);
   }
-  return new CanvasPreview(canvas, layers, checker);
+  if (renderer !== "auto" || !light) return gl;
+  const spare = canvas.cloneNode(false);
+  spare.width = layers.width;
+  spare.height = layers.height;
+  const cpu = new CanvasPreview(spare, layers, checker);
+  timeDraws(gl, light, 1);  // warm up (shader compilation, texture upload)
+  timeDraws(cpu, light, 1);
+  const tGl = timeDraws(gl, light, 3), tCpu = timeDraws(cpu, light, 3);
+  const chosen = tCpu < 0.8 * tGl ? cpu : gl;
+  chosen.timings = { "WebGL 2": tGl, "Canvas 2D": tCpu };
+  if (chosen === cpu) {
+    const lose = gl.gl.getExtension("WEBGL_lose_context");
+    if (lose) lose.loseContext();
+    canvas.replaceWith(spare);
+  }
+  return chosen;
 }

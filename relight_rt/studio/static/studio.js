@@ -57,14 +57,17 @@ function previewLight(light) {
 function paint() {
   if (!state.dirty || !state.preview) return;
   state.dirty = false;
+  const t0 = performance.now();
   state.preview.draw(previewLight(composedLight()));
   if (state.measure) state.preview.finish();
+  const t1 = performance.now();
   state.stats.frames += 1;
   if (state.pendingInput !== null) {
     state.stats.latencies.push(performance.now() - state.pendingInput);
     state.pendingInput = null;
   }
   drawSphere();
+  state.stats.last = { preview: t1 - t0, sphere: performance.now() - t1 };
 }
 
 function lightChanged(event) {
@@ -88,6 +91,26 @@ function sphereGeometry() {
   return { c, half, radius: half / RHO_MAX - 6 };
 }
 
+// Per-pixel irradiance weights LOBE_l · Y_k(n) of the ball, computed once per canvas size.
+let sphereCache = null;
+
+function sphereWeights(size, radius) {
+  if (sphereCache && sphereCache.size === size) return sphereCache;
+  const index = [], weights = [];
+  for (let j = 0; j < size; j++) {
+    for (let i = 0; i < size; i++) {
+      const u = (i + 0.5 - radius) / radius, v = (radius - j - 0.5) / radius;
+      const r2 = u * u + v * v;
+      if (r2 > 1) continue;
+      const y = sh.basis(Math.sqrt(1 - r2), u, v);
+      index.push(j * size + i);
+      for (let k = 0; k < 9; k++) weights.push(sh.LOBE[sh.BAND[k]] * y[k]);
+    }
+  }
+  sphereCache = { size, index: Int32Array.from(index), weights: Float32Array.from(weights) };
+  return sphereCache;
+}
+
 function drawSphere() {
   const { c, half, radius } = sphereGeometry();
   const ctx = c.getContext("2d");
@@ -103,23 +126,34 @@ function drawSphere() {
   ctx.textAlign = "center";
   ctx.fillText("behind", half, half - radius * (1 + RHO_MAX) / 2 + 5);
   // the ball, lit by the light the preview shows (irradiance of a white diffuse sphere, clipped)
-  const light = previewLight(composedLight());
+  const L = previewLight(composedLight());
   const size = Math.ceil(2 * radius);
+  const { index, weights } = sphereWeights(size, radius);
   const img = ctx.createImageData(size, size);
-  for (let j = 0; j < size; j++) {
-    for (let i = 0; i < size; i++) {
-      const u = (i + 0.5 - radius) / radius, v = (radius - j - 0.5) / radius;
-      const r2 = u * u + v * v;
-      if (r2 > 1) continue;
-      const e = sh.irradiance(light, [Math.sqrt(1 - r2), u, v]);
-      const o = 4 * (j * size + i);
-      for (let ch = 0; ch < 3; ch++) img.data[o + ch] = 255 * Math.min(1, Math.max(0, e[ch]));
-      img.data[o + 3] = 255;
+  const data = img.data;
+  for (let p = 0; p < index.length; p++) {
+    const o = 4 * index[p], w = 9 * p;
+    for (let ch = 0; ch < 3; ch++) {
+      let e = 0;
+      for (let k = 0; k < 9; k++) e += weights[w + k] * L[3 * k + ch];
+      data[o + ch] = 255 * e;  // the clamped array clips to [0, 255]
     }
+    data[o + 3] = 255;
   }
-  const off = new OffscreenCanvas(size, size);
-  off.getContext("2d").putImageData(img, 0, 0);
-  ctx.drawImage(off, half - radius, half - radius);
+  const x0 = Math.round(half - radius), y0 = Math.round(half - radius);
+  ctx.putImageData(img, x0, y0);
+  // putImageData replaced the ring's pixels in the square; redraw the ring outside the ball
+  ctx.save();
+  ctx.beginPath();
+  ctx.rect(x0, y0, size, size);
+  ctx.arc(half, half, radius, 0, 2 * Math.PI, true);
+  ctx.clip();
+  ctx.beginPath();
+  ctx.arc(half, half, radius * RHO_MAX, 0, 2 * Math.PI);
+  ctx.arc(half, half, radius, 0, 2 * Math.PI, true);
+  ctx.fillStyle = "#1c1f26";
+  ctx.fill();
+  ctx.restore();
   ctx.beginPath();
   ctx.arc(half, half, radius, 0, 2 * Math.PI);
   ctx.strokeStyle = "#3a404c";
@@ -319,10 +353,13 @@ async function start() {
     $("photo-name").textContent = `${info.photo} · ${info.width}×${info.height}`;
     const buffer = await (await api("/api/layers")).arrayBuffer();
     state.layers = decodeLayers(buffer, info.preview);
-    const force2d = new URLSearchParams(location.search).get("renderer") === "canvas";
-    state.preview = createPreview($("preview"), state.layers, { checker: info.background === "transparent", force2d });
+    const renderer = new URLSearchParams(location.search).get("renderer") || "auto";
+    state.preview = createPreview($("preview"), state.layers,
+      { checker: info.background === "transparent", renderer, light: composedLight() });
     bindPanel();
-    $("status").textContent = `preview ${info.preview.width}×${info.preview.height} · ${state.preview.kind}`;
+    const timings = state.preview.timings;
+    const speed = timings ? ` (${timings[state.preview.kind].toFixed(0)} ms a frame)` : "";
+    $("status").textContent = `live preview ${info.preview.width}×${info.preview.height} · ${state.preview.kind}${speed}`;
     lightChanged();
     paint();
     document.body.dataset.ready = "1";
