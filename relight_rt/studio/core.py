@@ -331,17 +331,17 @@ class Studio:
 
     def command(self, render: Render, light_file: str) -> str:
         """The ``relight-rt relight`` command line that reproduces ``render`` from the exported light file."""
-        args = ["relight-rt", "relight", str(self.photo.resolve())]
+        # paths as the user gave them to ``relight-rt studio`` (relative ones: to where the server was started)
+        args = ["relight-rt", "relight", str(self.photo)]
         if self.mask is not None:
-            args += ["--mask", str(self.mask.resolve())]
+            args += ["--mask", str(self.mask)]
         args += ["--light", light_file]
         if self.background != "original":
-            bg = self.background if self.background == "transparent" else str(Path(self.background).resolve())
-            args += ["--background", bg]
+            args += ["--background", self.background]
         if self.exposure_supported and render.exposure != "auto":
             args += ["--exposure", str(render.exposure)]
         if self.models is not None:
-            args += ["--models", str(Path(self.models).resolve())]
+            args += ["--models", str(self.models)]
         args += ["-o", f"{self.photo.stem}_relit.png"]
         return shlex.join(args)
 
