@@ -136,39 +136,47 @@ class CanvasPreview {
     this.ctx = canvas.getContext("2d");
     this.layers = layers;
     this.image = this.ctx.createImageData(layers.width, layers.height);
+    this.pixels = new Uint32Array(this.image.data.buffer);  // one store per pixel (little-endian RGBA)
     const n = layers.width * layers.height;
-    this.bg = new Float32Array(3 * n);  // background already multiplied by (1 − mask), 0..255
-    const { mask: M, background: B } = layers;
-    for (let p = 0; p < n; p++) {
+    const { transport: T, albedo: A, mask: M, background: B } = layers;
+    // per pixel, contiguous: T0..T8, albedo r, g, b, then the background already multiplied by (1 − mask),
+    // in 0..255 plus 0.5 (so that truncation rounds)
+    const packed = new Float32Array(15 * n);
+    for (let p = 0, o = 0; p < n; p++, o += 15) {
+      for (let k = 0; k < 9; k++) packed[o + k] = T[k][p];
+      packed[o + 9] = A[0][p]; packed[o + 10] = A[1][p]; packed[o + 11] = A[2][p];
       let r = B[0][p], g = B[1][p], b = B[2][p];
       if (checker) {
         const x = p % layers.width, y = (p / layers.width) | 0;
         r = g = b = ((((x / 12) | 0) + ((y / 12) | 0)) % 2 === 1) ? 0.78 : 0.9;
       }
       const k = 255 * (1 - M[p]);
-      this.bg[3 * p] = r * k; this.bg[3 * p + 1] = g * k; this.bg[3 * p + 2] = b * k;
+      packed[o + 12] = r * k + 0.5; packed[o + 13] = g * k + 0.5; packed[o + 14] = b * k + 0.5;
     }
+    this.packed = packed;
   }
 
   draw(light) {
-    const { transport: T, albedo: A } = this.layers;
-    const L = Float32Array.from(light);
-    const data = this.image.data, bg = this.bg;
-    const n = this.layers.width * this.layers.height;
-    const [t0, t1, t2, t3, t4, t5, t6, t7, t8] = T;
-    const [a0, a1, a2] = A;
-    for (let p = 0, o = 0, b = 0; p < n; p++, o += 4, b += 3) {
-      const q0 = t0[p], q1 = t1[p], q2 = t2[p], q3 = t3[p], q4 = t4[p], q5 = t5[p], q6 = t6[p], q7 = t7[p], q8 = t8[p];
-      const r = q0 * L[0] + q1 * L[3] + q2 * L[6] + q3 * L[9] + q4 * L[12] + q5 * L[15] + q6 * L[18] + q7 * L[21] + q8 * L[24];
-      const g = q0 * L[1] + q1 * L[4] + q2 * L[7] + q3 * L[10] + q4 * L[13] + q5 * L[16] + q6 * L[19] + q7 * L[22] + q8 * L[25];
-      const v = q0 * L[2] + q1 * L[5] + q2 * L[8] + q3 * L[11] + q4 * L[14] + q5 * L[17] + q6 * L[20] + q7 * L[23] + q8 * L[26];
-      const dr = r > 0 ? Math.min(1, a0[p] * r) : 0;
-      const dg = g > 0 ? Math.min(1, a1[p] * g) : 0;
-      const dv = v > 0 ? Math.min(1, a2[p] * v) : 0;
-      data[o] = bg[b] + 255 * dr;  // Uint8ClampedArray: rounds and clips
-      data[o + 1] = bg[b + 1] + 255 * dg;
-      data[o + 2] = bg[b + 2] + 255 * dv;
-      data[o + 3] = 255;
+    const L = light;
+    const l0 = L[0], l1 = L[1], l2 = L[2], l3 = L[3], l4 = L[4], l5 = L[5], l6 = L[6], l7 = L[7], l8 = L[8];
+    const l9 = L[9], l10 = L[10], l11 = L[11], l12 = L[12], l13 = L[13], l14 = L[14], l15 = L[15], l16 = L[16];
+    const l17 = L[17], l18 = L[18], l19 = L[19], l20 = L[20], l21 = L[21], l22 = L[22], l23 = L[23], l24 = L[24];
+    const l25 = L[25], l26 = L[26];
+    const f = this.packed, px = this.pixels;
+    const n = px.length;
+    for (let p = 0, o = 0; p < n; p++, o += 15) {
+      const q0 = f[o], q1 = f[o + 1], q2 = f[o + 2], q3 = f[o + 3], q4 = f[o + 4], q5 = f[o + 5], q6 = f[o + 6];
+      const q7 = f[o + 7], q8 = f[o + 8];
+      const sr = q0 * l0 + q1 * l3 + q2 * l6 + q3 * l9 + q4 * l12 + q5 * l15 + q6 * l18 + q7 * l21 + q8 * l24;
+      const sg = q0 * l1 + q1 * l4 + q2 * l7 + q3 * l10 + q4 * l13 + q5 * l16 + q6 * l19 + q7 * l22 + q8 * l25;
+      const sb = q0 * l2 + q1 * l5 + q2 * l8 + q3 * l11 + q4 * l14 + q5 * l17 + q6 * l20 + q7 * l23 + q8 * l26;
+      const dr = sr > 0 ? Math.min(1, f[o + 9] * sr) : 0;
+      const dg = sg > 0 ? Math.min(1, f[o + 10] * sg) : 0;
+      const db = sb > 0 ? Math.min(1, f[o + 11] * sb) : 0;
+      const r = Math.min(255, f[o + 12] + 255 * dr) | 0;
+      const g = Math.min(255, f[o + 13] + 255 * dg) | 0;
+      const b = Math.min(255, f[o + 14] + 255 * db) | 0;
+      px[p] = 0xff000000 | (b << 16) | (g << 8) | r;
     }
     this.ctx.putImageData(this.image, 0, 0);
   }

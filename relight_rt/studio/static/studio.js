@@ -114,6 +114,7 @@ function sphereWeights(size, radius) {
 function drawSphere() {
   const { c, half, radius } = sphereGeometry();
   const ctx = c.getContext("2d");
+  const px = c.width / 440;  // line widths and the marker are drawn for a 440-pixel canvas
   ctx.clearRect(0, 0, c.width, c.height);
   // the ring: behind the person
   ctx.beginPath();
@@ -122,9 +123,9 @@ function drawSphere() {
   ctx.fillStyle = "#1c1f26";
   ctx.fill();
   ctx.fillStyle = "#6c7380";
-  ctx.font = `${Math.round(c.width / 30)}px system-ui, sans-serif`;
+  ctx.font = `${Math.round(c.width / 26)}px system-ui, sans-serif`;
   ctx.textAlign = "center";
-  ctx.fillText("behind", half, half - radius * (1 + RHO_MAX) / 2 + 5);
+  ctx.fillText("behind", half, half - radius * (1 + RHO_MAX) / 2 + 5 * px);
   // the ball, lit by the light the preview shows (irradiance of a white diffuse sphere, clipped)
   const L = previewLight(composedLight());
   const size = Math.ceil(2 * radius);
@@ -157,19 +158,19 @@ function drawSphere() {
   ctx.beginPath();
   ctx.arc(half, half, radius, 0, 2 * Math.PI);
   ctx.strokeStyle = "#3a404c";
-  ctx.lineWidth = 2;
+  ctx.lineWidth = 2 * px;
   ctx.stroke();
   // the lamp
   const [u, v] = sh.directionToWidget(state.lamp.direction, RHO_MAX);
   const x = half + u * radius, y = half - v * radius;
   const behind = state.lamp.direction[0] < 0;
   ctx.beginPath();
-  ctx.arc(x, y, c.width / 28 + state.lamp.size / 6, 0, 2 * Math.PI);
+  ctx.arc(x, y, px * (16 + state.lamp.size / 6), 0, 2 * Math.PI);
   const [r, g, b] = state.lamp.colour.map((t) => Math.round(255 * t));
   ctx.fillStyle = state.lamp.on ? `rgb(${r},${g},${b})` : "#555";
   ctx.fill();
-  ctx.lineWidth = 3;
-  ctx.setLineDash(behind ? [5, 4] : []);
+  ctx.lineWidth = 3 * px;
+  ctx.setLineDash(behind ? [5 * px, 4 * px] : []);
   ctx.strokeStyle = "#ffb347";
   ctx.stroke();
   ctx.setLineDash([]);
@@ -323,6 +324,9 @@ function bindPanel() {
   $("copy-command").addEventListener("click", () => navigator.clipboard && navigator.clipboard.writeText($("command").textContent));
 
   const sphere = sphereCanvas();
+  const side = Math.round(220 * Math.min(2, Math.max(1, window.devicePixelRatio || 1)));  // sharp, not wasteful
+  sphere.width = side;
+  sphere.height = side;
   let dragging = false;
   sphere.addEventListener("pointerdown", (e) => {
     dragging = true;
