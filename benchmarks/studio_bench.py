@@ -192,7 +192,9 @@ def main(argv=None) -> int:
             page = context.new_page()  # what the page picks by itself ("auto": the faster of the two)
             page.goto(url)
             page.wait_for_selector("body[data-ready='1']", timeout=120_000)
-            report["browser"]["auto_choice"] = page.evaluate("[studio.state.preview.kind, studio.state.preview.timings]")
+            report["browser"]["auto_choice"] = page.evaluate(
+                "[studio.state.preview.kind, studio.state.preview.timings]"
+            )
             page.close()
             context.close()
         srv.should_exit = True

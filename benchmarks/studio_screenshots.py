@@ -88,7 +88,9 @@ def main(argv=None) -> int:
         page.select_option("#base", "preset:neon")
         set_slider(page, "#base-rotate", 30)
         set_slider(page, "#base-level", 1.5)
-        page.mouse.move(*sphere_point(page, *page.evaluate("studio.sh.directionToWidget(studio.state.lamp.direction, 1.3)")))
+        page.mouse.move(
+            *sphere_point(page, *page.evaluate("studio.sh.directionToWidget(studio.state.lamp.direction, 1.3)"))
+        )
         page.mouse.down()
         page.mouse.move(*sphere_point(page, 1.15, 0.35), steps=8)
         page.mouse.up()

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from _graphs import models_dir, person
 
-from relight_rt import RelightError, Relighter, lights, sh
+from relight_rt import Relighter, RelightError, lights, sh
 from relight_rt.cli import main
 from relight_rt.studio.core import (
     MAX_UPLOAD_BYTES,
@@ -146,7 +146,9 @@ def test_render_is_the_relighters_result(studio, models_dir):
     np.testing.assert_array_equal(png[..., ::-1], (np.clip(expected, 0, 1) * 255 + 0.5).astype(np.uint8))
     np.testing.assert_array_equal(rec.light, light)
     cmd = studio.command(rec, "someone_light.npy")
-    assert cmd.startswith("relight-rt relight ") and "--light someone_light.npy" in cmd and "-o someone_relit.png" in cmd
+    assert (
+        cmd.startswith("relight-rt relight ") and "--light someone_light.npy" in cmd and "-o someone_relit.png" in cmd
+    )
     assert json.loads(light_json(rec.light))["order"] == "rgb"
 
 
@@ -199,7 +201,11 @@ def test_studio_checks_its_arguments(photo, models_dir, tmp_path):
 def client(studio):
     pytest.importorskip("fastapi")
     pytest.importorskip("httpx")
-    from fastapi.testclient import TestClient
+    import warnings
+
+    with warnings.catch_warnings():  # newer starlette prefers "httpx2"; httpx still works
+        warnings.simplefilter("ignore")
+        from fastapi.testclient import TestClient
 
     from relight_rt.studio import create_app
 
@@ -284,3 +290,21 @@ def test_missing_extra_is_named(monkeypatch):
     monkeypatch.setitem(sys.modules, "fastapi", None)  # makes ``import fastapi`` fail
     with pytest.raises(RelightError, match=r"relight-rt\[studio\]"):
         studio_pkg.create_app(None)
+
+
+def test_exposure_is_passed_only_to_a_relighter_that_takes_it(photo, models_dir):
+    class WithExposure(Relighter):
+        seen: list = []
+
+        def relight(self, image, light, *, mask=None, background="original", return_layers=False, exposure="auto"):
+            self.seen.append(exposure)
+            return super().relight(image, light, mask=mask, background=background, return_layers=return_layers)
+
+    plain = Studio(photo, None, "original", Relighter(models_dir, device="cpu"), preview_pixels=4096)
+    assert plain.info()["exposure"] is False
+    _, rec = plain.render(lights.preset("studio").tolist(), exposure=1.5)
+    assert rec.exposure == "auto" and "--exposure" not in plain.command(rec, "l.npy")
+    studio = Studio(photo, None, "original", WithExposure(models_dir, device="cpu"), preview_pixels=4096)
+    assert studio.info()["exposure"] is True
+    _, rec = studio.render(lights.preset("studio").tolist(), exposure=1.5)
+    assert WithExposure.seen == [1.5] and "--exposure 1.5" in studio.command(rec, "l.npy")

@@ -102,7 +102,8 @@ def open_page(browser, url: str):
 def canvas_rgb(page) -> np.ndarray:
     """The preview canvas as (h, w, 3) uint8 RGB (painted and read in one task: WebGL keeps no drawing buffer)."""
     url = page.evaluate(
-        "() => { studio.state.dirty = true; studio.paint(); return document.getElementById('preview').toDataURL('image/png'); }"
+        "() => { studio.state.dirty = true; studio.paint();"
+        " return document.getElementById('preview').toDataURL('image/png'); }"
     )
     data = base64.b64decode(url.split(",", 1)[1])
     return cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)[..., ::-1]
@@ -143,13 +144,19 @@ def drag(page, start, end, steps: int = 12) -> None:
 
 def test_js_lights_match_python(browser, server):
     page = open_page(browser, server)
-    cases = [((1, 0, 0), (1, 1, 1), 1.0, 0.0), ((0.3, -1, 0.4), (1, 0.5, 0.2), 2.5, 0.35), ((-1, 0.2, -0.3), (0.2, 0.4, 1), 0.7, 1.4)]
+    cases = [
+        ((1, 0, 0), (1, 1, 1), 1.0, 0.0),
+        ((0.3, -1, 0.4), (1, 0.5, 0.2), 2.5, 0.35),
+        ((-1, 0.2, -0.3), (0.2, 0.4, 1), 0.7, 1.4),
+    ]
     for direction, colour, intensity, radius in cases:
         js = page.evaluate("a => studio.sh.directional(...a)", [direction, colour, intensity, radius])
         py = lights.directional(direction, colour, intensity, radius)
         np.testing.assert_allclose(np.array(js).reshape(9, 3), py, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(
-        np.array(page.evaluate("studio.sh.ambient([0.1, 0.2, 0.3])")).reshape(9, 3), lights.ambient((0.1, 0.2, 0.3)), atol=1e-12
+        np.array(page.evaluate("studio.sh.ambient([0.1, 0.2, 0.3])")).reshape(9, 3),
+        lights.ambient((0.1, 0.2, 0.3)),
+        atol=1e-12,
     )
     base = lights.preset("studio")
     for angle in (0.3, -2.0, math.pi):
@@ -172,7 +179,8 @@ def test_preview_is_the_diffuse_image(browser, server, studio, renderer):
         pytest.skip(f"no WebGL 2 in this chromium (preview runs on {kind})")
     light = lights.preset("neon") + lights.directional((0.5, 0.7, 0.5), (1, 0.9, 0.8), 0.8, 0.2)
     page.evaluate(
-        "L => { const s = studio.state; s.lamp.on = false; s.ambient = 0; s.base.light = L; s.base.rotate = 0; s.base.level = 1; }",
+        "L => { const s = studio.state; s.lamp.on = false; s.ambient = 0;"
+        " s.base.light = L; s.base.rotate = 0; s.base.level = 1; }",
         light.ravel().tolist(),
     )
     got = canvas_rgb(page).astype(np.int16)
@@ -248,13 +256,18 @@ def test_bad_upload_shows_a_message_and_the_server_keeps_serving(browser, server
     page.wait_for_selector("#message:not([hidden])", timeout=10_000)
     assert "environment map: expected" in page.text_content("#message")
     rgb = np.full((8, 8, 3), 128, np.uint8)  # a photo without alpha: no mask
-    page.set_input_files("#photo-file", files=[{"name": "p.png", "mimeType": "image/png", "buffer": cv2.imencode(".png", rgb)[1].tobytes()}])
+    page.set_input_files(
+        "#photo-file",
+        files=[{"name": "p.png", "mimeType": "image/png", "buffer": cv2.imencode(".png", rgb)[1].tobytes()}],
+    )
     page.wait_for_function("() => document.getElementById('message').textContent.includes('alpha')", timeout=10_000)
     # still serving: a good env map becomes the base light, the message goes away
     env = np.zeros((16, 32, 3), np.float32)
     env[:8] = 2.0  # bright sky above
     ok, hdr = cv2.imencode(".hdr", env)
-    page.set_input_files("#envmap-file", files=[{"name": "sky.hdr", "mimeType": "image/vnd.radiance", "buffer": hdr.tobytes()}])
+    page.set_input_files(
+        "#envmap-file", files=[{"name": "sky.hdr", "mimeType": "image/vnd.radiance", "buffer": hdr.tobytes()}]
+    )
     page.wait_for_selector("#message[hidden]", state="attached", timeout=10_000)
     assert page.evaluate("document.getElementById('base').value") == "upload:sky.hdr"
     assert page.evaluate("fetch('/api/info').then(r => r.status)") == 200

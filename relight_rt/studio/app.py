@@ -91,7 +91,7 @@ def create_app(studio: Studio, allowed_hosts: list[str] | None = None) -> FastAP
         try:
             body = await request.json()
         except ValueError:
-            raise RelightError("render: expected a JSON body {\"light\": [27 numbers], \"exposure\": ...}") from None
+            raise RelightError('render: expected a JSON body {"light": [27 numbers], "exposure": ...}') from None
         if not isinstance(body, dict):
             raise RelightError("render: expected a JSON object")
         from starlette.concurrency import run_in_threadpool

@@ -185,7 +185,7 @@ def parse_light(value) -> np.ndarray:
 
 
 def parse_exposure(value) -> object:
-    """"auto", "physical" or an EV offset (float in [-10, 10])."""
+    """ "auto", "physical" or an EV offset (float in [-10, 10])."""
     if value is None:
         return "auto"
     if isinstance(value, str) and value in EXPOSURES:
@@ -209,7 +209,10 @@ def _resize(a: np.ndarray, size: tuple[int, int]) -> np.ndarray:
     if a.shape[:2] == (h, w):
         return np.ascontiguousarray(a, np.float32)
     interp = cv2.INTER_AREA if h < a.shape[0] else cv2.INTER_LINEAR
-    chans = [cv2.resize(np.ascontiguousarray(a[..., i : i + 4]), (w, h), interpolation=interp) for i in range(0, a.shape[2], 4)]
+    chans = [
+        cv2.resize(np.ascontiguousarray(a[..., i : i + 4]), (w, h), interpolation=interp)
+        for i in range(0, a.shape[2], 4)
+    ]
     chans = [c[..., None] if c.ndim == 2 else c for c in chans]
     return np.concatenate(chans, axis=2).astype(np.float32)
 
