@@ -9,6 +9,7 @@ import io
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -22,6 +23,7 @@ from relight_rt.studio.core import (
     ResultStore,
     Studio,
     check_upload,
+    image_size,
     light_json,
     mean_luminance_scale,
     parse_exposure,
@@ -31,6 +33,7 @@ from relight_rt.studio.core import (
 )
 
 __all__ = ["models_dir"]  # fixture
+REPO = Path(__file__).resolve().parents[1]
 
 
 def _png_bytes(rgb_or_rgba: np.ndarray) -> bytes:
@@ -77,6 +80,21 @@ def test_check_upload_refuses_bad_files():
     huge = b"\x89PNG\r\n\x1a\n" + b"\x00\x00\x00\rIHDR" + (100_000).to_bytes(4, "big") * 2 + bytes(10)
     with pytest.raises(RelightError, match="pixels"):
         check_upload(huge, "photo", ("png",))
+
+
+@pytest.mark.parametrize("ext", [".png", ".jpg", ".bmp", ".webp", ".hdr"])
+def test_image_size_from_the_header(ext):
+    img = np.zeros((37, 53, 3), np.float32 if ext == ".hdr" else np.uint8)
+    data = cv2.imencode(ext, img)[1].tobytes()
+    assert image_size(data, sniff(data)[0]) == (53, 37)
+
+
+def test_huge_image_refused_before_decoding():
+    data = bytearray(cv2.imencode(".jpg", np.zeros((8, 8, 3), np.uint8))[1].tobytes())
+    sof = data.index(b"\xff\xc0")
+    data[sof + 5 : sof + 9] = (30000).to_bytes(2, "big") * 2  # claims 30000 x 30000
+    with pytest.raises(RelightError, match="pixels"):
+        check_upload(bytes(data), "photo", ("jpeg",))
 
 
 def test_result_store_is_bounded_and_expires():
@@ -308,3 +326,23 @@ def test_exposure_is_passed_only_to_a_relighter_that_takes_it(photo, models_dir)
     assert studio.info()["exposure"] is True
     _, rec = studio.render(lights.preset("studio").tolist(), exposure=1.5)
     assert WithExposure.seen == [1.5] and "--exposure 1.5" in studio.command(rec, "l.npy")
+
+
+def test_cli_serves_and_prints_its_url(photo, models_dir):
+    pytest.importorskip("fastapi")
+    pytest.importorskip("uvicorn")
+    import urllib.request
+
+    cmd = [sys.executable, "-m", "relight_rt", "studio", str(photo), "--port", "0", "--models", str(models_dir)]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO)
+    try:
+        line = proc.stdout.readline()
+        assert "relight-rt studio: someone.png at http://127.0.0.1:" in line, (line, proc.stderr.read())
+        url = line.split(" at ", 1)[1].split()[0]
+        with urllib.request.urlopen(url + "api/info", timeout=10) as res:
+            assert json.load(res)["photo"] == "someone.png"
+    finally:
+        proc.terminate()
+        proc.wait(10)
+        proc.stdout.close()
+        proc.stderr.close()

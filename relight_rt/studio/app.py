@@ -16,6 +16,7 @@ Routes (no route takes a filesystem path; ids are random tokens of the server's 
 
 from __future__ import annotations
 
+import json
 import logging
 from pathlib import Path
 
@@ -88,8 +89,9 @@ def create_app(studio: Studio, allowed_hosts: list[str] | None = None) -> FastAP
 
     @app.post("/api/render")
     async def render(request: Request):
+        raw = await _read_body(request, "render", limit=1 << 16)
         try:
-            body = await request.json()
+            body = json.loads(raw)
         except ValueError:
             raise RelightError('render: expected a JSON body {"light": [27 numbers], "exposure": ...}') from None
         if not isinstance(body, dict):
