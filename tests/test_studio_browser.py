@@ -215,6 +215,17 @@ def test_drag_lamp_left_brightens_the_left_side(browser, server, studio):
     page.close()
 
 
+def test_arrow_keys_move_the_lamp(browser, server):
+    page = open_page(browser, server)
+    page.focus("#sphere")
+    y0 = page.evaluate("studio.state.lamp.direction[1]")
+    for _ in range(6):
+        page.keyboard.press("ArrowLeft")
+    y1 = page.evaluate("studio.state.lamp.direction[1]")
+    assert y1 < y0 - 0.3  # turned toward the image's left
+    page.close()
+
+
 def test_export_is_what_the_cli_makes(browser, server, tmp_path):
     page = open_page(browser, server)
     lamp, left_edge = lamp_and_left_edge(page)

@@ -13,6 +13,7 @@ needs a file, written to a temporary file whose name this module chooses, remove
 from __future__ import annotations
 
 import inspect
+import io
 import json
 import logging
 import math
@@ -208,8 +209,7 @@ def light_json(light: np.ndarray) -> str:
 
 
 def light_npy(light: np.ndarray) -> bytes:
-    import io
-
+    """The light as .npy bytes: (9, 3) float32 RGB, never pickled."""
     buf = io.BytesIO()
     np.save(buf, np.asarray(light, np.float32), allow_pickle=False)
     return buf.getvalue()

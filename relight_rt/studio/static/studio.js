@@ -123,7 +123,7 @@ function drawSphere() {
   ctx.fillStyle = "#1c1f26";
   ctx.fill();
   ctx.fillStyle = "#6c7380";
-  ctx.font = `${Math.round(c.width / 26)}px system-ui, sans-serif`;
+  ctx.font = `${Math.round(c.width / 20)}px system-ui, sans-serif`;
   ctx.textAlign = "center";
   ctx.fillText("behind", half, half - radius * (1 + RHO_MAX) / 2 + 5 * px);
   // the ball, lit by the light the preview shows (irradiance of a white diffuse sphere, clipped)
@@ -346,6 +346,22 @@ function bindPanel() {
   };
   sphere.addEventListener("pointerup", release);
   sphere.addEventListener("pointercancel", release);
+  // keyboard: arrows turn the lamp about the vertical axis (left/right) or raise and lower it (up/down)
+  sphere.addEventListener("keydown", (e) => {
+    const step = (5 * Math.PI) / 180;
+    const [x, y, z] = state.lamp.direction;
+    let azimuth = Math.atan2(y, x), elevation = Math.asin(Math.max(-1, Math.min(1, z / Math.hypot(x, y, z))));
+    if (e.key === "ArrowLeft") azimuth -= step;
+    else if (e.key === "ArrowRight") azimuth += step;
+    else if (e.key === "ArrowUp") elevation = Math.min(Math.PI / 2, elevation + step);
+    else if (e.key === "ArrowDown") elevation = Math.max(-Math.PI / 2, elevation - step);
+    else return;
+    e.preventDefault();
+    const h = Math.cos(elevation);
+    state.lamp.direction = [h * Math.cos(azimuth), h * Math.sin(azimuth), Math.sin(elevation)];
+    lightChanged(e);
+  });
+  sphere.addEventListener("keyup", (e) => { if (e.key.startsWith("Arrow")) requestFull(); });
 }
 
 // ------------------------------------------------------------------------------------------------ start
