@@ -346,3 +346,40 @@ def test_cli_serves_and_prints_its_url(photo, models_dir):
         proc.wait(10)
         proc.stdout.close()
         proc.stderr.close()
+
+
+def test_background_image_and_transparent(photo, models_dir, tmp_path):
+    relighter = Relighter(models_dir, device="cpu")
+    bg = np.zeros((90, 60, 3), np.float32)
+    bg[..., 2] = 0.8  # blue
+    bg_path = tmp_path / "blue.png"
+    bg_path.write_bytes(_png_bytes(bg))
+    studio = Studio(photo, None, str(bg_path), relighter, preview_pixels=5400)
+    layers = unpack_layers(studio.layers_bytes(), studio.info()["preview"])
+    np.testing.assert_allclose(layers["background"][2], 0.8, atol=1 / 255)
+    _, rec = studio.render(lights.preset("front").tolist())
+    png = cv2.imdecode(np.frombuffer(rec.png, np.uint8), cv2.IMREAD_UNCHANGED)
+    assert tuple(png[0, 0]) == (204, 0, 0)  # BGR: the blue background outside the person
+    assert f"--background {bg_path}" in studio.command(rec, "l.npy")
+    clear = Studio(photo, None, "transparent", relighter, preview_pixels=5400)
+    assert clear.info()["background"] == "transparent"
+    _, rec = clear.render(lights.preset("front").tolist())
+    png = cv2.imdecode(np.frombuffer(rec.png, np.uint8), cv2.IMREAD_UNCHANGED)
+    assert png.shape == (90, 60, 4) and png[0, 0, 3] == 0 and png[45, 30, 3] == 255
+    with pytest.raises(RelightError, match="expected the photo's"):
+        small = tmp_path / "small.png"
+        small.write_bytes(_png_bytes(bg[:50]))
+        Studio(photo, None, str(small), relighter)
+
+
+def test_cli_port_in_use_is_one_error_line(photo, models_dir, capsys):
+    pytest.importorskip("fastapi")
+    pytest.importorskip("uvicorn")
+    import socket
+
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen(1)
+        port = taken.getsockname()[1]
+        assert main(["studio", str(photo), "--port", str(port), "--models", str(models_dir), "--device", "cpu"]) == 2
+    assert f"cannot listen on 127.0.0.1:{port}" in capsys.readouterr().err

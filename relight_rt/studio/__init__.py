@@ -70,7 +70,10 @@ def serve(studio, host: str = "127.0.0.1", port: int = 8000, open_browser: bool 
             webbrowser.open(url)
 
     threading.Thread(target=announce, daemon=True).start()
-    server.run()
+    try:
+        server.run()
+    except SystemExit:  # uvicorn exits when it cannot listen (it has logged why)
+        raise RelightError(f"cannot listen on {host}:{port} (in use, or not an address of this machine)") from None
 
 
 def add_parser(subparsers) -> None:
