@@ -75,6 +75,7 @@ function lightChanged(event) {
   state.dirty = true;
   if (event && state.pendingInput === null) state.pendingInput = event.timeStamp;
   $("result").hidden = true;
+  for (const id of ["export-png", "export-npy", "export-json"]) $(id).classList.add("disabled");
   setBadge(`live preview · diffuse · ${state.preview ? state.preview.kind : ""}`);
   requestAnimationFrame(paint);
 }
@@ -186,9 +187,12 @@ function pointerToDirection(event) {
 
 // ------------------------------------------------------------------------------------------------ server
 
-function showMessage(text) {
+// One message box; `source` ("render", "upload") so that a success clears only its own kind of error.
+function showMessage(text, source) {
   const box = $("message");
+  if (!text && box.dataset.source !== source) return;
   box.textContent = text || "";
+  box.dataset.source = source;
   box.hidden = !text;
 }
 
@@ -224,9 +228,9 @@ async function requestFull() {
       setExport(out);
     };
     img.src = `/api/result/${out.id}.png`;
-    showMessage("");
+    showMessage("", "render");
   } catch (err) {
-    showMessage(`full result failed: ${err.message}`);
+    showMessage(`full result failed: ${err.message}`, "render");
   }
 }
 
@@ -261,9 +265,9 @@ async function uploadLight(input, path, label) {
     state.uploads[name] = light.flat();
     select.value = name;
     setBase(name);
-    showMessage("");
+    showMessage("", "upload");
   } catch (err) {
-    showMessage(err.message);
+    showMessage(err.message, "upload");
   } finally {
     input.value = "";
   }
@@ -386,7 +390,7 @@ async function start() {
     await requestFull();
   } catch (err) {
     $("status").textContent = "failed to start";
-    showMessage(err.message);
+    showMessage(err.message, "start");
   }
 }
 
