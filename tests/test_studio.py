@@ -383,3 +383,20 @@ def test_cli_port_in_use_is_one_error_line(photo, models_dir, capsys):
         port = taken.getsockname()[1]
         assert main(["studio", str(photo), "--port", str(port), "--models", str(models_dir), "--device", "cpu"]) == 2
     assert f"cannot listen on 127.0.0.1:{port}" in capsys.readouterr().err
+
+
+def test_ci_install_browser_script(tmp_path):
+    script = REPO / ".ci" / "install-browser"
+    fake = tmp_path / "chromium"
+    fake.write_text("#!/bin/sh\necho 'Chromium 1.2.3'\n")
+    fake.chmod(0o755)
+    found = subprocess.run(
+        ["/bin/bash", str(script)], env={"RELIGHT_RT_CHROMIUM": str(fake), "PATH": "/usr/bin:/bin"},
+        capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    assert found.returncode == 0 and "found Chromium 1.2.3" in found.stdout
+    missing = subprocess.run(
+        ["/bin/bash", str(script)], env={"RELIGHT_RT_CHROMIUM": str(tmp_path / "none"), "PATH": str(tmp_path)},
+        capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    assert missing.returncode == 1 and "no apt-get" in missing.stderr
