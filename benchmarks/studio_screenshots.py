@@ -1,0 +1,114 @@
+"""Screenshots of ``relight-rt studio`` with the bundled example person, for the README (docs/studio_*.png).
+
+Drives the page as a user would (drags the lamp, moves sliders, picks a preset) in headless Debian chromium
+and saves the window once the full result is shown.
+
+    python benchmarks/studio_screenshots.py --out docs
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+sys.path.insert(0, str(REPO / "benchmarks"))
+
+from studio_bench import CHROMIUM_ARGS, start_server  # noqa: E402
+
+from relight_rt import Relighter  # noqa: E402
+from relight_rt.demo import example_path  # noqa: E402
+from relight_rt.studio.core import Studio  # noqa: E402
+
+
+def sphere_point(page, u: float, v: float) -> tuple[float, float]:
+    """Client coordinates of the lamp sphere at (u, v) sphere radii (u right, v up)."""
+    return page.evaluate(
+        """([u, v]) => { const c = document.getElementById('sphere'), r = c.getBoundingClientRect();
+        const half = c.width / 2, radius = half / 1.3 - 6, k = r.width / c.width;
+        return [r.left + (half + u * radius) * k, r.top + (half - v * radius) * k]; }""",
+        [u, v],
+    )
+
+
+def settle(page) -> None:
+    page.wait_for_function("() => studio.state.result && studio.state.result.seq === studio.state.seq", timeout=60_000)
+    page.wait_for_timeout(300)
+
+
+def set_slider(page, selector: str, value: float) -> None:
+    page.fill(selector, str(value))
+    page.dispatch_event(selector, "input")
+    page.dispatch_event(selector, "change")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--out", default="docs")
+    ap.add_argument("--chromium", default="/usr/bin/chromium")
+    args = ap.parse_args(argv)
+    from playwright.sync_api import sync_playwright
+
+    out = Path(args.out).resolve()
+    os.chdir(REPO)  # the command line on the page names the photo relative to here
+    studio = Studio(example_path().relative_to(REPO), None, "original", Relighter(None, device="cpu"))
+    srv, thread, url = start_server(studio)
+    with sync_playwright() as p:
+        context = p.chromium.launch_persistent_context(
+            tempfile.mkdtemp(prefix="chromium-"),
+            executable_path=args.chromium,
+            headless=True,
+            args=CHROMIUM_ARGS,
+            viewport={"width": 1280, "height": 900},
+        )
+        page = context.new_page()
+        page.goto(url)
+        page.wait_for_selector("body[data-ready='1']", timeout=60_000)
+        settle(page)
+        # 1. a warm key light dragged to the upper left, low ambient
+        start = page.evaluate("studio.sh.directionToWidget(studio.state.lamp.direction, 1.3)")
+        page.mouse.move(*sphere_point(page, *start))
+        page.mouse.down()
+        page.mouse.move(*sphere_point(page, -0.72, 0.45), steps=8)
+        page.mouse.up()
+        page.fill("#lamp-colour", "#ffd7a8")
+        page.dispatch_event("#lamp-colour", "input")
+        page.dispatch_event("#lamp-colour", "change")
+        set_slider(page, "#lamp-intensity", 2.4)
+        set_slider(page, "#lamp-size", 12)
+        set_slider(page, "#ambient", 0.08)
+        settle(page)
+        page.evaluate("document.activeElement.blur()")
+        page.screenshot(path=str(out / "studio_lamp.png"))
+        # 2. the neon preset as the base light, turned, with a soft cool lamp from behind on the right
+        page.select_option("#base", "preset:neon")
+        set_slider(page, "#base-rotate", 30)
+        set_slider(page, "#base-level", 1.5)
+        page.mouse.move(
+            *sphere_point(page, *page.evaluate("studio.sh.directionToWidget(studio.state.lamp.direction, 1.3)"))
+        )
+        page.mouse.down()
+        page.mouse.move(*sphere_point(page, 1.15, 0.35), steps=8)
+        page.mouse.up()
+        page.fill("#lamp-colour", "#a8c8ff")
+        page.dispatch_event("#lamp-colour", "input")
+        page.dispatch_event("#lamp-colour", "change")
+        set_slider(page, "#lamp-size", 35)
+        set_slider(page, "#ambient", 0.02)
+        settle(page)
+        page.evaluate("document.activeElement.blur(); document.getElementById('panel').scrollTop = 1e6")  # show export
+        page.wait_for_timeout(200)
+        page.screenshot(path=str(out / "studio_preset.png"))
+        context.close()
+    srv.should_exit = True
+    thread.join(10)
+    print(f"wrote {out / 'studio_lamp.png'} and {out / 'studio_preset.png'}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,443 @@
+"""The studio's state, free of any web framework: one decomposed photo, its preview layers, renders, uploads.
+
+The photo is decomposed once (stage 1). The page relights a *preview* by itself from the layers this
+module packs at display resolution (albedo, transport, mask, background); the server runs the full
+pipeline (stage 2 and full-resolution detail) on request. Renders are kept in a bounded store whose
+entries expire, so an export fetches exactly the picture that was shown.
+
+Security: nothing here takes a filesystem path from a request. Uploads arrive as bytes, are limited in
+size, typed by their first bytes (never by a client's file name or content type) and, where a reader
+needs a file, written to a temporary file whose name this module chooses, removed right after.
+"""
+
+from __future__ import annotations
+
+import inspect
+import io
+import json
+import logging
+import math
+import secrets
+import shlex
+import struct
+import tempfile
+import threading
+import time
+from collections import OrderedDict
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from .. import lights, sh
+from .._errors import RelightError
+from .._io import encode_image, read_image, sibling_mask
+
+log = logging.getLogger(__name__)
+
+MAX_UPLOAD_BYTES = 32 << 20  # an env map or a photo; bigger uploads are refused before decoding
+MAX_UPLOAD_PIXELS = 40_000_000  # decoded size limit (a small file can hold a huge image)
+EXPOSURES = ("auto", "physical")
+LUMA = (0.2126, 0.7152, 0.0722)  # Rec. 709, DESIGN.md §3 "Exposure"
+
+# (leading bytes, kind, suffix the readers go by)
+_MAGIC = (
+    (b"\x89PNG\r\n\x1a\n", "png", ".png"),
+    (b"\xff\xd8\xff", "jpeg", ".jpg"),
+    (b"#?RADIANCE", "hdr", ".hdr"),
+    (b"#?RGBE", "hdr", ".hdr"),
+    (b"RIFF", "webp", ".webp"),  # checked further below: RIFF....WEBP
+    (b"BM", "bmp", ".bmp"),
+)
+
+
+def sniff(data: bytes) -> tuple[str, str] | None:
+    """(kind, suffix) of an upload from its first bytes, or None for anything else."""
+    for magic, kind, suffix in _MAGIC:
+        if data.startswith(magic):
+            if kind == "webp" and data[8:12] != b"WEBP":
+                return None
+            return kind, suffix
+    return None
+
+
+def _jpeg_size(data: bytes) -> tuple[int, int] | None:
+    """(width, height) from a JPEG's start-of-frame marker."""
+    i = 2
+    while i + 9 < len(data):
+        if data[i] != 0xFF:
+            return None
+        marker = data[i + 1]
+        if marker in (0xD8, 0x01) or 0xD0 <= marker <= 0xD7:  # no length field
+            i += 2
+            continue
+        length = int.from_bytes(data[i + 2 : i + 4], "big")
+        if 0xC0 <= marker <= 0xCF and marker not in (0xC4, 0xC8, 0xCC):
+            return int.from_bytes(data[i + 7 : i + 9], "big"), int.from_bytes(data[i + 5 : i + 7], "big")
+        i += 2 + length
+    return None
+
+
+def _hdr_size(data: bytes) -> tuple[int, int] | None:
+    """(width, height) from a Radiance header's resolution line ("-Y H +X W" and the other orientations)."""
+    head = data[:4096].split(b"\n\n", 1)
+    if len(head) < 2:
+        return None
+    parts = head[1].split(b"\n", 1)[0].split()
+    if len(parts) == 4 and parts[1].isdigit() and parts[3].isdigit():
+        a, b = int(parts[1]), int(parts[3])
+        return (b, a) if parts[0].endswith(b"Y") else (a, b)
+    return None
+
+
+def image_size(data: bytes, kind: str) -> tuple[int, int] | None:
+    """(width, height) read from the header of an upload of ``kind`` without decoding it; None if unknown."""
+    if kind == "png" and len(data) >= 24 and data[12:16] == b"IHDR":
+        return struct.unpack(">II", data[16:24])
+    if kind == "jpeg":
+        return _jpeg_size(data)
+    if kind == "hdr":
+        return _hdr_size(data)
+    if kind == "bmp" and len(data) >= 26:
+        w, h = struct.unpack("<ii", data[18:26])
+        return abs(w), abs(h)
+    if kind == "webp" and len(data) >= 30:
+        chunk = data[12:16]
+        if chunk == b"VP8X":
+            return 1 + int.from_bytes(data[24:27], "little"), 1 + int.from_bytes(data[27:30], "little")
+        if chunk == b"VP8L":
+            bits = int.from_bytes(data[21:25], "little")
+            return 1 + (bits & 0x3FFF), 1 + ((bits >> 14) & 0x3FFF)
+        if chunk == b"VP8 ":
+            return int.from_bytes(data[26:28], "little") & 0x3FFF, int.from_bytes(data[28:30], "little") & 0x3FFF
+    return None
+
+
+def check_upload(data: bytes, name: str, allowed: tuple[str, ...], limit: int = MAX_UPLOAD_BYTES) -> str:
+    """Check an upload's size and type (by content); returns the file suffix for its kind.
+
+    Raises:
+        RelightError: empty, larger than ``limit``, or not one of ``allowed`` kinds.
+    """
+    if not data:
+        raise RelightError(f"{name}: the upload is empty")
+    if len(data) > limit:
+        raise RelightError(f"{name}: the upload is {len(data) / 2**20:.1f} MiB, the limit is {limit / 2**20:.0f} MiB")
+    found = sniff(data)
+    if found is None or found[0] not in allowed:
+        what = "an unknown type" if found is None else f"a {found[0]} file"
+        raise RelightError(f"{name}: expected {' or '.join(a.upper() for a in allowed)} (by content), got {what}")
+    size = image_size(data, found[0])  # refused before a decoder allocates it (a small file can be huge)
+    if size and size[0] * size[1] > MAX_UPLOAD_PIXELS:
+        raise RelightError(f"{name}: the image is {size[0]}x{size[1]}, more than {MAX_UPLOAD_PIXELS} pixels")
+    return found[1]
+
+
+def decode_upload(data: bytes, name: str) -> np.ndarray:
+    """An uploaded PNG/JPEG/WebP/BMP as float32 RGB(A) in [0, 1] (alpha kept), checked by content."""
+    check_upload(data, name, ("png", "jpeg", "webp", "bmp"))
+    img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+    if img is None:
+        raise RelightError(f"{name}: cannot decode the image (corrupt file)")
+    if img.ndim == 3 and img.shape[0] * img.shape[1] > MAX_UPLOAD_PIXELS:
+        raise RelightError(f"{name}: the image has more than {MAX_UPLOAD_PIXELS} pixels")
+    if img.ndim == 3 and img.shape[2] in (3, 4):
+        img = cv2.cvtColor(img, cv2.COLOR_BGR2RGB if img.shape[2] == 3 else cv2.COLOR_BGRA2RGBA)
+    return read_image(img, name)  # checks channels, depth, size; a new float32 array
+
+
+class ResultStore:
+    """A bounded, expiring in-memory store: at most ``capacity`` entries, each dropped ``ttl`` seconds
+    after it was last read or written (least recently used first when full). Thread-safe.
+    Keys are random tokens made here (``put`` returns one), never taken from a request."""
+
+    def __init__(self, capacity: int = 16, ttl: float = 900.0, clock: Callable[[], float] = time.monotonic) -> None:
+        if capacity < 1 or ttl <= 0:
+            raise RelightError(f"ResultStore: expected capacity >= 1 and ttl > 0, got {capacity}, {ttl}")
+        self.capacity, self.ttl, self._clock = capacity, ttl, clock
+        self._items: OrderedDict[str, tuple[float, object]] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def _expire(self, now: float) -> None:
+        for key in [k for k, (t, _) in self._items.items() if now - t > self.ttl]:
+            del self._items[key]
+
+    def put(self, value) -> str:
+        key = secrets.token_urlsafe(12)
+        with self._lock:
+            now = self._clock()
+            self._expire(now)
+            self._items[key] = (now, value)
+            while len(self._items) > self.capacity:
+                self._items.popitem(last=False)
+        return key
+
+    def get(self, key: str):
+        """The value, or None when unknown or expired."""
+        with self._lock:
+            now = self._clock()
+            self._expire(now)
+            item = self._items.get(key)
+            if item is None:
+                return None
+            self._items[key] = (now, item[1])
+            self._items.move_to_end(key)
+            return item[1]
+
+    def __len__(self) -> int:
+        with self._lock:
+            self._expire(self._clock())
+            return len(self._items)
+
+
+@dataclass(frozen=True)
+class Render:
+    """One full-resolution result: its PNG, the light and exposure that made it, and how long it took."""
+
+    png: bytes
+    light: np.ndarray  # (9, 3) float32 RGB, exactly as used
+    exposure: object
+    seconds: float
+
+
+def light_json(light: np.ndarray) -> str:
+    """The project's light .json (DESIGN.md §6), written from float32 values so that it reloads exactly."""
+    rows = [[float(v) for v in row] for row in np.asarray(light, np.float32)]
+    return json.dumps({"sh": rows, "order": "rgb"}, indent=1)
+
+
+def light_npy(light: np.ndarray) -> bytes:
+    """The light as .npy bytes: (9, 3) float32 RGB, never pickled."""
+    buf = io.BytesIO()
+    np.save(buf, np.asarray(light, np.float32), allow_pickle=False)
+    return buf.getvalue()
+
+
+def parse_light(value) -> np.ndarray:
+    """A light from a request: 27 numbers (or 9 rows of 3), RGB → (9, 3) float32; checked."""
+    try:
+        arr = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise RelightError("light: expected 27 numbers (9 rows of R, G, B)") from None
+    if arr.size != 27:
+        raise RelightError(f"light: expected 27 numbers (9 rows of R, G, B), got {arr.size}")
+    arr = arr.reshape(9, 3)
+    if not np.all(np.isfinite(arr)) or np.abs(arr).max() > 1e4:
+        raise RelightError("light: expected finite numbers of sensible size (|value| <= 1e4)")
+    return sh.check_light(arr.astype(np.float32), "light").astype(np.float32)
+
+
+def parse_exposure(value) -> object:
+    """ "auto", "physical" or an EV offset (float in [-10, 10])."""
+    if value is None:
+        return "auto"
+    if isinstance(value, str) and value in EXPOSURES:
+        return value
+    try:
+        ev = float(value)
+    except (TypeError, ValueError):
+        raise RelightError(f"exposure: expected auto, physical or an EV number, got {value!r}") from None
+    if not math.isfinite(ev) or abs(ev) > 10:
+        raise RelightError(f"exposure: expected an EV offset in [-10, 10], got {value!r}")
+    return ev
+
+
+def _display_size(h: int, w: int, max_pixels: int) -> tuple[int, int]:
+    s = min(1.0, math.sqrt(max_pixels / (h * w)))
+    return max(2, round(h * s)), max(2, round(w * s))
+
+
+def _resize(a: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+    h, w = size
+    if a.shape[:2] == (h, w):
+        return np.ascontiguousarray(a, np.float32)
+    interp = cv2.INTER_AREA if h < a.shape[0] else cv2.INTER_LINEAR
+    chans = [
+        cv2.resize(np.ascontiguousarray(a[..., i : i + 4]), (w, h), interpolation=interp)
+        for i in range(0, a.shape[2], 4)
+    ]
+    chans = [c[..., None] if c.ndim == 2 else c for c in chans]
+    return np.concatenate(chans, axis=2).astype(np.float32)
+
+
+class Studio:
+    """One photo, decomposed once, and what the page asks of it.
+
+    Args:
+        photo: image file (RGB or RGBA; see ``Relighter.decompose``).
+        mask: mask file; None: NAME_mask.png beside the photo, else its alpha channel.
+        background: "original", "transparent" or an image file of the photo's size.
+        relighter: a ``relight_rt.Relighter`` (the caller chooses models and device).
+        preview_pixels: the most pixels of the in-browser preview (the photo is shrunk to fit, never enlarged).
+        models: the models folder the relighter came from, for the exported command line (None: default).
+    """
+
+    def __init__(self, photo, mask, background, relighter, preview_pixels: int = 1_000_000, models=None) -> None:
+        self.photo = Path(photo)
+        self.mask = Path(mask) if mask is not None else sibling_mask(self.photo)
+        self.background = str(background)
+        self.models = models
+        if self.background not in ("original", "transparent") and not Path(self.background).is_file():
+            raise RelightError(f"--background {self.background}: expected original, transparent or an image file")
+        if not isinstance(preview_pixels, int) or preview_pixels < 64 * 64:
+            raise RelightError(f"preview_pixels: expected a whole number >= 4096, got {preview_pixels!r}")
+        self.relighter = relighter
+        self.dec = relighter.decompose(self.photo, self.mask)
+        self._bg = None if self.background in ("original", "transparent") else self.background
+        self._lock = threading.Lock()  # one pipeline run at a time (the Decomposition caches results)
+        self.renders = ResultStore(capacity=16, ttl=900.0)
+        self.exposure_supported = "exposure" in inspect.signature(relighter.relight).parameters
+        self._layers = self._pack_layers(preview_pixels)
+
+    # ------------------------------------------------------------------------------------ preview layers
+
+    def _background_image(self) -> np.ndarray | None:
+        """(H, W, 3) background in the input frame; None for transparent."""
+        if self.background == "transparent":
+            return None
+        if self.background == "original":
+            return np.asarray(self.dec.image)
+        bg = read_image(self.background, "background")
+        if bg.shape[:2] != self.dec.image.shape[:2]:
+            raise RelightError(
+                f"--background {self.background}: is {bg.shape[0]}x{bg.shape[1]}, expected the photo's "
+                f"{self.dec.image.shape[0]}x{self.dec.image.shape[1]}"
+            )
+        return bg[..., :3]
+
+    def _pack_layers(self, max_pixels: int) -> dict:
+        """Display-resolution layers, quantised: transport as uint16 (per-channel offset and scale),
+        albedo (premultiplied by the mask), mask and background as uint8; channel-planar, little-endian."""
+        dec = self.dec
+        h, w = dec.image.shape[:2]
+        size = _display_size(h, w, max_pixels)
+        transport = _resize(dec.to_input(np.ascontiguousarray(dec.transport)), size)
+        albedo = _resize(dec.to_input(np.ascontiguousarray(dec.albedo)), size)
+        mask = _resize(np.asarray(dec.mask)[..., None], size)
+        bg = self._background_image()
+        bg = np.zeros(size + (3,), np.float32) if bg is None else _resize(bg, size)
+        lo = transport.reshape(-1, 9).min(axis=0)
+        hi = transport.reshape(-1, 9).max(axis=0)
+        scale = np.where(hi > lo, (hi - lo) / 65535.0, 1.0)
+        q16 = np.rint((transport - lo) / scale).clip(0, 65535).astype("<u2").transpose(2, 0, 1)
+        eight = np.concatenate([albedo, mask, bg], axis=2)
+        q8 = np.rint(np.clip(eight, 0, 1) * 255).astype(np.uint8).transpose(2, 0, 1)
+        # the photo's person, for the exposure rule (mean luminance inside the mask), at display resolution
+        photo = _resize(np.asarray(dec.image), size)
+        m = mask[..., 0]
+        luma = photo @ np.array(LUMA, np.float32)
+        target = float((luma * m).sum() / max(float(m.sum()), 1e-6))
+        return {
+            "height": size[0],
+            "width": size[1],
+            "transport_offset": lo.astype(float).tolist(),
+            "transport_scale": scale.astype(float).tolist(),
+            "exposure_target": target,
+            "data": q16.tobytes() + q8.tobytes(),
+        }
+
+    def layers_bytes(self) -> bytes:
+        """The binary the page reads: 9 planes of uint16 transport, then 7 planes of uint8 (albedo R, G, B
+        premultiplied by the mask, mask, background R, G, B), each plane height x width, row-major."""
+        return self._layers["data"]
+
+    def info(self) -> dict:
+        """What the page needs to start: sizes, layer format, the photo's own light, presets, features."""
+        h, w = self.dec.image.shape[:2]
+        own = np.asarray(self.dec.light, np.float32)
+        return {
+            "photo": self.photo.name,
+            "width": w,
+            "height": h,
+            "preview": {k: v for k, v in self._layers.items() if k != "data"},
+            "background": "transparent" if self.background == "transparent" else "image",
+            "own_light": own.tolist(),
+            "presets": {name: lights.preset(name).astype(np.float32).tolist() for name in lights.list_presets()},
+            "diffuse_only": bool(self.relighter.diffuse_only),
+            "exposure": self.exposure_supported,
+            "max_upload_mb": MAX_UPLOAD_BYTES >> 20,
+        }
+
+    # ------------------------------------------------------------------------------------ full results
+
+    def render(self, light, exposure="auto") -> tuple[str, Render]:
+        """Run the full pipeline under ``light`` (27 numbers, RGB) and keep the PNG; returns (id, render)."""
+        lit = parse_light(light)
+        exp = parse_exposure(exposure)
+        kwargs = {"background": self._bg or self.background}
+        if self.exposure_supported:
+            kwargs["exposure"] = exp
+        with self._lock:
+            t0 = time.perf_counter()
+            image = self.relighter.relight(self.dec, lit, **kwargs)
+            png = encode_image(image, ".png", "result")
+            seconds = time.perf_counter() - t0
+        rec = Render(png, lit, exp if self.exposure_supported else "auto", seconds)
+        return self.renders.put(rec), rec
+
+    def command(self, render: Render, light_file: str) -> str:
+        """The ``relight-rt relight`` command line that reproduces ``render`` from the exported light file."""
+        # paths as the user gave them to ``relight-rt studio`` (relative ones: to where the server was started)
+        args = ["relight-rt", "relight", str(self.photo)]
+        if self.mask is not None:
+            args += ["--mask", str(self.mask)]
+        args += ["--light", light_file]
+        if self.background != "original":
+            args += ["--background", self.background]
+        if self.exposure_supported and render.exposure != "auto":
+            args += ["--exposure", str(render.exposure)]
+        if self.models is not None:
+            args += ["--models", str(self.models)]
+        args += ["-o", f"{self.photo.stem}_relit.png"]
+        return shlex.join(args)
+
+    # ------------------------------------------------------------------------------------ uploaded lights
+
+    def envmap_light(self, data: bytes) -> np.ndarray:
+        """(9, 3) float32 light of an uploaded equirectangular map (.hdr, or an sRGB PNG/JPEG, linearised)."""
+        suffix = check_upload(data, "environment map", ("hdr", "png", "jpeg"))
+        with tempfile.TemporaryDirectory(prefix="relight-studio-") as folder:
+            path = Path(folder) / f"upload{suffix}"  # our name; the client's is never used
+            path.write_bytes(data)
+            env = sh.load_envmap(path)
+        if env.shape[0] * env.shape[1] > MAX_UPLOAD_PIXELS:
+            raise RelightError(f"environment map: more than {MAX_UPLOAD_PIXELS} pixels")
+        return sh.project_envmap(env).astype(np.float32)
+
+    def photo_light(self, data: bytes) -> np.ndarray:
+        """(9, 3) float32 light estimated (stage 1) from an uploaded photo of a person; mask: its alpha."""
+        image = decode_upload(data, "photo")
+        if image.shape[2] != 4:
+            raise RelightError("photo: expected a PNG/WebP with an alpha channel holding the person's mask")
+        with self._lock:
+            dec = self.relighter.decompose(image)
+        return np.array(dec.light, dtype=np.float32)
+
+
+def unpack_layers(data: bytes, meta: dict) -> dict:
+    """The inverse of ``Studio.layers_bytes`` (what the page's decodeLayers does): float32 planes
+    "transport" (9, h, w), "albedo" (3, h, w) premultiplied, "mask" (h, w), "background" (3, h, w)."""
+    h, w = meta["height"], meta["width"]
+    n = h * w
+    if len(data) != 25 * n:
+        raise RelightError(f"layers: expected {25 * n} bytes for {h}x{w}, got {len(data)}")
+    q16 = np.frombuffer(data, "<u2", 9 * n).reshape(9, h, w).astype(np.float32)
+    offset = np.array(meta["transport_offset"], np.float32)[:, None, None]
+    scale = np.array(meta["transport_scale"], np.float32)[:, None, None]
+    eight = np.frombuffer(data, np.uint8, 7 * n, 18 * n).reshape(7, h, w).astype(np.float32) / 255
+    return {"transport": offset + q16 * scale, "albedo": eight[:3], "mask": eight[3], "background": eight[4:]}
+
+
+def mean_luminance_scale(albedo, transport, mask, light, target: float, ev: float = 0.0) -> float:
+    """The exposure rule of the preview (DESIGN.md §3): the scalar s with which the light ``s · light``
+    gives the person (inside the mask) the mean Rec. 709 luminance ``target · 2^ev``.
+
+    Args:
+        albedo: (H, W, 3) premultiplied by the mask. transport: (H, W, 9). mask: (H, W). light: (9, 3).
+    """
+    shade = np.maximum(np.asarray(transport, np.float32).reshape(-1, 9) @ np.asarray(light, np.float32), 0)
+    luma = (np.asarray(albedo, np.float32).reshape(-1, 3) * shade) @ np.array(LUMA, np.float32)
+    current = float(luma.sum() / max(float(np.asarray(mask).sum()), 1e-6))
+    return float(target * 2.0**ev / current) if current > 1e-8 else 1.0

@@ -1,0 +1,232 @@
+// The live preview: diffuse = clip(albedo ⊙ max(0, T·L), 0, 1) per pixel, composited over the
+// background (albedo and the result are premultiplied by the mask): out = bg · (1 − mask) + diffuse.
+// WebGL 2 (a fragment shader, float textures) where available, otherwise Canvas 2D in JavaScript.
+
+// Decode the server's layer binary (relight_rt.studio.core.Studio.layers_bytes) into float planes.
+export function decodeLayers(buffer, meta) {
+  const n = meta.width * meta.height;
+  const q16 = new Uint16Array(buffer, 0, 9 * n);
+  const q8 = new Uint8Array(buffer, 18 * n, 7 * n);
+  const transport = [];
+  for (let k = 0; k < 9; k++) {
+    const plane = new Float32Array(n);
+    const lo = meta.transport_offset[k], s = meta.transport_scale[k];
+    for (let p = 0; p < n; p++) plane[p] = lo + q16[k * n + p] * s;
+    transport.push(plane);
+  }
+  const eight = (i) => {
+    const plane = new Float32Array(n);
+    for (let p = 0; p < n; p++) plane[p] = q8[i * n + p] / 255;
+    return plane;
+  };
+  return {
+    width: meta.width,
+    height: meta.height,
+    transport,
+    albedo: [eight(0), eight(1), eight(2)],
+    mask: eight(3),
+    background: [eight(4), eight(5), eight(6)],
+  };
+}
+
+const VERTEX = `#version 300 es
+in vec2 pos;
+void main() { gl_Position = vec4(pos, 0.0, 1.0); }`;
+
+const FRAGMENT = `#version 300 es
+precision highp float;
+precision highp sampler2D;
+uniform sampler2D t0;  // T0..T3
+uniform sampler2D t1;  // T4..T7
+uniform sampler2D t2;  // T8, albedo r, g, b (premultiplied)
+uniform sampler2D t3;  // background r, g, b, mask
+uniform vec3 L[9];
+uniform int height;
+uniform bool checker;
+out vec4 colour;
+void main() {
+  ivec2 p = ivec2(int(gl_FragCoord.x), height - 1 - int(gl_FragCoord.y));
+  vec4 a = texelFetch(t0, p, 0), b = texelFetch(t1, p, 0), c = texelFetch(t2, p, 0), d = texelFetch(t3, p, 0);
+  vec3 s = a.x * L[0] + a.y * L[1] + a.z * L[2] + a.w * L[3]
+         + b.x * L[4] + b.y * L[5] + b.z * L[6] + b.w * L[7] + c.x * L[8];
+  vec3 diffuse = clamp(c.yzw * max(s, 0.0), 0.0, 1.0);
+  vec3 bg = d.rgb;
+  if (checker) {
+    bool odd = ((p.x / 12) + (p.y / 12)) % 2 == 1;
+    bg = vec3(odd ? 0.78 : 0.9);
+  }
+  colour = vec4(bg * (1.0 - d.a) + diffuse, 1.0);
+}`;
+
+function compile(gl, type, source) {
+  const shader = gl.createShader(type);
+  gl.shaderSource(shader, source);
+  gl.compileShader(shader);
+  if (!gl.getShaderParameter(shader, gl.COMPILE_STATUS)) throw new Error(gl.getShaderInfoLog(shader));
+  return shader;
+}
+
+class WebGLPreview {
+  constructor(canvas, layers, checker) {
+    const gl = canvas.getContext("webgl2", { preserveDrawingBuffer: false, antialias: false });
+    if (!gl) throw new Error("no WebGL 2");
+    this.kind = "WebGL 2";
+    this.canvas = canvas;
+    this.gl = gl;
+    this.layers = layers;
+    const prog = gl.createProgram();
+    gl.attachShader(prog, compile(gl, gl.VERTEX_SHADER, VERTEX));
+    gl.attachShader(prog, compile(gl, gl.FRAGMENT_SHADER, FRAGMENT));
+    gl.linkProgram(prog);
+    if (!gl.getProgramParameter(prog, gl.LINK_STATUS)) throw new Error(gl.getProgramInfoLog(prog));
+    gl.useProgram(prog);
+    this.prog = prog;
+    const buf = gl.createBuffer();
+    gl.bindBuffer(gl.ARRAY_BUFFER, buf);
+    gl.bufferData(gl.ARRAY_BUFFER, new Float32Array([-1, -1, 3, -1, -1, 3]), gl.STATIC_DRAW);
+    const loc = gl.getAttribLocation(prog, "pos");
+    gl.enableVertexAttribArray(loc);
+    gl.vertexAttribPointer(loc, 2, gl.FLOAT, false, 0, 0);
+    const { width: w, height: h, transport: T, albedo: A, mask: M, background: B } = layers;
+    const n = w * h;
+    const pack = (planes) => {
+      const out = new Float32Array(4 * n);
+      for (let i = 0; i < 4; i++) {
+        const src = planes[i];
+        for (let p = 0; p < n; p++) out[4 * p + i] = src[p];
+      }
+      return out;
+    };
+    const floatTexture = (unit, data) => {
+      const tex = gl.createTexture();
+      gl.activeTexture(gl.TEXTURE0 + unit);
+      gl.bindTexture(gl.TEXTURE_2D, tex);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
+      gl.pixelStorei(gl.UNPACK_ALIGNMENT, 1);
+      gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA32F, w, h, 0, gl.RGBA, gl.FLOAT, data);
+    };
+    floatTexture(0, pack([T[0], T[1], T[2], T[3]]));
+    floatTexture(1, pack([T[4], T[5], T[6], T[7]]));
+    floatTexture(2, pack([T[8], A[0], A[1], A[2]]));
+    floatTexture(3, pack([B[0], B[1], B[2], M]));
+    for (let i = 0; i < 4; i++) gl.uniform1i(gl.getUniformLocation(prog, `t${i}`), i);
+    gl.uniform1i(gl.getUniformLocation(prog, "height"), h);
+    gl.uniform1i(gl.getUniformLocation(prog, "checker"), checker ? 1 : 0);
+    this.lightLoc = gl.getUniformLocation(prog, "L");
+    gl.viewport(0, 0, w, h);
+  }
+
+  draw(light) {
+    const gl = this.gl;
+    gl.uniform3fv(this.lightLoc, new Float32Array(light));
+    gl.drawArrays(gl.TRIANGLES, 0, 3);
+  }
+
+  finish() {  // wait until the frame is really drawn (benchmarks)
+    const px = new Uint8Array(4);
+    this.gl.readPixels(0, 0, 1, 1, this.gl.RGBA, this.gl.UNSIGNED_BYTE, px);
+  }
+}
+
+class CanvasPreview {
+  constructor(canvas, layers, checker) {
+    this.kind = "Canvas 2D";
+    this.canvas = canvas;
+    this.ctx = canvas.getContext("2d");
+    this.layers = layers;
+    this.image = this.ctx.createImageData(layers.width, layers.height);
+    this.pixels = new Uint32Array(this.image.data.buffer);  // one store per pixel (little-endian RGBA)
+    const n = layers.width * layers.height;
+    const { transport: T, albedo: A, mask: M, background: B } = layers;
+    // per pixel, contiguous: T0..T8, albedo r, g, b, then the background already multiplied by (1 − mask),
+    // in 0..255 plus 0.5 (so that truncation rounds)
+    const packed = new Float32Array(15 * n);
+    for (let p = 0, o = 0; p < n; p++, o += 15) {
+      for (let k = 0; k < 9; k++) packed[o + k] = T[k][p];
+      packed[o + 9] = A[0][p]; packed[o + 10] = A[1][p]; packed[o + 11] = A[2][p];
+      let r = B[0][p], g = B[1][p], b = B[2][p];
+      if (checker) {
+        const x = p % layers.width, y = (p / layers.width) | 0;
+        r = g = b = ((((x / 12) | 0) + ((y / 12) | 0)) % 2 === 1) ? 0.78 : 0.9;
+      }
+      const k = 255 * (1 - M[p]);
+      packed[o + 12] = r * k + 0.5; packed[o + 13] = g * k + 0.5; packed[o + 14] = b * k + 0.5;
+    }
+    this.packed = packed;
+  }
+
+  draw(light) {
+    const L = light;
+    const l0 = L[0], l1 = L[1], l2 = L[2], l3 = L[3], l4 = L[4], l5 = L[5], l6 = L[6], l7 = L[7], l8 = L[8];
+    const l9 = L[9], l10 = L[10], l11 = L[11], l12 = L[12], l13 = L[13], l14 = L[14], l15 = L[15], l16 = L[16];
+    const l17 = L[17], l18 = L[18], l19 = L[19], l20 = L[20], l21 = L[21], l22 = L[22], l23 = L[23], l24 = L[24];
+    const l25 = L[25], l26 = L[26];
+    const f = this.packed, px = this.pixels;
+    const n = px.length;
+    for (let p = 0, o = 0; p < n; p++, o += 15) {
+      const q0 = f[o], q1 = f[o + 1], q2 = f[o + 2], q3 = f[o + 3], q4 = f[o + 4], q5 = f[o + 5], q6 = f[o + 6];
+      const q7 = f[o + 7], q8 = f[o + 8];
+      const sr = q0 * l0 + q1 * l3 + q2 * l6 + q3 * l9 + q4 * l12 + q5 * l15 + q6 * l18 + q7 * l21 + q8 * l24;
+      const sg = q0 * l1 + q1 * l4 + q2 * l7 + q3 * l10 + q4 * l13 + q5 * l16 + q6 * l19 + q7 * l22 + q8 * l25;
+      const sb = q0 * l2 + q1 * l5 + q2 * l8 + q3 * l11 + q4 * l14 + q5 * l17 + q6 * l20 + q7 * l23 + q8 * l26;
+      const dr = sr > 0 ? Math.min(1, f[o + 9] * sr) : 0;
+      const dg = sg > 0 ? Math.min(1, f[o + 10] * sg) : 0;
+      const db = sb > 0 ? Math.min(1, f[o + 11] * sb) : 0;
+      const r = Math.min(255, f[o + 12] + 255 * dr) | 0;
+      const g = Math.min(255, f[o + 13] + 255 * dg) | 0;
+      const b = Math.min(255, f[o + 14] + 255 * db) | 0;
+      px[p] = 0xff000000 | (b << 16) | (g << 8) | r;
+    }
+    this.ctx.putImageData(this.image, 0, 0);
+  }
+
+  finish() {}
+}
+
+function timeDraws(preview, light, n) {
+  const times = [];
+  for (let i = 0; i < n; i++) {
+    const t0 = performance.now();
+    preview.draw(light);
+    preview.finish();
+    times.push(performance.now() - t0);
+  }
+  times.sort((a, b) => a - b);
+  return times[Math.floor(n / 2)];
+}
+
+// A preview on `canvas`. renderer: "webgl" (Canvas 2D only if WebGL 2 fails), "canvas", or "auto": both
+// are timed on a few frames of `light` and the faster one is kept (software WebGL, as in a headless
+// browser without a GPU, can be slower than the JavaScript loop; with a GPU, WebGL wins by far).
+// The returned object's `canvas` is the element on the page (it may replace the one given).
+export function createPreview(canvas, layers, { checker = false, renderer = "auto", light = null } = {}) {
+  canvas.width = layers.width;
+  canvas.height = layers.height;
+  if (renderer === "canvas") return new CanvasPreview(canvas, layers, checker);
+  let gl;
+  try {
+    gl = new WebGLPreview(canvas, layers, checker);
+  } catch (err) {
+    console.warn("WebGL 2 preview unavailable, using Canvas 2D:", err);
+    const fresh = canvas.cloneNode(false);  // a canvas that asked for webgl2 cannot give a 2d context
+    canvas.replaceWith(fresh);
+    return new CanvasPreview(fresh, layers, checker);
+  }
+  if (renderer !== "auto" || !light) return gl;
+  const spare = canvas.cloneNode(false);
+  spare.width = layers.width;
+  spare.height = layers.height;
+  const cpu = new CanvasPreview(spare, layers, checker);
+  timeDraws(gl, light, 1);  // warm up (shader compilation, texture upload)
+  timeDraws(cpu, light, 1);
+  const tGl = timeDraws(gl, light, 3), tCpu = timeDraws(cpu, light, 3);
+  const chosen = tCpu < 0.8 * tGl ? cpu : gl;
+  chosen.timings = { "WebGL 2": tGl, "Canvas 2D": tCpu };
+  if (chosen === cpu) {
+    const lose = gl.gl.getExtension("WEBGL_lose_context");
+    if (lose) lose.loseContext();
+    canvas.replaceWith(spare);
+  }
+  return chosen;
+}

@@ -1,0 +1,137 @@
+// Spherical-harmonics lights for the studio page: the same numbers as relight_rt/sh.py and
+// relight_rt/lights.py (DESIGN.md §3), checked against them by tests/test_studio.py.
+//
+// Frame: +x from the subject toward the camera, +y toward the image's right, +z up.
+// Basis: real, orthonormal, degree 2, order 1, y, z, x, xy, yz, 3z²−1, xz, x²−y² (times constants).
+// A light is a flat array of 27 numbers, index 3k + c: coefficient k of colour c (R, G, B), i.e. the
+// (9, 3) array of the Python side, row-major.
+
+export const C0 = 1 / (2 * Math.sqrt(Math.PI));
+export const C1 = Math.sqrt(3 / (4 * Math.PI));
+export const C2 = Math.sqrt(15 / Math.PI) / 2;
+export const C20 = Math.sqrt(5 / Math.PI) / 4;
+export const C22 = Math.sqrt(15 / Math.PI) / 4;
+export const BAND = [0, 1, 1, 1, 2, 2, 2, 2, 2];
+// zonal coefficients of the clamped cosine, per band: π, 2π/3, π/4
+export const LOBE = [Math.PI, (2 * Math.PI) / 3, Math.PI / 4];
+export const LUMA = [0.2126, 0.7152, 0.0722];
+
+export function basis(x, y, z) {
+  return [C0, C1 * y, C1 * z, C1 * x, C2 * x * y, C2 * y * z, C20 * (3 * z * z - 1), C2 * x * z, C22 * (x * x - y * y)];
+}
+
+export function zeros() {
+  return new Array(27).fill(0);
+}
+
+export function add(a, b) {
+  return a.map((v, i) => v + b[i]);
+}
+
+export function scale(a, s) {
+  return a.map((v) => v * s);
+}
+
+function normalise(d) {
+  const n = Math.hypot(d[0], d[1], d[2]);
+  if (!(n > 1e-12)) throw new Error("direction: expected a non-zero vector");
+  return [d[0] / n, d[1] / n, d[2] / n];
+}
+
+// Per-band zonal factors of a uniform cap of half-angle a (lights._cap_zonal).
+function capZonal(cosA) {
+  return [1, (1 + cosA) / 2, (cosA * (1 + cosA)) / 2];
+}
+
+// lights.directional: a lamp of angular radius `radius` (radians) from `direction`; a diffuse surface
+// facing it receives irradiance intensity · color.
+export function directional(direction, color, intensity, radius) {
+  const d = normalise(direction);
+  const g = capZonal(Math.cos(radius));
+  const y = basis(d[0], d[1], d[2]);
+  let facing = 0;
+  for (let k = 0; k < 9; k++) facing += LOBE[BAND[k]] * g[BAND[k]] * y[k] * y[k];
+  const out = zeros();
+  for (let k = 0; k < 9; k++) {
+    const w = ((intensity / facing) * g[BAND[k]] * y[k]);
+    for (let c = 0; c < 3; c++) out[3 * k + c] = w * color[c];
+  }
+  return out;
+}
+
+// lights.ambient: every normal receives irradiance `color`.
+export function ambient(color) {
+  const out = zeros();
+  for (let c = 0; c < 3; c++) out[c] = color[c] / (Math.PI * C0);
+  return out;
+}
+
+// sh.rotate_z: turn the environment by `angle` radians about +z, carrying +x toward +y.
+export function rotateZ(light, angle) {
+  const c1 = Math.cos(angle), s1 = Math.sin(angle), c2 = Math.cos(2 * angle), s2 = Math.sin(2 * angle);
+  const out = light.slice();
+  for (let c = 0; c < 3; c++) {
+    const k = (i) => light[3 * i + c];
+    out[3 * 3 + c] = c1 * k(3) - s1 * k(1);
+    out[3 * 1 + c] = s1 * k(3) + c1 * k(1);
+    out[3 * 7 + c] = c1 * k(7) - s1 * k(5);
+    out[3 * 5 + c] = s1 * k(7) + c1 * k(5);
+    out[3 * 8 + c] = c2 * k(8) - s2 * k(4);
+    out[3 * 4 + c] = s2 * k(8) + c2 * k(4);
+  }
+  return out;
+}
+
+// sh.irradiance at one unit normal: [r, g, b].
+export function irradiance(light, n) {
+  const y = basis(n[0], n[1], n[2]);
+  const e = [0, 0, 0];
+  for (let k = 0; k < 9; k++) {
+    const w = LOBE[BAND[k]] * y[k];
+    for (let c = 0; c < 3; c++) e[c] += w * light[3 * k + c];
+  }
+  return e;
+}
+
+// The lamp sphere widget. (u, v): position in units of the sphere's radius, u toward the image's right,
+// v up. Inside the disc (ρ <= 1) it is the sphere's visible point (x = sqrt(1 − ρ²)); the ring
+// 1 < ρ <= rhoMax holds the hemisphere behind the subject, polar angle from +x growing linearly
+// from 90° at the disc's edge to 180° at the ring's outer edge.
+export function widgetToDirection(u, v, rhoMax) {
+  const rho = Math.hypot(u, v);
+  if (rho <= 1) return [Math.sqrt(Math.max(0, 1 - rho * rho)), u, v];
+  const r = Math.min(rho, rhoMax);
+  const theta = Math.PI / 2 + ((r - 1) / (rhoMax - 1)) * (Math.PI / 2);
+  const s = Math.sin(theta) / rho;
+  return [Math.cos(theta), u * s, v * s];
+}
+
+export function directionToWidget(d, rhoMax) {
+  const [x, y, z] = normalise(d);
+  if (x >= 0) return [y, z];
+  const theta = Math.acos(Math.max(-1, Math.min(1, x)));
+  const rho = 1 + ((theta - Math.PI / 2) / (Math.PI / 2)) * (rhoMax - 1);
+  const t = Math.hypot(y, z);
+  if (t < 1e-9) return [0, rho];
+  return [(rho * y) / t, (rho * z) / t];
+}
+
+// The preview's exposure rule (DESIGN.md §3, relight_rt.studio.core.mean_luminance_scale): the scalar s
+// for which the light s · L gives the person a mean Rec. 709 luminance (inside the mask) of target · 2^ev.
+// layers: {transport: 9 Float32Array planes, albedo: 3 Float32Array planes (premultiplied), mask};
+// every `step`-th pixel is used (the preview uses a sparse grid; tests use step 1).
+export function exposureScale(layers, light, target, ev, step) {
+  const T = layers.transport, A = layers.albedo, M = layers.mask;
+  const n = M.length;
+  let lum = 0, msum = 0;
+  for (let p = 0; p < n; p += step) {
+    msum += M[p];
+    for (let c = 0; c < 3; c++) {
+      let s = 0;
+      for (let k = 0; k < 9; k++) s += T[k][p] * light[3 * k + c];
+      if (s > 0) lum += LUMA[c] * A[c][p] * s;
+    }
+  }
+  const current = lum / Math.max(msum, 1e-6);
+  return current > 1e-8 ? (target * Math.pow(2, ev)) / current : 1;
+}

@@ -1,0 +1,399 @@
+// The studio page: light panel, live preview while dragging, full result from the server on release.
+import * as sh from "./sh.js";
+import { createPreview, decodeLayers } from "./preview.js";
+
+const $ = (id) => document.getElementById(id);
+const RHO_MAX = 1.3;  // outer edge of the "behind" ring, in sphere radii
+const EXPOSURE_STEP = 7;  // the preview's exposure rule samples every 7th pixel
+
+const state = {
+  info: null,
+  layers: null,
+  preview: null,
+  lamp: { on: true, direction: [0.75, 0.45, 0.5], colour: [1, 0.957, 0.902], intensity: 1, size: 20 },
+  ambient: 0.15,
+  base: { name: "none", light: sh.zeros(), rotate: 0, level: 1 },
+  exposure: { mode: "auto", ev: 0 },
+  seq: 0,          // the light's version; a full result is shown only for the version it was made for
+  result: null,    // {id, seq, ...} of the latest full result
+  dirty: false,
+  pendingInput: null,  // timeStamp of the first input event not yet painted
+  stats: { frames: 0, latencies: [] },
+};
+
+// ------------------------------------------------------------------------------------------------ light
+
+function hexToRgb(hex) {
+  const v = parseInt(hex.slice(1), 16);
+  return [((v >> 16) & 255) / 255, ((v >> 8) & 255) / 255, (v & 255) / 255];
+}
+
+// The light the user has set, before exposure: base (turned, scaled) + lamp + ambient; 27 numbers RGB.
+export function composedLight() {
+  let light = sh.scale(sh.rotateZ(state.base.light, (state.base.rotate * Math.PI) / 180), state.base.level);
+  const lamp = state.lamp;
+  if (lamp.on && lamp.intensity > 0) {
+    light = sh.add(light, sh.directional(lamp.direction, lamp.colour, lamp.intensity, (lamp.size * Math.PI) / 180));
+  }
+  if (state.ambient > 0) light = sh.add(light, sh.ambient([state.ambient, state.ambient, state.ambient]));
+  return light.map((v) => Math.fround(v));  // float32, as the server and the light files hold it
+}
+
+function exposureValue() {
+  const e = state.exposure;
+  return e.mode === "physical" ? "physical" : e.mode === "ev" ? e.ev : "auto";
+}
+
+// The light the preview shows: the server applies the exposure itself when its runtime supports it.
+function previewLight(light) {
+  if (!state.info.exposure || state.exposure.mode === "physical") return light;
+  const ev = state.exposure.mode === "ev" ? state.exposure.ev : 0;
+  const s = sh.exposureScale(state.layers, light, state.info.preview.exposure_target, ev, EXPOSURE_STEP);
+  return sh.scale(light, s);
+}
+
+// ------------------------------------------------------------------------------------------------ drawing
+
+function paint() {
+  if (!state.dirty || !state.preview) return;
+  state.dirty = false;
+  const t0 = performance.now();
+  state.preview.draw(previewLight(composedLight()));
+  if (state.measure) state.preview.finish();
+  const t1 = performance.now();
+  state.stats.frames += 1;
+  if (state.pendingInput !== null) {
+    state.stats.latencies.push(performance.now() - state.pendingInput);
+    state.pendingInput = null;
+  }
+  drawSphere();
+  state.stats.last = { preview: t1 - t0, sphere: performance.now() - t1 };
+}
+
+function lightChanged(event) {
+  state.seq += 1;
+  state.dirty = true;
+  if (event && state.pendingInput === null) state.pendingInput = event.timeStamp;
+  $("result").hidden = true;
+  for (const id of ["export-png", "export-npy", "export-json"]) $(id).classList.add("disabled");
+  setBadge(`live preview · diffuse · ${state.preview ? state.preview.kind : ""}`);
+  requestAnimationFrame(paint);
+}
+
+function setBadge(text) {
+  $("badge").textContent = text;
+}
+
+const sphereCanvas = () => $("sphere");
+
+function sphereGeometry() {
+  const c = sphereCanvas();
+  const half = c.width / 2;
+  return { c, half, radius: half / RHO_MAX - 6 };
+}
+
+// Per-pixel irradiance weights LOBE_l · Y_k(n) of the ball, computed once per canvas size.
+let sphereCache = null;
+
+function sphereWeights(size, radius) {
+  if (sphereCache && sphereCache.size === size) return sphereCache;
+  const index = [], weights = [];
+  for (let j = 0; j < size; j++) {
+    for (let i = 0; i < size; i++) {
+      const u = (i + 0.5 - radius) / radius, v = (radius - j - 0.5) / radius;
+      const r2 = u * u + v * v;
+      if (r2 > 1) continue;
+      const y = sh.basis(Math.sqrt(1 - r2), u, v);
+      index.push(j * size + i);
+      for (let k = 0; k < 9; k++) weights.push(sh.LOBE[sh.BAND[k]] * y[k]);
+    }
+  }
+  sphereCache = { size, index: Int32Array.from(index), weights: Float32Array.from(weights) };
+  return sphereCache;
+}
+
+function drawSphere() {
+  const { c, half, radius } = sphereGeometry();
+  const ctx = c.getContext("2d");
+  const px = c.width / 440;  // line widths and the marker are drawn for a 440-pixel canvas
+  ctx.clearRect(0, 0, c.width, c.height);
+  // the ring: behind the person
+  ctx.beginPath();
+  ctx.arc(half, half, radius * RHO_MAX, 0, 2 * Math.PI);
+  ctx.arc(half, half, radius, 0, 2 * Math.PI, true);
+  ctx.fillStyle = "#1c1f26";
+  ctx.fill();
+  ctx.fillStyle = "#6c7380";
+  ctx.font = `${Math.round(c.width / 20)}px system-ui, sans-serif`;
+  ctx.textAlign = "center";
+  ctx.fillText("behind", half, half - radius * (1 + RHO_MAX) / 2 + 5 * px);
+  // the ball, lit by the light the preview shows (irradiance of a white diffuse sphere, clipped)
+  const L = previewLight(composedLight());
+  const size = Math.ceil(2 * radius);
+  const { index, weights } = sphereWeights(size, radius);
+  const img = ctx.createImageData(size, size);
+  const data = img.data;
+  for (let p = 0; p < index.length; p++) {
+    const o = 4 * index[p], w = 9 * p;
+    for (let ch = 0; ch < 3; ch++) {
+      let e = 0;
+      for (let k = 0; k < 9; k++) e += weights[w + k] * L[3 * k + ch];
+      data[o + ch] = 255 * e;  // the clamped array clips to [0, 255]
+    }
+    data[o + 3] = 255;
+  }
+  const x0 = Math.round(half - radius), y0 = Math.round(half - radius);
+  ctx.putImageData(img, x0, y0);
+  // putImageData replaced the ring's pixels in the square; redraw the ring outside the ball
+  ctx.save();
+  ctx.beginPath();
+  ctx.rect(x0, y0, size, size);
+  ctx.arc(half, half, radius, 0, 2 * Math.PI, true);
+  ctx.clip();
+  ctx.beginPath();
+  ctx.arc(half, half, radius * RHO_MAX, 0, 2 * Math.PI);
+  ctx.arc(half, half, radius, 0, 2 * Math.PI, true);
+  ctx.fillStyle = "#1c1f26";
+  ctx.fill();
+  ctx.restore();
+  ctx.beginPath();
+  ctx.arc(half, half, radius, 0, 2 * Math.PI);
+  ctx.strokeStyle = "#3a404c";
+  ctx.lineWidth = 2 * px;
+  ctx.stroke();
+  // the lamp
+  const [u, v] = sh.directionToWidget(state.lamp.direction, RHO_MAX);
+  const x = half + u * radius, y = half - v * radius;
+  const behind = state.lamp.direction[0] < 0;
+  ctx.beginPath();
+  ctx.arc(x, y, px * (16 + state.lamp.size / 6), 0, 2 * Math.PI);
+  const [r, g, b] = state.lamp.colour.map((t) => Math.round(255 * t));
+  ctx.fillStyle = state.lamp.on ? `rgb(${r},${g},${b})` : "#555";
+  ctx.fill();
+  ctx.lineWidth = 3 * px;
+  ctx.setLineDash(behind ? [5 * px, 4 * px] : []);
+  ctx.strokeStyle = "#ffb347";
+  ctx.stroke();
+  ctx.setLineDash([]);
+}
+
+function pointerToDirection(event) {
+  const { c, half, radius } = sphereGeometry();
+  const rect = c.getBoundingClientRect();
+  const px = ((event.clientX - rect.left) / rect.width) * c.width;
+  const py = ((event.clientY - rect.top) / rect.height) * c.height;
+  return sh.widgetToDirection((px - half) / radius, (half - py) / radius, RHO_MAX);
+}
+
+// ------------------------------------------------------------------------------------------------ server
+
+// One message box; `source` ("render", "upload") so that a success clears only its own kind of error.
+function showMessage(text, source) {
+  const box = $("message");
+  if (!text && box.dataset.source !== source) return;
+  box.textContent = text || "";
+  box.dataset.source = source;
+  box.hidden = !text;
+}
+
+async function api(path, options) {
+  const res = await fetch(path, options);
+  if (!res.ok) {
+    let text = `${res.status} ${res.statusText}`;
+    try { text = (await res.json()).error || text; } catch (e) { /* not JSON */ }
+    throw new Error(text);
+  }
+  return res;
+}
+
+async function requestFull() {
+  const seq = state.seq;
+  const light = composedLight();
+  setBadge("live preview · full result on its way…");
+  try {
+    const res = await api("/api/render", {
+      method: "POST",
+      headers: { "Content-Type": "application/json" },
+      body: JSON.stringify({ light, exposure: exposureValue() }),
+    });
+    const out = await res.json();
+    if (seq !== state.seq) return;  // the light moved on meanwhile
+    const img = $("result");
+    img.onload = () => {
+      if (seq !== state.seq) return;
+      img.hidden = false;
+      state.result = { ...out, seq };
+      const stage = state.info.diffuse_only ? "diffuse only (no stage 2 model)" : "stage 2 + full-resolution detail";
+      setBadge(`full result · ${state.info.width}×${state.info.height} · ${stage} · ${(out.seconds * 1000).toFixed(0)} ms`);
+      setExport(out);
+    };
+    img.src = `/api/result/${out.id}.png`;
+    showMessage("", "render");
+  } catch (err) {
+    showMessage(`full result failed: ${err.message}`, "render");
+  }
+}
+
+function setExport(out) {
+  const links = { "export-png": `/api/result/${out.id}.png?download=1`,
+    "export-npy": `/api/result/${out.id}/light.npy?download=1`,
+    "export-json": `/api/result/${out.id}/light.json?download=1` };
+  for (const [id, href] of Object.entries(links)) {
+    const a = $(id);
+    a.href = href;
+    a.classList.remove("disabled");
+  }
+  $("command").textContent = out.command;
+  $("copy-command").disabled = false;
+}
+
+async function uploadLight(input, path, label) {
+  const file = input.files && input.files[0];
+  if (!file) return;
+  const limit = state.info.max_upload_mb * 1024 * 1024;
+  try {
+    if (file.size > limit) throw new Error(`${label}: the file is larger than ${state.info.max_upload_mb} MiB`);
+    const res = await api(path, { method: "POST", body: file, headers: { "Content-Type": "application/octet-stream" } });
+    const { light } = await res.json();
+    const name = `upload:${file.name}`;
+    const select = $("base");
+    let option = [...select.options].find((o) => o.value === name);
+    if (!option) {
+      option = new Option(`${label}: ${file.name}`, name);
+      select.add(option);
+    }
+    state.uploads[name] = light.flat();
+    select.value = name;
+    setBase(name);
+    showMessage("", "upload");
+  } catch (err) {
+    showMessage(err.message, "upload");
+  } finally {
+    input.value = "";
+  }
+}
+
+// ------------------------------------------------------------------------------------------------ panel
+
+function setBase(name) {
+  const info = state.info;
+  state.base.name = name;
+  if (name === "none") state.base.light = sh.zeros();
+  else if (name === "own") state.base.light = info.own_light.flat();
+  else if (name.startsWith("preset:")) state.base.light = info.presets[name.slice(7)].flat();
+  else state.base.light = state.uploads[name];
+  lightChanged();
+  requestFull();
+}
+
+function bindSlider(id, apply, format) {
+  const input = $(id);
+  const out = input.parentElement.querySelector("output");
+  const show = () => { if (out) out.textContent = format(Number(input.value)); };
+  show();
+  input.addEventListener("input", (e) => { apply(Number(input.value)); show(); lightChanged(e); });
+  input.addEventListener("change", () => requestFull());
+}
+
+function bindPanel() {
+  const info = state.info;
+  const select = $("base");
+  for (const name of Object.keys(info.presets)) select.add(new Option(`preset: ${name}`, `preset:${name}`));
+  select.addEventListener("change", () => setBase(select.value));
+  state.uploads = {};
+
+  bindSlider("lamp-intensity", (v) => { state.lamp.intensity = v; }, (v) => v.toFixed(2));
+  bindSlider("lamp-size", (v) => { state.lamp.size = v; }, (v) => `${v}°`);
+  bindSlider("ambient", (v) => { state.ambient = v; }, (v) => v.toFixed(2));
+  bindSlider("base-rotate", (v) => { state.base.rotate = v; }, (v) => `${v}°`);
+  bindSlider("base-level", (v) => { state.base.level = v; }, (v) => v.toFixed(2));
+  bindSlider("exposure-ev", (v) => { state.exposure.ev = v; }, (v) => `${v > 0 ? "+" : ""}${v.toFixed(1)}`);
+  $("lamp-on").addEventListener("change", (e) => { state.lamp.on = e.target.checked; lightChanged(e); requestFull(); });
+  const colour = $("lamp-colour");
+  colour.addEventListener("input", (e) => { state.lamp.colour = hexToRgb(colour.value); lightChanged(e); });
+  colour.addEventListener("change", () => requestFull());
+  const mode = $("exposure-mode");
+  mode.addEventListener("change", (e) => { state.exposure.mode = mode.value; lightChanged(e); requestFull(); });
+  if (!info.exposure) {  // this runtime's Relighter.relight keeps the light as set
+    mode.value = "physical";
+    state.exposure.mode = "physical";
+    mode.disabled = true;
+    $("exposure-ev").disabled = true;
+    const note = $("exposure-note");
+    note.textContent = "This runtime has no exposure control yet: the light is used as set (physical).";
+    note.hidden = false;
+  }
+  $("envmap-file").addEventListener("change", (e) => uploadLight(e.target, "/api/envmap", "environment map"));
+  $("photo-file").addEventListener("change", (e) => uploadLight(e.target, "/api/photo-light", "photo"));
+  $("copy-command").addEventListener("click", () => navigator.clipboard && navigator.clipboard.writeText($("command").textContent));
+
+  const sphere = sphereCanvas();
+  const side = Math.round(220 * Math.min(2, Math.max(1, window.devicePixelRatio || 1)));  // sharp, not wasteful
+  sphere.width = side;
+  sphere.height = side;
+  let dragging = false;
+  sphere.addEventListener("pointerdown", (e) => {
+    dragging = true;
+    sphere.setPointerCapture(e.pointerId);
+    state.lamp.direction = pointerToDirection(e);
+    lightChanged(e);
+  });
+  sphere.addEventListener("pointermove", (e) => {
+    if (!dragging) return;
+    state.lamp.direction = pointerToDirection(e);
+    lightChanged(e);
+  });
+  const release = () => {
+    if (!dragging) return;
+    dragging = false;
+    requestFull();
+  };
+  sphere.addEventListener("pointerup", release);
+  sphere.addEventListener("pointercancel", release);
+  // keyboard: arrows turn the lamp about the vertical axis (left/right) or raise and lower it (up/down)
+  sphere.addEventListener("keydown", (e) => {
+    const step = (5 * Math.PI) / 180;
+    const [x, y, z] = state.lamp.direction;
+    let azimuth = Math.atan2(y, x), elevation = Math.asin(Math.max(-1, Math.min(1, z / Math.hypot(x, y, z))));
+    if (e.key === "ArrowLeft") azimuth -= step;
+    else if (e.key === "ArrowRight") azimuth += step;
+    else if (e.key === "ArrowUp") elevation = Math.min(Math.PI / 2, elevation + step);
+    else if (e.key === "ArrowDown") elevation = Math.max(-Math.PI / 2, elevation - step);
+    else return;
+    e.preventDefault();
+    const h = Math.cos(elevation);
+    state.lamp.direction = [h * Math.cos(azimuth), h * Math.sin(azimuth), Math.sin(elevation)];
+    lightChanged(e);
+  });
+  sphere.addEventListener("keyup", (e) => { if (e.key.startsWith("Arrow")) requestFull(); });
+}
+
+// ------------------------------------------------------------------------------------------------ start
+
+async function start() {
+  try {
+    state.info = await (await api("/api/info")).json();
+    const info = state.info;
+    $("photo-name").textContent = `${info.photo} · ${info.width}×${info.height}`;
+    const buffer = await (await api("/api/layers")).arrayBuffer();
+    state.layers = decodeLayers(buffer, info.preview);
+    const renderer = new URLSearchParams(location.search).get("renderer") || "auto";
+    state.preview = createPreview($("preview"), state.layers,
+      { checker: info.background === "transparent", renderer, light: composedLight() });
+    bindPanel();
+    const timings = state.preview.timings;
+    const speed = timings ? ` (${timings[state.preview.kind].toFixed(0)} ms a frame)` : "";
+    $("status").textContent = `live preview ${info.preview.width}×${info.preview.height} · ${state.preview.kind}${speed}`;
+    lightChanged();
+    paint();
+    document.body.dataset.ready = "1";
+    await requestFull();
+  } catch (err) {
+    $("status").textContent = "failed to start";
+    showMessage(err.message, "start");
+  }
+}
+
+// for tests and benchmarks
+window.studio = { sh, state, composedLight, previewLight, paint, requestFull, decodeLayers, createPreview };
+start();

@@ -1,0 +1,298 @@
+"""relight-rt studio in a real browser: Debian's chromium (headless, no download) driven by Playwright.
+
+The page is served by the studio's own server (uvicorn, a free port on 127.0.0.1) for the bundled
+example person and the bundled models (their transport has real left/right structure; the tiny test
+graphs' transport faces the camera everywhere). Skipped when fastapi, uvicorn, playwright or the
+chromium binary (/usr/bin/chromium, or $RELIGHT_RT_CHROMIUM) are absent; .ci/install-browser installs it.
+"""
+
+from __future__ import annotations
+
+import base64
+import math
+import os
+import shlex
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+pytest.importorskip("fastapi")
+uvicorn = pytest.importorskip("uvicorn")
+sync_api = pytest.importorskip("playwright.sync_api")
+
+import relight_rt  # noqa: E402
+from relight_rt import Relighter, lights, sh  # noqa: E402
+from relight_rt.demo import example_path  # noqa: E402
+from relight_rt.studio import create_app  # noqa: E402
+from relight_rt.studio.core import Studio, mean_luminance_scale, unpack_layers  # noqa: E402
+
+REPO = Path(__file__).resolve().parents[1]
+CHROMIUM = os.environ.get("RELIGHT_RT_CHROMIUM", "/usr/bin/chromium")
+BUNDLED = Path(relight_rt.__file__).resolve().parent / "models"
+# headless, offline, no sandbox (root in CI), software WebGL (SwiftShader through ANGLE)
+CHROMIUM_ARGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--disable-dev-shm-usage",
+    "--use-angle=swiftshader",
+    "--enable-unsafe-swiftshader",
+]
+
+if not Path(CHROMIUM).is_file():
+    pytest.skip(f"no chromium at {CHROMIUM} (run .ci/install-browser)", allow_module_level=True)
+
+
+@pytest.fixture(scope="module")
+def studio():
+    return Studio(example_path(), None, "original", Relighter(BUNDLED, device="cpu"))
+
+
+@pytest.fixture(scope="module")
+def server(studio):
+    srv = uvicorn.Server(uvicorn.Config(create_app(studio), host="127.0.0.1", port=0, log_level="warning"))
+    thread = threading.Thread(target=srv.run, daemon=True)
+    thread.start()
+    deadline = time.monotonic() + 20
+    while not srv.started:
+        if time.monotonic() > deadline or not thread.is_alive():
+            pytest.fail("the studio server did not start")
+        time.sleep(0.02)
+    port = srv.servers[0].sockets[0].getsockname()[1]
+    yield f"http://127.0.0.1:{port}"
+    srv.should_exit = True
+    thread.join(10)
+
+
+@pytest.fixture(scope="module")
+def browser(tmp_path_factory):
+    with sync_api.sync_playwright() as p:
+        context = p.chromium.launch_persistent_context(
+            str(tmp_path_factory.mktemp("chromium-profile")),  # a fresh --user-data-dir
+            executable_path=CHROMIUM,
+            headless=True,
+            args=CHROMIUM_ARGS,
+            accept_downloads=True,
+            viewport={"width": 1280, "height": 800},
+        )
+        yield context
+        context.close()
+
+
+def open_page(browser, url: str):
+    page = browser.new_page()
+    errors: list[str] = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    page.goto(url)
+    page.wait_for_selector("body[data-ready='1']", timeout=30_000)
+    assert not errors, errors
+    return page
+
+
+def canvas_rgb(page) -> np.ndarray:
+    """The preview canvas as (h, w, 3) uint8 RGB (painted and read in one task: WebGL keeps no drawing buffer)."""
+    url = page.evaluate(
+        "() => { studio.state.dirty = true; studio.paint();"
+        " return document.getElementById('preview').toDataURL('image/png'); }"
+    )
+    data = base64.b64decode(url.split(",", 1)[1])
+    return cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)[..., ::-1]
+
+
+def halves(image: np.ndarray, mask: np.ndarray) -> tuple[float, float]:
+    """Mean luminance of the person's left and right halves (split at the mask's centre column)."""
+    luma = image.astype(np.float32) @ np.array([0.2126, 0.7152, 0.0722], np.float32)
+    cols = np.arange(mask.shape[1])[None, :]
+    centre = float((mask * cols).sum() / mask.sum())
+    left, right = mask * (cols < centre), mask * (cols >= centre)
+    return float((luma * left).sum() / left.sum()), float((luma * right).sum() / right.sum())
+
+
+def lamp_and_left_edge(page) -> tuple[tuple[float, float], tuple[float, float]]:
+    """Client coordinates of the lamp marker and of a point on the sphere's left (u = -0.8: a lamp in front,
+    to the image's left)."""
+    return page.evaluate(
+        """() => {
+        const c = document.getElementById('sphere'), r = c.getBoundingClientRect();
+        const rhoMax = 1.3, half = c.width / 2, radius = half / rhoMax - 6, k = r.width / c.width;
+        const [u, v] = studio.sh.directionToWidget(studio.state.lamp.direction, rhoMax);
+        return [[r.left + (half + u * radius) * k, r.top + (half - v * radius) * k],
+                [r.left + (half - 0.8 * radius) * k, r.top + half * k]];
+    }"""
+    )
+
+
+def drag(page, start, end, steps: int = 12) -> None:
+    page.mouse.move(*start)
+    page.mouse.down()
+    page.mouse.move(*end, steps=steps)
+    page.mouse.up()
+
+
+# ------------------------------------------------------------------------------------------------ tests
+
+
+def test_js_lights_match_python(browser, server):
+    page = open_page(browser, server)
+    cases = [
+        ((1, 0, 0), (1, 1, 1), 1.0, 0.0),
+        ((0.3, -1, 0.4), (1, 0.5, 0.2), 2.5, 0.35),
+        ((-1, 0.2, -0.3), (0.2, 0.4, 1), 0.7, 1.4),
+    ]
+    for direction, colour, intensity, radius in cases:
+        js = page.evaluate("a => studio.sh.directional(...a)", [direction, colour, intensity, radius])
+        py = lights.directional(direction, colour, intensity, radius)
+        np.testing.assert_allclose(np.array(js).reshape(9, 3), py, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(
+        np.array(page.evaluate("studio.sh.ambient([0.1, 0.2, 0.3])")).reshape(9, 3),
+        lights.ambient((0.1, 0.2, 0.3)),
+        atol=1e-12,
+    )
+    base = lights.preset("studio")
+    for angle in (0.3, -2.0, math.pi):
+        js = page.evaluate("a => studio.sh.rotateZ(a[0], a[1])", [base.ravel().tolist(), angle])
+        np.testing.assert_allclose(np.array(js).reshape(9, 3), sh.rotate_z(base, angle), atol=1e-12)
+    normal = np.array([0.48, -0.6, 0.64])
+    js = page.evaluate("a => studio.sh.irradiance(a[0], a[1])", [base.ravel().tolist(), normal.tolist()])
+    np.testing.assert_allclose(js, sh.irradiance(base, normal), atol=1e-12)
+    for d in ((1, 0, 0), (0.2, -0.9, 0.3), (-0.5, 0.6, 0.2), (-1, 0, 0)):
+        back = page.evaluate("d => studio.sh.widgetToDirection(...studio.sh.directionToWidget(d, 1.3), 1.3)", list(d))
+        np.testing.assert_allclose(back, np.array(d) / np.linalg.norm(d), atol=1e-9)
+    page.close()
+
+
+@pytest.mark.parametrize("renderer", ["webgl", "canvas"])
+def test_preview_is_the_diffuse_image(browser, server, studio, renderer):
+    page = open_page(browser, f"{server}/?renderer={renderer}")
+    kind = page.evaluate("studio.state.preview.kind")
+    if renderer == "webgl" and kind != "WebGL 2":
+        pytest.skip(f"no WebGL 2 in this chromium (preview runs on {kind})")
+    light = lights.preset("neon") + lights.directional((0.5, 0.7, 0.5), (1, 0.9, 0.8), 0.8, 0.2)
+    page.evaluate(
+        "L => { const s = studio.state; s.lamp.on = false; s.ambient = 0; s.exposure.mode = 'physical';"
+        " s.base.light = L; s.base.rotate = 0; s.base.level = 1; }",
+        light.ravel().tolist(),
+    )
+    got = canvas_rgb(page).astype(np.int16)
+    meta = studio.info()["preview"]
+    layers = unpack_layers(studio.layers_bytes(), meta)
+    lit = light.astype(np.float32)
+    shade = np.maximum(np.einsum("khw,kc->hwc", layers["transport"], lit), 0)
+    diffuse = np.clip(layers["albedo"].transpose(1, 2, 0) * shade, 0, 1)
+    want = layers["background"].transpose(1, 2, 0) * (1 - layers["mask"][..., None]) + diffuse
+    want = np.rint(np.clip(want, 0, 1) * 255).astype(np.int16)
+    diff = np.abs(got - want)
+    assert got.shape == want.shape
+    assert diff.max() <= 2 and diff.mean() < 0.2, (diff.max(), diff.mean())
+    page.close()
+
+
+def test_drag_lamp_left_brightens_the_left_side(browser, server, studio):
+    page = open_page(browser, server)
+    mask = unpack_layers(studio.layers_bytes(), studio.info()["preview"])["mask"]
+    before = halves(canvas_rgb(page), mask)
+    lamp, left = lamp_and_left_edge(page)
+    drag(page, lamp, left)
+    direction = page.evaluate("studio.state.lamp.direction")
+    assert direction[1] < -0.75 and direction[0] > 0.5  # the lamp now shines from the front left
+    page.wait_for_function("() => studio.state.dirty === false")
+    after = halves(canvas_rgb(page), mask)
+    assert after[0] > before[0] * 1.1, (before, after)  # the left side brightens ...
+    assert after[0] / after[1] > 1.2 * before[0] / before[1], (before, after)  # ... relative to the right
+    # on release the full result arrives and replaces the preview
+    page.wait_for_selector("#result:not([hidden])", timeout=30_000)
+    assert "full result" in page.text_content("#badge")
+    page.close()
+
+
+def test_arrow_keys_move_the_lamp(browser, server):
+    page = open_page(browser, server)
+    page.focus("#sphere")
+    y0 = page.evaluate("studio.state.lamp.direction[1]")
+    for _ in range(6):
+        page.keyboard.press("ArrowLeft")
+    y1 = page.evaluate("studio.state.lamp.direction[1]")
+    assert y1 < y0 - 0.3  # turned toward the image's left
+    page.close()
+
+
+def test_export_is_what_the_cli_makes(browser, server, tmp_path):
+    page = open_page(browser, server)
+    lamp, left_edge = lamp_and_left_edge(page)
+    drag(page, lamp, ((lamp[0] + left_edge[0]) / 2, lamp[1] + 25))
+    page.fill("#ambient", "0.3")
+    page.dispatch_event("#ambient", "input")
+    page.dispatch_event("#ambient", "change")
+    page.wait_for_function("() => studio.state.result && studio.state.result.seq === studio.state.seq", timeout=30_000)
+    files = {}
+    for button in ("export-png", "export-npy", "export-json"):
+        with page.expect_download() as info:
+            page.click(f"#{button}")
+        download = info.value
+        files[button] = tmp_path / download.suggested_filename
+        download.save_as(files[button])
+    assert files["export-png"].name == "example_relit.png" and files["export-npy"].name == "example_light.npy"
+    light = np.load(files["export-npy"], allow_pickle=False)
+    np.testing.assert_array_equal(light, np.array(page.evaluate("studio.composedLight()"), np.float32).reshape(9, 3))
+    np.testing.assert_array_equal(sh.load_light(files["export-json"]), light)
+    # run the command line the page shows, with the downloaded light and a fresh output path
+    args = shlex.split(page.text_content("#command"))
+    assert args[:2] == ["relight-rt", "relight"]
+    args[args.index("--light") + 1] = str(files["export-npy"])
+    out = tmp_path / "cli.png"
+    args[args.index("-o") + 1] = str(out)
+    env = {k: v for k, v in os.environ.items() if k != "RELIGHT_RT_MODELS"}
+    cmd = [sys.executable, "-m", "relight_rt", *args[1:], "--device", "cpu"]
+    subprocess.run(cmd, cwd=REPO, env=env, check=True, capture_output=True)
+    exported = cv2.imread(str(files["export-png"]), cv2.IMREAD_UNCHANGED)
+    made = cv2.imread(str(out), cv2.IMREAD_UNCHANGED)
+    assert exported.shape == made.shape == (508, 290, 3)
+    np.testing.assert_array_equal(exported, made)
+    page.close()
+
+
+def test_bad_upload_shows_a_message_and_the_server_keeps_serving(browser, server):
+    page = open_page(browser, server)
+    page.set_input_files("#envmap-file", files=[{"name": "sky.hdr", "mimeType": "image/vnd.radiance", "buffer": b"no"}])
+    page.wait_for_selector("#message:not([hidden])", timeout=10_000)
+    assert "environment map: expected" in page.text_content("#message")
+    rgb = np.full((8, 8, 3), 128, np.uint8)  # a photo without alpha: no mask
+    page.set_input_files(
+        "#photo-file",
+        files=[{"name": "p.png", "mimeType": "image/png", "buffer": cv2.imencode(".png", rgb)[1].tobytes()}],
+    )
+    page.wait_for_function("() => document.getElementById('message').textContent.includes('alpha')", timeout=10_000)
+    # still serving: a good env map becomes the base light, the message goes away
+    env = np.zeros((16, 32, 3), np.float32)
+    env[:8] = 2.0  # bright sky above
+    ok, hdr = cv2.imencode(".hdr", env)
+    page.set_input_files(
+        "#envmap-file", files=[{"name": "sky.hdr", "mimeType": "image/vnd.radiance", "buffer": hdr.tobytes()}]
+    )
+    page.wait_for_selector("#message[hidden]", state="attached", timeout=10_000)
+    assert page.evaluate("document.getElementById('base').value") == "upload:sky.hdr"
+    assert page.evaluate("fetch('/api/info').then(r => r.status)") == 200
+    page.close()
+
+
+def test_exposure_rule_in_js_matches_python(browser, server, studio):
+    page = open_page(browser, server)
+    light = lights.preset("golden-hour").astype(np.float32)
+    js = page.evaluate("L => studio.sh.exposureScale(studio.state.layers, L, 0.3, 0.5, 1)", light.ravel().tolist())
+    layers = unpack_layers(studio.layers_bytes(), studio.info()["preview"])
+    py = mean_luminance_scale(
+        layers["albedo"].transpose(1, 2, 0), layers["transport"].transpose(1, 2, 0), layers["mask"], light, 0.3, 0.5
+    )
+    assert js == pytest.approx(py, rel=1e-4)
+    page.close()
