@@ -21,8 +21,12 @@ META_COLOR = "relight_rt.color"
 META_SH_DEGREE = "relight_rt.sh_degree"
 META_NORM = "relight_rt.norm"
 META_SOURCE = "relight_rt.source"
+# Informational, stage2/dvp graphs written by this project: the network's output activation ("none" as the
+# reference's, or "tanh", a training option). The graph computes it; the runtime does not read this key.
+META_OUTPUT_ACTIVATION = "relight_rt.output_activation"
 
 NORMS = ("batch", "instance")
+OUTPUT_ACTIVATIONS = ("none", "tanh")
 
 
 @dataclass(frozen=True)
