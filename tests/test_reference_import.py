@@ -170,8 +170,7 @@ def _evil_files(tmp_path, marker) -> dict[str, object]:
     return files
 
 
-@pytest.mark.filterwarnings("ignore:Detected pickle protocol")  # torch.load notes the protocol-4 file, then refuses it
-def test_malicious_checkpoints_are_refused_by_both_paths(tmp_path):
+def test_malicious_checkpoints_are_refused_without_running_anything(tmp_path):
     marker = tmp_path / "marker"
     files = _evil_files(tmp_path, marker)
     for what, path in files.items():
@@ -182,10 +181,22 @@ def test_malicious_checkpoints_are_refused_by_both_paths(tmp_path):
                 import_reference(tmp_path / "out", stage2=path, width=WIDTH, resolution=RES)
         assert not marker.exists(), what
     assert not (tmp_path / "out").exists()
-    # the same files through the torch path (export.convert: torch.load(weights_only=True))
+    # control: the payloads are real, an ordinary unpickler runs them (a harmless touch in tmp_path)
+    for what in ("os.system", "builtins.eval"):
+        with zipfile.ZipFile(files[what]) as z:
+            pickle.loads(z.read("archive/data.pkl"))  # noqa: S301 - deliberately unsafe, to prove the point
+        assert marker.exists(), what
+        marker.unlink()
+
+
+@pytest.mark.filterwarnings("ignore:Detected pickle protocol")  # torch.load notes the protocol-4 file, then refuses it
+def test_malicious_checkpoints_are_refused_by_the_torch_path_too(tmp_path):
+    """export.convert reads with torch.load(weights_only=True): the same files, and one written by torch.save."""
     torch = pytest.importorskip("torch")
     from export.convert import load_reference
 
+    marker = tmp_path / "marker"
+    files = _evil_files(tmp_path, marker)
     torch.save({"c0.weight": torch.zeros(1), "x": _RunsCode(os.system, f"touch {marker}")}, tmp_path / "saved.pth")
     for path in [*files.values(), tmp_path / "saved.pth"]:
         with pytest.raises(RelightError):
