@@ -118,6 +118,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--dvp-max-epochs", type=int, default=100)
     parser.add_argument("--dvp-patience", type=int, default=8)
     parser.add_argument("--dvp-ema", type=float, help="DVP weight average decay per step (export.dvp; default off)")
+    parser.add_argument("--dvp-output-activation", choices=("none", "tanh"), default="none",
+                        help="DVP output activation: none (the reference's) or tanh (the runs in docs/RESULTS.md "
+                             "made before 2026-11-23 21:50)")
     parser.add_argument("--vgg-weights", help="local VGG19 weights for the DVP perceptual loss")
     parser.add_argument("--skip-dvp", action="store_true", help="only frame-by-frame and the stabiliser")
     parser.add_argument("--dvp-variants", default="unconditioned,conditioned",
@@ -167,7 +170,7 @@ def main(argv: list[str] | None = None) -> int:
             t0 = time.perf_counter()
             model, history = fit_dvp(clip, conditioned=conditioned, width=args.dvp_width, vgg_weights=args.vgg_weights,
                                      max_epochs=args.dvp_max_epochs, patience=args.dvp_patience, device=args.device,
-                                     ema=args.dvp_ema)
+                                     ema=args.dvp_ema, output_activation=args.dvp_output_activation)
             fit_seconds = time.perf_counter() - t0
             (out / f"{tag}.fit.json").write_text(json.dumps(history, indent=1))
             export_dvp(model, out / f"{tag}.onnx", source=f"video_eval {tag}")

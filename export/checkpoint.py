@@ -7,6 +7,9 @@ strings, so that it loads with ``torch.load(weights_only=True)``::
      "config": model.config, "state_dict": model.state_dict(), **extra}
 
 ``extra`` is whatever the training loop adds (epoch, optimizer state, losses, ...).
+
+Stage-2 and DVP configs carry ``output_activation`` ("none" | "tanh"); a checkpoint written before that
+key existed holds a network that ended in tanh and is loaded as one.
 """
 
 from __future__ import annotations
@@ -31,6 +34,7 @@ __all__ = ["FORMAT", "check_state_dict", "load_checkpoint", "read_weights", "sav
 log = logging.getLogger(__name__)
 
 FORMAT = "relight_rt.ckpt/1"
+LEGACY_OUTPUT_ACTIVATION = "tanh"  # stage2/dvp checkpoints whose config has no "output_activation"
 _RESERVED = ("format", "kind", "config", "state_dict")
 
 
@@ -145,6 +149,10 @@ def load_checkpoint(path: str | os.PathLike, map_location: str | torch.device = 
     kind, config = ckpt.get("kind"), ckpt.get("config")
     if not isinstance(config, dict):
         raise RelightError(f"{path}: 'config' must be a dict, got {type(config).__name__}")
+    if kind in ("stage2", "dvp") and "output_activation" not in config:
+        # written before the option existed, when every stage-2 and DVP network ended in tanh
+        config = {**config, "output_activation": LEGACY_OUTPUT_ACTIVATION}
+        log.info("%s: a %s checkpoint from before output_activation was recorded: read as 'tanh'", path, kind)
     try:
         model = build_network(str(kind), config)
     except TypeError as exc:

@@ -11,8 +11,9 @@ the relighting without its flicker.
   explicit input, so the network can follow a moving light instead of averaging it away.
 - Unconditioned (``--unconditioned``): the frame only (3 channels), for comparison; its ONNX graph
   still has the contract's ``light`` input, which it ignores (see :func:`export_dvp`).
-- Output: ``tanh``; the relit frame is ``clip((out + 1) / 2, 0, 1)``, masked (as the exported graph
-  computes it), so the loss compares ``(out + 1) / 2`` with the target inside the mask.
+- Output: no activation, as the reference's (``--output-activation tanh`` bounds it, a recorded option);
+  the relit frame is ``clip((out + 1) / 2, 0, 1)``, masked (as the exported graph computes it), so the
+  loss compares ``(out + 1) / 2`` with the target inside the mask.
 - Loss: perceptual (L1 + VGG19 features, ``export.vgg``) when ``--vgg-weights`` names a local
   VGG19 file; otherwise the fallback L1 + spatial-frequency loss (``export.losses``, the stage-1
   SF loss, weight ``--sf-weight``). The chosen loss is logged and written to the fit log.
@@ -197,7 +198,7 @@ class _FlickerMeter:
 def fit_dvp(clip: dict[str, np.ndarray], conditioned: bool = True, width: int = 64, norm: str = "instance",
             vgg_weights: str | os.PathLike | None = None, sf_weight: float = 1.0, lr: float = 1e-4,
             max_epochs: int = 100, min_epochs: int = 3, patience: int = 8, max_seconds: float | None = None,
-            seed: int = 0, device: str = "cpu", ema: float | None = None):
+            seed: int = 0, device: str = "cpu", ema: float | None = None, output_activation: str = "none"):
     """Fit a DVP network to one clip and return the best epoch's network.
 
     Args:
@@ -212,6 +213,7 @@ def fit_dvp(clip: dict[str, np.ndarray], conditioned: bool = True, width: int = 
         ema: None (the paper): predict and keep the trained weights; a decay in [0, 1): an exponential
             moving average of the weights, updated after every step, is what each epoch's prediction,
             the stopping score and the returned network use (module docstring, "Weight average").
+        output_activation: "none" (the reference) or "tanh".
 
     Returns:
         (model in eval mode with the best weights, history dict: per-epoch fit/flicker/score, best epoch,
@@ -230,7 +232,8 @@ def fit_dvp(clip: dict[str, np.ndarray], conditioned: bool = True, width: int = 
     masks = torch.from_numpy(_pad64(clip["masks"]))[:, None].contiguous().to(device)
     lights = torch.from_numpy(clip["lights"]).to(device)
     resolution = max(64, 64 * math.ceil(max(h, w) / 64))
-    model = DVPNet(width=width, resolution=resolution, norm=norm, conditioned=conditioned).to(device)
+    model = DVPNet(width=width, resolution=resolution, norm=norm, conditioned=conditioned,
+                   output_activation=output_activation).to(device)
     optim = torch.optim.Adam(model.parameters(), lr=lr, betas=(0.5, 0.999))
     averaged = None
     if ema is not None:
@@ -327,6 +330,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--size", type=int, help="working size of the long side (default: the frames' own)")
     parser.add_argument("--width", type=int, default=64, help="network base width (64 = reference)")
     parser.add_argument("--norm", choices=("instance", "batch"), default="instance")
+    parser.add_argument("--output-activation", choices=("none", "tanh"), default="none",
+                        help="network output activation: none (the reference's, default) or tanh")
     parser.add_argument("--max-epochs", type=int, default=100)
     parser.add_argument("--min-epochs", type=int, default=3)
     parser.add_argument("--patience", type=int, default=8, help="epochs without a better score before stopping")
@@ -357,6 +362,7 @@ def _ignore_light(model):
             super().__init__()
             self.net = net
             self.resolution, self.norm = net.resolution, net.norm
+            self.output_activation = net.output_activation
 
         @property
         def config(self) -> dict:
@@ -391,7 +397,8 @@ def run(args: argparse.Namespace) -> int:
                              vgg_weights=args.vgg_weights, sf_weight=args.sf_weight, max_epochs=args.max_epochs,
                              min_epochs=args.min_epochs, patience=args.patience,
                              max_seconds=None if args.max_minutes is None else 60 * args.max_minutes,
-                             seed=args.seed, device=args.device, ema=args.ema)
+                             seed=args.seed, device=args.device, ema=args.ema,
+                             output_activation=args.output_activation)
     kind = "light-conditioned" if not args.unconditioned else "unconditioned"
     source = (f"fit-dvp {kind} on {Path(args.frames).name} ({history['frames']} frames, "
               f"{history['size'][1]}x{history['size'][0]}), epoch {history['best_epoch']}, loss {history['loss']}")

@@ -34,10 +34,14 @@ so each image of a batch gives exactly what it gives alone.
 
 **Outputs** (never masked here; callers mask): stage 1 returns the transport raw, albedo and skin
 through a sigmoid, and the light (N, 9, 3) with output channel 3k + c → light[k, c]. Stage 2 and the
-DVP net return ``tanh`` of decoder ``b`` (values in [-1, 1]), as the reference code does for both
-(its ``train_baseline = False`` path; DESIGN.md §1 says "none", which would not reproduce
-``model_2nd.pth``). Colour order is that of the weights: RGB for ours, BGR for the
-reference's (``export.convert`` permutes those to RGB).
+DVP net return decoder ``b`` as it is (its last conv, upsampled; no activation), as the reference code
+does for both (its ``train_baseline = False`` path; DESIGN.md §1). ``output_activation="tanh"`` is a
+training option of ours, not the reference's: it bounds the output to [-1, 1]. It is part of the
+network's config (so of every checkpoint) and is written into the exported graph's metadata
+(``relight_rt.output_activation``); converted reference checkpoints never use it. Checkpoints saved
+before the option existed were all trained with tanh, and :func:`export.checkpoint.load_checkpoint`
+reads them so. Colour order is that of the weights: RGB for ours, BGR for the reference's
+(``export.convert`` permutes those to RGB).
 """
 
 from __future__ import annotations
@@ -47,7 +51,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from relight_rt import RelightError
-from relight_rt.contract import NORMS
+from relight_rt.contract import NORMS, OUTPUT_ACTIVATIONS
 
 __all__ = ["DVPNet", "Stage1Net", "Stage2Net", "build_network", "NETWORKS", "light_head_depth"]
 
@@ -246,14 +250,22 @@ class Stage2Net(_RelightNet):
         width: base channel count (64 = reference).
         resolution: training size (a multiple of 64); the network runs on any H, W divisible by 64.
         norm: "batch" or "instance".
+        output_activation: "none" (the reference) or "tanh" (a training option of ours, module docstring).
 
     The transport decoder and light head exist (the reference checkpoints carry them) but are unused.
     """
 
     kind = "stage2"
 
-    def __init__(self, width: int = 64, resolution: int = 1024, norm: str = "batch") -> None:
+    def __init__(
+        self, width: int = 64, resolution: int = 1024, norm: str = "batch", output_activation: str = "none"
+    ) -> None:
         super().__init__(3, 3, width, resolution, norm)
+        self.output_activation = _check_activation(output_activation)
+
+    @property
+    def config(self) -> dict:
+        return {**super().config, "output_activation": self.output_activation}
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         """Run stage 2.
@@ -262,11 +274,12 @@ class Stage2Net(_RelightNet):
             x: (N, 3, H, W) float, ``(2 * diffuse - 1) * mask``, H and W multiples of 64.
 
         Returns:
-            residual (N, 3, H, W) in [-1, 1] (tanh, as the reference), not masked; relit = clip(diffuse + residual).
+            residual (N, 3, H, W), not masked (unbounded as the reference's; in [-1, 1] with tanh);
+            relit = clip(diffuse + residual, 0, 1).
         """
         self._check_input(x, 3, square=False)
         feats = self._encode(x)
-        return torch.tanh(self._decode(self.rb(feats[5]), feats, "b"))
+        return _activate(self._decode(self.rb(feats[5]), feats, "b"), self.output_activation)
 
 
 class DVPNet(_RelightNet):
@@ -277,17 +290,26 @@ class DVPNet(_RelightNet):
         resolution: training size (a multiple of 64); runs on any H, W divisible by 64.
         norm: "batch" or "instance".
         conditioned: True: input = frame (3) + tiled light (27); False: the frame only.
+        output_activation: "none" (the reference) or "tanh" (a training option of ours, module docstring).
     """
 
     kind = "dvp"
 
-    def __init__(self, width: int = 64, resolution: int = 1024, norm: str = "batch", conditioned: bool = True) -> None:
+    def __init__(
+        self,
+        width: int = 64,
+        resolution: int = 1024,
+        norm: str = "batch",
+        conditioned: bool = True,
+        output_activation: str = "none",
+    ) -> None:
         self.conditioned = bool(conditioned)
         super().__init__(30 if self.conditioned else 3, 3, width, resolution, norm)
+        self.output_activation = _check_activation(output_activation)
 
     @property
     def config(self) -> dict:
-        return {**super().config, "conditioned": self.conditioned}
+        return {**super().config, "conditioned": self.conditioned, "output_activation": self.output_activation}
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         """Run the DVP network.
@@ -297,12 +319,22 @@ class DVPNet(_RelightNet):
                channel 3 + 3k + c = light[k, c] at every pixel (not masked, not rescaled).
 
         Returns:
-            (N, 3, H, W) in [-1, 1] (tanh); the relit frame is ``clip((out + 1) / 2, 0, 1)``, i.e. the
-            network is fitted to ``2 * target - 1`` as in the reference.
+            (N, 3, H, W) (no activation as the reference's; in [-1, 1] with tanh); the relit frame is
+            ``clip((out + 1) / 2, 0, 1)``, i.e. the network is fitted to ``2 * target - 1`` as in the reference.
         """
         self._check_input(x, 30 if self.conditioned else 3, square=False)
         feats = self._encode(x)
-        return torch.tanh(self._decode(self.rb(feats[5]), feats, "b"))
+        return _activate(self._decode(self.rb(feats[5]), feats, "b"), self.output_activation)
+
+
+def _check_activation(name: str) -> str:
+    if name not in OUTPUT_ACTIVATIONS:
+        raise RelightError(f"output_activation: expected one of {list(OUTPUT_ACTIVATIONS)}, got {name!r}")
+    return name
+
+
+def _activate(h: torch.Tensor, name: str) -> torch.Tensor:
+    return torch.tanh(h) if name == "tanh" else h
 
 
 NETWORKS: dict[str, type[_RelightNet]] = {"stage1": Stage1Net, "stage2": Stage2Net, "dvp": DVPNet}
@@ -316,7 +348,8 @@ def build_network(kind: str, config: dict) -> _RelightNet:
     """
     if kind not in NETWORKS:
         raise RelightError(f"network kind {kind!r} is unknown; known kinds: {sorted(NETWORKS)}")
-    allowed = {"width", "resolution", "norm"} | ({"conditioned"} if kind == "dvp" else set())
+    allowed = {"width", "resolution", "norm"}
+    allowed |= {"stage1": set(), "stage2": {"output_activation"}, "dvp": {"conditioned", "output_activation"}}[kind]
     extra = set(config) - allowed
     if extra:
         raise RelightError(f"{kind} config: unexpected keys {sorted(extra)}; allowed: {sorted(allowed)}")

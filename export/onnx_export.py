@@ -6,12 +6,16 @@ runtime feeds it [0, 1] RGB images and a mask and gets final values:
 - stage1 ``(image, mask) -> (albedo, skin, transport, light)``: ``x = (2 * image - 1) * mask``; albedo,
   skin and transport are the network's outputs times the mask; light (N, 9, 3) is not masked.
 - stage2 ``(diffuse, mask) -> (residual, relit)``: ``x = (2 * diffuse - 1) * mask``;
-  ``residual = net(x) * mask`` (the network ends in tanh, so it lies in [-1, 1]);
+  ``residual = net(x) * mask`` (decoder b's last conv upsampled, no activation, as the reference;
+  in [-1, 1] for a network trained with ``output_activation="tanh"``);
   ``relit = clip(diffuse + residual, 0, 1) * mask``.
 - dvp ``(frame, mask, light) -> relit``: the network input is ``(2 * frame - 1) * mask`` followed by
   27 channels, channel 3 + 3k + c = ``light[n, k, c]`` at every pixel (not masked, not rescaled);
-  ``relit = clip((net(x) + 1) / 2, 0, 1) * mask``. The DVP network ends in tanh and is fitted to
-  ``2 * target - 1`` (as the reference's ``remove_flicker.py`` does), hence ``(out + 1) / 2``.
+  ``relit = clip((net(x) + 1) / 2, 0, 1) * mask``. The DVP network is fitted to ``2 * target - 1``
+  (as the reference's ``remove_flicker.py`` does), hence ``(out + 1) / 2``.
+
+Stage-2 and DVP graphs also carry ``relight_rt.output_activation`` ("none" | "tanh"): what the network's
+output went through, a record for people (the runtime does not read it; the graph computes it).
 
 Every export is checked before it is written: one self-contained file, ``onnx.checker`` full check,
 no Dropout / random / training-mode op, metadata per ``relight_rt.contract``, and a parity run
@@ -39,7 +43,7 @@ from torch import nn
 
 from relight_rt import RelightError
 from relight_rt._io import atomic_path
-from relight_rt.contract import KINDS, ModelConfig
+from relight_rt.contract import KINDS, META_OUTPUT_ACTIVATION, ModelConfig
 
 __all__ = [
     "DEFAULT_OPSET",
@@ -381,6 +385,8 @@ def export_onnx(
     if meta_res and meta_res % 64:
         raise RelightError(f"export: resolution metadata must be 0 or a multiple of 64, got {meta_res}")
     meta = ModelConfig(kind=kind, resolution=meta_res, norm=net.norm, source=source).metadata()
+    if kind in ("stage2", "dvp"):
+        meta[META_OUTPUT_ACTIVATION] = net.output_activation
     size = net.resolution if kind == "stage1" else max(net.resolution, 128)  # bottleneck >= 2x2 when tracing
     inputs = sample_inputs(kind, 1, size, size, seed)
     names = [t.name for t in KINDS[kind].outputs]

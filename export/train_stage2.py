@@ -5,7 +5,9 @@ own estimated light, ``D = clip(Â ⊙ max(0, T̂·L̂), 0, 1) ⊙ mask``, is ca
 ``RUN/diffuse_cache.npz`` (keyed by the stage-1 checkpoint's path, size and modification time and
 the resolution, so a changed checkpoint recomputes it), and the residual network is trained with
 the masked L1 loss between ``clip(D + residual, 0, 1) ⊙ mask`` and the masked photo, starting from a
-zero residual (the last layer is zero-initialised; ``--random-init`` keeps it random). RAdam
+zero residual (the last layer is zero-initialised; ``--random-init`` keeps it random). The residual has
+no output activation, as the reference's; ``--output-activation tanh`` bounds it to [-1, 1] (how the
+bundled stage 2 was trained), recorded in the checkpoint's config and the graph's metadata. RAdam
 (torch's own); learning rate cosine-annealed from ``--lr`` to ``--lr-min`` over ``--epochs``.
 Augmentation: random horizontal flips (images only; no SH is involved here).
 
@@ -69,6 +71,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--width", type=int, default=64, help="base channel count (default %(default)s)")
     parser.add_argument("--norm", choices=("batch", "instance"), default="batch",
                         help="normalisation layers (default %(default)s)")
+    parser.add_argument("--output-activation", choices=("none", "tanh"), default="none",
+                        help="the residual's activation: none (the reference's, default) or tanh (bounded to "
+                             "[-1, 1]; the bundled stage 2 was trained so); recorded in the checkpoint and graph")
     parser.add_argument("--random-init", action="store_true",
                         help="keep the random last layer (default: zero it, so training starts from residual 0)")
     parser.add_argument("--cross-light", type=float, default=0.0, metavar="P",
@@ -260,7 +265,8 @@ def run(args) -> int:
     train_set = Stage2Dataset(photos, cache, [(i, i) for i in train_idx], r2, augment=True, seed=args.seed,
                               cross_light=args.cross_light, true_diffuse=args.true_diffuse)
     torch.manual_seed(args.seed)
-    model = Stage2Net(width=args.width, resolution=r2, norm=args.norm).to(cfg.device)
+    model = Stage2Net(width=args.width, resolution=r2, norm=args.norm,
+                      output_activation=args.output_activation).to(cfg.device)
     if not args.random_init:
         zero_residual_init(model)
     optimizer = torch.optim.RAdam(model.parameters(), lr=args.lr)

@@ -240,6 +240,7 @@ def train_loop(
         if not cfg.resume:
             raise RelightError(f"{out} already holds last.pt: pass --resume to continue it, or choose a new --out")
         ckpt = load_raw_checkpoint(last_path)
+        _check_same_activation(model, ckpt, last_path)
         model.load_state_dict(ckpt["state_dict"])
         optimizer.load_state_dict(ckpt["optimizer"])
         scheduler.load_state_dict(ckpt["scheduler"])
@@ -382,6 +383,22 @@ def _tqdm():
                 pass
 
     return tqdm
+
+
+def _check_same_activation(model: torch.nn.Module, ckpt: dict, path: Path) -> None:
+    """A resumed run must keep the output activation it was trained with (the weights depend on it)."""
+    from .checkpoint import LEGACY_OUTPUT_ACTIVATION
+
+    want = getattr(model, "output_activation", None)
+    if want is None:
+        return
+    config = ckpt.get("config") if isinstance(ckpt.get("config"), dict) else {}
+    saved = config.get("output_activation", LEGACY_OUTPUT_ACTIVATION)
+    if saved != want:
+        raise RelightError(
+            f"{path}: this run was trained with output activation {saved!r}; resuming asks for {want!r} "
+            f"(pass --output-activation {saved})"
+        )
 
 
 def export_best(out: Path, kind: str, source: str) -> Path:

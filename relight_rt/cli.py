@@ -297,7 +297,7 @@ def cmd_doctor(args: argparse.Namespace) -> int:
 COMMANDS = [add_relight, add_decompose, add_lights, add_doctor]
 # modules with add_parser(subparsers), added when present
 PLUGINS = ["relight_rt.video_cli", "relight_rt.demo", "relight_rt.bench", "relight_rt.scene_cli", "relight_rt.mask_cli",
-           "relight_rt.studio"]
+           "relight_rt.studio", "relight_rt.reference_import"]
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -26,9 +26,13 @@ META_COLOR = "relight_rt.color"
 META_SH_DEGREE = "relight_rt.sh_degree"
 META_NORM = "relight_rt.norm"
 META_SOURCE = "relight_rt.source"
+# Informational, stage2/dvp graphs written by this project: the network's output activation ("none" as the
+# reference's, or "tanh", a training option). The graph computes it; the runtime does not read this key.
+META_OUTPUT_ACTIVATION = "relight_rt.output_activation"
 
 NORMS = ("batch", "instance")
 LIGHT_SHAPE = (9, 3)  # an SH light input or output: (N, 9, 3), DESIGN.md §3
+OUTPUT_ACTIVATIONS = ("none", "tanh")
 
 
 @dataclass(frozen=True)

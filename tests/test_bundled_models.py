@@ -68,3 +68,14 @@ def test_bundled_light_estimate_is_informative(relighter, test_data_dir):
     err_true = np.sqrt(np.mean((dec.light - l0) ** 2))
     err_other = np.sqrt(np.mean((dec.light - l1) ** 2))
     assert err_true < err_other, (err_true, err_other)  # it recognises the light the photo was taken in
+
+
+def test_bundled_stage2_records_its_output_activation():
+    """The bundled stage 2 was trained with tanh (a training option; the reference has none): its metadata says
+    so, and the graph really ends that way."""
+    path = bundled_models_dir() / "stage2.onnx"
+    meta = load_model(path, "stage2", device="cpu").session.get_modelmeta().custom_metadata_map
+    assert meta.get("relight_rt.output_activation") == "tanh"
+    onnx = pytest.importorskip("onnx")
+    ops = [n.op_type for n in onnx.load(str(path)).graph.node]
+    assert ops.count("Tanh") == 1

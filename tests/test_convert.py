@@ -12,10 +12,12 @@ import pytest
 torch = pytest.importorskip("torch")
 ort = pytest.importorskip("onnxruntime")
 
+from _reference_forward import contract_outputs, random_reference_weights, relative_error  # noqa: E402
+
 from export.__main__ import main as export_main  # noqa: E402
 from export.checkpoint import check_state_dict  # noqa: E402
 from export.convert import bgr_to_rgb_state_dict, convert_reference, load_reference  # noqa: E402
-from export.networks import Stage1Net, Stage2Net  # noqa: E402
+from export.networks import DVPNet, Stage1Net, Stage2Net  # noqa: E402
 from export.onnx_export import sample_inputs  # noqa: E402
 from relight_rt import RelightError  # noqa: E402
 
@@ -166,7 +168,7 @@ def test_not_a_checkpoint(tmp_path):
         load_reference(tmp_path / "junk.pth", "stage2", WIDTH, RES)
     with pytest.raises(RelightError, match="not found"):
         load_reference(tmp_path / "none.pth", "stage2", WIDTH, RES)
-    with pytest.raises(RelightError, match="give --stage1 and/or --stage2"):
+    with pytest.raises(RelightError, match="give --stage1, --stage2 and/or --dvp"):
         convert_reference(None, tmp_path / "out")
 
 
@@ -190,6 +192,78 @@ def test_reference_layout_checks_against_the_full_size_network(reference_dir):
         check_state_dict(net, fake, kind)
         with pytest.raises(RelightError, match="mis-shaped: dc5b.weight"):
             check_state_dict(net, {**fake, "dc5b.weight": torch.empty(7, 128, 3, 3, device="meta")}, kind)
+
+
+def _layout_of(cls, width: int, resolution: int) -> dict[str, list[int]]:
+    return {k: list(v.shape) for k, v in cls(width=width, resolution=resolution).state_dict().items()}
+
+
+def _run(path, feeds) -> dict[str, np.ndarray]:
+    sess = ort.InferenceSession(str(path), providers=["CPUExecutionProvider"])
+    return dict(zip([o.name for o in sess.get_outputs()], sess.run(None, feeds), strict=True))
+
+
+def _contract_feeds(kind: str, n: int, h: int, w: int, seed: int) -> dict[str, np.ndarray]:
+    feeds = sample_inputs(kind, n, h, w, seed)
+    if kind == "dvp":
+        feeds["light"] = feeds["light"][:, :, [0, 2, 1]].copy()  # colour columns that differ from each other
+    return feeds
+
+
+@pytest.mark.parametrize(
+    ("kind", "cls", "width", "resolution", "size"),
+    [
+        ("stage1", Stage1Net, 2, 128, (128, 128)),
+        ("stage1", Stage1Net, 2, 256, (256, 256)),  # a light head with a hidden layer and norm
+        ("stage2", Stage2Net, 2, 128, (128, 192)),
+        ("dvp", DVPNet, 2, 128, (192, 128)),
+    ],
+)
+def test_converted_graph_matches_the_independent_forward_pass(tmp_path, kind, cls, width, resolution, size):
+    """The check that would have caught the tanh: a converted checkpoint against DESIGN.md §1 run in numpy
+    (float64, BGR, the reference's weights as saved), relative error <= 1e-4 for every output."""
+    sd = random_reference_weights(_layout_of(cls, width, resolution), seed=21)
+    ckpt = tmp_path / f"{kind}.pth"
+    torch.save({k: torch.from_numpy(v) for k, v in sd.items()}, ckpt)
+    files = {k: (ckpt if k == kind else None) for k in ("stage1", "stage2", "dvp")}
+    convert_reference(files.pop("stage1"), tmp_path, **files, width=width, resolution=resolution)
+    feeds = _contract_feeds(kind, 2, *size, seed=4)
+    got = _run(tmp_path / f"{kind}.onnx", feeds)
+    want = contract_outputs(sd, kind, feeds)
+    assert sorted(got) == sorted(want)
+    errors = {name: relative_error(got[name], value) for name, value in want.items()}
+    print(f"{kind} width {width} R {resolution} {size}: " + ", ".join(f"{k} {v:.1e}" for k, v in errors.items()))
+    assert max(errors.values()) <= 1e-4, errors
+    meta = ort.InferenceSession(str(tmp_path / f"{kind}.onnx"), providers=["CPUExecutionProvider"])
+    meta = meta.get_modelmeta().custom_metadata_map
+    assert meta.get("relight_rt.output_activation") == (None if kind == "stage1" else "none")
+
+
+@pytest.mark.slow
+def test_full_size_fidelity_and_torch_free_import(reference_dir, tmp_path):
+    """1024², width 64, the reference's own layout: convert-reference and the torch-free importer against the
+    independent numpy forward pass (<= 1e-4) and against each other (<= 1e-6). Prints the errors (-s)."""
+    from relight_rt.reference_import import import_reference
+
+    layout = json.loads((reference_dir / "checkpoint_layout.json").read_text())
+    paths = {}
+    for i, kind in enumerate(("stage1", "stage2", "dvp")):
+        paths[kind] = tmp_path / f"{kind}.pth"
+        torch.save({k: torch.from_numpy(v) for k, v in random_reference_weights(layout[kind], 30 + i).items()},
+                   paths[kind])
+    convert_reference(paths["stage1"], tmp_path / "conv", stage2=paths["stage2"], dvp=paths["dvp"])
+    import_reference(tmp_path / "imp", **paths)
+    for kind in ("stage1", "stage2", "dvp"):
+        sd = {k: np.asarray(v) for k, v in torch.load(paths[kind], weights_only=True).items()}
+        feeds = _contract_feeds(kind, 1, 1024, 1024, seed=5)
+        conv, imp = _run(tmp_path / "conv" / f"{kind}.onnx", feeds), _run(tmp_path / "imp" / f"{kind}.onnx", feeds)
+        want = contract_outputs(sd, kind, feeds)
+        del sd
+        for name, value in want.items():
+            e_conv, e_imp = relative_error(conv[name], value), relative_error(imp[name], value)
+            e_pair = relative_error(imp[name], conv[name])
+            print(f"{kind} {name}: convert-reference {e_conv:.2e}, import-reference {e_imp:.2e}, between {e_pair:.2e}")
+            assert e_conv <= 1e-4 and e_imp <= 1e-4 and e_pair <= 1e-6, (kind, name)
 
 
 @pytest.mark.slow

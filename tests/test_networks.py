@@ -58,7 +58,28 @@ def test_stage2_and_dvp_any_size(h, w):
         r = s2(torch.randn(1, 3, h, w))
         d = dvp(torch.randn(1, 30, h, w))
     assert r.shape == d.shape == (1, 3, h, w)
-    assert r.abs().max() <= 1 and d.abs().max() <= 1  # tanh outputs
+
+
+@pytest.mark.parametrize("cls", [Stage2Net, DVPNet])
+def test_stage2_and_dvp_output_activation(cls):
+    """No activation by default (the reference returns decoder b's last conv, upsampled); tanh only on request."""
+    torch.manual_seed(0)
+    plain = cls(width=4, resolution=128, norm="instance").eval()
+    bounded = cls(width=4, resolution=128, norm="instance", output_activation="tanh").eval()
+    bounded.load_state_dict(plain.state_dict())
+    with torch.no_grad():
+        plain.dc5b.weight.mul_(30)  # make the raw output large, so that a hidden tanh could not go unnoticed
+        bounded.dc5b.weight.mul_(30)
+        x = torch.randn(1, plain.c0.in_channels, 128, 128)
+        raw = plain(x)
+        decoded = plain._decode(plain.rb(plain._encode(x)[5]), plain._encode(x), "b")
+        squashed = bounded(x)
+    assert raw.abs().max() > 1.5
+    assert torch.equal(raw, decoded)
+    torch.testing.assert_close(squashed, torch.tanh(raw))
+    assert plain.config["output_activation"] == "none" and bounded.config["output_activation"] == "tanh"
+    with pytest.raises(RelightError, match="output_activation"):
+        cls(width=4, resolution=128, output_activation="sigmoid")
 
 
 def test_light_channel_order():
@@ -138,6 +159,8 @@ def test_bad_inputs():
 
 def test_config_and_kind():
     assert Stage1Net(4, 128, "batch").config == {"width": 4, "resolution": 128, "norm": "batch"}
+    assert Stage2Net(4, 128, "batch").config == {"width": 4, "resolution": 128, "norm": "batch",
+                                                 "output_activation": "none"}
     assert DVPNet(4, 128, "instance", conditioned=False).config["conditioned"] is False
     assert DVPNet(4, 128).c0.in_channels == 30 and DVPNet(4, 128, conditioned=False).c0.in_channels == 3
     assert [c.kind for c in (Stage1Net, Stage2Net, DVPNet)] == ["stage1", "stage2", "dvp"]
@@ -176,6 +199,20 @@ def test_checkpoint_refusals(tmp_path):
     match = r"missing keys: c0.bias.*unexpected keys: bogus.*mis-shaped: c0.weight \[1\]"
     with pytest.raises(RelightError, match=match):
         load_checkpoint(path)
+
+
+@pytest.mark.parametrize("cls", [Stage2Net, DVPNet])
+def test_checkpoint_from_before_output_activation_loads_as_tanh(tmp_path, cls):
+    """Stage-2 / DVP checkpoints written before the option existed were all trained with tanh."""
+    net = cls(width=2, resolution=128, norm="instance", output_activation="tanh")
+    path = save_checkpoint(tmp_path / "old.pt", net)
+    ckpt = torch.load(path, weights_only=True)
+    del ckpt["config"]["output_activation"]
+    torch.save(ckpt, path)
+    model, _ = load_checkpoint(path)
+    assert model.output_activation == "tanh"
+    fresh = save_checkpoint(tmp_path / "new.pt", cls(width=2, resolution=128, norm="instance"))
+    assert load_checkpoint(fresh)[0].output_activation == "none"
 
 
 def test_check_state_dict_not_a_mapping():

@@ -132,7 +132,7 @@ def test_stage1_dataset_flip_is_physical(data):
     assert not torch.equal(a["mask"], b["mask"])  # the sample is not symmetric: the test can fail
 
 
-def test_stage2_trains_and_caches(data, tmp_path):
+def test_stage2_trains_and_caches(data, tmp_path, capsys):
     s1 = tmp_path / "s1"
     assert _stage1(data, s1, "--epochs", "1", "--max-steps", "2") == 0
     run = tmp_path / "s2"
@@ -146,6 +146,10 @@ def test_stage2_trains_and_caches(data, tmp_path):
     assert np.mean(totals[-6:]) < np.mean(totals[:6])
     assert main([*argv, "--epochs", "9", "--resume"]) == 0  # reuses the cache, continues
     assert read_jsonl(run / "log.jsonl")[-1]["global_step"] == 36
+    assert torch.load(run / "best.pt", weights_only=True)["config"]["output_activation"] == "none"
+    capsys.readouterr()
+    assert main([*argv, "--epochs", "10", "--resume", "--output-activation", "tanh"]) == 2  # weights fit "none"
+    assert "trained with output activation 'none'; resuming asks for 'tanh'" in capsys.readouterr().err
 
 
 def test_export_onnx_at_the_end(data, tmp_path):
