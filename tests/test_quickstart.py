@@ -1,0 +1,48 @@
+"""README's first block, as a new user runs it: a photo with no mask and no alpha relights through the
+automatic matte, and the background outside the person stays as it was."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from relight_rt import cli
+
+REPO = Path(__file__).resolve().parents[1]
+SCENE = REPO / "relight_rt" / "data" / "example_scene.jpg"
+TRUTH = REPO / "tests" / "data" / "example_scene_truth.png"  # the alpha the person was composited with
+
+
+def test_readme_relights_a_photo_with_no_mask(tmp_path, monkeypatch, capsys):
+    monkeypatch.delenv("RELIGHT_RT_MODELS", raising=False)
+    readme = (REPO / "README.md").read_text()
+    assert "relight-rt relight relight_rt/data/example_scene.jpg" in readme  # the command CI runs is this one
+    src = cv2.imread(str(SCENE))
+    assert src.ndim == 3 and src.shape[2] == 3  # no alpha, and no NAME_mask file beside it
+    assert not list(SCENE.parent.glob("example_scene_mask.*"))
+    out = tmp_path / "relit_scene.png"
+    code = cli.main(["relight", str(SCENE), "--preset", "golden-hour", "--device", "cpu", "-o", str(out)])
+    assert code == 0, capsys.readouterr().err
+    relit = cv2.imread(str(out))
+    truth = cv2.imread(str(TRUTH), cv2.IMREAD_GRAYSCALE) / 255.0
+    assert relit.shape == src.shape
+    far = cv2.dilate((truth > 0.02).astype(np.uint8), np.ones((25, 25), np.uint8)) == 0
+    np.testing.assert_array_equal(relit[far], src[far])  # the street is untouched
+    core = cv2.erode((truth > 0.98).astype(np.uint8), np.ones((9, 9), np.uint8)) > 0
+    change = np.abs(relit[core].astype(np.int16) - src[core]).mean()
+    assert change > 5  # the person is relit
+
+
+def test_the_automatic_matte_finds_the_person(monkeypatch):
+    from relight_rt import Relighter
+
+    monkeypatch.delenv("RELIGHT_RT_MODELS", raising=False)
+    r = Relighter(device="cpu")
+    dec = r.decompose(SCENE)  # no mask: the matte
+    truth = cv2.imread(str(TRUTH), cv2.IMREAD_GRAYSCALE) / 255.0
+    a, b = dec.mask > 0.5, truth > 0.5
+    iou = (a & b).sum() / (a | b).sum()
+    assert iou > 0.95, iou  # measured 0.988
+    assert ((dec.mask > 0.05) & (dec.mask < 0.95)).any()  # soft at the outline
