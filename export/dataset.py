@@ -18,6 +18,8 @@ Stage-2 photo ``SUBJECT__L{j}`` in a folder (the same SUBJECT under several ligh
     ``SUBJECT__L{j}_diffuse.png``  its diffuse part, albedo * max(0, T·L), 8-bit BGR
     ``SUBJECT__L{j}_mask.png``     8-bit single channel
     ``SUBJECT__L{j}_light.npy``    float (9, 3) BGR, the SH of the environment map that lit it
+A folder of one's own photos (``prepare_user_photos``) has only the photo and the mask: the diffuse part
+and the light are not known, which the paper's stage-2 training does not need (stage 1 gives both).
 """
 
 from __future__ import annotations
@@ -35,7 +37,7 @@ from relight_rt._io import atomic_path
 from relight_rt.sh import load_light
 
 _SAMPLE_SUFFIXES = ("_tex.png", "_mask.png", "_parsing.png", "_transport.npz")
-_PHOTO_SUFFIXES = ("_photo.png", "_diffuse.png", "_mask.png", "_light.npy")
+_PHOTO_SUFFIXES = ("_photo.png", "_mask.png")  # required; _diffuse.png and _light.npy when rendered
 
 
 # ----------------------------------------------------------------------------------------------
@@ -285,7 +287,7 @@ def split_photo_name(name: str) -> tuple[str, int]:
 
 
 def list_photos(root: str | os.PathLike) -> list[str]:
-    """Names ``SUBJECT__L{j}`` of the complete photos (all four files present) in ``root``, sorted."""
+    """Names ``SUBJECT__L{j}`` of the photos (photo and mask present) in ``root``, sorted."""
     return [n for n in _names(Path(root), _PHOTO_SUFFIXES) if "__L" in n]
 
 
@@ -294,16 +296,19 @@ def read_photo(root: str | os.PathLike, name: str) -> dict[str, np.ndarray]:
 
     Returns:
         dict with ``photo`` and ``diffuse`` (H, W, 3) float32 RGB in [0, 1], ``mask`` (H, W) float32
-        in [0, 1] and ``light`` (9, 3) float32 RGB (the SH of the environment map that lit it).
+        in [0, 1] and ``light`` (9, 3) float32 RGB (the SH of the environment map that lit it); ``diffuse``
+        and ``light`` are None for a photo of one's own (no ``_diffuse.png`` / ``_light.npy``).
     """
     root = Path(root)
     photo = _read_png(root / f"{name}_photo.png", color=True)
-    diffuse = _read_png(root / f"{name}_diffuse.png", color=True)
     mask = _read_png(root / f"{name}_mask.png", color=False)
-    light = _read_light_bgr(root / f"{name}_light.npy")
-    if diffuse.shape != photo.shape or mask.shape != photo.shape[:2]:
+    rendered = (root / f"{name}_diffuse.png").is_file()
+    diffuse = _read_png(root / f"{name}_diffuse.png", color=True) if rendered else None
+    light = _read_light_bgr(root / f"{name}_light.npy") if (root / f"{name}_light.npy").is_file() else None
+    if (diffuse is not None and diffuse.shape != photo.shape) or mask.shape != photo.shape[:2]:
         raise RelightError(
-            f"photo {name}: sizes disagree: photo {photo.shape}, diffuse {diffuse.shape}, mask {mask.shape}"
+            f"photo {name}: sizes disagree: photo {photo.shape}, diffuse {None if diffuse is None else diffuse.shape}, "
+            f"mask {mask.shape}"
         )
     return {"photo": photo, "diffuse": diffuse, "mask": mask, "light": light}
 
@@ -336,3 +341,48 @@ def write_photo(
     _write_png(root / f"{name}_diffuse.png", _to_uint8(d)[:, :, ::-1])
     _write_png(root / f"{name}_mask.png", _to_uint8(m))
     _write_npy(root / f"{name}_light.npy", rgb[:, ::-1].copy())
+
+
+# ----------------------------------------------------------------------------------------------
+# one's own photos for stage 2
+# ----------------------------------------------------------------------------------------------
+
+
+def prepare_user_photos(
+    src: str | os.PathLike, out: str | os.PathLike, device: str = "cpu"
+) -> tuple[list[str], list[str]]:
+    """Turn a folder of ordinary photos of people into stage-2 photos ``NAME__L0`` (photo and mask).
+
+    The mask of each photo: ``NAME_mask.png`` beside it, else its alpha channel, else the automatic matte
+    (relight_rt.masks.resolve_mask with the bundled person matte). Photos already prepared in ``out`` are
+    kept (a rerun goes on). Bad files are reported, never the end of the run.
+
+    Returns:
+        (names written or kept, "file: reason" per photo left out).
+    """
+    from relight_rt._io import list_images, read_image, sibling_mask
+    from relight_rt.masks import resolve_mask
+
+    src, out = Path(src), Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    matter = None
+    names, failures = [], []
+    for path in list_images(src):
+        name = photo_name(path.stem.replace("__L", "_L"), 0)
+        if (out / f"{name}_photo.png").is_file() and (out / f"{name}_mask.png").is_file():
+            names.append(name)
+            continue
+        try:
+            img = read_image(path, "photo")
+            mask_file = sibling_mask(path)
+            if mask_file is None and img.shape[2] == 3 and matter is None:
+                from relight_rt.matting import shared_matter
+
+                matter = shared_matter(device=device)
+            m = resolve_mask(img, mask_file, matter=matter, name=str(path))
+            _write_png(out / f"{name}_photo.png", _to_uint8(img[..., :3])[:, :, ::-1])
+            _write_png(out / f"{name}_mask.png", _to_uint8(m))
+            names.append(name)
+        except RelightError as exc:
+            failures.append(str(exc) if str(path) in str(exc) else f"{path}: {exc}")
+    return names, failures

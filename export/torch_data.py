@@ -195,8 +195,8 @@ class PhotoDataset(torch.utils.data.Dataset):
         names: photos to use (default: all of ``list_photos(root)``).
         cache: keep resized photos in memory.
 
-    Items: photo (3,R,R) RGB [0,1], mask (1,R,R), light (9,3) RGB, diffuse (3,R,R) (the
-    renderer's diffuse part, zeros when absent), ``index`` (int).
+    Items: photo (3,R,R) RGB [0,1], mask (1,R,R), light (9,3) RGB (zeros for a photo of one's own, whose
+    light is not known), diffuse (3,R,R) (the renderer's diffuse part, zeros when absent), ``index`` (int).
     """
 
     def __init__(self, root: str | Path, resolution: int, names: Sequence[str] | None = None, cache: bool = True):
@@ -223,7 +223,8 @@ class PhotoDataset(torch.utils.data.Dataset):
         item = {
             "photo": _chw(fit_square(p["photo"], r)),
             "mask": _chw(fit_square(p["mask"], r)),
-            "light": torch.from_numpy(np.array(p["light"], dtype=np.float32)),
+            "light": torch.from_numpy(np.array(p["light"], dtype=np.float32)) if p["light"] is not None
+            else torch.zeros(9, 3),  # one's own photo: its light is not known (stage 1 estimates it)
             "diffuse": _chw(fit_square(diffuse, r)) if diffuse is not None else torch.zeros(3, r, r),
             "index": index,
         }

@@ -63,7 +63,9 @@ CACHE_NAME = "diffuse_cache.npz"
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--photos", required=True, help="folder of photos (SUBJECT__L{j}_photo.png, ...)")
+    parser.add_argument("--photos", required=True,
+                        help="folder of rendered photos (SUBJECT__L{j}_photo.png, ...) or of your own photos of people "
+                             "(masks: NAME_mask.png, alpha, else the automatic matte)")
     parser.add_argument("--stage1", required=True,
                         help="frozen stage 1: a checkpoint (RUN/best.pt of train-stage1) or a stage-1 .onnx graph")
     parser.add_argument("--resolution", type=int, default=None,
@@ -238,6 +240,26 @@ def split_subjects(names: list[str], fraction: float, seed: int) -> tuple[list[i
     return train, val
 
 
+def _own_photos(args, out: Path) -> str:
+    """``--photos`` as given when it holds rendered photos (SUBJECT__L{j}_photo.png); a folder of one's own photos
+    is prepared into OUT/photos first (masks: NAME_mask.png, else alpha, else the automatic person matte)."""
+    from . import dataset
+
+    if dataset.list_photos(args.photos):
+        return args.photos
+    names, failures = dataset.prepare_user_photos(args.photos, out / "photos")
+    for line in failures:
+        log.warning("left out: %s", line)
+    if not names:
+        raise RelightError(f"--photos {args.photos}: no photos of people found (rendered SUBJECT__L{{j}}_photo.png, "
+                           "or ordinary photos)")
+    if args.cross_light > 0 or args.true_diffuse > 0:
+        raise RelightError("--cross-light / --true-diffuse need rendered photos (their lights and diffuse parts are "
+                           "known); one's own photos train with the paper's recipe only")
+    log.info("%d of your photos prepared in %s (%d left out)", len(names), out / "photos", len(failures))
+    return str(out / "photos")
+
+
 def run(args) -> int:
     from .frozen import load_frozen
     from .networks import Stage2Net
@@ -254,6 +276,7 @@ def run(args) -> int:
     cfg = LoopConfig.from_args(args)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    args.photos = _own_photos(args, out)
     photos_r1 = PhotoDataset(args.photos, r1)
     cache = diffuse_cache(stage1, photos_r1, out / CACHE_NAME, _stage1_id(Path(args.stage1), r1), device,
                           layers=args.cross_light > 0)

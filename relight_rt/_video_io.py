@@ -246,9 +246,13 @@ class FrameSource:
     """
 
     def __init__(self, path: str | os.PathLike, masks: str | os.PathLike | None = None, fps: float | None = None,
-                 skip_bad: bool = False):
+                 skip_bad: bool = False, matter=None):
         self.path = Path(path)
-        self.masks = None if masks is None else Path(masks)
+        self.auto_masks = isinstance(masks, str) and masks == "auto"
+        self.masks = None if masks is None or self.auto_masks else Path(masks)
+        self.matter = matter  # frames without a mask: alpha = matter(rgb, name); "auto" masks: every frame
+        if self.auto_masks and matter is None:
+            raise RelightError("masks 'auto': no automatic matting model is available")
         self.skip_bad = bool(skip_bad)
         self.skipped: list[str] = []
         self.lost = 0  # frames left out (a damaged stretch of a video may lose many in one message)
@@ -338,6 +342,10 @@ class FrameSource:
             self._bad(f"{self.path}: the video's header announces {info.frames} frames, {missing} of them could "
                       f"not be read (a damaged file)", missing)
 
+    def _matte(self, rgba: np.ndarray, where, shape: tuple[int, int]) -> np.ndarray:
+        alpha = self.matter(np.ascontiguousarray(rgba[..., :3]), name=str(where))
+        return read_mask(np.asarray(alpha, np.float32), shape, f"{where} automatic matte", allow_empty=True)
+
     def __iter__(self) -> Iterator[Frame]:
         mask_frames = None
         if self.masks is not None and self._mask_files is None:
@@ -354,7 +362,9 @@ class FrameSource:
                     self._bad(f"{where}: frame is {rgba.shape[1]}x{rgba.shape[0]}, the first frame is "
                               f"{shape[1]}x{shape[0]} (W x H)")
                     continue
-                if mask_frames is not None:
+                if self.auto_masks:
+                    mask = self._matte(rgba, frame_path or f"{self.path} frame {index}", shape)
+                elif mask_frames is not None:
                     mpos, mrgb = next(mask_frames, (None, None))
                     while mrgb is not None and mpos < index:  # the masks of frames left out
                         mpos, mrgb = next(mask_frames, (None, None))
@@ -368,6 +378,8 @@ class FrameSource:
                     elif rgba.shape[2] == 4:
                         where = frame_path or f"{self.path} frame {index}"
                         mask = read_mask(rgba[..., 3], shape, f"{where} alpha", allow_empty=True)
+                    elif self.matter is not None:
+                        mask = self._matte(rgba, frame_path or f"{self.path} frame {index}", shape)
                     else:
                         where = frame_path or f"{self.path} frame {index}"
                         raise RelightError(f"{where}: no mask found (expected a STEM_mask file, a --masks folder "

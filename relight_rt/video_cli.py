@@ -38,8 +38,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("input", nargs="+", help="video file (OpenCV) or folder of frames; several with --ray")
     p.add_argument("-o", "--output", help="output video file (.mp4, .avi, .mkv); with --ray, a folder")
     p.add_argument("--frames-out", help="also (or only) write the relit frames as PNGs into this folder")
-    p.add_argument("--masks", help="mask folder or mask video (default: STEM_mask files beside the frames, "
-                                   "or the alpha channel of RGBA frames)")
+    p.add_argument("--masks", help="mask folder, mask video or 'auto' (default: STEM_mask files beside the frames, "
+                                   "else the alpha channel of RGBA frames, else the automatic matte, steady over "
+                                   "time)")
     group = p.add_mutually_exclusive_group()
     add_light_options(p, group=group)
     group.add_argument("--lights", help="(N, 9, 3) RGB .npy: one light per frame")
@@ -96,6 +97,35 @@ def _schedule(args, frame_count: int, relighter=None):
     return video.LightSchedule.constant(base)
 
 
+class _LazyVideoMatter:
+    """The automatic video matte (relight_rt.matting.VideoMatter), loaded at the first frame that needs it."""
+
+    def __init__(self, device: str):
+        self.device, self._matter = device, None
+
+    def __call__(self, rgb, name: str = "frame"):
+        if self._matter is None:
+            from .matting import VideoMatter, shared_matter
+
+            self._matter = VideoMatter(shared_matter(device=self.device))
+        return self._matter(rgb, name=name)
+
+
+def _video_matter(args):
+    """Frames without a mask get the automatic matte (steady over time) when the matting graphs are installed."""
+    import importlib.util
+
+    if importlib.util.find_spec(f"{__package__}.matting") is None:
+        return None
+    from .matting import find_matting_models
+
+    try:
+        find_matting_models()
+    except RelightError:
+        return None
+    return _LazyVideoMatter("cpu" if args.device == "cpu" else args.device)
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``relight-rt video``; returns 0 (RelightError goes up to the CLI's main)."""
     from . import metrics as rt_metrics
@@ -118,7 +148,8 @@ def run(args: argparse.Namespace) -> int:
     from ._options import background, relighter
     from .exposure import parse_exposure
 
-    source = video.FrameSource(args.input, args.masks, args.fps, skip_bad=args.skip_bad_frames)
+    source = video.FrameSource(args.input, args.masks, args.fps, skip_bad=args.skip_bad_frames,
+                               matter=_video_matter(args))
     bg = background(args)
     if bg.kind == "transparent" and args.output:
         raise RelightError("--background transparent: a video file has no alpha channel; use --frames-out DIR")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -258,3 +259,32 @@ def test_stage2_refuses_a_bad_cross_light(data, tmp_path, capsys):
             str(tmp_path / "o"), "--cross-light", "1.5"]
     assert main(argv) == 2
     assert "--cross-light" in capsys.readouterr().err
+
+
+def test_stage2_trains_on_a_folder_of_ones_own_photos(data, tmp_path, capsys):
+    """issue 20: ordinary photos, no masks: the automatic matte makes them, bad files are left out."""
+    import cv2
+
+    repo = Path(__file__).resolve().parents[1]
+    scene = cv2.imread(str(repo / "relight_rt" / "data" / "example_scene.jpg"))
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    for k in range(2):
+        cv2.imwrite(str(mine / f"me{k}.jpg"), np.roll(scene, 7 * k, axis=1))
+    (mine / "broken.jpg").write_bytes(b"not a jpeg")
+    s1 = tmp_path / "s1"
+    assert _stage1(data, s1, "--epochs", "1", "--max-steps", "2") == 0
+    run = tmp_path / "s2"
+    argv = ["train-stage2", "--photos", str(mine), "--stage1", str(s1 / "best.pt"), "--out", str(run),
+            "--width", "4", "--norm", "instance", "--threads", "1", "--log-every", "1", "--val-fraction", "0",
+            "--epochs", "1"]
+    assert main(argv) == 0
+    prepared = run / "photos"
+    assert sorted(p.name for p in prepared.iterdir()) == ["me0__L0_mask.png", "me0__L0_photo.png",
+                                                          "me1__L0_mask.png", "me1__L0_photo.png"]
+    truth = cv2.imread(str(repo / "tests" / "data" / "example_scene_truth.png"), cv2.IMREAD_GRAYSCALE) > 127
+    matte = cv2.imread(str(prepared / "me0__L0_mask.png"), cv2.IMREAD_GRAYSCALE) > 127
+    assert (matte & truth).sum() / (matte | truth).sum() > 0.95  # the automatic matte, not a made-up mask
+    assert (run / "best.pt").is_file()
+    assert main([*argv, "--cross-light", "0.5"]) == 2  # needs rendered photos' lights
+    assert "need rendered photos" in capsys.readouterr().err
