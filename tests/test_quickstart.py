@@ -64,7 +64,7 @@ def test_video_frames_without_masks_get_the_automatic_matte(tmp_path, monkeypatc
     for t in range(3):
         src = cv2.imread(str(frames / f"f{t}.png"))
         got = cv2.imread(str(out / f"f{t}.png"))
-        shift = lambda a: np.roll(a, 3 * t, axis=1)  # noqa: E731
+        shift = lambda a, t=t: np.roll(a, 3 * t, axis=1)  # noqa: E731
         np.testing.assert_array_equal(got[shift(far)], src[shift(far)])
         assert np.abs(got[shift(core)].astype(np.int16) - src[shift(core)]).mean() > 5
     # --masks auto: the matte even where a mask file exists (here an empty one, which would relight nothing)
