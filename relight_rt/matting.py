@@ -41,12 +41,13 @@ import cv2
 import numpy as np
 
 from ._errors import RelightError
+from .contract import KINDS
 from .session import ENV_MODELS, Model, bundled_models_dir, load_model
 
 log = logging.getLogger(__name__)
 
-POSE_FILE = "matte_pose.onnx"
-ROI_FILE = "matte_roi.onnx"
+POSE_FILE = KINDS["matte_pose"].filename  # the kinds are declared in relight_rt.contract
+ROI_FILE = KINDS["matte_roi"].filename
 SIZE = 256  # both graphs' input side
 PERSON_MODES = ("largest", "all")
 GUIDES = ("gray", "color")

@@ -247,3 +247,22 @@ def test_reference_photo_from_the_cli(work, capsys, reference_dir):
     mask = cv2.imread(str(reference_dir / "photo" / "sample_mask.png"), cv2.IMREAD_GRAYSCALE)
     assert out.shape == src.shape
     np.testing.assert_array_equal(out[mask == 0], src[mask == 0])
+
+
+def test_one_set_of_light_flags_in_every_command(work, capsys):
+    """issue 18 item 8: the same light options everywhere, a preset named as a file points to --preset, and an
+    unknown option shows the subcommand's own usage."""
+    write_photo(work)
+    code, _, err = run(["relight", "p.png", "--light", "studio", "-o", "o.png"], capsys)
+    assert code == 2 and "use --preset studio" in err and not (work / "o.png").exists()
+    code, _, err = run(["relight", "p.png", "--preset", "studio", "--bgr", "-o", "o.png"], capsys)
+    assert code == 2 and "--bgr" in err  # --bgr says how to read a light file; with a preset it is a mistake
+    for command in (["relight", "p.png", "-o", "o.png"], ["video", ".", "-o", "o.mp4"],
+                    ["composite", "p.png", "--background", "p.png", "-o", "o.png"]):
+        code, _, err = run([*command, "--preset", "studio", "--rotate", "10", "--no-such-option"], capsys)
+        assert code == 2 and f"usage: relight-rt {command[0]}" in err, err  # the subcommand's usage
+        assert "unrecognized arguments: --no-such-option" in err
+    code, out, _ = run(["lights", "show", "light.npy", "--bgr", "--rotate", "90", "-o", "s.png"], capsys)
+    assert code == 0 and cv2.imread("s.png") is not None
+    code, _, err = run(["lights", "show", "studio", "--bgr", "-o", "s2.png"], capsys)
+    assert code == 2 and "--bgr" in err
