@@ -1,4 +1,5 @@
-"""Screenshots of ``relight-rt studio`` with the bundled example person, for the README (docs/studio_*.png).
+"""Screenshots of ``relight-rt studio`` with the bundled example person in a street (no mask), for the README
+(docs/studio_*.png).
 
 Drives the page as a user would (drags the lamp, moves sliders, picks a preset) in headless Debian chromium
 and saves the window once the full result is shown.
@@ -55,7 +56,9 @@ def main(argv=None) -> int:
 
     out = Path(args.out).resolve()
     os.chdir(REPO)  # the command line on the page names the photo relative to here
-    studio = Studio(example_path().relative_to(REPO), None, "original", Relighter(None, device="cpu"))
+    # the example person in a street, no mask: the page shows the automatic matte at work too
+    photo = (example_path().parent / "example_scene.jpg").relative_to(REPO)
+    studio = Studio(photo, None, "original", Relighter(None, device="cpu"))
     srv, thread, url = start_server(studio)
     with sync_playwright() as p:
         context = p.chromium.launch_persistent_context(
