@@ -194,12 +194,14 @@ def test_envmap_upload_gives_the_projected_light(studio, tmp_path):
         studio.envmap_light(b"this is not an image")
 
 
-def test_photo_light_needs_alpha(studio, photo):
+def test_photo_light_alpha_else_automatic_matte(studio, photo):
     own = studio.photo_light(photo.read_bytes())
     np.testing.assert_allclose(own, studio.dec.light, rtol=1e-5, atol=1e-6)
-    rgb = cv2.imread(str(photo))
-    with pytest.raises(RelightError, match="alpha"):
-        studio.photo_light(cv2.imencode(".png", rgb)[1].tobytes())
+    grey = np.full((64, 64, 3), 128, np.uint8)  # no alpha and nobody in it: the matte says so
+    with pytest.raises(RelightError, match="no person found"):
+        studio.photo_light(cv2.imencode(".png", grey)[1].tobytes())
+    scene = (REPO / "relight_rt" / "data" / "example_scene.jpg").read_bytes()  # no alpha: the matte finds her
+    assert studio.photo_light(scene).shape == (9, 3)
     with pytest.raises(RelightError, match="cannot decode"):
         studio.photo_light(b"\x89PNG\r\n\x1a\n" + bytes(40))
 
@@ -274,6 +276,9 @@ def test_routes_uploads(client, tmp_path):
     cv2.imwrite(str(tmp_path / "e.hdr"), env)
     good = client.post("/api/envmap", content=(tmp_path / "e.hdr").read_bytes())
     assert good.status_code == 200 and np.array(good.json()["light"]).shape == (9, 3)
+    scene = client.post("/api/background-light", content=cv2.imencode(".jpg", np.full((80, 120, 3), 90, np.uint8))[1]
+                        .tobytes())
+    assert scene.status_code == 200 and np.array(scene.json()["light"]).shape == (9, 3)
     assert client.get("/api/info").status_code == 200  # still serving
 
 
@@ -398,3 +403,12 @@ def test_ci_install_browser_script(tmp_path):
         capture_output=True, text=True, check=False,
     )  # fmt: skip
     assert missing.returncode == 1 and "no apt-get" in missing.stderr
+
+
+def test_background_light_comes_from_the_scene(studio):
+    scene = np.full((120, 160, 3), 40, np.uint8)
+    scene[:, 120:] = 250  # a bright window on the photo's right: light from +y (DESIGN.md §3)
+    light = studio.background_light(cv2.imencode(".png", scene)[1].tobytes())
+    assert light.shape == (9, 3) and (light[1] > 0.2 * light[0]).all()
+    with pytest.raises(RelightError, match="background"):
+        studio.background_light(b"\x89PNG\r\n\x1a\n" + bytes(40))

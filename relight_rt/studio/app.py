@@ -149,4 +149,12 @@ def create_app(studio: Studio, allowed_hosts: list[str] | None = None) -> FastAP
         light = await run_in_threadpool(studio.photo_light, data)
         return {"light": light.tolist()}
 
+    @app.post("/api/background-light")
+    async def background_light(request: Request):
+        from starlette.concurrency import run_in_threadpool
+
+        data = await _read_body(request, "background")
+        light = await run_in_threadpool(studio.background_light, data)
+        return {"light": light.tolist()}
+
     return app

@@ -407,13 +407,21 @@ class Studio:
         return sh.project_envmap(env).astype(np.float32)
 
     def photo_light(self, data: bytes) -> np.ndarray:
-        """(9, 3) float32 light estimated (stage 1) from an uploaded photo of a person; mask: its alpha."""
+        """(9, 3) float32 light estimated (stage 1) from an uploaded photo of a person; mask: its alpha, else
+        the automatic person matte."""
         image = decode_upload(data, "photo")
-        if image.shape[2] != 4:
-            raise RelightError("photo: expected a PNG/WebP with an alpha channel holding the person's mask")
         with self._lock:
-            dec = self.relighter.decompose(image)
+            dec = self.relighter.decompose_batch([image], [None])[0] if image.shape[2] == 4 else \
+                self.relighter.decompose(image[..., :3], None)
         return np.array(dec.light, dtype=np.float32)
+
+    def background_light(self, data: bytes) -> np.ndarray:
+        """(9, 3) float32 light of an uploaded background photo (relight_rt.background, 60° field of view)."""
+        from ..background import light_from_background
+
+        image = decode_upload(data, "background")
+        light, _ = light_from_background(np.ascontiguousarray(image[..., :3]))
+        return np.asarray(light, dtype=np.float32)
 
 
 def unpack_layers(data: bytes, meta: dict) -> dict:

@@ -325,6 +325,7 @@ function bindPanel() {
   }
   $("envmap-file").addEventListener("change", (e) => uploadLight(e.target, "/api/envmap", "environment map"));
   $("photo-file").addEventListener("change", (e) => uploadLight(e.target, "/api/photo-light", "photo"));
+  $("background-file").addEventListener("change", (e) => uploadLight(e.target, "/api/background-light", "scene"));
   $("copy-command").addEventListener("click", () => navigator.clipboard && navigator.clipboard.writeText($("command").textContent));
 
   const sphere = sphereCanvas();
