@@ -204,7 +204,8 @@ def _clip(folder: Path, n: int, seed: int, mask: bool = True) -> Path:
 
 
 def test_video_clips_one_task_each(ray_local, models_dir, tmp_path, capsys):
-    clips = [_clip(tmp_path / "a", 4, 0), _clip(tmp_path / "b", 3, 10), _clip(tmp_path / "bad", 2, 20, mask=False)]
+    clips = [_clip(tmp_path / "a", 4, 0), _clip(tmp_path / "b", 3, 10), _clip(tmp_path / "bad", 2, 20)]
+    (clips[2] / "f_001.png").write_bytes(b"\x89PNG\r\n\x1a\n truncated")  # a damaged frame: that clip fails
     common = ["--preset", "studio", "--models", models_dir, "--device", "cpu", "--batch-size", "2"]
     for clip in clips[:2]:
         assert cli.main(["video", str(clip), "--frames-out", str(tmp_path / "single" / clip.name),
