@@ -192,7 +192,6 @@ def test_reference_layout_checks_against_the_full_size_network(reference_dir):
             check_state_dict(net, {**fake, "dc5b.weight": torch.empty(7, 128, 3, 3, device="meta")}, kind)
 
 
-@pytest.mark.slow
 def test_full_size_end_to_end(reference_dir, tmp_path):
     """The done criterion: fake reference checkpoints at 1024 / width 64 convert (with fp16), and our own
     full-size checkpoint exports with ``python -m export onnx``, within a few minutes on 2 CPU cores."""
