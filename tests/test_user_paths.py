@@ -11,7 +11,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 import pytest
-from _graphs import OWN_LIGHT, make_models_dir, models_dir, stage1_model, stage1_sides_model
+from _graphs import OWN_LIGHT, make_models_dir, models_dir, save, stage1_model, stage1_sides_model
 from _scenes import ambient, backdrop, directional, side_means, soft_person, write_scene
 
 from relight_rt import Relighter, RelightError, cli, sh
@@ -337,3 +337,66 @@ def test_stage1_with_a_non_finite_light_is_refused(tmp_path):
         rl.decompose(img, mask)
     with pytest.raises(RelightError, match="non-finite"):
         rl.relight(img, ambient(), mask=mask)
+
+
+# ----------------------------------------------------------------------------------------- mutation survivors
+# (docs/MUTATION.md: each test below kills a mutant the suite let through)
+
+
+def test_decomposition_holds_float32_read_only_arrays(sides):
+    img, mask = soft_person()
+    dec = sides.decompose(img.astype(np.float64), mask.astype(np.float64))
+    again = type(dec)(dec.albedo_chw, dec.skin, dec.transport_chw, dec.light.astype(np.float64), dec.network_mask,
+                      dec.network_image, mask.astype(np.float64), img.astype(np.float64), dec.geometry)  # fmt: skip
+    for d in (dec, again):
+        for name in ("albedo_chw", "skin", "transport_chw", "light", "network_mask", "network_image", "mask", "image"):
+            arr = getattr(d, name)
+            assert arr.dtype == np.float32 and not arr.flags.writeable, name
+
+
+def test_precision_picks_its_own_graph_else_fp32(tmp_path, caplog):
+    """--precision fp16 runs stage1_fp16.onnx when the folder has one, else stage1.onnx (logged)."""
+    folder = make_models_dir(tmp_path / "m", 64)
+    save(stage1_sides_model(), folder / "stage1_fp16.onnx")
+    img, mask = soft_person()
+    light = directional((0, 1, 0), strength=0.5)
+    plain = Relighter(folder, device="cpu").relight(img, light, mask=mask)
+    fp16 = Relighter(folder, device="cpu", precision="fp16").relight(img, light, mask=mask)
+    assert brighter_side(fp16, mask) == "right" and np.abs(fp16 - plain).max() > 0.2
+    with caplog.at_level("WARNING"):
+        int8 = Relighter(folder, device="cpu", precision="int8").relight(img, light, mask=mask)
+    np.testing.assert_array_equal(int8, plain)
+    assert "no stage1_int8.onnx" in caplog.text
+
+
+def test_relight_layers_names_its_layers(sides):
+    img, mask = soft_person()
+    result = sides.relight_layers(img, ambient(), mask=mask)
+    assert set(result.layers) == {"albedo", "shading", "diffuse", "residual", "relit", "mask"}
+    np.testing.assert_array_equal(result.layers["mask"], mask)
+
+
+def test_lights_show_reads_bgr_files_and_checks_its_size(work, capsys):
+    np.save("warm.npy", ambient(RED_HEAVY))
+    rgb = run(["lights", "show", "warm.npy", "-o", "a.png"], capsys)
+    bgr = run(["lights", "show", "warm.npy", "--bgr", "-o", "b.png"], capsys)
+    lit = rgb[..., :3].sum(axis=2) > 0
+    r, g, b = rgb[lit][:, :3].mean(axis=0)
+    r2, g2, b2 = bgr[lit][:, :3].mean(axis=0)
+    assert r > 1.5 * g > 2.2 * b and b2 > 1.5 * g2 > 2.2 * r2
+    assert cli.main(["lights", "show", "studio", "--size", "8193", "-o", "c.png"]) == 2
+    assert "--size is 8193, expected 8 to 8192" in capsys.readouterr().err
+    assert cli.main(["lights", "show", "studio", "--bgr", "-o", "c.png"]) == 2
+    assert "--bgr: it says how to read a light file" in capsys.readouterr().err
+
+
+def test_usage_errors_name_the_command():
+    """argparse's usage lines say relight-rt (not the Python file), and a command group needs its subcommand."""
+    import contextlib
+    import io
+
+    for argv, usage in ((["relight"], "usage: relight-rt relight"), (["lights"], "usage: relight-rt lights")):
+        err = io.StringIO()
+        with contextlib.redirect_stderr(err):
+            assert cli.main(argv) == 2
+        assert err.getvalue().startswith(usage) and "required" in err.getvalue()
