@@ -400,3 +400,37 @@ def test_usage_errors_name_the_command():
         with contextlib.redirect_stderr(err):
             assert cli.main(argv) == 2
         assert err.getvalue().startswith(usage) and "required" in err.getvalue()
+
+
+def test_video_fits_an_image_background_and_passes_empty_frames(sides):
+    """An image background of another size is fitted to every frame (once per size); a frame with nobody in it
+    passes through over that background, its layers float32 zeros."""
+    from relight_rt.compositing import fit_image
+
+    img, mask = soft_person()
+    empty = np.zeros_like(mask)
+    frames = [Frame(0, "f0", img, mask), Frame(1, "f1", img, empty), Frame(2, "f2", img, mask)]
+    small = backdrop(75, 50)[::-1].copy()
+    bg = Background.from_image(small, fit="stretch")
+    outs = list(relight_frames(iter(frames), LightSchedule.constant(ambient()), fps=25.0,
+                               engine=RelighterEngine(sides), background=bg, with_layers=True))  # fmt: skip
+    want = fit_image(small, mask.shape, "stretch")
+    for (_, out, extras), m in zip(outs, (mask, empty, mask), strict=True):
+        np.testing.assert_array_equal(out[m == 0], want[m == 0])
+        assert extras["albedo"].dtype == np.float32 and extras["transport"].dtype == np.float32
+    assert not outs[1][2]["transport"].any() and outs[1][2]["transport"].shape == (*mask.shape, 9)
+
+
+def test_video_with_no_readable_frame_says_so(tmp_path, sides):
+    from relight_rt.video import FrameSink, relight_video
+
+    class Unreadable:  # a source whose frames all fail to decode
+        fps, path = 25.0, tmp_path / "broken.avi"
+
+        def __iter__(self):
+            return iter(())
+
+    sink = FrameSink(frames_dir=tmp_path / "out")
+    with pytest.raises(RelightError, match=r"broken\.avi: no frames could be read"):
+        relight_video(Unreadable(), LightSchedule.constant(ambient()), sink, engine=RelighterEngine(sides))
+    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
