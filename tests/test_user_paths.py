@@ -434,3 +434,36 @@ def test_video_with_no_readable_frame_says_so(tmp_path, sides):
     with pytest.raises(RelightError, match=r"broken\.avi: no frames could be read"):
         relight_video(Unreadable(), LightSchedule.constant(ambient()), sink, engine=RelighterEngine(sides))
     assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
+
+
+@pytest.mark.parametrize("channel", [0, 1, 2])
+def test_stabilizer_photometric_check_sees_every_channel(monkeypatch, channel):
+    """A change in any one of R, G, B where the flow says "nothing moved" lowers the history's weight there
+    by exp(-(mean |difference| / tolerance)^2)."""
+    h, w = 32, 48
+    stab = Stabilizer(strength=0.8, photometric_tolerance=0.05, flow_max_side=None)
+    monkeypatch.setattr(stab, "_flow", lambda src, dst: np.zeros((h, w, 2), np.float32))
+    before, after = _flat(0.4), _flat(0.4)
+    after[:, w // 2 :, channel] += 0.15  # mean |difference| over RGB: 0.05 = the tolerance
+    a0, t0 = _layers(0)
+    a1, t1 = _layers(1)
+    stab.update(before, None, a0, t0)
+    stab.update(after, None, a1, t1)
+    np.testing.assert_allclose(stab.last_weight[1:-1, 1 : w // 2 - 1], 0.8, atol=1e-5)
+    np.testing.assert_allclose(stab.last_weight[1:-1, w // 2 + 1 : -1], 0.8 * np.exp(-1.0), rtol=1e-4)
+
+
+def test_stabilizer_returns_float32_and_strength_zero_computes_no_flow(monkeypatch):
+    """Layers come back float32 whatever comes in; strength 0 turns the stabiliser off: no optical flow at all."""
+    stab = Stabilizer(strength=0.0, flow_max_side=None)
+
+    def no_flow(src, dst):
+        raise AssertionError("strength 0 computed an optical flow")
+
+    monkeypatch.setattr(stab, "_flow", no_flow)
+    for seed in (0, 1):
+        a, t = _layers(seed)
+        out_a, out_t = stab.update(_flat(0.5), None, a.astype(np.float64), t.astype(np.float64))
+        assert out_a.dtype == np.float32 and out_t.dtype == np.float32
+        np.testing.assert_array_equal(out_a, a)
+        np.testing.assert_array_equal(out_t, t)
