@@ -467,3 +467,27 @@ def test_stabilizer_returns_float32_and_strength_zero_computes_no_flow(monkeypat
         assert out_a.dtype == np.float32 and out_t.dtype == np.float32
         np.testing.assert_array_equal(out_a, a)
         np.testing.assert_array_equal(out_t, t)
+
+
+def test_light_schedules_name_the_bad_light():
+    for make in (LightSchedule.constant, lambda v: LightSchedule.rotating(v, 1.0)):
+        with pytest.raises(RelightError, match=r"^light: expected an SH light of shape \(9, 3\)"):
+            make(np.zeros((4, 3)))
+
+
+def test_quiet_and_verbose_set_the_log_level(work, sides_dir):
+    """A fresh process (logging is configured once per process): INFO by default, -q warnings only."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")]))
+    base = [sys.executable, "-m", "relight_rt"]
+    args = ["relight", "p.png", "--models", str(sides_dir), "--preset", "studio", "--device", "cpu"]
+    loud = subprocess.run([*base, *args, "-o", "a.png"], env=env, capture_output=True, text=True, timeout=120)
+    quiet = subprocess.run([*base, "-q", *args, "-o", "b.png"], env=env, capture_output=True, text=True, timeout=120)
+    assert loud.returncode == 0 and quiet.returncode == 0, loud.stderr + quiet.stderr
+    assert "p.png -> a.png" in loud.stderr
+    assert quiet.stderr == ""
