@@ -24,7 +24,6 @@ import os
 import subprocess
 import sys
 import time
-import tomllib
 from pathlib import Path
 
 MODULES = ("relighter", "cli", "video", "stabilize")
@@ -61,6 +60,10 @@ def main() -> int:
     args = p.parse_args()
     root = Path.cwd()
     mutants = root / "mutants"
+    try:
+        import tomllib  # Python 3.11+
+    except ImportError:  # 3.10: the pip-vendored parser
+        from pip._vendor import tomli as tomllib
     cfg = tomllib.loads((root / "pyproject.toml").read_text())["tool"]["mutmut"]
     tests = list(cfg["pytest_add_cli_args_test_selection"])
     tests = [t for t in tests if (mutants / t).exists()]
