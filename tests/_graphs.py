@@ -104,6 +104,50 @@ def stage1_model(resolution=64, *, meta=None, image_name="image", elem=TensorPro
     return _model(nodes, inputs, outputs, inits, meta if meta is not None else meta_for("stage1", resolution), opset=13)
 
 
+def unoccluded_transport(normal) -> np.ndarray:
+    """(9,) float32 transport A_l * Y_k(n) of an unoccluded unit normal ``n`` (DESIGN.md §3 order)."""
+    x, y, z = (float(v) for v in normal)
+    c0, c1 = 0.5 / math.sqrt(math.pi), math.sqrt(3 / (4 * math.pi))
+    c2, c20, c22 = math.sqrt(15 / (4 * math.pi)), math.sqrt(5 / (16 * math.pi)), math.sqrt(15 / (16 * math.pi))
+    y_k = [c0, c1 * y, c1 * z, c1 * x, c2 * x * y, c2 * y * z, c20 * (3 * z * z - 1), c2 * x * z, c22 * (x * x - y * y)]
+    a_l = [math.pi] + [2 * math.pi / 3] * 3 + [math.pi / 4] * 5
+    return np.array([a * v for a, v in zip(a_l, y_k, strict=True)], np.float32)
+
+
+def stage1_sides_model(resolution=64, *, light=OWN_LIGHT) -> onnx.ModelProto:
+    """The analytic stage 1 with normals that are NOT all +x: the network square's left half faces -y,
+    its right half +y (DESIGN.md §3: +y is toward the image's right), so a light from +y brightens the
+    person's right side and dims the left. albedo = image ⊙ mask, skin = mask / 2, light = ``light``."""
+    r = resolution
+    tmap = np.empty((1, 9, r, r), np.float32)
+    tmap[0, :, :, : r // 2] = unoccluded_transport((0, -1, 0))[:, None, None]
+    tmap[0, :, :, r // 2 :] = unoccluded_transport((0, 1, 0))[:, None, None]
+    inits = [
+        numpy_helper.from_array(tmap, "tmap"),
+        numpy_helper.from_array(np.asarray(light, np.float32).reshape(1, 9, 3), "own_light"),
+        numpy_helper.from_array(np.array(0.5, np.float32), "half"),
+        numpy_helper.from_array(np.array(0.0, np.float32), "zero"),
+        numpy_helper.from_array(np.array([-1, 1, 1], np.int64), "shape3"),
+    ]
+    nodes = [
+        helper.make_node("Mul", ["image", "mask"], ["albedo"]),
+        helper.make_node("Mul", ["mask", "half"], ["skin"]),
+        helper.make_node("Mul", ["mask", "tmap"], ["transport"]),
+        helper.make_node("ReduceMean", ["mask"], ["m_mean"], keepdims=1, axes=[1, 2, 3]),
+        helper.make_node("Reshape", ["m_mean", "shape3"], ["m3"]),
+        helper.make_node("Mul", ["m3", "zero"], ["z3"]),
+        helper.make_node("Add", ["z3", "own_light"], ["light"]),
+    ]
+    inputs = [_value("image", ["N", 3, r, r]), _value("mask", ["N", 1, r, r])]
+    outputs = [
+        _value("albedo", ["N", 3, r, r]),
+        _value("skin", ["N", 1, r, r]),
+        _value("transport", ["N", 9, r, r]),
+        _value("light", ["N", 9, 3]),
+    ]
+    return _model(nodes, inputs, outputs, inits, meta_for("stage1", resolution), opset=13)
+
+
 def stage2_model(resolution=0, *, meta=None, gain=0.1) -> onnx.ModelProto:
     """residual = gain * (diffuse - 0.5) ⊙ mask; relit = clip(diffuse + residual, 0, 1) ⊙ mask."""
     inits = [
@@ -149,10 +193,10 @@ def save(model: onnx.ModelProto, path: Path) -> Path:
     return path
 
 
-def make_models_dir(folder: Path, resolution=64, stage2=True, dvp=False) -> Path:
-    """A models folder with the analytic stage1 (and the toy stage2/dvp)."""
+def make_models_dir(folder: Path, resolution=64, stage2=True, dvp=False, stage1=None) -> Path:
+    """A models folder with the analytic stage1 (or the graph ``stage1``) and the toy stage2/dvp."""
     folder.mkdir(parents=True, exist_ok=True)
-    save(stage1_model(resolution), folder / "stage1.onnx")
+    save(stage1 if stage1 is not None else stage1_model(resolution), folder / "stage1.onnx")
     if stage2:
         save(stage2_model(), folder / "stage2.onnx")
     if dvp:

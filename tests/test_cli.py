@@ -5,7 +5,7 @@ import json
 import cv2
 import numpy as np
 import pytest
-from _graphs import OWN_LIGHT, make_models_dir, meta_for, models_dir, person, save, stage1_model
+from _graphs import OWN_LIGHT, meta_for, models_dir, person, save, stage1_model
 
 from relight_rt import cli
 
@@ -228,13 +228,6 @@ def test_same_stem_twice_is_reported(work, capsys):
     code, _, err = run(["relight", "x", "y", "--preset", "studio", "-o", "out"], capsys)
     assert code == 2 and "would both write" in err
     assert [p.name for p in (work / "out").iterdir()] == ["a_relit.png"]
-
-
-def test_models_option_wins_over_environment(work, capsys, tmp_path_factory):
-    write_photo(work)
-    other = make_models_dir(tmp_path_factory.mktemp("other"), 64, stage2=False)
-    code, _, err = run(["relight", "p.png", "--preset", "studio", "--models", other, "-o", "o.png"], capsys)
-    assert code == 0, err
 
 
 def test_reference_photo_from_the_cli(work, capsys, reference_dir):

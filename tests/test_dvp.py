@@ -167,7 +167,6 @@ def test_fit_with_vgg_weights_names_the_loss(tmp_path):
     assert history["loss"].startswith("perceptual")
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("unconditioned", [False, True])
 def test_fit_dvp_command_exports_contract_graph(tmp_path, unconditioned):
     pytest.importorskip("export.onnx_export")

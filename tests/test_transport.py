@@ -110,7 +110,6 @@ def test_bad_direction_count():
         transport(tracer, g, 0, rng=np.random.default_rng(0))
 
 
-@pytest.mark.slow
 def test_anny_body_has_self_occlusion(tmp_path):
     """On a rendered body, crevices (armpits, between the legs, under the chin) receive much less of the sky
     than open surfaces such as the chest, and the sample reads back with the right channel order."""

@@ -313,7 +313,13 @@ def test_dvp_model_applied(tmp_path):
 
 
 def test_dvp_model_checks_kind(tmp_path):
-    with pytest.raises(RelightError, match="dvp"):
+    from _graphs import save, stage2_model
+
+    # a valid graph of another kind: refused by its kind alone (the DVPModel's kind check)
+    with pytest.raises(RelightError, match=r"metadata relight_rt\.kind is 'stage2', expected 'dvp' here"):
+        DVPModel(save(stage2_model(), tmp_path / "model.onnx"))
+    # a DVP-shaped graph labelled stage2: refused as the wrong kind, before its inputs are compared (issue 18)
+    with pytest.raises(RelightError, match=r"metadata relight_rt\.kind is 'stage2', expected 'dvp' here"):
         DVPModel(_identity_dvp(tmp_path / "s2.onnx", kind="stage2"))
     with pytest.raises(RelightError, match="does not exist"):
         DVPModel(tmp_path / "none.onnx")
