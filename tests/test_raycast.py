@@ -95,3 +95,42 @@ def test_bad_input(ball):
     bad.faces = bad.faces + 1000
     with pytest.raises(RelightError, match="face indices"):
         Tracer(Subject([bad]))
+
+
+@pytest.mark.parametrize("framing", ["knees-up", "waist-up", "head-shoulders", "face"])
+@pytest.mark.parametrize("kind", ["orthographic", "perspective"])
+def test_framings_cut_the_subject_at_the_bottom(framing, kind):
+    """issue 22: a standing figure (a stack of balls, 1.8 m) framed from the top: the top keeps its margin, the
+    figure runs off the bottom border, and tighter framings show less of it."""
+    from export.render.camera import FRAMINGS
+
+    figure = Subject([shapes.sphere(center=(0, 0, z), radius=0.2, name=f"b{i}")
+                      for i, z in enumerate(np.linspace(0.2, 1.6, 8))], name="figure")
+    res = 48
+    cam = fit_camera(figure, res, margin=0.1, kind=kind, framing=framing)
+    hit = Tracer(figure).intersect(*cam.rays()).hit.reshape(res, res)
+    rows = np.flatnonzero(hit.any(axis=1))
+    assert hit[-1].any()  # cut by the bottom border
+    assert not hit[0].any() and rows[0] >= 2  # the top keeps its margin
+    full = fit_camera(figure, res, margin=0.1, kind=kind)
+    assert cam.half_extent < full.half_extent  # closer than the full-body framing
+    visible_fraction = (2 * cam.half_extent * (1 - 0.1)) / 1.8
+    assert visible_fraction == pytest.approx(FRAMINGS[framing], rel=0.02 if kind == "orthographic" else 0.3)
+
+
+def test_framing_options():
+    import argparse
+
+    from export.render.cli import parse_framings, pick_framing
+
+    mix = parse_framings("full=0.4,knees-up=0.15,waist-up=0.15,head-shoulders=0.15,face=0.15")
+    assert sum(mix.values()) == pytest.approx(1.0) and mix["full"] == pytest.approx(0.4)
+    picks = [pick_framing(mix, seed) for seed in range(400)]
+    assert picks == [pick_framing(mix, seed) for seed in range(400)]  # deterministic per subject
+    assert 0.3 < picks.count("full") / 400 < 0.5 and set(picks) == set(mix)
+    assert parse_framings("face") == {"face": 1.0}
+    for bad in ("portrait", "full=-1", "full=x", "full=0"):
+        with pytest.raises(argparse.ArgumentTypeError):
+            parse_framings(bad)
+    with pytest.raises(RelightError, match="framing"):
+        fit_camera(Subject([shapes.sphere()]), 8, framing="portrait")

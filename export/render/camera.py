@@ -16,6 +16,9 @@ from relight_rt._errors import RelightError
 from .scene import Subject
 
 KINDS = ("orthographic", "perspective")
+# Camera framings (issue 22): the fraction of the subject's height, from the top, that the square image shows.
+# Anything below is cut by the image's bottom border, as in the photos people take.
+FRAMINGS = {"full": 1.0, "knees-up": 0.72, "waist-up": 0.5, "head-shoulders": 0.27, "face": 0.14}
 
 
 @dataclass(frozen=True)
@@ -85,8 +88,13 @@ def fit_camera(
     margin: float = 0.05,
     kind: str = "orthographic",
     fov_deg: float = 20.0,
+    framing: str = "full",
 ) -> Camera:
     """Fit a camera so the subject's bounding box fills the square image with a margin.
+
+    With a ``framing`` other than "full" (:data:`FRAMINGS`) the square shows only the top part of the subject:
+    the top keeps its margin, the image's side is that part's height plus the margin, and the rest of the
+    subject is cut by the bottom (and, where wider, the side) borders.
 
     Args:
         subject: what to frame (its ``bounds()``, metres).
@@ -94,7 +102,10 @@ def fit_camera(
         margin: free border as a fraction of the image side on each side (0 ≤ margin < 0.5).
         kind: "orthographic" (default) or "perspective".
         fov_deg: full field of view of a perspective camera, degrees.
+        framing: "full", "knees-up", "waist-up", "head-shoulders" or "face".
     """
+    if framing not in FRAMINGS:
+        raise RelightError(f"framing {framing!r}: expected one of {list(FRAMINGS)}")
     if kind not in KINDS:
         raise RelightError(f"camera kind {kind!r}: expected one of {KINDS}")
     if int(resolution) < 1:
@@ -104,6 +115,12 @@ def fit_camera(
     lo, hi = (np.asarray(b, dtype=np.float64) for b in subject.bounds())
     center = 0.5 * (lo + hi)
     half = 0.5 * float(max(hi[1] - lo[1], hi[2] - lo[2], 1e-6)) / (1.0 - 2.0 * margin)
+    if framing != "full":  # the top `visible` metres, the top margin kept, the rest below the bottom border
+        visible = FRAMINGS[framing] * float(max(hi[2] - lo[2], 1e-6))
+        side = visible / (1.0 - margin)
+        half = 0.5 * side
+        center = center.copy()
+        center[2] = float(hi[2]) + margin * side - half
     depth = float(hi[0] - lo[0])
     if kind == "orthographic":
         eye_x = float(hi[0] + 1.0 + depth)

@@ -47,9 +47,43 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--camera", choices=("orthographic", "perspective"), default="orthographic")
     parser.add_argument("--fov", type=float, default=20.0, help="perspective field of view, degrees")
     parser.add_argument("--margin", type=float, default=0.05, help="free border, fraction of the image side")
+    parser.add_argument(
+        "--framings", default="full", type=parse_framings,
+        help="camera framings and their weights, drawn per subject: e.g. full=0.4,knees-up=0.15,waist-up=0.15,"
+             "head-shoulders=0.15,face=0.15 (names: full, knees-up, waist-up, head-shoulders, face; default full)",
+    )
     parser.add_argument("--workers", type=int, default=2, help="parallel processes")
     parser.add_argument("--preview", action="store_true", help="also write OUT/contact_sheet.png")
     parser.add_argument("--overwrite", action="store_true", help="re-render samples that already exist")
+
+
+def parse_framings(text: str) -> dict[str, float]:
+    """``name[=weight],...`` -> {framing: probability}; weights default to 1 and are normalised."""
+    from .camera import FRAMINGS
+
+    out: dict[str, float] = {}
+    for item in (t.strip() for t in text.split(",") if t.strip()):
+        name, _, weight = item.partition("=")
+        if name not in FRAMINGS:
+            raise argparse.ArgumentTypeError(f"framing {name!r}: expected one of {list(FRAMINGS)}")
+        try:
+            w = float(weight) if weight else 1.0
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"framing {name}: weight {weight!r} is not a number") from None
+        if not (w >= 0 and np.isfinite(w)):
+            raise argparse.ArgumentTypeError(f"framing {name}: weight must be >= 0, got {weight}")
+        out[name] = out.get(name, 0.0) + w
+    total = sum(out.values())
+    if not out or total <= 0:
+        raise argparse.ArgumentTypeError(f"--framings {text!r}: expected at least one framing with a weight > 0")
+    return {k: v / total for k, v in out.items()}
+
+
+def pick_framing(framings: dict[str, float], seed: int) -> str:
+    """The framing of subject ``seed`` (deterministic: the same seed, the same framing)."""
+    names = sorted(framings)
+    rng = np.random.default_rng([seed, 0xF4A3])
+    return str(rng.choice(names, p=[framings[n] for n in names]))
 
 
 def make_subject(source: dict):
@@ -116,7 +150,8 @@ def render_one(job: dict, subject=None, build_s: float | None = None) -> dict:
     t1 = time.perf_counter()
     if build_s is not None:
         t0 = t1 - build_s
-    cam = fit_camera(subject, job["resolution"], margin=job["margin"], kind=job["camera"], fov_deg=job["fov"])
+    cam = fit_camera(subject, job["resolution"], margin=job["margin"], kind=job["camera"], fov_deg=job["fov"],
+                     framing=job.get("framing", "full"))
     tracer = Tracer(subject)
     g = render_gbuffer(subject, cam, tracer)
     rng = np.random.default_rng([job["seed"], 0x5A17])
@@ -131,6 +166,7 @@ def render_one(job: dict, subject=None, build_s: float | None = None) -> dict:
         "source": job["source"],
         "seed": job["seed"],
         "camera": cam.to_dict(),
+        "framing": job.get("framing", "full"),
         "dirs": job["dirs"],
         "pixels": int(len(g.index)),
         "triangles": int(len(tracer.faces)),
@@ -149,7 +185,8 @@ def _jobs(args) -> list[dict]:
         for i, p in enumerate(args.mesh):
             skin = p.with_name(f"{p.stem}_skin.png")  # optional skin-label texture beside the mesh
             source = {"kind": "mesh", "path": str(p.resolve()), "skin": str(skin.resolve()) if skin.is_file() else None}
-            jobs.append({**common, "name": p.stem, "seed": args.seed + i, "source": source})
+            jobs.append({**common, "name": p.stem, "seed": args.seed + i, "source": source,
+                         "framing": pick_framing(args.framings, args.seed + i)})
         return jobs
     jobs = []
     for i in range(args.n):
@@ -163,7 +200,8 @@ def _jobs(args) -> list[dict]:
             rng = np.random.default_rng([seed, 0x7E35])
             yaws = rng.uniform(-args.max_yaw, args.max_yaw, args.views - 1)
             views += [(f"{name}_v{v}", round(float(y), 3)) for v, y in enumerate(yaws, start=1)]
-        jobs.append({**common, "name": name, "seed": seed, "source": source, "views": views})
+        jobs.append({**common, "name": name, "seed": seed, "source": source, "views": views,
+                     "framing": pick_framing(args.framings, seed)})
     return jobs
 
 
