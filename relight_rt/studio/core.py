@@ -40,7 +40,7 @@ log = logging.getLogger(__name__)
 MAX_UPLOAD_BYTES = 32 << 20  # an env map or a photo; bigger uploads are refused before decoding
 MAX_UPLOAD_PIXELS = 40_000_000  # decoded size limit (a small file can hold a huge image)
 EXPOSURES = ("auto", "physical")
-LUMA = (0.2126, 0.7152, 0.0722)  # Rec. 709, DESIGN.md §3 "Exposure"
+from ..exposure import REC709 as LUMA  # noqa: E402  (Rec. 709, DESIGN.md §3 "Exposure": one definition)
 
 # (leading bytes, kind, suffix the readers go by)
 _MAGIC = (
@@ -327,7 +327,7 @@ class Studio:
         # the photo's person, for the exposure rule (mean luminance inside the mask), at display resolution
         photo = _resize(np.asarray(dec.image), size)
         m = mask[..., 0]
-        luma = photo @ np.array(LUMA, np.float32)
+        luma = photo @ LUMA
         target = float((luma * m).sum() / max(float(m.sum()), 1e-6))
         return {
             "height": size[0],
@@ -446,6 +446,6 @@ def mean_luminance_scale(albedo, transport, mask, light, target: float, ev: floa
         albedo: (H, W, 3) premultiplied by the mask. transport: (H, W, 9). mask: (H, W). light: (9, 3).
     """
     shade = np.maximum(np.asarray(transport, np.float32).reshape(-1, 9) @ np.asarray(light, np.float32), 0)
-    luma = (np.asarray(albedo, np.float32).reshape(-1, 3) * shade) @ np.array(LUMA, np.float32)
+    luma = (np.asarray(albedo, np.float32).reshape(-1, 3) * shade) @ LUMA
     current = float(luma.sum() / max(float(np.asarray(mask).sum()), 1e-6))
     return float(target * 2.0**ev / current) if current > 1e-8 else 1.0
