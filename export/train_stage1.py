@@ -53,6 +53,8 @@ def add_arguments(parser) -> None:
     parser.add_argument("--val-fraction", type=float, default=0.05,
                         help="fraction of the samples held out for validation (0: none; default %(default)s)")
     parser.add_argument("--no-cache", action="store_true", help="re-read samples from disk every epoch")
+    parser.add_argument("--init", help="start from these weights (a .pt checkpoint or a shipped stage-1 .onnx; "
+                                       "fine-tuning, see export.warm_start); ignored when resuming")
     add_loop_arguments(parser, epochs=60)
 
 
@@ -94,6 +96,25 @@ def validation_fn(dataset: Stage1Dataset, loss_fn: Stage1Loss, device: torch.dev
     return val
 
 
+def warm_start(model: torch.nn.Module, path: str, dataset: Stage1Dataset, device: torch.device,
+               batch_size: int, batches: int = 8) -> str:
+    """Load ``path`` into ``model`` and re-measure its norm statistics on training inputs (export.warm_start)."""
+    from .warm_start import calibrate_norms, load_init
+
+    source = load_init(model, path)
+    dataset.set_epoch(0)
+    n = min(len(dataset), batches * batch_size)
+
+    def inputs():
+        for i in range(0, n, batch_size):
+            batch = to_device(collate([dataset[j] for j in range(i, min(i + batch_size, n))]), device)
+            yield (2.0 * render_input(batch) - 1.0) * batch["mask"]
+
+    calibrate_norms(model, inputs())
+    log.info("stage 1 starts from %s", source)
+    return source
+
+
 def run(args) -> int:
     from . import dataset
     from .networks import Stage1Net
@@ -114,6 +135,9 @@ def run(args) -> int:
                               cache=cache, flip=not args.no_flip)
     torch.manual_seed(args.seed)
     model = Stage1Net(width=args.width, resolution=args.resolution, norm=args.norm).to(cfg.device)
+    init = None
+    if args.init and not (args.resume and (Path(args.out) / "last.pt").exists()):
+        init = warm_start(model, args.init, train_set, cfg.device, max(args.batch_size, 2))
     loss_fn = Stage1Loss(use_sf=not args.no_sf, sf_scale=args.sf_scale).to(cfg.device)
     optimizer = torch.optim.Adam(model.parameters(), lr=args.lr, betas=(0.5, 0.999))
     val_fn = None
@@ -124,7 +148,8 @@ def run(args) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     write_json(out / "args.json", {**vars(args), "command": "train-stage1", "val_names": val_names})
-    meta = {"command": "train-stage1", "data": str(args.data), "sf": not args.no_sf, "sf_scale": args.sf_scale}
+    meta = {"command": "train-stage1", "data": str(args.data), "sf": not args.no_sf, "sf_scale": args.sf_scale,
+            "init": init}
     summary = train_loop(model, optimizer, train_set, stage1_step(loss_fn), cfg, val_fn=val_fn, meta=meta)
     log.info("stage 1 finished: %s", json.dumps(summary))
     if args.export_onnx:
