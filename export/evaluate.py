@@ -62,6 +62,8 @@ FRONT_TRANSPORT = (cosine_lobe() * sh_basis(np.array([1.0, 0.0, 0.0]))).astype(n
 def add_arguments(parser) -> None:
     parser.add_argument("--stage1", required=True, help="stage-1 checkpoint (.pt) or ONNX graph (.onnx)")
     parser.add_argument("--stage2", default=None, help="stage-2 checkpoint or ONNX graph (photo tables)")
+    parser.add_argument("--baseline", help="another stage-1 checkpoint or graph (e.g. the bundled one): its rows, and "
+                                           "the paired change from it to --stage1 per subject")
     parser.add_argument("--nosf", default=None, help="stage-1 network trained with --no-sf (baseline row)")
     parser.add_argument("--data", default=None, help="held-out stage-1 samples (Table 1)")
     parser.add_argument("--lights", default=None, help="lights to render the samples under (Table 1)")
@@ -199,8 +201,13 @@ def evaluate_photos(stage1: torch.nn.Module, stage2: torch.nn.Module | None, pho
         if relight.get(name):
             results[name].update({"n_pairs": len(relight[name]), **_mean(relight[name])})
     effect = {}
+    subjects = [subject_of(name) for name in ds.names[:n]]
+    if BASELINE in decomposers:
+        effect["vs_baseline_recon_rmse"] = paired_change(recon[BASELINE], recon["stage 1"], "recon_rmse", subjects)
+        if pairs:
+            effect["vs_baseline_relight_rmse"] = paired_change(relight[BASELINE], relight["stage 1"], "relight_rmse",
+                                                               [subjects[i] for i, _ in pairs])
     if stage2 is not None:
-        subjects = [subject_of(name) for name in ds.names[:n]]
         effect["recon_rmse"] = paired_change(recon["stage 1"], recon["stage 1 + 2"], "recon_rmse", subjects)
         if pairs:
             pair_subjects = [subjects[i] for i, _ in pairs]
@@ -209,6 +216,9 @@ def evaluate_photos(stage1: torch.nn.Module, stage2: torch.nn.Module | None, pho
             effect["relight_ceiling"] = paired_change(relight["stage 1"], relight["oracle: stage 1 + true residual"],
                                                       "relight_rmse", pair_subjects)
     return results, effect
+
+
+BASELINE = "baseline stage 1"
 
 
 def paired_change(base: list[dict], new: list[dict], key: str, groups: list[str], resamples: int = 2000,
@@ -262,6 +272,15 @@ def markdown(results: dict) -> str:
                 lines.append(f"| {labels.get(key, key)} | {e['mean']:+.4f} | [{low:+.4f}, {high:+.4f}] "
                              f"| {100 * e['improved']:.0f} % | {e['n']} ({e['subjects']}) |")
             lines.append("")
+        if section == "photos" and results.get("baseline_effect"):
+            lines += ["Stage 1 against the baseline stage 1, photo by photo and pair by pair (stage 1 minus baseline; "
+                      "negative: --stage1 is better; 95 % interval resampling subjects):", "",
+                      "| RMSE | mean change | 95 % interval | improved | n (subjects) |", "|---|---|---|---|---|"]
+            for key, e in results["baseline_effect"].items():
+                low, high = e["ci95"]
+                lines.append(f"| {key.removesuffix('_rmse')} | {e['mean']:+.4f} | [{low:+.4f}, {high:+.4f}] "
+                             f"| {100 * e['improved']:.0f} % | {e['n']} ({e['subjects']}) |")
+            lines.append("")
     return "\n".join(lines)
 
 
@@ -278,6 +297,8 @@ def run(args) -> int:
     stage1 = load_frozen(args.stage1, "stage1", device, threads=args.threads)
     stage2 = load_frozen(args.stage2, "stage2", device, threads=args.threads) if args.stage2 else None
     extra = {"stage 1 (no SF)": load_frozen(args.nosf, "stage1", device, threads=args.threads)} if args.nosf else {}
+    if getattr(args, "baseline", None):
+        extra[BASELINE] = load_frozen(args.baseline, "stage1", device, threads=args.threads)
     lights = dataset.read_lights(args.lights) if args.lights else None
     results: dict = {"args": {k: v for k, v in vars(args).items() if k != "func"}}
     if args.data is not None:
@@ -292,8 +313,12 @@ def run(args) -> int:
                                          device=device)
         results["photos"], effect = evaluate_photos(stage1, stage2, Path(args.photos), mean_light, args.max_samples,
                                                     args.max_pairs, device, extra)
-        if effect:
-            results["stage2_effect"] = effect
+        base = {k.removeprefix("vs_baseline_"): v for k, v in effect.items() if k.startswith("vs_baseline_")}
+        stage2_effect = {k: v for k, v in effect.items() if not k.startswith("vs_baseline_")}
+        if stage2_effect:
+            results["stage2_effect"] = stage2_effect
+        if base:
+            results["baseline_effect"] = base
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     write_json(out / "results.json", results)

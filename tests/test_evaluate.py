@@ -196,3 +196,22 @@ def test_evaluate_refuses_a_graph_of_the_wrong_kind(checkpoints, tmp_path, capsy
     argv = ["evaluate", "--stage1", str(graph), "--photos", str(root / "photos"), "--out", str(tmp_path / "e")]
     assert main(argv) == 2
     assert "stage1" in capsys.readouterr().err
+
+
+def test_evaluate_compares_stage1_with_a_baseline_pair_by_pair(checkpoints, tmp_path):
+    from export.__main__ import main
+
+    root = checkpoints
+    out = tmp_path / "eval"
+    argv = ["evaluate", "--stage1", str(root / "s1.pt"), "--baseline", str(root / "nosf.pt"), "--data",
+            str(root / "samples"), "--lights", str(root / "lights"), "--photos", str(root / "photos"),
+            "--out", str(out), "--threads", "1"]
+    assert main(argv) == 0
+    results = json.loads((out / "results.json").read_text())
+    assert "baseline stage 1" in results["synthetic"] and "stage2_effect" not in results
+    photos, effect = results["photos"], results["baseline_effect"]
+    assert effect["relight_rmse"]["n"] == 12 and effect["relight_rmse"]["subjects"] == 2
+    for key in ("recon_rmse", "relight_rmse"):  # the same items in both rows: the change is the difference of means
+        expected = photos["stage 1"][key] - photos["baseline stage 1"][key]
+        assert effect[key]["mean"] == pytest.approx(expected, abs=1e-9) and expected != 0
+    assert "against the baseline stage 1" in (out / "results.md").read_text()
