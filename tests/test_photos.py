@@ -201,3 +201,20 @@ def test_render_photos_end_to_end(tmp_path):
     assert np.abs(q["photo"] - p["photo"]).max() > 0.01
     assert main(["render-photos", "--data", str(tmp_path / "empty"), "--envmaps", str(lights),
                  "--out", str(photos)]) == 2
+
+
+def test_gloss_makes_the_non_diffuse_part_larger_and_keeps_the_diffuse_image(env):
+    from export.render.photos import glossier
+
+    tracer, g, t, px = _setup(specular=0.06, roughness=0.5)
+    shiny = glossier(g, 1.0)
+    np.testing.assert_allclose(shiny.specular, 0.3, rtol=1e-6)
+    np.testing.assert_allclose(shiny.roughness, 0.25, rtol=1e-6)
+    assert glossier(g, 0.0) is g
+    with pytest.raises(RelightError, match="gloss"):
+        glossier(g, 1.5)
+    plain = render_photo(tracer, g, t, env, pixel_size=px, rng=np.random.default_rng(0))
+    glossy = render_photo(tracer, shiny, t, env, pixel_size=px, rng=np.random.default_rng(0))
+    np.testing.assert_array_equal(glossy["diffuse"], plain["diffuse"])
+    extra = lambda out: float(np.abs(out["photo"] - out["diffuse"]).mean())  # noqa: E731
+    assert extra(glossy) > 3 * extra(plain) > 0

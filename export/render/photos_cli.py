@@ -8,6 +8,8 @@ Writes ``SUBJECT__L{j}_photo.png``, ``_diffuse.png``, ``_mask.png`` and ``_light
 (see export.dataset), and ``SUBJECT__L{j}_env.txt`` naming the environment used. With ``--full-shading``
 the photo's diffuse part is shaded by the full environment map (hard shadows, sharp terminators) rather
 than by its SH projection, as a camera would record it; ``_diffuse.png`` stays stage 1's SH image.
+``--gloss`` makes every surface shinier (:func:`export.render.photos.glossier`) for test and training
+sets whose non-diffuse part is large.
 """
 
 from __future__ import annotations
@@ -35,6 +37,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--full-shading", action="store_true",
                         help="shade with the full environment map (hard shadows; median cut into 256 point lights) "
                              "instead of its SH projection; _diffuse.png stays the SH image (export.render.photos)")
+    parser.add_argument("--gloss", type=float, default=0.0,
+                        help="0..1: make every surface shinier (specular x(1+4g), roughness x(1-g/2)) for photos "
+                             "with a large non-diffuse part (export.render.photos.glossier; default 0)")
     parser.add_argument("--env-height", type=int, default=None, help="resize maps to this height (default: as stored)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--workers", type=int, default=2)
@@ -47,7 +52,7 @@ def photo_one(job: dict) -> dict:
     from .camera import Camera
     from .cli import make_subject
     from .lights_cli import load_environment
-    from .photos import pixel_size, render_photo
+    from .photos import glossier, pixel_size, render_photo
     from .raycast import Tracer
     from .transport import render_gbuffer
 
@@ -65,6 +70,7 @@ def photo_one(job: dict) -> dict:
             f"sample {name}: the re-created subject covers other pixels than the stored mask ({mismatch:.2%} differ); "
             "was it rendered with another version of the subject generator?"
         )
+    g = glossier(g, job["gloss"])
     flat = g.index
     albedo = sample["albedo"].reshape(-1, 3)[flat]
     transport = sample["transport"].reshape(-1, 9)[flat]
@@ -87,6 +93,8 @@ def run(args) -> int:
 
     if args.k < 1 or args.samples < 0 or args.workers < 1:
         raise RelightError("expected --k >= 1, --samples >= 0 and --workers >= 1")
+    if not 0.0 <= args.gloss <= 1.0:
+        raise RelightError(f"--gloss: expected a value in [0, 1], got {args.gloss}")
     names = [n for n in dataset.list_samples(args.data) if (args.data / f"{n}_meta.json").is_file()]
     if not names:
         raise RelightError(f"--data {args.data}: no rendered samples with NAME_meta.json found")
@@ -99,7 +107,7 @@ def run(args) -> int:
         pick = rng.choice(len(envs), size=args.k, replace=False)
         jobs.append({"data": str(args.data), "name": name, "envmaps": str(args.envmaps),
                      "envs": [envs[i] for i in pick], "env_height": args.env_height, "samples": args.samples,
-                     "full": args.full_shading, "seed": args.seed, "out": str(args.out)})
+                     "full": args.full_shading, "gloss": args.gloss, "seed": args.seed, "out": str(args.out)})
     args.out.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
     failures, times = [], []
