@@ -6,7 +6,11 @@ Forward (the reference's preprocessing, DESIGN.md §4):
    5 px margin and clipped to the image. As in the reference, the end of the box is the last mask
    pixel + 5 taken as an exclusive slice end, so the margin is 5 px before and 4 px after the mask.
 2. Square: the crop (h, w) is zero-padded on its short side to a square of side S = max(h, w),
-   ``(S - min(h, w)) // 2`` pixels before it and the rest after it.
+   ``(S - min(h, w)) // 2`` pixels before it and the rest after it. In ``mode="quality"`` a person cut
+   by the photo's border (the mask touches it: a portrait, a half body) keeps that cut on the square's
+   border: the padding goes to the other side only, so the network sees a body that continues beyond
+   the frame — as in the framings it was trained on — and not one that ends above a black band.
+   When the mask touches both borders of the padded axis, or neither, the crop stays centred.
 3. Resize the square to the network resolution R x R. ``mode="reference"`` uses cv2.INTER_LINEAR
    always (bit-for-bit the reference path); ``mode="quality"`` (the default) uses cv2.INTER_AREA when
    shrinking (S > R: no aliasing) and cv2.INTER_LINEAR when enlarging.
@@ -35,6 +39,16 @@ def _by_four(fn, a: np.ndarray) -> np.ndarray:
         out = fn(a)
         return out[..., None] if out.ndim < a.ndim else out
     return np.concatenate([_by_four(fn, np.ascontiguousarray(a[..., i : i + 4])) for i in range(0, a.shape[2], 4)], 2)
+
+
+def _toward_cut(centred: int, total: int, cut_before: bool, cut_after: bool) -> int:
+    """Padding before the crop on its padded axis: none when only its start is cut by the photo's border,
+    all of it when only its end is, otherwise the centred amount."""
+    if cut_before and not cut_after:
+        return 0
+    if cut_after and not cut_before:
+        return total
+    return centred
 
 
 @dataclass(frozen=True)
@@ -74,6 +88,12 @@ class CropGeometry:
         h, w = y1 - y0, x1 - x0
         side = max(h, w)
         pad = (side - min(h, w)) // 2
+        if mode == "quality":
+            # a cut by the photo's border stays on the square's border (module docstring, step 2)
+            if h > w:
+                pad = _toward_cut(pad, side - w, cols[0] == 0, cols[-1] == w_img - 1)
+            else:
+                pad = _toward_cut(pad, side - h, rows[0] == 0, rows[-1] == h_img - 1)
         offset = (0, pad) if h > w else (pad, 0)
         return cls((h_img, w_img), (y0, y1, x0, x1), offset, side, int(resolution), mode)
 

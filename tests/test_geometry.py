@@ -67,6 +67,25 @@ def test_padding_is_centred_on_the_short_side():
     assert wide.offset == (75, 0)
 
 
+def test_a_body_cut_by_the_photo_border_stays_cut_by_the_square_border():
+    # a waist-up crop wider than tall, cut by the bottom border: the padding goes on top only
+    wide = CropGeometry.from_mask(blob(200, 300, (80, 200, 20, 280)), 64)  # crop rows 75-200, cols 15-284
+    h, w = wide.crop_shape
+    assert wide.offset == (w - h, 0)
+    square = wide.to_network(np.ones((200, 300), np.float32))
+    assert square[-1].min() > 0.99 and square[0].max() == 0  # the person reaches the square's bottom edge
+    # cut at the top (a person entering from above), and at the left / right of a tall crop
+    assert CropGeometry.from_mask(blob(200, 300, (0, 120, 20, 280)), 64).offset == (0, 0)
+    left = CropGeometry.from_mask(blob(300, 200, (20, 280, 0, 100)), 64)
+    right = CropGeometry.from_mask(blob(300, 200, (20, 280, 100, 200)), 64)
+    assert left.offset == (0, 0) and right.offset == (0, right.side - right.crop_shape[1])
+    # cut on both sides, or on neither: centred; the reference path is always centred
+    both = CropGeometry.from_mask(blob(200, 300, (0, 200, 100, 150)), 64)
+    assert both.offset == (0, (both.side - both.crop_shape[1]) // 2)
+    ref = CropGeometry.from_mask(blob(200, 300, (80, 200, 20, 280)), 64, mode="reference")
+    assert ref.offset == ((ref.side - ref.crop_shape[0]) // 2, 0)
+
+
 def test_quality_mode_uses_area_when_shrinking():
     rng = np.random.default_rng(2)
     img = rng.random((256, 256, 3)).astype(np.float32)
