@@ -44,7 +44,7 @@ import torch.nn.functional as F
 
 from relight_rt import RelightError
 
-from .losses import masked_l1
+from .losses import masked_l1, masked_mse
 from .torch_data import PhotoDataset, decompose, item_rng, render_diffuse, subject_of
 from .training import (
     LoopConfig,
@@ -86,6 +86,10 @@ def add_arguments(parser) -> None:
                         help="probability that a training item's input is the renderer's own diffuse image of the "
                              "target photo (NAME_diffuse.png) instead of stage 1's, so that stage 2 learns the "
                              "non-diffuse residual alone (default %(default)s)")
+    parser.add_argument("--loss", choices=("l1", "l2"), default="l1",
+                        help="l1: the paper's masked L1; l2: masked squared error, whose optimum is the expected "
+                             "residual (sparse highlights survive; L1's median drops them) — what RMSE measures "
+                             "(default %(default)s)")
     parser.add_argument("--val-fraction", type=float, default=0.1,
                         help="fraction of the subjects held out for validation (default %(default)s)")
     add_loop_arguments(parser, epochs=60)
@@ -207,13 +211,16 @@ class Stage2Dataset(torch.utils.data.Dataset):
         return {"photo": photo, "mask": mask, "diffuse": d, "index": index}
 
 
-def stage2_step(model: torch.nn.Module, batch: dict) -> dict:
-    """Masked L1 between clip(D + residual, 0, 1) ⊙ mask and the masked photo."""
+def stage2_step(model: torch.nn.Module, batch: dict, loss: str = "l1") -> dict:
+    """Masked L1 (or squared error) between clip(D + residual, 0, 1) ⊙ mask and the masked photo."""
     mask, diffuse = batch["mask"], batch["diffuse"]
     residual = model((2.0 * diffuse - 1.0) * mask).float()
     relit = (diffuse + residual).clamp(0.0, 1.0) * mask
-    loss = masked_l1(relit, batch["photo"] * mask, mask)
-    return {"l1": loss, "total": loss}
+    if loss == "l2":
+        value = masked_mse(relit, batch["photo"] * mask, mask)
+        return {"l2": value, "total": value}
+    value = masked_l1(relit, batch["photo"] * mask, mask)
+    return {"l1": value, "total": value}
 
 
 def zero_residual_init(model: torch.nn.Module) -> None:
@@ -293,6 +300,10 @@ def run(args) -> int:
     if not args.random_init:
         zero_residual_init(model)
     optimizer = torch.optim.RAdam(model.parameters(), lr=args.lr)
+
+    def step(m: torch.nn.Module, batch: dict) -> dict:
+        return stage2_step(m, batch, args.loss)
+
     val_fn = None
     if val_idx:
         # validation measures what the training aims at: reconstructions, plus every relighting pair of
@@ -306,14 +317,14 @@ def run(args) -> int:
         def val_fn(m: torch.nn.Module) -> float:
             total = 0.0
             for i in range(len(val_set)):
-                total += float(stage2_step(m, to_device(collate([val_set[i]]), cfg.device))["total"])
+                total += float(step(m, to_device(collate([val_set[i]]), cfg.device))["total"])
             return total / len(val_set)
 
     write_json(out / "args.json", {**vars(args), "command": "train-stage2",
                                    "val_names": [photos.names[i] for i in val_idx]})
     meta = {"command": "train-stage2", "photos": str(args.photos), "stage1": str(args.stage1),
-            "cross_light": args.cross_light, "true_diffuse": args.true_diffuse}
-    summary = train_loop(model, optimizer, train_set, stage2_step, cfg, val_fn=val_fn, meta=meta)
+            "cross_light": args.cross_light, "true_diffuse": args.true_diffuse, "loss": args.loss}
+    summary = train_loop(model, optimizer, train_set, step, cfg, val_fn=val_fn, meta=meta)
     log.info("stage 2 finished: %s", json.dumps(summary))
     if args.export_onnx:
         export_best(out, "stage2", f"relight_rt train-stage2 on {args.photos} ({summary['epochs_done']} epochs)")

@@ -288,3 +288,24 @@ def test_stage2_trains_on_a_folder_of_ones_own_photos(data, tmp_path, capsys):
     assert (run / "best.pt").is_file()
     assert main([*argv, "--cross-light", "0.5"]) == 2  # needs rendered photos' lights
     assert "need rendered photos" in capsys.readouterr().err
+
+
+def test_stage2_squared_error_loss_is_the_mean_of_squares(data, tmp_path):
+    from export.train_stage2 import stage2_step
+
+    model = torch.nn.Module()
+    residual = torch.full((1, 3, 8, 8), 0.1)
+    model.forward = lambda x: residual  # a fixed residual: the loss is a hand value
+    mask = torch.zeros(1, 1, 8, 8)
+    mask[..., :4, :] = 1
+    batch = {"mask": mask, "diffuse": torch.full((1, 3, 8, 8), 0.5), "photo": torch.full((1, 3, 8, 8), 0.8)}
+    assert float(stage2_step(model, batch, "l2")["l2"]) == pytest.approx(0.2**2, rel=1e-5)
+    assert float(stage2_step(model, batch)["l1"]) == pytest.approx(0.2, rel=1e-5)
+    s1 = tmp_path / "s1"
+    assert _stage1(data, s1, "--epochs", "1", "--max-steps", "1") == 0
+    run = tmp_path / "s2"
+    assert main(["train-stage2", "--photos", str(data / "photos"), "--stage1", str(s1 / "best.pt"), "--out", str(run),
+                 "--width", "4", "--norm", "instance", "--threads", "1", "--log-every", "1", "--val-fraction", "0",
+                 "--epochs", "1", "--loss", "l2"]) == 0
+    steps = [r for r in read_jsonl(run / "log.jsonl") if r["event"] == "step"]
+    assert steps and "l2" in steps[0] and "l1" not in steps[0]
