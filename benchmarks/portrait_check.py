@@ -34,6 +34,7 @@ if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
 from relight_rt import Relighter, lights  # noqa: E402
+from relight_rt._io import read_image, read_mask  # noqa: E402
 from relight_rt.exposure import REC709  # noqa: E402
 
 WHITE = {
@@ -83,10 +84,6 @@ def side_ratio(img: np.ndarray, region: np.ndarray) -> float:
     return float(lum[left].mean() / max(lum[right].mean(), 1e-8))
 
 
-def read_rgb(path: Path) -> np.ndarray:
-    return cv2.cvtColor(cv2.imread(str(path), cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB).astype(np.float32) / 255.0
-
-
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--reference", type=Path, required=True, help="../shared/reference")
@@ -101,12 +98,13 @@ def main(argv=None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     rows, report = [], {}
     for name, img_path, mask_path in inputs:
-        image = read_rgb(img_path)
-        mask = cv2.imread(str(mask_path), cv2.IMREAD_GRAYSCALE).astype(np.float32) / 255.0
+        image = read_image(img_path)
+        mask = read_mask(mask_path, image.shape[:2])
         crop, crop_mask = portrait_crop(image, mask)
         dec = relighter.decompose(crop, crop_mask)
         region = face_region(crop, crop_mask)
-        entry = {"size": list(crop.shape[:2]), "face_pixels": int(region.sum()), "side_ratio_input": side_ratio(crop, region)}
+        entry = {"size": list(crop.shape[:2]), "face_pixels": int(region.sum()),
+                 "side_ratio_input": side_ratio(crop, region)}
         tiles = [crop]
         for lname, light in WHITE.items():
             out = relighter.relight(dec, light)

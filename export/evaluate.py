@@ -297,7 +297,7 @@ def run(args) -> int:
     stage1 = load_frozen(args.stage1, "stage1", device, threads=args.threads)
     stage2 = load_frozen(args.stage2, "stage2", device, threads=args.threads) if args.stage2 else None
     extra = {"stage 1 (no SF)": load_frozen(args.nosf, "stage1", device, threads=args.threads)} if args.nosf else {}
-    if getattr(args, "baseline", None):
+    if args.baseline:
         extra[BASELINE] = load_frozen(args.baseline, "stage1", device, threads=args.threads)
     lights = dataset.read_lights(args.lights) if args.lights else None
     results: dict = {"args": {k: v for k, v in vars(args).items() if k != "func"}}

@@ -1,6 +1,6 @@
 """Start training from existing weights: a checkpoint of this project or a shipped ONNX graph.
 
-Fine-tuning (``train-stage1 --init``, ``train-stage2 --init``) needs the weights of the model it starts
+Fine-tuning (``train-stage1 --init``) needs the weights of the model it starts
 from. A ``.pt`` checkpoint holds them as trained. A shipped ``.onnx`` graph of a ``norm="batch"`` network
 holds them with every BatchNorm folded into the convolution before it (the exporter's ``weight_bias``
 initialisers): :func:`load_init` puts the folded weights back into the convolutions and turns every norm
@@ -80,7 +80,7 @@ def _load_onnx(model: nn.Module, path: Path) -> str:
     convs = {name: m for name, m in model.named_modules() if isinstance(m, nn.Conv2d)}
     norms = {name: m for name, m in model.named_modules() if isinstance(m, nn.BatchNorm2d)}
     with torch.no_grad():
-        for name, norm in norms.items():
+        for norm in norms.values():
             norm.weight.fill_(1.0)
             norm.bias.zero_()
             norm.running_mean.zero_()
@@ -115,35 +115,35 @@ def _norm_after(conv_name: str, norms: dict[str, nn.BatchNorm2d]) -> nn.BatchNor
 
 
 def _check_parity(model: nn.Module, path: Path) -> None:
-    """The unfolded network must compute what the graph computes (eval mode, one random input)."""
-    import onnxruntime as ort
+    """The unfolded network must compute what the graph computes (eval mode, one random input).
 
+    The graph runs through :class:`export.frozen.OnnxStage` (the contract-checked loader every frozen stage
+    uses); its inputs and outputs are named by the kind registry, in the contract wrapper's order.
+    """
+    from relight_rt.contract import kind_spec
+
+    from .frozen import OnnxStage
     from .onnx_export import wrap
 
-    res = getattr(model, "resolution", 256)
+    spec = kind_spec(model.kind)
+    res = model.resolution
     rng = np.random.default_rng(0)
-    sess = ort.InferenceSession(str(path), providers=["CPUExecutionProvider"])
-    feeds = {}
-    for spec in sess.get_inputs():
-        channels = model.c0.in_channels if not feeds else 1
-        feeds[spec.name] = rng.uniform(0, 1, (1, channels, res, res)).astype(np.float32)
-    if len(feeds) != 2:
-        raise RelightError(f"--init {path}: expected a graph with two inputs (image and mask), got {list(feeds)}")
-    feeds[list(feeds)[1]] = (feeds[list(feeds)[1]] > 0.2).astype(np.float32)
-    want = sess.run(None, feeds)
-    graph = wrap(model)
-    model_was_training = model.training
-    graph.eval()
+    image = rng.uniform(0, 1, (1, model.c0.in_channels, res, res)).astype(np.float32)
+    mask = (rng.uniform(0, 1, (1, 1, res, res)) > 0.2).astype(np.float32)
+    feeds = dict(zip((t.name for t in spec.inputs), (torch.from_numpy(image), torch.from_numpy(mask)), strict=True))
+    want = OnnxStage(path, model.kind).run(feeds)
+    was_training = model.training
+    graph = wrap(model).eval()
     with torch.no_grad():
-        got = graph(*(torch.from_numpy(v) for v in feeds.values()))
-    model.train(model_was_training)
+        got = graph(*feeds.values())
+    model.train(was_training)
     got = got if isinstance(got, (tuple, list)) else (got,)
-    for g, w in zip(got, want):
-        g = g.numpy()
-        err = float(np.abs(g - w).max() / (np.abs(w).max() + 1e-6))
+    for tensor, g in zip(spec.outputs, got, strict=True):
+        w = want[tensor.name]
+        err = float((g - w).abs().max() / (w.abs().max() + 1e-6))
         if g.shape != w.shape or err > 1e-3:
-            raise RelightError(f"--init {path}: the unfolded network differs from the graph "
-                               f"(relative error {err:.2e}, shapes {g.shape} vs {w.shape})")
+            raise RelightError(f"--init {path}: the unfolded network's {tensor.name} differs from the graph's "
+                               f"(relative error {err:.2e}, shapes {tuple(g.shape)} vs {tuple(w.shape)})")
 
 
 def calibrate_norms(model: nn.Module, inputs: Iterable[torch.Tensor]) -> int:

@@ -45,7 +45,7 @@ def test_an_onnx_graph_unfolds_into_the_same_network(tmp_path):
     fresh.eval()
     x = torch.rand(2, 3, 64, 64) * 2 - 1
     with torch.no_grad():
-        for a, b in zip(original(x), fresh(x)):
+        for a, b in zip(original(x), fresh(x), strict=True):
             assert torch.allclose(a, b, atol=1e-4, rtol=1e-4)
 
 
@@ -65,7 +65,7 @@ def test_calibration_keeps_eval_mode_and_makes_training_mode_agree(tmp_path):
         after = net(x)
         net.train()
         light_train = net(x)[3]
-    for a, b in zip(before, after):
+    for a, b in zip(before, after, strict=True):
         assert torch.allclose(a, b, atol=1e-4, rtol=1e-3)
     err = float((light_train - before[3]).abs().max())
     assert err < 1e-3 * float(before[3].abs().max()) + 1e-5

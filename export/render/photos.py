@@ -312,4 +312,5 @@ def pixel_size(half_extent: float, resolution: int) -> float:
     return 2.0 * half_extent / max(int(resolution), 1)
 
 
-__all__ = ["EnvSampler", "F0", "SSS_RADIUS_M", "full_shading", "glossier", "median_cut", "pixel_size", "render_photo", "specular"]
+__all__ = ["EnvSampler", "F0", "SSS_RADIUS_M", "full_shading", "glossier", "median_cut", "pixel_size", "render_photo",
+           "specular"]
