@@ -38,6 +38,7 @@ from . import exposure as _exposure
 from ._errors import RelightError
 from .background import _LUT, light_from_background, read_background
 from .color import linear_to_srgb, srgb_to_linear
+from .masks import AUTO, resolve_mask
 
 __all__ = ["composite", "parse_position"]
 
@@ -71,6 +72,21 @@ def _check_height(height) -> float | None:
     if not 0 < h <= 1:
         raise RelightError(f"height: expected a fraction of the background's height in (0, 1], got {height!r}")
     return h
+
+
+def _matte_on_the_photo(relighter, image, mask):
+    """The automatic matte, when one is needed, taken on the photo as it is (sRGB, what the matting graphs
+    see in every other command), not on the linearised copy stage 1 gets here: linear values are darker and
+    lose the person in dim photos. A given mask, or the alpha of an RGBA photo, passes through unchanged."""
+    if mask is not None and not (isinstance(mask, str) and mask == AUTO):
+        return mask
+    from ._io import read_image
+
+    shown = read_image(image, "image")
+    if mask is None and shown.shape[2] == 4:
+        return None  # the alpha channel is the mask; _linear_person keeps it
+    name = os.fspath(image) if isinstance(image, (str, os.PathLike)) else "image"
+    return resolve_mask(shown, mask, matter=relighter.matter, name=name)
 
 
 def _linear_person(image):
@@ -173,6 +189,7 @@ def composite(
     mode = _exposure.parse_exposure(exposure)
     bg = read_background(background)
     bg_light, _ = light_from_background(bg, fov)
+    mask = _matte_on_the_photo(relighter, image, mask)
     person = _linear_person(image)
     dec = relighter.decompose(person, mask)
     if light is None:

@@ -191,3 +191,19 @@ def test_cli_lights_from_background(work, capsys):
     assert code == 2 and "field of view" in err and not (work / "l2.npy").exists()
     code, _, err = run(["lights", "from-background", "p_mask.png", "-o", "l3.npy"], capsys)
     assert code == 2 and "grayscale" in err
+
+
+def test_the_automatic_matte_sees_the_photo_not_its_linear_copy(diffuse_models_dir):
+    img, mask = flat_person()
+    seen = []
+
+    def matter(rgb, name="image"):
+        seen.append(float(rgb.mean()))
+        return mask
+
+    r = Relighter(diffuse_models_dir, device="cpu", detail=False)
+    r._matter, r._matter_loaded = matter, True  # the automatic matte, replaced by one that records its input
+    bg = np.full((120, 260, 3), 90, np.uint8)
+    with_matte = r.composite(img, bg)
+    assert seen and seen[0] == pytest.approx(img.mean() / 255, abs=1e-6)  # sRGB values, as in every other command
+    np.testing.assert_array_equal(with_matte, r.composite(img, bg, mask=mask))  # the same as that mask given
