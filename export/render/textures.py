@@ -20,27 +20,58 @@ log = logging.getLogger(__name__)
 
 PATTERNS = ("solid", "stripes", "checks", "dots", "noise", "print", "denim")
 
-#: Skin albedo anchors from light to deep (sRGB-like values, the space of the reference's _tex.png).
-SKIN_TONES = np.array(
+#: Skin anchors from light to deep as CIELAB (L*, a*, b*), D65: the lightness, redness and yellowness
+#: that colorimetric surveys of skin report (forehead and cheek, L* 75 to 24, a* 8 to 15, b* 11 to 21).
+#: They are converted to the value space of ``NAME_tex.png`` (8-bit sRGB-encoded, the space photos come
+#: in), so a synthetic face has the colour a real one has in a photo under white light. The first table
+#: (sRGB-like triples picked by eye) was 3 to 6 degrees of hue yellower and greyer than measured skin,
+#: and a model trained on it explained real skin's redness by a magenta light (docs/RESULTS.md).
+SKIN_LAB = np.array(
     [
-        [0.96, 0.80, 0.70],
-        [0.90, 0.71, 0.59],
-        [0.80, 0.60, 0.47],
-        [0.68, 0.48, 0.35],
-        [0.55, 0.37, 0.25],
-        [0.42, 0.27, 0.18],
-        [0.30, 0.19, 0.13],
+        [75.0, 9.0, 14.0],
+        [68.0, 11.0, 15.5],
+        [61.0, 12.5, 17.0],
+        [54.0, 13.5, 18.5],
+        [46.0, 13.0, 19.0],
+        [37.0, 11.5, 16.5],
+        [24.0, 8.0, 11.0],
     ]
 )
 
+#: Per-person spread of the undertone around an anchor, (a*, b*) half-ranges: pink to olive.
+UNDERTONE_RANGE = (4.0, 4.0)
 
-def skin_tone(t: float) -> np.ndarray:
-    """(3,) float32 skin albedo for ``t`` in [0, 1], 0 = lightest, 1 = deepest (piecewise linear)."""
-    if not np.isfinite(t):
-        raise RelightError(f"expected a finite skin tone in [0, 1], got {t}")
-    x = float(np.clip(t, 0.0, 1.0)) * (len(SKIN_TONES) - 1)
-    i = min(int(x), len(SKIN_TONES) - 2)
-    return ((1 - (x - i)) * SKIN_TONES[i] + (x - i) * SKIN_TONES[i + 1]).astype(np.float32)
+_XYZ_TO_LINEAR_SRGB = np.array([[3.2406, -1.5372, -0.4986], [-0.9689, 1.8758, 0.0415], [0.0557, -0.2040, 1.0570]])
+_D65 = np.array([0.95047, 1.0, 1.08883])
+
+
+def lab_to_srgb(lab) -> np.ndarray:
+    """CIELAB (D65) → sRGB-encoded RGB in [0, 1] (clipped), float64 with the input's leading shape."""
+    lab = np.asarray(lab, dtype=np.float64)
+    fy = (lab[..., 0] + 16.0) / 116.0
+    f = np.stack([fy + lab[..., 1] / 500.0, fy, fy - lab[..., 2] / 200.0], axis=-1)
+    eps, kappa = 216.0 / 24389.0, 24389.0 / 27.0
+    xyz = np.where(f**3 > eps, f**3, (116.0 * f - 16.0) / kappa) * _D65
+    lin = np.clip(xyz @ _XYZ_TO_LINEAR_SRGB.T, 0.0, 1.0)
+    return np.where(lin <= 0.0031308, 12.92 * lin, 1.055 * lin ** (1 / 2.4) - 0.055)
+
+
+def skin_tone(t: float, undertone: tuple[float, float] = (0.0, 0.0)) -> np.ndarray:
+    """(3,) float32 skin albedo (tex.png value space) for ``t`` in [0, 1], 0 = lightest, 1 = deepest.
+
+    Args:
+        t: position along SKIN_LAB, interpolated linearly in CIELAB.
+        undertone: (u, v) in [-1, 1]², scaled by UNDERTONE_RANGE and added to a* (redder, pinker) and
+            b* (yellower, more olive).
+    """
+    if not np.isfinite(t) or not np.all(np.isfinite(undertone)):
+        raise RelightError(f"expected a finite skin tone in [0, 1] and undertone, got {t}, {undertone}")
+    x = float(np.clip(t, 0.0, 1.0)) * (len(SKIN_LAB) - 1)
+    i = min(int(x), len(SKIN_LAB) - 2)
+    lab = (1 - (x - i)) * SKIN_LAB[i] + (x - i) * SKIN_LAB[i + 1]
+    u, v = np.clip(np.asarray(undertone, dtype=np.float64), -1.0, 1.0)
+    lab = lab + np.array([0.0, u * UNDERTONE_RANGE[0], v * UNDERTONE_RANGE[1]])
+    return lab_to_srgb(lab).astype(np.float32)
 
 
 # ---------------------------------------------------------------------------------------------------
