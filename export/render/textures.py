@@ -20,8 +20,9 @@ log = logging.getLogger(__name__)
 
 PATTERNS = ("solid", "stripes", "checks", "dots", "noise", "print", "denim")
 
-#: Skin anchors from light to deep as CIELAB (L*, a*, b*), D65: the lightness, redness and yellowness
-#: that colorimetric surveys of skin report (forehead and cheek, L* 75 to 24, a* 8 to 15, b* 11 to 21).
+#: Skin anchors from light to deep as CIELAB (L*, a*, b*), D65, chosen inside the ranges that colorimetric
+#: surveys of skin report (roughly L* 25 to 75, a* 8 to 15, b* 11 to 21; redness and yellowness are similar
+#: across depths, lightness is what varies most).
 #: They are converted to the value space of ``NAME_tex.png`` (8-bit sRGB-encoded, the space photos come
 #: in), so a synthetic face has the colour a real one has in a photo under white light. The first table
 #: (sRGB-like triples picked by eye) was 3 to 6 degrees of hue yellower and greyer than measured skin,
