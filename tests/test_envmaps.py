@@ -97,3 +97,37 @@ def test_lights_from_real_hdr_folder(tmp_path):
     assert envmaps.TARGET_RANGE[0] * 0.97 <= peak <= envmaps.TARGET_RANGE[1] * 1.03  # rescaled
     assert load_environment(src, "m1.hdr", height=10).shape == (10, 20, 3)  # a plain folder of maps works too
     assert main(["lights", "--out", str(out), "--hdr", str(tmp_path / "none")]) == 2
+
+
+def _cast(light: np.ndarray) -> np.ndarray:
+    """Chromaticity of a light's average radiance (coefficient 0), summing to 1."""
+    return light[0] / light[0].sum()
+
+
+def test_white_balance_removes_that_fraction_of_the_cast_and_keeps_luminance():
+    env = envmaps.procedural_envmap("lamps", np.random.default_rng(3), height=16) * np.array([1.6, 1.0, 0.5])
+    dc = project_envmap(env)[0]
+    rec709 = np.array([0.2126, 0.7152, 0.0722])
+    full = project_envmap(envmaps.white_balance(env, 1.0))[0]
+    np.testing.assert_allclose(full / full.mean(), 1.0, atol=1e-4)  # neutral on average
+    half = project_envmap(envmaps.white_balance(env, 0.5))[0]
+    np.testing.assert_allclose(np.log(half / half.mean()), 0.5 * np.log(dc / dc.mean()), atol=0.02)
+    for out in (full, half):
+        assert out @ rec709 == pytest.approx(dc @ rec709, rel=1e-4)
+    np.testing.assert_array_equal(envmaps.white_balance(env, 0.0), env.astype(np.float32))
+    with pytest.raises(RelightError, match="white balance"):
+        envmaps.white_balance(env, 1.5)
+
+
+def test_lights_command_white_balance(tmp_path):
+    plain, balanced = tmp_path / "plain", tmp_path / "wb"
+    assert main(["lights", "--out", str(plain), "--n", "6", "--height", "10", "--rotations", "2"]) == 0
+    assert main(["lights", "--out", str(balanced), "--n", "6", "--height", "10", "--rotations", "2",
+                 "--white-balance", "1"]) == 0
+    a, b = dataset.read_lights(plain), dataset.read_lights(balanced)
+    spread = lambda ls: np.ptp([_cast(x) for x in ls], axis=0).max()  # noqa: E731
+    assert spread(b) < 0.1 * spread(a)
+    name = dataset.list_lights(balanced)[0]  # the written map is the balanced one (photos use it)
+    np.testing.assert_allclose(project_envmap(environment(balanced, name)), dataset.read_light(balanced, name),
+                               rtol=0.03, atol=0.01)
+    assert main(["lights", "--out", str(tmp_path / "x"), "--white-balance", "2"]) == 2

@@ -199,6 +199,25 @@ def normalize_envmap(env: np.ndarray, target: float = 1.0) -> np.ndarray:
     return (np.asarray(env, np.float64) * (target / e)).astype(np.float32)
 
 
+def white_balance(env: np.ndarray, strength: float) -> np.ndarray:
+    """Remove ``strength`` of a map's colour cast, as a camera's automatic white balance does.
+
+    The cast is the colour of the map's average radiance (its SH coefficient 0); each channel is scaled by
+    (grey / cast)^strength, and the luminance of that average is kept (Rec. 709). 0 leaves the map as it
+    is, 1 makes its average neutral; cameras keep part of a warm or cool cast, so photos lie in between.
+    """
+    if not 0.0 <= strength <= 1.0:
+        raise RelightError(f"white balance strength: expected a value in [0, 1], got {strength}")
+    env = np.asarray(env, np.float64)
+    dc = project_envmap(env)[0]
+    if not (dc > 0).all():
+        return env.astype(np.float32)
+    rec709 = np.array([0.2126, 0.7152, 0.0722])
+    gain = (dc.mean() / dc) ** strength
+    gain *= (dc @ rec709) / ((dc * gain) @ rec709)
+    return (env * gain).astype(np.float32)
+
+
 def procedural_envmap(kind: str, rng: np.random.Generator, height: int = 64, target: float | None = None) -> np.ndarray:
     """Make one procedural environment map.
 

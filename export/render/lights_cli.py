@@ -9,7 +9,9 @@ Writes into OUT:
 
 Maps are procedural (``export.render.envmaps``) or, with ``--hdr DIR``, every .hdr/.exr/.png/.jpg
 map in DIR (resized to ``--height``); both are scaled so the brightest irradiance of a map lies in
-``--target`` (default 0.9–2.6, like the reference's test lights) unless ``--keep-scale``.
+``--target`` (default 0.9–2.6, like the reference's test lights) unless ``--keep-scale``. With
+``--white-balance S`` each map (and so its light and the photos rendered under it) loses the fraction S of
+its colour cast, as photos from a camera with automatic white balance do.
 """
 
 from __future__ import annotations
@@ -42,6 +44,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--keep-scale", action="store_true", help="do not rescale --hdr maps")
     parser.add_argument("--target", type=float, nargs=2, default=None, metavar=("LO", "HI"),
                         help="range of the brightest irradiance after scaling (log-uniform)")
+    parser.add_argument("--white-balance", type=float, default=0.0, metavar="S",
+                        help="remove this fraction (0-1) of each map's colour cast, as a camera's automatic "
+                             "white balance would (default 0: the maps as drawn)")
 
 
 def _maps(args):
@@ -85,6 +90,8 @@ def run(args) -> int:
 
     if args.rotations < 1 or args.height < 2 or args.n < 0:
         raise RelightError("expected --rotations >= 1, --height >= 2 and --n >= 0")
+    if not 0.0 <= args.white_balance <= 1.0:
+        raise RelightError(f"--white-balance: expected a fraction in [0, 1], got {args.white_balance}")
     if (2 * args.height) % args.rotations:
         raise RelightError(f"--height {args.height}: the width {2 * args.height} must be divisible by --rotations")
     out = Path(args.out)
@@ -93,6 +100,8 @@ def run(args) -> int:
     coeff0 = []
     total = args.n if args.hdr is None else None
     for base, env in tqdm(_maps(args), total=total, desc="lights", unit="map"):
+        if args.white_balance > 0:
+            env = envmaps.white_balance(env, args.white_balance)
         envmaps.write_hdr(out / "hdr" / f"{base}.hdr", env)
         light = project_envmap(env)
         for r in range(args.rotations):
