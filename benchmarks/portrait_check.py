@@ -11,6 +11,7 @@ portrait). Each is relit with ``Relighter.relight`` (default "auto" exposure) un
 Measured on the face's skin (skin-coloured input pixels inside the mask, in the top half of the crop):
 - hue under the white lights: the angle between the mean linear skin colour's chromaticity before and after
   (degrees in the HSV hue circle) — a white light should not change it;
+- the same hue shift for the whole (uncropped) photo under ``front``, on the skin of the person's top 15 %;
 - side ratio: mean luminance of the face's image-left half over its right half (split at the face's centroid),
   before and under the white side lights: under the left light > 1, under the right < 1.
 
@@ -100,11 +101,15 @@ def main(argv=None) -> int:
     for name, img_path, mask_path in inputs:
         image = read_image(img_path)
         mask = read_mask(mask_path, image.shape[:2])
+        full_region = face_region(image, mask)
+        rows_in = np.flatnonzero(mask.max(1) > 0.5)
+        full_region[rows_in[0] + int(0.15 * (rows_in[-1] - rows_in[0])) :] = False  # the head of the whole body
+        full_shift = hue_shift(image, relighter.relight(image, WHITE["front"], mask=mask), full_region)
         crop, crop_mask = portrait_crop(image, mask)
         dec = relighter.decompose(crop, crop_mask)
         region = face_region(crop, crop_mask)
         entry = {"size": list(crop.shape[:2]), "face_pixels": int(region.sum()),
-                 "side_ratio_input": side_ratio(crop, region)}
+                 "side_ratio_input": side_ratio(crop, region), "hue_shift_front_whole_photo": full_shift}
         tiles = [crop]
         for lname, light in WHITE.items():
             out = relighter.relight(dec, light)
@@ -127,6 +132,8 @@ def main(argv=None) -> int:
         "columns": columns,
         "models": str(args.models or "bundled"),
         "mean_abs_hue_shift_white": float(np.mean([abs(e[f"hue_shift_{k}"]) for e in report.values() for k in WHITE])),
+        "mean_abs_hue_shift_front_whole_photo": float(np.mean([abs(e["hue_shift_front_whole_photo"])
+                                                               for e in report.values()])),
         "left_brighter_under_white_left": int(sum(e["side_ratio_white-left"] > 1 for e in report.values())),
         "right_brighter_under_white_right": int(sum(e["side_ratio_white-right"] < 1 for e in report.values())),
         "crops": report,
