@@ -78,6 +78,9 @@ def add_arguments(parser) -> None:
                              "[-1, 1]; the bundled stage 2 was trained so); recorded in the checkpoint and graph")
     parser.add_argument("--random-init", action="store_true",
                         help="keep the random last layer (default: zero it, so training starts from residual 0)")
+    parser.add_argument("--init", metavar="CHECKPOINT",
+                        help="start from this stage-2 checkpoint (.pt, same width/resolution/norm/activation) "
+                             "instead of a zero residual: adapts a trained stage 2 to another stage 1")
     parser.add_argument("--cross-light", type=float, default=0.0, metavar="P",
                         help="probability that a training item is a relighting pair (photo i relit with the light "
                              "of photo j of the same sample, target photo j) instead of a reconstruction "
@@ -275,6 +278,9 @@ def run(args) -> int:
     for name, value in (("--cross-light", args.cross_light), ("--true-diffuse", args.true_diffuse)):
         if not 0.0 <= value <= 1.0:
             raise RelightError(f"{name}: expected a probability in [0, 1], got {value}")
+    if args.init and Path(args.init).suffix.lower() == ".onnx":
+        raise RelightError(f"--init {args.init}: stage 2 starts from a .pt checkpoint (its graph's residual "
+                           "blocks cannot be unfolded back into the network)")
     stage1 = load_frozen(args.stage1, "stage1", device, threads=args.threads)
     r1 = stage1.resolution
     r2 = args.resolution or r1
@@ -297,7 +303,13 @@ def run(args) -> int:
     torch.manual_seed(args.seed)
     model = Stage2Net(width=args.width, resolution=r2, norm=args.norm,
                       output_activation=args.output_activation).to(cfg.device)
-    if not args.random_init:
+    init = None
+    if args.init and not (args.resume and (out / "last.pt").exists()):
+        from .warm_start import load_init
+
+        init = load_init(model, args.init)
+        log.info("stage 2 starts from %s", init)
+    elif not args.random_init:
         zero_residual_init(model)
     optimizer = torch.optim.RAdam(model.parameters(), lr=args.lr)
 
@@ -323,7 +335,7 @@ def run(args) -> int:
     write_json(out / "args.json", {**vars(args), "command": "train-stage2",
                                    "val_names": [photos.names[i] for i in val_idx]})
     meta = {"command": "train-stage2", "photos": str(args.photos), "stage1": str(args.stage1),
-            "cross_light": args.cross_light, "true_diffuse": args.true_diffuse, "loss": args.loss}
+            "cross_light": args.cross_light, "true_diffuse": args.true_diffuse, "loss": args.loss, "init": init}
     summary = train_loop(model, optimizer, train_set, step, cfg, val_fn=val_fn, meta=meta)
     log.info("stage 2 finished: %s", json.dumps(summary))
     if args.export_onnx:

@@ -309,3 +309,25 @@ def test_stage2_squared_error_loss_is_the_mean_of_squares(data, tmp_path):
                  "--epochs", "1", "--loss", "l2"]) == 0
     steps = [r for r in read_jsonl(run / "log.jsonl") if r["event"] == "step"]
     assert steps and "l2" in steps[0] and "l1" not in steps[0]
+
+
+def test_stage2_init_starts_from_a_trained_checkpoint(data, tmp_path, capsys, caplog):
+    """--init adapts a trained stage 2 to another stage 1: its first step starts from those weights, not from 0."""
+    s1 = tmp_path / "s1"
+    assert _stage1(data, s1, "--epochs", "1", "--max-steps", "2") == 0
+    common = ["--photos", str(data / "photos"), "--stage1", str(s1 / "best.pt"), "--width", "4", "--norm", "instance",
+              "--threads", "1", "--log-every", "1", "--val-fraction", "0"]
+    assert main(["train-stage2", *common, "--out", str(tmp_path / "a"), "--epochs", "4", "--lr", "2e-3"]) == 0
+    trained = torch.load(tmp_path / "a" / "best.pt", weights_only=True)
+    capsys.readouterr()
+    with caplog.at_level("INFO"):
+        assert main(["train-stage2", *common, "--out", str(tmp_path / "b"), "--epochs", "1", "--max-steps", "1",
+                     "--lr", "0", "--init", str(tmp_path / "a" / "best.pt")]) == 0
+    assert "stage 2 starts from" in caplog.text
+    again = torch.load(tmp_path / "b" / "last.pt", weights_only=True)
+    for name, value in trained["state_dict"].items():  # lr 0: the loaded weights come through unchanged
+        torch.testing.assert_close(again["state_dict"][name], value)
+    assert "a/best.pt" in json.loads(again["meta"])["init"]
+    assert torch.count_nonzero(trained["state_dict"]["dc5b.weight"]) > 0  # not the zero residual a fresh run has
+    assert main(["train-stage2", *common, "--out", str(tmp_path / "c"), "--init", str(tmp_path / "x.onnx")]) == 2
+    assert "starts from a .pt checkpoint" in capsys.readouterr().err
