@@ -247,6 +247,9 @@ _DRIVER = """
 import os, signal, sys
 import relight_rt._io as io
 from relight_rt import cli
+# a run started in the background without job control inherits SIGINT ignored (and Python then installs no
+# KeyboardInterrupt handler); this driver stands for a user at a terminal, so it restores Python's default
+signal.signal(signal.SIGINT, signal.default_int_handler)
 real = io.os.chmod
 def chmod(path, mode):  # inside atomic_path, with the temporary file on disk: the signal arrives now
     os.kill(os.getpid(), getattr(signal, sys.argv[1]))
