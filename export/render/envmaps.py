@@ -20,6 +20,7 @@ import cv2
 import numpy as np
 
 from relight_rt._errors import RelightError
+from relight_rt.exposure import REC709
 from relight_rt.sh import directions_envmap, irradiance, project_envmap, solid_angles_envmap
 
 log = logging.getLogger(__name__)
@@ -212,9 +213,8 @@ def white_balance(env: np.ndarray, strength: float) -> np.ndarray:
     dc = project_envmap(env)[0]
     if not (dc > 0).all():
         return env.astype(np.float32)
-    rec709 = np.array([0.2126, 0.7152, 0.0722])
     gain = (dc.mean() / dc) ** strength
-    gain *= (dc @ rec709) / ((dc * gain) @ rec709)
+    gain *= (dc @ REC709) / ((dc * gain) @ REC709)
     return (env * gain).astype(np.float32)
 
 

@@ -140,13 +140,11 @@ def _colour_face(col: np.ndarray, points: np.ndarray, tone: np.ndarray, seed: in
     mid = 0.5 * (face.eye_l + face.eye_r)
     s = max(float(np.abs(face.eye_l[1] - face.eye_r[1])) / 0.062, 0.5)  # 1 for an average face
     rel = (points - mid) / s  # face-scaled offsets, metres of an average face
-    front = np.clip((rel[:, 0] + 0.06) / 0.04, 0.0, 1.0)  # the face's front, not the back of the head
     on_head = (rel[:, 2] > -0.16) & (rel[:, 2] < 0.12) & (np.abs(rel[:, 1]) < 0.11)
-    out = col.copy()
     if not on_head.any():
-        return out
+        return col.copy()
     p = rel[on_head]
-    fr = front[on_head]
+    fr = np.clip((p[:, 0] + 0.06) / 0.04, 0.0, 1.0)  # the face's front, not the back of the head
     yz = p[:, 1:]
     cheeks = np.maximum(_blob(yz - [0.040, -0.040], [0.020, 0.016]), _blob(yz - [-0.040, -0.040], [0.020, 0.016]))
     nose = _blob(yz - [0.0, -0.035], [0.010, 0.016]) * np.clip(p[:, 0] / 0.02, 0, 1)
@@ -163,7 +161,7 @@ def _colour_face(col: np.ndarray, points: np.ndarray, tone: np.ndarray, seed: in
         spots = value_noise(points[on_head], 320.0, seed + 13)
         dots = np.clip((spots - (1.0 - 0.12 * face.freckles)) / 0.03, 0, 1) * (0.4 + cheeks + nose) * fr
         tint = tint * (1.0 - 0.25 * np.clip(dots, 0, 1)[:, None] * np.array([0.8, 1.0, 1.2]))
-    out[on_head] = col[on_head] * tint
+    head = col[on_head] * tint
     if face.stubble > 0:
         # the bearded area: below the cheekbones to under the chin, and the upper lip
         jaw = np.clip((-0.06 - p[:, 2]) / 0.025, 0, 1) * np.clip((p[:, 2] + 0.14) / 0.02, 0, 1)
@@ -174,12 +172,14 @@ def _colour_face(col: np.ndarray, points: np.ndarray, tone: np.ndarray, seed: in
             area = area * (1.0 - np.clip(2.0 * detail["lips"][on_head, 0], 0, 1))
         hairs = np.clip((value_noise(points[on_head], 1400.0, seed + 17) - 0.55) / 0.1, 0, 1)
         cover = (face.stubble * area * (0.15 + 0.25 * hairs))[:, None]
-        out[on_head] = out[on_head] * (1 - cover) + cover * np.minimum(face.stubble_colour, tone * 0.5)
+        head = head * (1 - cover) + cover * np.minimum(face.stubble_colour, tone * 0.5)
+    out = col.copy()
+    out[on_head] = head
     return out
 
 
 def _body_textures(body: bodies.Body, tone: np.ndarray, outfit: list[garments.Garment], rng: np.random.Generator,
-                   face: _Face | None = None) -> tuple[dict[str, np.ndarray], np.ndarray]:
+                   lm: dict[str, np.ndarray], face: _Face | None = None) -> tuple[dict[str, np.ndarray], np.ndarray]:
     """Body albedo/skin/roughness/specular textures (TEXTURE_SIZE²) and the (V,) union vertex coverage."""
     template = bodies.get_template()
     raster = _raster()
@@ -188,7 +188,6 @@ def _body_textures(body: bodies.Body, tone: np.ndarray, outfit: list[garments.Ga
     nearest = faces[raster.face, raster.bary.argmax(axis=1)]
     surf = garments.Surface(points, template.region[nearest], raster.interpolate(faces, template.foot))
     vsurf = garments.Surface(body.rest, template.region, template.foot)
-    lm = _landmarks(body)
     seed = int(rng.integers(1 << 30))
 
     albedo = _skin_albedo(points, body.rest, tone, seed, skin_detail_masks(TEXTURE_SIZE), raster, face)
@@ -272,8 +271,9 @@ def random_subject(seed: int, *, clothing: bool = True) -> Subject:
     # the face's colouring draws from its own stream, so shape, pose and clothes stay what they were per seed
     looks = np.random.default_rng([seed, 0xFACE])
     tone = skin_tone(depth, tuple(looks.uniform(-1.0, 1.0, 2)))
-    face = _sample_face(looks, _landmarks(body), 1.0 - phenotype["gender"], garments.hair_color_of(outfit))
-    tex, covered_v = _body_textures(body, tone, outfit, rng, face)
+    lm = _landmarks(body)
+    face = _sample_face(looks, lm, 1.0 - phenotype["gender"], garments.hair_color_of(outfit))
+    tex, covered_v = _body_textures(body, tone, outfit, rng, lm, face)
     faces, uv = template.faces, template.uv
     exposed = ~covered_v[faces].all(axis=1)
     parts = []
@@ -282,7 +282,6 @@ def random_subject(seed: int, *, clothing: bool = True) -> Subject:
             parts.append(Part(name, body.vertices, faces[sel], uv[sel], tex["albedo"], tex["skin"],
                               tex["roughness"], tex["specular"], sss))
     vsurf = garments.Surface(body.rest, template.region, template.foot)
-    lm = _landmarks(body)
     for g in outfit:
         if g.kind == "skirt":
             parts.append(garments.skirt_shell(g, body, template.region, rng))

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from relight_rt._errors import RelightError
+from relight_rt.color import linear_to_srgb
 
 log = logging.getLogger(__name__)
 
@@ -53,8 +54,7 @@ def lab_to_srgb(lab) -> np.ndarray:
     f = np.stack([fy + lab[..., 1] / 500.0, fy, fy - lab[..., 2] / 200.0], axis=-1)
     eps, kappa = 216.0 / 24389.0, 24389.0 / 27.0
     xyz = np.where(f**3 > eps, f**3, (116.0 * f - 16.0) / kappa) * _D65
-    lin = np.clip(xyz @ _XYZ_TO_LINEAR_SRGB.T, 0.0, 1.0)
-    return np.where(lin <= 0.0031308, 12.92 * lin, 1.055 * lin ** (1 / 2.4) - 0.055)
+    return linear_to_srgb(np.clip(xyz @ _XYZ_TO_LINEAR_SRGB.T, 0.0, 1.0))
 
 
 def skin_tone(t: float, undertone: tuple[float, float] = (0.0, 0.0)) -> np.ndarray:
