@@ -7,8 +7,11 @@ background), a folder with sibling masks and a rotated light, ``decompose``, a f
 before the runtime was restructured (``python tests/test_golden_runs.py --write`` records them anew;
 do that only for a deliberate change of behaviour, and say so in the commit).
 
-The comparison is exact: a refactor that moves arithmetic around (another operation order, another
-resize, a float64 detour) changes some pixel by one level and fails here.
+The comparison allows what another x86 CPU changes and nothing a refactor would: 8-bit outputs may differ by
+at most one level (1/255) in at most 0.01 % of their values (never fewer than 4 values), so a rounding that falls
+the other way on another machine (seen once in a fresh clone: ``photo_transparent``, one value off by one) passes,
+while another operation order, another resize or a float64 detour (which move hundreds of values) fails. The
+stored light is compared as float32 with a relative tolerance of 1e-5.
 """
 
 from __future__ import annotations
@@ -24,6 +27,9 @@ from relight_rt import cli
 
 GOLDEN = Path(__file__).resolve().parent / "data" / "golden_runs.npz"
 TINY = Path(__file__).resolve().parent / "data"
+OFF_BY_ONE_FRACTION = 1e-4  # at most 0.01 % of an output's 8-bit values may differ, by one level only
+MIN_OFF_BY_ONE = 4  # ... and never fewer than 4 (small outputs)
+LIGHT_RTOL = 1e-5
 
 
 def _soft_mask(h: int, w: int, seed: int) -> np.ndarray:
@@ -107,7 +113,7 @@ def golden_runs(work: Path) -> dict[str, np.ndarray]:
     for name in ("albedo", "shading", "skin"):
         out[f"decompose_{name}"] = _read(work / "layers" / f"{name}.png")
     light = np.load(work / "layers" / "light.npy", allow_pickle=False)
-    out["decompose_light"] = light.astype(np.float32).view(np.uint8)
+    out["decompose_light"] = light.astype(np.float32).view(np.uint8)  # stored as bytes; compared as float32
 
     # video from a frame folder: a person moving right
     frames = work / "frames"
@@ -141,6 +147,39 @@ def golden_runs(work: Path) -> dict[str, np.ndarray]:
     return out
 
 
+def mismatch(name: str, have: np.ndarray, want: np.ndarray) -> str | None:
+    """Why ``have`` is not the recorded ``want`` within the documented tolerance, or None."""
+    if have.shape != want.shape or have.dtype != want.dtype:
+        return f"{name}: {have.shape} {have.dtype}, recorded {want.shape} {want.dtype}"
+    if name == "decompose_light":
+        a, b = have.view(np.float32), want.view(np.float32)
+        if not np.allclose(a, b, rtol=LIGHT_RTOL, atol=1e-7):
+            return f"{name}: light differs by up to {np.abs(a - b).max():.3g}"
+        return None
+    diff = np.abs(have.astype(np.int16) - want.astype(np.int16))
+    allowed = max(MIN_OFF_BY_ONE, int(np.ceil(OFF_BY_ONE_FRACTION * diff.size)))
+    if diff.max(initial=0) > 1 or np.count_nonzero(diff) > allowed:
+        return (f"{name}: {np.count_nonzero(diff)} values differ (at most {allowed} may, by 1), "
+                f"at most by {diff.max()}")
+    return None
+
+
+def test_the_tolerance_passes_rounding_and_fails_real_changes():
+    want = np.full((180, 120, 4), 100, np.uint8)
+    one_off = want.copy()
+    one_off[5, 7, 3] += 1  # the fresh-clone case: one value off by one
+    assert mismatch("photo", one_off, want) is None
+    two_levels = want.copy()
+    two_levels[5, 7, 0] += 2
+    assert "at most by 2" in mismatch("photo", two_levels, want)
+    many = want.copy()
+    many[:10, :10, 0] += 1  # a systematic change: 100 values by one level
+    assert "100 values differ" in mismatch("photo", many, want)
+    light = np.linspace(0.1, 1, 27, dtype=np.float32)
+    assert mismatch("decompose_light", light.view(np.uint8), light.view(np.uint8)) is None
+    assert mismatch("decompose_light", (light * 1.001).view(np.uint8), light.view(np.uint8)) is not None
+
+
 def test_outputs_match_the_recorded_runs(tmp_path, monkeypatch):
     monkeypatch.delenv("RELIGHT_RT_MODELS", raising=False)
     if not GOLDEN.is_file():
@@ -150,10 +189,8 @@ def test_outputs_match_the_recorded_runs(tmp_path, monkeypatch):
     got = golden_runs(tmp_path)
     assert sorted(got) == sorted(expected)
     for name, want in expected.items():
-        have = got[name]
-        assert have.shape == want.shape and have.dtype == want.dtype, name
-        diff = np.abs(have.astype(np.int16) - want.astype(np.int16))
-        assert not diff.any(), f"{name}: {np.count_nonzero(diff)} values differ, at most by {diff.max()}"
+        problem = mismatch(name, got[name], want)
+        assert problem is None, problem
 
 
 def test_the_runs_differ_from_each_other(tmp_path, monkeypatch):
