@@ -231,8 +231,10 @@ def run(
             t = timed(lambda k=k: diffuse_batch(dec.albedo_chw, dec.transport_chw, sweep[:k]))
             rows.append(row("shade", "numpy", t, batch=k))
     if "compose" in sections:
-        relit = np.ascontiguousarray(dec.albedo_chw)
-        rows.append(row("compose", "numpy", timed(lambda: relighter.to_photo(dec, relit))))
+        lit = sweep[0]
+        outputs = next(relighter._network_relit(dec, lit[None], 1, want_layers=True))
+        backdrop = dec.image
+        rows.append(row("compose", "numpy", timed(lambda: relighter._compose(dec, lit, outputs, backdrop))))
     if "decompose" in sections:
         rows.append(row("decompose", backend, timed(lambda: relighter.decompose(img, mask))))
     if "end_to_end" in sections:

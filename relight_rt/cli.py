@@ -174,7 +174,7 @@ def cmd_decompose(args: argparse.Namespace) -> int:
     write_image(folder / "albedo.png", layers["albedo"], protect)
     write_image(folder / "shading.png", layers["shading"], protect)
     write_image(folder / "skin.png", layers["skin"], protect)
-    write_npy(folder / "light.npy", np.asarray(dec.light, np.float64), protect)
+    write_npy(folder / "light.npy", np.asarray(dec.white_light, np.float64), protect)  # albedo x shading = photo
     write_npz(folder / "transport.npz", {"T": dec.to_input(np.ascontiguousarray(dec.transport))}, protect)
     log.info("%s -> %s (albedo.png, shading.png, skin.png, light.npy, transport.npz)", src, folder)
     return 0
@@ -265,7 +265,7 @@ def cmd_lights_from_photo(args: argparse.Namespace) -> int:
     photo = Path(args.photo)
     mask = find_mask_file(photo, args.mask)
     rl = relighter(args)
-    light = np.asarray(rl.decompose(photo, mask).light, dtype=np.float32)
+    light = rl.resolve_light(rl.decompose(photo, mask))  # the photo's light, white as the runtime takes it
     _write_light(out, light, args.photo, (*paths_of(mask if mask != "auto" else None),
                                           *Path(rl.models_dir).glob("*.onnx")))
     return 0

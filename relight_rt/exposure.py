@@ -126,15 +126,15 @@ def expose(dec, lights: np.ndarray, exposure="auto", target_luminance: float | N
     """Scale each of the (K, 9, 3) or (9, 3) ``lights`` for a Decomposition ``dec``.
 
     ``target_luminance`` None: the photo's own mean luminance (its diffuse reconstruction under its
-    estimated light). Returns float32 lights of the same shape; the input is not modified.
+    estimated light taken as white, ``Decomposition.white_light``). Returns float32 lights of the same shape; the input is not modified.
     """
     mode = parse_exposure(exposure)
     lits = np.asarray(lights, np.float32)
     if mode == "physical":
         return lits.copy()
     albedo, transport, mask = dec.albedo, dec.transport, dec.network_mask
-    if target_luminance is None:
-        target_luminance = mean_luminance(albedo, transport, mask, dec.light)
+    if target_luminance is None:  # the photo under its own light, taken as white (as the Relighter divides by it)
+        target_luminance = mean_luminance(albedo, transport, mask, dec.white_light)
     flat = lits.reshape(-1, 9, 3)
     scales = [exposure_scale(albedo, transport, mask, lit, target_luminance, mode) for lit in flat]
     out = flat * np.asarray(scales, np.float32)[:, None, None]

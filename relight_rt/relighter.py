@@ -6,15 +6,26 @@ Pipeline (DESIGN.md §1, §4, §5)::
     new light L' ─► diffuse D = clip(albedo ⊙ max(0, T·L'), 0, 1) ─► stage 2 ─► relit (network frame)
     relit ─► back to the input's size and position ─► composited over the background
 
-Full-resolution detail: when the crop box is larger than the network's square (scale S/R > 1), the
-network's relit image is not simply upsampled. The ratio relit / reconstruction (the reconstruction is
-the same pipeline under the photo's own estimated light; both unpremultiplied, the ratio extended a few
-pixels past the outline) is upsampled edge-aware with a fast guided filter (He & Sun 2015: the local
-linear model ratio ≈ a·I + b is fitted at network resolution on the gray input, and a, b are upsampled
-and applied with the full-resolution gray input I), then multiplied into the full-resolution input, so
-the input's own high-frequency detail survives. Relighting with the photo's own light gives the input
-back unchanged. (``cv2.ximgproc.guidedFilter`` at full resolution gives the same kind of result but
-costs ~0.6 s per 2-megapixel crop with a colour guide; this costs ~30 ms.)
+Full-resolution detail (the default): the network's relit image is not simply upsampled, because on real
+photos its colours are stage 1's guess (an albedo that may be green for fair skin, a light estimate whose colour
+cast is wrong) and its resolution is the network's. Instead the photo itself is relit by the change of shading:
+
+    colour = photo ⊙ up(max(S', e) / max(Ŝ, e)) + up(r' − r̂)
+
+S' = max(0, T·L') is the new light's shading (per colour), Ŝ = max(0, T·l̂) the shading under the photo's own
+light taken as white (l̂: the luminance of stage 1's estimate: cameras white-balance their photos, so the photo's
+colours are kept and only the new light's colour tints them; an error in the estimate's colour no longer becomes
+the inverse tint on the skin), e a floor of 10 % of the person's mean shading under its own light (where the
+photo's own shading is tiny the ratio would only amplify noise; where the new light leaves a part black, a
+light from below, the floor is a little fill light instead of noisy blotches), and r' − r̂ the change of stage
+2's residual (highlights, sheen) between the new light and the photo's own. Both maps are upsampled edge-aware
+with a fast guided filter (He & Sun 2015: the local linear model g ≈ a·I + b is fitted at network resolution on
+the gray input, and a, b are upsampled and applied with the full-resolution gray input I), so the input's own
+high-frequency detail survives. Colours above 1 are brought back by scaling all three channels together (the
+hue of a bright lit side is kept; a per-channel clip would turn it yellow). Relighting with the photo's own light
+gives the input back. (``cv2.ximgproc.guidedFilter`` at full resolution gives the same kind of result but costs
+~0.6 s per 2-megapixel crop with a colour guide; this costs ~30 ms.) With ``detail=False`` the network's relit
+image is upsampled as it is.
 
 Without ``stage2.onnx`` the output is the diffuse image only: ``Relighter.diffuse_only`` is True, a
 warning is logged at load, and ``RelightResult.diffuse_only`` says so.
@@ -50,7 +61,7 @@ from .session import Model, check_finite, find_models, load_model
 log = logging.getLogger(__name__)
 
 ImageLike = str | os.PathLike | np.ndarray
-_RATIO_EPS = np.float32(0.02)  # keeps relit/reconstruction stable in dark pixels
+_FLOOR = np.float32(0.1)  # floor of the photo's own shading in the ratio, a fraction of the person's mean shading
 _ALPHA_MIN = np.float32(1e-3)
 _SHADING_MIN = np.float32(1e-3)  # full-resolution albedo: photo / shading, shading floored here
 _SHADING_TRUST = np.float32(0.1)  # ... and trusted fully from this shading up (blended into the network's below)
@@ -128,9 +139,19 @@ class Decomposition:
         """R, the network's square size."""
         return self.geometry.resolution
 
+    @property
+    def white_light(self) -> np.ndarray:
+        """(9, 3) the photo's own light taken as white: each colour column is the Rec. 709 luminance of ``light``.
+
+        The runtime divides by the shading under this light (a white-balanced photo's colours are its
+        albedo's), so an error in the estimate's colour cannot tint the result.
+        """
+        lum = self.light.astype(np.float64) @ _exposure.REC709.astype(np.float64)
+        return np.repeat(lum[:, None], 3, axis=1).astype(np.float32)
+
     def shading(self, light: np.ndarray | None = None) -> np.ndarray:
-        """(R, R, 3) float32 shading max(0, T·L) under ``light`` (default: the photo's own light)."""
-        return sh.shading(self.transport, self.light if light is None else light)
+        """(R, R, 3) float32 shading max(0, T·L) under ``light`` (default: the photo's own light, white)."""
+        return sh.shading(self.transport, self.white_light if light is None else light)
 
     def to_input(self, layer: np.ndarray) -> np.ndarray:
         """Map a network-frame layer (R, R[, C]) to the input frame (H, W[, C]), zero outside the crop."""
@@ -404,17 +425,19 @@ class Relighter:
     # ------------------------------------------------------------------------------------ lights
 
     def _estimate_light(self, photo: Path, mask: str | None) -> np.ndarray:
-        return np.array(self.decompose(photo, mask if mask is not None else sibling_mask(photo)).light, np.float32)
+        dec = self.decompose(photo, mask if mask is not None else sibling_mask(photo))
+        return np.array(dec.white_light, np.float32)
 
     def resolve_light(self, light) -> np.ndarray:
         """Any accepted light argument → (9, 3) float32 RGB SH light.
 
-        Accepted: an array (9, 3); a ``Decomposition`` (its estimated light: "light me like that photo");
+        Accepted: an array (9, 3); a ``Decomposition`` (its estimated light, taken as white as the photo's own
+        light is: "light me like that photo");
         a :class:`relight_rt.lightspec.LightSpec`; a string or path, read by the one rule of
         relight_rt.lightspec (light file, environment map, photo of a person, or preset name).
         """
         if isinstance(light, Decomposition):
-            return np.array(light.light, dtype=np.float32)
+            return np.array(light.white_light, dtype=np.float32)
         if isinstance(light, (str, os.PathLike)):
             light = parse_light(light)
         if isinstance(light, LightSpec):
@@ -475,34 +498,65 @@ class Relighter:
                 check_finite({"relit": relit}, self.stage2.name if self.stage2 is not None else "shading")
                 yield diffuse, residual, relit
 
-    def _reconstruction(self, dec: Decomposition) -> np.ndarray:
-        """(R, R, 3) straight colour of the pipeline's output under the photo's own light (cached)."""
+    def _own_residual(self, dec: Decomposition) -> np.ndarray | None:
+        """(3, R, R) stage 2's residual under the photo's own (white) light, cached; None when diffuse-only."""
+        if self.stage2 is None:
+            return None
         state = self._prepared(dec)
-        if "reconstruction" not in state:
-            _, _, relit = next(self._network_relit(dec, dec.light[None], 1, want_layers=False))
-            state["reconstruction"] = _readonly(unpremultiply(relit.transpose(1, 2, 0), dec.network_mask))
-        return state["reconstruction"]
+        if "own_residual" not in state:
+            _, residual, _ = next(self._network_relit(dec, dec.white_light[None], 1, want_layers=True))
+            state["own_residual"] = _readonly(np.array(residual, np.float32))
+        return state["own_residual"]
 
-    def _person_colour(self, dec: Decomposition, relit: np.ndarray) -> np.ndarray:
-        """(h, w, 3) straight (not premultiplied) colour of the relit person inside the crop box."""
-        geom = dec.geometry
-        relit_hwc = relit.transpose(1, 2, 0)
-        if self.detail and geom.side > geom.resolution:
-            state = self._prepared(dec)
-            if "window" not in state:
-                state["window"] = window(dec.network_mask)
-            y0, y1, x0, x1 = state["window"]  # the network pixels near the person; the rest is padding
+    def _own_shading(self, dec: Decomposition) -> tuple[np.ndarray, np.float32, tuple[int, int, int, int]]:
+        """(r, r', 9) unpremultiplied transport in the person's window, the ratio floor e, and the window (cached)."""
+        state = self._prepared(dec)
+        if "own_shading" not in state:
+            geom = dec.geometry
+            # the network pixels near the person (the rest is padding); the whole square when the network's
+            # square is not smaller than the photo's (to_crop takes a window only when enlarging)
+            r = geom.resolution
+            y0, y1, x0, x1 = window(dec.network_mask) if geom.side > r else (0, r, 0, r)
             alpha = dec.network_mask[y0:y1, x0:x1]
-            colour_net = unpremultiply(relit_hwc[y0:y1, x0:x1], alpha)
-            ratio = (colour_net + _RATIO_EPS) / (self._reconstruction(dec)[y0:y1, x0:x1] + _RATIO_EPS)
-            ratio = extend_outward(ratio, alpha > 0.5)
-            image = np.ascontiguousarray(geom.crop(dec.image))
-            colour = image * guided_upsample(geom, ratio, dec.network_image[y0:y1, x0:x1], image, (y0, x0))
-        else:
-            premult = geom.to_crop(relit_hwc)
+            transport = unpremultiply(np.ascontiguousarray(dec.transport[y0:y1, x0:x1]), alpha)
+            own = np.maximum(transport @ dec.white_light[:, 0], 0)
+            inner = alpha > 0.5
+            mean = float(own[inner].mean()) if inner.any() else 0.0
+            floor = np.float32(max(mean, 1e-3) * _FLOOR)
+            state["own_shading"] = (_readonly(transport), _readonly(np.maximum(own, floor).astype(np.float32)),
+                                    floor, (y0, y1, x0, x1))
+        return state["own_shading"]
+
+    def _person_colour(
+        self, dec: Decomposition, light: np.ndarray, residual: np.ndarray | None, relit: np.ndarray
+    ) -> np.ndarray:
+        """(h, w, 3) straight (not premultiplied) colour of the relit person inside the crop box.
+
+        ``light`` is the (exposed) new light, ``residual`` and ``relit`` stage 2's outputs under it (3, R, R).
+        """
+        geom = dec.geometry
+        if not self.detail:
+            premult = geom.to_crop(relit.transpose(1, 2, 0))
             alpha = geom.to_crop(dec.network_mask)[..., None]
             colour = np.divide(premult, alpha, out=np.zeros_like(premult), where=alpha > _ALPHA_MIN)
-        np.clip(colour, 0, 1, out=colour)
+            np.clip(colour, 0, 1, out=colour)
+            return colour
+        transport, own, floor, (y0, y1, x0, x1) = self._own_shading(dec)
+        alpha = dec.network_mask[y0:y1, x0:x1]
+        inner = alpha > 0.5
+        new = np.maximum(transport @ np.asarray(light, np.float32), floor)
+        gain = extend_outward(new / own[..., None], inner)
+        image = np.ascontiguousarray(geom.crop(dec.image))
+        guide = dec.network_image[y0:y1, x0:x1]
+        colour = image * guided_upsample(geom, gain, guide, image, (y0, x0))
+        own_residual = self._own_residual(dec) if residual is not None else None
+        if own_residual is not None:
+            change = (residual - own_residual)[:, y0:y1, x0:x1].transpose(1, 2, 0)
+            change = extend_outward(unpremultiply(np.ascontiguousarray(change), alpha), inner)
+            colour += guided_upsample(geom, change, guide, image, (y0, x0))
+        np.maximum(colour, 0, out=colour)
+        peak = colour.max(axis=2, keepdims=True)
+        np.divide(colour, peak, out=colour, where=peak > 1)  # over 1: scale the three together (keeps the hue)
         return colour
 
     def layers(self, dec: Decomposition) -> dict[str, np.ndarray]:
@@ -546,18 +600,21 @@ class Relighter:
         out["skin"][y0:y1, x0:x1] = np.clip(skin[..., 0], 0, 1) * m[..., 0]
         return out
 
-    def to_photo(self, dec: Decomposition, relit: np.ndarray, background="original") -> np.ndarray:
-        """Put one relit network image (3, R, R) back into the photo, over ``background``.
+    def to_photo(self, dec: Decomposition, light, background="original", exposure="auto") -> np.ndarray:
+        """Relight a Decomposition under ``light`` and put it back into the photo, over ``background``.
+
+        The same as ``relight(dec, light, background=..., exposure=...)``.
 
         Returns:
             (H, W, 3) float32 RGB, or (H, W, 4) RGBA for a transparent background.
         """
-        bg = parse_background(background)
-        return self._compose(dec, relit, bg.backdrop(dec.image))
+        return self.relight(dec, light, background=background, exposure=exposure)
 
-    def _compose(self, dec: Decomposition, relit: np.ndarray, backdrop: np.ndarray | None) -> np.ndarray:
+    def _compose(self, dec: Decomposition, light: np.ndarray, outputs: tuple, backdrop: np.ndarray | None) -> np.ndarray:
+        """The photo relit under the (exposed) ``light``, given stage 2's ``outputs`` (diffuse, residual, relit)."""
         geom = dec.geometry
-        colour = self._person_colour(dec, relit)
+        _, residual, relit = outputs
+        colour = self._person_colour(dec, light, residual, relit)
         return over_box(colour, geom.crop(dec.mask)[..., None], geom.box, backdrop, dec.mask)
 
     def _prepare(self, image, mask) -> Decomposition:
@@ -596,8 +653,8 @@ class Relighter:
         dec = self._prepare(image, mask)
         lit = _exposure.expose(dec, self.resolve_light(light), exposure)
         bg = parse_background(background)
-        _, _, relit = next(self._network_relit(dec, lit[None], 1, want_layers=False))
-        return self._compose(dec, relit, bg.backdrop(dec.image))
+        outputs = next(self._network_relit(dec, lit[None], 1, want_layers=self.detail))
+        return self._compose(dec, lit, outputs, bg.backdrop(dec.image))
 
     def relight_layers(
         self,
@@ -613,10 +670,10 @@ class Relighter:
         lit = _exposure.expose(dec, self.resolve_light(light), exposure)
         bg = parse_background(background)
         diffuse, residual, relit = next(self._network_relit(dec, lit[None], 1, want_layers=True))
-        out = self._compose(dec, relit, bg.backdrop(dec.image))
+        out = self._compose(dec, lit, (diffuse, residual, relit), bg.backdrop(dec.image))
         chw = lambda a: dec.to_input(np.ascontiguousarray(a.transpose(1, 2, 0)))  # noqa: E731
         layers = {
-            "albedo": dec.to_input(np.ascontiguousarray(dec.albedo)),
+            "albedo": self.layers(dec)["albedo"],
             "shading": dec.to_input(dec.shading(lit)),
             "diffuse": chw(diffuse),
             "residual": chw(residual) if residual is not None else np.zeros(dec.image.shape, np.float32),
@@ -641,8 +698,8 @@ class Relighter:
         dec = self._prepare(image, mask)
         lits = _exposure.expose(dec, self._resolve_lights(lights), exposure)
         backdrop = parse_background(background).backdrop(dec.image)
-        for _, _, relit in self._network_relit(dec, lits, batch_size, want_layers=False):
-            yield self._compose(dec, relit, backdrop)
+        for lit, outputs in zip(lits, self._network_relit(dec, lits, batch_size, want_layers=self.detail), strict=True):
+            yield self._compose(dec, lit, outputs, backdrop)
 
     def relight_many(
         self,

@@ -16,6 +16,7 @@ from _scenes import ambient, backdrop, directional, side_means, soft_person, wri
 
 from relight_rt import Relighter, RelightError, cli, sh
 from relight_rt.compositing import Background
+from relight_rt.exposure import REC709
 from relight_rt.stabilize import Stabilizer
 from relight_rt.video import Frame, FrameLayers, LightSchedule, RelighterEngine, composite, relight_frames
 
@@ -111,21 +112,29 @@ def test_envmap_reaches_the_relighter_and_turns(work, sides_dir, capsys):
 
 
 def test_light_from_uses_the_other_photos_estimated_light(work, tmp_path_factory, capsys):
-    """--light-from PHOTO relights with stage 1's estimate for PHOTO (here a warm light the graph reports)."""
+    """--light-from PHOTO relights with stage 1's estimate for PHOTO (here a warm light the graph reports), taken
+    as white as a photo's own light is (its colour estimate is not trusted: photos are white-balanced)."""
     warm = ambient(RED_HEAVY).astype(np.float32)
     folder = make_models_dir(tmp_path_factory.mktemp("warm"), 64, stage1=stage1_sides_model(light=warm))
     write_scene(work, "other", seed=3)
     np.save("grey.npy", ambient((0.6, 0.6, 0.6)))
     mask = scene_mask(work)
     out = run(["relight", "p.png", "--models", folder, "--light-from", "other.png", "-o", "o.png"], capsys)
-    expected = Relighter(folder, device="cpu").relight(str(work / "p.png"), warm, mask=str(work / "p_mask.png"))
+    white = np.repeat((warm @ REC709)[:, None], 3, axis=1)
+    expected = Relighter(folder, device="cpu").relight(str(work / "p.png"), white, mask=str(work / "p_mask.png"))
+    assert not np.allclose(out, Relighter(folder, device="cpu").relight(str(work / "p.png"), warm,
+                                                                        mask=str(work / "p_mask.png")), atol=0.02)
     np.testing.assert_allclose(out, expected, atol=1 / 255 + 1e-6)
     # the graph reports the same warm light for every photo, so this is p.png's own light: p.png comes back ...
     photo = cv2.imread("p.png")[..., ::-1] / 255
     np.testing.assert_allclose(out[mask >= 1], photo[mask >= 1], atol=1.5 / 255)
-    # ... where a neutral light changes it
+    # ... and so does a grey light of the same direction (the estimate's colour is not applied inversely) ...
     neutral = run(["relight", "p.png", "--models", folder, "--light", "grey.npy", "-o", "n.png"], capsys)
-    assert np.abs(neutral - out)[mask >= 1].mean() > 0.1
+    np.testing.assert_allclose(neutral[mask >= 1], photo[mask >= 1], atol=1.5 / 255)
+    # ... while a coloured light tints it
+    np.save("blue.npy", ambient((0.3, 0.5, 0.9)))
+    blue = run(["relight", "p.png", "--models", folder, "--light", "blue.npy", "-o", "b.png"], capsys)
+    assert (blue - out)[mask >= 1][:, 2].mean() > 0.05 and (blue - out)[mask >= 1][:, 0].mean() < -0.05
 
 
 def test_models_option_wins_over_environment(work, sides_dir, models_dir, capsys):

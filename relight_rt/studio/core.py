@@ -314,7 +314,9 @@ class Studio:
         h, w = dec.image.shape[:2]
         size = _display_size(h, w, max_pixels)
         transport = _resize(dec.to_input(np.ascontiguousarray(dec.transport)), size)
-        albedo = _resize(dec.to_input(np.ascontiguousarray(dec.albedo)), size)
+        # the photo's own albedo (photo / its shading under its own light, white): the preview then relights the
+        # photo as the final result does, not stage 1's network albedo (whose colours are a guess)
+        albedo = _resize(self.relighter.layers(dec)["albedo"], size)
         mask = _resize(np.asarray(dec.mask)[..., None], size)
         bg = self._background_image()
         bg = np.zeros(size + (3,), np.float32) if bg is None else _resize(bg, size)
@@ -346,7 +348,7 @@ class Studio:
     def info(self) -> dict:
         """What the page needs to start: sizes, layer format, the photo's own light, presets, features."""
         h, w = self.dec.image.shape[:2]
-        own = np.asarray(self.dec.light, np.float32)
+        own = np.asarray(self.dec.white_light, np.float32)
         return {
             "photo": self.photo.name,
             "width": w,
@@ -413,7 +415,7 @@ class Studio:
         with self._lock:
             dec = self.relighter.decompose_batch([image], [None])[0] if image.shape[2] == 4 else \
                 self.relighter.decompose(image[..., :3], None)
-        return np.array(dec.light, dtype=np.float32)
+        return np.array(dec.white_light, dtype=np.float32)
 
     def background_light(self, data: bytes) -> np.ndarray:
         """(9, 3) float32 light of an uploaded background photo (relight_rt.background, 60° field of view)."""
