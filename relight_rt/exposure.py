@@ -126,7 +126,8 @@ def expose(dec, lights: np.ndarray, exposure="auto", target_luminance: float | N
     """Scale each of the (K, 9, 3) or (9, 3) ``lights`` for a Decomposition ``dec``.
 
     ``target_luminance`` None: the photo's own mean luminance (its diffuse reconstruction under its
-    estimated light taken as white, ``Decomposition.white_light``). Returns float32 lights of the same shape; the input is not modified.
+    estimated light taken as white, ``Decomposition.white_light``). Returns float32 lights of the same
+    shape; the input is not modified.
     """
     mode = parse_exposure(exposure)
     lits = np.asarray(lights, np.float32)

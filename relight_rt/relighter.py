@@ -610,7 +610,9 @@ class Relighter:
         """
         return self.relight(dec, light, background=background, exposure=exposure)
 
-    def _compose(self, dec: Decomposition, light: np.ndarray, outputs: tuple, backdrop: np.ndarray | None) -> np.ndarray:
+    def _compose(
+        self, dec: Decomposition, light: np.ndarray, outputs: tuple, backdrop: np.ndarray | None
+    ) -> np.ndarray:
         """The photo relit under the (exposed) ``light``, given stage 2's ``outputs`` (diffuse, residual, relit)."""
         geom = dec.geometry
         _, residual, relit = outputs
