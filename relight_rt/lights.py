@@ -162,7 +162,7 @@ def _overhead_noon() -> np.ndarray:
 
 
 def _golden_hour() -> np.ndarray:
-    sun = directional((0.7, 0.7, 0.2), (1.0, 0.62, 0.3), 1.0, angular_radius=0.08)
+    sun = directional((0.7, 0.7, 0.2), (1.0, 0.74, 0.48), 1.0, angular_radius=0.08)
     return sun + sky((0.18, 0.22, 0.35), (0.12, 0.08, 0.05))
 
 
@@ -192,10 +192,13 @@ def _front() -> np.ndarray:
 
 
 def _campfire() -> np.ndarray:
-    fire = directional((0.8, 0.2, -0.8), (1.0, 0.5, 0.2), 1.0, angular_radius=0.3)
-    return fire + ambient((0.02, 0.025, 0.05))
+    fire = directional((0.8, 0.2, -0.8), (1.0, 0.66, 0.36), 1.0, angular_radius=0.3)
+    return fire + ambient((0.03, 0.035, 0.06))
 
 
+# Warm lights are as a camera white-balanced for daylight records them after its automatic white balance has
+# taken out part of the cast (golden hour ~3500 K, a fire ~2500 K seen through it): a fully saturated orange,
+# with the person's mean luminance kept, leaves nothing of the face but one flat orange.
 # name → (builder, peak irradiance on the visible half of the sphere, what it looks like)
 _PRESETS = {
     "studio": (_studio, 1.0, "three-point: warm key upper camera-left, cool fill camera-right, rim from behind"),

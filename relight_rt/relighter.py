@@ -21,8 +21,9 @@ light from below, the floor is a little fill light instead of noisy blotches), a
 2's residual (highlights, sheen) between the new light and the photo's own. Both maps are upsampled edge-aware
 with a fast guided filter (He & Sun 2015: the local linear model g ≈ a·I + b is fitted at network resolution on
 the gray input, and a, b are upsampled and applied with the full-resolution gray input I), so the input's own
-high-frequency detail survives. Colours above 1 are brought back by scaling all three channels together (the
-hue of a bright lit side is kept; a per-channel clip would turn it yellow). Relighting with the photo's own light
+high-frequency detail survives. Colours made brighter than the photo's own peak are rolled off by a smooth
+shoulder on the brightest channel, all three channels scaled together (a bright lit side keeps its hue and its
+gradation; a per-channel clip would turn it yellow, a hard clip flat). Relighting with the photo's own light
 gives the input back. (``cv2.ximgproc.guidedFilter`` at full resolution gives the same kind of result but costs
 ~0.6 s per 2-megapixel crop with a colour guide; this costs ~30 ms.) With ``detail=False`` the network's relit
 image is upsampled as it is.
@@ -49,6 +50,7 @@ from . import sh
 from ._chain import DeviceChain
 from ._detail import extend_outward, guided_upsample, unpremultiply, window
 from ._errors import RelightError
+from ._face import feather, head_box
 from ._geometry import CropGeometry
 from ._io import read_image, sibling_mask
 from .compositing import Background, over_box, parse_background
@@ -74,6 +76,25 @@ def _float32_light(light, name: str) -> np.ndarray:
     if not np.isfinite(arr).all():
         raise RelightError(f"{name}: SH light overflows float32 (|value| must be <= {sh.MAX_COEFF:g})")
     return arr
+
+
+def _shoulder(colour: np.ndarray, photo: np.ndarray) -> np.ndarray:
+    """Bring colours made brighter than 1 back into [0, 1] as film does, in place: a smooth shoulder.
+
+    The brightest channel m of a pixel is rolled off above a knee q, m -> q + (1 - q)(1 - exp(-(m - q)/(1 - q)))
+    (slope 1 at q, approaching 1), and the three channels are scaled together, so a brightly lit side keeps
+    its hue and its gradation (a per-channel clip turns skin yellow; a plain rescale of the peak to 1 flattens
+    it). The knee is the photo's own peak (at least 0.8, at most 0.999): a pixel no brighter than it was in
+    the photo is untouched, so the photo's own light gives the photo back.
+    """
+    peak = colour.max(axis=2)
+    knee = np.clip(photo.max(axis=2), 0.8, 0.999)
+    over = peak > knee
+    if over.any():
+        m, q = peak[over], knee[over]
+        rolled = q + (1 - q) * -np.expm1(-(m - q) / (1 - q))
+        colour[over] *= (rolled / m)[:, None]
+    return colour
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:
@@ -261,6 +282,8 @@ class Relighter:
         self.precision = precision
         self.preprocess = preprocess
         self.detail = bool(detail)
+        # a second stage-1 pass on a face seen small (relight_rt._face); photos only, with detail on
+        self.face_pass = True
         self._session_args = {"device": device, "device_id": device_id, "providers": providers}
         self.stage1: Model = load_model(self._graph("stage1"), "stage1", warmup=False, **self._session_args)
         if warmup is None:
@@ -388,6 +411,29 @@ class Relighter:
             raise RelightError(f"masks: expected one per image ({len(images)}), got {len(masks)}")
         if not images:
             return []
+        decs = self._stage1(images, masks, allow_full)
+        if self.detail and self.face_pass and not allow_full:  # photos (video frames keep one pass: steady)
+            self._look_at_faces(decs)
+        return decs
+
+    def _look_at_faces(self, decs: list[Decomposition]) -> None:
+        """Run stage 1 again on the head of each person whose face it saw small (relight_rt._face)."""
+        todo = []
+        for dec in decs:
+            box = head_box(dec.skin, dec.network_mask, dec.geometry)
+            if box is not None:
+                y0, y1, x0, x1 = box
+                todo.append((dec, box, np.ascontiguousarray(dec.image[y0:y1, x0:x1]),
+                             np.ascontiguousarray(dec.mask[y0:y1, x0:x1])))
+        if not todo:
+            return
+        heads = self._stage1([t[2] for t in todo], [t[3] for t in todo], True)
+        for (dec, box, _, _), head in zip(todo, heads, strict=True):
+            self._prepared(dec)["head"] = (head, box)
+            log.debug("second stage-1 pass on the head at %s", box)
+
+    def _stage1(self, images: Sequence[ImageLike], masks: Sequence, allow_full: bool) -> list[Decomposition]:
+        """Stage 1 on a batch: read, resolve masks, crop, run; one Decomposition per image."""
         rgbs, ms, geoms = [], [], []
         for i, (image, mask) in enumerate(zip(images, masks, strict=True)):
             name = str(image) if isinstance(image, (str, os.PathLike)) else f"image {i}" if len(images) > 1 else "image"
@@ -541,23 +587,57 @@ class Relighter:
             colour = np.divide(premult, alpha, out=np.zeros_like(premult), where=alpha > _ALPHA_MIN)
             np.clip(colour, 0, 1, out=colour)
             return colour
-        transport, own, floor, (y0, y1, x0, x1) = self._own_shading(dec)
-        alpha = dec.network_mask[y0:y1, x0:x1]
-        inner = alpha > 0.5
-        new = np.maximum(transport @ np.asarray(light, np.float32), floor)
-        gain = extend_outward(new / own[..., None], inner)
         image = np.ascontiguousarray(geom.crop(dec.image))
-        guide = dec.network_image[y0:y1, x0:x1]
-        colour = image * guided_upsample(geom, gain, guide, image, (y0, x0))
+        gain = self._gain(dec, light, image)
+        head = self._prepared(dec).get("head")
+        if head is not None:
+            self._blend_head(dec, gain, light, *head)
+        colour = image * gain
         own_residual = self._own_residual(dec) if residual is not None else None
         if own_residual is not None:
+            transport, _, _, (y0, y1, x0, x1) = self._own_shading(dec)
+            alpha = dec.network_mask[y0:y1, x0:x1]
             change = (residual - own_residual)[:, y0:y1, x0:x1].transpose(1, 2, 0)
-            change = extend_outward(unpremultiply(np.ascontiguousarray(change), alpha), inner)
-            colour += guided_upsample(geom, change, guide, image, (y0, x0))
+            change = extend_outward(unpremultiply(np.ascontiguousarray(change), alpha), alpha > 0.5)
+            colour += guided_upsample(geom, change, dec.network_image[y0:y1, x0:x1], image, (y0, x0))
         np.maximum(colour, 0, out=colour)
-        peak = colour.max(axis=2, keepdims=True)
-        np.divide(colour, peak, out=colour, where=peak > 1)  # over 1: scale the three together (keeps the hue)
-        return colour
+        return _shoulder(colour, image)
+
+    def _gain(self, dec: Decomposition, light: np.ndarray, image: np.ndarray) -> np.ndarray:
+        """(h, w, 3) the change of shading max(S', e) / max(S_own, e) in the crop box, upsampled edge-aware."""
+        transport, own, floor, (y0, y1, x0, x1) = self._own_shading(dec)
+        alpha = dec.network_mask[y0:y1, x0:x1]
+        new = np.maximum(transport @ np.asarray(light, np.float32), floor)
+        gain = extend_outward(new / own[..., None], alpha > 0.5)
+        return guided_upsample(dec.geometry, gain, dec.network_image[y0:y1, x0:x1], image, (y0, x0))
+
+    def _blend_head(self, dec: Decomposition, gain: np.ndarray, light: np.ndarray, head: Decomposition,
+                    box: tuple[int, int, int, int]) -> None:
+        """Blend the head pass's change of shading into ``gain`` (the body's, crop frame), in place.
+
+        The head pass sees the face larger, so it gives the shape of the change; its overall level is the
+        body pass's (the two estimate the photo's light separately), matched on the head's skin.
+        """
+        by0, by1, bx0, bx1 = dec.geometry.box
+        hy0, hy1, hx0, hx1 = head.geometry.box  # in the head square's frame
+        y0, y1, x0, x1 = box[0] + hy0, box[0] + hy1, box[2] + hx0, box[2] + hx1  # input frame
+        cy0, cy1, cx0, cx1 = max(y0, by0), min(y1, by1), max(x0, bx0), min(x1, bx1)
+        if cy1 <= cy0 or cx1 <= cx0:
+            return
+        head_image = np.ascontiguousarray(head.geometry.crop(head.image))
+        g_head = self._gain(head, light, head_image)[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0]
+        h_img, w_img = dec.geometry.frame
+        weight = feather(box[1] - box[0], box[3] - box[2],
+                         (box[0] == 0, box[1] == h_img, box[2] == 0, box[3] == w_img))
+        weight = weight[cy0 - box[0] : cy1 - box[0], cx0 - box[2] : cx1 - box[2]]
+        weight = weight * dec.mask[cy0:cy1, cx0:cx1]
+        region = gain[cy0 - by0 : cy1 - by0, cx0 - bx0 : cx1 - bx0]
+        skin = head.to_input(head.skin)[cy0 - box[0] : cy1 - box[0], cx0 - box[2] : cx1 - box[2]] * weight
+        if skin.sum() < 1:
+            return
+        level = float((region @ _exposure.REC709 * skin).sum()) / max(float((g_head @ _exposure.REC709 * skin).sum()),
+                                                                      1e-6)
+        region += weight[..., None] * (level * g_head - region)
 
     def layers(self, dec: Decomposition) -> dict[str, np.ndarray]:
         """The photo's intrinsic layers at its own resolution, with its own detail (input frame).

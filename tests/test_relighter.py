@@ -81,17 +81,21 @@ def test_full_resolution_detail_beats_plain_upsampling(relighter, plain):
 def test_detail_transfer_follows_another_light(relighter, plain, k):
     """Stage 2 here adds 0.1 (d - 0.5), d = k·input: the true result is clip(1.1 d - 0.05). The ratio is
     taken from 64-px images (and is not exactly a ratio where stage 2 adds light), so it is close, not exact;
-    plain upsampling loses the texture: at least 5x worse on average."""
+    plain upsampling loses the texture: at least 5x worse on average. Compared where the result stays below
+    the highlight shoulder's lowest knee (0.8): above it the runtime rolls off instead of clipping."""
     img, mask = person(150, 140, seed=6, box=(16, 135, 20, 120))
     dec = relighter.decompose(img, mask)
     m = inside(mask)
+    m_all = m.copy()
+    m &= (np.clip(1.1 * np.clip(k * img, 0, 1) - 0.05, 0, 1) < 0.8).all(axis=2)
+    assert m.sum() > 0.3 * m_all.sum()
     d = np.clip(k * img, 0, 1)
     expect = np.clip(d + 0.1 * (d - 0.5), 0, 1)
     out = relighter.relight(dec, k * dec.light, exposure="physical")  # tests the absolute intensity
     err = np.abs(out - expect)[m].mean()
     err_plain = np.abs(plain.relight(dec, k * dec.light, exposure="physical") - expect)[m].mean()
     assert err < 0.02 and err_plain > 5 * err, (err, err_plain)
-    np.testing.assert_array_equal(out[~m], img[~m])  # background untouched outside the mask
+    np.testing.assert_array_equal(out[~m_all], img[~m_all])  # background untouched outside the mask
 
 
 def test_background_untouched_outside_the_mask(relighter):
@@ -482,3 +486,18 @@ def test_no_mask_without_matting_says_how_to_give_one(models_dir):
     assert r.matter is None
     with pytest.raises(RelightError, match="no mask given.*--mask FILE in the CLI, mask= in the API"):
         r.decompose(np.zeros((20, 20, 3), np.float32))
+
+
+def test_highlight_shoulder_keeps_hue_and_gradation_and_the_photo():
+    """Colours made brighter than 1 roll off smoothly, all channels scaled together; what is no brighter than the
+    photo's own peak (knee >= 0.8) is untouched."""
+    from relight_rt.relighter import _shoulder
+
+    photo = np.array([[[0.5, 0.3, 0.2], [0.5, 0.3, 0.2], [0.5, 0.3, 0.2], [0.95, 0.6, 0.4]]], np.float32)
+    colour = np.array([[[0.6, 0.36, 0.24], [1.2, 0.72, 0.48], [1.6, 0.96, 0.64], [0.95, 0.6, 0.4]]], np.float32)
+    out = _shoulder(colour.copy(), photo)
+    np.testing.assert_array_equal(out[0, 0], colour[0, 0])  # below the knee
+    np.testing.assert_array_equal(out[0, 3], colour[0, 3])  # the photo's own bright pixel, unchanged
+    assert out.max() < 1 and out[0, 1, 0] < out[0, 2, 0]  # in range, and brighter stays brighter
+    for px in (1, 2):  # hue: channel ratios kept
+        np.testing.assert_allclose(out[0, px] / out[0, px, 0], colour[0, px] / colour[0, px, 0], rtol=1e-5)
