@@ -39,12 +39,32 @@ PUBLIC = {
     "color",
     "lights",
     "sh",
+    # the typed spine (docs/ARCHITECTURE.md)
+    "Background",
+    "KindSpec",
+    "LightSpec",
+    "Matter",
+    "Model",
+    "ModelConfig",
+    "RuntimeConfig",
+    "TensorSpec",
+    "parse_background",
+    "parse_light",
+    "register_kind",
+    "resolve_mask",
+    "compositing",
+    "config",
+    "contract",
+    "lightspec",
+    "masks",
 }
 
 
 def test_public_names_are_exported():
     missing = PUBLIC - set(relight_rt.__all__)
     assert not missing, f"public names missing from relight_rt.__all__: {sorted(missing)}"
+    unguarded = set(relight_rt.__all__) - PUBLIC
+    assert not unguarded, f"new public names: add them to PUBLIC so their removal is caught: {sorted(unguarded)}"
     for name in relight_rt.__all__:
         assert hasattr(relight_rt, name), name
 

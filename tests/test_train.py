@@ -158,7 +158,13 @@ def test_export_onnx_at_the_end(data, tmp_path):
     pytest.importorskip("onnxruntime")
     run = tmp_path / "x"
     assert _stage1(data, run, "--epochs", "1", "--max-steps", "1", "--export-onnx") == 0
-    assert (run / "stage1.onnx").stat().st_size > 0
+    from relight_rt import load_model
+
+    model = load_model(run / "stage1.onnx", "stage1", device="cpu")  # the contract's metadata and I/O, checked
+    r = model.config.resolution or 64
+    out = model.run({"image": np.full((1, 3, r, r), 0.5, np.float32), "mask": np.ones((1, 1, r, r), np.float32)})
+    assert out["albedo"].shape == (1, 3, r, r) and out["light"].shape == (1, 9, 3)
+    assert all(np.isfinite(v).all() for v in out.values())
 
 
 def test_args_json_is_written(data, tmp_path):
