@@ -61,7 +61,8 @@ def guided_upsample(
         geom: the crop geometry.
         src: (r, r', C) float32 map: a window of the network frame starting at ``origin``.
         guide_net: (r, r', 3) RGB input, the same window.
-        guide: (h, w, 3) RGB input in the crop box, full resolution.
+        guide: (h, w, 3) RGB input in the crop box, full resolution, or its (h, w) gray (cv2's RGB2GRAY)
+            when the caller keeps it for several calls.
         origin: (y, x) of the window in the network frame.
 
     Returns:
@@ -82,6 +83,6 @@ def guided_upsample(
     # a and b mapped separately: each has <= 4 channels, which OpenCV resamples in one call (a 6-channel
     # stack would be resampled in slices and concatenated: a full-size copy, ~40 % of this function's time)
     out = geom.to_crop(box(a), origin).reshape(guide.shape[:2] + (-1,))
-    out *= cv2.cvtColor(guide, cv2.COLOR_RGB2GRAY)[..., None]
+    out *= (guide if guide.ndim == 2 else cv2.cvtColor(guide, cv2.COLOR_RGB2GRAY))[..., None]
     out += geom.to_crop(box(b), origin).reshape(out.shape)
     return out

@@ -491,11 +491,11 @@ def test_no_mask_without_matting_says_how_to_give_one(models_dir):
 def test_highlight_shoulder_keeps_hue_and_gradation_and_the_photo():
     """Colours made brighter than 1 roll off smoothly, all channels scaled together; what is no brighter than the
     photo's own peak (knee >= 0.8) is untouched."""
-    from relight_rt.relighter import _shoulder
+    from relight_rt.relighter import _knee, _shoulder
 
     photo = np.array([[[0.5, 0.3, 0.2], [0.5, 0.3, 0.2], [0.5, 0.3, 0.2], [0.95, 0.6, 0.4]]], np.float32)
     colour = np.array([[[0.6, 0.36, 0.24], [1.2, 0.72, 0.48], [1.6, 0.96, 0.64], [0.95, 0.6, 0.4]]], np.float32)
-    out = _shoulder(colour.copy(), photo)
+    out = _shoulder(colour.copy(), _knee(photo))
     np.testing.assert_array_equal(out[0, 0], colour[0, 0])  # below the knee
     np.testing.assert_array_equal(out[0, 3], colour[0, 3])  # the photo's own bright pixel, unchanged
     assert out.max() < 1 and out[0, 1, 0] < out[0, 2, 0]  # in range, and brighter stays brighter
