@@ -26,7 +26,8 @@ dragging it behind a moving person. :func:`outline_flicker` measures what is lef
 
 Public API (the matting protocol of relight_rt.masks: rgb (H, W, 3) float32 in [0, 1] -> soft alpha
 (H, W) float32 in [0, 1] at full resolution): ``PersonMatter``, ``VideoMatter``, ``outline_flicker``,
-``find_matting_models``, ``shared_matter``.
+``find_matting_models``, ``shared_matter``, and ``estimate_foreground`` (relight_rt.foreground: the
+decontaminated foreground colour of a matte's soft edge, for compositing over a new backdrop).
 """
 
 from __future__ import annotations
@@ -42,6 +43,7 @@ import numpy as np
 
 from ._errors import RelightError
 from .contract import KINDS
+from .foreground import estimate_foreground as estimate_foreground  # re-exported (issue 33)
 from .session import ENV_MODELS, Model, bundled_models_dir, load_model
 
 log = logging.getLogger(__name__)
