@@ -40,7 +40,7 @@ import os
 import threading
 import weakref
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 
 import cv2
@@ -56,6 +56,7 @@ from ._geometry import CropGeometry
 from ._io import read_image, sibling_mask
 from .compositing import Background, over_box, parse_background
 from .config import RuntimeConfig
+from .foreground import estimate_foreground
 from .contract import kind_spec
 from .lightspec import LightSpec, parse_light
 from .masks import Matter, resolve_mask
@@ -66,6 +67,7 @@ log = logging.getLogger(__name__)
 ImageLike = str | os.PathLike | np.ndarray
 _FLOOR = np.float32(0.1)  # floor of the photo's own shading in the ratio, a fraction of the person's mean shading
 _ALPHA_MIN = np.float32(1e-3)
+_SOFT = 1.0 / 255  # a matte value further than this from 0 and 1 is a soft edge (mixes person and background)
 _SHADING_MIN = np.float32(1e-3)  # full-resolution albedo: photo / shading, shading floored here
 _SHADING_TRUST = np.float32(0.1)  # ... and trusted fully from this shading up (blended into the network's below)
 _SHADE_BLOCK = 1 << 19  # multiply-adds per block of diffuse_batch (about 2 MB of float32 temporaries)
@@ -105,6 +107,21 @@ def _shoulder(colour: np.ndarray, knee: np.ndarray) -> np.ndarray:
         rolled = q + (1 - q) * -np.expm1(-(m - q) / (1 - q))
         colour[over] *= (rolled / m)[:, None]
     return colour
+
+
+def _consistent(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray, bg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Foreground and background colours adjusted so that alpha F + (1 - alpha) B is the photo again.
+
+    The estimate minimises that equation's error among smoothness terms, so it does not hold exactly; here B is
+    solved from it (kept in [0, 1]) and then F from B, so that composing them over each other gives the photo back
+    (to rounding) wherever that is possible in [0, 1].
+    """
+    a = alpha
+    b = np.where(a < 1 - _SOFT, (image - a * fg) / np.maximum(1 - a, _SOFT), bg)
+    np.clip(b, 0, 1, out=b)
+    f = np.where(a > _SOFT, (image - (1 - a) * b) / np.maximum(a, _SOFT), fg)
+    np.clip(f, 0, 1, out=f)
+    return f.astype(np.float32), b.astype(np.float32)
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:
@@ -422,8 +439,11 @@ class Relighter:
         if not images:
             return []
         decs = self._stage1(images, masks, allow_full)
-        if self.detail and self.face_pass and not allow_full:  # photos (video frames keep one pass: steady)
-            self._look_at_faces(decs)
+        if not allow_full:  # photos; video frames skip the work done once per photo (a second pass, the matte's
+            for dec in decs:  # foreground colours): per frame it would cost more than it shows
+                self._prepared(dec)["photo"] = True
+            if self.detail and self.face_pass:
+                self._look_at_faces(decs)
         return decs
 
     def _look_at_faces(self, decs: list[Decomposition]) -> None:
@@ -439,6 +459,10 @@ class Relighter:
             return
         heads = self._stage1([t[2] for t in todo], [t[3] for t in todo], True)
         for (dec, box, _, _), head in zip(todo, heads, strict=True):
+            # the head pass gives the face's transport; the photo's light is the body's estimate (one light for
+            # one photo: the change of shading is measured from it in both passes, so the photo's own light
+            # gives the photo back everywhere)
+            head = replace(head, light=dec.light)
             self._prepared(dec)["head"] = (head, box)
             log.debug("second stage-1 pass on the head at %s", box)
 
@@ -597,7 +621,7 @@ class Relighter:
             colour = np.divide(premult, alpha, out=np.zeros_like(premult), where=alpha > _ALPHA_MIN)
             np.clip(colour, 0, 1, out=colour)
             return colour
-        image = np.ascontiguousarray(geom.crop(dec.image))
+        image, _ = self._foreground(dec)
         change = None
         own_residual = self._own_residual(dec) if residual is not None else None
         if own_residual is not None:
@@ -614,6 +638,40 @@ class Relighter:
         if "knee" not in state:
             state["knee"] = _readonly(_knee(image))
         return _shoulder(colour, state["knee"])
+
+    def _foreground(self, dec: Decomposition) -> tuple[np.ndarray, np.ndarray]:
+        """(h, w, 3) twice, in the crop box: the person's own colour F and the colour behind it B (cached).
+
+        At a soft matte's edge a pixel mixes both (I = a F + (1 - a) B); relighting or moving I would carry the
+        old background along (a halo in a new scene, the new light's colour spilt onto the street). For a photo
+        F and B come from relight_rt.foreground (multilevel foreground estimation, once per photo); for a hard
+        mask, and for video frames, both are the photo.
+        """
+        state = self._prepared(dec)
+        if "foreground" not in state:
+            image = np.ascontiguousarray(dec.geometry.crop(dec.image))
+            alpha = np.ascontiguousarray(dec.geometry.crop(dec.mask))
+            soft = ((alpha > _SOFT) & (alpha < 1 - _SOFT)).any()
+            if state.get("photo") and soft:
+                fg, bg = estimate_foreground(image, alpha, return_background=True)
+                fg, bg = _consistent(image, alpha[..., None], fg, bg)
+                state["foreground"] = (_readonly(fg), _readonly(bg))
+            else:
+                state["foreground"] = (_readonly(image), _readonly(image))
+        return state["foreground"]
+
+    def _backdrop(self, dec: Decomposition, bg: Background) -> np.ndarray | None:
+        """The full-frame backdrop the relit person goes over: for the original background, the photo with the
+        colours behind the person's soft edge (``_foreground``), so that the photo's own light gives it back."""
+        if bg.kind != "original":
+            return bg.backdrop(dec.image)
+        fg, behind = self._foreground(dec)
+        if behind is fg:
+            return dec.image
+        out = np.array(dec.image)
+        y0, y1, x0, x1 = dec.geometry.box
+        out[y0:y1, x0:x1] = behind
+        return out
 
     def _gain(
         self, dec: Decomposition, light: np.ndarray, image: np.ndarray, change: np.ndarray | None = None
@@ -771,7 +829,7 @@ class Relighter:
         lit = self._expose(dec, self.resolve_light(light), exposure)
         bg = parse_background(background)
         outputs = next(self._network_relit(dec, lit[None], 1, want_layers=self.detail))
-        return self._compose(dec, lit, outputs, bg.backdrop(dec.image))
+        return self._compose(dec, lit, outputs, self._backdrop(dec, bg))
 
     def relight_layers(
         self,
@@ -787,7 +845,7 @@ class Relighter:
         lit = self._expose(dec, self.resolve_light(light), exposure)
         bg = parse_background(background)
         diffuse, residual, relit = next(self._network_relit(dec, lit[None], 1, want_layers=True))
-        out = self._compose(dec, lit, (diffuse, residual, relit), bg.backdrop(dec.image))
+        out = self._compose(dec, lit, (diffuse, residual, relit), self._backdrop(dec, bg))
         chw = lambda a: dec.to_input(np.ascontiguousarray(a.transpose(1, 2, 0)))  # noqa: E731
         layers = {
             "albedo": self.layers(dec)["albedo"],
@@ -814,7 +872,7 @@ class Relighter:
             raise RelightError(f"batch_size: expected a whole number >= 1, got {batch_size!r}")
         dec = self._prepare(image, mask)
         lits = self._expose(dec, self._resolve_lights(lights), exposure)
-        backdrop = parse_background(background).backdrop(dec.image)
+        backdrop = self._backdrop(dec, parse_background(background))
         for lit, outputs in zip(lits, self._network_relit(dec, lits, batch_size, want_layers=self.detail), strict=True):
             yield self._compose(dec, lit, outputs, backdrop)
 

@@ -89,3 +89,16 @@ def test_full_body_photo_gets_a_head_pass_that_changes_only_the_head():
     lum = face @ np.array([0.2126, 0.7152, 0.0722])
     half = lum.shape[1] // 2
     assert lum[:, half:].mean() > 1.2 * lum[:, :half].mean()
+
+
+@pytest.mark.skipif(not REFERENCE.is_dir(), reason="../shared/reference is absent")
+def test_the_photos_own_light_gives_the_photo_back_with_head_pass_and_soft_matte():
+    """A real frame with its automatic (soft) matte: the head pass, the foreground colours of the soft edge and
+    the background behind it all cancel under the photo's own light."""
+    r = Relighter(device="cpu")
+    dec = r.decompose(REFERENCE / "video" / "frame_001.png")  # no mask: the automatic matte
+    alpha = np.asarray(dec.mask)
+    assert ((alpha > 0.05) & (alpha < 0.95)).sum() > 1000 and r._prepared(dec).get("head") is not None
+    out = r.relight(dec, dec)
+    assert np.abs(out - dec.image).max() < 0.01
+
