@@ -245,6 +245,16 @@ def test_routes_page_info_layers(client, studio):
     assert client.get("/api/layers").content == studio.layers_bytes()
 
 
+def test_route_photo_is_the_photo_the_pipeline_reads(client, studio):
+    """The page's "before" view: the decoded photo (RGB, upright) at full resolution, as PNG."""
+    res = client.get("/api/photo.png")
+    assert res.status_code == 200 and res.headers["content-type"] == "image/png"
+    got = cv2.imdecode(np.frombuffer(res.content, np.uint8), cv2.IMREAD_UNCHANGED)[..., ::-1]
+    want = np.rint(np.clip(np.asarray(studio.dec.image)[..., :3], 0, 1) * 255).astype(np.uint8)
+    assert got.shape == want.shape == (90, 60, 3)
+    np.testing.assert_array_equal(got, want)
+
+
 def test_routes_render_and_export(client):
     light = lights.preset("neon").astype(np.float32)
     out = client.post("/api/render", json={"light": light.tolist(), "exposure": "auto"}).json()
