@@ -201,7 +201,7 @@ function drawSphere() {
   ctx.fillStyle = "#1c1f26";
   ctx.fill();
   ctx.fillStyle = "#6c7380";
-  ctx.font = `${Math.round(c.width / 20)}px system-ui, sans-serif`;
+  ctx.font = `${Math.round(c.width / 17)}px system-ui, sans-serif`;
   ctx.textAlign = "center";
   ctx.fillText("behind", half, half - radius * (1 + RHO_MAX) / 2 + 5 * px);
   // the ball, lit by the light the preview shows (irradiance of a white diffuse sphere, clipped)
@@ -406,7 +406,7 @@ function bindPanel() {
   $("copy-command").addEventListener("click", () => navigator.clipboard && navigator.clipboard.writeText($("command").textContent));
 
   const sphere = sphereCanvas();
-  const side = Math.round(220 * Math.min(2, Math.max(1, window.devicePixelRatio || 1)));  // sharp, not wasteful
+  const side = Math.round(184 * Math.min(2, Math.max(1, window.devicePixelRatio || 1)));  // sharp, not wasteful
   sphere.width = side;
   sphere.height = side;
   let dragging = false;
