@@ -459,6 +459,7 @@ def test_100_percent_goes_to_the_face(browser, server, studio):
     """In a window too small for the whole photo at 100 %, the "100 %" button shows the top of the person
     (the face), not the middle of the photo."""
     page = open_page_at(browser, server, 900, 520)
+    wait_full_result(page)  # (the export box below the photo holds the command from then on)
     page.click("#zoom-100")
     g = view_geometry(page)
     assert g["percent"] == pytest.approx(100)
@@ -473,6 +474,19 @@ def test_100_percent_goes_to_the_face(browser, server, studio):
     # the page's face estimate lies on the person, in the mask's top fifth
     fx, fy = page.evaluate("studio.state.view.face")
     assert mask[int(fy), int(fx)] and top <= fy <= top + 0.2 * (bottom - top)
+    # a double-click toggles fit and 100 % at the pointer: the photo point under it stays there
+    page.click("#zoom-fit")
+    g = view_geometry(page)
+    assert g["percent"] < 100
+    f = g["frame"]
+    pointer = (f["left"] + g["x"] + 150 * g["scale"], f["top"] + g["y"] + 300 * g["scale"])
+    page.mouse.dblclick(*pointer)
+    g = view_geometry(page)
+    assert g["percent"] == pytest.approx(100)
+    assert pointer[1] - f["top"] - g["y"] == pytest.approx(300, abs=1)  # (across, the photo fits: centred)
+    assert g["x"] == pytest.approx((f["width"] - mask.shape[1]) / 2, abs=1)
+    page.mouse.dblclick(*pointer)
+    assert view_geometry(page)["scale"] == pytest.approx(min(f["width"] / mask.shape[1], f["height"] / h), abs=1e-2)
     page.close()
 
 

@@ -70,14 +70,23 @@ export class ZoomView {
     frame.addEventListener("pointerup", end);
     frame.addEventListener("pointercancel", end);
     frame.addEventListener("dblclick", (e) => {  // fit <-> 100 % at the pointer
-      if (this.percent < 99.5) {
+      if (this.mode === "fit") {
         const [fx, fy] = this.framePoint(e);
         this.zoomAt(1 / this.dpr, (fx - this.x) / this.scale, (fy - this.y) / this.scale, fx, fy);
       } else {
         this.fit();
       }
     });
-    new ResizeObserver(() => (this.mode === "fit" ? this.fit() : this.place())).observe(frame);
+    // a resized frame (the window, or the export box below growing): refit, or keep the middle where it was
+    this.size = [frame.clientWidth, frame.clientHeight];
+    new ResizeObserver(() => {
+      const [w0, h0] = this.size;
+      this.size = [frame.clientWidth, frame.clientHeight];
+      if (this.mode === "fit") return this.fit();
+      this.x += (this.size[0] - w0) / 2;
+      this.y += (this.size[1] - h0) / 2;
+      this.place();
+    }).observe(frame);
     this.fit();
   }
 
