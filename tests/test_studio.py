@@ -237,7 +237,7 @@ def test_routes_page_info_layers(client, studio):
     page = client.get("/")
     assert page.status_code == 200 and "relight-rt" in page.text
     assert "default-src 'self'" in page.headers["content-security-policy"]
-    for name in ("studio.js", "sh.js", "preview.js", "studio.css"):
+    for name in ("studio.js", "sh.js", "preview.js", "view.js", "studio.css"):
         assert client.get(f"/static/{name}").status_code == 200
     assert client.get("/static/../core.py").status_code == 404
     info = client.get("/api/info").json()
