@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import base64
 import math
-import re
 import os
+import re
 import shlex
 import subprocess
 import sys
@@ -273,8 +273,9 @@ def test_bad_upload_shows_a_message_and_the_server_keeps_serving(browser, server
         "#photo-file",
         files=[{"name": "p.png", "mimeType": "image/png", "buffer": cv2.imencode(".png", rgb)[1].tobytes()}],
     )
-    page.wait_for_function("() => document.getElementById('message').textContent.includes('no person found')",
-                           timeout=10_000)
+    page.wait_for_function(
+        "() => document.getElementById('message').textContent.includes('no person found')", timeout=10_000
+    )
     # still serving: a good env map becomes the base light, the message goes away
     env = np.zeros((16, 32, 3), np.float32)
     env[:8] = 2.0  # bright sky above
@@ -341,9 +342,7 @@ def shown_photo(page, geometry: dict, size: tuple[int, int]) -> np.ndarray:
 
 
 def fetch_png(page, path: str) -> np.ndarray:
-    data = page.evaluate(
-        "p => fetch(p).then(r => r.arrayBuffer()).then(b => Array.from(new Uint8Array(b)))", path
-    )
+    data = page.evaluate("p => fetch(p).then(r => r.arrayBuffer()).then(b => Array.from(new Uint8Array(b)))", path)
     return cv2.imdecode(np.array(data, np.uint8), cv2.IMREAD_COLOR)[..., ::-1]
 
 
@@ -388,7 +387,7 @@ def test_before_after_shows_the_original_while_held(browser, server, studio):
 
     page.evaluate("document.activeElement.blur()")
     for key in ("b", "Backslash"):
-        held(lambda: page.keyboard.down(key), lambda: page.keyboard.up(key))
+        held(lambda k=key: page.keyboard.down(k), lambda k=key: page.keyboard.up(k))
     box = page.locator("#before").bounding_box()
     page.mouse.move(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
     held(page.mouse.down, page.mouse.up)
@@ -408,28 +407,36 @@ def test_zoom_and_pan_on_the_live_preview_and_the_result(browser, server, studio
     f = fit["frame"]
     h, w = studio.dec.image.shape[:2]
     assert fit["scale"] == pytest.approx(min(f["width"] / w, f["height"] / h), abs=1 / h)  # within a pixel
-    # the wheel over the face, at 100 % first: the photo point under the pointer stays under it
     page.click("#zoom-100")
+    assert view_geometry(page)["percent"] == pytest.approx(100)
+    # the wheel over the face (from 200 %, where the photo overflows the frame and is not held centred):
+    # the photo point under the pointer stays under it
+    photo_point = (0.5 * w, 0.15 * h)
+    page.evaluate("a => studio.state.view.zoomAt(2, ...a)", [*photo_point, 0.5 * f["width"], 0.3 * f["height"]])
     at = view_geometry(page)
-    pointer = (f["left"] + at["x"] + 0.5 * w, f["top"] + at["y"] + 0.15 * h)
+    pointer = (f["left"] + at["x"] + 2 * photo_point[0], f["top"] + at["y"] + 2 * photo_point[1])
     page.mouse.move(*pointer)
-    photo_point = ((pointer[0] - f["left"] - at["x"]) / at["scale"], (pointer[1] - f["top"] - at["y"]) / at["scale"])
-    for _ in range(10):
+    for _ in range(3):
         page.mouse.wheel(0, -100)
-        if view_geometry(page)["percent"] >= 399:
-            break
-    page.evaluate("studio.state.view.zoomAt(4, %f, %f, %f, %f)" % (*photo_point, pointer[0] - f["left"],
-                                                                    pointer[1] - f["top"]))  # exactly 400 %
+    wheeled = view_geometry(page)
+    assert wheeled["percent"] > 300
+    s = wheeled["scale"]
+    under = ((pointer[0] - f["left"] - wheeled["x"]) / s, (pointer[1] - f["top"] - wheeled["y"]) / s)
+    assert under == pytest.approx(photo_point, abs=0.5)
+    # then exactly 400 %, about the same point
+    page.evaluate(
+        "a => studio.state.view.zoomAt(4, ...a)", [*photo_point, pointer[0] - f["left"], pointer[1] - f["top"]]
+    )
     zoomed = view_geometry(page)
     assert zoomed["percent"] == pytest.approx(400)
-    under = ((pointer[0] - f["left"] - zoomed["x"]) / 4, (pointer[1] - f["top"] - zoomed["y"]) / 4)
-    assert under == pytest.approx(photo_point, abs=0.5)
     assert page.text_content("#zoom-level") == "400 %"
     # the result and the preview are laid out alike
     for selector in ("#result", "#preview"):
-        box = page.locator(selector).bounding_box() if selector == "#result" else page.evaluate(
-            "() => { const r = document.getElementById('preview').getBoundingClientRect();"
-            " return {x: r.left, y: r.top, width: r.width, height: r.height}; }")
+        box = page.evaluate(
+            "s => { const r = document.querySelector(s).getBoundingClientRect();"
+            " return {x: r.left, y: r.top, width: r.width, height: r.height}; }",
+            selector,
+        )
         assert box["width"] == pytest.approx(4 * w) and box["height"] == pytest.approx(4 * h)
         assert box["x"] == pytest.approx(f["left"] + zoomed["x"]) and box["y"] == pytest.approx(f["top"] + zoomed["y"])
     # drag to pan: the photo follows the pointer
@@ -504,7 +511,8 @@ def test_dropdown_texts_are_not_cut(browser, server):
                 const probe = select.cloneNode(false);
                 probe.removeAttribute('id');
                 probe.add(new Option(option.text));
-                Object.assign(probe.style, {position: 'absolute', width: 'auto', maxWidth: 'none', visibility: 'hidden'});
+                Object.assign(probe.style,
+                              {position: 'absolute', width: 'auto', maxWidth: 'none', visibility: 'hidden'});
                 select.parentElement.appendChild(probe);
                 const need = probe.getBoundingClientRect().width;
                 probe.remove();
