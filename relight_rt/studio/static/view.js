@@ -149,7 +149,7 @@ export class ZoomView {
     this.x = Math.round(clamp(this.x, this.width * this.scale, fw) * dpr) / dpr;
     this.y = Math.round(clamp(this.y, this.height * this.scale, fh) * dpr) / dpr;
     this.view.style.transform = `translate(${this.x}px, ${this.y}px) scale(${this.scale})`;
-    this.view.classList.toggle("pixels", this.percent > 100.5);  // magnified: show the pixels, unblurred
+    this.view.classList.toggle("pixels", this.percent >= 199.5);  // 2x and more: each pixel as a sharp square
     this.onChange(this);
   }
 }
