@@ -95,7 +95,7 @@ def stats(values) -> dict:
 
 
 REPAINT_JS = """n => {
-    const s = studio.state; s.measure = true;
+    const s = studio.state;
     const times = [];
     for (let i = 0; i < n; i++) {
         const a = 2 * Math.PI * i / n;
@@ -120,7 +120,7 @@ def measure_page(context, url: str, frames: int) -> dict:
     repaint["preview_only"] = stats([t[1] for t in times])
     repaint["light_panel_sphere"] = stats([t[2] for t in times])
     # real pointer drags on the sphere
-    page.evaluate("studio.state.measure = true; studio.state.stats.latencies = []")
+    page.evaluate("studio.state.stats.latencies = []")
     box = page.locator("#sphere").bounding_box()
     cx, cy, r = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2, box["width"] * 0.3
     page.mouse.move(cx + r, cy)

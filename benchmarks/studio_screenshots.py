@@ -1,8 +1,10 @@
 """Screenshots of ``relight-rt studio`` with the bundled example person in a street (no mask), for the README
-(docs/studio_*.png).
+(docs/studio_*.png), in a 1366x768 window.
 
-Drives the page as a user would (drags the lamp, moves sliders, picks a preset) in headless Debian chromium
-and saves the window once the full result is shown.
+Drives the page as a user would (drags the lamp, moves sliders, picks a preset, zooms on the face with the
+mouse wheel, holds B for the original photo) in headless Debian chromium and saves the window once the full
+result is shown: studio_lamp.png, studio_preset.png, studio_zoom.png (the result, zoomed) and
+studio_before.png (the same view with B held).
 
     python benchmarks/studio_screenshots.py --out docs
 """
@@ -66,7 +68,7 @@ def main(argv=None) -> int:
             executable_path=args.chromium,
             headless=True,
             args=CHROMIUM_ARGS,
-            viewport={"width": 1280, "height": 900},
+            viewport={"width": 1366, "height": 768},
         )
         page = context.new_page()
         page.goto(url)
@@ -103,13 +105,28 @@ def main(argv=None) -> int:
         set_slider(page, "#lamp-size", 35)
         set_slider(page, "#ambient", 0.02)
         settle(page)
-        page.evaluate("document.activeElement.blur(); document.getElementById('panel').scrollTop = 1e6")  # show export
-        page.wait_for_timeout(200)
+        page.evaluate("document.activeElement.blur()")
         page.screenshot(path=str(out / "studio_preset.png"))
+        # 3. zoomed on the face (the mouse wheel over it), the result; then B held: the original photo
+        face = page.evaluate(
+            """() => { const v = studio.state.view, r = document.getElementById('frame').getBoundingClientRect();
+            return [r.left + v.x + v.face[0] * v.scale, r.top + v.y + v.face[1] * v.scale]; }"""
+        )
+        page.mouse.move(*face)
+        for _ in range(4):
+            page.mouse.wheel(0, -150)
+        page.wait_for_timeout(300)
+        page.screenshot(path=str(out / "studio_zoom.png"))
+        page.keyboard.down("b")
+        page.wait_for_function("() => document.getElementById('original').complete")
+        page.wait_for_timeout(200)
+        page.screenshot(path=str(out / "studio_before.png"))
+        page.keyboard.up("b")
         context.close()
     srv.should_exit = True
     thread.join(10)
-    print(f"wrote {out / 'studio_lamp.png'} and {out / 'studio_preset.png'}")
+    names = ("studio_lamp.png", "studio_preset.png", "studio_zoom.png", "studio_before.png")
+    print("wrote " + ", ".join(str(out / n) for n in names))
     return 0
 
 

@@ -237,12 +237,22 @@ def test_routes_page_info_layers(client, studio):
     page = client.get("/")
     assert page.status_code == 200 and "relight-rt" in page.text
     assert "default-src 'self'" in page.headers["content-security-policy"]
-    for name in ("studio.js", "sh.js", "preview.js", "studio.css"):
+    for name in ("studio.js", "sh.js", "preview.js", "view.js", "studio.css"):
         assert client.get(f"/static/{name}").status_code == 200
     assert client.get("/static/../core.py").status_code == 404
     info = client.get("/api/info").json()
     assert info["photo"] == "someone.png" and "exposure" in info
     assert client.get("/api/layers").content == studio.layers_bytes()
+
+
+def test_route_photo_is_the_photo_the_pipeline_reads(client, studio):
+    """The page's "before" view: the decoded photo (RGB, upright) at full resolution, as PNG."""
+    res = client.get("/api/photo.png")
+    assert res.status_code == 200 and res.headers["content-type"] == "image/png"
+    got = cv2.imdecode(np.frombuffer(res.content, np.uint8), cv2.IMREAD_UNCHANGED)[..., ::-1]
+    want = np.rint(np.clip(np.asarray(studio.dec.image)[..., :3], 0, 1) * 255).astype(np.uint8)
+    assert got.shape == want.shape == (90, 60, 3)
+    np.testing.assert_array_equal(got, want)
 
 
 def test_routes_render_and_export(client):

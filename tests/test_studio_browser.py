@@ -11,6 +11,7 @@ from __future__ import annotations
 import base64
 import math
 import os
+import re
 import shlex
 import subprocess
 import sys
@@ -272,8 +273,9 @@ def test_bad_upload_shows_a_message_and_the_server_keeps_serving(browser, server
         "#photo-file",
         files=[{"name": "p.png", "mimeType": "image/png", "buffer": cv2.imencode(".png", rgb)[1].tobytes()}],
     )
-    page.wait_for_function("() => document.getElementById('message').textContent.includes('no person found')",
-                           timeout=10_000)
+    page.wait_for_function(
+        "() => document.getElementById('message').textContent.includes('no person found')", timeout=10_000
+    )
     # still serving: a good env map becomes the base light, the message goes away
     env = np.zeros((16, 32, 3), np.float32)
     env[:8] = 2.0  # bright sky above
@@ -296,4 +298,262 @@ def test_exposure_rule_in_js_matches_python(browser, server, studio):
         layers["albedo"].transpose(1, 2, 0), layers["transport"].transpose(1, 2, 0), layers["mask"], light, 0.3, 0.5
     )
     assert js == pytest.approx(py, rel=1e-4)
+    page.close()
+
+
+# ------------------------------------------------------------------------------------------------ view
+
+
+def open_page_at(browser, url: str, width: int, height: int):
+    """open_page with the window at width x height CSS pixels (device pixel ratio 1)."""
+    page = browser.new_page()
+    page.set_viewport_size({"width": width, "height": height})
+    errors: list[str] = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    page.goto(url)
+    page.wait_for_selector("body[data-ready='1']", timeout=30_000)
+    assert not errors, errors
+    return page
+
+
+def wait_full_result(page) -> None:
+    page.wait_for_function(
+        "() => studio.state.result && studio.state.result.seq === studio.state.seq"
+        " && !document.getElementById('result').hidden",
+        timeout=30_000,
+    )
+
+
+def view_geometry(page) -> dict:
+    """The zoom (CSS pixels per photo pixel), the photo's top-left corner in the frame, the frame's rect."""
+    return page.evaluate(
+        """() => { const v = studio.state.view, r = document.getElementById('frame').getBoundingClientRect();
+        return {scale: v.scale, x: v.x, y: v.y, percent: v.percent,
+                frame: {left: r.left, top: r.top, width: r.width, height: r.height}}; }"""
+    )
+
+
+def shown_photo(page, geometry: dict, size: tuple[int, int]) -> np.ndarray:
+    """Screenshot of the photo as shown at 100 % (the whole photo inside the frame): (h, w, 3) uint8 RGB."""
+    f = geometry["frame"]
+    clip = {"x": f["left"] + geometry["x"], "y": f["top"] + geometry["y"], "width": size[0], "height": size[1]}
+    png = page.screenshot(clip=clip)
+    return cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_COLOR)[..., ::-1]
+
+
+def fetch_png(page, path: str) -> np.ndarray:
+    data = page.evaluate("p => fetch(p).then(r => r.arrayBuffer()).then(b => Array.from(new Uint8Array(b)))", path)
+    return cv2.imdecode(np.array(data, np.uint8), cv2.IMREAD_COLOR)[..., ::-1]
+
+
+def close_to(got: np.ndarray, want: np.ndarray) -> bool:
+    diff = np.abs(got.astype(np.int16) - want.astype(np.int16))
+    return got.shape == want.shape and float(diff.mean()) < 1.0 and float(np.percentile(diff, 99)) <= 4
+
+
+def test_before_after_shows_the_original_while_held(browser, server, studio):
+    """Hold B, backslash or the "before" button: the original photo; let go: the relit result again. Compared
+    pixel for pixel at 100 % (the example is smaller than the frame, so all of it is in view)."""
+    page = open_page(browser, server)
+    page.select_option("#base", "preset:neon")  # a light far from the photo's own
+    wait_full_result(page)
+    page.click("#zoom-100")
+    geometry = view_geometry(page)
+    assert geometry["percent"] == pytest.approx(100)
+    h, w = studio.dec.image.shape[:2]
+    original = fetch_png(page, "/api/photo.png")
+    result = fetch_png(page, f"/api/result/{page.evaluate('studio.state.result.id')}.png")
+    assert original.shape == result.shape == (h, w, 3)
+    person = np.asarray(studio.dec.mask) > 0.5
+    assert np.abs(original.astype(np.int16) - result.astype(np.int16))[person].mean() > 3  # relit: not the photo
+    page.wait_for_function("() => document.getElementById('original').complete")
+
+    def shows(want: np.ndarray, other: np.ndarray) -> None:
+        shot = shown_photo(page, geometry, (w, h))
+        assert close_to(shot, want)
+        near = np.abs(shot.astype(np.int16) - want.astype(np.int16))[person].mean()
+        far = np.abs(shot.astype(np.int16) - other.astype(np.int16))[person].mean()
+        assert near < 1 < 3 < far, (near, far)
+
+    shows(result, original)
+
+    def held(press, release) -> None:
+        press()
+        assert page.is_visible("#before-label") and page.get_attribute("#before", "aria-pressed") == "true"
+        shows(original, result)
+        release()
+        assert page.is_hidden("#before-label") and page.get_attribute("#before", "aria-pressed") == "false"
+        shows(result, original)
+
+    page.evaluate("document.activeElement.blur()")
+    for key in ("b", "Backslash"):
+        held(lambda k=key: page.keyboard.down(k), lambda k=key: page.keyboard.up(k))
+    box = page.locator("#before").bounding_box()
+    page.mouse.move(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
+    held(page.mouse.down, page.mouse.up)
+    page.close()
+
+
+@pytest.mark.parametrize("renderer", ["webgl", "canvas"])
+def test_zoom_and_pan_on_the_live_preview_and_the_result(browser, server, studio, renderer):
+    """The mouse wheel zooms about the pointer and a drag pans, alike on the live preview (WebGL or Canvas 2D)
+    and on the server's result: magnified 4x, the frame shows the preview's own pixels, 4x4 each."""
+    page = open_page(browser, f"{server}/?renderer={renderer}")
+    kind = page.evaluate("studio.state.preview.kind")
+    if renderer == "webgl" and kind != "WebGL 2":
+        pytest.skip(f"no WebGL 2 in this chromium (preview runs on {kind})")
+    wait_full_result(page)
+    fit = view_geometry(page)
+    f = fit["frame"]
+    h, w = studio.dec.image.shape[:2]
+    assert fit["scale"] == pytest.approx(min(f["width"] / w, f["height"] / h), abs=1 / h)  # within a pixel
+    page.click("#zoom-100")
+    assert view_geometry(page)["percent"] == pytest.approx(100)
+    # the wheel over the face (from 200 %, where the photo overflows the frame and is not held centred):
+    # the photo point under the pointer stays under it
+    photo_point = (0.5 * w, 0.15 * h)
+    page.evaluate("a => studio.state.view.zoomAt(2, ...a)", [*photo_point, 0.5 * f["width"], 0.3 * f["height"]])
+    at = view_geometry(page)
+    pointer = (f["left"] + at["x"] + 2 * photo_point[0], f["top"] + at["y"] + 2 * photo_point[1])
+    page.mouse.move(*pointer)
+    for _ in range(3):
+        page.mouse.wheel(0, -100)
+    wheeled = view_geometry(page)
+    assert wheeled["percent"] > 300
+    s = wheeled["scale"]
+    under = ((pointer[0] - f["left"] - wheeled["x"]) / s, (pointer[1] - f["top"] - wheeled["y"]) / s)
+    assert under == pytest.approx(photo_point, abs=0.5)
+    # then exactly 400 %, about the same point
+    page.evaluate(
+        "a => studio.state.view.zoomAt(4, ...a)", [*photo_point, pointer[0] - f["left"], pointer[1] - f["top"]]
+    )
+    zoomed = view_geometry(page)
+    assert zoomed["percent"] == pytest.approx(400)
+    assert page.text_content("#zoom-level") == "400 %"
+    # the result and the preview are laid out alike
+    for selector in ("#result", "#preview"):
+        box = page.evaluate(
+            "s => { const r = document.querySelector(s).getBoundingClientRect();"
+            " return {x: r.left, y: r.top, width: r.width, height: r.height}; }",
+            selector,
+        )
+        assert box["width"] == pytest.approx(4 * w) and box["height"] == pytest.approx(4 * h)
+        assert box["x"] == pytest.approx(f["left"] + zoomed["x"]) and box["y"] == pytest.approx(f["top"] + zoomed["y"])
+    # drag to pan: the photo follows the pointer
+    page.mouse.move(f["left"] + 400, f["top"] + 300)
+    page.mouse.down()
+    page.mouse.move(f["left"] + 300, f["top"] + 240, steps=5)
+    page.mouse.up()
+    panned = view_geometry(page)
+    assert (panned["x"] - zoomed["x"], panned["y"] - zoomed["y"]) == pytest.approx((-100, -60))
+    # the live preview (the light changes: the result goes away until the next one) shows its pixels, 4x4 each
+    page.evaluate("document.activeElement.blur()")
+    page.focus("#sphere")
+    page.keyboard.press("ArrowLeft")
+    page.wait_for_function("() => document.getElementById('result').hidden && !studio.state.dirty")
+    page.evaluate("document.activeElement.blur()")
+    canvas = canvas_rgb(page)  # the preview at the photo's size here (the example is below the preview limit)
+    assert canvas.shape == (h, w, 3)
+    x0, y0 = -int(panned["x"]) // 4 + 2, -int(panned["y"]) // 4 + 2  # whole photo pixels inside the frame
+    clip = {"x": f["left"] + panned["x"] + 4 * x0, "y": f["top"] + panned["y"] + 4 * y0, "width": 160, "height": 120}
+    shot = cv2.imdecode(np.frombuffer(page.screenshot(clip=clip), np.uint8), cv2.IMREAD_COLOR)[..., ::-1]
+    want = np.repeat(np.repeat(canvas[y0 : y0 + 30, x0 : x0 + 40], 4, axis=0), 4, axis=1)
+    assert close_to(shot, want)
+    page.close()
+
+
+def test_100_percent_goes_to_the_face(browser, server, studio):
+    """In a window too small for the whole photo at 100 %, the "100 %" button shows the top of the person
+    (the face), not the middle of the photo."""
+    page = open_page_at(browser, server, 900, 520)
+    wait_full_result(page)  # (the export box below the photo holds the command from then on)
+    page.click("#zoom-100")
+    g = view_geometry(page)
+    assert g["percent"] == pytest.approx(100)
+    h = studio.dec.image.shape[0]
+    assert g["frame"]["height"] < 0.8 * h  # the photo does not fit: the button had to choose where to look
+    mask = np.asarray(studio.dec.mask) > 0.5
+    rows = np.flatnonzero(mask.any(axis=1))
+    top, bottom = rows[0], rows[-1]
+    visible = (-g["y"], -g["y"] + g["frame"]["height"])
+    assert visible[0] <= top + 10 and top + 40 <= visible[1], (visible, top)  # the head is in view ...
+    assert bottom > visible[1]  # ... the feet are not
+    # the page's face estimate lies on the person, in the mask's top fifth
+    fx, fy = page.evaluate("studio.state.view.face")
+    assert mask[int(fy), int(fx)] and top <= fy <= top + 0.2 * (bottom - top)
+    # a double-click toggles fit and 100 % at the pointer: the photo point under it stays there
+    page.click("#zoom-fit")
+    g = view_geometry(page)
+    assert g["percent"] < 100
+    f = g["frame"]
+    pointer = (f["left"] + g["x"] + 150 * g["scale"], f["top"] + g["y"] + 300 * g["scale"])
+    page.mouse.dblclick(*pointer)
+    g = view_geometry(page)
+    assert g["percent"] == pytest.approx(100)
+    assert pointer[1] - f["top"] - g["y"] == pytest.approx(300, abs=1)  # (across, the photo fits: centred)
+    assert g["x"] == pytest.approx((f["width"] - mask.shape[1]) / 2, abs=1)
+    page.mouse.dblclick(*pointer)
+    assert view_geometry(page)["scale"] == pytest.approx(min(f["width"] / mask.shape[1], f["height"] / h), abs=1e-2)
+    page.close()
+
+
+def test_dropdown_texts_are_not_cut(browser, server):
+    """Each option of the exposure and base-light dropdowns fits in its box (at 1366x768)."""
+    page = open_page_at(browser, server, 1366, 768)
+    cut = page.evaluate(
+        """() => {
+        const out = [];
+        for (const id of ['exposure-mode', 'base']) {
+            const select = document.getElementById(id);
+            const room = select.getBoundingClientRect().width;
+            for (const option of select.options) {
+                // a lone copy of the select, sized by its content (the browser's own measure of the text)
+                const probe = select.cloneNode(false);
+                probe.removeAttribute('id');
+                probe.add(new Option(option.text));
+                Object.assign(probe.style,
+                              {position: 'absolute', width: 'auto', maxWidth: 'none', visibility: 'hidden'});
+                select.parentElement.appendChild(probe);
+                const need = probe.getBoundingClientRect().width;
+                probe.remove();
+                if (need > room + 0.5) out.push([id, option.text, need, room]);
+            }
+        }
+        return out;
+    }"""
+    )
+    assert not cut, cut
+    page.close()
+
+
+def test_export_is_visible_without_scrolling_at_1366x768(browser, server):
+    page = open_page_at(browser, server, 1366, 768)
+    wait_full_result(page)
+    assert page.evaluate("document.scrollingElement.scrollHeight") <= 768  # the page itself does not scroll
+    for selector in ("#export-box", "#export-png", "#export-npy", "#export-json", "#command", "#copy-command"):
+        box = page.locator(selector).bounding_box()
+        assert box is not None and box["y"] >= 0 and box["y"] + box["height"] <= 768, (selector, box)
+        assert box["x"] >= 0 and box["x"] + box["width"] <= 1366, (selector, box)
+        # nothing covers it: the element itself is what the window shows at its centre
+        hit = page.evaluate(
+            "([s, x, y]) => { const e = document.querySelector(s), h = document.elementFromPoint(x, y);"
+            " return e === h || e.contains(h); }",
+            [selector, box["x"] + box["width"] / 2, box["y"] + box["height"] / 2],
+        )
+        assert hit, selector
+    page.close()
+
+
+def test_frame_time_shown_only_after_a_frame_is_drawn(browser, server):
+    """The header names the preview's renderer at once, and a time per frame only once frames have been
+    drawn for the user's changes (never a "0 ms" from before)."""
+    page = open_page(browser, server)
+    status = page.text_content("#status")
+    assert status.startswith("live preview ") and "ms" not in status, status
+    page.focus("#sphere")
+    page.keyboard.press("ArrowLeft")
+    page.wait_for_function("() => document.getElementById('status').textContent.includes('a frame')")
+    status = page.text_content("#status")
+    assert re.search(r" · (under 0\.1|\d+(\.\d)?) ms a frame$", status), status
+    assert not re.search(r"(?<![\d.])0(\.0)? ms", status), status
     page.close()

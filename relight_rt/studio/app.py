@@ -7,6 +7,7 @@ Routes (no route takes a filesystem path; ids are random tokens of the server's 
     GET  /                         the page; /static/... its script and style (files of this package)
     GET  /api/info                 sizes, layer format, own light, presets, features (JSON)
     GET  /api/layers               display-resolution layers (binary, see Studio.layers_bytes)
+    GET  /api/photo.png            the photo as the pipeline reads it, full resolution (the page's "before")
     POST /api/render               {"light": 27 numbers, "exposure": ...} -> {"id", "seconds", "command", ...}
     GET  /api/result/ID.png        a render's PNG at full resolution (?download=1: as an attachment)
     GET  /api/result/ID/light.npy  its light (9, 3) float32 RGB; light.json likewise
@@ -86,6 +87,10 @@ def create_app(studio: Studio, allowed_hosts: list[str] | None = None) -> FastAP
     @app.get("/api/layers")
     def layers():
         return Response(studio.layers_bytes(), media_type="application/octet-stream")
+
+    @app.get("/api/photo.png")
+    def photo():
+        return Response(studio.photo_png(), media_type="image/png")
 
     @app.post("/api/render")
     async def render(request: Request):

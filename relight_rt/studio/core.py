@@ -290,6 +290,7 @@ class Studio:
         self.renders = ResultStore(capacity=16, ttl=900.0)
         self.exposure_supported = "exposure" in inspect.signature(relighter.relight).parameters
         self._layers = self._pack_layers(preview_pixels)
+        self._photo_png: bytes | None = None
 
     # ------------------------------------------------------------------------------------ preview layers
 
@@ -339,6 +340,12 @@ class Studio:
             "exposure_target": target,
             "data": q16.tobytes() + q8.tobytes(),
         }
+
+    def photo_png(self) -> bytes:
+        """The photo as the pipeline reads it (upright, RGB, full resolution) as PNG: the page's "before"."""
+        if self._photo_png is None:
+            self._photo_png = encode_image(np.asarray(self.dec.image)[..., :3], ".png", "photo")
+        return self._photo_png
 
     def layers_bytes(self) -> bytes:
         """The binary the page reads: 9 planes of uint16 transport, then 7 planes of uint8 (albedo R, G, B

@@ -1,6 +1,7 @@
 // The studio page: light panel, live preview while dragging, full result from the server on release.
 import * as sh from "./sh.js";
 import { createPreview, decodeLayers } from "./preview.js";
+import { ZoomView, facePoint } from "./view.js";
 
 const $ = (id) => document.getElementById(id);
 const RHO_MAX = 1.3;  // outer edge of the "behind" ring, in sphere radii
@@ -18,7 +19,9 @@ const state = {
   result: null,    // {id, seq, ...} of the latest full result
   dirty: false,
   pendingInput: null,  // timeStamp of the first input event not yet painted
-  stats: { frames: 0, latencies: [] },
+  stats: { frames: 0, latencies: [], frameTimes: [] },  // frameTimes: the latest frames drawn for the user's input
+  view: null,      // the ZoomView of the photo area
+  before: false,   // the original photo is shown (while the before key or button is held)
 };
 
 // ------------------------------------------------------------------------------------------------ light
@@ -59,12 +62,16 @@ function paint() {
   state.dirty = false;
   const t0 = performance.now();
   state.preview.draw(previewLight(composedLight()));
-  if (state.measure) state.preview.finish();
+  state.preview.finish();  // the frame is really drawn (WebGL: waits for the GPU), so the time is true
   const t1 = performance.now();
   state.stats.frames += 1;
   if (state.pendingInput !== null) {
     state.stats.latencies.push(performance.now() - state.pendingInput);
     state.pendingInput = null;
+    const times = state.stats.frameTimes;
+    times.push(t1 - t0);
+    if (times.length > 30) times.shift();
+    showSpeed();
   }
   drawSphere();
   state.stats.last = { preview: t1 - t0, sphere: performance.now() - t1 };
@@ -82,6 +89,76 @@ function lightChanged(event) {
 
 function setBadge(text) {
   $("badge").textContent = text;
+}
+
+// The header: the preview's size and renderer, and (once frames have been drawn for the user's changes)
+// the median time of the latest of them.
+function showSpeed() {
+  const p = state.info.preview;
+  let text = `live preview ${p.width}×${p.height} · ${state.preview.kind}`;
+  const times = [...state.stats.frameTimes].sort((a, b) => a - b);
+  if (times.length) {
+    const t = times[Math.floor(times.length / 2)];
+    text += ` · ${t < 0.1 ? "under 0.1" : t < 10 ? t.toFixed(1) : t.toFixed(0)} ms a frame`;
+  }
+  $("status").textContent = text;
+}
+
+// ------------------------------------------------------------------------------------------------ view
+
+// Before/after: the original photo over the relit one while the key (B or \) or the button is held.
+function showBefore(on) {
+  if (state.before === on) return;
+  state.before = on;
+  $("original").hidden = !on;
+  $("before-label").hidden = !on;
+  $("before").setAttribute("aria-pressed", String(on));
+}
+
+const BEFORE_KEYS = new Set(["b", "B", "\\"]);
+
+function typing(target) {
+  return target instanceof HTMLElement && (target.isContentEditable || target.tagName === "TEXTAREA" ||
+    (target.tagName === "INPUT" && !["range", "checkbox", "color", "file", "button"].includes(target.type)));
+}
+
+function bindView() {
+  const info = state.info;
+  const layers = state.layers;
+  const face = facePoint(layers.mask, layers.width, layers.height, info.width, info.height);
+  const zoom = $("zoom-level");
+  state.view = new ZoomView($("frame"), $("view"), info.width, info.height, {
+    face,
+    onChange: (v) => { zoom.value = `${Math.round(v.percent)} %`; },
+  });
+  $("zoom-fit").addEventListener("click", () => state.view.fit());
+  $("zoom-100").addEventListener("click", () => state.view.actualSize());
+  const original = $("original");
+  original.draggable = false;
+  $("result").draggable = false;
+  original.src = "/api/photo.png";
+
+  window.addEventListener("keydown", (e) => {
+    if (!BEFORE_KEYS.has(e.key) || e.ctrlKey || e.metaKey || e.altKey || typing(e.target)) return;
+    e.preventDefault();
+    showBefore(true);
+  });
+  window.addEventListener("keyup", (e) => { if (BEFORE_KEYS.has(e.key)) showBefore(false); });
+  window.addEventListener("blur", () => showBefore(false));
+  const button = $("before");
+  button.addEventListener("pointerdown", (e) => {
+    if (e.button !== 0) return;
+    button.setPointerCapture(e.pointerId);
+    showBefore(true);
+  });
+  for (const type of ["pointerup", "pointercancel", "lostpointercapture"]) {
+    button.addEventListener(type, () => showBefore(false));
+  }
+  button.addEventListener("keydown", (e) => {
+    if (e.key === " " || e.key === "Enter") { e.preventDefault(); showBefore(true); }
+  });
+  button.addEventListener("keyup", (e) => { if (e.key === " " || e.key === "Enter") showBefore(false); });
+  button.addEventListener("blur", () => showBefore(false));
 }
 
 const sphereCanvas = () => $("sphere");
@@ -124,7 +201,7 @@ function drawSphere() {
   ctx.fillStyle = "#1c1f26";
   ctx.fill();
   ctx.fillStyle = "#6c7380";
-  ctx.font = `${Math.round(c.width / 20)}px system-ui, sans-serif`;
+  ctx.font = `${Math.round(c.width / 17)}px system-ui, sans-serif`;
   ctx.textAlign = "center";
   ctx.fillText("behind", half, half - radius * (1 + RHO_MAX) / 2 + 5 * px);
   // the ball, lit by the light the preview shows (irradiance of a white diffuse sphere, clipped)
@@ -329,7 +406,7 @@ function bindPanel() {
   $("copy-command").addEventListener("click", () => navigator.clipboard && navigator.clipboard.writeText($("command").textContent));
 
   const sphere = sphereCanvas();
-  const side = Math.round(220 * Math.min(2, Math.max(1, window.devicePixelRatio || 1)));  // sharp, not wasteful
+  const side = Math.round(184 * Math.min(2, Math.max(1, window.devicePixelRatio || 1)));  // sharp, not wasteful
   sphere.width = side;
   sphere.height = side;
   let dragging = false;
@@ -382,9 +459,13 @@ async function start() {
     state.preview = createPreview($("preview"), state.layers,
       { checker: info.background === "transparent", renderer, light: composedLight() });
     bindPanel();
-    const timings = state.preview.timings;
-    const speed = timings ? ` (${timings[state.preview.kind].toFixed(0)} ms a frame)` : "";
-    $("status").textContent = `live preview ${info.preview.width}×${info.preview.height} · ${state.preview.kind}${speed}`;
+    bindView();
+    const timings = state.preview.timings;  // the trial frames that chose the renderer
+    if (timings) {
+      $("status").title = "renderer chosen by timing: " +
+        Object.entries(timings).map(([k, t]) => `${k} ${t.toFixed(1)} ms`).join(", ");
+    }
+    showSpeed();
     lightChanged();
     paint();
     document.body.dataset.ready = "1";
@@ -396,5 +477,5 @@ async function start() {
 }
 
 // for tests and benchmarks
-window.studio = { sh, state, composedLight, previewLight, paint, requestFull, decodeLayers, createPreview };
+window.studio = { sh, state, composedLight, previewLight, paint, requestFull, decodeLayers, createPreview, facePoint };
 start();
