@@ -56,8 +56,8 @@ from ._geometry import CropGeometry
 from ._io import read_image, sibling_mask
 from .compositing import Background, over_box, parse_background
 from .config import RuntimeConfig
-from .foreground import estimate_foreground
 from .contract import kind_spec
+from .foreground import estimate_foreground
 from .lightspec import LightSpec, parse_light
 from .masks import Matter, resolve_mask
 from .session import Model, check_finite, find_models, load_model
