@@ -23,7 +23,7 @@ import cv2
 import numpy as np
 
 from ._errors import RelightError
-from ._io import IMAGE_SUFFIXES, _decode, list_images, write_image
+from ._io import IMAGE_SUFFIXES, list_images, read_image, write_image
 from ._video_io import VIDEO_SUFFIXES
 
 log = logging.getLogger(__name__)
@@ -57,8 +57,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 def read_photo(path: Path) -> np.ndarray:
     """Any readable image file as float32 RGB (H, W, 3) in [0, 1] (gray and 16-bit files converted,
     alpha dropped, EXIF orientation applied)."""
-    bgr = _decode(path, "image", cv2.IMREAD_COLOR)
-    return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB).astype(np.float32) * np.float32(1 / 255)
+    return read_image(path, "image")[..., :3]  # the runtime's one intake
 
 
 def _finish(alpha: np.ndarray, binary: bool) -> np.ndarray:
