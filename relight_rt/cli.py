@@ -303,8 +303,7 @@ PLUGINS = ["relight_rt.video_cli", "relight_rt.demo", "relight_rt.bench", "relig
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="relight-rt", description="Relight people in photos and videos.")
     parser.add_argument("--version", action="version", version=f"relight-rt {__version__}")
-    parser.add_argument("-v", "--verbose", action="store_true", help="log details")
-    parser.add_argument("-q", "--quiet", action="store_true", help="log warnings and errors only")
+    _add_log_options(parser)
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
     for add in COMMANDS:
         add(subparsers)
@@ -316,12 +315,19 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _remember_parsers(parser: argparse.ArgumentParser) -> None:
-    """Give every (sub)command's parsed arguments its own parser, so a usage error shows that command's usage."""
+    """Give every (sub)command's parsed arguments its own parser, so a usage error shows that command's usage,
+    and its own -v/-q, so they work before or after the command."""
     for action in parser._actions:
         if isinstance(action, argparse._SubParsersAction):
             for sub in action.choices.values():
                 sub.set_defaults(_parser=sub)
+                _add_log_options(sub, default=argparse.SUPPRESS)  # unset here: the top level's value stays
                 _remember_parsers(sub)
+
+
+def _add_log_options(p: argparse.ArgumentParser, default=False) -> None:
+    p.add_argument("-v", "--verbose", action="store_true", default=default, help="log details")
+    p.add_argument("-q", "--quiet", action="store_true", default=default, help="log warnings and errors only")
 
 
 def _os_error(exc: OSError) -> str:

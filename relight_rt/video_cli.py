@@ -34,7 +34,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     from ._options import add_background_option, add_exposure_option, add_light_options, add_runtime_options
 
     p = subparsers.add_parser("video", help="relight a video (file or frame folder) with per-frame lights",
-                              description=__doc__.splitlines()[0])
+                              description="Relight a video under a light that may change over time.")
     p.add_argument("input", nargs="+", help="video file (OpenCV) or folder of frames; several with --ray")
     p.add_argument("-o", "--output", help="output video file (.mp4, .avi, .mkv); with --ray, a folder")
     p.add_argument("--frames-out", help="also (or only) write the relit frames as PNGs into this folder")

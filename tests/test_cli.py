@@ -162,6 +162,54 @@ def test_help_and_usage_errors(capsys):
     assert cli.main(["relight", "x.png"]) == 2  # no light, no -o: argparse usage error
 
 
+def _log_lines(argv: list[str], cwd) -> tuple[int, list[str]]:
+    """Run the CLI in a fresh interpreter (logging set up from scratch); its exit code and stderr lines."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    env = {**os.environ, "PYTHONPATH": str(Path(cli.__file__).parents[1])}
+    proc = subprocess.run([sys.executable, "-m", "relight_rt", *argv], capture_output=True, text=True, env=env,
+                          cwd=cwd, timeout=120)  # fmt: skip
+    return proc.returncode, proc.stderr.splitlines()
+
+
+def test_quiet_and_verbose_are_accepted_before_or_after_the_command(tmp_path):
+    """issue 34: ``relight-rt lights show studio -o s.png -q`` said "unrecognized arguments: -q"."""
+    show = ["lights", "show", "studio", "--size", "16", "-o", "s.png"]
+    code, lines = _log_lines(show, tmp_path)
+    assert code == 0 and lines == ["studio -> s.png"], lines  # the INFO line
+    for argv in (["-q", *show], [*show, "-q"], ["lights", "-q", *show[1:]], [*show, "--quiet"]):
+        code, lines = _log_lines(argv, tmp_path)
+        assert code == 0 and lines == [], (argv, lines)
+    for argv in (["-v", *show], [*show, "-v"], [*show, "--verbose"]):
+        assert cli.build_parser().parse_args(argv).verbose is True, argv
+        assert cli.build_parser().parse_args(argv).quiet is False, argv
+    args = cli.build_parser().parse_args(["-q", *show])
+    assert args.quiet is True and args.verbose is False  # a subcommand's default does not undo the top level's
+
+
+def _every_parser(parser):
+    import argparse
+
+    yield parser
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in action.choices.values():
+                yield from _every_parser(sub)
+
+
+def test_help_texts_are_plain_text():
+    """issue 34: ``relight-rt video --help`` began with reST markup (two backquotes around the command)."""
+    import re
+
+    markup = re.compile(r"``|:(func|class|meth|mod|attr|data):`")
+    for p in _every_parser(cli.build_parser()):
+        text = p.format_help()
+        assert not markup.search(text), (p.prog, markup.search(text).group(0), text[:300])
+
+
 def bad_case(work, kind):
     """Make one bad input in ``work``; return the relight arguments (without -o)."""
     photo = write_photo(work)
