@@ -32,7 +32,6 @@ from ._io import (
     sibling_mask,
     write_image,
     write_npy,
-    write_npz,
 )
 from ._limits import DEFAULT_MAX_PIXELS, pixel_limit
 from ._options import (
@@ -51,6 +50,7 @@ from .distributed import add_ray_options
 from .exposure import parse_exposure
 from .lightspec import LightSpec
 from .masks import find_mask_file
+from .transport_file import save_transport
 
 log = logging.getLogger("relight_rt.cli")
 
@@ -152,7 +152,8 @@ def add_decompose(subparsers) -> None:
         "decompose",
         help="albedo, shading, skin, light and transport of a photo",
         description="Writes albedo.png, shading.png, skin.png (the photo's size and detail, see "
-        "Relighter.layers), light.npy ((9, 3) RGB SH) and transport.npz (key T, (H, W, 9) float32, input size) "
+        "Relighter.layers), light.npy ((9, 3) RGB SH) and transport.npz (the (R, R, 9) transport at the network's "
+        "resolution, float16, with the crop geometry; relight_rt.load_transport brings it to the photo's size) "
         "into DIR.",
     )
     p.add_argument("input", metavar="INPUT", help="image file")
@@ -175,7 +176,7 @@ def cmd_decompose(args: argparse.Namespace) -> int:
     write_image(folder / "shading.png", layers["shading"], protect)
     write_image(folder / "skin.png", layers["skin"], protect)
     write_npy(folder / "light.npy", np.asarray(dec.light, np.float64), protect)
-    write_npz(folder / "transport.npz", {"T": dec.to_input(np.ascontiguousarray(dec.transport))}, protect)
+    save_transport(folder / "transport.npz", dec.transport, dec.geometry, protect)  # network size, float16
     log.info("%s -> %s (albedo.png, shading.png, skin.png, light.npy, transport.npz)", src, folder)
     return 0
 

@@ -93,9 +93,26 @@ def test_decompose(work, capsys):
     names = sorted(p.name for p in (work / "dec").iterdir())
     assert names == ["albedo.png", "light.npy", "shading.png", "skin.png", "transport.npz"]
     np.testing.assert_allclose(np.load(work / "dec" / "light.npy"), OWN_LIGHT, rtol=1e-6)
-    with np.load(work / "dec" / "transport.npz") as z:
-        assert z["T"].shape == (150, 100, 9)
     assert cv2.imread(str(work / "dec" / "skin.png"), cv2.IMREAD_UNCHANGED).ndim == 2
+
+
+def test_decompose_stores_the_transport_at_the_network_size(work, capsys, models_dir):
+    """issue 34: transport.npz held the float32 map at the photo's size (51 MB for 2.5 megapixels); now the
+    network's (R, R, 9) float16 with the crop geometry, brought back to the photo's size on reading."""
+    from relight_rt import Relighter, load_transport
+
+    photo = write_photo(work, h=600, w=400)
+    code, _, err = run(["decompose", photo, "-o", "dec"], capsys)
+    assert code == 0, err
+    dec = Relighter(models_dir, device="cpu").decompose(photo, "p_mask.png")
+    r = dec.resolution
+    with np.load(work / "dec" / "transport.npz") as z:
+        assert z["transport"].shape == (r, r, 9) and z["transport"].dtype == np.float16
+    full = dec.to_input(np.ascontiguousarray(dec.transport))
+    assert (work / "dec" / "transport.npz").stat().st_size < full.nbytes / 20  # the photo's map was 8.6 MB
+    got = load_transport(work / "dec" / "transport.npz")
+    assert got.shape == (600, 400, 9) and got.dtype == np.float32
+    np.testing.assert_allclose(got, full, rtol=2**-10, atol=1e-6)  # float16: 11 significant bits
 
 
 @pytest.mark.parametrize("form", ["gray", "gray16", "colour16"])
