@@ -46,6 +46,7 @@ from ._options import (
     relighter,
 )
 from ._process import interrupt_handling, quiet_native_libraries
+from ._progress import progress
 from .distributed import add_ray_options
 from .exposure import parse_exposure
 from .lightspec import LightSpec
@@ -97,13 +98,8 @@ def _read_inputs(args: argparse.Namespace, files: list[Path], relighter, spec, b
 
 
 def _progress(items: list, enabled: bool):
-    if not enabled:
-        return items
-    try:
-        from tqdm import tqdm
-    except ImportError:
-        return items
-    return tqdm(items, unit="image", file=sys.stderr)
+    """``items``, with a progress bar (or log lines without tqdm) when ``enabled`` (relight_rt._progress)."""
+    return progress(items, "image", enabled)
 
 
 def cmd_relight(args: argparse.Namespace) -> int:

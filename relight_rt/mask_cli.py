@@ -24,6 +24,7 @@ import numpy as np
 
 from ._errors import RelightError
 from ._io import IMAGE_SUFFIXES, list_images, read_image, write_image
+from ._progress import Progress, progress
 from ._video_io import VIDEO_SUFFIXES
 
 log = logging.getLogger(__name__)
@@ -115,7 +116,7 @@ def run(args: argparse.Namespace) -> int:
     if not to_file and files:
         out.mkdir(parents=True, exist_ok=True)
     written: set[Path] = set()
-    for path in files:
+    for path in progress(files, "image", len(files) > 1):
         target = out if to_file else out / f"{path.stem}_mask.png"
         try:
             if target.resolve() in written:
@@ -123,7 +124,7 @@ def run(args: argparse.Namespace) -> int:
             alpha = matter(read_photo(path), str(path))
             write_image(target, _finish(alpha, args.binary), protect=protect)
             written.add(target.resolve())
-            log.info("%s -> %s", path, target)
+            (log.debug if len(files) > 1 else log.info)("%s -> %s", path, target)  # a bar shows a folder
         except (RelightError, OSError) as exc:
             failures.append((str(path), str(exc)))
     return _report(failures, len(written), len(files))
@@ -137,7 +138,7 @@ def _run_sequence(folder: Path, out: Path, vm, binary: bool) -> int:
     out.mkdir(parents=True, exist_ok=True)
     failures: list[tuple[str, str]] = []
     written = 0
-    for path in files:
+    for path in progress(files, "frame"):
         try:
             alpha = vm(read_photo(path), str(path))
             write_image(out / f"{path.stem}_mask.png", _finish(alpha, binary), protect=protect)
@@ -161,6 +162,7 @@ def _run_video(video: Path, out: Path, vm, binary: bool) -> int:
         raise RelightError(f"output {out}: expected a video file ({', '.join(VIDEO_SUFFIXES)}) or a folder")
     sink = FrameSink(video=out if as_video else None, frames_dir=None if as_video else out, fps=fps, protect=[video])
     count = 0
+    bar = Progress(int(cap.get(cv2.CAP_PROP_FRAME_COUNT) or 0), "frame")  # relight_rt._progress
     try:
         with sink:
             while True:
@@ -171,9 +173,11 @@ def _run_video(video: Path, out: Path, vm, binary: bool) -> int:
                 alpha = _finish(vm(rgb, f"{video} frame {count}"), binary)
                 sink.write(f"frame_{count:06d}_mask", np.repeat(alpha[..., None], 3, axis=2))
                 count += 1
+                bar.update()
             if count == 0:
                 raise RelightError(f"{video}: no frames could be read")
     finally:
+        bar.close()
         cap.release()
     log.info("%s: %d mask frames -> %s", video, count, out)
     return 0
