@@ -49,7 +49,7 @@ from ._process import interrupt_handling, quiet_native_libraries
 from ._progress import progress
 from .distributed import add_ray_options
 from .exposure import parse_exposure
-from .lightspec import LightSpec
+from .lightspec import LightSpec, parse_light
 from .masks import find_mask_file
 from .transport_file import save_transport
 
@@ -186,10 +186,19 @@ def add_lights(subparsers) -> None:
     sub = p.add_subparsers(dest="lights_command", required=True, metavar=metavar)
     ls = sub.add_parser("list", help="the named lights, one per line, name first")
     ls.set_defaults(func=cmd_lights_list)
-    show = sub.add_parser("show", help="render a light on a diffuse sphere")
-    show.add_argument("name", metavar="NAME", help="preset name or light file (.npy/.json)")
-    show.add_argument("--size", type=int, default=256, help="sphere image size in pixels (default 256)")
-    show.add_argument("--rotate", type=float, default=0.0, metavar="DEG", help="turn the light about the vertical axis")
+    show = sub.add_parser(
+        "show", help="render a light on a diffuse sphere; an environment map with the subject's axes",
+        description="Render a light on a white diffuse sphere as the camera sees it. An environment map "
+        "(.hdr/.exr, or an equirectangular .png/.jpg) is drawn with the subject's axes (the camera, what is "
+        "behind the subject, left and right) beside the sphere it gives, with how --rotate turns it; when most "
+        "of its light comes from behind the subject the sheet says so and which --rotate turns it to the face.",
+    )
+    show.add_argument("name", metavar="LIGHT",
+                      help="preset name, light file (.npy/.json), environment map or photo of a person")  # fmt: skip
+    show.add_argument("--size", type=int, default=256,
+                      help="sphere image size in pixels (a map: the height of the map and the sphere; default 256)")
+    show.add_argument("--rotate", type=float, default=0.0, metavar="DEG",
+                      help="turn the light about the vertical axis; 90 brings the light on the left round to the face")
     show.add_argument("--bgr", action="store_true", help="the light file's columns are B, G, R (reference files)")
     show.add_argument("-o", "--output", required=True, metavar="PNG")
     show.set_defaults(func=cmd_lights_show)
@@ -220,14 +229,25 @@ def cmd_lights_list(args: argparse.Namespace) -> int:
 def cmd_lights_show(args: argparse.Namespace) -> int:
     if not 8 <= args.size <= 8192:
         raise RelightError(f"--size is {args.size}, expected 8 to 8192")
+    from . import _light_sheet
+
     name = Path(args.name)
-    if name.suffix.lower() in (".npy", ".json"):
-        spec = LightSpec.file(name, bgr=args.bgr, rotate=args.rotate)
-    elif args.bgr:
-        raise RelightError("--bgr: it says how to read a light file; a preset has no colour order to choose")
+    spec = parse_light(args.name)  # the one rule: preset, light file, environment map or photo
+    if args.bgr and spec.source != "file":
+        raise RelightError("--bgr: it says how to read a light file; a preset or a map has no colour order to choose")
+    spec = LightSpec.file(name, bgr=True) if args.bgr else spec
+    spec = spec.rotated(args.rotate)
+    protect = [name, *spec.paths]
+    if spec.source == "envmap":
+        light = spec.resolve()
+        image, notes = _light_sheet.envmap_sheet(sh.load_envmap(spec.value), light, args.rotate, args.size)
     else:
-        spec = LightSpec.preset(args.name, rotate=args.rotate)
-    write_image(args.output, sh.render_sphere(spec.resolve(), size=args.size), protect=[name])
+        light = relighter(args).resolve_light(spec) if spec.source == "photo" else spec.resolve()
+        image, notes = sh.render_sphere(light, size=args.size), _light_sheet.notes(light, args.rotate)
+    check_target(args.output, protect)
+    for line in notes:
+        log.warning("%s", line)
+    write_image(args.output, image, protect=protect)
     log.info("%s -> %s", args.name, args.output)
     return 0
 
