@@ -277,9 +277,12 @@ def fit_dvp(clip: dict[str, np.ndarray], conditioned: bool = True, width: int = 
     start = time.perf_counter()
     stop = "max_epochs"
     model.train()
+    from .training import _tqdm
+
+    tqdm = _tqdm()  # a bar per epoch on a terminal (frames/s, time left); nothing without tqdm or a terminal
     for epoch in range(max_epochs):
         total = 0.0
-        for i in rng.permutation(n):
+        for i in tqdm(rng.permutation(n), desc=f"epoch {epoch + 1}", unit="frame", leave=False, disable=None):
             pred = (model(inputs[i:i + 1]) + 1) / 2
             loss = loss_fn(pred, targets[i:i + 1], masks[i:i + 1])
             optim.zero_grad(set_to_none=True)

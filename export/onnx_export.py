@@ -8,7 +8,8 @@ runtime feeds it [0, 1] RGB images and a mask and gets final values:
 - stage2 ``(diffuse, mask) -> (residual, relit)``: ``x = (2 * diffuse - 1) * mask``;
   ``residual = net(x) * mask`` (decoder b's last conv upsampled, no activation, as the reference;
   in [-1, 1] for a network trained with ``output_activation="tanh"``);
-  ``relit = clip(diffuse + residual, 0, 1) * mask``.
+  ``relit = clip(diffuse + net(x), 0, 1) * mask`` (the raw output added, then the sum masked, as the
+  reference does: at soft mask edges this differs from adding ``residual``).
 - dvp ``(frame, mask, light) -> relit``: the network input is ``(2 * frame - 1) * mask`` followed by
   27 channels, channel 3 + 3k + c = ``light[n, k, c]`` at every pixel (not masked, not rescaled);
   ``relit = clip((net(x) + 1) / 2, 0, 1) * mask``. The DVP network is fitted to ``2 * target - 1``
@@ -85,8 +86,8 @@ class _Stage2Graph(nn.Module):
         self.net = net
 
     def forward(self, diffuse, mask):
-        residual = self.net((2 * diffuse - 1) * mask) * mask
-        return residual, torch.clamp(diffuse + residual, 0.0, 1.0) * mask
+        r = self.net((2 * diffuse - 1) * mask)  # the reference adds r unmasked, then masks the sum (DESIGN.md §5)
+        return r * mask, torch.clamp(diffuse + r, 0.0, 1.0) * mask
 
 
 class _DVPGraph(nn.Module):

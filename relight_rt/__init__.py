@@ -35,6 +35,7 @@ from .sh import (
     shading,
     solid_angles_envmap,
 )
+from .transport_file import load_transport
 
 __all__ = [
     "RelightError",
@@ -48,6 +49,7 @@ __all__ = [
     "find_models",
     "load_model",
     "Model",
+    "load_transport",
     # the model contract
     "KindSpec",
     "ModelConfig",

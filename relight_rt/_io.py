@@ -19,6 +19,7 @@ import cv2
 import numpy as np
 
 from ._errors import RelightError
+from ._exif import apply_orientation, exif_orientation
 from ._limits import check_pixels, header_size, load_npy, max_pixels  # noqa: F401  (re-exported)
 
 log = logging.getLogger(__name__)
@@ -31,8 +32,22 @@ def _describe(a: np.ndarray) -> str:
     return f"{tuple(a.shape)} {a.dtype}"
 
 
+def decode_bytes(data: np.ndarray, flags: int = cv2.IMREAD_UNCHANGED) -> np.ndarray | None:
+    """``cv2.imdecode`` of an encoded file (uint8 array), turned the way its EXIF orientation tag says
+    (relight_rt._exif: one rule for every flag; OpenCV's own handling is switched off). None when it
+    cannot be decoded."""
+    if not data.size:
+        return None
+    try:
+        image = cv2.imdecode(data, flags if flags == cv2.IMREAD_UNCHANGED else flags | cv2.IMREAD_IGNORE_ORIENTATION)
+    except cv2.error:  # OpenCV's own limits (e.g. OPENCV_IO_MAX_IMAGE_PIXELS) raise instead of returning None
+        return None
+    return None if image is None else apply_orientation(image, exif_orientation(data))
+
+
 def _decode(path: Path, name: str, flags: int = cv2.IMREAD_UNCHANGED) -> np.ndarray:
-    """Decode an image file (default: as stored, depth and channels unchanged, BGR(A) as OpenCV gives it).
+    """Decode an image file (default: as stored, depth and channels unchanged, BGR(A) as OpenCV gives it),
+    turned as its EXIF orientation says (a phone photo comes out the way the phone shows it).
 
     The size in the file's header is checked against :func:`max_pixels` before anything is decoded
     (relight_rt._limits.header_size); formats whose header is not parsed here are checked after decoding.
@@ -48,14 +63,24 @@ def _decode(path: Path, name: str, flags: int = cv2.IMREAD_UNCHANGED) -> np.ndar
         data = np.fromfile(path, dtype=np.uint8)  # works for non-ASCII paths, unlike cv2.imread
     except OSError as exc:
         raise RelightError(f"{name}: cannot read {path}: {exc.strerror or exc}") from None
-    try:
-        image = cv2.imdecode(data, flags) if data.size else None
-    except cv2.error:  # OpenCV's own limits (e.g. OPENCV_IO_MAX_IMAGE_PIXELS) raise instead of returning None
-        image = None
+    image = decode_bytes(data, flags)
     if image is None:
         raise RelightError(f"{name}: cannot decode {path} as an image (unreadable, empty or not an image file)")
     check_pixels(image.shape[1], image.shape[0], f"{name} {path}")
     return image
+
+
+def as_colour(a: np.ndarray, *, bgr: bool) -> np.ndarray:
+    """Channels as colour, dtype unchanged: grayscale (H, W) or (H, W, 1) repeated into (H, W, 3);
+    (H, W, 3|4) kept, BGR(A) → RGB(A) when ``bgr`` (a decoded file). Other shapes are returned as they are
+    (the caller says what is wrong with them)."""
+    if a.ndim == 3 and a.shape[2] == 1:
+        a = a[..., 0]
+    if a.ndim == 2:
+        return np.repeat(a[..., None], 3, axis=2)
+    if bgr and a.ndim == 3 and a.shape[2] in (3, 4):
+        return np.ascontiguousarray(a[..., [2, 1, 0, 3][: a.shape[2]]])
+    return a
 
 
 def _to_unit_float(a: np.ndarray, name: str, *, allow_uint16: bool) -> np.ndarray:
@@ -80,42 +105,37 @@ def _to_unit_float(a: np.ndarray, name: str, *, allow_uint16: bool) -> np.ndarra
 
 
 def read_image(src: str | os.PathLike | np.ndarray, name: str = "image") -> np.ndarray:
-    """Read a colour image from a file or an array.
+    """Read a colour image from a file or an array: the one intake for photos.
 
     Args:
-        src: a path (8-bit PNG/JPEG/... with 3 or 4 channels; JPEGs get their EXIF orientation applied,
-            as cv2.imread does) or an array (H, W, 3|4), uint8 (0-255) or float (0-1), channel order RGB(A).
+        src: a path (PNG/JPEG/TIFF/WebP/..., 8- or 16-bit, gray, gray + alpha, colour, colour + alpha, CMYK
+            JPEG; turned as its EXIF orientation tag says) or an array (H, W), (H, W, 1), (H, W, 3) RGB or
+            (H, W, 4) RGBA, uint8 (0-255), uint16 (0-65535) or float (0-1). Grayscale becomes colour (the
+            gray repeated in R, G and B).
         name: what to call the input in error messages.
 
     Returns:
         New float32 array (H, W, 3) RGB or (H, W, 4) RGBA, values in [0, 1].
 
     Raises:
-        RelightError: unreadable file, grayscale, 16-bit, wrong channel count, NaN/Inf, values out of range.
+        RelightError: unreadable file, wrong channel count, another dtype, NaN/Inf, values out of range, a
+            side under 2 px.
     """
     if isinstance(src, np.ndarray):
-        a = src
+        a = as_colour(src, bgr=False)
         label = name
     elif isinstance(src, (str, os.PathLike)):
         path = Path(src)
-        a = _decode(path, name)
+        a = as_colour(_decode(path, name), bgr=True)  # files are BGR(A)
         label = f"{name} {path}"
-        if a.ndim == 3 and a.shape[2] == 3 and a.dtype == np.uint8 and path.suffix.lower() in (".jpg", ".jpeg"):
-            a = _decode(path, name, cv2.IMREAD_COLOR)  # applies the EXIF orientation, as the reference's imread
     else:
         raise RelightError(f"{name}: expected a path or an (H, W, 3) array, got {type(src).__name__}")
-    if a.ndim == 2 or (a.ndim == 3 and a.shape[2] == 1):
-        raise RelightError(f"{label}: expected an (H, W, 3) colour image, got grayscale {_describe(a)}")
     if a.ndim != 3 or a.shape[2] not in (3, 4):
-        raise RelightError(f"{label}: expected an (H, W, 3) RGB or (H, W, 4) RGBA image, got {_describe(a)}")
+        got = _describe(src if isinstance(src, np.ndarray) else a)
+        raise RelightError(f"{label}: expected an (H, W, 3) RGB or (H, W, 4) RGBA image, got {got}")
     if a.shape[0] < 2 or a.shape[1] < 2:
         raise RelightError(f"{label}: image is too small, got {_describe(a)}")
-    if a.dtype == np.uint16:
-        raise RelightError(f"{label}: expected an 8-bit or float image, got 16-bit {_describe(a)}; convert it to 8-bit")
-    out = _to_unit_float(a, label, allow_uint16=False)
-    if not isinstance(src, np.ndarray):  # files are BGR(A)
-        out = cv2.cvtColor(out, cv2.COLOR_BGR2RGB if out.shape[2] == 3 else cv2.COLOR_BGRA2RGBA)
-    return out
+    return _to_unit_float(a, label, allow_uint16=True)
 
 
 def read_mask(

@@ -68,27 +68,24 @@ def _check_fov(fov) -> float:
 
 
 def read_background(src, name: str = "background") -> np.ndarray:
-    """A background photo as given: (H, W, 3) RGB, uint8 (8-bit files) or float32 in [0, 1] (float arrays).
+    """A background photo as given: (H, W, 3) RGB, uint8 (8-bit files) or float32 in [0, 1] (float arrays,
+    16-bit files). Grayscale becomes colour; files are turned as their EXIF orientation says.
 
     Raises:
-        RelightError: unreadable file, grayscale, RGBA (an alpha channel has no meaning for a
-            background: flatten it first), 16-bit, a side smaller than 64 px, bad values.
+        RelightError: unreadable file, RGBA (an alpha channel has no meaning for a
+            background: flatten it first), a side smaller than 64 px, bad values.
     """
-    if isinstance(src, (str, os.PathLike)):
-        from ._io import _decode
+    from ._io import _decode, as_colour
 
-        raw = _decode(src, name)
+    if isinstance(src, (str, os.PathLike)):
+        raw = as_colour(_decode(src, name), bgr=True)  # gray becomes colour; turned as its EXIF tag says
         label = f"{name} {os.fspath(src)}"
-        if raw.ndim == 3 and raw.shape[2] == 3:
-            raw = cv2.cvtColor(raw, cv2.COLOR_BGR2RGB)
-        elif raw.ndim == 3 and raw.shape[2] == 4:
-            raw = cv2.cvtColor(raw, cv2.COLOR_BGRA2RGBA)
     elif isinstance(src, np.ndarray):
-        raw, label = src, name
+        raw, label = as_colour(src, bgr=False), name
     else:
         raise RelightError(f"{name}: expected a path or an (H, W, 3) RGB array, got {type(src).__name__}")
-    if raw.ndim == 2 or (raw.ndim == 3 and raw.shape[2] == 1):
-        raise RelightError(f"{label}: expected an (H, W, 3) colour photo, got grayscale {raw.shape}")
+    if raw.dtype == np.uint16:  # 16-bit files and arrays
+        raw = np.multiply(raw, np.float32(1 / 65535), dtype=np.float32)
     if raw.ndim == 3 and raw.shape[2] == 4:
         raise RelightError(f"{label}: expected an (H, W, 3) colour photo, got RGBA {raw.shape}; "
                            "flatten the alpha channel first")  # fmt: skip

@@ -32,7 +32,6 @@ from ._io import (
     sibling_mask,
     write_image,
     write_npy,
-    write_npz,
 )
 from ._limits import DEFAULT_MAX_PIXELS, pixel_limit
 from ._options import (
@@ -47,10 +46,12 @@ from ._options import (
     relighter,
 )
 from ._process import interrupt_handling, quiet_native_libraries
+from ._progress import progress
 from .distributed import add_ray_options
 from .exposure import parse_exposure
-from .lightspec import LightSpec
+from .lightspec import LightSpec, parse_light
 from .masks import find_mask_file
+from .transport_file import save_transport
 
 log = logging.getLogger("relight_rt.cli")
 
@@ -97,13 +98,8 @@ def _read_inputs(args: argparse.Namespace, files: list[Path], relighter, spec, b
 
 
 def _progress(items: list, enabled: bool):
-    if not enabled:
-        return items
-    try:
-        from tqdm import tqdm
-    except ImportError:
-        return items
-    return tqdm(items, unit="image", file=sys.stderr)
+    """``items``, with a progress bar (or log lines without tqdm) when ``enabled`` (relight_rt._progress)."""
+    return progress(items, "image", enabled)
 
 
 def cmd_relight(args: argparse.Namespace) -> int:
@@ -152,7 +148,8 @@ def add_decompose(subparsers) -> None:
         "decompose",
         help="albedo, shading, skin, light and transport of a photo",
         description="Writes albedo.png, shading.png, skin.png (the photo's size and detail, see "
-        "Relighter.layers), light.npy ((9, 3) RGB SH) and transport.npz (key T, (H, W, 9) float32, input size) "
+        "Relighter.layers), light.npy ((9, 3) RGB SH) and transport.npz (the (R, R, 9) transport at the network's "
+        "resolution, float16, with the crop geometry; relight_rt.load_transport brings it to the photo's size) "
         "into DIR.",
     )
     p.add_argument("input", metavar="INPUT", help="image file")
@@ -175,7 +172,7 @@ def cmd_decompose(args: argparse.Namespace) -> int:
     write_image(folder / "shading.png", layers["shading"], protect)
     write_image(folder / "skin.png", layers["skin"], protect)
     write_npy(folder / "light.npy", np.asarray(dec.white_light, np.float64), protect)  # albedo x shading = photo
-    write_npz(folder / "transport.npz", {"T": dec.to_input(np.ascontiguousarray(dec.transport))}, protect)
+    save_transport(folder / "transport.npz", dec.transport, dec.geometry, protect)  # network size, float16
     log.info("%s -> %s (albedo.png, shading.png, skin.png, light.npy, transport.npz)", src, folder)
     return 0
 
@@ -189,10 +186,19 @@ def add_lights(subparsers) -> None:
     sub = p.add_subparsers(dest="lights_command", required=True, metavar=metavar)
     ls = sub.add_parser("list", help="the named lights, one per line, name first")
     ls.set_defaults(func=cmd_lights_list)
-    show = sub.add_parser("show", help="render a light on a diffuse sphere")
-    show.add_argument("name", metavar="NAME", help="preset name or light file (.npy/.json)")
-    show.add_argument("--size", type=int, default=256, help="sphere image size in pixels (default 256)")
-    show.add_argument("--rotate", type=float, default=0.0, metavar="DEG", help="turn the light about the vertical axis")
+    show = sub.add_parser(
+        "show", help="render a light on a diffuse sphere; an environment map with the subject's axes",
+        description="Render a light on a white diffuse sphere as the camera sees it. An environment map "
+        "(.hdr/.exr, or an equirectangular .png/.jpg) is drawn with the subject's axes (the camera, what is "
+        "behind the subject, left and right) beside the sphere it gives, with how --rotate turns it; when most "
+        "of its light comes from behind the subject the sheet says so and which --rotate turns it to the face.",
+    )
+    show.add_argument("name", metavar="LIGHT",
+                      help="preset name, light file (.npy/.json), environment map or photo of a person")  # fmt: skip
+    show.add_argument("--size", type=int, default=256,
+                      help="sphere image size in pixels (a map: the height of the map and the sphere; default 256)")
+    show.add_argument("--rotate", type=float, default=0.0, metavar="DEG",
+                      help="turn the light about the vertical axis; 90 brings the light on the left round to the face")
     show.add_argument("--bgr", action="store_true", help="the light file's columns are B, G, R (reference files)")
     show.add_argument("-o", "--output", required=True, metavar="PNG")
     show.set_defaults(func=cmd_lights_show)
@@ -223,14 +229,25 @@ def cmd_lights_list(args: argparse.Namespace) -> int:
 def cmd_lights_show(args: argparse.Namespace) -> int:
     if not 8 <= args.size <= 8192:
         raise RelightError(f"--size is {args.size}, expected 8 to 8192")
+    from . import _light_sheet
+
     name = Path(args.name)
-    if name.suffix.lower() in (".npy", ".json"):
-        spec = LightSpec.file(name, bgr=args.bgr, rotate=args.rotate)
-    elif args.bgr:
-        raise RelightError("--bgr: it says how to read a light file; a preset has no colour order to choose")
+    spec = parse_light(args.name)  # the one rule: preset, light file, environment map or photo
+    if args.bgr and spec.source != "file":
+        raise RelightError("--bgr: it says how to read a light file; a preset or a map has no colour order to choose")
+    spec = LightSpec.file(name, bgr=True) if args.bgr else spec
+    spec = spec.rotated(args.rotate)
+    protect = [name, *spec.paths]
+    if spec.source == "envmap":
+        light = spec.resolve()
+        image, notes = _light_sheet.envmap_sheet(sh.load_envmap(spec.value), light, args.rotate, args.size)
     else:
-        spec = LightSpec.preset(args.name, rotate=args.rotate)
-    write_image(args.output, sh.render_sphere(spec.resolve(), size=args.size), protect=[name])
+        light = relighter(args).resolve_light(spec) if spec.source == "photo" else spec.resolve()
+        image, notes = sh.render_sphere(light, size=args.size), _light_sheet.notes(light, args.rotate)
+    check_target(args.output, protect)
+    for line in notes:
+        log.warning("%s", line)
+    write_image(args.output, image, protect=protect)
     log.info("%s -> %s", args.name, args.output)
     return 0
 
@@ -303,8 +320,7 @@ PLUGINS = ["relight_rt.video_cli", "relight_rt.demo", "relight_rt.bench", "relig
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="relight-rt", description="Relight people in photos and videos.")
     parser.add_argument("--version", action="version", version=f"relight-rt {__version__}")
-    parser.add_argument("-v", "--verbose", action="store_true", help="log details")
-    parser.add_argument("-q", "--quiet", action="store_true", help="log warnings and errors only")
+    _add_log_options(parser)
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
     for add in COMMANDS:
         add(subparsers)
@@ -316,12 +332,19 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _remember_parsers(parser: argparse.ArgumentParser) -> None:
-    """Give every (sub)command's parsed arguments its own parser, so a usage error shows that command's usage."""
+    """Give every (sub)command's parsed arguments its own parser, so a usage error shows that command's usage,
+    and its own -v/-q, so they work before or after the command."""
     for action in parser._actions:
         if isinstance(action, argparse._SubParsersAction):
             for sub in action.choices.values():
                 sub.set_defaults(_parser=sub)
+                _add_log_options(sub, default=argparse.SUPPRESS)  # unset here: the top level's value stays
                 _remember_parsers(sub)
+
+
+def _add_log_options(p: argparse.ArgumentParser, default=False) -> None:
+    p.add_argument("-v", "--verbose", action="store_true", default=default, help="log details")
+    p.add_argument("-q", "--quiet", action="store_true", default=default, help="log warnings and errors only")
 
 
 def _os_error(exc: OSError) -> str:

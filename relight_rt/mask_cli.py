@@ -23,7 +23,8 @@ import cv2
 import numpy as np
 
 from ._errors import RelightError
-from ._io import IMAGE_SUFFIXES, _decode, list_images, write_image
+from ._io import IMAGE_SUFFIXES, list_images, read_image, write_image
+from ._progress import Progress, progress
 from ._video_io import VIDEO_SUFFIXES
 
 log = logging.getLogger(__name__)
@@ -57,8 +58,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 def read_photo(path: Path) -> np.ndarray:
     """Any readable image file as float32 RGB (H, W, 3) in [0, 1] (gray and 16-bit files converted,
     alpha dropped, EXIF orientation applied)."""
-    bgr = _decode(path, "image", cv2.IMREAD_COLOR)
-    return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB).astype(np.float32) * np.float32(1 / 255)
+    return read_image(path, "image")[..., :3]  # the runtime's one intake
 
 
 def _finish(alpha: np.ndarray, binary: bool) -> np.ndarray:
@@ -116,7 +116,7 @@ def run(args: argparse.Namespace) -> int:
     if not to_file and files:
         out.mkdir(parents=True, exist_ok=True)
     written: set[Path] = set()
-    for path in files:
+    for path in progress(files, "image", len(files) > 1):
         target = out if to_file else out / f"{path.stem}_mask.png"
         try:
             if target.resolve() in written:
@@ -124,7 +124,7 @@ def run(args: argparse.Namespace) -> int:
             alpha = matter(read_photo(path), str(path))
             write_image(target, _finish(alpha, args.binary), protect=protect)
             written.add(target.resolve())
-            log.info("%s -> %s", path, target)
+            (log.debug if len(files) > 1 else log.info)("%s -> %s", path, target)  # a bar shows a folder
         except (RelightError, OSError) as exc:
             failures.append((str(path), str(exc)))
     return _report(failures, len(written), len(files))
@@ -138,7 +138,7 @@ def _run_sequence(folder: Path, out: Path, vm, binary: bool) -> int:
     out.mkdir(parents=True, exist_ok=True)
     failures: list[tuple[str, str]] = []
     written = 0
-    for path in files:
+    for path in progress(files, "frame"):
         try:
             alpha = vm(read_photo(path), str(path))
             write_image(out / f"{path.stem}_mask.png", _finish(alpha, binary), protect=protect)
@@ -162,6 +162,7 @@ def _run_video(video: Path, out: Path, vm, binary: bool) -> int:
         raise RelightError(f"output {out}: expected a video file ({', '.join(VIDEO_SUFFIXES)}) or a folder")
     sink = FrameSink(video=out if as_video else None, frames_dir=None if as_video else out, fps=fps, protect=[video])
     count = 0
+    bar = Progress(int(cap.get(cv2.CAP_PROP_FRAME_COUNT) or 0), "frame")  # relight_rt._progress
     try:
         with sink:
             while True:
@@ -172,9 +173,11 @@ def _run_video(video: Path, out: Path, vm, binary: bool) -> int:
                 alpha = _finish(vm(rgb, f"{video} frame {count}"), binary)
                 sink.write(f"frame_{count:06d}_mask", np.repeat(alpha[..., None], 3, axis=2))
                 count += 1
+                bar.update()
             if count == 0:
                 raise RelightError(f"{video}: no frames could be read")
     finally:
+        bar.close()
         cap.release()
     log.info("%s: %d mask frames -> %s", video, count, out)
     return 0

@@ -550,7 +550,8 @@ def build_graph(state: Mapping[str, np.ndarray], kind: str, resolution: int, sou
         out = b.decode(b.residual_block(feats[5], "rb"), feats, "b")
         b.op("Mul", [out, "mask"])
         b.rename_output("residual")
-        clipped = b.op("Clip", [b.op("Add", ["diffuse", "residual"]), b.const("zero", zero), b.const("one", one)])
+        # the reference adds the raw residual and masks the sum (DESIGN.md §5): clip(diffuse + r, 0, 1) * mask
+        clipped = b.op("Clip", [b.op("Add", ["diffuse", out]), b.const("zero", zero), b.const("one", one)])
         b.op("Mul", [clipped, "mask"])
         b.rename_output("relit")
         outputs = [value("residual", 3), value("relit", 3)]

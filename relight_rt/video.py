@@ -399,5 +399,5 @@ def relight_video(source: FrameSource, lights: LightSchedule, sink: FrameSink, *
         raise RelightError(f"{source.path}: {n} frames relit but {sink.count} written")
     sink.close(ok=True)
     spf = (time.perf_counter() - start - callback) / n
-    logger.info("relit %d frames, %.3f s per frame", n, spf)
+    logger.debug("relit %d frames, %.3f s per frame", n, spf)  # the CLI says it once, with the lights
     return VideoReport(n, spf)

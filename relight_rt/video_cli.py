@@ -34,7 +34,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     from ._options import add_background_option, add_exposure_option, add_light_options, add_runtime_options
 
     p = subparsers.add_parser("video", help="relight a video (file or frame folder) with per-frame lights",
-                              description=__doc__.splitlines()[0])
+                              description="Relight a video under a light that may change over time.")
     p.add_argument("input", nargs="+", help="video file (OpenCV) or folder of frames; several with --ray")
     p.add_argument("-o", "--output", help="output video file (.mp4, .avi, .mkv); with --ray, a folder")
     p.add_argument("--frames-out", help="also (or only) write the relit frames as PNGs into this folder")
@@ -131,6 +131,7 @@ def run(args: argparse.Namespace) -> int:
     from . import metrics as rt_metrics
     from . import video
     from ._io import atomic_path, check_target, write_npy
+    from ._progress import Progress
     from .stabilize import Stabilizer
 
     if getattr(args, "ray", None):
@@ -179,12 +180,12 @@ def run(args: argparse.Namespace) -> int:
             used_lights.append(extras["light"])
         if acc is not None:
             acc.update(out, frame.mask, frame.image, extras.get("albedo"), extras.get("transport"), extras["light"])
-        if frame.index % 50 == 0:
-            logger.info("frame %d / %d", frame.index + 1, len(source))
+        bar.update()
 
-    report = video.relight_video(source, schedule, sink, engine=engine, dvp=dvp, stabilizer=stabilizer,
-                                 batch_size=args.batch_size, background=bg, on_frame=on_frame,
-                                 with_layers=acc is not None)
+    with Progress(len(source), "frame") as bar:  # a bar with frames/s and the time left (relight_rt._progress)
+        report = video.relight_video(source, schedule, sink, engine=engine, dvp=dvp, stabilizer=stabilizer,
+                                     batch_size=args.batch_size, background=bg, on_frame=on_frame,
+                                     with_layers=acc is not None)
     logger.info("%d frames, %.3f s per frame, lights: %s", report.frames, report.seconds_per_frame,
                 schedule.description)
     if args.lights_out:

@@ -149,7 +149,7 @@ def stage1_sides_model(resolution=64, *, light=OWN_LIGHT) -> onnx.ModelProto:
 
 
 def stage2_model(resolution=0, *, meta=None, gain=0.1) -> onnx.ModelProto:
-    """residual = gain * (diffuse - 0.5) ⊙ mask; relit = clip(diffuse + residual, 0, 1) ⊙ mask."""
+    """r = gain * (diffuse - 0.5); residual = r ⊙ mask; relit = clip(diffuse + r, 0, 1) ⊙ mask (DESIGN.md §5)."""
     inits = [
         numpy_helper.from_array(np.array(gain, np.float32), "gain"),
         numpy_helper.from_array(np.array(0.5, np.float32), "half"),
@@ -160,7 +160,7 @@ def stage2_model(resolution=0, *, meta=None, gain=0.1) -> onnx.ModelProto:
         helper.make_node("Sub", ["diffuse", "half"], ["d0"]),
         helper.make_node("Mul", ["d0", "gain"], ["d1"]),
         helper.make_node("Mul", ["d1", "mask"], ["residual"]),
-        helper.make_node("Add", ["diffuse", "residual"], ["s"]),
+        helper.make_node("Add", ["diffuse", "d1"], ["s"]),
         helper.make_node("Clip", ["s", "lo", "hi"], ["c"]),
         helper.make_node("Mul", ["c", "mask"], ["relit"]),
     ]

@@ -161,8 +161,8 @@ def contract_outputs(sd: dict, kind: str, feeds: dict[str, np.ndarray]) -> dict[
         }
     if kind == "stage2":
         bgr = feeds["diffuse"][:, ::-1].astype(np.float64)
-        residual = network(sd, (2 * bgr - 1) * mask, kind)["out"] * mask
-        return {"residual": residual[:, ::-1], "relit": (np.clip(bgr + residual, 0, 1) * mask)[:, ::-1]}
+        r = network(sd, (2 * bgr - 1) * mask, kind)["out"]  # the reference adds r unmasked, then masks the sum
+        return {"residual": (r * mask)[:, ::-1], "relit": (np.clip(bgr + r, 0, 1) * mask)[:, ::-1]}
     bgr = feeds["frame"][:, ::-1].astype(np.float64)
     light_bgr = feeds["light"][:, :, ::-1].astype(np.float64)  # (N, 9, 3), columns B, G, R
     n, _, h, w = bgr.shape

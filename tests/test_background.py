@@ -48,6 +48,19 @@ def test_clipped_highlights_are_boosted():
     assert np.all(boosted[0] > 1.1 * plain[0]) and np.all(boosted[2] > 2 * plain[2])  # brighter, and from above
 
 
+def test_grayscale_and_16_bit_backgrounds_are_colour(tmp_path):
+    """issue 34: black-and-white and 16-bit photos were refused as backgrounds."""
+    rng = np.random.default_rng(0)
+    gray = rng.integers(0, 256, (90, 120), dtype=np.uint8)
+    colour, _ = light_from_background(np.repeat(gray[..., None], 3, axis=2))
+    for src in (gray, gray[..., None]):
+        np.testing.assert_allclose(light_from_background(src)[0], colour, rtol=1e-6, atol=1e-7)
+    cv2.imwrite(str(tmp_path / "g.png"), gray)
+    np.testing.assert_allclose(light_from_background(tmp_path / "g.png")[0], colour, rtol=1e-6, atol=1e-7)
+    cv2.imwrite(str(tmp_path / "g16.png"), gray.astype(np.uint16) * 257)
+    np.testing.assert_allclose(light_from_background(tmp_path / "g16.png")[0], colour, rtol=1e-4, atol=1e-6)
+
+
 def test_float_and_file_inputs_agree(tmp_path):
     rng = np.random.default_rng(0)
     img = rng.integers(0, 256, (90, 120, 3), dtype=np.uint8)
@@ -63,8 +76,7 @@ def test_float_and_file_inputs_agree(tmp_path):
     "image, fov, match",
     [
         (np.zeros((63, 200, 3), np.uint8), 60, "at least 64"),
-        (np.zeros((100, 100), np.uint8), 60, "grayscale"),
-        (np.zeros((100, 100, 1), np.uint8), 60, "grayscale"),
+        (np.zeros((100, 100, 2), np.uint8), 60, r"\(H, W, 3\)"),
         (np.zeros((100, 100, 4), np.uint8), 60, "RGBA"),
         (np.zeros((100, 100, 3), np.uint8), 10, "field of view"),
         (np.zeros((100, 100, 3), np.uint8), 170, "field of view"),

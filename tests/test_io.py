@@ -44,14 +44,13 @@ def test_arrays_of_each_dtype(dtype, rgb_u8):
 @pytest.mark.parametrize(
     ("make", "match"),
     [
-        (lambda: np.zeros((8, 8), np.uint8), "grayscale"),
-        (lambda: np.zeros((8, 8, 1), np.float32), "grayscale"),
         (lambda: np.zeros((8, 8, 2), np.uint8), r"\(H, W, 3\)"),
-        (lambda: np.zeros((8, 8, 3), np.uint16), "16-bit"),
+        (lambda: np.zeros((8, 8, 5), np.uint8), r"\(H, W, 3\)"),
+        (lambda: np.zeros((1, 8), np.uint8), "too small"),
         (lambda: np.full((8, 8, 3), np.nan, np.float32), "NaN"),
         (lambda: np.full((8, 8, 3), 2.0, np.float32), r"\[0, 1\]"),
-        (lambda: np.zeros((8, 8, 3), np.int32), "uint8 or float"),
-        (lambda: np.zeros((8, 8, 3), complex), "uint8 or float"),
+        (lambda: np.zeros((8, 8, 3), np.int32), "uint8, uint16 or float"),
+        (lambda: np.zeros((8, 8, 3), complex), "uint8, uint16 or float"),
         (lambda: [[1, 2, 3]], "path or"),
     ],
 )
@@ -69,12 +68,78 @@ def test_bad_files(tmp_path):
     (tmp_path / "empty.png").write_bytes(b"")
     with pytest.raises(RelightError, match="cannot decode"):
         read_image(tmp_path / "empty.png")
-    cv2.imwrite(str(tmp_path / "gray.png"), np.zeros((8, 8), np.uint8))
-    with pytest.raises(RelightError, match="grayscale"):
-        read_image(tmp_path / "gray.png")
-    cv2.imwrite(str(tmp_path / "deep.png"), np.zeros((8, 8, 3), np.uint16))
-    with pytest.raises(RelightError, match="16-bit"):
-        read_image(tmp_path / "deep.png")
+
+
+def gray_alpha_png(la: np.ndarray) -> bytes:
+    """An 8-bit gray + alpha PNG (colour type 4) of ``la`` (H, W, 2) uint8, written by hand."""
+    import struct
+    import zlib
+
+    def chunk(kind: bytes, body: bytes) -> bytes:
+        return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body))
+
+    rows = b"".join(b"\0" + row.tobytes() for row in la)  # filter type 0 on every row
+    head = struct.pack(">IIBBBBB", la.shape[1], la.shape[0], 8, 4, 0, 0, 0)
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", head) + chunk(b"IDAT", zlib.compress(rows)) + chunk(b"IEND", b"")
+
+
+@pytest.mark.parametrize("form", ["gray", "gray1", "gray16", "gray-alpha"])
+def test_grayscale_is_read_as_colour(tmp_path, form):
+    """issue 34: black-and-white photos were refused ("expected an (H, W, 3) colour image, got grayscale")."""
+    gray = np.random.default_rng(1).integers(0, 256, (12, 10), dtype=np.uint8)
+    if form == "gray":
+        data, expected = gray, gray / 255
+    elif form == "gray1":
+        data, expected = gray[..., None], gray / 255
+    elif form == "gray16":
+        data, expected = gray.astype(np.uint16) * 257, gray / 255
+    else:
+        data, expected = np.dstack([gray, np.full_like(gray, 200)]), gray / 255
+    if form == "gray-alpha":  # OpenCV cannot write a 2-channel PNG
+        (tmp_path / "g.png").write_bytes(gray_alpha_png(data))
+    else:
+        cv2.imwrite(str(tmp_path / "g.png"), data)
+    for src in (tmp_path / "g.png", data if form != "gray-alpha" else None):
+        if src is None:
+            continue
+        img = read_image(src)
+        assert img.dtype == np.float32 and img.shape[2] == (4 if form == "gray-alpha" else 3)
+        for c in range(3):
+            np.testing.assert_allclose(img[..., c], expected, atol=1e-6)
+    if form == "gray-alpha":
+        np.testing.assert_allclose(img[..., 3], 200 / 255, atol=1e-6)
+
+
+def test_16_bit_colour_keeps_its_precision(tmp_path, rgb_u8):
+    deep = rgb_u8.astype(np.uint16) * 257 + 100  # values between 8-bit levels
+    cv2.imwrite(str(tmp_path / "deep.png"), deep[..., ::-1])
+    for src in (tmp_path / "deep.png", deep):
+        img = read_image(src)
+        assert img.shape == (12, 10, 3) and img.dtype == np.float32
+        np.testing.assert_allclose(img, deep / 65535, atol=1e-6)
+
+
+def cmyk_jpeg(rgb: np.ndarray) -> bytes:
+    """A CMYK JPEG (Adobe APP14 marker, inverted CMYK as Photoshop writes it) of ``rgb`` (H, W, 3) uint8.
+    OpenCV cannot write CMYK, so Pillow does (a dev dependency); the test skips without it."""
+    pil = pytest.importorskip("PIL.Image")
+    import io
+
+    buf = io.BytesIO()
+    pil.fromarray(rgb).convert("CMYK").save(buf, "JPEG", quality=100)
+    return buf.getvalue()
+
+
+def test_cmyk_jpeg_is_read_as_rgb(tmp_path):
+    rgb = np.zeros((16, 16, 3), np.uint8)
+    rgb[:8] = (200, 50, 30)
+    rgb[8:] = (20, 180, 90)
+    data = cmyk_jpeg(rgb)
+    assert b"Adobe" in data[:64]
+    (tmp_path / "c.jpg").write_bytes(data)
+    img = read_image(tmp_path / "c.jpg")
+    assert img.shape == (16, 16, 3)
+    np.testing.assert_allclose(img * 255, rgb, atol=4)
 
 
 def soft_mask(h=12, w=10):

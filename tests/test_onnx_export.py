@@ -125,15 +125,18 @@ def test_wrapper_semantics(exported):
     assert albedo.min() >= 0 and albedo.max() <= 1 and skin.min() >= 0 and skin.max() <= 1
     assert light.shape == (1, 9, 3)
 
-    # stage 2: relit = clip(diffuse + residual, 0, 1) * mask
+    # stage 2: residual = r * mask; relit = clip(diffuse + r, 0, 1) * mask, r the raw output (the reference's
+    # rule: r added unmasked, the sum masked; issue 34)
     net, path, _ = exported["stage2"]
     inputs = sample_inputs("stage2", 1, 128, 128, seed=2)
     residual, relit = _session(path).run(None, inputs)
-    np.testing.assert_allclose(relit, np.clip(inputs["diffuse"] + residual, 0, 1) * inputs["mask"], atol=1e-6)
     with torch.no_grad():
-        x = torch.from_numpy((2 * inputs["diffuse"] - 1) * inputs["mask"])
-        expected = (net(x) * torch.from_numpy(inputs["mask"])).numpy()
-    np.testing.assert_allclose(residual, expected, rtol=1e-4, atol=1e-5)
+        r = net(torch.from_numpy((2 * inputs["diffuse"] - 1) * inputs["mask"])).numpy()
+    mask = inputs["mask"]
+    np.testing.assert_allclose(residual, r * mask, rtol=1e-4, atol=1e-5)
+    np.testing.assert_allclose(relit, np.clip(inputs["diffuse"] + r, 0, 1) * mask, atol=1e-5)
+    masked_first = np.clip(inputs["diffuse"] + r * mask, 0, 1) * mask
+    assert np.abs(masked_first - relit).max() > 1e-3  # the soft edges tell the two rules apart
 
     # dvp: input = ((2f - 1) m, light tiled with channel 3 + 3k + c = light[k, c]); relit = clip((out + 1) / 2) m
     net, path, _ = exported["dvp"]

@@ -268,6 +268,9 @@ def test_imported_graph_matches_the_independent_forward_pass(checkpoints, import
     assert max(errors.values()) <= 1e-4, errors
     if kind == "stage2":  # a tanh on the residual (the old bug) is far outside that tolerance
         mask = feeds["mask"]
+        assert 0.05 < ((mask > 0) & (mask < 1)).mean() < 0.5  # soft edges, where the two rules differ
+        masked_first = np.clip(feeds["diffuse"] + want["residual"], 0, 1) * mask  # r ⊙ mask added (issue 34)
+        assert relative_error(masked_first, want["relit"]) > 1e-3
         assert relative_error(np.tanh(want["residual"]) * mask, want["residual"]) > 1e-3
         assert np.abs(want["residual"]).max() > 0.05  # not a residual so small that tanh would not show
 

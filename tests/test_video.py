@@ -503,3 +503,25 @@ def test_resolve_light_file_envmap_and_preset(tmp_path):
         resolve_light("no-such-light")
     with pytest.raises(RelightError, match="not found"):
         resolve_light("no-such-light.npy")
+
+
+def test_cli_shows_progress_and_one_summary(tmp_path, tiny_models):
+    """issue 34: video logged "frame 1 / 24", then nothing until the end, then its summary twice."""
+    import importlib.util
+    import os
+    import re
+    import subprocess
+    import sys
+
+    import relight_rt
+
+    frames = _write_folder(tmp_path / "in", 3, h=96, w=80)
+    env = {**os.environ, "PYTHONPATH": str(Path(relight_rt.__file__).parents[1])}
+    argv = [sys.executable, "-m", "relight_rt", "video", str(frames), "-o", str(tmp_path / "out.avi"), "--models",
+            str(tiny_models), "--preset", "studio", "--device", "cpu", "--no-stabilize"]
+    proc = subprocess.run(argv, capture_output=True, text=True, env=env, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert "frame 1 / " not in proc.stderr
+    assert len(re.findall(r"s per frame", proc.stderr)) == 1, proc.stderr  # one summary
+    if importlib.util.find_spec("tqdm") is not None:
+        assert "frame/s" in proc.stderr  # the bar: count, frames per second, time left

@@ -33,7 +33,7 @@ import numpy as np
 
 from .. import lights, sh
 from .._errors import RelightError
-from .._io import encode_image, read_image, sibling_mask
+from .._io import decode_bytes, encode_image, read_image, sibling_mask
 
 log = logging.getLogger(__name__)
 
@@ -138,7 +138,7 @@ def check_upload(data: bytes, name: str, allowed: tuple[str, ...], limit: int = 
 def decode_upload(data: bytes, name: str) -> np.ndarray:
     """An uploaded PNG/JPEG/WebP/BMP as float32 RGB(A) in [0, 1] (alpha kept), checked by content."""
     check_upload(data, name, ("png", "jpeg", "webp", "bmp"))
-    img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+    img = decode_bytes(np.frombuffer(data, np.uint8))  # turned as its EXIF orientation says
     if img is None:
         raise RelightError(f"{name}: cannot decode the image (corrupt file)")
     if img.ndim == 3 and img.shape[0] * img.shape[1] > MAX_UPLOAD_PIXELS:
