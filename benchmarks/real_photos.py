@@ -18,17 +18,23 @@ compact table. The photos:
 
 Figures (face box: fixed per portrait, written below as fractions of the image; for full-body photos the head
 found from the matte; skin = the input's skin-coloured pixels in the box, YCrCb rule; luminance = Rec. 709 of
-linearised sRGB; "change" = log(relit luminance + 1e-3) − log(input luminance + 1e-3)):
+linearised sRGB; "change" = log(relit luminance + 1e-3) − log(input luminance + 1e-3); skin colour = CIE Lab per
+pixel averaged over the skin: hue angle and chroma of the mean a*, b*, and saturation C*/L* (``lab_stats``)):
 
 - DPR's 7 lights (converted exactly into our frame, see benchmarks/dpr_protocol.py), on every portrait DPR ran on:
   brighter side agrees (sign of the mean change in the box's left half minus its right half, ours vs DPR's),
   per-pixel correlation of our change with DPR's in the box, contrast = least-squares slope of our change on
-  DPR's, and for both methods the skin hue shift (Lab hue angle of the mean skin a*, b*, relit minus input,
-  degrees) and chroma ratio (relit / input). On DPR's portrait DPR's stored results are used; on the others DPR
+  DPR's, and for both methods the skin hue shift (Lab hue angle, relit minus input, degrees), chroma ratio and
+  saturation ratio (relit / input). (DPR keeps the input's Lab a*, b* and changes L only, so its hue and chroma
+  stay by construction; its saturation C*/L* then rises where it darkens.) On DPR's portrait DPR's stored results are used; on the others DPR
   runs on the CPU (a square around the face, 2x its box, at 512 px), cached in ``--cache``.
 - White directional lights from the image's left and right plus a little ambient (``LEFT``, ``RIGHT``): the face's
   left/right skin luminance ratio (split at the skin centroid) under each, the swap factor (ratio under the left
-  light / ratio under the right one), and the skin hue shift and chroma ratio; for DPR too where it ran.
+  light / ratio under the right one), and the skin hue shift and chroma ratio; for DPR too where it ran (our light
+  converted to DPR's frame, its luminance, DC scaled to the demo lights'). The same swap under DPR's own demo
+  lights 3 (from the left) and 0 (from the right), for both methods ("lr_demo").
+- Issue 32's bars, checked in ``summary.bars`` (DPR's portrait: 7/7 sides, correlation >= 0.8, contrast >= 0.7x,
+  hue within 3 deg and chroma >= 0.9x on every light; real photos under LEFT/RIGHT: swap >= 1.6, hue within 8 deg).
 - Every preset: skin hue shift, chroma ratio, Lab a* of the skin, left/right ratio, and "spill": the mean
   absolute change (8-bit levels) in the 20-px band outside the matte's 0.5 contour (light leaking off the person).
 - The decomposed albedo's mean skin colour (RGB; green when G > R).
@@ -170,16 +176,23 @@ def skin_pixels(rgb: np.ndarray, region: np.ndarray) -> np.ndarray:
 
 
 def lab_stats(rgb: np.ndarray, skin: np.ndarray) -> dict:
+    """The skin's colour in CIE Lab (D65, per pixel, then averaged over the skin): L, a*, b*, the hue angle and
+    chroma of the mean (a*, b*), and the mean saturation C*/L*. A pure brightness change keeps each pixel's hue
+    angle, so the hue figure is blind to shading; chroma falls where skin gets darker (a*, b* scale with L*),
+    saturation C*/L* much less."""
     lab = cv2.cvtColor(np.clip(rgb, 0, 1).astype(np.float32), cv2.COLOR_RGB2Lab)[skin]
     a, b = float(lab[:, 1].mean()), float(lab[:, 2].mean())
+    sat = np.hypot(lab[:, 1], lab[:, 2]) / np.maximum(lab[:, 0], 1.0)
     return {"L": float(lab[:, 0].mean()), "a": a, "b": b, "hue": float(np.degrees(np.arctan2(b, a))),
-            "chroma": float(np.hypot(a, b))}
+            "chroma": float(np.hypot(a, b)), "saturation": float(sat.mean())}
 
 
 def colour_change(rgb_in: np.ndarray, rgb_out: np.ndarray, skin: np.ndarray) -> dict:
+    """Skin hue shift (degrees, relit minus input), chroma and saturation ratios (relit / input), relit a*."""
     s0, s1 = lab_stats(rgb_in, skin), lab_stats(rgb_out, skin)
     return {"hue_shift": float((s1["hue"] - s0["hue"] + 180) % 360 - 180),
-            "chroma_ratio": s1["chroma"] / max(s0["chroma"], 1e-6), "a_star": s1["a"]}
+            "chroma_ratio": s1["chroma"] / max(s0["chroma"], 1e-6),
+            "saturation_ratio": s1["saturation"] / max(s0["saturation"], 1e-6), "a_star": s1["a"]}
 
 
 def lr_ratio(rgb: np.ndarray, skin: np.ndarray) -> float:
@@ -283,9 +296,16 @@ def dpr_light_figures(rgb, ours: list[np.ndarray] | None, theirs: list[np.ndarra
         if skin.any():
             out["ours_hue_shift_max_abs"] = float(max(abs(r["ours"]["hue_shift"]) for r in rows))
             out["ours_chroma_ratio_mean"] = float(np.mean([r["ours"]["chroma_ratio"] for r in rows]))
+            out["ours_hue_shift_mean"] = float(np.mean([r["ours"]["hue_shift"] for r in rows]))
+            out["ours_saturation_ratio_mean"] = float(np.mean([r["ours"]["saturation_ratio"] for r in rows]))
     if skin.any():
         out["dpr_hue_shift_max_abs"] = float(max(abs(r["dpr"]["hue_shift"]) for r in rows))
         out["dpr_chroma_ratio_mean"] = float(np.mean([r["dpr"]["chroma_ratio"] for r in rows]))
+        out["dpr_saturation_ratio_mean"] = float(np.mean([r["dpr"]["saturation_ratio"] for r in rows]))
+        # DPR's own side lights: demo light 3 comes from the image's left, 0 from its right
+        out["lr_demo_dpr"] = lr_figures(rgb, theirs[3], theirs[0], skin)
+        if ours is not None:
+            out["lr_demo_ours"] = lr_figures(rgb, ours[3], ours[0], skin)
     return out
 
 
@@ -434,34 +454,53 @@ def fmt(v, spec=".2f") -> str:
 
 
 def table(report: dict) -> str:
-    lines = ["photo                status  L/R swap (hue L, R)       DPR swap (hue L, R)       "
-             "vs DPR 7 lights: side corr slope | hue max chroma (DPR: hue chroma)"]
-    for name, e in report["photos"].items():
-        lr, d = e.get("lr"), e.get("dpr") or {}
-        dl = d.get("lr")
-        s = f"{name:20s} {'ok' if e['status'] == 'ok' else 'FAIL':6s}  "
-        s += (f"{lr['swap']:5.2f} ({lr['left']['hue_shift']:+5.1f}, {lr['right']['hue_shift']:+5.1f})    "
-              if lr else f"{'—':24s}  ")
-        s += (f"{dl['swap']:5.2f} ({dl['left']['hue_shift']:+5.1f}, {dl['right']['hue_shift']:+5.1f})    "
-              if dl else f"{'—':24s}  ")
-        li = d.get("lights")
-        if li and "agree" in li:
-            s += (f"{li['agree']}/7 {li['corr_mean']:.2f} {li['slope_mean']:.2f}x | "
-                  f"{fmt(li.get('ours_hue_shift_max_abs'), '.1f')} {fmt(li.get('ours_chroma_ratio_mean'))} "
-                  f"(DPR: {fmt(li.get('dpr_hue_shift_max_abs'), '.1f')} {fmt(li.get('dpr_chroma_ratio_mean'))})")
-        elif li:
-            s += f"ours failed | DPR: hue {fmt(li.get('dpr_hue_shift_max_abs'), '.1f')} " \
-                 f"chroma {fmt(li.get('dpr_chroma_ratio_mean'))}"
-        lines.append(s)
-    summ = report["summary"]
-    lines.append("")
-    lines.append("presets (portraits with skin): mean |hue shift| deg / mean chroma ratio / max spill (8-bit):")
-    lines.append("  " + ", ".join(f"{k} {v['hue_abs_mean']:.1f}/{v['chroma_mean']:.2f}/{v['spill_max']:.1f}"
-                                  for k, v in summ["presets"].items()))
-    for k, v in summ.items():
-        if k != "presets":
-            lines.append(f"{k}: {json.dumps(v)}")
-    return "\n".join(lines)
+    photos, summ = report["photos"], report["summary"]
+    out = ["DPR's 7 demo lights (converted into our frame), face box:",
+           f"  {'photo':14s} {'sides':>5s} {'corr':>5s} {'contrast':>8s} | {'ours: hue max, chroma':>21s} | "
+           f"{'DPR: hue max, chroma':>20s} | swap under DPR lights 3/0: ours, DPR"]
+    for name, e in photos.items():
+        li = (e.get("dpr") or {}).get("lights")
+        if not li:
+            continue
+        if "agree" in li:
+            head = f"{li['agree']:>3d}/7 {li['corr_mean']:5.2f} {li['slope_mean']:7.2f}x"
+            ours = f"{fmt(li.get('ours_hue_shift_max_abs'), '+.1f'):>6s}°, {fmt(li.get('ours_chroma_ratio_mean'))}"
+        else:
+            head, ours = f"{'ours failed':>21s}", ""
+        theirs = f"{fmt(li.get('dpr_hue_shift_max_abs'), '.1f'):>6s}°, {fmt(li.get('dpr_chroma_ratio_mean'))}"
+        swaps = (f"{fmt(li.get('lr_demo_ours', {}).get('swap'))}, {fmt(li.get('lr_demo_dpr', {}).get('swap'))}"
+                 if "lr_demo_dpr" in li else "—")
+        out.append(f"  {name:14s} {head} | {ours:>21s} | {theirs:>20s} | {swaps}")
+    out += ["", "White side lights (LEFT / RIGHT), skin of the face: left/right ratio input, under LEFT, under RIGHT; "
+                "swap; hue shift L, R; chroma L, R   [DPR where it ran: swap; hue L, R]"]
+    for name, e in photos.items():
+        if name.startswith("frame_") and name != "frame_001":
+            continue
+        lr, dl = e.get("lr"), (e.get("dpr") or {}).get("lr")
+        if e["status"] != "ok":
+            row = f"FAILED: {e['status'][7:60]}"
+        elif lr is None:
+            row = "no skin in a face box (grey photo or no box): sheet only"
+        else:
+            row = (f"{lr['ratio_input']:.2f} {lr['ratio_left']:.2f} {lr['ratio_right']:.2f}  swap {lr['swap']:5.2f}  "
+                   f"hue {lr['left']['hue_shift']:+5.1f} {lr['right']['hue_shift']:+5.1f}  "
+                   f"chroma {lr['left']['chroma_ratio']:.2f} {lr['right']['chroma_ratio']:.2f}")
+        if dl:
+            row += f"   [DPR: swap {dl['swap']:.2f}; hue {dl['left']['hue_shift']:+.1f} {dl['right']['hue_shift']:+.1f}]"
+        out.append(f"  {name:16s} {row}")
+    if "frames_lr" in summ:
+        f = summ["frames_lr"]
+        out.append(f"  {'frames (' + str(f['n']) + ')':16s} swap {f['swap_min']:.2f}–{f['swap_max']:.2f} "
+                   f"(median {f['swap_median']:.2f}), |hue shift| up to {f['hue_abs_max']:.1f}")
+    out += ["", "Presets over the photos: mean |skin hue shift| deg / mean chroma ratio / max spill past the matte (8-bit)"]
+    out.append("  " + ", ".join(f"{k} {v['hue_abs_mean']:.1f}/{v['chroma_mean']:.2f}/{v['spill_max']:.1f}"
+                                for k, v in summ["presets"].items()))
+    for framing, h in (report.get("heldout") or {}).items():
+        out.append(f"held-out {framing}: {h['pairs']} pairs, change contrast vs truth "
+                   f"{h.get('slope_mean', float('nan')):.2f}x (min {h['slope_min']:.2f}), corr "
+                   f"{h.get('corr_mean', float('nan')):.2f}, relight RMSE {h.get('rmse_mean', float('nan')):.4f}")
+    out += ["", f"bars: {json.dumps(summ['bars'])}"]
+    return "\n".join(out)
 
 
 def summarise(report: dict, presets: list[str]) -> dict:
@@ -478,6 +517,24 @@ def summarise(report: dict, presets: list[str]) -> dict:
     summ["lr_swap_min_photos"] = min((e["lr"]["swap"] for e in others.values()), default=None)
     summ["lr_hue_abs_max_photos"] = max((abs(e["lr"][s]["hue_shift"]) for e in others.values()
                                          for s in ("left", "right")), default=None)
+    bars = {}
+    li = photos.get("dpr_obama", {}).get("dpr", {}).get("lights", {})
+    if "agree" in li:
+        rows = li["per_light"]
+        bars["dpr_demo"] = {
+            "sides_7_of_7": li["agree"] == 7, "corr_ge_0.8": li["corr_mean"] >= 0.8,
+            "contrast_ge_0.7": li["slope_mean"] >= 0.7,
+            "hue_within_3": all(abs(r["ours"]["hue_shift"]) <= 3 for r in rows),
+            "chroma_ge_0.9": all(r["ours"]["chroma_ratio"] >= 0.9 for r in rows)}
+    lr_all = {k: e["lr"] for k, e in ok.items() if "lr" in e}
+    if lr_all:
+        bars["real_photos_lr"] = {
+            "photos": len(lr_all), "failed_photos": sorted(summ["failed"]),
+            "swap_ge_1.6": sorted(k for k, v in lr_all.items() if v["swap"] >= 1.6),
+            "swap_below_1.6": sorted(k for k, v in lr_all.items() if v["swap"] < 1.6),
+            "hue_beyond_8": sorted(k for k, v in lr_all.items()
+                                   if max(abs(v["left"]["hue_shift"]), abs(v["right"]["hue_shift"])) > 8)}
+    summ["bars"] = bars
     summ["presets"] = {}
     for p in presets:
         figs = [e["presets"][p] for e in ok.values() if p in e.get("presets", {})]
