@@ -5,8 +5,8 @@
 
 Relights with whatever ``relight_rt`` is importable (run it from a checkout with PYTHONPATH=. to measure that
 checkout), on the CPU, with automatic mattes (no mask is given to it), and writes OUT/real_photos.json (every
-figure), OUT/contact_sheet.jpg (photos x every preset of ``relight_rt.lights.list_presets()``) and prints a
-compact table. The photos:
+figure), OUT/contact_sheet.jpg (photos x every preset of ``relight_rt.lights.list_presets()``), OUT/dpr_sheet.jpg
+(ours and DPR's, row by row, under DPR's 7 lights and the two side lights) and prints a compact table. The photos:
 
 - DPR's demo portrait (data/obama.jpg of github:zhhoper/DPR; ``--dpr``: a checkout or the bare git directory of a
   mirror, default $DPR_REPO or /work/.mirror/zhhoper+DPR/repo) with DPR's stored results of its 7 demo lights;
@@ -335,7 +335,8 @@ def measure(photo: Photo, relighter: Relighter, dpr: dprp.DPRNet | None, repo: d
         relit = lambda light: np.asarray(relighter.relight(dec, light), np.float32)  # noqa: E731
         if has_skin:
             entry["albedo_skin_rgb"] = albedo_skin(dec, skin)
-            entry["lr"] = lr_figures(rgb, relit(LEFT), relit(RIGHT), skin)
+            sheet["LEFT"], sheet["RIGHT"] = relit(LEFT), relit(RIGHT)
+            entry["lr"] = lr_figures(rgb, sheet["LEFT"], sheet["RIGHT"], skin)
         if want_presets:
             entry["presets"] = {}
             for name in presets:
@@ -347,12 +348,14 @@ def measure(photo: Photo, relighter: Relighter, dpr: dprp.DPRNet | None, repo: d
                     fig["lr_ratio"] = lr_ratio(out, skin)
                 entry["presets"][name] = fig
     if photo.name in DPR_PORTRAITS and dpr is not None and region is not None:
-        entry["dpr"] = dpr_figures(photo, rgb, dec, relighter, dpr, repo, box, region, skin if has_skin else None)
+        entry["dpr"], sheet["dpr"] = dpr_figures(photo, rgb, dec, relighter, dpr, repo, box, region,
+                                                 skin if has_skin else None)
     entry["seconds"] = round(time.perf_counter() - t0, 2)
     return entry, sheet
 
 
-def dpr_figures(photo, rgb, dec, relighter, dpr, repo, box, region, skin) -> dict:
+def dpr_figures(photo, rgb, dec, relighter, dpr, repo, box, region, skin) -> tuple[dict, dict]:
+    """DPR's figures on one portrait, and its images for the DPR sheet ({"view", "ours", "dpr"})."""
     shs = [repo.demo_light(i) for i in range(dprp.N_DEMO_LIGHTS)]
     if photo.name == "dpr_obama":  # DPR's own stored results, and DPR run here on two of them as a check
         theirs = [repo.demo_result(i) for i in range(len(shs))]
@@ -368,11 +371,12 @@ def dpr_figures(photo, rgb, dec, relighter, dpr, repo, box, region, skin) -> dic
            "lights": dpr_light_figures(rgb, ours, theirs, region, skin_)}
     if check:
         out["cpu_run_vs_stored_mean_abs_8bit"] = check
+    lr_sh = [dprp.ours_to_dpr(light, DPR_DC) for light in (LEFT, RIGHT)]
+    left, right = (dpr.relight(rgb, s, crop) for s in lr_sh)
     if skin is not None:
-        lr_sh = [dprp.ours_to_dpr(light, DPR_DC) for light in (LEFT, RIGHT)]
-        left, right = (dpr.relight(rgb, s, crop) for s in lr_sh)
         out["lr"] = lr_figures(rgb, left, right, skin)
-    return out
+    images = {"view": crop or (0, 0, rgb.shape[1], rgb.shape[0]), "ours": ours, "dpr": [*theirs, left, right]}
+    return out, images
 
 
 # ------------------------------------------------------------------------------------------ contact sheet
@@ -413,29 +417,56 @@ def fit_cell(img: np.ndarray, cell: tuple[int, int]) -> np.ndarray:
     return out
 
 
-def contact_sheet(rows: list[tuple[Photo, dict, str]], presets: list[str], cell=(250, 200)) -> np.ndarray:
-    """Rows: photos (head and shoulders of full-body photos); columns: input (face box in green), then every
-    preset. 8-bit RGB."""
+def sheet_views(photo: Photo, images: dict) -> dict:
+    """The sheet's part of every image (head and shoulders of a full-body photo), the face box moved with it."""
+    x0, y0, x1, y1 = view_box(photo, images.get("box"))
+    out = {k: (v[y0:y1, x0:x1] if isinstance(v, np.ndarray) else v) for k, v in images.items() if k != "box"}
+    if images.get("box"):
+        bx0, by0, bx1, by1 = images["box"]
+        out["box"] = (bx0 - x0, by0 - y0, bx1 - x0, by1 - y0)
+    return out
+
+
+def contact_sheet(rows: list[tuple[str, dict, str]], presets: list[str], cell=(250, 200)) -> np.ndarray:
+    """Rows: photos (their ``sheet_views``); columns: input (face box in green), then every preset. 8-bit RGB."""
     cols = ["input", *presets]
     lines = []
-    for photo, images, status in rows:
-        x0, y0, x1, y1 = view_box(photo, images.get("box"))
+    for name, images, status in rows:
         tiles = []
         for col in cols:
             img = images.get(col)
             if col == "input" and images.get("box"):  # the face box the figures are measured in, in green
                 img = img.copy()
                 bx0, by0, bx1, by1 = images["box"]
-                cv2.rectangle(img, (bx0, by0), (bx1 - 1, by1 - 1), (0.1, 0.9, 0.1), max(1, (y1 - y0) // 200))
+                cv2.rectangle(img, (bx0, by0), (bx1 - 1, by1 - 1), (0.1, 0.9, 0.1), max(1, img.shape[0] // 200))
             if img is None:
                 tile = label(np.full((*cell, 3), 90, np.uint8), status[:28], cell[0] // 2)
             else:
-                tile = fit_cell(img[y0:y1, x0:x1], cell)
-            tiles.append(label(tile, photo.name) if col == "input" else tile)
+                tile = fit_cell(img, cell)
+            tiles.append(label(tile, name) if col == "input" else tile)
         lines.append(np.concatenate(tiles, 1))
     header = np.full((28, cell[1] * len(cols), 3), 255, np.uint8)
     for j, col in enumerate(cols):
         cv2.putText(header, col, (j * cell[1] + 6, 20), cv2.FONT_HERSHEY_SIMPLEX, 0.55, (0, 0, 0), 1, cv2.LINE_AA)
+    return np.concatenate([header, *lines], 0)
+
+
+def dpr_sheet(rows: list[tuple[str, np.ndarray, dict, dict]], cell=(200, 170)) -> np.ndarray:
+    """Per portrait two rows, ours then DPR's: input, DPR's demo lights 0-6, LEFT, RIGHT."""
+    cols = ["input", *(f"DPR light {i}" for i in range(dprp.N_DEMO_LIGHTS)), "LEFT", "RIGHT"]
+    lines = []
+    for name, rgb, images, side in rows:
+        x0, y0, x1, y1 = images["view"]
+        ours = [*images["ours"], side.get("LEFT"), side.get("RIGHT")] if images["ours"] else [None] * 9
+        for who, imgs in (("ours", ours), ("DPR", images["dpr"])):
+            tiles = [label(fit_cell(rgb[y0:y1, x0:x1], cell), name)]
+            for img in imgs:
+                tile = fit_cell(img[y0:y1, x0:x1], cell) if img is not None else np.full((*cell, 3), 90, np.uint8)
+                tiles.append(label(tile, who))
+            lines.append(np.concatenate(tiles, 1))
+    header = np.full((28, cell[1] * len(cols), 3), 255, np.uint8)
+    for j, col in enumerate(cols):
+        cv2.putText(header, col, (j * cell[1] + 6, 20), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (0, 0, 0), 1, cv2.LINE_AA)
     return np.concatenate([header, *lines], 0)
 
 
@@ -584,14 +615,17 @@ def main(argv=None) -> int:
               "dpr_repo": str(repo.path) if repo else None, "dpr_conversion_residual": residual,
               "dpr_conversion": conv.round(12).tolist(), "lights": {"left": LEFT.tolist(), "right": RIGHT.tolist()},
               "notes": notes, "photos": {}}
-    sheet_rows = []
+    sheet_rows, dpr_rows = [], []
     for photo in photos:
         in_sheet = not photo.name.startswith("frame_") or photo.name == "frame_001"
         entry, images = measure(photo, relighter, dpr, repo, presets, want_presets=in_sheet)
         report["photos"][photo.name] = entry
         log.info("%s: %s (%.1f s)", photo.name, entry["status"][:80], entry["seconds"])
+        if "dpr" in images:
+            dpr_rows.append((photo.name, photo.rgb, images.pop("dpr"),
+                             {k: images.get(k) for k in ("LEFT", "RIGHT")}))
         if in_sheet:
-            sheet_rows.append((photo, images, entry["status"].replace("error: ", "")))
+            sheet_rows.append((photo.name, sheet_views(photo, images), entry["status"].replace("error: ", "")))
     if args.heldout:
         from heldout_change import heldout_figures
 
@@ -601,6 +635,10 @@ def main(argv=None) -> int:
     sheet = contact_sheet(sheet_rows, presets)
     ok, jpg = cv2.imencode(".jpg", cv2.cvtColor(sheet, cv2.COLOR_RGB2BGR), [cv2.IMWRITE_JPEG_QUALITY, 88])
     write_atomic(args.out / "contact_sheet.jpg", jpg.tobytes())
+    if dpr_rows:
+        _, jpg = cv2.imencode(".jpg", cv2.cvtColor(dpr_sheet(dpr_rows), cv2.COLOR_RGB2BGR),
+                              [cv2.IMWRITE_JPEG_QUALITY, 88])
+        write_atomic(args.out / "dpr_sheet.jpg", jpg.tobytes())
     write_atomic(args.out / "real_photos.json", json.dumps(report, indent=1).encode())
     print(table(report))
     print(f"DPR light conversion residual {residual:.1e}; wrote {args.out / 'real_photos.json'} and "
