@@ -221,7 +221,8 @@ class DPRNet:
         return cv2.cvtColor(out, cv2.COLOR_BGR2RGB).astype(np.float32) / 255
 
 
-def square_around(box: tuple[int, int, int, int], shape: tuple[int, int], scale: float = 2.0) -> tuple[int, int, int, int]:
+def square_around(box: tuple[int, int, int, int], shape: tuple[int, int],
+                  scale: float = 2.0) -> tuple[int, int, int, int]:
     """A square of side ``scale`` x the face box's larger side, centred on it, moved/shrunk to fit the image."""
     x0, y0, x1, y1 = box
     h, w = shape

