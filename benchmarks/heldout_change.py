@@ -1,0 +1,175 @@
+"""Held-out renders under directional lights: is the relit change as strong as the true one? (issue 32)
+
+    # once (renders; ~1 min per person and framing on the shared 2-core CPU, so ~10 min for --n 2):
+    python benchmarks/heldout_change.py make --out runs/h32 --n 2
+    # measure (seconds; or through benchmarks/real_photos.py --heldout runs/h32/photos_*):
+    python benchmarks/heldout_change.py measure runs/h32/photos_* [--models DIR] [--json OUT.json]
+
+``make`` writes six environment maps of one white lamp each (a 0.25-rad disc, from the image's left, right,
+upper left, upper right, above, and low in front; irradiance 1 at the facing normal, plus ambient 0.05) to
+OUT/lights_directional/*.hdr, then for every framing renders ``--n`` held-out people (seeds 100000...) with
+``python -m export render`` and photographs each under ``--k`` of the lamps with ``python -m export render-photos``
+(OUT/test_FRAMING, OUT/photos_FRAMING). Add ``--full-shading`` for hard shadows in the truth (a camera's view) rather
+than the SH shading the models can reproduce.
+
+``measure``: for every ordered pair (i, j) of photos of one person, photo i is relit by the runtime (automatic
+exposure off: the true light j as given, the photo's mask given) and compared with photo j in the mask (pixel values
+as stored, the pipeline's radiance scale; luminance = Rec. 709 weights):
+- contrast: least-squares slope of log(relit / input) on log(truth / input) per pixel (1 = as strong as the truth),
+  and their correlation;
+- RMSE of relit vs truth (RGB, in the mask), for the full runtime path and, where ``relight_layers`` gives it, for
+  stage 1's diffuse image alone (the quantity of docs/RESULTS.md's framing table, measured through the runtime).
+Per framing (the folder name after its last "_"): means over pairs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+if str(REPO) not in sys.path:
+    sys.path.insert(0, str(REPO))
+
+FRAMINGS = ("full", "knees-up", "waist-up", "head-shoulders", "face")
+REC709 = np.array([0.2126, 0.7152, 0.0722])
+EPS = 1e-3
+LAMPS = {  # direction the light comes from, subject frame: +x toward the camera, +y image right, +z up
+    "left": (0.35, -1.0, 0.25), "right": (0.35, 1.0, 0.25), "upper_left": (0.6, -0.7, 0.7),
+    "upper_right": (0.6, 0.7, 0.7), "above": (0.3, 0.0, 1.0), "low_front": (1.0, 0.2, -0.5),
+}
+
+
+def lamp_envmap(direction, height: int = 64, radius: float = 0.25, ambient: float = 0.05) -> np.ndarray:
+    """(H, 2H, 3) float32 map (DESIGN.md §3 layout): a white disc of half-angle ``radius`` plus uniform ambient."""
+    from relight_rt.sh import directions_envmap
+
+    d = np.asarray(direction, np.float64)
+    d /= np.linalg.norm(d)
+    dirs = directions_envmap(height)
+    disc = (dirs @ d) >= math.cos(radius)
+    solid = 2 * math.pi * (1 - math.cos(radius))
+    env = np.full(dirs.shape[:2], ambient / math.pi)
+    env[disc] += 1.0 / solid  # irradiance ≈ 1 at the normal facing the lamp
+    return np.repeat(env[..., None], 3, axis=2).astype(np.float32)
+
+
+def make(args) -> int:
+    out = args.out
+    lights = out / "lights_directional"
+    lights.mkdir(parents=True, exist_ok=True)
+    for name, d in LAMPS.items():
+        cv2.imwrite(str(lights / f"{name}.hdr"), lamp_envmap(d)[..., ::-1].copy())
+    py = [sys.executable, "-m", "export"]
+    for f in args.framings:
+        test, photos = out / f"test_{f}", out / f"photos_{f}"
+        subprocess.run([*py, "render", "--n", str(args.n), "--views", "1", "--resolution", "256", "--dirs", "128",
+                        "--seed", "100000", "--framings", f, "--workers", str(args.workers), "--out", str(test)],
+                       check=True, cwd=REPO)
+        cmd = [*py, "render-photos", "--data", str(test), "--envmaps", str(lights), "--out", str(photos),
+               "--k", str(args.k), "--samples", "32", "--workers", str(args.workers)]
+        subprocess.run(cmd + (["--full-shading"] if args.full_shading else []), check=True, cwd=REPO)
+    return 0
+
+
+# -------------------------------------------------------------------------------------------- measuring
+
+
+def _read(folder: Path, name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    bgr = cv2.imread(str(folder / f"{name}_photo.png"), cv2.IMREAD_COLOR)
+    mask = cv2.imread(str(folder / f"{name}_mask.png"), cv2.IMREAD_GRAYSCALE)
+    light = np.load(folder / f"{name}_light.npy", allow_pickle=False)[:, ::-1]  # stored B, G, R
+    return (cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB).astype(np.float32) / 255, mask.astype(np.float32) / 255,
+            np.ascontiguousarray(light, dtype=np.float32))
+
+
+def _rmse(a: np.ndarray, b: np.ndarray, m: np.ndarray) -> float:
+    return float(np.sqrt(((a - b) ** 2)[m].mean()))
+
+
+def pair_figures(relighter, src, dst) -> dict:
+    (img_i, mask_i, _), (img_j, mask_j, light_j) = src, dst
+    m = (mask_i > 0.5) & (mask_j > 0.5)
+    diffuse = None
+    if hasattr(relighter, "relight_layers"):
+        res = relighter.relight_layers(img_i, light_j, mask=mask_i, exposure="physical")
+        relit, diffuse = np.asarray(res.image, np.float32), np.asarray(res.layers["diffuse"], np.float32)
+    else:
+        relit = np.asarray(relighter.relight(img_i, light_j, mask=mask_i, exposure="physical"), np.float32)
+    lum = lambda x: x[m] @ REC709  # noqa: E731
+    ours = np.log(lum(relit) + EPS) - np.log(lum(img_i) + EPS)
+    truth = np.log(lum(img_j) + EPS) - np.log(lum(img_i) + EPS)
+    do, dt = ours - ours.mean(), truth - truth.mean()
+    out = {"slope": float((do * dt).sum() / max((dt * dt).sum(), 1e-30)),
+           "corr": float((do * dt).sum() / math.sqrt((do * do).sum() * (dt * dt).sum() + 1e-30)),
+           "rmse": _rmse(relit, img_j, m)}
+    if diffuse is not None:
+        out["rmse_stage1_diffuse"] = _rmse(np.clip(diffuse, 0, 1), img_j, m)
+    return out
+
+
+def heldout_figures(relighter, folders: list[Path]) -> dict:
+    """{framing: {"pairs", "slope_mean", "corr_mean", "rmse_mean", ...}} over the folders' photo pairs."""
+    result = {}
+    for folder in map(Path, folders):
+        names = sorted(p.name[: -len("_photo.png")] for p in folder.glob("*__L*_photo.png"))
+        by_subject: dict[str, list[str]] = {}
+        for n in names:
+            by_subject.setdefault(n.rpartition("__L")[0], []).append(n)
+        rows = []
+        for group in by_subject.values():
+            data = {n: _read(folder, n) for n in group}
+            rows += [pair_figures(relighter, data[a], data[b]) for a in group for b in group if a != b]
+        framing = folder.name.rsplit("_", 1)[-1]
+        summary = {"folder": str(folder), "pairs": len(rows), "subjects": len(by_subject)}
+        for key in ("slope", "corr", "rmse", "rmse_stage1_diffuse"):
+            vals = [r[key] for r in rows if key in r]
+            if vals:
+                summary[f"{key}_mean"] = float(np.mean(vals))
+        summary["slope_min"] = float(min((r["slope"] for r in rows), default=float("nan")))
+        result[framing] = summary
+    return result
+
+
+def measure(args) -> int:
+    from relight_rt import Relighter
+
+    figs = heldout_figures(Relighter(args.models, device="cpu"), args.folders)
+    print("| framing | pairs (people) | change contrast vs truth (min) | correlation | relight RMSE | stage-1 RMSE |")
+    print("|---|---|---|---|---|---|")
+    for f, s in figs.items():
+        g = lambda key, s=s: s.get(key, float("nan"))  # noqa: E731
+        print(f"| {f} | {s['pairs']} ({s['subjects']}) | {g('slope_mean'):.2f} ({s['slope_min']:.2f}) | "
+              f"{g('corr_mean'):.2f} | {g('rmse_mean'):.4f} | {g('rmse_stage1_diffuse_mean'):.4f} |")
+    if args.json:
+        Path(args.json).write_text(json.dumps(figs, indent=1))
+    return 0
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    sub = p.add_subparsers(dest="cmd", required=True)
+    mk = sub.add_parser("make", help="render the held-out people under single-lamp maps")
+    mk.add_argument("--out", type=Path, required=True)
+    mk.add_argument("--n", type=int, default=2, help="people per framing")
+    mk.add_argument("--k", type=int, default=3, help="lamps (photos) per person")
+    mk.add_argument("--framings", nargs="+", default=list(FRAMINGS))
+    mk.add_argument("--workers", type=int, default=1)
+    mk.add_argument("--full-shading", action="store_true", help="truth shaded by the full map (hard shadows)")
+    me = sub.add_parser("measure", help="figures over render-photos folders")
+    me.add_argument("folders", type=Path, nargs="+")
+    me.add_argument("--models", type=Path, default=None)
+    me.add_argument("--json", type=Path, default=None)
+    args = p.parse_args(argv)
+    return make(args) if args.cmd == "make" else measure(args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
