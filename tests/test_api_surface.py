@@ -57,6 +57,7 @@ PUBLIC = {
     "contract",
     "lightspec",
     "masks",
+    "load_transport",
 }
 
 
