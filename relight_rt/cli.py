@@ -29,10 +29,11 @@ from ._io import (
     ProtectedPaths,
     atomic_path,
     check_target,
+    encode_image,
     sibling_mask,
+    write_all,
     write_image,
     write_npy,
-    write_npz,
 )
 from ._limits import DEFAULT_MAX_PIXELS, pixel_limit
 from ._options import (
@@ -171,11 +172,14 @@ def cmd_decompose(args: argparse.Namespace) -> int:
     folder.mkdir(parents=True, exist_ok=True)
     protect = [src, *paths_of(mask if mask != "auto" else None), *Path(rl.models_dir).glob("*.onnx")]
     layers = rl.layers(dec)  # at the photo's resolution, with its detail in the albedo
-    write_image(folder / "albedo.png", layers["albedo"], protect)
-    write_image(folder / "shading.png", layers["shading"], protect)
-    write_image(folder / "skin.png", layers["skin"], protect)
-    write_npy(folder / "light.npy", np.asarray(dec.light, np.float64), protect)
-    write_npz(folder / "transport.npz", {"T": dec.to_input(np.ascontiguousarray(dec.transport))}, protect)
+    pngs = {name: encode_image(layers[name], ".png", name=str(folder / f"{name}.png"))
+            for name in ("albedo", "shading", "skin")}
+    transport = dec.to_input(np.ascontiguousarray(dec.transport))
+    write_all([  # the five layers or none of them (an input among them, a full disk)
+        *((folder / f"{name}.png", lambda f, data=data: f.write(data)) for name, data in pngs.items()),
+        (folder / "light.npy", lambda f: np.save(f, np.asarray(dec.light, np.float64), allow_pickle=False)),
+        (folder / "transport.npz", lambda f: np.savez_compressed(f, T=transport)),
+    ], protect)  # fmt: skip
     log.info("%s -> %s (albedo.png, shading.png, skin.png, light.npy, transport.npz)", src, folder)
     return 0
 

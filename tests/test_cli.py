@@ -98,6 +98,32 @@ def test_decompose(work, capsys):
     assert cv2.imread(str(work / "dec" / "skin.png"), cv2.IMREAD_UNCHANGED).ndim == 2
 
 
+def test_decompose_writes_all_layers_or_none(work, capsys, monkeypatch):
+    """issue 35 item 10: decompose wrote albedo.png and shading.png, then failed at skin.png (an input of that
+    name in the output folder) or at a full disk (a message naming no file): now all five layers or none."""
+    (work / "dec").mkdir()
+    write_photo(work / "dec", "skin")  # the photo is dec/skin.png: the skin layer would replace it
+    before = {p.name: p.read_bytes() for p in (work / "dec").iterdir()}
+    code, _, err = run(["decompose", "dec/skin.png", "-o", "dec"], capsys)
+    assert code == 2 and "refusing to overwrite the input" in err and "skin.png" in err, err
+    assert {p.name: p.read_bytes() for p in (work / "dec").iterdir()} == before  # nothing written, nothing left
+
+    write_photo(work)
+    real_save = np.save
+
+    def full_disk(file, arr, allow_pickle=True):  # light.npy, the fourth file: no space left
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(np, "save", full_disk)
+    code, _, err = run(["decompose", "p.png", "-o", "out"], capsys)
+    lines = err.strip().splitlines()
+    assert code == 2 and len(lines) == 1 and "light.npy" in lines[0] and "No space left" in lines[0], err
+    assert list((work / "out").iterdir()) == []  # no layer, no temporary file
+    monkeypatch.setattr(np, "save", real_save)
+    assert run(["decompose", "p.png", "-o", "out"], capsys)[0] == 0
+    assert len(list((work / "out").iterdir())) == 5
+
+
 def test_lights_commands(work, capsys):
     code, out, _ = run(["lights", "list"], capsys)
     assert code == 0 and out.splitlines()[0].split()[0] == "studio"
