@@ -10,8 +10,6 @@ from __future__ import annotations
 
 import os
 import struct
-import subprocess
-import sys
 import zlib
 from pathlib import Path
 
@@ -19,6 +17,7 @@ import cv2
 import numpy as np
 import pytest
 from _graphs import OWN_LIGHT, models_dir, person
+from _hostile import PEAK_LIMIT, run_cli_limited
 
 from relight_rt import cli
 
@@ -103,14 +102,12 @@ def test_fuzz_relight_over_a_folder_of_bad_images(tmp_path, models_dir):
     bad.append("exrhang.png")
     os.mkfifo(inputs / "fifo.png")  # issue 35 item 7: not a regular file, not listed (reading it would block)
     before = snapshot(tmp_path)
-    env = {**os.environ, "PYTHONPATH": str(REPO), "RELIGHT_RT_MODELS": str(models_dir)}
-    proc = subprocess.run([sys.executable, "-m", "relight_rt", "relight", str(inputs), "--preset", "studio",
-                           "-o", str(tmp_path / "out"), "--device", "cpu"],
-                          capture_output=True, text=True, env=env, timeout=300)  # fmt: skip
-    assert proc.returncode == 2
-    assert "Traceback" not in proc.stderr
-    lines = [x for x in proc.stderr.splitlines() if x.strip() and "image/s" not in x]  # not the progress bar
-    assert all(x.startswith("relight-rt: ") for x in lines), proc.stderr  # nothing from native libraries
+    route = ["relight", str(inputs), "--preset", "studio", "-o", str(tmp_path / "out"), "--device", "cpu"]
+    codes, stderr, peak = run_cli_limited([route], cwd=tmp_path, env={"RELIGHT_RT_MODELS": str(models_dir)})
+    assert codes == [2] and 0 < peak < PEAK_LIMIT, (codes, peak)  # under ulimit -v 4 GB, below 1 GB resident
+    assert "Traceback" not in stderr
+    lines = [x for x in stderr.splitlines() if x.strip() and "image/s" not in x]  # not the progress bar
+    assert all(x.startswith("relight-rt: ") for x in lines), stderr  # nothing from native libraries
     errors = [x for x in lines if x.startswith("relight-rt: error: ")]
     written = {p.name for p in (tmp_path / "out").iterdir()}
     for name in bad + ["good0.png", "good1.png"]:
@@ -170,21 +167,21 @@ def bad_lights(folder: Path, seed: int = 0) -> dict[str, str]:
             "zero.npy": "empty", "zero.json": "cannot read"}  # fmt: skip
 
 
-def test_fuzz_light_files(tmp_path, models_dir, monkeypatch, capsys):
-    monkeypatch.setenv("RELIGHT_RT_MODELS", str(models_dir))
-    monkeypatch.chdir(tmp_path)
+def test_fuzz_light_files(tmp_path, models_dir):
     img, mask = person(H, W, box=(10, 50, 10, 30))
-    cv2.imwrite("p.png", (img[..., ::-1] * 255).round().astype(np.uint8))
-    cv2.imwrite("p_mask.png", (mask * 255).astype(np.uint8))
+    cv2.imwrite(str(tmp_path / "p.png"), (img[..., ::-1] * 255).round().astype(np.uint8))
+    cv2.imwrite(str(tmp_path / "p_mask.png"), (mask * 255).astype(np.uint8))
     expected = bad_lights(tmp_path)
     before = snapshot(tmp_path)
-    for name, word in expected.items():
-        for argv in (["relight", "p.png", "--light", name, "-o", "o.png"], ["lights", "show", name, "-o", "o.png"]):
-            code = cli.main(argv)
-            out, err = capsys.readouterr()
-            lines = err.strip().splitlines()
-            assert code == 2 and len(lines) == 1 and lines[0].startswith("relight-rt: error: "), (argv, err)
-            assert name in lines[0] and word in lines[0], (argv, lines[0])
+    routes = [argv for name in expected for argv in (["relight", "p.png", "--light", name, "-o", "o.png"],
+                                                     ["lights", "show", name, "-o", "o.png"])]  # fmt: skip
+    codes, stderr, peak = run_cli_limited(routes, cwd=tmp_path, env={"RELIGHT_RT_MODELS": str(models_dir)})
+    assert codes == [2] * len(routes) and 0 < peak < PEAK_LIMIT, (codes, peak)
+    lines = stderr.strip().splitlines()
+    assert len(lines) == len(routes), stderr  # one line each
+    for argv, line in zip(routes, lines, strict=True):
+        name = argv[3] if argv[0] == "relight" else argv[2]
+        assert line.startswith("relight-rt: error: ") and name in line and expected[name] in line, (argv, line)
     assert snapshot(tmp_path) == before  # nothing written, nothing changed, no temporary files
 
 
@@ -218,27 +215,17 @@ def test_fuzz_video_frames_skip_bad_frames(tmp_path, models_dir, monkeypatch, ca
 
 
 @pytest.mark.parametrize("seed", [1, 2])
-def test_fuzz_relight_in_process_random_damage(tmp_path, models_dir, monkeypatch, capsys, seed):
-    """More random damage, in-process (fast): only correct outputs or one RelightError line per file."""
-    monkeypatch.setenv("RELIGHT_RT_MODELS", str(models_dir))
-    monkeypatch.chdir(tmp_path)
+def test_fuzz_relight_random_damage(tmp_path, models_dir, seed):
+    """More random damage: only correct outputs or one RelightError line per file."""
     (tmp_path / "in").mkdir()
     bad_images(tmp_path / "in", seed)
     before = snapshot(tmp_path)
-    code = cli.main(["relight", "in", "--preset", "night", "-o", "out"])
-    err = capsys.readouterr().err
-    assert code == 2 and "Traceback" not in err
+    codes, err, peak = run_cli_limited([["relight", "in", "--preset", "night", "-o", "out"]], cwd=tmp_path,
+                                       env={"RELIGHT_RT_MODELS": str(models_dir)})  # fmt: skip
+    assert codes == [2] and "Traceback" not in err and 0 < peak < PEAK_LIMIT
     after = snapshot(tmp_path)
     assert {p: after[p] for p in before} == before
     assert not [p for p in after if p.name.startswith(".")]
-
-
-_ROUTES_DRIVER = """
-import sys
-from relight_rt import cli
-for line in sys.stdin.read().splitlines():
-    print("CODE", cli.main(line.split("\\t")), flush=True)
-"""
 
 
 def test_exr_header_without_a_nul_byte_in_every_reader(tmp_path, models_dir):
@@ -268,13 +255,11 @@ def test_exr_header_without_a_nul_byte_in_every_reader(tmp_path, models_dir):
         ["mask", "evil.png", "-o", "m.png"],
     ]
     before = snapshot(tmp_path)
-    env = {**os.environ, "PYTHONPATH": str(REPO), "RELIGHT_RT_MODELS": str(models_dir)}
-    proc = subprocess.run([sys.executable, "-c", _ROUTES_DRIVER], input="\n".join("\t".join(r) for r in routes),
-                          capture_output=True, text=True, env=env, cwd=tmp_path, timeout=60)  # fmt: skip
-    assert proc.stdout.split() == ["CODE", "2"] * len(routes), (proc.stdout, proc.stderr)
-    lines = [x for x in proc.stderr.splitlines() if x.strip()]
-    assert len(lines) == len(routes) and all(x.startswith("relight-rt: error: ") for x in lines), proc.stderr
-    assert all("evil" in x or "f2.png" in x for x in lines), proc.stderr
+    codes, stderr, peak = run_cli_limited(routes, cwd=tmp_path, env={"RELIGHT_RT_MODELS": str(models_dir)})
+    assert codes == [2] * len(routes) and 0 < peak < PEAK_LIMIT, (codes, peak, stderr)
+    lines = [x for x in stderr.splitlines() if x.strip()]
+    assert len(lines) == len(routes) and all(x.startswith("relight-rt: error: ") for x in lines), stderr
+    assert all("evil" in x or "f2.png" in x for x in lines), stderr
     assert snapshot(tmp_path) == before
 
 

@@ -131,7 +131,7 @@ def test_torch_saved_files_read_like_torch_load(tmp_path):
     conv = torch.nn.Conv2d(3, 4, 3)
     sd = conv.state_dict()  # a real state_dict: it carries _metadata, which torch pickles with BUILD
     assert hasattr(sd, "_metadata")
-    sd.update({"t": base.t(), "view": base[1:, 2:], "bf16": torch.randn(4).bfloat16()})
+    sd.update({"rows": base[1:], "bf16": torch.randn(4).bfloat16()})  # rows: a contiguous view at an offset
     sd.update({"p": torch.nn.Parameter(base[0]), "n": torch.tensor(7)})
     torch.save(sd, tmp_path / "x.pth")
     torch.save({"state_dict": conv.state_dict(), "epoch": 3}, tmp_path / "wrapped.pth")
@@ -141,6 +141,11 @@ def test_torch_saved_files_read_like_torch_load(tmp_path):
     for k, v in want.items():
         assert got[k].shape == tuple(v.shape) and np.array_equal(got[k], v.detach().float().numpy()), k
     assert list(read_torch_checkpoint(tmp_path / "wrapped.pth")) == ["weight", "bias"]
+    for name, view in (("t", base.t()), ("view", base[1:, 2:]), ("expand", base[:1].expand(5000, 6))):
+        torch.save({name: view}, tmp_path / f"{name}.pth")  # torch reads them; the importer refuses them
+        assert torch.load(tmp_path / f"{name}.pth", weights_only=True)[name].shape == view.shape
+        with pytest.raises(RelightError, match="only contiguous tensors"):
+            read_torch_checkpoint(tmp_path / f"{name}.pth")
 
 
 class _RunsCode:
