@@ -19,7 +19,7 @@ import cv2
 import numpy as np
 
 from ._errors import RelightError
-from ._limits import check_pixels, header_size, load_npy, max_pixels  # noqa: F401  (re-exported)
+from ._limits import check_array_pixels, check_pixels, header_size, load_npy, max_pixels  # noqa: F401  (re-exported)
 
 log = logging.getLogger(__name__)
 
@@ -96,6 +96,7 @@ def read_image(src: str | os.PathLike | np.ndarray, name: str = "image") -> np.n
     if isinstance(src, np.ndarray):
         a = src
         label = name
+        check_array_pixels(a, name)
     elif isinstance(src, (str, os.PathLike)):
         path = Path(src)
         a = _decode(path, name)
@@ -141,6 +142,7 @@ def read_mask(
     """
     if isinstance(src, np.ndarray):
         a, label = src, name
+        check_array_pixels(a, name)
         if a.ndim == 3 and a.shape[2] == 3 and a.dtype in (np.uint8, np.uint16, np.float32, np.float64):
             a = cv2.cvtColor(np.ascontiguousarray(a), cv2.COLOR_RGB2GRAY)
     elif isinstance(src, (str, os.PathLike)):

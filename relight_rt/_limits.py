@@ -64,6 +64,13 @@ def check_pixels(width: int, height: int, name: str) -> None:
         )
 
 
+def check_array_pixels(a: np.ndarray, name: str) -> None:
+    """:func:`check_pixels` for an image given as an array (H, W[, C]): a 60000 x 60000 view of one pixel
+    costs nothing until it is converted, then 43 GB; it is refused from its shape, before any work."""
+    if a.ndim >= 2:
+        check_pixels(int(a.shape[1]), int(a.shape[0]), name)
+
+
 # ------------------------------------------------------------------------------------- image headers
 
 

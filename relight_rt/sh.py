@@ -461,9 +461,12 @@ def solid_angles_envmap(height: int) -> np.ndarray:
 
 
 def _check_envmap(env, name: str = "env") -> np.ndarray:
+    from ._limits import check_array_pixels
+
     arr = np.asarray(env)
     if arr.ndim != 3 or arr.shape[2] != 3 or arr.shape[0] < 1 or arr.shape[1] != 2 * arr.shape[0]:
         raise RelightError(f"{name}: expected an equirectangular (H, 2H, 3) RGB map, got {_describe(arr)}")
+    check_array_pixels(arr, name)
     if arr.dtype.kind != "f":
         raise RelightError(
             f"{name}: expected float linear RGB, got {arr.dtype} (decode display values with "

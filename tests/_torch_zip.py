@@ -107,12 +107,14 @@ def deflated_zeros(n_bytes: int, head: bytes = b"", tail: bytes = b"") -> bytes:
 
 def write_raw_zip(path: str | Path, members: list[tuple[str, bytes, int, int]]) -> Path:
     """A zip archive written field by field: (name, data as stored, method (0 stored, 8 deflated), declared
-    uncompressed size). The CRC is left 0: these archives are refused (or blow up) before any check of it."""
+    uncompressed size). A deflated member's CRC is left 0: those are the bombs, refused (or blowing up) before
+    any check of it; a stored member gets its real CRC."""
     path = Path(path)
     body, central = b"", b""
     for name, data, method, size in members:
         raw_name = name.encode()
-        fields = struct.pack("<HHHHHIII", 20, 0, method, 0, 0x21, 0, len(data), size)
+        crc = zlib.crc32(data) if method == 0 else 0
+        fields = struct.pack("<HHHHHIII", 20, 0, method, 0, 0x21, crc, len(data), size)
         central += b"PK\x01\x02" + struct.pack("<H", 20) + fields + struct.pack("<HHHHHII", len(raw_name), 0, 0, 0,
                                                                                0, 0, len(body)) + raw_name
         body += b"PK\x03\x04" + fields + struct.pack("<HH", len(raw_name), 0) + raw_name + data
