@@ -304,8 +304,16 @@ PLUGINS = ["relight_rt.video_cli", "relight_rt.demo", "relight_rt.bench", "relig
            "relight_rt.studio", "relight_rt.reference_import"]
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse, with a usage error as one line (``relight-rt: error: ...; see relight-rt CMD -h``), not the
+    whole usage block; every subcommand's parser is one of these (add_subparsers makes its own class)."""
+
+    def error(self, message: str):
+        self.exit(2, f"relight-rt: error: {message}; see {self.prog} -h\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="relight-rt", description="Relight people in photos and videos.")
+    parser = _Parser(prog="relight-rt", description="Relight people in photos and videos.")
     parser.add_argument("--version", action="version", version=f"relight-rt {__version__}")
     parser.add_argument("-v", "--verbose", action="store_true", help="log details")
     parser.add_argument("-q", "--quiet", action="store_true", help="log warnings and errors only")

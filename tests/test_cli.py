@@ -170,6 +170,23 @@ def test_help_and_usage_errors(capsys):
     assert cli.main(["relight", "x.png"]) == 2  # no light, no -o: argparse usage error
 
 
+@pytest.mark.parametrize(("argv", "words"), [
+    (["relight", "x.png"], ["required: -o/--output", "see relight-rt relight -h"]),
+    (["relight", "x.png", "-o", "o.png", "--max-pixels", "many"], ["invalid int value", "see relight-rt relight -h"]),
+    (["lights", "show"], ["required: NAME", "see relight-rt lights show -h"]),
+    (["video", "in", "-o", "o.mp4", "--bogus"], ["unrecognized arguments: --bogus", "see relight-rt video -h"]),
+    (["frobnicate"], ["invalid choice: 'frobnicate'", "see relight-rt -h"]),
+])  # fmt: skip
+def test_usage_errors_are_one_line(capsys, argv, words):
+    """issue 35 item 17: a usage error was argparse's 12 lines of usage; now one ``relight-rt: error:`` line that
+    says what is wrong and where the help is."""
+    assert cli.main(argv) == 2
+    out, err = capsys.readouterr()
+    lines = err.strip().splitlines()
+    assert out == "" and len(lines) == 1 and lines[0].startswith("relight-rt: error: "), err
+    assert all(w in lines[0] for w in words), lines[0]
+
+
 def bad_case(work, kind):
     """Make one bad input in ``work``; return the relight arguments (without -o)."""
     photo = write_photo(work)
@@ -279,7 +296,7 @@ def test_one_set_of_light_flags_in_every_command(work, capsys):
     for command in (["relight", "p.png", "-o", "o.png"], ["video", ".", "-o", "o.mp4"],
                     ["composite", "p.png", "--background", "p.png", "-o", "o.png"]):
         code, _, err = run([*command, "--preset", "studio", "--rotate", "10", "--no-such-option"], capsys)
-        assert code == 2 and f"usage: relight-rt {command[0]}" in err, err  # the subcommand's usage
+        assert code == 2 and f"see relight-rt {command[0]} -h" in err, err  # the subcommand's help
         assert "unrecognized arguments: --no-such-option" in err
     code, out, _ = run(["lights", "show", "light.npy", "--bgr", "--rotate", "90", "-o", "s.png"], capsys)
     assert code == 0 and cv2.imread("s.png") is not None
