@@ -12,6 +12,7 @@ import os
 import resource
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
@@ -31,6 +32,7 @@ def run_limited(code: str, *, cwd: str | os.PathLike | None = None, env: dict | 
     """Run Python ``code`` in a subprocess under MEMORY_LIMIT with CASE_SECONDS per case (``cases`` of them);
     returns (exit code, stdout without the report line, stderr, peak resident bytes; -1 when it died)."""
     env = {**os.environ, "PYTHONPATH": f"{REPO}{os.pathsep}{REPO / 'tests'}", **(env or {})}
+    start = time.perf_counter()
     proc = subprocess.run([sys.executable, "-c", code + _REPORT], input=input, capture_output=True, text=True,
                           env=env, cwd=cwd, timeout=CASE_SECONDS * cases, preexec_fn=_limit_memory)  # fmt: skip
     peak, out = -1, []
@@ -39,14 +41,29 @@ def run_limited(code: str, *, cwd: str | os.PathLike | None = None, env: dict | 
             peak = int(line.split()[1]) * 1024  # Linux: ru_maxrss in KiB
         else:
             out.append(line)
+    _log(code if input is None else input, proc.returncode, peak, out, time.perf_counter() - start)
     return proc.returncode, "\n".join(out), proc.stderr, peak
 
 
+def _log(what: str, code: int, peak: int, out: list[str], wall: float) -> None:
+    """With $RELIGHT_RT_HOSTILE_LOG set, append each case's peak and time there (docs/BENCHMARKS.md)."""
+    path = os.environ.get("RELIGHT_RT_HOSTILE_LOG")
+    if not path:
+        return
+    seconds = [line.split()[2] for line in out if line.startswith("CODE ")]
+    first = " ".join(what.strip().splitlines()[0].split())[:100]
+    with open(path, "a", encoding="utf-8") as f:
+        f.write(f"{first}\texit {code}\tpeak {peak / 2**20:.0f} MiB\t{wall:.1f} s in all\t"
+                f"seconds per route {' '.join(seconds) or '-'}\n")
+
+
 CLI_DRIVER = """
-import sys
+import sys, time
 from relight_rt import cli
 for line in sys.stdin.read().splitlines():
-    print("CODE", cli.main(line.split("\\t")), flush=True)
+    start = time.perf_counter()
+    code = cli.main(line.split("\\t"))
+    print("CODE", code, f"{time.perf_counter() - start:.2f}", flush=True)
 """
 
 
