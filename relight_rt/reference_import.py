@@ -371,7 +371,7 @@ def _read_checkpoint(path: str | os.PathLike, max_elements: int, check=None) -> 
     path = Path(path)
     name = str(path)
     if not path.is_file():
-        raise RelightError(f"{name}: checkpoint file not found")
+        raise RelightError(f"{name}: checkpoint file {'is not a regular file' if path.exists() else 'not found'}")
     if not zipfile.is_zipfile(path):
         raise RelightError(
             f"{name}: not a PyTorch zip checkpoint (torch.save since torch 1.6); an older file can be read "

@@ -550,7 +550,7 @@ def load_envmap(path) -> np.ndarray:
     if ext not in _ENV_EXTS:
         raise RelightError(f"{p}: unsupported environment map type {ext!r}; expected one of {', '.join(_ENV_EXTS)}")
     if not p.is_file():
-        raise RelightError(f"{p}: environment map not found")
+        raise RelightError(f"{p}: environment map {'is not a regular file' if p.exists() else 'not found'}")
     from ._limits import check_pixels, header_size
 
     try:
@@ -646,7 +646,7 @@ def load_light(path, bgr: bool = False, layout: str | None = None) -> np.ndarray
     if ext not in (".npy", ".json"):
         raise RelightError(f"{p}: unsupported light file type {ext!r}; expected .npy or .json")
     if not p.is_file():
-        raise RelightError(f"{p}: light file not found")
+        raise RelightError(f"{p}: light file {'is not a regular file' if p.exists() else 'not found'}")
     swap = bool(bgr)
     try:
         if ext == ".npy":
