@@ -223,9 +223,13 @@ _SIGNATURES = (
 )
 
 
+class _HeaderTooLong(Exception):
+    """A header parser went past its byte budget."""
+
+
 class _HeaderReader:
-    """A binary file seen through a byte budget: every parser reads at most ``budget`` bytes in all, so no
-    header, however forged, makes one loop for ever or read a whole file (a damaged header: ValueError)."""
+    """A binary file seen through a byte budget: every parser reads at most ``budget`` bytes in all (a read
+    at EOF counts as one), so no header, however forged, makes a loop run for ever or read a whole file."""
 
     def __init__(self, f, budget: int) -> None:
         self._f, self._left = f, budget
@@ -233,7 +237,7 @@ class _HeaderReader:
     def _take(self, data: bytes) -> bytes:
         self._left -= max(len(data), 1)  # a read at EOF counts too: a loop that reads b"" for ever ends
         if self._left < 0:
-            raise ValueError(f"the header is longer than {HEADER_MAX_BYTES:,} bytes")
+            raise _HeaderTooLong()
         return data
 
     def read(self, n: int = -1) -> bytes:
@@ -255,7 +259,8 @@ def header_size(path: str | os.PathLike) -> tuple[int, int] | None:
 
     Raises:
         OSError: the file cannot be opened or read.
-        RelightError: ``path`` is not a regular file (a FIFO or a device would block or never end).
+        RelightError: ``path`` is not a regular file (a FIFO or a device would block or never end), or its
+            header goes on past HEADER_MAX_BYTES (no real image's does: refused rather than decoded unchecked).
     """
     require_file(path, "image")
     with open(path, "rb") as f:
@@ -267,6 +272,9 @@ def header_size(path: str | os.PathLike) -> tuple[int, int] | None:
                     return parse(_HeaderReader(f, HEADER_MAX_BYTES))
                 except (struct.error, ValueError, OverflowError):
                     return None  # a damaged header: the decoder will say so
+                except _HeaderTooLong:
+                    raise RelightError(f"{path}: the image header goes on past {HEADER_MAX_BYTES:,} bytes "
+                                       "(a damaged or forged file); not decoded") from None
     return None
 
 

@@ -159,15 +159,20 @@ _MAGICS = [b"\x89PNG\r\n\x1a\n", b"\xff\xd8", b"BM", b"RIFF", b"II*\x00", b"MM\x
                                              if (m, f) != (b"\xff\xd8", b"\xff")])
 def test_header_parsers_are_bounded(tmp_path, monkeypatch, magic, fill):
     """issue 35 item 1: every header parser reads a bounded number of bytes and ends, whatever follows the magic
-    (the OpenEXR one read attribute names byte by byte up to a NUL, and at EOF read b"" for ever)."""
+    (the OpenEXR one read attribute names byte by byte up to a NUL, and at EOF read b"" for ever); a header
+    that would go on past the budget is refused, never passed on to the decoder unchecked."""
     from relight_rt import _limits
 
     path = tmp_path / "junk"
     path.write_bytes(magic + fill * (3 << 20))
     stats = {"bytes": 0, "calls": 0}
     monkeypatch.setattr(_limits, "open", lambda p, mode: _CountingFile(open(p, mode), stats), raising=False)
-    size = header_size(path)
-    assert size is None or all(isinstance(v, int) for v in size)
+    try:
+        size = header_size(path)
+    except RelightError as exc:
+        assert "goes on past" in str(exc)
+    else:
+        assert size is None or all(isinstance(v, int) for v in size)
     assert stats["bytes"] <= _limits.HEADER_MAX_BYTES + 16 and stats["calls"] <= _limits.HEADER_MAX_BYTES + 16
 
 
@@ -182,3 +187,15 @@ def test_exr_header_variants_end(tmp_path):
                        "cut": magic + b"dataWindow\x00box2i\x00" + struct.pack("<i", 16) + b"\x00" * 3}.items():
         (tmp_path / name).write_bytes(data)
         assert header_size(tmp_path / name) is None, name
+
+
+def test_a_header_past_the_budget_is_refused(tmp_path, monkeypatch):
+    """A parser that runs out of budget refuses the file (it is not decoded with its size unchecked)."""
+    from relight_rt import _limits
+
+    monkeypatch.setattr(_limits, "HEADER_MAX_BYTES", 64)
+    (tmp_path / "long.hdr").write_bytes(b"#?RADIANCE\n" + b"# comment\n" * 50 + b"\n-Y 9 +X 9\n")
+    with pytest.raises(RelightError, match="goes on past 64 bytes"):
+        header_size(tmp_path / "long.hdr")
+    with pytest.raises(RelightError, match="goes on past"):
+        read_image(tmp_path / "long.hdr")
