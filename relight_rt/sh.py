@@ -245,8 +245,11 @@ def render_sphere(light, size: int = 256, return_mask: bool = False):
     Returns:
         (size, size, 3) float32 RGB shading, or (image, mask) when return_mask is True.
     """
+    from ._limits import check_pixels
+
     if isinstance(size, bool) or not isinstance(size, (int, np.integer)) or size < 1:
         raise RelightError(f"size: expected a positive integer, got {size!r}")
+    check_pixels(int(size), int(size), "sphere")
     lit = check_light(light)
     c = (np.arange(size, dtype=np.float32) + np.float32(0.5)) * np.float32(2 / size) - np.float32(1)
     y = np.broadcast_to(c[None, :], (size, size))
@@ -412,8 +415,11 @@ _SEP_C = np.array([c for _, _, c in _SEPARABLE])
 
 
 def _check_height(height) -> int:
+    from ._limits import check_pixels
+
     if isinstance(height, bool) or not isinstance(height, (int, np.integer)) or height < 1:
         raise RelightError(f"height: expected a positive integer, got {height!r}")
+    check_pixels(2 * int(height), int(height), "environment map")  # (H, 2H): held to the pixel limit
     return int(height)
 
 

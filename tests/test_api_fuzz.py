@@ -95,7 +95,7 @@ def test_a_real_state_dict_still_reads(tmp_path):
 
 _ARRAY_CASES = """
 import numpy as np
-from relight_rt import RelightError, Relighter, lights, project_envmap
+from relight_rt import RelightError, Relighter, envmap_from_light, lights, project_envmap, render_sphere
 from relight_rt._io import read_image, read_mask
 from relight_rt.matting import as_rgb
 
@@ -114,6 +114,8 @@ cases = {
     "relight mask": lambda: rl.relight(small, light, mask=flat),
     "relight background": lambda: rl.relight(small, light, mask=small_mask, background=huge),
     "decompose": lambda: rl.decompose(huge, flat),
+    "render_sphere": lambda: render_sphere(light, size=60000),
+    "envmap_from_light": lambda: envmap_from_light(light, 60000),
 }
 for name, call in cases.items():
     try:
@@ -133,7 +135,7 @@ def test_arrays_are_held_to_max_pixels(tmp_path, models_dir):
                                      cases=3)  # fmt: skip
     assert rc == 0, (rc, out, err)
     lines = out.splitlines()
-    assert len(lines) == 8, out
+    assert len(lines) == 10, out
     for line in lines:
         assert line.startswith("ERROR ") and "megapixels" in line and "more than the limit" in line, line
     assert 0 < peak < PEAK_LIMIT, peak
