@@ -305,7 +305,7 @@ def _scan_pickle(data: bytes, name: str) -> None:
                 raise RelightError(f"{name}: malformed pickle (no MARK)")
             stack.pop()
             popped.reverse()
-            below = [x for x in before if x not in (pickletools.markobject, pickletools.stackslice)]
+            below = before[: before.index(pickletools.markobject)]  # APPENDS: the list; OBJ: nothing
         else:
             below = before
         under = []

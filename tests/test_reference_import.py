@@ -382,3 +382,25 @@ def test_without_onnx_the_error_names_the_extra(checkpoints, tmp_path, monkeypat
     monkeypatch.setitem(sys.modules, "onnx", None)
     with pytest.raises(RelightError, match=r'pip install "relight-rt\[import\]"'):
         import_reference(tmp_path, stage2=checkpoints["stage2"][0], width=WIDTH, resolution=RES)
+
+
+@pytest.mark.parametrize("protocol", range(pickle.HIGHEST_PROTOCOL + 1))
+def test_pickle_scan_passes_ordinary_pickles_and_refuses_deep_ones(protocol):
+    """issue 35 item 5: the opcode scan that runs before the unpickler knows every protocol's ops (marks,
+    memo, in-place appends, BUILD, OBJ/INST) and measures nesting, not length."""
+    from collections import OrderedDict
+
+    from relight_rt.reference_import import PICKLE_MAX_DEPTH, _scan_pickle
+
+    state = OrderedDict(a=[1] * 3000, b={"x": {"y": (1, (2, ()))}}, c={1, 2}, d=b"x" * 100, e=10**40)
+    _scan_pickle(pickle.dumps(state, protocol=protocol), "ok")
+    _scan_pickle(pickle.dumps(_RunsCode(len, "x"), protocol=protocol), "reduce")  # scanned only, never run
+    deep = ()
+    for _ in range(PICKLE_MAX_DEPTH + 1):
+        deep = (deep,)
+    with pytest.raises(RelightError, match="nests containers more than"):
+        _scan_pickle(pickle.dumps({deep: 1}, protocol=protocol), "deep")
+    shallow = ()
+    for _ in range(PICKLE_MAX_DEPTH - 2):
+        shallow = (shallow,)
+    _scan_pickle(pickle.dumps({shallow: 1}, protocol=protocol), "shallow")
