@@ -324,6 +324,9 @@ def test_fifo_inputs_are_refused_by_every_command(tmp_path, models_dir, monkeypa
         ["lights", "from-photo", fifos["png"], "-o", "l.npy"],
         ["lights", "show", fifos["npy"], "-o", "s.png"],
         ["import-reference", "--stage1", fifos["pth"], "--out", "graphs"],
+        ["composite", fifos["png"], "--background", "p.png", "-o", "c.png"],
+        ["composite", "p.png", "--background", fifos["png"], "-o", "c.png"],
+        ["lights", "from-background", fifos["png"], "-o", "l.npy"],
     ]
     unblockers = [_Unblocker(tmp_path / f) for f in fifos.values()]
     try:
