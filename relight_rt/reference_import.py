@@ -12,14 +12,21 @@ pickle of the state_dict), ``PREFIX/data/KEY`` (the raw bytes of each tensor sto
 plain state_dict of tensors needs, the ones ``torch.load(weights_only=True)`` accepts for that:
 
 - ``collections.OrderedDict``;
-- ``torch._utils._rebuild_tensor_v2`` and ``torch._utils._rebuild_parameter`` (rebuilt here as numpy
-  arrays from a storage, an offset, a size and a stride, bounds-checked);
+- ``torch._utils._rebuild_tensor_v2`` and ``torch._utils._rebuild_parameter`` (tensor records: a storage,
+  an offset and a size; only the contiguous strides are accepted, and the record must lie inside its
+  storage);
 - the storage classes ``torch.FloatStorage``, ``torch.DoubleStorage``, ... and ``torch.UntypedStorage``,
   which only appear inside the persistent-id records ``("storage", TYPE, KEY, LOCATION, NUMEL)`` that
   name a storage file of the archive.
 
 Any other global (``os.system``, ``builtins.eval``, a class, ...) is refused with a RelightError before it
 is looked up: no code from the file runs. The legacy (pre-1.6, non-zip) torch format is not read.
+
+Nothing is read unbounded (issue 35): ``data.pkl`` is refused past PICKLE_MAX_BYTES (its size from the
+archive's directory) and its opcodes are scanned before the unpickler sees them (count, and the nesting of
+containers: a dict key nested 200,000 deep crashed the interpreter); the storages are read only after all
+records are known (and, when importing, the layout checked on their shapes), their declared sizes together
+at most the expected network's element count.
 
 Conversion (:func:`import_reference`), as ``export.convert``: every key and shape is checked against
 the reference layout (DESIGN.md §1) at the given width and resolution (64 / 1024 for the real files),
