@@ -34,10 +34,9 @@ def main(argv: list[str] | None = None) -> int:
         from .cli import main as cli_main
 
         return cli_main(argv)
-    except KeyboardInterrupt as exc:  # before (or after) the CLI's own handling: nothing was written
+    except KeyboardInterrupt as exc:  # outside the CLI's own handling (loading, parsing): nothing was written
         terminated = isinstance(exc, _Terminated) or type(exc).__name__ == "Terminated"
-        reason = "terminated (SIGTERM)" if terminated else "interrupted"
-        print(f"relight-rt: {reason} while starting; nothing was written", file=sys.stderr)
+        print(f"relight-rt: {'terminated (SIGTERM)' if terminated else 'interrupted'}", file=sys.stderr)
         return 128 + (signal.SIGTERM if terminated else signal.SIGINT)
     finally:
         if previous is not None:
