@@ -5,37 +5,42 @@ Relighting with Domain Adaptation" (Pacific Graphics 2021). Conventions (SH orde
 colour order) are those of DESIGN.md §3: RGB, real orthonormal degree-2 SH, +x toward the camera.
 """
 
-from . import color, compositing, config, contract, lights, lightspec, masks, sh
-from ._errors import RelightError
+from typing import TYPE_CHECKING
+
 from ._version import __version__
-from .color import linear_to_srgb, srgb_to_linear
-from .compositing import Background, parse_background
-from .config import RuntimeConfig
-from .contract import KindSpec, ModelConfig, TensorSpec, register_kind
-from .lights import ambient, directional, interpolate, list_presets, preset, rotation_sequence, sky
-from .lightspec import LightSpec, parse_light
-from .masks import Matter, resolve_mask
-from .relighter import Decomposition, Relighter, RelightResult
-from .session import Model, create_session, find_models, load_model
-from .sh import (
-    basis,
-    check_light,
-    cosine_lobe,
-    directions_envmap,
-    envmap_from_light,
-    irradiance,
-    load_envmap,
-    load_light,
-    project_envmap,
-    render_sphere,
-    rotate,
-    rotate_z,
-    rotation_matrix,
-    save_light,
-    shading,
-    solid_angles_envmap,
-)
-from .transport_file import load_transport
+
+if TYPE_CHECKING:  # what the lazy loading below provides, for type checkers and readers
+    from . import color, compositing, config, contract, lights, lightspec, masks, sh
+    from ._errors import RelightError
+    from .color import linear_to_srgb, srgb_to_linear
+    from .compositing import Background, parse_background
+    from .config import RuntimeConfig
+    from .contract import KindSpec, ModelConfig, TensorSpec, register_kind
+    from .lights import ambient, directional, interpolate, list_presets, preset, rotation_sequence, sky
+    from .lightspec import LightSpec, parse_light
+    from .masks import Matter, resolve_mask
+    from .relighter import Decomposition, Relighter, RelightResult
+    from .session import Model, create_session, find_models, load_model
+    from .sh import (
+        basis,
+        check_light,
+        cosine_lobe,
+        directions_envmap,
+        envmap_from_light,
+        irradiance,
+        load_envmap,
+        load_light,
+        project_envmap,
+        render_sphere,
+        rotate,
+        rotate_z,
+        rotation_matrix,
+        save_light,
+        shading,
+        solid_angles_envmap,
+    )
+    from .transport_file import load_transport
+
 
 __all__ = [
     "RelightError",
@@ -49,7 +54,6 @@ __all__ = [
     "find_models",
     "load_model",
     "Model",
-    "load_transport",
     # the model contract
     "KindSpec",
     "ModelConfig",
@@ -88,6 +92,8 @@ __all__ = [
     "save_light",
     "shading",
     "solid_angles_envmap",
+    # decompose's files
+    "load_transport",
     # colour
     "linear_to_srgb",
     "srgb_to_linear",
@@ -100,3 +106,56 @@ __all__ = [
     "rotation_sequence",
     "sky",
 ]
+
+# The public names are loaded at their first use, not at ``import relight_rt``: the command line must install
+# its signal handling before numpy, OpenCV and onnxruntime load (~0.3 s in which Ctrl-C gave a traceback and
+# SIGTERM no message; issue 35 item 16). The first access of any name loads them all, in the order above.
+_PUBLIC_FROM = {
+    "_errors": ["RelightError"],
+    "color": ["linear_to_srgb", "srgb_to_linear"],
+    "compositing": ["Background", "parse_background"],
+    "config": ["RuntimeConfig"],
+    "contract": ["KindSpec", "ModelConfig", "TensorSpec", "register_kind"],
+    "lights": ["ambient", "directional", "interpolate", "list_presets", "preset", "rotation_sequence", "sky"],
+    "lightspec": ["LightSpec", "parse_light"],
+    "masks": ["Matter", "resolve_mask"],
+    "relighter": ["Decomposition", "Relighter", "RelightResult"],
+    "session": ["Model", "create_session", "find_models", "load_model"],
+    "sh": ["basis", "check_light", "cosine_lobe", "directions_envmap", "envmap_from_light", "irradiance",
+           "load_envmap", "load_light", "project_envmap", "render_sphere", "rotate", "rotate_z", "rotation_matrix",
+           "save_light", "shading", "solid_angles_envmap"],
+    "transport_file": ["load_transport"],
+}
+_MODULES = ("color", "compositing", "config", "contract", "lights", "lightspec", "masks", "sh")
+_state = {"loading": False}
+
+
+def _load_public_names() -> None:
+    import importlib
+
+    if _state["loading"]:  # a module being loaded asks for a sibling: the import system fetches it itself
+        return
+    _state["loading"] = True
+    try:
+        for module in _MODULES:
+            importlib.import_module(f"{__name__}.{module}")
+        for module, names in _PUBLIC_FROM.items():
+            loaded = importlib.import_module(f"{__name__}.{module}")
+            globals().update({name: getattr(loaded, name) for name in names})
+    finally:
+        _state["loading"] = False
+
+
+def __getattr__(name: str):
+    if name.startswith("__"):
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    _load_public_names()
+    try:
+        return globals()[name]
+    except KeyError:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
+
+
+def __dir__() -> list[str]:
+    _load_public_names()
+    return sorted(globals())

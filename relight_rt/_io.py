@@ -12,7 +12,7 @@ import contextlib
 import logging
 import os
 import tempfile
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 
 import cv2
@@ -20,7 +20,7 @@ import numpy as np
 
 from ._errors import RelightError
 from ._exif import apply_orientation, exif_orientation
-from ._limits import check_pixels, header_size, load_npy, max_pixels  # noqa: F401  (re-exported)
+from ._limits import check_array_pixels, check_pixels, header_size, load_npy, max_pixels  # noqa: F401  (re-exported)
 
 log = logging.getLogger(__name__)
 
@@ -124,6 +124,7 @@ def read_image(src: str | os.PathLike | np.ndarray, name: str = "image") -> np.n
     if isinstance(src, np.ndarray):
         a = as_colour(src, bgr=False)
         label = name
+        check_array_pixels(a, name)
     elif isinstance(src, (str, os.PathLike)):
         path = Path(src)
         a = as_colour(_decode(path, name), bgr=True)  # files are BGR(A)
@@ -161,6 +162,7 @@ def read_mask(
     """
     if isinstance(src, np.ndarray):
         a, label = src, name
+        check_array_pixels(a, name)
         if a.ndim == 3 and a.shape[2] == 3 and a.dtype in (np.uint8, np.uint16, np.float32, np.float64):
             a = cv2.cvtColor(np.ascontiguousarray(a), cv2.COLOR_RGB2GRAY)
     elif isinstance(src, (str, os.PathLike)):
@@ -285,11 +287,43 @@ def _under_a_file(folder: Path) -> bool:
     return any(p.is_file() for p in (folder, *folder.parents))
 
 
+def _write_to(tmp: Path, path: Path, write: Callable[[object], None]) -> None:
+    """``write(fileobj)`` into ``tmp``; a failure of the file system (a full disk) names ``path``."""
+    try:
+        with open(tmp, "wb") as f:
+            write(f)
+    except OSError as exc:
+        raise RelightError(f"cannot write {path}: {exc.strerror or exc}") from None
+
+
 def _atomic(path: str | os.PathLike, protect: Iterable[str | os.PathLike], write: Callable[[object], None]) -> Path:
     """Write through ``write(fileobj)`` into a temporary file beside ``path``, then rename it into place."""
-    with atomic_path(path, protect) as tmp, open(tmp, "wb") as f:
-        write(f)
+    with atomic_path(path, protect) as tmp:
+        _write_to(tmp, Path(path), write)
     return Path(path)
+
+
+def write_all(files: Sequence[tuple[str | os.PathLike, Callable[[object], None]]],
+              protect: Iterable[str | os.PathLike] = ()) -> list[Path]:
+    """Write several files as one: all of them or none.
+
+    Every target is checked against ``protect`` before anything is written; each file is written through
+    ``write(fileobj)`` into its own temporary file; only when every one is complete are they renamed into
+    place. A failure (an input among the targets, a full disk, an encoder error) leaves none of them.
+
+    Args:
+        files: (path, write) pairs.
+        protect: inputs no target may replace.
+    """
+    protect = protect if isinstance(protect, ProtectedPaths) else ProtectedPaths(protect)
+    paths = [Path(p) for p, _ in files]
+    for path in paths:
+        check_target(path, protect)
+    with contextlib.ExitStack() as stack:
+        temps = [stack.enter_context(atomic_path(path, protect)) for path in paths]
+        for (_, write), tmp, path in zip(files, temps, paths, strict=True):
+            _write_to(tmp, path, write)
+    return paths
 
 
 def encode_image(image: np.ndarray, suffix: str, name: str = "image") -> bytes:

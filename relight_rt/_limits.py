@@ -21,6 +21,7 @@ import contextlib
 import contextvars
 import math
 import os
+import stat
 import struct
 from collections.abc import Iterator
 from pathlib import Path
@@ -32,6 +33,8 @@ from ._errors import RelightError
 DEFAULT_MAX_PIXELS = 100_000_000
 _MAX_PIXELS = contextvars.ContextVar("relight_rt_max_pixels", default=DEFAULT_MAX_PIXELS)
 NPY_MAX_BYTES = 1 << 30  # no light sequence or layer file of this project comes near 1 GiB
+HEADER_MAX_BYTES = 1 << 20  # what a header parser may read (a TIFF's largest IFD is 786 KB; seeks are free)
+_MAX_ATTRIBUTES = 1000  # OpenEXR header attributes parsed before giving up (real files have ~10-40)
 
 
 def max_pixels() -> int:
@@ -59,6 +62,13 @@ def check_pixels(width: int, height: int, name: str) -> None:
             f"{name}: image is {width}x{height} ({width * height / 1e6:.1f} megapixels), more than the limit of "
             f"{limit / 1e6:g} megapixels; raise it with --max-pixels if the machine has the memory"
         )
+
+
+def check_array_pixels(a: np.ndarray, name: str) -> None:
+    """:func:`check_pixels` for an image given as an array (H, W[, C]): a 60000 x 60000 view of one pixel
+    costs nothing until it is converted, then 43 GB; it is refused from its shape, before any work."""
+    if a.ndim >= 2:
+        check_pixels(int(a.shape[1]), int(a.shape[0]), name)
 
 
 # ------------------------------------------------------------------------------------- image headers
@@ -167,19 +177,33 @@ def _radiance(f) -> tuple[int, int] | None:
     return None
 
 
+def _cstring(f, limit: int) -> bytes | None:
+    """A NUL-terminated string of at most ``limit`` bytes; None at EOF or when it runs longer (a damaged or
+    forged header: reading on would never end at EOF, or end only after the whole file)."""
+    data = f.read(limit + 1)
+    end = data.find(b"\x00")
+    if end < 0:
+        return None
+    f.seek(end + 1 - len(data), os.SEEK_CUR)  # back to just after the NUL
+    return data[:end]
+
+
 def _exr(f) -> tuple[int, int] | None:
     f.seek(8)
-    for _ in range(1000):
-        name = b"".join(iter(lambda: f.read(1), b"\x00"))[:256]
-        if not name:
+    for _ in range(_MAX_ATTRIBUTES):
+        name = _cstring(f, 255)  # OpenEXR: attribute and type names are at most 255 bytes (31 in old files)
+        if not name:  # None (no NUL within the limit, or EOF) or b"" (the end of the header)
             return None
-        b"".join(iter(lambda: f.read(1), b"\x00"))  # the attribute's type name
+        if _cstring(f, 255) is None:  # the attribute's type name
+            return None
         raw = f.read(4)
         if len(raw) < 4:
             return None
         size = struct.unpack("<i", raw)[0]
         if name == b"dataWindow" and size == 16:
             x0, y0, x1, y1 = struct.unpack("<iiii", f.read(16))
+            if x1 < x0 or y1 < y0:
+                return None
             return x1 - x0 + 1, y1 - y0 + 1
         if size < 0:
             return None
@@ -199,22 +223,88 @@ _SIGNATURES = (
 )
 
 
+class _HeaderTooLong(Exception):
+    """A header parser went past its byte budget."""
+
+
+class _HeaderReader:
+    """A binary file seen through a byte budget: every parser reads at most ``budget`` bytes in all (a read
+    at EOF counts as one), so no header, however forged, makes a loop run for ever or read a whole file."""
+
+    def __init__(self, f, budget: int) -> None:
+        self._f, self._left = f, budget
+
+    def _take(self, data: bytes) -> bytes:
+        self._left -= max(len(data), 1)  # a read at EOF counts too: a loop that reads b"" for ever ends
+        if self._left < 0:
+            raise _HeaderTooLong()
+        return data
+
+    def read(self, n: int = -1) -> bytes:
+        return self._take(self._f.read(self._left + 1 if n is None or n < 0 else min(n, self._left + 1)))
+
+    def readline(self, n: int = -1) -> bytes:
+        return self._take(self._f.readline(self._left + 1 if n is None or n < 0 else min(n, self._left + 1)))
+
+    def seek(self, offset: int, whence: int = os.SEEK_SET) -> int:
+        return self._f.seek(offset, whence)
+
+    def tell(self) -> int:
+        return self._f.tell()
+
+
 def header_size(path: str | os.PathLike) -> tuple[int, int] | None:
-    """(width, height) from an image file's header without decoding it; None for formats not parsed here.
+    """(width, height) from an image file's header without decoding it; None for formats not parsed here
+    and for damaged headers (the decoder then says what is wrong). Reads at most HEADER_MAX_BYTES.
 
     Raises:
         OSError: the file cannot be opened or read.
+        RelightError: ``path`` is not a regular file (a FIFO or a device would block or never end), or its
+            header goes on past HEADER_MAX_BYTES (no real image's does: refused rather than decoded unchecked).
     """
+    require_file(path, "image")
     with open(path, "rb") as f:
         head = f.read(8)
         for magic, parse in _SIGNATURES:
             if head.startswith(magic):
                 f.seek(0)
                 try:
-                    return parse(f)
-                except (struct.error, ValueError):
+                    return parse(_HeaderReader(f, HEADER_MAX_BYTES))
+                except (struct.error, ValueError, OverflowError):
                     return None  # a damaged header: the decoder will say so
+                except _HeaderTooLong:
+                    raise RelightError(f"{path}: the image header goes on past {HEADER_MAX_BYTES:,} bytes "
+                                       "(a damaged or forged file); not decoded") from None
     return None
+
+
+def require_file(path: str | os.PathLike, name: str) -> Path:
+    """``path`` as a Path when it names a regular file (symlinks followed); else RelightError naming it.
+
+    Reading a FIFO blocks until a writer comes (for ever, in a batch), and a device such as /dev/zero never
+    ends: every input file is checked with this before it is opened.
+    """
+    p = Path(path)
+    try:
+        st = os.stat(p)
+    except FileNotFoundError:
+        raise RelightError(f"{name} {p}: not found") from None
+    except OSError as exc:
+        raise RelightError(f"{name} {p}: cannot read ({exc.strerror or exc})") from None
+    if not stat.S_ISREG(st.st_mode):
+        what = "a folder" if stat.S_ISDIR(st.st_mode) else "a FIFO" if stat.S_ISFIFO(st.st_mode) else \
+            "a device" if stat.S_ISCHR(st.st_mode) or stat.S_ISBLK(st.st_mode) else \
+            "a socket" if stat.S_ISSOCK(st.st_mode) else "not a file"
+        raise RelightError(f"{name} {p}: not a regular file ({what}); expected a file")
+    return p
+
+
+def require_file_or_folder(path: str | os.PathLike, name: str) -> Path:
+    """``path`` when it names a regular file or a folder; else RelightError (see :func:`require_file`)."""
+    p = Path(path)
+    if p.is_dir():
+        return p
+    return require_file(p, name)
 
 
 # ------------------------------------------------------------------------------------- .npy

@@ -88,7 +88,7 @@ def light_spec(args: argparse.Namespace) -> LightSpec | None:
         if not path.exists() and not suffix and args.light in lights.list_presets():
             raise RelightError(f"--light expects a light file; {args.light!r} is a preset: use --preset {args.light}")
         if not path.is_file():
-            raise RelightError(f"--light {args.light}: file not found")
+            raise RelightError(f"--light {args.light}: {'not a regular file' if path.exists() else 'file not found'}")
         if suffix in SH_FILE_SUFFIXES:
             return LightSpec.file(path, bgr=args.bgr, rotate=args.rotate)
         if suffix in HDR_SUFFIXES and not args.bgr:

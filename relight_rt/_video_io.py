@@ -41,7 +41,7 @@ import numpy as np
 
 from ._errors import RelightError
 from ._io import IMAGE_SUFFIXES, ProtectedPaths, _umask, read_image, read_mask, same_file, write_image
-from ._limits import check_pixels
+from ._limits import check_pixels, require_file_or_folder
 
 log = logging.getLogger(__name__)
 
@@ -49,6 +49,19 @@ VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".webm", ".m4v")
 _FOURCC = {".mp4": "mp4v", ".m4v": "mp4v", ".mov": "mp4v", ".avi": "MJPG", ".mkv": "MJPG"}
 _EXACT_COUNT = (".mp4", ".m4v", ".mov", ".avi")  # containers whose header holds the frame count (OpenCV path)
 _noted: set[str] = set()
+MAX_FPS = 1000  # frames per second: high-speed cameras reach it; container time bases overflow far above it
+
+
+def check_fps(fps) -> None:
+    """Raise RelightError unless ``fps`` is None or a frame rate in (0, MAX_FPS]."""
+    if fps is None:
+        return
+    try:
+        value = float(fps)
+    except (TypeError, ValueError, OverflowError):
+        raise RelightError(f"fps: expected a number, got {fps!r}") from None
+    if not (np.isfinite(value) and 0 < value <= MAX_FPS):
+        raise RelightError(f"fps: must be > 0 and at most {MAX_FPS}, got {value:g}")
 
 
 def _av():
@@ -256,10 +269,10 @@ class FrameSource:
         self.skip_bad = bool(skip_bad)
         self.skipped: list[str] = []
         self.lost = 0  # frames left out (a damaged stretch of a video may lose many in one message)
-        if fps is not None and not (np.isfinite(fps) and fps > 0):
-            raise RelightError(f"fps: must be > 0, got {fps}")
+        check_fps(fps)
         if not self.path.exists():
             raise RelightError(f"{self.path}: input video or folder does not exist")
+        require_file_or_folder(self.path, "input video")  # a FIFO would block for ever
         self._files: list[Path] | None = None
         self._info: VideoInfo | None = None
         self.has_audio = False
@@ -282,6 +295,7 @@ class FrameSource:
         if self.masks is not None:
             if not self.masks.exists():
                 raise RelightError(f"{self.masks}: mask folder or video does not exist")
+            require_file_or_folder(self.masks, "mask video")
             if self.masks.is_dir():
                 self._mask_files = _image_files(self.masks)
                 inputs += self._mask_files
@@ -502,8 +516,7 @@ class FrameSink:
                  audio_from: str | os.PathLike | None = None):
         if video is None and frames_dir is None:
             raise RelightError("output: expected a video file and/or a frames folder, got neither")
-        if not (np.isfinite(float(fps)) and float(fps) > 0):
-            raise RelightError(f"fps: must be > 0, got {fps}")
+        check_fps(fps)
         self._protect = ProtectedPaths(protect)  # checked for every frame written: resolved once
         self.video = None if video is None else Path(video)
         self.frames_dir = None if frames_dir is None else Path(frames_dir)
@@ -532,6 +545,21 @@ class FrameSink:
         suffix = self.video.suffix.lower()
         fd, tmp = tempfile.mkstemp(prefix=f".{self.video.name}.", suffix=f".tmp{suffix}", dir=folder)
         self._tmp = Path(tmp)
+        self._fd_closed = False
+        try:
+            self._start(fd, width, height, suffix)
+        except BaseException:  # no writer yet, so close() would not see the file: remove it here
+            if self._file is not None:
+                self._file.close()
+            elif not self._fd_closed:
+                os.close(fd)
+            if self._writer is not None and not isinstance(self._writer, _AVWriter):
+                self._writer.release()
+            self._file, self._writer = None, None
+            self._tmp.unlink(missing_ok=True)
+            raise
+
+    def _start(self, fd: int, width: int, height: int, suffix: str) -> None:
         av = _av()
         if av is not None:
             self._file = os.fdopen(fd, "wb")  # PyAV writes through the descriptor mkstemp opened
@@ -544,6 +572,7 @@ class FrameSink:
                          self.video, width, height)
             return
         os.close(fd)  # cv2.VideoWriter opens by name: the file mkstemp made exclusively, unguessable name
+        self._fd_closed = True
         if self.audio_from is not None and "audio" not in _noted:
             _noted.add("audio")
             log.warning('%s: the audio is not kept without PyAV (pip install "relight-rt[video]")', self.video)

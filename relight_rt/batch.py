@@ -48,6 +48,8 @@ def gather_inputs(inputs: Iterable[str]) -> tuple[list[Path], list[tuple[str, st
             files.extend(found)
         elif path.is_file():
             files.append(path)
+        elif path.exists():  # a FIFO or a device: reading it would block or never end
+            failures.append((item, f"input {item}: not a regular file or folder"))
         else:
             failures.append((item, f"input {item} not found"))
     return files, failures

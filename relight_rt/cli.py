@@ -29,7 +29,9 @@ from ._io import (
     ProtectedPaths,
     atomic_path,
     check_target,
+    encode_image,
     sibling_mask,
+    write_all,
     write_image,
     write_npy,
 )
@@ -51,7 +53,7 @@ from .distributed import add_ray_options
 from .exposure import parse_exposure
 from .lightspec import LightSpec, parse_light
 from .masks import find_mask_file
-from .transport_file import save_transport
+from .transport_file import transport_arrays
 
 log = logging.getLogger("relight_rt.cli")
 
@@ -168,11 +170,15 @@ def cmd_decompose(args: argparse.Namespace) -> int:
     folder.mkdir(parents=True, exist_ok=True)
     protect = [src, *paths_of(mask if mask != "auto" else None), *Path(rl.models_dir).glob("*.onnx")]
     layers = rl.layers(dec)  # at the photo's resolution, with its detail in the albedo
-    write_image(folder / "albedo.png", layers["albedo"], protect)
-    write_image(folder / "shading.png", layers["shading"], protect)
-    write_image(folder / "skin.png", layers["skin"], protect)
-    write_npy(folder / "light.npy", np.asarray(dec.white_light, np.float64), protect)  # albedo x shading = photo
-    save_transport(folder / "transport.npz", dec.transport, dec.geometry, protect)  # network size, float16
+    pngs = {name: encode_image(layers[name], ".png", name=str(folder / f"{name}.png"))
+            for name in ("albedo", "shading", "skin")}
+    transport = transport_arrays(dec.transport, dec.geometry)  # network size, float16, with its crop geometry
+    write_all([  # the five layers or none of them (an input among them, a full disk)
+        *((folder / f"{name}.png", lambda f, data=data: f.write(data)) for name, data in pngs.items()),
+        # the photo's own light as the runtime takes it (white): albedo x shading = photo
+        (folder / "light.npy", lambda f: np.save(f, np.asarray(dec.white_light, np.float64), allow_pickle=False)),
+        (folder / "transport.npz", lambda f: np.savez_compressed(f, **transport)),
+    ], protect)  # fmt: skip
     log.info("%s -> %s (albedo.png, shading.png, skin.png, light.npy, transport.npz)", src, folder)
     return 0
 
@@ -317,8 +323,16 @@ PLUGINS = ["relight_rt.video_cli", "relight_rt.demo", "relight_rt.bench", "relig
            "relight_rt.studio", "relight_rt.reference_import"]
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse, with a usage error as one line (``relight-rt: error: ...; see relight-rt CMD -h``), not the
+    whole usage block; every subcommand's parser is one of these (add_subparsers makes its own class)."""
+
+    def error(self, message: str):
+        self.exit(2, f"relight-rt: error: {message}; see {self.prog} -h\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="relight-rt", description="Relight people in photos and videos.")
+    parser = _Parser(prog="relight-rt", description="Relight people in photos and videos.")
     parser.add_argument("--version", action="version", version=f"relight-rt {__version__}")
     _add_log_options(parser)
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")

@@ -198,6 +198,8 @@ class ManifestWriter:
 
         self.path = Path(path)
         check_target(self.path, protect)
+        if self.path.exists() and not self.path.is_file():  # a FIFO would block the open below for ever
+            raise RelightError(f"manifest {self.path}: exists and is not a regular file")
         if not self.path.parent.is_dir():
             raise RelightError(f"manifest {self.path}: folder {self.path.parent} does not exist")
         self._fd = os.open(self.path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o666)
@@ -319,6 +321,22 @@ class RelightActor:
         return {k: np.asarray(v) for k, v in out.items()}
 
 
+def files_read(paths: Iterable[str | os.PathLike | None], models_dir: str | os.PathLike | None = None) -> list[Path]:
+    """Every file a run reads, none of which an output (the manifest too) may replace: the files named, every
+    file of a folder named (a --mask folder, a folder of frames), the NAME_mask.* beside each image, and the
+    model graphs."""
+    found: list[Path] = []
+    for p in (Path(p) for p in paths if p):
+        if p.is_dir():
+            found.extend(f for f in p.iterdir() if f.is_file())
+        elif p.exists():
+            found.append(p)
+    found.extend(m for m in map(sibling_mask, list(found)) if m)
+    if models_dir is not None:
+        found.extend(Path(models_dir).glob("*.onnx"))
+    return found
+
+
 def _protect_per_output(plan: batch.Plan, extra: Iterable) -> dict[Path, list[str]]:
     """For each output (resolved), the inputs it would replace: all an actor needs to refuse it."""
     protect = [*plan.inputs, *(p for p in extra if p), *(m for m in map(sibling_mask, plan.inputs) if m)]
@@ -403,8 +421,9 @@ def relight_folder(
         out.mkdir(parents=True, exist_ok=True)
     manifest_path = Path(manifest) if manifest else (out.parent / f"{out.name}.manifest.jsonl" if plan.to_file
                                                       else out / MANIFEST_NAME)  # fmt: skip
-    extra = [mask_arg if mask_arg != "auto" else None, background.path, *map(str, protect)]
-    by_path = _protect_per_output(plan, extra)
+    reads = files_read([*plan.inputs, mask_arg if mask_arg != "auto" else None, background.path,
+                        *map(str, protect)], models_dir)  # fmt: skip
+    by_path = _protect_per_output(plan, reads)
     report = Report(manifest_path, len(plan.inputs), failures=list(plan.failures))
     done = done_outputs(manifest_path, job)
     todo, rows = [], []
@@ -415,7 +434,7 @@ def relight_folder(
         else:
             todo.append({"index": index, "input": str(src), "output": str(target),
                          "protect": json.dumps(by_path.get(key, []))})  # fmt: skip
-    with ManifestWriter(manifest_path, protect=[*plan.inputs, *(p for p in extra if p)]) as writer:
+    with ManifestWriter(manifest_path, protect=reads) as writer:
         writer.write(r for _, r in rows)
         if todo:
             with ray_session(ray_address) as ray:
@@ -594,7 +613,12 @@ def cmd_video_ray(args: argparse.Namespace) -> int:
     report = Report(manifest, len(args.input), failures=list(failures))
     done = done_outputs(manifest, job)
     rows: list[tuple[int, dict]] = []
-    with ManifestWriter(manifest, protect=args.input) as writer:
+    from .session import find_models
+
+    reads = files_read([*args.input, args.masks if args.masks != "auto" else None, args.lights, args.light,
+                        args.envmap, args.light_from, *(args.interpolate or []), args.dvp, args.background],
+                       None if args.dvp else find_models(args.models))  # fmt: skip
+    with ManifestWriter(manifest, protect=reads) as writer:
         todo = []
         for index, settings in enumerate(clips):
             target = settings["output"] or settings["frames_out"]

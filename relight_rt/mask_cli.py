@@ -19,11 +19,11 @@ import logging
 import sys
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 from ._errors import RelightError
 from ._io import IMAGE_SUFFIXES, list_images, read_image, write_image
+from ._options import add_max_pixels
 from ._progress import Progress, progress
 from ._video_io import VIDEO_SUFFIXES
 
@@ -51,6 +51,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="video: weight of the motion-compensated history in [0, 1) (default 0.7; 0 = off)")  # fmt: skip
     p.add_argument("--models", metavar="DIR", help="folder with matte_pose.onnx and matte_roi.onnx (default: bundled)")
     p.add_argument("--device", choices=("auto", "cpu", "cuda"), default="cpu", help="where to run (default: cpu)")
+    add_max_pixels(p)  # photos and every video frame
     p.set_defaults(func=run)
     return p
 
@@ -107,6 +108,8 @@ def run(args: argparse.Namespace) -> int:
         elif item.is_file():
             files.append(item)
             protect.add(item)
+        elif item.exists():  # a FIFO or a device: reading it would block or never end
+            failures.append((str(item), f"input {item}: not a regular file or folder"))
         else:
             failures.append((str(item), f"input {item} not found"))
     single = len(inputs) == 1 and inputs[0].is_file()
@@ -150,34 +153,29 @@ def _run_sequence(folder: Path, out: Path, vm, binary: bool) -> int:
 
 
 def _run_video(video: Path, out: Path, vm, binary: bool) -> int:
-    from ._video_io import FrameSink
+    """Mask every frame of a video file: frames are read as ``video`` reads them (relight_rt._video_io: the
+    pixel limit checked from the header, a damaged packet or fewer frames than the header announces is an
+    error), so the mask video has exactly one frame per frame of the clip, or is not written."""
+    from ._video_io import FrameSink, FrameSource
 
-    cap = cv2.VideoCapture(str(video))
-    if not cap.isOpened():
-        raise RelightError(f"{video}: OpenCV cannot open this video")
-    fps = float(cap.get(cv2.CAP_PROP_FPS) or 25.0)
     as_video = out.suffix.lower() in VIDEO_SUFFIXES
     if out.suffix and not as_video:
-        cap.release()
         raise RelightError(f"output {out}: expected a video file ({', '.join(VIDEO_SUFFIXES)}) or a folder")
-    sink = FrameSink(video=out if as_video else None, frames_dir=None if as_video else out, fps=fps, protect=[video])
+    source = FrameSource(video, matter=vm)  # every frame gets vm's alpha: no mask files, no alpha channel
+    sink = FrameSink(video=out if as_video else None, frames_dir=None if as_video else out, fps=source.rate,
+                     protect=source.paths)
     count = 0
-    bar = Progress(int(cap.get(cv2.CAP_PROP_FRAME_COUNT) or 0), "frame")  # relight_rt._progress
+    bar = Progress(source.frame_count, "frame")  # relight_rt._progress
     try:
         with sink:
-            while True:
-                ok, bgr = cap.read()
-                if not ok:
-                    break
-                rgb = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB).astype(np.float32) * np.float32(1 / 255)
-                alpha = _finish(vm(rgb, f"{video} frame {count}"), binary)
-                sink.write(f"frame_{count:06d}_mask", np.repeat(alpha[..., None], 3, axis=2))
+            for frame in source:
+                alpha = _finish(frame.mask, binary)
+                sink.write(f"frame_{frame.index:06d}_mask", np.repeat(alpha[..., None], 3, axis=2))
                 count += 1
                 bar.update()
             if count == 0:
                 raise RelightError(f"{video}: no frames could be read")
     finally:
         bar.close()
-        cap.release()
     log.info("%s: %d mask frames -> %s", video, count, out)
     return 0

@@ -42,6 +42,7 @@ import cv2
 import numpy as np
 
 from ._errors import RelightError
+from ._limits import check_array_pixels
 from .contract import KINDS
 from .foreground import estimate_foreground as estimate_foreground  # re-exported (issue 33)
 from .session import ENV_MODELS, Model, bundled_models_dir, load_model
@@ -109,6 +110,7 @@ def as_rgb(image: np.ndarray, name: str = "image") -> np.ndarray:
     if not isinstance(image, np.ndarray):
         raise RelightError(f"{name}: expected an (H, W, 3) RGB array, got {type(image).__name__}")
     a = image
+    check_array_pixels(a, name)
     if a.ndim == 3 and a.shape[2] == 1:
         a = a[..., 0]
     if a.ndim == 2:

@@ -12,14 +12,21 @@ pickle of the state_dict), ``PREFIX/data/KEY`` (the raw bytes of each tensor sto
 plain state_dict of tensors needs, the ones ``torch.load(weights_only=True)`` accepts for that:
 
 - ``collections.OrderedDict``;
-- ``torch._utils._rebuild_tensor_v2`` and ``torch._utils._rebuild_parameter`` (rebuilt here as numpy
-  arrays from a storage, an offset, a size and a stride, bounds-checked);
+- ``torch._utils._rebuild_tensor_v2`` and ``torch._utils._rebuild_parameter`` (tensor records: a storage,
+  an offset and a size; only the contiguous strides are accepted, and the record must lie inside its
+  storage);
 - the storage classes ``torch.FloatStorage``, ``torch.DoubleStorage``, ... and ``torch.UntypedStorage``,
   which only appear inside the persistent-id records ``("storage", TYPE, KEY, LOCATION, NUMEL)`` that
   name a storage file of the archive.
 
 Any other global (``os.system``, ``builtins.eval``, a class, ...) is refused with a RelightError before it
 is looked up: no code from the file runs. The legacy (pre-1.6, non-zip) torch format is not read.
+
+Nothing is read unbounded (issue 35): ``data.pkl`` is refused past PICKLE_MAX_BYTES (its size from the
+archive's directory) and its opcodes are scanned before the unpickler sees them (count, and the nesting of
+containers: a dict key nested 200,000 deep crashed the interpreter); the storages are read only after all
+records are known (and, when importing, the layout checked on their shapes), their declared sizes together
+at most the expected network's element count.
 
 Conversion (:func:`import_reference`), as ``export.convert``: every key and shape is checked against
 the reference layout (DESIGN.md §1) at the given width and resolution (64 / 1024 for the real files),
@@ -38,12 +45,14 @@ from __future__ import annotations
 
 import argparse
 import hashlib
+import io
 import logging
 import math
 import os
 import pickle
 import re
 import zipfile
+import zlib
 from collections import OrderedDict
 from collections.abc import Mapping
 from pathlib import Path
@@ -90,6 +99,9 @@ _STORAGE_DTYPES = {
     "UntypedStorage": "u1",
 }
 _STORAGE_KEY = re.compile(r"[A-Za-z0-9_]{1,64}")
+PICKLE_MAX_BYTES = 8 << 20  # a state_dict's data.pkl: names and records, ~60 KB for the reference's 144 tensors
+PICKLE_MAX_OPS = 1_000_000  # pickle opcodes (the reference's: ~4,000)
+PICKLE_MAX_DEPTH = 32  # nesting of containers (a state_dict's: 4); the C code that hashes or frees them recurses
 
 
 class _StorageType:
@@ -105,12 +117,27 @@ class _StorageType:
 
 
 class _Storage:
-    """One storage of the archive as a flat numpy array (native byte order)."""
+    """One storage record of the archive: its member, element type and count; read later (:func:`_materialise`),
+    after every record and the layout were checked."""
 
-    __slots__ = ("array",)
+    __slots__ = ("code", "info", "key", "numel")
 
-    def __init__(self, array: np.ndarray) -> None:
-        object.__setattr__(self, "array", array)
+    def __init__(self, key: str, code: str, numel: int, info: zipfile.ZipInfo) -> None:
+        for k, v in (("key", key), ("code", code), ("numel", numel), ("info", info)):
+            object.__setattr__(self, k, v)
+
+    def __setattr__(self, key, value):
+        raise AttributeError("read-only")
+
+
+class _Tensor:
+    """A tensor record: ``size`` elements, contiguous, from ``offset`` in ``storage``; nothing read yet."""
+
+    __slots__ = ("offset", "size", "storage")
+
+    def __init__(self, storage: _Storage, offset: int, size: tuple[int, ...]) -> None:
+        for k, v in (("storage", storage), ("offset", offset), ("size", size)):
+            object.__setattr__(self, k, v)
 
     def __setattr__(self, key, value):
         raise AttributeError("read-only")
@@ -121,11 +148,12 @@ def _is_int(v) -> bool:
 
 
 class _WeightsUnpickler(pickle.Unpickler):
-    """Unpickles a state_dict of tensors into numpy arrays; refuses every other global (module docstring)."""
+    """Unpickles a state_dict of tensor records (:class:`_Tensor`, nothing read); refuses every other global
+    (module docstring)."""
 
-    def __init__(self, file, archive: zipfile.ZipFile, prefix: str, byteorder: str, name: str) -> None:
+    def __init__(self, file, archive: zipfile.ZipFile, prefix: str, name: str) -> None:
         super().__init__(file)
-        self._zip, self._prefix, self._byteorder, self._name = archive, prefix, byteorder, name
+        self._zip, self._prefix, self._name = archive, prefix, name
         self._storages: dict[str, _Storage] = {}
 
     def find_class(self, module: str, name: str):
@@ -164,18 +192,7 @@ class _WeightsUnpickler(pickle.Unpickler):
                 f"{self._name}: storage {member} holds {info.file_size} bytes, expected {numel} x {itemsize} "
                 f"({stype.name})"
             )
-        raw = self._zip.read(info)
-        if len(raw) != info.file_size:
-            raise RelightError(f"{self._name}: storage {member} is truncated")
-        order = "<" if self._byteorder == "little" else ">"
-        if code == "bf16":
-            bits = np.frombuffer(raw, dtype=order + "u2").astype(np.uint32) << 16
-            array = bits.view(np.float32)
-        elif code == "b1":
-            array = np.frombuffer(raw, dtype=np.bool_)
-        else:
-            array = np.frombuffer(raw, dtype=order + code).astype(code)
-        storage = _Storage(array)
+        storage = _Storage(key, code, numel, info)
         self._storages[key] = storage
         return storage
 
@@ -188,22 +205,57 @@ class _WeightsUnpickler(pickle.Unpickler):
             raise RelightError(f"{self._name}: malformed tensor record (offset {offset!r}, size {size!r})")
         if not _no_hooks(backward_hooks) or len(rest) > 1:
             raise RelightError(f"{self._name}: refused: a tensor record with hooks or extra state")
-        flat = storage.array
         count = math.prod(size)
         if count == 0:
-            return np.zeros(size, flat.dtype)
-        last = offset + sum((n - 1) * s for n, s in zip(size, stride, strict=True))
-        if last >= flat.size:
-            raise RelightError(f"{self._name}: a tensor reaches past its storage ({last} >= {flat.size} elements)")
-        view = np.lib.stride_tricks.as_strided(
-            flat[offset:], shape=size, strides=[s * flat.itemsize for s in stride], writeable=False
-        )
-        return np.array(view, copy=True)
+            return _Tensor(storage, 0, size)
+        contiguous, step = [], 1  # C order; the stride of a dimension of size 1 is free (torch leaves any)
+        for n in reversed(size):
+            contiguous.append(step)
+            step *= n
+        contiguous.reverse()
+        if any(n > 1 and s != c for n, s, c in zip(size, stride, contiguous, strict=True)):
+            raise RelightError(f"{self._name}: refused: a tensor of size {size} with strides {stride}; only "
+                               f"contiguous tensors (strides {tuple(contiguous)}) are read")
+        if offset + count > storage.numel:
+            raise RelightError(f"{self._name}: a tensor reaches past its storage ({offset + count - 1} >= "
+                               f"{storage.numel} elements)")
+        return _Tensor(storage, offset, size)
 
     def _rebuild_parameter(self, data, requires_grad=False, backward_hooks=None):
-        if not isinstance(data, np.ndarray) or not _no_hooks(backward_hooks):
+        if not isinstance(data, _Tensor) or not _no_hooks(backward_hooks):
             raise RelightError(f"{self._name}: refused: a malformed parameter record")
         return data
+
+
+def _materialise(records: dict[str, _Tensor], archive: zipfile.ZipFile, byteorder: str, name: str,
+                 max_elements: int) -> dict[str, np.ndarray]:
+    """Read the storages the records use (their declared sizes together at most ``max_elements``, checked
+    before anything is decompressed) and cut each tensor out of its storage (a copy, native byte order)."""
+    storages = {id(t.storage): t.storage for t in records.values()}
+    total = sum(st.numel for st in storages.values())
+    if total > max_elements:
+        raise RelightError(f"{name}: refused: its storages hold {total:,} elements, more than the {max_elements:,} "
+                           "of the network expected (a forged or foreign checkpoint; check --width/--resolution)")
+    order = "<" if byteorder == "little" else ">"
+    arrays: dict[int, np.ndarray] = {}
+    for key, st in storages.items():
+        raw = archive.read(st.info)
+        if len(raw) != st.info.file_size:
+            raise RelightError(f"{name}: storage {st.info.filename} is truncated")
+        if st.code == "bf16":
+            bits = np.frombuffer(raw, dtype=order + "u2").astype(np.uint32) << 16
+            arrays[key] = bits.view(np.float32)
+        elif st.code == "b1":
+            arrays[key] = np.frombuffer(raw, dtype=np.bool_)
+        else:
+            arrays[key] = np.frombuffer(raw, dtype=order + st.code).astype(st.code)
+        del raw
+    out = {}
+    for k, t in records.items():
+        flat = arrays[id(t.storage)]
+        count = math.prod(t.size)
+        out[k] = flat[t.offset : t.offset + count].reshape(t.size).copy() if count else np.zeros(t.size, flat.dtype)
+    return out
 
 
 def _no_hooks(hooks) -> bool:
@@ -215,12 +267,99 @@ def _short(value) -> str:
     return text if len(text) <= 80 else text[:77] + "..."
 
 
-def read_torch_checkpoint(path: str | os.PathLike) -> dict[str, np.ndarray]:
+def _scan_pickle(data: bytes, name: str) -> None:
+    """Walk a pickle's opcodes (nothing is built, nothing is run) and refuse one that is not a plain, shallow
+    record: more than PICKLE_MAX_OPS opcodes, containers nested deeper than PICKLE_MAX_DEPTH (a tuple key
+    nested 200,000 deep crashes the interpreter when the dict hashes it: a segfault, not an exception), a
+    container changed after it went into another one (the standard pickler fills each one first, so depths
+    stay known), or memo references that were never stored.
+
+    Each stack item is a [depth, inside] pair: depth 0 for scalars, 1 + the deepest part for what is built of
+    parts; ``inside`` once it is part of something else.
+    """
+    import pickletools
+
+    def too_deep(depth: int) -> None:
+        if depth > PICKLE_MAX_DEPTH:
+            raise RelightError(f"{name}: refused: the pickle nests containers more than {PICKLE_MAX_DEPTH} deep")
+
+    mark = object()
+    stack: list = []
+    memo: dict[int, list] = {}
+    in_place = {"APPEND", "APPENDS", "SETITEM", "SETITEMS", "ADDITEMS", "BUILD"}
+    for count, (op, arg, _pos) in enumerate(pickletools.genops(data), start=1):
+        if count > PICKLE_MAX_OPS:
+            raise RelightError(f"{name}: refused: the pickle has more than {PICKLE_MAX_OPS:,} opcodes")
+        before, after = op.stack_before, op.stack_after
+        if op.name in ("PUT", "BINPUT", "LONG_BINPUT", "MEMOIZE"):
+            if not stack or stack[-1] is mark:
+                raise RelightError(f"{name}: malformed pickle (memo of an empty stack)")
+            memo[len(memo) if op.name == "MEMOIZE" else arg] = stack[-1]
+            continue
+        if op.name in ("GET", "BINGET", "LONG_BINGET"):
+            if arg not in memo:
+                raise RelightError(f"{name}: malformed pickle (memo {arg} read before it was stored)")
+            stack.append(memo[arg])
+            continue
+        if op.name == "DUP":
+            stack.append(stack[-1] if stack else [0, False])
+            continue
+        popped: list = []
+        if pickletools.markobject in before:  # everything above the last MARK, then what lies below it
+            while stack and stack[-1] is not mark:
+                popped.append(stack.pop())
+            if not stack:
+                raise RelightError(f"{name}: malformed pickle (no MARK)")
+            stack.pop()
+            popped.reverse()
+            below = before[: before.index(pickletools.markobject)]  # APPENDS: the list; OBJ: nothing
+        else:
+            below = before
+        under = []
+        for _ in below:
+            if not stack or stack[-1] is mark:
+                raise RelightError(f"{name}: malformed pickle (stack underflow at {op.name})")
+            under.append(stack.pop())
+        under.reverse()
+        if op.name in in_place:  # container, items: the container changes in place
+            container, items = under[0], under[1:] + popped
+            if container[1]:
+                raise RelightError(f"{name}: refused: the pickle changes a container after putting it into "
+                                   "another one (no state_dict does)")
+            for item in items:
+                item[1] = True
+                container[0] = max(container[0], item[0] + 1)
+            too_deep(container[0])
+            stack.append(container)
+            continue
+        parts = under + popped
+        for item in parts:
+            item[1] = True
+        for result in after:
+            if result is pickletools.markobject:
+                stack.append(mark)
+            else:
+                depth = 1 + max((p[0] for p in parts), default=-1)
+                too_deep(depth)
+                stack.append([depth, False])
+        if op.name == "STOP":
+            return
+    raise RelightError(f"{name}: malformed pickle (no STOP)")
+
+
+def read_torch_checkpoint(path: str | os.PathLike, *, max_elements: int | None = None) -> dict[str, np.ndarray]:
     """Read a ``torch.save`` zip checkpoint of tensors into numpy arrays, without torch.
+
+    Everything is bounded before it is read: ``data.pkl`` by PICKLE_MAX_BYTES (its uncompressed size, from
+    the archive's directory) and by an opcode scan (:func:`_scan_pickle`: count and nesting depth), the
+    storages together by ``max_elements`` (declared sizes, checked before decompressing), and a tensor must be
+    contiguous in its storage (no stride-0 views that a copy would blow up).
 
     Args:
         path: a ``.pth`` file written by ``torch.save`` (torch >= 1.6, zip format) holding a state_dict
             (a mapping of names to tensors), or a mapping whose ``"state_dict"`` entry is one.
+        max_elements: the most storage elements read in all (default: the largest reference network at
+            width 64, :data:`DEFAULT_MAX_ELEMENTS`); :func:`import_reference` passes its layout's count.
 
     Returns:
         name -> array (the tensor's dtype, C order), in the file's order.
@@ -228,12 +367,18 @@ def read_torch_checkpoint(path: str | os.PathLike) -> dict[str, np.ndarray]:
     Raises:
         RelightError: missing file, not a zip checkpoint, a pickle that asks for anything but tensor and
             storage records (refused before anything runs), malformed or out-of-range records, or a
-            top level that is not a mapping of tensors.
+            top level that is not a mapping of tensors, storages larger than ``max_elements``.
     """
+    return _read_checkpoint(path, DEFAULT_MAX_ELEMENTS if max_elements is None else max_elements)
+
+
+def _read_checkpoint(path: str | os.PathLike, max_elements: int, check=None) -> dict[str, np.ndarray]:
+    """:func:`read_torch_checkpoint`; ``check(shapes)`` (name -> a zero-size stand-in of the tensor's shape)
+    runs on the records before any storage is read (:func:`import_reference` checks the layout there)."""
     path = Path(path)
     name = str(path)
     if not path.is_file():
-        raise RelightError(f"{name}: checkpoint file not found")
+        raise RelightError(f"{name}: checkpoint file {'is not a regular file' if path.exists() else 'not found'}")
     if not zipfile.is_zipfile(path):
         raise RelightError(
             f"{name}: not a PyTorch zip checkpoint (torch.save since torch 1.6); an older file can be read "
@@ -247,24 +392,42 @@ def read_torch_checkpoint(path: str | os.PathLike) -> dict[str, np.ndarray]:
             prefix = pickles[0].rsplit("/", 1)[0]
             byteorder = "little"
             if f"{prefix}/byteorder" in archive.namelist():
-                byteorder = archive.read(f"{prefix}/byteorder").decode("ascii", "replace").strip()
+                record = archive.getinfo(f"{prefix}/byteorder")
+                if record.file_size > 16:
+                    raise RelightError(f"{name}: byteorder record is {record.file_size:,} bytes, expected a word")
+                byteorder = archive.read(record).decode("ascii", "replace").strip()
                 if byteorder not in ("little", "big"):
                     raise RelightError(f"{name}: byteorder record is {byteorder!r}, expected 'little' or 'big'")
-            with archive.open(pickles[0]) as f:
-                obj = _WeightsUnpickler(f, archive, prefix, byteorder, name).load()
+            info = archive.getinfo(pickles[0])
+            if info.file_size > PICKLE_MAX_BYTES:
+                raise RelightError(f"{name}: refused: {pickles[0]} is {info.file_size:,} bytes uncompressed, more "
+                                   f"than {PICKLE_MAX_BYTES:,} (a state_dict's is tens of KB)")
+            data = archive.read(info)
+            _scan_pickle(data, name)
+            obj = _WeightsUnpickler(io.BytesIO(data), archive, prefix, name).load()
+            del data
+            records = _records(obj, name)
+            if check is not None:
+                check({k: np.broadcast_to(np.float32(0), t.size) for k, t in records.items()})
+            return _materialise(records, archive, byteorder, name, max_elements)
     except RelightError:
         raise
     except (pickle.UnpicklingError, zipfile.BadZipFile, EOFError, TypeError, ValueError, AttributeError,
-            IndexError, KeyError, OverflowError, MemoryError, RecursionError) as exc:
+            IndexError, KeyError, OverflowError, MemoryError, RecursionError, zlib.error) as exc:
         raise RelightError(f"{name}: not a readable torch checkpoint ({type(exc).__name__}: {exc})") from None
+
+
+def _records(obj, name: str) -> dict[str, _Tensor]:
+    """The state_dict's name -> tensor record (a ``{"state_dict": ...}`` wrapper is opened)."""
     if isinstance(obj, Mapping) and isinstance(obj.get("state_dict"), Mapping):
         obj = obj["state_dict"]
     if not isinstance(obj, Mapping):
         raise RelightError(f"{name}: expected a state_dict (mapping of names to tensors), got {type(obj).__name__}")
     out = {}
     for key, value in obj.items():
-        if not isinstance(key, str) or not isinstance(value, np.ndarray):
-            raise RelightError(f"{name}: entry {_short(key)} is not a named tensor ({type(value).__name__})")
+        if not isinstance(key, str) or not isinstance(value, _Tensor):
+            what = "tensor" if isinstance(value, _Tensor) else type(value).__name__
+            raise RelightError(f"{name}: entry {_short(key)} is not a named tensor ({what})")
         out[key] = value
     return out
 
@@ -333,6 +496,10 @@ def reference_layout(kind: str, width: int = 64, resolution: int = 1024) -> dict
     for i in range(depth - 1):
         norm(f"bnc{i}l", light[i + 1])
     return lay
+
+
+# the storage elements read_torch_checkpoint reads by default: the largest reference network (width 64)
+DEFAULT_MAX_ELEMENTS = max(sum(math.prod(s) for s in reference_layout(k).values()) for k in REFERENCE_KINDS)
 
 
 def check_layout(state: Mapping[str, np.ndarray], kind: str, width: int, resolution: int, name: str) -> None:
@@ -661,8 +828,12 @@ def import_reference(
     for kind, path in jobs:
         target = out / f"{kind}.onnx"
         check_target(target, inputs)
-        state = read_torch_checkpoint(path)
-        check_layout(state, kind, width, resolution, f"{path} ({kind})")
+        expected = sum(math.prod(shape) for shape in reference_layout(kind, width, resolution).values())
+
+        def layout(shapes, kind=kind, path=path):  # before any storage is read
+            check_layout(shapes, kind, width, resolution, f"{path} ({kind})")
+
+        state = _read_checkpoint(path, expected, layout)
         source = reference_source(path, kind)
         data = build_graph(bgr_to_rgb(state, kind), kind, resolution, source).SerializeToString()
         del state

@@ -171,7 +171,7 @@ def create_session(
         return model
     path = Path(model)
     if not path.is_file():
-        raise RelightError(f"model file {path} not found")
+        raise RelightError(f"model file {path} {'is not a regular file' if path.exists() else 'not found'}")
     wanted = list(providers) if providers is not None else _providers_for(device, device_id)
     if sess_options is None:
         sess_options = cpu_session_options()

@@ -245,8 +245,11 @@ def render_sphere(light, size: int = 256, return_mask: bool = False):
     Returns:
         (size, size, 3) float32 RGB shading, or (image, mask) when return_mask is True.
     """
+    from ._limits import check_pixels
+
     if isinstance(size, bool) or not isinstance(size, (int, np.integer)) or size < 1:
         raise RelightError(f"size: expected a positive integer, got {size!r}")
+    check_pixels(int(size), int(size), "sphere")
     lit = check_light(light)
     c = (np.arange(size, dtype=np.float32) + np.float32(0.5)) * np.float32(2 / size) - np.float32(1)
     y = np.broadcast_to(c[None, :], (size, size))
@@ -412,8 +415,11 @@ _SEP_C = np.array([c for _, _, c in _SEPARABLE])
 
 
 def _check_height(height) -> int:
+    from ._limits import check_pixels
+
     if isinstance(height, bool) or not isinstance(height, (int, np.integer)) or height < 1:
         raise RelightError(f"height: expected a positive integer, got {height!r}")
+    check_pixels(2 * int(height), int(height), "environment map")  # (H, 2H): held to the pixel limit
     return int(height)
 
 
@@ -461,9 +467,12 @@ def solid_angles_envmap(height: int) -> np.ndarray:
 
 
 def _check_envmap(env, name: str = "env") -> np.ndarray:
+    from ._limits import check_array_pixels
+
     arr = np.asarray(env)
     if arr.ndim != 3 or arr.shape[2] != 3 or arr.shape[0] < 1 or arr.shape[1] != 2 * arr.shape[0]:
         raise RelightError(f"{name}: expected an equirectangular (H, 2H, 3) RGB map, got {_describe(arr)}")
+    check_array_pixels(arr, name)
     if arr.dtype.kind != "f":
         raise RelightError(
             f"{name}: expected float linear RGB, got {arr.dtype} (decode display values with "
@@ -547,7 +556,7 @@ def load_envmap(path) -> np.ndarray:
     if ext not in _ENV_EXTS:
         raise RelightError(f"{p}: unsupported environment map type {ext!r}; expected one of {', '.join(_ENV_EXTS)}")
     if not p.is_file():
-        raise RelightError(f"{p}: environment map not found")
+        raise RelightError(f"{p}: environment map {'is not a regular file' if p.exists() else 'not found'}")
     from ._limits import check_pixels, header_size
 
     try:
@@ -643,7 +652,7 @@ def load_light(path, bgr: bool = False, layout: str | None = None) -> np.ndarray
     if ext not in (".npy", ".json"):
         raise RelightError(f"{p}: unsupported light file type {ext!r}; expected .npy or .json")
     if not p.is_file():
-        raise RelightError(f"{p}: light file not found")
+        raise RelightError(f"{p}: light file {'is not a regular file' if p.exists() else 'not found'}")
     swap = bool(bgr)
     try:
         if ext == ".npy":

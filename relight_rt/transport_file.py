@@ -39,7 +39,24 @@ from ._geometry import MODES, CropGeometry
 from ._io import write_npz
 
 FORMAT = 2
-__all__ = ["FORMAT", "load_transport", "save_transport"]
+__all__ = ["FORMAT", "load_transport", "save_transport", "transport_arrays"]
+
+
+def transport_arrays(transport: np.ndarray, geometry: CropGeometry) -> dict[str, np.ndarray]:
+    """The arrays of a format-2 transport file (see ``save_transport``), for writers that write several files."""
+    t = np.asarray(transport)
+    r = geometry.resolution
+    if t.shape != (r, r, 9):
+        raise RelightError(f"transport: expected ({r}, {r}, 9) (the network's square), got {t.shape}")
+    return {
+        "format": np.array(FORMAT, np.int64),
+        "transport": t.astype(np.float16),
+        "frame": np.array(geometry.frame, np.int64),
+        "box": np.array(geometry.box, np.int64),
+        "offset": np.array(geometry.offset, np.int64),
+        "side": np.array(geometry.side, np.int64),
+        "mode": np.array(geometry.mode),
+    }
 
 
 def save_transport(
@@ -53,19 +70,7 @@ def save_transport(
         geometry: the crop geometry of the decomposition (``Decomposition.geometry``).
         protect: inputs that must not be written over.
     """
-    t = np.asarray(transport)
-    r = geometry.resolution
-    if t.shape != (r, r, 9):
-        raise RelightError(f"transport: expected ({r}, {r}, 9) (the network's square), got {t.shape}")
-    arrays = {
-        "format": np.array(FORMAT, np.int64),
-        "transport": t.astype(np.float16),
-        "frame": np.array(geometry.frame, np.int64),
-        "box": np.array(geometry.box, np.int64),
-        "offset": np.array(geometry.offset, np.int64),
-        "side": np.array(geometry.side, np.int64),
-        "mode": np.array(geometry.mode),
-    }
+    arrays = transport_arrays(transport, geometry)
     return write_npz(path, arrays, protect)
 
 

@@ -38,6 +38,7 @@ from . import sh
 from ._errors import RelightError
 from ._video_io import (  # noqa: F401  (re-exported: the video API in one place)
     IMAGE_SUFFIXES,
+    MAX_FPS,
     VIDEO_SUFFIXES,
     Frame,
     FrameSink,

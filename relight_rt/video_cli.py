@@ -144,8 +144,8 @@ def run(args: argparse.Namespace) -> int:
         args.input = args.input[0]
     if not args.output and not args.frames_out:
         raise RelightError("output: expected -o VIDEO and/or --frames-out DIR")
-    if args.fps is not None and not (math.isfinite(args.fps) and args.fps > 0):
-        raise RelightError(f"--fps: must be > 0, got {args.fps:g}")
+    if args.fps is not None and not (math.isfinite(args.fps) and 0 < args.fps <= video.MAX_FPS):
+        raise RelightError(f"--fps: must be > 0 and at most {video.MAX_FPS}, got {args.fps:g}")
     from ._options import background, relighter
     from .exposure import parse_exposure
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import struct
 import zipfile
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -83,3 +84,40 @@ def write_state_dict(path: str | Path, state: dict[str, np.ndarray], prefix: str
         storages[str(i)] = a.astype(a.dtype.newbyteorder(order)).tobytes()
     body.append(b"u.")  # SETITEMS, STOP
     return write_archive(path, b"".join(body), storages, prefix, byteorder)
+
+
+# ------------------------------------------------------------------------------------------- bombs
+
+
+def deflated_zeros(n_bytes: int, head: bytes = b"", tail: bytes = b"") -> bytes:
+    """A raw deflate stream of ``head`` + ``n_bytes`` zero bytes + ``tail``, made in milliseconds: one 16 MiB
+    block of zeros is compressed once (full flush, so it stands alone) and repeated. 2 GiB of zeros: ~2 MB."""
+    chunk = 1 << 24
+    if n_bytes % chunk:
+        raise ValueError("n_bytes: a multiple of 16 MiB")
+    flush = zlib.Z_FULL_FLUSH
+
+    def block(data: bytes) -> bytes:
+        c = zlib.compressobj(9, zlib.DEFLATED, -15)
+        return c.compress(data) + c.flush(flush)
+
+    final = zlib.compressobj(9, zlib.DEFLATED, -15)
+    return block(head) + block(bytes(chunk)) * (n_bytes // chunk) + final.compress(tail) + final.flush()
+
+
+def write_raw_zip(path: str | Path, members: list[tuple[str, bytes, int, int]]) -> Path:
+    """A zip archive written field by field: (name, data as stored, method (0 stored, 8 deflated), declared
+    uncompressed size). A deflated member's CRC is left 0: those are the bombs, refused (or blowing up) before
+    any check of it; a stored member gets its real CRC."""
+    path = Path(path)
+    body, central = b"", b""
+    for name, data, method, size in members:
+        raw_name = name.encode()
+        crc = zlib.crc32(data) if method == 0 else 0
+        fields = struct.pack("<HHHHHIII", 20, 0, method, 0, 0x21, crc, len(data), size)
+        central += b"PK\x01\x02" + struct.pack("<H", 20) + fields + struct.pack("<HHHHHII", len(raw_name), 0, 0, 0,
+                                                                               0, 0, len(body)) + raw_name
+        body += b"PK\x03\x04" + fields + struct.pack("<HH", len(raw_name), 0) + raw_name + data
+    end = b"PK\x05\x06" + struct.pack("<HHHHIIH", 0, 0, len(members), len(members), len(central), len(body), 0)
+    path.write_bytes(body + central + end)
+    return path

@@ -131,6 +131,30 @@ def test_black_and_white_and_16_bit_photos_are_relit_and_decomposed(work, capsys
     code, _, err = run(["decompose", photo, "-o", "dec"], capsys)
     assert code == 0, err
     assert cv2.imread("dec/albedo.png").shape == (150, 100, 3)
+def test_decompose_writes_all_layers_or_none(work, capsys, monkeypatch):
+    """issue 35 item 10: decompose wrote albedo.png and shading.png, then failed at skin.png (an input of that
+    name in the output folder) or at a full disk (a message naming no file): now all five layers or none."""
+    (work / "dec").mkdir()
+    write_photo(work / "dec", "skin")  # the photo is dec/skin.png: the skin layer would replace it
+    before = {p.name: p.read_bytes() for p in (work / "dec").iterdir()}
+    code, _, err = run(["decompose", "dec/skin.png", "-o", "dec"], capsys)
+    assert code == 2 and "refusing to overwrite the input" in err and "skin.png" in err, err
+    assert {p.name: p.read_bytes() for p in (work / "dec").iterdir()} == before  # nothing written, nothing left
+
+    write_photo(work)
+    real_save = np.save
+
+    def full_disk(file, arr, allow_pickle=True):  # light.npy, the fourth file: no space left
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(np, "save", full_disk)
+    code, _, err = run(["decompose", "p.png", "-o", "out"], capsys)
+    lines = err.strip().splitlines()
+    assert code == 2 and len(lines) == 1 and "light.npy" in lines[0] and "No space left" in lines[0], err
+    assert list((work / "out").iterdir()) == []  # no layer, no temporary file
+    monkeypatch.setattr(np, "save", real_save)
+    assert run(["decompose", "p.png", "-o", "out"], capsys)[0] == 0
+    assert len(list((work / "out").iterdir())) == 5
 
 
 def test_lights_commands(work, capsys):
@@ -225,6 +249,21 @@ def test_help_texts_are_plain_text():
     for p in _every_parser(cli.build_parser()):
         text = p.format_help()
         assert not markup.search(text), (p.prog, markup.search(text).group(0), text[:300])
+@pytest.mark.parametrize(("argv", "words"), [
+    (["relight", "x.png"], ["required: -o/--output", "see relight-rt relight -h"]),
+    (["relight", "x.png", "-o", "o.png", "--max-pixels", "many"], ["invalid int value", "see relight-rt relight -h"]),
+    (["lights", "show"], ["required: NAME", "see relight-rt lights show -h"]),
+    (["video", "in", "-o", "o.mp4", "--bogus"], ["unrecognized arguments: --bogus", "see relight-rt video -h"]),
+    (["frobnicate"], ["invalid choice: 'frobnicate'", "see relight-rt -h"]),
+])  # fmt: skip
+def test_usage_errors_are_one_line(capsys, argv, words):
+    """issue 35 item 17: a usage error was argparse's 12 lines of usage; now one ``relight-rt: error:`` line that
+    says what is wrong and where the help is."""
+    assert cli.main(argv) == 2
+    out, err = capsys.readouterr()
+    lines = err.strip().splitlines()
+    assert out == "" and len(lines) == 1 and lines[0].startswith("relight-rt: error: "), err
+    assert all(w in lines[0] for w in words), lines[0]
 
 
 def bad_case(work, kind):
@@ -330,7 +369,7 @@ def test_one_set_of_light_flags_in_every_command(work, capsys):
     for command in (["relight", "p.png", "-o", "o.png"], ["video", ".", "-o", "o.mp4"],
                     ["composite", "p.png", "--background", "p.png", "-o", "o.png"]):
         code, _, err = run([*command, "--preset", "studio", "--rotate", "10", "--no-such-option"], capsys)
-        assert code == 2 and f"usage: relight-rt {command[0]}" in err, err  # the subcommand's usage
+        assert code == 2 and f"see relight-rt {command[0]} -h" in err, err  # the subcommand's help
         assert "unrecognized arguments: --no-such-option" in err
     code, out, _ = run(["lights", "show", "light.npy", "--bgr", "--rotate", "90", "-o", "s.png"], capsys)
     assert code == 0 and cv2.imread("s.png") is not None

@@ -10,8 +10,6 @@ from __future__ import annotations
 
 import os
 import struct
-import subprocess
-import sys
 import zlib
 from pathlib import Path
 
@@ -19,6 +17,7 @@ import cv2
 import numpy as np
 import pytest
 from _graphs import OWN_LIGHT, models_dir, person
+from _hostile import PEAK_LIMIT, run_cli_limited
 
 from relight_rt import cli
 
@@ -80,6 +79,10 @@ def bad_images(folder: Path, seed: int = 0) -> list[str]:
     return sorted(files)
 
 
+# issue 35 item 1: the OpenEXR magic and then no NUL byte: the attribute-name loop read b"" at EOF for ever
+EXR_NO_NUL = b"v/1\x01\x02\x00\x00\x00" + b"A" * 50
+
+
 def snapshot(folder: Path) -> dict:
     return {p: p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
 
@@ -94,15 +97,17 @@ def test_fuzz_relight_over_a_folder_of_bad_images(tmp_path, models_dir):
         cv2.imwrite(str(inputs / f"good{k}_mask.png"), (mask * 255).astype(np.uint8))
     (inputs / "folder.png").mkdir()  # not a file: not listed
     (inputs / "dangling.png").symlink_to(tmp_path / "nowhere.png")
+    (inputs / "exrhang.png").write_bytes(EXR_NO_NUL)  # issue 35 item 1: hung the header parser for ever
+    cv2.imwrite(str(inputs / "exrhang_mask.png"), np.full((H, W), 255, np.uint8))
+    bad.append("exrhang.png")
+    os.mkfifo(inputs / "fifo.png")  # issue 35 item 7: not a regular file, not listed (reading it would block)
     before = snapshot(tmp_path)
-    env = {**os.environ, "PYTHONPATH": str(REPO), "RELIGHT_RT_MODELS": str(models_dir)}
-    proc = subprocess.run([sys.executable, "-m", "relight_rt", "relight", str(inputs), "--preset", "studio",
-                           "-o", str(tmp_path / "out"), "--device", "cpu"],
-                          capture_output=True, text=True, env=env, timeout=300)  # fmt: skip
-    assert proc.returncode == 2
-    assert "Traceback" not in proc.stderr
-    lines = [x for x in proc.stderr.splitlines() if x.strip() and "image/s" not in x]  # not the progress bar
-    assert all(x.startswith("relight-rt: ") for x in lines), proc.stderr  # nothing from native libraries
+    route = ["relight", str(inputs), "--preset", "studio", "-o", str(tmp_path / "out"), "--device", "cpu"]
+    codes, stderr, peak = run_cli_limited([route], cwd=tmp_path, env={"RELIGHT_RT_MODELS": str(models_dir)})
+    assert codes == [2] and 0 < peak < PEAK_LIMIT, (codes, peak)  # under ulimit -v 4 GB, below 1 GB resident
+    assert "Traceback" not in stderr
+    lines = [x for x in stderr.splitlines() if x.strip() and "image/s" not in x]  # not the progress bar
+    assert all(x.startswith("relight-rt: ") for x in lines), stderr  # nothing from native libraries
     errors = [x for x in lines if x.startswith("relight-rt: error: ")]
     written = {p.name for p in (tmp_path / "out").iterdir()}
     for name in bad + ["good0.png", "good1.png"]:
@@ -162,21 +167,21 @@ def bad_lights(folder: Path, seed: int = 0) -> dict[str, str]:
             "zero.npy": "empty", "zero.json": "cannot read"}  # fmt: skip
 
 
-def test_fuzz_light_files(tmp_path, models_dir, monkeypatch, capsys):
-    monkeypatch.setenv("RELIGHT_RT_MODELS", str(models_dir))
-    monkeypatch.chdir(tmp_path)
+def test_fuzz_light_files(tmp_path, models_dir):
     img, mask = person(H, W, box=(10, 50, 10, 30))
-    cv2.imwrite("p.png", (img[..., ::-1] * 255).round().astype(np.uint8))
-    cv2.imwrite("p_mask.png", (mask * 255).astype(np.uint8))
+    cv2.imwrite(str(tmp_path / "p.png"), (img[..., ::-1] * 255).round().astype(np.uint8))
+    cv2.imwrite(str(tmp_path / "p_mask.png"), (mask * 255).astype(np.uint8))
     expected = bad_lights(tmp_path)
     before = snapshot(tmp_path)
-    for name, word in expected.items():
-        for argv in (["relight", "p.png", "--light", name, "-o", "o.png"], ["lights", "show", name, "-o", "o.png"]):
-            code = cli.main(argv)
-            out, err = capsys.readouterr()
-            lines = err.strip().splitlines()
-            assert code == 2 and len(lines) == 1 and lines[0].startswith("relight-rt: error: "), (argv, err)
-            assert name in lines[0] and word in lines[0], (argv, lines[0])
+    routes = [argv for name in expected for argv in (["relight", "p.png", "--light", name, "-o", "o.png"],
+                                                     ["lights", "show", name, "-o", "o.png"])]  # fmt: skip
+    codes, stderr, peak = run_cli_limited(routes, cwd=tmp_path, env={"RELIGHT_RT_MODELS": str(models_dir)})
+    assert codes == [2] * len(routes) and 0 < peak < PEAK_LIMIT, (codes, peak)
+    lines = stderr.strip().splitlines()
+    assert len(lines) == len(routes), stderr  # one line each
+    for argv, line in zip(routes, lines, strict=True):
+        name = argv[3] if argv[0] == "relight" else argv[2]
+        assert line.startswith("relight-rt: error: ") and name in line and expected[name] in line, (argv, line)
     assert snapshot(tmp_path) == before  # nothing written, nothing changed, no temporary files
 
 
@@ -210,16 +215,128 @@ def test_fuzz_video_frames_skip_bad_frames(tmp_path, models_dir, monkeypatch, ca
 
 
 @pytest.mark.parametrize("seed", [1, 2])
-def test_fuzz_relight_in_process_random_damage(tmp_path, models_dir, monkeypatch, capsys, seed):
-    """More random damage, in-process (fast): only correct outputs or one RelightError line per file."""
-    monkeypatch.setenv("RELIGHT_RT_MODELS", str(models_dir))
-    monkeypatch.chdir(tmp_path)
+def test_fuzz_relight_random_damage(tmp_path, models_dir, seed):
+    """More random damage: only correct outputs or one RelightError line per file."""
     (tmp_path / "in").mkdir()
     bad_images(tmp_path / "in", seed)
     before = snapshot(tmp_path)
-    code = cli.main(["relight", "in", "--preset", "night", "-o", "out"])
-    err = capsys.readouterr().err
-    assert code == 2 and "Traceback" not in err
+    codes, err, peak = run_cli_limited([["relight", "in", "--preset", "night", "-o", "out"]], cwd=tmp_path,
+                                       env={"RELIGHT_RT_MODELS": str(models_dir)})  # fmt: skip
+    assert codes == [2] and "Traceback" not in err and 0 < peak < PEAK_LIMIT
     after = snapshot(tmp_path)
     assert {p: after[p] for p in before} == before
     assert not [p for p in after if p.name.startswith(".")]
+
+
+def test_exr_header_without_a_nul_byte_in_every_reader(tmp_path, models_dir):
+    """issue 35 item 1: a 58-byte file with the OpenEXR magic and no NUL byte hung every reader (100 % CPU,
+    memory growing): as a photo, --mask, --background, --envmap, lights from-envmap, a video frame. Each
+    route now gives one error line; the routes run in one process, bounded in time."""
+    (tmp_path / "evil.png").write_bytes(EXR_NO_NUL)
+    (tmp_path / "evil.exr").write_bytes(EXR_NO_NUL)
+    img, mask = person(H, W, box=(10, 50, 10, 30))
+    cv2.imwrite(str(tmp_path / "p.png"), (img[..., ::-1] * 255).round().astype(np.uint8))
+    cv2.imwrite(str(tmp_path / "p_mask.png"), (mask * 255).astype(np.uint8))
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    for k in range(2):
+        cv2.imwrite(str(frames / f"f{k}.png"), (img[..., ::-1] * 255).round().astype(np.uint8))
+        cv2.imwrite(str(frames / f"f{k}_mask.png"), (mask * 255).astype(np.uint8))
+    (frames / "f2.png").write_bytes(EXR_NO_NUL)
+    cv2.imwrite(str(frames / "f2_mask.png"), (mask * 255).astype(np.uint8))
+    routes = [
+        ["relight", "evil.png", "--preset", "studio", "-o", "o.png"],
+        ["relight", "p.png", "--mask", "evil.png", "--preset", "studio", "-o", "o.png"],
+        ["relight", "p.png", "--preset", "studio", "--background", "evil.png", "-o", "o.png"],
+        ["relight", "p.png", "--envmap", "evil.exr", "-o", "o.png"],
+        ["lights", "from-envmap", "evil.exr", "-o", "l.npy"],
+        ["lights", "from-envmap", "evil.png", "-o", "l.npy"],
+        ["video", "frames", "--preset", "studio", "-o", "o.avi"],
+        ["mask", "evil.png", "-o", "m.png"],
+    ]
+    before = snapshot(tmp_path)
+    codes, stderr, peak = run_cli_limited(routes, cwd=tmp_path, env={"RELIGHT_RT_MODELS": str(models_dir)})
+    assert codes == [2] * len(routes) and 0 < peak < PEAK_LIMIT, (codes, peak, stderr)
+    lines = [x for x in stderr.splitlines() if x.strip()]
+    assert len(lines) == len(routes) and all(x.startswith("relight-rt: error: ") for x in lines), stderr
+    assert all("evil" in x or "f2.png" in x for x in lines), stderr
+    assert snapshot(tmp_path) == before
+
+
+class _Unblocker:
+    """Opens the FIFO's writing end after ``delay`` seconds (then closes it), so a reader that blocked on it
+    comes back with an empty file instead of hanging the test; ``fired`` says it had to."""
+
+    def __init__(self, fifo: Path, delay: float = 20.0) -> None:
+        import threading
+
+        self.fifo, self.fired = fifo, False
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, args=(delay,), daemon=True)
+        self._thread.start()
+
+    def _run(self, delay: float) -> None:
+        while not self._stop.wait(delay):
+            try:
+                fd = os.open(self.fifo, os.O_WRONLY | os.O_NONBLOCK)  # ENXIO: nobody is reading
+            except OSError:
+                continue
+            self.fired = True
+            os.close(fd)
+
+    def stop(self) -> None:
+        self._stop.set()
+        self._thread.join()
+
+
+def test_fifo_inputs_are_refused_by_every_command(tmp_path, models_dir, monkeypatch, capsys):
+    """issue 35 item 7: ``relight-rt video FIFO`` blocked for ever (FFmpeg waits for a writer). Anything that is
+    not a regular file or a folder is refused, in every role, with one line naming it."""
+    monkeypatch.setenv("RELIGHT_RT_MODELS", str(models_dir))
+    monkeypatch.chdir(tmp_path)
+    img, mask = person(H, W, box=(10, 50, 10, 30))
+    cv2.imwrite("p.png", (img[..., ::-1] * 255).round().astype(np.uint8))
+    cv2.imwrite("p_mask.png", (mask * 255).astype(np.uint8))
+    Path("frames").mkdir()
+    for k in range(2):
+        cv2.imwrite(f"frames/f{k}.png", (img[..., ::-1] * 255).round().astype(np.uint8))
+        cv2.imwrite(f"frames/f{k}_mask.png", (mask * 255).astype(np.uint8))
+    fifos = {}
+    for suffix in ("mp4", "png", "npy", "json", "hdr", "pth", "onnx"):
+        fifos[suffix] = f"fifo.{suffix}"
+        os.mkfifo(fifos[suffix])
+    routes = [
+        ["video", fifos["mp4"], "--preset", "studio", "-o", "o.mp4"],
+        ["video", "frames", "--masks", fifos["mp4"], "--preset", "studio", "-o", "o.mp4"],
+        ["video", "frames", "--lights", fifos["npy"], "-o", "o.mp4"],
+        ["video", "frames", "--preset", "studio", "--dvp", fifos["onnx"], "-o", "o.mp4"],
+        ["mask", fifos["mp4"], "-o", "m.avi"],
+        ["mask", fifos["png"], "-o", "m.png"],
+        ["relight", fifos["png"], "--preset", "studio", "-o", "o.png"],
+        ["relight", "p.png", "--mask", fifos["png"], "--preset", "studio", "-o", "o.png"],
+        ["relight", "p.png", "--light", fifos["npy"], "-o", "o.png"],
+        ["relight", "p.png", "--light", fifos["json"], "-o", "o.png"],
+        ["relight", "p.png", "--envmap", fifos["hdr"], "-o", "o.png"],
+        ["relight", "p.png", "--light-from", fifos["png"], "-o", "o.png"],
+        ["relight", "p.png", "--preset", "studio", "--background", fifos["png"], "-o", "o.png"],
+        ["decompose", fifos["png"], "-o", "layers"],
+        ["lights", "from-envmap", fifos["hdr"], "-o", "l.npy"],
+        ["lights", "from-photo", fifos["png"], "-o", "l.npy"],
+        ["lights", "show", fifos["npy"], "-o", "s.png"],
+        ["import-reference", "--stage1", fifos["pth"], "--out", "graphs"],
+        ["composite", fifos["png"], "--background", "p.png", "-o", "c.png"],
+        ["composite", "p.png", "--background", fifos["png"], "-o", "c.png"],
+        ["lights", "from-background", fifos["png"], "-o", "l.npy"],
+    ]
+    unblockers = [_Unblocker(tmp_path / f) for f in fifos.values()]
+    try:
+        for argv in routes:
+            code = cli.main(argv)
+            lines = capsys.readouterr().err.strip().splitlines()
+            assert code == 2 and len(lines) == 1 and lines[0].startswith("relight-rt: error: "), (argv, lines)
+            assert "fifo." in lines[0], (argv, lines)
+    finally:
+        for u in unblockers:
+            u.stop()
+    assert not any(u.fired for u in unblockers)  # nothing waited for a writer
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["p.png", "p_mask.png", "frames", *fifos.values()])

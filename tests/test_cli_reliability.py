@@ -270,6 +270,47 @@ def test_signal_while_writing_removes_the_temp_file(work, sig, code, text):
     assert list((work / "out").iterdir()) == []  # no partial file, no temporary file
 
 
+_STARTUP_DRIVER = """
+import os, runpy, signal, sys
+signal.signal(signal.SIGINT, signal.default_int_handler)  # as at a terminal (see _DRIVER)
+
+
+class SignalOnImport:  # the signal arrives while the runtime loads (numpy, OpenCV, onnxruntime: ~0.3 s)
+    fired = False
+
+    def find_spec(self, name, path=None, target=None):
+        if name == "numpy" and not SignalOnImport.fired:
+            SignalOnImport.fired = True
+            os.kill(os.getpid(), getattr(signal, sig))
+        return None
+
+
+sys.meta_path.insert(0, SignalOnImport())
+sig = sys.argv[1]
+sys.argv = ["relight-rt", "lights", "list"]
+if os.environ["ENTRY"] == "module":  # python -m relight_rt
+    runpy.run_module("relight_rt", run_name="__main__", alter_sys=True)
+else:  # the console script: pyproject's [project.scripts] entry point
+    import importlib, tomllib
+    target = tomllib.load(open(os.environ["PYPROJECT"], "rb"))["project"]["scripts"]["relight-rt"]
+    module, func = target.split(":")
+    sys.exit(getattr(importlib.import_module(module), func)())
+"""
+
+
+@pytest.mark.parametrize("entry", ["module", "script"])
+@pytest.mark.parametrize(("sig", "code", "text"), [("SIGTERM", 143, "terminated"), ("SIGINT", 130, "interrupted")])
+def test_signal_while_starting_is_one_line(entry, sig, code, text):
+    """issue 35 item 16: Ctrl-C while the runtime was still being imported printed a KeyboardInterrupt traceback,
+    and SIGTERM then ended the process without a word: now one line and 130 / 143, from the first instant."""
+    env = {**os.environ, "PYTHONPATH": str(REPO), "ENTRY": entry, "PYPROJECT": str(REPO / "pyproject.toml")}
+    proc = subprocess.run([sys.executable, "-c", _STARTUP_DRIVER, sig], capture_output=True, text=True, env=env,
+                          timeout=60)  # fmt: skip
+    assert proc.returncode == code and proc.stdout == "", (proc.returncode, proc.stdout, proc.stderr)
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"relight-rt: {text}"), proc.stderr
+
+
 # ------------------------------------------------------------------------------------------- 7: messages
 
 

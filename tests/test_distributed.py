@@ -228,3 +228,38 @@ def test_several_clips_need_ray(models_dir, tmp_path, capsys):
     clips = [_clip(tmp_path / "a", 2, 0), _clip(tmp_path / "b", 2, 5)]
     code, lines = _cli(["video", *clips, "--frames-out", tmp_path / "o", "--preset", "studio"], capsys)
     assert code == 2 and "--ray" in lines[0]
+
+
+def test_manifest_is_checked_against_every_file_read(models_dir, tmp_path, monkeypatch, capsys):
+    """issue 35 item 2: ``--manifest`` named a sibling mask, a file of the --mask folder or a model graph, was
+    accepted, and a newline was appended to it before Ray started. It is an output like any other: refused,
+    before Ray starts, when it is any file the run reads."""
+
+    def no_ray(*args, **kwargs):
+        raise AssertionError("Ray started: the manifest should have been refused first")
+
+    monkeypatch.setattr(distributed, "ray_session", no_ray)
+    monkeypatch.setenv("RELIGHT_RT_MODELS", str(models_dir))
+    monkeypatch.chdir(tmp_path)
+    for folder in ("photos", "masks", "clip"):
+        (tmp_path / folder).mkdir()
+    img, mask = person(150, 100)
+    _write(tmp_path / "photos" / "p.png", img)
+    cv2.imwrite(str(tmp_path / "photos" / "p_mask.png"), (mask * 255).astype(np.uint8))
+    cv2.imwrite(str(tmp_path / "masks" / "q_mask.png"), (mask * 255).astype(np.uint8))
+    _write(tmp_path / "clip" / "f_000.png", img)
+    cv2.imwrite(str(tmp_path / "clip" / "f_000_mask.png"), (mask * 255).astype(np.uint8))
+    graph = sorted(Path(models_dir).glob("*.onnx"))[0]
+    runs = [
+        (["relight", "photos/p.png", "--preset", "studio", "-o", "out"], "photos/p_mask.png"),
+        (["relight", "photos", "--mask", "masks", "--preset", "studio", "-o", "out"], "masks/q_mask.png"),
+        (["relight", "photos", "--preset", "studio", "-o", "out"], str(graph)),
+        (["video", "clip", "--preset", "studio", "-o", "vout"], "clip/f_000_mask.png"),
+        (["video", "clip", "--preset", "studio", "-o", "vout"], str(graph)),
+    ]
+    for argv, manifest in runs:
+        before = Path(manifest).read_bytes()
+        code = cli.main([*argv, "--ray", "local", "--manifest", manifest])
+        lines = capsys.readouterr().err.strip().splitlines()
+        assert code == 2 and len(lines) == 1 and "refusing to overwrite the input" in lines[0], (argv, lines)
+        assert Path(manifest).read_bytes() == before, manifest

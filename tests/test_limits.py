@@ -120,3 +120,82 @@ def test_special_files_are_refused_without_blocking(tmp_path):
         load_npy(tmp_path / "pipe.npy")
     with pytest.raises(RelightError, match="not found"):
         read_image(tmp_path / "missing.png")
+
+
+class _CountingFile:
+    """A binary file that counts what is read from it and fails a parser that reads on and on."""
+
+    def __init__(self, f, stats: dict) -> None:
+        self._f, self._stats = f, stats
+
+    def _count(self, data: bytes) -> bytes:
+        self._stats["bytes"] += len(data)
+        self._stats["calls"] += 1
+        assert self._stats["calls"] < 2 << 20, "the parser keeps reading"
+        return data
+
+    def read(self, n=-1):
+        return self._count(self._f.read(n))
+
+    def readline(self, n=-1):
+        return self._count(self._f.readline(n))
+
+    def __getattr__(self, name):
+        return getattr(self._f, name)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self._f.close()
+
+
+_MAGICS = [b"\x89PNG\r\n\x1a\n", b"\xff\xd8", b"BM", b"RIFF", b"II*\x00", b"MM\x00*", b"#?", b"v/1\x01\x02\x00\x00\x00"]
+
+
+# (JPEG + a run of 0xFF fill bytes is left out: the budget ends it too, but after ~1M one-byte reads, slow here;
+# the JPEG parser's fill-byte handling is issue 35 item 3)
+@pytest.mark.parametrize(("magic", "fill"), [(m, f) for m in _MAGICS for f in (b"A", b"\x00", b"\xff")
+                                             if (m, f) != (b"\xff\xd8", b"\xff")])
+def test_header_parsers_are_bounded(tmp_path, monkeypatch, magic, fill):
+    """issue 35 item 1: every header parser reads a bounded number of bytes and ends, whatever follows the magic
+    (the OpenEXR one read attribute names byte by byte up to a NUL, and at EOF read b"" for ever); a header
+    that would go on past the budget is refused, never passed on to the decoder unchecked."""
+    from relight_rt import _limits
+
+    path = tmp_path / "junk"
+    path.write_bytes(magic + fill * (3 << 20))
+    stats = {"bytes": 0, "calls": 0}
+    monkeypatch.setattr(_limits, "open", lambda p, mode: _CountingFile(open(p, mode), stats), raising=False)
+    try:
+        size = header_size(path)
+    except RelightError as exc:
+        assert "goes on past" in str(exc)
+    else:
+        assert size is None or all(isinstance(v, int) for v in size)
+    assert stats["bytes"] <= _limits.HEADER_MAX_BYTES + 16 and stats["calls"] <= _limits.HEADER_MAX_BYTES + 16
+
+
+def test_exr_header_variants_end(tmp_path):
+    """issue 35 item 1: forged OpenEXR headers (no NUL, a name past 255 bytes, endless attributes, a reversed
+    data window) give None (the decoder then says what is wrong), never a hang."""
+    magic = b"v/1\x01" + struct.pack("<I", 2)
+    attr = b"a\x00int\x00" + struct.pack("<i", 4) + b"\x00" * 4
+    window = b"dataWindow\x00box2i\x00" + struct.pack("<i", 16) + struct.pack("<iiii", 10, 10, 0, 0)
+    for name, data in {"nonul": magic + b"A" * 50, "longname": magic + b"B" * 300 + b"\x00box2i\x00",
+                       "endless": magic + attr * 5000, "reversed": magic + window + b"\x00",
+                       "cut": magic + b"dataWindow\x00box2i\x00" + struct.pack("<i", 16) + b"\x00" * 3}.items():
+        (tmp_path / name).write_bytes(data)
+        assert header_size(tmp_path / name) is None, name
+
+
+def test_a_header_past_the_budget_is_refused(tmp_path, monkeypatch):
+    """A parser that runs out of budget refuses the file (it is not decoded with its size unchecked)."""
+    from relight_rt import _limits
+
+    monkeypatch.setattr(_limits, "HEADER_MAX_BYTES", 64)
+    (tmp_path / "long.hdr").write_bytes(b"#?RADIANCE\n" + b"# comment\n" * 50 + b"\n-Y 9 +X 9\n")
+    with pytest.raises(RelightError, match="goes on past 64 bytes"):
+        header_size(tmp_path / "long.hdr")
+    with pytest.raises(RelightError, match="goes on past"):
+        read_image(tmp_path / "long.hdr")

@@ -131,7 +131,7 @@ def test_torch_saved_files_read_like_torch_load(tmp_path):
     conv = torch.nn.Conv2d(3, 4, 3)
     sd = conv.state_dict()  # a real state_dict: it carries _metadata, which torch pickles with BUILD
     assert hasattr(sd, "_metadata")
-    sd.update({"t": base.t(), "view": base[1:, 2:], "bf16": torch.randn(4).bfloat16()})
+    sd.update({"rows": base[1:], "bf16": torch.randn(4).bfloat16()})  # rows: a contiguous view at an offset
     sd.update({"p": torch.nn.Parameter(base[0]), "n": torch.tensor(7)})
     torch.save(sd, tmp_path / "x.pth")
     torch.save({"state_dict": conv.state_dict(), "epoch": 3}, tmp_path / "wrapped.pth")
@@ -141,6 +141,11 @@ def test_torch_saved_files_read_like_torch_load(tmp_path):
     for k, v in want.items():
         assert got[k].shape == tuple(v.shape) and np.array_equal(got[k], v.detach().float().numpy()), k
     assert list(read_torch_checkpoint(tmp_path / "wrapped.pth")) == ["weight", "bias"]
+    for name, view in (("t", base.t()), ("view", base[1:, 2:]), ("expand", base[:1].expand(5000, 6))):
+        torch.save({name: view}, tmp_path / f"{name}.pth")  # torch reads them; the importer refuses them
+        assert torch.load(tmp_path / f"{name}.pth", weights_only=True)[name].shape == view.shape
+        with pytest.raises(RelightError, match="only contiguous tensors"):
+            read_torch_checkpoint(tmp_path / f"{name}.pth")
 
 
 class _RunsCode:
@@ -380,3 +385,25 @@ def test_without_onnx_the_error_names_the_extra(checkpoints, tmp_path, monkeypat
     monkeypatch.setitem(sys.modules, "onnx", None)
     with pytest.raises(RelightError, match=r'pip install "relight-rt\[import\]"'):
         import_reference(tmp_path, stage2=checkpoints["stage2"][0], width=WIDTH, resolution=RES)
+
+
+@pytest.mark.parametrize("protocol", range(pickle.HIGHEST_PROTOCOL + 1))
+def test_pickle_scan_passes_ordinary_pickles_and_refuses_deep_ones(protocol):
+    """issue 35 item 5: the opcode scan that runs before the unpickler knows every protocol's ops (marks,
+    memo, in-place appends, BUILD, OBJ/INST) and measures nesting, not length."""
+    from collections import OrderedDict
+
+    from relight_rt.reference_import import PICKLE_MAX_DEPTH, _scan_pickle
+
+    state = OrderedDict(a=[1] * 3000, b={"x": {"y": (1, (2, ()))}}, c={1, 2}, d=b"x" * 100, e=10**40)
+    _scan_pickle(pickle.dumps(state, protocol=protocol), "ok")
+    _scan_pickle(pickle.dumps(_RunsCode(len, "x"), protocol=protocol), "reduce")  # scanned only, never run
+    deep = ()
+    for _ in range(PICKLE_MAX_DEPTH + 1):
+        deep = (deep,)
+    with pytest.raises(RelightError, match="nests containers more than"):
+        _scan_pickle(pickle.dumps({deep: 1}, protocol=protocol), "deep")
+    shallow = ()
+    for _ in range(PICKLE_MAX_DEPTH - 2):
+        shallow = (shallow,)
+    _scan_pickle(pickle.dumps({shallow: 1}, protocol=protocol), "shallow")

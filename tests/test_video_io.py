@@ -167,10 +167,36 @@ def test_opencv_fallback_without_pyav(work, capsys, caplog, monkeypatch):
 def test_frame_rate_is_exact_and_fps_must_be_positive(work, capsys, backend):
     _frames(work / "in", 2)
     code, _, err = run(["video", "in", "--preset", "studio", "-o", "o.mp4", "--fps", "-5"], capsys)
-    assert code == 2 and error_lines(err) == ["relight-rt: error: --fps: must be > 0, got -5"]
+    assert code == 2 and error_lines(err) == ["relight-rt: error: --fps: must be > 0 and at most 1000, got -5"]
     with pytest.raises(RelightError, match="fps: must be > 0"):
         FrameSink(video=work / "x.mp4", fps=0)
     assert not (work / "o.mp4").exists()
+
+
+@pytest.mark.parametrize("fps", ["3e9", "1e300", "inf"])
+def test_fps_is_bounded(work, capsys, backend, fps):
+    """issue 35 item 6: ``--fps 3e9`` was an OverflowError traceback in the writer, leaving its hidden temporary
+    file; the rate is bounded before any work, in the CLI and in the API (FrameSource, FrameSink)."""
+    _frames(work / "in", 2)
+    code, _, err = run(["video", "in", "--preset", "studio", "-o", "o.mp4", "--fps", fps], capsys)
+    assert code == 2 and error_lines(err) == [f"relight-rt: error: --fps: must be > 0 and at most 1000, "
+                                              f"got {float(fps):g}"]
+    for make in (lambda: FrameSink(video=work / "x.mp4", fps=float(fps)), lambda: FrameSource(work / "in", fps=3e9)):
+        with pytest.raises(RelightError, match="fps: must be > 0 and at most 1000"):
+            make()
+    assert sorted(p.name for p in work.iterdir()) == ["in"]  # no output, no temporary file
+
+
+def test_sink_removes_its_temporary_file_when_the_writer_cannot_start(tmp_path, backend):
+    """issue 35 item 6: an error while the writer starts (here a rate the container cannot hold) left the
+    mkstemp file behind: the sink had no writer yet, so close() did not know it."""
+    sink = FrameSink(video=tmp_path / "o.mp4", fps=25)
+    sink.rate = fractions.Fraction(3 * 10**9)  # as a rate past the check would
+    sink.fps = float(sink.rate)
+    with pytest.raises(Exception):  # noqa: B017  (whatever the backend raises; the point is the file)
+        with sink:
+            sink.write("f", np.zeros((8, 8, 3), np.float32))
+    assert list(tmp_path.iterdir()) == []
 
 
 # ------------------------------------------------------------------------------------------- item 1
