@@ -189,24 +189,19 @@ def _decontaminate(rgb: np.ndarray, alpha: np.ndarray) -> np.ndarray:
     return rgb
 
 
-def _gray(srgb: np.ndarray) -> np.ndarray:
-    """(H, W) float32 mean of the channels of an sRGB image (uint8 or float in [0, 1])."""
-    g = srgb.astype(np.float32).mean(axis=2)
-    return g * np.float32(1 / 255) if srgb.dtype == np.uint8 else g
-
-
 _NOISE_KERNEL = np.array([[1, -2, 1], [-2, 4, -2], [1, -2, 1]], np.float32)
 
 
-def _noise_sigma(gray: np.ndarray, where: np.ndarray | None = None) -> float:
-    """Noise standard deviation of a grey image (Immerkær's Laplacian-difference operator, with the median
-    absolute response instead of the mean, so that edges and texture sway it less). Units of ``gray``."""
-    r = np.abs(cv2.filter2D(gray, -1, _NOISE_KERNEL, borderType=cv2.BORDER_REFLECT))[1:-1, 1:-1]
+def _noise_sigma(image: np.ndarray, where: np.ndarray | None = None) -> float:
+    """Per-channel noise standard deviation of an (H, W, 3) float image, averaged over the channels (Immerkær's
+    Laplacian-difference operator, with the median absolute response instead of the mean, so that edges and
+    texture sway it less). Units of ``image``."""
+    r = np.abs(cv2.filter2D(image, -1, _NOISE_KERNEL, borderType=cv2.BORDER_REFLECT))[1:-1, 1:-1]
     if where is not None:
         r = r[where[1:-1, 1:-1]]
-    if r.size < 16:
+    if r.size < 48:
         return 0.0
-    return float(np.median(r)) / (0.6745 * 6)  # the operator has gain 6 on white noise
+    return float(np.median(r.reshape(-1, 3), axis=0).mean()) / (0.6745 * 6)  # the operator's gain on white noise
 
 
 def _blur_sigma(gray: np.ndarray, where: np.ndarray | None = None) -> float:
@@ -415,24 +410,32 @@ def composite(
         ey0, ey1 = max(0, top - new_h // 2), min(hb, feet_y + new_h // 4)
         ex0, ex1 = max(0, left - new_w), min(wb, left + 2 * new_w)
         if ey1 - ey0 >= 8 and ex1 - ex0 >= 8:
-            bg_gray = _gray(bg[ey0:ey1, ex0:ex1])
+            bg_region = bg[ey0:ey1, ex0:ex1].astype(np.float32)
+            if bg.dtype == np.uint8:
+                bg_region *= np.float32(1 / 255)
+            bg_gray = bg_region.mean(axis=2)
             alpha_p = premult[..., 3]
             inside = cv2.erode((alpha_p > 0.98).astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
             colour = np.divide(premult[..., :3], premult[..., 3:], out=np.zeros_like(premult[..., :3]),
                                where=premult[..., 3:] > 1e-3)  # fmt: skip
-            p_gray = linear_to_srgb(np.clip(colour, 0, 1)).mean(axis=2)
-            b_bg, b_p = _blur_sigma(bg_gray), _blur_sigma(p_gray, alpha_p > 0.02)
+            p_srgb = linear_to_srgb(np.clip(colour, 0, 1))
+            # the person's sharpness: its premultiplied colour, so that its outline counts too
+            b_bg, b_p = _blur_sigma(bg_gray), _blur_sigma(linear_to_srgb(premult[..., :3]).mean(axis=2))
             if full_body and b_bg > b_p + 0.25:  # a close portrait is in focus whatever the background
                 sigma = min(math.sqrt(b_bg**2 - b_p**2), 8.0)
+                pad = int(math.ceil(3 * sigma))  # room for the outline to soften outward
+                premult = cv2.copyMakeBorder(premult, pad, pad, pad, pad, cv2.BORDER_CONSTANT, value=0)
                 premult = cv2.GaussianBlur(premult, (0, 0), sigma)
-            n_bg, n_p = _noise_sigma(bg_gray), _noise_sigma(p_gray, inside)
+                top, left = top - pad, left - pad
+            n_bg, n_p = _noise_sigma(bg_region), _noise_sigma(p_srgb, inside)
             if n_bg > n_p + 0.5 / 255:
                 noise_add = math.sqrt(n_bg**2 - n_p**2)
 
     # the region of the background that changes: the person's box and its shadows
-    ry0, ry1, rx0, rx1 = top, feet_y, left, left + new_w
+    box_bottom, box_right = top + premult.shape[0], left + premult.shape[1]
+    ry0, ry1, rx0, rx1 = top, box_bottom, left, box_right
     sh_w, sh_h = 0.6 * new_w, max(2.0, new_h / 20)
-    foot_x, foot_y = left + new_w / 2, feet_y - 0.2 * sh_h
+    foot_x, foot_y = (left + box_right) / 2, feet_y - 0.2 * sh_h
     cast = None
     if draw_shadow:
         ry0, ry1 = min(ry0, int(foot_y - 3 * sh_h)), max(ry1, int(math.ceil(foot_y + 3 * sh_h)))
@@ -465,7 +468,7 @@ def composite(
         lin *= light_left[..., None]
     # the person's pixels inside the region
     py0, px0 = max(top, ry0), max(left, rx0)
-    py1, px1 = min(feet_y, ry1), min(left + new_w, rx1)
+    py1, px1 = min(box_bottom, ry1), min(box_right, rx1)
     alpha_region = None
     if py1 > py0 and px1 > px0:
         p = premult[py0 - top : py1 - top, px0 - left : px1 - left]
