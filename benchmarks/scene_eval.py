@@ -342,7 +342,8 @@ def main(argv=None) -> int:
     res["si_est_better_than_paste"] = float(np.mean([r["si_est"] < r["si_paste"] for r in rows]))
     res["front_back_est"] = {"right": float(np.mean(fb_right)), "n": len(clear)}
     res["front_back_paste"] = {"right": float(np.mean(fb_paste)), "n": len(fb_paste)}
-    res["per_map"] = {m: {"kind": parts[m].kind, "ev_est_background": ev_error(est[m], true1[m] * k_bg[m]),
+    res["per_map"] = {m: {"back_lit": parts[m].key(None, chosen[scene_of(m)]["backlight"])[1],
+                          "ev_est_background": ev_error(est[m], true1[m] * k_bg[m]),
                           "front_back_true": fb[m], "front_back_est": fb_est[m],
                           "colour_est": colour_error(est[m], true1[m])} for m in maps}  # fmt: skip
     (args.out / "results.json").write_text(json.dumps({**res, "rows": rows}, indent=1))

@@ -11,8 +11,9 @@ Backgrounds: perspective views (60°, a level camera looking along −x) of CC0 
 auto-exposed (mean linear luminance 0.18) and sRGB-encoded: six of ../shared/hdri and, with ``--blender``
 (``datafiles/studiolights/world`` of Debian's blender-data; reading .exr needs ``pip install OpenEXR``), four
 of those. Each row: the realistic paste (the full-body person as photographed, unrelit, at the same place
-and size; the estimated light on a sphere in the corner) | ``composite`` full body | ``composite`` half body
-(all defaults: the background's own light, perspective placement, shadows, camera matching, frame metering).
+and size; the estimated light on a sphere in the corner) | ``composite`` full body | ``composite`` half body,
+0.6 of the frame high (otherwise all defaults: the background's own light, perspective placement, shadows,
+camera matching, frame metering).
 """
 
 from __future__ import annotations
@@ -38,6 +39,7 @@ from relight_rt.exposure import REC709  # noqa: E402
 # (file stem, turn in degrees): turned where the unturned view shows little (a black backdrop, a wall)
 SHARED = (("sunset", 0), ("forest", 0), ("apartment", 0), ("lab", 0), ("city", 0), ("night", 90))
 BLENDER = (("sunrise", 0), ("courtyard", 0), ("interior", 90), ("city", 0))
+HALF_HEIGHT = 0.6  # the half body's height, fraction of the background's (it stands on the bottom edge)
 
 
 def load_map(path: Path) -> np.ndarray:
@@ -119,7 +121,7 @@ def main(argv=None) -> int:
         paste = pasted(person, bg)
         paste[: sphere.shape[0], : sphere.shape[1]] = sphere  # the estimated light, top-left corner
         full = relighter.composite(person8, bg)
-        halfbody = relighter.composite(half8, bg, mask=half_mask)
+        halfbody = relighter.composite(half8, bg, mask=half_mask, height=HALF_HEIGHT)
         gap = np.ones((size[0], 4, 3), np.float32)
         tiles.append(np.concatenate([paste, gap, full, gap, halfbody], 1))
         print(f"{path.name} (turned {turn}°)", file=sys.stderr)

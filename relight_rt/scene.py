@@ -53,7 +53,7 @@ import numpy as np
 
 from . import exposure as _exposure
 from ._errors import RelightError
-from .background import _LUT, key_direction, parse_key_light, read_background, scene_light
+from .background import _LUT, key_direction, linear_lut, parse_key_light, read_background, scene_light
 from .color import linear_to_srgb, srgb_to_linear
 from .masks import AUTO, resolve_mask
 
@@ -68,6 +68,7 @@ METER_LIMIT_EV = 1.0  #: the frame metering moves the exposure by at most this
 METERS = ("frame", "background")
 _MIN_KEY_ELEVATION = 15.0  # degrees: a lower key casts its shadow as if from this high (no endless shadows)
 _NOISE_SEED = 36
+_UNIT = np.arange(256, dtype=np.float32) / np.float32(255)  # 8-bit → float in [0, 1]
 
 
 def parse_position(value) -> tuple[float, float]:
@@ -123,7 +124,7 @@ def _linear_person(image):
             raw = cv2.cvtColor(raw, cv2.COLOR_BGR2RGB if raw.shape[2] == 3 else cv2.COLOR_BGRA2RGBA)
             if min(raw.shape[:2]) < 2:
                 raise RelightError(f"image {os.fspath(image)}: image is too small, got {raw.shape}")
-            out = _LUT[raw]
+            out = linear_lut(raw)
             if raw.shape[2] == 4:
                 out[..., 3] = raw[..., 3] * np.float32(1 / 255)
             return out
@@ -132,7 +133,7 @@ def _linear_person(image):
         isinstance(image, np.ndarray) and image.dtype == np.uint8 and image.ndim == 3 and image.shape[2] in (3, 4)
         and min(image.shape[:2]) >= 2
     ):  # fmt: skip
-        out = _LUT[image]
+        out = linear_lut(image)
         if image.shape[2] == 4:
             out[..., 3] = image[..., 3] * np.float32(1 / 255)
         return out
@@ -180,11 +181,13 @@ def _check_horizon(horizon) -> float:
 
 
 def _decontaminate(rgb: np.ndarray, alpha: np.ndarray) -> np.ndarray:
-    """Hook for the matting issue's foreground-colour decontamination (relight_rt.matting, another branch).
+    """Hook for the matting issue's foreground-colour decontamination (another branch: ``relight_rt.foreground.
+    estimate_foreground(rgb, alpha)`` on main at the time of writing).
 
-    TODO(h33): once relight_rt.matting offers the decontamination function, call it here on the person's
-    straight colour and soft matte, so that the old background's colour does not ride along in the hair and
-    at soft edges into the new scene. Until then the colour is returned unchanged.
+    TODO(h33): call the decontamination here on the person's straight colour and soft matte (unless, after the
+    merge, ``Relighter.relight`` already applies it to the relit colour, as main's ``_person_colour`` appears
+    to), so that the old background's colour does not ride along in the hair and at soft edges into the new
+    scene. Until then the colour is returned unchanged.
     """
     return rgb
 
@@ -480,20 +483,25 @@ def composite(
     # metering (step 8)
     gain = 1.0
     if meter == "frame":
-        bg_lum = _LUT[bg] @ _exposure.REC709 if bg.dtype == np.uint8 else srgb_to_linear(bg) @ _exposure.REC709
-        total = float(bg_lum.sum())
+        if bg.dtype == np.uint8:  # the frame's linear luminance from the channels' histograms (fast)
+            hist = [cv2.calcHist([bg], [c], None, [256], [0, 256]).reshape(-1) @ _LUT for c in range(3)]
+            total = float(np.asarray(hist, np.float64) @ _exposure.REC709.astype(np.float64))
+        else:
+            total = float((srgb_to_linear(bg) @ _exposure.REC709).sum())
         after = total - before + float((lin @ _exposure.REC709).sum())
         if after > 1e-9 and total > 1e-9:
             gain = float(np.clip(total / after, 2.0**-METER_LIMIT_EV, 2.0**METER_LIMIT_EV))
     if abs(math.log2(gain)) > 1e-3:
         if bg.dtype == np.uint8:
             table = np.clip(linear_to_srgb(np.clip(_LUT * np.float32(gain), 0, 1)), 0, 1).astype(np.float32)
-            out = table[bg]
+            out = cv2.LUT(bg, table.reshape(256, 1))
         else:
             out = np.clip(linear_to_srgb(np.clip(srgb_to_linear(bg) * np.float32(gain), 0, 1)), 0, 1)
         lin *= np.float32(gain)
+    elif bg.dtype == np.uint8:
+        out = cv2.LUT(bg, _UNIT.reshape(256, 1))
     else:
-        out = bg.astype(np.float32) * np.float32(1 / 255) if bg.dtype == np.uint8 else bg.astype(np.float32, copy=True)
+        out = bg.astype(np.float32, copy=True)
     region = np.clip(linear_to_srgb(np.clip(lin, 0, None)), 0, 1)
     if noise_add > 0 and alpha_region is not None:
         qy0, qy1, qx0, qx1, a = alpha_region
