@@ -100,7 +100,8 @@ def main(argv=None) -> int:
     person = np.concatenate([linear_to_srgb(rgba[..., :3]), rgba[..., 3:]], 2)
     person8 = (np.clip(person, 0, 1) * 255 + 0.5).astype(np.uint8)
     if args.half_body:
-        half, half_mask = read_image(args.half_body, "half body"), read_mask(args.half_body_mask, "half body mask")
+        half = read_image(args.half_body, "half body")
+        half_mask = read_mask(args.half_body_mask, half.shape[:2], "half body mask")
         half8 = (np.clip(half[..., :3], 0, 1) * 255 + 0.5).astype(np.uint8)
     else:
         rows = np.flatnonzero((rgba[..., 3] > 0.005).any(1))
