@@ -5,7 +5,7 @@ right toward +y, unmirrored (the orientation of an env map's centre), over a hor
 ``fov`` (default 60°; the vertical one follows from the aspect ratio, square pixels, a level camera).
 It shows the light that reaches the person's *back* and sides; what lights the person's camera-facing
 side lies behind the camera, which the photo never shows. The rule (docs/RESULTS.md, "Into any scene",
-measures it on 17 real panoramas; the five fitted numbers below were fitted there, and are measured with
+measures it on 17 real panoramas; the seven fitted numbers below were fitted there, and are measured with
 one scene left out at a time):
 
 1. Linearise (sRGB → linear) and area-average down to about the env map's angular resolution. Clipped
