@@ -382,7 +382,8 @@ def composite(
             if rows_below < 0.02 * hb:
                 raise RelightError(
                     f"position: the feet (y = {feet[1]:g}) are on or above the horizon (y = {hz:g}), where the "
-                    "ground is not seen; give a lower --position, a higher --horizon, or a --height"
+                    "ground is not seen; give feet lower in the picture (a larger --position Y), a horizon higher in "
+                    "it (a smaller --horizon), or a --height"
                 )
             frac = rows_below * PERSON_M / CAMERA_M / hb
             frac = min(frac, 1.0)
