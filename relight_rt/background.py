@@ -5,7 +5,7 @@ right toward +y, unmirrored (the orientation of an env map's centre), over a hor
 ``fov`` (default 60°; the vertical one follows from the aspect ratio, square pixels, a level camera).
 It shows the light that reaches the person's *back* and sides; what lights the person's camera-facing
 side lies behind the camera, which the photo never shows. The rule (docs/RESULTS.md, "Into any scene",
-measures it on 17 real panoramas; the seven fitted numbers below were fitted there, and are measured with
+measures it on 17 real panoramas; the nine fitted numbers below were fitted there, and are measured with
 one scene left out at a time):
 
 1. Linearise (sRGB → linear) and area-average down to about the env map's angular resolution. Clipped
@@ -26,13 +26,15 @@ one scene left out at a time):
    the bottom third's) + c · (spread of log2 luminance), (a, b, c) = ``BACKLIGHT``, says back-lit (z < 0:
    a bright top and a contrasty view, as with a sun, window or lamps in or above the frame, the near side
    of things in shadow) or front-lit (the light behind the camera, what the view shows is lit). Back-lit:
-   a back-side key from 135° (behind the person, 45° off the axis), ``KEY_BACK`` × the ambient; front-lit:
-   a soft front-side key from 45° off the camera, ``KEY_FRONT`` × the ambient; both 35° up, on the view's
-   brighter side, in the ambient colour. The key is a degree-2 lobe (a light from one direction,
-   band-limited: a soft clamped cosine) whose irradiance on a surface facing it is that many times the
-   ambient. ``key_light=(azimuth, elevation)`` (degrees; ``parse_key_light``) puts it elsewhere: azimuth
-   within ±90° takes ``KEY_FRONT``, beyond it ``KEY_BACK``. (No separate sun-plus-sky model: a sun out of
-   frame is the front-side key; the sky is in step 2.)
+   a back-side key from 135° (behind the person, 45° off the axis, on the view's brighter side),
+   ``KEY_BACK`` × the ambient; front-lit: a soft front key, ``KEY_FRONT`` × the ambient, from
+   ``KEY_GEOMETRY`` = (azimuth, elevation): fitted among 0°/45° off the camera (on the view's brighter side)
+   and 35°/60° up, by the person's scale-invariant error; (0°, 35°) won: from the camera's direction, as
+   the side cannot be read from the view reliably. Both in the ambient colour. The key is a degree-2 lobe (a
+   light from one direction, band-limited: a soft clamped cosine) whose irradiance on a surface facing it is
+   that many times the ambient. ``key_light=(azimuth, elevation)`` (degrees; ``parse_key_light``) puts it
+   elsewhere: azimuth within ±90° takes ``KEY_FRONT``, beyond it ``KEY_BACK``. (No separate sun-plus-sky
+   model: a sun out of frame is the front key; the sky is in step 2.)
 5. Project with ``sh.project_envmap`` and divide by π.
 
 Scale: the light is in the photo's own linear units: a white diffuse surface that sees a uniform
@@ -55,7 +57,7 @@ from .color import srgb_to_linear
 
 __all__ = [
     "AMBIENT_GAIN", "BACKLIGHT", "COLOUR_SATURATION", "FOV_RANGE", "HIGHLIGHT_GAIN", "KEY_BACK", "KEY_FRONT",
-    "MIN_SIZE", "SceneLight", "envmap_view",
+    "KEY_GEOMETRY", "MIN_SIZE", "SceneLight", "envmap_view",
     "key_direction", "light_from_background", "parse_key_light", "read_background", "scene_light",
 ]  # fmt: skip
 
@@ -66,16 +68,16 @@ HIGHLIGHT_GAIN = 3.0
 # The fitted numbers (benchmarks/scene_eval.py on all 17 scenes; docs/RESULTS.md, "Into any scene"):
 #: ambient radiance behind the camera = AMBIENT_GAIN × the photo's median linear luminance
 AMBIENT_GAIN = 2.83
-#: the key's irradiance facing it, × the ambient: a front-side key (front-lit views), a back-side key (back-lit)
-KEY_FRONT = 2.0
+#: the key's irradiance facing it, × the ambient: the front key (front-lit views), the back-side key (back-lit)
+KEY_FRONT = 1.5
 KEY_BACK = 1.5
 #: back-lit score z = a + b · top_bottom + c · contrast (SceneLight.backlight_score)
 BACKLIGHT = (0.53, -0.124, -0.197)
 #: the ambient colour is the photo's mean colour with its saturation scaled by this (0: neutral)
 COLOUR_SATURATION = 0.0
-_FRONT_AZIMUTH = 45.0  # degrees from the camera of the automatic front-side key
-_BACK_AZIMUTH = 135.0  # of the automatic back-side key
-_KEY_ELEVATION = 35.0
+#: the automatic key's geometry (degrees): the front-side key's azimuth from the camera, and the keys' elevation
+KEY_GEOMETRY = (0.0, 35.0)
+_BACK_AZIMUTH = 135.0  # degrees from the camera of the automatic back-side key (behind the person, to the side)
 _STATS_WIDTH = 512  # the median, contrast, colour and halves are read on a copy at most this wide
 _CLIP_LEVEL = 250  # 8-bit value from which a pixel counts as saturated
 _SIDE_BLUR = 0.35  # blur level of the parts beside the field of view (0 sharp, 0.5 blurred, 1 band mean)
@@ -262,22 +264,23 @@ class SceneLight:
         d = np.asarray(direction, np.float64)
         return sh.basis(d / np.linalg.norm(d)) / _LOBE_PEAK
 
-    def key(self, key_light=None, backlight=None) -> tuple[tuple[float, float], bool]:
+    def key(self, key_light=None, backlight=None, geometry=None) -> tuple[tuple[float, float], bool]:
         """((azimuth, elevation), back): where the key comes from (degrees) and whether it is a back key."""
         given = parse_key_light(key_light)
         if given is not None:
             return given, abs((given[0] + 180) % 360 - 180) > 90
+        front_azimuth, elevation = KEY_GEOMETRY if geometry is None else geometry
         if self.backlight_score(backlight) < 0:
-            return (_BACK_AZIMUTH * self.side, _KEY_ELEVATION), True
-        return (_FRONT_AZIMUTH * self.side, _KEY_ELEVATION), False
+            return (_BACK_AZIMUTH * self.side, elevation), True
+        return (front_azimuth * self.side, elevation), False
 
     def light(self, key_light=None, *, ambient_gain=None, key_front=None, key_back=None, backlight=None,
-              saturation=None) -> np.ndarray:  # fmt: skip
+              saturation=None, geometry=None) -> np.ndarray:  # fmt: skip
         """(9, 3) float64 light in the photo's units; ``key_light`` (azimuth, elevation) steers the key; the
         keyword numbers override the module's fitted ones (benchmarks/scene_eval.py's tuning)."""
         ambient = (AMBIENT_GAIN if ambient_gain is None else ambient_gain) * self.level
         colour = self.ambient_colour(saturation)
-        (az, el), back = self.key(key_light, backlight)
+        (az, el), back = self.key(key_light, backlight, geometry)
         if back:
             strength = KEY_BACK if key_back is None else key_back
         else:
