@@ -1,30 +1,42 @@
-"""Light from a background photo, measured on rendered scenes (the "into any scene" table of docs/RESULTS.md).
+"""Into any scene, measured fairly: the light from one background photo on real panoramas (docs/RESULTS.md).
 
-    python benchmarks/scene_eval.py --prepare-envs ../shared/hdri --envs ENVS
-    python benchmarks/scene_eval.py --photos PHOTOS --people PEOPLE --envs ENVS --out runs/scene_eval \\
-        [--pairs-per-target 2] [--subjects anny_100004,...] [--gain 6] [--no-stage1]
+    python benchmarks/scene_eval.py --prepare-envs ../shared/hdri BLENDER_WORLD --envs ENVS
+    python benchmarks/scene_eval.py --photos PHOTOS --people PEOPLE --envs ENVS --out runs/scene36/report
 
-Inputs (made by the commands in docs/RESULTS.md): PEOPLE, held-out people from ``python -m export render``
-(albedo, transport); ENVS, a folder of normalised .hdr maps (the nine CC0 maps of ../shared/hdri, each
-turned by 0/90/180/270°); PHOTOS, ``python -m export render-photos --full-shading`` of every person
-under every map of ENVS (hard shadows, GGX specular, subsurface: what a camera records).
+BLENDER_WORLD is ``datafiles/studiolights/world`` of Debian's ``blender-data`` package (eight CC0 Poly Haven
+maps, 1024 x 512 OpenEXR, DWA-compressed; reading them needs ``pip install OpenEXR``, only here; they are
+named ``bl-NAME``). Every map is area-resized to 128 rows, normalised (brightest SH irradiance 1) and turned
+by 0/90/180/270° about +z: 4 maps per scene. PEOPLE: ``python -m export render`` (albedo, transport);
+PHOTOS: ``python -m export render-photos --full-shading`` of every person under every map (hard shadows,
+GGX specular, subsurface: what a camera records). Commands: docs/RESULTS.md, "Into any scene".
 
-For a person P and maps A != B:
-- the background photo: a 256 x 192 perspective view of B (60° horizontal field of view, the camera at
-  the subject looking along −x; relight_rt.background.envmap_view), of the radiance π·B (the scale at
-  which the person's renders are in the same units as the view), auto-exposed like a camera (mean linear
-  luminance 0.18), clipped and sRGB-encoded to 8 bits. Its exposure k_B puts everything in its units.
-- ground truth: the photo of P under B, times k_B.
-- (i) no relighting: the photo of P under A, times k_B (the same camera).
-- (ii) estimated light: L = relight_rt.background.light_from_background(view) (the view alone), applied
-  physically ("physical" exposure; for a light from the background composite's "auto" is the same) to
-  (a) the renderer's own albedo and transport (isolates the light estimate) and (b) the bundled
-  stage 1 + 2 run on the photo under A (the whole runtime).
-- (ii) also with the scale that keeps the input person's mean luminance (``relight``'s "auto" exposure).
-- (ii') the estimated light with the overall scale of the truth (diagnostic: direction and colour only).
-- (iii) oracle: the true SH light of B (k_B · its projection), same two pipelines.
-RMSE inside the mask (linear values, all clipped to [0, 1] as a camera records them), mean over pairs with
-a 95 % bootstrap interval.
+The cameras. The background photo of a map B is a 256 x 192 perspective view (60°, the camera at the subject
+looking along −x; relight_rt.background.envmap_view) of π·B (the units in which the person's renders are
+the radiance a camera sees), exposed by a camera that meters the place without the person (mean linear
+luminance 0.18), clipped and written as 8-bit sRGB: what ``composite`` gets. The truth is a photo of the
+person standing in that place (feet at 95 % of the height, 75 % of the frame high, centred) taken by a
+camera that meters in one of two modes:
+- ``background``: as the background photo (the truth person is at the background's exposure);
+- ``frame``: the whole frame with the person in it (mean 0.18 over the frame; the background changes too).
+
+The methods, for a person P, the place B and another place A (the person's own photo was taken in A):
+- ``paste``: the realistic paste: P's photo in A at its own camera's exposure (metered like the truth), unrelit.
+- ``est``: relight_rt.background's light from the background photo alone, applied physically to the
+  renderer's albedo and transport of P (this isolates the light from stage 1's errors); in the ``frame``
+  mode the composed frame is metered again as the camera would (relight_rt.scene, ``meter="frame"``).
+  Its fitted numbers (relight_rt.background's AMBIENT_GAIN, KEY_FRONT, KEY_BACK, BACKLIGHT, COLOUR_SATURATION,
+  KEY_GEOMETRY) are fitted with the whole scene (its 4 turns) left out: for each scene the fits below
+  (``fit``, ``fit_all``) run on the other scenes' maps only.
+- ``oracle``: the true SH light of B in the truth's units (the best any SH light can do).
+
+Four scores, separately:
+1. exposure error (EV) of the light on the person's camera-facing side: log2 of the mean irradiance over
+   the normals facing the camera (weighted by how much of each the camera sees, Rec. 709 luminance) of the
+   method's light over the truth's light, in the truth camera's units;
+2. scale-invariant RMSE in the mask: min over one scalar s of RMSE(s · image, truth photo) (linear);
+3. light colour error (degrees): the angle between the RGB of that camera-facing irradiance and the truth's;
+4. front/back: on maps whose camera-facing and back irradiance differ by >= 1 EV, whether the method's
+   light has the brighter side on the same side.
 """
 
 from __future__ import annotations
@@ -42,71 +54,194 @@ REPO = Path(__file__).resolve().parents[1]
 if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
-from export import dataset  # noqa: E402
 from relight_rt import background as bgmod  # noqa: E402
 from relight_rt import sh  # noqa: E402
-from relight_rt.color import linear_to_srgb  # noqa: E402
+from relight_rt.color import linear_to_srgb, srgb_to_linear  # noqa: E402
 from relight_rt.exposure import REC709  # noqa: E402
 
 VIEW = (192, 256)  # (height, width)
 GREY = 0.18
+PERSON_HEIGHT, FEET = 0.75, 0.95  # the person in the truth frame: box height and feet, fractions of the view
+CLEAR_EV = 1.0  # front/back scored on maps whose sides differ by at least this
+METER_CLAMP = 1.0  # EV: how far relight_rt.scene's frame metering may move the exposure (the same rule)
+GRID = {
+    "ambient_gain": 2.0 ** np.linspace(0, 4, 33),
+    "key_front": np.array([0, 0.25, 0.5, 1, 1.5, 2, 3, 4]),
+    "key_back": np.array([0, 0.25, 0.5, 1, 1.5, 2, 3, 4, 6, 8]),
+    "saturation": np.linspace(0, 1, 9),
+}
+#: the key's geometry (front-side azimuth, elevation; degrees), chosen per fold by the training scenes' mean
+#: scale-invariant RMSE (the other numbers by the exposure and colour errors, ``fit``)
+GEOMETRIES = ((45.0, 35.0), (0.0, 35.0), (45.0, 60.0), (0.0, 60.0))
 
 
-def view_photo(env: np.ndarray) -> tuple[np.ndarray, float]:
-    """8-bit sRGB background photo of π·env and its exposure k (linear photo = k · π · env, clipped)."""
-    view = bgmod.envmap_view(env * np.float32(math.pi), VIEW, 60.0)
-    k = GREY / max(float((view @ REC709).mean()), 1e-6)
-    disp = linear_to_srgb(np.clip(view * np.float32(k), 0, 1))
-    return (disp * 255 + 0.5).astype(np.uint8), k
+# ------------------------------------------------------------------------------------------------ the maps
 
 
-def prepare_envs(hdri: Path, out: Path, height: int = 128) -> None:
-    """The evaluation maps: every .hdr of ``hdri`` area-resized to ``height``, normalised (brightest SH
-    irradiance 1, export.render.envmaps.normalize_envmap) and turned by 0/90/180/270° about +z."""
+def read_exr(path: Path) -> np.ndarray:
+    """(H, W, 3) float32 linear RGB of an OpenEXR file (the ``OpenEXR`` package from PyPI, benchmark only)."""
+    try:
+        import OpenEXR
+    except ImportError:
+        raise SystemExit("reading .exr maps needs the OpenEXR package: pip install OpenEXR") from None
+    with OpenEXR.File(str(path)) as f:
+        ch = f.channels()
+        if "RGB" in ch:
+            return np.asarray(ch["RGB"].pixels, np.float32)[..., :3]
+        return np.stack([np.asarray(ch[c].pixels, np.float32) for c in "RGB"], -1)
+
+
+def prepare_envs(folders: list[Path], out: Path, height: int = 128) -> None:
+    """Every .hdr (named as is) and .exr (named ``bl-STEM``) of ``folders``: resized, normalised, turned (docstring)."""
     from export.render.envmaps import normalize_envmap, resize_envmap, rotate_envmap, write_hdr
 
     out.mkdir(parents=True, exist_ok=True)
-    for path in sorted(hdri.glob("*.hdr")):
-        env = normalize_envmap(resize_envmap(sh.load_envmap(path), height), 1.0)
-        for step in range(4):
-            write_hdr(out / f"{path.stem}_y{step * 90:03d}.hdr", rotate_envmap(env, step, 4))
+    for folder in folders:
+        for path in sorted(folder.iterdir()):
+            if path.suffix.lower() == ".hdr":
+                env, name = sh.load_envmap(path), path.stem
+            elif path.suffix.lower() == ".exr":
+                env, name = read_exr(path), f"bl-{path.stem}"
+            else:
+                continue
+            env = normalize_envmap(resize_envmap(np.maximum(env, 0), height), 1.0)
+            for step in range(4):
+                write_hdr(out / f"{name}_y{step * 90:03d}.hdr", rotate_envmap(env, step, 4))
 
 
-def rmse(a, b, inside) -> float:
-    """RMSE inside the mask of two linear images, both clipped to [0, 1] as the camera records them."""
-    d = np.clip(a[inside], 0, 1) - np.clip(b[inside], 0, 1)
-    return float(np.sqrt(np.mean(d**2)))
+def scene_of(map_name: str) -> str:
+    return map_name.rsplit("_y", 1)[0]
 
 
-def diffuse(albedo, transport, light):
-    return albedo * sh.shading(transport, light)
+# ------------------------------------------------------------------------------------------------ scores
 
 
-def bootstrap(values, n=2000, seed=0):
-    v = np.asarray(values)
-    rng = np.random.default_rng(seed)
-    means = v[rng.integers(0, len(v), (n, len(v)))].mean(1)
-    return float(v.mean()), float(np.percentile(means, 2.5)), float(np.percentile(means, 97.5))
+def _hemisphere(sign: int, n: int = 4000):
+    k = np.arange(n) + 0.5
+    z = 1 - 2 * k / n
+    phi = math.pi * (1 + math.sqrt(5)) * k
+    r = np.sqrt(1 - z * z)
+    d = np.stack([r * np.cos(phi), r * np.sin(phi), z], 1)
+    d = d[d[:, 0] * sign > 0]
+    w = d[:, 0] * sign  # how much of that normal a camera on that side sees
+    return (sh.basis(d) * sh.cosine_lobe()).T @ w / w.sum()  # (9,): light → mean irradiance
+
+
+FRONT_W, BACK_W = _hemisphere(+1), _hemisphere(-1)
+
+
+def side_rgb(light, weights=FRONT_W) -> np.ndarray:
+    """(3,) mean irradiance of one side (camera-facing by default) of a convex body under ``light``."""
+    return weights @ np.asarray(light, np.float64)
+
+
+def lum(rgb) -> float:
+    return float(np.asarray(rgb) @ REC709)
+
+
+def ev_error(light, truth) -> float:
+    return math.log2(max(lum(side_rgb(light)), 1e-9) / max(lum(side_rgb(truth)), 1e-9))
+
+
+def colour_error(light, truth) -> float:
+    a, b = side_rgb(light), side_rgb(truth)
+    c = float(a @ b / max(np.linalg.norm(a) * np.linalg.norm(b), 1e-12))
+    return math.degrees(math.acos(min(1.0, max(-1.0, c))))
+
+
+def front_back(light) -> float:
+    return math.log2(max(lum(side_rgb(light, FRONT_W)), 1e-9) / max(lum(side_rgb(light, BACK_W)), 1e-9))
+
+
+def si_rmse(x, y, inside) -> float:
+    a, b = x[inside].reshape(-1), y[inside].reshape(-1)
+    s = float(a @ b) / max(float(a @ a), 1e-12)
+    return float(np.sqrt(np.mean((s * a - b) ** 2)))
+
+
+# ------------------------------------------------------------------------------------------------ the cameras
+
+
+def view_linear(env: np.ndarray) -> np.ndarray:
+    """The unexposed (k = 1) linear view of π·env."""
+    return bgmod.envmap_view(env * np.float32(math.pi), VIEW, 60.0)
+
+
+def photograph(linear: np.ndarray, k: float) -> np.ndarray:
+    """8-bit sRGB of k · linear, clipped: what the camera writes."""
+    return (linear_to_srgb(np.clip(linear * np.float32(k), 0, 1)) * 255 + 0.5).astype(np.uint8)
+
+
+def placement(mask: np.ndarray):
+    """(box, (top, left, new_h, new_w)) putting the person's box in the truth frame (module docstring)."""
+    rows, cols = np.flatnonzero((mask > 0.005).any(1)), np.flatnonzero((mask > 0.005).any(0))
+    y0, y1, x0, x1 = rows[0], rows[-1] + 1, cols[0], cols[-1] + 1
+    s = PERSON_HEIGHT * VIEW[0] / (y1 - y0)
+    nh, nw = round((y1 - y0) * s), round((x1 - x0) * s)
+    return (y0, y1, x0, x1), (round(FEET * VIEW[0]) - nh, round(VIEW[1] / 2 - nw / 2), nh, nw)
+
+
+def frame(background_lin: np.ndarray, person: np.ndarray, mask: np.ndarray, place) -> np.ndarray:
+    """The person (linear, straight colour) laid over the linear background with its matte."""
+    (y0, y1, x0, x1), (top, left, nh, nw) = place
+    a = mask[y0:y1, x0:x1, None]
+    pre = cv2.resize(np.concatenate([person[y0:y1, x0:x1] * a, a], 2), (nw, nh), interpolation=cv2.INTER_AREA)
+    out = background_lin.copy()
+    region = out[top : top + nh, left : left + nw]
+    region *= 1 - pre[..., 3:]
+    region += pre[..., :3]
+    return out
+
+
+def mean_lum(img) -> float:
+    return float((img @ REC709).mean())
+
+
+# ------------------------------------------------------------------------------------------------ tuning
+
+
+def fit(parts: list, truths: list, geometry=None) -> dict:
+    """The fitted numbers of relight_rt.background from the given maps (background metering), in order:
+    BACKLIGHT by least squares of the truth's front/back EV on [1, top_bottom, contrast]; then AMBIENT_GAIN,
+    KEY_FRONT and KEY_BACK by the least mean |EV error| over GRID (the light is linear in them); then
+    COLOUR_SATURATION by the least mean colour error over GRID."""
+    feats = np.array([[1.0, p.top_bottom, p.contrast] for p in parts])
+    fb = np.array([front_back(t) for t in truths])
+    backlight = tuple(float(v) for v in np.linalg.lstsq(feats, fb, rcond=None)[0])
+    g, kf, kb = GRID["ambient_gain"], GRID["key_front"], GRID["key_back"]
+    err = np.zeros((len(g), len(kf), len(kb)))
+    for p, t in zip(parts, truths, strict=True):
+        base = lum(side_rgb(p.view + p.source))
+        (az, el), back = p.key(None, backlight, geometry)
+        unit = p.level * float(FRONT_W @ p.key_unit(bgmod.key_direction(az, el)))
+        amb = p.level * float(FRONT_W @ p.behind)
+        key = (kb[None, :] if back else kf[:, None]) * unit
+        e = base + g[:, None, None] * (amb + key)[None]
+        err += np.abs(np.log2(np.maximum(e, 1e-9) / max(lum(side_rgb(t)), 1e-9)))
+    i, j, k = np.unravel_index(int(np.argmin(err)), err.shape)
+    out = {"ambient_gain": float(g[i]), "key_front": float(kf[j]), "key_back": float(kb[k]), "backlight": backlight,
+           "geometry": geometry}  # fmt: skip
+    col = [np.mean([colour_error(p.light(**out, saturation=s), t) for p, t in zip(parts, truths, strict=True)])
+           for s in GRID["saturation"]]  # fmt: skip
+    return {**out, "saturation": float(GRID["saturation"][int(np.argmin(col))])}
+
+
+# ------------------------------------------------------------------------------------------------ main
+
+
+def summarise(values) -> dict:
+    v = np.asarray(values, np.float64)
+    return {"median": float(np.median(v)), "mean": float(v.mean()), "n": int(v.size)}
 
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--prepare-envs", type=Path, metavar="HDRI", help="only write the maps of HDRI into --envs")
+    p.add_argument("--prepare-envs", type=Path, nargs="+", metavar="FOLDER", help="only write the maps into --envs")
     p.add_argument("--photos", type=Path)
     p.add_argument("--people", type=Path)
     p.add_argument("--envs", type=Path, required=True)
     p.add_argument("--out", type=Path)
-    p.add_argument("--subjects", default=None, help="comma-separated subjects (default: all)")
-    p.add_argument("--pairs-per-target", type=int, default=2, help="maps A drawn per (person, B)")
-    p.add_argument("--gain", type=float, default=None, help="override background.HIGHLIGHT_GAIN")
-    p.add_argument("--behind-blur", type=float, default=None, help="override background._BEHIND_BLUR (tuning)")
-    p.add_argument(
-        "--max-exposure",
-        type=float,
-        default=None,
-        help="leave out maps B whose view needs an exposure k above this (near-black views)",
-    )
-    p.add_argument("--no-stage1", action="store_true", help="skip the bundled-model rows")
+    p.add_argument("--pairs-per-target", type=int, default=2, help="places A drawn per (person, B)")
     p.add_argument("--seed", type=int, default=0)
     args = p.parse_args(argv)
     if args.prepare_envs:
@@ -114,103 +249,162 @@ def main(argv=None) -> int:
         return 0
     if not (args.photos and args.people and args.out):
         p.error("--photos, --people and --out are needed (unless --prepare-envs)")
-    if args.gain is not None:
-        bgmod.HIGHLIGHT_GAIN = args.gain
-    if args.behind_blur is not None:
-        bgmod._BEHIND_BLUR = args.behind_blur
-    args.out.mkdir(parents=True, exist_ok=True)
+    from export import dataset
 
-    photos = dataset.list_photos(args.photos)
+    args.out.mkdir(parents=True, exist_ok=True)
     by_subject: dict[str, dict[str, str]] = {}
-    for name in photos:
+    for name in dataset.list_photos(args.photos):
         subject, _ = dataset.split_photo_name(name)
         env = (args.photos / f"{name}_env.txt").read_text().strip()
-        by_subject.setdefault(subject, {})[env] = name
-    subjects = sorted(by_subject) if args.subjects is None else args.subjects.split(",")
-    envs = sorted(set.intersection(*(set(by_subject[s]) for s in subjects)))
-    views, exposure, true_light, est_light = {}, {}, {}, {}
-    for e in envs:
-        env = sh.load_envmap(args.envs / e)
-        views[e], exposure[e] = view_photo(env)
-        true_light[e] = sh.project_envmap(env) * exposure[e]  # the renders' units: image = albedo ⊙ T·L
-        est_light[e] = bgmod.light_from_background(views[e], 60.0)[0].astype(np.float64)
-    if args.max_exposure is not None:
-        left_out = [e for e in envs if exposure[e] > args.max_exposure]
-        print(f"left out (k > {args.max_exposure:g}): {', '.join(left_out) or 'none'}", file=sys.stderr)
-        envs = [e for e in envs if e not in left_out]
-    relighter = None
-    if not args.no_stage1:
-        from relight_rt import Relighter
+        by_subject.setdefault(subject, {})[Path(env).stem] = name
+    subjects = sorted(by_subject)
+    maps = sorted(set.intersection(*(set(by_subject[s]) for s in subjects)))
+    scenes = sorted({scene_of(m) for m in maps})
 
-        relighter = Relighter(device="cpu")
+    # per map: the background camera, the light read from its photo, the true light at k = 1
+    lin1, k_bg, views, parts, true1 = {}, {}, {}, {}, {}
+    for m in maps:
+        env = sh.load_envmap(args.envs / f"{m}.hdr")
+        lin1[m] = view_linear(env)
+        k_bg[m] = GREY / max(mean_lum(lin1[m]), 1e-9)
+        views[m] = photograph(lin1[m], k_bg[m])
+        parts[m] = bgmod.scene_light(views[m], 60.0)
+        true1[m] = sh.project_envmap(env)  # the renders' units: image = albedo ⊙ T·L
+
+    # the people inside their masks, for choosing the key's geometry by the scale-invariant RMSE
+    inside_px = {}
+    for subject in subjects:
+        sample = dataset.read_sample(args.people, subject)
+        first = dataset.read_photo(args.photos, by_subject[subject][maps[0]])
+        inside = first["mask"] > 0.5
+        truth_px = {m: dataset.read_photo(args.photos, by_subject[subject][m])["photo"][inside] for m in maps}
+        inside_px[subject] = (sample["albedo"][inside], sample["transport"][inside], truth_px)
+
+    def fit_all(train: list) -> dict:
+        """The fitted numbers from the maps ``train``: each geometry's exposure/colour fit, then the geometry
+        whose lights give the least mean scale-invariant RMSE over those maps and every person."""
+        best = None
+        for geometry in GEOMETRIES:
+            f = fit([parts[m] for m in train], [true1[m] * k_bg[m] for m in train], geometry)
+            err = []
+            for a, t, truth_px in inside_px.values():
+                for m in train:
+                    lit = a * np.maximum(t @ parts[m].light(**f), 0)
+                    x, y = lit.reshape(-1), truth_px[m].reshape(-1)
+                    s = float(x @ y) / max(float(x @ x), 1e-12)
+                    err.append(float(np.sqrt(np.mean((s * x - y) ** 2))))
+            if best is None or np.mean(err) < best[0]:
+                best = (float(np.mean(err)), f)
+        return best[1]
+
+    # leave one scene out: the fitted numbers for each scene from the other scenes' maps
+    chosen = {s: fit_all([m for m in maps if scene_of(m) != s]) for s in scenes}
+    shipped = fit_all(maps)
+    est = {m: parts[m].light(**chosen[scene_of(m)]) for m in maps}  # background-photo units
+
     rng = np.random.default_rng(args.seed)
     rows = []
-    for s in subjects:
-        sample = dataset.read_sample(args.people, s)
+    for subject in subjects:
+        sample = dataset.read_sample(args.people, subject)
         albedo, transport = sample["albedo"], sample["transport"]
-        decs = {}
-        for b in envs:
-            gt_photo = dataset.read_photo(args.photos, by_subject[s][b])
-            inside = gt_photo["mask"] > 0.5
-            gt = gt_photo["photo"] * exposure[b]
-            l_est, l_true = est_light[b], true_light[b]
-            r_est = diffuse(albedo, transport, l_est)
-            r_true = diffuse(albedo, transport, l_true)
-            lum = lambda img, m=inside: float((img[m] @ REC709).mean())  # noqa: E731
-            scale = lum(gt) / max(lum(r_est), 1e-8)
-            others = [a for a in envs if a != b]
-            for a in rng.choice(others, size=min(args.pairs_per_target, len(others)), replace=False):
-                src = dataset.read_photo(args.photos, by_subject[s][a])
-                row = {
-                    "subject": s, "A": str(a), "B": b,
-                    "none": rmse(src["photo"] * exposure[b], gt, inside),
-                    "est_renderer": rmse(r_est, gt, inside),
-                    "est_keep_input_renderer": rmse(r_est * lum(src["photo"] * exposure[b]) / max(lum(r_est), 1e-8), gt,
-                                                    inside),
-                    "est_scaled_renderer": rmse(r_est * scale, gt, inside),
-                    "oracle_renderer": rmse(r_true, gt, inside),
-                }  # fmt: skip
-                if relighter is not None:
-                    if a not in decs:
-                        decs[a] = relighter.decompose(src["photo"], src["mask"])
-                    dec = decs[a]
-                    black = np.zeros(src["photo"].shape, np.float32)
-                    for key, light in (("est_stage1", l_est), ("oracle_stage1", l_true)):
-                        out = relighter.relight(dec, light, background=black, exposure="physical")
-                        row[key] = rmse(out, gt, inside)
+        cache = {}
+
+        def photo_of(m, cache=cache, subject=subject):
+            if m not in cache:
+                cache[m] = dataset.read_photo(args.photos, by_subject[subject][m])
+            return cache[m]
+
+        def k_frame(m):  # the camera metering the whole frame with the person under m
+            ph = photo_of(m)
+            f1 = frame(lin1[m], ph["photo"], ph["mask"], placement(ph["mask"]))
+            return GREY / max(mean_lum(f1), 1e-9)
+
+        for b in maps:
+            truth = photo_of(b)
+            inside = truth["mask"] > 0.5
+            place = placement(truth["mask"])
+            r_est = albedo * sh.shading(transport, est[b])
+            r_oracle = albedo * sh.shading(transport, true1[b])
+            kb = {"background": k_bg[b], "frame": k_frame(b)}
+            # relight_rt.scene's frame metering of the estimated composite (same clamp as the runtime)
+            bg_lin = srgb_to_linear(views[b])
+            comp = frame(bg_lin, r_est, truth["mask"], place)
+            remeter = float(np.clip(mean_lum(bg_lin) / max(mean_lum(comp), 1e-9), 2**-METER_CLAMP, 2**METER_CLAMP))
+            for a in rng.choice([m for m in maps if m != b], size=args.pairs_per_target, replace=False):
+                a = str(a)
+                src = photo_of(a)
+                ka = {"background": k_bg[a], "frame": k_frame(a)}
+                row = {"subject": subject, "A": a, "B": b,
+                       "si_paste": si_rmse(src["photo"], truth["photo"], inside),
+                       "si_est": si_rmse(r_est, truth["photo"], inside),
+                       "si_oracle": si_rmse(r_oracle, truth["photo"], inside),
+                       "colour_paste": colour_error(true1[a], true1[b]),
+                       "colour_est": colour_error(est[b], true1[b])}  # fmt: skip
+                for mode in ("background", "frame"):
+                    t = true1[b] * kb[mode]
+                    scale = 1.0 if mode == "background" else remeter
+                    row[f"ev_paste_{mode}"] = ev_error(true1[a] * ka[mode], t)
+                    row[f"ev_est_{mode}"] = ev_error(est[b] * scale, t)
                 rows.append(row)
-        print(f"{s}: {len(rows)} pairs so far", file=sys.stderr)
-    keys = [k for k in rows[0] if k not in ("subject", "A", "B")]
-    summary = {k: bootstrap([r[k] for r in rows]) for k in keys}
-    gap = summary["none"][0] - summary["oracle_renderer"][0]
-    closed = (summary["none"][0] - summary["est_renderer"][0]) / gap if gap else float("nan")
-    better = float(np.mean([r["est_renderer"] < r["none"] for r in rows]))
-    result = {"pairs": len(rows), "subjects": subjects, "envs": envs, "gain": bgmod.HIGHLIGHT_GAIN,
-              "summary": summary, "gap_closed_renderer": closed, "est_better_than_none": better}  # fmt: skip
-    if "est_stage1" in keys:
-        gap1 = summary["none"][0] - summary["oracle_stage1"][0]
-        result["gap_closed_stage1"] = (summary["none"][0] - summary["est_stage1"][0]) / gap1 if gap1 else float("nan")
-    (args.out / "results.json").write_text(json.dumps({**result, "rows": rows}, indent=1))
-    names = {
-        "none": "(i) no relighting",
-        "est_renderer": "(ii) light estimated from the background, renderer's albedo + transport",
-        "est_keep_input_renderer": "(ii) estimated light, scaled to keep the input person's luminance (relight's auto)",
-        "est_scaled_renderer": "(ii') the same, overall scale taken from the truth (diagnostic)",
-        "oracle_renderer": "(iii) oracle: true SH light of B, renderer's albedo + transport",
-        "est_stage1": "(ii) light estimated from the background, bundled stage 1 + 2",
-        "oracle_stage1": "(iii) oracle: true SH light of B, bundled stage 1 + 2",
-    }
-    lines = ["| method | RMSE in mask | 95 % interval |", "|---|---|---|"]
-    for k in keys:
-        m, lo, hi = summary[k]
-        lines.append(f"| {names[k]} | {m:.4f} | [{lo:.4f}, {hi:.4f}] |")
+        print(f"{subject}: {len(rows)} pairs so far", file=sys.stderr)
+
+    # front/back per map (not per pair): the truth's sign on the clear maps
+    fb = {m: front_back(true1[m]) for m in maps}
+    clear = [m for m in maps if abs(fb[m]) >= CLEAR_EV]
+    fb_est = {m: front_back(est[m]) for m in maps}
+    fb_right = [math.copysign(1, fb_est[m]) == math.copysign(1, fb[m]) for m in clear]
+    fb_paste = [math.copysign(1, fb[str(r["A"])]) == math.copysign(1, fb[r["B"]]) for r in rows if r["B"] in clear]
+
+    res = {"pairs": len(rows), "subjects": subjects, "maps": maps, "scenes": scenes, "shipped_fit": shipped,
+           "loso_fit": chosen, "clear_maps": clear}  # fmt: skip
+    for mode in ("background", "frame"):
+        for who in ("paste", "est"):
+            e = np.abs([r[f"ev_{who}_{mode}"] for r in rows])
+            res[f"ev_{who}_{mode}"] = {**summarise(e), "within_1ev": float(np.mean(e <= 1))}
+    for who in ("paste", "est", "oracle"):
+        res[f"si_{who}"] = summarise([r[f"si_{who}"] for r in rows])
+    for who in ("paste", "est"):
+        res[f"colour_{who}"] = summarise([r[f"colour_{who}"] for r in rows])
+    gap = res["si_paste"]["mean"] - res["si_oracle"]["mean"]
+    res["si_gap_closed"] = (res["si_paste"]["mean"] - res["si_est"]["mean"]) / gap if gap else float("nan")
+    res["si_est_better_than_paste"] = float(np.mean([r["si_est"] < r["si_paste"] for r in rows]))
+    res["front_back_est"] = {"right": float(np.mean(fb_right)), "n": len(clear)}
+    res["front_back_paste"] = {"right": float(np.mean(fb_paste)), "n": len(fb_paste)}
+    res["per_map"] = {m: {"back_lit": parts[m].key(None, chosen[scene_of(m)]["backlight"],
+                                                   chosen[scene_of(m)]["geometry"])[1],
+                          "ev_est_background": ev_error(est[m], true1[m] * k_bg[m]),
+                          "front_back_true": fb[m], "front_back_est": fb_est[m],
+                          "colour_est": colour_error(est[m], true1[m])} for m in maps}  # fmt: skip
+    (args.out / "results.json").write_text(json.dumps({**res, "rows": rows}, indent=1))
+
+    def ev(who, mode):
+        r = res[f"ev_{who}_{mode}"]
+        return f"{r['median']:.2f} EV, {100 * r['within_1ev']:.0f} % within 1 EV"
+
+    lines = [
+        "| score | realistic paste | estimated light (leave one scene out) | oracle SH light |",
+        "|---|---|---|---|",
+        f"| exposure, camera meters the background: median abs. error | {ev('paste', 'background')} | "
+        f"{ev('est', 'background')} | 0 |",
+        f"| exposure, camera meters the whole frame: median abs. error | {ev('paste', 'frame')} | "
+        f"{ev('est', 'frame')} | 0 |",
+        f"| scale-invariant RMSE in the mask (mean) | {res['si_paste']['mean']:.4f} | {res['si_est']['mean']:.4f} "
+        f"(gap closed {100 * res['si_gap_closed']:.0f} %, better on {100 * res['si_est_better_than_paste']:.0f} % "
+        f"of pairs) | {res['si_oracle']['mean']:.4f} |",
+        f"| light colour error (median degrees) | {res['colour_paste']['median']:.1f} | "
+        f"{res['colour_est']['median']:.1f} | 0 |",
+        f"| front/back right ({len(clear)} maps with a >= {CLEAR_EV:g} EV difference) | "
+        f"{100 * res['front_back_paste']['right']:.0f} % | {100 * res['front_back_est']['right']:.0f} % | 100 % |",
+    ]
     (args.out / "table.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
-    print(json.dumps({k: v for k, v in result.items() if k not in ("summary", "envs", "subjects")}))
-    sheet = np.concatenate([np.concatenate([views[e] for e in envs[i : i + 6]], 1) for i in range(0, 36, 6)
-                            if len(envs[i : i + 6]) == 6], 0) if len(envs) >= 6 else None  # fmt: skip
-    if sheet is not None:
-        cv2.imwrite(str(args.out / "views.png"), cv2.cvtColor(sheet, cv2.COLOR_RGB2BGR))
+    print(json.dumps({"pairs": len(rows), "shipped_fit": shipped}))
+    firsts = [m for m in maps if m.endswith("_y000")]
+    tiles = [cv2.resize(views[m], (128, 96), interpolation=cv2.INTER_AREA) for m in firsts]
+    while len(tiles) % 6:
+        tiles.append(np.zeros_like(tiles[0]))
+    sheet = np.concatenate([np.concatenate(tiles[i : i + 6], 1) for i in range(0, len(tiles), 6)], 0)
+    cv2.imwrite(str(args.out / "views.png"), cv2.cvtColor(sheet, cv2.COLOR_RGB2BGR))
     return 0
 
 

@@ -1,13 +1,19 @@
-"""Contact sheet: one person composited into several backgrounds (docs/RESULTS.md, "Into any scene").
+"""Contact sheet: two people composited into ten backgrounds (docs/RESULTS.md, "Into any scene").
 
-    python benchmarks/scene_sheet.py --hdri ../shared/hdri --out docs/scene_sheet.png [--models DIR] [--size 384]
+    python benchmarks/scene_sheet.py --hdri ../shared/hdri --blender BLENDER_WORLD --out docs/scene_sheet.jpg \\
+        [--half-body PHOTO --half-body-mask MASK] [--size 320] [--models DIR]
 
-The person is the bundled example (relight_rt/data/example.png, a render of our own; linear, so it is
-sRGB-encoded first, as a camera would write it). Each background is a perspective view (60°, the
-camera looking along −x) of one of the CC0 maps in ../shared/hdri, auto-exposed (mean linear
-luminance 0.18) and sRGB-encoded. Rows: the person pasted without relighting (same place and size),
-then ``relight_rt.scene.composite`` with the background's own light and a contact shadow. Last column
-of each row pair: the background's estimated light on a sphere.
+People: the bundled example (relight_rt/data/example.png, a render of our own; linear, so sRGB-encoded
+first, as a camera would write it) standing full length, and a half body: by default the same person cut
+at the hips (its matte then reaches the photo's bottom edge), or ``--half-body`` (e.g. a crop of the
+reference photo in ../shared, which is CC BY-NC-SA: such a sheet is for looking at, never for the repo).
+Backgrounds: perspective views (60°, a level camera looking along −x) of CC0 photographed panoramas,
+auto-exposed (mean linear luminance 0.18) and sRGB-encoded: six of ../shared/hdri and, with ``--blender``
+(``datafiles/studiolights/world`` of Debian's blender-data; reading .exr needs ``pip install OpenEXR``), four
+of those. Each row: the realistic paste (the full-body person as photographed, unrelit, at the same place
+and size; the estimated light on a sphere in the corner) | ``composite`` full body | ``composite`` half body,
+0.6 of the frame high (otherwise all defaults: the background's own light, perspective placement, shadows,
+camera matching, frame metering).
 """
 
 from __future__ import annotations
@@ -24,18 +30,30 @@ if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
 from relight_rt import Relighter, sh  # noqa: E402
-from relight_rt._io import read_image, write_image  # noqa: E402
+from relight_rt import scene as scene_mod  # noqa: E402
+from relight_rt._io import read_image, read_mask, write_image  # noqa: E402
 from relight_rt.background import envmap_view, light_from_background  # noqa: E402
 from relight_rt.color import linear_to_srgb  # noqa: E402
 from relight_rt.exposure import REC709  # noqa: E402
 
-MAPS = ("apartment", "city", "forest", "lab", "night", "sunset", "studio", "bridge")
-TURNS = {"studio": 90, "night": 90}  # degrees: turn the map so the view shows more than a black backdrop
+# (file stem, turn in degrees): turned where the unturned view shows little (a black backdrop, a wall)
+SHARED = (("sunset", 0), ("forest", 0), ("apartment", 0), ("lab", 0), ("city", 0), ("night", 90))
+BLENDER = (("sunrise", 0), ("courtyard", 0), ("interior", 90), ("city", 0))
+HALF_HEIGHT = 0.6  # the half body's height, fraction of the background's (it stands on the bottom edge)
 
 
-def background(path: Path, size: tuple[int, int]) -> np.ndarray:
-    env = sh.load_envmap(path)
-    turn = TURNS.get(path.stem, 0)
+def load_map(path: Path) -> np.ndarray:
+    if path.suffix.lower() == ".exr":
+        sys.path.insert(0, str(REPO / "benchmarks"))
+        from scene_eval import read_exr
+
+        return read_exr(path)
+    return sh.load_envmap(path)
+
+
+def background(path: Path, size: tuple[int, int], turn: int = 0) -> np.ndarray:
+    """8-bit sRGB (H, W, 3) view of the map at ``path``, turned by ``turn`` degrees, auto-exposed."""
+    env = load_map(path)
     if turn:
         env = np.roll(env, -(turn * env.shape[1] // 360), axis=1)
     view = envmap_view(env, size, 60.0)
@@ -43,19 +61,21 @@ def background(path: Path, size: tuple[int, int]) -> np.ndarray:
     return (linear_to_srgb(np.clip(view * k, 0, 1)) * 255 + 0.5).astype(np.uint8)
 
 
-def pasted(person_srgb: np.ndarray, bg: np.ndarray, height: float, pos: tuple[float, float]) -> np.ndarray:
-    """The person laid over the background as it is (no relighting), same placement rule as composite."""
+def pasted(person_srgb: np.ndarray, bg: np.ndarray) -> np.ndarray:
+    """The person laid over the background as photographed (no relighting), placed as ``composite`` places a
+    full-body person by default (feet at DEFAULT_FEET, height from perspective, level camera)."""
     alpha = person_srgb[..., 3]
     rows, cols = np.flatnonzero((alpha > 0.005).any(1)), np.flatnonzero((alpha > 0.005).any(0))
     y0, y1, x0, x1 = rows[0], rows[-1] + 1, cols[0], cols[-1] + 1
     hb, wb = bg.shape[:2]
-    s = height * hb / (y1 - y0)
+    feet = scene_mod.DEFAULT_FEET
+    s = (feet - 0.5) * scene_mod.PERSON_M / scene_mod.CAMERA_M * hb / (y1 - y0)
     nh, nw = round((y1 - y0) * s), round((x1 - x0) * s)
     crop = person_srgb[y0:y1, x0:x1]
     pre = np.concatenate([crop[..., :3] * crop[..., 3:], crop[..., 3:]], 2)
     pre = cv2.resize(pre, (nw, nh), interpolation=cv2.INTER_AREA if s < 1 else cv2.INTER_LINEAR)
     out = bg.astype(np.float32) / 255
-    top, left = round(pos[1] * hb) - nh, round(pos[0] * wb - nw / 2)
+    top, left = round(feet * hb) - nh, round(((x0 + x1) / 2 / person_srgb.shape[1]) * wb - nw / 2)
     ty0, tx0 = max(top, 0), max(left, 0)
     ty1, tx1 = min(top + nh, hb), min(left + nw, wb)
     p = pre[ty0 - top : ty1 - top, tx0 - left : tx1 - left]
@@ -68,35 +88,51 @@ def pasted(person_srgb: np.ndarray, bg: np.ndarray, height: float, pos: tuple[fl
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--hdri", type=Path, required=True)
+    ap.add_argument("--blender", type=Path, help="blender-data's datafiles/studiolights/world (.exr)")
     ap.add_argument("--out", type=Path, required=True)
+    ap.add_argument("--half-body", type=Path, help="a half-body photo (default: the example cut at the hips)")
+    ap.add_argument("--half-body-mask", type=Path)
     ap.add_argument("--models", default=None)
-    ap.add_argument("--size", type=int, default=384, help="background width (height 3/4 of it)")
+    ap.add_argument("--size", type=int, default=320, help="background width (height 3/4 of it)")
     args = ap.parse_args(argv)
     relighter = Relighter(args.models, device="cpu")
     rgba = read_image(REPO / "relight_rt" / "data" / "example.png", "example")
     person = np.concatenate([linear_to_srgb(rgba[..., :3]), rgba[..., 3:]], 2)
     person8 = (np.clip(person, 0, 1) * 255 + 0.5).astype(np.uint8)
+    if args.half_body:
+        half = read_image(args.half_body, "half body")
+        half_mask = read_mask(args.half_body_mask, half.shape[:2], "half body mask")
+        half8 = (np.clip(half[..., :3], 0, 1) * 255 + 0.5).astype(np.uint8)
+    else:
+        rows = np.flatnonzero((rgba[..., 3] > 0.005).any(1))
+        cut = rows[0] + int(0.5 * (rows[-1] - rows[0]))  # at the hips
+        half8, half_mask = person8[:cut], None
     size = (args.size * 3 // 4, args.size)
-    height, pos = 0.8, (0.5, 0.95)
-    top, bottom = [], []
-    for name in MAPS:
-        path = args.hdri / f"{name}.hdr"
+    maps = [(args.hdri / f"{n}.hdr", t) for n, t in SHARED]
+    if args.blender:
+        maps += [(args.blender / f"{n}.exr", t) for n, t in BLENDER]
+    tiles = []
+    for path, turn in maps:
         if not path.is_file():
             continue
-        bg = background(path, size)
-        out = relighter.composite(person8, bg, position=pos, height=height, shadow=True)
+        bg = background(path, size, turn)
         light, _ = light_from_background(bg)
         sphere = sh.render_sphere(light, size=size[0] // 3)
         sphere = linear_to_srgb(np.clip(sphere * (0.8 / max(float(sphere.max()), 1e-6)), 0, 1))
-        paste = pasted(person, bg, height, pos)
+        paste = pasted(person, bg)
         paste[: sphere.shape[0], : sphere.shape[1]] = sphere  # the estimated light, top-left corner
-        top.append(paste)
-        bottom.append(out)
-    sheet = np.concatenate([np.concatenate(top, 1), np.concatenate(bottom, 1)], 0)
-    if sheet.shape[1] > 3072:  # two rows of four maps
-        half = len(top) // 2
-        sheet = np.concatenate([np.concatenate(top[:half], 1), np.concatenate(bottom[:half], 1),
-                                np.concatenate(top[half:], 1), np.concatenate(bottom[half:], 1)], 0)  # fmt: skip
+        full = relighter.composite(person8, bg)
+        halfbody = relighter.composite(half8, bg, mask=half_mask, height=HALF_HEIGHT)
+        gap = np.ones((size[0], 4, 3), np.float32)
+        tiles.append(np.concatenate([paste, gap, full, gap, halfbody], 1))
+        print(f"{path.name} (turned {turn}°)", file=sys.stderr)
+    rows = len(tiles) // 2 + len(tiles) % 2
+    if len(tiles) % 2:
+        tiles.append(np.ones_like(tiles[0]))
+    gap = np.ones((4, tiles[0].shape[1], 3), np.float32)
+    left = np.concatenate([x for t in tiles[:rows] for x in (t, gap)][:-1], 0)
+    right = np.concatenate([x for t in tiles[rows:] for x in (t, gap)][:-1], 0)
+    sheet = np.concatenate([left, np.ones((left.shape[0], 12, 3), np.float32), right], 1)
     write_image(args.out, sheet)
     print(f"wrote {args.out} ({sheet.shape[1]} x {sheet.shape[0]})")
     return 0

@@ -3,38 +3,50 @@
 The photo shows what lies behind the subject as the camera sees it: directions around −x, the photo's
 right toward +y, unmirrored (the orientation of an env map's centre), over a horizontal field of view
 ``fov`` (default 60°; the vertical one follows from the aspect ratio, square pixels, a level camera).
-The rule, in order:
+It shows the light that reaches the person's *back* and sides; what lights the person's camera-facing
+side lies behind the camera, which the photo never shows. The rule (docs/RESULTS.md, "Into any scene",
+measures it on 17 real panoramas; the nine fitted numbers below were fitted there, and are measured with
+one scene left out at a time):
 
-1. Linearise (sRGB → linear). Clipped highlights: a pixel whose brightest channel is >= 250/255 is
-   taken as saturated and its linear value multiplied by ``HIGHLIGHT_GAIN`` (the sensor stopped counting
-   there: lamps, windows, the sun are far brighter than 1). The photo is then area-averaged down to
-   about the env map's angular resolution (energy-preserving).
-2. Fill an equirectangular map (H × 2H, default H = 64) direction by direction:
-
-   * in front (x < 0), inside the field of view: the photo itself (perspective projection);
-   * behind the camera (x > 0): the photo mirrored through the image plane, ω = (x, y, z) → (−x, y, z)
-     (what lies behind the camera is guessed to resemble what lies in front);
-   * left and right beyond the field of view: the photo's side edges stretched sideways (the right
-     edge fills the right, the left edge the left, so a scene bright on its right stays so);
-   * above and below the photo: its top rows stretched up into a sky and its bottom rows down into a
-     floor.
-
-   Everything the camera did not see is blurred: the side and mirrored parts a little
-   (``_SIDE_BLUR``), the sky and floor more and more toward the poles, where they become the mean
-   colour of the photo's top (bottom) eighth. Blur is a mix of three images: the photo, the photo
-   blurred by a Gaussian of 1/8 of its width, and the band means.
-3. Project with ``sh.project_envmap`` and divide by π.
+1. Linearise (sRGB → linear) and area-average down to about the env map's angular resolution. Clipped
+   highlights (brightest channel >= 250/255: lamps, windows, the sun, far brighter than 1 in truth) are
+   multiplied by ``HIGHLIGHT_GAIN``.
+2. The half of the sphere in front of the camera (x < 0, behind the person) is the photo itself: inside
+   the field of view by perspective projection, beside it the side edges stretched sideways, above and
+   below it the top rows stretched into a sky and the bottom rows into a floor, blurred more and more
+   toward the poles (the mean colour of the photo's top / bottom eighth there).
+3. The half behind the camera (x > 0) is not guessed from the photo's pixels (the rule before mirrored
+   the photo there, which made every scene exactly as bright in front of the person as behind it, so a
+   sunset looked front-lit). It is a uniform *ambient*: radiance ``AMBIENT_GAIN`` × the photo's median
+   linear luminance (what the scene's ordinary surfaces reflect: a robust reading of how much light falls
+   in the place that the sources in frame do not sway), in the photo's mean colour with its saturation
+   scaled by ``COLOUR_SATURATION`` (0, as fitted: neutral in the photo's own white balance; the photo's
+   colours stay in step 2's half).
+4. A key light, found from the view: the score z = a + b · (log2 of the top third's mean luminance over
+   the bottom third's) + c · (spread of log2 luminance), (a, b, c) = ``BACKLIGHT``, says back-lit (z < 0:
+   a bright top and a contrasty view, as with a sun, window or lamps in or above the frame, the near side
+   of things in shadow) or front-lit (the light behind the camera, what the view shows is lit). Back-lit:
+   a back-side key from 135° (behind the person, 45° off the axis, on the view's brighter side),
+   ``KEY_BACK`` × the ambient; front-lit: a soft front key, ``KEY_FRONT`` × the ambient, from
+   ``KEY_GEOMETRY`` = (azimuth, elevation): fitted among 0°/45° off the camera (on the view's brighter side)
+   and 35°/60° up, by the person's scale-invariant error; (0°, 35°) won: from the camera's direction, as
+   the side cannot be read from the view reliably. Both in the ambient colour. The key is a degree-2 lobe (a
+   light from one direction, band-limited: a soft clamped cosine) whose irradiance on a surface facing it is
+   that many times the ambient. ``key_light=(azimuth, elevation)`` (degrees; ``parse_key_light``) puts it
+   elsewhere: azimuth within ±90° takes ``KEY_FRONT``, beyond it ``KEY_BACK``. (No separate sun-plus-sky
+   model: a sun out of frame is the front key; the sky is in step 2.)
+5. Project with ``sh.project_envmap`` and divide by π.
 
 Scale: the light is in the photo's own linear units: a white diffuse surface that sees a uniform
-background of linear value v all round gets shading v (it reflects what it receives; the project's
-shading is irradiance, and a uniform radiance v gives irradiance π·v). So with ``exposure="physical"``
-a person relit by it has the brightness the same camera would have recorded in that scene.
+radiance of linear value v all round gets shading v. So with ``exposure="physical"`` a person relit by
+it has the brightness the same camera would have recorded in that scene.
 """
 
 from __future__ import annotations
 
 import math
 import os
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
@@ -43,16 +55,35 @@ from . import sh
 from ._errors import RelightError
 from .color import srgb_to_linear
 
-__all__ = ["FOV_RANGE", "HIGHLIGHT_GAIN", "MIN_SIZE", "envmap_view", "light_from_background", "read_background"]
+__all__ = [
+    "AMBIENT_GAIN", "BACKLIGHT", "COLOUR_SATURATION", "FOV_RANGE", "HIGHLIGHT_GAIN", "KEY_BACK", "KEY_FRONT",
+    "KEY_GEOMETRY", "MIN_SIZE", "SceneLight", "envmap_view",
+    "key_direction", "light_from_background", "parse_key_light", "read_background", "scene_light",
+]  # fmt: skip
 
 MIN_SIZE = 64  #: smallest accepted background side, pixels
 FOV_RANGE = (10.0, 170.0)  #: open interval of accepted horizontal fields of view, degrees
-#: linear gain on saturated pixels (see the module docstring; docs/RESULTS.md: 1 and 3 measure alike, 6 and 12 worse)
+#: linear gain on saturated pixels (see the module docstring; docs/RESULTS.md, issue 21: 1 and 3 measure alike)
 HIGHLIGHT_GAIN = 3.0
+# The fitted numbers (benchmarks/scene_eval.py on all 17 scenes; docs/RESULTS.md, "Into any scene"):
+#: ambient radiance behind the camera = AMBIENT_GAIN × the photo's median linear luminance
+AMBIENT_GAIN = 2.83
+#: the key's irradiance facing it, × the ambient: the front key (front-lit views), the back-side key (back-lit)
+KEY_FRONT = 1.5
+KEY_BACK = 1.5
+#: back-lit score z = a + b · top_bottom + c · contrast (SceneLight.backlight_score)
+BACKLIGHT = (0.53, -0.124, -0.197)
+#: the ambient colour is the photo's mean colour with its saturation scaled by this (0: neutral)
+COLOUR_SATURATION = 0.0
+#: the automatic key's geometry (degrees): the front-side key's azimuth from the camera, and the keys' elevation
+KEY_GEOMETRY = (0.0, 35.0)
+_BACK_AZIMUTH = 135.0  # degrees from the camera of the automatic back-side key (behind the person, to the side)
+_STATS_WIDTH = 512  # the median, contrast, colour and halves are read on a copy at most this wide
 _CLIP_LEVEL = 250  # 8-bit value from which a pixel counts as saturated
-_SIDE_BLUR = 0.35  # blur level of the parts beside and behind the camera (0 sharp, 0.5 blurred, 1 band mean)
-_BEHIND_BLUR = _SIDE_BLUR  # blur level of the mirrored part behind the camera
+_SIDE_BLUR = 0.35  # blur level of the parts beside the field of view (0 sharp, 0.5 blurred, 1 band mean)
 _BAND = 8  # the sky / floor colour at the poles: the mean of the top / bottom 1/_BAND of the rows
+_LOBE_PEAK = 1.0625  # irradiance facing a unit SH lobe Y_k(d): Σ_l A_l (2l+1) / 4π = 1/4 + 1/2 + 5/16
+_REC709 = np.array([0.2126, 0.7152, 0.0722], np.float32)
 _LUT = srgb_to_linear(np.arange(256, dtype=np.uint8))  # 8-bit sRGB → linear float32
 
 
@@ -65,6 +96,38 @@ def _check_fov(fov) -> float:
         raise RelightError(f"fov: expected a horizontal field of view between {FOV_RANGE[0]:g} and {FOV_RANGE[1]:g} "
                            f"degrees (exclusive), got {fov!r}")  # fmt: skip
     return f
+
+
+def parse_key_light(value) -> tuple[float, float] | None:
+    """'AZIMUTH,ELEVATION' (degrees) or a pair → (azimuth, elevation); None passes through.
+
+    Azimuth 0 is a light from the camera (it lights the person's front), 90 from the image's right, −90 from
+    its left, 180 from behind the person (a back light); elevation 0 is the horizon, 90 straight above.
+
+    Raises:
+        RelightError: not two finite numbers, or an elevation outside [−90, 90].
+    """
+    if value is None:
+        return None
+    if isinstance(value, str):
+        parts = value.replace(" ", "").split(",")
+        if len(parts) != 2:
+            raise RelightError(f"key light: expected AZIMUTH,ELEVATION in degrees (e.g. 45,30), got {value!r}")
+        value = parts
+    try:
+        az, el = (float(v) for v in value)
+    except (TypeError, ValueError):
+        raise RelightError(f"key light: expected two numbers AZIMUTH,ELEVATION in degrees, got {value!r}") from None
+    if not (math.isfinite(az) and math.isfinite(el)) or not -90 <= el <= 90:
+        raise RelightError(f"key light: expected a finite azimuth and an elevation in [-90, 90] degrees, got "
+                           f"{az:g},{el:g}")  # fmt: skip
+    return az, el
+
+
+def key_direction(azimuth: float, elevation: float) -> np.ndarray:
+    """The unit direction (subject frame, DESIGN.md §3) a key light at (azimuth, elevation) degrees comes from."""
+    a, e = math.radians(azimuth), math.radians(elevation)
+    return np.array([math.cos(e) * math.cos(a), math.cos(e) * math.sin(a), math.sin(e)])
 
 
 def read_background(src, name: str = "background") -> np.ndarray:
@@ -106,21 +169,28 @@ def read_background(src, name: str = "background") -> np.ndarray:
 
 def _linear_and_clipped(photo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Linear float32 RGB and the (H, W) float32 saturated-pixel indicator."""
-    if photo.dtype == np.uint8:
-        return _LUT[photo], (photo.max(axis=2) >= _CLIP_LEVEL).astype(np.float32)
+    if photo.dtype == np.uint8:  # OpenCV's table look-up and channel maximum: several times numpy's speed
+        r, g, b = cv2.split(photo)
+        return linear_lut(photo), (cv2.max(cv2.max(r, g), b) >= _CLIP_LEVEL).astype(np.float32)
     return srgb_to_linear(photo), (photo.max(axis=2) >= _CLIP_LEVEL / 255).astype(np.float32)
 
 
-def _fill(lin: np.ndarray, fov: float, height: int) -> np.ndarray:
-    """The (H, 2H, 3) env map filled from the small linear photo ``lin`` (see the module docstring)."""
+def linear_lut(image: np.ndarray) -> np.ndarray:
+    """Linear float32 values of a uint8 sRGB image of any channel count (a 256-entry table, cv2.LUT)."""
+    out = cv2.LUT(np.ascontiguousarray(image), _LUT.reshape(256, 1))
+    return out if out.shape == image.shape else out.reshape(image.shape)
+
+
+def _fill_front(lin: np.ndarray, fov: float, height: int) -> np.ndarray:
+    """The (H, 2H, C) env map of the half in front of the camera (x < 0) from the small linear photo ``lin``;
+    zero behind the camera (module docstring, step 2). Linear in ``lin``."""
     ph, pw = lin.shape[:2]
     half = math.radians(fov) / 2
     tan_h = math.tan(half)
     tan_v = tan_h * ph / pw  # square pixels
     d = sh.directions_envmap(height)
     x, y, z = d[..., 0], d[..., 1], d[..., 2]
-    fwd = np.abs(x)  # behind the camera: mirrored through the image plane
-    psi = np.arctan2(y, fwd)  # horizontal angle from the view axis, toward +y (image right), in [−π/2, π/2]
+    psi = np.arctan2(y, -x)  # horizontal angle from the view axis, toward +y (image right)
     folded = np.clip(psi, -half, half)  # beside the field of view: the side edge stretched
     u = np.tan(folded) / tan_h  # −1 … 1 across the photo
     elev = np.arctan2(z, np.hypot(x, y))
@@ -130,7 +200,7 @@ def _fill(lin: np.ndarray, fov: float, height: int) -> np.ndarray:
     mapy = ((1 - v) * 0.5 * ph - 0.5).astype(np.float32)
     beta_v = np.clip((np.abs(elev) - edge) / (math.pi / 2 - edge), 0, 1)
     beside = np.where(np.abs(psi) > half, _SIDE_BLUR, 0.0)
-    beta = np.maximum(beta_v, np.where(x > 0, _BEHIND_BLUR, beside)).astype(np.float32)[..., None]
+    beta = np.maximum(beta_v, beside).astype(np.float32)[..., None]
 
     sigma = max(pw / 8, 0.5)
     blurred = cv2.GaussianBlur(lin, (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
@@ -143,24 +213,83 @@ def _fill(lin: np.ndarray, fov: float, height: int) -> np.ndarray:
 
     sharp, soft = sample(lin), sample(blurred)
     low = sharp + (soft - sharp) * np.minimum(2 * beta, 1)
-    return np.where(beta <= 0.5, low, soft + (pole - soft) * (2 * beta - 1)).astype(np.float32)
+    env = np.where(beta <= 0.5, low, soft + (pole - soft) * (2 * beta - 1))
+    return np.where((x < 0)[..., None], env, 0).astype(np.float32)
 
 
-def light_from_background(image, fov: float = 60.0, *, height: int = 64) -> tuple[np.ndarray, np.ndarray]:
-    """Estimate the SH light of a scene from one ordinary photo of it (the module docstring has the rule).
+@dataclass(frozen=True)
+class SceneLight:
+    """What ``scene_light`` reads from a background photo; ``light()`` puts it together (module docstring).
 
-    Args:
-        image: the background photo: a path or an (H, W, 3) RGB array (uint8, or float in [0, 1]),
-            sRGB-encoded as cameras write them; at least 64 px on each side.
-        fov: its horizontal field of view in degrees, in (10, 170).
-        height: height H of the filled env map (width 2H); 64 is plenty for degree-2 SH.
+    Attributes:
+        view: (9, 3) the front half (step 2) without the clipped sources, photo units.
+        source: (9, 3) the clipped sources' part of the front half (with the highlight gain).
+        behind: (9,) a uniform radiance 1 over the half behind the camera.
+        level: the photo's median linear luminance.
+        colour: (3,) the photo's mean linear colour, luminance 1.
+        top_bottom: log2 of the mean luminance of the photo's top third over its bottom third.
+        contrast: the standard deviation of log2 luminance over the photo (floor 2**-13).
+        side: +1 when the view's right half is the brighter, else −1 (the side of the automatic key).
+        view_env, source_env: (H, 2H, 3) the front half without / only the sources, as env maps (previews).
+    """
 
-    Returns:
-        (light, envmap): the (9, 3) float32 RGB SH light (in the photo's linear units, see the module
-        docstring) and the filled (H, 2H, 3) float32 linear env map it was projected from (for previews).
+    view: np.ndarray
+    source: np.ndarray
+    behind: np.ndarray
+    level: float
+    colour: np.ndarray
+    top_bottom: float
+    contrast: float
+    side: float
+    view_env: np.ndarray
+    source_env: np.ndarray
 
-    Raises:
-        RelightError: bad image (see ``read_background``), fov outside (10°, 170°), bad height.
+    def backlight_score(self, backlight=None) -> float:
+        """z = a + b · top_bottom + c · contrast with (a, b, c) = ``BACKLIGHT``: < 0 reads the scene as back-lit."""
+        a, b, c = BACKLIGHT if backlight is None else backlight
+        return float(a + b * self.top_bottom + c * self.contrast)
+
+    def ambient_colour(self, saturation=None) -> np.ndarray:
+        """(3,) the ambient and key colour: the photo's mean colour with its saturation scaled, luminance 1."""
+        s = COLOUR_SATURATION if saturation is None else saturation
+        c = np.maximum(self.colour.astype(np.float64), 1e-6) ** s
+        return c / float(c @ _REC709)
+
+    @staticmethod
+    def key_unit(direction) -> np.ndarray:
+        """(9,) a lobe from ``direction`` whose irradiance facing it is 1."""
+        d = np.asarray(direction, np.float64)
+        return sh.basis(d / np.linalg.norm(d)) / _LOBE_PEAK
+
+    def key(self, key_light=None, backlight=None, geometry=None) -> tuple[tuple[float, float], bool]:
+        """((azimuth, elevation), back): where the key comes from (degrees) and whether it is a back key."""
+        given = parse_key_light(key_light)
+        if given is not None:
+            return given, abs((given[0] + 180) % 360 - 180) > 90
+        front_azimuth, elevation = KEY_GEOMETRY if geometry is None else geometry
+        if self.backlight_score(backlight) < 0:
+            return (_BACK_AZIMUTH * self.side, elevation), True
+        return (front_azimuth * self.side, elevation), False
+
+    def light(self, key_light=None, *, ambient_gain=None, key_front=None, key_back=None, backlight=None,
+              saturation=None, geometry=None) -> np.ndarray:  # fmt: skip
+        """(9, 3) float64 light in the photo's units; ``key_light`` (azimuth, elevation) steers the key; the
+        keyword numbers override the module's fitted ones (benchmarks/scene_eval.py's tuning)."""
+        ambient = (AMBIENT_GAIN if ambient_gain is None else ambient_gain) * self.level
+        colour = self.ambient_colour(saturation)
+        (az, el), back = self.key(key_light, backlight, geometry)
+        if back:
+            strength = KEY_BACK if key_back is None else key_back
+        else:
+            strength = KEY_FRONT if key_front is None else key_front
+        shape = self.behind + strength * self.key_unit(key_direction(az, el))
+        return self.view + self.source + ambient * shape[:, None] * colour[None, :]
+
+
+def scene_light(image, fov: float = 60.0, *, height: int = 64) -> SceneLight:
+    """Read a background photo's light into its parts (module docstring); ``light_from_background`` combines them.
+
+    Args / Raises: as ``light_from_background``.
     """
     f = _check_fov(fov)
     if isinstance(height, bool) or not isinstance(height, (int, np.integer)) or not 8 <= height <= 1024:
@@ -168,15 +297,75 @@ def light_from_background(image, fov: float = 60.0, *, height: int = 64) -> tupl
     photo = read_background(image)
     lin, clipped = _linear_and_clipped(photo)
     ph, pw = photo.shape[:2]
+    # the statistics on a copy at most _STATS_WIDTH wide (area-averaged in linear light): plenty, and fast
+    stats = lin
+    if pw > _STATS_WIDTH:
+        stats = cv2.resize(lin, (_STATS_WIDTH, max(3, round(ph * _STATS_WIDTH / pw))), interpolation=cv2.INTER_AREA)
+    lum = stats @ _REC709
+    ph, pw = lum.shape
+    mean = stats.reshape(-1, 3).mean(0)
+    mean_lum = float(mean @ _REC709)
+    colour = (mean / mean_lum).astype(np.float32) if mean_lum > 1e-6 else np.ones(3, np.float32)
+    third = max(1, ph // 3)
+    top_bottom = math.log2(max(float(lum[:third].mean()), 1e-6) / max(float(lum[-third:].mean()), 1e-6))
+    contrast = float(np.log2(np.maximum(lum, 2.0**-13)).std())
+    half = pw // 2
+    side = 1.0 if float(lum[:, half:].mean()) >= float(lum[:, :half].mean()) else -1.0
+
     # about two samples per env-map pixel across the field of view
+    ph, pw = photo.shape[:2]
     width = int(min(pw, max(16, round(2 * (2 * height) * f / 360))))
     size = (width, max(4, int(round(width * ph / pw))))
-    lin = cv2.resize(lin, size, interpolation=cv2.INTER_AREA)
-    clipped = cv2.resize(clipped, size, interpolation=cv2.INTER_AREA)
-    lin *= (1 + (HIGHLIGHT_GAIN - 1) * clipped)[..., None]
-    env = _fill(lin, f, int(height))
-    light = sh.project_envmap(env) / math.pi
-    return light.astype(np.float32), env
+    small = cv2.resize(lin, size, interpolation=cv2.INTER_AREA)
+    small_clip = cv2.resize(clipped, size, interpolation=cv2.INTER_AREA)[..., None]
+    env_rest = _fill_front(small * (1 - small_clip), f, int(height))
+    env_src = _fill_front(small * small_clip * np.float32(HIGHLIGHT_GAIN), f, int(height))
+    behind = (sh.directions_envmap(int(height))[..., 0:1] >= 0).astype(np.float32)
+    return SceneLight(
+        view=sh.project_envmap(env_rest) / math.pi,
+        source=sh.project_envmap(env_src) / math.pi,
+        behind=sh.project_envmap(np.repeat(behind, 3, axis=2))[:, 0] / math.pi,
+        level=float(np.median(lum)),
+        colour=colour,
+        top_bottom=top_bottom,
+        contrast=contrast,
+        side=side,
+        view_env=env_rest,
+        source_env=env_src,
+    )
+
+
+def light_from_background(
+    image, fov: float = 60.0, *, height: int = 64, key_light=None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Estimate the SH light of a scene from one ordinary photo of it (the module docstring has the rule).
+
+    Args:
+        image: the background photo: a path or an (H, W, 3) RGB array (uint8, or float in [0, 1]),
+            sRGB-encoded as cameras write them; at least 64 px on each side.
+        fov: its horizontal field of view in degrees, in (10, 170).
+        height: height H of the env map it fills (width 2H); 64 is plenty for degree-2 SH.
+        key_light: None (the key the view implies) or (azimuth, elevation) in degrees, or "AZ,EL"
+            (``parse_key_light``): where the key light comes from.
+
+    Returns:
+        (light, envmap): the (9, 3) float32 RGB SH light (in the photo's linear units, see the module
+        docstring) and an (H, 2H, 3) float32 linear env map for previews: the front half, the ambient behind
+        the camera and the key (its SH lobe, clipped at 0).
+
+    Raises:
+        RelightError: bad image (see ``read_background``), fov outside (10°, 170°), bad height or key light.
+    """
+    key = parse_key_light(key_light)
+    parts = scene_light(image, fov, height=height)
+    light = parts.light(key)
+    h = int(height)
+    ambient = AMBIENT_GAIN * parts.level * parts.ambient_colour()
+    behind = sh.directions_envmap(h)[..., 0:1] >= 0
+    env = parts.view_env + parts.source_env + np.where(behind, ambient, 0)
+    added = light - parts.view - parts.source - parts.behind[:, None] * ambient[None, :]  # the key
+    env = env + np.maximum(sh.envmap_from_light(added * math.pi, h), 0)
+    return light.astype(np.float32), env.astype(np.float32)
 
 
 def envmap_view(env, size: tuple[int, int], fov: float = 60.0) -> np.ndarray:

@@ -917,10 +917,14 @@ class Relighter:
         light=None,
         position=None,
         height: float | None = None,
-        shadow: bool = False,
+        shadow: bool = True,
         exposure="auto",
         fov: float = 60.0,
         white_balance: bool = True,
+        key_light=None,
+        horizon: float = 0.5,
+        meter: str = "frame",
+        match_camera: bool = True,
     ) -> np.ndarray:
         """Relight the person of ``image`` for the scene of ``background`` and put it there.
 
@@ -929,4 +933,5 @@ class Relighter:
         from .scene import composite
 
         return composite(self, image, background, mask=mask, light=light, position=position, height=height,
-                         shadow=shadow, exposure=exposure, fov=fov, white_balance=white_balance)
+                         shadow=shadow, exposure=exposure, fov=fov, white_balance=white_balance, key_light=key_light,
+                         horizon=horizon, meter=meter, match_camera=match_camera)

@@ -7,7 +7,14 @@ import numpy as np
 import pytest
 
 from relight_rt import RelightError, sh
-from relight_rt.background import envmap_view, light_from_background
+from relight_rt import background as bgmod
+from relight_rt.background import envmap_view, light_from_background, parse_key_light, scene_light
+
+FRONT, BACK = np.array([[1.0, 0, 0]]), np.array([[-1.0, 0, 0]])  # normals facing the camera / away from it
+
+
+def lum(rgb):
+    return float(np.asarray(rgb).reshape(-1, 3)[0] @ np.array([0.2126, 0.7152, 0.0722]))
 
 
 def test_bright_right_side_gives_light_from_plus_y():
@@ -17,7 +24,6 @@ def test_bright_right_side_gives_light_from_plus_y():
     assert light.shape == (9, 3) and light.dtype == np.float32
     assert env.shape == (64, 128, 3) and env.dtype == np.float32 and env.min() >= 0
     assert np.all(light[1] > 0.5 * light[0])  # strong +y (image right) component
-    assert np.all(np.abs(light[3]) < 0.05 * light[0])  # mirrored behind the camera: no front/back bias
     flipped, _ = light_from_background(img[:, ::-1].copy())
     np.testing.assert_allclose(flipped[1], -light[1], rtol=1e-4, atol=1e-6)  # unmirrored: flip → −y
 
@@ -29,14 +35,59 @@ def test_bright_top_gives_light_from_above():
     assert np.all(light[2] > 0.3 * light[0])
 
 
-def test_uniform_grey_is_mostly_band_0_at_the_photos_level():
+def test_uniform_grey_fills_the_front_with_the_photo_and_the_back_with_the_ambient():
     grey = np.full((80, 120, 3), 128, np.uint8)
-    light, env = light_from_background(grey)
     v = ((128 / 255 + 0.055) / 1.055) ** 2.4  # sRGB → linear
-    np.testing.assert_allclose(env, v, rtol=1e-5)
-    assert np.abs(light[1:]).max() < 1e-3 * light[0].min()
-    # scale: a white surface facing any way gets shading v (the photo's own linear units)
-    np.testing.assert_allclose(sh.irradiance(light, np.array([[1.0, 0, 0], [0, 0, 1.0]])), v, rtol=1e-3)
+    parts = scene_light(grey)
+    assert parts.level == pytest.approx(v, rel=1e-5)
+    d = sh.directions_envmap(64)
+    front = d[..., 0] < 0
+    np.testing.assert_allclose(parts.view_env[front], v, rtol=1e-5)  # what lies behind the person: the photo
+    assert np.abs(parts.view_env[~front]).max() == 0 and np.abs(parts.source).max() == 0  # nothing clipped
+    # scale: a surface facing away from the camera sees the photo's level (the project's units: uniform v shades v)
+    assert lum(sh.irradiance(parts.view, BACK)) == pytest.approx(v, rel=0.1)
+    # the half behind the camera: a uniform radiance AMBIENT_GAIN × the median, neutral (saturation 0)
+    light, env = light_from_background(grey)
+    ambient = bgmod.AMBIENT_GAIN * v
+    np.testing.assert_allclose(env[~front & (d[..., 1] < -0.99)], ambient, rtol=0.02)  # away from the key (+y side)
+    without_key = parts.light(key_front=0.0, key_back=0.0)
+    assert lum(sh.irradiance(without_key, FRONT)) == pytest.approx(ambient, rel=0.1)
+    assert lum(sh.irradiance(light, FRONT)) > lum(sh.irradiance(without_key, FRONT))  # plus the key
+
+
+def test_front_and_back_are_told_apart():
+    """The rule before mirrored the photo behind the camera, so every scene was as bright in front of the person
+    as behind it. A contrasty view with a bright top (a sun in frame, the near side of things in shadow) is now
+    back-lit; a dim, even view (the light behind the camera) is front-lit."""
+    backlit = np.full((120, 160, 3), 12, np.uint8)
+    backlit[:40] = 200
+    backlit[10:20, 70:90] = 255  # the sun
+    dim = np.full((120, 160, 3), 70, np.uint8)
+    dim[60:] = 90
+    for photo, back_lit in ((backlit, True), (dim, False)):
+        light, _ = light_from_background(photo)
+        front, back = lum(sh.irradiance(light, FRONT)), lum(sh.irradiance(light, BACK))
+        assert (back > front) if back_lit else (front > back)
+        assert scene_light(photo).key()[1] is back_lit
+
+
+def test_the_key_light_can_be_steered():
+    img = np.full((90, 120, 3), 80, np.uint8)
+    right, _ = light_from_background(img, key_light=(90, 20))
+    left, _ = light_from_background(img, key_light="-90, 20")
+    np.testing.assert_allclose(left[1], -right[1], rtol=1e-4, atol=1e-6)  # mirror images
+    assert np.all(right[1] > 0)
+    front, _ = light_from_background(img, key_light=(0, 30))
+    behind, _ = light_from_background(img, key_light=(180, 30))
+    assert lum(sh.irradiance(front, FRONT)) > lum(sh.irradiance(behind, FRONT))
+    assert lum(sh.irradiance(behind, BACK)) > lum(sh.irradiance(front, BACK))
+    assert bgmod.key_direction(90, 0) == pytest.approx([0, 1, 0], abs=1e-12)  # from the image's right: +y
+
+
+@pytest.mark.parametrize("value", ["45", "a,b", "0,91", "nan,10", (1, 2, 3)])
+def test_bad_key_lights(value):
+    with pytest.raises(RelightError, match="key light"):
+        parse_key_light(value)
 
 
 def test_clipped_highlights_are_boosted():
@@ -45,7 +96,8 @@ def test_clipped_highlights_are_boosted():
     boosted, _ = light_from_background(img)
     img[10:30, 40:60] = 249  # just below the clip level: counted as is
     plain, _ = light_from_background(img)
-    assert np.all(boosted[0] > 1.1 * plain[0]) and np.all(boosted[2] > 2 * plain[2])  # brighter, and from above
+    extra = boosted - plain  # the boost alone: brighter, and from above
+    assert np.all(extra[0] > 0) and np.all(extra[2] > 0.5 * extra[0])
 
 
 def test_grayscale_and_16_bit_backgrounds_are_colour(tmp_path):

@@ -26,10 +26,15 @@ def flat_person(h=150, w=100, colour=(150, 110, 90)):
     return img, mask
 
 
+# the flat person (150 x 100, body rows 20-140, centred) put back on its own pixels of a same-size background
+SAME = {"position": (0.5, 140 / 150), "height": 120 / 150, "meter": "background", "shadow": False,
+        "match_camera": False}  # fmt: skip
+
+
 def test_output_has_the_background_size(diffuse):
     img, mask = flat_person()
     bg = np.full((120, 260, 3), 90, np.uint8)
-    out = composite(diffuse, img, bg, mask=mask)
+    out = composite(diffuse, img, bg, mask=mask, meter="background")
     assert out.shape == (120, 260, 3) and out.dtype == np.float32 and 0 <= out.min() and out.max() <= 1
     far = out[:, 200:]  # away from the person: the background, unchanged
     np.testing.assert_allclose(far, 90 / 255, atol=1e-5)
@@ -38,47 +43,133 @@ def test_output_has_the_background_size(diffuse):
 
 
 def test_alpha_blending_is_proportional_in_linear_light(diffuse):
-    """Same-size background, default placement: the person lands on its own pixels, scale 1. A uniform grey
-    background of linear value g lights the analytic person (albedo = linear photo, camera-facing normals) with
-    shading g, so inside the person the linear result is a·P + (1 − a)·g for matte a, with P the relit colour:
-    c·g where a = 1; a·c·g in the soft band (the analytic stage 1 masks both albedo and transport, so its
-    straight colour there is scaled by a once more)."""
+    """Same-size background, the person on its own pixels, scale 1. Inside the person the linear result is
+    a·P + (1 − a)·g for matte a, background g and P the relit straight colour: P where a = 1, a·P in the soft
+    band (the analytic stage 1 masks both albedo and transport, so its straight colour there is scaled by a
+    once more)."""
     img, mask = flat_person()
     bg = np.full((150, 100, 3), 128, np.uint8)
     g = float(srgb_to_linear(np.uint8(128)))
-    c = srgb_to_linear(np.array([150, 110, 90], np.uint8))
-    out = composite(diffuse, img, bg, mask=mask)
+    out = composite(diffuse, img, bg, mask=mask, **SAME)
     lin = srgb_to_linear(out)
-    for a, sl in ((1.0, np.s_[40:120, 45:65]), (0.5, np.s_[40:120, 31:34])):
-        want = a * (a * c * g) + (1 - a) * g
-        np.testing.assert_allclose(lin[sl].reshape(-1, 3).mean(0), want, rtol=0.03)
+    core = lin[40:120, 45:65].reshape(-1, 3).mean(0)  # a = 1: the relit colour P itself
+    band = lin[40:120, 31:34].reshape(-1, 3).mean(0)  # a = 0.5
+    np.testing.assert_allclose(band, 0.5 * (0.5 * core) + 0.5 * g, rtol=0.03)
     np.testing.assert_allclose(out[:10], linear_to_srgb(np.full((10, 100, 3), g, np.float32)), atol=1e-5)
     # EV +1 doubles the person's light; "physical" with the background's light is the same as auto
-    brighter = srgb_to_linear(composite(diffuse, img, bg, mask=mask, exposure=1.0))
-    np.testing.assert_allclose(brighter[40:120, 45:65].mean((0, 1)), 2 * c * g, rtol=0.03)
-    np.testing.assert_allclose(composite(diffuse, img, bg, mask=mask, exposure="physical"), out, atol=1e-6)
+    brighter = srgb_to_linear(composite(diffuse, img, bg, mask=mask, exposure=1.0, **SAME))
+    np.testing.assert_allclose(brighter[40:120, 45:65].mean((0, 1)), 2 * core, rtol=0.03)
+    np.testing.assert_allclose(composite(diffuse, img, bg, mask=mask, exposure="physical", **SAME), out, atol=1e-6)
 
 
 def test_shadow_darkens_the_ground_under_the_feet(diffuse):
     img, mask = flat_person()
     bg = np.full((150, 100, 3), 160, np.uint8)
-    plain = composite(diffuse, img, bg, mask=mask, position=(0.5, 0.9))
-    shaded = composite(diffuse, img, bg, mask=mask, position=(0.5, 0.9), shadow=True)
-    below = np.s_[136:140, 30:70]  # just under the feet (the person ends at row 135)
-    assert shaded[below].mean() < plain[below].mean() - 0.02
+    kw = {"position": (0.5, 0.9), "meter": "background"}
+    plain = composite(diffuse, img, bg, mask=mask, shadow=False, **kw)
+    shaded = composite(diffuse, img, bg, mask=mask, **kw)  # shadows are on by default
+    below = np.s_[135:138, 42:58]  # at and just under the feet (they stand on row 135, 68 px tall, 23 wide)
+    assert shaded[below].mean() < plain[below].mean() - 0.05
     np.testing.assert_allclose(shaded[:40], plain[:40])  # far above: untouched
 
 
-def test_a_given_light_is_white_balanced_and_exposed_to_the_background(diffuse):
+@pytest.mark.parametrize("azimuth, dark_side", [(90, "left"), (-90, "right")])
+def test_the_cast_shadow_falls_away_from_the_key_light(diffuse, azimuth, dark_side):
+    """A key from the image's right (azimuth 90) casts the shadow to the left of the feet, and the other way."""
+    img, mask = flat_person()
+    bg = np.full((150, 300, 3), 170, np.uint8)
+    kw = {"position": (0.5, 0.9), "meter": "background", "match_camera": False, "key_light": (azimuth, 30)}
+    shaded = composite(diffuse, img, bg, mask=mask, **kw)
+    plain = composite(diffuse, img, bg, mask=mask, shadow=False, **kw)
+    drop = (plain - shaded).mean(2)
+    left, right = drop[110:150, 40:120].sum(), drop[110:150, 180:260].sum()  # beside the feet (x 135-165)
+    assert (left > 3 * right) if dark_side == "left" else (right > 3 * left)
+    assert max(left, right) > 1.0
+
+
+def test_perspective_sets_the_height_from_the_feet_and_the_horizon(diffuse):
+    """A level camera: a person whose feet are twice as far below the horizon is twice as tall."""
+    img, mask = flat_person()
+    bg = np.full((200, 200, 3), 90, np.uint8)
+    kw = {"meter": "background", "shadow": False, "match_camera": False}
+
+    def height(y, **extra):
+        out = composite(diffuse, img, bg, mask=mask, position=(0.5, y), **kw, **extra)
+        rows = np.flatnonzero((np.abs(out - 90 / 255).max(2) > 0.02).any(1))
+        return rows[-1] + 1 - rows[0]
+
+    assert height(0.9) == pytest.approx(2 * height(0.7), abs=2)
+    assert height(0.9, horizon=0.3) == pytest.approx(1.5 * height(0.9), abs=2)
+    with pytest.raises(RelightError, match="horizon"):
+        composite(diffuse, img, bg, mask=mask, position=(0.5, 0.45))
+
+
+def test_a_cut_off_person_stands_on_the_bottom_edge(diffuse):
+    img, mask = flat_person()
+    mask[100:] = mask[99]  # the body runs off the photo's bottom edge: a half body
+    bg = np.full((120, 260, 3), 90, np.uint8)
+    out = composite(diffuse, img, bg, mask=mask, meter="background")
+    changed = np.abs(out - 90 / 255).max(2) > 0.02
+    rows = np.flatnonzero(changed.any(1))
+    assert rows[-1] == 119  # on the bottom edge
+    assert rows[-1] + 1 - rows[0] == pytest.approx(130 / 150 * 120, abs=2)  # its height as in its own photo
+
+
+def test_the_person_takes_the_backgrounds_noise_and_blur(diffuse):
+    img, mask = flat_person()
+    rng = np.random.default_rng(0)
+    clean = np.full((150, 100, 3), 120, np.uint8)
+    noisy = np.clip(120 + rng.normal(0, 8, clean.shape), 0, 255).astype(np.uint8)
+    kw = {**SAME, "match_camera": True}
+    inner = np.s_[50:110, 42:66]
+    flat = composite(diffuse, img, clean, mask=mask, **kw)[inner]
+    grainy = composite(diffuse, img, noisy, mask=mask, **kw)[inner]
+    # the flat person becomes as grainy as the background
+    assert flat.std(axis=(0, 1)).max() < 0.005 and grainy.std(axis=(0, 1)).min() > 0.02
+    # a sharp step in a sharp background leaves the person's edge sharp; a blurred background softens it
+    sharp = np.full((150, 100, 3), 40, np.uint8)
+    sharp[:, 50:] = 220
+    soft = cv2.GaussianBlur(sharp, (0, 0), 3)
+    edge = np.s_[80, 24:40]  # across the person's left edge (column 30, a soft band to 35)
+
+    def steepest(bg):
+        row = composite(diffuse, img, bg, mask=mask, **kw)[edge].mean(1)
+        return float(np.abs(np.diff(row)).max())
+
+    assert steepest(soft) < 0.6 * steepest(sharp)
+
+
+def test_frame_metering_keeps_the_frames_mean_and_background_metering_keeps_its_pixels(diffuse):
+    img, mask = flat_person(colour=(250, 250, 250))
+    bg = np.full((150, 100, 3), 60, np.uint8)
+    bg[:, :20] = 200
+    light = np.zeros((9, 3), np.float32)
+    light[0] = 3.0  # a bright white light: the person outshines the background
+    kw = {k: v for k, v in SAME.items() if k != "meter"}
+    kept = composite(diffuse, img, bg, mask=mask, light=light, exposure="physical", meter="background", **kw)
+    metered = composite(diffuse, img, bg, mask=mask, light=light, exposure="physical", **kw)
+    np.testing.assert_allclose(kept[:, :20], 200 / 255, atol=1e-5)
+    ratio = srgb_to_linear(metered[:5, :20]) / srgb_to_linear(kept[:5, :20])
+    assert 0.5 - 1e-4 <= ratio.mean() < 0.95 and np.ptp(ratio) < 1e-3  # one factor on the whole frame, <= 1 EV
+    lum = np.array([0.2126, 0.7152, 0.0722], np.float32)
+    bg_mean = float((srgb_to_linear(bg) @ lum).mean())
+    if ratio.mean() > 0.5 + 1e-3:  # inside the limit: the frame's mean is the background's
+        assert float((srgb_to_linear(metered) @ lum).mean()) == pytest.approx(bg_mean, rel=0.02)
+
+
+def test_a_given_light_is_white_balanced_and_exposed_to_the_background(diffuse, monkeypatch):
+    # the background's light coloured all round (the fitted rule makes the unseen ambient neutral: saturation 0)
+    monkeypatch.setattr("relight_rt.background.COLOUR_SATURATION", 1.0)
     img, mask = flat_person(colour=(128, 128, 128))
     warm_bg = np.zeros((150, 100, 3), np.uint8)
     warm_bg[:] = (200, 140, 90)
-    out = composite(diffuse, img, warm_bg, mask=mask, light="front")  # a white preset
-    own = composite(diffuse, img, warm_bg, mask=mask)
+    out = composite(diffuse, img, warm_bg, mask=mask, light="front", **SAME)  # a white preset
+    own = composite(diffuse, img, warm_bg, mask=mask, **SAME)
     person_px = np.s_[40:120, 45:65]
     ratio = out[person_px].mean((0, 1)) / own[person_px].mean((0, 1))
     np.testing.assert_allclose(ratio, ratio.mean(), rtol=0.05)  # same colour balance as the background's light
-    neutral = composite(diffuse, img, warm_bg, mask=mask, light="front", white_balance=False)[person_px].mean((0, 1))
+    neutral = composite(diffuse, img, warm_bg, mask=mask, light="front", white_balance=False, **SAME)
+    neutral = neutral[person_px].mean((0, 1))
     assert neutral[0] / neutral[2] < out[person_px].mean((0, 1))[0] / out[person_px].mean((0, 1))[2]
 
 
@@ -92,6 +183,10 @@ def test_a_given_light_is_white_balanced_and_exposed_to_the_background(diffuse):
         ({"height": 1.5}, "height"),
         ({"fov": 175}, "field of view"),
         ({"exposure": "bright"}, "exposure"),
+        ({"key_light": "45"}, "key light"),
+        ({"key_light": (0, 95)}, "key light"),
+        ({"horizon": 1.5}, "horizon"),
+        ({"meter": "spot"}, "meter"),
     ],
 )
 def test_bad_arguments(diffuse, kwargs, match):
@@ -148,6 +243,10 @@ def test_cli_composite(work, capsys):
     code, _, err = run(["composite", "p.png", "--background", "bg.png", "-o", "out.png", "--shadow"], capsys)
     assert code == 0, err
     assert cv2.imread("out.png").shape == (96, 160, 3)
+    argv = ["composite", "p.png", "--background", "bg.png", "-o", "o3.png", "--key-light", "180,30", "--horizon", "0.4",
+            "--no-shadow", "--meter", "background", "--no-match-camera"]  # fmt: skip
+    code, _, err = run(argv, capsys)
+    assert code == 0, err
     argv = ["composite", "p.png", "--background", "bg.png", "-o", "o2.jpg", "--preset", "studio"]
     code, _, err = run([*argv, "--position", "0.3,0.9", "--height", "0.6", "--exposure", "-1", "--fov", "80"], capsys)
     assert code == 0, err
@@ -162,6 +261,8 @@ def test_cli_composite(work, capsys):
         (["--height", "3"], "height"),
         (["--exposure", "loud"], "exposure"),
         (["--light", "none.npy"], "none.npy"),
+        (["--key-light", "north"], "key light"),
+        (["--horizon", "2"], "horizon"),
     ],
 )
 def test_cli_composite_errors(work, capsys, extra, match):
@@ -187,6 +288,9 @@ def test_cli_lights_from_background(work, capsys):
     assert sheet.shape[0] == 256 and sheet.shape[1] > 3 * 256
     code, _, err = run(["lights", "from-background", "bg.png", "-o", "l.json", "--fov", "90"], capsys)
     assert code == 0, err
+    code, _, err = run(["lights", "from-background", "bg.png", "-o", "k.npy", "--key-light=-90,20"], capsys)
+    assert code == 0, err
+    assert np.all(np.load("k.npy")[1] < light[1])  # the key moved to the image's left: less light from +y
     code, _, err = run(["lights", "from-background", "bg.png", "-o", "l2.npy", "--fov", "180"], capsys)
     assert code == 2 and "field of view" in err and not (work / "l2.npy").exists()
     code, _, err = run(["lights", "from-background", "p_mask.png", "-o", "l3.npy"], capsys)

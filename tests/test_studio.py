@@ -289,6 +289,11 @@ def test_routes_uploads(client, tmp_path):
     scene = client.post("/api/background-light", content=cv2.imencode(".jpg", np.full((80, 120, 3), 90, np.uint8))[1]
                         .tobytes())
     assert scene.status_code == 200 and np.array(scene.json()["light"]).shape == (9, 3)
+    photo = cv2.imencode(".jpg", np.full((80, 120, 3), 90, np.uint8))[1].tobytes()
+    keyed = client.post("/api/background-light?key=180,30", content=photo)
+    assert keyed.status_code == 200 and not np.allclose(keyed.json()["light"], scene.json()["light"])
+    bad_key = client.post("/api/background-light?key=up", content=photo)
+    assert bad_key.status_code == 400 and "key light" in bad_key.json()["error"]
     assert client.get("/api/info").status_code == 200  # still serving
 
 
@@ -422,3 +427,8 @@ def test_background_light_comes_from_the_scene(studio):
     assert light.shape == (9, 3) and (light[1] > 0.2 * light[0]).all()
     with pytest.raises(RelightError, match="background"):
         studio.background_light(b"\x89PNG\r\n\x1a\n" + bytes(40))
+    # the key light can be steered (the handle of the scene's light): from the image's left, less light from +y
+    left = studio.background_light(cv2.imencode(".png", scene)[1].tobytes(), "-90,20")
+    assert (left[1] < light[1]).all()
+    with pytest.raises(RelightError, match="key light"):
+        studio.background_light(cv2.imencode(".png", scene)[1].tobytes(), "east")

@@ -159,7 +159,8 @@ def create_app(studio: Studio, allowed_hosts: list[str] | None = None) -> FastAP
         from starlette.concurrency import run_in_threadpool
 
         data = await _read_body(request, "background")
-        light = await run_in_threadpool(studio.background_light, data)
+        key = request.query_params.get("key")  # "AZ,EL" degrees: where the scene's key light comes from
+        light = await run_in_threadpool(studio.background_light, data, key)
         return {"light": light.tolist()}
 
     return app

@@ -424,12 +424,14 @@ class Studio:
                 self.relighter.decompose(image[..., :3], None)
         return np.array(dec.white_light, dtype=np.float32)
 
-    def background_light(self, data: bytes) -> np.ndarray:
-        """(9, 3) float32 light of an uploaded background photo (relight_rt.background, 60° field of view)."""
-        from ..background import light_from_background
+    def background_light(self, data: bytes, key_light=None) -> np.ndarray:
+        """(9, 3) float32 light of an uploaded background photo (relight_rt.background, 60° field of view);
+        ``key_light`` "AZ,EL" (degrees) or a pair steers its key light (background.parse_key_light)."""
+        from ..background import light_from_background, parse_key_light
 
+        key = parse_key_light(key_light)  # checked before the upload is decoded
         image = decode_upload(data, "background")
-        light, _ = light_from_background(np.ascontiguousarray(image[..., :3]))
+        light, _ = light_from_background(np.ascontiguousarray(image[..., :3]), key_light=key)
         return np.asarray(light, dtype=np.float32)
 
 
