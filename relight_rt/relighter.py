@@ -8,25 +8,26 @@ Pipeline (DESIGN.md §1, §4, §5)::
 
 Full-resolution detail (the default): the network's relit image is not simply upsampled, because on real
 photos its colours are stage 1's guess (an albedo that may be green for fair skin, a light estimate whose colour
-cast is wrong) and its resolution is the network's. Instead the photo itself is relit by the change of shading:
+cast is wrong) and its resolution is the network's. Instead the photo itself is relit by a factor:
 
-    colour = photo ⊙ up(max(S', e) / max(Ŝ, e)) + up(r' − r̂)
+    colour = F ⊙ up(c' · max(Y(A ⊙ S' + r'), ε) / max(Y(A ⊙ Ŝ + r̂), ε))
 
-S' = max(0, T·L') is the new light's shading (per colour), Ŝ = max(0, T·l̂) the shading under the photo's own
-light taken as white (l̂: the luminance of stage 1's estimate: cameras white-balance their photos, so the photo's
-colours are kept and only the new light's colour tints them; an error in the estimate's colour no longer becomes
-the inverse tint on the skin), e a floor of 10 % of the person's mean shading under its own light (where the
-photo's own shading is tiny the ratio would only amplify noise; where the new light leaves a part black, a
-light from below, the floor is a little fill light instead of noisy blotches), and r' − r̂ the change of stage
-2's residual (highlights, sheen) between the new light and the photo's own. Both maps are upsampled edge-aware
-with a fast guided filter (He & Sun 2015: the local linear model g ≈ a·I + b is fitted at network resolution on
-the gray input, and a, b are upsampled and applied with the full-resolution gray input I), so the input's own
-high-frequency detail survives. Colours made brighter than the photo's own peak are rolled off by a smooth
-shoulder on the brightest channel, all three channels scaled together (a bright lit side keeps its hue and its
-gradation; a per-channel clip would turn it yellow, a hard clip flat). Relighting with the photo's own light
-gives the input back. (``cv2.ximgproc.guidedFilter`` at full resolution gives the same kind of result but costs
-~0.6 s per 2-megapixel crop with a colour guide; this costs ~30 ms.) With ``detail=False`` the network's relit
-image is upsampled as it is.
+The luminance Y of the pipeline's image under the new light (albedo A times the shading S' = max(0, T·L'),
+plus stage 2's residual r'), over its luminance under the photo's own light (Ŝ = max(0, T·l̂), l̂ the
+luminance of stage 1's estimate taken as white: cameras white-balance their photos), both unclipped, ε = 0.01;
+and c' = S' / Y(S'), the colour of the new light arriving at that pixel (luminance 1). So the brightness change
+is the whole pipeline's (stage 2's shadows and highlights included), its colour is the new light's alone, and
+neither the albedo's colour nor an error in the estimated light's colour can tint the skin: under a white
+light the photo keeps its colours. F is the person's own colour (``_foreground``: at a soft matte's edge, the
+photo without what lies behind). The factor is upsampled edge-aware with a fast guided filter (He & Sun 2015:
+the local linear model g ≈ a·I + b is fitted at network resolution on the gray input, and a, b are upsampled
+and applied with the full-resolution gray input I), so the input's own high-frequency detail survives. Colours
+made brighter than the photo's own peak are rolled off by a smooth shoulder on the brightest channel, all
+three channels scaled together (a bright lit side keeps its hue and its gradation; a per-channel clip would
+turn it yellow, a hard clip flat). Relighting with the photo's own light gives the input back. A face that
+stage 1 saw small gets a second pass (relight_rt._face). (``cv2.ximgproc.guidedFilter`` at full resolution
+gives the same kind of result but costs ~0.6 s per 2-megapixel crop with a colour guide; this costs ~30 ms.)
+With ``detail=False`` the network's relit image is upsampled as it is.
 
 Without ``stage2.onnx`` the output is the diffuse image only: ``Relighter.diffuse_only`` is True, a
 warning is logged at load, and ``RelightResult.diffuse_only`` says so.
@@ -65,7 +66,7 @@ from .session import Model, check_finite, find_models, load_model
 log = logging.getLogger(__name__)
 
 ImageLike = str | os.PathLike | np.ndarray
-_FLOOR = np.float32(0.1)  # floor of the photo's own shading in the ratio, a fraction of the person's mean shading
+_RATIO_EPS = np.float32(0.01)  # the ratio's denominator is floored here (dark pixels: noise, not light)
 _ALPHA_MIN = np.float32(1e-3)
 _SOFT = 1.0 / 255  # a matte value further than this from 0 and 1 is a soft edge (mixes person and background)
 _SHADING_MIN = np.float32(1e-3)  # full-resolution albedo: photo / shading, shading floored here
@@ -79,6 +80,13 @@ def _float32_light(light, name: str) -> np.ndarray:
     if not np.isfinite(arr).all():
         raise RelightError(f"{name}: SH light overflows float32 (|value| must be <= {sh.MAX_COEFF:g})")
     return arr
+
+
+def _luminance_window(chw: np.ndarray, alpha: np.ndarray, box: tuple[int, int, int, int]) -> np.ndarray:
+    """(r, r') Rec. 709 luminance of a masked (3, R, R) network output inside ``box``, unpremultiplied."""
+    y0, y1, x0, x1 = box
+    lum = np.tensordot(_exposure.REC709, chw[:, y0:y1, x0:x1], axes=1)
+    return np.divide(lum, alpha, out=np.zeros_like(lum), where=alpha > 0.5)
 
 
 def _channel_max(rgb: np.ndarray) -> np.ndarray:
@@ -588,24 +596,32 @@ class Relighter:
             state["own_residual"] = _readonly(np.array(residual, np.float32))
         return state["own_residual"]
 
-    def _own_shading(self, dec: Decomposition) -> tuple[np.ndarray, np.float32, tuple[int, int, int, int]]:
-        """(r, r', 9) unpremultiplied transport in the person's window, the ratio floor e, and the window (cached)."""
+    def _own(self, dec: Decomposition, with_residual: bool = True) -> dict:
+        """What every relight of ``dec`` divides by, in the person's window of the network frame (cached).
+
+        "window" (y0, y1, x0, x1): the network pixels near the person (the whole square when the network's
+        square is not smaller than the photo's: to_crop takes a window only when enlarging); "alpha", "inner"
+        (alpha > 0.5); "transport" (r, r', 9) and "albedo" luminance (r, r') unpremultiplied; "own" (r, r') the
+        luminance of the pipeline's image under the photo's own light taken as white (diffuse plus stage 2's
+        residual), plus the ratio's floor.
+        """
         state = self._prepared(dec)
-        if "own_shading" not in state:
+        key = "own" if with_residual else "own_diffuse"
+        if key not in state:
             geom = dec.geometry
-            # the network pixels near the person (the rest is padding); the whole square when the network's
-            # square is not smaller than the photo's (to_crop takes a window only when enlarging)
             r = geom.resolution
             y0, y1, x0, x1 = window(dec.network_mask) if geom.side > r else (0, r, 0, r)
             alpha = dec.network_mask[y0:y1, x0:x1]
             transport = unpremultiply(np.ascontiguousarray(dec.transport[y0:y1, x0:x1]), alpha)
-            own = np.maximum(transport @ dec.white_light[:, 0], 0)
-            inner = alpha > 0.5
-            mean = float(own[inner].mean()) if inner.any() else 0.0
-            floor = np.float32(max(mean, 1e-3) * _FLOOR)
-            state["own_shading"] = (_readonly(transport), _readonly(np.maximum(own, floor).astype(np.float32)),
-                                    floor, (y0, y1, x0, x1))
-        return state["own_shading"]
+            albedo = unpremultiply(np.ascontiguousarray(dec.albedo[y0:y1, x0:x1]), alpha) @ _exposure.REC709
+            own = albedo * np.maximum(transport @ dec.white_light[:, 0], 0)
+            residual = self._own_residual(dec) if with_residual else None
+            if residual is not None:
+                own += _luminance_window(residual, alpha, (y0, y1, x0, x1))
+            state[key] = {"window": (y0, y1, x0, x1), "alpha": alpha, "inner": alpha > 0.5,
+                          "transport": _readonly(transport), "albedo": _readonly(albedo.astype(np.float32)),
+                          "own": _readonly(np.maximum(own, _RATIO_EPS).astype(np.float32))}
+        return state[key]
 
     def _person_colour(
         self, dec: Decomposition, light: np.ndarray, residual: np.ndarray | None, relit: np.ndarray
@@ -622,17 +638,11 @@ class Relighter:
             np.clip(colour, 0, 1, out=colour)
             return colour
         image, _ = self._foreground(dec)
-        change = None
-        own_residual = self._own_residual(dec) if residual is not None else None
-        if own_residual is not None:
-            change = (residual - own_residual).transpose(1, 2, 0)
-        gain = self._gain(dec, light, image, change)
+        gain = self._gain(dec, light, image, residual)
         head = self._prepared(dec).get("head")
         if head is not None:
-            self._blend_head(dec, gain[..., :3], light, *head)
-        colour = image * gain[..., :3]
-        if change is not None:
-            colour += gain[..., 3:]
+            self._blend_head(dec, gain, light, *head)
+        colour = image * gain
         np.maximum(colour, 0, out=colour)
         state = self._prepared(dec)
         if "knee" not in state:
@@ -674,22 +684,32 @@ class Relighter:
         return out
 
     def _gain(
-        self, dec: Decomposition, light: np.ndarray, image: np.ndarray, change: np.ndarray | None = None
+        self, dec: Decomposition, light: np.ndarray, image: np.ndarray, residual: np.ndarray | None = None
     ) -> np.ndarray:
-        """(h, w, 3) the change of shading max(S', e) / max(S_own, e) in the crop box, upsampled edge-aware;
-        with stage 2's change of residual ``change`` (R, R, 3): (h, w, 6), the residual's change upsampled by
-        the same filter in the last three channels."""
-        transport, own, floor, (y0, y1, x0, x1) = self._own_shading(dec)
-        alpha = dec.network_mask[y0:y1, x0:x1]
+        """(h, w, 3) the factor on the photo in the crop box (module docstring), upsampled edge-aware.
+
+        ``residual``: stage 2's residual under ``light`` (3, R, R), None for the diffuse image alone.
+        """
+        own = self._own(dec, with_residual=residual is not None)
+        y0, y1, x0, x1 = own["window"]
+        transport, alpha = own["transport"], own["alpha"]
         light = np.asarray(light, np.float32)
-        new = transport[..., :1] * light[0]
+        shading = transport[..., :1] * light[0]
         for k in range(1, 9):  # nine multiply-adds a pixel: no BLAS call (its threads cost more than this)
-            new += transport[..., k : k + 1] * light[k]
-        np.maximum(new, floor, out=new)
-        new /= own[..., None]
-        if change is not None:
-            new = np.concatenate([new, unpremultiply(np.ascontiguousarray(change[y0:y1, x0:x1]), alpha)], axis=2)
-        gain = extend_outward(new, alpha > 0.5)
+            shading += transport[..., k : k + 1] * light[k]
+        np.maximum(shading, 0, out=shading)
+        lum = shading @ _exposure.REC709
+        new = own["albedo"] * lum
+        if residual is not None:
+            new += _luminance_window(residual, alpha, own["window"])
+        ratio = np.maximum(new, _RATIO_EPS) / own["own"]  # both floored: the photo's own light gives 1
+        # the colour of the new light at each pixel, luminance 1 (where it leaves the pixel dark: its overall colour,
+        # or white when that is not a colour: a light whose mean is not positive)
+        dc_lum = float(light[0] @ _exposure.REC709)
+        dc = light[0] / dc_lum if dc_lum > 1e-6 and (light[0] > 0).all() else np.ones(3, np.float32)
+        tint = np.divide(shading, lum[..., None], out=np.broadcast_to(dc.astype(np.float32), shading.shape).copy(),
+                         where=lum[..., None] > 1e-4)
+        gain = extend_outward(tint * ratio[..., None], own["inner"])
         state = self._prepared(dec)
         if "gray" not in state:  # the full-resolution guide, kept for every light
             state["gray"] = _readonly(cv2.cvtColor(image, cv2.COLOR_RGB2GRAY))

@@ -249,10 +249,12 @@ def test_help_texts_are_plain_text():
     for p in _every_parser(cli.build_parser()):
         text = p.format_help()
         assert not markup.search(text), (p.prog, markup.search(text).group(0), text[:300])
+
+
 @pytest.mark.parametrize(("argv", "words"), [
     (["relight", "x.png"], ["required: -o/--output", "see relight-rt relight -h"]),
     (["relight", "x.png", "-o", "o.png", "--max-pixels", "many"], ["invalid int value", "see relight-rt relight -h"]),
-    (["lights", "show"], ["required: NAME", "see relight-rt lights show -h"]),
+    (["lights", "show"], ["required: LIGHT", "see relight-rt lights show -h"]),
     (["video", "in", "-o", "o.mp4", "--bogus"], ["unrecognized arguments: --bogus", "see relight-rt video -h"]),
     (["frobnicate"], ["invalid choice: 'frobnicate'", "see relight-rt -h"]),
 ])  # fmt: skip
