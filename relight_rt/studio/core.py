@@ -6,8 +6,11 @@ pipeline (stage 2 and full-resolution detail) on request. Renders are kept in a 
 entries expire, so an export fetches exactly the picture that was shown.
 
 Security: nothing here takes a filesystem path from a request. Uploads arrive as bytes, are limited in
-size, typed by their first bytes (never by a client's file name or content type) and, where a reader
-needs a file, written to a temporary file whose name this module chooses, removed right after.
+size, typed by their first bytes (never by a client's file name or content type), sized from their
+header by the runtime's one header parser (relight_rt._limits.header_size: a size it cannot read, or more
+than MAX_UPLOAD_PIXELS, is refused before any decoder runs) and, where a reader needs a file, written to
+a temporary file whose name this module chooses, removed right after. What the web layer guards (origin,
+content types, concurrent uploads, bytes held) is in relight_rt.studio.app.
 """
 
 from __future__ import annotations
