@@ -179,7 +179,7 @@ def test_jpeg_header_without_a_frame_within_bounds_is_refused():
     stray = good[:2] + b"\xff\xfe\x00\x02" + b"z" * (JPEG_MAX_STRAY + 1) + good[2:]
     with pytest.raises(RelightError, match="stray bytes"):
         header_size(stray)
-    assert header_size(good[:good.index(b"\xff\xc2")]) is None  # truncated before the frame: the decoder says so
+    assert header_size(good[: good.index(b"\xff\xc2")]) is None  # truncated before the frame: the decoder says so
     assert header_size(good[:2] + b"\xff\xd9" + good[2:]) is None  # EOI first: no image
 
 

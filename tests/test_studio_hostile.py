@@ -112,13 +112,15 @@ LIGHT = [[0.5, 0.5, 0.5]] + [[0.0, 0.0, 0.0]] * 8
 
 
 def test_uploaded_bombs_are_400(client):
-    for route, data, size in (("/api/photo-light", jpeg_bomb(), "30000x30000"), ("/api/envmap", hdr_bomb(), "30000x15000")):
+    bombs = (("/api/photo-light", jpeg_bomb(), "30000x30000"), ("/api/envmap", hdr_bomb(), "30000x15000"))
+    for route, data, size in bombs:
         res = client.post(route, content=data, headers=RAW)
         assert res.status_code == 400 and size in res.json()["error"], res.text
 
 
 @pytest.mark.parametrize(
-    "origin", ["http://evil.example", "null", "http://127.0.0.1:8001", "https://127.0.0.1:8000", "http://127.0.0.1.evil"]
+    "origin",
+    ["http://evil.example", "null", "http://127.0.0.1:8001", "https://127.0.0.1:8000", "http://127.0.0.1.evil"],
 )
 def test_cross_site_requests_are_refused(client, origin):
     cases = [

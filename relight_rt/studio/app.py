@@ -132,8 +132,8 @@ class Budget:
         def reserve(n: int) -> None:
             nonlocal reserved
             if self.held + n > self.total:
-                raise HTTPRefusal(503, f"{name}: the server already holds {self.held / 2**20:.1f} MiB of uploads "
-                                       f"(the most is {self.total >> 20} MiB); try again when they are done")  # fmt: skip
+                held = f"{self.held / 2**20:.1f} MiB of uploads (the most is {self.total >> 20} MiB)"
+                raise HTTPRefusal(503, f"{name}: the server already holds {held}; try again when they are done")
             self.held += n
             reserved += n
 
