@@ -200,7 +200,8 @@ def live_server(studio, budget=None):
     from relight_rt.studio.app import Budget, create_app
 
     budget = budget or Budget()
-    server = uvicorn.Server(uvicorn.Config(create_app(studio, budget=budget), host=LOCAL, port=0, log_level="error"))
+    config = uvicorn.Config(create_app(studio, budget=budget), host=LOCAL, port=0, log_config=None)  # logs: caplog
+    server = uvicorn.Server(config)
     server.install_signal_handlers = lambda: None  # not the main thread (older uvicorn)
     thread = threading.Thread(target=server.run, daemon=True)
     thread.start()
@@ -250,7 +251,7 @@ def post(port: int, route: str, data: bytes) -> int:
         return exc.code
 
 
-def test_concurrent_uploads_are_bounded(studio, tmp_path):
+def test_concurrent_uploads_are_bounded(studio, tmp_path, caplog):
     from relight_rt.studio.app import MAX_UPLOADS
 
     env = tmp_path / "e.hdr"
@@ -271,6 +272,8 @@ def test_concurrent_uploads_are_bounded(studio, tmp_path):
                 sock.close()
         wait_for(lambda: budget.running == 0 and budget.held == 0, "the closed uploads to let go")
         assert post(port, "/api/envmap", env.read_bytes()) == 200  # serving again
+    errors = [r.getMessage() for r in caplog.records if r.levelname == "ERROR"]
+    assert not errors, "a client that went away is not a server error"
 
 
 def test_bytes_held_by_uploads_are_bounded(studio):

@@ -35,6 +35,7 @@ from fastapi import FastAPI, Request
 from fastapi.responses import FileResponse, JSONResponse, Response
 from fastapi.staticfiles import StaticFiles
 from starlette.middleware.trustedhost import TrustedHostMiddleware
+from starlette.requests import ClientDisconnect
 
 from .._errors import RelightError
 from .core import MAX_UPLOAD_BYTES, Studio, light_json, light_npy
@@ -145,13 +146,16 @@ class Budget:
                                        f"{limit / 2**20:g} MiB")  # fmt: skip
                 reserve(int(declared))
             chunks, size = [], 0
-            async for chunk in request.stream():
-                size += len(chunk)
-                if size > limit:
-                    raise RelightError(f"{name}: the upload is larger than the limit of {limit / 2**20:g} MiB")
-                if size > reserved:
-                    reserve(size - reserved)
-                chunks.append(chunk)
+            try:
+                async for chunk in request.stream():
+                    size += len(chunk)
+                    if size > limit:
+                        raise RelightError(f"{name}: the upload is larger than the limit of {limit / 2**20:g} MiB")
+                    if size > reserved:
+                        reserve(size - reserved)
+                    chunks.append(chunk)
+            except ClientDisconnect:  # the client went away mid-upload: an answer no one reads, not a traceback
+                raise RelightError(f"{name}: the upload was interrupted after {size} bytes") from None
             data = b"".join(chunks)
             del chunks
             yield data
