@@ -17,7 +17,9 @@ atomic writer never leaves a half-written one).
 
 Paths are read and written by the actors: on a cluster they must name shared storage that every node
 sees, and relight_rt must be installed on every node (or shipped with ``runtime_env``). ``--ray local``
-starts a private Ray on this machine whose workers import the same relight_rt as the driver.
+starts a private Ray on this machine whose workers import the same relight_rt as the driver; it ends with
+the driver, also one killed by SIGKILL (a watcher process, relight_rt._reaper, ends what Ray's own fate
+sharing leaves), and under an address-space limit (ulimit -v) its object store is sized to fit.
 
 Python::
 
