@@ -57,7 +57,7 @@ def _decode(path: Path, name: str, flags: int = cv2.IMREAD_UNCHANGED) -> np.ndar
         what = "not found" if not path.exists() else "not a regular file"
         raise RelightError(f"{name}: cannot read {path}: {what}")
     try:
-        size = header_size(path)
+        size = header_size(path, f"{name} {path}")
         if size is not None:
             check_pixels(size[0], size[1], f"{name} {path}")
         data = np.fromfile(path, dtype=np.uint8)  # works for non-ASCII paths, unlike cv2.imread

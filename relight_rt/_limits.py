@@ -6,8 +6,13 @@ claims a (10**7, 10**7) array asks numpy for 800 TB. Both are refused here from 
 - :func:`header_size` reads the width and height from the header of PNG, JPEG, BMP, WebP, TIFF, Radiance
   HDR and OpenEXR files (a few hundred bytes; JPEG: the segments up to the first SOF marker) without
   decoding. OpenCV has no header-only read in its Python API, and PIL is not a dependency, so the formats
-  are parsed here, minimally. Any other format (PPM, JPEG 2000, ...) is checked right after decoding,
-  where OpenCV's own cap (OPENCV_IO_MAX_IMAGE_PIXELS, 2**30 pixels by default) bounds the allocation.
+  are parsed here, minimally, the way their decoders read them (JPEG: libjpeg's marker search, fill
+  bytes and damage skipped; Radiance: OpenCV's 127-byte line reads), so that the size checked is the size
+  decoded. Every parser is bounded in bytes and loops; a header that does not end within the bounds is
+  refused (RelightError), never left to the decoder. This is the one header parser of the project (the
+  studio's uploads go through it too). Any other format (PPM, JPEG 2000, ...) is checked right after
+  decoding, where OpenCV's own cap (OPENCV_IO_MAX_IMAGE_PIXELS, 2**30 pixels by default) bounds the
+  allocation.
 - :func:`check_pixels` compares a size with :func:`max_pixels` (default 100 megapixels; the CLI's
   ``--max-pixels``; :func:`pixel_limit` changes it for a ``with`` block, per thread/task).
 - :func:`load_npy` reads a .npy file with ``allow_pickle=False`` after checking its header: the magic
@@ -19,8 +24,10 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import io
 import math
 import os
+import re
 import stat
 import struct
 from collections.abc import Iterator
@@ -33,7 +40,9 @@ from ._errors import RelightError
 DEFAULT_MAX_PIXELS = 100_000_000
 _MAX_PIXELS = contextvars.ContextVar("relight_rt_max_pixels", default=DEFAULT_MAX_PIXELS)
 NPY_MAX_BYTES = 1 << 30  # no light sequence or layer file of this project comes near 1 GiB
-HEADER_MAX_BYTES = 1 << 20  # what a header parser may read (a TIFF's largest IFD is 786 KB; seeks are free)
+# what a header parser may read in all (a TIFF's largest IFD is 786 KB, a Radiance header is read up to 1 MiB,
+# a JPEG's stray bytes are skipped up to 1 MiB; seeks are free)
+HEADER_MAX_BYTES = 4 << 20
 _MAX_ATTRIBUTES = 1000  # OpenEXR header attributes parsed before giving up (real files have ~10-40)
 
 
@@ -82,38 +91,57 @@ def _png(f) -> tuple[int, int] | None:
 
 
 _SOF = {0xC0, 0xC1, 0xC2, 0xC3, 0xC5, 0xC6, 0xC7, 0xC9, 0xCA, 0xCB, 0xCD, 0xCE, 0xCF}
+JPEG_MAX_SEGMENTS = 4096  # segments before the frame header (a real JPEG has a dozen; metadata: a few hundred)
+JPEG_MAX_STRAY = 1 << 20  # stray bytes (fill 0xFF, damage) skipped between segments, in all
+
+
+class _Unbounded(RelightError):
+    """A header that does not end within the parser's bounds: refused, never left to the decoder."""
+
+
+def _jpeg_marker(f, budget: list[int]) -> int | None:
+    """The next marker code, found as libjpeg finds it (jdmarker.c, next_marker): bytes other than 0xFF
+    are skipped (damage), then any 0xFF fill bytes, and 0xFF 0x00 is not a marker; None at the end of
+    the file. ``budget``: stray bytes still allowed (shared over the whole header)."""
+    while True:
+        byte = f.read(1)
+        while byte and byte != b"\xff":
+            budget[0] -= 1
+            byte = f.read(1)
+        while byte == b"\xff":
+            budget[0] -= 1
+            byte = f.read(1)
+        if budget[0] < 0:
+            raise _Unbounded(f"more than {JPEG_MAX_STRAY} stray bytes between the JPEG header's segments")
+        if not byte:
+            return None
+        if byte != b"\x00":
+            return byte[0]
 
 
 def _jpeg(f) -> tuple[int, int] | None:
-    f.seek(2)
-    for _ in range(1000):  # segments before the frame header: APPn (EXIF, ICC), DQT, DHT, ...
-        byte = f.read(1)
-        while byte == b"\xff":  # fill bytes
-            marker = f.read(1)
-            if marker != b"\xff":
-                break
-            byte = marker
-        else:
+    """(width, height) of the first SOF segment, reached as libjpeg reaches it, so that the size checked
+    is the size decoded; None where libjpeg stops before one (end of file, SOS or EOI first)."""
+    if f.read(2) != b"\xff\xd8":
+        return None
+    budget = [JPEG_MAX_STRAY]
+    for _ in range(JPEG_MAX_SEGMENTS):  # segments before the frame header: APPn (EXIF, ICC), DQT, DHT, ...
+        code = _jpeg_marker(f, budget)
+        if code is None or code in (0xD8, 0xD9, 0xDA):  # end of file, a second SOI, EOI, SOS: no frame
             return None
-        if not marker:
-            return None
-        code = marker[0]
-        if code in (0x01, *range(0xD0, 0xD9)):  # markers without a length
+        if code == 0x01 or 0xD0 <= code <= 0xD7:  # TEM, RSTn: no length field
             continue
         raw = f.read(2)
         if len(raw) < 2:
             return None
-        length = struct.unpack(">H", raw)[0]
         if code in _SOF:
             data = f.read(5)
             if len(data) < 5:
                 return None
             h, w = struct.unpack(">HH", data[1:5])
             return w, h
-        if length < 2:
-            return None
-        f.seek(length - 2, os.SEEK_CUR)
-    return None
+        f.seek(max(struct.unpack(">H", raw)[0] - 2, 0), os.SEEK_CUR)  # libjpeg skips length - 2 (none if < 2)
+    raise _Unbounded(f"no JPEG frame header within its first {JPEG_MAX_SEGMENTS} segments")
 
 
 def _bmp(f) -> tuple[int, int] | None:
@@ -165,16 +193,54 @@ def _tiff(f) -> tuple[int, int] | None:
     return None
 
 
+HDR_MAX_HEADER = 1 << 20  # a Radiance header is a few hundred bytes; a longer one is refused
+_HDR_LINE = 127  # OpenCV reads the header with fgets into a 128-byte buffer: at most 127 bytes at a time
+_WS = rb"[ \t\n\v\f\r]*"
+_HDR_SIZE = re.compile(rb"-Y" + _WS + rb"([+-]?[0-9]+)" + _WS + rb"\+X" + _WS + rb"([+-]?[0-9]+)")  # "-Y %d +X %d"
+_HDR_ANY = re.compile(rb"\s*[+-]([XY])\s+([0-9]+)\s+[+-]([XY])\s+([0-9]+)")  # other orientations
+
+
 def _radiance(f) -> tuple[int, int] | None:
-    for _ in range(200):
-        line = f.readline(4096).strip()
-        if not line:  # the empty line that ends the header; the resolution line follows
-            parts = f.readline(256).split()
-            if len(parts) == 4 and parts[0][1:2] in (b"Y", b"X") and parts[2][1:2] in (b"X", b"Y"):
-                a, b = int(parts[1]), int(parts[3])
-                return (b, a) if parts[0][1:2] == b"Y" else (a, b)
+    """(width, height) from a Radiance header, read as OpenCV reads it (rgbe.cpp, RGBE_ReadHeader): the
+    file in pieces of at most 127 bytes, each ending at a newline; the header ends at a piece that starts
+    with a newline, and the next piece holds the size. The whole header is read, up to HDR_MAX_HEADER
+    bytes; a longer one is refused."""
+    head = f.read(HDR_MAX_HEADER + 1)
+    pos = 0
+
+    def piece() -> bytes | None:  # C's fgets(buf, 128, fp)
+        nonlocal pos
+        if pos >= len(head):
+            if len(head) > HDR_MAX_HEADER:
+                raise _Unbounded(f"the Radiance header is longer than {HDR_MAX_HEADER >> 20} MiB")
             return None
-    return None
+        end = head.find(b"\n", pos, pos + _HDR_LINE)
+        start, pos = pos, (end + 1 if end >= 0 else min(pos + _HDR_LINE, len(head)))
+        return head[start:pos]
+
+    piece()  # "#?RADIANCE" (checked by the caller)
+    while True:
+        line = piece()
+        if line is None:
+            return None
+        if line.startswith(b"\n"):
+            break
+    line = piece()
+    if line is None:
+        return None
+    line = line.split(b"\x00", 1)[0]  # sscanf reads a C string
+    found = _HDR_SIZE.match(line)
+    if found:
+        h, w = int(found[1]), int(found[2])
+    else:  # OpenCV refuses other orientations; another reader may not
+        found = _HDR_ANY.match(line)
+        if not found or found[1] == found[3]:
+            return None
+        a, b = int(found[2]), int(found[4])
+        w, h = (b, a) if found[1] == b"Y" else (a, b)
+    if not (-(2**31) < w < 2**31 and -(2**31) < h < 2**31):  # C's int would wrap to a size no one checked
+        raise _Unbounded(f"the Radiance header's size {w}x{h} does not fit a 32-bit integer")
+    return (w, h) if w > 0 and h > 0 else None
 
 
 def _cstring(f, limit: int) -> bytes | None:
@@ -253,28 +319,39 @@ class _HeaderReader:
         return self._f.tell()
 
 
-def header_size(path: str | os.PathLike) -> tuple[int, int] | None:
-    """(width, height) from an image file's header without decoding it; None for formats not parsed here
-    and for damaged headers (the decoder then says what is wrong). Reads at most HEADER_MAX_BYTES.
+def header_size(src: str | os.PathLike | bytes, name: str | None = None) -> tuple[int, int] | None:
+    """(width, height) from an image's header without decoding it; None for formats not parsed here, or a
+    header the decoder will refuse too (truncated, damaged).
+
+    Args:
+        src: an image file, or its bytes (an upload).
+        name: what to call it in an error (default: the path, or "image").
 
     Raises:
+        RelightError: a header that does not end within the parser's bounds (a JPEG frame header after
+            thousands of segments, a Radiance header over 1 MiB, ...): refused, since the decoder would
+            find a size that was never checked.
         OSError: the file cannot be opened or read.
-        RelightError: ``path`` is not a regular file (a FIFO or a device would block or never end), or its
-            header goes on past HEADER_MAX_BYTES (no real image's does: refused rather than decoded unchecked).
+        RelightError: ``src`` is a path but not a regular file (a FIFO or a device would block or never end),
+            or its header goes on past HEADER_MAX_BYTES (no real image's does: refused, not decoded unchecked).
     """
-    require_file(path, "image")
-    with open(path, "rb") as f:
+    data = isinstance(src, (bytes, bytearray, memoryview))
+    if not data:
+        require_file(src, "image")
+    with io.BytesIO(src) if data else open(src, "rb") as f:
         head = f.read(8)
         for magic, parse in _SIGNATURES:
             if head.startswith(magic):
                 f.seek(0)
                 try:
                     return parse(_HeaderReader(f, HEADER_MAX_BYTES))
+                except _Unbounded as exc:
+                    raise RelightError(f"{name or ('image' if data else src)}: {exc}; refused") from None
                 except (struct.error, ValueError, OverflowError):
                     return None  # a damaged header: the decoder will say so
                 except _HeaderTooLong:
-                    raise RelightError(f"{path}: the image header goes on past {HEADER_MAX_BYTES:,} bytes "
-                                       "(a damaged or forged file); not decoded") from None
+                    raise RelightError(f"{name or ('image' if data else src)}: the image header goes on past "
+                                       f"{HEADER_MAX_BYTES:,} bytes (a damaged or forged file); not decoded") from None
     return None
 
 

@@ -17,7 +17,9 @@ atomic writer never leaves a half-written one).
 
 Paths are read and written by the actors: on a cluster they must name shared storage that every node
 sees, and relight_rt must be installed on every node (or shipped with ``runtime_env``). ``--ray local``
-starts a private Ray on this machine whose workers import the same relight_rt as the driver.
+starts a private Ray on this machine whose workers import the same relight_rt as the driver; it ends with
+the driver, also one killed by SIGKILL (a watcher process, relight_rt._reaper, ends what Ray's own fate
+sharing leaves), and under an address-space limit (ulimit -v) its object store is sized to fit.
 
 Python::
 
@@ -109,10 +111,105 @@ def worker_env() -> dict:
     return {"env_vars": {"PYTHONPATH": path}}
 
 
+OBJECT_STORE_MIN_BYTES = 75 << 20  # Ray's own minimum
+# below this address-space limit (ulimit -v) a local Ray hangs at start-up (1 GiB) or its driver dies in
+# Ray's shared memory (2 GiB); measured with Ray 2.60 (at 3 GiB workers may still fail: one line each)
+MIN_ADDRESS_SPACE = 3 << 30
+
+
+def _address_space_limit() -> int | None:
+    """This process's address-space limit in bytes (``ulimit -v``), or None when there is none."""
+    try:
+        import resource
+
+        soft, _ = resource.getrlimit(resource.RLIMIT_AS)
+    except (ImportError, OSError, ValueError):
+        return None
+    return None if soft == resource.RLIM_INFINITY else soft
+
+
+def _limit_hint() -> str:
+    """A hint for Ray failures under an address-space limit ("" without one)."""
+    limit = _address_space_limit()
+    if limit is None:
+        return ""
+    return f" (processes here may use {limit / 2**30:.1f} GiB of address space, ulimit -v; Ray's need more)"
+
+
+def object_store_bytes() -> int | None:
+    """The object store of a local Ray: under an address-space limit, an eighth of it (at least Ray's minimum,
+    at most 2 GiB); None otherwise (Ray's default, 30 % of the memory). The raylet maps the whole store when
+    it starts, and every process inherits the limit: with Ray's default the raylet dies at start-up under
+    ``ulimit -v`` and the node never comes up. (The paths are only file names: the store holds none of
+    the pixels.)"""
+    limit = _address_space_limit()
+    return None if limit is None else max(OBJECT_STORE_MIN_BYTES, min(limit // 8, 2 << 30))
+
+
+def _start_reaper():
+    """The watcher that ends the local Ray if this process dies without shutting it down (relight_rt._reaper):
+    its Popen, or None where it cannot run (not Linux)."""
+    import subprocess
+
+    if not sys.platform.startswith("linux"):
+        return None
+    from . import _reaper
+
+    try:
+        stderr = sys.stderr.fileno()  # the CLI's real stderr (its fd 2 may point at /dev/null meanwhile)
+    except (AttributeError, OSError, ValueError):
+        stderr = None
+    try:
+        return subprocess.Popen([sys.executable, "-I", _reaper.__file__], stdin=subprocess.PIPE, stderr=stderr,
+                                start_new_session=True)  # fmt: skip
+    except OSError as exc:
+        log.warning("Ray: no watcher for the local Ray (%s); if this process is killed, end Ray with `ray stop`", exc)
+        return None
+
+
+def _stop_reaper(reaper, clean: bool = True) -> None:
+    """Let the watcher go: after a clean ``ray.shutdown()`` it ends nothing; otherwise it ends what is left of
+    the local Ray, quietly (this process reports the failure itself)."""
+    if reaper is None:
+        return
+    with contextlib.suppress(OSError, ValueError):
+        reaper.stdin.write(b"clean\n" if clean else b"quiet\n")
+        reaper.stdin.close()
+    with contextlib.suppress(Exception):
+        reaper.wait(timeout=30)
+
+
+def _start_local(ray, kwargs: dict):
+    """``ray.init`` of a private local Ray, watched (see _start_reaper); every failure is one RelightError.
+    Returns the watcher (for _stop_reaper)."""
+    limit = _address_space_limit()
+    if limit is not None and limit < MIN_ADDRESS_SPACE:
+        raise RelightError(f"--ray local: processes here may use {limit / 2**30:.1f} GiB of address space (ulimit "
+                           f"-v); a local Ray needs {MIN_ADDRESS_SPACE >> 30} GiB or more per process: raise the "
+                           "limit, or run without --ray")  # fmt: skip
+    reaper = _start_reaper()
+    store = object_store_bytes()
+    if store is not None:
+        kwargs = dict(kwargs, object_store_memory=store)
+    try:
+        ray.init(address="local", runtime_env=worker_env(), **kwargs)
+    except Exception as exc:  # Ray raises plain Exception ("The current node timed out during startup")
+        with contextlib.suppress(Exception):
+            ray.shutdown()
+        _stop_reaper(reaper, clean=False)  # ends what the failed start left behind
+        text = str(exc).strip()
+        reason = text.splitlines()[0] if text else type(exc).__name__
+        raise RelightError(f"--ray local: Ray did not start: {reason}{_limit_hint()}") from None
+    except BaseException:  # Ctrl-C, SIGTERM during the start
+        _stop_reaper(reaper, clean=False)
+        raise
+    return reaper
+
+
 @contextlib.contextmanager
 def ray_session(address: str | None) -> Iterator:
     """Ray, connected: an existing connection as it is (left open), else ``address`` (None or "local":
-    a private Ray on this machine, shut down at the end)."""
+    a private Ray on this machine, shut down at the end, and by a watcher if this process is killed)."""
     ray = _import_ray()
     if ray.is_initialized():
         yield ray
@@ -121,8 +218,9 @@ def ray_session(address: str | None) -> Iterator:
         raise RelightError(f"--ray {address}: that is a file or folder, not a Ray address; put --ray after the "
                            "inputs, or write --ray local")  # fmt: skip
     kwargs = {"include_dashboard": False, "logging_level": logging.WARNING, "log_to_driver": False}
+    reaper = None
     if address in (None, "local"):
-        ray.init(address="local", runtime_env=worker_env(), **kwargs)
+        reaper = _start_local(ray, kwargs)
     else:
         try:
             ray.init(address=address, **kwargs)
@@ -131,7 +229,12 @@ def ray_session(address: str | None) -> Iterator:
     try:
         yield ray
     finally:
-        ray.shutdown()
+        clean = False
+        try:
+            ray.shutdown()
+            clean = True
+        finally:
+            _stop_reaper(reaper, clean)
 
 
 def _resources(ray, gpus: float | None, cpus: float, device: str = "auto") -> tuple[float, float, dict]:
@@ -491,7 +594,7 @@ def _run_actors(ray, todo, writer, actor_kwargs, actors, gpus, cpus, batch_size)
     except ray.exceptions.RayError as exc:  # an actor that cannot start (models, CUDA), a lost node, ...
         reason = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
         raise RelightError(f"the Ray job stopped after {len(done)} of {len(todo)} photos (the manifest lists "
-                           f"them; a rerun goes on): {reason}") from None  # fmt: skip
+                           f"them; a rerun goes on): {reason}{_limit_hint()}") from None  # fmt: skip
     seconds = time.perf_counter() - start
     log.info("Ray: %d photos in %.2f s (%.2f photos/s, actor start-up included)", len(done), seconds,
              len(done) / max(seconds, 1e-9))  # fmt: skip

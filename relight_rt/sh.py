@@ -560,7 +560,7 @@ def load_envmap(path) -> np.ndarray:
     from ._limits import check_pixels, header_size
 
     try:
-        size = header_size(p)
+        size = header_size(p, f"environment map {p}")
         if size is not None:
             check_pixels(size[0], size[1], f"environment map {p}")
         data = np.fromfile(p, dtype=np.uint8)

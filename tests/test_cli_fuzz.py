@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import os
 import struct
+import subprocess
+import sys
 import zlib
 from pathlib import Path
 
@@ -340,3 +342,59 @@ def test_fifo_inputs_are_refused_by_every_command(tmp_path, models_dir, monkeypa
             u.stop()
     assert not any(u.fired for u in unblockers)  # nothing waited for a writer
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["p.png", "p_mask.png", "frames", *fifos.values()])
+def header_bombs(folder: Path) -> dict[str, str]:
+    """Issue 35: a JPEG whose frame header (30000 x 30000, 10.8 GB decoded as floats) sits behind a 0xFF fill
+    byte, stray bytes and 0xFF 0x00 (libjpeg skips all three), and Radiance maps whose headers are longer than
+    4 KB (long lines; a line of exactly 127 bytes, which OpenCV reads in two pieces). Returns name -> the size
+    the refusal must name."""
+    img = np.zeros((16, 16, 3), np.uint8)
+    jpeg = bytearray(cv2.imencode(".jpg", img, [cv2.IMWRITE_JPEG_PROGRESSIVE, 1])[1].tobytes())
+    sof = jpeg.index(b"\xff\xc2")
+    jpeg[sof + 5 : sof + 9] = (30000).to_bytes(2, "big") * 2
+    (folder / "fill.jpg").write_bytes(jpeg[:sof] + b"\xff" + jpeg[sof:])
+    (folder / "stray.jpg").write_bytes(jpeg[:sof] + b"ab\xff\x00cd\xff\xff" + jpeg[sof:])
+    head = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n"
+    size = b"-Y 15000 +X 30000\n" + bytes(64)
+    (folder / "long.hdr").write_bytes(head + (b"#" + b"c" * 5000 + b"\n") * 300 + b"\n" + size)  # 1.5 MB header
+    (folder / "long_lines.hdr").write_bytes(head + (b"# " + b"c" * 98 + b"\n") * 60 + b"\n" + size)  # 6 KB
+    (folder / "split.hdr").write_bytes(head + b"#" + b"c" * 126 + b"\n" + size)  # the size line follows the 127
+    return {"fill.jpg": "30000x30000", "stray.jpg": "30000x30000", "long.hdr": "longer than 1 MiB",
+            "long_lines.hdr": "30000x15000", "split.hdr": "30000x15000"}  # fmt: skip
+
+
+def _address_space(gib: int):
+    def apply() -> None:
+        import resource
+
+        resource.setrlimit(resource.RLIMIT_AS, (gib << 30, gib << 30))
+
+    return apply
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="RLIMIT_AS: Linux")
+def test_fuzz_header_bombs_refused_before_decoding(tmp_path, models_dir):
+    """Every bomb, as a photo, a background, an env map and to ``lights from-envmap``, in a real process under a
+    4 GiB address-space limit: one line naming the file and the size it claims, exit 2, nothing written."""
+    bombs = header_bombs(tmp_path)
+    img, mask = person(H, W, box=(10, 50, 10, 30))
+    cv2.imwrite(str(tmp_path / "p.png"), (img[..., ::-1] * 255).round().astype(np.uint8))
+    cv2.imwrite(str(tmp_path / "p_mask.png"), (mask * 255).astype(np.uint8))
+    for name in ("fill", "stray"):
+        cv2.imwrite(str(tmp_path / f"{name}_mask.png"), np.full((30, 30), 255, np.uint8))
+    before = snapshot(tmp_path)
+    runs = []
+    for name in ("fill.jpg", "stray.jpg"):
+        runs += [(name, ["relight", name, "--preset", "studio", "-o", "o.png"]),
+                 (name, ["relight", "p.png", "--preset", "studio", "--background", name, "-o", "o.png"])]  # fmt: skip
+    for name in ("long.hdr", "long_lines.hdr", "split.hdr"):
+        runs += [(name, ["relight", "p.png", "--envmap", name, "-o", "o.png"]),
+                 (name, ["lights", "from-envmap", name, "-o", "l.npy"])]  # fmt: skip
+    env = {**os.environ, "PYTHONPATH": str(REPO), "RELIGHT_RT_MODELS": str(models_dir)}
+    for name, argv in runs:
+        proc = subprocess.run([sys.executable, "-m", "relight_rt", *argv, "--device", "cpu"], cwd=tmp_path,
+                              capture_output=True, text=True, env=env, timeout=120,
+                              preexec_fn=_address_space(4))  # fmt: skip
+        lines = proc.stderr.strip().splitlines()
+        assert proc.returncode == 2 and len(lines) == 1, (argv, proc.stderr)
+        assert lines[0].startswith("relight-rt: error: ") and name in lines[0] and bombs[name] in lines[0], argv
+    assert snapshot(tmp_path) == before

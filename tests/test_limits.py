@@ -199,3 +199,109 @@ def test_a_header_past_the_budget_is_refused(tmp_path, monkeypatch):
         header_size(tmp_path / "long.hdr")
     with pytest.raises(RelightError, match="goes on past"):
         read_image(tmp_path / "long.hdr")
+# ------------------------------------------------------------------------------------- issue 35: headers
+# The size read from a header must be the size the decoder finds, however the header is dressed up; where
+# no size can be found within the parser's bounds, the file is refused before it is decoded.
+
+
+def _decoded_size(data: bytes):
+    try:
+        img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+    except cv2.error:
+        return None
+    return None if img is None else (img.shape[1], img.shape[0])
+
+
+def _jpeg_variants() -> dict[str, bytes]:
+    good = cv2.imencode(".jpg", np.zeros((8, 16, 3), np.uint8), [cv2.IMWRITE_JPEG_PROGRESSIVE, 1])[1].tobytes()
+    sof = good.index(b"\xff\xc2")
+    dqt = good.index(b"\xff\xdb")
+    return {
+        "fill before SOF": good[:sof] + b"\xff\xff" + good[sof:],
+        "stray bytes before SOF": good[:sof] + b"zz" + good[sof:],
+        "0xFF 0x00 before SOF": good[:sof] + b"\xff\x00" + good[sof:],
+        "stray, 0xFF00, fill before DQT": good[:dqt] + b"ab\xff\x00cd\xff\xff" + good[dqt:],
+        "COM of length 1": good[:2] + b"\xff\xfe\x00\x01" + good[2:],
+        "RST and TEM": good[:2] + b"\xff\xd0\xff\x01" + good[2:],
+        "fill after SOI": good[:2] + b"\xff" + good[2:],
+    }
+
+
+@pytest.mark.parametrize("case", sorted(_jpeg_variants()))
+def test_jpeg_header_found_as_libjpeg_finds_it(case):
+    data = _jpeg_variants()[case]
+    assert _decoded_size(data) == (16, 8)  # the decoder reads it...
+    assert header_size(data) == (16, 8)  # ...and so does the header parser, from bytes...
+
+
+@pytest.mark.parametrize("case", ["fill before SOF", "stray bytes before SOF", "0xFF 0x00 before SOF"])
+def test_jpeg_bomb_behind_stray_bytes_is_refused(tmp_path, case):
+    data = bytearray(_jpeg_variants()[case])
+    sof = data.rindex(b"\xff\xc2")
+    data[sof + 5 : sof + 9] = (30000).to_bytes(2, "big") * 2  # 30000 x 30000 in a few hundred bytes
+    (tmp_path / "bomb.jpg").write_bytes(data)
+    assert header_size(tmp_path / "bomb.jpg") == (30000, 30000)
+    with pytest.raises(RelightError, match=r"30000x30000 .*more than the limit"):
+        read_image(tmp_path / "bomb.jpg")
+
+
+def test_jpeg_header_without_a_frame_within_bounds_is_refused():
+    from relight_rt._limits import JPEG_MAX_SEGMENTS, JPEG_MAX_STRAY
+
+    good = _jpeg_variants()["fill before SOF"]
+    many = good[:2] + b"\xff\xfe\x00\x02" * (JPEG_MAX_SEGMENTS + 1) + good[2:]  # empty comments, then the frame
+    with pytest.raises(RelightError, match=f"photo: no JPEG frame header within its first {JPEG_MAX_SEGMENTS}"):
+        header_size(many, "photo")
+    assert header_size(good[:2] + b"\xff\xfe\x00\x02" * 100 + good[2:]) == (16, 8)
+    stray = good[:2] + b"\xff\xfe\x00\x02" + b"z" * (JPEG_MAX_STRAY + 1) + good[2:]
+    with pytest.raises(RelightError, match="stray bytes"):
+        header_size(stray)
+    assert header_size(good[: good.index(b"\xff\xc2")]) is None  # truncated before the frame: the decoder says so
+    assert header_size(good[:2] + b"\xff\xd9" + good[2:]) is None  # EOI first: no image
+
+
+def _hdr_parts() -> tuple[bytes, bytes]:
+    data = cv2.imencode(".hdr", np.ones((4, 8, 3), np.float32))[1].tobytes()
+    head, rest = data.split(b"\n\n", 1)
+    return head + b"\n", rest.split(b"\n", 1)[1]  # "#?RADIANCE\nFORMAT=...\n", the pixels
+
+
+def _hdr_variants() -> dict[str, bytes]:
+    head, pixels = _hdr_parts()
+    return {
+        "plain": head + b"\n-Y 4 +X 8\n" + pixels,
+        "header over 4 KB": head + (b"#" + b"c" * 200 + b"\n") * 50 + b"\n-Y 4 +X 8\n" + pixels,
+        "spaces and signs": head + b"\n-Y  +4\t+X 8 junk\n" + pixels,
+        # a line of exactly 127 bytes: OpenCV reads it in two pieces, the second a bare newline that ends the
+        # header, so the next line is the size (a line-based parser takes it for a header line)
+        "127-byte line": head + b"#" + b"d" * 126 + b"\n-Y 4 +X 8\n" + pixels,
+    }
+
+
+@pytest.mark.parametrize("case", sorted(_hdr_variants()))
+def test_radiance_header_read_as_opencv_reads_it(case):
+    data = _hdr_variants()[case]
+    assert _decoded_size(data) == (8, 4)
+    assert header_size(data) == (8, 4)
+
+
+def test_radiance_bombs_are_refused(tmp_path):
+    from relight_rt._limits import HDR_MAX_HEADER
+
+    head, pixels = _hdr_parts()
+    long = head + (b"#" + b"c" * 5000 + b"\n") * 100 + b"\n-Y 30000 +X 60000\n" + pixels  # 500 KB header
+    (tmp_path / "long.hdr").write_bytes(long)
+    with pytest.raises(RelightError, match=r"60000x30000 .*more than the limit"):
+        read_image(tmp_path / "long.hdr")
+    endless = head + b"#" * (HDR_MAX_HEADER + 10) + b"\n\n-Y 4 +X 8\n" + pixels
+    with pytest.raises(RelightError, match="the Radiance header is longer than 1 MiB"):
+        header_size(endless)
+    wraps = head + b"\n-Y 4294967300 +X 8\n" + pixels  # C's int wraps it to 4: OpenCV decodes 8 x 4
+    assert _decoded_size(wraps) == (8, 4)
+    with pytest.raises(RelightError, match="32-bit"):
+        header_size(wraps)
+    hidden = head + b"#" + b"d" * 126 + b"\n-Y 30000 +X 30000\n" + pixels  # the 127-byte line of above
+    assert header_size(hidden) == (30000, 30000)
+    assert header_size(head + b"\n+Y 30000 +X 60000\n") == (60000, 30000)  # orientations OpenCV refuses
+    assert header_size(head + b"\n-Y 0 +X 8\n") is None  # the decoder refuses an empty image
+    assert header_size(head + b"\n") is None  # truncated

@@ -17,13 +17,13 @@ import pytest
 from _graphs import models_dir, person
 
 from relight_rt import Relighter, RelightError, lights, sh
+from relight_rt._limits import header_size
 from relight_rt.cli import main
 from relight_rt.studio.core import (
     MAX_UPLOAD_BYTES,
     ResultStore,
     Studio,
     check_upload,
-    image_size,
     light_json,
     mean_luminance_scale,
     parse_exposure,
@@ -86,7 +86,7 @@ def test_check_upload_refuses_bad_files():
 def test_image_size_from_the_header(ext):
     img = np.zeros((37, 53, 3), np.float32 if ext == ".hdr" else np.uint8)
     data = cv2.imencode(ext, img)[1].tobytes()
-    assert image_size(data, sniff(data)[0]) == (53, 37)
+    assert sniff(data) is not None and header_size(data) == (53, 37)  # the runtime's one header parser
 
 
 def test_huge_image_refused_before_decoding():
@@ -202,8 +202,11 @@ def test_photo_light_alpha_else_automatic_matte(studio, photo):
         studio.photo_light(cv2.imencode(".png", grey)[1].tobytes())
     scene = (REPO / "relight_rt" / "data" / "example_scene.jpg").read_bytes()  # no alpha: the matte finds her
     assert studio.photo_light(scene).shape == (9, 3)
+    with pytest.raises(RelightError, match="cannot read the image size from its PNG header"):
+        studio.photo_light(b"\x89PNG\r\n\x1a\n" + bytes(40))  # no IHDR: refused before decoding
+    ihdr = b"\x00\x00\x00\rIHDR" + (64).to_bytes(4, "big") * 2 + b"\x08\x02\x00\x00\x00"
     with pytest.raises(RelightError, match="cannot decode"):
-        studio.photo_light(b"\x89PNG\r\n\x1a\n" + bytes(40))
+        studio.photo_light(b"\x89PNG\r\n\x1a\n" + ihdr + bytes(40))  # a header, then nothing
 
 
 def test_studio_checks_its_arguments(photo, models_dir, tmp_path):
@@ -278,16 +281,17 @@ def test_routes_render_bad_request(client, body, match):
 
 
 def test_routes_uploads(client, tmp_path):
-    bad = client.post("/api/envmap", content=b"<svg>not an hdr</svg>")
+    raw = {"content-type": "application/octet-stream"}  # what the page sends (studio.js, uploadLight)
+    bad = client.post("/api/envmap", content=b"<svg>not an hdr</svg>", headers=raw)
     assert bad.status_code == 400 and "environment map: expected" in bad.json()["error"]
-    big = client.post("/api/photo-light", content=b"\x89PNG" + bytes(MAX_UPLOAD_BYTES))
+    big = client.post("/api/photo-light", content=b"\x89PNG" + bytes(MAX_UPLOAD_BYTES), headers=raw)
     assert big.status_code == 400 and "limit" in big.json()["error"]
     env = np.ones((8, 16, 3), np.float32)
     cv2.imwrite(str(tmp_path / "e.hdr"), env)
-    good = client.post("/api/envmap", content=(tmp_path / "e.hdr").read_bytes())
+    good = client.post("/api/envmap", content=(tmp_path / "e.hdr").read_bytes(), headers=raw)
     assert good.status_code == 200 and np.array(good.json()["light"]).shape == (9, 3)
     scene = client.post("/api/background-light", content=cv2.imencode(".jpg", np.full((80, 120, 3), 90, np.uint8))[1]
-                        .tobytes())
+                        .tobytes(), headers=raw)
     assert scene.status_code == 200 and np.array(scene.json()["light"]).shape == (9, 3)
     photo = cv2.imencode(".jpg", np.full((80, 120, 3), 90, np.uint8))[1].tobytes()
     keyed = client.post("/api/background-light?key=180,30", content=photo)

@@ -52,7 +52,9 @@ def _allowed_hosts(host: str) -> list[str]:
 
 
 def serve(studio, host: str = "127.0.0.1", port: int = 8000, open_browser: bool = False) -> None:
-    """Run the studio's server until interrupted; prints its URL once it listens."""
+    """Run the studio's server until interrupted; prints its URL once it listens. Ctrl-C or SIGTERM stop the
+    server, which then raises the signal again under the handlers that were in place (KeyboardInterrupt for
+    Ctrl-C; the CLI's SIGTERM handler)."""
     uvicorn = _require("uvicorn")
     app = create_app(studio, _allowed_hosts(host))
     server = uvicorn.Server(uvicorn.Config(app, host=host, port=port, log_level="warning", access_log=False))
@@ -116,10 +118,9 @@ def _cmd_studio(args: argparse.Namespace) -> int:
 
     relighter = Relighter(args.models, device=args.device)
     studio = Studio(args.photo, args.mask, args.background, relighter, args.preview_pixels, models=args.models)
-    try:
-        serve(studio, args.host, args.port, args.open)
-    except KeyboardInterrupt:
-        pass
+    # Ctrl-C and SIGTERM: uvicorn stops serving, then raises the signal again under the CLI's own handlers,
+    # so the command ends as every command does (130 / 143, one line; relight_rt.cli._run)
+    serve(studio, args.host, args.port, args.open)
     return 0
 
 

@@ -13,12 +13,22 @@ Routes (no route takes a filesystem path; ids are random tokens of the server's 
     GET  /api/result/ID/light.npy  its light (9, 3) float32 RGB; light.json likewise
     POST /api/envmap               raw body: an .hdr / PNG / JPEG equirectangular map -> {"light"}
     POST /api/photo-light          raw body: a PNG/WebP photo of a person with alpha -> {"light"}
+    POST /api/background-light     raw body: a photo of the scene behind the person -> {"light"}
+
+Guards (issue 35): the Host header must be a local name (DNS rebinding); a request whose Origin header is
+present must come from the server's own origin (403), so no page of another site can drive the studio;
+POST bodies must be application/json (render) or application/octet-stream (uploads), which a cross-site
+page cannot send without a CORS preflight that this server never answers (415); every body is refused
+past its own limit (400), and all requests together hold at most MAX_BUFFERED_BYTES of bodies and
+MAX_UPLOADS uploads at once (503, try again). Bad input is 400 with {"error": one line}.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import logging
+import urllib.parse
 from pathlib import Path
 
 import numpy as np
@@ -26,6 +36,7 @@ from fastapi import FastAPI, Request
 from fastapi.responses import FileResponse, JSONResponse, Response
 from fastapi.staticfiles import StaticFiles
 from starlette.middleware.trustedhost import TrustedHostMiddleware
+from starlette.requests import ClientDisconnect
 
 from .._errors import RelightError
 from .core import MAX_UPLOAD_BYTES, Studio, light_json, light_npy
@@ -42,30 +53,131 @@ _HEADERS = {
 }
 
 
-async def _read_body(request: Request, name: str, limit: int = MAX_UPLOAD_BYTES) -> bytes:
-    """The request body, refused as soon as it passes ``limit`` bytes (never read whole first)."""
-    declared = request.headers.get("content-length")
-    if declared is not None and declared.isdigit() and int(declared) > limit:
-        raise RelightError(f"{name}: the upload is {int(declared) / 2**20:.1f} MiB, the limit is {limit >> 20} MiB")
-    chunks, total = [], 0
-    async for chunk in request.stream():
-        total += len(chunk)
-        if total > limit:
-            raise RelightError(f"{name}: the upload is larger than the limit of {limit >> 20} MiB")
-        chunks.append(chunk)
-    return b"".join(chunks)
+MAX_BUFFERED_BYTES = 2 * MAX_UPLOAD_BYTES  # request bodies the server holds at once, all requests together
+MAX_UPLOADS = 4  # uploads (env maps, photos) read or worked on at once; more are refused (503), never queued
+JSON_LIMIT = 1 << 16  # a render request: 27 numbers and an exposure
+JSON = "application/json"
+UPLOAD = "application/octet-stream"  # what the page sends (studio.js, uploadLight); the kind is read from the bytes
 
 
-def create_app(studio: Studio, allowed_hosts: list[str] | None = None) -> FastAPI:
+class HTTPRefusal(Exception):
+    """A request refused with ``status`` (403 foreign origin, 415 content type, 503 busy) and a message."""
+
+    def __init__(self, status: int, message: str) -> None:
+        super().__init__(message)
+        self.status = status
+
+
+def _origin(url: str) -> tuple[str, str, int] | None:
+    """(scheme, host, port) of an origin or of "http://" + a Host header; None when it is not one."""
+    try:
+        parts = urllib.parse.urlsplit(url)
+        port = parts.port or {"http": 80, "https": 443}.get(parts.scheme)
+    except ValueError:
+        return None
+    if not parts.hostname or port is None or parts.path or parts.query or parts.fragment or parts.username:
+        return None
+    return parts.scheme, parts.hostname.lower(), port
+
+
+def foreign_origin(headers) -> str | None:
+    """Why a request is cross-site: its Origin header is present and is not the server's own origin (http://
+    and the Host it was sent to, which TrustedHostMiddleware has checked); None for a same-origin request or
+    one without Origin (a navigation, a same-origin GET, a tool such as curl)."""
+    origin = headers.get("origin")
+    if origin is None:
+        return None
+    host = headers.get("host", "")
+    own = _origin(f"http://{host}")
+    if own is None or _origin(origin) != own:
+        return f"cross-site request refused: Origin {origin[:200]!r} is not this server's (http://{host[:200]})"
+    return None
+
+
+def _require_type(request: Request, expected: str, name: str) -> None:
+    """Refuse (415) a body whose Content-Type is not ``expected``: a page on another site can send text/plain
+    (a CORS "simple" request, no preflight) but not JSON or octet-stream without the browser asking first."""
+    given = request.headers.get("content-type", "")
+    if given.split(";", 1)[0].strip().lower() != expected:
+        raise HTTPRefusal(415, f"{name}: expected Content-Type {expected}, got {given[:100] or 'none'}")
+
+
+class Budget:
+    """What request bodies may hold, over all requests: at most ``total`` bytes read and not yet let go, and
+    at most ``uploads`` uploads at once. Past either, a request is refused with 503 (try again), so that many
+    slow or concurrent uploads cannot make the server grow (issue 35). Used from the server's one event
+    loop only (no await between a check and its update)."""
+
+    def __init__(self, total: int = MAX_BUFFERED_BYTES, uploads: int = MAX_UPLOADS) -> None:
+        self.total, self.uploads = total, uploads
+        self.held = 0  # bytes
+        self.running = 0  # uploads
+
+    @contextlib.asynccontextmanager
+    async def upload(self, name: str):
+        """One upload slot for the block."""
+        if self.running >= self.uploads:
+            raise HTTPRefusal(503, f"{name}: the server is busy with {self.running} uploads (the most at once); "
+                                   "try again when they are done")  # fmt: skip
+        self.running += 1
+        try:
+            yield
+        finally:
+            self.running -= 1
+
+    @contextlib.asynccontextmanager
+    async def body(self, request: Request, name: str, limit: int):
+        """The request body for the block, refused as soon as it passes ``limit`` bytes (never read whole
+        first) or the budget; its bytes count against the budget until the block ends."""
+        reserved = 0
+
+        def reserve(n: int) -> None:
+            nonlocal reserved
+            if self.held + n > self.total:
+                held = f"{self.held / 2**20:.1f} MiB of uploads (the most is {self.total >> 20} MiB)"
+                raise HTTPRefusal(503, f"{name}: the server already holds {held}; try again when they are done")
+            self.held += n
+            reserved += n
+
+        try:
+            declared = request.headers.get("content-length")
+            if declared is not None and declared.isdigit():
+                if int(declared) > limit:
+                    raise RelightError(f"{name}: the upload is {int(declared) / 2**20:.1f} MiB, the limit is "
+                                       f"{limit / 2**20:g} MiB")  # fmt: skip
+                reserve(int(declared))
+            chunks, size = [], 0
+            try:
+                async for chunk in request.stream():
+                    size += len(chunk)
+                    if size > limit:
+                        raise RelightError(f"{name}: the upload is larger than the limit of {limit / 2**20:g} MiB")
+                    if size > reserved:
+                        reserve(size - reserved)
+                    chunks.append(chunk)
+            except ClientDisconnect:  # the client went away mid-upload: an answer no one reads, not a traceback
+                raise RelightError(f"{name}: the upload was interrupted after {size} bytes") from None
+            data = b"".join(chunks)
+            del chunks
+            yield data
+        finally:
+            self.held -= reserved
+
+
+def create_app(studio: Studio, allowed_hosts: list[str] | None = None, budget: Budget | None = None) -> FastAPI:
     """The FastAPI app serving ``studio``. ``allowed_hosts``: Host headers accepted (DNS-rebinding guard);
-    default: 127.0.0.1, localhost and ::1 with any port."""
+    default: 127.0.0.1, localhost and ::1 with any port. ``budget``: bytes and uploads held at once (default:
+    ``Budget()``). A request with an Origin other than the server's own is refused (403), a JSON route
+    takes only application/json and an upload only application/octet-stream (415)."""
     app = FastAPI(title="relight-rt studio", docs_url=None, redoc_url=None, openapi_url=None)
     hosts = allowed_hosts or list(LOCAL_HOSTS)
+    budget = budget or Budget()
     app.add_middleware(TrustedHostMiddleware, allowed_hosts=hosts)
 
     @app.middleware("http")
-    async def _security_headers(request: Request, call_next):
-        response = await call_next(request)
+    async def _same_origin_and_headers(request: Request, call_next):
+        refusal = foreign_origin(request.headers)
+        response = JSONResponse({"error": refusal}, status_code=403) if refusal else await call_next(request)
         for key, value in _HEADERS.items():
             response.headers.setdefault(key, value)
         return response
@@ -73,6 +185,11 @@ def create_app(studio: Studio, allowed_hosts: list[str] | None = None) -> FastAP
     @app.exception_handler(RelightError)
     async def _bad_input(request: Request, exc: RelightError):
         return JSONResponse({"error": str(exc)}, status_code=400)
+
+    @app.exception_handler(HTTPRefusal)
+    async def _refused(request: Request, exc: HTTPRefusal):
+        headers = {"Retry-After": "5"} if exc.status == 503 else None
+        return JSONResponse({"error": str(exc)}, status_code=exc.status, headers=headers)
 
     app.mount("/static", StaticFiles(directory=STATIC), name="static")
 
@@ -94,15 +211,18 @@ def create_app(studio: Studio, allowed_hosts: list[str] | None = None) -> FastAP
 
     @app.post("/api/render")
     async def render(request: Request):
-        raw = await _read_body(request, "render", limit=1 << 16)
-        try:
-            body = json.loads(raw)
-        except ValueError:
-            raise RelightError('render: expected a JSON body {"light": [27 numbers], "exposure": ...}') from None
-        if not isinstance(body, dict):
-            raise RelightError("render: expected a JSON object")
         from starlette.concurrency import run_in_threadpool
 
+        _require_type(request, JSON, "render")
+        async with budget.body(request, "render", JSON_LIMIT) as raw:
+            try:
+                body = json.loads(raw)
+            except ValueError:
+                raise RelightError('render: expected a JSON body {"light": [27 numbers], "exposure": ...}') from None
+            except RecursionError:  # "[" x 60000
+                raise RelightError("render: the JSON body is nested too deeply") from None
+        if not isinstance(body, dict):
+            raise RelightError("render: expected a JSON object")
         rid, rec = await run_in_threadpool(studio.render, body.get("light"), body.get("exposure", "auto"))
         return {
             "id": rid,
@@ -138,29 +258,27 @@ def create_app(studio: Studio, allowed_hosts: list[str] | None = None) -> FastAP
         headers = _attachment(download, f"{studio.photo.stem}_light.json")
         return Response(light_json(_render(rid).light), media_type="application/json", headers=headers)
 
-    @app.post("/api/envmap")
-    async def envmap(request: Request):
+    async def _upload(request: Request, name: str, work) -> dict:
+        """An upload: its content type, a slot, its bytes within the budget, then ``work(bytes)`` in a thread
+        (the decode happens there, after the size in the header was checked: core.check_upload)."""
         from starlette.concurrency import run_in_threadpool
 
-        data = await _read_body(request, "environment map")
-        light = await run_in_threadpool(studio.envmap_light, data)
+        _require_type(request, UPLOAD, name)
+        async with budget.upload(name), budget.body(request, name, MAX_UPLOAD_BYTES) as data:
+            light = await run_in_threadpool(work, data)
         return {"light": light.tolist()}
+
+    @app.post("/api/envmap")
+    async def envmap(request: Request):
+        return await _upload(request, "environment map", studio.envmap_light)
 
     @app.post("/api/photo-light")
     async def photo_light(request: Request):
-        from starlette.concurrency import run_in_threadpool
-
-        data = await _read_body(request, "photo")
-        light = await run_in_threadpool(studio.photo_light, data)
-        return {"light": light.tolist()}
+        return await _upload(request, "photo", studio.photo_light)
 
     @app.post("/api/background-light")
     async def background_light(request: Request):
-        from starlette.concurrency import run_in_threadpool
-
-        data = await _read_body(request, "background")
         key = request.query_params.get("key")  # "AZ,EL" degrees: where the scene's key light comes from
-        light = await run_in_threadpool(studio.background_light, data, key)
-        return {"light": light.tolist()}
+        return await _upload(request, "background", lambda data: studio.background_light(data, key))
 
     return app

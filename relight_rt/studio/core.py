@@ -6,8 +6,11 @@ pipeline (stage 2 and full-resolution detail) on request. Renders are kept in a 
 entries expire, so an export fetches exactly the picture that was shown.
 
 Security: nothing here takes a filesystem path from a request. Uploads arrive as bytes, are limited in
-size, typed by their first bytes (never by a client's file name or content type) and, where a reader
-needs a file, written to a temporary file whose name this module chooses, removed right after.
+size, typed by their first bytes (never by a client's file name or content type), sized from their
+header by the runtime's one header parser (relight_rt._limits.header_size: a size it cannot read, or more
+than MAX_UPLOAD_PIXELS, is refused before any decoder runs) and, where a reader needs a file, written to
+a temporary file whose name this module chooses, removed right after. What the web layer guards (origin,
+content types, concurrent uploads, bytes held) is in relight_rt.studio.app.
 """
 
 from __future__ import annotations
@@ -19,7 +22,6 @@ import logging
 import math
 import secrets
 import shlex
-import struct
 import tempfile
 import threading
 import time
@@ -34,6 +36,7 @@ import numpy as np
 from .. import lights, sh
 from .._errors import RelightError
 from .._io import decode_bytes, encode_image, read_image, sibling_mask
+from .._limits import header_size
 
 log = logging.getLogger(__name__)
 
@@ -63,63 +66,12 @@ def sniff(data: bytes) -> tuple[str, str] | None:
     return None
 
 
-def _jpeg_size(data: bytes) -> tuple[int, int] | None:
-    """(width, height) from a JPEG's start-of-frame marker."""
-    i = 2
-    while i + 9 < len(data):
-        if data[i] != 0xFF:
-            return None
-        marker = data[i + 1]
-        if marker in (0xD8, 0x01) or 0xD0 <= marker <= 0xD7:  # no length field
-            i += 2
-            continue
-        length = int.from_bytes(data[i + 2 : i + 4], "big")
-        if 0xC0 <= marker <= 0xCF and marker not in (0xC4, 0xC8, 0xCC):
-            return int.from_bytes(data[i + 7 : i + 9], "big"), int.from_bytes(data[i + 5 : i + 7], "big")
-        i += 2 + length
-    return None
-
-
-def _hdr_size(data: bytes) -> tuple[int, int] | None:
-    """(width, height) from a Radiance header's resolution line ("-Y H +X W" and the other orientations)."""
-    head = data[:4096].split(b"\n\n", 1)
-    if len(head) < 2:
-        return None
-    parts = head[1].split(b"\n", 1)[0].split()
-    if len(parts) == 4 and parts[1].isdigit() and parts[3].isdigit():
-        a, b = int(parts[1]), int(parts[3])
-        return (b, a) if parts[0].endswith(b"Y") else (a, b)
-    return None
-
-
-def image_size(data: bytes, kind: str) -> tuple[int, int] | None:
-    """(width, height) read from the header of an upload of ``kind`` without decoding it; None if unknown."""
-    if kind == "png" and len(data) >= 24 and data[12:16] == b"IHDR":
-        return struct.unpack(">II", data[16:24])
-    if kind == "jpeg":
-        return _jpeg_size(data)
-    if kind == "hdr":
-        return _hdr_size(data)
-    if kind == "bmp" and len(data) >= 26:
-        w, h = struct.unpack("<ii", data[18:26])
-        return abs(w), abs(h)
-    if kind == "webp" and len(data) >= 30:
-        chunk = data[12:16]
-        if chunk == b"VP8X":
-            return 1 + int.from_bytes(data[24:27], "little"), 1 + int.from_bytes(data[27:30], "little")
-        if chunk == b"VP8L":
-            bits = int.from_bytes(data[21:25], "little")
-            return 1 + (bits & 0x3FFF), 1 + ((bits >> 14) & 0x3FFF)
-        if chunk == b"VP8 ":
-            return int.from_bytes(data[26:28], "little") & 0x3FFF, int.from_bytes(data[28:30], "little") & 0x3FFF
-    return None
-
-
 def check_upload(data: bytes, name: str, allowed: tuple[str, ...], limit: int = MAX_UPLOAD_BYTES) -> str:
     """Check an upload's size and type (by content); returns the file suffix for its kind.
 
     Raises:
-        RelightError: empty, larger than ``limit``, or not one of ``allowed`` kinds.
+        RelightError: empty, larger than ``limit``, not one of ``allowed`` kinds, a header whose image size
+            cannot be read (relight_rt._limits.header_size) or an image of more than MAX_UPLOAD_PIXELS.
     """
     if not data:
         raise RelightError(f"{name}: the upload is empty")
@@ -129,8 +81,12 @@ def check_upload(data: bytes, name: str, allowed: tuple[str, ...], limit: int = 
     if found is None or found[0] not in allowed:
         what = "an unknown type" if found is None else f"a {found[0]} file"
         raise RelightError(f"{name}: expected {' or '.join(a.upper() for a in allowed)} (by content), got {what}")
-    size = image_size(data, found[0])  # refused before a decoder allocates it (a small file can be huge)
-    if size and size[0] * size[1] > MAX_UPLOAD_PIXELS:
+    # the size from the header, read by the runtime's one parser, before any decoder allocates the image
+    size = header_size(data, name)
+    if size is None:
+        raise RelightError(f"{name}: cannot read the image size from its {found[0].upper()} header (damaged or "
+                           "truncated file)")  # fmt: skip
+    if size[0] * size[1] > MAX_UPLOAD_PIXELS:
         raise RelightError(f"{name}: the image is {size[0]}x{size[1]}, more than {MAX_UPLOAD_PIXELS} pixels")
     return found[1]
 
@@ -219,8 +175,8 @@ def parse_light(value) -> np.ndarray:
     """A light from a request: 27 numbers (or 9 rows of 3), RGB → (9, 3) float32; checked."""
     try:
         arr = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise RelightError("light: expected 27 numbers (9 rows of R, G, B)") from None
+    except (TypeError, ValueError, OverflowError, RecursionError):  # OverflowError: an integer of 400 digits
+        raise RelightError("light: expected 27 numbers (9 rows of R, G, B) of sensible size") from None
     if arr.size != 27:
         raise RelightError(f"light: expected 27 numbers (9 rows of R, G, B), got {arr.size}")
     arr = arr.reshape(9, 3)
@@ -237,7 +193,7 @@ def parse_exposure(value) -> object:
         return value
     try:
         ev = float(value)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise RelightError(f"exposure: expected auto, physical or an EV number, got {value!r}") from None
     if not math.isfinite(ev) or abs(ev) > 10:
         raise RelightError(f"exposure: expected an EV offset in [-10, 10], got {value!r}")
