@@ -93,6 +93,7 @@ def _png(f) -> tuple[int, int] | None:
 _SOF = {0xC0, 0xC1, 0xC2, 0xC3, 0xC5, 0xC6, 0xC7, 0xC9, 0xCA, 0xCB, 0xCD, 0xCE, 0xCF}
 JPEG_MAX_SEGMENTS = 4096  # segments before the frame header (a real JPEG has a dozen; metadata: a few hundred)
 JPEG_MAX_STRAY = 1 << 20  # stray bytes (fill 0xFF, damage) skipped between segments, in all
+_JPEG_CHUNK = 4096  # stray and fill bytes are scanned this many at a time
 
 
 class _Unbounded(RelightError):
@@ -102,21 +103,42 @@ class _Unbounded(RelightError):
 def _jpeg_marker(f, budget: list[int]) -> int | None:
     """The next marker code, found as libjpeg finds it (jdmarker.c, next_marker): bytes other than 0xFF
     are skipped (damage), then any 0xFF fill bytes, and 0xFF 0x00 is not a marker; None at the end of
-    the file. ``budget``: stray bytes still allowed (shared over the whole header)."""
-    while True:
-        byte = f.read(1)
-        while byte and byte != b"\xff":
-            budget[0] -= 1
-            byte = f.read(1)
-        while byte == b"\xff":
-            budget[0] -= 1
-            byte = f.read(1)
+    the file. ``budget``: stray bytes still allowed (shared over the whole header). Runs of stray and fill
+    bytes are scanned a chunk at a time and the budget is checked as they go."""
+
+    def spend(n: int) -> None:
+        budget[0] -= n
         if budget[0] < 0:
             raise _Unbounded(f"more than {JPEG_MAX_STRAY} stray bytes between the JPEG header's segments")
-        if not byte:
-            return None
-        if byte != b"\x00":
-            return byte[0]
+
+    while True:
+        step = 1  # a marker usually follows at once: read little, more only while skipping stray bytes
+        while True:  # to the next 0xFF
+            chunk = f.read(min(step, budget[0] + 2))
+            step = _JPEG_CHUNK
+            if not chunk:
+                return None
+            at = chunk.find(b"\xff")
+            if at >= 0:
+                spend(at + 1)
+                f.seek(at + 1 - len(chunk), os.SEEK_CUR)
+                break
+            spend(len(chunk))
+        step = 1
+        while True:  # past the fill bytes
+            chunk = f.read(min(step, budget[0] + 2))
+            step = _JPEG_CHUNK
+            if not chunk:
+                return None
+            fill = len(chunk) - len(chunk.lstrip(b"\xff"))
+            spend(fill)
+            if fill < len(chunk):
+                f.seek(fill + 1 - len(chunk), os.SEEK_CUR)  # just past the byte after the fill
+                code = chunk[fill]
+                break
+        if code != 0:
+            return code
+        spend(1)  # 0xFF 0x00: a stuffed byte, not a marker
 
 
 def _jpeg(f) -> tuple[int, int] | None:

@@ -42,7 +42,8 @@ class Progress:
                 from tqdm import tqdm
             except ImportError:  # optional: plain log lines instead
                 tqdm = None
-            if tqdm is not None:
+            # a bar only on a terminal; piped or logged stderr gets the plain lines (a bar there is noise)
+            if tqdm is not None and sys.stderr.isatty():
                 self._bar = tqdm(total=self.total, unit=unit, file=sys.stderr, leave=False, dynamic_ncols=True)
         self._start = self._last = time.monotonic()
 

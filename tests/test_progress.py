@@ -38,10 +38,21 @@ def test_quiet_or_disabled_shows_nothing(monkeypatch, caplog, capsys):
     assert caplog.records == [] and capsys.readouterr().err == ""
 
 
-def test_with_tqdm_a_bar_on_stderr(caplog, capsys):
+def test_with_tqdm_a_bar_on_a_terminal(caplog, capsys, monkeypatch):
     pytest.importorskip("tqdm")
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)
     with caplog.at_level(logging.INFO, logger="relight_rt.cli"), Progress(4, "frame") as bar:
         for _ in range(4):
             bar.update()
     err = capsys.readouterr().err
     assert "/4 [" in err and "frame/s" in err and caplog.records == []  # count / total, rate (and time left)
+
+
+def test_no_bar_when_stderr_is_not_a_terminal(caplog, capsys, monkeypatch):
+    """Piped or logged stderr (CI, a batch job's log, a caller reading one error line) gets no bar."""
+    pytest.importorskip("tqdm")
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: False)
+    with caplog.at_level(logging.INFO, logger="relight_rt.cli"), Progress(4, "frame") as bar:
+        for _ in range(4):
+            bar.update()
+    assert "frame/s" not in capsys.readouterr().err

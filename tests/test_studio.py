@@ -294,9 +294,9 @@ def test_routes_uploads(client, tmp_path):
                         .tobytes(), headers=raw)
     assert scene.status_code == 200 and np.array(scene.json()["light"]).shape == (9, 3)
     photo = cv2.imencode(".jpg", np.full((80, 120, 3), 90, np.uint8))[1].tobytes()
-    keyed = client.post("/api/background-light?key=180,30", content=photo)
+    keyed = client.post("/api/background-light?key=180,30", content=photo, headers=raw)
     assert keyed.status_code == 200 and not np.allclose(keyed.json()["light"], scene.json()["light"])
-    bad_key = client.post("/api/background-light?key=up", content=photo)
+    bad_key = client.post("/api/background-light?key=up", content=photo, headers=raw)
     assert bad_key.status_code == 400 and "key light" in bad_key.json()["error"]
     assert client.get("/api/info").status_code == 200  # still serving
 

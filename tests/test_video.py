@@ -507,7 +507,6 @@ def test_resolve_light_file_envmap_and_preset(tmp_path):
 
 def test_cli_shows_progress_and_one_summary(tmp_path, tiny_models):
     """issue 34: video logged "frame 1 / 24", then nothing until the end, then its summary twice."""
-    import importlib.util
     import os
     import re
     import subprocess
@@ -523,5 +522,5 @@ def test_cli_shows_progress_and_one_summary(tmp_path, tiny_models):
     assert proc.returncode == 0, proc.stderr
     assert "frame 1 / " not in proc.stderr
     assert len(re.findall(r"s per frame", proc.stderr)) == 1, proc.stderr  # one summary
-    if importlib.util.find_spec("tqdm") is not None:
-        assert "frame/s" in proc.stderr  # the bar: count, frames per second, time left
+    # (stderr is a pipe here, so no bar: tests/test_progress.py checks the bar on a terminal)
+    assert "frame/s" not in proc.stderr
