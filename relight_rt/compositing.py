@@ -8,6 +8,11 @@ straight colour and ``out = premultiplied + backdrop * (1 - alpha)`` for a premu
 output), with alpha the soft mask in [0, 1].
 
 Colours are RGB float32 in [0, 1]; sRGB values are blended as stored (as the reference does).
+
+Over a new backdrop (anything but "original", transparent included) the person's soft edge is first
+cleaned of the old background (:func:`clean_edge_colour` with ``relight_rt.foreground.estimate_foreground``):
+an edge pixel of the photo mixes the person with what stood behind them, and that mix would otherwise
+show as a fringe of the old background around hair and limbs.
 """
 
 from __future__ import annotations
@@ -191,6 +196,32 @@ def over_box(colour: np.ndarray, alpha: np.ndarray, box: tuple[int, int, int, in
     out = np.array(backdrop, dtype=np.float32)  # the result: one full-size copy
     region = out[y0:y1, x0:x1]
     region += (colour - region) * alpha
+    return out
+
+
+_EDGE_EPS = 1e-3  # keeps the colour ratio finite on black pixels
+
+
+def clean_edge_colour(colour: np.ndarray, photo: np.ndarray, foreground: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """The person's colour with the photo's old background taken out of its soft edge.
+
+    ``colour`` was made from ``photo`` (the relit person, or the photo itself); where the matte is soft it is
+    scaled per channel by ``foreground / photo`` (the decontaminated colour of relight_rt.foreground over
+    the photo's), so what the relighting did to a pixel is kept and the old background's share is not.
+    Opaque and empty pixels are unchanged.
+
+    Args:
+        colour, photo, foreground: (h, w, 3) float32 RGB in [0, 1], the same pixels.
+        alpha: (h, w) or (h, w, 1) matte in [0, 1].
+
+    Returns:
+        New (h, w, 3) float32 in [0, 1].
+    """
+    a = alpha.reshape(alpha.shape[:2])
+    soft = (a > 0) & (a < 1)
+    out = np.array(colour, dtype=np.float32)
+    ratio = (foreground[soft] + _EDGE_EPS) / (photo[soft] + _EDGE_EPS)
+    out[soft] = np.clip(out[soft] * ratio, 0.0, 1.0)
     return out
 
 

@@ -40,7 +40,7 @@ from ._detail import extend_outward, guided_upsample, unpremultiply, window
 from ._errors import RelightError
 from ._geometry import CropGeometry
 from ._io import read_image, sibling_mask
-from .compositing import Background, over_box, parse_background
+from .compositing import Background, clean_edge_colour, over_box, parse_background
 from .config import RuntimeConfig
 from .contract import kind_spec
 from .lightspec import LightSpec, parse_light
@@ -553,12 +553,30 @@ class Relighter:
             (H, W, 3) float32 RGB, or (H, W, 4) RGBA for a transparent background.
         """
         bg = parse_background(background)
-        return self._compose(dec, relit, bg.backdrop(dec.image))
+        return self._compose(dec, relit, bg.backdrop(dec.image), clean=bg.kind != "original")
 
-    def _compose(self, dec: Decomposition, relit: np.ndarray, backdrop: np.ndarray | None) -> np.ndarray:
+    def _compose(self, dec: Decomposition, relit: np.ndarray, backdrop: np.ndarray | None, clean: bool = False
+                 ) -> np.ndarray:  # fmt: skip
+        """The relit person over ``backdrop`` (None: RGBA); ``clean``: a new backdrop, so the soft edge loses
+        the photo's old background first (relight_rt.compositing.clean_edge_colour)."""
         geom = dec.geometry
         colour = self._person_colour(dec, relit)
-        return over_box(colour, geom.crop(dec.mask)[..., None], geom.box, backdrop, dec.mask)
+        alpha = geom.crop(dec.mask)
+        if clean:
+            photo = np.ascontiguousarray(geom.crop(dec.image)[..., :3])
+            colour = clean_edge_colour(colour, photo, self._foreground(dec), alpha)
+        return over_box(colour, alpha[..., None], geom.box, backdrop, dec.mask)
+
+    def _foreground(self, dec: Decomposition) -> np.ndarray:
+        """The person's decontaminated colour in the crop box (relight_rt.foreground), once per Decomposition."""
+        state = self._prepared(dec)
+        if "foreground" not in state:
+            from .foreground import estimate_foreground
+
+            geom = dec.geometry
+            state["foreground"] = estimate_foreground(np.ascontiguousarray(geom.crop(dec.image)[..., :3]),
+                                                      np.ascontiguousarray(geom.crop(dec.mask)))  # fmt: skip
+        return state["foreground"]
 
     def _prepare(self, image, mask) -> Decomposition:
         if isinstance(image, Decomposition):
@@ -597,7 +615,7 @@ class Relighter:
         lit = _exposure.expose(dec, self.resolve_light(light), exposure)
         bg = parse_background(background)
         _, _, relit = next(self._network_relit(dec, lit[None], 1, want_layers=False))
-        return self._compose(dec, relit, bg.backdrop(dec.image))
+        return self._compose(dec, relit, bg.backdrop(dec.image), clean=bg.kind != "original")
 
     def relight_layers(
         self,
@@ -613,7 +631,7 @@ class Relighter:
         lit = _exposure.expose(dec, self.resolve_light(light), exposure)
         bg = parse_background(background)
         diffuse, residual, relit = next(self._network_relit(dec, lit[None], 1, want_layers=True))
-        out = self._compose(dec, relit, bg.backdrop(dec.image))
+        out = self._compose(dec, relit, bg.backdrop(dec.image), clean=bg.kind != "original")
         chw = lambda a: dec.to_input(np.ascontiguousarray(a.transpose(1, 2, 0)))  # noqa: E731
         layers = {
             "albedo": dec.to_input(np.ascontiguousarray(dec.albedo)),
@@ -640,9 +658,10 @@ class Relighter:
             raise RelightError(f"batch_size: expected a whole number >= 1, got {batch_size!r}")
         dec = self._prepare(image, mask)
         lits = _exposure.expose(dec, self._resolve_lights(lights), exposure)
-        backdrop = parse_background(background).backdrop(dec.image)
+        bg = parse_background(background)
+        backdrop = bg.backdrop(dec.image)
         for _, _, relit in self._network_relit(dec, lits, batch_size, want_layers=False):
-            yield self._compose(dec, relit, backdrop)
+            yield self._compose(dec, relit, backdrop, clean=bg.kind != "original")
 
     def relight_many(
         self,

@@ -93,3 +93,17 @@ def test_exposed_through_matting():
 def test_bad_input(rgb, alpha, match):
     with pytest.raises(RelightError, match=match):
         estimate_foreground(rgb, alpha)
+
+
+def test_clean_edge_colour_keeps_the_relighting_and_drops_the_old_background():
+    from relight_rt.compositing import clean_edge_colour
+
+    rgb, alpha, f, _ = scene(40, 50, soft=8.0)
+    fg = estimate_foreground(rgb, alpha)
+    relit = np.clip(rgb * np.array([1.2, 0.9, 0.7], np.float32), 0, 1)  # a relighting: a colour per channel
+    out = clean_edge_colour(relit, rgb, fg, alpha)
+    soft = (alpha > 0.05) & (alpha < 0.95)
+    want = np.clip(f * np.array([1.2, 0.9, 0.7], np.float32), 0, 1)
+    assert np.abs(out - want)[soft].mean() < 0.2 * np.abs(relit - want)[soft].mean()
+    solid = (alpha == 0) | (alpha == 1)
+    np.testing.assert_array_equal(out[solid], relit[solid])

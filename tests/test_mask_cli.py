@@ -112,3 +112,24 @@ def test_frame_folder_as_a_sequence(tmp_path):
     assert names == ["f0_mask.png", "f1_mask.png", "f2_mask.png"]
     assert iou(cv2.imread(str(tmp_path / "masks" / "f2_mask.png"), cv2.IMREAD_GRAYSCALE), np.roll(truth(), 4, 1)) > 0.9
     assert run(frames, "--sequence", "--smoothing", "1.5", "-o", tmp_path / "m2") == 2
+
+
+def test_foreground_cutout(tmp_path, capsys):
+    """Issue 33: ``--foreground`` writes the decontaminated RGBA cut-out beside the mask."""
+    bgra = cv2.imread(str(EXAMPLE), cv2.IMREAD_UNCHANGED)
+    person = bgra[..., :3].astype(np.float32) / 255
+    a = bgra[..., 3:].astype(np.float32) / 255
+    photo = tmp_path / "over_red.png"  # the example person over pure red (BGR)
+    cv2.imwrite(str(photo), np.round((person * a + (1 - a) * np.array([0, 0, 1.0])) * 255).astype(np.uint8))
+    out, cut = tmp_path / "m.png", tmp_path / "cut.png"
+    assert run(photo, "-o", out, "--foreground", cut) == 0
+    rgba = cv2.imread(str(cut), cv2.IMREAD_UNCHANGED)
+    assert rgba.shape == bgra.shape and rgba.dtype == np.uint8
+    np.testing.assert_array_equal(rgba[..., 3], cv2.imread(str(out), cv2.IMREAD_UNCHANGED))
+    soft = (rgba[..., 3] > 25) & (rgba[..., 3] < 230)
+    assert soft.sum() > 100
+    redness = lambda img: img[soft][:, 2].astype(float) - img[soft][:, :2].astype(float).mean(1)  # noqa: E731
+    photo_px = cv2.imread(str(photo), cv2.IMREAD_COLOR)
+    assert redness(rgba).mean() < redness(photo_px).mean() - 30  # the red fringe is taken out
+    assert run(photo, "-o", tmp_path / "m2.png", "--foreground", tmp_path / "cut.jpg") == 2
+    assert "--foreground" in capsys.readouterr().err
