@@ -43,6 +43,7 @@ import numpy as np
 
 from . import _faces
 from ._errors import RelightError
+from ._refine import refine_edges
 from .contract import KINDS
 from .foreground import estimate_foreground as estimate_foreground  # re-exported (issue 33)
 from .session import ENV_MODELS, Model, bundled_models_dir, load_model
@@ -256,6 +257,8 @@ class PersonMatter:
         refine: refine the edges with the photo (guided filter); False gives the upsampled segmentation.
         guide: "gray" (default, fast) or "color" (a colour guide: separates edges that differ in colour
             but not in brightness, e.g. pale shoes on a white floor; ~4x the refinement time).
+        edges: with ``refine``, re-estimate alpha from colour in a band around the outline at full
+            resolution (relight_rt._refine: hair strands, no smear of the old background).
         max_passes: pose-graph runs per person while the region settles (>= 1).
 
     Calling it: ``alpha = matter(rgb)``, rgb (H, W, 3) float32 [0, 1] (uint8, RGBA and grayscale are
@@ -274,6 +277,7 @@ class PersonMatter:
         refine: bool = True,
         guide: str = "gray",
         max_passes: int = 4,
+        edges: bool = True,
     ):
         if guide not in GUIDES:
             raise RelightError(f"guide: expected one of {list(GUIDES)}, got {guide!r}")
@@ -290,6 +294,7 @@ class PersonMatter:
         self.refine = bool(refine)
         self.guide = guide
         self.max_passes = int(max_passes)
+        self.edges = bool(edges)
 
     # -- detection ----------------------------------------------------------------------------------
 
@@ -473,6 +478,8 @@ class PersonMatter:
                 continue
             a = region_alpha(rgb, p, (rx0, ry0, rx1, ry1), refine=refine, guide=self.guide)
             np.maximum(alpha[ry0:ry1, rx0:rx1], a, out=alpha[ry0:ry1, rx0:rx1])
+        if refine and self.edges and people:
+            alpha = refine_edges(rgb, alpha)
         return alpha
 
     def __call__(self, image: np.ndarray, name: str = "image") -> np.ndarray:
