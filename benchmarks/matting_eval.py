@@ -7,8 +7,8 @@
   image diagonal) and the edge-band error (mean |alpha - hand mask| and SAD/1000 where the hand mask is soft,
   0.02-0.98) against every mask in ../shared/reference (photo/sample + video/frame_001..024), for
   PersonMatter (with and without the edge-band refinement of issue 33 and the guided filter) and for
-  GrabCut (OpenCV, 5 iterations, started from the same person box: the box our region finder returns; run on the image reduced to a
-  long side of 1000 px, its mask upsampled).
+  GrabCut (OpenCV, 5 iterations, started from the same person box: the box our region finder returns;
+  run on the image reduced to a long side of 1000 px, its mask upsampled).
 - speed: PersonMatter on a 2-megapixel photo (the reference photo resized to 1732x1155; the edge band and
   relight_rt.foreground.estimate_foreground on their own too), and VideoMatter
   on 720p frames (1280x720: the reference frames scaled to 720 px high, centred, edges replicated),
@@ -122,8 +122,9 @@ def accuracy(ref: Path) -> None:
         for key, v in zip(rows, vals, strict=True):
             rows[key].append((name, *v))
         print(f"  {name:16s} " + "  ".join(f"IoU {v[0]:.4f} F {v[1]:.4f} band {v[2]:.3f}" for v in vals), flush=True)
-    print("\n| method | photo IoU | photo boundary F | photo edge band: mean error, SAD/1000 "
-          "| video IoU (mean of 24, min) | video boundary F (mean, min) | video edge band: mean error, SAD/1000 |")  # fmt: skip
+    head = "| method | photo IoU | photo boundary F | photo edge band: mean error, SAD/1000 "
+    head += "| video IoU (mean of 24, min) | video boundary F (mean, min) | video edge band: mean error, SAD/1000 |"
+    print("\n" + head)
     print("|---|---|---|---|---|---|---|")
     for key, r in rows.items():
         photo = r[0]
