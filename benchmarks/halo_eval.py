@@ -9,9 +9,10 @@ pure green and over pure magenta:
   (x long side / 1000, at least 1-15 px);
 - backdrop: how far the band's mean colour moves between the two backdrops, as a fraction of
   |green - magenta| (0: the band shows none of the backdrop; the share of backdrop the band's alpha lets through);
-- old background: where the band's mean colour (over green, minus the backdrop's share) lies between the person's
-  colour just further in (16-30 px inside) and the old background just outside (1-15 px outside, in the photo):
-  0 = the person's colour, 1 = the old background's, in projection on the line between them.
+- old background: how far the band's own colour (its mean over green, the backdrop's share taken out) lies from
+  the person's colour just further in (16-30 px inside) toward the old background just outside (1-15 px outside,
+  in the photo), in 8-bit levels along the line between them (0: none of the old background; "-" where those
+  two colours differ by less than 12 levels, so that there is no direction to measure along).
 "before" is PersonMatter(edges=False) with the photo's own colour (the composite before issue 33), "after"
 that matte refined in its edge band (relight_rt._refine, what PersonMatter() does by default) with the colour of
 relight_rt.foreground.estimate_foreground. Also times the refinement and decontamination together.
@@ -70,8 +71,10 @@ def halo(rgb: np.ndarray, alpha: np.ndarray, colour: np.ndarray) -> tuple[float,
     inner = rgb[deeper].mean(0) if deeper.any() else rgb[band].mean(0)
     old = rgb[outside].mean(0)
     d = old - inner
-    old_share = float(np.dot(person_band - inner, d) / max(float(np.dot(d, d)), 1e-6))
-    return moved, old_share
+    n = float(np.linalg.norm(d))
+    if n < 12 / 255:
+        return moved, float("nan")
+    return moved, float(np.dot(person_band - inner, d / n) * 255)
 
 
 def hair_crop(alpha: np.ndarray, size: int) -> tuple[int, int]:
@@ -93,7 +96,7 @@ def main() -> None:
     args = ap.parse_args()
     before_m = M.PersonMatter(edges=False)
     rows, tiles = [], []
-    print("| photo | size | backdrop share before -> after | old-background share before -> after | "
+    print("| photo | size | backdrop share before -> after | toward the old background (levels) before -> after | "
           "refine + decontaminate ms |")  # fmt: skip
     print("|---|---|---|---|---|")
     for photo, path in gather(args.cache, parse_gitdirs(args.git)):
@@ -111,8 +114,8 @@ def main() -> None:
         c = halo(rgb, a1, fg)
         rows.append((b, c))
         h, w = rgb.shape[:2]
-        print(f"| {photo.name} | {w}x{h} | {b[0]:.3f} -> {c[0]:.3f} | {b[1]:.3f} -> {c[1]:.3f} | {ms:.0f} |",
-              flush=True)  # fmt: skip
+        old = "-" if np.isnan(b[1]) else f"{b[1]:.1f} -> {c[1]:.1f}"
+        print(f"| {photo.name} | {w}x{h} | {b[0]:.3f} -> {c[0]:.3f} | {old} | {ms:.0f} |", flush=True)
         if args.sheet is not None and photo.name in SHEET_PHOTOS:
             n = min(args.crop, h, w)
             y0, x0 = hair_crop(a1, n)
@@ -124,16 +127,18 @@ def main() -> None:
             tile = np.concatenate([np.pad(c, ((2, 2), (2, 2), (0, 0)), constant_values=1.0) for c in cells], axis=1)
             tiles.append((photo.name, tile))
     r = np.array([[*b, *c] for b, c in rows])
-    print(f"\nmean over {len(rows)} photos: backdrop share {r[:, 0].mean():.3f} -> {r[:, 2].mean():.3f}; "
-          f"old-background share {r[:, 1].mean():.3f} -> {r[:, 3].mean():.3f}")  # fmt: skip
+    ok = ~np.isnan(r[:, 1])
+    print(f"\nmean over {len(rows)} photos: backdrop share {r[:, 0].mean():.3f} -> {r[:, 2].mean():.3f}; ", end="")
+    print(f"toward the old background ({ok.sum()} photos) {r[ok, 1].mean():.1f} -> {r[ok, 3].mean():.1f} levels")
     if args.sheet is not None and tiles:
         width = max(t.shape[1] for _, t in tiles)
         out = []
         for name, t in tiles:
-            label = np.ones((22, width, 3), np.float32)
+            label = np.full((22, width, 3), 255, np.uint8)
             cv2.putText(label, f"{name}: before | after over green, before | after over magenta (100 %)", (4, 16),
                         cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 1)  # fmt: skip
-            out += [label, np.pad(t, ((0, 0), (0, width - t.shape[1]), (0, 0)), constant_values=1.0)]
+            pad = np.pad(t, ((0, 0), (0, width - t.shape[1]), (0, 0)), constant_values=1.0)
+            out += [label.astype(np.float32) / 255, pad]
         sheet = (np.clip(np.concatenate(out, axis=0), 0, 1) * 255).round().astype(np.uint8)
         cv2.imwrite(str(args.sheet), cv2.cvtColor(sheet, cv2.COLOR_RGB2BGR), [cv2.IMWRITE_JPEG_QUALITY, 92])
         print(f"wrote {args.sheet}")

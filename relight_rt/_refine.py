@@ -12,7 +12,9 @@ solved per pixel with F and B held fixed):
 
 Where F and B are alike (a dark coat before a dark doorway) colour says nothing: the estimate is blended
 with the coarse alpha by a confidence |F - B|^2 / (|F - B|^2 + tau). A small guided filter (the photo as
-guide) then removes pixel noise while keeping strands. Outside the band the coarse matte is kept.
+guide) then removes pixel noise while keeping strands. Outside the band the coarse matte is kept, except
+that a faint veil (alpha < 0.2 on the background side, > 0.8 on the person's; < 0.05 / > 0.95 anywhere
+away from the outline) is snapped to 0 / 1: composited, it would show the old background.
 """
 
 from __future__ import annotations
@@ -21,6 +23,8 @@ import cv2
 import numpy as np
 
 _SURE = 0.95  # coarse alpha above this (after erosion) is sure foreground, below 1 - this sure background
+_SNAP = 0.05  # ... and away from the outline, alpha below this is 0, above 1 - this 1
+_VEIL = 0.2  # more than the band's width from the outline, alpha below this is 0 (above 1 - this: 1)
 _BAND_FRAC = 0.008  # half-width of the band, as a fraction of the photo's longer side (16 px at 2000 px) ...
 _BAND_MIN = 3  # ... at least this many pixels
 _EPS = 1e-4
@@ -47,39 +51,43 @@ def refine_edges(rgb: np.ndarray, alpha: np.ndarray, band: int | None = None) ->
         band: half-width of the band in pixels (default :func:`band_width`).
 
     Returns:
-        New (H, W) float32 alpha in [0, 1]; equal to ``alpha`` outside the band.
+        New (H, W) float32 alpha in [0, 1]; outside the band ``alpha`` snapped to 0 / 1 where faint.
     """
     h, w = alpha.shape
     r = band_width((h, w)) if band is None else int(band)
-    # work on the outline's bounding box only (plus the windows' reach)
-    edge = (alpha > 1 - _SURE) & (alpha < _SURE)
+    out = alpha.copy()
+    # away from the outline the matte is snapped: a faint veil of the segmentation over the background
+    # (or a faint hole in the person) would carry the old background into any composite
+    out[out < _SNAP] = 0.0
+    out[out > 1 - _SNAP] = 1.0
+    edge = (alpha > _SNAP) & (alpha < 1 - _SNAP)
     ys = np.flatnonzero(edge.any(axis=1))
     xs = np.flatnonzero(edge.any(axis=0))
     if ys.size == 0:
-        return alpha.copy()
-    m = 3 * r + 2
+        return out
+    m = 3 * r + 2  # work on the outline's bounding box only (plus the windows' reach)
     y0, y1 = max(int(ys[0]) - m, 0), min(int(ys[-1]) + 1 + m, h)
     x0, x1 = max(int(xs[0]) - m, 0), min(int(xs[-1]) + 1 + m, w)
     a = np.ascontiguousarray(alpha[y0:y1, x0:x1])
     img = np.ascontiguousarray(rgb[y0:y1, x0:x1])
-    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
-    fg = cv2.erode((a >= 0.5).astype(np.uint8), kernel)
-    bg = cv2.erode((a < 0.5).astype(np.uint8), kernel)
-    unknown = (fg == 0) & (bg == 0)
-    fg = fg.astype(np.float32) * (a >= _SURE)
-    bg = bg.astype(np.float32) * (a <= 1 - _SURE)
-    # mean colour of the sure pixels in a window of radius 2r (3r where the nearer window holds none)
-    f_col, f_n = _side_mean(img, fg, 2 * r)
-    b_col, b_n = _side_mean(img, bg, 2 * r)
+    inside = (a >= 0.5).astype(np.uint8)
+    fg = cv2.distanceTransform(inside, cv2.DIST_L2, 3) > r  # sure: more than r px from the outline
+    bg = cv2.distanceTransform(1 - inside, cv2.DIST_L2, 3) > r
+    unknown = ~(fg | bg)
+    fg_w = (fg & (a >= _SURE)).astype(np.float32)
+    bg_w = (bg & (a <= 1 - _SURE)).astype(np.float32)
+    # mean colour of the sure pixels in a window of radius 2r (4r where the nearer window holds none)
+    f_col, f_n = _side_mean(img, fg_w, 2 * r)
+    b_col, b_n = _side_mean(img, bg_w, 2 * r)
     d = f_col - b_col
     dd = (d * d).sum(-1)
     a_c = np.clip(((img - b_col) * d).sum(-1) / (dd + _EPS), 0.0, 1.0)
     conf = dd / (dd + _TAU) * (f_n > 0) * (b_n > 0)
-    est = conf * a_c + (1 - conf) * a
-    est = _guided(img, est.astype(np.float32))
-    out = alpha.copy()
+    est = _guided(img, (conf * a_c + (1 - conf) * a).astype(np.float32))
     sub = out[y0:y1, x0:x1]
     sub[unknown] = np.clip(est[unknown], 0.0, 1.0)
+    sub[bg & (a < _VEIL)] = 0.0
+    sub[fg & (a > 1 - _VEIL)] = 1.0
     return out
 
 

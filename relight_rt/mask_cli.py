@@ -156,7 +156,8 @@ def run(args: argparse.Namespace) -> int:
             written.add(target.resolve())
             log.info("%s -> %s", path, target)
         except (RelightError, OSError) as exc:
-            failures.append((str(path), str(exc)))
+            hint = "; if there is one, paint its mask by hand (white = person) and give it to relight with --mask"
+            failures.append((str(path), str(exc) + (hint if "no person found" in str(exc) else "")))
     return _report(failures, len(written), len(files))
 
 

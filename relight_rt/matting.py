@@ -487,7 +487,10 @@ class PersonMatter:
         people = self.people(rgb, name)
         alpha = self.alpha(rgb, people) if people else None
         if alpha is None or not (alpha >= 0.5).any():
-            raise RelightError(f"no person found in {name} (no body or face the bundled detectors recognise)")
+            raise RelightError(
+                f"no person found in {name} (no body or face the bundled detectors recognise; people shorter than "
+                f"{MIN_PERSON_FRACTION:.0%} of the photo, seen only in part or in deep shadow can be missed)"
+            )
         return alpha
 
 

@@ -34,24 +34,28 @@ def test_strands_come_back_where_colour_tells_them_apart():
     assert out.dtype == np.float32 and out.shape == truth.shape and 0 <= out.min() and out.max() <= 1
 
 
-def test_outside_the_band_the_coarse_matte_is_kept():
+def test_outside_the_band_the_coarse_matte_is_kept_and_faint_veils_go():
     rgb, _, coarse = strands()
-    out = R.refine_edges(rgb, coarse, band=4)
+    veiled = coarse.copy()
+    veiled[:, -40:] = np.maximum(veiled[:, -40:], 0.1)  # a faint veil over the background, far from the outline
+    out = R.refine_edges(rgb, veiled, band=4)
     far = cv2.distanceTransform((coarse < 0.5).astype(np.uint8), cv2.DIST_L2, 5) + cv2.distanceTransform(
         (coarse >= 0.5).astype(np.uint8), cv2.DIST_L2, 5
     )
-    edge_far = far > 30
-    np.testing.assert_array_equal(out[edge_far], coarse[edge_far])
+    kept = (far > 30) & (veiled > 0.2) & (veiled < 0.8)
+    np.testing.assert_array_equal(out[kept], veiled[kept])
+    assert not out[:, -40:].any()  # the veil would show the old background in a composite
 
 
 def test_where_colours_are_alike_the_coarse_matte_stays():
     rgb, _, coarse = strands()
     grey = np.full_like(rgb, 0.4)  # no colour difference at all: nothing to go on
     # only the closing 3x3 guided filter acts (on a flat guide: a 3x3 mean): differences of a few thousandths
-    np.testing.assert_allclose(R.refine_edges(grey, coarse, band=10), coarse, atol=0.01)
+    mid = (coarse > 0.2) & (coarse < 0.8)  # (faint values are snapped to 0 / 1)
+    np.testing.assert_allclose(R.refine_edges(grey, coarse, band=10)[mid], coarse[mid], atol=0.01)
 
 
-def test_empty_and_full_mattes_unchanged():
+def test_empty_and_full_mattes_unchanged():  # (and only faint values are snapped)
     rgb = np.random.default_rng(0).random((40, 50, 3), dtype=np.float32)
     for a in (np.zeros((40, 50), np.float32), np.ones((40, 50), np.float32)):
         np.testing.assert_array_equal(R.refine_edges(rgb, a), a)
