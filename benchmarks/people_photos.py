@@ -1,6 +1,7 @@
 """Real photos of people for the matting benchmarks, gathered at benchmark time (none is copied into the repo).
 
     python benchmarks/people_photos.py --cache /tmp/people [--git owner/name=GITDIR ...]   # lists + gathers
+    python benchmarks/people_photos.py --cache /tmp/people --found [--sheet /tmp/found.jpg]  # who is found
 
 Each entry: a name, where it comes from, what it shows, and how many people a person finder should return
 with ``--person all`` (people whose box is at least ``relight_rt.matting.MIN_PERSON_FRACTION`` of the
@@ -152,12 +153,73 @@ def parse_gitdirs(items: list[str]) -> dict[str, Path]:
     return out
 
 
+def found(photos: list[tuple[Photo, Path]], sheet: Path | None) -> None:
+    """Per photo: is a person found (person="largest"), how many with person="all", and the time; with
+    ``sheet``, the photos with the "all" matte (person bright, the rest dimmed) and each person's box (yellow:
+    segmented by the pose graph, magenta: by the selfie graph), for looking at (not for the repo: the photos'
+    licences differ)."""
+    import time
+
+    import cv2
+    import numpy as np
+
+    sys.path.insert(0, str(REPO))
+    from relight_rt import RelightError
+    from relight_rt import matting as M
+    from relight_rt.mask_cli import read_photo
+
+    largest, everyone = M.PersonMatter(), M.PersonMatter(person="all")
+    tiles = []
+    print("| photo | shows | largest | all: people (expected) | all: ms |")
+    print("|---|---|---|---|---|")
+    for p, path in photos:
+        rgb = read_photo(path)
+        try:
+            largest(rgb, p.name)
+            one = "found"
+        except RelightError:
+            one = "**none**"
+        t = time.perf_counter()
+        people = everyone.people(rgb)
+        ms = 1000 * (time.perf_counter() - t)
+        expect = "-" if p.people is None else str(p.people)
+        print(f"| {p.name} | {p.shows} | {one} | {len(people)} ({expect}) | {ms:.0f} |", flush=True)
+        if sheet is not None:
+            a = everyone.alpha(rgb, people) if people else np.zeros(rgb.shape[:2], np.float32)
+            vis = np.ascontiguousarray((np.clip(rgb * (0.25 + 0.75 * a[..., None]), 0, 1) * 255).astype(np.uint8))
+            for q in people:
+                b = M.person_box(q, rgb.shape[:2])
+                colour = (255, 255, 0) if q.source == "pose" else (255, 0, 255)
+                if b is not None:
+                    cv2.rectangle(
+                        vis, (int(b[0]), int(b[1])), (int(b[2]), int(b[3])), colour, max(2, rgb.shape[1] // 300)
+                    )
+            h, w = vis.shape[:2]
+            s = 300 / max(h, w)
+            small = cv2.resize(vis, (round(w * s), round(h * s)), interpolation=cv2.INTER_AREA)
+            tile = np.full((322, 300, 3), 255, np.uint8)
+            tile[: small.shape[0], : small.shape[1]] = small
+            cv2.putText(tile, f"{p.name}: {len(people)}", (2, 316), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 1)
+            tiles.append(tile)
+    if sheet is not None and tiles:
+        while len(tiles) % 5:
+            tiles.append(np.full((322, 300, 3), 255, np.uint8))
+        rows = [np.hstack(tiles[i : i + 5]) for i in range(0, len(tiles), 5)]
+        cv2.imwrite(str(sheet), cv2.cvtColor(np.vstack(rows), cv2.COLOR_RGB2BGR))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--cache", type=Path, default=Path(tempfile.gettempdir()) / "relight_rt_people")
     ap.add_argument("--git", action="append", default=[], metavar="OWNER/NAME=GITDIR")
+    ap.add_argument("--found", action="store_true", help="run the person finder on every photo (table)")
+    ap.add_argument("--sheet", type=Path, help="with --found: an overview image of the 'all' mattes")
     args = ap.parse_args()
-    for p, path in gather(args.cache, parse_gitdirs(args.git)):
+    photos = gather(args.cache, parse_gitdirs(args.git))
+    if args.found:
+        found(photos, args.sheet)
+        return
+    for p, path in photos:
         print(f"{p.name:16s} {p.people if p.people is not None else '-':>2}  {p.shows:45s} {path}")
 
 

@@ -66,6 +66,8 @@ MIN_PERSON_FRACTION = 0.06  # person="all": people whose box is shorter than thi
 _COVERED = 0.5  # a candidate (blob) this much inside people already matted is one of them
 _COVERED_FACE = 0.8  # ... and a face's person this much inside them
 _MAX_REQUEUE = 16  # person="all": leftovers of blobs searched again (several people in one blob)
+_MAX_TRIES = 32  # person="all": candidates segmented at most (each costs 1-4 pose-graph runs)
+_GIVE_UP = 0.02  # person="all": a blob whose first pose-graph pass says this little is nobody (no re-centring)
 _FACE_TILE_MIN = 2 * _faces.FACE_SIZE  # face search in tiles (person="all") while the tiles stay this large
 _SETTLED_IOU = 0.9  # the region has settled when the next one overlaps it this much
 _WORK_MAX = 512  # long side of the working grid (guided-filter fit, temporal blend)
@@ -344,12 +346,15 @@ class PersonMatter:
 
     # -- segmentation -------------------------------------------------------------------------------
 
-    def segment(self, rgb: np.ndarray, region: Region) -> Person:
-        """Run the pose graph on one square region; re-centre on its segmentation until it settles."""
+    def segment(self, rgb: np.ndarray, region: Region, give_up: float = 0.0) -> Person:
+        """Run the pose graph on one square region; re-centre on its segmentation until it settles (or, with
+        ``give_up``, stop when the presence flag is below it: nobody there)."""
         person = None
         for _ in range(self.max_passes):
             out = self.pose.run({"image": crop_region(rgb, region).transpose(2, 0, 1)[None]})
             person = Person(region, out["segmentation"][0, 0], float(out["presence"].reshape(-1)[0]))
+            if person.presence < give_up:
+                break
             box = person_box(person, rgb.shape[:2])
             if box is None or box[2] <= box[0] or box[3] <= box[1]:
                 break
@@ -398,7 +403,7 @@ class PersonMatter:
         for windows in _tile_levels(h, w, _MIN_TILE):
             for win in windows:
                 np.maximum(prob, warp_to_grid(self._roi_prob(rgb, win), win, grid, 0.0), out=prob)
-        min_rows = MIN_PERSON_FRACTION * h * ky * 0.5  # a blob may be part of a person
+        min_rows = MIN_PERSON_FRACTION * h * ky * 0.5  # (a blob may be part of a person)
 
         def blobs(mask: np.ndarray) -> list[tuple[float, tuple, None, np.ndarray]]:
             n, labels, stats, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=8)
@@ -417,13 +422,14 @@ class PersonMatter:
         occupied = np.zeros((gh, gw), bool)
         owned: set[int] = set()  # faces whose person is matted
         found: list[Person] = []
-        requeued = 0
-        while cands:
+        requeued = tries = 0
+        while cands and tries < _MAX_TRIES:
             _, box, k, pix = cands.pop(0)
             face = faces[k] if k is not None else None
             if (k is not None and k in owned) or (pix is not None and occupied.flat[pix].mean() >= _COVERED):
                 continue
-            p = self._person_at(rgb, box, face)
+            tries += 1
+            p = self._person_at(rgb, box, face, _GIVE_UP)
             if p is not None and _box_height(person_box(p, (h, w))) >= MIN_PERSON_FRACTION * h:
                 mask = logits_on_grid(p, grid) > 0
                 # a person mostly inside the people matted already is one of them again (a face's person may
@@ -445,10 +451,10 @@ class PersonMatter:
             cands = sorted(cands + more, key=lambda t: -t[0])
         return found
 
-    def _person_at(self, rgb: np.ndarray, box, face: _faces.Face | None) -> Person | None:
+    def _person_at(self, rgb: np.ndarray, box, face: _faces.Face | None, give_up: float = 0.0) -> Person | None:
         """The person in ``box`` (a blob's or a face's body box), or None when the pose graph says nobody is
-        there and no face vouches for one."""
-        p = self.segment(rgb, Region.around(*box))
+        there and no face vouches for one (``give_up``: see :meth:`segment`)."""
+        p = self.segment(rgb, Region.around(*box), give_up if face is None else 0.0)
         # the pose graph segments something in any region; its presence output says whether a person is there
         # (0.0000 on a colour gradient the region finder took for one, >= 0.87 on people in full view)
         if p.presence >= _PRESENCE_MIN and (face is None or _contains(p, face, rgb.shape[:2])):
