@@ -41,8 +41,9 @@ def test_alpha_blending_is_proportional_in_linear_light(diffuse):
     """Same-size background, default placement: the person lands on its own pixels, scale 1. A uniform grey
     background of linear value g lights the analytic person (albedo = linear photo, camera-facing normals) with
     shading g, so inside the person the linear result is a·P + (1 − a)·g for matte a, with P the relit colour:
-    c·g where a = 1; a·c·g in the soft band (the analytic stage 1 masks both albedo and transport, so its
-    straight colour there is scaled by a once more)."""
+    c·g where a = 1, and c·g in the soft band too (issue 33: over a new backdrop the band's colour is the
+    decontaminated foreground, c here, times the relighting's gain from the opaque pixels nearby; before, the
+    analytic stage 1's masking scaled it by a once more)."""
     img, mask = flat_person()
     bg = np.full((150, 100, 3), 128, np.uint8)
     g = float(srgb_to_linear(np.uint8(128)))
@@ -50,7 +51,7 @@ def test_alpha_blending_is_proportional_in_linear_light(diffuse):
     out = composite(diffuse, img, bg, mask=mask)
     lin = srgb_to_linear(out)
     for a, sl in ((1.0, np.s_[40:120, 45:65]), (0.5, np.s_[40:120, 31:34])):
-        want = a * (a * c * g) + (1 - a) * g
+        want = a * (c * g) + (1 - a) * g
         np.testing.assert_allclose(lin[sl].reshape(-1, 3).mean(0), want, rtol=0.03)
     np.testing.assert_allclose(out[:10], linear_to_srgb(np.full((10, 100, 3), g, np.float32)), atol=1e-5)
     # EV +1 doubles the person's light; "physical" with the background's light is the same as auto
