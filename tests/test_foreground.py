@@ -107,3 +107,19 @@ def test_clean_edge_colour_keeps_the_relighting_and_drops_the_old_background():
     assert np.abs(out - want)[soft].mean() < 0.2 * np.abs(relit - want)[soft].mean()
     solid = (alpha == 0) | (alpha == 1)
     np.testing.assert_array_equal(out[solid], relit[solid])
+
+
+def test_video_composite_over_a_new_backdrop_is_decontaminated():
+    """The DVP path (premultiplied frames) composites through relight_rt.video.composite."""
+    from relight_rt.video import composite
+
+    rgb, alpha, f, _ = scene(60, 80, soft=8.0)
+    green = np.zeros_like(rgb)
+    green[..., 1] = 1.0
+    truth = alpha[..., None] * f + (1 - alpha[..., None]) * green
+    naive = alpha[..., None] * rgb + (1 - alpha[..., None]) * green
+    out = composite(rgb * alpha[..., None], rgb, alpha, "green", premultiplied=True)
+    soft = (alpha > 0.05) & (alpha < 0.95)
+    assert np.abs(out - truth)[soft].mean() < 0.3 * np.abs(naive - truth)[soft].mean()
+    same = composite(rgb * alpha[..., None], rgb, alpha, "original", premultiplied=True)
+    np.testing.assert_allclose(same, rgb, atol=1e-5)  # over its own background: the photo again
