@@ -1,6 +1,6 @@
 """Automatic person matting, bundled and offline: any photo of a person, no mask needed.
 
-Two graphs converted from Google MediaPipe (Apache-2.0; ``python -m export mask-models``, model card):
+Three graphs converted from Google MediaPipe (Apache-2.0; ``python -m export mask-models``, model card):
 
 - ``matte_roi.onnx`` (MediaPipe selfie segmentation, 250 kB) runs on the whole image letterboxed to
   256x256 and says where people are (connected regions of its probability map). When it finds nobody
@@ -11,12 +11,23 @@ Two graphs converted from Google MediaPipe (Apache-2.0; ``python -m export mask-
   person logits at 256x256 plus a pose-presence probability. The region is re-centred on that
   segmentation until it is stable (at most ``max_passes`` runs), so a crude first box is corrected;
   where the segmentation runs into the region's edge, the next region reaches further that way.
+- ``matte_face.onnx`` (MediaPipe BlazeFace full range, 1.1 MB; optional: relight_rt._faces) finds faces.
+  A face is the second way in where the pose graph's presence flag says nobody (close portraits: the
+  selfie graph then segments the face's region), and with ``person="all"`` it tells apart people whom
+  the selfie graph sees as one blob (a group is matted face by face).
+
+``person="all"`` gathers the selfie graph's probability over every tile scale (not only the first that
+finds anybody), so passers-by beside a big subject are candidates too; a candidate already inside the
+people matted is skipped, a wide blob where the pose graph sees nobody is tried strip by strip, and
+people shorter than MIN_PERSON_FRACTION of the photo's height are left out.
 
 The 256² logits are mapped back onto a working grid (the region at <= 512 px), turned into a
 probability, and refined to full resolution by a fast guided filter steered by the photo (He & Sun
 2015: the local linear model alpha ≈ a·I + b is fitted on the working grid with the gray photo as
 guide; a and b are upsampled and applied to the full-resolution gray photo), so hair and arm outlines
-follow the photo's own edges. Only the person's region is processed at full resolution.
+follow the photo's own edges. Only the person's region is processed at full resolution. Then
+(``edges=True``, photos only) the alpha is re-estimated from colour in a band around the outline at
+full resolution (relight_rt._refine: hair strands, no smear of the old background).
 
 :class:`VideoMatter` keeps state between frames: the person's region comes from the previous frame's
 matte (the detector runs again only when the person is lost or every ``redetect_every`` frames), and
