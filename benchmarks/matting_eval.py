@@ -1,14 +1,16 @@
 """Automatic person matting (relight_rt.matting) against the reference masks, a GrabCut baseline, speed, flicker.
 
     python benchmarks/matting_eval.py                      # everything below, figures as in docs/RESULTS.md
-    python benchmarks/matting_eval.py --only accuracy|speed|flicker
+    python benchmarks/matting_eval.py --only accuracy|speed|flicker|cputime
 
-- accuracy: IoU (alpha >= 0.5) and boundary F-measure (DAVIS: outline pixels matched within 0.8 % of the
-  image diagonal) against every mask in ../shared/reference (photo/sample + video/frame_001..024), for
-  PersonMatter (with and without the guided-filter refinement) and for GrabCut (OpenCV, 5 iterations,
-  started from the same person box: the box our region finder returns; run on the image reduced to a
-  long side of 1000 px, its mask upsampled).
-- speed: PersonMatter on a 2-megapixel photo (the reference photo resized to 1732x1155), and VideoMatter
+- accuracy: IoU (alpha >= 0.5), boundary F-measure (DAVIS: outline pixels matched within 0.8 % of the
+  image diagonal) and the edge-band error (mean |alpha - hand mask| and SAD/1000 where the hand mask is soft,
+  0.02-0.98) against every mask in ../shared/reference (photo/sample + video/frame_001..024), for
+  PersonMatter (with and without the edge-band refinement of issue 33 and the guided filter) and for
+  GrabCut (OpenCV, 5 iterations, started from the same person box: the box our region finder returns;
+  run on the image reduced to a long side of 1000 px, its mask upsampled).
+- speed: PersonMatter on a 2-megapixel photo (the reference photo resized to 1732x1155; the edge band and
+  relight_rt.foreground.estimate_foreground on their own too), and VideoMatter
   on 720p frames (1280x720: the reference frames scaled to 720 px high, centred, edges replicated),
   median of repeated runs, plus where the time goes.
 - flicker: relight_rt.matting.outline_flicker on the 24 reference frames for VideoMatter with and without
@@ -96,35 +98,41 @@ def grabcut(rgb: np.ndarray, box: tuple[float, float, float, float], long_side: 
     return cv2.resize(fg, (w, h), interpolation=cv2.INTER_LINEAR) if s < 1 else fg
 
 
+def band_error(pred: np.ndarray, gt: np.ndarray) -> tuple[float, float]:
+    """(mean |alpha - gt|, SAD / 1000) over the edge band: the pixels where the hand mask is soft (0.02-0.98)."""
+    soft = (gt > 0.02) & (gt < 0.98)
+    err = np.abs(pred - gt)[soft]
+    return float(err.mean()), float(err.sum() / 1000)
+
+
 def accuracy(ref: Path) -> None:
-    pm = M.PersonMatter()
-    pm_color = M.PersonMatter(guide="color")
-    pm_raw = M.PersonMatter(refine=False)
-    rows = {
-        "PersonMatter (default: gray-guided edges)": [],
-        "PersonMatter, guide='color'": [],
-        "PersonMatter, refine=False": [],
-        "GrabCut, same box": [],
+    matters = {
+        "PersonMatter (default: edge band refined, issue 33)": M.PersonMatter(),
+        "PersonMatter, edges=False (the matte before issue 33)": M.PersonMatter(edges=False),
+        "PersonMatter, edges=False, guide='color'": M.PersonMatter(guide="color", edges=False),
+        "PersonMatter, refine=False": M.PersonMatter(refine=False),
     }
-    per_case = []
+    rows = {key: [] for key in [*matters, "GrabCut, same box"]}
     for name, img_path, gt_path in cases(ref):
         rgb, gt = read_rgb(img_path), read_gt(gt_path)
-        a, c, b = pm(rgb, name), pm_color(rgb, name), pm_raw(rgb, name)
-        box = pm.find_people(rgb)[0][1]
-        g = grabcut(rgb, box)
-        vals = [(iou(x, gt), boundary_f(x, gt)) for x in (a, c, b, g)]
+        outs = [m(rgb, name) for m in matters.values()]
+        box = matters[next(iter(matters))].find_people(rgb)[0][1]
+        outs.append(grabcut(rgb, box))
+        vals = [(iou(x, gt), boundary_f(x, gt), *band_error(x, gt)) for x in outs]
         for key, v in zip(rows, vals, strict=True):
             rows[key].append((name, *v))
-        per_case.append((name, vals))
-        print(f"  {name:16s} " + "  ".join(f"IoU {v[0]:.4f} F {v[1]:.4f}" for v in vals), flush=True)
-    print("\n| method | photo IoU | photo boundary F | video IoU (mean of 24, min) | video boundary F (mean, min) |")
-    print("|---|---|---|---|---|")
+        print(f"  {name:16s} " + "  ".join(f"IoU {v[0]:.4f} F {v[1]:.4f} band {v[2]:.3f}" for v in vals), flush=True)
+    head = "| method | photo IoU | photo boundary F | photo edge band: mean error, SAD/1000 "
+    head += "| video IoU (mean of 24, min) | video boundary F (mean, min) | video edge band: mean error, SAD/1000 |"
+    print("\n" + head)
+    print("|---|---|---|---|---|---|---|")
     for key, r in rows.items():
         photo = r[0]
         vid = np.array([x[1:] for x in r[1:]])
         print(
-            f"| {key} | {photo[1]:.4f} | {photo[2]:.4f} | {vid[:, 0].mean():.4f} ({vid[:, 0].min():.4f}) "
-            f"| {vid[:, 1].mean():.4f} ({vid[:, 1].min():.4f}) |"
+            f"| {key} | {photo[1]:.4f} | {photo[2]:.4f} | {photo[3]:.3f}, {photo[4]:.2f} "
+            f"| {vid[:, 0].mean():.4f} ({vid[:, 0].min():.4f}) | {vid[:, 1].mean():.4f} ({vid[:, 1].min():.4f}) "
+            f"| {vid[:, 2].mean():.3f}, {vid[:, 3].mean():.2f} |"
         )
 
 
@@ -161,15 +169,22 @@ def speed(ref: Path, repeat: int) -> None:
     print(f"threads: {os.environ.get('RELIGHT_RT_THREADS') or 'onnxruntime default'}; cores: {os.cpu_count()}")
     print(f"load average before: {os.getloadavg()[0]:.1f}")
     full = _times_ms(lambda: pm(photo), repeat)
-    pm.guide = "color"
-    color = _times_ms(lambda: pm(photo), repeat)
-    pm.guide = "gray"
+    pm.edges = False
+    before = _times_ms(lambda: pm(photo), repeat)
     pm.refine = False
     coarse = _times_ms(lambda: pm(photo), repeat)
+    pm.refine = True
+    a0 = pm(photo)
+    band = _times_ms(lambda: M.refine_edges(photo, a0), repeat)
+    a1 = M.refine_edges(photo, a0)
+    fg = _times_ms(lambda: M.estimate_foreground(photo, a1), repeat)
+    both = _times_ms(lambda: M.estimate_foreground(photo, M.refine_edges(photo, a0)), repeat)
+    pm.edges = True
     size = f"{photo.shape[1]}x{photo.shape[0]}"
     print(f"2-megapixel photo {size}, median (best) ms: PersonMatter {full[0]:.1f} ({full[1]:.1f}); ", end="")
-    print(f"guide='color' {color[0]:.1f} ({color[1]:.1f}); refine=False {coarse[0]:.1f} ({coarse[1]:.1f})")
-    pm.refine = True
+    print(f"edges=False {before[0]:.1f} ({before[1]:.1f}); refine=False {coarse[0]:.1f} ({coarse[1]:.1f})")
+    print(f"  edge band refinement {band[0]:.1f} ({band[1]:.1f}); estimate_foreground {fg[0]:.1f} ({fg[1]:.1f}); "
+          f"both {both[0]:.1f} ({both[1]:.1f})")  # fmt: skip
     found = pm.find_people(photo)
     region = M.Region.around(*found[0][1])
     person = pm.segment(photo, region)
@@ -198,6 +213,34 @@ def speed(ref: Path, repeat: int) -> None:
     print(f"load average after: {os.getloadavg()[0]:.1f}")
 
 
+def cpu_time(ref: Path, repeat: int) -> None:
+    """CPU time of one thread (cv2.setNumThreads(1)) for the edge refinement and the decontamination of a
+    2-megapixel photo: on a machine whose cores other jobs share, closer to an idle core's wall time."""
+    import os
+
+    cv2.setNumThreads(1)
+    photo = cv2.resize(read_rgb(ref / "photo" / "sample.jpg"), (1732, 1155), interpolation=cv2.INTER_AREA)
+    a0 = M.PersonMatter(edges=False)(photo)
+    a1 = M.refine_edges(photo, a0)
+
+    def best(fn) -> tuple[float, float]:
+        fn()
+        ts = []
+        for _ in range(repeat):
+            t = time.process_time()
+            fn()
+            ts.append(time.process_time() - t)
+        return 1000 * min(ts), 1000 * float(np.median(ts))
+
+    r = best(lambda: M.refine_edges(photo, a0))
+    f = best(lambda: M.estimate_foreground(photo, a1))
+    b = best(lambda: M.estimate_foreground(photo, M.refine_edges(photo, a0)))
+    print(
+        f"load {os.getloadavg()[0]:.1f}; CPU ms, one thread, best / median of {repeat}: refine_edges "
+        f"{r[0]:.0f} / {r[1]:.0f}; estimate_foreground {f[0]:.0f} / {f[1]:.0f}; both {b[0]:.0f} / {b[1]:.0f}"
+    )
+
+
 def flicker(ref: Path) -> None:
     files = sorted((ref / "video").glob("frame_[0-9][0-9][0-9].png"))
     frames = [read_rgb(f) for f in files]
@@ -219,7 +262,7 @@ def flicker(ref: Path) -> None:
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--only", choices=("accuracy", "speed", "flicker"))
+    p.add_argument("--only", choices=("accuracy", "speed", "flicker", "cputime"))
     p.add_argument("--repeat", type=int, default=20)
     args = p.parse_args()
     ref = shared_reference()
@@ -229,6 +272,8 @@ def main() -> None:
         speed(ref, args.repeat)
     if args.only in (None, "flicker"):
         flicker(ref)
+    if args.only in (None, "cputime"):
+        cpu_time(ref, min(args.repeat, 10))
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""``python -m export mask-models``: convert MediaPipe's person-segmentation models to relight_rt graphs.
+"""``python -m export mask-models``: convert MediaPipe's person-segmentation and face models to relight_rt graphs.
 
 Runs in its OWN virtual environment (mediapipe 0.10.21 pins numpy<2; the runtime never imports it)::
 
@@ -6,7 +6,7 @@ Runs in its OWN virtual environment (mediapipe 0.10.21 pins numpy<2; the runtime
     /work/mpvenv/bin/pip install mediapipe==0.10.21 tf2onnx tensorflow-cpu onnxruntime "numpy<2"
     /work/mpvenv/bin/python -m export mask-models --out relight_rt/models
 
-It reads two TFLite models from the ``mediapipe==0.10.21`` wheel (the last release that bundles them;
+It reads three TFLite models from the ``mediapipe==0.10.21`` wheel (the last release that bundles them;
 Google, Apache-2.0) and writes:
 
 - ``matte_pose.onnx`` (kind ``matte_pose``) from ``modules/pose_landmark/pose_landmark_full.tflite``:
@@ -17,8 +17,14 @@ Google, Apache-2.0) and writes:
   input ``image`` [1,3,256,256] RGB in [0,1] (the whole image, letterboxed); output ``segmentation``
   [1,1,256,256], a person probability (sigmoid applied). Its MediaPipe custom op
   Convolution2DTransposeBias (tf2onnx leaves it as is) is rewritten as an ONNX ConvTranspose with bias.
+- ``matte_face.onnx`` (kind ``matte_face``, issue 33) from
+  ``modules/face_detection/face_detection_full_range_sparse.tflite`` (BlazeFace, full range): input ``image``
+  [1,3,192,192] RGB in [0,1] (the graph maps it to the [-1, 1] the model reads); outputs ``boxes``
+  [1,16,48,48] and ``scores`` [1,1,48,48] (logits): one anchor per cell of a 48x48 grid (cell centre
+  ((j + 0.5) / 48, (i + 0.5) / 48), anchor size 1), channels 0-3 the box centre offset and size in input
+  pixels, 4-15 six (x, y) key points (eyes, nose, mouth, ears). relight_rt.matting decodes them.
 
-Both: converted with tf2onnx, NHWC I/O turned to NCHW by a Transpose at each end (onnxruntime folds
+All: converted with tf2onnx, NHWC I/O turned to NCHW by a Transpose at each end (onnxruntime folds
 them), weights stored as float16 with a Cast to float32 (fp16 storage, fp32 compute) where every
 weight survives the round trip exactly (MediaPipe ships these weights in fp16 already, so nothing is
 lost), the format-1 metadata of DESIGN.md §5, and a check against the TFLite interpreter on a
@@ -30,6 +36,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -37,17 +44,39 @@ import numpy as np
 log = logging.getLogger(__name__)
 
 MEDIAPIPE_VERSION = "0.10.21"
+
+
+@dataclass(frozen=True)
+class Source:
+    """One converted graph: where it comes from and how its inputs and outputs are laid out."""
+
+    tflite: str  # path inside mediapipe/
+    kind: str
+    outputs: dict[str, str]  # tflite output -> ours
+    size: int = 256  # square input side
+    signed_input: bool = False  # the TFLite model reads [-1, 1]: the graph maps our [0, 1] input to it
+    grid: int = 0  # > 0: (1, grid*grid, C) anchor outputs reshaped to (1, C, grid, grid) maps
+
+
 SOURCES = {
-    # file name -> (tflite path inside mediapipe/, kind, {tflite output: our output})
-    "matte_pose.onnx": (
+    "matte_pose.onnx": Source(
         "modules/pose_landmark/pose_landmark_full.tflite",
         "matte_pose",
         {"Identity_2": "segmentation", "Identity_1": "presence"},
     ),
-    "matte_roi.onnx": (
+    "matte_roi.onnx": Source(
         "modules/selfie_segmentation/selfie_segmentation.tflite",
         "matte_roi",
         {"activation_10": "segmentation"},
+    ),
+    # issue 33: faces, where the pose graph finds nobody (close portraits) and to tell people in a group apart
+    "matte_face.onnx": Source(
+        "modules/face_detection/face_detection_full_range_sparse.tflite",
+        "matte_face",
+        {"Identity": "boxes", "Identity_1": "scores"},
+        size=192,
+        signed_input=True,
+        grid=48,
     ),
 }
 LICENCE = (
@@ -55,7 +84,8 @@ LICENCE = (
     "https://github.com/google-ai-edge/mediapipe) by python -m export mask-models"
 )
 PARITY_TOL = 1e-2  # max |onnx - tflite| on the output probabilities (measured 4e-3: fp32 summation order)
-LOGITS = ("segmentation",)  # compared after a sigmoid (the selfie model's output is one already: unchanged)
+LOGITS = ("segmentation", "scores")  # compared after a sigmoid (the selfie model's output is one already: unchanged)
+PIXELS = ("boxes",)  # face-box regressions, in input pixels: compared as fractions of the input side
 
 
 def _sigmoid(x: np.ndarray) -> np.ndarray:
@@ -86,10 +116,86 @@ def mediapipe_root() -> Path:
 
 
 def _to_onnx(tflite: Path):
+    import tempfile
+
     import tf2onnx
 
-    model, _ = tf2onnx.convert.from_tflite(str(tflite), opset=17)
+    dense = densify_tflite(tflite)
+    if dense is None:
+        model, _ = tf2onnx.convert.from_tflite(str(tflite), opset=17)
+        return model
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / tflite.name
+        path.write_bytes(dense)
+        model, _ = tf2onnx.convert.from_tflite(str(path), opset=17)
     return model
+
+
+def densify_tflite(tflite: Path) -> bytes | None:
+    """A TFLite model whose sparse weights (DENSIFY ops: the face detector's) are stored dense, for tf2onnx,
+    which cannot read sparse tensors; None when the model has none.
+
+    Each sparse constant is decoded (:func:`_dense_values`) and loses its sparsity, the readers of the DENSIFY
+    op's output read that constant instead, and the op goes. (The TFLite interpreter's own DENSIFY output is
+    not readable from Python: it shows zeros.) verify() checks the result against the sparse original."""
+    import flatbuffers
+    from tensorflow.lite.python import schema_py_generated as schema
+
+    buf = tflite.read_bytes()
+    model = schema.ModelT.InitFromObj(schema.Model.GetRootAsModel(buf, 0))
+    densify = {
+        i for i, c in enumerate(model.operatorCodes)
+        if max(c.builtinCode, c.deprecatedBuiltinCode) == schema.BuiltinOperator.DENSIFY
+    }  # fmt: skip
+    g = model.subgraphs[0]
+    ops = [op for op in g.operators if op.opcodeIndex in densify]
+    if not ops:
+        return None
+    replace = {}
+    for op in ops:
+        src, dst = int(op.inputs[0]), int(op.outputs[0])
+        t = g.tensors[src]
+        dtype = {schema.TensorType.FLOAT16: np.float16, schema.TensorType.FLOAT32: np.float32}[t.type]
+        values = np.frombuffer(bytes(model.buffers[t.buffer].data), dtype)
+        dense = _dense_values(values, [int(d) for d in t.shape], t.sparsity, schema, t.name)
+        t.sparsity = None
+        t.shapeSignature = None
+        model.buffers[t.buffer].data = np.frombuffer(dense.tobytes(), np.uint8)
+        replace[dst] = src
+    g.operators = [op for op in g.operators if op.opcodeIndex not in densify]
+    for op in g.operators:
+        op.inputs = np.array([replace.get(int(i), int(i)) for i in op.inputs], np.int32)
+    builder = flatbuffers.Builder(len(buf) * 2)
+    builder.Finish(model.Pack(builder), file_identifier=b"TFL3")
+    log.info("%s: %d sparse weight tensors stored dense", tflite.name, len(ops))
+    return bytes(builder.Output())
+
+
+def _dense_values(values: np.ndarray, shape: list[int], sparsity, schema, name) -> np.ndarray:
+    """Decode TFLite sparse storage (identity traversal order, no blocks; each dimension DENSE or SPARSE_CSR):
+    walking the dimensions in order, a DENSE one repeats every position ``dense_size`` times, a CSR one keeps,
+    for position p, the coordinates ``indices[segments[p]:segments[p + 1]]``; the stored values follow the
+    positions of the last dimension."""
+    order = [int(v) for v in sparsity.traversalOrder]
+    if order != list(range(len(shape))) or (sparsity.blockMap is not None and len(sparsity.blockMap)):
+        raise RuntimeError(f"{name}: sparse layout with traversal {order} / blocks not supported")
+    coords = np.zeros((1, 0), np.int64)
+    for axis, dm in enumerate(sparsity.dimMetadata):
+        if dm.format == schema.DimensionType.DENSE:
+            n = int(dm.denseSize)
+            coords = np.concatenate([np.repeat(coords, n, 0), np.tile(np.arange(n), len(coords))[:, None]], 1)
+        else:
+            seg = np.asarray(dm.arraySegments.values, np.int64)
+            idx = np.asarray(dm.arrayIndices.values, np.int64)
+            if len(seg) != len(coords) + 1:
+                raise RuntimeError(f"{name}: axis {axis}: {len(seg)} segments for {len(coords)} positions")
+            counts = np.diff(seg)
+            coords = np.concatenate([np.repeat(coords, counts, 0), idx[:, None]], 1)
+    if len(coords) != values.size:
+        raise RuntimeError(f"{name}: {values.size} stored values for {len(coords)} positions")
+    dense = np.zeros(shape, values.dtype)
+    dense[tuple(coords.T)] = values
+    return dense
 
 
 def rewrite_transpose_conv_bias(model) -> int:
@@ -141,21 +247,31 @@ def rewrite_transpose_conv_bias(model) -> int:
     return count
 
 
-def nchw_io(model, outputs: dict[str, str]):
-    """One NCHW input ``image`` [1,3,256,256] and the named ``outputs`` (old -> new), NCHW, others pruned."""
+def nchw_io(model, outputs: dict[str, str], size: int = 256, signed_input: bool = False, grid: int = 0):
+    """One NCHW input ``image`` [1,3,size,size] in [0, 1] and the named ``outputs`` (old -> new), NCHW, others
+    pruned. ``signed_input``: the model reads [-1, 1] (2x - 1 is added to the graph). ``grid``: outputs of
+    shape (1, grid*grid, C) (one anchor per cell, row-major) become (1, C, grid, grid) maps."""
     import onnx
-    from onnx import TensorProto, helper
+    from onnx import TensorProto, helper, numpy_helper
 
     g = model.graph
     if len(g.input) != 1:
         raise RuntimeError(f"expected one graph input, got {[i.name for i in g.input]}")
     old_in = g.input[0]
     dims = [d.dim_value for d in old_in.type.tensor_type.shape.dim]
-    if dims[1:] != [256, 256, 3]:
-        raise RuntimeError(f"expected an NHWC [1,256,256,3] input, got {dims}")
-    g.node.insert(0, helper.make_node("Transpose", ["image"], [old_in.name], name="image_to_nhwc", perm=[0, 2, 3, 1]))
+    if dims[1:] != [size, size, 3]:
+        raise RuntimeError(f"expected an NHWC [1,{size},{size},3] input, got {dims}")
+    first = [helper.make_node("Transpose", ["image"], ["image_nhwc" if signed_input else old_in.name],
+                              name="image_to_nhwc", perm=[0, 2, 3, 1])]  # fmt: skip
+    if signed_input:
+        g.initializer.extend([numpy_helper.from_array(np.array(2.0, np.float32), "image_scale"),
+                              numpy_helper.from_array(np.array(-1.0, np.float32), "image_shift")])  # fmt: skip
+        first += [helper.make_node("Mul", ["image_nhwc", "image_scale"], ["image_x2"], name="image_x2"),
+                  helper.make_node("Add", ["image_x2", "image_shift"], [old_in.name], name="image_signed")]  # fmt: skip
+    for node in reversed(first):
+        g.node.insert(0, node)
     g.input.remove(old_in)
-    g.input.append(helper.make_tensor_value_info("image", TensorProto.FLOAT, [1, 3, 256, 256]))
+    g.input.append(helper.make_tensor_value_info("image", TensorProto.FLOAT, [1, 3, size, size]))
     old_out = {o.name: o for o in g.output}
     missing = sorted(set(outputs) - set(old_out))
     if missing:
@@ -164,7 +280,16 @@ def nchw_io(model, outputs: dict[str, str]):
         g.output.remove(o)
     for old, new in outputs.items():
         dims = [d.dim_value for d in old_out[old].type.tensor_type.shape.dim]
-        if len(dims) == 4:  # NHWC -> NCHW
+        if grid and len(dims) == 3:  # (1, grid*grid, C) -> (1, grid, grid, C) -> NCHW
+            if dims[1] != grid * grid:
+                raise RuntimeError(f"{old}: expected {grid * grid} anchors, got {dims}")
+            g.initializer.append(numpy_helper.from_array(np.array([1, grid, grid, dims[2]], np.int64), f"{new}_grid"))
+            g.node.append(helper.make_node("Reshape", [old, f"{new}_grid"], [f"{new}_nhwc"], name=f"{new}_grid"))
+            g.node.append(
+                helper.make_node("Transpose", [f"{new}_nhwc"], [new], name=f"{new}_to_nchw", perm=[0, 3, 1, 2])
+            )
+            shape = [1, dims[2], grid, grid]
+        elif len(dims) == 4:  # NHWC -> NCHW
             g.node.append(helper.make_node("Transpose", [old], [new], name=f"{new}_to_nchw", perm=[0, 3, 1, 2]))
             shape = [dims[0], dims[3], dims[1], dims[2]]
         else:
@@ -215,11 +340,11 @@ def fp16_storage(model) -> int:
     return count
 
 
-def set_metadata(model, kind: str, source: str) -> None:
+def set_metadata(model, kind: str, source: str, size: int = 256) -> None:
     from relight_rt.contract import ModelConfig
 
     # "batch": normalisation (folded into the convolutions) uses fixed statistics, none per sample
-    meta = ModelConfig(kind=kind, resolution=256, norm="batch", source=source).metadata()
+    meta = ModelConfig(kind=kind, resolution=size, norm="batch", source=source).metadata()
     del model.metadata_props[:]
     for k, v in meta.items():
         entry = model.metadata_props.add()
@@ -227,16 +352,16 @@ def set_metadata(model, kind: str, source: str) -> None:
     model.producer_name = "relight_rt export.mask_models"
 
 
-def convert(tflite: Path, kind: str, outputs: dict[str, str], source: str, fp16: bool = True):
+def convert(tflite: Path, spec: Source, source: str, fp16: bool = True):
     """Convert one MediaPipe TFLite model into a relight_rt graph (an onnx.ModelProto)."""
     model = _to_onnx(tflite)
     n = rewrite_transpose_conv_bias(model)
     if n:
         log.info("%s: %d Convolution2DTransposeBias -> ConvTranspose", tflite.name, n)
-    nchw_io(model, outputs)
+    nchw_io(model, spec.outputs, spec.size, spec.signed_input, spec.grid)
     if fp16:
         log.info("%s: %d weight tensors stored as float16", tflite.name, fp16_storage(model))
-    set_metadata(model, kind, source)
+    set_metadata(model, spec.kind, source, spec.size)
     import onnx
 
     onnx.checker.check_model(model)
@@ -246,31 +371,47 @@ def convert(tflite: Path, kind: str, outputs: dict[str, str], source: str, fp16:
 # ---------------------------------------------------------------------------------------------- checks
 
 
-def test_inputs(seed: int = 0) -> list[np.ndarray]:
-    """NHWC [1,256,256,3] float32 inputs: noise, a flat gray, a smooth blob, and the bundled example person
-    (relight_rt/data/example.png, a rendered person) letterboxed to 256x256."""
+def test_inputs(seed: int = 0, size: int = 256) -> list[np.ndarray]:
+    """NHWC [1,size,size,3] float32 inputs in [0, 1]: noise, a flat gray, a smooth blob, and the bundled example
+    person (relight_rt/data/example.png, a rendered person) letterboxed, and its head enlarged (a face for the
+    face detector)."""
     import cv2
 
     rng = np.random.default_rng(seed)
-    yy, xx = np.mgrid[0:256, 0:256] / 255.0
+    yy, xx = np.mgrid[0:size, 0:size] / (size - 1.0)
     blob = np.exp(-(((xx - 0.5) / 0.15) ** 2 + ((yy - 0.55) / 0.35) ** 2))
     blob = np.stack([blob * 0.8, blob * 0.5 + 0.2, 1 - blob], -1)
     example = Path(__file__).resolve().parents[1] / "relight_rt" / "data" / "example.png"
     person = []
     if example.is_file():
-        img = cv2.cvtColor(cv2.imread(str(example), cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
-        h, w = img.shape[:2]
-        s = 256 / max(h, w)
-        small = cv2.resize(img, (max(1, round(w * s)), max(1, round(h * s))), interpolation=cv2.INTER_AREA)
-        canvas = np.zeros((256, 256, 3), np.uint8)
-        canvas[: small.shape[0], : small.shape[1]] = small
-        person = [canvas[None].astype(np.float32) / 255.0]
+        rgba = cv2.imread(str(example), cv2.IMREAD_UNCHANGED)
+        img = cv2.cvtColor(rgba[..., :3], cv2.COLOR_BGR2RGB)
+        for crop in (img, _head(img, rgba[..., 3])):
+            h, w = crop.shape[:2]
+            s = size / max(h, w)
+            small = cv2.resize(crop, (max(1, round(w * s)), max(1, round(h * s))), interpolation=cv2.INTER_AREA)
+            canvas = np.zeros((size, size, 3), np.uint8)
+            canvas[: small.shape[0], : small.shape[1]] = small
+            person.append(canvas[None].astype(np.float32) / 255.0)
     return [
         *person,
-        rng.random((1, 256, 256, 3), dtype=np.float32),
-        np.full((1, 256, 256, 3), 0.5, np.float32),
+        rng.random((1, size, size, 3), dtype=np.float32),
+        np.full((1, size, size, 3), 0.5, np.float32),
         blob[None].astype(np.float32),
     ]
+
+
+def _head(img: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """A square crop around the top of the person (their head), from the alpha channel's rows and columns."""
+    ys, xs = np.nonzero(alpha > 127)
+    if ys.size == 0:
+        return img
+    y0 = int(ys.min())
+    top = xs[ys < y0 + max(2, (ys.max() - y0) // 8)]
+    side = max(8, int((ys.max() - y0) // 5))
+    cx = int(top.mean())
+    x0 = max(cx - side // 2, 0)
+    return img[max(y0 - side // 8, 0) : y0 + side, x0 : x0 + side]
 
 
 def run_tflite(tflite: Path, x_nhwc: np.ndarray) -> dict[str, np.ndarray]:
@@ -284,42 +425,48 @@ def run_tflite(tflite: Path, x_nhwc: np.ndarray) -> dict[str, np.ndarray]:
     return {d["name"]: interp.get_tensor(d["index"]) for d in interp.get_output_details()}
 
 
-def verify(onnx_bytes: bytes, tflite: Path, outputs: dict[str, str], inputs: list[np.ndarray]) -> float:
-    """Largest |onnxruntime - TFLite| over ``inputs`` and the named ``outputs`` (TFLite name -> ours)."""
+def verify(onnx_bytes: bytes, tflite: Path, spec: Source, inputs: list[np.ndarray]) -> float:
+    """Largest |onnxruntime - TFLite| over ``inputs`` (NHWC, [0, 1]) and the spec's outputs: probabilities for
+    logits, fractions of the input side for box regressions."""
     import onnxruntime as ort
 
     sess = ort.InferenceSession(onnx_bytes, providers=["CPUExecutionProvider"])
     names = [o.name for o in sess.get_outputs()]
     worst = 0.0
     for x in inputs:
-        ref = run_tflite(tflite, x)
+        ref = run_tflite(tflite, 2 * x - 1 if spec.signed_input else x)
         got = dict(zip(names, sess.run(None, {"image": x.transpose(0, 3, 1, 2)}), strict=True))
-        for old, new in outputs.items():
+        for old, new in spec.outputs.items():
             g = got[new]
             if g.ndim == 4:
                 g = g.transpose(0, 2, 3, 1)
-            r = ref[old]
+            r = ref[old].reshape(g.shape)  # anchor lists (1, grid*grid, C) are row-major (1, grid, grid, C)
             if new in LOGITS:  # logits reach +-2000 on flat regions: compare what is used, the probability
                 g, r = _sigmoid(g), _sigmoid(r)
+            elif new in PIXELS:
+                g, r = g / spec.size, r / spec.size
             worst = max(worst, float(np.abs(g - r).max()))
     return worst
 
 
 NOTICE_FILE = "NOTICE-mediapipe.txt"
-NOTICE_HEAD = """relight_rt/models/matte_pose.onnx and relight_rt/models/matte_roi.onnx
+NOTICE_HEAD = """relight_rt/models/matte_pose.onnx, matte_roi.onnx and matte_face.onnx
 
-These two files are derived from models of Google MediaPipe {version}
+These three files are derived from models of Google MediaPipe {version}
 (https://github.com/google-ai-edge/mediapipe), Copyright The MediaPipe Authors / Google LLC,
 licensed under the Apache License, Version 2.0 (the text follows):
 
 - matte_pose.onnx from mediapipe/modules/pose_landmark/pose_landmark_full.tflite
 - matte_roi.onnx from mediapipe/modules/selfie_segmentation/selfie_segmentation.tflite
+- matte_face.onnx from mediapipe/modules/face_detection/face_detection_full_range_sparse.tflite
 
 Changes made by relight_rt (python -m export mask-models, export/mask_models.py): converted from
 TFLite to ONNX with tf2onnx; the custom op Convolution2DTransposeBias rewritten as ConvTranspose;
 inputs and outputs renamed and turned from NHWC to NCHW; the landmark, heat-map and world-landmark
-outputs of the pose model removed; weights stored as float16 (exactly the values MediaPipe ships);
-relight_rt metadata added. The weights themselves are unchanged.
+outputs of the pose model removed; the face detector's sparse weights stored dense, its input
+mapped from [0, 1] to the [-1, 1] it reads, and its per-anchor outputs laid out as 48x48 maps;
+weights stored as float16 (exactly the values MediaPipe ships); relight_rt metadata added. The
+weights themselves are unchanged.
 
 """
 
@@ -341,23 +488,24 @@ def run(args: argparse.Namespace) -> int:
     root = mediapipe_root()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    for name, (rel, kind, outputs) in SOURCES.items():
+    for name, spec in SOURCES.items():
+        rel = spec.tflite
         tflite = root / rel
         if not tflite.is_file():
             raise SystemExit(
                 f"{tflite} not found: install mediapipe=={MEDIAPIPE_VERSION} (later wheels hold no .tflite)"
             )
         source = LICENCE.format(version=MEDIAPIPE_VERSION, path=f"mediapipe/{rel}")
-        model = convert(tflite, kind, outputs, source, fp16=not args.fp32)
+        model = convert(tflite, spec, source, fp16=not args.fp32)
         data = model.SerializeToString()
         if not args.no_verify:
-            err = verify(data, tflite, outputs, test_inputs())
+            err = verify(data, tflite, spec, test_inputs(size=spec.size))
             log.info("%s: max |onnx - tflite| = %.2e", name, err)
             if err > PARITY_TOL:
                 raise SystemExit(f"{name}: converted graph differs from the TFLite model by {err:.3g} > {PARITY_TOL}")
         with atomic_path(out / name) as tmp:
             tmp.write_bytes(data)
-        log.info("wrote %s (%.2f MB, kind %s)", out / name, len(data) / 1e6, kind)
+        log.info("wrote %s (%.2f MB, kind %s)", out / name, len(data) / 1e6, spec.kind)
     with atomic_path(out / NOTICE_FILE) as tmp:
         tmp.write_text(notice_text(root), encoding="utf-8")
     log.info("wrote %s", out / NOTICE_FILE)

@@ -8,6 +8,11 @@ straight colour and ``out = premultiplied + backdrop * (1 - alpha)`` for a premu
 output), with alpha the soft mask in [0, 1].
 
 Colours are RGB float32 in [0, 1]; sRGB values are blended as stored (as the reference does).
+
+Over a new backdrop (anything but "original", transparent included) the person's soft edge is first
+cleaned of the old background (:func:`clean_edge_colour` with ``relight_rt.foreground.estimate_foreground``):
+an edge pixel of the photo mixes the person with what stood behind them, and that mix would otherwise
+show as a fringe of the old background around hair and limbs.
 """
 
 from __future__ import annotations
@@ -191,6 +196,48 @@ def over_box(colour: np.ndarray, alpha: np.ndarray, box: tuple[int, int, int, in
     out = np.array(backdrop, dtype=np.float32)  # the result: one full-size copy
     region = out[y0:y1, x0:x1]
     region += (colour - region) * alpha
+    return out
+
+
+_GAIN_RADIUS = 12  # px: the relighting's gain is taken from opaque pixels this near a soft one ...
+_GAIN_RADIUS_FAR = 48  # ... or this near, where none is nearer
+_OPAQUE = 0.9
+
+
+def clean_edge_colour(colour: np.ndarray, photo: np.ndarray, foreground: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """The person's colour with the photo's old background taken out of its soft edge.
+
+    ``colour`` was made from ``photo`` (the relit person, or the photo itself). Where the matte is soft the
+    photo mixes the person with the old background, and so does ``colour``; there it is replaced by the
+    decontaminated colour ``foreground`` (relight_rt.foreground) times the relighting's gain per channel,
+    colour / photo, taken from the opaque pixels nearby (box means: the gain of a relighting varies slowly;
+    a soft pixel's own ratio would be the old background's). Opaque and empty pixels are unchanged.
+
+    Args:
+        colour, photo, foreground: (h, w, 3) float32 RGB in [0, 1], the same pixels.
+        alpha: (h, w) or (h, w, 1) matte in [0, 1].
+
+    Returns:
+        New (h, w, 3) float32 in [0, 1].
+    """
+    a = alpha.reshape(alpha.shape[:2])
+    soft = (a > 0) & (a < 1)
+    out = np.array(colour, dtype=np.float32)
+    if not soft.any():
+        return out
+    opaque = (a >= _OPAQUE).astype(np.float32)[..., None]
+    num, den = colour * opaque, photo * opaque
+    gain = None
+    for r in (_GAIN_RADIUS, _GAIN_RADIUS_FAR):
+        k = (2 * r + 1, 2 * r + 1)
+        n = cv2.boxFilter(num, -1, k, normalize=False)
+        d = cv2.boxFilter(den, -1, k, normalize=False)
+        g = np.divide(n, d, out=np.full_like(n, np.nan), where=d > 1e-3 * (2 * r + 1))
+        gain = g if gain is None else np.where(np.isnan(gain), g, gain)
+    total = float(den.sum())
+    overall = num.reshape(-1, 3).sum(0) / np.maximum(den.reshape(-1, 3).sum(0), 1e-6) if total > 0 else np.ones(3)
+    gain = np.where(np.isnan(gain), overall.astype(np.float32), gain)
+    out[soft] = np.clip(foreground[soft] * gain[soft], 0.0, 1.0)
     return out
 
 

@@ -43,17 +43,21 @@ class TensorSpec:
         name: the tensor's name in the graph.
         rank: 4 for images (N, C, H, W); 3 for SH lights (N, 9, 3); 2 for per-image scores (N, C).
         channels: C of a rank-4 tensor (None: any); unused for lights.
+        stride: a rank-4 output on a coarser grid than the input: H = W = resolution / stride (a detector's
+            per-cell predictions).
     """
 
     name: str
     rank: int
     channels: int | None = None
+    stride: int = 1
 
     def fixed_dims(self, resolution: int | None) -> list[int | None]:
         """The sizes every axis must have (None where any size goes); ``resolution`` for fixed-size kinds."""
         if self.rank == 3:
             return [None, *LIGHT_SHAPE]
-        return [None, self.channels, resolution, resolution][: self.rank]
+        side = resolution // self.stride if resolution is not None else None
+        return [None, self.channels, side, side][: self.rank]
 
     def zeros_shape(self, size: int) -> tuple[int, ...]:
         """A batch-of-one shape for this tensor at spatial ``size`` (warm-up feeds, sample inputs)."""
@@ -147,6 +151,14 @@ register_kind(KindSpec(  # the whole letterboxed image -> person probability (fi
     outputs=(TensorSpec("segmentation", 4, 1),),
     fixed_size=True,
     filename="matte_roi.onnx",
+    metadata=(),
+))
+register_kind(KindSpec(  # issue 33: the whole letterboxed image -> face boxes, where the pose graph finds nobody
+    "matte_face",
+    inputs=(TensorSpec("image", 4, 3),),
+    outputs=(TensorSpec("boxes", 4, 16, stride=4), TensorSpec("scores", 4, 1, stride=4)),
+    fixed_size=True,
+    filename="matte_face.onnx",
     metadata=(),
 ))
 

@@ -80,22 +80,30 @@ def _neighbours(idx: np.ndarray, h: int, w: int, alpha_flat: np.ndarray) -> tupl
     return nbr, wgt.astype(np.float32)
 
 
-def _sweep(f: np.ndarray, b: np.ndarray, img: np.ndarray, alpha: np.ndarray, idx: np.ndarray,
-           nbr: np.ndarray, wgt: np.ndarray) -> None:  # fmt: skip
-    """One Gauss-Seidel update of the flat (n, 3) F and B at pixels ``idx`` (in place: the solver's state)."""
+def _prepare(idx: np.ndarray, h: int, w: int, img: np.ndarray, alpha: np.ndarray) -> tuple:
+    """What one Gauss-Seidel update of pixels ``idx`` needs that stays fixed over the sweeps of a level: the
+    neighbours and their weights, and the 2x2 system's inverse applied to the data terms."""
+    nbr, wgt = _neighbours(idx, h, w, alpha)
     a = alpha[idx][:, None]
     wsum = wgt.sum(0)[:, None]
-    fn = np.einsum("kn,knc->nc", wgt, f[nbr])
-    bn = np.einsum("kn,knc->nc", wgt, b[nbr])
-    i = img[idx]
-    a11 = a * a + wsum
-    a12 = a * (1 - a)
-    a22 = (1 - a) * (1 - a) + wsum
-    r1 = a * i + fn
-    r2 = (1 - a) * i + bn
     inv = 1.0 / (wsum * (a * a + (1 - a) * (1 - a) + wsum))  # = 1 / det, without the cancellation
-    f[idx] = np.clip((a22 * r1 - a12 * r2) * inv, 0.0, 1.0)
-    b[idx] = np.clip((a11 * r2 - a12 * r1) * inv, 0.0, 1.0)
+    i = img[idx]
+    coef = (((1 - a) * (1 - a) + wsum) * inv, a * (1 - a) * inv, (a * a + wsum) * inv)
+    return idx, nbr, wgt, coef, a * i, (1 - a) * i
+
+
+def _sweep(f: np.ndarray, b: np.ndarray, prepared: tuple) -> None:
+    """One Gauss-Seidel update of the flat (n, 3) F and B at the prepared pixels (in place: the solver's state).
+
+    Per pixel and channel, with the neighbours' F and B held fixed:
+    [a^2 + W, a(1-a); a(1-a), (1-a)^2 + W] [F; B] = [a I + sum w F_j; (1-a) I + sum w B_j], W = sum w."""
+    idx, nbr, wgt, (c22, c12, c11), ai, bi = prepared
+    r1 = np.einsum("kn,knc->nc", wgt, f[nbr])
+    r1 += ai
+    r2 = np.einsum("kn,knc->nc", wgt, b[nbr])
+    r2 += bi
+    f[idx] = np.clip(c22 * r1 - c12 * r2, 0.0, 1.0)
+    b[idx] = np.clip(c11 * r2 - c12 * r1, 0.0, 1.0)
 
 
 def estimate_foreground(rgb: np.ndarray, alpha: np.ndarray, *, return_background: bool = False):
@@ -158,19 +166,19 @@ def _solve(img: np.ndarray, a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         else:
             solid_fg = la >= 1 - _SOLID
             solid_bg = la <= _SOLID
-            f[solid_fg] = li[solid_fg]
-            b[solid_bg] = li[solid_bg]
+            np.copyto(f, li, where=solid_fg[:, None])
+            np.copyto(b, li, where=solid_bg[:, None])
             soft = (~(solid_fg | solid_bg)).reshape(lh, lw).astype(np.uint8)
             active = np.flatnonzero(cv2.dilate(soft, np.ones((3, 3), np.uint8)))
         if active.size and lh * lw > 1:  # (a single pixel has no neighbours: F = B = I)
             y, x = np.divmod(active, lw)
-            parts = [active[(y + x) % 2 == 0], active[(y + x) % 2 == 1]]  # red-black: neighbours differ in colour
-            prepared = [(p, *_neighbours(p, lh, lw, la)) for p in parts if p.size]
+            odd = ((y + x) & 1).astype(bool)
+            parts = [active[~odd], active[odd]]  # red-black: neighbours differ in colour
+            prepared = [_prepare(p, lh, lw, li, la) for p in parts if p.size]
             for _ in range(_ITER_SMALL if lh <= _SMALL and lw <= _SMALL else _ITER_BIG):
-                for p, nbr, wgt in prepared:
-                    _sweep(f, b, li, la, p, nbr, wgt)
+                for prep in prepared:
+                    _sweep(f, b, prep)
         f = f.reshape(lh, lw, 3)
         b = b.reshape(lh, lw, 3)
-    solid = a >= 1 - _SOLID  # an opaque pixel keeps its colour exactly
-    f[solid] = img[solid]
+    np.copyto(f, img, where=(a >= 1 - _SOLID)[..., None])  # an opaque pixel keeps its colour exactly
     return f, b

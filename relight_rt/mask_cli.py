@@ -7,6 +7,7 @@ Registered by relight_rt.cli through :func:`add_parser`. Examples::
     relight-rt mask clip.mp4 -o clip_mask.avi             # a mask video (temporal smoothing)
     relight-rt mask clip.mp4 -o clip_masks/               # or one frame_NNNNNN_mask.png per frame
     relight-rt mask frames/ --sequence -o masks/          # a folder of video frames, smoothed over time
+    relight-rt mask photo.jpg -o m.png --foreground cut.png   # + an RGBA cut-out, old background taken out
 
 The masks come from relight_rt.matting (MediaPipe-derived graphs bundled with the package). Outputs are
 written atomically and never over an input (nor over an existing file in an input folder).
@@ -45,6 +46,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="which people to mask: the largest (default) or everyone found")  # fmt: skip
     p.add_argument("--no-refine", action="store_true", help="skip the guided-filter edge refinement")
     p.add_argument("--binary", action="store_true", help="write 0/255 masks (threshold 0.5) instead of soft ones")
+    p.add_argument("--foreground", metavar="OUT",
+                   help="also write the cut-out as RGBA PNG: the person's colour with the old background taken "
+                   "out of the soft edge (decontaminated), alpha = the mask; a .png for one image, else a folder "
+                   "of NAME_foreground.png")  # fmt: skip
     p.add_argument("--sequence", action="store_true",
                    help="a folder is one video's frames: follow the person, smooth the outline over time")  # fmt: skip
     p.add_argument("--smoothing", type=float, default=0.7,
@@ -60,6 +65,16 @@ def read_photo(path: Path) -> np.ndarray:
     """Any readable image file as float32 RGB (H, W, 3) in [0, 1] (gray and 16-bit files converted,
     alpha dropped, EXIF orientation applied)."""
     return read_image(path, "image")[..., :3]  # the runtime's one intake
+
+
+def cutout(rgb: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """(H, W, 4) straight RGBA: the decontaminated foreground colour (relight_rt.foreground) and the alpha;
+    colour 0 where alpha is 0."""
+    from .foreground import estimate_foreground
+
+    fg = estimate_foreground(rgb, alpha)
+    fg[alpha <= 0] = 0.0
+    return np.concatenate([fg, alpha[..., None]], axis=2)
 
 
 def _finish(alpha: np.ndarray, binary: bool) -> np.ndarray:
@@ -83,6 +98,8 @@ def run(args: argparse.Namespace) -> int:
     videos = [p for p in inputs if p.is_file() and p.suffix.lower() in VIDEO_SUFFIXES]
     if videos and len(inputs) > 1:
         raise RelightError(f"{videos[0]}: a video input must be the only input")
+    if args.foreground and (videos or args.sequence):
+        raise RelightError("--foreground: cut-outs are written for photos, not for a video or --sequence")
     if not 0.0 <= args.smoothing < 1.0:
         raise RelightError(f"--smoothing: expected a value in [0, 1), got {args.smoothing}")
     matter = PersonMatter(args.models, device=args.device, person=args.person, refine=not args.no_refine)
@@ -116,20 +133,34 @@ def run(args: argparse.Namespace) -> int:
     to_file = single and out.suffix != ""
     if to_file and out.suffix.lower() != ".png":
         raise RelightError(f"output {out}: masks are written as .png (8-bit); got {out.suffix!r}")
+    fg = Path(args.foreground) if args.foreground else None
+    if fg is not None and to_file and fg.suffix.lower() != ".png":
+        raise RelightError(f"--foreground {fg}: one image's cut-out is written as .png (RGBA); got {fg.suffix!r}")
+    if fg is not None and not to_file and fg.suffix:
+        raise RelightError(f"--foreground {fg}: several inputs write NAME_foreground.png into a folder")
+    if fg is not None and fg.resolve() == out.resolve():
+        raise RelightError(f"--foreground {fg}: the same file as the mask output")
     if not to_file and files:
         out.mkdir(parents=True, exist_ok=True)
+        if fg is not None:
+            fg.mkdir(parents=True, exist_ok=True)
     written: set[Path] = set()
     for path in progress(files, "image", len(files) > 1):
         target = out if to_file else out / f"{path.stem}_mask.png"
         try:
             if target.resolve() in written:
                 raise RelightError(f"two inputs named {path.stem} would both write {target}")
-            alpha = matter(read_photo(path), str(path))
-            write_image(target, _finish(alpha, args.binary), protect=protect)
+            rgb = read_photo(path)
+            alpha = _finish(matter(rgb, str(path)), args.binary)
+            write_image(target, alpha, protect=protect)
+            if fg is not None:
+                cut = fg if to_file else fg / f"{path.stem}_foreground.png"
+                write_image(cut, cutout(rgb, alpha), protect=protect | {target})
             written.add(target.resolve())
             (log.debug if len(files) > 1 else log.info)("%s -> %s", path, target)  # a bar shows a folder
         except (RelightError, OSError) as exc:
-            failures.append((str(path), str(exc)))
+            hint = "; if there is one, paint its mask by hand (white = person) and give it to relight with --mask"
+            failures.append((str(path), str(exc) + (hint if "no person found" in str(exc) else "")))
     return _report(failures, len(written), len(files))
 
 

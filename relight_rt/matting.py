@@ -1,6 +1,6 @@
 """Automatic person matting, bundled and offline: any photo of a person, no mask needed.
 
-Two graphs converted from Google MediaPipe (Apache-2.0; ``python -m export mask-models``, model card):
+Three graphs converted from Google MediaPipe (Apache-2.0; ``python -m export mask-models``, model card):
 
 - ``matte_roi.onnx`` (MediaPipe selfie segmentation, 250 kB) runs on the whole image letterboxed to
   256x256 and says where people are (connected regions of its probability map). When it finds nobody
@@ -11,12 +11,23 @@ Two graphs converted from Google MediaPipe (Apache-2.0; ``python -m export mask-
   person logits at 256x256 plus a pose-presence probability. The region is re-centred on that
   segmentation until it is stable (at most ``max_passes`` runs), so a crude first box is corrected;
   where the segmentation runs into the region's edge, the next region reaches further that way.
+- ``matte_face.onnx`` (MediaPipe BlazeFace full range, 1.1 MB; optional: relight_rt._faces) finds faces.
+  A face is the second way in where the pose graph's presence flag says nobody (close portraits: the
+  selfie graph then segments the face's region), and with ``person="all"`` it tells apart people whom
+  the selfie graph sees as one blob (a group is matted face by face).
+
+``person="all"`` gathers the selfie graph's probability over every tile scale (not only the first that
+finds anybody), so passers-by beside a big subject are candidates too; a candidate already inside the
+people matted is skipped, a wide blob where the pose graph sees nobody is tried strip by strip, and
+people shorter than MIN_PERSON_FRACTION of the photo's height are left out.
 
 The 256² logits are mapped back onto a working grid (the region at <= 512 px), turned into a
 probability, and refined to full resolution by a fast guided filter steered by the photo (He & Sun
 2015: the local linear model alpha ≈ a·I + b is fitted on the working grid with the gray photo as
 guide; a and b are upsampled and applied to the full-resolution gray photo), so hair and arm outlines
-follow the photo's own edges. Only the person's region is processed at full resolution.
+follow the photo's own edges. Only the person's region is processed at full resolution. Then
+(``edges=True``, photos only) the alpha is re-estimated from colour in a band around the outline at
+full resolution (relight_rt._refine: hair strands, no smear of the old background).
 
 :class:`VideoMatter` keeps state between frames: the person's region comes from the previous frame's
 matte (the detector runs again only when the person is lost or every ``redetect_every`` frames), and
@@ -41,8 +52,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from . import _faces
 from ._errors import RelightError
 from ._limits import check_array_pixels
+from ._refine import refine_edges
 from .contract import KINDS
 from .foreground import estimate_foreground as estimate_foreground  # re-exported (issue 33)
 from .session import ENV_MODELS, Model, bundled_models_dir, load_model
@@ -51,6 +64,7 @@ log = logging.getLogger(__name__)
 
 POSE_FILE = KINDS["matte_pose"].filename  # the kinds are declared in relight_rt.contract
 ROI_FILE = KINDS["matte_roi"].filename
+FACE_FILE = KINDS["matte_face"].filename  # optional: a models folder without it finds people by body only
 SIZE = 256  # both graphs' input side
 PERSON_MODES = ("largest", "all")
 GUIDES = ("gray", "color")
@@ -59,7 +73,14 @@ _ROI_SCALE = 1.25  # square region side = this x the person's longest box side (
 _COARSE_MIN_AREA = 24  # canvas pixels: smaller blobs of the region finder are noise or far-away people
 _TILE_LEVELS = (1, 2, 3, 4, 6)  # whole image, then n x n overlapping tiles while nobody is found ...
 _MIN_TILE = SIZE  # ... as long as the tiles stay at least 256 px (a smaller tile would only be upsampled)
-_PRESENCE_MIN = 0.5  # pose-presence probability below which a region holds no person
+_PRESENCE_MIN = 0.5  # pose-presence probability below which a region holds no person (unless a face vouches)
+MIN_PERSON_FRACTION = 0.06  # person="all": people whose box is shorter than this x the image's height are left out
+_COVERED = 0.5  # a candidate (blob) this much inside people already matted is one of them
+_COVERED_FACE = 0.8  # ... and a face's person this much inside them
+_MAX_REQUEUE = 16  # person="all": leftovers of blobs searched again (several people in one blob)
+_MAX_TRIES = 32  # person="all": candidates segmented at most (each costs 1-4 pose-graph runs)
+_GIVE_UP = 0.02  # person="all": a blob whose first pose-graph pass says this little is nobody (no re-centring)
+_FACE_TILE_MIN = 2 * _faces.FACE_SIZE  # face search in tiles (person="all") while the tiles stay this large
 _SETTLED_IOU = 0.9  # the region has settled when the next one overlaps it this much
 _WORK_MAX = 512  # long side of the working grid (guided-filter fit, temporal blend)
 _GF_EPS = 1e-3  # guided-filter regulariser (guide in [0, 1]); benchmarks/matting_eval.py picked it
@@ -251,6 +272,8 @@ class PersonMatter:
         refine: refine the edges with the photo (guided filter); False gives the upsampled segmentation.
         guide: "gray" (default, fast) or "color" (a colour guide: separates edges that differ in colour
             but not in brightness, e.g. pale shoes on a white floor; ~4x the refinement time).
+        edges: with ``refine``, re-estimate alpha from colour in a band around the outline at full
+            resolution (relight_rt._refine: hair strands, no smear of the old background).
         max_passes: pose-graph runs per person while the region settles (>= 1).
 
     Calling it: ``alpha = matter(rgb)``, rgb (H, W, 3) float32 [0, 1] (uint8, RGBA and grayscale are
@@ -269,6 +292,7 @@ class PersonMatter:
         refine: bool = True,
         guide: str = "gray",
         max_passes: int = 4,
+        edges: bool = True,
     ):
         if guide not in GUIDES:
             raise RelightError(f"guide: expected one of {list(GUIDES)}, got {guide!r}")
@@ -279,10 +303,13 @@ class PersonMatter:
         folder = find_matting_models(models)
         self.pose: Model = load_model(folder / POSE_FILE, "matte_pose", device=device)
         self.roi: Model = load_model(folder / ROI_FILE, "matte_roi", device=device)
+        face = folder / FACE_FILE
+        self.face: Model | None = load_model(face, "matte_face", device=device) if face.is_file() else None
         self.person = person
         self.refine = bool(refine)
         self.guide = guide
         self.max_passes = int(max_passes)
+        self.edges = bool(edges)
 
     # -- detection ----------------------------------------------------------------------------------
 
@@ -293,20 +320,9 @@ class PersonMatter:
     def find_people(self, rgb: np.ndarray) -> list[tuple[float, tuple[float, float, float, float]]]:
         """Where people are, from the image alone: [(area in image pixels, (x0, y0, x1, y1))], largest
         first; empty when nobody is found. Whole image first, then 2x2, 3x3, 4x4 and 6x6 overlapping tiles
-        (each 1.5x its share of the image, at least 256 px: small images stop early)."""
+        (each 1.5x its share of the image, at least 256 px: small images stop early) while nobody is found."""
         h, w = rgb.shape[:2]
-        big = max(h, w)
-        for level in _TILE_LEVELS:
-            if level == 1:
-                windows = [Region(w / 2, h / 2, big)]
-            else:
-                side = min(big / level * 1.5, max(h, w))
-                side = max(side, min(h, w) / level * 1.5)
-                if side < _MIN_TILE:
-                    break
-                xs = np.linspace(side / 2, max(w - side / 2, side / 2), level) if w > side else [w / 2]
-                ys = np.linspace(side / 2, max(h - side / 2, side / 2), level) if h > side else [h / 2]
-                windows = [Region(float(x), float(y), side) for y in ys for x in xs]
+        for windows in _tile_levels(h, w, _MIN_TILE):
             found = []
             for win in windows:
                 prob = self._roi_prob(rgb, win)
@@ -320,14 +336,38 @@ class PersonMatter:
                 return _merge_boxes(found)
         return []
 
+    def find_faces(self, rgb: np.ndarray, *, every: bool = False) -> list[_faces.Face]:
+        """Faces (the bundled face detector; none without it), best first: on the whole image, and with
+        ``every`` also in 2x2 and 3x3 overlapping tiles (while they stay >= 384 px) for smaller faces."""
+        if self.face is None:
+            return []
+        h, w = rgb.shape[:2]
+        found = []
+        levels = _tile_levels(h, w, _FACE_TILE_MIN, max_level=3)
+        for windows in levels if every else levels[:1]:
+            for win in windows:
+                out = self.face.run({"image": crop_region(rgb, win, _faces.FACE_SIZE).transpose(2, 0, 1)[None]})
+                x0, y0, _, _ = win.box()
+                for box, score in _faces.decode(out["boxes"][0], out["scores"][0]):
+                    found.append((np.array([x0, y0, x0, y0]) + box * win.side, score))
+        faces = []
+        for box, score in _faces.weighted_nms(found):
+            b = (max(box[0], 0.0), max(box[1], 0.0), min(box[2], float(w)), min(box[3], float(h)))
+            if b[2] > b[0] and b[3] > b[1]:
+                faces.append(_faces.Face(b, score))
+        return faces
+
     # -- segmentation -------------------------------------------------------------------------------
 
-    def segment(self, rgb: np.ndarray, region: Region) -> Person:
-        """Run the pose graph on one square region; re-centre on its segmentation until it settles."""
+    def segment(self, rgb: np.ndarray, region: Region, give_up: float = 0.0) -> Person:
+        """Run the pose graph on one square region; re-centre on its segmentation until it settles (or, with
+        ``give_up``, stop when the presence flag is below it: nobody there)."""
         person = None
         for _ in range(self.max_passes):
             out = self.pose.run({"image": crop_region(rgb, region).transpose(2, 0, 1)[None]})
             person = Person(region, out["segmentation"][0, 0], float(out["presence"].reshape(-1)[0]))
+            if person.presence < give_up:
+                break
             box = person_box(person, rgb.shape[:2])
             if box is None or box[2] <= box[0] or box[3] <= box[1]:
                 break
@@ -343,18 +383,104 @@ class PersonMatter:
         return roi if _is_portrait(person_box(roi, rgb.shape[:2]), rgb.shape[:2]) else person
 
     def people(self, rgb: np.ndarray, name: str = "image") -> list[Person]:
-        """Segmented people (one for person="largest", everyone for "all"); empty when nobody is found."""
-        found = self.find_people(rgb)
-        out = []
-        for _, box in found:
-            p = self.segment(rgb, Region.around(*box))
-            # the pose graph segments something in any region; its presence output says whether a person
-            # is there (0.0000 on a colour gradient the region finder took for one, >= 0.87 on people)
-            if p.presence >= _PRESENCE_MIN:
-                out.append(p)
-                if self.person == "largest":
-                    break
-        return out
+        """Segmented people (the largest for person="largest", everyone for "all"); empty when nobody is found.
+
+        Candidates come from the selfie graph (blobs of its person probability: bodies seen from any side) and
+        from faces; each is segmented by the pose graph (:meth:`segment`) and kept when the pose graph's
+        presence flag says a person is there or a face vouches for one (close portraits, where the pose graph
+        sees no body: the selfie graph then segments the region). "largest" tries the blobs of the first
+        scale that has any (largest first) and the faces only when no blob holds a person. "all" gathers the
+        selfie graph's probability over every tile scale and the faces in tiles too, skips candidates that lie
+        inside the people already matted (a group seen as one blob is taken face by face), drops duplicates,
+        and keeps people at least MIN_PERSON_FRACTION of the image's height tall.
+        """
+        if self.person == "all":
+            return self._everyone(rgb)
+        h, w = rgb.shape[:2]
+        for _, box in self.find_people(rgb):
+            p = self._person_at(rgb, box, None)
+            if p is not None:
+                return [p]
+        faces = self.find_faces(rgb)  # no body found: a face is the second way in
+        for face in sorted(faces, key=lambda f: -_box_area(f.body_box((h, w)))):
+            p = self._person_at(rgb, face.body_box((h, w)), face)
+            if p is not None:
+                return [p]
+        return []
+
+    def _everyone(self, rgb: np.ndarray) -> list[Person]:
+        h, w = rgb.shape[:2]
+        grid = _working_grid((0, 0, w, h))
+        gw, gh, kx, ky, bx, by = grid
+        prob = np.zeros((gh, gw), np.float32)
+        for windows in _tile_levels(h, w, _MIN_TILE):
+            for win in windows:
+                np.maximum(prob, warp_to_grid(self._roi_prob(rgb, win), win, grid, 0.0), out=prob)
+        min_rows = MIN_PERSON_FRACTION * h * ky * 0.5  # (a blob may be part of a person)
+
+        def blobs(mask: np.ndarray) -> list[tuple[float, tuple, None, np.ndarray]]:
+            n, labels, stats, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=8)
+            out = []
+            for i in range(1, n):
+                x, y, bw, bh, area = (int(v) for v in stats[i])
+                if bh >= min_rows:
+                    box = ((x - bx) / kx, (y - by) / ky, (x + bw - bx) / kx, (y + bh - by) / ky)
+                    out.append((area / kx / ky, box, None, np.flatnonzero(labels == i)))
+            return out
+
+        faces = self.find_faces(rgb, every=True)
+        cands: list = blobs(prob > 0.5)
+        cands += [(_box_area(f.body_box((h, w))) * 0.5, f.body_box((h, w)), k, None) for k, f in enumerate(faces)]
+        cands.sort(key=lambda t: -t[0])
+        occupied = np.zeros((gh, gw), bool)
+        owned: set[int] = set()  # faces whose person is matted
+        found: list[Person] = []
+        requeued = tries = 0
+        while cands and tries < _MAX_TRIES:
+            _, box, k, pix = cands.pop(0)
+            face = faces[k] if k is not None else None
+            if (k is not None and k in owned) or (pix is not None and occupied.flat[pix].mean() >= _COVERED):
+                continue
+            tries += 1
+            p = self._person_at(rgb, box, face, _GIVE_UP)
+            if p is not None and _box_height(person_box(p, (h, w))) >= MIN_PERSON_FRACTION * h:
+                mask = logits_on_grid(p, grid) > 0
+                # a person mostly inside the people matted already is one of them again (a face's person may
+                # overlap more: in a group, the selfie graph's region of one face shows the neighbours too)
+                if mask.any() and occupied[mask].mean() < (_COVERED if face is None else _COVERED_FACE):
+                    occupied |= mask
+                    found.append(p)
+                    mine = [j for j, f in enumerate(faces) if j not in owned and _contains(p, f, (h, w))]
+                    owned.update([k] if k is not None else mine[:1])
+            if pix is None or requeued >= _MAX_REQUEUE:
+                continue
+            rest = np.zeros(gh * gw, bool)
+            rest[pix[~occupied.flat[pix]]] = True
+            if rest.sum() < pix.size:  # people beside the one matted in the same blob
+                more = [c for c in blobs(rest.reshape(gh, gw)) if c[3].size >= 0.2 * pix.size]
+            else:  # nobody in this blob as a whole: a wide one may be people side by side, strip by strip
+                more = _strips(pix, gw, grid, (h, w))
+            requeued += len(more)
+            cands = sorted(cands + more, key=lambda t: -t[0])
+        return found
+
+    def _person_at(self, rgb: np.ndarray, box, face: _faces.Face | None, give_up: float = 0.0) -> Person | None:
+        """The person in ``box`` (a blob's or a face's body box), or None when the pose graph says nobody is
+        there and no face vouches for one (``give_up``: see :meth:`segment`)."""
+        p = self.segment(rgb, Region.around(*box), give_up if face is None else 0.0)
+        # the pose graph segments something in any region; its presence output says whether a person is there
+        # (0.0000 on a colour gradient the region finder took for one, >= 0.87 on people in full view)
+        if p.presence >= _PRESENCE_MIN and (face is None or _contains(p, face, rgb.shape[:2])):
+            return p
+        if face is None:
+            return None
+        # a face, but the pose graph sees no body here (a close portrait) or another person: the selfie graph
+        # segments the face's region instead (made for head-and-shoulders framing)
+        region = Region.around(*face.body_box(rgb.shape[:2]))
+        prob = self._roi_prob(rgb, region).astype(np.float64)
+        logits = np.log(np.clip(prob, 1e-7, 1.0)) - np.log(np.clip(1.0 - prob, 1e-7, 1.0))
+        roi = Person(region, logits.astype(np.float32), max(p.presence, face.score), "roi")
+        return roi if _contains(roi, face, rgb.shape[:2]) else None
 
     # -- full resolution ----------------------------------------------------------------------------
 
@@ -371,16 +497,19 @@ class PersonMatter:
                 continue
             a = region_alpha(rgb, p, (rx0, ry0, rx1, ry1), refine=refine, guide=self.guide)
             np.maximum(alpha[ry0:ry1, rx0:rx1], a, out=alpha[ry0:ry1, rx0:rx1])
+        if refine and self.edges and people:
+            alpha = refine_edges(rgb, alpha)
         return alpha
 
     def __call__(self, image: np.ndarray, name: str = "image") -> np.ndarray:
         rgb = as_rgb(image, name)
         people = self.people(rgb, name)
-        if not people:
-            raise RelightError(f"no person found in {name}")
-        alpha = self.alpha(rgb, people)
-        if not (alpha >= 0.5).any():
-            raise RelightError(f"no person found in {name}")
+        alpha = self.alpha(rgb, people) if people else None
+        if alpha is None or not (alpha >= 0.5).any():
+            raise RelightError(
+                f"no person found in {name} (no body or face the bundled detectors recognise; people shorter than "
+                f"{MIN_PERSON_FRACTION:.0%} of the photo, seen only in part or in deep shadow can be missed)"
+            )
         return alpha
 
 
@@ -471,6 +600,73 @@ def _merge_boxes(found: list[tuple[float, tuple[float, float, float, float]]]):
     return [(a, tuple(b)) for a, b in items]
 
 
+def _tile_levels(h: int, w: int, min_tile: float, max_level: int = _TILE_LEVELS[-1]) -> list[list[Region]]:
+    """The search windows per scale: the whole image, then n x n overlapping tiles (n in _TILE_LEVELS, each
+    1.5x its share of the image) while they stay at least ``min_tile`` px."""
+    big = max(h, w)
+    levels = []
+    for level in _TILE_LEVELS:
+        if level > max_level:
+            break
+        if level == 1:
+            levels.append([Region(w / 2, h / 2, big)])
+            continue
+        side = min(big / level * 1.5, max(h, w))
+        side = max(side, min(h, w) / level * 1.5)
+        if side < min_tile:
+            break
+        xs = np.linspace(side / 2, max(w - side / 2, side / 2), level) if w > side else [w / 2]
+        ys = np.linspace(side / 2, max(h - side / 2, side / 2), level) if h > side else [h / 2]
+        levels.append([Region(float(x), float(y), side) for y in ys for x in xs])
+    return levels
+
+
+def _strips(pix: np.ndarray, gw: int, grid, shape: tuple[int, int]) -> list:
+    """A wide blob (flat pixel indices on the working grid) as overlapping upright strips, each about half as
+    wide as the blob is tall: candidates for people standing side by side."""
+    _, _, kx, ky, bx, by = grid
+    ys, xs = np.divmod(pix, gw)
+    x0, x1, y0, y1 = xs.min(), xs.max() + 1, ys.min(), ys.max() + 1
+    width = 0.5 * (y1 - y0)
+    if x1 - x0 < 1.4 * width:
+        return []
+    out = []
+    for left in np.arange(x0, x1 - width + 1, width / 2):
+        keep = pix[(xs >= left) & (xs < left + width)]
+        if keep.size:
+            sy = keep // gw
+            box = ((left - bx) / kx, (sy.min() - by) / ky, (left + width - bx) / kx, (sy.max() + 1 - by) / ky)
+            out.append((keep.size / kx / ky, box, None, keep))
+    return out
+
+
+def _box_area(box) -> float:
+    return max(box[2] - box[0], 0.0) * max(box[3] - box[1], 0.0)
+
+
+def _box_height(box) -> float:
+    return 0.0 if box is None else box[3] - box[1]
+
+
+def _prob_at(person: Person, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """The person's probability (sigmoid of its logits) at image points (xs, ys); 0 outside its region."""
+    k, bx, by = _grid_of_region(person.region)
+    i = np.floor(k * ys + by + 0.5).astype(int)
+    j = np.floor(k * xs + bx + 0.5).astype(int)
+    inside = (i >= 0) & (i < SIZE) & (j >= 0) & (j < SIZE)
+    out = np.zeros(xs.shape, np.float32)
+    out[inside] = _sigmoid(person.logits[i[inside], j[inside]])
+    return out
+
+
+def _contains(person: Person, face: _faces.Face, shape: tuple[int, int]) -> bool:
+    """Whether the person's segmentation covers the middle of the face."""
+    x0, y0, x1, y1 = face.box
+    xs = np.array([(x0 + x1) / 2, 0.35 * x0 + 0.65 * x1, 0.65 * x0 + 0.35 * x1])
+    ys = np.array([(y0 + y1) / 2] * 3)
+    return bool((_prob_at(person, xs, ys) > 0.5).sum() >= 2)
+
+
 def _working_grid(rect: tuple[int, int, int, int]) -> tuple[int, int, float, float, float, float]:
     """(gw, gh, kx, ky, bx, by): a grid over the image rectangle with long side <= _WORK_MAX."""
     rx0, ry0, rx1, ry1 = rect
@@ -483,12 +679,18 @@ def _working_grid(rect: tuple[int, int, int, int]) -> tuple[int, int, float, flo
 
 def logits_on_grid(person: Person, grid: tuple[int, int, float, float, float, float]) -> np.ndarray:
     """The person's canvas logits resampled onto a working grid (very negative outside the region)."""
+    return warp_to_grid(np.clip(person.logits, -_LOGIT_CLIP, _LOGIT_CLIP), person.region, grid, -_LOGIT_CLIP)
+
+
+def warp_to_grid(canvas: np.ndarray, region: Region, grid: tuple[int, int, float, float, float, float],
+                 outside: float) -> np.ndarray:  # fmt: skip
+    """A (256, 256) map over ``region`` resampled onto a working grid (``outside`` beyond the region)."""
     gw, gh, kx, ky, bx, by = grid
-    k, cbx, cby = _grid_of_region(person.region)
+    k, cbx, cby = _grid_of_region(region)
     m = np.array([[k / kx, 0.0, cbx - k / kx * bx], [0.0, k / ky, cby - k / ky * by]])
     return cv2.warpAffine(
-        np.clip(person.logits, -_LOGIT_CLIP, _LOGIT_CLIP), m, (gw, gh),
-        flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_CONSTANT, borderValue=-_LOGIT_CLIP,
+        canvas, m, (gw, gh), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_CONSTANT,
+        borderValue=outside,
     )  # fmt: skip
 
 

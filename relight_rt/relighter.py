@@ -55,7 +55,7 @@ from ._errors import RelightError
 from ._face import feather, head_box
 from ._geometry import CropGeometry
 from ._io import read_image, sibling_mask
-from .compositing import Background, over_box, parse_background
+from .compositing import Background, clean_edge_colour, over_box, parse_background
 from .config import RuntimeConfig
 from .contract import kind_spec
 from .foreground import estimate_foreground
@@ -649,20 +649,20 @@ class Relighter:
             state["knee"] = _readonly(_knee(image))
         return _shoulder(colour, state["knee"])
 
-    def _foreground(self, dec: Decomposition) -> tuple[np.ndarray, np.ndarray]:
+    def _foreground(self, dec: Decomposition, always: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """(h, w, 3) twice, in the crop box: the person's own colour F and the colour behind it B (cached).
 
         At a soft matte's edge a pixel mixes both (I = a F + (1 - a) B); relighting or moving I would carry the
         old background along (a halo in a new scene, the new light's colour spilt onto the street). For a photo
         F and B come from relight_rt.foreground (multilevel foreground estimation, once per photo); for a hard
-        mask, and for video frames, both are the photo.
+        mask, and for video frames (unless ``always``), both are the photo.
         """
         state = self._prepared(dec)
         if "foreground" not in state:
             image = np.ascontiguousarray(dec.geometry.crop(dec.image))
             alpha = np.ascontiguousarray(dec.geometry.crop(dec.mask))
             soft = ((alpha > _SOFT) & (alpha < 1 - _SOFT)).any()
-            if state.get("photo") and soft:
+            if (state.get("photo") or always) and soft:
                 fg, bg = estimate_foreground(image, alpha, return_background=True)
                 fg, bg = _consistent(image, alpha[..., None], fg, bg)
                 state["foreground"] = (_readonly(fg), _readonly(bg))
@@ -795,13 +795,23 @@ class Relighter:
         return self.relight(dec, light, background=background, exposure=exposure)
 
     def _compose(
-        self, dec: Decomposition, light: np.ndarray, outputs: tuple, backdrop: np.ndarray | None
+        self, dec: Decomposition, light: np.ndarray, outputs: tuple, backdrop: np.ndarray | None, clean: bool = False
     ) -> np.ndarray:
-        """The photo relit under the (exposed) ``light``, given stage 2's ``outputs`` (diffuse, residual, relit)."""
+        """The photo relit under the (exposed) ``light``, given stage 2's ``outputs`` (diffuse, residual, relit).
+
+        ``clean``: a new backdrop. With detail on the person's colour is already its foreground colour relit
+        (``_person_colour``); the network image (``detail=False``) gets its soft edge cleaned of the old
+        background here (relight_rt.compositing.clean_edge_colour).
+        """
         geom = dec.geometry
         _, residual, relit = outputs
         colour = self._person_colour(dec, light, residual, relit)
-        return over_box(colour, geom.crop(dec.mask)[..., None], geom.box, backdrop, dec.mask)
+        alpha = geom.crop(dec.mask)
+        if clean and not self.detail:
+            photo = np.ascontiguousarray(geom.crop(dec.image))
+            fg, _ = self._foreground(dec, always=True)
+            colour = clean_edge_colour(colour, photo, fg, alpha)
+        return over_box(colour, alpha[..., None], geom.box, backdrop, dec.mask)
 
     def _expose(self, dec: Decomposition, lights: np.ndarray, exposure) -> np.ndarray:
         """relight_rt.exposure.expose with the photo's own mean luminance measured once per Decomposition."""
@@ -849,7 +859,7 @@ class Relighter:
         lit = self._expose(dec, self.resolve_light(light), exposure)
         bg = parse_background(background)
         outputs = next(self._network_relit(dec, lit[None], 1, want_layers=self.detail))
-        return self._compose(dec, lit, outputs, self._backdrop(dec, bg))
+        return self._compose(dec, lit, outputs, self._backdrop(dec, bg), clean=bg.kind != "original")
 
     def relight_layers(
         self,
@@ -865,7 +875,7 @@ class Relighter:
         lit = self._expose(dec, self.resolve_light(light), exposure)
         bg = parse_background(background)
         diffuse, residual, relit = next(self._network_relit(dec, lit[None], 1, want_layers=True))
-        out = self._compose(dec, lit, (diffuse, residual, relit), self._backdrop(dec, bg))
+        out = self._compose(dec, lit, (diffuse, residual, relit), self._backdrop(dec, bg), clean=bg.kind != "original")
         chw = lambda a: dec.to_input(np.ascontiguousarray(a.transpose(1, 2, 0)))  # noqa: E731
         layers = {
             "albedo": self.layers(dec)["albedo"],
@@ -892,9 +902,10 @@ class Relighter:
             raise RelightError(f"batch_size: expected a whole number >= 1, got {batch_size!r}")
         dec = self._prepare(image, mask)
         lits = self._expose(dec, self._resolve_lights(lights), exposure)
-        backdrop = self._backdrop(dec, parse_background(background))
+        bg = parse_background(background)
+        backdrop = self._backdrop(dec, bg)
         for lit, outputs in zip(lits, self._network_relit(dec, lits, batch_size, want_layers=self.detail), strict=True):
-            yield self._compose(dec, lit, outputs, backdrop)
+            yield self._compose(dec, lit, outputs, backdrop, clean=bg.kind != "original")
 
     def relight_many(
         self,

@@ -47,7 +47,7 @@ from ._video_io import (  # noqa: F401  (re-exported: the video API in one place
     read_frame,
     read_mask_file,
 )
-from .compositing import Background, over_premultiplied, parse_background
+from .compositing import Background, clean_edge_colour, over_premultiplied, parse_background
 from .lightspec import LightSpec, parse_light
 from .stabilize import Stabilizer
 
@@ -287,6 +287,14 @@ def composite(relit: np.ndarray, image: np.ndarray, mask: np.ndarray, background
     """
     bg = parse_background(background)
     person = relit if premultiplied else relit * mask[..., None]
+    if bg.kind != "original":  # a new backdrop: the soft edge loses the frame's old background first
+        from .foreground import estimate_foreground
+
+        m = mask[..., None]
+        colour = np.divide(person, m, out=np.zeros_like(person), where=m > 1e-3)
+        photo = np.ascontiguousarray(image[..., :3], dtype=np.float32)
+        colour = clean_edge_colour(colour, photo, estimate_foreground(photo, mask), mask)
+        person = colour * m
     return over_premultiplied(person, mask, bg.backdrop(image))
 
 

@@ -145,3 +145,22 @@ def test_damaged_video_writes_every_frame_or_nothing(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and err[0].startswith("relight-rt: error: ") and "clip.mp4" in err[0], err
     assert not (tmp_path / "m.avi").exists() and not list(tmp_path.glob(".*"))
+def test_foreground_cutout(tmp_path, capsys):
+    """Issue 33: ``--foreground`` writes the decontaminated RGBA cut-out beside the mask."""
+    bgra = cv2.imread(str(EXAMPLE), cv2.IMREAD_UNCHANGED)
+    person = bgra[..., :3].astype(np.float32) / 255
+    a = bgra[..., 3:].astype(np.float32) / 255
+    photo = tmp_path / "over_red.png"  # the example person over pure red (BGR)
+    cv2.imwrite(str(photo), np.round((person * a + (1 - a) * np.array([0, 0, 1.0])) * 255).astype(np.uint8))
+    out, cut = tmp_path / "m.png", tmp_path / "cut.png"
+    assert run(photo, "-o", out, "--foreground", cut) == 0
+    rgba = cv2.imread(str(cut), cv2.IMREAD_UNCHANGED)
+    assert rgba.shape == bgra.shape and rgba.dtype == np.uint8
+    np.testing.assert_array_equal(rgba[..., 3], cv2.imread(str(out), cv2.IMREAD_UNCHANGED))
+    soft = (rgba[..., 3] > 25) & (rgba[..., 3] < 230)
+    assert soft.sum() > 100
+    redness = lambda img: img[soft][:, 2].astype(float) - img[soft][:, :2].astype(float).mean(1)  # noqa: E731
+    photo_px = cv2.imread(str(photo), cv2.IMREAD_COLOR)
+    assert redness(rgba).mean() < redness(photo_px).mean() - 30  # the red fringe is taken out
+    assert run(photo, "-o", tmp_path / "m2.png", "--foreground", tmp_path / "cut.jpg") == 2
+    assert "--foreground" in capsys.readouterr().err

@@ -44,9 +44,10 @@ def gradient(h: int = 240, w: int = 320) -> np.ndarray:
 
 def test_bundled_graphs_follow_the_contract():
     folder = bundled_models_dir()
-    for file, kind in ((M.POSE_FILE, "matte_pose"), (M.ROI_FILE, "matte_roi")):
+    for file, kind, size in ((M.POSE_FILE, "matte_pose", 256), (M.ROI_FILE, "matte_roi", 256),
+                             (M.FACE_FILE, "matte_face", 192)):  # fmt: skip
         model = load_model(folder / file, kind, device="cpu", warmup=False)
-        assert model.config.kind == kind and model.config.resolution == 256
+        assert model.config.kind == kind and model.config.resolution == size
         assert "MediaPipe" in model.config.source and "Apache" in model.config.source
     pose = load_model(folder / M.POSE_FILE, "matte_pose", device="cpu", warmup=False)
     assert [o.name for o in pose.session.get_outputs()] == ["segmentation", "presence"]
@@ -65,9 +66,9 @@ def test_converted_graphs_match_tflite():
     from export import mask_models
 
     root = Path(mediapipe.__file__).resolve().parent
-    for name, (rel, _, outputs) in mask_models.SOURCES.items():
+    for name, spec in mask_models.SOURCES.items():
         data = (bundled_models_dir() / name).read_bytes()
-        err = mask_models.verify(data, root / rel, outputs, mask_models.test_inputs())
+        err = mask_models.verify(data, root / spec.tflite, spec, mask_models.test_inputs(size=spec.size))
         assert err <= mask_models.PARITY_TOL, f"{name}: {err}"
 
 
@@ -217,6 +218,96 @@ def test_reference_photo_iou(matter, reference_dir):
     rgb = read_image(reference_dir / "photo" / "sample.jpg")
     truth = cv2.imread(str(reference_dir / "photo" / "sample_mask.png"), cv2.IMREAD_GRAYSCALE) / 255.0
     assert iou(matter(rgb), truth) > 0.95  # measured 0.970 (docs/RESULTS.md)
+
+
+def head_crop(rgba: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A close head-and-shoulders crop of the example person (the top quarter of their height) and its alpha."""
+    ys, xs = np.nonzero(rgba[..., 3] > 0.5)
+    top, height = int(ys.min()), int(ys.max() - ys.min())
+    cx = int(xs[ys < top + 0.1 * height].mean())
+    half = int(0.15 * height)
+    crop = rgba[max(top - 20, 0) : top + height // 4, cx - half : cx + half]
+    return np.ascontiguousarray(crop[..., :3]), crop[..., 3].copy()
+
+
+def test_close_portrait_is_found_by_its_face(matter):
+    """Issue 33: the pose graph's presence flag says nobody in a close head-and-shoulders crop (0.00 here), so
+    before the face detector such portraits gave "no person found"."""
+    crop, truth = head_crop(read_image(EXAMPLE))
+    blobs = matter.find_people(crop)
+    assert blobs and all(matter.segment(crop, M.Region.around(*b)).presence < 0.5 for _, b in blobs)
+    faces = matter.find_faces(crop)
+    assert len(faces) == 1 and faces[0].score > 0.6
+    fx0, fy0, fx1, fy1 = faces[0].box
+    assert 0 < fx0 < fx1 < crop.shape[1] and 0 < fy0 < fy1 < crop.shape[0]
+    assert iou(matter(crop), truth) > 0.85
+
+
+def test_models_folder_without_the_face_graph_still_mattes(tmp_path, example):
+    for name in (M.POSE_FILE, M.ROI_FILE):
+        (tmp_path / name).write_bytes((bundled_models_dir() / name).read_bytes())
+    m = M.PersonMatter(tmp_path)
+    assert m.face is None and m.find_faces(example[0]) == []
+    assert iou(m(example[0]), example[1]) > 0.93
+
+
+def test_no_person_message_says_what_was_looked_for(matter):
+    with pytest.raises(RelightError, match="no person found in flat.png .no body or face"):
+        matter(np.full((200, 300, 3), 0.4, np.float32), "flat.png")
+
+
+def test_face_decoding_and_weighted_nms():
+    from relight_rt import _faces as F
+
+    boxes = np.zeros((16, F.GRID, F.GRID), np.float32)
+    scores = np.full((1, F.GRID, F.GRID), -10.0, np.float32)
+    scores[0, 10, 20] = 3.0  # one face: cell (row 10, column 20), centre moved 4 px right, 40 x 48 px
+    boxes[:4, 10, 20] = (4.0, 0.0, 40.0, 48.0)
+    scores[0, 10, 21] = 2.0  # the same face seen from the next cell
+    boxes[:4, 10, 21] = (0.0, 0.0, 40.0, 48.0)
+    scores[0, 40, 5] = 0.1  # below the threshold
+    found = F.decode(boxes, scores)
+    assert len(found) == 2
+    cx, cy = (20.5 / F.GRID) + 4 / F.FACE_SIZE, 10.5 / F.GRID
+    np.testing.assert_allclose(found[0][0] if found[0][1] > found[1][1] else found[1][0],
+                               [cx - 20 / 192, cy - 24 / 192, cx + 20 / 192, cy + 24 / 192], atol=1e-6)  # fmt: skip
+    merged = F.weighted_nms(found)
+    assert len(merged) == 1 and merged[0][1] == pytest.approx(1 / (1 + np.exp(-3.0)))
+    face = F.Face((100.0, 50.0, 140.0, 98.0), 0.9)
+    assert face.body_box((200, 400)) == (120 - 1.75 * 48, 50 - 0.6 * 48, 120 + 1.75 * 48, 200.0)
+
+
+def test_everyone_on_the_reference_street_photo(reference_dir):
+    """Issue 33: --person all found only the main subject; passers-by stand about 140 px tall behind her."""
+    rgb = read_image(reference_dir / "photo" / "sample.jpg")
+    matter = M.PersonMatter(person="all")
+    people = matter.people(rgb)
+    boxes = [M.person_box(p, rgb.shape[:2]) for p in people]
+    assert len(people) >= 4  # measured 5: the subject and four passers-by
+    assert all(b[3] - b[1] >= M.MIN_PERSON_FRACTION * rgb.shape[0] for b in boxes)
+    tall = max(boxes, key=lambda b: b[3] - b[1])
+    assert tall[3] - tall[1] > 0.7 * rgb.shape[0]
+
+
+def test_sparse_weights_are_decoded():
+    """export/mask_models._dense_values: TFLite's CSR layout (rows dense, the last axis sparse)."""
+    from types import SimpleNamespace as NS
+
+    from export.mask_models import _dense_values
+
+    want = np.zeros((2, 1, 1, 5), np.float16)
+    want[0, 0, 0, [1, 4]] = (0.5, -1.0)
+    want[1, 0, 0, [0]] = 2.0
+    dense, sparse = 0, 1
+    schema = NS(DimensionType=NS(DENSE=dense, SPARSE_CSR=sparse))
+    dims = [NS(format=dense, denseSize=2), NS(format=dense, denseSize=1), NS(format=dense, denseSize=1),
+            NS(format=sparse, arraySegments=NS(values=[0, 2, 3]), arrayIndices=NS(values=[1, 4, 0]))]  # fmt: skip
+    sparsity = NS(traversalOrder=[0, 1, 2, 3], blockMap=None, dimMetadata=dims)
+    values = np.array([0.5, -1.0, 2.0], np.float16)
+    np.testing.assert_array_equal(_dense_values(values, [2, 1, 1, 5], sparsity, schema, "w"), want)
+    with pytest.raises(RuntimeError, match="traversal"):
+        _dense_values(values, [2, 1, 1, 5], NS(traversalOrder=[1, 0, 2, 3], blockMap=None, dimMetadata=dims),
+                      schema, "w")  # fmt: skip
 
 
 # ------------------------------------------------------------------------------------------------ video

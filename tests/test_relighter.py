@@ -126,6 +126,33 @@ def test_transparent_and_image_backgrounds(relighter):
         relighter.relight(img, OWN_LIGHT, mask=mask, background=3)
 
 
+def soft_person_over_blue(h=150, w=100):
+    """A person of flat colour F with a 10-px soft edge over pure blue: photo = alpha F + (1 - alpha) blue."""
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+    inside_dist = np.minimum.reduce([yy - 20, 140 - yy, xx - 30, 70 - xx])
+    alpha = np.clip(inside_dist / 10 + 0.5, 0, 1).astype(np.float32)
+    f = np.array([0.8, 0.5, 0.3], np.float32)
+    photo = alpha[..., None] * f + (1 - alpha[..., None]) * np.array([0.0, 0.0, 1.0], np.float32)
+    return photo.astype(np.float32), alpha, f
+
+
+def test_a_new_backdrop_carries_none_of_the_old_one(relighter):
+    """Issue 33: over a new backdrop the soft edge kept the photo's old background (a blue fringe here)."""
+    photo, alpha, f = soft_person_over_blue()
+    green = np.zeros_like(photo)
+    green[..., 1] = 1.0
+    out = relighter.relight(photo, OWN_LIGHT, mask=alpha, background="green")
+    truth = alpha[..., None] * f + (1 - alpha[..., None]) * green
+    naive = alpha[..., None] * photo + (1 - alpha[..., None]) * green  # the photo's own edge colour
+    soft = (alpha > 0.1) & (alpha < 0.9)
+    assert np.abs(naive - truth)[soft].mean() > 0.1
+    assert np.abs(out - truth)[soft].mean() < 0.3 * np.abs(naive - truth)[soft].mean()
+    rgba = relighter.relight(photo, OWN_LIGHT, mask=alpha, background="transparent")
+    assert np.abs(rgba[soft][:, 2] - f[2]).mean() < 0.3 * np.abs(photo[soft][:, 2] - f[2]).mean()
+    same = relighter.relight(photo, OWN_LIGHT, mask=alpha)  # over its own background nothing is taken out
+    np.testing.assert_allclose(same[soft], photo[soft], atol=0.05)
+
+
 def test_layers(relighter):
     img, mask = person(seed=4)
     res = relighter.relight_layers(img, 2 * OWN_LIGHT, mask=mask, exposure="physical")

@@ -43,18 +43,20 @@ def test_output_has_the_background_size(diffuse):
 
 
 def test_alpha_blending_is_proportional_in_linear_light(diffuse):
-    """Same-size background, the person on its own pixels, scale 1. Inside the person the linear result is
-    a·P + (1 − a)·g for matte a, background g and P the relit straight colour: P where a = 1, a·P in the soft
-    band (the analytic stage 1 masks both albedo and transport, so its straight colour there is scaled by a
-    once more)."""
+    """Same-size background, default placement: the person lands on its own pixels, scale 1. A uniform grey
+    background of linear value g lights the analytic person (albedo = linear photo, camera-facing normals) with
+    shading g, so inside the person the linear result is a·P + (1 − a)·g for matte a, with P the relit colour,
+    the same in the soft band as where a = 1 (issue 33: over a new backdrop the band's colour is the
+    decontaminated foreground times the relighting's gain; before, the analytic stage 1's masking scaled it by
+    a once more)."""
     img, mask = flat_person()
     bg = np.full((150, 100, 3), 128, np.uint8)
     g = float(srgb_to_linear(np.uint8(128)))
     out = composite(diffuse, img, bg, mask=mask, **SAME)
     lin = srgb_to_linear(out)
     core = lin[40:120, 45:65].reshape(-1, 3).mean(0)  # a = 1: the relit colour P itself
-    band = lin[40:120, 31:34].reshape(-1, 3).mean(0)  # a = 0.5
-    np.testing.assert_allclose(band, 0.5 * (0.5 * core) + 0.5 * g, rtol=0.03)
+    band = lin[40:120, 31:34].reshape(-1, 3).mean(0)  # a = 0.5: the same colour, half over the grey
+    np.testing.assert_allclose(band, 0.5 * core + 0.5 * g, rtol=0.03)
     np.testing.assert_allclose(out[:10], linear_to_srgb(np.full((10, 100, 3), g, np.float32)), atol=1e-5)
     # EV +1 doubles the person's light; "physical" with the background's light is the same as auto
     brighter = srgb_to_linear(composite(diffuse, img, bg, mask=mask, exposure=1.0, **SAME))

@@ -1,0 +1,116 @@
+"""Edge refinement of a coarse person matte at the photo's own resolution, in a band around its outline.
+
+The coarse matte (the segmentation graphs' 256² output, upsampled and guided-filtered) gets the outline's
+place right but its soft part wrong: a smear several pixels wide that follows no strand of hair. In a band
+around the coarse outline, each pixel's alpha is re-estimated from colour: the person's colour F and the
+background's colour B near the pixel are the means of the photo over the sure-foreground and the
+sure-background pixels of a window around it (box filters: fast at any size), and alpha is where the
+pixel's colour lies on the line from B to F (the colour-line model of Levin et al.'s closed-form matting,
+solved per pixel with F and B held fixed):
+
+    alpha_c = clip(((I - B) . (F - B)) / (|F - B|^2 + eps), 0, 1)
+
+Where F and B are alike (a dark coat before a dark doorway) colour says nothing: the estimate is blended
+with the coarse alpha by a confidence |F - B|^2 / (|F - B|^2 + tau). A small guided filter (the photo as
+guide) then removes pixel noise while keeping strands. Outside the band the coarse matte is kept, except
+that a faint veil (alpha < 0.2 on the background side, > 0.8 on the person's; < 0.05 / > 0.95 anywhere
+away from the outline) is snapped to 0 / 1: composited, it would show the old background.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+_SURE = 0.95  # coarse alpha above this (after erosion) is sure foreground, below 1 - this sure background
+_SNAP = 0.05  # ... and away from the outline, alpha below this is 0, above 1 - this 1
+_VEIL = 0.2  # more than the band's width from the outline, alpha below this is 0 (above 1 - this: 1)
+_BAND_FRAC = 0.008  # half-width of the band, as a fraction of the photo's longer side (16 px at 2000 px) ...
+_BAND_MIN = 3  # ... at least this many pixels
+_EPS = 1e-4
+_TAU = 0.3  # |F - B|^2 at which colour and the coarse matte count equally (benchmarks/matting_eval.py)
+_GF_RADIUS = 1
+_GF_EPS = 1e-3
+
+
+def band_width(shape: tuple[int, int]) -> int:
+    """Half-width in pixels of the band refined around the outline of an (h, w) photo's matte."""
+    return max(_BAND_MIN, int(round(_BAND_FRAC * max(shape))))
+
+
+def _box(x: np.ndarray, r: int) -> np.ndarray:
+    return cv2.boxFilter(x, -1, (2 * r + 1, 2 * r + 1), normalize=False, borderType=cv2.BORDER_CONSTANT)
+
+
+def refine_edges(rgb: np.ndarray, alpha: np.ndarray, band: int | None = None) -> np.ndarray:
+    """Refine a soft matte in a band around its outline (module docstring).
+
+    Args:
+        rgb: (H, W, 3) float32 RGB in [0, 1].
+        alpha: (H, W) float32 coarse matte in [0, 1].
+        band: half-width of the band in pixels (default :func:`band_width`).
+
+    Returns:
+        New (H, W) float32 alpha in [0, 1]; outside the band ``alpha`` snapped to 0 / 1 where faint.
+    """
+    h, w = alpha.shape
+    r = band_width((h, w)) if band is None else int(band)
+    out = alpha.copy()
+    # away from the outline the matte is snapped: a faint veil of the segmentation over the background
+    # (or a faint hole in the person) would carry the old background into any composite
+    out[out < _SNAP] = 0.0
+    out[out > 1 - _SNAP] = 1.0
+    edge = (alpha > _SNAP) & (alpha < 1 - _SNAP)
+    ys = np.flatnonzero(edge.any(axis=1))
+    xs = np.flatnonzero(edge.any(axis=0))
+    if ys.size == 0:
+        return out
+    m = 3 * r + 2  # work on the outline's bounding box only (plus the windows' reach)
+    y0, y1 = max(int(ys[0]) - m, 0), min(int(ys[-1]) + 1 + m, h)
+    x0, x1 = max(int(xs[0]) - m, 0), min(int(xs[-1]) + 1 + m, w)
+    a = np.ascontiguousarray(alpha[y0:y1, x0:x1])
+    img = np.ascontiguousarray(rgb[y0:y1, x0:x1])
+    inside = (a >= 0.5).astype(np.uint8)
+    fg = cv2.distanceTransform(inside, cv2.DIST_L2, 3) > r  # sure: more than r px from the outline
+    bg = cv2.distanceTransform(1 - inside, cv2.DIST_L2, 3) > r
+    unknown = ~(fg | bg)
+    fg_w = (fg & (a >= _SURE)).astype(np.float32)
+    bg_w = (bg & (a <= 1 - _SURE)).astype(np.float32)
+    # mean colour of the sure pixels in a window of radius 2r (4r where the nearer window holds none)
+    f_col, f_n = _side_mean(img, fg_w, 2 * r)
+    b_col, b_n = _side_mean(img, bg_w, 2 * r)
+    d = f_col - b_col
+    dd = (d * d).sum(-1)
+    a_c = np.clip(((img - b_col) * d).sum(-1) / (dd + _EPS), 0.0, 1.0)
+    conf = dd / (dd + _TAU) * (f_n > 0) * (b_n > 0)
+    est = _guided(img, (conf * a_c + (1 - conf) * a).astype(np.float32))
+    sub = out[y0:y1, x0:x1]
+    sub[unknown] = np.clip(est[unknown], 0.0, 1.0)
+    sub[bg & (a < _VEIL)] = 0.0
+    sub[fg & (a > 1 - _VEIL)] = 1.0
+    return out
+
+
+def _side_mean(img: np.ndarray, weight: np.ndarray, r: int) -> tuple[np.ndarray, np.ndarray]:
+    """Weighted mean colour in windows of radius r, falling back to radius 2r where a window holds none."""
+    n = _box(weight, r)
+    s = _box(img * weight[..., None], r)
+    n2 = _box(weight, 2 * r)
+    s2 = _box(img * weight[..., None], 2 * r)
+    near = n > 0.5
+    num = np.where(near[..., None], s, s2)
+    den = np.where(near, n, n2)
+    return num / np.maximum(den, 1e-6)[..., None], den
+
+
+def _guided(img: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """A gray-guided filter of radius _GF_RADIUS (He et al.), to remove pixel noise along the strands."""
+    g = cv2.cvtColor(img, cv2.COLOR_RGB2GRAY)
+    k = (2 * _GF_RADIUS + 1,) * 2
+    mean_g = cv2.boxFilter(g, -1, k)
+    mean_p = cv2.boxFilter(p, -1, k)
+    var = cv2.boxFilter(g * g, -1, k) - mean_g * mean_g
+    cov = cv2.boxFilter(g * p, -1, k) - mean_g * mean_p
+    aa = cov / (var + _GF_EPS)
+    bb = mean_p - aa * mean_g
+    return cv2.boxFilter(aa, -1, k) * g + cv2.boxFilter(bb, -1, k)

@@ -1,0 +1,86 @@
+"""relight_rt._refine.refine_edges: alpha re-estimated from colour in a band around a coarse matte's outline."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+
+from relight_rt import _refine as R
+from relight_rt import matting as M
+from relight_rt._io import read_image
+
+
+def strands(h: int = 200, w: int = 240):
+    """A red person (left) with thin strands reaching into a blue background: the true alpha, the photo, and a
+    coarse matte (the true one blurred, as an upsampled segmentation is)."""
+    truth = np.zeros((h, w), np.float32)
+    truth[:, : w // 2] = 1.0
+    for k in range(6):  # strands 2 px wide, 30 px long, sticking out of the edge
+        y = 20 + 30 * k
+        truth[y : y + 2, w // 2 : w // 2 + 30] = 1.0
+    f = np.array([0.9, 0.2, 0.1], np.float32)
+    b = np.array([0.1, 0.3, 0.9], np.float32)
+    rgb = truth[..., None] * f + (1 - truth[..., None]) * b
+    coarse = np.clip(cv2.GaussianBlur(truth, (0, 0), 6.0), 0.0, 1.0)
+    return rgb.astype(np.float32), truth, coarse
+
+
+def test_strands_come_back_where_colour_tells_them_apart():
+    rgb, truth, coarse = strands()
+    out = R.refine_edges(rgb, coarse, band=10)
+    band = cv2.dilate(((coarse > 0.05) & (coarse < 0.95)).astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
+    assert np.abs(out - truth)[band].mean() < 0.6 * np.abs(coarse - truth)[band].mean()  # measured 0.47x
+    assert out.dtype == np.float32 and out.shape == truth.shape and 0 <= out.min() and out.max() <= 1
+
+
+def test_outside_the_band_the_coarse_matte_is_kept_and_faint_veils_go():
+    rgb, _, coarse = strands()
+    veiled = coarse.copy()
+    veiled[:, -40:] = np.maximum(veiled[:, -40:], 0.1)  # a faint veil over the background, far from the outline
+    out = R.refine_edges(rgb, veiled, band=4)
+    far = cv2.distanceTransform((coarse < 0.5).astype(np.uint8), cv2.DIST_L2, 5) + cv2.distanceTransform(
+        (coarse >= 0.5).astype(np.uint8), cv2.DIST_L2, 5
+    )
+    kept = (far > 30) & (veiled > 0.2) & (veiled < 0.8)
+    np.testing.assert_array_equal(out[kept], veiled[kept])
+    assert not out[:, -40:].any()  # the veil would show the old background in a composite
+
+
+def test_where_colours_are_alike_the_coarse_matte_stays():
+    rgb, _, coarse = strands()
+    grey = np.full_like(rgb, 0.4)  # no colour difference at all: nothing to go on
+    # only the closing 3x3 guided filter acts (on a flat guide: a 3x3 mean): differences of a few thousandths
+    mid = (coarse > 0.2) & (coarse < 0.8)  # (faint values are snapped to 0 / 1)
+    np.testing.assert_allclose(R.refine_edges(grey, coarse, band=10)[mid], coarse[mid], atol=0.01)
+
+
+def test_empty_and_full_mattes_unchanged():  # (and only faint values are snapped)
+    rgb = np.random.default_rng(0).random((40, 50, 3), dtype=np.float32)
+    for a in (np.zeros((40, 50), np.float32), np.ones((40, 50), np.float32)):
+        np.testing.assert_array_equal(R.refine_edges(rgb, a), a)
+
+
+def test_band_width_follows_the_photo():
+    assert R.band_width((100, 120)) == 3 and R.band_width((1302, 1950)) == 16
+
+
+def test_reference_photo_edges_refined(reference_dir):
+    """Issue 33: the refinement must not lose overlap with the hand mask and must gain in its soft band."""
+    rgb = np.ascontiguousarray(read_image(reference_dir / "photo" / "sample.jpg")[..., :3])
+    gt = cv2.imread(str(reference_dir / "photo" / "sample_mask.png"), cv2.IMREAD_GRAYSCALE) / 255.0
+    before = M.PersonMatter(edges=False)(rgb)
+    after = M.PersonMatter()(rgb)
+    iou = lambda a: float(((a >= 0.5) & (gt >= 0.5)).sum() / ((a >= 0.5) | (gt >= 0.5)).sum())  # noqa: E731
+    soft = (gt > 0.02) & (gt < 0.98)
+    assert iou(after) >= 0.970 and iou(after) >= iou(before) - 1e-3  # measured 0.9713 (before 0.9695)
+    assert np.abs(after - gt)[soft].mean() < 0.97 * np.abs(before - gt)[soft].mean()  # measured 0.219 vs 0.237
+
+
+@pytest.mark.parametrize("edges", [True, False])
+def test_video_matter_does_not_refine_the_band(edges):
+    vm = M.VideoMatter(M.PersonMatter(edges=edges))
+    rgba = read_image(M.bundled_models_dir().parent / "data" / "example.png")
+    rgb = np.ascontiguousarray(rgba[..., :3])
+    a = vm(rgb)
+    assert a.shape == rgb.shape[:2]
