@@ -69,6 +69,7 @@ ImageLike = str | os.PathLike | np.ndarray
 _RATIO_EPS = np.float32(0.01)  # the ratio's denominator is floored here (dark pixels: noise, not light)
 _ALPHA_MIN = np.float32(1e-3)
 _SOFT = 1.0 / 255  # a matte value further than this from 0 and 1 is a soft edge (mixes person and background)
+_THIN_EDGE = 4.0  # px: a soft edge no wider than this on average is feathering or anti-aliasing (no F/B estimate)
 _SHADING_MIN = np.float32(1e-3)  # full-resolution albedo: photo / shading, shading floored here
 _SHADING_TRUST = np.float32(0.1)  # ... and trusted fully from this shading up (blended into the network's below)
 _SHADE_BLOCK = 1 << 19  # multiply-adds per block of diffuse_batch (about 2 MB of float32 temporaries)
@@ -118,18 +119,29 @@ def _shoulder(colour: np.ndarray, knee: np.ndarray) -> np.ndarray:
 
 
 def _consistent(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray, bg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Foreground and background colours adjusted so that alpha F + (1 - alpha) B is the photo again.
+    """Foreground and background colours adjusted so that alpha F + (1 - alpha) B is the photo again, in place.
 
-    The estimate minimises that equation's error among smoothness terms, so it does not hold exactly; here B is
-    solved from it (kept in [0, 1]) and then F from B, so that composing them over each other gives the photo back
-    (to rounding) wherever that is possible in [0, 1].
+    The estimate minimises that equation's error among smoothness terms, so it does not hold exactly; here, on
+    the soft pixels, B is solved from it (kept in [0, 1]) and then F from B, so that composing them over each
+    other gives the photo back (to rounding) wherever that is possible in [0, 1].
     """
-    a = alpha
-    b = np.where(a < 1 - _SOFT, (image - a * fg) / np.maximum(1 - a, _SOFT), bg)
-    np.clip(b, 0, 1, out=b)
-    f = np.where(a > _SOFT, (image - (1 - a) * b) / np.maximum(a, _SOFT), fg)
-    np.clip(f, 0, 1, out=f)
-    return f.astype(np.float32), b.astype(np.float32)
+    soft = (alpha > _SOFT) & (alpha < 1 - _SOFT)
+    a = alpha[soft][:, None]
+    i, f = image[soft], fg[soft]
+    b = np.clip((i - a * f) / (1 - a), 0, 1)
+    bg[soft] = b
+    fg[soft] = np.clip((i - (1 - a) * b) / a, 0, 1)
+    return fg, bg
+
+
+def _soft_edge_width(alpha: np.ndarray) -> float:
+    """Mean width in pixels of a matte's soft edge: its soft pixels over the length of its outline."""
+    soft = int(np.count_nonzero((alpha > _SOFT) & (alpha < 1 - _SOFT)))
+    if soft == 0:
+        return 0.0
+    inside = (alpha > 0.5).astype(np.uint8)
+    outline = int(np.count_nonzero(inside - cv2.erode(inside, np.ones((3, 3), np.uint8))))
+    return soft / max(outline, 1)
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:
@@ -661,12 +673,11 @@ class Relighter:
         if "foreground" not in state:
             image = np.ascontiguousarray(dec.geometry.crop(dec.image))
             alpha = np.ascontiguousarray(dec.geometry.crop(dec.mask))
-            soft = ((alpha > _SOFT) & (alpha < 1 - _SOFT)).any()
-            if (state.get("photo") or always) and soft:
+            if (state.get("photo") or always) and _soft_edge_width(alpha) > _THIN_EDGE:
                 fg, bg = estimate_foreground(image, alpha, return_background=True)
-                fg, bg = _consistent(image, alpha[..., None], fg, bg)
+                fg, bg = _consistent(image, alpha, fg, bg)
                 state["foreground"] = (_readonly(fg), _readonly(bg))
-            else:
+            else:  # a hard mask, or one anti-aliased over a pixel: nothing of the background to take out
                 state["foreground"] = (_readonly(image), _readonly(image))
         return state["foreground"]
 
