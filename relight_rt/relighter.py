@@ -131,6 +131,9 @@ def _consistent(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray, bg: np.nda
     b = np.clip((i - a * f) / (1 - a), 0, 1)
     bg[soft] = b
     fg[soft] = np.clip((i - (1 - a) * b) / a, 0, 1)
+    background, person = alpha <= _SOFT, alpha >= 1 - _SOFT  # exactly the photo where it is not mixed
+    bg[background] = image[background]
+    fg[person] = image[person]
     return fg, bg
 
 
