@@ -269,6 +269,7 @@ def test_full_size_fidelity_and_torch_free_import(reference_dir, tmp_path):
             assert e_conv <= 1e-4 and e_imp <= 1e-4 and e_pair <= 1e-6, (kind, name)
 
 
+@pytest.mark.long
 def test_full_size_end_to_end(reference_dir, tmp_path):
     """The done criterion: fake reference checkpoints at 1024 / width 64 convert (with fp16), and our own
     full-size checkpoint exports with ``python -m export onnx``, within a few minutes on 2 CPU cores."""

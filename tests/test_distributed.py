@@ -123,6 +123,7 @@ def test_same_bytes_and_failures_as_the_single_process_cli(ray_local, shoot, lig
     assert all(r["seconds"] > 0 and set(r) >= {"input", "output", "status", "error", "seconds"} for r in rows)
 
 
+@pytest.mark.long
 def test_rerun_after_a_kill_redoes_only_what_is_missing(ray_local, shoot, light_file, models_dir, single_process,
                                                         tmp_path):  # fmt: skip
     out = tmp_path / "out"
@@ -154,6 +155,7 @@ def test_rerun_after_a_kill_redoes_only_what_is_missing(ray_local, shoot, light_
     assert third.skipped == 0 and third.written == GOOD
 
 
+@pytest.mark.long
 def test_killed_subprocess_job_then_rerun(ray_local, light_file, models_dir, tmp_path):
     """A real kill: a CLI job on the shared cluster is SIGKILLed once a few outputs exist; the rerun
     leaves every output the manifest lists alone and writes the rest."""

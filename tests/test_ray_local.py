@@ -155,6 +155,7 @@ def test_too_small_address_space_is_one_line(tmp_path, models_dir):
     assert lines[0].startswith("relight-rt: error: --ray local: processes here may use 1.5 GiB of address space")
 
 
+@pytest.mark.long
 @linux
 def test_ray_local_under_an_address_space_limit(tmp_path, models_dir):
     """With Ray's default object store (30 % of the memory) the raylet died at start-up and the job exited 1."""
@@ -174,6 +175,7 @@ def _command(pid: int) -> bytes:
         return b""
 
 
+@pytest.mark.long
 @linux
 def test_kill_9_of_the_driver_ends_its_local_ray(tmp_path, models_dir):
     """The real thing: a ``--ray local`` job is SIGKILLed once its raylet has started its agents; every process
