@@ -53,6 +53,7 @@ import numpy as np
 
 from . import sh
 from ._errors import RelightError
+from ._pairs import number_pair
 from .color import srgb_to_linear
 
 __all__ = [
@@ -109,15 +110,7 @@ def parse_key_light(value) -> tuple[float, float] | None:
     """
     if value is None:
         return None
-    if isinstance(value, str):
-        parts = value.replace(" ", "").split(",")
-        if len(parts) != 2:
-            raise RelightError(f"key light: expected AZIMUTH,ELEVATION in degrees (e.g. 45,30), got {value!r}")
-        value = parts
-    try:
-        az, el = (float(v) for v in value)
-    except (TypeError, ValueError):
-        raise RelightError(f"key light: expected two numbers AZIMUTH,ELEVATION in degrees, got {value!r}") from None
+    az, el = number_pair(value, "key light", "AZIMUTH,ELEVATION in degrees", "45,30")
     if not (math.isfinite(az) and math.isfinite(el)) or not -90 <= el <= 90:
         raise RelightError(f"key light: expected a finite azimuth and an elevation in [-90, 90] degrees, got "
                            f"{az:g},{el:g}")  # fmt: skip

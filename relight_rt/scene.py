@@ -53,6 +53,7 @@ import numpy as np
 
 from . import exposure as _exposure
 from ._errors import RelightError
+from ._pairs import number_pair
 from .background import _LUT, key_direction, linear_lut, parse_key_light, read_background, scene_light
 from .color import linear_to_srgb, srgb_to_linear
 from .masks import AUTO, resolve_mask
@@ -73,15 +74,7 @@ _UNIT = np.arange(256, dtype=np.float32) / np.float32(255)  # 8-bit → float in
 
 def parse_position(value) -> tuple[float, float]:
     """'X,Y' (or a pair) → (x, y), each a fraction of the background in [0, 1]."""
-    if isinstance(value, str):
-        parts = value.replace(" ", "").split(",")
-        if len(parts) != 2:
-            raise RelightError(f"position: expected X,Y (fractions of the background, e.g. 0.5,0.9), got {value!r}")
-        value = parts
-    try:
-        x, y = (float(v) for v in value)
-    except (TypeError, ValueError):
-        raise RelightError(f"position: expected two numbers X,Y in [0, 1], got {value!r}") from None
+    x, y = number_pair(value, "position", "X,Y (fractions of the background)", "0.5,0.9")
     if not (0 <= x <= 1 and 0 <= y <= 1):  # also rejects NaN
         raise RelightError(f"position: expected X,Y each in [0, 1] (fractions of the background), got {x:g},{y:g}")
     return x, y

@@ -104,6 +104,7 @@ def _files(folder: Path) -> dict[str, bytes]:
     return {p.name: p.read_bytes() for p in sorted(folder.glob("*.png")) if not p.name.startswith(".")}
 
 
+@pytest.mark.long
 def test_same_bytes_and_failures_as_the_single_process_cli(ray_local, shoot, light_file, models_dir,
                                                            single_process, tmp_path, capsys):  # fmt: skip
     argv = ["relight", shoot, "--light", light_file, "--models", models_dir, "--device", "cpu"]
@@ -186,6 +187,7 @@ def test_killed_subprocess_job_then_rerun(ray_local, light_file, models_dir, tmp
     assert again.written == GOOD - len(listed) and len(_files(out)) == GOOD
 
 
+@pytest.mark.long
 def test_errors_name_the_problem(ray_local, shoot, light_file, models_dir, tmp_path, capsys):
     code, lines = _cli(["relight", shoot, "--light", light_file, "-o", tmp_path / "o", "--models", models_dir,
                         "--ray", "--ray-batch-size", "0"], capsys)  # fmt: skip
@@ -205,6 +207,7 @@ def _clip(folder: Path, n: int, seed: int, mask: bool = True) -> Path:
     return folder
 
 
+@pytest.mark.long
 def test_video_clips_one_task_each(ray_local, models_dir, tmp_path, capsys):
     clips = [_clip(tmp_path / "a", 4, 0), _clip(tmp_path / "b", 3, 10), _clip(tmp_path / "bad", 2, 20)]
     (clips[2] / "f_001.png").write_bytes(b"\x89PNG\r\n\x1a\n truncated")  # a damaged frame: that clip fails

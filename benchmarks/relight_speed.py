@@ -1,0 +1,59 @@
+"""How long relighting a real photo takes through the Python API (issue 32's speed figure).
+
+    python benchmarks/relight_speed.py [PHOTO [MASK]] [--repeats 7] [--models DIR]
+
+Default photo: the reference photo in ../shared/reference (2.5 megapixels) with its hand mask. Prints, best and
+median of ``--repeats`` after one warm-up call: ``relight`` of one Decomposition under three presets (decompose
+once, relight many), and ``relight`` of the photo itself (decompose + relight) with the given mask and with the
+automatic matte. CPU, onnxruntime's default threads.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+from pathlib import Path
+
+REFERENCE = Path(__file__).resolve().parents[2] / "shared" / "reference" / "photo"
+
+
+def timed(fn, repeats: int) -> tuple[float, float]:
+    fn()
+    times = []
+    for _ in range(repeats):
+        t = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t)
+    return 1000 * min(times), 1000 * statistics.median(times)
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("photo", nargs="?", default=str(REFERENCE / "sample.jpg"))
+    p.add_argument("mask", nargs="?", default=str(REFERENCE / "sample_mask.png"))
+    p.add_argument("--repeats", type=int, default=7)
+    p.add_argument("--models", default=None)
+    args = p.parse_args()
+
+    from relight_rt import Relighter, lights
+    from relight_rt._io import read_image, read_mask
+
+    r = Relighter(args.models, device="cpu")
+    image = read_image(args.photo)
+    mask = read_mask(args.mask, image.shape[:2])
+    dec = r.decompose(image, mask)
+    print(f"{args.photo}: {image.shape[1]}x{image.shape[0]}, second pass on the face: "
+          f"{r._prepared(dec).get('head') is not None}")
+    for name in ("studio", "window-left", "campfire"):
+        light = lights.preset(name)
+        best, median = timed(lambda light=light: r.relight(dec, light), args.repeats)
+        print(f"relight a Decomposition, {name}: best {best:.0f} ms, median {median:.0f} ms")
+    light = lights.preset("studio")
+    for label, kwargs in (("the given mask", {"mask": mask}), ("the automatic matte", {})):
+        best, median = timed(lambda kwargs=kwargs: r.relight(image, light, **kwargs), max(3, args.repeats // 2))
+        print(f"decompose + relight, {label}: best {best:.0f} ms, median {median:.0f} ms")
+
+
+if __name__ == "__main__":
+    main()
