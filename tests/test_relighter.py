@@ -379,6 +379,7 @@ def small_decomposition(relighter):
     return relighter.decompose(img, mask)
 
 
+@pytest.mark.long
 @settings(max_examples=1000, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(light=extreme_light())
 def test_property_extreme_lights(relighter, small_decomposition, light):

@@ -174,7 +174,7 @@ def test_args_json_is_written(data, tmp_path):
     assert args["command"] == "train-stage1" and args["width"] == 4
 
 
-@pytest.mark.parametrize("source", ["toy", "render"])
+@pytest.mark.parametrize("source", ["toy", pytest.param("render", marks=pytest.mark.long)])
 def test_quickstart_end_to_end(tmp_path, source):
     """Tiny data, a few training steps, ONNX export, evaluation and a relit image."""
     pytest.importorskip("onnxruntime")
