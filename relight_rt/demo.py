@@ -46,13 +46,16 @@ def side_by_side(photo: np.ndarray, relit: np.ndarray, light: np.ndarray) -> np.
     return np.concatenate([photo[..., :3], gap, relit[..., :3], gap, panel], axis=1)
 
 
-def run_demo(output: str | Path, preset: str = "golden-hour", models=None, device: str = "auto") -> Path:
-    """Relight the bundled example under ``preset`` and write photo | relit | light preview to ``output``."""
+def run_demo(output: str | Path, preset: str = "golden-hour", models=None, device: str = "auto", *,
+             config=None) -> Path:
+    """Relight the bundled example under ``preset`` and write photo | relit | light preview to ``output``.
+
+    ``config``: a relight_rt.config.RuntimeConfig (wins over ``models`` and ``device``)."""
     from .relighter import Relighter
 
     light = lights.preset(preset)
     photo = read_image(example_path(), "example")
-    relighter = Relighter(models, device=device)
+    relighter = Relighter.from_config(config) if config is not None else Relighter(models, device=device)
     relit = relighter.relight(photo, light, background=np.zeros(photo.shape[:2] + (3,), np.float32))
     image = side_by_side(photo[..., :3] * photo[..., 3:], relit, light)
     return write_image(output, image, protect=[example_path()])
@@ -74,7 +77,9 @@ def add_parser(subparsers) -> None:
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
-    path = run_demo(args.output, args.preset, args.models, args.device)
+    from ._options import runtime_config
+
+    path = run_demo(args.output, args.preset, config=runtime_config(args))  # every runtime option, as relight
     log.info("wrote %s (photo | relit under %s | the light on a sphere)", path, args.preset)
     return 0
 

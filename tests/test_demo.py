@@ -42,3 +42,21 @@ def test_demo_unknown_preset(tmp_path, models_dir, monkeypatch, capsys):
     assert main(["demo", "--preset", "disco", "-o", str(tmp_path / "d.png")]) == 2
     assert "disco" in capsys.readouterr().err
     assert not (tmp_path / "d.png").exists()
+
+
+def test_demo_takes_every_runtime_option(tmp_path, models_dir, monkeypatch):
+    """issue 31: demo accepted --precision/--preprocess/--no-detail and ignored them; they reach the Relighter."""
+    from relight_rt.relighter import Relighter
+
+    seen = []
+    original = Relighter.from_config.__func__
+
+    def spy(cls, config, providers=None):
+        seen.append(config)
+        return original(cls, config, providers)
+
+    monkeypatch.setattr(Relighter, "from_config", classmethod(spy))
+    monkeypatch.setenv("RELIGHT_RT_MODELS", str(models_dir))
+    monkeypatch.chdir(tmp_path)
+    assert main(["demo", "--no-detail", "--preprocess", "reference", "--device", "cpu", "-o", "a.png"]) == 0
+    assert len(seen) == 1 and seen[0].detail is False and seen[0].preprocess == "reference"

@@ -436,3 +436,17 @@ def test_background_light_comes_from_the_scene(studio):
     assert (left[1] < light[1]).all()
     with pytest.raises(RelightError, match="key light"):
         studio.background_light(cv2.imencode(".png", scene)[1].tobytes(), "east")
+
+
+def test_cli_studio_takes_every_runtime_option(photo, models_dir, monkeypatch):
+    """issue 31: studio accepted --precision/--preprocess/--no-detail and ignored them; they reach its Relighter."""
+    pytest.importorskip("fastapi")
+    pytest.importorskip("uvicorn")
+    import relight_rt.studio as studio_cli
+
+    served = []
+    monkeypatch.setattr(studio_cli, "serve", lambda studio, host, port, open_browser: served.append(studio))
+    args = ["studio", str(photo), "--models", str(models_dir), "--device", "cpu", "--no-detail", "--preprocess",
+            "reference"]
+    assert main(args) == 0
+    assert served and served[0].relighter.detail is False and served[0].relighter.preprocess == "reference"

@@ -113,10 +113,10 @@ def _cmd_studio(args: argparse.Namespace) -> int:
         raise RelightError(f"--port is {args.port}, expected 0 to 65535")
     if not Path(args.photo).is_file():
         raise RelightError(f"photo {args.photo} not found")
-    from ..relighter import Relighter
+    from .._options import relighter as configured_relighter
     from .core import Studio
 
-    relighter = Relighter(args.models, device=args.device)
+    relighter = configured_relighter(args)  # --models, --device, --precision, --preprocess, --no-detail
     studio = Studio(args.photo, args.mask, args.background, relighter, args.preview_pixels, models=args.models)
     # Ctrl-C and SIGTERM: uvicorn stops serving, then raises the signal again under the CLI's own handlers,
     # so the command ends as every command does (130 / 143, one line; relight_rt.cli._run)
