@@ -25,6 +25,7 @@ import math
 
 import numpy as np
 
+from . import sh
 from ._errors import RelightError
 
 __all__ = ["REC709", "exposure_scale", "mean_luminance", "parse_exposure"]
@@ -86,16 +87,9 @@ def mean_luminance(albedo, transport, mask, light) -> float:
     weight = float(m.sum())
     if weight <= 0:
         return 0.0
-    inside = m > 0  # only the person's pixels (often a third of the square), gathered into contiguous rows
-    ti, ai, mi = t[inside], a[inside], m[inside]
-    lum = np.zeros(mi.shape, np.float32)
-    for c in range(3):  # nine multiply-adds per pixel and colour: no BLAS call (its threads cost more than this)
-        shade = ti[:, 0] * lit[0, c]
-        for k in range(1, 9):
-            shade += ti[:, k] * lit[k, c]
-        np.maximum(shade, 0, out=shade)
-        lum += REC709[c] * shade * ai[:, c]
-    return float(lum @ mi) / weight
+    inside = m > 0  # only the person's pixels (often a third of the square)
+    lum = (sh.shading(t[inside], lit) * a[inside]) @ REC709
+    return float(lum @ m[inside]) / weight
 
 
 def exposure_scale(albedo, transport, mask, light, target_luminance: float, exposure="auto") -> float:

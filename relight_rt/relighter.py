@@ -629,7 +629,7 @@ class Relighter:
             alpha = dec.network_mask[y0:y1, x0:x1]
             transport = unpremultiply(np.ascontiguousarray(dec.transport[y0:y1, x0:x1]), alpha)
             albedo = unpremultiply(np.ascontiguousarray(dec.albedo[y0:y1, x0:x1]), alpha) @ _exposure.REC709
-            own = albedo * np.maximum(transport @ dec.white_light[:, 0], 0)
+            own = albedo * sh.shading(transport, dec.white_light)[..., 0]  # white: the three columns are equal
             residual = self._own_residual(dec) if with_residual else None
             if residual is not None:
                 own += _luminance_window(residual, alpha, (y0, y1, x0, x1))
@@ -692,10 +692,13 @@ class Relighter:
         fg, behind = self._foreground(dec)
         if behind is fg:
             return dec.image
-        out = np.array(dec.image)
-        y0, y1, x0, x1 = dec.geometry.box
-        out[y0:y1, x0:x1] = behind
-        return out
+        state = self._prepared(dec)
+        if "behind" not in state:  # once per photo: every relight composites over the same backdrop
+            out = np.array(dec.image)
+            y0, y1, x0, x1 = dec.geometry.box
+            out[y0:y1, x0:x1] = behind
+            state["behind"] = _readonly(out)
+        return state["behind"]
 
     def _gain(
         self, dec: Decomposition, light: np.ndarray, image: np.ndarray, residual: np.ndarray | None = None
@@ -708,10 +711,7 @@ class Relighter:
         y0, y1, x0, x1 = own["window"]
         transport, alpha = own["transport"], own["alpha"]
         light = np.asarray(light, np.float32)
-        shading = transport[..., :1] * light[0]
-        for k in range(1, 9):  # nine multiply-adds a pixel: no BLAS call (its threads cost more than this)
-            shading += transport[..., k : k + 1] * light[k]
-        np.maximum(shading, 0, out=shading)
+        shading = sh.shading(transport, light)
         lum = shading @ _exposure.REC709
         new = own["albedo"] * lum
         if residual is not None:
