@@ -54,7 +54,9 @@ import numpy as np
 from . import sh
 from ._errors import RelightError
 from ._pairs import number_pair
-from .color import srgb_to_linear
+from .color import srgb8_to_linear, srgb_to_linear
+from .exposure import REC709
+from .lights import directional
 
 __all__ = [
     "AMBIENT_GAIN", "BACKLIGHT", "COLOUR_SATURATION", "FOV_RANGE", "HIGHLIGHT_GAIN", "KEY_BACK", "KEY_FRONT",
@@ -83,9 +85,6 @@ _STATS_WIDTH = 512  # the median, contrast, colour and halves are read on a copy
 _CLIP_LEVEL = 250  # 8-bit value from which a pixel counts as saturated
 _SIDE_BLUR = 0.35  # blur level of the parts beside the field of view (0 sharp, 0.5 blurred, 1 band mean)
 _BAND = 8  # the sky / floor colour at the poles: the mean of the top / bottom 1/_BAND of the rows
-_LOBE_PEAK = 1.0625  # irradiance facing a unit SH lobe Y_k(d): Σ_l A_l (2l+1) / 4π = 1/4 + 1/2 + 5/16
-_REC709 = np.array([0.2126, 0.7152, 0.0722], np.float32)
-_LUT = srgb_to_linear(np.arange(256, dtype=np.uint8))  # 8-bit sRGB → linear float32
 
 
 def _check_fov(fov) -> float:
@@ -164,14 +163,8 @@ def _linear_and_clipped(photo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Linear float32 RGB and the (H, W) float32 saturated-pixel indicator."""
     if photo.dtype == np.uint8:  # OpenCV's table look-up and channel maximum: several times numpy's speed
         r, g, b = cv2.split(photo)
-        return linear_lut(photo), (cv2.max(cv2.max(r, g), b) >= _CLIP_LEVEL).astype(np.float32)
+        return srgb8_to_linear(photo), (cv2.max(cv2.max(r, g), b) >= _CLIP_LEVEL).astype(np.float32)
     return srgb_to_linear(photo), (photo.max(axis=2) >= _CLIP_LEVEL / 255).astype(np.float32)
-
-
-def linear_lut(image: np.ndarray) -> np.ndarray:
-    """Linear float32 values of a uint8 sRGB image of any channel count (a 256-entry table, cv2.LUT)."""
-    out = cv2.LUT(np.ascontiguousarray(image), _LUT.reshape(256, 1))
-    return out if out.shape == image.shape else out.reshape(image.shape)
 
 
 def _fill_front(lin: np.ndarray, fov: float, height: int) -> np.ndarray:
@@ -246,13 +239,12 @@ class SceneLight:
         """(3,) the ambient and key colour: the photo's mean colour with its saturation scaled, luminance 1."""
         s = COLOUR_SATURATION if saturation is None else saturation
         c = np.maximum(self.colour.astype(np.float64), 1e-6) ** s
-        return c / float(c @ _REC709)
+        return c / float(c @ REC709)
 
     @staticmethod
     def key_unit(direction) -> np.ndarray:
-        """(9,) a lobe from ``direction`` whose irradiance facing it is 1."""
-        d = np.asarray(direction, np.float64)
-        return sh.basis(d / np.linalg.norm(d)) / _LOBE_PEAK
+        """(9,) a lobe from ``direction`` whose irradiance facing it is 1 (a point lamp of lights.directional)."""
+        return directional(np.asarray(direction, np.float64))[:, 0]
 
     def key(self, key_light=None, backlight=None, geometry=None) -> tuple[tuple[float, float], bool]:
         """((azimuth, elevation), back): where the key comes from (degrees) and whether it is a back key."""
@@ -294,10 +286,10 @@ def scene_light(image, fov: float = 60.0, *, height: int = 64) -> SceneLight:
     stats = lin
     if pw > _STATS_WIDTH:
         stats = cv2.resize(lin, (_STATS_WIDTH, max(3, round(ph * _STATS_WIDTH / pw))), interpolation=cv2.INTER_AREA)
-    lum = stats @ _REC709
+    lum = stats @ REC709
     ph, pw = lum.shape
     mean = stats.reshape(-1, 3).mean(0)
-    mean_lum = float(mean @ _REC709)
+    mean_lum = float(mean @ REC709)
     colour = (mean / mean_lum).astype(np.float32) if mean_lum > 1e-6 else np.ones(3, np.float32)
     third = max(1, ph // 3)
     top_bottom = math.log2(max(float(lum[:third].mean()), 1e-6) / max(float(lum[-third:].mean()), 1e-6))

@@ -7,11 +7,12 @@ read as display values (uint8 / 255, uint16 / 65535) and give float32.
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 
 from ._errors import RelightError
 
-__all__ = ["linear_to_srgb", "srgb_to_linear"]
+__all__ = ["SRGB8_TO_LINEAR", "linear_to_srgb", "srgb8_to_linear", "srgb_to_linear"]
 
 # Breakpoints and slopes of the sRGB curve (IEC 61966-2-1).
 _SRGB_KNEE = 0.04045
@@ -67,3 +68,13 @@ def linear_to_srgb(x) -> np.ndarray:
     low = v * t(_SLOPE)
     high = t(1 + _OFFSET) * np.maximum(v, t(_LINEAR_KNEE)) ** t(1 / _GAMMA) - t(_OFFSET)
     return np.where(v <= _LINEAR_KNEE, low, high).astype(v.dtype, copy=False)
+
+
+SRGB8_TO_LINEAR = srgb_to_linear(np.arange(256, dtype=np.uint8))  # (256,) float32: 8-bit sRGB level → linear
+SRGB8_TO_LINEAR.flags.writeable = False
+
+
+def srgb8_to_linear(image: np.ndarray) -> np.ndarray:
+    """``srgb_to_linear`` for a uint8 image of any channel count, by a 256-entry table (cv2.LUT): new float32."""
+    out = cv2.LUT(np.ascontiguousarray(image), SRGB8_TO_LINEAR.reshape(256, 1))
+    return out if out.shape == image.shape else out.reshape(image.shape)

@@ -13,8 +13,8 @@ Steps (all colour arithmetic in linear light; both photos are read as sRGB, as c
      photo's own units (for the background's own light "auto" and "physical" are the same); an EV
      number offsets that; "physical" keeps the light as given.
 3. Relit with ``Relighter.relight(..., background="transparent", exposure="physical")`` (straight-alpha
-   RGBA, the soft matte as alpha). [Hook: the matting issue's foreground-colour decontamination goes in
-   ``_decontaminate``; today it returns the colour unchanged.]
+   RGBA, the soft matte as alpha); over a transparent background the Relighter relights the person's
+   foreground colour, so the old background does not ride along in the hair and soft edges.
 4. Placed. A *full-body* person (its matte does not touch its photo's bottom edge) stands on the ground:
    its feet (the box's bottom centre) go to ``position`` (x, y) in fractions of the background (default
    x as in its own photo, y = ``DEFAULT_FEET``), and its height follows from perspective for a level camera:
@@ -52,10 +52,11 @@ import cv2
 import numpy as np
 
 from . import exposure as _exposure
+from . import sh
 from ._errors import RelightError
 from ._pairs import number_pair
-from .background import _LUT, key_direction, linear_lut, parse_key_light, read_background, scene_light
-from .color import linear_to_srgb, srgb_to_linear
+from .background import key_direction, parse_key_light, read_background, scene_light
+from .color import SRGB8_TO_LINEAR, linear_to_srgb, srgb8_to_linear, srgb_to_linear
 from .masks import AUTO, resolve_mask
 
 __all__ = ["composite", "parse_position"]
@@ -117,7 +118,7 @@ def _linear_person(image):
             raw = cv2.cvtColor(raw, cv2.COLOR_BGR2RGB if raw.shape[2] == 3 else cv2.COLOR_BGRA2RGBA)
             if min(raw.shape[:2]) < 2:
                 raise RelightError(f"image {os.fspath(image)}: image is too small, got {raw.shape}")
-            out = linear_lut(raw)
+            out = srgb8_to_linear(raw)
             if raw.shape[2] == 4:
                 out[..., 3] = raw[..., 3] * np.float32(1 / 255)
             return out
@@ -126,7 +127,7 @@ def _linear_person(image):
         isinstance(image, np.ndarray) and image.dtype == np.uint8 and image.ndim == 3 and image.shape[2] in (3, 4)
         and min(image.shape[:2]) >= 2
     ):  # fmt: skip
-        out = linear_lut(image)
+        out = srgb8_to_linear(image)
         if image.shape[2] == 4:
             out[..., 3] = image[..., 3] * np.float32(1 / 255)
         return out
@@ -144,7 +145,7 @@ def _white_balance(dec, light: np.ndarray, reference: np.ndarray) -> np.ndarray:
         return light
 
     def mean_shade(lit):
-        s = np.maximum(t @ np.asarray(lit, np.float32), 0)
+        s = sh.shading(t, lit)
         c = (m @ s) / m.sum()
         return c / max(float(c @ _exposure.REC709), 1e-12)
 
@@ -171,18 +172,6 @@ def _check_horizon(horizon) -> float:
     if not 0 <= h <= 1:  # also rejects NaN
         raise RelightError(message)
     return h
-
-
-def _decontaminate(rgb: np.ndarray, alpha: np.ndarray) -> np.ndarray:
-    """Hook for the matting issue's foreground-colour decontamination (another branch: ``relight_rt.foreground.
-    estimate_foreground(rgb, alpha)`` on main at the time of writing).
-
-    TODO(h33): call the decontamination here on the person's straight colour and soft matte (unless, after the
-    merge, ``Relighter.relight`` already applies it to the relit colour, as main's ``_person_colour`` appears
-    to), so that the old background's colour does not ride along in the hair and at soft edges into the new
-    scene. Until then the colour is returned unchanged.
-    """
-    return rgb
 
 
 _NOISE_KERNEL = np.array([[1, -2, 1], [-2, 4, -2], [1, -2, 1]], np.float32)
@@ -359,7 +348,6 @@ def composite(
     target = _exposure.mean_luminance(dec.albedo, dec.transport, dec.network_mask, bg_light)
     lit = lit * np.float32(_exposure.exposure_scale(dec.albedo, dec.transport, dec.network_mask, lit, target, mode))
     rgba = relighter.relight(dec, lit, background="transparent", exposure="physical")
-    rgba = np.concatenate([_decontaminate(rgba[..., :3], rgba[..., 3]), rgba[..., 3:]], axis=2)
 
     # placement (step 4)
     hb, wb = bg.shape[:2]
@@ -448,7 +436,7 @@ def composite(
     if ry1 <= ry0 or rx1 <= rx0:
         return bg.astype(np.float32) * np.float32(1 / 255) if bg.dtype == np.uint8 else bg.astype(np.float32, copy=True)
     region_bg = bg[ry0:ry1, rx0:rx1]
-    lin = _LUT[region_bg] if region_bg.dtype == np.uint8 else srgb_to_linear(region_bg)
+    lin = SRGB8_TO_LINEAR[region_bg] if region_bg.dtype == np.uint8 else srgb_to_linear(region_bg)
     before = float((lin @ _exposure.REC709).sum())
     if draw_shadow:
         yy, xx = np.mgrid[ry0:ry1, rx0:rx1].astype(np.float32)
@@ -478,7 +466,7 @@ def composite(
     gain = 1.0
     if meter == "frame":
         if bg.dtype == np.uint8:  # the frame's linear luminance from the channels' histograms (fast)
-            hist = [cv2.calcHist([bg], [c], None, [256], [0, 256]).reshape(-1) @ _LUT for c in range(3)]
+            hist = [cv2.calcHist([bg], [c], None, [256], [0, 256]).reshape(-1) @ SRGB8_TO_LINEAR for c in range(3)]
             total = float(np.asarray(hist, np.float64) @ _exposure.REC709.astype(np.float64))
         else:
             total = float((srgb_to_linear(bg) @ _exposure.REC709).sum())
@@ -487,7 +475,7 @@ def composite(
             gain = float(np.clip(total / after, 2.0**-METER_LIMIT_EV, 2.0**METER_LIMIT_EV))
     if abs(math.log2(gain)) > 1e-3:
         if bg.dtype == np.uint8:
-            table = np.clip(linear_to_srgb(np.clip(_LUT * np.float32(gain), 0, 1)), 0, 1).astype(np.float32)
+            table = np.clip(linear_to_srgb(np.clip(SRGB8_TO_LINEAR * np.float32(gain), 0, 1)), 0, 1).astype(np.float32)
             out = cv2.LUT(bg, table.reshape(256, 1))
         else:
             out = np.clip(linear_to_srgb(np.clip(srgb_to_linear(bg) * np.float32(gain), 0, 1)), 0, 1)
