@@ -18,6 +18,7 @@ import argparse
 import importlib
 import importlib.util
 import logging
+import math
 import sys
 from pathlib import Path
 
@@ -245,8 +246,10 @@ def cmd_lights_show(args: argparse.Namespace) -> int:
     spec = spec.rotated(args.rotate)
     protect = [name, *spec.paths]
     if spec.source == "envmap":
-        light = spec.resolve()
-        image, notes = _light_sheet.envmap_sheet(sh.load_envmap(spec.value), light, args.rotate, args.size)
+        env = sh.load_envmap(spec.value)  # decoded once, for the light and for the sheet
+        light = sh.rotate_z(sh.project_envmap(env), math.radians(spec.rotate))
+        light = sh.check_light(light, "light").astype(np.float32)
+        image, notes = _light_sheet.envmap_sheet(env, light, args.rotate, args.size)
     else:
         light = relighter(args).resolve_light(spec) if spec.source == "photo" else spec.resolve()
         image, notes = sh.render_sphere(light, size=args.size), _light_sheet.notes(light, args.rotate)

@@ -37,6 +37,7 @@ import numpy as np
 from ._errors import RelightError
 from ._geometry import MODES, CropGeometry
 from ._io import write_npz
+from ._limits import NPY_MAX_BYTES, require_file
 
 FORMAT = 2
 __all__ = ["FORMAT", "load_transport", "save_transport", "transport_arrays"]
@@ -111,9 +112,12 @@ def load_transport(path: str | os.PathLike, *, network: bool = False) -> np.ndar
     """
     p = Path(path)
     label = f"transport {p}"
-    if not p.is_file():
-        raise RelightError(f"{label}: not found" if not p.exists() else f"{label}: not a regular file")
+    require_file(p, "transport")
     try:
+        with zipfile.ZipFile(p) as zf:  # every member's size before anything is inflated (a zip bomb)
+            big = [i.filename for i in zf.infolist() if i.file_size > NPY_MAX_BYTES]
+        if big:
+            raise RelightError(f"{label}: {big[0]} is larger than {NPY_MAX_BYTES >> 20} MiB uncompressed; refused")
         with np.load(p, allow_pickle=False) as z:
             if "transport" in z.files:
                 t = np.asarray(z["transport"])

@@ -57,3 +57,15 @@ def test_bad_files(tmp_path):
         load_transport(tmp_path / "nobox.npz")
     with pytest.raises(RelightError, match=r"expected \(32, 32, 9\)"):
         save_transport(tmp_path / "x.npz", t[:16], geo)
+
+
+def test_load_refuses_a_member_larger_than_the_npy_limit_before_inflating_it(tmp_path, monkeypatch):
+    """A .npz is a zip: its members' sizes are checked before anything is decompressed (as load_npy does)."""
+    import relight_rt.transport_file as tf
+
+    path = tmp_path / "t.npz"
+    np.savez_compressed(path, T=np.zeros((64, 64, 9), np.float32))  # 147 KB inflated, a few hundred bytes stored
+    assert tf.load_transport(path).shape == (64, 64, 9)
+    monkeypatch.setattr(tf, "NPY_MAX_BYTES", 100_000)
+    with pytest.raises(RelightError, match="larger than"):
+        tf.load_transport(path)

@@ -62,7 +62,9 @@ function paint() {
   state.dirty = false;
   const t0 = performance.now();
   state.preview.draw(previewLight(composedLight()));
-  state.preview.finish();  // the frame is really drawn (WebGL: waits for the GPU), so the time is true
+  // a frame that answers the user's input is timed: wait until it is really drawn (WebGL: the GPU), so the time
+  // is true; other frames are not held up (a read-back on every frame would stall the pipeline)
+  if (state.pendingInput !== null) state.preview.finish();
   const t1 = performance.now();
   state.stats.frames += 1;
   if (state.pendingInput !== null) {
