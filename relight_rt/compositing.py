@@ -225,8 +225,16 @@ def clean_edge_colour(colour: np.ndarray, photo: np.ndarray, foreground: np.ndar
     out = np.array(colour, dtype=np.float32)
     if not soft.any():
         return out
-    opaque = (a >= _OPAQUE).astype(np.float32)[..., None]
-    num, den = colour * opaque, photo * opaque
+    # only the soft pixels' box needs gains, plus the far window's reach around it (a video frame's soft edge
+    # is a thin band: the filters need not run over the whole frame)
+    rows, cols = np.flatnonzero(soft.any(axis=1)), np.flatnonzero(soft.any(axis=0))
+    reach = _GAIN_RADIUS_FAR + 1
+    y0, y1 = max(int(rows[0]) - reach, 0), min(int(rows[-1]) + 1 + reach, a.shape[0])
+    x0, x1 = max(int(cols[0]) - reach, 0), min(int(cols[-1]) + 1 + reach, a.shape[1])
+    box = (slice(y0, y1), slice(x0, x1))
+    opaque_all = a >= _OPAQUE
+    opaque = opaque_all[box].astype(np.float32)[..., None]
+    num, den = colour[box] * opaque, photo[box] * opaque
     gain = None
     for r in (_GAIN_RADIUS, _GAIN_RADIUS_FAR):
         k = (2 * r + 1, 2 * r + 1)
@@ -234,10 +242,16 @@ def clean_edge_colour(colour: np.ndarray, photo: np.ndarray, foreground: np.ndar
         d = cv2.boxFilter(den, -1, k, normalize=False)
         g = np.divide(n, d, out=np.full_like(n, np.nan), where=d > 1e-3 * (2 * r + 1))
         gain = g if gain is None else np.where(np.isnan(gain), g, gain)
-    total = float(den.sum())
-    overall = num.reshape(-1, 3).sum(0) / np.maximum(den.reshape(-1, 3).sum(0), 1e-6) if total > 0 else np.ones(3)
-    gain = np.where(np.isnan(gain), overall.astype(np.float32), gain)
-    out[soft] = np.clip(foreground[soft] * gain[soft], 0.0, 1.0)
+    edge = soft[box]
+    gain = gain[edge]
+    missing = np.isnan(gain[:, 0])
+    if missing.any():  # no opaque pixel within the far window: the whole person's gain
+        cn, cp = colour[opaque_all], photo[opaque_all]
+        total = cp.sum(0)
+        overall = cn.sum(0) / np.maximum(total, 1e-6) if float(total.sum()) > 0 else np.ones(3)
+        gain[missing] = overall.astype(np.float32)
+    region = out[box]
+    region[edge] = np.clip(foreground[box][edge] * gain, 0.0, 1.0)
     return out
 
 
