@@ -83,13 +83,13 @@ def as_colour(a: np.ndarray, *, bgr: bool) -> np.ndarray:
     return a
 
 
-def _to_unit_float(a: np.ndarray, name: str, *, allow_uint16: bool) -> np.ndarray:
+def _to_unit_float(a: np.ndarray, name: str) -> np.ndarray:
     """Any accepted dtype → new float32 array in [0, 1]."""
     if a.dtype == np.uint8:
         return np.multiply(a, np.float32(1 / 255), dtype=np.float32)
     if a.dtype == np.bool_:
         return a.astype(np.float32)
-    if a.dtype == np.uint16 and allow_uint16:
+    if a.dtype == np.uint16:
         return np.multiply(a, np.float32(1 / 65535), dtype=np.float32)
     if a.dtype.kind == "f":
         out = a.astype(np.float32)  # always a copy: never alias the caller's array
@@ -100,8 +100,7 @@ def _to_unit_float(a: np.ndarray, name: str, *, allow_uint16: bool) -> np.ndarra
             raise RelightError(f"{name}: expected float values in [0, 1], got [{lo:.4g}, {hi:.4g}] ({_describe(a)})")
         np.clip(out, 0.0, 1.0, out=out)
         return out
-    allowed = "uint8, uint16 or float" if allow_uint16 else "uint8 or float in [0, 1]"
-    raise RelightError(f"{name}: expected {allowed}, got {_describe(a)}")
+    raise RelightError(f"{name}: expected uint8, uint16 or float, got {_describe(a)}")
 
 
 def read_image(src: str | os.PathLike | np.ndarray, name: str = "image") -> np.ndarray:
@@ -136,7 +135,7 @@ def read_image(src: str | os.PathLike | np.ndarray, name: str = "image") -> np.n
         raise RelightError(f"{label}: expected an (H, W, 3) RGB or (H, W, 4) RGBA image, got {got}")
     if a.shape[0] < 2 or a.shape[1] < 2:
         raise RelightError(f"{label}: image is too small, got {_describe(a)}")
-    return _to_unit_float(a, label, allow_uint16=True)
+    return _to_unit_float(a, label)
 
 
 def read_mask(
@@ -176,7 +175,7 @@ def read_mask(
         raise RelightError(f"{label}: expected an (H, W) or (H, W, 3) mask, got {_describe(a)}")
     if tuple(a.shape[:2]) != tuple(shape):
         raise RelightError(f"{label}: mask is {a.shape[0]}x{a.shape[1]} (HxW), the image is {shape[0]}x{shape[1]}")
-    m = _to_unit_float(a, label, allow_uint16=True)
+    m = _to_unit_float(a, label)
     if allow_empty:
         return m
     if not (m >= 0.5).any():

@@ -100,11 +100,6 @@ def _read_inputs(args: argparse.Namespace, files: list[Path], relighter, spec, b
     return ProtectedPaths(protect)
 
 
-def _progress(items: list, enabled: bool):
-    """``items``, with a progress bar (or log lines without tqdm) when ``enabled`` (relight_rt._progress)."""
-    return progress(items, "image", enabled)
-
-
 def cmd_relight(args: argparse.Namespace) -> int:
     if getattr(args, "ray", None):  # relight_rt.distributed: the same work on a Ray cluster
         from .distributed import cmd_relight_ray
@@ -123,7 +118,7 @@ def cmd_relight(args: argparse.Namespace) -> int:
         out.mkdir(parents=True, exist_ok=True)
     written = 0
     show_bar = len(files) > 1
-    for path, target in _progress(plan.pairs, show_bar):
+    for path, target in progress(plan.pairs, "image", show_bar):
         try:
             if args.skip_existing and target.exists():
                 log.info("%s exists, skipped (--skip-existing)", target)

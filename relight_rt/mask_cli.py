@@ -196,17 +196,13 @@ def _run_video(video: Path, out: Path, vm, binary: bool) -> int:
     sink = FrameSink(video=out if as_video else None, frames_dir=None if as_video else out, fps=source.rate,
                      protect=source.paths)
     count = 0
-    bar = Progress(source.frame_count, "frame")  # relight_rt._progress
-    try:
-        with sink:
-            for frame in source:
-                alpha = _finish(frame.mask, binary)
-                sink.write(f"frame_{frame.index:06d}_mask", np.repeat(alpha[..., None], 3, axis=2))
-                count += 1
-                bar.update()
-            if count == 0:
-                raise RelightError(f"{video}: no frames could be read")
-    finally:
-        bar.close()
+    with Progress(source.frame_count, "frame") as bar, sink:  # relight_rt._progress
+        for frame in source:
+            alpha = _finish(frame.mask, binary)
+            sink.write(f"frame_{frame.index:06d}_mask", np.repeat(alpha[..., None], 3, axis=2))
+            count += 1
+            bar.update()
+        if count == 0:
+            raise RelightError(f"{video}: no frames could be read")
     log.info("%s: %d mask frames -> %s", video, count, out)
     return 0
