@@ -35,7 +35,7 @@ import numpy as np
 
 from .. import lights, sh
 from .._errors import RelightError
-from .._io import decode_bytes, encode_image, read_image, sibling_mask
+from .._io import as_colour, decode_bytes, encode_image, read_image, sibling_mask
 from .._limits import header_size
 
 log = logging.getLogger(__name__)
@@ -97,11 +97,8 @@ def decode_upload(data: bytes, name: str) -> np.ndarray:
     img = decode_bytes(np.frombuffer(data, np.uint8))  # turned as its EXIF orientation says
     if img is None:
         raise RelightError(f"{name}: cannot decode the image (corrupt file)")
-    if img.ndim == 3 and img.shape[0] * img.shape[1] > MAX_UPLOAD_PIXELS:
-        raise RelightError(f"{name}: the image has more than {MAX_UPLOAD_PIXELS} pixels")
-    if img.ndim == 3 and img.shape[2] in (3, 4):
-        img = cv2.cvtColor(img, cv2.COLOR_BGR2RGB if img.shape[2] == 3 else cv2.COLOR_BGRA2RGBA)
-    return read_image(img, name)  # checks channels, depth, size; a new float32 array
+    # (its size was checked from the header by check_upload) OpenCV's BGR(A) as RGB(A), gray as colour
+    return read_image(as_colour(img, bgr=True), name)  # checks channels, depth, size; a new float32 array
 
 
 class ResultStore:
@@ -366,9 +363,7 @@ class Studio:
         with tempfile.TemporaryDirectory(prefix="relight-studio-") as folder:
             path = Path(folder) / f"upload{suffix}"  # our name; the client's is never used
             path.write_bytes(data)
-            env = sh.load_envmap(path)
-        if env.shape[0] * env.shape[1] > MAX_UPLOAD_PIXELS:
-            raise RelightError(f"environment map: more than {MAX_UPLOAD_PIXELS} pixels")
+            env = sh.load_envmap(path)  # its size was checked from the header by check_upload
         return sh.project_envmap(env).astype(np.float32)
 
     def photo_light(self, data: bytes) -> np.ndarray:
