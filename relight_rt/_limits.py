@@ -311,34 +311,24 @@ _SIGNATURES = (
 )
 
 
-class _HeaderTooLong(Exception):
-    """A header parser went past its byte budget."""
-
-
 class _HeaderReader:
     """A binary file seen through a byte budget: every parser reads at most ``budget`` bytes in all (a read
     at EOF counts as one), so no header, however forged, makes a loop run for ever or read a whole file."""
 
     def __init__(self, f, budget: int) -> None:
-        self._f, self._left = f, budget
+        self._f, self._left, self._budget = f, budget, budget
 
     def _take(self, data: bytes) -> bytes:
         self._left -= max(len(data), 1)  # a read at EOF counts too: a loop that reads b"" for ever ends
         if self._left < 0:
-            raise _HeaderTooLong()
+            raise _Unbounded(f"the image header goes on past {self._budget:,} bytes (a damaged or forged file)")
         return data
 
     def read(self, n: int = -1) -> bytes:
         return self._take(self._f.read(self._left + 1 if n is None or n < 0 else min(n, self._left + 1)))
 
-    def readline(self, n: int = -1) -> bytes:
-        return self._take(self._f.readline(self._left + 1 if n is None or n < 0 else min(n, self._left + 1)))
-
     def seek(self, offset: int, whence: int = os.SEEK_SET) -> int:
         return self._f.seek(offset, whence)
-
-    def tell(self) -> int:
-        return self._f.tell()
 
 
 def header_size(src: str | os.PathLike | bytes, name: str | None = None) -> tuple[int, int] | None:
@@ -350,12 +340,11 @@ def header_size(src: str | os.PathLike | bytes, name: str | None = None) -> tupl
         name: what to call it in an error (default: the path, or "image").
 
     Raises:
-        RelightError: a header that does not end within the parser's bounds (a JPEG frame header after
-            thousands of segments, a Radiance header over 1 MiB, ...): refused, since the decoder would
-            find a size that was never checked.
-        OSError: the file cannot be opened or read.
         RelightError: ``src`` is a path but not a regular file (a FIFO or a device would block or never end),
-            or its header goes on past HEADER_MAX_BYTES (no real image's does: refused, not decoded unchecked).
+            or a header that does not end within the parsers' bounds (HEADER_MAX_BYTES read in all, a JPEG
+            frame header after thousands of segments, a Radiance header over 1 MiB, ...): refused, since the
+            decoder would find a size that was never checked.
+        OSError: the file cannot be opened or read.
     """
     data = isinstance(src, (bytes, bytearray, memoryview))
     if not data:
@@ -371,9 +360,6 @@ def header_size(src: str | os.PathLike | bytes, name: str | None = None) -> tupl
                     raise RelightError(f"{name or ('image' if data else src)}: {exc}; refused") from None
                 except (struct.error, ValueError, OverflowError):
                     return None  # a damaged header: the decoder will say so
-                except _HeaderTooLong:
-                    raise RelightError(f"{name or ('image' if data else src)}: the image header goes on past "
-                                       f"{HEADER_MAX_BYTES:,} bytes (a damaged or forged file); not decoded") from None
     return None
 
 
