@@ -55,7 +55,7 @@ import numpy as np
 from . import _faces
 from ._errors import RelightError
 from ._limits import check_array_pixels
-from ._refine import refine_edges
+from ._refine import guided_refine, refine_edges
 from .contract import KINDS
 from .foreground import estimate_foreground as estimate_foreground  # re-exported (issue 33)
 from .session import ENV_MODELS, Model, bundled_models_dir, load_model
@@ -692,30 +692,6 @@ def warp_to_grid(canvas: np.ndarray, region: Region, grid: tuple[int, int, float
         canvas, m, (gw, gh), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_CONSTANT,
         borderValue=outside,
     )  # fmt: skip
-
-
-def guided_refine(prob: np.ndarray, gray_small: np.ndarray, gray_full: np.ndarray, radius: int) -> np.ndarray:
-    """Fast guided filter: fit prob ≈ a·I + b on the small grid, apply a, b with the full-size gray guide."""
-    k = 2 * radius + 1
-
-    def box(x: np.ndarray) -> np.ndarray:
-        return cv2.boxFilter(x, -1, (k, k), borderType=cv2.BORDER_REFLECT)
-
-    mean_i = box(gray_small)
-    mean_p = box(prob)
-    var_i = box(gray_small * gray_small) - mean_i * mean_i
-    cov = box(gray_small * prob) - mean_i * mean_p
-    a = cov / (var_i + _GF_EPS)
-    b = mean_p - a * mean_i
-    size = (gray_full.shape[1], gray_full.shape[0])
-    if size != (prob.shape[1], prob.shape[0]):
-        a_full = cv2.resize(box(a), size, interpolation=cv2.INTER_LINEAR)
-        b_full = cv2.resize(box(b), size, interpolation=cv2.INTER_LINEAR)
-    else:
-        a_full, b_full = box(a), box(b)
-    out = a_full * gray_full
-    out += b_full
-    return np.clip(out, 0.0, 1.0, out=out)
 
 
 def guided_refine_color(prob: np.ndarray, rgb_small: np.ndarray, rgb_full: np.ndarray, radius: int) -> np.ndarray:
