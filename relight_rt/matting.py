@@ -317,6 +317,12 @@ class PersonMatter:
         canvas = crop_region(rgb, region)
         return self.roi.run({"image": canvas.transpose(2, 0, 1)[None]})["segmentation"][0, 0]
 
+
+    def _roi_person(self, rgb: np.ndarray, region: Region, presence: float) -> Person:
+        """The selfie graph's segmentation of ``region`` as a Person (its probability kept as logits)."""
+        prob = self._roi_prob(rgb, region).astype(np.float64)
+        logits = np.log(np.clip(prob, 1e-7, 1.0)) - np.log(np.clip(1.0 - prob, 1e-7, 1.0))
+        return Person(region, logits.astype(np.float32), presence, "roi")
     def find_people(self, rgb: np.ndarray) -> list[tuple[float, tuple[float, float, float, float]]]:
         """Where people are, from the image alone: [(area in image pixels, (x0, y0, x1, y1))], largest
         first; empty when nobody is found. Whole image first, then 2x2, 3x3, 4x4 and 6x6 overlapping tiles
@@ -377,9 +383,7 @@ class PersonMatter:
             region = nxt
         if person is None or person.region.box()[3] <= rgb.shape[0]:
             return person  # a portrait runs off the bottom, so its region reaches past it: no check needed
-        prob = self._roi_prob(rgb, person.region).astype(np.float64)
-        logits = np.log(np.clip(prob, 1e-7, 1.0)) - np.log(np.clip(1.0 - prob, 1e-7, 1.0))
-        roi = Person(person.region, logits.astype(np.float32), person.presence, "roi")
+        roi = self._roi_person(rgb, person.region, person.presence)
         return roi if _is_portrait(person_box(roi, rgb.shape[:2]), rgb.shape[:2]) else person
 
     def people(self, rgb: np.ndarray, name: str = "image") -> list[Person]:
@@ -477,9 +481,7 @@ class PersonMatter:
         # a face, but the pose graph sees no body here (a close portrait) or another person: the selfie graph
         # segments the face's region instead (made for head-and-shoulders framing)
         region = Region.around(*face.body_box(rgb.shape[:2]))
-        prob = self._roi_prob(rgb, region).astype(np.float64)
-        logits = np.log(np.clip(prob, 1e-7, 1.0)) - np.log(np.clip(1.0 - prob, 1e-7, 1.0))
-        roi = Person(region, logits.astype(np.float32), max(p.presence, face.score), "roi")
+        roi = self._roi_person(rgb, region, max(p.presence, face.score))
         return roi if _contains(roi, face, rgb.shape[:2]) else None
 
     # -- full resolution ----------------------------------------------------------------------------
