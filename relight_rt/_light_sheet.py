@@ -19,8 +19,9 @@ import numpy as np
 
 from . import sh
 from .color import linear_to_srgb
+from .exposure import REC709
 
-_LUMA = np.array([0.2126, 0.7152, 0.0722])  # Rec. 709 (relight_rt.exposure.REC709)
+_LUMA = REC709.astype(np.float64)
 _FRONT, _BACK = np.array([1.0, 0.0, 0.0]), np.array([-1.0, 0.0, 0.0])
 
 
@@ -33,10 +34,10 @@ def back_to_front(light: np.ndarray) -> float:
 
 
 def main_light_azimuth(light: np.ndarray) -> float:
-    """Degrees from the camera side (+x) toward the image's right (+y) of the light's main direction (the
-    luminance of its degree-1 band: coefficient 3 is x, 1 is y)."""
-    lum = np.asarray(light, np.float64) @ _LUMA
-    return math.degrees(math.atan2(lum[1], lum[3]))
+    """Degrees from the camera side (+x) toward the image's right (+y) of the light's main direction (its
+    luminance's degree-1 band, sh.dominant_direction); 0 for a light without a direction."""
+    d, _ = sh.dominant_direction(np.asarray(light, np.float64) @ _LUMA)
+    return 0.0 if d is None else math.degrees(math.atan2(d[1], d[0]))
 
 
 def brightest_direction(env: np.ndarray) -> tuple[float, float]:

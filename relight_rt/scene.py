@@ -208,14 +208,9 @@ def _blur_sigma(gray: np.ndarray, where: np.ndarray | None = None) -> float:
 
 
 def _dominant_direction(light: np.ndarray) -> tuple[np.ndarray | None, float]:
-    """The unit direction the light mostly comes from (its band-1 part, Rec. 709 luminance) and how directional
-    it is: |band 1| / (√3 · band 0), 1 for light from one direction, 0 for a uniform one."""
-    lum = np.asarray(light, np.float64) @ _exposure.REC709.astype(np.float64)
-    v = np.array([lum[3], lum[1], lum[2]])  # (x, y, z): Y_3 ∝ x, Y_1 ∝ y, Y_2 ∝ z
-    n = float(np.linalg.norm(v))
-    if n <= 1e-9 or lum[0] <= 1e-9:
-        return None, 0.0
-    return v / n, min(1.0, n / (math.sqrt(3) * float(lum[0])))
+    """The unit direction the light mostly comes from and how directional it is (sh.dominant_direction of its
+    Rec. 709 luminance)."""
+    return sh.dominant_direction(np.asarray(light, np.float64) @ _exposure.REC709.astype(np.float64))
 
 
 def _cast_shadow(alpha: np.ndarray, top: int, left: int, feet_y: float, horizon_y: float, focal: float,

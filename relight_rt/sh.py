@@ -210,6 +210,23 @@ def shading(transport, light) -> np.ndarray:
     return out.reshape(t.shape[:-1] + (3,))
 
 
+def dominant_direction(coeffs) -> tuple[np.ndarray | None, float]:
+    """Where a one-channel light (9,) mostly comes from, by its degree-1 band, and how directional it is.
+
+    Returns:
+        (unit direction (3,) in the subject frame or None for a light without a direction,
+        |band 1| / (√3 · band 0): 1 for light from a single direction, 0 for a uniform one).
+    """
+    c = np.asarray(coeffs, np.float64).reshape(-1)
+    if c.shape != (N_COEFFS,):
+        raise RelightError(f"light: expected 9 SH coefficients of one channel, got {c.shape}")
+    v = np.array([c[3], c[1], c[2]])  # (x, y, z): Y_3 ∝ x, Y_1 ∝ y, Y_2 ∝ z
+    n = float(np.linalg.norm(v))
+    if n <= 1e-9 or c[0] <= 1e-9:
+        return None, 0.0
+    return v / n, min(1.0, n / (math.sqrt(3) * float(c[0])))
+
+
 def irradiance(light, normals) -> np.ndarray:
     """Irradiance of an unoccluded diffuse surface, E_c(n) = Σ_k A_l · Y_k(n) · light[k, c].
 

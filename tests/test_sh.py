@@ -616,3 +616,15 @@ def test_reference_lights_load_bgr(reference_dir):
         # Scale of the reference's lights (measured): DC 0.2-1.5 per channel, sphere peak 0.9-2.5.
         assert 0.4 <= light[0].max() <= 1.5
         assert 0.5 <= sh.render_sphere(light, 32).max() <= 3.0
+
+
+def test_dominant_direction_of_a_lamp_and_of_ambient_light():
+    from relight_rt import lights
+
+    lamp = lights.directional((0.0, 1.0, 1.0))[:, 0]
+    d, how = sh.dominant_direction(lamp)
+    np.testing.assert_allclose(d, np.array([0.0, 1.0, 1.0]) / np.sqrt(2), atol=1e-9)
+    assert how > 0.5
+    assert sh.dominant_direction(lights.ambient(0.5)[:, 0]) == (None, 0.0)
+    with pytest.raises(RelightError, match="9 SH coefficients"):
+        sh.dominant_direction(np.zeros((9, 3)))
