@@ -116,21 +116,27 @@ def main() -> int:
     ended = reap(noted)
     if ended and b"quiet" not in said:
         print(f"relight-rt: the Ray driver (pid {driver}) ended without shutting its local Ray down; ended "
-              f"{ended} leftover Ray process(es){_limit_hint()}", file=sys.stderr)  # fmt: skip
+              f"{ended} leftover Ray process(es){limit_hint()}", file=sys.stderr)  # fmt: skip
     return 0
 
 
-def _limit_hint() -> str:
-    """Under an address-space limit (ulimit -v), the likely reason: Ray's shared memory did not fit."""
+def address_space_limit() -> int | None:
+    """This process's address-space limit in bytes (``ulimit -v``), or None when there is none."""
     try:
         import resource
 
         soft = resource.getrlimit(resource.RLIMIT_AS)[0]
     except (ImportError, OSError, ValueError):
+        return None
+    return None if soft == resource.RLIM_INFINITY else soft
+
+
+def limit_hint() -> str:
+    """Under an address-space limit (ulimit -v), the likely reason a Ray process failed ("" without one)."""
+    limit = address_space_limit()
+    if limit is None:
         return ""
-    if soft == resource.RLIM_INFINITY:
-        return ""
-    return f" (processes here may use {soft / 2**30:.1f} GiB of address space, ulimit -v; Ray's need more)"
+    return f" (processes here may use {limit / 2**30:.1f} GiB of address space, ulimit -v; Ray's need more)"
 
 
 if __name__ == "__main__":

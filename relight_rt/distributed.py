@@ -48,6 +48,7 @@ import numpy as np
 from . import batch
 from ._errors import RelightError
 from ._io import sibling_mask
+from ._reaper import address_space_limit, limit_hint
 from .compositing import parse_background
 from .config import RuntimeConfig
 
@@ -117,32 +118,13 @@ OBJECT_STORE_MIN_BYTES = 75 << 20  # Ray's own minimum
 MIN_ADDRESS_SPACE = 3 << 30
 
 
-def _address_space_limit() -> int | None:
-    """This process's address-space limit in bytes (``ulimit -v``), or None when there is none."""
-    try:
-        import resource
-
-        soft, _ = resource.getrlimit(resource.RLIMIT_AS)
-    except (ImportError, OSError, ValueError):
-        return None
-    return None if soft == resource.RLIM_INFINITY else soft
-
-
-def _limit_hint() -> str:
-    """A hint for Ray failures under an address-space limit ("" without one)."""
-    limit = _address_space_limit()
-    if limit is None:
-        return ""
-    return f" (processes here may use {limit / 2**30:.1f} GiB of address space, ulimit -v; Ray's need more)"
-
-
 def object_store_bytes() -> int | None:
     """The object store of a local Ray: under an address-space limit, an eighth of it (at least Ray's minimum,
     at most 2 GiB); None otherwise (Ray's default, 30 % of the memory). The raylet maps the whole store when
     it starts, and every process inherits the limit: with Ray's default the raylet dies at start-up under
     ``ulimit -v`` and the node never comes up. (The paths are only file names: the store holds none of
     the pixels.)"""
-    limit = _address_space_limit()
+    limit = address_space_limit()
     return None if limit is None else max(OBJECT_STORE_MIN_BYTES, min(limit // 8, 2 << 30))
 
 
@@ -182,7 +164,7 @@ def _stop_reaper(reaper, clean: bool = True) -> None:
 def _start_local(ray, kwargs: dict):
     """``ray.init`` of a private local Ray, watched (see _start_reaper); every failure is one RelightError.
     Returns the watcher (for _stop_reaper)."""
-    limit = _address_space_limit()
+    limit = address_space_limit()
     if limit is not None and limit < MIN_ADDRESS_SPACE:
         raise RelightError(f"--ray local: processes here may use {limit / 2**30:.1f} GiB of address space (ulimit "
                            f"-v); a local Ray needs {MIN_ADDRESS_SPACE >> 30} GiB or more per process: raise the "
@@ -199,7 +181,7 @@ def _start_local(ray, kwargs: dict):
         _stop_reaper(reaper, clean=False)  # ends what the failed start left behind
         text = str(exc).strip()
         reason = text.splitlines()[0] if text else type(exc).__name__
-        raise RelightError(f"--ray local: Ray did not start: {reason}{_limit_hint()}") from None
+        raise RelightError(f"--ray local: Ray did not start: {reason}{limit_hint()}") from None
     except BaseException:  # Ctrl-C, SIGTERM during the start
         _stop_reaper(reaper, clean=False)
         raise
@@ -594,7 +576,7 @@ def _run_actors(ray, todo, writer, actor_kwargs, actors, gpus, cpus, batch_size)
     except ray.exceptions.RayError as exc:  # an actor that cannot start (models, CUDA), a lost node, ...
         reason = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
         raise RelightError(f"the Ray job stopped after {len(done)} of {len(todo)} photos (the manifest lists "
-                           f"them; a rerun goes on): {reason}{_limit_hint()}") from None  # fmt: skip
+                           f"them; a rerun goes on): {reason}{limit_hint()}") from None  # fmt: skip
     seconds = time.perf_counter() - start
     log.info("Ray: %d photos in %.2f s (%.2f photos/s, actor start-up included)", len(done), seconds,
              len(done) / max(seconds, 1e-9))  # fmt: skip

@@ -248,7 +248,7 @@ def _materialise(records: dict[str, _Tensor], archive: zipfile.ZipFile, byteorde
         elif st.code == "b1":
             arrays[key] = np.frombuffer(raw, dtype=np.bool_)
         else:
-            arrays[key] = np.frombuffer(raw, dtype=order + st.code).astype(st.code)
+            arrays[key] = np.frombuffer(raw, dtype=order + st.code).astype(st.code, copy=False)  # tensors copy below
         del raw
     out = {}
     for k, t in records.items():

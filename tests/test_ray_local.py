@@ -114,13 +114,13 @@ def test_watcher_leaves_a_clean_shutdown_alone():
 
 
 def test_object_store_fits_the_address_space_limit(monkeypatch):
-    monkeypatch.setattr(distributed, "_address_space_limit", lambda: None)
+    monkeypatch.setattr(distributed, "address_space_limit", lambda: None)
     assert distributed.object_store_bytes() is None  # Ray's default
-    monkeypatch.setattr(distributed, "_address_space_limit", lambda: 4 << 30)
+    monkeypatch.setattr(distributed, "address_space_limit", lambda: 4 << 30)
     assert distributed.object_store_bytes() == 512 << 20
-    monkeypatch.setattr(distributed, "_address_space_limit", lambda: 64 << 30)
+    monkeypatch.setattr(distributed, "address_space_limit", lambda: 64 << 30)
     assert distributed.object_store_bytes() == 2 << 30
-    monkeypatch.setattr(distributed, "_address_space_limit", lambda: 100 << 20)
+    monkeypatch.setattr(distributed, "address_space_limit", lambda: 100 << 20)
     assert distributed.object_store_bytes() == distributed.OBJECT_STORE_MIN_BYTES
 
 
