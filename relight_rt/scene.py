@@ -367,7 +367,10 @@ def composite(
         feet = (own_x, 1.0) if pos is None else pos
         if frac is None:
             frac = box_h / hp
+    given = height is not None
     scale = frac * hb / box_h
+    if not given and box_w * scale > wb:  # a default size that would not fit across: as large as fits
+        scale = wb / box_w
     new_h, new_w = max(1, round(box_h * scale)), max(1, round(box_w * scale))
     if new_h > hb or new_w > wb:
         raise RelightError(
@@ -381,6 +384,8 @@ def composite(
     np.clip(premult, 0, 1, out=premult)
     top = int(round(feet[1] * hb)) - new_h
     left = int(round(feet[0] * wb - new_w / 2))
+    if pos is None:  # the default place keeps the whole person in the picture (a given --position is obeyed)
+        left = min(max(left, 0), wb - new_w)
     feet_y = top + new_h
     draw_shadow = shadow and full_body
 

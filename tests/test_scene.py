@@ -315,3 +315,20 @@ def test_the_automatic_matte_sees_the_photo_not_its_linear_copy(diffuse_models_d
     with_matte = r.composite(img, bg)
     assert seen and seen[0] == pytest.approx(img.mean() / 255, abs=1e-6)  # sRGB values, as in every other command
     np.testing.assert_array_equal(with_matte, r.composite(img, bg, mask=mask))  # the same as that mask given
+
+
+def test_a_portrait_wider_than_the_background_fits_it_by_default(diffuse):
+    """A head-and-shoulders photo cut by its bottom edge into a narrower place: without --height it is made as
+    large as fits across (it was an error asking for a smaller --height) and kept whole in the picture."""
+    img = np.zeros((120, 200, 3), np.uint8)
+    img[:] = (150, 110, 90)
+    mask = np.zeros((120, 200), np.float32)
+    mask[20:, 10:190] = 1.0  # runs off the bottom: a portrait, 180 px wide
+    bg = np.full((150, 100, 3), 90, np.uint8)
+    out = composite(diffuse, img, bg, mask=mask, shadow=False, match_camera=False, meter="background")
+    assert out.shape == (150, 100, 3)
+    changed = np.abs(out - 90 / 255).max(axis=2) > 0.02
+    cols = np.flatnonzero(changed.any(axis=0))
+    assert cols[0] <= 1 and cols[-1] >= 98  # across the whole width, nothing cut at one side only
+    with pytest.raises(RelightError, match="smaller --height"):  # a height the user gives is obeyed
+        composite(diffuse, img, bg, mask=mask, height=1.0, shadow=False)
