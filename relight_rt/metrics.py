@@ -9,7 +9,7 @@ bounded memory with :class:`TemporalMetrics`; the functions :func:`temporal_erro
   units (a uniform one-level flicker of an 8-bit video is 1/255).
 - Warping error: frame t+1 of the output is warped onto frame t with optical flow of the INPUT
   video (OpenCV DIS), and the mean absolute difference is taken over mask pixels that are
-  visible in both frames (forward-backward flow consistency, Sundaram et al. 2010). Motion of the
+  visible in both frames (forward-backward flow consistency, Sundaram et al. 2010; relight_rt.flow). Motion of the
   person no longer counts as flicker; a moving light still does.
 - Light-following score: Pearson correlation, over every masked pixel, channel and frame pair,
   between the motion-compensated change of the output (``warp(out[t+1]) - out[t]``) and the change
@@ -31,25 +31,17 @@ Frames are (H, W, 3) RGB, float in [0, 1] or uint8; masks (H, W) float in [0, 1]
 
 from __future__ import annotations
 
-import functools
 import logging
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 
 from . import sh
 from ._errors import RelightError
+from .flow import check_preset, consistent_flow, dis_flow, to_gray_u8, warp  # the last four re-exported (moved)
 
 logger = logging.getLogger(__name__)
-
-_DIS_PRESETS = {
-    "ultrafast": cv2.DISOPTICAL_FLOW_PRESET_ULTRAFAST,
-    "fast": cv2.DISOPTICAL_FLOW_PRESET_FAST,
-    "medium": cv2.DISOPTICAL_FLOW_PRESET_MEDIUM,
-}
-
 
 def as_float_image(image: np.ndarray, name: str = "image") -> np.ndarray:
     """Check an (H, W, 3) RGB frame and return it as float32 in [0, 1] (a new array)."""
@@ -80,88 +72,6 @@ def as_bool_mask(mask: np.ndarray | None, shape: tuple[int, int], name: str = "m
     if arr.dtype == bool:
         return arr.copy()
     return arr.astype(np.float32) >= 0.5
-
-
-def to_gray_u8(image: np.ndarray) -> np.ndarray:
-    """(H, W, 3) RGB float [0, 1] or uint8 -> (H, W) uint8 luma, the input of DIS flow."""
-    arr = np.asarray(image)
-    if arr.dtype != np.uint8:
-        arr = np.clip(np.rint(arr * 255.0), 0, 255).astype(np.uint8)
-    return cv2.cvtColor(np.ascontiguousarray(arr), cv2.COLOR_RGB2GRAY)
-
-
-def dis_flow(src: np.ndarray, dst: np.ndarray, preset: str = "fast") -> np.ndarray:
-    """Dense optical flow from ``src`` to ``dst`` with OpenCV's DIS.
-
-    Args:
-        src, dst: (H, W) uint8 grey frames (see :func:`to_gray_u8`).
-        preset: "ultrafast", "fast" or "medium".
-
-    Returns:
-        (H, W, 2) float32 flow in pixels, (dx, dy): ``src[p] ≈ dst[p + flow[p]]``.
-    """
-    if preset not in _DIS_PRESETS:
-        raise RelightError(f"preset: expected one of {sorted(_DIS_PRESETS)}, got {preset!r}")
-    if src.shape != dst.shape or src.ndim != 2 or src.dtype != np.uint8 or dst.dtype != np.uint8:
-        raise RelightError(f"flow frames: expected two (H, W) uint8 frames, got {src.shape} {src.dtype} and "
-                           f"{dst.shape} {dst.dtype}")
-    dis = cv2.DISOpticalFlow_create(_DIS_PRESETS[preset])
-    return dis.calc(src, dst, None)
-
-
-@functools.lru_cache(maxsize=4)
-def _pixel_grid(h: int, w: int) -> np.ndarray:
-    """(h, w, 2) float32 pixel coordinates (x, y), read-only, cached per size."""
-    gx, gy = np.meshgrid(np.arange(w, dtype=np.float32), np.arange(h, dtype=np.float32))
-    grid = np.stack([gx, gy], axis=-1)
-    grid.flags.writeable = False
-    return grid
-
-
-def warp(image: np.ndarray, flow: np.ndarray, border_value: float = 0.0) -> np.ndarray:
-    """Sample ``image`` at ``p + flow[p]`` (bilinear): moves ``dst`` of :func:`dis_flow` onto ``src``.
-
-    Args:
-        image: (H, W) or (H, W, C) float32, any C.
-        flow: (H, W, 2) float32 as returned by :func:`dis_flow`.
-
-    Returns:
-        New array of ``image``'s shape; pixels that sample outside get ``border_value``.
-    """
-    h, w = flow.shape[:2]
-    coords = _pixel_grid(h, w) + flow.astype(np.float32, copy=False)  # (h, w, 2): one CV_32FC2 map
-    src = np.ascontiguousarray(image, dtype=np.float32)
-    channels = 1 if src.ndim == 2 else src.shape[2]
-    if channels <= 4:
-        out = cv2.remap(src, coords, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=border_value)
-        return out.reshape(image.shape)
-    out = np.empty((h, w, channels), np.float32)  # remap's constant border handles at most 4 channels
-    for i in range(0, channels, 4):
-        part = cv2.remap(np.ascontiguousarray(src[..., i:i + 4]), coords, None, cv2.INTER_LINEAR,
-                         borderMode=cv2.BORDER_CONSTANT, borderValue=border_value)
-        out[..., i:i + 4] = part.reshape(h, w, -1)
-    return out
-
-
-def _sq_norm(v: np.ndarray) -> np.ndarray:
-    """|v|² of (..., 2) vectors (explicit: a reduction over a length-2 axis is slow in numpy)."""
-    return v[..., 0] * v[..., 0] + v[..., 1] * v[..., 1]
-
-
-def consistent_flow(forward: np.ndarray, backward: np.ndarray, alpha: float = 0.01, beta: float = 0.5) -> np.ndarray:
-    """Forward-backward check (Sundaram et al. 2010): where ``forward`` can be trusted.
-
-    Args:
-        forward: (H, W, 2) flow from frame a to frame b.
-        backward: (H, W, 2) flow from b to a.
-
-    Returns:
-        (H, W) bool, True where ``|f + b(p+f)|² < alpha (|f|² + |b(p+f)|²) + beta`` and p + f stays
-        inside the frame.
-    """
-    back = warp(backward, forward, border_value=np.nan)
-    ok = _sq_norm(forward + back) < alpha * (_sq_norm(forward) + _sq_norm(back)) + beta
-    return ok  # NaN (outside the frame) compares False
 
 
 def predicted_light_change(albedo: np.ndarray, transport: np.ndarray, light_a: np.ndarray,
@@ -218,9 +128,7 @@ class TemporalMetrics:
     """
 
     def __init__(self, flow_preset: str = "fast"):
-        if flow_preset not in _DIS_PRESETS:
-            raise RelightError(f"flow_preset: expected one of {sorted(_DIS_PRESETS)}, got {flow_preset!r}")
-        self.flow_preset = flow_preset
+        self.flow_preset = check_preset(flow_preset, "flow_preset")
         self._prev: dict | None = None
         self._temporal: list[float] = []
         self._warping: list[float] = []

@@ -26,11 +26,11 @@ from __future__ import annotations
 import logging
 from collections.abc import Iterable, Iterator
 
-import cv2
 import numpy as np
 
 from ._errors import RelightError
-from .metrics import _DIS_PRESETS, as_bool_mask, as_float_image, consistent_flow, dis_flow, to_gray_u8, warp
+from .flow import check_preset, consistent_flow, dis_flow, to_gray_u8, warp
+from .metrics import as_bool_mask, as_float_image
 
 logger = logging.getLogger(__name__)
 
@@ -54,8 +54,7 @@ class Stabilizer:
             raise RelightError(f"strength: expected a value in [0, 1), got {strength}")
         if not photometric_tolerance > 0.0:
             raise RelightError(f"photometric_tolerance: expected a positive value, got {photometric_tolerance}")
-        if flow_preset not in _DIS_PRESETS:
-            raise RelightError(f"flow_preset: expected one of {sorted(_DIS_PRESETS)}, got {flow_preset!r}")
+        check_preset(flow_preset, "flow_preset")
         self.strength = float(strength)
         self.photometric_tolerance = float(photometric_tolerance)
         self.flow_preset = flow_preset
@@ -92,15 +91,7 @@ class Stabilizer:
         return self._light.copy()
 
     def _flow(self, src: np.ndarray, dst: np.ndarray) -> np.ndarray:
-        h, w = src.shape
-        if self.flow_max_side is None or max(h, w) <= self.flow_max_side:
-            return dis_flow(src, dst, self.flow_preset)
-        k = self.flow_max_side / max(h, w)
-        size = (max(8, round(w * k)), max(8, round(h * k)))
-        small = dis_flow(cv2.resize(src, size, interpolation=cv2.INTER_AREA),
-                         cv2.resize(dst, size, interpolation=cv2.INTER_AREA), self.flow_preset)
-        flow = cv2.resize(small, (w, h), interpolation=cv2.INTER_LINEAR)
-        return flow * np.array([w / size[0], h / size[1]], np.float32)
+        return dis_flow(src, dst, self.flow_preset, self.flow_max_side)
 
     def update(self, frame: np.ndarray, mask: np.ndarray | None, albedo: np.ndarray,
                transport: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
