@@ -13,6 +13,7 @@ import cv2
 import numpy as np
 
 from ._geometry import CropGeometry
+from ._guided import gray_coefficients
 
 GUIDE_EPS = 1e-3  # guided-filter regulariser (guide values in [0, 1])
 GUIDE_RADIUS = 2  # guided-filter window radius, in network pixels
@@ -52,9 +53,9 @@ def guided_upsample(
 ) -> np.ndarray:
     """Edge-aware upsampling of a network-frame (R, R, C) map to the crop box, by the fast guided filter.
 
-    The local linear model src ≈ a·I + b (I: gray guide) is fitted in (2r+1)² windows at network resolution,
-    the window-averaged a and b are mapped to the crop box, and applied there with the full-resolution
-    gray guide, so edges of the full-resolution input carry into the result (He & Sun, "Fast Guided
+    The local linear model src ≈ a·I + b (I: gray guide) is fitted in (2r+1)² windows at network resolution
+    (relight_rt._guided), the window-averaged a and b are mapped to the crop box, and applied there with the
+    full-resolution gray guide, so edges of the full-resolution input carry into the result (He & Sun, "Fast Guided
     Filter", 2015; He, Sun & Tang, "Guided Image Filtering", 2013).
 
     Args:
@@ -68,21 +69,10 @@ def guided_upsample(
     Returns:
         (h, w, C) float32.
     """
-    k = 2 * GUIDE_RADIUS + 1
-
-    def box(x: np.ndarray) -> np.ndarray:
-        return cv2.boxFilter(x, -1, (k, k), borderType=cv2.BORDER_REFLECT)
-
-    i_net = cv2.cvtColor(guide_net, cv2.COLOR_RGB2GRAY)
-    mean_i = box(i_net)
-    var_i = box(i_net * i_net) - mean_i * mean_i
-    mean_p = box(src)
-    cov = box(src * i_net[..., None]) - mean_i[..., None] * mean_p
-    a = cov / (var_i[..., None] + GUIDE_EPS)
-    b = mean_p - a * mean_i[..., None]
+    a, b = gray_coefficients(src, cv2.cvtColor(guide_net, cv2.COLOR_RGB2GRAY), GUIDE_RADIUS, GUIDE_EPS)
     # a and b mapped separately: each has <= 4 channels, which OpenCV resamples in one call (a 6-channel
     # stack would be resampled in slices and concatenated: a full-size copy, ~40 % of this function's time)
-    out = geom.to_crop(box(a), origin).reshape(guide.shape[:2] + (-1,))
+    out = geom.to_crop(a, origin).reshape(guide.shape[:2] + (-1,))
     out *= (guide if guide.ndim == 2 else cv2.cvtColor(guide, cv2.COLOR_RGB2GRAY))[..., None]
-    out += geom.to_crop(box(b), origin).reshape(out.shape)
+    out += geom.to_crop(b, origin).reshape(out.shape)
     return out

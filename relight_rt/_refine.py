@@ -22,6 +22,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from ._guided import fast_guided_filter
+
 _SURE = 0.95  # coarse alpha above this (after erosion) is sure foreground, below 1 - this sure background
 _SNAP = 0.05  # ... and away from the outline, alpha below this is 0, above 1 - this 1
 _VEIL = 0.2  # more than the band's width from the outline, alpha below this is 0 (above 1 - this: 1)
@@ -106,28 +108,4 @@ def _side_mean(img: np.ndarray, weight: np.ndarray, r: int) -> tuple[np.ndarray,
 def _guided(img: np.ndarray, p: np.ndarray) -> np.ndarray:
     """A gray-guided filter of radius _GF_RADIUS (He et al.), to remove pixel noise along the strands."""
     g = cv2.cvtColor(img, cv2.COLOR_RGB2GRAY)
-    return guided_refine(p, g, g, _GF_RADIUS)
-
-
-def guided_refine(prob: np.ndarray, gray_small: np.ndarray, gray_full: np.ndarray, radius: int) -> np.ndarray:
-    """Fast guided filter: fit prob ≈ a·I + b on the small grid, apply a, b with the full-size gray guide."""
-    k = 2 * radius + 1
-
-    def box(x: np.ndarray) -> np.ndarray:
-        return cv2.boxFilter(x, -1, (k, k), borderType=cv2.BORDER_REFLECT)
-
-    mean_i = box(gray_small)
-    mean_p = box(prob)
-    var_i = box(gray_small * gray_small) - mean_i * mean_i
-    cov = box(gray_small * prob) - mean_i * mean_p
-    a = cov / (var_i + _GF_EPS)
-    b = mean_p - a * mean_i
-    size = (gray_full.shape[1], gray_full.shape[0])
-    if size != (prob.shape[1], prob.shape[0]):
-        a_full = cv2.resize(box(a), size, interpolation=cv2.INTER_LINEAR)
-        b_full = cv2.resize(box(b), size, interpolation=cv2.INTER_LINEAR)
-    else:
-        a_full, b_full = box(a), box(b)
-    out = a_full * gray_full
-    out += b_full
-    return np.clip(out, 0.0, 1.0, out=out)
+    return fast_guided_filter(p, g, g, _GF_RADIUS, _GF_EPS)

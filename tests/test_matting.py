@@ -182,7 +182,7 @@ def test_no_person_raises(matter):
         (np.full((32, 32, 3), np.nan, np.float32), "NaN"),
         (np.full((32, 32, 3), 2.0, np.float32), r"\[0, 1\]"),
         (np.zeros((32, 32, 2), np.float32), "shape"),
-        (np.zeros((32, 32, 3), np.int32), "uint8 or float"),
+        (np.zeros((32, 32, 3), np.int32), "uint8, uint16 or float"),  # the one intake (_io) words it
         ("photo.jpg", "array"),
     ],
 )

@@ -1,0 +1,87 @@
+"""Where the people in a photo are, before any is segmented: blobs of the selfie graph's person probability
+over the whole image and over overlapping tiles, and faces from the face detector (relight_rt._faces)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .. import _faces
+from ..session import Model
+from ._models import SIZE
+from ._regions import COARSE_MIN_AREA, Region, components, crop_region, grid_of_region, tile_levels
+
+MIN_TILE = SIZE  # tiles are searched as long as they stay at least 256 px (a smaller one would only be upsampled)
+_FACE_TILE_MIN = 2 * _faces.FACE_SIZE  # face search in tiles (every=True) while the tiles stay this large
+
+Box = tuple[float, float, float, float]
+
+
+def roi_prob(roi: Model, rgb: np.ndarray, region: Region) -> np.ndarray:
+    """The selfie graph's (256, 256) person probability over ``region``."""
+    canvas = crop_region(rgb, region)
+    return roi.run({"image": canvas.transpose(2, 0, 1)[None]})["segmentation"][0, 0]
+
+
+def find_people(roi: Model, rgb: np.ndarray) -> list[tuple[float, Box]]:
+    """Where people are, from the image alone: [(area in image pixels, (x0, y0, x1, y1))], largest
+    first; empty when nobody is found. Whole image first, then 2x2, 3x3, 4x4 and 6x6 overlapping tiles
+    (each 1.5x its share of the image, at least 256 px: small images stop early) while nobody is found."""
+    h, w = rgb.shape[:2]
+    for windows in tile_levels(h, w, MIN_TILE):
+        found = []
+        for win in windows:
+            prob = roi_prob(roi, rgb, win)
+            k, bx, by = grid_of_region(win)
+            for area, (x0, y0, x1, y1) in components(prob, COARSE_MIN_AREA):
+                box = ((x0 - bx - 0.5) / k, (y0 - by - 0.5) / k, (x1 - bx - 0.5) / k, (y1 - by - 0.5) / k)
+                box = (max(box[0], 0.0), max(box[1], 0.0), min(box[2], float(w)), min(box[3], float(h)))
+                if box[2] > box[0] and box[3] > box[1]:
+                    found.append((area / k / k, box))
+        if found:
+            return merge_boxes(found)
+    return []
+
+
+def find_faces(face: Model | None, rgb: np.ndarray, *, every: bool = False) -> list[_faces.Face]:
+    """Faces (none without a face graph), best first: on the whole image, and with ``every`` also in 2x2 and
+    3x3 overlapping tiles (while they stay >= 384 px) for smaller faces."""
+    if face is None:
+        return []
+    h, w = rgb.shape[:2]
+    found = []
+    levels = tile_levels(h, w, _FACE_TILE_MIN, max_level=3)
+    for windows in levels if every else levels[:1]:
+        for win in windows:
+            out = face.run({"image": crop_region(rgb, win, _faces.FACE_SIZE).transpose(2, 0, 1)[None]})
+            x0, y0, _, _ = win.box()
+            for box, score in _faces.decode(out["boxes"][0], out["scores"][0]):
+                found.append((np.array([x0, y0, x0, y0]) + box * win.side, score))
+    faces = []
+    for box, score in _faces.weighted_nms(found):
+        b = (max(box[0], 0.0), max(box[1], 0.0), min(box[2], float(w)), min(box[3], float(h)))
+        if b[2] > b[0] and b[3] > b[1]:
+            faces.append(_faces.Face(b, score))
+    return faces
+
+
+def merge_boxes(found: list[tuple[float, Box]]) -> list[tuple[float, Box]]:
+    """Merge boxes that overlap or nearly touch (one person seen by two tiles, or split in two by the
+    coarse finder); largest area first."""
+    items = [(a, list(b)) for a, b in sorted(found, key=lambda t: -t[0])]
+    merged = True
+    while merged:
+        merged = False
+        for i in range(len(items)):
+            for j in range(i + 1, len(items)):
+                a, b = items[i][1], items[j][1]
+                gap = 0.25 * min(max(a[2] - a[0], a[3] - a[1]), max(b[2] - b[0], b[3] - b[1]))
+                if min(a[2], b[2]) + gap > max(a[0], b[0]) and min(a[3], b[3]) + gap > max(a[1], b[1]):
+                    box = [min(a[0], b[0]), min(a[1], b[1]), max(a[2], b[2]), max(a[3], b[3])]
+                    items[i] = (max(items[i][0], items[j][0]), box)
+                    del items[j]
+                    merged = True
+                    break
+            if merged:
+                break
+    items.sort(key=lambda t: -t[0])
+    return [(a, tuple(b)) for a, b in items]

@@ -1,0 +1,347 @@
+"""The person matter: which people a photo holds and their soft alpha at full resolution.
+
+Candidates come from the region finders (relight_rt.matting._detect); each is segmented by the pose graph
+on a square region re-centred until it settles (:meth:`PersonMatter.segment`), with the selfie graph as the
+second way in for close portraits and faces; the chosen people's segmentations become the coarse matte
+(relight_rt.matting._coarse) and, for photos, its outline is refined from colour (relight_rt._refine).
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+
+import cv2
+import numpy as np
+
+from .. import _faces
+from .._errors import RelightError
+from .._refine import refine_edges
+from ..session import Model, load_model
+from ._coarse import region_alpha
+from ._detect import MIN_TILE, find_faces, find_people, roi_prob
+from ._models import FACE_FILE, POSE_FILE, ROI_FILE, as_rgb, find_matting_models
+from ._regions import (
+    Person,
+    Region,
+    contains,
+    crop_region,
+    logits_on_grid,
+    person_box,
+    tile_levels,
+    warp_to_grid,
+    working_grid,
+)
+
+PERSON_MODES = ("largest", "all")
+GUIDES = ("gray", "color")
+PRESENCE_MIN = 0.5  # pose-presence probability below which a region holds no person (unless a face vouches)
+MIN_PERSON_FRACTION = 0.06  # person="all": people whose box is shorter than this x the image's height are left out
+_COVERED = 0.5  # a candidate (blob) this much inside people already matted is one of them
+_COVERED_FACE = 0.8  # ... and a face's person this much inside them
+_MAX_REQUEUE = 16  # person="all": leftovers of blobs searched again (several people in one blob)
+_MAX_TRIES = 32  # person="all": candidates segmented at most (each costs 1-4 pose-graph runs)
+_GIVE_UP = 0.02  # person="all": a blob whose first pose-graph pass says this little is nobody (no re-centring)
+_SETTLED_IOU = 0.9  # the region has settled when the next one overlaps it this much
+
+
+class PersonMatter:
+    """Soft person alpha for any photo, from the bundled MediaPipe-derived graphs (module docstring).
+
+    Args:
+        models: folder holding matte_pose.onnx and matte_roi.onnx (default: $RELIGHT_RT_MODELS when it
+            holds them, else the bundled ones).
+        device: "cpu" (default), "cuda" or "auto".
+        person: "largest" (default: the person with the largest area) or "all" (everyone found at the
+            first scale where anybody is found: a photo with one big person and far-away passers-by gets
+            the big person only, as the whole-image pass does not see the small ones).
+        refine: refine the edges with the photo (guided filter); False gives the upsampled segmentation.
+        guide: "gray" (default, fast) or "color" (a colour guide: separates edges that differ in colour
+            but not in brightness, e.g. pale shoes on a white floor; ~4x the refinement time).
+        edges: with ``refine``, re-estimate alpha from colour in a band around the outline at full
+            resolution (relight_rt._refine: hair strands, no smear of the old background).
+        max_passes: pose-graph runs per person while the region settles (>= 1).
+
+    Calling it: ``alpha = matter(rgb)``, rgb (H, W, 3) float32 [0, 1] (uint8, RGBA and grayscale are
+    accepted too, see :func:`as_rgb`) -> alpha (H, W) float32 in [0, 1].
+
+    Raises (when called):
+        RelightError: a bad image (see :func:`as_rgb`), or "no person found in IMAGE".
+    """
+
+    def __init__(
+        self,
+        models: str | os.PathLike | None = None,
+        *,
+        device: str = "cpu",
+        person: str = "largest",
+        refine: bool = True,
+        guide: str = "gray",
+        max_passes: int = 4,
+        edges: bool = True,
+    ):
+        if guide not in GUIDES:
+            raise RelightError(f"guide: expected one of {list(GUIDES)}, got {guide!r}")
+        if person not in PERSON_MODES:
+            raise RelightError(f"person: expected one of {list(PERSON_MODES)}, got {person!r}")
+        if int(max_passes) < 1:
+            raise RelightError(f"max_passes: expected >= 1, got {max_passes}")
+        folder = find_matting_models(models)
+        self.pose: Model = load_model(folder / POSE_FILE, "matte_pose", device=device)
+        self.roi: Model = load_model(folder / ROI_FILE, "matte_roi", device=device)
+        face = folder / FACE_FILE
+        self.face: Model | None = load_model(face, "matte_face", device=device) if face.is_file() else None
+        self.person = person
+        self.refine = bool(refine)
+        self.guide = guide
+        self.max_passes = int(max_passes)
+        self.edges = bool(edges)
+
+    # -- detection ----------------------------------------------------------------------------------
+
+    def _roi_prob(self, rgb: np.ndarray, region: Region) -> np.ndarray:
+        return roi_prob(self.roi, rgb, region)
+
+    def _roi_person(self, rgb: np.ndarray, region: Region, presence: float) -> Person:
+        """The selfie graph's segmentation of ``region`` as a Person (its probability kept as logits)."""
+        prob = self._roi_prob(rgb, region).astype(np.float64)
+        logits = np.log(np.clip(prob, 1e-7, 1.0)) - np.log(np.clip(1.0 - prob, 1e-7, 1.0))
+        return Person(region, logits.astype(np.float32), presence, "roi")
+
+    def find_people(self, rgb: np.ndarray) -> list[tuple[float, tuple[float, float, float, float]]]:
+        """Where people are, from the image alone (relight_rt.matting._detect.find_people): [(area in image
+        pixels, (x0, y0, x1, y1))], largest first; empty when nobody is found."""
+        return find_people(self.roi, rgb)
+
+    def find_faces(self, rgb: np.ndarray, *, every: bool = False) -> list[_faces.Face]:
+        """Faces (the bundled face detector; none without it), best first: on the whole image, and with
+        ``every`` also in overlapping tiles for smaller faces (relight_rt.matting._detect.find_faces)."""
+        return find_faces(self.face, rgb, every=every)
+
+    # -- segmentation -------------------------------------------------------------------------------
+
+    def segment(self, rgb: np.ndarray, region: Region, give_up: float = 0.0) -> Person:
+        """Run the pose graph on one square region; re-centre on its segmentation until it settles (or, with
+        ``give_up``, stop when the presence flag is below it: nobody there)."""
+        person = None
+        for _ in range(self.max_passes):
+            out = self.pose.run({"image": crop_region(rgb, region).transpose(2, 0, 1)[None]})
+            person = Person(region, out["segmentation"][0, 0], float(out["presence"].reshape(-1)[0]))
+            if person.presence < give_up:
+                break
+            box = person_box(person, rgb.shape[:2])
+            if box is None or box[2] <= box[0] or box[3] <= box[1]:
+                break
+            nxt = Region.around(*_grow_where_cut(box, region, rgb.shape[:2]))
+            if nxt.iou(region) > _SETTLED_IOU:
+                break
+            region = nxt
+        if person is None or person.region.box()[3] <= rgb.shape[0]:
+            return person  # a portrait runs off the bottom, so its region reaches past it: no check needed
+        roi = self._roi_person(rgb, person.region, person.presence)
+        return roi if _is_portrait(person_box(roi, rgb.shape[:2]), rgb.shape[:2]) else person
+
+    def people(self, rgb: np.ndarray, name: str = "image") -> list[Person]:
+        """Segmented people (the largest for person="largest", everyone for "all"); empty when nobody is found.
+
+        Candidates come from the selfie graph (blobs of its person probability: bodies seen from any side) and
+        from faces; each is segmented by the pose graph (:meth:`segment`) and kept when the pose graph's
+        presence flag says a person is there or a face vouches for one (close portraits, where the pose graph
+        sees no body: the selfie graph then segments the region). "largest" tries the blobs of the first
+        scale that has any (largest first) and the faces only when no blob holds a person. "all" gathers the
+        selfie graph's probability over every tile scale and the faces in tiles too, skips candidates that lie
+        inside the people already matted (a group seen as one blob is taken face by face), drops duplicates,
+        and keeps people at least MIN_PERSON_FRACTION of the image's height tall.
+        """
+        if self.person == "all":
+            return self._everyone(rgb)
+        h, w = rgb.shape[:2]
+        for _, box in self.find_people(rgb):
+            p = self._person_at(rgb, box, None)
+            if p is not None:
+                return [p]
+        faces = self.find_faces(rgb)  # no body found: a face is the second way in
+        for face in sorted(faces, key=lambda f: -_box_area(f.body_box((h, w)))):
+            p = self._person_at(rgb, face.body_box((h, w)), face)
+            if p is not None:
+                return [p]
+        return []
+
+    def _everyone(self, rgb: np.ndarray) -> list[Person]:
+        h, w = rgb.shape[:2]
+        grid = working_grid((0, 0, w, h))
+        gw, gh, kx, ky, bx, by = grid
+        prob = np.zeros((gh, gw), np.float32)
+        for windows in tile_levels(h, w, MIN_TILE):
+            for win in windows:
+                np.maximum(prob, warp_to_grid(self._roi_prob(rgb, win), win, grid, 0.0), out=prob)
+        min_rows = MIN_PERSON_FRACTION * h * ky * 0.5  # (a blob may be part of a person)
+
+        def blobs(mask: np.ndarray) -> list[tuple[float, tuple, None, np.ndarray]]:
+            n, labels, stats, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=8)
+            out = []
+            for i in range(1, n):
+                x, y, bw, bh, area = (int(v) for v in stats[i])
+                if bh >= min_rows:
+                    box = ((x - bx) / kx, (y - by) / ky, (x + bw - bx) / kx, (y + bh - by) / ky)
+                    out.append((area / kx / ky, box, None, np.flatnonzero(labels == i)))
+            return out
+
+        faces = self.find_faces(rgb, every=True)
+        cands: list = blobs(prob > 0.5)
+        cands += [(_box_area(f.body_box((h, w))) * 0.5, f.body_box((h, w)), k, None) for k, f in enumerate(faces)]
+        cands.sort(key=lambda t: -t[0])
+        occupied = np.zeros((gh, gw), bool)
+        owned: set[int] = set()  # faces whose person is matted
+        found: list[Person] = []
+        requeued = tries = 0
+        while cands and tries < _MAX_TRIES:
+            _, box, k, pix = cands.pop(0)
+            face = faces[k] if k is not None else None
+            if (k is not None and k in owned) or (pix is not None and occupied.flat[pix].mean() >= _COVERED):
+                continue
+            tries += 1
+            p = self._person_at(rgb, box, face, _GIVE_UP)
+            if p is not None and _box_height(person_box(p, (h, w))) >= MIN_PERSON_FRACTION * h:
+                mask = logits_on_grid(p, grid) > 0
+                # a person mostly inside the people matted already is one of them again (a face's person may
+                # overlap more: in a group, the selfie graph's region of one face shows the neighbours too)
+                if mask.any() and occupied[mask].mean() < (_COVERED if face is None else _COVERED_FACE):
+                    occupied |= mask
+                    found.append(p)
+                    mine = [j for j, f in enumerate(faces) if j not in owned and contains(p, f, (h, w))]
+                    owned.update([k] if k is not None else mine[:1])
+            if pix is None or requeued >= _MAX_REQUEUE:
+                continue
+            rest = np.zeros(gh * gw, bool)
+            rest[pix[~occupied.flat[pix]]] = True
+            if rest.sum() < pix.size:  # people beside the one matted in the same blob
+                more = [c for c in blobs(rest.reshape(gh, gw)) if c[3].size >= 0.2 * pix.size]
+            else:  # nobody in this blob as a whole: a wide one may be people side by side, strip by strip
+                more = _strips(pix, gw, grid, (h, w))
+            requeued += len(more)
+            cands = sorted(cands + more, key=lambda t: -t[0])
+        return found
+
+    def _person_at(self, rgb: np.ndarray, box, face: _faces.Face | None, give_up: float = 0.0) -> Person | None:
+        """The person in ``box`` (a blob's or a face's body box), or None when the pose graph says nobody is
+        there and no face vouches for one (``give_up``: see :meth:`segment`)."""
+        p = self.segment(rgb, Region.around(*box), give_up if face is None else 0.0)
+        # the pose graph segments something in any region; its presence output says whether a person is there
+        # (0.0000 on a colour gradient the region finder took for one, >= 0.87 on people in full view)
+        if p.presence >= PRESENCE_MIN and (face is None or contains(p, face, rgb.shape[:2])):
+            return p
+        if face is None:
+            return None
+        # a face, but the pose graph sees no body here (a close portrait) or another person: the selfie graph
+        # segments the face's region instead (made for head-and-shoulders framing)
+        region = Region.around(*face.body_box(rgb.shape[:2]))
+        roi = self._roi_person(rgb, region, max(p.presence, face.score))
+        return roi if contains(roi, face, rgb.shape[:2]) else None
+
+    # -- full resolution ----------------------------------------------------------------------------
+
+    def alpha(self, rgb: np.ndarray, people: list[Person], *, refine: bool | None = None) -> np.ndarray:
+        """Full-resolution soft alpha (H, W) of ``people`` (max over them)."""
+        h, w = rgb.shape[:2]
+        alpha = np.zeros((h, w), np.float32)
+        refine = self.refine if refine is None else refine
+        for p in people:
+            x0, y0, x1, y1 = p.region.box()
+            rx0, ry0 = max(int(np.floor(x0)), 0), max(int(np.floor(y0)), 0)
+            rx1, ry1 = min(int(np.ceil(x1)), w), min(int(np.ceil(y1)), h)
+            if rx1 <= rx0 or ry1 <= ry0:
+                continue
+            a = region_alpha(rgb, p, (rx0, ry0, rx1, ry1), refine=refine, guide=self.guide)
+            np.maximum(alpha[ry0:ry1, rx0:rx1], a, out=alpha[ry0:ry1, rx0:rx1])
+        if refine and self.edges and people:
+            alpha = refine_edges(rgb, alpha)
+        return alpha
+
+    def __call__(self, image: np.ndarray, name: str = "image") -> np.ndarray:
+        rgb = as_rgb(image, name)
+        people = self.people(rgb, name)
+        alpha = self.alpha(rgb, people) if people else None
+        if alpha is None or not (alpha >= 0.5).any():
+            raise RelightError(
+                f"no person found in {name} (no body or face the bundled detectors recognise; people shorter than "
+                f"{MIN_PERSON_FRACTION:.0%} of the photo, seen only in part or in deep shadow can be missed)"
+            )
+        return alpha
+
+
+_SHARED: dict[tuple[str, str, str], PersonMatter] = {}
+_SHARED_LOCK = threading.Lock()
+
+
+def shared_matter(
+    models: str | os.PathLike | None = None, *, device: str = "cpu", person: str = "largest"
+) -> PersonMatter:
+    """A PersonMatter per (models folder, device, person), loaded on first use and reused afterwards
+    (loading the two graphs takes ~0.3 s). A PersonMatter keeps no state between calls and onnxruntime
+    sessions may run from several threads, so the shared one can serve them all."""
+    key = (str(find_matting_models(models).resolve()), device, person)
+    with _SHARED_LOCK:
+        if key not in _SHARED:
+            _SHARED[key] = PersonMatter(key[0], device=device, person=person)
+        return _SHARED[key]
+
+
+
+
+def _grow_where_cut(
+    box: tuple[float, float, float, float], region: Region, shape: tuple[int, int]
+) -> tuple[float, float, float, float]:
+    """Extend ``box`` by half its size past each side where the segmentation runs into the region's edge
+    inside the image: the person goes on beyond the region (the region finder saw only part of them,
+    e.g. the head of a small person), so the next region must reach further."""
+    h, w = shape
+    x0, y0, x1, y1 = box
+    rx0, ry0, rx1, ry1 = region.box()
+    m = 0.03 * region.side
+    bw, bh = x1 - x0, y1 - y0
+    grow = 0.5 * max(bw, bh)
+    nx0 = x0 - grow if x0 <= rx0 + m and rx0 > 0 else x0
+    ny0 = y0 - grow if y0 <= ry0 + m and ry0 > 0 else y0
+    nx1 = x1 + grow if x1 >= rx1 - m and rx1 < w else x1
+    ny1 = y1 + grow if y1 >= ry1 - m and ry1 < h else y1
+    return max(nx0, 0.0), max(ny0, 0.0), min(nx1, float(w)), min(ny1, float(h))
+
+
+def _is_portrait(box: tuple[float, float, float, float] | None, shape: tuple[int, int]) -> bool:
+    """Head-and-shoulders (or chest-up) framing: the person (as the selfie graph sees them in the region)
+    runs off the bottom of the image and their visible box is less than 1.8x as tall as wide. The pose
+    graph was trained on bodies and loses the shoulders of such crops (IoU 0.71-0.85 on crops of the
+    reference video); the selfie graph, made for them, keeps them (0.97-0.99). Full bodies and knee-up
+    crops stay with the pose graph (0.97-0.99 there, the selfie graph 0.92-0.97)."""
+    if box is None:
+        return False
+    x0, y0, x1, y1 = box
+    return y1 >= shape[0] - 2 and (y1 - y0) < 1.8 * (x1 - x0)
+
+
+def _strips(pix: np.ndarray, gw: int, grid, shape: tuple[int, int]) -> list:
+    """A wide blob (flat pixel indices on the working grid) as overlapping upright strips, each about half as
+    wide as the blob is tall: candidates for people standing side by side."""
+    _, _, kx, ky, bx, by = grid
+    ys, xs = np.divmod(pix, gw)
+    x0, x1, y0, y1 = xs.min(), xs.max() + 1, ys.min(), ys.max() + 1
+    width = 0.5 * (y1 - y0)
+    if x1 - x0 < 1.4 * width:
+        return []
+    out = []
+    for left in np.arange(x0, x1 - width + 1, width / 2):
+        keep = pix[(xs >= left) & (xs < left + width)]
+        if keep.size:
+            sy = keep // gw
+            box = ((left - bx) / kx, (sy.min() - by) / ky, (left + width - bx) / kx, (sy.max() + 1 - by) / ky)
+            out.append((keep.size / kx / ky, box, None, keep))
+    return out
+
+
+def _box_area(box) -> float:
+    return max(box[2] - box[0], 0.0) * max(box[3] - box[1], 0.0)
+
+
+def _box_height(box) -> float:
+    return 0.0 if box is None else box[3] - box[1]

@@ -1,0 +1,205 @@
+"""Square regions of a photo and the 256² canvases the graphs see there: the geometry of person matting.
+
+A :class:`Region` is a square (it may reach past the image border); :func:`crop_region` resamples it to
+a graph's canvas by one exact affine warp, :func:`grid_of_region` maps image coordinates to canvas
+indices, and a working grid (:func:`working_grid`, long side <= 512 px) carries canvases back over the
+image (:func:`warp_to_grid`). A :class:`Person` is one graph's segmentation of one region.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from .. import _faces
+from ._models import SIZE
+
+ROI_SCALE = 1.25  # square region side = this x the person's longest box side (MediaPipe's choice)
+COARSE_MIN_AREA = 24  # canvas pixels: smaller blobs of the region finder are noise or far-away people
+_TILE_LEVELS = (1, 2, 3, 4, 6)  # whole image, then n x n overlapping tiles while nobody is found ...
+_WORK_MAX = 512  # long side of the working grid (guided-filter fit, temporal blend)
+LOGIT_CLIP = 30.0
+
+Grid = tuple[int, int, float, float, float, float]  # (gw, gh, kx, ky, bx, by): see working_grid
+
+
+@dataclass(frozen=True)
+class Region:
+    """A square region of the image: centre (cx, cy) and side, in continuous pixel coordinates
+    (pixel (i, j) covers [j, j+1) x [i, i+1)); it may reach past the image border."""
+
+    cx: float
+    cy: float
+    side: float
+
+    @staticmethod
+    def around(x0: float, y0: float, x1: float, y1: float, scale: float = ROI_SCALE) -> Region:
+        """The square of ``scale`` x the longest side of a box, centred on it."""
+        return Region((x0 + x1) / 2, (y0 + y1) / 2, max(x1 - x0, y1 - y0, 1.0) * scale)
+
+    def box(self) -> tuple[float, float, float, float]:
+        h = self.side / 2
+        return self.cx - h, self.cy - h, self.cx + h, self.cy + h
+
+    def iou(self, other: Region) -> float:
+        a, b = self.box(), other.box()
+        iw = max(0.0, min(a[2], b[2]) - max(a[0], b[0]))
+        ih = max(0.0, min(a[3], b[3]) - max(a[1], b[1]))
+        inter = iw * ih
+        return inter / (self.side**2 + other.side**2 - inter)
+
+
+@dataclass(frozen=True)
+class Person:
+    """One matted person: the region the pose graph saw, its logits there, and its presence score."""
+
+    region: Region
+    logits: np.ndarray  # (256, 256) float32 person logits in the region's canvas
+    presence: float
+    source: str = "pose"  # which graph's segmentation: "pose" (bodies) or "roi" (head-and-shoulders)
+
+
+def grid_of_region(region: Region, size: int = SIZE) -> tuple[float, float, float]:
+    """(k, bx, by): canvas index = k * X + b for continuous image coordinate X (pixel centres at i + 0.5)."""
+    k = size / region.side
+    x0, y0, _, _ = region.box()
+    return k, -k * x0 - 0.5, -k * y0 - 0.5
+
+
+def warp_matrix(src: tuple[float, float, float], dst: tuple[float, float, float]) -> np.ndarray:
+    """2x3 matrix taking a dst grid index to a src grid index (for cv2.warpAffine with WARP_INVERSE_MAP).
+    Each grid is (k, bx, by) with index = k * X + b."""
+    ks, bxs, bys = src
+    kd, bxd, byd = dst
+    r = ks / kd
+    return np.array([[r, 0.0, bxs - r * bxd], [0.0, r, bys - r * byd]], np.float64)
+
+
+def crop_region(rgb: np.ndarray, region: Region, size: int = SIZE) -> np.ndarray:
+    """The square ``region`` of ``rgb`` resampled to (size, size, 3), zero outside the image.
+
+    Large regions are first reduced with area averaging (no aliasing); the final resampling is one exact
+    affine warp, so :func:`grid_of_region` describes the result exactly.
+    """
+    h, w = rgb.shape[:2]
+    k, bx, by = grid_of_region(region, size)
+    x0, y0, x1, y1 = region.box()
+    ix0, iy0 = max(int(np.floor(x0)) - 1, 0), max(int(np.floor(y0)) - 1, 0)
+    ix1, iy1 = min(int(np.ceil(x1)) + 1, w), min(int(np.ceil(y1)) + 1, h)
+    if ix1 <= ix0 or iy1 <= iy0:
+        return np.zeros((size, size, 3), np.float32)
+    sub = rgb[iy0:iy1, ix0:ix1]
+    if k < 0.5:  # pre-reduce to about twice the canvas resolution
+        sw = max(int(round(sub.shape[1] * 2 * k)), 1)
+        sh = max(int(round(sub.shape[0] * 2 * k)), 1)
+        sub = cv2.resize(sub, (sw, sh), interpolation=cv2.INTER_AREA)
+        # INTER_AREA / LINEAR: (dst + 0.5) / s = (src + 0.5), s = dst / src size, per axis
+        sx, sy = sw / (ix1 - ix0), sh / (iy1 - iy0)  # sub index = s * X - s * i0 - 0.5, per axis
+        m = np.array([[sx / k, 0.0, -sx * ix0 - 0.5 - sx / k * bx], [0.0, sy / k, -sy * iy0 - 0.5 - sy / k * by]])
+    else:
+        m = warp_matrix((1.0, -0.5 - ix0, -0.5 - iy0), (k, bx, by))  # sub index = X - i0 - 0.5
+    return cv2.warpAffine(
+        np.ascontiguousarray(sub), m, (size, size), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
+        borderMode=cv2.BORDER_CONSTANT, borderValue=(0.0, 0.0, 0.0),
+    )  # fmt: skip
+
+
+def sigmoid(x: np.ndarray) -> np.ndarray:
+    x = np.clip(x, -LOGIT_CLIP, LOGIT_CLIP)
+    return 1.0 / (1.0 + np.exp(-x))
+
+
+def components(prob: np.ndarray, min_area: int) -> list[tuple[int, tuple[int, int, int, int]]]:
+    """(area, (x0, y0, x1, y1)) of the 8-connected regions of prob > 0.5, largest first."""
+    n, _, stats, _ = cv2.connectedComponentsWithStats((prob > 0.5).astype(np.uint8), connectivity=8)
+    out = []
+    for i in range(1, n):
+        x, y, bw, bh, area = (int(v) for v in stats[i])
+        if area >= min_area:
+            out.append((area, (x, y, x + bw, y + bh)))
+    out.sort(key=lambda t: -t[0])
+    return out
+
+
+def person_box(person: Person, shape: tuple[int, int]) -> tuple[float, float, float, float] | None:
+    """Image-space box (x0, y0, x1, y1) of the person's segmentation (logits > 0), clipped to the image;
+    None when it is empty."""
+    comps = components(person.logits > 0, COARSE_MIN_AREA)
+    if not comps:
+        return None
+    k, bx, by = grid_of_region(person.region)
+    x0 = min(b[0] for _, b in comps)
+    y0 = min(b[1] for _, b in comps)
+    x1 = max(b[2] for _, b in comps)
+    y1 = max(b[3] for _, b in comps)
+    h, w = shape
+    box = ((x0 - bx - 0.5) / k, (y0 - by - 0.5) / k, (x1 - bx - 0.5) / k, (y1 - by - 0.5) / k)
+    return max(box[0], 0.0), max(box[1], 0.0), min(box[2], float(w)), min(box[3], float(h))
+
+
+def tile_levels(h: int, w: int, min_tile: float, max_level: int = _TILE_LEVELS[-1]) -> list[list[Region]]:
+    """The search windows per scale: the whole image, then n x n overlapping tiles (n in _TILE_LEVELS, each
+    1.5x its share of the image) while they stay at least ``min_tile`` px."""
+    big = max(h, w)
+    levels = []
+    for level in _TILE_LEVELS:
+        if level > max_level:
+            break
+        if level == 1:
+            levels.append([Region(w / 2, h / 2, big)])
+            continue
+        side = min(big / level * 1.5, max(h, w))
+        side = max(side, min(h, w) / level * 1.5)
+        if side < min_tile:
+            break
+        xs = np.linspace(side / 2, max(w - side / 2, side / 2), level) if w > side else [w / 2]
+        ys = np.linspace(side / 2, max(h - side / 2, side / 2), level) if h > side else [h / 2]
+        levels.append([Region(float(x), float(y), side) for y in ys for x in xs])
+    return levels
+
+
+def prob_at(person: Person, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """The person's probability (sigmoid of its logits) at image points (xs, ys); 0 outside its region."""
+    k, bx, by = grid_of_region(person.region)
+    i = np.floor(k * ys + by + 0.5).astype(int)
+    j = np.floor(k * xs + bx + 0.5).astype(int)
+    inside = (i >= 0) & (i < SIZE) & (j >= 0) & (j < SIZE)
+    out = np.zeros(xs.shape, np.float32)
+    out[inside] = sigmoid(person.logits[i[inside], j[inside]])
+    return out
+
+
+def contains(person: Person, face: _faces.Face, shape: tuple[int, int]) -> bool:
+    """Whether the person's segmentation covers the middle of the face."""
+    x0, y0, x1, y1 = face.box
+    xs = np.array([(x0 + x1) / 2, 0.35 * x0 + 0.65 * x1, 0.65 * x0 + 0.35 * x1])
+    ys = np.array([(y0 + y1) / 2] * 3)
+    return bool((prob_at(person, xs, ys) > 0.5).sum() >= 2)
+
+
+def working_grid(rect: tuple[int, int, int, int]) -> Grid:
+    """(gw, gh, kx, ky, bx, by): a grid over the image rectangle with long side <= _WORK_MAX."""
+    rx0, ry0, rx1, ry1 = rect
+    rw, rh = rx1 - rx0, ry1 - ry0
+    s = min(1.0, _WORK_MAX / max(rw, rh))
+    gw, gh = max(int(round(rw * s)), 1), max(int(round(rh * s)), 1)
+    kx, ky = gw / rw, gh / rh
+    return gw, gh, kx, ky, -kx * rx0 - 0.5, -ky * ry0 - 0.5
+
+
+def logits_on_grid(person: Person, grid: Grid) -> np.ndarray:
+    """The person's canvas logits resampled onto a working grid (very negative outside the region)."""
+    return warp_to_grid(np.clip(person.logits, -LOGIT_CLIP, LOGIT_CLIP), person.region, grid, -LOGIT_CLIP)
+
+
+def warp_to_grid(canvas: np.ndarray, region: Region, grid: Grid, outside: float) -> np.ndarray:
+    """A (256, 256) map over ``region`` resampled onto a working grid (``outside`` beyond the region)."""
+    gw, gh, kx, ky, bx, by = grid
+    k, cbx, cby = grid_of_region(region)
+    m = np.array([[k / kx, 0.0, cbx - k / kx * bx], [0.0, k / ky, cby - k / ky * by]])
+    return cv2.warpAffine(
+        canvas, m, (gw, gh), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_CONSTANT,
+        borderValue=outside,
+    )  # fmt: skip
