@@ -39,23 +39,21 @@ import numpy as np
 
 from . import sh
 from ._errors import RelightError
+from ._io import read_image
 from .flow import check_preset, consistent_flow, dis_flow, to_gray_u8, warp  # the last four re-exported (moved)
 
 logger = logging.getLogger(__name__)
 
 def as_float_image(image: np.ndarray, name: str = "image") -> np.ndarray:
-    """Check an (H, W, 3) RGB frame and return it as float32 in [0, 1] (a new array)."""
+    """Check an (H, W, 3) RGB frame and return it as a new float32 array in [0, 1].
+
+    The conversion is the runtime's one image intake (relight_rt._io.read_image): uint8, uint16 or float in
+    [0, 1] (floats a rounding outside are clipped); NaN, Inf and other values are refused.
+    """
     arr = np.asarray(image)
     if arr.ndim != 3 or arr.shape[2] != 3:
         raise RelightError(f"{name}: expected (H, W, 3) image, got {arr.shape} {arr.dtype}")
-    if arr.dtype == np.uint8:
-        return arr.astype(np.float32) / 255.0
-    if not np.issubdtype(arr.dtype, np.floating):
-        raise RelightError(f"{name}: expected uint8 or float image, got {arr.shape} {arr.dtype}")
-    out = arr.astype(np.float32)  # always a copy
-    if not np.isfinite(out).all():
-        raise RelightError(f"{name}: image holds NaN or Inf")
-    return out
+    return read_image(arr, name)
 
 
 def as_bool_mask(mask: np.ndarray | None, shape: tuple[int, int], name: str = "mask") -> np.ndarray:

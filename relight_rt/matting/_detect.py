@@ -5,13 +5,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import _faces
+from .._faces import FACE_SIZE, Face, decode, weighted_nms
 from ..session import Model
 from ._models import SIZE
 from ._regions import COARSE_MIN_AREA, Region, components, crop_region, grid_of_region, tile_levels
 
 MIN_TILE = SIZE  # tiles are searched as long as they stay at least 256 px (a smaller one would only be upsampled)
-_FACE_TILE_MIN = 2 * _faces.FACE_SIZE  # face search in tiles (every=True) while the tiles stay this large
+_FACE_TILE_MIN = 2 * FACE_SIZE  # face search in tiles (every=True) while the tiles stay this large
 
 Box = tuple[float, float, float, float]
 
@@ -42,7 +42,7 @@ def find_people(roi: Model, rgb: np.ndarray) -> list[tuple[float, Box]]:
     return []
 
 
-def find_faces(face: Model | None, rgb: np.ndarray, *, every: bool = False) -> list[_faces.Face]:
+def find_faces(face: Model | None, rgb: np.ndarray, *, every: bool = False) -> list[Face]:
     """Faces (none without a face graph), best first: on the whole image, and with ``every`` also in 2x2 and
     3x3 overlapping tiles (while they stay >= 384 px) for smaller faces."""
     if face is None:
@@ -52,15 +52,15 @@ def find_faces(face: Model | None, rgb: np.ndarray, *, every: bool = False) -> l
     levels = tile_levels(h, w, _FACE_TILE_MIN, max_level=3)
     for windows in levels if every else levels[:1]:
         for win in windows:
-            out = face.run({"image": crop_region(rgb, win, _faces.FACE_SIZE).transpose(2, 0, 1)[None]})
+            out = face.run({"image": crop_region(rgb, win, FACE_SIZE).transpose(2, 0, 1)[None]})
             x0, y0, _, _ = win.box()
-            for box, score in _faces.decode(out["boxes"][0], out["scores"][0]):
+            for box, score in decode(out["boxes"][0], out["scores"][0]):
                 found.append((np.array([x0, y0, x0, y0]) + box * win.side, score))
     faces = []
-    for box, score in _faces.weighted_nms(found):
+    for box, score in weighted_nms(found):
         b = (max(box[0], 0.0), max(box[1], 0.0), min(box[2], float(w)), min(box[3], float(h)))
         if b[2] > b[0] and b[3] > b[1]:
-            faces.append(_faces.Face(b, score))
+            faces.append(Face(b, score))
     return faces
 
 

@@ -14,8 +14,8 @@ import threading
 import cv2
 import numpy as np
 
-from .. import _faces
 from .._errors import RelightError
+from .._faces import Face
 from .._refine import refine_edges
 from ..session import Model, load_model
 from ._coarse import region_alpha
@@ -113,7 +113,7 @@ class PersonMatter:
         pixels, (x0, y0, x1, y1))], largest first; empty when nobody is found."""
         return find_people(self.roi, rgb)
 
-    def find_faces(self, rgb: np.ndarray, *, every: bool = False) -> list[_faces.Face]:
+    def find_faces(self, rgb: np.ndarray, *, every: bool = False) -> list[Face]:
         """Faces (the bundled face detector; none without it), best first: on the whole image, and with
         ``every`` also in overlapping tiles for smaller faces (relight_rt.matting._detect.find_faces)."""
         return find_faces(self.face, rgb, every=every)
@@ -223,7 +223,7 @@ class PersonMatter:
             cands = sorted(cands + more, key=lambda t: -t[0])
         return found
 
-    def _person_at(self, rgb: np.ndarray, box, face: _faces.Face | None, give_up: float = 0.0) -> Person | None:
+    def _person_at(self, rgb: np.ndarray, box, face: Face | None, give_up: float = 0.0) -> Person | None:
         """The person in ``box`` (a blob's or a face's body box), or None when the pose graph says nobody is
         there and no face vouches for one (``give_up``: see :meth:`segment`)."""
         p = self.segment(rgb, Region.around(*box), give_up if face is None else 0.0)

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from .. import _faces
+from .._faces import Face
 from ._models import SIZE
 
 ROI_SCALE = 1.25  # square region side = this x the person's longest box side (MediaPipe's choice)
@@ -171,7 +171,7 @@ def prob_at(person: Person, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
     return out
 
 
-def contains(person: Person, face: _faces.Face, shape: tuple[int, int]) -> bool:
+def contains(person: Person, face: Face, shape: tuple[int, int]) -> bool:
     """Whether the person's segmentation covers the middle of the face."""
     x0, y0, x1, y1 = face.box
     xs = np.array([(x0 + x1) / 2, 0.35 * x0 + 0.65 * x1, 0.65 * x0 + 0.35 * x1])
