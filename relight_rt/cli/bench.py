@@ -1,4 +1,4 @@
-"""``relight-rt bench`` (also ``python -m relight_rt.bench``): time the models on this machine (relight_rt.bench)."""
+"""``relight-rt bench`` (also ``python -m relight_rt.bench``): time the models on this machine (relight_rt.timing)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import json
 import logging
 import sys
 
-from .. import bench
+from .. import timing
 from .._errors import RelightError
 
 
@@ -22,7 +22,7 @@ def _ints(text: str) -> list[int]:
 
 
 def _add_arguments(p: argparse.ArgumentParser) -> None:
-    sections = bench.SECTIONS
+    sections = timing.SECTIONS
     p.add_argument("--models", metavar="DIR", help="model folder (default: $RELIGHT_RT_MODELS, then bundled models)")
     p.add_argument("--device", choices=("auto", "cpu", "cuda"), default="cpu", help="where to run (default: cpu)")
     p.add_argument("--precision", choices=("fp32", "fp16", "int8"), default="fp32",
@@ -50,21 +50,21 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
     models = find_models(args.models)
     sections = [s.strip() for s in args.sections.split(",") if s.strip()]
-    report = bench.run(models, device=args.device, sections=sections, batches=args.batches, n_lights=args.lights,
+    report = timing.run(models, device=args.device, sections=sections, batches=args.batches, n_lights=args.lights,
                        frames=args.frames, repeats=args.repeats, warmup=args.warmup,
                        precision=args.precision)  # fmt: skip
-    text = bench.to_markdown(report)
+    text = timing.to_markdown(report)
     if args.json:
-        bench.write_text(args.json, json.dumps(report, indent=1) + "\n")
+        timing.write_text(args.json, json.dumps(report, indent=1) + "\n")
     if args.markdown:
-        bench.write_text(args.markdown, text)
+        timing.write_text(args.markdown, text)
     sys.stdout.write(text)
     return 0
 
 
 def main(argv: list[str] | None = None) -> int:
     """``python -m relight_rt.bench``."""
-    parser = argparse.ArgumentParser(prog="python -m relight_rt.bench", description=bench.__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m relight_rt.bench", description=timing.__doc__.splitlines()[0])
     _add_arguments(parser)
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")

@@ -27,7 +27,9 @@ from .options import (
     light_spec,
     paths_of,
     relighter,
+    runtime_config,
 )
+from .ray import finish_job, quiet_ray_data
 from .report import finish_batch, os_error_text
 
 log = logging.getLogger("relight_rt.cli")
@@ -70,8 +72,6 @@ def _read_inputs(args: argparse.Namespace, files: list[Path], relighter, spec, b
 
 def cmd_relight(args: argparse.Namespace) -> int:
     if getattr(args, "ray", None):  # the same work on a Ray cluster (relight_rt.distributed)
-        from .ray import cmd_relight_ray
-
         return cmd_relight_ray(args)
     plan = batch.plan(args.inputs, args.output)
     files, failures, single = plan.inputs, plan.failures, plan.single
@@ -100,6 +100,28 @@ def cmd_relight(args: argparse.Namespace) -> int:
             reason = os_error_text(exc) if isinstance(exc, OSError) else str(exc) or "out of memory"
             failures.append((str(path), reason))
     return finish_batch(failures, written, many=len(files) > 1)
+
+
+def cmd_relight_ray(args: argparse.Namespace) -> int:
+    """``relight-rt relight ... --ray``: as the single-process command, with a manifest."""
+    from ..distributed import relight_folder
+
+    quiet_ray_data()
+    spec = light_spec(args)
+    config = runtime_config(args)
+    if spec.source == "photo":  # the light of a photo: estimated once, here
+        from ..relighter import Relighter
+
+        light = Relighter.from_config(config.replace(device="cpu")).resolve_light(spec)
+    else:
+        light = spec.resolve()
+    report = relight_folder(
+        args.inputs, args.output, light, ray_address=args.ray, models=args.models, mask=args.mask,
+        background=background(args), device=args.device, actors=args.ray_actors, gpus_per_actor=args.ray_gpus,
+        cpus_per_actor=args.ray_cpus, batch_size=args.ray_batch_size, manifest=args.manifest,
+        protect=list(spec.paths), config=config, exposure=parse_exposure(args.exposure),
+    )  # fmt: skip
+    return finish_job(report, many=report.inputs > 1)
 
 
 # ------------------------------------------------------------------------------------------- decompose

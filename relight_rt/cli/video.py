@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+from pathlib import Path
 
 from .._errors import RelightError
 from .options import (
@@ -30,6 +31,7 @@ from .options import (
     light_spec,
     runtime_config,
 )
+from .ray import finish_job
 from .report import finish
 
 logger = logging.getLogger(__name__)
@@ -107,8 +109,6 @@ def cmd_video(args: argparse.Namespace) -> int:
     from ..video import relight_clip
 
     if getattr(args, "ray", None):
-        from .ray import cmd_video_ray
-
         return cmd_video_ray(args)
     if len(args.input) != 1:  # several clips need --ray
         raise RelightError(f"{len(args.input)} inputs: one clip at a time, or several with --ray")
@@ -119,3 +119,48 @@ def cmd_video(args: argparse.Namespace) -> int:
     # --skip-bad-frames: the output is kept, the run still fails
     return finish([("", message) for message in report.skipped],
                   f"{report.lost} frame(s) left out, {report.frames} written")  # fmt: skip
+
+
+# ------------------------------------------------------------------------------------------- --ray
+
+
+def plan_videos(args: argparse.Namespace) -> tuple[list[dict], list[tuple[str, str]]]:
+    """Per-clip settings (relight_rt.video.relight_clip's keyword arguments) for ``relight-rt video SRC...
+    --ray``: -o DST/ gives DST/STEM_relit.mp4; --frames-out, --lights-out and --metrics name folders that get
+    STEM/, STEM_lights.npy and STEM_metrics.json. Returns (settings per clip, failures)."""
+    if not args.output and not args.frames_out:
+        raise RelightError("output: expected -o FOLDER and/or --frames-out FOLDER (with --ray, one file per clip)")
+    for name in ("output", "frames_out", "lights_out", "metrics"):
+        value = getattr(args, name, None)
+        if value and Path(value).suffix and not Path(value).is_dir():
+            raise RelightError(f"--{name.replace('_', '-')} {value}: with --ray, expected a folder (one file per clip)")
+    base = clip_settings(args)
+    clips, failures, seen = [], [], {}
+    for clip in args.input:
+        stem = Path(clip).stem
+        if stem in seen:
+            failures.append((clip, f"two clips named {stem} would both write {stem}_relit.mp4 ({seen[stem]})"))
+            continue
+        seen[stem] = clip
+        settings = dict(base, src=clip)
+        settings["output"] = str(Path(args.output) / f"{stem}_relit.mp4") if args.output else None
+        settings["frames_out"] = str(Path(args.frames_out) / stem) if args.frames_out else None
+        settings["lights_out"] = str(Path(args.lights_out) / f"{stem}_lights.npy") if args.lights_out else None
+        settings["metrics"] = str(Path(args.metrics) / f"{stem}_metrics.json") if args.metrics else None
+        clips.append(settings)
+    return clips, failures
+
+
+def cmd_video_ray(args: argparse.Namespace) -> int:
+    """``relight-rt video SRC... -o DST/ --ray``: one Ray task per clip, a manifest of the clips."""
+    from ..distributed import MANIFEST_NAME, import_ray, relight_videos
+
+    import_ray()  # missing: say so before anything is written
+    clips, failures = plan_videos(args)
+    for folder in (args.output, args.frames_out, args.lights_out, args.metrics):
+        if folder:
+            Path(folder).mkdir(parents=True, exist_ok=True)
+    manifest = Path(args.manifest) if args.manifest else Path(args.output or args.frames_out) / MANIFEST_NAME
+    report = relight_videos(clips, manifest, ray_address=args.ray, gpus_per_task=args.ray_gpus,
+                            cpus_per_task=args.ray_cpus, failures=failures)  # fmt: skip
+    return finish_job(report, many=len(args.input) > 1)
