@@ -14,10 +14,13 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from _graphs import models_dir
 
 import relight_rt
 from relight_rt import cli
 from relight_rt.cli.report import finish, finish_batch
+
+__all__ = ["models_dir"]  # fixture
 
 PACKAGE = Path(relight_rt.__file__).parent
 CLI = PACKAGE / "cli"
@@ -129,36 +132,27 @@ def _clip(folder: Path, n: int = 3, h: int = 64, w: int = 48) -> Path:
     return folder
 
 
-@pytest.fixture()
-def tiny_models(tmp_path, test_data_dir) -> Path:
-    models = tmp_path / "models"
-    models.mkdir()
-    for kind in ("stage1", "stage2"):
-        (models / f"{kind}.onnx").write_bytes((test_data_dir / f"tiny_{kind}.onnx").read_bytes())
-    return models
-
-
 def _files(folder: Path) -> dict[str, bytes]:
     return {p.name: p.read_bytes() for p in sorted(folder.iterdir())}
 
 
-def test_relight_clip_writes_what_the_video_command_writes(tmp_path, tiny_models):
+def test_relight_clip_writes_what_the_video_command_writes(tmp_path, models_dir):
     from relight_rt import LightSpec, RuntimeConfig
     from relight_rt.video import ClipLights, relight_clip
 
     clip = _clip(tmp_path / "clip")
-    common = ["--models", str(tiny_models), "--device", "cpu", "--batch-size", "2"]
+    common = ["--models", str(models_dir), "--device", "cpu", "--batch-size", "2"]
     assert cli.main(["-q", "video", str(clip), "--preset", "studio", "--rotate-per-second", "2", "--frames-out",
                      str(tmp_path / "cmd"), "--lights-out", str(tmp_path / "cmd.npy"), *common]) == 0  # fmt: skip
     lights = ClipLights(spec=LightSpec.preset("studio"), rotate_per_second=2.0)
     report = relight_clip(clip, lights, frames_out=tmp_path / "lib", lights_out=tmp_path / "lib.npy", batch_size=2,
-                          config=RuntimeConfig(models=str(tiny_models), device="cpu"))  # fmt: skip
+                          config=RuntimeConfig(models=str(models_dir), device="cpu"))  # fmt: skip
     assert report.frames == 3 and report.skipped == () and "turns per second" in report.lights
     assert _files(tmp_path / "lib") == _files(tmp_path / "cmd")
     np.testing.assert_array_equal(np.load(tmp_path / "lib.npy"), np.load(tmp_path / "cmd.npy"))
 
 
-def test_a_ray_clip_task_runs_the_library_job(tmp_path, tiny_models):
+def test_a_ray_clip_task_runs_the_library_job(tmp_path, models_dir):
     """The Ray task is relight_clip with the clip's settings (no argparse Namespace rebuilt in the worker)."""
     pytest.importorskip("ray")
     from relight_rt import RuntimeConfig, distributed
@@ -166,7 +160,7 @@ def test_a_ray_clip_task_runs_the_library_job(tmp_path, tiny_models):
 
     clip = _clip(tmp_path / "clip")
     settings = {"src": str(clip), "lights": ClipLights(per_frame=str(tmp_path / "l.npy")), "stabilize": False,
-                "frames_out": str(tmp_path / "task"), "config": RuntimeConfig(models=str(tiny_models), device="cpu")}
+                "frames_out": str(tmp_path / "task"), "config": RuntimeConfig(models=str(models_dir), device="cpu")}
     lights = np.zeros((3, 9, 3), np.float32)
     lights[:, 0] = [[0.4], [0.6], [0.8]]
     np.save(tmp_path / "l.npy", lights)

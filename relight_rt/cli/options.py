@@ -53,11 +53,13 @@ def runtime_config(args: argparse.Namespace) -> RuntimeConfig:
                          preprocess=args.preprocess, detail=not args.no_detail)
 
 
-def relighter(args: argparse.Namespace):
-    """A Relighter as the runtime options say: the one place a command builds one from its arguments."""
+def relighter(args: argparse.Namespace, device: str | None = None):
+    """A Relighter as the runtime options say (``device``: another device than --device): the one place a command
+    builds one from its arguments."""
     from ..relighter import Relighter
 
-    return Relighter.from_config(runtime_config(args))
+    config = runtime_config(args)
+    return Relighter.from_config(config if device is None else config.replace(device=device))
 
 
 # ------------------------------------------------------------------------------------------- lights

@@ -110,9 +110,7 @@ def cmd_relight_ray(args: argparse.Namespace) -> int:
     spec = light_spec(args)
     config = runtime_config(args)
     if spec.source == "photo":  # the light of a photo: estimated once, here
-        from ..relighter import Relighter
-
-        light = Relighter.from_config(config.replace(device="cpu")).resolve_light(spec)
+        light = relighter(args, device="cpu").resolve_light(spec)
     else:
         light = spec.resolve()
     report = relight_folder(
