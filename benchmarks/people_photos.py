@@ -166,7 +166,7 @@ def found(photos: list[tuple[Photo, Path]], sheet: Path | None) -> None:
     sys.path.insert(0, str(REPO))
     from relight_rt import RelightError
     from relight_rt import matting as M
-    from relight_rt.mask_cli import read_photo
+    from relight_rt.cli.mask import read_photo
 
     largest, everyone = M.PersonMatter(), M.PersonMatter(person="all")
     tiles = []

@@ -302,6 +302,11 @@ def _atomic(path: str | os.PathLike, protect: Iterable[str | os.PathLike], write
     return Path(path)
 
 
+def write_bytes(path: str | os.PathLike, data: bytes, protect: Iterable[str | os.PathLike] = ()) -> Path:
+    """Write ``data`` to ``path`` atomically (a temporary file beside it, then a rename), never over ``protect``."""
+    return _atomic(path, protect, lambda f: f.write(data))
+
+
 def write_all(files: Sequence[tuple[str | os.PathLike, Callable[[object], None]]],
               protect: Iterable[str | os.PathLike] = ()) -> list[Path]:
     """Write several files as one: all of them or none.

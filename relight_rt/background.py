@@ -87,7 +87,8 @@ _SIDE_BLUR = 0.35  # blur level of the parts beside the field of view (0 sharp, 
 _BAND = 8  # the sky / floor colour at the poles: the mean of the top / bottom 1/_BAND of the rows
 
 
-def _check_fov(fov) -> float:
+def check_fov(fov) -> float:
+    """``fov`` as a float, checked against FOV_RANGE (degrees; RelightError otherwise)."""
     try:
         f = float(fov)
     except (TypeError, ValueError):
@@ -96,6 +97,9 @@ def _check_fov(fov) -> float:
         raise RelightError(f"fov: expected a horizontal field of view between {FOV_RANGE[0]:g} and {FOV_RANGE[1]:g} "
                            f"degrees (exclusive), got {fov!r}")  # fmt: skip
     return f
+
+
+_check_fov = check_fov  # the name this module's own callers use
 
 
 def parse_key_light(value) -> tuple[float, float] | None:

@@ -1,4 +1,4 @@
-"""``relight-rt demo``: relight the bundled example person and show the light beside the result.
+"""The demo (``relight-rt demo``): relight the bundled example person and show the light beside the result.
 
 The example is a person rendered by this project's own renderer (``python -m export render`` and
 ``render-photos``; see models/README.md), shipped as an RGBA PNG whose alpha is the mask, so the
@@ -7,8 +7,6 @@ demo needs no file of the user's and nothing from the network.
 
 from __future__ import annotations
 
-import argparse
-import logging
 from pathlib import Path
 
 import numpy as np
@@ -16,8 +14,6 @@ import numpy as np
 from . import lights, sh
 from ._errors import RelightError
 from ._io import read_image, write_image
-
-log = logging.getLogger(__name__)
 
 EXAMPLE = Path(__file__).resolve().parent / "data" / "example.png"
 
@@ -59,29 +55,6 @@ def run_demo(output: str | Path, preset: str = "golden-hour", models=None, devic
     relit = relighter.relight(photo, light, background=np.zeros(photo.shape[:2] + (3,), np.float32))
     image = side_by_side(photo[..., :3] * photo[..., 3:], relit, light)
     return write_image(output, image, protect=[example_path()])
-
-
-def add_parser(subparsers) -> None:
-    from .cli import _add_model_options
-
-    p = subparsers.add_parser(
-        "demo",
-        help="relight the bundled example person under a preset",
-        description="Relight the bundled example (a rendered person) and write the photo, the relit photo and "
-        "the light on a sphere side by side.",
-    )
-    p.add_argument("--preset", default="golden-hour", metavar="NAME", help=f"one of {', '.join(lights.list_presets())}")
-    p.add_argument("-o", "--output", default="demo.png", metavar="OUT", help="image to write (default demo.png)")
-    _add_model_options(p)
-    p.set_defaults(func=_cmd_demo)
-
-
-def _cmd_demo(args: argparse.Namespace) -> int:
-    from ._options import runtime_config
-
-    path = run_demo(args.output, args.preset, config=runtime_config(args))  # every runtime option, as relight
-    log.info("wrote %s (photo | relit under %s | the light on a sphere)", path, args.preset)
-    return 0
 
 
 __all__ = ["example_path", "run_demo", "side_by_side"]

@@ -5,7 +5,8 @@ Photos go through Ray Data: a dataset of (input, output) paths, never decoded pi
 given a GPU, CPU otherwise). Each actor reads, relights and writes its photos atomically through
 :func:`relight_rt.batch.relight_file`, the very function the single-process ``relight-rt relight``
 runs, so the outputs are the same files byte for byte. Videos run one clip per Ray task (the
-stabiliser goes through a clip in order), each through ``relight-rt video``'s own pipeline.
+stabiliser goes through a clip in order), each through relight_rt.video.relight_clip, the very function
+``relight-rt video`` runs (:func:`relight_videos`). The command line's ``--ray`` is relight_rt.cli.ray.
 
 Every photo or clip gives one row of a manifest, JSON lines appended by the driver as results come
 back: ``input``, ``output``, ``status`` (ok | failed | skipped), ``error``, ``seconds`` (the work on
@@ -30,7 +31,6 @@ Python::
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import hashlib
 import json
@@ -59,47 +59,13 @@ MANIFEST_NAME = "relight_manifest.jsonl"
 STATUSES = ("ok", "failed", "skipped")
 
 
-def _import_ray():
+def import_ray():
+    """The ray module, or a RelightError that says how to install it."""
     try:
         import ray
     except ImportError:
         raise RelightError(f"--ray needs Ray, which is not installed: {EXTRA_HINT}") from None
     return ray
-
-
-# ------------------------------------------------------------------------------------------- CLI options
-
-
-def add_ray_options(parser: argparse.ArgumentParser, *, video: bool = False) -> None:
-    """Add ``--ray [ADDRESS|local]`` and its options to a command's parser (imports no Ray)."""
-    g = parser.add_argument_group(f"Ray cluster (optional extra: {EXTRA_HINT})")
-    g.add_argument("--ray", nargs="?", const="local", metavar="ADDRESS",
-                   help="run on Ray: local (a private Ray on this machine; the default without ADDRESS), "
-                        "auto (the cluster this machine belongs to) or ray://HOST:10001")  # fmt: skip
-    g.add_argument(
-        "--ray-gpus",
-        type=float,
-        metavar="G",
-        help="GPUs per " + ("task" if video else "actor") + " (default: 1 when the cluster has GPUs, else 0)",
-    )
-    g.add_argument(
-        "--ray-cpus",
-        type=float,
-        default=1.0,
-        metavar="C",
-        help="CPUs per " + ("task" if video else "actor") + " (default 1; the onnxruntime thread count)",
-    )
-    if not video:
-        g.add_argument(
-            "--ray-actors",
-            type=int,
-            metavar="N",
-            help="actors, each with one Relighter (default: one per GPU, or per --ray-cpus CPUs)",
-        )
-        g.add_argument("--ray-batch-size", type=int, default=8, metavar="B", help="photos per actor call (default 8)")
-    g.add_argument(
-        "--manifest", metavar="JSONL", help=f"manifest of the job (default: {MANIFEST_NAME} in the output folder)"
-    )
 
 
 # ------------------------------------------------------------------------------------------- Ray session
@@ -192,7 +158,7 @@ def _start_local(ray, kwargs: dict):
 def ray_session(address: str | None) -> Iterator:
     """Ray, connected: an existing connection as it is (left open), else ``address`` (None or "local":
     a private Ray on this machine, shut down at the end, and by a watcher if this process is killed)."""
-    ray = _import_ray()
+    ray = import_ray()
     if ray.is_initialized():
         yield ray
         return
@@ -479,7 +445,7 @@ def relight_folder(
     Raises:
         RelightError: Ray missing or unreachable, bad options, a light that cannot be resolved.
     """
-    _import_ray()  # missing: say so before anything is written
+    import_ray()  # missing: say so before anything is written
     if isinstance(inputs, (str, os.PathLike)):
         inputs = [inputs]
     inputs = [str(i) for i in inputs]
@@ -588,135 +554,103 @@ def _plain(value):
     return value.item() if isinstance(value, np.generic) else value
 
 
-def _quiet_ray_data() -> None:
-    """The CLI: Ray Data's progress lines only with -v (the manifest is the record)."""
-    if not log.isEnabledFor(logging.DEBUG):
-        os.environ.setdefault("RAY_DATA_LOG_LEVEL", "WARNING")
-
-
-def cmd_relight_ray(args: argparse.Namespace) -> int:
-    """``relight-rt relight ... --ray``: as the single-process command, with a manifest."""
-    _quiet_ray_data()
-    from ._options import background, light_spec, runtime_config
-    from .exposure import parse_exposure
-
-    spec = light_spec(args)
-    config = runtime_config(args)
-    if spec.source == "photo":  # the light of a photo: estimated once, here
-        from .relighter import Relighter
-
-        light = Relighter.from_config(config.replace(device="cpu")).resolve_light(spec)
-    else:
-        light = spec.resolve()
-    report = relight_folder(
-        args.inputs, args.output, light, ray_address=args.ray, models=args.models, mask=args.mask,
-        background=background(args), device=args.device, actors=args.ray_actors, gpus_per_actor=args.ray_gpus,
-        cpus_per_actor=args.ray_cpus, batch_size=args.ray_batch_size, manifest=args.manifest,
-        protect=list(spec.paths), config=config, exposure=parse_exposure(args.exposure),
-    )  # fmt: skip
-    return _finish(report, many=report.inputs > 1)
-
-
-def _finish(report: Report, many: bool) -> int:
-    import sys
-
-    for item, message in report.failures:
-        text = message if item in message else f"{item}: {message}"
-        print(f"relight-rt: error: {text}", file=sys.stderr)
-    log.info("manifest: %s (%d ok, %d skipped, %d failed)", report.manifest, report.written, report.skipped,
-             report.count("failed"))  # fmt: skip
-    if report.failures and many:
-        print(f"relight-rt: {len(report.failures)} failed, {report.written} written", file=sys.stderr)
-    return 2 if report.failures else 0
-
-
 # ------------------------------------------------------------------------------------------- videos
 
-_PER_CLIP = ("input", "output", "frames_out", "lights_out", "metrics")  # paths that differ from clip to clip
-_NOT_SETTINGS = (*_PER_CLIP, "func", "ray", "ray_gpus", "ray_cpus", "manifest", "command", "verbose", "quiet")
+_PER_CLIP = ("src", "output", "frames_out", "lights_out", "metrics")  # what differs from clip to clip
 
 
-def _video_clip(settings: dict, cpus: float) -> dict:
-    """Ray task: one clip through ``relight-rt video``'s pipeline; every error is a failed row."""
+def _video_clip(settings: dict, job: str, cpus: float) -> dict:
+    """Ray task: one clip through relight_rt.video.relight_clip; every error is a failed row."""
     import ray
 
-    from . import video_cli
+    from .video import relight_clip
 
-    args = argparse.Namespace(**settings)
-    if args.device == "auto":
-        args.device = "cuda" if ray.get_gpu_ids() else "cpu"
-    if args.device == "cpu" and not os.environ.get("RELIGHT_RT_THREADS"):
+    config = settings.get("config") or RuntimeConfig()
+    if config.device == "auto":
+        config = config.replace(device="cuda" if ray.get_gpu_ids() else "cpu")
+    if config.device == "cpu" and not os.environ.get("RELIGHT_RT_THREADS"):
         os.environ["RELIGHT_RT_THREADS"] = str(max(1, int(cpus)))
     start = time.perf_counter()
     try:
-        video_cli.run(args)
+        relight_clip(**dict(settings, config=config))
         status, error = "ok", ""
     except (RelightError, OSError) as exc:
         status, error = "failed", str(exc)
     except Exception as exc:
         status, error = "failed", f"{type(exc).__name__}: {exc}"
-    return _row(args.input, args.output or args.frames_out, status, error, time.perf_counter() - start,
-                settings["_job"])  # fmt: skip
+    return _row(settings["src"], settings.get("output") or settings.get("frames_out"), status, error,
+                time.perf_counter() - start, job)  # fmt: skip
 
 
-def plan_videos(args: argparse.Namespace) -> tuple[list[dict], list[tuple[str, str]]]:
-    """Per-clip settings for ``relight-rt video SRC... --ray``: -o DST/ gives DST/STEM_relit.mp4;
-    --frames-out, --lights-out and --metrics name folders that get STEM/, STEM_lights.npy and
-    STEM_metrics.json. Returns (settings per clip, failures)."""
-    if not args.output and not args.frames_out:
-        raise RelightError("output: expected -o FOLDER and/or --frames-out FOLDER (with --ray, one file per clip)")
-    for name in ("output", "frames_out", "lights_out", "metrics"):
-        value = getattr(args, name, None)
-        if value and Path(value).suffix and not Path(value).is_dir():
-            raise RelightError(f"--{name.replace('_', '-')} {value}: with --ray, expected a folder (one file per clip)")
-    base = {k: v for k, v in vars(args).items() if k not in ("func", "ray", "ray_gpus", "ray_cpus", "manifest")}
-    clips, failures, seen = [], [], {}
-    for clip in args.input:
-        stem = Path(clip).stem
-        if stem in seen:
-            failures.append((clip, f"two clips named {stem} would both write {stem}_relit.mp4 ({seen[stem]})"))
-            continue
-        seen[stem] = clip
-        settings = dict(base, input=clip)
-        settings["output"] = str(Path(args.output) / f"{stem}_relit.mp4") if args.output else None
-        settings["frames_out"] = str(Path(args.frames_out) / stem) if args.frames_out else None
-        settings["lights_out"] = str(Path(args.lights_out) / f"{stem}_lights.npy") if args.lights_out else None
-        settings["metrics"] = str(Path(args.metrics) / f"{stem}_metrics.json") if args.metrics else None
-        clips.append(settings)
-    return clips, failures
+def _clip_reads(clips: list[dict]) -> list[Path]:
+    """Every file the clips read: the clips, their masks, light files, the DVP, the background image and the
+    model graphs (relight_rt.video.relight_clip's inputs)."""
+    from .session import find_models
+    from .video import ClipLights
+
+    paths: list = []
+    models = set()
+    for c in clips:
+        lights = c["lights"] if isinstance(c["lights"], ClipLights) else ClipLights(spec=c["lights"])
+        masks = c.get("masks")
+        bg = c.get("background")
+        bg_path = parse_background(bg).path if bg is not None else None
+        paths += [c["src"], masks if masks != "auto" else None, *lights.paths, c.get("dvp"), bg_path]
+        if not c.get("dvp"):
+            models.add((c.get("config") or RuntimeConfig()).models)
+    found = files_read(paths)
+    for folder in models:
+        found.extend(Path(find_models(folder)).glob("*.onnx"))
+    return found
 
 
-def cmd_video_ray(args: argparse.Namespace) -> int:
-    """``relight-rt video SRC... -o DST/ --ray``: one Ray task per clip, a manifest of the clips."""
-    _import_ray()
-    clips, failures = plan_videos(args)
-    for folder in (args.output, args.frames_out, args.lights_out, args.metrics):
-        if folder:
-            Path(folder).mkdir(parents=True, exist_ok=True)
-    job = job_key(**{k: v for k, v in vars(args).items() if k not in _NOT_SETTINGS})
-    manifest = Path(args.manifest) if args.manifest else Path(args.output or args.frames_out) / MANIFEST_NAME
-    report = Report(manifest, len(args.input), failures=list(failures))
+def relight_videos(
+    clips: Iterable[dict],
+    manifest: str | os.PathLike,
+    *,
+    ray_address: str | None = None,
+    gpus_per_task: float | None = None,
+    cpus_per_task: float = 1.0,
+    failures: Iterable[tuple[str, str]] = (),
+) -> Report:
+    """Relight many clips on Ray, one task per clip (the stabiliser goes through a clip in order).
+
+    Args:
+        clips: per clip, the keyword arguments of relight_rt.video.relight_clip (``src``, ``lights``, the
+            outputs, ``config``, ...); plain values that pickle.
+        manifest: JSON-lines manifest, appended; a rerun of the same job skips the clips listed ok whose
+            output exists.
+        ray_address: None or "local" (a private Ray on this machine), "auto", "ray://HOST:PORT".
+        gpus_per_task: GPUs per task (default 1 when the cluster has GPUs and the device is not "cpu").
+        cpus_per_task: CPUs per task (and its onnxruntime threads on CPU).
+        failures: failures found while planning (listed first in the report).
+
+    Returns:
+        A Report: this run's manifest rows and the failures, in clip order.
+    """
+    import_ray()
+    clips, failures = list(clips), list(failures)
+    shared = {k: v for k, v in (clips[0] if clips else {}).items() if k not in _PER_CLIP}
+    job = job_key(**shared)  # the settings that shape every clip's output (the paths are per clip)
+    report = Report(Path(manifest), len(clips) + len(failures), failures=failures)
     done = done_outputs(manifest, job)
     rows: list[tuple[int, dict]] = []
-    from .session import find_models
-
-    reads = files_read([*args.input, args.masks if args.masks != "auto" else None, args.lights, args.light,
-                        args.envmap, args.light_from, *(args.interpolate or []), args.dvp, args.background],
-                       None if args.dvp else find_models(args.models))  # fmt: skip
+    reads = _clip_reads(clips)
+    device = (shared.get("config") or RuntimeConfig()).device
     with ManifestWriter(manifest, protect=reads) as writer:
         todo = []
         for index, settings in enumerate(clips):
-            target = settings["output"] or settings["frames_out"]
+            target = settings.get("output") or settings.get("frames_out")
             if str(Path(target).resolve()) in done:
-                rows.append((index, _row(settings["input"], target, "skipped", job=job)))
+                rows.append((index, _row(settings["src"], target, "skipped", job=job)))
             else:
-                todo.append((index, dict(settings, _job=job, ray=None)))
+                todo.append((index, settings))
         writer.write(r for _, r in rows)
         if todo:
-            with ray_session(args.ray) as ray:
-                gpus, cpus, _ = _resources(ray, args.ray_gpus, args.ray_cpus, args.device)
+            with ray_session(ray_address) as ray:
+                gpus, cpus, _ = _resources(ray, gpus_per_task, cpus_per_task, device)
                 task = ray.remote(_video_clip).options(num_cpus=cpus, num_gpus=gpus, max_retries=0)
-                pending = {task.remote(s, cpus): i for i, s in todo}
+                pending = {task.remote(s, job, cpus): i for i, s in todo}
                 clips_by_index = dict(todo)
                 log.info("Ray: %d clip(s), one task each, %s GPU and %s CPU per task", len(todo), gpus, cpus)
                 while pending:
@@ -728,11 +662,12 @@ def cmd_video_ray(args: argparse.Namespace) -> int:
                         except ray.exceptions.RayError as exc:  # the worker died (memory, a lost node)
                             settings = clips_by_index[index]
                             reason = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
-                            row = _row(settings["input"], settings["output"] or settings["frames_out"], "failed",
-                                       f"{settings['input']}: the Ray task failed: {reason}", job=job)  # fmt: skip
+                            row = _row(settings["src"], settings.get("output") or settings.get("frames_out"),
+                                       "failed", f"{settings['src']}: the Ray task failed: {reason}",
+                                       job=job)  # fmt: skip
                         rows.append((index, row))
                         writer.write([row])
     rows.sort(key=lambda r: r[0])
     report.rows = [r for _, r in rows]
     report.failures.extend((r["input"], r["error"]) for r in report.rows if r["status"] == "failed")
-    return _finish(report, many=len(args.input) > 1)
+    return report

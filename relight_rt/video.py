@@ -410,3 +410,219 @@ def relight_video(source: FrameSource, lights: LightSchedule, sink: FrameSink, *
     spf = (time.perf_counter() - start - callback) / n
     logger.debug("relit %d frames, %.3f s per frame", n, spf)  # the CLI says it once, with the lights
     return VideoReport(n, spf)
+
+
+# ---------------------------------------------------------------------------------------------
+# one clip, start to end (relight-rt video, and each Ray task of relight_rt.distributed)
+
+
+@dataclass(frozen=True)
+class ClipLights:
+    """How a clip is lit, as given; :meth:`schedule` resolves it once the clip is open (an interpolation needs
+    its frame count, the light of a photo the models).
+
+    Exactly one of: ``spec`` (one light, turning at ``rotate_per_second`` revolutions per second when given),
+    ``per_frame`` (an (N, 9, 3) RGB .npy, one light per frame) or ``keys`` (two or more key lights: LightSpecs,
+    light files, environment maps or preset names, interpolated over the whole clip).
+    """
+
+    spec: LightSpec | None = None
+    rotate_per_second: float | None = None
+    per_frame: str | None = None
+    keys: tuple = ()
+
+    def __post_init__(self) -> None:
+        given = (self.spec is not None) + (self.per_frame is not None) + bool(self.keys)
+        if given != 1:
+            raise RelightError("clip lights: expected exactly one of a light, a per-frame light file or key lights")
+        if self.rotate_per_second is not None and self.spec is None:
+            raise RelightError("clip lights: rotate_per_second turns one light; give a light, not a schedule")
+        if self.keys and len(self.keys) < 2:
+            raise RelightError("--interpolate: expected at least two key lights")
+        object.__setattr__(self, "keys", tuple(self.keys))
+        if self.per_frame is not None:
+            object.__setattr__(self, "per_frame", os.fspath(self.per_frame))
+
+    @property
+    def paths(self) -> tuple[str, ...]:
+        """The files these lights read (to protect them from being overwritten)."""
+        keys = (k.paths if isinstance(k, LightSpec) else (os.fspath(k),) for k in self.keys)
+        found = [*(self.spec.paths if self.spec is not None else ()), *(p for k in keys for p in k)]
+        return tuple(p for p in (self.per_frame, *found) if p)
+
+    def schedule(self, frame_count: int, relighter=None, name: str = "clip") -> LightSchedule:
+        """The light of each frame of a clip of ``frame_count`` frames (< 1: unknown)."""
+        if self.per_frame is not None:
+            return LightSchedule.from_file(self.per_frame)
+        if self.keys:
+            if frame_count < 1:
+                raise RelightError(f"{name}: the frame count is unknown; --interpolate needs it, use --lights")
+            return LightSchedule.interpolated([resolve_light(k, relighter) for k in self.keys], frame_count)
+        base = resolve_light(self.spec, relighter)
+        if self.rotate_per_second is not None:
+            return LightSchedule.rotating(base, self.rotate_per_second)
+        return LightSchedule.constant(base)
+
+
+@dataclass(frozen=True)
+class ClipReport:
+    """What :func:`relight_clip` did: frames written, seconds per frame, the lights' description, and the
+    frames left out (``skip_bad_frames``: one message each, and how many)."""
+
+    frames: int
+    seconds_per_frame: float
+    lights: str
+    skipped: tuple[str, ...] = ()
+    lost: int = 0
+
+
+class _LazyVideoMatter:
+    """The automatic video matte (relight_rt.matting.VideoMatter), loaded at the first frame that needs it."""
+
+    def __init__(self, device: str):
+        self.device, self._matter = device, None
+
+    def __call__(self, rgb, name: str = "frame"):
+        if self._matter is None:
+            from .matting import VideoMatter, shared_matter
+
+            self._matter = VideoMatter(shared_matter(device=self.device))
+        return self._matter(rgb, name=name)
+
+
+def automatic_video_matter(device: str = "cpu"):
+    """The automatic matte for frames without a mask (steady over time, loaded at its first use), or None when
+    the matting graphs are not installed."""
+    import importlib.util
+
+    if importlib.util.find_spec(f"{__package__}.matting") is None:
+        return None
+    from .matting import find_matting_models
+
+    try:
+        find_matting_models()
+    except RelightError:
+        return None
+    return _LazyVideoMatter("cpu" if device == "cpu" else device)
+
+
+def relight_clip(
+    src: str | os.PathLike,
+    lights: ClipLights | LightSpec,
+    *,
+    output: str | os.PathLike | None = None,
+    frames_out: str | os.PathLike | None = None,
+    masks: str | os.PathLike | None = None,
+    fps: float | None = None,
+    skip_bad_frames: bool = False,
+    background: Background | str = "original",
+    exposure="auto",
+    config=None,
+    dvp: str | os.PathLike | None = None,
+    dvp_size: int | None = None,
+    stabilize: bool = True,
+    stabilize_strength: float = 0.8,
+    batch_size: int = 4,
+    lights_out: str | os.PathLike | None = None,
+    metrics: str | os.PathLike | None = None,
+    progress=None,
+) -> ClipReport:
+    """Relight one clip (a video file or a folder of frames) into a video file and/or PNG frames: the work of
+    ``relight-rt video``, in bounded memory.
+
+    Args:
+        src: video file (OpenCV) or folder of frames.
+        lights: the light of each frame (:class:`ClipLights`), or one LightSpec.
+        output: video file to write (.mp4, .avi, .mkv); frames_out: folder for the relit frames as PNGs. One or
+            both.
+        masks: mask folder, mask video or "auto" (default: STEM_mask files beside the frames, else the alpha of
+            RGBA frames, else the automatic matte, steady over time, when installed).
+        fps: frame rate of a frame folder (default 25), or one that overrides the video's; in (0, MAX_FPS].
+        skip_bad_frames: leave out frames that cannot be decoded or differ in size (listed in the report)
+            instead of failing.
+        background: a Background or its shorthand; "transparent" needs ``frames_out`` only.
+        exposure: "auto", an EV offset or "physical" (relight_rt.exposure).
+        config: a RuntimeConfig (models, device, precision, ...); default RuntimeConfig().
+        dvp: a fitted dvp.onnx used instead of stage 1/2; dvp_size: the long side it was fitted at.
+        stabilize: the training-free stabiliser (not with a DVP); stabilize_strength: its weight in [0, 1).
+        batch_size: frames per stage-1 / DVP run.
+        lights_out: write the (N, 9, 3) RGB light of every frame to this .npy.
+        metrics: write temporal error, warping error and light-following to this JSON file.
+        progress: called with the frame count (None when unknown) and returning a context manager whose
+            ``update()`` is called once per frame written (the CLI's progress bar); None: nothing.
+
+    Returns:
+        A ClipReport. Outputs are written atomically and never over a file the run reads.
+
+    Raises:
+        RelightError: bad settings or input, no frame written (the partial video is removed).
+    """
+    import contextlib
+    import json
+    import math
+
+    from . import metrics as rt_metrics
+    from ._io import atomic_path, check_target, write_npy
+    from .config import RuntimeConfig
+    from .exposure import parse_exposure
+
+    config = RuntimeConfig() if config is None else config
+    lights = lights if isinstance(lights, ClipLights) else ClipLights(spec=lights)
+    if not output and not frames_out:
+        raise RelightError("output: expected -o VIDEO and/or --frames-out DIR")
+    if fps is not None and not (math.isfinite(fps) and 0 < fps <= MAX_FPS):
+        raise RelightError(f"--fps: must be > 0 and at most {MAX_FPS}, got {fps:g}")
+    source = FrameSource(src, masks, fps, skip_bad=skip_bad_frames, matter=automatic_video_matter(config.device))
+    bg = parse_background(background)
+    if bg.kind == "transparent" and output:
+        raise RelightError("--background transparent: a video file has no alpha channel; use --frames-out DIR")
+    engine = model = rl = None
+    if dvp:
+        model = DVPModel(dvp, device=config.device, size=dvp_size)
+    else:
+        from .relighter import Relighter
+
+        rl = Relighter.from_config(config)
+        engine = RelighterEngine(rl, exposure=parse_exposure(exposure))
+    schedule = lights.schedule(len(source), rl, name=str(src))
+    inputs = [*source.paths, *(Path(p) for p in (*lights.paths, dvp, bg.path) if p and Path(p).is_file())]
+    if rl is not None:
+        inputs += Path(rl.models_dir).glob("*.onnx")
+    for written_last in (lights_out, metrics):  # files written after the work: refuse before it
+        if written_last:
+            check_target(Path(written_last), inputs)
+    stabilizer = Stabilizer(stabilize_strength) if stabilize and model is None else None
+    audio = source.path if source.has_audio else None
+    sink = FrameSink(output, frames_out, source.rate, protect=inputs, audio_from=audio)
+    acc = rt_metrics.TemporalMetrics() if metrics else None
+    used_lights: list = []  # (9, 3) per frame: 108 bytes each, bounded for any realistic clip
+    bar = progress(len(source)) if progress is not None else contextlib.nullcontext()
+
+    with bar as shown:
+
+        def on_frame(frame, out, extras):
+            if lights_out:
+                used_lights.append(extras["light"])
+            if acc is not None:
+                acc.update(out, frame.mask, frame.image, extras.get("albedo"), extras.get("transport"),
+                           extras["light"])  # fmt: skip
+            if shown is not None:
+                shown.update()
+
+        report = relight_video(source, schedule, sink, engine=engine, dvp=model, stabilizer=stabilizer,
+                               batch_size=batch_size, background=bg, on_frame=on_frame, with_layers=acc is not None)
+    if lights_out:
+        path = write_npy(lights_out, np.stack(used_lights), protect=inputs)
+        logger.info("wrote the %d frames' lights to %s", len(used_lights), path)
+    if acc is not None and report.frames >= 2:
+        res = acc.result()
+        data = {"frames": report.frames, "seconds_per_frame": report.seconds_per_frame,
+                "temporal_error": res.temporal_error, "warping_error": res.warping_error,
+                "light_following": res.light_following, "light_gain": res.light_gain,
+                "residual_error": res.residual_error,
+                "stabilizer": stabilizer is not None, "dvp": None if dvp is None else os.fspath(dvp)}  # fmt: skip
+        with atomic_path(metrics, protect=inputs) as tmp:
+            tmp.write_text(json.dumps(data, indent=1))
+        logger.info("metrics: %s", json.dumps(data))
+    return ClipReport(report.frames, report.seconds_per_frame, schedule.description, tuple(source.skipped),
+                      source.lost)  # fmt: skip

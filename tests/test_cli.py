@@ -210,7 +210,7 @@ def _log_lines(argv: list[str], cwd) -> tuple[int, list[str]]:
     import sys
     from pathlib import Path
 
-    env = {**os.environ, "PYTHONPATH": str(Path(cli.__file__).parents[1])}
+    env = {**os.environ, "PYTHONPATH": str(Path(cli.__file__).parents[2])}  # relight_rt/cli/__init__.py
     proc = subprocess.run([sys.executable, "-m", "relight_rt", *argv], capture_output=True, text=True, env=env,
                           cwd=cwd, timeout=120)  # fmt: skip
     return proc.returncode, proc.stderr.splitlines()

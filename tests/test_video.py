@@ -381,7 +381,7 @@ def test_tiny_dvp_graph_runs_on_any_frame_size(test_data_dir):
 def _run_cli(argv: list[str]) -> int:
     import argparse
 
-    from relight_rt.video_cli import add_parser
+    from relight_rt.cli.video import add_parser
 
     parser = argparse.ArgumentParser(prog="relight-rt")
     add_parser(parser.add_subparsers(dest="command"))

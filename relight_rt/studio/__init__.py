@@ -1,4 +1,4 @@
-"""``relight-rt studio PHOTO``: a light editor in the browser.
+"""The studio (``relight-rt studio PHOTO``): a light editor in the browser.
 
 A local web server decomposes the photo once (stage 1) and serves one page. On the page you drag a lamp
 on a sphere, set its colour, size and intensity, the ambient level, a preset, an uploaded environment
@@ -14,7 +14,6 @@ when the server starts. Binds 127.0.0.1 unless told otherwise.
 
 from __future__ import annotations
 
-import argparse
 import importlib
 import logging
 import threading
@@ -32,6 +31,12 @@ def _require(module: str):
         return importlib.import_module(module)
     except ImportError as exc:
         raise RelightError(f"{EXTRA_HINT} ({exc.name or module} is missing)") from None
+
+
+def check_extra() -> None:
+    """Raise RelightError, saying what to install, when FastAPI or uvicorn is missing."""
+    _require("fastapi")
+    _require("uvicorn")
 
 
 def create_app(studio, allowed_hosts: list[str] | None = None):
@@ -78,50 +83,4 @@ def serve(studio, host: str = "127.0.0.1", port: int = 8000, open_browser: bool 
         raise RelightError(f"cannot listen on {host}:{port} (in use, or not an address of this machine)") from None
 
 
-def add_parser(subparsers) -> None:
-    from ..cli import _add_model_options
-
-    p = subparsers.add_parser(
-        "studio",
-        help="light editor in the browser: drag a lamp, see the person relit",
-        description="Decompose PHOTO once and serve a page that relights it live while you move a lamp, pick a "
-        'preset, an environment map or the light of another photo. Needs: pip install "relight-rt[studio]".',
-    )
-    p.add_argument("photo", metavar="PHOTO", help="photo of a person (mask: --mask, NAME_mask.png beside it, or alpha)")
-    p.add_argument("--mask", metavar="M", help="mask file")
-    p.add_argument("--background", default="original", metavar="BG", help="original | transparent | IMAGE")
-    p.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine only)")
-    p.add_argument("--port", type=int, default=8000, help="port (default 8000; 0: any free port)")
-    p.add_argument("--open", action="store_true", help="open the page in the default browser")
-    p.add_argument(
-        "--preview-pixels",
-        type=int,
-        default=1_000_000,
-        metavar="N",
-        help="most pixels of the live preview in the browser (default 1000000)",
-    )
-    _add_model_options(p)
-    p.set_defaults(func=_cmd_studio)
-
-
-def _cmd_studio(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
-    _require("fastapi")
-    _require("uvicorn")
-    if not 0 <= args.port <= 65535:
-        raise RelightError(f"--port is {args.port}, expected 0 to 65535")
-    if not Path(args.photo).is_file():
-        raise RelightError(f"photo {args.photo} not found")
-    from .._options import relighter as configured_relighter
-    from .core import Studio
-
-    relighter = configured_relighter(args)  # --models, --device, --precision, --preprocess, --no-detail
-    studio = Studio(args.photo, args.mask, args.background, relighter, args.preview_pixels, models=args.models)
-    # Ctrl-C and SIGTERM: uvicorn stops serving, then raises the signal again under the CLI's own handlers,
-    # so the command ends as every command does (130 / 143, one line; relight_rt.cli._run)
-    serve(studio, args.host, args.port, args.open)
-    return 0
-
-
-__all__ = ["add_parser", "create_app", "serve"]
+__all__ = ["check_extra", "create_app", "serve"]

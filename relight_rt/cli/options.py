@@ -1,4 +1,4 @@
-"""The options every CLI command shares, declared once: runtime configuration, lights, masks, backgrounds.
+"""The options every CLI command shares, declared once: runtime configuration, lights, masks, backgrounds, Ray.
 
 Each ``add_*`` function adds a group of options to a command's parser; the matching reader turns
 the parsed values into the runtime's typed objects (RuntimeConfig, LightSpec, Background), so every
@@ -11,12 +11,14 @@ import argparse
 import os
 from pathlib import Path
 
-from . import lights
-from ._errors import RelightError
-from ._limits import DEFAULT_MAX_PIXELS
-from .compositing import Background, parse_background
-from .config import DEVICES, PRECISIONS, PREPROCESS, RuntimeConfig
-from .lightspec import HDR_SUFFIXES, SH_FILE_SUFFIXES, LightSpec
+from .. import lights
+from .._errors import RelightError
+from .._limits import DEFAULT_MAX_PIXELS
+from ..compositing import Background, parse_background
+from ..config import DEVICES, PRECISIONS, PREPROCESS, RuntimeConfig
+from ..distributed import EXTRA_HINT as RAY_EXTRA_HINT
+from ..distributed import MANIFEST_NAME
+from ..lightspec import HDR_SUFFIXES, SH_FILE_SUFFIXES, LightSpec
 
 # ------------------------------------------------------------------------------------------- runtime
 
@@ -51,11 +53,13 @@ def runtime_config(args: argparse.Namespace) -> RuntimeConfig:
                          preprocess=args.preprocess, detail=not args.no_detail)
 
 
-def relighter(args: argparse.Namespace):
-    """A Relighter as the runtime options say."""
-    from .relighter import Relighter
+def relighter(args: argparse.Namespace, device: str | None = None):
+    """A Relighter as the runtime options say (``device``: another device than --device): the one place a command
+    builds one from its arguments."""
+    from ..relighter import Relighter
 
-    return Relighter.from_config(runtime_config(args))
+    config = runtime_config(args)
+    return Relighter.from_config(config if device is None else config.replace(device=device))
 
 
 # ------------------------------------------------------------------------------------------- lights
@@ -129,6 +133,21 @@ def add_exposure_option(p: argparse.ArgumentParser, reference: str = "the input 
     )  # fmt: skip
 
 
+def fov(text: str) -> float:
+    """argparse type of ``--fov DEG`` (its range is checked by relight_rt.background)."""
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected degrees, got {text!r}") from None
+
+
+def add_key_light_option(p: argparse.ArgumentParser) -> None:
+    """``--key-light AZ,EL`` (relight_rt.background.parse_key_light reads it)."""
+    p.add_argument("--key-light", metavar="AZ,EL", help="where the scene's key light comes from, degrees: azimuth 0 "
+                   "from the camera, 90 from the image's right, 180 from behind the person; elevation above the "
+                   "horizon (default: the key the background implies)")  # fmt: skip
+
+
 def background(args: argparse.Namespace) -> Background:
     return parse_background(args.background)
 
@@ -136,3 +155,38 @@ def background(args: argparse.Namespace) -> Background:
 def paths_of(*values) -> list[str]:
     """The file paths among option values (None and non-paths dropped), to protect them from being overwritten."""
     return [os.fspath(v) for v in values if isinstance(v, (str, os.PathLike)) and v]
+
+
+# ------------------------------------------------------------------------------------------- Ray
+
+
+def add_ray_options(parser: argparse.ArgumentParser, *, video: bool = False) -> None:
+    """Add ``--ray [ADDRESS|local]`` and its options to a command's parser (imports no Ray)."""
+    g = parser.add_argument_group(f"Ray cluster (optional extra: {RAY_EXTRA_HINT})")
+    g.add_argument("--ray", nargs="?", const="local", metavar="ADDRESS",
+                   help="run on Ray: local (a private Ray on this machine; the default without ADDRESS), "
+                        "auto (the cluster this machine belongs to) or ray://HOST:10001")  # fmt: skip
+    g.add_argument(
+        "--ray-gpus",
+        type=float,
+        metavar="G",
+        help="GPUs per " + ("task" if video else "actor") + " (default: 1 when the cluster has GPUs, else 0)",
+    )
+    g.add_argument(
+        "--ray-cpus",
+        type=float,
+        default=1.0,
+        metavar="C",
+        help="CPUs per " + ("task" if video else "actor") + " (default 1; the onnxruntime thread count)",
+    )
+    if not video:
+        g.add_argument(
+            "--ray-actors",
+            type=int,
+            metavar="N",
+            help="actors, each with one Relighter (default: one per GPU, or per --ray-cpus CPUs)",
+        )
+        g.add_argument("--ray-batch-size", type=int, default=8, metavar="B", help="photos per actor call (default 8)")
+    g.add_argument(
+        "--manifest", metavar="JSONL", help=f"manifest of the job (default: {MANIFEST_NAME} in the output folder)"
+    )

@@ -1,0 +1,163 @@
+"""``relight-rt relight`` (photos, files or folders; ``--ray`` spreads them over a Ray cluster) and
+``relight-rt decompose`` (a photo's albedo, shading, skin, light and transport)."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+from pathlib import Path
+
+import numpy as np
+
+from .. import batch
+from .._errors import RelightError
+from .._io import ProtectedPaths, encode_image, sibling_mask, write_all
+from .._progress import progress
+from ..exposure import parse_exposure
+from ..masks import find_mask_file
+from ..transport_file import transport_arrays
+from .options import (
+    add_background_option,
+    add_exposure_option,
+    add_light_options,
+    add_mask_option,
+    add_ray_options,
+    add_runtime_options,
+    background,
+    light_spec,
+    paths_of,
+    relighter,
+    runtime_config,
+)
+from .ray import finish_job, quiet_ray_data
+from .report import finish_batch, os_error_text
+
+log = logging.getLogger("relight_rt.cli")
+
+# ------------------------------------------------------------------------------------------- relight
+
+
+def add_relight(subparsers) -> None:
+    p = subparsers.add_parser(
+        "relight",
+        help="relight photos of people",
+        description="Relight photos (files or folders). Masks: --mask, else NAME_mask.png beside NAME.jpg, "
+        "else the image's alpha channel, else the automatic matte.",
+    )
+    p.add_argument("inputs", nargs="+", metavar="INPUT", help="image files or folders of images")
+    add_mask_option(p)
+    add_light_options(p)
+    add_background_option(p)
+    add_exposure_option(p)
+    p.add_argument("-o", "--output", required=True, metavar="OUT", help="output file (one input) or folder")
+    p.add_argument("--skip-existing", action="store_true", help="leave outputs that exist alone (resume a batch)")
+    add_runtime_options(p)
+    add_ray_options(p)  # --ray [ADDRESS|local] and its options (Ray itself is imported only with --ray)
+    p.set_defaults(func=cmd_relight)
+
+
+def _read_inputs(args: argparse.Namespace, files: list[Path], relighter, spec, bg) -> ProtectedPaths:
+    """Every file ``relight`` reads, never to be written over: images, masks (beside them or anywhere in a
+    --mask folder), light files, the background and the model graphs."""
+    protect = set(files)
+    mask_arg = args.mask if args.mask != "auto" else None
+    named = [Path(p) for p in (mask_arg, *spec.paths, bg.path) if p]
+    protect.update(p for p in named if p.is_file())
+    protect.update(m for m in (sibling_mask(f) for f in (*files, *(p for p in named if p.is_file()))) if m)
+    for folder in (Path(mask_arg),) if mask_arg and Path(mask_arg).is_dir() else ():
+        protect.update(p for p in folder.iterdir() if p.is_file())
+    protect.update(Path(relighter.models_dir).glob("*.onnx"))
+    return ProtectedPaths(protect)
+
+
+def cmd_relight(args: argparse.Namespace) -> int:
+    if getattr(args, "ray", None):  # the same work on a Ray cluster (relight_rt.distributed)
+        return cmd_relight_ray(args)
+    plan = batch.plan(args.inputs, args.output)
+    files, failures, single = plan.inputs, plan.failures, plan.single
+    out = Path(args.output)
+    spec = light_spec(args)
+    bg = background(args)
+    rl = relighter(args)
+    light = rl.resolve_light(spec)
+    exposure = parse_exposure(args.exposure)
+    protect = _read_inputs(args, files, rl, spec, bg)
+    if not plan.to_file and files:
+        out.mkdir(parents=True, exist_ok=True)
+    written = 0
+    show_bar = len(files) > 1
+    for path, target in progress(plan.pairs, "image", show_bar):
+        try:
+            if args.skip_existing and target.exists():
+                log.info("%s exists, skipped (--skip-existing)", target)
+                continue
+            batch.relight_file(rl, path, target, light, mask_arg=args.mask, single=single, background=bg,
+                               protect=protect, exposure=exposure)
+            written += 1
+            if not show_bar:
+                log.info("%s -> %s", path, target)
+        except (RelightError, OSError, MemoryError) as exc:  # the batch goes on past any bad file
+            reason = os_error_text(exc) if isinstance(exc, OSError) else str(exc) or "out of memory"
+            failures.append((str(path), reason))
+    return finish_batch(failures, written, many=len(files) > 1)
+
+
+def cmd_relight_ray(args: argparse.Namespace) -> int:
+    """``relight-rt relight ... --ray``: as the single-process command, with a manifest."""
+    from ..distributed import relight_folder
+
+    quiet_ray_data()
+    spec = light_spec(args)
+    config = runtime_config(args)
+    if spec.source == "photo":  # the light of a photo: estimated once, here
+        light = relighter(args, device="cpu").resolve_light(spec)
+    else:
+        light = spec.resolve()
+    report = relight_folder(
+        args.inputs, args.output, light, ray_address=args.ray, models=args.models, mask=args.mask,
+        background=background(args), device=args.device, actors=args.ray_actors, gpus_per_actor=args.ray_gpus,
+        cpus_per_actor=args.ray_cpus, batch_size=args.ray_batch_size, manifest=args.manifest,
+        protect=list(spec.paths), config=config, exposure=parse_exposure(args.exposure),
+    )  # fmt: skip
+    return finish_job(report, many=report.inputs > 1)
+
+
+# ------------------------------------------------------------------------------------------- decompose
+
+
+def add_decompose(subparsers) -> None:
+    p = subparsers.add_parser(
+        "decompose",
+        help="albedo, shading, skin, light and transport of a photo",
+        description="Writes albedo.png, shading.png, skin.png (the photo's size and detail, see "
+        "Relighter.layers), light.npy ((9, 3) RGB SH) and transport.npz (the (R, R, 9) transport at the network's "
+        "resolution, float16, with the crop geometry; relight_rt.load_transport brings it to the photo's size) "
+        "into DIR.",
+    )
+    p.add_argument("input", metavar="INPUT", help="image file")
+    add_mask_option(p, several=False)
+    p.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
+    add_runtime_options(p)
+    p.set_defaults(func=cmd_decompose)
+
+
+def cmd_decompose(args: argparse.Namespace) -> int:
+    src = Path(args.input)
+    mask = find_mask_file(src, args.mask)
+    rl = relighter(args)
+    dec = rl.decompose(src, mask)
+    folder = Path(args.output)
+    folder.mkdir(parents=True, exist_ok=True)
+    protect = [src, *paths_of(mask if mask != "auto" else None), *Path(rl.models_dir).glob("*.onnx")]
+    layers = rl.layers(dec)  # at the photo's resolution, with its detail in the albedo
+    pngs = {name: encode_image(layers[name], ".png", name=str(folder / f"{name}.png"))
+            for name in ("albedo", "shading", "skin")}
+    transport = transport_arrays(dec.transport, dec.geometry)  # network size, float16, with its crop geometry
+    write_all([  # the five layers or none of them (an input among them, a full disk)
+        *((folder / f"{name}.png", lambda f, data=data: f.write(data)) for name, data in pngs.items()),
+        # the photo's own light as the runtime takes it (white): albedo x shading = photo
+        (folder / "light.npy", lambda f: np.save(f, np.asarray(dec.white_light, np.float64), allow_pickle=False)),
+        (folder / "transport.npz", lambda f: np.savez_compressed(f, **transport)),
+    ], protect)  # fmt: skip
+    log.info("%s -> %s (albedo.png, shading.png, skin.png, light.npy, transport.npz)", src, folder)
+    return 0
