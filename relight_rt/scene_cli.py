@@ -44,7 +44,7 @@ def add_parser(subparsers) -> None:
         "composite",
         help="put a person into a background photo, relit by the background's light, standing on its ground",
         description="Relight the person of PERSON for the scene of --background and composite it there. Without "
-        "a light option the light is estimated from the background (relight_rt.background). The person "
+        "a light option the light is estimated from the background (relight_rt.scene_light). The person "
         "is matched to the background's exposure, white balance, blur and noise, stands on the ground at the size "
         "perspective gives (a cut-off person on the bottom edge), casts a shadow along the key light and is laid over "
         "it with its soft matte. The output has the background's size.",
@@ -76,7 +76,7 @@ def add_parser(subparsers) -> None:
 
 def cmd_composite(args: argparse.Namespace) -> int:
     from ._options import light_spec, relighter
-    from .background import _check_fov, parse_key_light
+    from .scene_light import _check_fov, parse_key_light
     from .masks import find_mask_file
     from .scene import composite, parse_position
 
@@ -141,7 +141,7 @@ def preview_sheet(background: np.ndarray, env: np.ndarray, light: np.ndarray, he
 
 
 def cmd_from_background(args: argparse.Namespace) -> int:
-    from .background import light_from_background, parse_key_light, read_background
+    from .scene_light import light_from_background, parse_key_light, read_background
     from .cli import _light_output, _write_light
 
     key = parse_key_light(args.key_light)

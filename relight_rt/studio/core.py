@@ -376,9 +376,9 @@ class Studio:
         return np.array(dec.white_light, dtype=np.float32)
 
     def background_light(self, data: bytes, key_light=None) -> np.ndarray:
-        """(9, 3) float32 light of an uploaded background photo (relight_rt.background, 60° field of view);
+        """(9, 3) float32 light of an uploaded background photo (relight_rt.scene_light, 60° field of view);
         ``key_light`` "AZ,EL" (degrees) or a pair steers its key light (background.parse_key_light)."""
-        from ..background import light_from_background, parse_key_light
+        from ..scene_light import light_from_background, parse_key_light
 
         key = parse_key_light(key_light)  # checked before the upload is decoded
         image = decode_upload(data, "background")

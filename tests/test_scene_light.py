@@ -1,4 +1,4 @@
-"""relight_rt.background: light from one background photo (direction, band 0, bad inputs) and the view helper."""
+"""relight_rt.scene_light: light from one background photo (direction, band 0, bad inputs) and the view helper."""
 
 import math
 
@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from relight_rt import RelightError, sh
-from relight_rt import background as bgmod
-from relight_rt.background import envmap_view, light_from_background, parse_key_light, scene_light
+from relight_rt import scene_light as bgmod
+from relight_rt.scene_light import envmap_view, light_from_background, parse_key_light, scene_light
 
 FRONT, BACK = np.array([[1.0, 0, 0]]), np.array([[-1.0, 0, 0]])  # normals facing the camera / away from it
 
