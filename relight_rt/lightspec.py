@@ -27,7 +27,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from . import lights, sh
+from . import envmap, lightfile, lights, sh
 from ._errors import RelightError
 from ._io import IMAGE_SUFFIXES
 
@@ -134,9 +134,9 @@ class LightSpec:
         elif self.source == "preset":
             base = lights.preset(str(self.value))
         elif self.source == "file":
-            base = sh.load_light(self.value, bgr=self.bgr)
+            base = lightfile.load_light(self.value, bgr=self.bgr)
         elif self.source == "envmap":
-            base = sh.project_envmap(sh.load_envmap(self.value))
+            base = envmap.project_envmap(envmap.load_envmap(self.value))
         else:
             if estimate is None:
                 raise RelightError(f"light: estimating the light of the photo {self.value} needs the stage-1 model")

@@ -55,9 +55,9 @@ from . import exposure as _exposure
 from . import sh
 from ._errors import RelightError
 from ._pairs import number_pair
-from .scene_light import key_direction, parse_key_light, read_background, scene_light
 from .color import SRGB8_TO_LINEAR, linear_to_srgb, srgb8_to_linear, srgb_to_linear
 from .masks import AUTO, resolve_mask
+from .scene_light import key_direction, parse_key_light, read_background, scene_light
 
 __all__ = ["composite", "parse_position"]
 

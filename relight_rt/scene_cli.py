@@ -76,9 +76,9 @@ def add_parser(subparsers) -> None:
 
 def cmd_composite(args: argparse.Namespace) -> int:
     from ._options import light_spec, relighter
-    from .scene_light import _check_fov, parse_key_light
     from .masks import find_mask_file
     from .scene import composite, parse_position
+    from .scene_light import _check_fov, parse_key_light
 
     out = Path(args.output)
     if out.suffix.lower() not in IMAGE_SUFFIXES:
@@ -141,8 +141,8 @@ def preview_sheet(background: np.ndarray, env: np.ndarray, light: np.ndarray, he
 
 
 def cmd_from_background(args: argparse.Namespace) -> int:
-    from .scene_light import light_from_background, parse_key_light, read_background
     from .cli import _light_output, _write_light
+    from .scene_light import light_from_background, parse_key_light, read_background
 
     key = parse_key_light(args.key_light)
     out = _light_output(args.output, args.background)

@@ -51,7 +51,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from . import sh
+from . import envmap as sh  # env maps moved out of sh (h31maths); the calls below read sh.<envmap function>
 from ._errors import RelightError
 from ._pairs import number_pair
 from .color import srgb8_to_linear, srgb_to_linear

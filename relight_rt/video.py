@@ -100,7 +100,7 @@ class LightSchedule:
         arr = np.asarray(lights, np.float64)
         if arr.ndim != 3 or arr.shape[1:] != (9, 3) or not np.isfinite(arr).all():
             raise RelightError(f"lights: expected a finite (N, 9, 3) light sequence, got {np.asarray(lights).shape}")
-        arr = sh._check_lights(arr, "lights")  # a copy; too large for float32: RelightError
+        arr = sh.check_lights(arr, "lights")  # a copy; too large for float32: RelightError
         return cls(lambda i, fps: arr[i], f"a sequence of {len(arr)} lights", len(arr))
 
     @classmethod

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from _graphs import models_dir, person
 
-from relight_rt import Relighter, RelightError, lights, sh
+from relight_rt import Relighter, RelightError, envmap, lights
 from relight_rt._limits import header_size
 from relight_rt.cli import main
 from relight_rt.studio.core import (
@@ -186,7 +186,7 @@ def test_envmap_upload_gives_the_projected_light(studio, tmp_path):
     path = tmp_path / "sky.hdr"
     cv2.imwrite(str(path), env[..., ::-1])
     light = studio.envmap_light(path.read_bytes())
-    np.testing.assert_allclose(light, sh.project_envmap(sh.load_envmap(path)), rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(light, envmap.project_envmap(envmap.load_envmap(path)), rtol=1e-5, atol=1e-6)
     with pytest.raises(RelightError, match="width = 2"):
         cv2.imwrite(str(tmp_path / "square.hdr"), env[:, :16, ::-1].copy())
         studio.envmap_light((tmp_path / "square.hdr").read_bytes())

@@ -28,7 +28,7 @@ uvicorn = pytest.importorskip("uvicorn")
 sync_api = pytest.importorskip("playwright.sync_api")
 
 import relight_rt  # noqa: E402
-from relight_rt import Relighter, lights, sh  # noqa: E402
+from relight_rt import Relighter, lightfile, lights, sh  # noqa: E402
 from relight_rt.demo import example_path  # noqa: E402
 from relight_rt.studio import create_app  # noqa: E402
 from relight_rt.studio.core import Studio, mean_luminance_scale, unpack_layers  # noqa: E402
@@ -246,7 +246,7 @@ def test_export_is_what_the_cli_makes(browser, server, tmp_path):
     assert files["export-png"].name == "example_relit.png" and files["export-npy"].name == "example_light.npy"
     light = np.load(files["export-npy"], allow_pickle=False)
     np.testing.assert_array_equal(light, np.array(page.evaluate("studio.composedLight()"), np.float32).reshape(9, 3))
-    np.testing.assert_array_equal(sh.load_light(files["export-json"]), light)
+    np.testing.assert_array_equal(lightfile.load_light(files["export-json"]), light)
     # run the command line the page shows, with the downloaded light and a fresh output path
     args = shlex.split(page.text_content("#command"))
     assert args[:2] == ["relight-rt", "relight"]

@@ -33,7 +33,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from .. import lights, sh
+from .. import envmap, lights, sh
 from .._errors import RelightError
 from .._io import as_colour, decode_bytes, encode_image, read_image, sibling_mask
 from .._limits import header_size
@@ -363,8 +363,8 @@ class Studio:
         with tempfile.TemporaryDirectory(prefix="relight-studio-") as folder:
             path = Path(folder) / f"upload{suffix}"  # our name; the client's is never used
             path.write_bytes(data)
-            env = sh.load_envmap(path)  # its size was checked from the header by check_upload
-        return sh.project_envmap(env).astype(np.float32)
+            env = envmap.load_envmap(path)  # its size was checked from the header by check_upload
+        return envmap.project_envmap(env).astype(np.float32)
 
     def photo_light(self, data: bytes) -> np.ndarray:
         """(9, 3) float32 light estimated (stage 1) from an uploaded photo of a person; mask: its alpha, else
