@@ -1,7 +1,7 @@
 """CUDA: stage 1 → shading → stage 2 kept on the GPU with onnxruntime IO binding.
 
-On CPU the Relighter does the shading with numpy (``relighter.diffuse_batch``). On CUDA the same
-formula runs as a tiny ONNX graph (built here without the ``onnx`` package: a few protobuf fields
+On CPU the Relighter does the shading with numpy (``sh.shading_chw``, through ``relighter.diffuse_batch``:
+the one CPU shading formula). On CUDA the same formula stays a tiny ONNX graph, on purpose (built here without the ``onnx`` package: a few protobuf fields
 written by hand), so transport and albedo stay on the device between stage 1 and stage 2 and only the
 (K, 9, 3) lights go up and the relit images come down.
 

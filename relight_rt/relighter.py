@@ -72,7 +72,6 @@ _SOFT = 1.0 / 255  # a matte value further than this from 0 and 1 is a soft edge
 _THIN_EDGE = 4.0  # px: a soft edge no wider than this on average is feathering or anti-aliasing (no F/B estimate)
 _SHADING_MIN = np.float32(1e-3)  # full-resolution albedo: photo / shading, shading floored here
 _SHADING_TRUST = np.float32(0.1)  # ... and trusted fully from this shading up (blended into the network's below)
-_SHADE_BLOCK = 1 << 19  # multiply-adds per block of diffuse_batch (about 2 MB of float32 temporaries)
 
 
 def _float32_light(light, name: str) -> np.ndarray:
@@ -255,7 +254,7 @@ class RelightResult:
 def diffuse_batch(albedo_chw: np.ndarray, transport_chw: np.ndarray, lights: np.ndarray) -> np.ndarray:
     """Diffuse images clip(albedo ⊙ max(0, T·L_k), 0, 1) for K lights at once, channel-first.
 
-    The formula of ``sh.shading`` on channel-first arrays, as one matrix product for every light.
+    ``sh.shading_chw`` with the albedo (the one shading formula, in blocks of pixels).
 
     Args:
         albedo_chw: (3, R, R) float32.
@@ -265,24 +264,7 @@ def diffuse_batch(albedo_chw: np.ndarray, transport_chw: np.ndarray, lights: np.
     Returns:
         (K, 3, R, R) float32 in [0, 1], ready for stage 2.
     """
-    k = lights.shape[0]
-    _, h, w = transport_chw.shape
-    n = h * w
-    coeffs = np.ascontiguousarray(lights.transpose(0, 2, 1).reshape(3 * k, 9), dtype=np.float32)
-    transport = transport_chw.reshape(9, n)
-    albedo = albedo_chw.reshape(1, 3, n)
-    out = np.empty((k, 3, n), np.float32)
-    # In pixel blocks of ~_SHADE_BLOCK multiply-adds: each block's product, ReLU, albedo product and clip run
-    # while it is in cache (one pass over memory instead of four), and BLAS stays on one thread for such
-    # small products (its threads only add start-up and contention for a 9-deep inner dimension).
-    step = max(256, _SHADE_BLOCK // (27 * k))
-    for s in range(0, n, step):
-        e = min(s + step, n)
-        block = (coeffs @ transport[:, s:e]).reshape(k, 3, e - s)
-        np.maximum(block, 0, out=block)
-        block *= albedo[:, :, s:e]
-        np.clip(block, 0, 1, out=out[:, :, s:e])
-    return out.reshape(k, 3, h, w)
+    return sh.shading_chw(transport_chw, lights, albedo_chw)
 
 
 class Relighter:

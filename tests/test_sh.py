@@ -628,3 +628,35 @@ def test_dominant_direction_of_a_lamp_and_of_ambient_light():
     assert sh.dominant_direction(lights.ambient(0.5)[:, 0]) == (None, 0.0)
     with pytest.raises(RelightError, match="9 SH coefficients"):
         sh.dominant_direction(np.zeros((9, 3)))
+
+
+@pytest.mark.parametrize("k", [1, 3])
+def test_shading_chw_is_shading_channel_first(k):
+    """sh.shading_chw (the relight hot path, in pixel blocks) is the formula of sh.shading for each light."""
+    rng = np.random.default_rng(k)
+    t = rng.standard_normal((9, 37, 300)).astype(np.float32)  # 11,100 pixels: several blocks for k = 3
+    lits = rng.standard_normal((k, 9, 3)) * 0.4
+    albedo = rng.random((3, 37, 300)).astype(np.float32)
+    got = sh.shading_chw(t, lits)
+    dif = sh.shading_chw(t, lits, albedo)
+    assert got.shape == dif.shape == (k, 3, 37, 300) and got.dtype == dif.dtype == np.float32
+    for i in range(k):
+        want = sh.shading(np.moveaxis(t, 0, -1), lits[i])
+        np.testing.assert_allclose(np.moveaxis(got[i], 0, -1), want, rtol=1e-6, atol=1e-6)
+        np.testing.assert_allclose(dif[i], np.clip(albedo * got[i], 0, 1), rtol=1e-6, atol=1e-6)
+    np.testing.assert_array_equal(sh.shading_chw(t, lits[0]), got[:1])  # one (9, 3) light: K = 1
+
+
+@pytest.mark.parametrize(
+    ("transport", "lights", "albedo", "match"),
+    [
+        (np.zeros((37, 30, 9), np.float32), np.zeros((9, 3)), None, r"transport: expected \(9, H, W\)"),
+        (np.zeros((9, 4, 4), np.float32), np.zeros((9, 4)), None, "lights: expected an SH light"),
+        (np.zeros((9, 4, 4), np.float32), np.full((2, 9, 3), np.nan), None, "NaN"),
+        (np.zeros((9, 4, 4), np.float32), np.zeros((1, 1, 9, 3)), None, r"lights: expected \(K, 9, 3\)"),
+        (np.zeros((9, 4, 4), np.float32), np.zeros((9, 3)), np.zeros((3, 4, 5), np.float32), "albedo"),
+    ],
+)
+def test_shading_chw_refuses_bad_input(transport, lights, albedo, match):
+    with pytest.raises(RelightError, match=match):
+        sh.shading_chw(transport, lights, albedo)
