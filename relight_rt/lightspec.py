@@ -34,6 +34,7 @@ from ._io import IMAGE_SUFFIXES
 SH_FILE_SUFFIXES = (".npy", ".json")
 HDR_SUFFIXES = (".hdr", ".pic", ".exr")
 SOURCES = ("preset", "file", "envmap", "photo", "sh")
+MAX_NUMBER = 1e4  # the largest |coefficient| of a light given as numbers (LightSpec.from_numbers)
 
 # estimate(photo_path, mask_path_or_None) -> (9, 3) light: how a photo's light is found (the Relighter's stage 1)
 Estimator = Callable[[Path, "str | None"], np.ndarray]
@@ -100,6 +101,24 @@ class LightSpec:
     def from_array(cls, light, rotate: float = 0.0) -> LightSpec:
         """A (9, 3) RGB SH light."""
         return cls("sh", light, rotate=rotate)
+
+    @classmethod
+    def from_numbers(cls, values, rotate: float = 0.0) -> LightSpec:
+        """A light given as 27 numbers (index 3k + c: coefficient k, colour c, RGB) or 9 rows of 3, as a request
+        or a text field sends it; each |value| <= ``MAX_NUMBER`` (a sensible light has values of about 1).
+
+        Raises:
+            RelightError: not 27 numbers, not finite, or too large.
+        """
+        try:
+            arr = np.array(values, dtype=np.float64)
+        except (TypeError, ValueError, OverflowError, RecursionError):  # OverflowError: an integer of 400 digits
+            raise RelightError("light: expected 27 numbers (9 rows of R, G, B) of sensible size") from None
+        if arr.size != 27:
+            raise RelightError(f"light: expected 27 numbers (9 rows of R, G, B), got {arr.size}")
+        if not np.all(np.isfinite(arr)) or np.abs(arr).max() > MAX_NUMBER:
+            raise RelightError(f"light: expected finite numbers of sensible size (|value| <= {MAX_NUMBER:g})")
+        return cls.from_array(arr.reshape(9, 3), rotate=rotate)
 
     def rotated(self, degrees: float) -> LightSpec:
         """The same light turned a further ``degrees`` about the vertical axis."""
