@@ -120,6 +120,16 @@ class LightSpec:
             raise RelightError(f"light: expected finite numbers of sensible size (|value| <= {MAX_NUMBER:g})")
         return cls.from_array(arr.reshape(9, 3), rotate=rotate)
 
+    @classmethod
+    def of(cls, light) -> LightSpec:
+        """Any light argument as a LightSpec: a LightSpec as it is, a string or path by ``parse_light`` (the one
+        rule: light file, environment map, photo of a person or preset name), anything else as a (9, 3) array."""
+        if isinstance(light, LightSpec):
+            return light
+        if isinstance(light, (str, os.PathLike)):
+            return parse_light(light)
+        return cls.from_array(light)
+
     def rotated(self, degrees: float) -> LightSpec:
         """The same light turned a further ``degrees`` about the vertical axis."""
         return replace(self, rotate=self.rotate + float(degrees))
