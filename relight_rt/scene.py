@@ -110,10 +110,10 @@ def _matte_on_the_photo(relighter, image, mask):
 
 def _linear_person(image):
     """The person photo (path or array) as linear float32 RGB(A); alpha (the matte) is kept as it is."""
-    from ._io import _decode, read_image
+    from ._io import decode_file, read_image
 
     if isinstance(image, (str, os.PathLike)):
-        raw = _decode(image, "image")
+        raw = decode_file(image, "image")
         if raw.dtype == np.uint8 and raw.ndim == 3 and raw.shape[2] in (3, 4):
             raw = cv2.cvtColor(raw, cv2.COLOR_BGR2RGB if raw.shape[2] == 3 else cv2.COLOR_BGRA2RGBA)
             if min(raw.shape[:2]) < 2:

@@ -130,10 +130,10 @@ def read_background(src, name: str = "background") -> np.ndarray:
         RelightError: unreadable file, RGBA (an alpha channel has no meaning for a
             background: flatten it first), a side smaller than 64 px, bad values.
     """
-    from ._io import _decode, as_colour
+    from ._io import as_colour, decode_file
 
     if isinstance(src, (str, os.PathLike)):
-        raw = as_colour(_decode(src, name), bgr=True)  # gray becomes colour; turned as its EXIF tag says
+        raw = as_colour(decode_file(src, name), bgr=True)  # gray becomes colour; turned as its EXIF tag says
         label = f"{name} {os.fspath(src)}"
     elif isinstance(src, np.ndarray):
         raw, label = as_colour(src, bgr=False), name
