@@ -295,18 +295,10 @@ class Relighter:
     """
 
     def __init__(
-        self,
-        config: RuntimeConfig | str | os.PathLike | None = None,
-        *,
-        providers: list | None = None,
-        device=_LEGACY,
-        device_id=_LEGACY,
-        preprocess=_LEGACY,
-        detail=_LEGACY,
-        warmup=_LEGACY,
-        precision=_LEGACY,
+        self, config: RuntimeConfig | str | os.PathLike | None = None, *, providers: list | None = None,
+        device=_LEGACY, device_id=_LEGACY, preprocess=_LEGACY, detail=_LEGACY, warmup=_LEGACY, precision=_LEGACY,
         matting=_LEGACY,
-    ) -> None:
+    ) -> None:  # fmt: skip
         legacy = {name: value for name, value in (
             ("device", device), ("device_id", device_id), ("preprocess", preprocess), ("detail", detail),
             ("warmup", warmup), ("precision", precision), ("matting", matting)) if value is not _LEGACY}
