@@ -286,7 +286,7 @@ class Relighter:
             reference's resize bit for bit), detail transfer, warm-up and automatic matting. None: the
             defaults (the bundled models, or $RELIGHT_RT_MODELS). Kept once, as ``self.config``.
         providers: explicit onnxruntime providers (win over the config's device).
-        device, device_id, preprocess, detail, warmup, precision, matting: the old keyword constructor,
+        models, device, device_id, preprocess, detail, warmup, precision, matting: the old keyword constructor,
             ``Relighter(models, device=...)`` (``config`` then a models folder or None): deprecated, it warns
             and builds the same RuntimeConfig; removed in the next release.
 
@@ -296,12 +296,16 @@ class Relighter:
 
     def __init__(
         self, config: RuntimeConfig | str | os.PathLike | None = None, *, providers: list | None = None,
-        device=_LEGACY, device_id=_LEGACY, preprocess=_LEGACY, detail=_LEGACY, warmup=_LEGACY, precision=_LEGACY,
-        matting=_LEGACY,
+        models=_LEGACY, device=_LEGACY, device_id=_LEGACY, preprocess=_LEGACY, detail=_LEGACY, warmup=_LEGACY,
+        precision=_LEGACY, matting=_LEGACY,
     ) -> None:  # fmt: skip
         legacy = {name: value for name, value in (
             ("device", device), ("device_id", device_id), ("preprocess", preprocess), ("detail", detail),
             ("warmup", warmup), ("precision", precision), ("matting", matting)) if value is not _LEGACY}
+        if models is not _LEGACY:  # Relighter(models="folder", ...): the old keyword of the models folder
+            if config is not None:
+                raise RelightError("Relighter: give the models folder once (models= or the first argument)")
+            config, legacy["models"] = models, models
         if isinstance(config, RuntimeConfig):
             if legacy:
                 raise RelightError(f"Relighter: give {', '.join(legacy)} in the RuntimeConfig, not beside it")
@@ -313,6 +317,7 @@ class Relighter:
                 "Relighter(RuntimeConfig(models=..., device=..., ...))", DeprecationWarning, stacklevel=2)
             if "detail" in legacy:
                 legacy["detail"] = bool(legacy["detail"])
+            legacy.pop("models", None)
             config = RuntimeConfig(models=config, **legacy)
         else:
             raise RelightError(f"Relighter: expected a RuntimeConfig (or None), got {type(config).__name__}")

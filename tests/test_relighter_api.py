@@ -36,12 +36,15 @@ def test_keyword_constructor_is_deprecated_and_builds_the_same_config(models_dir
     with pytest.warns(DeprecationWarning, match=r"Relighter\(RuntimeConfig"):
         r = Relighter(models_dir, device="cpu", detail=0)
     assert r.config == RuntimeConfig(models=str(models_dir), device="cpu", detail=False)
+    with pytest.warns(DeprecationWarning, match=r"Relighter\(RuntimeConfig"):
+        r = Relighter(models=models_dir, device="cpu")  # the old keyword of the folder
+    assert r.config == RuntimeConfig(models=str(models_dir), device="cpu")
 
 
 @pytest.mark.parametrize(
     ("config", "kwargs", "match"),
     [(RuntimeConfig(device="cpu"), {"device": "cpu"}, "give device in the RuntimeConfig"),
-     (42, {}, "expected a RuntimeConfig")],
+     (42, {}, "expected a RuntimeConfig"), ("a", {"models": "b"}, "models folder once")],
 )
 def test_constructor_refuses_mixed_or_wrong_settings(config, kwargs, match):
     with pytest.raises(RelightError, match=match):
