@@ -49,7 +49,7 @@ LAMPS = {  # direction the light comes from, subject frame: +x toward the camera
 
 def lamp_envmap(direction, height: int = 64, radius: float = 0.25, ambient: float = 0.05) -> np.ndarray:
     """(H, 2H, 3) float32 map (DESIGN.md §3 layout): a white disc of half-angle ``radius`` plus uniform ambient."""
-    from relight_rt.sh import directions_envmap
+    from relight_rt.envmap import directions_envmap
 
     d = np.asarray(direction, np.float64)
     d /= np.linalg.norm(d)

@@ -34,7 +34,7 @@ import numpy as np
 
 from relight_rt._errors import RelightError
 from relight_rt._io import atomic_path
-from relight_rt.sh import load_light
+from relight_rt.lightfile import load_light
 
 _SAMPLE_SUFFIXES = ("_tex.png", "_mask.png", "_parsing.png", "_transport.npz")
 _PHOTO_SUFFIXES = ("_photo.png", "_mask.png")  # required; _diffuse.png and _light.npy when rendered

@@ -17,7 +17,7 @@ import cv2
 import numpy as np
 
 from export.__main__ import main as export_main
-from relight_rt import sh
+from relight_rt import lightfile
 
 REPO = Path(__file__).resolve().parents[1]
 SEED = 424243
@@ -51,8 +51,8 @@ def main(argv: list[str] | None = None) -> int:
         photo = cv2.imread(str(work / "photos" / f"{name}__L{j}_photo.png"))
         rgba = np.dstack([photo, mask])[rows, cols]
         cv2.imwrite(str(target), rgba, [cv2.IMWRITE_PNG_COMPRESSION, 9])
-        light = sh.load_light(work / "photos" / f"{name}__L{j}_light.npy", bgr=True)
-        sh.save_light(REPO / "tests" / "data" / f"example_L{j}_light.json", light)
+        light = lightfile.load_light(work / "photos" / f"{name}__L{j}_light.npy", bgr=True)
+        lightfile.save_light(REPO / "tests" / "data" / f"example_L{j}_light.json", light)
     return 0
 
 

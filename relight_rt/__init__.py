@@ -10,12 +10,14 @@ from typing import TYPE_CHECKING
 from ._version import __version__
 
 if TYPE_CHECKING:  # what the lazy loading below provides, for type checkers and readers
-    from . import color, compositing, config, contract, lights, lightspec, masks, sh
+    from . import color, compositing, config, contract, envmap, lightfile, lights, lightspec, masks, sh
     from ._errors import RelightError
     from .color import linear_to_srgb, srgb_to_linear
     from .compositing import Background, parse_background
     from .config import RuntimeConfig
     from .contract import KindSpec, ModelConfig, TensorSpec, register_kind
+    from .envmap import directions_envmap, envmap_from_light, load_envmap, project_envmap, solid_angles_envmap
+    from .lightfile import load_light, save_light
     from .lights import ambient, directional, interpolate, list_presets, preset, rotation_sequence, sky
     from .lightspec import LightSpec, parse_light
     from .masks import Matter, resolve_mask
@@ -25,19 +27,12 @@ if TYPE_CHECKING:  # what the lazy loading below provides, for type checkers and
         basis,
         check_light,
         cosine_lobe,
-        directions_envmap,
-        envmap_from_light,
         irradiance,
-        load_envmap,
-        load_light,
-        project_envmap,
         render_sphere,
         rotate,
         rotate_z,
         rotation_matrix,
-        save_light,
         shading,
-        solid_angles_envmap,
     )
     from .transport_file import load_transport
 
@@ -71,6 +66,8 @@ __all__ = [
     "compositing",
     "config",
     "contract",
+    "envmap",
+    "lightfile",
     "lights",
     "lightspec",
     "masks",
@@ -121,12 +118,13 @@ _PUBLIC_FROM = {
     "masks": ["Matter", "resolve_mask"],
     "relighter": ["Decomposition", "Relighter", "RelightResult"],
     "session": ["Model", "create_session", "find_models", "load_model"],
-    "sh": ["basis", "check_light", "cosine_lobe", "directions_envmap", "envmap_from_light", "irradiance",
-           "load_envmap", "load_light", "project_envmap", "render_sphere", "rotate", "rotate_z", "rotation_matrix",
-           "save_light", "shading", "solid_angles_envmap"],
+    "envmap": ["directions_envmap", "envmap_from_light", "load_envmap", "project_envmap", "solid_angles_envmap"],
+    "lightfile": ["load_light", "save_light"],
+    "sh": ["basis", "check_light", "cosine_lobe", "irradiance", "render_sphere", "rotate", "rotate_z",
+           "rotation_matrix", "shading"],
     "transport_file": ["load_transport"],
 }
-_MODULES = ("color", "compositing", "config", "contract", "lights", "lightspec", "masks", "sh")
+_MODULES = ("color", "compositing", "config", "contract", "envmap", "lightfile", "lights", "lightspec", "masks", "sh")
 _state = {"loading": False}
 
 

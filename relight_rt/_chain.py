@@ -1,9 +1,9 @@
 """CUDA: stage 1 → shading → stage 2 kept on the GPU with onnxruntime IO binding.
 
-On CPU the Relighter does the shading with numpy (``relighter.diffuse_batch``). On CUDA the same
-formula runs as a tiny ONNX graph (built here without the ``onnx`` package: a few protobuf fields
-written by hand), so transport and albedo stay on the device between stage 1 and stage 2 and only the
-(K, 9, 3) lights go up and the relit images come down.
+On CPU the Relighter does the shading with numpy (``sh.shading_chw``, through ``relighter.diffuse_batch``:
+the one CPU shading formula). On CUDA the same formula stays a tiny ONNX graph, on purpose (built here
+without the ``onnx`` package: a few protobuf fields written by hand), so transport and albedo stay on the
+device between stage 1 and stage 2 and only the (K, 9, 3) lights go up and the relit images come down.
 
 The shading graph: inputs ``albedo`` [1, 3, H, W], ``transport`` [1, 9, H, W], ``light`` [K, 9, 3];
 output ``diffuse`` [K, 3, H, W] = clip(albedo ⊙ max(0, Σ_k transport_k · light[:, k, c]), 0, 1).

@@ -45,7 +45,7 @@ def decode_bytes(data: np.ndarray, flags: int = cv2.IMREAD_UNCHANGED) -> np.ndar
     return None if image is None else apply_orientation(image, exif_orientation(data))
 
 
-def _decode(path: Path, name: str, flags: int = cv2.IMREAD_UNCHANGED) -> np.ndarray:
+def decode_file(path: Path, name: str, flags: int = cv2.IMREAD_UNCHANGED) -> np.ndarray:
     """Decode an image file (default: as stored, depth and channels unchanged, BGR(A) as OpenCV gives it),
     turned as its EXIF orientation says (a phone photo comes out the way the phone shows it).
 
@@ -68,6 +68,9 @@ def _decode(path: Path, name: str, flags: int = cv2.IMREAD_UNCHANGED) -> np.ndar
         raise RelightError(f"{name}: cannot decode {path} as an image (unreadable, empty or not an image file)")
     check_pixels(image.shape[1], image.shape[0], f"{name} {path}")
     return image
+
+
+_decode = decode_file  # its old private name, for code not yet moved to decode_file
 
 
 def as_colour(a: np.ndarray, *, bgr: bool) -> np.ndarray:

@@ -510,9 +510,10 @@ def _resolve_light(light, models) -> np.ndarray:
 
     if isinstance(light, np.ndarray) or (isinstance(light, (list, tuple)) and len(light) == 9):
         return sh.check_light(np.asarray(light), "light").astype(np.float32)
+    from .config import RuntimeConfig
     from .relighter import Relighter
 
-    return Relighter(models, device="cpu").resolve_light(light)
+    return Relighter(RuntimeConfig(models=models, device="cpu")).resolve_light(light)
 
 
 def _run_actors(ray, todo, writer, actor_kwargs, actors, gpus, cpus, batch_size) -> list[tuple[int, dict]]:

@@ -53,7 +53,11 @@ def parse_exposure(value) -> str | float:
         except ValueError:
             raise RelightError(f"exposure: expected 'auto', 'physical' or an EV number (+1), got {value!r}") from None
     elif isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool):
-        ev = float(value)
+        try:
+            ev = float(value)
+        except OverflowError:  # an integer of 400 digits (a JSON request can hold one)
+            raise RelightError(f"exposure: expected an EV offset within ±{MAX_EV:g}, got an integer too large "
+                               "for a float") from None
     else:
         raise RelightError(f"exposure: expected 'auto', 'physical' or an EV number, got {type(value).__name__}")
     if not math.isfinite(ev) or abs(ev) > MAX_EV:

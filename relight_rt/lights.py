@@ -17,7 +17,7 @@ import math
 import numpy as np
 
 from ._errors import RelightError
-from .sh import BAND, N_COEFFS, _check_lights, basis, cosine_lobe, irradiance, rotate, rotate_z
+from .sh import BAND, N_COEFFS, basis, check_lights, cosine_lobe, irradiance, rotate, rotate_z
 
 __all__ = [
     "ambient",
@@ -281,7 +281,7 @@ def rotation_sequence(light, n_frames: int, axis="z", turns: float = 1.0) -> np.
     Returns:
         (N, 9, 3) float64; frame 0 is the light itself.
     """
-    lit = _check_lights(light, "light")
+    lit = check_lights(light, "light")
     if lit.shape != (N_COEFFS, 3):
         raise RelightError(f"light: expected an SH light of shape (9, 3), got {lit.shape}")
     n = _positive_int(n_frames, "n_frames")
@@ -322,7 +322,7 @@ def interpolate(lights, n_frames: int) -> np.ndarray:
     """
     if isinstance(lights, (list, tuple)) and len(lights) == 0:
         raise RelightError("lights: expected at least one key light, got an empty list")
-    keys = _check_lights(lights, "lights")
+    keys = check_lights(lights, "lights")
     if keys.ndim != 3 or keys.shape[0] < 1:
         raise RelightError(f"lights: expected (K, 9, 3) key lights with K ≥ 1, got {keys.shape}")
     n = _positive_int(n_frames, "n_frames")

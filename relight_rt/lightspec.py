@@ -27,13 +27,14 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from . import lights, sh
+from . import envmap, lightfile, lights, sh
 from ._errors import RelightError
 from ._io import IMAGE_SUFFIXES
 
 SH_FILE_SUFFIXES = (".npy", ".json")
 HDR_SUFFIXES = (".hdr", ".pic", ".exr")
 SOURCES = ("preset", "file", "envmap", "photo", "sh")
+MAX_NUMBER = 1e4  # the largest |coefficient| of a light given as numbers (LightSpec.from_numbers)
 
 # estimate(photo_path, mask_path_or_None) -> (9, 3) light: how a photo's light is found (the Relighter's stage 1)
 Estimator = Callable[[Path, "str | None"], np.ndarray]
@@ -101,6 +102,34 @@ class LightSpec:
         """A (9, 3) RGB SH light."""
         return cls("sh", light, rotate=rotate)
 
+    @classmethod
+    def from_numbers(cls, values, rotate: float = 0.0) -> LightSpec:
+        """A light given as 27 numbers (index 3k + c: coefficient k, colour c, RGB) or 9 rows of 3, as a request
+        or a text field sends it; each |value| <= ``MAX_NUMBER`` (a sensible light has values of about 1).
+
+        Raises:
+            RelightError: not 27 numbers, not finite, or too large.
+        """
+        try:
+            arr = np.array(values, dtype=np.float64)
+        except (TypeError, ValueError, OverflowError, RecursionError):  # OverflowError: an integer of 400 digits
+            raise RelightError("light: expected 27 numbers (9 rows of R, G, B) of sensible size") from None
+        if arr.size != 27:
+            raise RelightError(f"light: expected 27 numbers (9 rows of R, G, B), got {arr.size}")
+        if not np.all(np.isfinite(arr)) or np.abs(arr).max() > MAX_NUMBER:
+            raise RelightError(f"light: expected finite numbers of sensible size (|value| <= {MAX_NUMBER:g})")
+        return cls.from_array(arr.reshape(9, 3), rotate=rotate)
+
+    @classmethod
+    def of(cls, light) -> LightSpec:
+        """Any light argument as a LightSpec: a LightSpec as it is, a string or path by ``parse_light`` (the one
+        rule: light file, environment map, photo of a person or preset name), anything else as a (9, 3) array."""
+        if isinstance(light, LightSpec):
+            return light
+        if isinstance(light, (str, os.PathLike)):
+            return parse_light(light)
+        return cls.from_array(light)
+
     def rotated(self, degrees: float) -> LightSpec:
         """The same light turned a further ``degrees`` about the vertical axis."""
         return replace(self, rotate=self.rotate + float(degrees))
@@ -134,9 +163,9 @@ class LightSpec:
         elif self.source == "preset":
             base = lights.preset(str(self.value))
         elif self.source == "file":
-            base = sh.load_light(self.value, bgr=self.bgr)
+            base = lightfile.load_light(self.value, bgr=self.bgr)
         elif self.source == "envmap":
-            base = sh.project_envmap(sh.load_envmap(self.value))
+            base = envmap.project_envmap(envmap.load_envmap(self.value))
         else:
             if estimate is None:
                 raise RelightError(f"light: estimating the light of the photo {self.value} needs the stage-1 model")

@@ -39,6 +39,7 @@ import importlib.util
 import logging
 import os
 import threading
+import warnings
 import weakref
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, fields, replace
@@ -59,7 +60,7 @@ from .compositing import Background, clean_edge_colour, over_box, parse_backgrou
 from .config import RuntimeConfig
 from .contract import kind_spec
 from .foreground import estimate_foreground
-from .lightspec import LightSpec, parse_light
+from .lightspec import LightSpec
 from .masks import Matter, resolve_mask
 from .session import Model, check_finite, find_models, load_model
 
@@ -72,7 +73,6 @@ _SOFT = 1.0 / 255  # a matte value further than this from 0 and 1 is a soft edge
 _THIN_EDGE = 4.0  # px: a soft edge no wider than this on average is feathering or anti-aliasing (no F/B estimate)
 _SHADING_MIN = np.float32(1e-3)  # full-resolution albedo: photo / shading, shading floored here
 _SHADING_TRUST = np.float32(0.1)  # ... and trusted fully from this shading up (blended into the network's below)
-_SHADE_BLOCK = 1 << 19  # multiply-adds per block of diffuse_batch (about 2 MB of float32 temporaries)
 
 
 def _float32_light(light, name: str) -> np.ndarray:
@@ -255,7 +255,7 @@ class RelightResult:
 def diffuse_batch(albedo_chw: np.ndarray, transport_chw: np.ndarray, lights: np.ndarray) -> np.ndarray:
     """Diffuse images clip(albedo ⊙ max(0, T·L_k), 0, 1) for K lights at once, channel-first.
 
-    The formula of ``sh.shading`` on channel-first arrays, as one matrix product for every light.
+    ``sh.shading_chw`` with the albedo (the one shading formula, in blocks of pixels).
 
     Args:
         albedo_chw: (3, R, R) float32.
@@ -265,77 +265,69 @@ def diffuse_batch(albedo_chw: np.ndarray, transport_chw: np.ndarray, lights: np.
     Returns:
         (K, 3, R, R) float32 in [0, 1], ready for stage 2.
     """
-    k = lights.shape[0]
-    _, h, w = transport_chw.shape
-    n = h * w
-    coeffs = np.ascontiguousarray(lights.transpose(0, 2, 1).reshape(3 * k, 9), dtype=np.float32)
-    transport = transport_chw.reshape(9, n)
-    albedo = albedo_chw.reshape(1, 3, n)
-    out = np.empty((k, 3, n), np.float32)
-    # In pixel blocks of ~_SHADE_BLOCK multiply-adds: each block's product, ReLU, albedo product and clip run
-    # while it is in cache (one pass over memory instead of four), and BLAS stays on one thread for such
-    # small products (its threads only add start-up and contention for a 9-deep inner dimension).
-    step = max(256, _SHADE_BLOCK // (27 * k))
-    for s in range(0, n, step):
-        e = min(s + step, n)
-        block = (coeffs @ transport[:, s:e]).reshape(k, 3, e - s)
-        np.maximum(block, 0, out=block)
-        block *= albedo[:, :, s:e]
-        np.clip(block, 0, 1, out=out[:, :, s:e])
-    return out.reshape(k, 3, h, w)
+    return sh.shading_chw(transport_chw, lights, albedo_chw)
+
+
+_LEGACY = object()  # a keyword of the old constructor that was not given
 
 
 class Relighter:
     """Relight photos of people with the relight_rt ONNX models.
 
-    Args:
-        models: folder with ``stage1.onnx`` and optionally ``stage2.onnx`` (without it results are
-            diffuse-only) and ``dvp.onnx``; None: $RELIGHT_RT_MODELS, then the bundled models.
-        device: "auto" (CUDA when available), "cuda" or "cpu".
-        device_id: CUDA device index.
-        providers: explicit onnxruntime providers (win over ``device``).
-        preprocess: "quality" (INTER_AREA when shrinking) or "reference" (the reference's INTER_LINEAR
-            resize, bit-for-bit; see relight_rt._geometry).
-        detail: carry the input's full-resolution detail into the result when the person is larger
-            than the network's square (see the module docstring); False: plain upsampling.
-        warmup: run each graph once at load; None: only on CUDA.
-        precision: which graphs of the folder to run: "fp32" (``stage1.onnx``, ``stage2.onnx``), "fp16"
-            (``stage1_fp16.onnx``, ... as ``python -m export onnx --fp16`` writes them; for CUDA, slow on
-            most CPUs) or "int8" (``stage1_int8.onnx``, ... from ``python -m export.quantize``; CPU). A
-            graph missing in that precision is taken in fp32 (logged). The DVP graph is always fp32.
-        matting: "auto": photos with neither a mask nor alpha get an automatic person matte when a
-            matting model is installed; "off": they are an error.
+    ``Relighter(config)``: decompose a photo once (``decompose``), relight it under as many lights as wanted
+    (``relight``, with its layers by ``layers=True``; ``relight_many`` / ``iter_relight`` for K lights in
+    stage-2 batches), put it into a scene (``composite``).
 
-    All of these but ``providers`` form the Relighter's :class:`relight_rt.config.RuntimeConfig`
-    (``self.config``); ``Relighter.from_config(config)`` builds one from it.
+    Args:
+        config: a :class:`relight_rt.config.RuntimeConfig`: which models (folder with ``stage1.onnx`` and
+            optionally ``stage2.onnx``, without which results are diffuse-only, and ``dvp.onnx``), the device,
+            precision ("fp32"; "fp16" graphs ``stage1_fp16.onnx``, ... for CUDA; "int8" for CPU; a graph
+            missing in that precision is taken in fp32, logged), preprocessing ("quality" or "reference", the
+            reference's resize bit for bit), detail transfer, warm-up and automatic matting. None: the
+            defaults (the bundled models, or $RELIGHT_RT_MODELS). Kept once, as ``self.config``.
+        providers: explicit onnxruntime providers (win over the config's device).
+        models, device, device_id, preprocess, detail, warmup, precision, matting: the old keyword constructor,
+            ``Relighter(models, device=...)`` (``config`` then a models folder or None): deprecated, it warns
+            and builds the same RuntimeConfig; removed in the next release.
 
     Raises:
         RelightError: no models found, a model file unreadable or breaking the contract, a bad setting.
     """
 
     def __init__(
-        self,
-        models: str | os.PathLike | None = None,
-        *,
-        device: str = "auto",
-        device_id: int = 0,
-        providers: list | None = None,
-        preprocess: str = "quality",
-        detail: bool = True,
-        warmup: bool | None = None,
-        precision: str = "fp32",
-        matting: str = "auto",
-    ) -> None:
-        self.config = RuntimeConfig(models=models, device=device, device_id=device_id, precision=precision,
-                                    preprocess=preprocess, detail=bool(detail), warmup=warmup, matting=matting)
-        self.models_dir = find_models(models)
-        self.precision = precision
-        self.preprocess = preprocess
-        self.detail = bool(detail)
+        self, config: RuntimeConfig | str | os.PathLike | None = None, *, providers: list | None = None,
+        models=_LEGACY, device=_LEGACY, device_id=_LEGACY, preprocess=_LEGACY, detail=_LEGACY, warmup=_LEGACY,
+        precision=_LEGACY, matting=_LEGACY,
+    ) -> None:  # fmt: skip
+        legacy = {name: value for name, value in (
+            ("device", device), ("device_id", device_id), ("preprocess", preprocess), ("detail", detail),
+            ("warmup", warmup), ("precision", precision), ("matting", matting)) if value is not _LEGACY}
+        if models is not _LEGACY:  # Relighter(models="folder", ...): the old keyword of the models folder
+            if config is not None:
+                raise RelightError("Relighter: give the models folder once (models= or the first argument)")
+            config, legacy["models"] = models, models
+        if isinstance(config, RuntimeConfig):
+            if legacy:
+                raise RelightError(f"Relighter: give {', '.join(legacy)} in the RuntimeConfig, not beside it")
+        elif config is None and not legacy:
+            config = RuntimeConfig()
+        elif config is None or isinstance(config, (str, os.PathLike)):
+            warnings.warn(
+                "Relighter(models, device=..., ...) is deprecated and goes in the next release: use "
+                "Relighter(RuntimeConfig(models=..., device=..., ...))", DeprecationWarning, stacklevel=2)
+            if "detail" in legacy:
+                legacy["detail"] = bool(legacy["detail"])
+            legacy.pop("models", None)
+            config = RuntimeConfig(models=config, **legacy)
+        else:
+            raise RelightError(f"Relighter: expected a RuntimeConfig (or None), got {type(config).__name__}")
+        self.config = config
+        self.models_dir = find_models(config.models)
         # a second stage-1 pass on a face seen small (relight_rt._face); photos only, with detail on
         self.face_pass = True
-        self._session_args = {"device": device, "device_id": device_id, "providers": providers}
+        self._session_args = {"device": config.device, "device_id": config.device_id, "providers": providers}
         self.stage1: Model = load_model(self._graph("stage1"), "stage1", warmup=False, **self._session_args)
+        warmup = config.warmup
         if warmup is None:
             warmup = self.stage1.on_cuda
         if warmup:
@@ -356,21 +348,35 @@ class Relighter:
         self._matter_loaded = False
         self._chain = None  # CUDA: stage 1 → shading → stage 2 without host round trips
         if self.stage1.on_cuda and (self.stage2 is None or self.stage2.on_cuda):
-            self._chain = DeviceChain(self.stage1, self.stage2, "cuda", device_id)
+            self._chain = DeviceChain(self.stage1, self.stage2, "cuda", config.device_id)
         # What this Relighter prepares for a Decomposition (device copies, reconstruction, window), kept
         # here rather than on the (plain-data) Decomposition, and dropped with it.
         self._state: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
         self._state_lock = threading.Lock()
-        CropGeometry.from_mask(np.ones((1, 1), np.float32), self.resolution, preprocess)  # checks the mode
+        CropGeometry.from_mask(np.ones((1, 1), np.float32), self.resolution, config.preprocess)  # checks the mode
 
     @classmethod
     def from_config(cls, config: RuntimeConfig, providers: list | None = None) -> Relighter:
-        """A Relighter set up as ``config`` says (``providers``: explicit onnxruntime providers)."""
+        """``Relighter(config, providers=providers)``."""
         if not isinstance(config, RuntimeConfig):
             raise RelightError(f"config: expected a RuntimeConfig, got {type(config).__name__}")
-        return cls(config.models, device=config.device, device_id=config.device_id, providers=providers,
-                   preprocess=config.preprocess, detail=config.detail, warmup=config.warmup,
-                   precision=config.precision, matting=config.matting)
+        return cls(config, providers=providers)
+
+    # the settings, read from self.config (kept there once)
+    @property
+    def precision(self) -> str:
+        """``self.config.precision``."""
+        return self.config.precision
+
+    @property
+    def preprocess(self) -> str:
+        """``self.config.preprocess``."""
+        return self.config.preprocess
+
+    @property
+    def detail(self) -> bool:
+        """``self.config.detail``."""
+        return self.config.detail
 
     def _graph(self, kind: str) -> Path:
         """The file of ``kind`` in this Relighter's precision, falling back to fp32 (logged) when absent."""
@@ -531,21 +537,26 @@ class Relighter:
         dec = self.decompose(photo, mask if mask is not None else sibling_mask(photo))
         return np.array(dec.white_light, np.float32)
 
-    def resolve_light(self, light) -> np.ndarray:
-        """Any accepted light argument → (9, 3) float32 RGB SH light.
+    def resolve_light(self, light, dtype=np.float32) -> np.ndarray:
+        """Any accepted light argument → (9, 3) RGB SH light: the one place where a light is resolved.
 
         Accepted: an array (9, 3); a ``Decomposition`` (its estimated light, taken as white as the photo's own
         light is: "light me like that photo");
         a :class:`relight_rt.lightspec.LightSpec`; a string or path, read by the one rule of
-        relight_rt.lightspec (light file, environment map, photo of a person, or preset name).
+        relight_rt.lightspec (light file, environment map, photo of a person, or preset name). A photo's light
+        is estimated by this Relighter's stage 1; every other source needs no model (``LightSpec.resolve``).
+
+        Args:
+            light: as above.
+            dtype: float32 (default: the dtype the pipeline uses; a light too large for it is refused) or float64
+                (a light schedule's keys, turned and interpolated before use).
         """
         if isinstance(light, Decomposition):
-            return np.array(light.white_light, dtype=np.float32)
-        if isinstance(light, (str, os.PathLike)):
-            light = parse_light(light)
-        if isinstance(light, LightSpec):
-            return _float32_light(light.resolve(self._estimate_light, dtype=np.float64), "light")
-        return _float32_light(light, "light")
+            return np.array(light.white_light, dtype=dtype)
+        if np.dtype(dtype) not in (np.float32, np.float64):
+            raise RelightError(f"dtype: expected float32 or float64, got {dtype!r}")
+        lit = LightSpec.of(light).resolve(self._estimate_light, dtype=np.float64)
+        return _float32_light(lit, "light") if np.dtype(dtype) == np.float32 else sh.check_light(lit, "light")
 
     def _resolve_lights(self, values) -> np.ndarray:
         """A (K, 9, 3) array, or a list of anything ``resolve_light`` accepts → (K, 9, 3) float32, K >= 1."""
@@ -799,13 +810,9 @@ class Relighter:
         return out
 
     def to_photo(self, dec: Decomposition, light, background="original", exposure="auto") -> np.ndarray:
-        """Relight a Decomposition under ``light`` and put it back into the photo, over ``background``.
-
-        The same as ``relight(dec, light, background=..., exposure=...)``.
-
-        Returns:
-            (H, W, 3) float32 RGB, or (H, W, 4) RGBA for a transparent background.
-        """
+        """Deprecated (goes in the next release): ``relight(dec, light, background=..., exposure=...)``."""
+        warnings.warn("Relighter.to_photo is deprecated: use Relighter.relight(dec, light, ...)", DeprecationWarning,
+                      stacklevel=2)
         return self.relight(dec, light, background=background, exposure=exposure)
 
     def _compose(
@@ -851,8 +858,9 @@ class Relighter:
         mask: ImageLike | None = None,
         background: Background | str | os.PathLike | np.ndarray = "original",
         exposure="auto",
-    ) -> np.ndarray:
-        """Relight a photo (or a Decomposition) under a new light.
+        layers: bool = False,
+    ) -> np.ndarray | RelightResult:
+        """Relight a photo (or a Decomposition: decompose once, relight many) under a new light.
 
         Args:
             image: a photo (see ``decompose``) or a ``Decomposition`` (no stage-1 pass).
@@ -864,14 +872,18 @@ class Relighter:
                 (path or array; fitted to the photo by "cover").
             exposure: "auto" (default: the light is scaled so the person keeps its mean luminance), an EV
                 offset from auto (+1 twice as bright), or "physical" (the light as given); relight_rt.exposure.
+            layers: also return the input-frame layers that made the picture.
 
         Returns:
             (H, W, 3) float32 RGB in [0, 1] at the input's size ((H, W, 4) RGBA for "transparent"); pixels
-            where the mask is 0 are the background's, untouched. ``relight_layers`` also returns the layers.
+            where the mask is 0 are the background's, untouched. With ``layers=True`` a :class:`RelightResult`
+            (that picture as ``.image``, its ``.layers`` and ``.light``).
         """
         dec = self._prepare(image, mask)
         lit = self._expose(dec, self.resolve_light(light), exposure)
         bg = parse_background(background)
+        if layers:
+            return self._relight_with_layers(dec, lit, bg)
         outputs = next(self._network_relit(dec, lit[None], 1, want_layers=self.detail))
         return self._compose(dec, lit, outputs, self._backdrop(dec, bg), clean=bg.kind != "original")
 
@@ -884,10 +896,13 @@ class Relighter:
         background: Background | str | os.PathLike | np.ndarray = "original",
         exposure="auto",
     ) -> RelightResult:
-        """``relight`` plus the input-frame layers that made the picture (see :class:`RelightResult`)."""
-        dec = self._prepare(image, mask)
-        lit = self._expose(dec, self.resolve_light(light), exposure)
-        bg = parse_background(background)
+        """Deprecated (goes in the next release): ``relight(..., layers=True)``."""
+        warnings.warn("Relighter.relight_layers is deprecated: use Relighter.relight(..., layers=True)",
+                      DeprecationWarning, stacklevel=2)
+        return self.relight(image, light, mask=mask, background=background, exposure=exposure, layers=True)
+
+    def _relight_with_layers(self, dec: Decomposition, lit: np.ndarray, bg: Background) -> RelightResult:
+        """The picture under the exposed light ``lit`` and the input-frame layers that made it."""
         diffuse, residual, relit = next(self._network_relit(dec, lit[None], 1, want_layers=True))
         out = self._compose(dec, lit, (diffuse, residual, relit), self._backdrop(dec, bg), clean=bg.kind != "original")
         chw = lambda a: dec.to_input(np.ascontiguousarray(a.transpose(1, 2, 0)))  # noqa: E731

@@ -2,7 +2,7 @@
 
 Steps (all colour arithmetic in linear light; both photos are read as sRGB, as cameras write them):
 
-1. The background's light: ``relight_rt.background`` (its rule, its fitted numbers and the key light it finds
+1. The background's light: ``relight_rt.scene_light`` (its rule, its fitted numbers and the key light it finds
    are documented there; ``key_light=(azimuth, elevation)`` steers the key), unless a light is given.
 2. The person photo is linearised and decomposed (stage 1); the new light is
    * white-balanced to the background (only when a light is given: the background's own light needs
@@ -33,7 +33,7 @@ Steps (all colour arithmetic in linear light; both photos are read as sRGB, as c
    person is laid over it: a contact shadow (a soft ellipse under the feet, 0.6 times as wide as the person,
    1/20 of its height deep, up to ``CONTACT_STRENGTH`` darker) and a cast shadow: the person's matte (widened
    a little: a body is deeper than its outline) projected onto the ground plane along the key light's
-   direction (``relight_rt.background``'s key, or a given light's dominant direction), foreshortened
+   direction (``relight_rt.scene_light``'s key, or a given light's dominant direction), foreshortened
    by the same perspective, blurred more the farther it falls from the feet, as dark as the light's
    directionality (|band 1| / (√3 · band 0)) allows, at most ``CAST_STRENGTH``.
 7. Alpha blending of the premultiplied, resampled person over the linear background, then sRGB again.
@@ -55,9 +55,9 @@ from . import exposure as _exposure
 from . import sh
 from ._errors import RelightError
 from ._pairs import number_pair
-from .background import key_direction, parse_key_light, read_background, scene_light
 from .color import SRGB8_TO_LINEAR, linear_to_srgb, srgb8_to_linear, srgb_to_linear
 from .masks import AUTO, resolve_mask
+from .scene_light import key_direction, parse_key_light, read_background, scene_light
 
 __all__ = ["composite", "parse_position"]
 
@@ -110,10 +110,10 @@ def _matte_on_the_photo(relighter, image, mask):
 
 def _linear_person(image):
     """The person photo (path or array) as linear float32 RGB(A); alpha (the matte) is kept as it is."""
-    from ._io import _decode, read_image
+    from ._io import decode_file, read_image
 
     if isinstance(image, (str, os.PathLike)):
-        raw = _decode(image, "image")
+        raw = decode_file(image, "image")
         if raw.dtype == np.uint8 and raw.ndim == 3 and raw.shape[2] in (3, 4):
             raw = cv2.cvtColor(raw, cv2.COLOR_BGR2RGB if raw.shape[2] == 3 else cv2.COLOR_BGRA2RGBA)
             if min(raw.shape[:2]) < 2:
@@ -303,7 +303,7 @@ def composite(
         fov: the background's horizontal field of view in degrees, (10, 170).
         white_balance: match a given light's colour to the background's (see the module docstring).
         key_light: (azimuth, elevation) degrees or "AZ,EL": where the background's key light comes from
-            (relight_rt.background.parse_key_light); None: the key the view implies. Ignored with ``light``.
+            (relight_rt.scene_light.parse_key_light); None: the key the view implies. Ignored with ``light``.
         horizon: the horizon's row, a fraction of the background's height in [0, 1] (0.5: a level camera).
         meter: "frame" or "background" (step 8).
         match_camera: match the background's blur and noise (step 5).

@@ -10,43 +10,35 @@ Conventions (DESIGN.md §3, pinned by tests/test_sh.py against pyshtools golden 
 * Light: float array (9, 3); column c holds the SH coefficients of the radiance arriving from
   direction ω in colour channel c (R, G, B): L_c(ω) ≈ Σ_k light[k, c] · Y_k(ω).
 * Transport (H, W, 9) and shading S = max(0, T · light), see `shading`.
-* Environment maps: equirectangular (H, 2H, 3) linear RGB; pixel (i, j) looks along
-  θ = π(i+½)/H from +z, φ = 2π(j+½)/W, ω = (sinθ cosφ, −sinθ sinφ, cosθ).
+* Environment maps live in ``relight_rt.envmap``, light files in ``relight_rt.lightfile`` (their old names
+  here, ``sh.load_envmap`` and the rest, still work for one release with a DeprecationWarning).
 * Rotation: `rotate(light, R)` is active, new(ω) = old(Rᵀω); `rotate_z(light, a)` turns the
   environment by a about +z, carrying +x toward +y.
 """
 
 from __future__ import annotations
 
-import functools
-import json
 import logging
 import math
-import os
-from pathlib import Path
+import warnings
 
 import numpy as np
 
 from ._errors import RelightError
-from .color import srgb_to_linear
 
 __all__ = [
     "basis",
     "check_light",
+    "check_lights",
     "cosine_lobe",
-    "directions_envmap",
-    "envmap_from_light",
+    "dominant_direction",
     "irradiance",
-    "load_envmap",
-    "load_light",
-    "project_envmap",
     "render_sphere",
     "rotate",
     "rotate_z",
     "rotation_matrix",
-    "save_light",
     "shading",
-    "solid_angles_envmap",
+    "shading_chw",
 ]
 
 logger = logging.getLogger(__name__)
@@ -61,6 +53,9 @@ _C1 = math.sqrt(3 / (4 * math.pi))  # 0.488603
 _C2 = math.sqrt(15 / math.pi) / 2  # 1.092548 (xy, yz, xz)
 _C20 = math.sqrt(5 / math.pi) / 4  # 0.315392 (3z² − 1)
 _C22 = math.sqrt(15 / math.pi) / 4  # 0.546274 (x² − y²)
+
+#: The constant of each basis function: Y_k = NORM[k] · (1, y, z, x, xy, yz, 3z² − 1, xz, x² − y²)[k].
+NORM = (_C0, _C1, _C1, _C1, _C2, _C2, _C20, _C2, _C22)
 
 # Band 1 holds (y, z, x): coefficient k = 1, 2, 3 is axis _BAND1_AXES[k - 1].
 _BAND1_AXES = (1, 2, 0)
@@ -129,24 +124,32 @@ def cosine_lobe() -> np.ndarray:
 # --------------------------------------------------------------------------------------------- lights
 
 
-def _describe(arr: np.ndarray) -> str:
+def describe_array(arr: np.ndarray) -> str:
+    """``(shape) dtype`` of an array, for error messages that say what arrived."""
     return f"{arr.shape} {arr.dtype}"
 
 
-def _check_lights(light, name: str) -> np.ndarray:
-    """Validate a light or a stack of lights (..., 9, 3); return a float64 copy."""
+def check_lights(light, name: str = "light") -> np.ndarray:
+    """Validate a light or a stack of lights (..., 9, 3) (shape, numbers, NaN/Inf, ``MAX_COEFF``).
+
+    Returns:
+        A float64 copy of the same shape.
+
+    Raises:
+        RelightError: naming ``name`` and what arrived.
+    """
     try:
         arr = np.array(light, dtype=np.float64, copy=True)
     except (TypeError, ValueError) as exc:
         raise RelightError(f"{name}: expected an SH light of shape (9, 3), got an unreadable value ({exc})") from None
     src = np.asarray(light)
     if src.dtype.kind not in "fiu":
-        raise RelightError(f"{name}: expected a numeric SH light of shape (9, 3), got {_describe(src)}")
+        raise RelightError(f"{name}: expected a numeric SH light of shape (9, 3), got {describe_array(src)}")
     if arr.ndim < 2 or arr.shape[-2:] != (N_COEFFS, 3):
-        raise RelightError(f"{name}: expected an SH light of shape (9, 3) (or (N, 9, 3)), got {_describe(src)}")
+        raise RelightError(f"{name}: expected an SH light of shape (9, 3) (or (N, 9, 3)), got {describe_array(src)}")
     if not np.all(np.isfinite(arr)):
         raise RelightError(f"{name}: SH light contains NaN or Inf")
-    _check_magnitude(arr, name)
+    check_magnitude(arr, name)
     return arr
 
 
@@ -159,7 +162,8 @@ transport overflows to Inf and the result turns to NaN. Presets have coefficient
 _MAX_COEFF_F32 = float(np.float32(MAX_COEFF))  # MAX_COEFF as float32 holds it: a checked light's float32 copy passes
 
 
-def _check_magnitude(arr: np.ndarray, name: str) -> None:
+def check_magnitude(arr: np.ndarray, name: str) -> None:
+    """Refuse a light whose largest |coefficient| exceeds ``MAX_COEFF`` (float32 shading would overflow)."""
     peak = float(np.max(np.abs(arr))) if arr.size else 0.0
     if peak > _MAX_COEFF_F32:
         raise RelightError(
@@ -181,14 +185,21 @@ def check_light(light, name: str = "light") -> np.ndarray:
     Raises:
         RelightError: wrong shape, non-numeric, NaN or Inf.
     """
-    arr = _check_lights(light, name)
+    arr = check_lights(light, name)
     if arr.shape != (N_COEFFS, 3):
-        raise RelightError(f"{name}: expected an SH light of shape (9, 3), got {_describe(np.asarray(light))}")
+        raise RelightError(f"{name}: expected an SH light of shape (9, 3), got {describe_array(np.asarray(light))}")
     return arr
 
 
+def _relu_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """max(0, a @ b) in float32: the one shading formula (S = max(0, T·L)) behind both layouts below."""
+    out = a @ b
+    np.maximum(out, 0, out=out)
+    return out
+
+
 def shading(transport, light) -> np.ndarray:
-    """Diffuse shading S_c = max(0, Σ_k T_k · light[k, c]), the runtime's hot path.
+    """Diffuse shading S_c = max(0, Σ_k T_k · light[k, c]) (DESIGN.md §3).
 
     Args:
         transport: (..., 9) light transport (e.g. (H, W, 9)); float32 is used as is, other dtypes
@@ -197,17 +208,74 @@ def shading(transport, light) -> np.ndarray:
 
     Returns:
         (..., 3) float32 RGB shading, ≥ 0 (not clipped above).
+
+    See ``shading_chw`` for channel-first transport and many lights at once (the relight hot path).
     """
     t = np.asarray(transport)
     if t.ndim < 1 or t.shape[-1] != N_COEFFS or t.dtype.kind not in "fiu":
-        raise RelightError(f"transport: expected (..., 9) SH transport, got {_describe(t)}")
+        raise RelightError(f"transport: expected (..., 9) SH transport, got {describe_array(t)}")
     lit = check_light(light).astype(np.float32)
     flat = t.reshape(-1, N_COEFFS)
     if flat.dtype != np.float32:
         flat = flat.astype(np.float32)
-    out = flat @ lit
-    np.maximum(out, 0, out=out)
-    return out.reshape(t.shape[:-1] + (3,))
+    return _relu_product(flat, lit).reshape(t.shape[:-1] + (3,))
+
+
+SHADE_BLOCK = 1 << 19
+"""Multiply-adds per pixel block of ``shading_chw`` (about 2 MB of float32 temporaries)."""
+
+
+def shading_chw(transport_chw, lights, albedo_chw=None) -> np.ndarray:
+    """``shading`` on channel-first arrays for K lights at once; with ``albedo_chw``, the diffuse images.
+
+    The same formula, max(0, T·L_k), as one (3K, 9) × (9, n) product per block of pixels: each block's
+    product, ReLU (and albedo product and clip) run while it is in cache (one pass over memory instead of
+    four), and BLAS stays on one thread for such small products (its threads only add start-up and
+    contention for a 9-deep inner dimension).
+
+    Args:
+        transport_chw: (9, H, W) float32 transport.
+        lights: (K, 9, 3) float RGB lights (or one (9, 3) light: K = 1).
+        albedo_chw: None, or (3, H, W) float32 albedo: return clip(albedo ⊙ S_k, 0, 1) instead of S_k.
+
+    Returns:
+        (K, 3, H, W) float32: the shading (≥ 0, not clipped above), or the diffuse images in [0, 1].
+
+    Raises:
+        RelightError: transport not (9, H, W), an albedo of another size, bad lights.
+    """
+    t = np.asarray(transport_chw)
+    if t.ndim != 3 or t.shape[0] != N_COEFFS or t.dtype.kind not in "fiu":
+        raise RelightError(f"transport: expected (9, H, W) channel-first SH transport, got {describe_array(t)}")
+    lits = check_lights(lights, "lights")
+    if lits.ndim == 2:
+        lits = lits[None]
+    if lits.ndim != 3:
+        raise RelightError(f"lights: expected (K, 9, 3) SH lights, got {describe_array(np.asarray(lights))}")
+    k = lits.shape[0]
+    _, h, w = t.shape
+    n = h * w
+    transport = t.reshape(N_COEFFS, n)
+    if transport.dtype != np.float32:
+        transport = transport.astype(np.float32)
+    albedo = None
+    if albedo_chw is not None:
+        a = np.asarray(albedo_chw)
+        if a.shape != (3, h, w):
+            raise RelightError(f"albedo: expected (3, {h}, {w}) to match the transport, got {describe_array(a)}")
+        albedo = a.reshape(1, 3, n).astype(np.float32, copy=False)
+    coeffs = np.ascontiguousarray(lits.transpose(0, 2, 1).reshape(3 * k, N_COEFFS), dtype=np.float32)
+    out = np.empty((k, 3, n), np.float32)
+    step = max(256, SHADE_BLOCK // (27 * k))
+    for s in range(0, n, step):
+        e = min(s + step, n)
+        block = _relu_product(coeffs, transport[:, s:e]).reshape(k, 3, e - s)
+        if albedo is None:
+            out[:, :, s:e] = block
+        else:
+            block *= albedo[:, :, s:e]
+            np.clip(block, 0, 1, out=out[:, :, s:e])
+    return out.reshape(k, 3, h, w)
 
 
 def dominant_direction(coeffs) -> tuple[np.ndarray | None, float]:
@@ -288,7 +356,7 @@ def render_sphere(light, size: int = 256, return_mask: bool = False):
 def _check_rotation(rot, name: str = "R") -> np.ndarray:
     arr = np.asarray(rot)
     if arr.dtype.kind not in "fiu" or arr.ndim < 2 or arr.shape[-2:] != (3, 3):
-        raise RelightError(f"{name}: expected a (3, 3) rotation matrix, got {_describe(arr)}")
+        raise RelightError(f"{name}: expected a (3, 3) rotation matrix, got {describe_array(arr)}")
     r = arr.astype(np.float64)
     if not np.all(np.isfinite(r)):
         raise RelightError(f"{name}: rotation matrix contains NaN or Inf")
@@ -334,7 +402,7 @@ def rotate(light, R) -> np.ndarray:
     Raises:
         RelightError: a bad light, or R not a rotation (not orthonormal, or a reflection).
     """
-    lit = _check_lights(light, "light")
+    lit = check_lights(light, "light")
     r = _check_rotation(R)
     return _sh_rotation(r) @ lit
 
@@ -350,7 +418,7 @@ def rotate_z(light, angle) -> np.ndarray:
     Returns:
         (..., 9, 3) float64 rotated light(s).
     """
-    lit = _check_lights(light, "light")
+    lit = check_lights(light, "light")
     a = np.asarray(angle, dtype=np.float64)
     if not np.all(np.isfinite(a)):
         raise RelightError(f"angle: expected finite radians, got {angle!r}")
@@ -411,323 +479,24 @@ def rotation_matrix(yaw=0.0, pitch=0.0, roll=0.0, degrees: bool = False) -> np.n
     return rz @ ry @ rx
 
 
-# --------------------------------------------------------------------------------------------- env maps
-
-# Separable form of the basis on the lat-long grid: Y_k(θ, φ) = const_k · Θ_t(θ) · Φ_f(φ).
-# Θ_t: 1, sinθ, cosθ, sin²θ, sinθ·cosθ, 3cos²θ − 1.   Φ_f: 1, −sinφ, cosφ, −sinφ·cosφ, cos2φ.
-_SEPARABLE = (  # (t, f, const) for k = 0…8
-    (0, 0, _C0),
-    (1, 1, _C1),  # y = sinθ · (−sinφ)
-    (2, 0, _C1),  # z = cosθ
-    (1, 2, _C1),  # x = sinθ · cosφ
-    (3, 3, _C2),  # xy = sin²θ · (−sinφ cosφ)
-    (4, 1, _C2),  # yz
-    (5, 0, _C20),  # 3z² − 1
-    (4, 2, _C2),  # xz
-    (3, 4, _C22),  # x² − y² = sin²θ · cos2φ
-)
-_SEP_T = np.array([t for t, _, _ in _SEPARABLE])
-_SEP_F = np.array([f for _, f, _ in _SEPARABLE])
-_SEP_C = np.array([c for _, _, c in _SEPARABLE])
+# Names that moved out of this module; ``relight_rt.sh.<name>`` still works for one release.
+_MOVED = {
+    "directions_envmap": "envmap",
+    "envmap_from_light": "envmap",
+    "load_envmap": "envmap",
+    "project_envmap": "envmap",
+    "solid_angles_envmap": "envmap",
+    "load_light": "lightfile",
+    "save_light": "lightfile",
+}
 
 
-def _check_height(height) -> int:
-    from ._limits import check_pixels
+def __getattr__(name: str):
+    home = _MOVED.get(name)
+    if home is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    import importlib
 
-    if isinstance(height, bool) or not isinstance(height, (int, np.integer)) or height < 1:
-        raise RelightError(f"height: expected a positive integer, got {height!r}")
-    check_pixels(2 * int(height), int(height), "environment map")  # (H, 2H): held to the pixel limit
-    return int(height)
-
-
-@functools.lru_cache(maxsize=8)
-def _grid_factors(height: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per-row (6, H) Θ_t(θ_i), per-row (H,) solid angle sinθ·dθ·dφ, per-column (5, W) Φ_f(φ_j)."""
-    width = 2 * height
-    theta = np.pi * (np.arange(height) + 0.5) / height
-    phi = 2 * np.pi * (np.arange(width) + 0.5) / width
-    st, ct = np.sin(theta), np.cos(theta)
-    rows = np.stack([np.ones_like(st), st, ct, st * st, st * ct, 3 * ct * ct - 1])
-    weight = st * (np.pi / height) * (2 * np.pi / width)
-    sp, cp = np.sin(phi), np.cos(phi)
-    cols = np.stack([np.ones_like(sp), -sp, cp, -sp * cp, np.cos(2 * phi)])
-    for a in (rows, weight, cols):
-        a.setflags(write=False)
-    return rows, weight, cols
-
-
-def directions_envmap(height: int) -> np.ndarray:
-    """Unit direction of every pixel centre of an (H, 2H) equirectangular map (DESIGN.md §3).
-
-    Returns:
-        (H, 2H, 3) float64, ω = (sinθ cosφ, −sinθ sinφ, cosθ) with θ = π(i+½)/H, φ = 2π(j+½)/(2H).
-    """
-    h = _check_height(height)
-    theta = np.pi * (np.arange(h) + 0.5) / h
-    phi = 2 * np.pi * (np.arange(2 * h) + 0.5) / (2 * h)
-    st, ct = np.sin(theta)[:, None], np.cos(theta)[:, None]
-    x = st * np.cos(phi)[None, :]
-    y = -st * np.sin(phi)[None, :]
-    z = np.broadcast_to(ct, x.shape)
-    return np.stack([x, y, z], axis=-1)
-
-
-def solid_angles_envmap(height: int) -> np.ndarray:
-    """Solid angle of every pixel of an (H, 2H) equirectangular map: sinθ · (π/H) · (2π/W).
-
-    Returns:
-        (H, 2H) float64; sums to ≈ 4π.
-    """
-    h = _check_height(height)
-    _, weight, _ = _grid_factors(h)
-    return np.repeat(weight[:, None], 2 * h, axis=1)
-
-
-def _check_envmap(env, name: str = "env") -> np.ndarray:
-    from ._limits import check_array_pixels
-
-    arr = np.asarray(env)
-    if arr.ndim != 3 or arr.shape[2] != 3 or arr.shape[0] < 1 or arr.shape[1] != 2 * arr.shape[0]:
-        raise RelightError(f"{name}: expected an equirectangular (H, 2H, 3) RGB map, got {_describe(arr)}")
-    check_array_pixels(arr, name)
-    if arr.dtype.kind != "f":
-        raise RelightError(
-            f"{name}: expected float linear RGB, got {arr.dtype} (decode display values with "
-            "relight_rt.color.srgb_to_linear or read files with load_envmap)"
-        )
-    if arr.dtype not in (np.float32, np.float64):
-        arr = arr.astype(np.float32)
-    return arr
-
-
-def project_envmap(env) -> np.ndarray:
-    """Project an equirectangular environment map onto the nine SH functions (solid-angle weighted).
-
-    light[k, c] = Σ_ij env[i, j, c] · Y_k(ω_ij) · sinθ_i · (π/H) · (2π/W). The sum is separable
-    (Y_k = const · Θ(θ) · Φ(φ)), so it is one (6, H) × (H, 2H·3) product followed by small sums.
-
-    Args:
-        env: (H, 2H, 3) float linear RGB radiance, layout of DESIGN.md §3 (top row = sky, centre
-            column = straight ahead of the camera, behind the subject).
-
-    Returns:
-        (9, 3) float64 RGB light.
-    """
-    arr = _check_envmap(env)
-    h, w = arr.shape[:2]
-    rows, weight, cols = _grid_factors(h)
-    theta_w = (rows * weight).astype(arr.dtype)
-    per_col = (theta_w @ np.ascontiguousarray(arr).reshape(h, w * 3)).reshape(6, w, 3).astype(np.float64)
-    sums = np.einsum("tjc,fj->tfc", per_col, cols)  # (6, 5, 3)
-    light = _SEP_C[:, None] * sums[_SEP_T, _SEP_F]
-    if not np.all(np.isfinite(light)):
-        raise RelightError("env: environment map contains NaN or Inf")
-    return light
-
-
-def envmap_from_light(light, height: int) -> np.ndarray:
-    """Evaluate an SH light on the equirectangular grid (a preview of what the light looks like).
-
-    Args:
-        light: (9, 3) SH light, RGB.
-        height: map height H (width 2H).
-
-    Returns:
-        (H, 2H, 3) float32 linear RGB radiance Σ_k light[k] · Y_k(ω_ij) (may be negative where the
-        degree-2 approximation rings).
-    """
-    lit = check_light(light)
-    h = _check_height(height)
-    rows, _, cols = _grid_factors(h)
-    per_col = np.zeros((6, 2 * h, 3))
-    for k in range(N_COEFFS):
-        per_col[_SEP_T[k]] += _SEP_C[k] * cols[_SEP_F[k]][:, None] * lit[k][None, :]
-    env = np.ascontiguousarray(rows.T, dtype=np.float32) @ per_col.reshape(6, 2 * h * 3).astype(np.float32)
-    return env.reshape(h, 2 * h, 3)
-
-
-_ENV_EXTS = (".hdr", ".pic", ".exr", ".png", ".jpg", ".jpeg")
-
-
-def load_envmap(path) -> np.ndarray:
-    """Read an equirectangular environment map as linear RGB.
-
-    Radiance `.hdr` (and `.pic`) through OpenCV; `.exr` when the installed OpenCV reads it (set
-    OPENCV_IO_ENABLE_OPENEXR=1 before Python starts, with an OpenCV built with OpenEXR); `.png` /
-    `.jpg` are sRGB and linearised. Alpha is dropped; grey maps become three equal channels.
-
-    Args:
-        path: file path.
-
-    Returns:
-        (H, 2H, 3) float32 linear RGB.
-
-    Raises:
-        RelightError: missing or unreadable file, unsupported extension, EXR support missing, a width
-            that is not twice the height (never silently resized), NaN/Inf values.
-    """
-    import cv2
-
-    p = Path(path)
-    ext = p.suffix.lower()
-    if ext not in _ENV_EXTS:
-        raise RelightError(f"{p}: unsupported environment map type {ext!r}; expected one of {', '.join(_ENV_EXTS)}")
-    if not p.is_file():
-        raise RelightError(f"{p}: environment map {'is not a regular file' if p.exists() else 'not found'}")
-    from ._limits import check_pixels, header_size
-
-    try:
-        size = header_size(p, f"environment map {p}")
-        if size is not None:
-            check_pixels(size[0], size[1], f"environment map {p}")
-        data = np.fromfile(p, dtype=np.uint8)
-        img = cv2.imdecode(data, cv2.IMREAD_UNCHANGED) if data.size else None
-    except (OSError, cv2.error) as exc:
-        logger.debug("decoding %s failed: %s", p, exc)
-        img = None
-    if img is None:
-        if ext == ".exr" and os.environ.get("OPENCV_IO_ENABLE_OPENEXR", "").lower() not in ("1", "true", "on"):
-            raise RelightError(
-                f"{p}: OpenCV's .exr reader is disabled; set the environment variable OPENCV_IO_ENABLE_OPENEXR=1 "
-                "before starting Python (needs an OpenCV built with OpenEXR), or convert the map to .hdr"
-            )
-        if ext == ".exr":
-            raise RelightError(
-                f"{p}: cannot decode .exr (corrupt file, or this OpenCV was built without OpenEXR; "
-                "OPENCV_IO_ENABLE_OPENEXR is set); convert the map to .hdr"
-            )
-        raise RelightError(f"{p}: cannot decode environment map (corrupt or not a {ext} image)")
-    check_pixels(img.shape[1], img.shape[0], f"environment map {p}")
-    if img.ndim == 2:
-        img = np.repeat(img[:, :, None], 3, axis=2)
-    if img.shape[2] == 4:
-        img = img[:, :, :3]
-    elif img.shape[2] != 3:
-        raise RelightError(f"{p}: expected a colour or grey environment map, got {img.shape[2]} channels")
-    rgb = img[:, :, ::-1]
-    if ext in (".png", ".jpg", ".jpeg"):
-        if rgb.dtype not in (np.uint8, np.uint16):
-            raise RelightError(f"{p}: expected an 8- or 16-bit image, got {rgb.dtype}")
-        out = srgb_to_linear(rgb)
-    else:
-        out = rgb.astype(np.float32)
-    out = np.ascontiguousarray(out, dtype=np.float32)
-    h, w = out.shape[:2]
-    if w != 2 * h:
-        raise RelightError(f"{p}: expected an equirectangular map with width = 2 × height, got {w}×{h} (W×H)")
-    if not np.all(np.isfinite(out)):
-        raise RelightError(f"{p}: environment map contains NaN or Inf")
-    return out
-
-
-# --------------------------------------------------------------------------------------------- files
-
-_LAYOUTS = (None, "27-kc", "3x9")
-_JSON_MAX_BYTES = 1 << 20
-
-
-def _shape_light(arr: np.ndarray, layout, p: Path) -> np.ndarray:
-    if layout not in _LAYOUTS:
-        raise RelightError(f"layout: expected None, '27-kc' or '3x9', got {layout!r}")
-    if layout is None:
-        if arr.shape in ((27,), (3, 9)):
-            raise RelightError(
-                f"{p}: light has shape {arr.shape}; say how to read it: layout='27-kc' (index 3k + c) "
-                "for (27,), layout='3x9' (row c, column k) for (3, 9)"
-            )
-        if arr.shape != (N_COEFFS, 3):
-            raise RelightError(f"{p}: expected an SH light of shape (9, 3), got {arr.shape}")
-        return arr
-    want = (27,) if layout == "27-kc" else (3, 9)
-    if arr.shape != want:
-        raise RelightError(f"{p}: layout={layout!r} expects shape {want}, got {arr.shape}")
-    return arr.reshape(N_COEFFS, 3) if layout == "27-kc" else arr.T
-
-
-def load_light(path, bgr: bool = False, layout: str | None = None) -> np.ndarray:
-    """Read an SH light file as RGB.
-
-    Formats: `.npy` holding (9, 3) (coefficient × colour), read with allow_pickle=False; `.json`
-    {"sh": [[r, g, b] × 9], "order": "rgb"} ("order": "bgr" is honoured too).
-
-    Args:
-        path: file path.
-        bgr: the file's columns are B, G, R (the reference implementation's light files, e.g.
-            ../shared/reference/lights); they are swapped to RGB. An explicit choice, never guessed.
-        layout: how to read a flat or transposed array: '27-kc' for (27,) with index 3k + c,
-            '3x9' for (3, 9) with row c and column k. None accepts only (9, 3).
-
-    Returns:
-        (9, 3) float64 RGB light.
-
-    Raises:
-        RelightError: naming the file and the problem (missing, unreadable, wrong shape, NaN/Inf,
-            conflicting colour order).
-    """
-    p = Path(path)
-    ext = p.suffix.lower()
-    if ext not in (".npy", ".json"):
-        raise RelightError(f"{p}: unsupported light file type {ext!r}; expected .npy or .json")
-    if not p.is_file():
-        raise RelightError(f"{p}: light file {'is not a regular file' if p.exists() else 'not found'}")
-    swap = bool(bgr)
-    try:
-        if ext == ".npy":
-            from ._limits import load_npy
-
-            raw = load_npy(p, "light", max_bytes=1 << 20)
-        else:
-            if p.stat().st_size > _JSON_MAX_BYTES:
-                size = p.stat().st_size
-                raise RelightError(f"{p}: {size:,} bytes is too large for a light file (a light is 27 numbers)")
-            doc = json.loads(p.read_text(encoding="utf-8"))
-            if not isinstance(doc, dict) or "sh" not in doc:
-                raise RelightError(f'{p}: expected a JSON object {{"sh": [[r, g, b] x 9], "order": "rgb"}}')
-            order = str(doc.get("order", "bgr" if bgr else "rgb")).lower()
-            if order not in ("rgb", "bgr"):
-                raise RelightError(f"{p}: \"order\" must be 'rgb' or 'bgr', got {doc.get('order')!r}")
-            if bgr and order == "rgb":
-                raise RelightError(f'{p}: bgr=True but the file says "order": "rgb"')
-            swap = order == "bgr"
-            raw = np.array(doc["sh"], dtype=np.float64)
-    except RelightError:
-        raise
-    except RecursionError:
-        raise RelightError(f"{p}: cannot read light file (JSON nested too deeply)") from None
-    except (OSError, EOFError, ValueError, TypeError, UnicodeDecodeError) as exc:
-        raise RelightError(f"{p}: cannot read light file ({exc})") from None
-    if raw.dtype.kind not in "fiu":
-        raise RelightError(f"{p}: expected a numeric SH light, got dtype {raw.dtype}")
-    arr = _shape_light(np.asarray(raw, dtype=np.float64), layout, p)
-    if not np.all(np.isfinite(arr)):
-        raise RelightError(f"{p}: light contains NaN or Inf")
-    _check_magnitude(arr, str(p))
-    if swap:
-        arr = arr[:, ::-1]
-    return np.array(arr, dtype=np.float64, copy=True)
-
-
-def save_light(path, light, bgr: bool = False) -> None:
-    """Write an SH light atomically (temporary file in the same folder, then os.replace).
-
-    Args:
-        path: `.npy` ((9, 3) float64) or `.json` ({"sh": [[r, g, b] × 9], "order": "rgb"}).
-        light: (9, 3) RGB light.
-        bgr: write the columns as B, G, R (the reference's order; .json then says "order": "bgr").
-    """
-    p = Path(path)
-    lit = check_light(light)
-    ext = p.suffix.lower()
-    if ext not in (".npy", ".json"):
-        raise RelightError(f"{p}: unsupported light file type {ext!r}; expected .npy or .json")
-    if not p.parent.is_dir():
-        raise RelightError(f"{p}: folder {p.parent} does not exist")
-    data = lit[:, ::-1].copy() if bgr else lit
-    from ._io import atomic_path
-
-    with atomic_path(p) as tmp, open(tmp, "wb") as f:
-        if ext == ".npy":
-            np.save(f, data, allow_pickle=False)
-        else:
-            doc = {"sh": data.tolist(), "order": "bgr" if bgr else "rgb"}
-            f.write(json.dumps(doc, indent=1).encode("utf-8"))
+    warnings.warn(f"relight_rt.sh.{name} moved to relight_rt.{home}.{name}; the old name goes in the next release",
+                  DeprecationWarning, stacklevel=2)
+    return getattr(importlib.import_module(f"relight_rt.{home}"), name)

@@ -199,6 +199,7 @@ def run(
     Raises:
         RelightError: unknown section, bad counts, or models that do not load.
     """
+    from .config import RuntimeConfig
     from .relighter import Relighter, diffuse_batch
 
     unknown = sorted(set(sections) - set(SECTIONS))
@@ -209,7 +210,7 @@ def run(
     if backend is None:
         backend = "onnxruntime" if precision == "fp32" else f"onnxruntime {precision}"
     t0 = time.perf_counter()
-    relighter = Relighter(models, device=device, warmup=True, precision=precision)
+    relighter = Relighter(RuntimeConfig(models=models, device=device, warmup=True, precision=precision))
     load_ms = (time.perf_counter() - t0) * 1e3
     r = relighter.resolution
     rows: list[dict] = []

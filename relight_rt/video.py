@@ -48,7 +48,7 @@ from ._video_io import (  # noqa: F401  (re-exported: the video API in one place
     read_mask_file,
 )
 from .compositing import Background, clean_edge_colour, over_premultiplied, parse_background
-from .lightspec import LightSpec, parse_light
+from .lightspec import LightSpec
 from .stabilize import Stabilizer
 
 logger = logging.getLogger(__name__)
@@ -67,12 +67,9 @@ def resolve_light(spec, relighter=None) -> np.ndarray:
     Returns:
         (9, 3) float64 RGB SH coefficients.
     """
-    if isinstance(spec, (str, os.PathLike)):
-        spec = parse_light(spec)
-    if not isinstance(spec, LightSpec):
-        spec = LightSpec.from_array(spec)
-    estimate = None if relighter is None else relighter._estimate_light
-    return spec.resolve(estimate, dtype=np.float64)
+    if relighter is not None:
+        return relighter.resolve_light(spec, dtype=np.float64)
+    return LightSpec.of(spec).resolve(dtype=np.float64)
 
 
 class LightSchedule:
@@ -100,7 +97,7 @@ class LightSchedule:
         arr = np.asarray(lights, np.float64)
         if arr.ndim != 3 or arr.shape[1:] != (9, 3) or not np.isfinite(arr).all():
             raise RelightError(f"lights: expected a finite (N, 9, 3) light sequence, got {np.asarray(lights).shape}")
-        arr = sh._check_lights(arr, "lights")  # a copy; too large for float32: RelightError
+        arr = sh.check_lights(arr, "lights")  # a copy; too large for float32: RelightError
         return cls(lambda i, fps: arr[i], f"a sequence of {len(arr)} lights", len(arr))
 
     @classmethod

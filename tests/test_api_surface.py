@@ -39,6 +39,8 @@ PUBLIC = {
     "color",
     "lights",
     "sh",
+    "envmap",
+    "lightfile",
     # the typed spine (docs/ARCHITECTURE.md)
     "Background",
     "KindSpec",

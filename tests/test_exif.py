@@ -112,8 +112,8 @@ def test_grayscale_and_alpha_files_are_turned_too(tmp_path):
 
 
 def test_masks_backgrounds_uploads_and_the_mask_command_are_turned(tmp_path):
-    from relight_rt.background import read_background
     from relight_rt.cli.mask import read_photo
+    from relight_rt.scene_light import read_background
     from relight_rt.studio.core import decode_upload
 
     mask = np.zeros((H, W), np.uint8)

@@ -111,3 +111,11 @@ def test_video_engine_takes_the_same_exposure(diffuse):
     assert lum_inside(dim, mask) == pytest.approx(0.3 * lum_inside(auto, mask), rel=0.03)
     with pytest.raises(RelightError, match="exposure"):
         video.RelighterEngine(diffuse, exposure="bright")
+
+
+def test_parse_exposure_refuses_a_huge_integer():
+    """A JSON request can carry an integer of 400 digits: float() overflows; one RelightError, not a crash."""
+    with pytest.raises(RelightError, match="exposure: expected an EV offset"):
+        parse_exposure(7 * 10**400)
+    with pytest.raises(RelightError, match="exposure: expected an EV offset"):
+        parse_exposure(10**5000)  # more digits than int → str allows

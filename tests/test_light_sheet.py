@@ -9,7 +9,7 @@ import cv2
 import numpy as np
 import pytest
 
-from relight_rt import cli, sh
+from relight_rt import cli, envmap, sh
 from relight_rt._light_sheet import back_to_front, brightest_direction, envmap_sheet, notes, turned_envmap
 
 H = 32
@@ -34,14 +34,14 @@ def _turn_in(lines: list[str]) -> float:
 def test_turning_the_map_turns_its_light_as_rotate_z_does():
     env = sunset_map(H - 5)
     for degrees in (90.0, -45.0, 180.0, 11.25):  # whole columns (360 / 64 = 5.625 degrees each)
-        turned = sh.project_envmap(turned_envmap(env, degrees))
-        np.testing.assert_allclose(turned, sh.rotate_z(sh.project_envmap(env), math.radians(degrees)),
+        turned = envmap.project_envmap(turned_envmap(env, degrees))
+        np.testing.assert_allclose(turned, sh.rotate_z(envmap.project_envmap(env), math.radians(degrees)),
                                    rtol=1e-4, atol=1e-4 * np.abs(turned).max())  # fmt: skip
 
 
 def test_a_sun_behind_the_subject_is_said_and_the_turn_that_fixes_it():
     env = sunset_map()
-    light = sh.project_envmap(env)
+    light = envmap.project_envmap(env)
     assert back_to_front(light) > 1
     az, elev = brightest_direction(env)
     assert abs(abs(az) - 180) < 6 and 0 < elev < 30  # behind the subject, low
@@ -49,16 +49,16 @@ def test_a_sun_behind_the_subject_is_said_and_the_turn_that_fixes_it():
     assert "behind the subject" in lines[0]
     turn = _turn_in(lines)
     assert abs(abs(turn) - 180) < 6
-    fixed = sh.project_envmap(turned_envmap(env, turn))
+    fixed = envmap.project_envmap(turned_envmap(env, turn))
     assert back_to_front(fixed) < 0.5 and notes(fixed, turn) == []  # turned as advised: the sun lights the face
-    assert notes(sh.project_envmap(sunset_map(H // 2 + 2)), 0.0) != []  # sun off to the side-back: still said
+    assert notes(envmap.project_envmap(sunset_map(H // 2 + 2)), 0.0) != []  # sun off to the side-back: still said
     front = sunset_map(1)
-    assert notes(sh.project_envmap(front), 0.0) == []  # a sun near the camera: nothing to say
+    assert notes(envmap.project_envmap(front), 0.0) == []  # a sun near the camera: nothing to say
 
 
 def test_sheet_layout():
     env = sunset_map()
-    sheet, lines = envmap_sheet(env, sh.project_envmap(env), 0.0, 128)
+    sheet, lines = envmap_sheet(env, envmap.project_envmap(env), 0.0, 128)
     assert sheet.dtype == np.uint8 and sheet.shape[1] == 3 * 128 + 4 and sheet.shape[0] > 128
     assert lines and "behind" in lines[0]
     sky, ground = sheet[24:40, 36:56].reshape(-1, 3).mean(0), sheet[90:110, 36:56].reshape(-1, 3).mean(0)
@@ -91,7 +91,7 @@ def test_cli_lights_show_takes_an_environment_map(work, caplog):
 
 
 def test_cli_lights_show_sphere_for_presets_and_files(work, capsys, caplog):
-    np.save("l.npy", sh.project_envmap(sunset_map()).astype(np.float64))
+    np.save("l.npy", envmap.project_envmap(sunset_map()).astype(np.float64))
     assert cli.main(["lights", "show", "l.npy", "--size", "64", "-o", "s.png"]) == 0
     assert cv2.imread("s.png").shape == (64, 64, 3)
     assert "behind the subject" in caplog.text  # the same note, in the log

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from relight_rt import RelightError, lights, sh
+from relight_rt import RelightError, envmap, lights, sh
 
 DIRECTION = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
 
@@ -33,10 +33,10 @@ def test_directional_tiny_radius_converges_to_delta():
 def test_directional_is_the_exact_sh_of_a_cap():
     """Project a rasterised uniform cap and compare with the closed form (same overall scale)."""
     h, radius = 256, 0.5
-    dirs = sh.directions_envmap(h)
+    dirs = envmap.directions_envmap(h)
     env = np.zeros((h, 2 * h, 3))
     env[(dirs @ DIRECTION) > math.cos(radius)] = 1.0
-    projected = sh.project_envmap(env)
+    projected = envmap.project_envmap(env)
     closed = lights.directional(DIRECTION, angular_radius=radius)
     scale = closed[0, 0] / projected[0, 0]
     np.testing.assert_allclose(closed, scale * projected, atol=2e-3 * np.abs(closed).max())
@@ -55,7 +55,7 @@ def test_sky_gradient():
     light = lights.sky(top, bottom)
     e = sh.irradiance(light, np.array([[0, 0, 1.0], [0, 0, -1.0], [1.0, 0, 0]]))
     np.testing.assert_allclose(e, [(5 * top + bottom) / 6, (top + 5 * bottom) / 6, (top + bottom) / 2], rtol=1e-12)
-    env = sh.envmap_from_light(light, 16)
+    env = envmap.envmap_from_light(light, 16)
     assert (env >= 0).all()  # a physical (non-negative) radiance
     assert (np.diff(env[:, 0, 0]) < 0).all()  # brighter toward the zenith (top rows)
     np.testing.assert_allclose(lights.sky(top, top), lights.ambient(top), rtol=1e-12)

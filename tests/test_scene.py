@@ -161,7 +161,7 @@ def test_frame_metering_keeps_the_frames_mean_and_background_metering_keeps_its_
 
 def test_a_given_light_is_white_balanced_and_exposed_to_the_background(diffuse, monkeypatch):
     # the background's light coloured all round (the fitted rule makes the unseen ambient neutral: saturation 0)
-    monkeypatch.setattr("relight_rt.background.COLOUR_SATURATION", 1.0)
+    monkeypatch.setattr("relight_rt.scene_light.COLOUR_SATURATION", 1.0)
     img, mask = flat_person(colour=(128, 128, 128))
     warm_bg = np.zeros((150, 100, 3), np.uint8)
     warm_bg[:] = (200, 140, 90)

@@ -1,15 +1,15 @@
-"""relight_rt.sh: basis, rotations, env-map projection, irradiance, light files (DESIGN.md §3)."""
+"""relight_rt.sh: basis, rotations, irradiance, shading (DESIGN.md §3); env maps and light files: test_envmap.py,
+test_lightfile.py."""
 
 from __future__ import annotations
 
 import json
 import math
 
-import cv2
 import numpy as np
 import pytest
 
-from relight_rt import RelightError, sh
+from relight_rt import RelightError, envmap, sh
 
 RNG_SEED = 1234
 
@@ -83,8 +83,8 @@ def test_basis_shapes_and_dtype(shape, dtype):
 
 def test_basis_orthonormal_by_quadrature():
     h = 128
-    y = sh.basis(sh.directions_envmap(h)).reshape(-1, 9)
-    w = sh.solid_angles_envmap(h).reshape(-1)
+    y = sh.basis(envmap.directions_envmap(h)).reshape(-1, 9)
+    w = envmap.solid_angles_envmap(h).reshape(-1)
     gram = (y * w[:, None]).T @ y
     np.testing.assert_allclose(gram, np.eye(9), atol=2e-4)
 
@@ -100,8 +100,8 @@ def test_cosine_lobe_matches_quadrature():
     a = sh.cosine_lobe()
     np.testing.assert_allclose(a, [math.pi] + [2 * math.pi / 3] * 3 + [math.pi / 4] * 5, rtol=0, atol=0)
     h = 256
-    dirs = sh.directions_envmap(h).reshape(-1, 3)
-    w = sh.solid_angles_envmap(h).reshape(-1)
+    dirs = envmap.directions_envmap(h).reshape(-1, 3)
+    w = envmap.solid_angles_envmap(h).reshape(-1)
     y = sh.basis(dirs)
     for n in random_dirs(3):
         transport = (np.maximum(0, dirs @ n) * w) @ y
@@ -299,187 +299,6 @@ def test_rotation_matrix_axes_and_order():
         sh.rotation_matrix(yaw=float("inf"))
 
 
-# ----------------------------------------------------------------------------------------- env maps
-
-
-def test_envmap_layout():
-    h = 8
-    d = sh.directions_envmap(h)
-    assert d.shape == (h, 2 * h, 3)
-    np.testing.assert_allclose(np.linalg.norm(d, axis=-1), 1, atol=1e-12)
-    assert (d[0, :, 2] > 0.9).all() and (d[-1, :, 2] < -0.9).all()  # top row = sky
-    # Pixel (H/2, W/2) sits just past the centre: straight ahead of the camera, behind the subject (−x).
-    assert d[h // 2, h, 0] < -0.95
-    assert d[h // 2, h // 2, 1] < -0.95  # the quarter left of centre lies to the image's left (−y)
-    assert d[h // 2, 0, 0] > 0.95 and d[h // 2, -1, 0] > 0.95  # the edges are behind the camera (+x)
-    w = sh.solid_angles_envmap(h)
-    assert w.shape == (h, 2 * h)
-    assert w.sum() == pytest.approx(4 * math.pi, rel=1e-2)
-
-
-def test_project_constant_map_gives_only_dc():
-    value = np.array([0.5, 1.0, 2.0])
-    env = np.broadcast_to(value, (64, 128, 3)).astype(np.float32)
-    light = sh.project_envmap(env)
-    # ∫ c · Y_0 dω = c · 4π / (2√π) = c · √(4π); the midpoint rule in θ errs by ≈ (π/H)²/24 = 1e-4.
-    np.testing.assert_allclose(light[0], value * math.sqrt(4 * math.pi), rtol=2e-4)
-    np.testing.assert_allclose(light[[2, 6]], 0, atol=2e-3)  # even in θ about the equator: midpoint error only
-    np.testing.assert_allclose(light[[1, 3, 4, 5, 7, 8]], 0, atol=1e-6)  # odd in φ: cancel exactly
-
-
-def test_project_single_pixel_is_basis_times_power():
-    h = 32
-    i, j = 9, 41
-    power = np.array([1.0, 2.0, 3.0])
-    env = np.zeros((h, 2 * h, 3))
-    env[i, j] = power / sh.solid_angles_envmap(h)[i, j]
-    direction = sh.directions_envmap(h)[i, j]
-    np.testing.assert_allclose(sh.project_envmap(env), sh.basis(direction)[:, None] * power, atol=1e-12)
-
-
-def test_project_small_bright_spot_matches_basis():
-    h = 256
-    dirs = sh.directions_envmap(h)
-    target = np.array([0.3, -0.8, 0.5]) / np.linalg.norm([0.3, -0.8, 0.5])
-    spot = (dirs @ target) > math.cos(math.radians(2.0))
-    env = np.zeros((h, 2 * h, 3), np.float32)
-    env[spot] = [10.0, 5.0, 1.0]
-    power = (sh.solid_angles_envmap(h) * spot).sum() * np.array([10.0, 5.0, 1.0])
-    np.testing.assert_allclose(sh.project_envmap(env), sh.basis(target)[:, None] * power, atol=2e-3 * power.max())
-
-
-def test_envmap_round_trip():
-    light = random_light()
-    env = sh.envmap_from_light(light, 64)
-    assert env.shape == (64, 128, 3) and env.dtype == np.float32
-    np.testing.assert_allclose(sh.project_envmap(env.astype(np.float64)), light, atol=2e-3)
-    np.testing.assert_allclose(env, sh.basis(sh.directions_envmap(64)) @ light, atol=1e-5)
-
-
-def brute_force_irradiance(env, normals):
-    h = env.shape[0]
-    dirs = sh.directions_envmap(h).reshape(-1, 3)
-    radiance = env.reshape(-1, 3) * sh.solid_angles_envmap(h).reshape(-1, 1)
-    return np.maximum(0, normals @ dirs.T) @ radiance
-
-
-def test_irradiance_matches_brute_force_within_degree2_bound():
-    """The degree-2 irradiance of a projected map vs ∫ L(ω) max(0, n·ω) dω over the same pixels.
-
-    By the addition theorem the difference is ∫ L(ω) (max(0, t) − K₂(t)) dω with t = n·ω and K₂ the
-    degree-2 truncation of the clamped cosine, K₂(t) = 1/4 + t/2 + 5(3t² − 1)/32. On [−1, 1]
-    |max(0, t) − K₂(t)| ≤ 3/32 (at t = 0), so for a non-negative map |error| ≤ (3/32) ∫ L dω.
-    Smooth maps do much better; we check both the bound on a spiky map and 3% on a smooth one.
-    """
-    h = 48
-    dirs = sh.directions_envmap(h)
-    rng = np.random.default_rng(5)
-    normals = random_dirs(40, seed=6)
-    spiky = np.zeros((h, 2 * h, 3))
-    for d in random_dirs(4, seed=7):
-        spiky += ((dirs @ d) > 0.97)[..., None] * rng.uniform(1, 5, size=3)
-    power = (spiky * sh.solid_angles_envmap(h)[..., None]).sum(axis=(0, 1))
-    err = sh.irradiance(sh.project_envmap(spiky), normals) - brute_force_irradiance(spiky, normals)
-    assert (np.abs(err) <= 3 / 32 * power + 1e-9).all()
-    assert np.abs(err).max() > 0.01 * power.max()  # the bound is not vacuous here: truncation shows
-
-    smooth = 1.0 + 0.5 * dirs[..., 2:3] * np.array([1.0, 0.5, 0.2]) + 0.3 * dirs[..., 0:1] ** 2
-    exact = brute_force_irradiance(smooth, normals)
-    approx = sh.irradiance(sh.project_envmap(smooth), normals)
-    np.testing.assert_allclose(approx, exact, rtol=0.03)
-
-
-def test_project_envmap_full_size_float32_matches_float64():
-    """A 1024×2048 map (the size the issue times: ~6 ms on one core here; tests never assert timings)
-    projects in float32 as in float64: the float32 path sums rows first, so its error stays tiny."""
-    env = np.random.default_rng(0).random((1024, 2048, 3), dtype=np.float32)
-    light = sh.project_envmap(env)
-    assert light.shape == (9, 3) and light.dtype == np.float64
-    np.testing.assert_allclose(light, sh.project_envmap(env.astype(np.float64)), rtol=0, atol=1e-6)
-
-
-@pytest.mark.parametrize(
-    ("bad", "match"),
-    [
-        (np.zeros((8, 8, 3), np.float32), r"\(H, 2H, 3\)"),
-        (np.zeros((8, 16), np.float32), r"\(H, 2H, 3\)"),
-        (np.zeros((8, 16, 4), np.float32), r"\(H, 2H, 3\)"),
-        (np.zeros((8, 16, 3), np.uint8), "float linear RGB"),
-    ],
-)
-def test_project_envmap_rejects_bad_maps(bad, match):
-    with pytest.raises(RelightError, match=match):
-        sh.project_envmap(bad)
-
-
-def test_project_envmap_rejects_nan():
-    env = np.ones((8, 16, 3), np.float32)
-    env[3, 4, 1] = np.nan
-    with pytest.raises(RelightError, match="NaN or Inf"):
-        sh.project_envmap(env)
-
-
-def test_envmap_height_checked():
-    for fn in (sh.directions_envmap, sh.solid_angles_envmap):
-        with pytest.raises(RelightError, match="height"):
-            fn(0)
-    with pytest.raises(RelightError, match="height"):
-        sh.envmap_from_light(random_light(), 2.5)
-
-
-def test_load_envmap_hdr_is_rgb(tmp_path):
-    bgr = np.zeros((8, 16, 3), np.float32)
-    bgr[..., 2] = 4.0  # red, in OpenCV's B, G, R order
-    bgr[..., 0] = 0.25
-    path = tmp_path / "red.hdr"
-    assert cv2.imwrite(str(path), bgr)
-    env = sh.load_envmap(path)
-    assert env.shape == (8, 16, 3) and env.dtype == np.float32
-    np.testing.assert_allclose(env[0, 0], [4.0, 0.0, 0.25], rtol=0.02)  # RGBE keeps ~1% precision
-
-
-def test_load_envmap_png_is_linearised(tmp_path):
-    path = tmp_path / "grey.png"
-    assert cv2.imwrite(str(path), np.full((4, 8, 3), 128, np.uint8))
-    env = sh.load_envmap(path)
-    np.testing.assert_allclose(env, ((128 / 255 + 0.055) / 1.055) ** 2.4, rtol=1e-5)
-
-
-def test_load_envmap_grey_and_rgba(tmp_path):
-    grey = tmp_path / "grey.png"
-    assert cv2.imwrite(str(grey), np.full((4, 8), 255, np.uint8))
-    np.testing.assert_allclose(sh.load_envmap(grey), 1.0)
-    rgba = tmp_path / "rgba.png"
-    bgra = np.zeros((4, 8, 4), np.uint8)
-    bgra[..., 0] = 255  # blue
-    bgra[..., 3] = 10  # alpha is ignored
-    assert cv2.imwrite(str(rgba), bgra)
-    np.testing.assert_allclose(sh.load_envmap(rgba)[0, 0], [0.0, 0.0, 1.0])
-
-
-def test_load_envmap_wrong_aspect(tmp_path):
-    path = tmp_path / "square.hdr"
-    assert cv2.imwrite(str(path), np.ones((8, 8, 3), np.float32))
-    with pytest.raises(RelightError, match=r"width = 2 × height, got 8×8"):
-        sh.load_envmap(path)
-
-
-def test_load_envmap_bad_files(tmp_path, monkeypatch):
-    with pytest.raises(RelightError, match="not found"):
-        sh.load_envmap(tmp_path / "missing.hdr")
-    with pytest.raises(RelightError, match="unsupported"):
-        sh.load_envmap(tmp_path / "map.bmp")
-    corrupt = tmp_path / "corrupt.hdr"
-    corrupt.write_bytes(b"not an image")
-    with pytest.raises(RelightError, match="cannot decode"):
-        sh.load_envmap(corrupt)
-    exr = tmp_path / "map.exr"
-    exr.write_bytes(b"not an exr")
-    monkeypatch.delenv("OPENCV_IO_ENABLE_OPENEXR", raising=False)
-    with pytest.raises(RelightError, match="OPENCV_IO_ENABLE_OPENEXR=1"):
-        sh.load_envmap(exr)
-
-
 # ----------------------------------------------------------------------------------------- irradiance / preview
 
 
@@ -491,7 +310,7 @@ def test_irradiance_shapes(dtype):
 
 
 def test_irradiance_of_constant_radiance_is_pi_times_it():
-    light = sh.project_envmap(np.full((32, 64, 3), 0.5))
+    light = envmap.project_envmap(np.full((32, 64, 3), 0.5))
     np.testing.assert_allclose(sh.irradiance(light, random_dirs(10)), 0.5 * math.pi, rtol=1e-3)
 
 
@@ -520,104 +339,6 @@ def test_render_sphere_rejects_bad_size(size):
         sh.render_sphere(random_light(), size)
 
 
-# ----------------------------------------------------------------------------------------- light files
-
-
-@pytest.mark.parametrize("ext", [".npy", ".json"])
-@pytest.mark.parametrize("bgr", [False, True])
-def test_save_load_round_trip(tmp_path, ext, bgr):
-    light = random_light()
-    path = tmp_path / f"light{ext}"
-    sh.save_light(path, light, bgr=bgr)
-    np.testing.assert_array_equal(sh.load_light(path, bgr=bgr), light)
-    assert [p.name for p in tmp_path.iterdir()] == [path.name]  # no temporary file left behind
-    stored = np.load(path) if ext == ".npy" else np.array(json.loads(path.read_text())["sh"])
-    np.testing.assert_array_equal(stored, light[:, ::-1] if bgr else light)
-
-
-def test_load_light_bgr_swaps_columns(tmp_path):
-    light = random_light()
-    path = tmp_path / "l.npy"
-    np.save(path, light)
-    np.testing.assert_array_equal(sh.load_light(path, bgr=True), light[:, ::-1])
-    np.testing.assert_array_equal(sh.load_light(path), light)
-
-
-def test_load_light_json_order(tmp_path):
-    light = random_light()
-    path = tmp_path / "l.json"
-    path.write_text(json.dumps({"sh": light[:, ::-1].tolist(), "order": "bgr"}))
-    np.testing.assert_allclose(sh.load_light(path), light)
-    path.write_text(json.dumps({"sh": light.tolist()}))
-    np.testing.assert_allclose(sh.load_light(path), light)  # "order" defaults to rgb
-    path.write_text(json.dumps({"sh": light.tolist(), "order": "rgb"}))
-    with pytest.raises(RelightError, match="bgr=True but"):
-        sh.load_light(path, bgr=True)
-
-
-def test_load_light_layouts(tmp_path):
-    light = random_light()
-    flat = tmp_path / "flat.npy"
-    np.save(flat, light.reshape(27))  # index 3k + c
-    transposed = tmp_path / "t.npy"
-    np.save(transposed, light.T)
-    np.testing.assert_array_equal(sh.load_light(flat, layout="27-kc"), light)
-    np.testing.assert_array_equal(sh.load_light(transposed, layout="3x9"), light)
-    for path in (flat, transposed):
-        with pytest.raises(RelightError, match="say how to read it"):
-            sh.load_light(path)
-    with pytest.raises(RelightError, match="expects shape"):
-        sh.load_light(flat, layout="3x9")
-    with pytest.raises(RelightError, match="layout"):
-        sh.load_light(flat, layout="27-ck")
-
-
-def test_load_light_bad_files(tmp_path):
-    with pytest.raises(RelightError, match="missing.npy: light file not found"):
-        sh.load_light(tmp_path / "missing.npy")
-    with pytest.raises(RelightError, match="unsupported"):
-        sh.load_light(tmp_path / "light.txt")
-    cases = {
-        "shape.npy": lambda p: np.save(p, np.zeros((9, 4))),
-        "nan.npy": lambda p: np.save(p, np.full((9, 3), np.nan)),
-        "corrupt.npy": lambda p: p.write_bytes(b"garbage"),
-        "pickle.npy": lambda p: np.save(p, np.array([{"a": 1}], dtype=object), allow_pickle=True),
-        "text.npy": lambda p: np.save(p, np.full((9, 3), "a")),
-        "corrupt.json": lambda p: p.write_text("{not json"),
-        "list.json": lambda p: p.write_text("[1, 2, 3]"),
-        "ragged.json": lambda p: p.write_text(json.dumps({"sh": [[1, 2, 3], [1]]})),
-        "order.json": lambda p: p.write_text(json.dumps({"sh": np.zeros((9, 3)).tolist(), "order": "xyz"})),
-        "inf.json": lambda p: p.write_text(json.dumps({"sh": [[1e999, 0, 0]] * 9})),
-    }
-    for name, write in cases.items():
-        path = tmp_path / name
-        write(path)
-        with pytest.raises(RelightError, match=name.replace(".", r"\.")):
-            sh.load_light(path)
-
-
-def test_save_light_rejects_bad_input(tmp_path):
-    with pytest.raises(RelightError, match="NaN"):
-        sh.save_light(tmp_path / "l.npy", np.full((9, 3), np.nan))
-    with pytest.raises(RelightError, match="unsupported"):
-        sh.save_light(tmp_path / "l.txt", random_light())
-    with pytest.raises(RelightError, match="does not exist"):
-        sh.save_light(tmp_path / "nope" / "l.npy", random_light())
-    assert list(tmp_path.iterdir()) == []
-
-
-def test_reference_lights_load_bgr(reference_dir):
-    files = sorted((reference_dir / "lights").glob("*.npy"))
-    assert len(files) == 10
-    for path in files:
-        raw = np.load(path, allow_pickle=False)
-        light = sh.load_light(path, bgr=True)
-        np.testing.assert_array_equal(light, raw[:, ::-1])
-        # Scale of the reference's lights (measured): DC 0.2-1.5 per channel, sphere peak 0.9-2.5.
-        assert 0.4 <= light[0].max() <= 1.5
-        assert 0.5 <= sh.render_sphere(light, 32).max() <= 3.0
-
-
 def test_dominant_direction_of_a_lamp_and_of_ambient_light():
     from relight_rt import lights
 
@@ -628,3 +349,35 @@ def test_dominant_direction_of_a_lamp_and_of_ambient_light():
     assert sh.dominant_direction(lights.ambient(0.5)[:, 0]) == (None, 0.0)
     with pytest.raises(RelightError, match="9 SH coefficients"):
         sh.dominant_direction(np.zeros((9, 3)))
+
+
+@pytest.mark.parametrize("k", [1, 3])
+def test_shading_chw_is_shading_channel_first(k):
+    """sh.shading_chw (the relight hot path, in pixel blocks) is the formula of sh.shading for each light."""
+    rng = np.random.default_rng(k)
+    t = rng.standard_normal((9, 37, 300)).astype(np.float32)  # 11,100 pixels: several blocks for k = 3
+    lits = rng.standard_normal((k, 9, 3)) * 0.4
+    albedo = rng.random((3, 37, 300)).astype(np.float32)
+    got = sh.shading_chw(t, lits)
+    dif = sh.shading_chw(t, lits, albedo)
+    assert got.shape == dif.shape == (k, 3, 37, 300) and got.dtype == dif.dtype == np.float32
+    for i in range(k):
+        want = sh.shading(np.moveaxis(t, 0, -1), lits[i])
+        np.testing.assert_allclose(np.moveaxis(got[i], 0, -1), want, rtol=1e-6, atol=1e-6)
+        np.testing.assert_allclose(dif[i], np.clip(albedo * got[i], 0, 1), rtol=1e-6, atol=1e-6)
+    np.testing.assert_array_equal(sh.shading_chw(t, lits[0]), got[:1])  # one (9, 3) light: K = 1
+
+
+@pytest.mark.parametrize(
+    ("transport", "lights", "albedo", "match"),
+    [
+        (np.zeros((37, 30, 9), np.float32), np.zeros((9, 3)), None, r"transport: expected \(9, H, W\)"),
+        (np.zeros((9, 4, 4), np.float32), np.zeros((9, 4)), None, "lights: expected an SH light"),
+        (np.zeros((9, 4, 4), np.float32), np.full((2, 9, 3), np.nan), None, "NaN"),
+        (np.zeros((9, 4, 4), np.float32), np.zeros((1, 1, 9, 3)), None, r"lights: expected \(K, 9, 3\)"),
+        (np.zeros((9, 4, 4), np.float32), np.zeros((9, 3)), np.zeros((3, 4, 5), np.float32), "albedo"),
+    ],
+)
+def test_shading_chw_refuses_bad_input(transport, lights, albedo, match):
+    with pytest.raises(RelightError, match=match):
+        sh.shading_chw(transport, lights, albedo)

@@ -18,6 +18,8 @@ from relight_rt import (
     RelightError,
     RuntimeConfig,
     TensorSpec,
+    envmap,
+    lightfile,
     lights,
     parse_background,
     parse_light,
@@ -139,7 +141,7 @@ def test_light_spec_sources_and_rotation(tmp_path):
     turned = LightSpec.preset("studio", rotate=90).resolve()
     np.testing.assert_allclose(turned, sh.rotate_z(studio, np.pi / 2), atol=1e-6)
     assert LightSpec.preset("studio").rotated(30).rotated(60).rotate == 90
-    sh.save_light(tmp_path / "l.npy", studio)
+    lightfile.save_light(tmp_path / "l.npy", studio)
     bgr = LightSpec.file(tmp_path / "l.npy", bgr=True).resolve()
     np.testing.assert_allclose(bgr, studio[:, ::-1], atol=1e-6)  # columns swapped
     assert LightSpec.file(tmp_path / "l.npy").paths == (str(tmp_path / "l.npy"),)
@@ -156,7 +158,7 @@ def test_one_string_rule_for_photos_and_video(tmp_path, relighter):
 
     from relight_rt import video
 
-    env = np.clip(sh.envmap_from_light(lights.preset("rim"), 16), 0, 1)
+    env = np.clip(envmap.envmap_from_light(lights.preset("rim"), 16), 0, 1)
     cv2.imwrite(str(tmp_path / "sky.png"), (env[..., ::-1] * 255).astype(np.uint8))  # 2:1, an env map
     img, mask = person(seed=5)
     cv2.imwrite(str(tmp_path / "someone.png"), (img[..., ::-1] * 255).astype(np.uint8))
@@ -177,7 +179,7 @@ def test_one_string_rule_for_photos_and_video(tmp_path, relighter):
                                   "no-such-preset", ""])
 def test_server_facing_parser_refuses_paths(text, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    sh.save_light(tmp_path / "light.npy", lights.preset("studio"))  # even an existing file is refused
+    lightfile.save_light(tmp_path / "light.npy", lights.preset("studio"))  # even an existing file is refused
     with pytest.raises(RelightError):
         parse_light(text, allow_paths=False)
     assert parse_light("studio", allow_paths=False).source == "preset"

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from _graphs import models_dir, person
 
-from relight_rt import Relighter, RelightError, lights, sh
+from relight_rt import Relighter, RelightError, envmap, lights
 from relight_rt._limits import header_size
 from relight_rt.cli import main
 from relight_rt.studio.core import (
@@ -25,9 +25,8 @@ from relight_rt.studio.core import (
     Studio,
     check_upload,
     light_json,
-    mean_luminance_scale,
-    parse_exposure,
-    parse_light,
+    request_exposure,
+    request_light,
     sniff,
     unpack_layers,
 )
@@ -117,19 +116,19 @@ def test_result_store_is_bounded_and_expires():
     "value, match",
     [([1.0] * 26, "27 numbers"), ("studio", "27 numbers"), ([float("nan")] * 27, "finite"), ([1e9] * 27, "finite")],
 )
-def test_parse_light_rejects(value, match):
+def test_request_light_rejects(value, match):
     with pytest.raises(RelightError, match=match):
-        parse_light(value)
+        request_light(value)
 
 
-def test_parse_light_and_exposure():
-    light = parse_light(np.arange(27).tolist())
+def test_request_light_and_exposure():
+    light = request_light(np.arange(27).tolist())
     assert light.shape == (9, 3) and light.dtype == np.float32 and light[1, 0] == 3
-    assert parse_exposure(None) == "auto" and parse_exposure("physical") == "physical"
-    assert parse_exposure("-1.5") == -1.5
+    assert request_exposure(None) == "auto" and request_exposure("physical") == "physical"
+    assert request_exposure("-1.5") == -1.5
     for bad in ("bright", 50, float("inf")):
         with pytest.raises(RelightError, match="exposure"):
-            parse_exposure(bad)
+            request_exposure(bad)
 
 
 def test_layers_match_the_decomposition(studio):
@@ -170,14 +169,18 @@ def test_render_is_the_relighters_result(studio, models_dir):
     assert json.loads(light_json(rec.light))["order"] == "rgb"
 
 
-def test_exposure_rule_scales_to_the_target(studio):
+def test_preview_exposure_is_the_final_results(studio):
+    """One exposure rule: the preview's light is the light the final result uses (relight_rt.exposure), exactly
+    when the exposure sample holds every pixel of the person (as here: a 64² network)."""
+    from relight_rt.exposure import expose
+
     layers = unpack_layers(studio.layers_bytes(), studio.info()["preview"])
-    t, a, m = layers["transport"].transpose(1, 2, 0), layers["albedo"].transpose(1, 2, 0), layers["mask"]
-    light = lights.preset("studio")
-    s = mean_luminance_scale(a, t, m, light, target=0.3, ev=1.0)
-    again = mean_luminance_scale(a, t, m, light * s, target=0.3, ev=1.0)
-    assert again == pytest.approx(1.0, rel=1e-4)  # the scaled light already meets the target
-    assert mean_luminance_scale(a, t, m, light, 0.3, 0.0) == pytest.approx(s / 2, rel=1e-5)
+    assert layers["exposure"]["mask"].size == int((studio.dec.network_mask > 0).sum())
+    for name in ("studio", "rim"):
+        light = lights.preset(name).astype(np.float32)
+        for exposure in ("auto", 1.0, "physical"):
+            want = expose(studio.dec, light, exposure)
+            np.testing.assert_allclose(studio.preview_light(light.tolist(), exposure), want, rtol=1e-5, atol=1e-7)
 
 
 def test_envmap_upload_gives_the_projected_light(studio, tmp_path):
@@ -186,7 +189,7 @@ def test_envmap_upload_gives_the_projected_light(studio, tmp_path):
     path = tmp_path / "sky.hdr"
     cv2.imwrite(str(path), env[..., ::-1])
     light = studio.envmap_light(path.read_bytes())
-    np.testing.assert_allclose(light, sh.project_envmap(sh.load_envmap(path)), rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(light, envmap.project_envmap(envmap.load_envmap(path)), rtol=1e-5, atol=1e-6)
     with pytest.raises(RelightError, match="width = 2"):
         cv2.imwrite(str(tmp_path / "square.hdr"), env[:, :16, ::-1].copy())
         studio.envmap_light((tmp_path / "square.hdr").read_bytes())

@@ -28,10 +28,12 @@ uvicorn = pytest.importorskip("uvicorn")
 sync_api = pytest.importorskip("playwright.sync_api")
 
 import relight_rt  # noqa: E402
-from relight_rt import Relighter, lights, sh  # noqa: E402
+from relight_rt import Relighter, lightfile, lights, sh  # noqa: E402
 from relight_rt.demo import example_path  # noqa: E402
+from relight_rt.exposure import exposure_scale  # noqa: E402
+from relight_rt.sh import shading  # noqa: E402
 from relight_rt.studio import create_app  # noqa: E402
-from relight_rt.studio.core import Studio, mean_luminance_scale, unpack_layers  # noqa: E402
+from relight_rt.studio.core import Studio, unpack_layers  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 CHROMIUM = os.environ.get("RELIGHT_RT_CHROMIUM", "/usr/bin/chromium")
@@ -246,7 +248,7 @@ def test_export_is_what_the_cli_makes(browser, server, tmp_path):
     assert files["export-png"].name == "example_relit.png" and files["export-npy"].name == "example_light.npy"
     light = np.load(files["export-npy"], allow_pickle=False)
     np.testing.assert_array_equal(light, np.array(page.evaluate("studio.composedLight()"), np.float32).reshape(9, 3))
-    np.testing.assert_array_equal(sh.load_light(files["export-json"]), light)
+    np.testing.assert_array_equal(lightfile.load_light(files["export-json"]), light)
     # run the command line the page shows, with the downloaded light and a fresh output path
     args = shlex.split(page.text_content("#command"))
     assert args[:2] == ["relight-rt", "relight"]
@@ -289,15 +291,38 @@ def test_bad_upload_shows_a_message_and_the_server_keeps_serving(browser, server
     page.close()
 
 
+@pytest.mark.parametrize("name", ["rim", "window-left"])
+def test_preview_and_final_result_have_one_brightness(browser, server, studio, name):
+    """The preview's exposure is the final result's (relight_rt.exposure): the person's mean luminance in the
+    preview the page draws agrees with the rendered result's (before, the preview kept the photo's mean
+    luminance by a rule of its own and came out 5 % brighter than the result under these lights)."""
+    page = open_page(browser, server)
+    light = lights.preset(name).astype(np.float32)
+    shown = np.array(page.evaluate("L => studio.previewLight(L)", light.ravel().tolist()), np.float32).reshape(9, 3)
+    page.close()
+    meta = studio.info()["preview"]
+    layers = unpack_layers(studio.layers_bytes(), meta)
+    t, a, m = layers["transport"].transpose(1, 2, 0), layers["albedo"].transpose(1, 2, 0), layers["mask"]
+    preview = layers["background"].transpose(1, 2, 0) * (1 - m[..., None]) + np.clip(a * shading(t, shown), 0, 1)
+    _, rec = studio.render(light.tolist())
+    final = cv2.imdecode(np.frombuffer(rec.png, np.uint8), cv2.IMREAD_COLOR)[..., ::-1].astype(np.float32) / 255
+    final = cv2.resize(final, (meta["width"], meta["height"]), interpolation=cv2.INTER_AREA)
+    luma = np.array([0.2126, 0.7152, 0.0722], np.float32)
+    have, want = float((preview @ luma * m).sum()), float((final @ luma * m).sum())
+    assert have / want == pytest.approx(1.0, abs=0.035)
+
+
 def test_exposure_rule_in_js_matches_python(browser, server, studio):
     page = open_page(browser, server)
     light = lights.preset("golden-hour").astype(np.float32)
-    js = page.evaluate("L => studio.sh.exposureScale(studio.state.layers, L, 0.3, 0.5, 1)", light.ravel().tolist())
-    layers = unpack_layers(studio.layers_bytes(), studio.info()["preview"])
-    py = mean_luminance_scale(
-        layers["albedo"].transpose(1, 2, 0), layers["transport"].transpose(1, 2, 0), layers["mask"], light, 0.3, 0.5
-    )
+    js = page.evaluate("L => studio.sh.exposureScale(studio.state.layers.exposure, L, 0.3, 0.5, 1)",
+                       light.ravel().tolist())
+    sample = unpack_layers(studio.layers_bytes(), studio.info()["preview"])["exposure"]
+    py = exposure_scale(sample["albedo"][None], sample["transport"][None], sample["mask"][None], light, 0.3, 0.5)
     assert js == pytest.approx(py, rel=1e-4)
+    # what the page draws is the Studio's preview_light
+    shown = page.evaluate("L => studio.previewLight(L)", light.ravel().tolist())
+    np.testing.assert_allclose(np.reshape(shown, (9, 3)), studio.preview_light(light), rtol=1e-4, atol=1e-7)
     page.close()
 
 

@@ -14,7 +14,7 @@ import pytest
 from _graphs import OWN_LIGHT, make_models_dir, models_dir, save, stage1_model, stage1_sides_model
 from _scenes import ambient, backdrop, directional, side_means, soft_person, write_scene
 
-from relight_rt import Relighter, RelightError, cli, sh
+from relight_rt import Relighter, RelightError, cli, envmap
 from relight_rt.compositing import Background
 from relight_rt.exposure import REC709
 from relight_rt.stabilize import Stabilizer
@@ -103,7 +103,7 @@ def test_bgr_reads_the_columns_as_blue_green_red(work, sides_dir, capsys):
 
 def test_envmap_reaches_the_relighter_and_turns(work, sides_dir, capsys):
     """An environment map bright toward +y lights the right side, turned by --rotate (bug: either dropped)."""
-    env = sh.envmap_from_light(directional((0, 1, 0), strength=0.5), 32).astype(np.float32)
+    env = envmap.envmap_from_light(directional((0, 1, 0), strength=0.5), 32).astype(np.float32)
     cv2.imwrite("env.hdr", np.ascontiguousarray(np.maximum(env, 0)[..., ::-1]))
     mask = scene_mask(work)
     out = run(["relight", "p.png", "--models", sides_dir, "--envmap", "env.hdr", "-o", "e.png"], capsys)

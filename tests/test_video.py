@@ -489,14 +489,14 @@ def test_reference_video_stabiliser_on_real_motion(reference_dir):
 
 
 def test_resolve_light_file_envmap_and_preset(tmp_path):
-    from relight_rt import lights, sh
+    from relight_rt import envmap, lightfile, lights
     from relight_rt.video import resolve_light
 
     np.testing.assert_allclose(resolve_light("studio"), lights.preset("studio"))
     light = lights.preset("rim")
-    sh.save_light(tmp_path / "l.npy", light)
+    lightfile.save_light(tmp_path / "l.npy", light)
     np.testing.assert_allclose(resolve_light(tmp_path / "l.npy"), light, atol=1e-6)
-    env = sh.envmap_from_light(light, 32)
+    env = envmap.envmap_from_light(light, 32)
     cv2.imwrite(str(tmp_path / "env.hdr"), np.ascontiguousarray(np.maximum(env, 0)[..., ::-1]))
     assert resolve_light(tmp_path / "env.hdr").shape == (9, 3)
     with pytest.raises(RelightError, match="unknown light preset 'no-such-light'"):

@@ -20,8 +20,9 @@ import cv2
 import numpy as np
 
 from relight_rt._errors import RelightError
+from relight_rt.envmap import directions_envmap, project_envmap, solid_angles_envmap
 from relight_rt.exposure import REC709
-from relight_rt.sh import directions_envmap, irradiance, project_envmap, solid_angles_envmap
+from relight_rt.sh import irradiance
 
 log = logging.getLogger(__name__)
 

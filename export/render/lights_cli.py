@@ -51,7 +51,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def _maps(args):
     """Yield (base name, (H, 2H, 3) map) pairs."""
-    from relight_rt.sh import load_envmap
+    from relight_rt.envmap import load_envmap
 
     from . import envmaps
 
@@ -83,7 +83,8 @@ def _maps(args):
 def run(args) -> int:
     from tqdm import tqdm
 
-    from relight_rt.sh import project_envmap, rotate_z
+    from relight_rt.envmap import project_envmap
+    from relight_rt.sh import rotate_z
 
     from .. import dataset
     from . import envmaps
@@ -122,7 +123,7 @@ def run(args) -> int:
 
 def environment(root: str | Path, name: str) -> np.ndarray:
     """The (H, 2H, 3) linear RGB map behind light ``name`` of a folder written by this command."""
-    from relight_rt.sh import load_envmap
+    from relight_rt.envmap import load_envmap
 
     from .envmaps import rotate_envmap
 
@@ -150,7 +151,7 @@ def list_environments(root: str | Path) -> list[str]:
 
 def load_environment(root: str | Path, name: str, height: int | None = None) -> np.ndarray:
     """A map from :func:`list_environments`'s list, optionally resized to ``height``."""
-    from relight_rt.sh import load_envmap
+    from relight_rt.envmap import load_envmap
 
     from .envmaps import resize_envmap
 

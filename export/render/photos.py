@@ -26,7 +26,8 @@ import cv2
 import numpy as np
 
 from relight_rt._errors import RelightError
-from relight_rt.sh import directions_envmap, project_envmap, shading, solid_angles_envmap
+from relight_rt.envmap import directions_envmap, project_envmap, solid_angles_envmap
+from relight_rt.sh import shading
 
 from .envmaps import LUMA
 from .raycast import Tracer

@@ -64,7 +64,7 @@ def add_parser(subparsers) -> None:
 
 
 def cmd_composite(args: argparse.Namespace) -> int:
-    from ..background import check_fov, parse_key_light
+    from ..scene_light import check_fov, parse_key_light
     from ..masks import find_mask_file
     from ..scene import composite, parse_position
 

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import lights, sh
+from .. import envmap, lightfile, lights, sh
 from .._errors import RelightError
 from .._io import IMAGE_SUFFIXES, atomic_path, check_target, sibling_mask, write_image, write_npy
 from ..lightspec import LightSpec, parse_light
@@ -86,8 +86,8 @@ def cmd_show(args: argparse.Namespace) -> int:
     spec = spec.rotated(args.rotate)
     protect = [name, *spec.paths]
     if spec.source == "envmap":
-        env = sh.load_envmap(spec.value)  # decoded once, for the light and for the sheet
-        light = sh.rotate_z(sh.project_envmap(env), math.radians(spec.rotate))
+        env = envmap.load_envmap(spec.value)  # decoded once, for the light and for the sheet
+        light = sh.rotate_z(envmap.project_envmap(env), math.radians(spec.rotate))
         light = sh.check_light(light, "light").astype(np.float32)
         image, notes = _light_sheet.envmap_sheet(env, light, args.rotate, args.size)
     else:
@@ -111,20 +111,20 @@ def light_output(output: str, source: str) -> Path:
 
 
 def write_light(out: Path, light: np.ndarray, source: str, protect: tuple = ()) -> None:
-    """Write ``light`` to ``out`` (.npy, or .json by sh.save_light), atomically and never over ``source`` or
+    """Write ``light`` to ``out`` (.npy, or .json by lightfile.save_light), atomically and never over ``source`` or
     ``protect``."""
     protect = [source, *protect]
     if out.suffix.lower() == ".npy":
         write_npy(out, light, protect=protect)
     else:
-        with atomic_path(out, protect) as tmp:  # checked against the inputs first, then sh.save_light's format
-            sh.save_light(tmp, light)
+        with atomic_path(out, protect) as tmp:  # checked against the inputs first, then lightfile.save_light's format
+            lightfile.save_light(tmp, light)
     log.info("%s -> %s", source, out)
 
 
 def cmd_from_envmap(args: argparse.Namespace) -> int:
     out = light_output(args.output, args.envmap)
-    write_light(out, sh.project_envmap(sh.load_envmap(args.envmap)), args.envmap)
+    write_light(out, envmap.project_envmap(envmap.load_envmap(args.envmap)), args.envmap)
     return 0
 
 
@@ -158,7 +158,7 @@ def preview_sheet(background: np.ndarray, env: np.ndarray, light: np.ndarray, he
 
 
 def cmd_from_background(args: argparse.Namespace) -> int:
-    from ..background import light_from_background, parse_key_light, read_background
+    from ..scene_light import light_from_background, parse_key_light, read_background
 
     key = parse_key_light(args.key_light)
     out = light_output(args.output, args.background)

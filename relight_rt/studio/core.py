@@ -33,7 +33,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from .. import lights, sh
+from .. import envmap, lights
 from .._errors import RelightError
 from .._io import as_colour, decode_bytes, encode_image, read_image, sibling_mask
 from .._limits import header_size
@@ -42,8 +42,9 @@ log = logging.getLogger(__name__)
 
 MAX_UPLOAD_BYTES = 32 << 20  # an env map or a photo; bigger uploads are refused before decoding
 MAX_UPLOAD_PIXELS = 40_000_000  # decoded size limit (a small file can hold a huge image)
-EXPOSURES = ("auto", "physical")
-from ..exposure import REC709 as LUMA  # noqa: E402  (Rec. 709, DESIGN.md §3 "Exposure": one definition)
+EXPOSURE_SAMPLES = 1 << 15  # network-frame pixels of the person that the page's exposure rule reads (at most)
+from ..exposure import exposure_scale, mean_luminance, parse_exposure  # noqa: E402  (the one exposure rule)
+from ..lightspec import LightSpec  # noqa: E402  (the one light parser)
 
 # (leading bytes, kind, suffix the readers go by)
 _MAGIC = (
@@ -168,33 +169,30 @@ def light_npy(light: np.ndarray) -> bytes:
     return buf.getvalue()
 
 
-def parse_light(value) -> np.ndarray:
-    """A light from a request: 27 numbers (or 9 rows of 3), RGB → (9, 3) float32; checked."""
-    try:
-        arr = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError, OverflowError, RecursionError):  # OverflowError: an integer of 400 digits
-        raise RelightError("light: expected 27 numbers (9 rows of R, G, B) of sensible size") from None
-    if arr.size != 27:
-        raise RelightError(f"light: expected 27 numbers (9 rows of R, G, B), got {arr.size}")
-    arr = arr.reshape(9, 3)
-    if not np.all(np.isfinite(arr)) or np.abs(arr).max() > 1e4:
-        raise RelightError("light: expected finite numbers of sensible size (|value| <= 1e4)")
-    return sh.check_light(arr.astype(np.float32), "light").astype(np.float32)
+def request_light(value) -> np.ndarray:
+    """The (9, 3) float32 RGB light of a render request's 27 numbers (``LightSpec.from_numbers``)."""
+    return LightSpec.from_numbers(value).resolve()
 
 
-def parse_exposure(value) -> object:
-    """ "auto", "physical" or an EV offset (float in [-10, 10])."""
-    if value is None:
-        return "auto"
-    if isinstance(value, str) and value in EXPOSURES:
-        return value
-    try:
-        ev = float(value)
-    except (TypeError, ValueError, OverflowError):
-        raise RelightError(f"exposure: expected auto, physical or an EV number, got {value!r}") from None
-    if not math.isfinite(ev) or abs(ev) > 10:
-        raise RelightError(f"exposure: expected an EV offset in [-10, 10], got {value!r}")
-    return ev
+def request_exposure(value) -> object:
+    """A render request's exposure: absent is "auto", anything else ``relight_rt.exposure.parse_exposure``."""
+    return "auto" if value is None else parse_exposure(value)
+
+
+def _exposure_sample(dec) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The person's pixels in the network frame that the page's exposure rule reads: every ``step``-th pixel
+    inside the mask, at most EXPOSURE_SAMPLES (all of them for networks up to about 300² pixels of person).
+
+    Returns:
+        albedo (n, 3) (the network's, masked, as relight_rt.exposure takes it), transport (n, 9), mask (n,),
+        float32.
+    """
+    m = np.asarray(dec.network_mask, np.float32).reshape(-1)
+    inside = np.flatnonzero(m > 0)
+    idx = inside[:: max(1, math.ceil(inside.size / EXPOSURE_SAMPLES))]
+    albedo = np.asarray(dec.albedo, np.float32).reshape(-1, 3)[idx]
+    transport = np.asarray(dec.transport, np.float32).reshape(-1, 9)[idx]
+    return albedo, transport, m[idx]
 
 
 def _display_size(h: int, w: int, max_pixels: int) -> tuple[int, int]:
@@ -280,19 +278,36 @@ class Studio:
         q16 = np.rint((transport - lo) / scale).clip(0, 65535).astype("<u2").transpose(2, 0, 1)
         eight = np.concatenate([albedo, mask, bg], axis=2)
         q8 = np.rint(np.clip(eight, 0, 1) * 255).astype(np.uint8).transpose(2, 0, 1)
-        # the photo's person, for the exposure rule (mean luminance inside the mask), at display resolution
-        photo = _resize(np.asarray(dec.image), size)
-        m = mask[..., 0]
-        luma = photo @ LUMA
-        target = float((luma * m).sum() / max(float(m.sum()), 1e-6))
+        # the exposure rule of the final result (relight_rt.exposure: the mean luminance of the network's diffuse
+        # image inside the mask, the photo's own light as the target) on the person's network-frame pixels
+        albedo_s, transport_s, mask_s = self._exposure = _exposure_sample(dec)
+        target = mean_luminance(albedo_s[None], transport_s[None], mask_s[None], dec.white_light)
+        head = q16.tobytes() + q8.tobytes()
+        offset = -(-len(head) // 4) * 4  # float32 planes start 4-byte aligned
+        planes = np.concatenate([transport_s.T, albedo_s.T, mask_s[None]]).astype("<f4")
         return {
             "height": size[0],
             "width": size[1],
             "transport_offset": lo.astype(float).tolist(),
             "transport_scale": scale.astype(float).tolist(),
             "exposure_target": target,
-            "data": q16.tobytes() + q8.tobytes(),
+            "exposure_samples": int(mask_s.size),
+            "exposure_offset": offset,
+            "data": head + bytes(offset - len(head)) + planes.tobytes(),
         }
+
+    def preview_light(self, light, exposure="auto") -> np.ndarray:
+        """The light the page's preview draws for ``light`` (27 numbers or (9, 3)) and ``exposure``: the final
+        result's exposure rule (relight_rt.exposure.exposure_scale) on the page's exposure sample, so that the
+        preview and the final result have one brightness. What studio.js ``previewLight`` computes."""
+        lit = request_light(light)
+        exp = request_exposure(exposure)
+        if not self.exposure_supported:
+            return lit
+        albedo_s, transport_s, mask_s = self._exposure
+        target = self._layers["exposure_target"]
+        scale = exposure_scale(albedo_s[None], transport_s[None], mask_s[None], lit, target, exp)
+        return (lit * np.float32(scale)).astype(np.float32)
 
     def photo_png(self) -> bytes:
         """The photo as the pipeline reads it (upright, RGB, full resolution) as PNG: the page's "before"."""
@@ -302,7 +317,9 @@ class Studio:
 
     def layers_bytes(self) -> bytes:
         """The binary the page reads: 9 planes of uint16 transport, then 7 planes of uint8 (albedo R, G, B
-        premultiplied by the mask, mask, background R, G, B), each plane height x width, row-major."""
+        premultiplied by the mask, mask, background R, G, B), each plane height x width, row-major; then, from
+        byte ``exposure_offset``, the exposure sample (``_exposure_sample``) as float32 planes of
+        ``exposure_samples`` values: transport 0…8, albedo R, G, B, mask."""
         return self._layers["data"]
 
     def info(self) -> dict:
@@ -326,8 +343,8 @@ class Studio:
 
     def render(self, light, exposure="auto") -> tuple[str, Render]:
         """Run the full pipeline under ``light`` (27 numbers, RGB) and keep the PNG; returns (id, render)."""
-        lit = parse_light(light)
-        exp = parse_exposure(exposure)
+        lit = request_light(light)
+        exp = request_exposure(exposure)
         kwargs = {"background": self._bg or self.background}
         if self.exposure_supported:
             kwargs["exposure"] = exp
@@ -363,8 +380,8 @@ class Studio:
         with tempfile.TemporaryDirectory(prefix="relight-studio-") as folder:
             path = Path(folder) / f"upload{suffix}"  # our name; the client's is never used
             path.write_bytes(data)
-            env = sh.load_envmap(path)  # its size was checked from the header by check_upload
-        return sh.project_envmap(env).astype(np.float32)
+            env = envmap.load_envmap(path)  # its size was checked from the header by check_upload
+        return envmap.project_envmap(env).astype(np.float32)
 
     def photo_light(self, data: bytes) -> np.ndarray:
         """(9, 3) float32 light estimated (stage 1) from an uploaded photo of a person; mask: its alpha, else
@@ -376,9 +393,9 @@ class Studio:
         return np.array(dec.white_light, dtype=np.float32)
 
     def background_light(self, data: bytes, key_light=None) -> np.ndarray:
-        """(9, 3) float32 light of an uploaded background photo (relight_rt.background, 60° field of view);
+        """(9, 3) float32 light of an uploaded background photo (relight_rt.scene_light, 60° field of view);
         ``key_light`` "AZ,EL" (degrees) or a pair steers its key light (background.parse_key_light)."""
-        from ..background import light_from_background, parse_key_light
+        from ..scene_light import light_from_background, parse_key_light
 
         key = parse_key_light(key_light)  # checked before the upload is decoded
         image = decode_upload(data, "background")
@@ -388,26 +405,18 @@ class Studio:
 
 def unpack_layers(data: bytes, meta: dict) -> dict:
     """The inverse of ``Studio.layers_bytes`` (what the page's decodeLayers does): float32 planes
-    "transport" (9, h, w), "albedo" (3, h, w) premultiplied, "mask" (h, w), "background" (3, h, w)."""
+    "transport" (9, h, w), "albedo" (3, h, w) premultiplied, "mask" (h, w), "background" (3, h, w), and
+    "exposure": {"transport" (n, 9), "albedo" (n, 3), "mask" (n,)}, the exposure sample."""
     h, w = meta["height"], meta["width"]
     n = h * w
-    if len(data) != 25 * n:
-        raise RelightError(f"layers: expected {25 * n} bytes for {h}x{w}, got {len(data)}")
+    ns, offset = int(meta["exposure_samples"]), int(meta["exposure_offset"])
+    if offset < 25 * n or len(data) != offset + 52 * ns:
+        raise RelightError(f"layers: expected {offset + 52 * ns} bytes for {h}x{w} and {ns} samples, got {len(data)}")
     q16 = np.frombuffer(data, "<u2", 9 * n).reshape(9, h, w).astype(np.float32)
-    offset = np.array(meta["transport_offset"], np.float32)[:, None, None]
+    off = np.array(meta["transport_offset"], np.float32)[:, None, None]
     scale = np.array(meta["transport_scale"], np.float32)[:, None, None]
     eight = np.frombuffer(data, np.uint8, 7 * n, 18 * n).reshape(7, h, w).astype(np.float32) / 255
-    return {"transport": offset + q16 * scale, "albedo": eight[:3], "mask": eight[3], "background": eight[4:]}
-
-
-def mean_luminance_scale(albedo, transport, mask, light, target: float, ev: float = 0.0) -> float:
-    """The exposure rule of the preview (DESIGN.md §3): the scalar s with which the light ``s · light``
-    gives the person (inside the mask) the mean Rec. 709 luminance ``target · 2^ev``.
-
-    Args:
-        albedo: (H, W, 3) premultiplied by the mask. transport: (H, W, 9). mask: (H, W). light: (9, 3).
-    """
-    shade = np.maximum(np.asarray(transport, np.float32).reshape(-1, 9) @ np.asarray(light, np.float32), 0)
-    luma = (np.asarray(albedo, np.float32).reshape(-1, 3) * shade) @ LUMA
-    current = float(luma.sum() / max(float(np.asarray(mask).sum()), 1e-6))
-    return float(target * 2.0**ev / current) if current > 1e-8 else 1.0
+    planes = np.frombuffer(data, "<f4", 13 * ns, offset).reshape(13, ns).astype(np.float32)
+    sample = {"transport": planes[:9].T.copy(), "albedo": planes[9:12].T.copy(), "mask": planes[12].copy()}
+    return {"transport": off + q16 * scale, "albedo": eight[:3], "mask": eight[3], "background": eight[4:],
+            "exposure": sample}

@@ -19,6 +19,10 @@ export function decodeLayers(buffer, meta) {
     for (let p = 0; p < n; p++) plane[p] = q8[i * n + p] / 255;
     return plane;
   };
+  // the exposure sample: float32 planes (transport 0..8, albedo r, g, b, mask) of the person's network pixels
+  const ns = meta.exposure_samples;
+  const f = new Float32Array(buffer, meta.exposure_offset, 13 * ns);
+  const plane = (i) => f.subarray(i * ns, (i + 1) * ns);
   return {
     width: meta.width,
     height: meta.height,
@@ -26,6 +30,11 @@ export function decodeLayers(buffer, meta) {
     albedo: [eight(0), eight(1), eight(2)],
     mask: eight(3),
     background: [eight(4), eight(5), eight(6)],
+    exposure: {
+      transport: [0, 1, 2, 3, 4, 5, 6, 7, 8].map(plane),
+      albedo: [plane(9), plane(10), plane(11)],
+      mask: plane(12),
+    },
   };
 }
 

@@ -116,10 +116,10 @@ export function directionToWidget(d, rhoMax) {
   return [(rho * y) / t, (rho * z) / t];
 }
 
-// The preview's exposure rule (DESIGN.md §3, relight_rt.studio.core.mean_luminance_scale): the scalar s
-// for which the light s · L gives the person a mean Rec. 709 luminance (inside the mask) of target · 2^ev.
-// layers: {transport: 9 Float32Array planes, albedo: 3 Float32Array planes (premultiplied), mask};
-// every `step`-th pixel is used (the preview uses a sparse grid; tests use step 1).
+// The exposure rule of the final result (DESIGN.md §3, relight_rt.exposure.exposure_scale): the scalar s for
+// which the light s · L gives the person the mask-weighted mean Rec. 709 luminance of albedo ⊙ max(0, T·L)
+// target · 2^ev. layers: the exposure sample of the layers (decodeLayers: {transport: 9 Float32Array planes,
+// albedo: 3 planes (the network's, masked), mask}); every `step`-th pixel is used (the page uses step 1).
 export function exposureScale(layers, light, target, ev, step) {
   const T = layers.transport, A = layers.albedo, M = layers.mask;
   const n = M.length;
@@ -129,9 +129,10 @@ export function exposureScale(layers, light, target, ev, step) {
     for (let c = 0; c < 3; c++) {
       let s = 0;
       for (let k = 0; k < 9; k++) s += T[k][p] * light[3 * k + c];
-      if (s > 0) lum += LUMA[c] * A[c][p] * s;
+      if (s > 0) lum += LUMA[c] * A[c][p] * M[p] * s;
     }
   }
   const current = lum / Math.max(msum, 1e-6);
-  return current > 1e-8 ? (target * Math.pow(2, ev)) / current : 1;
+  const gain = Math.pow(2, ev);
+  return current > 1e-8 && target > 1e-8 ? (gain * target) / current : gain;
 }

@@ -5,7 +5,6 @@ import { ZoomView, facePoint } from "./view.js";
 
 const $ = (id) => document.getElementById(id);
 const RHO_MAX = 1.3;  // outer edge of the "behind" ring, in sphere radii
-const EXPOSURE_STEP = 7;  // the preview's exposure rule samples every 7th pixel
 
 const state = {
   info: null,
@@ -51,7 +50,7 @@ function exposureValue() {
 function previewLight(light) {
   if (!state.info.exposure || state.exposure.mode === "physical") return light;
   const ev = state.exposure.mode === "ev" ? state.exposure.ev : 0;
-  const s = sh.exposureScale(state.layers, light, state.info.preview.exposure_target, ev, EXPOSURE_STEP);
+  const s = sh.exposureScale(state.layers.exposure, light, state.info.preview.exposure_target, ev, 1);
   return sh.scale(light, s);
 }
 

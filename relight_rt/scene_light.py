@@ -51,7 +51,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from . import sh
+from . import envmap as sh  # env maps moved out of sh (h31maths); the calls below read sh.<envmap function>
 from ._errors import RelightError
 from ._pairs import number_pair
 from .color import srgb8_to_linear, srgb_to_linear
@@ -99,7 +99,7 @@ def check_fov(fov) -> float:
     return f
 
 
-_check_fov = check_fov  # the name this module's own callers use
+
 
 
 def parse_key_light(value) -> tuple[float, float] | None:
@@ -134,10 +134,10 @@ def read_background(src, name: str = "background") -> np.ndarray:
         RelightError: unreadable file, RGBA (an alpha channel has no meaning for a
             background: flatten it first), a side smaller than 64 px, bad values.
     """
-    from ._io import _decode, as_colour
+    from ._io import as_colour, decode_file
 
     if isinstance(src, (str, os.PathLike)):
-        raw = as_colour(_decode(src, name), bgr=True)  # gray becomes colour; turned as its EXIF tag says
+        raw = as_colour(decode_file(src, name), bgr=True)  # gray becomes colour; turned as its EXIF tag says
         label = f"{name} {os.fspath(src)}"
     elif isinstance(src, np.ndarray):
         raw, label = as_colour(src, bgr=False), name
@@ -280,7 +280,7 @@ def scene_light(image, fov: float = 60.0, *, height: int = 64) -> SceneLight:
 
     Args / Raises: as ``light_from_background``.
     """
-    f = _check_fov(fov)
+    f = check_fov(fov)
     if isinstance(height, bool) or not isinstance(height, (int, np.integer)) or not 8 <= height <= 1024:
         raise RelightError(f"height: expected an integer from 8 to 1024, got {height!r}")
     photo = read_background(image)
@@ -371,7 +371,7 @@ def envmap_view(env, size: tuple[int, int], fov: float = 60.0) -> np.ndarray:
     Returns:
         (height, width, 3) float32 linear RGB.
     """
-    f = _check_fov(fov)
+    f = check_fov(fov)
     arr = np.asarray(env, np.float32)
     if arr.ndim != 3 or arr.shape[2] != 3 or arr.shape[1] != 2 * arr.shape[0]:
         raise RelightError(f"env: expected an equirectangular (H, 2H, 3) map, got {arr.shape}")

@@ -1,4 +1,4 @@
-"""relight_rt.background: light from one background photo (direction, band 0, bad inputs) and the view helper."""
+"""relight_rt.scene_light: light from one background photo (direction, band 0, bad inputs) and the view helper."""
 
 import math
 
@@ -6,9 +6,9 @@ import cv2
 import numpy as np
 import pytest
 
-from relight_rt import RelightError, sh
-from relight_rt import background as bgmod
-from relight_rt.background import envmap_view, light_from_background, parse_key_light, scene_light
+from relight_rt import RelightError, envmap, sh
+from relight_rt import scene_light as bgmod
+from relight_rt.scene_light import envmap_view, light_from_background, parse_key_light, scene_light
 
 FRONT, BACK = np.array([[1.0, 0, 0]]), np.array([[-1.0, 0, 0]])  # normals facing the camera / away from it
 
@@ -40,7 +40,7 @@ def test_uniform_grey_fills_the_front_with_the_photo_and_the_back_with_the_ambie
     v = ((128 / 255 + 0.055) / 1.055) ** 2.4  # sRGB → linear
     parts = scene_light(grey)
     assert parts.level == pytest.approx(v, rel=1e-5)
-    d = sh.directions_envmap(64)
+    d = envmap.directions_envmap(64)
     front = d[..., 0] < 0
     np.testing.assert_allclose(parts.view_env[front], v, rtol=1e-5)  # what lies behind the person: the photo
     assert np.abs(parts.view_env[~front]).max() == 0 and np.abs(parts.source).max() == 0  # nothing clipped
@@ -146,7 +146,7 @@ def test_view_of_a_map_and_back():
     """A view of a map with one bright patch straight ahead-right: envmap_view puts it right of centre and the
     light estimated from the view comes from there (+y, −x side mirrored, so only y and z signs are checked)."""
     h = 64
-    d = sh.directions_envmap(h)
+    d = envmap.directions_envmap(h)
     target = np.array([-math.cos(0.3), math.sin(0.3), 0.1])
     patch = (d @ (target / np.linalg.norm(target)) > 0.97)[..., None]
     env = np.repeat(np.where(patch, 5.0, 0.2), 3, axis=2).astype(np.float32)
