@@ -40,7 +40,7 @@ import cv2
 import numpy as np
 
 from ._errors import RelightError
-from ._io import IMAGE_SUFFIXES, ProtectedPaths, _umask, read_image, read_mask, same_file, write_image
+from ._io import IMAGE_SUFFIXES, ProtectedPaths, current_umask, read_image, read_mask, same_file, write_image
 from ._limits import check_pixels, require_file_or_folder
 
 log = logging.getLogger(__name__)
@@ -622,7 +622,7 @@ class FrameSink:
             else:
                 writer.release()
             if ok:
-                os.chmod(self._tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give the file the usual permissions
+                os.chmod(self._tmp, 0o666 & ~current_umask())  # mkstemp makes 0600; give the file the usual permissions
                 os.replace(self._tmp, self.video)
         finally:
             if self._file is not None and not self._file.closed:
