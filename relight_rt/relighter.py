@@ -15,6 +15,8 @@ cast is wrong) and its resolution is the network's. Instead the photo itself is 
 The luminance Y of the pipeline's image under the new light (albedo A times the shading S' = max(0, T·L'),
 plus stage 2's residual r'), over its luminance under the photo's own light (Ŝ = max(0, T·l̂), l̂ the
 luminance of stage 1's estimate taken as white: cameras white-balance their photos), both unclipped, ε = 0.01;
+T is stage 1's transport with its degree-1 and degree-2 bands scaled back up by the shrinkage measured against
+true transports (relight_rt._strength: a regressed transport makes every light look softer than it is);
 and c' = S' / Y(S'), the colour of the new light arriving at that pixel (luminance 1). So the brightness change
 is the whole pipeline's (stage 2's shadows and highlights included), its colour is the new light's alone, and
 neither the albedo's colour nor an error in the estimated light's colour can tint the skin: under a white
@@ -55,6 +57,7 @@ from ._errors import RelightError
 from ._face import feather, head_box
 from ._geometry import CropGeometry
 from ._io import read_image, sibling_mask
+from ._strength import restore_bands
 from .compositing import Background, clean_edge_colour, over_box, parse_background
 from .config import RuntimeConfig
 from .contract import kind_spec
@@ -616,7 +619,8 @@ class Relighter:
 
         "window" (y0, y1, x0, x1): the network pixels near the person (the whole square when the network's
         square is not smaller than the photo's: to_crop takes a window only when enlarging); "alpha", "inner"
-        (alpha > 0.5); "transport" (r, r', 9) and "albedo" luminance (r, r') unpremultiplied; "own" (r, r') the
+        (alpha > 0.5); "transport" (r, r', 9) unpremultiplied, its directional bands restored
+        (relight_rt._strength), and "albedo" luminance (r, r') unpremultiplied; "own" (r, r') the
         luminance of the pipeline's image under the photo's own light taken as white (diffuse plus stage 2's
         residual), plus the ratio's floor.
         """
@@ -627,7 +631,8 @@ class Relighter:
             r = geom.resolution
             y0, y1, x0, x1 = window(dec.network_mask) if geom.side > r else (0, r, 0, r)
             alpha = dec.network_mask[y0:y1, x0:x1]
-            transport = unpremultiply(np.ascontiguousarray(dec.transport[y0:y1, x0:x1]), alpha)
+            # the directional bands restored to their true strength (relight_rt._strength), for both sides of the ratio
+            transport = restore_bands(unpremultiply(np.ascontiguousarray(dec.transport[y0:y1, x0:x1]), alpha))
             albedo = unpremultiply(np.ascontiguousarray(dec.albedo[y0:y1, x0:x1]), alpha) @ _exposure.REC709
             own = albedo * sh.shading(transport, dec.white_light)[..., 0]  # white: the three columns are equal
             residual = self._own_residual(dec) if with_residual else None
