@@ -40,7 +40,7 @@ ROI_SCALE = 1.5  # the landmarker's square: this many face-box sides around the 
 MIN_FACE_NET = 24  # a face smaller than this in network pixels is left to stage 1 (and the head pass)
 MIN_FLAG = 0.5  # the landmarker's face probability needed to trust its mesh
 SMOOTH = 0.04  # normals smoothed over this fraction of the face's size (about one triangle)
-FEATHER = 0.06  # the face transport fades in over this fraction of the face's size inside the mesh's border
+FEATHER = 0.12  # the face transport fades in over this fraction of the face's size inside the mesh's border
 
 # DESIGN.md §3: unoccluded transport of a unit normal, A_l * Y_k(n), per unit of degree-0 coefficient
 _C0 = 0.5 / math.sqrt(math.pi)
@@ -123,13 +123,12 @@ def face_transport(points: np.ndarray, triangles: np.ndarray, t0: np.ndarray) ->
     size = float(max(span.max(), 1.0))
     sigma = max(SMOOTH * size, 0.5)
     normals = cv2.GaussianBlur(normals, (0, 0), sigma)
-    weight_n = cv2.GaussianBlur(cover, (0, 0), sigma)
     normals = normals / np.maximum(np.linalg.norm(normals, axis=2, keepdims=True), 1e-6)
     transport = lobe_transport(normals) * (np.maximum(t0, 0) / (_A0 * _C0))[..., None]
-    # weight: inside the mesh, fading in over FEATHER of the face's size from its border
-    inner = cv2.erode(cover, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (3, 3)),
-                      iterations=max(int(round(FEATHER * size)), 1))
-    weight = cv2.GaussianBlur(inner, (0, 0), max(FEATHER * size / 2, 0.5)) * (weight_n > 0.5)
+    # weight: inside the mesh, rising smoothly from 0 at its border to 1 at FEATHER of the face's size inside
+    dist = cv2.distanceTransform((cover > 0).astype(np.uint8), cv2.DIST_L2, 3)
+    t = np.clip(dist / max(FEATHER * size, 1.0), 0, 1)
+    weight = t * t * (3 - 2 * t)
     return transport, np.clip(weight, 0, 1).astype(np.float32)
 
 
