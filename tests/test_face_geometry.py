@@ -114,3 +114,13 @@ def test_the_face_in_a_real_photo_gets_its_mesh_and_the_light_models_it():
         return lum[:, half:].mean() / lum[:, :half].mean()
 
     assert side_ratio(with_mesh) > side_ratio(plain) > 1
+
+
+def test_the_mesh_triangles_are_the_edge_lists_three_cliques():
+    face_mesh = pytest.importorskip("export.face_mesh")
+    square = [(0, 1), (1, 2), (2, 3), (3, 0), (0, 2)]  # a square split by one diagonal
+    np.testing.assert_array_equal(face_mesh.triangles_from_edges(square), [[0, 1, 2], [0, 2, 3]])
+    tetra = [(a, b) for a in range(4) for b in range(a + 1, 4)]
+    assert len(face_mesh.triangles_from_edges(tetra)) == 4
+    tris = np.loadtxt(bundled_models_dir() / "face_mesh_triangles.txt", dtype=np.int64)
+    assert tris.shape == (854, 3) and tris.min() == 0 and tris.max() == 467
