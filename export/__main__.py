@@ -25,6 +25,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "quickstart": ("export.quickstart", "render, train tiny models on the CPU, export and relight"),
     "fit-dvp": ("export.dvp", "fit an illumination-conditioned deep video prior to one video"),
     "mask-models": ("export.mask_models", "convert MediaPipe's person segmentation to the bundled matting graphs"),
+    "face-mesh": ("export.face_mesh", "convert MediaPipe's face landmarker (face normals for relighting)"),
 }
 
 

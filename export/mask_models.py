@@ -450,15 +450,18 @@ def verify(onnx_bytes: bytes, tflite: Path, spec: Source, inputs: list[np.ndarra
 
 
 NOTICE_FILE = "NOTICE-mediapipe.txt"
-NOTICE_HEAD = """relight_rt/models/matte_pose.onnx, matte_roi.onnx and matte_face.onnx
+NOTICE_HEAD = """relight_rt/models/matte_pose.onnx, matte_roi.onnx, matte_face.onnx, face_mesh.onnx and
+face_mesh_triangles.txt
 
-These three files are derived from models of Google MediaPipe {version}
+These files are derived from models of Google MediaPipe {version}
 (https://github.com/google-ai-edge/mediapipe), Copyright The MediaPipe Authors / Google LLC,
 licensed under the Apache License, Version 2.0 (the text follows):
 
 - matte_pose.onnx from mediapipe/modules/pose_landmark/pose_landmark_full.tflite
 - matte_roi.onnx from mediapipe/modules/selfie_segmentation/selfie_segmentation.tflite
 - matte_face.onnx from mediapipe/modules/face_detection/face_detection_full_range_sparse.tflite
+- face_mesh.onnx from mediapipe/modules/face_landmark/face_landmark.tflite
+- face_mesh_triangles.txt from mediapipe/python/solutions/face_mesh_connections.py (FACEMESH_TESSELATION)
 
 Changes made by relight_rt (python -m export mask-models, export/mask_models.py): converted from
 TFLite to ONNX with tf2onnx; the custom op Convolution2DTransposeBias rewritten as ConvTranspose;
@@ -466,7 +469,9 @@ inputs and outputs renamed and turned from NHWC to NCHW; the landmark, heat-map 
 outputs of the pose model removed; the face detector's sparse weights stored dense, its input
 mapped from [0, 1] to the [-1, 1] it reads, and its per-anchor outputs laid out as 48x48 maps;
 weights stored as float16 (exactly the values MediaPipe ships); relight_rt metadata added. The
-weights themselves are unchanged.
+weights themselves are unchanged. face_mesh.onnx and face_mesh_triangles.txt (python -m export face-mesh,
+export/face_mesh.py): the landmarker converted the same way, its outputs flattened; the triangles are the
+3-cliques of the tessellation's edge list.
 
 """
 

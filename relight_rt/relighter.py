@@ -15,6 +15,8 @@ cast is wrong) and its resolution is the network's. Instead the photo itself is 
 The luminance Y of the pipeline's image under the new light (albedo A times the shading S' = max(0, T·L'),
 plus stage 2's residual r'), over its luminance under the photo's own light (Ŝ = max(0, T·l̂), l̂ the
 luminance of stage 1's estimate taken as white: cameras white-balance their photos), both unclipped, ε = 0.01;
+T is stage 1's transport with its degree-1 and degree-2 bands scaled back up by the shrinkage measured against
+true transports (relight_rt._strength: a regressed transport makes every light look softer than it is);
 and c' = S' / Y(S'), the colour of the new light arriving at that pixel (luminance 1). So the brightness change
 is the whole pipeline's (stage 2's shadows and highlights included), its colour is the new light's alone, and
 neither the albedo's colour nor an error in the estimated light's colour can tint the skin: under a white
@@ -54,8 +56,10 @@ from ._chain import DeviceChain
 from ._detail import extend_outward, guided_upsample, unpremultiply, window
 from ._errors import RelightError
 from ._face import feather, head_box
+from ._face_geometry import MIN_FACE_NET, FaceMesh, face_transport
 from ._geometry import CropGeometry
 from ._io import read_image, sibling_mask
+from ._strength import restore_bands
 from .compositing import Background, clean_edge_colour, over_box, parse_background
 from .config import RuntimeConfig
 from .contract import kind_spec
@@ -346,6 +350,7 @@ class Relighter:
         self._dvp: Model | None = None
         self._matter: Matter | None = None
         self._matter_loaded = False
+        self._faces: FaceMesh | None = None  # face normals (relight_rt._face_geometry), loaded on first use
         self._chain = None  # CUDA: stage 1 → shading → stage 2 without host round trips
         if self.stage1.on_cuda and (self.stage2 is None or self.stage2.on_cuda):
             self._chain = DeviceChain(self.stage1, self.stage2, "cuda", config.device_id)
@@ -471,6 +476,7 @@ class Relighter:
         if not allow_full:  # photos; video frames skip the work done once per photo (a second pass, the matte's
             for dec in decs:  # foreground colours): per frame it would cost more than it shows
                 self._prepared(dec)["photo"] = True
+                self._prepared(dec)["faces"] = self.detail
             if self.detail and self.face_pass:
                 self._look_at_faces(decs)
         return decs
@@ -493,6 +499,7 @@ class Relighter:
             # gives the photo back everywhere)
             head = replace(head, light=dec.light)
             self._prepared(dec)["head"] = (head, box)
+            self._prepared(head)["faces"] = True
             log.debug("second stage-1 pass on the head at %s", box)
 
     def _stage1(self, images: Sequence[ImageLike], masks: Sequence, allow_full: bool) -> list[Decomposition]:
@@ -627,7 +634,8 @@ class Relighter:
 
         "window" (y0, y1, x0, x1): the network pixels near the person (the whole square when the network's
         square is not smaller than the photo's: to_crop takes a window only when enlarging); "alpha", "inner"
-        (alpha > 0.5); "transport" (r, r', 9) and "albedo" luminance (r, r') unpremultiplied; "own" (r, r') the
+        (alpha > 0.5); "transport" (r, r', 9) unpremultiplied, its directional bands restored
+        (relight_rt._strength), and "albedo" luminance (r, r') unpremultiplied; "own" (r, r') the
         luminance of the pipeline's image under the photo's own light taken as white (diffuse plus stage 2's
         residual), plus the ratio's floor.
         """
@@ -638,7 +646,10 @@ class Relighter:
             r = geom.resolution
             y0, y1, x0, x1 = window(dec.network_mask) if geom.side > r else (0, r, 0, r)
             alpha = dec.network_mask[y0:y1, x0:x1]
-            transport = unpremultiply(np.ascontiguousarray(dec.transport[y0:y1, x0:x1]), alpha)
+            # the directional bands restored to their true strength (relight_rt._strength), for both sides of the ratio
+            transport = restore_bands(unpremultiply(np.ascontiguousarray(dec.transport[y0:y1, x0:x1]), alpha))
+            if state.get("faces"):  # a face's shape from its mesh where stage 1's transport is a blur
+                self._add_faces(dec, transport, (y0, y1, x0, x1))
             albedo = unpremultiply(np.ascontiguousarray(dec.albedo[y0:y1, x0:x1]), alpha) @ _exposure.REC709
             own = albedo * sh.shading(transport, dec.white_light)[..., 0]  # white: the three columns are equal
             residual = self._own_residual(dec) if with_residual else None
@@ -648,6 +659,36 @@ class Relighter:
                           "transport": _readonly(transport), "albedo": _readonly(albedo.astype(np.float32)),
                           "own": _readonly(np.maximum(own, _RATIO_EPS).astype(np.float32))}
         return state[key]
+
+    def _face_mesh(self):
+        """The face detector and landmarker of the models folder (relight_rt._face_geometry), loaded once."""
+        if self._faces is None:
+            with self._state_lock:
+                if self._faces is None:
+                    self._faces = FaceMesh(self.models_dir, device="cpu")
+        return self._faces
+
+    def _add_faces(self, dec: Decomposition, transport: np.ndarray, window: tuple[int, int, int, int]) -> None:
+        """Blend the transport of each face's mesh into ``transport`` (the window's, unpremultiplied), in place."""
+        mesh = self._face_mesh()
+        if not mesh.available:
+            return
+        geom = dec.geometry
+        k = geom.scale
+        (by0, _, bx0, _), (oy, ox) = geom.box, geom.offset
+        y0, _, x0, _ = window
+        state = self._prepared(dec)
+        if "face_meshes" not in state:  # once per decomposition (both "own" entries use them)
+            state["face_meshes"] = mesh.faces(dec.image, geom.box)
+        for pts in state["face_meshes"]:
+            net = np.empty_like(pts)  # input pixels -> the window's pixel indices (centres at integers)
+            net[:, 0] = (pts[:, 0] - bx0 + ox) / k - 0.5 - x0
+            net[:, 1] = (pts[:, 1] - by0 + oy) / k - 0.5 - y0
+            net[:, 2] = pts[:, 2] / k
+            if np.ptp(net[:, :2], axis=0).max() < MIN_FACE_NET:
+                continue
+            t_face, weight = face_transport(net, mesh.triangles, transport[..., 0])
+            transport += weight[..., None] * (t_face - transport)
 
     def _person_colour(
         self, dec: Decomposition, light: np.ndarray, residual: np.ndarray | None, relit: np.ndarray

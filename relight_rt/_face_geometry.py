@@ -1,0 +1,189 @@
+"""The face's shape for the relighting factor: normals from a face mesh, where stage 1's transport is a blur.
+
+Stage 1 regresses the transport of the whole person from one 256-px square; on a face its normals are a smooth
+blob (the nose, the eye sockets, the cheekbones' turn are not in it), so a new light changes a face far less, and
+less precisely, than a relighter trained on faces (DPR). A face has a known shape: MediaPipe's face landmarker
+(``face_mesh.onnx``, Apache-2.0, ``python -m export face-mesh``) gives 468 3D points of a dense mesh for a face
+found by the bundled face detector (``matte_face.onnx``), and the mesh's triangles
+(``face_mesh_triangles.txt``) give its normals.
+
+The normals are drawn into the network frame (flat per triangle, nearest last, then smoothed over about one
+triangle), turned into transport with DESIGN.md §3's unoccluded cosine lobe, and scaled by stage 1's own degree-0
+coefficient (so the network's visibility, hence exposure, is kept). The Relighter blends that transport into
+stage 1's over the face, feathered at the mesh's border (relight_rt.relighter ``_own``); both sides of the
+relighting factor use the result, so the photo's own light still gives the photo back.
+
+Optional: without the three files in the models folder nothing changes. Upright faces only (the landmarker's crop
+is not rotated): a face tilted far from upright gives a poor mesh, which the landmarker's face flag rejects.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from . import _faces
+from ._errors import RelightError
+
+log = logging.getLogger(__name__)
+
+MESH_FILE = "face_mesh.onnx"
+TRIANGLES_FILE = "face_mesh_triangles.txt"
+DETECTOR_FILE = "matte_face.onnx"
+MESH_SIZE = 192  # the landmarker's input side
+N_POINTS = 468
+ROI_SCALE = 1.5  # the landmarker's square: this many face-box sides around the detected face (MediaPipe's)
+MIN_FACE_NET = 24  # a face smaller than this in network pixels is left to stage 1 (and the head pass)
+MIN_FLAG = 0.5  # the landmarker's face probability needed to trust its mesh
+SMOOTH = 0.04  # normals smoothed over this fraction of the face's size (about one triangle)
+FEATHER = 0.12  # the face transport fades in over this fraction of the face's size inside the mesh's border
+
+# DESIGN.md §3: unoccluded transport of a unit normal, A_l * Y_k(n), per unit of degree-0 coefficient
+_C0 = 0.5 / math.sqrt(math.pi)
+_C1 = math.sqrt(3 / (4 * math.pi))
+_C2, _C20, _C22 = math.sqrt(15 / (4 * math.pi)), math.sqrt(5 / (16 * math.pi)), math.sqrt(15 / (16 * math.pi))
+_A0, _A1, _A2 = math.pi, 2 * math.pi / 3, math.pi / 4
+
+
+def lobe_transport(normals: np.ndarray) -> np.ndarray:
+    """(..., 9) float32 unoccluded transport A_l * Y_k(n) of unit normals (..., 3) in the subject frame (§3)."""
+    n = np.asarray(normals, np.float32)
+    x, y, z = n[..., 0], n[..., 1], n[..., 2]
+    out = np.empty(n.shape[:-1] + (9,), np.float32)
+    out[..., 0] = _A0 * _C0
+    out[..., 1] = _A1 * _C1 * y
+    out[..., 2] = _A1 * _C1 * z
+    out[..., 3] = _A1 * _C1 * x
+    out[..., 4] = _A2 * _C2 * x * y
+    out[..., 5] = _A2 * _C2 * y * z
+    out[..., 6] = _A2 * _C20 * (3 * z * z - 1)
+    out[..., 7] = _A2 * _C2 * x * z
+    out[..., 8] = _A2 * _C22 * (x * x - y * y)
+    return out
+
+
+def rasterise_normals(
+    points: np.ndarray, triangles: np.ndarray, shape: tuple[int, int]
+) -> tuple[np.ndarray, np.ndarray]:
+    """Normals and coverage of a triangle mesh seen from the camera, in the subject frame (DESIGN.md §3).
+
+    Args:
+        points: (N, 3) vertices in pixels of the target image: x right, y down, z away from the camera (the same
+            units as x, y).
+        triangles: (T, 3) vertex indices.
+        shape: (h, w) of the target image.
+
+    Returns:
+        normals (h, w, 3) float32, unit length where covered, zero elsewhere: each triangle's normal turned toward
+        the camera (a triangle the camera sees faces it), the nearest triangle drawn last; coverage (h, w) float32
+        in {0, 1}.
+    """
+    h, w = shape
+    p = np.asarray(points, np.float64)
+    tri = np.asarray(triangles, np.int64)
+    v = p[tri]  # (T, 3, 3)
+    n = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
+    n[n[:, 2] > 0] *= -1  # toward the camera (negative z)
+    length = np.linalg.norm(n, axis=1)
+    keep = length > 1e-9
+    n = n[keep] / length[keep, None]
+    v = v[keep]
+    # image axes (x right, y down, z away) -> subject frame (+x toward the camera, +y image right, +z up)
+    subj = np.stack([-n[:, 2], n[:, 0], -n[:, 1]], axis=1).astype(np.float32)
+    order = np.argsort(-v[:, :, 2].mean(axis=1))  # far first: the nearest triangle is drawn last
+    normals = np.zeros((h, w, 3), np.float32)
+    cover = np.zeros((h, w), np.float32)
+    shift = 4
+    corners = np.round(v[:, :, :2] * (1 << shift)).astype(np.int32)
+    for i in order:
+        c = corners[i]
+        cv2.fillConvexPoly(normals, c, subj[i].tolist(), lineType=cv2.LINE_8, shift=shift)
+        cv2.fillConvexPoly(cover, c, 1.0, lineType=cv2.LINE_8, shift=shift)
+    return normals, cover
+
+
+def face_transport(points: np.ndarray, triangles: np.ndarray, t0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The face's transport and its blending weight in a network-frame window.
+
+    Args:
+        points: (468, 3) mesh vertices in the window's pixels (x right, y down, z away, same units).
+        triangles: (T, 3) the mesh's triangles.
+        t0: (h, w) stage 1's degree-0 transport coefficient there (unpremultiplied): the visibility kept.
+
+    Returns:
+        transport (h, w, 9) float32 and weight (h, w) float32 in [0, 1] (0 off the face).
+    """
+    h, w = t0.shape
+    normals, cover = rasterise_normals(points, triangles, (h, w))
+    span = np.ptp(points[:, :2], axis=0)
+    size = float(max(span.max(), 1.0))
+    sigma = max(SMOOTH * size, 0.5)
+    normals = cv2.GaussianBlur(normals, (0, 0), sigma)
+    normals = normals / np.maximum(np.linalg.norm(normals, axis=2, keepdims=True), 1e-6)
+    transport = lobe_transport(normals) * (np.maximum(t0, 0) / (_A0 * _C0))[..., None]
+    # weight: inside the mesh, rising smoothly from 0 at its border to 1 at FEATHER of the face's size inside
+    dist = cv2.distanceTransform((cover > 0).astype(np.uint8), cv2.DIST_L2, 3)
+    t = np.clip(dist / max(FEATHER * size, 1.0), 0, 1)
+    weight = t * t * (3 - 2 * t)
+    return transport, np.clip(weight, 0, 1).astype(np.float32)
+
+
+class FaceMesh:
+    """The face detector and landmarker of a models folder, or nothing (``available`` False) without them."""
+
+    def __init__(self, folder: Path, device: str = "cpu"):
+        self.detector = self.mesh = self.triangles = None
+        files = [folder / f for f in (DETECTOR_FILE, MESH_FILE, TRIANGLES_FILE)]
+        if not all(f.is_file() for f in files):
+            return
+        import onnxruntime as ort
+
+        from .session import load_model
+
+        self.detector = load_model(files[0], "matte_face", device=device, warmup=False)
+        opts = ort.SessionOptions()
+        opts.intra_op_num_threads = 1
+        try:
+            self.mesh = ort.InferenceSession(str(files[1]), opts, providers=["CPUExecutionProvider"])
+        except Exception as exc:  # a broken file: one clear error
+            raise RelightError(f"{files[1]}: cannot load the face landmarker ({exc})") from None
+        try:
+            tri = np.loadtxt(files[2], dtype=np.int64, ndmin=2)
+        except ValueError as exc:
+            raise RelightError(f"{files[2]}: expected rows of three vertex indices ({exc})") from None
+        if tri.ndim != 2 or tri.shape[1] != 3 or tri.size == 0 or tri.min() < 0 or tri.max() >= N_POINTS:
+            raise RelightError(f"{files[2]}: expected (T, 3) vertex indices below {N_POINTS}, got shape {tri.shape}")
+        self.triangles = tri.astype(np.int64)
+
+    @property
+    def available(self) -> bool:
+        return self.mesh is not None
+
+    def faces(self, rgb: np.ndarray, box: tuple[int, int, int, int]) -> list[np.ndarray]:
+        """Meshes of the faces in ``rgb`` inside ``box`` (y0, y1, x0, x1): [(468, 3) x, y, z in input pixels]."""
+        from .matting import Region, crop_region
+
+        y0, y1, x0, x1 = box
+        region = Region.around(x0, y0, x1, y1, scale=1.0)
+        out = self.detector.run({"image": crop_region(rgb, region, _faces.FACE_SIZE).transpose(2, 0, 1)[None]})
+        rx0, ry0, _, _ = region.box()
+        meshes = []
+        for fbox, _score in _faces.weighted_nms(_faces.decode(out["boxes"][0], out["scores"][0])):
+            fx0, fy0, fx1, fy1 = (np.array([rx0, ry0, rx0, ry0]) + fbox * region.side).tolist()
+            roi = Region.around(fx0, fy0, fx1, fy1, scale=ROI_SCALE)
+            crop = crop_region(rgb, roi, MESH_SIZE)
+            lm, flag = self.mesh.run(["landmarks", "face_flag"], {"image": crop.transpose(2, 0, 1)[None]})
+            if 1.0 / (1.0 + math.exp(-float(flag.reshape(-1)[0]))) < MIN_FLAG:
+                continue
+            pts = lm.reshape(N_POINTS, 3).astype(np.float64)
+            k = roi.side / MESH_SIZE  # the canvas pixel (u, v) has its centre at roi's corner + (u + 0.5) k
+            bx, by, _, _ = roi.box()
+            pts[:, 0] = bx + pts[:, 0] * k
+            pts[:, 1] = by + pts[:, 1] * k
+            pts[:, 2] *= k
+            meshes.append(pts)
+        return meshes

@@ -1,0 +1,126 @@
+"""relight_rt._face_geometry: face normals from the bundled face mesh, blended into the relighting transport."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from _graphs import unoccluded_transport
+
+from relight_rt import Relighter, RelightError, lights
+from relight_rt._face_geometry import FaceMesh, face_transport, lobe_transport, rasterise_normals
+from relight_rt.session import bundled_models_dir
+
+REFERENCE = Path(__file__).resolve().parents[2] / "shared" / "reference"
+
+
+@pytest.mark.parametrize("normal", [(1, 0, 0), (0, 1, 0), (0.3, -0.5, 0.81), (-0.2, 0.1, -0.97)])
+def test_lobe_transport_is_design_sections_unoccluded_transport(normal):
+    n = np.asarray(normal, np.float64) / np.linalg.norm(normal)
+    np.testing.assert_allclose(lobe_transport(n), unoccluded_transport(n), atol=1e-6)
+
+
+def _plane(slope_x: float, slope_y: float, size: int = 40):
+    """Two triangles covering a square of the image, on the plane z = slope_x * x + slope_y * y."""
+    pts = np.array([[5, 5], [5 + size, 5], [5 + size, 5 + size], [5, 5 + size]], np.float64)
+    z = slope_x * pts[:, 0] + slope_y * pts[:, 1]
+    return np.column_stack([pts, z]), np.array([[0, 1, 2], [0, 2, 3]])
+
+
+def test_a_plane_facing_the_camera_has_the_normal_plus_x_and_is_covered():
+    pts, tris = _plane(0, 0)
+    normals, cover = rasterise_normals(pts, tris, (60, 60))
+    np.testing.assert_allclose(normals[25, 25], [1, 0, 0], atol=1e-6)
+    assert cover[10:40, 10:40].min() == 1 and cover[50:, :].max() == 0 and cover[:, 50:].max() == 0
+    np.testing.assert_array_equal(normals[cover == 0], 0)
+
+
+def test_the_normal_turns_toward_the_side_that_recedes_in_the_subject_frame():
+    """z grows away from the camera: a plane whose right side recedes faces the image's right (+y), one whose
+    lower side recedes faces down (-z); the triangles' winding does not matter."""
+    normals, _ = rasterise_normals(*_plane(1.0, 0.0), (60, 60))
+    n = normals[25, 25]
+    np.testing.assert_allclose(n, [1 / np.sqrt(2), 1 / np.sqrt(2), 0], atol=1e-6)
+    pts, tris = _plane(0.0, 1.0)
+    normals, _ = rasterise_normals(pts, tris[:, ::-1], (60, 60))  # wound the other way round
+    np.testing.assert_allclose(normals[25, 25], [1 / np.sqrt(2), 0, -1 / np.sqrt(2)], atol=1e-6)
+
+
+def test_the_nearest_triangle_is_seen():
+    near = np.array([[10, 10, 0.0], [50, 10, 0.0], [30, 50, 0.0]])
+    far = np.array([[10, 10, 50.0], [50, 10, 90.0], [30, 50, 50.0]])  # tilted, behind
+    for order in ((near, far), (far, near)):
+        pts = np.concatenate(order)
+        normals, _ = rasterise_normals(pts, np.array([[0, 1, 2], [3, 4, 5]]), (60, 60))
+        np.testing.assert_allclose(normals[25, 30], [1, 0, 0], atol=1e-6)
+
+
+def test_face_transport_keeps_band_zero_and_fades_in_inside_the_mesh():
+    pts, tris = _plane(0.5, 0.0)
+    t0 = np.full((60, 60), 0.7, np.float32)
+    t, w = face_transport(pts, tris, t0)
+    np.testing.assert_allclose(t[..., 0], 0.7, rtol=1e-5)
+    assert w.min() >= 0 and w.max() <= 1
+    assert w[25, 25] > 0.99 and w[55, 55] == 0 and w[2, 2] == 0
+    assert 0 < w[6, 25] < w[12, 25]  # feathered at the mesh's border
+    n = np.array([1, 0.5, 0]) / np.linalg.norm([1, 0.5, 0])  # the plane's normal, subject frame
+    np.testing.assert_allclose(t[25, 25], lobe_transport(n) * 0.7 / lobe_transport(n)[0], atol=1e-4)
+
+
+def test_a_models_folder_without_the_mesh_has_none(tmp_path):
+    assert not FaceMesh(tmp_path).available
+
+
+def test_a_broken_triangle_table_is_one_relight_error(tmp_path):
+    for name in ("matte_face.onnx", "face_mesh.onnx"):
+        (tmp_path / name).write_bytes((bundled_models_dir() / name).read_bytes())
+    (tmp_path / "face_mesh_triangles.txt").write_text("0 1 2\n3 4 999\n")
+    with pytest.raises(RelightError, match="vertex indices"):
+        FaceMesh(tmp_path)
+    (tmp_path / "face_mesh_triangles.txt").write_text("0 1\nx y z\n")
+    with pytest.raises(RelightError, match="vertex indices"):
+        FaceMesh(tmp_path)
+
+
+@pytest.mark.skipif(not REFERENCE.is_dir(), reason="../shared/reference is absent")
+def test_the_face_in_a_real_photo_gets_its_mesh_and_the_light_models_it():
+    """The reference photo (full body): the head pass finds the face's mesh; the relit face differs from the one
+    without the mesh only around the head, a light from the image's right brightens the face's right half more
+    with the mesh than without it, and the photo's own light still gives the photo back."""
+    photo = REFERENCE / "photo" / "sample.jpg"
+    mask = REFERENCE / "photo" / "sample_mask.png"
+    r = Relighter(device="cpu")
+    dec = r.decompose(photo, mask)
+    head, box = r._prepared(dec)["head"]
+    light = lights.directional((0.4, 1, 0.3)) + lights.ambient(0.08)
+    with_mesh = r.relight(dec, light)
+    assert len(r._prepared(head)["face_meshes"]) == 1
+    np.testing.assert_allclose(r.relight(dec, dec), dec.image, atol=2e-3)
+
+    plain_r = Relighter(device="cpu")
+    plain_r._faces = FaceMesh(Path("/nonexistent"))  # no mesh files: stage 1's transport alone
+    plain = plain_r.relight(plain_r.decompose(photo, mask), light)
+    y0, y1, x0, x1 = box
+    diff = np.abs(with_mesh - plain).max(axis=2)
+    outside = np.ones(diff.shape, bool)
+    outside[y0:y1, x0:x1] = False
+    assert diff[outside].max() < 1e-6 and diff[y0:y1, x0:x1].max() > 0.05
+
+    def side_ratio(img):
+        face = img[y0 + (y1 - y0) // 3 : y1 - (y1 - y0) // 3, x0 + (x1 - x0) // 3 : x1 - (x1 - x0) // 3]
+        lum = face @ np.array([0.2126, 0.7152, 0.0722])
+        half = lum.shape[1] // 2
+        return lum[:, half:].mean() / lum[:, :half].mean()
+
+    assert side_ratio(with_mesh) > side_ratio(plain) > 1
+
+
+def test_the_mesh_triangles_are_the_edge_lists_three_cliques():
+    face_mesh = pytest.importorskip("export.face_mesh")
+    square = [(0, 1), (1, 2), (2, 3), (3, 0), (0, 2)]  # a square split by one diagonal
+    np.testing.assert_array_equal(face_mesh.triangles_from_edges(square), [[0, 1, 2], [0, 2, 3]])
+    tetra = [(a, b) for a in range(4) for b in range(a + 1, 4)]
+    assert len(face_mesh.triangles_from_edges(tetra)) == 4
+    tris = np.loadtxt(bundled_models_dir() / "face_mesh_triangles.txt", dtype=np.int64)
+    assert tris.shape == (854, 3) and tris.min() == 0 and tris.max() == 467

@@ -1,0 +1,91 @@
+"""relight_rt._strength: stage 1's directional transport bands restored before the relighting factor."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from _graphs import OWN_LIGHT, make_models_dir, person, stage1_sides_model, unoccluded_transport
+
+from relight_rt import RelightError, _strength, sh
+from relight_rt._strength import BAND_GAIN, restore_bands
+from relight_rt.relighter import Relighter
+
+
+def test_each_degree_is_scaled_by_its_gain_and_the_input_is_kept():
+    rng = np.random.default_rng(0)
+    t = rng.normal(size=(4, 5, 9)).astype(np.float32)
+    keep = t.copy()
+    out = restore_bands(t, (2.0, 3.0, 5.0))
+    np.testing.assert_allclose(out[..., 0], 2 * t[..., 0], rtol=1e-6)
+    np.testing.assert_allclose(out[..., 1:4], 3 * t[..., 1:4], rtol=1e-6)
+    np.testing.assert_allclose(out[..., 4:9], 5 * t[..., 4:9], rtol=1e-6)
+    np.testing.assert_array_equal(t, keep)
+    assert out.dtype == np.float32
+    assert BAND_GAIN[0] == 1.0 and BAND_GAIN[1] > 1.0 and BAND_GAIN[2] > 1.0  # band 0 (visibility, exposure) kept
+
+
+def test_a_transport_without_nine_coefficients_is_one_relight_error():
+    with pytest.raises(RelightError, match="9 SH coefficients"):
+        restore_bands(np.zeros((4, 4, 4), np.float32))
+
+
+@pytest.fixture(scope="module")
+def sides_relighter(tmp_path_factory):
+    folder = make_models_dir(tmp_path_factory.mktemp("sides"), 64, stage2=False, stage1=stage1_sides_model())
+    return Relighter(folder, device="cpu")
+
+
+def _side_factors(relighter, img, mask, light):
+    out = relighter.relight(img, light, mask=mask, exposure="physical")
+    ratio = (out / np.maximum(img, 1e-6)).mean(axis=2)
+    left, right = ratio[40:120, 35:50], ratio[40:120, 60:75]  # the two halves' interiors (person x 30..80)
+    return float(np.median(left)), float(np.median(right))
+
+
+def _lamp_from_right() -> np.ndarray:
+    """A white, smooth light coming mostly from the image's right (+y), plus some ambient."""
+    n = np.array([0.2, 1.0, 0.1]) / np.linalg.norm([0.2, 1.0, 0.1])
+    light = np.repeat(0.15 * unoccluded_transport(n)[:, None] / np.pi, 3, axis=1).astype(np.float32)
+    light[0] += 0.1  # relit factors about 0.3 and 0.6: above the ratio's floor, below the highlight shoulder
+    return light
+
+
+def _expected(light, gains):
+    """Relit / input on each half: the restored transport's shading under the light over under the own light."""
+    out = []
+    for normal in ((0, -1, 0), (0, 1, 0)):
+        t = restore_bands(unoccluded_transport(normal)[None].astype(np.float32), gains)
+        new = max(float(sh.shading(t, light)[0] @ np.array([0.2126, 0.7152, 0.0722])), 0.01)
+        own = max(float(sh.shading(t, OWN_LIGHT)[0, 0]), 0.01)
+        out.append(new / own)
+    return out
+
+
+def test_the_relit_change_follows_the_restored_transport(sides_relighter):
+    """A white lamp from the image's right, on a person whose left half faces -y and right half +y: each half is
+    relit by the restored transport's change of shading (stronger than the network's own transport gives)."""
+    img, mask = person(150, 100, seed=2, box=(20, 140, 30, 80))
+    light = _lamp_from_right()
+    left, right = _side_factors(sides_relighter, img, mask, light)
+    exp_left, exp_right = _expected(light, BAND_GAIN)
+    plain_left, plain_right = _expected(light, (1.0, 1.0, 1.0))
+    assert right / left == pytest.approx(exp_right / exp_left, rel=0.02)
+    assert exp_right / exp_left > 1.05 * (plain_right / plain_left)  # the restoration makes the swing larger
+
+
+def test_own_light_still_gives_the_photo_back(sides_relighter):
+    img, mask = person(150, 100, seed=3, box=(20, 140, 30, 80))
+    dec = sides_relighter.decompose(img, mask)
+    out = sides_relighter.relight(dec, dec.light)
+    np.testing.assert_allclose(out, img, atol=1e-4)
+
+
+def test_without_the_gains_the_change_is_the_networks(sides_relighter, monkeypatch):
+    """The gains are what the Relighter uses: set to 1, the change is the unrestored transport's."""
+    img, mask = person(150, 100, seed=4, box=(20, 140, 30, 80))
+    light = _lamp_from_right()
+    monkeypatch.setattr(_strength, "BAND_GAIN", (1.0, 1.0, 1.0))
+    fresh = Relighter(sides_relighter.models_dir, device="cpu")
+    left, right = _side_factors(fresh, img, mask, light)
+    exp_left, exp_right = _expected(light, (1.0, 1.0, 1.0))
+    assert right / left == pytest.approx(exp_right / exp_left, rel=0.02)
