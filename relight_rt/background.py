@@ -88,7 +88,7 @@ KEY_BACK = 1.5
 #: back-lit score z = a + b · top_bottom + c · contrast (SceneLight.backlight_score)
 BACKLIGHT = (0.53, -0.124, -0.197)
 #: the ambient colour is the photo's median colour with its saturation scaled by this (0: neutral)
-COLOUR_SATURATION = 0.0
+COLOUR_SATURATION = 0.1875
 #: the usual light's shape (step 6): luminance SH coefficients, camera-facing irradiance 1 (the mean of the
 #: benchmark scenes' true lights, each scaled so; the y, xy and yz terms set to 0: left-right symmetric)
 SHAPE_PRIOR = (1.283, 0.0, 0.746, -0.216, 0.0, 0.0, -0.153, -0.148, 0.006)
