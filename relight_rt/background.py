@@ -45,7 +45,8 @@ scene left out at a time: eleven chosen by their errors, plus SHAPE_PRIOR, a mea
    x coefficient (front against back) is then set so that its back over front irradiance is the raw light's
    ratio to the power ``FRONT_BACK_POWER`` (the view's front/back call kept, its size damped); times the raw
    light's camera-facing irradiance in RGB (so the exposure and colour on the person's front are the raw
-   light's). A key given with ``key_light`` skips this step: a key the user knows is kept whole.
+   light's). With ``key_light`` given, this step shapes the rest of the light and the key is added whole:
+   a key the user knows is kept as given.
 
 Scale: the light is in the photo's own linear units: a white diffuse surface that sees a uniform
 radiance of linear value v all round gets shading v. So with ``exposure="physical"`` a person relit by
@@ -309,9 +310,10 @@ class SceneLight:
     def light(self, key_light=None, *, ambient_gain=None, key_front=None, key_back=None, backlight=None,
               saturation=None, geometry=None, shape_weight=None, front_back_power=None,
               prior=None) -> np.ndarray:  # fmt: skip
-        """(9, 3) float64 light in the photo's units; ``key_light`` (azimuth, elevation) steers the key (and
-        skips step 6: a key the user gives is kept whole); the keyword numbers override the module's fitted
-        ones (benchmarks/scene_eval.py's tuning; ``shape_weight=1, front_back_power=1`` skips step 6)."""
+        """(9, 3) float64 light in the photo's units; ``key_light`` (azimuth, elevation) steers the key (step 6
+        then shapes the rest and adds the key whole: a key the user gives is kept as given); the keyword
+        numbers override the module's fitted ones (benchmarks/scene_eval.py's tuning;
+        ``shape_weight=1, front_back_power=1`` skips step 6: the raw light)."""
         ambient = (AMBIENT_GAIN if ambient_gain is None else ambient_gain) * self.level
         colour = self.ambient_colour(saturation)
         (az, el), back = self.key(key_light, backlight, geometry)
@@ -319,13 +321,16 @@ class SceneLight:
             strength = KEY_BACK if key_back is None else key_back
         else:
             strength = KEY_FRONT if key_front is None else key_front
-        shape = self.behind + strength * self.key_unit(key_direction(az, el))
-        raw = self.view + self.source + ambient * shape[:, None] * colour[None, :]
-        if key_light is not None:
-            return raw
-        return _shrink(raw, SHAPE_WEIGHT if shape_weight is None else shape_weight,
-                       FRONT_BACK_POWER if front_back_power is None else front_back_power,
-                       SHAPE_PRIOR if prior is None else prior)  # fmt: skip
+        rest = self.view + self.source + ambient * self.behind[:, None] * colour[None, :]
+        key = ambient * strength * self.key_unit(key_direction(az, el))[:, None] * colour[None, :]
+        weight = SHAPE_WEIGHT if shape_weight is None else shape_weight
+        power = FRONT_BACK_POWER if front_back_power is None else front_back_power
+        if weight == 1 and power == 1:  # the raw light (steps 1-5)
+            return rest + key
+        pri = SHAPE_PRIOR if prior is None else prior
+        if key_light is None:
+            return _shrink(rest + key, weight, power, pri)
+        return _shrink(rest, weight, power, pri) + key  # a key the user gives is added whole
 
 
 def scene_light(image, fov: float = 60.0, *, height: int = 64) -> SceneLight:
