@@ -25,8 +25,8 @@ The methods, for a person P, the place B and another place A (the person's own p
   renderer's albedo and transport of P (this isolates the light from stage 1's errors); in the ``frame``
   mode the composed frame is metered again as the camera would (relight_rt.scene, ``meter="frame"``).
   Its fitted numbers (relight_rt.background's AMBIENT_GAIN, KEY_FRONT, KEY_BACK, BACKLIGHT, COLOUR_SATURATION,
-  KEY_GEOMETRY, SHAPE_PRIOR, SHAPE_WEIGHT, FRONT_BACK_POWER) are fitted with the whole scene (its 4 turns) left out: for each scene the fits below
-  (``fit``, ``fit_all``) run on the other scenes' maps only.
+  KEY_GEOMETRY, SHAPE_PRIOR, SHAPE_WEIGHT, FRONT_BACK_POWER) are fitted with the whole scene (its 4 turns)
+  left out: for each scene the fits below (``fit``, ``fit_all``) run on the other scenes' maps only.
 - ``oracle``: the true SH light of B in the truth's units (the best any SH light can do).
 
 Four scores, separately:

@@ -584,7 +584,8 @@ def test_scene_key_handle_steers_the_scene_light(browser, server):
     )
     page.wait_for_function(
         "(a) => studio.state.uploads['upload:place.png'].some((v, i) => Math.abs(v - a[i]) > 1e-4)",
-        arg=auto.reshape(-1).tolist(), timeout=10_000,
+        arg=auto.reshape(-1).tolist(),
+        timeout=10_000,
     )
     steered = np.array(page.evaluate("studio.state.uploads['upload:place.png']"), np.float32).reshape(9, 3)
     np.testing.assert_allclose(steered, light_from_background(photo, key_light=(180, 20))[0], rtol=1e-5, atol=1e-6)
