@@ -38,8 +38,8 @@ sys.path.insert(0, str(REPO / "benchmarks"))
 from people_photos import gather, parse_gitdirs  # noqa: E402
 
 from relight_rt import matting as M  # noqa: E402
-from relight_rt.foreground import estimate_foreground  # noqa: E402
 from relight_rt.cli.mask import read_photo  # noqa: E402
+from relight_rt.foreground import estimate_foreground  # noqa: E402
 
 GREEN = np.array([0.0, 1.0, 0.0], np.float32)
 MAGENTA = np.array([1.0, 0.0, 1.0], np.float32)

@@ -11,7 +11,7 @@ PHOTOS: ``python -m export render-photos --full-shading`` of every person under 
 GGX specular, subsurface: what a camera records). Commands: docs/RESULTS.md, "Into any scene".
 
 The cameras. The background photo of a map B is a 256 x 192 perspective view (60°, the camera at the subject
-looking along −x; relight_rt.background.envmap_view) of π·B (the units in which the person's renders are
+looking along −x; relight_rt.scene_light.envmap_view) of π·B (the units in which the person's renders are
 the radiance a camera sees), exposed by a camera that meters the place without the person (mean linear
 luminance 0.18), clipped and written as 8-bit sRGB: what ``composite`` gets. The truth is a photo of the
 person standing in that place (feet at 95 % of the height, 75 % of the frame high, centred) taken by a
@@ -21,12 +21,12 @@ camera that meters in one of two modes:
 
 The methods, for a person P, the place B and another place A (the person's own photo was taken in A):
 - ``paste``: the realistic paste: P's photo in A at its own camera's exposure (metered like the truth), unrelit.
-- ``est``: relight_rt.background's light from the background photo alone, applied physically to the
+- ``est``: relight_rt.scene_light's light from the background photo alone, applied physically to the
   renderer's albedo and transport of P (this isolates the light from stage 1's errors); in the ``frame``
   mode the composed frame is metered again as the camera would (relight_rt.scene, ``meter="frame"``).
-  Its fitted numbers (relight_rt.background's AMBIENT_GAIN, KEY_FRONT, KEY_BACK, BACKLIGHT, COLOUR_SATURATION,
-  KEY_GEOMETRY) are fitted with the whole scene (its 4 turns) left out: for each scene the fits below
-  (``fit``, ``fit_all``) run on the other scenes' maps only.
+  Its fitted numbers (relight_rt.scene_light's AMBIENT_GAIN, KEY_FRONT, KEY_BACK, BACKLIGHT, COLOUR_SATURATION,
+  KEY_GEOMETRY, SHAPE_PRIOR, SHAPE_WEIGHT, FRONT_BACK_POWER) are fitted with the whole scene (its 4 turns)
+  left out: for each scene the fits below (``fit``, ``fit_all``) run on the other scenes' maps only.
 - ``oracle``: the true SH light of B in the truth's units (the best any SH light can do).
 
 Four scores, separately:
@@ -54,8 +54,8 @@ REPO = Path(__file__).resolve().parents[1]
 if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
-from relight_rt import background as bgmod  # noqa: E402
-from relight_rt import sh  # noqa: E402
+from relight_rt import envmap, sh  # noqa: E402
+from relight_rt import scene_light as bgmod  # noqa: E402
 from relight_rt.color import linear_to_srgb, srgb_to_linear  # noqa: E402
 from relight_rt.exposure import REC709  # noqa: E402
 
@@ -68,10 +68,12 @@ GRID = {
     "ambient_gain": 2.0 ** np.linspace(0, 4, 33),
     "key_front": np.array([0, 0.25, 0.5, 1, 1.5, 2, 3, 4]),
     "key_back": np.array([0, 0.25, 0.5, 1, 1.5, 2, 3, 4, 6, 8]),
-    "saturation": np.linspace(0, 1, 9),
+    "saturation": np.linspace(0, 1, 17),
+    # step 6 (relight_rt.scene_light): the rule's own shape against the usual one, the power on its back/front
+    "shape": tuple((w, q) for w in (0.0, 0.125, 0.25, 0.375, 0.5, 1.0) for q in (0.25, 0.5, 0.75, 1.0)),
 }
-#: the key's geometry (front-side azimuth, elevation; degrees), chosen per fold by the training scenes' mean
-#: scale-invariant RMSE (the other numbers by the exposure and colour errors, ``fit``)
+#: the key's geometry (front-side azimuth, elevation; degrees), then step 6's two numbers, chosen per fold by
+#: the training scenes' mean scale-invariant RMSE (the other numbers by the exposure and colour errors, ``fit``)
 GEOMETRIES = ((45.0, 35.0), (0.0, 35.0), (45.0, 60.0), (0.0, 60.0))
 
 
@@ -99,7 +101,7 @@ def prepare_envs(folders: list[Path], out: Path, height: int = 128) -> None:
     for folder in folders:
         for path in sorted(folder.iterdir()):
             if path.suffix.lower() == ".hdr":
-                env, name = sh.load_envmap(path), path.stem
+                env, name = envmap.load_envmap(path), path.stem
             elif path.suffix.lower() == ".exr":
                 env, name = read_exr(path), f"bl-{path.stem}"
             else:
@@ -116,18 +118,7 @@ def scene_of(map_name: str) -> str:
 # ------------------------------------------------------------------------------------------------ scores
 
 
-def _hemisphere(sign: int, n: int = 4000):
-    k = np.arange(n) + 0.5
-    z = 1 - 2 * k / n
-    phi = math.pi * (1 + math.sqrt(5)) * k
-    r = np.sqrt(1 - z * z)
-    d = np.stack([r * np.cos(phi), r * np.sin(phi), z], 1)
-    d = d[d[:, 0] * sign > 0]
-    w = d[:, 0] * sign  # how much of that normal a camera on that side sees
-    return (sh.basis(d) * sh.cosine_lobe()).T @ w / w.sum()  # (9,): light → mean irradiance
-
-
-FRONT_W, BACK_W = _hemisphere(+1), _hemisphere(-1)
+FRONT_W, BACK_W = bgmod.FRONT_WEIGHTS, bgmod.BACK_WEIGHTS  # (9,): light → mean irradiance of a side
 
 
 def side_rgb(light, weights=FRONT_W) -> np.ndarray:
@@ -201,7 +192,7 @@ def mean_lum(img) -> float:
 
 
 def fit(parts: list, truths: list, geometry=None) -> dict:
-    """The fitted numbers of relight_rt.background from the given maps (background metering), in order:
+    """The fitted numbers of relight_rt.scene_light from the given maps (background metering), in order:
     BACKLIGHT by least squares of the truth's front/back EV on [1, top_bottom, contrast]; then AMBIENT_GAIN,
     KEY_FRONT and KEY_BACK by the least mean |EV error| over GRID (the light is linear in them); then
     COLOUR_SATURATION by the least mean colour error over GRID."""
@@ -264,12 +255,12 @@ def main(argv=None) -> int:
     # per map: the background camera, the light read from its photo, the true light at k = 1
     lin1, k_bg, views, parts, true1 = {}, {}, {}, {}, {}
     for m in maps:
-        env = sh.load_envmap(args.envs / f"{m}.hdr")
+        env = envmap.load_envmap(args.envs / f"{m}.hdr")
         lin1[m] = view_linear(env)
         k_bg[m] = GREY / max(mean_lum(lin1[m]), 1e-9)
         views[m] = photograph(lin1[m], k_bg[m])
         parts[m] = bgmod.scene_light(views[m], 60.0)
-        true1[m] = sh.project_envmap(env)  # the renders' units: image = albedo ⊙ T·L
+        true1[m] = envmap.project_envmap(env)  # the renders' units: image = albedo ⊙ T·L
 
     # the people inside their masks, for choosing the key's geometry by the scale-invariant RMSE
     inside_px = {}
@@ -280,22 +271,38 @@ def main(argv=None) -> int:
         truth_px = {m: dataset.read_photo(args.photos, by_subject[subject][m])["photo"][inside] for m in maps}
         inside_px[subject] = (sample["albedo"][inside], sample["transport"][inside], truth_px)
 
+    def si_mean(train: list, f: dict) -> float:
+        """The mean scale-invariant RMSE of the lights ``parts[m].light(**f)`` over the maps and every person."""
+        lights = {m: parts[m].light(**f) for m in train}
+        err = []
+        for a, t, truth_px in inside_px.values():
+            for m in train:
+                lit = a * np.maximum(t @ lights[m], 0)
+                x, y = lit.reshape(-1), truth_px[m].reshape(-1)
+                s = float(x @ y) / max(float(x @ x), 1e-12)
+                err.append(float(np.sqrt(np.mean((s * x - y) ** 2))))
+        return float(np.mean(err))
+
     def fit_all(train: list) -> dict:
         """The fitted numbers from the maps ``train``: each geometry's exposure/colour fit, then the geometry
-        whose lights give the least mean scale-invariant RMSE over those maps and every person."""
+        whose raw lights (no step 6) give the least mean scale-invariant RMSE over those maps and every person;
+        then step 6: its prior is the mean of those maps' true lights (luminance, camera-facing irradiance 1),
+        its two numbers the pair on GRID["shape"] with the least mean scale-invariant RMSE."""
         best = None
         for geometry in GEOMETRIES:
             f = fit([parts[m] for m in train], [true1[m] * k_bg[m] for m in train], geometry)
-            err = []
-            for a, t, truth_px in inside_px.values():
-                for m in train:
-                    lit = a * np.maximum(t @ parts[m].light(**f), 0)
-                    x, y = lit.reshape(-1), truth_px[m].reshape(-1)
-                    s = float(x @ y) / max(float(x @ x), 1e-12)
-                    err.append(float(np.sqrt(np.mean((s * x - y) ** 2))))
-            if best is None or np.mean(err) < best[0]:
-                best = (float(np.mean(err)), f)
-        return best[1]
+            err = si_mean(train, {**f, "shape_weight": 1.0, "front_back_power": 1.0})
+            if best is None or err < best[0]:
+                best = (err, f)
+        f = best[1]
+        shapes = [true1[m] @ REC709 for m in train]
+        prior = np.mean([s / float(FRONT_W @ s) for s in shapes], axis=0)
+        prior[[1, 4, 5]] = 0  # left-right symmetric (y, xy, yz): a scene and its mirror image are alike
+        prior = tuple(round(float(v), 3) for v in prior)
+        scored = [(si_mean(train, {**f, "shape_weight": w, "front_back_power": q, "prior": prior}), w, q)
+                  for w, q in GRID["shape"]]  # fmt: skip
+        _, w, q = min(scored)
+        return {**f, "shape_weight": w, "front_back_power": q, "prior": prior}
 
     # leave one scene out: the fitted numbers for each scene from the other scenes' maps
     chosen = {s: fit_all([m for m in maps if scene_of(m) != s]) for s in scenes}

@@ -29,12 +29,12 @@ REPO = Path(__file__).resolve().parents[1]
 if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
-from relight_rt import Relighter, sh  # noqa: E402
+from relight_rt import Relighter, envmap, sh  # noqa: E402
 from relight_rt import scene as scene_mod  # noqa: E402
 from relight_rt._io import read_image, read_mask, write_image  # noqa: E402
-from relight_rt.background import envmap_view, light_from_background  # noqa: E402
 from relight_rt.color import linear_to_srgb  # noqa: E402
 from relight_rt.exposure import REC709  # noqa: E402
+from relight_rt.scene_light import envmap_view, light_from_background  # noqa: E402
 
 # (file stem, turn in degrees): turned where the unturned view shows little (a black backdrop, a wall)
 SHARED = (("sunset", 0), ("forest", 0), ("apartment", 0), ("lab", 0), ("city", 0), ("night", 90))
@@ -48,7 +48,7 @@ def load_map(path: Path) -> np.ndarray:
         from scene_eval import read_exr
 
         return read_exr(path)
-    return sh.load_envmap(path)
+    return envmap.load_envmap(path)
 
 
 def background(path: Path, size: tuple[int, int], turn: int = 0) -> np.ndarray:

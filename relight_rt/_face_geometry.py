@@ -26,7 +26,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from . import _faces
+from ._faces import FACE_SIZE, decode, weighted_nms
 from ._errors import RelightError
 
 log = logging.getLogger(__name__)
@@ -169,10 +169,10 @@ class FaceMesh:
 
         y0, y1, x0, x1 = box
         region = Region.around(x0, y0, x1, y1, scale=1.0)
-        out = self.detector.run({"image": crop_region(rgb, region, _faces.FACE_SIZE).transpose(2, 0, 1)[None]})
+        out = self.detector.run({"image": crop_region(rgb, region, FACE_SIZE).transpose(2, 0, 1)[None]})
         rx0, ry0, _, _ = region.box()
         meshes = []
-        for fbox, _score in _faces.weighted_nms(_faces.decode(out["boxes"][0], out["scores"][0])):
+        for fbox, _score in weighted_nms(decode(out["boxes"][0], out["scores"][0])):
             fx0, fy0, fx1, fy1 = (np.array([rx0, ry0, rx0, ry0]) + fbox * region.side).tolist()
             roi = Region.around(fx0, fy0, fx1, fy1, scale=ROI_SCALE)
             crop = crop_region(rgb, roi, MESH_SIZE)

@@ -5,8 +5,8 @@ right toward +y, unmirrored (the orientation of an env map's centre), over a hor
 ``fov`` (default 60°; the vertical one follows from the aspect ratio, square pixels, a level camera).
 It shows the light that reaches the person's *back* and sides; what lights the person's camera-facing
 side lies behind the camera, which the photo never shows. The rule (docs/RESULTS.md, "Into any scene",
-measures it on 17 real panoramas; the nine fitted numbers below were fitted there, and are measured with
-one scene left out at a time):
+measures it on 17 real panoramas; the fitted numbers below were fitted there, and are measured with one
+scene left out at a time: eleven chosen by their errors, plus SHAPE_PRIOR, a mean):
 
 1. Linearise (sRGB → linear) and area-average down to about the env map's angular resolution. Clipped
    highlights (brightest channel >= 250/255: lamps, windows, the sun, far brighter than 1 in truth) are
@@ -19,9 +19,10 @@ one scene left out at a time):
    the photo there, which made every scene exactly as bright in front of the person as behind it, so a
    sunset looked front-lit). It is a uniform *ambient*: radiance ``AMBIENT_GAIN`` × the photo's median
    linear luminance (what the scene's ordinary surfaces reflect: a robust reading of how much light falls
-   in the place that the sources in frame do not sway), in the photo's mean colour with its saturation
-   scaled by ``COLOUR_SATURATION`` (0, as fitted: neutral in the photo's own white balance; the photo's
-   colours stay in step 2's half).
+   in the place that the sources in frame do not sway), in the photo's median colour (per channel: the
+   colour of its ordinary surfaces, not of a lamp or a patch of sky) with its saturation scaled by
+   ``COLOUR_SATURATION`` (a little of the place's cast in the photo's own white balance; 0 would be
+   neutral; the photo's colours stay in step 2's half).
 4. A key light, found from the view: the score z = a + b · (log2 of the top third's mean luminance over
    the bottom third's) + c · (spread of log2 luminance), (a, b, c) = ``BACKLIGHT``, says back-lit (z < 0:
    a bright top and a contrasty view, as with a sun, window or lamps in or above the frame, the near side
@@ -35,7 +36,17 @@ one scene left out at a time):
    that many times the ambient. ``key_light=(azimuth, elevation)`` (degrees; ``parse_key_light``) puts it
    elsewhere: azimuth within ±90° takes ``KEY_FRONT``, beyond it ``KEY_BACK``. (No separate sun-plus-sky
    model: a sun out of frame is the front key; the sky is in step 2.)
-5. Project with ``sh.project_envmap`` and divide by π.
+5. Project with ``envmap.project_envmap`` and divide by π: the rule's raw light.
+6. Its shape drawn toward the usual light's. One view says little about the light's shape (how much comes
+   from above, from the sides, from behind): on the benchmark the mean shape of the *other* scenes' true
+   lights gives the person a smaller scale-invariant error than the view's own. So the light's luminance
+   shape (its SH scaled to a camera-facing irradiance of 1, ``FRONT_WEIGHTS``) is ``SHAPE_WEIGHT`` × the raw
+   light's + (1 − ``SHAPE_WEIGHT``) × ``SHAPE_PRIOR`` (the benchmark's 68 true lights' mean shape); its
+   x coefficient (front against back) is then set so that its back over front irradiance is the raw light's
+   ratio to the power ``FRONT_BACK_POWER`` (the view's front/back call kept, its size damped); times the raw
+   light's camera-facing irradiance in RGB (so the exposure and colour on the person's front are the raw
+   light's). With ``key_light`` given, this step shapes the rest of the light and the key is added whole:
+   a key the user knows is kept as given.
 
 Scale: the light is in the photo's own linear units: a white diffuse surface that sees a uniform
 radiance of linear value v all round gets shading v. So with ``exposure="physical"`` a person relit by
@@ -51,7 +62,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from . import envmap as sh  # env maps moved out of sh (h31maths); the calls below read sh.<envmap function>
+from . import envmap, sh
 from ._errors import RelightError
 from ._pairs import number_pair
 from .color import srgb8_to_linear, srgb_to_linear
@@ -59,8 +70,9 @@ from .exposure import REC709
 from .lights import directional
 
 __all__ = [
-    "AMBIENT_GAIN", "BACKLIGHT", "COLOUR_SATURATION", "FOV_RANGE", "HIGHLIGHT_GAIN", "KEY_BACK", "KEY_FRONT",
-    "KEY_GEOMETRY", "MIN_SIZE", "SceneLight", "envmap_view",
+    "AMBIENT_GAIN", "BACKLIGHT", "BACK_WEIGHTS", "COLOUR_SATURATION", "FOV_RANGE", "FRONT_BACK_POWER",
+    "FRONT_WEIGHTS", "HIGHLIGHT_GAIN", "KEY_BACK", "KEY_FRONT", "KEY_GEOMETRY", "MIN_SIZE", "SHAPE_PRIOR",
+    "SHAPE_WEIGHT", "SceneLight", "envmap_view",
     "key_direction", "light_from_background", "parse_key_light", "read_background", "scene_light",
 ]  # fmt: skip
 
@@ -76,8 +88,14 @@ KEY_FRONT = 1.5
 KEY_BACK = 1.5
 #: back-lit score z = a + b · top_bottom + c · contrast (SceneLight.backlight_score)
 BACKLIGHT = (0.53, -0.124, -0.197)
-#: the ambient colour is the photo's mean colour with its saturation scaled by this (0: neutral)
-COLOUR_SATURATION = 0.0
+#: the ambient colour is the photo's median colour with its saturation scaled by this (0: neutral)
+COLOUR_SATURATION = 0.1875
+#: the usual light's shape (step 6): luminance SH coefficients, camera-facing irradiance 1 (the mean of the
+#: benchmark scenes' true lights, each scaled so; the y, xy and yz terms set to 0: left-right symmetric)
+SHAPE_PRIOR = (1.283, 0.0, 0.746, -0.216, 0.0, 0.0, -0.153, -0.148, 0.006)
+#: step 6: the weight of the rule's own shape against SHAPE_PRIOR, and the power on its back/front ratio
+SHAPE_WEIGHT = 0.25
+FRONT_BACK_POWER = 0.25
 #: the automatic key's geometry (degrees): the front-side key's azimuth from the camera, and the keys' elevation
 KEY_GEOMETRY = (0.0, 35.0)
 _BACK_AZIMUTH = 135.0  # degrees from the camera of the automatic back-side key (behind the person, to the side)
@@ -85,6 +103,39 @@ _STATS_WIDTH = 512  # the median, contrast, colour and halves are read on a copy
 _CLIP_LEVEL = 250  # 8-bit value from which a pixel counts as saturated
 _SIDE_BLUR = 0.35  # blur level of the parts beside the field of view (0 sharp, 0.5 blurred, 1 band mean)
 _BAND = 8  # the sky / floor colour at the poles: the mean of the top / bottom 1/_BAND of the rows
+
+
+def _side_weights(sign: int, n: int = 4000) -> np.ndarray:
+    """(9,) SH light → the mean irradiance over the normals facing the camera (sign +1) or facing away from it
+    (−1), each weighted by how much of it a camera on that side sees (|n_x|): a convex body's lit side."""
+    k = np.arange(n) + 0.5
+    z = 1 - 2 * k / n
+    phi = math.pi * (1 + math.sqrt(5)) * k
+    r = np.sqrt(1 - z * z)
+    d = np.stack([r * np.cos(phi), r * np.sin(phi), z], 1)
+    d = d[d[:, 0] * sign > 0]
+    w = d[:, 0] * sign
+    return (sh.basis(d) * sh.cosine_lobe()).T @ w / w.sum()
+
+
+#: (9,) each: light → the mean irradiance of a body's camera-facing side / of its back (benchmarks/scene_eval.py)
+FRONT_WEIGHTS, BACK_WEIGHTS = _side_weights(+1), _side_weights(-1)
+
+
+def _shrink(raw: np.ndarray, weight: float, power: float, prior) -> np.ndarray:
+    """Step 6 of the module docstring: the light ``raw`` (9, 3) with its shape drawn toward ``prior``."""
+    lum = raw @ REC709
+    front, back = float(FRONT_WEIGHTS @ lum), float(BACK_WEIGHTS @ lum)
+    if not front > 1e-12:  # a black photo: nothing to shape
+        return raw
+    pri = np.asarray(prior, np.float64)
+    shape = weight * lum / front + (1 - weight) * pri / float(FRONT_WEIGHTS @ pri)
+    ratio = max(back / front, 1e-6) ** power  # back over front, as the raw light has it, damped
+    # the x coefficient (front minus back) set so that the shape's back over front is that ratio
+    fw, bw = FRONT_WEIGHTS, BACK_WEIGHTS
+    shape[3] += (ratio * float(fw @ shape) - float(bw @ shape)) / (bw[3] - ratio * fw[3])
+    shape /= float(fw @ shape)
+    return shape[:, None] * (FRONT_WEIGHTS @ raw)[None, :]  # the raw light's camera-facing irradiance and colour
 
 
 def check_fov(fov) -> float:
@@ -178,7 +229,7 @@ def _fill_front(lin: np.ndarray, fov: float, height: int) -> np.ndarray:
     half = math.radians(fov) / 2
     tan_h = math.tan(half)
     tan_v = tan_h * ph / pw  # square pixels
-    d = sh.directions_envmap(height)
+    d = envmap.directions_envmap(height)
     x, y, z = d[..., 0], d[..., 1], d[..., 2]
     psi = np.arctan2(y, -x)  # horizontal angle from the view axis, toward +y (image right)
     folded = np.clip(psi, -half, half)  # beside the field of view: the side edge stretched
@@ -216,7 +267,7 @@ class SceneLight:
         source: (9, 3) the clipped sources' part of the front half (with the highlight gain).
         behind: (9,) a uniform radiance 1 over the half behind the camera.
         level: the photo's median linear luminance.
-        colour: (3,) the photo's mean linear colour, luminance 1.
+        colour: (3,) the photo's median linear colour (per channel), luminance 1.
         top_bottom: log2 of the mean luminance of the photo's top third over its bottom third.
         contrast: the standard deviation of log2 luminance over the photo (floor 2**-13).
         side: +1 when the view's right half is the brighter, else −1 (the side of the automatic key).
@@ -240,7 +291,7 @@ class SceneLight:
         return float(a + b * self.top_bottom + c * self.contrast)
 
     def ambient_colour(self, saturation=None) -> np.ndarray:
-        """(3,) the ambient and key colour: the photo's mean colour with its saturation scaled, luminance 1."""
+        """(3,) the ambient and key colour: the photo's median colour with its saturation scaled, luminance 1."""
         s = COLOUR_SATURATION if saturation is None else saturation
         c = np.maximum(self.colour.astype(np.float64), 1e-6) ** s
         return c / float(c @ REC709)
@@ -261,9 +312,12 @@ class SceneLight:
         return (front_azimuth * self.side, elevation), False
 
     def light(self, key_light=None, *, ambient_gain=None, key_front=None, key_back=None, backlight=None,
-              saturation=None, geometry=None) -> np.ndarray:  # fmt: skip
-        """(9, 3) float64 light in the photo's units; ``key_light`` (azimuth, elevation) steers the key; the
-        keyword numbers override the module's fitted ones (benchmarks/scene_eval.py's tuning)."""
+              saturation=None, geometry=None, shape_weight=None, front_back_power=None,
+              prior=None) -> np.ndarray:  # fmt: skip
+        """(9, 3) float64 light in the photo's units; ``key_light`` (azimuth, elevation) steers the key (step 6
+        then shapes the rest and adds the key whole: a key the user gives is kept as given); the keyword
+        numbers override the module's fitted ones (benchmarks/scene_eval.py's tuning;
+        ``shape_weight=1, front_back_power=1`` skips step 6: the raw light)."""
         ambient = (AMBIENT_GAIN if ambient_gain is None else ambient_gain) * self.level
         colour = self.ambient_colour(saturation)
         (az, el), back = self.key(key_light, backlight, geometry)
@@ -271,8 +325,16 @@ class SceneLight:
             strength = KEY_BACK if key_back is None else key_back
         else:
             strength = KEY_FRONT if key_front is None else key_front
-        shape = self.behind + strength * self.key_unit(key_direction(az, el))
-        return self.view + self.source + ambient * shape[:, None] * colour[None, :]
+        rest = self.view + self.source + ambient * self.behind[:, None] * colour[None, :]
+        key = ambient * strength * self.key_unit(key_direction(az, el))[:, None] * colour[None, :]
+        weight = SHAPE_WEIGHT if shape_weight is None else shape_weight
+        power = FRONT_BACK_POWER if front_back_power is None else front_back_power
+        if weight == 1 and power == 1:  # the raw light (steps 1-5)
+            return rest + key
+        pri = SHAPE_PRIOR if prior is None else prior
+        if key_light is None:
+            return _shrink(rest + key, weight, power, pri)
+        return _shrink(rest, weight, power, pri) + key  # a key the user gives is added whole
 
 
 def scene_light(image, fov: float = 60.0, *, height: int = 64) -> SceneLight:
@@ -292,9 +354,9 @@ def scene_light(image, fov: float = 60.0, *, height: int = 64) -> SceneLight:
         stats = cv2.resize(lin, (_STATS_WIDTH, max(3, round(ph * _STATS_WIDTH / pw))), interpolation=cv2.INTER_AREA)
     lum = stats @ REC709
     ph, pw = lum.shape
-    mean = stats.reshape(-1, 3).mean(0)
-    mean_lum = float(mean @ REC709)
-    colour = (mean / mean_lum).astype(np.float32) if mean_lum > 1e-6 else np.ones(3, np.float32)
+    median = np.median(stats.reshape(-1, 3), axis=0)
+    median_lum = float(median @ REC709)
+    colour = (median / median_lum).astype(np.float32) if median_lum > 1e-6 else np.ones(3, np.float32)
     third = max(1, ph // 3)
     top_bottom = math.log2(max(float(lum[:third].mean()), 1e-6) / max(float(lum[-third:].mean()), 1e-6))
     contrast = float(np.log2(np.maximum(lum, 2.0**-13)).std())
@@ -309,11 +371,11 @@ def scene_light(image, fov: float = 60.0, *, height: int = 64) -> SceneLight:
     small_clip = cv2.resize(clipped, size, interpolation=cv2.INTER_AREA)[..., None]
     env_rest = _fill_front(small * (1 - small_clip), f, int(height))
     env_src = _fill_front(small * small_clip * np.float32(HIGHLIGHT_GAIN), f, int(height))
-    behind = (sh.directions_envmap(int(height))[..., 0:1] >= 0).astype(np.float32)
+    behind = (envmap.directions_envmap(int(height))[..., 0:1] >= 0).astype(np.float32)
     return SceneLight(
-        view=sh.project_envmap(env_rest) / math.pi,
-        source=sh.project_envmap(env_src) / math.pi,
-        behind=sh.project_envmap(np.repeat(behind, 3, axis=2))[:, 0] / math.pi,
+        view=envmap.project_envmap(env_rest) / math.pi,
+        source=envmap.project_envmap(env_src) / math.pi,
+        behind=envmap.project_envmap(np.repeat(behind, 3, axis=2))[:, 0] / math.pi,
         level=float(np.median(lum)),
         colour=colour,
         top_bottom=top_bottom,
@@ -340,7 +402,8 @@ def light_from_background(
     Returns:
         (light, envmap): the (9, 3) float32 RGB SH light (in the photo's linear units, see the module
         docstring) and an (H, 2H, 3) float32 linear env map for previews: the front half, the ambient behind
-        the camera and the key (its SH lobe, clipped at 0).
+        the camera and the key (its SH lobe, clipped at 0): what the rule read, before step 6 reshapes the
+        SH light.
 
     Raises:
         RelightError: bad image (see ``read_background``), fov outside (10°, 170°), bad height or key light.
@@ -350,10 +413,11 @@ def light_from_background(
     light = parts.light(key)
     h = int(height)
     ambient = AMBIENT_GAIN * parts.level * parts.ambient_colour()
-    behind = sh.directions_envmap(h)[..., 0:1] >= 0
+    behind = envmap.directions_envmap(h)[..., 0:1] >= 0
     env = parts.view_env + parts.source_env + np.where(behind, ambient, 0)
-    added = light - parts.view - parts.source - parts.behind[:, None] * ambient[None, :]  # the key
-    env = env + np.maximum(sh.envmap_from_light(added * math.pi, h), 0)
+    raw = parts.light(key, shape_weight=1.0, front_back_power=1.0)  # steps 1-5: what the preview shows
+    added = raw - parts.view - parts.source - parts.behind[:, None] * ambient[None, :]  # the key
+    env = env + np.maximum(envmap.envmap_from_light(added * math.pi, h), 0)
     return light.astype(np.float32), env.astype(np.float32)
 
 

@@ -23,7 +23,9 @@ def test_bright_right_side_gives_light_from_plus_y():
     light, env = light_from_background(img)
     assert light.shape == (9, 3) and light.dtype == np.float32
     assert env.shape == (64, 128, 3) and env.dtype == np.float32 and env.min() >= 0
-    assert np.all(light[1] > 0.5 * light[0])  # strong +y (image right) component
+    raw = scene_light(img).light(shape_weight=1.0, front_back_power=1.0)  # the rule before step 6
+    assert np.all(raw[1] > 0.5 * raw[0])  # strong +y (image right) component
+    assert np.all(light[1] > 0.1 * light[0])  # kept, weaker, after the shape is drawn toward the usual one
     flipped, _ = light_from_background(img[:, ::-1].copy())
     np.testing.assert_allclose(flipped[1], -light[1], rtol=1e-4, atol=1e-6)  # unmirrored: flip → −y
 
@@ -158,3 +160,39 @@ def test_view_of_a_map_and_back():
     assert np.all(light[1] > 0) and np.all(light[2] > 0)
     with pytest.raises(RelightError, match="equirectangular"):
         envmap_view(np.zeros((4, 4, 3)), (8, 8))
+
+
+def test_step_6_keeps_the_front_exposure_and_colour_and_the_front_back_call():
+    """The shape is drawn toward the usual light's (module docstring, step 6); what the person's camera-facing
+    side gets (exposure, colour) and which side is brighter stay the rule's; a key the user gives skips it."""
+    rng = np.random.default_rng(5)
+    img = np.clip(rng.normal(90, 25, (96, 128, 3)), 0, 255).astype(np.uint8)
+    img[:30] = (240, 200, 150)  # a warm, bright top: back-lit
+    parts = scene_light(img)
+    light, raw = parts.light(), parts.light(shape_weight=1.0, front_back_power=1.0)
+    np.testing.assert_allclose(bgmod.FRONT_WEIGHTS @ light, bgmod.FRONT_WEIGHTS @ raw, rtol=1e-6)
+    ratio = lambda lt: float(bgmod.BACK_WEIGHTS @ lt @ bgmod.REC709) / float(bgmod.FRONT_WEIGHTS @ lt @ bgmod.REC709)  # noqa: E731
+    assert ratio(raw) > 1  # back-lit
+    assert ratio(light) == pytest.approx(ratio(raw) ** bgmod.FRONT_BACK_POWER, rel=1e-6)
+    assert not np.allclose(light, raw)
+    # all the weight on the prior: the luminance shape is the prior's but for its x (front/back) coefficient
+    prior_only = parts.light(shape_weight=0.0) @ bgmod.REC709
+    prior = np.asarray(bgmod.SHAPE_PRIOR)
+    keep = [0, 1, 2, 4, 5, 6, 7, 8]
+    np.testing.assert_allclose(prior_only[keep] / prior_only[0], prior[keep] / prior[0], rtol=1e-6, atol=1e-9)
+    # a key the user gives is added whole: two given keys differ by exactly their lobes
+    raw_k = lambda k: parts.light(k, shape_weight=1.0, front_back_power=1.0)  # noqa: E731
+    np.testing.assert_allclose(parts.light((30, 40)) - parts.light((-60, 10)), raw_k((30, 40)) - raw_k((-60, 10)),
+                               atol=1e-9)  # fmt: skip
+    assert not np.allclose(parts.light((30, 40)), raw_k((30, 40)))  # the rest is shaped
+    black, _ = light_from_background(np.zeros((80, 80, 3), np.uint8))
+    assert np.isfinite(black).all() and np.abs(black).max() < 1e-6
+
+
+def test_the_ambient_colour_is_the_places_not_a_lamps():
+    """The colour of the light behind the camera comes from the photo's ordinary surfaces (the median), so a
+    small saturated lamp or sign in frame does not tint it (the mean colour did)."""
+    img = np.full((100, 100, 3), 120, np.uint8)
+    img[:12, :40] = (255, 40, 0)  # a red sign, 5 % of the photo
+    colour = scene_light(img).ambient_colour(saturation=1.0)
+    np.testing.assert_allclose(colour, 1.0, rtol=1e-4)

@@ -18,6 +18,7 @@ from _graphs import models_dir, person
 
 from relight_rt import Relighter, RelightError, envmap, lights
 from relight_rt._limits import header_size
+from relight_rt._strength import restore_bands
 from relight_rt.cli import main
 from relight_rt.studio.core import (
     MAX_UPLOAD_BYTES,
@@ -139,7 +140,7 @@ def test_layers_match_the_decomposition(studio):
     layers = unpack_layers(studio.layers_bytes(), meta)
     dec = studio.dec
     size = (meta["width"], meta["height"])
-    full = dec.to_input(np.ascontiguousarray(dec.transport))
+    full = dec.to_input(restore_bands(np.ascontiguousarray(dec.transport)))  # what the final result relights with
     transport = np.stack([cv2.resize(full[..., k], size, interpolation=cv2.INTER_AREA) for k in range(9)], axis=2)
     step = np.array(meta["transport_scale"])
     err = np.abs(layers["transport"].transpose(1, 2, 0) - transport)

@@ -582,3 +582,38 @@ def test_frame_time_shown_only_after_a_frame_is_drawn(browser, server):
     assert re.search(r" · (under 0\.1|\d+(\.\d)?) ms a frame$", status), status
     assert not re.search(r"(?<![\d.])0(\.0)? ms", status), status
     page.close()
+
+
+def test_scene_key_handle_steers_the_scene_light(browser, server):
+    """The "a scene…" upload shows a key-light handle; steering it re-reads the photo's light with ?key=AZ,EL,
+    which is what the library gives for that key (and unsteered, the automatic key)."""
+    from relight_rt.background import light_from_background
+
+    rng = np.random.default_rng(3)
+    photo = np.clip(rng.normal(110, 30, (96, 128, 3)), 0, 255).astype(np.uint8)
+    photo[:32] = (200, 210, 235)  # a bright sky over a darker, textured ground
+    png = cv2.imencode(".png", photo[..., ::-1])[1].tobytes()
+    page = open_page(browser, server)
+    assert page.evaluate("document.getElementById('scene-key').hidden")
+    page.set_input_files("#background-file", files=[{"name": "place.png", "mimeType": "image/png", "buffer": png}])
+    page.wait_for_function("() => !document.getElementById('scene-key').hidden", timeout=10_000)
+    auto = np.array(page.evaluate("studio.state.uploads['upload:place.png']"), np.float32).reshape(9, 3)
+    np.testing.assert_allclose(auto, light_from_background(photo)[0], rtol=1e-5, atol=1e-6)
+    assert page.evaluate("document.getElementById('scene-key-az').disabled")
+
+    page.check("#scene-key-on")
+    page.evaluate(
+        """() => { for (const [id, v] of [['scene-key-az', 180], ['scene-key-el', 20]]) {
+            const s = document.getElementById(id); s.value = v;
+            s.dispatchEvent(new Event('input')); s.dispatchEvent(new Event('change')); } }"""
+    )
+    page.wait_for_function(
+        "(a) => studio.state.uploads['upload:place.png'].some((v, i) => Math.abs(v - a[i]) > 1e-4)",
+        arg=auto.reshape(-1).tolist(),
+        timeout=10_000,
+    )
+    steered = np.array(page.evaluate("studio.state.uploads['upload:place.png']"), np.float32).reshape(9, 3)
+    np.testing.assert_allclose(steered, light_from_background(photo, key_light=(180, 20))[0], rtol=1e-5, atol=1e-6)
+    assert page.evaluate("document.getElementById('base').value") == "upload:place.png"
+    assert page.text_content("#scene-key-az + output") == "180°"
+    page.close()

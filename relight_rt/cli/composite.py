@@ -64,9 +64,9 @@ def add_parser(subparsers) -> None:
 
 
 def cmd_composite(args: argparse.Namespace) -> int:
-    from ..scene_light import check_fov, parse_key_light
     from ..masks import find_mask_file
     from ..scene import composite, parse_position
+    from ..scene_light import check_fov, parse_key_light
 
     out = Path(args.output)
     if out.suffix.lower() not in IMAGE_SUFFIXES:

@@ -33,16 +33,18 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from .. import envmap, lights
+from .. import envmap, lights, sh
 from .._errors import RelightError
 from .._io import as_colour, decode_bytes, encode_image, read_image, sibling_mask
 from .._limits import header_size
+from .._strength import restore_bands
 
 log = logging.getLogger(__name__)
 
 MAX_UPLOAD_BYTES = 32 << 20  # an env map or a photo; bigger uploads are refused before decoding
 MAX_UPLOAD_PIXELS = 40_000_000  # decoded size limit (a small file can hold a huge image)
 EXPOSURE_SAMPLES = 1 << 15  # network-frame pixels of the person that the page's exposure rule reads (at most)
+_PREVIEW_SHADING_MIN = 0.1  # below it the preview keeps the layers' albedo (as Relighter.layers keeps the network's)
 from ..exposure import exposure_scale, mean_luminance, parse_exposure  # noqa: E402  (the one exposure rule)
 from ..lightspec import LightSpec  # noqa: E402  (the one light parser)
 
@@ -265,10 +267,16 @@ class Studio:
         dec = self.dec
         h, w = dec.image.shape[:2]
         size = _display_size(h, w, max_pixels)
-        transport = _resize(dec.to_input(np.ascontiguousarray(dec.transport)), size)
+        # the transport the final result relights with: stage 1's with its directional bands restored
+        # (relight_rt._strength), so that the preview changes as strongly as the result does
+        transport = _resize(dec.to_input(restore_bands(np.ascontiguousarray(dec.transport))), size)
         # the photo's own albedo (photo / its shading under its own light, white): the preview then relights the
         # photo as the final result does, not stage 1's network albedo (whose colours are a guess)
-        albedo = _resize(self.relighter.layers(dec)["albedo"], size)
+        albedo = self.relighter.layers(dec)["albedo"]
+        # ... divided by the shading the final result divides by (bands restored) rather than stage 1's own
+        own, own_restored = dec.shading(), sh.shading(restore_bands(dec.transport), dec.white_light)
+        ratio = np.where(own_restored > _PREVIEW_SHADING_MIN, own / np.maximum(own_restored, _PREVIEW_SHADING_MIN), 1)
+        albedo = _resize(np.clip(albedo * dec.to_input(ratio.astype(np.float32)), 0, 1), size)
         mask = _resize(np.asarray(dec.mask)[..., None], size)
         bg = self._background_image()
         bg = np.zeros(size + (3,), np.float32) if bg is None else _resize(bg, size)

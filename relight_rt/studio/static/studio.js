@@ -331,9 +331,15 @@ async function uploadLight(input, path, label) {
   const limit = state.info.max_upload_mb * 1024 * 1024;
   try {
     if (file.size > limit) throw new Error(`${label}: the file is larger than ${state.info.max_upload_mb} MiB`);
-    const res = await api(path, { method: "POST", body: file, headers: { "Content-Type": "application/octet-stream" } });
+    const isScene = label === "scene";
+    const url = isScene ? `${path}${sceneKeyQuery()}` : path;
+    const res = await api(url, { method: "POST", body: file, headers: { "Content-Type": "application/octet-stream" } });
     const { light } = await res.json();
     const name = `upload:${file.name}`;
+    if (isScene) {  // the key-light handle re-reads this photo's light with the key the user sets
+      state.scene = { file, name, path, seq: 0 };
+      $("scene-key").hidden = false;
+    }
     const select = $("base");
     let option = [...select.options].find((o) => o.value === name);
     if (!option) {
@@ -348,6 +354,43 @@ async function uploadLight(input, path, label) {
     showMessage(err.message, "upload");
   } finally {
     input.value = "";
+  }
+}
+
+// The scene photo's key light (the server's ?key=AZ,EL): the automatic one unless the user steers it.
+function sceneKeyQuery() {
+  if (!$("scene-key-on").checked) return "";
+  return `?key=${Number($("scene-key-az").value)},${Number($("scene-key-el").value)}`;
+}
+
+async function sceneKeyChanged() {
+  const scene = state.scene;
+  if (!scene) return;
+  const seq = ++scene.seq;
+  try {
+    const res = await api(`${scene.path}${sceneKeyQuery()}`,
+      { method: "POST", body: scene.file, headers: { "Content-Type": "application/octet-stream" } });
+    const { light } = await res.json();
+    if (seq !== scene.seq || state.scene !== scene) return;  // the handle moved on meanwhile
+    state.uploads[scene.name] = light.flat();
+    if (state.base.name === scene.name) setBase(scene.name);
+    showMessage("", "upload");
+  } catch (err) {
+    showMessage(err.message, "upload");
+  }
+}
+
+function bindSceneKey() {
+  const on = $("scene-key-on"), az = $("scene-key-az"), el = $("scene-key-el");
+  const show = () => {
+    az.parentElement.querySelector("output").textContent = `${az.value}°`;
+    el.parentElement.querySelector("output").textContent = `${el.value}°`;
+  };
+  show();
+  on.addEventListener("change", () => { az.disabled = el.disabled = !on.checked; sceneKeyChanged(); });
+  for (const input of [az, el]) {
+    input.addEventListener("input", show);
+    input.addEventListener("change", () => sceneKeyChanged());  // on release: one request per setting
   }
 }
 
@@ -404,6 +447,7 @@ function bindPanel() {
   $("envmap-file").addEventListener("change", (e) => uploadLight(e.target, "/api/envmap", "environment map"));
   $("photo-file").addEventListener("change", (e) => uploadLight(e.target, "/api/photo-light", "photo"));
   $("background-file").addEventListener("change", (e) => uploadLight(e.target, "/api/background-light", "scene"));
+  bindSceneKey();
   $("copy-command").addEventListener("click", () => navigator.clipboard && navigator.clipboard.writeText($("command").textContent));
 
   const sphere = sphereCanvas();
