@@ -259,7 +259,7 @@ class PersonMatter:
         return alpha
 
     def __call__(self, image: np.ndarray, name: str = "image") -> np.ndarray:
-        rgb = as_rgb(image, name)
+        rgb = as_rgb(image, name, copy=False)  # only read from here on
         people = self.people(rgb, name)
         alpha = self.alpha(rgb, people) if people else None
         if alpha is None or not (alpha >= 0.5).any():
