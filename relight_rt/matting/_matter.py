@@ -20,14 +20,17 @@ from .._refine import refine_edges
 from ..session import Model, load_model
 from ._coarse import region_alpha
 from ._detect import MIN_TILE, find_faces, find_people, roi_prob
-from ._models import FACE_FILE, POSE_FILE, ROI_FILE, as_rgb, find_matting_models
+from ._models import FACE_FILE, POSE_FILE, ROI_FILE, SIZE, as_rgb, find_matting_models
 from ._regions import (
+    LOGIT_CLIP,
     Person,
     Region,
     contains,
     crop_region,
+    grid_of_region,
     logits_on_grid,
     person_box,
+    prob_at,
     tile_levels,
     warp_to_grid,
     working_grid,
@@ -43,6 +46,7 @@ _MAX_REQUEUE = 16  # person="all": leftovers of blobs searched again (several pe
 _MAX_TRIES = 32  # person="all": candidates segmented at most (each costs 1-4 pose-graph runs)
 _GIVE_UP = 0.02  # person="all": a blob whose first pose-graph pass says this little is nobody (no re-centring)
 _SETTLED_IOU = 0.9  # the region has settled when the next one overlaps it this much
+_CUT_WIDTH = 0.125  # a portrait's body is cut by the bottom border over at least this x its box's width
 
 
 class PersonMatter:
@@ -120,13 +124,18 @@ class PersonMatter:
 
     # -- segmentation -------------------------------------------------------------------------------
 
-    def segment(self, rgb: np.ndarray, region: Region, give_up: float = 0.0) -> Person:
+    def _pose(self, rgb: np.ndarray, region: Region) -> Person:
+        out = self.pose.run({"image": crop_region(rgb, region).transpose(2, 0, 1)[None]})
+        return Person(region, out["segmentation"][0, 0], float(out["presence"].reshape(-1)[0]))
+
+    def segment(self, rgb: np.ndarray, region: Region, give_up: float = 0.0, past_border: bool = False) -> Person:
         """Run the pose graph on one square region; re-centre on its segmentation until it settles (or, with
-        ``give_up``, stop when the presence flag is below it: nobody there)."""
+        ``give_up``, stop when the presence flag is below it: nobody there). With ``past_border``, a region
+        whose presence stays low while the segmentation runs into the image border is tried once more,
+        reaching past that border (:func:`_past_border`)."""
         person = None
         for _ in range(self.max_passes):
-            out = self.pose.run({"image": crop_region(rgb, region).transpose(2, 0, 1)[None]})
-            person = Person(region, out["segmentation"][0, 0], float(out["presence"].reshape(-1)[0]))
+            person = self._pose(rgb, region)
             if person.presence < give_up:
                 break
             box = person_box(person, rgb.shape[:2])
@@ -136,10 +145,15 @@ class PersonMatter:
             if nxt.iou(region) > _SETTLED_IOU:
                 break
             region = nxt
+        if past_border and person is not None and person.presence < PRESENCE_MIN:
+            wider = _past_border(person_box(person, rgb.shape[:2]), rgb.shape[:2])
+            if wider is not None:
+                retry = self._pose(rgb, Region.around(*wider))
+                person = retry if retry.presence > person.presence else person
         if person is None or person.region.box()[3] <= rgb.shape[0]:
             return person  # a portrait runs off the bottom, so its region reaches past it: no check needed
         roi = self._roi_person(rgb, person.region, person.presence)
-        return roi if _is_portrait(person_box(roi, rgb.shape[:2]), rgb.shape[:2]) else person
+        return roi if _is_portrait(roi, rgb.shape[:2]) else person
 
     def people(self, rgb: np.ndarray, name: str = "image") -> list[Person]:
         """Segmented people (the largest for person="largest", everyone for "all"); empty when nobody is found.
@@ -208,9 +222,16 @@ class PersonMatter:
                 # overlap more: in a group, the selfie graph's region of one face shows the neighbours too)
                 if mask.any() and occupied[mask].mean() < (_COVERED if face is None else _COVERED_FACE):
                     occupied |= mask
-                    found.append(p)
                     mine = [j for j, f in enumerate(faces) if j not in owned and contains(p, f, (h, w))]
-                    owned.update([k] if k is not None else mine[:1])
+                    side_by_side = _side_by_side([faces[j] for j in mine])
+                    if p.source == "roi" and len(side_by_side) >= 2:
+                        # the selfie graph segments everyone in its region: people side by side come as one
+                        # segmentation holding several faces, one person each (the matte stays their union)
+                        found.extend(split_by_faces(p, side_by_side))
+                        owned.update(mine)
+                    else:
+                        found.append(p)
+                        owned.update([k] if k is not None else mine[:1])
             if pix is None or requeued >= _MAX_REQUEUE:
                 continue
             rest = np.zeros(gh * gw, bool)
@@ -226,7 +247,7 @@ class PersonMatter:
     def _person_at(self, rgb: np.ndarray, box, face: Face | None, give_up: float = 0.0) -> Person | None:
         """The person in ``box`` (a blob's or a face's body box), or None when the pose graph says nobody is
         there and no face vouches for one (``give_up``: see :meth:`segment`)."""
-        p = self.segment(rgb, Region.around(*box), give_up if face is None else 0.0)
+        p = self.segment(rgb, Region.around(*box), give_up if face is None else 0.0, past_border=face is None)
         # the pose graph segments something in any region; its presence output says whether a person is there
         # (0.0000 on a colour gradient the region finder took for one, >= 0.87 on people in full view)
         if p.presence >= PRESENCE_MIN and (face is None or contains(p, face, rgb.shape[:2])):
@@ -246,7 +267,7 @@ class PersonMatter:
         h, w = rgb.shape[:2]
         alpha = np.zeros((h, w), np.float32)
         refine = self.refine if refine is None else refine
-        for p in people:
+        for p in rejoin(people):
             x0, y0, x1, y1 = p.region.box()
             rx0, ry0 = max(int(np.floor(x0)), 0), max(int(np.floor(y0)), 0)
             rx1, ry1 = min(int(np.ceil(x1)), w), min(int(np.ceil(y1)), h)
@@ -308,16 +329,40 @@ def _grow_where_cut(
     return max(nx0, 0.0), max(ny0, 0.0), min(nx1, float(w)), min(ny1, float(h))
 
 
-def _is_portrait(box: tuple[float, float, float, float] | None, shape: tuple[int, int]) -> bool:
-    """Head-and-shoulders (or chest-up) framing: the person (as the selfie graph sees them in the region)
-    runs off the bottom of the image and their visible box is less than 1.8x as tall as wide. The pose
-    graph was trained on bodies and loses the shoulders of such crops (IoU 0.71-0.85 on crops of the
-    reference video); the selfie graph, made for them, keeps them (0.97-0.99). Full bodies and knee-up
-    crops stay with the pose graph (0.97-0.99 there, the selfie graph 0.92-0.97)."""
+def _past_border(box, shape: tuple[int, int]) -> tuple[float, float, float, float] | None:
+    """A segmentation ``box`` that runs into the image border, extended by half its size past each border it
+    touches (not clipped), or None when it touches none. The pose graph sees a person by their whole body:
+    framed on the visible part of someone cut by the border (a fighter cut at the thighs) it can say nobody
+    is there (presence 0.006), framed as if the body went on it sees them (0.99)."""
+    if box is None:
+        return None
+    h, w = shape
+    x0, y0, x1, y1 = box
+    grow = 0.5 * max(x1 - x0, y1 - y0)
+    cut = (x0 <= 1, y0 <= 1, x1 >= w - 1, y1 >= h - 1)
+    if not any(cut):
+        return None
+    return x0 - grow * cut[0], y0 - grow * cut[1], x1 + grow * cut[2], y1 + grow * cut[3]
+
+
+def _is_portrait(roi: Person, shape: tuple[int, int]) -> bool:
+    """Head-and-shoulders (or chest-up) framing: the person as the selfie graph sees them in the region runs
+    off the bottom of the image across at least _CUT_WIDTH of their box's width (the torso is cut there), and
+    their visible box is less than 1.8x as tall as wide. The pose graph was trained on bodies and loses the
+    shoulders of such crops (IoU 0.71-0.85 on crops of the reference video); the selfie graph, made for them,
+    keeps them (0.97-0.99). Full bodies and knee-up crops stay with the pose graph (0.97-0.99 there, the selfie
+    graph 0.92-0.97), and so does a body across the frame that only a foot or skate cuts at the bottom (a
+    skater in a spin: 0.07 of the width, where portraits measure 0.5-0.99 and a waist-up photo 0.18): wide
+    and touching the bottom, it looked like a portrait."""
+    h, w = shape
+    box = person_box(roi, shape)
     if box is None:
         return False
     x0, y0, x1, y1 = box
-    return y1 >= shape[0] - 2 and (y1 - y0) < 1.8 * (x1 - x0)
+    if y1 < h - 2 or (y1 - y0) >= 1.8 * (x1 - x0):
+        return False
+    xs = np.linspace(x0, x1, 256)
+    return bool((prob_at(roi, xs, np.full(xs.shape, h - 1.0)) > 0.5).mean() >= _CUT_WIDTH)
 
 
 def _strips(pix: np.ndarray, gw: int, grid, shape: tuple[int, int]) -> list:
@@ -336,6 +381,51 @@ def _strips(pix: np.ndarray, gw: int, grid, shape: tuple[int, int]) -> list:
             sy = keep // gw
             box = ((left - bx) / kx, (sy.min() - by) / ky, (left + width - bx) / kx, (sy.max() + 1 - by) / ky)
             out.append((keep.size / kx / ky, box, None, keep))
+    return out
+
+
+def split_by_faces(person: Person, faces: list[Face]) -> list[Person]:
+    """One selfie-graph segmentation holding several people (their faces inside it) as one Person per face:
+    every canvas pixel goes to the face nearest in x (in units of that face's width: a nearer, larger face
+    claims more), so the parts partition the canvas and their logits' maximum is the segmentation again
+    (:func:`rejoin`)."""
+    k, bx, by = grid_of_region(person.region)
+    cols = np.arange(SIZE, dtype=np.float64)
+    dist = []
+    for f in faces:
+        x0, _, x1, _ = f.box
+        centre, width = k * (x0 + x1) / 2 + bx, max(k * (x1 - x0), 1.0)
+        dist.append(np.abs(cols - centre) / width)
+    owner = np.argmin(np.stack(dist), axis=0)  # per canvas column
+    out = []
+    for i in range(len(faces)):
+        logits = np.where(owner[None, :] == i, person.logits, np.float32(-LOGIT_CLIP)).astype(np.float32)
+        out.append(Person(person.region, logits, person.presence, person.source, whole=person.logits))
+    return out
+
+
+def _side_by_side(faces: list[Face]) -> list[Face]:
+    """The faces that can stand for people side by side, largest first: a face whose centre lies within a
+    larger one's width of its centre is left out (a badge or a print below a face, found as a face: a
+    split by columns cannot hold two people there)."""
+    kept: list[Face] = []
+    for f in sorted(faces, key=lambda f: -f.size):
+        c = (f.box[0] + f.box[2]) / 2
+        if all(abs(c - (g.box[0] + g.box[2]) / 2) >= g.box[2] - g.box[0] for g in kept):
+            kept.append(f)
+    return kept
+
+
+def rejoin(people: list[Person]) -> list[Person]:
+    """People split from one segmentation (:func:`split_by_faces`) joined again for the matte: cut apart, each
+    part's upsampled edge would open a seam between them."""
+    out, seen = [], set()
+    for p in people:
+        if p.whole is None:
+            out.append(p)
+        elif id(p.whole) not in seen:
+            seen.add(id(p.whole))
+            out.append(Person(p.region, p.whole, p.presence, p.source))
     return out
 
 
