@@ -128,13 +128,17 @@ class PersonMatter:
         out = self.pose.run({"image": crop_region(rgb, region).transpose(2, 0, 1)[None]})
         return Person(region, out["segmentation"][0, 0], float(out["presence"].reshape(-1)[0]))
 
-    def segment(self, rgb: np.ndarray, region: Region, give_up: float = 0.0, past_border: bool = False) -> Person:
+    def segment(
+        self, rgb: np.ndarray, region: Region, give_up: float = 0.0, past_border: bool = False,
+        passes: int | None = None,
+    ) -> Person:  # fmt: skip
         """Run the pose graph on one square region; re-centre on its segmentation until it settles (or, with
         ``give_up``, stop when the presence flag is below it: nobody there). With ``past_border``, a region
         whose presence stays low while the segmentation runs into the image border is tried once more,
-        reaching past that border (:func:`_past_border`)."""
+        reaching past that border (:func:`_past_border`). ``passes``: at most this many runs (default
+        ``max_passes``; 1: the region as given, not re-centred)."""
         person = None
-        for _ in range(self.max_passes):
+        for _ in range(self.max_passes if passes is None else passes):
             person = self._pose(rgb, region)
             if person.presence < give_up:
                 break
@@ -216,6 +220,11 @@ class PersonMatter:
                 continue
             tries += 1
             p = self._person_at(rgb, box, face, _GIVE_UP)
+            if p is not None and face is None and _mostly_in(logits_on_grid(p, grid) > 0, occupied):
+                # it slid onto a neighbour matted already (two passers-by side by side, one blob): the pose graph
+                # framed on the blob's part beside that neighbour, not re-centred, may see the other one
+                beside = _beside(box, person_box(p, (h, w)))
+                p = None if beside is None else self._person_at(rgb, beside, None, _GIVE_UP, passes=1)
             if p is not None and _box_height(person_box(p, (h, w))) >= MIN_PERSON_FRACTION * h:
                 mask = logits_on_grid(p, grid) > 0
                 # a person mostly inside the people matted already is one of them again (a face's person may
@@ -244,10 +253,14 @@ class PersonMatter:
             cands = sorted(cands + more, key=lambda t: -t[0])
         return found
 
-    def _person_at(self, rgb: np.ndarray, box, face: Face | None, give_up: float = 0.0) -> Person | None:
+    def _person_at(
+        self, rgb: np.ndarray, box, face: Face | None, give_up: float = 0.0, passes: int | None = None
+    ) -> Person | None:
         """The person in ``box`` (a blob's or a face's body box), or None when the pose graph says nobody is
         there and no face vouches for one (``give_up``: see :meth:`segment`)."""
-        p = self.segment(rgb, Region.around(*box), give_up if face is None else 0.0, past_border=face is None)
+        p = self.segment(
+            rgb, Region.around(*box), give_up if face is None else 0.0, past_border=face is None, passes=passes
+        )
         # the pose graph segments something in any region; its presence output says whether a person is there
         # (0.0000 on a colour gradient the region finder took for one, >= 0.87 on people in full view)
         if p.presence >= PRESENCE_MIN and (face is None or contains(p, face, rgb.shape[:2])):
@@ -306,8 +319,6 @@ def shared_matter(
         if key not in _SHARED:
             _SHARED[key] = PersonMatter(key[0], device=device, person=person)
         return _SHARED[key]
-
-
 
 
 def _grow_where_cut(
@@ -427,6 +438,22 @@ def rejoin(people: list[Person]) -> list[Person]:
             seen.add(id(p.whole))
             out.append(Person(p.region, p.whole, p.presence, p.source))
     return out
+
+
+def _beside(box, other) -> tuple[float, float, float, float] | None:
+    """The part of ``box`` left of or right of the box ``other`` (the wider part), or None when less than a
+    quarter of ``box``'s width remains."""
+    if other is None:
+        return None
+    x0, y0, x1, y1 = box
+    left, right = (x0, min(x1, other[0])), (max(x0, other[2]), x1)
+    a, b = max(left, right, key=lambda t: t[1] - t[0])
+    return (a, y0, b, y1) if b - a >= 0.25 * (x1 - x0) else None
+
+
+def _mostly_in(mask: np.ndarray, occupied: np.ndarray) -> bool:
+    """Whether a person's mask (working grid) lies mostly (_COVERED) inside the people matted already."""
+    return bool(mask.any() and occupied[mask].mean() >= _COVERED)
 
 
 def _box_area(box) -> float:
