@@ -118,3 +118,26 @@ def test_beside_is_the_wider_part_next_to_the_neighbour():
     assert _matter._beside((0.0, 0.0, 100.0, 50.0), (30.0, 0.0, 90.0, 50.0)) == (0.0, 0.0, 30.0, 50.0)
     assert _matter._beside((0.0, 0.0, 100.0, 50.0), (10.0, 0.0, 90.0, 50.0)) is None  # nothing left beside
     assert _matter._beside((0.0, 0.0, 100.0, 50.0), None) is None
+
+
+class _Bright:
+    """A stand-in for the selfie graph: person probability = the canvas's brightness."""
+
+    def run(self, feeds):
+        return {"segmentation": feeds["image"][0].mean(0)[None, None]}
+
+
+def test_selfie_graph_is_run_again_framed_on_its_answer():
+    """A portrait's first selfie-graph region is framed for a whole body (the pose graph's) or guessed from a
+    face: there the head spans half the canvas or less and fine parts come out half transparent (Grace
+    Hopper's white cap: alpha 0.59 over the crown, 0.96 framed on her)."""
+    yy, xx = np.mgrid[0:400, 0:400]
+    disk = ((yy - 200.5) ** 2 + (xx - 200.5) ** 2 < 37**2).astype(np.float32)
+    rgb = np.repeat(disk[..., None], 3, 2)
+    matter = M.PersonMatter(refine=False)
+    matter.roi = _Bright()
+    wide = matter._roi_person(rgb, M.Region(200.0, 200.0, 1600.0), 0.9)
+    framed = matter._reframed(rgb, wide)
+    assert framed.region.side < 0.2 * wide.region.side and framed.source == "roi"
+    assert iou(matter.alpha(rgb, [framed]), disk) > iou(matter.alpha(rgb, [wide]), disk) + 0.02
+    assert matter._reframed(rgb, framed).region == framed.region  # framed already: kept
