@@ -57,9 +57,9 @@ class PersonMatter:
         models: folder holding matte_pose.onnx and matte_roi.onnx (default: $RELIGHT_RT_MODELS when it
             holds them, else the bundled ones).
         device: "cpu" (default), "cuda" or "auto".
-        person: "largest" (default: the person with the largest area) or "all" (everyone found at the
-            first scale where anybody is found: a photo with one big person and far-away passers-by gets
-            the big person only, as the whole-image pass does not see the small ones).
+        person: "largest" (default: the person with the largest area) or "all" (everyone at least
+            MIN_PERSON_FRACTION of the photo's height tall that the graphs see at any tile scale; see
+            :meth:`people`).
         refine: refine the edges with the photo (guided filter); False gives the upsampled segmentation.
         guide: "gray" (default, fast) or "color" (a colour guide: separates edges that differ in colour
             but not in brightness, e.g. pale shoes on a white floor; ~4x the refinement time).
@@ -182,8 +182,9 @@ class PersonMatter:
         sees no body: the selfie graph then segments the region). "largest" tries the blobs of the first
         scale that has any (largest first) and the faces only when no blob holds a person. "all" gathers the
         selfie graph's probability over every tile scale and the faces in tiles too, skips candidates that lie
-        inside the people already matted (a group seen as one blob is taken face by face), drops duplicates,
-        and keeps people at least MIN_PERSON_FRACTION of the image's height tall.
+        inside the people already matted (a group seen as one blob is taken face by face; one selfie-graph
+        segmentation holding several faces side by side is one person per face, :func:`split_by_faces`),
+        drops duplicates, and keeps people at least MIN_PERSON_FRACTION of the image's height tall.
         """
         if self.person == "all":
             return self._everyone(rgb)
