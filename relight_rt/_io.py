@@ -86,8 +86,9 @@ def as_colour(a: np.ndarray, *, bgr: bool) -> np.ndarray:
     return a
 
 
-def _to_unit_float(a: np.ndarray, name: str) -> np.ndarray:
-    """Any accepted dtype → new float32 array in [0, 1]."""
+def _to_unit_float(a: np.ndarray, name: str, copy: bool = True) -> np.ndarray:
+    """Any accepted dtype → float32 array in [0, 1]: a new one, or with ``copy=False`` the caller's own array
+    when it already is float32 in [0, 1] (for callers that only read it; nothing is allocated then)."""
     if a.dtype == np.uint8:
         return np.multiply(a, np.float32(1 / 255), dtype=np.float32)
     if a.dtype == np.bool_:
@@ -95,18 +96,22 @@ def _to_unit_float(a: np.ndarray, name: str) -> np.ndarray:
     if a.dtype == np.uint16:
         return np.multiply(a, np.float32(1 / 65535), dtype=np.float32)
     if a.dtype.kind == "f":
-        out = a.astype(np.float32)  # always a copy: never alias the caller's array
-        if not np.isfinite(out).all():
+        # min and max propagate NaN, and Inf lies outside the range: one read-only pass each checks everything
+        lo, hi = float(a.min()), float(a.max())
+        if np.isnan(lo) or np.isnan(hi) or np.isinf(lo) or np.isinf(hi):
             raise RelightError(f"{name}: expected finite values in [0, 1], got NaN or Inf ({_describe(a)})")
-        lo, hi = float(out.min()), float(out.max())
         if lo < -_FLOAT_SLACK or hi > 1 + _FLOAT_SLACK:
             raise RelightError(f"{name}: expected float values in [0, 1], got [{lo:.4g}, {hi:.4g}] ({_describe(a)})")
-        np.clip(out, 0.0, 1.0, out=out)
+        if not copy and a.dtype == np.float32 and a.flags.c_contiguous and lo >= 0.0 and hi <= 1.0:
+            return a
+        out = a.astype(np.float32, order="C")  # a copy: never alias the caller's array
+        if lo < 0.0 or hi > 1.0 or a.dtype != np.float32:  # float64 may round past 1 in float32
+            np.clip(out, 0.0, 1.0, out=out)
         return out
     raise RelightError(f"{name}: expected uint8, uint16 or float, got {_describe(a)}")
 
 
-def read_image(src: str | os.PathLike | np.ndarray, name: str = "image") -> np.ndarray:
+def read_image(src: str | os.PathLike | np.ndarray, name: str = "image", *, copy: bool = True) -> np.ndarray:
     """Read a colour image from a file or an array: the one intake for photos.
 
     Args:
@@ -115,9 +120,12 @@ def read_image(src: str | os.PathLike | np.ndarray, name: str = "image") -> np.n
             (H, W, 4) RGBA, uint8 (0-255), uint16 (0-65535) or float (0-1). Grayscale becomes colour (the
             gray repeated in R, G and B).
         name: what to call the input in error messages.
+        copy: False lets a caller that only reads the result have ``src`` itself back when it already is a
+            C-contiguous float32 (H, W, 3|4) array in [0, 1] (no copy of a 12-megapixel photo; checked all the same).
 
     Returns:
-        New float32 array (H, W, 3) RGB or (H, W, 4) RGBA, values in [0, 1].
+        New float32 array (H, W, 3) RGB or (H, W, 4) RGBA, values in [0, 1] (with ``copy=False``: possibly
+        ``src`` itself; do not write into it).
 
     Raises:
         RelightError: unreadable file, wrong channel count, another dtype, NaN/Inf, values out of range, a
@@ -138,7 +146,7 @@ def read_image(src: str | os.PathLike | np.ndarray, name: str = "image") -> np.n
         raise RelightError(f"{label}: expected an (H, W, 3) RGB or (H, W, 4) RGBA image, got {got}")
     if a.shape[0] < 2 or a.shape[1] < 2:
         raise RelightError(f"{label}: image is too small, got {_describe(a)}")
-    return _to_unit_float(a, label)
+    return _to_unit_float(a, label, copy)
 
 
 def read_mask(

@@ -51,3 +51,34 @@ def test_as_float_image_converts_as_the_intake_does():
 def test_as_float_image_refuses(bad, words):
     with pytest.raises(RelightError, match=words):
         metrics.as_float_image(bad, "frame")
+
+
+def test_read_image_without_copy_hands_back_a_float32_photo_in_range():
+    img = np.random.default_rng(2).random((20, 24, 3), dtype=np.float32)
+    assert read_image(img, copy=False) is img  # the matters only read it: no 12-megapixel copy
+    assert as_rgb(img, copy=False) is img
+    assert read_image(img) is not img  # the default stays a new array
+
+
+@pytest.mark.parametrize("img", [
+    np.full((8, 8, 3), 0.5, np.float64),  # another dtype
+    np.full((8, 8, 3), 1.0005, np.float32),  # a rounding above 1: clipped, so converted
+    np.asfortranarray(np.full((8, 8, 3), 0.5, np.float32)),  # not C-contiguous
+    np.full((8, 8, 4), 0.5, np.float32)[..., :3],  # a view with strides
+])
+def test_read_image_without_copy_converts_anything_else(img):
+    out = read_image(img, copy=False)
+    assert out is not img and out.dtype == np.float32 and out.flags.c_contiguous and out.max() <= 1.0
+    np.testing.assert_array_equal(out, read_image(img))
+
+
+@pytest.mark.parametrize("bad, words", [
+    (np.full((4, 4, 3), np.nan, np.float32), "NaN or Inf"),
+    (np.full((4, 4, 3), -np.inf, np.float32), "NaN or Inf"),
+    (np.full((4, 4, 3), 1.5, np.float32), r"\[0, 1\]"),
+])
+def test_read_image_without_copy_checks_all_the_same(bad, words):
+    bad = bad.copy()
+    bad[1, 2, 0] = 0.5  # mixed values: the check is not only of the first pixel
+    with pytest.raises(RelightError, match=words):
+        read_image(bad, "frame", copy=False)

@@ -20,14 +20,17 @@ from .._refine import refine_edges
 from ..session import Model, load_model
 from ._coarse import region_alpha
 from ._detect import MIN_TILE, find_faces, find_people, roi_prob
-from ._models import FACE_FILE, POSE_FILE, ROI_FILE, as_rgb, find_matting_models
+from ._models import FACE_FILE, POSE_FILE, ROI_FILE, SIZE, as_rgb, find_matting_models
 from ._regions import (
+    LOGIT_CLIP,
     Person,
     Region,
     contains,
     crop_region,
+    grid_of_region,
     logits_on_grid,
     person_box,
+    prob_at,
     tile_levels,
     warp_to_grid,
     working_grid,
@@ -43,6 +46,8 @@ _MAX_REQUEUE = 16  # person="all": leftovers of blobs searched again (several pe
 _MAX_TRIES = 32  # person="all": candidates segmented at most (each costs 1-4 pose-graph runs)
 _GIVE_UP = 0.02  # person="all": a blob whose first pose-graph pass says this little is nobody (no re-centring)
 _SETTLED_IOU = 0.9  # the region has settled when the next one overlaps it this much
+_REFRAME = 0.9  # the selfie graph is run again on its own segmentation's region when that is this much smaller
+_CUT_WIDTH = 0.125  # a portrait's body is cut by the bottom border over at least this x its box's width
 
 
 class PersonMatter:
@@ -52,9 +57,9 @@ class PersonMatter:
         models: folder holding matte_pose.onnx and matte_roi.onnx (default: $RELIGHT_RT_MODELS when it
             holds them, else the bundled ones).
         device: "cpu" (default), "cuda" or "auto".
-        person: "largest" (default: the person with the largest area) or "all" (everyone found at the
-            first scale where anybody is found: a photo with one big person and far-away passers-by gets
-            the big person only, as the whole-image pass does not see the small ones).
+        person: "largest" (default: the person with the largest area) or "all" (everyone at least
+            MIN_PERSON_FRACTION of the photo's height tall that the graphs see at any tile scale; see
+            :meth:`people`).
         refine: refine the edges with the photo (guided filter); False gives the upsampled segmentation.
         guide: "gray" (default, fast) or "color" (a colour guide: separates edges that differ in colour
             but not in brightness, e.g. pale shoes on a white floor; ~4x the refinement time).
@@ -108,6 +113,19 @@ class PersonMatter:
         logits = np.log(np.clip(prob, 1e-7, 1.0)) - np.log(np.clip(1.0 - prob, 1e-7, 1.0))
         return Person(region, logits.astype(np.float32), presence, "roi")
 
+    def _reframed(self, rgb: np.ndarray, roi: Person) -> Person:
+        """The selfie graph's segmentation again on a region framed on its first answer (ROI_SCALE x its box),
+        when that region is smaller: the regions it is first run on are framed for a whole body (the pose
+        graph's) or guessed from a face, and in them a portrait's head spans half the canvas or less. Grace
+        Hopper's white cap before the white flag stripes: alpha over the crown 0.59 -> 0.96."""
+        box = person_box(roi, rgb.shape[:2])
+        if box is None:
+            return roi
+        tight = Region.around(*box)
+        if tight.side >= _REFRAME * roi.region.side:
+            return roi
+        return self._roi_person(rgb, tight, roi.presence)
+
     def find_people(self, rgb: np.ndarray) -> list[tuple[float, tuple[float, float, float, float]]]:
         """Where people are, from the image alone (relight_rt.matting._detect.find_people): [(area in image
         pixels, (x0, y0, x1, y1))], largest first; empty when nobody is found."""
@@ -120,13 +138,22 @@ class PersonMatter:
 
     # -- segmentation -------------------------------------------------------------------------------
 
-    def segment(self, rgb: np.ndarray, region: Region, give_up: float = 0.0) -> Person:
+    def _pose(self, rgb: np.ndarray, region: Region) -> Person:
+        out = self.pose.run({"image": crop_region(rgb, region).transpose(2, 0, 1)[None]})
+        return Person(region, out["segmentation"][0, 0], float(out["presence"].reshape(-1)[0]))
+
+    def segment(
+        self, rgb: np.ndarray, region: Region, give_up: float = 0.0, past_border: bool = False,
+        passes: int | None = None,
+    ) -> Person:  # fmt: skip
         """Run the pose graph on one square region; re-centre on its segmentation until it settles (or, with
-        ``give_up``, stop when the presence flag is below it: nobody there)."""
+        ``give_up``, stop when the presence flag is below it: nobody there). With ``past_border``, a region
+        whose presence stays low while the segmentation runs into the image border is tried once more,
+        reaching past that border (:func:`_past_border`). ``passes``: at most this many runs (default
+        ``max_passes``; 1: the region as given, not re-centred)."""
         person = None
-        for _ in range(self.max_passes):
-            out = self.pose.run({"image": crop_region(rgb, region).transpose(2, 0, 1)[None]})
-            person = Person(region, out["segmentation"][0, 0], float(out["presence"].reshape(-1)[0]))
+        for _ in range(self.max_passes if passes is None else passes):
+            person = self._pose(rgb, region)
             if person.presence < give_up:
                 break
             box = person_box(person, rgb.shape[:2])
@@ -136,10 +163,15 @@ class PersonMatter:
             if nxt.iou(region) > _SETTLED_IOU:
                 break
             region = nxt
+        if past_border and person is not None and person.presence < PRESENCE_MIN:
+            wider = _past_border(person_box(person, rgb.shape[:2]), rgb.shape[:2])
+            if wider is not None:
+                retry = self._pose(rgb, Region.around(*wider))
+                person = retry if retry.presence > person.presence else person
         if person is None or person.region.box()[3] <= rgb.shape[0]:
             return person  # a portrait runs off the bottom, so its region reaches past it: no check needed
         roi = self._roi_person(rgb, person.region, person.presence)
-        return roi if _is_portrait(person_box(roi, rgb.shape[:2]), rgb.shape[:2]) else person
+        return self._reframed(rgb, roi) if _is_portrait(roi, rgb.shape[:2]) else person
 
     def people(self, rgb: np.ndarray, name: str = "image") -> list[Person]:
         """Segmented people (the largest for person="largest", everyone for "all"); empty when nobody is found.
@@ -150,8 +182,9 @@ class PersonMatter:
         sees no body: the selfie graph then segments the region). "largest" tries the blobs of the first
         scale that has any (largest first) and the faces only when no blob holds a person. "all" gathers the
         selfie graph's probability over every tile scale and the faces in tiles too, skips candidates that lie
-        inside the people already matted (a group seen as one blob is taken face by face), drops duplicates,
-        and keeps people at least MIN_PERSON_FRACTION of the image's height tall.
+        inside the people already matted (a group seen as one blob is taken face by face; one selfie-graph
+        segmentation holding several faces side by side is one person per face, :func:`split_by_faces`),
+        drops duplicates, and keeps people at least MIN_PERSON_FRACTION of the image's height tall.
         """
         if self.person == "all":
             return self._everyone(rgb)
@@ -202,15 +235,27 @@ class PersonMatter:
                 continue
             tries += 1
             p = self._person_at(rgb, box, face, _GIVE_UP)
+            if p is not None and face is None and _mostly_in(logits_on_grid(p, grid) > 0, occupied):
+                # it slid onto a neighbour matted already (two passers-by side by side, one blob): the pose graph
+                # framed on the blob's part beside that neighbour, not re-centred, may see the other one
+                beside = _beside(box, person_box(p, (h, w)))
+                p = None if beside is None else self._person_at(rgb, beside, None, _GIVE_UP, passes=1)
             if p is not None and _box_height(person_box(p, (h, w))) >= MIN_PERSON_FRACTION * h:
                 mask = logits_on_grid(p, grid) > 0
                 # a person mostly inside the people matted already is one of them again (a face's person may
                 # overlap more: in a group, the selfie graph's region of one face shows the neighbours too)
                 if mask.any() and occupied[mask].mean() < (_COVERED if face is None else _COVERED_FACE):
                     occupied |= mask
-                    found.append(p)
                     mine = [j for j, f in enumerate(faces) if j not in owned and contains(p, f, (h, w))]
-                    owned.update([k] if k is not None else mine[:1])
+                    side_by_side = _side_by_side([faces[j] for j in mine])
+                    if p.source == "roi" and len(side_by_side) >= 2:
+                        # the selfie graph segments everyone in its region: people side by side come as one
+                        # segmentation holding several faces, one person each (the matte stays their union)
+                        found.extend(split_by_faces(p, side_by_side))
+                        owned.update(mine)
+                    else:
+                        found.append(p)
+                        owned.update([k] if k is not None else mine[:1])
             if pix is None or requeued >= _MAX_REQUEUE:
                 continue
             rest = np.zeros(gh * gw, bool)
@@ -223,10 +268,14 @@ class PersonMatter:
             cands = sorted(cands + more, key=lambda t: -t[0])
         return found
 
-    def _person_at(self, rgb: np.ndarray, box, face: Face | None, give_up: float = 0.0) -> Person | None:
+    def _person_at(
+        self, rgb: np.ndarray, box, face: Face | None, give_up: float = 0.0, passes: int | None = None
+    ) -> Person | None:
         """The person in ``box`` (a blob's or a face's body box), or None when the pose graph says nobody is
         there and no face vouches for one (``give_up``: see :meth:`segment`)."""
-        p = self.segment(rgb, Region.around(*box), give_up if face is None else 0.0)
+        p = self.segment(
+            rgb, Region.around(*box), give_up if face is None else 0.0, past_border=face is None, passes=passes
+        )
         # the pose graph segments something in any region; its presence output says whether a person is there
         # (0.0000 on a colour gradient the region finder took for one, >= 0.87 on people in full view)
         if p.presence >= PRESENCE_MIN and (face is None or contains(p, face, rgb.shape[:2])):
@@ -236,7 +285,7 @@ class PersonMatter:
         # a face, but the pose graph sees no body here (a close portrait) or another person: the selfie graph
         # segments the face's region instead (made for head-and-shoulders framing)
         region = Region.around(*face.body_box(rgb.shape[:2]))
-        roi = self._roi_person(rgb, region, max(p.presence, face.score))
+        roi = self._reframed(rgb, self._roi_person(rgb, region, max(p.presence, face.score)))
         return roi if contains(roi, face, rgb.shape[:2]) else None
 
     # -- full resolution ----------------------------------------------------------------------------
@@ -246,7 +295,7 @@ class PersonMatter:
         h, w = rgb.shape[:2]
         alpha = np.zeros((h, w), np.float32)
         refine = self.refine if refine is None else refine
-        for p in people:
+        for p in rejoin(people):
             x0, y0, x1, y1 = p.region.box()
             rx0, ry0 = max(int(np.floor(x0)), 0), max(int(np.floor(y0)), 0)
             rx1, ry1 = min(int(np.ceil(x1)), w), min(int(np.ceil(y1)), h)
@@ -259,7 +308,7 @@ class PersonMatter:
         return alpha
 
     def __call__(self, image: np.ndarray, name: str = "image") -> np.ndarray:
-        rgb = as_rgb(image, name)
+        rgb = as_rgb(image, name, copy=False)  # only read from here on
         people = self.people(rgb, name)
         alpha = self.alpha(rgb, people) if people else None
         if alpha is None or not (alpha >= 0.5).any():
@@ -287,8 +336,6 @@ def shared_matter(
         return _SHARED[key]
 
 
-
-
 def _grow_where_cut(
     box: tuple[float, float, float, float], region: Region, shape: tuple[int, int]
 ) -> tuple[float, float, float, float]:
@@ -308,16 +355,40 @@ def _grow_where_cut(
     return max(nx0, 0.0), max(ny0, 0.0), min(nx1, float(w)), min(ny1, float(h))
 
 
-def _is_portrait(box: tuple[float, float, float, float] | None, shape: tuple[int, int]) -> bool:
-    """Head-and-shoulders (or chest-up) framing: the person (as the selfie graph sees them in the region)
-    runs off the bottom of the image and their visible box is less than 1.8x as tall as wide. The pose
-    graph was trained on bodies and loses the shoulders of such crops (IoU 0.71-0.85 on crops of the
-    reference video); the selfie graph, made for them, keeps them (0.97-0.99). Full bodies and knee-up
-    crops stay with the pose graph (0.97-0.99 there, the selfie graph 0.92-0.97)."""
+def _past_border(box, shape: tuple[int, int]) -> tuple[float, float, float, float] | None:
+    """A segmentation ``box`` that runs into the image border, extended by half its size past each border it
+    touches (not clipped), or None when it touches none. The pose graph sees a person by their whole body:
+    framed on the visible part of someone cut by the border (a fighter cut at the thighs) it can say nobody
+    is there (presence 0.006), framed as if the body went on it sees them (0.99)."""
+    if box is None:
+        return None
+    h, w = shape
+    x0, y0, x1, y1 = box
+    grow = 0.5 * max(x1 - x0, y1 - y0)
+    cut = (x0 <= 1, y0 <= 1, x1 >= w - 1, y1 >= h - 1)
+    if not any(cut):
+        return None
+    return x0 - grow * cut[0], y0 - grow * cut[1], x1 + grow * cut[2], y1 + grow * cut[3]
+
+
+def _is_portrait(roi: Person, shape: tuple[int, int]) -> bool:
+    """Head-and-shoulders (or chest-up) framing: the person as the selfie graph sees them in the region runs
+    off the bottom of the image across at least _CUT_WIDTH of their box's width (the torso is cut there), and
+    their visible box is less than 1.8x as tall as wide. The pose graph was trained on bodies and loses the
+    shoulders of such crops (IoU 0.71-0.85 on crops of the reference video); the selfie graph, made for them,
+    keeps them (0.97-0.99). Full bodies and knee-up crops stay with the pose graph (0.97-0.99 there, the selfie
+    graph 0.92-0.97), and so does a body across the frame that only a foot or skate cuts at the bottom (a
+    skater in a spin: 0.07 of the width, where portraits measure 0.5-0.99 and a waist-up photo 0.18): wide
+    and touching the bottom, it looked like a portrait."""
+    h, w = shape
+    box = person_box(roi, shape)
     if box is None:
         return False
     x0, y0, x1, y1 = box
-    return y1 >= shape[0] - 2 and (y1 - y0) < 1.8 * (x1 - x0)
+    if y1 < h - 2 or (y1 - y0) >= 1.8 * (x1 - x0):
+        return False
+    xs = np.linspace(x0, x1, 256)
+    return bool((prob_at(roi, xs, np.full(xs.shape, h - 1.0)) > 0.5).mean() >= _CUT_WIDTH)
 
 
 def _strips(pix: np.ndarray, gw: int, grid, shape: tuple[int, int]) -> list:
@@ -337,6 +408,67 @@ def _strips(pix: np.ndarray, gw: int, grid, shape: tuple[int, int]) -> list:
             box = ((left - bx) / kx, (sy.min() - by) / ky, (left + width - bx) / kx, (sy.max() + 1 - by) / ky)
             out.append((keep.size / kx / ky, box, None, keep))
     return out
+
+
+def split_by_faces(person: Person, faces: list[Face]) -> list[Person]:
+    """One selfie-graph segmentation holding several people (their faces inside it) as one Person per face:
+    every canvas pixel goes to the face nearest in x (in units of that face's width: a nearer, larger face
+    claims more), so the parts partition the canvas and their logits' maximum is the segmentation again
+    (:func:`rejoin`)."""
+    k, bx, by = grid_of_region(person.region)
+    cols = np.arange(SIZE, dtype=np.float64)
+    dist = []
+    for f in faces:
+        x0, _, x1, _ = f.box
+        centre, width = k * (x0 + x1) / 2 + bx, max(k * (x1 - x0), 1.0)
+        dist.append(np.abs(cols - centre) / width)
+    owner = np.argmin(np.stack(dist), axis=0)  # per canvas column
+    out = []
+    for i in range(len(faces)):
+        logits = np.where(owner[None, :] == i, person.logits, np.float32(-LOGIT_CLIP)).astype(np.float32)
+        out.append(Person(person.region, logits, person.presence, person.source, whole=person.logits))
+    return out
+
+
+def _side_by_side(faces: list[Face]) -> list[Face]:
+    """The faces that can stand for people side by side, largest first: a face whose centre lies within a
+    larger one's width of its centre is left out (a badge or a print below a face, found as a face: a
+    split by columns cannot hold two people there)."""
+    kept: list[Face] = []
+    for f in sorted(faces, key=lambda f: -f.size):
+        c = (f.box[0] + f.box[2]) / 2
+        if all(abs(c - (g.box[0] + g.box[2]) / 2) >= g.box[2] - g.box[0] for g in kept):
+            kept.append(f)
+    return kept
+
+
+def rejoin(people: list[Person]) -> list[Person]:
+    """People split from one segmentation (:func:`split_by_faces`) joined again for the matte: cut apart, each
+    part's upsampled edge would open a seam between them."""
+    out, seen = [], set()
+    for p in people:
+        if p.whole is None:
+            out.append(p)
+        elif id(p.whole) not in seen:
+            seen.add(id(p.whole))
+            out.append(Person(p.region, p.whole, p.presence, p.source))
+    return out
+
+
+def _beside(box, other) -> tuple[float, float, float, float] | None:
+    """The part of ``box`` left of or right of the box ``other`` (the wider part), or None when less than a
+    quarter of ``box``'s width remains."""
+    if other is None:
+        return None
+    x0, y0, x1, y1 = box
+    left, right = (x0, min(x1, other[0])), (max(x0, other[2]), x1)
+    a, b = max(left, right, key=lambda t: t[1] - t[0])
+    return (a, y0, b, y1) if b - a >= 0.25 * (x1 - x0) else None
+
+
+def _mostly_in(mask: np.ndarray, occupied: np.ndarray) -> bool:
+    """Whether a person's mask (working grid) lies mostly (_COVERED) inside the people matted already."""
+    return bool(mask.any() and occupied[mask].mean() >= _COVERED)
 
 
 def _box_area(box) -> float:

@@ -41,8 +41,9 @@ def find_matting_models(models: str | os.PathLike | None = None) -> Path:
     return place
 
 
-def as_rgb(image: np.ndarray, name: str = "image") -> np.ndarray:
-    """Check and convert an image for matting: a new float32 (H, W, 3) RGB array in [0, 1].
+def as_rgb(image: np.ndarray, name: str = "image", *, copy: bool = True) -> np.ndarray:
+    """Check and convert an image for matting: a new float32 (H, W, 3) RGB array in [0, 1] (with
+    ``copy=False``, the matters' own intake, the image itself when it already is one: they only read it).
 
     Accepts (H, W, 3) RGB, (H, W, 4) RGBA (the alpha is ignored: matting looks at the picture), and
     grayscale (H, W) or (H, W, 1) (repeated into three channels); uint8 (0-255), uint16 (0-65535) or float
@@ -63,5 +64,5 @@ def as_rgb(image: np.ndarray, name: str = "image") -> np.ndarray:
             f"{name}: image is {image.shape[0]}x{image.shape[1]} (HxW), too small to find a person in "
             f"(expected at least {MIN_SIDE}x{MIN_SIDE})"
         )
-    rgb = read_image(image, name)
+    rgb = read_image(image, name, copy=copy)
     return rgb if rgb.shape[2] == 3 else np.ascontiguousarray(rgb[..., :3])

@@ -8,7 +8,7 @@ image (:func:`warp_to_grid`). A :class:`Person` is one graph's segmentation of o
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
@@ -59,6 +59,8 @@ class Person:
     logits: np.ndarray  # (256, 256) float32 person logits in the region's canvas
     presence: float
     source: str = "pose"  # which graph's segmentation: "pose" (bodies) or "roi" (head-and-shoulders)
+    whole: np.ndarray | None = field(default=None, repr=False, compare=False)  # split from these logits (see
+    # relight_rt.matting._matter.split_by_faces): the matte is made from the whole, not from the parts
 
 
 def grid_of_region(region: Region, size: int = SIZE) -> tuple[float, float, float]:

@@ -89,7 +89,7 @@ class VideoMatter:
         self.index = 0
 
     def __call__(self, image: np.ndarray, name: str = "frame") -> np.ndarray:
-        rgb = as_rgb(image, name)
+        rgb = as_rgb(image, name, copy=False)  # only read from here on
         h, w = rgb.shape[:2]
         if self._shape is not None and self._shape != (h, w):
             raise RelightError(f"{name}: frame is {h}x{w}, the previous frames were {self._shape[0]}x{self._shape[1]}")

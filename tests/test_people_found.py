@@ -1,0 +1,143 @@
+"""Issue 33, --person all finds every person: people side by side in one selfie-graph segmentation, a body
+cut by the image border, a body across the frame (not a portrait), a badge found as a face."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+from test_matting import EXAMPLE, head_crop, iou
+
+from relight_rt import matting as M
+from relight_rt._faces import Face
+from relight_rt._io import read_image
+from relight_rt.matting import _matter
+
+
+@pytest.fixture(scope="module")
+def example_rgba() -> np.ndarray:
+    return read_image(EXAMPLE)
+
+
+def test_portraits_side_by_side_are_two_people(example_rgba):
+    """The selfie graph segments everyone in its region: two faces in one segmentation were one person (five
+    women standing together were found as 2)."""
+    crop, truth = head_crop(example_rgba)
+    two = np.ascontiguousarray(np.hstack([crop, crop[:, ::-1]]))
+    want = np.hstack([truth, truth[:, ::-1]])
+    everyone = M.PersonMatter(person="all")
+    people = everyone.people(two)
+    assert len(people) == 2  # was 1
+    boxes = sorted(M.person_box(p, two.shape[:2]) for p in people)
+    assert boxes[0][0] < crop.shape[1] / 2 and boxes[1][2] > 1.5 * crop.shape[1]  # one on each side
+    alpha = everyone.alpha(two, people)
+    assert iou(alpha, want) > 0.8  # measured 0.837, as when they were one person
+    # the parts split one segmentation (each canvas pixel to one face) and are joined again for the matte (cut
+    # apart, each part's upsampled edge would open a seam between them)
+    assert people[0].whole is people[1].whole and people[0].region == people[1].region
+    assert all((p.logits > 0).any() for p in people)
+    np.testing.assert_array_equal(np.maximum(people[0].logits, people[1].logits), people[0].whole)
+    joined = M.Person(people[0].region, people[0].whole, people[0].presence, "roi")
+    np.testing.assert_array_equal(alpha, everyone.alpha(two, [joined]))
+
+
+def test_badge_below_a_face_does_not_split_the_person():
+    """The astronaut's suit badge came out as a second face (score 0.64) right below hers: two people."""
+    face, badge = Face((171.0, 64.0, 279.0, 173.0), 0.93), Face((145.0, 184.0, 193.0, 232.0), 0.64)
+    assert _matter._side_by_side([badge, face]) == [face]
+    neighbour = Face((300.0, 70.0, 400.0, 170.0), 0.9)
+    assert _matter._side_by_side([face, badge, neighbour]) == [face, neighbour]
+
+
+def lying_person(rgba: np.ndarray, angle: float = 50.0) -> tuple[np.ndarray, np.ndarray]:
+    """The example person turned ``angle`` degrees (body across the frame, a foot past the bottom border)."""
+    h, w = 700, 1000
+    src = rgba.copy()
+    src[..., :3] *= src[..., 3:]
+    m = cv2.getRotationMatrix2D((145, 254), angle, 1.3)
+    m[0, 2] += w / 2 - 145
+    m[1, 2] += h / 2 - 254
+    warped = cv2.warpAffine(src, m, (w, h), flags=cv2.INTER_LINEAR)
+    shift = h + 2 - int(np.nonzero(warped[..., 3].max(1) > 0.5)[0].max())
+    warped = np.roll(warped, shift, axis=0)
+    warped[:shift] = 0
+    a = warped[..., 3]
+    back = np.array((0.55, 0.6, 0.7), np.float32)
+    return np.ascontiguousarray(warped[..., :3] + (1 - a[..., None]) * back), a
+
+
+def test_body_across_the_frame_is_no_portrait(example_rgba):
+    """A skater in a spin, one skate at the bottom: wide and touching the bottom, it was taken for a
+    head-and-shoulders portrait and segmented by the selfie graph (IoU 0.958 here; the pose graph 0.990)."""
+    rgb, truth = lying_person(example_rgba)
+    assert 0 < (truth[-1] > 0.5).sum() < 0.05 * truth.shape[1]  # only a foot reaches the bottom
+    matter = M.PersonMatter()
+    (person,) = matter.people(rgb)
+    assert person.source == "pose"
+    assert iou(matter(rgb), truth) > 0.97
+
+
+class _BodyOnly:
+    """A stand-in for the pose graph that sees a person only when the canvas shows the body going on past the
+    bottom (zero padding there), as the real one does with a fighter cut at the thighs."""
+
+    def run(self, feeds):
+        canvas = feeds["image"][0].transpose(1, 2, 0)
+        seg = np.where(canvas.mean(2) > 0.6, 5.0, -5.0).astype(np.float32)
+        presence = 0.95 if not canvas[-64:].any() else 0.01  # a quarter of the canvas past the bottom
+        return {"segmentation": seg[None, None], "presence": np.array([[presence]], np.float32)}
+
+
+def test_region_cut_by_the_border_is_tried_past_it():
+    rgb = np.full((300, 600, 3), 0.3, np.float32)
+    rgb[120:, 60:180] = 1.0  # a bright body cut by the bottom border
+    matter = M.PersonMatter()
+    matter.pose = _BodyOnly()
+    region = M.Region.around(60.0, 120.0, 180.0, 300.0)
+    assert matter.segment(rgb, region).presence < 0.5
+    found = matter.segment(rgb, region, past_border=True)
+    assert found.presence > 0.5 and found.region.box()[3] > 300 + 60  # reaches past the bottom
+    assert _matter._past_border((60.0, 120.0, 180.0, 300.0), (300, 600)) == (60.0, 120.0, 180.0, 390.0)
+    assert _matter._past_border((60.0, 120.0, 180.0, 250.0), (300, 600)) is None  # inside: nothing to extend
+
+
+def test_both_passers_by_under_the_umbrellas_are_found(reference_dir):
+    """The reference street photo: two people walk side by side under umbrellas (x 930-1015 px), one blob of
+    the selfie graph. Once the first was matted, the pose graph re-centred on the rest of the blob slid back
+    onto her; framed on the part beside her, it finds the second."""
+    rgb = read_image(reference_dir / "photo" / "sample.jpg")
+    people = M.PersonMatter(person="all").people(rgb)
+    boxes = [M.person_box(p, rgb.shape[:2]) for p in people]
+    pair = [b for b in boxes if 920 <= (b[0] + b[2]) / 2 <= 1020 and 400 <= b[1] and b[3] <= 600]
+    assert len(pair) == 2  # was 1
+    assert abs((pair[0][0] + pair[0][2]) - (pair[1][0] + pair[1][2])) / 2 > 15  # two people, not one twice
+
+
+def test_beside_is_the_wider_part_next_to_the_neighbour():
+    assert _matter._beside((946.0, 435.0, 1011.0, 576.0), (933.0, 427.0, 987.0, 574.0)) == (987.0, 435.0, 1011.0, 576.0)
+    assert _matter._beside((0.0, 0.0, 100.0, 50.0), (30.0, 0.0, 90.0, 50.0)) == (0.0, 0.0, 30.0, 50.0)
+    assert _matter._beside((0.0, 0.0, 100.0, 50.0), (10.0, 0.0, 90.0, 50.0)) is None  # nothing left beside
+    assert _matter._beside((0.0, 0.0, 100.0, 50.0), None) is None
+
+
+class _Bright:
+    """A stand-in for the selfie graph: person probability = the canvas's brightness."""
+
+    def run(self, feeds):
+        return {"segmentation": feeds["image"][0].mean(0)[None, None]}
+
+
+def test_selfie_graph_is_run_again_framed_on_its_answer():
+    """A portrait's first selfie-graph region is framed for a whole body (the pose graph's) or guessed from a
+    face: there the head spans half the canvas or less and fine parts come out half transparent (Grace
+    Hopper's white cap: alpha 0.59 over the crown, 0.96 framed on her)."""
+    yy, xx = np.mgrid[0:400, 0:400]
+    disk = ((yy - 200.5) ** 2 + (xx - 200.5) ** 2 < 37**2).astype(np.float32)
+    rgb = np.repeat(disk[..., None], 3, 2)
+    matter = M.PersonMatter(refine=False)
+    matter.roi = _Bright()
+    wide = matter._roi_person(rgb, M.Region(200.0, 200.0, 1600.0), 0.9)
+    framed = matter._reframed(rgb, wide)
+    assert framed.region.side < 0.2 * wide.region.side and framed.source == "roi"
+    assert iou(matter.alpha(rgb, [framed]), disk) > iou(matter.alpha(rgb, [wide]), disk) + 0.02
+    assert matter._reframed(rgb, framed).region == framed.region  # framed already: kept
