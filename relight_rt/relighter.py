@@ -1036,3 +1036,11 @@ class Relighter:
         return composite(self, image, background, mask=mask, light=light, position=position, height=height,
                          shadow=shadow, exposure=exposure, fov=fov, white_balance=white_balance, key_light=key_light,
                          horizon=horizon, meter=meter, match_camera=match_camera)
+
+
+def compose_step(relighter: Relighter, dec: Decomposition, light: np.ndarray):
+    """A call that runs only the full-resolution half of a relight (the photo times the relighting factor, over
+    the photo's own backdrop) for one light, with stage 2's outputs computed once beforehand: what
+    ``relight-rt bench --sections compose`` times (relight_rt.timing)."""
+    outputs = next(relighter._network_relit(dec, light[None], 1, want_layers=True))
+    return lambda: relighter._compose(dec, light, outputs, dec.image)

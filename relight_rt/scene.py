@@ -93,7 +93,7 @@ def _check_height(height) -> float | None:
     return h
 
 
-def _matte_on_the_photo(relighter, image, mask):
+def _matte_on_the_photo(relighter, image, mask, name: str | None = None):
     """The automatic matte, when one is needed, taken on the photo as it is (sRGB, what the matting graphs
     see in every other command), not on the linearised copy stage 1 gets here: linear values are darker and
     lose the person in dim photos. A given mask, or the alpha of an RGBA photo, passes through unchanged."""
@@ -104,8 +104,22 @@ def _matte_on_the_photo(relighter, image, mask):
     shown = read_image(image, "image")
     if mask is None and shown.shape[2] == 4:
         return None  # the alpha channel is the mask; _linear_person keeps it
-    name = os.fspath(image) if isinstance(image, (str, os.PathLike)) else "image"
+    if name is None:
+        name = os.fspath(image) if isinstance(image, (str, os.PathLike)) else "image"
     return resolve_mask(shown, mask, matter=relighter.matter, name=name)
+
+
+def _decode_person(image):
+    """(the person photo, its name): a path to an 8-bit RGB(A) file decoded once, as an RGB(A) uint8 array that
+    both the matte and the linear copy read; anything else passes through as given."""
+    if not isinstance(image, (str, os.PathLike)):
+        return image, "image"
+    from ._io import decode_file
+
+    raw = decode_file(image, "image")
+    if raw.dtype == np.uint8 and raw.ndim == 3 and raw.shape[2] in (3, 4) and min(raw.shape[:2]) >= 2:
+        return cv2.cvtColor(raw, cv2.COLOR_BGR2RGB if raw.shape[2] == 3 else cv2.COLOR_BGRA2RGBA), os.fspath(image)
+    return image, os.fspath(image)  # 16-bit, gray, CMYK...: the intake reads the file
 
 
 def _linear_person(image):
@@ -326,7 +340,8 @@ def composite(
     bg = read_background(background)
     parts = scene_light(bg, fov)
     bg_light = parts.light(key)
-    mask = _matte_on_the_photo(relighter, image, mask)
+    image, name = _decode_person(image)  # decoded once for the matte and the linear copy
+    mask = _matte_on_the_photo(relighter, image, mask, name)
     person = _linear_person(image)
     dec = relighter.decompose(person, mask)
     if light is None:

@@ -1,6 +1,6 @@
 """Spherical harmonics lighting: the one source of truth for every light in relight_rt.
 
-Conventions (DESIGN.md §3, pinned by tests/test_sh.py against pyshtools golden values):
+Conventions (DESIGN.md §3, pinned by tests/runtime/test_sh.py against pyshtools golden values):
 
 * Frame: subject/camera frame, +x from the subject toward the camera, +y toward the image's right,
   +z up. Right-handed.

@@ -200,7 +200,7 @@ def run(
         RelightError: unknown section, bad counts, or models that do not load.
     """
     from .config import RuntimeConfig
-    from .relighter import Relighter, diffuse_batch
+    from .relighter import Relighter, compose_step, diffuse_batch
 
     unknown = sorted(set(sections) - set(SECTIONS))
     if unknown:
@@ -232,9 +232,7 @@ def run(
             rows.append(row("shade", "numpy", t, batch=k))
     if "compose" in sections:
         lit = sweep[0]
-        outputs = next(relighter._network_relit(dec, lit[None], 1, want_layers=True))
-        backdrop = dec.image
-        rows.append(row("compose", "numpy", timed(lambda: relighter._compose(dec, lit, outputs, backdrop))))
+        rows.append(row("compose", "numpy", timed(compose_step(relighter, dec, lit))))
     if "decompose" in sections:
         rows.append(row("decompose", backend, timed(lambda: relighter.decompose(img, mask))))
     if "end_to_end" in sections:

@@ -1,5 +1,5 @@
 // Spherical-harmonics lights for the studio page: the same numbers as relight_rt/sh.py and
-// relight_rt/lights.py (DESIGN.md §3), checked against them by tests/test_studio.py.
+// relight_rt/lights.py (DESIGN.md §3), checked against them by tests/runtime/studio/test_studio.py.
 //
 // Frame: +x from the subject toward the camera, +y toward the image's right, +z up.
 // Basis: real, orthonormal, degree 2, order 1, y, z, x, xy, yz, 3z²−1, xz, x²−y² (times constants).

@@ -29,7 +29,7 @@ from relight_rt import Relighter, RelightError
 from relight_rt.studio.core import MAX_UPLOAD_PIXELS, Studio, check_upload, decode_upload
 
 __all__ = ["models_dir"]  # fixture
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[3]
 LOCAL = "127.0.0.1"
 
 

@@ -16,7 +16,7 @@ from relight_rt import cli
 
 __all__ = ["models_dir"]  # fixture
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[3]
 
 
 def write_photo(folder: Path, name="p", seed=0, mask_folder: Path | None = None) -> Path:

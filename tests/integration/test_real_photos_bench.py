@@ -16,7 +16,7 @@ from relight_rt import lights
 from relight_rt.color import linear_to_srgb, srgb_to_linear
 from relight_rt.sh import irradiance
 
-BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
+BENCH = Path(__file__).resolve().parents[2] / "benchmarks"
 
 
 def _load(name: str):

@@ -271,7 +271,7 @@ def test_stage2_trains_on_a_folder_of_ones_own_photos(data, tmp_path, capsys):
     """issue 20: ordinary photos, no masks: the automatic matte makes them, bad files are left out."""
     import cv2
 
-    repo = Path(__file__).resolve().parents[1]
+    repo = Path(__file__).resolve().parents[2]
     scene = cv2.imread(str(repo / "relight_rt" / "data" / "example_scene.jpg"))
     mine = tmp_path / "mine"
     mine.mkdir()

@@ -1,6 +1,6 @@
 """relight-rt studio, server side: the Studio state (layers, renders, uploads, store) and its HTTP routes.
 
-The browser side (the page, WebGL preview, drag, export) is in tests/test_studio_browser.py.
+The browser side (the page, WebGL preview, drag, export) is in tests/integration/test_studio_browser.py.
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ from relight_rt.studio.core import (
 )
 
 __all__ = ["models_dir"]  # fixture
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[3]
 
 
 def _png_bytes(rgb_or_rgba: np.ndarray) -> bytes:

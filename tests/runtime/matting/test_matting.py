@@ -14,7 +14,7 @@ from relight_rt import matting as M
 from relight_rt._io import read_image
 from relight_rt.session import bundled_models_dir, load_model
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[3]
 EXAMPLE = REPO / "relight_rt" / "data" / "example.png"  # a rendered person; its alpha channel is the true mask
 
 

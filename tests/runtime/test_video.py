@@ -522,5 +522,5 @@ def test_cli_shows_progress_and_one_summary(tmp_path, tiny_models):
     assert proc.returncode == 0, proc.stderr
     assert "frame 1 / " not in proc.stderr
     assert len(re.findall(r"s per frame", proc.stderr)) == 1, proc.stderr  # one summary
-    # (stderr is a pipe here, so no bar: tests/test_progress.py checks the bar on a terminal)
+    # (stderr is a pipe here, so no bar: tests/runtime/test_progress.py checks the bar on a terminal)
     assert "frame/s" not in proc.stderr

@@ -12,7 +12,7 @@ from relight_rt import Relighter, RelightError, lights
 from relight_rt._face_geometry import FaceMesh, face_transport, lobe_transport, rasterise_normals
 from relight_rt.session import bundled_models_dir
 
-REFERENCE = Path(__file__).resolve().parents[2] / "shared" / "reference"
+REFERENCE = Path(__file__).resolve().parents[3] / "shared" / "reference"
 
 
 @pytest.mark.parametrize("normal", [(1, 0, 0), (0, 1, 0), (0.3, -0.5, 0.81), (-0.2, 0.1, -0.97)])

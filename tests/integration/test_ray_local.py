@@ -27,7 +27,7 @@ from _graphs import models_dir, person
 from relight_rt import _reaper, distributed
 
 __all__ = ["models_dir"]  # fixture
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 linux = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the watcher reads /proc (Linux)")
 
 

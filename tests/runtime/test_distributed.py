@@ -22,7 +22,7 @@ ray = pytest.importorskip("ray")
 
 __all__ = ["models_dir"]  # fixture
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 GOOD, BAD = 27, 3
 
 

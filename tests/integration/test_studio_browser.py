@@ -35,7 +35,7 @@ from relight_rt.sh import shading  # noqa: E402
 from relight_rt.studio import create_app  # noqa: E402
 from relight_rt.studio.core import Studio, unpack_layers  # noqa: E402
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 CHROMIUM = os.environ.get("RELIGHT_RT_CHROMIUM", "/usr/bin/chromium")
 BUNDLED = Path(relight_rt.__file__).resolve().parent / "models"
 # headless, offline, no sandbox (root in CI), software WebGL (SwiftShader through ANGLE)

@@ -332,3 +332,22 @@ def test_a_portrait_wider_than_the_background_fits_it_by_default(diffuse):
     assert cols[0] <= 1 and cols[-1] >= 98  # across the whole width, nothing cut at one side only
     with pytest.raises(RelightError, match="smaller --height"):  # a height the user gives is obeyed
         composite(diffuse, img, bg, mask=mask, height=1.0, shadow=False)
+
+
+def test_a_person_photo_file_is_decoded_once(diffuse_models_dir, tmp_path, monkeypatch):
+    """composite read a person's file twice (once for the automatic matte, once for the linear copy stage 1
+    gets); it decodes it once and gives both the same pixels, with the same result as the array."""
+    import relight_rt._io as io
+
+    img, mask = flat_person()
+    path = tmp_path / "person.png"
+    cv2.imwrite(str(path), img[..., ::-1])
+    r = Relighter(diffuse_models_dir, device="cpu", detail=False)
+    r._matter, r._matter_loaded = (lambda rgb, name="image": mask), True
+    calls = []
+    decode = io.decode_file
+    monkeypatch.setattr(io, "decode_file", lambda *a, **k: calls.append(a[0]) or decode(*a, **k))
+    bg = np.full((120, 260, 3), 90, np.uint8)
+    from_file = r.composite(path, bg)
+    assert calls == [path]
+    np.testing.assert_array_equal(from_file, r.composite(img, bg))

@@ -25,7 +25,7 @@ from relight_rt import cli
 
 __all__ = ["models_dir"]  # fixture
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[3]
 H, W = 60, 40
 
 

@@ -4,7 +4,7 @@ The runs go through the CLI exactly as a user would: one photo (soft mask, origi
 background), a folder with sibling masks and a rotated light, ``decompose``, a frame folder through
 ``video`` (stabilised, and plain over black), the bundled models on the bundled example person, and
 ``relight_many`` through the API. Their 8-bit outputs were recorded in tests/data/golden_runs.npz
-before the runtime was restructured (``python tests/test_golden_runs.py --write`` records them anew;
+before the runtime was restructured (``python tests/integration/test_golden_runs.py --write`` records them anew;
 do that only for a deliberate change of behaviour, and say so in the commit).
 
 The comparison allows what another x86 CPU changes and nothing a refactor would: 8-bit outputs may differ by
@@ -25,8 +25,8 @@ import pytest
 
 from relight_rt import cli
 
-GOLDEN = Path(__file__).resolve().parent / "data" / "golden_runs.npz"
-TINY = Path(__file__).resolve().parent / "data"
+GOLDEN = Path(__file__).resolve().parents[1] / "data" / "golden_runs.npz"
+TINY = Path(__file__).resolve().parents[1] / "data"
 OFF_BY_ONE_FRACTION = 1e-4  # at most 0.01 % of an output's 8-bit values may differ, by one level only
 MIN_OFF_BY_ONE = 4  # ... and never fewer than 4 (small outputs)
 LIGHT_RTOL = 1e-5
@@ -183,7 +183,7 @@ def test_the_tolerance_passes_rounding_and_fails_real_changes():
 def test_outputs_match_the_recorded_runs(tmp_path, monkeypatch):
     monkeypatch.delenv("RELIGHT_RT_MODELS", raising=False)
     if not GOLDEN.is_file():
-        pytest.fail(f"{GOLDEN} is missing: record it with python tests/test_golden_runs.py --write")
+        pytest.fail(f"{GOLDEN} is missing: record it with python tests/integration/test_golden_runs.py --write")
     with np.load(GOLDEN, allow_pickle=False) as data:
         expected = {k: data[k] for k in data.files}
     got = golden_runs(tmp_path)
@@ -206,7 +206,7 @@ if __name__ == "__main__":
     import tempfile
 
     if "--write" not in sys.argv:
-        sys.exit("usage: python tests/test_golden_runs.py --write   (records tests/data/golden_runs.npz)")
+        sys.exit("usage: python tests/integration/test_golden_runs.py --write   (records tests/data/golden_runs.npz)")
     with tempfile.TemporaryDirectory() as tmp:
         runs = golden_runs(Path(tmp))
     np.savez_compressed(GOLDEN, **runs)

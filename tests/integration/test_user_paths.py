@@ -165,7 +165,7 @@ def test_soft_mask_blends_proportionally(sides):
     colour = rgba[..., :3]
     bg = backdrop(*mask.shape)
     # (over the original photo, what lies behind a soft edge is the photo's background colour estimated there,
-    # not the photo's mixed pixel: tests/test_face.py checks that the photo's own light gives the photo back)
+    # not the photo's mixed pixel: tests/runtime/test_face.py checks that the photo's own light gives the photo back)
     for background, behind in ((Background.solid((1.0, 0.0, 1.0)), np.array([1.0, 0.0, 1.0], np.float32)),
                                (bg, bg)):  # fmt: skip
         out = sides.relight(img, light, mask=mask, background=background)
@@ -504,7 +504,7 @@ def test_quiet_and_verbose_set_the_log_level(work, sides_dir):
     import sys
     from pathlib import Path
 
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")]))
     base = [sys.executable, "-m", "relight_rt"]
     args = ["relight", "p.png", "--models", str(sides_dir), "--preset", "studio", "--device", "cpu"]

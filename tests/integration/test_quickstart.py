@@ -10,7 +10,7 @@ import numpy as np
 
 from relight_rt import cli
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 SCENE = REPO / "relight_rt" / "data" / "example_scene.jpg"
 TRUTH = REPO / "tests" / "data" / "example_scene_truth.png"  # the alpha the person was composited with
 

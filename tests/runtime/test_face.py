@@ -11,7 +11,7 @@ from relight_rt import Relighter, lights
 from relight_rt._face import MIN_HEAD_INPUT, SMALL_FACE, feather, head_box
 from relight_rt._geometry import CropGeometry
 
-REFERENCE = Path(__file__).resolve().parents[2] / "shared" / "reference"
+REFERENCE = Path(__file__).resolve().parents[3] / "shared" / "reference"
 
 
 def _person(r: int, face: int, face_y: int, face_x: int):

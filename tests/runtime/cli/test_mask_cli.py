@@ -11,7 +11,7 @@ import pytest
 
 from relight_rt import cli
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[3]
 EXAMPLE = REPO / "relight_rt" / "data" / "example.png"
 
 

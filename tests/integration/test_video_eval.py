@@ -11,7 +11,7 @@ from relight_rt._io import write_image
 
 pytest.importorskip("torch")  # the sheet uses export.render.contact_sheet
 
-SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "video_eval.py"
+SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "video_eval.py"
 
 
 def _load_script():
