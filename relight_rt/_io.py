@@ -70,7 +70,6 @@ def decode_file(path: Path, name: str, flags: int = cv2.IMREAD_UNCHANGED) -> np.
     return image
 
 
-_decode = decode_file  # its old private name, for code not yet moved to decode_file
 
 
 def as_colour(a: np.ndarray, *, bgr: bool) -> np.ndarray:
@@ -137,7 +136,7 @@ def read_image(src: str | os.PathLike | np.ndarray, name: str = "image", *, copy
         check_array_pixels(a, name)
     elif isinstance(src, (str, os.PathLike)):
         path = Path(src)
-        a = as_colour(_decode(path, name), bgr=True)  # files are BGR(A)
+        a = as_colour(decode_file(path, name), bgr=True)  # files are BGR(A)
         label = f"{name} {path}"
     else:
         raise RelightError(f"{name}: expected a path or an (H, W, 3) array, got {type(src).__name__}")
@@ -177,7 +176,7 @@ def read_mask(
             a = cv2.cvtColor(np.ascontiguousarray(a), cv2.COLOR_RGB2GRAY)
     elif isinstance(src, (str, os.PathLike)):
         label = f"{name} {src}"
-        a = _decode(Path(src), name, cv2.IMREAD_GRAYSCALE | cv2.IMREAD_ANYDEPTH)  # as the reference reads masks
+        a = decode_file(Path(src), name, cv2.IMREAD_GRAYSCALE | cv2.IMREAD_ANYDEPTH)  # as the reference reads masks
     else:
         raise RelightError(f"{name}: expected a path or an (H, W) array, got {type(src).__name__}")
     if a.ndim == 3 and a.shape[2] == 1:
