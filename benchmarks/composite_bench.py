@@ -28,7 +28,7 @@ REPO = Path(__file__).resolve().parents[1]
 if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
-from relight_rt import Relighter  # noqa: E402
+from relight_rt import Relighter, RuntimeConfig  # noqa: E402
 from relight_rt._io import read_image, write_image  # noqa: E402
 from relight_rt.color import linear_to_srgb  # noqa: E402
 
@@ -71,7 +71,7 @@ def main(argv=None) -> int:
     ap.add_argument("--repeats", type=int, default=7)
     args = ap.parse_args(argv)
     person, mask, bg = make_inputs(args.hdri, args.work)
-    relighter = Relighter(args.models, device="cpu")
+    relighter = Relighter(RuntimeConfig(models=args.models, device="cpu"))
     results = {}
     for suffix in (".jpg", ".png"):
         out = args.work / f"out{suffix}"

@@ -17,8 +17,8 @@ exposure off: the true light j as given, the photo's mask given) and compared wi
 as stored, the pipeline's radiance scale; luminance = Rec. 709 weights):
 - contrast: least-squares slope of log(relit / input) on log(truth / input) per pixel (1 = as strong as the truth),
   and their correlation;
-- RMSE of relit vs truth (RGB, in the mask), for the full runtime path and, where ``relight_layers`` gives it, for
-  stage 1's diffuse image alone (the quantity of docs/RESULTS.md's framing table, measured through the runtime).
+- RMSE of relit vs truth (RGB, in the mask), for the full runtime path and (its layers, ``relight(..., layers=True)``)
+  for stage 1's diffuse image alone (the quantity of docs/RESULTS.md's framing table, measured through the runtime).
 Per framing (the folder name after its last "_"): means over pairs.
 """
 
@@ -97,21 +97,15 @@ def _rmse(a: np.ndarray, b: np.ndarray, m: np.ndarray) -> float:
 def pair_figures(relighter, src, dst) -> dict:
     (img_i, mask_i, _), (img_j, mask_j, light_j) = src, dst
     m = (mask_i > 0.5) & (mask_j > 0.5)
-    diffuse = None
-    if hasattr(relighter, "relight_layers"):
-        res = relighter.relight_layers(img_i, light_j, mask=mask_i, exposure="physical")
-        relit, diffuse = np.asarray(res.image, np.float32), np.asarray(res.layers["diffuse"], np.float32)
-    else:
-        relit = np.asarray(relighter.relight(img_i, light_j, mask=mask_i, exposure="physical"), np.float32)
+    res = relighter.relight(img_i, light_j, mask=mask_i, exposure="physical", layers=True)
+    relit, diffuse = np.asarray(res.image, np.float32), np.asarray(res.layers["diffuse"], np.float32)
     lum = lambda x: x[m] @ REC709  # noqa: E731
     ours = np.log(lum(relit) + EPS) - np.log(lum(img_i) + EPS)
     truth = np.log(lum(img_j) + EPS) - np.log(lum(img_i) + EPS)
     do, dt = ours - ours.mean(), truth - truth.mean()
     out = {"slope": float((do * dt).sum() / max((dt * dt).sum(), 1e-30)),
            "corr": float((do * dt).sum() / math.sqrt((do * do).sum() * (dt * dt).sum() + 1e-30)),
-           "rmse": _rmse(relit, img_j, m)}
-    if diffuse is not None:
-        out["rmse_stage1_diffuse"] = _rmse(np.clip(diffuse, 0, 1), img_j, m)
+           "rmse": _rmse(relit, img_j, m), "rmse_stage1_diffuse": _rmse(np.clip(diffuse, 0, 1), img_j, m)}
     return out
 
 
@@ -139,9 +133,9 @@ def heldout_figures(relighter, folders: list[Path]) -> dict:
 
 
 def measure(args) -> int:
-    from relight_rt import Relighter
+    from relight_rt import Relighter, RuntimeConfig
 
-    figs = heldout_figures(Relighter(args.models, device="cpu"), args.folders)
+    figs = heldout_figures(Relighter(RuntimeConfig(models=args.models, device="cpu")), args.folders)
     print("| framing | pairs (people) | change contrast vs truth (min) | correlation | relight RMSE | stage-1 RMSE |")
     print("|---|---|---|---|---|---|")
     for f, s in figs.items():

@@ -71,7 +71,7 @@ for p in (str(REPO), str(HERE)):
 import dpr_protocol as dprp  # noqa: E402
 
 import relight_rt  # noqa: E402
-from relight_rt import Relighter, lights  # noqa: E402
+from relight_rt import Relighter, RuntimeConfig, lights  # noqa: E402
 from relight_rt.color import srgb_to_linear  # noqa: E402
 
 REC709 = np.array([0.2126, 0.7152, 0.0722], np.float32)
@@ -600,7 +600,7 @@ def main(argv=None) -> int:
     t_start = time.perf_counter()
     args.out.mkdir(parents=True, exist_ok=True)
     cv2.setNumThreads(args.threads)
-    relighter = Relighter(args.models, device="cpu")
+    relighter = Relighter(RuntimeConfig(models=args.models, device="cpu"))
     presets = list(lights.list_presets())
     repo = dprp.DPRRepo.find(args.dpr)
     notes = []

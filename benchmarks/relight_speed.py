@@ -36,10 +36,10 @@ def main() -> None:
     p.add_argument("--models", default=None)
     args = p.parse_args()
 
-    from relight_rt import Relighter, lights
+    from relight_rt import Relighter, RuntimeConfig, lights
     from relight_rt._io import read_image, read_mask
 
-    r = Relighter(args.models, device="cpu")
+    r = Relighter(RuntimeConfig(models=args.models, device="cpu"))
     image = read_image(args.photo)
     mask = read_mask(args.mask, image.shape[:2])
     dec = r.decompose(image, mask)

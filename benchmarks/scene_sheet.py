@@ -29,7 +29,7 @@ REPO = Path(__file__).resolve().parents[1]
 if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
-from relight_rt import Relighter, envmap, sh  # noqa: E402
+from relight_rt import Relighter, RuntimeConfig, envmap, sh  # noqa: E402
 from relight_rt import scene as scene_mod  # noqa: E402
 from relight_rt._io import read_image, read_mask, write_image  # noqa: E402
 from relight_rt.color import linear_to_srgb  # noqa: E402
@@ -95,7 +95,7 @@ def main(argv=None) -> int:
     ap.add_argument("--models", default=None)
     ap.add_argument("--size", type=int, default=320, help="background width (height 3/4 of it)")
     args = ap.parse_args(argv)
-    relighter = Relighter(args.models, device="cpu")
+    relighter = Relighter(RuntimeConfig(models=args.models, device="cpu"))
     rgba = read_image(REPO / "relight_rt" / "data" / "example.png", "example")
     person = np.concatenate([linear_to_srgb(rgba[..., :3]), rgba[..., 3:]], 2)
     person8 = (np.clip(person, 0, 1) * 255 + 0.5).astype(np.uint8)

@@ -40,7 +40,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from relight_rt import Relighter, lights  # noqa: E402
+from relight_rt import Relighter, RuntimeConfig, lights  # noqa: E402
 from relight_rt.demo import example_path  # noqa: E402
 from relight_rt.studio import create_app  # noqa: E402
 from relight_rt.studio.core import Studio  # noqa: E402
@@ -165,7 +165,7 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory() as folder:
         photo = enlarged_example(Path(folder), args.pixels)
         t0 = time.perf_counter()
-        studio = Studio(photo, None, "original", Relighter(None, device="cpu"), preview_pixels=args.pixels)
+        studio = Studio(photo, None, "original", Relighter(RuntimeConfig(device="cpu")), preview_pixels=args.pixels)
         startup = time.perf_counter() - t0
         light = lights.preset("studio").astype(np.float32)
         studio.render(light)  # warm-up

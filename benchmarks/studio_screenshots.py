@@ -23,7 +23,7 @@ sys.path.insert(0, str(REPO / "benchmarks"))
 
 from studio_bench import CHROMIUM_ARGS, start_server  # noqa: E402
 
-from relight_rt import Relighter  # noqa: E402
+from relight_rt import Relighter, RuntimeConfig  # noqa: E402
 from relight_rt.demo import example_path  # noqa: E402
 from relight_rt.studio.core import Studio  # noqa: E402
 
@@ -60,7 +60,7 @@ def main(argv=None) -> int:
     os.chdir(REPO)  # the command line on the page names the photo relative to here
     # the example person in a street, no mask: the page shows the automatic matte at work too
     photo = (example_path().parent / "example_scene.jpg").relative_to(REPO)
-    studio = Studio(photo, None, "original", Relighter(None, device="cpu"))
+    studio = Studio(photo, None, "original", Relighter(RuntimeConfig(device="cpu")))
     srv, thread, url = start_server(studio)
     with sync_playwright() as p:
         context = p.chromium.launch_persistent_context(

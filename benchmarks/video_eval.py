@@ -130,6 +130,7 @@ def main(argv: list[str] | None = None) -> int:
     if not variants or variants - {"unconditioned", "conditioned"}:
         parser.error(f"--dvp-variants: expected unconditioned and/or conditioned, got {args.dvp_variants!r}")
     logging.basicConfig(level=logging.INFO, format="%(message)s")
+    from relight_rt.config import RuntimeConfig
     from relight_rt.relighter import Relighter
 
     out = Path(args.out)
@@ -139,7 +140,8 @@ def main(argv: list[str] | None = None) -> int:
     lights = rt_lights.rotation_sequence(resolve_light(args.light), n, axis="z", turns=1.0).astype(np.float32)
     np.save(out / "lights.npy", lights)
     schedule = LightSchedule.sequence(lights)
-    engine = RelighterEngine(Relighter(args.models, device="cuda" if args.device.startswith("cuda") else "cpu"))
+    device = "cuda" if args.device.startswith("cuda") else "cpu"
+    engine = RelighterEngine(Relighter(RuntimeConfig(models=args.models, device=device)))
     layers_dir = out / "layers"
     layers_dir.mkdir(exist_ok=True)
 

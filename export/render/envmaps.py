@@ -2,8 +2,8 @@
 night), their rotation about the vertical axis, scale normalisation and .hdr files.
 
 Maps are equirectangular (H, 2H, 3) float32 linear RGB radiance in the layout of DESIGN.md §3
-(top row = sky; pixel directions from ``relight_rt.sh.directions_envmap``). Their SH projection is
-``relight_rt.sh.project_envmap``. Scale convention: a map is scaled so that the brightest
+(top row = sky; pixel directions from ``relight_rt.envmap.directions_envmap``). Their SH projection is
+``relight_rt.envmap.project_envmap``. Scale convention: a map is scaled so that the brightest
 irradiance an unoccluded surface receives from it, in its brightest colour channel, is ``target``
 (by default drawn log-uniformly in [0.9, 2.6], the range of the reference's ten test lights:
 0.91–2.65; their median 1.5).

@@ -33,7 +33,7 @@ def add_parser(subparsers) -> None:
         "composite",
         help="put a person into a background photo, relit by the background's light, standing on its ground",
         description="Relight the person of PERSON for the scene of --background and composite it there. Without "
-        "a light option the light is estimated from the background (relight_rt.background). The person "
+        "a light option the light is estimated from the background (relight_rt.scene_light). The person "
         "is matched to the background's exposure, white balance, blur and noise, stands on the ground at the size "
         "perspective gives (a cut-off person on the bottom edge), casts a shadow along the key light and is laid over "
         "it with its soft matte. The output has the background's size.",

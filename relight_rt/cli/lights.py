@@ -1,7 +1,7 @@
 """``relight-rt lights``: ``list``, ``show``, ``from-envmap``, ``from-photo`` and ``from-background``.
 
 ``relight-rt lights from-background BG -o light.npy [--fov 60] [--key-light AZ,EL] [--preview sheet.png]``
-estimates a scene's light from one ordinary photo of it (relight_rt.background).
+estimates a scene's light from one ordinary photo of it (relight_rt.scene_light).
 """
 
 from __future__ import annotations

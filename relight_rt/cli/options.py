@@ -134,7 +134,7 @@ def add_exposure_option(p: argparse.ArgumentParser, reference: str = "the input 
 
 
 def fov(text: str) -> float:
-    """argparse type of ``--fov DEG`` (its range is checked by relight_rt.background)."""
+    """argparse type of ``--fov DEG`` (its range is checked by relight_rt.scene_light)."""
     try:
         return float(text)
     except ValueError:
@@ -142,7 +142,7 @@ def fov(text: str) -> float:
 
 
 def add_key_light_option(p: argparse.ArgumentParser) -> None:
-    """``--key-light AZ,EL`` (relight_rt.background.parse_key_light reads it)."""
+    """``--key-light AZ,EL`` (relight_rt.scene_light.parse_key_light reads it)."""
     p.add_argument("--key-light", metavar="AZ,EL", help="where the scene's key light comes from, degrees: azimuth 0 "
                    "from the camera, 90 from the image's right, 180 from behind the person; elevation above the "
                    "horizon (default: the key the background implies)")  # fmt: skip

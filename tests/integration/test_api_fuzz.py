@@ -95,7 +95,7 @@ def test_a_real_state_dict_still_reads(tmp_path):
 
 _ARRAY_CASES = """
 import numpy as np
-from relight_rt import RelightError, Relighter, envmap_from_light, lights, project_envmap, render_sphere
+from relight_rt import RelightError, Relighter, RuntimeConfig, envmap_from_light, lights, project_envmap, render_sphere
 from relight_rt._io import read_image, read_mask
 from relight_rt.matting import as_rgb
 
@@ -103,7 +103,7 @@ huge = np.broadcast_to(np.zeros(3, np.uint8), (60000, 60000, 3))  # no memory un
 flat = np.broadcast_to(np.zeros((), np.float32), (60000, 60000))
 small, small_mask = np.zeros((64, 48, 3), np.float32), np.zeros((64, 48), np.float32)
 small_mask[10:50, 10:30] = 1
-rl = Relighter(device="cpu")
+rl = Relighter(RuntimeConfig(device="cpu"))
 light = lights.preset("studio")
 cases = {
     "read_image": lambda: read_image(huge),

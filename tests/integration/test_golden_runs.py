@@ -137,9 +137,9 @@ def golden_runs(work: Path) -> dict[str, np.ndarray]:
     out["bundled_example"] = _read(work / "example.png")
 
     # relight_many through the API
-    from relight_rt import Relighter, lights
+    from relight_rt import Relighter, RuntimeConfig, lights
 
-    r = Relighter(models, device="cpu")
+    r = Relighter(RuntimeConfig(models=models, device="cpu"))
     turns = lights.rotation_sequence(lights.preset("rim"), 3)
     sweep = r.relight_many(work / "p.png", turns, mask=work / "p_mask_soft.png", exposure="physical")
     for k, img in enumerate(sweep):

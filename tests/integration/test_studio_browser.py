@@ -28,7 +28,7 @@ uvicorn = pytest.importorskip("uvicorn")
 sync_api = pytest.importorskip("playwright.sync_api")
 
 import relight_rt  # noqa: E402
-from relight_rt import Relighter, lightfile, lights, sh  # noqa: E402
+from relight_rt import Relighter, RuntimeConfig, lightfile, lights, sh  # noqa: E402
 from relight_rt.demo import example_path  # noqa: E402
 from relight_rt.exposure import exposure_scale  # noqa: E402
 from relight_rt.sh import shading  # noqa: E402
@@ -59,7 +59,7 @@ if not Path(CHROMIUM).is_file():
 
 @pytest.fixture(scope="module")
 def studio():
-    return Studio(example_path(), None, "original", Relighter(BUNDLED, device="cpu"))
+    return Studio(example_path(), None, "original", Relighter(RuntimeConfig(models=BUNDLED, device="cpu")))
 
 
 @pytest.fixture(scope="module")
@@ -587,7 +587,7 @@ def test_frame_time_shown_only_after_a_frame_is_drawn(browser, server):
 def test_scene_key_handle_steers_the_scene_light(browser, server):
     """The "a scene…" upload shows a key-light handle; steering it re-reads the photo's light with ?key=AZ,EL,
     which is what the library gives for that key (and unsteered, the automatic key)."""
-    from relight_rt.background import light_from_background
+    from relight_rt.scene_light import light_from_background
 
     rng = np.random.default_rng(3)
     photo = np.clip(rng.normal(110, 30, (96, 128, 3)), 0, 255).astype(np.uint8)

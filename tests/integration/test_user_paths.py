@@ -14,7 +14,7 @@ import pytest
 from _graphs import OWN_LIGHT, make_models_dir, models_dir, save, stage1_model, stage1_sides_model
 from _scenes import ambient, backdrop, directional, side_means, soft_person, write_scene
 
-from relight_rt import Relighter, RelightError, cli, envmap
+from relight_rt import Relighter, RelightError, RuntimeConfig, cli, envmap
 from relight_rt.compositing import Background
 from relight_rt.exposure import REC709
 from relight_rt.stabilize import Stabilizer
@@ -33,7 +33,7 @@ def sides_dir(tmp_path_factory):
 
 @pytest.fixture(scope="session")
 def sides(sides_dir):
-    return Relighter(sides_dir, device="cpu")
+    return Relighter(RuntimeConfig(models=sides_dir, device="cpu"))
 
 
 @pytest.fixture
@@ -123,9 +123,9 @@ def test_light_from_uses_the_other_photos_estimated_light(work, tmp_path_factory
     mask = scene_mask(work)
     out = run(["relight", "p.png", "--models", folder, "--light-from", "other.png", "-o", "o.png"], capsys)
     white = np.repeat((warm @ REC709)[:, None], 3, axis=1)
-    expected = Relighter(folder, device="cpu").relight(str(work / "p.png"), white, mask=str(work / "p_mask.png"))
-    assert not np.allclose(out, Relighter(folder, device="cpu").relight(str(work / "p.png"), warm,
-                                                                        mask=str(work / "p_mask.png")), atol=0.02)
+    fresh = Relighter(RuntimeConfig(models=folder, device="cpu"))
+    expected = fresh.relight(str(work / "p.png"), white, mask=str(work / "p_mask.png"))
+    assert not np.allclose(out, fresh.relight(str(work / "p.png"), warm, mask=str(work / "p_mask.png")), atol=0.02)
     np.testing.assert_allclose(out, expected, atol=1 / 255 + 1e-6)
     # the graph reports the same warm light for every photo, so this is p.png's own light: p.png comes back ...
     photo = cv2.imread("p.png")[..., ::-1] / 255
@@ -145,8 +145,8 @@ def test_models_option_wins_over_environment(work, sides_dir, models_dir, capsys
     np.save("from_y.npy", light)
     out = run(["relight", "p.png", "--models", sides_dir, "--light", "from_y.npy", "-o", "o.png"], capsys)
     photo, mask = str(work / "p.png"), str(work / "p_mask.png")
-    want = Relighter(sides_dir, device="cpu").relight(photo, light, mask=mask)
-    other = Relighter(models_dir, device="cpu").relight(photo, light, mask=mask)
+    want = Relighter(RuntimeConfig(models=sides_dir, device="cpu")).relight(photo, light, mask=mask)
+    other = Relighter(RuntimeConfig(models=models_dir, device="cpu")).relight(photo, light, mask=mask)
     np.testing.assert_allclose(out, want, atol=1 / 255 + 1e-6)
     assert np.abs(out - other).max() > 0.2
 
@@ -353,7 +353,7 @@ def test_stage1_with_a_non_finite_light_is_refused(tmp_path):
     folder = tmp_path / "nan_models"
     make_models_dir(folder, 64, stage2=False, stage1=stage1_model(64, light=np.full((9, 3), np.nan, np.float32)))
     img, mask = soft_person()
-    rl = Relighter(folder, device="cpu")
+    rl = Relighter(RuntimeConfig(models=folder, device="cpu"))
     with pytest.raises(RelightError, match=r"stage1\.onnx.*(non-finite light|'light' holds NaN or Inf)"):
         rl.decompose(img, mask)
     with pytest.raises(RelightError, match="(non-finite|NaN or Inf)"):
@@ -381,18 +381,18 @@ def test_precision_picks_its_own_graph_else_fp32(tmp_path, caplog):
     save(stage1_sides_model(), folder / "stage1_fp16.onnx")
     img, mask = soft_person()
     light = directional((0, 1, 0), strength=0.5)
-    plain = Relighter(folder, device="cpu").relight(img, light, mask=mask)
-    fp16 = Relighter(folder, device="cpu", precision="fp16").relight(img, light, mask=mask)
+    plain = Relighter(RuntimeConfig(models=folder, device="cpu")).relight(img, light, mask=mask)
+    fp16 = Relighter(RuntimeConfig(models=folder, device="cpu", precision="fp16")).relight(img, light, mask=mask)
     assert brighter_side(fp16, mask) == "right" and np.abs(fp16 - plain).max() > 0.2
     with caplog.at_level("WARNING"):
-        int8 = Relighter(folder, device="cpu", precision="int8").relight(img, light, mask=mask)
+        int8 = Relighter(RuntimeConfig(models=folder, device="cpu", precision="int8")).relight(img, light, mask=mask)
     np.testing.assert_array_equal(int8, plain)
     assert "no stage1_int8.onnx" in caplog.text
 
 
 def test_relight_layers_names_its_layers(sides):
     img, mask = soft_person()
-    result = sides.relight_layers(img, ambient(), mask=mask)
+    result = sides.relight(img, ambient(), mask=mask, layers=True)
     assert set(result.layers) == {"albedo", "shading", "diffuse", "residual", "relit", "mask"}
     np.testing.assert_array_equal(result.layers["mask"], mask)
 

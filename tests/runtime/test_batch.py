@@ -50,10 +50,11 @@ def test_plan_single_file_missing_input_and_duplicates(tmp_path):
 
 
 def test_relight_file_writes_atomically_and_refuses_inputs(tmp_path, models_dir):
+    from relight_rt.config import RuntimeConfig
     from relight_rt.relighter import Relighter
 
     photo = _photo(tmp_path, "p")
-    r = Relighter(models_dir, device="cpu")
+    r = Relighter(RuntimeConfig(models=models_dir, device="cpu"))
     out = batch.relight_file(r, photo, tmp_path / "p_relit.png", OWN_LIGHT)
     assert cv2.imread(str(out)).shape == (60, 40, 3)
     before = photo.read_bytes()

@@ -12,6 +12,7 @@ import pytest
 
 from relight_rt import RelightError, bench
 from relight_rt.cli import bench as bench_cli
+from relight_rt.config import RuntimeConfig
 from relight_rt.relighter import Relighter, diffuse_batch
 
 
@@ -130,14 +131,14 @@ def test_diffuse_batch_blocks_match_the_formula(k, size):
 
 
 def test_precision_int8_falls_back_to_fp32_when_absent(tiny_models, caplog):
-    r = Relighter(tiny_models, device="cpu", precision="int8")
+    r = Relighter(RuntimeConfig(models=tiny_models, device="cpu", precision="int8"))
     assert r.stage1.name.endswith("stage1.onnx")
     assert "no stage1_int8.onnx" in caplog.text
 
 
 def test_precision_unknown_is_refused(tiny_models):
     with pytest.raises(RelightError, match="precision"):
-        Relighter(tiny_models, device="cpu", precision="int4")
+        Relighter(RuntimeConfig(models=tiny_models, device="cpu", precision="int4"))
 
 
 # ------------------------------------------------------------------------------ session performance settings

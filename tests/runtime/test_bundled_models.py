@@ -8,7 +8,7 @@ ground-truth relit photo in tests/data) with a lower error than trivial baseline
 import numpy as np
 import pytest
 
-from relight_rt import Relighter, basis, cosine_lobe, find_models, load_light, load_model
+from relight_rt import Relighter, RuntimeConfig, basis, cosine_lobe, find_models, load_light, load_model
 from relight_rt._io import read_image
 from relight_rt.demo import example_path
 from relight_rt.session import bundled_models_dir
@@ -18,7 +18,7 @@ BUDGET_BYTES = 25 * 1000 * 1000
 
 @pytest.fixture(scope="module")
 def relighter():
-    return Relighter(bundled_models_dir(), device="cpu")
+    return Relighter(RuntimeConfig(models=bundled_models_dir(), device="cpu"))
 
 
 def test_bundled_models_are_found_without_a_folder(monkeypatch):

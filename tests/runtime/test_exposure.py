@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from _graphs import OWN_LIGHT, diffuse_models_dir, models_dir, person
 
-from relight_rt import Relighter, RelightError, lights
+from relight_rt import Relighter, RelightError, RuntimeConfig, lights
 from relight_rt.exposure import REC709, exposure_scale, mean_luminance, parse_exposure
 
 __all__ = ["diffuse_models_dir", "models_dir"]  # fixtures
@@ -12,7 +12,7 @@ __all__ = ["diffuse_models_dir", "models_dir"]  # fixtures
 
 @pytest.fixture(scope="module")
 def diffuse(diffuse_models_dir):
-    return Relighter(diffuse_models_dir, device="cpu", detail=False)
+    return Relighter(RuntimeConfig(models=diffuse_models_dir, device="cpu", detail=False))
 
 
 def lum_inside(img, mask):

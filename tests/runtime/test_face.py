@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from relight_rt import Relighter, lights
+from relight_rt import Relighter, RuntimeConfig, lights
 from relight_rt._face import MIN_HEAD_INPUT, SMALL_FACE, feather, head_box
 from relight_rt._geometry import CropGeometry
 
@@ -69,7 +69,7 @@ def test_feather_fades_to_zero_at_open_sides_and_keeps_cut_sides():
 
 @pytest.mark.skipif(not REFERENCE.is_dir(), reason="../shared/reference is absent")
 def test_full_body_photo_gets_a_head_pass_that_changes_only_the_head():
-    r = Relighter(device="cpu")
+    r = Relighter(RuntimeConfig(device="cpu"))
     photo = REFERENCE / "photo" / "sample.jpg"
     mask = REFERENCE / "photo" / "sample_mask.png"
     dec = r.decompose(photo, mask)
@@ -95,7 +95,7 @@ def test_full_body_photo_gets_a_head_pass_that_changes_only_the_head():
 def test_the_photos_own_light_gives_the_photo_back_with_head_pass_and_soft_matte():
     """A real frame with its automatic (soft) matte: the head pass, the foreground colours of the soft edge and
     the background behind it all cancel under the photo's own light."""
-    r = Relighter(device="cpu")
+    r = Relighter(RuntimeConfig(device="cpu"))
     dec = r.decompose(REFERENCE / "video" / "frame_001.png")  # no mask: the automatic matte
     alpha = np.asarray(dec.mask)
     assert ((alpha > 0.05) & (alpha < 0.95)).sum() > 1000 and r._prepared(dec).get("head") is not None

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from _graphs import unoccluded_transport
 
-from relight_rt import Relighter, RelightError, lights
+from relight_rt import Relighter, RelightError, RuntimeConfig, lights
 from relight_rt._face_geometry import FaceMesh, face_transport, lobe_transport, rasterise_normals
 from relight_rt.session import bundled_models_dir
 
@@ -90,7 +90,7 @@ def test_the_face_in_a_real_photo_gets_its_mesh_and_the_light_models_it():
     with the mesh than without it, and the photo's own light still gives the photo back."""
     photo = REFERENCE / "photo" / "sample.jpg"
     mask = REFERENCE / "photo" / "sample_mask.png"
-    r = Relighter(device="cpu")
+    r = Relighter(RuntimeConfig(device="cpu"))
     dec = r.decompose(photo, mask)
     head, box = r._prepared(dec)["head"]
     light = lights.directional((0.4, 1, 0.3)) + lights.ambient(0.08)
@@ -98,7 +98,7 @@ def test_the_face_in_a_real_photo_gets_its_mesh_and_the_light_models_it():
     assert len(r._prepared(head)["face_meshes"]) == 1
     np.testing.assert_allclose(r.relight(dec, dec), dec.image, atol=2e-3)
 
-    plain_r = Relighter(device="cpu")
+    plain_r = Relighter(RuntimeConfig(device="cpu"))
     plain_r._faces = FaceMesh(Path("/nonexistent"))  # no mesh files: stage 1's transport alone
     plain = plain_r.relight(plain_r.decompose(photo, mask), light)
     y0, y1, x0, x1 = box

@@ -19,6 +19,7 @@ from hypothesis.extra import numpy as hnp  # noqa: E402
 
 from relight_rt import RelightError, lights, sh  # noqa: E402
 from relight_rt.compositing import Background  # noqa: E402
+from relight_rt.config import RuntimeConfig  # noqa: E402
 from relight_rt.relighter import Decomposition, Relighter, RelightResult, diffuse_batch  # noqa: E402
 
 __all__ = ["models_dir", "diffuse_models_dir"]  # fixtures
@@ -26,12 +27,12 @@ __all__ = ["models_dir", "diffuse_models_dir"]  # fixtures
 
 @pytest.fixture(scope="module")
 def relighter(models_dir):
-    return Relighter(models_dir, device="cpu")
+    return Relighter(RuntimeConfig(models=models_dir, device="cpu"))
 
 
 @pytest.fixture(scope="module")
 def plain(models_dir):
-    return Relighter(models_dir, device="cpu", detail=False)
+    return Relighter(RuntimeConfig(models=models_dir, device="cpu", detail=False))
 
 
 def inside(mask):
@@ -155,7 +156,7 @@ def test_a_new_backdrop_carries_none_of_the_old_one(relighter):
 
 def test_layers(relighter):
     img, mask = person(seed=4)
-    res = relighter.relight_layers(img, 2 * OWN_LIGHT, mask=mask, exposure="physical")
+    res = relighter.relight(img, 2 * OWN_LIGHT, mask=mask, exposure="physical", layers=True)
     assert isinstance(res, RelightResult) and not res.diffuse_only
     for name in ("albedo", "shading", "diffuse", "residual", "relit"):
         assert res.layers[name].shape == (150, 100, 3) and res.layers[name].dtype == np.float32
@@ -168,10 +169,10 @@ def test_layers(relighter):
 
 def test_diffuse_only_without_stage2(diffuse_models_dir, caplog):
     with caplog.at_level(logging.WARNING, logger="relight_rt.relighter"):
-        r = Relighter(diffuse_models_dir, device="cpu")
+        r = Relighter(RuntimeConfig(models=diffuse_models_dir, device="cpu"))
     assert r.diffuse_only and "diffuse-only" in caplog.text
     img, mask = person(seed=7)
-    res = r.relight_layers(img, 0.5 * OWN_LIGHT, mask=mask, exposure="physical")
+    res = r.relight(img, 0.5 * OWN_LIGHT, mask=mask, exposure="physical", layers=True)
     assert res.diffuse_only and not res.layers["residual"].any()
     m = inside(mask)
     np.testing.assert_allclose(res.image[m], 0.5 * img[m], atol=0.03)  # ratio (0.5 c + eps) / (c + eps)
@@ -277,13 +278,14 @@ def test_rgba_alpha_is_the_mask(relighter):
 def test_missing_models_and_mismatched_stage2(tmp_path, monkeypatch):
     monkeypatch.delenv("RELIGHT_RT_MODELS", raising=False)
     with pytest.raises(RelightError, match="looked in"):
-        Relighter(tmp_path / "none", device="cpu")
+        Relighter(RuntimeConfig(models=tmp_path / "none", device="cpu"))
     folder = make_models_dir(tmp_path / "m", 64, stage2=False)
     save(stage2_model(128), folder / "stage2.onnx")
     with pytest.raises(RelightError, match="resolution 128 does not match stage 1's 64"):
-        Relighter(folder, device="cpu")
+        Relighter(RuntimeConfig(models=folder, device="cpu"))
+    folder = make_models_dir(tmp_path / "n", 64, stage2=False)
     with pytest.raises(RelightError, match="preprocess"):
-        Relighter(make_models_dir(tmp_path / "n", 64, stage2=False), device="cpu", preprocess="nearest")
+        Relighter(RuntimeConfig(models=folder, device="cpu", preprocess="nearest"))
 
 
 def test_reference_photo_end_to_end(relighter, reference_dir):
@@ -430,7 +432,7 @@ def tiny_models(test_data_dir, tmp_path_factory):
 
 
 def test_exported_tiny_models_run_end_to_end(tiny_models):
-    r = Relighter(tiny_models, device="cpu")
+    r = Relighter(RuntimeConfig(models=tiny_models, device="cpu"))
     assert r.resolution == 128 and not r.diffuse_only and r.dvp is not None
     img, mask = person(300, 200, seed=13, box=(20, 280, 50, 150))
     dec = r.decompose(img, mask)
@@ -465,8 +467,8 @@ def test_io_binding_chain_matches_numpy_path(tiny_models, diffuse_models_dir, wi
     from relight_rt._chain import DeviceChain
 
     folder = tiny_models if with_stage2 else diffuse_models_dir
-    ref = Relighter(folder, device="cpu")
-    chained = Relighter(folder, device="cpu")
+    ref = Relighter(RuntimeConfig(models=folder, device="cpu"))
+    chained = Relighter(RuntimeConfig(models=folder, device="cpu"))
     chained._chain = DeviceChain(chained.stage1, chained.stage2, device="cpu")
     img, mask = person(200, 150, seed=15, box=(10, 190, 40, 110))
     dec_a, dec_b = ref.decompose(img, mask), chained.decompose(img, mask)
@@ -474,7 +476,7 @@ def test_io_binding_chain_matches_numpy_path(tiny_models, diffuse_models_dir, wi
     lits = np.stack([lights.preset(n) for n in ("studio", "rim", "neon")])
     want = ref.relight_many(dec_a, lits)
     np.testing.assert_allclose(chained.relight_many(dec_b, lits, batch_size=2), want, atol=1e-5)
-    la, lb = ref.relight_layers(dec_a, lits[0]), chained.relight_layers(dec_a, lits[0])
+    la, lb = ref.relight(dec_a, lits[0], layers=True), chained.relight(dec_a, lits[0], layers=True)
     for name in la.layers:
         np.testing.assert_allclose(lb.layers[name], la.layers[name], atol=1e-5)
 
@@ -485,7 +487,8 @@ def test_cuda_matches_cpu(tiny_models):
 
     if "CUDAExecutionProvider" not in ort.get_available_providers():
         pytest.skip("needs onnxruntime-gpu and a CUDA device")
-    gpu, cpu = Relighter(tiny_models, device="cuda"), Relighter(tiny_models, device="cpu")
+    gpu = Relighter(RuntimeConfig(models=tiny_models, device="cuda"))
+    cpu = Relighter(RuntimeConfig(models=tiny_models, device="cpu"))
     assert gpu._chain is not None and gpu.stage1.on_cuda
     img, mask = person(300, 200, seed=16, box=(20, 280, 50, 150))
     lits = np.stack([lights.preset(n) for n in ("studio", "rim")])
@@ -509,7 +512,7 @@ def test_detail_helpers():
 
 
 def test_no_mask_without_matting_says_how_to_give_one(models_dir):
-    r = Relighter(models_dir, device="cpu", matting="off")
+    r = Relighter(RuntimeConfig(models=models_dir, device="cpu", matting="off"))
     assert r.matter is None
     with pytest.raises(RelightError, match="no mask given.*--mask FILE in the CLI, mask= in the API"):
         r.decompose(np.zeros((20, 20, 3), np.float32))

@@ -92,3 +92,12 @@ def test_video_resolves_a_photos_light_through_the_relighter(relighter, tmp_path
     np.testing.assert_allclose(got, OWN_LIGHT, atol=1e-5)
     with pytest.raises(RelightError, match="stage-1 model"):
         video.resolve_light(tmp_path / "p.png")  # no relighter: a photo's light cannot be had
+
+
+def test_the_test_run_refuses_old_names_outside_a_warning_check(models_dir):
+    """pyproject's filterwarnings: a deprecated relight_rt name reached by a test is an error, so the project's own
+    code and tests cannot slip back to it (the checks above expect the warning with pytest.warns)."""
+    with pytest.raises(DeprecationWarning, match=r"Relighter\(RuntimeConfig"):
+        Relighter(models_dir, device="cpu")
+    with pytest.raises(DeprecationWarning, match="relight_rt.lightfile.load_light"):
+        sh.load_light  # noqa: B018

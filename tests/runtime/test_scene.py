@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from _graphs import diffuse_models_dir, models_dir, person
 
-from relight_rt import Relighter, RelightError, cli
+from relight_rt import Relighter, RelightError, RuntimeConfig, cli
 from relight_rt.color import linear_to_srgb, srgb_to_linear
 from relight_rt.scene import composite, parse_position
 
@@ -14,7 +14,7 @@ __all__ = ["diffuse_models_dir", "models_dir"]  # fixtures
 
 @pytest.fixture(scope="module")
 def diffuse(diffuse_models_dir):
-    return Relighter(diffuse_models_dir, device="cpu", detail=False)
+    return Relighter(RuntimeConfig(models=diffuse_models_dir, device="cpu", detail=False))
 
 
 def flat_person(h=150, w=100, colour=(150, 110, 90)):
@@ -309,7 +309,7 @@ def test_the_automatic_matte_sees_the_photo_not_its_linear_copy(diffuse_models_d
         seen.append(float(rgb.mean()))
         return mask
 
-    r = Relighter(diffuse_models_dir, device="cpu", detail=False)
+    r = Relighter(RuntimeConfig(models=diffuse_models_dir, device="cpu", detail=False))
     r._matter, r._matter_loaded = matter, True  # the automatic matte, replaced by one that records its input
     bg = np.full((120, 260, 3), 90, np.uint8)
     with_matte = r.composite(img, bg)
@@ -342,7 +342,7 @@ def test_a_person_photo_file_is_decoded_once(diffuse_models_dir, tmp_path, monke
     img, mask = flat_person()
     path = tmp_path / "person.png"
     cv2.imwrite(str(path), img[..., ::-1])
-    r = Relighter(diffuse_models_dir, device="cpu", detail=False)
+    r = Relighter(RuntimeConfig(models=diffuse_models_dir, device="cpu", detail=False))
     r._matter, r._matter_loaded = (lambda rgb, name="image": mask), True
     calls = []
     decode = io.decode_file

@@ -32,7 +32,7 @@ from relight_rt.contract import KINDS, ModelConfig, config_from_metadata
 
 @pytest.fixture(scope="module")
 def relighter(models_dir):  # noqa: F811
-    return Relighter(models_dir, device="cpu")
+    return Relighter(RuntimeConfig(models=models_dir, device="cpu"))
 
 
 # ------------------------------------------------------------------------------ RuntimeConfig

@@ -8,6 +8,7 @@ from _graphs import OWN_LIGHT, make_models_dir, person, stage1_sides_model, unoc
 
 from relight_rt import RelightError, _strength, sh
 from relight_rt._strength import BAND_GAIN, restore_bands
+from relight_rt.config import RuntimeConfig
 from relight_rt.relighter import Relighter
 
 
@@ -32,7 +33,7 @@ def test_a_transport_without_nine_coefficients_is_one_relight_error():
 @pytest.fixture(scope="module")
 def sides_relighter(tmp_path_factory):
     folder = make_models_dir(tmp_path_factory.mktemp("sides"), 64, stage2=False, stage1=stage1_sides_model())
-    return Relighter(folder, device="cpu")
+    return Relighter(RuntimeConfig(models=folder, device="cpu"))
 
 
 def _side_factors(relighter, img, mask, light):
@@ -85,7 +86,7 @@ def test_without_the_gains_the_change_is_the_networks(sides_relighter, monkeypat
     img, mask = person(150, 100, seed=4, box=(20, 140, 30, 80))
     light = _lamp_from_right()
     monkeypatch.setattr(_strength, "BAND_GAIN", (1.0, 1.0, 1.0))
-    fresh = Relighter(sides_relighter.models_dir, device="cpu")
+    fresh = Relighter(RuntimeConfig(models=sides_relighter.models_dir, device="cpu"))
     left, right = _side_factors(fresh, img, mask, light)
     exp_left, exp_right = _expected(light, (1.0, 1.0, 1.0))
     assert right / left == pytest.approx(exp_right / exp_left, rel=0.02)

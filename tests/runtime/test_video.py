@@ -341,6 +341,7 @@ def test_empty_mask_frames_pass_through(tmp_path):
 
 def test_relighter_engine_with_tiny_models(tmp_path, test_data_dir):
     """The runtime's Relighter behind the video pipeline: batched stage 1 equals one-by-one decompose."""
+    from relight_rt.config import RuntimeConfig
     from relight_rt.relighter import Relighter
     from relight_rt.video import RelighterEngine
 
@@ -348,7 +349,7 @@ def test_relighter_engine_with_tiny_models(tmp_path, test_data_dir):
     models.mkdir()
     for kind in ("stage1", "stage2"):
         (models / f"{kind}.onnx").write_bytes((test_data_dir / f"tiny_{kind}.onnx").read_bytes())
-    relighter = Relighter(models, device="cpu")
+    relighter = Relighter(RuntimeConfig(models=models, device="cpu"))
     engine = RelighterEngine(relighter)
     frames = _write_folder(tmp_path / "in", 3, h=96, w=80)
     src = list(FrameSource(frames))

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from _graphs import models_dir, person
 
-from relight_rt import Relighter, RelightError, envmap, lights
+from relight_rt import Relighter, RelightError, RuntimeConfig, envmap, lights
 from relight_rt._limits import header_size
 from relight_rt._strength import restore_bands
 from relight_rt.cli import main
@@ -53,7 +53,8 @@ def photo(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def studio(photo, models_dir):
-    return Studio(photo, None, "original", Relighter(models_dir, device="cpu"), preview_pixels=4096, models=models_dir)
+    relighter = Relighter(RuntimeConfig(models=models_dir, device="cpu"))
+    return Studio(photo, None, "original", relighter, preview_pixels=4096, models=models_dir)
 
 
 # ------------------------------------------------------------------------------------------------ core
@@ -160,7 +161,7 @@ def test_render_is_the_relighters_result(studio, models_dir):
     rid, rec = studio.render(light.tolist())
     assert studio.renders.get(rid) is rec
     png = cv2.imdecode(np.frombuffer(rec.png, np.uint8), cv2.IMREAD_UNCHANGED)
-    expected = Relighter(models_dir, device="cpu").relight(studio.photo, light)
+    expected = Relighter(RuntimeConfig(models=models_dir, device="cpu")).relight(studio.photo, light)
     np.testing.assert_array_equal(png[..., ::-1], (np.clip(expected, 0, 1) * 255 + 0.5).astype(np.uint8))
     np.testing.assert_array_equal(rec.light, light)
     cmd = studio.command(rec, "someone_light.npy")
@@ -214,7 +215,7 @@ def test_photo_light_alpha_else_automatic_matte(studio, photo):
 
 
 def test_studio_checks_its_arguments(photo, models_dir, tmp_path):
-    relighter = Relighter(models_dir, device="cpu")
+    relighter = Relighter(RuntimeConfig(models=models_dir, device="cpu"))
     with pytest.raises(RelightError, match="--background"):
         Studio(photo, None, str(tmp_path / "missing.png"), relighter)
     with pytest.raises(RelightError, match="preview_pixels"):
@@ -375,7 +376,7 @@ def test_cli_serves_and_prints_its_url(photo, models_dir):
 
 
 def test_background_image_and_transparent(photo, models_dir, tmp_path):
-    relighter = Relighter(models_dir, device="cpu")
+    relighter = Relighter(RuntimeConfig(models=models_dir, device="cpu"))
     bg = np.zeros((90, 60, 3), np.float32)
     bg[..., 2] = 0.8  # blue
     bg_path = tmp_path / "blue.png"

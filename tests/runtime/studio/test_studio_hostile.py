@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 from _graphs import models_dir, person
 
-from relight_rt import Relighter, RelightError
+from relight_rt import Relighter, RelightError, RuntimeConfig
 from relight_rt.studio.core import MAX_UPLOAD_PIXELS, Studio, check_upload, decode_upload
 
 __all__ = ["models_dir"]  # fixture
@@ -85,7 +85,8 @@ def photo(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def studio(photo, models_dir):
-    return Studio(photo, None, "original", Relighter(models_dir, device="cpu"), preview_pixels=4096)
+    relighter = Relighter(RuntimeConfig(models=models_dir, device="cpu"))
+    return Studio(photo, None, "original", relighter, preview_pixels=4096)
 
 
 @pytest.fixture(scope="module")
