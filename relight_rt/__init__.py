@@ -106,25 +106,10 @@ __all__ = [
 
 # The public names are loaded at their first use, not at ``import relight_rt``: the command line must install
 # its signal handling before numpy, OpenCV and onnxruntime load (~0.3 s in which Ctrl-C gave a traceback and
-# SIGTERM no message; issue 35 item 16). The first access of any name loads them all, in the order above.
-_PUBLIC_FROM = {
-    "_errors": ["RelightError"],
-    "color": ["linear_to_srgb", "srgb_to_linear"],
-    "compositing": ["Background", "parse_background"],
-    "config": ["RuntimeConfig"],
-    "contract": ["KindSpec", "ModelConfig", "TensorSpec", "register_kind"],
-    "lights": ["ambient", "directional", "interpolate", "list_presets", "preset", "rotation_sequence", "sky"],
-    "lightspec": ["LightSpec", "parse_light"],
-    "masks": ["Matter", "resolve_mask"],
-    "relighter": ["Decomposition", "Relighter", "RelightResult"],
-    "session": ["Model", "create_session", "find_models", "load_model"],
-    "envmap": ["directions_envmap", "envmap_from_light", "load_envmap", "project_envmap", "solid_angles_envmap"],
-    "lightfile": ["load_light", "save_light"],
-    "sh": ["basis", "check_light", "cosine_lobe", "irradiance", "render_sphere", "rotate", "rotate_z",
-           "rotation_matrix", "shading"],
-    "transport_file": ["load_transport"],
-}
-_MODULES = ("color", "compositing", "config", "contract", "envmap", "lightfile", "lights", "lightspec", "masks", "sh")
+# SIGTERM no message; issue 35 item 16). The first access of any name imports these modules, in this order, and
+# takes each name of ``__all__`` from the first of them that defines it (``__all__`` is the one list).
+_HOMES = ("_errors", "color", "compositing", "config", "contract", "envmap", "lightfile", "lights", "lightspec",
+          "masks", "sh", "relighter", "session", "transport_file")
 _state = {"loading": False}
 
 
@@ -135,11 +120,19 @@ def _load_public_names() -> None:
         return
     _state["loading"] = True
     try:
-        for module in _MODULES:
-            importlib.import_module(f"{__name__}.{module}")
-        for module, names in _PUBLIC_FROM.items():
-            loaded = importlib.import_module(f"{__name__}.{module}")
-            globals().update({name: getattr(loaded, name) for name in names})
+        homes = []
+        for module in _HOMES:
+            home = importlib.import_module(f"{__name__}.{module}")
+            if getattr(home.__spec__, "_initializing", False):
+                # a module imported first reached the package before it had finished (the import system marks it
+                # so): stop here, before a later home imports names it has not defined yet; they are all taken
+                # at the next first use
+                break
+            homes.append(vars(home))
+        for name in __all__:  # the modules of __all__ are attributes of the package once imported
+            found = [home[name] for home in homes if name in home]
+            if name not in globals() and found:
+                globals()[name] = found[0]
     finally:
         _state["loading"] = False
 

@@ -347,7 +347,8 @@ def test_exposure_reaches_the_relighter_and_the_command(photo, models_dir):
             self.seen.append(exposure)
             return super().relight(image, light, mask=mask, background=background, exposure=exposure)
 
-    studio = Studio(photo, None, "original", Recording(models_dir, device="cpu"), preview_pixels=4096)
+    recording = Recording(RuntimeConfig(models=models_dir, device="cpu"))
+    studio = Studio(photo, None, "original", recording, preview_pixels=4096)
     assert studio.info()["exposure"] is True
     _, rec = studio.render(lights.preset("studio").tolist(), exposure=1.5)
     assert Recording.seen == [1.5] and "--exposure 1.5" in studio.command(rec, "l.npy")
