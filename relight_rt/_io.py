@@ -312,9 +312,35 @@ def _atomic(path: str | os.PathLike, protect: Iterable[str | os.PathLike], write
     return Path(path)
 
 
+# What each kind of file is written with: ``write(fileobj)``, for one file (``write_npy``, ...) or for several
+# written as one (``write_all``). The arrays are taken, and an image encoded, when the writer is made.
+def bytes_writer(data: bytes) -> Callable[[object], None]:
+    """A writer of ``data`` as it is."""
+    return lambda f: f.write(data)
+
+
+def npy_writer(array: np.ndarray) -> Callable[[object], None]:
+    """A writer of one array as .npy (never pickled)."""
+    arr = np.asarray(array)
+    return lambda f: np.save(f, arr, allow_pickle=False)
+
+
+def npz_writer(arrays: dict[str, np.ndarray], compressed: bool = True) -> Callable[[object], None]:
+    """A writer of named arrays as .npz (compressed by default)."""
+    save = np.savez_compressed if compressed else np.savez
+    named = {k: np.asarray(v) for k, v in arrays.items()}
+    return lambda f: save(f, **named)
+
+
+def image_writer(image: np.ndarray, path: str | os.PathLike) -> Callable[[object], None]:
+    """A writer of a float [0, 1] image as 8-bit in the format of ``path``'s suffix (see ``write_image``)."""
+    path = Path(path)
+    return bytes_writer(encode_image(image, path.suffix or ".png", name=str(path)))
+
+
 def write_bytes(path: str | os.PathLike, data: bytes, protect: Iterable[str | os.PathLike] = ()) -> Path:
     """Write ``data`` to ``path`` atomically (a temporary file beside it, then a rename), never over ``protect``."""
-    return _atomic(path, protect, lambda f: f.write(data))
+    return _atomic(path, protect, bytes_writer(data))
 
 
 def write_all(files: Sequence[tuple[str | os.PathLike, Callable[[object], None]]],
@@ -369,15 +395,12 @@ def write_image(path: str | os.PathLike, image: np.ndarray, protect: Iterable[st
     Raises:
         RelightError: ``path`` is one of ``protect``, its folder is missing, or the format is unknown.
     """
-    path = Path(path)
-    data = encode_image(image, path.suffix or ".png", name=str(path))
-    return _atomic(path, protect, lambda f: f.write(data))
+    return _atomic(path, protect, image_writer(image, path))
 
 
 def write_npy(path: str | os.PathLike, array: np.ndarray, protect: Iterable[str | os.PathLike] = ()) -> Path:
     """Save one array as .npy atomically (never pickled)."""
-    arr = np.asarray(array)
-    return _atomic(path, protect, lambda f: np.save(f, arr, allow_pickle=False))
+    return _atomic(path, protect, npy_writer(array))
 
 
 def write_npz(
@@ -387,8 +410,7 @@ def write_npz(
     compressed: bool = True,
 ) -> Path:
     """Save named arrays as .npz atomically (compressed by default)."""
-    save = np.savez_compressed if compressed else np.savez
-    return _atomic(path, protect, lambda f: save(f, **{k: np.asarray(v) for k, v in arrays.items()}))
+    return _atomic(path, protect, npz_writer(arrays, compressed))
 
 
 OUTPUT_STEM = "_relit"  # ``relight`` writes NAME_relit.png into its output folder

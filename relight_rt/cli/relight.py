@@ -11,7 +11,7 @@ import numpy as np
 
 from .. import batch
 from .._errors import RelightError
-from .._io import ProtectedPaths, encode_image, sibling_mask, write_all
+from .._io import ProtectedPaths, image_writer, npy_writer, npz_writer, sibling_mask, write_all
 from .._progress import progress
 from ..exposure import parse_exposure
 from ..masks import find_mask_file
@@ -150,14 +150,14 @@ def cmd_decompose(args: argparse.Namespace) -> int:
     folder.mkdir(parents=True, exist_ok=True)
     protect = [src, *paths_of(mask if mask != "auto" else None), *Path(rl.models_dir).glob("*.onnx")]
     layers = rl.layers(dec)  # at the photo's resolution, with its detail in the albedo
-    pngs = {name: encode_image(layers[name], ".png", name=str(folder / f"{name}.png"))
-            for name in ("albedo", "shading", "skin")}
-    transport = transport_arrays(dec.transport, dec.geometry)  # network size, float16, with its crop geometry
+    pngs = [(folder / f"{name}.png", image_writer(layers[name], folder / f"{name}.png"))
+            for name in ("albedo", "shading", "skin")]  # encoded before anything is written
     write_all([  # the five layers or none of them (an input among them, a full disk)
-        *((folder / f"{name}.png", lambda f, data=data: f.write(data)) for name, data in pngs.items()),
+        *pngs,
         # the photo's own light as the runtime takes it (white): albedo x shading = photo
-        (folder / "light.npy", lambda f: np.save(f, np.asarray(dec.white_light, np.float64), allow_pickle=False)),
-        (folder / "transport.npz", lambda f: np.savez_compressed(f, **transport)),
+        (folder / "light.npy", npy_writer(np.asarray(dec.white_light, np.float64))),
+        # network size, float16, with its crop geometry: the arrays of transport_file.save_transport
+        (folder / "transport.npz", npz_writer(transport_arrays(dec.transport, dec.geometry))),
     ], protect)  # fmt: skip
     log.info("%s -> %s (albedo.png, shading.png, skin.png, light.npy, transport.npz)", src, folder)
     return 0

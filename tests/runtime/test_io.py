@@ -5,7 +5,19 @@ import numpy as np
 import pytest
 
 from relight_rt import RelightError
-from relight_rt._io import list_images, read_image, read_mask, sibling_mask, write_image, write_npy, write_npz
+from relight_rt._io import (
+    image_writer,
+    list_images,
+    npy_writer,
+    npz_writer,
+    read_image,
+    read_mask,
+    sibling_mask,
+    write_all,
+    write_image,
+    write_npy,
+    write_npz,
+)
 
 
 @pytest.fixture
@@ -221,6 +233,25 @@ def test_write_npy_npz(tmp_path):
     np.testing.assert_array_equal(np.load(write_npy(tmp_path / "l.npy", a), allow_pickle=False), a)
     with np.load(write_npz(tmp_path / "t.npz", {"T": a}), allow_pickle=False) as z:
         np.testing.assert_array_equal(z["T"], a)
+
+
+def test_write_all_takes_the_writers_of_the_single_files(tmp_path):
+    """decompose writes its five files through write_all with the writers write_image / write_npy / write_npz use,
+    so the files written as one are the very bytes of the files written one by one."""
+    a = np.arange(27, dtype=np.float32).reshape(9, 3)
+    img = np.linspace(0, 1, 4 * 5 * 3, dtype=np.float32).reshape(4, 5, 3)
+    one = [write_image(tmp_path / "1.png", img), write_npy(tmp_path / "1.npy", a),
+           write_npz(tmp_path / "1.npz", {"T": a})]
+    both = write_all([(tmp_path / "2.png", image_writer(img, tmp_path / "2.png")), (tmp_path / "2.npy", npy_writer(a)),
+                      (tmp_path / "2.npz", npz_writer({"T": a}))])
+    for p1, p2 in zip(one, both, strict=True):
+        if p1.suffix == ".npz":  # a zip stamps its members with the time: compare the arrays
+            with np.load(p1) as z1, np.load(p2) as z2:
+                assert z1.files == z2.files and z1["T"].tobytes() == z2["T"].tobytes()
+        else:
+            assert p1.read_bytes() == p2.read_bytes()
+    with pytest.raises(RelightError, match="cannot hold transparency"):
+        image_writer(np.zeros((2, 2, 4)), tmp_path / "x.jpg")  # encoded when the writer is made, before any file
 
 
 def test_list_images_and_sibling_mask(tmp_path):
