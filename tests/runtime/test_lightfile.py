@@ -6,20 +6,9 @@ import json
 
 import numpy as np
 import pytest
+from _sh_samples import random_light
 
 from relight_rt import RelightError, lightfile, sh
-
-RNG_SEED = 1234
-
-
-def random_dirs(n, seed=RNG_SEED):
-    v = np.random.default_rng(seed).normal(size=(n, 3))
-    return v / np.linalg.norm(v, axis=1, keepdims=True)
-
-
-def random_light(seed=RNG_SEED, batch=()):
-    return np.random.default_rng(seed).normal(size=batch + (9, 3))
-
 
 # ----------------------------------------------------------------------------------------- light files
 

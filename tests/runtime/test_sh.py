@@ -8,19 +8,9 @@ import math
 
 import numpy as np
 import pytest
+from _sh_samples import RNG_SEED, random_dirs, random_light
 
 from relight_rt import RelightError, envmap, sh
-
-RNG_SEED = 1234
-
-
-def random_dirs(n, seed=RNG_SEED):
-    v = np.random.default_rng(seed).normal(size=(n, 3))
-    return v / np.linalg.norm(v, axis=1, keepdims=True)
-
-
-def random_light(seed=RNG_SEED, batch=()):
-    return np.random.default_rng(seed).normal(size=batch + (9, 3))
 
 
 def random_rotation(seed=RNG_SEED):
