@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import cv2
 import numpy as np
 import pytest
 
@@ -229,3 +230,13 @@ def person(h=150, w=100, seed=0, box=(20, 140, 30, 80)):
     y0, y1, x0, x1 = box
     mask[y0:y1, x0:x1] = 1.0
     return img, mask
+
+
+def write_person(folder: Path, name: str = "p", seed: int = 0, *, mask_folder: Path | None = None,
+                 **shape) -> Path:
+    """``person(**shape, seed=seed)`` written as ``folder/NAME.png`` (8-bit) and its ``NAME_mask.png`` (beside it,
+    or in ``mask_folder``); returns the photo's path."""
+    img, mask = person(seed=seed, **shape)
+    cv2.imwrite(str(folder / f"{name}.png"), (img[..., ::-1] * 255).round().astype(np.uint8))
+    cv2.imwrite(str((mask_folder or folder) / f"{name}_mask.png"), (mask * 255).astype(np.uint8))
+    return folder / f"{name}.png"

@@ -7,7 +7,7 @@ import sys
 import cv2
 import numpy as np
 import pytest
-from _graphs import OWN_LIGHT, models_dir, person
+from _graphs import OWN_LIGHT, models_dir, write_person
 
 from relight_rt import RelightError, batch, cli, distributed
 
@@ -15,10 +15,7 @@ __all__ = ["models_dir"]  # fixture
 
 
 def _photo(folder, name, seed=0):
-    img, mask = person(60, 40, seed=seed, box=(5, 55, 10, 30))
-    cv2.imwrite(str(folder / f"{name}.png"), (img[..., ::-1] * 255).round().astype(np.uint8))
-    cv2.imwrite(str(folder / f"{name}_mask.png"), (mask * 255).astype(np.uint8))
-    return folder / f"{name}.png"
+    return write_person(folder, name, seed, h=60, w=40, box=(5, 55, 10, 30))
 
 
 def test_plan_leaves_out_the_projects_own_files(tmp_path):

@@ -5,18 +5,11 @@ import json
 import cv2
 import numpy as np
 import pytest
-from _graphs import OWN_LIGHT, meta_for, models_dir, person, save, stage1_model
+from _graphs import OWN_LIGHT, meta_for, models_dir, save, stage1_model, write_person
 
 from relight_rt import cli
 
 __all__ = ["models_dir"]  # fixture
-
-
-def write_photo(folder, name="p", seed=0, h=150, w=100):
-    img, mask = person(h, w, seed=seed)
-    cv2.imwrite(str(folder / f"{name}.png"), (img[..., ::-1] * 255).round().astype(np.uint8))
-    cv2.imwrite(str(folder / f"{name}_mask.png"), (mask * 255).astype(np.uint8))
-    return folder / f"{name}.png"
 
 
 @pytest.fixture
@@ -34,7 +27,7 @@ def run(argv, capsys):
 
 
 def test_relight_one_file(work, capsys):
-    photo = write_photo(work)
+    photo = write_person(work)
     code, _, err = run(["relight", photo, "--light", "light.npy", "-o", "out.png", "--device", "cpu"], capsys)
     assert code == 0, err
     out = cv2.imread("out.png")
@@ -48,7 +41,7 @@ def test_relight_one_file(work, capsys):
      ["--envmap", "env.hdr"], ["--light", "light.npy", "--bgr"]],
 )  # fmt: skip
 def test_light_options(work, capsys, light_args):
-    write_photo(work)
+    write_person(work)
     cv2.imwrite("env.hdr", np.full((8, 16, 3), 0.3, np.float32))
     code, _, err = run(["relight", "p.png", *light_args, "-o", "o.png"], capsys)
     assert code == 0, err
@@ -56,7 +49,7 @@ def test_light_options(work, capsys, light_args):
 
 
 def test_transparent_background(work, capsys):
-    write_photo(work)
+    write_person(work)
     code, _, err = run(["relight", "p.png", "--preset", "front", "--background", "transparent", "-o", "o.png"], capsys)
     assert code == 0, err
     assert cv2.imread("o.png", cv2.IMREAD_UNCHANGED).shape == (150, 100, 4)
@@ -64,8 +57,8 @@ def test_transparent_background(work, capsys):
 
 def test_folder_goes_on_past_bad_files_and_reports_all(work, capsys):
     (work / "in").mkdir()
-    write_photo(work / "in", "a", 1)
-    write_photo(work / "in", "b", 2)
+    write_person(work / "in", "a", 1)
+    write_person(work / "in", "b", 2)
     (work / "in" / "c.png").write_bytes(b"broken")
     cv2.imwrite(str(work / "in" / "d.png"), np.zeros((20, 20, 3), np.uint8))  # no mask, no alpha
     code, _, err = run(["relight", "in", "--light", "light.npy", "-o", "out"], capsys)
@@ -77,7 +70,7 @@ def test_folder_goes_on_past_bad_files_and_reports_all(work, capsys):
 
 
 def test_mask_folder_and_mask_file(work, capsys):
-    write_photo(work, "a")
+    write_person(work, "a")
     (work / "masks").mkdir()
     (work / "a_mask.png").rename(work / "masks" / "a_mask.png")
     code, _, err = run(["relight", "a.png", "--mask", "masks", "--preset", "studio", "-o", "o1.png"], capsys)
@@ -87,7 +80,7 @@ def test_mask_folder_and_mask_file(work, capsys):
 
 
 def test_decompose(work, capsys):
-    write_photo(work)
+    write_person(work)
     code, _, err = run(["decompose", "p.png", "-o", "dec"], capsys)
     assert code == 0, err
     names = sorted(p.name for p in (work / "dec").iterdir())
@@ -101,7 +94,7 @@ def test_decompose_stores_the_transport_at_the_network_size(work, capsys, models
     network's (R, R, 9) float16 with the crop geometry, brought back to the photo's size on reading."""
     from relight_rt import Relighter, RuntimeConfig, load_transport
 
-    photo = write_photo(work, h=600, w=400)
+    photo = write_person(work, h=600, w=400)
     code, _, err = run(["decompose", photo, "-o", "dec"], capsys)
     assert code == 0, err
     dec = Relighter(RuntimeConfig(models=models_dir, device="cpu")).decompose(photo, "p_mask.png")
@@ -118,7 +111,7 @@ def test_decompose_stores_the_transport_at_the_network_size(work, capsys, models
 @pytest.mark.parametrize("form", ["gray", "gray16", "colour16"])
 def test_black_and_white_and_16_bit_photos_are_relit_and_decomposed(work, capsys, form):
     """issue 34: relight and decompose refused them ("expected an (H, W, 3) colour image, got grayscale")."""
-    photo = write_photo(work)
+    photo = write_person(work)
     rgb = cv2.imread(str(photo))
     gray = cv2.cvtColor(rgb, cv2.COLOR_BGR2GRAY)
     image = {"gray": gray, "gray16": gray.astype(np.uint16) * 257, "colour16": rgb.astype(np.uint16) * 257}[form]
@@ -135,13 +128,13 @@ def test_decompose_writes_all_layers_or_none(work, capsys, monkeypatch):
     """issue 35 item 10: decompose wrote albedo.png and shading.png, then failed at skin.png (an input of that
     name in the output folder) or at a full disk (a message naming no file): now all five layers or none."""
     (work / "dec").mkdir()
-    write_photo(work / "dec", "skin")  # the photo is dec/skin.png: the skin layer would replace it
+    write_person(work / "dec", "skin")  # the photo is dec/skin.png: the skin layer would replace it
     before = {p.name: p.read_bytes() for p in (work / "dec").iterdir()}
     code, _, err = run(["decompose", "dec/skin.png", "-o", "dec"], capsys)
     assert code == 2 and "refusing to overwrite the input" in err and "skin.png" in err, err
     assert {p.name: p.read_bytes() for p in (work / "dec").iterdir()} == before  # nothing written, nothing left
 
-    write_photo(work)
+    write_person(work)
     real_save = np.save
 
     def full_disk(file, arr, allow_pickle=True):  # light.npy, the fourth file: no space left
@@ -178,7 +171,7 @@ def test_lights_commands(work, capsys):
 def test_lights_from_photo_takes_the_model_options(work, capsys, models_dir, monkeypatch):
     """Every command takes --models/--device; from-photo is the lights command that runs stage 1."""
     monkeypatch.delenv("RELIGHT_RT_MODELS")
-    write_photo(work)
+    write_person(work)
     for target in ("own.npy", "own.json"):
         code, _, err = run(["lights", "from-photo", "p.png", "--models", models_dir, "--device", "cpu", "-o", target],
                            capsys)
@@ -270,7 +263,7 @@ def test_usage_errors_are_one_line(capsys, argv, words):
 
 def bad_case(work, kind):
     """Make one bad input in ``work``; return the relight arguments (without -o)."""
-    photo = write_photo(work)
+    photo = write_person(work)
     args = [photo, "--light", "light.npy"]
     if kind == "size-mismatch":
         cv2.imwrite("p_mask.png", np.full((10, 10), 255, np.uint8))
@@ -326,7 +319,7 @@ def test_bad_input_is_one_line_and_exit_2(work, capsys, kind):
 
 
 def test_refuses_to_overwrite_inputs(work, capsys):
-    photo = write_photo(work)
+    photo = write_person(work)
     before = photo.read_bytes()
     cv2.imwrite("bg.png", np.zeros((150, 100, 3), np.uint8))
     for target in ("p.png", "p_mask.png", "bg.png", "./p.png"):
@@ -341,8 +334,8 @@ def test_refuses_to_overwrite_inputs(work, capsys):
 def test_same_stem_twice_is_reported(work, capsys):
     (work / "x").mkdir()
     (work / "y").mkdir()
-    write_photo(work / "x", "a")
-    write_photo(work / "y", "a")
+    write_person(work / "x", "a")
+    write_person(work / "y", "a")
     code, _, err = run(["relight", "x", "y", "--preset", "studio", "-o", "out"], capsys)
     assert code == 2 and "would both write" in err
     assert [p.name for p in (work / "out").iterdir()] == ["a_relit.png"]
@@ -363,7 +356,7 @@ def test_reference_photo_from_the_cli(work, capsys, reference_dir):
 def test_one_set_of_light_flags_in_every_command(work, capsys):
     """issue 18 item 8: the same light options everywhere, a preset named as a file points to --preset, and an
     unknown option shows the subcommand's own usage."""
-    write_photo(work)
+    write_person(work)
     code, _, err = run(["relight", "p.png", "--light", "studio", "-o", "o.png"], capsys)
     assert code == 2 and "use --preset studio" in err and not (work / "o.png").exists()
     code, _, err = run(["relight", "p.png", "--preset", "studio", "--bgr", "-o", "o.png"], capsys)

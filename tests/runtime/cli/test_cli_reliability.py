@@ -10,20 +10,23 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
-from _graphs import OWN_LIGHT, make_models_dir, meta_for, models_dir, person, save, stage1_model, stage2_model
+from _graphs import (
+    OWN_LIGHT,
+    make_models_dir,
+    meta_for,
+    models_dir,
+    person,
+    save,
+    stage1_model,
+    stage2_model,
+    write_person,
+)
 
 from relight_rt import cli
 
 __all__ = ["models_dir"]  # fixture
 
 REPO = Path(__file__).resolve().parents[3]
-
-
-def write_photo(folder: Path, name="p", seed=0, mask_folder: Path | None = None) -> Path:
-    img, mask = person(seed=seed)
-    cv2.imwrite(str(folder / f"{name}.png"), (img[..., ::-1] * 255).round().astype(np.uint8))
-    cv2.imwrite(str((mask_folder or folder) / f"{name}_mask.png"), (mask * 255).astype(np.uint8))
-    return folder / f"{name}.png"
 
 
 @pytest.fixture
@@ -34,7 +37,7 @@ def work(tmp_path, models_dir, monkeypatch):
     (tmp_path / "img").mkdir()
     (tmp_path / "masks").mkdir()
     for i, name in enumerate("ab"):
-        write_photo(tmp_path / "img", name, i, tmp_path / "masks")
+        write_person(tmp_path / "img", name, i, mask_folder=tmp_path / "masks")
     return tmp_path
 
 
@@ -72,7 +75,7 @@ def test_masks_in_a_mask_folder_are_inputs(work, capsys):
         code, _, err = run(["relight", "img/a.png", "--mask", "masks", "--preset", "studio", "-o", target], capsys)
         one_error(code, err, "refusing to overwrite the input")
     # the mask of a --light-from photo is read too
-    write_photo(work, "donor", 5)
+    write_person(work, "donor", 5)
     code, _, err = run(["relight", "img/a.png", "--mask", "masks", "--light-from", "donor.png", "-o", "donor_mask.png"],
                        capsys)
     one_error(code, err, "refusing to overwrite the input")
@@ -315,7 +318,7 @@ def test_signal_while_starting_is_one_line(entry, sig, code, text):
 
 
 def test_messages(work, capsys, tmp_path_factory):
-    write_photo(work, "nomask", 2)
+    write_person(work, "nomask", 2)
     (work / "nomask_mask.png").unlink()
     code, _, err = run(["relight", "nomask.png", "--preset", "studio", "-o", "o.png"], capsys)
     line = one_error(code, err, "--mask")
