@@ -30,7 +30,6 @@ import platform
 import statistics
 import sys
 import tempfile
-import threading
 import time
 from pathlib import Path
 
@@ -39,25 +38,13 @@ import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
+sys.path.insert(0, str(REPO / "benchmarks"))
+
+from headless_studio import launch_chromium, start_server  # noqa: E402
 
 from relight_rt import Relighter, RuntimeConfig, lights  # noqa: E402
 from relight_rt.demo import example_path  # noqa: E402
-from relight_rt.studio import create_app  # noqa: E402
 from relight_rt.studio.core import Studio  # noqa: E402
-
-CHROMIUM_ARGS = [
-    "--headless",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-quic",
-    "--no-first-run",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--disable-dev-shm-usage",
-    "--use-angle=swiftshader",
-    "--enable-unsafe-swiftshader",
-]
 
 
 def enlarged_example(folder: Path, pixels: int) -> Path:
@@ -70,17 +57,6 @@ def enlarged_example(folder: Path, pixels: int) -> Path:
     path = folder / f"example_{size[0]}x{size[1]}.png"
     cv2.imwrite(str(path), big)
     return path
-
-
-def start_server(studio: Studio):
-    import uvicorn
-
-    srv = uvicorn.Server(uvicorn.Config(create_app(studio), host="127.0.0.1", port=0, log_level="warning"))
-    thread = threading.Thread(target=srv.run, daemon=True)
-    thread.start()
-    while not srv.started:
-        time.sleep(0.02)
-    return srv, thread, f"http://127.0.0.1:{srv.servers[0].sockets[0].getsockname()[1]}"
 
 
 def stats(values) -> dict:
@@ -180,13 +156,7 @@ def main(argv=None) -> int:
             "browser": {},
         }
         with sync_playwright() as p:
-            context = p.chromium.launch_persistent_context(
-                tempfile.mkdtemp(prefix="chromium-"),
-                executable_path=args.chromium,
-                headless=True,
-                args=CHROMIUM_ARGS,
-                viewport={"width": 1280, "height": 800},
-            )
+            context = launch_chromium(p, args.chromium, tempfile.mkdtemp(prefix="chromium-"), (1280, 800))
             report["browser"]["version"] = context.browser.version if context.browser else "chromium"
             report["browser"]["webgl"] = measure_page(context, url + "/?renderer=webgl", args.frames)
             report["browser"]["canvas"] = measure_page(context, url + "/?renderer=canvas", args.frames)

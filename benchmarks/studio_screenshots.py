@@ -21,7 +21,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "benchmarks"))
 
-from studio_bench import CHROMIUM_ARGS, start_server  # noqa: E402
+from headless_studio import launch_chromium, start_server  # noqa: E402
 
 from relight_rt import Relighter, RuntimeConfig  # noqa: E402
 from relight_rt.demo import example_path  # noqa: E402
@@ -63,13 +63,7 @@ def main(argv=None) -> int:
     studio = Studio(photo, None, "original", Relighter(RuntimeConfig(device="cpu")))
     srv, thread, url = start_server(studio)
     with sync_playwright() as p:
-        context = p.chromium.launch_persistent_context(
-            tempfile.mkdtemp(prefix="chromium-"),
-            executable_path=args.chromium,
-            headless=True,
-            args=CHROMIUM_ARGS,
-            viewport={"width": 1366, "height": 768},
-        )
+        context = launch_chromium(p, args.chromium, tempfile.mkdtemp(prefix="chromium-"), (1366, 768))
         page = context.new_page()
         page.goto(url)
         page.wait_for_selector("body[data-ready='1']", timeout=60_000)

@@ -15,8 +15,6 @@ import re
 import shlex
 import subprocess
 import sys
-import threading
-import time
 from pathlib import Path
 
 import cv2
@@ -24,7 +22,7 @@ import numpy as np
 import pytest
 
 pytest.importorskip("fastapi")
-uvicorn = pytest.importorskip("uvicorn")
+pytest.importorskip("uvicorn")
 sync_api = pytest.importorskip("playwright.sync_api")
 
 import relight_rt  # noqa: E402
@@ -32,26 +30,14 @@ from relight_rt import Relighter, RuntimeConfig, lightfile, lights, sh  # noqa: 
 from relight_rt.demo import example_path  # noqa: E402
 from relight_rt.exposure import exposure_scale  # noqa: E402
 from relight_rt.sh import shading  # noqa: E402
-from relight_rt.studio import create_app  # noqa: E402
 from relight_rt.studio.core import Studio, unpack_layers  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(REPO / "benchmarks"))  # the studio's server and chromium, as its benchmarks run them
+from headless_studio import launch_chromium, start_server  # noqa: E402
+
 CHROMIUM = os.environ.get("RELIGHT_RT_CHROMIUM", "/usr/bin/chromium")
 BUNDLED = Path(relight_rt.__file__).resolve().parent / "models"
-# headless, offline, no sandbox (root in CI), software WebGL (SwiftShader through ANGLE)
-CHROMIUM_ARGS = [
-    "--headless",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-quic",
-    "--no-first-run",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--disable-dev-shm-usage",
-    "--use-angle=swiftshader",
-    "--enable-unsafe-swiftshader",
-]
 
 if not Path(CHROMIUM).is_file():
     pytest.skip(f"no chromium at {CHROMIUM} (run .ci/install-browser)", allow_module_level=True)
@@ -64,16 +50,8 @@ def studio():
 
 @pytest.fixture(scope="module")
 def server(studio):
-    srv = uvicorn.Server(uvicorn.Config(create_app(studio), host="127.0.0.1", port=0, log_level="warning"))
-    thread = threading.Thread(target=srv.run, daemon=True)
-    thread.start()
-    deadline = time.monotonic() + 20
-    while not srv.started:
-        if time.monotonic() > deadline or not thread.is_alive():
-            pytest.fail("the studio server did not start")
-        time.sleep(0.02)
-    port = srv.servers[0].sockets[0].getsockname()[1]
-    yield f"http://127.0.0.1:{port}"
+    srv, thread, url = start_server(studio)
+    yield url
     srv.should_exit = True
     thread.join(10)
 
@@ -81,14 +59,8 @@ def server(studio):
 @pytest.fixture(scope="module")
 def browser(tmp_path_factory):
     with sync_api.sync_playwright() as p:
-        context = p.chromium.launch_persistent_context(
-            str(tmp_path_factory.mktemp("chromium-profile")),  # a fresh --user-data-dir
-            executable_path=CHROMIUM,
-            headless=True,
-            args=CHROMIUM_ARGS,
-            accept_downloads=True,
-            viewport={"width": 1280, "height": 800},
-        )
+        profile = str(tmp_path_factory.mktemp("chromium-profile"))  # a fresh --user-data-dir
+        context = launch_chromium(p, CHROMIUM, profile, (1280, 800), accept_downloads=True)
         yield context
         context.close()
 
