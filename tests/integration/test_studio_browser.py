@@ -65,8 +65,12 @@ def browser(tmp_path_factory):
         context.close()
 
 
-def open_page(browser, url: str):
+def open_page(browser, url: str, viewport: tuple[int, int] | None = None):
+    """A new page of ``url``, ready (the studio sets body[data-ready]) and without a script error; ``viewport``:
+    the window's (width, height) in CSS pixels (device pixel ratio 1), else the browser's."""
     page = browser.new_page()
+    if viewport is not None:
+        page.set_viewport_size({"width": viewport[0], "height": viewport[1]})
     errors: list[str] = []
     page.on("pageerror", lambda e: errors.append(str(e)))
     page.goto(url)
@@ -301,18 +305,6 @@ def test_exposure_rule_in_js_matches_python(browser, server, studio):
 # ------------------------------------------------------------------------------------------------ view
 
 
-def open_page_at(browser, url: str, width: int, height: int):
-    """open_page with the window at width x height CSS pixels (device pixel ratio 1)."""
-    page = browser.new_page()
-    page.set_viewport_size({"width": width, "height": height})
-    errors: list[str] = []
-    page.on("pageerror", lambda e: errors.append(str(e)))
-    page.goto(url)
-    page.wait_for_selector("body[data-ready='1']", timeout=30_000)
-    assert not errors, errors
-    return page
-
-
 def wait_full_result(page) -> None:
     page.wait_for_function(
         "() => studio.state.result && studio.state.result.seq === studio.state.seq"
@@ -462,7 +454,7 @@ def test_zoom_and_pan_on_the_live_preview_and_the_result(browser, server, studio
 def test_100_percent_goes_to_the_face(browser, server, studio):
     """In a window too small for the whole photo at 100 %, the "100 %" button shows the top of the person
     (the face), not the middle of the photo."""
-    page = open_page_at(browser, server, 900, 520)
+    page = open_page(browser, server, (900, 520))
     wait_full_result(page)  # (the export box below the photo holds the command from then on)
     page.click("#zoom-100")
     g = view_geometry(page)
@@ -496,7 +488,7 @@ def test_100_percent_goes_to_the_face(browser, server, studio):
 
 def test_dropdown_texts_are_not_cut(browser, server):
     """Each option of the exposure and base-light dropdowns fits in its box (at 1366x768)."""
-    page = open_page_at(browser, server, 1366, 768)
+    page = open_page(browser, server, (1366, 768))
     cut = page.evaluate(
         """() => {
         const out = [];
@@ -524,7 +516,7 @@ def test_dropdown_texts_are_not_cut(browser, server):
 
 
 def test_export_is_visible_without_scrolling_at_1366x768(browser, server):
-    page = open_page_at(browser, server, 1366, 768)
+    page = open_page(browser, server, (1366, 768))
     wait_full_result(page)
     assert page.evaluate("document.scrollingElement.scrollHeight") <= 768  # the page itself does not scroll
     for selector in ("#export-box", "#export-png", "#export-npy", "#export-json", "#command", "#copy-command"):
