@@ -43,10 +43,20 @@ def settle(page) -> None:
     page.wait_for_timeout(300)
 
 
-def set_slider(page, selector: str, value: float) -> None:
+def set_input(page, selector: str, value) -> None:
+    """Set an input (a slider, a colour "#rrggbb") as a person would: its value, then input and change."""
     page.fill(selector, str(value))
     page.dispatch_event(selector, "input")
     page.dispatch_event(selector, "change")
+
+
+def drag_lamp(page, u: float, v: float) -> None:
+    """Drag the lamp's handle on the light sphere from where it is to the widget point (u, v)."""
+    start = page.evaluate("studio.sh.directionToWidget(studio.state.lamp.direction, 1.3)")
+    page.mouse.move(*sphere_point(page, *start))
+    page.mouse.down()
+    page.mouse.move(*sphere_point(page, u, v), steps=8)
+    page.mouse.up()
 
 
 def main(argv=None) -> int:
@@ -69,35 +79,22 @@ def main(argv=None) -> int:
         page.wait_for_selector("body[data-ready='1']", timeout=60_000)
         settle(page)
         # 1. a warm key light dragged to the upper left, low ambient
-        start = page.evaluate("studio.sh.directionToWidget(studio.state.lamp.direction, 1.3)")
-        page.mouse.move(*sphere_point(page, *start))
-        page.mouse.down()
-        page.mouse.move(*sphere_point(page, -0.72, 0.45), steps=8)
-        page.mouse.up()
-        page.fill("#lamp-colour", "#ffd7a8")
-        page.dispatch_event("#lamp-colour", "input")
-        page.dispatch_event("#lamp-colour", "change")
-        set_slider(page, "#lamp-intensity", 2.4)
-        set_slider(page, "#lamp-size", 12)
-        set_slider(page, "#ambient", 0.08)
+        drag_lamp(page, -0.72, 0.45)
+        set_input(page, "#lamp-colour", "#ffd7a8")
+        set_input(page, "#lamp-intensity", 2.4)
+        set_input(page, "#lamp-size", 12)
+        set_input(page, "#ambient", 0.08)
         settle(page)
         page.evaluate("document.activeElement.blur()")
         page.screenshot(path=str(out / "studio_lamp.png"))
         # 2. the neon preset as the base light, turned, with a soft cool lamp from behind on the right
         page.select_option("#base", "preset:neon")
-        set_slider(page, "#base-rotate", 30)
-        set_slider(page, "#base-level", 1.5)
-        page.mouse.move(
-            *sphere_point(page, *page.evaluate("studio.sh.directionToWidget(studio.state.lamp.direction, 1.3)"))
-        )
-        page.mouse.down()
-        page.mouse.move(*sphere_point(page, 1.15, 0.35), steps=8)
-        page.mouse.up()
-        page.fill("#lamp-colour", "#a8c8ff")
-        page.dispatch_event("#lamp-colour", "input")
-        page.dispatch_event("#lamp-colour", "change")
-        set_slider(page, "#lamp-size", 35)
-        set_slider(page, "#ambient", 0.02)
+        set_input(page, "#base-rotate", 30)
+        set_input(page, "#base-level", 1.5)
+        drag_lamp(page, 1.15, 0.35)
+        set_input(page, "#lamp-colour", "#a8c8ff")
+        set_input(page, "#lamp-size", 35)
+        set_input(page, "#ambient", 0.02)
         settle(page)
         page.evaluate("document.activeElement.blur()")
         page.screenshot(path=str(out / "studio_preset.png"))
