@@ -194,6 +194,17 @@ def save(model: onnx.ModelProto, path: Path) -> Path:
     return path
 
 
+def assert_batch_is_per_sample(session, inputs: dict[str, np.ndarray]) -> None:
+    """A batch's outputs equal its items run one by one (DESIGN.md §5: batch items are independent), within
+    float32 rounding; ``session`` an onnxruntime InferenceSession, ``inputs`` its feed with N >= 2."""
+    both = session.run(None, inputs)
+    n = next(iter(inputs.values())).shape[0]
+    for i in range(n):
+        single = session.run(None, {k: v[i : i + 1] for k, v in inputs.items()})
+        for b, s in zip(both, single, strict=True):
+            np.testing.assert_allclose(b[i : i + 1], s, rtol=1e-5, atol=1e-6)
+
+
 def make_models_dir(folder: Path, resolution=64, stage2=True, dvp=False, stage1=None) -> Path:
     """A models folder with the analytic stage1 (or the graph ``stage1``) and the toy stage2/dvp."""
     folder.mkdir(parents=True, exist_ok=True)

@@ -12,6 +12,7 @@ import pytest
 torch = pytest.importorskip("torch")
 ort = pytest.importorskip("onnxruntime")
 
+from _graphs import assert_batch_is_per_sample  # noqa: E402
 from _reference_forward import contract_outputs, random_reference_weights, relative_error  # noqa: E402
 
 from export.__main__ import main as export_main  # noqa: E402
@@ -105,11 +106,7 @@ def test_converted_graph_is_per_sample(converted):
     sess = ort.InferenceSession(str(converted["root"] / "out" / "stage1.onnx"), providers=["CPUExecutionProvider"])
     inputs = sample_inputs("stage1", 2, RES, RES, seed=9)
     inputs["image"][1] *= 0.5
-    both = sess.run(None, inputs)
-    for i in range(2):
-        single = sess.run(None, {k: v[i : i + 1] for k, v in inputs.items()})
-        for b, s in zip(both, single, strict=True):
-            np.testing.assert_allclose(b[i : i + 1], s, rtol=1e-5, atol=1e-6)
+    assert_batch_is_per_sample(sess, inputs)
 
 
 def test_metadata_names_the_checkpoint(converted):
