@@ -89,3 +89,14 @@ def write_scene(folder: Path, name: str = "p", seed: int = 0, h: int = 150, w: i
     cv2.imwrite(str(folder / f"{name}.png"), (img[..., ::-1] * 255).round().astype(np.uint8))
     cv2.imwrite(str(folder / f"{name}_mask.png"), (mask * 255).round().astype(np.uint8))
     return folder / f"{name}.png"
+
+
+def write_noise_clip(path: Path, n: int, w: int = 64, h: int = 48) -> Path:
+    """``n`` frames of uniform noise (w x h), MPEG-4 part 2 through OpenCV: incompressible frames, so damage in
+    the middle of the file hits many packets."""
+    rng = np.random.default_rng(0)
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), 25, (w, h))
+    for _ in range(n):
+        writer.write(rng.integers(0, 255, (h, w, 3), dtype=np.uint8))
+    writer.release()
+    return path

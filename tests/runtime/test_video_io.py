@@ -15,6 +15,7 @@ import cv2
 import numpy as np
 import pytest
 from _graphs import models_dir
+from _scenes import write_noise_clip
 
 from relight_rt import RelightError, _video_io, cli
 from relight_rt.video import FrameSink, FrameSource
@@ -71,16 +72,6 @@ def _av_clip(path: Path, n: int, *, rate=fractions.Fraction(30000, 1001), audio=
                 frame.sample_rate, frame.pts = 44100, k * 1024
                 out.mux(a.encode(frame))
             out.mux(a.encode(None))
-    return path
-
-
-def _noise_clip(path: Path, n: int) -> Path:
-    """MPEG-4 part 2 through OpenCV, incompressible frames (so damage in the middle hits many packets)."""
-    rng = np.random.default_rng(0)
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), 25, (W, H))
-    for _ in range(n):
-        writer.write(rng.integers(0, 255, (H, W, 3), dtype=np.uint8))
-    writer.release()
     return path
 
 
@@ -247,7 +238,7 @@ def test_video_temp_file_is_not_predictable(work, capsys):
 
 
 def test_damaged_video_is_an_error_or_reported_frame_by_frame(work, capsys, backend):
-    clip = _noise_clip(work / "clip.mp4", 40)
+    clip = write_noise_clip(work / "clip.mp4", 40, W, H)
     data = bytearray(clip.read_bytes())
     n = len(data)
     data[n // 3 : n // 2] = np.random.default_rng(1).integers(0, 255, n // 2 - n // 3, dtype=np.uint8).tobytes()

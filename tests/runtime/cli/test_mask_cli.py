@@ -8,6 +8,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from _scenes import write_noise_clip
 
 from relight_rt import cli
 
@@ -114,19 +115,9 @@ def test_frame_folder_as_a_sequence(tmp_path):
     assert run(frames, "--sequence", "--smoothing", "1.5", "-o", tmp_path / "m2") == 2
 
 
-def _noise_clip(path: Path, n: int, w: int = 64, h: int = 48) -> Path:
-    """MPEG-4 part 2 through OpenCV, incompressible frames (damage in the middle hits many packets)."""
-    rng = np.random.default_rng(0)
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), 25, (w, h))
-    for _ in range(n):
-        writer.write(rng.integers(0, 255, (h, w, 3), dtype=np.uint8))
-    writer.release()
-    return path
-
-
 def test_video_frames_are_held_to_max_pixels(tmp_path, capsys):
     """issue 35 item 8: a video's frames are held to --max-pixels (from its header, before decoding)."""
-    clip = _noise_clip(tmp_path / "clip.mp4", 2)
+    clip = write_noise_clip(tmp_path / "clip.mp4", 2)
     assert run(clip, "-o", tmp_path / "m.avi", "--max-pixels", "3000") == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "64x48" in err[0] and "--max-pixels" in err[0], err
@@ -136,7 +127,7 @@ def test_video_frames_are_held_to_max_pixels(tmp_path, capsys):
 def test_damaged_video_writes_every_frame_or_nothing(tmp_path, capsys):
     """issue 35 item 9: a damaged clip gave a mask video of 3 of its 24 frames and exit 0; as ``video``, the
     frames written must be the frames the clip has, else one error line and no mask video."""
-    clip = _noise_clip(tmp_path / "clip.mp4", 24)
+    clip = write_noise_clip(tmp_path / "clip.mp4", 24)
     data = bytearray(clip.read_bytes())
     n = len(data)
     data[n // 3 : n // 2] = np.random.default_rng(1).integers(0, 255, n // 2 - n // 3, dtype=np.uint8).tobytes()
