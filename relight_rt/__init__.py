@@ -111,6 +111,10 @@ __all__ = [
 _HOMES = ("_errors", "color", "compositing", "config", "contract", "envmap", "lightfile", "lights", "lightspec",
           "masks", "sh", "relighter", "session", "transport_file")
 _state = {"loading": False}
+# the public names that are modules (tests/runtime/test_api_surface.py checks the list)
+_MODULES = frozenset(
+    ("color", "compositing", "config", "contract", "envmap", "lightfile", "lights", "lightspec", "masks", "sh")
+)
 
 
 def _load_public_names() -> None:
@@ -120,15 +124,7 @@ def _load_public_names() -> None:
         return
     _state["loading"] = True
     try:
-        homes = []
-        for module in _HOMES:
-            home = importlib.import_module(f"{__name__}.{module}")
-            if getattr(home.__spec__, "_initializing", False):
-                # a module imported first reached the package before it had finished (the import system marks it
-                # so): stop here, before a later home imports names it has not defined yet; they are all taken
-                # at the next first use
-                break
-            homes.append(vars(home))
+        homes = [vars(importlib.import_module(f"{__name__}.{module}")) for module in _HOMES]
         for name in __all__:  # the modules of __all__ are attributes of the package once imported
             found = [home[name] for home in homes if name in home]
             if name not in globals() and found:
@@ -138,8 +134,15 @@ def _load_public_names() -> None:
 
 
 def __getattr__(name: str):
-    if name.startswith("__"):
+    # Only the public names load the homes. Any other name (``from . import _faces`` inside a module asks the
+    # package first) and a public module (``from . import sh``) is left to the import system, which imports just
+    # that submodule: loading every home there would run into the module still being imported (a circle).
+    if name not in __all__:
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    if name in _MODULES:
+        import importlib
+
+        return importlib.import_module(f"{__name__}.{name}")
     _load_public_names()
     try:
         return globals()[name]

@@ -26,8 +26,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from ._faces import FACE_SIZE, decode, weighted_nms
 from ._errors import RelightError
+from ._faces import FACE_SIZE, decode, weighted_nms
 
 log = logging.getLogger(__name__)
 

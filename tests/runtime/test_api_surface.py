@@ -121,3 +121,13 @@ def test_relight_has_one_return_type():
     assert "return_layers" not in sig.parameters
     assert sig.return_annotation in ("np.ndarray", relight_rt.Relighter.relight.__annotations__["return"])
     assert "RelightResult" in str(inspect.signature(relight_rt.Relighter.relight_layers).return_annotation)
+
+
+def test_the_public_modules_are_listed_as_modules():
+    """relight_rt.__getattr__ imports a public module by itself (not every home): its list must be exact."""
+    import types
+
+    import relight_rt
+
+    modules = {n for n in relight_rt.__all__ if isinstance(getattr(relight_rt, n), types.ModuleType)}
+    assert modules == set(relight_rt._MODULES)
