@@ -32,7 +32,8 @@ def test_bundled_models_satisfy_the_contract_and_budget():
     stage2 = load_model(folder / "stage2.onnx", "stage2", device="cpu")
     assert stage1.config.resolution in (128, 256, 512) and stage1.config.color == "RGB"
     assert stage2.config.resolution in (0, stage1.config.resolution)
-    # the relighting graphs; with the matting graphs everything stays within 40 MB (tests/runtime/matting/test_matting.py)
+    # the relighting graphs; with the matting graphs everything stays within 40 MB
+    # (tests/runtime/matting/test_matting.py)
     total = sum(p.stat().st_size for p in folder.glob("stage*.onnx"))
     assert total <= BUDGET_BYTES, f"bundled relighting models take {total / 1e6:.1f} MB, budget 25 MB"
 

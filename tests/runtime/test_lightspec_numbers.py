@@ -17,7 +17,8 @@ def test_27_numbers_are_coefficient_major_rgb():
 
 @pytest.mark.parametrize(
     ("value", "match"),
-    [([1.0] * 26, "27 numbers"), ("studio", "27 numbers"), ([[1, 2], [3]], "27 numbers"), ([10**400] * 27, "27 numbers"),
+    [([1.0] * 26, "27 numbers"), ("studio", "27 numbers"), ([[1, 2], [3]], "27 numbers"),
+     ([10**400] * 27, "27 numbers"),
      ([float("inf")] * 27, "finite"), ([2e4] * 27, r"\|value\| <= 10000")],
 )
 def test_bad_numbers_are_refused(value, match):
