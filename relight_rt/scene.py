@@ -24,9 +24,11 @@ Steps (all colour arithmetic in linear light; both photos are read as sRGB, as c
    background's height) overrides that. A *cut-off* person (a portrait or a half body: the matte reaches its
    photo's bottom edge) keeps its relative height and stands on the background's bottom edge
    (``position`` moves it; its y is then where the cut edge goes). Parts beyond the edges are cut off.
-5. Matched to the background's camera: when the background around a full-body person is softer than the
-   placed person (edge-width estimate, ``_blur_sigma``), the person is blurred by the difference (a cut-off
-   person is close to the camera, in focus whatever the background); when it is noisier (``_noise_sigma``,
+5. Matched to the background's camera: when the background camera's own blur (the blur of the photo's
+   sharpest part, ``_camera_blur``: the person is what the camera focuses on, so a background soft only in
+   parts, by depth, lends it nothing) exceeds the placed full-body person's (edge-width estimate,
+   ``_blur_sigma``), the person is blurred by the difference (a cut-off person is close to the camera, in
+   focus whatever the background); when the background around the person is noisier (``_noise_sigma``,
    Immerkær's estimate), Gaussian noise of the missing standard deviation is added to the person (a fixed
    seed: the same inputs give the same picture).
 6. Shadows (``shadow=True``, the default; full-body people only), multiplied into the background before the
@@ -203,22 +205,68 @@ def _noise_sigma(image: np.ndarray, where: np.ndarray | None = None) -> float:
     return float(np.median(r.reshape(-1, 3), axis=0).mean()) / (0.6745 * 6)  # the operator's gain on white noise
 
 
-def _blur_sigma(gray: np.ndarray, where: np.ndarray | None = None) -> float:
-    """Effective Gaussian blur (pixels) of a grey image's strongest edges: blurring a step edge of blur s by 1 px
-    more lowers its peak gradient by s / sqrt(s² + 1); that ratio, measured on the top 2 % of gradients, gives s."""
+def _gradients(gray: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Gradient magnitude (Sobel) of a grey image, and of the same image blurred by 1 px (Gaussian)."""
     g0 = np.hypot(cv2.Sobel(gray, cv2.CV_32F, 1, 0), cv2.Sobel(gray, cv2.CV_32F, 0, 1))
     blurred = cv2.GaussianBlur(gray, (0, 0), 1.0)
-    g1 = np.hypot(cv2.Sobel(blurred, cv2.CV_32F, 1, 0), cv2.Sobel(blurred, cv2.CV_32F, 0, 1))
-    if where is not None:
-        g0, g1 = g0[where], g1[where]
+    return g0, np.hypot(cv2.Sobel(blurred, cv2.CV_32F, 1, 0), cv2.Sobel(blurred, cv2.CV_32F, 0, 1))
+
+
+def _blur_from(g0: np.ndarray, g1: np.ndarray) -> float | None:
+    """The blur (px) of the strongest edges among these gradients (``_blur_sigma``); None with too few."""
     if g0.size < 64:
-        return 0.0
+        return None
     strong = g0 >= np.percentile(g0, 98)
     total = float(g0[strong].sum())
     if total <= 1e-6:
-        return 0.0
+        return None
     r = min(float(g1[strong].sum()) / total, 0.995)
     return r / math.sqrt(1 - r * r)
+
+
+def _blur_sigma(gray: np.ndarray, where: np.ndarray | None = None) -> float:
+    """Effective Gaussian blur (pixels) of a grey image's strongest edges: blurring a step edge of blur s by 1 px
+    more lowers its peak gradient by s / sqrt(s² + 1); that ratio, measured on the top 2 % of gradients, gives s."""
+    g0, g1 = _gradients(gray)
+    if where is not None:
+        g0, g1 = g0[where], g1[where]
+    s = _blur_from(g0, g1)
+    return 0.0 if s is None else s
+
+
+_BLUR_TILE = 48  #: px: the background's blur is measured in tiles this size ...
+_EDGE_FLOOR = 0.1  #: ... that hold an edge (Sobel magnitude of a grey in [0, 1]: a sharp step of about 0.03)
+_BLUR_QUANTILE = 25  #: the camera's blur: this percentile of the tiles' blurs (its sharpest part, robustly)
+
+
+def _camera_blur(gray: np.ndarray) -> float:
+    """The background camera's own blur (px): the blur of the sharpest part of the photo.
+
+    A photographer focuses on the person, so what is soft only in part of the background (defocus: depth) is not
+    the person's; what softens the whole photo (the lens, a small sensor, resampling) is. So the blur is
+    measured in tiles (``_BLUR_TILE``) that hold a real edge (a strongest gradient above ``_EDGE_FLOOR``: a smooth
+    sky or wall has none, and its ramps would read as an endless blur) and the low quantile ``_BLUR_QUANTILE``
+    of those is the camera's. 0 when no tile holds an edge (nothing to match)."""
+    g0, g1 = _gradients(gray)
+    h, w = gray.shape
+    ny, nx = max(1, h // _BLUR_TILE), max(1, w // _BLUR_TILE)
+    found = []
+    for i in range(ny):
+        for j in range(nx):
+            t = np.s_[i * h // ny : (i + 1) * h // ny, j * w // nx : (j + 1) * w // nx]
+            a, b = g0[t], g1[t]
+            if float(a.max()) < _EDGE_FLOOR:
+                continue
+            s = _blur_from(a, b)
+            if s is not None:
+                found.append(s)
+    return float(np.percentile(found, _BLUR_QUANTILE)) if found else 0.0
+
+
+def _grey(image: np.ndarray) -> np.ndarray:
+    """(H, W) float32 mean of the channels, in [0, 1] (uint8 or float input)."""
+    g = image.mean(axis=2, dtype=np.float32)
+    return g * np.float32(1 / 255) if image.dtype == np.uint8 else g
 
 
 def _dominant_direction(light: np.ndarray) -> tuple[np.ndarray | None, float]:
@@ -413,14 +461,14 @@ def composite(
             bg_region = bg[ey0:ey1, ex0:ex1].astype(np.float32)
             if bg.dtype == np.uint8:
                 bg_region *= np.float32(1 / 255)
-            bg_gray = bg_region.mean(axis=2)
             alpha_p = premult[..., 3]
             inside = cv2.erode((alpha_p > 0.98).astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
             colour = np.divide(premult[..., :3], premult[..., 3:], out=np.zeros_like(premult[..., :3]),
                                where=premult[..., 3:] > 1e-3)  # fmt: skip
             p_srgb = linear_to_srgb(np.clip(colour, 0, 1))
             # the person's sharpness: its premultiplied colour, so that its outline counts too
-            b_bg, b_p = _blur_sigma(bg_gray), _blur_sigma(linear_to_srgb(premult[..., :3]).mean(axis=2))
+            b_bg = _camera_blur(_grey(bg))
+            b_p = _blur_sigma(linear_to_srgb(premult[..., :3]).mean(axis=2))
             if full_body and b_bg > b_p + 0.25:  # a close portrait is in focus whatever the background
                 sigma = min(math.sqrt(b_bg**2 - b_p**2), 8.0)
                 pad = int(math.ceil(3 * sigma))  # room for the outline to soften outward

@@ -141,6 +141,22 @@ def test_the_person_takes_the_backgrounds_noise_and_blur(diffuse):
     assert steepest(soft) < 0.6 * steepest(sharp)
 
 
+def test_a_background_soft_only_around_the_person_leaves_the_person_sharp(diffuse):
+    """Defocus belongs to the background's depth, not to the person the camera focuses on: a photo sharp in parts
+    (a checker at its sides) and soft only around the person (the checker blurred there) adds no blur to the
+    person; before, the blur was measured around the person only and the person was blurred by it."""
+    img, mask = flat_person()
+    yy, xx = np.mgrid[:150, :300]
+    checker = np.where(((yy // 12) + (xx // 12)) % 2 == 0, 60, 190).astype(np.uint8)
+    bg = np.repeat(checker[..., None], 3, axis=2)
+    soft = cv2.GaussianBlur(bg, (0, 0), 3)
+    bg[:, 80:220] = soft[:, 80:220]  # the person stands at columns 130-170
+    kw = {**SAME, "position": (0.5, 140 / 150)}
+    matched = composite(diffuse, img, bg, mask=mask, **{**kw, "match_camera": True})
+    plain = composite(diffuse, img, bg, mask=mask, **kw)
+    np.testing.assert_allclose(matched, plain, atol=2e-3)
+
+
 def test_frame_metering_keeps_the_frames_mean_and_background_metering_keeps_its_pixels(diffuse):
     img, mask = flat_person(colour=(250, 250, 250))
     bg = np.full((150, 100, 3), 60, np.uint8)
