@@ -38,7 +38,10 @@ Steps (all colour arithmetic in linear light; both photos are read as sRGB, as c
    direction (``relight_rt.scene_light``'s key, or a given light's dominant direction), foreshortened
    by the same perspective, blurred more the farther it falls from the feet, as dark as the light's
    directionality (|band 1| / (√3 · band 0)) allows, at most ``CAST_STRENGTH``.
-7. Alpha blending of the premultiplied, resampled person over the linear background, then sRGB again.
+7. Alpha blending of the premultiplied, resampled person over the linear background, then a light wrap
+   (``light_wrap=True``, the default; ``_light_wrap``): inside the person's edge, within ``WRAP_RADIUS`` of the
+   frame's height, the person is lifted toward the background's light behind the edge where that is brighter
+   (``WRAP_STRENGTH`` of the excess at most), as a rim of back light and a lens's glare would; then sRGB again.
 8. Metering (``meter``): "frame" (default) exposes the composed frame as a camera that meters the whole
    frame would: one scale so its mean linear luminance equals the background photo's own (a large bright
    person darkens the frame a little), limited to ±``METER_LIMIT_EV``; "background" keeps the background's
@@ -71,6 +74,8 @@ DEFAULT_FEET = 0.92  #: default row of a full-body person's feet, fraction of th
 METER_LIMIT_EV = 1.0  #: the frame metering moves the exposure by at most this
 METERS = ("frame", "background")
 _MIN_KEY_ELEVATION = 15.0  # degrees: a lower key casts its shadow as if from this high (no endless shadows)
+WRAP_RADIUS = 0.006  #: light wrap: its reach over the person's edge (Gaussian sigma), fraction of the frame's height
+WRAP_STRENGTH = 0.5  #: light wrap: how much of the brighter background's excess reaches the edge band
 _NOISE_SEED = 36
 _UNIT = np.arange(256, dtype=np.float32) / np.float32(255)  # 8-bit → float in [0, 1]
 
@@ -269,6 +274,39 @@ def _grey(image: np.ndarray) -> np.ndarray:
     return g * np.float32(1 / 255) if image.dtype == np.uint8 else g
 
 
+def _light_wrap(
+    composed: np.ndarray, behind: np.ndarray, alpha: np.ndarray, radius: float, strength: float = WRAP_STRENGTH
+) -> np.ndarray:
+    """The background's light wrapped a little over the person's edge ("light wrap"; step 7 of the module docstring).
+
+    At a silhouette the body's surface turns away from the camera, toward what lies behind the person: there it
+    is lit by the background's own light (a rim), and a lens spreads a bright background's light a few pixels
+    over a dark edge. So, inside the matte and within ``radius`` of the outside, each pixel is lifted toward the
+    background's light near it: ``composed + strength · band · max(near − composed, 0)``, where ``near`` is the
+    background behind the edge (``behind`` averaged over the pixels outside the person, Gaussian of ``radius``),
+    ``band`` = alpha × the share of outside pixels within reach (1/2 at a hard edge, falling to 0 inside the
+    body) and the lift is per channel and only where the background is the brighter (a dark background takes
+    nothing away: the person's own light is already in it).
+
+    Args:
+        composed: (h, w, 3) linear frame with the person laid over ``behind``.
+        behind: (h, w, 3) linear background without the person (its shadows included).
+        alpha: (h, w) the person's matte in this window.
+        radius: Gaussian sigma of the reach, pixels (> 0).
+        strength: in [0, 1].
+
+    Returns:
+        New (h, w, 3) float32.
+    """
+    a = np.clip(alpha, 0, 1).astype(np.float32)
+    outside = 1 - a
+    reach = cv2.GaussianBlur(outside, (0, 0), radius, borderType=cv2.BORDER_REFLECT)
+    near = cv2.GaussianBlur(behind * outside[..., None], (0, 0), radius, borderType=cv2.BORDER_REFLECT)
+    near /= np.maximum(reach, 1e-4)[..., None]
+    band = (a * reach)[..., None]
+    return composed + np.float32(strength) * band * np.maximum(near - composed, 0)
+
+
 def _dominant_direction(light: np.ndarray) -> tuple[np.ndarray | None, float]:
     """The unit direction the light mostly comes from and how directional it is (sh.dominant_direction of its
     Rec. 709 luminance)."""
@@ -345,6 +383,7 @@ def composite(
     horizon: float = 0.5,
     meter: str = "frame",
     match_camera: bool = True,
+    light_wrap: bool = True,
 ) -> np.ndarray:
     """Relight the person of ``image`` for the scene of ``background`` and put it there (module docstring).
 
@@ -369,6 +408,7 @@ def composite(
         horizon: the horizon's row, a fraction of the background's height in [0, 1] (0.5: a level camera).
         meter: "frame" or "background" (step 8).
         match_camera: match the background's blur and noise (step 5).
+        light_wrap: let the background's light wrap over the person's edge where it is brighter (step 7).
 
     Returns:
         (H_bg, W_bg, 3) float32 sRGB in [0, 1].
@@ -495,6 +535,16 @@ def composite(
                 cy0, cx0, cs = cast
                 ry0, ry1 = min(ry0, cy0), max(ry1, cy0 + cs.shape[0])
                 rx0, rx1 = min(rx0, cx0), max(rx1, cx0 + cs.shape[1])
+    wrap = bool(light_wrap)
+    wrap_radius = max(0.5, WRAP_RADIUS * hb)
+    if wrap:  # the light wrap reads the background around the person
+        margin = int(math.ceil(3 * wrap_radius))
+        ry0, ry1, rx0, rx1 = (
+            min(ry0, top - margin),
+            max(ry1, box_bottom + margin),
+            min(rx0, left - margin),
+            max(rx1, box_right + margin),
+        )
     ry0, ry1, rx0, rx1 = max(ry0, 0), min(ry1, hb), max(rx0, 0), min(rx1, wb)
     if ry1 <= ry0 or rx1 <= rx0:
         return bg.astype(np.float32) * np.float32(1 / 255) if bg.dtype == np.uint8 else bg.astype(np.float32, copy=True)
@@ -520,10 +570,15 @@ def composite(
     alpha_region = None
     if py1 > py0 and px1 > px0:
         p = premult[py0 - top : py1 - top, px0 - left : px1 - left]
+        behind = lin.copy() if wrap else None
         view = lin[py0 - ry0 : py1 - ry0, px0 - rx0 : px1 - rx0]
         view *= 1 - p[..., 3:]
         view += p[..., :3]
         alpha_region = (py0, py1, px0, px1, p[..., 3])
+        if wrap:  # step 7's light wrap
+            window_alpha = np.zeros(lin.shape[:2], np.float32)
+            window_alpha[py0 - ry0 : py1 - ry0, px0 - rx0 : px1 - rx0] = p[..., 3]
+            lin = _light_wrap(lin, behind, window_alpha, wrap_radius)
 
     # metering (step 8)
     gain = 1.0

@@ -28,7 +28,7 @@ def flat_person(h=150, w=100, colour=(150, 110, 90)):
 
 # the flat person (150 x 100, body rows 20-140, centred) put back on its own pixels of a same-size background
 SAME = {"position": (0.5, 140 / 150), "height": 120 / 150, "meter": "background", "shadow": False,
-        "match_camera": False}  # fmt: skip
+        "match_camera": False, "light_wrap": False}  # fmt: skip
 
 
 def test_output_has_the_background_size(diffuse):
@@ -157,6 +157,28 @@ def test_a_background_soft_only_around_the_person_leaves_the_person_sharp(diffus
     np.testing.assert_allclose(matched, plain, atol=2e-3)
 
 
+def test_a_bright_background_wraps_its_light_over_the_persons_edge(diffuse):
+    """Light wrap (step 7): a dark person before a bright background takes some of its light in a thin band inside
+    the edge, none deep inside; a darker background gives nothing (and takes nothing); off, the edge is as before."""
+    img, mask = flat_person()
+    mask[20:140, 30:35] = 1.0  # a hard edge: the band is the wrap's alone
+    dim = np.zeros((9, 3), np.float32)
+    dim[0] = 0.05  # a dim light: a dark person
+    off = {**SAME, "light": dim, "exposure": "physical"}
+    kw = {**off, "light_wrap": True}
+    bright = np.full((150, 100, 3), 230, np.uint8)
+    wrapped = srgb_to_linear(composite(diffuse, img, bright, mask=mask, **kw))
+    plain = srgb_to_linear(composite(diffuse, img, bright, mask=mask, **off))
+    edge, deep = np.s_[40:120, 30], np.s_[40:120, 45:55]  # the left edge column, and the body's middle
+    lift = (wrapped[edge] - plain[edge]).mean()
+    assert lift > 0.05 * (230 / 255) ** 2.2  # a visible share of the background's light
+    np.testing.assert_allclose(wrapped[deep], plain[deep], atol=1e-6)
+    np.testing.assert_allclose(wrapped[:10], plain[:10], atol=1e-6)  # the background itself untouched
+    dark = np.full((150, 100, 3), 2, np.uint8)
+    on, plain_dark = (composite(diffuse, img, dark, mask=mask, **k) for k in (kw, off))
+    np.testing.assert_allclose(on, plain_dark, atol=1e-6)
+
+
 def test_frame_metering_keeps_the_frames_mean_and_background_metering_keeps_its_pixels(diffuse):
     img, mask = flat_person(colour=(250, 250, 250))
     bg = np.full((150, 100, 3), 60, np.uint8)
@@ -265,6 +287,10 @@ def test_cli_composite(work, capsys):
             "--no-shadow", "--meter", "background", "--no-match-camera"]  # fmt: skip
     code, _, err = run(argv, capsys)
     assert code == 0, err
+    code, _, err = run([*argv[:5], "o4.png", *argv[6:], "--no-light-wrap"], capsys)
+    assert code == 0, err
+    wrapped, plain = cv2.imread("o3.png").astype(int), cv2.imread("o4.png").astype(int)
+    assert np.abs(wrapped - plain).max() > 2  # the wrap is on by default; --no-light-wrap turns it off
     argv = ["composite", "p.png", "--background", "bg.png", "-o", "o2.jpg", "--preset", "studio"]
     code, _, err = run([*argv, "--position", "0.3,0.9", "--height", "0.6", "--exposure", "-1", "--fov", "80"], capsys)
     assert code == 0, err
