@@ -75,7 +75,7 @@ METER_LIMIT_EV = 1.0  #: the frame metering moves the exposure by at most this
 METERS = ("frame", "background")
 _MIN_KEY_ELEVATION = 15.0  # degrees: a lower key casts its shadow as if from this high (no endless shadows)
 WRAP_RADIUS = 0.006  #: light wrap: its reach over the person's edge (Gaussian sigma), fraction of the frame's height
-WRAP_STRENGTH = 0.5  #: light wrap: how much of the brighter background's excess reaches the edge band
+WRAP_STRENGTH = 0.25  #: light wrap: how much of the brighter background's excess reaches the edge band (at most)
 _NOISE_SEED = 36
 _UNIT = np.arange(256, dtype=np.float32) / np.float32(255)  # 8-bit → float in [0, 1]
 
