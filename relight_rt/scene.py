@@ -27,8 +27,8 @@ Steps (all colour arithmetic in linear light; both photos are read as sRGB, as c
 5. Matched to the background's camera: when the background camera's own blur (the blur of the photo's
    sharpest part, ``_camera_blur``: the person is what the camera focuses on, so a background soft only in
    parts, by depth, lends it nothing) exceeds the placed full-body person's (edge-width estimate,
-   ``_blur_sigma``), the person is blurred by the difference (a cut-off person is close to the camera, in
-   focus whatever the background); when the background around the person is noisier (``_noise_sigma``,
+   ``_blur_sigma``), the person is blurred by the difference (a cut-off person too: it is in focus, but the
+   camera's own softness is everywhere); when the background around the person is noisier (``_noise_sigma``,
    Immerkær's estimate), Gaussian noise of the missing standard deviation is added to the person (a fixed
    seed: the same inputs give the same picture).
 6. Shadows (``shadow=True``, the default; full-body people only), multiplied into the background before the
@@ -407,7 +407,7 @@ def composite(
             (relight_rt.scene_light.parse_key_light); None: the key the view implies. Ignored with ``light``.
         horizon: the horizon's row, a fraction of the background's height in [0, 1] (0.5: a level camera).
         meter: "frame" or "background" (step 8).
-        match_camera: match the background's blur and noise (step 5).
+        match_camera: match the background camera's blur and noise (step 5).
         light_wrap: let the background's light wrap over the person's edge where it is brighter (step 7).
 
     Returns:
@@ -509,7 +509,7 @@ def composite(
             # the person's sharpness: its premultiplied colour, so that its outline counts too
             b_bg = _camera_blur(_grey(bg))
             b_p = _blur_sigma(linear_to_srgb(premult[..., :3]).mean(axis=2))
-            if full_body and b_bg > b_p + 0.25:  # a close portrait is in focus whatever the background
+            if b_bg > b_p + 0.25:  # the camera's own softness reaches a close portrait too
                 sigma = min(math.sqrt(b_bg**2 - b_p**2), 8.0)
                 pad = int(math.ceil(3 * sigma))  # room for the outline to soften outward
                 premult = cv2.copyMakeBorder(premult, pad, pad, pad, pad, cv2.BORDER_CONSTANT, value=0)

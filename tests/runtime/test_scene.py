@@ -157,6 +157,25 @@ def test_a_background_soft_only_around_the_person_leaves_the_person_sharp(diffus
     np.testing.assert_allclose(matched, plain, atol=2e-3)
 
 
+def test_a_half_body_takes_the_cameras_own_blur(diffuse):
+    """A background soft everywhere (a soft camera, not depth) softens a cut-off person's edge too; before, a
+    cut-off person was never blurred."""
+    img, mask = flat_person()
+    mask[100:] = mask[99]  # a half body
+    yy, xx = np.mgrid[:150, :100]
+    checker = np.where(((yy // 12) + (xx // 12)) % 2 == 0, 60, 190).astype(np.uint8)
+    sharp = np.repeat(checker[..., None], 3, axis=2)
+    soft = cv2.GaussianBlur(sharp, (0, 0), 3)
+    kw = {k: v for k, v in SAME.items() if k not in ("position", "height")}
+
+    def steepest(bg, match):
+        row = composite(diffuse, img, bg, mask=mask, **{**kw, "match_camera": match})[80, 20:45].mean(1)
+        return float(np.abs(np.diff(row)).max())
+
+    assert steepest(soft, True) < 0.7 * steepest(soft, False)
+    assert steepest(sharp, True) == pytest.approx(steepest(sharp, False), rel=0.05)
+
+
 def test_a_bright_background_wraps_its_light_over_the_persons_edge(diffuse):
     """Light wrap (step 7): a dark person before a bright background takes some of its light in a thin band inside
     the edge, none deep inside; a darker background gives nothing (and takes nothing); off, the edge is as before."""
