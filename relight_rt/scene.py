@@ -37,7 +37,10 @@ Steps (all colour arithmetic in linear light; both photos are read as sRGB, as c
    a little: a body is deeper than its outline) projected onto the ground plane along the key light's
    direction (``relight_rt.scene_light``'s key, or a given light's dominant direction), foreshortened
    by the same perspective, blurred more the farther it falls from the feet, as dark as the light's
-   directionality (|band 1| / (√3 · band 0)) allows, at most ``CAST_STRENGTH``.
+   directionality (|band 1| / (√3 · band 0)) allows, at most ``CAST_STRENGTH``; and the sky the body hides from
+   the ground around it (ambient occlusion, ``_Occluder``: a vertical cylinder ``OCCLUDER_RADIUS`` of the
+   person's height in radius, placed on the ground by the same perspective; the ground loses that share of
+   the light's non-directional part, a tenth or so a few body widths away).
 7. Alpha blending of the premultiplied, resampled person over the linear background, then a light wrap
    (``light_wrap=True``, the default; ``_light_wrap``): inside the person's edge, within ``WRAP_RADIUS`` of the
    frame's height, the person is lifted toward the background's light behind the edge where that is brighter
@@ -69,6 +72,7 @@ __all__ = ["composite", "parse_position"]
 _ALPHA_BOX = 0.005  # the person's box: matte above this
 CONTACT_STRENGTH = 0.7  #: darkest contact shadow (fraction of the ground's light taken away)
 CAST_STRENGTH = 0.7  #: darkest cast shadow
+OCCLUDER_RADIUS = 0.1  #: the person as an occluder of the sky: a cylinder this fraction of its height in radius
 PERSON_M, CAMERA_M = 1.7, 1.5  #: a standing person's height and the camera's height above the ground, metres
 DEFAULT_FEET = 0.92  #: default row of a full-body person's feet, fraction of the background's height
 METER_LIMIT_EV = 1.0  #: the frame metering moves the exposure by at most this
@@ -313,6 +317,44 @@ def _dominant_direction(light: np.ndarray) -> tuple[np.ndarray | None, float]:
     return sh.dominant_direction(np.asarray(light, np.float64) @ _exposure.REC709.astype(np.float64))
 
 
+class _Occluder:
+    """The person as a vertical cylinder standing on the ground plane, for the sky it hides from the ground around
+    its feet (step 6's ambient occlusion). Frame pixels ↔ ground metres by the level camera of step 4: a ground
+    pixel ``r`` rows below the horizon lies ``CAMERA_M · focal / r`` metres away."""
+
+    def __init__(self, foot_x: float, feet_y: float, height_px: float, horizon_y: float, focal: float, cx: float):
+        self.horizon_y, self.focal, self.cx = horizon_y, focal, cx
+        self.z0 = CAMERA_M * focal / max(feet_y - horizon_y, 1.0)  # the feet's distance, metres
+        self.x0 = (foot_x - cx) * self.z0 / focal
+        self.height = height_px * self.z0 / focal  # the person's height, metres
+        self.radius = OCCLUDER_RADIUS * self.height
+
+    def reach(self, frame_h: int) -> tuple[int, int, int, int]:
+        """(y0, y1, x0, x1) of the frame where the occlusion is worth drawing (ground within 8 radii)."""
+        d = 8 * self.radius
+        near, far = self.z0 - d, self.z0 + d
+        y1 = frame_h if near <= CAMERA_M * self.focal / max(frame_h - self.horizon_y, 1.0) else (
+            int(math.ceil(self.horizon_y + CAMERA_M * self.focal / near)))  # fmt: skip
+        y0 = int(self.horizon_y + CAMERA_M * self.focal / far)
+        half = d * self.focal / max(near, self.z0 / 2)
+        xc = self.cx + self.x0 * self.focal / self.z0
+        return y0, y1, int(xc - half), int(math.ceil(xc + half))
+
+    def occlusion(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """The share of a uniform sky's light on the ground at frame points (x, y) that the person hides: the
+        cosine-weighted solid angle of a cylinder of radius R and height H seen from distance d,
+        asin(R / d) · sin²(atan(H / d)) / π (a wall of 2·asin(R / d) radians of azimuth from the ground up to its
+        top); 1/2 · sin² under it; 0 above the horizon."""
+        rows = y - np.float32(self.horizon_y)
+        ground = rows > 0.5
+        z = np.float32(CAMERA_M * self.focal) / np.maximum(rows, 0.5)
+        gx = (x - np.float32(self.cx)) * z / np.float32(self.focal)
+        d = np.maximum(np.hypot(gx - np.float32(self.x0), z - np.float32(self.z0)), 1e-6)
+        across = np.arcsin(np.minimum(np.float32(self.radius) / d, 1.0))
+        up = self.height**2 / (self.height**2 + d * d)
+        return np.where(ground, across * up / np.float32(math.pi), 0).astype(np.float32)
+
+
 def _cast_shadow(alpha: np.ndarray, top: int, left: int, feet_y: float, horizon_y: float, focal: float,
                  direction: np.ndarray, shape: tuple[int, int]):  # fmt: skip
     """The person's matte ``alpha`` (placed at top, left) projected on the ground plane along ``direction`` (the
@@ -525,11 +567,14 @@ def composite(
     sh_w, sh_h = 0.6 * new_w, max(2.0, new_h / 20)
     foot_x, foot_y = (left + box_right) / 2, feet_y - 0.2 * sh_h
     cast = None
+    focal = (wb / 2) / math.tan(math.radians(float(fov)) / 2)
     if draw_shadow:
         ry0, ry1 = min(ry0, int(foot_y - 3 * sh_h)), max(ry1, int(math.ceil(foot_y + 3 * sh_h)))
         rx0, rx1 = min(rx0, int(foot_x - 1.5 * sh_w)), max(rx1, int(math.ceil(foot_x + 1.5 * sh_w)))
+        occ = _Occluder(foot_x, feet_y, new_h, hz * hb, focal, wb / 2)
+        oy0, oy1, ox0, ox1 = occ.reach(hb)
+        ry0, ry1, rx0, rx1 = min(ry0, oy0), max(ry1, oy1), min(rx0, ox0), max(rx1, ox1)
         if shadow_dir is not None and directional > 0:
-            focal = (wb / 2) / math.tan(math.radians(float(fov)) / 2)
             cast = _cast_shadow(premult[..., 3], top, left, feet_y, hz * hb, focal, shadow_dir, (hb, wb))
             if cast is not None:
                 cy0, cx0, cs = cast
@@ -555,6 +600,8 @@ def composite(
         yy, xx = np.mgrid[ry0:ry1, rx0:rx1].astype(np.float32)
         d2 = ((xx + 0.5 - foot_x) / sh_w) ** 2 + ((yy + 0.5 - foot_y) / sh_h) ** 2
         light_left = 1 - CONTACT_STRENGTH * np.exp(-2 * d2)
+        ambient = 1 - min(1.0, directional) if shadow_dir is not None else 1.0
+        light_left = np.minimum(light_left, 1 - ambient * occ.occlusion(xx + 0.5, yy + 0.5))
         if cast is not None:
             cy0, cx0, cs = cast
             cover = np.zeros(lin.shape[:2], np.float32)

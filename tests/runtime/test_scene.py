@@ -176,6 +176,25 @@ def test_a_half_body_takes_the_cameras_own_blur(diffuse):
     assert steepest(sharp, True) == pytest.approx(steepest(sharp, False), rel=0.05)
 
 
+def test_the_person_hides_some_sky_from_the_ground_around_its_feet(diffuse):
+    """Ambient occlusion (step 6): under an even light the ground beside the feet, beyond the small contact
+    ellipse, is darker by the share of the sky the body hides, less the farther it is; before, it was unchanged
+    a contact ellipse's width away."""
+    img, mask = flat_person()
+    bg = np.full((150, 300, 3), 150, np.uint8)
+    even = np.zeros((9, 3), np.float32)
+    even[0] = 0.3  # no direction: no cast shadow
+    kw = {"meter": "background", "match_camera": False, "light_wrap": False, "light": even, "exposure": "physical"}
+    lit = srgb_to_linear(composite(diffuse, img, bg, mask=mask, shadow=False, **kw))
+    shaded = srgb_to_linear(composite(diffuse, img, bg, mask=mask, shadow=True, **kw))
+    ratio = (shaded / lit).mean(2)
+    feet = round(0.92 * 150) - 1  # the feet's row (default place), the person centred at column 150
+    near, far = ratio[feet, [150 - 22, 150 + 22]], ratio[feet, [150 - 50, 150 + 50]]
+    assert near.max() < 0.95  # a few body widths' reach, well outside the contact ellipse's
+    assert (near < far).all() and far.max() < 0.995
+    assert ratio[:50].min() > 0.999  # above the horizon: no ground, nothing hidden
+
+
 def test_a_bright_background_wraps_its_light_over_the_persons_edge(diffuse):
     """Light wrap (step 7): a dark person before a bright background takes some of its light in a thin band inside
     the edge, none deep inside; a darker background gives nothing (and takes nothing); off, the edge is as before."""
