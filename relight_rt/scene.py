@@ -245,6 +245,7 @@ def _blur_sigma(gray: np.ndarray, where: np.ndarray | None = None) -> float:
 
 _BLUR_TILE = 48  #: px: the background's blur is measured in tiles this size ...
 _EDGE_FLOOR = 0.1  #: ... that hold an edge (Sobel magnitude of a grey in [0, 1]: a sharp step of about 0.03)
+_BLUR_TILES = 10  #: at most this many tiles a side
 _BLUR_QUANTILE = 25  #: the camera's blur: this percentile of the tiles' blurs (its sharpest part, robustly)
 
 
@@ -253,16 +254,19 @@ def _camera_blur(gray: np.ndarray) -> float:
 
     A photographer focuses on the person, so what is soft only in part of the background (defocus: depth) is not
     the person's; what softens the whole photo (the lens, a small sensor, resampling) is. So the blur is
-    measured in tiles (``_BLUR_TILE``) that hold a real edge (a strongest gradient above ``_EDGE_FLOOR``: a smooth
-    sky or wall has none, and its ramps would read as an endless blur) and the low quantile ``_BLUR_QUANTILE``
-    of those is the camera's. 0 when no tile holds an edge (nothing to match)."""
-    g0, g1 = _gradients(gray)
+    measured in tiles (``_BLUR_TILE``; at most ``_BLUR_TILES`` a side, spread evenly over a large photo) that hold
+    a real edge (a strongest gradient above ``_EDGE_FLOOR``: a smooth sky or wall has none, and its ramps would
+    read as an endless blur) and the low quantile ``_BLUR_QUANTILE`` of those is the camera's. 0 when no tile
+    holds an edge (nothing to match)."""
     h, w = gray.shape
     ny, nx = max(1, h // _BLUR_TILE), max(1, w // _BLUR_TILE)
     found = []
-    for i in range(ny):
-        for j in range(nx):
-            t = np.s_[i * h // ny : (i + 1) * h // ny, j * w // nx : (j + 1) * w // nx]
+    pad = 4  # the filters' reach: each tile is filtered with its surroundings
+    for y in np.linspace(0, h - min(h, _BLUR_TILE), min(ny, _BLUR_TILES)).round().astype(int):
+        for x in np.linspace(0, w - min(w, _BLUR_TILE), min(nx, _BLUR_TILES)).round().astype(int):
+            y0, x0 = max(0, y - pad), max(0, x - pad)
+            g0, g1 = _gradients(gray[y0 : y + _BLUR_TILE + pad, x0 : x + _BLUR_TILE + pad])
+            t = np.s_[y - y0 : y - y0 + _BLUR_TILE, x - x0 : x - x0 + _BLUR_TILE]
             a, b = g0[t], g1[t]
             if float(a.max()) < _EDGE_FLOOR:
                 continue
@@ -273,9 +277,9 @@ def _camera_blur(gray: np.ndarray) -> float:
 
 
 def _grey(image: np.ndarray) -> np.ndarray:
-    """(H, W) float32 mean of the channels, in [0, 1] (uint8 or float input)."""
-    g = image.mean(axis=2, dtype=np.float32)
-    return g * np.float32(1 / 255) if image.dtype == np.uint8 else g
+    """(H, W) float32 luma of an RGB image, in [0, 1] (uint8 or float input)."""
+    g = cv2.cvtColor(np.ascontiguousarray(image), cv2.COLOR_RGB2GRAY)
+    return g.astype(np.float32) * np.float32(1 / 255) if image.dtype == np.uint8 else g.astype(np.float32)
 
 
 def _light_wrap(
@@ -305,10 +309,16 @@ def _light_wrap(
     a = np.clip(alpha, 0, 1).astype(np.float32)
     outside = 1 - a
     reach = cv2.GaussianBlur(outside, (0, 0), radius, borderType=cv2.BORDER_REFLECT)
-    near = cv2.GaussianBlur(behind * outside[..., None], (0, 0), radius, borderType=cv2.BORDER_REFLECT)
-    near /= np.maximum(reach, 1e-4)[..., None]
-    band = (a * reach)[..., None]
-    return composed + np.float32(strength) * band * np.maximum(near - composed, 0)
+    out = np.array(composed, dtype=np.float32)
+    edge = (a > 0) & (reach > 1e-3)  # the band: only these pixels change
+    if not edge.any():
+        return out
+    near = cv2.GaussianBlur(behind * outside[..., None], (0, 0), radius, borderType=cv2.BORDER_REFLECT)[edge]
+    near /= reach[edge][:, None]
+    band = (a[edge] * reach[edge])[:, None]
+    c = out[edge]
+    out[edge] = c + np.float32(strength) * band * np.maximum(near - c, 0)
+    return out
 
 
 def _dominant_direction(light: np.ndarray) -> tuple[np.ndarray | None, float]:
