@@ -134,7 +134,8 @@ def main(argv=None) -> int:
               f"bias {v['band_bias']:+.4f} better {100 * v['better_than_no_wrap']:.0f}%")  # fmt: skip
     if args.out:
         args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text(json.dumps({"summary": summary, "rows": rows}, indent=1))
+        command = "python benchmarks/light_wrap_eval.py " + " ".join(argv or sys.argv[1:])
+        args.out.write_text(json.dumps({"command": command, "summary": summary}, indent=1))
     return 0
 
 
