@@ -278,8 +278,9 @@ def _camera_blur(gray: np.ndarray) -> float:
 
 def _grey(image: np.ndarray) -> np.ndarray:
     """(H, W) float32 luma of an RGB image, in [0, 1] (uint8 or float input)."""
-    g = cv2.cvtColor(np.ascontiguousarray(image), cv2.COLOR_RGB2GRAY)
-    return g.astype(np.float32) * np.float32(1 / 255) if image.dtype == np.uint8 else g.astype(np.float32)
+    if image.dtype == np.uint8:
+        return cv2.cvtColor(np.ascontiguousarray(image), cv2.COLOR_RGB2GRAY).astype(np.float32) * np.float32(1 / 255)
+    return cv2.cvtColor(np.ascontiguousarray(image, dtype=np.float32), cv2.COLOR_RGB2GRAY)
 
 
 def _light_wrap(

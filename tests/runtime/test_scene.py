@@ -195,6 +195,17 @@ def test_the_person_hides_some_sky_from_the_ground_around_its_feet(diffuse):
     assert ratio[:50].min() > 0.999  # above the horizon: no ground, nothing hidden
 
 
+def test_a_float_background_is_matched_as_its_8_bit_copy(diffuse):
+    img, mask = flat_person()
+    rng = np.random.default_rng(3)
+    bg8 = cv2.GaussianBlur(rng.integers(0, 256, (150, 200, 3)).astype(np.uint8), (0, 0), 2)
+    kw = {"meter": "background", "match_camera": True}
+    eight = composite(diffuse, img, bg8, mask=mask, **kw)
+    for dtype in (np.float32, np.float64):
+        as_float = composite(diffuse, img, bg8.astype(dtype) / 255, mask=mask, **kw)
+        np.testing.assert_allclose(as_float, eight, atol=1.5 / 255)
+
+
 def test_a_bright_background_wraps_its_light_over_the_persons_edge(diffuse):
     """Light wrap (step 7): a dark person before a bright background takes some of its light in a thin band inside
     the edge, none deep inside; a darker background gives nothing (and takes nothing); off, the edge is as before."""
