@@ -13,7 +13,7 @@ auto-exposed (mean linear luminance 0.18) and sRGB-encoded: six of ../shared/hdr
 of those. Each row: the realistic paste (the full-body person as photographed, unrelit, at the same place
 and size; the estimated light on a sphere in the corner) | ``composite`` full body | ``composite`` half body,
 0.6 of the frame high (otherwise all defaults: the background's own light, perspective placement, shadows,
-camera matching, frame metering).
+camera matching, light wrap, frame metering). Prints each background's camera blur (relight_rt.scene, step 5).
 """
 
 from __future__ import annotations
@@ -125,7 +125,8 @@ def main(argv=None) -> int:
         halfbody = relighter.composite(half8, bg, mask=half_mask, height=HALF_HEIGHT)
         gap = np.ones((size[0], 4, 3), np.float32)
         tiles.append(np.concatenate([paste, gap, full, gap, halfbody], 1))
-        print(f"{path.name} (turned {turn}°)", file=sys.stderr)
+        blur = scene_mod._camera_blur(scene_mod._grey(bg))  # what the person is blurred toward (step 5)
+        print(f"{path.name} (turned {turn}°): the camera's blur {blur:.2f} px", file=sys.stderr)
     rows = len(tiles) // 2 + len(tiles) % 2
     if len(tiles) % 2:
         tiles.append(np.ones_like(tiles[0]))

@@ -1026,6 +1026,7 @@ class Relighter:
         horizon: float = 0.5,
         meter: str = "frame",
         match_camera: bool = True,
+        light_wrap: bool = True,
     ) -> np.ndarray:
         """Relight the person of ``image`` for the scene of ``background`` and put it there.
 
@@ -1035,7 +1036,8 @@ class Relighter:
 
         return composite(self, image, background, mask=mask, light=light, position=position, height=height,
                          shadow=shadow, exposure=exposure, fov=fov, white_balance=white_balance, key_light=key_light,
-                         horizon=horizon, meter=meter, match_camera=match_camera)
+                         horizon=horizon, meter=meter, match_camera=match_camera,
+                         light_wrap=light_wrap)
 
 
 def compose_step(relighter: Relighter, dec: Decomposition, light: np.ndarray):

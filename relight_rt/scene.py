@@ -24,9 +24,11 @@ Steps (all colour arithmetic in linear light; both photos are read as sRGB, as c
    background's height) overrides that. A *cut-off* person (a portrait or a half body: the matte reaches its
    photo's bottom edge) keeps its relative height and stands on the background's bottom edge
    (``position`` moves it; its y is then where the cut edge goes). Parts beyond the edges are cut off.
-5. Matched to the background's camera: when the background around a full-body person is softer than the
-   placed person (edge-width estimate, ``_blur_sigma``), the person is blurred by the difference (a cut-off
-   person is close to the camera, in focus whatever the background); when it is noisier (``_noise_sigma``,
+5. Matched to the background's camera: when the background camera's own blur (the blur of the photo's
+   sharpest part, ``_camera_blur``: the person is what the camera focuses on, so a background soft only in
+   parts, by depth, lends it nothing) exceeds the placed full-body person's (edge-width estimate,
+   ``_blur_sigma``), the person is blurred by the difference (a cut-off person too: it is in focus, but the
+   camera's own softness is everywhere); when the background around the person is noisier (``_noise_sigma``,
    Immerkær's estimate), Gaussian noise of the missing standard deviation is added to the person (a fixed
    seed: the same inputs give the same picture).
 6. Shadows (``shadow=True``, the default; full-body people only), multiplied into the background before the
@@ -35,8 +37,14 @@ Steps (all colour arithmetic in linear light; both photos are read as sRGB, as c
    a little: a body is deeper than its outline) projected onto the ground plane along the key light's
    direction (``relight_rt.scene_light``'s key, or a given light's dominant direction), foreshortened
    by the same perspective, blurred more the farther it falls from the feet, as dark as the light's
-   directionality (|band 1| / (√3 · band 0)) allows, at most ``CAST_STRENGTH``.
-7. Alpha blending of the premultiplied, resampled person over the linear background, then sRGB again.
+   directionality (|band 1| / (√3 · band 0)) allows, at most ``CAST_STRENGTH``; and the sky the body hides from
+   the ground around it (ambient occlusion, ``_Occluder``: a vertical cylinder ``OCCLUDER_RADIUS`` of the
+   person's height in radius, placed on the ground by the same perspective; the ground loses that share of
+   the light's non-directional part, a tenth or so a few body widths away).
+7. Alpha blending of the premultiplied, resampled person over the linear background, then a light wrap
+   (``light_wrap=True``, the default; ``_light_wrap``): inside the person's edge, within ``WRAP_RADIUS`` of the
+   frame's height, the person is lifted toward the background's light behind the edge where that is brighter
+   (``WRAP_STRENGTH`` of the excess at most), as a rim of back light and a lens's glare would; then sRGB again.
 8. Metering (``meter``): "frame" (default) exposes the composed frame as a camera that meters the whole
    frame would: one scale so its mean linear luminance equals the background photo's own (a large bright
    person darkens the frame a little), limited to ±``METER_LIMIT_EV``; "background" keeps the background's
@@ -64,11 +72,14 @@ __all__ = ["composite", "parse_position"]
 _ALPHA_BOX = 0.005  # the person's box: matte above this
 CONTACT_STRENGTH = 0.7  #: darkest contact shadow (fraction of the ground's light taken away)
 CAST_STRENGTH = 0.7  #: darkest cast shadow
+OCCLUDER_RADIUS = 0.1  #: the person as an occluder of the sky: a cylinder this fraction of its height in radius
 PERSON_M, CAMERA_M = 1.7, 1.5  #: a standing person's height and the camera's height above the ground, metres
 DEFAULT_FEET = 0.92  #: default row of a full-body person's feet, fraction of the background's height
 METER_LIMIT_EV = 1.0  #: the frame metering moves the exposure by at most this
 METERS = ("frame", "background")
 _MIN_KEY_ELEVATION = 15.0  # degrees: a lower key casts its shadow as if from this high (no endless shadows)
+WRAP_RADIUS = 0.006  #: light wrap: its reach over the person's edge (Gaussian sigma), fraction of the frame's height
+WRAP_STRENGTH = 0.25  #: light wrap: how much of the brighter background's excess reaches the edge band (at most)
 _NOISE_SEED = 36
 _UNIT = np.arange(256, dtype=np.float32) / np.float32(255)  # 8-bit → float in [0, 1]
 
@@ -203,28 +214,156 @@ def _noise_sigma(image: np.ndarray, where: np.ndarray | None = None) -> float:
     return float(np.median(r.reshape(-1, 3), axis=0).mean()) / (0.6745 * 6)  # the operator's gain on white noise
 
 
-def _blur_sigma(gray: np.ndarray, where: np.ndarray | None = None) -> float:
-    """Effective Gaussian blur (pixels) of a grey image's strongest edges: blurring a step edge of blur s by 1 px
-    more lowers its peak gradient by s / sqrt(s² + 1); that ratio, measured on the top 2 % of gradients, gives s."""
+def _gradients(gray: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Gradient magnitude (Sobel) of a grey image, and of the same image blurred by 1 px (Gaussian)."""
     g0 = np.hypot(cv2.Sobel(gray, cv2.CV_32F, 1, 0), cv2.Sobel(gray, cv2.CV_32F, 0, 1))
     blurred = cv2.GaussianBlur(gray, (0, 0), 1.0)
-    g1 = np.hypot(cv2.Sobel(blurred, cv2.CV_32F, 1, 0), cv2.Sobel(blurred, cv2.CV_32F, 0, 1))
-    if where is not None:
-        g0, g1 = g0[where], g1[where]
+    return g0, np.hypot(cv2.Sobel(blurred, cv2.CV_32F, 1, 0), cv2.Sobel(blurred, cv2.CV_32F, 0, 1))
+
+
+def _blur_from(g0: np.ndarray, g1: np.ndarray) -> float | None:
+    """The blur (px) of the strongest edges among these gradients (``_blur_sigma``); None with too few."""
     if g0.size < 64:
-        return 0.0
+        return None
     strong = g0 >= np.percentile(g0, 98)
     total = float(g0[strong].sum())
     if total <= 1e-6:
-        return 0.0
+        return None
     r = min(float(g1[strong].sum()) / total, 0.995)
     return r / math.sqrt(1 - r * r)
+
+
+def _blur_sigma(gray: np.ndarray, where: np.ndarray | None = None) -> float:
+    """Effective Gaussian blur (pixels) of a grey image's strongest edges: blurring a step edge of blur s by 1 px
+    more lowers its peak gradient by s / sqrt(s² + 1); that ratio, measured on the top 2 % of gradients, gives s."""
+    g0, g1 = _gradients(gray)
+    if where is not None:
+        g0, g1 = g0[where], g1[where]
+    s = _blur_from(g0, g1)
+    return 0.0 if s is None else s
+
+
+_BLUR_TILE = 48  #: px: the background's blur is measured in tiles this size ...
+_EDGE_FLOOR = 0.1  #: ... that hold an edge (Sobel magnitude of a grey in [0, 1]: a sharp step of about 0.03)
+_BLUR_TILES = 10  #: at most this many tiles a side
+_BLUR_QUANTILE = 25  #: the camera's blur: this percentile of the tiles' blurs (its sharpest part, robustly)
+
+
+def _camera_blur(gray: np.ndarray) -> float:
+    """The background camera's own blur (px): the blur of the sharpest part of the photo.
+
+    A photographer focuses on the person, so what is soft only in part of the background (defocus: depth) is not
+    the person's; what softens the whole photo (the lens, a small sensor, resampling) is. So the blur is
+    measured in tiles (``_BLUR_TILE``; at most ``_BLUR_TILES`` a side, spread evenly over a large photo) that hold
+    a real edge (a strongest gradient above ``_EDGE_FLOOR``: a smooth sky or wall has none, and its ramps would
+    read as an endless blur) and the low quantile ``_BLUR_QUANTILE`` of those is the camera's. 0 when no tile
+    holds an edge (nothing to match)."""
+    h, w = gray.shape
+    ny, nx = max(1, h // _BLUR_TILE), max(1, w // _BLUR_TILE)
+    found = []
+    pad = 4  # the filters' reach: each tile is filtered with its surroundings
+    for y in np.linspace(0, h - min(h, _BLUR_TILE), min(ny, _BLUR_TILES)).round().astype(int):
+        for x in np.linspace(0, w - min(w, _BLUR_TILE), min(nx, _BLUR_TILES)).round().astype(int):
+            y0, x0 = max(0, y - pad), max(0, x - pad)
+            g0, g1 = _gradients(gray[y0 : y + _BLUR_TILE + pad, x0 : x + _BLUR_TILE + pad])
+            t = np.s_[y - y0 : y - y0 + _BLUR_TILE, x - x0 : x - x0 + _BLUR_TILE]
+            a, b = g0[t], g1[t]
+            if float(a.max()) < _EDGE_FLOOR:
+                continue
+            s = _blur_from(a, b)
+            if s is not None:
+                found.append(s)
+    return float(np.percentile(found, _BLUR_QUANTILE)) if found else 0.0
+
+
+def _grey(image: np.ndarray) -> np.ndarray:
+    """(H, W) float32 luma of an RGB image, in [0, 1] (uint8 or float input)."""
+    if image.dtype == np.uint8:
+        return cv2.cvtColor(np.ascontiguousarray(image), cv2.COLOR_RGB2GRAY).astype(np.float32) * np.float32(1 / 255)
+    return cv2.cvtColor(np.ascontiguousarray(image, dtype=np.float32), cv2.COLOR_RGB2GRAY)
+
+
+def _light_wrap(
+    composed: np.ndarray, behind: np.ndarray, alpha: np.ndarray, radius: float, strength: float = WRAP_STRENGTH
+) -> np.ndarray:
+    """The background's light wrapped a little over the person's edge ("light wrap"; step 7 of the module docstring).
+
+    At a silhouette the body's surface turns away from the camera, toward what lies behind the person: there it
+    is lit by the background's own light (a rim), and a lens spreads a bright background's light a few pixels
+    over a dark edge. So, inside the matte and within ``radius`` of the outside, each pixel is lifted toward the
+    background's light near it: ``composed + strength · band · max(near − composed, 0)``, where ``near`` is the
+    background behind the edge (``behind`` averaged over the pixels outside the person, Gaussian of ``radius``),
+    ``band`` = alpha × the share of outside pixels within reach (1/2 at a hard edge, falling to 0 inside the
+    body) and the lift is per channel and only where the background is the brighter (a dark background takes
+    nothing away: the person's own light is already in it).
+
+    Args:
+        composed: (h, w, 3) linear frame with the person laid over ``behind``.
+        behind: (h, w, 3) linear background without the person (its shadows included).
+        alpha: (h, w) the person's matte in this window.
+        radius: Gaussian sigma of the reach, pixels (> 0).
+        strength: in [0, 1].
+
+    Returns:
+        New (h, w, 3) float32.
+    """
+    a = np.clip(alpha, 0, 1).astype(np.float32)
+    outside = 1 - a
+    reach = cv2.GaussianBlur(outside, (0, 0), radius, borderType=cv2.BORDER_REFLECT)
+    out = np.array(composed, dtype=np.float32)
+    edge = (a > 0) & (reach > 1e-3)  # the band: only these pixels change
+    if not edge.any():
+        return out
+    near = cv2.GaussianBlur(behind * outside[..., None], (0, 0), radius, borderType=cv2.BORDER_REFLECT)[edge]
+    near /= reach[edge][:, None]
+    band = (a[edge] * reach[edge])[:, None]
+    c = out[edge]
+    out[edge] = c + np.float32(strength) * band * np.maximum(near - c, 0)
+    return out
 
 
 def _dominant_direction(light: np.ndarray) -> tuple[np.ndarray | None, float]:
     """The unit direction the light mostly comes from and how directional it is (sh.dominant_direction of its
     Rec. 709 luminance)."""
     return sh.dominant_direction(np.asarray(light, np.float64) @ _exposure.REC709.astype(np.float64))
+
+
+class _Occluder:
+    """The person as a vertical cylinder standing on the ground plane, for the sky it hides from the ground around
+    its feet (step 6's ambient occlusion). Frame pixels ↔ ground metres by the level camera of step 4: a ground
+    pixel ``r`` rows below the horizon lies ``CAMERA_M · focal / r`` metres away."""
+
+    def __init__(self, foot_x: float, feet_y: float, height_px: float, horizon_y: float, focal: float, cx: float):
+        self.horizon_y, self.focal, self.cx = horizon_y, focal, cx
+        self.z0 = CAMERA_M * focal / max(feet_y - horizon_y, 1.0)  # the feet's distance, metres
+        self.x0 = (foot_x - cx) * self.z0 / focal
+        self.height = height_px * self.z0 / focal  # the person's height, metres
+        self.radius = OCCLUDER_RADIUS * self.height
+
+    def reach(self, frame_h: int) -> tuple[int, int, int, int]:
+        """(y0, y1, x0, x1) of the frame where the occlusion is worth drawing (ground within 8 radii)."""
+        d = 8 * self.radius
+        near, far = self.z0 - d, self.z0 + d
+        y1 = frame_h if near <= CAMERA_M * self.focal / max(frame_h - self.horizon_y, 1.0) else (
+            int(math.ceil(self.horizon_y + CAMERA_M * self.focal / near)))  # fmt: skip
+        y0 = int(self.horizon_y + CAMERA_M * self.focal / far)
+        half = d * self.focal / max(near, self.z0 / 2)
+        xc = self.cx + self.x0 * self.focal / self.z0
+        return y0, y1, int(xc - half), int(math.ceil(xc + half))
+
+    def occlusion(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """The share of a uniform sky's light on the ground at frame points (x, y) that the person hides: the
+        cosine-weighted solid angle of a cylinder of radius R and height H seen from distance d,
+        asin(R / d) · sin²(atan(H / d)) / π (a wall of 2·asin(R / d) radians of azimuth from the ground up to its
+        top); 1/2 · sin² under it; 0 above the horizon."""
+        rows = y - np.float32(self.horizon_y)
+        ground = rows > 0.5
+        z = np.float32(CAMERA_M * self.focal) / np.maximum(rows, 0.5)
+        gx = (x - np.float32(self.cx)) * z / np.float32(self.focal)
+        d = np.maximum(np.hypot(gx - np.float32(self.x0), z - np.float32(self.z0)), 1e-6)
+        across = np.arcsin(np.minimum(np.float32(self.radius) / d, 1.0))
+        up = self.height**2 / (self.height**2 + d * d)
+        return np.where(ground, across * up / np.float32(math.pi), 0).astype(np.float32)
 
 
 def _cast_shadow(alpha: np.ndarray, top: int, left: int, feet_y: float, horizon_y: float, focal: float,
@@ -297,6 +436,7 @@ def composite(
     horizon: float = 0.5,
     meter: str = "frame",
     match_camera: bool = True,
+    light_wrap: bool = True,
 ) -> np.ndarray:
     """Relight the person of ``image`` for the scene of ``background`` and put it there (module docstring).
 
@@ -320,7 +460,8 @@ def composite(
             (relight_rt.scene_light.parse_key_light); None: the key the view implies. Ignored with ``light``.
         horizon: the horizon's row, a fraction of the background's height in [0, 1] (0.5: a level camera).
         meter: "frame" or "background" (step 8).
-        match_camera: match the background's blur and noise (step 5).
+        match_camera: match the background camera's blur and noise (step 5).
+        light_wrap: let the background's light wrap over the person's edge where it is brighter (step 7).
 
     Returns:
         (H_bg, W_bg, 3) float32 sRGB in [0, 1].
@@ -413,15 +554,15 @@ def composite(
             bg_region = bg[ey0:ey1, ex0:ex1].astype(np.float32)
             if bg.dtype == np.uint8:
                 bg_region *= np.float32(1 / 255)
-            bg_gray = bg_region.mean(axis=2)
             alpha_p = premult[..., 3]
             inside = cv2.erode((alpha_p > 0.98).astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
             colour = np.divide(premult[..., :3], premult[..., 3:], out=np.zeros_like(premult[..., :3]),
                                where=premult[..., 3:] > 1e-3)  # fmt: skip
             p_srgb = linear_to_srgb(np.clip(colour, 0, 1))
             # the person's sharpness: its premultiplied colour, so that its outline counts too
-            b_bg, b_p = _blur_sigma(bg_gray), _blur_sigma(linear_to_srgb(premult[..., :3]).mean(axis=2))
-            if full_body and b_bg > b_p + 0.25:  # a close portrait is in focus whatever the background
+            b_bg = _camera_blur(_grey(bg))
+            b_p = _blur_sigma(linear_to_srgb(premult[..., :3]).mean(axis=2))
+            if b_bg > b_p + 0.25:  # the camera's own softness reaches a close portrait too
                 sigma = min(math.sqrt(b_bg**2 - b_p**2), 8.0)
                 pad = int(math.ceil(3 * sigma))  # room for the outline to soften outward
                 premult = cv2.copyMakeBorder(premult, pad, pad, pad, pad, cv2.BORDER_CONSTANT, value=0)
@@ -437,16 +578,29 @@ def composite(
     sh_w, sh_h = 0.6 * new_w, max(2.0, new_h / 20)
     foot_x, foot_y = (left + box_right) / 2, feet_y - 0.2 * sh_h
     cast = None
+    focal = (wb / 2) / math.tan(math.radians(float(fov)) / 2)
     if draw_shadow:
         ry0, ry1 = min(ry0, int(foot_y - 3 * sh_h)), max(ry1, int(math.ceil(foot_y + 3 * sh_h)))
         rx0, rx1 = min(rx0, int(foot_x - 1.5 * sh_w)), max(rx1, int(math.ceil(foot_x + 1.5 * sh_w)))
+        occ = _Occluder(foot_x, feet_y, new_h, hz * hb, focal, wb / 2)
+        oy0, oy1, ox0, ox1 = occ.reach(hb)
+        ry0, ry1, rx0, rx1 = min(ry0, oy0), max(ry1, oy1), min(rx0, ox0), max(rx1, ox1)
         if shadow_dir is not None and directional > 0:
-            focal = (wb / 2) / math.tan(math.radians(float(fov)) / 2)
             cast = _cast_shadow(premult[..., 3], top, left, feet_y, hz * hb, focal, shadow_dir, (hb, wb))
             if cast is not None:
                 cy0, cx0, cs = cast
                 ry0, ry1 = min(ry0, cy0), max(ry1, cy0 + cs.shape[0])
                 rx0, rx1 = min(rx0, cx0), max(rx1, cx0 + cs.shape[1])
+    wrap = bool(light_wrap)
+    wrap_radius = max(0.5, WRAP_RADIUS * hb)
+    if wrap:  # the light wrap reads the background around the person
+        margin = int(math.ceil(3 * wrap_radius))
+        ry0, ry1, rx0, rx1 = (
+            min(ry0, top - margin),
+            max(ry1, box_bottom + margin),
+            min(rx0, left - margin),
+            max(rx1, box_right + margin),
+        )
     ry0, ry1, rx0, rx1 = max(ry0, 0), min(ry1, hb), max(rx0, 0), min(rx1, wb)
     if ry1 <= ry0 or rx1 <= rx0:
         return bg.astype(np.float32) * np.float32(1 / 255) if bg.dtype == np.uint8 else bg.astype(np.float32, copy=True)
@@ -457,6 +611,8 @@ def composite(
         yy, xx = np.mgrid[ry0:ry1, rx0:rx1].astype(np.float32)
         d2 = ((xx + 0.5 - foot_x) / sh_w) ** 2 + ((yy + 0.5 - foot_y) / sh_h) ** 2
         light_left = 1 - CONTACT_STRENGTH * np.exp(-2 * d2)
+        ambient = 1 - min(1.0, directional) if shadow_dir is not None else 1.0
+        light_left = np.minimum(light_left, 1 - ambient * occ.occlusion(xx + 0.5, yy + 0.5))
         if cast is not None:
             cy0, cx0, cs = cast
             cover = np.zeros(lin.shape[:2], np.float32)
@@ -472,10 +628,15 @@ def composite(
     alpha_region = None
     if py1 > py0 and px1 > px0:
         p = premult[py0 - top : py1 - top, px0 - left : px1 - left]
+        behind = lin.copy() if wrap else None
         view = lin[py0 - ry0 : py1 - ry0, px0 - rx0 : px1 - rx0]
         view *= 1 - p[..., 3:]
         view += p[..., :3]
         alpha_region = (py0, py1, px0, px1, p[..., 3])
+        if wrap:  # step 7's light wrap
+            window_alpha = np.zeros(lin.shape[:2], np.float32)
+            window_alpha[py0 - ry0 : py1 - ry0, px0 - rx0 : px1 - rx0] = p[..., 3]
+            lin = _light_wrap(lin, behind, window_alpha, wrap_radius)
 
     # metering (step 8)
     gain = 1.0

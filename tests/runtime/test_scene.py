@@ -28,7 +28,7 @@ def flat_person(h=150, w=100, colour=(150, 110, 90)):
 
 # the flat person (150 x 100, body rows 20-140, centred) put back on its own pixels of a same-size background
 SAME = {"position": (0.5, 140 / 150), "height": 120 / 150, "meter": "background", "shadow": False,
-        "match_camera": False}  # fmt: skip
+        "match_camera": False, "light_wrap": False}  # fmt: skip
 
 
 def test_output_has_the_background_size(diffuse):
@@ -141,6 +141,93 @@ def test_the_person_takes_the_backgrounds_noise_and_blur(diffuse):
     assert steepest(soft) < 0.6 * steepest(sharp)
 
 
+def test_a_background_soft_only_around_the_person_leaves_the_person_sharp(diffuse):
+    """Defocus belongs to the background's depth, not to the person the camera focuses on: a photo sharp in parts
+    (a checker at its sides) and soft only around the person (the checker blurred there) adds no blur to the
+    person; before, the blur was measured around the person only and the person was blurred by it."""
+    img, mask = flat_person()
+    yy, xx = np.mgrid[:150, :300]
+    checker = np.where(((yy // 12) + (xx // 12)) % 2 == 0, 60, 190).astype(np.uint8)
+    bg = np.repeat(checker[..., None], 3, axis=2)
+    soft = cv2.GaussianBlur(bg, (0, 0), 3)
+    bg[:, 80:220] = soft[:, 80:220]  # the person stands at columns 130-170
+    kw = {**SAME, "position": (0.5, 140 / 150)}
+    matched = composite(diffuse, img, bg, mask=mask, **{**kw, "match_camera": True})
+    plain = composite(diffuse, img, bg, mask=mask, **kw)
+    np.testing.assert_allclose(matched, plain, atol=2e-3)
+
+
+def test_a_half_body_takes_the_cameras_own_blur(diffuse):
+    """A background soft everywhere (a soft camera, not depth) softens a cut-off person's edge too; before, a
+    cut-off person was never blurred."""
+    img, mask = flat_person()
+    mask[100:] = mask[99]  # a half body
+    yy, xx = np.mgrid[:150, :100]
+    checker = np.where(((yy // 12) + (xx // 12)) % 2 == 0, 60, 190).astype(np.uint8)
+    sharp = np.repeat(checker[..., None], 3, axis=2)
+    soft = cv2.GaussianBlur(sharp, (0, 0), 3)
+    kw = {k: v for k, v in SAME.items() if k not in ("position", "height")}
+
+    def steepest(bg, match):
+        row = composite(diffuse, img, bg, mask=mask, **{**kw, "match_camera": match})[80, 20:45].mean(1)
+        return float(np.abs(np.diff(row)).max())
+
+    assert steepest(soft, True) < 0.7 * steepest(soft, False)
+    assert steepest(sharp, True) == pytest.approx(steepest(sharp, False), rel=0.05)
+
+
+def test_the_person_hides_some_sky_from_the_ground_around_its_feet(diffuse):
+    """Ambient occlusion (step 6): under an even light the ground beside the feet, beyond the small contact
+    ellipse, is darker by the share of the sky the body hides, less the farther it is; before, it was unchanged
+    a contact ellipse's width away."""
+    img, mask = flat_person()
+    bg = np.full((150, 300, 3), 150, np.uint8)
+    even = np.zeros((9, 3), np.float32)
+    even[0] = 0.3  # no direction: no cast shadow
+    kw = {"meter": "background", "match_camera": False, "light_wrap": False, "light": even, "exposure": "physical"}
+    lit = srgb_to_linear(composite(diffuse, img, bg, mask=mask, shadow=False, **kw))
+    shaded = srgb_to_linear(composite(diffuse, img, bg, mask=mask, shadow=True, **kw))
+    ratio = (shaded / lit).mean(2)
+    feet = round(0.92 * 150) - 1  # the feet's row (default place), the person centred at column 150
+    near, far = ratio[feet, [150 - 22, 150 + 22]], ratio[feet, [150 - 50, 150 + 50]]
+    assert near.max() < 0.95  # a few body widths' reach, well outside the contact ellipse's
+    assert (near < far).all() and far.max() < 0.995
+    assert ratio[:50].min() > 0.999  # above the horizon: no ground, nothing hidden
+
+
+def test_a_float_background_is_matched_as_its_8_bit_copy(diffuse):
+    img, mask = flat_person()
+    rng = np.random.default_rng(3)
+    bg8 = cv2.GaussianBlur(rng.integers(0, 256, (150, 200, 3)).astype(np.uint8), (0, 0), 2)
+    kw = {"meter": "background", "match_camera": True}
+    eight = composite(diffuse, img, bg8, mask=mask, **kw)
+    for dtype in (np.float32, np.float64):
+        as_float = composite(diffuse, img, bg8.astype(dtype) / 255, mask=mask, **kw)
+        np.testing.assert_allclose(as_float, eight, atol=1.5 / 255)
+
+
+def test_a_bright_background_wraps_its_light_over_the_persons_edge(diffuse):
+    """Light wrap (step 7): a dark person before a bright background takes some of its light in a thin band inside
+    the edge, none deep inside; a darker background gives nothing (and takes nothing); off, the edge is as before."""
+    img, mask = flat_person()
+    mask[20:140, 30:35] = 1.0  # a hard edge: the band is the wrap's alone
+    dim = np.zeros((9, 3), np.float32)
+    dim[0] = 0.05  # a dim light: a dark person
+    off = {**SAME, "light": dim, "exposure": "physical"}
+    kw = {**off, "light_wrap": True}
+    bright = np.full((150, 100, 3), 230, np.uint8)
+    wrapped = srgb_to_linear(composite(diffuse, img, bright, mask=mask, **kw))
+    plain = srgb_to_linear(composite(diffuse, img, bright, mask=mask, **off))
+    edge, deep = np.s_[40:120, 30], np.s_[40:120, 45:55]  # the left edge column, and the body's middle
+    lift = (wrapped[edge] - plain[edge]).mean()
+    assert lift > 0.05 * (230 / 255) ** 2.2  # a visible share of the background's light
+    np.testing.assert_allclose(wrapped[deep], plain[deep], atol=1e-6)
+    np.testing.assert_allclose(wrapped[:10], plain[:10], atol=1e-6)  # the background itself untouched
+    dark = np.full((150, 100, 3), 2, np.uint8)
+    on, plain_dark = (composite(diffuse, img, dark, mask=mask, **k) for k in (kw, off))
+    np.testing.assert_allclose(on, plain_dark, atol=1e-6)
+
+
 def test_frame_metering_keeps_the_frames_mean_and_background_metering_keeps_its_pixels(diffuse):
     img, mask = flat_person(colour=(250, 250, 250))
     bg = np.full((150, 100, 3), 60, np.uint8)
@@ -249,6 +336,10 @@ def test_cli_composite(work, capsys):
             "--no-shadow", "--meter", "background", "--no-match-camera"]  # fmt: skip
     code, _, err = run(argv, capsys)
     assert code == 0, err
+    code, _, err = run([*argv[:5], "o4.png", *argv[6:], "--no-light-wrap"], capsys)
+    assert code == 0, err
+    wrapped, plain = cv2.imread("o3.png").astype(int), cv2.imread("o4.png").astype(int)
+    assert np.abs(wrapped - plain).max() > 2  # the wrap is on by default; --no-light-wrap turns it off
     argv = ["composite", "p.png", "--background", "bg.png", "-o", "o2.jpg", "--preset", "studio"]
     code, _, err = run([*argv, "--position", "0.3,0.9", "--height", "0.6", "--exposure", "-1", "--fov", "80"], capsys)
     assert code == 0, err
