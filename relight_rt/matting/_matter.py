@@ -31,6 +31,7 @@ from ._regions import (
     logits_on_grid,
     person_box,
     prob_at,
+    reductions_shared,
     tile_levels,
     warp_to_grid,
     working_grid,
@@ -309,7 +310,8 @@ class PersonMatter:
 
     def __call__(self, image: np.ndarray, name: str = "image") -> np.ndarray:
         rgb = as_rgb(image, name, copy=False)  # only read from here on
-        people = self.people(rgb, name)
+        with reductions_shared(rgb):  # the detectors' crops share one set of reduced copies of the photo
+            people = self.people(rgb, name)
         alpha = self.alpha(rgb, people) if people else None
         if alpha is None or not (alpha >= 0.5).any():
             raise RelightError(
