@@ -194,13 +194,13 @@ def _blocks(img: np.ndarray, n: int, blocks: tuple[int, int, int, int]) -> np.nd
     return out
 
 
-_SHARED = threading.local()
+_SCOPE = threading.local()  # the Pyramid of the photo a matter is working on (reductions_shared)
 
 
 def pyramid_of(rgb: np.ndarray) -> Pyramid:
     """The image's :class:`Pyramid`: the one shared inside :func:`reductions_shared` for this very array,
     else a new one (the same maths, nothing kept)."""
-    shared = getattr(_SHARED, "pyramid", None)
+    shared = getattr(_SCOPE, "pyramid", None)
     return shared if shared is not None and shared.rgb is rgb else Pyramid(rgb)
 
 
@@ -210,14 +210,14 @@ def reductions_shared(rgb: np.ndarray) -> Iterator[Pyramid]:
     :class:`Pyramid` and the same region and size is cropped once. The matters open it around one call:
     they only read the photo then, so the reductions stay true to it (a caller may change the array
     between calls)."""
-    prev = getattr(_SHARED, "pyramid", None)
+    prev = getattr(_SCOPE, "pyramid", None)
     pyr = prev if prev is not None and prev.rgb is rgb else Pyramid(rgb)
     pyr.memo = True
-    _SHARED.pyramid = pyr
+    _SCOPE.pyramid = pyr
     try:
         yield pyr
     finally:
-        _SHARED.pyramid = prev
+        _SCOPE.pyramid = prev
 
 
 def sigmoid(x: np.ndarray) -> np.ndarray:
