@@ -222,7 +222,8 @@ def speed(ref: Path, repeat: int) -> None:
 
 def cpu_time(ref: Path, repeat: int) -> None:
     """CPU time of one thread (cv2.setNumThreads(1)) for the edge refinement and the decontamination of a
-    2-megapixel photo: on a machine whose cores other jobs share, closer to an idle core's wall time."""
+    2-megapixel photo, and for the coarse matte (its graphs on one thread too): on a machine whose cores other
+    jobs share, closer to an idle core's wall time."""
     import os
 
     cv2.setNumThreads(1)
@@ -245,6 +246,24 @@ def cpu_time(ref: Path, repeat: int) -> None:
     print(
         f"load {os.getloadavg()[0]:.1f}; CPU ms, one thread, best / median of {repeat}: refine_edges "
         f"{r[0]:.0f} / {r[1]:.0f}; estimate_foreground {f[0]:.0f} / {f[1]:.0f}; both {b[0]:.0f} / {b[1]:.0f}"
+    )
+    from relight_rt.session import ENV_THREADS
+
+    before = os.environ.get(ENV_THREADS)
+    os.environ[ENV_THREADS] = "1"  # the graphs' sessions are made with one intra-op thread
+    try:
+        coarse = M.PersonMatter(edges=False)
+        raw = M.PersonMatter(refine=False)
+    finally:
+        if before is None:
+            del os.environ[ENV_THREADS]
+        else:
+            os.environ[ENV_THREADS] = before
+    c = best(lambda: coarse(photo))
+    u = best(lambda: raw(photo))
+    print(
+        f"load {os.getloadavg()[0]:.1f}; CPU ms, one thread (graphs too), best / median of {repeat}: coarse matte "
+        f"(edges=False) {c[0]:.0f} / {c[1]:.0f}; refine=False {u[0]:.0f} / {u[1]:.0f}"
     )
 
 
