@@ -24,6 +24,7 @@ COARSE_MIN_AREA = 24  # canvas pixels: smaller blobs of the region finder are no
 _TILE_LEVELS = (1, 2, 3, 4, 6)  # whole image, then n x n overlapping tiles while nobody is found ...
 _WORK_MAX = 512  # long side of the working grid (guided-filter fit, temporal blend)
 LOGIT_CLIP = 30.0
+_KEEP_CROPS = 4  # crops a Pyramid keeps (the 66 tiles of person="all" would hold 50 MB)
 
 Grid = tuple[int, int, float, float, float, float]  # (gw, gh, kx, ky, bx, by): see working_grid
 
@@ -125,9 +126,11 @@ class Pyramid:
         if key in self._crops:
             return self._crops[key]
         out = self._crop(region, size)
-        if self.memo:
+        if self.memo:  # the last few only: a region is cropped again right after (pose pass, portrait check)
             out.flags.writeable = False
             self._crops[key] = out
+            while len(self._crops) > _KEEP_CROPS:
+                del self._crops[next(iter(self._crops))]
         return out
 
     def _crop(self, region: Region, size: int) -> np.ndarray:

@@ -168,6 +168,14 @@ def test_crops_inside_reductions_shared_are_the_same_and_reduce_the_photo_once(m
     assert calls.count(img.shape) == 1  # the photo itself is halved once; smaller reductions come from that
 
 
+def test_reductions_shared_keeps_only_the_last_few_crops():
+    img = np.zeros((600, 900, 3), np.float32)
+    with M._regions.reductions_shared(img) as pyr:
+        crops = [M.crop_region(img, M.Region(300.0 + 10 * i, 300.0, 600.0)) for i in range(10)]
+        assert len(pyr._crops) <= M._regions._KEEP_CROPS  # person="all" crops 66 tiles: they are not all kept
+        assert M.crop_region(img, M.Region(390.0, 300.0, 600.0)) is crops[-1]
+
+
 def test_reductions_shared_keeps_nothing_after_the_block():
     img = np.zeros((900, 1400, 3), np.float32)
     region = M.Region(700.0, 450.0, 1400.0)
