@@ -175,13 +175,13 @@ def _reduced(img: np.ndarray, n: int, blocks: tuple[int, int, int, int]) -> np.n
 
 
 def _blocks(img: np.ndarray, n: int, blocks: tuple[int, int, int, int]) -> np.ndarray:
-    """The means of ``img``'s n x n blocks (bx0, by0, bx1, by1), float32 (by1 - by0, bx1 - bx0, C): block
+    """The means of ``img``'s n x n blocks (bx0, by0, bx1, by1), (by1 - by0, bx1 - bx0, C) of its dtype: block
     (r, c) covers rows [n r, n r + n) and columns [n c, n c + n), the image being zero past its edge (as
     everywhere in a crop), so a block cut by the edge is the sum of its pixels there over n²."""
     h, w = img.shape[:2]
     bx0, by0, bx1, by1 = blocks
     fx, fy = min(bx1, w // n), min(by1, h // n)  # blocks whole inside the image end here
-    out = np.empty((by1 - by0, bx1 - bx0) + img.shape[2:], np.float32)
+    out = np.empty((by1 - by0, bx1 - bx0) + img.shape[2:], img.dtype)
     if fx > bx0 and fy > by0:
         part = img[n * by0 : n * fy, n * bx0 : n * fx]
         out[: fy - by0, : fx - bx0] = cv2.resize(part, (fx - bx0, fy - by0), interpolation=cv2.INTER_AREA)
