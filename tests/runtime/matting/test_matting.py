@@ -168,6 +168,12 @@ def test_crops_inside_reductions_shared_are_the_same_and_reduce_the_photo_once(m
     assert calls.count(img.shape) == 1  # the photo itself is halved once; smaller reductions come from that
 
 
+def test_crop_region_of_a_large_region_keeps_the_dtype():
+    img = np.full((900, 1300, 3), 200, np.uint8)
+    out = M.crop_region(img, M.Region(650.0, 450.0, 1300.0))  # reduced before the warp
+    assert out.dtype == np.uint8 and out[100:150, 100:150].min() == 200
+
+
 def test_reductions_shared_keeps_only_the_last_few_crops():
     img = np.zeros((600, 900, 3), np.float32)
     with M._regions.reductions_shared(img) as pyr:
