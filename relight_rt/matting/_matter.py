@@ -187,10 +187,14 @@ class PersonMatter:
         selfie graph's probability over every tile scale and the faces in tiles too, skips candidates that lie
         inside the people already matted (a group seen as one blob is taken face by face; one selfie-graph
         segmentation holding several faces side by side is one person per face, :func:`split_by_faces`),
-        drops duplicates, and keeps people at least MIN_PERSON_FRACTION of the image's height tall.
+        drops duplicates, tries last where the selfie graph's probability stays faint (:func:`_faint`: the pose
+        graph must be sure there), and keeps people at least MIN_PERSON_FRACTION of the image's height tall.
+        The detectors' crops of one call share the photo's reductions (:func:`reductions_shared`).
         """
-        if self.person == "all":
-            return self._everyone(rgb)
+        with reductions_shared(rgb):  # the detectors' crops share one set of reduced copies of the photo
+            return self._everyone(rgb) if self.person == "all" else self._largest(rgb)
+
+    def _largest(self, rgb: np.ndarray) -> list[Person]:
         h, w = rgb.shape[:2]
         for _, box in self.find_people(rgb):
             p = self._person_at(rgb, box, None)
@@ -326,8 +330,7 @@ class PersonMatter:
 
     def __call__(self, image: np.ndarray, name: str = "image") -> np.ndarray:
         rgb = as_rgb(image, name, copy=False)  # only read from here on
-        with reductions_shared(rgb):  # the detectors' crops share one set of reduced copies of the photo
-            people = self.people(rgb, name)
+        people = self.people(rgb, name)
         alpha = self.alpha(rgb, people) if people else None
         if alpha is None or not (alpha >= 0.5).any():
             raise RelightError(

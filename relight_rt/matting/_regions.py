@@ -86,8 +86,8 @@ def warp_matrix(src: tuple[float, float, float], dst: tuple[float, float, float]
 def crop_region(rgb: np.ndarray, region: Region, size: int = SIZE) -> np.ndarray:
     """The square ``region`` of ``rgb`` resampled to (size, size, 3), zero outside the image.
 
-    Large regions are first reduced with area averaging (no aliasing), from the image's reduced copies
-    (:class:`Pyramid`; shared by all crops of one photo inside :func:`reductions_shared`); the final
+    Large regions are first reduced by block means to about twice the canvas resolution (:class:`Pyramid`;
+    shared by all crops of one photo inside :func:`reductions_shared`); the final
     resampling is one exact affine warp, so :func:`grid_of_region` describes the result exactly. The
     result is read-only when it comes from the shared crops.
     """
@@ -102,7 +102,7 @@ class Pyramid:
 
     The reduction by n has index = X / n - 0.5 for continuous image coordinate X. A crop at canvas scale
     k < 0.5 is warped from the reduction by the power of 2 nearest to 1 / (2 k) (at least 2): a box filter
-    about as wide as half the canvas's pixel pitch, then one bilinear warp that reduces by 1.4-2.8 (by 2
+    about as wide as half the canvas's pixel pitch, then one bilinear warp that reduces by 1-2.8 (by 2
     at the nearest power), where one area reduction to exactly 2 k per crop came before.
     """
 
