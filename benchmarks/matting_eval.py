@@ -1,7 +1,7 @@
 """Automatic person matting (relight_rt.matting) against the reference masks, a GrabCut baseline, speed, flicker.
 
     python benchmarks/matting_eval.py                      # everything below, figures as in docs/RESULTS.md
-    python benchmarks/matting_eval.py --only accuracy|speed|flicker|cputime
+    python benchmarks/matting_eval.py --only accuracy|speed|flicker|cputime|shifts
 
 - accuracy: IoU (alpha >= 0.5), boundary F-measure (DAVIS: outline pixels matched within 0.8 % of the
   image diagonal) and the edge-band error (mean |alpha - hand mask| and SAD/1000 where the hand mask is soft,
@@ -13,6 +13,8 @@
   relight_rt.foreground.estimate_foreground on their own too), and VideoMatter
   on 720p frames (1280x720: the reference frames scaled to 720 px high, centred, edges replicated),
   median of repeated runs, plus where the time goes.
+- shifts: the photo's accuracy over the 9 crops that drop 0-2 rows and 0-2 columns at its top left (the
+  matte moves with its 256² crops: a 1-pixel shift moves the photo's IoU by up to 0.007), mean and min.
 - flicker: relight_rt.matting.outline_flicker on the 24 reference frames for VideoMatter with and without
   temporal smoothing, per-image PersonMatter, and the reference masks themselves.
 
@@ -220,7 +222,8 @@ def speed(ref: Path, repeat: int) -> None:
 
 def cpu_time(ref: Path, repeat: int) -> None:
     """CPU time of one thread (cv2.setNumThreads(1)) for the edge refinement and the decontamination of a
-    2-megapixel photo: on a machine whose cores other jobs share, closer to an idle core's wall time."""
+    2-megapixel photo, and for the coarse matte (its graphs on one thread too): on a machine whose cores other
+    jobs share, closer to an idle core's wall time."""
     import os
 
     cv2.setNumThreads(1)
@@ -244,6 +247,24 @@ def cpu_time(ref: Path, repeat: int) -> None:
         f"load {os.getloadavg()[0]:.1f}; CPU ms, one thread, best / median of {repeat}: refine_edges "
         f"{r[0]:.0f} / {r[1]:.0f}; estimate_foreground {f[0]:.0f} / {f[1]:.0f}; both {b[0]:.0f} / {b[1]:.0f}"
     )
+    from relight_rt.session import ENV_THREADS
+
+    before = os.environ.get(ENV_THREADS)
+    os.environ[ENV_THREADS] = "1"  # the graphs' sessions are made with one intra-op thread
+    try:
+        coarse = M.PersonMatter(edges=False)
+        raw = M.PersonMatter(refine=False)
+    finally:
+        if before is None:
+            del os.environ[ENV_THREADS]
+        else:
+            os.environ[ENV_THREADS] = before
+    c = best(lambda: coarse(photo))
+    u = best(lambda: raw(photo))
+    print(
+        f"load {os.getloadavg()[0]:.1f}; CPU ms, one thread (graphs too), best / median of {repeat}: coarse matte "
+        f"(edges=False) {c[0]:.0f} / {c[1]:.0f}; refine=False {u[0]:.0f} / {u[1]:.0f}"
+    )
 
 
 def flicker(ref: Path) -> None:
@@ -265,9 +286,27 @@ def flicker(ref: Path) -> None:
         row(f"VideoMatter, smoothing {s}", [vm(f) for f in frames])
 
 
+def shifts(ref: Path) -> None:
+    name, img_path, gt_path = cases(ref)[0]
+    rgb0, gt0 = read_rgb(img_path), read_gt(gt_path)
+    for label, pm in (("PersonMatter()", M.PersonMatter()), ("PersonMatter(edges=False)", M.PersonMatter(edges=False))):
+        r = []
+        for dy in range(3):
+            for dx in range(3):
+                a, gt = pm(np.ascontiguousarray(rgb0[dy:, dx:]), name), gt0[dy:, dx:]
+                r.append((iou(a, gt), boundary_f(a, gt), band_error(a, gt)[0]))
+        v = np.array(r)
+        print(
+            f"{label}, {name} shifted by 0-2 px (9 crops): IoU mean {v[:, 0].mean():.4f} (min {v[:, 0].min():.4f}, "
+            f"max {v[:, 0].max():.4f}); boundary F mean {v[:, 1].mean():.4f} (min {v[:, 1].min():.4f}); "
+            f"edge band mean error {v[:, 2].mean():.3f}",
+            flush=True,
+        )
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--only", choices=("accuracy", "speed", "flicker", "cputime"))
+    p.add_argument("--only", choices=("accuracy", "speed", "flicker", "cputime", "shifts"))
     p.add_argument("--repeat", type=int, default=20)
     args = p.parse_args()
     ref = shared_reference()
@@ -279,6 +318,8 @@ def main() -> None:
         flicker(ref)
     if args.only in (None, "cputime"):
         cpu_time(ref, min(args.repeat, 10))
+    if args.only in (None, "shifts"):
+        shifts(ref)
 
 
 if __name__ == "__main__":

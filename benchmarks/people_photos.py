@@ -1,7 +1,7 @@
 """Real photos of people for the matting benchmarks, gathered at benchmark time (none is copied into the repo).
 
     python benchmarks/people_photos.py --cache /tmp/people [--git owner/name=GITDIR ...]   # lists + gathers
-    python benchmarks/people_photos.py --cache /tmp/people --found [--sheet /tmp/found.jpg]  # who is found
+    python benchmarks/people_photos.py --cache /tmp/people --found [--sheet /tmp/found.jpg] [--shifted]  # who is found
 
 Each entry: a name, where it comes from, what it shows, and how many people a person finder should return
 with ``--person all`` (people whose box is at least ``relight_rt.matting.MIN_PERSON_FRACTION`` of the
@@ -153,8 +153,13 @@ def parse_gitdirs(items: list[str]) -> dict[str, Path]:
     return out
 
 
-def found(photos: list[tuple[Photo, Path]], sheet: Path | None) -> None:
+FRAMINGS = ((0, 0), (1, 0), (0, 1), (1, 1), (2, 0), (0, 2))  # rows, columns dropped at the top left
+
+
+def found(photos: list[tuple[Photo, Path]], sheet: Path | None, shifted: bool = False) -> None:
     """Per photo: is a person found (person="largest"), how many with person="all", and the time; with
+    ``shifted``, the "all" count on the photo with 0-2 rows or columns dropped at its top left too (FRAMINGS:
+    the graphs' 256² crops, and so the counts, move with a 1-pixel shift); with
     ``sheet``, the photos with the "all" matte (person bright, the rest dimmed) and each person's box (yellow:
     segmented by the pose graph, magenta: by the selfie graph), for looking at (not for the repo: the photos'
     licences differ)."""
@@ -170,8 +175,9 @@ def found(photos: list[tuple[Photo, Path]], sheet: Path | None) -> None:
 
     largest, everyone = M.PersonMatter(), M.PersonMatter(person="all")
     tiles = []
-    print("| photo | shows | largest | all: people (expected) | all: ms |")
-    print("|---|---|---|---|---|")
+    extra = (" all, 6 framings |", "---|") if shifted else ("", "")
+    print("| photo | shows | largest | all: people (expected) | all: ms |" + extra[0])
+    print("|---|---|---|---|---|" + extra[1])
     for p, path in photos:
         rgb = read_photo(path)
         try:
@@ -183,7 +189,11 @@ def found(photos: list[tuple[Photo, Path]], sheet: Path | None) -> None:
         people = everyone.people(rgb)
         ms = 1000 * (time.perf_counter() - t)
         expect = "-" if p.people is None else str(p.people)
-        print(f"| {p.name} | {p.shows} | {one} | {len(people)} ({expect}) | {ms:.0f} |", flush=True)
+        more = ""
+        if shifted:
+            counts = [len(everyone.people(np.ascontiguousarray(rgb[dy:, dx:]))) for dy, dx in FRAMINGS]
+            more = f" {counts} |"
+        print(f"| {p.name} | {p.shows} | {one} | {len(people)} ({expect}) | {ms:.0f} |{more}", flush=True)
         if sheet is not None:
             a = everyone.alpha(rgb, people) if people else np.zeros(rgb.shape[:2], np.float32)
             vis = np.ascontiguousarray((np.clip(rgb * (0.25 + 0.75 * a[..., None]), 0, 1) * 255).astype(np.uint8))
@@ -214,10 +224,11 @@ def main() -> None:
     ap.add_argument("--git", action="append", default=[], metavar="OWNER/NAME=GITDIR")
     ap.add_argument("--found", action="store_true", help="run the person finder on every photo (table)")
     ap.add_argument("--sheet", type=Path, help="with --found: an overview image of the 'all' mattes")
+    ap.add_argument("--shifted", action="store_true", help="with --found: 'all' counts on 6 framings shifted 0-2 px")
     args = ap.parse_args()
     photos = gather(args.cache, parse_gitdirs(args.git))
     if args.found:
-        found(photos, args.sheet)
+        found(photos, args.sheet, args.shifted)
         return
     for p, path in photos:
         print(f"{p.name:16s} {p.people if p.people is not None else '-':>2}  {p.shows:45s} {path}")

@@ -45,7 +45,7 @@ def region_alpha(
         sub = np.ascontiguousarray(sub)
         small = sub if (gw, gh) == (rx1 - rx0, ry1 - ry0) else cv2.resize(sub, (gw, gh), interpolation=cv2.INTER_AREA)
         return fast_guided_filter(prob, small, sub, radius, GF_EPS)
-    gray_full = cv2.cvtColor(np.ascontiguousarray(sub), cv2.COLOR_RGB2GRAY)
+    gray_full = cv2.cvtColor(sub, cv2.COLOR_RGB2GRAY)  # reads the view (no copy of the region: ~1 ms saved)
     if (gw, gh) == (rx1 - rx0, ry1 - ry0):
         gray_small = gray_full
     else:

@@ -31,6 +31,7 @@ from ._regions import (
     logits_on_grid,
     person_box,
     prob_at,
+    reductions_shared,
     tile_levels,
     warp_to_grid,
     working_grid,
@@ -39,6 +40,8 @@ from ._regions import (
 PERSON_MODES = ("largest", "all")
 GUIDES = ("gray", "color")
 PRESENCE_MIN = 0.5  # pose-presence probability below which a region holds no person (unless a face vouches)
+PRESENCE_FAINT = 0.9  # ... for a person the selfie graph hardly sees (:func:`_faint`): the pose graph must be sure
+FAINT_PROB = 0.25  # person="all": the selfie graph's probability that marks where such a person may stand
 MIN_PERSON_FRACTION = 0.06  # person="all": people whose box is shorter than this x the image's height are left out
 _COVERED = 0.5  # a candidate (blob) this much inside people already matted is one of them
 _COVERED_FACE = 0.8  # ... and a face's person this much inside them
@@ -184,10 +187,14 @@ class PersonMatter:
         selfie graph's probability over every tile scale and the faces in tiles too, skips candidates that lie
         inside the people already matted (a group seen as one blob is taken face by face; one selfie-graph
         segmentation holding several faces side by side is one person per face, :func:`split_by_faces`),
-        drops duplicates, and keeps people at least MIN_PERSON_FRACTION of the image's height tall.
+        drops duplicates, tries last where the selfie graph's probability stays faint (:func:`_faint`: the pose
+        graph must be sure there), and keeps people at least MIN_PERSON_FRACTION of the image's height tall.
+        The detectors' crops of one call share the photo's reductions (:func:`reductions_shared`).
         """
-        if self.person == "all":
-            return self._everyone(rgb)
+        with reductions_shared(rgb):  # the detectors' crops share one set of reduced copies of the photo
+            return self._everyone(rgb) if self.person == "all" else self._largest(rgb)
+
+    def _largest(self, rgb: np.ndarray) -> list[Person]:
         h, w = rgb.shape[:2]
         for _, box in self.find_people(rgb):
             p = self._person_at(rgb, box, None)
@@ -266,6 +273,20 @@ class PersonMatter:
                 more = _strips(pix, gw, grid, (h, w))
             requeued += len(more)
             cands = sorted(cands + more, key=lambda t: -t[0])
+        for box in _faint(prob, grid, MIN_PERSON_FRACTION * h):
+            if tries >= _MAX_TRIES:
+                break
+            pix = _grid_pixels(box, grid)
+            if pix.size == 0 or occupied.flat[pix].mean() >= _COVERED:
+                continue
+            tries += 1
+            p = self._person_at(rgb, box, None, _GIVE_UP)
+            if p is None or p.presence < PRESENCE_FAINT or _box_height(person_box(p, (h, w))) < MIN_PERSON_FRACTION * h:
+                continue
+            mask = logits_on_grid(p, grid) > 0
+            if mask.any() and occupied[mask].mean() < _COVERED:
+                occupied |= mask
+                found.append(p)
         return found
 
     def _person_at(
@@ -389,6 +410,41 @@ def _is_portrait(roi: Person, shape: tuple[int, int]) -> bool:
         return False
     xs = np.linspace(x0, x1, 256)
     return bool((prob_at(roi, xs, np.full(xs.shape, h - 1.0)) > 0.5).mean() >= _CUT_WIDTH)
+
+
+def _faint(prob: np.ndarray, grid, min_height: float) -> list[tuple[float, float, float, float]]:
+    """Boxes (image pixels) where the selfie graph's probability on the working grid rises above FAINT_PROB
+    but nowhere reaches 0.5 (a person it hardly sees: small, in shade, in colours like the background; the
+    woman in purple by the kiosk of the street photo peaks at 0.42 there, and the pose graph framed on her
+    is sure: 0.99), each widened to a square at least ``min_height`` tall around its centre (such a blob is
+    often one part of a person, too small to frame them)."""
+    _, _, kx, ky, bx, by = grid
+    n, labels, stats, _ = cv2.connectedComponentsWithStats((prob > FAINT_PROB).astype(np.uint8), connectivity=8)
+    if n <= 1:
+        return []
+    peak = np.zeros(n, np.float32)
+    np.maximum.at(peak, labels.ravel(), prob.ravel())
+    out = []
+    for i in np.argsort(-stats[:, cv2.CC_STAT_AREA]):
+        if i == 0 or peak[i] >= 0.5:
+            continue
+        x, y, bw, bh, _ = (int(v) for v in stats[i])
+        x0, y0, x1, y1 = (x - bx) / kx, (y - by) / ky, (x + bw - bx) / kx, (y + bh - by) / ky
+        half = max(x1 - x0, y1 - y0, min_height) / 2
+        cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
+        out.append((cx - half, cy - half, cx + half, cy + half))
+    return out
+
+
+def _grid_pixels(box, grid) -> np.ndarray:
+    """Flat indices of the working-grid pixels inside an image box."""
+    gw, gh, kx, ky, bx, by = grid
+    x0, x1 = max(int(kx * box[0] + bx + 0.5), 0), min(int(np.ceil(kx * box[2] + bx + 0.5)), gw)
+    y0, y1 = max(int(ky * box[1] + by + 0.5), 0), min(int(np.ceil(ky * box[3] + by + 0.5)), gh)
+    if x1 <= x0 or y1 <= y0:
+        return np.zeros(0, np.int64)
+    ys, xs = np.mgrid[y0:y1, x0:x1]
+    return (ys * gw + xs).ravel()
 
 
 def _strips(pix: np.ndarray, gw: int, grid, shape: tuple[int, int]) -> list:

@@ -21,7 +21,7 @@ from ..flow import dis_flow, warp
 from ._coarse import GF_EPS, guide_radius
 from ._matter import PRESENCE_MIN, PersonMatter
 from ._models import as_rgb
-from ._regions import Region, logits_on_grid, person_box, sigmoid, working_grid
+from ._regions import Region, logits_on_grid, person_box, reductions_shared, sigmoid, working_grid
 
 log = logging.getLogger(__name__)
 
@@ -96,10 +96,11 @@ class VideoMatter:
         self._shape = (h, w)
         index, self.index = self.index, self.index + 1
         region = self._region
-        if region is None or (self.redetect_every and index % self.redetect_every == 0):
-            found = self.matter.find_people(rgb)
-            region = Region.around(*found[0][1]) if found else None
-        person = self.matter.segment(rgb, region) if region is not None else None
+        with reductions_shared(rgb):  # the detectors' crops share one set of reduced copies of the frame
+            if region is None or (self.redetect_every and index % self.redetect_every == 0):
+                found = self.matter.find_people(rgb)
+                region = Region.around(*found[0][1]) if found else None
+            person = self.matter.segment(rgb, region) if region is not None else None
         box = person_box(person, (h, w)) if person is not None else None
         if person is None or box is None or person.presence < PRESENCE_MIN:
             log.debug("%s: no person found; searching again on the next frame", name)

@@ -123,6 +123,83 @@ def test_crop_region_pads_with_zeros_past_the_border():
     assert out[:, :120].max() == 0.0 and out[:60].max() == 0.0 and out[70:186, 134:250].min() > 0.99
 
 
+def _ramp(h: int, w: int) -> np.ndarray:
+    """x / w, y / h and a mix: area averaging and bilinear resampling reproduce a linear image exactly."""
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32) + 0.5  # pixel centres
+    return np.dstack([xx / w, yy / h, (xx + 2 * yy) / (w + 2 * h)]).astype(np.float32)
+
+
+@pytest.mark.parametrize("shape", [(1155, 1733), (1302, 1950), (517, 1001)])
+@pytest.mark.parametrize("side", [700.0, 1275.36, 2900.0])
+def test_crop_region_of_a_large_region_samples_the_image_where_grid_of_region_says(shape, side):
+    # a large region is reduced (by a power of 2) before the warp; on a linear image every canvas pixel
+    # whose footprint lies inside the image must hold the image's value at that pixel's centre
+    h, w = shape
+    img = _ramp(h, w)
+    region = M.Region(0.37 * w, 0.55 * h, side)
+    out = M.crop_region(img, region)
+    k, bx, by = M._regions.grid_of_region(region)
+    cx = (np.arange(256) - bx) / k  # image x of each canvas column's centre
+    cy = (np.arange(256) - by) / k
+    margin = 3 / k  # the canvas pixel's footprint, reduction and warp included
+    ix, iy = (cx > margin) & (cx < w - margin), (cy > margin) & (cy < h - margin)
+    want_x = np.broadcast_to(cx[None, :] / w, out.shape[:2])
+    want_y = np.broadcast_to(cy[:, None] / h, out.shape[:2])
+    inside = iy[:, None] & ix[None, :]
+    assert inside.sum() > 1000
+    np.testing.assert_allclose(out[..., 0][inside], want_x[inside], atol=2e-4)
+    np.testing.assert_allclose(out[..., 1][inside], want_y[inside], atol=2e-4)
+
+
+def test_crops_inside_reductions_shared_are_the_same_and_reduce_the_photo_once(monkeypatch):
+    rng = np.random.default_rng(3)
+    img = rng.random((1155, 1733, 3), dtype=np.float32)
+    regions = [M.Region(866.0, 577.0, 1733.0), M.Region(575.1, 655.3, 1057.1), M.Region(573.0, 688.3, 1135.6)]
+    alone = [M.crop_region(img, r) for r in regions]
+    calls = []
+    blocks = M._regions._blocks
+    monkeypatch.setattr(M._regions, "_blocks", lambda a, n, b: calls.append(a.shape) or blocks(a, n, b))
+    with M._regions.reductions_shared(img):
+        shared = [M.crop_region(img, r) for r in regions]
+        again = M.crop_region(img, regions[1])
+    for a, b in zip(alone, shared, strict=True):
+        np.testing.assert_array_equal(a, b)  # one maths in and out of the block
+    assert again is shared[1] and not again.flags.writeable  # the same region is cropped once
+    assert calls.count(img.shape) == 1  # the photo itself is halved once; smaller reductions come from that
+
+
+def test_crop_region_of_a_large_region_keeps_the_dtype():
+    img = np.full((900, 1300, 3), 200, np.uint8)
+    out = M.crop_region(img, M.Region(650.0, 450.0, 1300.0))  # reduced before the warp
+    assert out.dtype == np.uint8 and out[100:150, 100:150].min() == 200
+
+
+def test_reductions_shared_keeps_only_the_last_few_crops():
+    img = np.zeros((600, 900, 3), np.float32)
+    with M._regions.reductions_shared(img) as pyr:
+        crops = [M.crop_region(img, M.Region(300.0 + 10 * i, 300.0, 600.0)) for i in range(10)]
+        assert len(pyr._crops) <= M._regions._KEEP_CROPS  # person="all" crops 66 tiles: they are not all kept
+        assert M.crop_region(img, M.Region(390.0, 300.0, 600.0)) is crops[-1]
+
+
+def test_reductions_shared_keeps_nothing_after_the_block():
+    img = np.zeros((900, 1400, 3), np.float32)
+    region = M.Region(700.0, 450.0, 1400.0)
+    with M._regions.reductions_shared(img):
+        assert M.crop_region(img, region).max() == 0.0
+    img[:] = 1.0  # a caller may reuse its buffer for the next frame
+    assert M.crop_region(img, region)[100:150, 100:150].min() > 0.99
+
+
+def test_blocks_average_and_treat_the_image_as_zero_past_its_edge():
+    img = np.arange(5 * 7 * 3, dtype=np.float32).reshape(5, 7, 3)
+    out = M._regions._blocks(img, 2, (0, 0, 4, 3))
+    padded = np.zeros((6, 8, 3), np.float32)
+    padded[:5, :7] = img
+    want = padded.reshape(3, 2, 4, 2, 3).mean(axis=(1, 3))
+    np.testing.assert_allclose(out, want, rtol=1e-6)
+
+
 # ----------------------------------------------------------------------------------------------- photos
 
 

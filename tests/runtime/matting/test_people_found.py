@@ -141,3 +141,30 @@ def test_selfie_graph_is_run_again_framed_on_its_answer():
     assert framed.region.side < 0.2 * wide.region.side and framed.source == "roi"
     assert iou(matter.alpha(rgb, [framed]), disk) > iou(matter.alpha(rgb, [wide]), disk) + 0.02
     assert matter._reframed(rgb, framed).region == framed.region  # framed already: kept
+
+
+def test_the_woman_the_selfie_graph_hardly_sees_is_found(reference_dir):
+    """The reference street photo: the woman in purple by the kiosk (x 1253-1304 px, 130 px tall). The selfie
+    graph's probability on her peaks at 0.42 at every tile scale, so no blob was made for her; where it rises
+    above FAINT_PROB the pose graph, framed on at least the smallest person kept, is sure (presence 0.99)."""
+    rgb = read_image(reference_dir / "photo" / "sample.jpg")
+    people = M.PersonMatter(person="all").people(rgb)
+    boxes = [M.person_box(p, rgb.shape[:2]) for p in people]
+    her = [b for b in boxes if 1240 <= (b[0] + b[2]) / 2 <= 1320 and 400 <= b[1] and b[3] <= 600]
+    assert len(her) == 1  # was 0
+    assert her[0][3] - her[0][1] > 100  # all of her, not the blob's part
+
+
+def test_faint_boxes_are_blobs_that_stay_under_half_and_frame_a_person_tall_enough():
+    h, w = 200, 300
+    grid = M._regions.working_grid((0, 0, w, h))  # 1:1
+    prob = np.zeros((h, w), np.float32)
+    prob[50:60, 40:50] = 0.42  # faint: a box at least 80 px tall around it
+    prob[100:180, 200:230] = 0.3
+    prob[120:130, 210:220] = 0.7  # reaches 0.5: a blob of its own already, not faint
+    boxes = _matter._faint(prob, grid, 80.0)
+    assert len(boxes) == 1
+    x0, y0, x1, y1 = boxes[0]
+    assert (x0 + x1) / 2 == pytest.approx(45.0, abs=0.6) and (y0 + y1) / 2 == pytest.approx(55.0, abs=0.6)
+    assert y1 - y0 == pytest.approx(80.0) and x1 - x0 == pytest.approx(80.0)
+    assert _matter._faint(np.zeros((h, w), np.float32), grid, 80.0) == []
