@@ -170,7 +170,9 @@ class Decomposition:
         albedo_chw: (3, R, R) albedo in [0, 1], masked (``albedo`` is the (R, R, 3) view).
         skin: (R, R) skin probability in [0, 1], masked.
         transport_chw: (9, R, R) SH light transport (DESIGN.md §3 order), masked (``transport``: (R, R, 9)).
-        light: (9, 3) the photo's estimated SH light, RGB columns.
+        light: (9, 3) the photo's estimated SH light, RGB columns: stage 1's estimate, for a photo refit so
+            that albedo x shading explains it (relight_rt._strength ``refit_light``; a video frame keeps
+            stage 1's). Relighting with it gives the photo back.
         network_mask: (R, R) the mask in the network frame, in [0, 1].
         network_image: (R, R, 3) the input photo in the network frame (what stage 1 saw, before masking).
         mask: (H, W) the person mask in the input frame, in [0, 1].
