@@ -46,7 +46,7 @@ def restore_bands(transport: np.ndarray, gains: tuple[float, float, float] | Non
 
 # --------------------------------------------------------------------------------------- the photo's own light
 
-REFIT_PRIOR = 0.01  # ridge weight toward stage 1's estimate, relative to the mean diagonal of the normal matrix
+REFIT_PRIOR = 0.3  # ridge weight toward stage 1's estimate, relative to the normal matrix's mean diagonal (refit_light)
 
 
 def refit_light(
@@ -62,7 +62,11 @@ def refit_light(
     pixels: minimise |X l - y|^2 + prior * mean(diag(X'X)) * |l - l0|^2 with X = albedo x transport,
     y = the photo's luminance and l0 the luminance of stage 1's estimate. The ridge keeps the light stage 1's
     where the pixels do not pin it down (a person seen from the front says little about the light behind).
-    Where the estimate already explains the photo the correction is zero.
+    Where the estimate already explains the photo the correction is zero. ``REFIT_PRIOR`` 0.3: with 0.01 the
+    fit can overshoot into a light no sky of non-negative radiance gives (on the studio's example photo a
+    degree-1 band twice the degree-0 coefficient), whose shading is near zero on part of the person; 0.3 keeps
+    the held-out renders' figures within 0.01 of the weaker prior's and the DPR portraits' sides and correlation
+    at or above stage 1's light's (docs/RESULTS.md, "Real photos").
 
     The correction is added to each colour column in proportion to the estimate's own colour (its degree-0
     coefficients over their luminance; white when that is not a colour), so the result's luminance (what

@@ -857,10 +857,17 @@ class Relighter:
             {"albedo": (H, W, 3), "shading": (H, W, 3) not clipped, "skin": (H, W), "mask": (H, W)},
             float32, albedo and skin in [0, 1].
         """
+        return self._layers(dec)
+
+    def _layers(self, dec: Decomposition, shading: np.ndarray | None = None) -> dict[str, np.ndarray]:
+        """``layers`` with the albedo taken over ``shading`` (R, R, 3), masked as ``Decomposition.shading`` is
+        (default: that, the photo's own light through stage 1's transport). The studio's preview divides by the
+        shading the relighting factor divides by (bands restored), so that its albedo under the photo's own
+        light is the photo again."""
         geom = dec.geometry
         alpha = dec.network_mask
         inner = alpha > 0.5
-        shading_net = extend_outward(unpremultiply(dec.shading(), alpha), inner)
+        shading_net = extend_outward(unpremultiply(dec.shading() if shading is None else shading, alpha), inner)
         albedo_net = extend_outward(unpremultiply(np.ascontiguousarray(dec.albedo), alpha), inner)
         skin_net = extend_outward(unpremultiply(np.repeat(dec.skin[..., None], 3, axis=2), alpha), inner)
         photo = np.ascontiguousarray(geom.crop(dec.image))
