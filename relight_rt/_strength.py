@@ -42,3 +42,68 @@ def restore_bands(transport: np.ndarray, gains: tuple[float, float, float] | Non
         gains = BAND_GAIN
     scale = np.array([gains[0]] + [gains[1]] * 3 + [gains[2]] * 5, np.float32)
     return (t * scale).astype(np.float32, copy=False)
+
+
+# --------------------------------------------------------------------------------------- the photo's own light
+
+REFIT_PRIOR = 0.3  # ridge weight toward stage 1's estimate, relative to the normal matrix's mean diagonal (refit_light)
+
+
+def refit_light(
+    light: np.ndarray, albedo: np.ndarray, transport: np.ndarray, photo: np.ndarray, prior: float | None = None
+) -> np.ndarray:
+    """Stage 1's estimate of the photo's light, refit so that albedo x (transport . light) explains the photo.
+
+    Stage 1 estimates the light from the photo alone, a regression that shrinks toward a soft, ambient light;
+    the runtime divides the photo by albedo x shading under that light (relight_rt.relighter), so every error
+    in the estimate stays in the relit picture as shading the new light did not make. Given the transport the
+    runtime actually divides with (directional bands restored, the face mesh's normals blended in), the light
+    that best explains the photo's luminance is a 9-unknown linear least-squares problem over the person's
+    pixels: minimise |X l - y|^2 + prior * mean(diag(X'X)) * |l - l0|^2 with X = albedo x transport,
+    y = the photo's luminance and l0 the luminance of stage 1's estimate. The ridge keeps the light stage 1's
+    where the pixels do not pin it down (a person seen from the front says little about the light behind).
+    Where the estimate already explains the photo the correction is zero. ``REFIT_PRIOR`` 0.3: with 0.01 the
+    fit can overshoot into a light no sky of non-negative radiance gives (on the studio's example photo a
+    degree-1 band twice the degree-0 coefficient), whose shading is near zero on part of the person; 0.3 keeps
+    the held-out renders' figures within 0.01 of the weaker prior's and the DPR portraits' sides and correlation
+    at or above stage 1's light's (docs/RESULTS.md, "Real photos").
+
+    The correction is added to each colour column in proportion to the estimate's own colour (its degree-0
+    coefficients over their luminance; white when that is not a colour), so the result's luminance (what
+    ``Decomposition.white_light`` takes) is the fitted light and its colour is stage 1's.
+
+    Args:
+        light: (9, 3) stage 1's RGB estimate.
+        albedo: (N,) albedo luminance of the person's pixels.
+        transport: (N, 9) their transport, as the runtime uses it.
+        photo: (N,) the photo's luminance there (the pixel values the runtime multiplies).
+        prior: the ridge weight (>= 0; relative, see above; default ``REFIT_PRIOR``).
+
+    Returns:
+        (9, 3) float32 light; ``light`` itself (a float32 copy) when there are fewer than 9 pixels.
+    """
+    light = np.asarray(light, np.float32)
+    t = np.asarray(transport, np.float64).reshape(-1, 9)
+    a = np.asarray(albedo, np.float64).reshape(-1)
+    y = np.asarray(photo, np.float64).reshape(-1)
+    if light.shape != (9, 3):
+        raise RelightError(f"light must be (9, 3), got {light.shape}")
+    if not (t.shape[0] == a.shape[0] == y.shape[0]):
+        raise RelightError(f"refit_light: {a.shape[0]} albedo, {t.shape[0]} transport and {y.shape[0]} photo pixels")
+    if prior is None:
+        prior = REFIT_PRIOR
+    if not prior >= 0:
+        raise RelightError(f"refit_light: prior must be >= 0, got {prior!r}")
+    if t.shape[0] < 9:
+        return light.copy()
+    rec709 = np.array([0.2126, 0.7152, 0.0722])
+    l0 = light.astype(np.float64) @ rec709
+    x = t * a[:, None]
+    normal = x.T @ x
+    ridge = prior * max(float(np.trace(normal)) / 9, 1e-12)
+    correction = np.linalg.solve(normal + ridge * np.eye(9), x.T @ (y - x @ l0))
+    dc = light[0].astype(np.float64)
+    dc_lum = float(dc @ rec709)
+    colour = dc / dc_lum if dc_lum > 1e-6 and (dc > 0).all() else np.ones(3)
+    out = light + (correction[:, None] * colour[None, :]).astype(np.float32)
+    return out if np.isfinite(out).all() else light.copy()

@@ -177,9 +177,13 @@ def _neon() -> np.ndarray:
 
 
 def _rim() -> np.ndarray:
+    # two backlights alone leave a face that looks at the camera black (degree-2 SH: the front of a diffuse head
+    # gets only the ambient, the lobes' ringing even less); a rim light in practice comes with a weak key or
+    # fill, so a soft frontal fill at a fifth of the rims' strength keeps the face readable (issue 32)
     left = directional((-1.0, -0.9, 0.35), _COOL, 1.0, angular_radius=0.2)
     right = directional((-1.0, 0.9, 0.35), _COOL, 1.0, angular_radius=0.2)
-    return left + right + ambient(0.03)
+    fill = directional((1.0, 0.0, 0.15), (1.0, 1.0, 1.0), 0.2, angular_radius=0.8)
+    return left + right + fill + ambient(0.03)
 
 
 def _night() -> np.ndarray:
@@ -192,8 +196,11 @@ def _front() -> np.ndarray:
 
 
 def _campfire() -> np.ndarray:
-    fire = directional((0.8, 0.2, -0.8), (1.0, 0.66, 0.36), 1.0, angular_radius=0.3)
-    return fire + ambient((0.03, 0.035, 0.06))
+    # a fire low in front, not straight below: from 45 degrees down a small lamp's degree-2 SH leaves every
+    # surface that faces up (forehead, top of the head) at 4 % of the peak, a dark band at the hairline on real
+    # photos; from about 30 degrees down, a little wider and over a little more night sky it is 15 % (issue 32)
+    fire = directional((0.9, 0.25, -0.5), (1.0, 0.66, 0.36), 1.0, angular_radius=0.5)
+    return fire + ambient((0.05, 0.05, 0.08))
 
 
 # Warm lights are as a camera white-balanced for daylight records them after its automatic white balance has
@@ -207,7 +214,8 @@ _PRESETS = {
     "golden-hour": (_golden_hour, 1.0, "low warm sun front-right, dusky sky"),
     "overcast": (_overcast, 1.0, "bright soft sky, no hard direction"),
     "neon": (_neon, 1.0, "magenta from the left, cyan from the right"),
-    "rim": (_rim, 1.0, "two backlights: face dark, sides bright (degree-2 SH makes a rim a wide glow, no thin line)"),
+    "rim": (_rim, 1.0, "two cool backlights and a weak frontal fill: sides bright, face dim but readable "
+             "(degree-2 SH makes a rim a wide glow, no thin line)"),
     "night": (_night, 0.5, "dim bluish moonlight from upper left over a dark sky"),
     "front": (_front, 1.0, "flat frontal light from the camera"),
     "campfire": (_campfire, 1.0, "warm light from below in front, dark surroundings"),

@@ -59,7 +59,7 @@ from ._face import feather, head_box
 from ._face_geometry import MIN_FACE_NET, FaceMesh, face_transport
 from ._geometry import CropGeometry
 from ._io import read_image, sibling_mask
-from ._strength import restore_bands
+from ._strength import refit_light, restore_bands
 from .compositing import Background, clean_edge_colour, over_box, parse_background
 from .config import RuntimeConfig
 from .contract import kind_spec
@@ -170,7 +170,9 @@ class Decomposition:
         albedo_chw: (3, R, R) albedo in [0, 1], masked (``albedo`` is the (R, R, 3) view).
         skin: (R, R) skin probability in [0, 1], masked.
         transport_chw: (9, R, R) SH light transport (DESIGN.md §3 order), masked (``transport``: (R, R, 9)).
-        light: (9, 3) the photo's estimated SH light, RGB columns.
+        light: (9, 3) the photo's estimated SH light, RGB columns: stage 1's estimate, for a photo refit so
+            that albedo x shading explains it (relight_rt._strength ``refit_light``; a video frame keeps
+            stage 1's). Relighting with it gives the photo back.
         network_mask: (R, R) the mask in the network frame, in [0, 1].
         network_image: (R, R, 3) the input photo in the network frame (what stage 1 saw, before masking).
         mask: (H, W) the person mask in the input frame, in [0, 1].
@@ -474,9 +476,11 @@ class Relighter:
             return []
         decs = self._stage1(images, masks, allow_full)
         if not allow_full:  # photos; video frames skip the work done once per photo (a second pass, the matte's
-            for dec in decs:  # foreground colours): per frame it would cost more than it shows
-                self._prepared(dec)["photo"] = True
+            for i, dec in enumerate(decs):  # foreground colours, the light's refit): per frame it would cost more
+                self._prepared(dec)["photo"] = True  # than it shows
                 self._prepared(dec)["faces"] = self.detail
+                if self.detail:  # the photo's light, refit to the transport the relit photo is divided by
+                    decs[i] = self._refit(dec)
             if self.detail and self.face_pass:
                 self._look_at_faces(decs)
         return decs
@@ -629,19 +633,17 @@ class Relighter:
             state["own_residual"] = _readonly(np.array(residual, np.float32))
         return state["own_residual"]
 
-    def _own(self, dec: Decomposition, with_residual: bool = True) -> dict:
-        """What every relight of ``dec`` divides by, in the person's window of the network frame (cached).
+    def _restored(self, dec: Decomposition) -> dict:
+        """What the relighting factor needs that does not depend on any light, in the person's window (cached).
 
         "window" (y0, y1, x0, x1): the network pixels near the person (the whole square when the network's
         square is not smaller than the photo's: to_crop takes a window only when enlarging); "alpha", "inner"
         (alpha > 0.5); "transport" (r, r', 9) unpremultiplied, its directional bands restored
-        (relight_rt._strength), and "albedo" luminance (r, r') unpremultiplied; "own" (r, r') the
-        luminance of the pipeline's image under the photo's own light taken as white (diffuse plus stage 2's
-        residual), plus the ratio's floor.
+        (relight_rt._strength) and the face mesh's transport blended in, and "albedo" luminance (r, r')
+        unpremultiplied.
         """
         state = self._prepared(dec)
-        key = "own" if with_residual else "own_diffuse"
-        if key not in state:
+        if "restored" not in state:
             geom = dec.geometry
             r = geom.resolution
             y0, y1, x0, x1 = window(dec.network_mask) if geom.side > r else (0, r, 0, r)
@@ -651,14 +653,46 @@ class Relighter:
             if state.get("faces"):  # a face's shape from its mesh where stage 1's transport is a blur
                 self._add_faces(dec, transport, (y0, y1, x0, x1))
             albedo = unpremultiply(np.ascontiguousarray(dec.albedo[y0:y1, x0:x1]), alpha) @ _exposure.REC709
-            own = albedo * sh.shading(transport, dec.white_light)[..., 0]  # white: the three columns are equal
+            state["restored"] = {"window": (y0, y1, x0, x1), "alpha": alpha, "inner": alpha > 0.5,
+                                 "transport": _readonly(transport), "albedo": _readonly(albedo.astype(np.float32))}
+        return state["restored"]
+
+    def _own(self, dec: Decomposition, with_residual: bool = True) -> dict:
+        """What every relight of ``dec`` divides by, in the person's window of the network frame (cached).
+
+        ``_restored``'s entries, and "own" (r, r') the luminance of the pipeline's image under the photo's own
+        light taken as white (diffuse plus stage 2's residual), plus the ratio's floor.
+        """
+        state = self._prepared(dec)
+        key = "own" if with_residual else "own_diffuse"
+        if key not in state:
+            base = self._restored(dec)
+            own = base["albedo"] * sh.shading(base["transport"], dec.white_light)[..., 0]  # white: columns equal
             residual = self._own_residual(dec) if with_residual else None
             if residual is not None:
-                own += _luminance_window(residual, alpha, (y0, y1, x0, x1))
-            state[key] = {"window": (y0, y1, x0, x1), "alpha": alpha, "inner": alpha > 0.5,
-                          "transport": _readonly(transport), "albedo": _readonly(albedo.astype(np.float32)),
-                          "own": _readonly(np.maximum(own, _RATIO_EPS).astype(np.float32))}
+                own += _luminance_window(residual, base["alpha"], base["window"])
+            state[key] = {**base, "own": _readonly(np.maximum(own, _RATIO_EPS).astype(np.float32))}
         return state[key]
+
+    def _refit(self, dec: Decomposition) -> Decomposition:
+        """``dec`` with its light refit to the transport the relighting factor divides with (relight_rt._strength
+        ``refit_light``); what was prepared for ``dec`` that does not depend on its light goes along."""
+        base = self._restored(dec)
+        y0, y1, x0, x1 = base["window"]
+        inner = base["inner"]
+        albedo, transport = base["albedo"][inner], base["transport"][inner]
+        # what stage 1's own reconstruction (its transport, its light) leaves unexplained of the photo ...
+        plain = unpremultiply(np.ascontiguousarray(dec.transport[y0:y1, x0:x1]), base["alpha"])[inner]
+        white = dec.white_light[:, 0]
+        unexplained = dec.network_image[y0:y1, x0:x1][inner] @ _exposure.REC709 - albedo * (plain @ white)
+        # ... is what the light's correction explains, through the transport the relit photo is divided by
+        light = refit_light(dec.light, albedo, transport, albedo * (transport @ white) + unexplained)
+        new = replace(dec, light=light)
+        old, state = self._prepared(dec), self._prepared(new)
+        for key in ("photo", "faces", "face_meshes", "restored", "device", "gray"):
+            if key in old:
+                state[key] = old[key]
+        return new
 
     def _face_mesh(self):
         """The face detector and landmarker of the models folder (relight_rt._face_geometry), loaded once."""
@@ -823,10 +857,17 @@ class Relighter:
             {"albedo": (H, W, 3), "shading": (H, W, 3) not clipped, "skin": (H, W), "mask": (H, W)},
             float32, albedo and skin in [0, 1].
         """
+        return self._layers(dec)
+
+    def _layers(self, dec: Decomposition, shading: np.ndarray | None = None) -> dict[str, np.ndarray]:
+        """``layers`` with the albedo taken over ``shading`` (R, R, 3), masked as ``Decomposition.shading`` is
+        (default: that, the photo's own light through stage 1's transport). The studio's preview divides by the
+        shading the relighting factor divides by (bands restored), so that its albedo under the photo's own
+        light is the photo again."""
         geom = dec.geometry
         alpha = dec.network_mask
         inner = alpha > 0.5
-        shading_net = extend_outward(unpremultiply(dec.shading(), alpha), inner)
+        shading_net = extend_outward(unpremultiply(dec.shading() if shading is None else shading, alpha), inner)
         albedo_net = extend_outward(unpremultiply(np.ascontiguousarray(dec.albedo), alpha), inner)
         skin_net = extend_outward(unpremultiply(np.repeat(dec.skin[..., None], 3, axis=2), alpha), inner)
         photo = np.ascontiguousarray(geom.crop(dec.image))

@@ -44,7 +44,6 @@ log = logging.getLogger(__name__)
 MAX_UPLOAD_BYTES = 32 << 20  # an env map or a photo; bigger uploads are refused before decoding
 MAX_UPLOAD_PIXELS = 40_000_000  # decoded size limit (a small file can hold a huge image)
 EXPOSURE_SAMPLES = 1 << 15  # network-frame pixels of the person that the page's exposure rule reads (at most)
-_PREVIEW_SHADING_MIN = 0.1  # below it the preview keeps the layers' albedo (as Relighter.layers keeps the network's)
 from ..exposure import exposure_scale, mean_luminance, parse_exposure  # noqa: E402  (the one exposure rule)
 from ..lightspec import LightSpec  # noqa: E402  (the one light parser)
 
@@ -271,12 +270,11 @@ class Studio:
         # (relight_rt._strength), so that the preview changes as strongly as the result does
         transport = _resize(dec.to_input(restore_bands(np.ascontiguousarray(dec.transport))), size)
         # the photo's own albedo (photo / its shading under its own light, white): the preview then relights the
-        # photo as the final result does, not stage 1's network albedo (whose colours are a guess)
-        albedo = self.relighter.layers(dec)["albedo"]
-        # ... divided by the shading the final result divides by (bands restored) rather than stage 1's own
-        own, own_restored = dec.shading(), sh.shading(restore_bands(dec.transport), dec.white_light)
-        ratio = np.where(own_restored > _PREVIEW_SHADING_MIN, own / np.maximum(own_restored, _PREVIEW_SHADING_MIN), 1)
-        albedo = _resize(np.clip(albedo * dec.to_input(ratio.astype(np.float32)), 0, 1), size)
+        # photo as the final result does, not stage 1's network albedo (whose colours are a guess); divided by the
+        # shading the final result divides by (bands restored) rather than stage 1's own (a refit own light,
+        # relight_rt._strength.refit_light, can leave that one dark where the restored one is not)
+        own_restored = sh.shading(restore_bands(dec.transport), dec.white_light)
+        albedo = _resize(self.relighter._layers(dec, own_restored)["albedo"], size)
         mask = _resize(np.asarray(dec.mask)[..., None], size)
         bg = self._background_image()
         bg = np.zeros(size + (3,), np.float32) if bg is None else _resize(bg, size)

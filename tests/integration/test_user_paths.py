@@ -16,7 +16,6 @@ from _scenes import ambient, backdrop, directional, side_means, soft_person, wri
 
 from relight_rt import Relighter, RelightError, RuntimeConfig, cli, envmap
 from relight_rt.compositing import Background
-from relight_rt.exposure import REC709
 from relight_rt.stabilize import Stabilizer
 from relight_rt.video import Frame, FrameLayers, LightSchedule, RelighterEngine, composite, relight_frames
 
@@ -114,23 +113,28 @@ def test_envmap_reaches_the_relighter_and_turns(work, sides_dir, capsys):
 
 
 def test_light_from_uses_the_other_photos_estimated_light(work, tmp_path_factory, capsys):
-    """--light-from PHOTO relights with stage 1's estimate for PHOTO (here a warm light the graph reports), taken
-    as white as a photo's own light is (its colour estimate is not trusted: photos are white-balanced)."""
+    """--light-from PHOTO relights with the estimate for PHOTO (here a warm light the graph reports, refit to the
+    photo: relight_rt._strength.refit_light), taken as white as a photo's own light is (its colour estimate is
+    not trusted: photos are white-balanced)."""
     warm = ambient(RED_HEAVY).astype(np.float32)
     folder = make_models_dir(tmp_path_factory.mktemp("warm"), 64, stage1=stage1_sides_model(light=warm))
     write_scene(work, "other", seed=3)
-    np.save("grey.npy", ambient((0.6, 0.6, 0.6)))
     mask = scene_mask(work)
+    r = Relighter(RuntimeConfig(models=folder, device="cpu"))
+    other = r.decompose(str(work / "other.png"), str(work / "other_mask.png"))
+    own = r.decompose(str(work / "p.png"), str(work / "p_mask.png"))
+    np.testing.assert_allclose(other.light[0] / other.light[0, 1], warm[0] / warm[0, 1], rtol=1e-4)  # warm still
     out = run(["relight", "p.png", "--models", folder, "--light-from", "other.png", "-o", "o.png"], capsys)
-    white = np.repeat((warm @ REC709)[:, None], 3, axis=1)
-    fresh = Relighter(RuntimeConfig(models=folder, device="cpu"))
-    expected = fresh.relight(str(work / "p.png"), white, mask=str(work / "p_mask.png"))
-    assert not np.allclose(out, fresh.relight(str(work / "p.png"), warm, mask=str(work / "p_mask.png")), atol=0.02)
+    expected = r.relight(str(work / "p.png"), other.white_light, mask=str(work / "p_mask.png"))
+    assert not np.allclose(out, r.relight(str(work / "p.png"), other.light, mask=str(work / "p_mask.png")),
+                           atol=0.02)
     np.testing.assert_allclose(out, expected, atol=1 / 255 + 1e-6)
-    # the graph reports the same warm light for every photo, so this is p.png's own light: p.png comes back ...
+    # p.png's own estimate, from the same file: p.png comes back ...
     photo = cv2.imread("p.png")[..., ::-1] / 255
-    np.testing.assert_allclose(out[mask >= 1], photo[mask >= 1], atol=1.5 / 255)
-    # ... and so does a grey light of the same direction (the estimate's colour is not applied inversely) ...
+    back = run(["relight", "p.png", "--models", folder, "--light-from", "p.png", "-o", "s.png"], capsys)
+    np.testing.assert_allclose(back[mask >= 1], photo[mask >= 1], atol=1.5 / 255)
+    # ... and so does a grey light of its luminance (the estimate's colour is not applied inversely) ...
+    np.save("grey.npy", own.white_light.astype(np.float64))
     neutral = run(["relight", "p.png", "--models", folder, "--light", "grey.npy", "-o", "n.png"], capsys)
     np.testing.assert_allclose(neutral[mask >= 1], photo[mask >= 1], atol=1.5 / 255)
     # ... while a coloured light tints it

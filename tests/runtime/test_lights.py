@@ -124,6 +124,25 @@ def test_preset_directions_look_right():
     assert rim[16, 16].mean() < 0.5 * rim.max()  # dark centre, bright edges
 
 
+def _irradiance_where(name, pick):
+    n = lights._visible_normals(48)
+    e = lights.irradiance(lights.preset(name), n) @ np.array([0.2126, 0.7152, 0.0722])
+    return float(e[pick(n)].mean()), float(e.max())
+
+
+def test_rim_keeps_a_face_that_looks_at_the_camera_readable():
+    """issue 32: the two backlights alone left the front of a face black on real photos (front/peak -0.01)."""
+    front, peak = _irradiance_where("rim", lambda n: n[:, 0] > 0.95)
+    assert 0.2 * peak < front < 0.5 * peak  # a weak fill: readable, still darker than the rims
+
+
+def test_campfire_lights_from_below_without_blacking_out_what_faces_up():
+    """issue 32: the fire from 45 degrees below left the forehead and hairline as a dark band (up/peak 0.04)."""
+    up, peak = _irradiance_where("campfire", lambda n: n[:, 2] > 0.8)
+    down, _ = _irradiance_where("campfire", lambda n: n[:, 2] < -0.8)
+    assert up > 0.1 * peak and down > 2 * up  # still from below
+
+
 def test_unknown_preset_lists_names():
     with pytest.raises(RelightError, match="known presets: .*studio"):
         lights.preset("disco")

@@ -90,3 +90,88 @@ def test_without_the_gains_the_change_is_the_networks(sides_relighter, monkeypat
     left, right = _side_factors(fresh, img, mask, light)
     exp_left, exp_right = _expected(light, (1.0, 1.0, 1.0))
     assert right / left == pytest.approx(exp_right / exp_left, rel=0.02)
+
+
+# ------------------------------------------------------------------------------ the photo's own light, refit
+
+
+def _normals(n, seed):
+    rng = np.random.default_rng(seed)
+    v = rng.normal(size=(n, 3))
+    v[:, 0] = np.abs(v[:, 0]) + 0.3  # facing the camera (+x), as a person's visible surface does
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
+def _scene(seed=0, n=400):
+    """Pixels of a diffuse surface: albedo luminance, transport (unoccluded lobes), a true light's photo."""
+    rng = np.random.default_rng(seed)
+    transport = np.stack([unoccluded_transport(v) for v in _normals(n, seed)])
+    albedo = rng.uniform(0.2, 0.8, n)
+    lamp = np.array([0.3, -1.0, 0.4]) / np.linalg.norm([0.3, -1.0, 0.4])
+    truth = 0.3 * unoccluded_transport(lamp).astype(np.float64) / np.pi
+    truth[0] += 0.15
+    return albedo, transport, truth, albedo * (transport @ truth)
+
+
+def test_refit_recovers_the_light_that_explains_the_photo():
+    """Stage 1's estimate is a softer light (its directional bands halved): without a prior the refit finds the
+    photo's light again; with the default prior it moves most of the way; the photo is explained better."""
+    albedo, transport, truth, photo = _scene()
+    soft = truth.copy()
+    soft[1:] *= 0.5
+    estimate = np.repeat(soft[:, None], 3, axis=1).astype(np.float32)
+    exact = _strength.refit_light(estimate, albedo, transport, photo, prior=0.0)
+    np.testing.assert_allclose(exact[:, 1], truth, atol=2e-4)
+    fitted = _strength.refit_light(estimate, albedo, transport, photo)
+    err = lambda light: float(np.abs(albedo * (transport @ light[:, 1]) - photo).mean())  # noqa: E731
+    assert err(fitted) < 0.2 * err(estimate)
+
+
+def test_refit_keeps_a_light_that_already_explains_the_photo_and_its_colour():
+    albedo, transport, truth, photo = _scene(seed=1)
+    warm = np.array([1.2, 1.0, 0.7])
+    light = (truth[:, None] * warm[None, :] / (warm @ np.array([0.2126, 0.7152, 0.0722]))).astype(np.float32)
+    np.testing.assert_allclose(_strength.refit_light(light, albedo, transport, photo), light, atol=1e-5)
+    # a photo twice as bright: the luminance (what the runtime divides by) doubles, the colour stays stage 1's
+    out = _strength.refit_light(light, albedo, transport, 2 * photo, prior=0.0)
+    np.testing.assert_allclose(out @ np.array([0.2126, 0.7152, 0.0722]), 2 * truth, rtol=1e-3, atol=1e-5)
+    np.testing.assert_allclose(out[0] / out[0, 1], light[0] / light[0, 1], rtol=1e-4)
+
+
+def test_refit_with_too_few_pixels_keeps_the_estimate_and_bad_shapes_are_one_error():
+    albedo, transport, truth, photo = _scene(n=5)
+    light = np.repeat(truth[:, None], 3, axis=1).astype(np.float32) * 0.5
+    np.testing.assert_array_equal(_strength.refit_light(light, albedo, transport, photo), light)
+    with pytest.raises(RelightError, match="refit_light"):
+        _strength.refit_light(light, albedo[:3], transport, photo)
+    with pytest.raises(RelightError, match="light must be"):
+        _strength.refit_light(light[:4], albedo, transport, photo)
+    with pytest.raises(RelightError, match="prior"):
+        _strength.refit_light(light, albedo, transport, photo, prior=-1.0)
+
+
+def test_decompose_refits_the_light_and_the_refit_light_gives_the_photo_back(tmp_path_factory):
+    """The sides stage 1 reports a frontal light (OWN_LIGHT) for a person whose halves face left and right: it
+    does not explain the photo (that light shades the two halves alike, the photo is the albedo). The
+    Decomposition's light is refit so that it does; relighting with it gives the photo back."""
+    folder = make_models_dir(tmp_path_factory.mktemp("refit"), 64, stage2=False, stage1=stage1_sides_model())
+    r = Relighter(folder, device="cpu")
+    img, mask = person(150, 100, seed=5, box=(20, 140, 30, 80))
+    dec = r.decompose(img, mask)
+    assert np.abs(dec.light - OWN_LIGHT).max() > 1e-3
+    base = r._restored(dec)
+    inner = base["inner"]
+    plain = base["albedo"] * (sh.shading(restore_bands(unoccluded_transport((0, 1, 0))[None]), OWN_LIGHT)[0, 0])
+    refit = base["albedo"] * sh.shading(base["transport"], dec.white_light)[..., 0]
+    photo = base["albedo"]  # this stage 1's albedo is the photo itself
+    assert np.abs(refit - photo)[inner].mean() < 0.25 * np.abs(plain - photo)[inner].mean()
+    np.testing.assert_allclose(r.relight(dec, dec), img, atol=1e-4)
+    np.testing.assert_allclose(r.relight(dec, dec.light), img, atol=1e-4)
+
+
+def test_video_frames_keep_stage_ones_light(tmp_path_factory):
+    folder = make_models_dir(tmp_path_factory.mktemp("frames"), 64, stage2=False, stage1=stage1_sides_model())
+    r = Relighter(folder, device="cpu")
+    img, mask = person(150, 100, seed=5, box=(20, 140, 30, 80))
+    (frame,) = r.decompose_batch([img], [mask], allow_full=True)
+    np.testing.assert_allclose(frame.light, OWN_LIGHT, rtol=1e-6)
