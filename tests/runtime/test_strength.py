@@ -155,7 +155,7 @@ def test_decompose_refits_the_light_and_the_refit_light_gives_the_photo_back(tmp
     does not explain the photo (that light shades the two halves alike, the photo is the albedo). The
     Decomposition's light is refit so that it does; relighting with it gives the photo back."""
     folder = make_models_dir(tmp_path_factory.mktemp("refit"), 64, stage2=False, stage1=stage1_sides_model())
-    r = Relighter(folder, device="cpu")
+    r = Relighter(RuntimeConfig(models=folder, device="cpu"))
     img, mask = person(150, 100, seed=5, box=(20, 140, 30, 80))
     dec = r.decompose(img, mask)
     assert np.abs(dec.light - OWN_LIGHT).max() > 1e-3
@@ -171,7 +171,7 @@ def test_decompose_refits_the_light_and_the_refit_light_gives_the_photo_back(tmp
 
 def test_video_frames_keep_stage_ones_light(tmp_path_factory):
     folder = make_models_dir(tmp_path_factory.mktemp("frames"), 64, stage2=False, stage1=stage1_sides_model())
-    r = Relighter(folder, device="cpu")
+    r = Relighter(RuntimeConfig(models=folder, device="cpu"))
     img, mask = person(150, 100, seed=5, box=(20, 140, 30, 80))
     (frame,) = r.decompose_batch([img], [mask], allow_full=True)
     np.testing.assert_allclose(frame.light, OWN_LIGHT, rtol=1e-6)
