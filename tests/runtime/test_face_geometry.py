@@ -96,7 +96,7 @@ def test_the_face_in_a_real_photo_gets_its_mesh_and_the_light_models_it(monkeypa
     dec = r.decompose(photo, mask)
     np.testing.assert_allclose(r.relight(dec, dec), dec.image, atol=2e-3)  # with the refit light
     monkeypatch.setattr(Relighter, "_refit", lambda self, dec: dec)
-    r = Relighter(device="cpu")
+    r = Relighter(RuntimeConfig(device="cpu"))
     dec = r.decompose(photo, mask)
     head, box = r._prepared(dec)["head"]
     light = lights.directional((0.4, 1, 0.3)) + lights.ambient(0.08)
