@@ -63,13 +63,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     from export import dataset
 
-    by_subject: dict[str, dict[str, str]] = {}
-    for name in dataset.list_photos(args.photos):
-        subject, _ = dataset.split_photo_name(name)
-        env = (args.photos / f"{name}_env.txt").read_text().strip()
-        by_subject.setdefault(subject, {})[Path(env).stem] = name
-    subjects = sorted(by_subject)
-    maps = sorted(set.intersection(*(set(by_subject[s]) for s in subjects)))
+    by_subject, subjects, maps = se.photos_by_subject(args.photos)
 
     configs = [(None, 0.0)] + [(r, s) for r in GRID_RADIUS for s in GRID_STRENGTH]
     rows = []

@@ -225,6 +225,19 @@ def summarise(values) -> dict:
     return {"median": float(np.median(v)), "mean": float(v.mean()), "n": int(v.size)}
 
 
+
+def photos_by_subject(photos: Path) -> tuple[dict[str, dict[str, str]], list[str], list[str]]:
+    """render-photos' folder: {subject: {env map: photo name}}, the subjects, and the maps every subject has."""
+    from export import dataset
+
+    by_subject: dict[str, dict[str, str]] = {}
+    for name in dataset.list_photos(photos):
+        subject, _ = dataset.split_photo_name(name)
+        env = (photos / f"{name}_env.txt").read_text().strip()
+        by_subject.setdefault(subject, {})[Path(env).stem] = name
+    subjects = sorted(by_subject)
+    return by_subject, subjects, sorted(set.intersection(*(set(by_subject[s]) for s in subjects)))
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--prepare-envs", type=Path, nargs="+", metavar="FOLDER", help="only write the maps into --envs")
@@ -243,13 +256,7 @@ def main(argv=None) -> int:
     from export import dataset
 
     args.out.mkdir(parents=True, exist_ok=True)
-    by_subject: dict[str, dict[str, str]] = {}
-    for name in dataset.list_photos(args.photos):
-        subject, _ = dataset.split_photo_name(name)
-        env = (args.photos / f"{name}_env.txt").read_text().strip()
-        by_subject.setdefault(subject, {})[Path(env).stem] = name
-    subjects = sorted(by_subject)
-    maps = sorted(set.intersection(*(set(by_subject[s]) for s in subjects)))
+    by_subject, subjects, maps = photos_by_subject(args.photos)
     scenes = sorted({scene_of(m) for m in maps})
 
     # per map: the background camera, the light read from its photo, the true light at k = 1

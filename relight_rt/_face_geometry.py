@@ -26,6 +26,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from . import sh
 from ._errors import RelightError
 from ._faces import FACE_SIZE, decode, weighted_nms
 
@@ -42,28 +43,13 @@ MIN_FLAG = 0.5  # the landmarker's face probability needed to trust its mesh
 SMOOTH = 0.04  # normals smoothed over this fraction of the face's size (about one triangle)
 FEATHER = 0.12  # the face transport fades in over this fraction of the face's size inside the mesh's border
 
-# DESIGN.md §3: unoccluded transport of a unit normal, A_l * Y_k(n), per unit of degree-0 coefficient
-_C0 = 0.5 / math.sqrt(math.pi)
-_C1 = math.sqrt(3 / (4 * math.pi))
-_C2, _C20, _C22 = math.sqrt(15 / (4 * math.pi)), math.sqrt(5 / (16 * math.pi)), math.sqrt(15 / (16 * math.pi))
-_A0, _A1, _A2 = math.pi, 2 * math.pi / 3, math.pi / 4
-
-
 def lobe_transport(normals: np.ndarray) -> np.ndarray:
     """(..., 9) float32 unoccluded transport A_l * Y_k(n) of unit normals (..., 3) in the subject frame (§3)."""
-    n = np.asarray(normals, np.float32)
-    x, y, z = n[..., 0], n[..., 1], n[..., 2]
-    out = np.empty(n.shape[:-1] + (9,), np.float32)
-    out[..., 0] = _A0 * _C0
-    out[..., 1] = _A1 * _C1 * y
-    out[..., 2] = _A1 * _C1 * z
-    out[..., 3] = _A1 * _C1 * x
-    out[..., 4] = _A2 * _C2 * x * y
-    out[..., 5] = _A2 * _C2 * y * z
-    out[..., 6] = _A2 * _C20 * (3 * z * z - 1)
-    out[..., 7] = _A2 * _C2 * x * z
-    out[..., 8] = _A2 * _C22 * (x * x - y * y)
-    return out
+    return (sh.basis(np.asarray(normals, np.float32)) * _LOBE).astype(np.float32)
+
+
+_LOBE = sh.cosine_lobe().astype(np.float32)
+_T0 = float(_LOBE[0] * sh.basis(np.array([0.0, 0.0, 1.0]))[0])  # degree 0 of any unit normal: π · Y00
 
 
 def rasterise_normals(
@@ -124,7 +110,7 @@ def face_transport(points: np.ndarray, triangles: np.ndarray, t0: np.ndarray) ->
     sigma = max(SMOOTH * size, 0.5)
     normals = cv2.GaussianBlur(normals, (0, 0), sigma)
     normals = normals / np.maximum(np.linalg.norm(normals, axis=2, keepdims=True), 1e-6)
-    transport = lobe_transport(normals) * (np.maximum(t0, 0) / (_A0 * _C0))[..., None]
+    transport = lobe_transport(normals) * (np.maximum(t0, 0) / _T0)[..., None]
     # weight: inside the mesh, rising smoothly from 0 at its border to 1 at FEATHER of the face's size inside
     dist = cv2.distanceTransform((cover > 0).astype(np.uint8), cv2.DIST_L2, 3)
     t = np.clip(dist / max(FEATHER * size, 1.0), 0, 1)

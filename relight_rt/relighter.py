@@ -843,7 +843,7 @@ class Relighter:
                                                                       1e-6)
         region += weight[..., None] * (level * g_head - region)
 
-    def layers(self, dec: Decomposition) -> dict[str, np.ndarray]:
+    def layers(self, dec: Decomposition, shading: np.ndarray | None = None) -> dict[str, np.ndarray]:
         """The photo's intrinsic layers at its own resolution, with its own detail (input frame).
 
         The network's shading under the photo's own light is smooth (it comes from the transport), so it
@@ -856,14 +856,12 @@ class Relighter:
         Returns:
             {"albedo": (H, W, 3), "shading": (H, W, 3) not clipped, "skin": (H, W), "mask": (H, W)},
             float32, albedo and skin in [0, 1].
-        """
-        return self._layers(dec)
 
-    def _layers(self, dec: Decomposition, shading: np.ndarray | None = None) -> dict[str, np.ndarray]:
-        """``layers`` with the albedo taken over ``shading`` (R, R, 3), masked as ``Decomposition.shading`` is
-        (default: that, the photo's own light through stage 1's transport). The studio's preview divides by the
-        shading the relighting factor divides by (bands restored), so that its albedo under the photo's own
-        light is the photo again."""
+        ``shading``: the (R, R, 3) network-frame shading the albedo is taken over, masked as
+        ``Decomposition.shading`` is (default: that, the photo's own light through stage 1's transport). The
+        studio's preview gives the shading the relighting factor divides by (bands restored), so that its albedo
+        under the photo's own light is the photo again.
+        """
         geom = dec.geometry
         alpha = dec.network_mask
         inner = alpha > 0.5

@@ -268,13 +268,13 @@ class Studio:
         size = _display_size(h, w, max_pixels)
         # the transport the final result relights with: stage 1's with its directional bands restored
         # (relight_rt._strength), so that the preview changes as strongly as the result does
-        transport = _resize(dec.to_input(restore_bands(np.ascontiguousarray(dec.transport))), size)
+        restored = restore_bands(np.ascontiguousarray(dec.transport))
+        transport = _resize(dec.to_input(restored), size)
         # the photo's own albedo (photo / its shading under its own light, white): the preview then relights the
         # photo as the final result does, not stage 1's network albedo (whose colours are a guess); divided by the
         # shading the final result divides by (bands restored) rather than stage 1's own (a refit own light,
         # relight_rt._strength.refit_light, can leave that one dark where the restored one is not)
-        own_restored = sh.shading(restore_bands(dec.transport), dec.white_light)
-        albedo = _resize(self.relighter._layers(dec, own_restored)["albedo"], size)
+        albedo = _resize(self.relighter.layers(dec, sh.shading(restored, dec.white_light))["albedo"], size)
         mask = _resize(np.asarray(dec.mask)[..., None], size)
         bg = self._background_image()
         bg = np.zeros(size + (3,), np.float32) if bg is None else _resize(bg, size)
