@@ -70,6 +70,15 @@ def _read_inputs(args: argparse.Namespace, files: list[Path], relighter, spec, b
     return ProtectedPaths(protect)
 
 
+def _mask_note(path: Path, mask_arg: str | None) -> str:
+    """" (mask: NAME_mask.png beside it)" when a mask file was picked up without --mask: a stale mask left
+    beside the photo changes the result, and the user should see that it was used."""
+    if mask_arg is not None:
+        return ""
+    found = sibling_mask(path)
+    return f" (mask: {found.name} beside it; --mask auto for the automatic matte)" if found else ""
+
+
 def cmd_relight(args: argparse.Namespace) -> int:
     if getattr(args, "ray", None):  # the same work on a Ray cluster (relight_rt.distributed)
         return cmd_relight_ray(args)
@@ -95,7 +104,7 @@ def cmd_relight(args: argparse.Namespace) -> int:
                                protect=protect, exposure=exposure)
             written += 1
             if not show_bar:
-                log.info("%s -> %s", path, target)
+                log.info("%s -> %s%s", path, target, _mask_note(path, args.mask))
         except (RelightError, OSError, MemoryError) as exc:  # the batch goes on past any bad file
             reason = os_error_text(exc) if isinstance(exc, OSError) else str(exc) or "out of memory"
             failures.append((str(path), reason))

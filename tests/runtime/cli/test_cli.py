@@ -370,3 +370,19 @@ def test_one_set_of_light_flags_in_every_command(work, capsys):
     assert code == 0 and cv2.imread("s.png") is not None
     code, _, err = run(["lights", "show", "studio", "--bgr", "-o", "s2.png"], capsys)
     assert code == 2 and "--bgr" in err
+
+
+def test_relight_says_when_a_mask_beside_the_photo_is_used(work, capsys, caplog):
+    """A NAME_mask.png left beside the photo (say by an earlier `relight-rt mask`) decides the result: the
+    one-line report names it, and says nothing when the mask was given with --mask."""
+    photo = write_person(work)
+    assert (work / "p_mask.png").is_file()
+    caplog.set_level("INFO", logger="relight_rt")
+    code, _, err = run(["relight", photo, "--preset", "studio", "-o", "out.png", "--device", "cpu"], capsys)
+    assert code == 0, err
+    assert "mask: p_mask.png beside it" in caplog.text
+    caplog.clear()
+    code, _, err = run(["relight", photo, "--mask", "p_mask.png", "--preset", "studio", "-o", "out2.png",
+                        "--device", "cpu"], capsys)  # fmt: skip
+    assert code == 0, err
+    assert "beside it" not in caplog.text and "out2.png" in caplog.text
