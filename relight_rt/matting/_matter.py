@@ -50,6 +50,7 @@ _MAX_TRIES = 32  # person="all": candidates segmented at most (each costs 1-4 po
 _GIVE_UP = 0.02  # person="all": a blob whose first pose-graph pass says this little is nobody (no re-centring)
 _SETTLED_IOU = 0.9  # the region has settled when the next one overlaps it this much
 _REFRAME = 0.9  # the selfie graph is run again on its own segmentation's region when that is this much smaller
+_MAX_GROW = 2  # selfie-graph runs on a higher region while its segmentation is cut by the region's top (_uncut)
 _CUT_WIDTH = 0.125  # a portrait's body is cut by the bottom border over at least this x its box's width
 
 
@@ -121,6 +122,7 @@ class PersonMatter:
         when that region is smaller: the regions it is first run on are framed for a whole body (the pose
         graph's) or guessed from a face, and in them a portrait's head spans half the canvas or less. Grace
         Hopper's white cap before the white flag stripes: alpha over the crown 0.59 -> 0.96."""
+        roi = self._uncut(rgb, roi)
         box = person_box(roi, rgb.shape[:2])
         if box is None:
             return roi
@@ -128,6 +130,23 @@ class PersonMatter:
         if tight.side >= _REFRAME * roi.region.side:
             return roi
         return self._roi_person(rgb, tight, roi.presence)
+
+    def _uncut(self, rgb: np.ndarray, roi: Person) -> Person:
+        """The selfie graph's segmentation again on a region reaching higher while it runs into its region's top
+        inside the image (:func:`_grow_where_cut`, upwards only). The region is the pose graph's (or a face's
+        guess), and on a close portrait the pose graph misses the top of the head, so its region, centred on
+        what it saw, can start below the crown; alpha outside the region is 0, so the head was cut off flat
+        (DPR's portrait: at row 188 of 909, the forehead and hair missing). Not sideways: there the selfie
+        graph's segmentation runs on into the neighbours of people side by side (it segments everyone)."""
+        for _ in range(_MAX_GROW):
+            box = person_box(roi, rgb.shape[:2])
+            if box is None:
+                return roi
+            top = _grow_where_cut(box, roi.region, rgb.shape[:2])[1]
+            if top >= box[1]:
+                return roi
+            roi = self._roi_person(rgb, Region.around(box[0], top, box[2], box[3]), roi.presence)
+        return roi
 
     def find_people(self, rgb: np.ndarray) -> list[tuple[float, tuple[float, float, float, float]]]:
         """Where people are, from the image alone (relight_rt.matting._detect.find_people): [(area in image

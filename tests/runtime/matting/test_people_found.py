@@ -143,6 +143,56 @@ def test_selfie_graph_is_run_again_framed_on_its_answer():
     assert matter._reframed(rgb, framed).region == framed.region  # framed already: kept
 
 
+def head_and_shoulders(h: int = 360, w: int = 300) -> np.ndarray:
+    """A bright head (crown at row 10) on shoulders that run off the bottom: a close portrait's silhouette."""
+    yy, xx = np.mgrid[0:h, 0:w] + 0.5
+    head = ((xx - 150) / 70) ** 2 + ((yy - 110) / 100) ** 2 < 1
+    return (head | ((yy >= 200) & (xx >= 20) & (xx < 280))).astype(np.float32)
+
+
+def test_portrait_region_that_starts_below_the_crown_is_raised():
+    """DPR's portrait: the pose graph misses the top of a close head, so its region (centred on what it saw)
+    started at row 188 of 909; the selfie graph segmented that region only and alpha above it was 0: the head
+    was cut off flat, the forehead and hair missing. Its segmentation runs into the region's top inside the
+    image: it is run again on a region reaching higher."""
+    person = head_and_shoulders()
+    rgb = np.repeat(person[..., None], 3, 2)
+    matter = M.PersonMatter(refine=False)
+    matter.roi = _Bright()
+    low = matter._roi_person(rgb, M.Region(150.0, 230.0, 300.0), 0.9)  # rows 80-380: below the crown (row 10)
+    assert M.person_box(low, rgb.shape[:2])[1] == pytest.approx(80.0, abs=2)  # cut by the region's top
+    raised = matter._reframed(rgb, low)
+    alpha = matter.alpha(rgb, [raised])
+    assert M.person_box(raised, rgb.shape[:2])[1] == pytest.approx(10.0, abs=3)  # was 80
+    assert iou(alpha[:80], person[:80]) > 0.9  # the head above the old region: was 0
+    assert iou(alpha, person) > 0.95
+    # a segmentation inside its region is left as it is (one selfie-graph run)
+    inside = matter._roi_person(rgb, M.Region(150.0, 200.0, 420.0), 0.9)
+    assert matter._uncut(rgb, inside) is inside
+
+
+def test_dpr_portrait_keeps_its_forehead_and_hair(dpr_portrait):
+    """The real photo (skipped without DPR's repository): its automatic matte cut the head off flat at row 188
+    of 909, so every relight showed a hard line across the forehead; over the forehead and hair (rows 20-180,
+    columns 250-480) alpha was 0, now 0.98."""
+    assert dpr_portrait.shape[:2] == (909, 727)
+    alpha = M.PersonMatter()(dpr_portrait)
+    assert alpha[20:180, 250:480].mean() > 0.9  # was 0.0
+    assert np.nonzero(alpha[:, 300:420].max(1) >= 0.5)[0][0] < 10  # the crown at the top of the frame (was 188)
+
+
+def test_portrait_is_not_widened_into_people_beside_it():
+    """Only upwards: sideways the selfie graph's segmentation runs on into the neighbours of people side by
+    side (it segments everyone), and a wider region would take them in."""
+    person = head_and_shoulders()
+    rgb = np.repeat(np.hstack([person, person])[..., None], 3, 2)
+    matter = M.PersonMatter(refine=False)
+    matter.roi = _Bright()
+    mine = matter._roi_person(rgb, M.Region(150.0, 200.0, 420.0), 0.9)  # x -60-360: the neighbour's shoulder
+    assert M.person_box(mine, rgb.shape[:2])[2] >= 355  # runs into the region's right edge
+    assert matter._uncut(rgb, mine) is mine
+
+
 def test_the_woman_the_selfie_graph_hardly_sees_is_found(reference_dir):
     """The reference street photo: the woman in purple by the kiosk (x 1253-1304 px, 130 px tall). The selfie
     graph's probability on her peaks at 0.42 at every tile scale, so no blob was made for her; where it rises
