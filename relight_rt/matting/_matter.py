@@ -122,30 +122,25 @@ class PersonMatter:
         """The selfie graph's segmentation again on a region framed on its first answer (ROI_SCALE x its box),
         when that region is smaller: the regions it is first run on are framed for a whole body (the pose
         graph's) or guessed from a face, and in them a portrait's head spans half the canvas or less. Grace
-        Hopper's white cap before the white flag stripes: alpha over the crown 0.59 -> 0.96. A segmentation cut
-        by its region's top is first run on a higher region (:meth:`_uncut`); both answers are then kept to its
-        columns."""
-        roi, columns = self._uncut(rgb, roi)
+        Hopper's white cap before the white flag stripes: alpha over the crown 0.59 -> 0.96."""
         box = person_box(roi, rgb.shape[:2])
         if box is None:
             return roi
         tight = Region.around(*box)
         if tight.side >= _REFRAME * roi.region.side:
             return roi
-        framed = self._roi_person(rgb, tight, roi.presence)
-        return framed if columns is None else _within_columns(framed, columns)
+        return self._roi_person(rgb, tight, roi.presence)
 
-    def _uncut(self, rgb: np.ndarray, roi: Person) -> tuple[Person, tuple[float, float] | None]:
+    def _uncut(self, rgb: np.ndarray, roi: Person) -> tuple[Person, Person | None]:
         """The selfie graph's segmentation again on a region reaching higher while it runs into its region's top
-        inside the image (:func:`_grow_where_cut`, upwards only), and the columns (x0, x1) it is then kept to
-        (None: not run again). The region is the pose graph's (or a face's guess), and on a close portrait the
-        pose graph misses the top of the head, so its region, centred on what it saw, can start below the
-        crown; alpha outside the region is 0, so the head was cut off flat (DPR's portrait: at row 188 of 909,
-        the forehead and hair missing). Not sideways: there the selfie graph's segmentation runs on into the
-        neighbours of people side by side (it segments everyone); and the higher region's segmentation is kept
-        to the columns of the first (with a margin of 3 % of its width): a taller neighbour the higher region
-        takes in (a coach beside a helmeted player) would otherwise join the two into one person."""
-        columns = None
+        inside the image (:func:`_grow_where_cut`, upwards only), and the segmentation it started from (None:
+        not run again). The region is the pose graph's (or a face's guess), and on a close portrait the pose
+        graph misses the top of the head, so its region, centred on what it saw, can start below the crown;
+        alpha outside the region is 0, so the head was cut off flat (DPR's portrait: at row 188 of 909, the
+        forehead and hair missing). The higher region's answer is kept to the first one's columns
+        (:func:`_held`): the selfie graph segments everyone in its region, and a larger region takes in more
+        of the people beside. Not sideways, for the same reason."""
+        first = None
         for _ in range(_MAX_GROW):
             box = person_box(roi, rgb.shape[:2])
             if box is None:
@@ -153,11 +148,10 @@ class PersonMatter:
             top = _grow_where_cut(box, roi.region, rgb.shape[:2])[1]
             if top >= box[1]:
                 break
-            if columns is None:
-                margin = 0.03 * (box[2] - box[0])
-                columns = (box[0] - margin, box[2] + margin)
-            roi = _within_columns(self._roi_person(rgb, Region.around(box[0], top, box[2], box[3]), roi.presence), columns)
-        return roi, columns
+            first = roi if first is None else first
+            raised = self._roi_person(rgb, Region.around(box[0], top, box[2], box[3]), roi.presence)
+            roi = _held(raised, first, rgb.shape[:2])
+        return roi, first
 
     def find_people(self, rgb: np.ndarray) -> list[tuple[float, tuple[float, float, float, float]]]:
         """Where people are, from the image alone (relight_rt.matting._detect.find_people): [(area in image
@@ -219,10 +213,14 @@ class PersonMatter:
         segmentation holding several faces side by side is one person per face, :func:`split_by_faces`),
         drops duplicates, tries last where the selfie graph's probability stays faint (:func:`_faint`: the pose
         graph must be sure there), and keeps people at least MIN_PERSON_FRACTION of the image's height tall.
-        The detectors' crops of one call share the photo's reductions (:func:`reductions_shared`).
+        The detectors' crops of one call share the photo's reductions (:func:`reductions_shared`). Last, a
+        selfie-graph person whose region cuts off the top of their head is given it (:meth:`_uncut`).
         """
         with reductions_shared(rgb):  # the detectors' crops share one set of reduced copies of the photo
-            return self._everyone(rgb) if self.person == "all" else self._largest(rgb)
+            found = self._everyone(rgb) if self.person == "all" else self._largest(rgb)
+            # who is found is settled: the heads their regions cut are added now (the selfie graph segments
+            # everyone in a region, so a higher region found earlier would take in the people beside)
+            return [self._uncut(rgb, p)[0] if p.source == "roi" and p.whole is None else p for p in found]
 
     def _largest(self, rgb: np.ndarray) -> list[Person]:
         h, w = rgb.shape[:2]
@@ -493,13 +491,20 @@ def _without_straddlers(people: list[Person], grid) -> list[Person]:
     return [p for i, p in enumerate(people) if p.source != "pose" or i in kept]
 
 
-def _within_columns(person: Person, columns: tuple[float, float]) -> Person:
-    """``person`` with its logits set to "not a person" outside the image columns x0 <= X <= x1."""
-    k, bx, _ = grid_of_region(person.region)
-    x = (np.arange(SIZE) - bx) / k  # image x of each canvas column's centre (index = k X + b)
-    keep = (x >= columns[0]) & (x <= columns[1])
-    return Person(person.region, np.where(keep[None, :], person.logits, np.float32(-LOGIT_CLIP)).astype(np.float32),
-                  person.presence, person.source)  # fmt: skip
+def _held(raised: Person, first: Person, shape: tuple[int, int]) -> Person:
+    """The selfie graph's segmentation ``raised`` (of a region reaching higher than ``first``'s) kept to
+    ``first``'s columns (its box, widened by 3 % of its width each side). Not also to ``first``'s answer below
+    its region's top: that answer is weakest right below the top, where the region cut the head (DPR's
+    portrait: a notch in the hair at the temple)."""
+    box = person_box(first, shape)
+    if box is None:
+        return raised
+    margin = 0.03 * (box[2] - box[0])
+    k, bx, _ = grid_of_region(raised.region)
+    x = (np.arange(SIZE, dtype=np.float64) - bx) / k  # image x of the canvas columns' centres
+    within = ((x >= box[0] - margin) & (x <= box[2] + margin))[None, :]
+    logits = np.where(within, raised.logits, np.float32(-LOGIT_CLIP)).astype(np.float32)
+    return Person(raised.region, logits, raised.presence, raised.source)
 
 
 def _grid_pixels(box, grid) -> np.ndarray:

@@ -154,14 +154,15 @@ def test_portrait_region_that_starts_below_the_crown_is_raised():
     """DPR's portrait: the pose graph misses the top of a close head, so its region (centred on what it saw)
     started at row 188 of 909; the selfie graph segmented that region only and alpha above it was 0: the head
     was cut off flat, the forehead and hair missing. Its segmentation runs into the region's top inside the
-    image: it is run again on a region reaching higher."""
+    image: it is run again on a region reaching higher (PersonMatter.people, once who is found is settled)."""
     person = head_and_shoulders()
     rgb = np.repeat(person[..., None], 3, 2)
     matter = M.PersonMatter(refine=False)
     matter.roi = _Bright()
     low = matter._roi_person(rgb, M.Region(150.0, 230.0, 300.0), 0.9)  # rows 80-380: below the crown (row 10)
     assert M.person_box(low, rgb.shape[:2])[1] == pytest.approx(80.0, abs=2)  # cut by the region's top
-    raised = matter._reframed(rgb, low)
+    raised, started = matter._uncut(rgb, low)
+    assert started is low
     alpha = matter.alpha(rgb, [raised])
     assert M.person_box(raised, rgb.shape[:2])[1] == pytest.approx(10.0, abs=3)  # was 80
     assert iou(alpha[:80], person[:80]) > 0.9  # the head above the old region: was 0
@@ -179,6 +180,30 @@ def test_dpr_portrait_keeps_its_forehead_and_hair(dpr_portrait):
     alpha = M.PersonMatter()(dpr_portrait)
     assert alpha[20:180, 250:480].mean() > 0.9  # was 0.0
     assert np.nonzero(alpha[:, 300:420].max(1) >= 0.5)[0][0] < 10  # the crown at the top of the frame (was 188)
+
+
+class _Red:
+    """A stand-in for the pose graph: sure of a person, segmented where the canvas is red."""
+
+    def run(self, feeds):
+        seg = np.where(feeds["image"][0, 0] > 0.5, 10.0, -10.0).astype(np.float32)
+        return {"segmentation": seg[None, None], "presence": np.array([[0.95]], np.float32)}
+
+
+def test_people_keep_the_crown_the_pose_graph_misses():
+    """The whole path (PersonMatter.people) with stand-ins: the pose graph misses the cyan hair (rows 10-110),
+    so its settled region starts at row 72; the portrait's selfie-graph segmentation there was cut flat at that
+    row (alpha over the hair: IoU 0.45); now the head is whole."""
+    person = head_and_shoulders()
+    rgb = np.repeat(person[..., None], 3, 2)
+    rgb[(person > 0) & (np.arange(360)[:, None] < 110), 0] = 0.0  # cyan hair: bright for the selfie graph
+    matter = M.PersonMatter(refine=False)
+    matter.roi, matter.pose, matter.face = _Bright(), _Red(), None
+    people = matter.people(rgb)
+    assert len(people) == 1 and people[0].source == "roi"
+    alpha = matter.alpha(rgb, people)
+    assert iou(alpha[:110], person[:110]) > 0.95  # was 0.45
+    assert iou(alpha, person) > 0.98  # was 0.91
 
 
 def test_portrait_is_not_widened_into_people_beside_it():
@@ -252,8 +277,8 @@ def test_a_pose_person_straddling_two_others_is_dropped():
 
 def test_raised_portrait_region_keeps_out_a_taller_neighbour():
     """The higher region takes in more of a taller neighbour beside the person (a coach beside a helmeted
-    player, 252x239 px): its segmentation is kept to the first one's columns, or the two become one person
-    (the coach photo shifted by a pixel: 2 people -> 1)."""
+    player, 252x239 px): its answer is kept to the first answer's columns, or the person's matte would take
+    in the neighbour's head."""
     low = np.roll(head_and_shoulders(), 80, axis=0)
     low[:80] = 0  # crown at row 90
     both = np.hstack([low, head_and_shoulders()])  # the neighbour on the right, crown at row 10
@@ -263,10 +288,10 @@ def test_raised_portrait_region_keeps_out_a_taller_neighbour():
     first = matter._roi_person(rgb, M.Region(150.0, 270.0, 300.0), 0.9)  # rows 120-420, x 0-300
     x0, y0, x1, _ = M.person_box(first, rgb.shape[:2])
     assert y0 == pytest.approx(120.0, abs=2)  # cut by the region's top
-    raised, columns = matter._uncut(rgb, first)
-    assert columns is not None and columns[1] < 300
+    raised, started = matter._uncut(rgb, first)
+    assert started is first
     box = M.person_box(raised, rgb.shape[:2])
-    assert box[1] == pytest.approx(90.0, abs=3) and box[2] <= columns[1] + 2
-    alpha = matter.alpha(rgb, [matter._reframed(rgb, first)])
+    assert box[1] == pytest.approx(90.0, abs=3) and box[2] <= x1 + 0.03 * (x1 - x0) + 2
+    alpha = matter.alpha(rgb, [raised])
     assert alpha[:, 310:].max() < 0.01  # none of the neighbour
     assert iou(alpha[:, :300], low[:, :300]) > 0.9
