@@ -469,7 +469,8 @@ def _without_straddlers(people: list[Person], grid) -> list[Person]:
     pose-graph people's together: a region framed between two people side by side, on which the pose graph
     (which segments one person) answers with a body across both (two men crouching face to face came out as
     3: the straddling one lies 0.81 inside the two, 0.46 at most inside either; between distinct people
-    found by the pose graph on the 25 photos of benchmarks/people_photos.py, at most 0.47). The one lying most
+    found by the pose graph on the 13 photos of benchmarks/people_photos.py with several people, each at 3
+    framings shifted by 0-1 px, at most 0.47). The one lying most
     inside the others goes first. Not for selfie-graph people: it segments everyone in its region, so their
     segmentations overlap their neighbours by nature (up to 0.99 in a group seen face by face)."""
     pose = [i for i, p in enumerate(people) if p.source == "pose"]
