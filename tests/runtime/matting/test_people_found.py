@@ -295,3 +295,20 @@ def test_raised_portrait_region_keeps_out_a_taller_neighbour():
     alpha = matter.alpha(rgb, [raised])
     assert alpha[:, 310:].max() < 0.01  # none of the neighbour
     assert iou(alpha[:, :300], low[:, :300]) > 0.9
+
+
+def test_raised_answer_keeps_what_the_first_was_sure_of():
+    """Framed on the whole head, the selfie graph was less sure of DPR's checked shirt at the bottom corners
+    (alpha 0.96 -> 0.59 at the bottom left): the two answers are joined, the larger logit where both regions
+    reach; above the first region only the raised answer counts, and beside the first answer's columns
+    neither."""
+    shape = (400, 400)
+    # the first answer: sure of a person all over its region (rows 200-400, x 100-300)
+    first = M.Person(M.Region(200.0, 300.0, 200.0), np.full((256, 256), 10.0, np.float32), 0.9, "roi")
+    raised = M.Person(M.Region(200.0, 200.0, 400.0), np.full((256, 256), -10.0, np.float32), 0.9, "roi")
+    held = _matter._held(raised, first, shape)
+    xs, ys = np.array([110.0, 290.0, 200.0, 200.0, 40.0]), np.array([390.0, 390.0, 300.0, 100.0, 390.0])
+    inside = M._regions.prob_at(held, xs, ys)
+    assert inside[:3].min() > 0.99  # the first answer's person, inside its region, kept
+    assert inside[3] < 0.01  # above the first region: the raised answer's (nobody)
+    assert inside[4] < 0.01  # left of the first answer's columns (x 100-300 +3 %)
