@@ -41,3 +41,35 @@ def reference_dir(shared_dir: Path) -> Path:
 def test_data_dir() -> Path:
     """tests/data: tiny ONNX models with random weights and other small committed fixtures."""
     return TEST_DATA
+
+
+def _find_dpr() -> Path | None:
+    env = os.environ.get("DPR_REPO")  # benchmarks/real_photos.py's convention
+    for candidate in ([Path(env)] if env else []) + [Path("/work/.mirror/zhhoper+DPR/repo")]:
+        if candidate.is_dir():
+            return candidate
+    return None
+
+
+@pytest.fixture(scope="session")
+def dpr_portrait(tmp_path_factory):
+    """DPR's demo portrait (data/obama.jpg of github:zhhoper/DPR) as float32 RGB, read from a checkout or bare
+    git directory ($DPR_REPO, else the mirror /work/.mirror/zhhoper+DPR/repo) into a temporary folder (never
+    into the repo); the test is skipped when it is absent."""
+    import subprocess
+
+    from relight_rt._io import read_image
+
+    repo = _find_dpr()
+    if repo is None:
+        pytest.skip("DPR's repository is not present ($DPR_REPO)")
+    if (repo / "data" / "obama.jpg").is_file():
+        data = (repo / "data" / "obama.jpg").read_bytes()
+    else:
+        run = subprocess.run(["git", f"--git-dir={repo}", "show", "HEAD:data/obama.jpg"], capture_output=True)
+        if run.returncode != 0 or not run.stdout:
+            pytest.skip(f"data/obama.jpg is not readable from {repo}")
+        data = run.stdout
+    path = tmp_path_factory.mktemp("dpr") / "obama.jpg"
+    path.write_bytes(data)
+    return read_image(path)

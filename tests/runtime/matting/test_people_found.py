@@ -143,6 +143,81 @@ def test_selfie_graph_is_run_again_framed_on_its_answer():
     assert matter._reframed(rgb, framed).region == framed.region  # framed already: kept
 
 
+def head_and_shoulders(h: int = 360, w: int = 300) -> np.ndarray:
+    """A bright head (crown at row 10) on shoulders that run off the bottom: a close portrait's silhouette."""
+    yy, xx = np.mgrid[0:h, 0:w] + 0.5
+    head = ((xx - 150) / 70) ** 2 + ((yy - 110) / 100) ** 2 < 1
+    return (head | ((yy >= 200) & (xx >= 20) & (xx < 280))).astype(np.float32)
+
+
+def test_portrait_region_that_starts_below_the_crown_is_raised():
+    """DPR's portrait: the pose graph misses the top of a close head, so its region (centred on what it saw)
+    started at row 188 of 909; the selfie graph segmented that region only and alpha above it was 0: the head
+    was cut off flat, the forehead and hair missing. Its segmentation runs into the region's top inside the
+    image: it is run again on a region reaching higher (PersonMatter.people, once who is found is settled)."""
+    person = head_and_shoulders()
+    rgb = np.repeat(person[..., None], 3, 2)
+    matter = M.PersonMatter(refine=False)
+    matter.roi = _Bright()
+    low = matter._roi_person(rgb, M.Region(150.0, 230.0, 300.0), 0.9)  # rows 80-380: below the crown (row 10)
+    assert M.person_box(low, rgb.shape[:2])[1] == pytest.approx(80.0, abs=2)  # cut by the region's top
+    raised, started = matter._uncut(rgb, low)
+    assert started is low
+    alpha = matter.alpha(rgb, [raised])
+    assert M.person_box(raised, rgb.shape[:2])[1] == pytest.approx(10.0, abs=3)  # was 80
+    assert iou(alpha[:80], person[:80]) > 0.9  # the head above the old region: was 0
+    assert iou(alpha, person) > 0.95
+    # a segmentation inside its region is left as it is (one selfie-graph run)
+    inside = matter._roi_person(rgb, M.Region(150.0, 200.0, 420.0), 0.9)
+    assert matter._uncut(rgb, inside) == (inside, None)
+
+
+def test_dpr_portrait_keeps_its_forehead_and_hair(dpr_portrait):
+    """The real photo (skipped without DPR's repository): its automatic matte cut the head off flat at row 188
+    of 909, so every relight showed a hard line across the forehead; over the forehead and hair (rows 20-180,
+    columns 250-480) alpha was 0, now 0.98."""
+    assert dpr_portrait.shape[:2] == (909, 727)
+    alpha = M.PersonMatter()(dpr_portrait)
+    assert alpha[20:180, 250:480].mean() > 0.9  # was 0.0
+    assert np.nonzero(alpha[:, 300:420].max(1) >= 0.5)[0][0] < 10  # the crown at the top of the frame (was 188)
+
+
+class _Red:
+    """A stand-in for the pose graph: sure of a person, segmented where the canvas is red."""
+
+    def run(self, feeds):
+        seg = np.where(feeds["image"][0, 0] > 0.5, 10.0, -10.0).astype(np.float32)
+        return {"segmentation": seg[None, None], "presence": np.array([[0.95]], np.float32)}
+
+
+def test_people_keep_the_crown_the_pose_graph_misses():
+    """The whole path (PersonMatter.people) with stand-ins: the pose graph misses the cyan hair (rows 10-110),
+    so its settled region starts at row 72; the portrait's selfie-graph segmentation there was cut flat at that
+    row (alpha over the hair: IoU 0.45); now the head is whole."""
+    person = head_and_shoulders()
+    rgb = np.repeat(person[..., None], 3, 2)
+    rgb[(person > 0) & (np.arange(360)[:, None] < 110), 0] = 0.0  # cyan hair: bright for the selfie graph
+    matter = M.PersonMatter(refine=False)
+    matter.roi, matter.pose, matter.face = _Bright(), _Red(), None
+    people = matter.people(rgb)
+    assert len(people) == 1 and people[0].source == "roi"
+    alpha = matter.alpha(rgb, people)
+    assert iou(alpha[:110], person[:110]) > 0.95  # was 0.45
+    assert iou(alpha, person) > 0.98  # was 0.91
+
+
+def test_portrait_is_not_widened_into_people_beside_it():
+    """Only upwards: sideways the selfie graph's segmentation runs on into the neighbours of people side by
+    side (it segments everyone), and a wider region would take them in."""
+    person = head_and_shoulders()
+    rgb = np.repeat(np.hstack([person, person])[..., None], 3, 2)
+    matter = M.PersonMatter(refine=False)
+    matter.roi = _Bright()
+    mine = matter._roi_person(rgb, M.Region(150.0, 200.0, 420.0), 0.9)  # x -60-360: the neighbour's shoulder
+    assert M.person_box(mine, rgb.shape[:2])[2] >= 355  # runs into the region's right edge
+    assert matter._uncut(rgb, mine) == (mine, None)
+
+
 def test_the_woman_the_selfie_graph_hardly_sees_is_found(reference_dir):
     """The reference street photo: the woman in purple by the kiosk (x 1253-1304 px, 130 px tall). The selfie
     graph's probability on her peaks at 0.42 at every tile scale, so no blob was made for her; where it rises
@@ -168,3 +243,72 @@ def test_faint_boxes_are_blobs_that_stay_under_half_and_frame_a_person_tall_enou
     assert (x0 + x1) / 2 == pytest.approx(45.0, abs=0.6) and (y0 + y1) / 2 == pytest.approx(55.0, abs=0.6)
     assert y1 - y0 == pytest.approx(80.0) and x1 - x0 == pytest.approx(80.0)
     assert _matter._faint(np.zeros((h, w), np.float32), grid, 80.0) == []
+
+
+def box_person(box, source: str = "pose", side: float = 400.0) -> M.Person:
+    """A Person over a (side x side) image whose segmentation is the image box (x0, y0, x1, y1)."""
+    region = M.Region(side / 2, side / 2, side)
+    k, bx, by = M._regions.grid_of_region(region)
+    c = np.arange(256)
+    xs, ys = (c - bx) / k, (c - by) / k  # image coordinates of the canvas pixels' centres
+    inside = ((ys >= box[1]) & (ys < box[3]))[:, None] & ((xs >= box[0]) & (xs < box[2]))[None, :]
+    return M.Person(region, np.where(inside, 10.0, -10.0).astype(np.float32), 0.9, source)
+
+
+def test_a_pose_person_straddling_two_others_is_dropped():
+    """Two men crouching face to face came out as 3 (--person all): between them, the pose graph framed on the
+    middle of their blob answered with a body across both, lying 0.81 inside the two together and 0.46 at most
+    inside either."""
+    grid = M._regions.working_grid((0, 0, 400, 400))
+    left, right = box_person((40, 100, 200, 380)), box_person((200, 100, 360, 380))
+    straddler = box_person((130, 100, 270, 380))
+    assert _matter._without_straddlers([left, straddler, right], grid) == [left, right]
+    # people side by side who overlap a little (a pose-graph person lies at most 0.47 inside the others on the
+    # 25 photos of benchmarks/people_photos.py) are all kept, and so is a third beside them
+    near = box_person((180, 100, 330, 380))
+    third = box_person((330, 100, 390, 380))
+    assert _matter._without_straddlers([left, near, third], grid) == [left, near, third]
+    # selfie-graph people overlap their neighbours by nature (it segments everyone in its region): kept
+    roi = box_person((130, 100, 270, 380), "roi")
+    assert _matter._without_straddlers([left, roi, right], grid) == [left, roi, right]
+    # two people: neither straddles
+    assert _matter._without_straddlers([left, straddler], grid) == [left, straddler]
+
+
+def test_raised_portrait_region_keeps_out_a_taller_neighbour():
+    """The higher region takes in more of a taller neighbour beside the person (a coach beside a helmeted
+    player, 252x239 px): its answer is kept to the first answer's columns, or the person's matte would take
+    in the neighbour's head."""
+    low = np.roll(head_and_shoulders(), 80, axis=0)
+    low[:80] = 0  # crown at row 90
+    both = np.hstack([low, head_and_shoulders()])  # the neighbour on the right, crown at row 10
+    rgb = np.repeat(both[..., None], 3, 2)
+    matter = M.PersonMatter(refine=False)
+    matter.roi = _Bright()
+    first = matter._roi_person(rgb, M.Region(150.0, 270.0, 300.0), 0.9)  # rows 120-420, x 0-300
+    x0, y0, x1, _ = M.person_box(first, rgb.shape[:2])
+    assert y0 == pytest.approx(120.0, abs=2)  # cut by the region's top
+    raised, started = matter._uncut(rgb, first)
+    assert started is first
+    box = M.person_box(raised, rgb.shape[:2])
+    assert box[1] == pytest.approx(90.0, abs=3) and box[2] <= x1 + 0.03 * (x1 - x0) + 2
+    alpha = matter.alpha(rgb, [raised])
+    assert alpha[:, 310:].max() < 0.01  # none of the neighbour
+    assert iou(alpha[:, :300], low[:, :300]) > 0.9
+
+
+def test_raised_answer_keeps_what_the_first_was_sure_of():
+    """Framed on the whole head, the selfie graph was less sure of DPR's checked shirt at the bottom corners
+    (alpha 0.96 -> 0.59 at the bottom left): the two answers are joined, the larger logit where both regions
+    reach; above the first region only the raised answer counts, and beside the first answer's columns
+    neither."""
+    shape = (400, 400)
+    # the first answer: sure of a person all over its region (rows 200-400, x 100-300)
+    first = M.Person(M.Region(200.0, 300.0, 200.0), np.full((256, 256), 10.0, np.float32), 0.9, "roi")
+    raised = M.Person(M.Region(200.0, 200.0, 400.0), np.full((256, 256), -10.0, np.float32), 0.9, "roi")
+    held = _matter._held(raised, first, shape)
+    xs, ys = np.array([110.0, 290.0, 200.0, 200.0, 40.0]), np.array([390.0, 390.0, 300.0, 100.0, 390.0])
+    inside = M._regions.prob_at(held, xs, ys)
+    assert inside[:3].min() > 0.99  # the first answer's person, inside its region, kept
+    assert inside[3] < 0.01  # above the first region: the raised answer's (nobody)
+    assert inside[4] < 0.01  # left of the first answer's columns (x 100-300 +3 %)
