@@ -104,8 +104,9 @@ def main(argv=None) -> int:
                             out = scene_mod._light_wrap(e_frame, bg_lin, a, max(0.5, WRAP_PX), WRAP_S)
                             if rim is not None:
                                 height = float((a > 0.005).any(1).sum())
-                                out = scene_mod._key_rim(out, a, rim[0], rim[1],
-                                                         max(0.5, scene_mod.RIM_RADIUS * height))
+                                out = scene_mod._key_rim(
+                                    out, a, rim[0], rim[1], max(0.5, scene_mod.RIM_RADIUS * height)
+                                )
                         elif radius is not None:
                             out = scene_mod._light_wrap(e_frame, bg_lin, a, max(0.5, radius * se.VIEW[0]), strength)
                         diff = np.clip(out, 0, 1) - np.clip(t_frame, 0, 1)  # what the cameras record

@@ -61,7 +61,7 @@ def add_parser(subparsers) -> None:
     p.add_argument("--light-wrap", action=argparse.BooleanOptionalAction, default=True,
                    help="a brighter background's light wraps over the person's edge (default: on)")  # fmt: skip
     p.add_argument("--rim", action=argparse.BooleanOptionalAction, default=False,
-                   help="a back key puts a rim of light on the person's outline on its side (default: off)")  # fmt: skip
+                   help="a back key puts a rim of light on its side of the outline (default: off)")  # fmt: skip
     p.add_argument("--fov", type=fov, default=60.0, metavar="DEG", help="background's horizontal field of view")
     add_runtime_options(p)
     p.set_defaults(func=cmd_composite)
