@@ -362,6 +362,9 @@ def test_cli_composite(work, capsys):
     assert code == 0, err
     wrapped, plain = cv2.imread("o3.png").astype(int), cv2.imread("o4.png").astype(int)
     assert np.abs(wrapped - plain).max() > 2  # the wrap is on by default; --no-light-wrap turns it off
+    code, _, err = run([*argv[:5], "o5.png", *argv[6:], "--rim"], capsys)  # the key from behind: a rim on top
+    assert code == 0, err
+    assert np.abs(cv2.imread("o5.png").astype(int) - wrapped).max() > 2  # off by default; --rim turns it on
     argv = ["composite", "p.png", "--background", "bg.png", "-o", "o2.jpg", "--preset", "studio"]
     code, _, err = run([*argv, "--position", "0.3,0.9", "--height", "0.6", "--exposure", "-1", "--fov", "80"], capsys)
     assert code == 0, err
