@@ -1,14 +1,16 @@
 """Speed of ``composite``: a 2-megapixel person photo onto a 2-megapixel background, files in and out.
 
-    python benchmarks/composite_bench.py --hdri ../shared/hdri --work runs/composite_bench [--repeats 7] [--models DIR]
+    python benchmarks/composite_bench.py --hdri ../shared/hdri --work runs/composite_bench [--repeats 7] \
+        [--models DIR] [--map city.hdr] [--rim]
 
 Makes the inputs once (the bundled example person, sRGB-encoded and enlarged to 1200 x 1700 = 2.04 MP with
-its mask; a 1920 x 1080 = 2.07 MP perspective view of ../shared/hdri/city.hdr), then times, with the models
-loaded once (as a server or a batch would), the whole call: read both files, estimate the background's
+its mask; a 1920 x 1080 = 2.07 MP perspective view of ../shared/hdri/city.hdr, or ``--map``), then times,
+with the models loaded once (as a server or a batch would), the whole call: read both files, estimate the background's
 light, decompose, relight, place, composite, write the result (PNG and JPEG). Median and min-max of
 ``--repeats`` runs after one untimed warm-up (and the median CPU time of the process per call, all threads:
 what the call costs whatever else the machine runs); also the wall time of one ``relight-rt composite`` process
-(interpreter start and model loading included). Writes WORK/results.json.
+(interpreter start and model loading included). ``--rim``: with the back key's rim (composite's step 7; it
+draws one only where the view reads back-lit, e.g. ``--map sunset.hdr``). Writes WORK/results.json.
 """
 
 from __future__ import annotations
@@ -33,7 +35,7 @@ from relight_rt._io import read_image, write_image  # noqa: E402
 from relight_rt.color import linear_to_srgb  # noqa: E402
 
 
-def make_inputs(hdri: Path, work: Path) -> tuple[Path, Path, Path]:
+def make_inputs(hdri: Path, work: Path, place: str = "city.hdr") -> tuple[Path, Path, Path]:
     sys.path.insert(0, str(REPO / "benchmarks"))
     from scene_sheet import background
 
@@ -58,7 +60,7 @@ def make_inputs(hdri: Path, work: Path) -> tuple[Path, Path, Path]:
     person, mask_path, bg_path = work / "person.jpg", work / "person_mask.png", work / "background.jpg"
     write_image(person, np.clip(canvas, 0, 1))
     write_image(mask_path, np.clip(cmask, 0, 1))
-    bg = background(hdri / "city.hdr", (1080, 1920))
+    bg = background(hdri / place, (1080, 1920))
     cv2.imwrite(str(bg_path), bg[..., ::-1], [cv2.IMWRITE_JPEG_QUALITY, 95])
     return person, mask_path, bg_path
 
@@ -69,8 +71,10 @@ def main(argv=None) -> int:
     ap.add_argument("--work", type=Path, required=True)
     ap.add_argument("--models", default=None)
     ap.add_argument("--repeats", type=int, default=7)
+    ap.add_argument("--map", default="city.hdr", help="the background's map in --hdri")
+    ap.add_argument("--rim", action="store_true", help="composite with rim=True")
     args = ap.parse_args(argv)
-    person, mask, bg = make_inputs(args.hdri, args.work)
+    person, mask, bg = make_inputs(args.hdri, args.work, args.map)
     relighter = Relighter(RuntimeConfig(models=args.models, device="cpu"))
     results = {}
     for suffix in (".jpg", ".png"):
@@ -78,7 +82,8 @@ def main(argv=None) -> int:
 
         def once(out=out):
             t, c = time.perf_counter(), time.process_time()
-            write_image(out, relighter.composite(person, bg, mask=mask, shadow=True), protect=[person, mask, bg])
+            image = relighter.composite(person, bg, mask=mask, shadow=True, rim=args.rim)
+            write_image(out, image, protect=[person, mask, bg])
             return time.perf_counter() - t, time.process_time() - c
 
         once()
@@ -88,12 +93,15 @@ def main(argv=None) -> int:
                                         "cpu_median_s": statistics.median(c for _, c in runs)}  # fmt: skip
     cmd = [sys.executable, "-m", "relight_rt", "composite", str(person), "--mask", str(mask), "--background", str(bg),
            "-o", str(args.work / "cli.jpg"), "--shadow", "--device", "cpu"]  # fmt: skip
+    if args.rim:
+        cmd.append("--rim")
     if args.models:
         cmd += ["--models", args.models]
     t = time.perf_counter()
     subprocess.run(cmd, check=True, cwd=REPO)
     results["cli_process_jpg_s"] = time.perf_counter() - t
-    results["inputs"] = {"person": "1200x1700 JPEG + PNG mask", "background": "1920x1080 JPEG"}
+    results["inputs"] = {"person": "1200x1700 JPEG + PNG mask", "background": f"1920x1080 JPEG of {args.map}",
+                         "rim": args.rim}  # fmt: skip
     (args.work / "results.json").write_text(json.dumps(results, indent=1))
     print(json.dumps(results, indent=1))
     return 0

@@ -45,6 +45,7 @@ from relight_rt.color import srgb_to_linear  # noqa: E402
 GRID_RADIUS = (0.003, 0.006, 0.01, 0.015)
 GRID_STRENGTH = (0.25, 0.5, 0.75, 1.0)
 BAND_PX = 3
+WRAP_PX, WRAP_S = scene_mod.WRAP_RADIUS * se.VIEW[0], scene_mod.WRAP_STRENGTH  # the shipped wrap
 
 
 def placed_alpha(mask: np.ndarray, place) -> np.ndarray:
@@ -65,7 +66,7 @@ def main(argv=None) -> int:
 
     by_subject, subjects, maps = se.photos_by_subject(args.photos)
 
-    configs = [(None, 0.0)] + [(r, s) for r in GRID_RADIUS for s in GRID_STRENGTH]
+    configs = [(None, 0.0)] + [(r, s) for r in GRID_RADIUS for s in GRID_STRENGTH] + [("rim", 0.0)]
     rows = []
     for m in maps:
         env = envmap.load_envmap(args.envs / f"{m}.hdr")
@@ -74,7 +75,10 @@ def main(argv=None) -> int:
         view = se.photograph(lin1, k)
         bg_lin = srgb_to_linear(view)
         true_light = envmap.project_envmap(env) * np.float32(k)
-        lights = {"est": bgmod.scene_light(view, 60.0).light(), "oracle": true_light}
+        parts = bgmod.scene_light(view, 60.0)
+        lights = {"est": parts.light(), "oracle": true_light}
+        (az, el), back_key = parts.key()
+        rim = (bgmod.key_direction(az, el), scene_mod._rim_gain(parts, lights["est"])) if back_key else None
         back_lit = se.front_back(true_light) <= -se.CLEAR_EV
         for subject in subjects:
             sample = dataset.read_sample(args.people, subject)
@@ -96,7 +100,14 @@ def main(argv=None) -> int:
                     e_frame = se.frame(bg_lin, person * np.float32(f), truth["mask"], place)
                     for radius, strength in configs:
                         out = e_frame
-                        if radius is not None:
+                        if radius == "rim":  # the shipped wrap, then the back key's rim (composite's step 7)
+                            out = scene_mod._light_wrap(e_frame, bg_lin, a, max(0.5, WRAP_PX), WRAP_S)
+                            if rim is not None:
+                                height = float((a > 0.005).any(1).sum())
+                                out = scene_mod._key_rim(
+                                    out, a, rim[0], rim[1], max(0.5, scene_mod.RIM_RADIUS * height)
+                                )
+                        elif radius is not None:
                             out = scene_mod._light_wrap(e_frame, bg_lin, a, max(0.5, radius * se.VIEW[0]), strength)
                         diff = np.clip(out, 0, 1) - np.clip(t_frame, 0, 1)  # what the cameras record
                         err = diff**2

@@ -1,7 +1,7 @@
 """Contact sheet: two people composited into ten backgrounds (docs/RESULTS.md, "Into any scene").
 
     python benchmarks/scene_sheet.py --hdri ../shared/hdri --blender BLENDER_WORLD --out docs/scene_sheet.jpg \\
-        [--half-body PHOTO --half-body-mask MASK] [--size 320] [--models DIR]
+        [--half-body PHOTO --half-body-mask MASK] [--size 320] [--models DIR] [--rim]
 
 People: the bundled example (relight_rt/data/example.png, a render of our own; linear, so sRGB-encoded
 first, as a camera would write it) standing full length, and a half body: by default the same person cut
@@ -13,7 +13,8 @@ auto-exposed (mean linear luminance 0.18) and sRGB-encoded: six of ../shared/hdr
 of those. Each row: the realistic paste (the full-body person as photographed, unrelit, at the same place
 and size; the estimated light on a sphere in the corner) | ``composite`` full body | ``composite`` half body,
 0.6 of the frame high (otherwise all defaults: the background's own light, perspective placement, shadows,
-camera matching, light wrap, frame metering). Prints each background's camera blur (relight_rt.scene, step 5).
+camera matching, light wrap, frame metering; ``--rim`` adds the back key's rim). Prints each background's camera
+blur (relight_rt.scene, step 5).
 """
 
 from __future__ import annotations
@@ -94,6 +95,7 @@ def main(argv=None) -> int:
     ap.add_argument("--half-body-mask", type=Path)
     ap.add_argument("--models", default=None)
     ap.add_argument("--size", type=int, default=320, help="background width (height 3/4 of it)")
+    ap.add_argument("--rim", action="store_true", help="composite with rim=True (a back key's rim)")
     args = ap.parse_args(argv)
     relighter = Relighter(RuntimeConfig(models=args.models, device="cpu"))
     rgba = read_image(REPO / "relight_rt" / "data" / "example.png", "example")
@@ -121,8 +123,8 @@ def main(argv=None) -> int:
         sphere = linear_to_srgb(np.clip(sphere * (0.8 / max(float(sphere.max()), 1e-6)), 0, 1))
         paste = pasted(person, bg)
         paste[: sphere.shape[0], : sphere.shape[1]] = sphere  # the estimated light, top-left corner
-        full = relighter.composite(person8, bg)
-        halfbody = relighter.composite(half8, bg, mask=half_mask, height=HALF_HEIGHT)
+        full = relighter.composite(person8, bg, rim=args.rim)
+        halfbody = relighter.composite(half8, bg, mask=half_mask, height=HALF_HEIGHT, rim=args.rim)
         gap = np.ones((size[0], 4, 3), np.float32)
         tiles.append(np.concatenate([paste, gap, full, gap, halfbody], 1))
         blur = scene_mod._camera_blur(scene_mod._grey(bg))  # what the person is blurred toward (step 5)

@@ -1066,6 +1066,7 @@ class Relighter:
         meter: str = "frame",
         match_camera: bool = True,
         light_wrap: bool = True,
+        rim: bool = False,
     ) -> np.ndarray:
         """Relight the person of ``image`` for the scene of ``background`` and put it there.
 
@@ -1076,7 +1077,7 @@ class Relighter:
         return composite(self, image, background, mask=mask, light=light, position=position, height=height,
                          shadow=shadow, exposure=exposure, fov=fov, white_balance=white_balance, key_light=key_light,
                          horizon=horizon, meter=meter, match_camera=match_camera,
-                         light_wrap=light_wrap)
+                         light_wrap=light_wrap, rim=rim)
 
 
 def compose_step(relighter: Relighter, dec: Decomposition, light: np.ndarray):

@@ -44,7 +44,12 @@ Steps (all colour arithmetic in linear light; both photos are read as sRGB, as c
 7. Alpha blending of the premultiplied, resampled person over the linear background, then a light wrap
    (``light_wrap=True``, the default; ``_light_wrap``): inside the person's edge, within ``WRAP_RADIUS`` of the
    frame's height, the person is lifted toward the background's light behind the edge where that is brighter
-   (``WRAP_STRENGTH`` of the excess at most), as a rim of back light and a lens's glare would; then sRGB again.
+   (``WRAP_STRENGTH`` of the excess at most), as a rim of back light and a lens's glare would; and, with
+   ``rim=True`` (off by default: on path-traced renders it raises the edge's error, docs/RESULTS.md) when the key
+   is a back key (the background read as back-lit, or a ``key_light`` from behind), the key's rim (``_key_rim``):
+   the outline on the key's side, within ``RIM_RADIUS`` of the person's height, brightened by the key's
+   irradiance on the outline's normal (in the image plane) over the irradiance of the person's front, which a
+   degree-2 SH light spreads over the whole body instead; then sRGB again.
 8. Metering (``meter``): "frame" (default) exposes the composed frame as a camera that meters the whole
    frame would: one scale so its mean linear luminance equals the background photo's own (a large bright
    person darkens the frame a little), limited to ±``METER_LIMIT_EV``; "background" keeps the background's
@@ -65,7 +70,15 @@ from ._errors import RelightError
 from ._pairs import number_pair
 from .color import SRGB8_TO_LINEAR, linear_to_srgb, srgb8_to_linear, srgb_to_linear
 from .masks import AUTO, resolve_mask
-from .scene_light import key_direction, parse_key_light, read_background, scene_light
+from .scene_light import (
+    AMBIENT_GAIN,
+    FRONT_WEIGHTS,
+    KEY_BACK,
+    key_direction,
+    parse_key_light,
+    read_background,
+    scene_light,
+)
 
 __all__ = ["composite", "parse_position"]
 
@@ -80,6 +93,7 @@ METERS = ("frame", "background")
 _MIN_KEY_ELEVATION = 15.0  # degrees: a lower key casts its shadow as if from this high (no endless shadows)
 WRAP_RADIUS = 0.006  #: light wrap: its reach over the person's edge (Gaussian sigma), fraction of the frame's height
 WRAP_STRENGTH = 0.25  #: light wrap: how much of the brighter background's excess reaches the edge band (at most)
+RIM_RADIUS = 0.01  #: a back key's rim: its reach inside the person's edge (Gaussian sigma), fraction of its height
 _NOISE_SEED = 36
 _UNIT = np.arange(256, dtype=np.float32) / np.float32(255)  # 8-bit → float in [0, 1]
 
@@ -322,6 +336,54 @@ def _light_wrap(
     return out
 
 
+def _rim_gain(parts, light: np.ndarray) -> float:
+    """A back key's irradiance facing it (relight_rt.scene_light's rule: ``KEY_BACK`` × the ambient) over the
+    irradiance of the person's camera-facing side under ``light`` (its luminance): ``_key_rim``'s gain."""
+    front = float(FRONT_WEIGHTS @ (np.asarray(light, np.float64) @ _exposure.REC709))
+    return KEY_BACK * AMBIENT_GAIN * parts.level / front if front > 1e-12 else 0.0
+
+
+def _key_rim(composed: np.ndarray, alpha: np.ndarray, direction: np.ndarray, gain: float, radius: float) -> np.ndarray:
+    """A back key's rim on the person's outline (step 7 of the module docstring).
+
+    A key behind the person (``direction``, the subject frame: x toward the camera, y the image's right, z up)
+    lights the surface at the silhouette, whose normal lies in the image plane, by max(0, n · d) of its
+    irradiance; a degree-2 SH light (the relighting's) spreads that over the whole body and loses it. So each
+    pixel inside the matte near the outside is multiplied by 1 + ``gain`` · max(0, n · d) · band, where n is the
+    outline's outward normal in the image plane (the gradient of the blurred matte), ``gain`` the key's
+    irradiance facing it over the irradiance the person's front gets (so the rim has the light's own ratio:
+    the person's colour, that much brighter), and band = 2 · alpha × the share of outside pixels within
+    ``radius`` (1 at a hard edge, falling to 0 a few ``radius`` inside).
+
+    Args:
+        composed: (h, w, 3) linear frame with the person laid over the background.
+        alpha: (h, w) the person's matte in this window.
+        direction: (3,) unit direction the key comes from (x < 0: behind the person; otherwise nothing).
+        gain: >= 0.
+        radius: Gaussian sigma of the reach, pixels (> 0).
+
+    Returns:
+        New (h, w, 3) float32.
+    """
+    out = np.array(composed, dtype=np.float32)
+    d = np.asarray(direction, np.float64)
+    if not (d[0] < 0 and gain > 0):
+        return out
+    a = np.clip(alpha, 0, 1).astype(np.float32)
+    reach = cv2.GaussianBlur(1 - a, (0, 0), radius, borderType=cv2.BORDER_REFLECT)
+    edge = (a > 0) & (reach > 1e-3)
+    if not edge.any():
+        return out
+    soft = cv2.GaussianBlur(a, (0, 0), radius, borderType=cv2.BORDER_REFLECT)
+    gx = cv2.Sobel(soft, cv2.CV_32F, 1, 0)[edge]  # toward the image's right
+    gy = cv2.Sobel(soft, cv2.CV_32F, 0, 1)[edge]  # toward its bottom
+    norm = np.maximum(np.hypot(gx, gy), 1e-6)
+    facing = np.maximum(0, (-gx * d[1] + gy * d[2]) / norm)  # outward = −gradient; image up = −rows = +z
+    band = np.minimum(2 * a[edge] * reach[edge], 1)
+    out[edge] *= (1 + np.float32(gain) * facing * band)[:, None].astype(np.float32)
+    return out
+
+
 def _dominant_direction(light: np.ndarray) -> tuple[np.ndarray | None, float]:
     """The unit direction the light mostly comes from and how directional it is (sh.dominant_direction of its
     Rec. 709 luminance)."""
@@ -437,6 +499,7 @@ def composite(
     meter: str = "frame",
     match_camera: bool = True,
     light_wrap: bool = True,
+    rim: bool = False,
 ) -> np.ndarray:
     """Relight the person of ``image`` for the scene of ``background`` and put it there (module docstring).
 
@@ -462,6 +525,7 @@ def composite(
         meter: "frame" or "background" (step 8).
         match_camera: match the background camera's blur and noise (step 5).
         light_wrap: let the background's light wrap over the person's edge where it is brighter (step 7).
+        rim: a back key (automatic or ``key_light``) puts a rim of light on the outline on its side (step 7).
 
     Returns:
         (H_bg, W_bg, 3) float32 sRGB in [0, 1].
@@ -485,10 +549,13 @@ def composite(
     mask = _matte_on_the_photo(relighter, image, mask, name)
     person = _linear_person(image)
     dec = relighter.decompose(person, mask)
+    rim_dir, rim_gain = None, 0.0
     if light is None:
         lit = bg_light
-        (az, el), _ = parts.key(key)
+        (az, el), back = parts.key(key)
         shadow_dir = key_direction(az, el)
+        if back and rim:
+            rim_dir, rim_gain = shadow_dir, _rim_gain(parts, bg_light)
         _, directional = _dominant_direction(bg_light)
         directional = max(directional, 0.35)  # the key is there by construction: never an invisible shadow
     else:
@@ -593,8 +660,9 @@ def composite(
                 rx0, rx1 = min(rx0, cx0), max(rx1, cx0 + cs.shape[1])
     wrap = bool(light_wrap)
     wrap_radius = max(0.5, WRAP_RADIUS * hb)
-    if wrap:  # the light wrap reads the background around the person
-        margin = int(math.ceil(3 * wrap_radius))
+    rim_radius = max(0.5, RIM_RADIUS * new_h)
+    if wrap or rim_dir is not None:  # the light wrap reads the background around the person; the rim its outline
+        margin = int(math.ceil(3 * max(wrap_radius if wrap else 0.0, rim_radius if rim_dir is not None else 0.0)))
         ry0, ry1, rx0, rx1 = (
             min(ry0, top - margin),
             max(ry1, box_bottom + margin),
@@ -633,10 +701,13 @@ def composite(
         view *= 1 - p[..., 3:]
         view += p[..., :3]
         alpha_region = (py0, py1, px0, px1, p[..., 3])
-        if wrap:  # step 7's light wrap
+        if wrap or rim_dir is not None:  # step 7's light wrap and a back key's rim
             window_alpha = np.zeros(lin.shape[:2], np.float32)
             window_alpha[py0 - ry0 : py1 - ry0, px0 - rx0 : px1 - rx0] = p[..., 3]
-            lin = _light_wrap(lin, behind, window_alpha, wrap_radius)
+            if wrap:
+                lin = _light_wrap(lin, behind, window_alpha, wrap_radius)
+            if rim_dir is not None:
+                lin = _key_rim(lin, window_alpha, rim_dir, rim_gain, rim_radius)
 
     # metering (step 8)
     gain = 1.0

@@ -43,10 +43,13 @@ scene left out at a time: eleven chosen by their errors, plus SHAPE_PRIOR, a mea
    shape (its SH scaled to a camera-facing irradiance of 1, ``FRONT_WEIGHTS``) is ``SHAPE_WEIGHT`` × the raw
    light's + (1 − ``SHAPE_WEIGHT``) × ``SHAPE_PRIOR`` (the benchmark's 68 true lights' mean shape); its
    x coefficient (front against back) is then set so that its back over front irradiance is the raw light's
-   ratio to the power ``FRONT_BACK_POWER`` (the view's front/back call kept, its size damped); times the raw
-   light's camera-facing irradiance in RGB (so the exposure and colour on the person's front are the raw
-   light's). With ``key_light`` given, this step shapes the rest of the light and the key is added whole:
-   a key the user knows is kept as given.
+   ratio to the power ``FRONT_BACK_POWER`` (its size damped), on the side of step 4's call: where the raw
+   light's sum disagrees with the call (a weak back key against a bright view; a high key's lobe reaching the
+   front), the same ratio the other way round, so that the light says what the rule read (front/back right on
+   71 % → 79 % of the benchmark's directional maps, docs/RESULTS.md); times the raw light's camera-facing
+   irradiance in RGB (so the exposure and colour on the person's front are the raw light's). With ``key_light``
+   given, this step shapes the rest of the light and the key is added whole: a key the user knows is kept as
+   given.
 
 Scale: the light is in the photo's own linear units: a white diffuse surface that sees a uniform
 radiance of linear value v all round gets shading v. So with ``exposure="physical"`` a person relit by
@@ -122,8 +125,10 @@ def _side_weights(sign: int, n: int = 4000) -> np.ndarray:
 FRONT_WEIGHTS, BACK_WEIGHTS = _side_weights(+1), _side_weights(-1)
 
 
-def _shrink(raw: np.ndarray, weight: float, power: float, prior) -> np.ndarray:
-    """Step 6 of the module docstring: the light ``raw`` (9, 3) with its shape drawn toward ``prior``."""
+def _shrink(raw: np.ndarray, weight: float, power: float, prior, back_lit: bool | None = None) -> np.ndarray:
+    """Step 6 of the module docstring: the light ``raw`` (9, 3) with its shape drawn toward ``prior``;
+    ``back_lit`` (the rule's call: True back-lit, False front-lit; None: none) puts its back/front ratio on the
+    call's side."""
     lum = raw @ REC709
     front, back = float(FRONT_WEIGHTS @ lum), float(BACK_WEIGHTS @ lum)
     if not front > 1e-12:  # a black photo: nothing to shape
@@ -131,6 +136,8 @@ def _shrink(raw: np.ndarray, weight: float, power: float, prior) -> np.ndarray:
     pri = np.asarray(prior, np.float64)
     shape = weight * lum / front + (1 - weight) * pri / float(FRONT_WEIGHTS @ pri)
     ratio = max(back / front, 1e-6) ** power  # back over front, as the raw light has it, damped
+    if back_lit is not None and (ratio > 1) != back_lit:  # on the call's side: the same size, the other way
+        ratio = 1 / ratio
     # the x coefficient (front minus back) set so that the shape's back over front is that ratio
     fw, bw = FRONT_WEIGHTS, BACK_WEIGHTS
     shape[3] += (ratio * float(fw @ shape) - float(bw @ shape)) / (bw[3] - ratio * fw[3])
@@ -333,7 +340,7 @@ class SceneLight:
             return rest + key
         pri = SHAPE_PRIOR if prior is None else prior
         if key_light is None:
-            return _shrink(rest + key, weight, power, pri)
+            return _shrink(rest + key, weight, power, pri, back)
         return _shrink(rest, weight, power, pri) + key  # a key the user gives is added whole
 
 

@@ -2,7 +2,7 @@
 
 ``relight-rt composite PERSON [--mask M] --background BG -o OUT [--preset P | --light L | --envmap E]
 [--key-light AZ,EL] [--position X,Y] [--height H] [--horizon Y] [--no-shadow] [--exposure auto|EV|physical]
-[--meter frame|background] [--no-match-camera] [--no-light-wrap] [--fov 60]``
+[--meter frame|background] [--no-match-camera] [--no-light-wrap] [--rim] [--fov 60]``
 """
 
 from __future__ import annotations
@@ -60,6 +60,8 @@ def add_parser(subparsers) -> None:
                    help="match the background's blur and noise (default: on)")  # fmt: skip
     p.add_argument("--light-wrap", action=argparse.BooleanOptionalAction, default=True,
                    help="a brighter background's light wraps over the person's edge (default: on)")  # fmt: skip
+    p.add_argument("--rim", action=argparse.BooleanOptionalAction, default=False,
+                   help="a back key puts a rim of light on its side of the outline (default: off)")  # fmt: skip
     p.add_argument("--fov", type=fov, default=60.0, metavar="DEG", help="background's horizontal field of view")
     add_runtime_options(p)
     p.set_defaults(func=cmd_composite)
@@ -91,7 +93,8 @@ def cmd_composite(args: argparse.Namespace) -> int:
     light = None if spec is None else rl.resolve_light(spec)
     image = composite(rl, person, args.background, mask=mask, light=light, position=position, height=args.height,
                       shadow=args.shadow, exposure=exposure, fov=args.fov, key_light=key, horizon=args.horizon,
-                      meter=args.meter, match_camera=args.match_camera, light_wrap=args.light_wrap)  # fmt: skip
+                      meter=args.meter, match_camera=args.match_camera, light_wrap=args.light_wrap,
+                      rim=args.rim)  # fmt: skip
     write_image(out, image, protect=protect)
     log.info("%s + %s -> %s", person, args.background, out)
     return 0

@@ -228,6 +228,28 @@ def test_a_bright_background_wraps_its_light_over_the_persons_edge(diffuse):
     np.testing.assert_allclose(on, plain_dark, atol=1e-6)
 
 
+def test_a_back_key_puts_a_rim_on_its_side_of_the_outline(diffuse):
+    """Step 7's rim (``rim=True``; off by default): a key from behind the person and the image's right brightens
+    the right edge of the outline, not the left one, nor the body's middle; a key from the camera's side gives
+    no rim (both edges alike)."""
+    img, mask = flat_person()
+    mask[20:140, 30:35] = 1.0  # hard edges: left at column 30, right at 69
+    bg = np.full((150, 100, 3), 110, np.uint8)  # uniform: the light wrap is the same on both sides
+    left, right, deep = np.s_[40:120, 30], np.s_[40:120, 69], np.s_[40:120, 45:55]
+
+    def ratios(key):
+        kw = {**SAME, "key_light": key}
+        on = srgb_to_linear(composite(diffuse, img, bg, mask=mask, **kw, rim=True))
+        off = srgb_to_linear(composite(diffuse, img, bg, mask=mask, **kw))
+        np.testing.assert_array_equal(srgb_to_linear(composite(diffuse, img, bg, mask=mask, **kw, rim=False)), off)
+        return [float(on[s].mean() / off[s].mean()) for s in (left, right, deep)]
+
+    l, r, d = ratios("150,30")
+    assert r > l + 0.15 and d == pytest.approx(1.0, abs=1e-5)
+    l, r, d = ratios("30,30")
+    assert r == pytest.approx(l, abs=0.02) and d == pytest.approx(1.0, abs=1e-5)
+
+
 def test_frame_metering_keeps_the_frames_mean_and_background_metering_keeps_its_pixels(diffuse):
     img, mask = flat_person(colour=(250, 250, 250))
     bg = np.full((150, 100, 3), 60, np.uint8)
@@ -340,6 +362,9 @@ def test_cli_composite(work, capsys):
     assert code == 0, err
     wrapped, plain = cv2.imread("o3.png").astype(int), cv2.imread("o4.png").astype(int)
     assert np.abs(wrapped - plain).max() > 2  # the wrap is on by default; --no-light-wrap turns it off
+    code, _, err = run([*argv[:5], "o5.png", *argv[6:], "--rim"], capsys)  # the key from behind: a rim on top
+    assert code == 0, err
+    assert np.abs(cv2.imread("o5.png").astype(int) - wrapped).max() > 2  # off by default; --rim turns it on
     argv = ["composite", "p.png", "--background", "bg.png", "-o", "o2.jpg", "--preset", "studio"]
     code, _, err = run([*argv, "--position", "0.3,0.9", "--height", "0.6", "--exposure", "-1", "--fov", "80"], capsys)
     assert code == 0, err

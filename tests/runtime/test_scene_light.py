@@ -189,6 +189,24 @@ def test_step_6_keeps_the_front_exposure_and_colour_and_the_front_back_call():
     assert np.isfinite(black).all() and np.abs(black).max() < 1e-6
 
 
+def test_step_6_puts_the_front_back_ratio_on_the_side_of_the_call(monkeypatch):
+    """The raw light (the view, the ambient, the key) can be brighter in front while step 4 calls the view back-lit
+    (a weak back key, a bright view lighting the front): step 6 then gives the light the same back/front ratio the
+    other way round, so the light says what the rule read; the front's exposure and colour stay the raw light's."""
+    img = np.full((96, 128, 3), 120, np.uint8)
+    parts = scene_light(img)
+    monkeypatch.setattr(bgmod, "BACKLIGHT", (-1.0, 0.0, 0.0))  # every view read as back-lit ...
+    monkeypatch.setattr(bgmod, "KEY_BACK", 0.0)  # ... with no back key: the raw light is brighter in front
+    ratio = lambda lt: float(bgmod.BACK_WEIGHTS @ lt @ bgmod.REC709) / float(bgmod.FRONT_WEIGHTS @ lt @ bgmod.REC709)  # noqa: E731
+    raw, light = parts.light(shape_weight=1.0, front_back_power=1.0), parts.light()
+    assert ratio(raw) < 1
+    assert ratio(light) == pytest.approx(ratio(raw) ** -bgmod.FRONT_BACK_POWER, rel=1e-6)
+    np.testing.assert_allclose(bgmod.FRONT_WEIGHTS @ light, bgmod.FRONT_WEIGHTS @ raw, rtol=1e-6)
+    monkeypatch.setattr(bgmod, "BACKLIGHT", (1.0, 0.0, 0.0))  # read as front-lit: the raw light's side, damped
+    raw, light = parts.light(shape_weight=1.0, front_back_power=1.0), parts.light()
+    assert ratio(light) == pytest.approx(ratio(raw) ** bgmod.FRONT_BACK_POWER, rel=1e-6) and ratio(light) < 1
+
+
 def test_the_ambient_colour_is_the_places_not_a_lamps():
     """The colour of the light behind the camera comes from the photo's ordinary surfaces (the median), so a
     small saturated lamp or sign in frame does not tint it (the mean colour did)."""
