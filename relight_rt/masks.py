@@ -1,7 +1,7 @@
 """Where a photo's person mask comes from: one resolver for photos, the CLI and video.
 
 Order (DESIGN.md §3, "Mattes"): a mask the caller gives always wins, then the image's alpha
-channel, then an automatic matte (a :class:`Matter`), else a :class:`RelightError` that says how to
+channel (unless it is opaque everywhere: no mask then), then an automatic matte (a :class:`Matter`), else a :class:`RelightError` that says how to
 give one. Every mask is read by one rule (``relight_rt._io.read_mask``): files as 8/16-bit grey,
 colour arrays through Rec. 601 grey, floats in [0, 1], the image's size. Photos need an outline to
 relight (not empty, not all foreground); a video frame may have nobody in it.
@@ -56,7 +56,8 @@ def resolve_mask(
     Args:
         image: (H, W, 3) RGB or (H, W, 4) RGBA float32 in [0, 1] (as ``relight_rt._io.read_image`` returns).
         mask: a path or array (see ``relight_rt._io.read_mask``), ``"auto"`` (the automatic matte, even when
-            the image has alpha), or None (alpha, else the automatic matte).
+            the image has alpha), or None (alpha, else the automatic matte; an alpha channel that is opaque
+            everywhere is no mask and is passed over).
         matter: the automatic matte; None: there is none.
         allow_empty: accept a mask with no person or no background (video frames); photos need an outline.
         name: what to call the image in error messages.
@@ -74,11 +75,21 @@ def resolve_mask(
         return _check_matte(_run_matter(matter, image, name), shape, name, allow_empty)
     if mask is not None:
         return read_mask(mask, shape, "mask", allow_empty=allow_empty)
-    if image.ndim == 3 and image.shape[2] == 4:
+    opaque = image.ndim == 3 and image.shape[2] == 4 and _fully_opaque(image[..., 3])
+    if image.ndim == 3 and image.shape[2] == 4 and not opaque:
         return read_mask(image[..., 3], shape, f"{name} alpha (used as the mask)", allow_empty=allow_empty)
     if matter is None:
+        if opaque:
+            raise RelightError(f"{name}: its alpha channel is opaque everywhere, so it is no mask, and no automatic "
+                               "matting model is available; give a mask (--mask FILE in the CLI, mask= in the API)")
         raise RelightError(_no_mask_message(name, ""))
     return _check_matte(_run_matter(matter, image, name), shape, name, allow_empty)
+
+
+def _fully_opaque(alpha: np.ndarray) -> bool:
+    """True for an alpha channel with no transparent pixel at all (RGBA files that editors and screenshots write
+    opaque): it tells nothing about where the person is, so it is not taken as the mask."""
+    return bool(np.asarray(alpha).min() >= 1.0 - 0.5 / 255)
 
 
 def _run_matter(matter: Matter, image: np.ndarray, name: str) -> np.ndarray:

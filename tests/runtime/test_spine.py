@@ -123,6 +123,20 @@ def test_mask_resolver_order():
         resolve_mask(img[..., :3], None, matter=lambda rgb, name: np.zeros((3, 3), np.float32))
 
 
+def test_an_alpha_opaque_everywhere_is_no_mask():
+    """An RGBA photo whose alpha has no transparent pixel (as editors and screenshots save them) was refused
+    with "mask covers the whole image"; it says nothing of the person, so the automatic matte decides."""
+    rgba = np.ones((20, 10, 4), np.float32)
+    rgba[..., :3] = 0.4
+    matte = np.zeros((20, 10), np.float32)
+    matte[5:15, 3:7] = 1
+    np.testing.assert_array_equal(resolve_mask(rgba, None, matter=lambda rgb, name: matte.copy()), matte)
+    with pytest.raises(RelightError, match="opaque everywhere"):
+        resolve_mask(rgba, None)
+    rgba[0, 0, 3] = 0.0  # one transparent pixel: the alpha is the mask, as before
+    np.testing.assert_array_equal(resolve_mask(rgba, None, matter=lambda rgb, name: matte.copy()), rgba[..., 3])
+
+
 def test_soft_mask_values_survive_and_video_masks_may_be_empty():
     img = np.zeros((10, 10, 3), np.float32)
     soft = np.linspace(0, 1, 100, dtype=np.float32).reshape(10, 10)
