@@ -231,6 +231,20 @@ def band_magnitude_loss(pred: torch.Tensor, true: torch.Tensor, mask: torch.Tens
     return masked_l1(band_magnitudes(pred.float()), band_magnitudes(true.float()), mask)
 
 
+def direction_loss(pred: torch.Tensor, true: torch.Tensor, mask: torch.Tensor, eps: float = 1e-6) -> torch.Tensor:
+    """Masked mean of ``|t₁| · (1 − cos(T̂₁, t₁))`` for two transports (N, 9, H, W): the degree-1 direction's error.
+
+    The degree-1 band of a pixel's transport points along its (visibility-weighted) normal; its direction sets which
+    side of a face or body a new light brightens. Weighted by the true band's magnitude (the error's size in
+    transport units, zero where the truth has no direction); a scaled band costs nothing here, a rotated one does.
+    """
+    p, t = pred[:, 1:4].float(), true[:, 1:4].float()
+    t_norm = (t.square().sum(1, keepdim=True) + eps).sqrt()
+    p_norm = (p.square().sum(1, keepdim=True) + eps).sqrt()
+    cos = (p * t).sum(1, keepdim=True) / (p_norm * t_norm)
+    return masked_l1(t_norm * (1.0 - cos), torch.zeros_like(cos), mask)
+
+
 class Stage1Loss(torch.nn.Module):
     """All stage-1 terms, each with weight 1 (the paper's choice).
 
@@ -239,7 +253,8 @@ class Stage1Loss(torch.nn.Module):
     ``render_*`` terms, one per combination of predicted (upper case letter) and true (lower
     case) albedo, transport and light with at least one predicted, against a ⊙ (t·l); ``skin``
     (focal); ``sf_albedo`` and ``sf_shading`` (SF loss of Â and of T̂·L̂), unless ``use_sf`` is off;
-    ``transport_bands`` (:func:`band_magnitude_loss`, ours, not the paper's) times ``band_weight`` when it is > 0.
+    ``transport_bands`` (:func:`band_magnitude_loss`, ours, not the paper's) times ``band_weight`` when it is > 0;
+    ``transport_direction`` (:func:`direction_loss`, ours) times ``direction_weight`` when it is > 0.
 
     Args:
         use_sf: include the two SF terms (off for the "without SF loss" baseline).
@@ -247,14 +262,19 @@ class Stage1Loss(torch.nn.Module):
             resolutions the mask outline is a large share of the pixels and its LoG response makes the
             SF terms dominate (at 128² with scale 1 they were ~75% of the objective after 5 epochs).
         band_weight: weight of the ``transport_bands`` term (0: off, the paper's objective).
+        direction_weight: weight of the ``transport_direction`` term (0: off).
     """
 
-    def __init__(self, use_sf: bool = True, sf_scale: float = 1.0, band_weight: float = 0.0):
+    def __init__(self, use_sf: bool = True, sf_scale: float = 1.0, band_weight: float = 0.0,
+                 direction_weight: float = 0.0):
         super().__init__()
         if not band_weight >= 0:
             raise ValueError(f"band_weight: expected >= 0, got {band_weight}")
+        if not direction_weight >= 0:
+            raise ValueError(f"direction_weight: expected >= 0, got {direction_weight}")
         self.use_sf = use_sf
         self.band_weight = float(band_weight)
+        self.direction_weight = float(direction_weight)
         self.sf = SpatialFrequencyLoss(weights=[w * sf_scale for w in SF_WEIGHTS])
 
     def forward(self, pred: dict[str, torch.Tensor], true: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
@@ -295,5 +315,7 @@ class Stage1Loss(torch.nn.Module):
             terms["sf_shading"] = self.sf(s_hat, s_true, m)
         if self.band_weight > 0:
             terms["transport_bands"] = self.band_weight * band_magnitude_loss(T, t, m)
+        if self.direction_weight > 0:
+            terms["transport_direction"] = self.direction_weight * direction_loss(T, t, m)
         terms["total"] = torch.stack(list(terms.values())).sum()
         return terms

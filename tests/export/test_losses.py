@@ -17,6 +17,7 @@ from export.losses import (  # noqa: E402
     SpatialFrequencyLoss,
     Stage1Loss,
     band_magnitude_loss,
+    direction_loss,
     flip_sh,
     focal_loss,
     log_kernel,
@@ -164,6 +165,30 @@ def test_band_term_prices_a_shrunk_band_not_a_rotated_one():
     band_magnitude_loss(shrunk, t, m).backward()
     step = -shrunk.grad[0, 1:9] * shrunk.detach()[0, 1:9]
     assert step.sum(0)[inside].mean() > 0
+
+
+def test_direction_term_prices_a_rotated_band_not_a_shrunk_one():
+    """The degree-1 direction's error: zero at the truth and for a shrunk band; for the sphere's transport mirrored
+    left-right (the degree-1 y component negated) it is the truth's magnitude times (1 - cos) of the mirrored
+    direction, by hand."""
+    true = _sphere_batch()
+    t, m = true["transport"], true["mask"]
+    assert "transport_direction" not in Stage1Loss()(dict(true), true)
+    assert Stage1Loss(direction_weight=1.0)(dict(true), true)["transport_direction"].item() < 1e-5
+    gains = torch.tensor([1.0, 0.8, 0.8, 0.8, 0.5, 0.5, 0.5, 0.5, 0.5]).reshape(1, 9, 1, 1)
+    assert direction_loss(t * gains, t, m).item() < 1e-5
+    rotated = flip_sh(t, dim=1)
+    t1 = t[0, 1:4].double()
+    norm = t1.norm(dim=0)
+    cos = (t1 * rotated[0, 1:4].double()).sum(0) / norm.clamp_min(1e-12) ** 2
+    inside = m[0, 0] > 0
+    expected = (norm * (1 - cos))[inside].mean()
+    assert direction_loss(rotated, t, m).item() == pytest.approx(expected.item(), rel=1e-3)
+    assert expected > 1e-2
+    terms = Stage1Loss(direction_weight=4.0)(dict(true, transport=rotated), true)
+    assert terms["transport_direction"].item() == pytest.approx(4.0 * expected.item(), rel=1e-3)
+    with pytest.raises(ValueError):
+        Stage1Loss(direction_weight=-0.5)
 
 
 def test_flip_signs_follow_the_basis():
