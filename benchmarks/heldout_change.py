@@ -20,6 +20,13 @@ as stored, the pipeline's radiance scale; luminance = Rec. 709 weights):
 - RMSE of relit vs truth (RGB, in the mask), for the full runtime path and (its layers, ``relight(..., layers=True)``)
   for stage 1's diffuse image alone (the quantity of docs/RESULTS.md's framing table, measured through the runtime).
 Per framing (the folder name after its last "_"): means over pairs.
+
+``bands``: stage 1 alone (``--stage1`` graph, default the bundled one) on every photo, against the true transport of
+its person (OUT/test_FRAMING/NAME_transport.npz) and the photo's true light, per pixel in the mask: the degree-1
+band's magnitude over the degree-0 coefficient and the degree-2 band's, the angle between the degree-1 vectors, and
+the same two ratios of the light's luminance (what relight_rt/_strength.py's gains and refit make up for).
+
+    python benchmarks/heldout_change.py bands runs/h32/photos_* [--stage1 PATH]
 """
 
 from __future__ import annotations
@@ -147,6 +154,59 @@ def measure(args) -> int:
     return 0
 
 
+def _band_ratios(sh: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(..., 9) SH -> degree-1 magnitude / |degree 0|, degree-2 magnitude / |degree 0|."""
+    d0 = np.abs(sh[..., 0]) + 1e-6
+    return np.linalg.norm(sh[..., 1:4], axis=-1) / d0, np.linalg.norm(sh[..., 4:9], axis=-1) / d0
+
+
+def band_figures(stage1_path: Path, folders: list[Path]) -> dict:
+    """{framing: mean per-pixel band ratios of stage 1's and the true transport, degree-1 angle, light ratios}."""
+    import onnxruntime as ort
+
+    session = ort.InferenceSession(str(stage1_path), providers=["CPUExecutionProvider"])
+    result = {}
+    for folder in map(Path, folders):
+        framing = folder.name.rsplit("_", 1)[-1]
+        test = folder.parent / f"test_{framing}"
+        rows = []
+        for photo in sorted(folder.glob("*__L*_photo.png")):
+            name = photo.name[: -len("_photo.png")]
+            img, mask, light = _read(folder, name)
+            with np.load(test / f"{name.rpartition('__L')[0]}_transport.npz", allow_pickle=False) as z:
+                true = np.asarray(z["T"], np.float32)
+            out = dict(zip([o.name for o in session.get_outputs()],
+                           session.run(None, {"image": img.transpose(2, 0, 1)[None],
+                                              "mask": mask[None, None]}), strict=True))
+            pred = out["transport"][0].transpose(1, 2, 0)
+            m = (mask > 0.5) & (true[..., 0] > 0.05)
+            (p1, p2), (t1, t2) = _band_ratios(pred[m]), _band_ratios(true[m])
+            a, b = pred[m][:, 1:4], true[m][:, 1:4]
+            cos = (a * b).sum(1) / (np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1) + 1e-9)
+            (lp1, lp2), (lt1, lt2) = _band_ratios(out["light"][0] @ REC709), _band_ratios(light @ REC709)
+            rows.append({"d1": p1.mean(), "d1_true": t1.mean(), "d2": p2.mean(), "d2_true": t2.mean(),
+                         "angle": np.degrees(np.arccos(np.clip(cos, -1, 1))).mean(),
+                         "light_d1": lp1, "light_d1_true": lt1, "light_d2": lp2, "light_d2_true": lt2})
+        result[framing] = {k: float(np.mean([r[k] for r in rows])) for k in rows[0]} | {"photos": len(rows)}
+    return result
+
+
+def bands(args) -> int:
+    stage1 = args.stage1 or REPO / "relight_rt" / "models" / "stage1.onnx"
+    figs = band_figures(stage1, args.folders)
+    print(f"stage 1: {stage1}")
+    print("| framing | photos | degree-1/0 (true) | degree-2/0 (true) | degree-1 angle | light degree-1/0 (true) "
+          "| light degree-2/0 (true) |")
+    print("|---|---|---|---|---|---|---|")
+    for f, s in figs.items():
+        print(f"| {f} | {s['photos']} | {s['d1']:.3f} ({s['d1_true']:.3f}) | {s['d2']:.3f} ({s['d2_true']:.3f}) | "
+              f"{s['angle']:.1f}° | {s['light_d1']:.2f} ({s['light_d1_true']:.2f}) | "
+              f"{s['light_d2']:.2f} ({s['light_d2_true']:.2f}) |")
+    if args.json:
+        Path(args.json).write_text(json.dumps(figs, indent=1))
+    return 0
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -161,8 +221,12 @@ def main(argv=None) -> int:
     me.add_argument("folders", type=Path, nargs="+")
     me.add_argument("--models", type=Path, default=None)
     me.add_argument("--json", type=Path, default=None)
+    bd = sub.add_parser("bands", help="stage 1's transport bands and light against the truth")
+    bd.add_argument("folders", type=Path, nargs="+")
+    bd.add_argument("--stage1", type=Path, default=None)
+    bd.add_argument("--json", type=Path, default=None)
     args = p.parse_args(argv)
-    return make(args) if args.cmd == "make" else measure(args)
+    return {"make": make, "measure": measure, "bands": bands}[args.cmd](args)
 
 
 if __name__ == "__main__":

@@ -208,6 +208,42 @@ def focal_loss(pred: torch.Tensor, target: torch.Tensor, mask: torch.Tensor, gam
 # ---------------------------------------------------------------------------------------------
 # the stage-1 objective
 
+SH_DEGREES: tuple[slice, ...] = (slice(1, 4), slice(4, 9))  # the degree-1 and degree-2 coefficients (DESIGN.md §3)
+
+
+def band_magnitudes(transport: torch.Tensor, eps: float = 1e-8) -> torch.Tensor:
+    """Per pixel, the magnitude of the degree-1 and of the degree-2 band: (N, 9, H, W) -> (N, 2, H, W).
+
+    ``sqrt(Σ_k T_k² + eps)`` over each degree's coefficients; the eps keeps the gradient finite where a band is zero.
+    """
+    return torch.stack([(transport[:, s].square().sum(1) + eps).sqrt() for s in SH_DEGREES], dim=1)
+
+
+def band_magnitude_loss(pred: torch.Tensor, true: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+    """Masked L1 of the degree-1 and degree-2 band magnitudes of two transports (N, 9, H, W), mask (N, 1, H, W).
+
+    Where the network is unsure of a surface's direction, the per-coefficient L1 of the transport is smallest for a
+    shrunk band (the median of directions that disagree lies inside the sphere): measured on held-out renders the
+    bundled stage 1's degree-1 magnitude was x0.91 of the truth's and degree-2 x0.76, so every new light changed the
+    photo too little (docs/RESULTS.md, "Real photos"). This term compares only the magnitudes, whatever their
+    direction, so a shrunk band costs here even where its direction is wrong; a rotation inside a band costs nothing.
+    """
+    return masked_l1(band_magnitudes(pred.float()), band_magnitudes(true.float()), mask)
+
+
+def direction_loss(pred: torch.Tensor, true: torch.Tensor, mask: torch.Tensor, eps: float = 1e-6) -> torch.Tensor:
+    """Masked mean of ``|t₁| · (1 − cos(T̂₁, t₁))`` for two transports (N, 9, H, W): the degree-1 direction's error.
+
+    The degree-1 band of a pixel's transport points along its (visibility-weighted) normal; its direction sets which
+    side of a face or body a new light brightens. Weighted by the true band's magnitude (the error's size in
+    transport units, zero where the truth has no direction); a scaled band costs nothing here, a rotated one does.
+    """
+    p, t = pred[:, 1:4].float(), true[:, 1:4].float()
+    t_norm = (t.square().sum(1, keepdim=True) + eps).sqrt()
+    p_norm = (p.square().sum(1, keepdim=True) + eps).sqrt()
+    cos = (p * t).sum(1, keepdim=True) / (p_norm * t_norm)
+    return masked_l1(t_norm * (1.0 - cos), torch.zeros_like(cos), mask)
+
 
 class Stage1Loss(torch.nn.Module):
     """All stage-1 terms, each with weight 1 (the paper's choice).
@@ -216,18 +252,29 @@ class Stage1Loss(torch.nn.Module):
     ``shading_TL`` (T̂·L), ``shading_tL`` (T·L̂), ``shading_TLhat`` (T̂·L̂) against T·L; seven
     ``render_*`` terms, one per combination of predicted (upper case letter) and true (lower
     case) albedo, transport and light with at least one predicted, against a ⊙ (t·l); ``skin``
-    (focal); ``sf_albedo`` and ``sf_shading`` (SF loss of Â and of T̂·L̂), unless ``use_sf`` is off.
+    (focal); ``sf_albedo`` and ``sf_shading`` (SF loss of Â and of T̂·L̂), unless ``use_sf`` is off;
+    ``transport_bands`` (:func:`band_magnitude_loss`, ours, not the paper's) times ``band_weight`` when it is > 0;
+    ``transport_direction`` (:func:`direction_loss`, ours) times ``direction_weight`` when it is > 0.
 
     Args:
         use_sf: include the two SF terms (off for the "without SF loss" baseline).
         sf_scale: a common factor on the SF band weights (1 = the paper's 600 … 10). At low training
             resolutions the mask outline is a large share of the pixels and its LoG response makes the
             SF terms dominate (at 128² with scale 1 they were ~75% of the objective after 5 epochs).
+        band_weight: weight of the ``transport_bands`` term (0: off, the paper's objective).
+        direction_weight: weight of the ``transport_direction`` term (0: off).
     """
 
-    def __init__(self, use_sf: bool = True, sf_scale: float = 1.0):
+    def __init__(self, use_sf: bool = True, sf_scale: float = 1.0, band_weight: float = 0.0,
+                 direction_weight: float = 0.0):
         super().__init__()
+        if not band_weight >= 0:
+            raise ValueError(f"band_weight: expected >= 0, got {band_weight}")
+        if not direction_weight >= 0:
+            raise ValueError(f"direction_weight: expected >= 0, got {direction_weight}")
         self.use_sf = use_sf
+        self.band_weight = float(band_weight)
+        self.direction_weight = float(direction_weight)
         self.sf = SpatialFrequencyLoss(weights=[w * sf_scale for w in SF_WEIGHTS])
 
     def forward(self, pred: dict[str, torch.Tensor], true: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
@@ -266,5 +313,9 @@ class Stage1Loss(torch.nn.Module):
         if self.use_sf:
             terms["sf_albedo"] = self.sf(A, a, m)
             terms["sf_shading"] = self.sf(s_hat, s_true, m)
+        if self.band_weight > 0:
+            terms["transport_bands"] = self.band_weight * band_magnitude_loss(T, t, m)
+        if self.direction_weight > 0:
+            terms["transport_direction"] = self.direction_weight * direction_loss(T, t, m)
         terms["total"] = torch.stack(list(terms.values())).sum()
         return terms

@@ -48,6 +48,12 @@ def add_arguments(parser) -> None:
     parser.add_argument("--no-sf", action="store_true", help="drop the spatial-frequency loss (the ablation baseline)")
     parser.add_argument("--sf-scale", type=float, default=1.0,
                         help="factor on the SF band weights (1 = paper's 600…10; default %(default)s)")
+    parser.add_argument("--band-weight", type=float, default=0.0,
+                        help="weight of a loss on the transport's degree-1 and degree-2 band magnitudes, per pixel "
+                             "(export.losses.band_magnitude_loss; 0: off, the paper's objective; default %(default)s)")
+    parser.add_argument("--direction-weight", type=float, default=0.0,
+                        help="weight of a loss on the direction of the transport's degree-1 band, per pixel "
+                             "(export.losses.direction_loss; 0: off; default %(default)s)")
     parser.add_argument("--no-flip", action="store_true", help="no horizontal-flip augmentation")
     parser.add_argument("--restart-epochs", type=int, default=20, help="cosine restart period (default %(default)s)")
     parser.add_argument("--val-fraction", type=float, default=0.05,
@@ -121,6 +127,10 @@ def run(args) -> int:
 
     if args.resolution % 64 or args.resolution < 64:
         raise RelightError(f"--resolution: expected a positive multiple of 64, got {args.resolution}")
+    if not args.band_weight >= 0:
+        raise RelightError(f"--band-weight: expected a weight >= 0, got {args.band_weight}")
+    if not args.direction_weight >= 0:
+        raise RelightError(f"--direction-weight: expected a weight >= 0, got {args.direction_weight}")
     cfg = LoopConfig.from_args(args, restart_epochs=args.restart_epochs)
     lights = dataset.read_lights(args.lights)
     names = dataset.list_samples(args.data)
@@ -138,7 +148,8 @@ def run(args) -> int:
     init = None
     if args.init and not (args.resume and (Path(args.out) / "last.pt").exists()):
         init = warm_start(model, args.init, train_set, cfg.device, max(args.batch_size, 2))
-    loss_fn = Stage1Loss(use_sf=not args.no_sf, sf_scale=args.sf_scale).to(cfg.device)
+    loss_fn = Stage1Loss(use_sf=not args.no_sf, sf_scale=args.sf_scale, band_weight=args.band_weight,
+                         direction_weight=args.direction_weight).to(cfg.device)
     optimizer = torch.optim.Adam(model.parameters(), lr=args.lr, betas=(0.5, 0.999))
     val_fn = None
     if val_names:
@@ -149,7 +160,7 @@ def run(args) -> int:
     out.mkdir(parents=True, exist_ok=True)
     write_json(out / "args.json", {**vars(args), "command": "train-stage1", "val_names": val_names})
     meta = {"command": "train-stage1", "data": str(args.data), "sf": not args.no_sf, "sf_scale": args.sf_scale,
-            "init": init}
+            "band_weight": args.band_weight, "direction_weight": args.direction_weight, "init": init}
     summary = train_loop(model, optimizer, train_set, stage1_step(loss_fn), cfg, val_fn=val_fn, meta=meta)
     log.info("stage 1 finished: %s", json.dumps(summary))
     if args.export_onnx:

@@ -16,6 +16,8 @@ from export.losses import (  # noqa: E402
     SF_SIGMAS,
     SpatialFrequencyLoss,
     Stage1Loss,
+    band_magnitude_loss,
+    direction_loss,
     flip_sh,
     focal_loss,
     log_kernel,
@@ -128,6 +130,65 @@ def test_stage1_loss_grows_with_a_wrong_light():
     pred["light"] = true["light"] * 1.3
     terms = Stage1Loss()(pred, true)
     assert terms["light"] > 0 and terms["render_atL"] > 0 and terms["render_aTl"] == 0
+
+
+def test_band_term_is_off_by_default_and_vanishes_at_the_truth():
+    true = _sphere_batch()
+    assert "transport_bands" not in Stage1Loss()(dict(true), true)
+    terms = Stage1Loss(band_weight=2.0)(dict(true), true)
+    assert terms["transport_bands"].item() < 1e-6
+    with pytest.raises(ValueError):
+        Stage1Loss(band_weight=-1.0)
+
+
+def test_band_term_prices_a_shrunk_band_not_a_rotated_one():
+    """The sphere's transport with its degree-1 and degree-2 bands shrunk (what a regression does where it is unsure)
+    costs in proportion to the shrinkage; the same bands rotated (left-right mirror: k = 1, 4, 5 change sign, every
+    band's magnitude kept) cost nothing here, although the per-coefficient transport L1 sees them."""
+    true = _sphere_batch()
+    t, m = true["transport"], true["mask"]
+    gains = torch.tensor([1.0, 0.9, 0.9, 0.9, 0.75, 0.75, 0.75, 0.75, 0.75]).reshape(1, 9, 1, 1)
+    shrunk = t * gains
+    inside = m[0, 0] > 0
+    mag1 = t[0, 1:4].norm(dim=0)[inside].mean()
+    mag2 = t[0, 4:9].norm(dim=0)[inside].mean()
+    expected = (0.1 * mag1 + 0.25 * mag2) / 2
+    assert band_magnitude_loss(shrunk, t, m).item() == pytest.approx(expected.item(), rel=1e-3)
+    rotated = flip_sh(t, dim=1)
+    assert band_magnitude_loss(rotated, t, m).item() < 1e-6
+    assert masked_l1(rotated, t, m).item() > 1e-2
+    pred = dict(true, transport=shrunk)
+    weighted = Stage1Loss(band_weight=3.0)(pred, true)
+    assert weighted["transport_bands"].item() == pytest.approx(3.0 * expected.item(), rel=1e-3)
+    # its gradient asks the shrunk bands to grow
+    shrunk = shrunk.clone().requires_grad_(True)
+    band_magnitude_loss(shrunk, t, m).backward()
+    step = -shrunk.grad[0, 1:9] * shrunk.detach()[0, 1:9]
+    assert step.sum(0)[inside].mean() > 0
+
+
+def test_direction_term_prices_a_rotated_band_not_a_shrunk_one():
+    """The degree-1 direction's error: zero at the truth and for a shrunk band; for the sphere's transport mirrored
+    left-right (the degree-1 y component negated) it is the truth's magnitude times (1 - cos) of the mirrored
+    direction, by hand."""
+    true = _sphere_batch()
+    t, m = true["transport"], true["mask"]
+    assert "transport_direction" not in Stage1Loss()(dict(true), true)
+    assert Stage1Loss(direction_weight=1.0)(dict(true), true)["transport_direction"].item() < 1e-5
+    gains = torch.tensor([1.0, 0.8, 0.8, 0.8, 0.5, 0.5, 0.5, 0.5, 0.5]).reshape(1, 9, 1, 1)
+    assert direction_loss(t * gains, t, m).item() < 1e-5
+    rotated = flip_sh(t, dim=1)
+    t1 = t[0, 1:4].double()
+    norm = t1.norm(dim=0)
+    cos = (t1 * rotated[0, 1:4].double()).sum(0) / norm.clamp_min(1e-12) ** 2
+    inside = m[0, 0] > 0
+    expected = (norm * (1 - cos))[inside].mean()
+    assert direction_loss(rotated, t, m).item() == pytest.approx(expected.item(), rel=1e-3)
+    assert expected > 1e-2
+    terms = Stage1Loss(direction_weight=4.0)(dict(true, transport=rotated), true)
+    assert terms["transport_direction"].item() == pytest.approx(4.0 * expected.item(), rel=1e-3)
+    with pytest.raises(ValueError):
+        Stage1Loss(direction_weight=-0.5)
 
 
 def test_flip_signs_follow_the_basis():

@@ -96,6 +96,18 @@ def test_no_sf_run_logs_no_sf_terms(data, tmp_path):
     assert "sf_albedo" not in step and "render_ATL" in step
 
 
+def test_band_and_direction_weights_add_their_terms_and_refuse_negative_weights(data, tmp_path, capsys):
+    run = tmp_path / "bands"
+    assert _stage1(data, run, "--epochs", "1", "--max-steps", "2", "--band-weight", "0.5",
+                   "--direction-weight", "0.5") == 0
+    step = [r for r in read_jsonl(run / "log.jsonl") if r["event"] == "step"][0]
+    assert step["transport_bands"] > 0 and step["transport_direction"] > 0
+    assert _stage1(data, tmp_path / "neg", "--epochs", "1", "--band-weight", "-1") == 2
+    assert "--band-weight" in capsys.readouterr().err
+    assert _stage1(data, tmp_path / "negd", "--epochs", "1", "--direction-weight", "-1") == 2
+    assert "--direction-weight" in capsys.readouterr().err
+
+
 def test_bad_resolution_is_refused(data, tmp_path):
     from export import train_stage1
 
