@@ -320,3 +320,12 @@ def test_dpr_portrait_shirt_at_the_bottom_border_is_opaque(dpr_portrait):
     background through it."""
     alpha = M.PersonMatter()(dpr_portrait)
     assert alpha[860:, 560:640].min() > 0.99
+
+
+def test_a_face_crop_through_the_forehead_is_a_person(grace_hopper):
+    """A crop of Grace Hopper's photo from the forehead to the chin (rows 180-400, columns 150-370; skipped without
+    the photo): the face graph finds no face on it (it fills the frame) and the pose graph no body, so it gave "no
+    person found"; the face graph zoomed out finds it (:func:`find_close_faces`)."""
+    crop = np.ascontiguousarray(grace_hopper[180:400, 150:370, :3])
+    alpha = M.PersonMatter()(crop)  # raised RelightError("no person found ...") before
+    assert (alpha >= 0.5).mean() > 0.8
