@@ -107,8 +107,8 @@ def opaque_where_cut(alpha: np.ndarray, r: int) -> np.ndarray:
     inside = (alpha[h - n :] >= 0.5).astype(np.uint8)
     if not inside[-1].any():
         return alpha
-    core = (cv2.distanceTransform(np.pad(inside, ((1, 0), (0, 0)), constant_values=1), cv2.DIST_L2, 3)[1:] > r)
-    k, labels = cv2.connectedComponents(core.astype(np.uint8), connectivity=8)
+    core = cv2.distanceTransform(np.pad(inside, ((1, 0), (0, 0)), constant_values=1), cv2.DIST_L2, 3)[1:] > r
+    _, labels = cv2.connectedComponents(core.astype(np.uint8), connectivity=8)
     cut = np.unique(labels[-1][core[-1]])
     if cut.size:
         alpha[h - n :][np.isin(labels, cut)] = 1.0
