@@ -33,8 +33,9 @@ _BAND_MIN = 3  # ... at least this many pixels
 _EPS = 1e-4
 _TAU = 0.3  # |F - B|^2 at which colour and the coarse matte count equally (benchmarks/matting_eval.py)
 _GF_RADIUS = 1
-_CUT_REACH = 0.2  # a body cut by the bottom border is made opaque up to this x the photo's height above it
 _GF_EPS = 1e-3
+_CUT_REACH = 0.2  # a body cut by the bottom border is made opaque up to this x the photo's height above it
+_FADED = 0.25  # ... where the bottom row's alpha is at least this (the graphs' answer fading toward the border)
 
 
 def band_width(shape: tuple[int, int]) -> int:
@@ -106,9 +107,10 @@ def opaque_where_cut(alpha: np.ndarray, r: int) -> np.ndarray:
     n = min(max(int(round(_CUT_REACH * h)), r + 2), h)
     inside = (alpha[h - n :] >= 0.5).astype(np.uint8)
     # the graphs' answer fades toward the border (zidane's coat: 0.85 -> 0.45 over the last 14 rows), which
-    # would put an outline along it: over the last rows the body is taken to be where it is just above them
+    # would put an outline along it: over the last rows the body is taken to be where it is just above them,
+    # in the columns where the border row still holds some of it (not below feet that end above the border)
     fade = min(2 * r + 2, n - 1)
-    inside[n - fade :] = inside[n - fade - 1]
+    inside[n - fade :] = inside[n - fade - 1] & (alpha[h - 1] >= _FADED)
     if not inside[-1].any():
         return alpha
     core = cv2.distanceTransform(np.pad(inside, ((1, 0), (0, 0)), constant_values=1), cv2.DIST_L2, 3)[1:] > r

@@ -116,3 +116,18 @@ def test_bottom_rows_of_a_body_not_at_the_border_are_left_alone():
     flipped = np.ascontiguousarray(coarse[::-1])  # the torso now runs out of the top: no cut at the bottom
     out = R.refine_edges(np.ascontiguousarray(rgb[::-1]), flipped, band=4)
     np.testing.assert_allclose(out[:40, 100:140], 0.6, atol=0.05)
+
+
+def test_a_matte_fading_toward_the_bottom_border_is_opaque_there_but_not_below_feet():
+    """The graphs' answer fades toward the border where a body runs out of it (zidane's coat: 0.85 -> 0.45 over the
+    last 14 rows): it showed a see-through strip along the border. Feet that end above the border get no column
+    of body below them (the reference photo's boot: a stripe to the border was the first try's mistake)."""
+    rgb, coarse = _cut_portrait()
+    coarse[-12:, 40:160] = np.minimum(coarse[-12:, 40:160], np.linspace(0.9, 0.45, 12, dtype=np.float32)[:, None])
+    out = R.refine_edges(rgb, coarse, band=4)
+    assert out[-12:, 60:140].min() == 1.0  # was 0.45 at the border
+    feet = np.zeros((240, 200), np.float32)
+    feet[60:234, 80:120] = 1.0  # a leg and boot that end 6 rows above the bottom border
+    soft = np.clip(cv2.GaussianBlur(feet, (0, 0), 1.5), 0.0, 1.0)
+    out = R.refine_edges(np.repeat(soft[..., None], 3, 2), soft, band=4)
+    assert out[237:].max() < 0.05
