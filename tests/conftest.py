@@ -73,3 +73,19 @@ def dpr_portrait(tmp_path_factory):
     path = tmp_path_factory.mktemp("dpr") / "obama.jpg"
     path.write_bytes(data)
     return read_image(path)
+
+
+@pytest.fixture(scope="session")
+def grace_hopper():
+    """matplotlib's sample photo grace_hopper.jpg (512x600) as float32 RGB, from the cache that
+    benchmarks/people_photos.py fills ($RELIGHT_RT_PEOPLE, else its default folder); skipped when absent."""
+    import os
+    import tempfile
+
+    from relight_rt._io import read_image
+
+    folder = Path(os.environ.get("RELIGHT_RT_PEOPLE", Path(tempfile.gettempdir()) / "relight_rt_people"))
+    path = folder / "grace_hopper.jpg"
+    if not path.is_file():
+        pytest.skip(f"{path} is absent (run benchmarks/people_photos.py --cache {folder})")
+    return read_image(path)

@@ -19,7 +19,7 @@ from .._faces import Face
 from .._refine import refine_edges
 from ..session import Model, load_model
 from ._coarse import region_alpha
-from ._detect import MIN_TILE, find_faces, find_people, roi_prob
+from ._detect import MIN_TILE, find_close_faces, find_faces, find_people, roi_prob
 from ._models import FACE_FILE, POSE_FILE, ROI_FILE, SIZE, as_rgb, find_matting_models
 from ._regions import (
     LOGIT_CLIP,
@@ -230,6 +230,12 @@ class PersonMatter:
                 return [p]
         faces = self.find_faces(rgb)  # no body found: a face is the second way in
         for face in sorted(faces, key=lambda f: -_box_area(f.body_box((h, w)))):
+            p = self._person_at(rgb, face.body_box((h, w)), face)
+            if p is not None:
+                return [p]
+        # a frame that is mostly one face (a crop through the forehead or the eyes): the face graph finds it
+        # zoomed out only, and the pose graph sees no body in it
+        for face in find_close_faces(self.face, rgb):
             p = self._person_at(rgb, face.body_box((h, w)), face)
             if p is not None:
                 return [p]

@@ -84,3 +84,50 @@ def test_video_matter_does_not_refine_the_band(edges):
     rgb = np.ascontiguousarray(rgba[..., :3])
     a = vm(rgb)
     assert a.shape == rgb.shape[:2]
+
+
+def _cut_portrait(h: int = 240, w: int = 200):
+    """A red torso running out of the bottom border into a blue background, its coarse matte half sure (0.6) over a
+    patch near the bottom (a patterned shirt the graphs doubt) and over one as far up as the head."""
+    truth = np.zeros((h, w), np.float32)
+    truth[60:, 40:160] = 1.0
+    rgb = truth[..., None] * np.array([0.9, 0.2, 0.1], np.float32) + (1 - truth[..., None]) * np.array(
+        [0.1, 0.3, 0.9], np.float32
+    )
+    coarse = np.clip(cv2.GaussianBlur(truth, (0, 0), 3.0), 0.0, 1.0)
+    coarse[200:, 100:140] = 0.6  # at the bottom border, inside the body
+    coarse[80:100, 80:120] = 0.6  # high up: not where the frame cuts the body
+    return rgb.astype(np.float32), coarse
+
+
+def test_body_cut_by_the_bottom_border_is_opaque_there():
+    """DPR's checked shirt stayed at alpha 0.53-0.73 where the frame cut it; a composite showed the new background
+    through the body. The doubt near the bottom border goes (was 0.6), the soft outline there stays, and a doubtful
+    patch far above the border is left to the graphs."""
+    rgb, coarse = _cut_portrait()
+    out = R.refine_edges(rgb, coarse, band=4)
+    assert out[200:, 100:140].min() == 1.0  # was 0.6
+    np.testing.assert_allclose(out[80:100, 80:120], coarse[80:100, 80:120], atol=0.05)
+    assert out[239, :36].max() < 0.05 and 0.5 < out[239, 40:43].min() < 0.99  # the outline meets the border soft
+
+
+def test_bottom_rows_of_a_body_not_at_the_border_are_left_alone():
+    rgb, coarse = _cut_portrait()
+    flipped = np.ascontiguousarray(coarse[::-1])  # the torso now runs out of the top: no cut at the bottom
+    out = R.refine_edges(np.ascontiguousarray(rgb[::-1]), flipped, band=4)
+    np.testing.assert_allclose(out[:40, 100:140], 0.6, atol=0.05)
+
+
+def test_a_matte_fading_toward_the_bottom_border_is_opaque_there_but_not_below_feet():
+    """The graphs' answer fades toward the border where a body runs out of it (zidane's coat: 0.85 -> 0.45 over the
+    last 14 rows): it showed a see-through strip along the border. Feet that end above the border get no column
+    of body below them (the reference photo's boot: a stripe to the border was the first try's mistake)."""
+    rgb, coarse = _cut_portrait()
+    coarse[-12:, 40:160] = np.minimum(coarse[-12:, 40:160], np.linspace(0.9, 0.45, 12, dtype=np.float32)[:, None])
+    out = R.refine_edges(rgb, coarse, band=4)
+    assert out[-12:, 60:140].min() == 1.0  # was 0.45 at the border
+    feet = np.zeros((240, 200), np.float32)
+    feet[60:234, 80:120] = 1.0  # a leg and boot that end 6 rows above the bottom border
+    soft = np.clip(cv2.GaussianBlur(feet, (0, 0), 1.5), 0.0, 1.0)
+    out = R.refine_edges(np.repeat(soft[..., None], 3, 2), soft, band=4)
+    assert out[237:].max() < 0.05

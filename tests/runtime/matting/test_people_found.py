@@ -312,3 +312,20 @@ def test_raised_answer_keeps_what_the_first_was_sure_of():
     assert inside[:3].min() > 0.99  # the first answer's person, inside its region, kept
     assert inside[3] < 0.01  # above the first region: the raised answer's (nobody)
     assert inside[4] < 0.01  # left of the first answer's columns (x 100-300 +3 %)
+
+
+def test_dpr_portrait_shirt_at_the_bottom_border_is_opaque(dpr_portrait):
+    """The real photo (skipped without DPR's repository): the checked shirt at the bottom right, where the frame cuts
+    the body, was half transparent (alpha 0.53-0.73 over rows 840-909, columns 560-640); a composite showed the new
+    background through it."""
+    alpha = M.PersonMatter()(dpr_portrait)
+    assert alpha[860:, 560:640].min() > 0.99
+
+
+def test_a_face_crop_through_the_forehead_is_a_person(grace_hopper):
+    """A crop of Grace Hopper's photo from the forehead to the chin (rows 180-400, columns 150-370; skipped without
+    the photo): the face graph finds no face on it (it fills the frame) and the pose graph no body, so it gave "no
+    person found"; the face graph zoomed out finds it (:func:`find_close_faces`)."""
+    crop = np.ascontiguousarray(grace_hopper[180:400, 150:370, :3])
+    alpha = M.PersonMatter()(crop)  # raised RelightError("no person found ...") before
+    assert (alpha >= 0.5).mean() > 0.8
