@@ -83,7 +83,8 @@ def resolve_mask(
             raise RelightError(f"{name}: its alpha channel is opaque everywhere, so it is no mask, and no automatic "
                                "matting model is available; give a mask (--mask FILE in the CLI, mask= in the API)")
         raise RelightError(_no_mask_message(name, ""))
-    return _check_matte(_run_matter(matter, image, name), shape, name, allow_empty)
+    note = "; its alpha channel is opaque everywhere, so it is no mask" if opaque else ""
+    return _check_matte(_run_matter(matter, image, name, note), shape, name, allow_empty)
 
 
 def _fully_opaque(alpha: np.ndarray) -> bool:
@@ -92,14 +93,14 @@ def _fully_opaque(alpha: np.ndarray) -> bool:
     return bool(np.asarray(alpha).min() >= 1.0 - 0.5 / 255)
 
 
-def _run_matter(matter: Matter, image: np.ndarray, name: str) -> np.ndarray:
+def _run_matter(matter: Matter, image: np.ndarray, name: str, note: str = "") -> np.ndarray:
     try:
         return matter(np.ascontiguousarray(image[..., :3]), name=name)
     except RelightError as exc:
         if "no person found" not in str(exc):
             raise
         hint = "if there is one, give its mask (--mask FILE in the CLI, mask= in the API)"
-        raise RelightError(f"{exc}; {hint}") from None
+        raise RelightError(f"{exc}{note}; {hint}") from None
 
 
 def _check_matte(alpha: np.ndarray, shape: tuple[int, int], name: str, allow_empty: bool) -> np.ndarray:
