@@ -1,10 +1,11 @@
 """Where a photo's person mask comes from: one resolver for photos, the CLI and video.
 
 Order (DESIGN.md §3, "Mattes"): a mask the caller gives always wins, then the image's alpha
-channel (unless it is opaque everywhere: no mask then), then an automatic matte (a :class:`Matter`), else a :class:`RelightError` that says how to
-give one. Every mask is read by one rule (``relight_rt._io.read_mask``): files as 8/16-bit grey,
-colour arrays through Rec. 601 grey, floats in [0, 1], the image's size. Photos need an outline to
-relight (not empty, not all foreground); a video frame may have nobody in it.
+channel (unless it is opaque everywhere: no mask then), then an automatic matte (a :class:`Matter`),
+else a :class:`RelightError` that says how to give one. Every mask is read by one rule
+(``relight_rt._io.read_mask``): files as 8/16-bit grey, colour arrays through Rec. 601 grey, floats
+in [0, 1], the image's size. Photos need an outline to relight (not empty, not all foreground); a
+video frame may have nobody in it.
 
 On disk (the reference's layout): ``NAME_mask.png`` beside ``NAME.jpg``, or a folder of such files
 (:func:`find_mask_file`).
