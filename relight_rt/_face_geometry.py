@@ -11,7 +11,10 @@ The normals are drawn into the network frame (flat per triangle, nearest last, t
 triangle), turned into transport with DESIGN.md §3's unoccluded cosine lobe, and scaled by stage 1's own degree-0
 coefficient (so the network's visibility, hence exposure, is kept). The Relighter blends that transport into
 stage 1's over the face, feathered at the mesh's border (relight_rt.relighter ``_own``); both sides of the
-relighting factor use the result, so the photo's own light still gives the photo back.
+relighting factor use the result, so the photo's own light still gives the photo back. Around the mesh (hair,
+skull, ears) an ellipsoid head fitted to the mesh's extent lends its normals, at HEAD_STRENGTH: without it a side
+light darkened half a close face in a patch bounded by the mesh while the hair beside it, left to stage 1's blur,
+stayed lit (docs/RESULTS.md, "A head around the face mesh").
 
 Optional: without the three files in the models folder nothing changes. Upright faces only (the landmarker's crop
 is not rotated): a face tilted far from upright gives a poor mesh, which the landmarker's face flag rejects.
@@ -42,6 +45,10 @@ MIN_FACE_NET = 24  # a face smaller than this in network pixels is left to stage
 MIN_FLAG = 0.5  # the landmarker's face probability needed to trust its mesh
 SMOOTH = 0.04  # normals smoothed over this fraction of the face's size (about one triangle)
 FEATHER = 0.12  # the face transport fades in over this fraction of the face's size inside the mesh's border
+HEAD_WIDTH = 1.1  # the head's ellipse: this many mesh widths across (the mesh stops short of the ears)
+HEAD_TOP = 0.35  # ... and reaching this fraction of the mesh's height above its top (the skull under the hair)
+HEAD_REACH = 1.35  # the head's normals fade out between the ellipse and this many times its size
+HEAD_STRENGTH = 0.4  # how far they replace stage 1's transport there (0.7 looks best on close portraits, DPR agreement 0.79)
 
 def lobe_transport(normals: np.ndarray) -> np.ndarray:
     """(..., 9) float32 unoccluded transport A_l * Y_k(n) of unit normals (..., 3) in the subject frame (§3)."""
@@ -110,12 +117,51 @@ def face_transport(points: np.ndarray, triangles: np.ndarray, t0: np.ndarray) ->
     sigma = max(SMOOTH * size, 0.5)
     normals = cv2.GaussianBlur(normals, (0, 0), sigma)
     normals = normals / np.maximum(np.linalg.norm(normals, axis=2, keepdims=True), 1e-6)
-    transport = lobe_transport(normals) * (np.maximum(t0, 0) / _T0)[..., None]
     # weight: inside the mesh, rising smoothly from 0 at its border to 1 at FEATHER of the face's size inside
     dist = cv2.distanceTransform((cover > 0).astype(np.uint8), cv2.DIST_L2, 3)
     t = np.clip(dist / max(FEATHER * size, 1.0), 0, 1)
-    weight = t * t * (3 - 2 * t)
+    mesh_weight = t * t * (3 - 2 * t)
+    # around the mesh (hair, skull, ears) the head's rounded shape: without it a side light darkens half the face
+    # while the hair beside it, left to stage 1's blur, stays lit
+    head, head_weight = head_normals(points, (h, w))
+    m = mesh_weight[..., None]
+    normals = m * normals + (1 - m) * head
+    normals = normals / np.maximum(np.linalg.norm(normals, axis=2, keepdims=True), 1e-6)
+    transport = lobe_transport(normals) * (np.maximum(t0, 0) / _T0)[..., None]
+    weight = mesh_weight + (1 - mesh_weight) * HEAD_STRENGTH * head_weight
     return transport, np.clip(weight, 0, 1).astype(np.float32)
+
+
+def head_normals(points: np.ndarray, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """Normals of an ellipsoid head around a face mesh, in the subject frame, and where to trust them.
+
+    The ellipse spans the mesh's width (times HEAD_WIDTH) and runs from the chin to HEAD_TOP of the mesh's height
+    above its top (the skull above the landmarks); inside it the normal is the ellipsoid's, beyond it the
+    outline's (horizontal, pointing away). The weight is 1 inside, falls to 0 at HEAD_REACH times the ellipse and
+    below the chin (the neck is not the head's surface).
+
+    Returns:
+        normals (h, w, 3) float32 unit, weight (h, w) float32 in [0, 1].
+    """
+    h, w = shape
+    p = np.asarray(points, np.float64)
+    (x0, y0), (x1, y1) = p[:, :2].min(0), p[:, :2].max(0)
+    cx, a = (x0 + x1) / 2, max((x1 - x0) / 2 * HEAD_WIDTH, 1.0)
+    top = y0 - HEAD_TOP * (y1 - y0)
+    cy, b = (top + y1) / 2, max((y1 - top) / 2, 1.0)
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+    u, v = (xx - cx) / a, (yy - cy) / b
+    r = np.sqrt(u * u + v * v)
+    inside = r < 1
+    scale = np.where(inside, 1.0, 1.0 / np.maximum(r, 1e-6))
+    u, v = u * scale, v * scale
+    toward = np.sqrt(np.maximum(1 - u * u - v * v, 0))
+    normals = np.stack([toward, u, -v], axis=2).astype(np.float32)  # +x toward the camera, +y right, +z up
+    normals /= np.maximum(np.linalg.norm(normals, axis=2, keepdims=True), 1e-6)
+    t = np.clip((HEAD_REACH - r) / (HEAD_REACH - 1), 0, 1)
+    below = np.clip((yy - y1) / max(0.08 * (y1 - y0), 1.0), 0, 1)  # fades out over the chin's last rows
+    t = t * (1 - below)
+    return normals, (t * t * (3 - 2 * t)).astype(np.float32)
 
 
 class FaceMesh:

@@ -9,7 +9,14 @@ import pytest
 from _graphs import unoccluded_transport
 
 from relight_rt import Relighter, RelightError, RuntimeConfig, lights
-from relight_rt._face_geometry import FaceMesh, face_transport, lobe_transport, rasterise_normals
+from relight_rt._face_geometry import (
+    HEAD_STRENGTH,
+    FaceMesh,
+    face_transport,
+    head_normals,
+    lobe_transport,
+    rasterise_normals,
+)
 from relight_rt.session import bundled_models_dir
 
 REFERENCE = Path(__file__).resolve().parents[3] / "shared" / "reference"
@@ -62,10 +69,27 @@ def test_face_transport_keeps_band_zero_and_fades_in_inside_the_mesh():
     t, w = face_transport(pts, tris, t0)
     np.testing.assert_allclose(t[..., 0], 0.7, rtol=1e-5)
     assert w.min() >= 0 and w.max() <= 1
-    assert w[25, 25] > 0.99 and w[55, 55] == 0 and w[2, 2] == 0
+    assert w[25, 25] > 0.99 and w[55, 55] == 0  # below the chin: neither the face nor the head
     assert 0 < w[6, 25] < w[12, 25]  # feathered at the mesh's border
     n = np.array([1, 0.5, 0]) / np.linalg.norm([1, 0.5, 0])  # the plane's normal, subject frame
     np.testing.assert_allclose(t[25, 25], lobe_transport(n) * 0.7 / lobe_transport(n)[0], atol=1e-4)
+
+
+def test_the_head_around_the_mesh_turns_away_and_stops_at_the_chin():
+    """Beyond the mesh the head's rounded shape (hair, skull, ears): a side light then darkens the hair beside the
+    shaded half of the face too, not the face alone."""
+    pts, tris = _plane(0, 0)  # a 40-px face, x and y 5..45
+    normals, weight = head_normals(pts, (80, 80))
+    np.testing.assert_allclose(np.linalg.norm(normals, axis=2), 1, atol=1e-5)
+    assert normals[0, 25, 2] > 0.5 and weight[0, 25] == 1  # above the face: the skull leans up (+z)
+    assert normals[25, 1, 1] < -0.9 and normals[25, 49, 1] > 0.9  # beyond its sides: the outline, left / right
+    assert weight[60, 25] == 0 and weight[25, 79] == 0  # below the chin, and far off the head
+    t0 = np.full((80, 80), 0.7, np.float32)
+    t, w = face_transport(pts, tris, t0)
+    assert w[0, 25] == pytest.approx(HEAD_STRENGTH, abs=1e-6) and w[60, 25] == 0
+    np.testing.assert_allclose(t[..., 0], 0.7, rtol=1e-5)  # the visibility stays stage 1's there too
+    left = lights.directional((0.3, -1.0, 0.0), (1, 1, 1), 1.0)[:, 0]
+    assert t[25, 2] @ left > t[25, 48] @ left  # a light from the image's left lights the head's left side only
 
 
 def test_a_models_folder_without_the_mesh_has_none(tmp_path):
