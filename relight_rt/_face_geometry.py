@@ -48,7 +48,7 @@ FEATHER = 0.12  # the face transport fades in over this fraction of the face's s
 HEAD_WIDTH = 1.1  # the head's ellipse: this many mesh widths across (the mesh stops short of the ears)
 HEAD_TOP = 0.35  # ... and reaching this fraction of the mesh's height above its top (the skull under the hair)
 HEAD_REACH = 1.35  # the head's normals fade out between the ellipse and this many times its size
-HEAD_STRENGTH = 0.4  # how far they replace stage 1's transport there (0.7 looks best on close portraits, DPR agreement 0.79)
+HEAD_STRENGTH = 0.4  # how far they replace stage 1's transport there (0.7 looks best, but DPR agreement 0.79)
 
 def lobe_transport(normals: np.ndarray) -> np.ndarray:
     """(..., 9) float32 unoccluded transport A_l * Y_k(n) of unit normals (..., 3) in the subject frame (§3)."""
