@@ -238,7 +238,8 @@ def direction_loss(pred: torch.Tensor, true: torch.Tensor, mask: torch.Tensor, e
     side of a face or body a new light brightens. Weighted by the true band's magnitude (the error's size in
     transport units, zero where the truth has no direction); a scaled band costs nothing here, a rotated one does.
     """
-    p, t = pred[:, 1:4].float(), true[:, 1:4].float()
+    degree1 = SH_DEGREES[0]
+    p, t = pred[:, degree1].float(), true[:, degree1].float()
     t_norm = (t.square().sum(1, keepdim=True) + eps).sqrt()
     p_norm = (p.square().sum(1, keepdim=True) + eps).sqrt()
     cos = (p * t).sum(1, keepdim=True) / (p_norm * t_norm)

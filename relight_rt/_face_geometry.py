@@ -149,15 +149,13 @@ def head_normals(points: np.ndarray, shape: tuple[int, int]) -> tuple[np.ndarray
     cx, a = (x0 + x1) / 2, max((x1 - x0) / 2 * HEAD_WIDTH, 1.0)
     top = y0 - HEAD_TOP * (y1 - y0)
     cy, b = (top + y1) / 2, max((y1 - top) / 2, 1.0)
-    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
-    u, v = (xx - cx) / a, (yy - cy) / b
+    yy, xx = np.ogrid[0:h, 0:w]
+    u, v = (xx - cx) / a, (yy - cy) / b  # (1, w) and (h, 1)
     r = np.sqrt(u * u + v * v)
-    inside = r < 1
-    scale = np.where(inside, 1.0, 1.0 / np.maximum(r, 1e-6))
+    scale = 1.0 / np.maximum(r, 1.0)  # beyond the ellipse: onto its outline
     u, v = u * scale, v * scale
-    toward = np.sqrt(np.maximum(1 - u * u - v * v, 0))
+    toward = np.sqrt(np.maximum(1 - u * u - v * v, 0))  # u² + v² + toward² = 1: unit already
     normals = np.stack([toward, u, -v], axis=2).astype(np.float32)  # +x toward the camera, +y right, +z up
-    normals /= np.maximum(np.linalg.norm(normals, axis=2, keepdims=True), 1e-6)
     t = np.clip((HEAD_REACH - r) / (HEAD_REACH - 1), 0, 1)
     below = np.clip((yy - y1) / max(0.08 * (y1 - y0), 1.0), 0, 1)  # fades out over the chin's last rows
     t = t * (1 - below)

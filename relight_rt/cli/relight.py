@@ -75,7 +75,7 @@ def _mask_note(path: Path, mask_arg: str | None) -> str:
     beside the photo changes the result, and the user should see that it was used."""
     if mask_arg is not None:
         return ""
-    found = sibling_mask(path)
+    found = batch.mask_for(path, None, single=True)
     return f" (mask: {found.name} beside it; --mask auto for the automatic matte)" if found else ""
 
 

@@ -50,20 +50,8 @@ def find_faces(face: Model | None, rgb: np.ndarray, *, every: bool = False) -> l
     if face is None:
         return []
     h, w = rgb.shape[:2]
-    found = []
     levels = tile_levels(h, w, _FACE_TILE_MIN, max_level=3)
-    for windows in levels if every else levels[:1]:
-        for win in windows:
-            out = face.run({"image": crop_region(rgb, win, FACE_SIZE).transpose(2, 0, 1)[None]})
-            x0, y0, _, _ = win.box()
-            for box, score in decode(out["boxes"][0], out["scores"][0]):
-                found.append((np.array([x0, y0, x0, y0]) + box * win.side, score))
-    faces = []
-    for box, score in weighted_nms(found):
-        b = (max(box[0], 0.0), max(box[1], 0.0), min(box[2], float(w)), min(box[3], float(h)))
-        if b[2] > b[0] and b[3] > b[1]:
-            faces.append(Face(b, score))
-    return faces
+    return _faces_in(face, rgb, [win for windows in (levels if every else levels[:1]) for win in windows])
 
 
 def find_close_faces(face: Model | None, rgb: np.ndarray) -> list[Face]:
@@ -77,14 +65,23 @@ def find_close_faces(face: Model | None, rgb: np.ndarray) -> list[Face]:
     h, w = rgb.shape[:2]
     side = CLOSE_ZOOM * max(h, w)
     win = Region.around(w / 2 - side / 2, h / 2 - side / 2, w / 2 + side / 2, h / 2 + side / 2)
-    out = face.run({"image": crop_region(rgb, win, FACE_SIZE).transpose(2, 0, 1)[None]})
-    x0, y0, _, _ = win.box()
-    origin = np.array([x0, y0, x0, y0])
-    found = [(origin + box * win.side, score) for box, score in decode(out["boxes"][0], out["scores"][0])]
+    return _faces_in(face, rgb, [win], min_width=CLOSE_FACE * min(h, w))
+
+
+def _faces_in(face: Model, rgb: np.ndarray, windows: list[Region], min_width: float = 0.0) -> list[Face]:
+    """The face graph on each window, its boxes in image pixels merged (weighted NMS) and clipped to the image;
+    boxes narrower than ``min_width`` (or empty) are left out."""
+    h, w = rgb.shape[:2]
+    found = []
+    for win in windows:
+        out = face.run({"image": crop_region(rgb, win, FACE_SIZE).transpose(2, 0, 1)[None]})
+        x0, y0, _, _ = win.box()
+        for box, score in decode(out["boxes"][0], out["scores"][0]):
+            found.append((np.array([x0, y0, x0, y0]) + box * win.side, score))
     faces = []
     for box, score in weighted_nms(found):
         b = (max(box[0], 0.0), max(box[1], 0.0), min(box[2], float(w)), min(box[3], float(h)))
-        if b[2] - b[0] >= CLOSE_FACE * min(h, w) and b[3] > b[1]:
+        if b[2] > b[0] and b[2] - b[0] >= min_width and b[3] > b[1]:
             faces.append(Face(b, score))
     return faces
 
