@@ -12,7 +12,10 @@ solved per pixel with F and B held fixed):
 
 Where F and B are alike (a dark coat before a dark doorway) colour says nothing: the estimate is blended
 with the coarse alpha by a confidence |F - B|^2 / (|F - B|^2 + tau). A small guided filter (the photo as
-guide) then removes pixel noise while keeping strands. Outside the band the coarse matte is kept, except
+guide) then removes pixel noise while keeping strands. On the background's side of the outline the estimate is
+held under a ceiling that falls smoothly from 1 at the outline to the coarse alpha at the band's outer edge: a
+light patch of background that colour puts between B and F (a white awning beside dark hair on the reference
+photo) then fades out instead of ending in the band's straight edge. Outside the band the coarse matte is kept, except
 that a faint veil (alpha < 0.2 on the background side, > 0.8 on the person's; < 0.05 / > 0.95 anywhere
 away from the outline) is snapped to 0 / 1: composited, it would show the old background. A body that runs out
 of the photo's bottom border is made opaque there, away from its outline (:func:`opaque_where_cut`).
@@ -77,7 +80,8 @@ def refine_edges(rgb: np.ndarray, alpha: np.ndarray, band: int | None = None) ->
     img = np.ascontiguousarray(rgb[y0:y1, x0:x1])
     inside = (a >= 0.5).astype(np.uint8)
     fg = cv2.distanceTransform(inside, cv2.DIST_L2, 3) > r  # sure: more than r px from the outline
-    bg = cv2.distanceTransform(1 - inside, cv2.DIST_L2, 3) > r
+    outside = cv2.distanceTransform(1 - inside, cv2.DIST_L2, 3)
+    bg = outside > r
     unknown = ~(fg | bg)
     fg_w = (fg & (a >= _SURE)).astype(np.float32)
     bg_w = (bg & (a <= 1 - _SURE)).astype(np.float32)
@@ -90,7 +94,11 @@ def refine_edges(rgb: np.ndarray, alpha: np.ndarray, band: int | None = None) ->
     conf = dd / (dd + _TAU) * (f_n > 0) * (b_n > 0)
     est = _guided(img, (conf * a_c + (1 - conf) * a).astype(np.float32))
     sub = out[y0:y1, x0:x1]
-    sub[unknown] = np.clip(est[unknown], 0.0, 1.0)
+    # on the background's side, colour's answer fades out toward the band's outer edge (where the coarse matte is
+    # sure of background): a light patch of background there would otherwise end in the band's straight edge
+    t = np.clip(outside / r, 0.0, 1.0)
+    ceiling = np.maximum(a, 1 - t * t * (3 - 2 * t))
+    sub[unknown] = np.clip(np.minimum(est, ceiling)[unknown], 0.0, 1.0)
     sub[bg & (a < _VEIL)] = 0.0
     sub[fg & (a > 1 - _VEIL)] = 1.0
     return opaque_where_cut(out, r)

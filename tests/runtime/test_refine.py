@@ -47,6 +47,26 @@ def test_outside_the_band_the_coarse_matte_is_kept_and_faint_veils_go():
     assert not out[:, -40:].any()  # the veil would show the old background in a composite
 
 
+def test_a_light_patch_of_background_in_the_band_fades_out_without_an_edge():
+    """A white stripe of background (an awning) beside a red person on a dark background: colour puts it between
+    the dark background and the person, so its alpha comes out high; toward the band's outer edge, where the coarse
+    matte is sure of background, it must fade to 0 and not end in a step at the band's edge (a straight-edged
+    grey patch in every composite: the reference photo's awning beside the hair)."""
+    h, w, band = 120, 160, 12
+    truth = np.zeros((h, w), np.float32)
+    truth[:, :80] = 1.0
+    rgb = np.empty((h, w, 3), np.float32)
+    rgb[:] = (0.1, 0.1, 0.1)
+    rgb[:, :80] = (0.8, 0.3, 0.2)
+    rgb[46:54, 80:] = (0.95, 0.95, 0.95)  # a thin stripe runs from the outline out of the band
+    coarse = np.clip(cv2.GaussianBlur(truth, (0, 0), 1.5), 0.0, 1.0)
+    out = R.refine_edges(rgb, coarse, band=band)
+    row = out[50, 80 : 80 + band + 3]  # across the band, along the stripe
+    assert row[band - 2 :].max() < 0.05  # faded out by the band's outer edge: no step there
+    assert np.all(np.diff(row[2:]) <= 1e-6)  # falling, not a plateau that ends
+    assert out[50, 80 + band // 2] < 0.6
+
+
 def test_where_colours_are_alike_the_coarse_matte_stays():
     rgb, _, coarse = strands()
     grey = np.full_like(rgb, 0.4)  # no colour difference at all: nothing to go on
