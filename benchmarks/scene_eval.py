@@ -37,6 +37,13 @@ Four scores, separately:
 3. light colour error (degrees): the angle between the RGB of that camera-facing irradiance and the truth's;
 4. front/back: on maps whose camera-facing and back irradiance differ by >= 1 EV, whether the method's
    light has the brighter side on the same side.
+
+How far one view can get (unless ``--no-oracles``; background metering; fitted with one scene left out as the
+estimate): ``view``, the rule given the view perfectly (the photo's unclipped linear values, no highlight gain;
+``unclipped_view``); ``half``, the whole half of the sphere in front of the camera known exactly (HDR, beyond the
+view's 60°) plus a uniform light behind the camera, a gain × that half's mean luminance (``half_oracle``). Neither
+knows what lies behind the camera. ``views_off.png``: every map whose estimate is off by more than 1 EV, its
+photo beside the whole map (the map's centre is the view's direction, its edges lie behind the camera).
 """
 
 from __future__ import annotations
@@ -119,6 +126,9 @@ def scene_of(map_name: str) -> str:
 
 
 FRONT_W, BACK_W = bgmod.FRONT_WEIGHTS, bgmod.BACK_WEIGHTS  # (9,): light → mean irradiance of a side
+#: (9,) the SH of a uniform radiance 1 over the half behind the camera (x >= 0)
+_BEHIND_MASK = (envmap.directions_envmap(64)[..., 0:1] >= 0).astype(np.float32)
+BEHIND = envmap.project_envmap(np.repeat(_BEHIND_MASK, 3, axis=2))[:, 0]
 
 
 def side_rgb(light, weights=FRONT_W) -> np.ndarray:
@@ -188,6 +198,64 @@ def mean_lum(img) -> float:
     return float((img @ REC709).mean())
 
 
+# ------------------------------------------------------------------------------------------------ oracles
+# How far one view can get (docs/RESULTS.md, "Fifth pass"): lights that know the view, or the whole half of the
+# sphere in front of the camera, perfectly (unclipped, in HDR), but not what lies behind the camera.
+
+
+def front_half(env: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """((9, 3) SH light, (3,) mean radiance) of the half of ``env`` in front of the camera (x < 0: the person's back
+    side and the view's directions) alone, exactly: what the best possible reading of that half would give."""
+    h = env.shape[0]
+    ahead = (envmap.directions_envmap(h)[..., 0] < 0).astype(np.float32)
+    weight = envmap.solid_angles_envmap(h) * ahead
+    mean = (env * weight[..., None]).reshape(-1, 3).sum(0) / weight.sum()
+    return envmap.project_envmap(env * ahead[..., None]), mean
+
+
+def half_oracle(half: np.ndarray, mean: np.ndarray, gain: float, saturation: float) -> np.ndarray:
+    """The exact half in front of the camera plus a uniform radiance ``gain`` × its mean luminance behind the camera,
+    in its mean colour with the saturation scaled (as relight_rt.scene_light's ambient)."""
+    colour = np.maximum(np.asarray(mean, np.float64), 1e-9) ** saturation
+    colour = colour / float(colour @ REC709)
+    return half + gain * lum(mean) * BEHIND[:, None] * colour[None, :]
+
+
+def fit_half_oracle(halves: list, truths: list) -> tuple[float, float]:
+    """(gain, saturation) of ``half_oracle`` by the least mean |EV error|, then the least mean colour error (GRID)."""
+    gains = GRID["ambient_gain"] / 4  # 0.25 … 4: the mean of the front half is brighter than its median
+    err = [np.mean([abs(ev_error(half_oracle(h, m, g, 0.0), t)) for (h, m), t in zip(halves, truths, strict=True)])
+           for g in gains]  # fmt: skip
+    g = float(gains[int(np.argmin(err))])
+    col = [np.mean([colour_error(half_oracle(h, m, g, s), t) for (h, m), t in zip(halves, truths, strict=True)])
+           for s in GRID["saturation"]]  # fmt: skip
+    return g, float(GRID["saturation"][int(np.argmin(col))])
+
+
+def unclipped_view(parts, linear_view: np.ndarray, fov: float = 60.0, height: int = 64):
+    """``parts`` (relight_rt.scene_light's reading of the 8-bit photo) with its front half read from the photo's
+    unclipped linear values instead (step 2 on the same small copy, no clipping, no highlight gain): the rule given
+    the view perfectly. The statistics (median, colour, top/bottom, contrast) stay the photo's."""
+    from dataclasses import replace
+
+    ph, pw = linear_view.shape[:2]
+    width = int(min(pw, max(16, round(2 * (2 * height) * fov / 360))))
+    small = cv2.resize(linear_view.astype(np.float32), (width, max(4, int(round(width * ph / pw)))),
+                       interpolation=cv2.INTER_AREA)  # fmt: skip
+    view = envmap.project_envmap(bgmod._fill_front(small, fov, height)) / math.pi
+    return replace(parts, view=view, source=np.zeros_like(view))
+
+
+def map_tile(env: np.ndarray, view: np.ndarray, k: float, label: str) -> np.ndarray:
+    """(128, 426, 3) uint8: the background photo beside the whole map at the photo's exposure (its centre is the
+    view's direction; its left and right edges lie behind the camera), labelled."""
+    pano = cv2.resize(np.clip(env * np.float32(math.pi * k), 0, 1), (256, 128), interpolation=cv2.INTER_AREA)
+    pano = (linear_to_srgb(pano) * 255 + 0.5).astype(np.uint8)
+    tile = np.concatenate([cv2.resize(view, (170, 128), interpolation=cv2.INTER_AREA), pano], 1)
+    cv2.putText(tile, label, (3, 12), cv2.FONT_HERSHEY_SIMPLEX, 0.35, (255, 0, 255), 1, cv2.LINE_AA)
+    return tile
+
+
 # ------------------------------------------------------------------------------------------------ tuning
 
 
@@ -225,7 +293,6 @@ def summarise(values) -> dict:
     return {"median": float(np.median(v)), "mean": float(v.mean()), "n": int(v.size)}
 
 
-
 def photos_by_subject(photos: Path) -> tuple[dict[str, dict[str, str]], list[str], list[str]]:
     """render-photos' folder: {subject: {env map: photo name}}, the subjects, and the maps every subject has."""
     from export import dataset
@@ -238,6 +305,7 @@ def photos_by_subject(photos: Path) -> tuple[dict[str, dict[str, str]], list[str
     subjects = sorted(by_subject)
     return by_subject, subjects, sorted(set.intersection(*(set(by_subject[s]) for s in subjects)))
 
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--prepare-envs", type=Path, nargs="+", metavar="FOLDER", help="only write the maps into --envs")
@@ -247,6 +315,11 @@ def main(argv=None) -> int:
     p.add_argument("--out", type=Path)
     p.add_argument("--pairs-per-target", type=int, default=2, help="places A drawn per (person, B)")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument(
+        "--no-oracles",
+        action="store_true",
+        help="skip the lights that know the view / the half in front of the camera perfectly (faster)",
+    )
     args = p.parse_args(argv)
     if args.prepare_envs:
         prepare_envs(args.prepare_envs, args.envs)
@@ -260,7 +333,7 @@ def main(argv=None) -> int:
     scenes = sorted({scene_of(m) for m in maps})
 
     # per map: the background camera, the light read from its photo, the true light at k = 1
-    lin1, k_bg, views, parts, true1 = {}, {}, {}, {}, {}
+    lin1, k_bg, views, parts, true1, view_parts, halves = {}, {}, {}, {}, {}, {}, {}
     for m in maps:
         env = envmap.load_envmap(args.envs / f"{m}.hdr")
         lin1[m] = view_linear(env)
@@ -268,6 +341,10 @@ def main(argv=None) -> int:
         views[m] = photograph(lin1[m], k_bg[m])
         parts[m] = bgmod.scene_light(views[m], 60.0)
         true1[m] = envmap.project_envmap(env)  # the renders' units: image = albedo ⊙ T·L
+        if not args.no_oracles:  # in the background photo's units, as the estimate
+            view_parts[m] = unclipped_view(parts[m], lin1[m] * np.float32(k_bg[m]))
+            half, mean = front_half(env)
+            halves[m] = (half * k_bg[m], mean * k_bg[m])
 
     # the people inside their masks, for choosing the key's geometry by the scale-invariant RMSE
     inside_px = {}
@@ -278,9 +355,10 @@ def main(argv=None) -> int:
         truth_px = {m: dataset.read_photo(args.photos, by_subject[subject][m])["photo"][inside] for m in maps}
         inside_px[subject] = (sample["albedo"][inside], sample["transport"][inside], truth_px)
 
-    def si_mean(train: list, f: dict) -> float:
-        """The mean scale-invariant RMSE of the lights ``parts[m].light(**f)`` over the maps and every person."""
-        lights = {m: parts[m].light(**f) for m in train}
+    def si_mean(train: list, f: dict, pp=None) -> float:
+        """The mean scale-invariant RMSE of the lights ``pp[m].light(**f)`` (``pp``: ``parts`` unless given) over
+        the maps and every person."""
+        lights = {m: (parts if pp is None else pp)[m].light(**f) for m in train}
         err = []
         for a, t, truth_px in inside_px.values():
             for m in train:
@@ -290,15 +368,17 @@ def main(argv=None) -> int:
                 err.append(float(np.sqrt(np.mean((s * x - y) ** 2))))
         return float(np.mean(err))
 
-    def fit_all(train: list) -> dict:
+    def fit_all(train: list, pp=None) -> dict:
         """The fitted numbers from the maps ``train``: each geometry's exposure/colour fit, then the geometry
         whose raw lights (no step 6) give the least mean scale-invariant RMSE over those maps and every person;
         then step 6: its prior is the mean of those maps' true lights (luminance, camera-facing irradiance 1),
-        its two numbers the pair on GRID["shape"] with the least mean scale-invariant RMSE."""
+        its two numbers the pair on GRID["shape"] with the least mean scale-invariant RMSE. ``pp``: the readings
+        (``parts`` unless given)."""
+        pp = parts if pp is None else pp
         best = None
         for geometry in GEOMETRIES:
-            f = fit([parts[m] for m in train], [true1[m] * k_bg[m] for m in train], geometry)
-            err = si_mean(train, {**f, "shape_weight": 1.0, "front_back_power": 1.0})
+            f = fit([pp[m] for m in train], [true1[m] * k_bg[m] for m in train], geometry)
+            err = si_mean(train, {**f, "shape_weight": 1.0, "front_back_power": 1.0}, pp)
             if best is None or err < best[0]:
                 best = (err, f)
         f = best[1]
@@ -306,7 +386,7 @@ def main(argv=None) -> int:
         prior = np.mean([s / float(FRONT_W @ s) for s in shapes], axis=0)
         prior[[1, 4, 5]] = 0  # left-right symmetric (y, xy, yz): a scene and its mirror image are alike
         prior = tuple(round(float(v), 3) for v in prior)
-        scored = [(si_mean(train, {**f, "shape_weight": w, "front_back_power": q, "prior": prior}), w, q)
+        scored = [(si_mean(train, {**f, "shape_weight": w, "front_back_power": q, "prior": prior}, pp), w, q)
                   for w, q in GRID["shape"]]  # fmt: skip
         _, w, q = min(scored)
         return {**f, "shape_weight": w, "front_back_power": q, "prior": prior}
@@ -315,6 +395,17 @@ def main(argv=None) -> int:
     chosen = {s: fit_all([m for m in maps if scene_of(m) != s]) for s in scenes}
     shipped = fit_all(maps)
     est = {m: parts[m].light(**chosen[scene_of(m)]) for m in maps}  # background-photo units
+    oracles = {}  # name: {map: light}, each fitted with the map's scene left out, as the estimate
+    if not args.no_oracles:
+        chosen_view = {s: fit_all([m for m in maps if scene_of(m) != s], view_parts) for s in scenes}
+        oracles["view"] = {m: view_parts[m].light(**chosen_view[scene_of(m)]) for m in maps}
+        half_fit = {
+            s: fit_half_oracle(
+                [halves[m] for m in maps if scene_of(m) != s], [true1[m] * k_bg[m] for m in maps if scene_of(m) != s]
+            )
+            for s in scenes
+        }
+        oracles["half"] = {m: half_oracle(*halves[m], *half_fit[scene_of(m)]) for m in maps}  # fmt: skip
 
     rng = np.random.default_rng(args.seed)
     rows = []
@@ -339,6 +430,8 @@ def main(argv=None) -> int:
             place = placement(truth["mask"])
             r_est = albedo * sh.shading(transport, est[b])
             r_oracle = albedo * sh.shading(transport, true1[b])
+            si_oracles = {name: si_rmse(albedo * sh.shading(transport, lights[b]), truth["photo"], inside)
+                          for name, lights in oracles.items()}  # fmt: skip
             kb = {"background": k_bg[b], "frame": k_frame(b)}
             # relight_rt.scene's frame metering of the estimated composite (same clamp as the runtime)
             bg_lin = srgb_to_linear(views[b])
@@ -354,6 +447,10 @@ def main(argv=None) -> int:
                        "si_oracle": si_rmse(r_oracle, truth["photo"], inside),
                        "colour_paste": colour_error(true1[a], true1[b]),
                        "colour_est": colour_error(est[b], true1[b])}  # fmt: skip
+                for name, lights in oracles.items():
+                    row[f"si_{name}"] = si_oracles[name]
+                    row[f"colour_{name}"] = colour_error(lights[b], true1[b])
+                    row[f"ev_{name}_background"] = ev_error(lights[b], true1[b] * kb["background"])
                 for mode in ("background", "frame"):
                     t = true1[b] * kb[mode]
                     scale = 1.0 if mode == "background" else remeter
@@ -389,6 +486,21 @@ def main(argv=None) -> int:
                           "ev_est_background": ev_error(est[m], true1[m] * k_bg[m]),
                           "front_back_true": fb[m], "front_back_est": fb_est[m],
                           "colour_est": colour_error(est[m], true1[m])} for m in maps}  # fmt: skip
+    for name, lights in oracles.items():
+        e = np.abs([r[f"ev_{name}_background"] for r in rows])
+        right = [math.copysign(1, front_back(lights[m])) == math.copysign(1, fb[m]) for m in clear]
+        res[f"oracle_{name}"] = {
+            "ev_background": {**summarise(e), "within_1ev": float(np.mean(e <= 1))},
+            "colour": summarise([r[f"colour_{name}"] for r in rows]),
+            "si": summarise([r[f"si_{name}"] for r in rows]),
+            "si_gap_closed": (res["si_paste"]["mean"] - float(np.mean([r[f"si_{name}"] for r in rows]))) / gap
+            if gap
+            else float("nan"),
+            "front_back_right": float(np.mean(right)),
+        }
+        for m in maps:
+            res["per_map"][m][f"ev_{name}_background"] = ev_error(lights[m], true1[m] * k_bg[m])
+            res["per_map"][m][f"colour_{name}"] = colour_error(lights[m], true1[m])
     (args.out / "results.json").write_text(json.dumps({**res, "rows": rows}, indent=1))
 
     def ev(who, mode):
@@ -410,6 +522,18 @@ def main(argv=None) -> int:
         f"| front/back right ({len(clear)} maps with a >= {CLEAR_EV:g} EV difference) | "
         f"{100 * res['front_back_paste']['right']:.0f} % | {100 * res['front_back_est']['right']:.0f} % | 100 % |",
     ]
+    if oracles:
+        lines += ["", "How far one view gets (each fitted with one scene left out; background metering):", "",
+                  "| light | exposure: median abs. error | colour (median) | scale-invariant RMSE | front/back right |",
+                  "|---|---|---|---|---|"]  # fmt: skip
+        labels = {"view": "the rule on the view known perfectly (unclipped)",
+                  "half": "the half in front of the camera known exactly, a uniform light behind"}  # fmt: skip
+        for name in oracles:
+            o = res[f"oracle_{name}"]
+            lines.append(f"| {labels[name]} | {o['ev_background']['median']:.2f} EV, "
+                         f"{100 * o['ev_background']['within_1ev']:.0f} % within 1 EV | {o['colour']['median']:.1f} | "
+                         f"{o['si']['mean']:.4f} (gap closed {100 * o['si_gap_closed']:.0f} %) | "
+                         f"{100 * o['front_back_right']:.0f} % |")  # fmt: skip
     (args.out / "table.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
     print(json.dumps({"pairs": len(rows), "shipped_fit": shipped}))
@@ -419,6 +543,22 @@ def main(argv=None) -> int:
         tiles.append(np.zeros_like(tiles[0]))
     sheet = np.concatenate([np.concatenate(tiles[i : i + 6], 1) for i in range(0, len(tiles), 6)], 0)
     cv2.imwrite(str(args.out / "views.png"), cv2.cvtColor(sheet, cv2.COLOR_RGB2BGR))
+    off = sorted((m for m in maps if abs(res["per_map"][m]["ev_est_background"]) > 1),
+                 key=lambda m: res["per_map"][m]["ev_est_background"])  # fmt: skip
+    if off:
+        sheet = np.concatenate(
+            [
+                map_tile(
+                    envmap.load_envmap(args.envs / f"{m}.hdr"),
+                    views[m],
+                    k_bg[m],
+                    f"{m} {res['per_map'][m]['ev_est_background']:+.1f} EV",
+                )
+                for m in off
+            ],
+            0,
+        )
+        cv2.imwrite(str(args.out / "views_off.png"), cv2.cvtColor(sheet, cv2.COLOR_RGB2BGR))
     return 0
 
 

@@ -1,0 +1,81 @@
+"""benchmarks/scene_eval.py's oracles (issue 36, fifth pass): lights that know the view, or the half of the sphere in
+front of the camera, perfectly but not what lies behind the camera; checked on synthetic maps whose answer is known."""
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from relight_rt import envmap
+from relight_rt import scene_light as bgmod
+from relight_rt.color import srgb_to_linear
+
+BENCH = Path(__file__).resolve().parents[2] / "benchmarks"
+
+
+@pytest.fixture(scope="module")
+def se():
+    if str(BENCH) not in sys.path:
+        sys.path.insert(0, str(BENCH))
+    spec = importlib.util.spec_from_file_location("scene_eval", BENCH / "scene_eval.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["scene_eval"] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def _map(front: float, back: float, h: int = 32) -> np.ndarray:
+    """A grey map: radiance ``front`` in the half in front of the camera (x < 0), ``back`` behind it."""
+    ahead = envmap.directions_envmap(h)[..., 0:1] < 0
+    return np.where(ahead, front, back).repeat(3, axis=2).astype(np.float32)
+
+
+def test_front_half_and_a_uniform_behind_make_the_whole_map(se):
+    env = _map(0.4, 0.4)
+    half, mean = se.front_half(env)
+    np.testing.assert_allclose(mean, 0.4, rtol=1e-6)
+    whole = se.half_oracle(half, mean, 1.0, 0.0)  # behind: 1 × the half's mean luminance, neutral
+    np.testing.assert_allclose(whole, envmap.project_envmap(env), atol=2e-3)
+
+
+def test_the_half_oracle_cannot_see_behind_the_camera(se):
+    # two places alike in front of the camera, one four times brighter behind it: one answer for both
+    dim, bright = _map(0.2, 0.2), _map(0.2, 0.8)
+    h_dim, h_bright = se.front_half(dim), se.front_half(bright)
+    np.testing.assert_allclose(h_dim[0], h_bright[0], atol=1e-9)
+    g, _ = se.fit_half_oracle([h_dim, h_bright], [envmap.project_envmap(dim), envmap.project_envmap(bright)])
+    light = se.half_oracle(*h_dim, g, 0.0)
+    errors = [se.ev_error(light, envmap.project_envmap(e)) for e in (dim, bright)]
+    assert errors[0] - errors[1] > 1.0  # the same light, > 1 EV apart in truth: at least one is off
+
+
+def test_fit_half_oracle_finds_the_gain_that_made_the_truth(se):
+    halves = [se.front_half(_map(v, 0.0)) for v in (0.1, 0.3, 0.7)]
+    truths = [se.half_oracle(h, m, 2.0, 0.0) for h, m in halves]
+    g, _ = se.fit_half_oracle(halves, truths)
+    assert g == pytest.approx(2.0)
+
+
+def test_unclipped_view_reads_what_the_8bit_photo_clipped(se):
+    rng = np.random.default_rng(0)
+    linear = rng.uniform(0.05, 0.3, (96, 128, 3)).astype(np.float32)
+    photo = se.photograph(linear, 1.0)
+    parts = bgmod.scene_light(photo, 60.0)
+    # nothing clipped: the same front half as the rule's own reading (up to 8-bit rounding)
+    same = se.unclipped_view(parts, srgb_to_linear(photo))
+    np.testing.assert_allclose(same.view, parts.view + parts.source, rtol=1e-3, atol=1e-5)
+    # a lamp of linear value 20: the photo clips it at 1 (× the highlight gain 3), the perfect view has it all
+    lamp = linear.copy()
+    lamp[30:50, 50:80] = 20.0
+    parts = bgmod.scene_light(se.photograph(lamp, 1.0), 60.0)
+    seen = se.unclipped_view(parts, lamp)
+    assert se.lum(se.side_rgb(seen.view, se.BACK_W)) > 2 * se.lum(se.side_rgb(parts.view + parts.source, se.BACK_W))
+    assert not seen.source.any()
+    assert seen.level == parts.level  # the statistics stay the photo's
+
+
+def test_map_tile_shows_the_view_beside_the_map(se):
+    tile = se.map_tile(_map(0.1, 0.1, 64), np.zeros((96, 128, 3), np.uint8), 1.0, "x")
+    assert tile.shape == (128, 426, 3) and tile.dtype == np.uint8
