@@ -532,3 +532,27 @@ def test_highlight_shoulder_keeps_hue_and_gradation_and_the_photo():
     assert out.max() < 1 and out[0, 1, 0] < out[0, 2, 0]  # in range, and brighter stays brighter
     for px in (1, 2):  # hue: channel ratios kept
         np.testing.assert_allclose(out[0, px] / out[0, px, 0], colour[0, px] / colour[0, px, 0], rtol=1e-5)
+
+
+def test_a_strong_gain_does_not_turn_a_dark_pixels_compression_colour_into_a_fringe():
+    """Dark pixels beside a lit jaw carry JPEG's colour errors ((0.13, 0.04, 0.0) on the reference photo); brightened
+    5x they became a red fringe. Such a pixel is pulled toward its dark neighbours' colour; a dark cloth whose
+    pixels agree keeps its colour, as do bright pixels, pixels not brightened, and the new light's own colour."""
+    from relight_rt.relighter import _steady_chroma
+
+    rec709 = np.array([0.2126, 0.7152, 0.0722], np.float32)
+    hair = np.full((15, 15, 3), 0.06, np.float32)  # dark, neutral
+    hair[7, 7] = (0.13, 0.04, 0.0)  # the compression's red
+    white5 = np.full((15, 15, 3), 5.0, np.float32)
+    out = _steady_chroma(hair, white5)
+    spread = lambda c: float(c.max() - c.min())  # noqa: E731
+    assert spread(out[7, 7]) < 0.5 * spread(hair[7, 7] * 5)  # the fringe damped
+    np.testing.assert_allclose(out[7, 7] @ rec709, (hair[7, 7] * 5) @ rec709, rtol=1e-4)  # at the same luminance
+    cloth = np.broadcast_to(np.array([0.15, 0.03, 0.02], np.float32), (15, 15, 3)).copy()  # dark red, all agree
+    np.testing.assert_allclose(_steady_chroma(cloth, white5), cloth * 5, rtol=1e-4)
+    skin = np.full((15, 15, 3), (0.8, 0.5, 0.4), np.float32)
+    np.testing.assert_allclose(_steady_chroma(skin, white5), skin * 5, rtol=1e-6)  # bright: its colour is signal
+    dim = np.full((15, 15, 3), 0.8, np.float32)
+    np.testing.assert_allclose(_steady_chroma(hair, dim), hair * dim, rtol=1e-6)  # not brightened: untouched
+    warm = np.broadcast_to(np.array([6.0, 4.0, 2.0], np.float32), (15, 15, 3))  # a warm light on the grey hair
+    np.testing.assert_allclose(_steady_chroma(hair, warm)[0, 0], hair[0, 0] * warm[0, 0], rtol=1e-4)
