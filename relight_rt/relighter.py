@@ -72,6 +72,7 @@ log = logging.getLogger(__name__)
 
 ImageLike = str | os.PathLike | np.ndarray
 _RATIO_EPS = np.float32(0.01)  # the ratio's denominator is floored here (dark pixels: noise, not light)
+_OWN_FLOOR = np.float32(0.5)  # ... and at this share of the photo's luminance (the photo at most 2x its reconstruction)
 _ALPHA_MIN = np.float32(1e-3)
 _DARK = np.float32(0.25)  # _steady_chroma: a pixel below this luminance, brightened by a gain, takes its dark
 _AMPLIFIED = np.float32(2.0)  # ... neighbours' colour, fully from a gain of 1 + this,
@@ -689,7 +690,8 @@ class Relighter:
         """What every relight of ``dec`` divides by, in the person's window of the network frame (cached).
 
         ``_restored``'s entries, and "own" (r, r') the luminance of the pipeline's image under the photo's own
-        light taken as white (diffuse plus stage 2's residual), plus the ratio's floor.
+        light taken as white (diffuse plus stage 2's residual), floored at ``_OWN_FLOOR`` x the photo's luminance
+        there and at the ratio's floor.
         """
         state = self._prepared(dec)
         key = "own" if with_residual else "own_diffuse"
@@ -699,6 +701,12 @@ class Relighter:
             residual = self._own_residual(dec) if with_residual else None
             if residual is not None:
                 own += _luminance_window(residual, base["alpha"], base["window"])
+            # where the photo is far brighter than its own reconstruction, the model misses light that is there
+            # (stage 1's light from above and behind put a profile face in deep shade, then a front light made
+            # it 3-5x brighter, blown out): the ratio is taken against at least a share of the photo itself
+            y0, y1, x0, x1 = base["window"]
+            photo = dec.network_image[y0:y1, x0:x1] @ _exposure.REC709
+            np.maximum(own, _OWN_FLOOR * photo, out=own)
             state[key] = {**base, "own": _readonly(np.maximum(own, _RATIO_EPS).astype(np.float32))}
         return state[key]
 

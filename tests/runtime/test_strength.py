@@ -175,3 +175,31 @@ def test_video_frames_keep_stage_ones_light(tmp_path_factory):
     img, mask = person(150, 100, seed=5, box=(20, 140, 30, 80))
     (frame,) = r.decompose_batch([img], [mask], allow_full=True)
     np.testing.assert_allclose(frame.light, OWN_LIGHT, rtol=1e-6)
+
+
+def test_a_photo_far_brighter_than_its_reconstruction_is_not_blown_out(sides_relighter, monkeypatch):
+    """Stage 1's light can leave part of a person in deep shade that the photo shows lit (the cameraman's profile
+    face under a light from above and behind); a front light then multiplied it 3-5x, to white. The ratio is
+    taken against at least half the photo: at most twice the change an own light that explains the photo gives."""
+    from dataclasses import replace
+
+    from relight_rt import relighter as relighter_module
+
+    img, mask = person(150, 100, seed=5, box=(20, 140, 30, 80))
+    dec = sides_relighter.decompose(img, mask)
+    n = np.array([0.1, 1.0, 0.0]) / np.linalg.norm([0.1, 1.0, 0.0])  # only from the right: the left half in shade
+    shade = np.repeat(0.3 * unoccluded_transport(n)[:, None] / np.pi, 3, axis=1).astype(np.float32)
+    shade[0] += 0.01
+    wrong = replace(dec, light=shade)
+    m = np.array([0.2, -1.0, 0.1]) / np.linalg.norm([0.2, -1.0, 0.1])  # a lamp from the image's left
+    left_lamp = np.repeat(0.15 * unoccluded_transport(m)[:, None] / np.pi, 3, axis=1).astype(np.float32)
+    left_lamp[0] += 0.1
+
+    def left_factor(d):
+        out = sides_relighter.relight(d, left_lamp, exposure="physical")
+        return float(np.median((out / np.maximum(img, 1e-6)).mean(axis=2)[40:120, 35:50]))
+
+    honest, floored = left_factor(dec), left_factor(wrong)
+    assert floored <= 2.05 * honest
+    monkeypatch.setattr(relighter_module, "_OWN_FLOOR", np.float32(0.0))
+    assert left_factor(replace(dec, light=shade)) > 3 * honest  # without the floor: the blow-out
