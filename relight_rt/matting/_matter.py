@@ -287,16 +287,9 @@ class PersonMatter:
                 # overlap more: in a group, the selfie graph's region of one face shows the neighbours too)
                 if mask.any() and occupied[mask].mean() < (_COVERED if face is None else _COVERED_FACE):
                     occupied |= mask
-                    mine = [j for j, f in enumerate(faces) if j not in owned and contains(p, f, (h, w))]
-                    side_by_side = _side_by_side([faces[j] for j in mine])
-                    if p.source == "roi" and len(side_by_side) >= 2:
-                        # the selfie graph segments everyone in its region: people side by side come as one
-                        # segmentation holding several faces, one person each (the matte stays their union)
-                        found.extend(split_by_faces(p, side_by_side))
-                        owned.update(mine)
-                    else:
-                        found.append(p)
-                        owned.update([k] if k is not None else mine[:1])
+                    people, mine = _as_people(p, k, faces, owned, (h, w))
+                    found.extend(people)
+                    owned.update(mine)
             if pix is None or requeued >= _MAX_REQUEUE:
                 continue
             rest = np.zeros(gh * gw, bool)
@@ -321,7 +314,7 @@ class PersonMatter:
             if mask.any() and occupied[mask].mean() < _COVERED:
                 occupied |= mask
                 found.append(p)
-        return _without_straddlers(found, grid)
+        return _without_straddlers(found, grid, faces, (h, w))
 
     def _person_at(
         self, rgb: np.ndarray, box, face: Face | None, give_up: float = 0.0, passes: int | None = None
@@ -470,32 +463,46 @@ def _faint(prob: np.ndarray, grid, min_height: float) -> list[tuple[float, float
     return out
 
 
-def _without_straddlers(people: list[Person], grid) -> list[Person]:
-    """``people`` less each pose-graph person whose segmentation lies at least _STRADDLE inside the other
-    pose-graph people's together: a region framed between two people side by side, on which the pose graph
-    (which segments one person) answers with a body across both (two men crouching face to face came out as
-    3: the straddling one lies 0.81 inside the two, 0.46 at most inside either; between distinct people
-    found by the pose graph on the 13 photos of benchmarks/people_photos.py with several people, each at 3
-    framings shifted by 0-1 px, at most 0.47). The one lying most
-    inside the others goes first. Not for selfie-graph people: it segments everyone in its region, so their
-    segmentations overlap their neighbours by nature (up to 0.99 in a group seen face by face)."""
-    pose = [i for i, p in enumerate(people) if p.source == "pose"]
-    if len(pose) < 3:
+def _without_straddlers(
+    people: list[Person], grid, faces: list[Face] = (), shape: tuple[int, int] | None = None
+) -> list[Person]:
+    """``people`` less each pose-graph person whose segmentation lies at least _STRADDLE inside the other people
+    together: a region framed between two people side by side, on which the pose graph (which segments one
+    person) answers with a body across both (two men crouching face to face came out as 3: the straddling one
+    lies 0.81 inside the two, 0.46 at most inside either; between distinct people found by the pose graph on the
+    13 photos of benchmarks/people_photos.py with several people, each at 3 framings shifted by 0-1 px, at most
+    0.47). The one lying most inside the others goes first. The others are the pose-graph people and the parts of
+    selfie-graph segmentations split by faces (:func:`split_by_faces`: each is one person's share of the
+    canvas; group_t1's pose-graph box across Rachel's head and Ross's body lay 0.19 inside Rachel and 0.68
+    inside Ross's part). A person who alone holds one of ``faces`` (image ``shape``) stays: on group_t1 shifted
+    by a pixel that box was the only one holding Rachel's face. Only pose-graph people are dropped, and an
+    unsplit selfie-graph person is not one of the others: it segments everyone in its region, so it overlaps its
+    neighbours by nature (up to 0.99 in a group seen face by face)."""
+    ones = [i for i, p in enumerate(people) if p.source == "pose" or p.whole is not None]
+    if len(ones) < 3 or not any(people[i].source == "pose" for i in ones):
         return people
-    masks = {i: logits_on_grid(people[i], grid) > 0 for i in pose}
-    kept = set(pose)
-    while True:
+    masks = {i: logits_on_grid(people[i], grid) > 0 for i in ones}
+    holds = {i: {j for j, f in enumerate(faces) if shape is not None and contains(people[i], f, shape)} for i in ones}
+    kept = set(ones)
+    while len(kept) >= 3:
         inside = {}
         for i in kept:
+            if people[i].source != "pose":
+                continue
             others = np.zeros_like(masks[i])
+            held = set()
             for j in kept - {i}:
                 others |= masks[j]
-            inside[i] = float(others[masks[i]].mean()) if masks[i].any() else 0.0
+                held |= holds[j]
+            if holds[i] <= held:
+                inside[i] = float(others[masks[i]].mean()) if masks[i].any() else 0.0
+        if not inside:
+            break
         worst = max(inside, key=inside.get)
-        if inside[worst] < _STRADDLE or len(kept) < 3:
+        if inside[worst] < _STRADDLE:
             break
         kept.discard(worst)
-    return [p for i, p in enumerate(people) if p.source != "pose" or i in kept]
+    return [p for i, p in enumerate(people) if i in kept or i not in masks]
 
 
 def _held(raised: Person, first: Person, shape: tuple[int, int]) -> Person:
@@ -551,6 +558,26 @@ def _strips(pix: np.ndarray, gw: int, grid, shape: tuple[int, int]) -> list:
             box = ((left - bx) / kx, (sy.min() - by) / ky, (left + width - bx) / kx, (sy.max() + 1 - by) / ky)
             out.append((keep.size / kx / ky, box, None, keep))
     return out
+
+
+def _as_people(
+    p: Person, k: int | None, faces: list[Face], owned: set[int], shape: tuple[int, int]
+) -> tuple[list[Person], list[int]]:
+    """A segmentation newly kept by person="all" as people, and the faces it takes (indices into ``faces``;
+    ``k``: the face it was found from, None for a blob). The selfie graph segments everyone in its region, so
+    people side by side come as one segmentation holding several faces: one person per face not taken yet
+    (:func:`split_by_faces`; the matte stays their union). The faces of people matted already take their share
+    of the canvas too, so that a new person's part holds none of them (group_t1: Monica's face gave a part
+    holding Rachel, Ross and half of Chandler, and a straddling box across Rachel and Ross lay inside it)."""
+    held = [j for j, f in enumerate(faces) if contains(p, f, shape)]
+    mine = [j for j in held if j not in owned]
+    side_by_side = _side_by_side([faces[j] for j in held])
+    taken = [id(faces[j]) for j in owned]
+    new = [i for i, f in enumerate(side_by_side) if id(f) not in taken]
+    if p.source == "roi" and len(side_by_side) >= 2 and new:
+        parts = split_by_faces(p, side_by_side)
+        return [parts[i] for i in new], mine
+    return [p], ([k] if k is not None else mine[:1])
 
 
 def split_by_faces(person: Person, faces: list[Face]) -> list[Person]:

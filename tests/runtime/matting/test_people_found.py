@@ -275,6 +275,61 @@ def test_a_pose_person_straddling_two_others_is_dropped():
     assert _matter._without_straddlers([left, straddler], grid) == [left, straddler]
 
 
+def test_a_pose_person_straddling_a_pose_person_and_a_split_part_is_dropped():
+    """group_t1 (six people round a table) came out as 7: a pose-graph box across Rachel's head and Ross's body
+    lay 0.19 inside Rachel (pose graph) and 0.68 inside Ross's part of a selfie-graph segmentation split by
+    faces, which the rule did not count among the others."""
+    grid = M._regions.working_grid((0, 0, 400, 400))
+    left, straddler = box_person((40, 100, 200, 380)), box_person((130, 100, 270, 380))
+    whole = box_person((200, 100, 360, 380), "roi")
+    part = M.Person(whole.region, whole.logits, whole.presence, "roi", whole=whole.logits)
+    assert _matter._without_straddlers([left, straddler, part], grid) == [left, part]
+    # an unsplit selfie-graph person holds its neighbours by nature: not one of the others, as before
+    assert _matter._without_straddlers([left, straddler, whole], grid) == [left, straddler, whole]
+    # and a split part is never dropped itself
+    assert _matter._without_straddlers([left, box_person((200, 100, 360, 380)), part], grid)[-1] is part
+    # a straddler that alone holds a face stays (group_t1 shifted by a pixel: the box across Rachel and Ross was
+    # the only one holding Rachel's face, and there was no other Rachel)
+    face = Face((140.0, 110.0, 170.0, 140.0), 0.9)
+    kept = _matter._without_straddlers([left, straddler, part], grid, [face], (400, 400))
+    assert kept == [left, part]  # left holds the face too
+    lone = Face((250.0, 110.0, 266.0, 140.0), 0.9)  # in the straddler and in the part: held by another too
+    assert _matter._without_straddlers([left, straddler, part], grid, [lone], (400, 400)) == [left, part]
+    lower = box_person((40, 150, 200, 380))  # the left one no longer reaches the face: the straddler alone holds it
+    assert _matter._without_straddlers([lower, straddler, part], grid) == [lower, part]  # 0.91 inside the others
+    kept = _matter._without_straddlers([lower, straddler, part], grid, [face], (400, 400))
+    assert kept == [lower, straddler, part]
+
+
+def test_a_new_face_takes_no_share_of_the_people_matted_before():
+    """A selfie-graph segmentation holding three faces side by side, two of whose people were matted already:
+    the new person is the third face's share of it, not the whole segmentation (group_t1: Monica's person held
+    Rachel, Ross and half of Chandler)."""
+    side = 400.0
+    whole = box_person((20, 100, 380, 380), "roi")
+    faces = [Face((40.0, 110.0, 100.0, 170.0), 0.9), Face((170.0, 110.0, 230.0, 170.0), 0.9),
+             Face((300.0, 110.0, 360.0, 170.0), 0.9)]  # fmt: skip
+    people, taken = _matter._as_people(whole, 1, faces, {0, 2}, (int(side), int(side)))
+    assert len(people) == 1 and taken == [1]
+    box = M.person_box(people[0], (400, 400))
+    assert 100 < box[0] < 170 and 230 < box[2] < 300  # its columns only (was the whole: 20 to 380)
+    assert people[0].whole is whole.logits  # the matte is still the whole segmentation
+    # no face taken before: one person per face, as before
+    people, taken = _matter._as_people(whole, None, faces, set(), (400, 400))
+    assert len(people) == 3 and sorted(taken) == [0, 1, 2]
+    # a pose-graph person is never split
+    body = box_person((20, 100, 380, 380))
+    assert _matter._as_people(body, None, faces, {0}, (400, 400)) == ([body], [1])
+
+
+def test_group_t1_is_six_people(group_t1):
+    """insightface's t1.jpg, six people round a table: 7 with --person all (the straddling box across Rachel and
+    Ross). Also on the photo shifted by a pixel."""
+    everyone = M.PersonMatter(person="all")
+    assert len(everyone.people(group_t1)) == 6  # was 7
+    assert len(everyone.people(np.ascontiguousarray(group_t1[1:]))) == 6
+
+
 def test_raised_portrait_region_keeps_out_a_taller_neighbour():
     """The higher region takes in more of a taller neighbour beside the person (a coach beside a helmeted
     player, 252x239 px): its answer is kept to the first answer's columns, or the person's matte would take
