@@ -101,3 +101,10 @@ def group_t1():
     """insightface's sample photo t1.jpg (six people round a table, 1280x886), from people_photos' cache;
     skipped when absent."""
     return _people_photo("group_t1.jpg")
+
+
+@pytest.fixture(scope="session")
+def rose_hair():
+    """face_recognition's example photo of Rose Leslie (knn_examples/train/rose_leslie/img2.jpg, 577x878),
+    from people_photos' cache; skipped when absent."""
+    return _people_photo("rose_hair.jpg")

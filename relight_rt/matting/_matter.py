@@ -47,6 +47,8 @@ _COVERED = 0.5  # a candidate (blob) this much inside people already matted is o
 _COVERED_FACE = 0.8  # ... and a face's person this much inside them
 _MAX_REQUEUE = 16  # person="all": leftovers of blobs searched again (several people in one blob)
 _MAX_TRIES = 32  # person="all": candidates segmented at most (each costs 1-4 pose-graph runs)
+_MAX_FAINT = 16  # ... and faint places (:func:`_faint`) tried at most after them
+_FAINT_FRAME = 2.0  # ... each framed at least this x the smallest person kept (a faint blob is often part of one)
 _GIVE_UP = 0.02  # person="all": a blob whose first pose-graph pass says this little is nobody (no re-centring)
 _SETTLED_IOU = 0.9  # the region has settled when the next one overlaps it this much
 _REFRAME = 0.9  # the selfie graph is run again on its own segmentation's region when that is this much smaller
@@ -300,8 +302,9 @@ class PersonMatter:
                 more = _strips(pix, gw, grid, (h, w))
             requeued += len(more)
             cands = sorted(cands + more, key=lambda t: -t[0])
-        for box in _faint(prob, grid, MIN_PERSON_FRACTION * h):
-            if tries >= _MAX_TRIES:
+        tries = 0  # the faint places have tries of their own (a blob cut into strips used them all up)
+        for box in _faint(prob, grid, _FAINT_FRAME * MIN_PERSON_FRACTION * h):
+            if tries >= _MAX_FAINT:
                 break
             pix = _grid_pixels(box, grid)
             if pix.size == 0 or occupied.flat[pix].mean() >= _COVERED:
@@ -309,6 +312,10 @@ class PersonMatter:
             tries += 1
             p = self._person_at(rgb, box, None, _GIVE_UP)
             if p is None or p.presence < PRESENCE_FAINT or _box_height(person_box(p, (h, w))) < MIN_PERSON_FRACTION * h:
+                continue
+            if _past_border(person_box(p, (h, w)), (h, w)) is not None:
+                # seen whole or not at all: cut by the frame, a faint place was a pattern (rose_hair's poster
+                # letters in the top corner, framed on 2x the smallest person: presence 0.95)
                 continue
             mask = logits_on_grid(p, grid) > 0
             if mask.any() and occupied[mask].mean() < _COVERED:
