@@ -240,6 +240,27 @@ def test_a_faint_place_cut_by_the_frame_is_nobody(rose_hair):
     assert len(people) == 1
 
 
+def test_a_blob_of_two_walking_side_by_side_is_tried_strip_by_strip():
+    """The reference street photo shifted by a column: two men walking side by side, one half behind the other,
+    are one blob 76 x 153 px; framed on the blob the pose graph saw nobody, and the blob was too narrow for
+    strips, so both were missed. Now a blob at least _PAIR_WIDTH x as wide as tall is two overlapping strips."""
+    grid = M._regions.working_grid((0, 0, 300, 200))  # 1:1
+    gw = grid[0]
+    ys, xs = np.mgrid[20:173, 100:176]  # 76 x 153
+    strips = _matter._strips((ys * gw + xs).ravel(), gw, grid, (200, 300))
+    assert len(strips) == 2  # was none
+    (a, b) = [s[1] for s in strips]
+    assert a[0] == pytest.approx(100.5) and b[2] == pytest.approx(176.5)  # the left and the right end
+    assert a[2] - a[0] == pytest.approx(76 / 1.5) and b[0] < a[2]  # each two thirds of the blob: they overlap
+    ys, xs = np.mgrid[0:153, 100:176]  # cut by the frame's top (the skater's blurred crowd): no strips
+    assert _matter._strips((ys * gw + xs).ravel(), gw, grid, (200, 300)) == []
+    ys, xs = np.mgrid[20:173, 100:150]  # 50 x 153: one person's width, no strips
+    assert _matter._strips((ys * gw + xs).ravel(), gw, grid, (200, 300)) == []
+    ys, xs = np.mgrid[20:120, 20:280]  # wide: strips half as wide as the blob is tall, as before
+    strips = _matter._strips((ys * gw + xs).ravel(), gw, grid, (200, 300))
+    assert all(s[1][2] - s[1][0] == pytest.approx(50.0) for s in strips) and len(strips) == 9
+
+
 def test_faint_boxes_are_blobs_that_stay_under_half_and_frame_a_person_tall_enough():
     h, w = 200, 300
     grid = M._regions.working_grid((0, 0, w, h))  # 1:1
