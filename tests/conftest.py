@@ -75,17 +75,36 @@ def dpr_portrait(tmp_path_factory):
     return read_image(path)
 
 
-@pytest.fixture(scope="session")
-def grace_hopper():
-    """matplotlib's sample photo grace_hopper.jpg (512x600) as float32 RGB, from the cache that
-    benchmarks/people_photos.py fills ($RELIGHT_RT_PEOPLE, else its default folder); skipped when absent."""
+def _people_photo(name: str):
+    """A photo of benchmarks/people_photos.py's cache ($RELIGHT_RT_PEOPLE, else its default folder) as float32
+    RGB; the test is skipped when it is absent."""
     import os
     import tempfile
 
     from relight_rt._io import read_image
 
     folder = Path(os.environ.get("RELIGHT_RT_PEOPLE", Path(tempfile.gettempdir()) / "relight_rt_people"))
-    path = folder / "grace_hopper.jpg"
+    path = folder / name
     if not path.is_file():
         pytest.skip(f"{path} is absent (run benchmarks/people_photos.py --cache {folder})")
     return read_image(path)
+
+
+@pytest.fixture(scope="session")
+def grace_hopper():
+    """matplotlib's sample photo grace_hopper.jpg (512x600), from people_photos' cache; skipped when absent."""
+    return _people_photo("grace_hopper.jpg")
+
+
+@pytest.fixture(scope="session")
+def group_t1():
+    """insightface's sample photo t1.jpg (six people round a table, 1280x886), from people_photos' cache;
+    skipped when absent."""
+    return _people_photo("group_t1.jpg")
+
+
+@pytest.fixture(scope="session")
+def rose_hair():
+    """face_recognition's example photo of Rose Leslie (knn_examples/train/rose_leslie/img2.jpg, 577x878),
+    from people_photos' cache; skipped when absent."""
+    return _people_photo("rose_hair.jpg")

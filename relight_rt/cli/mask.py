@@ -43,7 +43,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", required=True, metavar="OUT",
                    help="output .png (one image), folder, or video file (.avi/.mp4/.mkv; a video input)")  # fmt: skip
     p.add_argument("--person", choices=("largest", "all"), default="largest",
-                   help="which people to mask: the largest (default) or everyone found")  # fmt: skip
+                   help="which people to mask: the largest (default) or all: everyone at least 6%% of the "
+                   "photo's height tall and in view (people overlapping one another may come as one, or the one "
+                   "behind be missed)")  # fmt: skip
     p.add_argument("--no-refine", action="store_true", help="skip the guided-filter edge refinement")
     p.add_argument("--binary", action="store_true", help="write 0/255 masks (threshold 0.5) instead of soft ones")
     p.add_argument("--foreground", metavar="OUT",

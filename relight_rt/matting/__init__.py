@@ -19,7 +19,12 @@ Three graphs converted from Google MediaPipe (Apache-2.0; ``python -m export mas
 ``person="all"`` gathers the selfie graph's probability over every tile scale (not only the first that
 finds anybody), so passers-by beside a big subject are candidates too; a candidate already inside the
 people matted is skipped, a wide blob where the pose graph sees nobody is tried strip by strip, and
-people shorter than MIN_PERSON_FRACTION of the photo's height are left out.
+people shorter than MIN_PERSON_FRACTION of the photo's height are left out. What it finds (measured on
+benchmarks/people_photos.py, docs/RESULTS.md "Automatic mattes"): everyone at least 6 % of the photo's
+height tall who stands apart from the others and is in view, down to the street photo's passers-by at
+10 % (130 px, faces of 15 px); people who overlap one another in the picture (walking side by side, one
+half behind another) can come as one person or, the one behind, not at all, and so can a person of whom
+only a sliver shows at the frame's edge.
 
 The 256² logits are mapped back onto a working grid (the region at <= 512 px), turned into a
 probability, and refined to full resolution by a fast guided filter steered by the photo (He & Sun

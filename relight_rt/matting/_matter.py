@@ -47,11 +47,14 @@ _COVERED = 0.5  # a candidate (blob) this much inside people already matted is o
 _COVERED_FACE = 0.8  # ... and a face's person this much inside them
 _MAX_REQUEUE = 16  # person="all": leftovers of blobs searched again (several people in one blob)
 _MAX_TRIES = 32  # person="all": candidates segmented at most (each costs 1-4 pose-graph runs)
+_MAX_FAINT = 16  # ... and faint places (:func:`_faint`) tried at most after them
+_FAINT_FRAME = 2.0  # ... each framed at least this x the smallest person kept (a faint blob is often part of one)
 _GIVE_UP = 0.02  # person="all": a blob whose first pose-graph pass says this little is nobody (no re-centring)
 _SETTLED_IOU = 0.9  # the region has settled when the next one overlaps it this much
 _REFRAME = 0.9  # the selfie graph is run again on its own segmentation's region when that is this much smaller
 _MAX_GROW = 2  # selfie-graph runs on a higher region while its segmentation is cut by the region's top (_uncut)
 _STRADDLE = 0.75  # person="all": a pose-graph person this much inside the others together straddles two
+_PAIR_WIDTH = 0.45  # person="all": a blob nobody is found in, this x as wide as tall or wider, may be two
 _CUT_WIDTH = 0.125  # a portrait's body is cut by the bottom border over at least this x its box's width
 
 
@@ -64,7 +67,7 @@ class PersonMatter:
         device: "cpu" (default), "cuda" or "auto".
         person: "largest" (default: the person with the largest area) or "all" (everyone at least
             MIN_PERSON_FRACTION of the photo's height tall that the graphs see at any tile scale; see
-            :meth:`people`).
+            :meth:`people`; people overlapping one another can come as one, see the package docstring).
         refine: refine the edges with the photo (guided filter); False gives the upsampled segmentation.
         guide: "gray" (default, fast) or "color" (a colour guide: separates edges that differ in colour
             but not in brightness, e.g. pale shoes on a white floor; ~4x the refinement time).
@@ -287,16 +290,9 @@ class PersonMatter:
                 # overlap more: in a group, the selfie graph's region of one face shows the neighbours too)
                 if mask.any() and occupied[mask].mean() < (_COVERED if face is None else _COVERED_FACE):
                     occupied |= mask
-                    mine = [j for j, f in enumerate(faces) if j not in owned and contains(p, f, (h, w))]
-                    side_by_side = _side_by_side([faces[j] for j in mine])
-                    if p.source == "roi" and len(side_by_side) >= 2:
-                        # the selfie graph segments everyone in its region: people side by side come as one
-                        # segmentation holding several faces, one person each (the matte stays their union)
-                        found.extend(split_by_faces(p, side_by_side))
-                        owned.update(mine)
-                    else:
-                        found.append(p)
-                        owned.update([k] if k is not None else mine[:1])
+                    people, mine = _as_people(p, k, faces, owned, (h, w))
+                    found.extend(people)
+                    owned.update(mine)
             if pix is None or requeued >= _MAX_REQUEUE:
                 continue
             rest = np.zeros(gh * gw, bool)
@@ -307,8 +303,9 @@ class PersonMatter:
                 more = _strips(pix, gw, grid, (h, w))
             requeued += len(more)
             cands = sorted(cands + more, key=lambda t: -t[0])
-        for box in _faint(prob, grid, MIN_PERSON_FRACTION * h):
-            if tries >= _MAX_TRIES:
+        tries = 0  # the faint places have tries of their own (a blob cut into strips used them all up)
+        for box in _faint(prob, grid, _FAINT_FRAME * MIN_PERSON_FRACTION * h):
+            if tries >= _MAX_FAINT:
                 break
             pix = _grid_pixels(box, grid)
             if pix.size == 0 or occupied.flat[pix].mean() >= _COVERED:
@@ -317,11 +314,15 @@ class PersonMatter:
             p = self._person_at(rgb, box, None, _GIVE_UP)
             if p is None or p.presence < PRESENCE_FAINT or _box_height(person_box(p, (h, w))) < MIN_PERSON_FRACTION * h:
                 continue
+            if _past_border(person_box(p, (h, w)), (h, w)) is not None:
+                # seen whole or not at all: cut by the frame, a faint place was a pattern (rose_hair's poster
+                # letters in the top corner, framed on 2x the smallest person: presence 0.95)
+                continue
             mask = logits_on_grid(p, grid) > 0
             if mask.any() and occupied[mask].mean() < _COVERED:
                 occupied |= mask
                 found.append(p)
-        return _without_straddlers(found, grid)
+        return _without_straddlers(found, grid, faces, (h, w))
 
     def _person_at(
         self, rgb: np.ndarray, box, face: Face | None, give_up: float = 0.0, passes: int | None = None
@@ -470,32 +471,46 @@ def _faint(prob: np.ndarray, grid, min_height: float) -> list[tuple[float, float
     return out
 
 
-def _without_straddlers(people: list[Person], grid) -> list[Person]:
-    """``people`` less each pose-graph person whose segmentation lies at least _STRADDLE inside the other
-    pose-graph people's together: a region framed between two people side by side, on which the pose graph
-    (which segments one person) answers with a body across both (two men crouching face to face came out as
-    3: the straddling one lies 0.81 inside the two, 0.46 at most inside either; between distinct people
-    found by the pose graph on the 13 photos of benchmarks/people_photos.py with several people, each at 3
-    framings shifted by 0-1 px, at most 0.47). The one lying most
-    inside the others goes first. Not for selfie-graph people: it segments everyone in its region, so their
-    segmentations overlap their neighbours by nature (up to 0.99 in a group seen face by face)."""
-    pose = [i for i, p in enumerate(people) if p.source == "pose"]
-    if len(pose) < 3:
+def _without_straddlers(
+    people: list[Person], grid, faces: list[Face] = (), shape: tuple[int, int] | None = None
+) -> list[Person]:
+    """``people`` less each pose-graph person whose segmentation lies at least _STRADDLE inside the other people
+    together: a region framed between two people side by side, on which the pose graph (which segments one
+    person) answers with a body across both (two men crouching face to face came out as 3: the straddling one
+    lies 0.81 inside the two, 0.46 at most inside either; between distinct people found by the pose graph on the
+    13 photos of benchmarks/people_photos.py with several people, each at 3 framings shifted by 0-1 px, at most
+    0.47). The one lying most inside the others goes first. The others are the pose-graph people and the parts of
+    selfie-graph segmentations split by faces (:func:`split_by_faces`: each is one person's share of the
+    canvas; group_t1's pose-graph box across Rachel's head and Ross's body lay 0.19 inside Rachel and 0.68
+    inside Ross's part). A person who alone holds one of ``faces`` (image ``shape``) stays: on group_t1 shifted
+    by a pixel that box was the only one holding Rachel's face. Only pose-graph people are dropped, and an
+    unsplit selfie-graph person is not one of the others: it segments everyone in its region, so it overlaps its
+    neighbours by nature (up to 0.99 in a group seen face by face)."""
+    ones = [i for i, p in enumerate(people) if p.source == "pose" or p.whole is not None]
+    if len(ones) < 3 or not any(people[i].source == "pose" for i in ones):
         return people
-    masks = {i: logits_on_grid(people[i], grid) > 0 for i in pose}
-    kept = set(pose)
-    while True:
+    masks = {i: logits_on_grid(people[i], grid) > 0 for i in ones}
+    holds = {i: {j for j, f in enumerate(faces) if shape is not None and contains(people[i], f, shape)} for i in ones}
+    kept = set(ones)
+    while len(kept) >= 3:
         inside = {}
         for i in kept:
+            if people[i].source != "pose":
+                continue
             others = np.zeros_like(masks[i])
+            held = set()
             for j in kept - {i}:
                 others |= masks[j]
-            inside[i] = float(others[masks[i]].mean()) if masks[i].any() else 0.0
+                held |= holds[j]
+            if holds[i] <= held:
+                inside[i] = float(others[masks[i]].mean()) if masks[i].any() else 0.0
+        if not inside:
+            break
         worst = max(inside, key=inside.get)
-        if inside[worst] < _STRADDLE or len(kept) < 3:
+        if inside[worst] < _STRADDLE:
             break
         kept.discard(worst)
-    return [p for i, p in enumerate(people) if p.source != "pose" or i in kept]
+    return [p for i, p in enumerate(people) if i in kept or i not in masks]
 
 
 def _held(raised: Person, first: Person, shape: tuple[int, int]) -> Person:
@@ -536,13 +551,20 @@ def _grid_pixels(box, grid) -> np.ndarray:
 
 def _strips(pix: np.ndarray, gw: int, grid, shape: tuple[int, int]) -> list:
     """A wide blob (flat pixel indices on the working grid) as overlapping upright strips, each about half as
-    wide as the blob is tall: candidates for people standing side by side."""
+    wide as the blob is tall: candidates for people standing side by side. A blob narrower than that but at
+    least _PAIR_WIDTH x as wide as tall is two strips, each two thirds of its width: two people walking side by
+    side, one half behind the other (the reference street photo shifted by a column: the pose graph framed on
+    such a blob, 76 x 153 px, saw nobody, and both men were missed), when it is clear of the image border
+    (a blob the frame cuts was the skater's blurred crowd, where a strip gave a person of blur, presence 0.76)."""
     _, _, kx, ky, bx, by = grid
     ys, xs = np.divmod(pix, gw)
     x0, x1, y0, y1 = xs.min(), xs.max() + 1, ys.min(), ys.max() + 1
     width = 0.5 * (y1 - y0)
     if x1 - x0 < 1.4 * width:
-        return []
+        gh = grid[1]
+        if x1 - x0 < _PAIR_WIDTH * (y1 - y0) or min(x0, y0) <= 0 or x1 >= gw or y1 >= gh:
+            return []
+        width = (x1 - x0) / 1.5  # two people walking side by side, one half behind the other: a strip each
     out = []
     for left in np.arange(x0, x1 - width + 1, width / 2):
         keep = pix[(xs >= left) & (xs < left + width)]
@@ -551,6 +573,26 @@ def _strips(pix: np.ndarray, gw: int, grid, shape: tuple[int, int]) -> list:
             box = ((left - bx) / kx, (sy.min() - by) / ky, (left + width - bx) / kx, (sy.max() + 1 - by) / ky)
             out.append((keep.size / kx / ky, box, None, keep))
     return out
+
+
+def _as_people(
+    p: Person, k: int | None, faces: list[Face], owned: set[int], shape: tuple[int, int]
+) -> tuple[list[Person], list[int]]:
+    """A segmentation newly kept by person="all" as people, and the faces it takes (indices into ``faces``;
+    ``k``: the face it was found from, None for a blob). The selfie graph segments everyone in its region, so
+    people side by side come as one segmentation holding several faces: one person per face not taken yet
+    (:func:`split_by_faces`; the matte stays their union). The faces of people matted already take their share
+    of the canvas too, so that a new person's part holds none of them (group_t1: Monica's face gave a part
+    holding Rachel, Ross and half of Chandler, and a straddling box across Rachel and Ross lay inside it)."""
+    held = [j for j, f in enumerate(faces) if contains(p, f, shape)]
+    mine = [j for j in held if j not in owned]
+    side_by_side = _side_by_side([faces[j] for j in held])
+    taken = [id(faces[j]) for j in owned]
+    new = [i for i, f in enumerate(side_by_side) if id(f) not in taken]
+    if p.source == "roi" and len(side_by_side) >= 2 and new:
+        parts = split_by_faces(p, side_by_side)
+        return [parts[i] for i in new], mine
+    return [p], ([k] if k is not None else mine[:1])
 
 
 def split_by_faces(person: Person, faces: list[Face]) -> list[Person]:
