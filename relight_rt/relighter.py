@@ -72,7 +72,7 @@ log = logging.getLogger(__name__)
 
 ImageLike = str | os.PathLike | np.ndarray
 _RATIO_EPS = np.float32(0.01)  # the ratio's denominator is floored here (dark pixels: noise, not light)
-_OWN_FLOOR = np.float32(0.5)  # ... and at this share of the photo's luminance (the photo at most 2x its reconstruction)
+_OWN_FLOOR = np.float32(0.5)  # light the model misses, up to this share of the photo, stays under a new light (_own)
 _ALPHA_MIN = np.float32(1e-3)
 _DARK = np.float32(0.25)  # _steady_chroma: a pixel below this luminance, brightened by a gain, takes its dark
 _AMPLIFIED = np.float32(2.0)  # ... neighbours' colour, fully from a gain of 1 + this,
@@ -126,7 +126,19 @@ def _shoulder(colour: np.ndarray, knee: np.ndarray) -> np.ndarray:
     return colour
 
 
-def _steady_chroma(image: np.ndarray, gain: np.ndarray) -> np.ndarray:
+def _dark_colour(image: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """What ``_steady_chroma`` needs of a photo whatever the light: its luminance (h, w), its darkness 1 - Y / _DARK
+    clipped to [0, 1], and the colour its dark pixels (Y < _DARK) within ``_CHROMA_RADIUS`` have per unit of
+    luminance (h, w, 3)."""
+    y = cv2.transform(image, _exposure.REC709.reshape(1, 3))  # (h, w): one output channel
+    dark = (y < _DARK).astype(np.float32)
+    size = (2 * _CHROMA_RADIUS + 1,) * 2
+    colour = cv2.boxFilter(image * dark[..., None], -1, size)
+    colour /= np.maximum(cv2.boxFilter(y * dark, -1, size), 1e-4)[..., None]
+    return y, np.clip(1 - y / _DARK, 0, 1), colour
+
+
+def _steady_chroma(image: np.ndarray, gain: np.ndarray, dark: tuple | None = None) -> np.ndarray:
     """``image`` x ``gain`` (both (h, w, 3)), where a strong gain brightens a dark pixel whose colour is not its
     neighbours', that colour pulled toward theirs first.
 
@@ -137,18 +149,15 @@ def _steady_chroma(image: np.ndarray, gain: np.ndarray) -> np.ndarray:
     at the pixel's own luminance, is what it is pulled toward, by w = (1 - Y / _DARK) x min((g - 1) /
     _AMPLIFIED, 1) (Y the pixel's luminance, g the gain's): a dark cloth whose pixels agree keeps its colour (the
     held-out renders' RMSE is unchanged or lower), a pixel not brightened or bright enough for its colour to be
-    signal is untouched, and the gain's own colour (the new light's) stays.
+    signal is untouched, and the gain's own colour (the new light's) stays. ``dark``: ``_dark_colour(image)``,
+    computed here when not given (it does not depend on the light: the runtime keeps it per photo).
     """
-    lum = _exposure.REC709.reshape(1, 3)
-    g, y = cv2.transform(gain, lum), cv2.transform(image, lum)  # (h, w): one output channel
-    w = np.clip(1 - y / _DARK, 0, 1) * np.clip((g - 1) / _AMPLIFIED, 0, 1)
+    g = cv2.transform(gain, _exposure.REC709.reshape(1, 3))
+    y, darkness, colour = _dark_colour(image) if dark is None else dark
+    w = darkness * np.clip((g - 1) / _AMPLIFIED, 0, 1)
     if not w.any():
         return image * gain
-    dark = (y < _DARK).astype(np.float32)
-    size = (2 * _CHROMA_RADIUS + 1,) * 2
-    colour = cv2.boxFilter(image * dark[..., None], -1, size)  # ... over their luminance, times the pixel's
-    pull = w * y / np.maximum(cv2.boxFilter(y * dark, -1, size), 1e-4)
-    return (image * (1 - w)[..., None] + colour * pull[..., None]) * gain
+    return (image * (1 - w)[..., None] + colour * (w * y)[..., None]) * gain
 
 
 def _consistent(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray, bg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -690,8 +699,9 @@ class Relighter:
         """What every relight of ``dec`` divides by, in the person's window of the network frame (cached).
 
         ``_restored``'s entries, and "own" (r, r') the luminance of the pipeline's image under the photo's own
-        light taken as white (diffuse plus stage 2's residual), floored at ``_OWN_FLOOR`` x the photo's luminance
-        there and at the ratio's floor.
+        light taken as white (diffuse plus stage 2's residual) plus "missing" (r, r'), what that falls short of
+        ``_OWN_FLOOR`` x the photo's luminance (light the model misses; ``_gain`` adds it to every new light too),
+        floored at the ratio's floor.
         """
         state = self._prepared(dec)
         key = "own" if with_residual else "own_diffuse"
@@ -703,11 +713,13 @@ class Relighter:
                 own += _luminance_window(residual, base["alpha"], base["window"])
             # where the photo is far brighter than its own reconstruction, the model misses light that is there
             # (stage 1's light from above and behind put a profile face in deep shade, then a front light made
-            # it 3-5x brighter, blown out): the ratio is taken against at least a share of the photo itself
+            # it 3-5x brighter, blown out): that missing light, up to a share of the photo, is taken to stay under
+            # every new light (added to both sides of the ratio, so the photo's own light still gives the photo)
             y0, y1, x0, x1 = base["window"]
             photo = dec.network_image[y0:y1, x0:x1] @ _exposure.REC709
-            np.maximum(own, _OWN_FLOOR * photo, out=own)
-            state[key] = {**base, "own": _readonly(np.maximum(own, _RATIO_EPS).astype(np.float32))}
+            missing = np.maximum(_OWN_FLOOR * photo - own, 0).astype(np.float32)
+            state[key] = {**base, "missing": _readonly(missing),
+                          "own": _readonly(np.maximum(own + missing, _RATIO_EPS).astype(np.float32))}
         return state[key]
 
     def _refit(self, dec: Decomposition) -> Decomposition:
@@ -779,9 +791,11 @@ class Relighter:
         head = self._prepared(dec).get("head")
         if head is not None:
             self._blend_head(dec, gain, light, *head)
-        colour = _steady_chroma(image, gain)
-        np.maximum(colour, 0, out=colour)
         state = self._prepared(dec)
+        if "dark" not in state:  # once per photo: what steadying dark pixels' colour needs whatever the light
+            state["dark"] = tuple(_readonly(a) for a in _dark_colour(image))
+        colour = _steady_chroma(image, gain, state["dark"])
+        np.maximum(colour, 0, out=colour)
         if "knee" not in state:
             state["knee"] = _readonly(_knee(image))
         return _shoulder(colour, state["knee"])
@@ -838,6 +852,7 @@ class Relighter:
         new = own["albedo"] * lum
         if residual is not None:
             new += _luminance_window(residual, alpha, own["window"])
+        new += own["missing"]  # the light the photo shows and the model misses stays (``_own``)
         ratio = np.maximum(new, _RATIO_EPS) / own["own"]  # both floored: the photo's own light gives 1
         # the colour of the new light at each pixel, luminance 1 (where it leaves the pixel dark: its overall colour,
         # or white when that is not a colour: a light whose mean is not positive)
