@@ -1,7 +1,7 @@
 """Contact sheet: two people composited into ten backgrounds (docs/RESULTS.md, "Into any scene").
 
     python benchmarks/scene_sheet.py --hdri ../shared/hdri --blender BLENDER_WORLD --out docs/scene_sheet.jpg \\
-        [--half-body PHOTO --half-body-mask MASK] [--size 320] [--models DIR] [--rim]
+        [--half-body PHOTO --half-body-mask MASK] [--size 320] [--models DIR] [--rim] [--photos PLACE ...]
 
 People: the bundled example (relight_rt/data/example.png, a render of our own; linear, so sRGB-encoded
 first, as a camera would write it) standing full length, and a half body: by default the same person cut
@@ -10,8 +10,9 @@ reference photo in ../shared, which is CC BY-NC-SA: such a sheet is for looking 
 Backgrounds: perspective views (60°, a level camera looking along −x) of CC0 photographed panoramas,
 auto-exposed (mean linear luminance 0.18) and sRGB-encoded: six of ../shared/hdri and, with ``--blender``
 (``datafiles/studiolights/world`` of Debian's blender-data; reading .exr needs ``pip install OpenEXR``), four
-of those. Each row: the realistic paste (the full-body person as photographed, unrelit, at the same place
-and size; the estimated light on a sphere in the corner) | ``composite`` full body | ``composite`` half body,
+of those; ``--photos``: real photos of places (centre-cropped to 4:3 and resized, e.g. scikit-image's
+rocket.jpg and motorcycle_left.png from its wheel, ultralytics' bus.jpg). Each row: the realistic paste (the
+full-body person as photographed, unrelit, at the same place and size; the estimated light on a sphere in the corner) | ``composite`` full body | ``composite`` half body,
 0.6 of the frame high (otherwise all defaults: the background's own light, perspective placement, shadows,
 camera matching, light wrap, frame metering; ``--rim`` adds the back key's rim). Prints each background's camera
 blur (relight_rt.scene, step 5).
@@ -62,6 +63,21 @@ def background(path: Path, size: tuple[int, int], turn: int = 0) -> np.ndarray:
     return (linear_to_srgb(np.clip(view * k, 0, 1)) * 255 + 0.5).astype(np.uint8)
 
 
+def photo_background(path: Path, size: tuple[int, int]) -> np.ndarray:
+    """8-bit sRGB (H, W, 3): a photo of a place, centre-cropped to the size's aspect and resized to it."""
+    img = read_image(path, "place")[..., :3]
+    h, w = img.shape[:2]
+    want = size[1] / size[0]
+    if w / h > want:
+        cw = round(h * want)
+        img = img[:, (w - cw) // 2 : (w - cw) // 2 + cw]
+    else:
+        ch = round(w / want)
+        img = img[(h - ch) // 2 : (h - ch) // 2 + ch]
+    img = cv2.resize(img, (size[1], size[0]), interpolation=cv2.INTER_AREA)
+    return (np.clip(img, 0, 1) * 255 + 0.5).astype(np.uint8)
+
+
 def pasted(person_srgb: np.ndarray, bg: np.ndarray) -> np.ndarray:
     """The person laid over the background as photographed (no relighting), placed as ``composite`` places a
     full-body person by default (feet at DEFAULT_FEET, height from perspective, level camera)."""
@@ -96,6 +112,7 @@ def main(argv=None) -> int:
     ap.add_argument("--models", default=None)
     ap.add_argument("--size", type=int, default=320, help="background width (height 3/4 of it)")
     ap.add_argument("--rim", action="store_true", help="composite with rim=True (a back key's rim)")
+    ap.add_argument("--photos", type=Path, nargs="*", default=[], help="real photos of places as more backgrounds")
     args = ap.parse_args(argv)
     relighter = Relighter(RuntimeConfig(models=args.models, device="cpu"))
     rgba = read_image(REPO / "relight_rt" / "data" / "example.png", "example")
@@ -114,10 +131,10 @@ def main(argv=None) -> int:
     if args.blender:
         maps += [(args.blender / f"{n}.exr", t) for n, t in BLENDER]
     tiles = []
-    for path, turn in maps:
+    for path, turn in [*maps, *((p, None) for p in args.photos)]:
         if not path.is_file():
             continue
-        bg = background(path, size, turn)
+        bg = background(path, size, turn) if turn is not None else photo_background(path, size)
         light, _ = light_from_background(bg)
         sphere = sh.render_sphere(light, size=size[0] // 3)
         sphere = linear_to_srgb(np.clip(sphere * (0.8 / max(float(sphere.max()), 1e-6)), 0, 1))
@@ -128,7 +145,8 @@ def main(argv=None) -> int:
         gap = np.ones((size[0], 4, 3), np.float32)
         tiles.append(np.concatenate([paste, gap, full, gap, halfbody], 1))
         blur = scene_mod._camera_blur(scene_mod._grey(bg))  # what the person is blurred toward (step 5)
-        print(f"{path.name} (turned {turn}°): the camera's blur {blur:.2f} px", file=sys.stderr)
+        what = f"turned {turn}°" if turn is not None else "a photo"
+        print(f"{path.name} ({what}): the camera's blur {blur:.2f} px", file=sys.stderr)
     rows = len(tiles) // 2 + len(tiles) % 2
     if len(tiles) % 2:
         tiles.append(np.ones_like(tiles[0]))
