@@ -13,9 +13,9 @@ auto-exposed (mean linear luminance 0.18) and sRGB-encoded: six of ../shared/hdr
 of those; ``--photos``: real photos of places (centre-cropped to 4:3 and resized, e.g. scikit-image's
 rocket.jpg and motorcycle_left.png from its wheel, ultralytics' bus.jpg). Each row: the realistic paste (the
 full-body person as photographed, unrelit, at the same place and size; the estimated light on a sphere in the
-corner) | ``composite`` full body | ``composite`` half body, 0.6 of the frame high (otherwise all defaults: the background's own light, perspective placement, shadows,
-camera matching, light wrap, frame metering; ``--rim`` adds the back key's rim). Prints each background's camera
-blur (relight_rt.scene, step 5).
+corner) | ``composite`` full body | ``composite`` half body, 0.6 of the frame high (otherwise all defaults: the
+background's own light, perspective placement, shadows, camera matching, light wrap, frame metering; ``--rim``
+adds the back key's rim). Prints each background's camera blur (relight_rt.scene, step 5).
 """
 
 from __future__ import annotations
