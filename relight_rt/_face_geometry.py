@@ -44,7 +44,7 @@ N_POINTS = 468
 ROI_SCALE = 1.5  # the landmarker's square: this many face-box sides around the detected face (MediaPipe's)
 MIN_FACE_NET = 24  # a face smaller than this in network pixels is left to stage 1 (and the head pass)
 MIN_FLAG = 0.5  # the landmarker's face probability needed to trust its mesh
-SMOOTH = 0.07  # normals smoothed over this fraction of the face's size (0.04: hard nose edges, blobs; 0.1 worse)
+SMOOTH = 0.055  # normals smoothed over this fraction of the face's size (0.04: a hard nose edge, a dark blob)
 HOLE_SPREAD = 0.05  # the eyes' and mouth's normals: spread in from this fraction of the face's size around
 FEATHER = 0.25  # the face transport fades in over this fraction of the face's size inside the mesh's border
 # (0.12 drew the mesh's outline as a line: docs/RESULTS.md, "Face mesh artefacts")
