@@ -7,9 +7,10 @@ less precisely, than a relighter trained on faces (DPR). A face has a known shap
 found by the bundled face detector (``matte_face.onnx``), and the mesh's triangles
 (``face_mesh_triangles.txt``) give its normals.
 
-The normals are drawn into the network frame (flat per triangle, nearest last, then smoothed over about one
-triangle), turned into transport with DESIGN.md §3's unoccluded cosine lobe, and scaled by stage 1's own degree-0
-coefficient (so the network's visibility, hence exposure, is kept). The Relighter blends that transport into
+The normals are drawn into the network frame (flat per triangle, nearest last, the mesh's openings at the eyes
+and the lips closed with the normals around them, then smoothed over about a nose's half-width), turned into
+transport with DESIGN.md §3's unoccluded cosine lobe, and scaled by stage 1's own degree-0 coefficient (so the
+network's visibility, hence exposure, is kept). The Relighter blends that transport into
 stage 1's over the face, feathered at the mesh's border (relight_rt.relighter ``_own``); both sides of the
 relighting factor use the result, so the photo's own light still gives the photo back. Around the mesh (hair,
 skull, ears) an ellipsoid head fitted to the mesh's extent lends its normals, at HEAD_STRENGTH: without it a side
@@ -43,8 +44,10 @@ N_POINTS = 468
 ROI_SCALE = 1.5  # the landmarker's square: this many face-box sides around the detected face (MediaPipe's)
 MIN_FACE_NET = 24  # a face smaller than this in network pixels is left to stage 1 (and the head pass)
 MIN_FLAG = 0.5  # the landmarker's face probability needed to trust its mesh
-SMOOTH = 0.04  # normals smoothed over this fraction of the face's size (about one triangle)
-FEATHER = 0.12  # the face transport fades in over this fraction of the face's size inside the mesh's border
+SMOOTH = 0.055  # normals smoothed over this fraction of the face's size (0.04: a hard nose edge, a dark blob)
+HOLE_SPREAD = 0.05  # the eyes' and mouth's normals: spread in from this fraction of the face's size around
+FEATHER = 0.25  # the face transport fades in over this fraction of the face's size inside the mesh's border
+# (0.12 drew the mesh's outline as a line: docs/RESULTS.md, "Face mesh artefacts")
 HEAD_WIDTH = 1.1  # the head's ellipse: this many mesh widths across (the mesh stops short of the ears)
 HEAD_TOP = 0.35  # ... and reaching this fraction of the mesh's height above its top (the skull under the hair)
 HEAD_REACH = 1.35  # the head's normals fade out between the ellipse and this many times its size
@@ -114,6 +117,7 @@ def face_transport(points: np.ndarray, triangles: np.ndarray, t0: np.ndarray) ->
     normals, cover = rasterise_normals(points, triangles, (h, w))
     span = np.ptp(points[:, :2], axis=0)
     size = float(max(span.max(), 1.0))
+    normals, cover = _fill_holes(normals, cover, size)
     sigma = max(SMOOTH * size, 0.5)
     normals = cv2.GaussianBlur(normals, (0, 0), sigma)
     normals = normals / np.maximum(np.linalg.norm(normals, axis=2, keepdims=True), 1e-6)
@@ -130,6 +134,29 @@ def face_transport(points: np.ndarray, triangles: np.ndarray, t0: np.ndarray) ->
     transport = lobe_transport(normals) * (np.maximum(t0, 0) / _T0)[..., None]
     weight = mesh_weight + (1 - mesh_weight) * HEAD_STRENGTH * head_weight
     return transport, np.clip(weight, 0, 1).astype(np.float32)
+
+
+def _fill_holes(normals: np.ndarray, cover: np.ndarray, size: float) -> tuple[np.ndarray, np.ndarray]:
+    """The mesh with its openings (the eyes, an open mouth) closed: covered, with normals spread in from around.
+
+    The landmarker's mesh leaves the eyes and the lips' gap uncovered; the eyes and the mouth are part of the
+    face's surface, so they take the surrounding normals (a normalised blur over HOLE_SPREAD of the face's size)
+    instead of the fade to the head and stage 1 that an opening would otherwise cut into the face (a mask's eye
+    holes: docs/RESULTS.md, "Face mesh artefacts").
+    """
+    covered = (cover > 0).astype(np.uint8)
+    outside = np.pad(covered, 1)  # a free ring round the window: everything uncovered that touches a border is out
+    cv2.floodFill(outside, None, (0, 0), 2)
+    holes = outside[1:-1, 1:-1] == 0  # neither covered nor reached from outside
+    if not holes.any() or HOLE_SPREAD <= 0:
+        return normals, cover
+    sigma = max(HOLE_SPREAD * size, 0.5)
+    spread = cv2.GaussianBlur(normals * covered[..., None], (0, 0), sigma)
+    weight = cv2.GaussianBlur(covered.astype(np.float32), (0, 0), sigma)
+    fill = spread / np.maximum(weight, 1e-6)[..., None]
+    fill /= np.maximum(np.linalg.norm(fill, axis=2, keepdims=True), 1e-6)
+    normals = np.where(holes[..., None], fill, normals).astype(np.float32)
+    return normals, np.maximum(cover, holes.astype(np.float32))
 
 
 def head_normals(points: np.ndarray, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:

@@ -75,6 +75,23 @@ def test_face_transport_keeps_band_zero_and_fades_in_inside_the_mesh():
     np.testing.assert_allclose(t[25, 25], lobe_transport(n) * 0.7 / lobe_transport(n)[0], atol=1e-4)
 
 
+def test_the_meshs_openings_are_the_faces_surface_not_holes_in_it():
+    """The landmarker's mesh leaves the eyes and the lips' gap open: they must take the face's weight and the
+    normals around them, not fade to the head and stage 1 (a mask's eye holes, dark sockets under a low light)."""
+    outer = [[5, 5], [45, 5], [45, 45], [5, 45]]
+    inner = [[20, 20], [30, 20], [30, 30], [20, 30]]  # a 10-px opening in the middle of a 40-px face
+    pts = np.column_stack([np.array(outer + inner, np.float64), np.zeros(8)])
+    ring = np.array([[i, (i + 1) % 4, 4 + i] for i in range(4)]
+                    + [[(i + 1) % 4, 4 + (i + 1) % 4, 4 + i] for i in range(4)])
+    normals, cover = rasterise_normals(pts, ring, (60, 60))
+    assert cover[25, 25] == 0 and cover[12, 25] == 1  # the mesh itself has the hole
+    t0 = np.full((60, 60), 0.7, np.float32)
+    t, w = face_transport(pts, ring, t0)
+    assert w[25, 25] > 0.99 and w[21, 25] > 0.99  # as deep in the face as the mesh around it
+    n = np.array([1.0, 0, 0])
+    np.testing.assert_allclose(t[25, 25], lobe_transport(n) * 0.7 / lobe_transport(n)[0], atol=1e-4)
+
+
 def test_the_head_around_the_mesh_turns_away_and_stops_at_the_chin():
     """Beyond the mesh the head's rounded shape (hair, skull, ears): a side light then darkens the hair beside the
     shaded half of the face too, not the face alone."""
