@@ -96,9 +96,9 @@ def refine_edges(rgb: np.ndarray, alpha: np.ndarray, band: int | None = None) ->
     sub = out[y0:y1, x0:x1]
     # on the background's side, colour's answer fades out toward the band's outer edge (where the coarse matte is
     # sure of background): a light patch of background there would otherwise end in the band's straight edge
-    t = np.clip(outside / r, 0.0, 1.0)
-    ceiling = np.maximum(a, 1 - t * t * (3 - 2 * t))
-    sub[unknown] = np.clip(np.minimum(est, ceiling)[unknown], 0.0, 1.0)
+    t = np.clip(outside[unknown] / r, 0.0, 1.0)
+    ceiling = np.maximum(a[unknown], 1 - t * t * (3 - 2 * t))
+    sub[unknown] = np.clip(np.minimum(est[unknown], ceiling), 0.0, 1.0)
     sub[bg & (a < _VEIL)] = 0.0
     sub[fg & (a > 1 - _VEIL)] = 1.0
     return opaque_where_cut(out, r)

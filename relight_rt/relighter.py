@@ -677,8 +677,8 @@ class Relighter:
         "window" (y0, y1, x0, x1): the network pixels near the person (the whole square when the network's
         square is not smaller than the photo's: to_crop takes a window only when enlarging); "alpha", "inner"
         (alpha > 0.5); "transport" (r, r', 9) unpremultiplied, its directional bands restored
-        (relight_rt._strength) and the face mesh's transport blended in, and "albedo" luminance (r, r')
-        unpremultiplied.
+        (relight_rt._strength) and the face mesh's transport blended in, "albedo" luminance (r, r')
+        unpremultiplied, and "photo" (r, r') the luminance of the photo stage 1 saw.
         """
         state = self._prepared(dec)
         if "restored" not in state:
@@ -691,8 +691,10 @@ class Relighter:
             if state.get("faces"):  # a face's shape from its mesh where stage 1's transport is a blur
                 self._add_faces(dec, transport, (y0, y1, x0, x1))
             albedo = unpremultiply(np.ascontiguousarray(dec.albedo[y0:y1, x0:x1]), alpha) @ _exposure.REC709
+            photo = dec.network_image[y0:y1, x0:x1] @ _exposure.REC709
             state["restored"] = {"window": (y0, y1, x0, x1), "alpha": alpha, "inner": alpha > 0.5,
-                                 "transport": _readonly(transport), "albedo": _readonly(albedo.astype(np.float32))}
+                                 "transport": _readonly(transport), "albedo": _readonly(albedo.astype(np.float32)),
+                                 "photo": _readonly(photo.astype(np.float32))}
         return state["restored"]
 
     def _own(self, dec: Decomposition, with_residual: bool = True) -> dict:
@@ -715,9 +717,7 @@ class Relighter:
             # (stage 1's light from above and behind put a profile face in deep shade, then a front light made
             # it 3-5x brighter, blown out): that missing light, up to a share of the photo, is taken to stay under
             # every new light (added to both sides of the ratio, so the photo's own light still gives the photo)
-            y0, y1, x0, x1 = base["window"]
-            photo = dec.network_image[y0:y1, x0:x1] @ _exposure.REC709
-            missing = np.maximum(_OWN_FLOOR * photo - own, 0).astype(np.float32)
+            missing = np.maximum(_OWN_FLOOR * base["photo"] - own, 0).astype(np.float32)
             state[key] = {**base, "missing": _readonly(missing),
                           "own": _readonly(np.maximum(own + missing, _RATIO_EPS).astype(np.float32))}
         return state[key]
@@ -732,7 +732,7 @@ class Relighter:
         # what stage 1's own reconstruction (its transport, its light) leaves unexplained of the photo ...
         plain = unpremultiply(np.ascontiguousarray(dec.transport[y0:y1, x0:x1]), base["alpha"])[inner]
         white = dec.white_light[:, 0]
-        unexplained = dec.network_image[y0:y1, x0:x1][inner] @ _exposure.REC709 - albedo * (plain @ white)
+        unexplained = base["photo"][inner] - albedo * (plain @ white)
         # ... is what the light's correction explains, through the transport the relit photo is divided by
         light = refit_light(dec.light, albedo, transport, albedo * (transport @ white) + unexplained)
         new = replace(dec, light=light)
@@ -788,10 +788,10 @@ class Relighter:
             return colour
         image, _ = self._foreground(dec)
         gain = self._gain(dec, light, image, residual)
-        head = self._prepared(dec).get("head")
+        state = self._prepared(dec)
+        head = state.get("head")
         if head is not None:
             self._blend_head(dec, gain, light, *head)
-        state = self._prepared(dec)
         if "dark" not in state:  # once per photo: what steadying dark pixels' colour needs whatever the light
             state["dark"] = tuple(_readonly(a) for a in _dark_colour(image))
         colour = _steady_chroma(image, gain, state["dark"])

@@ -587,7 +587,7 @@ def _as_people(
     held = [j for j, f in enumerate(faces) if contains(p, f, shape)]
     mine = [j for j in held if j not in owned]
     side_by_side = _side_by_side([faces[j] for j in held])
-    taken = [id(faces[j]) for j in owned]
+    taken = {id(faces[j]) for j in owned}  # side_by_side holds the same Face objects
     new = [i for i, f in enumerate(side_by_side) if id(f) not in taken]
     if p.source == "roi" and len(side_by_side) >= 2 and new:
         parts = split_by_faces(p, side_by_side)
