@@ -151,3 +151,44 @@ def test_a_matte_fading_toward_the_bottom_border_is_opaque_there_but_not_below_f
     soft = np.clip(cv2.GaussianBlur(feet, (0, 0), 1.5), 0.0, 1.0)
     out = R.refine_edges(np.repeat(soft[..., None], 3, 2), soft, band=4)
     assert out[237:].max() < 0.05
+
+
+def _arm_and_body(h: int = 200, w: int = 200):
+    """A blue body beside a skin-coloured arm on a white backdrop, a white sliver of backdrop between them that the
+    coarse matte half-sees (0.7) as the graphs leave the reference video's arm-dress gaps."""
+    truth = np.zeros((h, w), np.float32)
+    truth[20:190, 60:130] = 1.0  # body
+    truth[40:180, 136:150] = 1.0  # arm, 6 px from the body
+    rgb = np.ones((h, w, 3), np.float32)
+    rgb[20:190, 60:130] = (0.25, 0.3, 0.6)
+    rgb[40:180, 136:150] = (0.75, 0.55, 0.5)
+    coarse = np.clip(cv2.GaussianBlur(truth, (0, 0), 2.0), 0.0, 1.0)
+    coarse[20:190, 60:150] = np.maximum(coarse[20:190, 60:150], truth[20:190, 60:150])
+    coarse[50:170, 130:136] = 0.7  # the sliver, enclosed by body and arm along its length
+    return rgb, truth, coarse
+
+
+def test_a_half_seen_gap_between_arm_and_body_opens():
+    rgb, _, coarse = _arm_and_body()
+    out = R.refine_edges(rgb, coarse, band=4)
+    assert out[60:160, 131:135].max() < 0.5  # the backdrop between them
+    assert out[30:180, 70:120].min() == 1.0 and out[50:170, 140:146].min() == 1.0  # body and arm stay
+
+
+def test_a_soft_pocket_of_the_persons_own_colour_stays():
+    """The same pocket painted in the body's colour (a fold, a shadow of the dress): colour says person, it stays."""
+    rgb, _, coarse = _arm_and_body()
+    rgb[50:170, 130:136] = (0.25, 0.3, 0.6)
+    out = R.refine_edges(rgb, coarse, band=4)
+    assert out[60:160, 131:135].min() > 0.6
+
+
+def test_a_soft_stretch_along_the_outline_is_not_a_gap():
+    """A soft region inside the outline but open to it along its length (the top of a dark cap before a dark flag)
+    is the outline's business, not a gap: the colour of the backdrop there does not open it."""
+    rgb, truth, coarse = _arm_and_body()
+    coarse[50:170, 130:136] = 1.0
+    coarse[20:40, 65:125] = 0.7  # a shallow soft stretch along the body's top, from its outline down
+    rgb[20:40, 65:125] = 1.0  # in the backdrop's colour
+    out = R.refine_edges(rgb, coarse, band=4)
+    np.testing.assert_allclose(out[26:38, 75:115], 0.7, atol=0.02)
