@@ -81,6 +81,35 @@ _SOFT = 1.0 / 255  # a matte value further than this from 0 and 1 is a soft edge
 _THIN_EDGE = 4.0  # px: a soft edge no wider than this on average is feathering or anti-aliasing (no F/B estimate)
 _SHADING_MIN = np.float32(1e-3)  # full-resolution albedo: photo / shading, shading floored here
 _SHADING_TRUST = np.float32(0.1)  # ... and trusted fully from this shading up (blended into the network's below)
+_TINT_LIT = 0.05  # _tint_range: the normals a light gives at least this share of its brightest irradiance
+
+
+def _sphere(n: int = 1024) -> np.ndarray:
+    """(n, 3) unit vectors spread evenly over the sphere (a Fibonacci lattice)."""
+    i = np.arange(n) + 0.5
+    z = 1 - 2 * i / n
+    phi = i * np.pi * (3 - np.sqrt(5))
+    rho = np.sqrt(1 - z * z)
+    return np.stack([rho * np.cos(phi), rho * np.sin(phi), z], -1).astype(np.float32)
+
+
+_SPHERE = _sphere()
+
+
+def _tint_range(light: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """Per channel, the lowest and highest colour (luminance 1) that ``light`` gives an unoccluded diffuse
+    surface, over the normals it lights at least _TINT_LIT of its brightest; None for a light that lights
+    nothing. Light reaching a pixel is a positive mix of the light's directions, so its colour stays about within
+    this range; a learned transport can leave one channel's shading at 0 where another's is not (the ringing of a
+    warm sun and a blue sky: the reference photo's dark scarf went saturated blue under golden-hour)."""
+    e = sh.irradiance(light, _SPHERE)
+    y = e @ _exposure.REC709
+    top = float(y.max())
+    if top <= 1e-6:
+        return None
+    keep = y >= _TINT_LIT * top
+    t = e[keep] / y[keep, None]
+    return t.min(0).astype(np.float32), t.max(0).astype(np.float32)
 
 
 def _float32_light(light, name: str) -> np.ndarray:
@@ -860,6 +889,11 @@ class Relighter:
         dc = light[0] / dc_lum if dc_lum > 1e-6 and (light[0] > 0).all() else np.ones(3, np.float32)
         tint = np.divide(shading, lum[..., None], out=np.broadcast_to(dc.astype(np.float32), shading.shape).copy(),
                          where=lum[..., None] > 1e-4)
+        span = _tint_range(light)
+        if span is not None:  # no colour the light cannot give (_tint_range), at the same luminance
+            np.clip(tint, *span, out=tint)
+            tint /= np.maximum(tint @ _exposure.REC709, 1e-6)[..., None]
+            np.clip(tint, *span, out=tint)  # the rescale can lift one channel past its bound again
         gain = extend_outward(tint * ratio[..., None], own["inner"])
         state = self._prepared(dec)
         if "gray" not in state:  # the full-resolution guide, kept for every light

@@ -205,3 +205,28 @@ def test_a_photo_far_brighter_than_its_reconstruction_is_not_blown_out(sides_rel
     np.testing.assert_allclose(sides_relighter.relight(wrong, wrong.light), img, atol=1e-4)
     monkeypatch.setattr(relighter_module, "_OWN_FLOOR", np.float32(0.0))
     assert left_factor(replace(dec, light=shade)) > 3 * honest  # without the floor: the blow-out
+
+
+def test_no_colour_the_light_cannot_give(sides_relighter, monkeypatch):
+    """A warm lamp from the front right with a dim blue sky: the half that faces left gets the lamp's ringing in
+    red (its shading clamped near 0) and the sky in blue, and the colour of the light there, shading / luminance,
+    was a saturated blue (the reference photo's dark scarf under golden-hour). The colour the relit photo takes on
+    must stay within what the light gives any unoccluded surface it lights (``_tint_range``)."""
+    from relight_rt import lights
+    from relight_rt import relighter as relighter_module
+
+    img, mask = person(150, 100, seed=5, box=(20, 140, 30, 80))
+    light = (lights.directional((1.0, 1.0, 0.0), (1.0, 0.7, 0.4), 1.0) + lights.ambient((0.02, 0.03, 0.06))).astype(
+        np.float32)
+    low, high = relighter_module._tint_range(light)
+
+    def left_colour():
+        out = sides_relighter.relight(img, light, mask=mask, exposure="physical")
+        change = (out / np.maximum(img, 1e-6))[40:120, 35:50].reshape(-1, 3)
+        lum = change @ np.array([0.2126, 0.7152, 0.0722])
+        return np.median(change / np.maximum(lum, 1e-6)[:, None], axis=0)
+
+    tint = left_colour()
+    assert (tint >= low - 0.02).all() and (tint <= high + 0.02).all(), (tint, low, high)
+    monkeypatch.setattr(relighter_module, "_tint_range", lambda _: None)
+    assert left_colour()[2] > high[2] + 0.5  # without the bound: the blue the light cannot give
