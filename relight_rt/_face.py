@@ -44,15 +44,20 @@ def head_box(skin: np.ndarray, network_mask: np.ndarray, geometry: CropGeometry)
     top, height = int(rows[0]), int(rows[-1] - rows[0] + 1)
     blobs = ((skin > 0.5) & inner).astype(np.uint8)
     n, _, stats, centres = cv2.connectedComponentsWithStats(blobs, connectivity=8)
+    r = geometry.resolution
     best, best_area = None, 0
     for i in range(1, n):
-        area = int(stats[i, cv2.CC_STAT_AREA])
+        x, y, bw, bh, area = (int(v) for v in stats[i])
+        if y <= top + UPPER_PART * height and min(bw, bh) > SMALL_FACE * r:
+            # a large skin blob from the upper part down: a face seen well whose centre lies lower (a portrait
+            # framed from the chest up); a small blob beside it is a temple or an ear, not a small face (DPR's
+            # portrait got a second pass on a 96-px square of its temple, and a red patch there under neon)
+            return None
         if centres[i][1] <= top + UPPER_PART * height and area > best_area:
             best, best_area = i, area
     if best is None:
         return None
     face = max(int(stats[best, cv2.CC_STAT_WIDTH]), int(stats[best, cv2.CC_STAT_HEIGHT]))
-    r = geometry.resolution
     if face < MIN_FACE_PX or face > SMALL_FACE * r:
         return None
     # network pixel u is at square pixel (u + 0.5) S/R - 0.5; the square's origin is the crop box minus offset

@@ -59,6 +59,21 @@ def test_no_head_pass_for_a_large_face_no_face_or_too_few_pixels():
     assert 3 * 12 * tiny_geom.scale < MIN_HEAD_INPUT and head_box(skin, mask, tiny_geom) is None
 
 
+def test_no_head_pass_on_a_temple_beside_a_large_face_lower_down():
+    """A portrait framed from the chest up: the face fills the square and its centre lies below the upper part,
+    so the largest skin blob there was a patch of temple (DPR's portrait: a 7x9 blob) and the second pass ran on a
+    96-px square of it (a red patch under neon). A large face whose top is in the upper part means no second pass."""
+    r = 128
+    photo_mask = np.zeros((1000, 600), np.float32)
+    photo_mask[40:960, 100:500] = 1
+    geom = CropGeometry.from_mask(photo_mask, r)
+    mask = np.ones((r, r), np.float32)
+    skin = np.zeros((r, r), np.float32)
+    skin[20:120, 30:80] = 1  # the face: 50 x 100 network pixels, centre at 0.55 of the person's height
+    skin[24:32, 86:94] = 1  # a patch of temple beyond the hair
+    assert head_box(skin, mask, geom) is None
+
+
 def test_feather_fades_to_zero_at_open_sides_and_keeps_cut_sides():
     w = feather(40, 30)
     assert w[20, 15] == pytest.approx(1) and w.max() <= 1 and w.min() >= 0
