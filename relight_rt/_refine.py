@@ -22,11 +22,13 @@ of the photo's bottom border is made opaque there, away from its outline (:func:
 
 Inside the person, further from the outline than the band, the graphs sometimes half-see a gap: a sliver of
 backdrop between an arm and the body that they leave at alpha 0.4-0.9. Such pixels get colour's answer too
-(:func:`_open_gaps`), with the background's colour taken from further away (the backdrop beyond the arm): a gap
+(:func:`_open_gap`), with the background's colour taken from further away (the backdrop beyond the arm): a gap
 of background colour opens, a soft patch of the person's own colour stays.
 """
 
 from __future__ import annotations
+
+from collections.abc import Iterator
 
 import cv2
 import numpy as np
@@ -46,8 +48,8 @@ _CUT_REACH = 0.2  # a body cut by the bottom border is made opaque up to this x 
 _FADED = 0.25  # ... where the bottom row's alpha is at least this (the graphs' answer fading toward the border)
 _GAP = 0.9  # beyond the band inside the outline, coarse alpha below this is a gap the graphs half-see ...
 _ENCLOSED = 0.7  # ... in a pocket whose rim is at least this share the person's interior (not a soft outline) ...
-_GAP_MATCH = 0.03  # ... and whose colour lies within this squared distance of that background colour
 _GAP_REACH = 4  # ... whose background colour is the sure background's within this x the band's width (2x where none)
+_GAP_MATCH = 0.03  # ... opens where a pixel's colour lies within this squared distance of that background colour
 
 
 def band_width(shape: tuple[int, int]) -> int:
@@ -115,7 +117,7 @@ def refine_edges(rgb: np.ndarray, alpha: np.ndarray, band: int | None = None) ->
     return opaque_where_cut(out, r)
 
 
-def _pockets(low: np.ndarray, interior: np.ndarray, min_area: int):
+def _pockets(low: np.ndarray, interior: np.ndarray, min_area: int) -> Iterator[tuple[tuple[int, int], np.ndarray]]:
     """The connected parts of ``low & interior`` whose rim (the pixels just around them) lies mostly in
     ``interior``: a pocket the person closes around (the slivers between arm and dress: 0.71-1.0 of the rim), not a
     soft stretch along the outline (the soft top of Grace Hopper's dark cap before a dark blue flag: 0.49).

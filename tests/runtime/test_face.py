@@ -116,4 +116,3 @@ def test_the_photos_own_light_gives_the_photo_back_with_head_pass_and_soft_matte
     assert ((alpha > 0.05) & (alpha < 0.95)).sum() > 1000 and r._prepared(dec).get("head") is not None
     out = r.relight(dec, dec)
     assert np.abs(out - dec.image).max() < 0.01
-

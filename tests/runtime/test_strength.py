@@ -217,7 +217,8 @@ def test_no_colour_the_light_cannot_give(sides_relighter, monkeypatch):
 
     img, mask = person(150, 100, seed=5, box=(20, 140, 30, 80))
     light = (lights.directional((1.0, 1.0, 0.0), (1.0, 0.7, 0.4), 1.0) + lights.ambient((0.02, 0.03, 0.06))).astype(
-        np.float32)
+        np.float32
+    )
     low, high = relighter_module._tint_range(light)
 
     def left_colour():
