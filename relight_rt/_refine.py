@@ -97,13 +97,8 @@ def refine_edges(rgb: np.ndarray, alpha: np.ndarray, band: int | None = None) ->
     fg_w = (fg & (a >= _SURE)).astype(np.float32)
     bg_w = (bg & (a <= 1 - _SURE)).astype(np.float32)
     # mean colour of the sure pixels in a window of radius 2r (4r where the nearer window holds none)
-    f_col, f_n = _side_mean(img, fg_w, 2 * r)
-    b_col, b_n = _side_mean(img, bg_w, 2 * r)
-    d = f_col - b_col
-    dd = (d * d).sum(-1)
-    a_c = np.clip(((img - b_col) * d).sum(-1) / (dd + _EPS), 0.0, 1.0)
-    conf = dd / (dd + _TAU) * (f_n > 0) * (b_n > 0)
-    est = _guided(img, (conf * a_c + (1 - conf) * a).astype(np.float32))
+    b_col, blend = _colour_alpha(img, a, fg_w, bg_w, 2 * r, 2 * r)
+    est = _guided(img, blend)
     sub = out[y0:y1, x0:x1]
     # on the background's side, colour's answer fades out toward the band's outer edge (where the coarse matte is
     # sure of background): a light patch of background there would otherwise end in the band's straight edge
@@ -150,14 +145,9 @@ def _open_gap(rgb: np.ndarray, alpha: np.ndarray, out: np.ndarray, pocket: np.nd
     inside = (a >= 0.5).astype(np.uint8)
     fg_w = ((cv2.distanceTransform(inside, cv2.DIST_L2, 3) > r) & (a >= _SURE)).astype(np.float32)
     bg_w = ((cv2.distanceTransform(1 - inside, cv2.DIST_L2, 3) > r) & (a <= 1 - _SURE)).astype(np.float32)
-    f_col, f_n = _side_mean(img, fg_w, 2 * r)
-    b_col, b_n = _side_mean(img, bg_w, _GAP_REACH * r)
-    d = f_col - b_col
-    dd = (d * d).sum(-1)
-    a_c = np.clip(((img - b_col) * d).sum(-1) / (dd + _EPS), 0.0, 1.0)
-    conf = dd / (dd + _TAU) * (f_n > 0) * (b_n > 0)
+    b_col, blend = _colour_alpha(img, a, fg_w, bg_w, 2 * r, _GAP_REACH * r)
     near_b = ((img - b_col) ** 2).sum(-1) < _GAP_MATCH
-    est = _guided(img, np.where(near_b, conf * a_c + (1 - conf) * a, a).astype(np.float32))
+    est = _guided(img, np.where(near_b, blend, a))
     sel = np.zeros(a.shape, bool)
     py, px = at[0] - y0, at[1] - x0
     sel[py : py + pocket.shape[0], px : px + pocket.shape[1]] = pocket
@@ -188,6 +178,21 @@ def opaque_where_cut(alpha: np.ndarray, r: int) -> np.ndarray:
     if cut.size:
         alpha[h - n :][np.isin(labels, cut)] = 1.0
     return alpha
+
+
+def _colour_alpha(
+    img: np.ndarray, a: np.ndarray, fg_w: np.ndarray, bg_w: np.ndarray, f_reach: int, b_reach: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Colour's alpha (module docstring), blended with the coarse ``a`` by its confidence, from the mean colours of
+    the sure foreground (weights ``fg_w``, windows of radius ``f_reach``) and the sure background (``bg_w``,
+    ``b_reach``). Returns (the background colour B per pixel (h, w, 3), the blended alpha (h, w) float32)."""
+    f_col, f_n = _side_mean(img, fg_w, f_reach)
+    b_col, b_n = _side_mean(img, bg_w, b_reach)
+    d = f_col - b_col
+    dd = (d * d).sum(-1)
+    a_c = np.clip(((img - b_col) * d).sum(-1) / (dd + _EPS), 0.0, 1.0)
+    conf = dd / (dd + _TAU) * (f_n > 0) * (b_n > 0)
+    return b_col, (conf * a_c + (1 - conf) * a).astype(np.float32)
 
 
 def _side_mean(img: np.ndarray, weight: np.ndarray, r: int) -> tuple[np.ndarray, np.ndarray]:

@@ -84,16 +84,7 @@ _SHADING_TRUST = np.float32(0.1)  # ... and trusted fully from this shading up (
 _TINT_LIT = 0.05  # _tint_range: the normals a light gives at least this share of its brightest irradiance
 
 
-def _sphere(n: int = 1024) -> np.ndarray:
-    """(n, 3) unit vectors spread evenly over the sphere (a Fibonacci lattice)."""
-    i = np.arange(n) + 0.5
-    z = 1 - 2 * i / n
-    phi = i * np.pi * (3 - np.sqrt(5))
-    rho = np.sqrt(1 - z * z)
-    return np.stack([rho * np.cos(phi), rho * np.sin(phi), z], -1).astype(np.float32)
-
-
-_SPHERE = _sphere()
+_SPHERE = sh.sphere_directions(1024).astype(np.float32)  # _tint_range's normals
 
 
 def _tint_range(light: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:

@@ -111,11 +111,7 @@ _BAND = 8  # the sky / floor colour at the poles: the mean of the top / bottom 1
 def _side_weights(sign: int, n: int = 4000) -> np.ndarray:
     """(9,) SH light → the mean irradiance over the normals facing the camera (sign +1) or facing away from it
     (−1), each weighted by how much of it a camera on that side sees (|n_x|): a convex body's lit side."""
-    k = np.arange(n) + 0.5
-    z = 1 - 2 * k / n
-    phi = math.pi * (1 + math.sqrt(5)) * k
-    r = np.sqrt(1 - z * z)
-    d = np.stack([r * np.cos(phi), r * np.sin(phi), z], 1)
+    d = sh.sphere_directions(n)
     d = d[d[:, 0] * sign > 0]
     w = d[:, 0] * sign
     return (sh.basis(d) * sh.cosine_lobe()).T @ w / w.sum()

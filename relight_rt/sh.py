@@ -39,6 +39,7 @@ __all__ = [
     "rotation_matrix",
     "shading",
     "shading_chw",
+    "sphere_directions",
 ]
 
 logger = logging.getLogger(__name__)
@@ -293,6 +294,17 @@ def dominant_direction(coeffs) -> tuple[np.ndarray | None, float]:
     if n <= 1e-9 or c[0] <= 1e-9:
         return None, 0.0
     return v / n, min(1.0, n / (math.sqrt(3) * float(c[0])))
+
+
+def sphere_directions(n: int) -> np.ndarray:
+    """(n, 3) float64 unit vectors spread evenly over the whole sphere (a Fibonacci lattice: equal-area bands in
+    z, successive points a golden angle apart): for sums over every direction, such as a light's range of colour
+    or a body side's mean irradiance."""
+    k = np.arange(n) + 0.5
+    z = 1 - 2 * k / n
+    phi = math.pi * (1 + math.sqrt(5)) * k
+    r = np.sqrt(1 - z * z)
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], 1)
 
 
 def irradiance(light, normals) -> np.ndarray:

@@ -371,3 +371,12 @@ def test_shading_chw_is_shading_channel_first(k):
 def test_shading_chw_refuses_bad_input(transport, lights, albedo, match):
     with pytest.raises(RelightError, match=match):
         sh.shading_chw(transport, lights, albedo)
+
+
+def test_sphere_directions_are_unit_and_cover_the_sphere_evenly():
+    d = sh.sphere_directions(2000)
+    assert d.shape == (2000, 3)
+    np.testing.assert_allclose(np.linalg.norm(d, axis=1), 1.0, atol=1e-12)
+    np.testing.assert_allclose(d.mean(axis=0), 0.0, atol=2e-3)  # no side favoured
+    # the mean of Y_k over the sphere is 0 for k > 0: sums over these directions integrate the basis
+    np.testing.assert_allclose(sh.basis(d)[:, 1:].mean(axis=0), 0.0, atol=5e-3)
