@@ -35,26 +35,22 @@ import cv2
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
-if str(REPO) not in sys.path:
-    sys.path.insert(0, str(REPO))
+HERE = Path(__file__).resolve().parent
+for p in (str(REPO), str(HERE)):
+    if p not in sys.path:
+        sys.path.insert(0, p)
 
-from relight_rt import Relighter, RuntimeConfig, lights  # noqa: E402
+from real_photos import LEFT, RIGHT, change  # noqa: E402
+
+from relight_rt import Relighter, RuntimeConfig  # noqa: E402
 from relight_rt._face_geometry import rasterise_normals  # noqa: E402
-from relight_rt.color import srgb_to_linear  # noqa: E402
 
-REC709 = np.array([0.2126, 0.7152, 0.0722], np.float32)
-LEFT = lights.directional((0.35, -1.0, 0.25), (1, 1, 1), 1.0, angular_radius=0.6) + lights.ambient(0.06)
-RIGHT = lights.directional((0.35, 1.0, 0.25), (1, 1, 1), 1.0, angular_radius=0.6) + lights.ambient(0.06)
 LIGHTS = {"overhead-noon": "overhead-noon", "night": "night", "campfire": "campfire", "left": LEFT, "right": RIGHT}
 PEOPLE = ("dpr_obama", "grace_hopper", "julia_trotti", "blonde_hair", "astronaut")
 UPPER_LIDS = [[246, 161, 160, 159, 158, 157, 173], [466, 388, 387, 386, 385, 384, 398]]
 BROWS = [[46, 53, 52, 65, 55], [276, 283, 282, 295, 285]]
 BRIDGE = [168, 6, 197]
 CHEEKS = [117, 118, 50, 346, 347, 280]
-
-
-def luminance(rgb: np.ndarray) -> np.ndarray:
-    return srgb_to_linear(np.clip(rgb, 0, 1)) @ REC709
 
 
 def disc_mean(img: np.ndarray, pts, r: float) -> float:
@@ -159,8 +155,8 @@ def main(argv=None) -> int:
         report[name] = {"face_px": size}
         for lname, light in LIGHTS.items():
             out = relighter.relight(dec, light)
-            change = np.log(luminance(out) + 1e-3) - np.log(luminance(rgb) + 1e-3)
-            report[name][lname], d = measures(change, pts, tri, lname == "left")
+            c = change(rgb, out)
+            report[name][lname], d = measures(c, pts, tri, lname == "left")
             if args.crops:
                 marked = out[y0:y1, x0:x1, :3].copy()
                 marked[(np.abs(d) < 1.5 / size)[y0:y1, x0:x1]] = (1, 0, 1)
