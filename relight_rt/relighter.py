@@ -63,7 +63,7 @@ from ._strength import refit_light, restore_bands
 from .compositing import Background, clean_edge_colour, over_box, parse_background
 from .config import RuntimeConfig
 from .contract import kind_spec
-from .foreground import estimate_foreground
+from .foreground import estimate_foreground, nearest_colours
 from .lightspec import LightSpec
 from .masks import Matter, resolve_mask
 from .session import Model, check_finite, find_models, load_model
@@ -78,7 +78,7 @@ _DARK = np.float32(0.25)  # _steady_chroma: a pixel below this luminance, bright
 _AMPLIFIED = np.float32(2.0)  # ... neighbours' colour, fully from a gain of 1 + this,
 _CHROMA_RADIUS = 4  # ... those within this many pixels (the constants: the reference photo's jaw, module tests)
 _SOFT = 1.0 / 255  # a matte value further than this from 0 and 1 is a soft edge (mixes person and background)
-_THIN_EDGE = 4.0  # px: a soft edge no wider than this on average is feathering or anti-aliasing (no F/B estimate)
+_THIN_EDGE = 4.0  # px: a soft edge no wider than this on average is feathering or anti-aliasing (F/B from beside it)
 _SHADING_MIN = np.float32(1e-3)  # full-resolution albedo: photo / shading, shading floored here
 _SHADING_TRUST = np.float32(0.1)  # ... and trusted fully from this shading up (blended into the network's below)
 _TINT_LIT = 0.05  # _tint_range: the normals a light gives at least this share of its brightest irradiance
@@ -826,18 +826,23 @@ class Relighter:
         At a soft matte's edge a pixel mixes both (I = a F + (1 - a) B); relighting or moving I would carry the
         old background along (a halo in a new scene, the new light's colour spilt onto the street). For a photo
         F and B come from relight_rt.foreground (multilevel foreground estimation, once per photo); for a hard
-        mask, and for video frames (unless ``always``), both are the photo.
+        edge a pixel or two wide (anti-aliasing, feathering), and for video frames (unless ``always``: the
+        multilevel estimate costs about as much as the frame's relighting), the solid colours beside each soft
+        pixel (relight_rt.foreground.nearest_colours); for a hard mask both are the photo.
         """
         state = self._prepared(dec)
         if "foreground" not in state:
             image = np.ascontiguousarray(dec.geometry.crop(dec.image))
             alpha = np.ascontiguousarray(dec.geometry.crop(dec.mask))
-            if (state.get("photo") or always) and _soft_edge_width(alpha) > _THIN_EDGE:
+            width = _soft_edge_width(alpha)
+            if (state.get("photo") or always) and width > _THIN_EDGE:
                 fg, bg = estimate_foreground(image, alpha, return_background=True)
                 fg, bg = _consistent(image, alpha, fg, bg)
-                state["foreground"] = (_readonly(fg), _readonly(bg))
-            else:  # a hard mask, or one anti-aliased over a pixel: nothing of the background to take out
-                state["foreground"] = (_readonly(image), _readonly(image))
+            elif width > 0:
+                fg, bg = nearest_colours(image, alpha)
+            else:  # a hard mask: nothing of the background to take out
+                fg = bg = image
+            state["foreground"] = (_readonly(fg), _readonly(bg))
         return state["foreground"]
 
     def _backdrop(self, dec: Decomposition, bg: Background) -> np.ndarray | None:

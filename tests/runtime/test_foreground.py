@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from relight_rt import RelightError, matting
-from relight_rt.foreground import estimate_foreground
+from relight_rt.foreground import estimate_foreground, nearest_colours
 
 
 def scene(h: int = 160, w: int = 200, soft: float = 6.0, seed: int = 0):
@@ -123,3 +123,31 @@ def test_video_composite_over_a_new_backdrop_is_decontaminated():
     assert np.abs(out - truth)[soft].mean() < 0.3 * np.abs(naive - truth)[soft].mean()
     same = composite(rgb * alpha[..., None], rgb, alpha, "original", premultiplied=True)
     np.testing.assert_allclose(same, rgb, atol=1e-5)  # over its own background: the photo again
+
+
+def test_nearest_colours_recover_a_thin_edge():
+    """A 1.5-px anti-aliased edge: each side's colour from the solid pixels beside it, the photo given back."""
+    rgb, alpha, f, b = scene(soft=1.5)
+    fe, be = nearest_colours(rgb, alpha)
+    soft = (alpha > 0.05) & (alpha < 0.95)
+    assert soft.sum() > 100
+    assert np.abs(fe - f)[soft].mean() < 0.1 * np.abs(rgb - f)[soft].mean()
+    assert np.abs(be - b)[soft].mean() < 0.1 * np.abs(rgb - b)[soft].mean()
+    model = alpha[..., None] * fe + (1 - alpha[..., None]) * be
+    assert np.abs(model - rgb)[soft].max() < 1e-5
+    solid = (alpha <= 0) | (alpha >= 1)
+    np.testing.assert_array_equal(fe[solid], rgb[solid])
+    np.testing.assert_array_equal(be[solid], rgb[solid])
+
+
+def test_nearest_colours_of_a_hard_mask_and_of_a_lone_soft_pixel():
+    rgb, alpha, _, _ = scene()
+    hard = (alpha > 0.5).astype(np.float32)
+    fe, be = nearest_colours(rgb, hard)
+    np.testing.assert_array_equal(fe, rgb)
+    np.testing.assert_array_equal(be, rgb)
+    lone = np.zeros((5, 5), np.float32)
+    lone[2, 2] = 0.3  # no solid person anywhere: its F is the photo, and so is the B that leaves
+    fe, be = nearest_colours(rgb[:5, :5], lone)
+    np.testing.assert_allclose(fe[2, 2], rgb[2, 2], atol=1e-6)
+    np.testing.assert_allclose(be[2, 2], rgb[2, 2], atol=1e-6)

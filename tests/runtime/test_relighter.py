@@ -154,6 +154,30 @@ def test_a_new_backdrop_carries_none_of_the_old_one(relighter):
     np.testing.assert_allclose(same[soft], photo[soft], atol=0.05)
 
 
+def test_a_video_frame_relights_only_the_person_share_of_its_thin_edge(relighter):
+    """A video frame's anti-aliased edge mixes the person and the backdrop: only the person's share is relit.
+
+    Before, the frame's own pixels were relit as they were, so the backdrop's share of every edge pixel took the
+    new light (a line of the new light's colour along the outline, the clip of frames 1-8 under golden-hour).
+    """
+    h, w = 150, 100
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+    inside_dist = np.minimum.reduce([yy - 20, 140 - yy, xx - 30.3, 70.6 - xx])
+    alpha = np.clip(inside_dist / 1.5 + 0.5, 0, 1).astype(np.float32)  # a 1.5-px edge
+    f = np.array([0.4, 0.25, 0.15], np.float32)
+    backdrop = np.array([0.6, 0.7, 0.9], np.float32)
+    frame = (alpha[..., None] * f + (1 - alpha[..., None]) * backdrop).astype(np.float32)
+    (dec,) = relighter.decompose_batch([frame], [alpha], allow_full=True)
+    out = relighter.relight(dec, 2 * OWN_LIGHT, exposure="physical")
+    truth = alpha[..., None] * 2 * f + (1 - alpha[..., None]) * backdrop
+    soft = (alpha > 0.1) & (alpha < 0.9)
+    assert soft.sum() > 100
+    naive = frame * (1 + alpha[..., None])  # the frame's own pixels relit: alpha 2 I + (1 - alpha) I
+    assert np.abs(naive - truth)[soft].mean() > 0.03
+    assert np.abs(out - truth)[soft].mean() < 0.25 * np.abs(naive - truth)[soft].mean()
+    np.testing.assert_allclose(relighter.relight(dec, OWN_LIGHT, exposure="physical"), frame, atol=2e-3)
+
+
 def test_layers(relighter):
     img, mask = person(seed=4)
     res = relighter.relight(img, 2 * OWN_LIGHT, mask=mask, exposure="physical", layers=True)
