@@ -21,6 +21,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "render-photos": ("export.render.photos_cli", "render non-diffuse 'photos' of rendered samples for stage 2"),
     "train-stage1": ("export.train_stage1", "train the stage-1 inverse-rendering network"),
     "train-stage2": ("export.train_stage2", "train the stage-2 residual network"),
+    "average": ("export.average", "the weighted mean of checkpoints of one network (a model soup)"),
     "evaluate": ("export.evaluate", "evaluate trained networks on a held-out synthetic split"),
     "quickstart": ("export.quickstart", "render, train tiny models on the CPU, export and relight"),
     "fit-dvp": ("export.dvp", "fit an illumination-conditioned deep video prior to one video"),
