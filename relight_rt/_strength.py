@@ -14,7 +14,9 @@ Those figures are the sixth bundled stage 1's (gains 1.1 / 1.3). The seventh (20
 the bands' magnitudes and the degree-1 direction; models/README.md) is no longer shrunk (degree-1/0 1.24-1.37
 against 1.20-1.23 true, degree-2/0 0.67-0.80 against 0.69-0.75), but its light is still softer than the truth
 (degree-1/0 1.20-1.36 against 1.42, degree-2/0 1.37-1.76 against 1.78): together they leave degree 1 about
-0.96 x 1.13 and degree 2 about 1.0 x 1.16 short, hence 1.05 / 1.15.
+0.96 x 1.13 and degree 2 about 1.0 x 1.16 short, hence 1.05 / 1.15. The averaged stage 1 shipped since
+2026-11-28 (degree-1/0 1.24-1.31, degree-2/0 0.67-0.74; light 1.19-1.33 and 1.36-1.68) leaves about 0.93 and 0.85,
+gains of about 1.08 / 1.18: the same gains are kept.
 Band 0 (the pixel's overall visibility, which sets the exposure) is kept. Because the numerator (new light) and
 denominator (the photo's own light) use the same restored transport, the photo's own light still gives the photo
 back. A per-pixel renormalisation of the bands to a unit normal's ratio was measured too and does not help (it
