@@ -213,21 +213,28 @@ def nearest_colours(rgb: np.ndarray, alpha: np.ndarray, radius: int = 4) -> tupl
     y0, y1 = max(int(rows[0]) - reach, 0), min(int(rows[-1]) + 1 + reach, alpha.shape[0])
     x0, x1 = max(int(cols[0]) - reach, 0), min(int(cols[-1]) + 1 + reach, alpha.shape[1])
     img, a, edge = rgb[y0:y1, x0:x1], alpha[y0:y1, x0:x1], soft[y0:y1, x0:x1]
-    i, av = img[edge], a[edge][:, None]
+    ey, ex = np.nonzero(edge)
+    i, av = img[ey, ex], a[ey, ex][:, None]
     sides = []
     for solid in (a >= 1 - _SOLID, a <= _SOLID):
         weight = solid.astype(np.float32)
         weighted = img * weight[..., None]
         mean = i.copy()  # no solid pixel of that kind within reach: the photo
-        gap = np.ones(len(i), bool)
+        todo = np.arange(len(i))
         for r in (radius, 2 * radius, 4 * radius):
+            # the window sums only over the box of the pixels still without a mean (the wider windows are
+            # for a few pixels: where the outline meets the border, a thin limb)
+            py, px = ey[todo], ex[todo]
+            by0, bx0 = max(int(py.min()) - r, 0), max(int(px.min()) - r, 0)
+            by1, bx1 = min(int(py.max()) + r + 1, a.shape[0]), min(int(px.max()) + r + 1, a.shape[1])
             k = (2 * r + 1, 2 * r + 1)
-            n = cv2.boxFilter(weighted, -1, k, normalize=False)[edge]
-            d = cv2.boxFilter(weight, -1, k, normalize=False)[edge]
-            found = gap & (d > 0.5)
-            mean[found] = n[found] / d[found, None]
-            gap &= ~found
-            if not gap.any():
+            n = cv2.boxFilter(weighted[by0:by1, bx0:bx1], -1, k, normalize=False, borderType=cv2.BORDER_CONSTANT)
+            d = cv2.boxFilter(weight[by0:by1, bx0:bx1], -1, k, normalize=False, borderType=cv2.BORDER_CONSTANT)
+            n, d = n[py - by0, px - bx0], d[py - by0, px - bx0]
+            found = d > 0.5
+            mean[todo[found]] = n[found] / d[found, None]
+            todo = todo[~found]
+            if not todo.size:
                 break
         sides.append(mean)
     near_f, near_b = sides
@@ -236,6 +243,6 @@ def nearest_colours(rgb: np.ndarray, alpha: np.ndarray, radius: int = 4) -> tupl
     share = np.where(mostly_f, 1 - av, av)
     solved = np.clip((i - share * known) / (1 - share), 0, 1)  # the other side from the equation
     known = np.clip((i - (1 - share) * solved) / share, 0, 1)  # where that clipped: the pair composes back
-    f[y0:y1, x0:x1][edge] = np.where(mostly_f, solved, known)
-    b[y0:y1, x0:x1][edge] = np.where(mostly_f, known, solved)
+    f[y0 + ey, x0 + ex] = np.where(mostly_f, solved, known)
+    b[y0 + ey, x0 + ex] = np.where(mostly_f, known, solved)
     return f, b
