@@ -46,6 +46,7 @@ _GF_RADIUS = 1
 _GF_EPS = 1e-3
 _CUT_REACH = 0.2  # a body cut by the bottom border is made opaque up to this x the photo's height above it
 _FADED = 0.25  # ... where the bottom row's alpha is at least this (the graphs' answer fading toward the border)
+_CUT_INSIDE = 0.4  # ... and where alpha is at least this in a colour not the backdrop's (a pale shirt half-seen)
 _GAP = 0.9  # beyond the band inside the outline, coarse alpha below this is a gap the graphs half-see ...
 _ENCLOSED = 0.7  # ... in a pocket whose rim is at least this share the person's interior (not a soft outline) ...
 _GAP_REACH = 4  # ... whose background colour is the sure background's within this x the band's width (2x where none)
@@ -109,7 +110,7 @@ def refine_edges(rgb: np.ndarray, alpha: np.ndarray, band: int | None = None) ->
     sub[fg & (a > 1 - _VEIL)] = 1.0
     for (py, px), pocket in _pockets(a < _GAP, fg, min_area=r):
         _open_gap(rgb, alpha, out, pocket, (y0 + py, x0 + px), r)
-    return opaque_where_cut(out, r)
+    return opaque_where_cut(out, r, rgb)
 
 
 def _pockets(low: np.ndarray, interior: np.ndarray, min_area: int) -> Iterator[tuple[tuple[int, int], np.ndarray]]:
@@ -155,16 +156,29 @@ def _open_gap(rgb: np.ndarray, alpha: np.ndarray, out: np.ndarray, pocket: np.nd
     out[y0:y1, x0:x1][sel] = np.clip(est[sel], 0.0, 1.0)
 
 
-def opaque_where_cut(alpha: np.ndarray, r: int) -> np.ndarray:
+def opaque_where_cut(alpha: np.ndarray, r: int, rgb: np.ndarray | None = None) -> np.ndarray:
     """``alpha`` with the body that runs out of the photo's bottom border made opaque there: the pixels of the
     matte (alpha >= 0.5) more than ``r`` from its outline (the image border is no outline: the body goes on past
     it), within _CUT_REACH x the height above the bottom border and joined to it through such pixels, set to 1.
     The segmentation graphs are least sure where the frame cuts the body (a patterned shirt, a dark coat):
     DPR's portrait kept its checked shirt at alpha 0.53-0.73 over the bottom right, and a composite showed the
-    new background through it. The outline's band keeps its soft alpha. In place; returns ``alpha``."""
+    new background through it. With ``rgb`` (the photo, float RGB), a pixel the graphs leave a little under
+    0.5 (down to _CUT_INSIDE) counts as body too where its colour is not the backdrop's (beyond _GAP_MATCH of
+    the sure background's mean within _GAP_REACH x r; anywhere no sure background is that near): the same
+    portrait's pale blue collar sat at 0.47-0.52 in a patch the outline went round, and relit it stayed a pale
+    blob, while a ring of red backdrop at 0.4-0.5 around a gap between arm and body must stay soft. The
+    outline's band keeps its soft alpha. In place; returns ``alpha``."""
     h, w = alpha.shape
     n = min(max(int(round(_CUT_REACH * h)), r + 2), h)
-    inside = (alpha[h - n :] >= 0.5).astype(np.uint8)
+    low = alpha[h - n :]
+    inside = low >= 0.5
+    unsure = (low >= _CUT_INSIDE) & ~inside
+    if rgb is not None and unsure.any():
+        img = np.ascontiguousarray(rgb[h - n :], dtype=np.float32)
+        b_col, b_n = _side_mean(img, (low <= 1 - _SURE).astype(np.float32), _GAP_REACH * r)
+        far = (((img - b_col) ** 2).sum(-1) > _GAP_MATCH) | (b_n < 0.5)
+        inside |= unsure & far
+    inside = inside.astype(np.uint8)
     # the graphs' answer fades toward the border (zidane's coat: 0.85 -> 0.45 over the last 14 rows), which
     # would put an outline along it: over the last rows the body is taken to be where it is just above them,
     # in the columns where the border row still holds some of it (not below feet that end above the border)

@@ -131,6 +131,21 @@ def test_body_cut_by_the_bottom_border_is_opaque_there():
     assert out[239, :36].max() < 0.05 and 0.5 < out[239, 40:43].min() < 0.99  # the outline meets the border soft
 
 
+def test_a_patch_just_under_half_where_the_frame_cuts_the_body_is_body_unless_it_is_the_backdrop():
+    """DPR's portrait: the graphs left a pale blue collar at 0.47-0.52 where the frame cuts the shirt, the outline
+    went round the part under 0.5, and relit it stayed a pale blob. A patch at 0.45 in the body's colour becomes
+    opaque; one at 0.45 in the backdrop's colour (a ring around a gap between arm and body) does not."""
+    rgb, coarse = _cut_portrait()
+    coarse[200:230, 60:90] = 0.45  # the body's red: a doubtful patch of shirt
+    rgb[195:235, 105:140] = np.array([0.1, 0.3, 0.9], np.float32)  # a gap showing the blue backdrop ...
+    coarse[195:235, 105:140] = 0.45  # ... that the graphs half-see
+    coarse[210:220, 118:127] = 0.0  # (its middle they see)
+    out = R.refine_edges(rgb, coarse, band=4)
+    assert out[205:225, 65:85].min() == 1.0  # was 0.45
+    assert out[196:234, 106:139].max() < 0.5  # not made body (colour lowers it further)
+    assert R.opaque_where_cut(coarse.copy(), 4)[205:225, 65:85].max() < 0.5  # without the photo: left as it was
+
+
 def test_bottom_rows_of_a_body_not_at_the_border_are_left_alone():
     rgb, coarse = _cut_portrait()
     flipped = np.ascontiguousarray(coarse[::-1])  # the torso now runs out of the top: no cut at the bottom
