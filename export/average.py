@@ -21,8 +21,9 @@ from .checkpoint import load_checkpoint, save_checkpoint
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("checkpoints", nargs="+", type=Path, help="two or more checkpoints of one network")
-    parser.add_argument("--weights", nargs="+", type=float,
-                        help="one per checkpoint, normalised to sum 1 (default: equal)")
+    parser.add_argument(
+        "--weights", nargs="+", type=float, help="one per checkpoint, normalised to sum 1 (default: equal)"
+    )
     parser.add_argument("--out", type=Path, required=True, help="the averaged checkpoint to write")
 
 
@@ -40,14 +41,16 @@ def average(paths: list[Path], weights: list[float] | None = None):
     weights = [w / total for w in weights]
     model, first = load_checkpoint(paths[0])
     state = {k: v.clone() for k, v in model.state_dict().items()}
-    for k, v in state.items():
+    for v in state.values():
         if v.is_floating_point():
             v.mul_(weights[0])
-    for path, w in zip(paths[1:], weights[1:]):
+    for path, w in zip(paths[1:], weights[1:], strict=True):
         other, ckpt = load_checkpoint(path)
         if ckpt["kind"] != first["kind"] or dict(ckpt["config"]) != dict(first["config"]):
-            raise RelightError(f"{path}: a {ckpt['kind']} {dict(ckpt['config'])}, not the "
-                               f"{first['kind']} {dict(first['config'])} of {paths[0]}")
+            raise RelightError(
+                f"{path}: a {ckpt['kind']} {dict(ckpt['config'])}, not the "
+                f"{first['kind']} {dict(first['config'])} of {paths[0]}"
+            )
         for k, v in other.state_dict().items():
             if v.is_floating_point():
                 state[k].add_(v, alpha=w)
@@ -61,6 +64,8 @@ def average(paths: list[Path], weights: list[float] | None = None):
 def run(args) -> int:
     model, meta = average(args.checkpoints, args.weights)
     save_checkpoint(args.out, model, meta=json.dumps(meta))
-    print(f"wrote {args.out}: {model.kind} {dict(model.config)}, "
-          + ", ".join(f"{w:.3g} x {p}" for p, w in zip(meta["checkpoints"], meta["weights"])))
+    print(
+        f"wrote {args.out}: {model.kind} {dict(model.config)}, "
+        + ", ".join(f"{w:.3g} x {p}" for p, w in zip(meta["checkpoints"], meta["weights"], strict=True))
+    )
     return 0

@@ -17,7 +17,7 @@ def _saved(path, seed, width=2, norm="batch", cls=Stage1Net):
     torch.manual_seed(seed)
     net = cls(width=width, resolution=128, norm=norm)
     with torch.no_grad():  # running statistics and step counts that differ between the two
-        for name, buf in net.named_buffers():
+        for buf in net.buffers():
             buf.add_(seed + 1) if buf.is_floating_point() else buf.fill_(10 * (seed + 1))
     return save_checkpoint(path, net, epoch=seed), net.state_dict()
 
@@ -45,9 +45,13 @@ def test_checkpoints_of_different_networks_or_bad_weights_are_one_error(tmp_path
     wide, _ = _saved(tmp_path / "wide.pt", 1, width=4)
     other, _ = _saved(tmp_path / "s2.pt", 1, cls=Stage2Net)
     out = tmp_path / "soup.pt"
-    for argv, says in (([a, wide], "not the stage1"), ([a, other], "a stage2"), ([a], "two or more"),
-                       ([a, a, "--weights", "1"], "one per checkpoint"),
-                       ([a, a, "--weights", "1", "-1"], "non-negative")):
+    for argv, says in (
+        ([a, wide], "not the stage1"),
+        ([a, other], "a stage2"),
+        ([a], "two or more"),
+        ([a, a, "--weights", "1"], "one per checkpoint"),
+        ([a, a, "--weights", "1", "-1"], "non-negative"),
+    ):
         assert export_main(["average", *map(str, argv), "--out", str(out)]) == 2
         assert says in capsys.readouterr().err
     assert not out.exists()

@@ -273,8 +273,8 @@ def test_preview_and_final_result_have_one_brightness(browser, server, studio, n
     preview the page draws agrees with the rendered result's (before, the preview kept the photo's mean
     luminance by a rule of its own and came out 5 % brighter than the result under these lights). What remains is
     what the preview leaves out (the head pass moves the ratio by 5 % under rim; the face mesh, the light the model
-    misses and full resolution by under 1 % each), model-dependent: preview / result 1.015 (rim), 0.982 (window-left) with the
-    seventh stage 1, 1.025 and 0.963 with the averaged one shipped since (2026-11-28)."""
+    misses and full resolution by under 1 % each), model-dependent: preview / result 1.015 (rim), 0.982
+    (window-left) with the seventh stage 1, 1.025 and 0.963 with the averaged one shipped since (2026-11-28)."""
     page = open_page(browser, server)
     light = lights.preset(name).astype(np.float32)
     shown = np.array(page.evaluate("L => studio.previewLight(L)", light.ravel().tolist()), np.float32).reshape(9, 3)
