@@ -23,7 +23,7 @@ def main(argv=None) -> int:
     parser.add_argument("photos", nargs="+", type=Path)
     parser.add_argument("--limit", type=float, default=0.99)
     args = parser.parse_args(argv)
-    from relight_rt import RelightError, Relighter, RuntimeConfig, lights
+    from relight_rt import Relighter, RelightError, RuntimeConfig, lights
     from relight_rt._io import read_image
 
     relighter = Relighter(RuntimeConfig(device="cpu"))
