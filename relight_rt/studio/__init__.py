@@ -16,10 +16,12 @@ from __future__ import annotations
 
 import importlib
 import logging
+import signal
 import threading
 import webbrowser
 
 from .._errors import RelightError
+from .._process import Terminated
 
 log = logging.getLogger(__name__)
 
@@ -59,10 +61,21 @@ def _allowed_hosts(host: str) -> list[str]:
 def serve(studio, host: str = "127.0.0.1", port: int = 8000, open_browser: bool = False) -> None:
     """Run the studio's server until interrupted; prints its URL once it listens. Ctrl-C or SIGTERM stop the
     server, which then raises the signal again under the handlers that were in place (KeyboardInterrupt for
-    Ctrl-C; the CLI's SIGTERM handler)."""
+    Ctrl-C; the CLI's SIGTERM handler). uvicorn raises it again itself, from inside its event loop, where
+    asyncio's own Ctrl-C handling can swallow it (a loaded machine once ended a Ctrl-C'd studio with status 0):
+    the signal that stopped the server is raised once more here, after the loop has ended, if nothing was."""
     uvicorn = _require("uvicorn")
     app = create_app(studio, _allowed_hosts(host))
-    server = uvicorn.Server(uvicorn.Config(app, host=host, port=port, log_level="warning", access_log=False))
+
+    class Server(uvicorn.Server):
+        stopped_by: int | None = None
+
+        def handle_exit(self, sig: int, frame) -> None:
+            if self.stopped_by is None:
+                self.stopped_by = sig
+            super().handle_exit(sig, frame)
+
+    server = Server(uvicorn.Config(app, host=host, port=port, log_level="warning", access_log=False))
 
     def announce() -> None:
         while not server.started and not server.should_exit:
@@ -81,6 +94,11 @@ def serve(studio, host: str = "127.0.0.1", port: int = 8000, open_browser: bool 
         server.run()
     except SystemExit:  # uvicorn exits when it cannot listen (it has logged why)
         raise RelightError(f"cannot listen on {host}:{port} (in use, or not an address of this machine)") from None
+    if server.stopped_by == signal.SIGINT:  # the run ended quietly although a signal stopped it
+        raise KeyboardInterrupt
+    if server.stopped_by is not None:
+        signal.raise_signal(server.stopped_by)  # SIGTERM: the CLI's handler raises, unless it already ran ...
+        raise Terminated()  # ... and was swallowed with the loop (it ignores a second SIGTERM)
 
 
 __all__ = ["check_extra", "create_app", "serve"]

@@ -456,3 +456,22 @@ def test_cli_studio_takes_every_runtime_option(photo, models_dir, monkeypatch):
             "reference"]
     assert main(args) == 0
     assert served and served[0].relighter.detail is False and served[0].relighter.preprocess == "reference"
+
+
+def test_a_signal_the_server_swallowed_still_ends_the_serve(photo, models_dir, monkeypatch):
+    """uvicorn raises the signal that stopped it again from inside its event loop, where asyncio's own Ctrl-C
+    handling can swallow it: under load a Ctrl-C'd studio once exited with status 0 and no line. A run that
+    ends quietly after a signal now raises it again: KeyboardInterrupt for Ctrl-C."""
+    pytest.importorskip("fastapi")
+    uvicorn = pytest.importorskip("uvicorn")
+    import signal
+
+    from relight_rt import studio as studio_pkg
+
+    def quiet_run(self, sockets=None):
+        self.handle_exit(signal.SIGINT, None)  # stopped by Ctrl-C, the re-raise lost
+
+    monkeypatch.setattr(uvicorn.Server, "run", quiet_run)
+    session = Studio(photo, None, "original", Relighter(RuntimeConfig(models=models_dir, device="cpu")))
+    with pytest.raises(KeyboardInterrupt):
+        studio_pkg.serve(session, port=0)
