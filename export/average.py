@@ -62,6 +62,8 @@ def average(paths: list[Path], weights: list[float] | None = None):
 
 
 def run(args) -> int:
+    if any(args.out.resolve() == p.resolve() for p in args.checkpoints):
+        raise RelightError(f"--out {args.out} is one of the checkpoints averaged: give another file (inputs are kept)")
     model, meta = average(args.checkpoints, args.weights)
     save_checkpoint(args.out, model, meta=json.dumps(meta))
     print(

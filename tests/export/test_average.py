@@ -55,3 +55,6 @@ def test_checkpoints_of_different_networks_or_bad_weights_are_one_error(tmp_path
         assert export_main(["average", *map(str, argv), "--out", str(out)]) == 2
         assert says in capsys.readouterr().err
     assert not out.exists()
+    before = a.read_bytes()
+    assert export_main(["average", str(a), str(wide), "--out", str(a)]) == 2  # never over an input
+    assert "one of the checkpoints averaged" in capsys.readouterr().err and a.read_bytes() == before
