@@ -211,14 +211,16 @@ _PRESETS = {
     "studio": (_studio, 1.0, "three-point: warm key upper camera-left, cool fill camera-right, rim from behind"),
     "window-left": (_window_left, 1.0, "large soft daylight window on the image's left"),
     "overhead-noon": (_overhead_noon, 1.0, "small sun almost straight above, blue sky, dark ground"),
-    "golden-hour": (_golden_hour, 1.0, "low warm sun front-right, dusky sky"),
+    "golden-hour": (_golden_hour, 1.0, "low warm sun front-right, dusky sky (lit skin can reach the limit and look "
+                    "flat: --exposure -0.5 keeps its shading)"),
     "overcast": (_overcast, 1.0, "bright soft sky, no hard direction"),
     "neon": (_neon, 1.0, "magenta from the left, cyan from the right"),
     "rim": (_rim, 1.0, "two cool backlights and a weak frontal fill: sides bright, face dim but readable "
              "(degree-2 SH makes a rim a wide glow, no thin line)"),
     "night": (_night, 0.5, "dim bluish moonlight from upper left over a dark sky"),
     "front": (_front, 1.0, "flat frontal light from the camera"),
-    "campfire": (_campfire, 1.0, "warm light from below in front, dark surroundings"),
+    "campfire": (_campfire, 1.0, "warm light from below in front, dark surroundings (lit skin can reach the limit "
+                 "and look flat: --exposure -0.5 keeps its shading)"),
 }
 
 
