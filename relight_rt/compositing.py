@@ -174,7 +174,7 @@ def _resize(image: np.ndarray, w: int, h: int) -> np.ndarray:
 
 
 def over_box(colour: np.ndarray, alpha: np.ndarray, box: tuple[int, int, int, int], backdrop: np.ndarray | None,
-             frame_alpha: np.ndarray) -> np.ndarray:
+             frame_alpha: np.ndarray, behind: np.ndarray | None = None) -> np.ndarray:
     """A straight-colour person inside ``box`` over a full-frame backdrop.
 
     Args:
@@ -183,6 +183,8 @@ def over_box(colour: np.ndarray, alpha: np.ndarray, box: tuple[int, int, int, in
         box: where the box lies in the frame.
         backdrop: (H, W, 3), or None for RGBA output.
         frame_alpha: (H, W) the mask of the whole frame (the RGBA output's alpha).
+        behind: (h, w, 3) the backdrop's colours inside the box instead of ``backdrop``'s own (the photo's
+            background behind a soft edge, relight_rt.foreground), or None.
 
     Returns:
         New (H, W, 3) float32, or (H, W, 4) RGBA with straight alpha when ``backdrop`` is None.
@@ -195,6 +197,8 @@ def over_box(colour: np.ndarray, alpha: np.ndarray, box: tuple[int, int, int, in
         return out
     out = np.array(backdrop, dtype=np.float32)  # the result: one full-size copy
     region = out[y0:y1, x0:x1]
+    if behind is not None:
+        region[...] = behind
     region += (colour - region) * alpha
     return out
 

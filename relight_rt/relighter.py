@@ -846,20 +846,9 @@ class Relighter:
         return state["foreground"]
 
     def _backdrop(self, dec: Decomposition, bg: Background) -> np.ndarray | None:
-        """The full-frame backdrop the relit person goes over: for the original background, the photo with the
-        colours behind the person's soft edge (``_foreground``), so that the photo's own light gives it back."""
-        if bg.kind != "original":
-            return bg.backdrop(dec.image)
-        fg, behind = self._foreground(dec)
-        if behind is fg:
-            return dec.image
-        state = self._prepared(dec)
-        if "behind" not in state:  # once per photo: every relight composites over the same backdrop
-            out = np.array(dec.image)
-            y0, y1, x0, x1 = dec.geometry.box
-            out[y0:y1, x0:x1] = behind
-            state["behind"] = _readonly(out)
-        return state["behind"]
+        """The full-frame backdrop the relit person goes over (the photo itself for the original background:
+        ``_compose`` puts the colours behind the person's soft edge into it)."""
+        return dec.image if bg.kind == "original" else bg.backdrop(dec.image)
 
     def _gain(
         self, dec: Decomposition, light: np.ndarray, image: np.ndarray, residual: np.ndarray | None = None
@@ -983,17 +972,23 @@ class Relighter:
 
         ``clean``: a new backdrop. With detail on the person's colour is already its foreground colour relit
         (``_person_colour``); the network image (``detail=False``) gets its soft edge cleaned of the old
-        background here (relight_rt.compositing.clean_edge_colour).
+        background here (relight_rt.compositing.clean_edge_colour). Over the photo's own background (not
+        ``clean``) the soft edge's share of background is the colour behind it (``_foreground``), so that the
+        photo's own light gives the photo back.
         """
         geom = dec.geometry
         _, residual, relit = outputs
         colour = self._person_colour(dec, light, residual, relit)
         alpha = geom.crop(dec.mask)
+        behind = None
         if clean and not self.detail:
             photo = np.ascontiguousarray(geom.crop(dec.image))
             fg, _ = self._foreground(dec, always=True)
             colour = clean_edge_colour(colour, photo, fg, alpha)
-        return over_box(colour, alpha[..., None], geom.box, backdrop, dec.mask)
+        elif not clean and backdrop is not None:
+            fg, bg = self._foreground(dec)
+            behind = None if bg is fg else bg
+        return over_box(colour, alpha[..., None], geom.box, backdrop, dec.mask, behind)
 
     def _expose(self, dec: Decomposition, lights: np.ndarray, exposure) -> np.ndarray:
         """relight_rt.exposure.expose with the photo's own mean luminance measured once per Decomposition."""
