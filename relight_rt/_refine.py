@@ -147,7 +147,7 @@ def _open_gap(rgb: np.ndarray, alpha: np.ndarray, out: np.ndarray, pocket: np.nd
     fg_w = ((cv2.distanceTransform(inside, cv2.DIST_L2, 3) > r) & (a >= _SURE)).astype(np.float32)
     bg_w = ((cv2.distanceTransform(1 - inside, cv2.DIST_L2, 3) > r) & (a <= 1 - _SURE)).astype(np.float32)
     b_col, blend = _colour_alpha(img, a, fg_w, bg_w, 2 * r, _GAP_REACH * r)
-    near_b = ((img - b_col) ** 2).sum(-1) < _GAP_MATCH
+    near_b = _backdrop_coloured(img, b_col)
     est = _guided(img, np.where(near_b, blend, a))
     sel = np.zeros(a.shape, bool)
     py, px = at[0] - y0, at[1] - x0
@@ -186,7 +186,7 @@ def opaque_where_cut(alpha: np.ndarray, r: int, rgb: np.ndarray | None = None) -
         b_col = cv2.resize(b_col, (w, n), interpolation=cv2.INTER_LINEAR)
         b_n = cv2.resize(b_n, (w, n), interpolation=cv2.INTER_LINEAR)
         uy, ux = np.nonzero(unsure)
-        far = (((img[uy, ux] - b_col[uy, ux]) ** 2).sum(-1) > _GAP_MATCH) | (b_n[uy, ux] < 0.5 / (s * s))
+        far = ~_backdrop_coloured(img[uy, ux], b_col[uy, ux]) | (b_n[uy, ux] < 0.5 / (s * s))
         inside[uy[far], ux[far]] = True
     inside = inside.astype(np.uint8)
     # the graphs' answer fades toward the border (zidane's coat: 0.85 -> 0.45 over the last 14 rows), which
@@ -217,6 +217,13 @@ def _colour_alpha(
     a_c = np.clip(((img - b_col) * d).sum(-1) / (dd + _EPS), 0.0, 1.0)
     conf = dd / (dd + _TAU) * (f_n > 0) * (b_n > 0)
     return b_col, (conf * a_c + (1 - conf) * a).astype(np.float32)
+
+
+def _backdrop_coloured(img: np.ndarray, b_col: np.ndarray) -> np.ndarray:
+    """Where a pixel's colour lies within _GAP_MATCH (squared distance) of the backdrop's colour ``b_col``: the
+    one rule by which a half-seen pocket opens (``_open_gap``) and a half-seen patch at the border stays soft
+    (``opaque_where_cut``)."""
+    return ((img - b_col) ** 2).sum(-1) < _GAP_MATCH
 
 
 def _side_mean(img: np.ndarray, weight: np.ndarray, r: int) -> tuple[np.ndarray, np.ndarray]:
