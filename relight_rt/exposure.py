@@ -9,7 +9,15 @@ overall brightness of a relit person is one scalar on the light, and an automati
   exposure does): the light's direction and colour change the picture, not its overall brightness.
   In ``composite`` the target is the brightness the background's own light gives the person
   (relight_rt.scene).
-* a number ``EV``: the automatic scale times 2**EV (+1 is twice as bright, −1 half).
+  Where keeping the mean would push more of the person past white than the photo itself has there (at least
+  ``HIGHLIGHT_SHARE``; a face lit from one side by a lamp as strong as the whole photo's light), the scale is
+  lowered just enough (``highlight_factor``), by at most ``HIGHLIGHT_MAX_DOWN`` (one stop): a camera's
+  highlight-weighted metering. Without it the lit side of a fair face went flat at the limit (a fifth of the
+  person under campfire on DPR's portrait), its shading gone, and the shade beside it read as a blotch. The
+  photo's own light is never lowered (its share past white is the photo's), so it still gives the photo back.
+  This guard applies where the target is the photo's own brightness; a composite's person takes the scene's
+  exposure as it is (the backdrop's highlights are the backdrop's).
+* a number ``EV``: the automatic scale (guard included) times 2**EV (+1 is twice as bright, −1 half).
 * ``"physical"``: the light's absolute intensity is kept (no scaling).
 
 Mean luminance: Rec. 709 weights (0.2126 R + 0.7152 G + 0.0722 B) on the values of the pipeline, which
@@ -28,10 +36,14 @@ import numpy as np
 from . import sh
 from ._errors import RelightError
 
-__all__ = ["REC709", "exposure_scale", "mean_luminance", "parse_exposure"]
+__all__ = ["HIGHLIGHT_MAX_DOWN", "HIGHLIGHT_SHARE", "REC709", "exposure_scale", "highlight_factor",
+           "mean_luminance", "parse_exposure"]
 
 REC709 = np.array([0.2126, 0.7152, 0.0722], np.float32)
 MAX_EV = 20.0  # |EV| beyond this is a mistake, not a photograph
+HIGHLIGHT_LIMIT = 1.0  # white: the brightest channel of a relit pixel past this is held by the highlight shoulder
+HIGHLIGHT_SHARE = 0.10  # the share of the person "auto" lets past white (or the photo's own share, when larger)
+HIGHLIGHT_MAX_DOWN = 0.5  # ... and the most it lowers the light for that: one stop
 _TINY = 1e-8
 
 
@@ -124,6 +136,48 @@ def exposure_scale(albedo, transport, mask, light, target_luminance: float, expo
     if current <= _TINY or target <= _TINY:
         return gain
     return gain * target / current
+
+
+def highlight_factor(lit, steady, transport, light, allowed: float) -> float:
+    """How much "auto" lowers an exposed light so that at most ``allowed`` of the person goes past white.
+
+    The relit colour of each of the person's pixels (network resolution, before stage 2 and the highlight
+    shoulder) under ``s`` times ``light`` is taken as ``s * lit * S + steady * S / Y(S)``, with S = max(0, T·light)
+    the pixel's RGB shading and Y its Rec. 709 luminance: the part that scales with the light and the part that
+    stays whatever its strength (relight_rt.relighter: the light the model misses), both carried in the new
+    light's colour. A pixel goes past white (``HIGHLIGHT_LIMIT`` on its brightest channel) from some scale s_i
+    on; the factor is the largest s <= 1 at which no more than ``allowed`` of the pixels are past it, and at
+    least ``HIGHLIGHT_MAX_DOWN``.
+
+    Args:
+        lit: (N, 3) per pixel, the colour per unit of shading that scales with the light.
+        steady: (N, 3) per pixel, the colour per unit of the light's luminance that stays (zeros for none).
+        transport: (N, 9) the transport the relighting uses.
+        light: (9, 3) the exposed light.
+        allowed: the share of the N pixels that may go past white (in [0, 1]).
+
+    Returns:
+        The factor in [``HIGHLIGHT_MAX_DOWN``, 1]; 1 for no pixels.
+    """
+    lit = np.asarray(lit, np.float32).reshape(-1, 3)
+    steady = np.asarray(steady, np.float32).reshape(-1, 3)
+    t = np.asarray(transport, np.float32).reshape(-1, 9)
+    if not (lit.shape[0] == steady.shape[0] == t.shape[0]):
+        raise RelightError(f"exposure: {lit.shape[0]} lit, {steady.shape[0]} steady and {t.shape[0]} transport pixels")
+    n = t.shape[0]
+    if n == 0:
+        return 1.0
+    shading = sh.shading(t, np.asarray(light, np.float32))
+    lum = shading @ REC709
+    scaled = lit * shading
+    fixed = steady * shading / np.maximum(lum, 1e-4)[:, None]
+    # the scale at which each channel reaches white (0 when it is there already, inf when it never does)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        reach = np.where(scaled > 0, (HIGHLIGHT_LIMIT - fixed) / scaled, np.inf)
+    reach = np.where(fixed >= HIGHLIGHT_LIMIT, 0.0, reach).min(axis=1)
+    k = min(int(math.floor(float(np.clip(allowed, 0, 1)) * n)), n - 1)
+    s = float(np.partition(reach, k)[k])  # k pixels at most reach white below this scale
+    return float(np.clip(s, HIGHLIGHT_MAX_DOWN, 1.0))
 
 
 def expose(dec, lights: np.ndarray, exposure="auto", target_luminance: float | None = None) -> np.ndarray:

@@ -205,22 +205,21 @@ def _campfire() -> np.ndarray:
 
 # Warm lights are as a camera white-balanced for daylight records them after its automatic white balance has
 # taken out part of the cast (golden hour ~3500 K, a fire ~2500 K seen through it): a fully saturated orange,
-# with the person's mean luminance kept, leaves nothing of the face but one flat orange.
+# with the person's mean luminance kept, leaves nothing of the face but one flat orange (and the automatic
+# exposure lowers a light that would put much of the person past white: relight_rt.exposure).
 # name → (builder, peak irradiance on the visible half of the sphere, what it looks like)
 _PRESETS = {
     "studio": (_studio, 1.0, "three-point: warm key upper camera-left, cool fill camera-right, rim from behind"),
     "window-left": (_window_left, 1.0, "large soft daylight window on the image's left"),
     "overhead-noon": (_overhead_noon, 1.0, "small sun almost straight above, blue sky, dark ground"),
-    "golden-hour": (_golden_hour, 1.0, "low warm sun front-right, dusky sky (lit skin can reach the limit and look "
-                    "flat: --exposure -0.5 keeps its shading)"),
+    "golden-hour": (_golden_hour, 1.0, "low warm sun front-right, dusky sky"),
     "overcast": (_overcast, 1.0, "bright soft sky, no hard direction"),
     "neon": (_neon, 1.0, "magenta from the left, cyan from the right"),
     "rim": (_rim, 1.0, "two cool backlights and a weak frontal fill: sides bright, face dim but readable "
              "(degree-2 SH makes a rim a wide glow, no thin line)"),
     "night": (_night, 0.5, "dim bluish moonlight from upper left over a dark sky"),
     "front": (_front, 1.0, "flat frontal light from the camera"),
-    "campfire": (_campfire, 1.0, "warm light from below in front, dark surroundings (lit skin can reach the limit "
-                 "and look flat: --exposure -0.5 keeps its shading)"),
+    "campfire": (_campfire, 1.0, "warm light from below in front, dark surroundings"),
 }
 
 

@@ -991,13 +991,53 @@ class Relighter:
         return over_box(colour, alpha[..., None], geom.box, backdrop, dec.mask, behind)
 
     def _expose(self, dec: Decomposition, lights: np.ndarray, exposure) -> np.ndarray:
-        """relight_rt.exposure.expose with the photo's own mean luminance measured once per Decomposition."""
-        if _exposure.parse_exposure(exposure) == "physical":
+        """relight_rt.exposure.expose with the photo's own mean luminance measured once per Decomposition, then
+        the highlight guard (relight_rt.exposure ``highlight_factor``) on each light before any EV offset."""
+        mode = _exposure.parse_exposure(exposure)
+        if mode == "physical":
             return np.array(lights, np.float32)
         state = self._prepared(dec)
         if "target" not in state:
             state["target"] = _exposure.mean_luminance(dec.albedo, dec.transport, dec.network_mask, dec.white_light)
-        return _exposure.expose(dec, lights, exposure, target_luminance=state["target"])
+        lits = _exposure.expose(dec, lights, "auto", target_luminance=state["target"])
+        lit, steady, transport, allowed = self._highlight_inputs(dec)
+        gain = 1.0 if mode == "auto" else 2.0**mode
+        flat = lits.reshape(-1, 9, 3)
+        factors = [gain * _exposure.highlight_factor(lit, steady, transport, one, allowed) for one in flat]
+        return (flat * np.asarray(factors, np.float32)[:, None, None]).reshape(lits.shape)
+
+    def _highlight_inputs(self, dec: Decomposition) -> tuple:
+        """What ``highlight_factor`` reads of ``dec`` whatever the light (cached): the person's pixels (alpha > 0.5,
+        network frame) as the relit picture is made of them, and the share past white allowed.
+
+        With detail the picture is the photo times the relighting factor (module docstring; diffuse part): per
+        pixel the photo's colour times albedo / own scales with the light and the photo's colour times missing /
+        own stays; without it, the network's albedo times the shading. The share allowed is the photo's own
+        share at white there, at least ``HIGHLIGHT_SHARE``.
+        """
+        state = self._prepared(dec)
+        if "highlight" not in state:
+            if self.detail:
+                own = self._own(dec, with_residual=False)
+                y0, y1, x0, x1 = own["window"]
+                inner = own["inner"]
+                photo = dec.network_image[y0:y1, x0:x1][inner]
+                base = own["own"][inner]
+                lit = photo * (own["albedo"][inner] / base)[:, None]
+                steady = photo * (own["missing"][inner] / base)[:, None]
+                transport = own["transport"][inner]
+            else:
+                alpha = dec.network_mask
+                inner = alpha > 0.5
+                photo = dec.network_image[inner]
+                lit = unpremultiply(np.ascontiguousarray(dec.albedo), alpha)[inner]
+                steady = np.zeros_like(lit)
+                transport = unpremultiply(np.ascontiguousarray(dec.transport), alpha)[inner]
+            at_white = float(np.mean(_channel_max(photo) >= 0.99 * _exposure.HIGHLIGHT_LIMIT)) if photo.size else 0.0
+            state["highlight"] = (_readonly(lit.astype(np.float32)), _readonly(steady.astype(np.float32)),
+                                  _readonly(np.ascontiguousarray(transport, np.float32)),
+                                  max(at_white, _exposure.HIGHLIGHT_SHARE))
+        return state["highlight"]
 
     def _prepare(self, image, mask) -> Decomposition:
         if isinstance(image, Decomposition):
@@ -1026,8 +1066,9 @@ class Relighter:
             background: a :class:`relight_rt.compositing.Background`, or its shorthand: "original" (the
                 photo), "transparent" (RGBA output, alpha = mask), a colour ("black", "#RRGGBB") or an image
                 (path or array; fitted to the photo by "cover").
-            exposure: "auto" (default: the light is scaled so the person keeps its mean luminance), an EV
-                offset from auto (+1 twice as bright), or "physical" (the light as given); relight_rt.exposure.
+            exposure: "auto" (default: the light is scaled so the person keeps its mean luminance, lowered by up
+                to a stop where that would put more than a tenth of the person past white), an EV offset from
+                auto (+1 twice as bright), or "physical" (the light as given); relight_rt.exposure.
             layers: also return the input-frame layers that made the picture.
 
         Returns:

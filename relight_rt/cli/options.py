@@ -128,8 +128,9 @@ def add_exposure_option(p: argparse.ArgumentParser, reference: str = "the input 
     """--exposure auto | EV | physical (relight_rt.exposure), one meaning in every command."""
     p.add_argument(
         "--exposure", default="auto", metavar="E",
-        help=f"auto (default: scale the light so the person keeps {reference} mean luminance), an EV offset "
-        "from auto (+1 twice as bright, -0.5) or physical (the light's own intensity)",
+        help=f"auto (default: scale the light so the person keeps {reference} mean luminance, lowered up to a "
+        "stop where that would put much of the person past white), an EV offset from auto (+1 twice as bright, "
+        "-0.5) or physical (the light's own intensity)",
     )  # fmt: skip
 
 

@@ -44,7 +44,8 @@ log = logging.getLogger(__name__)
 MAX_UPLOAD_BYTES = 32 << 20  # an env map or a photo; bigger uploads are refused before decoding
 MAX_UPLOAD_PIXELS = 40_000_000  # decoded size limit (a small file can hold a huge image)
 EXPOSURE_SAMPLES = 1 << 15  # network-frame pixels of the person that the page's exposure rule reads (at most)
-from ..exposure import exposure_scale, mean_luminance, parse_exposure  # noqa: E402  (the one exposure rule)
+from .. import exposure as _exposure  # noqa: E402  (the one exposure rule)
+from ..exposure import exposure_scale, highlight_factor, mean_luminance, parse_exposure  # noqa: E402
 from ..lightspec import LightSpec  # noqa: E402  (the one light parser)
 
 # (leading bytes, kind, suffix the readers go by)
@@ -196,6 +197,19 @@ def _exposure_sample(dec) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return albedo, transport, m[idx]
 
 
+def _highlight_sample(relighter, dec) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """What the exposure's highlight guard reads (relight_rt.exposure ``highlight_factor``; the relighter's
+    ``_highlight_inputs``), every ``step``-th pixel, at most EXPOSURE_SAMPLES: lit (n, 3), steady (n, 3),
+    transport (n, 9) and the share allowed past white. A runtime without the guard gives no pixels (factor 1)."""
+    inputs = getattr(relighter, "_highlight_inputs", None)
+    if inputs is None:
+        return np.zeros((0, 3), np.float32), np.zeros((0, 3), np.float32), np.zeros((0, 9), np.float32), 1.0
+    lit, steady, transport, allowed = inputs(dec)
+    step = max(1, math.ceil(lit.shape[0] / EXPOSURE_SAMPLES))
+    return (np.ascontiguousarray(lit[::step], np.float32), np.ascontiguousarray(steady[::step], np.float32),
+            np.ascontiguousarray(transport[::step], np.float32), float(allowed))
+
+
 def _display_size(h: int, w: int, max_pixels: int) -> tuple[int, int]:
     s = min(1.0, math.sqrt(max_pixels / (h * w)))
     return max(2, round(h * s)), max(2, round(w * s))
@@ -288,9 +302,12 @@ class Studio:
         # image inside the mask, the photo's own light as the target) on the person's network-frame pixels
         albedo_s, transport_s, mask_s = self._exposure = _exposure_sample(dec)
         target = mean_luminance(albedo_s[None], transport_s[None], mask_s[None], dec.white_light)
+        # the exposure's highlight guard (relight_rt.exposure.highlight_factor) on the pixels the final result reads
+        lit_h, steady_h, transport_h, allowed = self._highlight = _highlight_sample(self.relighter, dec)
         head = q16.tobytes() + q8.tobytes()
         offset = -(-len(head) // 4) * 4  # float32 planes start 4-byte aligned
         planes = np.concatenate([transport_s.T, albedo_s.T, mask_s[None]]).astype("<f4")
+        guard = np.concatenate([lit_h.T, steady_h.T, transport_h.T]).astype("<f4")
         return {
             "height": size[0],
             "width": size[1],
@@ -299,20 +316,32 @@ class Studio:
             "exposure_target": target,
             "exposure_samples": int(mask_s.size),
             "exposure_offset": offset,
-            "data": head + bytes(offset - len(head)) + planes.tobytes(),
+            "highlight_samples": int(lit_h.shape[0]),
+            "highlight_offset": offset + planes.nbytes,
+            "highlight_allowed": allowed,
+            "highlight_limit": _exposure.HIGHLIGHT_LIMIT,
+            "highlight_max_down": _exposure.HIGHLIGHT_MAX_DOWN,
+            "data": head + bytes(offset - len(head)) + planes.tobytes() + guard.tobytes(),
         }
 
     def preview_light(self, light, exposure="auto") -> np.ndarray:
         """The light the page's preview draws for ``light`` (27 numbers or (9, 3)) and ``exposure``: the final
-        result's exposure rule (relight_rt.exposure.exposure_scale) on the page's exposure sample, so that the
-        preview and the final result have one brightness. What studio.js ``previewLight`` computes."""
+        result's exposure rule (relight_rt.exposure: the mean-keeping scale, its highlight guard, the EV) on the
+        page's samples, so that the preview and the final result have one brightness. What studio.js
+        ``previewLight`` computes."""
         lit = request_light(light)
         exp = request_exposure(exposure)
         if not self.exposure_supported:
             return lit
+        if exp == "physical":
+            return lit
         albedo_s, transport_s, mask_s = self._exposure
         target = self._layers["exposure_target"]
-        scale = exposure_scale(albedo_s[None], transport_s[None], mask_s[None], lit, target, exp)
+        scale = exposure_scale(albedo_s[None], transport_s[None], mask_s[None], lit, target, "auto")
+        lit_h, steady_h, transport_h, allowed = self._highlight
+        scale *= highlight_factor(lit_h, steady_h, transport_h, lit * np.float32(scale), allowed)
+        if exp != "auto":
+            scale *= 2.0**exp
         return (lit * np.float32(scale)).astype(np.float32)
 
     def photo_png(self) -> bytes:
@@ -325,7 +354,9 @@ class Studio:
         """The binary the page reads: 9 planes of uint16 transport, then 7 planes of uint8 (albedo R, G, B
         premultiplied by the mask, mask, background R, G, B), each plane height x width, row-major; then, from
         byte ``exposure_offset``, the exposure sample (``_exposure_sample``) as float32 planes of
-        ``exposure_samples`` values: transport 0…8, albedo R, G, B, mask."""
+        ``exposure_samples`` values: transport 0…8, albedo R, G, B, mask; then, from byte ``highlight_offset``,
+        the highlight guard's sample (``_highlight_sample``) as float32 planes of ``highlight_samples`` values:
+        lit R, G, B, steady R, G, B, transport 0…8."""
         return self._layers["data"]
 
     def info(self) -> dict:
@@ -412,17 +443,22 @@ class Studio:
 def unpack_layers(data: bytes, meta: dict) -> dict:
     """The inverse of ``Studio.layers_bytes`` (what the page's decodeLayers does): float32 planes
     "transport" (9, h, w), "albedo" (3, h, w) premultiplied, "mask" (h, w), "background" (3, h, w), and
-    "exposure": {"transport" (n, 9), "albedo" (n, 3), "mask" (n,)}, the exposure sample."""
+    "exposure": {"transport" (n, 9), "albedo" (n, 3), "mask" (n,)}, the exposure sample, and "highlight":
+    {"lit" (m, 3), "steady" (m, 3), "transport" (m, 9)}, the highlight guard's."""
     h, w = meta["height"], meta["width"]
     n = h * w
     ns, offset = int(meta["exposure_samples"]), int(meta["exposure_offset"])
-    if offset < 25 * n or len(data) != offset + 52 * ns:
-        raise RelightError(f"layers: expected {offset + 52 * ns} bytes for {h}x{w} and {ns} samples, got {len(data)}")
+    nh, hoffset = int(meta["highlight_samples"]), int(meta["highlight_offset"])
+    if offset < 25 * n or hoffset != offset + 52 * ns or len(data) != hoffset + 60 * nh:
+        raise RelightError(f"layers: expected {hoffset + 60 * nh} bytes for {h}x{w}, {ns} and {nh} samples, got "
+                           f"{len(data)}")
     q16 = np.frombuffer(data, "<u2", 9 * n).reshape(9, h, w).astype(np.float32)
     off = np.array(meta["transport_offset"], np.float32)[:, None, None]
     scale = np.array(meta["transport_scale"], np.float32)[:, None, None]
     eight = np.frombuffer(data, np.uint8, 7 * n, 18 * n).reshape(7, h, w).astype(np.float32) / 255
     planes = np.frombuffer(data, "<f4", 13 * ns, offset).reshape(13, ns).astype(np.float32)
     sample = {"transport": planes[:9].T.copy(), "albedo": planes[9:12].T.copy(), "mask": planes[12].copy()}
+    guard = np.frombuffer(data, "<f4", 15 * nh, hoffset).reshape(15, nh).astype(np.float32)
+    highlight = {"lit": guard[:3].T.copy(), "steady": guard[3:6].T.copy(), "transport": guard[6:].T.copy()}
     return {"transport": off + q16 * scale, "albedo": eight[:3], "mask": eight[3], "background": eight[4:],
-            "exposure": sample}
+            "exposure": sample, "highlight": highlight}

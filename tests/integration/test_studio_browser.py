@@ -26,7 +26,7 @@ pytest.importorskip("uvicorn")
 sync_api = pytest.importorskip("playwright.sync_api")
 
 import relight_rt  # noqa: E402
-from relight_rt import Relighter, RuntimeConfig, lightfile, lights, sh  # noqa: E402
+from relight_rt import Relighter, RuntimeConfig, exposure, lightfile, lights, sh  # noqa: E402
 from relight_rt.demo import example_path  # noqa: E402
 from relight_rt.exposure import exposure_scale  # noqa: E402
 from relight_rt.sh import shading  # noqa: E402
@@ -291,7 +291,7 @@ def test_preview_and_final_result_have_one_brightness(browser, server, studio, n
     assert have / want == pytest.approx(1.0, abs=0.045)
 
 
-def test_exposure_rule_in_js_matches_python(browser, server, studio):
+def test_exposure_rule_in_js_matches_python(browser, server, studio, monkeypatch):
     page = open_page(browser, server)
     light = lights.preset("golden-hour").astype(np.float32)
     js = page.evaluate("L => studio.sh.exposureScale(studio.state.layers.exposure, L, 0.3, 0.5, 1)",
@@ -302,6 +302,17 @@ def test_exposure_rule_in_js_matches_python(browser, server, studio):
     # what the page draws is the Studio's preview_light
     shown = page.evaluate("L => studio.previewLight(L)", light.ravel().tolist())
     np.testing.assert_allclose(np.reshape(shown, (9, 3)), studio.preview_light(light), rtol=1e-4, atol=1e-7)
+    # the highlight guard, also where it acts (a limit this person's lit side passes)
+    guard = unpack_layers(studio.layers_bytes(), studio.info()["preview"])["highlight"]
+    for limit, allowed in ((1.0, 0.1), (0.5, 0.02), (0.3, 0.0)):
+        js = page.evaluate(
+            "([L, lim, al]) => studio.sh.highlightFactor(studio.state.layers.highlight, L, lim, al, 0.5)",
+            [light.ravel().tolist(), limit, allowed],
+        )
+        monkeypatch.setattr(exposure, "HIGHLIGHT_LIMIT", limit)
+        py = exposure.highlight_factor(guard["lit"], guard["steady"], guard["transport"], light, allowed)
+        assert js == pytest.approx(py, rel=1e-4), (limit, allowed)
+    assert py < 1  # the last limit lowered the light
     page.close()
 
 

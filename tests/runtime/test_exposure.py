@@ -5,7 +5,8 @@ import pytest
 from _graphs import OWN_LIGHT, diffuse_models_dir, models_dir, person
 
 from relight_rt import Relighter, RelightError, RuntimeConfig, lights
-from relight_rt.exposure import REC709, exposure_scale, mean_luminance, parse_exposure
+from relight_rt import exposure as _exposure
+from relight_rt.exposure import REC709, exposure_scale, highlight_factor, mean_luminance, parse_exposure
 
 __all__ = ["diffuse_models_dir", "models_dir"]  # fixtures
 
@@ -119,3 +120,84 @@ def test_parse_exposure_refuses_a_huge_integer():
         parse_exposure(7 * 10**400)
     with pytest.raises(RelightError, match="exposure: expected an EV offset"):
         parse_exposure(10**5000)  # more digits than int → str allows
+
+
+def _flat_pixels(values):
+    """Pixels whose transport is degree 0 only and a light that shades them 1 in every channel: the colour that
+    scales with the light is ``values`` (grey), so pixel i reaches white at scale 1 / values[i]."""
+    v = np.asarray(values, np.float32)
+    transport = np.zeros((v.size, 9), np.float32)
+    transport[:, 0] = 1.0
+    light = np.zeros((9, 3), np.float32)
+    light[0] = 1.0
+    return np.repeat(v[:, None], 3, axis=1), np.zeros((v.size, 3), np.float32), transport, light
+
+
+def test_highlight_factor_lets_the_allowed_share_past_white_and_no_more():
+    lit, steady, transport, light = _flat_pixels(np.linspace(0.2, 1.2, 1000))  # a fifth of them past white at 1
+    f = highlight_factor(lit, steady, transport, light, 0.10)
+    peaks = lit[:, 0]
+    assert np.mean(f * peaks > 1) <= 0.10 < np.mean(1.01 * f * peaks > 1)  # the largest scale that keeps to it
+    assert f == pytest.approx(1 / np.quantile(peaks, 0.90), rel=0.01)
+    assert highlight_factor(lit, steady, transport, light, 0.30) == 1.0  # a fifth is within 0.30: unchanged
+    dark, *_ = _flat_pixels(np.full(100, 0.9))
+    assert highlight_factor(dark, steady[:100], transport[:100], light, 0.0) == 1.0  # nothing reaches white
+
+
+def test_highlight_factor_lowers_at_most_one_stop_and_counts_what_stays():
+    lit, steady, transport, light = _flat_pixels(np.full(200, 10.0))  # ten times past white
+    assert highlight_factor(lit, steady, transport, light, 0.10) == _exposure.HIGHLIGHT_MAX_DOWN == 0.5
+    lit, steady, transport, light = _flat_pixels(np.full(200, 0.9))
+    steady[:100] = 1.2  # half the pixels are past white whatever the scale (light the model misses, kept)
+    assert highlight_factor(lit, steady, transport, light, 0.10) == 0.5
+    assert highlight_factor(lit, steady, transport, light, 0.5) == 1.0
+    assert highlight_factor(lit[:0], steady[:0], transport[:0], light, 0.1) == 1.0
+    with pytest.raises(RelightError, match="pixels"):
+        highlight_factor(lit, steady[:5], transport, light, 0.1)
+
+
+def test_relight_applies_the_guard_as_one_scalar_before_the_ev(diffuse, monkeypatch):
+    """The wiring: "auto" is the mean-keeping scale times the guard's factor, an EV multiplies that, "physical" has
+    no guard; the photo's own light is never lowered."""
+    img, mask = person(seed=7)
+    dec = diffuse.decompose(0.5 * img, mask)
+    lamp = lights.preset("window-left")
+    kept = diffuse.relight(dec, lamp, layers=True).light
+    calls = []
+    monkeypatch.setattr(_exposure, "highlight_factor", lambda *a: calls.append(a) or 0.7)
+    guarded = diffuse.relight(dec, lamp, layers=True).light
+    np.testing.assert_allclose(guarded, 0.7 * kept, rtol=1e-5)
+    np.testing.assert_allclose(diffuse.relight(dec, lamp, exposure=1.0, layers=True).light, 1.4 * kept, rtol=1e-5)
+    np.testing.assert_allclose(diffuse.relight(dec, lamp, exposure="physical", layers=True).light, lamp)
+    assert len(calls) == 2 and calls[0][-1] >= _exposure.HIGHLIGHT_SHARE  # the share allowed: at least the default
+
+
+def test_auto_exposure_keeps_a_side_lamp_from_flattening_a_fair_face(reference_dir, monkeypatch):
+    """A real high-key photo (fair skin near white, ../shared/reference) under a lamp from the side: keeping the
+    mean luminance pushed a fifth of the person past white (the lit side one flat colour at the highlight
+    shoulder); "auto" lowers the light just enough, by at most a stop, and the photo's own light not at all."""
+    import cv2
+
+    from relight_rt.session import bundled_models_dir
+
+    frame = reference_dir / "video" / "frame_001.png"
+    image = cv2.cvtColor(cv2.imread(str(frame)), cv2.COLOR_BGR2RGB).astype(np.float32) / 255
+    mask = cv2.imread(str(frame.with_name("frame_001_mask.png")), cv2.IMREAD_GRAYSCALE).astype(np.float32) / 255
+    relighter = Relighter(RuntimeConfig(models=bundled_models_dir(), device="cpu"))
+    dec = relighter.decompose(image, mask)
+    inside = mask > 0.5
+    lamp = lights.preset("window-left")
+    guarded = relighter.relight(dec, lamp, layers=True)
+    own = relighter.relight(dec, dec.light, layers=True).light
+    monkeypatch.setattr(_exposure, "HIGHLIGHT_MAX_DOWN", 1.0)  # the guard off: the mean luminance kept
+    relighter._prepared(dec).pop("highlight", None)
+    kept = relighter.relight(dec, lamp, layers=True)
+    np.testing.assert_allclose(relighter.relight(dec, dec.light, layers=True).light, own, rtol=1e-6)
+    factor = float(guarded.light[0, 0] / kept.light[0, 0])
+    assert 0.5 <= factor < 0.85  # measured 0.77 (-0.37 EV)
+    np.testing.assert_allclose(guarded.light, factor * kept.light, rtol=1e-5)  # one scalar: direction, colour kept
+
+    def near_white(image):
+        return float(np.mean(image[inside].max(axis=1) >= 0.95))
+
+    assert near_white(guarded.image) < 0.75 * near_white(kept.image)

@@ -23,6 +23,10 @@ export function decodeLayers(buffer, meta) {
   const ns = meta.exposure_samples;
   const f = new Float32Array(buffer, meta.exposure_offset, 13 * ns);
   const plane = (i) => f.subarray(i * ns, (i + 1) * ns);
+  // the highlight guard's sample: float32 planes (lit r, g, b, steady r, g, b, transport 0..8)
+  const nh = meta.highlight_samples;
+  const g = new Float32Array(buffer, meta.highlight_offset, 15 * nh);
+  const guard = (i) => g.subarray(i * nh, (i + 1) * nh);
   return {
     width: meta.width,
     height: meta.height,
@@ -34,6 +38,11 @@ export function decodeLayers(buffer, meta) {
       transport: [0, 1, 2, 3, 4, 5, 6, 7, 8].map(plane),
       albedo: [plane(9), plane(10), plane(11)],
       mask: plane(12),
+    },
+    highlight: {
+      lit: [guard(0), guard(1), guard(2)],
+      steady: [guard(3), guard(4), guard(5)],
+      transport: [6, 7, 8, 9, 10, 11, 12, 13, 14].map(guard),
     },
   };
 }

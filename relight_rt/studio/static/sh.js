@@ -136,3 +136,34 @@ export function exposureScale(layers, light, target, ev, step) {
   const gain = Math.pow(2, ev);
   return current > 1e-8 && target > 1e-8 ? (gain * target) / current : gain;
 }
+
+// The exposure's highlight guard (relight_rt.exposure.highlight_factor): how much "auto" lowers the exposed light
+// so that at most `allowed` of the person goes past `limit` (white), by at most the factor `maxDown`. guard: the
+// highlight sample of the layers (decodeLayers: {lit: 3 planes, steady: 3 planes, transport: 9 planes}); pixel p
+// under s · light is s · lit · S + steady · S / Y(S) (S its RGB shading, Y the luminance), past white from the
+// scale at which its brightest channel reaches the limit.
+export function highlightFactor(guard, light, limit, allowed, maxDown) {
+  const T = guard.transport, lit = guard.lit, steady = guard.steady;
+  const n = lit[0].length;
+  if (n === 0) return 1;
+  const reach = new Float32Array(n);
+  const S = [0, 0, 0];
+  for (let p = 0; p < n; p++) {
+    for (let c = 0; c < 3; c++) {
+      let s = 0;
+      for (let k = 0; k < 9; k++) s += T[k][p] * light[3 * k + c];
+      S[c] = Math.max(s, 0);
+    }
+    const y = Math.max(LUMA[0] * S[0] + LUMA[1] * S[1] + LUMA[2] * S[2], 1e-4);
+    let r = Infinity;
+    for (let c = 0; c < 3; c++) {
+      const fixed = (steady[c][p] * S[c]) / y, scaled = lit[c][p] * S[c];
+      if (fixed >= limit) r = 0;
+      else if (scaled > 0) r = Math.min(r, (limit - fixed) / scaled);
+    }
+    reach[p] = r;
+  }
+  reach.sort();
+  const k = Math.min(Math.floor(Math.min(Math.max(allowed, 0), 1) * n), n - 1);
+  return Math.min(Math.max(reach[k], maxDown), 1);
+}

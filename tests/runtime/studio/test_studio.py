@@ -171,18 +171,47 @@ def test_render_is_the_relighters_result(studio, models_dir):
     assert json.loads(light_json(rec.light))["order"] == "rgb"
 
 
-def test_preview_exposure_is_the_final_results(studio):
-    """One exposure rule: the preview's light is the light the final result uses (relight_rt.exposure), exactly
-    when the exposure sample holds every pixel of the person (as here: a 64² network)."""
-    from relight_rt.exposure import expose
-
+def _check_preview_exposure(studio):
     layers = unpack_layers(studio.layers_bytes(), studio.info()["preview"])
     assert layers["exposure"]["mask"].size == int((studio.dec.network_mask > 0).sum())
-    for name in ("studio", "rim"):
+    assert layers["highlight"]["lit"].shape[0] == int((studio.dec.network_mask > 0.5).sum())
+    factors = []
+    for name in ("studio", "rim", "window-left"):
         light = lights.preset(name).astype(np.float32)
         for exposure in ("auto", 1.0, "physical"):
-            want = expose(studio.dec, light, exposure)
+            want = studio.relighter.relight(studio.dec, light, exposure=exposure, layers=True).light
             np.testing.assert_allclose(studio.preview_light(light.tolist(), exposure), want, rtol=1e-5, atol=1e-7)
+        mean_kept = studio.preview_light(light.tolist(), "auto")[0, 0] / exposure_scale_of(studio, light)
+        factors.append(float(mean_kept / light[0, 0]))
+    return factors
+
+
+def exposure_scale_of(studio, light):
+    """The mean-keeping scale alone (no highlight guard) on the page's exposure sample."""
+    from relight_rt.exposure import exposure_scale
+
+    albedo, transport, mask = studio._exposure
+    return exposure_scale(albedo[None], transport[None], mask[None], light, studio.info()["preview"]["exposure_target"])
+
+
+def test_preview_exposure_is_the_final_results(studio):
+    """One exposure rule: the preview's light is the light the final result uses (relight_rt.exposure: the
+    mean-keeping scale, the highlight guard, the EV), exactly when the samples hold every pixel of the person (as
+    here: a 64² network)."""
+    _check_preview_exposure(studio)
+
+
+def test_preview_exposure_follows_the_highlight_guard(photo, models_dir, monkeypatch):
+    """With a limit this test person's lit side passes (the guard acting), the preview still has the final's light."""
+    from relight_rt import exposure
+
+    monkeypatch.setattr(exposure, "HIGHLIGHT_LIMIT", 0.6)
+    relighter = Relighter(RuntimeConfig(models=models_dir, device="cpu"))
+    own = relighter._highlight_inputs
+    monkeypatch.setattr(relighter, "_highlight_inputs", lambda dec: own(dec)[:3] + (0.05,))  # 5 % past the limit
+    guarded = Studio(photo, None, "original", relighter, preview_pixels=4096, models=models_dir)
+    factors = _check_preview_exposure(guarded)
+    assert min(factors) < 0.95, factors  # the guard lowered at least one light
 
 
 def test_envmap_upload_gives_the_projected_light(studio, tmp_path):
