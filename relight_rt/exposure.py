@@ -36,7 +36,7 @@ import numpy as np
 from . import sh
 from ._errors import RelightError
 
-__all__ = ["HIGHLIGHT_MAX_DOWN", "HIGHLIGHT_SHARE", "REC709", "exposure_scale", "highlight_factor",
+__all__ = ["HIGHLIGHT_LIMIT", "HIGHLIGHT_MAX_DOWN", "HIGHLIGHT_SHARE", "REC709", "exposure_scale", "highlight_factor",
            "mean_luminance", "parse_exposure"]
 
 REC709 = np.array([0.2126, 0.7152, 0.0722], np.float32)
@@ -185,7 +185,8 @@ def expose(dec, lights: np.ndarray, exposure="auto", target_luminance: float | N
 
     ``target_luminance`` None: the photo's own mean luminance (its diffuse reconstruction under its
     estimated light taken as white, ``Decomposition.white_light``). Returns float32 lights of the same
-    shape; the input is not modified.
+    shape; the input is not modified. This is the mean-keeping rule alone: ``Relighter.relight`` then applies
+    the highlight guard (``highlight_factor``, which reads the runtime's relighting factor) before any EV.
     """
     mode = parse_exposure(exposure)
     lits = np.asarray(lights, np.float32)
