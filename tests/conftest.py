@@ -108,3 +108,17 @@ def rose_hair():
     """face_recognition's example photo of Rose Leslie (knn_examples/train/rose_leslie/img2.jpg, 577x878),
     from people_photos' cache; skipped when absent."""
     return _people_photo("rose_hair.jpg")
+
+
+@pytest.fixture(scope="session")
+def two_dancers():
+    """U-2-Net's test photo of two dancers in the air (people_photos' two_dancers.jpg, 633x800), from people_photos'
+    cache; skipped when absent."""
+    return _people_photo("two_dancers.jpg")
+
+
+@pytest.fixture(scope="session")
+def skater():
+    """U-2-Net's test photo of a figure skater (people_photos' skater.jpg, 2405x1603: a raised hand the matte holds
+    apart from her arm), from people_photos' cache; skipped when absent."""
+    return _people_photo("skater.jpg")

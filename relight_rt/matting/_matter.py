@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 import threading
+from dataclasses import replace
 
 import cv2
 import numpy as np
@@ -56,6 +57,9 @@ _MAX_GROW = 2  # selfie-graph runs on a higher region while its segmentation is 
 _STRADDLE = 0.75  # person="all": a pose-graph person this much inside the others together straddles two
 _PAIR_WIDTH = 0.45  # person="all": a blob nobody is found in, this x as wide as tall or wider, may be two
 _CUT_WIDTH = 0.125  # a portrait's body is cut by the bottom border over at least this x its box's width
+_FRAGMENT = 0.003  # person="largest": a separate part of the matte at least this x its main part's area is checked
+_MAX_FRAGMENTS = 8  # ... at most this many of them (largest first)
+_OTHER_OVERLAP = 0.25  # ... a segmentation holding the part and at most this share of the main part is someone else
 
 
 class PersonMatter:
@@ -220,7 +224,10 @@ class PersonMatter:
         selfie-graph person whose region cuts off the top of their head is given it (:meth:`_uncut`).
         """
         with reductions_shared(rgb):  # the detectors' crops share one set of reduced copies of the photo
-            found = self._everyone(rgb) if self.person == "all" else self._largest(rgb)
+            if self.person == "all":
+                found = self._everyone(rgb)
+            else:
+                found = [self._without_others(rgb, p) for p in self._largest(rgb)]
             # who is found is settled: the heads their regions cut are added now (the selfie graph segments
             # everyone in a region, so a higher region found earlier would take in the people beside)
             return [self._uncut(rgb, p)[0] if p.source == "roi" and p.whole is None else p for p in found]
@@ -243,6 +250,56 @@ class PersonMatter:
             if p is not None:
                 return [p]
         return []
+
+    def _without_others(self, rgb: np.ndarray, person: Person) -> Person:
+        """``person`` without the parts of its segmentation that belong to someone else (person="largest").
+
+        The pose graph segments everyone in the region it is given, so one person's matte can carry pieces of a
+        person beside or behind (two_dancers: the man's far leg, a knee and a hand, 12 % of the woman's matte,
+        none joined to her). A part's distance from the body cannot tell them apart (skater's raised hand lies
+        apart from her arm too); the other person's own segmentation can: for each separate part (largest
+        first, at least ``_FRAGMENT`` of the main part's area, at most ``_MAX_FRAGMENTS``), the pose graph is run
+        on a region of the person's size centred on it (or a segmentation found for an earlier part is reused);
+        a person there who holds most of the part and at most ``_OTHER_OVERLAP`` of the main part is someone
+        else, and the part leaves the matte. Where the graph finds the same person (her own hand) or nobody, the
+        part stays.
+        """
+        if person.source != "pose":
+            return person
+        n, labels, stats, _ = cv2.connectedComponentsWithStats((person.logits > 0).astype(np.uint8), connectivity=8)
+        if n <= 2:
+            return person
+        order = np.argsort(-stats[1:, cv2.CC_STAT_AREA]) + 1
+        main = labels == order[0]
+        k, bx, by = grid_of_region(person.region)
+
+        def image_points(where: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            ys, xs = np.nonzero(where)
+            step = max(1, ys.size // 2000)
+            return (xs[::step] - bx) / k, (ys[::step] - by) / k  # canvas pixel centres -> image coordinates
+
+        main_xy = image_points(main)
+        logits, others = person.logits, []
+        for label in order[1 : 1 + _MAX_FRAGMENTS]:
+            if stats[label, cv2.CC_STAT_AREA] < _FRAGMENT * stats[order[0], cv2.CC_STAT_AREA]:
+                break
+            part = labels == label
+            xs, ys = image_points(part)
+            other = next((o for o in others if (prob_at(o, xs, ys) > 0.5).mean() >= 0.5), None)
+            if other is None:
+                other = self.segment(rgb, Region(float(xs.mean()), float(ys.mean()), person.region.side),
+                                     give_up=PRESENCE_MIN)  # fmt: skip
+                if other.presence < PRESENCE_MIN or (prob_at(other, *main_xy) > 0.5).mean() > _OTHER_OVERLAP:
+                    continue  # nobody there, or the same person
+                others.append(other)
+            if (prob_at(other, xs, ys) > 0.5).mean() < 0.5:
+                continue
+            if logits is person.logits:
+                logits = person.logits.copy()
+            # the part and its soft rim (2 canvas px), never the main part
+            rim = cv2.dilate(part.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool) & ~main
+            logits[rim] = -LOGIT_CLIP
+        return person if logits is person.logits else replace(person, logits=logits)
 
     def _everyone(self, rgb: np.ndarray) -> list[Person]:
         h, w = rgb.shape[:2]
