@@ -16,7 +16,7 @@ from ._errors import RelightError
 DEVICES = ("auto", "cuda", "cpu")
 PRECISIONS = ("fp32", "fp16", "int8")
 PREPROCESS = ("quality", "reference")
-MATTING = ("auto", "off")
+MATTING = ("auto", "all", "off")
 
 
 @dataclass(frozen=True)
@@ -32,8 +32,9 @@ class RuntimeConfig:
         preprocess: "quality" (INTER_AREA when shrinking) or "reference" (the reference's resize, bit for bit).
         detail: carry the input's full-resolution detail into results larger than the network's square.
         warmup: run each graph once at load; None: only on CUDA.
-        matting: "auto": a photo with neither a mask nor an alpha channel gets an automatic person matte
-            (when a matting model is installed); "off": such a photo is an error.
+        matting: "auto": a photo with neither a mask nor an alpha channel gets an automatic person matte of
+            its largest person (when a matting model is installed); "all": of everyone the matte finds (a group
+            photo relit whole; relight_rt.matting ``person="all"``); "off": such a photo is an error.
     """
 
     models: str | None = None

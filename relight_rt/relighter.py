@@ -477,7 +477,7 @@ class Relighter:
         """The automatic person matte (relight_rt.matting), loaded on first use; None when off or not installed."""
         if not self._matter_loaded:
             self._matter_loaded = True
-            if self.config.matting == "auto" and importlib.util.find_spec(f"{__package__}.matting") is not None:
+            if self.config.matting != "off" and importlib.util.find_spec(f"{__package__}.matting") is not None:
                 from .matting import find_matting_models, shared_matter
 
                 try:
@@ -485,7 +485,8 @@ class Relighter:
                 except RelightError as exc:  # the graphs are not installed: photos then need a mask or alpha
                     log.debug("no automatic matting: %s", exc)
                 else:
-                    self._matter = shared_matter(device=self.config.device)
+                    person = "all" if self.config.matting == "all" else "largest"
+                    self._matter = shared_matter(device=self.config.device, person=person)
         return self._matter
 
     def _prepared(self, dec: Decomposition) -> dict:

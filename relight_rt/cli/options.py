@@ -48,9 +48,10 @@ def add_max_pixels(p) -> None:
 
 
 def runtime_config(args: argparse.Namespace) -> RuntimeConfig:
-    """The RuntimeConfig that ``add_runtime_options`` describes."""
+    """The RuntimeConfig that ``add_runtime_options`` describes (and ``--people``, where a command has it)."""
+    matting = "all" if getattr(args, "people", "largest") == "all" else "auto"
     return RuntimeConfig(models=args.models, device=args.device, precision=args.precision,
-                         preprocess=args.preprocess, detail=not args.no_detail)
+                         preprocess=args.preprocess, detail=not args.no_detail, matting=matting)
 
 
 def relighter(args: argparse.Namespace, device: str | None = None):

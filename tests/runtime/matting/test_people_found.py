@@ -448,3 +448,49 @@ def test_the_largest_person_keeps_her_own_hand_held_apart(skater):
     it finds her again, so it stays (a rule by distance dropped it)."""
     alpha = M.PersonMatter()(skater[..., :3])
     assert len(_parts(alpha)) == 2
+
+
+@pytest.fixture(scope="module")
+def two_people(example_rgba) -> tuple[np.ndarray, np.ndarray]:
+    """The example person over grey and its mirror image beside it: two people; and the true alpha."""
+    a = example_rgba[..., 3:4]
+    one = example_rgba[..., :3] * a + 0.55 * (1 - a)
+    return np.ascontiguousarray(np.hstack([one, one[:, ::-1]])), np.hstack([a[..., 0], a[:, ::-1, 0]])
+
+
+def _covered(mask: np.ndarray, truth: np.ndarray) -> tuple[float, float]:
+    """The share of each half's person the mask holds (left, right)."""
+    w = truth.shape[1] // 2
+    m, t = np.asarray(mask) > 0.5, truth > 0.5
+    return float((m & t)[:, :w].sum() / t[:, :w].sum()), float((m & t)[:, w:].sum() / t[:, w:].sum())
+
+
+def test_relighting_takes_everyone_with_matting_all(two_people):
+    """RuntimeConfig(matting="all") (`relight --people all`): a photo without a mask is relit for everyone the matte
+    finds, not only its largest person."""
+    from relight_rt import Relighter, RuntimeConfig
+
+    image, truth = two_people
+    largest = _covered(Relighter(RuntimeConfig(device="cpu")).decompose(image).mask, truth)
+    everyone = _covered(Relighter(RuntimeConfig(device="cpu", matting="all")).decompose(image).mask, truth)
+    assert min(everyone) > 0.98  # measured 0.999 and 0.9995
+    assert max(largest) > 0.98 and min(largest) < 0.02  # one of the two
+
+
+def test_relight_cli_people_all(two_people, tmp_path, capsys):
+    from relight_rt import cli
+
+    image, truth = two_people
+    path = tmp_path / "two.png"
+    cv2.imwrite(str(path), (image[..., ::-1] * 255 + 0.5).astype(np.uint8))
+    outs = {}
+    for people in ("largest", "all"):
+        out = tmp_path / f"{people}.png"
+        args = ["relight", str(path), "--preset", "campfire", "-o", str(out), "--device", "cpu", "-q"]
+        assert cli.main(args + ["--people", people]) == 0
+        changed = np.abs(cv2.imread(str(out)).astype(int) - cv2.imread(str(path)).astype(int)).max(axis=2) > 8
+        outs[people] = _covered(changed, truth)
+    assert min(outs["all"]) > 0.5 and min(outs["largest"]) < 0.05 < max(outs["largest"])
+    assert cli.main(["relight", str(path), "--preset", "campfire", "-o", str(tmp_path / "x.png"), "--people",
+                     "some"]) == 2  # fmt: skip
+    assert "--people" in capsys.readouterr().err
