@@ -48,7 +48,8 @@ def add_max_pixels(p) -> None:
 
 
 def runtime_config(args: argparse.Namespace) -> RuntimeConfig:
-    """The RuntimeConfig that ``add_runtime_options`` describes (and ``--people``, where a command has it)."""
+    """The RuntimeConfig that ``add_runtime_options`` describes (and ``--person``, dest "people", where a command
+    has it: ``relight``)."""
     matting = "all" if getattr(args, "people", "largest") == "all" else "auto"
     return RuntimeConfig(models=args.models, device=args.device, precision=args.precision,
                          preprocess=args.preprocess, detail=not args.no_detail, matting=matting)

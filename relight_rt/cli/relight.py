@@ -46,7 +46,7 @@ def add_relight(subparsers) -> None:
     )
     p.add_argument("inputs", nargs="+", metavar="INPUT", help="image files or folders of images")
     add_mask_option(p)
-    p.add_argument("--people", choices=("largest", "all"), default="largest",
+    p.add_argument("--person", dest="people", choices=("largest", "all"), default="largest",
                    help="whom the automatic matte relights (no mask given): the largest person (default) or everyone "
                    "it finds (a group photo; each person is then smaller in the network's square)")  # fmt: skip
     add_light_options(p)

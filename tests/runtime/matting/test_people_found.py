@@ -466,7 +466,7 @@ def _covered(mask: np.ndarray, truth: np.ndarray) -> tuple[float, float]:
 
 
 def test_relighting_takes_everyone_with_matting_all(two_people):
-    """RuntimeConfig(matting="all") (`relight --people all`): a photo without a mask is relit for everyone the matte
+    """RuntimeConfig(matting="all") (`relight --person all`): a photo without a mask is relit for everyone the matte
     finds, not only its largest person."""
     from relight_rt import Relighter, RuntimeConfig
 
@@ -487,10 +487,10 @@ def test_relight_cli_people_all(two_people, tmp_path, capsys):
     for people in ("largest", "all"):
         out = tmp_path / f"{people}.png"
         args = ["relight", str(path), "--preset", "campfire", "-o", str(out), "--device", "cpu", "-q"]
-        assert cli.main(args + ["--people", people]) == 0
+        assert cli.main(args + ["--person", people]) == 0
         changed = np.abs(cv2.imread(str(out)).astype(int) - cv2.imread(str(path)).astype(int)).max(axis=2) > 8
         outs[people] = _covered(changed, truth)
     assert min(outs["all"]) > 0.5 and min(outs["largest"]) < 0.05 < max(outs["largest"])
-    assert cli.main(["relight", str(path), "--preset", "campfire", "-o", str(tmp_path / "x.png"), "--people",
+    assert cli.main(["relight", str(path), "--preset", "campfire", "-o", str(tmp_path / "x.png"), "--person",
                      "some"]) == 2  # fmt: skip
-    assert "--people" in capsys.readouterr().err
+    assert "--person" in capsys.readouterr().err
