@@ -47,9 +47,16 @@ def add_max_pixels(p) -> None:
     )  # fmt: skip
 
 
+def add_person_option(p: argparse.ArgumentParser) -> None:
+    """``--person largest|all``: whom the automatic matte takes when no mask is given (RuntimeConfig.matting)."""
+    p.add_argument("--person", dest="people", choices=("largest", "all"), default="largest",
+                   help="whom the automatic matte takes (no mask given): the largest person (default) or everyone it "
+                   "finds (a group photo; each person is then smaller in the network's square)")  # fmt: skip
+
+
 def runtime_config(args: argparse.Namespace) -> RuntimeConfig:
-    """The RuntimeConfig that ``add_runtime_options`` describes (and ``--person``, dest "people", where a command
-    has it: ``relight``)."""
+    """The RuntimeConfig that ``add_runtime_options`` describes (and ``add_person_option``'s ``--person``,
+    where a command has it)."""
     matting = "all" if getattr(args, "people", "largest") == "all" else "auto"
     return RuntimeConfig(models=args.models, device=args.device, precision=args.precision,
                          preprocess=args.preprocess, detail=not args.no_detail, matting=matting)

@@ -21,6 +21,7 @@ from .options import (
     add_exposure_option,
     add_light_options,
     add_mask_option,
+    add_person_option,
     add_ray_options,
     add_runtime_options,
     background,
@@ -46,9 +47,7 @@ def add_relight(subparsers) -> None:
     )
     p.add_argument("inputs", nargs="+", metavar="INPUT", help="image files or folders of images")
     add_mask_option(p)
-    p.add_argument("--person", dest="people", choices=("largest", "all"), default="largest",
-                   help="whom the automatic matte relights (no mask given): the largest person (default) or everyone "
-                   "it finds (a group photo; each person is then smaller in the network's square)")  # fmt: skip
+    add_person_option(p)
     add_light_options(p)
     add_background_option(p)
     add_exposure_option(p)
@@ -148,6 +147,7 @@ def add_decompose(subparsers) -> None:
     )
     p.add_argument("input", metavar="INPUT", help="image file")
     add_mask_option(p, several=False)
+    add_person_option(p)
     p.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
     add_runtime_options(p)
     p.set_defaults(func=cmd_decompose)

@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 
 from .._errors import RelightError
-from .options import add_runtime_options, relighter
+from .options import add_person_option, add_runtime_options, relighter
 
 
 def add_parser(subparsers) -> None:
@@ -18,6 +18,7 @@ def add_parser(subparsers) -> None:
     )
     p.add_argument("photo", metavar="PHOTO", help="photo of a person (mask: --mask, NAME_mask.png beside it, or alpha)")
     p.add_argument("--mask", metavar="M", help="mask file")
+    add_person_option(p)
     p.add_argument("--background", default="original", metavar="BG", help="original | transparent | IMAGE")
     p.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine only)")
     p.add_argument("--port", type=int, default=8000, help="port (default 8000; 0: any free port)")

@@ -494,3 +494,15 @@ def test_relight_cli_people_all(two_people, tmp_path, capsys):
     assert cli.main(["relight", str(path), "--preset", "campfire", "-o", str(tmp_path / "x.png"), "--person",
                      "some"]) == 2  # fmt: skip
     assert "--person" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("command", [["relight", "x.jpg", "--preset", "studio", "-o", "y.jpg"],
+                                     ["decompose", "x.jpg", "-o", "d"], ["studio", "x.jpg"]])  # fmt: skip
+def test_person_option_sets_the_matting(command):
+    """`--person all` on every command that takes the automatic matte of a photo; absent, the largest person."""
+    from relight_rt.cli import build_parser
+    from relight_rt.cli.options import runtime_config
+
+    parser = build_parser()
+    assert runtime_config(parser.parse_args(command)).matting == "auto"
+    assert runtime_config(parser.parse_args(command + ["--person", "all"])).matting == "all"
