@@ -36,8 +36,8 @@ import numpy as np
 from . import sh
 from ._errors import RelightError
 
-__all__ = ["HIGHLIGHT_LIMIT", "HIGHLIGHT_MAX_DOWN", "HIGHLIGHT_SHARE", "REC709", "exposure_scale", "highlight_factor",
-           "mean_luminance", "parse_exposure"]
+__all__ = ["HIGHLIGHT_LIMIT", "HIGHLIGHT_MAX_DOWN", "HIGHLIGHT_SHARE", "REC709", "exposure_scale", "guarded",
+           "highlight_factor", "mean_luminance", "parse_exposure"]
 
 REC709 = np.array([0.2126, 0.7152, 0.0722], np.float32)
 MAX_EV = 20.0  # |EV| beyond this is a mistake, not a photograph
@@ -178,6 +178,29 @@ def highlight_factor(lit, steady, transport, light, allowed: float) -> float:
     k = min(int(math.floor(float(np.clip(allowed, 0, 1)) * n)), n - 1)
     s = float(np.partition(reach, k)[k])  # k pixels at most reach white below this scale
     return float(np.clip(s, HIGHLIGHT_MAX_DOWN, 1.0))
+
+
+def guarded(lights, exposure, highlight: tuple) -> np.ndarray:
+    """Lights at the mean-keeping scale (``expose(..., "auto")``) → the exposure's lights: each times its
+    ``highlight_factor``, then times 2**EV for an EV offset. The one order of the rule (the guard before the EV),
+    for the runtime and the studio's preview alike.
+
+    Args:
+        lights: (K, 9, 3) or (9, 3) float32 lights, each already scaled to keep the mean luminance.
+        exposure: "auto" or an EV offset (not "physical": those lights are not scaled at all).
+        highlight: (lit, steady, transport, allowed), what ``highlight_factor`` reads of the person.
+
+    Returns:
+        float32 lights of the same shape.
+    """
+    mode = parse_exposure(exposure)
+    if mode == "physical":
+        raise RelightError('exposure: "physical" lights are not scaled, so not guarded')
+    gain = 1.0 if mode == "auto" else 2.0**mode
+    lits = np.asarray(lights, np.float32)
+    flat = lits.reshape(-1, 9, 3)
+    factors = [gain * highlight_factor(*highlight[:3], one, highlight[3]) for one in flat]
+    return (flat * np.asarray(factors, np.float32)[:, None, None]).reshape(lits.shape)
 
 
 def expose(dec, lights: np.ndarray, exposure="auto", target_luminance: float | None = None) -> np.ndarray:

@@ -1001,11 +1001,7 @@ class Relighter:
         if "target" not in state:
             state["target"] = _exposure.mean_luminance(dec.albedo, dec.transport, dec.network_mask, dec.white_light)
         lits = _exposure.expose(dec, lights, "auto", target_luminance=state["target"])
-        lit, steady, transport, allowed = self._highlight_inputs(dec)
-        gain = 1.0 if mode == "auto" else 2.0**mode
-        flat = lits.reshape(-1, 9, 3)
-        factors = [gain * _exposure.highlight_factor(lit, steady, transport, one, allowed) for one in flat]
-        return (flat * np.asarray(factors, np.float32)[:, None, None]).reshape(lits.shape)
+        return _exposure.guarded(lits, mode, self._highlight_inputs(dec))
 
     def _highlight_inputs(self, dec: Decomposition) -> tuple:
         """What ``highlight_factor`` reads of ``dec`` whatever the light (cached): the person's pixels (alpha > 0.5,

@@ -45,7 +45,7 @@ MAX_UPLOAD_BYTES = 32 << 20  # an env map or a photo; bigger uploads are refused
 MAX_UPLOAD_PIXELS = 40_000_000  # decoded size limit (a small file can hold a huge image)
 EXPOSURE_SAMPLES = 1 << 15  # network-frame pixels of the person that the page's exposure rule reads (at most)
 from .. import exposure as _exposure  # noqa: E402  (the one exposure rule)
-from ..exposure import exposure_scale, highlight_factor, mean_luminance, parse_exposure  # noqa: E402
+from ..exposure import exposure_scale, guarded, mean_luminance, parse_exposure  # noqa: E402
 from ..lightspec import LightSpec  # noqa: E402  (the one light parser)
 
 # (leading bytes, kind, suffix the readers go by)
@@ -338,11 +338,7 @@ class Studio:
         albedo_s, transport_s, mask_s = self._exposure
         target = self._layers["exposure_target"]
         scale = exposure_scale(albedo_s[None], transport_s[None], mask_s[None], lit, target, "auto")
-        lit_h, steady_h, transport_h, allowed = self._highlight
-        scale *= highlight_factor(lit_h, steady_h, transport_h, lit * np.float32(scale), allowed)
-        if exp != "auto":
-            scale *= 2.0**exp
-        return (lit * np.float32(scale)).astype(np.float32)
+        return guarded(lit * np.float32(scale), exp, self._highlight)
 
     def photo_png(self) -> bytes:
         """The photo as the pipeline reads it (upright, RGB, full resolution) as PNG: the page's "before"."""

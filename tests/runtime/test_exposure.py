@@ -6,7 +6,7 @@ from _graphs import OWN_LIGHT, diffuse_models_dir, models_dir, person
 
 from relight_rt import Relighter, RelightError, RuntimeConfig, lights
 from relight_rt import exposure as _exposure
-from relight_rt.exposure import REC709, exposure_scale, highlight_factor, mean_luminance, parse_exposure
+from relight_rt.exposure import REC709, exposure_scale, guarded, highlight_factor, mean_luminance, parse_exposure
 
 __all__ = ["diffuse_models_dir", "models_dir"]  # fixtures
 
@@ -201,3 +201,15 @@ def test_auto_exposure_keeps_a_side_lamp_from_flattening_a_fair_face(reference_d
         return float(np.mean(image[inside].max(axis=1) >= 0.95))
 
     assert near_white(guarded.image) < 0.75 * near_white(kept.image)
+
+
+def test_guarded_puts_the_guard_before_the_ev():
+    lit, steady, transport, light = _flat_pixels(np.linspace(0.2, 1.2, 1000))
+    highlight = (lit, steady, transport, 0.10)
+    f = highlight_factor(lit, steady, transport, light, 0.10)
+    np.testing.assert_allclose(guarded(light, "auto", highlight), f * light, rtol=1e-6)
+    np.testing.assert_allclose(guarded(light, 1.0, highlight), 2 * f * light, rtol=1e-6)
+    both = guarded(np.stack([light, 0.5 * light]), "auto", highlight)  # each light its own factor
+    np.testing.assert_allclose(both[1], 0.5 * light, rtol=1e-6)  # half as bright nothing reaches white: not lowered
+    with pytest.raises(RelightError, match="physical"):
+        guarded(light, "physical", highlight)
