@@ -187,7 +187,9 @@ def _rim() -> np.ndarray:
 
 
 def _night() -> np.ndarray:
-    moon = directional((0.4, -0.6, 0.9), (0.55, 0.65, 1.0), 1.0, angular_radius=0.03)
+    # moonlight as film shows it: cool and pale, not violet; with (0.55, 0.65, 1.0) the skin of real photos went
+    # lilac (its red times a saturated blue: skin hue moved 93 degrees on average, docs/RESULTS.md) (issue 32)
+    moon = directional((0.4, -0.6, 0.9), (0.68, 0.78, 1.0), 1.0, angular_radius=0.03)
     return moon + sky((0.05, 0.07, 0.15), (0.02, 0.02, 0.03))
 
 
@@ -217,7 +219,8 @@ _PRESETS = {
     "neon": (_neon, 1.0, "magenta from the left, cyan from the right"),
     "rim": (_rim, 1.0, "two cool backlights and a weak frontal fill: sides bright, face dim but readable "
              "(degree-2 SH makes a rim a wide glow, no thin line)"),
-    "night": (_night, 0.5, "dim bluish moonlight from upper left over a dark sky"),
+    "night": (_night, 0.5, "cool, pale moonlight from upper left over a dark sky (the \"auto\" exposure keeps the "
+               "person's brightness: --exposure -1 for a darker night)"),
     "front": (_front, 1.0, "flat frontal light from the camera"),
     "campfire": (_campfire, 1.0, "warm light from below in front, dark surroundings"),
 }
