@@ -209,3 +209,16 @@ def test_interpolate_rejects_bad_input():
         lights.interpolate(np.zeros((2, 9, 3)), 0)
     with pytest.raises(RelightError, match="NaN"):
         lights.interpolate(np.full((2, 9, 3), np.nan), 3)
+
+
+def test_night_moon_leaves_skin_pale_not_violet():
+    # skin's red times a saturated blue moon reads as lilac on real photos (the old moon (0.55, 0.65, 1.0): Lab
+    # chroma 15.8 at hue -54 deg on the lit side of this skin); moonlight is cool and pale (docs/RESULTS.md)
+    import cv2
+
+    img = sh.render_sphere(lights.preset("night"), 48)
+    lum = img @ np.array([0.2126, 0.7152, 0.0722])
+    lit = img[np.unravel_index(np.argmax(lum), lum.shape)]
+    skin = np.array([0.4, 0.3, 0.25])
+    lab = cv2.cvtColor((lit / lum.max() * skin)[None, None].astype(np.float32), cv2.COLOR_RGB2Lab)[0, 0]
+    assert np.hypot(lab[1], lab[2]) < 10
