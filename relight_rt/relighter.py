@@ -56,10 +56,10 @@ from ._chain import DeviceChain
 from ._detail import extend_outward, guided_upsample, unpremultiply, window
 from ._errors import RelightError
 from ._face import feather, head_box
-from ._face_geometry import MIN_FACE_NET, FaceMesh, face_transport
+from ._face_geometry import MIN_FACE_NET, FaceMesh, face_transport, skin_interior
 from ._geometry import CropGeometry
 from ._io import read_image, sibling_mask
-from ._strength import refit_light, restore_bands
+from ._strength import face_refit, refit_light, restore_bands
 from .compositing import Background, clean_edge_colour, over_box, parse_background
 from .config import RuntimeConfig
 from .contract import kind_spec
@@ -547,22 +547,23 @@ class Relighter:
     def _look_at_faces(self, decs: list[Decomposition]) -> None:
         """Run stage 1 again on the head of each person whose face it saw small (relight_rt._face)."""
         todo = []
-        for dec in decs:
+        for i, dec in enumerate(decs):
             box = head_box(dec.skin, dec.network_mask, dec.geometry)
             if box is not None:
                 y0, y1, x0, x1 = box
-                todo.append((dec, box, np.ascontiguousarray(dec.image[y0:y1, x0:x1]),
+                todo.append((i, dec, box, np.ascontiguousarray(dec.image[y0:y1, x0:x1]),
                              np.ascontiguousarray(dec.mask[y0:y1, x0:x1])))
         if not todo:
             return
-        heads = self._stage1([t[2] for t in todo], [t[3] for t in todo], True)
-        for (dec, box, _, _), head in zip(todo, heads, strict=True):
+        heads = self._stage1([t[3] for t in todo], [t[4] for t in todo], True)
+        for (i, dec, box, _, _), head in zip(todo, heads, strict=True):
             # the head pass gives the face's transport; the photo's light is the body's estimate (one light for
             # one photo: the change of shading is measured from it in both passes, so the photo's own light
-            # gives the photo back everywhere)
-            head = replace(head, light=dec.light)
-            self._prepared(dec)["head"] = (head, box)
+            # gives the photo back everywhere), turned by the face the head pass sees large (``_face_light``)
             self._prepared(head)["faces"] = True
+            decs[i] = dec = self._face_light(dec, head)
+            head = self._with_light(head, dec.light)
+            self._prepared(dec)["head"] = (head, box)
             log.debug("second stage-1 pass on the head at %s", box)
 
     def _stage1(self, images: Sequence[ImageLike], masks: Sequence, allow_full: bool) -> list[Decomposition]:
@@ -699,7 +700,8 @@ class Relighter:
         square is not smaller than the photo's: to_crop takes a window only when enlarging); "alpha", "inner"
         (alpha > 0.5); "transport" (r, r', 9) unpremultiplied, its directional bands restored
         (relight_rt._strength) and the face mesh's transport blended in, "albedo" luminance (r, r')
-        unpremultiplied, and "photo" (r, r') the luminance of the photo stage 1 saw.
+        unpremultiplied, "photo" (r, r') the luminance of the photo stage 1 saw, and "face_skin" (r, r') bool, the
+        person's pixels well inside a face mesh (``_add_faces``; none without one).
         """
         state = self._prepared(dec)
         if "restored" not in state:
@@ -709,13 +711,15 @@ class Relighter:
             alpha = dec.network_mask[y0:y1, x0:x1]
             # the directional bands restored to their true strength (relight_rt._strength), for both sides of the ratio
             transport = restore_bands(unpremultiply(np.ascontiguousarray(dec.transport[y0:y1, x0:x1]), alpha))
+            skin = np.zeros(alpha.shape, bool)
             if state.get("faces"):  # a face's shape from its mesh where stage 1's transport is a blur
-                self._add_faces(dec, transport, (y0, y1, x0, x1))
+                skin = self._add_faces(dec, transport, (y0, y1, x0, x1))
             albedo = unpremultiply(np.ascontiguousarray(dec.albedo[y0:y1, x0:x1]), alpha) @ _exposure.REC709
             photo = dec.network_image[y0:y1, x0:x1] @ _exposure.REC709
             state["restored"] = {"window": (y0, y1, x0, x1), "alpha": alpha, "inner": alpha > 0.5,
                                  "transport": _readonly(transport), "albedo": _readonly(albedo.astype(np.float32)),
-                                 "photo": _readonly(photo.astype(np.float32))}
+                                 "photo": _readonly(photo.astype(np.float32)),
+                                 "face_skin": _readonly(skin & (alpha > 0.5))}
         return state["restored"]
 
     def _own(self, dec: Decomposition, with_residual: bool = True) -> dict:
@@ -745,7 +749,8 @@ class Relighter:
 
     def _refit(self, dec: Decomposition) -> Decomposition:
         """``dec`` with its light refit to the transport the relighting factor divides with (relight_rt._strength
-        ``refit_light``); what was prepared for ``dec`` that does not depend on its light goes along."""
+        ``refit_light``), then turned toward what a face mesh's skin shows (``face_refit``); what was prepared for
+        ``dec`` that does not depend on its light goes along."""
         base = self._restored(dec)
         y0, y1, x0, x1 = base["window"]
         inner = base["inner"]
@@ -756,7 +761,29 @@ class Relighter:
         unexplained = base["photo"][inner] - albedo * (plain @ white)
         # ... is what the light's correction explains, through the transport the relit photo is divided by
         light = refit_light(dec.light, albedo, transport, albedo * (transport @ white) + unexplained)
-        new = replace(dec, light=light)
+        skin = base["face_skin"]  # where a face mesh's shape says what light the skin shows (relight_rt._strength)
+        if skin.any():
+            light = face_refit(light, base["transport"][skin], base["photo"][skin], albedo, transport)
+        return self._with_light(dec, light)
+
+    def _face_light(self, dec: Decomposition, head: Decomposition) -> Decomposition:
+        """``dec`` with its light turned by the face its head pass ``head`` sees (relight_rt._strength
+        ``face_refit``), where the body pass saw the face too small for a mesh; ``dec`` itself otherwise."""
+        base = self._restored(dec)
+        if base["face_skin"].any():  # the body pass's own face turned it already (_refit)
+            return dec
+        face = self._restored(head)
+        skin = face["face_skin"]
+        if not skin.any():
+            return dec
+        inner = base["inner"]
+        light = face_refit(dec.light, face["transport"][skin], face["photo"][skin], base["albedo"][inner],
+                           base["transport"][inner])
+        return self._with_light(dec, light)
+
+    def _with_light(self, dec: Decomposition, light: np.ndarray) -> Decomposition:
+        """``dec`` with another light; what was prepared for it that does not depend on its light goes along."""
+        new = replace(dec, light=np.asarray(light, np.float32))
         old, state = self._prepared(dec), self._prepared(new)
         for key in ("photo", "faces", "face_meshes", "restored", "device", "gray"):
             if key in old:
@@ -771,11 +798,12 @@ class Relighter:
                     self._faces = FaceMesh(self.models_dir, device="cpu")
         return self._faces
 
-    def _add_faces(self, dec: Decomposition, transport: np.ndarray, window: tuple[int, int, int, int]) -> None:
-        """Blend the transport of each face's mesh into ``transport`` (the window's, unpremultiplied), in place."""
+    def _add_faces(self, dec: Decomposition, transport: np.ndarray, window: tuple[int, int, int, int]) -> np.ndarray:
+        """Blend the transport of each face's mesh into ``transport`` (the window's, unpremultiplied), in place;
+        returns where the faces' skin lies well inside their meshes (``skin_interior``; none without a mesh)."""
         mesh = self._face_mesh()
         if not mesh.available:
-            return
+            return np.zeros(transport.shape[:2], bool)
         geom = dec.geometry
         k = geom.scale
         (by0, _, bx0, _), (oy, ox) = geom.box, geom.offset
@@ -783,6 +811,7 @@ class Relighter:
         state = self._prepared(dec)
         if "face_meshes" not in state:  # once per decomposition (both "own" entries use them)
             state["face_meshes"] = mesh.faces(dec.image, geom.box)
+        skin = np.zeros(transport.shape[:2], bool)
         for pts in state["face_meshes"]:
             net = np.empty_like(pts)  # input pixels -> the window's pixel indices (centres at integers)
             net[:, 0] = (pts[:, 0] - bx0 + ox) / k - 0.5 - x0
@@ -792,6 +821,8 @@ class Relighter:
                 continue
             t_face, weight = face_transport(net, mesh.triangles, transport[..., 0])
             transport += weight[..., None] * (t_face - transport)
+            skin |= skin_interior(net, mesh.triangles, skin.shape)
+        return skin
 
     def _person_colour(
         self, dec: Decomposition, light: np.ndarray, residual: np.ndarray | None, relit: np.ndarray

@@ -16,6 +16,7 @@ from relight_rt._face_geometry import (
     head_normals,
     lobe_transport,
     rasterise_normals,
+    skin_interior,
 )
 from relight_rt.session import bundled_models_dir
 
@@ -109,6 +110,25 @@ def test_the_head_around_the_mesh_turns_away_and_stops_at_the_chin():
     assert t[25, 2] @ left > t[25, 48] @ left  # a light from the image's left lights the head's left side only
 
 
+def test_the_skin_interior_is_inside_the_mesh_away_from_its_border_and_its_openings():
+    """A square mesh 80 px across with a square opening (an eye): the skin is what lies more than SKIN_INSET of
+    the face's size (9.6 px) inside the mesh, so neither the border nor the opening's rim is in it."""
+    g = np.linspace(10, 90, 9)
+    xx, yy = np.meshgrid(g, g)
+    pts = np.stack([xx.ravel(), yy.ravel(), np.zeros(81)], 1)
+    tris = []
+    for i in range(8):
+        for j in range(8):
+            if (i, j) == (4, 4):
+                continue  # the opening: the cell from (50, 50) to (60, 60)
+            a, b, c, d = i * 9 + j, i * 9 + j + 1, (i + 1) * 9 + j, (i + 1) * 9 + j + 1
+            tris += [(a, b, d), (a, d, c)]
+    skin = skin_interior(pts, np.array(tris), (100, 100))
+    assert skin.dtype == bool and skin[30, 30] and skin[75, 30]
+    assert not skin[5, 50] and not skin[14, 50] and not skin[55, 55] and not skin[55, 64]
+    assert skin[55, 75]  # beyond the opening's reach
+
+
 def test_a_models_folder_without_the_mesh_has_none(tmp_path):
     assert not FaceMesh(tmp_path).available
 
@@ -171,3 +191,21 @@ def test_the_mesh_triangles_are_the_edge_lists_three_cliques():
     assert len(face_mesh.triangles_from_edges(tetra)) == 4
     tris = np.loadtxt(bundled_models_dir() / "face_mesh_triangles.txt", dtype=np.int64)
     assert tris.shape == (854, 3) and tris.min() == 0 and tris.max() == 467
+
+
+def test_a_portraits_light_is_turned_by_its_face_and_still_gives_the_photo_back(dpr_portrait, monkeypatch):
+    """DPR's portrait, lit from the front: stage 1 reads its light as coming from above; the face mesh's skin
+    turns it toward the camera (relight_rt._strength.face_refit), and the photo's own light, so refit, still
+    gives the photo back."""
+    rec709 = np.array([0.2126, 0.7152, 0.0722])
+    r = Relighter(RuntimeConfig(device="cpu"))
+    dec = r.decompose(dpr_portrait)
+    assert r._restored(dec)["face_skin"].sum() > 1000
+    back = np.abs(r.relight(dec, dec) - dec.image)
+    assert (back > 0.5 / 255).sum() <= 10 and back.max() < 5e-3  # a soft hair edge's colour: 2 values, 0.002
+    monkeypatch.setattr("relight_rt.relighter.face_refit", lambda light, *args: light)
+    plain = Relighter(RuntimeConfig(device="cpu")).decompose(dpr_portrait)
+    up = lambda light: float(light[2] @ rec709) / float(light[0] @ rec709)  # noqa: E731
+    toward = lambda light: float(light[3] @ rec709) / float(light[0] @ rec709)  # noqa: E731
+    assert up(dec.light) < up(plain.light) - 0.1
+    assert toward(dec.light) > 0.5 * toward(plain.light)

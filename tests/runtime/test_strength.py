@@ -150,6 +150,62 @@ def test_refit_with_too_few_pixels_keeps_the_estimate_and_bad_shapes_are_one_err
         _strength.refit_light(light, albedo, transport, photo, prior=-1.0)
 
 
+def _face(seed=0, n=6000):
+    """Skin pixels of a face (one albedo) lit by a lamp from the front right and a little above, a tenth of them
+    darker (eyes, brows); and a stage-1-like estimate of that light that puts the lamp overhead."""
+    rng = np.random.default_rng(seed)
+    transport = np.stack([unoccluded_transport(v) for v in _normals(n, seed)]).astype(np.float64)
+    lamp = np.array([1.0, 0.4, 0.3]) / np.linalg.norm([1.0, 0.4, 0.3])
+    truth = 0.4 * unoccluded_transport(lamp).astype(np.float64) / np.pi
+    truth[0] += 0.1
+    photo = 0.6 * (transport @ truth)
+    photo[rng.random(n) < 0.1] *= 0.3
+    overhead = 0.4 * unoccluded_transport(np.array([0.3, 0.0, 1.0]) / np.linalg.norm([0.3, 0.0, 1.0])) / np.pi
+    overhead[0] = truth[0]
+    estimate = np.repeat(overhead[:, None], 3, axis=1).astype(np.float32)
+    return transport, photo, truth, estimate
+
+
+def _band1(light):
+    v = np.asarray(light, np.float64)[[3, 1, 2]]
+    return v / np.linalg.norm(v)
+
+
+def test_face_refit_turns_an_overhead_estimate_toward_the_faces_light_and_keeps_the_level():
+    """A front-lit face that stage 1 took as lit from overhead: the face's skin (one albedo, its eyes and brows
+    left out by the trim) turns the light's degree-1 band most of the way to the lamp; degree 0 and the person's
+    mean albedo x shading stay; the colour stays the estimate's."""
+    transport, photo, truth, estimate = _face()
+    albedo, person = np.full(transport.shape[0], 0.5), transport
+    warm = np.array([1.1, 1.0, 0.8]) / (np.array([1.1, 1.0, 0.8]) @ np.array([0.2126, 0.7152, 0.0722]))
+    estimate = (estimate[:, 1:2] * warm[None, :]).astype(np.float32)
+    out = _strength.face_refit(estimate, transport, photo, albedo, person)
+    lum = lambda light: np.asarray(light, np.float64) @ np.array([0.2126, 0.7152, 0.0722])  # noqa: E731
+    before, after = float(_band1(lum(estimate)) @ _band1(truth)), float(_band1(lum(out)) @ _band1(truth))
+    assert before < 0.6 and after > 0.8  # 5,400 kept pixels: 0.73 of the way, less the ridge
+    level = lambda light: float((albedo * np.maximum(person @ lum(light), 0)).sum())  # noqa: E731
+    assert level(out) == pytest.approx(level(estimate), rel=1e-6)
+    np.testing.assert_allclose(out[0] / out[0, 1], estimate[0] / estimate[0, 1], rtol=1e-5)
+    # a small face moves the light less (n / (n + FACE_PIXELS) of the way)
+    small = _strength.face_refit(estimate, transport[:300], photo[:300], albedo, person)
+    partway = float(_band1(lum(small)) @ _band1(truth))
+    assert before < partway < after
+
+
+def test_face_refit_keeps_a_light_the_face_already_shows_and_too_small_a_face_says_nothing():
+    transport, _, truth, _ = _face(seed=2)
+    light = np.repeat(truth[:, None], 3, axis=1).astype(np.float32)
+    albedo = np.full(transport.shape[0], 0.5)
+    out = _strength.face_refit(light, transport, 0.6 * (transport @ truth), albedo, transport)
+    np.testing.assert_allclose(out, light, atol=1e-5)
+    np.testing.assert_array_equal(_strength.face_refit(light, transport[:20], transport[:20, 0], albedo, transport),
+                                  light)
+    with pytest.raises(RelightError, match="face_refit"):
+        _strength.face_refit(light, transport, transport[:5, 0], albedo, transport)
+    with pytest.raises(RelightError, match="light must be"):
+        _strength.face_refit(light[:4], transport, transport[:, 0], albedo, transport)
+
+
 def test_decompose_refits_the_light_and_the_refit_light_gives_the_photo_back(tmp_path_factory):
     """The sides stage 1 reports a frontal light (OWN_LIGHT) for a person whose halves face left and right: it
     does not explain the photo (that light shades the two halves alike, the photo is the albedo). The
