@@ -267,9 +267,13 @@ def test_no_colour_the_light_cannot_give(sides_relighter, monkeypatch):
     """A warm lamp from the front right with a dim blue sky: the half that faces left gets the lamp's ringing in
     red (its shading clamped near 0) and the sky in blue, and the colour of the light there, shading / luminance,
     was a saturated blue (the reference photo's dark scarf under golden-hour). The colour the relit photo takes on
-    must stay within what the light gives any unoccluded surface it lights (``_tint_range``)."""
+    must stay within what the light gives any unoccluded surface it lights (``_tint_range``). (Skin the light
+    darkens keeps more of its own chroma, ``_shaded_skin``, a change of the photo's colour, not the light's: held
+    off here, where the test model's skin map covers the person.)"""
     from relight_rt import lights
     from relight_rt import relighter as relighter_module
+
+    monkeypatch.setattr(relighter_module, "_shaded_skin", lambda factor, *args: factor)
 
     img, mask = person(150, 100, seed=5, box=(20, 140, 30, 80))
     light = (lights.directional((1.0, 1.0, 0.0), (1.0, 0.7, 0.4), 1.0) + lights.ambient((0.02, 0.03, 0.06))).astype(
