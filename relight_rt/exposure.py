@@ -42,7 +42,7 @@ __all__ = ["HIGHLIGHT_LIMIT", "HIGHLIGHT_MAX_DOWN", "HIGHLIGHT_SHARE", "REC709",
 REC709 = np.array([0.2126, 0.7152, 0.0722], np.float32)
 MAX_EV = 20.0  # |EV| beyond this is a mistake, not a photograph
 HIGHLIGHT_LIMIT = 1.0  # white: the brightest channel of a relit pixel past this is held by the highlight shoulder
-HIGHLIGHT_SHARE = 0.10  # the share of the person "auto" lets past white (or the photo's own share, when larger)
+HIGHLIGHT_SHARE = 0.08  # the share of the person "auto" lets past white (or the photo's own share, when larger)
 HIGHLIGHT_MAX_DOWN = 0.5  # ... and the most it lowers the light for that: one stop
 _TINY = 1e-8
 

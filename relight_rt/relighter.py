@@ -1127,7 +1127,7 @@ class Relighter:
                 photo), "transparent" (RGBA output, alpha = mask), a colour ("black", "#RRGGBB") or an image
                 (path or array; fitted to the photo by "cover").
             exposure: "auto" (default: the light is scaled so the person keeps its mean luminance, lowered by up
-                to a stop where that would put more than a tenth of the person past white), an EV offset from
+                to a stop where that would put more than 8 % of the person past white), an EV offset from
                 auto (+1 twice as bright), or "physical" (the light as given); relight_rt.exposure.
             layers: also return the input-frame layers that made the picture.
 
