@@ -44,7 +44,8 @@ def fifths(rgb: np.ndarray, skin: np.ndarray) -> list[tuple[float, float, float]
     out = []
     for k in range(5):
         m = (light >= edges[k]) & ((light < edges[k + 1]) if k < 4 else (light <= edges[k + 1]))
-        out.append((float(light[m].mean()), float(chroma[m].mean()), float((chroma[m] / np.maximum(light[m], 1)).mean())))
+        saturation = chroma[m] / np.maximum(light[m], 1)
+        out.append((float(light[m].mean()), float(chroma[m].mean()), float(saturation.mean())))
     return out
 
 

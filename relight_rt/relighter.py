@@ -21,10 +21,11 @@ and c' = S' / Y(S'), the colour of the new light arriving at that pixel (luminan
 is the whole pipeline's (stage 2's shadows and highlights included), its colour is the new light's alone, and
 neither the albedo's colour nor an error in the estimated light's colour can tint the skin: under a white
 light the photo keeps its colours. Skin that the new light darkens keeps more of its chroma than a grey dimming
-would leave it, as real shaded skin does (``_shaded_skin``). F is the person's own colour (``_foreground``: at a soft matte's edge, the
-photo without what lies behind). The factor is upsampled edge-aware with a fast guided filter (He & Sun 2015:
-the local linear model g ≈ a·I + b is fitted at network resolution on the gray input, and a, b are upsampled
-and applied with the full-resolution gray input I), so the input's own high-frequency detail survives. Colours
+would leave it, as real shaded skin does (``_shaded_skin``). F is the person's own colour (``_foreground``: at a
+soft matte's edge, the photo without what lies behind). The factor is upsampled edge-aware with a fast guided
+filter (He & Sun 2015: the local linear model g ≈ a·I + b is fitted at network resolution on the gray input, and
+a, b are upsampled and applied with the full-resolution gray input I), so the input's own high-frequency detail
+survives. Colours
 made brighter than the photo's own peak are rolled off by a smooth shoulder on the brightest channel, all
 three channels scaled together (a bright lit side keeps its hue and its gradation; a per-channel clip would
 turn it yellow, a hard clip flat). Relighting with the photo's own light gives the input back. A face that
