@@ -122,16 +122,28 @@ def _shaded_skin(factor: np.ndarray, ratio: np.ndarray, photo: np.ndarray, skin:
     skin probability. Where the light brightens the skin, and off the skin, ``factor`` is unchanged; r = 1 (the
     photo's own light) gives 1.
     """
-    weight = np.clip(skin, 0, 1).astype(np.float32)
-    # the skin's colour, not its texture (a normalised blur over the skin): the gain stays smooth, and a pixel
-    # with one channel near 0 (lips, a red scarf the skin map touches) cannot swing it
-    colour = cv2.GaussianBlur(photo * weight[..., None], (0, 0), _SKIN_SIGMA)
-    colour /= np.maximum(cv2.GaussianBlur(weight, (0, 0), _SKIN_SIGMA), 1e-6)[..., None]
-    y = (colour @ _exposure.REC709)[..., None]
-    chroma = np.clip((colour - y) / np.maximum(colour, 1e-3), -1.0, 1.0)  # (P - Y) / P per channel
+    chroma, weight = _skin_chroma(photo, skin)
     boost = np.clip(ratio, 1e-4, 1.0)[..., None] ** (_SKIN_CHROMA - 1.0) - 1.0  # 0 where the light brightens
     gain = np.clip(1.0 + boost * chroma, 0.25, 4.0)  # (r Y + r**g (P - Y)) / (r P)
     return (factor * (1 + weight[..., None] * (gain - 1))).astype(np.float32)
+
+
+def _skin_chroma(photo: np.ndarray, skin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``_shaded_skin``'s inputs that do not depend on the light: (P - Y) / P per channel of the skin's local
+    colour (h, w, 3, in [-1, 1]) and the skin weight (h, w, in [0, 1]). The colour is the skin's, not its texture
+    (a normalised blur over the skin), so the gain stays smooth and a pixel with one channel near 0 (lips, a red
+    scarf the skin map touches) cannot swing it. The studio's preview takes the same two (relight_rt.studio)."""
+    weight = np.clip(skin, 0, 1).astype(np.float32)
+    colour = cv2.GaussianBlur(np.asarray(photo, np.float32) * weight[..., None], (0, 0), _SKIN_SIGMA)
+    colour /= np.maximum(cv2.GaussianBlur(weight, (0, 0), _SKIN_SIGMA), 1e-6)[..., None]
+    y = (colour @ _exposure.REC709)[..., None]
+    chroma = np.clip((colour - y) / np.maximum(colour, 1e-3), -1.0, 1.0).astype(np.float32)
+    # stage 1's skin map is blurry and gives clothes up to ~0.5 (a coat, a striped top): the rule is for skin, so
+    # the weight also asks for a skin colour (YCrCb: Cr 135-180, Cb 85-135, soft over 8 levels; Chai & Ngan 1999)
+    ycc = cv2.cvtColor(np.clip(colour, 0, 1).astype(np.float32), cv2.COLOR_RGB2YCrCb) * 255
+    cr, cb = ycc[..., 1], ycc[..., 2]
+    ramp = lambda v, lo, hi: np.clip(np.minimum(v - lo, hi - v) / 8 + 0.5, 0, 1)  # noqa: E731
+    return chroma, (weight * ramp(cr, 135, 180) * ramp(cb, 85, 135)).astype(np.float32)
 
 
 def _float32_light(light, name: str) -> np.ndarray:
