@@ -47,6 +47,7 @@ EXPOSURE_SAMPLES = 1 << 15  # network-frame pixels of the person that the page's
 from .. import exposure as _exposure  # noqa: E402  (the one exposure rule)
 from ..exposure import exposure_scale, guarded, mean_luminance, parse_exposure  # noqa: E402
 from ..lightspec import LightSpec  # noqa: E402  (the one light parser)
+from ..relighter import _SKIN_CHROMA, _skin_chroma  # noqa: E402  (the shaded-skin rule the preview mirrors)
 
 # (leading bytes, kind, suffix the readers go by)
 _MAGIC = (
@@ -276,7 +277,8 @@ class Studio:
 
     def _pack_layers(self, max_pixels: int) -> dict:
         """Display-resolution layers, quantised: transport as uint16 (per-channel offset and scale),
-        albedo (premultiplied by the mask), mask and background as uint8; channel-planar, little-endian."""
+        albedo (premultiplied by the mask), mask, background, the skin's chroma ((c + 1) / 2) and weight as uint8;
+        channel-planar, little-endian."""
         dec = self.dec
         h, w = dec.image.shape[:2]
         size = _display_size(h, w, max_pixels)
@@ -292,11 +294,16 @@ class Studio:
         mask = _resize(np.asarray(dec.mask)[..., None], size)
         bg = self._background_image()
         bg = np.zeros(size + (3,), np.float32) if bg is None else _resize(bg, size)
+        # what the final result's shaded-skin rule reads (relight_rt.relighter._shaded_skin): the skin's local
+        # chroma (P - Y) / P, stored as (c + 1) / 2, and the skin weight; the page applies the rule with them
+        chroma, weight = _skin_chroma(dec.network_image, dec.skin)
+        skin = dec.to_input(np.concatenate([chroma, weight[..., None]], axis=2))
+        skin = _resize(np.concatenate([(skin[..., :3] + 1) / 2, skin[..., 3:]], axis=2), size)
         lo = transport.reshape(-1, 9).min(axis=0)
         hi = transport.reshape(-1, 9).max(axis=0)
         scale = np.where(hi > lo, (hi - lo) / 65535.0, 1.0)
         q16 = np.rint((transport - lo) / scale).clip(0, 65535).astype("<u2").transpose(2, 0, 1)
-        eight = np.concatenate([albedo, mask, bg], axis=2)
+        eight = np.concatenate([albedo, mask, bg, skin], axis=2)
         q8 = np.rint(np.clip(eight, 0, 1) * 255).astype(np.uint8).transpose(2, 0, 1)
         # the exposure rule of the final result (relight_rt.exposure: the mean luminance of the network's diffuse
         # image inside the mask, the photo's own light as the target) on the person's network-frame pixels
@@ -321,6 +328,8 @@ class Studio:
             "highlight_allowed": allowed,
             "highlight_limit": _exposure.HIGHLIGHT_LIMIT,
             "highlight_max_down": _exposure.HIGHLIGHT_MAX_DOWN,
+            "skin_chroma": _SKIN_CHROMA,
+            "own_white": np.asarray(dec.white_light, np.float64)[:, 0].tolist(),
             "data": head + bytes(offset - len(head)) + planes.tobytes() + guard.tobytes(),
         }
 
@@ -438,23 +447,24 @@ class Studio:
 
 def unpack_layers(data: bytes, meta: dict) -> dict:
     """The inverse of ``Studio.layers_bytes`` (what the page's decodeLayers does): float32 planes
-    "transport" (9, h, w), "albedo" (3, h, w) premultiplied, "mask" (h, w), "background" (3, h, w), and
+    "transport" (9, h, w), "albedo" (3, h, w) premultiplied, "mask" (h, w), "background" (3, h, w),
+    "skin_chroma" (3, h, w) in [-1, 1] and "skin" (h, w) (relight_rt.relighter._skin_chroma), and
     "exposure": {"transport" (n, 9), "albedo" (n, 3), "mask" (n,)}, the exposure sample, and "highlight":
     {"lit" (m, 3), "steady" (m, 3), "transport" (m, 9)}, the highlight guard's."""
     h, w = meta["height"], meta["width"]
     n = h * w
     ns, offset = int(meta["exposure_samples"]), int(meta["exposure_offset"])
     nh, hoffset = int(meta["highlight_samples"]), int(meta["highlight_offset"])
-    if offset < 25 * n or hoffset != offset + 52 * ns or len(data) != hoffset + 60 * nh:
+    if offset < 29 * n or hoffset != offset + 52 * ns or len(data) != hoffset + 60 * nh:
         raise RelightError(f"layers: expected {hoffset + 60 * nh} bytes for {h}x{w}, {ns} and {nh} samples, got "
                            f"{len(data)}")
     q16 = np.frombuffer(data, "<u2", 9 * n).reshape(9, h, w).astype(np.float32)
     off = np.array(meta["transport_offset"], np.float32)[:, None, None]
     scale = np.array(meta["transport_scale"], np.float32)[:, None, None]
-    eight = np.frombuffer(data, np.uint8, 7 * n, 18 * n).reshape(7, h, w).astype(np.float32) / 255
+    eight = np.frombuffer(data, np.uint8, 11 * n, 18 * n).reshape(11, h, w).astype(np.float32) / 255
     planes = np.frombuffer(data, "<f4", 13 * ns, offset).reshape(13, ns).astype(np.float32)
     sample = {"transport": planes[:9].T.copy(), "albedo": planes[9:12].T.copy(), "mask": planes[12].copy()}
     guard = np.frombuffer(data, "<f4", 15 * nh, hoffset).reshape(15, nh).astype(np.float32)
     highlight = {"lit": guard[:3].T.copy(), "steady": guard[3:6].T.copy(), "transport": guard[6:].T.copy()}
-    return {"transport": off + q16 * scale, "albedo": eight[:3], "mask": eight[3], "background": eight[4:],
-            "exposure": sample, "highlight": highlight}
+    return {"transport": off + q16 * scale, "albedo": eight[:3], "mask": eight[3], "background": eight[4:7],
+            "skin_chroma": 2 * eight[7:10] - 1, "skin": eight[10], "exposure": sample, "highlight": highlight}

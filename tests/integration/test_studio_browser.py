@@ -29,7 +29,6 @@ import relight_rt  # noqa: E402
 from relight_rt import Relighter, RuntimeConfig, exposure, lightfile, lights, sh  # noqa: E402
 from relight_rt.demo import example_path  # noqa: E402
 from relight_rt.exposure import exposure_scale  # noqa: E402
-from relight_rt.sh import shading  # noqa: E402
 from relight_rt.studio.core import Studio, unpack_layers  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
@@ -151,29 +150,49 @@ def test_js_lights_match_python(browser, server):
     page.close()
 
 
+def preview_diffuse(layers: dict, meta: dict, light: np.ndarray) -> np.ndarray:
+    """What the page draws for the person (premultiplied): albedo x max(0, T.L) x the shaded-skin gain of the
+    final result (relight_rt.relighter._shaded_skin, on the layers' skin chroma and weight)."""
+    t = layers["transport"].transpose(1, 2, 0)
+    lit = np.maximum(np.einsum("hwk,kc->hwc", t, light.astype(np.float32)), 0)
+    own = t @ np.array(meta["own_white"], np.float32)
+    r = (lit @ np.array([0.2126, 0.7152, 0.0722], np.float32)) / np.maximum(own, 1e-3)
+    boost = np.clip(r, 1e-4, 1.0)[..., None] ** (meta["skin_chroma"] - 1.0) - 1.0
+    chroma, w = layers["skin_chroma"].transpose(1, 2, 0), layers["skin"][..., None]
+    gain = 1 + w * (np.clip(1 + boost * chroma, 0.25, 4.0) - 1)
+    return np.clip(layers["albedo"].transpose(1, 2, 0) * lit * gain, 0, 1)
+
+
 @pytest.mark.parametrize("renderer", ["webgl", "canvas"])
 def test_preview_is_the_diffuse_image(browser, server, studio, renderer):
+    """The page draws albedo x shading with the shaded-skin gain, in both renderers: under a bright coloured
+    light (the skin brightened everywhere: no gain) and under a lamp from the image's left with a little ambient
+    (the skin's far side darkened: the gain moves it)."""
     page = open_page(browser, f"{server}/?renderer={renderer}")
     kind = page.evaluate("studio.state.preview.kind")
     if renderer == "webgl" and kind != "WebGL 2":
         pytest.skip(f"no WebGL 2 in this chromium (preview runs on {kind})")
-    light = lights.preset("neon") + lights.directional((0.5, 0.7, 0.5), (1, 0.9, 0.8), 0.8, 0.2)
-    page.evaluate(
-        "L => { const s = studio.state; s.lamp.on = false; s.ambient = 0; s.exposure.mode = 'physical';"
-        " s.base.light = L; s.base.rotate = 0; s.base.level = 1; }",
-        light.ravel().tolist(),
-    )
-    got = canvas_rgb(page).astype(np.int16)
     meta = studio.info()["preview"]
     layers = unpack_layers(studio.layers_bytes(), meta)
-    lit = light.astype(np.float32)
-    shade = np.maximum(np.einsum("khw,kc->hwc", layers["transport"], lit), 0)
-    diffuse = np.clip(layers["albedo"].transpose(1, 2, 0) * shade, 0, 1)
-    want = layers["background"].transpose(1, 2, 0) * (1 - layers["mask"][..., None]) + diffuse
-    want = np.rint(np.clip(want, 0, 1) * 255).astype(np.int16)
-    diff = np.abs(got - want)
-    assert got.shape == want.shape
-    assert diff.max() <= 2 and diff.mean() < 0.2, (diff.max(), diff.mean())
+    bright = lights.preset("neon") + lights.directional((0.5, 0.7, 0.5), (1, 0.9, 0.8), 0.8, 0.2)
+    side = lights.directional((0.3, -1.0, 0.2), (1, 1, 1), 1.0, 0.3) + lights.ambient(0.05)
+    for light, gained in ((bright, False), (side, True)):
+        page.evaluate(
+            "L => { const s = studio.state; s.lamp.on = false; s.ambient = 0; s.exposure.mode = 'physical';"
+            " s.base.light = L; s.base.rotate = 0; s.base.level = 1; }",
+            light.ravel().tolist(),
+        )
+        got = canvas_rgb(page).astype(np.int16)
+        diffuse = preview_diffuse(layers, meta, light)
+        lit = np.maximum(np.einsum("khw,kc->hwc", layers["transport"], light.astype(np.float32)), 0)
+        plain = np.clip(layers["albedo"].transpose(1, 2, 0) * lit, 0, 1)
+        moved = float(np.abs(diffuse - plain).max())  # the example person: dark skin, the gain moves it 4 levels
+        assert moved > 3 / 255 if gained else moved < 0.5 / 255
+        want = layers["background"].transpose(1, 2, 0) * (1 - layers["mask"][..., None]) + diffuse
+        want = np.rint(np.clip(want, 0, 1) * 255).astype(np.int16)
+        diff = np.abs(got - want)
+        assert got.shape == want.shape
+        assert diff.max() <= 2 and diff.mean() < 0.2, (diff.max(), diff.mean())
     page.close()
 
 
@@ -281,8 +300,8 @@ def test_preview_and_final_result_have_one_brightness(browser, server, studio, n
     page.close()
     meta = studio.info()["preview"]
     layers = unpack_layers(studio.layers_bytes(), meta)
-    t, a, m = layers["transport"].transpose(1, 2, 0), layers["albedo"].transpose(1, 2, 0), layers["mask"]
-    preview = layers["background"].transpose(1, 2, 0) * (1 - m[..., None]) + np.clip(a * shading(t, shown), 0, 1)
+    m = layers["mask"]
+    preview = layers["background"].transpose(1, 2, 0) * (1 - m[..., None]) + preview_diffuse(layers, meta, shown)
     _, rec = studio.render(light.tolist())
     final = cv2.imdecode(np.frombuffer(rec.png, np.uint8), cv2.IMREAD_COLOR)[..., ::-1].astype(np.float32) / 255
     final = cv2.resize(final, (meta["width"], meta["height"]), interpolation=cv2.INTER_AREA)

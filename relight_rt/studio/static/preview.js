@@ -1,12 +1,15 @@
-// The live preview: diffuse = clip(albedo ⊙ max(0, T·L), 0, 1) per pixel, composited over the
+// The live preview: diffuse = clip(albedo ⊙ max(0, T·L) ⊙ k, 0, 1) per pixel, composited over the
 // background (albedo and the result are premultiplied by the mask): out = bg · (1 − mask) + diffuse.
+// k is the final result's shaded-skin gain (relight_rt.relighter._shaded_skin): where the skin weight w says
+// skin and the light darkens it by r = Y(max(0, T·L)) / (T·W) (W the photo's own light, white), each channel
+// takes 1 + w · (clamp(1 + (r^(g − 1) − 1) · c, 1/4, 4) − 1), c the skin's chroma (P − Y) / P; elsewhere 1.
 // WebGL 2 (a fragment shader, float textures) where available, otherwise Canvas 2D in JavaScript.
 
 // Decode the server's layer binary (relight_rt.studio.core.Studio.layers_bytes) into float planes.
 export function decodeLayers(buffer, meta) {
   const n = meta.width * meta.height;
   const q16 = new Uint16Array(buffer, 0, 9 * n);
-  const q8 = new Uint8Array(buffer, 18 * n, 7 * n);
+  const q8 = new Uint8Array(buffer, 18 * n, 11 * n);
   const transport = [];
   for (let k = 0; k < 9; k++) {
     const plane = new Float32Array(n);
@@ -34,6 +37,10 @@ export function decodeLayers(buffer, meta) {
     albedo: [eight(0), eight(1), eight(2)],
     mask: eight(3),
     background: [eight(4), eight(5), eight(6)],
+    skinChroma: [7, 8, 9].map((i) => eight(i).map((v) => 2 * v - 1)),
+    skin: eight(10),
+    skinExponent: meta.skin_chroma,
+    ownWhite: meta.own_white,
     exposure: {
       transport: [0, 1, 2, 3, 4, 5, 6, 7, 8].map(plane),
       albedo: [plane(9), plane(10), plane(11)],
@@ -58,7 +65,10 @@ uniform sampler2D t0;  // T0..T3
 uniform sampler2D t1;  // T4..T7
 uniform sampler2D t2;  // T8, albedo r, g, b (premultiplied)
 uniform sampler2D t3;  // background r, g, b, mask
+uniform sampler2D t4;  // skin chroma r, g, b (in [-1, 1]), skin weight
 uniform vec3 L[9];
+uniform float W[9];  // the photo's own light, white (one column)
+uniform float G;  // the shaded-skin exponent
 uniform int height;
 uniform bool checker;
 out vec4 colour;
@@ -67,7 +77,14 @@ void main() {
   vec4 a = texelFetch(t0, p, 0), b = texelFetch(t1, p, 0), c = texelFetch(t2, p, 0), d = texelFetch(t3, p, 0);
   vec3 s = a.x * L[0] + a.y * L[1] + a.z * L[2] + a.w * L[3]
          + b.x * L[4] + b.y * L[5] + b.z * L[6] + b.w * L[7] + c.x * L[8];
-  vec3 diffuse = clamp(c.yzw * max(s, 0.0), 0.0, 1.0);
+  vec4 e = texelFetch(t4, p, 0);
+  vec3 lit = max(s, 0.0);
+  float own = a.x * W[0] + a.y * W[1] + a.z * W[2] + a.w * W[3] + b.x * W[4] + b.y * W[5] + b.z * W[6]
+            + b.w * W[7] + c.x * W[8];
+  float r = dot(lit, vec3(0.2126, 0.7152, 0.0722)) / max(own, 1e-3);
+  float boost = pow(clamp(r, 1e-4, 1.0), G - 1.0) - 1.0;
+  vec3 gain = 1.0 + e.a * (clamp(1.0 + boost * e.rgb, 0.25, 4.0) - 1.0);
+  vec3 diffuse = clamp(c.yzw * lit * gain, 0.0, 1.0);
   vec3 bg = d.rgb;
   if (checker) {
     bool odd = ((p.x / 12) + (p.y / 12)) % 2 == 1;
@@ -105,7 +122,7 @@ class WebGLPreview {
     const loc = gl.getAttribLocation(prog, "pos");
     gl.enableVertexAttribArray(loc);
     gl.vertexAttribPointer(loc, 2, gl.FLOAT, false, 0, 0);
-    const { width: w, height: h, transport: T, albedo: A, mask: M, background: B } = layers;
+    const { width: w, height: h, transport: T, albedo: A, mask: M, background: B, skinChroma: C, skin: S } = layers;
     const n = w * h;
     const pack = (planes) => {
       const out = new Float32Array(4 * n);
@@ -128,7 +145,10 @@ class WebGLPreview {
     floatTexture(1, pack([T[4], T[5], T[6], T[7]]));
     floatTexture(2, pack([T[8], A[0], A[1], A[2]]));
     floatTexture(3, pack([B[0], B[1], B[2], M]));
-    for (let i = 0; i < 4; i++) gl.uniform1i(gl.getUniformLocation(prog, `t${i}`), i);
+    floatTexture(4, pack([C[0], C[1], C[2], S]));
+    for (let i = 0; i < 5; i++) gl.uniform1i(gl.getUniformLocation(prog, `t${i}`), i);
+    gl.uniform1fv(gl.getUniformLocation(prog, "W"), new Float32Array(layers.ownWhite));
+    gl.uniform1f(gl.getUniformLocation(prog, "G"), layers.skinExponent);
     gl.uniform1i(gl.getUniformLocation(prog, "height"), h);
     gl.uniform1i(gl.getUniformLocation(prog, "checker"), checker ? 1 : 0);
     this.lightLoc = gl.getUniformLocation(prog, "L");
@@ -156,7 +176,7 @@ class CanvasPreview {
     this.image = this.ctx.createImageData(layers.width, layers.height);
     this.pixels = new Uint32Array(this.image.data.buffer);  // one store per pixel (little-endian RGBA)
     const n = layers.width * layers.height;
-    const { transport: T, albedo: A, mask: M, background: B } = layers;
+    const { transport: T, albedo: A, mask: M, background: B, skinChroma: C, skin: S, ownWhite: W } = layers;
     // per pixel, contiguous: T0..T8, albedo r, g, b, then the background already multiplied by (1 − mask),
     // in 0..255 plus 0.5 (so that truncation rounds)
     const packed = new Float32Array(15 * n);
@@ -172,6 +192,19 @@ class CanvasPreview {
       packed[o + 12] = r * k + 0.5; packed[o + 13] = g * k + 0.5; packed[o + 14] = b * k + 0.5;
     }
     this.packed = packed;
+    // the skin's pixels alone (a small part of the picture), drawn again with the shaded-skin gain: their index,
+    // then chroma r, g, b, weight and the shading under the photo's own light (white)
+    const index = [];
+    for (let p = 0; p < n; p++) if (S[p] > 0) index.push(p);
+    this.skinIndex = Int32Array.from(index);
+    const skin = new Float32Array(5 * index.length);
+    index.forEach((p, j) => {
+      let own = 0;
+      for (let k = 0; k < 9; k++) own += T[k][p] * W[k];
+      skin.set([C[0][p], C[1][p], C[2][p], S[p], own], 5 * j);
+    });
+    this.skin = skin;
+    this.exponent = layers.skinExponent;
   }
 
   draw(light) {
@@ -194,6 +227,27 @@ class CanvasPreview {
       const r = Math.min(255, f[o + 12] + 255 * dr) | 0;
       const g = Math.min(255, f[o + 13] + 255 * dg) | 0;
       const b = Math.min(255, f[o + 14] + 255 * db) | 0;
+      px[p] = 0xff000000 | (b << 16) | (g << 8) | r;
+    }
+    // the skin the light darkens: the shaded-skin gain (see the top of this file)
+    const idx = this.skinIndex, s = this.skin, g1 = this.exponent - 1;
+    for (let j = 0, u = 0; j < idx.length; j++, u += 5) {
+      const p = idx[j], o = 15 * p;
+      const q0 = f[o], q1 = f[o + 1], q2 = f[o + 2], q3 = f[o + 3], q4 = f[o + 4], q5 = f[o + 5], q6 = f[o + 6];
+      const q7 = f[o + 7], q8 = f[o + 8];
+      let sr = q0 * l0 + q1 * l3 + q2 * l6 + q3 * l9 + q4 * l12 + q5 * l15 + q6 * l18 + q7 * l21 + q8 * l24;
+      let sg = q0 * l1 + q1 * l4 + q2 * l7 + q3 * l10 + q4 * l13 + q5 * l16 + q6 * l19 + q7 * l22 + q8 * l25;
+      let sb = q0 * l2 + q1 * l5 + q2 * l8 + q3 * l11 + q4 * l14 + q5 * l17 + q6 * l20 + q7 * l23 + q8 * l26;
+      sr = sr > 0 ? sr : 0; sg = sg > 0 ? sg : 0; sb = sb > 0 ? sb : 0;
+      const ratio = (0.2126 * sr + 0.7152 * sg + 0.0722 * sb) / Math.max(s[u + 4], 1e-3);
+      if (ratio >= 1) continue;
+      const boost = Math.pow(Math.max(ratio, 1e-4), g1) - 1, w = s[u + 3];
+      const kr = 1 + w * (Math.min(4, Math.max(0.25, 1 + boost * s[u])) - 1);
+      const kg = 1 + w * (Math.min(4, Math.max(0.25, 1 + boost * s[u + 1])) - 1);
+      const kb = 1 + w * (Math.min(4, Math.max(0.25, 1 + boost * s[u + 2])) - 1);
+      const r = Math.min(255, f[o + 12] + 255 * Math.min(1, f[o + 9] * sr * kr)) | 0;
+      const g = Math.min(255, f[o + 13] + 255 * Math.min(1, f[o + 10] * sg * kg)) | 0;
+      const b = Math.min(255, f[o + 14] + 255 * Math.min(1, f[o + 11] * sb * kb)) | 0;
       px[p] = 0xff000000 | (b << 16) | (g << 8) | r;
     }
     this.ctx.putImageData(this.image, 0, 0);
