@@ -119,7 +119,7 @@ def _shaded_skin(factor: np.ndarray, ratio: np.ndarray, photo: np.ndarray, skin:
     ``ratio`` is below 1, the white-light relit colour r P = r Y + r (P - Y) becomes r Y + r**_SKIN_CHROMA (P - Y)
     (Y the photo's luminance: the luminance stays, the chroma falls more slowly; 0.5 gives C* ~ L*^0.3), folded
     into ``factor`` as a per-channel gain (from the skin's local colour, between 1/4 and 4) and blended by the
-    skin probability. Where the light brightens the skin, and off the skin, ``factor`` is unchanged; r = 1 (the
+    skin probability where the colour is a skin colour (``_skin_chroma``). Where the light brightens the skin, and off the skin, ``factor`` is unchanged; r = 1 (the
     photo's own light) gives 1.
     """
     chroma, weight = _skin_chroma(photo, skin)
