@@ -20,20 +20,19 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-REC709 = np.array([0.2126, 0.7152, 0.0722], np.float32)
-
 
 def skin_of_face(rgb: np.ndarray, faces) -> np.ndarray | None:
-    """Skin-coloured pixels (YCrCb: Cr 135-180, Cb 85-135) in the largest face box, or None without a face."""
+    """Skin-coloured pixels (real_photos.skin_pixels, the YCrCb rule) in the largest face box, or None without
+    a face."""
+    from real_photos import skin_pixels
+
     if not faces:
         return None
     box = max(faces, key=lambda f: (f.box[2] - f.box[0]) * (f.box[3] - f.box[1])).box
     x0, y0, x1, y1 = (int(round(v)) for v in box)
     region = np.zeros(rgb.shape[:2], bool)
     region[max(y0, 0) : max(y1, 0), max(x0, 0) : max(x1, 0)] = True
-    ycc = cv2.cvtColor((np.clip(rgb, 0, 1) * 255 + 0.5).astype(np.uint8), cv2.COLOR_RGB2YCrCb)
-    cr, cb = ycc[..., 1].astype(int), ycc[..., 2].astype(int)
-    return region & (cr >= 135) & (cr <= 180) & (cb >= 85) & (cb <= 135)
+    return skin_pixels(rgb, region)
 
 
 def fifths(rgb: np.ndarray, skin: np.ndarray) -> list[tuple[float, float, float]]:
@@ -69,7 +68,7 @@ def main(argv=None) -> int:
     from relight_rt import RelightError
     from relight_rt._io import read_image
     from relight_rt.matting import PersonMatter
-    from relight_rt.relighter import _shaded_skin
+    from relight_rt.relighter import _shaded_skin, _skin_chroma
 
     matter = PersonMatter(device="cpu")
     gammas = []
@@ -96,7 +95,8 @@ def main(argv=None) -> int:
 
     def rule(colour, ratio):
         factor = np.full((1, 1, 3), ratio, np.float32)
-        gain = _shaded_skin(factor, np.full((1, 1), ratio, np.float32), colour[None, None], np.ones((1, 1), np.float32))
+        inputs = _skin_chroma(colour[None, None], np.ones((1, 1), np.float32))
+        gain = _shaded_skin(factor, np.full((1, 1), ratio, np.float32), *inputs)
         return (colour * gain)[0, 0]
 
     print(f"one skin colour dimmed to half its luminance: at one chromaticity gamma {model_exponent(grey):+.2f}, "

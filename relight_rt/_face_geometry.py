@@ -51,7 +51,7 @@ FEATHER = 0.25  # the face transport fades in over this fraction of the face's s
 HEAD_WIDTH = 1.1  # the head's ellipse: this many mesh widths across (the mesh stops short of the ears)
 HEAD_TOP = 0.35  # ... and reaching this fraction of the mesh's height above its top (the skull under the hair)
 HEAD_REACH = 1.35  # the head's normals fade out between the ellipse and this many times its size
-SKIN_INSET = 0.12  # skin_interior: the mesh's pixels at least this fraction of the face's size inside its border
+SKIN_INSET = 0.12  # face_transport's skin: the mesh's pixels at least this share of the face's size inside its border
 HEAD_STRENGTH = 0.4  # how far they replace stage 1's transport there (0.7 looks best, but DPR agreement 0.79)
 
 def lobe_transport(normals: np.ndarray) -> np.ndarray:
@@ -103,8 +103,10 @@ def rasterise_normals(
     return normals, cover
 
 
-def face_transport(points: np.ndarray, triangles: np.ndarray, t0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The face's transport and its blending weight in a network-frame window.
+def face_transport(
+    points: np.ndarray, triangles: np.ndarray, t0: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The face's transport, its blending weight and its skin in a network-frame window.
 
     Args:
         points: (468, 3) mesh vertices in the window's pixels (x right, y down, z away, same units).
@@ -112,12 +114,16 @@ def face_transport(points: np.ndarray, triangles: np.ndarray, t0: np.ndarray) ->
         t0: (h, w) stage 1's degree-0 transport coefficient there (unpremultiplied): the visibility kept.
 
     Returns:
-        transport (h, w, 9) float32 and weight (h, w) float32 in [0, 1] (0 off the face).
+        transport (h, w, 9) float32, weight (h, w) float32 in [0, 1] (0 off the face), and skin (h, w) bool:
+        the face's skin well inside its mesh (``SKIN_INSET`` of its size from the border) without the mesh's
+        openings (eyes, an open mouth), where a light fit can take the skin as one colour
+        (relight_rt._strength ``face_refit``).
     """
     h, w = t0.shape
     normals, cover = rasterise_normals(points, triangles, (h, w))
     span = np.ptp(points[:, :2], axis=0)
     size = float(max(span.max(), 1.0))
+    skin = cv2.distanceTransform((cover > 0).astype(np.uint8), cv2.DIST_L2, 3) > SKIN_INSET * size
     normals, cover = _fill_holes(normals, cover, size)
     sigma = max(SMOOTH * size, 0.5)
     normals = cv2.GaussianBlur(normals, (0, 0), sigma)
@@ -134,28 +140,7 @@ def face_transport(points: np.ndarray, triangles: np.ndarray, t0: np.ndarray) ->
     normals = normals / np.maximum(np.linalg.norm(normals, axis=2, keepdims=True), 1e-6)
     transport = lobe_transport(normals) * (np.maximum(t0, 0) / _T0)[..., None]
     weight = mesh_weight + (1 - mesh_weight) * HEAD_STRENGTH * head_weight
-    return transport, np.clip(weight, 0, 1).astype(np.float32)
-
-
-def skin_interior(points: np.ndarray, triangles: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
-    """(h, w) bool: the face's skin well inside its mesh (``SKIN_INSET`` of its size from the border), without
-    the mesh's openings (eyes, an open mouth): where a light fit can take the skin as one colour
-    (relight_rt._strength ``face_refit``).
-
-    Args:
-        points: (468, 3) mesh vertices in the target's pixels (x right, y down; z unused).
-        triangles: (T, 3) the mesh's triangles.
-        shape: (h, w) of the target.
-    """
-    p = np.asarray(points, np.float64)
-    cover = np.zeros(shape, np.uint8)
-    shift = 4
-    corners = np.round(p[np.asarray(triangles, np.int64)][:, :, :2] * (1 << shift)).astype(np.int32)
-    for c in corners:
-        cv2.fillConvexPoly(cover, c, 1, lineType=cv2.LINE_8, shift=shift)
-    size = float(max(np.ptp(p[:, :2], axis=0).max(), 1.0))
-    dist = cv2.distanceTransform(cover, cv2.DIST_L2, 3)
-    return dist > SKIN_INSET * size
+    return transport, np.clip(weight, 0, 1).astype(np.float32), skin
 
 
 def _fill_holes(normals: np.ndarray, cover: np.ndarray, size: float) -> tuple[np.ndarray, np.ndarray]:

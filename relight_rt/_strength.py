@@ -28,6 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._errors import RelightError
+from .exposure import REC709
 
 BAND_GAIN = (1.0, 1.05, 1.15)  # degree 0, 1, 2: what the measured transport and light leave short (module docstring)
 
@@ -107,16 +108,22 @@ def refit_light(
         raise RelightError(f"refit_light: prior must be >= 0, got {prior!r}")
     if t.shape[0] < 9:
         return light.copy()
-    rec709 = np.array([0.2126, 0.7152, 0.0722])
-    l0 = light.astype(np.float64) @ rec709
+    l0 = light.astype(np.float64) @ REC709
     x = t * a[:, None]
     normal = x.T @ x
     ridge = prior * max(float(np.trace(normal)) / 9, 1e-12)
     correction = np.linalg.solve(normal + ridge * np.eye(9), x.T @ (y - x @ l0))
+    return _luminance_changed(light, correction)
+
+
+def _luminance_changed(light: np.ndarray, change: np.ndarray) -> np.ndarray:
+    """``light`` (9, 3) float32 with ``change`` (9,) added to its luminance, each colour column in proportion to
+    the light's own colour (its degree-0 coefficients over their luminance; white when that is not a colour), so
+    the colour stays the light's; ``light`` itself (a copy) if the sum is not finite."""
     dc = light[0].astype(np.float64)
-    dc_lum = float(dc @ rec709)
+    dc_lum = float(dc @ REC709)
     colour = dc / dc_lum if dc_lum > 1e-6 and (dc > 0).all() else np.ones(3)
-    out = light + (correction[:, None] * colour[None, :]).astype(np.float32)
+    out = light + (np.asarray(change, np.float64)[:, None] * colour[None, :]).astype(np.float32)
     return out if np.isfinite(out).all() else light.copy()
 
 
@@ -160,8 +167,7 @@ def face_refit(
                            f"{a.shape[0]} albedo and {tp.shape[0]} transport pixels")
     if t.shape[0] < _FACE_MIN or a.shape[0] == 0:
         return light.copy()
-    rec709 = np.array([0.2126, 0.7152, 0.0722])
-    l0 = light.astype(np.float64) @ rec709
+    l0 = light.astype(np.float64) @ REC709
     keep = np.ones(y.shape[0], bool)
     m = None
     for _ in range(3):
@@ -186,9 +192,4 @@ def face_refit(
         return light.copy()
     fitted *= before / after
     n = int(keep.sum())
-    change = (fitted - l0) * (n / (n + FACE_PIXELS))
-    dc = light[0].astype(np.float64)
-    dc_lum = float(dc @ rec709)
-    colour = dc / dc_lum if dc_lum > 1e-6 and (dc > 0).all() else np.ones(3)
-    out = light + (change[:, None] * colour[None, :]).astype(np.float32)
-    return out if np.isfinite(out).all() else light.copy()
+    return _luminance_changed(light, (fitted - l0) * (n / (n + FACE_PIXELS)))

@@ -58,7 +58,7 @@ from ._chain import DeviceChain
 from ._detail import extend_outward, guided_upsample, unpremultiply, window
 from ._errors import RelightError
 from ._face import feather, head_box
-from ._face_geometry import MIN_FACE_NET, FaceMesh, face_transport, skin_interior
+from ._face_geometry import MIN_FACE_NET, FaceMesh, face_transport
 from ._geometry import CropGeometry
 from ._io import read_image, sibling_mask
 from ._strength import face_refit, refit_light, restore_bands
@@ -107,7 +107,7 @@ def _tint_range(light: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     return t.min(0).astype(np.float32), t.max(0).astype(np.float32)
 
 
-def _shaded_skin(factor: np.ndarray, ratio: np.ndarray, photo: np.ndarray, skin: np.ndarray) -> np.ndarray:
+def _shaded_skin(factor: np.ndarray, ratio: np.ndarray, chroma: np.ndarray, weight: np.ndarray) -> np.ndarray:
     """The relighting factor (h, w, 3) with skin that the new light darkens keeping more of its colour.
 
     Scaling a pixel by r at one chromaticity scales its chroma with it (Lab C* ~ L*^0.85 for skin colours): a
@@ -115,14 +115,13 @@ def _shaded_skin(factor: np.ndarray, ratio: np.ndarray, photo: np.ndarray, skin:
     portrait, Grace Hopper, the astronaut, the reference photo, ...), from the darkest fifth of the face's
     lightness to the middle one, C* ~ L*^0.33 at the median (-0.1 to 0.8; docs/RESULTS.md): light scattered
     inside skin and between its folds comes out redder where the direct light is weak (DPR, which keeps a* and
-    b*, looks alive there for that reason). So where stage 1's ``skin`` says skin and the luminance ratio
+    b*, looks alive there for that reason). So where the skin ``weight`` is positive and the luminance ratio
     ``ratio`` is below 1, the white-light relit colour r P = r Y + r (P - Y) becomes r Y + r**_SKIN_CHROMA (P - Y)
     (Y the photo's luminance: the luminance stays, the chroma falls more slowly; 0.5 gives C* ~ L*^0.3), folded
-    into ``factor`` as a per-channel gain (from the skin's local colour, between 1/4 and 4) and blended by the
-    skin probability where the colour is a skin colour (``_skin_chroma``). Where the light brightens the skin, and off the skin, ``factor`` is unchanged; r = 1 (the
-    photo's own light) gives 1.
+    into ``factor`` as a per-channel gain (from the skin's local ``chroma`` (P - Y) / P, between 1/4 and 4) and
+    blended by the weight (both from ``_skin_chroma``). Where the light brightens the skin, and off the skin,
+    ``factor`` is unchanged; r = 1 (the photo's own light) gives 1.
     """
-    chroma, weight = _skin_chroma(photo, skin)
     boost = np.clip(ratio, 1e-4, 1.0)[..., None] ** (_SKIN_CHROMA - 1.0) - 1.0  # 0 where the light brightens
     gain = np.clip(1.0 + boost * chroma, 0.25, 4.0)  # (r Y + r**g (P - Y)) / (r P)
     return (factor * (1 + weight[..., None] * (gain - 1))).astype(np.float32)
@@ -843,7 +842,7 @@ class Relighter:
 
     def _add_faces(self, dec: Decomposition, transport: np.ndarray, window: tuple[int, int, int, int]) -> np.ndarray:
         """Blend the transport of each face's mesh into ``transport`` (the window's, unpremultiplied), in place;
-        returns where the faces' skin lies well inside their meshes (``skin_interior``; none without a mesh)."""
+        returns where the faces' skin lies well inside their meshes (``face_transport``; none without a mesh)."""
         mesh = self._face_mesh()
         if not mesh.available:
             return np.zeros(transport.shape[:2], bool)
@@ -862,9 +861,9 @@ class Relighter:
             net[:, 2] = pts[:, 2] / k
             if np.ptp(net[:, :2], axis=0).max() < MIN_FACE_NET:
                 continue
-            t_face, weight = face_transport(net, mesh.triangles, transport[..., 0])
+            t_face, weight, face_skin = face_transport(net, mesh.triangles, transport[..., 0])
             transport += weight[..., None] * (t_face - transport)
-            skin |= skin_interior(net, mesh.triangles, skin.shape)
+            skin |= face_skin
         return skin
 
     def _person_colour(
@@ -954,10 +953,12 @@ class Relighter:
             np.clip(tint, *span, out=tint)
             tint /= np.maximum(tint @ _exposure.REC709, 1e-6)[..., None]
             np.clip(tint, *span, out=tint)  # the rescale can lift one channel past its bound again
-        factor = _shaded_skin(tint * ratio[..., None], ratio, dec.network_image[y0:y1, x0:x1],
-                              dec.skin[y0:y1, x0:x1])  # shaded skin keeps its colour (real skin does)
-        gain = extend_outward(factor, own["inner"])
         state = self._prepared(dec)
+        if "skin_chroma" not in state:  # the shaded-skin rule's light-independent inputs, kept for every light
+            state["skin_chroma"] = tuple(map(_readonly, _skin_chroma(dec.network_image[y0:y1, x0:x1],
+                                                                     dec.skin[y0:y1, x0:x1])))
+        factor = _shaded_skin(tint * ratio[..., None], ratio, *state["skin_chroma"])  # shaded skin keeps its colour
+        gain = extend_outward(factor, own["inner"])
         if "gray" not in state:  # the full-resolution guide, kept for every light
             state["gray"] = _readonly(cv2.cvtColor(image, cv2.COLOR_RGB2GRAY))
         return guided_upsample(dec.geometry, gain, dec.network_image[y0:y1, x0:x1], state["gray"], (y0, x0))

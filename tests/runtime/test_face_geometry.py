@@ -16,7 +16,6 @@ from relight_rt._face_geometry import (
     head_normals,
     lobe_transport,
     rasterise_normals,
-    skin_interior,
 )
 from relight_rt.session import bundled_models_dir
 
@@ -67,7 +66,7 @@ def test_the_nearest_triangle_is_seen():
 def test_face_transport_keeps_band_zero_and_fades_in_inside_the_mesh():
     pts, tris = _plane(0.5, 0.0)
     t0 = np.full((60, 60), 0.7, np.float32)
-    t, w = face_transport(pts, tris, t0)
+    t, w, _ = face_transport(pts, tris, t0)
     np.testing.assert_allclose(t[..., 0], 0.7, rtol=1e-5)
     assert w.min() >= 0 and w.max() <= 1
     assert w[25, 25] > 0.99 and w[55, 55] == 0  # below the chin: neither the face nor the head
@@ -87,7 +86,7 @@ def test_the_meshs_openings_are_the_faces_surface_not_holes_in_it():
     normals, cover = rasterise_normals(pts, ring, (60, 60))
     assert cover[25, 25] == 0 and cover[12, 25] == 1  # the mesh itself has the hole
     t0 = np.full((60, 60), 0.7, np.float32)
-    t, w = face_transport(pts, ring, t0)
+    t, w, _ = face_transport(pts, ring, t0)
     assert w[25, 25] > 0.99 and w[21, 25] > 0.99  # as deep in the face as the mesh around it
     n = np.array([1.0, 0, 0])
     np.testing.assert_allclose(t[25, 25], lobe_transport(n) * 0.7 / lobe_transport(n)[0], atol=1e-4)
@@ -103,7 +102,7 @@ def test_the_head_around_the_mesh_turns_away_and_stops_at_the_chin():
     assert normals[25, 1, 1] < -0.9 and normals[25, 49, 1] > 0.9  # beyond its sides: the outline, left / right
     assert weight[60, 25] == 0 and weight[25, 79] == 0  # below the chin, and far off the head
     t0 = np.full((80, 80), 0.7, np.float32)
-    t, w = face_transport(pts, tris, t0)
+    t, w, _ = face_transport(pts, tris, t0)
     assert w[0, 25] == pytest.approx(HEAD_STRENGTH, abs=1e-6) and w[60, 25] == 0
     np.testing.assert_allclose(t[..., 0], 0.7, rtol=1e-5)  # the visibility stays stage 1's there too
     left = lights.directional((0.3, -1.0, 0.0), (1, 1, 1), 1.0)[:, 0]
@@ -123,7 +122,7 @@ def test_the_skin_interior_is_inside_the_mesh_away_from_its_border_and_its_openi
                 continue  # the opening: the cell from (50, 50) to (60, 60)
             a, b, c, d = i * 9 + j, i * 9 + j + 1, (i + 1) * 9 + j, (i + 1) * 9 + j + 1
             tris += [(a, b, d), (a, d, c)]
-    skin = skin_interior(pts, np.array(tris), (100, 100))
+    _, _, skin = face_transport(pts, np.array(tris), np.full((100, 100), 0.7, np.float32))
     assert skin.dtype == bool and skin[30, 30] and skin[75, 30]
     assert not skin[5, 50] and not skin[14, 50] and not skin[55, 55] and not skin[55, 64]
     assert skin[55, 75]  # beyond the opening's reach

@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 
 from relight_rt import Relighter, RuntimeConfig, lights
-from relight_rt.relighter import _SKIN_CHROMA, _shaded_skin
+from relight_rt.relighter import _SKIN_CHROMA, _shaded_skin, _skin_chroma
 
 REC709 = np.array([0.2126, 0.7152, 0.0722], np.float32)
 
@@ -21,7 +21,7 @@ def test_darkened_skin_keeps_its_luminance_and_more_of_its_chroma():
     ratio = np.array([[0.3, 0.6, 1.0], [0.3, 0.6, 1.0]], np.float32)
     skin = np.array([[1.0, 1.0, 1.0], [0.0, 0.0, 0.0]], np.float32)
     factor = np.repeat(ratio[..., None], 3, axis=2)  # a white light: the factor is the luminance ratio
-    out = _shaded_skin(factor, ratio, photo, skin)
+    out = _shaded_skin(factor, ratio, *_skin_chroma(photo, skin))
     relit, plain = photo * out, photo * factor
     np.testing.assert_allclose(relit @ REC709, plain @ REC709, rtol=1e-5)  # the luminance is the light's
     np.testing.assert_array_equal(out[1], factor[1])  # off the skin: unchanged
@@ -39,17 +39,18 @@ def test_brightened_skin_and_the_light_colour_are_left_alone():
     ratio = np.array([[1.8, 0.5]], np.float32)
     warm = np.array([1.2, 0.95, 0.7], np.float32) / (np.array([1.2, 0.95, 0.7], np.float32) @ REC709)
     factor = warm * ratio[..., None]
-    out = _shaded_skin(factor, ratio, photo, np.ones((1, 2), np.float32))
+    out = _shaded_skin(factor, ratio, *_skin_chroma(photo, np.ones((1, 2), np.float32)))
     np.testing.assert_array_equal(out[0, 0], factor[0, 0])
     # darkened: the gain on the factor is the white light's (the light's colour still multiplies)
-    white = _shaded_skin(np.repeat(ratio[..., None], 3, axis=2), ratio, photo, np.ones((1, 2), np.float32))
+    inputs = _skin_chroma(photo, np.ones((1, 2), np.float32))
+    white = _shaded_skin(np.repeat(ratio[..., None], 3, axis=2), ratio, *inputs)
     np.testing.assert_allclose(out[0, 1] / factor[0, 1], white[0, 1] / ratio[0, 1], rtol=1e-5)
 
 
 def test_deep_shade_never_turns_a_channel_negative():
     photo = np.array([[[0.9, 0.2, 0.1]]], np.float32)  # saturated skin-like red
     ratio = np.array([[0.02]], np.float32)
-    out = _shaded_skin(np.full((1, 1, 3), 0.02, np.float32), ratio, photo, np.ones((1, 1), np.float32))
+    out = _shaded_skin(np.full((1, 1, 3), 0.02, np.float32), ratio, *_skin_chroma(photo, np.ones((1, 1), np.float32)))
     assert (out > 0).all() and (out <= 4 * 0.02 + 1e-6).all()
 
 

@@ -198,11 +198,12 @@ class CanvasPreview {
     for (let p = 0; p < n; p++) if (S[p] > 0) index.push(p);
     this.skinIndex = Int32Array.from(index);
     const skin = new Float32Array(5 * index.length);
-    index.forEach((p, j) => {
+    for (let j = 0, u = 0; j < index.length; j++, u += 5) {
+      const p = index[j];
       let own = 0;
       for (let k = 0; k < 9; k++) own += T[k][p] * W[k];
-      skin.set([C[0][p], C[1][p], C[2][p], S[p], own], 5 * j);
-    });
+      skin[u] = C[0][p]; skin[u + 1] = C[1][p]; skin[u + 2] = C[2][p]; skin[u + 3] = S[p]; skin[u + 4] = own;
+    }
     this.skin = skin;
     this.exponent = layers.skinExponent;
   }
