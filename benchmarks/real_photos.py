@@ -11,7 +11,8 @@ figure), OUT/contact_sheet.jpg (photos x every preset of ``relight_rt.lights.lis
 - DPR's demo portrait (data/obama.jpg of github:zhhoper/DPR; ``--dpr``: a checkout or the bare git directory of a
   mirror, default $DPR_REPO or /work/.mirror/zhhoper+DPR/repo) with DPR's stored results of its 7 demo lights;
 - portraits that Python packages ship in their wheels (matplotlib's grace_hopper.jpg, scikit-image's astronaut.png
-  and camera.png, mahotas' luispedro.jpg, insightface's group photo t1.jpg), fetched once with
+  and camera.png, mahotas' luispedro.jpg, insightface's group photo t1.jpg: relit for everyone in it, person
+  by person, as `relight --person all` does), fetched once with
   ``pip download --no-deps`` into the cache;
 - the reference photo and the first ``--frames`` frames of the reference video (../shared/reference, CC BY-NC-SA:
   the contact sheet shows them; keep it out of the repository).
@@ -97,6 +98,7 @@ FACE_BOXES = {
     "cameraman": (0.40, 0.12, 0.52, 0.30),
 }
 DPR_PORTRAITS = ("dpr_obama", "astronaut", "grace_hopper", "luispedro")
+GROUPS = ("group",)  # relit for everyone in them, person by person, as `relight --person all` does
 
 log = logging.getLogger("real_photos")
 
@@ -601,6 +603,7 @@ def main(argv=None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     cv2.setNumThreads(args.threads)
     relighter = Relighter(RuntimeConfig(models=args.models, device="cpu"))
+    everyone = Relighter(RuntimeConfig(models=args.models, device="cpu", matting="all"))
     presets = list(lights.list_presets())
     repo = dprp.DPRRepo.find(args.dpr)
     notes = []
@@ -623,7 +626,8 @@ def main(argv=None) -> int:
     sheet_rows, dpr_rows = [], []
     for photo in photos:
         in_sheet = not photo.name.startswith("frame_") or photo.name == "frame_001"
-        entry, images = measure(photo, relighter, dpr, repo, presets, want_presets=in_sheet)
+        entry, images = measure(photo, everyone if photo.name in GROUPS else relighter, dpr, repo, presets,
+                                want_presets=in_sheet)
         report["photos"][photo.name] = entry
         log.info("%s: %s (%.1f s)", photo.name, entry["status"][:80], entry["seconds"])
         if "dpr" in images:

@@ -34,7 +34,8 @@ class RuntimeConfig:
         warmup: run each graph once at load; None: only on CUDA.
         matting: "auto": a photo with neither a mask nor an alpha channel gets an automatic person matte of
             its largest person (when a matting model is installed); "all": of everyone the matte finds (a group
-            photo relit whole; relight_rt.matting ``person="all"``); "off": such a photo is an error.
+            photo relit whole, person by person, each with their share of the matte; relight_rt.matting
+            ``person="all"``, ``PersonMatter.parts``); "off": such a photo is an error.
     """
 
     models: str | None = None

@@ -256,6 +256,18 @@ def _readonly(a: np.ndarray) -> np.ndarray:
     return a
 
 
+class _Parts:
+    """A Matter that keeps each person's share of the matte it returns (``PersonMatter.parts``): a group photo,
+    relit person by person (``Relighter._by_person``)."""
+
+    def __init__(self, matter):
+        self.matter, self.found = matter, None
+
+    def __call__(self, rgb: np.ndarray, name: str = "image") -> np.ndarray:
+        alpha, self.found = self.matter.parts(rgb, name)
+        return alpha
+
+
 @dataclass(frozen=True, eq=False)
 class Decomposition:
     """Stage 1's answer for one photo, with what is needed to put results back into the photo: plain data.
@@ -576,6 +588,7 @@ class Relighter:
         if not images:
             return []
         decs = self._stage1(images, masks, allow_full)
+        people = [self._prepared(dec).pop("people", None) for dec in decs]
         if not allow_full:  # photos; video frames skip the work done once per photo (a second pass, the matte's
             for i, dec in enumerate(decs):  # foreground colours, the light's refit): per frame it would cost more
                 self._prepared(dec)["photo"] = True  # than it shows
@@ -584,6 +597,9 @@ class Relighter:
                     decs[i] = self._refit(dec)
             if self.detail and self.face_pass:
                 self._look_at_faces(decs)
+            for dec, masks_i in zip(decs, people, strict=True):
+                if masks_i is not None:  # a group photo (matting="all"): each person decomposed on their own too
+                    self._prepared(dec)["parts"] = tuple(self.decompose_batch([dec.image] * len(masks_i), masks_i))
         return decs
 
     def _look_at_faces(self, decs: list[Decomposition]) -> None:
@@ -610,14 +626,17 @@ class Relighter:
 
     def _stage1(self, images: Sequence[ImageLike], masks: Sequence, allow_full: bool) -> list[Decomposition]:
         """Stage 1 on a batch: read, resolve masks, crop, run; one Decomposition per image."""
-        rgbs, ms, geoms = [], [], []
+        rgbs, ms, geoms, people = [], [], [], []
         for i, (image, mask) in enumerate(zip(images, masks, strict=True)):
             name = str(image) if isinstance(image, (str, os.PathLike)) else f"image {i}" if len(images) > 1 else "image"
             img = read_image(image, "image")
-            m = resolve_mask(img, mask, matter=self.matter if mask is None or isinstance(mask, str) else None,
-                             allow_empty=allow_full, name=name)
+            matter = self.matter if mask is None or isinstance(mask, str) else None
+            if matter is not None and self.config.matting == "all" and not allow_full and hasattr(matter, "parts"):
+                matter = _Parts(matter)  # a group photo: everyone's share of the matte kept (``_by_person``)
+            m = resolve_mask(img, mask, matter=matter, allow_empty=allow_full, name=name)
             rgbs.append(np.ascontiguousarray(img[..., :3]) if img.shape[2] == 4 else img)
             ms.append(m)
+            people.append(matter.found if isinstance(matter, _Parts) and len(matter.found or ()) > 1 else None)
             geoms.append(CropGeometry.from_mask(m, self.resolution, self.preprocess))
         net_imgs = [g.to_network(rgb) for g, rgb in zip(geoms, rgbs, strict=True)]
         net_masks = [g.to_network(m) for g, m in zip(geoms, ms, strict=True)]
@@ -641,6 +660,8 @@ class Relighter:
                                 net_imgs[i], ms[i], rgbs[i], geom)
             if on_device[i] is not None:
                 self._prepared(dec)["device"] = on_device[i]
+            if people[i] is not None:
+                self._prepared(dec)["people"] = people[i]
             decs.append(dec)
         return decs
 
@@ -1068,6 +1089,31 @@ class Relighter:
             behind = None if bg is fg else bg
         return over_box(colour, alpha[..., None], geom.box, backdrop, dec.mask, behind)
 
+    def _by_person(
+        self, dec: Decomposition, parts: tuple[Decomposition, ...], light: np.ndarray, exposure, bg: Background
+    ) -> np.ndarray:
+        """A group photo relit person by person: ``relight`` of each of ``parts`` (the people of ``dec``, each
+        decomposed on their own with their share of its matte: their own shape, their face seen at their size,
+        their own exposure), added up as changes to the backdrop (the shares sum to the matte, so where the
+        people overlap the two changes blend, and outside the matte the backdrop stays as it is)."""
+        backdrop = self._backdrop(dec, bg)
+        out = np.zeros(dec.geometry.frame + (4,), np.float32) if backdrop is None else np.array(backdrop, np.float32)
+        for part in parts:
+            lit = self._expose(part, light[None], exposure)[0]
+            outputs = next(self._network_relit(part, lit[None], 1, want_layers=self.detail))
+            img = self._compose(part, lit, outputs, backdrop, clean=bg.kind != "original")
+            if backdrop is None:  # RGBA, straight: added premultiplied
+                out[..., :3] += img[..., :3] * img[..., 3:]
+                out[..., 3] += img[..., 3]
+            else:
+                out += img
+                out -= backdrop
+        if backdrop is None:
+            a = out[..., 3:]
+            np.divide(out[..., :3], a, out=out[..., :3], where=a > 0)
+            out[..., 3] = dec.mask
+        return np.clip(out, 0, 1, out=out)
+
     def _expose(self, dec: Decomposition, lights: np.ndarray, exposure) -> np.ndarray:
         """relight_rt.exposure.expose with the photo's own mean luminance measured once per Decomposition, then
         the highlight guard (relight_rt.exposure ``highlight_factor``) on each light before any EV offset."""
@@ -1151,6 +1197,14 @@ class Relighter:
             (that picture as ``.image``, its ``.layers`` and ``.light``).
         """
         dec = self._prepare(image, mask)
+        parts = self._prepared(dec).get("parts")
+        if parts:
+            bg = parse_background(background)
+            light = self.resolve_light(light)
+            out = self._by_person(dec, parts, light, exposure, bg)
+            if layers:  # the layers are the group's, decomposed as one
+                return replace(self._relight_with_layers(dec, self._expose(dec, light, exposure), bg), image=out)
+            return out
         lit = self._expose(dec, self.resolve_light(light), exposure)
         bg = parse_background(background)
         if layers:
@@ -1201,6 +1255,12 @@ class Relighter:
         if not isinstance(batch_size, int) or batch_size < 1:
             raise RelightError(f"batch_size: expected a whole number >= 1, got {batch_size!r}")
         dec = self._prepare(image, mask)
+        parts = self._prepared(dec).get("parts")
+        if parts:
+            bg = parse_background(background)
+            for light in self._resolve_lights(lights):
+                yield self._by_person(dec, parts, light, exposure, bg)
+            return
         lits = self._expose(dec, self._resolve_lights(lights), exposure)
         bg = parse_background(background)
         backdrop = self._backdrop(dec, bg)

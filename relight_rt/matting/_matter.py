@@ -60,6 +60,8 @@ _CUT_WIDTH = 0.125  # a portrait's body is cut by the bottom border over at leas
 _FRAGMENT = 0.003  # person="largest": a separate part of the matte at least this x its main part's area is checked
 _MAX_FRAGMENTS = 8  # ... at most this many of them (largest first)
 _OTHER_OVERLAP = 0.25  # ... a segmentation holding the part and at most this share of the main part is someone else
+_PART_SOFT = 0.01  # parts: people's shares meet softly over about this x the photo's longer side
+_MIN_PART = 256  # parts: a person with fewer opaque pixels of the matte than this (hidden) is not a part of their own
 
 
 class PersonMatter:
@@ -421,6 +423,20 @@ class PersonMatter:
         return alpha
 
     def __call__(self, image: np.ndarray, name: str = "image") -> np.ndarray:
+        return self.parts(image, name)[0]
+
+    def parts(self, image: np.ndarray, name: str = "image") -> tuple[np.ndarray, list[np.ndarray]]:
+        """The matte (what calling the matter returns) and each person's share of it.
+
+        Returns:
+            (alpha, parts): alpha (H, W) float32 as ``matter(image)``; parts, one (H, W) float32 alpha per person
+            found (one for person="largest"), summing to ``alpha``. Where people overlap, each pixel goes to the
+            person whose segmentation is surer of it, softly over a few pixels (:func:`shares`): a group photo can
+            then be relit person by person, each with their own shape (relight_rt.Relighter, matting="all").
+
+        Raises:
+            RelightError: a bad image, or "no person found in IMAGE".
+        """
         rgb = as_rgb(image, name, copy=False)  # only read from here on
         people = self.people(rgb, name)
         alpha = self.alpha(rgb, people) if people else None
@@ -429,7 +445,7 @@ class PersonMatter:
                 f"no person found in {name} (no body or face the bundled detectors recognise; people shorter than "
                 f"{MIN_PERSON_FRACTION:.0%} of the photo, seen only in part or in deep shadow can be missed)"
             )
-        return alpha
+        return alpha, [alpha * s for s in shares(people, alpha)]
 
 
 _SHARED: dict[tuple[str, str, str], PersonMatter] = {}
@@ -682,6 +698,38 @@ def _side_by_side(faces: list[Face]) -> list[Face]:
         if all(abs(c - (g.box[0] + g.box[2]) / 2) >= g.box[2] - g.box[0] for g in kept):
             kept.append(f)
     return kept
+
+
+def shares(people: list[Person], alpha: np.ndarray) -> list[np.ndarray]:
+    """Each person's share of the matte ``alpha`` (H, W): (H, W) float32 weights summing to 1 everywhere.
+
+    A pixel goes to the people in proportion to the softmax of their segmentations' logits there (a person
+    whose segmentation is surer of it takes it; beyond everyone's segmentation, on a refined hair edge, the
+    nearest outline's person, whose logit falls least), on a working grid, blurred over ``_PART_SOFT`` of the
+    photo's longer side (two people meet softly) and upsampled smoothly. A person left
+    with fewer than ``_MIN_PART`` opaque pixels of the matte (hidden behind others) gives their share to the rest.
+    """
+    h, w = alpha.shape
+    if len(people) < 2:
+        return [np.ones((h, w), np.float32)]
+    grid = working_grid((0, 0, w, h))
+    logits = np.stack([logits_on_grid(p, grid) for p in people])
+    opaque = cv2.resize((alpha >= 0.5).astype(np.float32), (grid[0], grid[1]), interpolation=cv2.INTER_AREA)
+    scale = h * w / float(grid[0] * grid[1])
+    keep = np.ones(len(people), bool)
+    while True:
+        z = logits[keep]
+        weights = np.exp(z - z.max(axis=0, keepdims=True))
+        weights /= weights.sum(axis=0, keepdims=True)
+        pixels = (weights * opaque).sum(axis=(1, 2)) * scale
+        if keep.sum() == 1 or (pixels >= _MIN_PART).all():
+            break
+        keep[np.flatnonzero(keep)[int(np.argmin(pixels))]] = False
+    # softened: people split from one segmentation by columns (split_by_faces) meet at a straight cut, which
+    # a change of light would draw as a seam; blurred shares still sum to 1
+    sigma = _PART_SOFT * max(grid[0], grid[1])
+    return [cv2.resize(cv2.GaussianBlur(wk.astype(np.float32), (0, 0), sigma), (w, h), interpolation=cv2.INTER_LINEAR)
+            for wk in weights]
 
 
 def rejoin(people: list[Person]) -> list[Person]:
