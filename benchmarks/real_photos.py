@@ -344,7 +344,7 @@ def measure(photo: Photo, relighter: Relighter, dpr: dprp.DPRNet | None, repo: d
         if want_presets:
             entry["presets"] = {}
             for name in presets:
-                out = relit(lights.preset(name))
+                out = relit(name)  # by name, as `relight --preset NAME` (night: its own exposure)
                 sheet[name] = out
                 fig = {"spill": spill(rgb, out, alpha)}
                 if has_skin:

@@ -77,6 +77,27 @@ def parse_exposure(value) -> str | float:
     return ev
 
 
+def for_light(exposure, light) -> str | float:
+    """The exposure a relight under ``light`` runs at: ``exposure`` (parsed, ``parse_exposure``) plus the EV a
+    preset given by name asks of "auto" (``relight_rt.lights.preset_exposure``: night a stop darker); an EV offset
+    counts from that preset's "auto"; "physical" and every other light (arrays, files, maps) unchanged.
+
+    ``light``: a preset's name, a ``LightSpec``, or anything else ``Relighter.resolve_light`` takes.
+    """
+    from . import lights
+    from .lightspec import LightSpec
+
+    mode = parse_exposure(exposure)
+    if isinstance(light, LightSpec):
+        name = light.value if light.source == "preset" else None
+    else:
+        name = light if isinstance(light, str) and light in lights.list_presets() else None
+    if mode == "physical" or name is None:
+        return mode
+    ev = lights.preset_exposure(name) + (0.0 if mode == "auto" else mode)
+    return "auto" if ev == 0 else ev
+
+
 def mean_luminance(albedo, transport, mask, light) -> float:
     """Mask-weighted mean Rec. 709 luminance of the diffuse image albedo ⊙ max(0, T·light), unclipped.
 

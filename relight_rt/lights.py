@@ -219,11 +219,28 @@ _PRESETS = {
     "neon": (_neon, 1.0, "magenta from the left, cyan from the right"),
     "rim": (_rim, 1.0, "two cool backlights and a weak frontal fill: sides bright, face dim but readable "
              "(degree-2 SH makes a rim a wide glow, no thin line)"),
-    "night": (_night, 0.5, "cool, pale moonlight from upper left over a dark sky (the \"auto\" exposure keeps the "
-               "person's brightness: --exposure -1 for a darker night)"),
+    "night": (_night, 0.5, "cool, pale moonlight from upper left over a dark sky; a stop darker than the photo "
+               "under the \"auto\" exposure (a night scene is darker than the day it was shot in)"),
     "front": (_front, 1.0, "flat frontal light from the camera"),
     "campfire": (_campfire, 1.0, "warm light from below in front, dark surroundings"),
 }
+
+
+# the EV a preset adds to the "auto" exposure (which keeps the person's brightness): a night scene is darker
+_PRESET_EV = {"night": -1.0}
+
+
+def preset_exposure(name: str) -> float:
+    """The EV offset preset ``name`` asks of the "auto" exposure: night -1 (auto keeps the person's mean
+    brightness, and moonlight at the photo's brightness reads as a cool grade, not as night); 0 for the others.
+    The runtime adds it wherever a preset is given by name (relight_rt.exposure ``for_light``).
+
+    Raises:
+        RelightError: unknown name.
+    """
+    if name not in _PRESETS:
+        raise RelightError(f"unknown light preset {name!r}; known presets: {', '.join(_PRESETS)}")
+    return _PRESET_EV.get(name, 0.0)
 
 
 def _visible_normals(size: int = 48) -> np.ndarray:

@@ -1197,6 +1197,7 @@ class Relighter:
             (that picture as ``.image``, its ``.layers`` and ``.light``).
         """
         dec = self._prepare(image, mask)
+        exposure = _exposure.for_light(exposure, light)  # a preset may ask for its own exposure (night: darker)
         parts = self._prepared(dec).get("parts")
         if parts:
             bg = parse_background(background)
@@ -1255,13 +1256,20 @@ class Relighter:
         if not isinstance(batch_size, int) or batch_size < 1:
             raise RelightError(f"batch_size: expected a whole number >= 1, got {batch_size!r}")
         dec = self._prepare(image, mask)
+        resolved = self._resolve_lights(lights)
+        # each light's exposure: a preset may ask for its own (``exposure.for_light``: night a stop darker)
+        exposures = [_exposure.for_light(exposure, v) for v in lights] if isinstance(lights, (list, tuple)) else \
+            [_exposure.parse_exposure(exposure)] * len(resolved)
         parts = self._prepared(dec).get("parts")
         if parts:
             bg = parse_background(background)
-            for light in self._resolve_lights(lights):
-                yield self._by_person(dec, parts, light, exposure, bg)
+            for light, exp in zip(resolved, exposures, strict=True):
+                yield self._by_person(dec, parts, light, exp, bg)
             return
-        lits = self._expose(dec, self._resolve_lights(lights), exposure)
+        if all(e == exposures[0] for e in exposures):
+            lits = self._expose(dec, resolved, exposures[0])
+        else:
+            lits = np.stack([self._expose(dec, one[None], e)[0] for one, e in zip(resolved, exposures, strict=True)])
         bg = parse_background(background)
         backdrop = self._backdrop(dec, bg)
         for lit, outputs in zip(lits, self._network_relit(dec, lits, batch_size, want_layers=self.detail), strict=True):
@@ -1291,10 +1299,11 @@ class Relighter:
             use ``iter_relight`` for long sweeps.
         """
         dec = self._prepare(image, mask)
-        lits = self._resolve_lights(lights)
+        # a list is resolved light by light in iter_relight (a photo's light once); an array is checked here
+        count = len(lights) if isinstance(lights, (list, tuple)) else len(self._resolve_lights(lights))
         bg = parse_background(background)
-        out = np.empty((lits.shape[0],) + dec.geometry.frame + (bg.channels,), np.float32)
-        results = self.iter_relight(dec, lits, background=bg, batch_size=batch_size, exposure=exposure)
+        out = np.empty((count,) + dec.geometry.frame + (bg.channels,), np.float32)
+        results = self.iter_relight(dec, lights, background=bg, batch_size=batch_size, exposure=exposure)
         for i, img in enumerate(results):
             out[i] = img
         return out

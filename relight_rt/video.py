@@ -561,7 +561,7 @@ def relight_clip(
     from . import metrics as rt_metrics
     from ._io import atomic_path, check_target, write_npy
     from .config import RuntimeConfig
-    from .exposure import parse_exposure
+    from .exposure import for_light
 
     config = RuntimeConfig() if config is None else config
     lights = lights if isinstance(lights, ClipLights) else ClipLights(spec=lights)
@@ -580,7 +580,7 @@ def relight_clip(
         from .relighter import Relighter
 
         rl = Relighter.from_config(config)
-        engine = RelighterEngine(rl, exposure=parse_exposure(exposure))
+        engine = RelighterEngine(rl, exposure=for_light(exposure, lights.spec))  # night: a stop darker
     schedule = lights.schedule(len(source), rl, name=str(src))
     inputs = [*source.paths, *(Path(p) for p in (*lights.paths, dvp, bg.path) if p and Path(p).is_file())]
     if rl is not None:

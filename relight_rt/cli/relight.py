@@ -13,7 +13,7 @@ from .. import batch
 from .._errors import RelightError
 from .._io import ProtectedPaths, image_writer, npy_writer, npz_writer, sibling_mask, write_all
 from .._progress import progress
-from ..exposure import parse_exposure
+from ..exposure import for_light, parse_exposure
 from ..masks import find_mask_file
 from ..transport_file import transport_arrays
 from .options import (
@@ -91,7 +91,7 @@ def cmd_relight(args: argparse.Namespace) -> int:
     bg = background(args)
     rl = relighter(args)
     light = rl.resolve_light(spec)
-    exposure = parse_exposure(args.exposure)
+    exposure = for_light(parse_exposure(args.exposure), spec)  # a preset may ask for its own (night: darker)
     protect = _read_inputs(args, files, rl, spec, bg)
     if not plan.to_file and files:
         out.mkdir(parents=True, exist_ok=True)
@@ -128,7 +128,7 @@ def cmd_relight_ray(args: argparse.Namespace) -> int:
         args.inputs, args.output, light, ray_address=args.ray, models=args.models, mask=args.mask,
         background=background(args), device=args.device, actors=args.ray_actors, gpus_per_actor=args.ray_gpus,
         cpus_per_actor=args.ray_cpus, batch_size=args.ray_batch_size, manifest=args.manifest,
-        protect=list(spec.paths), config=config, exposure=parse_exposure(args.exposure),
+        protect=list(spec.paths), config=config, exposure=for_light(parse_exposure(args.exposure), spec),
     )  # fmt: skip
     return finish_job(report, many=report.inputs > 1)
 

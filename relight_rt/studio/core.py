@@ -376,6 +376,7 @@ class Studio:
             "background": "transparent" if self.background == "transparent" else "image",
             "own_light": own.tolist(),
             "presets": {name: lights.preset(name).astype(np.float32).tolist() for name in lights.list_presets()},
+            "preset_exposure": {name: lights.preset_exposure(name) for name in lights.list_presets()},
             "diffuse_only": bool(self.relighter.diffuse_only),
             "exposure": self.exposure_supported,
             "max_upload_mb": MAX_UPLOAD_BYTES >> 20,

@@ -617,3 +617,22 @@ def test_scene_key_handle_steers_the_scene_light(browser, server):
     assert page.evaluate("document.getElementById('base').value") == "upload:place.png"
     assert page.text_content("#scene-key-az + output") == "180°"
     page.close()
+
+
+def test_night_preset_sets_its_exposure(browser, server):
+    """Choosing the night preset sets the exposure controls to its own EV (relight_rt.lights.preset_exposure:
+    a stop darker, as `relight --preset night` is); another preset then gives "auto" back, unless the user
+    changed the exposure in between."""
+    page = open_page(browser, server)
+    read = "() => [document.getElementById('exposure-mode').value, Number(document.getElementById('exposure-ev')" \
+           ".value), studio.state.exposure.mode, studio.state.exposure.ev]"
+    page.select_option("#base", "preset:night")
+    assert page.evaluate(read) == ["ev", lights.preset_exposure("night"), "ev", -1.0]
+    page.select_option("#base", "preset:studio")
+    assert page.evaluate(read) == ["auto", 0.0, "auto", 0.0]
+    page.select_option("#base", "preset:night")
+    page.fill("#exposure-ev", "-0.5")
+    page.dispatch_event("#exposure-ev", "input")
+    page.select_option("#base", "preset:front")
+    assert page.evaluate(read)[:2] == ["ev", -0.5]  # the user's own setting stays
+    page.close()

@@ -13,7 +13,7 @@ const state = {
   lamp: { on: true, direction: [0.75, 0.45, 0.5], colour: [1, 0.957, 0.902], intensity: 1, size: 20 },
   ambient: 0.15,
   base: { name: "none", light: sh.zeros(), rotate: 0, level: 1 },
-  exposure: { mode: "auto", ev: 0 },
+  exposure: { mode: "auto", ev: 0, byPreset: 0 },
   seq: 0,          // the light's version; a full result is shown only for the version it was made for
   result: null,    // {id, seq, ...} of the latest full result
   dirty: false,
@@ -408,8 +408,25 @@ function setBase(name) {
   else if (name === "own") state.base.light = info.own_light.flat();
   else if (name.startsWith("preset:")) state.base.light = info.presets[name.slice(7)].flat();
   else state.base.light = state.uploads[name];
+  presetExposure(name.startsWith("preset:") ? (info.preset_exposure || {})[name.slice(7)] || 0 : 0);
   lightChanged();
   requestFull();
+}
+
+// A preset that asks for its own exposure (night: a stop darker; relight_rt.lights.preset_exposure) sets the
+// exposure controls to it, where they show; leaving it for another light gives "auto" back, unless the user has
+// changed the exposure since.
+function presetExposure(ev) {
+  const e = state.exposure;
+  if (!state.info.exposure || e.mode === "physical" || (!ev && !e.byPreset)) return;
+  if (e.byPreset && (e.mode !== "ev" || e.ev !== e.byPreset)) { e.byPreset = 0; if (!ev) return; }
+  e.mode = ev ? "ev" : "auto";
+  e.ev = ev;
+  e.byPreset = ev;
+  $("exposure-mode").value = e.mode;
+  const slider = $("exposure-ev");
+  slider.value = String(ev);
+  slider.parentElement.querySelector("output").textContent = `${ev > 0 ? "+" : ""}${ev.toFixed(1)}`;
 }
 
 function bindSlider(id, apply, format) {
