@@ -629,7 +629,8 @@ class Relighter:
         rgbs, ms, geoms, people = [], [], [], []
         for i, (image, mask) in enumerate(zip(images, masks, strict=True)):
             name = str(image) if isinstance(image, (str, os.PathLike)) else f"image {i}" if len(images) > 1 else "image"
-            img = read_image(image, "image")
+            # an array no one can write to (a Decomposition's photo: a group's people) is not copied
+            img = read_image(image, "image", copy=not (isinstance(image, np.ndarray) and not image.flags.writeable))
             matter = self.matter if mask is None or isinstance(mask, str) else None
             if matter is not None and self.config.matting == "all" and not allow_full and hasattr(matter, "parts"):
                 matter = _Parts(matter)  # a group photo: everyone's share of the matte kept (``_by_person``)
@@ -1092,26 +1093,52 @@ class Relighter:
     def _by_person(
         self, dec: Decomposition, parts: tuple[Decomposition, ...], light: np.ndarray, exposure, bg: Background
     ) -> np.ndarray:
-        """A group photo relit person by person: ``relight`` of each of ``parts`` (the people of ``dec``, each
-        decomposed on their own with their share of its matte: their own shape, their face seen at their size,
-        their own exposure), added up as changes to the backdrop (the shares sum to the matte, so where the
-        people overlap the two changes blend, and outside the matte the backdrop stays as it is)."""
+        """A group photo relit person by person: each of ``parts`` (the people of ``dec``, each decomposed on their
+        own with their share of its matte: their own shape, their face seen at their size, their own exposure)
+        gives the person's relit colour; the colours, weighted by the shares (which sum to the matte, so where
+        people overlap their changes blend), go over the backdrop with the group's matte. The person's own colour
+        and the colour behind the soft edge are the group's (``_foreground`` once, on the whole matte: where two
+        people meet neither is background)."""
         backdrop = self._backdrop(dec, bg)
-        out = np.zeros(dec.geometry.frame + (4,), np.float32) if backdrop is None else np.array(backdrop, np.float32)
+        clean = bg.kind != "original"
+        fg, behind = self._foreground(dec, always=clean and not self.detail)
+        y0, y1, x0, x1 = dec.geometry.box
+        alpha = dec.geometry.crop(dec.mask)[..., None]
+        weighted = np.zeros(fg.shape, np.float32)  # the people's colours times their shares of the matte, summed
         for part in parts:
+            py0, py1, px0, px1 = part.geometry.box
+            cy0, cy1, cx0, cx1 = max(py0, y0), min(py1, y1), max(px0, x0), min(px1, x1)
+            if cy1 <= cy0 or cx1 <= cx0:
+                continue
+            state = self._prepared(part)
+            if "foreground" not in state and (cy0, cy1, cx0, cx1) == (py0, py1, px0, px1):
+                # the person's box lies in the group's (their share lies in its matte): what the group has of the
+                # photo whatever the light is theirs, as views (a group photo of many megapixels holds it once)
+                group = (slice(py0 - y0, py1 - y0), slice(px0 - x0, px1 - x0))
+                whole = self._prepared(dec)
+                if "dark" not in whole:
+                    whole["dark"] = tuple(_readonly(a) for a in _dark_colour(fg))
+                    whole["knee"] = _readonly(_knee(fg))
+                state["foreground"] = (fg[group], behind[group])
+                state["dark"] = tuple(a[group] for a in whole["dark"])
+                state["knee"] = whole["knee"][group]
             lit = self._expose(part, light[None], exposure)[0]
-            outputs = next(self._network_relit(part, lit[None], 1, want_layers=self.detail))
-            img = self._compose(part, lit, outputs, backdrop, clean=bg.kind != "original")
-            if backdrop is None:  # RGBA, straight: added premultiplied
-                out[..., :3] += img[..., :3] * img[..., 3:]
-                out[..., 3] += img[..., 3]
-            else:
-                out += img
-                out -= backdrop
-        if backdrop is None:
-            a = out[..., 3:]
-            np.divide(out[..., :3], a, out=out[..., :3], where=a > 0)
+            _, residual, relit = next(self._network_relit(part, lit[None], 1, want_layers=self.detail))
+            colour = self._person_colour(part, lit, residual, relit)
+            share = part.geometry.crop(part.mask)[..., None]
+            if clean and not self.detail:
+                colour = clean_edge_colour(colour, np.ascontiguousarray(part.geometry.crop(part.image)),
+                                           state["foreground"][0], share[..., 0])
+            sl = (slice(cy0 - py0, cy1 - py0), slice(cx0 - px0, cx1 - px0))
+            weighted[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0] += (colour * share)[sl]
+        if backdrop is None:  # RGBA, straight colour
+            out = np.zeros(dec.geometry.frame + (4,), np.float32)
+            np.divide(weighted, alpha, out=out[y0:y1, x0:x1, :3], where=alpha > 0)
             out[..., 3] = dec.mask
+        else:
+            out = np.array(backdrop, np.float32)
+            under = behind if not clean and behind is not fg else out[y0:y1, x0:x1]
+            out[y0:y1, x0:x1] = under * (1 - alpha) + weighted
         return np.clip(out, 0, 1, out=out)
 
     def _expose(self, dec: Decomposition, lights: np.ndarray, exposure) -> np.ndarray:

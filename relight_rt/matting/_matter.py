@@ -61,6 +61,7 @@ _FRAGMENT = 0.003  # person="largest": a separate part of the matte at least thi
 _MAX_FRAGMENTS = 8  # ... at most this many of them (largest first)
 _OTHER_OVERLAP = 0.25  # ... a segmentation holding the part and at most this share of the main part is someone else
 _PART_SOFT = 0.01  # parts: people's shares meet softly over about this x the photo's longer side
+_SHARE_MIN = 0.01  # parts: a person's share below this is none
 _MIN_PART = 256  # parts: a person with fewer opaque pixels of the matte than this (hidden) is not a part of their own
 
 
@@ -725,6 +726,9 @@ def shares(people: list[Person], alpha: np.ndarray) -> list[np.ndarray]:
         if keep.sum() == 1 or (pixels >= _MIN_PART).all():
             break
         keep[np.flatnonzero(keep)[int(np.argmin(pixels))]] = False
+    # a share too small to see is none (each person's part then stays near them: their crop, not the group's)
+    weights[weights < _SHARE_MIN] = 0
+    weights /= weights.sum(axis=0, keepdims=True)
     # softened: people split from one segmentation by columns (split_by_faces) meet at a straight cut, which
     # a change of light would draw as a seam; blurred shares still sum to 1
     sigma = _PART_SOFT * max(grid[0], grid[1])
