@@ -523,10 +523,14 @@ def test_group_photo_relit_person_by_person(two_people):
     np.testing.assert_allclose(sum(p.mask for p in parts), dec.mask, atol=1e-5)
     light = lights.directional((0.3, -1.0, 0.2)) + lights.ambient((0.1, 0.1, 0.1))
     group = rl.relight(dec, light)
+    np.testing.assert_array_equal(rl.relight(dec, light, layers=True).image, group)  # the layers are the group's
+    np.testing.assert_array_equal(rl.relight_many(dec, [light, light])[1], group)
     rgba = rl.relight(dec, light, background="transparent")
     np.testing.assert_array_equal(rgba[..., 3], dec.mask)
     outside = dec.mask == 0
     np.testing.assert_array_equal(group[outside], image[outside])
+    black = rl.relight(dec, light, background="black")
+    assert not black[outside].any() and np.abs(black[dec.mask > 0.999] - group[dec.mask > 0.999]).max() < 1e-6
     saved = rl._prepared(dec).pop("parts")
     as_one = rl.relight(dec, light)
     rl._prepared(dec)["parts"] = saved
