@@ -8,6 +8,7 @@ second way in for close portraits and faces; the chosen people's segmentations b
 
 from __future__ import annotations
 
+import logging
 import os
 import threading
 from dataclasses import replace
@@ -63,6 +64,8 @@ _OTHER_OVERLAP = 0.25  # ... a segmentation holding the part and at most this sh
 _PART_SOFT = 0.01  # parts: people's shares meet softly over about this x the photo's longer side
 _SHARE_MIN = 0.01  # parts: a person's share below this is none
 _MIN_PART = 256  # parts: a person with fewer opaque pixels of the matte than this (hidden) is not a part of their own
+
+log = logging.getLogger(__name__)
 
 
 class PersonMatter:
@@ -231,6 +234,8 @@ class PersonMatter:
                 found = self._everyone(rgb)
             else:
                 found = [self._without_others(rgb, p) for p in self._largest(rgb)]
+                if found:
+                    self._note_others(rgb, found[0], name)
             # who is found is settled: the heads their regions cut are added now (the selfie graph segments
             # everyone in a region, so a higher region found earlier would take in the people beside)
             return [self._uncut(rgb, p)[0] if p.source == "roi" and p.whole is None else p for p in found]
@@ -253,6 +258,19 @@ class PersonMatter:
             if p is not None:
                 return [p]
         return []
+
+    def _note_others(self, rgb: np.ndarray, person: Person, name: str) -> None:
+        """Say (log, INFO) how many faces the face graph sees outside the largest person's segmentation: a group
+        photo relit for one person of it is a surprise unless said (the face graph on the whole photo: ~4 ms)."""
+        faces = self.find_faces(rgb)
+        if not faces:
+            return
+        xs = np.array([(f.box[0] + f.box[2]) / 2 for f in faces])
+        ys = np.array([(f.box[1] + f.box[3]) / 2 for f in faces])
+        n = int((prob_at(person, xs, ys) < 0.5).sum())
+        if n:
+            log.info("%s: the largest person is matted, %d more face%s seen beside them (person=\"all\", "
+                     "relight --person all: everyone, each relit on their own)", name, n, "s" if n > 1 else "")
 
     def _without_others(self, rgb: np.ndarray, person: Person) -> Person:
         """``person`` without the parts of its segmentation that belong to someone else (person="largest").

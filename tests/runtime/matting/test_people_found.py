@@ -492,6 +492,21 @@ def test_parts_share_the_matte_person_by_person(two_people):
     assert len(parts1) == 1 and np.array_equal(parts1[0], alpha1)
 
 
+def test_largest_says_when_others_are_beside(two_people, example_rgba, caplog):
+    """person="largest" matting a photo with another face beside the person says so (INFO), naming --person all;
+    a photo of one person, or person="all", says nothing."""
+    image, _ = two_people
+    with caplog.at_level("INFO", logger="relight_rt.matting._matter"):
+        M.PersonMatter()(image, name="two.png")
+    assert "two.png: the largest person is matted, 1 more face seen beside them" in caplog.text
+    assert "--person all" in caplog.text
+    caplog.clear()
+    with caplog.at_level("INFO", logger="relight_rt.matting._matter"):
+        M.PersonMatter()(example_rgba[..., :3], name="one.png")
+        M.PersonMatter(person="all")(image, name="two.png")
+    assert "beside them" not in caplog.text
+
+
 def test_shares_give_a_hidden_person_to_the_rest():
     """shares(): softmax of the people's logits, summing to 1; someone with (almost) no opaque pixel of the matte
     of their own (behind another) is not a part."""
