@@ -86,6 +86,7 @@ _SHADING_TRUST = np.float32(0.1)  # ... and trusted fully from this shading up (
 _TINT_LIT = 0.05  # _tint_range: the normals a light gives at least this share of its brightest irradiance
 _SKIN_CHROMA = 0.5  # _shaded_skin: skin a new light darkens by r keeps its chroma x r**this (a grey dimming: x r)
 _SKIN_SIGMA = 1.5  # ... the skin's colour taken over this many network pixels
+_MAX_PEOPLE = 16  # matting="all": a photo of more people than this is relit as one group (memory: a mask each)
 
 
 _SPHERE = sh.sphere_directions(1024).astype(np.float32)  # _tint_range's normals
@@ -637,7 +638,12 @@ class Relighter:
             m = resolve_mask(img, mask, matter=matter, allow_empty=allow_full, name=name)
             rgbs.append(np.ascontiguousarray(img[..., :3]) if img.shape[2] == 4 else img)
             ms.append(m)
-            people.append(matter.found if isinstance(matter, _Parts) and len(matter.found or ()) > 1 else None)
+            found = matter.found if isinstance(matter, _Parts) else None
+            if found is not None and len(found) > _MAX_PEOPLE:
+                log.info("%s: %d people found, relit as one group (person by person up to %d: each holds a mask "
+                         "the size of the photo)", name, len(found), _MAX_PEOPLE)
+                found = None
+            people.append(found if found is not None and len(found) > 1 else None)
             geoms.append(CropGeometry.from_mask(m, self.resolution, self.preprocess))
         net_imgs = [g.to_network(rgb) for g, rgb in zip(geoms, rgbs, strict=True)]
         net_masks = [g.to_network(m) for g, m in zip(geoms, ms, strict=True)]

@@ -587,3 +587,16 @@ def test_person_option_sets_the_matting(command):
     parser = build_parser()
     assert runtime_config(parser.parse_args(command)).matting == "auto"
     assert runtime_config(parser.parse_args(command + ["--person", "all"])).matting == "all"
+
+
+def test_more_people_than_the_cap_are_relit_as_one(two_people, monkeypatch, caplog):
+    """Each person relit on their own holds a mask the size of the photo: past relighter._MAX_PEOPLE the group is
+    relit as one, and the log says so."""
+    from relight_rt import Relighter, RuntimeConfig
+    from relight_rt import relighter as R
+
+    monkeypatch.setattr(R, "_MAX_PEOPLE", 1)
+    rl = Relighter(RuntimeConfig(device="cpu", matting="all"))
+    with caplog.at_level("INFO", logger="relight_rt.relighter"):
+        dec = rl.decompose(two_people[0])
+    assert "parts" not in rl._prepared(dec) and "2 people found, relit as one group" in caplog.text
