@@ -442,7 +442,7 @@ class PersonMatter:
         return alpha
 
     def __call__(self, image: np.ndarray, name: str = "image") -> np.ndarray:
-        return self.parts(image, name)[0]
+        return self._matte(image, name)[0]
 
     def parts(self, image: np.ndarray, name: str = "image") -> tuple[np.ndarray, list[np.ndarray]]:
         """The matte (what calling the matter returns) and each person's share of it.
@@ -456,6 +456,10 @@ class PersonMatter:
         Raises:
             RelightError: a bad image, or "no person found in IMAGE".
         """
+        alpha, people = self._matte(image, name)
+        return alpha, [alpha * s for s in shares(people, alpha)] if len(people) > 1 else [alpha]
+
+    def _matte(self, image: np.ndarray, name: str) -> tuple[np.ndarray, list[Person]]:
         rgb = as_rgb(image, name, copy=False)  # only read from here on
         people = self.people(rgb, name)
         alpha = self.alpha(rgb, people) if people else None
@@ -464,7 +468,7 @@ class PersonMatter:
                 f"no person found in {name} (no body or face the bundled detectors recognise; people shorter than "
                 f"{MIN_PERSON_FRACTION:.0%} of the photo, seen only in part or in deep shadow can be missed)"
             )
-        return alpha, [alpha * s for s in shares(people, alpha)]
+        return alpha, people
 
 
 _SHARED: dict[tuple[str, str, str], PersonMatter] = {}
@@ -724,9 +728,10 @@ def shares(people: list[Person], alpha: np.ndarray) -> list[np.ndarray]:
 
     A pixel goes to the people in proportion to the softmax of their segmentations' logits there (a person
     whose segmentation is surer of it takes it; beyond everyone's segmentation, on a refined hair edge, the
-    nearest outline's person, whose logit falls least), on a working grid, blurred over ``_PART_SOFT`` of the
-    photo's longer side (two people meet softly) and upsampled smoothly. A person left
-    with fewer than ``_MIN_PART`` opaque pixels of the matte (hidden behind others) gives their share to the rest.
+    nearest outline's person, whose logit falls least), on a working grid; a share under ``_SHARE_MIN`` is none;
+    the shares are blurred over ``_PART_SOFT`` of the photo's longer side (two people meet softly) and upsampled
+    smoothly. A person left with fewer than ``_MIN_PART`` opaque pixels of the matte (hidden behind others) gets
+    no share (the list is shorter by them): theirs goes to the rest.
     """
     h, w = alpha.shape
     if len(people) < 2:
