@@ -378,9 +378,16 @@ class Studio:
             "presets": {name: lights.preset(name).astype(np.float32).tolist() for name in lights.list_presets()},
             "preset_exposure": {name: lights.preset_exposure(name) for name in lights.list_presets()},
             "diffuse_only": bool(self.relighter.diffuse_only),
+            "people": self._people(),
             "exposure": self.exposure_supported,
             "max_upload_mb": MAX_UPLOAD_BYTES >> 20,
         }
+
+    def _people(self) -> int:
+        """How many people the full result relights one by one (a group photo with matting="all"; the live
+        preview draws the group's layers, one body); 1 otherwise."""
+        prepared = getattr(self.relighter, "_prepared", None)
+        return len(prepared(self.dec).get("parts") or ()) or 1 if prepared is not None else 1
 
     # ------------------------------------------------------------------------------------ full results
 
@@ -405,6 +412,8 @@ class Studio:
         args = ["relight-rt", "relight", str(self.photo)]
         if self.mask is not None:
             args += ["--mask", str(self.mask)]
+        elif getattr(getattr(self.relighter, "config", None), "matting", "auto") == "all":
+            args += ["--person", "all"]  # the studio's matte took everyone: so must the command's
         args += ["--light", light_file]
         if self.background != "original":
             args += ["--background", self.background]

@@ -292,7 +292,9 @@ async function api(path, options) {
 async function requestFull() {
   const seq = state.seq;
   const light = composedLight();
-  setBadge("live preview · full result on its way…");
+  // a group relit person by person: the preview draws the group's layers (one body), the full result each person
+  setBadge(state.info.people > 1 ? "live preview (the group lit as one) · full result on its way…"
+    : "live preview · full result on its way…");
   try {
     const res = await api("/api/render", {
       method: "POST",
@@ -307,7 +309,8 @@ async function requestFull() {
       img.hidden = false;
       state.result = { ...out, seq };
       const stage = state.info.diffuse_only ? "diffuse only (no stage 2 model)" : "stage 2 + full-resolution detail";
-      setBadge(`full result · ${state.info.width}×${state.info.height} · ${stage} · ${(out.seconds * 1000).toFixed(0)} ms`);
+      const people = state.info.people > 1 ? ` · ${state.info.people} people, each relit on their own` : "";
+      setBadge(`full result · ${state.info.width}×${state.info.height} · ${stage}${people} · ${(out.seconds * 1000).toFixed(0)} ms`);
       setExport(out);
     };
     img.src = `/api/result/${out.id}.png`;

@@ -600,3 +600,20 @@ def test_more_people_than_the_cap_are_relit_as_one(two_people, monkeypatch, capl
     with caplog.at_level("INFO", logger="relight_rt.relighter"):
         dec = rl.decompose(two_people[0])
     assert "parts" not in rl._prepared(dec) and "2 people found, relit as one group" in caplog.text
+
+
+def test_studio_of_a_group(two_people, tmp_path):
+    """The studio opened with --person all: its info says how many people the full result relights one by one (the
+    page's badge says so), and its exported command line carries --person all (without it the command relit one)."""
+    pytest.importorskip("fastapi")
+    from relight_rt import Relighter, RuntimeConfig
+    from relight_rt.studio.core import Studio
+
+    path = tmp_path / "two.png"
+    cv2.imwrite(str(path), (two_people[0][..., ::-1] * 255 + 0.5).astype(np.uint8))
+    studio = Studio(path, None, "original", Relighter(RuntimeConfig(device="cpu", matting="all")))
+    assert studio.info()["people"] == 2
+    _, render = studio.render(np.zeros(27).tolist())
+    assert "--person all" in studio.command(render, "light.npy")
+    one = Studio(path, None, "original", Relighter(RuntimeConfig(device="cpu")))
+    assert one.info()["people"] == 1 and "--person" not in one.command(render, "light.npy")
