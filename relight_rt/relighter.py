@@ -61,7 +61,7 @@ from ._face import feather, head_box
 from ._face_geometry import MIN_FACE_NET, FaceMesh, face_transport
 from ._geometry import CropGeometry
 from ._io import read_image, sibling_mask
-from ._strength import face_refit, refit_light, restore_bands
+from ._strength import explain_photo, face_refit, refit_light, restore_bands
 from .compositing import Background, clean_edge_colour, over_box, parse_background
 from .config import RuntimeConfig
 from .contract import kind_spec
@@ -795,15 +795,20 @@ class Relighter:
     def _own(self, dec: Decomposition, with_residual: bool = True) -> dict:
         """What every relight of ``dec`` divides by, in the person's window of the network frame (cached).
 
-        ``_restored``'s entries, and "own" (r, r') the luminance of the pipeline's image under the photo's own
-        light taken as white (diffuse plus stage 2's residual) plus "missing" (r, r'), what that falls short of
-        ``_OWN_FLOOR`` x the photo's luminance (light the model misses; ``_gain`` adds it to every new light too),
-        floored at the ratio's floor.
+        ``_restored``'s entries, "transport" moved along the photo's own light toward the shading the photo shows
+        (relight_rt._strength ``explain_photo``), and "own" (r, r') the luminance of the pipeline's image under the
+        photo's own light taken as white (diffuse plus stage 2's residual) plus "missing" (r, r'), what that falls
+        short of ``_OWN_FLOOR`` x the photo's luminance (light the model misses; ``_gain`` adds it to every new light
+        too), floored at the ratio's floor.
         """
         state = self._prepared(dec)
         key = "own" if with_residual else "own_diffuse"
         if key not in state:
             base = self._restored(dec)
+            # the shading the photo shows and stage 1 misses, kept along the photo's own light (relight_rt._strength)
+            white = dec.white_light[:, 0]
+            moved = explain_photo(base["transport"], base["albedo"], base["photo"], white, base["inner"])
+            base = {**base, "transport": _readonly(moved)}
             own = base["albedo"] * sh.shading(base["transport"], dec.white_light)[..., 0]  # white: columns equal
             residual = self._own_residual(dec) if with_residual else None
             if residual is not None:

@@ -62,9 +62,12 @@ def _expected(light, gains):
     return out
 
 
-def test_the_relit_change_follows_the_restored_transport(sides_relighter):
+def test_the_relit_change_follows_the_restored_transport(sides_relighter, monkeypatch):
     """A white lamp from the image's right, on a person whose left half faces -y and right half +y: each half is
-    relit by the restored transport's change of shading (stronger than the network's own transport gives)."""
+    relit by the restored transport's change of shading (stronger than the network's own transport gives). The
+    photo's own unexplained shading kept along its light (``explain_photo``, its own test below) is set aside:
+    the random test photo is no shading of the test transport, and it moved the ratio by 2 %."""
+    monkeypatch.setattr(_strength, "EXPLAIN_SHARE", 0.0)
     img, mask = person(150, 100, seed=2, box=(20, 140, 30, 80))
     light = _lamp_from_right()
     left, right = _side_factors(sides_relighter, img, mask, light)
@@ -291,3 +294,54 @@ def test_no_colour_the_light_cannot_give(sides_relighter, monkeypatch):
     assert (tint >= low - 0.02).all() and (tint <= high + 0.02).all(), (tint, low, high)
     monkeypatch.setattr(relighter_module, "_tint_range", lambda _: None)
     assert left_colour()[2] > high[2] + 0.5  # without the bound: the blue the light cannot give
+
+
+def test_explain_photo_moves_along_the_photos_light_only(monkeypatch):
+    """explain_photo, unsmoothed: with share 1 the photo's own light gives the shading the photo shows (photo /
+    albedo) where the clip allows; a light orthogonal to it sees no change; pixels outside ``where`` and share 0
+    are untouched."""
+    from relight_rt._strength import EXPLAIN_ALBEDO_MIN, explain_photo
+
+    monkeypatch.setattr(_strength, "EXPLAIN_SIGMA", 0.0)
+
+    rng = np.random.default_rng(3)
+    t = rng.normal(0.3, 0.2, (6, 5, 9)).astype(np.float32)
+    t[..., 0] = 0.9
+    light = np.array([1.0, 0.3, 0.2, 0.5, 0.1, 0.0, 0.05, 0.0, 0.1], np.float32)
+    albedo = rng.uniform(0.0, 0.8, (6, 5)).astype(np.float32)
+    shown = (t @ light) + rng.uniform(-0.4, 0.4, (6, 5)).astype(np.float32)
+    photo = shown * np.maximum(albedo, EXPLAIN_ALBEDO_MIN)
+    where = np.ones((6, 5), bool)
+    where[0] = False
+    moved = explain_photo(t, albedo, photo, light, where, share=1.0)
+    np.testing.assert_allclose((moved @ light)[1:], shown[1:], atol=1e-5)
+    np.testing.assert_array_equal(moved[0], t[0])
+    half = explain_photo(t, albedo, photo, light, where, share=0.5)
+    np.testing.assert_allclose((half @ light)[1:], ((t @ light + shown) / 2)[1:], atol=1e-5)
+    other = rng.normal(size=9).astype(np.float32)
+    other -= light * (other @ light) / (light @ light)  # orthogonal to the photo's light
+    np.testing.assert_allclose(moved @ other, t @ other, atol=1e-5)
+    np.testing.assert_array_equal(explain_photo(t, albedo, photo, light, where, share=0.0), t)
+    far = explain_photo(t, albedo, photo * 100, light, where, share=1.0)  # a difference past the clip moves by it
+    assert np.all((far @ light - t @ light)[1:] <= 1.0 + 1e-5)
+    with pytest.raises(RelightError):
+        explain_photo(t[..., :4], albedo, photo, light, where)
+
+
+def test_explain_photo_keeps_texture_out():
+    """Smoothed (the default EXPLAIN_SIGMA): stripes of the photo the albedo missed (one-pixel rows alternately
+    brighter and darker than the transport says) move the transport by about their mean, not stripe by stripe,
+    while a smooth difference moves it nearly all the way."""
+    from relight_rt._strength import explain_photo
+
+    t = np.zeros((40, 40, 9), np.float32)
+    t[..., 0] = 1.0
+    light = np.zeros(9, np.float32)
+    light[0] = 1.0
+    albedo = np.full((40, 40), 0.5, np.float32)
+    where = np.ones((40, 40), bool)
+    stripes = np.where(np.arange(40)[:, None] % 2 == 0, 1.2, 0.8) * np.ones((1, 40), np.float32)
+    moved = explain_photo(t, albedo, 0.5 * stripes, light, where, share=1.0)
+    assert np.abs(moved[5:35, 5:35] @ light - 1.0).max() < 0.05  # the stripes (+-0.2) averaged out
+    smooth = explain_photo(t, albedo, 0.5 * np.full((40, 40), 1.2, np.float32), light, where, share=1.0)
+    np.testing.assert_allclose(smooth @ light, 1.2, atol=1e-4)
