@@ -16,7 +16,9 @@ The luminance Y of the pipeline's image under the new light (albedo A times the 
 plus stage 2's residual r'), over its luminance under the photo's own light (Ŝ = max(0, T·l̂), l̂ the
 luminance of stage 1's estimate taken as white: cameras white-balance their photos), both unclipped, ε = 0.01;
 T is stage 1's transport with its degree-1 and degree-2 bands scaled back up by the shrinkage measured against
-true transports (relight_rt._strength: a regressed transport makes every light look softer than it is);
+true transports (relight_rt._strength: a regressed transport makes every light look softer than it is), then
+moved along the photo's own light half-way toward the shading the photo shows (``explain_photo``: what the
+regression blurred away of the photo's own shading stays as far as a new light resembles the photo's);
 and c' = S' / Y(S'), the colour of the new light arriving at that pixel (luminance 1). So the brightness change
 is the whole pipeline's (stage 2's shadows and highlights included), its colour is the new light's alone, and
 neither the albedo's colour nor an error in the estimated light's colour can tint the skin: under a white
