@@ -216,12 +216,12 @@ def explain_photo(
     transport's by d per pixel; the transport is moved by ``share`` x d (clipped to ``EXPLAIN_CLIP``, then smoothed
     over ``EXPLAIN_SIGMA`` pixels among ``where``'s: what is not smooth is texture the albedo missed, a shirt's
     stripes, not shading) along ``light`` / |light|^2, the least change that adds that much shading under the
-    photo's own light. A new light
-    then keeps that part of the photo's own shading as far as it resembles the photo's light (the component along
-    it) and none of it where it is orthogonal; both sides of the relighting factor use the moved transport, so the
-    photo's own light still gives the photo back. On the held-out renders (benchmarks/heldout_change.py) a share of
-    0.5 lowers the relight RMSE in every framing (0.0861 -> 0.0843 face ... 0.1235 -> 0.1216 full) and raises the
-    change's correlation with the truth by 0.005-0.010 (docs/RESULTS.md, seventh session).
+    photo's own light. A new light then keeps that part of the photo's own shading as far as it resembles the
+    photo's light (the component along it) and none of it where it is orthogonal; both sides of the relighting
+    factor use the moved transport, so the photo's own light still gives the photo back. On the held-out renders
+    (benchmarks/heldout_change.py) a share of 0.5 lowers the relight RMSE in every framing (0.0861 -> 0.0843 face
+    ... 0.1235 -> 0.1216 full) and raises the change's correlation with the truth by 0.005-0.010 (docs/RESULTS.md,
+    seventh session).
 
     Args:
         transport: (h, w, 9) the transport the relighting factor uses (unpremultiplied).

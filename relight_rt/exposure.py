@@ -30,6 +30,7 @@ cannot get brighter).
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 
@@ -79,22 +80,23 @@ def parse_exposure(value) -> str | float:
 
 def for_light(exposure, light) -> str | float:
     """The exposure a relight under ``light`` runs at: ``exposure`` (parsed, ``parse_exposure``) plus the EV a
-    preset given by name asks of "auto" (``relight_rt.lights.preset_exposure``: night a stop darker); an EV offset
-    counts from that preset's "auto"; "physical" and every other light (arrays, files, maps) unchanged.
+    preset asks of "auto" (``relight_rt.lights.preset_exposure``: night a stop darker); an EV offset counts from
+    that preset's "auto"; "physical" and every other light (arrays, files, maps) unchanged.
 
-    ``light``: a preset's name, a ``LightSpec``, or anything else ``Relighter.resolve_light`` takes.
+    ``light``: a ``LightSpec``, a string or path (read by the one rule, ``LightSpec.of``: a preset's name or a
+    file), or anything else ``Relighter.resolve_light`` takes (no preset).
     """
-    from . import lights
-    from .lightspec import LightSpec
+    from .lightspec import LightSpec  # lightspec reads lights and files; this module is below it
 
     mode = parse_exposure(exposure)
-    if isinstance(light, LightSpec):
-        name = light.value if light.source == "preset" else None
-    else:
-        name = light if isinstance(light, str) and light in lights.list_presets() else None
-    if mode == "physical" or name is None:
+    if isinstance(light, (str, os.PathLike)):
+        light = LightSpec.of(light)
+    if mode == "physical" or not isinstance(light, LightSpec) or light.source != "preset":
         return mode
-    ev = lights.preset_exposure(name) + (0.0 if mode == "auto" else mode)
+    from .lights import preset_exposure
+
+    name = light.value
+    ev = preset_exposure(name) + (0.0 if mode == "auto" else mode)
     return "auto" if ev == 0 else ev
 
 

@@ -1141,7 +1141,7 @@ class Relighter:
             share = part.geometry.crop(part.mask)[..., None]
             if clean and not self.detail:
                 colour = clean_edge_colour(colour, np.ascontiguousarray(part.geometry.crop(part.image)),
-                                           state["foreground"][0], share[..., 0])
+                                           self._foreground(part, always=True)[0], share[..., 0])
             sl = (slice(cy0 - py0, cy1 - py0), slice(cx0 - px0, cx1 - px0))
             weighted[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0] += (colour * share)[sl]
         if backdrop is None:  # RGBA, straight colour
@@ -1237,6 +1237,8 @@ class Relighter:
             (that picture as ``.image``, its ``.layers`` and ``.light``).
         """
         dec = self._prepare(image, mask)
+        if isinstance(light, (str, os.PathLike)):
+            light = LightSpec.of(light)  # read once by the one rule: its exposure and its light
         exposure = _exposure.for_light(exposure, light)  # a preset may ask for its own exposure (night: darker)
         parts = self._prepared(dec).get("parts")
         if parts:
@@ -1296,9 +1298,11 @@ class Relighter:
         if not isinstance(batch_size, int) or batch_size < 1:
             raise RelightError(f"batch_size: expected a whole number >= 1, got {batch_size!r}")
         dec = self._prepare(image, mask)
+        if isinstance(lights, (list, tuple)):  # strings read once by the one rule: their exposure and their light
+            lights = [LightSpec.of(v) if isinstance(v, (str, os.PathLike)) else v for v in lights]
         resolved = self._resolve_lights(lights)
         # each light's exposure: a preset may ask for its own (``exposure.for_light``: night a stop darker)
-        exposures = [_exposure.for_light(exposure, v) for v in lights] if isinstance(lights, (list, tuple)) else \
+        exposures = [_exposure.for_light(exposure, v) for v in lights] if isinstance(lights, list) else \
             [_exposure.parse_exposure(exposure)] * len(resolved)
         parts = self._prepared(dec).get("parts")
         if parts:
