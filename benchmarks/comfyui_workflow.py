@@ -7,7 +7,8 @@ requirements are installed in (with relight_rt importable, or this checkout is f
 The server runs headless on 127.0.0.1 with ``--cpu`` and ``--base-directory`` a temporary folder, so nothing is
 written into the checkout: its custom_nodes/ holds a link to this repository's comfyui/, its input/ the example
 photo. The workflow goes in through the HTTP API (POST /prompt); a small websocket reader (standard library)
-times each node from ComfyUI's "executing" messages; the saved images are read from the output folder and
+times each node from ComfyUI's "executing" messages (a node runs until the next one starts, the
+last until "execution_success"); the saved images are read from the output folder and
 compared with ``relight-rt relight`` of the same photo under the same lights (the lamp written as an SH light
 file), 8-bit against 8-bit. Prints a JSON summary (and writes it with the images into --out).
 """
@@ -165,12 +166,13 @@ def run_prompt(server: Server, workflow: dict) -> tuple[str, dict[str, float], f
                 continue
             if kind == "execution_error":
                 raise RuntimeError(f"ComfyUI: node {data.get('node_id')} failed: {data.get('exception_message')}")
+            now = time.perf_counter()
+            if kind in ("executing", "execution_success") and current is not None:  # the node before has ended
+                times[current] = now - since
+                current = None
             if kind == "executing":
-                now = time.perf_counter()
-                if current is not None:
-                    times[current] = now - since
                 current, since = data.get("node"), now
-                if current is None:
+                if current is None:  # sent after ComfyUI's bookkeeping (history, caches): the end of it all
                     return prompt_id, times, now - start
     finally:
         ws.close()
