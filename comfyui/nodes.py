@@ -206,6 +206,18 @@ class RelightLight:
             },
         }
 
+    @classmethod
+    def IS_CHANGED(cls, source="preset", file="", **other_inputs):  # noqa: N802 (ComfyUI's name)
+        """ComfyUI runs the node again when this value changes: a light file's time of change and size (ComfyUI
+        cannot see a file change on disk by itself); the other inputs it compares itself."""
+        if source in ("sh_file", "hdr_panorama", "photo", "background") and str(file).strip():
+            try:
+                st = os.stat(_input_path(file, source))
+            except (RelightError, OSError):
+                return ""
+            return f"{st.st_mtime_ns}:{st.st_size}"
+        return ""
+
     def make(self, source, preset, file, rotation, lamp_azimuth, lamp_elevation, lamp_color, lamp_intensity,
              lamp_size, fov, models=None, image=None, mask=None):
         spec = self.spec(source, preset, file, rotation, lamp_azimuth, lamp_elevation, lamp_color, lamp_intensity,

@@ -189,3 +189,62 @@ def test_composite_node_is_the_runtimes_composite(models, photo):
     with pytest.raises(RelightError, match="both"):
         node.composite(models, torch.from_numpy(photo[None]), torch.from_numpy(backdrop[None]), 0.0, 60.0, True,
                        0.0, 0.5, -1.0)
+
+
+def test_a_changed_light_file_runs_the_node_again(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    save_light(tmp_path / "l.npy", lights.preset("studio"))
+    before = RelightLight.IS_CHANGED(source="sh_file", file="l.npy", preset="studio", rotation=0.0)
+    import os
+
+    os.utime(tmp_path / "l.npy", ns=(1, 1))
+    assert RelightLight.IS_CHANGED(source="sh_file", file="l.npy", preset="studio", rotation=0.0) != before
+    assert RelightLight.IS_CHANGED(source="preset", file="", preset="night") == ""
+
+
+class _FakeComfy:
+    """comfy.utils.ProgressBar and comfy.model_management's interrupt check, as the nodes use them in ComfyUI."""
+
+    def __init__(self, interrupt_after: int | None = None):
+        self.updates, self.checks, self.total, self.interrupt_after = 0, 0, None, interrupt_after
+        fake = self
+
+        class ProgressBar:
+            def __init__(self, total):
+                fake.total = total
+
+            def update(self, value):
+                fake.updates += value
+
+        def throw_exception_if_processing_interrupted():
+            fake.checks += 1
+            if fake.interrupt_after is not None and fake.checks > fake.interrupt_after:
+                raise InterruptedError("interrupted")
+
+        import types
+
+        self.utils = types.SimpleNamespace(ProgressBar=ProgressBar)
+        self.management = types.SimpleNamespace(
+            throw_exception_if_processing_interrupted=throw_exception_if_processing_interrupted)
+        self.package = types.SimpleNamespace(utils=self.utils, model_management=self.management)
+
+    def install(self, monkeypatch):
+        import sys
+
+        monkeypatch.setitem(sys.modules, "comfy", self.package)
+        monkeypatch.setitem(sys.modules, "comfy.utils", self.utils)
+        monkeypatch.setitem(sys.modules, "comfy.model_management", self.management)
+
+
+def test_progress_and_interrupt_inside_comfyui(models, decomposed, monkeypatch):
+    _, (decs, *_) = decomposed
+    light, _ = RelightLight().make("preset", "studio", **LIGHT_ARGS)
+    fake = _FakeComfy()
+    fake.install(monkeypatch)
+    NODES["RelightRTRelight"]().relight(models, decs, light, "auto", 0.0)
+    assert fake.total == 2 and fake.updates == 2 and fake.checks == 2  # one step per image of the batch
+    stop = _FakeComfy(interrupt_after=1)
+    stop.install(monkeypatch)
+    with pytest.raises(InterruptedError):
+        NODES["RelightRTRelight"]().relight(models, decs, light, "auto", 0.0)
+    assert stop.updates == 1  # the second image was not relit
