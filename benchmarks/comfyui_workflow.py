@@ -6,9 +6,9 @@
 requirements are installed in (with relight_rt importable, or this checkout is found by the node package).
 The server runs headless on 127.0.0.1 with ``--cpu`` and ``--base-directory`` a temporary folder, so nothing is
 written into the checkout: its custom_nodes/ holds a link to this repository's comfyui/, its input/ the example
-photo. The workflow goes in through the HTTP API (POST /prompt); a small websocket reader (standard library)
-times each node from ComfyUI's "executing" messages (a node runs until the next one starts, the
-last until "execution_success"); the saved images are read from the output folder and
+photo. The workflow (two relights and the Passes node's normal map) goes in through the HTTP API (POST /prompt); a
+small websocket reader (standard library) times each node from ComfyUI's "executing" messages (a node runs until
+the next one starts, the last until "execution_success"); the saved images are read from the output folder and
 compared with ``relight-rt relight`` of the same photo under the same lights (the lamp written as an SH light
 file), 8-bit against 8-bit. Prints a JSON summary (and writes it with the images into --out).
 """
@@ -220,11 +220,12 @@ def main(argv=None) -> int:
         finally:
             server.close()
         saved = {}
-        for node, name in (("8", "night"), ("9", "lamp")):
+        for node, name in (("8", "night"), ("9", "lamp"), ("11", "normal")):
             info = history["outputs"][node]["images"][0]
             src = base / "output" / info.get("subfolder", "") / info["filename"]
             shutil.copyfile(src, out / f"comfyui_{name}.png")
             saved[name] = cv2.cvtColor(cv2.imread(str(out / f"comfyui_{name}.png")), cv2.COLOR_BGR2RGB)
+        del saved["normal"]  # kept as a file to look at; the CLI has no 8-bit normal map to compare it with
     cli = cli_images(out, workflow)
     diff = {name: int(np.abs(saved[name].astype(np.int16) - cli[name]).max()) for name in saved}
     summary = {

@@ -295,6 +295,50 @@ class Relight:
         return (arrays_to_image(out), arrays_to_mask(alpha))
 
 
+class RelightPasses:
+    """The passes of each relit image (relight_rt.passes, docs/PASSES.md) as ComfyUI images: a normal map read off
+    the transport, the albedo, the shading under the light, the residual and the matte.
+
+    IMAGE holds [0, 1], so: the normal map is 0.5 + 0.5 n (camera space: R right, G up, B toward the camera; grey
+    off the person), the shading is clipped at 1, the residual is 0.5 + residual (clipped). The float passes
+    themselves: ``relight-rt decompose --format exr``.
+    """
+
+    CATEGORY = CATEGORY
+    RETURN_TYPES = ("IMAGE", "IMAGE", "IMAGE", "IMAGE", "MASK")
+    RETURN_NAMES = ("normal", "albedo", "shading", "residual", "alpha")
+    FUNCTION = "passes"
+
+    @classmethod
+    def INPUT_TYPES(cls):
+        return {"required": {
+            "models": (MODELS,),
+            "decomposition": (DECOMPOSITION,),
+            "light": (LIGHT,),
+            "exposure": (list(EXPOSURE_MODES), {"default": "auto"}),
+            "ev": ("FLOAT", {"default": 0.0, "min": -20.0, "max": 20.0, "step": 0.25}),
+        }}
+
+    def passes(self, models: Relighter, decomposition, light: LightSpec, exposure: str, ev: float):
+        from relight_rt.passes import compute_passes
+
+        mode = _exposure(exposure, ev)
+        decs = _decompositions(decomposition)
+        steps = _Steps(len(decs))
+        out = {"normal": [], "albedo": [], "shading": [], "residual": [], "alpha": []}
+        for dec in decs:
+            steps.check()
+            layers = compute_passes(models, dec, light, exposure=mode).layers
+            out["normal"].append(0.5 + 0.5 * layers["normal"])
+            out["albedo"].append(layers["albedo"])
+            out["shading"].append(layers["shading"])
+            out["residual"].append(0.5 + layers["residual"])
+            out["alpha"].append(layers["alpha"])
+            steps.done()
+        images = tuple(arrays_to_image(out[name]) for name in ("normal", "albedo", "shading", "residual"))
+        return (*images, arrays_to_mask(out["alpha"]))
+
+
 class RelightComposite:
     """Put the person of a photo into a background, relit by the background's light (or a given one)."""
 
@@ -362,6 +406,7 @@ NODES = {
     "RelightRTDecompose": RelightDecompose,
     "RelightRTLight": RelightLight,
     "RelightRTRelight": Relight,
+    "RelightRTPasses": RelightPasses,
     "RelightRTComposite": RelightComposite,
 }
 DISPLAY_NAMES = {
@@ -369,5 +414,6 @@ DISPLAY_NAMES = {
     "RelightRTDecompose": "Relight Decompose (relight_rt)",
     "RelightRTLight": "Relight Light (relight_rt)",
     "RelightRTRelight": "Relight (relight_rt)",
+    "RelightRTPasses": "Relight Passes: normal map, albedo, shading (relight_rt)",
     "RelightRTComposite": "Relight Composite (relight_rt)",
 }

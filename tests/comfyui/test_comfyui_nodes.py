@@ -248,3 +248,21 @@ def test_progress_and_interrupt_inside_comfyui(models, decomposed, monkeypatch):
     with pytest.raises(InterruptedError):
         NODES["RelightRTRelight"]().relight(models, decs, light, "auto", 0.0)
     assert stop.updates == 1  # the second image was not relit
+
+
+def test_passes_node_encodes_the_passes_for_comfyui(models, decomposed):
+    from relight_rt.passes import compute_passes
+
+    _, (decs, *_) = decomposed
+    light, _ = RelightLight().make("preset", "rim", **LIGHT_ARGS)
+    normal, albedo, shading, residual, alpha = NODES["RelightRTPasses"]().passes(models, decs, light, "auto", 0.0)
+    h, w = decs[0].image.shape[:2]
+    for image in (normal, albedo, shading, residual):
+        assert image.dtype == torch.float32 and tuple(image.shape) == (2, h, w, 3)
+        assert 0.0 <= float(image.min()) and float(image.max()) <= 1.0
+    layers = compute_passes(models, decs[1], "rim").layers
+    np.testing.assert_allclose(normal[1].numpy(), 0.5 + 0.5 * layers["normal"], atol=1e-6)
+    np.testing.assert_allclose(residual[1].numpy(), np.clip(0.5 + layers["residual"], 0, 1), atol=1e-6)
+    np.testing.assert_array_equal(alpha[1].numpy(), layers["alpha"])
+    outside = layers["alpha"] == 0
+    np.testing.assert_allclose(normal[1].numpy()[outside], 0.5)  # grey off the person

@@ -28,4 +28,6 @@ def test_workflow_matches_the_cli(tmp_path):
     assert set(summary["max_abs_diff_8bit"]) == {"night", "lamp"}
     assert max(summary["max_abs_diff_8bit"].values()) <= 1  # 1/255: SaveImage truncates where the CLI rounds
     assert summary["shape"]["night"] == [600, 450, 3]
-    assert {"3 RelightRTDecompose", "6 RelightRTRelight", "7 RelightRTRelight"} <= set(summary["node_s"])
+    ran = {"3 RelightRTDecompose", "6 RelightRTRelight", "7 RelightRTRelight", "10 RelightRTPasses", "11 SaveImage"}
+    assert ran <= set(summary["node_s"])
+    assert (tmp_path / "comfyui_normal.png").is_file()
