@@ -1,4 +1,4 @@
-"""relight_rt as ComfyUI nodes: load the models, decompose a photo, make a light, relight, composite.
+"""relight_rt as ComfyUI nodes: load the models, decompose a photo, make a light, relight, passes, composite.
 
 Each class follows ComfyUI's node interface (``INPUT_TYPES``, ``RETURN_TYPES``, ``FUNCTION``, ``CATEGORY``).
 IMAGE and MASK tensors are converted at the edge (``_convert``); everything else is relight_rt's public API
@@ -15,7 +15,6 @@ A batch of B images gives B decompositions and B relit images; a batch of one br
 
 from __future__ import annotations
 
-import logging
 import math
 import os
 from pathlib import Path
@@ -26,8 +25,6 @@ from relight_rt import LightSpec, Relighter, RelightError, RuntimeConfig, lights
 from relight_rt.config import DEVICES, MATTING, PRECISIONS
 
 from ._convert import arrays_to_image, arrays_to_mask, batch_pairs, images_to_arrays, masks_to_arrays
-
-log = logging.getLogger("relight_rt.comfyui")
 
 CATEGORY = "relight_rt"
 MODELS = "RELIGHT_MODELS"
