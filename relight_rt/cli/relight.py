@@ -143,12 +143,19 @@ def add_decompose(subparsers) -> None:
         description="Writes albedo.png, shading.png, skin.png (the photo's size and detail, see "
         "Relighter.layers), light.npy ((9, 3) RGB SH) and transport.npz (the (R, R, 9) transport at the network's "
         "resolution, float16, with the crop geometry; relight_rt.load_transport brings it to the photo's size) "
-        "into DIR.",
+        "into DIR. With --format exr or png16: render passes for compositors instead (relight_rt.passes: albedo, "
+        "shading under the photo's light and under the new light, diffuse, residual, beauty, foreground, alpha, "
+        "a normal map read off the transport, light.json, passes.json), relit under the light given (default: the "
+        "photo's own).",
     )
     p.add_argument("input", metavar="INPUT", help="image file")
     add_mask_option(p, several=False)
     add_person_option(p)
     p.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
+    p.add_argument("--format", choices=("png", "exr", "png16"), default="png",
+                   help="png (default: the layers above, 8-bit), exr (float passes) or png16 (16-bit passes)")
+    add_light_options(p, required=False)
+    add_exposure_option(p)
     add_runtime_options(p)
     p.set_defaults(func=cmd_decompose)
 
@@ -156,11 +163,22 @@ def add_decompose(subparsers) -> None:
 def cmd_decompose(args: argparse.Namespace) -> int:
     src = Path(args.input)
     mask = find_mask_file(src, args.mask)
+    spec = light_spec(args)
+    exposure = parse_exposure(args.exposure)
+    if args.format == "png" and (spec is not None or exposure != "auto"):
+        raise RelightError("a light and --exposure are for the passes: add --format exr or --format png16")
     rl = relighter(args)
     dec = rl.decompose(src, mask)
     folder = Path(args.output)
-    folder.mkdir(parents=True, exist_ok=True)
     protect = [src, *paths_of(mask if mask != "auto" else None), *Path(rl.models_dir).glob("*.onnx")]
+    if args.format != "png":
+        from ..passes import compute_passes, write_passes
+
+        passes = compute_passes(rl, dec, spec, exposure=exposure)
+        written = write_passes(folder, passes, args.format, protect=[*protect, *(spec.paths if spec else ())])
+        log.info("%s -> %s (%d files: %s passes, light.json, passes.json)", src, folder, len(written), args.format)
+        return 0
+    folder.mkdir(parents=True, exist_ok=True)
     layers = rl.layers(dec)  # at the photo's resolution, with its detail in the albedo
     pngs = [(folder / f"{name}.png", image_writer(layers[name], folder / f"{name}.png"))
             for name in ("albedo", "shading", "skin")]  # encoded before anything is written
