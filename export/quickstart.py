@@ -30,12 +30,15 @@ import logging
 import os
 import shutil
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
 import numpy as np
 
 from relight_rt import RelightError
+
+from .config import from_namespace
 
 log = logging.getLogger(__name__)
 
@@ -68,6 +71,35 @@ def add_arguments(parser) -> None:
     parser.add_argument("--fresh", action="store_true", help="delete --out's data and runs first")
 
 
+@dataclass(frozen=True, kw_only=True)
+class QuickstartConfig:
+    """The settings of ``quickstart`` (one field per flag; see :func:`add_arguments`)."""
+
+    out: Path = Path("models/quickstart")
+    data_source: str = "auto"
+    subject: str = "auto"
+    dirs: int = 128
+    samples: int = 32
+    photo_subjects: int = 6
+    photo_lights: int = 3
+    n_lights: int = 60
+    resolution: int = 128
+    width: int = 8
+    norm: str = "instance"
+    sf_scale: float = 0.1
+    stage1_minutes: float = 11.0
+    stage2_minutes: float = 4.0
+    stage2_epochs: int = 40
+    light: str = "golden-hour"
+    threads: int = 2
+    seed: int = 0
+    fresh: bool = False
+
+
+def config_from_args(args) -> QuickstartConfig:
+    return from_namespace(QuickstartConfig, args)
+
+
 # ------------------------------------------------------------------------------------------ data
 
 
@@ -78,7 +110,7 @@ def run_command(name: str, argv: list[str]) -> int:
     module = importlib.import_module(COMMANDS[name][0])
     parser = argparse.ArgumentParser(prog=f"python -m export {name}")
     module.add_arguments(parser)
-    code = int(module.run(parser.parse_args(argv)) or 0)
+    code = int(module.run(module.config_from_args(parser.parse_args(argv))) or 0)
     if code:
         raise RelightError(f"python -m export {name} {' '.join(argv)} failed with exit code {code}")
     return code
@@ -107,47 +139,48 @@ def anny_available() -> bool:
     return True
 
 
-def render_data(data: Path, args) -> None:
+def render_data(data: Path, config: QuickstartConfig) -> None:
     """Render lights, stage-1 samples, and photos of other subjects, with the renderer's commands."""
-    subject = args.subject if args.subject != "auto" else ("anny" if anny_available() else "shapes")
+    subject = config.subject if config.subject != "auto" else ("anny" if anny_available() else "shapes")
     if subject == "shapes":
         log.warning("rendering sphere figures (--subject shapes): anny people are not available")
-    common = ["--resolution", str(args.resolution), "--dirs", str(args.dirs), "--subject", subject,
-              "--workers", str(args.threads)]
-    maps = max(1, -(-args.n_lights // 10))
+    common = ["--resolution", str(config.resolution), "--dirs", str(config.dirs), "--subject", subject,
+              "--workers", str(config.threads)]
+    maps = max(1, -(-config.n_lights // 10))
     run_command("lights", ["--out", str(data / "lights"), "--n", str(maps), "--rotations", "10",
-                           "--seed", str(args.seed)])
-    run_command("render", ["--out", str(data / "samples"), "--n", str(args.samples), "--seed", str(args.seed),
+                           "--seed", str(config.seed)])
+    run_command("render", ["--out", str(data / "samples"), "--n", str(config.samples), "--seed", str(config.seed),
                            *common])
     # photo subjects are other people than the stage-1 samples (seeds after them)
-    run_command("render", ["--out", str(data / "photo_subjects"), "--n", str(args.photo_subjects),
-                           "--seed", str(args.seed + args.samples), *common])
+    run_command("render", ["--out", str(data / "photo_subjects"), "--n", str(config.photo_subjects),
+                           "--seed", str(config.seed + config.samples), *common])
     run_command("render-photos", ["--data", str(data / "photo_subjects"), "--envmaps", str(data / "lights"),
-                                  "--out", str(data / "photos"), "--k", str(args.photo_lights),
-                                  "--seed", str(args.seed), "--workers", str(args.threads)])
+                                  "--out", str(data / "photos"), "--k", str(config.photo_lights),
+                                  "--seed", str(config.seed), "--workers", str(config.threads)])
 
 
-def toy_data(data: Path, args) -> None:
+def toy_data(data: Path, config: QuickstartConfig) -> None:
     """Sphere samples, random lights and photos with a highlight (:mod:`export.toy_data`)."""
     from . import toy_data as toy
 
-    toy.make_lights(data / "lights", args.n_lights, seed=args.seed + 1)
-    toy.make_samples(data / "samples", args.samples, args.resolution, seed=args.seed)
-    toy.make_photos(data / "photos", args.photo_subjects, args.photo_lights, args.resolution, seed=args.seed + 2)
+    toy.make_lights(data / "lights", config.n_lights, seed=config.seed + 1)
+    toy.make_samples(data / "samples", config.samples, config.resolution, seed=config.seed)
+    toy.make_photos(data / "photos", config.photo_subjects, config.photo_lights, config.resolution,
+                    seed=config.seed + 2)
 
 
-def make_data(data: Path, args) -> str:
+def make_data(data: Path, config: QuickstartConfig) -> str:
     """Write the data set unless it is there already; returns the source used."""
     marker = data / "SOURCE"
     if marker.exists():
         log.info("reusing the data in %s", data)
         return marker.read_text().strip()
-    source = args.data_source
+    source = config.data_source
     if source == "auto":
         source = "render" if renderer_available() else "toy"
         if source == "toy":
             log.warning("the renderer is not available: using toy sphere data (install the 'render' extra)")
-    (render_data if source == "render" else toy_data)(data, args)
+    (render_data if source == "render" else toy_data)(data, config)
     marker.write_text(source + "\n")
     return source
 
@@ -213,37 +246,37 @@ def demo_relight(out: Path, photos: Path, resolution: int, light_name: str) -> P
 # ------------------------------------------------------------------------------------------ main
 
 
-def run(args) -> int:
+def run(config: QuickstartConfig) -> int:
     import torch
 
-    if args.threads:
-        torch.set_num_threads(args.threads)
-    out = Path(args.out)
-    if args.fresh and out.exists():
+    if config.threads:
+        torch.set_num_threads(config.threads)
+    out = Path(config.out)
+    if config.fresh and out.exists():
         for sub in ("data", "stage1", "stage2", "eval"):
             shutil.rmtree(out / sub, ignore_errors=True)
     out.mkdir(parents=True, exist_ok=True)
     data = out / "data"
-    source = make_data(data, args)
+    source = make_data(data, config)
     log.info("quickstart data (%s) in %s", source, data)
 
-    common = ["--width", str(args.width), "--norm", args.norm, "--seed", str(args.seed), "--threads",
-              str(args.threads), "--log-every", "20", "--export-onnx"]
+    common = ["--width", str(config.width), "--norm", config.norm, "--seed", str(config.seed), "--threads",
+              str(config.threads), "--log-every", "20", "--export-onnx"]
     s1, s2 = out / "stage1", out / "stage2"
     resume = ["--resume"] if (s1 / "last.pt").exists() else []
     run_command("train-stage1", ["--data", str(data / "samples"), "--lights", str(data / "lights"), "--out", str(s1),
-                                 "--resolution", str(args.resolution), "--epochs", "1000", "--restart-epochs", "20",
-                                 "--max-minutes", str(args.stage1_minutes), "--sf-scale", str(args.sf_scale),
+                                 "--resolution", str(config.resolution), "--epochs", "1000", "--restart-epochs", "20",
+                                 "--max-minutes", str(config.stage1_minutes), "--sf-scale", str(config.sf_scale),
                                  *common, *resume])
     resume = ["--resume"] if (s2 / "last.pt").exists() else []
     run_command("train-stage2", ["--photos", str(data / "photos"), "--stage1", str(s1 / "best.pt"), "--out", str(s2),
-                                 "--epochs", str(args.stage2_epochs), "--max-minutes", str(args.stage2_minutes),
+                                 "--epochs", str(config.stage2_epochs), "--max-minutes", str(config.stage2_minutes),
                                  *common, *resume])
     for kind, run_dir in (("stage1", s1), ("stage2", s2)):
         shutil.copyfile(run_dir / f"{kind}.onnx", out / f"{kind}.onnx")
     run_command("evaluate", ["--stage1", str(s1 / "best.pt"), "--stage2", str(s2 / "best.pt"), "--data",
                              str(data / "samples"), "--lights", str(data / "lights"), "--photos", str(data / "photos"),
                              "--out", str(out / "eval"), "--max-samples", "16", "--max-pairs", "24"])
-    demo_relight(out, data / "photos", args.resolution, args.light)
+    demo_relight(out, data / "photos", config.resolution, config.light)
     log.info("quickstart done: %s", out)
     return 0
