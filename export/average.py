@@ -18,7 +18,7 @@ from pathlib import Path
 from relight_rt import RelightError
 
 from .checkpoint import load_checkpoint, save_checkpoint
-from .config import from_namespace
+from .config import reader
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -72,8 +72,7 @@ class AverageConfig:
     weights: tuple[float, ...] | None = None
 
 
-def config_from_args(args) -> AverageConfig:
-    return from_namespace(AverageConfig, args)
+config_from_args = reader(AverageConfig)
 
 
 def run(config: AverageConfig) -> int:

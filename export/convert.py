@@ -36,7 +36,7 @@ from relight_rt import RelightError
 from relight_rt.reference_import import reference_source
 
 from .checkpoint import check_state_dict, read_weights
-from .config import from_namespace
+from .config import reader
 from .networks import DVPNet, Stage1Net, Stage2Net
 from .onnx_export import DEFAULT_OPSET, export_onnx, format_summary
 
@@ -163,8 +163,7 @@ class ConvertConfig:
     opset: int = 17
 
 
-def config_from_args(args) -> ConvertConfig:
-    return from_namespace(ConvertConfig, args)
+config_from_args = reader(ConvertConfig)
 
 
 def run(config: ConvertConfig) -> int:

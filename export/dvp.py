@@ -70,7 +70,7 @@ from relight_rt import RelightError
 from relight_rt import metrics as rt_metrics
 from relight_rt.video import IMAGE_SUFFIXES, FrameSource, read_frame
 
-from .config import from_namespace
+from .config import reader
 
 logger = logging.getLogger(__name__)
 
@@ -421,8 +421,7 @@ class FitDvpConfig:
     fp16: bool = False
 
 
-def config_from_args(args) -> FitDvpConfig:
-    return from_namespace(FitDvpConfig, args)
+config_from_args = reader(FitDvpConfig)
 
 
 def run(config: FitDvpConfig) -> int:

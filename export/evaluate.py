@@ -49,7 +49,7 @@ from relight_rt import RelightError
 from relight_rt.sh import basis as sh_basis
 from relight_rt.sh import cosine_lobe
 
-from .config import as_record, from_namespace
+from .config import as_record, reader
 from .frozen import apply_stage2, load_frozen
 from .metrics_img import masked_rmse, masked_ssim
 from .torch_data import PhotoDataset, Stage1Dataset, decompose, render_diffuse, subject_of
@@ -305,8 +305,7 @@ class EvaluateConfig:
     threads: int | None = None
 
 
-def config_from_args(args) -> EvaluateConfig:
-    return from_namespace(EvaluateConfig, args)
+config_from_args = reader(EvaluateConfig)
 
 
 def run(config: EvaluateConfig) -> int:

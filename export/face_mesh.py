@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from export.config import from_namespace
+from export.config import reader
 from export.mask_models import LICENCE, MEDIAPIPE_VERSION, NOTICE_FILE, _to_onnx, fp16_storage, mediapipe_root, nchw_io
 
 log = logging.getLogger(__name__)
@@ -93,8 +93,7 @@ class FaceMeshConfig:
     out: Path = Path("relight_rt/models")
 
 
-def config_from_args(args) -> FaceMeshConfig:
-    return from_namespace(FaceMeshConfig, args)
+config_from_args = reader(FaceMeshConfig)
 
 
 def run(config: FaceMeshConfig) -> int:

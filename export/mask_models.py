@@ -41,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .config import from_namespace
+from .config import reader
 
 log = logging.getLogger(__name__)
 
@@ -498,8 +498,7 @@ class MaskModelsConfig:
     no_verify: bool = False
 
 
-def config_from_args(args) -> MaskModelsConfig:
-    return from_namespace(MaskModelsConfig, args)
+config_from_args = reader(MaskModelsConfig)
 
 
 def run(config: MaskModelsConfig) -> int:

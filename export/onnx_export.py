@@ -47,7 +47,7 @@ from relight_rt import RelightError
 from relight_rt._io import atomic_path
 from relight_rt.contract import KINDS, META_OUTPUT_ACTIVATION, ModelConfig
 
-from .config import from_namespace
+from .config import reader
 
 __all__ = [
     "DEFAULT_OPSET",
@@ -477,8 +477,7 @@ class OnnxConfig:
     opset: int = 17
 
 
-def config_from_args(args) -> OnnxConfig:
-    return from_namespace(OnnxConfig, args)
+config_from_args = reader(OnnxConfig)
 
 
 def run(config: OnnxConfig) -> int:

@@ -41,7 +41,7 @@ import numpy as np
 
 from relight_rt import RelightError
 
-from .config import from_namespace
+from .config import reader
 
 log = logging.getLogger(__name__)
 
@@ -99,8 +99,7 @@ class QuickstartConfig:
     fresh: bool = False
 
 
-def config_from_args(args) -> QuickstartConfig:
-    return from_namespace(QuickstartConfig, args)
+config_from_args = reader(QuickstartConfig)
 
 
 # ------------------------------------------------------------------------------------------ data

@@ -32,7 +32,7 @@ import torch
 
 from relight_rt import RelightError
 
-from .config import as_record, from_namespace
+from .config import as_record, reader
 from .losses import Stage1Loss
 from .torch_data import Stage1Dataset, render_input
 from .training import (
@@ -94,9 +94,17 @@ class TrainStage1Config(LoopOptions):
     no_cache: bool = False
     init: Path | None = None
 
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.resolution % 64 or self.resolution < 64:
+            raise RelightError(f"--resolution: expected a positive multiple of 64, got {self.resolution}")
+        if not self.band_weight >= 0:
+            raise RelightError(f"--band-weight: expected a weight >= 0, got {self.band_weight}")
+        if not self.direction_weight >= 0:
+            raise RelightError(f"--direction-weight: expected a weight >= 0, got {self.direction_weight}")
 
-def config_from_args(args) -> TrainStage1Config:
-    return from_namespace(TrainStage1Config, args)
+
+config_from_args = reader(TrainStage1Config)
 
 
 def split_names(names: list[str], fraction: float, seed: int) -> tuple[list[str], list[str]]:
@@ -160,12 +168,6 @@ def run(config: TrainStage1Config) -> int:
     from . import dataset
     from .networks import Stage1Net
 
-    if config.resolution % 64 or config.resolution < 64:
-        raise RelightError(f"--resolution: expected a positive multiple of 64, got {config.resolution}")
-    if not config.band_weight >= 0:
-        raise RelightError(f"--band-weight: expected a weight >= 0, got {config.band_weight}")
-    if not config.direction_weight >= 0:
-        raise RelightError(f"--direction-weight: expected a weight >= 0, got {config.direction_weight}")
     cfg = LoopConfig.from_options(config, restart_epochs=config.restart_epochs)
     lights = dataset.read_lights(config.lights)
     names = dataset.list_samples(config.data)

@@ -46,7 +46,7 @@ import torch.nn.functional as F
 
 from relight_rt import RelightError
 
-from .config import as_record, from_namespace
+from .config import as_record, check_fraction, reader
 from .losses import masked_l1, masked_mse
 from .torch_data import PhotoDataset, decompose, item_rng, render_diffuse, subject_of
 from .training import (
@@ -119,9 +119,16 @@ class TrainStage2Config(LoopOptions):
     loss: str = "l1"
     val_fraction: float = 0.1
 
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        check_fraction("--cross-light", self.cross_light)
+        check_fraction("--true-diffuse", self.true_diffuse)
+        if self.init and Path(self.init).suffix.lower() == ".onnx":
+            raise RelightError(f"--init {self.init}: stage 2 starts from a .pt checkpoint (its graph's residual "
+                               "blocks cannot be unfolded back into the network)")
 
-def config_from_args(args) -> TrainStage2Config:
-    return from_namespace(TrainStage2Config, args)
+
+config_from_args = reader(TrainStage2Config)
 
 
 def _stage1_id(path: Path, resolution: int) -> str:
@@ -301,12 +308,6 @@ def run(config: TrainStage2Config) -> int:
     from .networks import Stage2Net
 
     device = pick_device(config.device)
-    for name, value in (("--cross-light", config.cross_light), ("--true-diffuse", config.true_diffuse)):
-        if not 0.0 <= value <= 1.0:
-            raise RelightError(f"{name}: expected a probability in [0, 1], got {value}")
-    if config.init and Path(config.init).suffix.lower() == ".onnx":
-        raise RelightError(f"--init {config.init}: stage 2 starts from a .pt checkpoint (its graph's residual "
-                           "blocks cannot be unfolded back into the network)")
     stage1 = load_frozen(config.stage1, "stage1", device, threads=config.threads)
     r1 = stage1.resolution
     r2 = config.resolution or r1

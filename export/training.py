@@ -149,6 +149,10 @@ class LoopOptions:
     resume: bool = False
     export_onnx: bool = False
 
+    def __post_init__(self) -> None:
+        if self.epochs < 1 or self.batch_size < 1:
+            raise RelightError(f"--epochs and --batch-size: expected >= 1, got {self.epochs} and {self.batch_size}")
+
 
 @dataclass
 class LoopConfig:
@@ -174,9 +178,6 @@ class LoopConfig:
     def from_options(cls, options: LoopOptions, restart_epochs: int | None = None) -> LoopConfig:
         if options.threads:
             torch.set_num_threads(options.threads)
-        if options.epochs < 1 or options.batch_size < 1:
-            raise RelightError(
-                f"--epochs and --batch-size: expected >= 1, got {options.epochs} and {options.batch_size}")
         return cls(
             out=Path(options.out),
             epochs=options.epochs,

@@ -22,7 +22,7 @@ import numpy as np
 
 from relight_rt._errors import RelightError
 
-from ..config import from_namespace
+from ..config import reader
 
 log = logging.getLogger(__name__)
 
@@ -267,19 +267,20 @@ class RenderConfig:
     preview: bool = False
     overwrite: bool = False
 
+    def __post_init__(self) -> None:
+        if self.resolution < 8 or self.dirs < 1 or self.n < 0 or self.workers < 1:
+            raise RelightError("expected --resolution >= 8, --dirs >= 1, --n >= 0 and --workers >= 1")
+        if self.views < 1:
+            raise RelightError(f"expected --views >= 1, got {self.views}")
 
-def config_from_args(args) -> RenderConfig:
-    return from_namespace(RenderConfig, args)
+
+config_from_args = reader(RenderConfig)
 
 
 def run(config: RenderConfig) -> int:
     from .. import dataset
 
-    if config.resolution < 8 or config.dirs < 1 or config.n < 0 or config.workers < 1:
-        raise RelightError("expected --resolution >= 8, --dirs >= 1, --n >= 0 and --workers >= 1")
     config.out.mkdir(parents=True, exist_ok=True)
-    if config.views < 1:
-        raise RelightError(f"expected --views >= 1, got {config.views}")
     jobs = _jobs(config)
     if not config.overwrite:
         done = set(dataset.list_samples(config.out))

@@ -27,7 +27,7 @@ import numpy as np
 
 from relight_rt._errors import RelightError
 
-from ..config import from_namespace
+from ..config import check_fraction, reader
 
 log = logging.getLogger(__name__)
 
@@ -98,9 +98,15 @@ class LightsConfig:
     target: tuple[float, float] | None = None
     white_balance: float = 0.0
 
+    def __post_init__(self) -> None:
+        if self.rotations < 1 or self.height < 2 or self.n < 0:
+            raise RelightError("expected --rotations >= 1, --height >= 2 and --n >= 0")
+        check_fraction("--white-balance", self.white_balance)
+        if (2 * self.height) % self.rotations:
+            raise RelightError(f"--height {self.height}: the width {2 * self.height} must be divisible by --rotations")
 
-def config_from_args(args) -> LightsConfig:
-    return from_namespace(LightsConfig, args)
+
+config_from_args = reader(LightsConfig)
 
 
 def run(config: LightsConfig) -> int:
@@ -112,12 +118,6 @@ def run(config: LightsConfig) -> int:
     from .. import dataset
     from . import envmaps
 
-    if config.rotations < 1 or config.height < 2 or config.n < 0:
-        raise RelightError("expected --rotations >= 1, --height >= 2 and --n >= 0")
-    if not 0.0 <= config.white_balance <= 1.0:
-        raise RelightError(f"--white-balance: expected a fraction in [0, 1], got {config.white_balance}")
-    if (2 * config.height) % config.rotations:
-        raise RelightError(f"--height {config.height}: the width {2 * config.height} must be divisible by --rotations")
     out = Path(config.out)
     (out / "hdr").mkdir(parents=True, exist_ok=True)
     index = {"format": INDEX_FORMAT, "rotations": config.rotations, "lights": {}}

@@ -26,7 +26,7 @@ import numpy as np
 
 from relight_rt._errors import RelightError
 
-from ..config import from_namespace
+from ..config import check_fraction, reader
 
 log = logging.getLogger(__name__)
 
@@ -105,9 +105,13 @@ class RenderPhotosConfig:
     workers: int = 2
     preview: bool = False
 
+    def __post_init__(self) -> None:
+        if self.k < 1 or self.samples < 0 or self.workers < 1:
+            raise RelightError("expected --k >= 1, --samples >= 0 and --workers >= 1")
+        check_fraction("--gloss", self.gloss)
 
-def config_from_args(args) -> RenderPhotosConfig:
-    return from_namespace(RenderPhotosConfig, args)
+
+config_from_args = reader(RenderPhotosConfig)
 
 
 def run(config: RenderPhotosConfig) -> int:
@@ -115,10 +119,6 @@ def run(config: RenderPhotosConfig) -> int:
     from .cli import run_pool
     from .lights_cli import list_environments
 
-    if config.k < 1 or config.samples < 0 or config.workers < 1:
-        raise RelightError("expected --k >= 1, --samples >= 0 and --workers >= 1")
-    if not 0.0 <= config.gloss <= 1.0:
-        raise RelightError(f"--gloss: expected a value in [0, 1], got {config.gloss}")
     names = [n for n in dataset.list_samples(config.data) if (config.data / f"{n}_meta.json").is_file()]
     if not names:
         raise RelightError(f"--data {config.data}: no rendered samples with NAME_meta.json found")

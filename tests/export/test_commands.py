@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import importlib
-from pathlib import Path
 
 import pytest
 
@@ -49,11 +48,14 @@ def test_a_command_config_mirrors_its_flags(name):
         setattr(config, next(iter(fields)), None)
 
 
-def test_a_config_is_run_directly():
-    """The quickstart's way: a config built in code, no argv; the same refusal as from the command line."""
-    pytest.importorskip("torch")
-    from export.render.lights_cli import LightsConfig, run
+def test_a_config_built_in_code_is_checked_as_the_command_line_is(tmp_path, capsys):
+    """The quickstart's way, a config made in code with no argv, meets the same refusal as the flag."""
+    from export.__main__ import main
+    from export.render.lights_cli import LightsConfig
     from relight_rt import RelightError
 
-    with pytest.raises(RelightError, match="--white-balance"):
-        run(LightsConfig(out=Path("unused"), white_balance=2.0))
+    with pytest.raises(RelightError, match="--white-balance: expected a value in"):
+        LightsConfig(out=tmp_path / "lights", white_balance=2.0)
+    assert main(["lights", "--out", str(tmp_path / "lights"), "--white-balance", "2"]) == 2
+    assert not (tmp_path / "lights").exists()
+    assert "--white-balance: expected a value in" in capsys.readouterr().err
