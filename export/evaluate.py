@@ -52,7 +52,8 @@ from relight_rt.sh import cosine_lobe
 from .config import as_record, reader
 from .frozen import apply_stage2, load_frozen
 from .metrics_img import masked_rmse, masked_ssim
-from .torch_data import PhotoDataset, Stage1Dataset, decompose, render_diffuse, subject_of
+from .shading import render_diffuse, shading
+from .torch_data import PhotoDataset, Stage1Dataset, decompose, subject_of
 from .training import collate, pick_device, write_json
 
 log = logging.getLogger(__name__)
@@ -101,8 +102,8 @@ def trivial_decomposition(image: torch.Tensor, mask: torch.Tensor, mean_light: t
 
 def _synthetic_metrics(pred: dict, true: dict, image: torch.Tensor) -> list[dict]:
     rows = []
-    s_pred = torch.einsum("nkhw,nkc->nchw", pred["transport"], pred["light"]).clamp_min(0) * true["mask"]
-    s_true = torch.einsum("nkhw,nkc->nchw", true["transport"], true["light"]).clamp_min(0) * true["mask"]
+    s_pred = shading(pred["transport"], pred["light"]) * true["mask"]
+    s_true = shading(true["transport"], true["light"]) * true["mask"]
     recon = render_diffuse(pred["albedo"], pred["transport"], pred["light"], true["mask"])
     for i in range(image.shape[0]):
         m = true["mask"][i, 0].cpu().numpy().astype(np.float64)

@@ -48,7 +48,8 @@ from relight_rt import RelightError
 
 from .config import as_record, check_fraction, reader
 from .losses import masked_l1, masked_mse
-from .torch_data import PhotoDataset, decompose, item_rng, render_diffuse, subject_of
+from .shading import render_diffuse
+from .torch_data import PhotoDataset, decompose, item_rng, subject_of
 from .training import (
     LoopConfig,
     LoopOptions,
