@@ -2,7 +2,9 @@
 
 Each command lives in its own module, imported only when that command runs, so a missing
 optional dependency (torch, anny, embreex) breaks only the commands that need it. A command
-module provides ``add_arguments(parser)`` and ``run(args) -> int``.
+module provides ``add_arguments(parser)``, a frozen config dataclass of its settings,
+``config_from_args(args) -> config`` and ``run(config) -> int`` (:mod:`export.config`); code calls
+``run`` with a config it builds (:mod:`export.quickstart` does).
 """
 
 from __future__ import annotations
@@ -61,7 +63,7 @@ def main(argv: list[str] | None = None) -> int:
     from relight_rt import RelightError
 
     try:
-        return int(module.run(args) or 0)
+        return int(module.run(module.config_from_args(args)) or 0)
     except RelightError as exc:
         print(f"python -m export {name}: error: {exc}", file=sys.stderr)
         return 2

@@ -12,11 +12,13 @@ from __future__ import annotations
 
 import argparse
 import json
+from dataclasses import dataclass
 from pathlib import Path
 
 from relight_rt import RelightError
 
 from .checkpoint import load_checkpoint, save_checkpoint
+from .config import reader
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -61,13 +63,26 @@ def average(paths: list[Path], weights: list[float] | None = None):
     return model, meta
 
 
-def run(args) -> int:
-    if any(args.out.resolve() == p.resolve() for p in args.checkpoints):
-        raise RelightError(f"--out {args.out} is one of the checkpoints averaged: give another file (inputs are kept)")
-    model, meta = average(args.checkpoints, args.weights)
-    save_checkpoint(args.out, model, meta=json.dumps(meta))
+@dataclass(frozen=True, kw_only=True)
+class AverageConfig:
+    """The settings of ``average`` (one field per flag; see :func:`add_arguments`)."""
+
+    checkpoints: tuple[Path, ...]
+    out: Path
+    weights: tuple[float, ...] | None = None
+
+
+config_from_args = reader(AverageConfig)
+
+
+def run(config: AverageConfig) -> int:
+    if any(config.out.resolve() == p.resolve() for p in config.checkpoints):
+        raise RelightError(
+            f"--out {config.out} is one of the checkpoints averaged: give another file (inputs are kept)")
+    model, meta = average(config.checkpoints, config.weights)
+    save_checkpoint(config.out, model, meta=json.dumps(meta))
     print(
-        f"wrote {args.out}: {model.kind} {dict(model.config)}, "
+        f"wrote {config.out}: {model.kind} {dict(model.config)}, "
         + ", ".join(f"{w:.3g} x {p}" for p, w in zip(meta["checkpoints"], meta["weights"], strict=True))
     )
     return 0

@@ -27,6 +27,7 @@ import logging
 import os
 import re
 from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 
 import torch
@@ -35,6 +36,7 @@ from relight_rt import RelightError
 from relight_rt.reference_import import reference_source
 
 from .checkpoint import check_state_dict, read_weights
+from .config import reader
 from .networks import DVPNet, Stage1Net, Stage2Net
 from .onnx_export import DEFAULT_OPSET, export_onnx, format_summary
 
@@ -147,17 +149,34 @@ def add_arguments(parser) -> None:
     parser.add_argument("--opset", type=int, default=DEFAULT_OPSET, help=f"ONNX opset (default {DEFAULT_OPSET})")
 
 
-def run(args) -> int:
+@dataclass(frozen=True, kw_only=True)
+class ConvertConfig:
+    """The settings of ``convert-reference`` (one field per flag; see :func:`add_arguments`)."""
+
+    out: Path
+    stage1: Path | None = None
+    stage2: Path | None = None
+    dvp: Path | None = None
+    fp16: bool = False
+    width: int = 64
+    resolution: int = 1024
+    opset: int = 17
+
+
+config_from_args = reader(ConvertConfig)
+
+
+def run(config: ConvertConfig) -> int:
     """``python -m export convert-reference``."""
     summaries = convert_reference(
-        args.stage1,
-        args.out,
-        stage2=args.stage2,
-        dvp=args.dvp,
-        fp16=args.fp16,
-        width=args.width,
-        resolution=args.resolution,
-        opset=args.opset,
+        config.stage1,
+        config.out,
+        stage2=config.stage2,
+        dvp=config.dvp,
+        fp16=config.fp16,
+        width=config.width,
+        resolution=config.resolution,
+        opset=config.opset,
     )
     for summary in summaries:
         print(format_summary(summary))

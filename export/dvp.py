@@ -60,6 +60,7 @@ import logging
 import math
 import os
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
@@ -68,6 +69,8 @@ import numpy as np
 from relight_rt import RelightError
 from relight_rt import metrics as rt_metrics
 from relight_rt.video import IMAGE_SUFFIXES, FrameSource, read_frame
+
+from .config import reader
 
 logger = logging.getLogger(__name__)
 
@@ -391,26 +394,56 @@ def export_dvp(model, out: str | os.PathLike, source: str, fp16: bool = False) -
     return export_onnx(net, out, source=source, fp16=fp16, resolution=0)
 
 
-def run(args: argparse.Namespace) -> int:
-    out = Path(args.out)
+@dataclass(frozen=True, kw_only=True)
+class FitDvpConfig:
+    """The settings of ``fit-dvp`` (one field per flag; see :func:`add_arguments`)."""
+
+    frames: Path
+    relit: Path
+    lights: Path
+    out: Path
+    masks: Path | None = None
+    unconditioned: bool = False
+    vgg_weights: Path | None = None
+    sf_weight: float = 1.0
+    size: int | None = None
+    width: int = 64
+    norm: str = "instance"
+    output_activation: str = "none"
+    max_epochs: int = 100
+    min_epochs: int = 3
+    patience: int = 8
+    max_minutes: float | None = None
+    ema: float | None = None
+    seed: int = 0
+    device: str = "cpu"
+    checkpoint: Path | None = None
+    fp16: bool = False
+
+
+config_from_args = reader(FitDvpConfig)
+
+
+def run(config: FitDvpConfig) -> int:
+    out = Path(config.out)
     if out.suffix != ".onnx":
         raise RelightError(f"--out: expected a .onnx file name, got {out}")
-    clip = load_clip(args.frames, args.relit, args.lights, args.masks, args.size)
-    model, history = fit_dvp(clip, conditioned=not args.unconditioned, width=args.width, norm=args.norm,
-                             vgg_weights=args.vgg_weights, sf_weight=args.sf_weight, max_epochs=args.max_epochs,
-                             min_epochs=args.min_epochs, patience=args.patience,
-                             max_seconds=None if args.max_minutes is None else 60 * args.max_minutes,
-                             seed=args.seed, device=args.device, ema=args.ema,
-                             output_activation=args.output_activation)
-    kind = "light-conditioned" if not args.unconditioned else "unconditioned"
-    source = (f"fit-dvp {kind} on {Path(args.frames).name} ({history['frames']} frames, "
+    clip = load_clip(config.frames, config.relit, config.lights, config.masks, config.size)
+    model, history = fit_dvp(clip, conditioned=not config.unconditioned, width=config.width, norm=config.norm,
+                             vgg_weights=config.vgg_weights, sf_weight=config.sf_weight, max_epochs=config.max_epochs,
+                             min_epochs=config.min_epochs, patience=config.patience,
+                             max_seconds=None if config.max_minutes is None else 60 * config.max_minutes,
+                             seed=config.seed, device=config.device, ema=config.ema,
+                             output_activation=config.output_activation)
+    kind = "light-conditioned" if not config.unconditioned else "unconditioned"
+    source = (f"fit-dvp {kind} on {Path(config.frames).name} ({history['frames']} frames, "
               f"{history['size'][1]}x{history['size'][0]}), epoch {history['best_epoch']}, loss {history['loss']}")
     out.parent.mkdir(parents=True, exist_ok=True)
-    if args.checkpoint:
+    if config.checkpoint:
         from export.checkpoint import save_checkpoint
 
-        save_checkpoint(args.checkpoint, model, epoch=history["best_epoch"], source=source)
-    export_dvp(model, out, source, args.fp16)
+        save_checkpoint(config.checkpoint, model, epoch=history["best_epoch"], source=source)
+    export_dvp(model, out, source, config.fp16)
     log_path = out.with_suffix(".fit.json")
     tmp = log_path.with_name(f".{log_path.name}.tmp")
     tmp.write_text(json.dumps(history, indent=1))

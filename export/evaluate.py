@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import json
 import logging
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -48,9 +49,11 @@ from relight_rt import RelightError
 from relight_rt.sh import basis as sh_basis
 from relight_rt.sh import cosine_lobe
 
+from .config import as_record, reader
 from .frozen import apply_stage2, load_frozen
 from .metrics_img import masked_rmse, masked_ssim
-from .torch_data import PhotoDataset, Stage1Dataset, decompose, render_diffuse, subject_of
+from .shading import render_diffuse, shading
+from .torch_data import PhotoDataset, Stage1Dataset, decompose, subject_of
 from .training import collate, pick_device, write_json
 
 log = logging.getLogger(__name__)
@@ -99,8 +102,8 @@ def trivial_decomposition(image: torch.Tensor, mask: torch.Tensor, mean_light: t
 
 def _synthetic_metrics(pred: dict, true: dict, image: torch.Tensor) -> list[dict]:
     rows = []
-    s_pred = torch.einsum("nkhw,nkc->nchw", pred["transport"], pred["light"]).clamp_min(0) * true["mask"]
-    s_true = torch.einsum("nkhw,nkc->nchw", true["transport"], true["light"]).clamp_min(0) * true["mask"]
+    s_pred = shading(pred["transport"], pred["light"]) * true["mask"]
+    s_true = shading(true["transport"], true["light"]) * true["mask"]
     recon = render_diffuse(pred["albedo"], pred["transport"], pred["light"], true["mask"])
     for i in range(image.shape[0]):
         m = true["mask"][i, 0].cpu().numpy().astype(np.float64)
@@ -284,42 +287,67 @@ def markdown(results: dict) -> str:
     return "\n".join(lines)
 
 
-def run(args) -> int:
+@dataclass(frozen=True, kw_only=True)
+class EvaluateConfig:
+    """The settings of ``evaluate`` (one field per flag; see :func:`add_arguments`)."""
+
+    stage1: Path
+    out: Path
+    stage2: Path | None = None
+    baseline: Path | None = None
+    nosf: Path | None = None
+    data: Path | None = None
+    lights: Path | None = None
+    photos: Path | None = None
+    max_samples: int | None = None
+    max_pairs: int = 200
+    seed: int = 0
+    device: str = "auto"
+    threads: int | None = None
+
+
+config_from_args = reader(EvaluateConfig)
+
+
+def run(config: EvaluateConfig) -> int:
     from . import dataset
 
-    if args.threads:
-        torch.set_num_threads(args.threads)
-    if args.data is None and args.photos is None:
+    if config.threads:
+        torch.set_num_threads(config.threads)
+    if config.data is None and config.photos is None:
         raise RelightError("evaluate: give --data (with --lights) and/or --photos")
-    if args.data is not None and args.lights is None:
+    if config.data is not None and config.lights is None:
         raise RelightError("evaluate: --data needs --lights (the lights the samples are rendered under)")
-    device = pick_device(args.device)
-    stage1 = load_frozen(args.stage1, "stage1", device, threads=args.threads)
-    stage2 = load_frozen(args.stage2, "stage2", device, threads=args.threads) if args.stage2 else None
-    extra = {"stage 1 (no SF)": load_frozen(args.nosf, "stage1", device, threads=args.threads)} if args.nosf else {}
-    if args.baseline:
-        extra[BASELINE] = load_frozen(args.baseline, "stage1", device, threads=args.threads)
-    lights = dataset.read_lights(args.lights) if args.lights else None
-    results: dict = {"args": {k: v for k, v in vars(args).items() if k != "func"}}
-    if args.data is not None:
+    device = pick_device(config.device)
+    stage1 = load_frozen(config.stage1, "stage1", device, threads=config.threads)
+    stage2 = load_frozen(config.stage2, "stage2", device, threads=config.threads) if config.stage2 else None
+    extra = {}
+    if config.nosf:
+        extra["stage 1 (no SF)"] = load_frozen(config.nosf, "stage1", device, threads=config.threads)
+    if config.baseline:
+        extra[BASELINE] = load_frozen(config.baseline, "stage1", device, threads=config.threads)
+    lights = dataset.read_lights(config.lights) if config.lights else None
+    results: dict = {"args": as_record(config)}
+    if config.data is not None:
         models = {"stage 1": stage1, **extra}
-        results["synthetic"] = evaluate_synthetic(models, Path(args.data), lights, args.seed, args.max_samples, device)
-    if args.photos is not None:
+        results["synthetic"] = evaluate_synthetic(models, Path(config.data), lights, config.seed, config.max_samples,
+                                                  device)
+    if config.photos is not None:
         if lights is not None:
             mean_light = torch.as_tensor(lights.mean(0), device=device)
         else:  # the mean of the photos' own lights
-            names = dataset.list_photos(args.photos)
-            mean_light = torch.as_tensor(np.mean([dataset.read_photo(args.photos, n)["light"] for n in names], 0),
+            names = dataset.list_photos(config.photos)
+            mean_light = torch.as_tensor(np.mean([dataset.read_photo(config.photos, n)["light"] for n in names], 0),
                                          device=device)
-        results["photos"], effect = evaluate_photos(stage1, stage2, Path(args.photos), mean_light, args.max_samples,
-                                                    args.max_pairs, device, extra)
+        results["photos"], effect = evaluate_photos(stage1, stage2, Path(config.photos), mean_light, config.max_samples,
+                                                    config.max_pairs, device, extra)
         base = {k.removeprefix("vs_baseline_"): v for k, v in effect.items() if k.startswith("vs_baseline_")}
         stage2_effect = {k: v for k, v in effect.items() if not k.startswith("vs_baseline_")}
         if stage2_effect:
             results["stage2_effect"] = stage2_effect
         if base:
             results["baseline_effect"] = base
-    out = Path(args.out)
+    out = Path(config.out)
     out.mkdir(parents=True, exist_ok=True)
     write_json(out / "results.json", results)
     text = markdown(results)

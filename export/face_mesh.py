@@ -23,10 +23,12 @@ from __future__ import annotations
 
 import argparse
 import logging
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from export.config import reader
 from export.mask_models import LICENCE, MEDIAPIPE_VERSION, NOTICE_FILE, _to_onnx, fp16_storage, mediapipe_root, nchw_io
 
 log = logging.getLogger(__name__)
@@ -84,7 +86,17 @@ def convert(root: Path):
     return model
 
 
-def run(args) -> int:
+@dataclass(frozen=True, kw_only=True)
+class FaceMeshConfig:
+    """The settings of ``face-mesh`` (one field per flag; see :func:`add_arguments`)."""
+
+    out: Path = Path("relight_rt/models")
+
+
+config_from_args = reader(FaceMeshConfig)
+
+
+def run(config: FaceMeshConfig) -> int:
     import onnxruntime as ort
     import tensorflow as tf
     from mediapipe.python.solutions.face_mesh_connections import FACEMESH_TESSELATION
@@ -92,7 +104,7 @@ def run(args) -> int:
     from relight_rt._io import atomic_path
 
     root = mediapipe_root()
-    out = Path(args.out)
+    out = Path(config.out)
     out.mkdir(parents=True, exist_ok=True)
     model = convert(root)
     # parity with the TFLite interpreter on a smooth random image

@@ -38,6 +38,8 @@ from collections.abc import Sequence
 
 import torch
 
+from .shading import shade
+
 SF_SIGMAS: tuple[float, ...] = (0.6, 1.2, 2.4, 4.8, 9.6, 19.2)
 SF_WEIGHTS: tuple[float, ...] = (600.0, 500.0, 400.0, 20.0, 10.0, 10.0)
 
@@ -65,19 +67,6 @@ def masked_mse(pred: torch.Tensor, target: torch.Tensor, mask: torch.Tensor) -> 
     """Mean squared difference inside the mask, shapes as :func:`masked_l1`."""
     channels = pred.shape[1]
     return (mask * (pred - target).square()).sum() / (channels * mask.sum() + _EPS)
-
-
-def shade(transport: torch.Tensor, light: torch.Tensor) -> torch.Tensor:
-    """Raw SH shading T·L (no clamp).
-
-    Args:
-        transport: (N, 9, H, W).
-        light: (N, 9, 3), column c = colour channel c (RGB).
-
-    Returns:
-        (N, 3, H, W) shading.
-    """
-    return torch.einsum("nkhw,nkc->nchw", transport, light)
 
 
 def flip_sh(coeffs: torch.Tensor, dim: int) -> torch.Tensor:

@@ -41,6 +41,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .config import reader
+
 log = logging.getLogger(__name__)
 
 MEDIAPIPE_VERSION = "0.10.21"
@@ -487,11 +489,23 @@ def notice_text(root: Path) -> str:
     return NOTICE_HEAD.format(version=MEDIAPIPE_VERSION) + licence
 
 
-def run(args: argparse.Namespace) -> int:
+@dataclass(frozen=True, kw_only=True)
+class MaskModelsConfig:
+    """The settings of ``mask-models`` (one field per flag; see :func:`add_arguments`)."""
+
+    out: Path = Path("relight_rt/models")
+    fp32: bool = False
+    no_verify: bool = False
+
+
+config_from_args = reader(MaskModelsConfig)
+
+
+def run(config: MaskModelsConfig) -> int:
     from relight_rt._io import atomic_path
 
     root = mediapipe_root()
-    out = Path(args.out)
+    out = Path(config.out)
     out.mkdir(parents=True, exist_ok=True)
     for name, spec in SOURCES.items():
         rel = spec.tflite
@@ -501,9 +515,9 @@ def run(args: argparse.Namespace) -> int:
                 f"{tflite} not found: install mediapipe=={MEDIAPIPE_VERSION} (later wheels hold no .tflite)"
             )
         source = LICENCE.format(version=MEDIAPIPE_VERSION, path=f"mediapipe/{rel}")
-        model = convert(tflite, spec, source, fp16=not args.fp32)
+        model = convert(tflite, spec, source, fp16=not config.fp32)
         data = model.SerializeToString()
-        if not args.no_verify:
+        if not config.no_verify:
             err = verify(data, tflite, spec, test_inputs(size=spec.size))
             log.info("%s: max |onnx - tflite| = %.2e", name, err)
             if err > PARITY_TOL:

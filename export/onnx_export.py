@@ -36,6 +36,7 @@ import math
 import os
 import time
 import warnings
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -45,6 +46,8 @@ from torch import nn
 from relight_rt import RelightError
 from relight_rt._io import atomic_path
 from relight_rt.contract import KINDS, META_OUTPUT_ACTIVATION, ModelConfig
+
+from .config import reader
 
 __all__ = [
     "DEFAULT_OPSET",
@@ -462,20 +465,36 @@ def add_arguments(parser) -> None:
     parser.add_argument("--opset", type=int, default=DEFAULT_OPSET, help=f"ONNX opset (default {DEFAULT_OPSET})")
 
 
-def run(args) -> int:
+@dataclass(frozen=True, kw_only=True)
+class OnnxConfig:
+    """The settings of ``onnx`` (one field per flag; see :func:`add_arguments`)."""
+
+    checkpoint: Path
+    kind: str
+    out: Path
+    fp16: bool = False
+    any_size: bool = False
+    opset: int = 17
+
+
+config_from_args = reader(OnnxConfig)
+
+
+def run(config: OnnxConfig) -> int:
     """``python -m export onnx``: load our checkpoint, export it, print the summary."""
     from .checkpoint import load_checkpoint
 
-    model, ckpt = load_checkpoint(args.checkpoint)
-    if model.kind != args.kind:
-        raise RelightError(f"{args.checkpoint}: holds a {model.kind} network, --kind says {args.kind}")
-    if args.any_size and args.kind == "stage1":
+    model, ckpt = load_checkpoint(config.checkpoint)
+    if model.kind != config.kind:
+        raise RelightError(f"{config.checkpoint}: holds a {model.kind} network, --kind says {config.kind}")
+    if config.any_size and config.kind == "stage1":
         raise RelightError("--any-size: a stage1 graph has a fixed resolution")
-    source = file_source(args.checkpoint, "relight_rt checkpoint")
+    source = file_source(config.checkpoint, "relight_rt checkpoint")
     if "epoch" in ckpt:
         source += f" epoch {ckpt['epoch']}"
     summary = export_onnx(
-        model, args.out, source=source, fp16=args.fp16, opset=args.opset, resolution=0 if args.any_size else None
+        model, config.out, source=source, fp16=config.fp16, opset=config.opset,
+        resolution=0 if config.any_size else None,
     )
     print(format_summary(summary))
     return 0

@@ -16,6 +16,10 @@ body code import, else the renderer's sphere figures. ``toy`` writes sphere samp
 (:mod:`export.toy_data`, no extra needed); ``auto`` (default) renders when the renderer is
 importable and falls back to toy data with a warning otherwise.
 
+Each step is a command's ``run`` called with the config this module builds (render → ``RenderConfig``,
+train → ``TrainStage1Config`` / ``TrainStage2Config``, ``EvaluateConfig``), so the data can be followed from
+the renders to the graphs; the demo relights through :class:`relight_rt.Relighter`, as a user would.
+
 Budgets (defaults sized for ≤ 20 minutes on a 2-core CPU): ``--stage1-minutes`` and
 ``--stage2-minutes`` bound the training loops; the data size is set by ``--samples``,
 ``--photo-subjects`` and ``--photo-lights``. A second call with the same ``--out`` reuses the data
@@ -24,18 +28,20 @@ and continues the training runs (``--fresh`` starts over).
 
 from __future__ import annotations
 
-import argparse
 import importlib
 import logging
 import os
 import shutil
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
 import numpy as np
 
 from relight_rt import RelightError
+
+from .config import reader
 
 log = logging.getLogger(__name__)
 
@@ -68,20 +74,41 @@ def add_arguments(parser) -> None:
     parser.add_argument("--fresh", action="store_true", help="delete --out's data and runs first")
 
 
+@dataclass(frozen=True, kw_only=True)
+class QuickstartConfig:
+    """The settings of ``quickstart`` (one field per flag; see :func:`add_arguments`)."""
+
+    out: Path = Path("models/quickstart")
+    data_source: str = "auto"
+    subject: str = "auto"
+    dirs: int = 128
+    samples: int = 32
+    photo_subjects: int = 6
+    photo_lights: int = 3
+    n_lights: int = 60
+    resolution: int = 128
+    width: int = 8
+    norm: str = "instance"
+    sf_scale: float = 0.1
+    stage1_minutes: float = 11.0
+    stage2_minutes: float = 4.0
+    stage2_epochs: int = 40
+    light: str = "golden-hour"
+    threads: int = 2
+    seed: int = 0
+    fresh: bool = False
+
+
+config_from_args = reader(QuickstartConfig)
+
+
 # ------------------------------------------------------------------------------------------ data
 
 
-def run_command(name: str, argv: list[str]) -> int:
-    """Run ``python -m export NAME ARGV`` in this process (the command's add_arguments/run API)."""
-    from .__main__ import COMMANDS
-
-    module = importlib.import_module(COMMANDS[name][0])
-    parser = argparse.ArgumentParser(prog=f"python -m export {name}")
-    module.add_arguments(parser)
-    code = int(module.run(parser.parse_args(argv)) or 0)
+def _check(name: str, code: int) -> None:
+    """A command's exit status: a non-zero one stops the quickstart with one clear error."""
     if code:
-        raise RelightError(f"python -m export {name} {' '.join(argv)} failed with exit code {code}")
-    return code
+        raise RelightError(f"quickstart: the {name} step failed with exit code {code}")
 
 
 def renderer_available() -> bool:
@@ -107,79 +134,58 @@ def anny_available() -> bool:
     return True
 
 
-def render_data(data: Path, args) -> None:
+def render_data(data: Path, config: QuickstartConfig) -> None:
     """Render lights, stage-1 samples, and photos of other subjects, with the renderer's commands."""
-    subject = args.subject if args.subject != "auto" else ("anny" if anny_available() else "shapes")
+    from .render import cli as render_cli
+    from .render import lights_cli, photos_cli
+
+    subject = config.subject if config.subject != "auto" else ("anny" if anny_available() else "shapes")
     if subject == "shapes":
         log.warning("rendering sphere figures (--subject shapes): anny people are not available")
-    common = ["--resolution", str(args.resolution), "--dirs", str(args.dirs), "--subject", subject,
-              "--workers", str(args.threads)]
-    maps = max(1, -(-args.n_lights // 10))
-    run_command("lights", ["--out", str(data / "lights"), "--n", str(maps), "--rotations", "10",
-                           "--seed", str(args.seed)])
-    run_command("render", ["--out", str(data / "samples"), "--n", str(args.samples), "--seed", str(args.seed),
-                           *common])
+    maps = max(1, -(-config.n_lights // 10))
+    _check("lights", lights_cli.run(lights_cli.LightsConfig(out=data / "lights", n=maps, rotations=10,
+                                                            seed=config.seed)))
+
+    def render(out: Path, n: int, seed: int) -> None:
+        _check("render", render_cli.run(render_cli.RenderConfig(
+            out=out, n=n, seed=seed, resolution=config.resolution, dirs=config.dirs, subject=subject,
+            workers=config.threads)))
+
+    render(data / "samples", config.samples, config.seed)
     # photo subjects are other people than the stage-1 samples (seeds after them)
-    run_command("render", ["--out", str(data / "photo_subjects"), "--n", str(args.photo_subjects),
-                           "--seed", str(args.seed + args.samples), *common])
-    run_command("render-photos", ["--data", str(data / "photo_subjects"), "--envmaps", str(data / "lights"),
-                                  "--out", str(data / "photos"), "--k", str(args.photo_lights),
-                                  "--seed", str(args.seed), "--workers", str(args.threads)])
+    render(data / "photo_subjects", config.photo_subjects, config.seed + config.samples)
+    _check("render-photos", photos_cli.run(photos_cli.RenderPhotosConfig(
+        data=data / "photo_subjects", envmaps=data / "lights", out=data / "photos", k=config.photo_lights,
+        seed=config.seed, workers=config.threads)))
 
 
-def toy_data(data: Path, args) -> None:
+def toy_data(data: Path, config: QuickstartConfig) -> None:
     """Sphere samples, random lights and photos with a highlight (:mod:`export.toy_data`)."""
     from . import toy_data as toy
 
-    toy.make_lights(data / "lights", args.n_lights, seed=args.seed + 1)
-    toy.make_samples(data / "samples", args.samples, args.resolution, seed=args.seed)
-    toy.make_photos(data / "photos", args.photo_subjects, args.photo_lights, args.resolution, seed=args.seed + 2)
+    toy.make_lights(data / "lights", config.n_lights, seed=config.seed + 1)
+    toy.make_samples(data / "samples", config.samples, config.resolution, seed=config.seed)
+    toy.make_photos(data / "photos", config.photo_subjects, config.photo_lights, config.resolution,
+                    seed=config.seed + 2)
 
 
-def make_data(data: Path, args) -> str:
+def make_data(data: Path, config: QuickstartConfig) -> str:
     """Write the data set unless it is there already; returns the source used."""
     marker = data / "SOURCE"
     if marker.exists():
         log.info("reusing the data in %s", data)
         return marker.read_text().strip()
-    source = args.data_source
+    source = config.data_source
     if source == "auto":
         source = "render" if renderer_available() else "toy"
         if source == "toy":
             log.warning("the renderer is not available: using toy sphere data (install the 'render' extra)")
-    (render_data if source == "render" else toy_data)(data, args)
+    (render_data if source == "render" else toy_data)(data, config)
     marker.write_text(source + "\n")
     return source
 
 
 # ------------------------------------------------------------------------------------------ relighting
-
-
-def relight_onnx(stage1: Path, stage2: Path, photo: np.ndarray, mask: np.ndarray, light: np.ndarray) -> np.ndarray:
-    """Relight a (R,R,3) RGB photo with the exported graphs (onnxruntime, no torch).
-
-    Args:
-        stage1, stage2: ONNX files (DESIGN.md §5).
-        photo: (R, R, 3) float32 RGB in [0, 1] at stage 1's resolution.
-        mask: (R, R) float32 in [0, 1].
-        light: (9, 3) RGB target light.
-
-    Returns:
-        (R, R, 3) float32 relit image in [0, 1], masked.
-    """
-    import onnxruntime as ort
-
-    opts = ort.SessionOptions()
-    s1 = ort.InferenceSession(str(stage1), opts, providers=["CPUExecutionProvider"])
-    s2 = ort.InferenceSession(str(stage2), opts, providers=["CPUExecutionProvider"])
-    image = photo.transpose(2, 0, 1)[None].astype(np.float32)
-    m = mask[None, None].astype(np.float32)
-    out = dict(zip([o.name for o in s1.get_outputs()], s1.run(None, {"image": image, "mask": m}), strict=True))
-    shading = np.maximum(0.0, np.einsum("nkhw,kc->nchw", out["transport"], light.astype(np.float32)))
-    diffuse = np.clip(out["albedo"] * shading, 0.0, 1.0) * m
-    res = dict(zip([o.name for o in s2.get_outputs()], s2.run(None, {"diffuse": diffuse.astype(np.float32),
-                                                                     "mask": m}), strict=True))
-    return res["relit"][0].transpose(1, 2, 0)
 
 
 def _write_png(path: Path, rgb: np.ndarray) -> None:
@@ -193,8 +199,9 @@ def _write_png(path: Path, rgb: np.ndarray) -> None:
 
 
 def demo_relight(out: Path, photos: Path, resolution: int, light_name: str) -> Path:
-    """Relight the first photo of ``photos`` under a preset light; writes relit.png and a side-by-side."""
-    from relight_rt.lights import preset
+    """Relight the first photo of ``photos`` under a preset light with the exported graphs in ``out``, through
+    the runtime's public API (:class:`relight_rt.Relighter`); writes relit.png and a side-by-side."""
+    from relight_rt import Relighter, RuntimeConfig
 
     from . import dataset
     from .torch_data import fit_square
@@ -202,10 +209,10 @@ def demo_relight(out: Path, photos: Path, resolution: int, light_name: str) -> P
     names = dataset.list_photos(photos)
     p = dataset.read_photo(photos, names[0])
     photo, mask = fit_square(p["photo"], resolution), fit_square(p["mask"], resolution)
-    photo = photo * mask[..., None]
-    relit = relight_onnx(out / "stage1.onnx", out / "stage2.onnx", photo, mask, preset(light_name))
+    relighter = Relighter(RuntimeConfig(models=str(out), device="cpu", matting="off"))
+    relit = relighter.relight(photo, light_name, mask=mask, background="black")
     _write_png(out / "relit.png", relit)
-    _write_png(out / "relit_side_by_side.png", np.concatenate([photo, relit], axis=1))
+    _write_png(out / "relit_side_by_side.png", np.concatenate([photo * mask[..., None], relit], axis=1))
     log.info("relit %s under %r: %s", names[0], light_name, out / "relit.png")
     return out / "relit.png"
 
@@ -213,37 +220,42 @@ def demo_relight(out: Path, photos: Path, resolution: int, light_name: str) -> P
 # ------------------------------------------------------------------------------------------ main
 
 
-def run(args) -> int:
+def run(config: QuickstartConfig) -> int:
     import torch
 
-    if args.threads:
-        torch.set_num_threads(args.threads)
-    out = Path(args.out)
-    if args.fresh and out.exists():
+    if config.threads:
+        torch.set_num_threads(config.threads)
+    out = Path(config.out)
+    if config.fresh and out.exists():
         for sub in ("data", "stage1", "stage2", "eval"):
             shutil.rmtree(out / sub, ignore_errors=True)
     out.mkdir(parents=True, exist_ok=True)
     data = out / "data"
-    source = make_data(data, args)
+    source = make_data(data, config)
     log.info("quickstart data (%s) in %s", source, data)
 
-    common = ["--width", str(args.width), "--norm", args.norm, "--seed", str(args.seed), "--threads",
-              str(args.threads), "--log-every", "20", "--export-onnx"]
+    from .evaluate import EvaluateConfig
+    from .evaluate import run as evaluate
+    from .train_stage1 import TrainStage1Config
+    from .train_stage1 import run as train_stage1
+    from .train_stage2 import TrainStage2Config
+    from .train_stage2 import run as train_stage2
+
     s1, s2 = out / "stage1", out / "stage2"
-    resume = ["--resume"] if (s1 / "last.pt").exists() else []
-    run_command("train-stage1", ["--data", str(data / "samples"), "--lights", str(data / "lights"), "--out", str(s1),
-                                 "--resolution", str(args.resolution), "--epochs", "1000", "--restart-epochs", "20",
-                                 "--max-minutes", str(args.stage1_minutes), "--sf-scale", str(args.sf_scale),
-                                 *common, *resume])
-    resume = ["--resume"] if (s2 / "last.pt").exists() else []
-    run_command("train-stage2", ["--photos", str(data / "photos"), "--stage1", str(s1 / "best.pt"), "--out", str(s2),
-                                 "--epochs", str(args.stage2_epochs), "--max-minutes", str(args.stage2_minutes),
-                                 *common, *resume])
+    loop = {"width": config.width, "norm": config.norm, "seed": config.seed, "threads": config.threads,
+            "log_every": 20, "export_onnx": True}
+    _check("train-stage1", train_stage1(TrainStage1Config(
+        data=data / "samples", lights=data / "lights", out=s1, resolution=config.resolution, epochs=1000,
+        restart_epochs=20, max_minutes=config.stage1_minutes, sf_scale=config.sf_scale,
+        resume=(s1 / "last.pt").exists(), **loop)))
+    _check("train-stage2", train_stage2(TrainStage2Config(
+        photos=data / "photos", stage1=s1 / "best.pt", out=s2, epochs=config.stage2_epochs,
+        max_minutes=config.stage2_minutes, resume=(s2 / "last.pt").exists(), **loop)))
     for kind, run_dir in (("stage1", s1), ("stage2", s2)):
         shutil.copyfile(run_dir / f"{kind}.onnx", out / f"{kind}.onnx")
-    run_command("evaluate", ["--stage1", str(s1 / "best.pt"), "--stage2", str(s2 / "best.pt"), "--data",
-                             str(data / "samples"), "--lights", str(data / "lights"), "--photos", str(data / "photos"),
-                             "--out", str(out / "eval"), "--max-samples", "16", "--max-pairs", "24"])
-    demo_relight(out, data / "photos", args.resolution, args.light)
+    _check("evaluate", evaluate(EvaluateConfig(
+        stage1=s1 / "best.pt", stage2=s2 / "best.pt", data=data / "samples", lights=data / "lights",
+        photos=data / "photos", out=out / "eval", max_samples=16, max_pairs=24)))
+    demo_relight(out, data / "photos", config.resolution, config.light)
     log.info("quickstart done: %s", out)
     return 0

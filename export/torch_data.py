@@ -28,6 +28,7 @@ from relight_rt import RelightError
 
 from .frozen import OnnxStage
 from .losses import FLIP_SIGNS
+from .shading import render_diffuse
 
 _FLIP = np.asarray(FLIP_SIGNS, dtype=np.float32)
 
@@ -253,9 +254,3 @@ def decompose(model: torch.nn.Module, image: torch.Tensor, mask: torch.Tensor) -
             "light": light.float()}
 
 
-def render_diffuse(
-    albedo: torch.Tensor, transport: torch.Tensor, light: torch.Tensor, mask: torch.Tensor
-) -> torch.Tensor:
-    """clip(albedo ⊙ max(0, T·L), 0, 1) ⊙ mask for (N,3,H,W), (N,9,H,W), (N,9,3), (N,1,H,W) -> (N,3,H,W)."""
-    shading = torch.einsum("nkhw,nkc->nchw", transport, light).clamp_min(0.0)
-    return (albedo * shading).clamp(0.0, 1.0) * mask

@@ -15,6 +15,7 @@ import numpy as np
 
 from relight_rt.sh import basis as sh_basis
 from relight_rt.sh import cosine_lobe
+from relight_rt.sh import shading as sh_shading
 
 from .dataset import photo_name, write_light, write_photo, write_sample
 
@@ -107,7 +108,7 @@ def make_photos(root: str | os.PathLike, n_subjects: int, n_lights: int, size: i
         transport = sphere_transport(normals, mask)
         for j in range(n_lights):
             light = random_light(rng)
-            shading = np.maximum(0.0, np.einsum("hwk,kc->hwc", transport, light))
+            shading = sh_shading(transport, light)
             diffuse = np.clip(albedo * shading, 0, 1) * mask[..., None]
             photo = np.clip(diffuse + highlight(normals, mask, light), 0, 1)
             name = photo_name(f"subj{s}", j)

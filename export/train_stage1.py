@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import json
 import logging
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -31,9 +32,19 @@ import torch
 
 from relight_rt import RelightError
 
+from .config import as_record, reader
 from .losses import Stage1Loss
 from .torch_data import Stage1Dataset, render_input
-from .training import LoopConfig, add_loop_arguments, collate, export_best, to_device, train_loop, write_json
+from .training import (
+    LoopConfig,
+    LoopOptions,
+    add_loop_arguments,
+    collate,
+    export_best,
+    to_device,
+    train_loop,
+    write_json,
+)
 
 log = logging.getLogger(__name__)
 
@@ -62,6 +73,38 @@ def add_arguments(parser) -> None:
     parser.add_argument("--init", help="start from these weights (a .pt checkpoint or a shipped stage-1 .onnx; "
                                        "fine-tuning, see export.warm_start); ignored when resuming")
     add_loop_arguments(parser, epochs=60)
+
+
+@dataclass(frozen=True, kw_only=True)
+class TrainStage1Config(LoopOptions):
+    """The settings of ``train-stage1`` (one field per flag; see :func:`add_arguments`)."""
+
+    data: Path
+    lights: Path
+    resolution: int = 256
+    width: int = 64
+    norm: str = "batch"
+    no_sf: bool = False
+    sf_scale: float = 1.0
+    band_weight: float = 0.0
+    direction_weight: float = 0.0
+    no_flip: bool = False
+    restart_epochs: int = 20
+    val_fraction: float = 0.05
+    no_cache: bool = False
+    init: Path | None = None
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.resolution % 64 or self.resolution < 64:
+            raise RelightError(f"--resolution: expected a positive multiple of 64, got {self.resolution}")
+        if not self.band_weight >= 0:
+            raise RelightError(f"--band-weight: expected a weight >= 0, got {self.band_weight}")
+        if not self.direction_weight >= 0:
+            raise RelightError(f"--direction-weight: expected a weight >= 0, got {self.direction_weight}")
+
+
+config_from_args = reader(TrainStage1Config)
 
 
 def split_names(names: list[str], fraction: float, seed: int) -> tuple[list[str], list[str]]:
@@ -121,49 +164,43 @@ def warm_start(model: torch.nn.Module, path: str, dataset: Stage1Dataset, device
     return source
 
 
-def run(args) -> int:
+def run(config: TrainStage1Config) -> int:
     from . import dataset
     from .networks import Stage1Net
 
-    if args.resolution % 64 or args.resolution < 64:
-        raise RelightError(f"--resolution: expected a positive multiple of 64, got {args.resolution}")
-    if not args.band_weight >= 0:
-        raise RelightError(f"--band-weight: expected a weight >= 0, got {args.band_weight}")
-    if not args.direction_weight >= 0:
-        raise RelightError(f"--direction-weight: expected a weight >= 0, got {args.direction_weight}")
-    cfg = LoopConfig.from_args(args, restart_epochs=args.restart_epochs)
-    lights = dataset.read_lights(args.lights)
-    names = dataset.list_samples(args.data)
+    cfg = LoopConfig.from_options(config, restart_epochs=config.restart_epochs)
+    lights = dataset.read_lights(config.lights)
+    names = dataset.list_samples(config.data)
     if not names:
-        raise RelightError(f"--data {args.data}: no stage-1 samples found")
-    train_names, val_names = split_names(names, args.val_fraction, args.seed)
+        raise RelightError(f"--data {config.data}: no stage-1 samples found")
+    train_names, val_names = split_names(names, config.val_fraction, config.seed)
     log.info("stage 1: %d training samples, %d validation, %d lights, %d² px, width %d, norm %s, SF %s",
-             len(train_names), len(val_names), len(lights), args.resolution, args.width, args.norm,
-             "off" if args.no_sf else "on")
-    cache = not args.no_cache
-    train_set = Stage1Dataset(args.data, lights, args.resolution, train_names, augment=True, seed=args.seed,
-                              cache=cache, flip=not args.no_flip)
-    torch.manual_seed(args.seed)
-    model = Stage1Net(width=args.width, resolution=args.resolution, norm=args.norm).to(cfg.device)
+             len(train_names), len(val_names), len(lights), config.resolution, config.width, config.norm,
+             "off" if config.no_sf else "on")
+    cache = not config.no_cache
+    train_set = Stage1Dataset(config.data, lights, config.resolution, train_names, augment=True, seed=config.seed,
+                              cache=cache, flip=not config.no_flip)
+    torch.manual_seed(config.seed)
+    model = Stage1Net(width=config.width, resolution=config.resolution, norm=config.norm).to(cfg.device)
     init = None
-    if args.init and not (args.resume and (Path(args.out) / "last.pt").exists()):
-        init = warm_start(model, args.init, train_set, cfg.device, max(args.batch_size, 2))
-    loss_fn = Stage1Loss(use_sf=not args.no_sf, sf_scale=args.sf_scale, band_weight=args.band_weight,
-                         direction_weight=args.direction_weight).to(cfg.device)
-    optimizer = torch.optim.Adam(model.parameters(), lr=args.lr, betas=(0.5, 0.999))
+    if config.init and not (config.resume and (Path(config.out) / "last.pt").exists()):
+        init = warm_start(model, config.init, train_set, cfg.device, max(config.batch_size, 2))
+    loss_fn = Stage1Loss(use_sf=not config.no_sf, sf_scale=config.sf_scale, band_weight=config.band_weight,
+                         direction_weight=config.direction_weight).to(cfg.device)
+    optimizer = torch.optim.Adam(model.parameters(), lr=config.lr, betas=(0.5, 0.999))
     val_fn = None
     if val_names:
-        val_set = Stage1Dataset(args.data, lights, args.resolution, val_names, augment=False, seed=args.seed,
+        val_set = Stage1Dataset(config.data, lights, config.resolution, val_names, augment=False, seed=config.seed,
                                 cache=cache)
-        val_fn = validation_fn(val_set, loss_fn, cfg.device, max(args.batch_size, 1))
-    out = Path(args.out)
+        val_fn = validation_fn(val_set, loss_fn, cfg.device, max(config.batch_size, 1))
+    out = Path(config.out)
     out.mkdir(parents=True, exist_ok=True)
-    write_json(out / "args.json", {**vars(args), "command": "train-stage1", "val_names": val_names})
-    meta = {"command": "train-stage1", "data": str(args.data), "sf": not args.no_sf, "sf_scale": args.sf_scale,
-            "band_weight": args.band_weight, "direction_weight": args.direction_weight, "init": init}
+    write_json(out / "args.json", {**as_record(config), "command": "train-stage1", "val_names": val_names})
+    meta = {"command": "train-stage1", "data": str(config.data), "sf": not config.no_sf, "sf_scale": config.sf_scale,
+            "band_weight": config.band_weight, "direction_weight": config.direction_weight, "init": init}
     summary = train_loop(model, optimizer, train_set, stage1_step(loss_fn), cfg, val_fn=val_fn, meta=meta)
     log.info("stage 1 finished: %s", json.dumps(summary))
-    if args.export_onnx:
-        source = f"relight_rt train-stage1 on {args.data} ({summary['epochs_done']} epochs, width {args.width})"
+    if config.export_onnx:
+        source = f"relight_rt train-stage1 on {config.data} ({summary['epochs_done']} epochs, width {config.width})"
         export_best(out, "stage1", source)
     return 0

@@ -32,10 +32,12 @@ Example::
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import logging
 import os
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -44,10 +46,13 @@ import torch.nn.functional as F
 
 from relight_rt import RelightError
 
+from .config import as_record, check_fraction, reader
 from .losses import masked_l1, masked_mse
-from .torch_data import PhotoDataset, decompose, item_rng, render_diffuse, subject_of
+from .shading import render_diffuse
+from .torch_data import PhotoDataset, decompose, item_rng, subject_of
 from .training import (
     LoopConfig,
+    LoopOptions,
     add_loop_arguments,
     collate,
     export_best,
@@ -96,6 +101,35 @@ def add_arguments(parser) -> None:
     parser.add_argument("--val-fraction", type=float, default=0.1,
                         help="fraction of the subjects held out for validation (default %(default)s)")
     add_loop_arguments(parser, epochs=60)
+
+
+@dataclass(frozen=True, kw_only=True)
+class TrainStage2Config(LoopOptions):
+    """The settings of ``train-stage2`` (one field per flag; see :func:`add_arguments`)."""
+
+    photos: Path
+    stage1: Path
+    resolution: int | None = None
+    width: int = 64
+    norm: str = "batch"
+    output_activation: str = "none"
+    random_init: bool = False
+    init: Path | None = None
+    cross_light: float = 0.0
+    true_diffuse: float = 0.0
+    loss: str = "l1"
+    val_fraction: float = 0.1
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        check_fraction("--cross-light", self.cross_light)
+        check_fraction("--true-diffuse", self.true_diffuse)
+        if self.init and Path(self.init).suffix.lower() == ".onnx":
+            raise RelightError(f"--init {self.init}: stage 2 starts from a .pt checkpoint (its graph's residual "
+                               "blocks cannot be unfolded back into the network)")
+
+
+config_from_args = reader(TrainStage2Config)
 
 
 def _stage1_id(path: Path, resolution: int) -> str:
@@ -250,78 +284,72 @@ def split_subjects(names: list[str], fraction: float, seed: int) -> tuple[list[i
     return train, val
 
 
-def _own_photos(args, out: Path) -> str:
+def _own_photos(config: TrainStage2Config, out: Path) -> Path:
     """``--photos`` as given when it holds rendered photos (SUBJECT__L{j}_photo.png); a folder of one's own photos
     is prepared into OUT/photos first (masks: NAME_mask.png, else alpha, else the automatic person matte)."""
     from . import dataset
 
-    if dataset.list_photos(args.photos):
-        return args.photos
-    names, failures = dataset.prepare_user_photos(args.photos, out / "photos")
+    if dataset.list_photos(config.photos):
+        return config.photos
+    names, failures = dataset.prepare_user_photos(config.photos, out / "photos")
     for line in failures:
         log.warning("left out: %s", line)
     if not names:
-        raise RelightError(f"--photos {args.photos}: no photos of people found (rendered SUBJECT__L{{j}}_photo.png, "
+        raise RelightError(f"--photos {config.photos}: no photos of people found (rendered SUBJECT__L{{j}}_photo.png, "
                            "or ordinary photos)")
-    if args.cross_light > 0 or args.true_diffuse > 0:
+    if config.cross_light > 0 or config.true_diffuse > 0:
         raise RelightError("--cross-light / --true-diffuse need rendered photos (their lights and diffuse parts are "
                            "known); one's own photos train with the paper's recipe only")
     log.info("%d of your photos prepared in %s (%d left out)", len(names), out / "photos", len(failures))
-    return str(out / "photos")
+    return out / "photos"
 
 
-def run(args) -> int:
+def run(config: TrainStage2Config) -> int:
     from .frozen import load_frozen
     from .networks import Stage2Net
 
-    device = pick_device(args.device)
-    for name, value in (("--cross-light", args.cross_light), ("--true-diffuse", args.true_diffuse)):
-        if not 0.0 <= value <= 1.0:
-            raise RelightError(f"{name}: expected a probability in [0, 1], got {value}")
-    if args.init and Path(args.init).suffix.lower() == ".onnx":
-        raise RelightError(f"--init {args.init}: stage 2 starts from a .pt checkpoint (its graph's residual "
-                           "blocks cannot be unfolded back into the network)")
-    stage1 = load_frozen(args.stage1, "stage1", device, threads=args.threads)
+    device = pick_device(config.device)
+    stage1 = load_frozen(config.stage1, "stage1", device, threads=config.threads)
     r1 = stage1.resolution
-    r2 = args.resolution or r1
+    r2 = config.resolution or r1
     if r2 % 64 or r2 < 64:
         raise RelightError(f"--resolution: expected a positive multiple of 64, got {r2}")
-    cfg = LoopConfig.from_args(args)
-    out = Path(args.out)
+    cfg = LoopConfig.from_options(config)
+    out = Path(config.out)
     out.mkdir(parents=True, exist_ok=True)
-    args.photos = _own_photos(args, out)
-    photos_r1 = PhotoDataset(args.photos, r1)
-    cache = diffuse_cache(stage1, photos_r1, out / CACHE_NAME, _stage1_id(Path(args.stage1), r1), device,
-                          layers=args.cross_light > 0)
+    config = dataclasses.replace(config, photos=_own_photos(config, out))
+    photos_r1 = PhotoDataset(config.photos, r1)
+    cache = diffuse_cache(stage1, photos_r1, out / CACHE_NAME, _stage1_id(Path(config.stage1), r1), device,
+                          layers=config.cross_light > 0)
     del stage1
-    photos = photos_r1 if r2 == r1 else PhotoDataset(args.photos, r2)
-    train_idx, val_idx = split_subjects(photos.names, args.val_fraction, args.seed)
+    photos = photos_r1 if r2 == r1 else PhotoDataset(config.photos, r2)
+    train_idx, val_idx = split_subjects(photos.names, config.val_fraction, config.seed)
     log.info("stage 2: %d training photos, %d validation, %d² px, width %d, norm %s, relighting pairs %.2f",
-             len(train_idx), len(val_idx), r2, args.width, args.norm, args.cross_light)
-    train_set = Stage2Dataset(photos, cache, [(i, i) for i in train_idx], r2, augment=True, seed=args.seed,
-                              cross_light=args.cross_light, true_diffuse=args.true_diffuse)
-    torch.manual_seed(args.seed)
-    model = Stage2Net(width=args.width, resolution=r2, norm=args.norm,
-                      output_activation=args.output_activation).to(cfg.device)
+             len(train_idx), len(val_idx), r2, config.width, config.norm, config.cross_light)
+    train_set = Stage2Dataset(photos, cache, [(i, i) for i in train_idx], r2, augment=True, seed=config.seed,
+                              cross_light=config.cross_light, true_diffuse=config.true_diffuse)
+    torch.manual_seed(config.seed)
+    model = Stage2Net(width=config.width, resolution=r2, norm=config.norm,
+                      output_activation=config.output_activation).to(cfg.device)
     init = None
-    if args.init and not (args.resume and (out / "last.pt").exists()):
+    if config.init and not (config.resume and (out / "last.pt").exists()):
         from .warm_start import load_init
 
-        init = load_init(model, args.init)
+        init = load_init(model, config.init)
         log.info("stage 2 starts from %s", init)
-    elif not args.random_init:
+    elif not config.random_init:
         zero_residual_init(model)
-    optimizer = torch.optim.RAdam(model.parameters(), lr=args.lr)
+    optimizer = torch.optim.RAdam(model.parameters(), lr=config.lr)
 
     def step(m: torch.nn.Module, batch: dict) -> dict:
-        return stage2_step(m, batch, args.loss)
+        return stage2_step(m, batch, config.loss)
 
     val_fn = None
     if val_idx:
         # validation measures what the training aims at: reconstructions, plus every relighting pair of
         # the held-out subjects when pairs are trained
         val_pairs = [(i, i) for i in val_idx]
-        if args.cross_light > 0:
+        if config.cross_light > 0:
             partners = relighting_partners(photos.names)
             val_pairs += [(i, j) for i in val_idx for j in partners[i]]
         val_set = Stage2Dataset(photos, cache, val_pairs, r2, augment=False)
@@ -332,12 +360,12 @@ def run(args) -> int:
                 total += float(step(m, to_device(collate([val_set[i]]), cfg.device))["total"])
             return total / len(val_set)
 
-    write_json(out / "args.json", {**vars(args), "command": "train-stage2",
+    write_json(out / "args.json", {**as_record(config), "command": "train-stage2",
                                    "val_names": [photos.names[i] for i in val_idx]})
-    meta = {"command": "train-stage2", "photos": str(args.photos), "stage1": str(args.stage1),
-            "cross_light": args.cross_light, "true_diffuse": args.true_diffuse, "loss": args.loss, "init": init}
+    meta = {"command": "train-stage2", "photos": str(config.photos), "stage1": str(config.stage1),
+            "cross_light": config.cross_light, "true_diffuse": config.true_diffuse, "loss": config.loss, "init": init}
     summary = train_loop(model, optimizer, train_set, step, cfg, val_fn=val_fn, meta=meta)
     log.info("stage 2 finished: %s", json.dumps(summary))
-    if args.export_onnx:
-        export_best(out, "stage2", f"relight_rt train-stage2 on {args.photos} ({summary['epochs_done']} epochs)")
+    if config.export_onnx:
+        export_best(out, "stage2", f"relight_rt train-stage2 on {config.photos} ({summary['epochs_done']} epochs)")
     return 0

@@ -129,6 +129,31 @@ def add_loop_arguments(parser, *, epochs: int, lr_max: float = 1e-3, lr_min: flo
     g.add_argument("--export-onnx", action="store_true", help="export best.pt to RUN/<kind>.onnx at the end")
 
 
+@dataclass(frozen=True, kw_only=True)
+class LoopOptions:
+    """The settings of :func:`add_loop_arguments`, shared by every training command's config."""
+
+    out: Path
+    epochs: int = 60
+    max_minutes: float | None = None
+    max_steps: int | None = None
+    batch_size: int = 1
+    lr: float = 1e-3
+    lr_min: float = 1e-4
+    seed: int = 0
+    device: str = "auto"
+    no_amp: bool = False
+    workers: int = 0
+    threads: int | None = None
+    log_every: int = 50
+    resume: bool = False
+    export_onnx: bool = False
+
+    def __post_init__(self) -> None:
+        if self.epochs < 1 or self.batch_size < 1:
+            raise RelightError(f"--epochs and --batch-size: expected >= 1, got {self.epochs} and {self.batch_size}")
+
+
 @dataclass
 class LoopConfig:
     """Settings of one call of :func:`train_loop` (see :func:`add_loop_arguments`)."""
@@ -150,26 +175,24 @@ class LoopConfig:
     progress: bool = True
 
     @classmethod
-    def from_args(cls, args, restart_epochs: int | None = None) -> LoopConfig:
-        if args.threads:
-            torch.set_num_threads(args.threads)
-        if args.epochs < 1 or args.batch_size < 1:
-            raise RelightError(f"--epochs and --batch-size: expected >= 1, got {args.epochs} and {args.batch_size}")
+    def from_options(cls, options: LoopOptions, restart_epochs: int | None = None) -> LoopConfig:
+        if options.threads:
+            torch.set_num_threads(options.threads)
         return cls(
-            out=Path(args.out),
-            epochs=args.epochs,
-            batch_size=args.batch_size,
-            lr=args.lr,
-            lr_min=args.lr_min,
+            out=Path(options.out),
+            epochs=options.epochs,
+            batch_size=options.batch_size,
+            lr=options.lr,
+            lr_min=options.lr_min,
             restart_epochs=restart_epochs,
-            max_minutes=args.max_minutes,
-            max_steps=args.max_steps,
-            seed=args.seed,
-            workers=args.workers,
-            log_every=max(1, args.log_every),
-            resume=args.resume,
-            device=pick_device(args.device),
-            amp=not args.no_amp,
+            max_minutes=options.max_minutes,
+            max_steps=options.max_steps,
+            seed=options.seed,
+            workers=options.workers,
+            log_every=max(1, options.log_every),
+            resume=options.resume,
+            device=pick_device(options.device),
+            amp=not options.no_amp,
         )
 
 

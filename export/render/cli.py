@@ -14,11 +14,15 @@ import logging
 import multiprocessing
 import os
 import time
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from relight_rt._errors import RelightError
+
+from ..config import reader
 
 log = logging.getLogger(__name__)
 
@@ -177,31 +181,31 @@ def render_one(job: dict, subject=None, build_s: float | None = None) -> dict:
             "rays": len(g.index) * job["dirs"] + cam.resolution**2}
 
 
-def _jobs(args) -> list[dict]:
-    common = {"resolution": args.resolution, "dirs": args.dirs, "margin": args.margin, "camera": args.camera,
-              "fov": args.fov, "out": str(args.out)}
-    if args.mesh:
+def _jobs(config: RenderConfig) -> list[dict]:
+    common = {"resolution": config.resolution, "dirs": config.dirs, "margin": config.margin, "camera": config.camera,
+              "fov": config.fov, "out": str(config.out)}
+    if config.mesh:
         jobs = []
-        for i, p in enumerate(args.mesh):
+        for i, p in enumerate(config.mesh):
             skin = p.with_name(f"{p.stem}_skin.png")  # optional skin-label texture beside the mesh
             source = {"kind": "mesh", "path": str(p.resolve()), "skin": str(skin.resolve()) if skin.is_file() else None}
-            jobs.append({**common, "name": p.stem, "seed": args.seed + i, "source": source,
-                         "framing": pick_framing(args.framings, args.seed + i)})
+            jobs.append({**common, "name": p.stem, "seed": config.seed + i, "source": source,
+                         "framing": pick_framing(config.framings, config.seed + i)})
         return jobs
     jobs = []
-    for i in range(args.n):
-        seed = args.seed + i
-        source = {"kind": args.subject, "seed": seed}
-        if args.subject == "anny":
-            source["clothing"] = not args.no_clothing
-        name = f"{args.subject}_{seed:06d}"
+    for i in range(config.n):
+        seed = config.seed + i
+        source = {"kind": config.subject, "seed": seed}
+        if config.subject == "anny":
+            source["clothing"] = not config.no_clothing
+        name = f"{config.subject}_{seed:06d}"
         views = [(name, 0.0)]
-        if args.views > 1 and args.subject == "anny":
+        if config.views > 1 and config.subject == "anny":
             rng = np.random.default_rng([seed, 0x7E35])
-            yaws = rng.uniform(-args.max_yaw, args.max_yaw, args.views - 1)
+            yaws = rng.uniform(-config.max_yaw, config.max_yaw, config.views - 1)
             views += [(f"{name}_v{v}", round(float(y), 3)) for v, y in enumerate(yaws, start=1)]
         jobs.append({**common, "name": name, "seed": seed, "source": source, "views": views,
-                     "framing": pick_framing(args.framings, seed)})
+                     "framing": pick_framing(config.framings, seed)})
     return jobs
 
 
@@ -241,20 +245,48 @@ def _guard(func, job):
         return exc
 
 
-def run(args) -> int:
+@dataclass(frozen=True, kw_only=True)
+class RenderConfig:
+    """The settings of ``render`` (one field per flag; see :func:`add_arguments`)."""
+
+    out: Path
+    n: int = 8
+    seed: int = 0
+    resolution: int = 1024
+    dirs: int = 256
+    subject: str = "anny"
+    no_clothing: bool = False
+    views: int = 1
+    max_yaw: float = 45.0
+    mesh: tuple[Path, ...] | None = None
+    camera: str = "orthographic"
+    fov: float = 20.0
+    margin: float = 0.05
+    framings: Mapping[str, float] = field(default_factory=lambda: {"full": 1.0})
+    workers: int = 2
+    preview: bool = False
+    overwrite: bool = False
+
+    def __post_init__(self) -> None:
+        if self.resolution < 8 or self.dirs < 1 or self.n < 0 or self.workers < 1:
+            raise RelightError("expected --resolution >= 8, --dirs >= 1, --n >= 0 and --workers >= 1")
+        if self.views < 1:
+            raise RelightError(f"expected --views >= 1, got {self.views}")
+
+
+config_from_args = reader(RenderConfig)
+
+
+def run(config: RenderConfig) -> int:
     from .. import dataset
 
-    if args.resolution < 8 or args.dirs < 1 or args.n < 0 or args.workers < 1:
-        raise RelightError("expected --resolution >= 8, --dirs >= 1, --n >= 0 and --workers >= 1")
-    args.out.mkdir(parents=True, exist_ok=True)
-    if args.views < 1:
-        raise RelightError(f"expected --views >= 1, got {args.views}")
-    jobs = _jobs(args)
-    if not args.overwrite:
-        done = set(dataset.list_samples(args.out))
+    config.out.mkdir(parents=True, exist_ok=True)
+    jobs = _jobs(config)
+    if not config.overwrite:
+        done = set(dataset.list_samples(config.out))
 
         def exists(name: str) -> bool:
-            return name in done and (args.out / f"{name}_meta.json").is_file()
+            return name in done and (config.out / f"{name}_meta.json").is_file()
 
         skipped = [j["name"] for j in jobs if all(exists(n) for n, _ in j.get("views", [(j["name"], 0.0)]))]
         if skipped:
@@ -264,8 +296,8 @@ def run(args) -> int:
     failures, stats = [], []
     views = [j for j in jobs if "views" in j]
     singles = [j for j in jobs if "views" not in j]
-    results = list(run_pool(render_views, views, args.workers, "render")) if views else []
-    results += list(run_pool(render_one, singles, args.workers, "render")) if singles else []
+    results = list(run_pool(render_views, views, config.workers, "render")) if views else []
+    results += list(run_pool(render_one, singles, config.workers, "render")) if singles else []
     for job, res in results:
         if isinstance(res, Exception):
             failures.append(f"{job['name']}: {res}")
@@ -277,17 +309,17 @@ def run(args) -> int:
         rays = sum(s["rays"] for s in stats)
         log.info(
             "%d samples in %.1f s (%d workers): subject %.1f s, ray casting + transport %.1f s and writing %.1f s "
-            "per sample; %.2f M rays/s per process", len(stats), wall, args.workers,
+            "per sample; %.2f M rays/s per process", len(stats), wall, config.workers,
             np.mean([s["build_s"] for s in stats]), render_s / len(stats), np.mean([s["write_s"] for s in stats]),
             rays / max(render_s, 1e-9) / 1e6,
         )
-    if args.preview:
+    if config.preview:
         from .contact_sheet import sample_row, write_sheet
 
-        names = dataset.list_samples(args.out)[:16]
+        names = dataset.list_samples(config.out)[:16]
         if names:
-            write_sheet(args.out / "contact_sheet.png", [sample_row(args.out, n) for n in names])
-            log.info("contact sheet: %s", args.out / "contact_sheet.png")
+            write_sheet(config.out / "contact_sheet.png", [sample_row(config.out, n) for n in names])
+            log.info("contact sheet: %s", config.out / "contact_sheet.png")
     for f in failures:
         log.error("failed: %s", f)
     return 1 if failures else 0

@@ -26,7 +26,6 @@ from relight_rt.sh import irradiance
 
 log = logging.getLogger(__name__)
 
-LUMA = np.array([0.2126, 0.7152, 0.0722])  # Rec. 709 luminance of linear RGB
 TARGET_RANGE = (0.9, 2.6)
 
 
@@ -69,7 +68,7 @@ def _temperature(rng: np.random.Generator, lo: float = -1.0, hi: float = 1.0) ->
     rgb = np.array([1.0 - 0.25 * t, 1.0 - 0.05 * abs(t), 1.0 + 0.35 * t]) if t > 0 else np.array(
         [1.0, 1.0 + 0.25 * t, 1.0 + 0.6 * t]
     )
-    return rgb / (rgb @ LUMA)
+    return rgb / (rgb @ REC709)
 
 
 def _add_source(env: np.ndarray, weight: np.ndarray, color: np.ndarray, power: float, omega: np.ndarray) -> None:

@@ -20,11 +20,14 @@ import argparse
 import json
 import logging
 import math
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from relight_rt._errors import RelightError
+
+from ..config import check_fraction, reader
 
 log = logging.getLogger(__name__)
 
@@ -49,38 +52,64 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "white balance would (default 0: the maps as drawn)")
 
 
-def _maps(args):
+def _maps(config: LightsConfig):
     """Yield (base name, (H, 2H, 3) map) pairs."""
     from relight_rt.envmap import load_envmap
 
     from . import envmaps
 
-    rng = np.random.default_rng(args.seed)
-    lo, hi = args.target or envmaps.TARGET_RANGE
+    rng = np.random.default_rng(config.seed)
+    lo, hi = config.target or envmaps.TARGET_RANGE
 
     def target():
         return math.exp(rng.uniform(math.log(lo), math.log(hi)))
 
-    if args.hdr is not None:
-        if not Path(args.hdr).is_dir():
-            raise RelightError(f"--hdr {args.hdr}: folder does not exist")
-        files = sorted(p for p in Path(args.hdr).iterdir() if p.suffix.lower() in MAP_EXTS)
+    if config.hdr is not None:
+        if not Path(config.hdr).is_dir():
+            raise RelightError(f"--hdr {config.hdr}: folder does not exist")
+        files = sorted(p for p in Path(config.hdr).iterdir() if p.suffix.lower() in MAP_EXTS)
         if not files:
-            raise RelightError(f"--hdr {args.hdr}: no environment maps (.hdr, .exr, .png, .jpg) found")
+            raise RelightError(f"--hdr {config.hdr}: no environment maps (.hdr, .exr, .png, .jpg) found")
         for p in files:
-            env = envmaps.resize_envmap(load_envmap(p), args.height)
-            yield p.stem, env if args.keep_scale else envmaps.normalize_envmap(env, target())
+            env = envmaps.resize_envmap(load_envmap(p), config.height)
+            yield p.stem, env if config.keep_scale else envmaps.normalize_envmap(env, target())
         return
-    kinds = args.kinds or list(envmaps.KINDS)
+    kinds = config.kinds or list(envmaps.KINDS)
     bad = [k for k in kinds if k not in envmaps.KINDS]
     if bad:
         raise RelightError(f"--kinds {bad}: expected some of {envmaps.KINDS}")
-    for i in range(args.n):
+    for i in range(config.n):
         kind = kinds[i % len(kinds)]
-        yield f"env{i:04d}_{kind}", envmaps.procedural_envmap(kind, rng, args.height, target=target())
+        yield f"env{i:04d}_{kind}", envmaps.procedural_envmap(kind, rng, config.height, target=target())
 
 
-def run(args) -> int:
+@dataclass(frozen=True, kw_only=True)
+class LightsConfig:
+    """The settings of ``lights`` (one field per flag; see :func:`add_arguments`)."""
+
+    out: Path
+    n: int = 276
+    rotations: int = 10
+    height: int = 90
+    seed: int = 0
+    kinds: tuple[str, ...] | None = None
+    hdr: Path | None = None
+    keep_scale: bool = False
+    target: tuple[float, float] | None = None
+    white_balance: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.rotations < 1 or self.height < 2 or self.n < 0:
+            raise RelightError("expected --rotations >= 1, --height >= 2 and --n >= 0")
+        check_fraction("--white-balance", self.white_balance)
+        if (2 * self.height) % self.rotations:
+            raise RelightError(f"--height {self.height}: the width {2 * self.height} must be divisible by --rotations")
+
+
+config_from_args = reader(LightsConfig)
+
+
+def run(config: LightsConfig) -> int:
     from tqdm import tqdm
 
     from relight_rt.envmap import project_envmap
@@ -89,25 +118,19 @@ def run(args) -> int:
     from .. import dataset
     from . import envmaps
 
-    if args.rotations < 1 or args.height < 2 or args.n < 0:
-        raise RelightError("expected --rotations >= 1, --height >= 2 and --n >= 0")
-    if not 0.0 <= args.white_balance <= 1.0:
-        raise RelightError(f"--white-balance: expected a fraction in [0, 1], got {args.white_balance}")
-    if (2 * args.height) % args.rotations:
-        raise RelightError(f"--height {args.height}: the width {2 * args.height} must be divisible by --rotations")
-    out = Path(args.out)
+    out = Path(config.out)
     (out / "hdr").mkdir(parents=True, exist_ok=True)
-    index = {"format": INDEX_FORMAT, "rotations": args.rotations, "lights": {}}
+    index = {"format": INDEX_FORMAT, "rotations": config.rotations, "lights": {}}
     coeff0 = []
-    total = args.n if args.hdr is None else None
-    for base, env in tqdm(_maps(args), total=total, desc="lights", unit="map"):
-        if args.white_balance > 0:
-            env = envmaps.white_balance(env, args.white_balance)
+    total = config.n if config.hdr is None else None
+    for base, env in tqdm(_maps(config), total=total, desc="lights", unit="map"):
+        if config.white_balance > 0:
+            env = envmaps.white_balance(env, config.white_balance)
         envmaps.write_hdr(out / "hdr" / f"{base}.hdr", env)
         light = project_envmap(env)
-        for r in range(args.rotations):
+        for r in range(config.rotations):
             name = f"{base}_r{r:02d}"
-            rotated = rotate_z(light, 2 * math.pi * r / args.rotations)
+            rotated = rotate_z(light, 2 * math.pi * r / config.rotations)
             dataset.write_light(out, name, rotated)
             index["lights"][name] = {"envmap": f"hdr/{base}.hdr", "rotation": r}
         coeff0.append(light[0])
@@ -115,7 +138,7 @@ def run(args) -> int:
     dataset.atomic_write(out / INDEX, lambda tmp: Path(tmp).write_text(text))
     if coeff0:
         c = np.asarray(coeff0)
-        log.info("%d maps × %d rotations = %d lights in %s", len(c), args.rotations, len(index["lights"]), out)
+        log.info("%d maps × %d rotations = %d lights in %s", len(c), config.rotations, len(index["lights"]), out)
         log.info("SH coefficient 0 per channel: min %.2f, median %.2f, max %.2f (reference test lights: 0.22–1.42, "
                  "median 0.63)", c.min(), np.median(c), c.max())
     return 0

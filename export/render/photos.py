@@ -27,9 +27,9 @@ import numpy as np
 
 from relight_rt._errors import RelightError
 from relight_rt.envmap import directions_envmap, project_envmap, solid_angles_envmap
+from relight_rt.exposure import REC709
 from relight_rt.sh import shading
 
-from .envmaps import LUMA
 from .raycast import Tracer
 from .transport import RAYS_PER_BATCH, GBuffer, tangent_frame
 
@@ -49,7 +49,7 @@ class EnvSampler:
         self.env = env
         self.h, self.w = env.shape[:2]
         omega = solid_angles_envmap(self.h).astype(np.float64)
-        weight = (env.astype(np.float64) @ LUMA + 1e-4 * env.mean()) * omega
+        weight = (env.astype(np.float64) @ REC709 + 1e-4 * env.mean()) * omega
         self.prob = (weight / weight.sum()).ravel()  # probability of each pixel
         self.cdf = np.cumsum(self.prob)
         self.pdf_solid = (self.prob / omega.ravel())  # density per steradian inside each pixel
@@ -163,7 +163,7 @@ def median_cut(env: np.ndarray, n_lights: int) -> tuple[np.ndarray, np.ndarray]:
     h, w = env.shape[:2]
     omega = solid_angles_envmap(h).astype(np.float64)
     energy = env * omega[..., None]  # (H, W, 3) radiance × solid angle
-    lum = energy @ LUMA + 1e-9 * omega
+    lum = energy @ REC709 + 1e-9 * omega
     dirs = directions_envmap(h)
     sin_t = np.sqrt(1.0 - dirs[:, 0, 2] ** 2)  # per row
 

@@ -19,11 +19,14 @@ import json
 import logging
 import time
 import zlib
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from relight_rt._errors import RelightError
+
+from ..config import check_fraction, reader
 
 log = logging.getLogger(__name__)
 
@@ -86,46 +89,68 @@ def photo_one(job: dict) -> dict:
     return {"name": name, "s": time.perf_counter() - t0}
 
 
-def run(args) -> int:
+@dataclass(frozen=True, kw_only=True)
+class RenderPhotosConfig:
+    """The settings of ``render-photos`` (one field per flag; see :func:`add_arguments`)."""
+
+    data: Path
+    envmaps: Path
+    out: Path
+    k: int = 3
+    samples: int = 32
+    full_shading: bool = False
+    gloss: float = 0.0
+    env_height: int | None = None
+    seed: int = 0
+    workers: int = 2
+    preview: bool = False
+
+    def __post_init__(self) -> None:
+        if self.k < 1 or self.samples < 0 or self.workers < 1:
+            raise RelightError("expected --k >= 1, --samples >= 0 and --workers >= 1")
+        check_fraction("--gloss", self.gloss)
+
+
+config_from_args = reader(RenderPhotosConfig)
+
+
+def run(config: RenderPhotosConfig) -> int:
     from .. import dataset
     from .cli import run_pool
     from .lights_cli import list_environments
 
-    if args.k < 1 or args.samples < 0 or args.workers < 1:
-        raise RelightError("expected --k >= 1, --samples >= 0 and --workers >= 1")
-    if not 0.0 <= args.gloss <= 1.0:
-        raise RelightError(f"--gloss: expected a value in [0, 1], got {args.gloss}")
-    names = [n for n in dataset.list_samples(args.data) if (args.data / f"{n}_meta.json").is_file()]
+    names = [n for n in dataset.list_samples(config.data) if (config.data / f"{n}_meta.json").is_file()]
     if not names:
-        raise RelightError(f"--data {args.data}: no rendered samples with NAME_meta.json found")
-    envs = list_environments(args.envmaps)
-    if len(envs) < args.k:
-        raise RelightError(f"--envmaps {args.envmaps}: expected at least {args.k} environment maps, found {len(envs)}")
+        raise RelightError(f"--data {config.data}: no rendered samples with NAME_meta.json found")
+    envs = list_environments(config.envmaps)
+    if len(envs) < config.k:
+        raise RelightError(
+            f"--envmaps {config.envmaps}: expected at least {config.k} environment maps, found {len(envs)}")
     jobs = []
     for name in names:
-        rng = np.random.default_rng([args.seed, zlib.crc32(name.encode())])
-        pick = rng.choice(len(envs), size=args.k, replace=False)
-        jobs.append({"data": str(args.data), "name": name, "envmaps": str(args.envmaps),
-                     "envs": [envs[i] for i in pick], "env_height": args.env_height, "samples": args.samples,
-                     "full": args.full_shading, "gloss": args.gloss, "seed": args.seed, "out": str(args.out)})
-    args.out.mkdir(parents=True, exist_ok=True)
+        rng = np.random.default_rng([config.seed, zlib.crc32(name.encode())])
+        pick = rng.choice(len(envs), size=config.k, replace=False)
+        jobs.append({"data": str(config.data), "name": name, "envmaps": str(config.envmaps),
+                     "envs": [envs[i] for i in pick], "env_height": config.env_height, "samples": config.samples,
+                     "full": config.full_shading, "gloss": config.gloss, "seed": config.seed, "out": str(config.out)})
+    config.out.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
     failures, times = [], []
-    for job, res in run_pool(photo_one, jobs, args.workers, "photos"):
+    for job, res in run_pool(photo_one, jobs, config.workers, "photos"):
         if isinstance(res, Exception):
             failures.append(f"{job['name']}: {res}")
         else:
             times.append(res["s"])
     if times:
-        log.info("%d samples × %d photos in %.1f s (%.1f s per sample per process)", len(times), args.k,
+        log.info("%d samples × %d photos in %.1f s (%.1f s per sample per process)", len(times), config.k,
                  time.perf_counter() - start, float(np.mean(times)))
-    if args.preview:
+    if config.preview:
         from .contact_sheet import photo_row, write_sheet
 
-        photos = dataset.list_photos(args.out)[:16]
+        photos = dataset.list_photos(config.out)[:16]
         if photos:
-            write_sheet(args.out / "contact_sheet.png", [photo_row(args.out, p, args.data) for p in photos])
-            log.info("contact sheet: %s", args.out / "contact_sheet.png")
+            write_sheet(config.out / "contact_sheet.png", [photo_row(config.out, p, config.data) for p in photos])
+            log.info("contact sheet: %s", config.out / "contact_sheet.png")
     for f in failures:
         log.error("failed: %s", f)
     return 1 if failures else 0

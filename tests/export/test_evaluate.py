@@ -138,7 +138,7 @@ def test_paired_change_resamples_subjects_and_counts_improvements():
 
 def test_trivial_baseline_reconstructs_the_mean_colour(checkpoints):
     from export.evaluate import trivial_decomposition
-    from export.torch_data import render_diffuse
+    from export.shading import render_diffuse
 
     image = torch.rand(2, 3, 16, 16) * 0.5
     mask = (torch.rand(2, 1, 16, 16) > 0.3).float()

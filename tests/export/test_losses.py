@@ -22,8 +22,8 @@ from export.losses import (  # noqa: E402
     focal_loss,
     log_kernel,
     masked_l1,
-    shade,
 )
+from export.shading import shade  # noqa: E402
 
 
 def _sf() -> SpatialFrequencyLoss:

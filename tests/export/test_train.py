@@ -116,7 +116,7 @@ def test_bad_resolution_is_refused(data, tmp_path):
     args = parser.parse_args(["--data", str(data / "samples"), "--lights", str(data / "lights"),
                               "--out", str(tmp_path / "x"), "--resolution", "100"])
     with pytest.raises(RelightError, match="multiple of 64"):
-        train_stage1.run(args)
+        train_stage1.run(train_stage1.config_from_args(args))
 
 
 def test_stage1_dataset_flip_is_physical(data):
