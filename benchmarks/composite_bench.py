@@ -33,6 +33,7 @@ if str(REPO) not in sys.path:
 from relight_rt import Relighter, RuntimeConfig  # noqa: E402
 from relight_rt._io import read_image, write_image  # noqa: E402
 from relight_rt.color import linear_to_srgb  # noqa: E402
+from relight_rt.scene import composite  # noqa: E402
 
 
 def make_inputs(hdri: Path, work: Path, place: str = "city.hdr") -> tuple[Path, Path, Path]:
@@ -82,7 +83,7 @@ def main(argv=None) -> int:
 
         def once(out=out):
             t, c = time.perf_counter(), time.process_time()
-            image = relighter.composite(person, bg, mask=mask, shadow=True, rim=args.rim)
+            image = composite(relighter, person, bg, mask=mask, shadow=True, rim=args.rim)
             write_image(out, image, protect=[person, mask, bg])
             return time.perf_counter() - t, time.process_time() - c
 

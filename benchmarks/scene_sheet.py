@@ -140,8 +140,8 @@ def main(argv=None) -> int:
         sphere = linear_to_srgb(np.clip(sphere * (0.8 / max(float(sphere.max()), 1e-6)), 0, 1))
         paste = pasted(person, bg)
         paste[: sphere.shape[0], : sphere.shape[1]] = sphere  # the estimated light, top-left corner
-        full = relighter.composite(person8, bg, rim=args.rim)
-        halfbody = relighter.composite(half8, bg, mask=half_mask, height=HALF_HEIGHT, rim=args.rim)
+        full = scene_mod.composite(relighter, person8, bg, rim=args.rim)
+        halfbody = scene_mod.composite(relighter, half8, bg, mask=half_mask, height=HALF_HEIGHT, rim=args.rim)
         gap = np.ones((size[0], 4, 3), np.float32)
         tiles.append(np.concatenate([paste, gap, full, gap, halfbody], 1))
         blur = scene_mod._camera_blur(scene_mod._grey(bg))  # what the person is blurred toward (step 5)

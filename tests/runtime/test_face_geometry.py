@@ -165,7 +165,7 @@ def test_the_face_in_a_real_photo_gets_its_mesh_and_the_light_models_it(monkeypa
     np.testing.assert_allclose(r.relight(dec, dec), dec.image, atol=2e-3)
 
     plain_r = Relighter(RuntimeConfig(device="cpu"))
-    plain_r._faces = FaceMesh(Path("/nonexistent"))  # no mesh files: stage 1's transport alone
+    plain_r._faces._mesh = FaceMesh(Path("/nonexistent"))  # no mesh files: stage 1's transport alone
     plain = plain_r.relight(plain_r.decompose(photo, mask), light)
     y0, y1, x0, x1 = box
     diff = np.abs(with_mesh - plain).max(axis=2)
@@ -199,10 +199,10 @@ def test_a_portraits_light_is_turned_by_its_face_and_still_gives_the_photo_back(
     rec709 = np.array([0.2126, 0.7152, 0.0722])
     r = Relighter(RuntimeConfig(device="cpu"))
     dec = r.decompose(dpr_portrait)
-    assert r._restored(dec)["face_skin"].sum() > 1000
+    assert r._factor.restored(dec)["face_skin"].sum() > 1000
     back = np.abs(r.relight(dec, dec) - dec.image)
     assert (back > 0.5 / 255).sum() <= 10 and back.max() < 5e-3  # a soft hair edge's colour: 2 values, 0.002
-    monkeypatch.setattr("relight_rt.relighter.face_refit", lambda light, *args: light)
+    monkeypatch.setattr("relight_rt.relight.factor.face_refit", lambda light, *args: light)
     plain = Relighter(RuntimeConfig(device="cpu")).decompose(dpr_portrait)
     up = lambda light: float(light[2] @ rec709) / float(light[0] @ rec709)  # noqa: E731
     toward = lambda light: float(light[3] @ rec709) / float(light[0] @ rec709)  # noqa: E731

@@ -1,4 +1,4 @@
-"""relight_rt.scene.composite, Relighter.composite and the CLI commands `composite` and `lights from-background`."""
+"""relight_rt.scene.composite and the CLI commands `composite` and `lights from-background`."""
 
 import cv2
 import numpy as np
@@ -38,7 +38,7 @@ def test_output_has_the_background_size(diffuse):
     assert out.shape == (120, 260, 3) and out.dtype == np.float32 and 0 <= out.min() and out.max() <= 1
     far = out[:, 200:]  # away from the person: the background, unchanged
     np.testing.assert_allclose(far, 90 / 255, atol=1e-5)
-    out2 = diffuse.composite(img, bg, mask=mask, position=(0.8, 1.0), height=0.5, shadow=True)
+    out2 = composite(diffuse, img, bg, mask=mask, position=(0.8, 1.0), height=0.5, shadow=True)
     assert out2.shape == (120, 260, 3)
 
 
@@ -428,9 +428,9 @@ def test_the_automatic_matte_sees_the_photo_not_its_linear_copy(diffuse_models_d
     r = Relighter(RuntimeConfig(models=diffuse_models_dir, device="cpu", detail=False))
     r._matter, r._matter_loaded = matter, True  # the automatic matte, replaced by one that records its input
     bg = np.full((120, 260, 3), 90, np.uint8)
-    with_matte = r.composite(img, bg)
+    with_matte = composite(r, img, bg)
     assert seen and seen[0] == pytest.approx(img.mean() / 255, abs=1e-6)  # sRGB values, as in every other command
-    np.testing.assert_array_equal(with_matte, r.composite(img, bg, mask=mask))  # the same as that mask given
+    np.testing.assert_array_equal(with_matte, composite(r, img, bg, mask=mask))  # the same as that mask given
 
 
 def test_a_portrait_wider_than_the_background_fits_it_by_default(diffuse):
@@ -464,6 +464,6 @@ def test_a_person_photo_file_is_decoded_once(diffuse_models_dir, tmp_path, monke
     decode = io.decode_file
     monkeypatch.setattr(io, "decode_file", lambda *a, **k: calls.append(a[0]) or decode(*a, **k))
     bg = np.full((120, 260, 3), 90, np.uint8)
-    from_file = r.composite(path, bg)
+    from_file = composite(r, path, bg)
     assert calls == [path]
-    np.testing.assert_array_equal(from_file, r.composite(img, bg))
+    np.testing.assert_array_equal(from_file, composite(r, img, bg))

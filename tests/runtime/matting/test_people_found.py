@@ -590,14 +590,14 @@ def test_person_option_sets_the_matting(command):
 
 
 def test_more_people_than_the_cap_are_relit_as_one(two_people, monkeypatch, caplog):
-    """Each person relit on their own holds a mask the size of the photo: past relighter._MAX_PEOPLE the group is
+    """Each person relit on their own holds a mask the size of the photo: past relight.people.MAX_PEOPLE the group is
     relit as one, and the log says so."""
     from relight_rt import Relighter, RuntimeConfig
-    from relight_rt import relighter as R
+    from relight_rt.relight import people
 
-    monkeypatch.setattr(R, "_MAX_PEOPLE", 1)
+    monkeypatch.setattr(people, "MAX_PEOPLE", 1)
     rl = Relighter(RuntimeConfig(device="cpu", matting="all"))
-    with caplog.at_level("INFO", logger="relight_rt.relighter"):
+    with caplog.at_level("INFO", logger="relight_rt.relight.intake"):
         dec = rl.decompose(two_people[0])
     assert "parts" not in rl._prepared(dec) and "2 people found, relit as one group" in caplog.text
 

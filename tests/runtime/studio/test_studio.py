@@ -20,7 +20,7 @@ from relight_rt import Relighter, RelightError, RuntimeConfig, envmap, lights
 from relight_rt._limits import header_size
 from relight_rt._strength import restore_bands
 from relight_rt.cli import main
-from relight_rt.relighter import _SKIN_CHROMA, _skin_chroma
+from relight_rt.relight.look import SKIN_CHROMA, skin_chroma
 from relight_rt.studio.core import (
     MAX_UPLOAD_BYTES,
     ResultStore,
@@ -151,13 +151,13 @@ def test_layers_match_the_decomposition(studio):
     np.testing.assert_allclose(layers["mask"], mask, atol=0.5 / 255 + 1e-6)
     photo = cv2.resize(np.asarray(dec.image), size, interpolation=cv2.INTER_AREA)
     np.testing.assert_allclose(layers["background"].transpose(1, 2, 0), photo, atol=0.5 / 255 + 1e-6)
-    # the shaded-skin rule's inputs (relight_rt.relighter._skin_chroma), as the page reads them
-    chroma, weight = _skin_chroma(dec.network_image, dec.skin)
+    # the shaded-skin rule's inputs (relight_rt.relight.look.skin_chroma), as the page reads them
+    chroma, weight = skin_chroma(dec.network_image, dec.skin)
     skin = dec.to_input(np.concatenate([chroma, weight[..., None]], axis=2))
     skin = np.stack([cv2.resize(skin[..., k], size, interpolation=cv2.INTER_AREA) for k in range(4)], axis=2)
     np.testing.assert_allclose(layers["skin_chroma"].transpose(1, 2, 0), skin[..., :3], atol=1 / 255 + 1e-5)
     np.testing.assert_allclose(layers["skin"], skin[..., 3], atol=0.5 / 255 + 1e-6)
-    assert meta["skin_chroma"] == _SKIN_CHROMA and len(meta["own_white"]) == 9
+    assert meta["skin_chroma"] == SKIN_CHROMA and len(meta["own_white"]) == 9
     assert info["presets"].keys() == set(lights.list_presets())
     np.testing.assert_allclose(info["own_light"], dec.light)
     with pytest.raises(RelightError, match="bytes"):
@@ -215,8 +215,8 @@ def test_preview_exposure_follows_the_highlight_guard(photo, models_dir, monkeyp
 
     monkeypatch.setattr(exposure, "HIGHLIGHT_LIMIT", 0.6)
     relighter = Relighter(RuntimeConfig(models=models_dir, device="cpu"))
-    own = relighter._highlight_inputs
-    monkeypatch.setattr(relighter, "_highlight_inputs", lambda dec: own(dec)[:3] + (0.05,))  # 5 % past the limit
+    own = relighter._factor.highlight_inputs  # what the final result and the preview both read
+    monkeypatch.setattr(relighter._factor, "highlight_inputs", lambda dec: own(dec)[:3] + (0.05,))  # 5 % past the limit
     guarded = Studio(photo, None, "original", relighter, preview_pixels=4096, models=models_dir)
     factors = _check_preview_exposure(guarded)
     assert min(factors) < 0.95, factors  # the guard lowered at least one light
