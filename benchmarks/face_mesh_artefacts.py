@@ -135,13 +135,13 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     relighter = Relighter(RuntimeConfig(device="cpu"))
-    tri = relighter._face_mesh().triangles
+    tri = relighter._faces.mesh().triangles
     report = {}
     for name, path in photos(args).items():
         if args.only and name not in args.only:
             continue
         dec = relighter.decompose(str(path))
-        meshes = relighter._prepared(dec).get("face_meshes") or []
+        meshes = dec.face_meshes or []
         if not meshes:
             print(f"{name}: no face mesh", flush=True)
             continue

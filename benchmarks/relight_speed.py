@@ -44,7 +44,7 @@ def main() -> None:
     mask = read_mask(args.mask, image.shape[:2])
     dec = r.decompose(image, mask)
     print(f"{args.photo}: {image.shape[1]}x{image.shape[0]}, second pass on the face: "
-          f"{r._prepared(dec).get('head') is not None}")
+          f"{dec.head is not None}")
     for name in ("studio", "window-left", "campfire"):
         light = lights.preset(name)
         best, median = timed(lambda light=light: r.relight(dec, light), args.repeats)

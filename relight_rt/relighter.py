@@ -38,7 +38,7 @@ from .contract import kind_spec
 from .lightspec import LightSpec
 from .masks import Matter
 from .relight import people as per_person
-from .relight.compose import Composer, backdrop_of
+from .relight.compose import Composer, backdrop_of, own_colours
 from .relight.decomposition import (
     Decomposition,
     ImageLike,
@@ -197,10 +197,6 @@ class Relighter:
                     self._matter = shared_matter(device=self.config.device, person=person)
         return self._matter
 
-    def _prepared(self, dec: Decomposition) -> dict:
-        """This Relighter's per-decomposition state (created on first use; freed with the Decomposition)."""
-        return self._memo(dec)
-
     # ------------------------------------------------------------------------------------ stage 1
 
     def decompose(self, image: ImageLike, mask: ImageLike | None = None) -> Decomposition:
@@ -237,39 +233,59 @@ class Relighter:
             raise RelightError(f"masks: expected one per image ({len(images)}), got {len(masks)}")
         if not images:
             return []
-        decs = self._stage1(images, masks, allow_full)
-        people = [self._prepared(dec).pop("people", None) for dec in decs]
-        if not allow_full:  # photos; video frames skip the work done once per photo (a second pass, the matte's
-            for i, dec in enumerate(decs):  # foreground colours, the light's refit): per frame it would cost more
-                self._prepared(dec)["photo"] = True  # than it shows
-                self._prepared(dec)["faces"] = self.detail
-                if self.detail:  # the photo's light, refit to the transport the relit photo is divided by
-                    decs[i] = self._factor.refit(dec)
-            if self.detail and self.face_pass:
-                self._look_at_faces(decs)
-            for dec, masks_i in zip(decs, people, strict=True):
-                if masks_i is not None:  # a group photo (matting="all"): each person decomposed on their own too
-                    self._prepared(dec)["parts"] = tuple(self.decompose_batch([dec.image] * len(masks_i), masks_i))
+        decs, people = self._stage1(images, masks, allow_full, faces=self.detail and not allow_full)
+        if allow_full:  # video frames skip the work done once per photo (a second pass, the matte's foreground
+            return decs  # colours, the light's refit): per frame it would cost more than it shows
+        decs = self._photos(decs)
+        for i, masks_i in enumerate(people):
+            if masks_i is not None:  # a group photo (matting="all"): each person decomposed on their own too
+                decs[i] = self._group(decs[i], masks_i)
+        return [dec if dec.foreground is not None else self._factor.derive(dec, foreground=own_colours(dec))
+                for dec in decs]
+
+    def _photos(self, decs: list[Decomposition]) -> list[Decomposition]:
+        """Photos' light refit to the transport the relit photo is divided by, and their faces seen small looked
+        at again (with detail)."""
+        if not self.detail:
+            return decs
+        decs = [self._factor.refit(dec) for dec in decs]
+        if self.face_pass:
+            self._look_at_faces(decs)
         return decs
 
+    def _group(self, dec: Decomposition, masks: list[np.ndarray]) -> Decomposition:
+        """A group photo ``dec`` with each of its people (``masks``: their shares of its matte) decomposed on their
+        own (relight_rt.relight.people); the person's own colours are the group's where their box lies in the
+        group's (their share lies in its matte: where two people meet neither is background)."""
+        fg, behind = own_colours(dec)
+        y0, y1, x0, x1 = dec.geometry.box
+        parts = []
+        for part in self._photos(self._stage1([dec.image] * len(masks), masks, False, faces=self.detail)[0]):
+            py0, py1, px0, px1 = part.geometry.box
+            inside = py0 >= y0 and py1 <= y1 and px0 >= x0 and px1 <= x1
+            group = (slice(py0 - y0, py1 - y0), slice(px0 - x0, px1 - x0))
+            colours = (fg[group], behind[group]) if inside else own_colours(part)
+            parts.append(self._factor.derive(part, foreground=colours))
+        return self._factor.derive(dec, people=tuple(parts), foreground=(fg, behind))
+
     def _look_at_faces(self, decs: list[Decomposition]) -> None:
-        """Run stage 1 again on the head of each person whose face it saw small (relight_rt._face)."""
+        """Run stage 1 again on the head of each person whose face it saw small (relight_rt._face), in place."""
         todo = head_crops(decs)
         if not todo:
             return
-        heads = self._stage1([t[3] for t in todo], [t[4] for t in todo], True)
+        heads, _ = self._stage1([t[3] for t in todo], [t[4] for t in todo], True, faces=True)
         for (i, dec, box, _, _), head in zip(todo, heads, strict=True):
             # the head pass gives the face's transport; the photo's light is the body's estimate (one light for
             # one photo: the change of shading is measured from it in both passes, so the photo's own light
             # gives the photo back everywhere), turned by the face the head pass sees large (``Factor.face_light``)
-            self._prepared(head)["faces"] = True
-            decs[i] = dec = self._factor.face_light(dec, head)
-            head = self._factor.with_light(head, dec.light)
-            self._prepared(dec)["head"] = (head, box)
+            dec = self._factor.face_light(dec, head)
+            decs[i] = self._factor.derive(dec, head=self._factor.with_light(head, dec.light), head_box=box)
             log.debug("second stage-1 pass on the head at %s", box)
 
-    def _stage1(self, images: Sequence[ImageLike], masks: Sequence, allow_full: bool) -> list[Decomposition]:
-        """Stage 1 on a batch: read, resolve masks, crop, run; one Decomposition per image."""
+    def _stage1(self, images: Sequence[ImageLike], masks: Sequence, allow_full: bool, faces: bool
+                ) -> tuple[list[Decomposition], list]:
+        """Stage 1 on a batch: read, resolve masks, crop, run; one Decomposition per image (a photo unless
+        ``allow_full``, its face meshes found with ``faces``), and per image its people's masks or None."""
         matter = self.matter
         group = self.config.matting == "all" and not allow_full  # a group photo: relit person by person
         rgbs, ms, geoms, people = read_batch(images, masks, matter, group, allow_full, self.resolution,
@@ -283,13 +299,12 @@ class Relighter:
             if not np.isfinite(light).all():
                 raise RelightError(f"{self.stage1.name}: stage 1 estimated a non-finite light for this image")
             dec = Decomposition(out["albedo"][i], out["skin"][i, 0], out["transport"][i], light, net_masks[i],
-                                net_imgs[i], ms[i], rgbs[i], geom)
+                                net_imgs[i], ms[i], rgbs[i], geom, photo=not allow_full,
+                                face_meshes=self._faces.find(rgbs[i], geom.box) if faces else None)
             if on_device[i] is not None:
-                self._prepared(dec)["device"] = on_device[i]
-            if people[i] is not None:
-                self._prepared(dec)["people"] = people[i]
+                self._memo(dec)["device"] = on_device[i]
             decs.append(dec)
-        return decs
+        return decs, people
 
     # ------------------------------------------------------------------------------------ lights
 
@@ -382,7 +397,7 @@ class Relighter:
         if isinstance(light, (str, os.PathLike)):
             light = LightSpec.of(light)  # read once by the one rule: its exposure and its light
         exposure = _exposure.for_light(exposure, light)  # a preset may ask for its own exposure (night: darker)
-        parts = self._prepared(dec).get("parts")
+        parts = dec.people
         if parts:
             bg = parse_background(background)
             light = self.resolve_light(light)
@@ -422,7 +437,7 @@ class Relighter:
         # each light's exposure: a preset may ask for its own (``exposure.for_light``: night a stop darker)
         exposures = [_exposure.for_light(exposure, v) for v in lights] if isinstance(lights, list) else \
             [_exposure.parse_exposure(exposure)] * len(resolved)
-        parts = self._prepared(dec).get("parts")
+        parts = dec.people
         if parts:
             bg = parse_background(background)
             for light, exp in zip(resolved, exposures, strict=True):

@@ -27,7 +27,7 @@ import logging
 import os
 import time
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Protocol
 
@@ -201,13 +201,9 @@ class RelighterEngine:
 
     def render(self, layers: FrameLayers, albedo: np.ndarray, transport: np.ndarray, own_light: np.ndarray | None,
                light: np.ndarray, background: Background) -> np.ndarray:
-        from .relighter import Decomposition
-
         dec = layers.state
-        stab = Decomposition(albedo_chw=albedo.transpose(2, 0, 1), skin=dec.skin,
-                             transport_chw=transport.transpose(2, 0, 1),
-                             light=dec.light if own_light is None else own_light, network_mask=dec.network_mask,
-                             network_image=dec.network_image, mask=dec.mask, image=dec.image, geometry=dec.geometry)
+        stab = replace(dec, albedo_chw=albedo.transpose(2, 0, 1), transport_chw=transport.transpose(2, 0, 1),
+                       light=dec.light if own_light is None else own_light)
         return self.relighter.relight(stab, light, background=background, exposure=self.exposure)
 
     def to_input(self, layers: FrameLayers, layer: np.ndarray) -> np.ndarray:

@@ -53,6 +53,28 @@ def backdrop_of(dec: Decomposition, bg: Background) -> np.ndarray | None:
     return dec.image if bg.kind == "original" else bg.backdrop(dec.image)
 
 
+def own_colours(dec: Decomposition, multilevel: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """(h, w, 3) twice, in the crop box: the person's own colour F and the colour behind it B (read-only).
+
+    At a soft matte's edge a pixel mixes both (I = a F + (1 - a) B); relighting or moving I would carry the
+    old background along (a halo in a new scene, the new light's colour spilt onto the street). For a photo
+    (``dec.photo``, or ``multilevel``) F and B come from relight_rt.foreground (multilevel foreground estimation);
+    for a hard edge a pixel or two wide (anti-aliasing, feathering), and for video frames, the solid colours beside
+    each soft pixel (relight_rt.foreground.nearest_colours); for a hard mask both are the photo (one array).
+    """
+    image = np.ascontiguousarray(dec.geometry.crop(dec.image))
+    alpha = np.ascontiguousarray(dec.geometry.crop(dec.mask))
+    width = soft_edge_width(alpha)
+    if (dec.photo or multilevel) and width > _THIN_EDGE:
+        fg, bg = estimate_foreground(image, alpha, return_background=True)
+        fg, bg = consistent(image, alpha, fg, bg)
+    elif width > 0:
+        fg, bg = nearest_colours(image, alpha)
+    else:  # a hard mask: nothing of the background to take out
+        fg = bg = image
+    return readonly(fg), readonly(bg)
+
+
 class Composer:
     """A Relighter's relit person, at full resolution and put over a backdrop.
 
@@ -82,9 +104,8 @@ class Composer:
         image, _ = self.foreground(dec)
         gain = self.factor.gain(dec, light, image, residual)
         state = self.memo(dec)
-        head = state.get("head")
-        if head is not None:
-            self.factor.blend_head(dec, gain, light, *head)
+        if dec.head is not None:
+            self.factor.blend_head(dec, gain, light, dec.head, dec.head_box)
         if "dark" not in state:  # once per photo: what steadying dark pixels' colour needs whatever the light
             state["dark"] = tuple(readonly(a) for a in dark_colour(image))
         colour = steady_chroma(image, gain, state["dark"])
@@ -94,29 +115,16 @@ class Composer:
         return shoulder(colour, state["knee"])
 
     def foreground(self, dec: Decomposition, always: bool = False) -> tuple[np.ndarray, np.ndarray]:
-        """(h, w, 3) twice, in the crop box: the person's own colour F and the colour behind it B (cached).
-
-        At a soft matte's edge a pixel mixes both (I = a F + (1 - a) B); relighting or moving I would carry the
-        old background along (a halo in a new scene, the new light's colour spilt onto the street). For a photo
-        F and B come from relight_rt.foreground (multilevel foreground estimation, once per photo); for a hard
-        edge a pixel or two wide (anti-aliasing, feathering), and for video frames (unless ``always``: the
-        multilevel estimate costs about as much as the frame's relighting), the solid colours beside each soft
-        pixel (relight_rt.foreground.nearest_colours); for a hard mask both are the photo.
-        """
+        """``dec.foreground`` (a photo's), or ``own_colours`` found once (a video frame's; multilevel with
+        ``always``: that estimate costs about as much as the frame's relighting). Each kind is kept on its own, so
+        that what was relit before cannot change a result."""
+        if dec.foreground is not None:
+            return dec.foreground
         state = self.memo(dec)
-        if "foreground" not in state:
-            image = np.ascontiguousarray(dec.geometry.crop(dec.image))
-            alpha = np.ascontiguousarray(dec.geometry.crop(dec.mask))
-            width = soft_edge_width(alpha)
-            if (state.get("photo") or always) and width > _THIN_EDGE:
-                fg, bg = estimate_foreground(image, alpha, return_background=True)
-                fg, bg = consistent(image, alpha, fg, bg)
-            elif width > 0:
-                fg, bg = nearest_colours(image, alpha)
-            else:  # a hard mask: nothing of the background to take out
-                fg = bg = image
-            state["foreground"] = (readonly(fg), readonly(bg))
-        return state["foreground"]
+        key = ("foreground", bool(always))
+        if key not in state:
+            state[key] = own_colours(dec, always)
+        return state[key]
 
     def compose(
         self, dec: Decomposition, light: np.ndarray, outputs: tuple, backdrop: np.ndarray | None, clean: bool = False

@@ -33,11 +33,13 @@ def readonly(a: np.ndarray) -> np.ndarray:
 class Decomposition:
     """Stage 1's answer for one photo, with what is needed to put results back into the photo: plain data.
 
-    Only arrays and the crop geometry: a Decomposition pickles (to another process, a Ray worker) and
-    holds no session or device memory; a Relighter keeps whatever it prepares for one (device copies, the
-    reconstruction) on its own side, keyed to it. Network-frame arrays are R x R views of the
-    crop/pad/resize square (see ``geometry``); input-frame arrays have the photo's (H, W). All arrays are
-    float32 and read-only; colours are RGB.
+    Only arrays, the crop geometry and the decompositions of its head and its people: a Decomposition carries
+    everything its relighting needs besides the models, so pickled (to another process, a Ray worker, a file)
+    and reloaded it relights to the same picture. It holds no session or device memory; what a Relighter
+    computes from it once (device copies, the reconstruction under the own light) it keeps on its own side
+    (``Memo``), and losing that changes nothing. Network-frame arrays are R x R views of the crop/pad/resize
+    square (see ``geometry``); input-frame arrays have the photo's (H, W). All arrays are read-only, float32
+    but for the face meshes; colours are RGB.
 
     Attributes:
         albedo_chw: (3, R, R) albedo in [0, 1], masked (``albedo`` is the (R, R, 3) view).
@@ -51,6 +53,18 @@ class Decomposition:
         mask: (H, W) the person mask in the input frame, in [0, 1].
         image: (H, W, 3) the input photo, RGB in [0, 1].
         geometry: the CropGeometry mapping network pixels to input pixels.
+        photo: True for a photo (``Relighter.decompose``), False for a video frame (``allow_full``): a photo's
+            matte edge gets the multilevel foreground estimate, a frame's the colours beside it.
+        face_meshes: the meshes of the faces found in the photo ((468, 3) float64 x, y, z in input pixels,
+            relight_rt._face_geometry), blended into the transport; None: no face mesh is used (video frames,
+            ``detail=False``).
+        head: the head's second stage-1 pass, for a face stage 1 saw small (relight_rt._face), with this
+            decomposition's light; None without one. ``head_box`` (y0, y1, x0, x1): where it lies in the photo.
+        people: a group photo's people, each decomposed on their own with their share of the matte (empty: one
+            person, or the group relit as one).
+        foreground: (h, w, 3) twice, in the crop box: the person's own colour F and the colour behind it B at
+            the soft edge (``relight.compose.own_colours``; the same array twice for a hard mask); None: found
+            on first use (video frames).
     """
 
     albedo_chw: np.ndarray
@@ -62,6 +76,12 @@ class Decomposition:
     mask: np.ndarray
     image: np.ndarray
     geometry: CropGeometry
+    photo: bool = False
+    face_meshes: tuple[np.ndarray, ...] | None = None
+    head: Decomposition | None = None
+    head_box: tuple[int, int, int, int] | None = None
+    people: tuple[Decomposition, ...] = ()
+    foreground: tuple[np.ndarray, np.ndarray] | None = None
 
     def __post_init__(self) -> None:
         put = lambda name, value: object.__setattr__(self, name, readonly(value))  # noqa: E731
@@ -70,6 +90,11 @@ class Decomposition:
         put("light", np.array(self.light, dtype=np.float32))
         put("mask", np.asarray(self.mask, dtype=np.float32))
         put("image", np.asarray(self.image, dtype=np.float32))
+        if self.face_meshes is not None:
+            object.__setattr__(self, "face_meshes", tuple(readonly(np.asarray(m)) for m in self.face_meshes))
+        if self.foreground is not None:  # F and B may be one array (a hard mask): kept as one
+            object.__setattr__(self, "foreground", tuple(readonly(np.asarray(a)) for a in self.foreground))
+        object.__setattr__(self, "people", tuple(self.people))
 
     def __reduce__(self):  # unpickled through the constructor, so the arrays come back read-only
         return (type(self), tuple(getattr(self, f.name) for f in fields(self)))
@@ -148,7 +173,11 @@ def diffuse_batch(albedo_chw: np.ndarray, transport_chw: np.ndarray, lights: np.
 
 
 class Memo:
-    """What a Relighter computes once per Decomposition, weakly keyed to it (dropped with it), under one lock."""
+    """What a Relighter computes once per Decomposition, weakly keyed to it (dropped with it), under one lock.
+
+    Only what follows from the Decomposition's fields and the Relighter's models (device copies, the
+    reconstruction under the photo's own light, the full-resolution guide, ...): a cache, not state; a
+    Decomposition relit by a Relighter that never saw it gives the same picture."""
 
     def __init__(self) -> None:
         self._dicts: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._errors import RelightError
 from .._face import head_box
 from .._face_geometry import MIN_FACE_NET, FaceMesh, face_transport
 from .decomposition import Decomposition
@@ -43,22 +44,27 @@ class FacePass:
                     self._mesh = FaceMesh(self.models_dir, device="cpu")
         return self._mesh
 
-    def add_faces(self, dec: Decomposition, transport: np.ndarray, window: tuple[int, int, int, int], state: dict
-                  ) -> np.ndarray:
-        """Blend the transport of each face's mesh into ``transport`` (the window's, unpremultiplied), in place
-        (``state``: what is kept for ``dec``, its meshes once found); returns where the faces' skin lies well inside
-        their meshes (``face_transport``; none without a mesh)."""
+    def find(self, image: np.ndarray, box: tuple[int, int, int, int]) -> tuple[np.ndarray, ...]:
+        """The meshes of the faces in ``image`` (H, W, 3) inside ``box`` (y0, y1, x0, x1), none without the face
+        models: ((468, 3) float64 x, y, z in input pixels, ...)."""
         mesh = self.mesh()
-        if not mesh.available:
+        return tuple(mesh.faces(image, box)) if mesh.available else ()
+
+    def add_faces(self, dec: Decomposition, transport: np.ndarray, window: tuple[int, int, int, int]) -> np.ndarray:
+        """Blend the transport of each of ``dec.face_meshes`` into ``transport`` (the window's, unpremultiplied), in
+        place; returns where the faces' skin lies well inside their meshes (``face_transport``; none without a
+        mesh)."""
+        mesh = self.mesh()
+        if not dec.face_meshes:
             return np.zeros(transport.shape[:2], bool)
+        if not mesh.available:
+            raise RelightError(f"{self.models_dir}: a decomposition with face meshes needs the face models to relight")
         geom = dec.geometry
         k = geom.scale
         (by0, _, bx0, _), (oy, ox) = geom.box, geom.offset
         y0, _, x0, _ = window
-        if "face_meshes" not in state:  # once per decomposition (both "own" entries use them)
-            state["face_meshes"] = mesh.faces(dec.image, geom.box)
         skin = np.zeros(transport.shape[:2], bool)
-        for pts in state["face_meshes"]:
+        for pts in dec.face_meshes:
             net = np.empty_like(pts)  # input pixels -> the window's pixel indices (centres at integers)
             net[:, 0] = (pts[:, 0] - bx0 + ox) / k - 0.5 - x0
             net[:, 1] = (pts[:, 1] - by0 + oy) / k - 0.5 - y0

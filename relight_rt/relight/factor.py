@@ -101,8 +101,8 @@ class Factor:
             # the directional bands restored to their true strength (relight_rt._strength), for both sides of the ratio
             transport = restore_bands(unpremultiply(np.ascontiguousarray(dec.transport[y0:y1, x0:x1]), alpha))
             skin = np.zeros(alpha.shape, bool)
-            if state.get("faces"):  # a face's shape from its mesh where stage 1's transport is a blur
-                skin = self.faces.add_faces(dec, transport, (y0, y1, x0, x1), state)
+            if dec.face_meshes:  # a face's shape from its mesh where stage 1's transport is a blur
+                skin = self.faces.add_faces(dec, transport, (y0, y1, x0, x1))
             albedo = unpremultiply(np.ascontiguousarray(dec.albedo[y0:y1, x0:x1]), alpha) @ _exposure.REC709
             photo = dec.network_image[y0:y1, x0:x1] @ _exposure.REC709
             state["restored"] = {"window": (y0, y1, x0, x1), "alpha": alpha, "inner": alpha > 0.5,
@@ -177,9 +177,17 @@ class Factor:
 
     def with_light(self, dec: Decomposition, light: np.ndarray) -> Decomposition:
         """``dec`` with another light; what was prepared for it that does not depend on its light goes along."""
-        new = replace(dec, light=np.asarray(light, np.float32))
+        return self.derive(dec, light=np.asarray(light, np.float32))
+
+    def derive(self, dec: Decomposition, **changes) -> Decomposition:
+        """``dataclasses.replace(dec, **changes)`` (its light, head, people or foreground); what was computed for
+        ``dec`` that those leave as it was goes along: stage 1's outputs on the device, ``restored`` and the
+        full-resolution guide (unless the foreground changes)."""
+        if not set(changes) <= {"light", "head", "head_box", "people", "foreground"}:
+            raise ValueError(f"derive: {sorted(changes)} change what is computed from them")
+        new = replace(dec, **changes)
         old, state = self.memo(dec), self.memo(new)
-        for key in ("photo", "faces", "face_meshes", "restored", "device", "gray"):
+        for key in ("restored", "device") if "foreground" in changes else ("restored", "device", "gray"):
             if key in old:
                 state[key] = old[key]
         return new

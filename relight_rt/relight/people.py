@@ -54,15 +54,15 @@ def by_person(
         if cy1 <= cy0 or cx1 <= cx0:
             continue
         state = memo(part)
-        if "foreground" not in state and (cy0, cy1, cx0, cx1) == (py0, py1, px0, px1):
+        if "dark" not in state and (cy0, cy1, cx0, cx1) == (py0, py1, px0, px1):
             # the person's box lies in the group's (their share lies in its matte): what the group has of the
-            # photo whatever the light is theirs, as views (a group photo of many megapixels holds it once)
+            # photo whatever the light is theirs, as views (a group photo of many megapixels holds it once; their
+            # own colours are the group's already: Relighter._group)
             group = (slice(py0 - y0, py1 - y0), slice(px0 - x0, px1 - x0))
             whole = memo(dec)
             if "dark" not in whole:
                 whole["dark"] = tuple(readonly(a) for a in dark_colour(fg))
                 whole["knee"] = readonly(knee(fg))
-            state["foreground"] = (fg[group], behind[group])
             state["dark"] = tuple(a[group] for a in whole["dark"])
             state["knee"] = whole["knee"][group]
         lit = factor.expose(part, light[None], exposure)[0]

@@ -386,8 +386,7 @@ class Studio:
     def _people(self) -> int:
         """How many people the full result relights one by one (a group photo with matting="all"; the live
         preview draws the group's layers, one body); 1 otherwise."""
-        prepared = getattr(self.relighter, "_prepared", None)
-        return len(prepared(self.dec).get("parts") or ()) or 1 if prepared is not None else 1
+        return len(getattr(self.dec, "people", ())) or 1
 
     # ------------------------------------------------------------------------------------ full results
 

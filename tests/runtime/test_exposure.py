@@ -190,7 +190,7 @@ def test_auto_exposure_keeps_a_side_lamp_from_flattening_a_fair_face(reference_d
     guarded = relighter.relight(dec, lamp, layers=True)
     own = relighter.relight(dec, dec.light, layers=True).light
     monkeypatch.setattr(_exposure, "HIGHLIGHT_MAX_DOWN", 1.0)  # the guard off: the mean luminance kept
-    relighter._prepared(dec).pop("highlight", None)
+    relighter._memo(dec).pop("highlight", None)
     kept = relighter.relight(dec, lamp, layers=True)
     np.testing.assert_allclose(relighter.relight(dec, dec.light, layers=True).light, own, rtol=1e-6)
     factor = float(guarded.light[0, 0] / kept.light[0, 0])

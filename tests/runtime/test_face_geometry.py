@@ -17,6 +17,7 @@ from relight_rt._face_geometry import (
     lobe_transport,
     rasterise_normals,
 )
+from relight_rt.relight.factor import Factor
 from relight_rt.session import bundled_models_dir
 
 REFERENCE = Path(__file__).resolve().parents[3] / "shared" / "reference"
@@ -155,13 +156,13 @@ def test_the_face_in_a_real_photo_gets_its_mesh_and_the_light_models_it(monkeypa
     r = Relighter(RuntimeConfig(device="cpu"))
     dec = r.decompose(photo, mask)
     np.testing.assert_allclose(r.relight(dec, dec), dec.image, atol=2e-3)  # with the refit light
-    monkeypatch.setattr(Relighter, "_refit", lambda self, dec: dec)
+    monkeypatch.setattr(Factor, "refit", lambda self, dec: dec)
     r = Relighter(RuntimeConfig(device="cpu"))
     dec = r.decompose(photo, mask)
-    head, box = r._prepared(dec)["head"]
+    head, box = dec.head, dec.head_box
     light = lights.directional((0.4, 1, 0.3)) + lights.ambient(0.08)
     with_mesh = r.relight(dec, light)
-    assert len(r._prepared(head)["face_meshes"]) == 1
+    assert len(head.face_meshes) == 1
     np.testing.assert_allclose(r.relight(dec, dec), dec.image, atol=2e-3)
 
     plain_r = Relighter(RuntimeConfig(device="cpu"))

@@ -528,12 +528,14 @@ def test_group_photo_relit_person_by_person(two_people):
     """matting="all": each person is decomposed and relit on their own (their own shape and exposure), so each
     one's pixels are what relighting that person alone gives; the group decomposed as one gave something else (a
     light from the left lit the left person's left side and the right person's right side darker, as one body)."""
+    from dataclasses import replace
+
     from relight_rt import Relighter, RuntimeConfig, lights
 
     image, truth = two_people
     rl = Relighter(RuntimeConfig(device="cpu", matting="all"))
     dec = rl.decompose(image)
-    parts = rl._prepared(dec)["parts"]
+    parts = dec.people
     assert len(parts) == 2
     np.testing.assert_allclose(sum(p.mask for p in parts), dec.mask, atol=1e-5)
     light = lights.directional((0.3, -1.0, 0.2)) + lights.ambient((0.1, 0.1, 0.1))
@@ -546,9 +548,7 @@ def test_group_photo_relit_person_by_person(two_people):
     np.testing.assert_array_equal(group[outside], image[outside])
     black = rl.relight(dec, light, background="black")
     assert not black[outside].any() and np.abs(black[dec.mask > 0.999] - group[dec.mask > 0.999]).max() < 1 / 255
-    saved = rl._prepared(dec).pop("parts")
-    as_one = rl.relight(dec, light)
-    rl._prepared(dec)["parts"] = saved
+    as_one = rl.relight(replace(dec, people=()), light)
     for part in parts:
         alone = rl.relight(image, light, mask=part.mask)
         own = part.mask > 0.999
@@ -599,7 +599,7 @@ def test_more_people_than_the_cap_are_relit_as_one(two_people, monkeypatch, capl
     rl = Relighter(RuntimeConfig(device="cpu", matting="all"))
     with caplog.at_level("INFO", logger="relight_rt.relight.intake"):
         dec = rl.decompose(two_people[0])
-    assert "parts" not in rl._prepared(dec) and "2 people found, relit as one group" in caplog.text
+    assert not dec.people and "2 people found, relit as one group" in caplog.text
 
 
 def test_studio_of_a_group(two_people, tmp_path):
