@@ -12,6 +12,7 @@ from ._version import __version__
 if TYPE_CHECKING:  # what the lazy loading below provides, for type checkers and readers
     from . import color, compositing, config, contract, envmap, lightfile, lights, lightspec, masks, sh
     from ._errors import RelightError
+    from .builder import open
     from .color import linear_to_srgb, srgb_to_linear
     from .compositing import Background, parse_background
     from .config import RuntimeConfig
@@ -44,6 +45,7 @@ __all__ = [
     "Decomposition",
     "Relighter",
     "RelightResult",
+    "open",
     "RuntimeConfig",
     "create_session",
     "find_models",
@@ -109,7 +111,7 @@ __all__ = [
 # SIGTERM no message; issue 35 item 16). The first access of any name imports these modules, in this order, and
 # takes each name of ``__all__`` from the first of them that defines it (``__all__`` is the one list).
 _HOMES = ("_errors", "color", "compositing", "config", "contract", "envmap", "lightfile", "lights", "lightspec",
-          "masks", "sh", "relighter", "session", "transport_file")
+          "masks", "sh", "relighter", "builder", "session", "transport_file")
 _state = {"loading": False}
 # the public names that are modules (tests/runtime/test_api_surface.py checks the list)
 _MODULES = frozenset(

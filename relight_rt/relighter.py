@@ -17,7 +17,6 @@ warning is logged at load, and ``RelightResult.diffuse_only`` says so.
 
 from __future__ import annotations
 
-import importlib.util
 import logging
 import os
 from collections.abc import Iterator, Sequence
@@ -80,13 +79,17 @@ class Relighter:
             missing in that precision is taken in fp32, logged), preprocessing ("quality" or "reference", the
             reference's resize bit for bit), detail transfer, warm-up and automatic matting. None: the
             defaults (the bundled models, or $RELIGHT_RT_MODELS). Kept once, as ``self.config``.
+        matter: the automatic person matte (any relight_rt.masks.Matter) for a photo given neither a mask nor an
+            alpha channel; one with ``parts`` and ``config.matting == "all"`` relights a group person by person.
+            None: such a photo is refused. ``relight_rt.open(config)`` hands in the bundled one.
         providers: explicit onnxruntime providers (win over the config's device).
 
     Raises:
         RelightError: no models found, a model file unreadable or breaking the contract, a bad setting.
     """
 
-    def __init__(self, config: RuntimeConfig | None = None, *, providers: list | None = None) -> None:
+    def __init__(self, config: RuntimeConfig | None = None, *, matter: Matter | None = None,
+                 providers: list | None = None) -> None:
         if config is None:
             config = RuntimeConfig()
         elif not isinstance(config, RuntimeConfig):
@@ -114,8 +117,7 @@ class Relighter:
         else:
             log.warning("%s has no stage2.onnx: results are diffuse-only (no residual/specular)", self.models_dir)
         self._dvp: Model | None = None
-        self._matter: Matter | None = None
-        self._matter_loaded = False
+        self.matter = matter  # the automatic matte of photos without a mask (None: they need one)
         self._chain = None  # CUDA: stage 1 → shading → stage 2 without host round trips
         if self.stage1.on_cuda and (self.stage2 is None or self.stage2.on_cuda):
             self._chain = DeviceChain(self.stage1, self.stage2, "cuda", config.device_id)
@@ -127,13 +129,6 @@ class Relighter:
         self._factor = Factor(self._memo, self._faces, config.detail, self._network.own_residual)
         self._composer = Composer(self._memo, self._factor, config.detail)
         CropGeometry.from_mask(np.ones((1, 1), np.float32), self.resolution, config.preprocess)  # checks the mode
-
-    @classmethod
-    def from_config(cls, config: RuntimeConfig, providers: list | None = None) -> Relighter:
-        """``Relighter(config, providers=providers)``."""
-        if not isinstance(config, RuntimeConfig):
-            raise RelightError(f"config: expected a RuntimeConfig, got {type(config).__name__}")
-        return cls(config, providers=providers)
 
     # the settings, read from self.config (kept there once)
     @property
@@ -179,23 +174,6 @@ class Relighter:
         if self._dvp is None and path.is_file():
             self._dvp = load_model(path, "dvp", warmup=False, **self._session_args)
         return self._dvp
-
-    @property
-    def matter(self) -> Matter | None:
-        """The automatic person matte (relight_rt.matting), loaded on first use; None when off or not installed."""
-        if not self._matter_loaded:
-            self._matter_loaded = True
-            if self.config.matting != "off" and importlib.util.find_spec(f"{__package__}.matting") is not None:
-                from .matting import find_matting_models, shared_matter
-
-                try:
-                    find_matting_models()
-                except RelightError as exc:  # the graphs are not installed: photos then need a mask or alpha
-                    log.debug("no automatic matting: %s", exc)
-                else:
-                    person = "all" if self.config.matting == "all" else "largest"
-                    self._matter = shared_matter(device=self.config.device, person=person)
-        return self._matter
 
     # ------------------------------------------------------------------------------------ stage 1
 

@@ -8,6 +8,7 @@ PUBLIC = {
     "Decomposition",
     "Relighter",
     "RelightResult",
+    "open",
     "create_session",
     "find_models",
     "load_model",

@@ -16,6 +16,7 @@ import cv2
 import numpy as np
 import pytest
 
+import relight_rt
 from relight_rt import Relighter, RuntimeConfig, lights
 from relight_rt._io import read_image
 
@@ -31,14 +32,14 @@ def reloaded(dec):
 
 
 def test_a_photo_with_a_face_relights_the_same_after_pickling():
-    relighter = Relighter(RuntimeConfig(device="cpu"))
+    relighter = relight_rt.open(RuntimeConfig(device="cpu"))
     dec = relighter.decompose(str(EXAMPLE_SCENE))
     # what its relighting needs travels with it: the face pass's meshes, the head pass, the soft edge's colours
     assert dec.photo and len(dec.face_meshes) == 1 and dec.head is not None and dec.foreground is not None
     assert dec.head.face_meshes is not None and not dec.foreground[0].flags.writeable
     back = reloaded(dec)
     assert len(back.face_meshes) == 1 and back.head_box == dec.head_box and not back.face_meshes[0].flags.writeable
-    fresh = Relighter(RuntimeConfig(device="cpu"))  # a Relighter that never saw it (as in another process)
+    fresh = Relighter(RuntimeConfig(device="cpu"))  # never saw it, has no matte: relighting needs neither
     for background in ("original", "transparent", "black"):
         want = relighter.relight(dec, LIGHT, background=background)
         assert np.abs(fresh.relight(back, LIGHT, background=background) - want).max() <= SAME
@@ -47,7 +48,7 @@ def test_a_photo_with_a_face_relights_the_same_after_pickling():
 
 
 def test_a_decomposition_sent_to_another_process_relights_the_same(tmp_path):
-    relighter = Relighter(RuntimeConfig(device="cpu"))
+    relighter = relight_rt.open(RuntimeConfig(device="cpu"))
     dec = relighter.decompose(str(EXAMPLE_SCENE))
     (tmp_path / "dec.pkl").write_bytes(pickle.dumps(dec))
     np.save(tmp_path / "light.npy", LIGHT)
@@ -68,7 +69,7 @@ def test_a_group_relights_the_same_after_pickling():
     a = rgba[..., 3:4]
     one = rgba[..., :3] * a + 0.55 * (1 - a)
     two = np.ascontiguousarray(np.hstack([one, one[:, ::-1]]))  # the example person and its mirror image
-    relighter = Relighter(RuntimeConfig(device="cpu", matting="all"))
+    relighter = relight_rt.open(RuntimeConfig(device="cpu", matting="all"))
     dec = relighter.decompose(two)
     assert len(dec.people) == 2 and all(p.foreground is not None for p in dec.people)
     back = reloaded(dec)
@@ -82,7 +83,7 @@ def test_a_group_relights_the_same_after_pickling():
 
 @pytest.mark.parametrize("detail", [True, False])
 def test_a_video_frame_relights_the_same_after_pickling(detail):
-    relighter = Relighter(RuntimeConfig(device="cpu", detail=detail))
+    relighter = relight_rt.open(RuntimeConfig(device="cpu", detail=detail))
     image = read_image(str(EXAMPLE_SCENE))
     mask = cv2.GaussianBlur(relighter.decompose(image).mask, (0, 0), 3)  # a soft edge wider than feathering
     (frame,) = relighter.decompose_batch([image], [mask], allow_full=True)

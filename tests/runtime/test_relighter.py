@@ -17,6 +17,7 @@ from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 from hypothesis.extra import numpy as hnp  # noqa: E402
 
+import relight_rt
 from relight_rt import RelightError, lights, sh  # noqa: E402
 from relight_rt.compositing import Background  # noqa: E402
 from relight_rt.config import RuntimeConfig  # noqa: E402
@@ -27,7 +28,7 @@ __all__ = ["models_dir", "diffuse_models_dir"]  # fixtures
 
 @pytest.fixture(scope="module")
 def relighter(models_dir):
-    return Relighter(RuntimeConfig(models=models_dir, device="cpu"))
+    return relight_rt.open(RuntimeConfig(models=models_dir, device="cpu"))
 
 
 @pytest.fixture(scope="module")

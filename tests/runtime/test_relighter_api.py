@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from _graphs import OWN_LIGHT, models_dir, person
 
+import relight_rt
 from relight_rt import LightSpec, Relighter, RelightError, RelightResult, RuntimeConfig, lightfile, lights, sh, video
 
 __all__ = ["models_dir"]  # fixture
@@ -29,7 +30,7 @@ def test_config_constructor_keeps_settings_once_and_does_not_warn(models_dir):
     assert (r.detail, r.preprocess, r.precision) == (False, "reference", "fp32")  # read from the config
     with pytest.raises(AttributeError):
         r.detail = True  # no second copy to drift from the config
-    assert Relighter.from_config(config).config is config
+    assert relight_rt.open(config).config is config
 
 
 def test_constructor_takes_a_runtime_config_only(models_dir):

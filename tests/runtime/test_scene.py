@@ -425,8 +425,8 @@ def test_the_automatic_matte_sees_the_photo_not_its_linear_copy(diffuse_models_d
         seen.append(float(rgb.mean()))
         return mask
 
-    r = Relighter(RuntimeConfig(models=diffuse_models_dir, device="cpu", detail=False))
-    r._matter, r._matter_loaded = matter, True  # the automatic matte, replaced by one that records its input
+    # the automatic matte handed in: one that records its input
+    r = Relighter(RuntimeConfig(models=diffuse_models_dir, device="cpu", detail=False), matter=matter)
     bg = np.full((120, 260, 3), 90, np.uint8)
     with_matte = composite(r, img, bg)
     assert seen and seen[0] == pytest.approx(img.mean() / 255, abs=1e-6)  # sRGB values, as in every other command
@@ -458,8 +458,8 @@ def test_a_person_photo_file_is_decoded_once(diffuse_models_dir, tmp_path, monke
     img, mask = flat_person()
     path = tmp_path / "person.png"
     cv2.imwrite(str(path), img[..., ::-1])
-    r = Relighter(RuntimeConfig(models=diffuse_models_dir, device="cpu", detail=False))
-    r._matter, r._matter_loaded = (lambda rgb, name="image": mask), True
+    r = Relighter(RuntimeConfig(models=diffuse_models_dir, device="cpu", detail=False),
+                  matter=lambda rgb, name="image": mask)
     calls = []
     decode = io.decode_file
     monkeypatch.setattr(io, "decode_file", lambda *a, **k: calls.append(a[0]) or decode(*a, **k))

@@ -5,7 +5,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from relight_rt import Relighter, RuntimeConfig, lights
+import relight_rt
+from relight_rt import RuntimeConfig, lights
 from relight_rt.relight.look import SKIN_CHROMA, shaded_skin, skin_chroma
 
 REC709 = np.array([0.2126, 0.7152, 0.0722], np.float32)
@@ -64,9 +65,9 @@ def test_a_real_face_keeps_its_colour_on_the_shaded_side(dpr_portrait, monkeypat
     ycc = cv2.cvtColor((dpr_portrait * 255).astype(np.uint8), cv2.COLOR_RGB2YCrCb)
     skin = box & (ycc[..., 1] >= 135) & (ycc[..., 2] <= 135)
     assert skin.sum() > 1000
-    kept = Relighter(RuntimeConfig(device="cpu")).relight(dpr_portrait, light)
+    kept = relight_rt.open(RuntimeConfig(device="cpu")).relight(dpr_portrait, light)
     monkeypatch.setattr("relight_rt.relight.factor.shaded_skin", lambda factor, *args: factor)
-    grey = Relighter(RuntimeConfig(device="cpu")).relight(dpr_portrait, light)
+    grey = relight_rt.open(RuntimeConfig(device="cpu")).relight(dpr_portrait, light)
     c_in, l_in = _lab_chroma(dpr_portrait[skin])
     c_kept, l_kept = _lab_chroma(kept[skin])
     c_grey, l_grey = _lab_chroma(grey[skin])

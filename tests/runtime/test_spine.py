@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from _graphs import OWN_LIGHT, models_dir, person  # noqa: F401
 
+import relight_rt
 from relight_rt import (
     Background,
     Decomposition,
@@ -50,13 +51,14 @@ def test_runtime_config_pickles_and_is_checked(tmp_path):
             RuntimeConfig(**bad)
 
 
-def test_relighter_from_config_uses_every_field(models_dir):  # noqa: F811
+def test_open_uses_every_field(models_dir):  # noqa: F811
     cfg = RuntimeConfig(models=str(models_dir), device="cpu", preprocess="reference", detail=False, matting="off")
-    r = Relighter.from_config(cfg)
+    r = relight_rt.open(cfg)
     assert r.config == cfg
     assert (r.preprocess, r.detail, r.matter) == ("reference", False, None)
+    assert relight_rt.open(cfg.replace(matting="auto")).matter is not None  # the bundled matte, handed in
     with pytest.raises(RelightError, match="RuntimeConfig"):
-        Relighter.from_config({"device": "cpu"})
+        relight_rt.open({"device": "cpu"})
 
 
 # ------------------------------------------------------------------------------ Decomposition: plain data

@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 from _graphs import models_dir, person
 
+import relight_rt
 from relight_rt import Relighter, RelightError, RuntimeConfig, envmap, lights
 from relight_rt._limits import header_size
 from relight_rt._strength import restore_bands
@@ -54,7 +55,7 @@ def photo(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def studio(photo, models_dir):
-    relighter = Relighter(RuntimeConfig(models=models_dir, device="cpu"))
+    relighter = relight_rt.open(RuntimeConfig(models=models_dir, device="cpu"))
     return Studio(photo, None, "original", relighter, preview_pixels=4096, models=models_dir)
 
 
