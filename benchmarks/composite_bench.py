@@ -30,7 +30,8 @@ REPO = Path(__file__).resolve().parents[1]
 if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
-from relight_rt import Relighter, RuntimeConfig  # noqa: E402
+import relight_rt  # noqa: E402
+from relight_rt import RuntimeConfig  # noqa: E402
 from relight_rt._io import read_image, write_image  # noqa: E402
 from relight_rt.color import linear_to_srgb  # noqa: E402
 from relight_rt.scene import composite  # noqa: E402
@@ -76,7 +77,7 @@ def main(argv=None) -> int:
     ap.add_argument("--rim", action="store_true", help="composite with rim=True")
     args = ap.parse_args(argv)
     person, mask, bg = make_inputs(args.hdri, args.work, args.map)
-    relighter = Relighter(RuntimeConfig(models=args.models, device="cpu"))
+    relighter = relight_rt.open(RuntimeConfig(models=args.models, device="cpu"))
     results = {}
     for suffix in (".jpg", ".png"):
         out = args.work / f"out{suffix}"

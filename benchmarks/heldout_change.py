@@ -142,9 +142,10 @@ def heldout_figures(relighter, folders: list[Path]) -> dict:
 
 
 def measure(args) -> int:
-    from relight_rt import Relighter, RuntimeConfig
+    import relight_rt
+    from relight_rt import RuntimeConfig
 
-    figs = heldout_figures(Relighter(RuntimeConfig(models=args.models, device="cpu")), args.folders)
+    figs = heldout_figures(relight_rt.open(RuntimeConfig(models=args.models, device="cpu")), args.folders)
     print("| framing | pairs (people) | change contrast vs truth (min) | correlation | spread ratio | relight RMSE | "
           "stage-1 RMSE |")
     print("|---|---|---|---|---|---|---|")

@@ -31,7 +31,8 @@ REPO = Path(__file__).resolve().parents[1]
 if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
-from relight_rt import Relighter, RuntimeConfig, envmap, sh  # noqa: E402
+import relight_rt  # noqa: E402
+from relight_rt import RuntimeConfig, envmap, sh  # noqa: E402
 from relight_rt import scene as scene_mod  # noqa: E402
 from relight_rt._io import read_image, read_mask, write_image  # noqa: E402
 from relight_rt.color import linear_to_srgb  # noqa: E402
@@ -114,7 +115,7 @@ def main(argv=None) -> int:
     ap.add_argument("--rim", action="store_true", help="composite with rim=True (a back key's rim)")
     ap.add_argument("--photos", type=Path, nargs="*", default=[], help="real photos of places as more backgrounds")
     args = ap.parse_args(argv)
-    relighter = Relighter(RuntimeConfig(models=args.models, device="cpu"))
+    relighter = relight_rt.open(RuntimeConfig(models=args.models, device="cpu"))
     rgba = read_image(REPO / "relight_rt" / "data" / "example.png", "example")
     person = np.concatenate([linear_to_srgb(rgba[..., :3]), rgba[..., 3:]], 2)
     person8 = (np.clip(person, 0, 1) * 255 + 0.5).astype(np.uint8)
