@@ -34,6 +34,7 @@ if str(REPO) not in sys.path:
 import relight_rt  # noqa: E402
 from relight_rt import RuntimeConfig, envmap, sh  # noqa: E402
 from relight_rt import scene as scene_mod  # noqa: E402
+from relight_rt._camera import camera_blur, grey  # noqa: E402
 from relight_rt._io import read_image, read_mask, write_image  # noqa: E402
 from relight_rt.color import linear_to_srgb  # noqa: E402
 from relight_rt.exposure import REC709  # noqa: E402
@@ -145,7 +146,7 @@ def main(argv=None) -> int:
         halfbody = scene_mod.composite(relighter, half8, bg, mask=half_mask, height=HALF_HEIGHT, rim=args.rim)
         gap = np.ones((size[0], 4, 3), np.float32)
         tiles.append(np.concatenate([paste, gap, full, gap, halfbody], 1))
-        blur = scene_mod._camera_blur(scene_mod._grey(bg))  # what the person is blurred toward (step 5)
+        blur = camera_blur(grey(bg))  # what the person is blurred toward (step 5)
         what = f"turned {turn}°" if turn is not None else "a photo"
         print(f"{path.name} ({what}): the camera's blur {blur:.2f} px", file=sys.stderr)
     rows = len(tiles) // 2 + len(tiles) % 2
