@@ -44,7 +44,6 @@ from .relight.decomposition import (
     Memo,
     RelightResult,
     diffuse_batch,
-    intrinsic_layers,
 )
 from .relight.faces import FacePass, head_crops
 from .relight.factor import Factor
@@ -69,7 +68,7 @@ class Relighter:
     """Relight photos of people with the relight_rt ONNX models.
 
     ``Relighter(config)``: decompose a photo once (``decompose``), relight it under as many lights as wanted
-    (``relight``, with its layers by ``layers=True``; ``relight_many`` / ``iter_relight`` for K lights in
+    (``relight``, with its layers ``layers``; ``relight_many`` / ``iter_relight`` for K lights in
     stage-2 batches); ``relight_rt.scene.composite(relighter, ...)`` puts it into a scene.
 
     Args:
@@ -324,11 +323,6 @@ class Relighter:
 
     # ------------------------------------------------------------------------------------ relight
 
-    def layers(self, dec: Decomposition, shading: np.ndarray | None = None) -> dict[str, np.ndarray]:
-        """The photo's intrinsic layers at its own resolution (relight_rt.relight.decomposition ``intrinsic_layers``:
-        "albedo", "shading", "skin", "mask", input frame)."""
-        return intrinsic_layers(dec, shading)
-
     def highlight_inputs(self, dec: Decomposition) -> tuple:
         """What the exposure's highlight guard reads of ``dec`` (relight_rt.relight.factor
         ``Factor.highlight_inputs``; the studio's preview samples it)."""
@@ -349,8 +343,7 @@ class Relighter:
         mask: ImageLike | None = None,
         background: Background | str | os.PathLike | np.ndarray = "original",
         exposure="auto",
-        layers: bool = False,
-    ) -> np.ndarray | RelightResult:
+    ) -> np.ndarray:
         """Relight a photo (or a Decomposition: decompose once, relight many) under a new light.
 
         Args:
@@ -364,13 +357,31 @@ class Relighter:
             exposure: "auto" (default: the light is scaled so the person keeps its mean luminance, lowered by up
                 to a stop where that would put more than 8 % of the person past white), an EV offset from
                 auto (+1 twice as bright), or "physical" (the light as given); relight_rt.exposure.
-            layers: also return the input-frame layers that made the picture.
 
         Returns:
             (H, W, 3) float32 RGB in [0, 1] at the input's size ((H, W, 4) RGBA for "transparent"); pixels
-            where the mask is 0 are the background's, untouched. With ``layers=True`` a :class:`RelightResult`
-            (that picture as ``.image``, its ``.layers`` and ``.light``).
+            where the mask is 0 are the background's, untouched. ``layers`` gives it with its layers.
         """
+        return self._relight(image, light, mask, background, exposure, False)
+
+    def layers(
+        self,
+        image: ImageLike | Decomposition,
+        light,
+        *,
+        mask: ImageLike | None = None,
+        background: Background | str | os.PathLike | np.ndarray = "original",
+        exposure="auto",
+    ) -> RelightResult:
+        """``relight`` with the input-frame layers that made the picture (arguments as for ``relight``).
+
+        Returns:
+            A :class:`RelightResult`: ``relight``'s picture as ``.image``, its ``.layers`` ("albedo", "shading",
+            "diffuse", "residual", "relit", "mask"; a group's are the group's, decomposed as one) and ``.light``.
+        """
+        return self._relight(image, light, mask, background, exposure, True)
+
+    def _relight(self, image, light, mask, background, exposure, layers: bool) -> np.ndarray | RelightResult:
         dec = self._prepare(image, mask)
         if isinstance(light, (str, os.PathLike)):
             light = LightSpec.of(light)  # read once by the one rule: its exposure and its light

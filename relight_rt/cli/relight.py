@@ -141,8 +141,9 @@ def add_decompose(subparsers) -> None:
         "decompose",
         help="albedo, shading, skin, light and transport of a photo",
         description="Writes albedo.png, shading.png, skin.png (the photo's size and detail, see "
-        "Relighter.layers), light.npy ((9, 3) RGB SH) and transport.npz (the (R, R, 9) transport at the network's "
-        "resolution, float16, with the crop geometry; relight_rt.load_transport brings it to the photo's size) "
+        "relight_rt.relight.decomposition.intrinsic_layers), light.npy ((9, 3) RGB SH) and transport.npz (the "
+        "(R, R, 9) transport at the network's resolution, float16, with the crop geometry; "
+        "relight_rt.transport_file.load_transport brings it to the photo's size) "
         "into DIR.",
     )
     p.add_argument("input", metavar="INPUT", help="image file")
@@ -161,7 +162,9 @@ def cmd_decompose(args: argparse.Namespace) -> int:
     folder = Path(args.output)
     folder.mkdir(parents=True, exist_ok=True)
     protect = [src, *paths_of(mask if mask != "auto" else None), *Path(rl.models_dir).glob("*.onnx")]
-    layers = rl.layers(dec)  # at the photo's resolution, with its detail in the albedo
+    from ..relight.decomposition import intrinsic_layers
+
+    layers = intrinsic_layers(dec)  # at the photo's resolution, with its detail in the albedo
     pngs = [(folder / f"{name}.png", image_writer(layers[name], folder / f"{name}.png"))
             for name in ("albedo", "shading", "skin")]  # encoded before anything is written
     write_all([  # the five layers or none of them (an input among them, a full disk)

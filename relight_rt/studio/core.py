@@ -47,6 +47,7 @@ EXPOSURE_SAMPLES = 1 << 15  # network-frame pixels of the person that the page's
 from .. import exposure as _exposure  # noqa: E402  (the one exposure rule)
 from ..exposure import exposure_scale, guarded, mean_luminance, parse_exposure  # noqa: E402
 from ..lightspec import LightSpec  # noqa: E402  (the one light parser)
+from ..relight.decomposition import intrinsic_layers  # noqa: E402
 from ..relight.look import SKIN_CHROMA, skin_chroma  # noqa: E402  (the shaded-skin rule the preview mirrors)
 
 # (leading bytes, kind, suffix the readers go by)
@@ -290,7 +291,7 @@ class Studio:
         # photo as the final result does, not stage 1's network albedo (whose colours are a guess); divided by the
         # shading the final result divides by (bands restored) rather than stage 1's own (a refit own light,
         # relight_rt._strength.refit_light, can leave that one dark where the restored one is not)
-        albedo = _resize(self.relighter.layers(dec, sh.shading(restored, dec.white_light))["albedo"], size)
+        albedo = _resize(intrinsic_layers(dec, sh.shading(restored, dec.white_light))["albedo"], size)
         mask = _resize(np.asarray(dec.mask)[..., None], size)
         bg = self._background_image()
         bg = np.zeros(size + (3,), np.float32) if bg is None else _resize(bg, size)

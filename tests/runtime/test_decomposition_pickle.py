@@ -44,7 +44,7 @@ def test_a_photo_with_a_face_relights_the_same_after_pickling():
         want = relighter.relight(dec, LIGHT, background=background)
         assert np.abs(fresh.relight(back, LIGHT, background=background) - want).max() <= SAME
         assert np.abs(relighter.relight(reloaded(dec), LIGHT, background=background) - want).max() <= SAME
-    np.testing.assert_array_equal(fresh.relight(back, LIGHT, layers=True).image, relighter.relight(dec, LIGHT))
+    np.testing.assert_array_equal(fresh.layers(back, LIGHT).image, relighter.relight(dec, LIGHT))
 
 
 def test_a_decomposition_sent_to_another_process_relights_the_same(tmp_path):

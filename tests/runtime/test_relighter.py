@@ -181,7 +181,7 @@ def test_a_video_frame_relights_only_the_person_share_of_its_thin_edge(relighter
 
 def test_layers(relighter):
     img, mask = person(seed=4)
-    res = relighter.relight(img, 2 * OWN_LIGHT, mask=mask, exposure="physical", layers=True)
+    res = relighter.layers(img, 2 * OWN_LIGHT, mask=mask, exposure="physical")
     assert isinstance(res, RelightResult) and not res.diffuse_only
     for name in ("albedo", "shading", "diffuse", "residual", "relit"):
         assert res.layers[name].shape == (150, 100, 3) and res.layers[name].dtype == np.float32
@@ -197,7 +197,7 @@ def test_diffuse_only_without_stage2(diffuse_models_dir, caplog):
         r = Relighter(RuntimeConfig(models=diffuse_models_dir, device="cpu"))
     assert r.diffuse_only and "diffuse-only" in caplog.text
     img, mask = person(seed=7)
-    res = r.relight(img, 0.5 * OWN_LIGHT, mask=mask, exposure="physical", layers=True)
+    res = r.layers(img, 0.5 * OWN_LIGHT, mask=mask, exposure="physical")
     assert res.diffuse_only and not res.layers["residual"].any()
     m = inside(mask)
     np.testing.assert_allclose(res.image[m], 0.5 * img[m], atol=0.03)  # ratio (0.5 c + eps) / (c + eps)
@@ -502,7 +502,7 @@ def test_io_binding_chain_matches_numpy_path(tiny_models, diffuse_models_dir, wi
     lits = np.stack([lights.preset(n) for n in ("studio", "rim", "neon")])
     want = ref.relight_many(dec_a, lits)
     np.testing.assert_allclose(chained.relight_many(dec_b, lits, batch_size=2), want, atol=1e-5)
-    la, lb = ref.relight(dec_a, lits[0], layers=True), chained.relight(dec_a, lits[0], layers=True)
+    la, lb = ref.layers(dec_a, lits[0]), chained.layers(dec_a, lits[0])
     for name in la.layers:
         np.testing.assert_allclose(lb.layers[name], la.layers[name], atol=1e-5)
 

@@ -1,5 +1,5 @@
 """The Relighter's constructor (one RuntimeConfig, kept once), its narrow relight API and resolve_light, the one
-place where a light is resolved; the old forms still work for one release, with a DeprecationWarning."""
+place where a light is resolved; the old forms (keyword constructor, relight_layers, to_photo) are gone."""
 
 from __future__ import annotations
 
@@ -47,7 +47,7 @@ def test_layers_by_a_flag(relighter):
     dec = relighter.decompose(img, mask)  # decompose once, relight many
     light = lights.preset("rim")
     plain = relighter.relight(dec, light)
-    res = relighter.relight(dec, light, layers=True)
+    res = relighter.layers(dec, light)
     assert isinstance(res, RelightResult) and set(res.layers) >= {"albedo", "shading", "diffuse", "mask"}
     np.testing.assert_array_equal(res.image, plain)
     assert not hasattr(relighter, "relight_layers") and not hasattr(relighter, "to_photo")  # the old verbs went

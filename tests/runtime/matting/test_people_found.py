@@ -541,7 +541,7 @@ def test_group_photo_relit_person_by_person(two_people):
     np.testing.assert_allclose(sum(p.mask for p in parts), dec.mask, atol=1e-5)
     light = lights.directional((0.3, -1.0, 0.2)) + lights.ambient((0.1, 0.1, 0.1))
     group = rl.relight(dec, light)
-    np.testing.assert_array_equal(rl.relight(dec, light, layers=True).image, group)  # the layers are the group's
+    np.testing.assert_array_equal(rl.layers(dec, light).image, group)  # the layers are the group's
     np.testing.assert_array_equal(rl.relight_many(dec, [light, light])[1], group)
     rgba = rl.relight(dec, light, background="transparent")
     np.testing.assert_array_equal(rgba[..., 3], dec.mask)

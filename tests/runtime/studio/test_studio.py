@@ -188,7 +188,7 @@ def _check_preview_exposure(studio):
     for name in ("studio", "rim", "window-left"):
         light = lights.preset(name).astype(np.float32)
         for exposure in ("auto", 1.0, "physical"):
-            want = studio.relighter.relight(studio.dec, light, exposure=exposure, layers=True).light
+            want = studio.relighter.layers(studio.dec, light, exposure=exposure).light
             np.testing.assert_allclose(studio.preview_light(light.tolist(), exposure), want, rtol=1e-5, atol=1e-7)
         mean_kept = studio.preview_light(light.tolist(), "auto")[0, 0] / exposure_scale_of(studio, light)
         factors.append(float(mean_kept / light[0, 0]))
