@@ -88,11 +88,14 @@ class Composer:
         self.memo, self.factor, self.detail = memo, factor, detail
 
     def person_colour(
-        self, dec: Decomposition, light: np.ndarray, residual: np.ndarray | None, relit: np.ndarray
+        self, dec: Decomposition, light: np.ndarray, residual: np.ndarray | None, relit: np.ndarray,
+        looks: tuple | None = None,
     ) -> np.ndarray:
         """(h, w, 3) straight (not premultiplied) colour of the relit person inside the crop box.
 
         ``light`` is the (exposed) new light, ``residual`` and ``relit`` stage 2's outputs under it (3, R, R).
+        ``looks``: (``dark_colour``, ``knee``) of the person's own colour, when another's hold them (a group's
+        person: the group's, relight_rt.relight.people); None: found from ``dec`` once.
         """
         geom = dec.geometry
         if not self.detail:
@@ -106,13 +109,15 @@ class Composer:
         state = self.memo(dec)
         if dec.head is not None:
             self.factor.blend_head(dec, gain, light, dec.head, dec.head_box)
-        if "dark" not in state:  # once per photo: what steadying dark pixels' colour needs whatever the light
-            state["dark"] = tuple(readonly(a) for a in dark_colour(image))
-        colour = steady_chroma(image, gain, state["dark"])
+        if looks is None:
+            if "dark" not in state:  # once per photo: what steadying dark pixels' colour needs whatever the light
+                state["dark"] = tuple(readonly(a) for a in dark_colour(image))
+            if "knee" not in state:
+                state["knee"] = readonly(knee(image))
+            looks = state["dark"], state["knee"]
+        colour = steady_chroma(image, gain, looks[0])
         np.maximum(colour, 0, out=colour)
-        if "knee" not in state:
-            state["knee"] = readonly(knee(image))
-        return shoulder(colour, state["knee"])
+        return shoulder(colour, looks[1])
 
     def foreground(self, dec: Decomposition, always: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """``dec.foreground`` (a photo's), or ``own_colours`` found once (a video frame's; multilevel with

@@ -53,8 +53,8 @@ def by_person(
         cy0, cy1, cx0, cx1 = max(py0, y0), min(py1, y1), max(px0, x0), min(px1, x1)
         if cy1 <= cy0 or cx1 <= cx0:
             continue
-        state = memo(part)
-        if "dark" not in state and (cy0, cy1, cx0, cx1) == (py0, py1, px0, px1):
+        looks = None
+        if (cy0, cy1, cx0, cx1) == (py0, py1, px0, px1):
             # the person's box lies in the group's (their share lies in its matte): what the group has of the
             # photo whatever the light is theirs, as views (a group photo of many megapixels holds it once; their
             # own colours are the group's already: Relighter._group)
@@ -63,11 +63,10 @@ def by_person(
             if "dark" not in whole:
                 whole["dark"] = tuple(readonly(a) for a in dark_colour(fg))
                 whole["knee"] = readonly(knee(fg))
-            state["dark"] = tuple(a[group] for a in whole["dark"])
-            state["knee"] = whole["knee"][group]
+            looks = tuple(a[group] for a in whole["dark"]), whole["knee"][group]
         lit = factor.expose(part, light[None], exposure)[0]
         _, residual, relit = next(network_relit(part, lit[None], 1, want_layers=composer.detail))
-        colour = composer.person_colour(part, lit, residual, relit)
+        colour = composer.person_colour(part, lit, residual, relit, looks)
         share = part.geometry.crop(part.mask)[..., None]
         if clean and not composer.detail:
             colour = clean_edge_colour(colour, np.ascontiguousarray(part.geometry.crop(part.image)),

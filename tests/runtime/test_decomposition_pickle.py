@@ -77,6 +77,9 @@ def test_a_group_relights_the_same_after_pickling():
     for background in ("original", "transparent", "black"):
         want = relighter.relight(dec, SIDE, background=background)
         assert np.abs(fresh.relight(back, SIDE, background=background) - want).max() <= SAME
+    # a person of the group relit on their own: what the group's relights kept cannot change it
+    alone = Relighter(RuntimeConfig(device="cpu")).relight(back.people[0], SIDE)
+    np.testing.assert_array_equal(relighter.relight(dec.people[0], SIDE), alone)
     as_one = relighter.relight(replace(dec, people=()), SIDE)  # the people are what differs
     assert np.abs(as_one - relighter.relight(dec, SIDE)).max() > 0.01
 
