@@ -23,10 +23,11 @@ def main(argv=None) -> int:
     parser.add_argument("photos", nargs="+", type=Path)
     parser.add_argument("--limit", type=float, default=0.99)
     args = parser.parse_args(argv)
-    from relight_rt import Relighter, RelightError, RuntimeConfig, lights
+    import relight_rt
+    from relight_rt import RelightError, RuntimeConfig, lights
     from relight_rt._io import read_image
 
-    relighter = Relighter(RuntimeConfig(device="cpu"))
+    relighter = relight_rt.open(RuntimeConfig(device="cpu"))
     presets = list(lights.list_presets())
     print("photo".ljust(22) + " ".join(name[:8].rjust(8) for name in ["input", *presets]))
     rows = []

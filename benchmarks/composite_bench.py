@@ -30,9 +30,11 @@ REPO = Path(__file__).resolve().parents[1]
 if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
-from relight_rt import Relighter, RuntimeConfig  # noqa: E402
+import relight_rt  # noqa: E402
+from relight_rt import RuntimeConfig  # noqa: E402
 from relight_rt._io import read_image, write_image  # noqa: E402
 from relight_rt.color import linear_to_srgb  # noqa: E402
+from relight_rt.scene import composite  # noqa: E402
 
 
 def make_inputs(hdri: Path, work: Path, place: str = "city.hdr") -> tuple[Path, Path, Path]:
@@ -75,14 +77,14 @@ def main(argv=None) -> int:
     ap.add_argument("--rim", action="store_true", help="composite with rim=True")
     args = ap.parse_args(argv)
     person, mask, bg = make_inputs(args.hdri, args.work, args.map)
-    relighter = Relighter(RuntimeConfig(models=args.models, device="cpu"))
+    relighter = relight_rt.open(RuntimeConfig(models=args.models, device="cpu"))
     results = {}
     for suffix in (".jpg", ".png"):
         out = args.work / f"out{suffix}"
 
         def once(out=out):
             t, c = time.perf_counter(), time.process_time()
-            image = relighter.composite(person, bg, mask=mask, shadow=True, rim=args.rim)
+            image = composite(relighter, person, bg, mask=mask, shadow=True, rim=args.rim)
             write_image(out, image, protect=[person, mask, bg])
             return time.perf_counter() - t, time.process_time() - c
 

@@ -42,7 +42,8 @@ for p in (str(REPO), str(HERE)):
 
 from real_photos import LEFT, RIGHT, change  # noqa: E402
 
-from relight_rt import Relighter, RuntimeConfig  # noqa: E402
+import relight_rt  # noqa: E402
+from relight_rt import RuntimeConfig  # noqa: E402
 from relight_rt._face_geometry import rasterise_normals  # noqa: E402
 
 LIGHTS = {"overhead-noon": "overhead-noon", "night": "night", "campfire": "campfire", "left": LEFT, "right": RIGHT}
@@ -134,14 +135,14 @@ def main(argv=None) -> int:
     p.add_argument("--only", nargs="*", default=None, help="photo names")
     args = p.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
-    relighter = Relighter(RuntimeConfig(device="cpu"))
-    tri = relighter._face_mesh().triangles
+    relighter = relight_rt.open(RuntimeConfig(device="cpu"))
+    tri = relighter._faces.mesh().triangles
     report = {}
     for name, path in photos(args).items():
         if args.only and name not in args.only:
             continue
         dec = relighter.decompose(str(path))
-        meshes = relighter._prepared(dec).get("face_meshes") or []
+        meshes = dec.face_meshes or []
         if not meshes:
             print(f"{name}: no face mesh", flush=True)
             continue

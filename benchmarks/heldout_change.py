@@ -18,7 +18,7 @@ as stored, the pipeline's radiance scale; luminance = Rec. 709 weights):
 - contrast: least-squares slope of log(relit / input) on log(truth / input) per pixel (1 = as strong as the truth),
   and their correlation; the slope is the correlation times the ratio of the two changes' spreads (standard
   deviations, also printed): at a correlation of 0.67 a slope of 0.8 needs a change 1.2x as spread as the truth's;
-- RMSE of relit vs truth (RGB, in the mask), for the full runtime path and (its layers, ``relight(..., layers=True)``)
+- RMSE of relit vs truth (RGB, in the mask), for the full runtime path and (its layers, ``layers(...)``)
   for stage 1's diffuse image alone (the quantity of docs/RESULTS.md's framing table, measured through the runtime).
 Per framing (the folder name after its last "_"): means over pairs.
 
@@ -105,7 +105,7 @@ def _rmse(a: np.ndarray, b: np.ndarray, m: np.ndarray) -> float:
 def pair_figures(relighter, src, dst) -> dict:
     (img_i, mask_i, _), (img_j, mask_j, light_j) = src, dst
     m = (mask_i > 0.5) & (mask_j > 0.5)
-    res = relighter.relight(img_i, light_j, mask=mask_i, exposure="physical", layers=True)
+    res = relighter.layers(img_i, light_j, mask=mask_i, exposure="physical")
     relit, diffuse = np.asarray(res.image, np.float32), np.asarray(res.layers["diffuse"], np.float32)
     lum = lambda x: x[m] @ REC709  # noqa: E731
     ours = np.log(lum(relit) + EPS) - np.log(lum(img_i) + EPS)
@@ -142,9 +142,10 @@ def heldout_figures(relighter, folders: list[Path]) -> dict:
 
 
 def measure(args) -> int:
-    from relight_rt import Relighter, RuntimeConfig
+    import relight_rt
+    from relight_rt import RuntimeConfig
 
-    figs = heldout_figures(Relighter(RuntimeConfig(models=args.models, device="cpu")), args.folders)
+    figs = heldout_figures(relight_rt.open(RuntimeConfig(models=args.models, device="cpu")), args.folders)
     print("| framing | pairs (people) | change contrast vs truth (min) | correlation | spread ratio | relight RMSE | "
           "stage-1 RMSE |")
     print("|---|---|---|---|---|---|---|")

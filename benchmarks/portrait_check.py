@@ -34,7 +34,8 @@ REPO = Path(__file__).resolve().parents[1]
 if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
-from relight_rt import Relighter, RuntimeConfig, lights  # noqa: E402
+import relight_rt  # noqa: E402
+from relight_rt import RuntimeConfig, lights  # noqa: E402
 from relight_rt._io import read_image, read_mask  # noqa: E402
 from relight_rt.exposure import REC709  # noqa: E402
 
@@ -95,7 +96,7 @@ def main(argv=None) -> int:
     inputs = [("photo", ref / "photo" / "sample.jpg", ref / "photo" / "sample_mask.png")]
     inputs += [(f"frame_{i:03d}", ref / "video" / f"frame_{i:03d}.png", ref / "video" / f"frame_{i:03d}_mask.png")
                for i in (1, 3, 5)]
-    relighter = Relighter(RuntimeConfig(models=args.models, device="cpu"))
+    relighter = relight_rt.open(RuntimeConfig(models=args.models, device="cpu"))
     args.out.mkdir(parents=True, exist_ok=True)
     rows, report = [], {}
     for name, img_path, mask_path in inputs:

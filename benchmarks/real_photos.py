@@ -602,8 +602,8 @@ def main(argv=None) -> int:
     t_start = time.perf_counter()
     args.out.mkdir(parents=True, exist_ok=True)
     cv2.setNumThreads(args.threads)
-    relighter = Relighter(RuntimeConfig(models=args.models, device="cpu"))
-    everyone = Relighter(RuntimeConfig(models=args.models, device="cpu", matting="all"))
+    relighter = relight_rt.open(RuntimeConfig(models=args.models, device="cpu"))
+    everyone = relight_rt.open(RuntimeConfig(models=args.models, device="cpu", matting="all"))
     presets = list(lights.list_presets())
     repo = dprp.DPRRepo.find(args.dpr)
     notes = []

@@ -36,15 +36,16 @@ def main() -> None:
     p.add_argument("--models", default=None)
     args = p.parse_args()
 
-    from relight_rt import Relighter, RuntimeConfig, lights
+    import relight_rt
+    from relight_rt import RuntimeConfig, lights
     from relight_rt._io import read_image, read_mask
 
-    r = Relighter(RuntimeConfig(models=args.models, device="cpu"))
+    r = relight_rt.open(RuntimeConfig(models=args.models, device="cpu"))
     image = read_image(args.photo)
     mask = read_mask(args.mask, image.shape[:2])
     dec = r.decompose(image, mask)
     print(f"{args.photo}: {image.shape[1]}x{image.shape[0]}, second pass on the face: "
-          f"{r._prepared(dec).get('head') is not None}")
+          f"{dec.head is not None}")
     for name in ("studio", "window-left", "campfire"):
         light = lights.preset(name)
         best, median = timed(lambda light=light: r.relight(dec, light), args.repeats)

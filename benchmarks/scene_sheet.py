@@ -31,8 +31,10 @@ REPO = Path(__file__).resolve().parents[1]
 if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
-from relight_rt import Relighter, RuntimeConfig, envmap, sh  # noqa: E402
+import relight_rt  # noqa: E402
+from relight_rt import RuntimeConfig, envmap, sh  # noqa: E402
 from relight_rt import scene as scene_mod  # noqa: E402
+from relight_rt._camera import camera_blur, grey  # noqa: E402
 from relight_rt._io import read_image, read_mask, write_image  # noqa: E402
 from relight_rt.color import linear_to_srgb  # noqa: E402
 from relight_rt.exposure import REC709  # noqa: E402
@@ -114,7 +116,7 @@ def main(argv=None) -> int:
     ap.add_argument("--rim", action="store_true", help="composite with rim=True (a back key's rim)")
     ap.add_argument("--photos", type=Path, nargs="*", default=[], help="real photos of places as more backgrounds")
     args = ap.parse_args(argv)
-    relighter = Relighter(RuntimeConfig(models=args.models, device="cpu"))
+    relighter = relight_rt.open(RuntimeConfig(models=args.models, device="cpu"))
     rgba = read_image(REPO / "relight_rt" / "data" / "example.png", "example")
     person = np.concatenate([linear_to_srgb(rgba[..., :3]), rgba[..., 3:]], 2)
     person8 = (np.clip(person, 0, 1) * 255 + 0.5).astype(np.uint8)
@@ -140,11 +142,11 @@ def main(argv=None) -> int:
         sphere = linear_to_srgb(np.clip(sphere * (0.8 / max(float(sphere.max()), 1e-6)), 0, 1))
         paste = pasted(person, bg)
         paste[: sphere.shape[0], : sphere.shape[1]] = sphere  # the estimated light, top-left corner
-        full = relighter.composite(person8, bg, rim=args.rim)
-        halfbody = relighter.composite(half8, bg, mask=half_mask, height=HALF_HEIGHT, rim=args.rim)
+        full = scene_mod.composite(relighter, person8, bg, rim=args.rim)
+        halfbody = scene_mod.composite(relighter, half8, bg, mask=half_mask, height=HALF_HEIGHT, rim=args.rim)
         gap = np.ones((size[0], 4, 3), np.float32)
         tiles.append(np.concatenate([paste, gap, full, gap, halfbody], 1))
-        blur = scene_mod._camera_blur(scene_mod._grey(bg))  # what the person is blurred toward (step 5)
+        blur = camera_blur(grey(bg))  # what the person is blurred toward (step 5)
         what = f"turned {turn}°" if turn is not None else "a photo"
         print(f"{path.name} ({what}): the camera's blur {blur:.2f} px", file=sys.stderr)
     rows = len(tiles) // 2 + len(tiles) % 2

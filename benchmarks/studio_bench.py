@@ -42,7 +42,8 @@ sys.path.insert(0, str(REPO / "benchmarks"))
 
 from headless_studio import launch_chromium, start_server  # noqa: E402
 
-from relight_rt import Relighter, RuntimeConfig, lights  # noqa: E402
+import relight_rt  # noqa: E402
+from relight_rt import RuntimeConfig, lights  # noqa: E402
 from relight_rt.demo import example_path  # noqa: E402
 from relight_rt.studio.core import Studio  # noqa: E402
 
@@ -141,7 +142,8 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory() as folder:
         photo = enlarged_example(Path(folder), args.pixels)
         t0 = time.perf_counter()
-        studio = Studio(photo, None, "original", Relighter(RuntimeConfig(device="cpu")), preview_pixels=args.pixels)
+        studio = Studio(photo, None, "original", relight_rt.open(RuntimeConfig(device="cpu")),
+                        preview_pixels=args.pixels)
         startup = time.perf_counter() - t0
         light = lights.preset("studio").astype(np.float32)
         studio.render(light)  # warm-up

@@ -23,7 +23,8 @@ sys.path.insert(0, str(REPO / "benchmarks"))
 
 from headless_studio import launch_chromium, start_server  # noqa: E402
 
-from relight_rt import Relighter, RuntimeConfig  # noqa: E402
+import relight_rt  # noqa: E402
+from relight_rt import RuntimeConfig  # noqa: E402
 from relight_rt.demo import example_path  # noqa: E402
 from relight_rt.studio.core import Studio  # noqa: E402
 
@@ -70,7 +71,7 @@ def main(argv=None) -> int:
     os.chdir(REPO)  # the command line on the page names the photo relative to here
     # the example person in a street, no mask: the page shows the automatic matte at work too
     photo = (example_path().parent / "example_scene.jpg").relative_to(REPO)
-    studio = Studio(photo, None, "original", Relighter(RuntimeConfig(device="cpu")))
+    studio = Studio(photo, None, "original", relight_rt.open(RuntimeConfig(device="cpu")))
     srv, thread, url = start_server(studio)
     with sync_playwright() as p:
         context = launch_chromium(p, args.chromium, tempfile.mkdtemp(prefix="chromium-"), (1366, 768))

@@ -21,7 +21,10 @@ from pathlib import Path
 
 import numpy as np
 
-from relight_rt import LightSpec, Relighter, RelightError, RuntimeConfig, lights, parse_light, sh
+import relight_rt
+from relight_rt import LightSpec, Relighter, RelightError, RuntimeConfig, lights, scene, sh
+from relight_rt.lightspec import parse_light
+from relight_rt.relight.decomposition import intrinsic_layers
 from relight_rt.config import DEVICES, MATTING, PRECISIONS
 
 from ._convert import arrays_to_image, arrays_to_mask, batch_pairs, images_to_arrays, masks_to_arrays
@@ -134,7 +137,7 @@ class LoadRelightModels:
     def load(self, models_folder: str, device: str, precision: str, matting: str, detail: bool):
         folder = models_folder.strip() or None
         config = RuntimeConfig(models=folder, device=device, precision=precision, matting=matting, detail=bool(detail))
-        return (Relighter(config),)
+        return (relight_rt.open(config),)
 
 
 class RelightDecompose:
@@ -158,7 +161,7 @@ class RelightDecompose:
         for photo, m in zip(photos, masks, strict=True):
             steps.check()
             dec = models.decompose(photo, m)
-            layers = models.layers(dec)  # the photo's size, its detail in the albedo
+            layers = intrinsic_layers(dec)  # the photo's size, its detail in the albedo
             decs.append(dec)
             albedo.append(layers["albedo"])
             shading.append(layers["shading"])  # unclipped; IMAGE holds [0, 1] (the float passes keep the rest)
@@ -379,7 +382,7 @@ class RelightComposite:
         out = []
         for (photo, m), back in pairs:
             steps.check()
-            out.append(models.composite(photo, back, mask=m, light=light, position=position,
+            out.append(scene.composite(models, photo, back, mask=m, light=light, position=position,
                                         height=float(height) or None, shadow=bool(shadow),
                                         exposure="auto" if float(ev) == 0.0 else float(ev), fov=float(fov)))
             steps.done()

@@ -33,6 +33,7 @@ import numpy as np
 from . import sh
 from ._errors import RelightError
 from ._faces import FACE_SIZE, decode, weighted_nms
+from ._square import Region, crop_region
 
 log = logging.getLogger(__name__)
 
@@ -229,8 +230,6 @@ class FaceMesh:
 
     def faces(self, rgb: np.ndarray, box: tuple[int, int, int, int]) -> list[np.ndarray]:
         """Meshes of the faces in ``rgb`` inside ``box`` (y0, y1, x0, x1): [(468, 3) x, y, z in input pixels]."""
-        from .matting import Region, crop_region
-
         y0, y1, x0, x1 = box
         region = Region.around(x0, y0, x1, y1, scale=1.0)
         out = self.detector.run({"image": crop_region(rgb, region, FACE_SIZE).transpose(2, 0, 1)[None]})

@@ -2,7 +2,7 @@
 
 A :class:`RuntimeConfig` is a frozen, picklable value: the CLI builds one from its options
 (``relight_rt.cli.options.add_runtime_options``), an application or a Ray worker builds one in code, and
-``Relighter.from_config(config)`` loads the models it names. It holds no sessions and no arrays, so
+``relight_rt.open(config)`` loads the models it names. It holds no sessions and no arrays, so
 it can be sent to another process and compared for equality.
 """
 

@@ -47,12 +47,12 @@ def run_demo(output: str | Path, preset: str = "golden-hour", models=None, devic
     """Relight the bundled example under ``preset`` and write photo | relit | light preview to ``output``.
 
     ``config``: a relight_rt.config.RuntimeConfig (wins over ``models`` and ``device``)."""
+    from .builder import open as open_relighter
     from .config import RuntimeConfig
-    from .relighter import Relighter
 
     light = lights.preset(preset)
     photo = read_image(example_path(), "example")
-    relighter = Relighter.from_config(config if config is not None else RuntimeConfig(models=models, device=device))
+    relighter = open_relighter(config if config is not None else RuntimeConfig(models=models, device=device))
     relit = relighter.relight(photo, light, background=np.zeros(photo.shape[:2] + (3,), np.float32))
     image = side_by_side(photo[..., :3] * photo[..., 3:], relit, light)
     return write_image(output, image, protect=[example_path()])

@@ -328,14 +328,14 @@ class RelightActor:
                  background, job: str, exposure="auto") -> None:  # fmt: skip
         import ray
 
-        from .relighter import Relighter
+        from .builder import open as open_relighter
 
         device = config.device
         if device == "auto":
             device = "cuda" if ray.get_gpu_ids() else "cpu"
         if device == "cpu" and not os.environ.get("RELIGHT_RT_THREADS"):
             os.environ["RELIGHT_RT_THREADS"] = str(max(1, int(cpus)))  # the CPUs Ray gave this actor
-        self.relighter = Relighter.from_config(config.replace(device=device))
+        self.relighter = open_relighter(config.replace(device=device))
         self.light = np.asarray(light, np.float32)
         self.mask_arg, self.single, self.background, self.job = mask_arg, single, background, job
         self.exposure = exposure
@@ -510,10 +510,10 @@ def _resolve_light(light, models) -> np.ndarray:
 
     if isinstance(light, np.ndarray) or (isinstance(light, (list, tuple)) and len(light) == 9):
         return sh.check_light(np.asarray(light), "light").astype(np.float32)
+    from .builder import open as open_relighter
     from .config import RuntimeConfig
-    from .relighter import Relighter
 
-    return Relighter(RuntimeConfig(models=models, device="cpu")).resolve_light(light)
+    return open_relighter(RuntimeConfig(models=models, device="cpu")).resolve_light(light)
 
 
 def _run_actors(ray, todo, writer, actor_kwargs, actors, gpus, cpus, batch_size) -> list[tuple[int, dict]]:
@@ -564,6 +564,8 @@ def _video_clip(settings: dict, job: str, cpus: float) -> dict:
     """Ray task: one clip through relight_rt.video.relight_clip; every error is a failed row."""
     import ray
 
+    from .builder import open as open_relighter
+    from .builder import video_matter
     from .video import relight_clip
 
     config = settings.get("config") or RuntimeConfig()
@@ -573,7 +575,8 @@ def _video_clip(settings: dict, job: str, cpus: float) -> dict:
         os.environ["RELIGHT_RT_THREADS"] = str(max(1, int(cpus)))
     start = time.perf_counter()
     try:
-        relight_clip(**dict(settings, config=config))
+        relighter = None if settings.get("dvp") else open_relighter(config)
+        relight_clip(**dict(settings, config=config, relighter=relighter, matter=video_matter(config)))
         status, error = "ok", ""
     except (RelightError, OSError) as exc:
         status, error = "failed", str(exc)

@@ -2,7 +2,7 @@
 
 ``compute_passes(relighter, photo, light)`` relights the photo once and returns, at the photo's own size:
 
-- ``albedo`` (RGB): the person's albedo (the photo's detail in it, ``Relighter.layers``), premultiplied by alpha;
+- ``albedo`` (RGB): the person's albedo (the photo's detail in it, ``relight_rt.relight.decomposition.intrinsic_layers``), premultiplied by alpha;
 - ``shading_photo`` (RGB): the shading under the photo's own light (white), straight (not premultiplied), 0 off
   the person;
 - ``shading`` (RGB): the shading under the new light, exposed as the relit picture is, straight;
@@ -50,6 +50,7 @@ from ._errors import RelightError
 from ._exr import encode_exr
 from ._io import ProtectedPaths, bytes_writer, write_all
 from ._version import __version__
+from .relight.decomposition import intrinsic_layers
 from .relighter import Decomposition, Relighter
 
 FORMATS = ("exr", "png16")
@@ -109,11 +110,11 @@ def compute_passes(relighter: Relighter, image, light=None, *, mask=None, exposu
     dec = image if isinstance(image, Decomposition) else relighter.decompose(image, mask)
     if light is None:
         light = dec.white_light
-    result = relighter.relight(dec, light, background="transparent", exposure=exposure, layers=True)
+    result = relighter.layers(dec, light, background="transparent", exposure=exposure)
     alpha = np.asarray(result.image[..., 3], np.float32)
     foreground = np.ascontiguousarray(result.image[..., :3], dtype=np.float32)
-    own = relighter.layers(dec)  # albedo (premultiplied) and the photo's own shading (premultiplied)
-    new = relighter.layers(dec, shading=dec.shading(result.light))  # the new shading, the same way
+    own = intrinsic_layers(dec)  # albedo (premultiplied) and the photo's own shading (premultiplied)
+    new = intrinsic_layers(dec, shading=dec.shading(result.light))  # the new shading, the same way
     albedo = np.asarray(own["albedo"], np.float32)
     shading = _straight(new["shading"], alpha)
     diffuse = albedo * shading

@@ -25,10 +25,10 @@ Steps (all colour arithmetic in linear light; both photos are read as sRGB, as c
    photo's bottom edge) keeps its relative height and stands on the background's bottom edge
    (``position`` moves it; its y is then where the cut edge goes). Parts beyond the edges are cut off.
 5. Matched to the background's camera: when the background camera's own blur (the blur of the photo's
-   sharpest part, ``_camera_blur``: the person is what the camera focuses on, so a background soft only in
+   sharpest part, ``camera_blur``: the person is what the camera focuses on, so a background soft only in
    parts, by depth, lends it nothing) exceeds the placed full-body person's (edge-width estimate,
-   ``_blur_sigma``), the person is blurred by the difference (a cut-off person too: it is in focus, but the
-   camera's own softness is everywhere); when the background around the person is noisier (``_noise_sigma``,
+   ``blur_sigma``), the person is blurred by the difference (a cut-off person too: it is in focus, but the
+   camera's own softness is everywhere); when the background around the person is noisier (``noise_sigma``,
    Immerkær's estimate), Gaussian noise of the missing standard deviation is added to the person (a fixed
    seed: the same inputs give the same picture).
 6. Shadows (``shadow=True``, the default; full-body people only), multiplied into the background before the
@@ -54,18 +54,25 @@ Steps (all colour arithmetic in linear light; both photos are read as sRGB, as c
    frame would: one scale so its mean linear luminance equals the background photo's own (a large bright
    person darkens the frame a little), limited to ±``METER_LIMIT_EV``; "background" keeps the background's
    pixels (away from the person and its shadow) exactly as they were.
+
+``composite`` runs the steps, each a function that can be used and tested alone: ``scene_lighting`` (1, 2's
+light), ``relight_person`` (2's exposure, 3), ``place`` (4), ``camera_match`` (5), ``shadows`` and ``shade`` (6),
+the blending of step 7, ``grade`` (8 and the encoding). ``scene.composite(relighter, ...)`` is the one
+compositing verb (the Relighter has none: the relighting core never imports this module).
 """
 
 from __future__ import annotations
 
 import math
 import os
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
 
 from . import exposure as _exposure
 from . import sh
+from ._camera import blur_sigma, camera_blur, grey, noise_sigma
 from ._errors import RelightError
 from ._pairs import number_pair
 from .color import SRGB8_TO_LINEAR, linear_to_srgb, srgb8_to_linear, srgb_to_linear
@@ -80,7 +87,10 @@ from .scene_light import (
     scene_light,
 )
 
-__all__ = ["composite", "parse_position"]
+__all__ = [
+    "Placement", "SceneLighting", "Shadows", "camera_match", "composite", "grade", "parse_position", "place",
+    "relight_person", "scene_lighting", "shade", "shadows",
+]
 
 _ALPHA_BOX = 0.005  # the person's box: matte above this
 CONTACT_STRENGTH = 0.7  #: darkest contact shadow (fraction of the ground's light taken away)
@@ -211,90 +221,6 @@ def _check_horizon(horizon) -> float:
     if not 0 <= h <= 1:  # also rejects NaN
         raise RelightError(message)
     return h
-
-
-_NOISE_KERNEL = np.array([[1, -2, 1], [-2, 4, -2], [1, -2, 1]], np.float32)
-
-
-def _noise_sigma(image: np.ndarray, where: np.ndarray | None = None) -> float:
-    """Per-channel noise standard deviation of an (H, W, 3) float image, averaged over the channels (Immerkær's
-    Laplacian-difference operator, with the median absolute response instead of the mean, so that edges and
-    texture sway it less). Units of ``image``."""
-    r = np.abs(cv2.filter2D(image, -1, _NOISE_KERNEL, borderType=cv2.BORDER_REFLECT))[1:-1, 1:-1]
-    if where is not None:
-        r = r[where[1:-1, 1:-1]]
-    if r.size < 48:
-        return 0.0
-    return float(np.median(r.reshape(-1, 3), axis=0).mean()) / (0.6745 * 6)  # the operator's gain on white noise
-
-
-def _gradients(gray: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Gradient magnitude (Sobel) of a grey image, and of the same image blurred by 1 px (Gaussian)."""
-    g0 = np.hypot(cv2.Sobel(gray, cv2.CV_32F, 1, 0), cv2.Sobel(gray, cv2.CV_32F, 0, 1))
-    blurred = cv2.GaussianBlur(gray, (0, 0), 1.0)
-    return g0, np.hypot(cv2.Sobel(blurred, cv2.CV_32F, 1, 0), cv2.Sobel(blurred, cv2.CV_32F, 0, 1))
-
-
-def _blur_from(g0: np.ndarray, g1: np.ndarray) -> float | None:
-    """The blur (px) of the strongest edges among these gradients (``_blur_sigma``); None with too few."""
-    if g0.size < 64:
-        return None
-    strong = g0 >= np.percentile(g0, 98)
-    total = float(g0[strong].sum())
-    if total <= 1e-6:
-        return None
-    r = min(float(g1[strong].sum()) / total, 0.995)
-    return r / math.sqrt(1 - r * r)
-
-
-def _blur_sigma(gray: np.ndarray, where: np.ndarray | None = None) -> float:
-    """Effective Gaussian blur (pixels) of a grey image's strongest edges: blurring a step edge of blur s by 1 px
-    more lowers its peak gradient by s / sqrt(s² + 1); that ratio, measured on the top 2 % of gradients, gives s."""
-    g0, g1 = _gradients(gray)
-    if where is not None:
-        g0, g1 = g0[where], g1[where]
-    s = _blur_from(g0, g1)
-    return 0.0 if s is None else s
-
-
-_BLUR_TILE = 48  #: px: the background's blur is measured in tiles this size ...
-_EDGE_FLOOR = 0.1  #: ... that hold an edge (Sobel magnitude of a grey in [0, 1]: a sharp step of about 0.03)
-_BLUR_TILES = 10  #: at most this many tiles a side
-_BLUR_QUANTILE = 25  #: the camera's blur: this percentile of the tiles' blurs (its sharpest part, robustly)
-
-
-def _camera_blur(gray: np.ndarray) -> float:
-    """The background camera's own blur (px): the blur of the sharpest part of the photo.
-
-    A photographer focuses on the person, so what is soft only in part of the background (defocus: depth) is not
-    the person's; what softens the whole photo (the lens, a small sensor, resampling) is. So the blur is
-    measured in tiles (``_BLUR_TILE``; at most ``_BLUR_TILES`` a side, spread evenly over a large photo) that hold
-    a real edge (a strongest gradient above ``_EDGE_FLOOR``: a smooth sky or wall has none, and its ramps would
-    read as an endless blur) and the low quantile ``_BLUR_QUANTILE`` of those is the camera's. 0 when no tile
-    holds an edge (nothing to match)."""
-    h, w = gray.shape
-    ny, nx = max(1, h // _BLUR_TILE), max(1, w // _BLUR_TILE)
-    found = []
-    pad = 4  # the filters' reach: each tile is filtered with its surroundings
-    for y in np.linspace(0, h - min(h, _BLUR_TILE), min(ny, _BLUR_TILES)).round().astype(int):
-        for x in np.linspace(0, w - min(w, _BLUR_TILE), min(nx, _BLUR_TILES)).round().astype(int):
-            y0, x0 = max(0, y - pad), max(0, x - pad)
-            g0, g1 = _gradients(gray[y0 : y + _BLUR_TILE + pad, x0 : x + _BLUR_TILE + pad])
-            t = np.s_[y - y0 : y - y0 + _BLUR_TILE, x - x0 : x - x0 + _BLUR_TILE]
-            a, b = g0[t], g1[t]
-            if float(a.max()) < _EDGE_FLOOR:
-                continue
-            s = _blur_from(a, b)
-            if s is not None:
-                found.append(s)
-    return float(np.percentile(found, _BLUR_QUANTILE)) if found else 0.0
-
-
-def _grey(image: np.ndarray) -> np.ndarray:
-    """(H, W) float32 luma of an RGB image, in [0, 1] (uint8 or float input)."""
-    if image.dtype == np.uint8:
-        return cv2.cvtColor(np.ascontiguousarray(image), cv2.COLOR_RGB2GRAY).astype(np.float32) * np.float32(1 / 255)
-    return cv2.cvtColor(np.ascontiguousarray(image, dtype=np.float32), cv2.COLOR_RGB2GRAY)
 
 
 def _light_wrap(
@@ -481,6 +407,260 @@ def _cast_shadow(alpha: np.ndarray, top: int, left: int, feet_y: float, horizon_
     return y0, x0, np.clip(out, 0, 1)
 
 
+@dataclass(frozen=True)
+class SceneLighting:
+    """What the scene's light does to the person (steps 1, 2 and 6): the light to relight them under (before
+    exposure), the background's own light (the exposure's target), the direction their shadow falls away from
+    (None: no dominant direction) and how directional the light is, and a back key's rim (direction or None, gain).
+    """
+
+    light: np.ndarray
+    background_light: np.ndarray
+    shadow_dir: np.ndarray | None
+    directional: float
+    rim_dir: np.ndarray | None = None
+    rim_gain: float = 0.0
+
+
+def scene_lighting(relighter, dec, parts, background_light: np.ndarray, key, light, *, white_balance: bool = True,
+                   rim: bool = False) -> SceneLighting:
+    """Step 1 and 2's light for the person of ``dec`` in the scene whose light ``parts`` describes
+    (relight_rt.scene_light ``scene_light``; ``background_light`` = ``parts.light(key)``): the background's own
+    light with its key (``key``: parse_key_light's), or ``light`` (anything ``Relighter.resolve_light`` accepts)
+    white-balanced to it."""
+    bg_light = background_light
+    rim_dir, rim_gain = None, 0.0
+    if light is None:
+        lit = bg_light
+        (az, el), back = parts.key(key)
+        shadow_dir = key_direction(az, el)
+        if back and rim:
+            rim_dir, rim_gain = shadow_dir, _rim_gain(parts, bg_light)
+        _, directional = _dominant_direction(bg_light)
+        directional = max(directional, 0.35)  # the key is there by construction: never an invisible shadow
+    else:
+        lit = relighter.resolve_light(light)
+        if white_balance:
+            lit = _white_balance(dec, lit, bg_light)
+        shadow_dir, directional = _dominant_direction(lit)
+    return SceneLighting(lit, bg_light, shadow_dir, directional, rim_dir, rim_gain)
+
+
+def relight_person(relighter, dec, lighting: SceneLighting, mode) -> np.ndarray:
+    """Step 2's exposure and step 3: the person of ``dec`` relit under ``lighting.light``, exposed as ``mode``
+    (relight_rt.exposure ``parse_exposure``'s) says against the brightness the background's light gives them;
+    (H, W, 4) straight-alpha linear RGBA at the photo's size."""
+    lit = lighting.light
+    target = _exposure.mean_luminance(dec.albedo, dec.transport, dec.network_mask, lighting.background_light)
+    lit = lit * np.float32(_exposure.exposure_scale(dec.albedo, dec.transport, dec.network_mask, lit, target, mode))
+    return relighter.relight(dec, lit, background="transparent", exposure="physical")
+
+
+@dataclass(frozen=True)
+class Placement:
+    """Where the person goes (step 4): ``premult`` (h, w, 4) premultiplied linear RGB and alpha at their size in
+    the background, its top-left corner (``top``, ``left``; may lie outside), their box's size before any blur
+    (``height``, ``width``), the row of their feet and whether they stand on the ground (``full_body``)."""
+
+    premult: np.ndarray
+    top: int
+    left: int
+    height: int
+    width: int
+    feet_y: int
+    full_body: bool
+
+
+def place(rgba: np.ndarray, background_shape: tuple[int, ...], position=None, height=None,
+          horizon: float = 0.5) -> Placement:
+    """Step 4: the relit person ``rgba`` (straight alpha, their photo's size) scaled and put into a background of
+    ``background_shape`` (arguments as for ``composite``: ``position`` a checked (x, y) or None, ``height`` a
+    checked fraction or None, ``horizon`` a checked row fraction)."""
+    pos, frac, hz = position, height, horizon
+    hb, wb = background_shape[:2]
+    hp, wp = rgba.shape[:2]
+    y0, y1, x0, x1 = _box(rgba[..., 3])
+    box_h, box_w = y1 - y0, x1 - x0
+    full_body = y1 < hp
+    own_x = (x0 + x1) / 2 / wp
+    if full_body:
+        feet = (own_x, DEFAULT_FEET) if pos is None else pos
+        if frac is None:
+            rows_below = (feet[1] - hz) * hb
+            if rows_below < 0.02 * hb:
+                raise RelightError(
+                    f"position: the feet (y = {feet[1]:g}) are on or above the horizon (y = {hz:g}), where the "
+                    "ground is not seen; give feet lower in the picture (a larger --position Y), a horizon higher in "
+                    "it (a smaller --horizon), or a --height"
+                )
+            frac = rows_below * PERSON_M / CAMERA_M / hb
+            frac = min(frac, 1.0)
+    else:
+        feet = (own_x, 1.0) if pos is None else pos
+        if frac is None:
+            frac = box_h / hp
+    given = height is not None
+    scale = frac * hb / box_h
+    if not given and box_w * scale > wb:  # a default size that would not fit across: as large as fits
+        scale = wb / box_w
+    new_h, new_w = max(1, round(box_h * scale)), max(1, round(box_w * scale))
+    if new_h > hb or new_w > wb:
+        raise RelightError(
+            f"height: the person would be {new_w} x {new_h} px (W x H) after scaling, larger than the background "
+            f"({wb} x {hb}); give a smaller --height"
+        )
+    crop = rgba[y0:y1, x0:x1]
+    premult = np.concatenate([crop[..., :3] * crop[..., 3:], crop[..., 3:]], axis=2)
+    interp = cv2.INTER_AREA if scale < 1 else cv2.INTER_LINEAR
+    premult = cv2.resize(premult, (new_w, new_h), interpolation=interp)
+    np.clip(premult, 0, 1, out=premult)
+    top = int(round(feet[1] * hb)) - new_h
+    left = int(round(feet[0] * wb - new_w / 2))
+    if pos is None:  # the default place keeps the whole person in the picture (a given --position is obeyed)
+        left = min(max(left, 0), wb - new_w)
+    feet_y = top + new_h
+    return Placement(premult, top, left, new_h, new_w, feet_y, full_body)
+
+
+def camera_match(bg: np.ndarray, placed: Placement) -> tuple[Placement, float]:
+    """Step 5: ``placed`` blurred by what the background ``bg``'s camera blurs more, and the standard deviation of
+    the noise (sRGB) to add to the person after the encoding (0: none)."""
+    premult, top, left = placed.premult, placed.top, placed.left
+    new_h, new_w, feet_y = placed.height, placed.width, placed.feet_y
+    hb, wb = bg.shape[:2]
+    noise_add = 0.0
+    ey0, ey1 = max(0, top - new_h // 2), min(hb, feet_y + new_h // 4)
+    ex0, ex1 = max(0, left - new_w), min(wb, left + 2 * new_w)
+    if ey1 - ey0 >= 8 and ex1 - ex0 >= 8:
+        bg_region = bg[ey0:ey1, ex0:ex1].astype(np.float32)
+        if bg.dtype == np.uint8:
+            bg_region *= np.float32(1 / 255)
+        alpha_p = premult[..., 3]
+        inside = cv2.erode((alpha_p > 0.98).astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
+        colour = np.divide(premult[..., :3], premult[..., 3:], out=np.zeros_like(premult[..., :3]),
+                           where=premult[..., 3:] > 1e-3)  # fmt: skip
+        p_srgb = linear_to_srgb(np.clip(colour, 0, 1))
+        # the person's sharpness: its premultiplied colour, so that its outline counts too
+        b_bg = camera_blur(grey(bg))
+        b_p = blur_sigma(linear_to_srgb(premult[..., :3]).mean(axis=2))
+        if b_bg > b_p + 0.25:  # the camera's own softness reaches a close portrait too
+            sigma = min(math.sqrt(b_bg**2 - b_p**2), 8.0)
+            pad = int(math.ceil(3 * sigma))  # room for the outline to soften outward
+            premult = cv2.copyMakeBorder(premult, pad, pad, pad, pad, cv2.BORDER_CONSTANT, value=0)
+            premult = cv2.GaussianBlur(premult, (0, 0), sigma)
+            top, left = top - pad, left - pad
+        n_bg, n_p = noise_sigma(bg_region), noise_sigma(p_srgb, inside)
+        if n_bg > n_p + 0.5 / 255:
+            noise_add = math.sqrt(n_bg**2 - n_p**2)
+    return replace(placed, premult=premult, top=top, left=left), noise_add
+
+
+@dataclass(frozen=True)
+class Shadows:
+    """Step 6's shadows of a placed full-body person: the contact ellipse (centre ``foot``, half-axes ``size``),
+    the sky the body hides (``occluder``), the cast shadow (row, column, (h, w) cover) or None, the light's
+    directionality and whether it has a direction, and the frame box (y0, y1, x0, x1) they reach."""
+
+    foot: tuple[float, float]
+    size: tuple[float, float]
+    occluder: _Occluder
+    cast: tuple | None
+    directional: float
+    has_direction: bool
+    box: tuple[int, int, int, int]
+
+
+def shadows(placed: Placement, background_shape: tuple[int, ...], horizon: float, fov: float,
+            lighting: SceneLighting) -> Shadows:
+    """Step 6: the shadows of ``placed`` on the ground of a background of ``background_shape`` (horizon row
+    fraction, horizontal field of view in degrees) under ``lighting``."""
+    hb, wb = background_shape[:2]
+    hz, shadow_dir, directional = horizon, lighting.shadow_dir, lighting.directional
+    top, left, premult, new_h, new_w, feet_y = (placed.top, placed.left, placed.premult, placed.height,
+                                                placed.width, placed.feet_y)
+    box_bottom, box_right = top + premult.shape[0], left + premult.shape[1]
+    ry0, ry1, rx0, rx1 = top, box_bottom, left, box_right
+    sh_w, sh_h = 0.6 * new_w, max(2.0, new_h / 20)
+    foot_x, foot_y = (left + box_right) / 2, feet_y - 0.2 * sh_h
+    cast = None
+    focal = (wb / 2) / math.tan(math.radians(float(fov)) / 2)
+    ry0, ry1 = min(ry0, int(foot_y - 3 * sh_h)), max(ry1, int(math.ceil(foot_y + 3 * sh_h)))
+    rx0, rx1 = min(rx0, int(foot_x - 1.5 * sh_w)), max(rx1, int(math.ceil(foot_x + 1.5 * sh_w)))
+    occ = _Occluder(foot_x, feet_y, new_h, hz * hb, focal, wb / 2)
+    oy0, oy1, ox0, ox1 = occ.reach(hb)
+    ry0, ry1, rx0, rx1 = min(ry0, oy0), max(ry1, oy1), min(rx0, ox0), max(rx1, ox1)
+    if shadow_dir is not None and directional > 0:
+        cast = _cast_shadow(premult[..., 3], top, left, feet_y, hz * hb, focal, shadow_dir, (hb, wb))
+        if cast is not None:
+            cy0, cx0, cs = cast
+            ry0, ry1 = min(ry0, cy0), max(ry1, cy0 + cs.shape[0])
+            rx0, rx1 = min(rx0, cx0), max(rx1, cx0 + cs.shape[1])
+    return Shadows((foot_x, foot_y), (sh_w, sh_h), occ, cast, directional, shadow_dir is not None,
+                   (ry0, ry1, rx0, rx1))
+
+
+def shade(lin: np.ndarray, origin: tuple[int, int], cast: Shadows) -> None:
+    """Multiply ``cast``'s shadows into ``lin`` (linear RGB of the frame region whose top-left pixel is
+    ``origin`` (row, column)), in place."""
+    ry0, rx0 = origin
+    ry1, rx1 = ry0 + lin.shape[0], rx0 + lin.shape[1]
+    (foot_x, foot_y), (sh_w, sh_h), occ, directional = cast.foot, cast.size, cast.occluder, cast.directional
+    yy, xx = np.mgrid[ry0:ry1, rx0:rx1].astype(np.float32)
+    d2 = ((xx + 0.5 - foot_x) / sh_w) ** 2 + ((yy + 0.5 - foot_y) / sh_h) ** 2
+    light_left = 1 - CONTACT_STRENGTH * np.exp(-2 * d2)
+    ambient = 1 - min(1.0, directional) if cast.has_direction else 1.0
+    light_left = np.minimum(light_left, 1 - ambient * occ.occlusion(xx + 0.5, yy + 0.5))
+    if cast.cast is not None:
+        cy0, cx0, cs = cast.cast
+        cover = np.zeros(lin.shape[:2], np.float32)
+        sy0, sx0 = max(cy0, ry0), max(cx0, rx0)
+        sy1, sx1 = min(cy0 + cs.shape[0], ry1), min(cx0 + cs.shape[1], rx1)
+        cover[sy0 - ry0 : sy1 - ry0, sx0 - rx0 : sx1 - rx0] = cs[sy0 - cy0 : sy1 - cy0, sx0 - cx0 : sx1 - cx0]
+        dark = CAST_STRENGTH * min(1.0, 2 * directional)
+        light_left = np.minimum(light_left, 1 - dark * cover)
+    lin *= light_left[..., None]
+
+
+def grade(bg: np.ndarray, lin: np.ndarray, box: tuple[int, int, int, int], before: float, meter: str = "frame",
+          noise: float = 0.0, alpha_region=None) -> np.ndarray:
+    """Step 8 and the encoding: the frame ``bg`` (sRGB, uint8 or float) with its region ``box`` (y0, y1, x0, x1)
+    replaced by ``lin`` (its linear RGB with the person, whose linear luminance was ``before`` without them),
+    metered as ``meter`` says, back in sRGB; ``noise`` (sRGB standard deviation) added to the person where
+    ``alpha_region`` (y0, y1, x0, x1, alpha) says. (H, W, 3) float32 sRGB in [0, 1]."""
+    ry0, ry1, rx0, rx1 = box
+    gain = 1.0
+    if meter == "frame":
+        if bg.dtype == np.uint8:  # the frame's linear luminance from the channels' histograms (fast)
+            hist = [cv2.calcHist([bg], [c], None, [256], [0, 256]).reshape(-1) @ SRGB8_TO_LINEAR for c in range(3)]
+            total = float(np.asarray(hist, np.float64) @ _exposure.REC709.astype(np.float64))
+        else:
+            total = float((srgb_to_linear(bg) @ _exposure.REC709).sum())
+        after = total - before + float((lin @ _exposure.REC709).sum())
+        if after > 1e-9 and total > 1e-9:
+            gain = float(np.clip(total / after, 2.0**-METER_LIMIT_EV, 2.0**METER_LIMIT_EV))
+    if abs(math.log2(gain)) > 1e-3:
+        if bg.dtype == np.uint8:
+            table = np.clip(linear_to_srgb(np.clip(SRGB8_TO_LINEAR * np.float32(gain), 0, 1)), 0, 1).astype(np.float32)
+            out = cv2.LUT(bg, table.reshape(256, 1))
+        else:
+            out = np.clip(linear_to_srgb(np.clip(srgb_to_linear(bg) * np.float32(gain), 0, 1)), 0, 1)
+        lin *= np.float32(gain)
+    elif bg.dtype == np.uint8:
+        out = cv2.LUT(bg, _UNIT.reshape(256, 1))
+    else:
+        out = bg.astype(np.float32, copy=True)
+    region = np.clip(linear_to_srgb(np.clip(lin, 0, None)), 0, 1)
+    if noise > 0 and alpha_region is not None:
+        qy0, qy1, qx0, qx1, a = alpha_region
+        rng = np.random.default_rng(_NOISE_SEED)
+        noise_px = rng.standard_normal(a.shape + (3,), dtype=np.float32) * np.float32(noise)
+        sub = region[qy0 - ry0 : qy1 - ry0, qx0 - rx0 : qx1 - rx0]
+        sub += noise_px * a[..., None]
+        np.clip(sub, 0, 1, out=sub)
+    out[ry0:ry1, rx0:rx1] = region
+    return out
+
+
 def composite(
     relighter,
     image,
@@ -549,118 +729,22 @@ def composite(
     mask = _matte_on_the_photo(relighter, image, mask, name)
     person = _linear_person(image)
     dec = relighter.decompose(person, mask)
-    rim_dir, rim_gain = None, 0.0
-    if light is None:
-        lit = bg_light
-        (az, el), back = parts.key(key)
-        shadow_dir = key_direction(az, el)
-        if back and rim:
-            rim_dir, rim_gain = shadow_dir, _rim_gain(parts, bg_light)
-        _, directional = _dominant_direction(bg_light)
-        directional = max(directional, 0.35)  # the key is there by construction: never an invisible shadow
-    else:
-        lit = relighter.resolve_light(light)
-        if white_balance:
-            lit = _white_balance(dec, lit, bg_light)
-        shadow_dir, directional = _dominant_direction(lit)
-    target = _exposure.mean_luminance(dec.albedo, dec.transport, dec.network_mask, bg_light)
-    lit = lit * np.float32(_exposure.exposure_scale(dec.albedo, dec.transport, dec.network_mask, lit, target, mode))
-    rgba = relighter.relight(dec, lit, background="transparent", exposure="physical")
-
-    # placement (step 4)
-    hb, wb = bg.shape[:2]
-    hp, wp = rgba.shape[:2]
-    y0, y1, x0, x1 = _box(rgba[..., 3])
-    box_h, box_w = y1 - y0, x1 - x0
-    full_body = y1 < hp
-    own_x = (x0 + x1) / 2 / wp
-    if full_body:
-        feet = (own_x, DEFAULT_FEET) if pos is None else pos
-        if frac is None:
-            rows_below = (feet[1] - hz) * hb
-            if rows_below < 0.02 * hb:
-                raise RelightError(
-                    f"position: the feet (y = {feet[1]:g}) are on or above the horizon (y = {hz:g}), where the "
-                    "ground is not seen; give feet lower in the picture (a larger --position Y), a horizon higher in "
-                    "it (a smaller --horizon), or a --height"
-                )
-            frac = rows_below * PERSON_M / CAMERA_M / hb
-            frac = min(frac, 1.0)
-    else:
-        feet = (own_x, 1.0) if pos is None else pos
-        if frac is None:
-            frac = box_h / hp
-    given = height is not None
-    scale = frac * hb / box_h
-    if not given and box_w * scale > wb:  # a default size that would not fit across: as large as fits
-        scale = wb / box_w
-    new_h, new_w = max(1, round(box_h * scale)), max(1, round(box_w * scale))
-    if new_h > hb or new_w > wb:
-        raise RelightError(
-            f"height: the person would be {new_w} x {new_h} px (W x H) after scaling, larger than the background "
-            f"({wb} x {hb}); give a smaller --height"
-        )
-    crop = rgba[y0:y1, x0:x1]
-    premult = np.concatenate([crop[..., :3] * crop[..., 3:], crop[..., 3:]], axis=2)
-    interp = cv2.INTER_AREA if scale < 1 else cv2.INTER_LINEAR
-    premult = cv2.resize(premult, (new_w, new_h), interpolation=interp)
-    np.clip(premult, 0, 1, out=premult)
-    top = int(round(feet[1] * hb)) - new_h
-    left = int(round(feet[0] * wb - new_w / 2))
-    if pos is None:  # the default place keeps the whole person in the picture (a given --position is obeyed)
-        left = min(max(left, 0), wb - new_w)
-    feet_y = top + new_h
-    draw_shadow = shadow and full_body
-
-    # matching the background's camera (step 5): blur now, noise after the sRGB encoding
+    lighting = scene_lighting(relighter, dec, parts, bg_light, key, light, white_balance=white_balance, rim=rim)
+    rgba = relight_person(relighter, dec, lighting, mode)
+    placed = place(rgba, bg.shape, pos, frac, hz)
     noise_add = 0.0
-    if match_camera:
-        ey0, ey1 = max(0, top - new_h // 2), min(hb, feet_y + new_h // 4)
-        ex0, ex1 = max(0, left - new_w), min(wb, left + 2 * new_w)
-        if ey1 - ey0 >= 8 and ex1 - ex0 >= 8:
-            bg_region = bg[ey0:ey1, ex0:ex1].astype(np.float32)
-            if bg.dtype == np.uint8:
-                bg_region *= np.float32(1 / 255)
-            alpha_p = premult[..., 3]
-            inside = cv2.erode((alpha_p > 0.98).astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
-            colour = np.divide(premult[..., :3], premult[..., 3:], out=np.zeros_like(premult[..., :3]),
-                               where=premult[..., 3:] > 1e-3)  # fmt: skip
-            p_srgb = linear_to_srgb(np.clip(colour, 0, 1))
-            # the person's sharpness: its premultiplied colour, so that its outline counts too
-            b_bg = _camera_blur(_grey(bg))
-            b_p = _blur_sigma(linear_to_srgb(premult[..., :3]).mean(axis=2))
-            if b_bg > b_p + 0.25:  # the camera's own softness reaches a close portrait too
-                sigma = min(math.sqrt(b_bg**2 - b_p**2), 8.0)
-                pad = int(math.ceil(3 * sigma))  # room for the outline to soften outward
-                premult = cv2.copyMakeBorder(premult, pad, pad, pad, pad, cv2.BORDER_CONSTANT, value=0)
-                premult = cv2.GaussianBlur(premult, (0, 0), sigma)
-                top, left = top - pad, left - pad
-            n_bg, n_p = _noise_sigma(bg_region), _noise_sigma(p_srgb, inside)
-            if n_bg > n_p + 0.5 / 255:
-                noise_add = math.sqrt(n_bg**2 - n_p**2)
-
-    # the region of the background that changes: the person's box and its shadows
+    if match_camera:  # blur now, noise after the sRGB encoding
+        placed, noise_add = camera_match(bg, placed)
+    hb, wb = bg.shape[:2]
+    top, left, premult = placed.top, placed.left, placed.premult
     box_bottom, box_right = top + premult.shape[0], left + premult.shape[1]
-    ry0, ry1, rx0, rx1 = top, box_bottom, left, box_right
-    sh_w, sh_h = 0.6 * new_w, max(2.0, new_h / 20)
-    foot_x, foot_y = (left + box_right) / 2, feet_y - 0.2 * sh_h
-    cast = None
-    focal = (wb / 2) / math.tan(math.radians(float(fov)) / 2)
-    if draw_shadow:
-        ry0, ry1 = min(ry0, int(foot_y - 3 * sh_h)), max(ry1, int(math.ceil(foot_y + 3 * sh_h)))
-        rx0, rx1 = min(rx0, int(foot_x - 1.5 * sh_w)), max(rx1, int(math.ceil(foot_x + 1.5 * sh_w)))
-        occ = _Occluder(foot_x, feet_y, new_h, hz * hb, focal, wb / 2)
-        oy0, oy1, ox0, ox1 = occ.reach(hb)
-        ry0, ry1, rx0, rx1 = min(ry0, oy0), max(ry1, oy1), min(rx0, ox0), max(rx1, ox1)
-        if shadow_dir is not None and directional > 0:
-            cast = _cast_shadow(premult[..., 3], top, left, feet_y, hz * hb, focal, shadow_dir, (hb, wb))
-            if cast is not None:
-                cy0, cx0, cs = cast
-                ry0, ry1 = min(ry0, cy0), max(ry1, cy0 + cs.shape[0])
-                rx0, rx1 = min(rx0, cx0), max(rx1, cx0 + cs.shape[1])
+    # the region of the background that changes: the person's box and its shadows
+    cast = shadows(placed, bg.shape, hz, fov, lighting) if shadow and placed.full_body else None
+    ry0, ry1, rx0, rx1 = cast.box if cast is not None else (top, box_bottom, left, box_right)
+    rim_dir = lighting.rim_dir
     wrap = bool(light_wrap)
     wrap_radius = max(0.5, WRAP_RADIUS * hb)
-    rim_radius = max(0.5, RIM_RADIUS * new_h)
+    rim_radius = max(0.5, RIM_RADIUS * placed.height)
     if wrap or rim_dir is not None:  # the light wrap reads the background around the person; the rim its outline
         margin = int(math.ceil(3 * max(wrap_radius if wrap else 0.0, rim_radius if rim_dir is not None else 0.0)))
         ry0, ry1, rx0, rx1 = (
@@ -675,22 +759,9 @@ def composite(
     region_bg = bg[ry0:ry1, rx0:rx1]
     lin = SRGB8_TO_LINEAR[region_bg] if region_bg.dtype == np.uint8 else srgb_to_linear(region_bg)
     before = float((lin @ _exposure.REC709).sum())
-    if draw_shadow:
-        yy, xx = np.mgrid[ry0:ry1, rx0:rx1].astype(np.float32)
-        d2 = ((xx + 0.5 - foot_x) / sh_w) ** 2 + ((yy + 0.5 - foot_y) / sh_h) ** 2
-        light_left = 1 - CONTACT_STRENGTH * np.exp(-2 * d2)
-        ambient = 1 - min(1.0, directional) if shadow_dir is not None else 1.0
-        light_left = np.minimum(light_left, 1 - ambient * occ.occlusion(xx + 0.5, yy + 0.5))
-        if cast is not None:
-            cy0, cx0, cs = cast
-            cover = np.zeros(lin.shape[:2], np.float32)
-            sy0, sx0 = max(cy0, ry0), max(cx0, rx0)
-            sy1, sx1 = min(cy0 + cs.shape[0], ry1), min(cx0 + cs.shape[1], rx1)
-            cover[sy0 - ry0 : sy1 - ry0, sx0 - rx0 : sx1 - rx0] = cs[sy0 - cy0 : sy1 - cy0, sx0 - cx0 : sx1 - cx0]
-            dark = CAST_STRENGTH * min(1.0, 2 * directional)
-            light_left = np.minimum(light_left, 1 - dark * cover)
-        lin *= light_left[..., None]
-    # the person's pixels inside the region
+    if cast is not None:
+        shade(lin, (ry0, rx0), cast)
+    # the person's pixels inside the region (step 7)
     py0, px0 = max(top, ry0), max(left, rx0)
     py1, px1 = min(box_bottom, ry1), min(box_right, rx1)
     alpha_region = None
@@ -707,37 +778,5 @@ def composite(
             if wrap:
                 lin = _light_wrap(lin, behind, window_alpha, wrap_radius)
             if rim_dir is not None:
-                lin = _key_rim(lin, window_alpha, rim_dir, rim_gain, rim_radius)
-
-    # metering (step 8)
-    gain = 1.0
-    if meter == "frame":
-        if bg.dtype == np.uint8:  # the frame's linear luminance from the channels' histograms (fast)
-            hist = [cv2.calcHist([bg], [c], None, [256], [0, 256]).reshape(-1) @ SRGB8_TO_LINEAR for c in range(3)]
-            total = float(np.asarray(hist, np.float64) @ _exposure.REC709.astype(np.float64))
-        else:
-            total = float((srgb_to_linear(bg) @ _exposure.REC709).sum())
-        after = total - before + float((lin @ _exposure.REC709).sum())
-        if after > 1e-9 and total > 1e-9:
-            gain = float(np.clip(total / after, 2.0**-METER_LIMIT_EV, 2.0**METER_LIMIT_EV))
-    if abs(math.log2(gain)) > 1e-3:
-        if bg.dtype == np.uint8:
-            table = np.clip(linear_to_srgb(np.clip(SRGB8_TO_LINEAR * np.float32(gain), 0, 1)), 0, 1).astype(np.float32)
-            out = cv2.LUT(bg, table.reshape(256, 1))
-        else:
-            out = np.clip(linear_to_srgb(np.clip(srgb_to_linear(bg) * np.float32(gain), 0, 1)), 0, 1)
-        lin *= np.float32(gain)
-    elif bg.dtype == np.uint8:
-        out = cv2.LUT(bg, _UNIT.reshape(256, 1))
-    else:
-        out = bg.astype(np.float32, copy=True)
-    region = np.clip(linear_to_srgb(np.clip(lin, 0, None)), 0, 1)
-    if noise_add > 0 and alpha_region is not None:
-        qy0, qy1, qx0, qx1, a = alpha_region
-        rng = np.random.default_rng(_NOISE_SEED)
-        noise = rng.standard_normal(a.shape + (3,), dtype=np.float32) * np.float32(noise_add)
-        sub = region[qy0 - ry0 : qy1 - ry0, qx0 - rx0 : qx1 - rx0]
-        sub += noise * a[..., None]
-        np.clip(sub, 0, 1, out=sub)
-    out[ry0:ry1, rx0:rx1] = region
-    return out
+                lin = _key_rim(lin, window_alpha, rim_dir, lighting.rim_gain, rim_radius)
+    return grade(bg, lin, (ry0, ry1, rx0, rx1), before, meter, noise_add, alpha_region)

@@ -27,7 +27,7 @@ import logging
 import os
 import time
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Protocol
 
@@ -201,13 +201,9 @@ class RelighterEngine:
 
     def render(self, layers: FrameLayers, albedo: np.ndarray, transport: np.ndarray, own_light: np.ndarray | None,
                light: np.ndarray, background: Background) -> np.ndarray:
-        from .relighter import Decomposition
-
         dec = layers.state
-        stab = Decomposition(albedo_chw=albedo.transpose(2, 0, 1), skin=dec.skin,
-                             transport_chw=transport.transpose(2, 0, 1),
-                             light=dec.light if own_light is None else own_light, network_mask=dec.network_mask,
-                             network_image=dec.network_image, mask=dec.mask, image=dec.image, geometry=dec.geometry)
+        stab = replace(dec, albedo_chw=albedo.transpose(2, 0, 1), transport_chw=transport.transpose(2, 0, 1),
+                       light=dec.light if own_light is None else own_light)
         return self.relighter.relight(stab, light, background=background, exposure=self.exposure)
 
     def to_input(self, layers: FrameLayers, layer: np.ndarray) -> np.ndarray:
@@ -473,36 +469,6 @@ class ClipReport:
     lost: int = 0
 
 
-class _LazyVideoMatter:
-    """The automatic video matte (relight_rt.matting.VideoMatter), loaded at the first frame that needs it."""
-
-    def __init__(self, device: str):
-        self.device, self._matter = device, None
-
-    def __call__(self, rgb, name: str = "frame"):
-        if self._matter is None:
-            from .matting import VideoMatter, shared_matter
-
-            self._matter = VideoMatter(shared_matter(device=self.device))
-        return self._matter(rgb, name=name)
-
-
-def automatic_video_matter(device: str = "cpu"):
-    """The automatic matte for frames without a mask (steady over time, loaded at its first use), or None when
-    the matting graphs are not installed."""
-    import importlib.util
-
-    if importlib.util.find_spec(f"{__package__}.matting") is None:
-        return None
-    from .matting import find_matting_models
-
-    try:
-        find_matting_models()
-    except RelightError:
-        return None
-    return _LazyVideoMatter("cpu" if device == "cpu" else device)
-
-
 def relight_clip(
     src: str | os.PathLike,
     lights: ClipLights | LightSpec,
@@ -515,6 +481,8 @@ def relight_clip(
     background: Background | str = "original",
     exposure="auto",
     config=None,
+    relighter=None,
+    matter=None,
     dvp: str | os.PathLike | None = None,
     dvp_size: int | None = None,
     stabilize: bool = True,
@@ -540,6 +508,10 @@ def relight_clip(
         background: a Background or its shorthand; "transparent" needs ``frames_out`` only.
         exposure: "auto", an EV offset or "physical" (relight_rt.exposure).
         config: a RuntimeConfig (models, device, precision, ...); default RuntimeConfig().
+        relighter: the Relighter to relight with (``relight_rt.open(config)`` gives one whose matte can read a
+            light from a photo without a mask); None: ``Relighter(config)``.
+        matter: the automatic matte for frames without a mask (relight_rt.builder.video_matter: steady over
+            time); None: such frames are refused.
         dvp: a fitted dvp.onnx used instead of stage 1/2; dvp_size: the long side it was fitted at.
         stabilize: the training-free stabiliser (not with a DVP); stabilize_strength: its weight in [0, 1).
         batch_size: frames per stage-1 / DVP run.
@@ -569,7 +541,7 @@ def relight_clip(
         raise RelightError("output: expected -o VIDEO and/or --frames-out DIR")
     if fps is not None and not (math.isfinite(fps) and 0 < fps <= MAX_FPS):
         raise RelightError(f"--fps: must be > 0 and at most {MAX_FPS}, got {fps:g}")
-    source = FrameSource(src, masks, fps, skip_bad=skip_bad_frames, matter=automatic_video_matter(config.device))
+    source = FrameSource(src, masks, fps, skip_bad=skip_bad_frames, matter=matter)
     bg = parse_background(background)
     if bg.kind == "transparent" and output:
         raise RelightError("--background transparent: a video file has no alpha channel; use --frames-out DIR")
@@ -579,7 +551,7 @@ def relight_clip(
     else:
         from .relighter import Relighter
 
-        rl = Relighter.from_config(config)
+        rl = Relighter(config) if relighter is None else relighter
         engine = RelighterEngine(rl, exposure=for_light(exposure, lights.spec))  # night: a stop darker
     schedule = lights.schedule(len(source), rl, name=str(src))
     inputs = [*source.paths, *(Path(p) for p in (*lights.paths, dvp, bg.path) if p and Path(p).is_file())]

@@ -65,10 +65,10 @@ def runtime_config(args: argparse.Namespace) -> RuntimeConfig:
 def relighter(args: argparse.Namespace, device: str | None = None):
     """A Relighter as the runtime options say (``device``: another device than --device): the one place a command
     builds one from its arguments."""
-    from ..relighter import Relighter
+    from ..builder import open as open_relighter
 
     config = runtime_config(args)
-    return Relighter.from_config(config if device is None else config.replace(device=device))
+    return open_relighter(config if device is None else config.replace(device=device))
 
 
 # ------------------------------------------------------------------------------------------- lights

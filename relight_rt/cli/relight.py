@@ -141,12 +141,12 @@ def add_decompose(subparsers) -> None:
         "decompose",
         help="albedo, shading, skin, light and transport of a photo",
         description="Writes albedo.png, shading.png, skin.png (the photo's size and detail, see "
-        "Relighter.layers), light.npy ((9, 3) RGB SH) and transport.npz (the (R, R, 9) transport at the network's "
-        "resolution, float16, with the crop geometry; relight_rt.load_transport brings it to the photo's size) "
-        "into DIR. With --format exr or png16: render passes for compositors instead (relight_rt.passes: albedo, "
-        "shading under the photo's light and under the new light, diffuse, residual, beauty, foreground, alpha, "
-        "a normal map read off the transport, light.json, passes.json), relit under the light given (default: the "
-        "photo's own).",
+        "relight_rt.relight.decomposition.intrinsic_layers), light.npy ((9, 3) RGB SH) and transport.npz (the "
+        "(R, R, 9) transport at the network's resolution, float16, with the crop geometry; "
+        "relight_rt.transport_file.load_transport brings it to the photo's size) into DIR. With --format exr or "
+        "png16: render passes for compositors instead (relight_rt.passes: albedo, shading under the photo's light "
+        "and under the new light, diffuse, residual, beauty, foreground, alpha, a normal map read off the "
+        "transport, light.json, passes.json), relit under the light given (default: the photo's own).",
     )
     p.add_argument("input", metavar="INPUT", help="image file")
     add_mask_option(p, several=False)
@@ -179,7 +179,9 @@ def cmd_decompose(args: argparse.Namespace) -> int:
         log.info("%s -> %s (%d files: %s passes, light.json, passes.json)", src, folder, len(written), args.format)
         return 0
     folder.mkdir(parents=True, exist_ok=True)
-    layers = rl.layers(dec)  # at the photo's resolution, with its detail in the albedo
+    from ..relight.decomposition import intrinsic_layers
+
+    layers = intrinsic_layers(dec)  # at the photo's resolution, with its detail in the albedo
     pngs = [(folder / f"{name}.png", image_writer(layers[name], folder / f"{name}.png"))
             for name in ("albedo", "shading", "skin")]  # encoded before anything is written
     write_all([  # the five layers or none of them (an input among them, a full disk)

@@ -106,15 +106,19 @@ def clip_settings(args: argparse.Namespace) -> dict:
 def cmd_video(args: argparse.Namespace) -> int:
     """Run ``relight-rt video``; returns 0, or 2 when frames were left out (--skip-bad-frames)."""
     from .._progress import Progress
+    from ..builder import open as open_relighter
+    from ..builder import video_matter
     from ..video import relight_clip
 
     if getattr(args, "ray", None):
         return cmd_video_ray(args)
     if len(args.input) != 1:  # several clips need --ray
         raise RelightError(f"{len(args.input)} inputs: one clip at a time, or several with --ray")
+    settings = clip_settings(args)  # the matters are handed in (relight_rt.builder): the video job builds none
+    relighter = None if args.dvp else open_relighter(settings["config"])
     report = relight_clip(args.input[0], output=args.output, frames_out=args.frames_out, lights_out=args.lights_out,
                           metrics=args.metrics, progress=lambda total: Progress(total, "frame"),
-                          **clip_settings(args))  # fmt: skip
+                          relighter=relighter, matter=video_matter(settings["config"]), **settings)  # fmt: skip
     logger.info("%d frames, %.3f s per frame, lights: %s", report.frames, report.seconds_per_frame, report.lights)
     # --skip-bad-frames: the output is kept, the run still fails
     return finish([("", message) for message in report.skipped],

@@ -10,13 +10,13 @@ import numpy as np
 from .._errors import RelightError
 from .._io import read_image
 from .._limits import check_array_pixels
+from .._square import SIZE as SIZE  # both graphs' input side
 from ..contract import KINDS
 from ..session import ENV_MODELS, bundled_models_dir
 
 POSE_FILE = KINDS["matte_pose"].filename  # the kinds are declared in relight_rt.contract
 ROI_FILE = KINDS["matte_roi"].filename
 FACE_FILE = KINDS["matte_face"].filename  # optional: a models folder without it finds people by body only
-SIZE = 256  # both graphs' input side
 MIN_SIDE = 16  # smaller images cannot show a person to these models
 
 

@@ -47,7 +47,8 @@ EXPOSURE_SAMPLES = 1 << 15  # network-frame pixels of the person that the page's
 from .. import exposure as _exposure  # noqa: E402  (the one exposure rule)
 from ..exposure import exposure_scale, guarded, mean_luminance, parse_exposure  # noqa: E402
 from ..lightspec import LightSpec  # noqa: E402  (the one light parser)
-from ..relighter import _SKIN_CHROMA, _skin_chroma  # noqa: E402  (the shaded-skin rule the preview mirrors)
+from ..relight.decomposition import intrinsic_layers  # noqa: E402
+from ..relight.look import SKIN_CHROMA, skin_chroma  # noqa: E402  (the shaded-skin rule the preview mirrors)
 
 # (leading bytes, kind, suffix the readers go by)
 _MAGIC = (
@@ -200,9 +201,9 @@ def _exposure_sample(dec) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def _highlight_sample(relighter, dec) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """What the exposure's highlight guard reads (relight_rt.exposure ``highlight_factor``; the relighter's
-    ``_highlight_inputs``), every ``step``-th pixel, at most EXPOSURE_SAMPLES: lit (n, 3), steady (n, 3),
+    ``highlight_inputs``), every ``step``-th pixel, at most EXPOSURE_SAMPLES: lit (n, 3), steady (n, 3),
     transport (n, 9) and the share allowed past white. A runtime without the guard gives no pixels (factor 1)."""
-    inputs = getattr(relighter, "_highlight_inputs", None)
+    inputs = getattr(relighter, "highlight_inputs", None)
     if inputs is None:
         return np.zeros((0, 3), np.float32), np.zeros((0, 3), np.float32), np.zeros((0, 9), np.float32), 1.0
     lit, steady, transport, allowed = inputs(dec)
@@ -290,13 +291,13 @@ class Studio:
         # photo as the final result does, not stage 1's network albedo (whose colours are a guess); divided by the
         # shading the final result divides by (bands restored) rather than stage 1's own (a refit own light,
         # relight_rt._strength.refit_light, can leave that one dark where the restored one is not)
-        albedo = _resize(self.relighter.layers(dec, sh.shading(restored, dec.white_light))["albedo"], size)
+        albedo = _resize(intrinsic_layers(dec, sh.shading(restored, dec.white_light))["albedo"], size)
         mask = _resize(np.asarray(dec.mask)[..., None], size)
         bg = self._background_image()
         bg = np.zeros(size + (3,), np.float32) if bg is None else _resize(bg, size)
-        # what the final result's shaded-skin rule reads (relight_rt.relighter._shaded_skin): the skin's local
+        # what the final result's shaded-skin rule reads (relight_rt.relight.look.shaded_skin): the skin's local
         # chroma (P - Y) / P, stored as (c + 1) / 2, and the skin weight; the page applies the rule with them
-        chroma, weight = _skin_chroma(dec.network_image, dec.skin)
+        chroma, weight = skin_chroma(dec.network_image, dec.skin)
         skin = dec.to_input(np.concatenate([chroma, weight[..., None]], axis=2))
         skin = _resize(np.concatenate([(skin[..., :3] + 1) / 2, skin[..., 3:]], axis=2), size)
         lo = transport.reshape(-1, 9).min(axis=0)
@@ -328,7 +329,7 @@ class Studio:
             "highlight_allowed": allowed,
             "highlight_limit": _exposure.HIGHLIGHT_LIMIT,
             "highlight_max_down": _exposure.HIGHLIGHT_MAX_DOWN,
-            "skin_chroma": _SKIN_CHROMA,
+            "skin_chroma": SKIN_CHROMA,
             "own_white": np.asarray(dec.white_light, np.float64)[:, 0].tolist(),
             "data": head + bytes(offset - len(head)) + planes.tobytes() + guard.tobytes(),
         }
@@ -386,8 +387,7 @@ class Studio:
     def _people(self) -> int:
         """How many people the full result relights one by one (a group photo with matting="all"; the live
         preview draws the group's layers, one body); 1 otherwise."""
-        prepared = getattr(self.relighter, "_prepared", None)
-        return len(prepared(self.dec).get("parts") or ()) or 1 if prepared is not None else 1
+        return len(getattr(self.dec, "people", ())) or 1
 
     # ------------------------------------------------------------------------------------ full results
 
@@ -458,7 +458,7 @@ class Studio:
 def unpack_layers(data: bytes, meta: dict) -> dict:
     """The inverse of ``Studio.layers_bytes`` (what the page's decodeLayers does): float32 planes
     "transport" (9, h, w), "albedo" (3, h, w) premultiplied, "mask" (h, w), "background" (3, h, w),
-    "skin_chroma" (3, h, w) in [-1, 1] and "skin" (h, w) (relight_rt.relighter._skin_chroma), and
+    "skin_chroma" (3, h, w) in [-1, 1] and "skin" (h, w) (relight_rt.relight.look.skin_chroma), and
     "exposure": {"transport" (n, 9), "albedo" (n, 3), "mask" (n,)}, the exposure sample, and "highlight":
     {"lit" (m, 3), "steady" (m, 3), "transport" (m, 9)}, the highlight guard's."""
     h, w = meta["height"], meta["width"]

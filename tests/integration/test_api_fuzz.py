@@ -95,7 +95,9 @@ def test_a_real_state_dict_still_reads(tmp_path):
 
 _ARRAY_CASES = """
 import numpy as np
-from relight_rt import RelightError, Relighter, RuntimeConfig, envmap_from_light, lights, project_envmap, render_sphere
+from relight_rt import RelightError, Relighter, RuntimeConfig, lights
+from relight_rt.envmap import envmap_from_light, project_envmap
+from relight_rt.sh import render_sphere
 from relight_rt._io import read_image, read_mask
 from relight_rt.matting import as_rgb
 

@@ -152,7 +152,7 @@ def test_js_lights_match_python(browser, server):
 
 def preview_diffuse(layers: dict, meta: dict, light: np.ndarray) -> np.ndarray:
     """What the page draws for the person (premultiplied): albedo x max(0, T.L) x the shaded-skin gain of the
-    final result (relight_rt.relighter._shaded_skin, on the layers' skin chroma and weight)."""
+    final result (relight_rt.relight.look.shaded_skin, on the layers' skin chroma and weight)."""
     t = layers["transport"].transpose(1, 2, 0)
     lit = np.maximum(np.einsum("hwk,kc->hwc", t, light.astype(np.float32)), 0)
     own = t @ np.array(meta["own_white"], np.float32)

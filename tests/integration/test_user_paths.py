@@ -396,7 +396,7 @@ def test_precision_picks_its_own_graph_else_fp32(tmp_path, caplog):
 
 def test_relight_layers_names_its_layers(sides):
     img, mask = soft_person()
-    result = sides.relight(img, ambient(), mask=mask, layers=True)
+    result = sides.layers(img, ambient(), mask=mask)
     assert set(result.layers) == {"albedo", "shading", "diffuse", "residual", "relit", "mask"}
     np.testing.assert_array_equal(result.layers["mask"], mask)
 

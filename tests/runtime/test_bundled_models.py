@@ -8,10 +8,11 @@ ground-truth relit photo in tests/data) with a lower error than trivial baseline
 import numpy as np
 import pytest
 
-from relight_rt import Relighter, RuntimeConfig, basis, cosine_lobe, find_models, load_light, load_model
+from relight_rt import Relighter, RuntimeConfig, load_light
 from relight_rt._io import read_image
 from relight_rt.demo import example_path
-from relight_rt.session import bundled_models_dir
+from relight_rt.session import bundled_models_dir, find_models, load_model
+from relight_rt.sh import basis, cosine_lobe
 
 BUDGET_BYTES = 25 * 1000 * 1000
 

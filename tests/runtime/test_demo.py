@@ -46,16 +46,16 @@ def test_demo_unknown_preset(tmp_path, models_dir, monkeypatch, capsys):
 
 def test_demo_takes_every_runtime_option(tmp_path, models_dir, monkeypatch):
     """issue 31: demo accepted --precision/--preprocess/--no-detail and ignored them; they reach the Relighter."""
-    from relight_rt.relighter import Relighter
+    from relight_rt import builder
 
     seen = []
-    original = Relighter.from_config.__func__
+    original = builder.open
 
-    def spy(cls, config, providers=None):
+    def spy(config, providers=None):
         seen.append(config)
-        return original(cls, config, providers)
+        return original(config, providers=providers)
 
-    monkeypatch.setattr(Relighter, "from_config", classmethod(spy))
+    monkeypatch.setattr(builder, "open", spy)
     monkeypatch.setenv("RELIGHT_RT_MODELS", str(models_dir))
     monkeypatch.chdir(tmp_path)
     assert main(["demo", "--no-detail", "--preprocess", "reference", "--device", "cpu", "-o", "a.png"]) == 0

@@ -162,13 +162,13 @@ def test_relight_applies_the_guard_as_one_scalar_before_the_ev(diffuse, monkeypa
     img, mask = person(seed=7)
     dec = diffuse.decompose(0.5 * img, mask)
     lamp = lights.preset("window-left")
-    kept = diffuse.relight(dec, lamp, layers=True).light
+    kept = diffuse.layers(dec, lamp).light
     calls = []
     monkeypatch.setattr(_exposure, "highlight_factor", lambda *a: calls.append(a) or 0.7)
-    guarded = diffuse.relight(dec, lamp, layers=True).light
+    guarded = diffuse.layers(dec, lamp).light
     np.testing.assert_allclose(guarded, 0.7 * kept, rtol=1e-5)
-    np.testing.assert_allclose(diffuse.relight(dec, lamp, exposure=1.0, layers=True).light, 1.4 * kept, rtol=1e-5)
-    np.testing.assert_allclose(diffuse.relight(dec, lamp, exposure="physical", layers=True).light, lamp)
+    np.testing.assert_allclose(diffuse.layers(dec, lamp, exposure=1.0).light, 1.4 * kept, rtol=1e-5)
+    np.testing.assert_allclose(diffuse.layers(dec, lamp, exposure="physical").light, lamp)
     assert len(calls) == 2 and calls[0][-1] >= _exposure.HIGHLIGHT_SHARE  # the share allowed: at least the default
 
 
@@ -187,12 +187,12 @@ def test_auto_exposure_keeps_a_side_lamp_from_flattening_a_fair_face(reference_d
     dec = relighter.decompose(image, mask)
     inside = mask > 0.5
     lamp = lights.preset("window-left")
-    guarded = relighter.relight(dec, lamp, layers=True)
-    own = relighter.relight(dec, dec.light, layers=True).light
+    guarded = relighter.layers(dec, lamp)
+    own = relighter.layers(dec, dec.light).light
     monkeypatch.setattr(_exposure, "HIGHLIGHT_MAX_DOWN", 1.0)  # the guard off: the mean luminance kept
-    relighter._prepared(dec).pop("highlight", None)
-    kept = relighter.relight(dec, lamp, layers=True)
-    np.testing.assert_allclose(relighter.relight(dec, dec.light, layers=True).light, own, rtol=1e-6)
+    relighter._memo(dec).pop("highlight", None)
+    kept = relighter.layers(dec, lamp)
+    np.testing.assert_allclose(relighter.layers(dec, dec.light).light, own, rtol=1e-6)
     factor = float(guarded.light[0, 0] / kept.light[0, 0])
     assert 0.5 <= factor < 0.85  # measured 0.77 (-0.37 EV)
     np.testing.assert_allclose(guarded.light, factor * kept.light, rtol=1e-5)  # one scalar: direction, colour kept

@@ -88,9 +88,8 @@ def test_full_body_photo_gets_a_head_pass_that_changes_only_the_head():
     photo = REFERENCE / "photo" / "sample.jpg"
     mask = REFERENCE / "photo" / "sample_mask.png"
     dec = r.decompose(photo, mask)
-    head = r._prepared(dec).get("head")
-    assert head is not None
-    y0, y1, x0, x1 = head[1]
+    assert dec.head is not None
+    y0, y1, x0, x1 = dec.head_box
     light = lights.directional((0.4, 1, 0.3)) + lights.ambient(0.08)
     with_head = r.relight(dec, light)
     r.face_pass = False
@@ -113,6 +112,6 @@ def test_the_photos_own_light_gives_the_photo_back_with_head_pass_and_soft_matte
     r = Relighter(RuntimeConfig(device="cpu"))
     dec = r.decompose(REFERENCE / "video" / "frame_001.png")  # no mask: the automatic matte
     alpha = np.asarray(dec.mask)
-    assert ((alpha > 0.05) & (alpha < 0.95)).sum() > 1000 and r._prepared(dec).get("head") is not None
+    assert ((alpha > 0.05) & (alpha < 0.95)).sum() > 1000 and dec.head is not None
     out = r.relight(dec, dec)
     assert np.abs(out - dec.image).max() < 0.01

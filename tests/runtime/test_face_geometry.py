@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 from _graphs import unoccluded_transport
 
-from relight_rt import Relighter, RelightError, RuntimeConfig, lights
+import relight_rt
+from relight_rt import RelightError, RuntimeConfig, lights
 from relight_rt._face_geometry import (
     HEAD_STRENGTH,
     FaceMesh,
@@ -17,6 +18,7 @@ from relight_rt._face_geometry import (
     lobe_transport,
     rasterise_normals,
 )
+from relight_rt.relight.factor import Factor
 from relight_rt.session import bundled_models_dir
 
 REFERENCE = Path(__file__).resolve().parents[3] / "shared" / "reference"
@@ -152,20 +154,20 @@ def test_the_face_in_a_real_photo_gets_its_mesh_and_the_light_models_it(monkeypa
     little; that refit is held off here to see where the mesh itself acts.)"""
     photo = REFERENCE / "photo" / "sample.jpg"
     mask = REFERENCE / "photo" / "sample_mask.png"
-    r = Relighter(RuntimeConfig(device="cpu"))
+    r = relight_rt.open(RuntimeConfig(device="cpu"))
     dec = r.decompose(photo, mask)
     np.testing.assert_allclose(r.relight(dec, dec), dec.image, atol=2e-3)  # with the refit light
-    monkeypatch.setattr(Relighter, "_refit", lambda self, dec: dec)
-    r = Relighter(RuntimeConfig(device="cpu"))
+    monkeypatch.setattr(Factor, "refit", lambda self, dec: dec)
+    r = relight_rt.open(RuntimeConfig(device="cpu"))
     dec = r.decompose(photo, mask)
-    head, box = r._prepared(dec)["head"]
+    head, box = dec.head, dec.head_box
     light = lights.directional((0.4, 1, 0.3)) + lights.ambient(0.08)
     with_mesh = r.relight(dec, light)
-    assert len(r._prepared(head)["face_meshes"]) == 1
+    assert len(head.face_meshes) == 1
     np.testing.assert_allclose(r.relight(dec, dec), dec.image, atol=2e-3)
 
-    plain_r = Relighter(RuntimeConfig(device="cpu"))
-    plain_r._faces = FaceMesh(Path("/nonexistent"))  # no mesh files: stage 1's transport alone
+    plain_r = relight_rt.open(RuntimeConfig(device="cpu"))
+    plain_r._faces._mesh = FaceMesh(Path("/nonexistent"))  # no mesh files: stage 1's transport alone
     plain = plain_r.relight(plain_r.decompose(photo, mask), light)
     y0, y1, x0, x1 = box
     diff = np.abs(with_mesh - plain).max(axis=2)
@@ -197,13 +199,13 @@ def test_a_portraits_light_is_turned_by_its_face_and_still_gives_the_photo_back(
     turns it toward the camera (relight_rt._strength.face_refit), and the photo's own light, so refit, still
     gives the photo back."""
     rec709 = np.array([0.2126, 0.7152, 0.0722])
-    r = Relighter(RuntimeConfig(device="cpu"))
+    r = relight_rt.open(RuntimeConfig(device="cpu"))
     dec = r.decompose(dpr_portrait)
-    assert r._restored(dec)["face_skin"].sum() > 1000
+    assert r._factor.restored(dec)["face_skin"].sum() > 1000
     back = np.abs(r.relight(dec, dec) - dec.image)
     assert (back > 0.5 / 255).sum() <= 10 and back.max() < 5e-3  # a soft hair edge's colour: 2 values, 0.002
-    monkeypatch.setattr("relight_rt.relighter.face_refit", lambda light, *args: light)
-    plain = Relighter(RuntimeConfig(device="cpu")).decompose(dpr_portrait)
+    monkeypatch.setattr("relight_rt.relight.factor.face_refit", lambda light, *args: light)
+    plain = relight_rt.open(RuntimeConfig(device="cpu")).decompose(dpr_portrait)
     up = lambda light: float(light[2] @ rec709) / float(light[0] @ rec709)  # noqa: E731
     toward = lambda light: float(light[3] @ rec709) / float(light[0] @ rec709)  # noqa: E731
     assert up(dec.light) < up(plain.light) - 0.1

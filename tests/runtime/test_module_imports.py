@@ -46,3 +46,36 @@ def test_every_runtime_module_imports_first():
     done = subprocess.run([sys.executable, "-W", "ignore", "-c", SCRIPT, *names], capture_output=True, text=True,
                           timeout=300)
     assert done.returncode == 0, done.stdout + done.stderr
+
+
+WING = ["relighter.py", *(f"relight/{p.name}" for p in sorted((PACKAGE / "relight").glob("*.py")))]
+CORE = [*WING, "video.py", "_face_geometry.py"]
+
+
+def _imports(path: Path) -> list[tuple[str, list[str]]]:
+    """Every import of a module, function bodies included: (the module as written, the names taken)."""
+    import ast
+
+    found = []
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            found += [(alias.name, []) for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            found.append(("." * node.level + (node.module or ""), [alias.name for alias in node.names]))
+    return found
+
+
+def test_the_relighting_core_imports_neither_matting_nor_scene():
+    """Issue 47: the matter is handed in (``Relighter(config, matter=...)``; relight_rt.builder builds the bundled
+    one) and compositing into a scene is an app over the core (``scene.composite(relighter, ...)``)."""
+    assert len(CORE) > 8
+    for name in CORE:
+        for module, names in _imports(PACKAGE / name):
+            words = module.replace(".", " ").split() + names
+            assert "matting" not in words and "scene" not in words and "builder" not in words, (name, module, names)
+
+
+def test_the_relighting_wing_imports_no_private_name_of_another_module():
+    for name in WING:
+        for module, names in _imports(PACKAGE / name):
+            assert not [n for n in names if n.startswith("_") and n != "__future__"], (name, module, names)

@@ -15,7 +15,8 @@ import cv2
 import numpy as np
 import pytest
 
-from relight_rt import Relighter, RelightError, sh
+import relight_rt
+from relight_rt import RelightError, sh
 from relight_rt._exr import encode_exr
 from relight_rt.passes import PASSES, compute_passes, transport_normals, write_passes
 
@@ -101,7 +102,7 @@ def test_normals_of_an_unoccluded_transport_are_the_normals():
 
 @pytest.fixture(scope="module")
 def relighter():
-    return Relighter()
+    return relight_rt.open()
 
 
 @pytest.fixture(scope="module")
@@ -135,7 +136,7 @@ def test_passes_add_up(relighter, scene):
     photo = dec.image[trusted]
     assert np.abs(layers["albedo"][trusted] / layers["alpha"][trusted][:, None] * layers["shading_photo"][trusted]
                   - photo).mean() < 0.01
-    np.testing.assert_allclose(passes.light, relighter.relight(dec, "night", layers=True).light, rtol=1e-6)
+    np.testing.assert_allclose(passes.light, relighter.layers(dec, "night").light, rtol=1e-6)
 
 
 def test_normal_map_faces_the_camera(scene):

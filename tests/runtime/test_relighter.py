@@ -17,6 +17,7 @@ from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 from hypothesis.extra import numpy as hnp  # noqa: E402
 
+import relight_rt
 from relight_rt import RelightError, lights, sh  # noqa: E402
 from relight_rt.compositing import Background  # noqa: E402
 from relight_rt.config import RuntimeConfig  # noqa: E402
@@ -27,7 +28,7 @@ __all__ = ["models_dir", "diffuse_models_dir"]  # fixtures
 
 @pytest.fixture(scope="module")
 def relighter(models_dir):
-    return Relighter(RuntimeConfig(models=models_dir, device="cpu"))
+    return relight_rt.open(RuntimeConfig(models=models_dir, device="cpu"))
 
 
 @pytest.fixture(scope="module")
@@ -180,7 +181,7 @@ def test_a_video_frame_relights_only_the_person_share_of_its_thin_edge(relighter
 
 def test_layers(relighter):
     img, mask = person(seed=4)
-    res = relighter.relight(img, 2 * OWN_LIGHT, mask=mask, exposure="physical", layers=True)
+    res = relighter.layers(img, 2 * OWN_LIGHT, mask=mask, exposure="physical")
     assert isinstance(res, RelightResult) and not res.diffuse_only
     for name in ("albedo", "shading", "diffuse", "residual", "relit"):
         assert res.layers[name].shape == (150, 100, 3) and res.layers[name].dtype == np.float32
@@ -196,7 +197,7 @@ def test_diffuse_only_without_stage2(diffuse_models_dir, caplog):
         r = Relighter(RuntimeConfig(models=diffuse_models_dir, device="cpu"))
     assert r.diffuse_only and "diffuse-only" in caplog.text
     img, mask = person(seed=7)
-    res = r.relight(img, 0.5 * OWN_LIGHT, mask=mask, exposure="physical", layers=True)
+    res = r.layers(img, 0.5 * OWN_LIGHT, mask=mask, exposure="physical")
     assert res.diffuse_only and not res.layers["residual"].any()
     m = inside(mask)
     np.testing.assert_allclose(res.image[m], 0.5 * img[m], atol=0.03)  # ratio (0.5 c + eps) / (c + eps)
@@ -494,14 +495,14 @@ def test_io_binding_chain_matches_numpy_path(tiny_models, diffuse_models_dir, wi
     folder = tiny_models if with_stage2 else diffuse_models_dir
     ref = Relighter(RuntimeConfig(models=folder, device="cpu"))
     chained = Relighter(RuntimeConfig(models=folder, device="cpu"))
-    chained._chain = DeviceChain(chained.stage1, chained.stage2, device="cpu")
+    chained._network.chain = DeviceChain(chained.stage1, chained.stage2, device="cpu")
     img, mask = person(200, 150, seed=15, box=(10, 190, 40, 110))
     dec_a, dec_b = ref.decompose(img, mask), chained.decompose(img, mask)
     np.testing.assert_allclose(dec_b.transport, dec_a.transport, atol=1e-6)
     lits = np.stack([lights.preset(n) for n in ("studio", "rim", "neon")])
     want = ref.relight_many(dec_a, lits)
     np.testing.assert_allclose(chained.relight_many(dec_b, lits, batch_size=2), want, atol=1e-5)
-    la, lb = ref.relight(dec_a, lits[0], layers=True), chained.relight(dec_a, lits[0], layers=True)
+    la, lb = ref.layers(dec_a, lits[0]), chained.layers(dec_a, lits[0])
     for name in la.layers:
         np.testing.assert_allclose(lb.layers[name], la.layers[name], atol=1e-5)
 
@@ -546,11 +547,11 @@ def test_no_mask_without_matting_says_how_to_give_one(models_dir):
 def test_highlight_shoulder_keeps_hue_and_gradation_and_the_photo():
     """Colours made brighter than 1 roll off smoothly, all channels scaled together; what is no brighter than the
     photo's own peak (knee >= 0.8) is untouched."""
-    from relight_rt.relighter import _knee, _shoulder
+    from relight_rt.relight.look import knee, shoulder
 
     photo = np.array([[[0.5, 0.3, 0.2], [0.5, 0.3, 0.2], [0.5, 0.3, 0.2], [0.95, 0.6, 0.4]]], np.float32)
     colour = np.array([[[0.6, 0.36, 0.24], [1.2, 0.72, 0.48], [1.6, 0.96, 0.64], [0.95, 0.6, 0.4]]], np.float32)
-    out = _shoulder(colour.copy(), _knee(photo))
+    out = shoulder(colour.copy(), knee(photo))
     np.testing.assert_array_equal(out[0, 0], colour[0, 0])  # below the knee
     np.testing.assert_array_equal(out[0, 3], colour[0, 3])  # the photo's own bright pixel, unchanged
     assert out.max() < 1 and out[0, 1, 0] < out[0, 2, 0]  # in range, and brighter stays brighter
@@ -562,21 +563,21 @@ def test_a_strong_gain_does_not_turn_a_dark_pixels_compression_colour_into_a_fri
     """Dark pixels beside a lit jaw carry JPEG's colour errors ((0.13, 0.04, 0.0) on the reference photo); brightened
     5x they became a red fringe. Such a pixel is pulled toward its dark neighbours' colour; a dark cloth whose
     pixels agree keeps its colour, as do bright pixels, pixels not brightened, and the new light's own colour."""
-    from relight_rt.relighter import _steady_chroma
+    from relight_rt.relight.look import steady_chroma
 
     rec709 = np.array([0.2126, 0.7152, 0.0722], np.float32)
     hair = np.full((15, 15, 3), 0.06, np.float32)  # dark, neutral
     hair[7, 7] = (0.13, 0.04, 0.0)  # the compression's red
     white5 = np.full((15, 15, 3), 5.0, np.float32)
-    out = _steady_chroma(hair, white5)
+    out = steady_chroma(hair, white5)
     spread = lambda c: float(c.max() - c.min())  # noqa: E731
     assert spread(out[7, 7]) < 0.5 * spread(hair[7, 7] * 5)  # the fringe damped
     np.testing.assert_allclose(out[7, 7] @ rec709, (hair[7, 7] * 5) @ rec709, rtol=1e-4)  # at the same luminance
     cloth = np.broadcast_to(np.array([0.15, 0.03, 0.02], np.float32), (15, 15, 3)).copy()  # dark red, all agree
-    np.testing.assert_allclose(_steady_chroma(cloth, white5), cloth * 5, rtol=1e-4)
+    np.testing.assert_allclose(steady_chroma(cloth, white5), cloth * 5, rtol=1e-4)
     skin = np.full((15, 15, 3), (0.8, 0.5, 0.4), np.float32)
-    np.testing.assert_allclose(_steady_chroma(skin, white5), skin * 5, rtol=1e-6)  # bright: its colour is signal
+    np.testing.assert_allclose(steady_chroma(skin, white5), skin * 5, rtol=1e-6)  # bright: its colour is signal
     dim = np.full((15, 15, 3), 0.8, np.float32)
-    np.testing.assert_allclose(_steady_chroma(hair, dim), hair * dim, rtol=1e-6)  # not brightened: untouched
+    np.testing.assert_allclose(steady_chroma(hair, dim), hair * dim, rtol=1e-6)  # not brightened: untouched
     warm = np.broadcast_to(np.array([6.0, 4.0, 2.0], np.float32), (15, 15, 3))  # a warm light on the grey hair
-    np.testing.assert_allclose(_steady_chroma(hair, warm)[0, 0], hair[0, 0] * warm[0, 0], rtol=1e-4)
+    np.testing.assert_allclose(steady_chroma(hair, warm)[0, 0], hair[0, 0] * warm[0, 0], rtol=1e-4)

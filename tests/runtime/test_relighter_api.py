@@ -1,5 +1,5 @@
 """The Relighter's constructor (one RuntimeConfig, kept once), its narrow relight API and resolve_light, the one
-place where a light is resolved; the old forms still work for one release, with a DeprecationWarning."""
+place where a light is resolved; the old forms (keyword constructor, relight_layers, to_photo) are gone."""
 
 from __future__ import annotations
 
@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from _graphs import OWN_LIGHT, models_dir, person
 
+import relight_rt
 from relight_rt import LightSpec, Relighter, RelightError, RelightResult, RuntimeConfig, lightfile, lights, sh, video
 
 __all__ = ["models_dir"]  # fixture
@@ -29,41 +30,27 @@ def test_config_constructor_keeps_settings_once_and_does_not_warn(models_dir):
     assert (r.detail, r.preprocess, r.precision) == (False, "reference", "fp32")  # read from the config
     with pytest.raises(AttributeError):
         r.detail = True  # no second copy to drift from the config
-    assert Relighter.from_config(config).config is config
+    assert relight_rt.open(config).config is config
 
 
-def test_keyword_constructor_is_deprecated_and_builds_the_same_config(models_dir):
-    with pytest.warns(DeprecationWarning, match=r"Relighter\(RuntimeConfig"):
-        r = Relighter(models_dir, device="cpu", detail=0)
-    assert r.config == RuntimeConfig(models=str(models_dir), device="cpu", detail=False)
-    with pytest.warns(DeprecationWarning, match=r"Relighter\(RuntimeConfig"):
-        r = Relighter(models=models_dir, device="cpu")  # the old keyword of the folder
-    assert r.config == RuntimeConfig(models=str(models_dir), device="cpu")
+def test_constructor_takes_a_runtime_config_only(models_dir):
+    """The old keyword constructor (``Relighter(models, device=...)``) went, as its warning said it would."""
+    for wrong in (42, str(models_dir)):
+        with pytest.raises(RelightError, match="expected a RuntimeConfig"):
+            Relighter(wrong)
+    with pytest.raises(TypeError):
+        Relighter(RuntimeConfig(models=str(models_dir), device="cpu"), device="cpu")
 
 
-@pytest.mark.parametrize(
-    ("config", "kwargs", "match"),
-    [(RuntimeConfig(device="cpu"), {"device": "cpu"}, "give device in the RuntimeConfig"),
-     (42, {}, "expected a RuntimeConfig"), ("a", {"models": "b"}, "models folder once")],
-)
-def test_constructor_refuses_mixed_or_wrong_settings(config, kwargs, match):
-    with pytest.raises(RelightError, match=match):
-        Relighter(config, **kwargs)
-
-
-def test_layers_by_a_flag_and_the_old_verbs_warn(relighter):
+def test_layers_by_a_flag(relighter):
     img, mask = person(60, 40, box=(10, 50, 10, 30))
     dec = relighter.decompose(img, mask)  # decompose once, relight many
     light = lights.preset("rim")
     plain = relighter.relight(dec, light)
-    res = relighter.relight(dec, light, layers=True)
+    res = relighter.layers(dec, light)
     assert isinstance(res, RelightResult) and set(res.layers) >= {"albedo", "shading", "diffuse", "mask"}
     np.testing.assert_array_equal(res.image, plain)
-    with pytest.warns(DeprecationWarning, match="layers=True"):
-        old = relighter.relight_layers(dec, light)
-    np.testing.assert_array_equal(old.image, plain)
-    with pytest.warns(DeprecationWarning, match="relight"):
-        np.testing.assert_array_equal(relighter.to_photo(dec, light), plain)
+    assert not hasattr(relighter, "relight_layers") and not hasattr(relighter, "to_photo")  # the old verbs went
 
 
 def test_resolve_light_every_source_and_dtype(relighter, tmp_path):
@@ -97,7 +84,5 @@ def test_video_resolves_a_photos_light_through_the_relighter(relighter, tmp_path
 def test_the_test_run_refuses_old_names_outside_a_warning_check(models_dir):
     """pyproject's filterwarnings: a deprecated relight_rt name reached by a test is an error, so the project's own
     code and tests cannot slip back to it (the checks above expect the warning with pytest.warns)."""
-    with pytest.raises(DeprecationWarning, match=r"Relighter\(RuntimeConfig"):
-        Relighter(models_dir, device="cpu")
     with pytest.raises(DeprecationWarning, match="relight_rt.lightfile.load_light"):
         sh.load_light  # noqa: B018

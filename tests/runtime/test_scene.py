@@ -1,11 +1,11 @@
-"""relight_rt.scene.composite, Relighter.composite and the CLI commands `composite` and `lights from-background`."""
+"""relight_rt.scene.composite and the CLI commands `composite` and `lights from-background`."""
 
 import cv2
 import numpy as np
 import pytest
 from _graphs import diffuse_models_dir, models_dir, person
 
-from relight_rt import Relighter, RelightError, RuntimeConfig, cli
+from relight_rt import Relighter, RelightError, RuntimeConfig, cli, lights
 from relight_rt.color import linear_to_srgb, srgb_to_linear
 from relight_rt.scene import composite, parse_position
 
@@ -38,7 +38,7 @@ def test_output_has_the_background_size(diffuse):
     assert out.shape == (120, 260, 3) and out.dtype == np.float32 and 0 <= out.min() and out.max() <= 1
     far = out[:, 200:]  # away from the person: the background, unchanged
     np.testing.assert_allclose(far, 90 / 255, atol=1e-5)
-    out2 = diffuse.composite(img, bg, mask=mask, position=(0.8, 1.0), height=0.5, shadow=True)
+    out2 = composite(diffuse, img, bg, mask=mask, position=(0.8, 1.0), height=0.5, shadow=True)
     assert out2.shape == (120, 260, 3)
 
 
@@ -425,12 +425,12 @@ def test_the_automatic_matte_sees_the_photo_not_its_linear_copy(diffuse_models_d
         seen.append(float(rgb.mean()))
         return mask
 
-    r = Relighter(RuntimeConfig(models=diffuse_models_dir, device="cpu", detail=False))
-    r._matter, r._matter_loaded = matter, True  # the automatic matte, replaced by one that records its input
+    # the automatic matte handed in: one that records its input
+    r = Relighter(RuntimeConfig(models=diffuse_models_dir, device="cpu", detail=False), matter=matter)
     bg = np.full((120, 260, 3), 90, np.uint8)
-    with_matte = r.composite(img, bg)
+    with_matte = composite(r, img, bg)
     assert seen and seen[0] == pytest.approx(img.mean() / 255, abs=1e-6)  # sRGB values, as in every other command
-    np.testing.assert_array_equal(with_matte, r.composite(img, bg, mask=mask))  # the same as that mask given
+    np.testing.assert_array_equal(with_matte, composite(r, img, bg, mask=mask))  # the same as that mask given
 
 
 def test_a_portrait_wider_than_the_background_fits_it_by_default(diffuse):
@@ -458,12 +458,97 @@ def test_a_person_photo_file_is_decoded_once(diffuse_models_dir, tmp_path, monke
     img, mask = flat_person()
     path = tmp_path / "person.png"
     cv2.imwrite(str(path), img[..., ::-1])
-    r = Relighter(RuntimeConfig(models=diffuse_models_dir, device="cpu", detail=False))
-    r._matter, r._matter_loaded = (lambda rgb, name="image": mask), True
+    r = Relighter(RuntimeConfig(models=diffuse_models_dir, device="cpu", detail=False),
+                  matter=lambda rgb, name="image": mask)
     calls = []
     decode = io.decode_file
     monkeypatch.setattr(io, "decode_file", lambda *a, **k: calls.append(a[0]) or decode(*a, **k))
     bg = np.full((120, 260, 3), 90, np.uint8)
-    from_file = r.composite(path, bg)
+    from_file = composite(r, path, bg)
     assert calls == [path]
-    np.testing.assert_array_equal(from_file, r.composite(img, bg))
+    np.testing.assert_array_equal(from_file, composite(r, img, bg))
+
+
+# ------------------------------------------------------------------------------ composite's steps, each alone
+
+
+def _box_rgba(h=100, w=60, box=(10, 80, 20, 40), colour=(0.5, 0.4, 0.3)) -> np.ndarray:
+    rgba = np.zeros((h, w, 4), np.float32)
+    y0, y1, x0, x1 = box
+    rgba[y0:y1, x0:x1] = (*colour, 1.0)
+    return rgba
+
+
+def test_place_stands_a_full_body_person_on_the_ground_by_perspective():
+    from relight_rt.scene import CAMERA_M, DEFAULT_FEET, PERSON_M, place
+
+    placed = place(_box_rgba(), (300, 400, 3), None, None, 0.5)  # the box does not reach the photo's bottom
+    assert placed.full_body and placed.feet_y == round(DEFAULT_FEET * 300)
+    assert placed.height == round((DEFAULT_FEET - 0.5) * 300 * PERSON_M / CAMERA_M)  # d · PERSON_M / CAMERA_M rows
+    assert placed.premult.shape[:2] == (placed.height, placed.width) and placed.premult[..., 3].max() == 1
+    np.testing.assert_allclose(placed.premult[placed.height // 2, placed.width // 2], (0.5, 0.4, 0.3, 1.0))
+    assert placed.width == round(20 * placed.height / 70)  # the box's aspect kept
+    portrait = place(_box_rgba(box=(40, 100, 20, 40)), (300, 400, 3), None, None, 0.5)  # cut by its bottom edge
+    assert not portrait.full_body and portrait.feet_y == 300 and portrait.height == round(0.6 * 300)
+    given = place(_box_rgba(), (300, 400, 3), (0.25, 0.8), 0.5, 0.5)
+    assert given.height == 150 and given.feet_y == 240 and given.left == round(0.25 * 400 - given.width / 2)
+    with pytest.raises(RelightError, match="above the horizon"):
+        place(_box_rgba(), (300, 400, 3), (0.5, 0.4), None, 0.5)
+
+
+def test_scene_lighting_takes_the_backgrounds_key_or_a_given_light(diffuse):
+    from relight_rt.scene import scene_lighting
+    from relight_rt.scene_light import key_direction, parse_key_light, scene_light
+
+    img, mask = flat_person()
+    dec = diffuse.decompose(img.astype(np.float32) / 255, mask)
+    bg = np.zeros((120, 160, 3), np.uint8)
+    bg[:60], bg[60:] = (240, 200, 140), (120, 100, 80)  # a warm bright sky over a darker ground
+    parts = scene_light(bg, 60.0)
+    key = parse_key_light("30,40")
+    own = scene_lighting(diffuse, dec, parts, parts.light(key), key, None)
+    np.testing.assert_array_equal(own.light, parts.light(key))
+    np.testing.assert_allclose(own.shadow_dir, key_direction(30, 40))
+    assert own.directional >= 0.35 and own.rim_dir is None
+    lamp = lights.directional((0.2, -1.0, 0.3)).astype(np.float32)
+    given = scene_lighting(diffuse, dec, parts, parts.light(key), key, lamp, white_balance=False)
+    np.testing.assert_array_equal(given.light, lamp)
+    assert given.shadow_dir is not None and given.shadow_dir[1] < 0  # the lamp's own direction
+    balanced = scene_lighting(diffuse, dec, parts, parts.light(key), key, lamp)
+    assert not np.allclose(balanced.light, lamp)  # its colour matched to the background's
+
+
+def test_shadows_darken_the_ground_around_the_feet_only():
+    from relight_rt.scene import CONTACT_STRENGTH, SceneLighting, place, shade, shadows
+
+    placed = place(_box_rgba(), (300, 400, 3), (0.5, 0.9), 0.4, 0.5)
+    none = SceneLighting(np.zeros((9, 3), np.float32), np.zeros((9, 3), np.float32), None, 0.0)
+    cast = shadows(placed, (300, 400, 3), 0.5, 60.0, none)
+    y0, y1, x0, x1 = cast.box
+    assert cast.cast is None and y0 <= placed.feet_y < y1 and x0 < 200 < x1
+    lin = np.ones((300, 400, 3), np.float32)
+    shade(lin, (0, 0), cast)
+    foot_x, foot_y = cast.foot
+    assert lin[int(foot_y), int(foot_x), 0] == pytest.approx(1 - CONTACT_STRENGTH, abs=0.02)  # the contact shadow
+    assert lin[10, 10, 0] == 1 and lin[:150].min() == 1  # nothing above the horizon, nothing far away
+    from relight_rt.scene_light import key_direction
+
+    keyed = SceneLighting(none.light, none.light, key_direction(40, 35), 0.8)
+    long = shadows(placed, (300, 400, 3), 0.5, 60.0, keyed)
+    assert long.cast is not None  # a directional key casts the body's shadow on the ground
+
+
+def test_grade_meters_the_frame_or_keeps_the_background():
+    from relight_rt.scene import METER_LIMIT_EV, grade
+
+    bg = np.full((40, 60, 3), 100, np.uint8)
+    lin = np.full((10, 20, 3), 1.0, np.float32)  # a bright person in the region
+    box = (10, 20, 20, 40)
+    before = float((srgb_to_linear(np.full((10, 20, 3), 100 / 255, np.float32)) @ np.array(
+        [0.2126, 0.7152, 0.0722], np.float32)).sum())
+    kept = grade(bg, lin.copy(), box, before, meter="background")
+    np.testing.assert_allclose(kept[:10], 100 / 255, atol=1e-6)  # away from the person: the background as it was
+    np.testing.assert_allclose(kept[10:20, 20:40], 1.0)
+    metered = grade(bg, lin.copy(), box, before, meter="frame")
+    assert metered[0, 0, 0] < 100 / 255  # the bright person darkens the whole frame a little
+    assert srgb_to_linear(metered[:1, :1])[0, 0, 0] >= 2.0**-METER_LIMIT_EV * srgb_to_linear(kept[:1, :1])[0, 0, 0]

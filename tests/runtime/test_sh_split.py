@@ -24,7 +24,8 @@ def test_old_sh_name_warns_and_is_the_new_function(name):
     with pytest.warns(DeprecationWarning, match=f"relight_rt.{home.__name__.rsplit('.', 1)[1]}.{name}"):
         old = getattr(sh, name)
     assert old is getattr(home, name)
-    assert getattr(relight_rt, name) is getattr(home, name)  # the package's names come from the new homes
+    if name in relight_rt.__all__:  # the package's names come from the new homes
+        assert getattr(relight_rt, name) is getattr(home, name)
 
 
 def test_unknown_sh_name_is_an_attribute_error():

@@ -9,25 +9,24 @@ import numpy as np
 import pytest
 from _graphs import OWN_LIGHT, models_dir, person  # noqa: F401
 
+import relight_rt
 from relight_rt import (
     Background,
     Decomposition,
-    KindSpec,
     LightSpec,
     Relighter,
     RelightError,
     RuntimeConfig,
-    TensorSpec,
     envmap,
     lightfile,
     lights,
-    parse_background,
-    parse_light,
-    register_kind,
-    resolve_mask,
     sh,
 )
-from relight_rt.contract import KINDS, ModelConfig, config_from_metadata
+from relight_rt.compositing import parse_background
+from relight_rt.contract import KINDS, KindSpec, ModelConfig, TensorSpec, config_from_metadata, register_kind
+from relight_rt.lightspec import parse_light
+from relight_rt.masks import resolve_mask
+from relight_rt.relight.decomposition import intrinsic_layers
 
 
 @pytest.fixture(scope="module")
@@ -50,13 +49,14 @@ def test_runtime_config_pickles_and_is_checked(tmp_path):
             RuntimeConfig(**bad)
 
 
-def test_relighter_from_config_uses_every_field(models_dir):  # noqa: F811
+def test_open_uses_every_field(models_dir):  # noqa: F811
     cfg = RuntimeConfig(models=str(models_dir), device="cpu", preprocess="reference", detail=False, matting="off")
-    r = Relighter.from_config(cfg)
+    r = relight_rt.open(cfg)
     assert r.config == cfg
     assert (r.preprocess, r.detail, r.matter) == ("reference", False, None)
+    assert relight_rt.open(cfg.replace(matting="auto")).matter is not None  # the bundled matte, handed in
     with pytest.raises(RelightError, match="RuntimeConfig"):
-        Relighter.from_config({"device": "cpu"})
+        relight_rt.open({"device": "cpu"})
 
 
 # ------------------------------------------------------------------------------ Decomposition: plain data
@@ -275,7 +275,7 @@ def test_layers_have_the_photos_size_and_detail(relighter):
     mask = np.zeros((h, w), np.float32)
     mask[40:260, 50:150] = 1
     dec = relighter.decompose(img, mask)
-    layers = relighter.layers(dec)
+    layers = intrinsic_layers(dec)
     assert layers["albedo"].shape == (h, w, 3) and layers["skin"].shape == (h, w)
     inside = cv2.erode(mask, np.ones((9, 9), np.uint8)) > 0
     # the photo is explained: albedo x shading gives it back where nothing clips

@@ -218,7 +218,7 @@ def test_decompose_refits_the_light_and_the_refit_light_gives_the_photo_back(tmp
     img, mask = person(150, 100, seed=5, box=(20, 140, 30, 80))
     dec = r.decompose(img, mask)
     assert np.abs(dec.light - OWN_LIGHT).max() > 1e-3
-    base = r._restored(dec)
+    base = r._factor.restored(dec)
     inner = base["inner"]
     plain = base["albedo"] * (sh.shading(restore_bands(unoccluded_transport((0, 1, 0))[None]), OWN_LIGHT)[0, 0])
     refit = base["albedo"] * sh.shading(base["transport"], dec.white_light)[..., 0]
@@ -243,7 +243,7 @@ def test_a_photo_far_brighter_than_its_reconstruction_is_not_blown_out(sides_rel
     own light that explains the photo gives, and the wrong own light still gives the photo back."""
     from dataclasses import replace
 
-    from relight_rt import relighter as relighter_module
+    from relight_rt.relight import factor as factor_module
 
     img, mask = person(150, 100, seed=5, box=(20, 140, 30, 80))
     dec = sides_relighter.decompose(img, mask)
@@ -262,7 +262,7 @@ def test_a_photo_far_brighter_than_its_reconstruction_is_not_blown_out(sides_rel
     honest, floored = left_factor(dec), left_factor(wrong)
     assert floored <= 1 + 2.05 * honest
     np.testing.assert_allclose(sides_relighter.relight(wrong, wrong.light), img, atol=1e-4)
-    monkeypatch.setattr(relighter_module, "_OWN_FLOOR", np.float32(0.0))
+    monkeypatch.setattr(factor_module, "_OWN_FLOOR", np.float32(0.0))
     assert left_factor(replace(dec, light=shade)) > 3 * honest  # without the floor: the blow-out
 
 
@@ -270,19 +270,19 @@ def test_no_colour_the_light_cannot_give(sides_relighter, monkeypatch):
     """A warm lamp from the front right with a dim blue sky: the half that faces left gets the lamp's ringing in
     red (its shading clamped near 0) and the sky in blue, and the colour of the light there, shading / luminance,
     was a saturated blue (the reference photo's dark scarf under golden-hour). The colour the relit photo takes on
-    must stay within what the light gives any unoccluded surface it lights (``_tint_range``). (Skin the light
-    darkens keeps more of its own chroma, ``_shaded_skin``, a change of the photo's colour, not the light's: held
+    must stay within what the light gives any unoccluded surface it lights (``look.tint_range``). (Skin the light
+    darkens keeps more of its own chroma, ``look.shaded_skin``, a change of the photo's colour, not the light's: held
     off here, where the test model's skin map covers the person.)"""
     from relight_rt import lights
-    from relight_rt import relighter as relighter_module
+    from relight_rt.relight import factor as factor_module
 
-    monkeypatch.setattr(relighter_module, "_shaded_skin", lambda factor, *args: factor)
+    monkeypatch.setattr(factor_module, "shaded_skin", lambda factor, *args: factor)
 
     img, mask = person(150, 100, seed=5, box=(20, 140, 30, 80))
     light = (lights.directional((1.0, 1.0, 0.0), (1.0, 0.7, 0.4), 1.0) + lights.ambient((0.02, 0.03, 0.06))).astype(
         np.float32
     )
-    low, high = relighter_module._tint_range(light)
+    low, high = factor_module.tint_range(light)
 
     def left_colour():
         out = sides_relighter.relight(img, light, mask=mask, exposure="physical")
@@ -292,7 +292,7 @@ def test_no_colour_the_light_cannot_give(sides_relighter, monkeypatch):
 
     tint = left_colour()
     assert (tint >= low - 0.02).all() and (tint <= high + 0.02).all(), (tint, low, high)
-    monkeypatch.setattr(relighter_module, "_tint_range", lambda _: None)
+    monkeypatch.setattr(factor_module, "tint_range", lambda _: None)
     assert left_colour()[2] > high[2] + 0.5  # without the bound: the blue the light cannot give
 
 

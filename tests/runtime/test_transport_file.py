@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from relight_rt import RelightError, load_transport
+from relight_rt import RelightError
 from relight_rt._geometry import CropGeometry
-from relight_rt.transport_file import save_transport
+from relight_rt.transport_file import load_transport, save_transport
 
 
 def geometry_and_transport(h=90, w=60, r=32, seed=0):

@@ -9,7 +9,7 @@ import cv2
 import numpy as np
 import pytest
 
-from relight_rt import RelightError
+from relight_rt import RelightError, _square
 from relight_rt import matting as M
 from relight_rt._io import read_image
 from relight_rt.session import bundled_models_dir, load_model
@@ -157,8 +157,8 @@ def test_crops_inside_reductions_shared_are_the_same_and_reduce_the_photo_once(m
     regions = [M.Region(866.0, 577.0, 1733.0), M.Region(575.1, 655.3, 1057.1), M.Region(573.0, 688.3, 1135.6)]
     alone = [M.crop_region(img, r) for r in regions]
     calls = []
-    blocks = M._regions._blocks
-    monkeypatch.setattr(M._regions, "_blocks", lambda a, n, b: calls.append(a.shape) or blocks(a, n, b))
+    blocks = _square._blocks
+    monkeypatch.setattr(_square, "_blocks", lambda a, n, b: calls.append(a.shape) or blocks(a, n, b))
     with M._regions.reductions_shared(img):
         shared = [M.crop_region(img, r) for r in regions]
         again = M.crop_region(img, regions[1])
@@ -178,7 +178,7 @@ def test_reductions_shared_keeps_only_the_last_few_crops():
     img = np.zeros((600, 900, 3), np.float32)
     with M._regions.reductions_shared(img) as pyr:
         crops = [M.crop_region(img, M.Region(300.0 + 10 * i, 300.0, 600.0)) for i in range(10)]
-        assert len(pyr._crops) <= M._regions._KEEP_CROPS  # person="all" crops 66 tiles: they are not all kept
+        assert len(pyr._crops) <= _square._KEEP_CROPS  # person="all" crops 66 tiles: they are not all kept
         assert M.crop_region(img, M.Region(390.0, 300.0, 600.0)) is crops[-1]
 
 
@@ -193,7 +193,7 @@ def test_reductions_shared_keeps_nothing_after_the_block():
 
 def test_blocks_average_and_treat_the_image_as_zero_past_its_edge():
     img = np.arange(5 * 7 * 3, dtype=np.float32).reshape(5, 7, 3)
-    out = M._regions._blocks(img, 2, (0, 0, 4, 3))
+    out = _square._blocks(img, 2, (0, 0, 4, 3))
     padded = np.zeros((6, 8, 3), np.float32)
     padded[:5, :7] = img
     want = padded.reshape(3, 2, 4, 2, 3).mean(axis=(1, 3))

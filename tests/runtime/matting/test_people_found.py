@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from test_matting import EXAMPLE, head_crop, iou
 
+import relight_rt
 from relight_rt import matting as M
 from relight_rt._faces import Face
 from relight_rt._io import read_image
@@ -468,11 +469,11 @@ def _covered(mask: np.ndarray, truth: np.ndarray) -> tuple[float, float]:
 def test_relighting_takes_everyone_with_matting_all(two_people):
     """RuntimeConfig(matting="all") (`relight --person all`): a photo without a mask is relit for everyone the matte
     finds, not only its largest person."""
-    from relight_rt import Relighter, RuntimeConfig
+    from relight_rt import RuntimeConfig
 
     image, truth = two_people
-    largest = _covered(Relighter(RuntimeConfig(device="cpu")).decompose(image).mask, truth)
-    everyone = _covered(Relighter(RuntimeConfig(device="cpu", matting="all")).decompose(image).mask, truth)
+    largest = _covered(relight_rt.open(RuntimeConfig(device="cpu")).decompose(image).mask, truth)
+    everyone = _covered(relight_rt.open(RuntimeConfig(device="cpu", matting="all")).decompose(image).mask, truth)
     assert min(everyone) > 0.98  # measured 0.999 and 0.9995
     assert max(largest) > 0.98 and min(largest) < 0.02  # one of the two
 
@@ -528,17 +529,19 @@ def test_group_photo_relit_person_by_person(two_people):
     """matting="all": each person is decomposed and relit on their own (their own shape and exposure), so each
     one's pixels are what relighting that person alone gives; the group decomposed as one gave something else (a
     light from the left lit the left person's left side and the right person's right side darker, as one body)."""
-    from relight_rt import Relighter, RuntimeConfig, lights
+    from dataclasses import replace
+
+    from relight_rt import RuntimeConfig, lights
 
     image, truth = two_people
-    rl = Relighter(RuntimeConfig(device="cpu", matting="all"))
+    rl = relight_rt.open(RuntimeConfig(device="cpu", matting="all"))
     dec = rl.decompose(image)
-    parts = rl._prepared(dec)["parts"]
+    parts = dec.people
     assert len(parts) == 2
     np.testing.assert_allclose(sum(p.mask for p in parts), dec.mask, atol=1e-5)
     light = lights.directional((0.3, -1.0, 0.2)) + lights.ambient((0.1, 0.1, 0.1))
     group = rl.relight(dec, light)
-    np.testing.assert_array_equal(rl.relight(dec, light, layers=True).image, group)  # the layers are the group's
+    np.testing.assert_array_equal(rl.layers(dec, light).image, group)  # the layers are the group's
     np.testing.assert_array_equal(rl.relight_many(dec, [light, light])[1], group)
     rgba = rl.relight(dec, light, background="transparent")
     np.testing.assert_array_equal(rgba[..., 3], dec.mask)
@@ -546,9 +549,7 @@ def test_group_photo_relit_person_by_person(two_people):
     np.testing.assert_array_equal(group[outside], image[outside])
     black = rl.relight(dec, light, background="black")
     assert not black[outside].any() and np.abs(black[dec.mask > 0.999] - group[dec.mask > 0.999]).max() < 1 / 255
-    saved = rl._prepared(dec).pop("parts")
-    as_one = rl.relight(dec, light)
-    rl._prepared(dec)["parts"] = saved
+    as_one = rl.relight(replace(dec, people=()), light)
     for part in parts:
         alone = rl.relight(image, light, mask=part.mask)
         own = part.mask > 0.999
@@ -590,30 +591,30 @@ def test_person_option_sets_the_matting(command):
 
 
 def test_more_people_than_the_cap_are_relit_as_one(two_people, monkeypatch, caplog):
-    """Each person relit on their own holds a mask the size of the photo: past relighter._MAX_PEOPLE the group is
+    """Each person relit on their own holds a mask the size of the photo: past relight.people.MAX_PEOPLE the group is
     relit as one, and the log says so."""
-    from relight_rt import Relighter, RuntimeConfig
-    from relight_rt import relighter as R
+    from relight_rt import RuntimeConfig
+    from relight_rt.relight import people
 
-    monkeypatch.setattr(R, "_MAX_PEOPLE", 1)
-    rl = Relighter(RuntimeConfig(device="cpu", matting="all"))
-    with caplog.at_level("INFO", logger="relight_rt.relighter"):
+    monkeypatch.setattr(people, "MAX_PEOPLE", 1)
+    rl = relight_rt.open(RuntimeConfig(device="cpu", matting="all"))
+    with caplog.at_level("INFO", logger="relight_rt.relight.intake"):
         dec = rl.decompose(two_people[0])
-    assert "parts" not in rl._prepared(dec) and "2 people found, relit as one group" in caplog.text
+    assert not dec.people and "2 people found, relit as one group" in caplog.text
 
 
 def test_studio_of_a_group(two_people, tmp_path):
     """The studio opened with --person all: its info says how many people the full result relights one by one (the
     page's badge says so), and its exported command line carries --person all (without it the command relit one)."""
     pytest.importorskip("fastapi")
-    from relight_rt import Relighter, RuntimeConfig
+    from relight_rt import RuntimeConfig
     from relight_rt.studio.core import Studio
 
     path = tmp_path / "two.png"
     cv2.imwrite(str(path), (two_people[0][..., ::-1] * 255 + 0.5).astype(np.uint8))
-    studio = Studio(path, None, "original", Relighter(RuntimeConfig(device="cpu", matting="all")))
+    studio = Studio(path, None, "original", relight_rt.open(RuntimeConfig(device="cpu", matting="all")))
     assert studio.info()["people"] == 2
     _, render = studio.render(np.zeros(27).tolist())
     assert "--person all" in studio.command(render, "light.npy")
-    one = Studio(path, None, "original", Relighter(RuntimeConfig(device="cpu")))
+    one = Studio(path, None, "original", relight_rt.open(RuntimeConfig(device="cpu")))
     assert one.info()["people"] == 1 and "--person" not in one.command(render, "light.npy")

@@ -16,11 +16,12 @@ import numpy as np
 import pytest
 from _graphs import models_dir, person
 
+import relight_rt
 from relight_rt import Relighter, RelightError, RuntimeConfig, envmap, lights
 from relight_rt._limits import header_size
 from relight_rt._strength import restore_bands
 from relight_rt.cli import main
-from relight_rt.relighter import _SKIN_CHROMA, _skin_chroma
+from relight_rt.relight.look import SKIN_CHROMA, skin_chroma
 from relight_rt.studio.core import (
     MAX_UPLOAD_BYTES,
     ResultStore,
@@ -54,7 +55,7 @@ def photo(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def studio(photo, models_dir):
-    relighter = Relighter(RuntimeConfig(models=models_dir, device="cpu"))
+    relighter = relight_rt.open(RuntimeConfig(models=models_dir, device="cpu"))
     return Studio(photo, None, "original", relighter, preview_pixels=4096, models=models_dir)
 
 
@@ -151,13 +152,13 @@ def test_layers_match_the_decomposition(studio):
     np.testing.assert_allclose(layers["mask"], mask, atol=0.5 / 255 + 1e-6)
     photo = cv2.resize(np.asarray(dec.image), size, interpolation=cv2.INTER_AREA)
     np.testing.assert_allclose(layers["background"].transpose(1, 2, 0), photo, atol=0.5 / 255 + 1e-6)
-    # the shaded-skin rule's inputs (relight_rt.relighter._skin_chroma), as the page reads them
-    chroma, weight = _skin_chroma(dec.network_image, dec.skin)
+    # the shaded-skin rule's inputs (relight_rt.relight.look.skin_chroma), as the page reads them
+    chroma, weight = skin_chroma(dec.network_image, dec.skin)
     skin = dec.to_input(np.concatenate([chroma, weight[..., None]], axis=2))
     skin = np.stack([cv2.resize(skin[..., k], size, interpolation=cv2.INTER_AREA) for k in range(4)], axis=2)
     np.testing.assert_allclose(layers["skin_chroma"].transpose(1, 2, 0), skin[..., :3], atol=1 / 255 + 1e-5)
     np.testing.assert_allclose(layers["skin"], skin[..., 3], atol=0.5 / 255 + 1e-6)
-    assert meta["skin_chroma"] == _SKIN_CHROMA and len(meta["own_white"]) == 9
+    assert meta["skin_chroma"] == SKIN_CHROMA and len(meta["own_white"]) == 9
     assert info["presets"].keys() == set(lights.list_presets())
     np.testing.assert_allclose(info["own_light"], dec.light)
     with pytest.raises(RelightError, match="bytes"):
@@ -187,7 +188,7 @@ def _check_preview_exposure(studio):
     for name in ("studio", "rim", "window-left"):
         light = lights.preset(name).astype(np.float32)
         for exposure in ("auto", 1.0, "physical"):
-            want = studio.relighter.relight(studio.dec, light, exposure=exposure, layers=True).light
+            want = studio.relighter.layers(studio.dec, light, exposure=exposure).light
             np.testing.assert_allclose(studio.preview_light(light.tolist(), exposure), want, rtol=1e-5, atol=1e-7)
         mean_kept = studio.preview_light(light.tolist(), "auto")[0, 0] / exposure_scale_of(studio, light)
         factors.append(float(mean_kept / light[0, 0]))
@@ -215,8 +216,8 @@ def test_preview_exposure_follows_the_highlight_guard(photo, models_dir, monkeyp
 
     monkeypatch.setattr(exposure, "HIGHLIGHT_LIMIT", 0.6)
     relighter = Relighter(RuntimeConfig(models=models_dir, device="cpu"))
-    own = relighter._highlight_inputs
-    monkeypatch.setattr(relighter, "_highlight_inputs", lambda dec: own(dec)[:3] + (0.05,))  # 5 % past the limit
+    own = relighter._factor.highlight_inputs  # what the final result and the preview both read
+    monkeypatch.setattr(relighter._factor, "highlight_inputs", lambda dec: own(dec)[:3] + (0.05,))  # 5 % past the limit
     guarded = Studio(photo, None, "original", relighter, preview_pixels=4096, models=models_dir)
     factors = _check_preview_exposure(guarded)
     assert min(factors) < 0.95, factors  # the guard lowered at least one light

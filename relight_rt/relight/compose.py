@@ -1,0 +1,174 @@
+"""The relit person put back into the photo: their own colour at a soft edge (``Composer.foreground``), relit by
+the factor (relight_rt.relight.factor) with the look's tone and colour rules (relight_rt.relight.look), over a
+backdrop (``backdrop``)."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from ..compositing import Background, clean_edge_colour, over_box
+from ..foreground import estimate_foreground, nearest_colours
+from .decomposition import Decomposition, Memo, RelightResult, intrinsic_layers, readonly
+from .factor import Factor
+from .look import dark_colour, knee, shoulder, steady_chroma
+
+_ALPHA_MIN = np.float32(1e-3)
+_SOFT = 1.0 / 255  # a matte value further than this from 0 and 1 is a soft edge (mixes person and background)
+_THIN_EDGE = 4.0  # px: a soft edge no wider than this on average is feathering or anti-aliasing (F/B from beside it)
+
+
+def consistent(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray, bg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Foreground and background colours adjusted so that alpha F + (1 - alpha) B is the photo again, in place.
+
+    The estimate minimises that equation's error among smoothness terms, so it does not hold exactly; here, on
+    the soft pixels, B is solved from it (kept in [0, 1]) and then F from B, so that composing them over each
+    other gives the photo back (to rounding) wherever that is possible in [0, 1].
+    """
+    soft = (alpha > _SOFT) & (alpha < 1 - _SOFT)
+    a = alpha[soft][:, None]
+    i, f = image[soft], fg[soft]
+    b = np.clip((i - a * f) / (1 - a), 0, 1)
+    bg[soft] = b
+    fg[soft] = np.clip((i - (1 - a) * b) / a, 0, 1)
+    background, person = alpha <= _SOFT, alpha >= 1 - _SOFT  # exactly the photo where it is not mixed
+    bg[background] = image[background]
+    fg[person] = image[person]
+    return fg, bg
+
+
+def soft_edge_width(alpha: np.ndarray) -> float:
+    """Mean width in pixels of a matte's soft edge: its soft pixels over the length of its outline."""
+    soft = int(np.count_nonzero((alpha > _SOFT) & (alpha < 1 - _SOFT)))
+    if soft == 0:
+        return 0.0
+    inside = (alpha > 0.5).astype(np.uint8)
+    outline = int(np.count_nonzero(inside - cv2.erode(inside, np.ones((3, 3), np.uint8))))
+    return soft / max(outline, 1)
+
+
+def backdrop_of(dec: Decomposition, bg: Background) -> np.ndarray | None:
+    """The full-frame backdrop the relit person goes over (the photo itself for the original background:
+    ``Composer.compose`` puts the colours behind the person's soft edge into it)."""
+    return dec.image if bg.kind == "original" else bg.backdrop(dec.image)
+
+
+def own_colours(dec: Decomposition, multilevel: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """(h, w, 3) twice, in the crop box: the person's own colour F and the colour behind it B (read-only).
+
+    At a soft matte's edge a pixel mixes both (I = a F + (1 - a) B); relighting or moving I would carry the
+    old background along (a halo in a new scene, the new light's colour spilt onto the street). For a photo
+    (``dec.photo``, or ``multilevel``) F and B come from relight_rt.foreground (multilevel foreground estimation);
+    for a hard edge a pixel or two wide (anti-aliasing, feathering), and for video frames, the solid colours beside
+    each soft pixel (relight_rt.foreground.nearest_colours); for a hard mask both are the photo (one array).
+    """
+    image = np.ascontiguousarray(dec.geometry.crop(dec.image))
+    alpha = np.ascontiguousarray(dec.geometry.crop(dec.mask))
+    width = soft_edge_width(alpha)
+    if (dec.photo or multilevel) and width > _THIN_EDGE:
+        fg, bg = estimate_foreground(image, alpha, return_background=True)
+        fg, bg = consistent(image, alpha, fg, bg)
+    elif width > 0:
+        fg, bg = nearest_colours(image, alpha)
+    else:  # a hard mask: nothing of the background to take out
+        fg = bg = image
+    return readonly(fg), readonly(bg)
+
+
+class Composer:
+    """A Relighter's relit person, at full resolution and put over a backdrop.
+
+    Args:
+        memo: where what is computed once per Decomposition is kept (the Relighter's).
+        factor: the relighting factor (with detail).
+        detail: the Relighter's ``detail``: the photo times the factor (True) or the network's image (False).
+    """
+
+    def __init__(self, memo: Memo, factor: Factor, detail: bool) -> None:
+        self.memo, self.factor, self.detail = memo, factor, detail
+
+    def person_colour(
+        self, dec: Decomposition, light: np.ndarray, residual: np.ndarray | None, relit: np.ndarray,
+        looks: tuple | None = None,
+    ) -> np.ndarray:
+        """(h, w, 3) straight (not premultiplied) colour of the relit person inside the crop box.
+
+        ``light`` is the (exposed) new light, ``residual`` and ``relit`` stage 2's outputs under it (3, R, R).
+        ``looks``: (``dark_colour``, ``knee``) of the person's own colour, when another's hold them (a group's
+        person: the group's, relight_rt.relight.people); None: found from ``dec`` once.
+        """
+        geom = dec.geometry
+        if not self.detail:
+            premult = geom.to_crop(relit.transpose(1, 2, 0))
+            alpha = geom.to_crop(dec.network_mask)[..., None]
+            colour = np.divide(premult, alpha, out=np.zeros_like(premult), where=alpha > _ALPHA_MIN)
+            np.clip(colour, 0, 1, out=colour)
+            return colour
+        image, _ = self.foreground(dec)
+        gain = self.factor.gain(dec, light, image, residual)
+        state = self.memo(dec)
+        if dec.head is not None:
+            self.factor.blend_head(dec, gain, light, dec.head, dec.head_box)
+        if looks is None:
+            if "dark" not in state:  # once per photo: what steadying dark pixels' colour needs whatever the light
+                state["dark"] = tuple(readonly(a) for a in dark_colour(image))
+            if "knee" not in state:
+                state["knee"] = readonly(knee(image))
+            looks = state["dark"], state["knee"]
+        colour = steady_chroma(image, gain, looks[0])
+        np.maximum(colour, 0, out=colour)
+        return shoulder(colour, looks[1])
+
+    def foreground(self, dec: Decomposition, always: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """``dec.foreground`` (a photo's), or ``own_colours`` found once (a video frame's; multilevel with
+        ``always``: that estimate costs about as much as the frame's relighting). Each kind is kept on its own, so
+        that what was relit before cannot change a result."""
+        if dec.foreground is not None:
+            return dec.foreground
+        state = self.memo(dec)
+        key = ("foreground", bool(always))
+        if key not in state:
+            state[key] = own_colours(dec, always)
+        return state[key]
+
+    def compose(
+        self, dec: Decomposition, light: np.ndarray, outputs: tuple, backdrop: np.ndarray | None, clean: bool = False
+    ) -> np.ndarray:
+        """The photo relit under the (exposed) ``light``, given stage 2's ``outputs`` (diffuse, residual, relit).
+
+        ``clean``: a new backdrop. With detail on the person's colour is already its foreground colour relit
+        (``person_colour``); the network image (``detail=False``) gets its soft edge cleaned of the old
+        background here (relight_rt.compositing.clean_edge_colour). Over the photo's own background (not
+        ``clean``) the soft edge's share of background is the colour behind it (``foreground``), so that the
+        photo's own light gives the photo back.
+        """
+        geom = dec.geometry
+        _, residual, relit = outputs
+        colour = self.person_colour(dec, light, residual, relit)
+        alpha = geom.crop(dec.mask)
+        behind = None
+        if clean and not self.detail:
+            photo = np.ascontiguousarray(geom.crop(dec.image))
+            fg, _ = self.foreground(dec, always=True)
+            colour = clean_edge_colour(colour, photo, fg, alpha)
+        elif not clean and backdrop is not None:
+            fg, bg = self.foreground(dec)
+            behind = None if bg is fg else bg
+        return over_box(colour, alpha[..., None], geom.box, backdrop, dec.mask, behind)
+
+    def with_layers(self, dec: Decomposition, lit: np.ndarray, outputs: tuple, backdrop: np.ndarray | None,
+                    clean: bool) -> RelightResult:
+        """``compose`` and the input-frame layers that made the picture (stage 2's ``outputs`` under the exposed
+        light ``lit`` with its layers: diffuse, residual or None when diffuse-only, relit)."""
+        diffuse, residual, relit = outputs
+        out = self.compose(dec, lit, (diffuse, residual, relit), backdrop, clean=clean)
+        chw = lambda a: dec.to_input(np.ascontiguousarray(a.transpose(1, 2, 0)))  # noqa: E731
+        layers = {
+            "albedo": intrinsic_layers(dec)["albedo"],
+            "shading": dec.to_input(dec.shading(lit)),
+            "diffuse": chw(diffuse),
+            "residual": chw(residual) if residual is not None else np.zeros(dec.image.shape, np.float32),
+            "relit": chw(relit),
+            "mask": np.array(dec.mask),
+        }
+        return RelightResult(out, layers, lit, residual is None)

@@ -1,0 +1,306 @@
+"""The relighting factor: how much, and in what colour, a new light changes each pixel of the photo.
+
+Pipeline (DESIGN.md §1, §4, §5)::
+
+    photo + mask ─► crop/pad/resize (CropGeometry) ─► stage 1 ─► albedo, skin, transport, light
+    new light L' ─► diffuse D = clip(albedo ⊙ max(0, T·L'), 0, 1) ─► stage 2 ─► relit (network frame)
+    relit ─► back to the input's size and position ─► composited over the background
+
+Full-resolution detail (the default): the network's relit image is not simply upsampled, because on real
+photos its colours are stage 1's guess (an albedo that may be green for fair skin, a light estimate whose colour
+cast is wrong) and its resolution is the network's. Instead the photo itself is relit by a factor:
+
+    colour = F ⊙ up(c' · max(Y(A ⊙ S' + r'), ε) / max(Y(A ⊙ Ŝ + r̂), ε))
+
+The luminance Y of the pipeline's image under the new light (albedo A times the shading S' = max(0, T·L'),
+plus stage 2's residual r'), over its luminance under the photo's own light (Ŝ = max(0, T·l̂), l̂ the
+luminance of stage 1's estimate taken as white: cameras white-balance their photos), both unclipped, ε = 0.01;
+T is stage 1's transport with its degree-1 and degree-2 bands scaled back up by the shrinkage measured against
+true transports (relight_rt._strength: a regressed transport makes every light look softer than it is), then
+moved along the photo's own light half-way toward the shading the photo shows (``explain_photo``: what the
+regression blurred away of the photo's own shading stays as far as a new light resembles the photo's);
+and c' = S' / Y(S'), the colour of the new light arriving at that pixel (luminance 1). So the brightness change
+is the whole pipeline's (stage 2's shadows and highlights included), its colour is the new light's alone, and
+neither the albedo's colour nor an error in the estimated light's colour can tint the skin: under a white
+light the photo keeps its colours. Skin that the new light darkens keeps more of its chroma than a grey dimming
+would leave it, as real shaded skin does (``look.shaded_skin``). F is the person's own colour
+(``Composer.foreground``: at a soft matte's edge, the photo without what lies behind). The factor is upsampled
+edge-aware with a fast guided filter (He & Sun 2015: the local linear model g ≈ a·I + b is fitted at network
+resolution on the gray input, and a, b are upsampled and applied with the full-resolution gray input I), so the
+input's own high-frequency detail survives. Colours made brighter than the photo's own peak are rolled off by a
+smooth shoulder on the brightest channel, all three channels scaled together (a bright lit side keeps its hue and
+its gradation; a per-channel clip would turn it yellow, a hard clip flat). Relighting with the photo's own light
+gives the input back. A face that stage 1 saw small gets a second pass (relight_rt._face).
+(``cv2.ximgproc.guidedFilter`` at full resolution gives the same kind of result but costs ~0.6 s per 2-megapixel
+crop with a colour guide; this costs ~30 ms.)
+With ``detail=False`` the network's relit image is upsampled as it is.
+
+Without ``stage2.onnx`` the output is the diffuse image only: ``Relighter.diffuse_only`` is True, a
+warning is logged at load, and ``RelightResult.diffuse_only`` says so.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import replace
+
+import cv2
+import numpy as np
+
+from .. import exposure as _exposure
+from .. import sh
+from .._detail import extend_outward, guided_upsample, unpremultiply, window
+from .._face import feather
+from .._strength import explain_photo, face_refit, refit_light, restore_bands
+from .decomposition import Decomposition, Memo, readonly
+from .faces import FacePass
+from .look import channel_max, shaded_skin, skin_chroma, tint_range
+
+_RATIO_EPS = np.float32(0.01)  # the ratio's denominator is floored here (dark pixels: noise, not light)
+_OWN_FLOOR = np.float32(0.5)  # light the model misses, up to this share of the photo, stays under a new light (own)
+
+
+def luminance_window(chw: np.ndarray, alpha: np.ndarray, box: tuple[int, int, int, int]) -> np.ndarray:
+    """(r, r') Rec. 709 luminance of a masked (3, R, R) network output inside ``box``, unpremultiplied."""
+    y0, y1, x0, x1 = box
+    lum = np.tensordot(_exposure.REC709, chw[:, y0:y1, x0:x1], axes=1)
+    return np.divide(lum, alpha, out=np.zeros_like(lum), where=alpha > 0.5)
+
+
+
+class Factor:
+    """The relighting factor of a Relighter's decompositions, and the exposure that keeps a relit person's level.
+
+    Args:
+        memo: where what is computed once per Decomposition is kept (the Relighter's).
+        faces: the face pass (meshes blended into the transport of a face it finds).
+        detail: the Relighter's ``detail`` (full-resolution detail transfer).
+        own_residual: stage 2's residual (3, R, R) under a Decomposition's own light, None when diffuse-only.
+    """
+
+    def __init__(self, memo: Memo, faces: FacePass, detail: bool,
+                 own_residual: Callable[[Decomposition], np.ndarray | None]) -> None:
+        self.memo, self.faces, self.detail, self.own_residual = memo, faces, detail, own_residual
+
+    def restored(self, dec: Decomposition) -> dict:
+        """What the relighting factor needs that does not depend on any light, in the person's window (cached).
+
+        "window" (y0, y1, x0, x1): the network pixels near the person (the whole square when the network's
+        square is not smaller than the photo's: to_crop takes a window only when enlarging); "alpha", "inner"
+        (alpha > 0.5); "transport" (r, r', 9) unpremultiplied, its directional bands restored
+        (relight_rt._strength) and the face mesh's transport blended in, "albedo" luminance (r, r')
+        unpremultiplied, "photo" (r, r') the luminance of the photo stage 1 saw, and "face_skin" (r, r') bool, the
+        person's pixels well inside a face mesh (``FacePass.add_faces``; none without one).
+        """
+        state = self.memo(dec)
+        if "restored" not in state:
+            geom = dec.geometry
+            r = geom.resolution
+            y0, y1, x0, x1 = window(dec.network_mask) if geom.side > r else (0, r, 0, r)
+            alpha = dec.network_mask[y0:y1, x0:x1]
+            # the directional bands restored to their true strength (relight_rt._strength), for both sides of the ratio
+            transport = restore_bands(unpremultiply(np.ascontiguousarray(dec.transport[y0:y1, x0:x1]), alpha))
+            skin = np.zeros(alpha.shape, bool)
+            if dec.face_meshes:  # a face's shape from its mesh where stage 1's transport is a blur
+                skin = self.faces.add_faces(dec, transport, (y0, y1, x0, x1))
+            albedo = unpremultiply(np.ascontiguousarray(dec.albedo[y0:y1, x0:x1]), alpha) @ _exposure.REC709
+            photo = dec.network_image[y0:y1, x0:x1] @ _exposure.REC709
+            state["restored"] = {"window": (y0, y1, x0, x1), "alpha": alpha, "inner": alpha > 0.5,
+                                 "transport": readonly(transport), "albedo": readonly(albedo.astype(np.float32)),
+                                 "photo": readonly(photo.astype(np.float32)),
+                                 "face_skin": readonly(skin & (alpha > 0.5))}
+        return state["restored"]
+
+    def own(self, dec: Decomposition, with_residual: bool = True) -> dict:
+        """What every relight of ``dec`` divides by, in the person's window of the network frame (cached).
+
+        ``restored``'s entries, "transport" moved along the photo's own light toward the shading the photo shows
+        (relight_rt._strength ``explain_photo``), and "own" (r, r') the luminance of the pipeline's image under the
+        photo's own light taken as white (diffuse plus stage 2's residual) plus "missing" (r, r'), what that falls
+        short of ``_OWN_FLOOR`` x the photo's luminance (light the model misses; ``gain`` adds it to every new light
+        too), floored at the ratio's floor.
+        """
+        state = self.memo(dec)
+        key = "own" if with_residual else "own_diffuse"
+        if key not in state:
+            base = self.restored(dec)
+            # the shading the photo shows and stage 1 misses, kept along the photo's own light (relight_rt._strength)
+            white = dec.white_light[:, 0]
+            moved = explain_photo(base["transport"], base["albedo"], base["photo"], white, base["inner"])
+            base = {**base, "transport": readonly(moved)}
+            own = base["albedo"] * sh.shading(base["transport"], dec.white_light)[..., 0]  # white: columns equal
+            residual = self.own_residual(dec) if with_residual else None
+            if residual is not None:
+                own += luminance_window(residual, base["alpha"], base["window"])
+            # where the photo is far brighter than its own reconstruction, the model misses light that is there
+            # (stage 1's light from above and behind put a profile face in deep shade, then a front light made
+            # it 3-5x brighter, blown out): that missing light, up to a share of the photo, is taken to stay under
+            # every new light (added to both sides of the ratio, so the photo's own light still gives the photo)
+            missing = np.maximum(_OWN_FLOOR * base["photo"] - own, 0).astype(np.float32)
+            state[key] = {**base, "missing": readonly(missing),
+                          "own": readonly(np.maximum(own + missing, _RATIO_EPS).astype(np.float32))}
+        return state[key]
+
+    def refit(self, dec: Decomposition) -> Decomposition:
+        """``dec`` with its light refit to the transport the relighting factor divides with (relight_rt._strength
+        ``refit_light``), then turned toward what a face mesh's skin shows (``face_refit``); what was prepared for
+        ``dec`` that does not depend on its light goes along."""
+        base = self.restored(dec)
+        y0, y1, x0, x1 = base["window"]
+        inner = base["inner"]
+        albedo, transport = base["albedo"][inner], base["transport"][inner]
+        # what stage 1's own reconstruction (its transport, its light) leaves unexplained of the photo ...
+        plain = unpremultiply(np.ascontiguousarray(dec.transport[y0:y1, x0:x1]), base["alpha"])[inner]
+        white = dec.white_light[:, 0]
+        unexplained = base["photo"][inner] - albedo * (plain @ white)
+        # ... is what the light's correction explains, through the transport the relit photo is divided by
+        light = refit_light(dec.light, albedo, transport, albedo * (transport @ white) + unexplained)
+        skin = base["face_skin"]  # where a face mesh's shape says what light the skin shows (relight_rt._strength)
+        if skin.any():
+            light = face_refit(light, base["transport"][skin], base["photo"][skin], albedo, transport)
+        return self.with_light(dec, light)
+
+    def face_light(self, dec: Decomposition, head: Decomposition) -> Decomposition:
+        """``dec`` with its light turned by the face its head pass ``head`` sees (relight_rt._strength
+        ``face_refit``), where the body pass saw the face too small for a mesh; ``dec`` itself otherwise."""
+        base = self.restored(dec)
+        if base["face_skin"].any():  # the body pass's own face turned it already (_refit)
+            return dec
+        face = self.restored(head)
+        skin = face["face_skin"]
+        if not skin.any():
+            return dec
+        inner = base["inner"]
+        light = face_refit(dec.light, face["transport"][skin], face["photo"][skin], base["albedo"][inner],
+                           base["transport"][inner])
+        return self.with_light(dec, light)
+
+    def with_light(self, dec: Decomposition, light: np.ndarray) -> Decomposition:
+        """``dec`` with another light; what was prepared for it that does not depend on its light goes along."""
+        return self.derive(dec, light=np.asarray(light, np.float32))
+
+    def derive(self, dec: Decomposition, **changes) -> Decomposition:
+        """``dataclasses.replace(dec, **changes)`` (its light, head, people or foreground); what was computed for
+        ``dec`` that those leave as it was goes along: stage 1's outputs on the device, ``restored`` and the
+        full-resolution guide (unless the foreground changes)."""
+        if not set(changes) <= {"light", "head", "head_box", "people", "foreground"}:
+            raise ValueError(f"derive: {sorted(changes)} change what is computed from them")
+        new = replace(dec, **changes)
+        old, state = self.memo(dec), self.memo(new)
+        for key in ("restored", "device") if "foreground" in changes else ("restored", "device", "gray"):
+            if key in old:
+                state[key] = old[key]
+        return new
+
+    def gain(
+        self, dec: Decomposition, light: np.ndarray, image: np.ndarray, residual: np.ndarray | None = None
+    ) -> np.ndarray:
+        """(h, w, 3) the factor on the photo in the crop box (module docstring), upsampled edge-aware.
+
+        ``residual``: stage 2's residual under ``light`` (3, R, R), None for the diffuse image alone.
+        """
+        own = self.own(dec, with_residual=residual is not None)
+        y0, y1, x0, x1 = own["window"]
+        transport, alpha = own["transport"], own["alpha"]
+        light = np.asarray(light, np.float32)
+        shading = sh.shading(transport, light)
+        lum = shading @ _exposure.REC709
+        new = own["albedo"] * lum
+        if residual is not None:
+            new += luminance_window(residual, alpha, own["window"])
+        new += own["missing"]  # the light the photo shows and the model misses stays (``own``)
+        ratio = np.maximum(new, _RATIO_EPS) / own["own"]  # both floored: the photo's own light gives 1
+        # the colour of the new light at each pixel, luminance 1 (where it leaves the pixel dark: its overall colour,
+        # or white when that is not a colour: a light whose mean is not positive)
+        dc_lum = float(light[0] @ _exposure.REC709)
+        dc = light[0] / dc_lum if dc_lum > 1e-6 and (light[0] > 0).all() else np.ones(3, np.float32)
+        tint = np.divide(shading, lum[..., None], out=np.broadcast_to(dc.astype(np.float32), shading.shape).copy(),
+                         where=lum[..., None] > 1e-4)
+        span = tint_range(light)
+        if span is not None:  # no colour the light cannot give (tint_range), at the same luminance
+            np.clip(tint, *span, out=tint)
+            tint /= np.maximum(tint @ _exposure.REC709, 1e-6)[..., None]
+            np.clip(tint, *span, out=tint)  # the rescale can lift one channel past its bound again
+        state = self.memo(dec)
+        if "skin_chroma" not in state:  # the shaded-skin rule's light-independent inputs, kept for every light
+            state["skin_chroma"] = tuple(map(readonly, skin_chroma(dec.network_image[y0:y1, x0:x1],
+                                                                     dec.skin[y0:y1, x0:x1])))
+        factor = shaded_skin(tint * ratio[..., None], ratio, *state["skin_chroma"])  # shaded skin keeps its colour
+        gain = extend_outward(factor, own["inner"])
+        if "gray" not in state:  # the full-resolution guide, kept for every light
+            state["gray"] = readonly(cv2.cvtColor(image, cv2.COLOR_RGB2GRAY))
+        return guided_upsample(dec.geometry, gain, dec.network_image[y0:y1, x0:x1], state["gray"], (y0, x0))
+
+    def blend_head(self, dec: Decomposition, gain: np.ndarray, light: np.ndarray, head: Decomposition,
+                    box: tuple[int, int, int, int]) -> None:
+        """Blend the head pass's change of shading into ``gain`` (the body's, crop frame), in place.
+
+        The head pass sees the face larger, so it gives the shape of the change; its overall level is the
+        body pass's (the two estimate the photo's light separately), matched on the head's skin.
+        """
+        by0, by1, bx0, bx1 = dec.geometry.box
+        hy0, hy1, hx0, hx1 = head.geometry.box  # in the head square's frame
+        y0, y1, x0, x1 = box[0] + hy0, box[0] + hy1, box[2] + hx0, box[2] + hx1  # input frame
+        cy0, cy1, cx0, cx1 = max(y0, by0), min(y1, by1), max(x0, bx0), min(x1, bx1)
+        if cy1 <= cy0 or cx1 <= cx0:
+            return
+        head_image = np.ascontiguousarray(head.geometry.crop(head.image))
+        g_head = self.gain(head, light, head_image)[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0]
+        h_img, w_img = dec.geometry.frame
+        weight = feather(box[1] - box[0], box[3] - box[2],
+                         (box[0] == 0, box[1] == h_img, box[2] == 0, box[3] == w_img))
+        weight = weight[cy0 - box[0] : cy1 - box[0], cx0 - box[2] : cx1 - box[2]]
+        weight = weight * dec.mask[cy0:cy1, cx0:cx1]
+        region = gain[cy0 - by0 : cy1 - by0, cx0 - bx0 : cx1 - bx0]
+        skin = head.to_input(head.skin)[cy0 - box[0] : cy1 - box[0], cx0 - box[2] : cx1 - box[2]] * weight
+        if skin.sum() < 1:
+            return
+        level = float((region @ _exposure.REC709 * skin).sum()) / max(float((g_head @ _exposure.REC709 * skin).sum()),
+                                                                      1e-6)
+        region += weight[..., None] * (level * g_head - region)
+
+    def expose(self, dec: Decomposition, lights: np.ndarray, exposure) -> np.ndarray:
+        """relight_rt.exposure.expose with the photo's own mean luminance measured once per Decomposition, then
+        the highlight guard (relight_rt.exposure ``highlight_factor``) on each light before any EV offset."""
+        mode = _exposure.parse_exposure(exposure)
+        if mode == "physical":
+            return np.array(lights, np.float32)
+        state = self.memo(dec)
+        if "target" not in state:
+            state["target"] = _exposure.mean_luminance(dec.albedo, dec.transport, dec.network_mask, dec.white_light)
+        lits = _exposure.expose(dec, lights, "auto", target_luminance=state["target"])
+        return _exposure.guarded(lits, mode, self.highlight_inputs(dec))
+
+    def highlight_inputs(self, dec: Decomposition) -> tuple:
+        """What ``highlight_factor`` reads of ``dec`` whatever the light (cached): the person's pixels (alpha > 0.5,
+        network frame) as the relit picture is made of them, and the share past white allowed.
+
+        With detail the picture is the photo times the relighting factor (module docstring; diffuse part): per
+        pixel the photo's colour times albedo / own scales with the light and the photo's colour times missing /
+        own stays; without it, the network's albedo times the shading. The share allowed is the photo's own
+        share at white there, at least ``HIGHLIGHT_SHARE``.
+        """
+        state = self.memo(dec)
+        if "highlight" not in state:
+            if self.detail:
+                own = self.own(dec, with_residual=False)
+                y0, y1, x0, x1 = own["window"]
+                inner = own["inner"]
+                photo = dec.network_image[y0:y1, x0:x1][inner]
+                base = own["own"][inner]
+                lit = photo * (own["albedo"][inner] / base)[:, None]
+                steady = photo * (own["missing"][inner] / base)[:, None]
+                transport = own["transport"][inner]
+            else:
+                alpha = dec.network_mask
+                inner = alpha > 0.5
+                photo = dec.network_image[inner]
+                lit = unpremultiply(np.ascontiguousarray(dec.albedo), alpha)[inner]
+                steady = np.zeros_like(lit)
+                transport = unpremultiply(np.ascontiguousarray(dec.transport), alpha)[inner]
+            at_white = float(np.mean(channel_max(photo) >= 0.99 * _exposure.HIGHLIGHT_LIMIT)) if photo.size else 0.0
+            state["highlight"] = (readonly(lit.astype(np.float32)), readonly(steady.astype(np.float32)),
+                                  readonly(np.ascontiguousarray(transport, np.float32)),
+                                  max(at_white, _exposure.HIGHLIGHT_SHARE))
+        return state["highlight"]
+

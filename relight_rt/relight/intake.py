@@ -1,0 +1,49 @@
+"""What stage 1 reads: a batch of photos and their masks, each cropped to the network's square (``read_batch``)."""
+
+from __future__ import annotations
+
+import logging
+import os
+from collections.abc import Sequence
+
+import numpy as np
+
+from .._geometry import CropGeometry
+from .._io import read_image
+from ..masks import Matter, resolve_mask
+from . import people as people_module
+from .people import PartsMatter
+
+log = logging.getLogger(__name__)
+
+
+def read_batch(images: Sequence, masks: Sequence, auto: Matter | None, group: bool, allow_full: bool,
+               resolution: int, preprocess: str) -> tuple[list, list, list, list]:
+    """Read photos and resolve their masks (relight_rt.masks.resolve_mask; ``auto`` the automatic matte, for a mask
+    None or "auto") and crop each to the network's square.
+
+    ``group``: keep each person's share of the matte (``PartsMatter``) when the matter finds several, up to
+    ``people.MAX_PEOPLE``; ``allow_full``: a mask may cover the whole image or nothing (video frames).
+
+    Returns:
+        (RGB images (H, W, 3) float32, masks (H, W), CropGeometry's, per image its people's masks or None).
+    """
+    rgbs, ms, geoms, people = [], [], [], []
+    for i, (image, mask) in enumerate(zip(images, masks, strict=True)):
+        name = str(image) if isinstance(image, (str, os.PathLike)) else f"image {i}" if len(images) > 1 else "image"
+        # an array no one can write to (a Decomposition's photo: a group's people) is not copied
+        img = read_image(image, "image", copy=not (isinstance(image, np.ndarray) and not image.flags.writeable))
+        matter = auto if mask is None or isinstance(mask, str) else None
+        if matter is not None and group and hasattr(matter, "parts"):
+            matter = PartsMatter(matter)  # a group photo: everyone's share of the matte kept (``by_person``)
+        m = resolve_mask(img, mask, matter=matter, allow_empty=allow_full, name=name)
+        rgbs.append(np.ascontiguousarray(img[..., :3]) if img.shape[2] == 4 else img)
+        ms.append(m)
+        found = matter.found if isinstance(matter, PartsMatter) else None
+        if found is not None and len(found) > people_module.MAX_PEOPLE:
+            log.info("%s: %d people found, relit as one group (person by person up to %d: each holds a mask "
+                     "the size of the photo)", name, len(found), people_module.MAX_PEOPLE)
+            found = None
+        people.append(found if found is not None and len(found) > 1 else None)
+        geoms.append(CropGeometry.from_mask(m, resolution, preprocess))
+    return rgbs, ms, geoms, people

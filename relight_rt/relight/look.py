@@ -1,0 +1,141 @@
+"""The look of a relit photo: how its colours and highlights behave, whatever produced the relighting factor.
+
+The highlight shoulder (``knee``, ``shoulder``), the colour of dark pixels a strong gain brightens
+(``dark_colour``, ``steady_chroma``), the colour range a light can give (``tint_range``), and the chroma shaded
+skin keeps (``shaded_skin``, ``skin_chroma``; the studio's preview applies the same rule with ``SKIN_CHROMA``).
+Plain functions of arrays: no model, no state.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from .. import exposure as _exposure
+from .. import sh
+
+_DARK = np.float32(0.25)  # steady_chroma: a pixel below this luminance, brightened by a gain, takes its dark
+_AMPLIFIED = np.float32(2.0)  # ... neighbours' colour, fully from a gain of 1 + this,
+_CHROMA_RADIUS = 4  # ... those within this many pixels (the constants: the reference photo's jaw, module tests)
+_TINT_LIT = 0.05  # tint_range: the normals a light gives at least this share of its brightest irradiance
+SKIN_CHROMA = 0.5  # shaded_skin: skin a new light darkens by r keeps its chroma x r**this (a grey dimming: x r)
+_SKIN_SIGMA = 1.5  # ... the skin's colour taken over this many network pixels
+
+
+_SPHERE = sh.sphere_directions(1024).astype(np.float32)  # tint_range's normals
+
+
+def tint_range(light: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """Per channel, the lowest and highest colour (luminance 1) that ``light`` gives an unoccluded diffuse
+    surface, over the normals it lights at least _TINT_LIT of its brightest; None for a light that lights
+    nothing. Light reaching a pixel is a positive mix of the light's directions, so its colour stays about within
+    this range; a learned transport can leave one channel's shading at 0 where another's is not (the ringing of a
+    warm sun and a blue sky: the reference photo's dark scarf went saturated blue under golden-hour)."""
+    e = sh.irradiance(light, _SPHERE)
+    y = e @ _exposure.REC709
+    top = float(y.max())
+    if top <= 1e-6:
+        return None
+    keep = y >= _TINT_LIT * top
+    t = e[keep] / y[keep, None]
+    return t.min(0).astype(np.float32), t.max(0).astype(np.float32)
+
+
+def shaded_skin(factor: np.ndarray, ratio: np.ndarray, chroma: np.ndarray, weight: np.ndarray) -> np.ndarray:
+    """The relighting factor (h, w, 3) with skin that the new light darkens keeping more of its colour.
+
+    Scaling a pixel by r at one chromaticity scales its chroma with it (Lab C* ~ L*^0.85 for skin colours): a
+    face's shaded side turns grey-brown. Real skin does not: over the skin of ten real photos' faces (DPR's
+    portrait, Grace Hopper, the astronaut, the reference photo, ...), from the darkest fifth of the face's
+    lightness to the middle one, C* ~ L*^0.33 at the median (-0.1 to 0.8; docs/RESULTS.md): light scattered
+    inside skin and between its folds comes out redder where the direct light is weak (DPR, which keeps a* and
+    b*, looks alive there for that reason). So where the skin ``weight`` is positive and the luminance ratio
+    ``ratio`` is below 1, the white-light relit colour r P = r Y + r (P - Y) becomes r Y + r**SKIN_CHROMA (P - Y)
+    (Y the photo's luminance: the luminance stays, the chroma falls more slowly; 0.5 gives C* ~ L*^0.3), folded
+    into ``factor`` as a per-channel gain (from the skin's local ``chroma`` (P - Y) / P, between 1/4 and 4) and
+    blended by the weight (both from ``skin_chroma``). Where the light brightens the skin, and off the skin,
+    ``factor`` is unchanged; r = 1 (the photo's own light) gives 1.
+    """
+    boost = np.clip(ratio, 1e-4, 1.0)[..., None] ** (SKIN_CHROMA - 1.0) - 1.0  # 0 where the light brightens
+    gain = np.clip(1.0 + boost * chroma, 0.25, 4.0)  # (r Y + r**g (P - Y)) / (r P)
+    return (factor * (1 + weight[..., None] * (gain - 1))).astype(np.float32)
+
+
+def skin_chroma(photo: np.ndarray, skin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``shaded_skin``'s inputs that do not depend on the light: (P - Y) / P per channel of the skin's local
+    colour (h, w, 3, in [-1, 1]) and the skin weight (h, w, in [0, 1]). The colour is the skin's, not its texture
+    (a normalised blur over the skin), so the gain stays smooth and a pixel with one channel near 0 (lips, a red
+    scarf the skin map touches) cannot swing it. The studio's preview takes the same two (relight_rt.studio)."""
+    weight = np.clip(skin, 0, 1).astype(np.float32)
+    colour = cv2.GaussianBlur(np.asarray(photo, np.float32) * weight[..., None], (0, 0), _SKIN_SIGMA)
+    colour /= np.maximum(cv2.GaussianBlur(weight, (0, 0), _SKIN_SIGMA), 1e-6)[..., None]
+    y = (colour @ _exposure.REC709)[..., None]
+    chroma = np.clip((colour - y) / np.maximum(colour, 1e-3), -1.0, 1.0).astype(np.float32)
+    # stage 1's skin map is blurry and gives clothes up to ~0.5 (a coat, a striped top): the rule is for skin, so
+    # the weight also asks for a skin colour (YCrCb: Cr 135-180, Cb 85-135, soft over 8 levels; Chai & Ngan 1999)
+    ycc = cv2.cvtColor(np.clip(colour, 0, 1).astype(np.float32), cv2.COLOR_RGB2YCrCb) * 255
+    cr, cb = ycc[..., 1], ycc[..., 2]
+    ramp = lambda v, lo, hi: np.clip(np.minimum(v - lo, hi - v) / 8 + 0.5, 0, 1)  # noqa: E731
+    return chroma, (weight * ramp(cr, 135, 180) * ramp(cb, 85, 135)).astype(np.float32)
+
+
+def channel_max(rgb: np.ndarray) -> np.ndarray:
+    """(H, W) the brightest of the three channels (two elementwise maxima: ~10x faster than max(axis=2))."""
+    return np.maximum(np.maximum(rgb[..., 0], rgb[..., 1]), rgb[..., 2])
+
+
+def knee(photo: np.ndarray) -> np.ndarray:
+    """(H, W) where the highlight shoulder starts for each pixel: the photo's own peak, within [0.8, 0.999]."""
+    return np.clip(channel_max(photo), 0.8, 0.999)
+
+
+def shoulder(colour: np.ndarray, knee: np.ndarray) -> np.ndarray:
+    """Bring colours made brighter than 1 back into [0, 1] as film does, in place: a smooth shoulder.
+
+    The brightest channel m of a pixel is rolled off above a knee q, m -> q + (1 - q)(1 - exp(-(m - q)/(1 - q)))
+    (slope 1 at q, approaching 1), and the three channels are scaled together, so a brightly lit side keeps
+    its hue and its gradation (a per-channel clip turns skin yellow; a plain rescale of the peak to 1 flattens
+    it). The knee (``knee``) is the photo's own peak, at least 0.8: a pixel no brighter than it was in the
+    photo is untouched, so the photo's own light gives the photo back.
+    """
+    peak = channel_max(colour)
+    over = peak > knee
+    if over.any():
+        m, q = peak[over], knee[over]
+        rolled = q + (1 - q) * -np.expm1(-(m - q) / (1 - q))
+        colour[over] *= (rolled / m)[:, None]
+    return colour
+
+
+def dark_colour(image: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """What ``steady_chroma`` needs of a photo whatever the light: its luminance (h, w), its darkness 1 - Y / _DARK
+    clipped to [0, 1], and the colour its dark pixels (Y < _DARK) within ``_CHROMA_RADIUS`` have per unit of
+    luminance (h, w, 3)."""
+    y = cv2.transform(image, _exposure.REC709.reshape(1, 3))  # (h, w): one output channel
+    dark = (y < _DARK).astype(np.float32)
+    size = (2 * _CHROMA_RADIUS + 1,) * 2
+    colour = cv2.boxFilter(image * dark[..., None], -1, size)
+    colour /= np.maximum(cv2.boxFilter(y * dark, -1, size), 1e-4)[..., None]
+    return y, np.clip(1 - y / _DARK, 0, 1), colour
+
+
+def steady_chroma(image: np.ndarray, gain: np.ndarray, dark: tuple | None = None) -> np.ndarray:
+    """``image`` x ``gain`` (both (h, w, 3)), where a strong gain brightens a dark pixel whose colour is not its
+    neighbours', that colour pulled toward theirs first.
+
+    A dark pixel's colour is easily its compression's error: JPEG keeps colour at half resolution, so along a lit
+    jaw the dark hair beside it carries the skin's chroma or an overshoot of it ((0.13, 0.04, 0.00), (0.04, 0.00,
+    0.00) on the reference photo); relit by a side lamp that brightens it 4-5x, that became a red and blue fringe.
+    The colour the dark pixels around it (luminance below ``_DARK``, within ``_CHROMA_RADIUS``) have on average,
+    at the pixel's own luminance, is what it is pulled toward, by w = (1 - Y / _DARK) x min((g - 1) /
+    _AMPLIFIED, 1) (Y the pixel's luminance, g the gain's): a dark cloth whose pixels agree keeps its colour (the
+    held-out renders' RMSE is unchanged or lower), a pixel not brightened or bright enough for its colour to be
+    signal is untouched, and the gain's own colour (the new light's) stays. ``dark``: ``dark_colour(image)``,
+    computed here when not given (it does not depend on the light: the runtime keeps it per photo).
+    """
+    g = cv2.transform(gain, _exposure.REC709.reshape(1, 3))
+    y, darkness, colour = dark_colour(image) if dark is None else dark
+    w = darkness * np.clip((g - 1) / _AMPLIFIED, 0, 1)
+    if not w.any():
+        return image * gain
+    return (image * (1 - w)[..., None] + colour * (w * y)[..., None]) * gain

@@ -1,0 +1,87 @@
+"""The two networks run on a Decomposition's arrays: stage 1 on a batch of network-frame photos, stage 2 on the
+diffuse images of K lights (on CUDA through the DeviceChain, stage 1's outputs kept on the device)."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import numpy as np
+
+from .._chain import DeviceChain
+from .._errors import RelightError
+from ..session import Model, check_finite
+from .decomposition import Decomposition, Memo, diffuse_batch, readonly
+
+
+class Network:
+    """A Relighter's sessions run: ``stage1``, ``stage2`` (None: diffuse-only), ``chain`` (CUDA, or None)."""
+
+    def __init__(self, stage1: Model, stage2: Model | None, chain: DeviceChain | None, memo: Memo) -> None:
+        self.stage1, self.stage2, self.chain, self.memo = stage1, stage2, chain, memo
+
+    def stage1_outputs(self, net_imgs: list[np.ndarray], net_masks: list[np.ndarray]) -> tuple[dict, list]:
+        """Stage 1 on (R, R, 3) photos and (R, R) masks: its outputs batched, and per image the device copies
+        (CUDA) or None."""
+        on_device: list = [None] * len(net_imgs)
+        if self.chain is not None:
+            outs = []
+            for i, (ni, nm) in enumerate(zip(net_imgs, net_masks, strict=True)):
+                out, on_device[i] = self.chain.run_stage1(ni.transpose(2, 0, 1)[None], nm[None, None])
+                check_finite(out, self.stage1.name)
+                outs.append(out)
+            out = {k: np.concatenate([o[k] for o in outs]) for k in outs[0]}
+        else:
+            out = self.stage1.run({"image": np.stack(net_imgs).transpose(0, 3, 1, 2),
+                                   "mask": np.stack(net_masks)[:, None]})
+        return out, on_device
+
+    def relit(
+        self, dec: Decomposition, lights: np.ndarray, batch_size: int, want_layers: bool = True
+    ) -> Iterator[tuple]:
+        """Yield (diffuse, residual, relit), each (3, R, R) float32, per light, in batches.
+
+        residual is None when diffuse-only; on CUDA diffuse and residual are None unless ``want_layers``.
+        """
+        net_mask = dec.network_mask[None, None]
+        if self.chain is not None:
+            yield from self.device_relit(dec, lights, batch_size, want_layers)
+            return
+        for start in range(0, lights.shape[0], batch_size):
+            diffuse = diffuse_batch(dec.albedo_chw, dec.transport_chw, lights[start : start + batch_size])
+            if not np.isfinite(diffuse).all():  # a NaN here is the light's or stage 1's, not stage 2's
+                raise RelightError(f"light: shading under this light is not finite (stage 1: {self.stage1.name})")
+            if self.stage2 is None:
+                for d in diffuse:
+                    yield d, None, d
+                continue
+            n = diffuse.shape[0]
+            out = self.stage2.run({"diffuse": diffuse, "mask": np.broadcast_to(net_mask, (n,) + net_mask.shape[1:])})
+            for i in range(n):
+                yield diffuse[i], out["residual"][i], out["relit"][i]
+
+    def device_relit(self, dec: Decomposition, lights: np.ndarray, batch_size: int, want_layers: bool) -> Iterator:
+        """``relit`` on CUDA through the DeviceChain (stage-1 outputs stay on the device)."""
+        chain = self.chain
+        state = self.memo(dec)
+        if "device" not in state:  # a decomposition made elsewhere: upload its stage-1 outputs once
+            state["device"] = {"albedo": chain.upload(dec.albedo_chw[None]),
+                               "transport": chain.upload(dec.transport_chw[None])}
+        for start in range(0, lights.shape[0], batch_size):
+            batch = lights[start : start + batch_size]
+            mask_key = ("device-mask", batch.shape[0])
+            if mask_key not in state:
+                shape = (batch.shape[0], 1) + dec.network_mask.shape
+                state[mask_key] = chain.upload(np.broadcast_to(dec.network_mask, shape))
+            for diffuse, residual, relit in chain.relit(state["device"], state[mask_key], batch, want_layers):
+                check_finite({"relit": relit}, self.stage2.name if self.stage2 is not None else "shading")
+                yield diffuse, residual, relit
+
+    def own_residual(self, dec: Decomposition) -> np.ndarray | None:
+        """(3, R, R) stage 2's residual under the photo's own (white) light, cached; None when diffuse-only."""
+        if self.stage2 is None:
+            return None
+        state = self.memo(dec)
+        if "own_residual" not in state:
+            _, residual, _ = next(self.relit(dec, dec.white_light[None], 1, want_layers=True))
+            state["own_residual"] = readonly(np.array(residual, np.float32))
+        return state["own_residual"]
