@@ -28,6 +28,7 @@ from __future__ import annotations
 import contextlib
 import json
 import logging
+import unicodedata
 import urllib.parse
 from pathlib import Path
 
@@ -92,6 +93,20 @@ def foreign_origin(headers) -> str | None:
     if own is None or _origin(origin) != own:
         return f"cross-site request refused: Origin {origin[:200]!r} is not this server's (http://{host[:200]})"
     return None
+
+
+def content_disposition(filename: str) -> str:
+    """The Content-Disposition value of a download named ``filename``: the one rule by which a name (the
+    photo's, chosen by whoever named the file) enters a header this server builds (RFC 6266).
+
+    ``filename="..."`` carries a plain-ASCII stand-in (anything but letters, digits, space and ``._-()+,=@``
+    becomes ``_``, so no quote, backslash, semicolon or control character can end the parameter) and
+    ``filename*=UTF-8''...`` the name itself, control characters made ``_`` and every other byte outside
+    RFC 3986's unreserved set percent-encoded. The value is printable ASCII whatever the name holds (a CR/LF
+    in it made the server drop the connection without an answer: issue 50 bugs 3, 4)."""
+    name = "".join("_" if unicodedata.category(c) in ("Cc", "Cf", "Zl", "Zp", "Cs") else c for c in filename)
+    plain = "".join(c if c.isascii() and (c.isalnum() or c in " ._-()+,=@") else "_" for c in name)
+    return f"attachment; filename=\"{plain}\"; filename*=UTF-8''{urllib.parse.quote(name, safe='')}"
 
 
 def _require_type(request: Request, expected: str, name: str) -> None:
@@ -240,7 +255,7 @@ def create_app(studio: Studio, allowed_hosts: list[str] | None = None, budget: B
         return rec
 
     def _attachment(download: int, filename: str) -> dict:
-        return {"Content-Disposition": f'attachment; filename="{filename}"'} if download else {}
+        return {"Content-Disposition": content_disposition(filename)} if download else {}
 
     @app.get("/api/result/{rid}.png")
     def result_png(rid: str, download: int = 0):

@@ -17,6 +17,7 @@ import sys
 import threading
 import time
 import urllib.error
+import urllib.parse
 import urllib.request
 from pathlib import Path
 
@@ -351,3 +352,37 @@ def test_studio_process_refuses_bombs_and_exits_like_every_command(photo, models
     assert "Traceback" not in err
     lines = [x for x in err.splitlines() if x.strip()]
     assert len(lines) == 1 and lines[0].startswith("relight-rt: ") and reason in lines[0], err
+
+
+# ------------------------------------------------------------------------------------------------ issue 50
+
+HOSTILE_NAMES = ("a\"; filename*=UTF-8''evil.html; x=\"", "nl\r\nX-Evil: 1", "back\\slash;semi", "tab\tzero\x00del\x7f",
+                 "ünïcode ☃ 写真", "sur\udcffrogate")  # fmt: skip
+
+
+@pytest.mark.parametrize("name", HOSTILE_NAMES)
+def test_a_photo_name_enters_the_download_header_by_one_rule(name):
+    """Issue 50 bugs 3, 4: a quote ended filename="..." and added the filename*= browsers prefer; CR/LF made the
+    server drop every download without an answer."""
+    pytest.importorskip("fastapi")
+    from relight_rt.studio.app import content_disposition
+
+    value = content_disposition(name + "_relit.png")
+    assert value.isascii() and value.isprintable(), value
+    plain, star = value.split("; ")[1:]
+    assert plain.startswith('filename="') and plain.endswith('"') and '"' not in plain[10:-1] and "\\" not in plain
+    assert star.startswith("filename*=UTF-8''") and value.count("filename*=") == 1
+    back = urllib.parse.unquote(star.removeprefix("filename*=UTF-8''"))
+    assert back.endswith("_relit.png") and back.isprintable() and "\r" not in back and "\n" not in back
+
+
+@pytest.mark.parametrize("name", HOSTILE_NAMES[:2])
+def test_downloads_of_a_hostile_photo_name_are_served(client, studio, monkeypatch, name):
+    monkeypatch.setattr(studio, "photo", studio.photo.with_name(name + ".png"))
+    rid = client.post("/api/render", json={"light": sum(LIGHT, [])}, headers={"origin": OWN}).json()["id"]
+    for route in (f"/api/result/{rid}.png", f"/api/result/{rid}/light.npy", f"/api/result/{rid}/light.json"):
+        res = client.get(route + "?download=1")
+        disposition = res.headers["content-disposition"]
+        star = disposition.split("filename*=UTF-8''", 1)[1]
+        assert res.status_code == 200 and disposition.count("filename*=") == 1 and ";" not in star
+        assert urllib.parse.unquote(star).startswith(name.replace("\r", "_").replace("\n", "_") + "_")
