@@ -386,3 +386,29 @@ def test_downloads_of_a_hostile_photo_name_are_served(client, studio, monkeypatc
         star = disposition.split("filename*=UTF-8''", 1)[1]
         assert res.status_code == 200 and disposition.count("filename*=") == 1 and ";" not in star
         assert urllib.parse.unquote(star).startswith(name.replace("\r", "_").replace("\n", "_") + "_")
+
+
+def test_slow_uploads_lose_their_slots_at_the_deadline(studio, tmp_path):
+    """Issue 50 bug 5: four uploads that sent a byte every few seconds held every upload slot for as long as they
+    liked (every other upload: 503). A body must arrive within Budget.seconds (408), however steadily it trickles."""
+    from relight_rt.studio.app import Budget
+
+    env = tmp_path / "e.hdr"
+    cv2.imwrite(str(env), np.ones((8, 16, 3), np.float32))
+    with live_server(studio, Budget(uploads=4, seconds=1.5)) as (port, budget):
+        slow = [open_upload(port, 1 << 20, sent=b"\xff") for _ in range(4)]
+        try:
+            wait_for(lambda: budget.running == 4, "the slow uploads to take every slot")
+            end = time.monotonic() + 3
+            while time.monotonic() < end:  # a byte every 0.25 s: never idle for long, and still too slow
+                for sock in slow:
+                    with contextlib.suppress(OSError):
+                        sock.sendall(b"\0")
+                time.sleep(0.25)
+            answers = [response_status(sock) for sock in slow]
+        finally:
+            for sock in slow:
+                sock.close()
+        assert all(status == 408 and "did not arrive within 1.5 s" in body for status, body in answers), answers
+        wait_for(lambda: budget.running == 0 and budget.held == 0, "the slots to be let go")
+        assert post(port, "/api/envmap", env.read_bytes()) == 200
