@@ -412,3 +412,41 @@ def test_slow_uploads_lose_their_slots_at_the_deadline(studio, tmp_path):
         assert all(status == 408 and "did not arrive within 1.5 s" in body for status, body in answers), answers
         wait_for(lambda: budget.running == 0 and budget.held == 0, "the slots to be let go")
         assert post(port, "/api/envmap", env.read_bytes()) == 200
+
+
+_UPLOAD_MEMORY = """
+import struct, zlib
+import numpy as np
+from relight_rt.studio.core import UPLOAD_WORK_PIXELS, background_upload_light, decode_upload, envmap_upload_light
+
+def png(w, h, ch, depth=8):  # a flat grey PNG: ~70 KB that decode to w * h pixels
+    co = zlib.compressobj(9)
+    row = b"\\x00" + b"\\x80" * (w * ch * depth // 8)
+    data = b"".join(co.compress(row) for _ in range(h)) + co.flush()
+    chunk = lambda t, d: struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d))
+    head = struct.pack(">IIBBBBB", w, h, depth, {3: 2, 4: 6}[ch], 0, 0, 0)
+    return b"\\x89PNG\\r\\n\\x1a\\n" + chunk(b"IHDR", head) + chunk(b"IDAT", data) + chunk(b"IEND", b"")
+
+env = png(5656, 2828, 3)  # 16 MP
+print("env", envmap_upload_light(env)[0].round(4).tolist())
+del env
+print("background", background_upload_light(png(4800, 3333, 3))[0].round(4).tolist())
+photo = decode_upload(png(4800, 3333, 4, 16), "photo")
+print("photo", photo.shape, photo.dtype, photo.shape[0] * photo.shape[1] <= UPLOAD_WORK_PIXELS)
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="RLIMIT_AS: Linux")
+def test_large_uploads_are_shrunk_as_decoded():
+    """Issue 50 bug 6: a 40-MP upload of 125 KB cost the server 2.3-2.7 GB (about 60 bytes a pixel: float copies
+    of the whole image), four at once past 4 GB. Each upload is shrunk to UPLOAD_WORK_PIXELS as decoded: 24-MP env
+    map, background and 16-bit RGBA photo of 16 MP, one after another, stay far below that."""
+    from _hostile import run_limited
+
+    code, out, err, peak = run_limited(_UPLOAD_MEMORY, cases=3)
+    assert code == 0, err
+    lines = dict(line.split(" ", 1) for line in out.splitlines())
+    # sRGB 128 is linear 0.2158; the degree-0 coefficient of a constant map v is 2 sqrt(pi) v
+    assert abs(json.loads(lines["env"])[0] - 0.2158 * 2 * np.sqrt(np.pi)) < 2e-3, lines["env"]
+    assert lines["photo"].endswith("float32 True") and "(1178, 1697, 4)" in lines["photo"], lines["photo"]
+    assert "background" in lines and 0 < peak < 500 << 20, peak / 2**20  # at 60 bytes a pixel: 1 GB
