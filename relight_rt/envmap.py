@@ -11,11 +11,11 @@ from __future__ import annotations
 import functools
 import logging
 import math
-import os
 from pathlib import Path
 
 import numpy as np
 
+from ._env import openexr_enabled
 from ._errors import RelightError
 from .color import srgb_to_linear
 from .sh import N_COEFFS, NORM, check_light, describe_array
@@ -222,7 +222,7 @@ def load_envmap(path, *, max_pixels: int | None = None) -> np.ndarray:
         logger.debug("decoding %s failed: %s", p, exc)
         img = None
     if img is None:
-        if ext == ".exr" and os.environ.get("OPENCV_IO_ENABLE_OPENEXR", "").lower() not in ("1", "true", "on"):
+        if ext == ".exr" and not openexr_enabled():
             raise RelightError(
                 f"{p}: OpenCV's .exr reader is disabled; set the environment variable OPENCV_IO_ENABLE_OPENEXR=1 "
                 "before starting Python (needs an OpenCV built with OpenEXR), or convert the map to .hdr"
