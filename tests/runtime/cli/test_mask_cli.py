@@ -136,6 +136,17 @@ def test_damaged_video_writes_every_frame_or_nothing(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and err[0].startswith("relight-rt: error: ") and "clip.mp4" in err[0], err
     assert not (tmp_path / "m.avi").exists() and not list(tmp_path.glob(".*"))
+def test_foreground_over_an_input_writes_nothing(tmp_path, capsys):
+    """Issue 50 bug 9: the mask was written, then the cut-out refused (it named the input): a partial output. Both
+    targets are checked before any work, and the two files are written as one."""
+    shutil.copy(EXAMPLE, tmp_path / "a.png")
+    before = (tmp_path / "a.png").read_bytes()
+    assert run(tmp_path / "a.png", "-o", tmp_path / "a_m.png", "--foreground", tmp_path / "a.png") == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "refusing to overwrite the input" in err[0], err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.png"] and (tmp_path / "a.png").read_bytes() == before
+
+
 def test_foreground_cutout(tmp_path, capsys):
     """Issue 33: ``--foreground`` writes the decontaminated RGBA cut-out beside the mask."""
     bgra = cv2.imread(str(EXAMPLE), cv2.IMREAD_UNCHANGED)
