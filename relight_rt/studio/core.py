@@ -176,6 +176,19 @@ class Render:
     seconds: float
 
 
+def command_line(program: list[str], operands: list, options: list[tuple[str, object]]) -> str:
+    """A command line to show and copy, by one rule for every word: each option as one ``--name=VALUE`` word (a
+    value that starts with "-", such as an EV of -1e-05, is never read as an option), each operand (a path) with
+    ``./`` before it when it is relative and starts with "-" (``-x.png`` is not an option either), all of it
+    quoted for a POSIX shell by ``shlex.join`` (issue 50 bugs 10 and 11)."""
+    words = [*program]
+    for value in operands:
+        text = str(value)
+        words.append(f"./{text}" if text.startswith("-") else text)
+    words += [f"{name}={value}" for name, value in options]
+    return shlex.join(words)
+
+
 def light_json(light: np.ndarray) -> str:
     """The project's light .json (DESIGN.md §6), written from float32 values so that it reloads exactly."""
     rows = [[float(v) for v in row] for row in np.asarray(light, np.float32)]
@@ -424,22 +437,23 @@ class Studio:
         return self.renders.put(rec), rec
 
     def command(self, render: Render, light_file: str) -> str:
-        """The ``relight-rt relight`` command line that reproduces ``render`` from the exported light file."""
+        """The ``relight-rt relight`` command line that reproduces ``render`` from the exported light file, its
+        words made by one rule (:func:`command_line`)."""
         # paths as the user gave them to ``relight-rt studio`` (relative ones: to where the server was started)
-        args = ["relight-rt", "relight", str(self.photo)]
+        options: list[tuple[str, object]] = []
         if self.mask is not None:
-            args += ["--mask", str(self.mask)]
+            options.append(("--mask", self.mask))
         elif getattr(getattr(self.relighter, "config", None), "matting", "auto") == "all":
-            args += ["--person", "all"]  # the studio's matte took everyone: so must the command's
-        args += ["--light", light_file]
+            options.append(("--person", "all"))  # the studio's matte took everyone: so must the command's
+        options.append(("--light", light_file))
         if self.background != "original":
-            args += ["--background", self.background]
+            options.append(("--background", self.background))
         if self.exposure_supported and render.exposure != "auto":
-            args += ["--exposure", str(render.exposure)]
+            options.append(("--exposure", render.exposure))
         if self.models is not None:
-            args += ["--models", str(self.models)]
-        args += ["-o", f"{self.photo.stem}_relit.png"]
-        return shlex.join(args)
+            options.append(("--models", self.models))
+        options.append(("--output", f"{self.photo.stem}_relit.png"))
+        return command_line(["relight-rt", "relight"], [self.photo], options)
 
     # ------------------------------------------------------------------------------------ uploaded lights
 
