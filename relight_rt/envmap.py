@@ -18,7 +18,7 @@ import numpy as np
 from ._env import openexr_enabled
 from ._errors import RelightError
 from .color import srgb_to_linear
-from .sh import N_COEFFS, NORM, check_light, describe_array
+from .sh import N_COEFFS, NORM, check_light, check_magnitude, describe_array
 
 __all__ = [
     "directions_envmap",
@@ -130,6 +130,9 @@ def project_envmap(env) -> np.ndarray:
 
     Returns:
         (9, 3) float64 RGB light.
+
+    Raises:
+        RelightError: a map that is not (H, 2H, 3), holds NaN/Inf, or whose light passes ``sh.MAX_COEFF``.
     """
     arr = _check_envmap(env)
     h, w = arr.shape[:2]
@@ -140,6 +143,8 @@ def project_envmap(env) -> np.ndarray:
     light = _SEP_C[:, None] * sums[_SEP_T, _SEP_F]
     if not np.all(np.isfinite(light)):
         raise RelightError("env: environment map contains NaN or Inf")
+    # the one rule for a light (sh.MAX_COEFF): a map of 1e38s projected to 6e38, which every command then refused
+    check_magnitude(light, "env: the environment map's light")
     return light
 
 
