@@ -201,14 +201,17 @@ def _run_video(video: Path, out: Path, vm, binary: bool) -> int:
     source = FrameSource(video, matter=vm)  # every frame gets vm's alpha: no mask files, no alpha channel
     sink = FrameSink(video=out if as_video else None, frames_dir=None if as_video else out, fps=source.rate,
                      protect=source.paths)
-    count = 0
+    count, anyone = 0, False
     with Progress(source.frame_count, "frame") as bar, sink:  # relight_rt._progress
         for frame in source:
             alpha = _finish(frame.mask, binary)
+            anyone = anyone or bool((alpha >= 0.5).any())
             sink.write(f"frame_{frame.index:06d}_mask", np.repeat(alpha[..., None], 3, axis=2))
             count += 1
             bar.update()
         if count == 0:
             raise RelightError(f"{video}: no frames could be read")
+        if not anyone:  # as for a photo (issue 50 bug 14); raised inside the sink's block: nothing is kept
+            raise RelightError(f"{video}: no person found in any of the {count} frames")
     log.info("%s: %d mask frames -> %s", video, count, out)
     return 0

@@ -166,3 +166,22 @@ def test_foreground_cutout(tmp_path, capsys):
     assert redness(rgba).mean() < redness(photo_px).mean() - 30  # the red fringe is taken out
     assert run(photo, "-o", tmp_path / "m2.png", "--foreground", tmp_path / "cut.jpg") == 2
     assert "--foreground" in capsys.readouterr().err
+
+
+def _grey_clip(path: Path, frames: int = 3) -> Path:
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 10, (64, 96))
+    for _ in range(frames):
+        writer.write(np.full((96, 64, 3), 128, np.uint8))
+    writer.release()
+    return path
+
+
+def test_a_clip_of_nobody_is_an_error_like_a_photo_of_nobody(tmp_path, capsys):
+    """Issue 50 bug 14: a clip with nobody in any frame gave exit 0 without a word (a photo: "no person found")."""
+    clip = _grey_clip(tmp_path / "grey.avi")
+    for out in (tmp_path / "m.avi", tmp_path / "frames"):
+        assert run(clip, "-o", out) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "no person found in any of the 3 frames" in err[0], err
+        assert not out.exists() or not list(out.iterdir())  # no mask video, no frames
+    assert sorted(p.name for p in tmp_path.iterdir()) in (["grey.avi"], ["frames", "grey.avi"])
