@@ -537,6 +537,7 @@ class FrameSink:
         self._file = None
         self._tmp: Path | None = None
         self._size: tuple[int, int] | None = None
+        self._frames: list[Path] = []  # PNG frames written so far: removed when the sink closes on a failure
         self.count = 0
 
     def _open(self, width: int, height: int) -> None:
@@ -590,7 +591,7 @@ class FrameSink:
             raise RelightError(f"frame {name} is {w}x{h}, the video's frames are {self._size[0]}x{self._size[1]} "
                                "(W x H)")
         if self.frames_dir is not None:
-            write_image(self.frames_dir / f"{name}.png", rgb, self._protect)
+            self._frames.append(write_image(self.frames_dir / f"{name}.png", rgb, self._protect))
         if self.video is not None:
             if self._writer is None:
                 self._open(w, h)
@@ -605,7 +606,12 @@ class FrameSink:
         self.count += 1
 
     def close(self, ok: bool = True) -> None:
-        """Finish the video (rename into place when ``ok``; delete the partial file otherwise)."""
+        """Finish the video (rename into place when ``ok``; delete the partial file and the PNG frames this sink
+        wrote otherwise: a failed run leaves no partial output)."""
+        frames, self._frames = self._frames, []
+        if not ok:
+            for path in frames:
+                path.unlink(missing_ok=True)
         writer, self._writer = self._writer, None
         if writer is None:
             return

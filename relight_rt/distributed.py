@@ -45,7 +45,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import batch
+from . import _env, batch
 from ._errors import RelightError
 from ._io import sibling_mask
 from ._reaper import address_space_limit, limit_hint
@@ -333,8 +333,8 @@ class RelightActor:
         device = config.device
         if device == "auto":
             device = "cuda" if ray.get_gpu_ids() else "cpu"
-        if device == "cpu" and not os.environ.get("RELIGHT_RT_THREADS"):
-            os.environ["RELIGHT_RT_THREADS"] = str(max(1, int(cpus)))  # the CPUs Ray gave this actor
+        if device == "cpu" and _env.threads() is None:
+            os.environ[_env.THREADS] = str(max(1, int(cpus)))  # the CPUs Ray gave this actor
         self.relighter = open_relighter(config.replace(device=device))
         self.light = np.asarray(light, np.float32)
         self.mask_arg, self.single, self.background, self.job = mask_arg, single, background, job
@@ -571,8 +571,8 @@ def _video_clip(settings: dict, job: str, cpus: float) -> dict:
     config = settings.get("config") or RuntimeConfig()
     if config.device == "auto":
         config = config.replace(device="cuda" if ray.get_gpu_ids() else "cpu")
-    if config.device == "cpu" and not os.environ.get("RELIGHT_RT_THREADS"):
-        os.environ["RELIGHT_RT_THREADS"] = str(max(1, int(cpus)))
+    if config.device == "cpu" and _env.threads() is None:
+        os.environ[_env.THREADS] = str(max(1, int(cpus)))
     start = time.perf_counter()
     try:
         relighter = None if settings.get("dvp") else open_relighter(config)

@@ -10,14 +10,15 @@ from __future__ import annotations
 
 import functools
 import logging
-import os
+import math
 from pathlib import Path
 
 import numpy as np
 
+from ._env import openexr_enabled
 from ._errors import RelightError
 from .color import srgb_to_linear
-from .sh import N_COEFFS, NORM, check_light, describe_array
+from .sh import N_COEFFS, NORM, check_light, check_magnitude, describe_array
 
 __all__ = [
     "directions_envmap",
@@ -129,6 +130,9 @@ def project_envmap(env) -> np.ndarray:
 
     Returns:
         (9, 3) float64 RGB light.
+
+    Raises:
+        RelightError: a map that is not (H, 2H, 3), holds NaN/Inf, or whose light passes ``sh.MAX_COEFF``.
     """
     arr = _check_envmap(env)
     h, w = arr.shape[:2]
@@ -139,6 +143,8 @@ def project_envmap(env) -> np.ndarray:
     light = _SEP_C[:, None] * sums[_SEP_T, _SEP_F]
     if not np.all(np.isfinite(light)):
         raise RelightError("env: environment map contains NaN or Inf")
+    # the one rule for a light (sh.MAX_COEFF): a map of 1e38s projected to 6e38, which every command then refused
+    check_magnitude(light, "env: the environment map's light")
     return light
 
 
@@ -166,7 +172,22 @@ def envmap_from_light(light, height: int) -> np.ndarray:
 _ENV_EXTS = (".hdr", ".pic", ".exr", ".png", ".jpg", ".jpeg")
 
 
-def load_envmap(path) -> np.ndarray:
+def _reduce_envmap(rgb: np.ndarray, ldr: bool, max_pixels: int) -> np.ndarray:
+    """An (H, 2H[, C]) map as decoded (uint8/uint16 sRGB when ``ldr``, else float; channels as stored) shrunk by
+    area averaging to the largest (h, 2h) of at most ``max_pixels``, as float32 linear values: what it averages is
+    linear light (sRGB codes go through a 16-bit linear table first), and no full-size float copy is made."""
+    import cv2
+
+    h = max(1, math.isqrt(max_pixels // 2))
+    if ldr:
+        top = np.iinfo(rgb.dtype).max
+        table = np.rint(srgb_to_linear(np.arange(top + 1, dtype=np.float32) / top) * 65535).astype(np.uint16)
+        rgb = table[rgb]  # linear, uint16: 6 bytes a pixel
+    small = cv2.resize(rgb, (2 * h, h), interpolation=cv2.INTER_AREA)
+    return small.astype(np.float32) / np.float32(65535) if ldr else small.astype(np.float32)
+
+
+def load_envmap(path, *, max_pixels: int | None = None) -> np.ndarray:
     """Read an equirectangular environment map as linear RGB.
 
     Radiance `.hdr` (and `.pic`) through OpenCV; `.exr` when the installed OpenCV reads it (set
@@ -175,6 +196,9 @@ def load_envmap(path) -> np.ndarray:
 
     Args:
         path: file path.
+        max_pixels: None (full size), or the most pixels of the map returned: a larger one is shrunk (area
+            average of linear light) right after decoding, before any full-size float copy (the studio's
+            uploads: a 40-MP map cost ~60 bytes a pixel, issue 50 bug 6; degree-2 SH needs few pixels).
 
     Returns:
         (H, 2H, 3) float32 linear RGB.
@@ -203,7 +227,7 @@ def load_envmap(path) -> np.ndarray:
         logger.debug("decoding %s failed: %s", p, exc)
         img = None
     if img is None:
-        if ext == ".exr" and os.environ.get("OPENCV_IO_ENABLE_OPENEXR", "").lower() not in ("1", "true", "on"):
+        if ext == ".exr" and not openexr_enabled():
             raise RelightError(
                 f"{p}: OpenCV's .exr reader is disabled; set the environment variable OPENCV_IO_ENABLE_OPENEXR=1 "
                 "before starting Python (needs an OpenCV built with OpenEXR), or convert the map to .hdr"
@@ -215,23 +239,21 @@ def load_envmap(path) -> np.ndarray:
             )
         raise RelightError(f"{p}: cannot decode environment map (corrupt or not a {ext} image)")
     check_pixels(img.shape[1], img.shape[0], f"environment map {p}")
-    if img.ndim == 2:
-        img = np.repeat(img[:, :, None], 3, axis=2)
-    if img.shape[2] == 4:
-        img = img[:, :, :3]
-    elif img.shape[2] != 3:
+    if img.ndim == 3 and img.shape[2] not in (1, 3, 4):
         raise RelightError(f"{p}: expected a colour or grey environment map, got {img.shape[2]} channels")
-    rgb = img[:, :, ::-1]
-    if ext in (".png", ".jpg", ".jpeg"):
-        if rgb.dtype not in (np.uint8, np.uint16):
-            raise RelightError(f"{p}: expected an 8- or 16-bit image, got {rgb.dtype}")
-        out = srgb_to_linear(rgb)
-    else:
-        out = rgb.astype(np.float32)
-    out = np.ascontiguousarray(out, dtype=np.float32)
-    h, w = out.shape[:2]
+    ldr = ext in (".png", ".jpg", ".jpeg")
+    if ldr and img.dtype not in (np.uint8, np.uint16):
+        raise RelightError(f"{p}: expected an 8- or 16-bit image, got {img.dtype}")
+    h, w = img.shape[:2]
     if w != 2 * h:
         raise RelightError(f"{p}: expected an equirectangular map with width = 2 × height, got {w}×{h} (W×H)")
+    reduce = max_pixels is not None and h * w > max_pixels
+    if reduce:  # as decoded (BGR(A) or grey), before any full-size copy
+        img = _reduce_envmap(img, ldr, int(max_pixels))
+    if img.ndim == 2:
+        img = img[:, :, None]
+    rgb = np.repeat(img, 3, axis=2) if img.shape[2] == 1 else img[:, :, 2::-1]
+    out = np.ascontiguousarray(srgb_to_linear(rgb) if ldr and not reduce else rgb, dtype=np.float32)
     if not np.all(np.isfinite(out)):
         raise RelightError(f"{p}: environment map contains NaN or Inf")
     return out

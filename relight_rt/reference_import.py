@@ -228,13 +228,21 @@ class _WeightsUnpickler(pickle.Unpickler):
 
 def _materialise(records: dict[str, _Tensor], archive: zipfile.ZipFile, byteorder: str, name: str,
                  max_elements: int) -> dict[str, np.ndarray]:
-    """Read the storages the records use (their declared sizes together at most ``max_elements``, checked
-    before anything is decompressed) and cut each tensor out of its storage (a copy, native byte order)."""
+    """Read the storages the records use and cut each tensor out of its storage (a copy, native byte order).
+
+    Both are bounded by ``max_elements`` before anything is decompressed: the storages' declared sizes (each
+    storage once) and the tensors' (each record once: many records can view one storage, and each is copied).
+    """
     storages = {id(t.storage): t.storage for t in records.values()}
+    hint = "of the network expected (a forged or foreign checkpoint; check --width/--resolution)"
     total = sum(st.numel for st in storages.values())
     if total > max_elements:
         raise RelightError(f"{name}: refused: its storages hold {total:,} elements, more than the {max_elements:,} "
-                           "of the network expected (a forged or foreign checkpoint; check --width/--resolution)")
+                           + hint)
+    copied = sum(math.prod(t.size) for t in records.values())
+    if copied > max_elements:
+        raise RelightError(f"{name}: refused: its {len(records):,} tensors hold {copied:,} elements together, more "
+                           f"than the {max_elements:,} " + hint)
     order = "<" if byteorder == "little" else ">"
     arrays: dict[int, np.ndarray] = {}
     for key, st in storages.items():
@@ -501,11 +509,21 @@ def reference_layout(kind: str, width: int = 64, resolution: int = 1024) -> dict
 DEFAULT_MAX_ELEMENTS = max(sum(math.prod(s) for s in reference_layout(k).values()) for k in REFERENCE_KINDS)
 
 
+LISTED_KEYS = 12  # the most unexpected keys an error names (a forged file can hold tens of thousands)
+
+
+def _listed(keys: list[str]) -> str:
+    """``keys`` joined, the first LISTED_KEYS of them, each cut to 100 characters, then how many more."""
+    shown = ", ".join(k if len(k) <= 100 else k[:100] + "..." for k in keys[:LISTED_KEYS])
+    return shown + (f" and {len(keys) - LISTED_KEYS:,} more" if len(keys) > LISTED_KEYS else "")
+
+
 def check_layout(state: Mapping[str, np.ndarray], kind: str, width: int, resolution: int, name: str) -> None:
     """Check that ``state`` has exactly the reference layout's keys and shapes.
 
     Raises:
-        RelightError: listing every missing, unexpected and mis-shaped key in one message.
+        RelightError: listing every missing and mis-shaped key in one message, and the first LISTED_KEYS
+            unexpected ones (a forged file's names are as many and as long as it likes).
     """
     expected = reference_layout(kind, width, resolution)
     missing = [k for k in expected if k not in state]
@@ -518,8 +536,8 @@ def check_layout(state: Mapping[str, np.ndarray], kind: str, width: int, resolut
     problems = []
     if missing:
         problems.append(f"missing keys: {', '.join(missing)}")
-    if unexpected:
-        problems.append(f"unexpected keys: {', '.join(unexpected)}")
+    if unexpected:  # the file's own names, as many as it likes: the first few
+        problems.append(f"unexpected keys: {_listed(unexpected)}")
     if misshaped:
         problems.append(f"mis-shaped: {', '.join(misshaped)}")
     if problems:

@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 import onnxruntime as ort
 
+from . import _env
 from ._errors import RelightError
 from .contract import KINDS, ModelConfig, config_from_metadata, kind_spec
 
@@ -42,9 +43,9 @@ log = logging.getLogger(__name__)
 DEVICES = ("auto", "cuda", "cpu")
 CUDA = "CUDAExecutionProvider"
 CPU = "CPUExecutionProvider"
-ENV_MODELS = "RELIGHT_RT_MODELS"
-ENV_THREADS = "RELIGHT_RT_THREADS"
-ENV_TENSORRT = "RELIGHT_RT_TENSORRT"
+ENV_MODELS = _env.MODELS
+ENV_THREADS = _env.THREADS
+ENV_TENSORRT = _env.TENSORRT
 TENSORRT = "TensorrtExecutionProvider"
 _CUDA_HELP = (
     "likely causes: both 'onnxruntime' and 'onnxruntime-gpu' are installed (uninstall both, then install "
@@ -54,17 +55,9 @@ _CUDA_HELP = (
 
 
 def thread_count() -> int:
-    """Intra-op threads from $RELIGHT_RT_THREADS (0 = onnxruntime's default)."""
-    text = os.environ.get(ENV_THREADS, "").strip()
-    if not text:
-        return 0
-    try:
-        n = int(text)
-    except ValueError:
-        n = -1
-    if n < 0:
-        raise RelightError(f"${ENV_THREADS} is {text!r}, expected a whole number >= 0")
-    return n
+    """Intra-op threads from $RELIGHT_RT_THREADS (0 = onnxruntime's default), checked by its one reader
+    (relight_rt._env.threads: a whole number up to four per core)."""
+    return _env.threads() or 0
 
 
 def cpu_session_options() -> ort.SessionOptions:
@@ -113,7 +106,7 @@ def _providers_for(device: str, device_id: int) -> list:
         return [CPU]
     if CUDA in available:
         chain: list = [(CUDA, cuda_provider_options(device_id)), CPU]
-        cache = os.environ.get(ENV_TENSORRT, "").strip()
+        cache = _env.tensorrt_cache()
         if cache and TENSORRT in available:  # opt-in, untested on a GPU so far
             Path(cache).mkdir(parents=True, exist_ok=True)
             chain.insert(0, (TENSORRT, tensorrt_provider_options(device_id, cache)))
@@ -303,7 +296,7 @@ def find_models(models: str | os.PathLike | None = None) -> Path:
     if models is not None:
         places = [Path(models)]
     else:
-        env = os.environ.get(ENV_MODELS, "").strip()
+        env = _env.models()
         # A $RELIGHT_RT_MODELS that holds no models is a mistake to report, not a reason to fall back
         # silently to the bundled models.
         places = [Path(env)] if env else [bundled_models_dir()]
@@ -313,7 +306,7 @@ def find_models(models: str | os.PathLike | None = None) -> Path:
     looked = "; ".join(f"{p} ({'no ' + required if p.is_dir() else 'no such folder'})" for p in places)
     if models is not None:
         hint = ""
-    elif os.environ.get(ENV_MODELS, "").strip():
+    elif _env.models():
         hint = f" (from ${ENV_MODELS}; unset it to use the bundled models)"
     else:
         hint = f"; pass --models DIR / models=DIR or set ${ENV_MODELS}"

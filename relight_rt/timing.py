@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 import onnxruntime as ort
 
-from . import __version__, lights
+from . import __version__, _env, lights
 from ._errors import RelightError
 
 log = logging.getLogger(__name__)
@@ -266,7 +266,7 @@ def run(
         "repeats": repeats,
         "warmup": warmup,
         "load_ms": load_ms,
-        "threads": os.environ.get("RELIGHT_RT_THREADS", "") or "default",
+        "threads": _env.threads() or "default",
     }
     return {"system": system_info(), "config": config, "rows": rows}
 

@@ -379,6 +379,7 @@ def relight_video(source: FrameSource, lights: LightSchedule, sink: FrameSink, *
     """
     start = time.perf_counter()
     n = 0
+    anyone = False  # a person in some frame (relight_frames' own test: some mask value >= 0.5)
     callback = 0.0  # time spent in on_frame (metrics, progress): not the pipeline's
     try:
         frames = relight_frames(source, lights, fps=source.fps, engine=engine, dvp=dvp, stabilizer=stabilizer,
@@ -386,6 +387,7 @@ def relight_video(source: FrameSource, lights: LightSchedule, sink: FrameSink, *
         for frame, out, extras in frames:
             sink.write(frame.name, out)
             n += 1
+            anyone = anyone or bool((frame.mask >= 0.5).any())
             if on_frame is not None:
                 t0 = time.perf_counter()
                 on_frame(frame, out, extras)
@@ -399,6 +401,10 @@ def relight_video(source: FrameSource, lights: LightSchedule, sink: FrameSink, *
     if sink.count != n:  # frames written must equal frames read
         sink.close(ok=False)
         raise RelightError(f"{source.path}: {n} frames relit but {sink.count} written")
+    if not anyone:  # as a photo of nobody is an error, so is a clip of nobody (issue 50 bug 14): nothing is written
+        sink.close(ok=False)
+        raise RelightError(f"{source.path}: no person found in any of the {n} frames (nothing to relight); give "
+                           "masks with --masks if there is one")  # fmt: skip
     sink.close(ok=True)
     spf = (time.perf_counter() - start - callback) / n
     logger.debug("relit %d frames, %.3f s per frame", n, spf)  # the CLI says it once, with the lights

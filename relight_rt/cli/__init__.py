@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import re
 import sys
 
 from .. import __version__
@@ -44,7 +45,16 @@ COMMANDS = (
 
 class Parser(argparse.ArgumentParser):
     """argparse, with a usage error as one line (``relight-rt: error: ...; see relight-rt CMD -h``), not the
-    whole usage block; every subcommand's parser is one of these (add_subparsers makes its own class)."""
+    whole usage block; every subcommand's parser is one of these (add_subparsers makes its own class).
+
+    A word that starts with "-" and a digit (or "-." and a digit) is a value, never an option: ``--key-light
+    -90,30`` (the documented "from the image's left"), ``--exposure -1e-05``. argparse before Python 3.13 took
+    only plain negative numbers (``-5``, ``-0.5``) for values, and refused these as a missing argument (issue 50
+    bug 12); no option of relight-rt starts with a digit. This is Python 3.13's own rule."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = re.compile(r"^-\.?\d")
 
     def error(self, message: str):
         self.exit(2, f"relight-rt: error: {message}; see {self.prog} -h\n")

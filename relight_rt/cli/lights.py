@@ -112,7 +112,8 @@ def light_output(output: str, source: str) -> Path:
 
 def write_light(out: Path, light: np.ndarray, source: str, protect: tuple = ()) -> None:
     """Write ``light`` to ``out`` (.npy, or .json by lightfile.save_light), atomically and never over ``source`` or
-    ``protect``."""
+    ``protect``, once it passed the rule every command reads a light by (sh.check_light)."""
+    light = sh.check_light(light, f"{source}: its light")  # what every command reads back: checked before writing
     protect = [source, *protect]
     if out.suffix.lower() == ".npy":
         write_npy(out, light, protect=protect)

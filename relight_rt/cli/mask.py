@@ -22,7 +22,16 @@ from pathlib import Path
 import numpy as np
 
 from .._errors import RelightError
-from .._io import IMAGE_SUFFIXES, list_images, read_image, write_image
+from .._io import (
+    IMAGE_SUFFIXES,
+    ProtectedPaths,
+    check_target,
+    image_writer,
+    list_images,
+    read_image,
+    write_all,
+    write_image,
+)
 from .._progress import Progress, progress
 from .._video_io import VIDEO_SUFFIXES
 from .options import add_max_pixels
@@ -138,17 +147,21 @@ def cmd_mask(args: argparse.Namespace) -> int:
         if fg is not None:
             fg.mkdir(parents=True, exist_ok=True)
     written: set[Path] = set()
+    protected = ProtectedPaths(protect)
     for path in progress(files, "image", len(files) > 1):
         target = out if to_file else out / f"{path.stem}_mask.png"
+        cut = None if fg is None else fg if to_file else fg / f"{path.stem}_foreground.png"
         try:
             if target.resolve() in written:
                 raise RelightError(f"two inputs named {path.stem} would both write {target}")
+            for t in (target, cut) if cut is not None else (target,):  # before any work, and before any write
+                check_target(t, protected)
             rgb = read_photo(path)
             alpha = _finish(matter(rgb, str(path)), args.binary)
-            write_image(target, alpha, protect=protect)
-            if fg is not None:
-                cut = fg if to_file else fg / f"{path.stem}_foreground.png"
-                write_image(cut, cutout(rgb, alpha), protect=protect | {target})
+            outputs = [(target, image_writer(alpha, target))]
+            if cut is not None:
+                outputs.append((cut, image_writer(cutout(rgb, alpha), cut)))
+            write_all(outputs, protect=protected)  # the mask and its cut-out: both or neither (issue 50 bug 9)
             written.add(target.resolve())
             (log.debug if len(files) > 1 else log.info)("%s -> %s", path, target)  # a bar shows a folder
         except (RelightError, OSError) as exc:
@@ -188,14 +201,17 @@ def _run_video(video: Path, out: Path, vm, binary: bool) -> int:
     source = FrameSource(video, matter=vm)  # every frame gets vm's alpha: no mask files, no alpha channel
     sink = FrameSink(video=out if as_video else None, frames_dir=None if as_video else out, fps=source.rate,
                      protect=source.paths)
-    count = 0
+    count, anyone = 0, False
     with Progress(source.frame_count, "frame") as bar, sink:  # relight_rt._progress
         for frame in source:
             alpha = _finish(frame.mask, binary)
+            anyone = anyone or bool((alpha >= 0.5).any())
             sink.write(f"frame_{frame.index:06d}_mask", np.repeat(alpha[..., None], 3, axis=2))
             count += 1
             bar.update()
         if count == 0:
             raise RelightError(f"{video}: no frames could be read")
+        if not anyone:  # as for a photo (issue 50 bug 14); raised inside the sink's block: nothing is kept
+            raise RelightError(f"{video}: no person found in any of the {count} frames")
     log.info("%s: %d mask frames -> %s", video, count, out)
     return 0

@@ -7,12 +7,13 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import _env
 from .._errors import RelightError
 from .._io import read_image
 from .._limits import check_array_pixels
 from .._square import SIZE as SIZE  # both graphs' input side
 from ..contract import KINDS
-from ..session import ENV_MODELS, bundled_models_dir
+from ..session import bundled_models_dir
 
 POSE_FILE = KINDS["matte_pose"].filename  # the kinds are declared in relight_rt.contract
 ROI_FILE = KINDS["matte_roi"].filename
@@ -30,7 +31,7 @@ def find_matting_models(models: str | os.PathLike | None = None) -> Path:
     if models is not None:
         place = Path(models)
     else:
-        env = os.environ.get(ENV_MODELS, "").strip()
+        env = _env.models()
         place = Path(env) if env and (Path(env) / POSE_FILE).is_file() else bundled_models_dir()
     for f in (POSE_FILE, ROI_FILE):
         if not (place / f).is_file():

@@ -19,15 +19,18 @@ Guards (issue 35): the Host header must be a local name (DNS rebinding); a reque
 present must come from the server's own origin (403), so no page of another site can drive the studio;
 POST bodies must be application/json (render) or application/octet-stream (uploads), which a cross-site
 page cannot send without a CORS preflight that this server never answers (415); every body is refused
-past its own limit (400), and all requests together hold at most MAX_BUFFERED_BYTES of bodies and
-MAX_UPLOADS uploads at once (503, try again). Bad input is 400 with {"error": one line}.
+past its own limit (400) or when it has not arrived within BODY_SECONDS (408), and all requests together
+hold at most MAX_BUFFERED_BYTES of bodies and MAX_UPLOADS uploads at once (503, try again). Bad input is 400
+with {"error": one line}.
 """
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import json
 import logging
+import unicodedata
 import urllib.parse
 from pathlib import Path
 
@@ -55,6 +58,8 @@ _HEADERS = {
 
 MAX_BUFFERED_BYTES = 2 * MAX_UPLOAD_BYTES  # request bodies the server holds at once, all requests together
 MAX_UPLOADS = 4  # uploads (env maps, photos) read or worked on at once; more are refused (503), never queued
+BODY_SECONDS = 30.0  # a request body must have arrived this long after its first read (408): 32 MiB from the
+# same machine take well under a second, and a client that trickles its bytes would hold an upload slot for ever
 JSON_LIMIT = 1 << 16  # a render request: 27 numbers and an exposure
 JSON = "application/json"
 UPLOAD = "application/octet-stream"  # what the page sends (studio.js, uploadLight); the kind is read from the bytes
@@ -94,6 +99,20 @@ def foreign_origin(headers) -> str | None:
     return None
 
 
+def content_disposition(filename: str) -> str:
+    """The Content-Disposition value of a download named ``filename``: the one rule by which a name (the
+    photo's, chosen by whoever named the file) enters a header this server builds (RFC 6266).
+
+    ``filename="..."`` carries a plain-ASCII stand-in (anything but letters, digits, space and ``._-()+,=@``
+    becomes ``_``, so no quote, backslash, semicolon or control character can end the parameter) and
+    ``filename*=UTF-8''...`` the name itself, control characters made ``_`` and every other byte outside
+    RFC 3986's unreserved set percent-encoded. The value is printable ASCII whatever the name holds (a CR/LF
+    in it made the server drop the connection without an answer: issue 50 bugs 3, 4)."""
+    name = "".join("_" if unicodedata.category(c) in ("Cc", "Cf", "Zl", "Zp", "Cs") else c for c in filename)
+    plain = "".join(c if c.isascii() and (c.isalnum() or c in " ._-()+,=@") else "_" for c in name)
+    return f"attachment; filename=\"{plain}\"; filename*=UTF-8''{urllib.parse.quote(name, safe='')}"
+
+
 def _require_type(request: Request, expected: str, name: str) -> None:
     """Refuse (415) a body whose Content-Type is not ``expected``: a page on another site can send text/plain
     (a CORS "simple" request, no preflight) but not JSON or octet-stream without the browser asking first."""
@@ -105,11 +124,13 @@ def _require_type(request: Request, expected: str, name: str) -> None:
 class Budget:
     """What request bodies may hold, over all requests: at most ``total`` bytes read and not yet let go, and
     at most ``uploads`` uploads at once. Past either, a request is refused with 503 (try again), so that many
-    slow or concurrent uploads cannot make the server grow (issue 35). Used from the server's one event
-    loop only (no await between a check and its update)."""
+    slow or concurrent uploads cannot make the server grow (issue 35). Each body must arrive within
+    ``seconds`` (408), so that slow uploads cannot hold the slots either (issue 50 bug 5). Used from the
+    server's one event loop only (no await between a check and its update)."""
 
-    def __init__(self, total: int = MAX_BUFFERED_BYTES, uploads: int = MAX_UPLOADS) -> None:
-        self.total, self.uploads = total, uploads
+    def __init__(self, total: int = MAX_BUFFERED_BYTES, uploads: int = MAX_UPLOADS,
+                 seconds: float = BODY_SECONDS) -> None:  # fmt: skip
+        self.total, self.uploads, self.seconds = total, uploads, seconds
         self.held = 0  # bytes
         self.running = 0  # uploads
 
@@ -147,8 +168,18 @@ class Budget:
                                        f"{limit / 2**20:g} MiB")  # fmt: skip
                 reserve(int(declared))
             chunks, size = [], 0
+            loop = asyncio.get_running_loop()
+            end = loop.time() + self.seconds
+            stream = request.stream().__aiter__()
             try:
-                async for chunk in request.stream():
+                while True:
+                    try:  # the deadline is the body's, not each read's: a byte every few seconds is still late
+                        chunk = await asyncio.wait_for(stream.__anext__(), max(0.0, end - loop.time()))
+                    except StopAsyncIteration:
+                        break
+                    except asyncio.TimeoutError:
+                        raise HTTPRefusal(408, f"{name}: the upload did not arrive within {self.seconds:g} s "
+                                               f"({size} bytes came); send it at once") from None  # fmt: skip
                     size += len(chunk)
                     if size > limit:
                         raise RelightError(f"{name}: the upload is larger than the limit of {limit / 2**20:g} MiB")
@@ -240,7 +271,7 @@ def create_app(studio: Studio, allowed_hosts: list[str] | None = None, budget: B
         return rec
 
     def _attachment(download: int, filename: str) -> dict:
-        return {"Content-Disposition": f'attachment; filename="{filename}"'} if download else {}
+        return {"Content-Disposition": content_disposition(filename)} if download else {}
 
     @app.get("/api/result/{rid}.png")
     def result_png(rid: str, download: int = 0):

@@ -43,6 +43,10 @@ log = logging.getLogger(__name__)
 
 MAX_UPLOAD_BYTES = 32 << 20  # an env map or a photo; bigger uploads are refused before decoding
 MAX_UPLOAD_PIXELS = 40_000_000  # decoded size limit (a small file can hold a huge image)
+# what an upload is shrunk to right after decoding, before any float copy: each becomes 27 numbers (an env map's
+# degree-2 SH, a background's or a person's light from stage 1), and at full size a 40-MP one cost ~60 bytes a
+# pixel, four at once past 4 GB (issue 50 bug 6); decoded, a pixel costs 3-12 bytes
+UPLOAD_WORK_PIXELS = 2_000_000
 EXPOSURE_SAMPLES = 1 << 15  # network-frame pixels of the person that the page's exposure rule reads (at most)
 from .. import exposure as _exposure  # noqa: E402  (the one exposure rule)
 from ..exposure import exposure_scale, guarded, mean_luminance, parse_exposure  # noqa: E402
@@ -96,12 +100,25 @@ def check_upload(data: bytes, name: str, allowed: tuple[str, ...], limit: int = 
     return found[1]
 
 
-def decode_upload(data: bytes, name: str) -> np.ndarray:
-    """An uploaded PNG/JPEG/WebP/BMP as float32 RGB(A) in [0, 1] (alpha kept), checked by content."""
+def shrink(image: np.ndarray, max_pixels: int) -> np.ndarray:
+    """``image`` as decoded (any depth, 1-4 channels), shrunk by area averaging to at most ``max_pixels`` with its
+    aspect kept; the image itself when it is that small."""
+    h, w = image.shape[:2]
+    if h * w <= max_pixels:
+        return image
+    s = math.sqrt(max_pixels / (h * w))
+    size = (max(1, math.floor(w * s)), max(1, math.floor(h * s)))
+    return cv2.resize(image, size, interpolation=cv2.INTER_AREA)
+
+
+def decode_upload(data: bytes, name: str, max_pixels: int = UPLOAD_WORK_PIXELS) -> np.ndarray:
+    """An uploaded PNG/JPEG/WebP/BMP as float32 RGB(A) in [0, 1] (alpha kept), checked by content, shrunk to at
+    most ``max_pixels`` (:func:`shrink`) as decoded, before the float conversion."""
     check_upload(data, name, ("png", "jpeg", "webp", "bmp"))
     img = decode_bytes(np.frombuffer(data, np.uint8))  # turned as its EXIF orientation says
     if img is None:
         raise RelightError(f"{name}: cannot decode the image (corrupt file)")
+    img = shrink(img, max_pixels)
     # (its size was checked from the header by check_upload) OpenCV's BGR(A) as RGB(A), gray as colour
     return read_image(as_colour(img, bgr=True), name)  # checks channels, depth, size; a new float32 array
 
@@ -158,6 +175,19 @@ class Render:
     light: np.ndarray  # (9, 3) float32 RGB, exactly as used
     exposure: object
     seconds: float
+
+
+def command_line(program: list[str], operands: list, options: list[tuple[str, object]]) -> str:
+    """A command line to show and copy, by one rule for every word: each option as one ``--name=VALUE`` word (a
+    value that starts with "-", such as an EV of -1e-05, is never read as an option), each operand (a path) with
+    ``./`` before it when it is relative and starts with "-" (``-x.png`` is not an option either), all of it
+    quoted for a POSIX shell by ``shlex.join`` (issue 50 bugs 10 and 11)."""
+    words = [*program]
+    for value in operands:
+        text = str(value)
+        words.append(f"./{text}" if text.startswith("-") else text)
+    words += [f"{name}={value}" for name, value in options]
+    return shlex.join(words)
 
 
 def light_json(light: np.ndarray) -> str:
@@ -407,33 +437,29 @@ class Studio:
         return self.renders.put(rec), rec
 
     def command(self, render: Render, light_file: str) -> str:
-        """The ``relight-rt relight`` command line that reproduces ``render`` from the exported light file."""
+        """The ``relight-rt relight`` command line that reproduces ``render`` from the exported light file, its
+        words made by one rule (:func:`command_line`)."""
         # paths as the user gave them to ``relight-rt studio`` (relative ones: to where the server was started)
-        args = ["relight-rt", "relight", str(self.photo)]
+        options: list[tuple[str, object]] = []
         if self.mask is not None:
-            args += ["--mask", str(self.mask)]
+            options.append(("--mask", self.mask))
         elif getattr(getattr(self.relighter, "config", None), "matting", "auto") == "all":
-            args += ["--person", "all"]  # the studio's matte took everyone: so must the command's
-        args += ["--light", light_file]
+            options.append(("--person", "all"))  # the studio's matte took everyone: so must the command's
+        options.append(("--light", light_file))
         if self.background != "original":
-            args += ["--background", self.background]
+            options.append(("--background", self.background))
         if self.exposure_supported and render.exposure != "auto":
-            args += ["--exposure", str(render.exposure)]
+            options.append(("--exposure", render.exposure))
         if self.models is not None:
-            args += ["--models", str(self.models)]
-        args += ["-o", f"{self.photo.stem}_relit.png"]
-        return shlex.join(args)
+            options.append(("--models", self.models))
+        options.append(("--output", f"{self.photo.stem}_relit.png"))
+        return command_line(["relight-rt", "relight"], [self.photo], options)
 
     # ------------------------------------------------------------------------------------ uploaded lights
 
     def envmap_light(self, data: bytes) -> np.ndarray:
-        """(9, 3) float32 light of an uploaded equirectangular map (.hdr, or an sRGB PNG/JPEG, linearised)."""
-        suffix = check_upload(data, "environment map", ("hdr", "png", "jpeg"))
-        with tempfile.TemporaryDirectory(prefix="relight-studio-") as folder:
-            path = Path(folder) / f"upload{suffix}"  # our name; the client's is never used
-            path.write_bytes(data)
-            env = envmap.load_envmap(path)  # its size was checked from the header by check_upload
-        return envmap.project_envmap(env).astype(np.float32)
+        """(9, 3) float32 light of an uploaded equirectangular map (:func:`envmap_upload_light`)."""
+        return envmap_upload_light(data)
 
     def photo_light(self, data: bytes) -> np.ndarray:
         """(9, 3) float32 light estimated (stage 1) from an uploaded photo of a person; mask: its alpha, else
@@ -445,14 +471,31 @@ class Studio:
         return np.array(dec.white_light, dtype=np.float32)
 
     def background_light(self, data: bytes, key_light=None) -> np.ndarray:
-        """(9, 3) float32 light of an uploaded background photo (relight_rt.scene_light, 60° field of view);
-        ``key_light`` "AZ,EL" (degrees) or a pair steers its key light (background.parse_key_light)."""
-        from ..scene_light import light_from_background, parse_key_light
+        """(9, 3) float32 light of an uploaded background photo (:func:`background_upload_light`)."""
+        return background_upload_light(data, key_light)
 
-        key = parse_key_light(key_light)  # checked before the upload is decoded
-        image = decode_upload(data, "background")
-        light, _ = light_from_background(np.ascontiguousarray(image[..., :3]), key_light=key)
-        return np.asarray(light, dtype=np.float32)
+
+def envmap_upload_light(data: bytes) -> np.ndarray:
+    """(9, 3) float32 light of an uploaded equirectangular map (.hdr, or an sRGB PNG/JPEG, linearised), shrunk
+    to UPLOAD_WORK_PIXELS as decoded (envmap.load_envmap's ``max_pixels``)."""
+    suffix = check_upload(data, "environment map", ("hdr", "png", "jpeg"))
+    with tempfile.TemporaryDirectory(prefix="relight-studio-") as folder:
+        path = Path(folder) / f"upload{suffix}"  # our name; the client's is never used
+        path.write_bytes(data)
+        env = envmap.load_envmap(path, max_pixels=UPLOAD_WORK_PIXELS)  # its size was checked from the header above
+    return envmap.project_envmap(env).astype(np.float32)
+
+
+def background_upload_light(data: bytes, key_light=None) -> np.ndarray:
+    """(9, 3) float32 light of an uploaded background photo (relight_rt.scene_light, 60° field of view), shrunk
+    to UPLOAD_WORK_PIXELS as decoded; ``key_light`` "AZ,EL" (degrees) or a pair steers its key light
+    (scene_light.parse_key_light)."""
+    from ..scene_light import light_from_background, parse_key_light
+
+    key = parse_key_light(key_light)  # checked before the upload is decoded
+    image = decode_upload(data, "background")
+    light, _ = light_from_background(np.ascontiguousarray(image[..., :3]), key_light=key)
+    return np.asarray(light, dtype=np.float32)
 
 
 def unpack_layers(data: bytes, meta: dict) -> dict:

@@ -6,12 +6,14 @@ subprocess under a 4 GB address-space limit (tests/_hostile.py) and must end wit
   storage (3.6 GB after as_strided + copy), a 2 MB deflated 2 GiB storage, a 3 MB data.pkl holding a 3 GiB
   BINBYTES8;
 - item 5: a data.pkl whose dict key is a tuple nested 200,000 deep (the interpreter segfaulted hashing it);
-- item 18: arrays are held to max_pixels like files (a 60000 x 60000 view raised MemoryError).
+- item 18: arrays are held to max_pixels like files (a 60000 x 60000 view raised MemoryError);
+- issue 50 bug 2: many tensor records over one storage (each record is a copy).
 """
 
 from __future__ import annotations
 
 import struct
+import zipfile
 
 import numpy as np
 import pytest
@@ -48,8 +50,18 @@ def make_checkpoints(folder) -> dict[str, str]:
     # the same depth through a list appended to itself level by level, and a modest but forged depth
     body = b"\x80\x02" + b"]" * 5000 + b"a" * 4999 + b"."
     write_archive(folder / "deeplist.pth", body, {})
+    # issue 50 bug 2: 200 records that each view the whole of one 32 MiB storage of zeros (deflated: ~32 KB); each
+    # record is copied out of its storage, so they asked for 6.4 GB
+    numel, keys = 8 << 20, 200
+    record = tensor_record("0", "FloatStorage", numel, 0, (numel,), (1,))
+    body = b"\x80\x02" + op_global("collections", "OrderedDict") + b")R(" + b"".join(
+        op_str(f"k{i}") + record for i in range(keys)) + b"u."
+    with zipfile.ZipFile(folder / "views.pth", "w", compression=zipfile.ZIP_DEFLATED) as z:
+        z.writestr("archive/data.pkl", body)
+        z.writestr("archive/byteorder", "little")
+        z.writestr("archive/data/0", bytes(numel * 4))
     return {"stride0.pth": "only contiguous", "storage.pth": "elements", "binbytes.pth": "uncompressed",
-            "deep.pth": "nests", "deeplist.pth": "nests"}  # fmt: skip
+            "deep.pth": "nests", "deeplist.pth": "nests", "views.pth": "200 tensors hold"}  # fmt: skip
 
 
 _CHECKPOINT_CASES = """
@@ -80,6 +92,8 @@ def test_reference_checkpoint_bombs_are_refused_before_reading(tmp_path):
         # the importer checks the layout first, before any storage is read: a mismatch may be what it says
         layout = route == "import" and "does not match the reference" in message
         assert line.startswith("ERROR ") and name in message and (expected[name] in message or layout), line
+        if layout and name == "views.pth":  # the file's 200 names: the first few, then a count
+            assert "unexpected keys: k0, k1," in message and "k11 and 188 more" in message
     assert 0 < peak < PEAK_LIMIT, peak
     assert not (tmp_path / "out").exists()
 

@@ -247,9 +247,9 @@ def test_export_is_what_the_cli_makes(browser, server, tmp_path):
     # run the command line the page shows, with the downloaded light and a fresh output path
     args = shlex.split(page.text_content("#command"))
     assert args[:2] == ["relight-rt", "relight"]
-    args[args.index("--light") + 1] = str(files["export-npy"])
     out = tmp_path / "cli.png"
-    args[args.index("-o") + 1] = str(out)
+    given = {"--light": str(files["export-npy"]), "--output": str(out)}  # each option is one --name=VALUE word
+    args = [f"{a.split('=')[0]}={given[a.split('=')[0]]}" if a.split("=")[0] in given else a for a in args]
     env = {k: v for k, v in os.environ.items() if k != "RELIGHT_RT_MODELS"}
     cmd = [sys.executable, "-m", "relight_rt", *args[1:], "--device", "cpu"]
     subprocess.run(cmd, cwd=REPO, env=env, check=True, capture_output=True)

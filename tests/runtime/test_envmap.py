@@ -190,3 +190,19 @@ def test_load_envmap_bad_files(tmp_path, monkeypatch):
     monkeypatch.delenv("OPENCV_IO_ENABLE_OPENEXR", raising=False)
     with pytest.raises(RelightError, match="OPENCV_IO_ENABLE_OPENEXR=1"):
         envmap.load_envmap(exr)
+
+
+def test_a_map_whose_light_no_command_reads_is_refused(tmp_path, capsys):
+    """Issue 50 bug 13: an RGBE map with exponent 255 (values ~1e38, a 32 KB file) gave `lights from-envmap` exit 0
+    and a light of 6e38 that every other command refused; the projection holds its light to sh.MAX_COEFF."""
+    from relight_rt import cli
+
+    hot = tmp_path / "exp255.hdr"
+    hot.write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 64 +X 128\n" + b"\xff" * (4 * 128 * 64))
+    with pytest.raises(RelightError, match=r"environment map's light: SH light coefficient .* is too large"):
+        envmap.project_envmap(envmap.load_envmap(hot))
+    assert cli.main(["lights", "from-envmap", str(hot), "-o", str(tmp_path / "hot.npy")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "too large" in err[0] and not (tmp_path / "hot.npy").exists(), err
+    bright = np.full((8, 16, 3), 1e29, np.float32)  # within the bound: projected, written, read back
+    assert np.abs(envmap.project_envmap(bright)).max() < sh.MAX_COEFF

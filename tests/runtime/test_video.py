@@ -526,3 +526,17 @@ def test_cli_shows_progress_and_one_summary(tmp_path, tiny_models):
     assert len(re.findall(r"s per frame", proc.stderr)) == 1, proc.stderr  # one summary
     # (stderr is a pipe here, so no bar: tests/runtime/test_progress.py checks the bar on a terminal)
     assert "frame/s" not in proc.stderr
+
+
+def test_a_clip_of_nobody_is_an_error_and_writes_nothing(tmp_path, tiny_models):
+    """Issue 50 bug 14: `video` on a clip with nobody in any frame wrote the clip back with exit 0 and not a word."""
+    clip = tmp_path / "grey.avi"
+    writer = cv2.VideoWriter(str(clip), cv2.VideoWriter_fourcc(*"MJPG"), 10, (64, 96))
+    for _ in range(3):
+        writer.write(np.full((96, 64, 3), 128, np.uint8))
+    writer.release()
+    out, frames = tmp_path / "out.avi", tmp_path / "of"
+    with pytest.raises(RelightError, match="no person found in any of the 3 frames"):
+        _run_cli(["video", str(clip), "-o", str(out), "--frames-out", str(frames), "--models", str(tiny_models),
+                  "--preset", "studio", "--device", "cpu"])  # fmt: skip
+    assert not out.exists() and not list(frames.iterdir()) and not list(tmp_path.glob(".*"))

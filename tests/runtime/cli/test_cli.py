@@ -387,3 +387,20 @@ def test_relight_says_when_a_mask_beside_the_photo_is_used(work, capsys, caplog)
                         "--device", "cpu"], capsys)  # fmt: skip
     assert code == 0, err
     assert "beside it" not in caplog.text and "out2.png" in caplog.text
+
+
+@pytest.mark.parametrize("argv, dest, value", [
+    (["composite", "p.png", "--background", "b.jpg", "--key-light", "-90,30", "-o", "o.png"], "key_light", "-90,30"),
+    (["lights", "from-background", "b.jpg", "--key-light", "-45,-10", "-o", "l.npy"], "key_light", "-45,-10"),
+    (["relight", "p.png", "--preset", "studio", "--exposure", "-1e-05", "-o", "o.png"], "exposure", "-1e-05"),
+    (["relight", "p.png", "--preset", "studio", "--exposure", "-.5", "-o", "o.png"], "exposure", "-.5"),
+])  # fmt: skip
+def test_values_that_start_with_a_minus_and_a_digit_are_values(argv, dest, value):
+    """Issue 50 bug 12: ``--key-light -90,30`` (the documented "from the image's left") was a usage error, and so
+    was ``--exposure -1e-05``: argparse before 3.13 took only plain negative numbers for values."""
+    assert getattr(cli.build_parser().parse_args(argv), dest) == value
+
+
+def test_an_unknown_option_is_still_a_usage_error(capsys):
+    assert cli.main(["relight", "p.png", "--preset", "studio", "--nonsense", "-o", "o.png"]) == 2
+    assert "unrecognized arguments: --nonsense" in capsys.readouterr().err

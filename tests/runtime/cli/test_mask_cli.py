@@ -136,6 +136,17 @@ def test_damaged_video_writes_every_frame_or_nothing(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and err[0].startswith("relight-rt: error: ") and "clip.mp4" in err[0], err
     assert not (tmp_path / "m.avi").exists() and not list(tmp_path.glob(".*"))
+def test_foreground_over_an_input_writes_nothing(tmp_path, capsys):
+    """Issue 50 bug 9: the mask was written, then the cut-out refused (it named the input): a partial output. Both
+    targets are checked before any work, and the two files are written as one."""
+    shutil.copy(EXAMPLE, tmp_path / "a.png")
+    before = (tmp_path / "a.png").read_bytes()
+    assert run(tmp_path / "a.png", "-o", tmp_path / "a_m.png", "--foreground", tmp_path / "a.png") == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "refusing to overwrite the input" in err[0], err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.png"] and (tmp_path / "a.png").read_bytes() == before
+
+
 def test_foreground_cutout(tmp_path, capsys):
     """Issue 33: ``--foreground`` writes the decontaminated RGBA cut-out beside the mask."""
     bgra = cv2.imread(str(EXAMPLE), cv2.IMREAD_UNCHANGED)
@@ -155,3 +166,22 @@ def test_foreground_cutout(tmp_path, capsys):
     assert redness(rgba).mean() < redness(photo_px).mean() - 30  # the red fringe is taken out
     assert run(photo, "-o", tmp_path / "m2.png", "--foreground", tmp_path / "cut.jpg") == 2
     assert "--foreground" in capsys.readouterr().err
+
+
+def _grey_clip(path: Path, frames: int = 3) -> Path:
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 10, (64, 96))
+    for _ in range(frames):
+        writer.write(np.full((96, 64, 3), 128, np.uint8))
+    writer.release()
+    return path
+
+
+def test_a_clip_of_nobody_is_an_error_like_a_photo_of_nobody(tmp_path, capsys):
+    """Issue 50 bug 14: a clip with nobody in any frame gave exit 0 without a word (a photo: "no person found")."""
+    clip = _grey_clip(tmp_path / "grey.avi")
+    for out in (tmp_path / "m.avi", tmp_path / "frames"):
+        assert run(clip, "-o", out) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "no person found in any of the 3 frames" in err[0], err
+        assert not out.exists() or not list(out.iterdir())  # no mask video, no frames
+    assert sorted(p.name for p in tmp_path.iterdir()) in (["grey.avi"], ["frames", "grey.avi"])

@@ -615,6 +615,6 @@ def test_studio_of_a_group(two_people, tmp_path):
     studio = Studio(path, None, "original", relight_rt.open(RuntimeConfig(device="cpu", matting="all")))
     assert studio.info()["people"] == 2
     _, render = studio.render(np.zeros(27).tolist())
-    assert "--person all" in studio.command(render, "light.npy")
+    assert "--person=all" in studio.command(render, "light.npy")
     one = Studio(path, None, "original", relight_rt.open(RuntimeConfig(device="cpu")))
     assert one.info()["people"] == 1 and "--person" not in one.command(render, "light.npy")

@@ -175,7 +175,7 @@ def test_render_is_the_relighters_result(studio, models_dir):
     np.testing.assert_array_equal(rec.light, light)
     cmd = studio.command(rec, "someone_light.npy")
     assert (
-        cmd.startswith("relight-rt relight ") and "--light someone_light.npy" in cmd and "-o someone_relit.png" in cmd
+        cmd.startswith("relight-rt relight ") and "--light=someone_light.npy" in cmd and "--output=someone_relit.png" in cmd
     )
     assert json.loads(light_json(rec.light))["order"] == "rgb"
 
@@ -389,7 +389,7 @@ def test_exposure_reaches_the_relighter_and_the_command(photo, models_dir):
     studio = Studio(photo, None, "original", recording, preview_pixels=4096)
     assert studio.info()["exposure"] is True
     _, rec = studio.render(lights.preset("studio").tolist(), exposure=1.5)
-    assert Recording.seen == [1.5] and "--exposure 1.5" in studio.command(rec, "l.npy")
+    assert Recording.seen == [1.5] and "--exposure=1.5" in studio.command(rec, "l.npy")
     _, rec = studio.render(lights.preset("studio").tolist(), exposure="auto")
     assert "--exposure" not in studio.command(rec, "l.npy")  # auto is the CLI's default too
 
@@ -426,7 +426,7 @@ def test_background_image_and_transparent(photo, models_dir, tmp_path):
     _, rec = studio.render(lights.preset("front").tolist())
     png = cv2.imdecode(np.frombuffer(rec.png, np.uint8), cv2.IMREAD_UNCHANGED)
     assert tuple(png[0, 0]) == (204, 0, 0)  # BGR: the blue background outside the person
-    assert f"--background {bg_path}" in studio.command(rec, "l.npy")
+    assert f"--background={bg_path}" in studio.command(rec, "l.npy")
     clear = Studio(photo, None, "transparent", relighter, preview_pixels=5400)
     assert clear.info()["background"] == "transparent"
     _, rec = clear.render(lights.preset("front").tolist())
@@ -513,3 +513,23 @@ def test_a_signal_the_server_swallowed_still_ends_the_serve(photo, models_dir, m
     session = Studio(photo, None, "original", Relighter(RuntimeConfig(models=models_dir, device="cpu")))
     with pytest.raises(KeyboardInterrupt):
         studio_pkg.serve(session, port=0)
+
+
+@pytest.mark.parametrize("ev", [-1e-05, -2e-07, -3.0, 1e-05])
+@pytest.mark.parametrize("name", ["-x.png", "--help.png", "-o.png", "a b;rm -rf.png"])
+def test_exported_command_parses_as_it_reads(studio, monkeypatch, name, ev):
+    """Issue 50 bugs 10, 11: an EV of -1e-05 was written "--exposure -1e-05" (argparse took it for an option), and a
+    photo named -x.png gave "relight -x.png --light -x_light.npy" (INPUT missing). Every option is one --name=VALUE
+    word and a relative path that starts with "-" gets ./, so the command parses to what the studio used."""
+    import shlex
+
+    from relight_rt.cli import build_parser
+    from relight_rt.studio.core import Render
+
+    monkeypatch.setattr(studio, "photo", Path(name))
+    monkeypatch.setattr(studio, "mask", Path("-" + name))
+    cmd = studio.command(Render(b"", np.zeros((9, 3), np.float32), ev, 0.0), Path(name).stem + "_light.npy")
+    args = build_parser().parse_args(shlex.split(cmd)[1:])
+    operand = f"./{name}" if name.startswith("-") else name
+    assert args.inputs == [operand] and args.mask == f"-{name}" and args.exposure == str(ev), cmd
+    assert args.light == Path(name).stem + "_light.npy" and args.output == Path(name).stem + "_relit.png"

@@ -17,6 +17,7 @@ import sys
 import threading
 import time
 import urllib.error
+import urllib.parse
 import urllib.request
 from pathlib import Path
 
@@ -351,3 +352,101 @@ def test_studio_process_refuses_bombs_and_exits_like_every_command(photo, models
     assert "Traceback" not in err
     lines = [x for x in err.splitlines() if x.strip()]
     assert len(lines) == 1 and lines[0].startswith("relight-rt: ") and reason in lines[0], err
+
+
+# ------------------------------------------------------------------------------------------------ issue 50
+
+HOSTILE_NAMES = ("a\"; filename*=UTF-8''evil.html; x=\"", "nl\r\nX-Evil: 1", "back\\slash;semi", "tab\tzero\x00del\x7f",
+                 "ünïcode ☃ 写真", "sur\udcffrogate")  # fmt: skip
+
+
+@pytest.mark.parametrize("name", HOSTILE_NAMES)
+def test_a_photo_name_enters_the_download_header_by_one_rule(name):
+    """Issue 50 bugs 3, 4: a quote ended filename="..." and added the filename*= browsers prefer; CR/LF made the
+    server drop every download without an answer."""
+    pytest.importorskip("fastapi")
+    from relight_rt.studio.app import content_disposition
+
+    value = content_disposition(name + "_relit.png")
+    assert value.isascii() and value.isprintable(), value
+    plain, star = value.split("; ")[1:]
+    assert plain.startswith('filename="') and plain.endswith('"') and '"' not in plain[10:-1] and "\\" not in plain
+    assert star.startswith("filename*=UTF-8''") and value.count("filename*=") == 1
+    back = urllib.parse.unquote(star.removeprefix("filename*=UTF-8''"))
+    assert back.endswith("_relit.png") and back.isprintable() and "\r" not in back and "\n" not in back
+
+
+@pytest.mark.parametrize("name", HOSTILE_NAMES[:2])
+def test_downloads_of_a_hostile_photo_name_are_served(client, studio, monkeypatch, name):
+    monkeypatch.setattr(studio, "photo", studio.photo.with_name(name + ".png"))
+    rid = client.post("/api/render", json={"light": sum(LIGHT, [])}, headers={"origin": OWN}).json()["id"]
+    for route in (f"/api/result/{rid}.png", f"/api/result/{rid}/light.npy", f"/api/result/{rid}/light.json"):
+        res = client.get(route + "?download=1")
+        disposition = res.headers["content-disposition"]
+        star = disposition.split("filename*=UTF-8''", 1)[1]
+        assert res.status_code == 200 and disposition.count("filename*=") == 1 and ";" not in star
+        assert urllib.parse.unquote(star).startswith(name.replace("\r", "_").replace("\n", "_") + "_")
+
+
+def test_slow_uploads_lose_their_slots_at_the_deadline(studio, tmp_path):
+    """Issue 50 bug 5: four uploads that sent a byte every few seconds held every upload slot for as long as they
+    liked (every other upload: 503). A body must arrive within Budget.seconds (408), however steadily it trickles."""
+    from relight_rt.studio.app import Budget
+
+    env = tmp_path / "e.hdr"
+    cv2.imwrite(str(env), np.ones((8, 16, 3), np.float32))
+    with live_server(studio, Budget(uploads=4, seconds=1.5)) as (port, budget):
+        slow = [open_upload(port, 1 << 20, sent=b"\xff") for _ in range(4)]
+        try:
+            wait_for(lambda: budget.running == 4, "the slow uploads to take every slot")
+            end = time.monotonic() + 3
+            while time.monotonic() < end:  # a byte every 0.25 s: never idle for long, and still too slow
+                for sock in slow:
+                    with contextlib.suppress(OSError):
+                        sock.sendall(b"\0")
+                time.sleep(0.25)
+            answers = [response_status(sock) for sock in slow]
+        finally:
+            for sock in slow:
+                sock.close()
+        assert all(status == 408 and "did not arrive within 1.5 s" in body for status, body in answers), answers
+        wait_for(lambda: budget.running == 0 and budget.held == 0, "the slots to be let go")
+        assert post(port, "/api/envmap", env.read_bytes()) == 200
+
+
+_UPLOAD_MEMORY = """
+import struct, zlib
+import numpy as np
+from relight_rt.studio.core import UPLOAD_WORK_PIXELS, background_upload_light, decode_upload, envmap_upload_light
+
+def png(w, h, ch, depth=8):  # a flat grey PNG: ~70 KB that decode to w * h pixels
+    co = zlib.compressobj(9)
+    row = b"\\x00" + b"\\x80" * (w * ch * depth // 8)
+    data = b"".join(co.compress(row) for _ in range(h)) + co.flush()
+    chunk = lambda t, d: struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d))
+    head = struct.pack(">IIBBBBB", w, h, depth, {3: 2, 4: 6}[ch], 0, 0, 0)
+    return b"\\x89PNG\\r\\n\\x1a\\n" + chunk(b"IHDR", head) + chunk(b"IDAT", data) + chunk(b"IEND", b"")
+
+env = png(5656, 2828, 3)  # 16 MP
+print("env", envmap_upload_light(env)[0].round(4).tolist())
+del env
+print("background", background_upload_light(png(4800, 3333, 3))[0].round(4).tolist())
+photo = decode_upload(png(4800, 3333, 4, 16), "photo")
+print("photo", photo.shape, photo.dtype, photo.shape[0] * photo.shape[1] <= UPLOAD_WORK_PIXELS)
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="RLIMIT_AS: Linux")
+def test_large_uploads_are_shrunk_as_decoded():
+    """Issue 50 bug 6: a 40-MP upload of 125 KB cost the server 2.3-2.7 GB (about 60 bytes a pixel: float copies
+    of the whole image), four at once past 4 GB. Each upload is shrunk to UPLOAD_WORK_PIXELS as decoded: 24-MP env
+    map, background and 16-bit RGBA photo of 16 MP, one after another, stay far below that."""
+    from _hostile import run_limited
+
+    code, out, err, peak = run_limited(_UPLOAD_MEMORY, cases=3)
+    assert code == 0, err
+    lines = dict(line.split(" ", 1) for line in out.splitlines())
+    # sRGB 128 is linear 0.2158; the degree-0 coefficient of a constant map v is 2 sqrt(pi) v
+    assert abs(json.loads(lines["env"])[0] - 0.2158 * 2 * np.sqrt(np.pi)) < 2e-3, lines["env"]
+    assert lines["photo"].endswith("float32 True") and "(1178, 1697, 4)" in lines["photo"], lines["photo"]
+    assert "background" in lines and 0 < peak < 500 << 20, peak / 2**20  # at 60 bytes a pixel: 1 GB
