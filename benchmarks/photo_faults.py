@@ -10,9 +10,11 @@ masks (../shared/reference), and every ``--stride``-th photo of ``people_masks/p
 mask (../shared/realdata: evaluation only; the given masks keep the matte out of these figures), reduced to
 ``--max-side`` pixels. Lab is CIE Lab (D65) of the float RGB; "person" = mask > 0.5.
 
-- teal: on photos whose person has dark clothing (at least 2 % of the person, 400 pixels, with input L* < 30 and
-  a* >= -8), the share of those pixels that a light gives a* < -8 (issue 48: none in the input, 19-35 % on a black
-  jacket). Per light: median and worst over the photos.
+- teal: on photos whose person has near-black clothing (at least 2 % of the person, 400 pixels, with input L* < 30
+  and chroma C* < 8: neutral), the share of those pixels that a light gives a* < -8 (issue 48: none in the input,
+  19-35 % on a black jacket). Per light: median and worst over the photos. ("teal_dark" counts every dark pixel
+  with a* >= -8 as issue 48 first put it: it also counts a saturated blue cloth that a warm light turns cyan,
+  as it would, and a teal-graded photo's dark shirt at a* -7 that a brighter light carries past -8.)
 - night: the person's mean linear luminance (Rec. 709) relit under ``night`` over the input's, in EV; the README
   says a stop darker (-1 EV). Median and spread over every photo.
 - rim: on faces the bundled face mesh finds (the convex hull of its 468 points; at most the largest face), the
@@ -52,7 +54,7 @@ from relight_rt._face_geometry import FaceMesh  # noqa: E402
 from relight_rt.color import srgb_to_linear  # noqa: E402
 
 REC709 = np.array([0.2126, 0.7152, 0.0722], np.float32)
-DARK_L, TEAL_A = 30.0, -8.0
+DARK_L, TEAL_A, NEUTRAL_C = 30.0, -8.0, 8.0
 BAND = 24
 
 
@@ -101,8 +103,11 @@ def photo_figures(relighter: Relighter, mesh: FaceMesh, rgb: np.ndarray, mask: n
     lab_in = lab(rgb)
     dark = person & (lab_in[..., 0] < DARK_L) & (lab_in[..., 1] >= TEAL_A)
     has_dark = dark.sum() >= max(400, 0.02 * person.sum())
+    black = person & (lab_in[..., 0] < DARK_L) & (np.hypot(lab_in[..., 1], lab_in[..., 2]) < NEUTRAL_C)
+    has_black = black.sum() >= max(400, 0.02 * person.sum())
     face = face_region(mesh, rgb, person)
-    out: dict = {"dark_share": float(dark.sum() / max(person.sum(), 1)), "face": face is not None, "lights": {}}
+    out: dict = {"dark_share": float(dark.sum() / max(person.sum(), 1)),
+                 "black_share": float(black.sum() / max(person.sum(), 1)), "face": face is not None, "lights": {}}
     y_in = float(lum(rgb)[person].mean())
     for name in names:
         light = {"LEFT": LEFT, "RIGHT": RIGHT}.get(name, name)
@@ -110,7 +115,9 @@ def photo_figures(relighter: Relighter, mesh: FaceMesh, rgb: np.ndarray, mask: n
         lab_out = lab(relit)
         row = {"ev": float(np.log2(max(float(lum(relit)[person].mean()), 1e-8) / max(y_in, 1e-8)))}
         if has_dark:
-            row["teal"] = float((lab_out[..., 1][dark] < TEAL_A).mean())
+            row["teal_dark"] = float((lab_out[..., 1][dark] < TEAL_A).mean())
+        if has_black:
+            row["teal"] = float((lab_out[..., 1][black] < TEAL_A).mean())
         if face is not None:
             dl = lab_out[..., 0] - lab_in[..., 0]
             row["face_abs_dl"] = float(np.median(np.abs(dl[face])))
@@ -146,11 +153,13 @@ def background_figures(relighter: Relighter, rgb: np.ndarray, truth: np.ndarray,
 
 def summarise(photos: dict, clip: dict, names: list[str]) -> dict:
     s: dict = {"teal": {}, "night_ev": None, "rim": None, "background": {}}
-    for name in names:
-        teal = [p["lights"][name]["teal"] for p in photos.values() if "teal" in p["lights"][name]]
-        if teal:
-            s["teal"][name] = {"photos": len(teal), "median": float(np.median(teal)), "max": float(max(teal)),
-                               "photos_over_1pct": int(sum(t > 0.01 for t in teal))}
+    for key in ("teal", "teal_dark"):
+        s[key] = {}
+        for name in names:
+            teal = [p["lights"][name][key] for p in photos.values() if key in p["lights"][name]]
+            if teal:
+                s[key][name] = {"photos": len(teal), "median": float(np.median(teal)), "max": float(max(teal)),
+                                "photos_over_1pct": int(sum(t > 0.01 for t in teal))}
     evs = [p["lights"]["night"]["ev"] for p in photos.values() if "night" in p["lights"]]
     if evs:
         s["night_ev"] = {"photos": len(evs), "median": float(np.median(evs)),
