@@ -83,7 +83,7 @@ _AMPLIFIED = np.float32(2.0)  # ... neighbours' colour, fully from a gain of 1 +
 _CHROMA_RADIUS = 4  # ... those within this many pixels (the constants: the reference photo's jaw, module tests)
 _NEUTRAL_L = (30.0, 40.0)  # _steady_chroma: a pixel of Lab L* below the first is dark, from the second not ...
 _NEUTRAL_C = (6.0, 12.0)  # ... and near-black when its Lab chroma C* is below the first, from the second not
-_NEUTRAL_Y = np.float32(0.45)  # an sRGB luminance (Rec. 709 weights) above this has L* above 40 whatever its hue
+_NEUTRAL_STEP = 4  # ... measured on the photo reduced this many times (a cloth's cast is shared by its pixels)
 _SOFT = 1.0 / 255  # a matte value further than this from 0 and 1 is a soft edge (mixes person and background)
 _THIN_EDGE = 4.0  # px: a soft edge no wider than this on average is feathering or anti-aliasing (F/B from beside it)
 _SHADING_MIN = np.float32(1e-3)  # full-resolution albedo: photo / shading, shading floored here
@@ -197,22 +197,24 @@ def _shoulder(colour: np.ndarray, knee: np.ndarray) -> np.ndarray:
 def _dark_colour(image: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """What ``_steady_chroma`` needs of a photo whatever the light: its luminance (h, w), its darkness 1 - Y / _DARK
     clipped to [0, 1], the colour its dark pixels (Y < _DARK) within ``_CHROMA_RADIUS`` have per unit of
-    luminance (h, w, 3), and how near-black it is (h, w): 1 where its CIE Lab L* and chroma C* are below
-    ``_NEUTRAL_L[0]`` and ``_NEUTRAL_C[0]``, 0 from ``_NEUTRAL_L[1]`` or ``_NEUTRAL_C[1]`` up, linear between (a
-    dark colour no one sees as a colour)."""
+    luminance (h, w, 3), and how near-black it is (h, w): 1 where its CIE Lab L* and chroma C* (of the photo
+    reduced ``_NEUTRAL_STEP`` times) are below ``_NEUTRAL_L[0]`` and ``_NEUTRAL_C[0]``, 0 from ``_NEUTRAL_L[1]`` or
+    ``_NEUTRAL_C[1]`` up, linear between (a dark colour no one sees as a colour)."""
     y = cv2.transform(image, _exposure.REC709.reshape(1, 3))  # (h, w): one output channel
     dark = (y < _DARK).astype(np.float32)
     size = (2 * _CHROMA_RADIUS + 1,) * 2
     colour = cv2.boxFilter(image * dark[..., None], -1, size)
     colour /= np.maximum(cv2.boxFilter(y * dark, -1, size), 1e-4)[..., None]
     darkness = np.clip(1 - y / _DARK, 0, 1)
-    neutral = np.zeros(y.shape, np.float32)
-    near = y < _NEUTRAL_Y  # only these can have L* below _NEUTRAL_L[1] (Lab of a few pixels, not of the photo)
-    if near.any():
-        lab = cv2.cvtColor(np.clip(image[near], 0, 1)[:, None], cv2.COLOR_RGB2Lab)[:, 0]
-        ramp = lambda v, lo, hi: np.clip((hi - v) / (hi - lo), 0, 1)  # noqa: E731 - 1 below lo, 0 above hi
-        neutral[near] = ramp(lab[:, 0], *_NEUTRAL_L) * ramp(np.hypot(lab[:, 1], lab[:, 2]), *_NEUTRAL_C)
-    return y, darkness, colour, neutral
+    # a cloth's cast is shared by its pixels: Lab on the photo reduced by _NEUTRAL_STEP (a 2.5-MP photo's Lab at
+    # full resolution cost as much as the rest of this function)
+    h, w = y.shape
+    small = cv2.resize(np.clip(image, 0, 1), (max(w // _NEUTRAL_STEP, 1), max(h // _NEUTRAL_STEP, 1)),
+                       interpolation=cv2.INTER_AREA)
+    lab = cv2.cvtColor(small, cv2.COLOR_RGB2Lab)
+    ramp = lambda v, lo, hi: np.clip((hi - v) / (hi - lo), 0, 1)  # noqa: E731 - 1 below lo, 0 above hi
+    neutral = ramp(lab[..., 0], *_NEUTRAL_L) * ramp(np.hypot(lab[..., 1], lab[..., 2]), *_NEUTRAL_C)
+    return y, darkness, colour, cv2.resize(neutral, (w, h), interpolation=cv2.INTER_LINEAR)
 
 
 def _steady_chroma(image: np.ndarray, gain: np.ndarray, dark: tuple | None = None) -> np.ndarray:
