@@ -133,7 +133,7 @@ export function exposureScale(layers, light, target, ev, step) {
     }
   }
   const current = lum / Math.max(msum, 1e-6);
-  const gain = Math.pow(2, ev / 2.2); // an EV on the light as seen (relight_rt.exposure.ev_gain)
+  const gain = Math.pow(2, ev);
   return current > 1e-8 && target > 1e-8 ? (gain * target) / current : gain;
 }
 
