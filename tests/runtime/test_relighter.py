@@ -560,8 +560,9 @@ def test_highlight_shoulder_keeps_hue_and_gradation_and_the_photo():
 
 def test_a_light_that_brightens_near_black_cloth_does_not_turn_its_faint_cast_teal():
     """issue 48: a black jacket whose pixels agree on a faint cyan cast (Lab C* ~6 at L* ~8), brightened 2-4x by a
-    warm light, went teal (a* < -8) on real photos. Its chroma is kept at its own size, in the light's colour;
-    the luminance is the plain product's (under a white gain; near it under a coloured one), a saturated dark cloth keeps its colour, a darkening gain changes
+    warm light, went teal (a* < -8) on real photos. It is pulled toward grey at its luminance as far as the gain
+    brightens it (fully from 3x), so it takes the light's colour; the luminance is the plain product's (under a
+    white gain; near it under a coloured one), a saturated dark cloth keeps its colour, a darkening gain changes
     nothing."""
     import cv2
 
@@ -574,7 +575,7 @@ def test_a_light_that_brightens_near_black_cloth_does_not_turn_its_faint_cast_te
     assert lab(jacket * warm)[1] < -8  # the plain product: teal
     out = _steady_chroma(jacket, warm)
     assert lab(out)[1] > -3
-    np.testing.assert_allclose(out[7, 7] @ rec709, (jacket * warm)[7, 7] @ rec709, rtol=0.05)
+    np.testing.assert_allclose(out[7, 7] @ rec709, (jacket * warm)[7, 7] @ rec709, rtol=0.1)  # grey x warm: 5 %
     white3 = np.full((15, 15, 3), 3.0, np.float32)
     grey = _steady_chroma(jacket, white3)[7, 7]
     np.testing.assert_allclose(grey @ rec709, 3 * jacket[7, 7] @ rec709, rtol=1e-4)  # a white gain: the luminance
