@@ -224,9 +224,15 @@ def _dark_colour(image: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]
     ramp = lambda v, lo, hi: np.clip((hi - v) / (hi - lo), 0, 1)  # noqa: E731 - 1 below lo, 0 above hi
     black = ramp(lab[..., 0], *_NEUTRAL_L) * ramp(np.hypot(lab[..., 1], lab[..., 2]), *_NEUTRAL_C)
     black *= ramp(lab[..., 1], *_NEUTRAL_A)  # a green-cyan cast only: what a brightening light turns teal
+    darkness = np.clip(1 - y / _DARK, 0, 1)
+    if not black.any():  # most photos: nothing near-black with a cast
+        return y, darkness, colour
     black = cv2.resize(black, (w, h), interpolation=cv2.INTER_LINEAR)
-    colour += black[..., None] * (1 - colour)  # grey has luminance 1 per unit of luminance
-    return y, np.maximum(np.clip(1 - y / _DARK, 0, 1), _NEUTRAL_PULL * black), colour
+    near = black > 0
+    b = black[near][:, None]
+    colour[near] += b * (1 - colour[near])  # toward grey: luminance 1 per unit of luminance
+    darkness[near] = np.maximum(darkness[near], _NEUTRAL_PULL * b[:, 0])
+    return y, darkness, colour
 
 
 def _steady_chroma(image: np.ndarray, gain: np.ndarray, dark: tuple | None = None) -> np.ndarray:
