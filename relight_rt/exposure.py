@@ -218,8 +218,8 @@ def highlight_factor(lit, steady, transport, light, allowed: float) -> float:
 
 def guarded(lights, exposure, highlight: tuple) -> np.ndarray:
     """Lights at the mean-keeping scale (``expose(..., "auto")``) → the exposure's lights: each times its
-    ``highlight_factor``, then times ``ev_gain(EV)`` for an EV offset. The one order of the rule (the guard before the EV),
-    for the runtime and the studio's preview alike.
+    ``highlight_factor``, then times ``ev_gain(EV)`` for an EV offset. The one order of the rule (the guard before
+    the EV), for the runtime and the studio's preview alike.
 
     Args:
         lights: (K, 9, 3) or (9, 3) float32 lights, each already scaled to keep the mean luminance.

@@ -207,10 +207,11 @@ def _dark_colour(image: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]
     cloth's cast is shared by its pixels) are below ``_NEUTRAL_L[0]``, ``_NEUTRAL_C[0]`` and ``_NEUTRAL_A[0]``, 0
     from ``_NEUTRAL_L[1]``, ``_NEUTRAL_C[1]`` or ``_NEUTRAL_A[1]`` up, linear between. Only a green-cyan cast
     (what a light turns teal): without that gate the deep shade of blue jeans ((6, 9, 14), a* 0) and shaded dark
-    skin (warm, C* 8-12 at L* < 30) went grey on the bundled example under studio (up to 33 levels). A black jacket whose pixels agree on a faint cyan
-    cast (0.04, 0.10, 0.12: C* ~6 at L* ~8) kept it under the neighbours' rule, and a light that brightened it 2-4x
-    made it a visible teal (issue 48: on people photos up to 20 % of such pixels at a* < -8 under campfire, 48 %
-    under front on a teal-graded photo); pulled toward grey, it takes the light's colour instead.
+    skin (warm, C* 8-12 at L* < 30) went grey on the bundled example under studio (up to 33 levels). A black
+    jacket whose pixels agree on a faint cyan cast (0.04, 0.10, 0.12: C* ~6 at L* ~8) kept it under the neighbours'
+    rule, and a light that brightened it 2-4x made it a visible teal (issue 48: on people photos up to 20 % of such
+    pixels at a* < -8 under campfire, 48 % under front on a teal-graded photo); pulled toward grey, it takes the
+    light's colour instead.
     """
     y = cv2.transform(image, _exposure.REC709.reshape(1, 3))  # (h, w): one output channel
     dark = (y < _DARK).astype(np.float32)

@@ -6,7 +6,15 @@ from _graphs import OWN_LIGHT, diffuse_models_dir, models_dir, person
 
 from relight_rt import Relighter, RelightError, RuntimeConfig, lights
 from relight_rt import exposure as _exposure
-from relight_rt.exposure import REC709, ev_gain, exposure_scale, guarded, highlight_factor, mean_luminance, parse_exposure
+from relight_rt.exposure import (
+    REC709,
+    ev_gain,
+    exposure_scale,
+    guarded,
+    highlight_factor,
+    mean_luminance,
+    parse_exposure,
+)
 
 __all__ = ["diffuse_models_dir", "models_dir"]  # fixtures
 
