@@ -17,6 +17,11 @@ from .. import sh
 _DARK = np.float32(0.25)  # steady_chroma: a pixel below this luminance, brightened by a gain, takes its dark
 _AMPLIFIED = np.float32(2.0)  # ... neighbours' colour, fully from a gain of 1 + this,
 _CHROMA_RADIUS = 4  # ... those within this many pixels (the constants: the reference photo's jaw, module tests)
+_NEUTRAL_L = (30.0, 40.0)  # dark_colour: a pixel of Lab L* below the first is dark, from the second not ...
+_NEUTRAL_C = (6.0, 12.0)  # ... and near-black when its Lab chroma C* is below the first, from the second not,
+_NEUTRAL_A = (-4.0, -1.0)  # ... with a green-cyan cast: a* below the first, none from the second up
+_NEUTRAL_STEP = 4  # ... measured on the photo reduced this many times (a cloth's cast is shared by its pixels)
+_NEUTRAL_PULL = np.float32(2.0)  # ... and pulled toward grey this many times as readily as a dark pixel's colour
 _TINT_LIT = 0.05  # tint_range: the normals a light gives at least this share of its brightest irradiance
 SKIN_CHROMA = 0.5  # shaded_skin: skin a new light darkens by r keeps its chroma x r**this (a grey dimming: x r)
 _SKIN_SIGMA = 1.5  # ... the skin's colour taken over this many network pixels
@@ -108,15 +113,43 @@ def shoulder(colour: np.ndarray, knee: np.ndarray) -> np.ndarray:
 
 
 def dark_colour(image: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """What ``steady_chroma`` needs of a photo whatever the light: its luminance (h, w), its darkness 1 - Y / _DARK
-    clipped to [0, 1], and the colour its dark pixels (Y < _DARK) within ``_CHROMA_RADIUS`` have per unit of
-    luminance (h, w, 3)."""
+    """What ``steady_chroma`` needs of a photo whatever the light: its luminance (h, w), how far a gain may pull its
+    colour (h, w: its darkness 1 - Y / _DARK clipped to [0, 1], or ``_NEUTRAL_PULL`` x its near-blackness where
+    larger: a near-black pixel is pulled fully from a gain of 2, not 3), and the colour
+    it is pulled toward per unit of luminance (h, w, 3): its dark pixels' (Y < _DARK) within ``_CHROMA_RADIUS``,
+    moved toward grey by its near-blackness.
+
+    Near-black: 1 where the photo's CIE Lab L*, chroma C* and a* (on the photo reduced ``_NEUTRAL_STEP`` times: a
+    cloth's cast is shared by its pixels) are below ``_NEUTRAL_L[0]``, ``_NEUTRAL_C[0]`` and ``_NEUTRAL_A[0]``, 0
+    from ``_NEUTRAL_L[1]``, ``_NEUTRAL_C[1]`` or ``_NEUTRAL_A[1]`` up, linear between. Only a green-cyan cast
+    (what a light turns teal): without that gate the deep shade of blue jeans ((6, 9, 14), a* 0) and shaded dark
+    skin (warm, C* 8-12 at L* < 30) went grey on the bundled example under studio (up to 33 levels). A black
+    jacket whose pixels agree on a faint cyan cast (0.04, 0.10, 0.12: C* ~6 at L* ~8) kept it under the neighbours'
+    rule, and a light that brightened it 2-4x made it a visible teal (issue 48: on people photos up to 20 % of such
+    pixels at a* < -8 under campfire, 48 % under front on a teal-graded photo); pulled toward grey, it takes the
+    light's colour instead.
+    """
     y = cv2.transform(image, _exposure.REC709.reshape(1, 3))  # (h, w): one output channel
     dark = (y < _DARK).astype(np.float32)
     size = (2 * _CHROMA_RADIUS + 1,) * 2
     colour = cv2.boxFilter(image * dark[..., None], -1, size)
     colour /= np.maximum(cv2.boxFilter(y * dark, -1, size), 1e-4)[..., None]
-    return y, np.clip(1 - y / _DARK, 0, 1), colour
+    h, w = y.shape
+    small = cv2.resize(np.clip(image, 0, 1), (max(w // _NEUTRAL_STEP, 1), max(h // _NEUTRAL_STEP, 1)),
+                       interpolation=cv2.INTER_AREA)
+    lab = cv2.cvtColor(small, cv2.COLOR_RGB2Lab)
+    ramp = lambda v, lo, hi: np.clip((hi - v) / (hi - lo), 0, 1)  # noqa: E731 - 1 below lo, 0 above hi
+    black = ramp(lab[..., 0], *_NEUTRAL_L) * ramp(np.hypot(lab[..., 1], lab[..., 2]), *_NEUTRAL_C)
+    black *= ramp(lab[..., 1], *_NEUTRAL_A)  # a green-cyan cast only: what a brightening light turns teal
+    darkness = np.clip(1 - y / _DARK, 0, 1)
+    if not black.any():  # most photos: nothing near-black with a cast
+        return y, darkness, colour
+    black = cv2.resize(black, (w, h), interpolation=cv2.INTER_LINEAR)
+    near = black > 0
+    b = black[near][:, None]
+    colour[near] += b * (1 - colour[near])  # toward grey: luminance 1 per unit of luminance
+    darkness[near] = np.maximum(darkness[near], _NEUTRAL_PULL * b[:, 0])
+    return y, darkness, colour
 
 
 def steady_chroma(image: np.ndarray, gain: np.ndarray, dark: tuple | None = None) -> np.ndarray:
@@ -130,12 +163,15 @@ def steady_chroma(image: np.ndarray, gain: np.ndarray, dark: tuple | None = None
     at the pixel's own luminance, is what it is pulled toward, by w = (1 - Y / _DARK) x min((g - 1) /
     _AMPLIFIED, 1) (Y the pixel's luminance, g the gain's): a dark cloth whose pixels agree keeps its colour (the
     held-out renders' RMSE is unchanged or lower), a pixel not brightened or bright enough for its colour to be
-    signal is untouched, and the gain's own colour (the new light's) stays. ``dark``: ``dark_colour(image)``,
-    computed here when not given (it does not depend on the light: the runtime keeps it per photo).
+    signal is untouched, and the gain's own colour (the new light's) stays. A near-black pixel is pulled the same
+    way toward grey at its luminance (``dark_colour``: a faint cast no one sees, amplified, became teal). ``dark``:
+    ``dark_colour(image)``, computed here when not given (it does not depend on the light: the runtime keeps it per
+    photo).
     """
     g = cv2.transform(gain, _exposure.REC709.reshape(1, 3))
     y, darkness, colour = dark_colour(image) if dark is None else dark
-    w = darkness * np.clip((g - 1) / _AMPLIFIED, 0, 1)
+    w = np.minimum(darkness * np.clip((g - 1) / _AMPLIFIED, 0, 1), 1)  # darkness: up to _NEUTRAL_PULL
     if not w.any():
         return image * gain
     return (image * (1 - w)[..., None] + colour * (w * y)[..., None]) * gain
+

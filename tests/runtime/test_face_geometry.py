@@ -146,6 +146,29 @@ def test_a_broken_triangle_table_is_one_relight_error(tmp_path):
 
 
 @pytest.mark.skipif(not REFERENCE.is_dir(), reason="../shared/reference is absent")
+def test_a_face_that_fills_the_photo_gets_its_mesh(monkeypatch):
+    """issue 48: the short-range detector finds no face that fills its square (the 12 Yale face crops: none), so
+    FaceMesh.faces looks again at a square twice as large. The bundled example cut to its face's mesh: found
+    only with that second look, and the mesh lands where the whole photo's mesh is."""
+    from relight_rt import _face_geometry
+    from relight_rt._io import read_image
+    from relight_rt.demo import example_path
+
+    img = np.ascontiguousarray(read_image(example_path())[..., :3])
+    mesh = FaceMesh(bundled_models_dir())
+    whole = mesh.faces(img, (0, img.shape[0], 0, img.shape[1]))
+    assert len(whole) == 1
+    (x0, y0), (x1, y1) = whole[0][:, :2].min(0).astype(int), whole[0][:, :2].max(0).astype(int)
+    crop = np.ascontiguousarray(img[y0:y1, x0:x1])
+    box = (0, crop.shape[0], 0, crop.shape[1])
+    found = mesh.faces(crop, box)
+    assert len(found) == 1
+    shift = found[0][:, :2] + (x0, y0) - whole[0][:, :2]
+    assert np.abs(shift).mean() < 0.1 * (x1 - x0)
+    monkeypatch.setattr(_face_geometry, "CLOSE_UP_SCALE", 1.0)  # the box's square alone
+    assert mesh.faces(crop, box) == []
+
+
 def test_the_face_in_a_real_photo_gets_its_mesh_and_the_light_models_it(monkeypatch):
     """The reference photo (full body): the head pass finds the face's mesh; the relit face differs from the one
     without the mesh only around the head, a light from the image's right brightens the face's right half more

@@ -131,9 +131,10 @@ def _irradiance_where(name, pick):
 
 
 def test_rim_keeps_a_face_that_looks_at_the_camera_readable():
-    """issue 32: the two backlights alone left the front of a face black on real photos (front/peak -0.01)."""
+    """issue 32: the two backlights alone left the front of a face black on real photos (front/peak -0.01); issue
+    48: with the front at 0.2-0.5 of the peak rim changed a real face least of all lights (0.42x a side lamp's)."""
     front, peak = _irradiance_where("rim", lambda n: n[:, 0] > 0.95)
-    assert 0.2 * peak < front < 0.5 * peak  # a weak fill: readable, still darker than the rims
+    assert 0.15 * peak < front < 0.3 * peak  # a weak fill: readable, clearly darker than the rims (0.165)
 
 
 def test_campfire_lights_from_below_without_blacking_out_what_faces_up():

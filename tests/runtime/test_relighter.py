@@ -559,6 +559,38 @@ def test_highlight_shoulder_keeps_hue_and_gradation_and_the_photo():
         np.testing.assert_allclose(out[0, px] / out[0, px, 0], colour[0, px] / colour[0, px, 0], rtol=1e-5)
 
 
+def test_a_light_that_brightens_near_black_cloth_does_not_turn_its_faint_cast_teal():
+    """issue 48: a black jacket whose pixels agree on a faint cyan cast (Lab C* ~6 at L* ~8), brightened 2-4x by a
+    warm light, went teal (a* < -8) on real photos. It is pulled toward grey at its luminance as far as the gain
+    brightens it (fully from 2x), so it takes the light's colour; the luminance is the plain product's (under a
+    white gain; near it under a coloured one); a saturated dark cloth, the deep shade of blue jeans and shaded dark
+    skin keep their colour, and a darkening gain changes nothing."""
+    import cv2
+
+    from relight_rt.relight.look import steady_chroma as _steady_chroma
+
+    rec709 = np.array([0.2126, 0.7152, 0.0722], np.float32)
+    jacket = np.broadcast_to(np.array([0.04, 0.10, 0.12], np.float32), (15, 15, 3)).copy()
+    warm = np.broadcast_to(np.array([3.7, 2.5, 1.6], np.float32), (15, 15, 3)).copy()  # campfire's gain, measured
+    lab = lambda c: cv2.cvtColor(np.clip(c, 0, 1).astype(np.float32), cv2.COLOR_RGB2Lab)[7, 7]  # noqa: E731
+    assert lab(jacket * warm)[1] < -8  # the plain product: teal
+    out = _steady_chroma(jacket, warm)
+    assert lab(out)[1] > -3
+    np.testing.assert_allclose(out[7, 7] @ rec709, (jacket * warm)[7, 7] @ rec709, rtol=0.1)  # grey x warm: 5 %
+    white3 = np.full((15, 15, 3), 3.0, np.float32)
+    grey = _steady_chroma(jacket, white3)[7, 7]
+    np.testing.assert_allclose(grey @ rec709, 3 * jacket[7, 7] @ rec709, rtol=1e-4)  # a white gain: the luminance
+    assert float(np.ptp(grey)) < 0.5 * float(np.ptp(3 * jacket[7, 7]))  # ... with the cast not tripled
+    dim = np.full((15, 15, 3), 0.7, np.float32)
+    np.testing.assert_allclose(_steady_chroma(jacket, dim), jacket * dim, rtol=1e-6)
+    navy = np.broadcast_to(np.array([0.05, 0.08, 0.35], np.float32), (15, 15, 3)).copy()  # a saturated dark blue
+    np.testing.assert_allclose(_steady_chroma(navy, warm), navy * warm, rtol=1e-4)
+    # the deep shade of blue jeans (the bundled example's, a* 0) and shaded dark skin (warm) keep their colour
+    for shade in ((6, 9, 14), (40, 28, 22)):
+        cloth = np.broadcast_to(np.array(shade, np.float32) / 255, (15, 15, 3)).copy()
+        np.testing.assert_allclose(_steady_chroma(cloth, white3), cloth * 3, rtol=1e-4)
+
+
 def test_a_strong_gain_does_not_turn_a_dark_pixels_compression_colour_into_a_fringe():
     """Dark pixels beside a lit jaw carry JPEG's colour errors ((0.13, 0.04, 0.0) on the reference photo); brightened
     5x they became a red fringe. Such a pixel is pulled toward its dark neighbours' colour; a dark cloth whose

@@ -56,7 +56,8 @@ function previewLight(light) {
   const exposed = sh.scale(light, s).map((v) => Math.fround(v));
   const guard = sh.highlightFactor(state.layers.highlight, exposed, meta.highlight_limit, meta.highlight_allowed,
     meta.highlight_max_down);
-  return sh.scale(light, s * guard * Math.pow(2, ev));
+  // an EV acts on the light as seen: 2 ** (EV / 2.2) on the encoded values (relight_rt.exposure.ev_gain)
+  return sh.scale(light, s * guard * Math.pow(2, ev / 2.2));
 }
 
 // ------------------------------------------------------------------------------------------------ drawing

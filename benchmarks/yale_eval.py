@@ -1,0 +1,221 @@
+"""Real faces under known lamps (Extended Yale B, ../shared/realdata/yale): relighting and de-lighting against truth.
+
+    python benchmarks/yale_eval.py --out runs/yale [--yale ../shared/realdata/yale] [--dpr DPR_REPO | --no-dpr]
+        [--cache runs/dpr_cache] [--subjects yaleB02 yaleB05 ...]
+
+Issue 48's protocol. Every photo is grey (the PNG's one channel as R = G = B), relit with an ellipse mask (the
+face: centre at 0.50, 0.52 of the image, semi-axes 0.44 W and 0.46 H) under a white point lamp in the photo's
+lamp direction plus 0.05 ambient (``lamp``), exposure "auto". Compared: the change of log luminance (Rec. 709 of
+linearised sRGB, + 1e-3) from the source photo, ours against the real photo's under the target lamp, both
+reduced to a 48 x 48 grid (area average of the luminance) and taken inside the ellipse; per pair the Pearson
+correlation and the contrast (least-squares slope of ours on the truth's, both centred); medians over pairs.
+
+- relight: the frontal photo (A+000E+00) relit to each lamp at elevation 0 and |azimuth| 25, 50, 70;
+- de-light: the photos lit from |azimuth| 50 and 70 (elevation 0) relit to the frontal lamp, against the
+  frontal photo (does the photo's own hard light go away?).
+
+Lamp directions: Yale's negative azimuth lights the image's right (README of the data; checked there on every
+subject), and DESIGN.md's frame has +y toward the image's right, so azimuth a and elevation e give the
+direction (cos e cos a, -cos e sin a, sin e).
+
+DPR (zhhoper/DPR, benchmarks/dpr_protocol.py: its 512-px grey network on the CPU, the whole photo squashed to
+512 as its demo does, our light converted exactly into its frame, its DC set to the demo lights') is measured
+the same way beside ours, unless --no-dpr or no copy of its repository is found.
+
+Writes OUT/yale.json (every pair and the medians) and OUT/yale_worst.jpg (the worst pairs by correlation:
+source | ours | DPR | truth, and the two changes, ours | truth, grey = no change). The data is for evaluation
+only: keep OUT out of the repository.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+HERE = Path(__file__).resolve().parent
+for p in (str(REPO), str(HERE)):
+    if p not in sys.path:
+        sys.path.insert(0, p)
+
+import dpr_protocol as dprp  # noqa: E402
+
+from relight_rt import Relighter, RuntimeConfig, lights  # noqa: E402
+from relight_rt.color import srgb_to_linear  # noqa: E402
+
+REC709 = np.array([0.2126, 0.7152, 0.0722], np.float32)
+EPS = 1e-3
+GRID = 48
+AMBIENT = 0.05
+RELIGHT_AZ = (25, 50, 70)
+DELIGHT_AZ = (50, 70)
+DPR_DC = dprp.DEMO_SCALE * 1.0841254962824531  # the DC of DPR's demo lights as its demo uses them
+
+
+def lamp_direction(azimuth_deg: float, elevation_deg: float) -> tuple[float, float, float]:
+    """Yale's lamp angles → DESIGN.md's frame (x toward the camera, y image right, z up)."""
+    a, e = math.radians(azimuth_deg), math.radians(elevation_deg)
+    return (math.cos(e) * math.cos(a), -math.cos(e) * math.sin(a), math.sin(e))
+
+
+def lamp(azimuth_deg: float, elevation_deg: float = 0.0) -> np.ndarray:
+    """(9, 3) a white point lamp from Yale's angles plus 0.05 ambient."""
+    return lights.directional(lamp_direction(azimuth_deg, elevation_deg), (1, 1, 1), 1.0) + lights.ambient(AMBIENT)
+
+
+def ellipse(shape: tuple[int, int]) -> np.ndarray:
+    """(H, W) float32 {0, 1}: the face ellipse of a CroppedYale image."""
+    h, w = shape
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32) + 0.5
+    return ((((xx - 0.50 * w) / (0.44 * w)) ** 2 + ((yy - 0.52 * h) / (0.46 * h)) ** 2) <= 1).astype(np.float32)
+
+
+def read_grey(path: Path) -> np.ndarray:
+    g = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+    if g is None:
+        raise FileNotFoundError(path)
+    return np.repeat((g.astype(np.float32) / 255)[..., None], 3, axis=2)
+
+
+def grid_log_lum(rgb: np.ndarray) -> np.ndarray:
+    lum = srgb_to_linear(np.clip(rgb, 0, 1).astype(np.float32)) @ REC709
+    return np.log(cv2.resize(lum, (GRID, GRID), interpolation=cv2.INTER_AREA) + EPS)
+
+
+def compare(source: np.ndarray, relit: np.ndarray, truth: np.ndarray, region: np.ndarray) -> dict:
+    """Correlation and slope of the relit change on the truth's change, on the grid inside ``region``."""
+    base = grid_log_lum(source)
+    ours = (grid_log_lum(relit) - base)[region]
+    real = (grid_log_lum(truth) - base)[region]
+    da, db = ours - ours.mean(), real - real.mean()
+    return {"corr": float((da * db).sum() / math.sqrt((da * da).sum() * (db * db).sum() + 1e-30)),
+            "contrast": float((da * db).sum() / max((db * db).sum(), 1e-30))}
+
+
+def find_file(yale: Path, subject: str, az: int, el: int = 0) -> Path:
+    return yale / subject / f"{subject}_P00A{az:+04d}E{el:+03d}.png"
+
+
+def median(rows: list[dict], method: str, key: str) -> float | None:
+    vals = [r[method][key] for r in rows if r.get(method)]
+    return float(np.median(vals)) if vals else None
+
+
+def change_image(source: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """The change of log luminance as a grey picture: 0.5 = none, +-1.5 in log at the ends."""
+    d = grid_log_lum(out) - grid_log_lum(source)
+    g = np.clip(0.5 + d / 3.0, 0, 1)
+    return np.repeat(cv2.resize(g, (source.shape[1], source.shape[0]), interpolation=cv2.INTER_NEAREST)[..., None],
+                     3, axis=2)
+
+
+def sheet(rows: list[dict], pictures: dict, path: Path, n: int = 8) -> None:
+    worst = sorted(rows, key=lambda r: r["ours"]["corr"])[:n]
+    lines = []
+    for r in worst:
+        src, ours, dpr, truth = pictures[r["id"]]
+        tiles = [src, ours, dpr if dpr is not None else np.zeros_like(src), truth,
+                 change_image(src, ours), change_image(src, truth)]
+        line = (np.clip(np.hstack(tiles), 0, 1) * 255 + 0.5).astype(np.uint8)
+        cv2.putText(line, f"{r['id']} r={r['ours']['corr']:.2f}", (4, 14), cv2.FONT_HERSHEY_SIMPLEX, 0.4,
+                    (255, 255, 0), 1)
+        lines.append(line)
+    img = np.vstack(lines)
+    cv2.imwrite(str(path), cv2.cvtColor(img, cv2.COLOR_RGB2BGR), [cv2.IMWRITE_JPEG_QUALITY, 88])
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--out", type=Path, required=True)
+    p.add_argument("--yale", type=Path, default=REPO.parent.parent / "shared" / "realdata" / "yale")
+    p.add_argument("--models", type=Path, default=None)
+    p.add_argument("--dpr", default=None, help="DPR repository (checkout or bare git dir); default: dpr_protocol's")
+    p.add_argument("--no-dpr", action="store_true")
+    p.add_argument("--cache", type=Path, default=Path("runs/dpr_cache"))
+    p.add_argument("--subjects", nargs="*", default=None)
+    args = p.parse_args(argv)
+    if not args.yale.is_dir():
+        alt = Path("../shared/realdata/yale")
+        if alt.is_dir():
+            args.yale = alt
+        else:
+            print(f"no Yale data at {args.yale}", file=sys.stderr)
+            return 2
+    with open(args.yale / "lights.csv") as f:
+        subjects = sorted({row["subject"] for row in csv.DictReader(f)})
+    subjects = args.subjects or subjects
+    repo = None if args.no_dpr else dprp.DPRRepo.find(args.dpr)
+    dpr = dprp.DPRNet(repo, args.cache) if repo is not None else None
+    relighter = Relighter(RuntimeConfig(models=args.models, device="cpu"))
+    args.out.mkdir(parents=True, exist_ok=True)
+
+    rows, pictures = [], {}
+    t0 = time.time()
+
+    def run(task: str, subject: str, src_az: int, dst_az: int, source: np.ndarray, dec, truth: np.ndarray) -> None:
+        region = cv2.resize(ellipse(source.shape[:2]), (GRID, GRID), interpolation=cv2.INTER_AREA) > 0.99
+        light = lamp(dst_az)
+        ours = relighter.relight(dec, light)
+        row = {"id": f"{task}:{subject}:{src_az:+d}->{dst_az:+d}", "task": task, "subject": subject,
+               "source_az": src_az, "target_az": dst_az, "ours": compare(source, ours, truth, region)}
+        theirs = None
+        if dpr is not None:
+            theirs = dpr.relight(source, dprp.ours_to_dpr(light, dc=DPR_DC))
+            row["dpr"] = compare(source, theirs, truth, region)
+        rows.append(row)
+        pictures[row["id"]] = (source, ours, theirs, truth)
+
+    for subject in subjects:
+        frontal_path = find_file(args.yale, subject, 0)
+        if not frontal_path.is_file():
+            continue
+        frontal = read_grey(frontal_path)
+        mask = ellipse(frontal.shape[:2])
+        dec = relighter.decompose(frontal, mask)
+        for a in RELIGHT_AZ:
+            for az in (-a, a):
+                path = find_file(args.yale, subject, az)
+                if path.is_file():
+                    run("relight", subject, 0, az, frontal, dec, read_grey(path))
+        for a in DELIGHT_AZ:
+            for az in (-a, a):
+                path = find_file(args.yale, subject, az)
+                if path.is_file():
+                    side = read_grey(path)
+                    run("delight", subject, az, 0, side, relighter.decompose(side, mask), frontal)
+        print(f"{subject}: {len(rows)} pairs, {time.time() - t0:.0f} s", flush=True)
+
+    summary = {}
+    for task in ("relight", "delight"):
+        sel = [r for r in rows if r["task"] == task]
+        summary[task] = {"pairs": len(sel)}
+        for method in ("ours", "dpr"):
+            summary[task][method] = {k: median(sel, method, k) for k in ("corr", "contrast")}
+        for a in (RELIGHT_AZ if task == "relight" else DELIGHT_AZ):
+            key = "target_az" if task == "relight" else "source_az"
+            sub = [r for r in sel if abs(r[key]) == a]
+            summary[task][f"|az| {a}"] = {m: {k: median(sub, m, k) for k in ("corr", "contrast")}
+                                          for m in ("ours", "dpr")}
+    (args.out / "yale.json").write_text(json.dumps({"summary": summary, "pairs": rows}, indent=1))
+    sheet(rows, pictures, args.out / "yale_worst.jpg")
+    fmt = lambda v: "  -  " if v is None else f"{v:5.2f}"  # noqa: E731
+    print(f"{'':22s} {'ours corr':>9s} {'contrast':>8s} {'DPR corr':>9s} {'contrast':>8s}")
+    for task, s in summary.items():
+        for label, v in [("all", s), *[(k, s[k]) for k in s if k.startswith("|az|")]]:
+            print(f"{task + ' ' + label:22s} {fmt(v['ours']['corr']):>9s} {fmt(v['ours']['contrast']):>8s} "
+                  f"{fmt(v['dpr']['corr']):>9s} {fmt(v['dpr']['contrast']):>8s}")
+    worst = sorted(rows, key=lambda r: r["ours"]["corr"])[:5]
+    print("worst:", ", ".join(f"{r['id']} {r['ours']['corr']:.2f}" for r in worst))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
