@@ -80,6 +80,7 @@ __all__ = [
 ]  # fmt: skip
 
 MIN_SIZE = 64  #: smallest accepted background side, pixels
+HDR_SUFFIXES = (".hdr", ".pic", ".exr")  #: files that hold radiance (a panorama), not a background photo
 FOV_RANGE = (10.0, 170.0)  #: open interval of accepted horizontal fields of view, degrees
 #: linear gain on saturated pixels (see the module docstring; docs/RESULTS.md, issue 21: 1 and 3 measure alike)
 HIGHLIGHT_GAIN = 3.0
@@ -180,6 +181,19 @@ def key_direction(azimuth: float, elevation: float) -> np.ndarray:
     return np.array([math.cos(e) * math.cos(a), math.cos(e) * math.sin(a), math.sin(e)])
 
 
+def hdr_background_error(path, name: str = "background") -> RelightError | None:
+    """The error for a radiance file (.hdr/.pic/.exr) given as a background photo; None for any other file."""
+    p = os.fspath(path)
+    if not p.lower().endswith(HDR_SUFFIXES):
+        return None
+    return RelightError(
+        f"{name} {p}: an HDR/EXR file holds radiance, not a photo; if it is an equirectangular panorama "
+        "(width = 2 x height) give a view to render the scene from it (composite --view AZIMUTH,ELEVATION[,FOV], "
+        "e.g. --view 0,0; relight_rt.panorama.composite_panorama), otherwise tone-map it to an 8-bit photo "
+        "(.png/.jpg) first"
+    )
+
+
 def read_background(src, name: str = "background") -> np.ndarray:
     """A background photo as given: (H, W, 3) RGB, uint8 (8-bit files) or float32 in [0, 1] (float arrays,
     16-bit files). Grayscale becomes colour; files are turned as their EXIF orientation says.
@@ -190,6 +204,8 @@ def read_background(src, name: str = "background") -> np.ndarray:
     """
     from ._io import as_colour, decode_file
 
+    if isinstance(src, (str, os.PathLike)) and (err := hdr_background_error(src, name)) is not None:
+        raise err
     if isinstance(src, (str, os.PathLike)):
         raw = as_colour(decode_file(src, name), bgr=True)  # gray becomes colour; turned as its EXIF tag says
         label = f"{name} {os.fspath(src)}"
