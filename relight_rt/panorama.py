@@ -143,14 +143,13 @@ def render_view(env, size: tuple[int, int], azimuth: float = 0.0, elevation: flo
     if vh < 1 or vw < 1:
         raise RelightError(f"size: expected a positive (height, width), got {size!r}")
     tan_h = math.tan(math.radians(f) / 2)
-    cols = ((np.arange(vw) + 0.5) / vw * 2 - 1) * tan_h
-    rows = (1 - (np.arange(vh) + 0.5) / vh * 2) * tan_h * vh / vw
-    y, z = np.meshgrid(cols, rows)
-    cam = np.stack([-np.ones_like(y), y, z], axis=-1)
-    w = cam @ view_rotation(azimuth, elevation).T  # the rays in the panorama's frame
-    norm = np.linalg.norm(w, axis=-1)
-    theta = np.arccos(np.clip(w[..., 2] / norm, -1, 1))
-    phi = np.mod(np.arctan2(-w[..., 1], w[..., 0]), 2 * np.pi)  # ω = (sinθ cosφ, −sinθ sinφ, cosθ)
+    cols = (((np.arange(vw) + 0.5) / vw * 2 - 1) * tan_h).astype(np.float32)[None, :]  # y of the ray (−x = 1)
+    rows = ((1 - (np.arange(vh) + 0.5) / vh * 2) * tan_h * vh / vw).astype(np.float32)[:, None]  # its z
+    r = view_rotation(azimuth, elevation).astype(np.float32)
+    wx, wy, wz = (-r[i, 0] + r[i, 1] * cols + r[i, 2] * rows for i in range(3))  # the rays in the panorama's frame
+    theta = np.arctan2(np.hypot(wx, wy), wz)
+    phi = np.arctan2(-wy, wx)  # ω = (sinθ cosφ, −sinθ sinφ, cosθ)
+    phi += np.float32(2 * np.pi) * (phi < 0)
     eh, ew = arr.shape[:2]
     mapx = (phi / (2 * np.pi) * ew - 0.5 + 1).astype(np.float32)  # + 1: the wrapped column padded on the left
     mapy = np.clip(theta / np.pi * eh - 0.5, 0, eh - 1).astype(np.float32)

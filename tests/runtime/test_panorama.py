@@ -104,10 +104,10 @@ def test_view_rotation_points_the_camera_where_asked():
 def test_the_plate_is_oriented_as_envmap_view():
     env, _ = lumpy_panorama(64)
     env = env + np.linspace(0, 1, 128, dtype=np.float32)[None, :, None]  # columns told apart
-    np.testing.assert_allclose(render_view(env, (48, 64), 0, 0, 60), envmap_view(env, (48, 64), 60), atol=1e-5)
+    np.testing.assert_allclose(render_view(env, (48, 64), 0, 0, 60), envmap_view(env, (48, 64), 60), rtol=1e-4)
     # looking 90° to the right shows what envmap_view shows of the map turned so that that column is its centre
     turned = np.roll(env, -env.shape[1] // 4, axis=1)
-    np.testing.assert_allclose(render_view(env, (48, 64), 90, 0, 60), envmap_view(turned, (48, 64), 60), atol=1e-5)
+    np.testing.assert_allclose(render_view(env, (48, 64), 90, 0, 60), envmap_view(turned, (48, 64), 60), rtol=1e-4)
     np.testing.assert_allclose(render_view(env, (48, 64), -180, 0, 60), render_view(env, (48, 64), 180, 0, 60),
                                atol=1e-5)  # fmt: skip
 
