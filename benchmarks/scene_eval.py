@@ -558,8 +558,9 @@ def main(argv=None) -> int:
         r = res[f"ev_{who}_{mode}"]
         return f"{r['median']:.2f} EV, {100 * r['within_1ev']:.0f} % within 1 EV"
 
+    fitted_on = "fitted on the other scene set" if args.protocol == "cross" else "leave one scene out"
     lines = [
-        "| score | realistic paste | estimated light (leave one scene out) | oracle SH light |",
+        f"| score | realistic paste | estimated light ({fitted_on}) | oracle SH light |",
         "|---|---|---|---|",
         f"| exposure, camera meters the background: median abs. error | {ev('paste', 'background')} | "
         f"{ev('est', 'background')} | 0 |",
@@ -574,7 +575,7 @@ def main(argv=None) -> int:
         f"{100 * res['front_back_paste']['right']:.0f} % | {100 * res['front_back_est']['right']:.0f} % | 100 % |",
     ]
     if oracles:
-        lines += ["", "How far one view gets (each fitted with one scene left out; background metering):", "",
+        lines += ["", f"How far one view gets (each {fitted_on}; background metering):", "",
                   "| light | exposure: median abs. error | colour (median) | scale-invariant RMSE | front/back right |",
                   "|---|---|---|---|---|"]  # fmt: skip
         labels = {"view": "the rule on the view known perfectly (unclipped)",
