@@ -2,6 +2,7 @@
 
     python benchmarks/scene_eval.py --prepare-envs ../shared/hdri BLENDER_WORLD --envs ENVS
     python benchmarks/scene_eval.py --photos PHOTOS --people PEOPLE --envs ENVS --out runs/scene36/report
+    python benchmarks/scene_eval.py ... --protocol cross      # fitted on the other scene set (issue 49)
 
 BLENDER_WORLD is ``datafiles/studiolights/world`` of Debian's ``blender-data`` package (eight CC0 Poly Haven
 maps, 1024 x 512 OpenEXR, DWA-compressed; reading them needs ``pip install OpenEXR``, only here; they are
@@ -28,6 +29,10 @@ The methods, for a person P, the place B and another place A (the person's own p
   KEY_GEOMETRY, SHAPE_PRIOR, SHAPE_WEIGHT, FRONT_BACK_POWER) are fitted with the whole scene (its 4 turns)
   left out: for each scene the fits below (``fit``, ``fit_all``) run on the other scenes' maps only.
 - ``oracle``: the true SH light of B in the truth's units (the best any SH light can do).
+
+``--protocol cross`` fits each scene's numbers on the other scene set only (the maps of ../shared/hdri on
+blender-data's, and the reverse: places the fit never saw); with the oracles, the table ends with issue 49's figures
+per scene set (the estimate against the ``view`` oracle, ``must_show``).
 
 Four scores, separately:
 1. exposure error (EV) of the light on the person's camera-facing side: log2 of the mean irradiance over
