@@ -500,6 +500,7 @@ def composite(
     match_camera: bool = True,
     light_wrap: bool = True,
     rim: bool = False,
+    rim_key=None,
 ) -> np.ndarray:
     """Relight the person of ``image`` for the scene of ``background`` and put it there (module docstring).
 
@@ -526,6 +527,8 @@ def composite(
         match_camera: match the background camera's blur and noise (step 5).
         light_wrap: let the background's light wrap over the person's edge where it is brighter (step 7).
         rim: a back key (automatic or ``key_light``) puts a rim of light on the outline on its side (step 7).
+        rim_key: with ``light`` and ``rim``: (direction (3,), gain) of a key known exactly (relight_rt.panorama's
+            sun or window), the rim's direction and gain in place of the estimated back key's.
 
     Returns:
         (H_bg, W_bg, 3) float32 sRGB in [0, 1].
@@ -563,6 +566,8 @@ def composite(
         if white_balance:
             lit = _white_balance(dec, lit, bg_light)
         shadow_dir, directional = _dominant_direction(lit)
+        if rim and rim_key is not None:  # a key known exactly (relight_rt.panorama)
+            rim_dir, rim_gain = np.asarray(rim_key[0], np.float64), float(rim_key[1])
     target = _exposure.mean_luminance(dec.albedo, dec.transport, dec.network_mask, bg_light)
     lit = lit * np.float32(_exposure.exposure_scale(dec.albedo, dec.transport, dec.network_mask, lit, target, mode))
     rgba = relighter.relight(dec, lit, background="transparent", exposure="physical")
