@@ -20,6 +20,11 @@ the view's mean linear luminance is 0.18 (as benchmarks/scene_eval.py's backgrou
 camera's highlights clip) and written as 8-bit sRGB. The light is the panorama's SH light times k / π: the units
 of ``relight_rt.scene_light`` (a white diffuse surface under a uniform radiance that the plate shows as v gets
 shading v), so the person is exactly as bright as the place's light makes a white surface in that plate.
+
+The rim (``rim=True``). A degree-2 SH light spreads a small bright source over the whole body; behind the person (a
+sun or window in or near the view) it should light the outline on its side. ``source`` finds the panorama's
+brightest source (its pixels of at least half the peak luminance: direction and power), and ``relight_rt.scene``'s
+rim brightens the outline by the source's shading facing it over the person's front's (its step 7).
 """
 
 from __future__ import annotations
@@ -37,7 +42,7 @@ from . import envmap, sh
 from ._errors import RelightError
 from .color import linear_to_srgb
 from .exposure import REC709
-from .scene_light import FOV_RANGE, MIN_SIZE, check_fov
+from .scene_light import FOV_RANGE, FRONT_WEIGHTS, MIN_SIZE, check_fov
 
 __all__ = [
     "MAX_ELEVATION",
@@ -49,10 +54,13 @@ __all__ = [
     "parse_size",
     "parse_view",
     "render_view",
+    "source",
     "view_rotation",
 ]
 
 METER_GREY = 0.18  #: the plate's camera exposes the view's mean linear luminance to this
+SOURCE_SHARE = 0.5  #: the panorama's source: its pixels of at least this share of the peak luminance
+_SOURCE_HEIGHT = 256  # the source is found on a copy at most this many rows high
 MAX_ELEVATION = 80.0  #: |elevation| limit of a view, degrees
 _DEFAULT_FOV = 60.0
 _VIEW_FORM = "AZIMUTH,ELEVATION[,FOV] in degrees (e.g. 30,0 or -90,10,75)"
@@ -167,6 +175,8 @@ class PanoramaView:
         exposure: k, the scale from the panorama's radiance to the plate's linear values (before clipping).
         horizon: the row of the level horizon, a fraction of the plate's height (may lie outside [0, 1]).
         view: (azimuth, elevation, fov), degrees.
+        source_direction: (3,) unit direction, in the camera's frame, of the panorama's brightest source (``source``).
+        source_shading: (3,) RGB shading that source alone gives a surface facing it, in the plate's units.
     """
 
     plate: np.ndarray
@@ -174,6 +184,34 @@ class PanoramaView:
     exposure: float
     horizon: float
     view: tuple[float, float, float]
+    source_direction: np.ndarray
+    source_shading: np.ndarray
+
+
+def source(env) -> tuple[np.ndarray, np.ndarray]:
+    """The panorama's brightest source: its pixels of at least half the peak luminance (``SOURCE_SHARE``), on a copy
+    at most ``_SOURCE_HEIGHT`` rows high (area-averaged: the energy kept).
+
+    Args:
+        env: (H, 2H, 3) float linear RGB map.
+
+    Returns:
+        (direction, power): the (3,) unit luminance-weighted mean direction of those pixels (the panorama's frame) and
+        the (3,) RGB ∫ radiance dω over them (the irradiance they give a surface facing them, if small).
+    """
+    arr = envmap._check_envmap(env, "panorama")
+    if arr.shape[0] > _SOURCE_HEIGHT:
+        arr = cv2.resize(arr, (2 * _SOURCE_HEIGHT, _SOURCE_HEIGHT), interpolation=cv2.INTER_AREA)
+    h = arr.shape[0]
+    lum = np.maximum(arr @ REC709.astype(arr.dtype), 0)
+    peak = float(lum.max())
+    if not peak > 0:
+        return np.array([-1.0, 0.0, 0.0]), np.zeros(3)
+    keep = lum >= SOURCE_SHARE * peak
+    d_omega = envmap.solid_angles_envmap(h)[keep]
+    power = (arr[keep] * d_omega[:, None]).sum(0)
+    d = (envmap.directions_envmap(h)[keep] * (lum[keep] * d_omega)[:, None]).sum(0)
+    return d / max(float(np.linalg.norm(d)), 1e-12), power.astype(np.float64)
 
 
 def load_panorama(panorama, name: str = "panorama") -> np.ndarray:
@@ -221,7 +259,10 @@ def panorama_view(panorama, size: tuple[int, int], view) -> PanoramaView:
     light = sh.rotate(envmap.project_envmap(env), view_rotation(az, el).T) * (k / math.pi)
     tan_v = math.tan(math.radians(fov) / 2) * height / width
     horizon = 0.5 + math.tan(math.radians(el)) / (2 * tan_v)  # a level world's horizon, seen by the tilted camera
-    return PanoramaView(plate=plate, light=light, exposure=k, horizon=horizon, view=(az, el, fov))
+    rot = view_rotation(az, el)
+    direction, power = source(env)
+    return PanoramaView(plate=plate, light=light, exposure=k, horizon=horizon, view=(az, el, fov),
+                        source_direction=rot.T @ direction, source_shading=power * (k / math.pi))  # fmt: skip
 
 
 def _photo_size(image) -> tuple[int, int]:
@@ -250,6 +291,7 @@ def composite_panorama(
     meter: str = "frame",
     match_camera: bool = True,
     light_wrap: bool = True,
+    rim: bool = False,
 ) -> np.ndarray:
     """Put the person of ``image`` into a panorama seen in direction ``view``, lit by the panorama's own light.
 
@@ -268,6 +310,9 @@ def composite_panorama(
             offset to it.
         horizon: the horizon's row (fraction of the height); None: where the view's elevation puts it (clipped
             to [0, 1]).
+        rim: the panorama's source, when it lies behind the person (a sun or window in or near the view), puts a rim
+            of light on the outline on its side (``relight_rt.scene``'s step 7), its gain the source's shading over
+            the person's front's under the light.
 
     Returns:
         (height, width, 3) float32 sRGB in [0, 1].
@@ -281,6 +326,11 @@ def composite_panorama(
     pv = panorama_view(panorama, plate_size, (az, el, fov))
     light = pv.light if mode in ("auto", "physical") else pv.light * 2.0**mode
     hz = min(max(pv.horizon, 0.0), 1.0) if horizon is None else horizon
+    rim_key = None
+    if rim:
+        front = float(FRONT_WEIGHTS @ (pv.light @ REC709))
+        rim_key = (pv.source_direction, float(pv.source_shading @ REC709) / front if front > 1e-12 else 0.0)
     return composite(relighter, image, pv.plate, mask=mask, light=light.astype(np.float32), position=position,
                      height=height, shadow=shadow, exposure="physical", fov=fov, white_balance=False, horizon=hz,
-                     meter=meter, match_camera=match_camera, light_wrap=light_wrap)  # fmt: skip
+                     meter=meter, match_camera=match_camera, light_wrap=light_wrap, rim=rim,
+                     rim_key=rim_key)  # fmt: skip

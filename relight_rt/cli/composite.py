@@ -131,8 +131,7 @@ def _composite_panorama(args: argparse.Namespace, out: Path, person: Path) -> in
     from ..panorama import composite_panorama, load_panorama, parse_size, parse_view
     from ..scene import parse_position
 
-    options = (("--preset/--light/--envmap", light_spec(args)), ("--key-light", args.key_light), ("--fov", args.fov),
-               ("--rim", args.rim or None))  # fmt: skip
+    options = (("--preset/--light/--envmap", light_spec(args)), ("--key-light", args.key_light), ("--fov", args.fov))
     given = [name for name, value in options if value is not None]
     if given:
         raise RelightError(f"--view: the panorama gives the light and the view; drop {', '.join(given)}")
@@ -148,7 +147,7 @@ def _composite_panorama(args: argparse.Namespace, out: Path, person: Path) -> in
     image = composite_panorama(rl, person, pano, view, size=size, mask=mask, exposure=exposure,
                                position=position, height=args.height, horizon=args.horizon, shadow=args.shadow,
                                meter=args.meter, match_camera=args.match_camera,
-                               light_wrap=args.light_wrap)  # fmt: skip
+                               light_wrap=args.light_wrap, rim=args.rim)  # fmt: skip
     write_image(out, image, protect=protect)
     log.info("%s + %s (view %g,%g,%g) -> %s", person, args.background, *view, out)
     return 0

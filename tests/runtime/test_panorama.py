@@ -18,6 +18,7 @@ from relight_rt.panorama import (
     parse_size,
     parse_view,
     render_view,
+    source,
     view_rotation,
 )
 from relight_rt.scene_light import envmap_view
@@ -218,7 +219,7 @@ def test_cli_composite_with_a_view(work, capsys):
     assert code == 0, err
     assert cv2.imread("out.png").shape == (150, 100, 3)
     argv = ["composite", "p.png", "--background", "pano.hdr", "--view=-20,0,80", "--size", "160x96", "-o", "o.jpg",
-            "--no-shadow", "--meter", "background"]  # fmt: skip
+            "--no-shadow", "--meter", "background", "--rim"]  # fmt: skip
     code, _, err = run(argv, capsys)
     assert code == 0, err
     assert cv2.imread("o.jpg").shape == (96, 160, 3)
@@ -250,3 +251,33 @@ def test_an_hdr_background_photo_says_what_to_do(work):
 
     with pytest.raises(RelightError, match="holds radiance, not a photo.*composite --view"):
         read_background(work / "pano.hdr")
+
+
+def test_the_source_is_the_bright_spot():
+    env, spot = lumpy_panorama(128)
+    direction, power = source(env)
+    assert math.degrees(math.acos(min(1.0, float(direction @ spot)))) < 2
+    d = envmap.directions_envmap(128)
+    only_spot = (20 * np.exp((d @ spot - 1) / 0.01)[..., None] * np.array([1.0, 0.8, 0.6]))
+    total = (only_spot * envmap.solid_angles_envmap(128)[..., None]).reshape(-1, 3).sum(0)
+    assert 0.4 * total[0] < power[0] < total[0]  # the core of the spot (>= half the peak), not the sky
+    np.testing.assert_allclose(power / power[0], [1.0, 0.8, 0.6], rtol=0.05)
+    pv = panorama_view(env, (96, 72), (40, 20))  # looking straight at it: behind the person, along −x
+    np.testing.assert_allclose(pv.source_direction, [-1, 0, 0], atol=0.03)
+
+
+def test_a_sun_in_frame_puts_a_rim_on_its_side(diffuse):
+    """The spot 40° right of the map's centre, 20° up, seen from azimuth 20: behind the person, to the right."""
+    img, mask = flat_person()
+    env, _ = lumpy_panorama(128)
+    pv = panorama_view(env, (100, 150), (20, 0))
+    assert pv.source_direction[0] < -0.8 and pv.source_direction[1] > 0.2
+    kw = {"mask": mask, "meter": "background", "match_camera": False, "light_wrap": False, "shadow": False,
+          "position": (0.5, 0.95), "height": 0.8}  # fmt: skip
+    plain = composite_panorama(diffuse, img, env, (20, 0), **kw)
+    rim = composite_panorama(diffuse, img, env, (20, 0), rim=True, **kw)
+    gain = (srgb_to_linear(rim) @ REC709) / np.maximum(srgb_to_linear(plain) @ REC709, 1e-6)
+    body = np.s_[60:110]  # rows between the head's top (lit too: the spot is 34° up) and the feet
+    cols = np.flatnonzero(gain[body].max(0) > 1.08)  # in linear light: 1 + gain · n·d · band at the outline
+    assert cols.size and cols.min() > 50  # brightened: the right side of the outline (the person spans 31-69)
+    assert np.abs(rim[body][:, :45] - plain[body][:, :45]).max() < 1e-6  # the left side as it was
