@@ -138,9 +138,10 @@ def panorama_row(relighter, args, spec: str, person8, half8, half_mask, size) ->
 
     relighter.relight = spy
     try:
-        full = panorama.composite_panorama(relighter, person8, env, (az, el, fov), size=(size[1], size[0]))
+        full = panorama.composite_panorama(relighter, person8, env, (az, el, fov), size=(size[1], size[0]),
+                                           rim=args.rim)  # fmt: skip
         halfbody = panorama.composite_panorama(relighter, half8, env, (az, el, fov), size=(size[1], size[0]),
-                                               mask=half_mask, height=HALF_HEIGHT)  # fmt: skip
+                                               mask=half_mask, height=HALF_HEIGHT, rim=args.rim)  # fmt: skip
     finally:
         del relighter.relight
     b = sh.irradiance(truth, normals) @ REC709
