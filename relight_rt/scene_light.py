@@ -235,6 +235,12 @@ def read_background(src, name: str = "background") -> np.ndarray:
         raise RelightError(f"{label}: expected uint8 or float in [0, 1], got {raw.dtype}")
     out = raw.astype(np.float32)
     if not np.isfinite(out).all() or out.min() < -1e-3 or out.max() > 1 + 1e-3:
+        if np.isfinite(out).all() and out.max() > 1 + 1e-3:  # radiance (an HDR image), not a photo's values
+            raise RelightError(
+                f"{label}: expected float values in [0, 1], got values up to {float(out.max()):.3g}: an HDR image "
+                "holds radiance, not a photo; for an equirectangular panorama use relight_rt.panorama "
+                "(composite --view), otherwise tone-map it to [0, 1] first"
+            )
         raise RelightError(f"{label}: expected finite float values in [0, 1]")
     return np.clip(out, 0, 1)
 

@@ -281,3 +281,12 @@ def test_a_sun_in_frame_puts_a_rim_on_its_side(diffuse):
     cols = np.flatnonzero(gain[body].max(0) > 1.08)  # in linear light: 1 + gain · n·d · band at the outline
     assert cols.size and cols.min() > 50  # brightened: the right side of the outline (the person spans 31-69)
     assert np.abs(rim[body][:, :45] - plain[body][:, :45]).max() < 1e-6  # the left side as it was
+
+
+def test_an_hdr_array_as_a_background_says_what_to_do():
+    from relight_rt.scene_light import read_background
+
+    with pytest.raises(RelightError, match=r"values up to 7.*HDR image.*relight_rt.panorama"):
+        read_background(np.full((64, 64, 3), 7.0, np.float32))
+    with pytest.raises(RelightError, match=r"expected finite float values in \[0, 1\]$"):
+        read_background(np.full((64, 64, 3), -2.0, np.float32))
