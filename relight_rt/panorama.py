@@ -48,6 +48,7 @@ __all__ = [
     "MAX_ELEVATION",
     "METER_GREY",
     "PanoramaView",
+    "SOURCE_SHARE",
     "composite_panorama",
     "load_panorama",
     "panorama_view",
@@ -76,7 +77,7 @@ def parse_view(value) -> tuple[float, float, float]:
         RelightError: anything else, one message saying what was expected.
     """
     if isinstance(value, str):
-        parts = [p for p in value.replace(" ", "").split(",")]
+        parts = value.replace(" ", "").split(",")
     else:
         try:
             parts = list(value)
@@ -116,6 +117,9 @@ def parse_size(value) -> tuple[int, int]:
         pair = (int(pair[0]), int(pair[1])) if ok else None
     if pair is None or min(pair) < MIN_SIZE:
         raise RelightError(f"size: expected {form}, got {value!r}")
+    from ._limits import check_pixels
+
+    check_pixels(pair[0], pair[1], "size")
     return pair
 
 
