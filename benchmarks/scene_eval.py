@@ -357,6 +357,9 @@ def main(argv=None) -> int:
                    "(the maps of ../shared/hdri against blender-data's bl-*: places the fit never saw)")  # fmt: skip
     p.add_argument("--back-key", choices=("side", "source"), default=None,
                    help="relight_rt.scene_light.BACK_KEY for this run (default: the module's)")  # fmt: skip
+    p.add_argument("--saturation", type=float, default=None, metavar="S",
+                   help="fix COLOUR_SATURATION at S instead of fitting it (1: the light takes the scene's median "
+                   "colour as it is)")  # fmt: skip
     p.add_argument(
         "--no-oracles",
         action="store_true",
@@ -368,6 +371,8 @@ def main(argv=None) -> int:
         return 0
     if args.back_key is not None:
         bgmod.BACK_KEY = args.back_key
+    if args.saturation is not None:
+        GRID["saturation"] = np.array([args.saturation])
     if not (args.photos and args.people and args.out):
         p.error("--photos, --people and --out are needed (unless --prepare-envs)")
     from export import dataset
