@@ -16,6 +16,11 @@ full-body person as photographed, unrelit, at the same place and size; the estim
 corner) | ``composite`` full body | ``composite`` half body, 0.6 of the frame high (otherwise all defaults: the
 background's own light, perspective placement, shadows, camera matching, light wrap, frame metering; ``--rim``
 adds the back key's rim). Prints each background's camera blur (relight_rt.scene, step 5).
+
+``--panoramas NAME:AZ,EL[,FOV] ...`` (maps of --hdri, or --blender with ``bl-``) makes instead the sheet of a panorama
+used exactly (relight_rt.panorama.composite_panorama, ``composite --view``): per view, the plate with the
+panorama's light on a sphere | full body | half body, and prints the irradiance error of the light each person got
+against the panorama's light resampled into the view's frame (pixels, not SH rotation).
 """
 
 from __future__ import annotations
@@ -104,6 +109,60 @@ def pasted(person_srgb: np.ndarray, bg: np.ndarray) -> np.ndarray:
     return out
 
 
+def panorama_row(relighter, args, spec: str, person8, half8, half_mask, size) -> np.ndarray:
+    """One row of the panorama sheet (module docstring): plate + light sphere | full body | half body."""
+    import math
+
+    from relight_rt import panorama
+
+    name, view = spec.split(":", 1)
+    path = args.blender / f"{name[3:]}.exr" if name.startswith("bl-") else args.hdri / f"{name}.hdr"
+    env = np.maximum(load_map(path), 0)
+    az, el, fov = panorama.parse_view(view)
+    pv = panorama.panorama_view(env, (size[1], size[0]), (az, el, fov))
+    # the truth: the map resampled into the camera's frame pixel by pixel, then projected
+    h = 128
+    small = cv2.resize(env, (4 * h, 2 * h), interpolation=cv2.INTER_AREA)
+    d = envmap.directions_envmap(h) @ panorama.view_rotation(az, el).T
+    theta, phi = np.arccos(np.clip(d[..., 2], -1, 1)), np.mod(np.arctan2(-d[..., 1], d[..., 0]), 2 * np.pi)
+    pad = np.concatenate([small[:, -1:], small, small[:, :1]], 1)
+    mapx = (phi / (2 * np.pi) * 4 * h + 0.5).astype(np.float32)
+    mapy = np.clip(theta / np.pi * 2 * h - 0.5, 0, 2 * h - 1).astype(np.float32)
+    turned = cv2.remap(pad, mapx, mapy, cv2.INTER_LINEAR)
+    truth = envmap.project_envmap(turned) * (pv.exposure / math.pi)
+    normals = sh.sphere_directions(2000)
+    seen = []
+    relight = relighter.relight
+
+    def spy(dec, light, *a, **k):
+        seen.append(np.array(light, np.float64))
+        return relight(dec, light, *a, **k)
+
+    relighter.relight = spy
+    try:
+        full = panorama.composite_panorama(relighter, person8, env, (az, el, fov), size=(size[1], size[0]),
+                                           rim=args.rim)  # fmt: skip
+        halfbody = panorama.composite_panorama(relighter, half8, env, (az, el, fov), size=(size[1], size[0]),
+                                               mask=half_mask, height=HALF_HEIGHT, rim=args.rim)  # fmt: skip
+    finally:
+        del relighter.relight
+    b = sh.irradiance(truth, normals) @ REC709
+    errs = [float(np.sqrt(np.mean((sh.irradiance(x, normals) @ REC709 - b) ** 2)) / np.sqrt(np.mean(b**2)))
+            for x in seen]  # fmt: skip
+    print(f"{name} view {az:g},{el:g},{fov:g}: irradiance error of the person's light "
+          f"{', '.join(f'{100 * e:.2f} %' for e in errs)}", file=sys.stderr)  # fmt: skip
+    plate = pv.plate.astype(np.float32) / 255
+    sphere = sh.render_sphere(pv.light, size=size[0] // 3)
+    sphere = linear_to_srgb(np.clip(sphere * (0.8 / max(float(sphere.max()), 1e-6)), 0, 1))
+    plate[: sphere.shape[0], : sphere.shape[1]] = sphere
+    label = (plate * 255 + 0.5).astype(np.uint8)
+    cv2.putText(label, f"{name} {az:g},{el:g},{fov:g}", (4, size[0] - 6), cv2.FONT_HERSHEY_SIMPLEX, 0.4,
+                (255, 0, 255), 1, cv2.LINE_AA)  # fmt: skip
+    plate = label.astype(np.float32) / 255
+    gap = np.ones((size[0], 4, 3), np.float32)
+    return np.concatenate([plate, gap, full, gap, halfbody], 1)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--hdri", type=Path, required=True)
@@ -115,6 +174,8 @@ def main(argv=None) -> int:
     ap.add_argument("--size", type=int, default=320, help="background width (height 3/4 of it)")
     ap.add_argument("--rim", action="store_true", help="composite with rim=True (a back key's rim)")
     ap.add_argument("--photos", type=Path, nargs="*", default=[], help="real photos of places as more backgrounds")
+    ap.add_argument("--panoramas", nargs="*", default=[], metavar="NAME:AZ,EL[,FOV]",
+                    help="the sheet of panoramas used exactly, these views")  # fmt: skip
     args = ap.parse_args(argv)
     relighter = relight_rt.open(RuntimeConfig(models=args.models, device="cpu"))
     rgba = read_image(REPO / "relight_rt" / "data" / "example.png", "example")
@@ -129,6 +190,13 @@ def main(argv=None) -> int:
         cut = rows[0] + int(0.5 * (rows[-1] - rows[0]))  # at the hips
         half8, half_mask = person8[:cut], None
     size = (args.size * 3 // 4, args.size)
+    if args.panoramas:
+        tiles = [panorama_row(relighter, args, spec, person8, half8, half_mask, size) for spec in args.panoramas]
+        gap = np.ones((4, tiles[0].shape[1], 3), np.float32)
+        sheet = np.concatenate([x for t in tiles for x in (t, gap)][:-1], 0)
+        write_image(args.out, sheet)
+        print(f"wrote {args.out} ({sheet.shape[1]} x {sheet.shape[0]})")
+        return 0
     maps = [(args.hdri / f"{n}.hdr", t) for n, t in SHARED]
     if args.blender:
         maps += [(args.blender / f"{n}.exr", t) for n, t in BLENDER]

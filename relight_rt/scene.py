@@ -423,11 +423,12 @@ class SceneLighting:
 
 
 def scene_lighting(relighter, dec, parts, background_light: np.ndarray, key, light, *, white_balance: bool = True,
-                   rim: bool = False) -> SceneLighting:
+                   rim: bool = False, rim_key=None) -> SceneLighting:
     """Step 1 and 2's light for the person of ``dec`` in the scene whose light ``parts`` describes
     (relight_rt.scene_light ``scene_light``; ``background_light`` = ``parts.light(key)``): the background's own
     light with its key (``key``: parse_key_light's), or ``light`` (anything ``Relighter.resolve_light`` accepts)
-    white-balanced to it."""
+    white-balanced to it; ``rim_key``: with ``light`` and ``rim``, (direction (3,), gain) of a key known exactly
+    (relight_rt.panorama's source) that gives the rim."""
     bg_light = background_light
     rim_dir, rim_gain = None, 0.0
     if light is None:
@@ -443,6 +444,8 @@ def scene_lighting(relighter, dec, parts, background_light: np.ndarray, key, lig
         if white_balance:
             lit = _white_balance(dec, lit, bg_light)
         shadow_dir, directional = _dominant_direction(lit)
+        if rim and rim_key is not None:  # a key known exactly (relight_rt.panorama)
+            rim_dir, rim_gain = np.asarray(rim_key[0], np.float64), float(rim_key[1])
     return SceneLighting(lit, bg_light, shadow_dir, directional, rim_dir, rim_gain)
 
 
@@ -680,6 +683,7 @@ def composite(
     match_camera: bool = True,
     light_wrap: bool = True,
     rim: bool = False,
+    rim_key=None,
 ) -> np.ndarray:
     """Relight the person of ``image`` for the scene of ``background`` and put it there (module docstring).
 
@@ -706,6 +710,8 @@ def composite(
         match_camera: match the background camera's blur and noise (step 5).
         light_wrap: let the background's light wrap over the person's edge where it is brighter (step 7).
         rim: a back key (automatic or ``key_light``) puts a rim of light on the outline on its side (step 7).
+        rim_key: with ``light`` and ``rim``: (direction (3,), gain) of a key known exactly (relight_rt.panorama's
+            sun or window), the rim's direction and gain in place of the estimated back key's.
 
     Returns:
         (H_bg, W_bg, 3) float32 sRGB in [0, 1].
@@ -729,7 +735,8 @@ def composite(
     mask = _matte_on_the_photo(relighter, image, mask, name)
     person = _linear_person(image)
     dec = relighter.decompose(person, mask)
-    lighting = scene_lighting(relighter, dec, parts, bg_light, key, light, white_balance=white_balance, rim=rim)
+    lighting = scene_lighting(relighter, dec, parts, bg_light, key, light, white_balance=white_balance, rim=rim,
+                              rim_key=rim_key)
     rgba = relight_person(relighter, dec, lighting, mode)
     placed = place(rgba, bg.shape, pos, frac, hz)
     noise_add = 0.0

@@ -28,7 +28,9 @@ scene left out at a time: eleven chosen by their errors, plus SHAPE_PRIOR, a mea
    a bright top and a contrasty view, as with a sun, window or lamps in or above the frame, the near side
    of things in shadow) or front-lit (the light behind the camera, what the view shows is lit). Back-lit:
    a back-side key from 135° (behind the person, 45° off the axis, on the view's brighter side),
-   ``KEY_BACK`` × the ambient; front-lit: a soft front key, ``KEY_FRONT`` × the ambient, from
+   ``KEY_BACK`` × the ambient (``BACK_KEY = "source"`` puts it where the frame's brightest part is instead,
+   ``SceneLight.bright``: a sun or window in frame; measured alike, so not the default: docs/RESULTS.md);
+   front-lit: a soft front key, ``KEY_FRONT`` × the ambient, from
    ``KEY_GEOMETRY`` = (azimuth, elevation): fitted among 0°/45° off the camera (on the view's brighter side)
    and 35°/60° up, by the person's scale-invariant error; (0°, 35°) won: from the camera's direction, as
    the side cannot be read from the view reliably. Both in the ambient colour. The key is a degree-2 lobe (a
@@ -80,6 +82,7 @@ __all__ = [
 ]  # fmt: skip
 
 MIN_SIZE = 64  #: smallest accepted background side, pixels
+HDR_SUFFIXES = (".hdr", ".pic", ".exr")  #: files that hold radiance (a panorama), not a background photo
 FOV_RANGE = (10.0, 170.0)  #: open interval of accepted horizontal fields of view, degrees
 #: linear gain on saturated pixels (see the module docstring; docs/RESULTS.md, issue 21: 1 and 3 measure alike)
 HIGHLIGHT_GAIN = 3.0
@@ -102,6 +105,10 @@ FRONT_BACK_POWER = 0.25
 #: the automatic key's geometry (degrees): the front-side key's azimuth from the camera, and the keys' elevation
 KEY_GEOMETRY = (0.0, 35.0)
 _BACK_AZIMUTH = 135.0  # degrees from the camera of the automatic back-side key (behind the person, to the side)
+#: where the automatic back key comes from: "side" (from _BACK_AZIMUTH on the view's brighter side, KEY_GEOMETRY's
+#: elevation) or "source" (from the frame's brightest part: SceneLight.bright)
+BACK_KEY = "side"
+_BRIGHT_SHARE = 0.01  # SceneLight.bright: the share of the frame's pixels that count as its brightest part
 _STATS_WIDTH = 512  # the median, contrast, colour and halves are read on a copy at most this wide
 _CLIP_LEVEL = 250  # 8-bit value from which a pixel counts as saturated
 _SIDE_BLUR = 0.35  # blur level of the parts beside the field of view (0 sharp, 0.5 blurred, 1 band mean)
@@ -180,6 +187,19 @@ def key_direction(azimuth: float, elevation: float) -> np.ndarray:
     return np.array([math.cos(e) * math.cos(a), math.cos(e) * math.sin(a), math.sin(e)])
 
 
+def hdr_background_error(path, name: str = "background") -> RelightError | None:
+    """The error for a radiance file (.hdr/.pic/.exr) given as a background photo; None for any other file."""
+    p = os.fspath(path)
+    if not p.lower().endswith(HDR_SUFFIXES):
+        return None
+    return RelightError(
+        f"{name} {p}: an HDR/EXR file holds radiance, not a photo; if it is an equirectangular panorama "
+        "(width = 2 x height) give a view to render the scene from it (composite --view AZIMUTH,ELEVATION[,FOV], "
+        "e.g. --view 0,0; relight_rt.panorama.composite_panorama), otherwise tone-map it to an 8-bit photo "
+        "(.png/.jpg) first"
+    )
+
+
 def read_background(src, name: str = "background") -> np.ndarray:
     """A background photo as given: (H, W, 3) RGB, uint8 (8-bit files) or float32 in [0, 1] (float arrays,
     16-bit files). Grayscale becomes colour; files are turned as their EXIF orientation says.
@@ -190,6 +210,8 @@ def read_background(src, name: str = "background") -> np.ndarray:
     """
     from ._io import as_colour, decode_file
 
+    if isinstance(src, (str, os.PathLike)) and (err := hdr_background_error(src, name)) is not None:
+        raise err
     if isinstance(src, (str, os.PathLike)):
         raw = as_colour(decode_file(src, name), bgr=True)  # gray becomes colour; turned as its EXIF tag says
         label = f"{name} {os.fspath(src)}"
@@ -213,6 +235,12 @@ def read_background(src, name: str = "background") -> np.ndarray:
         raise RelightError(f"{label}: expected uint8 or float in [0, 1], got {raw.dtype}")
     out = raw.astype(np.float32)
     if not np.isfinite(out).all() or out.min() < -1e-3 or out.max() > 1 + 1e-3:
+        if np.isfinite(out).all() and out.max() > 1 + 1e-3:  # radiance (an HDR image), not a photo's values
+            raise RelightError(
+                f"{label}: expected float values in [0, 1], got values up to {float(out.max()):.3g}: an HDR image "
+                "holds radiance, not a photo; for an equirectangular panorama use relight_rt.panorama "
+                "(composite --view), otherwise tone-map it to [0, 1] first"
+            )
         raise RelightError(f"{label}: expected finite float values in [0, 1]")
     return np.clip(out, 0, 1)
 
@@ -275,6 +303,9 @@ class SceneLight:
         contrast: the standard deviation of log2 luminance over the photo (floor 2**-13).
         side: +1 when the view's right half is the brighter, else −1 (the side of the automatic key).
         view_env, source_env: (H, 2H, 3) the front half without / only the sources, as env maps (previews).
+        bright: (azimuth, elevation) in degrees of the frame's brightest part (its top ``_BRIGHT_SHARE`` of pixels
+            and at least half the peak, luminance-weighted), the azimuth from the view's axis toward the image's
+            right: a sun, window or lamp.
     """
 
     view: np.ndarray
@@ -287,6 +318,7 @@ class SceneLight:
     side: float
     view_env: np.ndarray
     source_env: np.ndarray
+    bright: tuple[float, float] = (0.0, 0.0)
 
     def backlight_score(self, backlight=None) -> float:
         """z = a + b · top_bottom + c · contrast with (a, b, c) = ``BACKLIGHT``: < 0 reads the scene as back-lit."""
@@ -304,26 +336,29 @@ class SceneLight:
         """(9,) a lobe from ``direction`` whose irradiance facing it is 1 (a point lamp of lights.directional)."""
         return directional(np.asarray(direction, np.float64))[:, 0]
 
-    def key(self, key_light=None, backlight=None, geometry=None) -> tuple[tuple[float, float], bool]:
+    def key(self, key_light=None, backlight=None, geometry=None, back_key=None) -> tuple[tuple[float, float], bool]:
         """((azimuth, elevation), back): where the key comes from (degrees) and whether it is a back key."""
         given = parse_key_light(key_light)
         if given is not None:
             return given, abs((given[0] + 180) % 360 - 180) > 90
         front_azimuth, elevation = KEY_GEOMETRY if geometry is None else geometry
         if self.backlight_score(backlight) < 0:
+            if (BACK_KEY if back_key is None else back_key) == "source":  # from the bright part in frame
+                psi, el = self.bright
+                return (math.copysign(180.0 - abs(psi), psi if psi else self.side), max(el, 0.0)), True
             return (_BACK_AZIMUTH * self.side, elevation), True
         return (front_azimuth * self.side, elevation), False
 
     def light(self, key_light=None, *, ambient_gain=None, key_front=None, key_back=None, backlight=None,
               saturation=None, geometry=None, shape_weight=None, front_back_power=None,
-              prior=None) -> np.ndarray:  # fmt: skip
+              prior=None, back_key=None) -> np.ndarray:  # fmt: skip
         """(9, 3) float64 light in the photo's units; ``key_light`` (azimuth, elevation) steers the key (step 6
         then shapes the rest and adds the key whole: a key the user gives is kept as given); the keyword
         numbers override the module's fitted ones (benchmarks/scene_eval.py's tuning;
         ``shape_weight=1, front_back_power=1`` skips step 6: the raw light)."""
         ambient = (AMBIENT_GAIN if ambient_gain is None else ambient_gain) * self.level
         colour = self.ambient_colour(saturation)
-        (az, el), back = self.key(key_light, backlight, geometry)
+        (az, el), back = self.key(key_light, backlight, geometry, back_key)
         if back:
             strength = KEY_BACK if key_back is None else key_back
         else:
@@ -338,6 +373,24 @@ class SceneLight:
         if key_light is None:
             return _shrink(rest + key, weight, power, pri, back)
         return _shrink(rest, weight, power, pri) + key  # a key the user gives is added whole
+
+
+def _brightest(lum: np.ndarray, fov: float) -> tuple[float, float]:
+    """(azimuth, elevation) in degrees of the luminance-weighted centre of the brightest ``_BRIGHT_SHARE`` of the
+    (h, w) linear luminance ``lum`` (and at least half its peak: a sun, not the sky around it) seen over the
+    horizontal field of view ``fov`` (a level camera; azimuth from the view's axis, positive toward the image's
+    right)."""
+    h, w = lum.shape
+    top = lum >= max(float(np.quantile(lum, 1 - _BRIGHT_SHARE)), 0.5 * float(lum.max()))
+    wt = np.where(top, lum, 0.0)
+    total = float(wt.sum())
+    if not total > 0:
+        return 0.0, 0.0
+    tan_h = math.tan(math.radians(fov) / 2)
+    u = ((np.arange(w) + 0.5) / w * 2 - 1) * tan_h  # y / −x of each column
+    v = (1 - (np.arange(h) + 0.5) / h * 2) * tan_h * h / w  # z / −x of each row
+    y, z = float(wt.sum(0) @ u) / total, float(wt.sum(1) @ v) / total
+    return math.degrees(math.atan(y)), math.degrees(math.atan2(z, math.hypot(1.0, y)))
 
 
 def scene_light(image, fov: float = 60.0, *, height: int = 64) -> SceneLight:
@@ -365,6 +418,7 @@ def scene_light(image, fov: float = 60.0, *, height: int = 64) -> SceneLight:
     contrast = float(np.log2(np.maximum(lum, 2.0**-13)).std())
     half = pw // 2
     side = 1.0 if float(lum[:, half:].mean()) >= float(lum[:, :half].mean()) else -1.0
+    bright = _brightest(lum, f)
 
     # about two samples per env-map pixel across the field of view
     ph, pw = photo.shape[:2]
@@ -386,6 +440,7 @@ def scene_light(image, fov: float = 60.0, *, height: int = 64) -> SceneLight:
         side=side,
         view_env=env_rest,
         source_env=env_src,
+        bright=bright,
     )
 
 

@@ -3,6 +3,9 @@
 ``relight-rt composite PERSON [--mask M] --background BG -o OUT [--preset P | --light L | --envmap E]
 [--key-light AZ,EL] [--position X,Y] [--height H] [--horizon Y] [--no-shadow] [--exposure auto|EV|physical]
 [--meter frame|background] [--no-match-camera] [--no-light-wrap] [--rim] [--fov 60]``
+
+``relight-rt composite PERSON --background PANO.hdr --view AZ,EL[,FOV] [--size WxH] -o OUT [...]``: the scene is
+an equirectangular panorama, seen in that direction, lighting the person with its own light (relight_rt.panorama).
 """
 
 from __future__ import annotations
@@ -40,7 +43,13 @@ def add_parser(subparsers) -> None:
     )
     p.add_argument("person", metavar="PERSON", help="photo of the person")
     add_mask_option(p, several=False)
-    p.add_argument("--background", required=True, metavar="BG", help="the scene photo (RGB, >= 64 px a side)")
+    p.add_argument("--background", required=True, metavar="BG", help="the scene photo (RGB, >= 64 px a side), or an "
+                   "equirectangular panorama (.hdr/.exr, width = 2 x height) with --view")  # fmt: skip
+    p.add_argument("--view", metavar="AZ,EL[,FOV]", help="BG is a panorama: render the background looking this way "
+                   "(degrees: azimuth 0 = the panorama's centre, positive to the right; elevation up; horizontal "
+                   "field of view, default 60; a negative azimuth as --view=-30,0) and light the person with the "
+                   "panorama's own light")  # fmt: skip
+    p.add_argument("--size", metavar="WxH", help="with --view: the output's size (default: the person photo's)")
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="output image (.png, .jpg, ...)")
     add_light_options(p, required=False)
     add_key_light_option(p)
@@ -48,8 +57,9 @@ def add_parser(subparsers) -> None:
                    "(default: a full body stands at y = 0.92, a cut-off one on the bottom edge)")  # fmt: skip
     p.add_argument("--height", type=float, metavar="H", help="the person's height, fraction of the background's "
                    "(default: from perspective for a full body, as in its own photo for a cut-off one)")  # fmt: skip
-    p.add_argument("--horizon", type=float, default=0.5, metavar="Y",
-                   help="the horizon's row, fraction of the background's height (0.5: a level camera)")  # fmt: skip
+    p.add_argument("--horizon", type=float, default=None, metavar="Y",
+                   help="the horizon's row, fraction of the background's height (default 0.5: a level camera; "
+                   "with --view, where the view's elevation puts it)")  # fmt: skip
     p.add_argument("--shadow", action=argparse.BooleanOptionalAction, default=True,
                    help="contact and cast shadows on the ground (default: on)")  # fmt: skip
     add_exposure_option(p, "the brightness the background's light gives it, as")
@@ -62,7 +72,13 @@ def add_parser(subparsers) -> None:
                    help="a brighter background's light wraps over the person's edge (default: on)")  # fmt: skip
     p.add_argument("--rim", action=argparse.BooleanOptionalAction, default=False,
                    help="a back key puts a rim of light on its side of the outline (default: off)")  # fmt: skip
-    p.add_argument("--fov", type=fov, default=60.0, metavar="DEG", help="background's horizontal field of view")
+    p.add_argument(
+        "--fov",
+        type=fov,
+        default=None,
+        metavar="DEG",
+        help="background's horizontal field of view (default 60; with --view, the view's third number)",
+    )
     add_runtime_options(p)
     p.set_defaults(func=cmd_composite)
 
@@ -70,7 +86,7 @@ def add_parser(subparsers) -> None:
 def cmd_composite(args: argparse.Namespace) -> int:
     from ..masks import find_mask_file
     from ..scene import composite, parse_position
-    from ..scene_light import check_fov, parse_key_light
+    from ..scene_light import check_fov, hdr_background_error, parse_key_light
 
     out = Path(args.output)
     if out.suffix.lower() not in IMAGE_SUFFIXES:
@@ -80,10 +96,18 @@ def cmd_composite(args: argparse.Namespace) -> int:
         raise RelightError(f"person {person}: file not found")
     if not Path(args.background).is_file():
         raise RelightError(f"--background {args.background}: file not found")
+    if args.view is not None:
+        return _composite_panorama(args, out, person)
+    if args.size is not None:
+        raise RelightError("--size: only with --view (a background photo gives the output its own size)")
+    err = hdr_background_error(args.background, "--background")
+    if err is not None:
+        raise err
     mask = find_mask_file(person, args.mask)
     exposure = parse_exposure(args.exposure)  # checked before the models load
     position = parse_position(args.position) if args.position is not None else None
     key = parse_key_light(args.key_light)
+    args.fov = 60.0 if args.fov is None else args.fov
     check_fov(args.fov)
     spec = light_spec(args)
     protect = [p for p in (person, mask if mask != "auto" else None, args.background, *(spec.paths if spec else ()))
@@ -92,9 +116,38 @@ def cmd_composite(args: argparse.Namespace) -> int:
     rl = relighter(args)
     light = None if spec is None else rl.resolve_light(spec)
     image = composite(rl, person, args.background, mask=mask, light=light, position=position, height=args.height,
-                      shadow=args.shadow, exposure=exposure, fov=args.fov, key_light=key, horizon=args.horizon,
+                      shadow=args.shadow, exposure=exposure, fov=args.fov, key_light=key,
+                      horizon=0.5 if args.horizon is None else args.horizon,
                       meter=args.meter, match_camera=args.match_camera, light_wrap=args.light_wrap,
                       rim=args.rim)  # fmt: skip
     write_image(out, image, protect=protect)
     log.info("%s + %s -> %s", person, args.background, out)
+    return 0
+
+
+def _composite_panorama(args: argparse.Namespace, out: Path, person: Path) -> int:
+    """``--view``: the background is a panorama seen that way (relight_rt.panorama.composite_panorama)."""
+    from ..masks import find_mask_file
+    from ..panorama import composite_panorama, load_panorama, parse_size, parse_view
+    from ..scene import parse_position
+
+    options = (("--preset/--light/--envmap", light_spec(args)), ("--key-light", args.key_light), ("--fov", args.fov))
+    given = [name for name, value in options if value is not None]
+    if given:
+        raise RelightError(f"--view: the panorama gives the light and the view; drop {', '.join(given)}")
+    view = parse_view(args.view)
+    size = parse_size(args.size) if args.size is not None else None
+    mask = find_mask_file(person, args.mask)
+    exposure = parse_exposure(args.exposure)
+    position = parse_position(args.position) if args.position is not None else None
+    protect = [p for p in (person, mask if mask != "auto" else None, args.background) if p]
+    check_target(out, protect)
+    pano = load_panorama(args.background, "--background")  # before the models load
+    rl = relighter(args)
+    image = composite_panorama(rl, person, pano, view, size=size, mask=mask, exposure=exposure,
+                               position=position, height=args.height, horizon=args.horizon, shadow=args.shadow,
+                               meter=args.meter, match_camera=args.match_camera,
+                               light_wrap=args.light_wrap, rim=args.rim)  # fmt: skip
+    write_image(out, image, protect=protect)
+    log.info("%s + %s (view %g,%g,%g) -> %s", person, args.background, *view, out)
     return 0

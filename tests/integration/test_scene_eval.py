@@ -79,3 +79,22 @@ def test_unclipped_view_reads_what_the_8bit_photo_clipped(se):
 def test_map_tile_shows_the_view_beside_the_map(se):
     tile = se.map_tile(_map(0.1, 0.1, 64), np.zeros((96, 128, 3), np.uint8), 1.0, "x")
     assert tile.shape == (128, 426, 3) and tile.dtype == np.uint8
+
+
+def test_scene_sets_and_issue_49s_table(se):
+    assert se.scene_set("bl-city_y090") == "blender" and se.scene_set("city_y090") == "shared"
+    assert se.scene_set(se.scene_of("bl-sunrise_y180")) == "blender"
+    front, back = envmap.project_envmap(_map(1.0, 0.1)), envmap.project_envmap(_map(0.1, 1.0))
+    maps = ["a_y000", "bl-b_y000"]
+    fb = {m: se.front_back(front if m == "a_y000" else back) for m in maps}
+    est = {"a_y000": front, "bl-b_y000": front}  # right on a, wrong on bl-b
+    rows = [{"B": "a_y000", "ev_est_background": 0.5, "ev_view_background": -0.2, "colour_est": 3.0,
+             "colour_view": 2.0, "si_est": 0.1, "si_paste": 0.2},
+            {"B": "bl-b_y000", "ev_est_background": -1.5, "ev_view_background": 0.4, "colour_est": 7.0,
+             "colour_view": 6.0, "si_est": 0.3, "si_paste": 0.2}]  # fmt: skip
+    table = se.must_show(rows, maps, fb, maps, est, est, "cross").splitlines()
+    assert table[0].startswith("Issue 49's figures (cross: each scene's numbers fitted on the other scene set)")
+    everything, shared, blender = table[4], table[5], table[6]
+    assert everything.startswith("| all (2 maps, 2 pairs) | 1.00 / 0.30 | 50 % / 100 % | 50 % / 50 % (2) |")
+    assert shared.startswith("| ../shared/hdri (1 maps, 1 pairs) | 0.50 / 0.20 | 100 % / 100 % | 100 % / 100 % (1) |")
+    assert blender.endswith("| 7.0 / 6.0 | 0 % |")

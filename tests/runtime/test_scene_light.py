@@ -214,3 +214,21 @@ def test_the_ambient_colour_is_the_places_not_a_lamps():
     img[:12, :40] = (255, 40, 0)  # a red sign, 5 % of the photo
     colour = scene_light(img).ambient_colour(saturation=1.0)
     np.testing.assert_allclose(colour, 1.0, rtol=1e-4)
+
+
+def test_the_brightest_part_and_the_back_key_from_it():
+    """A sun up and to the right in frame: ``bright`` points at it (the photo's geometry), and the "source" back key
+    comes from that side and behind the person (azimuth beyond 90° on the +y side), at the sun's elevation."""
+    img = np.full((90, 160, 3), 40, np.uint8)
+    img[:30] = 120  # a brighter sky: the default score reads a back-lit view
+    img[10:16, 120:128] = 255  # the sun: columns 120-128 of 160, rows 10-16 of 90
+    parts = scene_light(img, 60.0)
+    tan_h = math.tan(math.radians(30))
+    psi = math.degrees(math.atan((124 / 160 * 2 - 1) * tan_h))
+    el = math.degrees(math.atan2((1 - 13 / 90 * 2) * tan_h * 90 / 160, math.hypot(1, math.tan(math.radians(psi)))))
+    assert parts.bright[0] == pytest.approx(psi, abs=1.5) and parts.bright[1] == pytest.approx(el, abs=1.5)
+    (az, elev), back = parts.key(backlight=(-1.0, 0.0, 0.0), back_key="source")
+    assert back and az == pytest.approx(180 - psi, abs=1.5) and elev == pytest.approx(el, abs=1.5)
+    mirrored = scene_light(img[:, ::-1], 60.0)
+    (az_m, _), _ = mirrored.key(backlight=(-1.0, 0.0, 0.0), back_key="source")
+    assert az_m == pytest.approx(-az, abs=1.5)  # the sun on the left: the key from the left
