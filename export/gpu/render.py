@@ -49,6 +49,7 @@ class RenderSettings:
         bias: constant depth bias, texels; ``slope_bias`` adds that many texels times tan θ (θ between
             the face normal and the direction, tan capped at 10).
         max_candidates: pixel tests per rasteriser chunk (memory bound).
+        dir_chunk: directions whose depth maps are drawn together.
     """
 
     resolution: int = 256
@@ -59,6 +60,7 @@ class RenderSettings:
     bias: float = 1.0
     slope_bias: float = 1.5
     max_candidates: int = 1 << 22
+    dir_chunk: int = 32
 
 
 @dataclass(frozen=True)
@@ -171,7 +173,6 @@ def visibility(
     geo_normals: torch.Tensor,
     dirs: torch.Tensor,
     settings: RenderSettings,
-    chunk: int = 32,
 ) -> torch.Tensor:
     """(M, D) fraction of light from each direction that reaches each point (shadow maps, module doc).
 
@@ -182,8 +183,8 @@ def visibility(
     """
     size = settings.shadow_size
     out = []
-    for s in range(0, len(dirs), chunk):
-        w = dirs[s : s + chunk]  # (Dc, 3)
+    for s in range(0, len(dirs), settings.dir_chunk):
+        w = dirs[s : s + settings.dir_chunk]  # (Dc, 3)
         u, v = _tangents(w)
         pa, pb = points @ u.T, points @ v.T  # (M, Dc)
         a0, a1 = pa.amin(0), pa.amax(0)

@@ -193,8 +193,10 @@ class _Sampler:
         self.weights = np.array([framings[n] for n in self.names])
         self.subjects = subjects
         self.config = config
+        cuda = device.type == "cuda"  # room for every direction's depth map at once, and large raster chunks
         self.settings = RenderSettings(resolution=config.resolution, dirs=config.dirs, shadow_size=config.shadow_size,
-                                       max_candidates=(1 << 25) if device.type == "cuda" else (1 << 21))
+                                       max_candidates=(1 << 25) if cuda else (1 << 21),
+                                       dir_chunk=128 if cuda else 32)
         self.rng = np.random.default_rng([config.seed, 0x6B7])
         self.generator = torch.Generator().manual_seed(config.seed)
         self.rendered = 0

@@ -105,3 +105,25 @@ def test_bad_settings_get_one_line(bank_dir, tmp_path, capsys, argv, message):
     assert main(args) == 2
     err = capsys.readouterr().err.strip()
     assert message in err and len(err.splitlines()) == 1
+
+
+def test_it_needs_nothing_the_gpu_machine_lacks(bank_dir, tmp_path):
+    """The device has torch, numpy, onnx, onnxruntime and OpenCV, not anny, embree, trimesh or warp."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\n"
+        "class Block:\n"
+        "    def find_spec(self, name, path=None, target=None):\n"
+        "        if name.split('.')[0] in {'anny', 'embreex', 'trimesh', 'warp'}:\n"
+        "            raise ImportError(f'{name} is not on the GPU machine')\n"
+        "sys.meta_path.insert(0, Block())\n"
+        "from export.__main__ import main\n"
+        "sys.exit(main(sys.argv[1:]))\n"
+    )
+    out = tmp_path / "run"
+    argv = ["gpu-train", "--bank", str(bank_dir), "--out", str(out), "--init", "none", "--max-steps", "1", *TINY]
+    done = subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert json.loads((out / "summary.json").read_text())["steps"] == 1
