@@ -1,6 +1,6 @@
 """``python -m export gpu-check``: the torch renderer's samples against the embree renderer's, on bank people.
 
-Each of the first ``--n`` bank subjects is rendered, unturned, in one framing of the training mix (in
+Each of ``--n`` bank subjects from ``--start`` on is rendered, unturned, in one framing of the training mix (in
 turn: full, knees-up, waist-up, head-shoulders, face), by both renderers from the very same meshes and
 textures (:func:`export.gpu.bank.to_subject`): the torch one (:mod:`export.gpu.render`, shadow maps over
 ``--dirs`` directions) and the embree one (:mod:`export.render.transport`, ray-cast visibility over
@@ -38,6 +38,7 @@ class GpuCheckConfig:
     bank: Path
     out: Path | None = None
     n: int = 5
+    start: int = 0
     resolution: int = 256
     dirs: int = 128
     shadow_size: int = 256
@@ -51,6 +52,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--bank", type=Path, default=Path("data/gpu_bank"), help="bank folder (default %(default)s)")
     parser.add_argument("--out", type=Path, help="also write the figures to this JSON file")
     parser.add_argument("--n", type=int, default=d.n, help="people to compare (default %(default)s)")
+    parser.add_argument("--start", type=int, default=d.start,
+                        help="the first of them, in the bank's order (default %(default)s)")
     parser.add_argument("--resolution", type=int, default=d.resolution)
     parser.add_argument("--dirs", type=int, default=d.dirs, help="torch renderer: visibility directions")
     parser.add_argument("--shadow-size", type=int, default=d.shadow_size, help="torch renderer: depth-map side")
@@ -63,9 +66,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def config_from_args(args: argparse.Namespace) -> GpuCheckConfig:
-    return GpuCheckConfig(bank=Path(args.bank), out=args.out, n=args.n, resolution=args.resolution, dirs=args.dirs,
-                          shadow_size=args.shadow_size, reference_dirs=args.reference_dirs,
-                          embree_dirs=args.embree_dirs, seed=args.seed)
+    return GpuCheckConfig(bank=Path(args.bank), out=args.out, n=args.n, start=args.start,
+                          resolution=args.resolution, dirs=args.dirs, shadow_size=args.shadow_size,
+                          reference_dirs=args.reference_dirs, embree_dirs=args.embree_dirs, seed=args.seed)
 
 
 def _corr(a: np.ndarray, b: np.ndarray) -> float:
@@ -105,8 +108,8 @@ def run(config: GpuCheckConfig | argparse.Namespace) -> int:
     from . import bank
     from .render import DeviceSubject, RenderSettings, render_sample
 
-    if config.n < 1:
-        raise RelightError(f"--n: expected >= 1, got {config.n}")
+    if config.n < 1 or config.start < 0:
+        raise RelightError(f"expected --n >= 1 and --start >= 0, got {config.n} and {config.start}")
     index = bank.read_index(config.bank)
     template = bank.read_template(config.bank)
     lights_all = bank.read_lights(config.bank, index)
@@ -114,7 +117,10 @@ def run(config: GpuCheckConfig | argparse.Namespace) -> int:
                                                                   replace=False)]
     settings = RenderSettings(resolution=config.resolution, dirs=config.dirs, shadow_size=config.shadow_size)
     rows = []
-    for i, name in enumerate(index["subjects"][: config.n]):
+    names = index["subjects"][config.start : config.start + config.n]
+    if not names:
+        raise RelightError(f"--start {config.start}: the bank has {len(index['subjects'])} people")
+    for i, name in enumerate(names):
         framing = ORDER[i % len(ORDER)]
         data = bank.read_subject(Path(config.bank) / f"{name}.npz", template)
         t0 = time.monotonic()

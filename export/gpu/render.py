@@ -9,9 +9,10 @@ centre; vertex normals, two-sided normals and texture lookups follow :mod:`expor
 Transport (DESIGN.md §3) with visibility from shadow maps: D directions ω_d spread evenly over the sphere
 (a Fibonacci set, turned by a random rotation per sample); for each, an orthographic depth map of the
 subject seen from ω_d, fitted to the covered pixels' footprint, tells whether the light from ω_d reaches
-a pixel's point (the point lifted along its face normal by a texel, a slope-scaled depth bias, 2×2
-bilinear percentage-closer filtering). The unoccluded cosine lobe is exact (A_l · Y_k(n)); the
-directions estimate only what occlusion removes:
+a pixel's point (the point lifted along its face normal by a quarter texel, a slope-scaled depth bias
+of half a texel plus half a texel times tan θ, 2×2 bilinear percentage-closer filtering; these three
+were chosen against embree on three bank people: less leaks light, more shows shadow acne). The unoccluded cosine
+lobe is exact (A_l · Y_k(n)); the directions estimate only what occlusion removes:
 
     T_k(p) = A_l Y_k(n_p) − (4π / D) Σ_d (1 − V(p, ω_d)) · max(0, n_p·ω_d) · Y_k(ω_d)
 """
@@ -56,9 +57,9 @@ class RenderSettings:
     dirs: int = 128
     shadow_size: int = 256
     margin: float = 0.05
-    normal_offset: float = 1.0
-    bias: float = 1.0
-    slope_bias: float = 1.5
+    normal_offset: float = 0.25
+    bias: float = 0.5
+    slope_bias: float = 0.5
     max_candidates: int = 1 << 22
     dir_chunk: int = 32
 
