@@ -299,6 +299,8 @@ def run(config: GpuTrainConfig | argparse.Namespace) -> int:
                 break
             for _ in range(config.fresh_per_step):
                 pool.add(sampler())
+            if time.monotonic() >= stop_at:  # rendering can be slow (a CPU): no step that would eat the reserve
+                break
             frac = min(1.0, (now - train_start) / max(stop_at - train_start, 1e-9))
             for group in optimizer.param_groups:
                 group["lr"] = config.lr_min + 0.5 * (config.lr - config.lr_min) * (1.0 + math.cos(math.pi * frac))
