@@ -3,10 +3,12 @@
 Made for a lent GPU that starts bare (torch, numpy, onnx, onnxruntime and OpenCV; no anny, no embree) and is
 held for minutes: everything it needs is the checkout and a bank folder (``python -m export gpu-bank``).
 It renders samples on the training device (:mod:`export.gpu.render`) into a pool that every step refreshes
-in part, trains on random batches of the pool, each sample under a random training light of the bank and
-flipped at random (as export.torch_data does), with the loss of ``train-stage1`` and Adam, the learning
-rate falling along one cosine from ``--lr`` to ``--lr-min`` over the time there is. It starts from the
-shipped stage 1 (export.warm_start) unless told otherwise.
+in part (up to ``--fresh-per-step`` samples, while rendering has taken at most ``--render-share`` of the
+time: whichever of rendering and training is faster on the device, neither starves the other), trains
+on random batches of the pool, each sample under a random training light of the bank and flipped at random
+(as export.torch_data does), with the loss of ``train-stage1`` and Adam, the learning rate falling along
+one cosine from ``--lr`` to ``--lr-min`` over the time there is. It starts from the shipped stage 1
+(export.warm_start) unless told otherwise.
 
 Whatever happens, the run folder ends with ``stage1.onnx`` (the weights it has, exported with the usual
 checks), ``last.pt`` (weights only: under 16 MiB, so it comes back from the device), ``log.jsonl`` and
@@ -53,6 +55,7 @@ class GpuTrainConfig:
     batch_size: int = 16
     pool: int = 512
     fresh_per_step: int = 4
+    render_share: float = 0.5
     dirs: int = 128
     shadow_size: int = 256
     framings: str = DEFAULT_FRAMINGS
@@ -85,7 +88,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--batch-size", type=int, default=d.batch_size)
     parser.add_argument("--pool", type=int, default=d.pool, help="rendered samples kept on the device")
     parser.add_argument("--fresh-per-step", type=int, default=d.fresh_per_step,
-                        help="samples rendered into the pool before each step")
+                        help="at most this many samples rendered into the pool before each step")
+    parser.add_argument("--render-share", type=float, default=d.render_share,
+                        help="a step renders fresh samples only while rendering has taken at most this share of "
+                             "the time spent rendering and training (1: always; default %(default)s)")
     parser.add_argument("--dirs", type=int, default=d.dirs, help="visibility directions per sample")
     parser.add_argument("--shadow-size", type=int, default=d.shadow_size, help="depth-map side per direction")
     parser.add_argument("--framings", default=d.framings, help="framings and weights (as render --framings)")
@@ -108,6 +114,7 @@ def config_from_args(args: argparse.Namespace) -> GpuTrainConfig:
     return GpuTrainConfig(
         bank=Path(args.bank), out=Path(args.out), deadline=args.deadline, init=init, resolution=args.resolution,
         width=args.width, batch_size=args.batch_size, pool=args.pool, fresh_per_step=args.fresh_per_step,
+        render_share=args.render_share,
         dirs=args.dirs, shadow_size=args.shadow_size, framings=args.framings, max_yaw=args.max_yaw, lr=args.lr,
         lr_min=args.lr_min, sf_scale=args.sf_scale, seed=args.seed, device=args.device,
         checkpoint_every=args.checkpoint_every, export_reserve=args.export_reserve, max_steps=args.max_steps,
@@ -123,6 +130,8 @@ def _check(config: GpuTrainConfig) -> None:
             raise RelightError(f"--{name.replace('_', '-')}: expected >= 1, got {getattr(config, name)}")
     if config.pool < config.batch_size:
         raise RelightError(f"--pool {config.pool} must hold at least one batch (--batch-size {config.batch_size})")
+    if not 0 < config.render_share <= 1:
+        raise RelightError(f"--render-share: expected a share in (0, 1], got {config.render_share}")
     if config.shadow_size < 8:
         raise RelightError(f"--shadow-size: expected >= 8, got {config.shadow_size}")
     if not (config.deadline > 0 and 0 <= config.export_reserve < config.deadline):
@@ -297,7 +306,9 @@ def run(config: GpuTrainConfig | argparse.Namespace) -> int:
             if config.max_steps is not None and state["step"] >= config.max_steps:
                 state["stopped"] = "steps"
                 break
-            for _ in range(config.fresh_per_step):
+            for _ in range(config.fresh_per_step):  # keep rendering's share of the time near --render-share
+                if sampler.seconds > config.render_share * (sampler.seconds + state["train_s"]):
+                    break
                 pool.add(sampler())
             if time.monotonic() >= stop_at:  # rendering can be slow (a CPU): no step that would eat the reserve
                 break

@@ -16,7 +16,7 @@ from export.toy_data import make_lights  # noqa: E402
 from export.training import read_jsonl  # noqa: E402
 
 TINY = ["--resolution", "64", "--width", "4", "--batch-size", "2", "--pool", "4", "--fresh-per-step", "1",
-        "--dirs", "8", "--shadow-size", "32", "--log-every", "1", "--device", "cpu"]
+        "--render-share", "1", "--dirs", "8", "--shadow-size", "32", "--log-every", "1", "--device", "cpu"]
 
 
 @pytest.fixture(scope="module")
@@ -68,6 +68,15 @@ def test_it_starts_from_an_onnx_graph(bank_dir, tmp_path):
                  *TINY]) == 0
     summary = json.loads((out / "summary.json").read_text())
     assert "init.onnx (ONNX, norm layers unfolded" in summary["init"]
+
+
+def test_rendering_keeps_to_its_share_of_the_time(bank_dir, tmp_path):
+    out = tmp_path / "run"
+    # rendering the first batch takes far more than 1% of what two tiny steps take: no fresh samples after it
+    assert main(["gpu-train", "--bank", str(bank_dir), "--out", str(out), "--init", "none", "--max-steps", "2",
+                 *TINY, "--render-share", "0.01"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["steps"] == 2 and summary["samples_rendered"] == 2
 
 
 def test_the_deadline_stops_it_and_it_still_exports(bank_dir, tmp_path):
