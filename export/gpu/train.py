@@ -210,6 +210,7 @@ class _Sampler:
         self.generator = torch.Generator().manual_seed(config.seed)
         self.rendered = 0
         self.seconds = 0.0
+        self.by_framing: dict[str, list[float]] = {n: [0, 0.0] for n in self.names}  # count, seconds
 
     def __call__(self) -> dict:
         import torch
@@ -224,8 +225,11 @@ class _Sampler:
             sample = render_sample(subject, self.settings, framing=framing, yaw_deg=yaw, generator=self.generator)
         if sample["albedo"].is_cuda:
             torch.cuda.synchronize()
+        took = time.monotonic() - t0
         self.rendered += 1
-        self.seconds += time.monotonic() - t0
+        self.seconds += took
+        self.by_framing[framing][0] += 1
+        self.by_framing[framing][1] += took
         return sample
 
 
@@ -379,6 +383,8 @@ def _finish(config, model, sampler, state, start, index, device_name, logger) ->
         "device": device_name, "torch": torch.__version__, "steps": state["step"],
         "samples_rendered": sampler.rendered, "render_s": round(sampler.seconds, 2),
         "samples_per_s": round(sampler.rendered / max(sampler.seconds, 1e-9), 3),
+        "render_s_per_sample_by_framing": {n: round(s / c, 3) for n, (c, s) in sampler.by_framing.items() if c},
+        "peak_gpu_memory_gb": round(torch.cuda.max_memory_allocated() / 2**30, 2) if device_name != "cpu" else None,
         "train_s": round(state["train_s"], 2), "steps_per_s": round(state["step"] / max(state["train_s"], 1e-9), 3),
         "loss_first": float(np.mean(losses[:k])) if losses else None,
         "loss_last": float(np.mean(losses[-k:])) if losses else None,

@@ -42,6 +42,8 @@ def test_two_steps_end_with_a_contract_graph_a_checkpoint_and_a_log(bank_dir, tm
     summary = json.loads((out / "summary.json").read_text())
     assert summary["stopped"] == "steps" and summary["steps"] == 2 and summary["error"] is None
     assert summary["samples_rendered"] == 2 + 2  # a batch to start with, then one per step
+    assert set(summary["render_s_per_sample_by_framing"]) <= {"full", "knees-up", "waist-up", "head-shoulders",
+                                                               "face"}
     stage = OnnxStage(out / "stage1.onnx", "stage1")
     assert stage.resolution == 64
     model, ckpt = load_checkpoint(out / "last.pt")
