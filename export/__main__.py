@@ -29,6 +29,9 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "fit-dvp": ("export.dvp", "fit an illumination-conditioned deep video prior to one video"),
     "mask-models": ("export.mask_models", "convert MediaPipe's person segmentation to the bundled matting graphs"),
     "face-mesh": ("export.face_mesh", "convert MediaPipe's face landmarker (face normals for relighting)"),
+    "gpu-bank": ("export.gpu.build_bank", "build the compact bank of posed people that gpu-train renders from"),
+    "gpu-train": ("export.gpu.train", "render samples from a bank and train stage 1 on a GPU until a deadline"),
+    "gpu-check": ("export.gpu.check", "the torch renderer's transport against the embree renderer's, on bank people"),
 }
 
 

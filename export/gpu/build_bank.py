@@ -1,0 +1,103 @@
+"""``python -m export gpu-bank``: build the compact bank of posed people that ``gpu-train`` renders from.
+
+Each subject is built here exactly as ``python -m export render`` builds it (anny people from the
+``render`` extra, or the sphere figures of export.render.shapes), then stored compactly
+(:mod:`export.gpu.bank`). Subjects already in the folder are kept (the build resumes); ``bank.json`` is
+rewritten at the end. The training lights are copied in as one RGB array.
+
+Example (the bank docs/GPU.md carries to the device)::
+
+    python -m export lights --out data/lights
+    python -m export gpu-bank --out data/gpu_bank --lights data/lights --n 60 --seed 300000
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from relight_rt import RelightError
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class GpuBankConfig:
+    """Settings of one ``gpu-bank`` run."""
+
+    out: Path
+    lights: Path
+    n: int = 60
+    seed: int = 300000
+    subject: str = "anny"
+    texture_size: int = 512
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    d = GpuBankConfig(out=Path(), lights=Path())
+    parser.add_argument("--out", type=Path, required=True, help="bank folder (created; existing subjects kept)")
+    parser.add_argument("--lights", type=Path, required=True,
+                        help="folder of training lights (NAME.npy, BGR; python -m export lights)")
+    parser.add_argument("--n", type=int, default=d.n, help="number of people (default %(default)s)")
+    parser.add_argument("--seed", type=int, default=d.seed,
+                        help="person i is subject seed SEED + i (default %(default)s: clear of the seeds the "
+                             "render commands of models/README.md use)")
+    parser.add_argument("--subject", choices=("anny", "shapes"), default=d.subject,
+                        help="anny: clothed people (needs the render extra); shapes: sphere figures (tests)")
+    parser.add_argument("--texture-size", type=int, default=d.texture_size,
+                        help="longest side of a stored texture (default %(default)s)")
+
+
+def config_from_args(args: argparse.Namespace) -> GpuBankConfig:
+    return GpuBankConfig(out=Path(args.out), lights=Path(args.lights), n=args.n, seed=args.seed,
+                         subject=args.subject, texture_size=args.texture_size)
+
+
+def _make(kind: str, seed: int):
+    from export.render.cli import make_subject
+
+    return make_subject({"kind": kind, "seed": seed, "clothing": True})
+
+
+def run(config: GpuBankConfig | argparse.Namespace) -> int:
+    """Build (or complete) the bank; returns 0."""
+    if isinstance(config, argparse.Namespace):  # export/__main__ still hands the parsed arguments over
+        config = config_from_args(config)
+    from export import dataset
+
+    from . import bank
+
+    if config.n < 1 or config.texture_size < 1:
+        raise RelightError(f"expected --n >= 1 and --texture-size >= 1, got {config.n} and {config.texture_size}")
+    lights = dataset.read_lights(config.lights)
+    out = Path(config.out)
+    out.mkdir(parents=True, exist_ok=True)
+    bank._atomic_bytes(out / "lights.npy", lambda tmp: np.save(tmp, lights.astype(np.float32)))
+    template = None
+    if config.subject == "anny":
+        from export.render import bodies
+
+        t = bodies.get_template()
+        bank.write_template(out, t.faces, t.uv)
+        template = bank._TemplateIndex(t.faces, t.uv)
+    t0 = time.monotonic()
+    made = 0
+    for i in range(config.n):
+        seed = config.seed + i
+        name = f"{config.subject}_{seed:06d}"
+        if (out / f"{name}.npz").is_file():
+            continue
+        subject = _make(config.subject, seed)
+        path = bank.write_subject(out, subject, texture_size=config.texture_size, template=template)
+        made += 1
+        log.info("%s: %d parts, %.0f kB (%.1f s per person so far)", name, len(subject.parts),
+                 path.stat().st_size / 1e3, (time.monotonic() - t0) / made)
+    index = bank.write_index(out)
+    log.info("bank %s: %d people, %d lights, %.1f MB (%.0f kB per person)", out, len(index["subjects"]),
+             len(lights), index["bytes"] / 1e6, index["mean_subject_bytes"] / 1e3)
+    return 0

@@ -1,0 +1,399 @@
+"""``python -m export gpu-train``: render stage-1 samples from a bank and train stage 1 on them until a deadline.
+
+Made for a lent GPU that starts bare (torch, numpy, onnx, onnxruntime and OpenCV; no anny, no embree) and is
+held for minutes: everything it needs is the checkout and a bank folder (``python -m export gpu-bank``).
+It renders samples on the training device (:mod:`export.gpu.render`) into a pool that every step refreshes
+in part (up to ``--fresh-per-step`` samples, while rendering has taken at most ``--render-share`` of the
+time: whichever of rendering and training is faster on the device, neither starves the other), trains
+on random batches of the pool, each sample under a random training light of the bank and flipped at random
+(as export.torch_data does), with the loss of ``train-stage1`` and Adam, the learning rate falling along
+one cosine from ``--lr`` to ``--lr-min`` over the time there is. It starts from the shipped stage 1
+(export.warm_start) unless told otherwise.
+
+Whatever happens, the run folder ends with ``stage1.onnx`` (the weights it has, exported with the usual
+checks), ``last.pt`` (weights only: under 16 MiB, so it comes back from the device), ``log.jsonl`` and
+``summary.json``: training stops ``--export-reserve`` seconds before ``--deadline`` (counted from the
+start of the command) to leave time for that, and a SIGTERM or an error stops it early the same way.
+A checkpoint is written every ``--checkpoint-every`` seconds.
+
+Example (CPU rehearsal; the device call is in docs/GPU.md)::
+
+    python -m export gpu-train --bank data/gpu_bank --out runs/gpu --deadline 60 --dirs 16 --shadow-size 64
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import math
+import signal
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from relight_rt import RelightError
+
+log = logging.getLogger(__name__)
+
+DEFAULT_FRAMINGS = "full=0.4,knees-up=0.15,waist-up=0.15,head-shoulders=0.15,face=0.15"
+SHIPPED_STAGE1 = Path(__file__).resolve().parents[2] / "relight_rt" / "models" / "stage1.onnx"
+
+
+@dataclass(frozen=True)
+class GpuTrainConfig:
+    """Settings of one ``gpu-train`` run (see add_arguments for each)."""
+
+    bank: Path
+    out: Path
+    deadline: float = 540.0
+    init: Path | None = SHIPPED_STAGE1
+    resolution: int = 256
+    width: int = 16
+    batch_size: int = 16
+    pool: int = 512
+    fresh_per_step: int = 4
+    render_share: float = 0.5
+    dirs: int = 128
+    shadow_size: int = 256
+    framings: str = DEFAULT_FRAMINGS
+    max_yaw: float = 45.0
+    lr: float = 3e-4
+    lr_min: float = 3e-5
+    sf_scale: float = 0.2
+    seed: int = 0
+    device: str = "auto"
+    checkpoint_every: float = 60.0
+    export_reserve: float = 45.0
+    max_steps: int | None = None
+    log_every: int = 10
+    amp: bool = True
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    d = GpuTrainConfig(bank=Path(), out=Path())
+    parser.add_argument("--bank", type=Path, default=Path("data/gpu_bank"),
+                        help="bank folder (python -m export gpu-bank; default %(default)s)")
+    parser.add_argument("--out", type=Path, required=True, help="run folder: stage1.onnx, last.pt, log.jsonl, "
+                                                                  "summary.json")
+    parser.add_argument("--deadline", type=float, default=d.deadline,
+                        help="seconds from the start until everything is written (default %(default)s)")
+    parser.add_argument("--init", default=str(d.init),
+                        help="start from these weights (.onnx or .pt); 'none' starts from random weights "
+                             "(default: the shipped stage 1)")
+    parser.add_argument("--resolution", type=int, default=d.resolution, help="sample and network size (k·64)")
+    parser.add_argument("--width", type=int, default=d.width, help="network base width (shipped: 16)")
+    parser.add_argument("--batch-size", type=int, default=d.batch_size)
+    parser.add_argument("--pool", type=int, default=d.pool, help="rendered samples kept on the device")
+    parser.add_argument("--fresh-per-step", type=int, default=d.fresh_per_step,
+                        help="at most this many samples rendered into the pool before each step")
+    parser.add_argument("--render-share", type=float, default=d.render_share,
+                        help="a step renders fresh samples only while rendering has taken at most this share of "
+                             "the time spent rendering and training (1: always; default %(default)s)")
+    parser.add_argument("--dirs", type=int, default=d.dirs, help="visibility directions per sample")
+    parser.add_argument("--shadow-size", type=int, default=d.shadow_size, help="depth-map side per direction")
+    parser.add_argument("--framings", default=d.framings, help="framings and weights (as render --framings)")
+    parser.add_argument("--max-yaw", type=float, default=d.max_yaw, help="largest turn of a subject, degrees")
+    parser.add_argument("--lr", type=float, default=d.lr, help="first learning rate")
+    parser.add_argument("--lr-min", type=float, default=d.lr_min, help="learning rate at the deadline")
+    parser.add_argument("--sf-scale", type=float, default=d.sf_scale, help="factor on the SF loss bands")
+    parser.add_argument("--seed", type=int, default=d.seed)
+    parser.add_argument("--device", default=d.device, help="auto (CUDA when present), cpu, cuda, ...")
+    parser.add_argument("--checkpoint-every", type=float, default=d.checkpoint_every, help="seconds")
+    parser.add_argument("--export-reserve", type=float, default=d.export_reserve,
+                        help="seconds kept before the deadline for the ONNX export and the summary")
+    parser.add_argument("--max-steps", type=int, default=None, help="stop after this many steps (tests)")
+    parser.add_argument("--log-every", type=int, default=d.log_every, help="a log.jsonl record every N steps")
+    parser.add_argument("--no-amp", action="store_true", help="no mixed precision on CUDA")
+
+
+def config_from_args(args: argparse.Namespace) -> GpuTrainConfig:
+    init = None if str(args.init).lower() == "none" else Path(args.init)
+    return GpuTrainConfig(
+        bank=Path(args.bank), out=Path(args.out), deadline=args.deadline, init=init, resolution=args.resolution,
+        width=args.width, batch_size=args.batch_size, pool=args.pool, fresh_per_step=args.fresh_per_step,
+        render_share=args.render_share,
+        dirs=args.dirs, shadow_size=args.shadow_size, framings=args.framings, max_yaw=args.max_yaw, lr=args.lr,
+        lr_min=args.lr_min, sf_scale=args.sf_scale, seed=args.seed, device=args.device,
+        checkpoint_every=args.checkpoint_every, export_reserve=args.export_reserve, max_steps=args.max_steps,
+        log_every=max(1, args.log_every), amp=not args.no_amp,
+    )
+
+
+def _check(config: GpuTrainConfig) -> None:
+    if config.resolution < 64 or config.resolution % 64:
+        raise RelightError(f"--resolution: expected a positive multiple of 64, got {config.resolution}")
+    for name in ("batch_size", "pool", "fresh_per_step", "dirs", "width"):
+        if getattr(config, name) < 1:
+            raise RelightError(f"--{name.replace('_', '-')}: expected >= 1, got {getattr(config, name)}")
+    if config.pool < config.batch_size:
+        raise RelightError(f"--pool {config.pool} must hold at least one batch (--batch-size {config.batch_size})")
+    if not 0 < config.render_share <= 1:
+        raise RelightError(f"--render-share: expected a share in (0, 1], got {config.render_share}")
+    if config.shadow_size < 8:
+        raise RelightError(f"--shadow-size: expected >= 8, got {config.shadow_size}")
+    if not (config.deadline > 0 and 0 <= config.export_reserve < config.deadline):
+        raise RelightError(f"expected --deadline > --export-reserve >= 0, got {config.deadline} and "
+                           f"{config.export_reserve}")
+    if not (config.lr > 0 and 0 <= config.lr_min <= config.lr):
+        raise RelightError(f"expected --lr > 0 and 0 <= --lr-min <= --lr, got {config.lr} and {config.lr_min}")
+    if config.init is not None and not config.init.is_file():
+        raise RelightError(f"--init {config.init}: no such file")
+
+
+class _Stop(Exception):
+    """Raised by the SIGTERM handler: stop training, then export as at the deadline."""
+
+
+def _on_sigterm(signum, frame):  # noqa: ARG001  (signal handler signature)
+    raise _Stop("SIGTERM")
+
+
+class _Pool:
+    """Rendered samples on the training device: a ring of ``size`` slots, float16, channels
+    albedo 3, mask 1, skin 1, transport 9."""
+
+    def __init__(self, size: int, resolution: int, device):
+        import torch
+
+        self.data = torch.zeros((size, 14, resolution, resolution), dtype=torch.float16, device=device)
+        self.count = 0
+        self.next = 0
+
+    def add(self, sample: dict) -> None:
+        import torch
+
+        self.data[self.next] = torch.cat([sample["albedo"], sample["mask"], sample["skin"], sample["transport"]])
+        self.next = (self.next + 1) % len(self.data)
+        self.count = min(self.count + 1, len(self.data))
+
+    def batch(self, index, lights, flips) -> dict:
+        """Samples ``index`` with lights (N, 9, 3), flipped where ``flips`` (N,) bool (export.torch_data's flip)."""
+        import torch
+
+        from export.losses import FLIP_SIGNS
+
+        x = self.data[index].float()
+        x = torch.where(flips[:, None, None, None], x.flip(-1), x)
+        signs = torch.tensor(FLIP_SIGNS, device=x.device)
+        sign = torch.where(flips[:, None], signs[None], torch.ones_like(signs)[None])
+        transport = x[:, 5:] * sign[:, :, None, None]
+        return {"albedo": x[:, :3], "mask": x[:, 3:4], "skin": x[:, 4:5], "transport": transport,
+                "light": lights * sign[:, :, None]}
+
+
+class _Sampler:
+    """Draws (subject, framing, yaw) and renders one sample on the device."""
+
+    def __init__(self, config: GpuTrainConfig, subjects: list, device):
+        import torch
+
+        from export.render.cli import parse_framings
+
+        from .render import RenderSettings
+
+        try:
+            framings = parse_framings(config.framings)
+        except argparse.ArgumentTypeError as exc:
+            raise RelightError(f"--framings: {exc}") from None
+        self.names = sorted(framings)
+        self.weights = np.array([framings[n] for n in self.names])
+        self.subjects = subjects
+        self.config = config
+        cuda = device.type == "cuda"  # room for every direction's depth map at once, and large raster chunks
+        self.settings = RenderSettings(resolution=config.resolution, dirs=config.dirs, shadow_size=config.shadow_size,
+                                       max_candidates=(1 << 25) if cuda else (1 << 21),
+                                       dir_chunk=128 if cuda else 32)
+        self.rng = np.random.default_rng([config.seed, 0x6B7])
+        self.generator = torch.Generator().manual_seed(config.seed)
+        self.rendered = 0
+        self.seconds = 0.0
+        self.by_framing: dict[str, list[float]] = {n: [0, 0.0] for n in self.names}  # count, seconds
+
+    def __call__(self) -> dict:
+        import torch
+
+        from .render import render_sample
+
+        t0 = time.monotonic()
+        subject = self.subjects[int(self.rng.integers(len(self.subjects)))]
+        framing = str(self.rng.choice(self.names, p=self.weights))
+        yaw = float(self.rng.uniform(-self.config.max_yaw, self.config.max_yaw))
+        with torch.no_grad():
+            sample = render_sample(subject, self.settings, framing=framing, yaw_deg=yaw, generator=self.generator)
+        if sample["albedo"].is_cuda:
+            torch.cuda.synchronize()
+        took = time.monotonic() - t0
+        self.rendered += 1
+        self.seconds += took
+        self.by_framing[framing][0] += 1
+        self.by_framing[framing][1] += took
+        return sample
+
+
+def _load_bank(root: Path, device):
+    from . import bank
+    from .render import DeviceSubject
+
+    index = bank.read_index(root)
+    template = bank.read_template(root)
+    subjects = [DeviceSubject.from_data(bank.read_subject(root / f"{n}.npz", template), device)
+                for n in index["subjects"]]
+    return index, subjects, bank.read_lights(root, index)
+
+
+def run(config: GpuTrainConfig | argparse.Namespace) -> int:
+    """Run ``gpu-train``; returns the exit status (0, or 1 when training stopped on an error)."""
+    if isinstance(config, argparse.Namespace):  # export/__main__ still hands the parsed arguments over
+        config = config_from_args(config)
+    start = time.monotonic()
+    _check(config)
+    import torch
+
+    from export.checkpoint import save_checkpoint
+    from export.losses import Stage1Loss
+    from export.networks import Stage1Net
+    from export.torch_data import render_input
+    from export.training import JsonlLog, autocast, pick_device
+
+    out = Path(config.out)
+    out.mkdir(parents=True, exist_ok=True)
+    device = pick_device(config.device)
+    torch.manual_seed(config.seed)
+    index, subjects, lights_np = _load_bank(Path(config.bank), device)
+    lights = torch.as_tensor(lights_np, device=device)
+    logger = JsonlLog(out / "log.jsonl")
+    device_name = torch.cuda.get_device_name(device) if device.type == "cuda" else "cpu"
+    logger.write({"event": "start", "device": device_name, "torch": torch.__version__, "subjects": len(subjects),
+                  "lights": len(lights_np), "config": {k: str(v) for k, v in asdict(config).items()}})
+    log.info("gpu-train on %s: %d subjects, %d lights, %d² px, %d directions, depth maps %d²", device_name,
+             len(subjects), len(lights_np), config.resolution, config.dirs, config.shadow_size)
+
+    sampler = _Sampler(config, subjects, device)
+    pool = _Pool(config.pool, config.resolution, device)
+    model = Stage1Net(width=config.width, resolution=config.resolution, norm="batch")
+    loss_fn = Stage1Loss(sf_scale=config.sf_scale).to(device)
+    rng = torch.Generator(device="cpu").manual_seed(config.seed + 1)
+
+    def draw(n: int) -> dict:
+        idx = torch.randint(pool.count, (n,), generator=rng)
+        light_idx = torch.randint(len(lights), (n,), generator=rng)
+        flips = torch.randint(2, (n,), generator=rng).bool()
+        return pool.batch(idx.to(device), lights[light_idx.to(device)], flips.to(device))
+
+    state = {"step": 0, "stopped": "deadline", "losses": [], "train_s": 0.0, "init": None, "error": None}
+    previous = signal.signal(signal.SIGTERM, _on_sigterm)
+    stop_at = start + config.deadline - config.export_reserve
+    try:
+        while pool.count < config.batch_size:
+            pool.add(sampler())
+        if config.init is not None:
+            from .. import warm_start
+
+            # on the CPU: load_init checks the unfolded network against onnxruntime with CPU tensors
+            state["init"] = warm_start.load_init(model, config.init)
+        model.to(device)
+        if config.init is not None:
+            batches = [draw(config.batch_size) for _ in range(4)]
+            warm_start.calibrate_norms(model, ((2.0 * render_input(b) - 1.0) * b["mask"] for b in batches))
+            log.info("stage 1 starts from %s", state["init"])
+        optimizer = torch.optim.Adam(model.parameters(), lr=config.lr, betas=(0.5, 0.999))
+        train_start = time.monotonic()
+        last_ckpt = train_start
+        model.train()
+        while True:
+            now = time.monotonic()
+            if now >= stop_at:
+                break
+            if config.max_steps is not None and state["step"] >= config.max_steps:
+                state["stopped"] = "steps"
+                break
+            for _ in range(config.fresh_per_step):  # keep rendering's share of the time near --render-share
+                if sampler.seconds > config.render_share * (sampler.seconds + state["train_s"]):
+                    break
+                pool.add(sampler())
+            if time.monotonic() >= stop_at:  # rendering can be slow (a CPU): no step that would eat the reserve
+                break
+            frac = min(1.0, (now - train_start) / max(stop_at - train_start, 1e-9))
+            for group in optimizer.param_groups:
+                group["lr"] = config.lr_min + 0.5 * (config.lr - config.lr_min) * (1.0 + math.cos(math.pi * frac))
+            t0 = time.monotonic()
+            batch = draw(config.batch_size)
+            optimizer.zero_grad(set_to_none=True)
+            with autocast(device, config.amp):
+                transport, albedo, skin, light = model((2.0 * render_input(batch) - 1.0) * batch["mask"])
+                terms = loss_fn({"transport": transport, "albedo": albedo, "skin": skin, "light": light}, batch)
+            loss = terms["total"]
+            if not torch.isfinite(loss):
+                raise RelightError(f"training diverged: loss {float(loss)} at step {state['step']}")
+            loss.backward()
+            optimizer.step()
+            value = float(loss.detach())
+            state["train_s"] += time.monotonic() - t0
+            state["step"] += 1
+            state["losses"].append(value)
+            if state["step"] % config.log_every == 0:
+                logger.write({"event": "step", "step": state["step"], "elapsed_s": time.monotonic() - start,
+                              "lr": optimizer.param_groups[0]["lr"], "total": value,
+                              "rendered": sampler.rendered, "render_s": sampler.seconds, "train_s": state["train_s"]})
+            if time.monotonic() - last_ckpt >= config.checkpoint_every:
+                save_checkpoint(out / "last.pt", model, step=state["step"], meta=json.dumps({"command": "gpu-train"}))
+                logger.write({"event": "checkpoint", "step": state["step"], "elapsed_s": time.monotonic() - start})
+                last_ckpt = time.monotonic()
+    except (_Stop, KeyboardInterrupt) as exc:
+        state["stopped"] = f"interrupted ({type(exc).__name__})"
+    except Exception as exc:  # noqa: BLE001  (whatever stopped it, the weights there are still exported)
+        state["stopped"] = "error"
+        state["error"] = f"{type(exc).__name__}: {exc}"
+        log.error("gpu-train stopped: %s", exc)
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    return _finish(config, model, sampler, state, start, index, device_name, logger)
+
+
+def _finish(config, model, sampler, state, start, index, device_name, logger) -> int:
+    """Write last.pt, stage1.onnx and summary.json, whatever stopped the run."""
+    import torch
+
+    from export.checkpoint import save_checkpoint
+    from export.onnx_export import export_onnx
+    from export.training import write_json
+
+    out = Path(config.out)
+    model.eval()
+    save_checkpoint(out / "last.pt", model, step=state["step"], meta=json.dumps({"command": "gpu-train"}))
+    losses = state["losses"]
+    k = max(1, min(20, len(losses) // 4)) if losses else 1
+    source = (f"relight_rt gpu-train: {state['step']} steps on {sampler.rendered} samples rendered from "
+              f"{len(index['subjects'])} bank people on {device_name}, from {state['init'] or 'random weights'}")
+    exported = None
+    export_error = None
+    if all(torch.isfinite(p).all() for p in model.parameters()):
+        try:
+            exported = export_onnx(model, out / "stage1.onnx", source=source)
+        except RelightError as exc:
+            export_error = str(exc)
+    else:
+        export_error = "weights hold NaN or Inf: nothing exported"
+    elapsed = time.monotonic() - start
+    summary = {
+        "stopped": state["stopped"], "error": state["error"], "export_error": export_error,
+        "device": device_name, "torch": torch.__version__, "steps": state["step"],
+        "samples_rendered": sampler.rendered, "render_s": round(sampler.seconds, 2),
+        "samples_per_s": round(sampler.rendered / max(sampler.seconds, 1e-9), 3),
+        "render_s_per_sample_by_framing": {n: round(s / c, 3) for n, (c, s) in sampler.by_framing.items() if c},
+        "peak_gpu_memory_gb": round(torch.cuda.max_memory_allocated() / 2**30, 2) if device_name != "cpu" else None,
+        "train_s": round(state["train_s"], 2), "steps_per_s": round(state["step"] / max(state["train_s"], 1e-9), 3),
+        "loss_first": float(np.mean(losses[:k])) if losses else None,
+        "loss_last": float(np.mean(losses[-k:])) if losses else None,
+        "elapsed_s": round(elapsed, 1), "init": state["init"], "onnx": exported["path"] if exported else None,
+        "subjects": len(index["subjects"]), "config": {k2: str(v) for k2, v in asdict(config).items()},
+    }
+    write_json(out / "summary.json", summary)
+    logger.write({"event": "end", **{k2: v for k2, v in summary.items() if k2 != "config"}})
+    log.info("gpu-train: %s after %d steps, %d samples rendered (%.2f/s), loss %s -> %s, %.0f s; onnx: %s",
+             state["stopped"], state["step"], sampler.rendered, summary["samples_per_s"], summary["loss_first"],
+             summary["loss_last"], elapsed, summary["onnx"] or export_error)
+    return 0 if state["error"] is None and exported is not None else 1

@@ -1,0 +1,140 @@
+"""``gpu-bank`` and ``gpu-train`` rehearsed on the CPU with tiny settings: the GPU run's code path, end to end."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+torch = pytest.importorskip("torch")
+
+from export.__main__ import main  # noqa: E402
+from export.checkpoint import load_checkpoint  # noqa: E402
+from export.frozen import OnnxStage  # noqa: E402
+from export.toy_data import make_lights  # noqa: E402
+from export.training import read_jsonl  # noqa: E402
+
+TINY = ["--resolution", "64", "--width", "4", "--batch-size", "2", "--pool", "4", "--fresh-per-step", "1",
+        "--render-share", "1", "--dirs", "8", "--shadow-size", "32", "--log-every", "1", "--device", "cpu"]
+
+
+@pytest.fixture(scope="module")
+def bank_dir(tmp_path_factory):
+    root = tmp_path_factory.mktemp("gpu")
+    make_lights(root / "lights", 4)
+    argv = ["gpu-bank", "--out", str(root / "bank"), "--lights", str(root / "lights"), "--n", "2",
+            "--subject", "shapes", "--texture-size", "16"]
+    assert main(argv) == 0
+    return root / "bank"
+
+
+def test_the_bank_holds_two_people_and_the_lights(bank_dir):
+    index = json.loads((bank_dir / "bank.json").read_text())
+    assert index["subjects"] == ["shapes_300000", "shapes_300001"]
+    assert np.load(bank_dir / "lights.npy").shape == (4, 9, 3)
+
+
+def test_two_steps_end_with_a_contract_graph_a_checkpoint_and_a_log(bank_dir, tmp_path):
+    out = tmp_path / "run"
+    assert main(["gpu-train", "--bank", str(bank_dir), "--out", str(out), "--init", "none", "--max-steps", "2",
+                 *TINY]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["stopped"] == "steps" and summary["steps"] == 2 and summary["error"] is None
+    assert summary["samples_rendered"] == 2 + 2  # a batch to start with, then one per step
+    assert set(summary["render_s_per_sample_by_framing"]) <= {"full", "knees-up", "waist-up", "head-shoulders",
+                                                               "face"}
+    stage = OnnxStage(out / "stage1.onnx", "stage1")
+    assert stage.resolution == 64
+    model, ckpt = load_checkpoint(out / "last.pt")
+    assert ckpt["step"] == 2 and model.config["width"] == 4
+    events = [r["event"] for r in read_jsonl(out / "log.jsonl")]
+    assert events[0] == "start" and events.count("step") == 2 and events[-1] == "end"
+
+
+def test_it_starts_from_an_onnx_graph(bank_dir, tmp_path):
+    from export.networks import Stage1Net
+    from export.onnx_export import export_onnx
+
+    torch.manual_seed(0)
+    net = Stage1Net(width=4, resolution=64, norm="batch")
+    with torch.no_grad():  # norms away from their defaults, as in a trained graph (the exporter folds them)
+        for m in net.modules():
+            if isinstance(m, torch.nn.BatchNorm2d):
+                m.weight.uniform_(0.5, 1.5)
+                m.bias.uniform_(-0.2, 0.2)
+    init = tmp_path / "init.onnx"
+    export_onnx(net.eval(), init, source="test")
+    out = tmp_path / "run"
+    assert main(["gpu-train", "--bank", str(bank_dir), "--out", str(out), "--init", str(init), "--max-steps", "1",
+                 *TINY]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert "init.onnx (ONNX, norm layers unfolded" in summary["init"]
+
+
+def test_rendering_keeps_to_its_share_of_the_time(bank_dir, tmp_path):
+    out = tmp_path / "run"
+    # rendering the first batch takes far more than 1% of what two tiny steps take: no fresh samples after it
+    assert main(["gpu-train", "--bank", str(bank_dir), "--out", str(out), "--init", "none", "--max-steps", "2",
+                 *TINY, "--render-share", "0.01"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["steps"] == 2 and summary["samples_rendered"] == 2
+
+
+def test_the_deadline_stops_it_and_it_still_exports(bank_dir, tmp_path):
+    out = tmp_path / "run"
+    # the deadline minus the export reserve has passed before the first step: no training, still a graph
+    assert main(["gpu-train", "--bank", str(bank_dir), "--out", str(out), "--init", "none", "--deadline", "2",
+                 "--export-reserve", "1.99", *TINY]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["stopped"] == "deadline" and summary["steps"] == 0
+    assert (out / "stage1.onnx").is_file() and (out / "last.pt").is_file()
+
+
+def test_flipped_batches_shade_as_the_mirror_image():
+    from export.gpu.train import _Pool
+    from export.torch_data import render_input
+
+    rng = torch.Generator().manual_seed(0)
+    pool = _Pool(2, 8, torch.device("cpu"))
+    sample = {"albedo": torch.rand(3, 8, 8, generator=rng), "mask": (torch.rand(1, 8, 8, generator=rng) > 0.3).float(),
+              "skin": torch.rand(1, 8, 8, generator=rng), "transport": torch.randn(9, 8, 8, generator=rng)}
+    pool.add(sample)
+    light = torch.randn(1, 9, 3, generator=rng)
+    plain = pool.batch(torch.tensor([0]), light, torch.tensor([False]))
+    flipped = pool.batch(torch.tensor([0]), light, torch.tensor([True]))
+    assert torch.allclose(render_input(flipped), render_input(plain).flip(-1), atol=1e-6)
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--bank", "nowhere"], "bank.json"),
+    (["--resolution", "96"], "multiple of 64"),
+    (["--init", "missing.onnx"], "no such file"),
+])
+def test_bad_settings_get_one_line(bank_dir, tmp_path, capsys, argv, message):
+    args = ["gpu-train", "--bank", str(bank_dir), "--out", str(tmp_path / "run"), *TINY, *argv]
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip()
+    assert message in err and len(err.splitlines()) == 1
+
+
+def test_it_needs_nothing_the_gpu_machine_lacks(bank_dir, tmp_path):
+    """The device has torch, numpy, onnx, onnxruntime and OpenCV, not anny, embree, trimesh or warp."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\n"
+        "class Block:\n"
+        "    def find_spec(self, name, path=None, target=None):\n"
+        "        if name.split('.')[0] in {'anny', 'embreex', 'trimesh', 'warp'}:\n"
+        "            raise ImportError(f'{name} is not on the GPU machine')\n"
+        "sys.meta_path.insert(0, Block())\n"
+        "from export.__main__ import main\n"
+        "sys.exit(main(sys.argv[1:]))\n"
+    )
+    out = tmp_path / "run"
+    argv = ["gpu-train", "--bank", str(bank_dir), "--out", str(out), "--init", "none", "--max-steps", "1", *TINY]
+    done = subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert json.loads((out / "summary.json").read_text())["steps"] == 1
