@@ -35,7 +35,7 @@ ORDER = ("full", "knees-up", "waist-up", "head-shoulders", "face")
 
 @dataclass(frozen=True)
 class GpuCheckConfig:
-    bank: Path
+    bank: Path = Path("data/gpu_bank")
     out: Path | None = None
     n: int = 5
     start: int = 0
@@ -48,8 +48,8 @@ class GpuCheckConfig:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    d = GpuCheckConfig(bank=Path())
-    parser.add_argument("--bank", type=Path, default=Path("data/gpu_bank"), help="bank folder (default %(default)s)")
+    d = GpuCheckConfig()
+    parser.add_argument("--bank", type=Path, default=d.bank, help="bank folder (default %(default)s)")
     parser.add_argument("--out", type=Path, help="also write the figures to this JSON file")
     parser.add_argument("--n", type=int, default=d.n, help="people to compare (default %(default)s)")
     parser.add_argument("--start", type=int, default=d.start,

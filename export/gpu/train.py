@@ -46,8 +46,8 @@ SHIPPED_STAGE1 = Path(__file__).resolve().parents[2] / "relight_rt" / "models" /
 class GpuTrainConfig:
     """Settings of one ``gpu-train`` run (see add_arguments for each)."""
 
-    bank: Path
     out: Path
+    bank: Path = Path("data/gpu_bank")
     deadline: float = 540.0
     init: Path | None = SHIPPED_STAGE1
     resolution: int = 256
@@ -73,8 +73,8 @@ class GpuTrainConfig:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    d = GpuTrainConfig(bank=Path(), out=Path())
-    parser.add_argument("--bank", type=Path, default=Path("data/gpu_bank"),
+    d = GpuTrainConfig(out=Path())
+    parser.add_argument("--bank", type=Path, default=d.bank,
                         help="bank folder (python -m export gpu-bank; default %(default)s)")
     parser.add_argument("--out", type=Path, required=True, help="run folder: stage1.onnx, last.pt, log.jsonl, "
                                                                   "summary.json")
@@ -106,7 +106,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="seconds kept before the deadline for the ONNX export and the summary")
     parser.add_argument("--max-steps", type=int, default=None, help="stop after this many steps (tests)")
     parser.add_argument("--log-every", type=int, default=d.log_every, help="a log.jsonl record every N steps")
-    parser.add_argument("--no-amp", action="store_true", help="no mixed precision on CUDA")
+    parser.add_argument("--no-amp", dest="amp", action="store_false", help="no mixed precision on CUDA")
 
 
 def config_from_args(args: argparse.Namespace) -> GpuTrainConfig:
@@ -118,7 +118,7 @@ def config_from_args(args: argparse.Namespace) -> GpuTrainConfig:
         dirs=args.dirs, shadow_size=args.shadow_size, framings=args.framings, max_yaw=args.max_yaw, lr=args.lr,
         lr_min=args.lr_min, sf_scale=args.sf_scale, seed=args.seed, device=args.device,
         checkpoint_every=args.checkpoint_every, export_reserve=args.export_reserve, max_steps=args.max_steps,
-        log_every=max(1, args.log_every), amp=not args.no_amp,
+        log_every=max(1, args.log_every), amp=args.amp,
     )
 
 
