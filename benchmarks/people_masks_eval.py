@@ -91,14 +91,20 @@ def whole_image(model, rgb: np.ndarray, output: str, logits: bool) -> np.ndarray
                           borderMode=cv2.BORDER_CONSTANT, borderValue=0.0)  # fmt: skip
 
 
-def run_methods(root: Path, which: str, methods: list[str], keep: dict | None) -> dict[str, dict[str, float]]:
+def run_methods(
+    root: Path, which: str, methods: list[str], keep: dict | None, half: str | None = None
+) -> dict[str, dict[str, float]]:  # fmt: skip
     """IoU per method per image; ``keep`` (optional) collects the predicted masks by (method, name)."""
     largest = M.PersonMatter(person="largest")
     everyone = M.PersonMatter(person="all") if "all" in methods else None
     out: dict[str, dict[str, float]] = {m: {} for m in methods}
     secs: dict[str, float] = {m: 0.0 for m in methods}
     vm = M.VideoMatter(largest) if "video" in methods and which == "clip" else None
-    for name, img, mask in items(root, which):
+    listed = items(root, which)
+    if half is not None and which == "photos":
+        halves = half_of([n for n, _, _ in listed])
+        listed = [t for t in listed if halves[t[0]] == half]
+    for name, img, mask in listed:
         rgb = read_rgb(img)
         gt = read_mask(mask, rgb.shape[:2])
         for m in methods:
@@ -164,6 +170,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--set", choices=("clip", "photos", "both"), default="both")
     ap.add_argument("--methods", default="ours,all,selfie,pose,video", help=f"comma list of {METHODS}")
+    ap.add_argument("--half", choices=("A", "B"), help="only this half of the photos")
     ap.add_argument("--table", action="store_true", help="print the per-photo table")
     ap.add_argument("--sheet", type=Path, help="write the 12 worst photos (ours) as a sheet here (under /tmp)")
     ap.add_argument("--save", type=Path, help="write every IoU as JSON here")
@@ -174,17 +181,19 @@ def main(argv: list[str] | None = None) -> int:
     root = data_root()
     sets = ("clip", "photos") if args.set == "both" else (args.set,)
     keep: dict | None = {} if args.sheet else None
-    results = {s: run_methods(root, s, methods, keep) for s in sets}
+    results = {s: run_methods(root, s, methods, keep, args.half) for s in sets}
 
     print("set      half  method   n    mean IoU  IoU<0.8")
     for s in sets:
-        halves = half_of(list(next(iter(results[s].values())).keys())) if s == "photos" else None
+        halves = half_of([n for n, _, _ in items(root, s)]) if s == "photos" else None
         for m, scores in results[s].items():
             mean, gross, n = summary(scores)
             print(f"{s:8s} all   {m:7s} {n:4d}  {mean:.3f}     {gross:5.1%}")
             if halves:
                 for hv in "AB":
                     part = {k: v for k, v in scores.items() if halves[k] == hv}
+                    if not part:
+                        continue
                     mean, gross, n = summary(part)
                     print(f"{s:8s} {hv}     {m:7s} {n:4d}  {mean:.3f}     {gross:5.1%}")
     if "clip" in results and "photos" in results and "ours" in methods:
@@ -197,10 +206,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"photos where ours < selfie: {len(below)} (mean loss over the set {loss:.4f}); worst: "
               + ", ".join(f"{n} {ours[n]:.2f}<{selfie[n]:.2f}" for n in below[:15]))
     if args.table and "photos" in results:
-        halves = half_of(list(next(iter(results["photos"].values())).keys()))
+        halves = half_of([n for n, _, _ in items(root, "photos")])
         cols = list(results["photos"])
         print("name  half " + " ".join(f"{c:>7s}" for c in cols))
-        for n in sorted(halves):
+        for n in sorted(results["photos"][cols[0]]):
             print(f"{n}  {halves[n]}    " + " ".join(f"{results['photos'][c][n]:7.3f}" for c in cols))
     if args.sheet and "photos" in results:
         ours = results["photos"][methods[0]]

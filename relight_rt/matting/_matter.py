@@ -42,6 +42,7 @@ from ._regions import (
 PERSON_MODES = ("largest", "all")
 GUIDES = ("gray", "color")
 PRESENCE_MIN = 0.5  # pose-presence probability below which a region holds no person (unless a face vouches)
+_AGREE = 0.75  # ... or where the selfie graph's segmentation of its region overlaps the pose graph's this much
 PRESENCE_FAINT = 0.9  # ... for a person the selfie graph hardly sees (:func:`_faint`): the pose graph must be sure
 FAINT_PROB = 0.25  # person="all": the selfie graph's probability that marks where such a person may stand
 MIN_PERSON_FRACTION = 0.06  # person="all": people whose box is shorter than this x the image's height are left out
@@ -57,6 +58,8 @@ _REFRAME = 0.9  # the selfie graph is run again on its own segmentation's region
 _MAX_GROW = 2  # selfie-graph runs on a higher region while its segmentation is cut by the region's top (_uncut)
 _STRADDLE = 0.75  # person="all": a pose-graph person this much inside the others together straddles two
 _PAIR_WIDTH = 0.45  # person="all": a blob nobody is found in, this x as wide as tall or wider, may be two
+_PORTRAIT_REACH = 0.3  # a pose-graph person ending this close to the bottom (x the height) may be a portrait
+_PORTRAIT_FACE = 0.3  # ... and holding a face this x its width wide
 _CUT_WIDTH = 0.125  # a portrait's body is cut by the bottom border over at least this x its box's width
 _FRAGMENT = 0.003  # person="largest": a separate part of the matte at least this x its main part's area is checked
 _MAX_FRAGMENTS = 8  # ... at most this many of them (largest first)
@@ -208,10 +211,35 @@ class PersonMatter:
             if wider is not None:
                 retry = self._pose(rgb, Region.around(*wider))
                 person = retry if retry.presence > person.presence else person
-        if person is None or person.region.box()[3] <= rgb.shape[0]:
-            return person  # a portrait runs off the bottom, so its region reaches past it: no check needed
-        roi = self._roi_person(rgb, person.region, person.presence)
+        if person is None:
+            return person
+        region = self._portrait_region(rgb, person)
+        if region is None:
+            return person
+        roi = self._roi_person(rgb, region, person.presence)
         return self._reframed(rgb, roi) if _is_portrait(roi, rgb.shape[:2]) else person
+
+    def _portrait_region(self, rgb: np.ndarray, person: Person) -> Region | None:
+        """Where the selfie graph checks for a portrait (:func:`_is_portrait`): the pose graph's region when it
+        reaches past the image's bottom; else, when the pose graph's person ends within _PORTRAIT_REACH x the
+        image's height above the bottom, a region around that person reaching down to the bottom (the pose graph
+        loses the shoulders and chest of a close portrait, and its region, framed on what it saw, then stops
+        above the bottom: a portrait before an orange wall was matted down to the collar) and a face at least
+        _PORTRAIT_FACE x that person's width wide lies inside it (a portrait's face is half the width the pose
+        graph sees; a whole body crouching at the bottom of a frame, whose face is a tenth of it, is no
+        portrait: the selfie graph would take the bushes around the runner's legs); None: no check."""
+        h = rgb.shape[0]
+        if person.region.box()[3] > h:
+            return person.region
+        box = person_box(person, rgb.shape[:2])
+        if box is None or box[3] < h * (1.0 - _PORTRAIT_REACH):
+            return None
+        for f in self.find_faces(rgb):
+            cx, cy = (f.box[0] + f.box[2]) / 2, (f.box[1] + f.box[3]) / 2
+            inside = box[0] <= cx <= box[2] and box[1] <= cy <= box[3]
+            if inside and f.box[2] - f.box[0] >= _PORTRAIT_FACE * (box[2] - box[0]):
+                return Region.around(box[0], box[1], box[2], float(h))
+        return None
 
     def people(self, rgb: np.ndarray, name: str = "image") -> list[Person]:
         """Segmented people (the largest for person="largest", everyone for "all"); empty when nobody is found.
@@ -411,8 +439,11 @@ class PersonMatter:
             rgb, Region.around(*box), give_up if face is None else 0.0, past_border=face is None, passes=passes
         )
         # the pose graph segments something in any region; its presence output says whether a person is there
-        # (0.0000 on a colour gradient the region finder took for one, >= 0.87 on people in full view)
-        if p.presence >= PRESENCE_MIN and (face is None or contains(p, face, rgb.shape[:2])):
+        # (0.0000 on a colour gradient the region finder took for one, >= 0.87 on people in full view), or the
+        # selfie graph sees the same shape there (:meth:`vouched`)
+        if face is None and self.vouched(rgb, p):
+            return p
+        if p.presence >= PRESENCE_MIN and face is not None and contains(p, face, rgb.shape[:2]):
             return p
         if face is None:
             return None
@@ -421,6 +452,21 @@ class PersonMatter:
         region = Region.around(*face.body_box(rgb.shape[:2]))
         roi = self._reframed(rgb, self._roi_person(rgb, region, max(p.presence, face.score)))
         return roi if contains(roi, face, rgb.shape[:2]) else None
+
+    def vouched(self, rgb: np.ndarray, person: Person) -> bool:
+        """Whether ``person`` (the pose graph's segmentation of a region) is a person: the pose graph's presence
+        flag says so, or the selfie graph on the same region segments the same shape (IoU >= _AGREE of their
+        two masks on the canvas). The presence flag is made for upright bodies: it says nobody for a runner in
+        mid-air over a railing (0.00-0.09 on 10 of the 100 frames of the parkour clip), a man lying on a floor,
+        a woman seen from behind reaching out (0.003), while both graphs segment the same body there (IoU
+        0.78-0.95); on a region holding nobody the two disagree or see nothing."""
+        if person.presence >= PRESENCE_MIN:
+            return True
+        if person.source == "pose":
+            mine, other = person.logits > 0, self._roi_prob(rgb, person.region) > 0.5
+        else:  # the selfie graph's (a portrait's): the pose graph on the same region must see the same shape
+            mine, other = person.logits > 0, self._pose(rgb, person.region).logits > 0
+        return bool(mine.any() and (mine & other).sum() >= _AGREE * (mine | other).sum())
 
     # -- full resolution ----------------------------------------------------------------------------
 
