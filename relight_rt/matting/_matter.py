@@ -43,6 +43,8 @@ PERSON_MODES = ("largest", "all")
 GUIDES = ("gray", "color")
 PRESENCE_MIN = 0.5  # pose-presence probability below which a region holds no person (unless a face vouches)
 _AGREE = 0.75  # ... or where the selfie graph's segmentation of its region overlaps the pose graph's this much
+_NOBODY = 0.05  # person="all": a face under which the pose graph's presence is below this ...
+_SURE_FACE = 0.8  # ... is a person only when the face graph's score is at least this
 PRESENCE_FAINT = 0.9  # ... for a person the selfie graph hardly sees (:func:`_faint`): the pose graph must be sure
 FAINT_PROB = 0.25  # person="all": the selfie graph's probability that marks where such a person may stand
 MIN_PERSON_FRACTION = 0.06  # person="all": people whose box is shorter than this x the image's height are left out
@@ -384,7 +386,7 @@ class PersonMatter:
             if (k is not None and k in owned) or (pix is not None and occupied.flat[pix].mean() >= _COVERED):
                 continue
             tries += 1
-            p = self._person_at(rgb, box, face, _GIVE_UP)
+            p = self._person_at(rgb, box, face, _GIVE_UP, sure_face=_SURE_FACE if found else 0.0)
             if p is not None and face is None and _mostly_in(logits_on_grid(p, grid) > 0, occupied):
                 # it slid onto a neighbour matted already (two passers-by side by side, one blob): the pose graph
                 # framed on the blob's part beside that neighbour, not re-centred, may see the other one
@@ -431,10 +433,17 @@ class PersonMatter:
         return _without_straddlers(found, grid, faces, (h, w))
 
     def _person_at(
-        self, rgb: np.ndarray, box, face: Face | None, give_up: float = 0.0, passes: int | None = None
-    ) -> Person | None:
+        self, rgb: np.ndarray, box, face: Face | None, give_up: float = 0.0, passes: int | None = None,
+        sure_face: float = 0.0,
+    ) -> Person | None:  # fmt: skip
         """The person in ``box`` (a blob's or a face's body box), or None when the pose graph says nobody is
-        there and no face vouches for one (``give_up``: see :meth:`segment`)."""
+        there and no face vouches for one (``give_up``: see :meth:`segment`). A face vouches when the pose graph
+        sees at least a trace of a body under it (presence >= _NOBODY) or its score is at least ``sure_face``
+        (person="all" asks for _SURE_FACE once someone is found: its faces come from tiles, where the face graph
+        also finds faces in things, 0.66-0.73 on a red bench and a treadmill's console beside the person, with
+        presence 0.00-0.01 under them, while the faces of other people under which the pose graph sees nobody
+        scored 0.87-0.90 on the photos of benchmarks/people_masks_eval.py; a close portrait's face, the only
+        person in the photo, can score 0.71)."""
         p = self.segment(
             rgb, Region.around(*box), give_up if face is None else 0.0, past_border=face is None, passes=passes
         )
@@ -445,7 +454,7 @@ class PersonMatter:
             return p
         if p.presence >= PRESENCE_MIN and face is not None and contains(p, face, rgb.shape[:2]):
             return p
-        if face is None:
+        if face is None or (p.presence < _NOBODY and face.score < sure_face):
             return None
         # a face, but the pose graph sees no body here (a close portrait) or another person: the selfie graph
         # segments the face's region instead (made for head-and-shoulders framing)
