@@ -3,6 +3,7 @@
     python benchmarks/people_masks_eval.py                       # clip + photos, every method, summary table
     python benchmarks/people_masks_eval.py --set photos --methods ours --table   # + per-photo table
     python benchmarks/people_masks_eval.py --sheet /tmp/worst.png              # the 12 worst photos (ours)
+    python benchmarks/people_masks_eval.py --speed [PHOTO]     # the default matte's time on a photo (2.5 MP)
 
 Sets: ``clip/`` (100 frames of a runner vaulting a railing, DAVIS 2016 "parkour", masks drawn by hand) and
 ``photos/`` (208 web photos, masks made by a commercial matting service: a second opinion, not truth). The
@@ -166,6 +167,21 @@ def sheet(root: Path, names: list[str], keep: dict, path: Path, method: str = "o
     cv2.imwrite(str(path), np.concatenate(rows, axis=0))
 
 
+def speed(photo: Path, repeats: int = 7) -> None:
+    """The default matte (PersonMatter(), person="largest") on one photo: best and median of ``repeats`` calls
+    after a warm-up, milliseconds (default photo: the reference photo of ../shared/reference, 2.5 MP)."""
+    rgb = read_rgb(photo)
+    matter = M.PersonMatter()
+    matter(rgb)
+    times = []
+    for _ in range(repeats):
+        t = time.perf_counter()
+        matter(rgb)
+        times.append(1000 * (time.perf_counter() - t))
+    print(f"matte {photo.name} {rgb.shape[1]}x{rgb.shape[0]}: best {min(times):.0f} ms, median "
+          f"{float(np.median(times)):.0f} ms ({repeats} runs)")
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--set", choices=("clip", "photos", "both"), default="both")
@@ -174,7 +190,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--table", action="store_true", help="print the per-photo table")
     ap.add_argument("--sheet", type=Path, help="write the 12 worst photos (ours) as a sheet here (under /tmp)")
     ap.add_argument("--save", type=Path, help="write every IoU as JSON here")
+    ap.add_argument("--speed", nargs="?", const=REPO.parents[1] / "shared" / "reference" / "photo" / "sample.jpg",
+                    type=Path, help="only time the default matte on this photo (default: the reference photo)")
     args = ap.parse_args(argv)
+    if args.speed:
+        speed(args.speed)
+        return 0
     methods = [m for m in args.methods.split(",") if m]
     if any(m not in METHODS for m in methods):
         ap.error(f"--methods: expected some of {METHODS}")

@@ -153,3 +153,38 @@ def test_a_face_with_no_body_under_it_needs_a_sure_score_when_asked(score, sure,
     face = Face((170.0, 100.0, 230.0, 160.0), score)
     p = matter._person_at(rgb, face.body_box(rgb.shape[:2]), face, sure_face=sure)
     assert (p is not None) == kept
+
+
+class _DimLegs:
+    """A stand-in for the pose graph: sure of the bright body (logit 10), half-sees the grey legs (probability
+    0.2), as the real one half-sees dark trousers."""
+
+    def run(self, feeds):
+        grey = feeds["image"][0].mean(0)
+        seg = np.where(grey > 0.6, 10.0, np.where(grey > 0.2, np.log(0.2 / 0.8), -10.0)).astype(np.float32)
+        return {"segmentation": seg[None, None], "presence": np.array([[0.95]], np.float32)}
+
+
+class _Seen:
+    """A stand-in for the selfie graph: a person wherever the canvas is not black."""
+
+    def run(self, feeds):
+        return {"segmentation": (feeds["image"][0].mean(0) > 0.2).astype(np.float32)[None, None]}
+
+
+@pytest.mark.parametrize(("selfie", "legs"), [(_Seen, True), (_Blind, False)])
+def test_what_the_pose_graph_half_sees_is_the_persons_where_the_selfie_graph_agrees(selfie, legs):
+    h, w = 300, 400
+    yy, xx = np.mgrid[0:h, 0:w] + 0.5
+    torso = (((xx - 200) / 50) ** 2 + ((yy - 100) / 70) ** 2) < 1
+    trousers = (np.abs(xx - 200) < 35) & (yy > 150) & (yy < 260)
+    rgb = np.zeros((h, w, 3), np.float32)
+    rgb[trousers] = 0.4
+    rgb[torso] = 1.0
+    matter = M.PersonMatter(refine=False)
+    matter.roi, matter.pose, matter.face = selfie(), _DimLegs(), None
+    person = matter._backed(rgb, matter.segment(rgb, M.Region.around(150.0, 30.0, 250.0, 260.0), passes=1))
+    alpha = matter.alpha(rgb, [person])
+    assert (alpha[torso] >= 0.5).mean() > 0.95
+    below = trousers & (yy > 175)
+    assert ((alpha[below] >= 0.5).mean() > 0.9) == legs
