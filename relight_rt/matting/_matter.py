@@ -24,6 +24,7 @@ from ._coarse import region_alpha
 from ._detect import MIN_TILE, find_close_faces, find_faces, find_people, roi_prob
 from ._models import FACE_FILE, POSE_FILE, ROI_FILE, SIZE, as_rgb, find_matting_models
 from ._regions import (
+    COARSE_MIN_AREA,
     LOGIT_CLIP,
     Person,
     Region,
@@ -34,6 +35,7 @@ from ._regions import (
     person_box,
     prob_at,
     reductions_shared,
+    sigmoid,
     tile_levels,
     warp_to_grid,
     working_grid,
@@ -46,6 +48,7 @@ _AGREE = 0.75  # ... or where the selfie graph's segmentation of its region over
 _NOBODY = 0.05  # person="all": a face under which the pose graph's presence is below this ...
 _SURE_FACE = 0.8  # ... is a person only when the face graph's score is at least this
 _BACKED = 0.1  # a pose-graph person's pixels at this probability or more are theirs where the selfie graph agrees
+_SURE_BLOB = 0.9  # person="largest", nobody else found: the selfie graph's blob is a person when this sure of it
 PRESENCE_FAINT = 0.9  # ... for a person the selfie graph hardly sees (:func:`_faint`): the pose graph must be sure
 FAINT_PROB = 0.25  # person="all": the selfie graph's probability that marks where such a person may stand
 MIN_PERSON_FRACTION = 0.06  # person="all": people whose box is shorter than this x the image's height are left out
@@ -304,6 +307,15 @@ class PersonMatter:
             p = self._person_at(rgb, face.body_box((h, w)), face)
             if p is not None:
                 return [p]
+        # neither the pose graph nor a face vouches for anyone: the selfie graph's own segmentation of its largest
+        # blob, when it is sure of it (a man lying on a shop floor, a couple taking a selfie, a woman seen from
+        # behind: the pose graph's presence 0.003-0.27 there, and no face found; the selfie graph alone 0.69-0.84
+        # IoU where the matte was empty)
+        for _, box in self.find_people(rgb)[:1]:
+            roi = self._reframed(rgb, self._roi_person(rgb, Region.around(*box), 0.0))
+            mine = roi.logits > 0
+            if mine.sum() >= COARSE_MIN_AREA and float(sigmoid(roi.logits[mine]).mean()) >= _SURE_BLOB:
+                return [roi]
         return []
 
     def _note_others(self, rgb: np.ndarray, person: Person, name: str) -> None:

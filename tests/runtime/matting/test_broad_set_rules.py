@@ -188,3 +188,19 @@ def test_what_the_pose_graph_half_sees_is_the_persons_where_the_selfie_graph_agr
     assert (alpha[torso] >= 0.5).mean() > 0.95
     below = trousers & (yy > 175)
     assert ((alpha[below] >= 0.5).mean() > 0.9) == legs
+
+
+@pytest.mark.parametrize(("brightness", "found"), [(1.0, True), (0.7, False)])
+def test_a_blob_the_selfie_graph_is_sure_of_is_the_person_when_nothing_else_vouches(brightness, found):
+    """person="largest": when neither the pose graph nor a face vouches for anyone, the selfie graph's own
+    segmentation of its largest blob is the person if it is sure of it (mean probability >= _SURE_BLOB over it: a
+    couple taking a selfie, a woman seen from behind were empty mattes)."""
+    body = crouching()
+    rgb = np.repeat(body[..., None] * brightness, 3, 2)
+    matter = M.PersonMatter(refine=False)
+    matter.roi, matter.pose, matter.face = _Bright(), _Nobody(), None
+    if found:
+        assert iou(matter(rgb), body) > 0.95
+    else:
+        with pytest.raises(RelightError, match="no person found"):
+            matter(rgb)
