@@ -415,12 +415,12 @@ class PersonMatter:
             if (k is not None and k in owned) or (pix is not None and occupied.flat[pix].mean() >= _COVERED):
                 continue
             tries += 1
-            p = self._person_at(rgb, box, face, _GIVE_UP, sure_face=_SURE_FACE if found else 0.0)
+            p = self._person_at(rgb, box, face, _GIVE_UP, sure_face=_SURE_FACE if found else 0.0, vouch=not found)
             if p is not None and face is None and _mostly_in(logits_on_grid(p, grid) > 0, occupied):
                 # it slid onto a neighbour matted already (two passers-by side by side, one blob): the pose graph
                 # framed on the blob's part beside that neighbour, not re-centred, may see the other one
                 beside = _beside(box, person_box(p, (h, w)))
-                p = None if beside is None else self._person_at(rgb, beside, None, _GIVE_UP, passes=1)
+                p = None if beside is None else self._person_at(rgb, beside, None, _GIVE_UP, passes=1, vouch=False)
             if p is not None and _box_height(person_box(p, (h, w))) >= MIN_PERSON_FRACTION * h:
                 mask = logits_on_grid(p, grid) > 0
                 # a person mostly inside the people matted already is one of them again (a face's person may
@@ -448,7 +448,7 @@ class PersonMatter:
             if pix.size == 0 or occupied.flat[pix].mean() >= _COVERED:
                 continue
             tries += 1
-            p = self._person_at(rgb, box, None, _GIVE_UP)
+            p = self._person_at(rgb, box, None, _GIVE_UP, vouch=False)
             if p is None or p.presence < PRESENCE_FAINT or _box_height(person_box(p, (h, w))) < MIN_PERSON_FRACTION * h:
                 continue
             if _past_border(person_box(p, (h, w)), (h, w)) is not None:
@@ -463,7 +463,7 @@ class PersonMatter:
 
     def _person_at(
         self, rgb: np.ndarray, box, face: Face | None, give_up: float = 0.0, passes: int | None = None,
-        sure_face: float = 0.0,
+        sure_face: float = 0.0, vouch: bool = True,
     ) -> Person | None:  # fmt: skip
         """The person in ``box`` (a blob's or a face's body box), or None when the pose graph says nobody is
         there and no face vouches for one (``give_up``: see :meth:`segment`). A face vouches when the pose graph
@@ -472,14 +472,16 @@ class PersonMatter:
         also finds faces in things, 0.66-0.73 on a red bench and a treadmill's console beside the person, with
         presence 0.00-0.01 under them, while the faces of other people under which the pose graph sees nobody
         scored 0.87-0.90 on the photos of benchmarks/people_masks_eval.py; a close portrait's face, the only
-        person in the photo, can score 0.71)."""
+        person in the photo, can score 0.71). With ``vouch`` False only the pose graph's flag says whether a blob
+        holds a person (person="all" once someone is found: a pile of clothes on a chair beside a man at a desk,
+        which both graphs segment alike, was a second person)."""
         p = self.segment(
             rgb, Region.around(*box), give_up if face is None else 0.0, past_border=face is None, passes=passes
         )
         # the pose graph segments something in any region; its presence output says whether a person is there
         # (0.0000 on a colour gradient the region finder took for one, >= 0.87 on people in full view), or the
         # selfie graph sees the same shape there (:meth:`vouched`)
-        if face is None and self.vouched(rgb, p):
+        if face is None and (p.presence >= PRESENCE_MIN or (vouch and self.vouched(rgb, p))):
             return p
         if p.presence >= PRESENCE_MIN and face is not None and contains(p, face, rgb.shape[:2]):
             return p

@@ -204,3 +204,15 @@ def test_a_blob_the_selfie_graph_is_sure_of_is_the_person_when_nothing_else_vouc
     else:
         with pytest.raises(RelightError, match="no person found"):
             matter(rgb)
+
+
+def test_a_blob_needs_the_pose_graphs_flag_when_vouching_is_off():
+    """person="all" once someone is found: a blob both graphs segment alike but the pose graph's flag calls nobody
+    (a pile of clothes on a chair beside a man at a desk) is no second person."""
+    body = crouching()
+    rgb = np.repeat(body[..., None], 3, 2)
+    matter = M.PersonMatter(refine=False)
+    matter.roi, matter.pose, matter.face = _Bright(), _Unsure(), None
+    box = (120.0, 80.0, 280.0, 200.0)
+    assert matter._person_at(rgb, box, None) is not None
+    assert matter._person_at(rgb, box, None, vouch=False) is None
