@@ -178,8 +178,10 @@ def speed(photo: Path, repeats: int = 7) -> None:
         t = time.perf_counter()
         matter(rgb)
         times.append(1000 * (time.perf_counter() - t))
-    print(f"matte {photo.name} {rgb.shape[1]}x{rgb.shape[0]}: best {min(times):.0f} ms, median "
-          f"{float(np.median(times)):.0f} ms ({repeats} runs)")
+    print(
+        f"matte {photo.name} {rgb.shape[1]}x{rgb.shape[0]}: best {min(times):.0f} ms, median "
+        f"{float(np.median(times)):.0f} ms ({repeats} runs)"
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -190,8 +192,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--table", action="store_true", help="print the per-photo table")
     ap.add_argument("--sheet", type=Path, help="write the 12 worst photos (ours) as a sheet here (under /tmp)")
     ap.add_argument("--save", type=Path, help="write every IoU as JSON here")
-    ap.add_argument("--speed", nargs="?", const=REPO.parents[1] / "shared" / "reference" / "photo" / "sample.jpg",
-                    type=Path, help="only time the default matte on this photo (default: the reference photo)")
+    ap.add_argument(
+        "--speed",
+        nargs="?",
+        const=REPO.parents[1] / "shared" / "reference" / "photo" / "sample.jpg",
+        type=Path,
+        help="only time the default matte on this photo (default: the reference photo)",
+    )
     args = ap.parse_args(argv)
     if args.speed:
         speed(args.speed)
@@ -224,8 +231,10 @@ def main(argv: list[str] | None = None) -> int:
         ours, selfie = results["photos"]["ours"], results["photos"]["selfie"]
         below = sorted((n for n in ours if ours[n] < selfie[n] - 1e-9), key=lambda n: ours[n] - selfie[n])
         loss = sum(selfie[n] - ours[n] for n in below) / len(ours)
-        print(f"photos where ours < selfie: {len(below)} (mean loss over the set {loss:.4f}); worst: "
-              + ", ".join(f"{n} {ours[n]:.2f}<{selfie[n]:.2f}" for n in below[:15]))
+        print(
+            f"photos where ours < selfie: {len(below)} (mean loss over the set {loss:.4f}); worst: "
+            + ", ".join(f"{n} {ours[n]:.2f}<{selfie[n]:.2f}" for n in below[:15])
+        )
     if args.table and "photos" in results:
         halves = half_of([n for n, _, _ in items(root, "photos")])
         cols = list(results["photos"])

@@ -19,7 +19,7 @@ from .._errors import RelightError
 from .._guided import fast_guided_filter
 from ..flow import dis_flow, warp
 from ._coarse import GF_EPS, guide_radius
-from ._matter import PRESENCE_MIN, PersonMatter
+from ._matter import PersonMatter
 from ._models import as_rgb
 from ._regions import Region, logits_on_grid, person_box, reductions_shared, sigmoid, working_grid
 

@@ -101,8 +101,8 @@ def red_headed_portrait() -> tuple[np.ndarray, np.ndarray]:
 
 @pytest.mark.parametrize(("face_width", "portrait"), [(140.0, True), (30.0, False)])
 def test_a_portrait_whose_pose_region_stops_above_the_bottom_is_checked(face_width, portrait):
-    """The pose graph sees only the head and collar; its region, framed on them, stops above the bottom. With a face half the
-    head's width inside, the selfie graph on a region reaching the bottom gives the shoulders too (a portrait
+    """The pose graph sees only the head and collar; its region, framed on them, stops above the bottom. With a
+    face half the head's width inside, the selfie graph on a region reaching the bottom gives the chest too (a portrait
     before an orange wall: IoU 0.46 -> 0.98); a face a tenth of the person's width (a body crouching at the
     bottom of the frame) keeps the pose graph's answer."""
     rgb, person = red_headed_portrait()
