@@ -90,6 +90,7 @@ class Pyramid:
         self.memo = False  # keep the reductions and each crop (read-only) for the next request
         self._levels: dict[int, np.ndarray] = {}
         self._crops: dict[tuple[Region, int], np.ndarray] = {}
+        self.answers: dict[tuple[int, Region], np.ndarray] = {}  # a graph's answer per (graph, region), when memo
 
     def level(self, n: int) -> np.ndarray:
         """The whole image reduced by n (a power of 2), from the reduction by n / 2."""

@@ -16,6 +16,13 @@ Three graphs converted from Google MediaPipe (Apache-2.0; ``python -m export mas
   selfie graph then segments the face's region), and with ``person="all"`` it tells apart people whom
   the selfie graph sees as one blob (a group is matted face by face).
 
+Where the pose graph's presence flag says nobody, the selfie graph vouches for a person when its segmentation of
+the same region has the pose graph's shape (a runner in mid-air, a man lying down); a close portrait is checked as
+one when a face at least 0.3x the person's width lies in a pose-graph person ending near the bottom; what the pose
+graph half-sees is the person's where the selfie graph agrees (dark trousers); and with nobody else found, the
+default matte takes the selfie graph's blob when it is sure of it (measured on a broad real set:
+benchmarks/people_masks_eval.py).
+
 ``person="all"`` gathers the selfie graph's probability over every tile scale (not only the first that
 finds anybody), so passers-by beside a big subject are candidates too; a candidate already inside the
 people matted is skipped, a wide blob where the pose graph sees nobody is tried strip by strip, and

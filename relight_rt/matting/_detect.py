@@ -8,20 +8,33 @@ import numpy as np
 from .._faces import FACE_SIZE, Face, decode, weighted_nms
 from ..session import Model
 from ._models import SIZE
-from ._regions import COARSE_MIN_AREA, Region, components, crop_region, grid_of_region, tile_levels
+from ._regions import COARSE_MIN_AREA, Region, components, crop_region, grid_of_region, pyramid_of, tile_levels
 
 MIN_TILE = SIZE  # tiles are searched as long as they stay at least 256 px (a smaller one would only be upsampled)
 CLOSE_ZOOM = 2.0  # find_close_faces: the window is this x the image's longer side
 CLOSE_FACE = 0.5  # ... and keeps faces at least this x the image's shorter side wide
+_KEEP_ANSWERS = 8  # selfie-graph answers kept per call (roi_prob)
 _FACE_TILE_MIN = 2 * FACE_SIZE  # face search in tiles (every=True) while the tiles stay this large
 
 Box = tuple[float, float, float, float]
 
 
 def roi_prob(roi: Model, rgb: np.ndarray, region: Region) -> np.ndarray:
-    """The selfie graph's (256, 256) person probability over ``region``."""
+    """The selfie graph's (256, 256) person probability over ``region`` (read-only). Inside
+    :func:`reductions_shared` a region's answer is kept for the call (the portrait check and the pose-graph
+    person's backing, :meth:`PersonMatter._backed`, ask for the same region)."""
+    pyr = pyramid_of(rgb)
+    key = (id(roi), region)
+    if pyr.memo and key in pyr.answers:
+        return pyr.answers[key]
     canvas = crop_region(rgb, region)
-    return roi.run({"image": canvas.transpose(2, 0, 1)[None]})["segmentation"][0, 0]
+    prob = roi.run({"image": canvas.transpose(2, 0, 1)[None]})["segmentation"][0, 0]
+    if pyr.memo:
+        prob.flags.writeable = False
+        pyr.answers[key] = prob
+        while len(pyr.answers) > _KEEP_ANSWERS:  # the last few (person="all" runs it on ~70 tiles once each)
+            del pyr.answers[next(iter(pyr.answers))]
+    return prob
 
 
 def find_people(roi: Model, rgb: np.ndarray) -> list[tuple[float, Box]]:

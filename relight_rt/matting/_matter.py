@@ -24,6 +24,7 @@ from ._coarse import region_alpha
 from ._detect import MIN_TILE, find_close_faces, find_faces, find_people, roi_prob
 from ._models import FACE_FILE, POSE_FILE, ROI_FILE, SIZE, as_rgb, find_matting_models
 from ._regions import (
+    COARSE_MIN_AREA,
     LOGIT_CLIP,
     Person,
     Region,
@@ -34,6 +35,7 @@ from ._regions import (
     person_box,
     prob_at,
     reductions_shared,
+    sigmoid,
     tile_levels,
     warp_to_grid,
     working_grid,
@@ -42,6 +44,11 @@ from ._regions import (
 PERSON_MODES = ("largest", "all")
 GUIDES = ("gray", "color")
 PRESENCE_MIN = 0.5  # pose-presence probability below which a region holds no person (unless a face vouches)
+_AGREE = 0.75  # ... or where the selfie graph's segmentation of its region overlaps the pose graph's this much
+_NOBODY = 0.05  # person="all": a face under which the pose graph's presence is below this ...
+_SURE_FACE = 0.8  # ... is a person only when the face graph's score is at least this
+_BACKED = 0.1  # a pose-graph person's pixels at this probability or more are theirs where the selfie graph agrees
+_SURE_BLOB = 0.9  # person="largest", nobody else found: the selfie graph's blob is a person when this sure of it
 PRESENCE_FAINT = 0.9  # ... for a person the selfie graph hardly sees (:func:`_faint`): the pose graph must be sure
 FAINT_PROB = 0.25  # person="all": the selfie graph's probability that marks where such a person may stand
 MIN_PERSON_FRACTION = 0.06  # person="all": people whose box is shorter than this x the image's height are left out
@@ -57,6 +64,8 @@ _REFRAME = 0.9  # the selfie graph is run again on its own segmentation's region
 _MAX_GROW = 2  # selfie-graph runs on a higher region while its segmentation is cut by the region's top (_uncut)
 _STRADDLE = 0.75  # person="all": a pose-graph person this much inside the others together straddles two
 _PAIR_WIDTH = 0.45  # person="all": a blob nobody is found in, this x as wide as tall or wider, may be two
+_PORTRAIT_REACH = 0.3  # a pose-graph person ending this close to the bottom (x the height) may be a portrait
+_PORTRAIT_FACE = 0.3  # ... and holding a face this x its width wide
 _CUT_WIDTH = 0.125  # a portrait's body is cut by the bottom border over at least this x its box's width
 _FRAGMENT = 0.003  # person="largest": a separate part of the matte at least this x its main part's area is checked
 _MAX_FRAGMENTS = 8  # ... at most this many of them (largest first)
@@ -208,10 +217,35 @@ class PersonMatter:
             if wider is not None:
                 retry = self._pose(rgb, Region.around(*wider))
                 person = retry if retry.presence > person.presence else person
-        if person is None or person.region.box()[3] <= rgb.shape[0]:
-            return person  # a portrait runs off the bottom, so its region reaches past it: no check needed
-        roi = self._roi_person(rgb, person.region, person.presence)
+        if person is None:
+            return person
+        region = self._portrait_region(rgb, person)
+        if region is None:
+            return person
+        roi = self._roi_person(rgb, region, person.presence)
         return self._reframed(rgb, roi) if _is_portrait(roi, rgb.shape[:2]) else person
+
+    def _portrait_region(self, rgb: np.ndarray, person: Person) -> Region | None:
+        """Where the selfie graph checks for a portrait (:func:`_is_portrait`): the pose graph's region when it
+        reaches past the image's bottom; else, when the pose graph's person ends within _PORTRAIT_REACH x the
+        image's height above the bottom, a region around that person reaching down to the bottom (the pose graph
+        loses the shoulders and chest of a close portrait, and its region, framed on what it saw, then stops
+        above the bottom: a portrait before an orange wall was matted down to the collar) and a face at least
+        _PORTRAIT_FACE x that person's width wide lies inside it (a portrait's face is half the width the pose
+        graph sees; a whole body crouching at the bottom of a frame, whose face is a tenth of it, is no
+        portrait: the selfie graph would take the bushes around the runner's legs); None: no check."""
+        h = rgb.shape[0]
+        if person.region.box()[3] > h:
+            return person.region
+        box = person_box(person, rgb.shape[:2])
+        if box is None or box[3] < h * (1.0 - _PORTRAIT_REACH):
+            return None
+        for f in self.find_faces(rgb):
+            cx, cy = (f.box[0] + f.box[2]) / 2, (f.box[1] + f.box[3]) / 2
+            inside = box[0] <= cx <= box[2] and box[1] <= cy <= box[3]
+            if inside and f.box[2] - f.box[0] >= _PORTRAIT_FACE * (box[2] - box[0]):
+                return Region.around(box[0], box[1], box[2], float(h))
+        return None
 
     def people(self, rgb: np.ndarray, name: str = "image") -> list[Person]:
         """Segmented people (the largest for person="largest", everyone for "all"); empty when nobody is found.
@@ -238,7 +272,23 @@ class PersonMatter:
                     self._note_others(rgb, found[0], name)
             # who is found is settled: the heads their regions cut are added now (the selfie graph segments
             # everyone in a region, so a higher region found earlier would take in the people beside)
-            return [self._uncut(rgb, p)[0] if p.source == "roi" and p.whole is None else p for p in found]
+            found = [self._uncut(rgb, p)[0] if p.source == "roi" and p.whole is None else p for p in found]
+            return [self._backed(rgb, p) if p.source == "pose" else p for p in found]
+
+    def _backed(self, rgb: np.ndarray, person: Person) -> Person:
+        """A pose-graph person with the pixels it half-sees (probability >= _BACKED) that the selfie graph on the
+        same region sees as a person (>= 0.5) made part of them (logit 1: the guided filter then follows the
+        photo's edges there). The pose graph half-sees dark trousers (the parkour runner's legs at 0.1-0.5 in
+        several frames) and clothes before a background of their colour; the selfie graph alone takes in shadows
+        and the wall behind, so only what both see is added. One selfie-graph run per person (~10 ms). Measured
+        (benchmarks/people_masks_eval.py, _BACKED 0.05-0.3): clip 0.914 -> 0.917, photos half A 0.843 -> 0.847-0.849."""
+        if _BACKED >= 0.5:
+            return person
+        roi = self._roi_prob(rgb, person.region) > 0.5
+        lift = roi & (person.logits > np.float32(np.log(_BACKED / (1.0 - _BACKED)))) & (person.logits < 1.0)
+        if not lift.any():
+            return person
+        return replace(person, logits=np.where(lift, np.float32(1.0), person.logits).astype(np.float32))
 
     def _largest(self, rgb: np.ndarray) -> list[Person]:
         h, w = rgb.shape[:2]
@@ -257,6 +307,15 @@ class PersonMatter:
             p = self._person_at(rgb, face.body_box((h, w)), face)
             if p is not None:
                 return [p]
+        # neither the pose graph nor a face vouches for anyone: the selfie graph's own segmentation of its largest
+        # blob, when it is sure of it (a man lying on a shop floor, a couple taking a selfie, a woman seen from
+        # behind: the pose graph's presence 0.003-0.27 there, and no face found; the selfie graph alone 0.69-0.84
+        # IoU where the matte was empty)
+        for _, box in self.find_people(rgb)[:1]:
+            roi = self._reframed(rgb, self._roi_person(rgb, Region.around(*box), 0.0))
+            mine = roi.logits > 0
+            if mine.sum() >= COARSE_MIN_AREA and float(sigmoid(roi.logits[mine]).mean()) >= _SURE_BLOB:
+                return [roi]
         return []
 
     def _note_others(self, rgb: np.ndarray, person: Person, name: str) -> None:
@@ -356,12 +415,12 @@ class PersonMatter:
             if (k is not None and k in owned) or (pix is not None and occupied.flat[pix].mean() >= _COVERED):
                 continue
             tries += 1
-            p = self._person_at(rgb, box, face, _GIVE_UP)
+            p = self._person_at(rgb, box, face, _GIVE_UP, sure_face=_SURE_FACE if found else 0.0, vouch=not found)
             if p is not None and face is None and _mostly_in(logits_on_grid(p, grid) > 0, occupied):
                 # it slid onto a neighbour matted already (two passers-by side by side, one blob): the pose graph
                 # framed on the blob's part beside that neighbour, not re-centred, may see the other one
                 beside = _beside(box, person_box(p, (h, w)))
-                p = None if beside is None else self._person_at(rgb, beside, None, _GIVE_UP, passes=1)
+                p = None if beside is None else self._person_at(rgb, beside, None, _GIVE_UP, passes=1, vouch=False)
             if p is not None and _box_height(person_box(p, (h, w))) >= MIN_PERSON_FRACTION * h:
                 mask = logits_on_grid(p, grid) > 0
                 # a person mostly inside the people matted already is one of them again (a face's person may
@@ -389,7 +448,7 @@ class PersonMatter:
             if pix.size == 0 or occupied.flat[pix].mean() >= _COVERED:
                 continue
             tries += 1
-            p = self._person_at(rgb, box, None, _GIVE_UP)
+            p = self._person_at(rgb, box, None, _GIVE_UP, vouch=False)
             if p is None or p.presence < PRESENCE_FAINT or _box_height(person_box(p, (h, w))) < MIN_PERSON_FRACTION * h:
                 continue
             if _past_border(person_box(p, (h, w)), (h, w)) is not None:
@@ -403,24 +462,51 @@ class PersonMatter:
         return _without_straddlers(found, grid, faces, (h, w))
 
     def _person_at(
-        self, rgb: np.ndarray, box, face: Face | None, give_up: float = 0.0, passes: int | None = None
-    ) -> Person | None:
+        self, rgb: np.ndarray, box, face: Face | None, give_up: float = 0.0, passes: int | None = None,
+        sure_face: float = 0.0, vouch: bool = True,
+    ) -> Person | None:  # fmt: skip
         """The person in ``box`` (a blob's or a face's body box), or None when the pose graph says nobody is
-        there and no face vouches for one (``give_up``: see :meth:`segment`)."""
+        there and no face vouches for one (``give_up``: see :meth:`segment`). A face vouches when the pose graph
+        sees at least a trace of a body under it (presence >= _NOBODY) or its score is at least ``sure_face``
+        (person="all" asks for _SURE_FACE once someone is found: its faces come from tiles, where the face graph
+        also finds faces in things, 0.66-0.73 on a red bench and a treadmill's console beside the person, with
+        presence 0.00-0.01 under them, while the faces of other people under which the pose graph sees nobody
+        scored 0.87-0.90 on the photos of benchmarks/people_masks_eval.py; a close portrait's face, the only
+        person in the photo, can score 0.71). With ``vouch`` False only the pose graph's flag says whether a blob
+        holds a person (person="all" once someone is found: a pile of clothes on a chair beside a man at a desk,
+        which both graphs segment alike, was a second person)."""
         p = self.segment(
             rgb, Region.around(*box), give_up if face is None else 0.0, past_border=face is None, passes=passes
         )
         # the pose graph segments something in any region; its presence output says whether a person is there
-        # (0.0000 on a colour gradient the region finder took for one, >= 0.87 on people in full view)
-        if p.presence >= PRESENCE_MIN and (face is None or contains(p, face, rgb.shape[:2])):
+        # (0.0000 on a colour gradient the region finder took for one, >= 0.87 on people in full view), or the
+        # selfie graph sees the same shape there (:meth:`vouched`)
+        if face is None and (p.presence >= PRESENCE_MIN or (vouch and self.vouched(rgb, p))):
             return p
-        if face is None:
+        if p.presence >= PRESENCE_MIN and face is not None and contains(p, face, rgb.shape[:2]):
+            return p
+        if face is None or (p.presence < _NOBODY and face.score < sure_face):
             return None
         # a face, but the pose graph sees no body here (a close portrait) or another person: the selfie graph
         # segments the face's region instead (made for head-and-shoulders framing)
         region = Region.around(*face.body_box(rgb.shape[:2]))
         roi = self._reframed(rgb, self._roi_person(rgb, region, max(p.presence, face.score)))
         return roi if contains(roi, face, rgb.shape[:2]) else None
+
+    def vouched(self, rgb: np.ndarray, person: Person) -> bool:
+        """Whether ``person`` (the pose graph's segmentation of a region) is a person: the pose graph's presence
+        flag says so, or the selfie graph on the same region segments the same shape (IoU >= _AGREE of their
+        two masks on the canvas). The presence flag is made for upright bodies: it says nobody for a runner in
+        mid-air over a railing (0.00-0.09 on 10 of the 100 frames of the parkour clip), a man lying on a floor,
+        a woman seen from behind reaching out (0.003), while both graphs segment the same body there (IoU
+        0.78-0.95); on a region holding nobody the two disagree or see nothing."""
+        if person.presence >= PRESENCE_MIN:
+            return True
+        if person.source == "pose":
+            mine, other = person.logits > 0, self._roi_prob(rgb, person.region) > 0.5
+        else:  # the selfie graph's (a portrait's): the pose graph on the same region must see the same shape
+            mine, other = person.logits > 0, self._pose(rgb, person.region).logits > 0
+        return bool(mine.any() and (mine & other).sum() >= _AGREE * (mine | other).sum())
 
     # -- full resolution ----------------------------------------------------------------------------
 

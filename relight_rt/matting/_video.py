@@ -19,7 +19,7 @@ from .._errors import RelightError
 from .._guided import fast_guided_filter
 from ..flow import dis_flow, warp
 from ._coarse import GF_EPS, guide_radius
-from ._matter import PRESENCE_MIN, PersonMatter
+from ._matter import PersonMatter
 from ._models import as_rgb
 from ._regions import Region, logits_on_grid, person_box, reductions_shared, sigmoid, working_grid
 
@@ -102,7 +102,7 @@ class VideoMatter:
                 region = Region.around(*found[0][1]) if found else None
             person = self.matter.segment(rgb, region) if region is not None else None
         box = person_box(person, (h, w)) if person is not None else None
-        if person is None or box is None or person.presence < PRESENCE_MIN:
+        if person is None or box is None or not self.matter.vouched(rgb, person):
             log.debug("%s: no person found; searching again on the next frame", name)
             self._region, self._prev_prob, self._prev_gray = None, None, None
             return np.zeros((h, w), np.float32)
