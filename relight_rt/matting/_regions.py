@@ -19,6 +19,7 @@ from .._square import ROI_SCALE as ROI_SCALE  # re-exported: the square geometry
 from .._square import Region as Region
 from .._square import crop_region as crop_region
 from .._square import grid_of_region as grid_of_region
+from .._square import pyramid_of as pyramid_of
 from .._square import reductions_shared as reductions_shared
 from ._models import SIZE
 
