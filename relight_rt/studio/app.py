@@ -19,7 +19,8 @@ Guards (issue 35): the Host header must be a local name (DNS rebinding); a reque
 present must come from the server's own origin (403), so no page of another site can drive the studio;
 POST bodies must be application/json (render) or application/octet-stream (uploads), which a cross-site
 page cannot send without a CORS preflight that this server never answers (415); every body is refused
-past its own limit (400) or when it has not arrived within BODY_SECONDS (408), and all requests together
+past its own limit (400) or when it has not arrived within BODY_SECONDS or pauses longer than
+BODY_IDLE_SECONDS (408), and all requests together
 hold at most MAX_BUFFERED_BYTES of bodies and MAX_UPLOADS uploads at once (503, try again). Bad input is 400
 with {"error": one line}.
 """
@@ -58,8 +59,9 @@ _HEADERS = {
 
 MAX_BUFFERED_BYTES = 2 * MAX_UPLOAD_BYTES  # request bodies the server holds at once, all requests together
 MAX_UPLOADS = 4  # uploads (env maps, photos) read or worked on at once; more are refused (503), never queued
-BODY_SECONDS = 30.0  # a request body must have arrived this long after its first read (408): 32 MiB from the
+BODY_SECONDS = 10.0  # a request body must have arrived this long after its first read (408): 32 MiB from the
 # same machine take well under a second, and a client that trickles its bytes would hold an upload slot for ever
+BODY_IDLE_SECONDS = 2.0  # ... and its bytes must keep arriving: no wait for the next ones longer than this (408)
 JSON_LIMIT = 1 << 16  # a render request: 27 numbers and an exposure
 JSON = "application/json"
 UPLOAD = "application/octet-stream"  # what the page sends (studio.js, uploadLight); the kind is read from the bytes
@@ -125,12 +127,13 @@ class Budget:
     """What request bodies may hold, over all requests: at most ``total`` bytes read and not yet let go, and
     at most ``uploads`` uploads at once. Past either, a request is refused with 503 (try again), so that many
     slow or concurrent uploads cannot make the server grow (issue 35). Each body must arrive within
-    ``seconds`` (408), so that slow uploads cannot hold the slots either (issue 50 bug 5). Used from the
-    server's one event loop only (no await between a check and its update)."""
+    ``seconds``, its bytes never pausing longer than ``idle`` (408), so that slow uploads cannot hold the slots
+    either (issue 50 bug 5). Used from the server's one event loop only (no await between a check and its
+    update)."""
 
     def __init__(self, total: int = MAX_BUFFERED_BYTES, uploads: int = MAX_UPLOADS,
-                 seconds: float = BODY_SECONDS) -> None:  # fmt: skip
-        self.total, self.uploads, self.seconds = total, uploads, seconds
+                 seconds: float = BODY_SECONDS, idle: float = BODY_IDLE_SECONDS) -> None:  # fmt: skip
+        self.total, self.uploads, self.seconds, self.idle = total, uploads, seconds, idle
         self.held = 0  # bytes
         self.running = 0  # uploads
 
@@ -173,13 +176,16 @@ class Budget:
             stream = request.stream().__aiter__()
             try:
                 while True:
-                    try:  # the deadline is the body's, not each read's: a byte every few seconds is still late
-                        chunk = await asyncio.wait_for(stream.__anext__(), max(0.0, end - loop.time()))
+                    left = end - loop.time()  # the body's deadline, and no pause longer than idle before it
+                    try:
+                        chunk = await asyncio.wait_for(stream.__anext__(), max(0.0, min(left, self.idle)))
                     except StopAsyncIteration:
                         break
                     except asyncio.TimeoutError:
-                        raise HTTPRefusal(408, f"{name}: the upload did not arrive within {self.seconds:g} s "
-                                               f"({size} bytes came); send it at once") from None  # fmt: skip
+                        why = f"did not arrive within {self.seconds:g} s" if left <= self.idle else \
+                            f"paused for more than {self.idle:g} s"
+                        raise HTTPRefusal(408, f"{name}: the upload {why} ({size} bytes came); send it at "
+                                               "once") from None  # fmt: skip
                     size += len(chunk)
                     if size > limit:
                         raise RelightError(f"{name}: the upload is larger than the limit of {limit / 2**20:g} MiB")

@@ -254,11 +254,11 @@ def post(port: int, route: str, data: bytes) -> int:
 
 
 def test_concurrent_uploads_are_bounded(studio, tmp_path, caplog):
-    from relight_rt.studio.app import MAX_UPLOADS
+    from relight_rt.studio.app import MAX_UPLOADS, Budget
 
     env = tmp_path / "e.hdr"
     cv2.imwrite(str(env), np.ones((8, 16, 3), np.float32))
-    with live_server(studio) as (port, budget):
+    with live_server(studio, Budget(seconds=60, idle=60)) as (port, budget):  # slow uploads: not refused for that
         held = []
         try:
             for k in range(MAX_UPLOADS):  # slow uploads: 1 MiB announced, 1 KiB sent
@@ -281,7 +281,7 @@ def test_concurrent_uploads_are_bounded(studio, tmp_path, caplog):
 def test_bytes_held_by_uploads_are_bounded(studio):
     from relight_rt.studio.app import Budget
 
-    with live_server(studio, Budget(total=3 << 20, uploads=10)) as (port, budget):
+    with live_server(studio, Budget(total=3 << 20, uploads=10, seconds=60, idle=60)) as (port, budget):
         first = open_upload(port, 2 << 20)
         try:
             wait_for(lambda: budget.held == 2 << 20, "the first upload to reserve its bytes")
@@ -390,12 +390,13 @@ def test_downloads_of_a_hostile_photo_name_are_served(client, studio, monkeypatc
 
 def test_slow_uploads_lose_their_slots_at_the_deadline(studio, tmp_path):
     """Issue 50 bug 5: four uploads that sent a byte every few seconds held every upload slot for as long as they
-    liked (every other upload: 503). A body must arrive within Budget.seconds (408), however steadily it trickles."""
+    liked (every other upload: 503). A body must arrive within Budget.seconds (408), however steadily it trickles,
+    and its bytes must keep arriving (Budget.idle)."""
     from relight_rt.studio.app import Budget
 
     env = tmp_path / "e.hdr"
     cv2.imwrite(str(env), np.ones((8, 16, 3), np.float32))
-    with live_server(studio, Budget(uploads=4, seconds=1.5)) as (port, budget):
+    with live_server(studio, Budget(uploads=4, seconds=1.5, idle=1.0)) as (port, budget):
         slow = [open_upload(port, 1 << 20, sent=b"\xff") for _ in range(4)]
         try:
             wait_for(lambda: budget.running == 4, "the slow uploads to take every slot")
@@ -412,6 +413,12 @@ def test_slow_uploads_lose_their_slots_at_the_deadline(studio, tmp_path):
         assert all(status == 408 and "did not arrive within 1.5 s" in body for status, body in answers), answers
         wait_for(lambda: budget.running == 0 and budget.held == 0, "the slots to be let go")
         assert post(port, "/api/envmap", env.read_bytes()) == 200
+        paused = open_upload(port, 1 << 20, sent=b"\xff")  # a byte, then nothing: refused after the idle second
+        try:
+            status, body = response_status(paused)
+        finally:
+            paused.close()
+        assert status == 408 and "paused for more than 1 s" in body, (status, body)
 
 
 _UPLOAD_MEMORY = """
