@@ -456,4 +456,5 @@ def test_large_uploads_are_shrunk_as_decoded():
     # sRGB 128 is linear 0.2158; the degree-0 coefficient of a constant map v is 2 sqrt(pi) v
     assert abs(json.loads(lines["env"])[0] - 0.2158 * 2 * np.sqrt(np.pi)) < 2e-3, lines["env"]
     assert lines["photo"].endswith("float32 True") and "(1178, 1697, 4)" in lines["photo"], lines["photo"]
-    assert "background" in lines and 0 < peak < 500 << 20, peak / 2**20  # at 60 bytes a pixel: 1 GB
+    # measured 450-560 MB with the interpreter; at 60 bytes a pixel it was 1 GB
+    assert "background" in lines and 0 < peak < 700 << 20, peak / 2**20
