@@ -87,7 +87,8 @@ def as_colour(a: np.ndarray, *, bgr: bool) -> np.ndarray:
 
 def _to_unit_float(a: np.ndarray, name: str, copy: bool = True) -> np.ndarray:
     """Any accepted dtype → float32 array in [0, 1]: a new one, or with ``copy=False`` the caller's own array
-    when it already is float32 in [0, 1] (for callers that only read it; nothing is allocated then)."""
+    when it already is float32 in [0, 1] with each row's pixels contiguous (for callers that only read it; nothing
+    is allocated then)."""
     if a.dtype == np.uint8:
         return np.multiply(a, np.float32(1 / 255), dtype=np.float32)
     if a.dtype == np.bool_:
@@ -101,7 +102,10 @@ def _to_unit_float(a: np.ndarray, name: str, copy: bool = True) -> np.ndarray:
             raise RelightError(f"{name}: expected finite values in [0, 1], got NaN or Inf ({_describe(a)})")
         if lo < -_FLOAT_SLACK or hi > 1 + _FLOAT_SLACK:
             raise RelightError(f"{name}: expected float values in [0, 1], got [{lo:.4g}, {hi:.4g}] ({_describe(a)})")
-        if not copy and a.dtype == np.float32 and a.flags.c_contiguous and lo >= 0.0 and hi <= 1.0:
+        # each row's pixels contiguous, rows at any distance: a C-contiguous photo, or a window of one (a group's
+        # person: relight_rt.relight.people.windows), which OpenCV and numpy read as they are
+        rows = a.strides[-1] == a.itemsize and (a.ndim < 3 or a.strides[-2] == a.shape[-1] * a.itemsize)
+        if not copy and a.dtype == np.float32 and rows and lo >= 0.0 and hi <= 1.0:
             return a
         out = a.astype(np.float32, order="C")  # a copy: never alias the caller's array
         if lo < 0.0 or hi > 1.0 or a.dtype != np.float32:  # float64 may round past 1 in float32
@@ -120,7 +124,8 @@ def read_image(src: str | os.PathLike | np.ndarray, name: str = "image", *, copy
             gray repeated in R, G and B).
         name: what to call the input in error messages.
         copy: False lets a caller that only reads the result have ``src`` itself back when it already is a
-            C-contiguous float32 (H, W, 3|4) array in [0, 1] (no copy of a 12-megapixel photo; checked all the same).
+            float32 (H, W, 3|4) array in [0, 1] with each row's pixels contiguous (a photo, or a window of one:
+            no copy of a 12-megapixel photo; checked all the same).
 
     Returns:
         New float32 array (H, W, 3) RGB or (H, W, 4) RGBA, values in [0, 1] (with ``copy=False``: possibly

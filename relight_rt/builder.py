@@ -71,6 +71,11 @@ class _LazyPeople(_Lazy):
     def parts(self, rgb: np.ndarray, name: str = "image"):
         return self._get().parts(rgb, name)
 
+    def part_crops(self, rgb: np.ndarray, name: str = "image"):
+        """``parts``, each share held only inside its box (a group photo holds about one photo of shares, not one
+        per person: issue 50 bug 1)."""
+        return self._get().part_crops(rgb, name)
+
 
 def person_matter(config: RuntimeConfig) -> Matter | None:
     """The automatic person matte for photos: ``config.matting`` "auto" (the largest person), "all" (everyone,

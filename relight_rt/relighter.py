@@ -214,11 +214,13 @@ class Relighter:
         if allow_full:  # video frames skip the work done once per photo (a second pass, the matte's foreground
             return decs  # colours, the light's refit): per frame it would cost more than it shows
         decs = self._photos(decs)
-        for i, masks_i in enumerate(people):
-            if masks_i is not None:  # a group photo (matting="all"): each person decomposed on their own too
-                decs[i] = self._group(decs[i], masks_i)
-        return [dec if dec.foreground is not None else self._factor.derive(dec, foreground=own_colours(dec))
-                for dec in decs]
+        for i, crops in enumerate(people):
+            if crops is not None:  # a group photo (matting="all"): each person decomposed on their own too
+                decs[i] = self._group(decs[i], crops)
+        # a group relit person by person holds no colours of its own: its people carry theirs (found on first use
+        # when it is relit as one)
+        return [dec if dec.foreground is not None or dec.people else
+                self._factor.derive(dec, foreground=own_colours(dec)) for dec in decs]
 
     def _photos(self, decs: list[Decomposition]) -> list[Decomposition]:
         """Photos' light refit to the transport the relit photo is divided by, and their faces seen small looked
@@ -230,20 +232,19 @@ class Relighter:
             self._look_at_faces(decs)
         return decs
 
-    def _group(self, dec: Decomposition, masks: list[np.ndarray]) -> Decomposition:
-        """A group photo ``dec`` with each of its people (``masks``: their shares of its matte) decomposed on their
-        own (relight_rt.relight.people); the person's own colours are the group's where their box lies in the
-        group's (their share lies in its matte: where two people meet neither is background)."""
-        fg, behind = own_colours(dec)
-        y0, y1, x0, x1 = dec.geometry.box
+    def _group(self, dec: Decomposition, crops: list) -> Decomposition:
+        """A group photo ``dec`` with each of its people (``crops``: their shares of its matte, each in its box,
+        relight_rt.relight.people ``PartsMatter``) decomposed on their own, in a window of the photo around them
+        with their share as mask (``people.windows``: views, no copy); their own colours come from the group's
+        matte in their box (where two people meet neither is background)."""
         parts = []
-        for part in self._photos(self._stage1([dec.image] * len(masks), masks, False, faces=self.detail)[0]):
-            py0, py1, px0, px1 = part.geometry.box
-            inside = py0 >= y0 and py1 <= y1 and px0 >= x0 and px1 <= x1
-            group = (slice(py0 - y0, py1 - y0), slice(px0 - x0, px1 - x0))
-            colours = (fg[group], behind[group]) if inside else own_colours(part)
-            parts.append(self._factor.derive(part, foreground=colours))
-        return self._factor.derive(dec, people=tuple(parts), foreground=(fg, behind))
+        for image, mask, origin in per_person.windows(dec.image, crops):
+            # one person at a time: stage 1 on all of them as one batch grew onnxruntime's arena (which keeps its
+            # peak) by the batch's activations, 16 people ~16x one person's
+            (part,) = self._photos(self._stage1([image], [mask], False, faces=self.detail)[0])
+            part = self._factor.derive(part, origin=origin)
+            parts.append(self._factor.derive(part, foreground=per_person.colours_in_group(part, dec.mask)))
+        return self._factor.derive(dec, people=tuple(parts))
 
     def _look_at_faces(self, decs: list[Decomposition]) -> None:
         """Run stage 1 again on the head of each person whose face it saw small (relight_rt._face), in place."""

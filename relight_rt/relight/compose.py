@@ -62,10 +62,17 @@ def own_colours(dec: Decomposition, multilevel: bool = False) -> tuple[np.ndarra
     for a hard edge a pixel or two wide (anti-aliasing, feathering), and for video frames, the solid colours beside
     each soft pixel (relight_rt.foreground.nearest_colours); for a hard mask both are the photo (one array).
     """
-    image = np.ascontiguousarray(dec.geometry.crop(dec.image))
-    alpha = np.ascontiguousarray(dec.geometry.crop(dec.mask))
+    return colours_of(dec.geometry.crop(dec.image), dec.geometry.crop(dec.mask), dec.photo or multilevel)
+
+
+def colours_of(image: np.ndarray, alpha: np.ndarray, multilevel: bool) -> tuple[np.ndarray, np.ndarray]:
+    """``own_colours``' rule on ``image`` (h, w, 3) under ``alpha`` (h, w): (F, B), read-only; ``multilevel``: the
+    multilevel estimate for a soft edge wider than feathering (else the solid colours beside it). A group's person
+    takes theirs from the group's matte in their box (relight_rt.relight.people: where two people meet neither is
+    background)."""
+    image, alpha = np.ascontiguousarray(image), np.ascontiguousarray(alpha)
     width = soft_edge_width(alpha)
-    if (dec.photo or multilevel) and width > _THIN_EDGE:
+    if multilevel and width > _THIN_EDGE:
         fg, bg = estimate_foreground(image, alpha, return_background=True)
         fg, bg = consistent(image, alpha, fg, bg)
     elif width > 0:

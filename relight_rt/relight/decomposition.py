@@ -60,11 +60,14 @@ class Decomposition:
             ``detail=False``).
         head: the head's second stage-1 pass, for a face stage 1 saw small (relight_rt._face), with this
             decomposition's light; None without one. ``head_box`` (y0, y1, x0, x1): where it lies in the photo.
-        people: a group photo's people, each decomposed on their own with their share of the matte (empty: one
-            person, or the group relit as one).
+        people: a group photo's people, each decomposed on their own with their share of the matte, in a window
+            of the photo around them (``origin``; relight_rt.relight.people; empty: one person, or the group relit
+            as one).
         foreground: (h, w, 3) twice, in the crop box: the person's own colour F and the colour behind it B at
             the soft edge (``relight.compose.own_colours``; the same array twice for a hard mask); None: found
-            on first use (video frames).
+            on first use (video frames; a group relit person by person, whose people carry their own).
+        origin: (y, x) of ``image``'s top-left pixel in the photo it was cut from: a group's person, decomposed
+            in a window of the group's photo; (0, 0) for a photo of its own.
     """
 
     albedo_chw: np.ndarray
@@ -82,6 +85,7 @@ class Decomposition:
     head_box: tuple[int, int, int, int] | None = None
     people: tuple[Decomposition, ...] = ()
     foreground: tuple[np.ndarray, np.ndarray] | None = None
+    origin: tuple[int, int] = (0, 0)
 
     def __post_init__(self) -> None:
         put = lambda name, value: object.__setattr__(self, name, readonly(value))  # noqa: E731
@@ -95,6 +99,7 @@ class Decomposition:
         if self.foreground is not None:  # F and B may be one array (a hard mask): kept as one
             object.__setattr__(self, "foreground", tuple(readonly(np.asarray(a)) for a in self.foreground))
         object.__setattr__(self, "people", tuple(self.people))
+        object.__setattr__(self, "origin", (int(self.origin[0]), int(self.origin[1])))
 
     def __reduce__(self):  # unpickled through the constructor, so the arrays come back read-only
         return (type(self), tuple(getattr(self, f.name) for f in fields(self)))

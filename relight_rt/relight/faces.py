@@ -17,13 +17,14 @@ from .decomposition import Decomposition
 
 def head_crops(decs: list[Decomposition]) -> list[tuple]:
     """Per decomposition whose face stage 1 saw small (relight_rt._face ``head_box``): (its index, it, the head's
-    box (y0, y1, x0, x1) in the input frame, the photo and the mask inside that box)."""
+    box (y0, y1, x0, x1) in the input frame, the photo inside that box (a read-only view: stage 1 reads it without
+    a copy) and the mask there)."""
     todo = []
     for i, dec in enumerate(decs):
         box = head_box(dec.skin, dec.network_mask, dec.geometry)
         if box is not None:
             y0, y1, x0, x1 = box
-            todo.append((i, dec, box, np.ascontiguousarray(dec.image[y0:y1, x0:x1]),
+            todo.append((i, dec, box, dec.image[y0:y1, x0:x1],
                          np.ascontiguousarray(dec.mask[y0:y1, x0:x1])))
     return todo
 

@@ -180,10 +180,10 @@ class Factor:
         return self.derive(dec, light=np.asarray(light, np.float32))
 
     def derive(self, dec: Decomposition, **changes) -> Decomposition:
-        """``dataclasses.replace(dec, **changes)`` (its light, head, people or foreground); what was computed for
-        ``dec`` that those leave as it was goes along: stage 1's outputs on the device, ``restored`` and the
+        """``dataclasses.replace(dec, **changes)`` (its light, head, people, foreground or origin); what was computed
+        for ``dec`` that those leave as it was goes along: stage 1's outputs on the device, ``restored`` and the
         full-resolution guide (unless the foreground changes)."""
-        if not set(changes) <= {"light", "head", "head_box", "people", "foreground"}:
+        if not set(changes) <= {"light", "head", "head_box", "people", "foreground", "origin"}:
             raise ValueError(f"derive: {sorted(changes)} change what is computed from them")
         new = replace(dec, **changes)
         old, state = self.memo(dec), self.memo(new)
@@ -227,9 +227,10 @@ class Factor:
                                                                      dec.skin[y0:y1, x0:x1])))
         factor = shaded_skin(tint * ratio[..., None], ratio, *state["skin_chroma"])  # shaded skin keeps its colour
         gain = extend_outward(factor, own["inner"])
-        if "gray" not in state:  # the full-resolution guide, kept for every light
-            state["gray"] = readonly(cv2.cvtColor(image, cv2.COLOR_RGB2GRAY))
-        return guided_upsample(dec.geometry, gain, dec.network_image[y0:y1, x0:x1], state["gray"], (y0, x0))
+        gray = state.get("gray")  # the full-resolution guide, kept for every light (read once: a group's person
+        if gray is None:  # drops theirs after use, relight_rt.relight.people, maybe in another thread)
+            gray = state["gray"] = readonly(cv2.cvtColor(image, cv2.COLOR_RGB2GRAY))
+        return guided_upsample(dec.geometry, gain, dec.network_image[y0:y1, x0:x1], gray, (y0, x0))
 
     def blend_head(self, dec: Decomposition, gain: np.ndarray, light: np.ndarray, head: Decomposition,
                     box: tuple[int, int, int, int]) -> None:

@@ -41,8 +41,8 @@ def read_batch(images: Sequence, masks: Sequence, auto: Matter | None, group: bo
         ms.append(m)
         found = matter.found if isinstance(matter, PartsMatter) else None
         if found is not None and len(found) > people_module.MAX_PEOPLE:
-            log.info("%s: %d people found, relit as one group (person by person up to %d: each holds a mask "
-                     "the size of the photo)", name, len(found), people_module.MAX_PEOPLE)
+            log.info("%s: %d people found, relit as one group (person by person up to %d: stage 1 runs once a "
+                     "person)", name, len(found), people_module.MAX_PEOPLE)
             found = None
         people.append(found if found is not None and len(found) > 1 else None)
         geoms.append(CropGeometry.from_mask(m, resolution, preprocess))

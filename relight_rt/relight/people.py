@@ -1,5 +1,5 @@
-"""A group photo relit person by person (``PartsMatter`` keeps each person's share of the matte, ``by_person``
-relights with them)."""
+"""A group photo relit person by person (``PartsMatter`` keeps each person's share of the matte, ``window`` is where
+a person is decomposed, ``by_person`` relights with them)."""
 
 from __future__ import annotations
 
@@ -9,22 +9,75 @@ import numpy as np
 
 from ..compositing import Background, clean_edge_colour
 from . import compose
-from .decomposition import Decomposition, readonly
+from .decomposition import Decomposition
 from .look import dark_colour, knee
 
-MAX_PEOPLE = 16  # matting="all": a photo of more people than this is relit as one group (memory: a mask each)
+MAX_PEOPLE = 16  # matting="all": a photo of more people than this is relit as one group (stage 1 once a person)
+_ROWS = 256  # rows of the photo done at a time where a temporary would otherwise be the photo's size
+_PART_MARGIN = 0.1  # a person of a group is decomposed in their share's box grown by this x its size on each side
+
+Crop = tuple[tuple[int, int, int, int], np.ndarray]  # ((y0, y1, x0, x1), an array's values inside that box)
 
 
 class PartsMatter:
-    """A Matter that keeps each person's share of the matte it returns (``PersonMatter.parts``): a group photo,
-    relit person by person (``by_person``)."""
+    """A Matter that keeps each person's share of the matte it returns: a group photo, relit person by person
+    (``by_person``). ``found``: one ((y0, y1, x0, x1), share) per person, the share held only inside its box
+    (``PersonMatter.part_crops``): a 16-person photo then holds about one photo of shares, not 16."""
 
     def __init__(self, matter):
         self.matter, self.found = matter, None
 
     def __call__(self, rgb: np.ndarray, name: str = "image") -> np.ndarray:
-        alpha, self.found = self.matter.parts(rgb, name)
+        if hasattr(self.matter, "part_crops"):
+            alpha, self.found = self.matter.part_crops(rgb, name)
+        else:  # a matter with whole-photo parts only: each cut to where it is not 0
+            alpha, parts = self.matter.parts(rgb, name)
+            self.found = [cropped(p) for p in parts]
         return alpha
+
+
+def cropped(a: np.ndarray) -> Crop:
+    """((y0, y1, x0, x1), a[y0:y1, x0:x1]): the box holding every pixel of ``a`` (H, W) that is not 0."""
+    rows, cols = np.flatnonzero(a.any(axis=1)), np.flatnonzero(a.any(axis=0))
+    if rows.size == 0:
+        return (0, 0, 0, 0), a[:0, :0]
+    y0, y1, x0, x1 = int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
+    return (y0, y1, x0, x1), np.ascontiguousarray(a[y0:y1, x0:x1])
+
+
+def window(box: tuple[int, int, int, int], frame: tuple[int, int]) -> tuple[int, int, int, int]:
+    """The window (y0, y1, x0, x1) of the photo a person of a group is decomposed in: their share's ``box`` grown
+    by _PART_MARGIN of its size and 16 px on each side (the crop's 5 px, the head pass's box and the face
+    detector's look around the person stay inside, as on the whole photo), within the ``frame`` (H, W)."""
+    y0, y1, x0, x1 = box
+    my, mx = int(_PART_MARGIN * (y1 - y0)) + 16, int(_PART_MARGIN * (x1 - x0)) + 16
+    return max(y0 - my, 0), min(y1 + my, frame[0]), max(x0 - mx, 0), min(x1 + mx, frame[1])
+
+
+def windows(image: np.ndarray, crops: list[Crop]) -> list[tuple[np.ndarray, np.ndarray, tuple[int, int]]]:
+    """Per person of a group photo ``image`` (H, W, 3, read-only): (their window of it, a view; their share of the
+    matte there, from ``crops``, PartsMatter.found; the window's (y, x) in the photo). A person then holds arrays
+    of their window's size, not the photo's (16 people on 25 MP held 16 photo-size masks and more: 5.9 GB; issue
+    50 bug 1)."""
+    out = []
+    for (y0, y1, x0, x1), share in crops:
+        if not share.any():  # no one's share: nothing of theirs to relight
+            continue
+        wy0, wy1, wx0, wx1 = window((y0, y1, x0, x1), image.shape[:2])
+        mask = np.zeros((wy1 - wy0, wx1 - wx0), np.float32)
+        mask[y0 - wy0 : y1 - wy0, x0 - wx0 : x1 - wx0] = share
+        out.append((image[wy0:wy1, wx0:wx1], mask, (wy0, wx0)))
+    return out
+
+
+def colours_in_group(part: Decomposition, group_mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A group's person's own colour and the colour behind their soft edge (``Decomposition.foreground``) from the
+    group's matte ``group_mask`` (H, W) in their box, not their share of it: where two people meet neither is
+    background."""
+    y0, y1, x0, x1 = part.geometry.box
+    oy, ox = part.origin
+    return compose.colours_of(part.geometry.crop(part.image), group_mask[y0 + oy : y1 + oy, x0 + ox : x1 + ox],
+                              part.photo)
 
 
 def by_person(
@@ -32,11 +85,14 @@ def by_person(
     light: np.ndarray, exposure, bg: Background,
 ) -> np.ndarray:
     """A group photo relit person by person: each of ``parts`` (the people of ``dec``, each decomposed on their
-    own with their share of its matte: their own shape, their face seen at their size, their own exposure)
-    gives the person's relit colour; the colours, weighted by the shares (which sum to the matte, so where
-    people overlap their changes blend), go over the backdrop with the group's matte. The person's own colour
-    and the colour behind the soft edge are the group's (``Composer.foreground`` once, on the whole matte: where
-    two people meet neither is background).
+    own with their share of its matte, in a window of the photo at their ``origin``: their own shape, their face
+    seen at their size, their own exposure) gives the person's relit colour; the colours, weighted by the shares
+    (which sum to the matte, so where people overlap their changes blend), go over the backdrop with the group's
+    matte. The person's own colour and the colour behind the soft edge are their ``foreground``, taken from the
+    group's matte in their box (``colours_in_group``: where two people meet neither is background).
+
+    Memory (issue 50 bug 1): every array a person holds is their box's or their window's, the group holds none of
+    its own, and the people's weighted colours are added into the output as they come.
 
     ``composer``: the Relighter's; ``network_relit``: its stage-2 pass (a decomposition, lights (K, 9, 3), a batch
     size and ``want_layers`` -> (diffuse, residual, relit) per light, as ``Relighter`` runs it).
@@ -44,41 +100,47 @@ def by_person(
     memo, factor = composer.memo, composer.factor
     backdrop = compose.backdrop_of(dec, bg)
     clean = bg.kind != "original"
-    fg, behind = composer.foreground(dec, always=clean and not composer.detail)
     y0, y1, x0, x1 = dec.geometry.box
     alpha = dec.geometry.crop(dec.mask)[..., None]
-    weighted = np.zeros(fg.shape, np.float32)  # the people's colours times their shares of the matte, summed
+    if backdrop is None:  # RGBA, straight colour: the weighted colours summed here, divided by alpha below
+        out = np.zeros(dec.geometry.frame + (4,), np.float32)
+        region = out[y0:y1, x0:x1, :3]
+    else:
+        out = np.array(backdrop, np.float32)
+        region = out[y0:y1, x0:x1]
+        for r in range(0, y1 - y0, _ROWS):  # what shows through the soft edge; the people's colours are added to
+            region[r : r + _ROWS] *= 1 - alpha[r : r + _ROWS]  # it (in bands: 1 - alpha is the photo's size)
+    people = []
     for part in parts:
-        py0, py1, px0, px1 = part.geometry.box
+        oy, ox = part.origin
+        by0, by1, bx0, bx1 = part.geometry.box  # in the part's window
+        py0, py1, px0, px1 = by0 + oy, by1 + oy, bx0 + ox, bx1 + ox  # in the photo
         cy0, cy1, cx0, cx1 = max(py0, y0), min(py1, y1), max(px0, x0), min(px1, x1)
         if cy1 <= cy0 or cx1 <= cx0:
             continue
-        looks = None
-        if (cy0, cy1, cx0, cx1) == (py0, py1, px0, px1):
-            # the person's box lies in the group's (their share lies in its matte): what the group has of the
-            # photo whatever the light is theirs, as views (a group photo of many megapixels holds it once; their
-            # own colours are the group's already: Relighter._group)
-            group = (slice(py0 - y0, py1 - y0), slice(px0 - x0, px1 - x0))
-            whole = memo(dec)
-            if "dark" not in whole:
-                whole["dark"] = tuple(readonly(a) for a in dark_colour(fg))
-                whole["knee"] = readonly(knee(fg))
-            looks = tuple(a[group] for a in whole["dark"]), whole["knee"][group]
+        fg, behind = composer.foreground(part)
+        if backdrop is not None and not clean and behind is not fg:  # the colour behind the soft edge shows
+            inner = (slice(cy0 - py0, cy1 - py0), slice(cx0 - px0, cx1 - px0))
+            a = dec.mask[cy0:cy1, cx0:cx1, None]
+            region[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0] = behind[inner] * (1 - a)
+        people.append((part, (cy0, cy1, cx0, cx1), (py0, px0)))
+    for part, (cy0, cy1, cx0, cx1), (py0, px0) in people:
         lit = factor.expose(part, light[None], exposure)[0]
         _, residual, relit = next(network_relit(part, lit[None], 1, want_layers=composer.detail))
+        looks = None
+        if composer.detail:  # made per light from the person's own colour, not kept for every person
+            fg = composer.foreground(part)[0]
+            looks = dark_colour(fg), knee(fg)
         colour = composer.person_colour(part, lit, residual, relit, looks)
         share = part.geometry.crop(part.mask)[..., None]
         if clean and not composer.detail:
             colour = clean_edge_colour(colour, np.ascontiguousarray(part.geometry.crop(part.image)),
                                        composer.foreground(part, always=True)[0], share[..., 0])
-        sl = (slice(cy0 - py0, cy1 - py0), slice(cx0 - px0, cx1 - px0))
-        weighted[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0] += (colour * share)[sl]
-    if backdrop is None:  # RGBA, straight colour
-        out = np.zeros(dec.geometry.frame + (4,), np.float32)
-        np.divide(weighted, alpha, out=out[y0:y1, x0:x1, :3], where=alpha > 0)
+        colour *= share
+        region[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0] += colour[cy0 - py0 : cy1 - py0, cx0 - px0 : cx1 - px0]
+        del colour, residual, relit, looks
+        memo(part).pop("gray", None)  # the guide is remade per light, not kept for every person (issue 50 bug 1)
+    if backdrop is None:
+        np.divide(region, alpha, out=region, where=alpha > 0)
         out[..., 3] = dec.mask
-    else:
-        out = np.array(backdrop, np.float32)
-        under = behind if not clean and behind is not fg else out[y0:y1, x0:x1]
-        out[y0:y1, x0:x1] = under * (1 - alpha) + weighted
     return np.clip(out, 0, 1, out=out)
