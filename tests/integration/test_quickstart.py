@@ -36,10 +36,11 @@ def test_readme_relights_a_photo_with_no_mask(tmp_path, monkeypatch, capsys):
 
 
 def test_the_automatic_matte_finds_the_person(monkeypatch):
-    from relight_rt import Relighter, RuntimeConfig
+    import relight_rt
+    from relight_rt import RuntimeConfig
 
     monkeypatch.delenv("RELIGHT_RT_MODELS", raising=False)
-    r = Relighter(RuntimeConfig(device="cpu"))
+    r = relight_rt.open(RuntimeConfig(device="cpu"))
     dec = r.decompose(SCENE)  # no mask: the matte
     truth = cv2.imread(str(TRUTH), cv2.IMREAD_GRAYSCALE) / 255.0
     a, b = dec.mask > 0.5, truth > 0.5

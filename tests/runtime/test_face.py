@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import relight_rt
 from relight_rt import Relighter, RuntimeConfig, lights
 from relight_rt._face import MIN_HEAD_INPUT, SMALL_FACE, feather, head_box
 from relight_rt._geometry import CropGeometry
@@ -109,7 +110,7 @@ def test_full_body_photo_gets_a_head_pass_that_changes_only_the_head():
 def test_the_photos_own_light_gives_the_photo_back_with_head_pass_and_soft_matte():
     """A real frame with its automatic (soft) matte: the head pass, the foreground colours of the soft edge and
     the background behind it all cancel under the photo's own light."""
-    r = Relighter(RuntimeConfig(device="cpu"))
+    r = relight_rt.open(RuntimeConfig(device="cpu"))
     dec = r.decompose(REFERENCE / "video" / "frame_001.png")  # no mask: the automatic matte
     alpha = np.asarray(dec.mask)
     assert ((alpha > 0.05) & (alpha < 0.95)).sum() > 1000 and dec.head is not None
