@@ -79,6 +79,14 @@ def by_person(
         out[..., 3] = dec.mask
     else:
         out = np.array(backdrop, np.float32)
+        if bg.graded:  # the group's change, summed over the group's matte (relight_rt.compositing)
+            own = composer.foreground(dec)[0]
+            colour = np.divide(weighted, alpha, out=np.zeros_like(weighted), where=alpha > 0)
+            gain = compose.background_grade(colour, own, alpha)
+            out *= gain
+            np.clip(out, 0, 1, out=out)
+            if behind is not fg:
+                behind = np.clip(behind * gain, 0, 1)
         under = behind if not clean and behind is not fg else out[y0:y1, x0:x1]
         out[y0:y1, x0:x1] = under * (1 - alpha) + weighted
     return np.clip(out, 0, 1, out=out)
