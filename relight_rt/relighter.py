@@ -48,6 +48,7 @@ from .relight.decomposition import (
 from .relight.faces import FacePass, head_crops
 from .relight.factor import Factor
 from .relight.intake import read_batch
+from .relight.look import prepare_lab
 from .relight.network import Network
 from .session import Model, find_models, load_model
 
@@ -127,6 +128,8 @@ class Relighter:
         self._faces = FacePass(self.models_dir)  # face normals (relight_rt._face_geometry), loaded on first use
         self._factor = Factor(self._memo, self._faces, config.detail, self._network.own_residual)
         self._composer = Composer(self._memo, self._factor, config.detail)
+        if config.detail:
+            prepare_lab()  # OpenCV's Lab tables, which every relight with detail uses, built beside the first stages
         CropGeometry.from_mask(np.ones((1, 1), np.float32), self.resolution, config.preprocess)  # checks the mode
 
     # the settings, read from self.config (kept there once)
