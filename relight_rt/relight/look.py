@@ -46,7 +46,9 @@ def prepare_lab() -> None:
     global _LAB_TABLES
     with _LAB_LOCK:
         if _LAB_TABLES is None:
-            _LAB_TABLES = threading.Thread(target=_build_lab_tables, name="relight_rt-lab-tables", daemon=True)
+            # not a daemon: the interpreter waits for it at exit (a tenth of a second at most), where a daemon
+            # thread stopped inside OpenCV aborts the process ("terminate called without an active exception")
+            _LAB_TABLES = threading.Thread(target=_build_lab_tables, name="relight_rt-lab-tables")
             _LAB_TABLES.start()
 
 
