@@ -129,3 +129,26 @@ def test_cli_grade_background(tmp_path, models_dir, capsys):
     assert main(["relight", *args, "--grade-background", "--background", "black", "-o", str(tmp_path / "x.png")]) != 0
     err = capsys.readouterr().err
     assert "--grade-background" in err and "Traceback" not in err
+
+
+def test_a_group_grades_the_background_by_the_groups_change():
+    """matting="all" (relight_rt.relight.people): the group's backdrop follows the light by one grade; its people's
+    opaque pixels are the ungraded run's."""
+    from relight_rt._io import read_image
+
+    rgba = read_image("relight_rt/data/example.png")
+    a = rgba[..., 3:4]
+    one = rgba[..., :3] * a + 0.55 * (1 - a)
+    two = np.ascontiguousarray(np.hstack([one, one[:, ::-1]]))  # the example person and its mirror image
+    rl = relight_rt.open(RuntimeConfig(device="cpu", matting="all"))
+    dec = rl.decompose(two)
+    assert len(dec.people) == 2
+    plain = rl.relight(dec, "night")
+    graded = rl.relight(dec, "night", background=GRADED)
+    person = dec.mask == 1
+    back = (dec.mask == 0) & (plain == two).all(axis=2)  # the backdrop no person's share reaches
+    assert back.mean() > 0.3
+    ratio = graded[back] / two[back]
+    np.testing.assert_allclose(ratio, np.broadcast_to(ratio.mean(0, dtype=np.float64), ratio.shape), rtol=2e-4)  # one grade
+    assert ratio.mean(0)[0] < 1  # night: darker
+    np.testing.assert_allclose(graded[person], plain[person], atol=1e-6)
