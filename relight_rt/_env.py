@@ -3,6 +3,7 @@
 - ``RELIGHT_RT_THREADS``: onnxruntime's intra-op threads (:func:`threads`);
 - ``RELIGHT_RT_MODELS``: the models folder used when none is given (:func:`models`);
 - ``RELIGHT_RT_TENSORRT``: TensorRT's engine cache folder, opt-in (:func:`tensorrt_cache`);
+- ``RELIGHT_RT_CACHE``: where optimised graphs are kept, or ``off`` (:func:`graph_cache`, relight_rt._graph_cache);
 - ``OPENCV_IO_ENABLE_OPENEXR``: whether OpenCV's .exr reader was switched on (:func:`openexr_enabled`; OpenCV
   reads it itself, relight_rt only to say why an .exr did not decode).
 
@@ -20,6 +21,7 @@ from ._errors import RelightError
 THREADS = "RELIGHT_RT_THREADS"
 MODELS = "RELIGHT_RT_MODELS"
 TENSORRT = "RELIGHT_RT_TENSORRT"
+CACHE = "RELIGHT_RT_CACHE"
 OPENEXR = "OPENCV_IO_ENABLE_OPENEXR"
 
 
@@ -61,6 +63,22 @@ def models() -> str | None:
 def tensorrt_cache() -> str | None:
     """$RELIGHT_RT_TENSORRT (TensorRT's engine cache folder), stripped; None when unset or blank."""
     return _text(TENSORRT)
+
+
+def graph_cache() -> str | None:
+    """The folder of optimised graphs (relight_rt._graph_cache): $RELIGHT_RT_CACHE (None when it is ``off``, ``0``
+    or ``none``), else ``$XDG_CACHE_HOME/relight_rt/graphs``, else ``~/.cache/relight_rt/graphs`` (None when there
+    is no home)."""
+    text = _text(CACHE)
+    if text is not None:
+        return None if text.lower() in ("off", "0", "none") else text
+    base = _text("XDG_CACHE_HOME")
+    if base is None:
+        home = os.path.expanduser("~")
+        if home == "~":
+            return None
+        base = os.path.join(home, ".cache")
+    return os.path.join(base, "relight_rt", "graphs")
 
 
 def openexr_enabled() -> bool:

@@ -208,13 +208,14 @@ class FaceMesh:
             return
         import onnxruntime as ort
 
+        from ._graph_cache import open_session
         from .session import load_model
 
         self.detector = load_model(files[0], "matte_face", device=device, warmup=False)
         opts = ort.SessionOptions()
         opts.intra_op_num_threads = 1
         try:
-            self.mesh = ort.InferenceSession(str(files[1]), opts, providers=["CPUExecutionProvider"])
+            self.mesh = open_session(files[1], opts, ["CPUExecutionProvider"])
         except Exception as exc:  # a broken file: one clear error
             raise RelightError(f"{files[1]}: cannot load the face landmarker ({exc})") from None
         try:

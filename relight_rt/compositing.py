@@ -13,6 +13,14 @@ Over a new backdrop (anything but "original", transparent included) the person's
 cleaned of the old background (:func:`clean_edge_colour` with ``relight_rt.foreground.estimate_foreground``):
 an edge pixel of the photo mixes the person with what stood behind them, and that mix would otherwise
 show as a fringe of the old background around hair and limbs.
+
+Over the original background, ``Background(grade=True)`` (CLI ``--grade-background``) makes the backdrop follow the
+new light: ONE global grade, a gain per channel, the same for every background pixel (no relighting of the scene:
+its shadows and its own lamps stay where they were). The gain is the person's change, their relit colour over
+their own colour summed over the matte (relight_rt.relight.compose.background_grade): the exposure's change
+(relight_rt.exposure: the person is exposed to their own brightness, moved by an EV offset or a preset's own,
+``night`` darker) and the new light's colour. It multiplies the backdrop outside the matte and the colour behind the
+soft edge, clipped to [0, 1]. Other backgrounds are the user's choice and are never graded.
 """
 
 from __future__ import annotations
@@ -43,18 +51,24 @@ class Background:
         color: (r, g, b) in [0, 1] for "color".
         image: a path or an (H, W, 3|4) array for "image" (alpha is dropped).
         fit: how an image of another size is fitted to the frame (module docstring).
+        grade: the original background follows the new light (one global grade per channel: the module
+            docstring); ignored by the other kinds. Off by default.
     """
 
     kind: str = "original"
     color: tuple[float, float, float] = (0.0, 0.0, 0.0)
     image: object = None
     fit: str = "cover"
+    grade: bool = False
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
             raise RelightError(f"background: kind {self.kind!r}, expected one of {list(KINDS)}")
         if self.fit not in FITS:
             raise RelightError(f"background: fit {self.fit!r}, expected one of {list(FITS)}")
+        if not isinstance(self.grade, (bool, np.bool_)):
+            raise RelightError(f"background: grade {self.grade!r}, expected True or False")
+        object.__setattr__(self, "grade", bool(self.grade))
         c = np.asarray(self.color, dtype=np.float64)
         if c.shape != (3,) or not np.isfinite(c).all() or (c < 0).any() or (c > 1).any():
             raise RelightError(f"background: colour {self.color!r}, expected three values in [0, 1]")
@@ -66,8 +80,8 @@ class Background:
                 raise RelightError(f"background: expected a path or an image array, got {type(self.image).__name__}")
 
     @classmethod
-    def original(cls) -> Background:
-        return cls("original")
+    def original(cls, grade: bool = False) -> Background:
+        return cls("original", grade=grade)
 
     @classmethod
     def transparent(cls) -> Background:
@@ -85,6 +99,11 @@ class Background:
     def path(self) -> str | None:
         """The file it reads, if any (to protect it from being overwritten)."""
         return self.image if self.kind == "image" and isinstance(self.image, str) else None
+
+    @property
+    def graded(self) -> bool:
+        """True when the backdrop follows the new light: the original background with ``grade``."""
+        return self.grade and self.kind == "original"
 
     @property
     def channels(self) -> int:
@@ -174,7 +193,7 @@ def _resize(image: np.ndarray, w: int, h: int) -> np.ndarray:
 
 
 def over_box(colour: np.ndarray, alpha: np.ndarray, box: tuple[int, int, int, int], backdrop: np.ndarray | None,
-             frame_alpha: np.ndarray, behind: np.ndarray | None = None) -> np.ndarray:
+             frame_alpha: np.ndarray, behind: np.ndarray | None = None, grade: np.ndarray | None = None) -> np.ndarray:
     """A straight-colour person inside ``box`` over a full-frame backdrop.
 
     Args:
@@ -185,6 +204,7 @@ def over_box(colour: np.ndarray, alpha: np.ndarray, box: tuple[int, int, int, in
         frame_alpha: (H, W) the mask of the whole frame (the RGBA output's alpha).
         behind: (h, w, 3) the backdrop's colours inside the box instead of ``backdrop``'s own (the photo's
             background behind a soft edge, relight_rt.foreground), or None.
+        grade: (3,) gain per channel on the backdrop and ``behind`` (the background following the light), or None.
 
     Returns:
         New (H, W, 3) float32, or (H, W, 4) RGBA with straight alpha when ``backdrop`` is None.
@@ -195,10 +215,15 @@ def over_box(colour: np.ndarray, alpha: np.ndarray, box: tuple[int, int, int, in
         out[y0:y1, x0:x1, :3] = np.where(alpha > 0, colour, 0)
         out[..., 3] = frame_alpha
         return out
-    out = np.array(backdrop, dtype=np.float32)  # the result: one full-size copy
+    if grade is None:
+        out = np.array(backdrop, dtype=np.float32)  # the result: one full-size copy
+    else:  # one global grade, still one full-size pass
+        gain = np.asarray(grade, np.float32)
+        out = np.multiply(backdrop, gain, dtype=np.float32)
+        np.clip(out, 0, 1, out=out)
     region = out[y0:y1, x0:x1]
     if behind is not None:
-        region[...] = behind
+        region[...] = behind if grade is None else np.clip(behind * gain, 0, 1)
     region += (colour - region) * alpha
     return out
 

@@ -48,6 +48,7 @@ from .relight.decomposition import (
 from .relight.faces import FacePass, head_crops
 from .relight.factor import Factor
 from .relight.intake import read_batch
+from .relight.look import prepare_lab
 from .relight.network import Network
 from .session import Model, find_models, load_model
 
@@ -127,6 +128,8 @@ class Relighter:
         self._faces = FacePass(self.models_dir)  # face normals (relight_rt._face_geometry), loaded on first use
         self._factor = Factor(self._memo, self._faces, config.detail, self._network.own_residual)
         self._composer = Composer(self._memo, self._factor, config.detail)
+        if config.detail:
+            prepare_lab()  # OpenCV's Lab tables, which every relight with detail uses, built beside the first stages
         CropGeometry.from_mask(np.ones((1, 1), np.float32), self.resolution, config.preprocess)  # checks the mode
 
     # the settings, read from self.config (kept there once)
@@ -354,7 +357,9 @@ class Relighter:
             mask: the photo's mask (see ``decompose``); not with a Decomposition.
             background: a :class:`relight_rt.compositing.Background`, or its shorthand: "original" (the
                 photo), "transparent" (RGBA output, alpha = mask), a colour ("black", "#RRGGBB") or an image
-                (path or array; fitted to the photo by "cover").
+                (path or array; fitted to the photo by "cover"). ``Background.original(grade=True)``: the photo's
+                background follows the new light by one global grade per channel, the person's change
+                (relight_rt.compositing); off by default.
             exposure: "auto" (default: the light is scaled so the person keeps its mean luminance, lowered by up
                 to a stop where that would put more than 8 % of the person past white), an EV offset from
                 auto (+1 twice as bright), or "physical" (the light as given); relight_rt.exposure.
@@ -400,12 +405,13 @@ class Relighter:
         if layers:
             return self._relight_with_layers(dec, lit, bg)
         outputs = next(self._network.relit(dec, lit[None], 1, want_layers=self.detail))
-        return self._composer.compose(dec, lit, outputs, backdrop_of(dec, bg), clean=bg.kind != "original")
+        return self._composer.compose(dec, lit, outputs, backdrop_of(dec, bg), clean=bg.kind != "original",
+                                      grade=bg.graded)
 
     def _relight_with_layers(self, dec: Decomposition, lit: np.ndarray, bg: Background) -> RelightResult:
         """The picture under the exposed light ``lit`` and the input-frame layers that made it."""
         outputs = next(self._network.relit(dec, lit[None], 1, want_layers=True))
-        return self._composer.with_layers(dec, lit, outputs, backdrop_of(dec, bg), bg.kind != "original")
+        return self._composer.with_layers(dec, lit, outputs, backdrop_of(dec, bg), bg.kind != "original", bg.graded)
 
     def iter_relight(
         self,
@@ -441,7 +447,7 @@ class Relighter:
         bg = parse_background(background)
         backdrop = backdrop_of(dec, bg)
         for lit, outputs in zip(lits, self._network.relit(dec, lits, batch_size, want_layers=self.detail), strict=True):
-            yield self._composer.compose(dec, lit, outputs, backdrop, clean=bg.kind != "original")
+            yield self._composer.compose(dec, lit, outputs, backdrop, clean=bg.kind != "original", grade=bg.graded)
 
     def relight_many(
         self,

@@ -36,6 +36,7 @@ import onnxruntime as ort
 
 from . import _env
 from ._errors import RelightError
+from ._graph_cache import open_session
 from .contract import KINDS, ModelConfig, config_from_metadata, kind_spec
 
 log = logging.getLogger(__name__)
@@ -169,7 +170,7 @@ def create_session(
     if sess_options is None:
         sess_options = cpu_session_options()
     try:
-        session = ort.InferenceSession(str(path), sess_options=sess_options, providers=wanted)
+        session = open_session(path, sess_options, wanted)  # an optimised graph kept from an earlier run
     except Exception as exc:  # onnxruntime raises its own classes (InvalidProtobuf, Fail, ...)
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise RelightError(f"model {path}: not a readable ONNX graph ({first})") from None

@@ -11,6 +11,15 @@ REPO = Path(__file__).resolve().parents[1]
 TEST_DATA = REPO / "tests" / "data"
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _graph_cache(tmp_path_factory):
+    """Optimised graphs (relight_rt._graph_cache) go to a folder of the test run, not the user's cache (subprocesses
+    inherit it); a test that sets $RELIGHT_RT_CACHE itself wins."""
+    if "RELIGHT_RT_CACHE" not in os.environ:
+        os.environ["RELIGHT_RT_CACHE"] = str(tmp_path_factory.mktemp("graph_cache"))
+    yield
+
+
 def _find_shared() -> Path | None:
     env = os.environ.get("RELIGHT_RT_SHARED")
     if env:

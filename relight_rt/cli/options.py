@@ -158,8 +158,20 @@ def add_key_light_option(p: argparse.ArgumentParser) -> None:
                    "horizon (default: the key the background implies)")  # fmt: skip
 
 
+def add_grade_background_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--grade-background", action="store_true",
+                   help="the original background follows the new light: one global grade per channel, the "
+                        "person's change of exposure and colour (off by default)")
+
+
 def background(args: argparse.Namespace) -> Background:
-    return parse_background(args.background)
+    bg = parse_background(args.background)
+    if getattr(args, "grade_background", False):
+        if bg.kind != "original":
+            raise RelightError(f"--grade-background: grades the original background only, not --background "
+                               f"{args.background}")
+        bg = Background.original(grade=True)
+    return bg
 
 
 def paths_of(*values) -> list[str]:

@@ -19,6 +19,7 @@ from ..transport_file import transport_arrays
 from .options import (
     add_background_option,
     add_exposure_option,
+    add_grade_background_option,
     add_light_options,
     add_mask_option,
     add_person_option,
@@ -50,6 +51,7 @@ def add_relight(subparsers) -> None:
     add_person_option(p)
     add_light_options(p)
     add_background_option(p)
+    add_grade_background_option(p)
     add_exposure_option(p)
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="output file (one input) or folder")
     p.add_argument("--skip-existing", action="store_true", help="leave outputs that exist alone (resume a batch)")

@@ -119,10 +119,15 @@ class PersonMatter:
         if int(max_passes) < 1:
             raise RelightError(f"max_passes: expected >= 1, got {max_passes}")
         folder = find_matting_models(models)
-        self.pose: Model = load_model(folder / POSE_FILE, "matte_pose", device=device)
-        self.roi: Model = load_model(folder / ROI_FILE, "matte_roi", device=device)
+        # warmed up on CUDA only (kernels chosen up front); on the CPU a run on zeros is only time lost for one photo
+        self.pose: Model = load_model(folder / POSE_FILE, "matte_pose", device=device, warmup=False)
+        self.roi: Model = load_model(folder / ROI_FILE, "matte_roi", device=device, warmup=False)
         face = folder / FACE_FILE
-        self.face: Model | None = load_model(face, "matte_face", device=device) if face.is_file() else None
+        self.face: Model | None = (load_model(face, "matte_face", device=device, warmup=False) if face.is_file()
+                                   else None)
+        for model in (self.pose, self.roi, self.face):
+            if model is not None and model.on_cuda:
+                model.warm_up()
         self.person = person
         self.refine = bool(refine)
         self.guide = guide

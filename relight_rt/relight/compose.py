@@ -7,7 +7,9 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from ..color import srgb_to_linear
 from ..compositing import Background, clean_edge_colour, over_box
+from ..exposure import DISPLAY_GAMMA
 from ..foreground import estimate_foreground, nearest_colours
 from .decomposition import Decomposition, Memo, RelightResult, intrinsic_layers, readonly
 from .factor import Factor
@@ -45,6 +47,39 @@ def soft_edge_width(alpha: np.ndarray) -> float:
     inside = (alpha > 0.5).astype(np.uint8)
     outline = int(np.count_nonzero(inside - cv2.erode(inside, np.ones((3, 3), np.uint8))))
     return soft / max(outline, 1)
+
+
+def background_grade(colour: np.ndarray, own: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """(3,) float32: the person's change under the new light, one gain per channel on the photo's values, that
+    grades the original background (``Background.grade``, relight_rt.compositing).
+
+    The change is measured in light: the relit colour and the person's own colour decoded from sRGB, each summed
+    over the matte per channel (a ratio of means, so the bright pixels that carry the exposure weigh as they
+    show), G = new / old. The backdrop's values are multiplied by G ** (1 / DISPLAY_GAMMA), the exposure's rule for
+    light seen on a display (relight_rt.exposure: values ~ light ** (1 / 2.2)), so its light moves by G, as the
+    person's did. 1 where the person is black.
+
+    Args:
+        colour, own: (h, w, 3) the relit person and the person's own colour (their foreground), straight, sRGB.
+        alpha: (h, w) or (h, w, 1) the matte there.
+    """
+    return grade_of_sums(*light_sums(colour, own, alpha))
+
+
+def light_sums(colour: np.ndarray, own: np.ndarray, alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """``background_grade``'s sums over a matte: the relit and the own colour in light, each (3,) float64, and the
+    matte's sum. Sums of several people (a group, relit person by person) add up to the group's grade."""
+    a = alpha.reshape(alpha.shape[:2] + (1,)).astype(np.float32)
+    new = (srgb_to_linear(np.clip(colour, 0, 1)) * a).sum(axis=(0, 1), dtype=np.float64)
+    old = (srgb_to_linear(np.clip(own, 0, 1)) * a).sum(axis=(0, 1), dtype=np.float64)
+    return new, old, float(a.sum())
+
+
+def grade_of_sums(new: np.ndarray, old: np.ndarray, weight: float) -> np.ndarray:
+    """``background_grade`` from ``light_sums`` (summed over people where there are several)."""
+    ok = old > 1e-6 * max(weight, 1.0)
+    light = np.where(ok, new / np.where(ok, old, 1.0), 1.0)
+    return (light ** (1.0 / DISPLAY_GAMMA)).astype(np.float32)
 
 
 def backdrop_of(dec: Decomposition, bg: Background) -> np.ndarray | None:
@@ -139,7 +174,8 @@ class Composer:
         return state[key]
 
     def compose(
-        self, dec: Decomposition, light: np.ndarray, outputs: tuple, backdrop: np.ndarray | None, clean: bool = False
+        self, dec: Decomposition, light: np.ndarray, outputs: tuple, backdrop: np.ndarray | None, clean: bool = False,
+        grade: bool = False,
     ) -> np.ndarray:
         """The photo relit under the (exposed) ``light``, given stage 2's ``outputs`` (diffuse, residual, relit).
 
@@ -147,13 +183,14 @@ class Composer:
         (``person_colour``); the network image (``detail=False``) gets its soft edge cleaned of the old
         background here (relight_rt.compositing.clean_edge_colour). Over the photo's own background (not
         ``clean``) the soft edge's share of background is the colour behind it (``foreground``), so that the
-        photo's own light gives the photo back.
+        photo's own light gives the photo back. ``grade`` (the original backdrop only): it and the colour behind
+        the soft edge follow the light, by the person's change (``background_grade``).
         """
         geom = dec.geometry
         _, residual, relit = outputs
         colour = self.person_colour(dec, light, residual, relit)
         alpha = geom.crop(dec.mask)
-        behind = None
+        behind = gain = None
         if clean and not self.detail:
             photo = np.ascontiguousarray(geom.crop(dec.image))
             fg, _ = self.foreground(dec, always=True)
@@ -161,14 +198,16 @@ class Composer:
         elif not clean and backdrop is not None:
             fg, bg = self.foreground(dec)
             behind = None if bg is fg else bg
-        return over_box(colour, alpha[..., None], geom.box, backdrop, dec.mask, behind)
+            if grade:
+                gain = background_grade(colour, fg, alpha)
+        return over_box(colour, alpha[..., None], geom.box, backdrop, dec.mask, behind, gain)
 
     def with_layers(self, dec: Decomposition, lit: np.ndarray, outputs: tuple, backdrop: np.ndarray | None,
-                    clean: bool) -> RelightResult:
+                    clean: bool, grade: bool = False) -> RelightResult:
         """``compose`` and the input-frame layers that made the picture (stage 2's ``outputs`` under the exposed
         light ``lit`` with its layers: diffuse, residual or None when diffuse-only, relit)."""
         diffuse, residual, relit = outputs
-        out = self.compose(dec, lit, (diffuse, residual, relit), backdrop, clean=clean)
+        out = self.compose(dec, lit, (diffuse, residual, relit), backdrop, clean=clean, grade=grade)
         chw = lambda a: dec.to_input(np.ascontiguousarray(a.transpose(1, 2, 0)))  # noqa: E731
         layers = {
             "albedo": intrinsic_layers(dec)["albedo"],

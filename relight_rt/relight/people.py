@@ -110,6 +110,7 @@ def by_person(
         region = out[y0:y1, x0:x1]
         for r in range(0, y1 - y0, _ROWS):  # what shows through the soft edge; the people's colours are added to
             region[r : r + _ROWS] *= 1 - alpha[r : r + _ROWS]  # it (in bands: 1 - alpha is the photo's size)
+    graded = backdrop is not None and bg.graded
     people = []
     for part in parts:
         oy, ox = part.origin
@@ -124,6 +125,9 @@ def by_person(
             a = dec.mask[cy0:cy1, cx0:cx1, None]
             region[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0] = behind[inner] * (1 - a)
         people.append((part, (cy0, cy1, cx0, cx1), (py0, px0)))
+    if graded:  # what shows of the backdrop in the box, graded once the people's change is known
+        under = region.copy()
+        sums = [np.zeros(3), np.zeros(3), 0.0]
     for part, (cy0, cy1, cx0, cx1), (py0, px0) in people:
         lit = factor.expose(part, light[None], exposure)[0]
         _, residual, relit = next(network_relit(part, lit[None], 1, want_layers=composer.detail))
@@ -136,6 +140,9 @@ def by_person(
         if clean and not composer.detail:
             colour = clean_edge_colour(colour, np.ascontiguousarray(part.geometry.crop(part.image)),
                                        composer.foreground(part, always=True)[0], share[..., 0])
+        if graded:  # the person's change in light, over their share (people add up to the group's)
+            for i, v in enumerate(compose.light_sums(colour, composer.foreground(part)[0], share)):
+                sums[i] = sums[i] + v
         colour *= share
         region[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0] += colour[cy0 - py0 : cy1 - py0, cx0 - px0 : cx1 - px0]
         del colour, residual, relit, looks
@@ -143,4 +150,9 @@ def by_person(
     if backdrop is None:
         np.divide(region, alpha, out=region, where=alpha > 0)
         out[..., 3] = dec.mask
+    elif graded:  # the group's change, summed over the people (relight_rt.compositing's grade)
+        gain = compose.grade_of_sums(*sums)
+        region += under * (gain - 1)  # the backdrop's share of the box, and everything outside it
+        for band in (out[:y0], out[y1:], out[y0:y1, :x0], out[y0:y1, x1:]):
+            band *= gain
     return np.clip(out, 0, 1, out=out)

@@ -8,7 +8,8 @@ Routes (no route takes a filesystem path; ids are random tokens of the server's 
     GET  /api/info                 sizes, layer format, own light, presets, features (JSON)
     GET  /api/layers               display-resolution layers (binary, see Studio.layers_bytes)
     GET  /api/photo.png            the photo as the pipeline reads it, full resolution (the page's "before")
-    POST /api/render               {"light": 27 numbers, "exposure": ...} -> {"id", "seconds", "command", ...}
+    POST /api/render               {"light": 27 numbers, "exposure": ..., "grade_background": bool}
+                                   -> {"id", "seconds", "command", ...}
     GET  /api/result/ID.png        a render's PNG at full resolution (?download=1: as an attachment)
     GET  /api/result/ID/light.npy  its light (9, 3) float32 RGB; light.json likewise
     POST /api/envmap               raw body: an .hdr / PNG / JPEG equirectangular map -> {"light"}
@@ -260,7 +261,8 @@ def create_app(studio: Studio, allowed_hosts: list[str] | None = None, budget: B
                 raise RelightError("render: the JSON body is nested too deeply") from None
         if not isinstance(body, dict):
             raise RelightError("render: expected a JSON object")
-        rid, rec = await run_in_threadpool(studio.render, body.get("light"), body.get("exposure", "auto"))
+        rid, rec = await run_in_threadpool(studio.render, body.get("light"), body.get("exposure", "auto"),
+                                           body.get("grade_background", False))
         return {
             "id": rid,
             "seconds": rec.seconds,

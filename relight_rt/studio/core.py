@@ -38,6 +38,7 @@ from .._errors import RelightError
 from .._io import as_colour, decode_bytes, encode_image, read_image, sibling_mask
 from .._limits import header_size
 from .._strength import restore_bands
+from ..compositing import Background
 
 log = logging.getLogger(__name__)
 
@@ -175,6 +176,7 @@ class Render:
     light: np.ndarray  # (9, 3) float32 RGB, exactly as used
     exposure: object
     seconds: float
+    grade_background: bool = False  # the original background followed the light (Background.grade)
 
 
 def command_line(program: list[str], operands: list, options: list[tuple[str, object]]) -> str:
@@ -186,7 +188,7 @@ def command_line(program: list[str], operands: list, options: list[tuple[str, ob
     for value in operands:
         text = str(value)
         words.append(f"./{text}" if text.startswith("-") else text)
-    words += [f"{name}={value}" for name, value in options]
+    words += [name if value is None else f"{name}={value}" for name, value in options]
     return shlex.join(words)
 
 
@@ -405,6 +407,7 @@ class Studio:
             "height": h,
             "preview": {k: v for k, v in self._layers.items() if k != "data"},
             "background": "transparent" if self.background == "transparent" else "image",
+            "original_background": self.background == "original",  # the toggle "background follows the light"
             "own_light": own.tolist(),
             "presets": {name: lights.preset(name).astype(np.float32).tolist() for name in lights.list_presets()},
             "preset_exposure": {name: lights.preset_exposure(name) for name in lights.list_presets()},
@@ -421,11 +424,16 @@ class Studio:
 
     # ------------------------------------------------------------------------------------ full results
 
-    def render(self, light, exposure="auto") -> tuple[str, Render]:
-        """Run the full pipeline under ``light`` (27 numbers, RGB) and keep the PNG; returns (id, render)."""
+    def render(self, light, exposure="auto", grade_background=False) -> tuple[str, Render]:
+        """Run the full pipeline under ``light`` (27 numbers, RGB) and keep the PNG; returns (id, render).
+        ``grade_background``: the original background follows the light (Background.grade; the studio's toggle,
+        ignored for other backgrounds)."""
         lit = request_light(light)
         exp = request_exposure(exposure)
-        kwargs = {"background": self._bg or self.background}
+        if not isinstance(grade_background, bool):
+            raise RelightError(f"grade_background: expected true or false, got {grade_background!r}")
+        grade = grade_background and self.background == "original"
+        kwargs = {"background": Background.original(grade=True) if grade else self._bg or self.background}
         if self.exposure_supported:
             kwargs["exposure"] = exp
         with self._lock:
@@ -433,7 +441,7 @@ class Studio:
             image = self.relighter.relight(self.dec, lit, **kwargs)
             png = encode_image(image, ".png", "result")
             seconds = time.perf_counter() - t0
-        rec = Render(png, lit, exp if self.exposure_supported else "auto", seconds)
+        rec = Render(png, lit, exp if self.exposure_supported else "auto", seconds, grade)
         return self.renders.put(rec), rec
 
     def command(self, render: Render, light_file: str) -> str:
@@ -448,6 +456,8 @@ class Studio:
         options.append(("--light", light_file))
         if self.background != "original":
             options.append(("--background", self.background))
+        if render.grade_background:
+            options.append(("--grade-background", None))
         if self.exposure_supported and render.exposure != "auto":
             options.append(("--exposure", render.exposure))
         if self.models is not None:

@@ -300,7 +300,7 @@ async function requestFull() {
     const res = await api("/api/render", {
       method: "POST",
       headers: { "Content-Type": "application/json" },
-      body: JSON.stringify({ light, exposure: exposureValue() }),
+      body: JSON.stringify({ light, exposure: exposureValue(), grade_background: $("grade-background").checked }),
     });
     const out = await res.json();
     if (seq !== state.seq) return;  // the light moved on meanwhile
@@ -459,6 +459,8 @@ function bindPanel() {
   const colour = $("lamp-colour");
   colour.addEventListener("input", (e) => { state.lamp.colour = hexToRgb(colour.value); lightChanged(e); });
   colour.addEventListener("change", () => requestFull());
+  $("grade-background").addEventListener("change", () => requestFull());
+  $("grade-background-box").hidden = !info.original_background;
   const mode = $("exposure-mode");
   mode.addEventListener("change", (e) => { state.exposure.mode = mode.value; lightChanged(e); requestFull(); });
   if (!info.exposure) {  // this runtime's Relighter.relight keeps the light as set

@@ -18,6 +18,7 @@ from _graphs import models_dir, person
 
 import relight_rt
 from relight_rt import Relighter, RelightError, RuntimeConfig, envmap, lights
+from relight_rt.compositing import Background
 from relight_rt._limits import header_size
 from relight_rt._strength import restore_bands
 from relight_rt.cli import main
@@ -177,6 +178,24 @@ def test_render_is_the_relighters_result(studio, models_dir):
     assert cmd.startswith("relight-rt relight ") and "--light=someone_light.npy" in cmd
     assert "--output=someone_relit.png" in cmd
     assert json.loads(light_json(rec.light))["order"] == "rgb"
+
+
+def test_render_grades_the_original_background_when_asked(studio, models_dir):
+    """The studio's toggle: the full result is the Relighter's with Background.original(grade=True), and the
+    command it shows asks for the same (--grade-background); not asked, nothing changes."""
+    light = lights.preset("night").astype(np.float32)
+    assert studio.info()["original_background"] is True
+    _, rec = studio.render(light.tolist(), grade_background=True)
+    png = cv2.imdecode(np.frombuffer(rec.png, np.uint8), cv2.IMREAD_UNCHANGED)
+    rl = Relighter(RuntimeConfig(models=models_dir, device="cpu"))
+    expected = rl.relight(studio.photo, light, background=Background.original(grade=True))
+    np.testing.assert_array_equal(png[..., ::-1], (np.clip(expected, 0, 1) * 255 + 0.5).astype(np.uint8))
+    assert rec.grade_background and studio.command(rec, "l.npy").split().count("--grade-background") == 1
+    _, plain = studio.render(light.tolist())
+    assert not plain.grade_background and "--grade-background" not in studio.command(plain, "l.npy")
+    assert plain.png != rec.png
+    with pytest.raises(RelightError, match="grade_background"):
+        studio.render(light.tolist(), grade_background="yes")
 
 
 def _check_preview_exposure(studio):
