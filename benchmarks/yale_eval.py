@@ -47,11 +47,10 @@ for p in (str(REPO), str(HERE)):
         sys.path.insert(0, p)
 
 import dpr_protocol as dprp  # noqa: E402
+from real_photos import luminance  # noqa: E402
 
 from relight_rt import Relighter, RuntimeConfig, lights  # noqa: E402
-from relight_rt.color import srgb_to_linear  # noqa: E402
 
-REC709 = np.array([0.2126, 0.7152, 0.0722], np.float32)
 EPS = 1e-3
 GRID = 48
 AMBIENT = 0.05
@@ -86,7 +85,7 @@ def read_grey(path: Path) -> np.ndarray:
 
 
 def grid_log_lum(rgb: np.ndarray) -> np.ndarray:
-    lum = srgb_to_linear(np.clip(rgb, 0, 1).astype(np.float32)) @ REC709
+    lum = luminance(rgb)
     return np.log(cv2.resize(lum, (GRID, GRID), interpolation=cv2.INTER_AREA) + EPS)
 
 
