@@ -34,23 +34,17 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 import time
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-REPO = Path(__file__).resolve().parents[1]
-HERE = Path(__file__).resolve().parent
-for p in (str(REPO), str(HERE)):
-    if p not in sys.path:
-        sys.path.insert(0, p)
+# real_photos puts this checkout (and benchmarks/) first on sys.path: the relight_rt imported below is this one
+from real_photos import LEFT, REPO, RIGHT, luminance
 
-from real_photos import LEFT, RIGHT, luminance  # noqa: E402
-
-from relight_rt import Relighter, RuntimeConfig, lights  # noqa: E402
-from relight_rt._face_geometry import FaceMesh  # noqa: E402
+from relight_rt import Relighter, RuntimeConfig, lights
+from relight_rt._face_geometry import FaceMesh
 
 DARK_L, TEAL_A, NEUTRAL_C = 30.0, -8.0, 8.0
 BAND = 24

@@ -40,16 +40,13 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-REPO = Path(__file__).resolve().parents[1]
-HERE = Path(__file__).resolve().parent
-for p in (str(REPO), str(HERE)):
-    if p not in sys.path:
-        sys.path.insert(0, p)
+# real_photos puts this checkout (and benchmarks/) first on sys.path: the relight_rt imported below is this one
+from real_photos import REPO, luminance
 
-import dpr_protocol as dprp  # noqa: E402
-from real_photos import luminance  # noqa: E402
+# isort: split
+import dpr_protocol as dprp  # imports relight_rt: after real_photos
 
-from relight_rt import Relighter, RuntimeConfig, lights  # noqa: E402
+from relight_rt import Relighter, RuntimeConfig, lights
 
 EPS = 1e-3
 GRID = 48
