@@ -28,23 +28,17 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-REPO = Path(__file__).resolve().parents[1]
-HERE = Path(__file__).resolve().parent
-for p in (str(REPO), str(HERE)):
-    if p not in sys.path:
-        sys.path.insert(0, p)
+# real_photos puts this checkout (and benchmarks/) first on sys.path: the relight_rt imported below is this one
+from real_photos import LEFT, REPO, RIGHT, change
 
-from real_photos import LEFT, RIGHT, change  # noqa: E402
-
-import relight_rt  # noqa: E402
-from relight_rt import RuntimeConfig  # noqa: E402
-from relight_rt._face_geometry import rasterise_normals  # noqa: E402
+import relight_rt
+from relight_rt import RuntimeConfig
+from relight_rt._face_geometry import rasterise_normals
 
 LIGHTS = {"overhead-noon": "overhead-noon", "night": "night", "campfire": "campfire", "left": LEFT, "right": RIGHT}
 PEOPLE = ("dpr_obama", "grace_hopper", "julia_trotti", "blonde_hair", "astronaut")

@@ -34,26 +34,18 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 import time
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-REPO = Path(__file__).resolve().parents[1]
-HERE = Path(__file__).resolve().parent
-for p in (str(REPO), str(HERE)):
-    if p not in sys.path:
-        sys.path.insert(0, p)
+# real_photos puts this checkout (and benchmarks/) first on sys.path: the relight_rt imported below is this one
+from real_photos import LEFT, REPO, RIGHT, luminance
 
-from real_photos import LEFT, RIGHT  # noqa: E402
+from relight_rt import Relighter, RuntimeConfig, lights
+from relight_rt._face_geometry import FaceMesh
 
-from relight_rt import Relighter, RuntimeConfig, lights  # noqa: E402
-from relight_rt._face_geometry import FaceMesh  # noqa: E402
-from relight_rt.color import srgb_to_linear  # noqa: E402
-
-REC709 = np.array([0.2126, 0.7152, 0.0722], np.float32)
 DARK_L, TEAL_A, NEUTRAL_C = 30.0, -8.0, 8.0
 BAND = 24
 
@@ -80,10 +72,6 @@ def lab(rgb: np.ndarray) -> np.ndarray:
     return cv2.cvtColor(np.clip(rgb, 0, 1).astype(np.float32), cv2.COLOR_RGB2Lab)
 
 
-def lum(rgb: np.ndarray) -> np.ndarray:
-    return srgb_to_linear(np.clip(rgb, 0, 1).astype(np.float32)) @ REC709
-
-
 def face_region(mesh: FaceMesh, rgb: np.ndarray, person: np.ndarray) -> np.ndarray | None:
     h, w = rgb.shape[:2]
     faces = mesh.faces(rgb, (0, h, 0, w)) if mesh.available else []
@@ -108,12 +96,12 @@ def photo_figures(relighter: Relighter, mesh: FaceMesh, rgb: np.ndarray, mask: n
     face = face_region(mesh, rgb, person)
     out: dict = {"dark_share": float(dark.sum() / max(person.sum(), 1)),
                  "black_share": float(black.sum() / max(person.sum(), 1)), "face": face is not None, "lights": {}}
-    y_in = float(lum(rgb)[person].mean())
+    y_in = float(luminance(rgb)[person].mean())
     for name in names:
         light = {"LEFT": LEFT, "RIGHT": RIGHT}.get(name, name)
         relit = relighter.relight(dec, light)
         lab_out = lab(relit)
-        row = {"ev": float(np.log2(max(float(lum(relit)[person].mean()), 1e-8) / max(y_in, 1e-8)))}
+        row = {"ev": float(np.log2(max(float(luminance(relit)[person].mean()), 1e-8) / max(y_in, 1e-8)))}
         if has_dark:
             row["teal_dark"] = float((lab_out[..., 1][dark] < TEAL_A).mean())
         if has_black:

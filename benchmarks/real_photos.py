@@ -74,8 +74,8 @@ import dpr_protocol as dprp  # noqa: E402
 import relight_rt  # noqa: E402
 from relight_rt import Relighter, RuntimeConfig, lights  # noqa: E402
 from relight_rt.color import srgb_to_linear  # noqa: E402
+from relight_rt.exposure import REC709  # noqa: E402
 
-REC709 = np.array([0.2126, 0.7152, 0.0722], np.float32)
 EPS = 1e-3
 # white side lights, as benchmarks/portrait_check.py has them (a 0.6-rad lamp: DPR's demo lights are as soft)
 LEFT = lights.directional((0.35, -1.0, 0.25), (1, 1, 1), 1.0, angular_radius=0.6) + lights.ambient(0.06)
@@ -165,6 +165,8 @@ def reference_photos(ref: Path | None, n_frames: int) -> list[Photo]:
 
 
 def luminance(rgb: np.ndarray) -> np.ndarray:
+    """Linear luminance (Rec. 709 of linearised sRGB) of an sRGB picture in [0, 1]: photo_faults and yale_eval
+    measure with it too."""
     return srgb_to_linear(np.clip(rgb, 0, 1).astype(np.float32)) @ REC709
 
 

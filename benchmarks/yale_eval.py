@@ -40,18 +40,14 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-REPO = Path(__file__).resolve().parents[1]
-HERE = Path(__file__).resolve().parent
-for p in (str(REPO), str(HERE)):
-    if p not in sys.path:
-        sys.path.insert(0, p)
+# real_photos puts this checkout (and benchmarks/) first on sys.path: the relight_rt imported below is this one
+from real_photos import REPO, luminance
 
-import dpr_protocol as dprp  # noqa: E402
+# isort: split
+import dpr_protocol as dprp  # imports relight_rt: after real_photos
 
-from relight_rt import Relighter, RuntimeConfig, lights  # noqa: E402
-from relight_rt.color import srgb_to_linear  # noqa: E402
+from relight_rt import Relighter, RuntimeConfig, lights
 
-REC709 = np.array([0.2126, 0.7152, 0.0722], np.float32)
 EPS = 1e-3
 GRID = 48
 AMBIENT = 0.05
@@ -86,7 +82,7 @@ def read_grey(path: Path) -> np.ndarray:
 
 
 def grid_log_lum(rgb: np.ndarray) -> np.ndarray:
-    lum = srgb_to_linear(np.clip(rgb, 0, 1).astype(np.float32)) @ REC709
+    lum = luminance(rgb)
     return np.log(cv2.resize(lum, (GRID, GRID), interpolation=cv2.INTER_AREA) + EPS)
 
 

@@ -64,10 +64,8 @@ def _make(kind: str, seed: int):
     return make_subject({"kind": kind, "seed": seed, "clothing": True})
 
 
-def run(config: GpuBankConfig | argparse.Namespace) -> int:
+def run(config: GpuBankConfig) -> int:
     """Build (or complete) the bank; returns 0."""
-    if isinstance(config, argparse.Namespace):  # export/__main__ still hands the parsed arguments over
-        config = config_from_args(config)
     from export import dataset
 
     from . import bank

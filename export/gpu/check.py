@@ -96,9 +96,7 @@ def compare(candidate: dict[str, np.ndarray], reference: dict[str, np.ndarray], 
     }
 
 
-def run(config: GpuCheckConfig | argparse.Namespace) -> int:
-    if isinstance(config, argparse.Namespace):  # export/__main__ still hands the parsed arguments over
-        config = config_from_args(config)
+def run(config: GpuCheckConfig) -> int:
     import torch
 
     from export.render.camera import fit_camera

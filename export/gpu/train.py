@@ -244,10 +244,8 @@ def _load_bank(root: Path, device):
     return index, subjects, bank.read_lights(root, index)
 
 
-def run(config: GpuTrainConfig | argparse.Namespace) -> int:
+def run(config: GpuTrainConfig) -> int:
     """Run ``gpu-train``; returns the exit status (0, or 1 when training stopped on an error)."""
-    if isinstance(config, argparse.Namespace):  # export/__main__ still hands the parsed arguments over
-        config = config_from_args(config)
     start = time.monotonic()
     _check(config)
     import torch

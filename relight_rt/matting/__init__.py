@@ -53,9 +53,11 @@ Modules (one concept each; this package re-exports the public names):
   accepts, through the runtime's one image intake relight_rt._io).
 - ``_regions``: square regions, the graphs' canvases and the working grid (:class:`Region`,
   :func:`crop_region`, :func:`person_box`).
-- ``_detect``: where people are (selfie-graph blobs over tiles, faces).
+- ``_detect``: where people are (selfie-graph blobs over tiles, faces, a wide blob's strips, faint places).
 - ``_matter``: :class:`PersonMatter` (segmentation, choosing the people, the full-resolution alpha) and
   :func:`shared_matter`.
+- ``_parts``: a group's people as parts of one matte (a segmentation split by faces, rejoined for the matte,
+  each person's share of it).
 - ``_coarse``: the coarse matte at full resolution (working grid + fast guided filter, relight_rt._guided).
 - ``_video``: :class:`VideoMatter` and :func:`outline_flicker` (flow from relight_rt.flow).
 

@@ -21,8 +21,9 @@ from .._faces import Face
 from .._refine import refine_edges
 from ..session import Model, load_model
 from ._coarse import region_alpha
-from ._detect import MIN_TILE, find_close_faces, find_faces, find_people, roi_prob
+from ._detect import MIN_TILE, faint_places, find_close_faces, find_faces, find_people, grid_pixels, roi_prob, strips
 from ._models import FACE_FILE, POSE_FILE, ROI_FILE, SIZE, as_rgb, find_matting_models
+from ._parts import Crop, faces_side_by_side, rejoin, shares, split_by_faces
 from ._regions import (
     COARSE_MIN_AREA,
     LOGIT_CLIP,
@@ -49,30 +50,25 @@ _NOBODY = 0.05  # person="all": a face under which the pose graph's presence is 
 _SURE_FACE = 0.8  # ... is a person only when the face graph's score is at least this
 _BACKED = 0.1  # a pose-graph person's pixels at this probability or more are theirs where the selfie graph agrees
 _SURE_BLOB = 0.9  # person="largest", nobody else found: the selfie graph's blob is a person when this sure of it
-PRESENCE_FAINT = 0.9  # ... for a person the selfie graph hardly sees (:func:`_faint`): the pose graph must be sure
-FAINT_PROB = 0.25  # person="all": the selfie graph's probability that marks where such a person may stand
+PRESENCE_FAINT = 0.9  # ... for a person the selfie graph hardly sees (faint_places): the pose graph must be sure
 MIN_PERSON_FRACTION = 0.06  # person="all": people whose box is shorter than this x the image's height are left out
 _COVERED = 0.5  # a candidate (blob) this much inside people already matted is one of them
 _COVERED_FACE = 0.8  # ... and a face's person this much inside them
 _MAX_REQUEUE = 16  # person="all": leftovers of blobs searched again (several people in one blob)
 _MAX_TRIES = 32  # person="all": candidates segmented at most (each costs 1-4 pose-graph runs)
-_MAX_FAINT = 16  # ... and faint places (:func:`_faint`) tried at most after them
+_MAX_FAINT = 16  # ... and faint places (:func:`faint_places`) tried at most after them
 _FAINT_FRAME = 2.0  # ... each framed at least this x the smallest person kept (a faint blob is often part of one)
 _GIVE_UP = 0.02  # person="all": a blob whose first pose-graph pass says this little is nobody (no re-centring)
 _SETTLED_IOU = 0.9  # the region has settled when the next one overlaps it this much
 _REFRAME = 0.9  # the selfie graph is run again on its own segmentation's region when that is this much smaller
 _MAX_GROW = 2  # selfie-graph runs on a higher region while its segmentation is cut by the region's top (_uncut)
 _STRADDLE = 0.75  # person="all": a pose-graph person this much inside the others together straddles two
-_PAIR_WIDTH = 0.45  # person="all": a blob nobody is found in, this x as wide as tall or wider, may be two
 _PORTRAIT_REACH = 0.3  # a pose-graph person ending this close to the bottom (x the height) may be a portrait
 _PORTRAIT_FACE = 0.3  # ... and holding a face this x its width wide
 _CUT_WIDTH = 0.125  # a portrait's body is cut by the bottom border over at least this x its box's width
 _FRAGMENT = 0.003  # person="largest": a separate part of the matte at least this x its main part's area is checked
 _MAX_FRAGMENTS = 8  # ... at most this many of them (largest first)
 _OTHER_OVERLAP = 0.25  # ... a segmentation holding the part and at most this share of the main part is someone else
-_PART_SOFT = 0.01  # parts: people's shares meet softly over about this x the photo's longer side
-_SHARE_MIN = 0.01  # parts: a person's share below this is none
-_MIN_PART = 256  # parts: a person with fewer opaque pixels of the matte than this (hidden) is not a part of their own
 
 log = logging.getLogger(__name__)
 
@@ -263,7 +259,7 @@ class PersonMatter:
         selfie graph's probability over every tile scale and the faces in tiles too, skips candidates that lie
         inside the people already matted (a group seen as one blob is taken face by face; one selfie-graph
         segmentation holding several faces side by side is one person per face, :func:`split_by_faces`),
-        drops duplicates, tries last where the selfie graph's probability stays faint (:func:`_faint`: the pose
+        drops duplicates, tries last where the selfie graph's probability stays faint (:func:`faint_places`: the pose
         graph must be sure there), and keeps people at least MIN_PERSON_FRACTION of the image's height tall.
         The detectors' crops of one call share the photo's reductions (:func:`reductions_shared`). Last, a
         selfie-graph person whose region cuts off the top of their head is given it (:meth:`_uncut`).
@@ -442,14 +438,14 @@ class PersonMatter:
             if rest.sum() < pix.size:  # people beside the one matted in the same blob
                 more = [c for c in blobs(rest.reshape(gh, gw)) if c[3].size >= 0.2 * pix.size]
             else:  # nobody in this blob as a whole: a wide one may be people side by side, strip by strip
-                more = _strips(pix, gw, grid, (h, w))
+                more = strips(pix, gw, grid, (h, w))
             requeued += len(more)
             cands = sorted(cands + more, key=lambda t: -t[0])
         tries = 0  # the faint places have tries of their own (a blob cut into strips used them all up)
-        for box in _faint(prob, grid, _FAINT_FRAME * MIN_PERSON_FRACTION * h):
+        for box in faint_places(prob, grid, _FAINT_FRAME * MIN_PERSON_FRACTION * h):
             if tries >= _MAX_FAINT:
                 break
-            pix = _grid_pixels(box, grid)
+            pix = grid_pixels(box, grid)
             if pix.size == 0 or occupied.flat[pix].mean() >= _COVERED:
                 continue
             tries += 1
@@ -645,30 +641,6 @@ def _is_portrait(roi: Person, shape: tuple[int, int]) -> bool:
     return bool((prob_at(roi, xs, np.full(xs.shape, h - 1.0)) > 0.5).mean() >= _CUT_WIDTH)
 
 
-def _faint(prob: np.ndarray, grid, min_height: float) -> list[tuple[float, float, float, float]]:
-    """Boxes (image pixels) where the selfie graph's probability on the working grid rises above FAINT_PROB
-    but nowhere reaches 0.5 (a person it hardly sees: small, in shade, in colours like the background; the
-    woman in purple by the kiosk of the street photo peaks at 0.42 there, and the pose graph framed on her
-    is sure: 0.99), each widened to a square at least ``min_height`` tall around its centre (such a blob is
-    often one part of a person, too small to frame them)."""
-    _, _, kx, ky, bx, by = grid
-    n, labels, stats, _ = cv2.connectedComponentsWithStats((prob > FAINT_PROB).astype(np.uint8), connectivity=8)
-    if n <= 1:
-        return []
-    peak = np.zeros(n, np.float32)
-    np.maximum.at(peak, labels.ravel(), prob.ravel())
-    out = []
-    for i in np.argsort(-stats[:, cv2.CC_STAT_AREA]):
-        if i == 0 or peak[i] >= 0.5:
-            continue
-        x, y, bw, bh, _ = (int(v) for v in stats[i])
-        x0, y0, x1, y1 = (x - bx) / kx, (y - by) / ky, (x + bw - bx) / kx, (y + bh - by) / ky
-        half = max(x1 - x0, y1 - y0, min_height) / 2
-        cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
-        out.append((cx - half, cy - half, cx + half, cy + half))
-    return out
-
-
 def _without_straddlers(
     people: list[Person], grid, faces: list[Face] = (), shape: tuple[int, int] | None = None
 ) -> list[Person]:
@@ -736,43 +708,6 @@ def _held(raised: Person, first: Person, shape: tuple[int, int]) -> Person:
     return Person(raised.region, logits, raised.presence, raised.source)
 
 
-def _grid_pixels(box, grid) -> np.ndarray:
-    """Flat indices of the working-grid pixels inside an image box."""
-    gw, gh, kx, ky, bx, by = grid
-    x0, x1 = max(int(kx * box[0] + bx + 0.5), 0), min(int(np.ceil(kx * box[2] + bx + 0.5)), gw)
-    y0, y1 = max(int(ky * box[1] + by + 0.5), 0), min(int(np.ceil(ky * box[3] + by + 0.5)), gh)
-    if x1 <= x0 or y1 <= y0:
-        return np.zeros(0, np.int64)
-    ys, xs = np.mgrid[y0:y1, x0:x1]
-    return (ys * gw + xs).ravel()
-
-
-def _strips(pix: np.ndarray, gw: int, grid, shape: tuple[int, int]) -> list:
-    """A wide blob (flat pixel indices on the working grid) as overlapping upright strips, each about half as
-    wide as the blob is tall: candidates for people standing side by side. A blob narrower than that but at
-    least _PAIR_WIDTH x as wide as tall is two strips, each two thirds of its width: two people walking side by
-    side, one half behind the other (the reference street photo shifted by a column: the pose graph framed on
-    such a blob, 76 x 153 px, saw nobody, and both men were missed), when it is clear of the image border
-    (a blob the frame cuts was the skater's blurred crowd, where a strip gave a person of blur, presence 0.76)."""
-    _, _, kx, ky, bx, by = grid
-    ys, xs = np.divmod(pix, gw)
-    x0, x1, y0, y1 = xs.min(), xs.max() + 1, ys.min(), ys.max() + 1
-    width = 0.5 * (y1 - y0)
-    if x1 - x0 < 1.4 * width:
-        gh = grid[1]
-        if x1 - x0 < _PAIR_WIDTH * (y1 - y0) or min(x0, y0) <= 0 or x1 >= gw or y1 >= gh:
-            return []
-        width = (x1 - x0) / 1.5  # two people walking side by side, one half behind the other: a strip each
-    out = []
-    for left in np.arange(x0, x1 - width + 1, width / 2):
-        keep = pix[(xs >= left) & (xs < left + width)]
-        if keep.size:
-            sy = keep // gw
-            box = ((left - bx) / kx, (sy.min() - by) / ky, (left + width - bx) / kx, (sy.max() + 1 - by) / ky)
-            out.append((keep.size / kx / ky, box, None, keep))
-    return out
-
-
 def _as_people(
     p: Person, k: int | None, faces: list[Face], owned: set[int], shape: tuple[int, int]
 ) -> tuple[list[Person], list[int]]:
@@ -784,164 +719,13 @@ def _as_people(
     holding Rachel, Ross and half of Chandler, and a straddling box across Rachel and Ross lay inside it)."""
     held = [j for j, f in enumerate(faces) if contains(p, f, shape)]
     mine = [j for j in held if j not in owned]
-    side_by_side = _side_by_side([faces[j] for j in held])
+    side_by_side = faces_side_by_side([faces[j] for j in held])
     taken = {id(faces[j]) for j in owned}  # side_by_side holds the same Face objects
     new = [i for i, f in enumerate(side_by_side) if id(f) not in taken]
     if p.source == "roi" and len(side_by_side) >= 2 and new:
         parts = split_by_faces(p, side_by_side)
         return [parts[i] for i in new], mine
     return [p], ([k] if k is not None else mine[:1])
-
-
-def split_by_faces(person: Person, faces: list[Face]) -> list[Person]:
-    """One selfie-graph segmentation holding several people (their faces inside it) as one Person per face:
-    every canvas pixel goes to the face nearest in x (in units of that face's width: a nearer, larger face
-    claims more), so the parts partition the canvas and their logits' maximum is the segmentation again
-    (:func:`rejoin`)."""
-    k, bx, by = grid_of_region(person.region)
-    cols = np.arange(SIZE, dtype=np.float64)
-    dist = []
-    for f in faces:
-        x0, _, x1, _ = f.box
-        centre, width = k * (x0 + x1) / 2 + bx, max(k * (x1 - x0), 1.0)
-        dist.append(np.abs(cols - centre) / width)
-    owner = np.argmin(np.stack(dist), axis=0)  # per canvas column
-    out = []
-    for i in range(len(faces)):
-        logits = np.where(owner[None, :] == i, person.logits, np.float32(-LOGIT_CLIP)).astype(np.float32)
-        out.append(Person(person.region, logits, person.presence, person.source, whole=person.logits))
-    return out
-
-
-def _side_by_side(faces: list[Face]) -> list[Face]:
-    """The faces that can stand for people side by side, largest first: a face whose centre lies within a
-    larger one's width of its centre is left out (a badge or a print below a face, found as a face: a
-    split by columns cannot hold two people there)."""
-    kept: list[Face] = []
-    for f in sorted(faces, key=lambda f: -f.size):
-        c = (f.box[0] + f.box[2]) / 2
-        if all(abs(c - (g.box[0] + g.box[2]) / 2) >= g.box[2] - g.box[0] for g in kept):
-            kept.append(f)
-    return kept
-
-
-Crop = tuple[tuple[int, int, int, int], np.ndarray]  # ((y0, y1, x0, x1), the array's values inside that box)
-
-
-def shares(people: list[Person], alpha: np.ndarray, *, crops: bool = False) -> list[np.ndarray] | list[Crop]:
-    """Each person's share of the matte ``alpha`` (H, W): (H, W) float32 weights summing to 1 everywhere (with
-    ``crops``: each as ((y0, y1, x0, x1), its values there), exact where ``alpha`` is not 0 and 0 far from it, in
-    the box holding every pixel where it is not 0: alpha x share is the same, and a person's box stays near them).
-
-    A pixel goes to the people in proportion to the softmax of their segmentations' logits there (a person
-    whose segmentation is surer of it takes it; beyond everyone's segmentation, on a refined hair edge, the
-    nearest outline's person, whose logit falls least; a person whose segmentation does not reach it at all, none
-    of it; where no one's does, the person whose region is nearest), on a working grid; a share under
-    ``_SHARE_MIN`` is none; the shares are blurred over ``_PART_SOFT`` of the photo's longer side (two people meet
-    softly; the blur taken over the matte's cells only), a share under ``_SHARE_MIN`` again none, and upsampled
-    smoothly. A person left with fewer than ``_MIN_PART`` opaque pixels of the matte (hidden behind others) gets
-    no share (the list is shorter by them): theirs goes to the rest.
-    """
-    h, w = alpha.shape
-    if len(people) < 2:
-        return [((0, h, 0, w), np.ones((h, w), np.float32))] if crops else [np.ones((h, w), np.float32)]
-    grid = working_grid((0, 0, w, h))
-    logits = np.stack([logits_on_grid(p, grid) for p in people])
-    opaque = cv2.resize((alpha >= 0.5).astype(np.float32), (grid[0], grid[1]), interpolation=cv2.INTER_AREA)
-    scale = h * w / float(grid[0] * grid[1])
-    keep = np.ones(len(people), bool)
-    # a person whose segmentation does not reach a cell (their logit at the floor: outside their region) has no
-    # share of it; a cell no one's reaches goes to the nearest person's region. An equal share of such cells for
-    # everyone put a little of every person into every other's pixels (issue 50 bug 1: with 16 people each
-    # person's part spanned the whole group)
-    reached = logits > -LOGIT_CLIP + 1e-3
-    nearest = _nearest_region(people, grid)
-    while True:
-        z, seen = logits[keep], reached[keep]
-        weights = np.exp(z - z.max(axis=0, keepdims=True)) * seen
-        weights = np.where(seen.any(axis=0), weights, nearest[keep])
-        weights /= weights.sum(axis=0, keepdims=True)
-        pixels = (weights * opaque).sum(axis=(1, 2)) * scale
-        if keep.sum() == 1 or (pixels >= _MIN_PART).all():
-            break
-        keep[np.flatnonzero(keep)[int(np.argmin(pixels))]] = False
-    # a share too small to see is none (each person's part then stays near them: their crop, not the group's)
-    weights[weights < _SHARE_MIN] = 0
-    weights /= weights.sum(axis=0, keepdims=True)
-    # softened: people split from one segmentation by columns (split_by_faces) meet at a straight cut, which
-    # a change of light would draw as a seam; blurred shares still sum to 1
-    sigma = _PART_SOFT * max(grid[0], grid[1])
-    # blurred over the matte only (where no one's segmentation reaches, the background, every person has an equal
-    # share: blurred in, 1/N of it spread into everyone's pixels, so with 16 people every person's part spanned
-    # the whole group, and each was decomposed as small as the group's crop made them: issue 50 bug 1), and a
-    # share under _SHARE_MIN again none
-    present = cv2.resize(alpha, (grid[0], grid[1]), interpolation=cv2.INTER_AREA) > 0  # cells holding some matte
-    inside = present.astype(np.float32)
-    reach = cv2.GaussianBlur(inside, (0, 0), sigma)
-    soft = np.stack([cv2.GaussianBlur(wk.astype(np.float32) * inside, (0, 0), sigma) for wk in weights])
-    soft = np.where(reach > 0, soft / np.maximum(reach, 1e-30), np.float32(1 / len(weights)))
-    soft[soft < _SHARE_MIN] = 0
-    soft = (soft / soft.sum(axis=0, keepdims=True)).astype(np.float32)
-    if crops:  # only where the matte is: the cells holding some of it and their neighbours (a pixel's taps)
-        near = cv2.dilate(present.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
-        return [_upsampled_crop(np.where(near, wk, np.float32(0)), (h, w)) for wk in soft]
-    return [cv2.resize(wk, (w, h), interpolation=cv2.INTER_LINEAR) for wk in soft]
-
-
-def _nearest_region(people: list[Person], grid) -> np.ndarray:
-    """(N, gh, gw) float32, 1 for the person whose region lies nearest each cell of ``grid`` (working_grid), else 0
-    (ties: the first)."""
-    gw, gh, kx, ky, bx, by = grid
-    xs = (np.arange(gw) - bx) / kx  # cell centres in pixels
-    ys = (np.arange(gh) - by) / ky
-    dist = np.empty((len(people), gh, gw), np.float32)
-    for k, p in enumerate(people):
-        x0, y0, x1, y1 = p.region.box()
-        dx = np.maximum(np.maximum(x0 - xs, xs - x1), 0)
-        dy = np.maximum(np.maximum(y0 - ys, ys - y1), 0)
-        dist[k] = np.hypot(dy[:, None], dx[None, :])
-    return (np.arange(len(people))[:, None, None] == dist.argmin(axis=0)[None]).astype(np.float32)
-
-
-def _linear_taps(start: int, stop: int, n_in: int, n_out: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Output pixels start..stop-1 of a linear resize from n_in to n_out samples (cv2.resize's INTER_LINEAR:
-    centres aligned, the edge sample repeated): (i0, i1, f), each output = (1 - f) in[i0] + f in[i1]."""
-    s = np.clip((np.arange(start, stop) + 0.5) * (n_in / n_out) - 0.5, 0, n_in - 1)
-    i0 = np.floor(s).astype(np.intp)
-    return i0, np.minimum(i0 + 1, n_in - 1), (s - i0).astype(np.float32)
-
-
-def _upsampled_crop(grid: np.ndarray, size: tuple[int, int]) -> Crop:
-    """``grid`` (gh, gw) resized linearly to ``size`` (h, w), computed only inside the box beyond which the result
-    is 0: the pixels whose taps reach a non-zero cell."""
-    (h, w), (gh, gw) = size, grid.shape
-    rows, cols = np.flatnonzero(grid.any(axis=1)), np.flatnonzero(grid.any(axis=0))
-    if rows.size == 0:
-        return (0, 0, 0, 0), np.zeros((0, 0), np.float32)
-    # an output pixel's taps lie within a cell of its centre: beyond one cell from the non-zero cells it is 0
-    y0 = max(int(np.floor((rows[0] - 0.5) * h / gh - 0.5)), 0)
-    y1 = min(int(np.ceil((rows[-1] + 1.5) * h / gh + 0.5)), h)
-    x0 = max(int(np.floor((cols[0] - 0.5) * w / gw - 0.5)), 0)
-    x1 = min(int(np.ceil((cols[-1] + 1.5) * w / gw + 0.5)), w)
-    r0, r1, fy = _linear_taps(y0, y1, gh, h)
-    c0, c1, fx = _linear_taps(x0, x1, gw, w)
-    lines = grid[r0] * (1 - fy)[:, None] + grid[r1] * fy[:, None]
-    out = lines[:, c0] * (1 - fx)
-    out += lines[:, c1] * fx
-    return (y0, y1, x0, x1), out.astype(np.float32, copy=False)
-
-
-def rejoin(people: list[Person]) -> list[Person]:
-    """People split from one segmentation (:func:`split_by_faces`) joined again for the matte: cut apart, each
-    part's upsampled edge would open a seam between them."""
-    out, seen = [], set()
-    for p in people:
-        if p.whole is None:
-            out.append(p)
-        elif id(p.whole) not in seen:
-            seen.add(id(p.whole))
-            out.append(Person(p.region, p.whole, p.presence, p.source))
-    return out
 
 
 def _beside(box, other) -> tuple[float, float, float, float] | None:

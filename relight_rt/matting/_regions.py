@@ -41,7 +41,7 @@ class Person:
     presence: float
     source: str = "pose"  # which graph's segmentation: "pose" (bodies) or "roi" (head-and-shoulders)
     whole: np.ndarray | None = field(default=None, repr=False, compare=False)  # split from these logits (see
-    # relight_rt.matting._matter.split_by_faces): the matte is made from the whole, not from the parts
+    # relight_rt.matting._parts.split_by_faces): the matte is made from the whole, not from the parts
 
 
 

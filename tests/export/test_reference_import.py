@@ -393,17 +393,17 @@ def test_pickle_scan_passes_ordinary_pickles_and_refuses_deep_ones(protocol):
     memo, in-place appends, BUILD, OBJ/INST) and measures nesting, not length."""
     from collections import OrderedDict
 
-    from relight_rt.reference_import import PICKLE_MAX_DEPTH, _scan_pickle
+    from relight_rt._torch_checkpoint import PICKLE_MAX_DEPTH, scan_pickle
 
     state = OrderedDict(a=[1] * 3000, b={"x": {"y": (1, (2, ()))}}, c={1, 2}, d=b"x" * 100, e=10**40)
-    _scan_pickle(pickle.dumps(state, protocol=protocol), "ok")
-    _scan_pickle(pickle.dumps(_RunsCode(len, "x"), protocol=protocol), "reduce")  # scanned only, never run
+    scan_pickle(pickle.dumps(state, protocol=protocol), "ok")
+    scan_pickle(pickle.dumps(_RunsCode(len, "x"), protocol=protocol), "reduce")  # scanned only, never run
     deep = ()
     for _ in range(PICKLE_MAX_DEPTH + 1):
         deep = (deep,)
     with pytest.raises(RelightError, match="nests containers more than"):
-        _scan_pickle(pickle.dumps({deep: 1}, protocol=protocol), "deep")
+        scan_pickle(pickle.dumps({deep: 1}, protocol=protocol), "deep")
     shallow = ()
     for _ in range(PICKLE_MAX_DEPTH - 2):
         shallow = (shallow,)
-    _scan_pickle(pickle.dumps({shallow: 1}, protocol=protocol), "shallow")
+    scan_pickle(pickle.dumps({shallow: 1}, protocol=protocol), "shallow")

@@ -6,9 +6,10 @@ import re
 import cv2
 import numpy as np
 import pytest
-from _graphs import diffuse_models_dir, models_dir, person
+from _cli import in_folder, run
+from _graphs import diffuse_models_dir, models_dir, write_person
 
-from relight_rt import Relighter, RelightError, RuntimeConfig, cli, envmap, sh
+from relight_rt import Relighter, RelightError, RuntimeConfig, envmap, sh
 from relight_rt.color import srgb_to_linear
 from relight_rt.exposure import REC709
 from relight_rt.panorama import (
@@ -197,21 +198,12 @@ def test_composite_lights_the_person_with_the_panoramas_light(hdri, diffuse, mon
 
 @pytest.fixture
 def work(tmp_path, models_dir, monkeypatch):
-    monkeypatch.setenv("RELIGHT_RT_MODELS", str(models_dir))
-    monkeypatch.chdir(tmp_path)
-    img, mask = person(150, 100, seed=1)
-    cv2.imwrite("p.png", (img[..., ::-1] * 255).round().astype(np.uint8))
-    cv2.imwrite("p_mask.png", (mask * 255).astype(np.uint8))
+    in_folder(tmp_path, models_dir, monkeypatch)
+    write_person(tmp_path, seed=1)
     env, _ = lumpy_panorama(64)
     cv2.imwrite("pano.hdr", env[..., ::-1])
     cv2.imwrite("wide.hdr", np.ones((64, 96, 3), np.float32))
     return tmp_path
-
-
-def run(argv, capsys):
-    code = cli.main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def test_cli_composite_with_a_view(work, capsys):

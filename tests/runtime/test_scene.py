@@ -3,9 +3,10 @@
 import cv2
 import numpy as np
 import pytest
-from _graphs import diffuse_models_dir, models_dir, person
+from _cli import in_folder, run
+from _graphs import diffuse_models_dir, models_dir, write_person
 
-from relight_rt import Relighter, RelightError, RuntimeConfig, cli, lights
+from relight_rt import Relighter, RelightError, RuntimeConfig, lights
 from relight_rt.color import linear_to_srgb, srgb_to_linear
 from relight_rt.scene import composite, parse_position
 
@@ -332,22 +333,13 @@ def test_parse_position():
 
 @pytest.fixture
 def work(tmp_path, models_dir, monkeypatch):
-    monkeypatch.setenv("RELIGHT_RT_MODELS", str(models_dir))
-    monkeypatch.chdir(tmp_path)
-    img, mask = person(150, 100, seed=1)
-    cv2.imwrite("p.png", (img[..., ::-1] * 255).round().astype(np.uint8))
-    cv2.imwrite("p_mask.png", (mask * 255).astype(np.uint8))
+    in_folder(tmp_path, models_dir, monkeypatch)
+    write_person(tmp_path, seed=1)
     bg = np.zeros((96, 160, 3), np.uint8)
     bg[:] = (60, 90, 140)
     bg[:, 110:] = 240  # bright on the right
     cv2.imwrite("bg.png", bg[..., ::-1])
     return tmp_path
-
-
-def run(argv, capsys):
-    code = cli.main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def test_cli_composite(work, capsys):

@@ -14,10 +14,11 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from _cli import in_folder, run
 from _graphs import models_dir
 from _scenes import write_noise_clip
 
-from relight_rt import RelightError, _video_io, cli
+from relight_rt import RelightError, _video_io
 from relight_rt.video import FrameSink, FrameSource
 
 __all__ = ["models_dir"]  # fixture
@@ -77,8 +78,7 @@ def _av_clip(path: Path, n: int, *, rate=fractions.Fraction(30000, 1001), audio=
 
 @pytest.fixture
 def work(tmp_path, models_dir, monkeypatch):
-    monkeypatch.setenv("RELIGHT_RT_MODELS", str(models_dir))
-    monkeypatch.chdir(tmp_path)
+    in_folder(tmp_path, models_dir, monkeypatch)
     return tmp_path
 
 
@@ -89,12 +89,6 @@ def backend(request, monkeypatch):
     else:
         monkeypatch.setitem(sys.modules, "av", None)  # import av raises ImportError: the OpenCV path
     return request.param
-
-
-def run(argv, capsys):
-    code = cli.main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def error_lines(err: str) -> list[str]:

@@ -5,6 +5,7 @@ import json
 import cv2
 import numpy as np
 import pytest
+from _cli import in_folder, run
 from _graphs import OWN_LIGHT, meta_for, models_dir, save, stage1_model, write_person
 
 from relight_rt import cli
@@ -14,16 +15,9 @@ __all__ = ["models_dir"]  # fixture
 
 @pytest.fixture
 def work(tmp_path, models_dir, monkeypatch):
-    monkeypatch.setenv("RELIGHT_RT_MODELS", str(models_dir))
-    monkeypatch.chdir(tmp_path)
+    in_folder(tmp_path, models_dir, monkeypatch)
     np.save(tmp_path / "light.npy", OWN_LIGHT.astype(np.float64))
     return tmp_path
-
-
-def run(argv, capsys):
-    code = cli.main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def test_relight_one_file(work, capsys):

@@ -10,6 +10,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from _cli import in_folder, run
 from _graphs import (
     OWN_LIGHT,
     make_models_dir,
@@ -31,20 +32,13 @@ REPO = Path(__file__).resolve().parents[3]
 
 @pytest.fixture
 def work(tmp_path, models_dir, monkeypatch):
-    monkeypatch.setenv("RELIGHT_RT_MODELS", str(models_dir))
-    monkeypatch.chdir(tmp_path)
+    in_folder(tmp_path, models_dir, monkeypatch)
     np.save(tmp_path / "light.npy", OWN_LIGHT.astype(np.float64))
     (tmp_path / "img").mkdir()
     (tmp_path / "masks").mkdir()
     for i, name in enumerate("ab"):
         write_person(tmp_path / "img", name, i, mask_folder=tmp_path / "masks")
     return tmp_path
-
-
-def run(argv, capsys):
-    code = cli.main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def snapshot(folder: Path) -> dict:

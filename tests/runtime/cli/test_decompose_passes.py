@@ -4,26 +4,18 @@ import json
 
 import numpy as np
 import pytest
+from _cli import in_folder, run
 from _graphs import OWN_LIGHT, models_dir, write_person
-
-from relight_rt import cli
 
 __all__ = ["models_dir"]  # fixture
 
 
 @pytest.fixture
 def work(tmp_path, models_dir, monkeypatch):
-    monkeypatch.setenv("RELIGHT_RT_MODELS", str(models_dir))
-    monkeypatch.chdir(tmp_path)
+    in_folder(tmp_path, models_dir, monkeypatch)
     np.save(tmp_path / "light.npy", OWN_LIGHT.astype(np.float64))
     write_person(tmp_path)
     return tmp_path
-
-
-def run(argv, capsys):
-    code = cli.main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 @pytest.mark.parametrize(("fmt", "suffix"), [("exr", ".exr"), ("png16", ".png")])

@@ -12,7 +12,8 @@ import relight_rt
 from relight_rt import matting as M
 from relight_rt._faces import Face
 from relight_rt._io import read_image
-from relight_rt.matting import _matter
+from relight_rt.matting import _detect, _matter
+from relight_rt.matting import _parts as parts_module
 
 
 @pytest.fixture(scope="module")
@@ -45,9 +46,9 @@ def test_portraits_side_by_side_are_two_people(example_rgba):
 def test_badge_below_a_face_does_not_split_the_person():
     """The astronaut's suit badge came out as a second face (score 0.64) right below hers: two people."""
     face, badge = Face((171.0, 64.0, 279.0, 173.0), 0.93), Face((145.0, 184.0, 193.0, 232.0), 0.64)
-    assert _matter._side_by_side([badge, face]) == [face]
+    assert parts_module.faces_side_by_side([badge, face]) == [face]
     neighbour = Face((300.0, 70.0, 400.0, 170.0), 0.9)
-    assert _matter._side_by_side([face, badge, neighbour]) == [face, neighbour]
+    assert parts_module.faces_side_by_side([face, badge, neighbour]) == [face, neighbour]
 
 
 def lying_person(rgba: np.ndarray, angle: float = 50.0) -> tuple[np.ndarray, np.ndarray]:
@@ -248,17 +249,17 @@ def test_a_blob_of_two_walking_side_by_side_is_tried_strip_by_strip():
     grid = M._regions.working_grid((0, 0, 300, 200))  # 1:1
     gw = grid[0]
     ys, xs = np.mgrid[20:173, 100:176]  # 76 x 153
-    strips = _matter._strips((ys * gw + xs).ravel(), gw, grid, (200, 300))
+    strips = _detect.strips((ys * gw + xs).ravel(), gw, grid, (200, 300))
     assert len(strips) == 2  # was none
     (a, b) = [s[1] for s in strips]
     assert a[0] == pytest.approx(100.5) and b[2] == pytest.approx(176.5)  # the left and the right end
     assert a[2] - a[0] == pytest.approx(76 / 1.5) and b[0] < a[2]  # each two thirds of the blob: they overlap
     ys, xs = np.mgrid[0:153, 100:176]  # cut by the frame's top (the skater's blurred crowd): no strips
-    assert _matter._strips((ys * gw + xs).ravel(), gw, grid, (200, 300)) == []
+    assert _detect.strips((ys * gw + xs).ravel(), gw, grid, (200, 300)) == []
     ys, xs = np.mgrid[20:173, 100:150]  # 50 x 153: one person's width, no strips
-    assert _matter._strips((ys * gw + xs).ravel(), gw, grid, (200, 300)) == []
+    assert _detect.strips((ys * gw + xs).ravel(), gw, grid, (200, 300)) == []
     ys, xs = np.mgrid[20:120, 20:280]  # wide: strips half as wide as the blob is tall, as before
-    strips = _matter._strips((ys * gw + xs).ravel(), gw, grid, (200, 300))
+    strips = _detect.strips((ys * gw + xs).ravel(), gw, grid, (200, 300))
     assert all(s[1][2] - s[1][0] == pytest.approx(50.0) for s in strips) and len(strips) == 9
 
 
@@ -279,12 +280,12 @@ def test_faint_boxes_are_blobs_that_stay_under_half_and_frame_a_person_tall_enou
     prob[50:60, 40:50] = 0.42  # faint: a box at least 80 px tall around it
     prob[100:180, 200:230] = 0.3
     prob[120:130, 210:220] = 0.7  # reaches 0.5: a blob of its own already, not faint
-    boxes = _matter._faint(prob, grid, 80.0)
+    boxes = _detect.faint_places(prob, grid, 80.0)
     assert len(boxes) == 1
     x0, y0, x1, y1 = boxes[0]
     assert (x0 + x1) / 2 == pytest.approx(45.0, abs=0.6) and (y0 + y1) / 2 == pytest.approx(55.0, abs=0.6)
     assert y1 - y0 == pytest.approx(80.0) and x1 - x0 == pytest.approx(80.0)
-    assert _matter._faint(np.zeros((h, w), np.float32), grid, 80.0) == []
+    assert _detect.faint_places(np.zeros((h, w), np.float32), grid, 80.0) == []
 
 
 def box_person(box, source: str = "pose", side: float = 400.0) -> M.Person:
@@ -527,11 +528,11 @@ def test_shares_give_a_hidden_person_to_the_rest():
     hidden = np.full((256, 256), -20.0, np.float32)
     people = [M.Person(region, left, 1.0), M.Person(region, -left, 1.0), M.Person(region, hidden, 1.0)]
     alpha = np.ones((h, w), np.float32)
-    shares = _matter.shares(people, alpha)
+    shares = parts_module.shares(people, alpha)
     assert len(shares) == 2
     np.testing.assert_allclose(shares[0] + shares[1], 1, atol=1e-5)
     assert shares[0][:, : w // 3].min() > 0.99 and shares[1][:, 2 * w // 3 :].min() > 0.99
-    assert len(_matter.shares(people[:1], alpha)) == 1
+    assert len(parts_module.shares(people[:1], alpha)) == 1
 
 
 def test_group_photo_relit_person_by_person(two_people):
@@ -658,7 +659,7 @@ def test_each_persons_share_stays_near_them_in_a_large_group():
             alpha[cy - 30 : cy + 30, cx - 12 : cx + 12] = 1.0  # each body, inside its cell
             alpha[cy - 32 : cy + 32, cx - 14 : cx + 14] = np.maximum(alpha[cy - 32 : cy + 32, cx - 14 : cx + 14], 0.3)
     alpha[::7, ::7] = np.maximum(alpha[::7, ::7], 0.05)  # a faint matte everywhere: beyond every outline
-    whole = _matter.shares(people, alpha)
+    whole = parts_module.shares(people, alpha)
     assert len(whole) == n * n
     for k, full in enumerate(whole):  # each person's part of the matte lies near them
         j, i = divmod(k, n)
@@ -666,7 +667,7 @@ def test_each_persons_share_stays_near_them_in_a_large_group():
         y0, x0 = max(j * cell - cell // 2, 0), max(i * cell - cell // 2, 0)
         near[y0 : (j + 1) * cell + cell // 2, x0 : (i + 1) * cell + cell // 2] = True
         assert not (alpha * full)[~near].any(), (k, float((alpha * full)[~near].max()))
-    crops = _matter.shares(people, alpha, crops=True)
+    crops = parts_module.shares(people, alpha, crops=True)
     assert len(crops) == n * n
     total = np.zeros_like(alpha)
     for k, (((y0, y1, x0, x1), share), full) in enumerate(zip(crops, whole, strict=True)):
