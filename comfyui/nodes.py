@@ -23,9 +23,9 @@ import numpy as np
 
 import relight_rt
 from relight_rt import LightSpec, Relighter, RelightError, RuntimeConfig, lights, scene, sh
+from relight_rt.config import DEVICES, MATTING, PRECISIONS
 from relight_rt.lightspec import parse_light
 from relight_rt.relight.decomposition import intrinsic_layers
-from relight_rt.config import DEVICES, MATTING, PRECISIONS
 
 from ._convert import arrays_to_image, arrays_to_mask, batch_pairs, images_to_arrays, masks_to_arrays
 

@@ -2,7 +2,8 @@
 
 ``compute_passes(relighter, photo, light)`` relights the photo once and returns, at the photo's own size:
 
-- ``albedo`` (RGB): the person's albedo (the photo's detail in it, ``relight_rt.relight.decomposition.intrinsic_layers``), premultiplied by alpha;
+- ``albedo`` (RGB): the person's albedo (the photo's detail in it,
+  ``relight_rt.relight.decomposition.intrinsic_layers``), premultiplied by alpha;
 - ``shading_photo`` (RGB): the shading under the photo's own light (white), straight (not premultiplied), 0 off
   the person;
 - ``shading`` (RGB): the shading under the new light, exposed as the relit picture is, straight;

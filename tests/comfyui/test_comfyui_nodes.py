@@ -12,8 +12,8 @@ import pytest
 torch = pytest.importorskip("torch")
 
 import comfyui  # noqa: E402
-from comfyui.nodes import LIGHT_SOURCES, RelightLight  # noqa: E402
 import relight_rt  # noqa: E402
+from comfyui.nodes import LIGHT_SOURCES, RelightLight  # noqa: E402
 from relight_rt import LightSpec, RelightError, lights, save_light  # noqa: E402
 from relight_rt._io import read_image  # noqa: E402
 
@@ -185,7 +185,8 @@ def test_composite_node_is_the_runtimes_composite(models, photo):
     (image,) = node.composite(models, torch.from_numpy(photo[None]), torch.from_numpy(backdrop[None]), 0.0, 60.0,
                               True, 0.8, 0.5, 0.95)
     assert image.dtype == torch.float32 and tuple(image.shape) == (1, 240, 320, 3)
-    expected = relight_rt.scene.composite(models, photo, backdrop, light=None, position=(0.5, 0.95), height=0.8, shadow=True)
+    expected = relight_rt.scene.composite(models, photo, backdrop, light=None, position=(0.5, 0.95), height=0.8,
+                                          shadow=True)
     np.testing.assert_array_equal(image[0].numpy(), expected)
     with pytest.raises(RelightError, match="both"):
         node.composite(models, torch.from_numpy(photo[None]), torch.from_numpy(backdrop[None]), 0.0, 60.0, True,

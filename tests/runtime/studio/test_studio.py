@@ -18,10 +18,10 @@ from _graphs import models_dir, person
 
 import relight_rt
 from relight_rt import Relighter, RelightError, RuntimeConfig, envmap, lights
-from relight_rt.compositing import Background
 from relight_rt._limits import header_size
 from relight_rt._strength import restore_bands
 from relight_rt.cli import main
+from relight_rt.compositing import Background
 from relight_rt.relight.look import SKIN_CHROMA, skin_chroma
 from relight_rt.studio.core import (
     MAX_UPLOAD_BYTES,
