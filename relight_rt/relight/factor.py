@@ -267,7 +267,8 @@ class Factor:
             return np.array(lights, np.float32)
         state = self.memo(dec)
         if "target" not in state:
-            state["target"] = _exposure.mean_luminance(dec.albedo, dec.transport, dec.network_mask, dec.white_light)
+            state["target"] = _exposure.mean_luminance(dec.albedo, dec.transport, dec.network_mask, dec.white_light,
+                                                       _exposure.METER_POWER)
         lits = _exposure.expose(dec, lights, "auto", target_luminance=state["target"])
         return _exposure.guarded(lits, mode, self.highlight_inputs(dec))
 
