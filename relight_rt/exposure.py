@@ -47,7 +47,8 @@ import numpy as np
 from . import sh
 from ._errors import RelightError
 
-__all__ = ["DISPLAY_GAMMA", "HIGHLIGHT_LIMIT", "HIGHLIGHT_MAX_DOWN", "HIGHLIGHT_SHARE", "METER_POWER", "REC709", "ev_gain",
+__all__ = ["DISPLAY_GAMMA", "HIGHLIGHT_LIMIT", "HIGHLIGHT_MAX_DOWN", "HIGHLIGHT_SHARE", "METER_POWER", "REC709",
+           "ev_gain",
            "exposure_scale", "guarded", "highlight_factor", "mean_luminance", "parse_exposure"]
 
 REC709 = np.array([0.2126, 0.7152, 0.0722], np.float32)

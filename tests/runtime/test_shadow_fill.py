@@ -1,5 +1,5 @@
-"""relight_rt.relight.factor ``Factor.gain_and_fill``: where the photo's own shading is near zero (a hard shadow: the albedo
-is there, the photo is black) the new light's change is added (stage 1's albedo under the new shading), not
+"""relight_rt.relight.factor ``Factor.gain_and_fill``: where the photo's own shading is near zero (a hard shadow:
+the albedo is there, the photo is black) the new light's change is added (stage 1's albedo under the new shading), not
 multiplied into the photo's black; the photo's own light still gives the photo back.
 
 The analytic stage 1 (tests/_graphs.py) reads the photo as its albedo; a shadow is made by giving the
