@@ -254,9 +254,10 @@ class Factor:
             # as the ratio: 0 under the photo's own light
             added = (w * (np.maximum(new, _RATIO_EPS) - own["own"]))[..., None] * tint * chroma
         gain = extend_outward(factor, own["inner"])
-        if "gray" not in state:  # the full-resolution guide, kept for every light
-            state["gray"] = readonly(cv2.cvtColor(image, cv2.COLOR_RGB2GRAY))
-        gain = guided_upsample(dec.geometry, gain, dec.network_image[y0:y1, x0:x1], state["gray"], (y0, x0))
+        gray = state.get("gray")  # the full-resolution guide, kept for every light (read once: a group's person
+        if gray is None:  # drops theirs after use, relight_rt.relight.people, maybe in another thread)
+            gray = state["gray"] = readonly(cv2.cvtColor(image, cv2.COLOR_RGB2GRAY))
+        gain = guided_upsample(dec.geometry, gain, dec.network_image[y0:y1, x0:x1], gray, (y0, x0))
         return gain, (None if added is None else self._to_crop_part(dec, added, shadow[0], (y0, x0)))
 
     def shadow_weight(self, dec: Decomposition) -> tuple[np.ndarray, np.ndarray] | None:
