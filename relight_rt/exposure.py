@@ -27,7 +27,12 @@ overall brightness of a relit person is one scalar on the light, and an automati
 
 Mean luminance: Rec. 709 weights (0.2126 R + 0.7152 G + 0.0722 B) on the values of the pipeline, which
 treats them as linear, averaged inside the (soft) mask and weighted by it, on the network-resolution
-diffuse image albedo ⊙ max(0, T·L) before clipping. Stage 2 and the clip to [0, 1] come after the
+diffuse image albedo ⊙ max(0, T·L) before clipping. The Relighter's "auto" (``expose``) meters the power mean
+(mean of Y ** ``METER_POWER``) ** (1 / ``METER_POWER``): its values are encoded, the light seen goes as their 2.2nd
+power, and the plain mean let a light that spreads the picture (a hard small moon: night) keep the encoded mean
+while the light seen rose (night came out +0.26 EV above its stop; benchmarks/photo_faults.py, issue 48). The
+power mean is still homogeneous of degree 1 in the light, so the scale stays exact. ``relight_rt.scene`` works
+in linear light and keeps the plain mean (power 1). Stage 2 and the clip to [0, 1] come after the
 scale, so the final picture's luminance follows the target closely but not exactly (saturated pixels
 cannot get brighter).
 """
@@ -42,7 +47,8 @@ import numpy as np
 from . import sh
 from ._errors import RelightError
 
-__all__ = ["DISPLAY_GAMMA", "HIGHLIGHT_LIMIT", "HIGHLIGHT_MAX_DOWN", "HIGHLIGHT_SHARE", "REC709", "ev_gain",
+__all__ = ["DISPLAY_GAMMA", "HIGHLIGHT_LIMIT", "HIGHLIGHT_MAX_DOWN", "HIGHLIGHT_SHARE", "METER_POWER", "REC709",
+           "ev_gain",
            "exposure_scale", "guarded", "highlight_factor", "mean_luminance", "parse_exposure"]
 
 REC709 = np.array([0.2126, 0.7152, 0.0722], np.float32)
@@ -51,6 +57,7 @@ HIGHLIGHT_LIMIT = 1.0  # white: the brightest channel of a relit pixel past this
 HIGHLIGHT_SHARE = 0.08  # the share of the person "auto" lets past white (or the photo's own share, when larger)
 HIGHLIGHT_MAX_DOWN = 0.5  # ... and the most it lowers the light for that: one stop
 DISPLAY_GAMMA = 2.2  # light seen ~ (the pipeline's encoded values) ** 2.2: an EV offset acts on what is seen
+METER_POWER = DISPLAY_GAMMA  # "auto" on encoded values keeps the mean of luminance ** this: the light as seen
 _TINY = 1e-8
 
 
@@ -112,7 +119,7 @@ def ev_gain(ev: float) -> float:
     return 2.0 ** (float(ev) / DISPLAY_GAMMA)
 
 
-def mean_luminance(albedo, transport, mask, light) -> float:
+def mean_luminance(albedo, transport, mask, light, power: float = 1.0) -> float:
     """Mask-weighted mean Rec. 709 luminance of the diffuse image albedo ⊙ max(0, T·light), unclipped.
 
     Args:
@@ -120,6 +127,8 @@ def mean_luminance(albedo, transport, mask, light) -> float:
         transport: (R, R, 9) float transport.
         mask: (R, R) float mask in [0, 1] (soft masks weight their pixels).
         light: (9, 3) RGB SH light.
+        power: the power mean's exponent p, (mean of Y ** p) ** (1 / p): 1 the plain mean (linear values),
+            ``METER_POWER`` the light seen of encoded values (module docstring).
 
     Returns:
         The mean luminance (0 for an empty mask).
@@ -140,10 +149,14 @@ def mean_luminance(albedo, transport, mask, light) -> float:
         return 0.0
     inside = m > 0  # only the person's pixels (often a third of the square)
     lum = (sh.shading(t[inside], lit) * a[inside]) @ REC709
-    return float(lum @ m[inside]) / weight
+    if power == 1.0:
+        return float(lum @ m[inside]) / weight
+    mean = float(np.maximum(lum, 0).astype(np.float64) ** power @ m[inside]) / weight
+    return mean ** (1.0 / power)
 
 
-def exposure_scale(albedo, transport, mask, light, target_luminance: float, exposure="auto") -> float:
+def exposure_scale(albedo, transport, mask, light, target_luminance: float, exposure="auto",
+                   power: float = 1.0) -> float:
     """The scalar s to multiply ``light`` by, for ``exposure`` (see the module docstring).
 
     Args:
@@ -152,6 +165,7 @@ def exposure_scale(albedo, transport, mask, light, target_luminance: float, expo
         target_luminance: the mean luminance the person should have ("auto" and EV); ignored for
             "physical".
         exposure: "auto", "physical" or an EV offset (anything ``parse_exposure`` accepts).
+        power: the mean that is kept (``mean_luminance``'s; the target must be of the same power).
 
     Returns:
         s > 0 (1.0 for "physical"). When the light leaves the person black (nothing to scale) the
@@ -168,7 +182,7 @@ def exposure_scale(albedo, transport, mask, light, target_luminance: float, expo
     if not math.isfinite(target) or target < 0:
         raise RelightError(f"exposure: the target luminance must be finite and >= 0, got {target_luminance!r}")
     gain = 1.0 if mode == "auto" else 2.0**mode
-    current = mean_luminance(albedo, transport, mask, light)
+    current = mean_luminance(albedo, transport, mask, light, power)
     if current <= _TINY or target <= _TINY:
         return gain
     return gain * target / current
@@ -243,7 +257,8 @@ def expose(dec, lights: np.ndarray, exposure="auto", target_luminance: float | N
     """Scale each of the (K, 9, 3) or (9, 3) ``lights`` for a Decomposition ``dec``.
 
     ``target_luminance`` None: the photo's own mean luminance (its diffuse reconstruction under its
-    estimated light taken as white, ``Decomposition.white_light``). Returns float32 lights of the same
+    estimated light taken as white, ``Decomposition.white_light``); both means are power means of ``METER_POWER``
+    (a given target must be one too: the light as seen is kept). Returns float32 lights of the same
     shape; the input is not modified. This is the mean-keeping rule alone: ``Relighter.relight`` then applies
     the highlight guard (``highlight_factor``, which reads the runtime's relighting factor) before any EV.
     """
@@ -253,8 +268,8 @@ def expose(dec, lights: np.ndarray, exposure="auto", target_luminance: float | N
         return lits.copy()
     albedo, transport, mask = dec.albedo, dec.transport, dec.network_mask
     if target_luminance is None:  # the photo under its own light, taken as white (as the Relighter divides by it)
-        target_luminance = mean_luminance(albedo, transport, mask, dec.white_light)
+        target_luminance = mean_luminance(albedo, transport, mask, dec.white_light, METER_POWER)
     flat = lits.reshape(-1, 9, 3)
-    scales = [exposure_scale(albedo, transport, mask, lit, target_luminance, mode) for lit in flat]
+    scales = [exposure_scale(albedo, transport, mask, lit, target_luminance, mode, METER_POWER) for lit in flat]
     out = flat * np.asarray(scales, np.float32)[:, None, None]
     return out.reshape(lits.shape)

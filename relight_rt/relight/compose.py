@@ -147,7 +147,7 @@ class Composer:
             np.clip(colour, 0, 1, out=colour)
             return colour
         image, _ = self.foreground(dec)
-        gain = self.factor.gain(dec, light, image, residual)
+        gain, fill = self.factor.gain_and_fill(dec, light, image, residual)  # fill: deep shadow, the change added
         state = self.memo(dec)
         if dec.head is not None:
             self.factor.blend_head(dec, gain, light, dec.head, dec.head_box)
@@ -158,6 +158,8 @@ class Composer:
                 state["knee"] = readonly(knee(image))
             looks = state["dark"], state["knee"]
         colour = steady_chroma(image, gain, looks[0])
+        if fill is not None:
+            colour[fill[0]] += fill[1]
         np.maximum(colour, 0, out=colour)
         return shoulder(colour, looks[1])
 

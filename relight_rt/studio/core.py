@@ -50,7 +50,7 @@ MAX_UPLOAD_PIXELS = 40_000_000  # decoded size limit (a small file can hold a hu
 UPLOAD_WORK_PIXELS = 2_000_000
 EXPOSURE_SAMPLES = 1 << 15  # network-frame pixels of the person that the page's exposure rule reads (at most)
 from .. import exposure as _exposure  # noqa: E402  (the one exposure rule)
-from ..exposure import exposure_scale, guarded, mean_luminance, parse_exposure  # noqa: E402
+from ..exposure import METER_POWER, exposure_scale, guarded, mean_luminance, parse_exposure  # noqa: E402
 from ..lightspec import LightSpec  # noqa: E402  (the one light parser)
 from ..relight.decomposition import intrinsic_layers  # noqa: E402
 from ..relight.look import SKIN_CHROMA, skin_chroma  # noqa: E402  (the shaded-skin rule the preview mirrors)
@@ -341,7 +341,7 @@ class Studio:
         # the exposure rule of the final result (relight_rt.exposure: the mean luminance of the network's diffuse
         # image inside the mask, the photo's own light as the target) on the person's network-frame pixels
         albedo_s, transport_s, mask_s = self._exposure = _exposure_sample(dec)
-        target = mean_luminance(albedo_s[None], transport_s[None], mask_s[None], dec.white_light)
+        target = mean_luminance(albedo_s[None], transport_s[None], mask_s[None], dec.white_light, METER_POWER)
         # the exposure's highlight guard (relight_rt.exposure.highlight_factor) on the pixels the final result reads
         lit_h, steady_h, transport_h, allowed = self._highlight = _highlight_sample(self.relighter, dec)
         head = q16.tobytes() + q8.tobytes()
@@ -354,6 +354,7 @@ class Studio:
             "transport_offset": lo.astype(float).tolist(),
             "transport_scale": scale.astype(float).tolist(),
             "exposure_target": target,
+            "exposure_power": METER_POWER,
             "exposure_samples": int(mask_s.size),
             "exposure_offset": offset,
             "highlight_samples": int(lit_h.shape[0]),
@@ -379,7 +380,7 @@ class Studio:
             return lit
         albedo_s, transport_s, mask_s = self._exposure
         target = self._layers["exposure_target"]
-        scale = exposure_scale(albedo_s[None], transport_s[None], mask_s[None], lit, target, "auto")
+        scale = exposure_scale(albedo_s[None], transport_s[None], mask_s[None], lit, target, "auto", METER_POWER)
         return guarded(lit * np.float32(scale), exp, self._highlight)
 
     def photo_png(self) -> bytes:

@@ -318,6 +318,10 @@ def test_exposure_rule_in_js_matches_python(browser, server, studio, monkeypatch
     sample = unpack_layers(studio.layers_bytes(), studio.info()["preview"])["exposure"]
     py = exposure_scale(sample["albedo"][None], sample["transport"][None], sample["mask"][None], light, 0.3, 0.5)
     assert js == pytest.approx(py, rel=1e-4)
+    js = page.evaluate("L => studio.sh.exposureScale(studio.state.layers.exposure, L, 0.3, 0.5, 1, 2.2)",
+                       light.ravel().tolist())  # the power mean the Relighter's "auto" keeps (exposure.METER_POWER)
+    py = exposure_scale(sample["albedo"][None], sample["transport"][None], sample["mask"][None], light, 0.3, 0.5, 2.2)
+    assert js == pytest.approx(py, rel=1e-4)
     # what the page draws is the Studio's preview_light
     shown = page.evaluate("L => studio.previewLight(L)", light.ravel().tolist())
     np.testing.assert_allclose(np.reshape(shown, (9, 3)), studio.preview_light(light), rtol=1e-4, atol=1e-7)

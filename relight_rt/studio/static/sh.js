@@ -117,22 +117,27 @@ export function directionToWidget(d, rhoMax) {
 }
 
 // The exposure rule of the final result (DESIGN.md §3, relight_rt.exposure.exposure_scale): the scalar s for
-// which the light s · L gives the person the mask-weighted mean Rec. 709 luminance of albedo ⊙ max(0, T·L)
-// target · 2^ev. layers: the exposure sample of the layers (decodeLayers: {transport: 9 Float32Array planes,
-// albedo: 3 planes (the network's, masked), mask}); every `step`-th pixel is used (the page uses step 1).
-export function exposureScale(layers, light, target, ev, step) {
+// which the light s · L gives the person the mask-weighted power mean of the Rec. 709 luminance Y of
+// albedo ⊙ max(0, T·L), (mean Y^power)^(1/power), target · 2^ev (power 2.2: the light as seen of encoded values,
+// relight_rt.exposure.METER_POWER; 1: the plain mean). layers: the exposure sample of the layers (decodeLayers:
+// {transport: 9 Float32Array planes, albedo: 3 planes (the network's, masked), mask}); every `step`-th pixel is
+// used (the page uses step 1).
+export function exposureScale(layers, light, target, ev, step, power = 1) {
   const T = layers.transport, A = layers.albedo, M = layers.mask;
   const n = M.length;
-  let lum = 0, msum = 0;
+  let sum = 0, msum = 0;
   for (let p = 0; p < n; p += step) {
     msum += M[p];
+    let y = 0;
     for (let c = 0; c < 3; c++) {
       let s = 0;
       for (let k = 0; k < 9; k++) s += T[k][p] * light[3 * k + c];
-      if (s > 0) lum += LUMA[c] * A[c][p] * M[p] * s;
+      if (s > 0) y += LUMA[c] * A[c][p] * s;
     }
+    sum += M[p] * (power === 1 ? y : Math.pow(Math.max(y, 0), power));
   }
-  const current = lum / Math.max(msum, 1e-6);
+  const mean = sum / Math.max(msum, 1e-6);
+  const current = power === 1 ? mean : Math.pow(mean, 1 / power);
   const gain = Math.pow(2, ev);
   return current > 1e-8 && target > 1e-8 ? (gain * target) / current : gain;
 }

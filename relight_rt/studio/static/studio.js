@@ -51,7 +51,7 @@ function previewLight(light) {
   if (!state.info.exposure || state.exposure.mode === "physical") return light;
   const ev = state.exposure.mode === "ev" ? state.exposure.ev : 0;
   const meta = state.info.preview;
-  const s = sh.exposureScale(state.layers.exposure, light, meta.exposure_target, 0, 1);
+  const s = sh.exposureScale(state.layers.exposure, light, meta.exposure_target, 0, 1, meta.exposure_power ?? 1);
   // float32 as the server holds the exposed light, then the highlight guard, then the EV (relight_rt.exposure)
   const exposed = sh.scale(light, s).map((v) => Math.fround(v));
   const guard = sh.highlightFactor(state.layers.highlight, exposed, meta.highlight_limit, meta.highlight_allowed,
