@@ -1,4 +1,4 @@
-"""How far the graded original background follows the person (issue 51, docs/results_pending/grade.md).
+"""How far the graded original background follows the person (issue 51; docs/RESULTS.md).
 
 Relights a photo (default: the bundled street photo, relight_rt/data/example_scene.jpg) under a preset with
 ``--grade-background``'s Background, and prints the person's change of mean luminance and the background's, in EV
