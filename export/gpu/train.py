@@ -122,12 +122,31 @@ def config_from_args(args: argparse.Namespace) -> GpuTrainConfig:
     )
 
 
+POOL_MAX_BYTES = 96 << 30  # the rendered samples kept on the device (an H200 holds 139 GiB)
+
+
 def _check(config: GpuTrainConfig) -> None:
     if config.resolution < 64 or config.resolution % 64:
         raise RelightError(f"--resolution: expected a positive multiple of 64, got {config.resolution}")
     for name in ("batch_size", "pool", "fresh_per_step", "dirs", "width"):
         if getattr(config, name) < 1:
             raise RelightError(f"--{name.replace('_', '-')}: expected >= 1, got {getattr(config, name)}")
+    from export.render.cli import parse_framings
+
+    from .render import RenderSettings
+
+    try:
+        parse_framings(config.framings)
+    except argparse.ArgumentTypeError as exc:
+        raise RelightError(f"--framings: {exc}") from None
+    RenderSettings(resolution=config.resolution, dirs=config.dirs, shadow_size=config.shadow_size, dir_chunk=128)
+    pool_bytes = config.pool * 14 * config.resolution**2 * 2  # _Pool: float16
+    if pool_bytes > POOL_MAX_BYTES:
+        raise RelightError(f"--pool {config.pool} at --resolution {config.resolution} would hold "
+                           f"{pool_bytes / 2**30:.0f} GiB, more than {POOL_MAX_BYTES >> 30} GiB; lower one")
+    if config.batch_size > config.pool or config.fresh_per_step > config.pool:
+        raise RelightError(f"--batch-size {config.batch_size} and --fresh-per-step {config.fresh_per_step}: "
+                           f"expected at most --pool {config.pool}")
     if config.pool < config.batch_size:
         raise RelightError(f"--pool {config.pool} must hold at least one batch (--batch-size {config.batch_size})")
     if not 0 < config.render_share <= 1:
@@ -137,6 +156,12 @@ def _check(config: GpuTrainConfig) -> None:
     if not (config.deadline > 0 and 0 <= config.export_reserve < config.deadline):
         raise RelightError(f"expected --deadline > --export-reserve >= 0, got {config.deadline} and "
                            f"{config.export_reserve}")
+    for name in ("lr", "lr_min", "max_yaw", "sf_scale", "checkpoint_every", "export_reserve"):
+        if not math.isfinite(getattr(config, name)):
+            raise RelightError(f"--{name.replace('_', '-')}: expected a finite number, got {getattr(config, name)}")
+    if not (config.checkpoint_every > 0 and config.sf_scale >= 0 and 0 <= config.max_yaw <= 180):
+        raise RelightError(f"expected --checkpoint-every > 0, --sf-scale >= 0 and 0 <= --max-yaw <= 180, got "
+                           f"{config.checkpoint_every}, {config.sf_scale} and {config.max_yaw}")
     if not (config.lr > 0 and 0 <= config.lr_min <= config.lr):
         raise RelightError(f"expected --lr > 0 and 0 <= --lr-min <= --lr, got {config.lr} and {config.lr_min}")
     if config.init is not None and not config.init.is_file():
@@ -259,10 +284,10 @@ def run(config: GpuTrainConfig | argparse.Namespace) -> int:
     from export.training import JsonlLog, autocast, pick_device
 
     out = Path(config.out)
-    out.mkdir(parents=True, exist_ok=True)
     device = pick_device(config.device)
     torch.manual_seed(config.seed)
     index, subjects, lights_np = _load_bank(Path(config.bank), device)
+    out.mkdir(parents=True, exist_ok=True)  # after the bank is read: a bad bank leaves no run folder
     lights = torch.as_tensor(lights_np, device=device)
     logger = JsonlLog(out / "log.jsonl")
     device_name = torch.cuda.get_device_name(device) if device.type == "cuda" else "cpu"

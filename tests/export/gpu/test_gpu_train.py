@@ -107,15 +107,25 @@ def test_flipped_batches_shade_as_the_mirror_image():
 
 
 @pytest.mark.parametrize("argv, message", [
-    (["--bank", "nowhere"], "bank.json"),
+    (["--bank", "nowhere"], "bank.json"),  # (and no run folder is left: the bank is read before it is made)
     (["--resolution", "96"], "multiple of 64"),
     (["--init", "missing.onnx"], "no such file"),
+    # issue 50, round 4 fuzz (benchmarks/fuzz_round5.py): these trained, ran out of memory or diverged (exit 1)
+    (["--dirs", "100000000"], "--dirs"),
+    (["--shadow-size", "100000"], "--shadow-size"),
+    (["--resolution", "1984", "--dirs", "4096"], "GiB"),
+    (["--pool", "100000", "--resolution", "1024"], "--pool"),
+    (["--lr", "inf"], "--lr"),
+    (["--max-yaw", "nan"], "--max-yaw"),
+    (["--checkpoint-every", "nan"], "--checkpoint-every"),
+    (["--framings", "nope"], "--framings"),
 ])
 def test_bad_settings_get_one_line(bank_dir, tmp_path, capsys, argv, message):
     args = ["gpu-train", "--bank", str(bank_dir), "--out", str(tmp_path / "run"), *TINY, *argv]
     assert main(args) == 2
     err = capsys.readouterr().err.strip()
     assert message in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "run").exists()  # refused before the run folder is made
 
 
 def test_it_needs_nothing_the_gpu_machine_lacks(bank_dir, tmp_path):
