@@ -164,6 +164,11 @@ def _check(config: GpuTrainConfig) -> None:
                            f"{config.checkpoint_every}, {config.sf_scale} and {config.max_yaw}")
     if not (config.lr > 0 and 0 <= config.lr_min <= config.lr):
         raise RelightError(f"expected --lr > 0 and 0 <= --lr-min <= --lr, got {config.lr} and {config.lr_min}")
+    out, bank = Path(config.out), Path(config.bank)
+    if out.exists() and not out.is_dir():
+        raise RelightError(f"--out {out}: a file, not a run folder")
+    if out.resolve() == bank.resolve():
+        raise RelightError(f"--out {out}: the bank folder itself; give the run a folder of its own")
     if config.init is not None and not config.init.is_file():
         raise RelightError(f"--init {config.init}: no such file")
 
@@ -287,7 +292,14 @@ def run(config: GpuTrainConfig | argparse.Namespace) -> int:
     device = pick_device(config.device)
     torch.manual_seed(config.seed)
     index, subjects, lights_np = _load_bank(Path(config.bank), device)
-    out.mkdir(parents=True, exist_ok=True)  # after the bank is read: a bad bank leaves no run folder
+    model = Stage1Net(width=config.width, resolution=config.resolution, norm="batch")
+    init = None
+    if config.init is not None:  # before the run folder, as the bank: a bad --init is one error, not a failed run
+        from .. import warm_start
+
+        # on the CPU: load_init checks the unfolded network against onnxruntime with CPU tensors
+        init = warm_start.load_init(model, config.init)
+    out.mkdir(parents=True, exist_ok=True)
     lights = torch.as_tensor(lights_np, device=device)
     logger = JsonlLog(out / "log.jsonl")
     device_name = torch.cuda.get_device_name(device) if device.type == "cuda" else "cpu"
@@ -298,7 +310,6 @@ def run(config: GpuTrainConfig | argparse.Namespace) -> int:
 
     sampler = _Sampler(config, subjects, device)
     pool = _Pool(config.pool, config.resolution, device)
-    model = Stage1Net(width=config.width, resolution=config.resolution, norm="batch")
     loss_fn = Stage1Loss(sf_scale=config.sf_scale).to(device)
     rng = torch.Generator(device="cpu").manual_seed(config.seed + 1)
 
@@ -308,19 +319,16 @@ def run(config: GpuTrainConfig | argparse.Namespace) -> int:
         flips = torch.randint(2, (n,), generator=rng).bool()
         return pool.batch(idx.to(device), lights[light_idx.to(device)], flips.to(device))
 
-    state = {"step": 0, "stopped": "deadline", "losses": [], "train_s": 0.0, "init": None, "error": None}
+    state = {"step": 0, "stopped": "deadline", "losses": [], "train_s": 0.0, "init": init, "error": None}
     previous = signal.signal(signal.SIGTERM, _on_sigterm)
     stop_at = start + config.deadline - config.export_reserve
     try:
         while pool.count < config.batch_size:
             pool.add(sampler())
+        model.to(device)
         if config.init is not None:
             from .. import warm_start
 
-            # on the CPU: load_init checks the unfolded network against onnxruntime with CPU tensors
-            state["init"] = warm_start.load_init(model, config.init)
-        model.to(device)
-        if config.init is not None:
             batches = [draw(config.batch_size) for _ in range(4)]
             warm_start.calibrate_norms(model, ((2.0 * render_input(b) - 1.0) * b["mask"] for b in batches))
             log.info("stage 1 starts from %s", state["init"])

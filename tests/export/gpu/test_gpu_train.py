@@ -128,6 +128,22 @@ def test_bad_settings_get_one_line(bank_dir, tmp_path, capsys, argv, message):
     assert not (tmp_path / "run").exists()  # refused before the run folder is made
 
 
+@pytest.mark.parametrize("where, message", [("file", "a file"), ("bank", "bank folder"), ("init", "--init")])
+def test_a_bad_out_or_init_is_one_error_before_anything_is_written(bank_dir, tmp_path, capsys, where, message):
+    """issue 50 round 4 fuzz: --out naming a file was a FileExistsError traceback, a bad --init a failed run (exit 1)
+    after the pool was rendered, and --out = the bank wrote the run into it."""
+    (tmp_path / "file").write_text("keep")
+    (tmp_path / "garbage.onnx").write_bytes(b"not a graph")
+    out = {"file": tmp_path / "file", "bank": bank_dir, "init": tmp_path / "run"}[where]
+    init = ["--init", str(tmp_path / "garbage.onnx")] if where == "init" else []
+    before = sorted(p.name for p in bank_dir.iterdir())
+    assert main(["gpu-train", "--bank", str(bank_dir), "--out", str(out), *TINY, *init]) == 2
+    err = capsys.readouterr().err.strip()
+    assert message in err and len(err.splitlines()) == 1
+    assert (tmp_path / "file").read_text() == "keep" and not (tmp_path / "run").exists()
+    assert sorted(p.name for p in bank_dir.iterdir()) == before
+
+
 def test_it_needs_nothing_the_gpu_machine_lacks(bank_dir, tmp_path):
     """The device has torch, numpy, onnx, onnxruntime and OpenCV, not anny, embree, trimesh or warp."""
     import subprocess
