@@ -144,6 +144,19 @@ def test_a_bad_out_or_init_is_one_error_before_anything_is_written(bank_dir, tmp
     assert sorted(p.name for p in bank_dir.iterdir()) == before
 
 
+def test_gpu_check_never_writes_over_the_bank(bank_dir, capsys):
+    """issue 50 round 4 fuzz: gpu-check --out BANK/bank.json replaced the bank's index with its figures."""
+    pytest.importorskip("embreex")
+    index = (bank_dir / "bank.json").read_bytes()
+    argv = ["gpu-check", "--bank", str(bank_dir), "--n", "1", "--resolution", "32", "--dirs", "8",
+            "--shadow-size", "16", "--reference-dirs", "8", "--embree-dirs", "8", "--out", str(bank_dir / "bank.json")]
+    assert main(argv) == 2
+    assert "refusing to overwrite" in capsys.readouterr().err
+    assert (bank_dir / "bank.json").read_bytes() == index
+    assert main([*argv[:-2], "--reference-dirs", "0"]) == 2
+    assert "--reference-dirs" in capsys.readouterr().err
+
+
 def test_it_needs_nothing_the_gpu_machine_lacks(bank_dir, tmp_path):
     """The device has torch, numpy, onnx, onnxruntime and OpenCV, not anny, embree, trimesh or warp."""
     import subprocess
