@@ -157,6 +157,27 @@ def test_gpu_check_never_writes_over_the_bank(bank_dir, capsys):
     assert "--reference-dirs" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("argv, message", [
+    (["--seed", "-1"], "--seed"),  # a ValueError traceback from numpy's seeding
+    (["--out", "FILE"], "a file"),  # a FileExistsError traceback
+    (["--out", "LIGHTS"], "--lights folder"),  # the bank was written into the light folder
+    (["--texture-size", "100000"], "--texture-size"),  # more than the reader takes back
+])
+def test_gpu_bank_refuses_bad_settings_in_one_line(tmp_path, capsys, argv, message):
+    """issue 50 round 4 fuzz (benchmarks/fuzz_round5.py)."""
+    make_lights(tmp_path / "lights", 2)
+    (tmp_path / "file").write_text("keep")
+    argv = [{"FILE": str(tmp_path / "file"), "LIGHTS": str(tmp_path / "lights")}.get(a, a) for a in argv]
+    before = sorted(p.name for p in (tmp_path / "lights").iterdir())
+    base = ["gpu-bank", "--out", str(tmp_path / "bank"), "--lights", str(tmp_path / "lights"), "--n", "1",
+            "--subject", "shapes", "--texture-size", "16"]
+    assert main([*base, *argv]) == 2
+    err = capsys.readouterr().err.strip()
+    assert message in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "bank").exists() and (tmp_path / "file").read_text() == "keep"
+    assert sorted(p.name for p in (tmp_path / "lights").iterdir()) == before
+
+
 def test_it_needs_nothing_the_gpu_machine_lacks(bank_dir, tmp_path):
     """The device has torch, numpy, onnx, onnxruntime and OpenCV, not anny, embree, trimesh or warp."""
     import subprocess
