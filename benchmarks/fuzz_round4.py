@@ -133,8 +133,9 @@ def run_case(name: str, folder: Path, argv: list[str], outputs: list[str], memor
         resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
 
     start = time.perf_counter()
-    proc = subprocess.Popen([*(command or [sys.executable, "-m", "relight_rt"]), *argv], cwd=folder, env=env, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, preexec_fn=cap, start_new_session=True)
+    command = command or [sys.executable, "-m", "relight_rt"]
+    proc = subprocess.Popen([*command, *argv], cwd=folder, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, preexec_fn=cap, start_new_session=True)
     try:
         _, err = proc.communicate(timeout=seconds)
         code = proc.returncode

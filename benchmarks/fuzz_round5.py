@@ -212,6 +212,8 @@ def _bomb(src: Path, dst: Path) -> None:
                 f.write(block)
 
 
+CHECK = ["gpu-check", "--bank", "bank", "--n", "1", "--resolution", "32", "--dirs", "8", "--shadow-size", "16",
+         "--reference-dirs", "8", "--embree-dirs", "8"]
 TINY = ["--resolution", "64", "--width", "4", "--batch-size", "2", "--pool", "4", "--fresh-per-step", "1",
         "--render-share", "1", "--dirs", "8", "--shadow-size", "32", "--log-every", "1", "--device", "cpu",
         "--init", "none", "--max-steps", "1"]
@@ -278,11 +280,13 @@ from relight_rt.panorama import panorama_view
 v = panorama_view(a, (96, 64), (0, 0))
 assert np.isfinite(v.light).all() and v.plate.dtype == np.uint8, (v.light, v.plate.dtype)
 """)
-    for label, view, size in (("view nan", "(float('nan'), 0)", "(96, 64)"), ("view str list", "['0', '0']", "(96, 64)"),
+    for label, view, size in (("view nan", "(float('nan'), 0)", "(96, 64)"),
+                              ("view str list", "['0', '0']", "(96, 64)"),
                               ("view None", "None", "(96, 64)"), ("view 4", "(0, 0, 60, 1)", "(96, 64)"),
                               ("view numpy", "np.array([0.0, 0.0])", "(96, 64)"),
                               ("size float", "(0, 0)", "(96.0, 64.0)"), ("size bool", "(0, 0)", "(True, 64)"),
-                              ("size huge", "(0, 0)", "(10**12, 10**12)"), ("size numpy", "(0, 0)", "np.array([96, 64])"),
+                              ("size huge", "(0, 0)", "(10**12, 10**12)"),
+                              ("size numpy", "(0, 0)", "np.array([96, 64])"),
                               ("size None", "(0, 0)", "None"), ("size str", "(0, 0)", "'96x64'")):
         api(f"panorama_view {label}", f"""
 from relight_rt.panorama import panorama_view
@@ -314,10 +318,8 @@ composite_panorama(None, "p.png", {ok}, (0, 0), size=(100_000, 100_000))
                     ex + "gpu-train: "))
     for bank in ["bank", "b_noindex", "b_index_list", "b_index_outside", "b_subject_trunc", "b_meta_missing",
                  "b_tex_huge", "b_member_huge", "b_lights_huge"]:
-        out.append((f"gpu-check --bank {bank}", EXPORT, ["gpu-check", "--bank", bank, "--n", "1", "--resolution", "32",
-                                                         "--dirs", "8", "--shadow-size", "16", "--reference-dirs", "8",
-                                                         "--embree-dirs", "8", "--out", "check.json"],
-                    ["check.json"], ex + "gpu-check: "))
+        argv = [*CHECK[:2], bank, *CHECK[3:], "--out", "check.json"]
+        out.append((f"gpu-check --bank {bank}", EXPORT, argv, ["check.json"], ex + "gpu-check: "))
     tiny = {k: v for k, v in zip(TINY[::2], TINY[1::2], strict=True)}
     for flag, values in (("--deadline", ("0", "-1", "nan", "inf", "1e308")), ("--batch-size", ("0", "-1")),
                          ("--resolution", ("0", "96", "-64", "100000")), ("--dirs", ("0", "-5", "100000000")),
@@ -336,18 +338,13 @@ composite_panorama(None, "p.png", {ok}, (0, 0), size=(100_000, 100_000))
                 ex + "gpu-train: "))
     out.append(("gpu-train --out = a file", EXPORT, ["gpu-train", "--bank", "bank", "--out", "p.png", *TINY], [],
                 ex + "gpu-train: "))
-    out.append(("gpu-train --init garbage", EXPORT, ["gpu-train", "--bank", "bank", "--out", "run", *TINY[:-4],
-                                                     "--max-steps", "1", "--init", "p.png"], ["run"], ex + "gpu-train: "))
-    out.append(("gpu-check --out = bank.json", EXPORT, ["gpu-check", "--bank", "bank", "--n", "1", "--resolution",
-                                                        "32", "--dirs", "8", "--shadow-size", "16", "--reference-dirs",
-                                                        "8", "--embree-dirs", "8", "--out", "bank/bank.json"], [],
-                ex + "gpu-check: "))
+    garbage = ["gpu-train", "--bank", "bank", "--out", "run", *TINY[:-4], "--max-steps", "1", "--init", "p.png"]
+    out.append(("gpu-train --init garbage", EXPORT, garbage, ["run"], ex + "gpu-train: "))
     for flag, v in (("--n", "0"), ("--start", "99"), ("--start", "-1"), ("--resolution", "0"), ("--dirs", "0"),
-                    ("--shadow-size", "0"), ("--reference-dirs", "0"), ("--embree-dirs", "0"), ("--resolution", "99999")):
-        out.append((f"gpu-check {flag} {v}", EXPORT, ["gpu-check", "--bank", "bank", "--n", "1", "--resolution", "32",
-                                                      "--dirs", "8", "--shadow-size", "16", "--reference-dirs", "8",
-                                                      "--embree-dirs", "8", flag, v, "--out", "check.json"],
-                    ["check.json"], ex + "gpu-check: "))
+                    ("--shadow-size", "0"), ("--reference-dirs", "0"), ("--embree-dirs", "0"),
+                    ("--resolution", "99999"), ("--dirs", "100000000")):
+        out.append((f"gpu-check {flag} {v}", EXPORT, [*CHECK, flag, v, "--out", "check.json"], ["check.json"],
+                    ex + "gpu-check: "))
     for name, argv in (("--n 0", ["--n", "0"]), ("--texture-size 0", ["--texture-size", "0"]),
                        ("--texture-size 100000", ["--texture-size", "100000", "--n", "1", "--seed", "9"]),
                        ("--lights missing", ["--lights", "nowhere"]), ("--lights = a file", ["--lights", "p.png"]),
@@ -358,6 +355,8 @@ composite_panorama(None, "p.png", {ok}, (0, 0), size=(100_000, 100_000))
             base[k] = v
         out.append((f"gpu-bank {name}", EXPORT, ["gpu-bank", *[x for kv in base.items() for x in kv]], ["nb"],
                     ex + "gpu-bank: "))
+    # last: when it breaks (it did: the figures replaced bank.json), the cases after it would see a broken bank
+    out.append(("gpu-check --out = bank.json", EXPORT, [*CHECK, "--out", "bank/bank.json"], [], ex + "gpu-check: "))
     return out
 
 
