@@ -122,7 +122,10 @@ def digest(folder: Path) -> dict[str, str]:
             if p.is_file()}
 
 
-def run_case(name: str, folder: Path, argv: list[str], outputs: list[str], memory: int, seconds: float) -> dict:
+def run_case(name: str, folder: Path, argv: list[str], outputs: list[str], memory: int, seconds: float,
+             command: list[str] | None = None, prefix: str = "relight-rt: ") -> dict:
+    """One case: ``command`` (default ``python -m relight_rt``) + argv in ``folder``; a failure must print one line
+    starting with ``prefix`` (or argparse's usage and its one error line)."""
     before = digest(folder)
     env = {**os.environ, "PYTHONPATH": str(REPO)}
 
@@ -130,8 +133,9 @@ def run_case(name: str, folder: Path, argv: list[str], outputs: list[str], memor
         resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
 
     start = time.perf_counter()
-    proc = subprocess.Popen([sys.executable, "-m", "relight_rt", *argv], cwd=folder, env=env, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, preexec_fn=cap, start_new_session=True)
+    command = command or [sys.executable, "-m", "relight_rt"]
+    proc = subprocess.Popen([*command, *argv], cwd=folder, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, preexec_fn=cap, start_new_session=True)
     try:
         _, err = proc.communicate(timeout=seconds)
         code = proc.returncode
@@ -152,7 +156,8 @@ def run_case(name: str, folder: Path, argv: list[str], outputs: list[str], memor
     if "Traceback" in err:
         problems.append("traceback")
     batch = "(a batch)" in name  # a batch lists each failure and keeps what it wrote for the other inputs
-    if code == 2 and not batch and not (len(lines) == 1 and lines[0].startswith("relight-rt: ")):
+    usage = len(lines) >= 2 and lines[0].startswith("usage:") and ": error:" in lines[-1]  # argparse's own
+    if code == 2 and not batch and not usage and not (len(lines) == 1 and lines[0].startswith(prefix)):
         problems.append(f"{len(lines)} stderr lines")
     if changed:
         problems.append(f"input changed: {changed}")
@@ -172,7 +177,7 @@ def run_case(name: str, folder: Path, argv: list[str], outputs: list[str], memor
                 p.rmdir() if p.is_dir() else p.unlink()
             d.rmdir()
     return {"code": code, "seconds": round(wall, 1), "peak_mb": rusage.ru_maxrss // 1024,
-            "first_line": lines[0][:140] if lines else "", "problems": problems}
+            "first_line": (lines[-1] if usage else lines[0])[:140] if lines else "", "problems": problems}
 
 
 def main(argv: list[str] | None = None) -> int:

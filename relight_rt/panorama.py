@@ -97,7 +97,7 @@ def parse_view(value) -> tuple[float, float, float]:
         raise RelightError(f"view: elevation must lie in [-{MAX_ELEVATION:g}, {MAX_ELEVATION:g}] degrees, got {el:g}")
     if not FOV_RANGE[0] < fov < FOV_RANGE[1]:
         raise RelightError(f"view: field of view must lie in ({FOV_RANGE[0]:g}, {FOV_RANGE[1]:g}) degrees, got {fov:g}")
-    az = -((-az + 180.0) % 360.0 - 180.0)  # (−180, 180]
+    az = -((-az + 180.0) % 360.0 - 180.0) + 0.0  # (−180, 180]; + 0.0: never −0
     return az, el, fov
 
 
@@ -254,8 +254,13 @@ def panorama_view(panorama, size: tuple[int, int], view) -> PanoramaView:
     az, el, fov = parse_view(view)
     width, height = parse_size(size)
     env = np.maximum(load_panorama(panorama), 0)
+    peak = float(env.max())
+    if not math.isfinite(peak):
+        raise RelightError("panorama: holds NaN or Inf values")
+    if peak > 0:  # everything below is linear in the radiance: on env / peak no sum overflows, none underflows
+        env /= env.dtype.type(peak)
     linear = render_view(env, (height, width), az, el, fov)
-    mean = float((linear @ REC709).mean())
+    mean = float((linear @ REC709).mean(dtype=np.float64))
     if not mean > 0:
         raise RelightError(f"panorama: the view {az:g},{el:g} is black (nothing to expose); choose another --view")
     k = METER_GREY / mean
@@ -265,7 +270,7 @@ def panorama_view(panorama, size: tuple[int, int], view) -> PanoramaView:
     horizon = 0.5 + math.tan(math.radians(el)) / (2 * tan_v)  # a level world's horizon, seen by the tilted camera
     rot = view_rotation(az, el)
     direction, power = source(env)
-    return PanoramaView(plate=plate, light=light, exposure=k, horizon=horizon, view=(az, el, fov),
+    return PanoramaView(plate=plate, light=light, exposure=k / peak, horizon=horizon, view=(az, el, fov),
                         source_direction=rot.T @ direction, source_shading=power * (k / math.pi))  # fmt: skip
 
 

@@ -21,9 +21,12 @@ value keeps it in ``skin`` and ignores A. Albedo textures are shrunk to at most 
 from __future__ import annotations
 
 import hashlib
+import io
 import json
 import os
+import re
 import tempfile
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -33,6 +36,11 @@ import numpy as np
 from relight_rt import RelightError
 
 FORMAT = "relight_rt.gpu_bank/1"
+MEMBER_MAX_BYTES = 256 << 20  # one array of a subject (a posed anny body: ~1 MB); a larger declared size is refused
+TEXTURE_MAX_SIDE = 4096  # a bank texture's side (gpu-bank shrinks them to --texture-size, default 512)
+LIGHTS_MAX = 1_000_000  # training lights in lights.npy
+_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]*")  # a file name inside the bank folder: no path, no hidden file
+_DAMAGED = (KeyError, ValueError, TypeError, IndexError, AttributeError, EOFError, OSError, zipfile.BadZipFile)
 
 
 @dataclass(frozen=True)
@@ -89,8 +97,17 @@ def read_template(root: Path) -> tuple[np.ndarray, np.ndarray] | None:
     path = Path(root) / "template.npz"
     if not path.is_file():
         return None
-    with np.load(path, allow_pickle=False) as z:
-        return z["faces"].astype(np.int64), z["uv"].astype(np.float32)
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            faces, uv = _member(z, "faces", path).astype(np.int64), _member(z, "uv", path).astype(np.float32)
+    except RelightError:
+        raise
+    except _DAMAGED as exc:
+        raise RelightError(f"bank template {path}: not readable ({type(exc).__name__}: {exc})") from None
+    if faces.ndim != 2 or faces.shape[1] != 3 or not len(faces) or faces.min() < 0 or uv.shape != (len(faces), 3, 2):
+        raise RelightError(f"bank template {path}: expected (F, 3) faces and (F, 3, 2) uv, got {faces.shape}, "
+                           f"{uv.shape}")
+    return faces, uv
 
 
 class _TemplateIndex:
@@ -199,46 +216,109 @@ def write_subject(root: Path, subject, *, texture_size: int = 512, template: _Te
     return path
 
 
+def _member(z, key: str, path: Path) -> np.ndarray:
+    """The array ``key`` of the npz ``z``, its declared size checked against MEMBER_MAX_BYTES before it is read."""
+    name = f"{key}.npy"
+    if name not in z.zip.namelist():
+        raise RelightError(f"bank subject {path}: no array {key!r}")
+    with z.zip.open(name) as f:
+        version = np.lib.format.read_magic(f)
+        read = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
+        shape, _, dtype = read(f)
+    if dtype.hasobject:
+        raise RelightError(f"bank subject {path}: array {key!r} holds objects")
+    size = int(np.prod(shape, dtype=object)) * dtype.itemsize
+    if size > MEMBER_MAX_BYTES:
+        raise RelightError(f"bank subject {path}: array {key!r} declares {shape} {dtype} ({size / 2**20:.0f} MiB), "
+                           f"more than {MEMBER_MAX_BYTES >> 20} MiB")
+    return z[key]
+
+
+def _texture(png: np.ndarray, path: Path, j: int) -> np.ndarray:
+    """Decode texture ``j`` (RGBA PNG bytes), its declared size checked before decoding."""
+    from relight_rt._limits import _png
+
+    data = np.asarray(png, np.uint8).tobytes() if png.dtype == np.uint8 and png.ndim == 1 else b""
+    wh = _png(io.BytesIO(data))
+    if wh is None or not (1 <= wh[0] <= TEXTURE_MAX_SIDE and 1 <= wh[1] <= TEXTURE_MAX_SIDE):
+        raise RelightError(f"bank subject {path}: texture {j} is not an RGBA PNG of at most {TEXTURE_MAX_SIDE} px "
+                           f"a side (header: {wh})")
+    bgra = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+    if bgra is None or bgra.ndim != 3 or bgra.shape[2] != 4:
+        raise RelightError(f"bank subject {path}: texture {j} is not an RGBA PNG")
+    return cv2.cvtColor(bgra, cv2.COLOR_BGRA2RGBA).astype(np.float32) / 255.0
+
+
 def read_subject(path: Path, template: tuple[np.ndarray, np.ndarray] | None) -> SubjectData:
-    """Decode ``SUBJECT.npz``; ``template`` is :func:`read_template`'s (faces, uv), needed by template parts."""
+    """Decode ``SUBJECT.npz``; ``template`` is :func:`read_template`'s (faces, uv), needed by template parts.
+
+    Raises:
+        RelightError: an unreadable or damaged file (a missing or malformed array, an array or texture declaring
+            more than MEMBER_MAX_BYTES / TEXTURE_MAX_SIDE, faces or textures indexed out of range).
+    """
     path = Path(path)
     try:
         z = np.load(path, allow_pickle=False)
-    except (OSError, ValueError) as exc:
+    except (*_DAMAGED, RelightError) as exc:
         raise RelightError(f"bank subject {path}: not readable ({exc})") from None
-    with z:
-        meta = json.loads(str(z["meta"]))
-        if meta.get("format") != FORMAT:
-            raise RelightError(f"bank subject {path}: format {meta.get('format')!r}, expected {FORMAT!r}")
-        lo, span = z["lo"], z["span"]
-        textures = []
-        for j in range(int(meta["textures"])):
-            bgra = cv2.imdecode(z[f"tex{j}"], cv2.IMREAD_UNCHANGED)
-            if bgra is None or bgra.ndim != 3 or bgra.shape[2] != 4:
-                raise RelightError(f"bank subject {path}: texture {j} is not an RGBA PNG")
-            textures.append(cv2.cvtColor(bgra, cv2.COLOR_BGRA2RGBA).astype(np.float32) / 255.0)
-        decoded: list[np.ndarray] = []
-        parts = []
-        for i, e in enumerate(meta["parts"]):
-            if "vertices_of" in e:
-                verts = decoded[int(e["vertices_of"])]
-            else:
-                verts = (z[f"p{i}_vertices"].astype(np.float64) / 65535.0 * span + lo).astype(np.float32)
-            decoded.append(verts)
-            if e["mode"] == "mesh":
-                faces, uv = z[f"p{i}_faces"].astype(np.int64), z[f"p{i}_uv"].astype(np.float32)
-            else:
-                if template is None:
-                    raise RelightError(f"bank subject {path}: part {e['name']!r} needs the bank's template.npz")
-                t_faces, t_uv = template
-                ids = np.flatnonzero(np.unpackbits(z[f"p{i}_mask"], count=len(t_faces)))
-                faces, uv = t_faces[ids], t_uv[ids]
-                if e["mode"] == "subset":
-                    used = np.unique(faces)
-                    remap = np.full(int(t_faces.max()) + 1, -1, np.int64)
-                    remap[used] = np.arange(len(used))
-                    faces = remap[faces]
-            parts.append(PartData(e["name"], verts, faces, uv, int(e["texture"]), float(e["skin"])))
+    if not isinstance(z, np.lib.npyio.NpzFile):
+        raise RelightError(f"bank subject {path}: not an .npz archive")
+    try:
+        with z:
+            return _decode(z, path, template)
+    except RelightError:
+        raise
+    except _DAMAGED as exc:
+        raise RelightError(f"bank subject {path}: damaged ({type(exc).__name__}: {exc})") from None
+
+
+def _decode(z, path: Path, template) -> SubjectData:
+    meta = json.loads(str(_member(z, "meta", path)))
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+        raise RelightError(f"bank subject {path}: format {getattr(meta, 'get', dict().get)('format')!r}, "
+                           f"expected {FORMAT!r}")
+    lo, span = _member(z, "lo", path), _member(z, "span", path)
+    n_tex = int(meta["textures"])
+    if not 0 <= n_tex <= sum(n.startswith("tex") for n in z.files):
+        raise RelightError(f"bank subject {path}: {n_tex} textures declared, fewer stored")
+    textures = [_texture(_member(z, f"tex{j}", path), path, j) for j in range(n_tex)]
+    decoded: list[np.ndarray] = []
+    parts = []
+    for i, e in enumerate(meta["parts"]):
+        if "vertices_of" in e:
+            k = int(e["vertices_of"])
+            if not 0 <= k < len(decoded):
+                raise RelightError(f"bank subject {path}: part {i} takes the vertices of part {k}")
+            verts = decoded[k]
+        else:
+            q = _member(z, f"p{i}_vertices", path)
+            if q.ndim != 2 or q.shape[1] != 3:
+                raise RelightError(f"bank subject {path}: part {i}'s vertices are {q.shape}, expected (V, 3)")
+            verts = (q.astype(np.float64) / 65535.0 * span + lo).astype(np.float32)
+        decoded.append(verts)
+        if e["mode"] == "mesh":
+            faces = _member(z, f"p{i}_faces", path).astype(np.int64)
+            uv = _member(z, f"p{i}_uv", path).astype(np.float32)
+        else:
+            if template is None:
+                raise RelightError(f"bank subject {path}: part {e['name']!r} needs the bank's template.npz")
+            t_faces, t_uv = template
+            ids = np.flatnonzero(np.unpackbits(_member(z, f"p{i}_mask", path), count=len(t_faces)))
+            faces, uv = t_faces[ids], t_uv[ids]
+            if e["mode"] == "subset":
+                used = np.unique(faces)
+                remap = np.full(int(t_faces.max()) + 1, -1, np.int64)
+                remap[used] = np.arange(len(used))
+                faces = remap[faces]
+        tex = int(e["texture"])
+        ok = faces.ndim == 2 and faces.shape[1] == 3 and uv.shape == (len(faces), 3, 2) and len(faces) > 0
+        if not ok or faces.min() < 0 or faces.max() >= len(verts) or not 0 <= tex < len(textures):
+            raise RelightError(f"bank subject {path}: part {i} indexes outside its vertices or textures "
+                               f"(faces {faces.shape}, uv {uv.shape}, {len(verts)} vertices, texture {tex} of "
+                               f"{len(textures)})")
+        if not (np.isfinite(verts).all() and np.isfinite(uv).all()):
+            raise RelightError(f"bank subject {path}: part {i} holds NaN or Inf")
+        parts.append(PartData(str(e["name"]), verts, faces, uv, tex, float(e["skin"])))
     return SubjectData(str(meta["name"]), tuple(parts), tuple(textures))
 
 
@@ -268,6 +348,7 @@ def write_index(root: Path, lights_file: str = "lights.npy") -> dict:
 
 
 def read_index(root: Path) -> dict:
+    """``root/bank.json``, checked: its subjects and lights file are plain names of files inside ``root``."""
     path = Path(root) / "bank.json"
     try:
         index = json.loads(path.read_text())
@@ -275,17 +356,31 @@ def read_index(root: Path) -> dict:
         raise RelightError(
             f"--bank {root}: no readable bank.json ({exc}); build one with python -m export gpu-bank"
         ) from None
-    if index.get("format") != FORMAT or not index.get("subjects"):
+    if not isinstance(index, dict):
+        raise RelightError(f"--bank {root}: bank.json is not a JSON object; build one with python -m export gpu-bank")
+    subjects = index.get("subjects")
+    if index.get("format") != FORMAT or not isinstance(subjects, list) or not subjects:
         raise RelightError(f"--bank {root}: bank.json of format {index.get('format')!r} with "
-                           f"{len(index.get('subjects') or [])} subjects; expected {FORMAT!r} and at least one")
+                           f"{len(subjects) if isinstance(subjects, list) else 'no list of'} subjects; expected "
+                           f"{FORMAT!r} and at least one")
+    names = [*subjects, index.get("lights")]
+    bad = [n for n in names if not (isinstance(n, str) and _NAME.fullmatch(n))]
+    if bad:
+        raise RelightError(f"--bank {root}: bank.json names {bad[0]!r}: expected the names of files inside the bank "
+                           "folder (no paths)")
     return index
 
 
 def read_lights(root: Path, index: dict) -> np.ndarray:
     path = Path(root) / index["lights"]
     try:
-        lights = np.load(path, allow_pickle=False).astype(np.float32)
-    except (OSError, ValueError) as exc:
+        mapped = np.load(path, allow_pickle=False, mmap_mode="r")  # the shape, before anything is read
+        if not isinstance(mapped, np.ndarray) or mapped.ndim != 3 or mapped.shape[1:] != (9, 3):
+            raise ValueError(f"expected (M, 9, 3) lights, got {getattr(mapped, 'shape', type(mapped).__name__)}")
+        if len(mapped) > LIGHTS_MAX:
+            raise ValueError(f"{len(mapped)} lights, more than {LIGHTS_MAX}")
+        lights = np.array(mapped, dtype=np.float32)
+    except _DAMAGED as exc:
         raise RelightError(f"bank lights {path}: not readable ({exc})") from None
     if lights.ndim != 3 or lights.shape[1:] != (9, 3) or not len(lights) or not np.isfinite(lights).all():
         raise RelightError(f"bank lights {path}: expected (M, 9, 3) finite RGB lights, got {lights.shape}")

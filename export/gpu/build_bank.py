@@ -70,10 +70,17 @@ def run(config: GpuBankConfig) -> int:
 
     from . import bank
 
-    if config.n < 1 or config.texture_size < 1:
-        raise RelightError(f"expected --n >= 1 and --texture-size >= 1, got {config.n} and {config.texture_size}")
+    if config.n < 1 or not 1 <= config.texture_size <= bank.TEXTURE_MAX_SIDE:
+        raise RelightError(f"expected --n >= 1 and 1 <= --texture-size <= {bank.TEXTURE_MAX_SIDE}, got {config.n} and "
+                           f"{config.texture_size}")
+    if not 0 <= config.seed <= 2**32 - config.n:
+        raise RelightError(f"--seed: expected 0 to 2**32 - --n, got {config.seed}")
+    out, lights_dir = Path(config.out), Path(config.lights)
+    if out.exists() and not out.is_dir():
+        raise RelightError(f"--out {out}: a file, not a bank folder")
+    if out.resolve() == lights_dir.resolve():
+        raise RelightError(f"--out {out}: the --lights folder itself; give the bank a folder of its own")
     lights = dataset.read_lights(config.lights)
-    out = Path(config.out)
     out.mkdir(parents=True, exist_ok=True)
     bank._atomic_bytes(out / "lights.npy", lambda tmp: np.save(tmp, lights.astype(np.float32)))
     template = None

@@ -47,6 +47,9 @@ class GpuCheckConfig:
     seed: int = 0
 
 
+MAX_EMBREE_DIRS = 65536  # the embree renderer's directions per pixel (the reference uses 1024)
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     d = GpuCheckConfig()
     parser.add_argument("--bank", type=Path, default=d.bank, help="bank folder (default %(default)s)")
@@ -108,12 +111,21 @@ def run(config: GpuCheckConfig) -> int:
 
     if config.n < 1 or config.start < 0:
         raise RelightError(f"expected --n >= 1 and --start >= 0, got {config.n} and {config.start}")
+    for name in ("reference_dirs", "embree_dirs"):
+        if not 1 <= getattr(config, name) <= MAX_EMBREE_DIRS:
+            raise RelightError(f"--{name.replace('_', '-')}: expected 1 to {MAX_EMBREE_DIRS}, got "
+                               f"{getattr(config, name)}")
+    settings = RenderSettings(resolution=config.resolution, dirs=config.dirs, shadow_size=config.shadow_size)
     index = bank.read_index(config.bank)
+    if config.out is not None:  # before the work: the figures never replace a file of the bank
+        from relight_rt._io import check_target
+
+        bank_files = [Path(config.bank) / n for n in ("bank.json", "template.npz", index["lights"])]
+        check_target(config.out, [*bank_files, *(Path(config.bank) / f"{n}.npz" for n in index["subjects"])])
     template = bank.read_template(config.bank)
     lights_all = bank.read_lights(config.bank, index)
     lights = lights_all[np.random.default_rng(config.seed).choice(len(lights_all), min(10, len(lights_all)),
                                                                   replace=False)]
-    settings = RenderSettings(resolution=config.resolution, dirs=config.dirs, shadow_size=config.shadow_size)
     rows = []
     names = index["subjects"][config.start : config.start + config.n]
     if not names:

@@ -37,6 +37,12 @@ from .raster import depth_map, rasterize
 _LOBE = (math.pi,) + (2.0 * math.pi / 3.0,) * 3 + (math.pi / 4.0,) * 5
 
 
+MAX_RESOLUTION = 2048  #: a sample's side, pixels
+MAX_DIRS = 4096  #: visibility directions per sample
+MAX_SHADOW_SIZE = 8192  #: a depth map's side, texels
+MAX_ARRAY_BYTES = 8 << 30  #: the largest array a sample's settings may ask for (the visibility, a depth-map chunk)
+
+
 @dataclass(frozen=True)
 class RenderSettings:
     """How samples are rendered.
@@ -62,6 +68,23 @@ class RenderSettings:
     slope_bias: float = 0.5
     max_candidates: int = 1 << 22
     dir_chunk: int = 32
+
+    def __post_init__(self) -> None:
+        """Refuse settings whose arrays could not be held, before anything is allocated (issue 50's fuzz)."""
+        from relight_rt import RelightError
+
+        if not 8 <= self.resolution <= MAX_RESOLUTION:
+            raise RelightError(f"--resolution: expected 8 to {MAX_RESOLUTION} px, got {self.resolution}")
+        if not 1 <= self.dirs <= MAX_DIRS:
+            raise RelightError(f"--dirs: expected 1 to {MAX_DIRS} directions, got {self.dirs}")
+        if not 8 <= self.shadow_size <= MAX_SHADOW_SIZE:
+            raise RelightError(f"--shadow-size: expected 8 to {MAX_SHADOW_SIZE} texels, got {self.shadow_size}")
+        visibility = self.resolution**2 * self.dirs * 4  # the (pixels, directions) float32 visibility
+        depth = min(self.dir_chunk, self.dirs) * self.shadow_size**2 * 4  # one chunk of depth maps
+        if max(visibility, depth) > MAX_ARRAY_BYTES:
+            raise RelightError(f"--resolution {self.resolution}, --dirs {self.dirs}, --shadow-size {self.shadow_size}: "
+                               f"a sample would need {max(visibility, depth) / 2**30:.0f} GiB in one array, more than "
+                               f"{MAX_ARRAY_BYTES >> 30} GiB; lower them")
 
 
 @dataclass(frozen=True)

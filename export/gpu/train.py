@@ -122,12 +122,31 @@ def config_from_args(args: argparse.Namespace) -> GpuTrainConfig:
     )
 
 
+POOL_MAX_BYTES = 96 << 30  # the rendered samples kept on the device (an H200 holds 139 GiB)
+
+
 def _check(config: GpuTrainConfig) -> None:
     if config.resolution < 64 or config.resolution % 64:
         raise RelightError(f"--resolution: expected a positive multiple of 64, got {config.resolution}")
     for name in ("batch_size", "pool", "fresh_per_step", "dirs", "width"):
         if getattr(config, name) < 1:
             raise RelightError(f"--{name.replace('_', '-')}: expected >= 1, got {getattr(config, name)}")
+    from export.render.cli import parse_framings
+
+    from .render import RenderSettings
+
+    try:
+        parse_framings(config.framings)
+    except argparse.ArgumentTypeError as exc:
+        raise RelightError(f"--framings: {exc}") from None
+    RenderSettings(resolution=config.resolution, dirs=config.dirs, shadow_size=config.shadow_size, dir_chunk=128)
+    pool_bytes = config.pool * 14 * config.resolution**2 * 2  # _Pool: float16
+    if pool_bytes > POOL_MAX_BYTES:
+        raise RelightError(f"--pool {config.pool} at --resolution {config.resolution} would hold "
+                           f"{pool_bytes / 2**30:.0f} GiB, more than {POOL_MAX_BYTES >> 30} GiB; lower one")
+    if config.batch_size > config.pool or config.fresh_per_step > config.pool:
+        raise RelightError(f"--batch-size {config.batch_size} and --fresh-per-step {config.fresh_per_step}: "
+                           f"expected at most --pool {config.pool}")
     if config.pool < config.batch_size:
         raise RelightError(f"--pool {config.pool} must hold at least one batch (--batch-size {config.batch_size})")
     if not 0 < config.render_share <= 1:
@@ -137,8 +156,19 @@ def _check(config: GpuTrainConfig) -> None:
     if not (config.deadline > 0 and 0 <= config.export_reserve < config.deadline):
         raise RelightError(f"expected --deadline > --export-reserve >= 0, got {config.deadline} and "
                            f"{config.export_reserve}")
+    for name in ("lr", "lr_min", "max_yaw", "sf_scale", "checkpoint_every", "export_reserve"):
+        if not math.isfinite(getattr(config, name)):
+            raise RelightError(f"--{name.replace('_', '-')}: expected a finite number, got {getattr(config, name)}")
+    if not (config.checkpoint_every > 0 and config.sf_scale >= 0 and 0 <= config.max_yaw <= 180):
+        raise RelightError(f"expected --checkpoint-every > 0, --sf-scale >= 0 and 0 <= --max-yaw <= 180, got "
+                           f"{config.checkpoint_every}, {config.sf_scale} and {config.max_yaw}")
     if not (config.lr > 0 and 0 <= config.lr_min <= config.lr):
         raise RelightError(f"expected --lr > 0 and 0 <= --lr-min <= --lr, got {config.lr} and {config.lr_min}")
+    out, bank = Path(config.out), Path(config.bank)
+    if out.exists() and not out.is_dir():
+        raise RelightError(f"--out {out}: a file, not a run folder")
+    if out.resolve() == bank.resolve():
+        raise RelightError(f"--out {out}: the bank folder itself; give the run a folder of its own")
     if config.init is not None and not config.init.is_file():
         raise RelightError(f"--init {config.init}: no such file")
 
@@ -257,10 +287,17 @@ def run(config: GpuTrainConfig) -> int:
     from export.training import JsonlLog, autocast, pick_device
 
     out = Path(config.out)
-    out.mkdir(parents=True, exist_ok=True)
     device = pick_device(config.device)
     torch.manual_seed(config.seed)
     index, subjects, lights_np = _load_bank(Path(config.bank), device)
+    model = Stage1Net(width=config.width, resolution=config.resolution, norm="batch")
+    init = None
+    if config.init is not None:  # before the run folder, as the bank: a bad --init is one error, not a failed run
+        from .. import warm_start
+
+        # on the CPU: load_init checks the unfolded network against onnxruntime with CPU tensors
+        init = warm_start.load_init(model, config.init)
+    out.mkdir(parents=True, exist_ok=True)
     lights = torch.as_tensor(lights_np, device=device)
     logger = JsonlLog(out / "log.jsonl")
     device_name = torch.cuda.get_device_name(device) if device.type == "cuda" else "cpu"
@@ -271,7 +308,6 @@ def run(config: GpuTrainConfig) -> int:
 
     sampler = _Sampler(config, subjects, device)
     pool = _Pool(config.pool, config.resolution, device)
-    model = Stage1Net(width=config.width, resolution=config.resolution, norm="batch")
     loss_fn = Stage1Loss(sf_scale=config.sf_scale).to(device)
     rng = torch.Generator(device="cpu").manual_seed(config.seed + 1)
 
@@ -281,19 +317,16 @@ def run(config: GpuTrainConfig) -> int:
         flips = torch.randint(2, (n,), generator=rng).bool()
         return pool.batch(idx.to(device), lights[light_idx.to(device)], flips.to(device))
 
-    state = {"step": 0, "stopped": "deadline", "losses": [], "train_s": 0.0, "init": None, "error": None}
+    state = {"step": 0, "stopped": "deadline", "losses": [], "train_s": 0.0, "init": init, "error": None}
     previous = signal.signal(signal.SIGTERM, _on_sigterm)
     stop_at = start + config.deadline - config.export_reserve
     try:
         while pool.count < config.batch_size:
             pool.add(sampler())
+        model.to(device)
         if config.init is not None:
             from .. import warm_start
 
-            # on the CPU: load_init checks the unfolded network against onnxruntime with CPU tensors
-            state["init"] = warm_start.load_init(model, config.init)
-        model.to(device)
-        if config.init is not None:
             batches = [draw(config.batch_size) for _ in range(4)]
             warm_start.calibrate_norms(model, ((2.0 * render_input(b) - 1.0) * b["mask"] for b in batches))
             log.info("stage 1 starts from %s", state["init"])

@@ -282,3 +282,31 @@ def test_an_hdr_array_as_a_background_says_what_to_do():
         read_background(np.full((64, 64, 3), 7.0, np.float32))
     with pytest.raises(RelightError, match=r"expected finite float values in \[0, 1\]$"):
         read_background(np.full((64, 64, 3), -2.0, np.float32))
+
+
+# issue 50, round 4 fuzz (benchmarks/fuzz_round5.py): a panorama of any finite scale, and clear errors for the rest
+
+
+@pytest.mark.parametrize("scale", [3e38 / 20, 1e-38])
+def test_a_panorama_of_any_finite_scale_gives_the_same_view(scale, recwarn):
+    env, _ = lumpy_panorama(32)
+    ref = panorama_view(env, (96, 64), (0, 0))
+    pv = panorama_view((env.astype(np.float64) * scale / env.max()).astype(np.float32), (96, 64), (0, 0))
+    assert not [w for w in recwarn if issubclass(w.category, RuntimeWarning)]
+    assert np.abs(pv.plate.astype(int) - ref.plate).max() <= 1
+    np.testing.assert_allclose(pv.light, ref.light, rtol=1e-4, atol=1e-7)
+    np.testing.assert_allclose(pv.source_shading, ref.source_shading, rtol=1e-4)
+    assert pv.exposure == pytest.approx(ref.exposure * env.max() / scale, rel=1e-4)
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_nan_or_inf_pixels_say_so(bad):
+    env, _ = lumpy_panorama(32)
+    env[:] = bad
+    with pytest.raises(RelightError, match="NaN or Inf"):
+        panorama_view(env, (96, 64), (0, 0))
+
+
+def test_a_black_view_names_azimuth_0_not_minus_0():
+    with pytest.raises(RelightError, match=r"view 0,0 is black"):
+        panorama_view(np.zeros((32, 64, 3), np.float32), (96, 64), (0, 0))

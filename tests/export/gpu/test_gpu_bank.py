@@ -92,3 +92,78 @@ def test_a_folder_without_a_bank_is_refused(tmp_path):
     (tmp_path / "x.npz").write_bytes(b"not an npz")
     with pytest.raises(RelightError, match="not readable"):
         bank.read_subject(tmp_path / "x.npz", None)
+
+
+# issue 50, round 4 fuzz (benchmarks/fuzz_round5.py): a damaged or hostile bank ends in one RelightError
+
+
+def _ball_bank(root):
+    bank.write_subject(root, Subject([sphere((0, 0, 1.0), 0.3, (0.2, 0.5, 0.8), rows=6, name="ball", skin=0.0)],
+                                     "ball"), texture_size=16)
+    np.save(root / "lights.npy", np.zeros((2, 9, 3), np.float32))
+    return bank.write_index(root)
+
+
+def _rewrite(path, name, data):
+    import zipfile
+
+    with zipfile.ZipFile(path) as z:
+        members = {n: z.read(n) for n in z.namelist()}
+    members[name] = data
+    with zipfile.ZipFile(path, "w") as z:
+        for n, d in members.items():
+            z.writestr(n, d)
+
+
+def _npy_declaring(shape, dtype="<u2"):
+    import io
+
+    buf = io.BytesIO()
+    np.lib.format.write_array_header_1_0(buf, {"descr": dtype, "fortran_order": False, "shape": shape})
+    return buf.getvalue() + bytes(16)
+
+
+@pytest.mark.parametrize("edit, message", [
+    ({"subjects": ["../elsewhere/ball"]}, "no paths"),
+    ({"subjects": ["/dev/zero"]}, "no paths"),
+    ({"lights": "/dev/zero"}, "no paths"),
+    ({"subjects": "ball"}, "subjects"),
+])
+def test_the_index_names_only_files_inside_the_bank(tmp_path, edit, message):
+    index = _ball_bank(tmp_path)
+    (tmp_path / "bank.json").write_text(json.dumps({**index, **edit}))
+    with pytest.raises(RelightError, match=message):
+        bank.read_index(tmp_path)
+    (tmp_path / "bank.json").write_text("[1, 2]")
+    with pytest.raises(RelightError, match="not a JSON object"):
+        bank.read_index(tmp_path)
+
+
+def test_a_damaged_subject_is_refused_before_its_memory_is_spent(tmp_path):
+    _ball_bank(tmp_path)
+    path = tmp_path / "ball.npz"
+    good = path.read_bytes()
+    _rewrite(path, "p0_vertices.npy", _npy_declaring((2_000_000_000, 3)))  # 12 GB declared, 16 bytes stored
+    with pytest.raises(RelightError, match="MiB"):
+        bank.read_subject(path, None)
+    path.write_bytes(good)
+    png = np.frombuffer(b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR" + (30000).to_bytes(4, "big") * 2 + bytes(20), np.uint8)
+    buf = __import__("io").BytesIO()
+    np.save(buf, png)
+    _rewrite(path, "tex0.npy", buf.getvalue())  # a 30000² texture declared
+    with pytest.raises(RelightError, match="texture 0"):
+        bank.read_subject(path, None)
+    path.write_bytes(good)
+    _rewrite(path, "p0_faces.npy", _npy_declaring((0, 3), "<i4")[:-16])
+    with pytest.raises(RelightError, match="indexes outside"):
+        bank.read_subject(path, None)
+    path.write_bytes(good[: len(good) // 2])
+    with pytest.raises(RelightError, match="not readable"):
+        bank.read_subject(path, None)
+
+
+def test_lights_declaring_more_than_they_hold_are_refused(tmp_path):
+    index = _ball_bank(tmp_path)
+    (tmp_path / "lights.npy").write_bytes(_npy_declaring((100_000_000, 9, 3), "<f4"))
+    with pytest.raises(RelightError, match="bank lights"):
+        bank.read_lights(tmp_path, index)

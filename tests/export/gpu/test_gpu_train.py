@@ -107,15 +107,75 @@ def test_flipped_batches_shade_as_the_mirror_image():
 
 
 @pytest.mark.parametrize("argv, message", [
-    (["--bank", "nowhere"], "bank.json"),
+    (["--bank", "nowhere"], "bank.json"),  # (and no run folder is left: the bank is read before it is made)
     (["--resolution", "96"], "multiple of 64"),
     (["--init", "missing.onnx"], "no such file"),
+    # issue 50, round 4 fuzz (benchmarks/fuzz_round5.py): these trained, ran out of memory or diverged (exit 1)
+    (["--dirs", "100000000"], "--dirs"),
+    (["--shadow-size", "100000"], "--shadow-size"),
+    (["--resolution", "1984", "--dirs", "4096"], "GiB"),
+    (["--pool", "100000", "--resolution", "1024"], "--pool"),
+    (["--lr", "inf"], "--lr"),
+    (["--max-yaw", "nan"], "--max-yaw"),
+    (["--checkpoint-every", "nan"], "--checkpoint-every"),
+    (["--framings", "nope"], "--framings"),
 ])
 def test_bad_settings_get_one_line(bank_dir, tmp_path, capsys, argv, message):
     args = ["gpu-train", "--bank", str(bank_dir), "--out", str(tmp_path / "run"), *TINY, *argv]
     assert main(args) == 2
     err = capsys.readouterr().err.strip()
     assert message in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "run").exists()  # refused before the run folder is made
+
+
+@pytest.mark.parametrize("where, message", [("file", "a file"), ("bank", "bank folder"), ("init", "--init")])
+def test_a_bad_out_or_init_is_one_error_before_anything_is_written(bank_dir, tmp_path, capsys, where, message):
+    """issue 50 round 4 fuzz: --out naming a file was a FileExistsError traceback, a bad --init a failed run (exit 1)
+    after the pool was rendered, and --out = the bank wrote the run into it."""
+    (tmp_path / "file").write_text("keep")
+    (tmp_path / "garbage.onnx").write_bytes(b"not a graph")
+    out = {"file": tmp_path / "file", "bank": bank_dir, "init": tmp_path / "run"}[where]
+    init = ["--init", str(tmp_path / "garbage.onnx")] if where == "init" else []
+    before = sorted(p.name for p in bank_dir.iterdir())
+    assert main(["gpu-train", "--bank", str(bank_dir), "--out", str(out), *TINY, *init]) == 2
+    err = capsys.readouterr().err.strip()
+    assert message in err and len(err.splitlines()) == 1
+    assert (tmp_path / "file").read_text() == "keep" and not (tmp_path / "run").exists()
+    assert sorted(p.name for p in bank_dir.iterdir()) == before
+
+
+def test_gpu_check_never_writes_over_the_bank(bank_dir, capsys):
+    """issue 50 round 4 fuzz: gpu-check --out BANK/bank.json replaced the bank's index with its figures."""
+    pytest.importorskip("embreex")
+    index = (bank_dir / "bank.json").read_bytes()
+    argv = ["gpu-check", "--bank", str(bank_dir), "--n", "1", "--resolution", "32", "--dirs", "8",
+            "--shadow-size", "16", "--reference-dirs", "8", "--embree-dirs", "8", "--out", str(bank_dir / "bank.json")]
+    assert main(argv) == 2
+    assert "refusing to overwrite" in capsys.readouterr().err
+    assert (bank_dir / "bank.json").read_bytes() == index
+    assert main([*argv[:-2], "--reference-dirs", "0"]) == 2
+    assert "--reference-dirs" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--seed", "-1"], "--seed"),  # a ValueError traceback from numpy's seeding
+    (["--out", "FILE"], "a file"),  # a FileExistsError traceback
+    (["--out", "LIGHTS"], "--lights folder"),  # the bank was written into the light folder
+    (["--texture-size", "100000"], "--texture-size"),  # more than the reader takes back
+])
+def test_gpu_bank_refuses_bad_settings_in_one_line(tmp_path, capsys, argv, message):
+    """issue 50 round 4 fuzz (benchmarks/fuzz_round5.py)."""
+    make_lights(tmp_path / "lights", 2)
+    (tmp_path / "file").write_text("keep")
+    argv = [{"FILE": str(tmp_path / "file"), "LIGHTS": str(tmp_path / "lights")}.get(a, a) for a in argv]
+    before = sorted(p.name for p in (tmp_path / "lights").iterdir())
+    base = ["gpu-bank", "--out", str(tmp_path / "bank"), "--lights", str(tmp_path / "lights"), "--n", "1",
+            "--subject", "shapes", "--texture-size", "16"]
+    assert main([*base, *argv]) == 2
+    err = capsys.readouterr().err.strip()
+    assert message in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "bank").exists() and (tmp_path / "file").read_text() == "keep"
+    assert sorted(p.name for p in (tmp_path / "lights").iterdir()) == before
 
 
 def test_it_needs_nothing_the_gpu_machine_lacks(bank_dir, tmp_path):
