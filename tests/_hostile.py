@@ -20,7 +20,19 @@ MEMORY_LIMIT = 4 << 30  # address space of a hostile case's process (ulimit -v 4
 PEAK_LIMIT = 1 << 30  # no case may reach 1 GB resident
 CASE_SECONDS = 30  # the bound of issue 35 for one case
 
-_REPORT = "\nimport resource as _r\nprint('PEAK_KB', _r.getrusage(_r.RUSAGE_SELF).ru_maxrss)\n"
+# The peak of this process's own memory: VmHWM of /proc/self/status (its address space's high-water mark, new at
+# exec). ru_maxrss is not that on Linux: it keeps the high-water mark of the process before exec, here the forked
+# test runner, so a long test run's own ~1 GB showed as every case's peak. Elsewhere, ru_maxrss.
+_REPORT = """
+def _peak_kb():
+    try:
+        with open("/proc/self/status") as f:
+            return int(next(line for line in f if line.startswith("VmHWM:")).split()[1])
+    except (OSError, StopIteration, ValueError):
+        import resource
+        return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+print("PEAK_KB", _peak_kb())
+"""
 
 
 def _limit_memory() -> None:  # runs in the child, before exec
@@ -38,7 +50,7 @@ def run_limited(code: str, *, cwd: str | os.PathLike | None = None, env: dict | 
     peak, out = -1, []
     for line in proc.stdout.splitlines():
         if line.startswith("PEAK_KB "):
-            peak = int(line.split()[1]) * 1024  # Linux: ru_maxrss in KiB
+            peak = int(line.split()[1]) * 1024  # KiB (VmHWM, or ru_maxrss)
         else:
             out.append(line)
     _log(code if input is None else input, proc.returncode, peak, out, time.perf_counter() - start)
