@@ -180,6 +180,22 @@ def run_case(name: str, folder: Path, argv: list[str], outputs: list[str], memor
             "first_line": (lines[-1] if usage else lines[0])[:140] if lines else "", "problems": problems}
 
 
+def tally(res: subprocess.CompletedProcess, name: str, case, args) -> bool:
+    """One case's answer (its ``--one`` process ``res``): printed as HELD or BROKE, appended to ``args.json`` when
+    given; True when it held (no problem, within ``args.memory_gb``, no timeout)."""
+    failed = {"code": "harness", "problems": [res.stderr[-300:]], "seconds": 0, "peak_mb": 0, "first_line": ""}
+    rec = json.loads(res.stdout) if res.returncode == 0 else failed
+    if rec["code"] == "TIMEOUT" or rec["peak_mb"] > args.memory_gb * 1024:
+        rec["problems"].append("over the limits")
+    ok = not rec["problems"]
+    print(f"{'HELD ' if ok else 'BROKE'} {name}: exit {rec['code']}, {rec['peak_mb']} MB, {rec['seconds']} s, "
+          f"{rec['first_line'] or '-'}{'' if ok else '  <- ' + '; '.join(rec['problems'])}", flush=True)
+    if args.json:
+        with open(args.json, "a", encoding="utf-8") as f:
+            f.write(json.dumps({"case": name, "argv": case, **rec}) + "\n")
+    return ok
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--memory-gb", type=float, default=4.0)
@@ -197,17 +213,8 @@ def main(argv: list[str] | None = None) -> int:
             # RUSAGE_CHILDREN's peak is the largest child so far: each case in a fresh interpreter of its own
             res = subprocess.run([sys.executable, __file__, "--one", json.dumps([name, str(folder), case, outputs,
                                   int(args.memory_gb * 2**30), args.seconds])], capture_output=True, text=True)
-            failed = {"code": "harness", "problems": [res.stderr[-300:]], "seconds": 0, "peak_mb": 0, "first_line": ""}
-            rec = json.loads(res.stdout) if res.returncode == 0 else failed
-            if rec["code"] == "TIMEOUT" or rec["peak_mb"] > args.memory_gb * 1024:
-                rec["problems"].append("over the limits")
-            ok = not rec["problems"]
+            ok = tally(res, name, case, args)
             held, broke = held + ok, broke + (not ok)
-            print(f"{'HELD ' if ok else 'BROKE'} {name}: exit {rec['code']}, {rec['peak_mb']} MB, {rec['seconds']} s, "
-                  f"{rec['first_line'] or '-'}{'' if ok else '  <- ' + '; '.join(rec['problems'])}", flush=True)
-            if args.json:
-                with open(args.json, "a", encoding="utf-8") as f:
-                    f.write(json.dumps({"case": name, "argv": case, **rec}) + "\n")
     print(f"{held + broke} cases: {held} held, {broke} broke")
     return 1 if broke else 0
 

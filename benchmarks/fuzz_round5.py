@@ -31,7 +31,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "benchmarks"))
 
-from fuzz_round4 import run_case  # noqa: E402
+from fuzz_round4 import run_case, tally  # noqa: E402
 
 PY = sys.executable
 RT = [PY, "-m", "relight_rt"]
@@ -376,17 +376,8 @@ def main(argv: list[str] | None = None) -> int:
                 continue
             res = subprocess.run([PY, __file__, "--one", json.dumps([name, str(folder), command, case, outputs, prefix,
                                   int(args.memory_gb * 2**30), args.seconds])], capture_output=True, text=True)
-            failed = {"code": "harness", "problems": [res.stderr[-300:]], "seconds": 0, "peak_mb": 0, "first_line": ""}
-            rec = json.loads(res.stdout) if res.returncode == 0 else failed
-            if rec["code"] == "TIMEOUT" or rec["peak_mb"] > args.memory_gb * 1024:
-                rec["problems"].append("over the limits")
-            ok = not rec["problems"]
+            ok = tally(res, name, case, args)
             held, broke = held + ok, broke + (not ok)
-            print(f"{'HELD ' if ok else 'BROKE'} {name}: exit {rec['code']}, {rec['peak_mb']} MB, {rec['seconds']} s, "
-                  f"{rec['first_line'] or '-'}{'' if ok else '  <- ' + '; '.join(rec['problems'])}", flush=True)
-            if args.json:
-                with open(args.json, "a", encoding="utf-8") as f:
-                    f.write(json.dumps({"case": name, "argv": case, **rec}) + "\n")
     print(f"{held + broke} cases: {held} held, {broke} broke")
     return 1 if broke else 0
 
