@@ -196,13 +196,18 @@ def tally(res: subprocess.CompletedProcess, name: str, case, args) -> bool:
     return ok
 
 
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def options(argv: list[str] | None, doc: str, seconds: float) -> argparse.Namespace:
+    """A fuzz round's command line: the memory and time limits per case, which cases, where records go."""
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
     ap.add_argument("--memory-gb", type=float, default=4.0)
-    ap.add_argument("--seconds", type=float, default=60.0)
+    ap.add_argument("--seconds", type=float, default=seconds)
     ap.add_argument("--only", default="", help="run the cases whose name contains this")
     ap.add_argument("--json", help="append one JSON record per case here")
-    args = ap.parse_args(argv)
+    return ap.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = options(argv, __doc__, seconds=60.0)
     held = broke = 0
     with tempfile.TemporaryDirectory(prefix="fuzz4-") as tmp:
         folder = Path(tmp)

@@ -11,7 +11,6 @@ gpu-train / gpu-check`` on a tiny sphere bank (as tests/export/gpu builds) and b
 
 from __future__ import annotations
 
-import argparse
 import io
 import json
 import os
@@ -31,7 +30,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "benchmarks"))
 
-from fuzz_round4 import run_case, tally  # noqa: E402
+from fuzz_round4 import options, run_case, tally  # noqa: E402
 
 PY = sys.executable
 RT = [PY, "-m", "relight_rt"]
@@ -361,12 +360,7 @@ composite_panorama(None, "p.png", {ok}, (0, 0), size=(100_000, 100_000))
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--memory-gb", type=float, default=4.0)
-    ap.add_argument("--seconds", type=float, default=120.0)
-    ap.add_argument("--only", default="", help="run the cases whose name contains this")
-    ap.add_argument("--json", help="append one JSON record per case here")
-    args = ap.parse_args(argv)
+    args = options(argv, __doc__, seconds=120.0)
     held = broke = 0
     with tempfile.TemporaryDirectory(prefix="fuzz5-") as tmp:
         folder = Path(tmp)
