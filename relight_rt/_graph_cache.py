@@ -19,14 +19,14 @@ from __future__ import annotations
 
 import hashlib
 import logging
-import os
 import platform
-import tempfile
 from pathlib import Path
 
 import onnxruntime as ort
 
 from . import _env
+from ._errors import RelightError
+from ._io import atomic_path
 
 log = logging.getLogger(__name__)
 
@@ -83,23 +83,16 @@ def open_session(path: Path, opts: ort.SessionOptions, providers: list) -> ort.I
             target.unlink(missing_ok=True)
         finally:
             opts.graph_optimization_level = level
+    severity = opts.log_severity_level
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=".onnx.tmp", dir=target.parent)
-        os.close(fd)
-    except OSError as exc:
+        with atomic_path(target) as tmp:  # the project's one atomic writer: in place once the session is made
+            opts.optimized_model_filepath = str(tmp)
+            opts.log_severity_level = 3  # onnxruntime warns that the file suits only this machine: the key says so
+            return ort.InferenceSession(str(path), sess_options=opts, providers=providers)
+    except (OSError, RelightError) as exc:  # an unwritable cache folder: no cache
         log.debug("graph cache: %s not writable (%s)", target.parent, exc)
-        return ort.InferenceSession(str(path), sess_options=opts, providers=providers)
-    opts.optimized_model_filepath = tmp
-    severity = opts.log_severity_level
-    opts.log_severity_level = 3  # onnxruntime warns that the file suits only this machine: the key says so
-    try:
-        session = ort.InferenceSession(str(path), sess_options=opts, providers=providers)
-        os.replace(tmp, target)
-    except Exception:
-        Path(tmp).unlink(missing_ok=True)
-        raise
     finally:
         opts.optimized_model_filepath = ""
         opts.log_severity_level = severity
-    return session
+    return ort.InferenceSession(str(path), sess_options=opts, providers=providers)
