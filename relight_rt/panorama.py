@@ -42,7 +42,7 @@ from . import envmap, sh
 from ._errors import RelightError
 from .color import linear_to_srgb
 from .exposure import REC709
-from .scene_light import FOV_RANGE, FRONT_WEIGHTS, MIN_SIZE, check_fov
+from .scene_light import FOV_RANGE, FRONT_WEIGHTS, MIN_SIZE, envmap_view
 
 __all__ = [
     "MAX_ELEVATION",
@@ -128,10 +128,7 @@ def view_rotation(azimuth: float, elevation: float) -> np.ndarray:
 
     R = R_z(−azimuth) · R_y(elevation) (degrees; module docstring): R · (−1, 0, 0) is the view's direction.
     """
-    a, e = math.radians(azimuth), math.radians(elevation)
-    rz = np.array([[math.cos(-a), -math.sin(-a), 0.0], [math.sin(-a), math.cos(-a), 0.0], [0.0, 0.0, 1.0]])
-    ry = np.array([[math.cos(e), 0.0, math.sin(e)], [0.0, 1.0, 0.0], [-math.sin(e), 0.0, math.cos(e)]])
-    return rz @ ry
+    return sh.rotation_matrix(yaw=-azimuth, pitch=elevation, degrees=True)
 
 
 def render_view(env, size: tuple[int, int], azimuth: float = 0.0, elevation: float = 0.0,
@@ -149,24 +146,7 @@ def render_view(env, size: tuple[int, int], azimuth: float = 0.0, elevation: flo
     Returns:
         (height, width, 3) float32 linear RGB.
     """
-    f = check_fov(fov)
-    arr = envmap._check_envmap(env, "panorama")
-    vh, vw = (int(s) for s in size)
-    if vh < 1 or vw < 1:
-        raise RelightError(f"size: expected a positive (height, width), got {size!r}")
-    tan_h = math.tan(math.radians(f) / 2)
-    cols = (((np.arange(vw) + 0.5) / vw * 2 - 1) * tan_h).astype(np.float32)[None, :]  # y of the ray (−x = 1)
-    rows = ((1 - (np.arange(vh) + 0.5) / vh * 2) * tan_h * vh / vw).astype(np.float32)[:, None]  # its z
-    r = view_rotation(azimuth, elevation).astype(np.float32)
-    wx, wy, wz = (-r[i, 0] + r[i, 1] * cols + r[i, 2] * rows for i in range(3))  # the rays in the panorama's frame
-    theta = np.arctan2(np.hypot(wx, wy), wz)
-    phi = np.arctan2(-wy, wx)  # ω = (sinθ cosφ, −sinθ sinφ, cosθ)
-    phi += np.float32(2 * np.pi) * (phi < 0)
-    eh, ew = arr.shape[:2]
-    mapx = (phi / (2 * np.pi) * ew - 0.5 + 1).astype(np.float32)  # + 1: the wrapped column padded on the left
-    mapy = np.clip(theta / np.pi * eh - 0.5, 0, eh - 1).astype(np.float32)
-    padded = np.concatenate([arr[:, -1:], arr, arr[:, :1]], axis=1).astype(np.float32, copy=False)
-    return cv2.remap(padded, mapx, mapy, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    return envmap_view(envmap._check_envmap(env, "panorama"), size, fov, view_rotation(azimuth, elevation))
 
 
 @dataclass(frozen=True)
@@ -265,10 +245,10 @@ def panorama_view(panorama, size: tuple[int, int], view) -> PanoramaView:
         raise RelightError(f"panorama: the view {az:g},{el:g} is black (nothing to expose); choose another --view")
     k = METER_GREY / mean
     plate = (linear_to_srgb(np.clip(linear * np.float32(k), 0, 1)) * 255 + 0.5).astype(np.uint8)
-    light = sh.rotate(envmap.project_envmap(env), view_rotation(az, el).T) * (k / math.pi)
+    rot = view_rotation(az, el)
+    light = sh.rotate(envmap.project_envmap(env), rot.T) * (k / math.pi)
     tan_v = math.tan(math.radians(fov) / 2) * height / width
     horizon = 0.5 + math.tan(math.radians(el)) / (2 * tan_v)  # a level world's horizon, seen by the tilted camera
-    rot = view_rotation(az, el)
     direction, power = source(env)
     return PanoramaView(plate=plate, light=light, exposure=k / peak, horizon=horizon, view=(az, el, fov),
                         source_direction=rot.T @ direction, source_shading=power * (k / math.pi))  # fmt: skip

@@ -479,11 +479,12 @@ def light_from_background(
     return light.astype(np.float32), env.astype(np.float32)
 
 
-def envmap_view(env, size: tuple[int, int], fov: float = 60.0) -> np.ndarray:
+def envmap_view(env, size: tuple[int, int], fov: float = 60.0, rotation: np.ndarray | None = None) -> np.ndarray:
     """A perspective view of an equirectangular map, as a level camera at the subject looking along −x sees it.
 
     The inverse of the photo placement above: image right = +y, up = +z, unmirrored, horizontal field of
-    view ``fov``. Bilinear look-up (wrapping in azimuth).
+    view ``fov``. Bilinear look-up (wrapping in azimuth). ``rotation``: (3, 3) R taking the camera's frame into
+    the map's (a camera turned away from −x; relight_rt.panorama.view_rotation), default none.
 
     Args:
         env: (H, 2H, 3) float linear RGB map (DESIGN.md §3 layout).
@@ -501,15 +502,15 @@ def envmap_view(env, size: tuple[int, int], fov: float = 60.0) -> np.ndarray:
     if vh < 1 or vw < 1:
         raise RelightError(f"size: expected a positive (height, width), got {size!r}")
     tan_h = math.tan(math.radians(f) / 2)
-    cols = ((np.arange(vw) + 0.5) / vw * 2 - 1) * tan_h
-    rows = (1 - (np.arange(vh) + 0.5) / vh * 2) * tan_h * vh / vw
-    y, z = np.meshgrid(cols, rows)
-    x = -np.ones_like(y)
-    norm = np.sqrt(x * x + y * y + z * z)
-    theta = np.arccos(z / norm)
-    phi = np.mod(np.arctan2(-y, x), 2 * np.pi)  # ω = (sinθ cosφ, −sinθ sinφ, cosθ)
+    cols = (((np.arange(vw) + 0.5) / vw * 2 - 1) * tan_h).astype(np.float32)[None, :]  # y of the ray (−x = 1)
+    rows = ((1 - (np.arange(vh) + 0.5) / vh * 2) * tan_h * vh / vw).astype(np.float32)[:, None]  # its z
+    r = np.eye(3, dtype=np.float32) if rotation is None else np.asarray(rotation, np.float32)
+    wx, wy, wz = (-r[i, 0] + r[i, 1] * cols + r[i, 2] * rows for i in range(3))  # the rays in the map's frame
+    theta = np.arctan2(np.hypot(wx, wy), wz)
+    phi = np.arctan2(-wy, wx)  # ω = (sinθ cosφ, −sinθ sinφ, cosθ)
+    phi += np.float32(2 * np.pi) * (phi < 0)
     eh, ew = arr.shape[:2]
-    mapx = (phi / (2 * np.pi) * ew - 0.5).astype(np.float32)
-    mapy = (theta / np.pi * eh - 0.5).astype(np.float32)
+    mapx = (phi / (2 * np.pi) * ew - 0.5 + 1).astype(np.float32)  # + 1: the wrapped column padded on the left
+    mapy = np.clip(theta / np.pi * eh - 0.5, 0, eh - 1).astype(np.float32)
     padded = np.concatenate([arr[:, -1:], arr, arr[:, :1]], axis=1)  # wrap in azimuth
-    return cv2.remap(padded, mapx + 1, mapy, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    return cv2.remap(padded, mapx, mapy, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
