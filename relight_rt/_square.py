@@ -20,6 +20,9 @@ ROI_SCALE = 1.25  # square region side = this x the person's longest box side (M
 _KEEP_CROPS = 4  # crops a Pyramid keeps (the 66 tiles of person="all" would hold 50 MB)
 
 
+Crop = tuple[tuple[int, int, int, int], np.ndarray]  # ((y0, y1, x0, x1), an array's values inside that box)
+
+
 @dataclass(frozen=True)
 class Region:
     """A square region of the image: centre (cx, cy) and side, in continuous pixel coordinates

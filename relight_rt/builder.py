@@ -97,5 +97,4 @@ def video_matter(config: RuntimeConfig) -> Matter | None:
         return None
     from .matting import VideoMatter, shared_matter
 
-    device = "cpu" if config.device == "cpu" else config.device
-    return _Lazy(lambda: VideoMatter(shared_matter(device=device)))
+    return _Lazy(lambda: VideoMatter(shared_matter(device=config.device)))

@@ -283,8 +283,6 @@ class PersonMatter:
         several frames) and clothes before a background of their colour; the selfie graph alone takes in shadows
         and the wall behind, so only what both see is added. One selfie-graph run per person (~10 ms). Measured
         (benchmarks/people_masks_eval.py, _BACKED 0.05-0.3): clip 0.914 -> 0.917, photos half A 0.843 -> 0.847-0.849."""
-        if _BACKED >= 0.5:
-            return person
         roi = self._roi_prob(rgb, person.region) > 0.5
         lift = roi & (person.logits > np.float32(np.log(_BACKED / (1.0 - _BACKED)))) & (person.logits < 1.0)
         if not lift.any():
@@ -293,7 +291,8 @@ class PersonMatter:
 
     def _largest(self, rgb: np.ndarray) -> list[Person]:
         h, w = rgb.shape[:2]
-        for _, box in self.find_people(rgb):
+        found = self.find_people(rgb)  # the selfie graph over the photo and its tiles: once, for both uses below
+        for _, box in found:
             p = self._person_at(rgb, box, None)
             if p is not None:
                 return [p]
@@ -312,7 +311,7 @@ class PersonMatter:
         # blob, when it is sure of it (a man lying on a shop floor, a couple taking a selfie, a woman seen from
         # behind: the pose graph's presence 0.003-0.27 there, and no face found; the selfie graph alone 0.69-0.84
         # IoU where the matte was empty)
-        for _, box in self.find_people(rgb)[:1]:
+        for _, box in found[:1]:
             roi = self._reframed(rgb, self._roi_person(rgb, Region.around(*box), 0.0))
             mine = roi.logits > 0
             if mine.sum() >= COARSE_MIN_AREA and float(sigmoid(roi.logits[mine]).mean()) >= _SURE_BLOB:

@@ -8,6 +8,7 @@ import cv2
 import numpy as np
 
 from .._faces import Face
+from .._square import Crop
 from ._models import SIZE
 from ._regions import LOGIT_CLIP, Person, grid_of_region, logits_on_grid, working_grid
 
@@ -48,7 +49,6 @@ def faces_side_by_side(faces: list[Face]) -> list[Face]:
     return kept
 
 
-Crop = tuple[tuple[int, int, int, int], np.ndarray]  # ((y0, y1, x0, x1), the array's values inside that box)
 
 
 def shares(people: list[Person], alpha: np.ndarray, *, crops: bool = False) -> list[np.ndarray] | list[Crop]:

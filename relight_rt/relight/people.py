@@ -7,6 +7,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from .._square import Crop
 from ..compositing import Background, clean_edge_colour
 from . import compose
 from .decomposition import Decomposition
@@ -16,7 +17,6 @@ MAX_PEOPLE = 16  # matting="all": a photo of more people than this is relit as o
 _ROWS = 256  # rows of the photo done at a time where a temporary would otherwise be the photo's size
 _PART_MARGIN = 0.1  # a person of a group is decomposed in their share's box grown by this x its size on each side
 
-Crop = tuple[tuple[int, int, int, int], np.ndarray]  # ((y0, y1, x0, x1), an array's values inside that box)
 
 
 class PartsMatter:
