@@ -26,6 +26,7 @@ from relight_rt import LightSpec, Relighter, RelightError, RuntimeConfig, lights
 from relight_rt.config import DEVICES, MATTING, PRECISIONS
 from relight_rt.lightspec import parse_light
 from relight_rt.relight.decomposition import intrinsic_layers
+from relight_rt.scene_light import key_direction
 
 from ._convert import arrays_to_image, arrays_to_mask, batch_pairs, images_to_arrays, masks_to_arrays
 
@@ -107,8 +108,7 @@ def _lamp(azimuth: float, elevation: float, colour: str, intensity: float, size:
     """A lamp at (azimuth, elevation) degrees: azimuth 0 is the camera's side, +90 the image's right, 180 behind
     the subject; elevation +90 straight above (subject frame, DESIGN.md §3). ``size``: the lamp disc's angular
     radius in degrees (0: a point)."""
-    a, e = math.radians(float(azimuth)), math.radians(float(elevation))
-    direction = (math.cos(e) * math.cos(a), math.cos(e) * math.sin(a), math.sin(e))
+    direction = key_direction(float(azimuth), float(elevation))
     return lights.directional(direction, _colour(colour), float(intensity), math.radians(float(size)))
 
 
