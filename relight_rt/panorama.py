@@ -43,6 +43,7 @@ from ._errors import RelightError
 from .color import linear_to_srgb
 from .exposure import REC709
 from .scene_light import FOV_RANGE, FRONT_WEIGHTS, MIN_SIZE, envmap_view
+from .scene_place import CAMERA_M
 
 __all__ = [
     "MAX_ELEVATION",
@@ -281,6 +282,7 @@ def composite_panorama(
     match_camera: bool = True,
     light_wrap: bool = True,
     rim: bool = False,
+    camera_height: float = CAMERA_M,
 ) -> np.ndarray:
     """Put the person of ``image`` into a panorama seen in direction ``view``, lit by the panorama's own light.
 
@@ -294,7 +296,8 @@ def composite_panorama(
         panorama: a path or an (H, 2H, 3) float linear RGB array (``panorama_view``).
         view: (azimuth, elevation[, fov]) or 'AZ,EL[,FOV]' in degrees (``parse_view``).
         size: the plate's (width, height) or 'WxH'; None: the person photo's size.
-        mask, position, height, shadow, meter, match_camera, light_wrap: as ``relight_rt.scene.composite``.
+        mask, position, height, shadow, meter, match_camera, light_wrap, camera_height: as
+            ``relight_rt.scene.composite`` (the camera height: where the panorama was shot from).
         exposure: "auto" or "physical" (the panorama's light as it is in the plate's units: the same here) or an EV
             offset to it.
         horizon: the horizon's row (fraction of the height); None: where the view's elevation puts it (clipped
@@ -307,11 +310,15 @@ def composite_panorama(
         (height, width, 3) float32 sRGB in [0, 1].
     """
     from . import exposure as _exposure
-    from .scene import composite
+    from .scene import _decode_person, _matte_on_the_photo, composite
 
     mode = _exposure.parse_exposure(exposure)
     az, el, fov = parse_view(view)
-    plate_size = parse_size(size) if size is not None else _photo_size(image)
+    plate_size = parse_size(size) if size is not None else None
+    image, name = _decode_person(image)  # decoded once: its size, its matte and the person all read this copy
+    if plate_size is None:
+        plate_size = _photo_size(image)
+    mask = _matte_on_the_photo(relighter, image, mask, name)
     pv = panorama_view(panorama, plate_size, (az, el, fov))
     light = pv.light if mode in ("auto", "physical") else pv.light * 2.0**mode
     hz = min(max(pv.horizon, 0.0), 1.0) if horizon is None else horizon
@@ -322,4 +329,4 @@ def composite_panorama(
     return composite(relighter, image, pv.plate, mask=mask, light=light.astype(np.float32), position=position,
                      height=height, shadow=shadow, exposure="physical", fov=fov, white_balance=False, horizon=hz,
                      meter=meter, match_camera=match_camera, light_wrap=light_wrap, rim=rim,
-                     rim_key=rim_key)  # fmt: skip
+                     rim_key=rim_key, camera_height=camera_height)  # fmt: skip

@@ -15,15 +15,13 @@ Steps (all colour arithmetic in linear light; both photos are read as sRGB, as c
 3. Relit with ``Relighter.relight(..., background="transparent", exposure="physical")`` (straight-alpha
    RGBA, the soft matte as alpha); over a transparent background the Relighter relights the person's
    foreground colour, so the old background does not ride along in the hair and soft edges.
-4. Placed. A *full-body* person (its matte does not touch its photo's bottom edge) stands on the ground:
-   its feet (the box's bottom centre) go to ``position`` (x, y) in fractions of the background (default
-   x as in its own photo, y = ``DEFAULT_FEET``), and its height follows from perspective for a level camera:
-   the horizon is the row ``horizon`` (default 0.5: a level camera's horizon is the image's middle row),
-   and a person of ``PERSON_M`` metres whose feet are d rows below the horizon, seen from a camera
-   ``CAMERA_M`` metres above the ground, is d · PERSON_M / CAMERA_M rows tall. ``height`` (a fraction of the
-   background's height) overrides that. A *cut-off* person (a portrait or a half body: the matte reaches its
-   photo's bottom edge) keeps its relative height and stands on the background's bottom edge
-   (``position`` moves it; its y is then where the cut edge goes). Parts beyond the edges are cut off.
+4. Placed (``relight_rt.scene_place``): a *full-body* person (the photo's bottom border does not cut them) stands
+   with their feet (the matte's lowest rows) on the ground at ``position`` (default: x as in their own photo,
+   y = ``DEFAULT_FEET``), as tall as perspective makes them for a level camera ``camera_height`` metres above the
+   ground (default ``CAMERA_M``, a standing camera) whose horizon is the row ``horizon`` (default 0.5: a level
+   camera's horizon is the image's middle row); ``height`` (a fraction of the background's height) overrides that.
+   A *cut-off* person (a half body or a portrait) is placed as their photo framed them: their relative height
+   kept and every border that cut them on the same border of the background. Parts beyond the edges are cut off.
 5. Matched to the background's camera: when the background camera's own blur (the blur of the photo's
    sharpest part, ``camera_blur``: the person is what the camera focuses on, so a background soft only in
    parts, by depth, lends it nothing) exceeds the placed full-body person's (edge-width estimate,
@@ -32,8 +30,9 @@ Steps (all colour arithmetic in linear light; both photos are read as sRGB, as c
    Immerkær's estimate), Gaussian noise of the missing standard deviation is added to the person (a fixed
    seed: the same inputs give the same picture).
 6. Shadows (``shadow=True``, the default; full-body people only), multiplied into the background before the
-   person is laid over it: a contact shadow (a soft ellipse under the feet, 0.6 times as wide as the person,
-   1/20 of its height deep, up to ``CONTACT_STRENGTH`` darker) and a cast shadow: the person's matte (widened
+   person is laid over it: a contact shadow (a soft ellipse under the feet, ``CONTACT_WIDTH`` of the person's
+   height plus half their feet's width across, foreshortened as the ground is at the feet's distance, up to
+   ``CONTACT_STRENGTH`` darker) and a cast shadow: the person's matte (widened
    a little: a body is deeper than its outline) projected onto the ground plane along the key light's
    direction (``relight_rt.scene_light``'s key, or a given light's dominant direction), foreshortened
    by the same perspective, blurred more the farther it falls from the feet, as dark as the light's
@@ -74,17 +73,26 @@ from . import exposure as _exposure
 from . import sh
 from ._camera import blur_sigma, camera_blur, grey, noise_sigma
 from ._errors import RelightError
-from ._pairs import number_pair
 from .color import SRGB8_TO_LINEAR, linear_to_srgb, srgb8_to_linear, srgb_to_linear
 from .masks import AUTO, resolve_mask
 from .scene_light import (
     AMBIENT_GAIN,
     FRONT_WEIGHTS,
     KEY_BACK,
+    check_fov,
     key_direction,
     parse_key_light,
     read_background,
     scene_light,
+)
+from .scene_place import (
+    CAMERA_M,
+    Placement,
+    check_camera_height,
+    check_height,
+    check_horizon,
+    parse_position,
+    place,
 )
 
 __all__ = [
@@ -92,12 +100,10 @@ __all__ = [
     "relight_person", "scene_lighting", "shade", "shadows",
 ]
 
-_ALPHA_BOX = 0.005  # the person's box: matte above this
 CONTACT_STRENGTH = 0.7  #: darkest contact shadow (fraction of the ground's light taken away)
+CONTACT_WIDTH = 0.08  #: the contact shadow's half-width: this fraction of the person's height + half their feet's width
 CAST_STRENGTH = 0.7  #: darkest cast shadow
 OCCLUDER_RADIUS = 0.1  #: the person as an occluder of the sky: a cylinder this fraction of its height in radius
-PERSON_M, CAMERA_M = 1.7, 1.5  #: a standing person's height and the camera's height above the ground, metres
-DEFAULT_FEET = 0.92  #: default row of a full-body person's feet, fraction of the background's height
 METER_LIMIT_EV = 1.0  #: the frame metering moves the exposure by at most this
 METERS = ("frame", "background")
 _MIN_KEY_ELEVATION = 15.0  # degrees: a lower key casts its shadow as if from this high (no endless shadows)
@@ -106,26 +112,6 @@ WRAP_STRENGTH = 0.25  #: light wrap: how much of the brighter background's exces
 RIM_RADIUS = 0.01  #: a back key's rim: its reach inside the person's edge (Gaussian sigma), fraction of its height
 _NOISE_SEED = 36
 _UNIT = np.arange(256, dtype=np.float32) / np.float32(255)  # 8-bit → float in [0, 1]
-
-
-def parse_position(value) -> tuple[float, float]:
-    """'X,Y' (or a pair) → (x, y), each a fraction of the background in [0, 1]."""
-    x, y = number_pair(value, "position", "X,Y (fractions of the background)", "0.5,0.9")
-    if not (0 <= x <= 1 and 0 <= y <= 1):  # also rejects NaN
-        raise RelightError(f"position: expected X,Y each in [0, 1] (fractions of the background), got {x:g},{y:g}")
-    return x, y
-
-
-def _check_height(height) -> float | None:
-    if height is None:
-        return None
-    try:
-        h = float(height)
-    except (TypeError, ValueError):
-        raise RelightError(f"height: expected a fraction of the background height in (0, 1], got {height!r}") from None
-    if not 0 < h <= 1:
-        raise RelightError(f"height: expected a fraction of the background's height in (0, 1], got {height!r}")
-    return h
 
 
 def _matte_on_the_photo(relighter, image, mask, name: str | None = None):
@@ -202,25 +188,6 @@ def _white_balance(dec, light: np.ndarray, reference: np.ndarray) -> np.ndarray:
     if not (np.all(cur > 1e-6) and np.all(ref > 1e-6)):
         return light  # a channel without light: no meaningful balance
     return (light * (ref / cur)[None, :]).astype(np.float32)
-
-
-def _box(alpha: np.ndarray) -> tuple[int, int, int, int]:
-    rows = np.flatnonzero((alpha > _ALPHA_BOX).any(axis=1))
-    cols = np.flatnonzero((alpha > _ALPHA_BOX).any(axis=0))
-    if rows.size == 0:
-        raise RelightError("mask: the person's matte is empty")
-    return int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
-
-
-def _check_horizon(horizon) -> float:
-    message = f"horizon: expected a fraction of the background's height in [0, 1], got {horizon!r}"
-    try:
-        h = float(horizon)
-    except (TypeError, ValueError):
-        raise RelightError(message) from None
-    if not 0 <= h <= 1:  # also rejects NaN
-        raise RelightError(message)
-    return h
 
 
 def _light_wrap(
@@ -410,25 +377,27 @@ def _cast_shadow(alpha: np.ndarray, top: int, left: int, feet_y: float, horizon_
 @dataclass(frozen=True)
 class SceneLighting:
     """What the scene's light does to the person (steps 1, 2 and 6): the light to relight them under (before
-    exposure), the background's own light (the exposure's target), the direction their shadow falls away from
-    (None: no dominant direction) and how directional the light is, and a back key's rim (direction or None, gain).
+    exposure), the background's own light (the exposure's target; None when a light is used as it is), the
+    direction their shadow falls away from (None: no dominant direction) and how directional the light is, and a
+    back key's rim (direction or None, gain).
     """
 
     light: np.ndarray
-    background_light: np.ndarray
+    background_light: np.ndarray | None
     shadow_dir: np.ndarray | None
     directional: float
     rim_dir: np.ndarray | None = None
     rim_gain: float = 0.0
 
 
-def scene_lighting(relighter, dec, parts, background_light: np.ndarray, key, light, *, white_balance: bool = True,
-                   rim: bool = False, rim_key=None) -> SceneLighting:
+def scene_lighting(relighter, dec, parts, background_light: np.ndarray | None, key, light, *,
+                   white_balance: bool = True, rim: bool = False, rim_key=None) -> SceneLighting:
     """Step 1 and 2's light for the person of ``dec`` in the scene whose light ``parts`` describes
     (relight_rt.scene_light ``scene_light``; ``background_light`` = ``parts.light(key)``): the background's own
     light with its key (``key``: parse_key_light's), or ``light`` (anything ``Relighter.resolve_light`` accepts)
-    white-balanced to it; ``rim_key``: with ``light`` and ``rim``, (direction (3,), gain) of a key known exactly
-    (relight_rt.panorama's source) that gives the rim."""
+    white-balanced to it (``parts`` and ``background_light`` None: ``light`` as it is); ``rim_key``: with
+    ``light`` and ``rim``, (direction (3,), gain) of a key known exactly (relight_rt.panorama's source) that gives
+    the rim."""
     bg_light = background_light
     rim_dir, rim_gain = None, 0.0
     if light is None:
@@ -441,7 +410,7 @@ def scene_lighting(relighter, dec, parts, background_light: np.ndarray, key, lig
         directional = max(directional, 0.35)  # the key is there by construction: never an invisible shadow
     else:
         lit = relighter.resolve_light(light)
-        if white_balance:
+        if white_balance and bg_light is not None:
             lit = _white_balance(dec, lit, bg_light)
         shadow_dir, directional = _dominant_direction(lit)
         if rim and rim_key is not None:  # a key known exactly (relight_rt.panorama)
@@ -454,75 +423,11 @@ def relight_person(relighter, dec, lighting: SceneLighting, mode) -> np.ndarray:
     (relight_rt.exposure ``parse_exposure``'s) says against the brightness the background's light gives them;
     (H, W, 4) straight-alpha linear RGBA at the photo's size."""
     lit = lighting.light
-    target = _exposure.mean_luminance(dec.albedo, dec.transport, dec.network_mask, lighting.background_light)
-    lit = lit * np.float32(_exposure.exposure_scale(dec.albedo, dec.transport, dec.network_mask, lit, target, mode))
+    if mode != "physical":
+        target = _exposure.mean_luminance(dec.albedo, dec.transport, dec.network_mask, lighting.background_light)
+        lit = lit * np.float32(_exposure.exposure_scale(dec.albedo, dec.transport, dec.network_mask, lit, target,
+                                                        mode))  # fmt: skip
     return relighter.relight(dec, lit, background="transparent", exposure="physical")
-
-
-@dataclass(frozen=True)
-class Placement:
-    """Where the person goes (step 4): ``premult`` (h, w, 4) premultiplied linear RGB and alpha at their size in
-    the background, its top-left corner (``top``, ``left``; may lie outside), their box's size before any blur
-    (``height``, ``width``), the row of their feet and whether they stand on the ground (``full_body``)."""
-
-    premult: np.ndarray
-    top: int
-    left: int
-    height: int
-    width: int
-    feet_y: int
-    full_body: bool
-
-
-def place(rgba: np.ndarray, background_shape: tuple[int, ...], position=None, height=None,
-          horizon: float = 0.5) -> Placement:
-    """Step 4: the relit person ``rgba`` (straight alpha, their photo's size) scaled and put into a background of
-    ``background_shape`` (arguments as for ``composite``: ``position`` a checked (x, y) or None, ``height`` a
-    checked fraction or None, ``horizon`` a checked row fraction)."""
-    pos, frac, hz = position, height, horizon
-    hb, wb = background_shape[:2]
-    hp, wp = rgba.shape[:2]
-    y0, y1, x0, x1 = _box(rgba[..., 3])
-    box_h, box_w = y1 - y0, x1 - x0
-    full_body = y1 < hp
-    own_x = (x0 + x1) / 2 / wp
-    if full_body:
-        feet = (own_x, DEFAULT_FEET) if pos is None else pos
-        if frac is None:
-            rows_below = (feet[1] - hz) * hb
-            if rows_below < 0.02 * hb:
-                raise RelightError(
-                    f"position: the feet (y = {feet[1]:g}) are on or above the horizon (y = {hz:g}), where the "
-                    "ground is not seen; give feet lower in the picture (a larger --position Y), a horizon higher in "
-                    "it (a smaller --horizon), or a --height"
-                )
-            frac = rows_below * PERSON_M / CAMERA_M / hb
-            frac = min(frac, 1.0)
-    else:
-        feet = (own_x, 1.0) if pos is None else pos
-        if frac is None:
-            frac = box_h / hp
-    given = height is not None
-    scale = frac * hb / box_h
-    if not given and box_w * scale > wb:  # a default size that would not fit across: as large as fits
-        scale = wb / box_w
-    new_h, new_w = max(1, round(box_h * scale)), max(1, round(box_w * scale))
-    if new_h > hb or new_w > wb:
-        raise RelightError(
-            f"height: the person would be {new_w} x {new_h} px (W x H) after scaling, larger than the background "
-            f"({wb} x {hb}); give a smaller --height"
-        )
-    crop = rgba[y0:y1, x0:x1]
-    premult = np.concatenate([crop[..., :3] * crop[..., 3:], crop[..., 3:]], axis=2)
-    interp = cv2.INTER_AREA if scale < 1 else cv2.INTER_LINEAR
-    premult = cv2.resize(premult, (new_w, new_h), interpolation=interp)
-    np.clip(premult, 0, 1, out=premult)
-    top = int(round(feet[1] * hb)) - new_h
-    left = int(round(feet[0] * wb - new_w / 2))
-    if pos is None:  # the default place keeps the whole person in the picture (a given --position is obeyed)
-        left = min(max(left, 0), wb - new_w)
-    feet_y = top + new_h
-    return Placement(premult, top, left, new_h, new_w, feet_y, full_body)
 
 
 def camera_match(bg: np.ndarray, placed: Placement) -> tuple[Placement, float]:
@@ -583,10 +488,13 @@ def shadows(placed: Placement, background_shape: tuple[int, ...], horizon: float
                                                 placed.width, placed.feet_y)
     box_bottom, box_right = top + premult.shape[0], left + premult.shape[1]
     ry0, ry1, rx0, rx1 = top, box_bottom, left, box_right
-    sh_w, sh_h = 0.6 * new_w, max(2.0, new_h / 20)
-    foot_x, foot_y = (left + box_right) / 2, feet_y - 0.2 * sh_h
-    cast = None
     focal = (wb / 2) / math.tan(math.radians(float(fov)) / 2)
+    feet_w = new_w if placed.feet_width is None else placed.feet_width
+    sh_w = CONTACT_WIDTH * new_h + 0.5 * feet_w
+    sh_h = max(2.0, sh_w * min(max((feet_y - hz * hb) / focal, 0.08), 1.0))  # the ground's foreshortening there
+    foot_x = (left + box_right) / 2 if placed.feet_x is None else placed.feet_x
+    foot_y = feet_y - 0.2 * sh_h
+    cast = None
     ry0, ry1 = min(ry0, int(foot_y - 3 * sh_h)), max(ry1, int(math.ceil(foot_y + 3 * sh_h)))
     rx0, rx1 = min(rx0, int(foot_x - 1.5 * sh_w)), max(rx1, int(math.ceil(foot_x + 1.5 * sh_w)))
     occ = _Occluder(foot_x, feet_y, new_h, hz * hb, focal, wb / 2)
@@ -684,6 +592,7 @@ def composite(
     light_wrap: bool = True,
     rim: bool = False,
     rim_key=None,
+    camera_height: float = CAMERA_M,
 ) -> np.ndarray:
     """Relight the person of ``image`` for the scene of ``background`` and put it there (module docstring).
 
@@ -694,8 +603,8 @@ def composite(
             not grayscale, not RGBA.
         mask: the person's mask (None: the image's alpha channel), binary or soft.
         light: None (the background's own light) or anything ``Relighter.resolve_light`` accepts.
-        position: (x, y) or "X,Y": where the person's feet (bottom centre) go, fractions of the background
-            in [0, 1]; None: step 4 of the module docstring.
+        position: (x, y) or "X,Y": where the person's feet (a cut-off person's bottom centre) go, fractions of
+            the background in [0, 1]; None: step 4 of the module docstring.
         height: the person's box height as a fraction of the background's height, in (0, 1]; None: from
             perspective (full body) or as in its own photo (cut off).
         shadow: contact and cast shadows on the ground (full-body people).
@@ -712,25 +621,30 @@ def composite(
         rim: a back key (automatic or ``key_light``) puts a rim of light on the outline on its side (step 7).
         rim_key: with ``light`` and ``rim``: (direction (3,), gain) of a key known exactly (relight_rt.panorama's
             sun or window), the rim's direction and gain in place of the estimated back key's.
+        camera_height: the background camera's height above the ground, metres (step 4's perspective).
 
     Returns:
         (H_bg, W_bg, 3) float32 sRGB in [0, 1].
 
     Raises:
         RelightError: bad photos, masks or lights; fov outside (10, 170); position outside [0, 1]; a
-            height outside (0, 1]; a bad key light, horizon or meter; a person larger than the background
+            height outside (0, 1]; a bad key light, horizon, camera height or meter; a person larger than the background
             after scaling; feet on or above the horizon without a height.
     """
     pos = None if position is None else parse_position(position)
-    frac = _check_height(height)
+    frac = check_height(height)
+    cam = check_camera_height(camera_height)
     mode = _exposure.parse_exposure(exposure)
     key = parse_key_light(key_light)
-    hz = _check_horizon(horizon)
+    hz = check_horizon(horizon)
     if meter not in METERS:
         raise RelightError(f"meter: expected one of {list(METERS)}, got {meter!r}")
+    fov = check_fov(fov)
     bg = read_background(background)
-    parts = scene_light(bg, fov)
-    bg_light = parts.light(key)
+    # the background's own light: the light, its white balance or the exposure's target (not for a light used as
+    # it is, as relight_rt.panorama gives: "physical", no balance)
+    parts = scene_light(bg, fov) if light is None or white_balance or mode != "physical" else None
+    bg_light = None if parts is None else parts.light(key)
     image, name = _decode_person(image)  # decoded once for the matte and the linear copy
     mask = _matte_on_the_photo(relighter, image, mask, name)
     person = _linear_person(image)
@@ -738,7 +652,7 @@ def composite(
     lighting = scene_lighting(relighter, dec, parts, bg_light, key, light, white_balance=white_balance, rim=rim,
                               rim_key=rim_key)
     rgba = relight_person(relighter, dec, lighting, mode)
-    placed = place(rgba, bg.shape, pos, frac, hz)
+    placed = place(rgba, bg.shape, pos, frac, hz, cam)
     noise_add = 0.0
     if match_camera:  # blur now, noise after the sRGB encoding
         placed, noise_add = camera_match(bg, placed)

@@ -1,8 +1,8 @@
 """``relight-rt composite``: put a person into a scene, lit like it.
 
 ``relight-rt composite PERSON [--mask M] --background BG -o OUT [--preset P | --light L | --envmap E]
-[--key-light AZ,EL] [--position X,Y] [--height H] [--horizon Y] [--no-shadow] [--exposure auto|EV|physical]
-[--meter frame|background] [--no-match-camera] [--no-light-wrap] [--rim] [--fov 60]``
+[--key-light AZ,EL] [--position X,Y] [--height H] [--horizon Y] [--camera-height M] [--no-shadow]
+[--exposure auto|EV|physical] [--meter frame|background] [--no-match-camera] [--no-light-wrap] [--rim] [--fov 60]``
 
 ``relight-rt composite PERSON --background PANO.hdr --view AZ,EL[,FOV] [--size WxH] -o OUT [...]``: the scene is
 an equirectangular panorama, seen in that direction, lighting the person with its own light (relight_rt.panorama).
@@ -60,6 +60,9 @@ def add_parser(subparsers) -> None:
     p.add_argument("--horizon", type=float, default=None, metavar="Y",
                    help="the horizon's row, fraction of the background's height (default 0.5: a level camera; "
                    "with --view, where the view's elevation puts it)")  # fmt: skip
+    p.add_argument("--camera-height", default=None, metavar="M",
+                   help="the background camera's height above the ground in metres, which with the horizon sets a "
+                   "full body's size (default 1.5: a standing camera; lower it for a camera held low)")  # fmt: skip
     p.add_argument("--shadow", action=argparse.BooleanOptionalAction, default=True,
                    help="contact and cast shadows on the ground (default: on)")  # fmt: skip
     add_exposure_option(p, "the brightness the background's light gives it, as")
@@ -106,6 +109,7 @@ def cmd_composite(args: argparse.Namespace) -> int:
     mask = find_mask_file(person, args.mask)
     exposure = parse_exposure(args.exposure)  # checked before the models load
     position = parse_position(args.position) if args.position is not None else None
+    camera = _camera_height(args)
     key = parse_key_light(args.key_light)
     args.fov = 60.0 if args.fov is None else args.fov
     check_fov(args.fov)
@@ -119,7 +123,7 @@ def cmd_composite(args: argparse.Namespace) -> int:
                       shadow=args.shadow, exposure=exposure, fov=args.fov, key_light=key,
                       horizon=0.5 if args.horizon is None else args.horizon,
                       meter=args.meter, match_camera=args.match_camera, light_wrap=args.light_wrap,
-                      rim=args.rim)  # fmt: skip
+                      rim=args.rim, camera_height=camera)  # fmt: skip
     write_image(out, image, protect=protect)
     log.info("%s + %s -> %s", person, args.background, out)
     return 0
@@ -140,6 +144,7 @@ def _composite_panorama(args: argparse.Namespace, out: Path, person: Path) -> in
     mask = find_mask_file(person, args.mask)
     exposure = parse_exposure(args.exposure)
     position = parse_position(args.position) if args.position is not None else None
+    camera = _camera_height(args)
     protect = [p for p in (person, mask if mask != "auto" else None, args.background) if p]
     check_target(out, protect)
     pano = load_panorama(args.background, "--background")  # before the models load
@@ -147,7 +152,14 @@ def _composite_panorama(args: argparse.Namespace, out: Path, person: Path) -> in
     image = composite_panorama(rl, person, pano, view, size=size, mask=mask, exposure=exposure,
                                position=position, height=args.height, horizon=args.horizon, shadow=args.shadow,
                                meter=args.meter, match_camera=args.match_camera,
-                               light_wrap=args.light_wrap, rim=args.rim)  # fmt: skip
+                               light_wrap=args.light_wrap, rim=args.rim, camera_height=camera)  # fmt: skip
     write_image(out, image, protect=protect)
     log.info("%s + %s (view %g,%g,%g) -> %s", person, args.background, *view, out)
     return 0
+
+
+def _camera_height(args: argparse.Namespace) -> float:
+    """--camera-height, checked (metres; default the standing camera of relight_rt.scene_place)."""
+    from ..scene_place import CAMERA_M, check_camera_height
+
+    return CAMERA_M if args.camera_height is None else check_camera_height(args.camera_height)

@@ -193,6 +193,29 @@ def test_composite_lights_the_person_with_the_panoramas_light(hdri, diffuse, mon
     np.testing.assert_allclose(seen[0], 2 * wide, rtol=1e-4, atol=1e-6)  # EV +1 doubles it
 
 
+def test_the_panorama_composite_reads_the_photo_once_and_estimates_no_light(diffuse_models_dir, tmp_path,
+                                                                            monkeypatch):
+    """Review: composite_panorama decoded the person photo just for its size, and scene.composite estimated the
+    plate's light (relight_rt.scene_light) though the panorama gives it."""
+    import relight_rt._io as io
+    import relight_rt.scene as scene
+
+    img, mask = flat_person()
+    path = tmp_path / "person.png"
+    cv2.imwrite(str(path), img[..., ::-1])
+    r = Relighter(RuntimeConfig(models=diffuse_models_dir, device="cpu", detail=False),
+                  matter=lambda rgb, name="image": mask)  # fmt: skip
+    env, _ = lumpy_panorama(64)
+    calls = []
+    decode = io.decode_file
+    monkeypatch.setattr(io, "decode_file", lambda *a, **k: calls.append(a[0]) or decode(*a, **k))
+    monkeypatch.setattr(scene, "scene_light", lambda *a, **k: pytest.fail("the scene light was estimated"))
+    out = composite_panorama(r, path, env, (10, 0), meter="background")
+    assert calls == [path] and out.shape == (150, 100, 3)
+    monkeypatch.undo()
+    np.testing.assert_array_equal(out, composite_panorama(r, img, env, (10, 0), mask=mask, meter="background"))
+
+
 # ------------------------------------------------------------------------------------------------ CLI
 
 
@@ -229,6 +252,7 @@ def test_cli_composite_with_a_view(work, capsys):
         (["--background", "pano.hdr", "--view", "0,0", "--fov", "50"], r"drop --fov"),
         (["--background", "pano.hdr", "--view", "0,0", "--size", "10x10"], r"size: expected WxH"),
         (["--background", "p.png", "--size", "100x100"], r"--size: only with --view"),
+        (["--background", "pano.hdr", "--view", "0,0", "--camera-height", "-1"], r"camera height: expected metres"),
     ],
 )
 def test_cli_view_errors(work, capsys, extra, match):

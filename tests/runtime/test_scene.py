@@ -361,6 +361,15 @@ def test_cli_composite(work, capsys):
     code, _, err = run([*argv, "--position", "0.3,0.9", "--height", "0.6", "--exposure", "-1", "--fov", "80"], capsys)
     assert code == 0, err
     assert cv2.imread("o2.jpg").shape == (96, 160, 3)
+    argv = ["composite", "p.png", "--background", "bg.png", "--no-shadow", "--meter", "background"]
+    sizes = []
+    for name, extra in (("c1.png", []), ("c2.png", ["--camera-height", "3"])):  # a camera twice as high
+        code, _, err = run([*argv, "-o", name, *extra], capsys)
+        assert code == 0, err
+        changed = np.abs(cv2.imread(name).astype(int) - cv2.imread("bg.png").astype(int)).max(axis=2) > 6
+        rows = np.flatnonzero(changed[:, :100].any(axis=1))  # the person, left of the bright part
+        sizes.append(rows[-1] + 1 - rows[0])
+    assert sizes[1] == pytest.approx(sizes[0] / 2, abs=3)  # sees the feet twice as far: half as tall
 
 
 @pytest.mark.parametrize(
@@ -373,6 +382,7 @@ def test_cli_composite(work, capsys):
         (["--light", "none.npy"], "none.npy"),
         (["--key-light", "north"], "key light"),
         (["--horizon", "2"], "horizon"),
+        (["--camera-height", "tall"], "camera height"),
     ],
 )
 def test_cli_composite_errors(work, capsys, extra, match):
@@ -472,7 +482,7 @@ def _box_rgba(h=100, w=60, box=(10, 80, 20, 40), colour=(0.5, 0.4, 0.3)) -> np.n
 
 
 def test_place_stands_a_full_body_person_on_the_ground_by_perspective():
-    from relight_rt.scene import CAMERA_M, DEFAULT_FEET, PERSON_M, place
+    from relight_rt.scene_place import CAMERA_M, DEFAULT_FEET, PERSON_M, place
 
     placed = place(_box_rgba(), (300, 400, 3), None, None, 0.5)  # the box does not reach the photo's bottom
     assert placed.full_body and placed.feet_y == round(DEFAULT_FEET * 300)
@@ -483,7 +493,8 @@ def test_place_stands_a_full_body_person_on_the_ground_by_perspective():
     portrait = place(_box_rgba(box=(40, 100, 20, 40)), (300, 400, 3), None, None, 0.5)  # cut by its bottom edge
     assert not portrait.full_body and portrait.feet_y == 300 and portrait.height == round(0.6 * 300)
     given = place(_box_rgba(), (300, 400, 3), (0.25, 0.8), 0.5, 0.5)
-    assert given.height == 150 and given.feet_y == 240 and given.left == round(0.25 * 400 - given.width / 2)
+    assert given.height == 150 and given.feet_y == 240 and given.feet_x == pytest.approx(0.25 * 400, abs=0.5)
+    assert abs(given.left + given.width / 2 - 0.25 * 400) <= 1  # a straight body: its feet under the box's centre
     with pytest.raises(RelightError, match="above the horizon"):
         place(_box_rgba(), (300, 400, 3), (0.5, 0.4), None, 0.5)
 
