@@ -47,8 +47,8 @@ Steps (all colour arithmetic in linear light; both photos are read as sRGB, as c
    ``rim=True`` (off by default: on path-traced renders it raises the edge's error, docs/RESULTS.md) when the key
    is a back key (the background read as back-lit, or a ``key_light`` from behind), the key's rim (``_key_rim``):
    the outline on the key's side, within ``RIM_RADIUS`` of the person's height, brightened by the key's
-   irradiance on the outline's normal (in the image plane) over the irradiance of the person's front, which a
-   degree-2 SH light spreads over the whole body instead; then sRGB again.
+   irradiance facing it over the irradiance of the person's front (a degree-2 SH light spreads it over the whole
+   body instead), by how squarely the outline faces the key's side in the image plane; then sRGB again.
 8. Metering (``meter``): "frame" (default) exposes the composed frame as a camera that meters the whole
    frame would: one scale so its mean linear luminance equals the background photo's own (a large bright
    person darkens the frame a little), limited to ±``METER_LIMIT_EV``; "background" keeps the background's
@@ -100,7 +100,7 @@ __all__ = [
     "relight_person", "scene_lighting", "shade", "shadows",
 ]
 
-CONTACT_STRENGTH = 0.7  #: darkest contact shadow (fraction of the ground's light taken away)
+CONTACT_STRENGTH = 0.85  #: darkest contact shadow (fraction of the ground's light taken away)
 CONTACT_WIDTH = 0.08  #: the contact shadow's half-width: this fraction of the person's height + half their feet's width
 CAST_STRENGTH = 0.7  #: darkest cast shadow
 OCCLUDER_RADIUS = 0.1  #: the person as an occluder of the sky: a cylinder this fraction of its height in radius
@@ -240,13 +240,15 @@ def _key_rim(composed: np.ndarray, alpha: np.ndarray, direction: np.ndarray, gai
     """A back key's rim on the person's outline (step 7 of the module docstring).
 
     A key behind the person (``direction``, the subject frame: x toward the camera, y the image's right, z up)
-    lights the surface at the silhouette, whose normal lies in the image plane, by max(0, n · d) of its
-    irradiance; a degree-2 SH light (the relighting's) spreads that over the whole body and loses it. So each
-    pixel inside the matte near the outside is multiplied by 1 + ``gain`` · max(0, n · d) · band, where n is the
-    outline's outward normal in the image plane (the gradient of the blurred matte), ``gain`` the key's
-    irradiance facing it over the irradiance the person's front gets (so the rim has the light's own ratio:
-    the person's colour, that much brighter), and band = 2 · alpha × the share of outside pixels within
-    ``radius`` (1 at a hard edge, falling to 0 a few ``radius`` inside).
+    lights the silhouette, and what grows there (hair, the fuzz of cloth) scatters it forward, toward the camera:
+    a rim on the key's side, all round for a key straight behind. A degree-2 SH light (the relighting's) spreads
+    that over the whole body and loses it; a Lambertian silhouette alone (max(0, n · d), n in the image plane)
+    would show almost none of a key nearly behind. So each pixel inside the matte near the outside is multiplied
+    by 1 + ``gain`` · facing · band, where facing = max(0, n · p̂) with n the outline's outward normal in the
+    image plane (the gradient of the blurred matte) and p̂ the key's direction in that plane (facing = 1 for a
+    key straight behind), ``gain`` the key's irradiance facing it over the irradiance the person's front gets
+    (so the rim has the light's own ratio: the person's colour, that much brighter), and band = 2 · alpha × the
+    share of outside pixels within ``radius`` (1 at a hard edge, falling to 0 a few ``radius`` inside).
 
     Args:
         composed: (h, w, 3) linear frame with the person laid over the background.
@@ -271,7 +273,11 @@ def _key_rim(composed: np.ndarray, alpha: np.ndarray, direction: np.ndarray, gai
     gx = cv2.Sobel(soft, cv2.CV_32F, 1, 0)[edge]  # toward the image's right
     gy = cv2.Sobel(soft, cv2.CV_32F, 0, 1)[edge]  # toward its bottom
     norm = np.maximum(np.hypot(gx, gy), 1e-6)
-    facing = np.maximum(0, (-gx * d[1] + gy * d[2]) / norm)  # outward = −gradient; image up = −rows = +z
+    side = math.hypot(d[1], d[2])  # the key's direction in the image plane
+    if side < 1e-6:
+        facing = np.ones_like(gx)
+    else:  # outward = −gradient; image up = −rows = +z
+        facing = np.maximum(0, (-gx * d[1] + gy * d[2]) / (norm * side))
     band = np.minimum(2 * a[edge] * reach[edge], 1)
     out[edge] *= (1 + np.float32(gain) * facing * band)[:, None].astype(np.float32)
     return out

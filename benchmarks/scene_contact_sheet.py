@@ -1,0 +1,122 @@
+"""Contact sheet of placement and light: people of each framing composited into many places (issue 49).
+
+    python benchmarks/scene_contact_sheet.py --out runs/scene/contact \\
+        --person full:PHOTO[:MASK] --person half:PHOTO[:MASK] --person portrait:PHOTO[:MASK] ... \\
+        --hdri ../shared/hdri --views sunset:20,0 dawn:30,0 ... --photos PLACE.jpg ... [--size 640x480] [--rim]
+
+Each person (its kind, "full", "half" or "portrait", is only a label: ``relight_rt.scene_place`` tells from the
+matte how the photo framed them) goes into every place: a panorama view (``NAME:AZ,EL[,FOV]`` of ``--hdri``, by
+``relight_rt.panorama.composite_panorama``: the plate and the light from the map, as ``composite --view``) and every
+``--photos`` photo of a place (``relight_rt.scene.composite``: the light estimated from the photo, centre-cropped to
+``--size``'s aspect and resized to it first). Everything else is the command's default (automatic placement,
+shadows, camera matching, light wrap, frame metering; ``--rim`` adds the rim of a key behind the person).
+
+Writes under ``--out``: every composite at 100 % (``PERSON/PLACE.png``), one sheet per person (``PERSON.png``, the
+places in a grid at half size, each labelled) and ``report.json`` (each composite's placement: the person's box,
+their feet, the borders that cut them; and its wall time). The people and photos are whatever you pass: real
+photos (../shared/realdata) are for looking at, so keep the output under runs/ (never committed).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+if str(REPO) not in sys.path:
+    sys.path.insert(0, str(REPO))
+
+from relight_rt import Relighter, RuntimeConfig, envmap  # noqa: E402
+from relight_rt import scene as scene_mod  # noqa: E402
+from relight_rt._io import read_image, write_image  # noqa: E402
+from relight_rt.panorama import composite_panorama, parse_size  # noqa: E402
+from relight_rt.scene_place import framing  # noqa: E402
+
+
+def photo_place(path: Path, size: tuple[int, int]) -> np.ndarray:
+    """8-bit sRGB (H, W, 3): a photo of a place, centre-cropped to ``size``'s aspect and resized to it."""
+    img = read_image(path, "place")[..., :3]
+    h, w = img.shape[:2]
+    want = size[0] / size[1]  # width / height
+    if w / h > want:
+        cw = round(h * want)
+        img = img[:, (w - cw) // 2 : (w - cw) // 2 + cw]
+    else:
+        ch = round(w / want)
+        img = img[(h - ch) // 2 : (h - ch) // 2 + ch]
+    img = cv2.resize(img, size, interpolation=cv2.INTER_AREA)
+    return (np.clip(img, 0, 1) * 255 + 0.5).astype(np.uint8)
+
+
+def label(tile: np.ndarray, text: str) -> np.ndarray:
+    out = tile.copy()
+    cv2.putText(out, text, (6, 18), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (0, 0, 0), 3, cv2.LINE_AA)
+    cv2.putText(out, text, (6, 18), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (255, 255, 255), 1, cv2.LINE_AA)
+    return out
+
+
+def grid(tiles: list[np.ndarray], cols: int) -> np.ndarray:
+    blank = np.zeros_like(tiles[0])
+    tiles = tiles + [blank] * (-len(tiles) % cols)
+    return np.vstack([np.hstack(tiles[i : i + cols]) for i in range(0, len(tiles), cols)])
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", type=Path, required=True)
+    ap.add_argument("--person", action="append", default=[], metavar="KIND:PHOTO[:MASK]", required=True)
+    ap.add_argument("--hdri", type=Path, default=REPO.parent / "shared" / "hdri")
+    ap.add_argument("--views", nargs="*", default=[], metavar="NAME:AZ,EL[,FOV]")
+    ap.add_argument("--photos", type=Path, nargs="*", default=[])
+    ap.add_argument("--size", default="640x480", help="the places' size, WxH")
+    ap.add_argument("--rim", action="store_true")
+    ap.add_argument("--models", default=None)
+    args = ap.parse_args(argv)
+    size = parse_size(args.size)
+    rl = Relighter(RuntimeConfig(models=args.models, device="cpu"))
+    places = []  # (name, kind, thing)
+    for spec in args.views:
+        name, view = spec.split(":", 1)
+        env = envmap.load_envmap(args.hdri / f"{name}.hdr")
+        places.append((f"{name}_{view.replace(',', '_')}", "view", (env, view)))
+    for path in args.photos:
+        places.append((path.stem, "photo", photo_place(path, size)))
+    report = []
+    for spec in args.person:
+        kind, rest = spec.split(":", 1)
+        photo, _, mask = rest.partition(":")
+        photo = Path(photo)
+        mask_arr = mask or None  # a path, or None: the automatic matte
+        matte = cv2.imread(mask, cv2.IMREAD_GRAYSCALE) if mask else None
+        who = f"{kind}_{photo.stem}"
+        (args.out / who).mkdir(parents=True, exist_ok=True)
+        tiles = []
+        for name, how, thing in places:
+            t0 = time.perf_counter()
+            if how == "view":
+                env, view = thing
+                out = composite_panorama(rl, photo, env, view, size=size, mask=mask_arr, rim=args.rim)
+            else:
+                out = scene_mod.composite(rl, photo, thing, mask=mask_arr, rim=args.rim)
+            seconds = time.perf_counter() - t0
+            write_image(args.out / who / f"{name}.png", out)
+            fr = framing(matte.astype(np.float32) / 255) if matte is not None else None
+            report.append({"person": who, "place": name, "seconds": round(seconds, 2),
+                           "cut": sorted(fr.cut) if fr is not None else None})  # fmt: skip
+            tile = cv2.resize((out * 255 + 0.5).astype(np.uint8), (size[0] // 2, size[1] // 2),
+                              interpolation=cv2.INTER_AREA)  # fmt: skip
+            tiles.append(label(tile, name))
+            print(f"{who:24s} {name:28s} {seconds:5.2f} s", flush=True)
+        write_image(args.out / f"{who}.png", grid(tiles, 4))
+    (args.out / "report.json").write_text(json.dumps(report, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
