@@ -1,0 +1,157 @@
+"""Front- or back-lit from one view: candidate rules for relight_rt.scene_light's call, on every map (issue 49).
+
+    python benchmarks/scene_frontback.py --envs runs/scene/envs [--out runs/scene/frontback.json]
+
+ENVS: ``benchmarks/scene_eval.py --prepare-envs`` (17 scenes x 4 turns). For each map, the background photo is
+scene_eval's (a 60° view, metered to 0.18, 8-bit sRGB), the truth its SH light's camera-facing over back
+irradiance (scene_eval.front_back); scored on the maps whose sides differ by >= 1 EV. Each rule is scored three
+ways: with its numbers fitted with the map's whole scene left out (loso), and fitted on the other scene set only
+(cross: ../shared/hdri ↔ blender-data), per set. Rules without a fitted number score the same everywhere.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+for p in (REPO, REPO / "benchmarks"):
+    if str(p) not in sys.path:
+        sys.path.insert(0, str(p))
+
+from scene_eval import (  # noqa: E402
+    CLEAR_EV,
+    GREY,
+    front_back,
+    mean_lum,
+    photograph,
+    scene_of,
+    scene_set,
+    view_linear,
+)
+
+from relight_rt import envmap  # noqa: E402
+from relight_rt import scene_light as bgmod  # noqa: E402
+from relight_rt.color import srgb8_to_linear  # noqa: E402
+from relight_rt.exposure import REC709  # noqa: E402
+
+
+def features(photo: np.ndarray) -> dict[str, float]:
+    """The view's statistics a rule may read (log2 where a ratio)."""
+    parts = bgmod.scene_light(photo, 60.0)
+    lum = srgb8_to_linear(photo) @ REC709
+    h = lum.shape[0]
+    med = max(float(np.median(lum)), 1e-6)
+    clipped = photo.max(axis=2) >= 250
+    top = lum[: h // 3]
+    return {
+        "top_bottom": parts.top_bottom,
+        "contrast": parts.contrast,
+        "mean_median": math.log2(max(float(lum.mean()), 1e-6) / med),
+        "p99_median": math.log2(max(float(np.quantile(lum, 0.99)), 1e-6) / med),
+        "clipped": float(clipped.mean()),
+        "clipped_top": float(clipped[: h // 2].mean()),
+        "top_median": math.log2(max(float(top.mean()), 1e-6) / med),
+        "source_share": float((bgmod.FRONT_WEIGHTS @ (parts.source @ REC709)) / max(
+            bgmod.BACK_WEIGHTS @ ((parts.view + parts.source) @ REC709), 1e-9)),
+        "bright_el": parts.bright[1],
+        "score": parts.backlight_score(),
+    }
+
+
+def lstsq_rule(names):
+    """A rule: back-lit where the least-squares fit of the truth's front/back EV on [1, features] is < 0."""
+
+    def fit(train):
+        x = np.array([[1.0, *(f[n] for n in names)] for f, _ in train])
+        y = np.array([t for _, t in train])
+        w = np.linalg.lstsq(x, y, rcond=None)[0]
+        return lambda f: float(w @ np.array([1.0, *(f[n] for n in names)])) < 0
+
+    return fit
+
+
+def threshold_rule(name, sign=1):
+    """A rule on one feature: back-lit where sign · feature > the threshold that is best on the training maps."""
+
+    def fit(train):
+        vals = sorted({f[name] for f, _ in train})
+        cands = [(a + b) / 2 for a, b in zip(vals, vals[1:], strict=False)] or [0.0]
+        clear = [(f, t) for f, t in train if abs(t) >= CLEAR_EV]
+
+        def acc(th):
+            return np.mean([(sign * f[name] > sign * th) == (t < 0) for f, t in clear])
+
+        th = max(cands, key=acc)
+        return lambda f: sign * f[name] > sign * th
+
+    return fit
+
+
+RULES = {
+    "today (score < 0)": lambda train: (lambda f: f["score"] < 0),
+    "lstsq top_bottom+contrast": lstsq_rule(["top_bottom", "contrast"]),
+    "lstsq +mean_median": lstsq_rule(["top_bottom", "contrast", "mean_median"]),
+    "lstsq +p99_median": lstsq_rule(["top_bottom", "contrast", "p99_median"]),
+    "lstsq +clipped_top": lstsq_rule(["top_bottom", "contrast", "clipped_top"]),
+    "lstsq top_median+contrast": lstsq_rule(["top_median", "contrast"]),
+    "lstsq top_bottom+p99_median": lstsq_rule(["top_bottom", "p99_median"]),
+    "lstsq top_bottom+contrast+bright_el": lstsq_rule(["top_bottom", "contrast", "bright_el"]),
+    "threshold mean_median": threshold_rule("mean_median"),
+    "threshold contrast": threshold_rule("contrast"),
+    "threshold top_bottom": threshold_rule("top_bottom"),
+    "threshold top_median": threshold_rule("top_median"),
+    "threshold source_share": threshold_rule("source_share"),
+}
+
+
+def score(rule, rows, train_of) -> dict:
+    """Accuracy on the clear maps, per scene set and all, each map judged by the rule fitted on train_of(map)."""
+    right = {}
+    for m, (f, t) in rows.items():
+        if abs(t) < CLEAR_EV:
+            continue
+        train = [rows[n] for n in train_of(m)]
+        right[m] = rule(train)(f) == (t < 0)
+    out = {"all": (float(np.mean(list(right.values()))), len(right))}
+    for s in ("shared", "blender"):
+        v = [r for m, r in right.items() if scene_set(m) == s]
+        out[s] = (float(np.mean(v)) if v else float("nan"), len(v))
+    out["wrong"] = sorted(m for m, r in right.items() if not r)
+    return out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--envs", type=Path, required=True)
+    ap.add_argument("--out", type=Path)
+    args = ap.parse_args(argv)
+    rows = {}
+    for path in sorted(args.envs.glob("*.hdr")):
+        env = envmap.load_envmap(path)
+        lin = view_linear(env)
+        photo = photograph(lin, GREY / max(mean_lum(lin), 1e-9))
+        rows[path.stem] = (features(photo), front_back(envmap.project_envmap(env)))
+    maps = list(rows)
+    loso = lambda m: [n for n in maps if scene_of(n) != scene_of(m)]  # noqa: E731
+    cross = lambda m: [n for n in maps if scene_set(n) != scene_set(m)]  # noqa: E731
+    report = {}
+    for name, rule in RULES.items():
+        a, c = score(rule, rows, loso), score(rule, rows, cross)
+        report[name] = {"loso": a, "cross": c}
+        print(f"{name:30s} loso all {100 * a['all'][0]:3.0f}% ({a['all'][1]}) shared {100 * a['shared'][0]:3.0f}% "
+              f"blender {100 * a['blender'][0]:3.0f}% | cross shared {100 * c['shared'][0]:3.0f}% blender "
+              f"{100 * c['blender'][0]:3.0f}%  wrong(loso): {' '.join(a['wrong'])}")  # fmt: skip
+    report["maps"] = {m: {"truth_ev": t, **f} for m, (f, t) in rows.items()}
+    if args.out:
+        args.out.write_text(json.dumps(report, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
