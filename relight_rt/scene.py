@@ -18,8 +18,9 @@ Steps (all colour arithmetic in linear light; both photos are read as sRGB, as c
 4. Placed (``relight_rt.scene_place``): a *full-body* person (the photo's bottom border does not cut them) stands
    with their feet (the matte's lowest rows) on the ground at ``position`` (default: x as in their own photo,
    y = ``DEFAULT_FEET``), as tall as perspective makes them for a level camera ``camera_height`` metres above the
-   ground (default ``CAMERA_M``, a standing camera) whose horizon is the row ``horizon`` (default 0.5: a level
-   camera's horizon is the image's middle row); ``height`` (a fraction of the background's height) overrides that.
+   ground (default ``CAMERA_M``, a standing camera) whose horizon is the row ``horizon`` (default: where the
+   background's verticals put it, else 0.5, a level camera's); ``height`` (a fraction of the background's height)
+   overrides that.
    A *cut-off* person (a half body or a portrait) is placed as their photo framed them: their relative height
    kept and every border that cut them on the same border of the background. Parts beyond the edges are cut off.
 5. Matched to the background's camera: when the background camera's own blur (the blur of the photo's
@@ -87,10 +88,12 @@ from .scene_light import (
 )
 from .scene_place import (
     CAMERA_M,
+    HORIZON_ESTIMATE_MAX,
     Placement,
     check_camera_height,
     check_height,
     check_horizon,
+    estimate_horizon,
     parse_position,
     place,
 )
@@ -592,7 +595,7 @@ def composite(
     fov: float = 60.0,
     white_balance: bool = True,
     key_light=None,
-    horizon: float = 0.5,
+    horizon: float | None = None,
     meter: str = "frame",
     match_camera: bool = True,
     light_wrap: bool = True,
@@ -620,7 +623,9 @@ def composite(
         white_balance: match a given light's colour to the background's (see the module docstring).
         key_light: (azimuth, elevation) degrees or "AZ,EL": where the background's key light comes from
             (relight_rt.scene_light.parse_key_light); None: the key the view implies. Ignored with ``light``.
-        horizon: the horizon's row, a fraction of the background's height in [0, 1] (0.5: a level camera).
+        horizon: the horizon's row, a fraction of the background's height in [0, 1]; None: where the background's
+            verticals put it (``relight_rt.scene_place.estimate_horizon``, at most ``HORIZON_ESTIMATE_MAX``), or
+            0.5 (a level camera) where they say nothing.
         meter: "frame" or "background" (step 8).
         match_camera: match the background camera's blur and noise (step 5).
         light_wrap: let the background's light wrap over the person's edge where it is brighter (step 7).
@@ -642,7 +647,7 @@ def composite(
     cam = check_camera_height(camera_height)
     mode = _exposure.parse_exposure(exposure)
     key = parse_key_light(key_light)
-    hz = check_horizon(horizon)
+    hz = None if horizon is None else check_horizon(horizon)
     if meter not in METERS:
         raise RelightError(f"meter: expected one of {list(METERS)}, got {meter!r}")
     fov = check_fov(fov)
@@ -658,6 +663,9 @@ def composite(
     lighting = scene_lighting(relighter, dec, parts, bg_light, key, light, white_balance=white_balance, rim=rim,
                               rim_key=rim_key)
     rgba = relight_person(relighter, dec, lighting, mode)
+    if hz is None:
+        found = estimate_horizon(bg, fov)
+        hz = 0.5 if found is None else min(max(found, 0.0), HORIZON_ESTIMATE_MAX)
     placed = place(rgba, bg.shape, pos, frac, hz, cam)
     noise_add = 0.0
     if match_camera:  # blur now, noise after the sRGB encoding

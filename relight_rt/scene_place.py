@@ -23,10 +23,21 @@ alpha-weighted centre and the width of the bottom ``SOLE`` of the box).
   moves the bottom centre of the box (the cut edge) and ``height`` sets the box's height as for a full body.
 
 Parts beyond the background's edges are cut off.
+
+The horizon (``horizon``: a row fraction; ``estimate_horizon`` when it is not given). A level camera's horizon is
+the picture's middle row; a camera turned up or down by a tilt t moves it by f · tan t (f the focal length in
+pixels, from the horizontal field of view), and makes the world's verticals (walls, poles, door frames, towers)
+converge toward a point f / tan t from the centre on the other side. ``estimate_horizon`` reads t from the
+photo's near-vertical line segments (OpenCV's line segment detector): each segment's slope against where it lies
+gives t by least squares, made robust by reweighting (segments that are not verticals of the world disagree);
+without ``MIN_VERTICALS`` segments that agree (a landscape, a flat wall) it returns None and the level camera's
+0.5 stands. The camera is assumed not to roll. A full body's default feet are ``DEFAULT_FEET`` down, or halfway
+from a low horizon to the bottom edge (the ground between them is what the camera sees of it).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import cv2
@@ -36,8 +47,8 @@ from ._errors import RelightError
 from ._pairs import number_pair
 
 __all__ = [
-    "CAMERA_M", "DEFAULT_FEET", "PERSON_M", "Framing", "Placement", "check_camera_height", "framing",
-    "parse_position", "place",
+    "CAMERA_M", "DEFAULT_FEET", "HORIZON_ESTIMATE_MAX", "PERSON_M", "Framing", "Placement", "check_camera_height",
+    "estimate_horizon", "framing", "parse_position", "place",
 ]
 
 ALPHA_BOX = 0.005  #: the person's box: matte above this
@@ -48,6 +59,13 @@ PERSON_M = 1.7  #: a standing person's height, metres
 CAMERA_M = 1.5  #: the default camera height above the ground, metres (a standing photographer)
 CAMERA_RANGE = (0.05, 100.0)  #: accepted camera heights, metres
 DEFAULT_FEET = 0.92  #: default row of a full-body person's feet, fraction of the background's height
+HORIZON_ESTIMATE_MAX = 0.9  #: an estimated horizon is used at most this low (the feet need ground below it)
+MIN_VERTICALS = 6  #: estimate_horizon: near-vertical segments that must agree on the tilt
+MAX_TILT = 35.0  #: estimate_horizon: the largest camera tilt it reports, degrees
+_NEAR_VERTICAL = math.tan(math.radians(20))  # |dx / dy| of a segment that may be a vertical of the world
+_MIN_SEGMENT = 0.04  # a segment's least length, fraction of the photo's height
+_AGREE = 0.03  # a segment agrees with the tilt when its slope is within this of the one predicted (~1.7°)
+_HORIZON_WIDTH = 640  # the segments are found on a copy at most this wide
 HEAD_ROOM = 0.25  #: a person cut at both sides loses at most this share of their box off the top to reach both
 
 
@@ -153,6 +171,57 @@ def framing(alpha: np.ndarray) -> Framing:
     return Framing((y0, y1, x0, x1), a.shape, cut, feet_x, feet_w)
 
 
+def estimate_horizon(photo: np.ndarray, fov: float = 60.0) -> float | None:
+    """The horizon's row in ``photo`` as a fraction of its height, from the tilt its verticals show (module
+    docstring), or None when too few near-vertical segments agree.
+
+    Args:
+        photo: (H, W, 3) RGB, uint8 or float in [0, 1].
+        fov: its horizontal field of view, degrees.
+
+    Returns:
+        A fraction (below 0 or above 1 when the horizon lies outside the picture), or None.
+    """
+    img = np.asarray(photo)
+    grey = cv2.cvtColor(img if img.dtype == np.uint8 else (np.clip(img, 0, 1) * 255 + 0.5).astype(np.uint8),
+                        cv2.COLOR_RGB2GRAY)  # fmt: skip
+    h, w = grey.shape
+    if w > _HORIZON_WIDTH:
+        grey = cv2.resize(grey, (_HORIZON_WIDTH, max(2, round(h * _HORIZON_WIDTH / w))), interpolation=cv2.INTER_AREA)
+        h, w = grey.shape
+    found = cv2.createLineSegmentDetector().detect(grey)[0]
+    if found is None:
+        return None
+    x1, y1, x2, y2 = found.reshape(-1, 4).astype(np.float64).T
+    dx, dy = x2 - x1, y2 - y1
+    length = np.hypot(dx, dy)
+    keep = (length >= _MIN_SEGMENT * h) & (np.abs(dx) <= _NEAR_VERTICAL * np.abs(dy))
+    if int(keep.sum()) < MIN_VERTICALS:
+        return None
+    k = dx[keep] / dy[keep]  # columns per row
+    mx, my, wt = ((x1 + x2) / 2)[keep], ((y1 + y2) / 2)[keep], length[keep]
+    cx, cy = w / 2, h / 2
+    f = (w / 2) / math.tan(math.radians(float(fov)) / 2)
+    # a vertical through (mx, my) points at V = (cx, cy + 1/u): k = u · ((cx − mx) + k · (my − cy)), u = −tan t / f
+    g = (cx - mx) + k * (my - cy)
+    weight = wt.copy()
+    u = 0.0
+    for _ in range(8):  # iteratively reweighted least squares (Cauchy weights on the slope's residual)
+        den = float(weight @ (g * g))
+        if den <= 0:
+            return None
+        u = float(weight @ (k * g)) / den
+        r = k - u * g
+        scale = max(1.4826 * float(np.median(np.abs(r))), 0.01)
+        weight = wt / (1 + (r / (2 * scale)) ** 2)
+    agree = np.abs(k - u * g) <= _AGREE
+    if int(agree.sum()) < MIN_VERTICALS:
+        return None
+    tilt = math.degrees(math.atan(-u * f))
+    tilt = max(-MAX_TILT, min(MAX_TILT, tilt))
+    return (cy + f * math.tan(math.radians(tilt))) / h
+
+
 @dataclass(frozen=True)
 class Placement:
     """Where the person goes (step 4): ``premult`` (h, w, 4) premultiplied linear RGB and alpha at their size in
@@ -205,7 +274,7 @@ def place(rgba: np.ndarray, background_shape: tuple[int, ...], position=None, he
     given = frac is not None
     sides = fr.cut & {"left", "right"}
     if fr.full_body:
-        feet = (fr.feet_x / wp, DEFAULT_FEET) if pos is None else pos
+        feet = (fr.feet_x / wp, max(DEFAULT_FEET, (hz + 1) / 2)) if pos is None else pos
         if frac is None:
             rows_below = (feet[1] - hz) * hb
             if rows_below < 0.02 * hb:

@@ -58,8 +58,8 @@ def add_parser(subparsers) -> None:
     p.add_argument("--height", type=float, metavar="H", help="the person's height, fraction of the background's "
                    "(default: from perspective for a full body, as in its own photo for a cut-off one)")  # fmt: skip
     p.add_argument("--horizon", type=float, default=None, metavar="Y",
-                   help="the horizon's row, fraction of the background's height (default 0.5: a level camera; "
-                   "with --view, where the view's elevation puts it)")  # fmt: skip
+                   help="the horizon's row, fraction of the background's height (default: where the background's "
+                   "verticals put it, else 0.5, a level camera's; with --view, where the view's elevation puts it)")
     p.add_argument("--camera-height", default=None, metavar="M",
                    help="the background camera's height above the ground in metres, which with the horizon sets a "
                    "full body's size (default 1.5: a standing camera; lower it for a camera held low)")  # fmt: skip
@@ -121,7 +121,7 @@ def cmd_composite(args: argparse.Namespace) -> int:
     light = None if spec is None else rl.resolve_light(spec)
     image = composite(rl, person, args.background, mask=mask, light=light, position=position, height=args.height,
                       shadow=args.shadow, exposure=exposure, fov=args.fov, key_light=key,
-                      horizon=0.5 if args.horizon is None else args.horizon,
+                      horizon=args.horizon,
                       meter=args.meter, match_camera=args.match_camera, light_wrap=args.light_wrap,
                       rim=args.rim, camera_height=camera)  # fmt: skip
     write_image(out, image, protect=protect)

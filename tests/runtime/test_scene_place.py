@@ -1,7 +1,9 @@
 """relight_rt.scene_place: how a photo framed its person and where they go in another scene (synthetic mattes)."""
 
+import cv2
 import numpy as np
 import pytest
+from _graphs import diffuse_models_dir
 
 from relight_rt import RelightError
 from relight_rt.scene_place import (
@@ -12,6 +14,8 @@ from relight_rt.scene_place import (
     framing,
     place,
 )
+
+__all__ = ["diffuse_models_dir"]  # fixtures
 
 
 def figure(h=200, w=120, top=20, bottom=180, arm=False):
@@ -129,3 +133,62 @@ def test_the_contact_shadow_lies_under_the_feet_and_is_foreshortened():
     far = place(figure(), (300, 400, 3), (0.5, 0.7), 0.5, 0.5)
     (w0, h0), (w1, h1) = (shadows(p, (300, 400, 3), 0.5, 60.0, none).size for p in (near, far))
     assert h0 / w0 == pytest.approx(2.4 * h1 / w1, rel=0.05)  # the ground 2.4x as far below the horizon
+
+
+def poles(tilt_deg: float, size=(640, 480), fov=60.0, seed=0) -> np.ndarray:
+    """A street of vertical poles (and a few slanted distractors) seen by a camera 1.5 m up, tilted by tilt_deg
+    (up positive), no roll: 8-bit RGB. Its horizon lies at (h/2 + f tan t) / h."""
+    w, h = size
+    f = (w / 2) / np.tan(np.radians(fov) / 2)
+    t = np.radians(tilt_deg)
+    img = np.full((h, w, 3), 70, np.uint8)
+    rng = np.random.default_rng(seed)
+
+    def project(x, y_up, z):  # world: x right, y up (from the camera's height), z ahead
+        yc = -(y_up * np.cos(t) - z * np.sin(t))
+        zc = y_up * np.sin(t) + z * np.cos(t)
+        return int(round(w / 2 + f * x / zc)), int(round(h / 2 + f * yc / zc))
+
+    for _ in range(14):
+        x, z = rng.uniform(-8, 8), rng.uniform(6, 30)
+        cv2.line(img, project(x, -1.5, z), project(x, rng.uniform(1, 6), z), (230, 220, 200), 3, cv2.LINE_AA)
+    for _ in range(4):  # not verticals of the world
+        a = rng.uniform(0, w, 2).astype(int)
+        cv2.line(img, (int(a[0]), 20), (int(a[1]), h - 20), (20, 20, 20), 2, cv2.LINE_AA)
+    return img
+
+
+@pytest.mark.parametrize("tilt", [-12.0, 0.0, 8.0, 15.0])
+def test_the_horizon_is_found_from_the_verticals(tilt):
+    from relight_rt.scene_place import estimate_horizon
+
+    w, h = 640, 480
+    f = (w / 2) / np.tan(np.radians(30))
+    truth = (h / 2 + f * np.tan(np.radians(tilt))) / h
+    assert estimate_horizon(poles(tilt), 60.0) == pytest.approx(truth, abs=0.03)
+
+
+def test_no_verticals_no_horizon():
+    from relight_rt.scene_place import estimate_horizon
+
+    flat = np.full((240, 320, 3), 120, np.uint8)
+    flat[:100] = 200  # a skyline is not a vertical
+    assert estimate_horizon(flat) is None
+
+
+def test_composite_stands_the_person_on_the_estimated_horizons_ground(diffuse_models_dir):
+    """A camera turned up (verticals converging upward) sees the horizon low: the person's height follows it."""
+    from relight_rt import Relighter, RuntimeConfig
+    from relight_rt.scene import composite
+    from relight_rt.scene_place import estimate_horizon
+
+    r = Relighter(RuntimeConfig(models=diffuse_models_dir, device="cpu", detail=False))
+    img = np.full((150, 100, 3), (150, 110, 90), np.uint8)
+    mask = np.zeros((150, 100), np.float32)
+    mask[20:140, 30:70] = 1.0
+    bg = poles(10.0, size=(320, 240))
+    found = estimate_horizon(bg)
+    assert found is not None and found > 0.6
+    kw = {"mask": mask, "meter": "background", "shadow": False, "match_camera": False, "light_wrap": False}
+    np.testing.assert_array_equal(composite(r, img, bg, **kw), composite(r, img, bg, horizon=found, **kw))
+    assert not np.array_equal(composite(r, img, bg, **kw), composite(r, img, bg, horizon=0.5, **kw))
