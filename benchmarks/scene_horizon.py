@@ -5,6 +5,8 @@
 Every map of ``--hdri``, seen at azimuths 0/120/240° and elevations −12/0/+12° (60° field of view; the plate of
 relight_rt.panorama.panorama_view, 8-bit sRGB, whose ``horizon`` is exact): how often the estimate answers, and
 its error (fractions of the picture's height) where it does, against the level camera's 0.5 that stands without it.
+``--photos DIR``: also every .jpg/.png there (real photos, no truth): how often it answers and the spread of its
+answers (most photos of people are taken nearly level: a wide spread means wild answers).
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ def main(argv=None) -> int:
     ap.add_argument("--hdri", type=Path, required=True)
     ap.add_argument("--size", default="640x480")
     ap.add_argument("--out", type=Path)
+    ap.add_argument("--photos", type=Path, help="a folder of real photos (no truth): the spread of the answers")
     args = ap.parse_args(argv)
     size = parse_size(args.size)
     rows = []
@@ -53,8 +56,20 @@ def main(argv=None) -> int:
     for r in found:
         if abs(r["estimate"] - r["truth"]) > 0.05:
             print(f"off: {r['map']} {r['az']},{r['el']}: {r['estimate']:.2f} for {r['truth']:.2f}")
+    photos = {}
+    if args.photos:
+        import cv2
+
+        for path in sorted(p for p in args.photos.iterdir() if p.suffix.lower() in (".jpg", ".png")):
+            img = cv2.imread(str(path), cv2.IMREAD_COLOR)
+            if img is not None and not path.stem.endswith("_mask"):
+                photos[path.name] = estimate_horizon(np.ascontiguousarray(img[..., ::-1]), 60.0)
+        got = np.array([v for v in photos.values() if v is not None])
+        print(json.dumps({"photos": len(photos), "answered": int(got.size),
+                          "percentiles_5_25_50_75_95": np.percentile(got, [5, 25, 50, 75, 95]).round(3).tolist()
+                          if got.size else []}))  # fmt: skip
     if args.out:
-        args.out.write_text(json.dumps({"summary": summary, "views": rows}, indent=1))
+        args.out.write_text(json.dumps({"summary": summary, "views": rows, "photos": photos}, indent=1))
     return 0
 
 

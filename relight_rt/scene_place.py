@@ -30,9 +30,11 @@ pixels, from the horizontal field of view), and makes the world's verticals (wal
 converge toward a point f / tan t from the centre on the other side. ``estimate_horizon`` reads t from the
 photo's near-vertical line segments (OpenCV's line segment detector): each segment's slope against where it lies
 gives t by least squares, made robust by reweighting (segments that are not verticals of the world disagree);
-without ``MIN_VERTICALS`` segments that agree (a landscape, a flat wall) it returns None and the level camera's
-0.5 stands. The camera is assumed not to roll. A full body's default feet are ``DEFAULT_FEET`` down, or halfway
-from a low horizon to the bottom edge (the ground between them is what the camera sees of it).
+without ``MIN_VERTICALS`` segments that agree (a landscape, a flat wall), or when those that agree fix the
+horizon no better than ``MAX_HORIZON_ERROR`` of the height (one standard error: hair, a few strands near the
+middle), it returns None and the level camera's 0.5 stands. The camera is assumed not to roll. A full body's
+default feet are ``DEFAULT_FEET`` down, or halfway from a low horizon to the bottom edge (the ground between them
+is what the camera sees of it).
 """
 
 from __future__ import annotations
@@ -61,6 +63,7 @@ CAMERA_RANGE = (0.05, 100.0)  #: accepted camera heights, metres
 DEFAULT_FEET = 0.92  #: default row of a full-body person's feet, fraction of the background's height
 HORIZON_ESTIMATE_MAX = 0.9  #: an estimated horizon is used at most this low (the feet need ground below it)
 MIN_VERTICALS = 6  #: estimate_horizon: near-vertical segments that must agree on the tilt
+MAX_HORIZON_ERROR = 0.02  #: estimate_horizon: no answer when the horizon's standard error exceeds this (× height)
 MAX_TILT = 35.0  #: estimate_horizon: the largest camera tilt it reports, degrees
 _NEAR_VERTICAL = math.tan(math.radians(20))  # |dx / dy| of a segment that may be a vertical of the world
 _MIN_SEGMENT = 0.04  # a segment's least length, fraction of the photo's height
@@ -214,8 +217,14 @@ def estimate_horizon(photo: np.ndarray, fov: float = 60.0) -> float | None:
         r = k - u * g
         scale = max(1.4826 * float(np.median(np.abs(r))), 0.01)
         weight = wt / (1 + (r / (2 * scale)) ** 2)
-    agree = np.abs(k - u * g) <= _AGREE
+    r = k - u * g
+    agree = np.abs(r) <= _AGREE
     if int(agree.sum()) < MIN_VERTICALS:
+        return None
+    # how precisely the agreeing segments fix the horizon: u's standard error, as rows of the picture
+    ga, ra = g[agree], r[agree]
+    se_u = math.sqrt(float(ra @ ra) / max(ga.size - 1, 1) / max(float(ga @ ga), 1e-12))
+    if f * f * se_u / h > MAX_HORIZON_ERROR:
         return None
     tilt = math.degrees(math.atan(-u * f))
     tilt = max(-MAX_TILT, min(MAX_TILT, tilt))
