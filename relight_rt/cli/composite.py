@@ -53,8 +53,9 @@ def add_parser(subparsers) -> None:
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="output image (.png, .jpg, ...)")
     add_light_options(p, required=False)
     add_key_light_option(p)
-    p.add_argument("--position", metavar="X,Y", help="where the feet (bottom centre) go, fractions of the background "
-                   "(default: a full body stands at y = 0.92, a cut-off one on the bottom edge)")  # fmt: skip
+    p.add_argument("--position", metavar="X,Y", help="where the feet (a cut-off person's bottom centre) go, fractions "
+                   "of the background (default: a full body stands at y = 0.92 or below a low horizon, a cut-off one "
+                   "on the borders its photo cut it by)")  # fmt: skip
     p.add_argument("--height", type=float, metavar="H", help="the person's height, fraction of the background's "
                    "(default: from perspective for a full body, as in its own photo for a cut-off one)")  # fmt: skip
     p.add_argument("--horizon", type=float, default=None, metavar="Y",
