@@ -251,6 +251,24 @@ def test_a_back_key_puts_a_rim_on_its_side_of_the_outline(diffuse):
     assert r == pytest.approx(l, abs=0.02) and d == pytest.approx(1.0, abs=1e-5)
 
 
+def test_a_key_nearly_behind_still_lights_its_side_of_the_outline():
+    """A sun nearly behind the person (dawn's: 16° right of the axis, 5° up) lights the outline on its side with its
+    whole gain: the rim takes the key's side in the image plane, not the Lambertian n · d (0.28 of it here), and a
+    key straight behind lights the whole outline."""
+    from relight_rt.scene import _key_rim
+
+    alpha = np.zeros((120, 120), np.float32)
+    alpha[20:100, 40:80] = 1.0
+    composed = np.full((120, 120, 3), 0.1, np.float32)
+    d = np.array([-0.96, 0.27, 0.09])
+    out = _key_rim(composed, alpha, d / np.linalg.norm(d), 1.0, 2.0)
+    right, left = out[60, 79, 0] / 0.1 - 1, out[60, 40, 0] / 0.1 - 1
+    assert right > 0.6 and left == pytest.approx(0, abs=1e-6)  # most of the gain (Lambertian: at most 0.28)
+    behind = _key_rim(composed, alpha, np.array([-1.0, 0.0, 0.0]), 1.0, 2.0)
+    assert behind[60, 40, 0] == pytest.approx(behind[60, 79, 0], rel=1e-3) and behind[20, 60, 0] > 0.15
+    assert behind[60, 60, 0] == pytest.approx(0.1)  # the body's middle untouched
+
+
 def test_frame_metering_keeps_the_frames_mean_and_background_metering_keeps_its_pixels(diffuse):
     img, mask = flat_person(colour=(250, 250, 250))
     bg = np.full((150, 100, 3), 60, np.uint8)
