@@ -107,6 +107,7 @@ CONTACT_STRENGTH = 0.85  #: darkest contact shadow (fraction of the ground's lig
 CONTACT_WIDTH = 0.08  #: the contact shadow's half-width: this fraction of the person's height + half their feet's width
 CAST_STRENGTH = 0.7  #: darkest cast shadow
 OCCLUDER_RADIUS = 0.1  #: the person as an occluder of the sky: a cylinder this fraction of its height in radius
+OCCLUSION_STEP = 4  #: the sky's occlusion is computed on a grid this many pixels apart, then resized up
 METER_LIMIT_EV = 1.0  #: the frame metering moves the exposure by at most this
 METERS = ("frame", "background")
 _MIN_KEY_ELEVATION = 15.0  # degrees: a lower key casts its shadow as if from this high (no endless shadows)
@@ -525,11 +526,17 @@ def shade(lin: np.ndarray, origin: tuple[int, int], cast: Shadows) -> None:
     ry0, rx0 = origin
     ry1, rx1 = ry0 + lin.shape[0], rx0 + lin.shape[1]
     (foot_x, foot_y), (sh_w, sh_h), occ, directional = cast.foot, cast.size, cast.occluder, cast.directional
-    yy, xx = np.mgrid[ry0:ry1, rx0:rx1].astype(np.float32)
-    d2 = ((xx + 0.5 - foot_x) / sh_w) ** 2 + ((yy + 0.5 - foot_y) / sh_h) ** 2
-    light_left = 1 - CONTACT_STRENGTH * np.exp(-2 * d2)
+    light_left = np.ones(lin.shape[:2], np.float32)
+    # the contact ellipse, within 3 half-axes of its centre (beyond, exp(-18): nothing)
+    ey0, ey1 = max(ry0, int(foot_y - 3 * sh_h)), min(ry1, int(math.ceil(foot_y + 3 * sh_h)))
+    ex0, ex1 = max(rx0, int(foot_x - 3 * sh_w)), min(rx1, int(math.ceil(foot_x + 3 * sh_w)))
+    if ey1 > ey0 and ex1 > ex0:
+        v = ((np.arange(ey0, ey1, dtype=np.float32) + np.float32(0.5 - foot_y)) / np.float32(sh_h))[:, None]
+        u = ((np.arange(ex0, ex1, dtype=np.float32) + np.float32(0.5 - foot_x)) / np.float32(sh_w))[None, :]
+        light_left[ey0 - ry0 : ey1 - ry0, ex0 - rx0 : ex1 - rx0] = 1 - CONTACT_STRENGTH * np.exp(-2 * (u * u + v * v))
     ambient = 1 - min(1.0, directional) if cast.has_direction else 1.0
-    light_left = np.minimum(light_left, 1 - ambient * occ.occlusion(xx + 0.5, yy + 0.5))
+    if ambient > 0:
+        np.minimum(light_left, 1 - np.float32(ambient) * _occlusion_map(occ, ry0, ry1, rx0, rx1), out=light_left)
     if cast.cast is not None:
         cy0, cx0, cs = cast.cast
         cover = np.zeros(lin.shape[:2], np.float32)
@@ -539,6 +546,19 @@ def shade(lin: np.ndarray, origin: tuple[int, int], cast: Shadows) -> None:
         dark = CAST_STRENGTH * min(1.0, 2 * directional)
         light_left = np.minimum(light_left, 1 - dark * cover)
     lin *= light_left[..., None]
+
+
+def _occlusion_map(occ: _Occluder, y0: int, y1: int, x0: int, x1: int) -> np.ndarray:
+    """``occ.occlusion`` over the frame rows y0:y1 and columns x0:x1, computed on a grid ``OCCLUSION_STEP`` times
+    coarser (it varies over the occluder's radius, tens of pixels) and resized up: (y1 − y0, x1 − x0) float32."""
+    h, w = y1 - y0, x1 - x0
+    hs, ws = max(1, -(-h // OCCLUSION_STEP)), max(1, -(-w // OCCLUSION_STEP))
+    if hs < 4 or ws < 4:
+        hs, ws = h, w
+    ys = (y0 + (np.arange(hs, dtype=np.float32) + 0.5) * np.float32(h / hs))[:, None]
+    xs = (x0 + (np.arange(ws, dtype=np.float32) + 0.5) * np.float32(w / ws))[None, :]
+    small = occ.occlusion(xs, ys)
+    return small if (hs, ws) == (h, w) else cv2.resize(small, (w, h), interpolation=cv2.INTER_LINEAR)
 
 
 def grade(bg: np.ndarray, lin: np.ndarray, box: tuple[int, int, int, int], before: float, meter: str = "frame",
