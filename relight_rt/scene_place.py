@@ -15,9 +15,9 @@ alpha-weighted centre and the width of the bottom ``SOLE`` of the box).
   the box goes to the same border of the background.
 * A **cut-off** person (a half body or a portrait: the photo's bottom border cuts them) is placed as the photo
   framed them: the photo's frame is scaled by background height / photo height (their relative height kept),
-  at least enough that a person cut by both side borders still reaches both (but never so far that more than
-  ``HEAD_ROOM`` of a person the photo showed whole at the top leaves the top: a tall portrait in a wide place
-  keeps its face and shows its cut sides), and each border that cut them goes to the same border of the background
+  or, for a person cut by both side borders, enough to reach both when that loses at most ``HEAD_ROOM`` of a
+  person the photo showed whole at the top (else the photo's framing stands: a tall portrait in a wide place keeps
+  its whole head and shows its cut sides), and each border that cut them goes to the same border of the background
   (the bottom always; a left or right one too; both: the frame centred). Not cut at a side, they keep their
   relative x and stay inside the picture, made as large as fits across if they are wider than it. ``position``
   moves the bottom centre of the box (the cut edge) and ``height`` sets the box's height as for a full body.
@@ -302,10 +302,10 @@ def place(rgba: np.ndarray, background_shape: tuple[int, ...], position=None, he
             scale = frac * hb / box_h
         else:
             scale = hb / hp  # the photo's frame height → the background's: the relative height kept
-            if sides == {"left", "right"}:  # reach both side borders, the head kept (nearly) whole
-                scale = max(scale, wb / wp)
-                if "top" not in fr.cut:
-                    scale = min(scale, hb / (box_h * (1 - HEAD_ROOM)))
+            reach = wb / wp  # the scale at which the photo's frame is as wide as the background
+            if sides == {"left", "right"} and reach > scale:  # reach both side borders if the head allows it
+                if "top" in fr.cut or reach <= hb / (box_h * (1 - HEAD_ROOM)):
+                    scale = reach
             elif box_w * scale > wb:  # not cut across: as large as fits
                 scale = wb / box_w
     new_h, new_w = max(1, round(box_h * scale)), max(1, round(box_w * scale))
