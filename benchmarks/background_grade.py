@@ -52,7 +52,8 @@ def clip(folder: str, preset: str) -> None:
         graded = follow.apply(out, frame.image, frame.mask, gain)
         lin_in, lin_out = srgb_to_linear(frame.image), srgb_to_linear(graded)
         for store, w in ((person, frame.mask), (back, 1 - frame.mask)):
-            store.append(math.log2(float(weighted_mean(lin_out, w) @ REC709) / float(weighted_mean(lin_in, w) @ REC709)))
+            after, before = weighted_mean(lin_out, w) @ REC709, weighted_mean(lin_in, w) @ REC709
+            store.append(math.log2(float(after) / float(before)))
     steps = lambda g: np.abs(np.diff(np.log2(np.array(g)) * 2.2))  # noqa: E731 - the grade's light, in EV
     print(f"{folder}: {len(alone)} frames, preset {preset}")
     for name, g in (("measured per frame", alone), ("followed (video)", followed)):
