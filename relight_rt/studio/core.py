@@ -36,7 +36,7 @@ import numpy as np
 from .. import envmap, lights, sh
 from .._errors import RelightError
 from .._io import as_colour, decode_bytes, encode_image, read_image, sibling_mask
-from .._limits import header_size
+from .._limits import header_size, shrink
 from .._strength import restore_bands
 from ..compositing import Background
 
@@ -101,20 +101,9 @@ def check_upload(data: bytes, name: str, allowed: tuple[str, ...], limit: int = 
     return found[1]
 
 
-def shrink(image: np.ndarray, max_pixels: int) -> np.ndarray:
-    """``image`` as decoded (any depth, 1-4 channels), shrunk by area averaging to at most ``max_pixels`` with its
-    aspect kept; the image itself when it is that small."""
-    h, w = image.shape[:2]
-    if h * w <= max_pixels:
-        return image
-    s = math.sqrt(max_pixels / (h * w))
-    size = (max(1, math.floor(w * s)), max(1, math.floor(h * s)))
-    return cv2.resize(image, size, interpolation=cv2.INTER_AREA)
-
-
 def decode_upload(data: bytes, name: str, max_pixels: int = UPLOAD_WORK_PIXELS) -> np.ndarray:
     """An uploaded PNG/JPEG/WebP/BMP as float32 RGB(A) in [0, 1] (alpha kept), checked by content, shrunk to at
-    most ``max_pixels`` (:func:`shrink`) as decoded, before the float conversion."""
+    most ``max_pixels`` (relight_rt._limits ``shrink``) as decoded, before the float conversion."""
     check_upload(data, name, ("png", "jpeg", "webp", "bmp"))
     img = decode_bytes(np.frombuffer(data, np.uint8))  # turned as its EXIF orientation says
     if img is None:
