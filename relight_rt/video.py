@@ -44,6 +44,7 @@ from ._video_io import (  # noqa: F401  (re-exported: the video API in one place
     FrameSink,
     FrameSource,
     batched,
+    empty_clip,
     read_frame,
     read_mask_file,
 )
@@ -446,16 +447,12 @@ def relight_video(source: FrameSource, lights: LightSchedule, sink: FrameSink, *
     except BaseException:
         sink.close(ok=False)
         raise
-    if n == 0:
+    empty = empty_clip(source.path, n, anyone, " (nothing to relight); give masks with --masks if there is one")
+    if empty is None and sink.count != n:  # frames written must equal frames read
+        empty = RelightError(f"{source.path}: {n} frames relit but {sink.count} written")
+    if empty is not None:  # nothing is written
         sink.close(ok=False)
-        raise RelightError(f"{source.path}: no frames could be read")
-    if sink.count != n:  # frames written must equal frames read
-        sink.close(ok=False)
-        raise RelightError(f"{source.path}: {n} frames relit but {sink.count} written")
-    if not anyone:  # as a photo of nobody is an error, so is a clip of nobody (issue 50 bug 14): nothing is written
-        sink.close(ok=False)
-        raise RelightError(f"{source.path}: no person found in any of the {n} frames (nothing to relight); give "
-                           "masks with --masks if there is one")  # fmt: skip
+        raise empty
     sink.close(ok=True)
     spf = (time.perf_counter() - start - callback) / n
     logger.debug("relit %d frames, %.3f s per frame", n, spf)  # the CLI says it once, with the lights
