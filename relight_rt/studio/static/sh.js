@@ -161,15 +161,20 @@ export function backgroundGrade(guard, light, ownWhite, gamma) {
   }
   const was = guard.own, now = [0, 0, 0], S = [0, 0, 0];
   for (let p = 0; p < n; p++) {
-    for (let c = 0; c < 3; c++) {
-      let s = 0;
-      for (let k = 0; k < 9; k++) s += T[k][p] * light[3 * k + c];
-      S[c] = Math.max(s, 0);
-    }
-    const y = Math.max(LUMA[0] * S[0] + LUMA[1] * S[1] + LUMA[2] * S[2], 1e-4);
+    const y = shadingAt(T, p, light, S);
     for (let c = 0; c < 3; c++) now[c] += srgbToLinear(lit[c][p] * S[c] + (steady[c][p] * S[c]) / y);
   }
   return now.map((v, c) => (was[c] > 1e-6 * Math.max(n, 1) ? Math.pow(v / was[c], 1 / gamma) : 1));
+}
+
+// Pixel p's RGB shading max(0, T·L) into S (3 numbers); returns its luminance, at least 1e-4.
+function shadingAt(T, p, light, S) {
+  for (let c = 0; c < 3; c++) {
+    let s = 0;
+    for (let k = 0; k < 9; k++) s += T[k][p] * light[3 * k + c];
+    S[c] = Math.max(s, 0);
+  }
+  return Math.max(LUMA[0] * S[0] + LUMA[1] * S[1] + LUMA[2] * S[2], 1e-4);
 }
 
 // sRGB's decoding curve (relight_rt.color.srgb_to_linear) of a value clipped to [0, 1].
@@ -190,12 +195,7 @@ export function highlightFactor(guard, light, limit, allowed, maxDown) {
   const reach = new Float32Array(n);
   const S = [0, 0, 0];
   for (let p = 0; p < n; p++) {
-    for (let c = 0; c < 3; c++) {
-      let s = 0;
-      for (let k = 0; k < 9; k++) s += T[k][p] * light[3 * k + c];
-      S[c] = Math.max(s, 0);
-    }
-    const y = Math.max(LUMA[0] * S[0] + LUMA[1] * S[1] + LUMA[2] * S[2], 1e-4);
+    const y = shadingAt(T, p, light, S);
     let r = Infinity;
     for (let c = 0; c < 3; c++) {
       const fixed = (steady[c][p] * S[c]) / y, scaled = lit[c][p] * S[c];
