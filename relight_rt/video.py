@@ -293,7 +293,6 @@ def composite(relit: np.ndarray, image: np.ndarray, mask: np.ndarray, background
 
 
 GRADE_SECONDS = 0.5  # --grade-background over a clip: the person's change followed with this time constant
-_GRADE_SAMPLES = 1 << 16  # ... measured on at most this many of the person's pixels
 
 
 class BackgroundGrade:
@@ -302,8 +301,8 @@ class BackgroundGrade:
     values with the exposure's 1 / 2.2 power), measured on every frame and followed over time.
 
     One frame's grade is measured where the frame is opaque person (alpha >= 1 - 1/255: there the relit frame is
-    the person's relit colour and the frame their own colour; relight_rt.relight.compose ``light_sums``), on an
-    even sample of those pixels; the soft edge, a few pixels of it, is left out. Measured afresh on each frame it
+    the person's relit colour and the frame their own colour; relight_rt.relight.compose ``light_sums``, on an
+    even sample of them); the soft edge, a few pixels of it, is left out. Measured afresh on each frame it
     would move with the person's pose, the matte and the stage-1 estimate (the reference clip under night: 0.008 EV
     from frame to frame at the median, 0.022 at most; benchmarks/background_grade.py --clip), and every pixel of a
     still background would flicker with it; so the log of the grade follows the frames' with an exponential time
@@ -321,12 +320,9 @@ class BackgroundGrade:
         """The clip's grade (3,) after this frame (``relit``: the frame relit over its own background)."""
         from .relight.compose import grade_of_sums, light_sums
 
-        inside = np.flatnonzero(mask.reshape(-1) >= 1 - 1 / 255)
-        if inside.size:  # a mean: every k-th of the person's pixels, at most _GRADE_SAMPLES (sRGB decoding is slow)
-            pick = inside[:: -(-inside.size // _GRADE_SAMPLES)]
-            relit_p, own_p = (a.reshape(-1, a.shape[-1])[pick, None, :3] for a in (relit, image))
-            now = np.log(np.maximum(grade_of_sums(*light_sums(relit_p, own_p, np.ones((pick.size, 1), np.float32))),
-                                    1e-6))
+        opaque = mask >= 1 - 1 / 255
+        if opaque.any():
+            now = np.log(np.maximum(grade_of_sums(*light_sums(relit, image, opaque)), 1e-6))
             self.log = now if self.log is None else self.keep * self.log + (1 - self.keep) * now
         return np.ones(3, np.float32) if self.log is None else np.exp(self.log).astype(np.float32)
 
