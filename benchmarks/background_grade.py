@@ -6,6 +6,12 @@ Relights a photo (default: the bundled street photo, relight_rt/data/example_sce
 by one minus it), and the per-channel gain of each.
 
     PYTHONPATH=$PWD python benchmarks/background_grade.py [PHOTO] [--preset night]
+    PYTHONPATH=$PWD python benchmarks/background_grade.py --clip ../shared/reference/video [--preset night]
+
+``--clip FOLDER`` (frames with STEM_mask files; ``relight-rt video --grade-background``): the grade each frame
+measures alone against the one the clip follows (relight_rt.video.BackgroundGrade), as the frame-to-frame change of
+its luminance in EV (median and largest: the background's flicker), and the person's and the background's change
+over the clip.
 """
 
 from __future__ import annotations
@@ -18,7 +24,7 @@ import numpy as np
 import relight_rt
 from relight_rt.color import srgb_to_linear
 from relight_rt.compositing import Background
-from relight_rt.exposure import REC709
+from relight_rt.exposure import REC709, for_light
 
 EXAMPLE = "relight_rt/data/example_scene.jpg"
 
@@ -28,11 +34,44 @@ def weighted_mean(image: np.ndarray, weight: np.ndarray) -> np.ndarray:
     return (image * w).sum(axis=(0, 1)) / max(float(w.sum()), 1e-9)
 
 
+def clip(folder: str, preset: str) -> None:
+    from relight_rt.relight.compose import grade_of_sums, light_sums
+    from relight_rt.video import BackgroundGrade, FrameSource, LightSchedule, RelighterEngine, relight_frames
+
+    rl = relight_rt.open()
+    source = FrameSource(folder)
+    follow = BackgroundGrade(source.fps)
+    lights = LightSchedule.constant(rl.resolve_light(preset))
+    engine = RelighterEngine(rl, exposure=for_light("auto", preset))  # night: a stop darker
+    alone, followed, person, back = [], [], [], []
+    for frame, out, _ in relight_frames(source, lights, engine=engine, stabilizer=None):
+        opaque = (frame.mask >= 1 - 1 / 255).astype(np.float32)
+        alone.append(float(grade_of_sums(*light_sums(out, frame.image, opaque)) @ REC709))
+        gain = follow.update(out, frame.image, frame.mask)
+        followed.append(float(gain @ REC709))
+        graded = follow.apply(out, frame.image, frame.mask, gain)
+        lin_in, lin_out = srgb_to_linear(frame.image), srgb_to_linear(graded)
+        for store, w in ((person, frame.mask), (back, 1 - frame.mask)):
+            after, before = weighted_mean(lin_out, w) @ REC709, weighted_mean(lin_in, w) @ REC709
+            store.append(math.log2(float(after) / float(before)))
+    steps = lambda g: np.abs(np.diff(np.log2(np.array(g)) * 2.2))  # noqa: E731 - the grade's light, in EV
+    print(f"{folder}: {len(alone)} frames, preset {preset}")
+    for name, g in (("measured per frame", alone), ("followed (video)", followed)):
+        st = steps(g)
+        print(f"  background grade {name:18s}: frame-to-frame change median {np.median(st):.4f} EV, largest "
+              f"{st.max():.4f} EV")
+    print(f"  person {np.mean(person):+.3f} EV, background graded {np.mean(back):+.3f} EV (mean over frames)")
+
+
 def main() -> None:
     p = argparse.ArgumentParser()
     p.add_argument("photo", nargs="?", default=EXAMPLE)
     p.add_argument("--preset", default="night")
+    p.add_argument("--clip", help="a folder of frames with STEM_mask files: the grade over time")
     args = p.parse_args()
+    if args.clip:
+        clip(args.clip, args.preset)
+        return
     rl = relight_rt.open()
     dec = rl.decompose(args.photo)
     alpha = np.asarray(dec.mask, np.float32)

@@ -1,7 +1,7 @@
 """Issue 48's faults of relit real photos, each as a figure over whole sets (not one photo at a time).
 
     python benchmarks/photo_faults.py --out runs/faults [--people ../shared/realdata/people_masks]
-        [--reference ../shared/reference] [--stride 3] [--max-side 1000]
+        [--reference ../shared/reference] [--stride 3] [--max-side 1000] [--teal-only] [--lights campfire,front]
 
 Relights with whatever ``relight_rt`` is importable (run from a checkout with PYTHONPATH=.), on the CPU, under
 every preset (by name, so a preset's own exposure applies, as the CLI does) and two white side lamps (``LEFT``,
@@ -14,7 +14,10 @@ mask (../shared/realdata: evaluation only; the given masks keep the matte out of
   and chroma C* < 8: neutral), the share of those pixels that a light gives a* < -8 (issue 48: none in the input,
   19-35 % on a black jacket). Per light: median and worst over the photos. ("teal_dark" counts every dark pixel
   with a* >= -8 as issue 48 first put it: it also counts a saturated blue cloth that a warm light turns cyan,
-  as it would, and a teal-graded photo's dark shirt at a* -7 that a brighter light carries past -8.)
+  as it would, and a teal-graded photo's dark shirt at a* -7 that a brighter light carries past -8.) "teal_neutral":
+  the same on the near-black pixels that are neutral as 8-bit values (channels within ``SPREAD`` levels: what JPEG
+  and quantisation leave on a grey) rather than by Lab chroma: C* < 8 at L* < 30 also takes in the folds of a dark
+  teal shirt (8, 21, 29 in levels) whose colour a warm light rightly turns green.
 - night: the person's mean linear luminance (Rec. 709) relit under ``night`` over the input's, in EV; the README
   says a stop darker (-1 EV). Median and spread over every photo.
 - rim: on faces the bundled face mesh finds (the convex hull of its 468 points; at most the largest face), the
@@ -47,6 +50,7 @@ from relight_rt import Relighter, RuntimeConfig, lights
 from relight_rt._face_geometry import FaceMesh
 
 DARK_L, TEAL_A, NEUTRAL_C = 30.0, -8.0, 8.0
+SPREAD = 6  # teal_neutral: a near-black pixel whose channels lie within this many 8-bit levels is grey
 BAND = 24
 
 
@@ -84,16 +88,29 @@ def face_region(mesh: FaceMesh, rgb: np.ndarray, person: np.ndarray) -> np.ndarr
     return region if region.sum() >= 400 else None
 
 
+def near_black(rgb: np.ndarray, person: np.ndarray) -> tuple[np.ndarray, bool]:
+    """The person's near-black pixels (L* < DARK_L, C* < NEUTRAL_C) and whether they count (400 px, 2 %)."""
+    lab_in = lab(rgb)
+    black = person & (lab_in[..., 0] < DARK_L) & (np.hypot(lab_in[..., 1], lab_in[..., 2]) < NEUTRAL_C)
+    return black, bool(black.sum() >= max(400, 0.02 * person.sum()))
+
+
+def has_near_black(rgb: np.ndarray, mask: np.ndarray) -> bool:
+    return near_black(rgb, mask > 0.5)[1]
+
+
 def photo_figures(relighter: Relighter, mesh: FaceMesh, rgb: np.ndarray, mask: np.ndarray, names: list[str],
-                  auto_matte: bool = False) -> dict:
+                  auto_matte: bool = False, teal_only: bool = False) -> dict:
     dec = relighter.decompose(rgb, None if auto_matte else mask)
     person = mask > 0.5
     lab_in = lab(rgb)
     dark = person & (lab_in[..., 0] < DARK_L) & (lab_in[..., 1] >= TEAL_A)
     has_dark = dark.sum() >= max(400, 0.02 * person.sum())
-    black = person & (lab_in[..., 0] < DARK_L) & (np.hypot(lab_in[..., 1], lab_in[..., 2]) < NEUTRAL_C)
-    has_black = black.sum() >= max(400, 0.02 * person.sum())
-    face = face_region(mesh, rgb, person)
+    black, has_black = near_black(rgb, person)
+    levels = np.round(rgb * 255)
+    grey = black & (levels.max(axis=2) - levels.min(axis=2) <= SPREAD)
+    has_grey = has_black and grey.sum() >= 100
+    face = None if teal_only else face_region(mesh, rgb, person)
     out: dict = {"dark_share": float(dark.sum() / max(person.sum(), 1)),
                  "black_share": float(black.sum() / max(person.sum(), 1)), "face": face is not None, "lights": {}}
     y_in = float(luminance(rgb)[person].mean())
@@ -106,6 +123,8 @@ def photo_figures(relighter: Relighter, mesh: FaceMesh, rgb: np.ndarray, mask: n
             row["teal_dark"] = float((lab_out[..., 1][dark] < TEAL_A).mean())
         if has_black:
             row["teal"] = float((lab_out[..., 1][black] < TEAL_A).mean())
+        if has_grey:
+            row["teal_neutral"] = float((lab_out[..., 1][grey] < TEAL_A).mean())
         if face is not None:
             dl = lab_out[..., 0] - lab_in[..., 0]
             row["face_abs_dl"] = float(np.median(np.abs(dl[face])))
@@ -141,7 +160,7 @@ def background_figures(relighter: Relighter, rgb: np.ndarray, truth: np.ndarray,
 
 def summarise(photos: dict, clip: dict, names: list[str]) -> dict:
     s: dict = {"teal": {}, "night_ev": None, "rim": None, "background": {}}
-    for key in ("teal", "teal_dark"):
+    for key in ("teal", "teal_neutral", "teal_dark"):
         s[key] = {}
         for name in names:
             teal = [p["lights"][name][key] for p in photos.values() if key in p["lights"][name]]
@@ -196,13 +215,18 @@ def main(argv=None) -> int:
     p.add_argument("--auto-matte", action="store_true", help="relight the photos with the automatic matte (the "
                    "figures still count the given mask's person)")
     p.add_argument("--skip-clip", action="store_true")
+    p.add_argument("--teal-only", action="store_true", help="only the photos with near-black clothing and only the "
+                   "teal figures (about a minute for --stride 4; implies --skip-clip)")
+    p.add_argument("--lights", default=None, help="comma-separated preset names (and LEFT, RIGHT): these only")
     args = p.parse_args(argv)
+    if args.teal_only:
+        args.skip_clip = True
     for attr, alt in (("people", "../shared/realdata/people_masks"), ("reference", "../shared/reference")):
         if not getattr(args, attr).is_dir() and Path(alt).is_dir():
             setattr(args, attr, Path(alt))
     relighter = Relighter(RuntimeConfig(models=args.models, device="cpu"))
     mesh = FaceMesh(relighter.models_dir)
-    names = [*lights.list_presets(), "LEFT", "RIGHT"]
+    names = args.lights.split(",") if args.lights else [*lights.list_presets(), "LEFT", "RIGHT"]
     args.out.mkdir(parents=True, exist_ok=True)
     t0 = time.time()
 
@@ -224,7 +248,9 @@ def main(argv=None) -> int:
             if (mask > 0.5).sum() < 2000:
                 continue
             try:
-                photos[name] = photo_figures(relighter, mesh, rgb, mask, names, args.auto_matte)
+                if args.teal_only and not has_near_black(rgb, mask):
+                    continue
+                photos[name] = photo_figures(relighter, mesh, rgb, mask, names, args.auto_matte, args.teal_only)
             except Exception as exc:  # noqa: BLE001 - one photo's failure is reported, the set goes on
                 photos[name] = {"error": str(exc), "lights": {}}
             print(f"{name}: {time.time() - t0:.0f} s", flush=True)

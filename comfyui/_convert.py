@@ -16,6 +16,7 @@ import numpy as np
 import torch
 
 from relight_rt import RelightError
+from relight_rt._io import read_mask
 
 
 def _describe(t) -> str:
@@ -49,7 +50,8 @@ def masks_to_arrays(mask, count: int, size: tuple[int, int], name: str = "mask")
     A batch of one is used for every image (ComfyUI's broadcasting of a single mask).
 
     Raises:
-        RelightError: another shape, a batch size that is neither 1 nor ``count``, a size other than ``size``.
+        RelightError: another shape, a batch size that is neither 1 nor ``count``, a size other than ``size``,
+            values that relight_rt._io.read_mask refuses (not finite, outside [0, 1]).
     """
     if mask is None:
         return [None] * count
@@ -61,10 +63,10 @@ def masks_to_arrays(mask, count: int, size: tuple[int, int], name: str = "mask")
     if tuple(m.shape[1:]) != tuple(size):
         raise RelightError(f"{name}: expected the image's size {size[0]}x{size[1]}, got {m.shape[1]}x{m.shape[2]} "
                            "(LoadImage gives a 64x64 mask for a photo without alpha: leave the mask unconnected)")
-    arr = m.detach().to("cpu", torch.float32)
-    if not bool(torch.isfinite(arr).all()) or float(arr.min()) < -1e-6 or float(arr.max()) > 1 + 1e-6:
-        raise RelightError(f"{name}: expected finite values in [0, 1]")
-    out = [np.clip(a, 0.0, 1.0) for a in arr.numpy()]
+    arr = m.detach().to("cpu", torch.float32).numpy()
+    # values, dtype and size as every mask of relight_rt is checked (a new float32 array: never the tensor's memory);
+    # empty masks pass, as a video frame's do (the Decompose node says what an empty one means)
+    out = [read_mask(a, size, name if len(arr) == 1 else f"{name} {i}", allow_empty=True) for i, a in enumerate(arr)]
     return out * count if len(out) == 1 else out
 
 

@@ -80,6 +80,26 @@ def check_array_pixels(a: np.ndarray, name: str) -> None:
         check_pixels(int(a.shape[1]), int(a.shape[0]), name)
 
 
+def shrink(image: np.ndarray, max_pixels: int) -> np.ndarray:
+    """``image`` as decoded (any depth, 1-4 channels), shrunk by area averaging to at most ``max_pixels`` with its
+    aspect kept; the image itself when it is that small. A width that is a whole multiple of the height stays that
+    multiple (an equirectangular panorama stays 2:1: the largest (h, 2h) within ``max_pixels``). The studio's
+    uploads and a panorama read for a preview (relight_rt.envmap) are held to their size this way, before any
+    full-size float copy."""
+    import cv2
+
+    h, w = image.shape[:2]
+    if h * w <= max_pixels:
+        return image
+    if w % h == 0:
+        small_h = max(1, math.isqrt(max_pixels // (w // h)))
+        size = (w // h * small_h, small_h)
+    else:
+        s = math.sqrt(max_pixels / (h * w))
+        size = (max(1, math.floor(w * s)), max(1, math.floor(h * s)))
+    return cv2.resize(image, size, interpolation=cv2.INTER_AREA)
+
+
 # ------------------------------------------------------------------------------------- image headers
 
 

@@ -404,6 +404,17 @@ class FrameSource:
                 mask_frames.close()
 
 
+def empty_clip(name, frames: int, anyone: bool, hint: str = "") -> RelightError | None:
+    """The one error of a clip read to its end with no frame, or with nobody in any frame (as a photo of nobody is
+    an error, so is a clip of nobody: issue 50 bug 14); None for a clip with a person. ``hint``: what the caller
+    adds after the message ("; give masks ...")."""
+    if frames == 0:
+        return RelightError(f"{name}: no frames could be read")
+    if not anyone:
+        return RelightError(f"{name}: no person found in any of the {frames} frames{hint}")
+    return None
+
+
 def batched(frames: Iterator[Frame] | FrameSource, batch_size: int) -> Iterator[list[Frame]]:
     """Group a stream of frames into lists of at most ``batch_size`` (never reads ahead further)."""
     if batch_size < 1:

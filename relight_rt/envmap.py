@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import functools
 import logging
-import math
 from pathlib import Path
 
 import numpy as np
@@ -174,16 +173,16 @@ _ENV_EXTS = (".hdr", ".pic", ".exr", ".png", ".jpg", ".jpeg")
 
 def _reduce_envmap(rgb: np.ndarray, ldr: bool, max_pixels: int) -> np.ndarray:
     """An (H, 2H[, C]) map as decoded (uint8/uint16 sRGB when ``ldr``, else float; channels as stored) shrunk by
-    area averaging to the largest (h, 2h) of at most ``max_pixels``, as float32 linear values: what it averages is
-    linear light (sRGB codes go through a 16-bit linear table first), and no full-size float copy is made."""
-    import cv2
+    area averaging to the largest (h, 2h) of at most ``max_pixels`` (relight_rt._limits ``shrink``), as float32
+    linear values: what it averages is linear light (sRGB codes go through a 16-bit linear table first), and no
+    full-size float copy is made."""
+    from ._limits import shrink
 
-    h = max(1, math.isqrt(max_pixels // 2))
     if ldr:
         top = np.iinfo(rgb.dtype).max
         table = np.rint(srgb_to_linear(np.arange(top + 1, dtype=np.float32) / top) * 65535).astype(np.uint16)
         rgb = table[rgb]  # linear, uint16: 6 bytes a pixel
-    small = cv2.resize(rgb, (2 * h, h), interpolation=cv2.INTER_AREA)
+    small = shrink(rgb, max_pixels)
     return small.astype(np.float32) / np.float32(65535) if ldr else small.astype(np.float32)
 
 

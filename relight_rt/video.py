@@ -44,6 +44,7 @@ from ._video_io import (  # noqa: F401  (re-exported: the video API in one place
     FrameSink,
     FrameSource,
     batched,
+    empty_clip,
     read_frame,
     read_mask_file,
 )
@@ -291,6 +292,55 @@ def composite(relit: np.ndarray, image: np.ndarray, mask: np.ndarray, background
     return over_premultiplied(person, mask, bg.backdrop(image))
 
 
+GRADE_SECONDS = 0.5  # --grade-background over a clip: the person's change followed with this time constant
+
+
+class BackgroundGrade:
+    """The original background following the light over a clip (``Background.original(grade=True)``): the still
+    photo's global grade (relight_rt.compositing; the person's change in light per channel, put on the backdrop's
+    values with the exposure's 1 / 2.2 power), measured on every frame and followed over time.
+
+    One frame's grade is measured where the frame is opaque person (alpha >= 1 - 1/255: there the relit frame is
+    the person's relit colour and the frame their own colour; relight_rt.relight.compose ``light_sums``, on an
+    even sample of them); the soft edge, a few pixels of it, is left out. Measured afresh on each frame it
+    would move with the person's pose, the matte and the stage-1 estimate (the reference clip under night: 0.008 EV
+    from frame to frame at the median, 0.022 at most; benchmarks/background_grade.py --clip), and every pixel of a
+    still background would flicker with it; so the log of the grade follows the frames' with an exponential time
+    constant of
+    ``GRADE_SECONDS`` (a light changing over seconds, a schedule's or a rotation's, is followed within that). The
+    first frame with a person takes its own grade; a frame without one keeps the grade the clip had (none before
+    any person: the background as it is).
+    """
+
+    def __init__(self, fps: float) -> None:
+        self.keep = float(np.exp(-1.0 / (max(fps, 1e-3) * GRADE_SECONDS)))
+        self.log: np.ndarray | None = None
+
+    def update(self, relit: np.ndarray, image: np.ndarray, mask: np.ndarray) -> np.ndarray:
+        """The clip's grade (3,) after this frame (``relit``: the frame relit over its own background)."""
+        from .relight.compose import grade_of_sums, light_sums
+
+        opaque = mask >= 1 - 1 / 255
+        if opaque.any():
+            now = np.log(np.maximum(grade_of_sums(*light_sums(relit, image, opaque)), 1e-6))
+            self.log = now if self.log is None else self.keep * self.log + (1 - self.keep) * now
+        return np.ones(3, np.float32) if self.log is None else np.exp(self.log).astype(np.float32)
+
+    @staticmethod
+    def apply(relit: np.ndarray, image: np.ndarray, mask: np.ndarray, gain: np.ndarray) -> np.ndarray:
+        """``relit`` (over the frame's own background) with that background graded by ``gain``: outside the matte
+        and behind the soft edge (the colour behind it as the frame's relighting took it: the solid colours beside
+        it, relight_rt.foreground ``nearest_colours``), clipped to [0, 1]."""
+        from .foreground import nearest_colours
+
+        behind = nearest_colours(np.ascontiguousarray(image[..., :3], np.float32), mask)[1]
+        change = np.minimum(behind * gain, 1, dtype=np.float32)  # the backdrop graded, clipped at white ...
+        change -= behind  # ... less what the frame shows of it, by the share it shows
+        change *= (1 - mask)[..., None]
+        change += relit[..., :3]
+        return np.clip(change, 0, 1, out=change)
+
+
 def relight_frames(source: Iterator[Frame] | FrameSource, lights: LightSchedule, *, fps: float | None = None,
                    engine: Engine | None = None, dvp: DVPModel | None = None, stabilizer: Stabilizer | None = None,
                    batch_size: int = 4, background: Background | str = "original",
@@ -317,6 +367,9 @@ def relight_frames(source: Iterator[Frame] | FrameSource, lights: LightSchedule,
         if fps is None:
             raise RelightError("video: fps is needed for a stream of frames without one")
     fitted: dict[tuple[int, int], Background] = {}
+    grade = BackgroundGrade(fps) if bg.graded else None  # the grade follows the clip's frames (no flicker)
+    if grade is not None:
+        bg = Background.original()  # each frame relit over its own background, then graded by the clip's grade
 
     def backdrop_for(frame: Frame) -> Background:  # an image background is read and fitted once per frame size
         if bg.kind != "image":
@@ -354,6 +407,10 @@ def relight_frames(source: Iterator[Frame] | FrameSource, lights: LightSchedule,
                 if with_layers and engine is not None:
                     extras[i]["albedo"] = np.zeros_like(f.image)
                     extras[i]["transport"] = np.zeros((*f.image.shape[:2], 9), np.float32)
+            if grade is not None:  # in frame order: the clip's grade after this frame
+                gain = grade.update(outs[i], f.image, f.mask)
+                outs[i] = grade.apply(outs[i], f.image, f.mask, gain)
+                extras[i]["background_grade"] = gain
             yield f, outs[i], extras[i]
 
 
@@ -395,16 +452,12 @@ def relight_video(source: FrameSource, lights: LightSchedule, sink: FrameSink, *
     except BaseException:
         sink.close(ok=False)
         raise
-    if n == 0:
+    empty = empty_clip(source.path, n, anyone, " (nothing to relight); give masks with --masks if there is one")
+    if empty is None and sink.count != n:  # frames written must equal frames read
+        empty = RelightError(f"{source.path}: {n} frames relit but {sink.count} written")
+    if empty is not None:  # nothing is written
         sink.close(ok=False)
-        raise RelightError(f"{source.path}: no frames could be read")
-    if sink.count != n:  # frames written must equal frames read
-        sink.close(ok=False)
-        raise RelightError(f"{source.path}: {n} frames relit but {sink.count} written")
-    if not anyone:  # as a photo of nobody is an error, so is a clip of nobody (issue 50 bug 14): nothing is written
-        sink.close(ok=False)
-        raise RelightError(f"{source.path}: no person found in any of the {n} frames (nothing to relight); give "
-                           "masks with --masks if there is one")  # fmt: skip
+        raise empty
     sink.close(ok=True)
     spf = (time.perf_counter() - start - callback) / n
     logger.debug("relit %d frames, %.3f s per frame", n, spf)  # the CLI says it once, with the lights

@@ -193,7 +193,7 @@ def _run_video(video: Path, out: Path, vm, binary: bool) -> int:
     """Mask every frame of a video file: frames are read as ``video`` reads them (relight_rt._video_io: the
     pixel limit checked from the header, a damaged packet or fewer frames than the header announces is an
     error), so the mask video has exactly one frame per frame of the clip, or is not written."""
-    from .._video_io import FrameSink, FrameSource
+    from .._video_io import FrameSink, FrameSource, empty_clip
 
     as_video = out.suffix.lower() in VIDEO_SUFFIXES
     if out.suffix and not as_video:
@@ -209,9 +209,8 @@ def _run_video(video: Path, out: Path, vm, binary: bool) -> int:
             sink.write(f"frame_{frame.index:06d}_mask", np.repeat(alpha[..., None], 3, axis=2))
             count += 1
             bar.update()
-        if count == 0:
-            raise RelightError(f"{video}: no frames could be read")
-        if not anyone:  # as for a photo (issue 50 bug 14); raised inside the sink's block: nothing is kept
-            raise RelightError(f"{video}: no person found in any of the {count} frames")
+        empty = empty_clip(video, count, anyone)
+        if empty is not None:  # raised inside the sink's block: nothing is kept
+            raise empty
     log.info("%s: %d mask frames -> %s", video, count, out)
     return 0

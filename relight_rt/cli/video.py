@@ -7,6 +7,7 @@ Examples::
     relight-rt video frames/ -o out.mp4 --frames-out out_frames/ --lights per_frame.npy
     relight-rt video frames/ -o out.mp4 --interpolate golden-hour sky.hdr night
     relight-rt video frames/ -o out.mp4 --lights per_frame.npy --dvp dvp.onnx
+    relight-rt video clip.mp4 -o night.mp4 --preset night --grade-background
 
 Deep video prior, from any light schedule: relight frame by frame keeping the frames and the lights
 used (``--no-stabilize --frames-out relit/ --lights-out lights.npy``), fit it (``python -m export
@@ -24,6 +25,7 @@ from .._errors import RelightError
 from .options import (
     add_background_option,
     add_exposure_option,
+    add_grade_background_option,
     add_light_options,
     add_ray_options,
     add_runtime_options,
@@ -61,6 +63,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="weight of the warped history where the flow is reliable, in [0, 1) (default 0.8)")
     p.add_argument("--batch-size", type=int, default=4, help="frames per stage-1 / DVP run")
     add_background_option(p)
+    add_grade_background_option(p)  # one global grade per frame, followed over time (video.BackgroundGrade)
     add_exposure_option(p)
     p.add_argument("--fps", type=float, help="frame rate of a frame folder (default 25) or override the video's")
     add_runtime_options(p)

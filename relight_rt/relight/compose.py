@@ -4,6 +4,8 @@ backdrop (``backdrop``)."""
 
 from __future__ import annotations
 
+import math
+
 import cv2
 import numpy as np
 
@@ -18,6 +20,7 @@ from .look import dark_colour, knee, shoulder, steady_chroma
 _ALPHA_MIN = np.float32(1e-3)
 _SOFT = 1.0 / 255  # a matte value further than this from 0 and 1 is a soft edge (mixes person and background)
 _THIN_EDGE = 4.0  # px: a soft edge no wider than this on average is feathering or anti-aliasing (F/B from beside it)
+GRADE_SAMPLES = 1 << 16  # light_sums: the matte's pixels the background's grade is measured on (at most)
 
 
 def consistent(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray, bg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -68,11 +71,26 @@ def background_grade(colour: np.ndarray, own: np.ndarray, alpha: np.ndarray) -> 
 
 def light_sums(colour: np.ndarray, own: np.ndarray, alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
     """``background_grade``'s sums over a matte: the relit and the own colour in light, each (3,) float64, and the
-    matte's sum. Sums of several people (a group, relit person by person) add up to the group's grade."""
-    a = alpha.reshape(alpha.shape[:2] + (1,)).astype(np.float32)
-    new = (srgb_to_linear(np.clip(colour, 0, 1)) * a).sum(axis=(0, 1), dtype=np.float64)
-    old = (srgb_to_linear(np.clip(own, 0, 1)) * a).sum(axis=(0, 1), dtype=np.float64)
-    return new, old, float(a.sum())
+    matte's sum. Sums of several people (a group, relit person by person) add up to the group's grade.
+
+    A mean needs no more than ``GRADE_SAMPLES`` pixels: the sums are taken on an even sample of the matte's pixels
+    and scaled to all of them (decoding sRGB costs ~100 ms a megapixel; the grade moves by < 0.1 % of itself)."""
+    a = alpha.reshape(-1).astype(np.float32, copy=False)
+    inside = np.flatnonzero(a > 0)
+    if inside.size == 0:
+        return np.zeros(3), np.zeros(3), 0.0
+    step = -(-inside.size // GRADE_SAMPLES)
+    while step > 1 and math.gcd(step, alpha.shape[1]) != 1:  # not the same columns on every row
+        step += 1
+    pick = inside[::step]
+    w = a[pick, None]
+    scale = float(a.sum(dtype=np.float64)) / max(float(w.sum(dtype=np.float64)), 1e-12)
+
+    def summed(rgb: np.ndarray) -> np.ndarray:
+        values = np.clip(rgb.reshape(-1, rgb.shape[-1])[pick, :3], 0, 1)
+        return (srgb_to_linear(values) * w).sum(axis=0, dtype=np.float64) * scale
+
+    return summed(colour), summed(own), float(a.sum(dtype=np.float64))
 
 
 def grade_of_sums(new: np.ndarray, old: np.ndarray, weight: float) -> np.ndarray:

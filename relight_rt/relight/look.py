@@ -153,11 +153,14 @@ def dark_colour(image: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     cloth's cast is shared by its pixels) are below ``_NEUTRAL_L[0]``, ``_NEUTRAL_C[0]`` and ``_NEUTRAL_A[0]``, 0
     from ``_NEUTRAL_L[1]``, ``_NEUTRAL_C[1]`` or ``_NEUTRAL_A[1]`` up, linear between. Only a green-cyan cast
     (what a light turns teal): without that gate the deep shade of blue jeans ((6, 9, 14), a* 0) and shaded dark
-    skin (warm, C* 8-12 at L* < 30) went grey on the bundled example under studio (up to 33 levels). A black
-    jacket whose pixels agree on a faint cyan cast (0.04, 0.10, 0.12: C* ~6 at L* ~8) kept it under the neighbours'
-    rule, and a light that brightened it 2-4x made it a visible teal (issue 48: on people photos up to 20 % of such
-    pixels at a* < -8 under campfire, 48 % under front on a teal-graded photo); pulled toward grey, it takes the
-    light's colour instead.
+    skin (warm, C* 8-12 at L* < 30) went grey on the bundled example under studio (up to 33 levels). Dark pixels
+    whose neighbours agree on a green-cyan cast keep it under the neighbours' rule, and a light that brightens them
+    2-4x shows it, a warm light as green (the factor carries the light's colour only: cyan less blue); pulled toward
+    grey, they take the light's colour instead. Where the cast is the photo's grade (a teal-graded photo: 21 % of
+    its grey near-black pixels past a* -8 under rim without this rule, 0.3 % with it) or a green backdrop's spill
+    in dark hair (3.7 % -> 0.4 % under window-left), that is right; where it is the cloth's own colour, the folds
+    of a dark teal shirt ((0.04, 0.10, 0.12), C* ~6 at L* ~8, green where lit), it is not: the pulled folds turn
+    brown-olive beside the green ones under campfire (docs/results_pending/faults.md).
     """
     y = cv2.transform(image, _exposure.REC709.reshape(1, 3))  # (h, w): one output channel
     dark = (y < _DARK).astype(np.float32)

@@ -36,8 +36,9 @@ import numpy as np
 from .. import envmap, lights, sh
 from .._errors import RelightError
 from .._io import as_colour, decode_bytes, encode_image, read_image, sibling_mask
-from .._limits import header_size
+from .._limits import header_size, shrink
 from .._strength import restore_bands
+from ..color import srgb_to_linear
 from ..compositing import Background
 
 log = logging.getLogger(__name__)
@@ -52,6 +53,7 @@ EXPOSURE_SAMPLES = 1 << 15  # network-frame pixels of the person that the page's
 from .. import exposure as _exposure  # noqa: E402  (the one exposure rule)
 from ..exposure import METER_POWER, exposure_scale, guarded, mean_luminance, parse_exposure  # noqa: E402
 from ..lightspec import LightSpec  # noqa: E402  (the one light parser)
+from ..relight.compose import grade_of_sums  # noqa: E402  (the one background grade)
 from ..relight.decomposition import intrinsic_layers  # noqa: E402
 from ..relight.look import SKIN_CHROMA, skin_chroma  # noqa: E402  (the shaded-skin rule the preview mirrors)
 
@@ -101,20 +103,9 @@ def check_upload(data: bytes, name: str, allowed: tuple[str, ...], limit: int = 
     return found[1]
 
 
-def shrink(image: np.ndarray, max_pixels: int) -> np.ndarray:
-    """``image`` as decoded (any depth, 1-4 channels), shrunk by area averaging to at most ``max_pixels`` with its
-    aspect kept; the image itself when it is that small."""
-    h, w = image.shape[:2]
-    if h * w <= max_pixels:
-        return image
-    s = math.sqrt(max_pixels / (h * w))
-    size = (max(1, math.floor(w * s)), max(1, math.floor(h * s)))
-    return cv2.resize(image, size, interpolation=cv2.INTER_AREA)
-
-
 def decode_upload(data: bytes, name: str, max_pixels: int = UPLOAD_WORK_PIXELS) -> np.ndarray:
     """An uploaded PNG/JPEG/WebP/BMP as float32 RGB(A) in [0, 1] (alpha kept), checked by content, shrunk to at
-    most ``max_pixels`` (:func:`shrink`) as decoded, before the float conversion."""
+    most ``max_pixels`` (relight_rt._limits ``shrink``) as decoded, before the float conversion."""
     check_upload(data, name, ("png", "jpeg", "webp", "bmp"))
     img = decode_bytes(np.frombuffer(data, np.uint8))  # turned as its EXIF orientation says
     if img is None:
@@ -355,6 +346,7 @@ class Studio:
             "transport_scale": scale.astype(float).tolist(),
             "exposure_target": target,
             "exposure_power": METER_POWER,
+            "display_gamma": _exposure.DISPLAY_GAMMA,  # an EV's gain on encoded values: 2 ** (EV / this)
             "exposure_samples": int(mask_s.size),
             "exposure_offset": offset,
             "highlight_samples": int(lit_h.shape[0]),
@@ -382,6 +374,21 @@ class Studio:
         target = self._layers["exposure_target"]
         scale = exposure_scale(albedo_s[None], transport_s[None], mask_s[None], lit, target, "auto", METER_POWER)
         return guarded(lit * np.float32(scale), exp, self._highlight)
+
+    def preview_grade(self, shown) -> np.ndarray:
+        """(3,) the background's grade the page's preview draws for the light it shows (``preview_light``'s) when
+        the background follows the light: the final result's rule (relight_rt.relight.compose
+        ``background_grade``) on the highlight sample, the result's picture without stage 2's residual (relit:
+        lit S + steady S / Y(S); own: lit Y(W) + steady, W the photo's own light, white). What sh.js
+        ``backgroundGrade`` computes."""
+        lit_h, steady_h, transport_h, _ = self._highlight
+        light = np.asarray(shown, np.float32).reshape(9, 3)
+        shading = np.maximum(transport_h @ light, 0)
+        y = np.maximum(shading @ _exposure.REC709, 1e-4)[:, None]
+        own = np.maximum(transport_h @ np.asarray(self.dec.white_light, np.float32)[:, 0], 0)[:, None]
+        new = srgb_to_linear(np.clip(lit_h * shading + steady_h * shading / y, 0, 1)).sum(axis=0, dtype=np.float64)
+        old = srgb_to_linear(np.clip(lit_h * own + steady_h, 0, 1)).sum(axis=0, dtype=np.float64)
+        return grade_of_sums(new, old, float(lit_h.shape[0]))
 
     def photo_png(self) -> bytes:
         """The photo as the pipeline reads it (upright, RGB, full resolution) as PNG: the page's "before"."""

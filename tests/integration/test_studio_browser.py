@@ -78,6 +78,16 @@ def open_page(browser, url: str, viewport: tuple[int, int] | None = None):
     return page
 
 
+def open_renderer(browser, url: str, renderer: str):
+    """``open_page`` with the preview on ``renderer`` ("webgl" or "canvas"); skips where chromium has no WebGL 2."""
+    page = open_page(browser, f"{url}/?renderer={renderer}")
+    kind = page.evaluate("studio.state.preview.kind")
+    if renderer == "webgl" and kind != "WebGL 2":
+        page.close()
+        pytest.skip(f"no WebGL 2 in this chromium (preview runs on {kind})")
+    return page
+
+
 def canvas_rgb(page) -> np.ndarray:
     """The preview canvas as (h, w, 3) uint8 RGB (painted and read in one task: WebGL keeps no drawing buffer)."""
     url = page.evaluate(
@@ -168,10 +178,7 @@ def test_preview_is_the_diffuse_image(browser, server, studio, renderer):
     """The page draws albedo x shading with the shaded-skin gain, in both renderers: under a bright coloured
     light (the skin brightened everywhere: no gain) and under a lamp from the image's left with a little ambient
     (the skin's far side darkened: the gain moves it)."""
-    page = open_page(browser, f"{server}/?renderer={renderer}")
-    kind = page.evaluate("studio.state.preview.kind")
-    if renderer == "webgl" and kind != "WebGL 2":
-        pytest.skip(f"no WebGL 2 in this chromium (preview runs on {kind})")
+    page = open_renderer(browser, server, renderer)
     meta = studio.info()["preview"]
     layers = unpack_layers(studio.layers_bytes(), meta)
     bright = lights.preset("neon") + lights.directional((0.5, 0.7, 0.5), (1, 0.9, 0.8), 0.8, 0.2)
@@ -427,10 +434,7 @@ def test_before_after_shows_the_original_while_held(browser, server, studio):
 def test_zoom_and_pan_on_the_live_preview_and_the_result(browser, server, studio, renderer):
     """The mouse wheel zooms about the pointer and a drag pans, alike on the live preview (WebGL or Canvas 2D)
     and on the server's result: magnified 4x, the frame shows the preview's own pixels, 4x4 each."""
-    page = open_page(browser, f"{server}/?renderer={renderer}")
-    kind = page.evaluate("studio.state.preview.kind")
-    if renderer == "webgl" and kind != "WebGL 2":
-        pytest.skip(f"no WebGL 2 in this chromium (preview runs on {kind})")
+    page = open_renderer(browser, server, renderer)
     wait_full_result(page)
     fit = view_geometry(page)
     f = fit["frame"]
@@ -642,4 +646,58 @@ def test_night_preset_sets_its_exposure(browser, server):
     page.dispatch_event("#exposure-ev", "input")
     page.select_option("#base", "preset:front")
     assert page.evaluate(read)[:2] == ["ev", -0.5]  # the user's own setting stays
+    page.close()
+
+
+@pytest.fixture(scope="module")
+def street():
+    """A Studio of the bundled street photo (a backdrop to grade; the automatic matte) and its server's URL."""
+    st = Studio(str(REPO / "relight_rt" / "data" / "example_scene.jpg"), None, "original",
+                relight_rt.open(RuntimeConfig(models=BUNDLED, device="cpu")))
+    srv, thread, url = start_server(st)
+    yield st, url
+    srv.should_exit = True
+    thread.join(10)
+
+
+@pytest.mark.parametrize("renderer", ["webgl", "canvas"])
+def test_preview_grades_the_background_when_it_follows_the_light(browser, street, renderer):
+    """With "background follows the light" on, the preview draws the backdrop times the final result's grade
+    (relight_rt.relight.compose.background_grade) found on the page's highlight sample (the result's picture
+    without stage 2's residual): the page's grade is the Studio's ``preview_grade``, the backdrop drawn is the
+    photo's times it, and it is within 0.1 EV per channel of the full result's under night and campfire (0.03
+    and 0.07 measured; under rim and window-left 0.3-0.5: what the preview leaves out, the head pass, stage 2, the
+    fill; benchmarks/studio_preview_gap.py). Off: no grade."""
+    studio, url = street
+    page = open_renderer(browser, url, renderer)
+    meta = studio.info()["preview"]
+    layers = unpack_layers(studio.layers_bytes(), meta)
+    m = layers["mask"][..., None]
+    for name in ("night", "campfire"):
+        light = lights.preset(name).astype(np.float32)
+        page.evaluate(
+            "L => { const s = studio.state; s.lamp.on = false; s.ambient = 0; s.exposure.mode = 'auto';"
+            " s.exposure.ev = 0; s.base.light = L; s.base.rotate = 0; s.base.level = 1;"
+            " document.getElementById('grade-background').checked = false; }", light.ravel().tolist())
+        assert page.evaluate("studio.previewGrade(studio.previewLight(studio.composedLight()))") == [1, 1, 1]
+        plain = canvas_rgb(page).astype(np.int16)
+        page.evaluate("document.getElementById('grade-background').checked = true")
+        shown = np.array(page.evaluate("studio.previewLight(studio.composedLight())"), np.float32).reshape(9, 3)
+        grade = np.array(page.evaluate("studio.previewGrade(studio.previewLight(studio.composedLight()))"))
+        want = studio.preview_grade(shown)
+        np.testing.assert_allclose(grade, want, rtol=1e-4)
+        got = canvas_rgb(page).astype(np.int16)
+        person = preview_diffuse(layers, meta, shown)
+        drawn = np.clip(layers["background"].transpose(1, 2, 0) * grade, 0, 1) * (1 - m) + person
+        drawn = np.rint(np.clip(drawn, 0, 1) * 255).astype(np.int16)
+        diff = np.abs(got - drawn)
+        assert diff.max() <= 2 and diff.mean() < 0.2, (diff.max(), diff.mean())
+        assert np.abs(got - plain)[m[..., 0] == 0].mean() > 3  # the backdrop moved
+        _, off = studio.render(light.tolist(), grade_background=False)
+        _, on = studio.render(light.tolist(), grade_background=True)
+        rgb = lambda png: cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_COLOR)[..., ::-1].astype(float)  # noqa: E731
+        a, b = rgb(off.png), rgb(on.png)
+        back = (np.asarray(studio.dec.mask) == 0) & (a.min(axis=2) > 20) & (a.max(axis=2) < 235)
+        result = np.median(b[back] / a[back], axis=0)
+        assert np.abs(np.log2(grade / result) * exposure.DISPLAY_GAMMA).max() < 0.1, (name, grade, result)
     page.close()

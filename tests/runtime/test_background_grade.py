@@ -13,7 +13,7 @@ from _graphs import OWN_LIGHT, models_dir, person
 import relight_rt
 from relight_rt import RelightError
 from relight_rt.cli import main
-from relight_rt.color import srgb_to_linear
+from relight_rt.color import linear_to_srgb, srgb_to_linear
 from relight_rt.compositing import Background, parse_background
 from relight_rt.config import RuntimeConfig
 from relight_rt.exposure import REC709
@@ -153,3 +153,73 @@ def test_a_group_grades_the_background_by_the_groups_change():
     np.testing.assert_allclose(ratio, np.broadcast_to(ratio.mean(0, dtype=np.float64), ratio.shape), rtol=2e-4)
     assert ratio.mean(0)[0] < 1  # night: darker
     np.testing.assert_allclose(graded[person], plain[person], atol=1e-6)
+
+
+def _write_clip(folder, frames=4, feather=True):
+    """A still backdrop with a textured person over it, the person's texture new in every frame; masks beside the
+    frames."""
+    folder.mkdir()
+    rng = np.random.default_rng(7)
+    back = (0.3 + 0.5 * rng.random((120, 90, 3))).astype(np.float32)
+    mask = np.zeros((120, 90), np.float32)
+    mask[15:110, 25:65] = 1
+    if feather:
+        mask = np.clip(cv2.GaussianBlur(mask, (7, 7), 2), 0, 1)
+    for t in range(frames):
+        body = (0.15 + (0.4 + 0.1 * (t % 2)) * rng.random((120, 90, 3))).astype(np.float32)
+        img = back * (1 - mask[..., None]) + body * mask[..., None]
+        cv2.imwrite(str(folder / f"f_{t:03d}.png"), cv2.cvtColor(np.rint(img * 255).astype(np.uint8),
+                                                                  cv2.COLOR_RGB2BGR))
+        cv2.imwrite(str(folder / f"f_{t:03d}_mask.png"), np.rint(mask * 255).astype(np.uint8))
+    return folder, back, mask
+
+
+def test_cli_video_grade_background(tmp_path, models_dir, capsys):
+    """``video --grade-background``: every frame's backdrop moves by one grade (night: darker) and the person's
+    opaque pixels are the ungraded run's (the grade over time: the next test)."""
+    clip, back, mask = _write_clip(tmp_path / "clip")
+    common = [str(clip), "--preset", "night", "--models", str(models_dir), "--device", "cpu", "--no-stabilize"]
+    assert main(["-q", "video", *common, "--frames-out", str(tmp_path / "plain")]) == 0
+    assert main(["-q", "video", *common, "--grade-background", "--frames-out", str(tmp_path / "graded")]) == 0
+    read = lambda p: cv2.imread(str(p)).astype(np.float64)  # noqa: E731
+    outside, opaque = mask == 0, mask >= 1 - 1 / 255
+    for t in range(4):
+        plain, graded = read(tmp_path / "plain" / f"f_{t:03d}.png"), read(tmp_path / "graded" / f"f_{t:03d}.png")
+        assert np.abs(graded[opaque] - plain[opaque]).max() <= 1  # the person as ungraded (8-bit rounding)
+        np.testing.assert_array_equal(plain[outside], read(clip / f"f_{t:03d}.png")[outside])  # off: untouched
+        ratio = graded[outside] / np.maximum(plain[outside], 1)
+        gain = np.median(ratio, axis=0)
+        assert (np.abs(ratio - gain) < 0.03 + 1.5 / np.maximum(plain[outside], 1)).mean() > 0.99  # one grade
+        assert (gain < 0.95).all()  # night: the backdrop darker too
+    assert main(["-q", "video", *common, "--grade-background", "--background", "black", "--frames-out",
+                 str(tmp_path / "x")]) != 0
+    err = capsys.readouterr().err
+    assert "--grade-background" in err and "Traceback" not in err
+
+
+def test_clip_grade_follows_a_changing_light_without_flicker():
+    """``BackgroundGrade``: a per-frame measurement that jitters by ±5 % moves the clip's grade by a fraction of
+    that; a step in the light is followed within a few time constants; a frame of nobody keeps the grade."""
+    from relight_rt.video import GRADE_SECONDS, BackgroundGrade
+
+    fps = 25.0
+    image = np.full((8, 8, 3), 0.5, np.float32)
+    mask = np.zeros((8, 8), np.float32)
+    mask[2:6, 2:6] = 1
+    grade = BackgroundGrade(fps)
+
+    def frame(light_gain):  # the person relit by a change in light of ``light_gain``
+        lit = linear_to_srgb(srgb_to_linear(image) * light_gain)
+        return np.where(mask[..., None] > 0, lit, image).astype(np.float32)
+
+    first = grade.update(frame(0.5), image, mask)
+    np.testing.assert_allclose(first, 0.5 ** (1 / 2.2), rtol=1e-5)  # the first frame takes its own grade
+    seen = [grade.update(frame(0.5 * (1.05 if t % 2 else 0.95)), image, mask) for t in range(50)]
+    assert np.abs(np.diff(np.log(np.array(seen)[:, 0]))).max() < 0.1 * np.log(1.05 / 0.95) / 2.2
+    for _ in range(int(3 * GRADE_SECONDS * fps)):  # a step to a brighter light, followed over 3 time constants
+        last = grade.update(frame(0.8), image, mask)
+    assert abs(np.log(last[0] / 0.8 ** (1 / 2.2))) < 0.06 * abs(np.log(0.8 / 0.5) / 2.2)
+    empty = np.zeros_like(mask)
+    np.testing.assert_array_equal(grade.update(image, image, empty), last)  # nobody: the grade kept
+    out = grade.apply(image, image, empty, last)
+    np.testing.assert_allclose(out, image * last, rtol=1e-6)  # and the whole frame is the backdrop, graded

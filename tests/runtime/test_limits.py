@@ -305,3 +305,17 @@ def test_radiance_bombs_are_refused(tmp_path):
     assert header_size(head + b"\n+Y 30000 +X 60000\n") == (60000, 30000)  # orientations OpenCV refuses
     assert header_size(head + b"\n-Y 0 +X 8\n") is None  # the decoder refuses an empty image
     assert header_size(head + b"\n") is None  # truncated
+
+
+def test_shrink_holds_an_image_to_a_pixel_count():
+    """``shrink``: at most the pixels asked, the aspect kept, a panorama exactly 2:1, a small image as it is."""
+    from relight_rt._limits import shrink
+
+    pano = np.zeros((1000, 2000, 3), np.uint16)
+    for budget in (2 * 37 * 37, 2 * 37 * 37 + 5, 200_001):
+        h, w = shrink(pano, budget).shape[:2]
+        assert w == 2 * h and h * w <= budget and 2 * (h + 1) ** 2 > budget  # the largest (h, 2h) within it
+    photo = np.zeros((1302, 1950), np.uint8)
+    h, w = shrink(photo, 500_000).shape
+    assert h * w <= 500_000 and abs(w / h - 1950 / 1302) < 0.01
+    assert shrink(photo, 1302 * 1950) is photo

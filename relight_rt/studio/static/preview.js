@@ -1,5 +1,6 @@
 // The live preview: diffuse = clip(albedo ⊙ max(0, T·L) ⊙ k, 0, 1) per pixel, composited over the
-// background (albedo and the result are premultiplied by the mask): out = bg · (1 − mask) + diffuse.
+// background (albedo and the result are premultiplied by the mask): out = bg · g · (1 − mask) + diffuse, g the
+// background's grade per channel (1 unless it follows the light: sh.backgroundGrade).
 // k is the final result's shaded-skin gain (relight_rt.relighter._shaded_skin): where the skin weight w says
 // skin and the light darkens it by r = Y(max(0, T·L)) / (T·W) (W the photo's own light, white), each channel
 // takes 1 + w · (clamp(1 + (r^(g − 1) − 1) · c, 1/4, 4) − 1), c the skin's chroma (P − Y) / P; elsewhere 1.
@@ -71,6 +72,7 @@ uniform float W[9];  // the photo's own light, white (one column)
 uniform float G;  // the shaded-skin exponent
 uniform int height;
 uniform bool checker;
+uniform vec3 grade;  // the background's gain per channel
 out vec4 colour;
 void main() {
   ivec2 p = ivec2(int(gl_FragCoord.x), height - 1 - int(gl_FragCoord.y));
@@ -85,7 +87,7 @@ void main() {
   float boost = pow(clamp(r, 1e-4, 1.0), G - 1.0) - 1.0;
   vec3 gain = 1.0 + e.a * (clamp(1.0 + boost * e.rgb, 0.25, 4.0) - 1.0);
   vec3 diffuse = clamp(c.yzw * lit * gain, 0.0, 1.0);
-  vec3 bg = d.rgb;
+  vec3 bg = min(d.rgb * grade, 1.0);
   if (checker) {
     bool odd = ((p.x / 12) + (p.y / 12)) % 2 == 1;
     bg = vec3(odd ? 0.78 : 0.9);
@@ -152,12 +154,14 @@ class WebGLPreview {
     gl.uniform1i(gl.getUniformLocation(prog, "height"), h);
     gl.uniform1i(gl.getUniformLocation(prog, "checker"), checker ? 1 : 0);
     this.lightLoc = gl.getUniformLocation(prog, "L");
+    this.gradeLoc = gl.getUniformLocation(prog, "grade");
     gl.viewport(0, 0, w, h);
   }
 
-  draw(light) {
+  draw(light, grade = [1, 1, 1]) {
     const gl = this.gl;
     gl.uniform3fv(this.lightLoc, new Float32Array(light));
+    gl.uniform3fv(this.gradeLoc, new Float32Array(grade));
     gl.drawArrays(gl.TRIANGLES, 0, 3);
   }
 
@@ -177,10 +181,9 @@ class CanvasPreview {
     this.pixels = new Uint32Array(this.image.data.buffer);  // one store per pixel (little-endian RGBA)
     const n = layers.width * layers.height;
     const { transport: T, albedo: A, mask: M, background: B, skinChroma: C, skin: S, ownWhite: W } = layers;
-    // per pixel, contiguous: T0..T8, albedo r, g, b, then the background already multiplied by (1 − mask),
-    // in 0..255 plus 0.5 (so that truncation rounds)
-    const packed = new Float32Array(15 * n);
-    for (let p = 0, o = 0; p < n; p++, o += 15) {
+    // per pixel, contiguous: T0..T8, albedo r, g, b, the background in 0..255, and 1 − mask
+    const packed = new Float32Array(16 * n);
+    for (let p = 0, o = 0; p < n; p++, o += 16) {
       for (let k = 0; k < 9; k++) packed[o + k] = T[k][p];
       packed[o + 9] = A[0][p]; packed[o + 10] = A[1][p]; packed[o + 11] = A[2][p];
       let r = B[0][p], g = B[1][p], b = B[2][p];
@@ -188,8 +191,7 @@ class CanvasPreview {
         const x = p % layers.width, y = (p / layers.width) | 0;
         r = g = b = ((((x / 12) | 0) + ((y / 12) | 0)) % 2 === 1) ? 0.78 : 0.9;
       }
-      const k = 255 * (1 - M[p]);
-      packed[o + 12] = r * k + 0.5; packed[o + 13] = g * k + 0.5; packed[o + 14] = b * k + 0.5;
+      packed[o + 12] = 255 * r; packed[o + 13] = 255 * g; packed[o + 14] = 255 * b; packed[o + 15] = 1 - M[p];
     }
     this.packed = packed;
     // the skin's pixels alone (a small part of the picture), drawn again with the shaded-skin gain: their index,
@@ -208,15 +210,21 @@ class CanvasPreview {
     this.exponent = layers.skinExponent;
   }
 
-  draw(light) {
+  draw(light, grade = [1, 1, 1]) {
     const L = light;
+    const gr = grade[0], gg = grade[1], gb = grade[2];
     const l0 = L[0], l1 = L[1], l2 = L[2], l3 = L[3], l4 = L[4], l5 = L[5], l6 = L[6], l7 = L[7], l8 = L[8];
     const l9 = L[9], l10 = L[10], l11 = L[11], l12 = L[12], l13 = L[13], l14 = L[14], l15 = L[15], l16 = L[16];
     const l17 = L[17], l18 = L[18], l19 = L[19], l20 = L[20], l21 = L[21], l22 = L[22], l23 = L[23], l24 = L[24];
     const l25 = L[25], l26 = L[26];
     const f = this.packed, px = this.pixels;
     const n = px.length;
-    for (let p = 0, o = 0; p < n; p++, o += 15) {
+    const back = this.back = this.back ?? new Float32Array(3 * n);  // the graded background's share, + 0.5 (rounding)
+    for (let p = 0, o = 0, u = 0; p < n; p++, o += 16, u += 3) {
+      const k = f[o + 15];
+      back[u] = Math.min(255, f[o + 12] * gr) * k + 0.5;
+      back[u + 1] = Math.min(255, f[o + 13] * gg) * k + 0.5;
+      back[u + 2] = Math.min(255, f[o + 14] * gb) * k + 0.5;
       const q0 = f[o], q1 = f[o + 1], q2 = f[o + 2], q3 = f[o + 3], q4 = f[o + 4], q5 = f[o + 5], q6 = f[o + 6];
       const q7 = f[o + 7], q8 = f[o + 8];
       const sr = q0 * l0 + q1 * l3 + q2 * l6 + q3 * l9 + q4 * l12 + q5 * l15 + q6 * l18 + q7 * l21 + q8 * l24;
@@ -225,15 +233,15 @@ class CanvasPreview {
       const dr = sr > 0 ? Math.min(1, f[o + 9] * sr) : 0;
       const dg = sg > 0 ? Math.min(1, f[o + 10] * sg) : 0;
       const db = sb > 0 ? Math.min(1, f[o + 11] * sb) : 0;
-      const r = Math.min(255, f[o + 12] + 255 * dr) | 0;
-      const g = Math.min(255, f[o + 13] + 255 * dg) | 0;
-      const b = Math.min(255, f[o + 14] + 255 * db) | 0;
+      const r = Math.min(255, back[u] + 255 * dr) | 0;
+      const g = Math.min(255, back[u + 1] + 255 * dg) | 0;
+      const b = Math.min(255, back[u + 2] + 255 * db) | 0;
       px[p] = 0xff000000 | (b << 16) | (g << 8) | r;
     }
     // the skin the light darkens: the shaded-skin gain (see the top of this file)
     const idx = this.skinIndex, s = this.skin, g1 = this.exponent - 1;
     for (let j = 0, u = 0; j < idx.length; j++, u += 5) {
-      const p = idx[j], o = 15 * p;
+      const p = idx[j], o = 16 * p, v = 3 * p;
       const q0 = f[o], q1 = f[o + 1], q2 = f[o + 2], q3 = f[o + 3], q4 = f[o + 4], q5 = f[o + 5], q6 = f[o + 6];
       const q7 = f[o + 7], q8 = f[o + 8];
       let sr = q0 * l0 + q1 * l3 + q2 * l6 + q3 * l9 + q4 * l12 + q5 * l15 + q6 * l18 + q7 * l21 + q8 * l24;
@@ -246,9 +254,9 @@ class CanvasPreview {
       const kr = 1 + w * (Math.min(4, Math.max(0.25, 1 + boost * s[u])) - 1);
       const kg = 1 + w * (Math.min(4, Math.max(0.25, 1 + boost * s[u + 1])) - 1);
       const kb = 1 + w * (Math.min(4, Math.max(0.25, 1 + boost * s[u + 2])) - 1);
-      const r = Math.min(255, f[o + 12] + 255 * Math.min(1, f[o + 9] * sr * kr)) | 0;
-      const g = Math.min(255, f[o + 13] + 255 * Math.min(1, f[o + 10] * sg * kg)) | 0;
-      const b = Math.min(255, f[o + 14] + 255 * Math.min(1, f[o + 11] * sb * kb)) | 0;
+      const r = Math.min(255, back[v] + 255 * Math.min(1, f[o + 9] * sr * kr)) | 0;
+      const g = Math.min(255, back[v + 1] + 255 * Math.min(1, f[o + 10] * sg * kg)) | 0;
+      const b = Math.min(255, back[v + 2] + 255 * Math.min(1, f[o + 11] * sb * kb)) | 0;
       px[p] = 0xff000000 | (b << 16) | (g << 8) | r;
     }
     this.ctx.putImageData(this.image, 0, 0);

@@ -142,6 +142,47 @@ export function exposureScale(layers, light, target, ev, step, power = 1) {
   return current > 1e-8 && target > 1e-8 ? (gain * target) / current : gain;
 }
 
+// The background grade of the final result (relight_rt.relight.compose.background_grade: the person's change in
+// light per channel, relit over own, each decoded from sRGB and summed; the backdrop's values times its
+// 1 / gamma power) on the highlight sample, which is the result's picture without stage 2's residual (see
+// highlightFactor): relit lit · S + steady · S / Y(S), own lit · Y(W) + steady with W the shading of the photo's own
+// light, white (ownWhite: its one column of 9; the own sums are kept on `guard`). Returns the gain per channel on
+// the backdrop's values.
+export function backgroundGrade(guard, light, ownWhite, gamma) {
+  const T = guard.transport, lit = guard.lit, steady = guard.steady;
+  const n = lit[0].length;
+  if (!guard.own) {  // the own light's sums, once per sample
+    guard.own = [0, 0, 0];
+    for (let p = 0; p < n; p++) {
+      let w = 0;
+      for (let k = 0; k < 9; k++) w += T[k][p] * ownWhite[k];
+      for (let c = 0; c < 3; c++) guard.own[c] += srgbToLinear(lit[c][p] * Math.max(w, 0) + steady[c][p]);
+    }
+  }
+  const was = guard.own, now = [0, 0, 0], S = [0, 0, 0];
+  for (let p = 0; p < n; p++) {
+    const y = shadingAt(T, p, light, S);
+    for (let c = 0; c < 3; c++) now[c] += srgbToLinear(lit[c][p] * S[c] + (steady[c][p] * S[c]) / y);
+  }
+  return now.map((v, c) => (was[c] > 1e-6 * Math.max(n, 1) ? Math.pow(v / was[c], 1 / gamma) : 1));
+}
+
+// Pixel p's RGB shading max(0, T·L) into S (3 numbers); returns its luminance, at least 1e-4.
+function shadingAt(T, p, light, S) {
+  for (let c = 0; c < 3; c++) {
+    let s = 0;
+    for (let k = 0; k < 9; k++) s += T[k][p] * light[3 * k + c];
+    S[c] = Math.max(s, 0);
+  }
+  return Math.max(LUMA[0] * S[0] + LUMA[1] * S[1] + LUMA[2] * S[2], 1e-4);
+}
+
+// sRGB's decoding curve (relight_rt.color.srgb_to_linear) of a value clipped to [0, 1].
+export function srgbToLinear(v) {
+  const x = Math.min(Math.max(v, 0), 1);
+  return x <= 0.04045 ? x / 12.92 : Math.pow((x + 0.055) / 1.055, 2.4);
+}
+
 // The exposure's highlight guard (relight_rt.exposure.highlight_factor): how much "auto" lowers the exposed light
 // so that at most `allowed` of the person goes past `limit` (white), by at most the factor `maxDown`. guard: the
 // highlight sample of the layers (decodeLayers: {lit: 3 planes, steady: 3 planes, transport: 9 planes}); pixel p
@@ -154,12 +195,7 @@ export function highlightFactor(guard, light, limit, allowed, maxDown) {
   const reach = new Float32Array(n);
   const S = [0, 0, 0];
   for (let p = 0; p < n; p++) {
-    for (let c = 0; c < 3; c++) {
-      let s = 0;
-      for (let k = 0; k < 9; k++) s += T[k][p] * light[3 * k + c];
-      S[c] = Math.max(s, 0);
-    }
-    const y = Math.max(LUMA[0] * S[0] + LUMA[1] * S[1] + LUMA[2] * S[2], 1e-4);
+    const y = shadingAt(T, p, light, S);
     let r = Infinity;
     for (let c = 0; c < 3; c++) {
       const fixed = (steady[c][p] * S[c]) / y, scaled = lit[c][p] * S[c];

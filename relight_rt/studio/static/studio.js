@@ -56,8 +56,15 @@ function previewLight(light) {
   const exposed = sh.scale(light, s).map((v) => Math.fround(v));
   const guard = sh.highlightFactor(state.layers.highlight, exposed, meta.highlight_limit, meta.highlight_allowed,
     meta.highlight_max_down);
-  // an EV acts on the light as seen: 2 ** (EV / 2.2) on the encoded values (relight_rt.exposure.ev_gain)
-  return sh.scale(light, s * guard * Math.pow(2, ev / 2.2));
+  // an EV acts on the light as seen: 2 ** (EV / display_gamma) on the encoded values (relight_rt.exposure.ev_gain)
+  return sh.scale(light, s * guard * Math.pow(2, ev / meta.display_gamma));
+}
+
+// The background's grade the preview draws: the final result's (sh.backgroundGrade) when the toggle asks for it.
+function previewGrade(shown) {
+  if (!state.info.original_background || !$("grade-background").checked) return [1, 1, 1];
+  const meta = state.info.preview;
+  return sh.backgroundGrade(state.layers.highlight, shown, meta.own_white, meta.display_gamma);
 }
 
 // ------------------------------------------------------------------------------------------------ drawing
@@ -66,7 +73,8 @@ function paint() {
   if (!state.dirty || !state.preview) return;
   state.dirty = false;
   const t0 = performance.now();
-  state.preview.draw(previewLight(composedLight()));
+  const shown = previewLight(composedLight());
+  state.preview.draw(shown, previewGrade(shown));
   // a frame that answers the user's input is timed: wait until it is really drawn (WebGL: the GPU), so the time
   // is true; other frames are not held up (a read-back on every frame would stall the pipeline)
   if (state.pendingInput !== null) state.preview.finish();
@@ -459,7 +467,7 @@ function bindPanel() {
   const colour = $("lamp-colour");
   colour.addEventListener("input", (e) => { state.lamp.colour = hexToRgb(colour.value); lightChanged(e); });
   colour.addEventListener("change", () => requestFull());
-  $("grade-background").addEventListener("change", () => requestFull());
+  $("grade-background").addEventListener("change", (e) => { lightChanged(e); requestFull(); });
   $("grade-background-box").hidden = !info.original_background;
   const mode = $("exposure-mode");
   mode.addEventListener("change", (e) => { state.exposure.mode = mode.value; lightChanged(e); requestFull(); });
@@ -550,5 +558,5 @@ async function start() {
 }
 
 // for tests and benchmarks
-window.studio = { sh, state, composedLight, previewLight, paint, requestFull, decodeLayers, createPreview, facePoint };
+window.studio = { sh, state, composedLight, previewLight, previewGrade, paint, requestFull, decodeLayers, createPreview, facePoint };
 start();

@@ -22,6 +22,7 @@ from relight_rt._limits import header_size
 from relight_rt._strength import restore_bands
 from relight_rt.cli import main
 from relight_rt.compositing import Background
+from relight_rt.exposure import DISPLAY_GAMMA, METER_POWER
 from relight_rt.relight.look import SKIN_CHROMA, skin_chroma
 from relight_rt.studio.core import (
     MAX_UPLOAD_BYTES,
@@ -160,6 +161,7 @@ def test_layers_match_the_decomposition(studio):
     np.testing.assert_allclose(layers["skin_chroma"].transpose(1, 2, 0), skin[..., :3], atol=1 / 255 + 1e-5)
     np.testing.assert_allclose(layers["skin"], skin[..., 3], atol=0.5 / 255 + 1e-6)
     assert meta["skin_chroma"] == SKIN_CHROMA and len(meta["own_white"]) == 9
+    assert meta["exposure_power"] == METER_POWER and meta["display_gamma"] == DISPLAY_GAMMA  # the page takes both
     assert info["presets"].keys() == set(lights.list_presets())
     np.testing.assert_allclose(info["own_light"], dec.light)
     with pytest.raises(RelightError, match="bytes"):
