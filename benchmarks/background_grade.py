@@ -16,9 +16,9 @@ import math
 import numpy as np
 
 import relight_rt
-from relight_rt.color import srgb_to_linear
-from relight_rt.compositing import Background
-from relight_rt.exposure import REC709
+from relight_rt.image.color import srgb_to_linear
+from relight_rt.image.compositing import Background
+from relight_rt.light.exposure import REC709
 
 EXAMPLE = "relight_rt/data/example_scene.jpg"
 

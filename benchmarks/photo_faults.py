@@ -44,7 +44,7 @@ import numpy as np
 from real_photos import LEFT, REPO, RIGHT, luminance
 
 from relight_rt import Relighter, RuntimeConfig, lights
-from relight_rt._face_geometry import FaceMesh
+from relight_rt.person.face_mesh import FaceMesh
 
 DARK_L, TEAL_A, NEUTRAL_C = 30.0, -8.0, 8.0
 BAND = 24

@@ -89,7 +89,7 @@ def make_models(folder: Path, resolution: int, width: int, norm: str = "instance
 
 
 class TorchModel:
-    """A stand-in for ``relight_rt.session.Model`` that runs the torch network eagerly (fp32, CPU)."""
+    """A stand-in for ``relight_rt.engine.session.Model`` that runs the torch network eagerly (fp32, CPU)."""
 
     def __init__(self, checkpoint: Path, model) -> None:
         from export.checkpoint import load_checkpoint
@@ -101,7 +101,7 @@ class TorchModel:
         self.session = None  # the onnxruntime session is dropped, so its memory does not count against torch
         self.name = f"torch:{checkpoint}"
         self.on_cuda = False
-        from relight_rt.contract import KINDS
+        from relight_rt.engine.contract import KINDS
 
         self._inputs = [t.name for t in KINDS[model.config.kind].inputs]
         self._outputs = [t.name for t in KINDS[model.config.kind].outputs]
@@ -123,7 +123,7 @@ def torch_report(models: Path, args: argparse.Namespace) -> dict:
     """``relight_rt.bench.run`` with the Relighter's networks replaced by torch eager (see module docstring)."""
     import torch
 
-    import relight_rt.relighter as relighter_module
+    import relight_rt.relight.relighter as relighter_module
 
     torch.set_num_threads(args.threads or os.cpu_count() or 1)
     original = relighter_module.Relighter.__init__

@@ -11,9 +11,10 @@ from pathlib import Path
 
 import numpy as np
 
-from . import lights, sh
-from ._errors import RelightError
-from ._io import read_image, write_image
+from .engine.errors import RelightError
+from .image.io import read_image, write_image
+from .light import presets as lights
+from .light import sh
 
 EXAMPLE = Path(__file__).resolve().parent / "data" / "example.png"
 
@@ -46,9 +47,9 @@ def run_demo(output: str | Path, preset: str = "golden-hour", models=None, devic
              config=None) -> Path:
     """Relight the bundled example under ``preset`` and write photo | relit | light preview to ``output``.
 
-    ``config``: a relight_rt.config.RuntimeConfig (wins over ``models`` and ``device``)."""
+    ``config``: a relight_rt.engine.config.RuntimeConfig (wins over ``models`` and ``device``)."""
     from .builder import open as open_relighter
-    from .config import RuntimeConfig
+    from .engine.config import RuntimeConfig
 
     light = lights.preset(preset)
     photo = read_image(example_path(), "example")

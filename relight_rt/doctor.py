@@ -12,8 +12,8 @@ import numpy as np
 import onnxruntime as ort
 
 from . import __version__
-from ._errors import RelightError
-from .session import CUDA, create_session, find_models
+from .engine.errors import RelightError
+from .engine.session import CUDA, create_session, find_models
 
 _ORT_DISTS = ("onnxruntime", "onnxruntime-gpu", "onnxruntime-directml", "onnxruntime-openvino", "onnxruntime-silicon",
               "ort-nightly", "ort-nightly-gpu")  # fmt: skip

@@ -35,8 +35,10 @@ from pathlib import Path
 import numpy as np
 import onnxruntime as ort
 
-from . import __version__, _env, lights
-from ._errors import RelightError
+from . import __version__
+from .engine import environment
+from .engine.errors import RelightError
+from .light import presets as lights
 
 log = logging.getLogger(__name__)
 
@@ -199,8 +201,8 @@ def run(
     Raises:
         RelightError: unknown section, bad counts, or models that do not load.
     """
-    from .config import RuntimeConfig
-    from .relighter import Relighter, compose_step, diffuse_batch
+    from .engine.config import RuntimeConfig
+    from .relight.relighter import Relighter, compose_step, diffuse_batch
 
     unknown = sorted(set(sections) - set(SECTIONS))
     if unknown:
@@ -266,7 +268,7 @@ def run(
         "repeats": repeats,
         "warmup": warmup,
         "load_ms": load_ms,
-        "threads": _env.threads() or "default",
+        "threads": environment.threads() or "default",
     }
     return {"system": system_info(), "config": config, "rows": rows}
 
@@ -315,6 +317,6 @@ def to_markdown(report: dict, title: str | None = None) -> str:
 
 def write_text(path: str | os.PathLike, text: str) -> Path:
     """Write a text file atomically (temporary file beside it, then rename)."""
-    from ._io import write_bytes
+    from .image.io import write_bytes
 
     return write_bytes(path, text.encode())

@@ -8,7 +8,7 @@ import logging
 import sys
 
 from .. import timing
-from .._errors import RelightError
+from ..engine.errors import RelightError
 
 
 def _ints(text: str) -> list[int]:
@@ -46,7 +46,7 @@ def add_parser(subparsers) -> None:
 
 def cmd_bench(args: argparse.Namespace) -> int:
     """Run the benchmark from parsed arguments; print the markdown table; write the files asked for."""
-    from ..session import find_models
+    from ..engine.session import find_models
 
     models = find_models(args.models)
     sections = [s.strip() for s in args.sections.split(",") if s.strip()]

@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 import logging
 
-from .. import lights
 from ..demo import run_demo
+from ..light import presets as lights
 from .options import add_runtime_options, runtime_config
 
 log = logging.getLogger("relight_rt.demo")

@@ -1,7 +1,7 @@
 """``relight-rt lights``: ``list``, ``show``, ``from-envmap``, ``from-photo`` and ``from-background``.
 
 ``relight-rt lights from-background BG -o light.npy [--fov 60] [--key-light AZ,EL] [--preview sheet.png]``
-estimates a scene's light from one ordinary photo of it (relight_rt.scene_light).
+estimates a scene's light from one ordinary photo of it (relight_rt.light.from_background).
 """
 
 from __future__ import annotations
@@ -13,11 +13,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import envmap, lightfile, lights, sh
-from .._errors import RelightError
-from .._io import IMAGE_SUFFIXES, atomic_path, check_target, sibling_mask, write_image, write_npy
-from ..lightspec import LightSpec, parse_light
-from ..masks import find_mask_file
+from ..engine.errors import RelightError
+from ..image.io import IMAGE_SUFFIXES, atomic_path, check_target, sibling_mask, write_image, write_npy
+from ..light import envmap, sh
+from ..light import files as lightfile
+from ..light import presets as lights
+from ..light.spec import LightSpec, parse_light
+from ..person.masks import find_mask_file
 from .options import add_key_light_option, add_mask_option, add_runtime_options, fov, paths_of, relighter
 
 log = logging.getLogger("relight_rt.cli")
@@ -76,7 +78,7 @@ def cmd_list(args: argparse.Namespace) -> int:
 def cmd_show(args: argparse.Namespace) -> int:
     if not 8 <= args.size <= 8192:
         raise RelightError(f"--size is {args.size}, expected 8 to 8192")
-    from .. import _light_sheet
+    from ..light import preview as _light_sheet
 
     name = Path(args.name)
     spec = parse_light(args.name)  # the one rule: preset, light file, environment map or photo
@@ -144,7 +146,7 @@ def preview_sheet(background: np.ndarray, env: np.ndarray, light: np.ndarray, he
     """(height, W, 3) sRGB sheet: the background, its filled env map, a white sphere under the light."""
     import cv2
 
-    from ..color import linear_to_srgb
+    from ..image.color import linear_to_srgb
 
     bg = background.astype(np.float32) / 255 if background.dtype == np.uint8 else background.astype(np.float32)
     panels = [cv2.resize(bg, (max(1, round(bg.shape[1] * height / bg.shape[0])), height), interpolation=cv2.INTER_AREA)]
@@ -159,7 +161,7 @@ def preview_sheet(background: np.ndarray, env: np.ndarray, light: np.ndarray, he
 
 
 def cmd_from_background(args: argparse.Namespace) -> int:
-    from ..scene_light import light_from_background, parse_key_light, read_background
+    from ..light.from_background import light_from_background, parse_key_light, read_background
 
     key = parse_key_light(args.key_light)
     out = light_output(args.output, args.background)

@@ -11,14 +11,14 @@ import argparse
 import os
 from pathlib import Path
 
-from .. import lights
-from .._errors import RelightError
-from .._limits import DEFAULT_MAX_PIXELS
-from ..compositing import Background, parse_background
-from ..config import DEVICES, PRECISIONS, PREPROCESS, RuntimeConfig
-from ..distributed import EXTRA_HINT as RAY_EXTRA_HINT
-from ..distributed import MANIFEST_NAME
-from ..lightspec import HDR_SUFFIXES, SH_FILE_SUFFIXES, LightSpec
+from ..apps.ray_jobs import EXTRA_HINT as RAY_EXTRA_HINT
+from ..apps.ray_jobs import MANIFEST_NAME
+from ..engine.config import DEVICES, PRECISIONS, PREPROCESS, RuntimeConfig
+from ..engine.errors import RelightError
+from ..engine.limits import DEFAULT_MAX_PIXELS
+from ..image.compositing import Background, parse_background
+from ..light import presets as lights
+from ..light.spec import HDR_SUFFIXES, SH_FILE_SUFFIXES, LightSpec
 
 # ------------------------------------------------------------------------------------------- runtime
 
@@ -134,7 +134,7 @@ def add_background_option(p: argparse.ArgumentParser, default: str = "original")
 
 
 def add_exposure_option(p: argparse.ArgumentParser, reference: str = "the input person's") -> None:
-    """--exposure auto | EV | physical (relight_rt.exposure), one meaning in every command."""
+    """--exposure auto | EV | physical (relight_rt.light.exposure), one meaning in every command."""
     p.add_argument(
         "--exposure", default="auto", metavar="E",
         help=f"auto (default: scale the light so the person keeps {reference} mean luminance, lowered up to a "
@@ -144,7 +144,7 @@ def add_exposure_option(p: argparse.ArgumentParser, reference: str = "the input 
 
 
 def fov(text: str) -> float:
-    """argparse type of ``--fov DEG`` (its range is checked by relight_rt.scene_light)."""
+    """argparse type of ``--fov DEG`` (its range is checked by relight_rt.light.from_background)."""
     try:
         return float(text)
     except ValueError:
@@ -152,7 +152,7 @@ def fov(text: str) -> float:
 
 
 def add_key_light_option(p: argparse.ArgumentParser) -> None:
-    """``--key-light AZ,EL`` (relight_rt.scene_light.parse_key_light reads it)."""
+    """``--key-light AZ,EL`` (relight_rt.light.from_background.parse_key_light reads it)."""
     p.add_argument("--key-light", metavar="AZ,EL", help="where the scene's key light comes from, degrees: azimuth 0 "
                    "from the camera, 90 from the image's right, 180 from behind the person; elevation above the "
                    "horizon (default: the key the background implies)")  # fmt: skip

@@ -12,8 +12,8 @@ import pytest
 
 from relight_rt import RelightError, bench
 from relight_rt.cli import bench as bench_cli
-from relight_rt.config import RuntimeConfig
-from relight_rt.relighter import Relighter, diffuse_batch
+from relight_rt.engine.config import RuntimeConfig
+from relight_rt.relight.relighter import Relighter, diffuse_batch
 
 
 @pytest.fixture(scope="module")
@@ -147,7 +147,7 @@ def test_precision_unknown_is_refused(tiny_models):
 def test_cpu_session_options(monkeypatch):
     import onnxruntime as ort
 
-    from relight_rt.session import cpu_session_options
+    from relight_rt.engine.session import cpu_session_options
 
     monkeypatch.setenv("RELIGHT_RT_THREADS", "3")
     opts = cpu_session_options()
@@ -160,7 +160,7 @@ def test_cuda_and_tensorrt_provider_chain_without_a_gpu(monkeypatch, tmp_path):
     """The provider list asked for when CUDA / TensorRT are offered (nothing runs: no GPU needed)."""
     import onnxruntime as ort
 
-    from relight_rt import session
+    from relight_rt.engine import session
 
     offered = ["TensorrtExecutionProvider", "CUDAExecutionProvider", "CPUExecutionProvider"]
     monkeypatch.setattr(ort, "get_available_providers", lambda: offered)

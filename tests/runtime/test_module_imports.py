@@ -2,7 +2,7 @@
 
 The package loads its public names lazily (relight_rt.__getattr__), so ``from . import x`` inside a module can
 run the whole public surface before that module has finished: a module imported first then failed with "partially
-initialized module" (relight_rt._face_geometry did, through ``from . import _faces``)."""
+initialized module" (relight_rt.person.face_mesh did, through ``from . import _faces``)."""
 
 from __future__ import annotations
 
@@ -42,14 +42,14 @@ def runtime_modules() -> list[str]:
 
 def test_every_runtime_module_imports_first():
     names = runtime_modules()
-    assert "relight_rt._face_geometry" in names and "relight_rt.cli.options" in names
+    assert "relight_rt.person.face_mesh" in names and "relight_rt.cli.options" in names
     done = subprocess.run([sys.executable, "-W", "ignore", "-c", SCRIPT, *names], capture_output=True, text=True,
                           timeout=300)
     assert done.returncode == 0, done.stdout + done.stderr
 
 
-WING = ["relighter.py", *(f"relight/{p.name}" for p in sorted((PACKAGE / "relight").glob("*.py")))]
-CORE = [*WING, "video.py", "_face_geometry.py"]
+WING = [f"relight/{p.name}" for p in sorted((PACKAGE / "relight").glob("*.py"))]
+CORE = [*WING, "video/job.py", "person/face_mesh.py"]
 
 
 def _imports(path: Path) -> list[tuple[str, list[str]]]:

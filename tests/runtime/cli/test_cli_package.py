@@ -1,11 +1,10 @@
 """The CLI wing (issue 31): argument parsing only in relight_rt/cli/, the library never reaching up into it, no
 private names taken across the wing's modules, one failure printer, and the video job as a library function
-(relight_rt.video.relight_clip) that the command and each Ray task run."""
+(relight_rt.video.job.relight_clip) that the command and each Ray task run."""
 
 from __future__ import annotations
 
 import ast
-import importlib
 import subprocess
 import sys
 import warnings
@@ -24,12 +23,11 @@ __all__ = ["models_dir"]  # fixture
 
 PACKAGE = Path(relight_rt.__file__).parent
 CLI = PACKAGE / "cli"
-# the entry points, above the CLI: `python -m relight_rt`, the console script, `python -m relight_rt.bench`, and
-# the deprecated mask_cli that re-exports from relight_rt.cli.mask for one release
-ENTRY_POINTS = {"__main__.py", "_launch.py", "bench.py", "mask_cli.py"}
+# the entry points, above the CLI: `python -m relight_rt`, the console script, `python -m relight_rt.bench`
+ENTRY_POINTS = {"__main__.py", "_launch.py", "bench.py"}
 # the CLI wing's library halves (issue 31 item 3: no private name imported across modules)
 WING = [*sorted(CLI.glob("*.py")), *(PACKAGE / n for n in ("bench.py", "timing.py", "demo.py", "doctor.py",
-        "distributed.py", "video.py", "reference_import.py", "mask_cli.py", "studio/__init__.py"))]  # fmt: skip
+        "apps/ray_jobs.py", "video/job.py", "apps/reference_checkpoints.py", "apps/studio/__init__.py"))]  # fmt: skip
 
 
 def _runtime_files():
@@ -108,15 +106,6 @@ def test_python_m_relight_rt_bench_still_runs(tmp_path):
     assert proc.returncode == 0 and proc.stdout.startswith("usage: python -m relight_rt.bench"), proc.stderr
 
 
-def test_old_mask_cli_module_warns_and_still_gives_its_functions(monkeypatch):
-    monkeypatch.delitem(sys.modules, "relight_rt.mask_cli", raising=False)
-    with pytest.warns(DeprecationWarning, match="relight_rt.cli.mask"):
-        old = importlib.import_module("relight_rt.mask_cli")
-    from relight_rt.cli.mask import cutout, read_photo
-
-    assert old.read_photo is read_photo and old.cutout is cutout
-
-
 # ------------------------------------------------------------------------------------------- the video job
 
 
@@ -138,7 +127,7 @@ def _files(folder: Path) -> dict[str, bytes]:
 
 def test_relight_clip_writes_what_the_video_command_writes(tmp_path, models_dir):
     from relight_rt import LightSpec, RuntimeConfig
-    from relight_rt.video import ClipLights, relight_clip
+    from relight_rt.video.job import ClipLights, relight_clip
 
     clip = _clip(tmp_path / "clip")
     common = ["--models", str(models_dir), "--device", "cpu", "--batch-size", "2"]
@@ -155,8 +144,9 @@ def test_relight_clip_writes_what_the_video_command_writes(tmp_path, models_dir)
 def test_a_ray_clip_task_runs_the_library_job(tmp_path, models_dir):
     """The Ray task is relight_clip with the clip's settings (no argparse Namespace rebuilt in the worker)."""
     pytest.importorskip("ray")
-    from relight_rt import RuntimeConfig, distributed
-    from relight_rt.video import ClipLights, relight_clip
+    from relight_rt import RuntimeConfig
+    from relight_rt.apps import ray_jobs as distributed
+    from relight_rt.video.job import ClipLights, relight_clip
 
     clip = _clip(tmp_path / "clip")
     settings = {"src": str(clip), "lights": ClipLights(per_frame=str(tmp_path / "l.npy")), "stabilize": False,
@@ -180,7 +170,7 @@ def test_a_ray_clip_task_runs_the_library_job(tmp_path, models_dir):
 ])  # fmt: skip
 def test_clip_lights_are_one_kind_of_light(kwargs, match):
     from relight_rt import RelightError
-    from relight_rt.video import ClipLights
+    from relight_rt.video.job import ClipLights
 
     with pytest.raises(RelightError, match=match):
         ClipLights(**kwargs)
@@ -188,7 +178,7 @@ def test_clip_lights_are_one_kind_of_light(kwargs, match):
 
 def test_clip_lights_name_the_files_they_read(tmp_path):
     from relight_rt import LightSpec
-    from relight_rt.video import ClipLights
+    from relight_rt.video.job import ClipLights
 
     assert ClipLights(spec=LightSpec.preset("studio")).paths == ()
     assert ClipLights(per_frame=tmp_path / "l.npy").paths == (str(tmp_path / "l.npy"),)
