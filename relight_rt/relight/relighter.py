@@ -480,6 +480,6 @@ class Relighter:
 def compose_step(relighter: Relighter, dec: Decomposition, light: np.ndarray):
     """A call that runs only the full-resolution half of a relight (the photo times the relighting factor, over
     the photo's own backdrop) for one light, with stage 2's outputs computed once beforehand: what
-    ``relight-rt bench --sections compose`` times (relight_rt.timing)."""
+    ``relight-rt bench --sections compose`` times (relight_rt.cli.bench)."""
     outputs = next(relighter._network.relit(dec, light[None], 1, want_layers=True))
     return lambda: relighter._composer.compose(dec, light, outputs, dec.image)

@@ -28,7 +28,7 @@ sync_api = pytest.importorskip("playwright.sync_api")
 import relight_rt  # noqa: E402
 from relight_rt import RuntimeConfig, lightfile, lights, sh  # noqa: E402
 from relight_rt.apps.studio.core import Studio, unpack_layers  # noqa: E402
-from relight_rt.demo import example_path  # noqa: E402
+from relight_rt.cli.demo import example_path  # noqa: E402
 from relight_rt.light import exposure  # noqa: E402
 from relight_rt.light.exposure import exposure_scale  # noqa: E402
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from relight_rt import Relighter, RuntimeConfig, load_light
-from relight_rt.demo import example_path
+from relight_rt.cli.demo import example_path
 from relight_rt.engine.session import bundled_models_dir, find_models, load_model
 from relight_rt.image.io import read_image
 from relight_rt.light.sh import basis, cosine_lobe

@@ -5,8 +5,6 @@ private names taken across the wing's modules, one failure printer, and the vide
 from __future__ import annotations
 
 import ast
-import subprocess
-import sys
 import warnings
 from pathlib import Path
 
@@ -23,11 +21,11 @@ __all__ = ["models_dir"]  # fixture
 
 PACKAGE = Path(relight_rt.__file__).parent
 CLI = PACKAGE / "cli"
-# the entry points, above the CLI: `python -m relight_rt`, the console script, `python -m relight_rt.bench`
-ENTRY_POINTS = {"__main__.py", "_launch.py", "bench.py"}
+# the entry points, above the CLI: `python -m relight_rt` and the console script
+ENTRY_POINTS = {"__main__.py", "_launch.py"}
 # the CLI wing's library halves (issue 31 item 3: no private name imported across modules)
-WING = [*sorted(CLI.glob("*.py")), *(PACKAGE / n for n in ("bench.py", "timing.py", "demo.py", "doctor.py",
-        "apps/ray_jobs.py", "video/job.py", "apps/reference_checkpoints.py", "apps/studio/__init__.py"))]  # fmt: skip
+WING = [*sorted(CLI.glob("*.py")), *(PACKAGE / n for n in ("apps/ray_jobs.py", "video/job.py",
+        "apps/reference_checkpoints.py", "apps/studio/__init__.py"))]  # fmt: skip
 
 
 def _runtime_files():
@@ -97,13 +95,6 @@ def test_one_failure_printer(capsys):
         "relight-rt: 2 failed, 3 written"]  # fmt: skip
     assert finish_batch([("a.png", "bad")], written=0, many=False) == 2
     assert capsys.readouterr().err.splitlines() == ["relight-rt: error: a.png: bad"]
-
-
-def test_python_m_relight_rt_bench_still_runs(tmp_path):
-    env_path = str(PACKAGE.parent)
-    proc = subprocess.run([sys.executable, "-m", "relight_rt.bench", "--help"], capture_output=True, text=True,
-                          cwd=tmp_path, env={"PYTHONPATH": env_path, "PATH": "/usr/bin:/bin"}, timeout=120)  # fmt: skip
-    assert proc.returncode == 0 and proc.stdout.startswith("usage: python -m relight_rt.bench"), proc.stderr
 
 
 # ------------------------------------------------------------------------------------------- the video job

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from relight_rt import Relighter, RuntimeConfig, cli, lights
-from relight_rt.demo import example_path
+from relight_rt.cli.demo import example_path
 from relight_rt.light import exposure
 from relight_rt.light.spec import LightSpec
 

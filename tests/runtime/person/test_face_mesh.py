@@ -150,7 +150,7 @@ def test_a_face_that_fills_the_photo_gets_its_mesh(monkeypatch):
     """issue 48: the short-range detector finds no face that fills its square (the 12 Yale face crops: none), so
     FaceMesh.faces looks again at a square twice as large. The bundled example cut to its face's mesh: found
     only with that second look, and the mesh lands where the whole photo's mesh is."""
-    from relight_rt.demo import example_path
+    from relight_rt.cli.demo import example_path
     from relight_rt.image.io import read_image
     from relight_rt.person import face_mesh as _face_geometry
 

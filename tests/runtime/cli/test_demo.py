@@ -6,7 +6,7 @@ from _graphs import models_dir
 
 from relight_rt import sh
 from relight_rt.cli import main
-from relight_rt.demo import example_path, side_by_side
+from relight_rt.cli.demo import example_path, side_by_side
 
 __all__ = ["models_dir"]  # fixture
 

@@ -1,4 +1,4 @@
-"""relight_rt.bench: the harness runs on the tiny committed graphs and writes JSON + markdown.
+"""relight-rt bench (relight_rt.cli.bench): the harness runs on the tiny committed graphs and writes JSON + markdown.
 
 Timings are never asserted (they depend on the machine and its load); only structure and plumbing.
 """
@@ -10,8 +10,8 @@ import shutil
 import numpy as np
 import pytest
 
-from relight_rt import RelightError, bench
-from relight_rt.cli import bench as bench_cli
+from relight_rt import RelightError
+from relight_rt.cli import bench, main
 from relight_rt.engine.config import RuntimeConfig
 from relight_rt.relight.relighter import Relighter, diffuse_batch
 
@@ -95,7 +95,7 @@ def test_cli_writes_json_and_markdown(tiny_models, tmp_path, capsys):
     js, md = tmp_path / "b.json", tmp_path / "b.md"
     argv = ["--models", str(tiny_models), "--sections", "stage1,end_to_end", "--batches", "1", "--repeats", "1",
             "--warmup", "0", "--json", str(js), "--markdown", str(md)]  # fmt: skip
-    assert bench_cli.main(argv) == 0
+    assert main(["-q", "bench", *argv]) == 0
     data = json.loads(js.read_text())
     assert {r["section"] for r in data["rows"]} == {"stage1", "end_to_end"}
     assert md.read_text() == capsys.readouterr().out
@@ -103,7 +103,7 @@ def test_cli_writes_json_and_markdown(tiny_models, tmp_path, capsys):
 
 
 def test_cli_reports_bad_models_folder(tmp_path, capsys):
-    assert bench_cli.main(["--models", str(tmp_path / "missing"), "--repeats", "1"]) == 2
+    assert main(["bench", "--models", str(tmp_path / "missing"), "--repeats", "1"]) == 2
     assert "no relight_rt models found" in capsys.readouterr().err
 
 
@@ -111,9 +111,9 @@ def test_add_parser_registers_bench_subcommand(tiny_models):
     import argparse
 
     parser = argparse.ArgumentParser()
-    bench_cli.add_parser(parser.add_subparsers(dest="command"))
+    bench.add_parser(parser.add_subparsers(dest="command"))
     args = parser.parse_args(["bench", "--models", str(tiny_models), "--batches", "1,4"])
-    assert args.func is bench_cli.cmd_bench and args.batches == [1, 4]
+    assert args.func is bench.cmd_bench and args.batches == [1, 4]
 
 
 @pytest.mark.parametrize("k", [1, 3])
