@@ -33,7 +33,7 @@ import cv2
 import numpy as np
 
 from relight_rt.engine.errors import RelightError
-from relight_rt.image.io import atomic_path
+from relight_rt.engine.files import atomic_path
 from relight_rt.light.files import load_light
 
 _SAMPLE_SUFFIXES = ("_tex.png", "_mask.png", "_parsing.png", "_transport.npz")

@@ -101,7 +101,7 @@ def run(config: FaceMeshConfig) -> int:
     import tensorflow as tf
     from mediapipe.python.solutions.face_mesh_connections import FACEMESH_TESSELATION
 
-    from relight_rt.image.io import atomic_path
+    from relight_rt.engine.files import atomic_path
 
     root = mediapipe_root()
     out = Path(config.out)

@@ -502,7 +502,7 @@ config_from_args = reader(MaskModelsConfig)
 
 
 def run(config: MaskModelsConfig) -> int:
-    from relight_rt.image.io import atomic_path
+    from relight_rt.engine.files import atomic_path
 
     root = mediapipe_root()
     out = Path(config.out)

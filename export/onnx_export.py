@@ -45,7 +45,7 @@ from torch import nn
 
 from relight_rt import RelightError
 from relight_rt.engine.contract import KINDS, META_OUTPUT_ACTIVATION, ModelConfig
-from relight_rt.image.io import atomic_path
+from relight_rt.engine.files import atomic_path
 
 from .config import reader
 

@@ -94,7 +94,7 @@ def check(before, after, size: int = 128, seed: int = 0) -> dict:
 def main(argv: list[str] | None = None) -> int:
     import onnx
 
-    from relight_rt.image.io import atomic_path
+    from relight_rt.engine.files import atomic_path
 
     parser = argparse.ArgumentParser(prog="python -m export.patch_stage2_relit", description=__doc__.splitlines()[0])
     parser.add_argument("model", type=Path, help="a stage-2 .onnx file")

@@ -246,7 +246,7 @@ class ManifestWriter:
     killed job leaves at most one torn last line (which :func:`read_manifest` skips)."""
 
     def __init__(self, path: str | os.PathLike, protect: Iterable[str | os.PathLike] = ()) -> None:
-        from ..image.io import check_target
+        from ..engine.files import check_target
 
         self.path = Path(path)
         check_target(self.path, protect)

@@ -55,7 +55,7 @@ import numpy as np
 
 from ..engine.contract import KINDS, META_OUTPUT_ACTIVATION, ModelConfig
 from ..engine.errors import RelightError
-from ..image.io import atomic_path, check_target
+from ..engine.files import atomic_path, check_target
 from .torch_checkpoint import PICKLE_MAX_BYTES as PICKLE_MAX_BYTES  # re-exported: the reader's bounds
 from .torch_checkpoint import PICKLE_MAX_DEPTH as PICKLE_MAX_DEPTH
 from .torch_checkpoint import PICKLE_MAX_OPS as PICKLE_MAX_OPS

@@ -33,7 +33,7 @@ foreground, beauty and alpha; 0 and a power of two for the shadings and the diff
 residual and the normal).
 Beside them: ``light.json`` (the new light as used, exposed) and ``light_photo.json`` (the photo's own light, white),
 in relight_rt's light-file format, and ``passes.json`` describing each file. Everything is written at once or not at
-all (``relight_rt.image.io.write_all``).
+all (``relight_rt.engine.files.write_all``).
 """
 
 from __future__ import annotations
@@ -49,8 +49,8 @@ import numpy as np
 
 from .._version import __version__
 from ..engine.errors import RelightError
+from ..engine.files import ProtectedPaths, bytes_writer, write_all
 from ..image.exr import encode_exr
-from ..image.io import ProtectedPaths, bytes_writer, write_all
 from ..relight.decomposition import intrinsic_layers
 from ..relight.relighter import Decomposition, Relighter
 

@@ -9,7 +9,7 @@ Errors: bad input, a malformed file or one that cannot be read or written (any O
 stderr (``relight-rt: error: ...``) and exit code 2, never a traceback; in batch mode every file is tried
 and every failure is listed at the end. Ctrl-C exits 130 and SIGTERM 143, with one line, after the
 atomic writers removed their temporary files. Outputs are written atomically and never over a file the
-command reads (relight_rt.image.io.ProtectedPaths). Native libraries' own stderr output is silenced unless
+command reads (relight_rt.engine.files.ProtectedPaths). Native libraries' own stderr output is silenced unless
 ``-v`` (relight_rt.engine.process).
 """
 

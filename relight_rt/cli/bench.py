@@ -319,7 +319,7 @@ def to_markdown(report: dict, title: str | None = None) -> str:
 
 def write_text(path: str | os.PathLike, text: str) -> Path:
     """Write a text file atomically (temporary file beside it, then rename)."""
-    from ..image.io import write_bytes
+    from ..engine.files import write_bytes
 
     return write_bytes(path, text.encode())
 

@@ -15,7 +15,8 @@ import logging
 from pathlib import Path
 
 from ..engine.errors import RelightError
-from ..image.io import IMAGE_SUFFIXES, check_target, write_image
+from ..engine.files import check_target
+from ..image.io import IMAGE_SUFFIXES, write_image
 from ..light.exposure import parse_exposure
 from .options import (
     add_exposure_option,

@@ -14,7 +14,8 @@ from pathlib import Path
 import numpy as np
 
 from ..engine.errors import RelightError
-from ..image.io import IMAGE_SUFFIXES, atomic_path, check_target, sibling_mask, write_image, write_npy
+from ..engine.files import atomic_path, check_target, write_npy
+from ..image.io import IMAGE_SUFFIXES, sibling_mask, write_image
 from ..light import envmap, sh
 from ..light import files as lightfile
 from ..light import presets as lights

@@ -22,16 +22,8 @@ from pathlib import Path
 import numpy as np
 
 from ..engine.errors import RelightError
-from ..image.io import (
-    IMAGE_SUFFIXES,
-    ProtectedPaths,
-    check_target,
-    image_writer,
-    list_images,
-    read_image,
-    write_all,
-    write_image,
-)
+from ..engine.files import ProtectedPaths, check_target, write_all
+from ..image.io import IMAGE_SUFFIXES, image_writer, list_images, read_image, write_image
 from ..video.frames import VIDEO_SUFFIXES
 from .options import add_max_pixels
 from .progress import Progress, progress

@@ -11,7 +11,8 @@ import numpy as np
 
 from ..apps import batch
 from ..engine.errors import RelightError
-from ..image.io import ProtectedPaths, image_writer, npy_writer, npz_writer, sibling_mask, write_all
+from ..engine.files import ProtectedPaths, npy_writer, npz_writer, write_all
+from ..image.io import image_writer, sibling_mask
 from ..light.exposure import for_light, parse_exposure
 from ..person.masks import find_mask_file
 from ..relight.transport_file import transport_arrays

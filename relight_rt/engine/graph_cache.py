@@ -24,9 +24,9 @@ from pathlib import Path
 
 import onnxruntime as ort
 
-from ..image.io import atomic_path
 from . import environment
 from .errors import RelightError
+from .files import atomic_path
 
 log = logging.getLogger(__name__)
 

@@ -1,7 +1,7 @@
 """Process-level behaviour of the command line: interruption and the native libraries' own stderr output.
 
 - :func:`interrupt_handling` turns SIGTERM into an exception (a ``KeyboardInterrupt`` subclass) in the main
-  thread, so a terminated run unwinds like Ctrl-C: the atomic writers (relight_rt.image.io.atomic_path, the video
+  thread, so a terminated run unwinds like Ctrl-C: the atomic writers (relight_rt.engine.files.atomic_path, the video
   sink) remove their temporary files on the way out, and the CLI prints one line.
 - :func:`quiet_native_libraries` keeps what libpng, libjpeg, FFmpeg, OpenCV and onnxruntime write straight
   to the process's stderr (file descriptor 2) off the terminal, and numpy's floating-point warnings off it

@@ -117,7 +117,7 @@ def save_light(path, light, bgr: bool = False) -> None:
     if not p.parent.is_dir():
         raise RelightError(f"{p}: folder {p.parent} does not exist")
     data = lit[:, ::-1].copy() if bgr else lit
-    from ..image.io import atomic_path
+    from ..engine.files import atomic_path
 
     with atomic_path(p) as tmp, open(tmp, "wb") as f:
         if ext == ".npy":

@@ -35,9 +35,9 @@ from pathlib import Path
 import numpy as np
 
 from ..engine.errors import RelightError
+from ..engine.files import write_npz
 from ..engine.limits import NPY_MAX_BYTES, require_file
 from ..image.crop import MODES, CropGeometry
-from ..image.io import write_npz
 
 FORMAT = 2
 __all__ = ["FORMAT", "load_transport", "save_transport", "transport_arrays"]

@@ -40,8 +40,9 @@ import cv2
 import numpy as np
 
 from ..engine.errors import RelightError
+from ..engine.files import ProtectedPaths, current_umask, same_file
 from ..engine.limits import check_pixels, require_file_or_folder
-from ..image.io import IMAGE_SUFFIXES, ProtectedPaths, current_umask, read_image, read_mask, same_file, write_image
+from ..image.io import IMAGE_SUFFIXES, read_image, read_mask, write_image
 
 log = logging.getLogger(__name__)
 

@@ -537,7 +537,7 @@ def relight_clip(
     import math
 
     from ..engine.config import RuntimeConfig
-    from ..image.io import atomic_path, check_target, write_npy
+    from ..engine.files import atomic_path, check_target, write_npy
     from ..light.exposure import for_light
     from . import metrics as rt_metrics
 

@@ -382,7 +382,7 @@ def test_models_are_protected(work, capsys, tmp_path_factory):
 
 
 def test_protected_paths_follow_links_and_inodes(tmp_path):
-    from relight_rt.image.io import ProtectedPaths, check_target
+    from relight_rt.engine.files import ProtectedPaths, check_target
 
     (tmp_path / "a.png").write_bytes(b"a")
     (tmp_path / "sym.png").symlink_to(tmp_path / "a.png")

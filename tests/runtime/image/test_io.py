@@ -5,19 +5,8 @@ import numpy as np
 import pytest
 
 from relight_rt import RelightError
-from relight_rt.image.io import (
-    image_writer,
-    list_images,
-    npy_writer,
-    npz_writer,
-    read_image,
-    read_mask,
-    sibling_mask,
-    write_all,
-    write_image,
-    write_npy,
-    write_npz,
-)
+from relight_rt.engine.files import npy_writer, npz_writer, write_all, write_npy, write_npz
+from relight_rt.image.io import image_writer, list_images, read_image, read_mask, sibling_mask, write_image
 
 
 @pytest.fixture
@@ -266,7 +255,7 @@ def test_atomic_path_gives_usual_permissions_and_cleans_up(tmp_path):
     import os
     import stat
 
-    from relight_rt.image.io import atomic_path
+    from relight_rt.engine.files import atomic_path
 
     target = tmp_path / "out.bin"
     with atomic_path(target) as tmp:
