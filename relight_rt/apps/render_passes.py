@@ -47,7 +47,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from .._version import __version__
+from .. import __version__
 from ..engine.errors import RelightError
 from ..engine.files import ProtectedPaths, bytes_writer, write_all
 from ..image.exr import encode_exr

@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 import onnxruntime as ort
 
-from .._version import __version__
+from .. import __version__
 from ..engine import environment
 from ..engine.errors import RelightError
 from ..light import presets as lights

@@ -12,7 +12,7 @@ import cv2
 import numpy as np
 import onnxruntime as ort
 
-from .._version import __version__
+from .. import __version__
 from ..engine.errors import RelightError
 from ..engine.session import CUDA, create_session, find_models
 from .options import add_runtime_options

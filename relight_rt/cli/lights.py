@@ -69,10 +69,8 @@ def add_parser(subparsers) -> None:
 
 
 def cmd_list(args: argparse.Namespace) -> int:
-    notes = getattr(lights, "_PRESETS", {})
     for name in lights.list_presets():
-        note = notes.get(name, (None, None, ""))[2] if isinstance(notes.get(name), tuple) else ""
-        print(f"{name}\t{note}".rstrip())
+        print(f"{name}\t{lights.describe_preset(name)}".rstrip())
     return 0
 
 

@@ -265,6 +265,11 @@ def list_presets() -> list[str]:
     return list(_PRESETS)
 
 
+def describe_preset(name: str) -> str:
+    """What preset ``name`` looks like, in a few words (``relight-rt lights list``); "" for an unknown name."""
+    return _PRESETS[name][2] if name in _PRESETS else ""
+
+
 def preset(name: str) -> np.ndarray:
     """A named light, scaled so that its brightest irradiance on the camera-facing sphere is ~1.
 

@@ -1,10 +1,10 @@
-"""The CLI wing (issue 31): argument parsing only in relight_rt/cli/, the library never reaching up into it, no
-private names taken across the wing's modules, one failure printer, and the video job as a library function
-(relight_rt.video.job.relight_clip) that the command and each Ray task run."""
+"""The CLI wing (issue 31): every command listed once, one failure printer, and the video job as a library function
+(relight_rt.video.job.relight_clip) that the command and each Ray task run. Argument parsing only in cli/, the
+library never reaching up into it and no private name across modules: runtime/test_module_imports.py, for the
+whole package."""
 
 from __future__ import annotations
 
-import ast
 import warnings
 from pathlib import Path
 
@@ -13,71 +13,10 @@ import numpy as np
 import pytest
 from _graphs import models_dir
 
-import relight_rt
 from relight_rt import cli
 from relight_rt.cli.report import finish, finish_batch
 
 __all__ = ["models_dir"]  # fixture
-
-PACKAGE = Path(relight_rt.__file__).parent
-CLI = PACKAGE / "cli"
-# the entry points, above the CLI: `python -m relight_rt` and the console script
-ENTRY_POINTS = {"__main__.py", "_launch.py"}
-# the CLI wing's library halves (issue 31 item 3: no private name imported across modules)
-WING = [*sorted(CLI.glob("*.py")), *(PACKAGE / n for n in ("apps/ray_jobs.py", "video/job.py",
-        "apps/reference_checkpoints.py", "apps/studio/__init__.py"))]  # fmt: skip
-
-
-def _runtime_files():
-    return sorted(p for p in PACKAGE.rglob("*.py") if "__pycache__" not in p.parts)
-
-
-def _imports(path: Path):
-    """(module the statement names, with dots for relative imports; the names it takes) per import."""
-    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-        if isinstance(node, ast.Import):
-            for alias in node.names:
-                yield alias.name, ()
-        elif isinstance(node, ast.ImportFrom):
-            yield "." * node.level + (node.module or ""), tuple(a.name for a in node.names)
-
-
-def _absolute(path: Path, module: str) -> str:
-    """relight_rt.x.y for a relative import in ``path``."""
-    if not module.startswith("."):
-        return module
-    level = len(module) - len(module.lstrip("."))
-    package = list(path.relative_to(PACKAGE.parent).parts[:-1])  # a module's package (an __init__'s own)
-    base = package[: len(package) - (level - 1)]
-    return ".".join([*base, module.lstrip(".")]).rstrip(".")
-
-
-def test_only_the_cli_parses_arguments():
-    outside = [str(p.relative_to(PACKAGE)) for p in _runtime_files()
-               if CLI not in p.parents and any(m == "argparse" for m, _ in _imports(p))]  # fmt: skip
-    assert outside == []
-
-
-def test_the_library_never_imports_the_cli():
-    """Arrows run down: the commands use the library, the library never the commands (entry points aside)."""
-    up = []
-    for p in _runtime_files():
-        if CLI in p.parents or str(p.relative_to(PACKAGE)) in ENTRY_POINTS:
-            continue
-        for module, names in _imports(p):
-            full = _absolute(p, module)
-            cli_named = full == "relight_rt" and "cli" in names
-            if full == "relight_rt.cli" or full.startswith("relight_rt.cli.") or cli_named:
-                up.append(f"{p.relative_to(PACKAGE)}: {module}")
-    assert up == []
-
-
-def test_no_private_name_is_imported_across_the_wing():
-    """Private modules (``from .. import _light_sheet``) are fine; a private name out of another module is not."""
-    taken = [f"{p.relative_to(PACKAGE)}: {module} {name}" for p in WING for module, names in _imports(p)
-             if module.strip(".") for name in names if name.startswith("_") and not name.startswith("__")]  # fmt: skip
-    assert taken == []
-
 
 def test_every_command_is_listed_once():
     parser = cli.build_parser()
