@@ -40,7 +40,7 @@ import onnxruntime as ort
 from .. import __version__
 from ..engine import environment
 from ..engine.errors import RelightError
-from ..light import presets as lights
+from ..light import presets
 
 log = logging.getLogger(__name__)
 
@@ -129,7 +129,7 @@ def photo(height: int, width: int, seed: int = 0) -> np.ndarray:
 
 def sweep_lights(k: int) -> np.ndarray:
     """(K, 9, 3) float32: a light preset turned K times about the vertical axis."""
-    return lights.rotation_sequence(lights.preset(lights.list_presets()[0]), k).astype(np.float32)
+    return presets.rotation_sequence(presets.preset(presets.list_presets()[0]), k).astype(np.float32)
 
 
 def network_inputs(kind: str, batch: int, resolution: int, seed: int = 0) -> dict[str, np.ndarray]:

@@ -15,8 +15,7 @@ import numpy as np
 
 from ..engine.errors import RelightError
 from ..image.io import read_image, write_image
-from ..light import presets as lights
-from ..light import sh
+from ..light import presets, sh
 from .options import add_runtime_options, runtime_config
 
 log = logging.getLogger(__name__)
@@ -56,7 +55,7 @@ def run_demo(output: str | Path, preset: str = "golden-hour", models=None, devic
     from ..builder import open as open_relighter
     from ..engine.config import RuntimeConfig
 
-    light = lights.preset(preset)
+    light = presets.preset(preset)
     photo = read_image(example_path(), "example")
     relighter = open_relighter(config if config is not None else RuntimeConfig(models=models, device=device))
     relit = relighter.relight(photo, light, background=np.zeros(photo.shape[:2] + (3,), np.float32))
@@ -71,7 +70,8 @@ def add_parser(subparsers) -> None:
         description="Relight the bundled example (a rendered person) and write the photo, the relit photo and "
         "the light on a sphere side by side.",
     )
-    p.add_argument("--preset", default="golden-hour", metavar="NAME", help=f"one of {', '.join(lights.list_presets())}")
+    p.add_argument("--preset", default="golden-hour", metavar="NAME",
+                   help=f"one of {', '.join(presets.list_presets())}")
     p.add_argument("-o", "--output", default="demo.png", metavar="OUT", help="image to write (default demo.png)")
     add_runtime_options(p)
     p.set_defaults(func=cmd_demo)

@@ -17,7 +17,7 @@ from ..engine.config import DEVICES, PRECISIONS, PREPROCESS, RuntimeConfig
 from ..engine.errors import RelightError
 from ..engine.limits import DEFAULT_MAX_PIXELS
 from ..image.compositing import Background, parse_background
-from ..light import presets as lights
+from ..light import presets
 from ..light.spec import HDR_SUFFIXES, SH_FILE_SUFFIXES, LightSpec
 
 # ------------------------------------------------------------------------------------------- runtime
@@ -80,7 +80,7 @@ def add_light_options(p: argparse.ArgumentParser, *, required: bool = True, grou
     Returns the mutually exclusive group, so a command can add its own alternatives (video: --lights).
     """
     light = group if group is not None else p.add_mutually_exclusive_group(required=required)
-    light.add_argument("--preset", metavar="NAME", help=f"named light: {', '.join(lights.list_presets())}")
+    light.add_argument("--preset", metavar="NAME", help=f"named light: {', '.join(presets.list_presets())}")
     light.add_argument("--light", metavar="FILE", help="SH light file: .npy (9, 3) or .json, RGB (see --bgr)")
     light.add_argument("--envmap", metavar="MAP", help="equirectangular environment map (.hdr/.exr/.png/.jpg)")
     light.add_argument("--light-from", metavar="PHOTO", help="borrow the light of another photo of a person")
@@ -98,7 +98,7 @@ def light_spec(args: argparse.Namespace) -> LightSpec | None:
     if args.light:
         path = Path(args.light)
         suffix = path.suffix.lower()
-        if not path.exists() and not suffix and args.light in lights.list_presets():
+        if not path.exists() and not suffix and args.light in presets.list_presets():
             raise RelightError(f"--light expects a light file; {args.light!r} is a preset: use --preset {args.light}")
         if not path.is_file():
             raise RelightError(f"--light {args.light}: {'not a regular file' if path.exists() else 'file not found'}")

@@ -29,9 +29,8 @@ import numpy as np
 
 from ..engine.errors import RelightError
 from ..image.io import IMAGE_SUFFIXES
-from . import envmap, sh
-from . import files as lightfile
-from . import presets as lights
+from . import envmap, presets, sh
+from .files import load_light
 
 SH_FILE_SUFFIXES = (".npy", ".json")
 HDR_SUFFIXES = (".hdr", ".pic", ".exr")
@@ -163,9 +162,9 @@ class LightSpec:
         if self.source == "sh":
             base = self.value
         elif self.source == "preset":
-            base = lights.preset(str(self.value))
+            base = presets.preset(str(self.value))
         elif self.source == "file":
-            base = lightfile.load_light(self.value, bgr=self.bgr)
+            base = load_light(self.value, bgr=self.bgr)
         elif self.source == "envmap":
             base = envmap.project_envmap(envmap.load_envmap(self.value))
         else:
@@ -207,8 +206,8 @@ def parse_light(text: str | os.PathLike, *, allow_paths: bool = True) -> LightSp
         raise RelightError(f"light: expected a preset name or a file, got {text!r}")
     looks_like_path = bool(Path(s).suffix) or "/" in s or os.sep in s or (os.altsep or "/") in s
     if not allow_paths:
-        if looks_like_path or s not in lights.list_presets():
-            known = ", ".join(lights.list_presets())
+        if looks_like_path or s not in presets.list_presets():
+            known = ", ".join(presets.list_presets())
             raise RelightError(f"light {s!r}: only preset names are accepted here ({known}); files cannot be named")
         return LightSpec.preset(s)
     path = Path(s)
@@ -223,6 +222,6 @@ def parse_light(text: str | os.PathLike, *, allow_paths: bool = True) -> LightSp
         raise RelightError(f"light: {path} is neither a light file (.npy/.json), an environment map nor a photo")
     if looks_like_path:
         raise RelightError(f"light: file {path} not found")
-    if s not in lights.list_presets():
-        lights.preset(s)  # raises with the list of known names
+    if s not in presets.list_presets():
+        presets.preset(s)  # raises with the list of known names
     return LightSpec.preset(s)

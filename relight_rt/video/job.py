@@ -124,11 +124,11 @@ class LightSchedule:
     @classmethod
     def interpolated(cls, keys: Sequence[np.ndarray], n_frames: int) -> LightSchedule:
         """Interpolate between keyframe lights over ``n_frames`` (relight_rt.light.presets.interpolate)."""
-        from ..light import presets as _lights
+        from ..light import presets
 
         if len(keys) < 2 or n_frames < 1:
             raise RelightError(f"lights: expected at least two keyframe lights and frames, got {len(keys)}, {n_frames}")
-        arr = np.asarray(_lights.interpolate([sh.check_light(k, f"key light {j}") for j, k in enumerate(keys)],
+        arr = np.asarray(presets.interpolate([sh.check_light(k, f"key light {j}") for j, k in enumerate(keys)],
                                              n_frames), np.float64)
         return cls(lambda i, fps: arr[i], f"an interpolation over {n_frames} frames", n_frames)
 

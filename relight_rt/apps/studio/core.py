@@ -37,8 +37,7 @@ from ...engine.errors import RelightError
 from ...engine.limits import header_size
 from ...image.compositing import Background
 from ...image.io import as_colour, decode_bytes, encode_image, read_image, sibling_mask
-from ...light import envmap, sh
-from ...light import presets as lights
+from ...light import envmap, presets, sh
 from ...relight.strength import restore_bands
 
 log = logging.getLogger(__name__)
@@ -412,8 +411,8 @@ class Studio:
             "background": "transparent" if self.background == "transparent" else "image",
             "original_background": self.background == "original",  # the toggle "background follows the light"
             "own_light": own.tolist(),
-            "presets": {name: lights.preset(name).astype(np.float32).tolist() for name in lights.list_presets()},
-            "preset_exposure": {name: lights.preset_exposure(name) for name in lights.list_presets()},
+            "presets": {name: presets.preset(name).astype(np.float32).tolist() for name in presets.list_presets()},
+            "preset_exposure": {name: presets.preset_exposure(name) for name in presets.list_presets()},
             "diffuse_only": bool(self.relighter.diffuse_only),
             "people": self._people(),
             "exposure": self.exposure_supported,
