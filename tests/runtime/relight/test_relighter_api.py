@@ -82,8 +82,9 @@ def test_video_resolves_a_photos_light_through_the_relighter(relighter, tmp_path
         video.resolve_light(tmp_path / "p.png")  # no relighter: a photo's light cannot be had
 
 
-def test_the_test_run_refuses_old_names_outside_a_warning_check(models_dir):
-    """pyproject's filterwarnings: a deprecated relight_rt name reached by a test is an error, so the project's own
-    code and tests cannot slip back to it (the checks above expect the warning with pytest.warns)."""
-    with pytest.raises(DeprecationWarning, match="relight_rt.lightfile.load_light"):
-        sh.load_light  # noqa: B018
+def test_the_test_run_refuses_old_names_outside_a_warning_check():
+    """pyproject's filterwarnings: a relight_rt DeprecationWarning reached by a test is an error, so the project's own
+    code and tests cannot slip back to an old name (today none is left: sh's moved names went with issue 47)."""
+    with pytest.raises(DeprecationWarning, match="relight_rt.light.sh.old_name"):
+        warnings.warn("relight_rt.light.sh.old_name moved", DeprecationWarning, stacklevel=1)
+    assert not hasattr(sh, "load_light") and not hasattr(sh, "load_envmap")
