@@ -1,9 +1,10 @@
 """Command line interface: ``relight-rt COMMAND ...`` (``python -m relight_rt``, the console script).
 
 One module per command or family of commands, each with ``add_parser(subparsers)`` (argparse) and the
-``cmd_*`` functions it sets as ``func``; the work itself is done by the library (relight_rt.apps.batch, video,
-scene, distributed, ...). Shared options and the one place that builds a Relighter from them:
-relight_rt.cli.options; how every command ends (error lines, counts, exit codes): relight_rt.cli.report.
+``cmd_*`` functions it sets as ``func``; the work itself is done by the library (relight_rt.apps.batch,
+relight_rt.video.job, relight_rt.apps.scene, relight_rt.apps.ray_jobs, ...). Shared options and the one place
+that builds a Relighter from them: relight_rt.cli.options; how every command ends (error lines, counts, exit
+codes): relight_rt.cli.report.
 
 Errors: bad input, a malformed file or one that cannot be read or written (any OSError) is one line on
 stderr (``relight-rt: error: ...``) and exit code 2, never a traceback; in batch mode every file is tried
