@@ -170,7 +170,7 @@ def test_light_sequence_file(tmp_path):
 
 
 def test_rotation_schedule_turns_once_per_second():
-    sh = pytest.importorskip("relight_rt.sh")
+    sh = pytest.importorskip("relight_rt.light.sh")
     light = np.zeros((9, 3))
     light[0] = 0.5
     light[3] = 0.3  # toward the camera
