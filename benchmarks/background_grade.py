@@ -9,7 +9,7 @@ by one minus it), and the per-channel gain of each.
     PYTHONPATH=$PWD python benchmarks/background_grade.py --clip ../shared/reference/video [--preset night]
 
 ``--clip FOLDER`` (frames with STEM_mask files; ``relight-rt video --grade-background``): the grade each frame
-measures alone against the one the clip follows (relight_rt.video.BackgroundGrade), as the frame-to-frame change of
+measures alone against the one the clip follows (relight_rt.video.job.BackgroundGrade), as the frame-to-frame change of
 its luminance in EV (median and largest: the background's flicker), and the person's and the background's change
 over the clip.
 """
@@ -22,9 +22,9 @@ import math
 import numpy as np
 
 import relight_rt
-from relight_rt.color import srgb_to_linear
-from relight_rt.compositing import Background
-from relight_rt.exposure import REC709, for_light
+from relight_rt.image.color import srgb_to_linear
+from relight_rt.image.compositing import Background
+from relight_rt.light.exposure import REC709, for_light
 
 EXAMPLE = "relight_rt/data/example_scene.jpg"
 
@@ -35,8 +35,15 @@ def weighted_mean(image: np.ndarray, weight: np.ndarray) -> np.ndarray:
 
 
 def clip(folder: str, preset: str) -> None:
+    from relight_rt.video.job.job.job import (
+        BackgroundGrade,
+        FrameSource,
+        LightSchedule,
+        RelighterEngine,
+        relight_frames,
+    )
+
     from relight_rt.relight.compose import grade_of_sums, light_sums
-    from relight_rt.video import BackgroundGrade, FrameSource, LightSchedule, RelighterEngine, relight_frames
 
     rl = relight_rt.open()
     source = FrameSource(folder)

@@ -5,7 +5,7 @@
 Each photo is decomposed with the automatic matte and relit under every preset (``relight_rt.lights``) at the
 default exposure; printed per photo and as a mean: the share of the person's pixels (alpha > 0.5) whose brightest
 channel is at or above ``--limit``, in the input and under each preset. Where that share is large the lit side
-is a flat colour at the limit (the highlight shoulder of relight_rt.relighter holds it there), and shading
+is a flat colour at the limit (the highlight shoulder of relight_rt.relight.relighter holds it there), and shading
 beside it reads as a blotch.
 """
 
@@ -25,7 +25,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     import relight_rt
     from relight_rt import RelightError, RuntimeConfig, lights
-    from relight_rt._io import read_image
+    from relight_rt.image.io import read_image
 
     relighter = relight_rt.open(RuntimeConfig(device="cpu"))
     presets = list(lights.list_presets())

@@ -18,8 +18,8 @@ import onnxruntime  # noqa: E402, F401
 
 import relight_rt  # noqa: E402
 import relight_rt.cli  # noqa: E402, F401
-import relight_rt.matting  # noqa: E402, F401
-import relight_rt.relighter  # noqa: E402, F401
+import relight_rt.person.matting  # noqa: E402, F401
+import relight_rt.relight.relighter  # noqa: E402, F401
 
 
 def main() -> None:

@@ -32,9 +32,9 @@ if str(REPO) not in sys.path:
 
 import relight_rt  # noqa: E402
 from relight_rt import RuntimeConfig  # noqa: E402
-from relight_rt._io import read_image, write_image  # noqa: E402
-from relight_rt.color import linear_to_srgb  # noqa: E402
-from relight_rt.scene import composite  # noqa: E402
+from relight_rt.apps.scene import composite  # noqa: E402
+from relight_rt.image.color import linear_to_srgb  # noqa: E402
+from relight_rt.image.io import read_image, write_image  # noqa: E402
 
 
 def make_inputs(hdri: Path, work: Path, place: str = "city.hdr") -> tuple[Path, Path, Path]:

@@ -32,7 +32,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from relight_rt.sh import basis, cosine_lobe
+from relight_rt.light.sh import basis, cosine_lobe
 
 DEMO_SCALE = 0.7  # testNetwork_demo_512.py: sh = sh * 0.7
 DEMO_PHOTO = "data/obama.jpg"

@@ -4,7 +4,7 @@
 
 Relights real photos (automatic mattes, automatic exposure) under ``overhead-noon``, ``night``, ``campfire`` and
 white lamps from the image's left and right (benchmarks/real_photos.py's LEFT, RIGHT), takes the largest face mesh
-the runtime found (relight_rt._face_geometry), and measures the change c = log(relit luminance + 1e-3) -
+the runtime found (relight_rt.person.face_mesh), and measures the change c = log(relit luminance + 1e-3) -
 log(input luminance + 1e-3) (Rec. 709 of linearised sRGB) around it, in units of the face's size s (the mesh's
 larger extent, input pixels). The photos: the reference photo and video frames 1 and 12 (``--reference``), and
 dpr_obama, grace_hopper, julia_trotti, blonde_hair, astronaut from benchmarks/people_photos.py's cache
@@ -38,7 +38,7 @@ from real_photos import LEFT, REPO, RIGHT, change
 
 import relight_rt
 from relight_rt import RuntimeConfig
-from relight_rt._face_geometry import rasterise_normals
+from relight_rt.person.face_mesh import rasterise_normals
 
 LIGHTS = {"overhead-noon": "overhead-noon", "night": "night", "campfire": "campfire", "left": LEFT, "right": RIGHT}
 PEOPLE = ("dpr_obama", "grace_hopper", "julia_trotti", "blonde_hair", "astronaut")

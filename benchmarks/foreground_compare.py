@@ -1,4 +1,4 @@
-"""relight_rt.foreground.estimate_foreground against pymatting's estimate_foreground_ml (the method's reference
+"""relight_rt.image.foreground.estimate_foreground against pymatting's estimate_foreground_ml (the method's reference
 implementation, MIT; needs numba, so it runs in a side venv and is no dependency of the project).
 
     python3 -m venv /tmp/pmvenv && /tmp/pmvenv/bin/pip install pymatting onnxruntime opencv-python-headless
@@ -23,7 +23,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from relight_rt.foreground import estimate_foreground  # noqa: E402
+from relight_rt.image.foreground import estimate_foreground  # noqa: E402
 
 
 def synthetic(h: int = 600, w: int = 800, seed: int = 0):
@@ -58,7 +58,7 @@ def main() -> None:
           f"photo {err(rgb):.1f}, ours {err(ours):.1f}, pymatting {err(theirs):.1f}; "
           f"time ours {1000 * t_ours:.0f} ms, pymatting {1000 * t_theirs:.0f} ms")  # fmt: skip
     if args.photo is not None:
-        from relight_rt.matting import PersonMatter
+        from relight_rt.person.matting import PersonMatter
 
         img = cv2.cvtColor(cv2.imread(str(args.photo), cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB).astype(np.float32) / 255
         a = PersonMatter()(img)

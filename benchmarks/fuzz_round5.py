@@ -2,8 +2,8 @@
 fuzz_round4.py fuzzes the rest (same harness: RLIMIT_AS, a time limit, inputs hashed before and after, no partial
 output or temporary file left by a failure).
 
-Three kinds of case: ``relight-rt composite ... --view`` (CLI), ``relight_rt.panorama`` called with bad arrays (API:
-a RelightError is the clear failure, any other exception a traceback), and ``python -m export gpu-bank /
+Three kinds of case: ``relight-rt composite ... --view`` (CLI), ``relight_rt.apps.panorama`` called with bad arrays
+(API: a RelightError is the clear failure, any other exception a traceback), and ``python -m export gpu-bank /
 gpu-train / gpu-check`` on a tiny sphere bank (as tests/export/gpu builds) and broken copies of it.
 
     python benchmarks/fuzz_round5.py [--memory-gb 4] [--seconds 120] [--only WORD] [--json out.jsonl]
@@ -108,7 +108,7 @@ def fixtures(folder: Path) -> None:
     (folder / "pano_neg.hdr").write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y -32 +X -64\n" + bytes(64))
     (folder / "pano_garbage.hdr").write_bytes(b"#?RADIANCE\n" + bytes(range(256)) * 8)
     (folder / "pano_empty.hdr").write_bytes(b"")
-    from relight_rt._exr import encode_exr
+    from relight_rt.image.exr import encode_exr
 
     exr = encode_exr({c: pano[..., i] for i, c in zip((2, 1, 0), "RGB", strict=True)})
     (folder / "pano.exr").write_bytes(exr)
@@ -274,7 +274,7 @@ def cases() -> list[tuple[str, list[str], list[str], list[str], str]]:
                        ("broadcast 50k x 100k", "a = np.broadcast_to(np.float32(1), (50_000, 100_000, 3))"),
                        ("non-contiguous", f"a = ({ok})[:, :, ::-1]")):
         api(f"panorama_view {label}", f"""
-from relight_rt.panorama import panorama_view
+from relight_rt.apps.panorama import panorama_view
 {arr}
 v = panorama_view(a, (96, 64), (0, 0))
 assert np.isfinite(v.light).all() and v.plate.dtype == np.uint8, (v.light, v.plate.dtype)
@@ -288,25 +288,25 @@ assert np.isfinite(v.light).all() and v.plate.dtype == np.uint8, (v.light, v.pla
                               ("size numpy", "(0, 0)", "np.array([96, 64])"),
                               ("size None", "(0, 0)", "None"), ("size str", "(0, 0)", "'96x64'")):
         api(f"panorama_view {label}", f"""
-from relight_rt.panorama import panorama_view
+from relight_rt.apps.panorama import panorama_view
 v = panorama_view({ok}, {size}, {view})
 assert np.isfinite(v.light).all()
 """)
     api("composite_panorama inf pixel", f"""
 import relight_rt
-from relight_rt.panorama import composite_panorama
+from relight_rt.apps.panorama import composite_panorama
 a = {ok}; a[3, 3] = np.inf
 img = composite_panorama(relight_rt.open(), "p.png", a, (0, 0), size=(64, 64))
 assert np.isfinite(img).all()
 """)
     api("composite_panorama NaN image", f"""
 import relight_rt
-from relight_rt.panorama import composite_panorama
+from relight_rt.apps.panorama import composite_panorama
 img = composite_panorama(relight_rt.open(), np.full((64, 64, 3), np.nan, np.float32), {ok}, (0, 0))
 assert np.isfinite(img).all()
 """)
     api("composite_panorama huge size", f"""
-from relight_rt.panorama import composite_panorama
+from relight_rt.apps.panorama import composite_panorama
 composite_panorama(None, "p.png", {ok}, (0, 0), size=(100_000, 100_000))
 """)
 

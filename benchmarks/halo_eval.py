@@ -14,8 +14,8 @@ pure green and over pure magenta:
   in the photo), in 8-bit levels along the line between them (0: none of the old background; "-" where those
   two colours differ by less than 12 levels, so that there is no direction to measure along).
 "before" is PersonMatter(edges=False) with the photo's own colour (the composite before issue 33), "after"
-that matte refined in its edge band (relight_rt._refine, what PersonMatter() does by default) with the colour of
-relight_rt.foreground.estimate_foreground. Also times the refinement and decontamination together.
+that matte refined in its edge band (relight_rt.image.matte_edges, what PersonMatter() does by default) with the colour
+of relight_rt.image.foreground.estimate_foreground. Also times the refinement and decontamination together.
 
 The sheet (only photos whose licence allows: public-domain and scikit-image samples) shows, for each photo,
 a 100 % crop at the top of the head: before | after over green, then before | after over magenta.
@@ -37,9 +37,9 @@ sys.path.insert(0, str(REPO / "benchmarks"))
 
 from people_photos import gather, parse_gitdirs  # noqa: E402
 
-from relight_rt import matting as M  # noqa: E402
 from relight_rt.cli.mask import read_photo  # noqa: E402
-from relight_rt.foreground import estimate_foreground  # noqa: E402
+from relight_rt.image.foreground import estimate_foreground  # noqa: E402
+from relight_rt.person import matting as M  # noqa: E402
 
 GREEN = np.array([0.0, 1.0, 0.0], np.float32)
 MAGENTA = np.array([1.0, 0.0, 1.0], np.float32)

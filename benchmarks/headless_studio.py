@@ -27,7 +27,7 @@ CHROMIUM_ARGS = [
 
 
 def start_server(studio, timeout: float = 20.0):
-    """Serve ``studio`` (a relight_rt.studio.core.Studio) in a daemon thread on a free port of 127.0.0.1.
+    """Serve ``studio`` (a relight_rt.apps.studio.core.Studio) in a daemon thread on a free port of 127.0.0.1.
 
     Returns:
         (server, thread, url); stop with ``server.should_exit = True`` and ``thread.join()``.
@@ -37,7 +37,7 @@ def start_server(studio, timeout: float = 20.0):
     """
     import uvicorn
 
-    from relight_rt.studio import create_app
+    from relight_rt.apps.studio import create_app
 
     srv = uvicorn.Server(uvicorn.Config(create_app(studio), host="127.0.0.1", port=0, log_level="warning"))
     thread = threading.Thread(target=srv.run, daemon=True)

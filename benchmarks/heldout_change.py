@@ -25,7 +25,7 @@ Per framing (the folder name after its last "_"): means over pairs.
 ``bands``: stage 1 alone (``--stage1`` graph, default the bundled one) on every photo, against the true transport of
 its person (OUT/test_FRAMING/NAME_transport.npz) and the photo's true light, per pixel in the mask: the degree-1
 band's magnitude over the degree-0 coefficient and the degree-2 band's, the angle between the degree-1 vectors, and
-the same two ratios of the light's luminance (what relight_rt/_strength.py's gains and refit make up for).
+the same two ratios of the light's luminance (what relight_rt/relight/strength.py's gains and refit make up for).
 
     python benchmarks/heldout_change.py bands runs/h32/photos_* [--stage1 PATH]
 """
@@ -57,7 +57,7 @@ LAMPS = {  # direction the light comes from, subject frame: +x toward the camera
 
 def lamp_envmap(direction, height: int = 64, radius: float = 0.25, ambient: float = 0.05) -> np.ndarray:
     """(H, 2H, 3) float32 map (DESIGN.md §3 layout): a white disc of half-angle ``radius`` plus uniform ambient."""
-    from relight_rt.envmap import directions_envmap
+    from relight_rt.light.envmap import directions_envmap
 
     d = np.asarray(direction, np.float64)
     d /= np.linalg.norm(d)

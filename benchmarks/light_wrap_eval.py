@@ -6,7 +6,7 @@ The renders and maps of benchmarks/scene_eval.py (its docstring: the background 
 frame, the person at 75 % of a 256 x 192 view). The truth is the person rendered in B (``render-photos
 --full-shading``: light from behind grazes the silhouette, as in a photograph) at the background camera's
 exposure, laid over the background photo. The estimate is the renderer's albedo and transport of the person lit
-by relight_rt.scene_light's light from the background photo (shipped numbers) or by the true SH light of B
+by relight_rt.light.from_background's light from the background photo (shipped numbers) or by the true SH light of B
 (oracle: no exposure or colour error, only the SH's missing rim), laid over the same photo; then
 relight_rt.scene's light wrap with each (radius, strength) of the grid, radius a fraction of the frame height
 (the default is WRAP_RADIUS, WRAP_STRENGTH).
@@ -39,8 +39,8 @@ import scene_eval as se  # noqa: E402
 
 from relight_rt import envmap, sh  # noqa: E402
 from relight_rt import scene as scene_mod  # noqa: E402
-from relight_rt import scene_light as bgmod  # noqa: E402
-from relight_rt.color import srgb_to_linear  # noqa: E402
+from relight_rt.image.color import srgb_to_linear  # noqa: E402
+from relight_rt.light import from_background as bgmod  # noqa: E402
 
 GRID_RADIUS = (0.003, 0.006, 0.01, 0.015)
 GRID_STRENGTH = (0.25, 0.5, 0.75, 1.0)

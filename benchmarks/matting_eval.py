@@ -1,4 +1,4 @@
-"""Automatic person matting (relight_rt.matting) against the reference masks, a GrabCut baseline, speed, flicker.
+"""Automatic person matting (relight_rt.person.matting) against the reference masks, a GrabCut baseline, speed, flicker.
 
     python benchmarks/matting_eval.py                      # everything below, figures as in docs/RESULTS.md
     python benchmarks/matting_eval.py --only accuracy|speed|flicker|cputime|shifts
@@ -10,12 +10,12 @@
   GrabCut (OpenCV, 5 iterations, started from the same person box: the box our region finder returns;
   run on the image reduced to a long side of 1000 px, its mask upsampled).
 - speed: PersonMatter on a 2-megapixel photo (the reference photo resized to 1732x1155; the edge band and
-  relight_rt.foreground.estimate_foreground on their own too), and VideoMatter
+  relight_rt.image.foreground.estimate_foreground on their own too), and VideoMatter
   on 720p frames (1280x720: the reference frames scaled to 720 px high, centred, edges replicated),
   median of repeated runs, plus where the time goes.
 - shifts: the photo's accuracy over the 9 crops that drop 0-2 rows and 0-2 columns at its top left (the
   matte moves with its 256² crops: a 1-pixel shift moves the photo's IoU by up to 0.007), mean and min.
-- flicker: relight_rt.matting.outline_flicker on the 24 reference frames for VideoMatter with and without
+- flicker: relight_rt.person.matting.outline_flicker on the 24 reference frames for VideoMatter with and without
   temporal smoothing, per-image PersonMatter, and the reference masks themselves.
 
 The reference data stay in ../shared (CC BY-NC-SA 4.0); nothing of them is written anywhere.
@@ -34,7 +34,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from relight_rt import matting as M  # noqa: E402
+from relight_rt.person import matting as M  # noqa: E402
 
 
 def shared_reference() -> Path:
@@ -247,7 +247,7 @@ def cpu_time(ref: Path, repeat: int) -> None:
         f"load {os.getloadavg()[0]:.1f}; CPU ms, one thread, best / median of {repeat}: refine_edges "
         f"{r[0]:.0f} / {r[1]:.0f}; estimate_foreground {f[0]:.0f} / {f[1]:.0f}; both {b[0]:.0f} / {b[1]:.0f}"
     )
-    from relight_rt.session import ENV_THREADS
+    from relight_rt.engine.session import ENV_THREADS
 
     before = os.environ.get(ENV_THREADS)
     os.environ[ENV_THREADS] = "1"  # the graphs' sessions are made with one intra-op thread

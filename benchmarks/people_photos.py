@@ -4,7 +4,7 @@
     python benchmarks/people_photos.py --cache /tmp/people --found [--sheet /tmp/found.jpg] [--shifted]  # who is found
 
 Each entry: a name, where it comes from, what it shows, and how many people a person finder should return
-with ``--person all`` (people whose box is at least ``relight_rt.matting.MIN_PERSON_FRACTION`` of the
+with ``--person all`` (people whose box is at least ``relight_rt.person.matting.MIN_PERSON_FRACTION`` of the
 image's shorter side tall; ``None``: not counted, e.g. crowds). Sources:
 
 - ``shared:PATH``: ../shared/reference (the reference implementation's photo and video frames, CC BY-NC-SA).
@@ -170,8 +170,8 @@ def found(photos: list[tuple[Photo, Path]], sheet: Path | None, shifted: bool = 
 
     sys.path.insert(0, str(REPO))
     from relight_rt import RelightError
-    from relight_rt import matting as M
     from relight_rt.cli.mask import read_photo
+    from relight_rt.person import matting as M
 
     largest, everyone = M.PersonMatter(), M.PersonMatter(person="all")
     tiles = []

@@ -47,7 +47,7 @@ import numpy as np
 from real_photos import LEFT, REPO, RIGHT, luminance
 
 from relight_rt import Relighter, RuntimeConfig, lights
-from relight_rt._face_geometry import FaceMesh
+from relight_rt.person.face_mesh import FaceMesh
 
 DARK_L, TEAL_A, NEUTRAL_C = 30.0, -8.0, 8.0
 SPREAD = 6  # teal_neutral: a near-black pixel whose channels lie within this many 8-bit levels is grey

@@ -38,7 +38,7 @@ def main() -> None:
 
     import relight_rt
     from relight_rt import RuntimeConfig, lights
-    from relight_rt._io import read_image, read_mask
+    from relight_rt.image.io import read_image, read_mask
 
     r = relight_rt.open(RuntimeConfig(models=args.models, device="cpu"))
     image = read_image(args.photo)

@@ -4,12 +4,13 @@
         --person full:PHOTO[:MASK] --person half:PHOTO[:MASK] --person portrait:PHOTO[:MASK] ... \\
         --hdri ../shared/hdri --views sunset:20,0 dawn:30,0 ... --photos PLACE.jpg ... [--size 640x480] [--rim]
 
-Each person (its kind, "full", "half" or "portrait", is only a label: ``relight_rt.scene_place`` tells from the
-matte how the photo framed them) goes into every place: a panorama view (``NAME:AZ,EL[,FOV]`` of ``--hdri``, by
-``relight_rt.panorama.composite_panorama``: the plate and the light from the map, as ``composite --view``) and every
-``--photos`` photo of a place (``relight_rt.scene.composite``: the light estimated from the photo, centre-cropped to
-``--size``'s aspect and resized to it first). Everything else is the command's default (automatic placement,
-shadows, camera matching, light wrap, frame metering; ``--rim`` adds the rim of a key behind the person).
+Each person (its kind, "full", "half" or "portrait", is only a label: ``relight_rt.apps.scene_place`` tells from the
+matte how the photo framed them) goes into every place: a panorama view (``NAME:AZ,EL[,FOV]`` of ``--hdri``,
+by ``relight_rt.apps.panorama.composite_panorama``: the plate and the light from the map, as ``composite --view``)
+and every ``--photos`` photo of a place (``relight_rt.apps.scene.composite``: the light estimated from the photo,
+centre-cropped to ``--size``'s aspect and resized to it first). Everything else is the command's default
+(automatic placement, shadows, camera matching, light wrap, frame metering; ``--rim`` adds the rim of a key behind
+the person).
 
 Writes under ``--out``: every composite at 100 % (``PERSON/PLACE.png``), one sheet per person (``PERSON.png``, the
 places in a grid at half size, each labelled) and ``report.json`` (each composite's placement: the person's box,
@@ -34,9 +35,9 @@ if str(REPO) not in sys.path:
 
 from relight_rt import Relighter, RuntimeConfig, envmap  # noqa: E402
 from relight_rt import scene as scene_mod  # noqa: E402
-from relight_rt._io import read_image, write_image  # noqa: E402
-from relight_rt.panorama import composite_panorama, parse_size  # noqa: E402
-from relight_rt.scene_place import framing  # noqa: E402
+from relight_rt.apps.panorama import composite_panorama, parse_size  # noqa: E402
+from relight_rt.apps.scene_place import framing  # noqa: E402
+from relight_rt.image.io import read_image, write_image  # noqa: E402
 
 
 def photo_place(path: Path, size: tuple[int, int]) -> np.ndarray:

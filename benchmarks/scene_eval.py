@@ -12,7 +12,7 @@ PHOTOS: ``python -m export render-photos --full-shading`` of every person under 
 GGX specular, subsurface: what a camera records). Commands: docs/RESULTS.md, "Into any scene".
 
 The cameras. The background photo of a map B is a 256 x 192 perspective view (60°, the camera at the subject
-looking along −x; relight_rt.scene_light.envmap_view) of π·B (the units in which the person's renders are
+looking along −x; relight_rt.light.from_background.envmap_view) of π·B (the units in which the person's renders are
 the radiance a camera sees), exposed by a camera that meters the place without the person (mean linear
 luminance 0.18), clipped and written as 8-bit sRGB: what ``composite`` gets. The truth is a photo of the
 person standing in that place (feet at 95 % of the height, 75 % of the frame high, centred) taken by a
@@ -22,12 +22,12 @@ camera that meters in one of two modes:
 
 The methods, for a person P, the place B and another place A (the person's own photo was taken in A):
 - ``paste``: the realistic paste: P's photo in A at its own camera's exposure (metered like the truth), unrelit.
-- ``est``: relight_rt.scene_light's light from the background photo alone, applied physically to the
+- ``est``: relight_rt.light.from_background's light from the background photo alone, applied physically to the
   renderer's albedo and transport of P (this isolates the light from stage 1's errors); in the ``frame``
   mode the composed frame is metered again as the camera would (relight_rt.scene, ``meter="frame"``).
-  Its fitted numbers (relight_rt.scene_light's AMBIENT_GAIN, KEY_FRONT, KEY_BACK, BACKLIGHT, COLOUR_SATURATION,
-  KEY_GEOMETRY, SHAPE_PRIOR, SHAPE_WEIGHT, FRONT_BACK_POWER) are fitted with the whole scene (its 4 turns)
-  left out: for each scene the fits below (``fit``, ``fit_all``) run on the other scenes' maps only.
+  Its fitted numbers (relight_rt.light.from_background's AMBIENT_GAIN, KEY_FRONT, KEY_BACK, BACKLIGHT,
+COLOUR_SATURATION, KEY_GEOMETRY, SHAPE_PRIOR, SHAPE_WEIGHT, FRONT_BACK_POWER) are fitted with the whole scene (its 4
+turns) left out: for each scene the fits below (``fit``, ``fit_all``) run on the other scenes' maps only.
 - ``oracle``: the true SH light of B in the truth's units (the best any SH light can do).
 
 ``--protocol cross`` fits each scene's numbers on the other scene set only (the maps of ../shared/hdri on
@@ -67,9 +67,9 @@ if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
 from relight_rt import envmap, sh  # noqa: E402
-from relight_rt import scene_light as bgmod  # noqa: E402
-from relight_rt.color import linear_to_srgb, srgb_to_linear  # noqa: E402
-from relight_rt.exposure import REC709  # noqa: E402
+from relight_rt.image.color import linear_to_srgb, srgb_to_linear  # noqa: E402
+from relight_rt.light import from_background as bgmod  # noqa: E402
+from relight_rt.light.exposure import REC709  # noqa: E402
 
 VIEW = (192, 256)  # (height, width)
 GREY = 0.18
@@ -81,7 +81,7 @@ GRID = {
     "key_front": np.array([0, 0.25, 0.5, 1, 1.5, 2, 3, 4]),
     "key_back": np.array([0, 0.25, 0.5, 1, 1.5, 2, 3, 4, 6, 8]),
     "saturation": np.linspace(0, 1, 17),
-    # step 6 (relight_rt.scene_light): the rule's own shape against the usual one, the power on its back/front
+    # step 6 (relight_rt.light.from_background): the rule's own shape against the usual one, the power on its back/front
     "shape": tuple((w, q) for w in (0.0, 0.125, 0.25, 0.375, 0.5, 1.0) for q in (0.25, 0.5, 0.75, 1.0)),
 }
 #: the key's geometry (front-side azimuth, elevation; degrees), then step 6's two numbers, chosen per fold by
@@ -225,7 +225,7 @@ def front_half(env: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def half_oracle(half: np.ndarray, mean: np.ndarray, gain: float, saturation: float) -> np.ndarray:
     """The exact half in front of the camera plus a uniform radiance ``gain`` × its mean luminance behind the camera,
-    in its mean colour with the saturation scaled (as relight_rt.scene_light's ambient)."""
+    in its mean colour with the saturation scaled (as relight_rt.light.from_background's ambient)."""
     colour = np.maximum(np.asarray(mean, np.float64), 1e-9) ** saturation
     colour = colour / float(colour @ REC709)
     return half + gain * lum(mean) * BEHIND[:, None] * colour[None, :]
@@ -243,9 +243,9 @@ def fit_half_oracle(halves: list, truths: list) -> tuple[float, float]:
 
 
 def unclipped_view(parts, linear_view: np.ndarray, fov: float = 60.0, height: int = 64):
-    """``parts`` (relight_rt.scene_light's reading of the 8-bit photo) with its front half read from the photo's
-    unclipped linear values instead (step 2 on the same small copy, no clipping, no highlight gain): the rule given
-    the view perfectly. The statistics (median, colour, top/bottom, contrast) stay the photo's."""
+    """``parts`` (relight_rt.light.from_background's reading of the 8-bit photo) with its front half read from the
+    photo's unclipped linear values instead (step 2 on the same small copy, no clipping, no highlight gain): the rule
+    given the view perfectly. The statistics (median, colour, top/bottom, contrast) stay the photo's."""
     from dataclasses import replace
 
     ph, pw = linear_view.shape[:2]
@@ -270,7 +270,7 @@ def map_tile(env: np.ndarray, view: np.ndarray, k: float, label: str) -> np.ndar
 
 
 def fit(parts: list, truths: list, geometry=None) -> dict:
-    """The fitted numbers of relight_rt.scene_light from the given maps (background metering), in order:
+    """The fitted numbers of relight_rt.light.from_background from the given maps (background metering), in order:
     BACKLIGHT by least squares of the truth's front/back EV on [1, top_bottom, contrast]; then AMBIENT_GAIN,
     KEY_FRONT and KEY_BACK by the least mean |EV error| over GRID (the light is linear in them); then
     COLOUR_SATURATION by the least mean colour error over GRID."""
@@ -356,7 +356,7 @@ def main(argv=None) -> int:
                    help="loso: each scene's numbers fitted on every other scene; cross: on the other scene set only "
                    "(the maps of ../shared/hdri against blender-data's bl-*: places the fit never saw)")  # fmt: skip
     p.add_argument("--back-key", choices=("side", "source"), default=None,
-                   help="relight_rt.scene_light.BACK_KEY for this run (default: the module's)")  # fmt: skip
+                   help="relight_rt.light.from_background.BACK_KEY for this run (default: the module's)")  # fmt: skip
     p.add_argument("--saturation", type=float, default=None, metavar="S",
                    help="fix COLOUR_SATURATION at S instead of fitting it (1: the light takes the scene's median "
                    "colour as it is)")  # fmt: skip

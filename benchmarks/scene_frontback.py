@@ -1,4 +1,4 @@
-"""Front- or back-lit from one view: candidate rules for relight_rt.scene_light's call, on every map (issue 49).
+"""Front- or back-lit from one view: candidate rules for light.from_background's call, on every map (issue 49).
 
     python benchmarks/scene_frontback.py --envs runs/scene/envs [--out runs/scene/frontback.json]
 
@@ -36,9 +36,9 @@ from scene_eval import (  # noqa: E402
 )
 
 from relight_rt import envmap  # noqa: E402
-from relight_rt import scene_light as bgmod  # noqa: E402
-from relight_rt.color import srgb8_to_linear  # noqa: E402
-from relight_rt.exposure import REC709  # noqa: E402
+from relight_rt.image.color import srgb8_to_linear  # noqa: E402
+from relight_rt.light import from_background as bgmod  # noqa: E402
+from relight_rt.light.exposure import REC709  # noqa: E402
 
 
 def features(photo: np.ndarray) -> dict[str, float]:

@@ -1,9 +1,9 @@
-"""How well relight_rt.scene_place.estimate_horizon finds the horizon: on panorama views, whose horizon is known.
+"""How well relight_rt.apps.scene_place.estimate_horizon finds the horizon: on panorama views, whose horizon is known.
 
     python benchmarks/scene_horizon.py --hdri ../shared/hdri [--size 640x480] [--out runs/scene/horizon.json]
 
 Every map of ``--hdri``, seen at azimuths 0/120/240° and elevations −12/0/+12° (60° field of view; the plate of
-relight_rt.panorama.panorama_view, 8-bit sRGB, whose ``horizon`` is exact): how often the estimate answers, and
+relight_rt.apps.panorama.panorama_view, 8-bit sRGB, whose ``horizon`` is exact): how often the estimate answers, and
 its error (fractions of the picture's height) where it does, against the level camera's 0.5 that stands without it.
 ``--photos DIR``: also every .jpg/.png there (real photos, no truth): how often it answers and the spread of its
 answers (most photos of people are taken nearly level: a wide spread means wild answers).
@@ -23,8 +23,8 @@ if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
 from relight_rt import envmap  # noqa: E402
-from relight_rt.panorama import panorama_view, parse_size  # noqa: E402
-from relight_rt.scene_place import estimate_horizon  # noqa: E402
+from relight_rt.apps.panorama import panorama_view, parse_size  # noqa: E402
+from relight_rt.apps.scene_place import estimate_horizon  # noqa: E402
 
 
 def main(argv=None) -> int:

@@ -18,7 +18,7 @@ background's own light, perspective placement, shadows, camera matching, light w
 adds the back key's rim). Prints each background's camera blur (relight_rt.scene, step 5).
 
 ``--panoramas NAME:AZ,EL[,FOV] ...`` (maps of --hdri, or --blender with ``bl-``) makes instead the sheet of a panorama
-used exactly (relight_rt.panorama.composite_panorama, ``composite --view``): per view, the plate with the
+used exactly (relight_rt.apps.panorama.composite_panorama, ``composite --view``): per view, the plate with the
 panorama's light on a sphere | full body | half body, and prints the irradiance error of the light each person got
 against the panorama's light resampled into the view's frame (pixels, not SH rotation).
 """
@@ -39,11 +39,11 @@ if str(REPO) not in sys.path:
 import relight_rt  # noqa: E402
 from relight_rt import RuntimeConfig, envmap, sh  # noqa: E402
 from relight_rt import scene as scene_mod  # noqa: E402
-from relight_rt._camera import camera_blur, grey  # noqa: E402
-from relight_rt._io import read_image, read_mask, write_image  # noqa: E402
-from relight_rt.color import linear_to_srgb  # noqa: E402
-from relight_rt.exposure import REC709  # noqa: E402
-from relight_rt.scene_light import envmap_view, light_from_background  # noqa: E402
+from relight_rt.apps.scene_camera import camera_blur, grey  # noqa: E402
+from relight_rt.image.color import linear_to_srgb  # noqa: E402
+from relight_rt.image.io import read_image, read_mask, write_image  # noqa: E402
+from relight_rt.light.exposure import REC709  # noqa: E402
+from relight_rt.light.from_background import envmap_view, light_from_background  # noqa: E402
 
 # (file stem, turn in degrees): turned where the unturned view shows little (a black backdrop, a wall)
 SHARED = (("sunset", 0), ("forest", 0), ("apartment", 0), ("lab", 0), ("city", 0), ("night", 90))
@@ -113,7 +113,7 @@ def panorama_row(relighter, args, spec: str, person8, half8, half_mask, size) ->
     """One row of the panorama sheet (module docstring): plate + light sphere | full body | half body."""
     import math
 
-    from relight_rt import panorama
+    from relight_rt.apps import panorama
 
     name, view = spec.split(":", 1)
     path = args.blender / f"{name[3:]}.exr" if name.startswith("bl-") else args.hdri / f"{name}.hdr"

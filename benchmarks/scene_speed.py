@@ -27,9 +27,9 @@ if str(REPO) not in sys.path:
 
 import relight_rt  # noqa: E402
 from relight_rt import RuntimeConfig  # noqa: E402
-from relight_rt import panorama as pano_mod  # noqa: E402
 from relight_rt import scene as scene_mod  # noqa: E402
-from relight_rt._io import write_image  # noqa: E402
+from relight_rt.apps import panorama as pano_mod  # noqa: E402
+from relight_rt.image.io import write_image  # noqa: E402
 
 SIZE = (1920, 1080)
 

@@ -8,7 +8,7 @@ lightness L*; printed per fifth: mean L*, mean chroma C* and mean C*/L*. Then th
 from the darkest fifth to the middle one (the shaded side of the face to its middle: the range a new light's
 shade moves skin through), per photo and its median. For comparison, the same exponent of one skin colour
 dimmed at one chromaticity (what a relighting factor applied to the photo does) and of the runtime's shaded-skin
-rule (relight_rt.relighter ``_shaded_skin``).
+rule (relight_rt.relight.look ``shaded_skin``).
 """
 
 from __future__ import annotations
@@ -66,9 +66,9 @@ def main(argv=None) -> int:
     parser.add_argument("photos", nargs="+", type=Path)
     args = parser.parse_args(argv)
     from relight_rt import RelightError
-    from relight_rt._io import read_image
-    from relight_rt.matting import PersonMatter
-    from relight_rt.relighter import _shaded_skin, _skin_chroma
+    from relight_rt.image.io import read_image
+    from relight_rt.person.matting import PersonMatter
+    from relight_rt.relight.look import shaded_skin, skin_chroma
 
     matter = PersonMatter(device="cpu")
     gammas = []
@@ -95,8 +95,8 @@ def main(argv=None) -> int:
 
     def rule(colour, ratio):
         factor = np.full((1, 1, 3), ratio, np.float32)
-        inputs = _skin_chroma(colour[None, None], np.ones((1, 1), np.float32))
-        gain = _shaded_skin(factor, np.full((1, 1), ratio, np.float32), *inputs)
+        inputs = skin_chroma(colour[None, None], np.ones((1, 1), np.float32))
+        gain = shaded_skin(factor, np.full((1, 1), ratio, np.float32), *inputs)
         return (colour * gain)[0, 0]
 
     print(f"one skin colour dimmed to half its luminance: at one chromaticity gamma {model_exponent(grey):+.2f}, "

@@ -22,13 +22,13 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+from relight_rt.demo import example_path
 
 import relight_rt
 from relight_rt import RuntimeConfig, lights
-from relight_rt.demo import example_path
-from relight_rt.exposure import DISPLAY_GAMMA, REC709
+from relight_rt.apps.studio.core import Studio, unpack_layers
+from relight_rt.light.exposure import DISPLAY_GAMMA, REC709
 from relight_rt.relight import factor as _factor
-from relight_rt.studio.core import Studio, unpack_layers
 
 BUNDLED = Path(relight_rt.__file__).resolve().parent / "models"
 STREET = Path(relight_rt.__file__).resolve().parent / "data" / "example_scene.jpg"

@@ -25,8 +25,8 @@ from headless_studio import launch_chromium, start_server  # noqa: E402
 
 import relight_rt  # noqa: E402
 from relight_rt import RuntimeConfig  # noqa: E402
-from relight_rt.demo import example_path  # noqa: E402
-from relight_rt.studio.core import Studio  # noqa: E402
+from relight_rt.apps.studio.core import Studio  # noqa: E402
+from relight_rt.cli.demo import example_path  # noqa: E402
 
 
 def sphere_point(page, u: float, v: float) -> tuple[float, float]:

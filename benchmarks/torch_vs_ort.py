@@ -8,8 +8,8 @@ fixed seed, saved as checkpoints and exported with ``export.onnx_export.export_o
 ``OUT/models_RxW``). Then two child processes run one after the other on the same machine, each with
 a fresh memory peak:
 
-- ``python -m relight_rt.bench``: the runtime as shipped (``Relighter`` on onnxruntime);
-- this script with ``--torch``: the same ``relight_rt.bench.run`` sections, with the Relighter's
+- ``relight-rt bench``: the runtime as shipped (``Relighter`` on onnxruntime);
+- this script with ``--torch``: the same ``relight_rt.cli.bench.run`` sections, with the Relighter's
   two onnxruntime models swapped for the torch networks (eager, fp32, ``torch.inference_mode``) wrapped
   exactly as the export wraps them, so preprocessing, the numpy relight step and compositing are
   shared and only the network executor differs.
@@ -35,7 +35,7 @@ if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
 from relight_rt import RelightError  # noqa: E402
-from relight_rt.bench import SECTIONS, run, to_markdown, write_text  # noqa: E402
+from relight_rt.cli.bench import SECTIONS, run, to_markdown, write_text  # noqa: E402
 
 log = logging.getLogger("torch_vs_ort")
 SEEDS = range(1, 9)  # weight seeds tried in turn until the export's 1e-4 parity gate passes
@@ -89,7 +89,7 @@ def make_models(folder: Path, resolution: int, width: int, norm: str = "instance
 
 
 class TorchModel:
-    """A stand-in for ``relight_rt.session.Model`` that runs the torch network eagerly (fp32, CPU)."""
+    """A stand-in for ``relight_rt.engine.session.Model`` that runs the torch network eagerly (fp32, CPU)."""
 
     def __init__(self, checkpoint: Path, model) -> None:
         from export.checkpoint import load_checkpoint
@@ -101,7 +101,7 @@ class TorchModel:
         self.session = None  # the onnxruntime session is dropped, so its memory does not count against torch
         self.name = f"torch:{checkpoint}"
         self.on_cuda = False
-        from relight_rt.contract import KINDS
+        from relight_rt.engine.contract import KINDS
 
         self._inputs = [t.name for t in KINDS[model.config.kind].inputs]
         self._outputs = [t.name for t in KINDS[model.config.kind].outputs]
@@ -120,10 +120,10 @@ class TorchModel:
 
 
 def torch_report(models: Path, args: argparse.Namespace) -> dict:
-    """``relight_rt.bench.run`` with the Relighter's networks replaced by torch eager (see module docstring)."""
+    """``relight_rt.cli.bench.run`` with the Relighter's networks replaced by torch eager (see module docstring)."""
     import torch
 
-    import relight_rt.relighter as relighter_module
+    import relight_rt.relight.relighter as relighter_module
 
     torch.set_num_threads(args.threads or os.cpu_count() or 1)
     original = relighter_module.Relighter.__init__
@@ -150,11 +150,11 @@ def make_int8(folder: Path, resolution: int) -> dict:
     """``stage1_int8.onnx`` / ``stage2_int8.onnx`` beside the fp32 graphs (``export.quantize``), reused when present.
 
     No rendered photos here: calibration (4) and held-out (2) inputs are the benchmark's synthetic photos
-    (``relight_rt.bench.photo``, smooth random colours) in an ellipse mask; for stage 2 the diffuse input
+    (``relight_rt.cli.bench.photo``, smooth random colours) in an ellipse mask; for stage 2 the diffuse input
     is such a photo too. Returns {kind: summary or {"error": message}} (a graph under the gate is not written).
     """
     from export.quantize import quantize
-    from relight_rt.bench import person_mask, photo
+    from relight_rt.cli.bench import person_mask, photo
 
     info_path = folder / "int8.json"
     if info_path.is_file():
@@ -175,7 +175,7 @@ def make_int8(folder: Path, resolution: int) -> dict:
 
 def _ort(folder: Path, out: Path, args: argparse.Namespace, precision: str) -> dict:
     path = out / f".ort_{folder.name}_{precision}.json"
-    cmd = [sys.executable, "-m", "relight_rt.bench", "--models", str(folder), "--json", str(path)]
+    cmd = [sys.executable, "-m", "relight_rt", "bench", "--models", str(folder), "--json", str(path)]
     subprocess.run([*cmd, "--precision", precision, *_common(args)], check=True, cwd=REPO, stdout=subprocess.DEVNULL)
     report = json.loads(path.read_text())
     path.unlink()

@@ -3,7 +3,7 @@
     python benchmarks/video_edges.py [FRAMES] [--preset golden-hour] [--frames 8]
 
 Relights the first ``--frames`` frames of FRAMES (a folder of frames with STEM_mask.png beside them; default: the
-reference video in ../shared/reference) through the video path (``relight_rt.video``, as ``relight-rt video``
+reference video in ../shared/reference) through the video path (``relight_rt.video.job``, as ``relight-rt video``
 does) and prints, per band of the mask's alpha, the 95th percentile of each pixel's largest channel change
 (8-bit levels) divided by its alpha. Only the person's share of an edge pixel should take the new light, so
 that figure should not grow as alpha falls; where it does, the backdrop's share is being relit (a line of the

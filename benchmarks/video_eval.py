@@ -10,10 +10,10 @@ Steps (everything at one working size, the frames' long side scaled to ``--size`
 3. frame-by-frame: the runtime's stage 1 + stage 2 per frame, no stabiliser (OUT/framewise).
    Its per-frame albedo/transport (input frame) are kept in OUT/layers as the reference for the
    light-following score of every method.
-4. stabiliser: the same with relight_rt.stabilize (OUT/stabilized).
+4. stabiliser: the same with relight_rt.video.stabilize (OUT/stabilized).
 5. DVP unconditioned and DVP conditioned: ``export.dvp.fit_dvp`` on (frames, frame-by-frame
    results, lights), exported to ONNX, then applied through the runtime (OUT/dvp_*).
-6. Metrics (relight_rt.metrics) on each output sequence: temporal error (the paper's), warping
+6. Metrics (relight_rt.video.metrics) on each output sequence: temporal error (the paper's), warping
    error, residual error (change explained neither by motion nor by the light), light-following
    (correlation) and its gain; seconds per frame measured around the
    runtime's processing (reading and writing included; DVP fitting time listed apart).
@@ -39,10 +39,9 @@ if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
 from relight_rt import lights as rt_lights  # noqa: E402
-from relight_rt import metrics as rt_metrics  # noqa: E402
-from relight_rt._io import read_image, write_image  # noqa: E402
-from relight_rt.stabilize import Stabilizer  # noqa: E402
-from relight_rt.video import (  # noqa: E402
+from relight_rt.image.io import read_image, write_image  # noqa: E402
+from relight_rt.video import metrics as rt_metrics  # noqa: E402
+from relight_rt.video.job import (  # noqa: E402
     DVPModel,
     FrameSink,
     FrameSource,
@@ -51,6 +50,7 @@ from relight_rt.video import (  # noqa: E402
     relight_video,
     resolve_light,
 )
+from relight_rt.video.stabilize import Stabilizer  # noqa: E402
 
 log = logging.getLogger("video_eval")
 
@@ -130,8 +130,8 @@ def main(argv: list[str] | None = None) -> int:
     if not variants or variants - {"unconditioned", "conditioned"}:
         parser.error(f"--dvp-variants: expected unconditioned and/or conditioned, got {args.dvp_variants!r}")
     logging.basicConfig(level=logging.INFO, format="%(message)s")
-    from relight_rt.config import RuntimeConfig
-    from relight_rt.relighter import Relighter
+    from relight_rt.engine.config import RuntimeConfig
+    from relight_rt.relight.relighter import Relighter
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

@@ -11,7 +11,7 @@ import numpy as np
 
 if sys.argv[1] == "opencv":
     sys.modules["av"] = None  # import av fails: the OpenCV path
-from relight_rt.video import FrameSink  # noqa: E402
+from relight_rt.video.job import FrameSink  # noqa: E402
 
 n = int(sys.argv[2])
 rng = np.random.default_rng(0)

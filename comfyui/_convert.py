@@ -16,7 +16,7 @@ import numpy as np
 import torch
 
 from relight_rt import RelightError
-from relight_rt._io import read_mask
+from relight_rt.image.io import read_mask
 
 
 def _describe(t) -> str:
@@ -51,7 +51,7 @@ def masks_to_arrays(mask, count: int, size: tuple[int, int], name: str = "mask")
 
     Raises:
         RelightError: another shape, a batch size that is neither 1 nor ``count``, a size other than ``size``,
-            values that relight_rt._io.read_mask refuses (not finite, outside [0, 1]).
+            values that relight_rt.image.io.read_mask refuses (not finite, outside [0, 1]).
     """
     if mask is None:
         return [None] * count

@@ -23,10 +23,10 @@ import numpy as np
 
 import relight_rt
 from relight_rt import LightSpec, Relighter, RelightError, RuntimeConfig, lights, scene, sh
-from relight_rt.config import DEVICES, MATTING, PRECISIONS
-from relight_rt.lightspec import parse_light
+from relight_rt.engine.config import DEVICES, MATTING, PRECISIONS
+from relight_rt.light.from_background import key_direction
+from relight_rt.light.spec import parse_light
 from relight_rt.relight.decomposition import intrinsic_layers
-from relight_rt.scene_light import key_direction
 
 from ._convert import arrays_to_image, arrays_to_mask, batch_pairs, images_to_arrays, masks_to_arrays
 
@@ -249,7 +249,7 @@ class RelightLight:
                 light = models.resolve_light(LightSpec.photo(_input_path(file, "photo")))
             return LightSpec.from_array(light, rotate=rotation)
         if source == "background":
-            from relight_rt.scene_light import light_from_background
+            from relight_rt.light.from_background import light_from_background
 
             backdrop = images_to_arrays(image)[0] if image is not None else _input_path(file, "background")
             light, _ = light_from_background(backdrop, fov)
@@ -296,8 +296,8 @@ class Relight:
 
 
 class RelightPasses:
-    """The passes of each relit image (relight_rt.passes, docs/PASSES.md) as ComfyUI images: a normal map read off
-    the transport, the albedo, the shading under the light, the residual and the matte.
+    """The passes of each relit image (relight_rt.apps.render_passes, docs/PASSES.md) as ComfyUI images: a normal map
+    read off the transport, the albedo, the shading under the light, the residual and the matte.
 
     IMAGE holds [0, 1], so: the normal map is 0.5 + 0.5 n (camera space: R right, G up, B toward the camera; grey
     off the person), the shading is clipped at 1, the residual is 0.5 + residual (clipped). The float passes
@@ -320,7 +320,7 @@ class RelightPasses:
         }}
 
     def passes(self, models: Relighter, decomposition, light: LightSpec, exposure: str, ev: float):
-        from relight_rt.passes import compute_passes
+        from relight_rt.apps.render_passes import compute_passes
 
         mode = _exposure(exposure, ev)
         decs = _decompositions(decomposition)

@@ -25,7 +25,7 @@ import torch
 from torch import nn
 
 from relight_rt import RelightError
-from relight_rt._io import atomic_path
+from relight_rt.engine.files import atomic_path
 
 from .networks import build_network
 

@@ -17,7 +17,7 @@ BatchNorm layers to eval mode. The conversion:
    ``output_activation="none"`` (the reference returns decoder b's last conv, upsampled), and exports it
    with :func:`export.onnx_export.export_onnx`; ``relight_rt.source`` names the file and its sha256.
 
-``relight-rt import-reference`` (:mod:`relight_rt.reference_import`) does the same without torch and
+``relight-rt import-reference`` (:mod:`relight_rt.apps.reference_checkpoints`) does the same without torch and
 writes graphs with the same outputs and metadata.
 """
 
@@ -33,7 +33,7 @@ from pathlib import Path
 import torch
 
 from relight_rt import RelightError
-from relight_rt.reference_import import reference_source
+from relight_rt.apps.reference_checkpoints import reference_source
 
 from .checkpoint import check_state_dict, read_weights
 from .config import reader

@@ -32,9 +32,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from relight_rt._errors import RelightError
-from relight_rt._io import atomic_path
-from relight_rt.lightfile import load_light
+from relight_rt.engine.errors import RelightError
+from relight_rt.engine.files import atomic_path
+from relight_rt.light.files import load_light
 
 _SAMPLE_SUFFIXES = ("_tex.png", "_mask.png", "_parsing.png", "_transport.npz")
 _PHOTO_SUFFIXES = ("_photo.png", "_mask.png")  # required; _diffuse.png and _light.npy when rendered
@@ -360,8 +360,8 @@ def prepare_user_photos(
     Returns:
         (names written or kept, "file: reason" per photo left out).
     """
-    from relight_rt._io import list_images, read_image, sibling_mask
-    from relight_rt.masks import resolve_mask
+    from relight_rt.image.io import list_images, read_image, sibling_mask
+    from relight_rt.person.masks import resolve_mask
 
     src, out = Path(src), Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -376,7 +376,7 @@ def prepare_user_photos(
             img = read_image(path, "photo")
             mask_file = sibling_mask(path)
             if mask_file is None and img.shape[2] == 3 and matter is None:
-                from relight_rt.matting import shared_matter
+                from relight_rt.person.matting import shared_matter
 
                 matter = shared_matter(device=device)
             m = resolve_mask(img, mask_file, matter=matter, name=str(path))

@@ -23,7 +23,7 @@ the relighting without its flicker.
 Stopping. After every epoch the network is run on all frames (dropout off) and two numbers are
 measured, both as mean absolute differences in [0, 1] units inside the mask: the fit error E
 (prediction vs. per-frame relit target) and the flicker W (warping error of the predictions, with
-DIS flow of the INPUT frames, non-occluded pixels only; ``relight_rt.metrics``). The score is
+DIS flow of the INPUT frames, non-occluded pixels only; ``relight_rt.video.metrics``). The score is
 E + W; fitting stops when it has not improved for ``--patience`` epochs (or at ``--max-epochs`` /
 ``--max-minutes``, never before ``--min-epochs``), and the epoch with the lowest score is kept.
 Every epoch's E, W and score go to the fit log (JSON).
@@ -67,8 +67,8 @@ import cv2
 import numpy as np
 
 from relight_rt import RelightError
-from relight_rt import metrics as rt_metrics
-from relight_rt.video import IMAGE_SUFFIXES, FrameSource, read_frame
+from relight_rt.video import metrics as rt_metrics
+from relight_rt.video.job import IMAGE_SUFFIXES, FrameSource, read_frame
 
 from .config import reader
 
@@ -97,7 +97,7 @@ def load_clip(frames: str | os.PathLike, relit: str | os.PathLike, lights: str |
     """Read a video's frames, masks, per-frame relit targets and lights.
 
     Args:
-        frames: folder of input frames or a video file (masks as relight_rt.video.FrameSource reads them).
+        frames: folder of input frames or a video file (masks as relight_rt.video.job.FrameSource reads them).
         relit: folder of per-frame relit frames: same stems as the frames, or the same count in sorted order.
         lights: (N, 9, 3) RGB .npy (or array), or a single (9, 3) light used for every frame.
         masks: mask folder or video, see FrameSource.

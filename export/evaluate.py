@@ -46,8 +46,8 @@ import numpy as np
 import torch
 
 from relight_rt import RelightError
-from relight_rt.sh import basis as sh_basis
-from relight_rt.sh import cosine_lobe
+from relight_rt.light.sh import basis as sh_basis
+from relight_rt.light.sh import cosine_lobe
 
 from .config import as_record, reader
 from .frozen import apply_stage2, load_frozen

@@ -16,7 +16,7 @@ which ``mask-models`` writes):
   ``mediapipe.python.solutions.face_mesh_connections``) as its 3-cliques. Not wound: every triangle seen from the
   camera faces it, so the runtime turns each normal toward the camera.
 
-relight_rt._face_geometry uses both: normals of the face for the relighting factor.
+relight_rt.person.face_mesh uses both: normals of the face for the relighting factor.
 """
 
 from __future__ import annotations
@@ -101,7 +101,7 @@ def run(config: FaceMeshConfig) -> int:
     import tensorflow as tf
     from mediapipe.python.solutions.face_mesh_connections import FACEMESH_TESSELATION
 
-    from relight_rt._io import atomic_path
+    from relight_rt.engine.files import atomic_path
 
     root = mediapipe_root()
     out = Path(config.out)

@@ -31,7 +31,7 @@ class OnnxStage:
     """
 
     def __init__(self, path: str | os.PathLike, kind: str, threads: int | None = None):
-        from relight_rt.session import cpu_session_options, load_model
+        from relight_rt.engine.session import cpu_session_options, load_model
 
         opts = cpu_session_options()
         if threads:

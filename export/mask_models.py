@@ -22,7 +22,7 @@ Google, Apache-2.0) and writes:
   [1,3,192,192] RGB in [0,1] (the graph maps it to the [-1, 1] the model reads); outputs ``boxes``
   [1,16,48,48] and ``scores`` [1,1,48,48] (logits): one anchor per cell of a 48x48 grid (cell centre
   ((j + 0.5) / 48, (i + 0.5) / 48), anchor size 1), channels 0-3 the box centre offset and size in input
-  pixels, 4-15 six (x, y) key points (eyes, nose, mouth, ears). relight_rt.matting decodes them.
+  pixels, 4-15 six (x, y) key points (eyes, nose, mouth, ears). relight_rt.person.matting decodes them.
 
 All: converted with tf2onnx, NHWC I/O turned to NCHW by a Transpose at each end (onnxruntime folds
 them), weights stored as float16 with a Cast to float32 (fp16 storage, fp32 compute) where every
@@ -343,7 +343,7 @@ def fp16_storage(model) -> int:
 
 
 def set_metadata(model, kind: str, source: str, size: int = 256) -> None:
-    from relight_rt.contract import ModelConfig
+    from relight_rt.engine.contract import ModelConfig
 
     # "batch": normalisation (folded into the convolutions) uses fixed statistics, none per sample
     meta = ModelConfig(kind=kind, resolution=size, norm="batch", source=source).metadata()
@@ -502,7 +502,7 @@ config_from_args = reader(MaskModelsConfig)
 
 
 def run(config: MaskModelsConfig) -> int:
-    from relight_rt._io import atomic_path
+    from relight_rt.engine.files import atomic_path
 
     root = mediapipe_root()
     out = Path(config.out)

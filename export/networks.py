@@ -51,7 +51,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from relight_rt import RelightError
-from relight_rt.contract import NORMS, OUTPUT_ACTIVATIONS
+from relight_rt.engine.contract import NORMS, OUTPUT_ACTIVATIONS
 
 __all__ = ["DVPNet", "Stage1Net", "Stage2Net", "build_network", "NETWORKS", "light_head_depth"]
 

@@ -44,8 +44,8 @@ import torch
 from torch import nn
 
 from relight_rt import RelightError
-from relight_rt._io import atomic_path
-from relight_rt.contract import KINDS, META_OUTPUT_ACTIVATION, ModelConfig
+from relight_rt.engine.contract import KINDS, META_OUTPUT_ACTIVATION, ModelConfig
+from relight_rt.engine.files import atomic_path
 
 from .config import reader
 

@@ -63,7 +63,7 @@ def _run(model_bytes: bytes, feeds: dict) -> dict:
 def check(before, after, size: int = 128, seed: int = 0) -> dict:
     """Run both graphs on a random diffuse image with a soft elliptic mask; raise when the patch changed
     anything but ``relit`` at soft edges or ``relit`` does not follow the new rule. Returns figures."""
-    from relight_rt.contract import config_from_metadata
+    from relight_rt.engine.contract import config_from_metadata
 
     meta = {p.key: p.value for p in before.metadata_props}
     res = config_from_metadata(meta).resolution or size
@@ -94,7 +94,7 @@ def check(before, after, size: int = 128, seed: int = 0) -> dict:
 def main(argv: list[str] | None = None) -> int:
     import onnx
 
-    from relight_rt._io import atomic_path
+    from relight_rt.engine.files import atomic_path
 
     parser = argparse.ArgumentParser(prog="python -m export.patch_stage2_relit", description=__doc__.splitlines()[0])
     parser.add_argument("model", type=Path, help="a stage-2 .onnx file")

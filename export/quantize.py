@@ -42,7 +42,7 @@ import numpy as np
 import onnxruntime as ort
 
 from relight_rt import RelightError
-from relight_rt.contract import KINDS, config_from_metadata
+from relight_rt.engine.contract import KINDS, config_from_metadata
 
 __all__ = ["KEEP_FP32", "MIN_PSNR", "psnr", "quantize", "photo_feeds", "main"]
 

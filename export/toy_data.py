@@ -13,9 +13,9 @@ import os
 
 import numpy as np
 
-from relight_rt.sh import basis as sh_basis
-from relight_rt.sh import cosine_lobe
-from relight_rt.sh import shading as sh_shading
+from relight_rt.light.sh import basis as sh_basis
+from relight_rt.light.sh import cosine_lobe
+from relight_rt.light.sh import shading as sh_shading
 
 from .dataset import photo_name, write_light, write_photo, write_sample
 

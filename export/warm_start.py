@@ -120,7 +120,7 @@ def _check_parity(model: nn.Module, path: Path) -> None:
     The graph runs through :class:`export.frozen.OnnxStage` (the contract-checked loader every frozen stage
     uses); its inputs and outputs are named by the kind registry, in the contract wrapper's order.
     """
-    from relight_rt.contract import kind_spec
+    from relight_rt.engine.contract import kind_spec
 
     from .frozen import OnnxStage
     from .onnx_export import wrap

@@ -5,7 +5,7 @@ Loading the runtime (numpy, OpenCV, onnxruntime) takes ~0.3 s; Ctrl-C in that ti
 KeyboardInterrupt traceback and SIGTERM ended the process without a word (issue 35 item 16). This module
 imports the standard library only (``import relight_rt`` itself loads nothing heavy), turns SIGTERM into an
 exception before anything heavy is imported, and ends an interrupted start-up as the CLI ends an interrupted
-run (relight_rt.cli.main, relight_rt._process): one line, exit 130 (Ctrl-C) or 143 (SIGTERM).
+run (relight_rt.cli.main, relight_rt.engine.process): one line, exit 130 (Ctrl-C) or 143 (SIGTERM).
 """
 
 from __future__ import annotations

@@ -1,8 +1,8 @@
 """The one place where a Relighter meets the bundled person matte: ``open(config)`` builds the Relighter with the
 matter ``config.matting`` asks for (``person_matter``), and ``video_matter`` gives a video job its steady matte.
 
-The relighting core (relight_rt.relighter, relight_rt.relight, relight_rt.video) takes its matter handed in
-(``Relighter(config, matter=...)``, any relight_rt.masks.Matter) and never imports relight_rt.matting; the
+The relighting core (relight_rt.relight.relighter, relight_rt.relight, relight_rt.video.job) takes its matter handed in
+(``Relighter(config, matter=...)``, any relight_rt.person.masks.Matter) and never imports relight_rt.person.matting; the
 command line, the demo, batch, Ray and the studio build their Relighter here.
 """
 
@@ -14,10 +14,10 @@ import threading
 
 import numpy as np
 
-from ._errors import RelightError
-from .config import RuntimeConfig
-from .masks import Matter
-from .relighter import Relighter
+from .engine.config import RuntimeConfig
+from .engine.errors import RelightError
+from .person.masks import Matter
+from .relight.relighter import Relighter
 
 log = logging.getLogger(__name__)
 
@@ -37,9 +37,9 @@ def open(config: RuntimeConfig | None = None, *, providers: list | None = None) 
 
 def _installed() -> bool:
     """The matting package and its graphs are there."""
-    if importlib.util.find_spec(f"{__package__}.matting") is None:
+    if importlib.util.find_spec(f"{__package__}.person.matting") is None:
         return False
-    from .matting import find_matting_models
+    from .person.matting import find_matting_models
 
     try:
         find_matting_models()
@@ -82,7 +82,7 @@ def person_matter(config: RuntimeConfig) -> Matter | None:
     each person's share kept) or "off" (None); None as well when the matting graphs are not installed."""
     if config.matting == "off" or not _installed():
         return None
-    from .matting import shared_matter
+    from .person.matting import shared_matter
 
     person = "all" if config.matting == "all" else "largest"
     build = lambda: shared_matter(device=config.device, person=person)  # noqa: E731
@@ -90,11 +90,11 @@ def person_matter(config: RuntimeConfig) -> Matter | None:
 
 
 def video_matter(config: RuntimeConfig) -> Matter | None:
-    """The automatic matte for video frames without a mask (relight_rt.matting.VideoMatter: steady over time),
+    """The automatic matte for video frames without a mask (relight_rt.person.matting.VideoMatter: steady over time),
     loaded at its first use (on ``config.device``; ``config.matting`` is about photos); None when the matting
     graphs are not installed."""
     if not _installed():
         return None
-    from .matting import VideoMatter, shared_matter
+    from .person.matting import VideoMatter, shared_matter
 
     return _Lazy(lambda: VideoMatter(shared_matter(device=config.device)))

@@ -19,7 +19,7 @@ import pytest
 onnx = pytest.importorskip("onnx", reason='builds test graphs; pip install "relight-rt[test]"')
 from onnx import TensorProto, helper, numpy_helper  # noqa: E402
 
-from relight_rt.contract import ModelConfig  # noqa: E402
+from relight_rt.engine.contract import ModelConfig  # noqa: E402
 
 # unoccluded transport of normal +x: A_l * Y_k(1, 0, 0) (DESIGN.md §3)
 LOBE = np.array(

@@ -1,6 +1,6 @@
 """An independent forward pass of the reference network, plain numpy (float64), written from DESIGN.md §1.
 
-It shares no code with export/networks.py or relight_rt/reference_import.py: it runs the reference's
+It shares no code with export/networks.py or relight_rt/apps/reference_checkpoints.py: it runs the reference's
 own (BGR) weights on the reference's own input, as the reference code does at inference (BatchNorm
 layers in training mode on one image = per-sample statistics, biased variance, eps 1e-5; dropout off),
 so a converted graph (RGB) can be checked against it after reversing the colour channels:

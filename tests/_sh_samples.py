@@ -1,4 +1,4 @@
-"""Random directions and lights for the SH tests (tests/runtime/test_sh.py, test_envmap.py, test_lightfile.py).
+"""Random directions and lights for the SH tests (tests/runtime/light/test_sh.py, test_envmap.py, test_lightfile.py).
 
 Seeded, so a failure repeats; ``RNG_SEED`` is the seed they share unless a test asks for another.
 """

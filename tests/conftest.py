@@ -13,8 +13,8 @@ TEST_DATA = REPO / "tests" / "data"
 
 @pytest.fixture(scope="session", autouse=True)
 def _graph_cache(tmp_path_factory):
-    """Optimised graphs (relight_rt._graph_cache) go to a folder of the test run, not the user's cache (subprocesses
-    inherit it); a test that sets $RELIGHT_RT_CACHE itself wins."""
+    """Optimised graphs (relight_rt.engine.graph_cache) go to a folder of the test run, not the user's cache
+    (subprocesses inherit it); a test that sets $RELIGHT_RT_CACHE itself wins."""
     if "RELIGHT_RT_CACHE" not in os.environ:
         os.environ["RELIGHT_RT_CACHE"] = str(tmp_path_factory.mktemp("graph_cache"))
     yield
@@ -67,7 +67,7 @@ def dpr_portrait(tmp_path_factory):
     into the repo); the test is skipped when it is absent."""
     import subprocess
 
-    from relight_rt._io import read_image
+    from relight_rt.image.io import read_image
 
     repo = _find_dpr()
     if repo is None:
@@ -90,7 +90,7 @@ def _people_photo(name: str):
     import os
     import tempfile
 
-    from relight_rt._io import read_image
+    from relight_rt.image.io import read_image
 
     folder = Path(os.environ.get("RELIGHT_RT_PEOPLE", Path(tempfile.gettempdir()) / "relight_rt_people"))
     path = folder / name

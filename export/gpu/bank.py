@@ -236,7 +236,7 @@ def _member(z, key: str, path: Path) -> np.ndarray:
 
 def _texture(png: np.ndarray, path: Path, j: int) -> np.ndarray:
     """Decode texture ``j`` (RGBA PNG bytes), its declared size checked before decoding."""
-    from relight_rt._limits import _png
+    from relight_rt.engine.limits import _png
 
     data = np.asarray(png, np.uint8).tobytes() if png.dtype == np.uint8 and png.ndim == 1 else b""
     wh = _png(io.BytesIO(data))

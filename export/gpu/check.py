@@ -118,7 +118,7 @@ def run(config: GpuCheckConfig) -> int:
     settings = RenderSettings(resolution=config.resolution, dirs=config.dirs, shadow_size=config.shadow_size)
     index = bank.read_index(config.bank)
     if config.out is not None:  # before the work: the figures never replace a file of the bank
-        from relight_rt._io import check_target
+        from relight_rt.engine.files import check_target
 
         bank_files = [Path(config.bank) / n for n in ("bank.json", "template.npz", index["lights"])]
         check_target(config.out, [*bank_files, *(Path(config.bank) / f"{n}.npz" for n in index["subjects"])])

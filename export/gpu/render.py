@@ -245,7 +245,7 @@ def _turned(subject: DeviceSubject, yaw_deg: float) -> tuple[torch.Tensor, torch
     """Vertices and normals turned about +z through the centre of the bounds (export.render.cli.turn_subject)."""
     if yaw_deg == 0.0:
         return subject.vertices, subject.normals
-    from relight_rt.sh import rotation_matrix
+    from relight_rt.light.sh import rotation_matrix
 
     rot = torch.as_tensor(rotation_matrix(yaw=yaw_deg, degrees=True), dtype=torch.float32,
                           device=subject.vertices.device)

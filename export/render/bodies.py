@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from relight_rt._errors import RelightError
+from relight_rt.engine.errors import RelightError
 
 log = logging.getLogger(__name__)
 

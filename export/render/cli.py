@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from relight_rt._errors import RelightError
+from relight_rt.engine.errors import RelightError
 
 from ..config import reader
 
@@ -118,7 +118,7 @@ def turn_subject(subject, yaw_deg: float):
 
     if yaw_deg == 0.0:
         return subject
-    from relight_rt.sh import rotation_matrix
+    from relight_rt.light.sh import rotation_matrix
 
     rot = rotation_matrix(yaw=yaw_deg, degrees=True).astype(np.float32)
     lo, hi = subject.bounds()

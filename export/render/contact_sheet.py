@@ -11,7 +11,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from relight_rt.sh import basis
+from relight_rt.light.sh import basis
 
 from .. import dataset
 
@@ -64,7 +64,7 @@ def write_sheet(path: str | Path, rows: list[list[tuple[str, np.ndarray]]], tile
 
 def sample_row(root: str | Path, name: str, light: np.ndarray | None = None) -> list[tuple[str, np.ndarray]]:
     """Tiles of one stage-1 sample: albedo, skin, shading and diffuse image under ``light`` (default: from above)."""
-    from relight_rt.sh import shading
+    from relight_rt.light.sh import shading
 
     s = dataset.read_sample(root, name)
     light = light_from_above() if light is None else light

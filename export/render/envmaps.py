@@ -19,10 +19,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from relight_rt._errors import RelightError
-from relight_rt.envmap import directions_envmap, project_envmap, solid_angles_envmap
-from relight_rt.exposure import REC709
-from relight_rt.sh import irradiance
+from relight_rt.engine.errors import RelightError
+from relight_rt.light.envmap import directions_envmap, project_envmap, solid_angles_envmap
+from relight_rt.light.exposure import REC709
+from relight_rt.light.sh import irradiance
 
 log = logging.getLogger(__name__)
 

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from relight_rt._errors import RelightError
+from relight_rt.engine.errors import RelightError
 
 from ..config import check_fraction, reader
 
@@ -54,7 +54,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def _maps(config: LightsConfig):
     """Yield (base name, (H, 2H, 3) map) pairs."""
-    from relight_rt.envmap import load_envmap
+    from relight_rt.light.envmap import load_envmap
 
     from . import envmaps
 
@@ -112,8 +112,8 @@ config_from_args = reader(LightsConfig)
 def run(config: LightsConfig) -> int:
     from tqdm import tqdm
 
-    from relight_rt.envmap import project_envmap
-    from relight_rt.sh import rotate_z
+    from relight_rt.light.envmap import project_envmap
+    from relight_rt.light.sh import rotate_z
 
     from .. import dataset
     from . import envmaps
@@ -146,7 +146,7 @@ def run(config: LightsConfig) -> int:
 
 def environment(root: str | Path, name: str) -> np.ndarray:
     """The (H, 2H, 3) linear RGB map behind light ``name`` of a folder written by this command."""
-    from relight_rt.envmap import load_envmap
+    from relight_rt.light.envmap import load_envmap
 
     from .envmaps import rotate_envmap
 
@@ -174,7 +174,7 @@ def list_environments(root: str | Path) -> list[str]:
 
 def load_environment(root: str | Path, name: str, height: int | None = None) -> np.ndarray:
     """A map from :func:`list_environments`'s list, optionally resized to ``height``."""
-    from relight_rt.envmap import load_envmap
+    from relight_rt.light.envmap import load_envmap
 
     from .envmaps import resize_envmap
 

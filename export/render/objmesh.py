@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from export.render.scene import Part, Subject
-from relight_rt._errors import RelightError
+from relight_rt.engine.errors import RelightError
 
 log = logging.getLogger(__name__)
 

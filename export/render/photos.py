@@ -25,10 +25,10 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from relight_rt._errors import RelightError
-from relight_rt.envmap import directions_envmap, project_envmap, solid_angles_envmap
-from relight_rt.exposure import REC709
-from relight_rt.sh import shading
+from relight_rt.engine.errors import RelightError
+from relight_rt.light.envmap import directions_envmap, project_envmap, solid_angles_envmap
+from relight_rt.light.exposure import REC709
+from relight_rt.light.sh import shading
 
 from .raycast import Tracer
 from .transport import RAYS_PER_BATCH, GBuffer, tangent_frame

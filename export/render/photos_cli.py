@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from relight_rt._errors import RelightError
+from relight_rt.engine.errors import RelightError
 
 from ..config import check_fraction, reader
 

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from relight_rt._errors import RelightError
+from relight_rt.engine.errors import RelightError
 
 from .scene import Subject
 

@@ -14,8 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
-from relight_rt._errors import RelightError
-from relight_rt.color import linear_to_srgb
+from relight_rt.engine.errors import RelightError
+from relight_rt.image.color import linear_to_srgb
 
 log = logging.getLogger(__name__)
 

@@ -14,8 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from relight_rt._errors import RelightError
-from relight_rt.sh import basis
+from relight_rt.engine.errors import RelightError
+from relight_rt.light.sh import basis
 
 from .camera import Camera
 from .raycast import Tracer

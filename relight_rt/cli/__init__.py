@@ -1,16 +1,17 @@
 """Command line interface: ``relight-rt COMMAND ...`` (``python -m relight_rt``, the console script).
 
 One module per command or family of commands, each with ``add_parser(subparsers)`` (argparse) and the
-``cmd_*`` functions it sets as ``func``; the work itself is done by the library (relight_rt.batch, video,
-scene, distributed, ...). Shared options and the one place that builds a Relighter from them:
-relight_rt.cli.options; how every command ends (error lines, counts, exit codes): relight_rt.cli.report.
+``cmd_*`` functions it sets as ``func``; the work itself is done by the library (relight_rt.apps.batch,
+relight_rt.video.job, relight_rt.apps.scene, relight_rt.apps.ray_jobs, ...). Shared options and the one place
+that builds a Relighter from them: relight_rt.cli.options; how every command ends (error lines, counts, exit
+codes): relight_rt.cli.report.
 
 Errors: bad input, a malformed file or one that cannot be read or written (any OSError) is one line on
 stderr (``relight-rt: error: ...``) and exit code 2, never a traceback; in batch mode every file is tried
 and every failure is listed at the end. Ctrl-C exits 130 and SIGTERM 143, with one line, after the
 atomic writers removed their temporary files. Outputs are written atomically and never over a file the
-command reads (relight_rt._io.ProtectedPaths). Native libraries' own stderr output is silenced unless
-``-v`` (relight_rt._process).
+command reads (relight_rt.engine.files.ProtectedPaths). Native libraries' own stderr output is silenced unless
+``-v`` (relight_rt.engine.process).
 """
 
 from __future__ import annotations
@@ -21,9 +22,9 @@ import re
 import sys
 
 from .. import __version__
-from .._errors import RelightError
-from .._limits import DEFAULT_MAX_PIXELS, pixel_limit
-from .._process import interrupt_handling, quiet_native_libraries
+from ..engine.errors import RelightError
+from ..engine.limits import DEFAULT_MAX_PIXELS, pixel_limit
+from ..engine.process import interrupt_handling, quiet_native_libraries
 from . import bench, composite, demo, doctor, import_reference, lights, mask, relight, studio, video
 from .report import error, os_error_text
 

@@ -5,7 +5,7 @@
 [--exposure auto|EV|physical] [--meter frame|background] [--no-match-camera] [--no-light-wrap] [--rim] [--fov 60]``
 
 ``relight-rt composite PERSON --background PANO.hdr --view AZ,EL[,FOV] [--size WxH] -o OUT [...]``: the scene is
-an equirectangular panorama, seen in that direction, lighting the person with its own light (relight_rt.panorama).
+an equirectangular panorama, seen in that direction, lighting the person with its own light (relight_rt.apps.panorama).
 """
 
 from __future__ import annotations
@@ -14,9 +14,10 @@ import argparse
 import logging
 from pathlib import Path
 
-from .._errors import RelightError
-from .._io import IMAGE_SUFFIXES, check_target, write_image
-from ..exposure import parse_exposure
+from ..engine.errors import RelightError
+from ..engine.files import check_target
+from ..image.io import IMAGE_SUFFIXES, write_image
+from ..light.exposure import parse_exposure
 from .options import (
     add_exposure_option,
     add_key_light_option,
@@ -36,7 +37,7 @@ def add_parser(subparsers) -> None:
         "composite",
         help="put a person into a background photo, relit by the background's light, standing on its ground",
         description="Relight the person of PERSON for the scene of --background and composite it there. Without "
-        "a light option the light is estimated from the background (relight_rt.scene_light). The person "
+        "a light option the light is estimated from the background (relight_rt.light.from_background). The person "
         "is matched to the background's exposure, white balance, blur and noise, stands on the ground at the size "
         "perspective gives (a cut-off person on the bottom edge), casts a shadow along the key light and is laid over "
         "it with its soft matte. The output has the background's size.",
@@ -88,9 +89,9 @@ def add_parser(subparsers) -> None:
 
 
 def cmd_composite(args: argparse.Namespace) -> int:
-    from ..masks import find_mask_file
-    from ..scene import composite, parse_position
-    from ..scene_light import check_fov, hdr_background_error, parse_key_light
+    from ..apps.scene import composite, parse_position
+    from ..light.from_background import check_fov, hdr_background_error, parse_key_light
+    from ..person.masks import find_mask_file
 
     out = Path(args.output)
     if out.suffix.lower() not in IMAGE_SUFFIXES:
@@ -131,10 +132,10 @@ def cmd_composite(args: argparse.Namespace) -> int:
 
 
 def _composite_panorama(args: argparse.Namespace, out: Path, person: Path) -> int:
-    """``--view``: the background is a panorama seen that way (relight_rt.panorama.composite_panorama)."""
-    from ..masks import find_mask_file
-    from ..panorama import composite_panorama, load_panorama, parse_size, parse_view
-    from ..scene import parse_position
+    """``--view``: the background is a panorama seen that way (relight_rt.apps.panorama.composite_panorama)."""
+    from ..apps.panorama import composite_panorama, load_panorama, parse_size, parse_view
+    from ..apps.scene import parse_position
+    from ..person.masks import find_mask_file
 
     options = (("--preset/--light/--envmap", light_spec(args)), ("--key-light", args.key_light), ("--fov", args.fov))
     given = [name for name, value in options if value is not None]
@@ -160,7 +161,7 @@ def _composite_panorama(args: argparse.Namespace, out: Path, person: Path) -> in
 
 
 def _camera_height(args: argparse.Namespace) -> float:
-    """--camera-height, checked (metres; default the standing camera of relight_rt.scene_place)."""
-    from ..scene_place import CAMERA_M, check_camera_height
+    """--camera-height, checked (metres; default the standing camera of relight_rt.apps.scene_place)."""
+    from ..apps.scene_place import CAMERA_M, check_camera_height
 
     return CAMERA_M if args.camera_height is None else check_camera_height(args.camera_height)

@@ -1,5 +1,5 @@
 """``relight-rt import-reference``: the authors' checkpoints to ONNX graphs, without torch
-(relight_rt.reference_import)."""
+(relight_rt.apps.reference_checkpoints)."""
 
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ def add_parser(subparsers) -> None:
 
 
 def cmd_import_reference(args: argparse.Namespace) -> int:
-    from ..reference_import import import_reference
+    from ..apps.reference_checkpoints import import_reference
 
     done = import_reference(
         args.out, stage1=args.stage1, stage2=args.stage2, dvp=args.dvp, width=args.width, resolution=args.resolution

@@ -1,7 +1,7 @@
 """``relight-rt lights``: ``list``, ``show``, ``from-envmap``, ``from-photo`` and ``from-background``.
 
 ``relight-rt lights from-background BG -o light.npy [--fov 60] [--key-light AZ,EL] [--preview sheet.png]``
-estimates a scene's light from one ordinary photo of it (relight_rt.scene_light).
+estimates a scene's light from one ordinary photo of it (relight_rt.light.from_background).
 """
 
 from __future__ import annotations
@@ -13,11 +13,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import envmap, lightfile, lights, sh
-from .._errors import RelightError
-from .._io import IMAGE_SUFFIXES, atomic_path, check_target, sibling_mask, write_image, write_npy
-from ..lightspec import LightSpec, parse_light
-from ..masks import find_mask_file
+from ..engine.errors import RelightError
+from ..engine.files import atomic_path, check_target, write_npy
+from ..image.io import IMAGE_SUFFIXES, sibling_mask, write_image
+from ..light import envmap, presets, sh
+from ..light.files import save_light
+from ..light.spec import LightSpec, parse_light
+from ..person.masks import find_mask_file
 from .options import add_key_light_option, add_mask_option, add_runtime_options, fov, paths_of, relighter
 
 log = logging.getLogger("relight_rt.cli")
@@ -66,17 +68,15 @@ def add_parser(subparsers) -> None:
 
 
 def cmd_list(args: argparse.Namespace) -> int:
-    notes = getattr(lights, "_PRESETS", {})
-    for name in lights.list_presets():
-        note = notes.get(name, (None, None, ""))[2] if isinstance(notes.get(name), tuple) else ""
-        print(f"{name}\t{note}".rstrip())
+    for name in presets.list_presets():
+        print(f"{name}\t{presets.describe_preset(name)}".rstrip())
     return 0
 
 
 def cmd_show(args: argparse.Namespace) -> int:
     if not 8 <= args.size <= 8192:
         raise RelightError(f"--size is {args.size}, expected 8 to 8192")
-    from .. import _light_sheet
+    from ..light import preview
 
     name = Path(args.name)
     spec = parse_light(args.name)  # the one rule: preset, light file, environment map or photo
@@ -89,10 +89,10 @@ def cmd_show(args: argparse.Namespace) -> int:
         env = envmap.load_envmap(spec.value)  # decoded once, for the light and for the sheet
         light = sh.rotate_z(envmap.project_envmap(env), math.radians(spec.rotate))
         light = sh.check_light(light, "light").astype(np.float32)
-        image, notes = _light_sheet.envmap_sheet(env, light, args.rotate, args.size)
+        image, notes = preview.envmap_sheet(env, light, args.rotate, args.size)
     else:
         light = relighter(args).resolve_light(spec) if spec.source == "photo" else spec.resolve()
-        image, notes = sh.render_sphere(light, size=args.size), _light_sheet.notes(light, args.rotate)
+        image, notes = sh.render_sphere(light, size=args.size), preview.notes(light, args.rotate)
     check_target(args.output, protect)
     for line in notes:
         log.warning("%s", line)
@@ -111,15 +111,15 @@ def light_output(output: str, source: str) -> Path:
 
 
 def write_light(out: Path, light: np.ndarray, source: str, protect: tuple = ()) -> None:
-    """Write ``light`` to ``out`` (.npy, or .json by lightfile.save_light), atomically and never over ``source`` or
+    """Write ``light`` to ``out`` (.npy, or .json by save_light), atomically and never over ``source`` or
     ``protect``, once it passed the rule every command reads a light by (sh.check_light)."""
     light = sh.check_light(light, f"{source}: its light")  # what every command reads back: checked before writing
     protect = [source, *protect]
     if out.suffix.lower() == ".npy":
         write_npy(out, light, protect=protect)
     else:
-        with atomic_path(out, protect) as tmp:  # checked against the inputs first, then lightfile.save_light's format
-            lightfile.save_light(tmp, light)
+        with atomic_path(out, protect) as tmp:  # checked against the inputs first, then save_light's format
+            save_light(tmp, light)
     log.info("%s -> %s", source, out)
 
 
@@ -144,7 +144,7 @@ def preview_sheet(background: np.ndarray, env: np.ndarray, light: np.ndarray, he
     """(height, W, 3) sRGB sheet: the background, its filled env map, a white sphere under the light."""
     import cv2
 
-    from ..color import linear_to_srgb
+    from ..image.color import linear_to_srgb
 
     bg = background.astype(np.float32) / 255 if background.dtype == np.uint8 else background.astype(np.float32)
     panels = [cv2.resize(bg, (max(1, round(bg.shape[1] * height / bg.shape[0])), height), interpolation=cv2.INTER_AREA)]
@@ -159,7 +159,7 @@ def preview_sheet(background: np.ndarray, env: np.ndarray, light: np.ndarray, he
 
 
 def cmd_from_background(args: argparse.Namespace) -> int:
-    from ..scene_light import light_from_background, parse_key_light, read_background
+    from ..light.from_background import light_from_background, parse_key_light, read_background
 
     key = parse_key_light(args.key_light)
     out = light_output(args.output, args.background)

@@ -9,7 +9,7 @@ Examples::
     relight-rt mask frames/ --sequence -o masks/          # a folder of video frames, smoothed over time
     relight-rt mask photo.jpg -o m.png --foreground cut.png   # + an RGBA cut-out, old background taken out
 
-The masks come from relight_rt.matting (MediaPipe-derived graphs bundled with the package). Outputs are
+The masks come from relight_rt.person.matting (MediaPipe-derived graphs bundled with the package). Outputs are
 written atomically and never over an input (nor over an existing file in an input folder).
 """
 
@@ -21,20 +21,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .._errors import RelightError
-from .._io import (
-    IMAGE_SUFFIXES,
-    ProtectedPaths,
-    check_target,
-    image_writer,
-    list_images,
-    read_image,
-    write_all,
-    write_image,
-)
-from .._progress import Progress, progress
-from .._video_io import VIDEO_SUFFIXES
+from ..engine.errors import RelightError
+from ..engine.files import ProtectedPaths, check_target, write_all
+from ..image.io import IMAGE_SUFFIXES, image_writer, list_images, read_image, write_image
+from ..video.frames import VIDEO_SUFFIXES
 from .options import add_max_pixels
+from .progress import Progress, progress
 from .report import finish_batch
 
 log = logging.getLogger(__name__)
@@ -79,9 +71,9 @@ def read_photo(path: Path) -> np.ndarray:
 
 
 def cutout(rgb: np.ndarray, alpha: np.ndarray) -> np.ndarray:
-    """(H, W, 4) straight RGBA: the decontaminated foreground colour (relight_rt.foreground) and the alpha;
+    """(H, W, 4) straight RGBA: the decontaminated foreground colour (relight_rt.image.foreground) and the alpha;
     colour 0 where alpha is 0."""
-    from ..foreground import estimate_foreground
+    from ..image.foreground import estimate_foreground
 
     fg = estimate_foreground(rgb, alpha)
     fg[alpha <= 0] = 0.0
@@ -93,7 +85,7 @@ def _finish(alpha: np.ndarray, binary: bool) -> np.ndarray:
 
 
 def cmd_mask(args: argparse.Namespace) -> int:
-    from ..matting import PersonMatter, VideoMatter
+    from ..person.matting import PersonMatter, VideoMatter
 
     inputs = [Path(p) for p in args.inputs]
     out = Path(args.output)
@@ -190,10 +182,10 @@ def _run_sequence(folder: Path, out: Path, vm, binary: bool) -> int:
 
 
 def _run_video(video: Path, out: Path, vm, binary: bool) -> int:
-    """Mask every frame of a video file: frames are read as ``video`` reads them (relight_rt._video_io: the
+    """Mask every frame of a video file: frames are read as ``video`` reads them (relight_rt.video.frames: the
     pixel limit checked from the header, a damaged packet or fewer frames than the header announces is an
     error), so the mask video has exactly one frame per frame of the clip, or is not written."""
-    from .._video_io import FrameSink, FrameSource, empty_clip
+    from ..video.frames import FrameSink, FrameSource, empty_clip
 
     as_video = out.suffix.lower() in VIDEO_SUFFIXES
     if out.suffix and not as_video:
@@ -202,7 +194,7 @@ def _run_video(video: Path, out: Path, vm, binary: bool) -> int:
     sink = FrameSink(video=out if as_video else None, frames_dir=None if as_video else out, fps=source.rate,
                      protect=source.paths)
     count, anyone = 0, False
-    with Progress(source.frame_count, "frame") as bar, sink:  # relight_rt._progress
+    with Progress(source.frame_count, "frame") as bar, sink:  # relight_rt.cli.progress
         for frame in source:
             alpha = _finish(frame.mask, binary)
             anyone = anyone or bool((alpha >= 0.5).any())

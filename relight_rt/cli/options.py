@@ -11,14 +11,14 @@ import argparse
 import os
 from pathlib import Path
 
-from .. import lights
-from .._errors import RelightError
-from .._limits import DEFAULT_MAX_PIXELS
-from ..compositing import Background, parse_background
-from ..config import DEVICES, PRECISIONS, PREPROCESS, RuntimeConfig
-from ..distributed import EXTRA_HINT as RAY_EXTRA_HINT
-from ..distributed import MANIFEST_NAME
-from ..lightspec import HDR_SUFFIXES, SH_FILE_SUFFIXES, LightSpec
+from ..apps.ray_jobs import EXTRA_HINT as RAY_EXTRA_HINT
+from ..apps.ray_jobs import MANIFEST_NAME
+from ..engine.config import DEVICES, PRECISIONS, PREPROCESS, RuntimeConfig
+from ..engine.errors import RelightError
+from ..engine.limits import DEFAULT_MAX_PIXELS
+from ..image.compositing import Background, parse_background
+from ..light import presets
+from ..light.spec import HDR_SUFFIXES, SH_FILE_SUFFIXES, LightSpec
 
 # ------------------------------------------------------------------------------------------- runtime
 
@@ -80,7 +80,7 @@ def add_light_options(p: argparse.ArgumentParser, *, required: bool = True, grou
     Returns the mutually exclusive group, so a command can add its own alternatives (video: --lights).
     """
     light = group if group is not None else p.add_mutually_exclusive_group(required=required)
-    light.add_argument("--preset", metavar="NAME", help=f"named light: {', '.join(lights.list_presets())}")
+    light.add_argument("--preset", metavar="NAME", help=f"named light: {', '.join(presets.list_presets())}")
     light.add_argument("--light", metavar="FILE", help="SH light file: .npy (9, 3) or .json, RGB (see --bgr)")
     light.add_argument("--envmap", metavar="MAP", help="equirectangular environment map (.hdr/.exr/.png/.jpg)")
     light.add_argument("--light-from", metavar="PHOTO", help="borrow the light of another photo of a person")
@@ -98,7 +98,7 @@ def light_spec(args: argparse.Namespace) -> LightSpec | None:
     if args.light:
         path = Path(args.light)
         suffix = path.suffix.lower()
-        if not path.exists() and not suffix and args.light in lights.list_presets():
+        if not path.exists() and not suffix and args.light in presets.list_presets():
             raise RelightError(f"--light expects a light file; {args.light!r} is a preset: use --preset {args.light}")
         if not path.is_file():
             raise RelightError(f"--light {args.light}: {'not a regular file' if path.exists() else 'file not found'}")
@@ -134,7 +134,7 @@ def add_background_option(p: argparse.ArgumentParser, default: str = "original")
 
 
 def add_exposure_option(p: argparse.ArgumentParser, reference: str = "the input person's") -> None:
-    """--exposure auto | EV | physical (relight_rt.exposure), one meaning in every command."""
+    """--exposure auto | EV | physical (relight_rt.light.exposure), one meaning in every command."""
     p.add_argument(
         "--exposure", default="auto", metavar="E",
         help=f"auto (default: scale the light so the person keeps {reference} mean luminance, lowered up to a "
@@ -144,7 +144,7 @@ def add_exposure_option(p: argparse.ArgumentParser, reference: str = "the input 
 
 
 def fov(text: str) -> float:
-    """argparse type of ``--fov DEG`` (its range is checked by relight_rt.scene_light)."""
+    """argparse type of ``--fov DEG`` (its range is checked by relight_rt.light.from_background)."""
     try:
         return float(text)
     except ValueError:
@@ -152,7 +152,7 @@ def fov(text: str) -> float:
 
 
 def add_key_light_option(p: argparse.ArgumentParser) -> None:
-    """``--key-light AZ,EL`` (relight_rt.scene_light.parse_key_light reads it)."""
+    """``--key-light AZ,EL`` (relight_rt.light.from_background.parse_key_light reads it)."""
     p.add_argument("--key-light", metavar="AZ,EL", help="where the scene's key light comes from, degrees: azimuth 0 "
                    "from the camera, 90 from the image's right, 180 from behind the person; elevation above the "
                    "horizon (default: the key the background implies)")  # fmt: skip

@@ -1,5 +1,5 @@
 """What ``--ray`` of ``relight-rt relight`` and ``relight-rt video`` share: Ray Data kept quiet, and the end of a
-job (its failures and the manifest's counts). The jobs are relight_rt.distributed's ``relight_folder`` (photos)
+job (its failures and the manifest's counts). The jobs are relight_rt.apps.ray_jobs's ``relight_folder`` (photos)
 and ``relight_videos`` (clips, one task each), started by relight_rt.cli.relight and relight_rt.cli.video."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ import os
 
 from .report import finish_batch
 
-log = logging.getLogger("relight_rt.distributed")
+log = logging.getLogger("relight_rt.apps.ray_jobs")
 
 
 def quiet_ray_data() -> None:

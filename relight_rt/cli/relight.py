@@ -9,13 +9,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import batch
-from .._errors import RelightError
-from .._io import ProtectedPaths, image_writer, npy_writer, npz_writer, sibling_mask, write_all
-from .._progress import progress
-from ..exposure import for_light, parse_exposure
-from ..masks import find_mask_file
-from ..transport_file import transport_arrays
+from ..apps import batch
+from ..engine.errors import RelightError
+from ..engine.files import ProtectedPaths, npy_writer, npz_writer, write_all
+from ..image.io import image_writer, sibling_mask
+from ..light.exposure import for_light, parse_exposure
+from ..person.masks import find_mask_file
+from ..relight.transport_file import transport_arrays
 from .options import (
     add_background_option,
     add_exposure_option,
@@ -31,6 +31,7 @@ from .options import (
     relighter,
     runtime_config,
 )
+from .progress import progress
 from .ray import finish_job, quiet_ray_data
 from .report import finish_batch, os_error_text
 
@@ -84,7 +85,7 @@ def _mask_note(path: Path, mask_arg: str | None) -> str:
 
 
 def cmd_relight(args: argparse.Namespace) -> int:
-    if getattr(args, "ray", None):  # the same work on a Ray cluster (relight_rt.distributed)
+    if getattr(args, "ray", None):  # the same work on a Ray cluster (relight_rt.apps.ray_jobs)
         return cmd_relight_ray(args)
     plan = batch.plan(args.inputs, args.output)
     files, failures, single = plan.inputs, plan.failures, plan.single
@@ -117,7 +118,7 @@ def cmd_relight(args: argparse.Namespace) -> int:
 
 def cmd_relight_ray(args: argparse.Namespace) -> int:
     """``relight-rt relight ... --ray``: as the single-process command, with a manifest."""
-    from ..distributed import relight_folder
+    from ..apps.ray_jobs import relight_folder
 
     quiet_ray_data()
     spec = light_spec(args)
@@ -145,9 +146,10 @@ def add_decompose(subparsers) -> None:
         description="Writes albedo.png, shading.png, skin.png (the photo's size and detail, see "
         "relight_rt.relight.decomposition.intrinsic_layers), light.npy ((9, 3) RGB SH) and transport.npz (the "
         "(R, R, 9) transport at the network's resolution, float16, with the crop geometry; "
-        "relight_rt.transport_file.load_transport brings it to the photo's size) into DIR. With --format exr or "
-        "png16: render passes for compositors instead (relight_rt.passes: albedo, shading under the photo's light "
-        "and under the new light, diffuse, residual, beauty, foreground, alpha, a normal map read off the "
+        "relight_rt.relight.transport_file.load_transport brings it to the photo's size) into DIR. With --format "
+        "exr or png16: render passes for compositors instead (relight_rt.apps.render_passes: albedo, shading under "
+        "the photo's light and under the new light, diffuse, residual, beauty, foreground, alpha, a normal map "
+        "read off the "
         "transport, light.json, passes.json), relit under the light given (default: the photo's own).",
     )
     p.add_argument("input", metavar="INPUT", help="image file")
@@ -174,7 +176,7 @@ def cmd_decompose(args: argparse.Namespace) -> int:
     folder = Path(args.output)
     protect = [src, *paths_of(mask if mask != "auto" else None), *Path(rl.models_dir).glob("*.onnx")]
     if args.format != "png":
-        from ..passes import compute_passes, write_passes
+        from ..apps.render_passes import compute_passes, write_passes
 
         passes = compute_passes(rl, dec, spec, exposure=exposure)
         written = write_passes(folder, passes, args.format, protect=[*protect, *(spec.paths if spec else ())])

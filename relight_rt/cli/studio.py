@@ -1,11 +1,11 @@
-"""``relight-rt studio PHOTO``: the light editor in the browser (relight_rt.studio)."""
+"""``relight-rt studio PHOTO``: the light editor in the browser (relight_rt.apps.studio)."""
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
-from .._errors import RelightError
+from ..engine.errors import RelightError
 from .options import add_person_option, add_runtime_options, relighter
 
 
@@ -35,14 +35,14 @@ def add_parser(subparsers) -> None:
 
 
 def cmd_studio(args: argparse.Namespace) -> int:
-    from .. import studio
+    from ..apps import studio
 
     studio.check_extra()
     if not 0 <= args.port <= 65535:
         raise RelightError(f"--port is {args.port}, expected 0 to 65535")
     if not Path(args.photo).is_file():
         raise RelightError(f"photo {args.photo} not found")
-    from ..studio.core import Studio
+    from ..apps.studio.core import Studio
 
     rl = relighter(args)  # --models, --device, --precision, --preprocess, --no-detail
     session = Studio(args.photo, args.mask, args.background, rl, args.preview_pixels, models=args.models)

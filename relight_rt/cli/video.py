@@ -1,6 +1,6 @@
 """``relight-rt video``: relight a video under a light that may change over time.
 
-The work is relight_rt.video.relight_clip; ``--ray`` runs one clip per Ray task (relight_rt.cli.ray).
+The work is relight_rt.video.job.relight_clip; ``--ray`` runs one clip per Ray task (relight_rt.cli.ray).
 Examples::
 
     relight-rt video clip.mp4 --masks masks/ -o out.mp4 --preset studio --rotate-per-second 0.25
@@ -21,7 +21,7 @@ import argparse
 import logging
 from pathlib import Path
 
-from .._errors import RelightError
+from ..engine.errors import RelightError
 from .options import (
     add_background_option,
     add_exposure_option,
@@ -72,14 +72,14 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--metrics", help="write temporal error, warping error and light-following to this JSON file")
     p.add_argument("--skip-bad-frames", action="store_true",
                    help="leave out frames that cannot be decoded or differ in size, report each, exit 2")
-    add_ray_options(p, video=True)  # --ray: one clip per Ray task (relight_rt.distributed)
+    add_ray_options(p, video=True)  # --ray: one clip per Ray task (relight_rt.apps.ray_jobs)
     p.set_defaults(func=cmd_video)
     return p
 
 
 def clip_lights(args: argparse.Namespace):
     """The ClipLights of ``video``'s light options (one light [turning], --lights or --interpolate)."""
-    from ..video import ClipLights
+    from ..video.job import ClipLights
 
     if args.lights or args.interpolate:
         what = "--lights" if args.lights else "--interpolate"
@@ -96,7 +96,7 @@ def clip_lights(args: argparse.Namespace):
 
 
 def clip_settings(args: argparse.Namespace) -> dict:
-    """The keyword arguments of relight_rt.video.relight_clip that ``video``'s options give, but for the clip
+    """The keyword arguments of relight_rt.video.job.relight_clip that ``video``'s options give, but for the clip
     and its per-clip outputs (input, output, frames_out, lights_out, metrics)."""
     return {
         "lights": clip_lights(args), "masks": args.masks, "fps": args.fps, "skip_bad_frames": args.skip_bad_frames,
@@ -108,10 +108,10 @@ def clip_settings(args: argparse.Namespace) -> dict:
 
 def cmd_video(args: argparse.Namespace) -> int:
     """Run ``relight-rt video``; returns 0, or 2 when frames were left out (--skip-bad-frames)."""
-    from .._progress import Progress
     from ..builder import open as open_relighter
     from ..builder import video_matter
-    from ..video import relight_clip
+    from ..video.job import relight_clip
+    from .progress import Progress
 
     if getattr(args, "ray", None):
         return cmd_video_ray(args)
@@ -132,7 +132,7 @@ def cmd_video(args: argparse.Namespace) -> int:
 
 
 def plan_videos(args: argparse.Namespace) -> tuple[list[dict], list[tuple[str, str]]]:
-    """Per-clip settings (relight_rt.video.relight_clip's keyword arguments) for ``relight-rt video SRC...
+    """Per-clip settings (relight_rt.video.job.relight_clip's keyword arguments) for ``relight-rt video SRC...
     --ray``: -o DST/ gives DST/STEM_relit.mp4; --frames-out, --lights-out and --metrics name folders that get
     STEM/, STEM_lights.npy and STEM_metrics.json. Returns (settings per clip, failures)."""
     if not args.output and not args.frames_out:
@@ -160,7 +160,7 @@ def plan_videos(args: argparse.Namespace) -> tuple[list[dict], list[tuple[str, s
 
 def cmd_video_ray(args: argparse.Namespace) -> int:
     """``relight-rt video SRC... -o DST/ --ray``: one Ray task per clip, a manifest of the clips."""
-    from ..distributed import MANIFEST_NAME, import_ray, relight_videos
+    from ..apps.ray_jobs import MANIFEST_NAME, import_ray, relight_videos
 
     import_ray()  # missing: say so before anything is written
     clips, failures = plan_videos(args)

@@ -9,10 +9,10 @@ import math
 import cv2
 import numpy as np
 
-from ..color import srgb_to_linear
-from ..compositing import Background, clean_edge_colour, over_box
-from ..exposure import DISPLAY_GAMMA
-from ..foreground import estimate_foreground, nearest_colours
+from ..image.color import srgb_to_linear
+from ..image.compositing import Background, clean_edge_colour, over_box
+from ..image.foreground import estimate_foreground, nearest_colours
+from ..light.exposure import DISPLAY_GAMMA
 from .decomposition import Decomposition, Memo, RelightResult, intrinsic_layers, readonly
 from .factor import Factor
 from .look import dark_colour, knee, shoulder, steady_chroma
@@ -54,12 +54,12 @@ def soft_edge_width(alpha: np.ndarray) -> float:
 
 def background_grade(colour: np.ndarray, own: np.ndarray, alpha: np.ndarray) -> np.ndarray:
     """(3,) float32: the person's change under the new light, one gain per channel on the photo's values, that
-    grades the original background (``Background.grade``, relight_rt.compositing).
+    grades the original background (``Background.grade``, relight_rt.image.compositing).
 
     The change is measured in light: the relit colour and the person's own colour decoded from sRGB, each summed
     over the matte per channel (a ratio of means, so the bright pixels that carry the exposure weigh as they
     show), G = new / old. The backdrop's values are multiplied by G ** (1 / DISPLAY_GAMMA), the exposure's rule for
-    light seen on a display (relight_rt.exposure: values ~ light ** (1 / 2.2)), so its light moves by G, as the
+    light seen on a display (relight_rt.light.exposure: values ~ light ** (1 / 2.2)), so its light moves by G, as the
     person's did. 1 where the person is black.
 
     Args:
@@ -111,9 +111,9 @@ def own_colours(dec: Decomposition, multilevel: bool = False) -> tuple[np.ndarra
 
     At a soft matte's edge a pixel mixes both (I = a F + (1 - a) B); relighting or moving I would carry the
     old background along (a halo in a new scene, the new light's colour spilt onto the street). For a photo
-    (``dec.photo``, or ``multilevel``) F and B come from relight_rt.foreground (multilevel foreground estimation);
+    (``dec.photo``, or ``multilevel``) F and B come from relight_rt.image.foreground (multilevel foreground estimation);
     for a hard edge a pixel or two wide (anti-aliasing, feathering), and for video frames, the solid colours beside
-    each soft pixel (relight_rt.foreground.nearest_colours); for a hard mask both are the photo (one array).
+    each soft pixel (relight_rt.image.foreground.nearest_colours); for a hard mask both are the photo (one array).
     """
     return colours_of(dec.geometry.crop(dec.image), dec.geometry.crop(dec.mask), dec.photo or multilevel)
 
@@ -201,7 +201,7 @@ class Composer:
 
         ``clean``: a new backdrop. With detail on the person's colour is already its foreground colour relit
         (``person_colour``); the network image (``detail=False``) gets its soft edge cleaned of the old
-        background here (relight_rt.compositing.clean_edge_colour). Over the photo's own background (not
+        background here (relight_rt.image.compositing.clean_edge_colour). Over the photo's own background (not
         ``clean``) the soft edge's share of background is the colour behind it (``foreground``), so that the
         photo's own light gives the photo back. ``grade`` (the original backdrop only): it and the colour behind
         the soft edge follow the light, by the person's change (``background_grade``).

@@ -12,10 +12,10 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from .. import exposure as _exposure
-from .. import sh
-from .._detail import extend_outward, guided_upsample, unpremultiply, window
-from .._geometry import CropGeometry
+from ..image.crop import CropGeometry
+from ..light import exposure as _exposure
+from ..light import sh
+from .detail import extend_outward, guided_upsample, unpremultiply, window
 
 ImageLike = str | os.PathLike | np.ndarray
 _SHADING_MIN = np.float32(1e-3)  # full-resolution albedo: photo / shading, shading floored here
@@ -46,7 +46,7 @@ class Decomposition:
         skin: (R, R) skin probability in [0, 1], masked.
         transport_chw: (9, R, R) SH light transport (DESIGN.md §3 order), masked (``transport``: (R, R, 9)).
         light: (9, 3) the photo's estimated SH light, RGB columns: stage 1's estimate, for a photo refit so
-            that albedo x shading explains it (relight_rt._strength ``refit_light``; a video frame keeps
+            that albedo x shading explains it (relight_rt.relight.strength ``refit_light``; a video frame keeps
             stage 1's). Relighting with it gives the photo back.
         network_mask: (R, R) the mask in the network frame, in [0, 1].
         network_image: (R, R, 3) the input photo in the network frame (what stage 1 saw, before masking).
@@ -56,9 +56,9 @@ class Decomposition:
         photo: True for a photo (``Relighter.decompose``), False for a video frame (``allow_full``): a photo's
             matte edge gets the multilevel foreground estimate, a frame's the colours beside it.
         face_meshes: the meshes of the faces found in the photo ((468, 3) float64 x, y, z in input pixels,
-            relight_rt._face_geometry), blended into the transport; None: no face mesh is used (video frames,
+            relight_rt.person.face_mesh), blended into the transport; None: no face mesh is used (video frames,
             ``detail=False``).
-        head: the head's second stage-1 pass, for a face stage 1 saw small (relight_rt._face), with this
+        head: the head's second stage-1 pass, for a face stage 1 saw small (relight_rt.relight.head), with this
             decomposition's light; None without one. ``head_box`` (y0, y1, x0, x1): where it lies in the photo.
         people: a group photo's people, each decomposed on their own with their share of the matte, in a window
             of the photo around them (``origin``; relight_rt.relight.people; empty: one person, or the group relit

@@ -1,6 +1,6 @@
 """The face pass: a face stage 1 saw small gets a second stage-1 pass on its head (``head_crops``: where), and a
-face the detector finds gets the normals of its mesh blended into the transport (``FacePass``; relight_rt._face,
-relight_rt._face_geometry)."""
+face the detector finds gets the normals of its mesh blended into the transport (``FacePass``; relight_rt.relight.head,
+relight_rt.person.face_mesh)."""
 
 from __future__ import annotations
 
@@ -9,14 +9,14 @@ from pathlib import Path
 
 import numpy as np
 
-from .._errors import RelightError
-from .._face import head_box
-from .._face_geometry import MIN_FACE_NET, FaceMesh, face_transport
+from ..engine.errors import RelightError
+from ..person.face_mesh import MIN_FACE_NET, FaceMesh, face_transport
 from .decomposition import Decomposition
+from .head import head_box
 
 
 def head_crops(decs: list[Decomposition]) -> list[tuple]:
-    """Per decomposition whose face stage 1 saw small (relight_rt._face ``head_box``): (its index, it, the head's
+    """Per decomposition whose face stage 1 saw small (relight_rt.relight.head ``head_box``): (its index, it, the head's
     box (y0, y1, x0, x1) in the input frame, the photo inside that box (a read-only view: stage 1 reads it without
     a copy) and the mask there)."""
     todo = []
@@ -30,7 +30,7 @@ def head_crops(decs: list[Decomposition]) -> list[tuple]:
 
 
 class FacePass:
-    """The face detector and landmarker of a models folder (relight_rt._face_geometry), loaded on first use."""
+    """The face detector and landmarker of a models folder (relight_rt.person.face_mesh), loaded on first use."""
 
     def __init__(self, models_dir: Path) -> None:
         self.models_dir = models_dir
@@ -38,7 +38,7 @@ class FacePass:
         self._lock = threading.Lock()
 
     def mesh(self) -> FaceMesh:
-        """The face detector and landmarker of the models folder (relight_rt._face_geometry), loaded once."""
+        """The face detector and landmarker of the models folder (relight_rt.person.face_mesh), loaded once."""
         if self._mesh is None:
             with self._lock:
                 if self._mesh is None:

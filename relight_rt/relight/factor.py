@@ -16,7 +16,7 @@ The luminance Y of the pipeline's image under the new light (albedo A times the 
 plus stage 2's residual r'), over its luminance under the photo's own light (Ŝ = max(0, T·l̂), l̂ the
 luminance of stage 1's estimate taken as white: cameras white-balance their photos), both unclipped, ε = 0.01;
 T is stage 1's transport with its degree-1 and degree-2 bands scaled back up by the shrinkage measured against
-true transports (relight_rt._strength: a regressed transport makes every light look softer than it is), then
+true transports (relight_rt.relight.strength: a regressed transport makes every light look softer than it is), then
 moved along the photo's own light half-way toward the shading the photo shows (``explain_photo``: what the
 regression blurred away of the photo's own shading stays as far as a new light resembles the photo's);
 and c' = S' / Y(S'), the colour of the new light arriving at that pixel (luminance 1). So the brightness change
@@ -30,7 +30,7 @@ resolution on the gray input, and a, b are upsampled and applied with the full-r
 input's own high-frequency detail survives. Colours made brighter than the photo's own peak are rolled off by a
 smooth shoulder on the brightest channel, all three channels scaled together (a bright lit side keeps its hue and
 its gradation; a per-channel clip would turn it yellow, a hard clip flat). Relighting with the photo's own light
-gives the input back. A face that stage 1 saw small gets a second pass (relight_rt._face). Where the photo's own
+gives the input back. A face that stage 1 saw small gets a second pass (relight_rt.relight.head). Where the photo's own
 shading is near zero (a side-lit face's black half, levels 0-3) the photo times a factor stays black with its
 speckle amplified; there the change is added instead, stage 1's albedo under the new shading less under the
 photo's own (``Factor.gain_and_fill``; Extended Yale B de-lighting, benchmarks/yale_eval.py: 0.83 / 0.62 ->
@@ -51,14 +51,14 @@ from dataclasses import replace
 import cv2
 import numpy as np
 
-from .. import exposure as _exposure
-from .. import sh
-from .._detail import extend_outward, guided_upsample, unpremultiply, window
-from .._face import feather
-from .._strength import EXPLAIN_ALBEDO_MIN, explain_photo, face_refit, refit_light, restore_bands
+from ..light import exposure as _exposure
+from ..light import sh
 from .decomposition import Decomposition, Memo, readonly
+from .detail import extend_outward, guided_upsample, unpremultiply, window
 from .faces import FacePass
+from .head import feather
 from .look import channel_max, shaded_skin, skin_chroma, tint_range
+from .strength import EXPLAIN_ALBEDO_MIN, explain_photo, face_refit, refit_light, restore_bands
 
 _RATIO_EPS = np.float32(0.01)  # the ratio's denominator is floored here (dark pixels: noise, not light)
 _OWN_FLOOR = np.float32(0.5)  # light the model misses, up to this share of the photo, stays under a new light (own)
@@ -94,7 +94,7 @@ class Factor:
         "window" (y0, y1, x0, x1): the network pixels near the person (the whole square when the network's
         square is not smaller than the photo's: to_crop takes a window only when enlarging); "alpha", "inner"
         (alpha > 0.5); "transport" (r, r', 9) unpremultiplied, its directional bands restored
-        (relight_rt._strength) and the face mesh's transport blended in, "albedo" luminance (r, r')
+        (relight_rt.relight.strength) and the face mesh's transport blended in, "albedo" luminance (r, r')
         unpremultiplied, "photo" (r, r') the luminance of the photo stage 1 saw, and "face_skin" (r, r') bool, the
         person's pixels well inside a face mesh (``FacePass.add_faces``; none without one).
         """
@@ -104,7 +104,8 @@ class Factor:
             r = geom.resolution
             y0, y1, x0, x1 = window(dec.network_mask) if geom.side > r else (0, r, 0, r)
             alpha = dec.network_mask[y0:y1, x0:x1]
-            # the directional bands restored to their true strength (relight_rt._strength), for both sides of the ratio
+            # the directional bands restored to their true strength (relight_rt.relight.strength), for both sides of the
+            # ratio
             transport = restore_bands(unpremultiply(np.ascontiguousarray(dec.transport[y0:y1, x0:x1]), alpha))
             skin = np.zeros(alpha.shape, bool)
             if dec.face_meshes:  # a face's shape from its mesh where stage 1's transport is a blur
@@ -121,8 +122,8 @@ class Factor:
         """What every relight of ``dec`` divides by, in the person's window of the network frame (cached).
 
         ``restored``'s entries, "transport" moved along the photo's own light toward the shading the photo shows
-        (relight_rt._strength ``explain_photo``), and "own" (r, r') the luminance of the pipeline's image under the
-        photo's own light taken as white (diffuse plus stage 2's residual) plus "missing" (r, r'), what that falls
+        (relight_rt.relight.strength ``explain_photo``), and "own" (r, r') the luminance of the pipeline's image under
+        the photo's own light taken as white (diffuse plus stage 2's residual) plus "missing" (r, r'), what that falls
         short of ``_OWN_FLOOR`` x the photo's luminance (light the model misses; ``gain`` adds it to every new light
         too), floored at the ratio's floor.
         """
@@ -130,7 +131,8 @@ class Factor:
         key = "own" if with_residual else "own_diffuse"
         if key not in state:
             base = self.restored(dec)
-            # the shading the photo shows and stage 1 misses, kept along the photo's own light (relight_rt._strength)
+            # the shading the photo shows and stage 1 misses, kept along the photo's own light
+            # (relight_rt.relight.strength)
             white = dec.white_light[:, 0]
             moved = explain_photo(base["transport"], base["albedo"], base["photo"], white, base["inner"])
             base = {**base, "transport": readonly(moved)}
@@ -148,7 +150,7 @@ class Factor:
         return state[key]
 
     def refit(self, dec: Decomposition) -> Decomposition:
-        """``dec`` with its light refit to the transport the relighting factor divides with (relight_rt._strength
+        """``dec`` with its light refit to the transport the relighting factor divides with (relight_rt.relight.strength
         ``refit_light``), then turned toward what a face mesh's skin shows (``face_refit``); what was prepared for
         ``dec`` that does not depend on its light goes along."""
         base = self.restored(dec)
@@ -161,13 +163,14 @@ class Factor:
         unexplained = base["photo"][inner] - albedo * (plain @ white)
         # ... is what the light's correction explains, through the transport the relit photo is divided by
         light = refit_light(dec.light, albedo, transport, albedo * (transport @ white) + unexplained)
-        skin = base["face_skin"]  # where a face mesh's shape says what light the skin shows (relight_rt._strength)
+        # where a face mesh's shape says what light the skin shows (relight_rt.relight.strength)
+        skin = base["face_skin"]
         if skin.any():
             light = face_refit(light, base["transport"][skin], base["photo"][skin], albedo, transport)
         return self.with_light(dec, light)
 
     def face_light(self, dec: Decomposition, head: Decomposition) -> Decomposition:
-        """``dec`` with its light turned by the face its head pass ``head`` sees (relight_rt._strength
+        """``dec`` with its light turned by the face its head pass ``head`` sees (relight_rt.relight.strength
         ``face_refit``), where the body pass saw the face too small for a mesh; ``dec`` itself otherwise."""
         base = self.restored(dec)
         if base["face_skin"].any():  # the body pass's own face turned it already (_refit)
@@ -366,8 +369,8 @@ class Factor:
         region += weight[..., None] * (level * g_head - region)
 
     def expose(self, dec: Decomposition, lights: np.ndarray, exposure) -> np.ndarray:
-        """relight_rt.exposure.expose with the photo's own mean luminance measured once per Decomposition, then
-        the highlight guard (relight_rt.exposure ``highlight_factor``) on each light before any EV offset."""
+        """relight_rt.light.exposure.expose with the photo's own mean luminance measured once per Decomposition, then
+        the highlight guard (relight_rt.light.exposure ``highlight_factor``) on each light before any EV offset."""
         mode = _exposure.parse_exposure(exposure)
         if mode == "physical":
             return np.array(lights, np.float32)

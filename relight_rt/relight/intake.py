@@ -8,9 +8,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .._geometry import CropGeometry
-from .._io import read_image
-from ..masks import Matter, resolve_mask
+from ..image.crop import CropGeometry
+from ..image.io import read_image
+from ..person.masks import Matter, resolve_mask
 from . import people as people_module
 from .people import PartsMatter
 
@@ -19,8 +19,8 @@ log = logging.getLogger(__name__)
 
 def read_batch(images: Sequence, masks: Sequence, auto: Matter | None, group: bool, allow_full: bool,
                resolution: int, preprocess: str) -> tuple[list, list, list, list]:
-    """Read photos and resolve their masks (relight_rt.masks.resolve_mask; ``auto`` the automatic matte, for a mask
-    None or "auto") and crop each to the network's square.
+    """Read photos and resolve their masks (relight_rt.person.masks.resolve_mask; ``auto`` the automatic matte, for a
+    mask None or "auto") and crop each to the network's square.
 
     ``group``: keep each person's share of the matte (``PartsMatter``) when the matter finds several, up to
     ``people.MAX_PEOPLE``; ``allow_full``: a mask may cover the whole image or nothing (video frames).

@@ -13,8 +13,8 @@ import threading
 import cv2
 import numpy as np
 
-from .. import exposure as _exposure
-from .. import sh
+from ..light import exposure as _exposure
+from ..light import sh
 
 _DARK = np.float32(0.25)  # steady_chroma: a pixel below this luminance, brightened by a gain, takes its dark
 _AMPLIFIED = np.float32(2.0)  # ... neighbours' colour, fully from a gain of 1 + this,
@@ -100,7 +100,7 @@ def skin_chroma(photo: np.ndarray, skin: np.ndarray) -> tuple[np.ndarray, np.nda
     """``shaded_skin``'s inputs that do not depend on the light: (P - Y) / P per channel of the skin's local
     colour (h, w, 3, in [-1, 1]) and the skin weight (h, w, in [0, 1]). The colour is the skin's, not its texture
     (a normalised blur over the skin), so the gain stays smooth and a pixel with one channel near 0 (lips, a red
-    scarf the skin map touches) cannot swing it. The studio's preview takes the same two (relight_rt.studio)."""
+    scarf the skin map touches) cannot swing it. The studio's preview takes the same two (relight_rt.apps.studio)."""
     weight = np.clip(skin, 0, 1).astype(np.float32)
     colour = cv2.GaussianBlur(np.asarray(photo, np.float32) * weight[..., None], (0, 0), _SKIN_SIGMA)
     colour /= np.maximum(cv2.GaussianBlur(weight, (0, 0), _SKIN_SIGMA), 1e-6)[..., None]

@@ -7,9 +7,9 @@ from collections.abc import Iterator
 
 import numpy as np
 
-from .._chain import DeviceChain
-from .._errors import RelightError
-from ..session import Model, check_finite
+from ..engine.device_chain import DeviceChain
+from ..engine.errors import RelightError
+from ..engine.session import Model, check_finite
 from .decomposition import Decomposition, Memo, diffuse_batch, readonly
 
 

@@ -7,8 +7,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .._square import Crop
-from ..compositing import Background, clean_edge_colour
+from ..image.compositing import Background, clean_edge_colour
+from ..image.regions import Crop
 from . import compose
 from .decomposition import Decomposition
 from .look import dark_colour, knee
@@ -150,7 +150,7 @@ def by_person(
     if backdrop is None:
         np.divide(region, alpha, out=region, where=alpha > 0)
         out[..., 3] = dec.mask
-    elif graded:  # the group's change, summed over the people (relight_rt.compositing's grade)
+    elif graded:  # the group's change, summed over the people (relight_rt.image.compositing's grade)
         gain = compose.grade_of_sums(*sums)
         region += under * (gain - 1)  # the backdrop's share of the box, and everything outside it
         for band in (out[:y0], out[y1:], out[y0:y1, :x0], out[y0:y1, x1:]):

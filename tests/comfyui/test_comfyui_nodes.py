@@ -15,7 +15,7 @@ import comfyui  # noqa: E402
 import relight_rt  # noqa: E402
 from comfyui.nodes import LIGHT_SOURCES, RelightLight  # noqa: E402
 from relight_rt import LightSpec, RelightError, lights, save_light  # noqa: E402
-from relight_rt._io import read_image  # noqa: E402
+from relight_rt.image.io import read_image  # noqa: E402
 
 NODES = comfyui.NODE_CLASS_MAPPINGS
 COMFY_TYPES = {"IMAGE", "MASK", "STRING", "FLOAT", "INT", "BOOLEAN"}
@@ -157,7 +157,7 @@ def test_light_of_a_photo_is_stage_ones_estimate(models, decomposed, photo):
 
 
 def test_light_of_a_background(photo):
-    from relight_rt.scene_light import light_from_background
+    from relight_rt.light.from_background import light_from_background
 
     spec = RelightLight.spec("background", "studio", **{**LIGHT_ARGS, "fov": 70.0}, image=torch.from_numpy(photo[None]))
     np.testing.assert_allclose(spec.resolve(), light_from_background(photo, 70.0)[0], atol=1e-6)
@@ -253,7 +253,7 @@ def test_progress_and_interrupt_inside_comfyui(models, decomposed, monkeypatch):
 
 
 def test_passes_node_encodes_the_passes_for_comfyui(models, decomposed):
-    from relight_rt.passes import compute_passes
+    from relight_rt.apps.render_passes import compute_passes
 
     _, (decs, *_) = decomposed
     light, _ = RelightLight().make("preset", "rim", **LIGHT_ARGS)

@@ -243,7 +243,7 @@ def test_converted_graph_matches_the_independent_forward_pass(tmp_path, kind, cl
 def test_full_size_fidelity_and_torch_free_import(reference_dir, tmp_path):
     """1024², width 64, the reference's own layout: convert-reference and the torch-free importer against the
     independent numpy forward pass (<= 1e-4) and against each other (<= 1e-6). Prints the errors (-s)."""
-    from relight_rt.reference_import import import_reference
+    from relight_rt.apps.reference_checkpoints import import_reference
 
     layout = json.loads((reference_dir / "checkpoint_layout.json").read_text())
     paths = {}

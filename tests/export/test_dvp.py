@@ -171,7 +171,7 @@ def test_fit_with_vgg_weights_names_the_loss(tmp_path):
 def test_fit_dvp_command_exports_contract_graph(tmp_path, unconditioned):
     pytest.importorskip("export.onnx_export")
     from export.__main__ import main
-    from relight_rt.video import DVPModel
+    from relight_rt.video.job import DVPModel
 
     clip = _clip()
     _write_clip(tmp_path, clip)

@@ -25,7 +25,7 @@ from export.onnx_export import (  # noqa: E402
     wrap,
 )
 from relight_rt import RelightError  # noqa: E402
-from relight_rt.contract import KINDS, config_from_metadata  # noqa: E402
+from relight_rt.engine.contract import KINDS, config_from_metadata  # noqa: E402
 
 torch.set_num_threads(1)
 

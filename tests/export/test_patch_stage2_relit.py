@@ -7,7 +7,7 @@ import numpy as np
 import onnxruntime as ort
 import pytest
 
-from relight_rt.session import bundled_models_dir
+from relight_rt.engine.session import bundled_models_dir
 
 onnx = pytest.importorskip("onnx")
 

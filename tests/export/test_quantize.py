@@ -9,7 +9,7 @@ pytest.importorskip("onnxruntime.quantization")
 
 from export.quantize import psnr, quantize  # noqa: E402
 from relight_rt import RelightError  # noqa: E402
-from relight_rt.bench import network_inputs  # noqa: E402
+from relight_rt.cli.bench import network_inputs  # noqa: E402
 
 
 def feeds(n, seed=0):

@@ -1,4 +1,4 @@
-"""Tests for relight_rt.reference_import: the torch-free reader and importer of the authors' checkpoints.
+"""Tests for relight_rt.apps.reference_checkpoints: the torch-free reader and importer of the authors' checkpoints.
 
 Most of it runs without torch: checkpoints are written by hand in torch's zip format (tests/_torch_zip.py)
 and the graphs are checked against an independent numpy forward pass (tests/_reference_forward.py).
@@ -21,8 +21,8 @@ from _reference_forward import contract_outputs, random_reference_weights, relat
 from _torch_zip import op_global, op_str, op_tuple, tensor_record, write_archive, write_state_dict
 
 from relight_rt import RelightError
+from relight_rt.apps.reference_checkpoints import bgr_to_rgb, import_reference, read_torch_checkpoint, reference_layout
 from relight_rt.cli import main as cli_main
-from relight_rt.reference_import import bgr_to_rgb, import_reference, read_torch_checkpoint, reference_layout
 
 WIDTH, RES = 2, 128
 KINDS = ("stage1", "stage2", "dvp")
@@ -393,7 +393,7 @@ def test_pickle_scan_passes_ordinary_pickles_and_refuses_deep_ones(protocol):
     memo, in-place appends, BUILD, OBJ/INST) and measures nesting, not length."""
     from collections import OrderedDict
 
-    from relight_rt._torch_checkpoint import PICKLE_MAX_DEPTH, scan_pickle
+    from relight_rt.apps.torch_checkpoint import PICKLE_MAX_DEPTH, scan_pickle
 
     state = OrderedDict(a=[1] * 3000, b={"x": {"y": (1, (2, ()))}}, c={1, 2}, d=b"x" * 100, e=10**40)
     scan_pickle(pickle.dumps(state, protocol=protocol), "ok")

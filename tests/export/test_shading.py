@@ -8,7 +8,7 @@ import pytest
 torch = pytest.importorskip("torch")
 
 from export.shading import render_diffuse, shade, shading  # noqa: E402
-from relight_rt.sh import shading as runtime_shading  # noqa: E402
+from relight_rt.light.sh import shading as runtime_shading  # noqa: E402
 
 
 @pytest.mark.parametrize("shape", [(1, 4, 5), (3, 8, 2)])

@@ -170,7 +170,7 @@ def test_export_onnx_at_the_end(data, tmp_path):
     pytest.importorskip("onnxruntime")
     run = tmp_path / "x"
     assert _stage1(data, run, "--epochs", "1", "--max-steps", "1", "--export-onnx") == 0
-    from relight_rt.session import load_model
+    from relight_rt.engine.session import load_model
 
     model = load_model(run / "stage1.onnx", "stage1", device="cpu")  # the contract's metadata and I/O, checked
     r = model.config.resolution or 64

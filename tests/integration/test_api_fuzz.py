@@ -67,7 +67,7 @@ def make_checkpoints(folder) -> dict[str, str]:
 _CHECKPOINT_CASES = """
 import sys
 from relight_rt import RelightError
-from relight_rt.reference_import import import_reference, read_torch_checkpoint
+from relight_rt.apps.reference_checkpoints import import_reference, read_torch_checkpoint
 for name in sys.argv[1:]:
     for route, call in (("read", lambda: read_torch_checkpoint(name)),
                         ("import", lambda: import_reference("out", stage2=name, width=2, resolution=128))):
@@ -100,7 +100,7 @@ def test_reference_checkpoint_bombs_are_refused_before_reading(tmp_path):
 
 def test_a_real_state_dict_still_reads(tmp_path):
     """The checks above keep what torch.save writes: nested containers a few levels deep, shared memo entries."""
-    from relight_rt.reference_import import read_torch_checkpoint
+    from relight_rt.apps.reference_checkpoints import read_torch_checkpoint
 
     state = {"a": np.arange(6, dtype=np.float32).reshape(2, 3), "b": np.zeros((), np.int64)}
     got = read_torch_checkpoint(write_state_dict(tmp_path / "ok.pth", state))
@@ -110,10 +110,10 @@ def test_a_real_state_dict_still_reads(tmp_path):
 _ARRAY_CASES = """
 import numpy as np
 from relight_rt import RelightError, Relighter, RuntimeConfig, lights
-from relight_rt.envmap import envmap_from_light, project_envmap
-from relight_rt.sh import render_sphere
-from relight_rt._io import read_image, read_mask
-from relight_rt.matting import as_rgb
+from relight_rt.light.envmap import envmap_from_light, project_envmap
+from relight_rt.light.sh import render_sphere
+from relight_rt.image.io import read_image, read_mask
+from relight_rt.person.matting import as_rgb
 
 huge = np.broadcast_to(np.zeros(3, np.uint8), (60000, 60000, 3))  # no memory until something converts it
 flat = np.broadcast_to(np.zeros((), np.float32), (60000, 60000))

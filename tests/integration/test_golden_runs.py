@@ -131,7 +131,7 @@ def golden_runs(work: Path) -> dict[str, np.ndarray]:
         out[f"video_black_{t}"] = _read(work / "vid_black" / f"f{t:02d}.png")
 
     # the bundled models on the bundled example person
-    from relight_rt.demo import example_path
+    from relight_rt.cli.demo import example_path
 
     _run(["relight", str(example_path()), "--preset", "studio", "--device", "cpu", "-o", str(work / "example.png")])
     out["bundled_example"] = _read(work / "example.png")

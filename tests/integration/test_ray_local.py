@@ -1,7 +1,7 @@
 """``--ray local`` ends with its driver and says why it fails (issue 35, item 13).
 
 - kill -9 of the driver left ``ray::DashboardAgent`` and ``ray::RuntimeEnvAgent`` running for 70 s and more:
-  relight_rt._reaper (started by the driver, in a session of its own) ends every process below the driver
+  relight_rt.apps.ray_reaper (started by the driver, in a session of its own) ends every process below the driver
   when the driver dies. Tested with a stand-in driver (fast: a process tree, no Ray) and with the real
   CLI on a local Ray.
 - under an address-space limit (ulimit -v) the raylet died at start-up (Ray's default object store does not
@@ -24,7 +24,8 @@ import numpy as np
 import pytest
 from _graphs import models_dir, person
 
-from relight_rt import _reaper, distributed
+from relight_rt.apps import ray_jobs as distributed
+from relight_rt.apps import ray_reaper
 
 __all__ = ["models_dir"]  # fixture
 REPO = Path(__file__).resolve().parents[2]
@@ -41,7 +42,7 @@ def wait_for(condition, what: str, limit: float = 60.0) -> None:
 
 
 def gone(noted: dict[int, int]) -> bool:
-    return not _reaper.alive(noted)
+    return not ray_reaper.alive(noted)
 
 
 def _limit(gib: float):
@@ -56,7 +57,7 @@ def _limit(gib: float):
 
 # ------------------------------------------------------------------------------------------------ the watcher
 
-# A stand-in for a driver: starts the watcher as relight_rt.distributed does, then a child that starts a
+# A stand-in for a driver: starts the watcher as relight_rt.apps.ray_jobs does, then a child that starts a
 # grandchild in a session of its own (as the raylet starts its agents: they outlive a killed driver),
 # prints the grandchild's pid, and waits; with "clean" it shuts down as ray_session does.
 DRIVER = textwrap.dedent("""
@@ -81,7 +82,7 @@ def _stand_in(mode: str):
     proc = subprocess.Popen([sys.executable, "-c", DRIVER, mode], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True, env=env)  # fmt: skip
     middle, agent = map(int, proc.stdout.readline().split())
-    table = _reaper.process_table()
+    table = ray_reaper.process_table()
     return proc, {p: table[p][1] for p in (middle, agent)}
 
 
@@ -94,7 +95,7 @@ def test_watcher_ends_the_tree_of_a_killed_driver():
         _, err = proc.communicate(timeout=60)  # returns when the watcher, which shares the pipes, has exited
         wait_for(lambda: gone(tree), "the watcher to end the driver's tree", limit=30)
     finally:
-        for pid in _reaper.alive(tree):  # only when the test failed
+        for pid in ray_reaper.alive(tree):  # only when the test failed
             os.kill(pid, signal.SIGKILL)
     lines = [x for x in err.splitlines() if x.strip()]
     assert len(lines) == 1 and f"the Ray driver (pid {proc.pid}) ended without shutting its local Ray down" in err
@@ -107,7 +108,7 @@ def test_watcher_leaves_a_clean_shutdown_alone():
         assert proc.stdout.readline().strip() == "done"
         assert not gone(tree)  # after "clean" the watcher ended nothing (the driver shut Ray down itself)
     finally:
-        for pid in _reaper.alive(tree):  # they hold the stand-in's stderr: first
+        for pid in ray_reaper.alive(tree):  # they hold the stand-in's stderr: first
             os.kill(pid, signal.SIGKILL)
         proc.kill()
         proc.communicate(timeout=60)
@@ -191,13 +192,13 @@ def test_kill_9_of_the_driver_ends_its_local_ray(tmp_path, models_dir):
         def agents_started() -> bool:
             if proc.poll() is not None:
                 raise AssertionError(f"the job ended before it could be killed: {proc.stderr.read()[-2000:]}")
-            below = _reaper.descendants(proc.pid, _reaper.process_table())
+            below = ray_reaper.descendants(proc.pid, ray_reaper.process_table())
             tree.update(below)
             return {b"ray::DashboardAgent", b"ray::RuntimeEnvAgent"} <= {_command(p) for p in below}
 
         wait_for(agents_started, "the local Ray to start its agents", limit=180)
         time.sleep(1.0)  # the watcher notes the tree twice a second
-        tree.update(_reaper.descendants(proc.pid, _reaper.process_table()))
+        tree.update(ray_reaper.descendants(proc.pid, ray_reaper.process_table()))
         os.kill(proc.pid, signal.SIGKILL)
         _, err = proc.communicate(timeout=60)
         wait_for(lambda: gone(tree), "every process of the killed driver's local Ray to end", limit=30)
@@ -205,6 +206,6 @@ def test_kill_9_of_the_driver_ends_its_local_ray(tmp_path, models_dir):
         if proc.poll() is None:
             proc.kill()
             proc.communicate()
-        for pid in _reaper.alive(tree):  # only when the test failed: leave no Ray behind
+        for pid in ray_reaper.alive(tree):  # only when the test failed: leave no Ray behind
             os.kill(pid, signal.SIGKILL)
     assert "ended without shutting its local Ray down" in err

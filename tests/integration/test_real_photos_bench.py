@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from relight_rt import lights
-from relight_rt.color import linear_to_srgb, srgb_to_linear
-from relight_rt.sh import irradiance
+from relight_rt.image.color import linear_to_srgb, srgb_to_linear
+from relight_rt.light.sh import irradiance
 
 BENCH = Path(__file__).resolve().parents[2] / "benchmarks"
 

@@ -26,7 +26,8 @@ sys.exit(pytest.main(["-q", "-rs", "-p", "no:cacheprovider", *sys.argv[1:]]))
 
 
 def test_runtime_tests_skip_with_a_reason_without_the_test_extra():
-    files = ["tests/runtime/test_io.py", "tests/runtime/test_limits.py", "tests/runtime/test_relighter.py",
+    files = ["tests/runtime/image/test_io.py", "tests/runtime/engine/test_limits.py",
+             "tests/runtime/relight/test_relighter.py",
              "tests/runtime/cli/test_cli.py"]
     env = {**os.environ, "PYTEST_DISABLE_PLUGIN_AUTOLOAD": "1"}
     proc = subprocess.run([sys.executable, "-c", _DRIVER, *files], cwd=REPO, capture_output=True, text=True,

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from relight_rt import envmap
-from relight_rt import scene_light as bgmod
-from relight_rt.color import srgb_to_linear
+from relight_rt.image.color import srgb_to_linear
+from relight_rt.light import from_background as bgmod
 
 BENCH = Path(__file__).resolve().parents[2] / "benchmarks"
 

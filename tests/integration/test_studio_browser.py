@@ -26,10 +26,11 @@ pytest.importorskip("uvicorn")
 sync_api = pytest.importorskip("playwright.sync_api")
 
 import relight_rt  # noqa: E402
-from relight_rt import RuntimeConfig, exposure, lightfile, lights, sh  # noqa: E402
-from relight_rt.demo import example_path  # noqa: E402
-from relight_rt.exposure import exposure_scale  # noqa: E402
-from relight_rt.studio.core import Studio, unpack_layers  # noqa: E402
+from relight_rt import RuntimeConfig, lightfile, lights, sh  # noqa: E402
+from relight_rt.apps.studio.core import Studio, unpack_layers  # noqa: E402
+from relight_rt.cli.demo import example_path  # noqa: E402
+from relight_rt.light import exposure  # noqa: E402
+from relight_rt.light.exposure import exposure_scale  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO / "benchmarks"))  # the studio's server and chromium, as its benchmarks run them
@@ -295,7 +296,7 @@ def test_bad_upload_shows_a_message_and_the_server_keeps_serving(browser, server
 
 @pytest.mark.parametrize("name", ["rim", "window-left"])
 def test_preview_and_final_result_have_one_brightness(browser, server, studio, name):
-    """The preview's exposure is the final result's (relight_rt.exposure): the person's mean luminance in the
+    """The preview's exposure is the final result's (relight_rt.light.exposure): the person's mean luminance in the
     preview the page draws agrees with the rendered result's (before, the preview kept the photo's mean
     luminance by a rule of its own and came out 5 % brighter than the result under these lights). What remains is
     what the preview leaves out (the head pass moves the ratio by 5 % under rim; the face mesh, the light the model
@@ -595,7 +596,7 @@ def test_frame_time_shown_only_after_a_frame_is_drawn(browser, server):
 def test_scene_key_handle_steers_the_scene_light(browser, server):
     """The "a scene…" upload shows a key-light handle; steering it re-reads the photo's light with ?key=AZ,EL,
     which is what the library gives for that key (and unsteered, the automatic key)."""
-    from relight_rt.scene_light import light_from_background
+    from relight_rt.light.from_background import light_from_background
 
     rng = np.random.default_rng(3)
     photo = np.clip(rng.normal(110, 30, (96, 128, 3)), 0, 255).astype(np.uint8)

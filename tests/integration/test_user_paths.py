@@ -15,9 +15,9 @@ from _graphs import OWN_LIGHT, make_models_dir, models_dir, save, stage1_model, 
 from _scenes import ambient, backdrop, directional, side_means, soft_person, write_scene
 
 from relight_rt import Relighter, RelightError, RuntimeConfig, cli, envmap
-from relight_rt.compositing import Background
-from relight_rt.stabilize import Stabilizer
-from relight_rt.video import Frame, FrameLayers, LightSchedule, RelighterEngine, composite, relight_frames
+from relight_rt.image.compositing import Background
+from relight_rt.video.job import Frame, FrameLayers, LightSchedule, RelighterEngine, composite, relight_frames
+from relight_rt.video.stabilize import Stabilizer
 
 __all__ = ["models_dir"]  # fixture
 
@@ -114,7 +114,7 @@ def test_envmap_reaches_the_relighter_and_turns(work, sides_dir, capsys):
 
 def test_light_from_uses_the_other_photos_estimated_light(work, tmp_path_factory, capsys):
     """--light-from PHOTO relights with the estimate for PHOTO (here a warm light the graph reports, refit to the
-    photo: relight_rt._strength.refit_light), taken as white as a photo's own light is (its colour estimate is
+    photo: relight_rt.relight.strength.refit_light), taken as white as a photo's own light is (its colour estimate is
     not trusted: photos are white-balanced)."""
     warm = ambient(RED_HEAVY).astype(np.float32)
     folder = make_models_dir(tmp_path_factory.mktemp("warm"), 64, stage1=stage1_sides_model(light=warm))
@@ -169,7 +169,8 @@ def test_soft_mask_blends_proportionally(sides):
     colour = rgba[..., :3]
     bg = backdrop(*mask.shape)
     # (over the original photo, what lies behind a soft edge is the photo's background colour estimated there,
-    # not the photo's mixed pixel: tests/runtime/test_face.py checks that the photo's own light gives the photo back)
+    # not the photo's mixed pixel: tests/runtime/relight/test_head.py checks that the photo's own light gives the photo
+    # back)
     for background, behind in ((Background.solid((1.0, 0.0, 1.0)), np.array([1.0, 0.0, 1.0], np.float32)),
                                (bg, bg)):  # fmt: skip
         out = sides.relight(img, light, mask=mask, background=background)
@@ -431,7 +432,7 @@ def test_usage_errors_name_the_command():
 def test_video_fits_an_image_background_and_passes_empty_frames(sides):
     """An image background of another size is fitted to every frame (once per size); a frame with nobody in it
     passes through over that background, its layers float32 zeros."""
-    from relight_rt.compositing import fit_image
+    from relight_rt.image.compositing import fit_image
 
     img, mask = soft_person()
     empty = np.zeros_like(mask)
@@ -448,7 +449,7 @@ def test_video_fits_an_image_background_and_passes_empty_frames(sides):
 
 
 def test_video_with_no_readable_frame_says_so(tmp_path, sides):
-    from relight_rt.video import FrameSink, relight_video
+    from relight_rt.video.job import FrameSink, relight_video
 
     class Unreadable:  # a source whose frames all fail to decode
         fps, path = 25.0, tmp_path / "broken.avi"

@@ -1,4 +1,4 @@
-"""benchmarks/video_eval.py: the comparison sheet (the table itself is measured by relight_rt.metrics tests)."""
+"""benchmarks/video_eval.py: the comparison sheet (the table itself is measured by relight_rt.video.metrics tests)."""
 
 import importlib.util
 from pathlib import Path
@@ -7,7 +7,7 @@ import cv2
 import numpy as np
 import pytest
 
-from relight_rt._io import write_image
+from relight_rt.image.io import write_image
 
 pytest.importorskip("torch")  # the sheet uses export.render.contact_sheet
 

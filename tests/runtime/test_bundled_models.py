@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from relight_rt import Relighter, RuntimeConfig, load_light
-from relight_rt._io import read_image
-from relight_rt.demo import example_path
-from relight_rt.session import bundled_models_dir, find_models, load_model
-from relight_rt.sh import basis, cosine_lobe
+from relight_rt.cli.demo import example_path
+from relight_rt.engine.session import bundled_models_dir, find_models, load_model
+from relight_rt.image.io import read_image
+from relight_rt.light.sh import basis, cosine_lobe
 
 BUDGET_BYTES = 25 * 1000 * 1000
 
@@ -34,7 +34,7 @@ def test_bundled_models_satisfy_the_contract_and_budget():
     assert stage1.config.resolution in (128, 256, 512) and stage1.config.color == "RGB"
     assert stage2.config.resolution in (0, stage1.config.resolution)
     # the relighting graphs; with the matting graphs everything stays within 40 MB
-    # (tests/runtime/matting/test_matting.py)
+    # (tests/runtime/person/matting/test_matting.py)
     total = sum(p.stat().st_size for p in folder.glob("stage*.onnx"))
     assert total <= BUDGET_BYTES, f"bundled relighting models take {total / 1e6:.1f} MB, budget 25 MB"
 

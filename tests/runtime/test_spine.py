@@ -22,10 +22,10 @@ from relight_rt import (
     lights,
     sh,
 )
-from relight_rt.compositing import parse_background
-from relight_rt.contract import KINDS, KindSpec, ModelConfig, TensorSpec, config_from_metadata, register_kind
-from relight_rt.lightspec import parse_light
-from relight_rt.masks import resolve_mask
+from relight_rt.engine.contract import KINDS, KindSpec, ModelConfig, TensorSpec, config_from_metadata, register_kind
+from relight_rt.image.compositing import parse_background
+from relight_rt.light.spec import parse_light
+from relight_rt.person.masks import resolve_mask
 from relight_rt.relight.decomposition import intrinsic_layers
 
 
@@ -170,7 +170,7 @@ def test_light_spec_sources_and_rotation(tmp_path):
 def test_one_string_rule_for_photos_and_video(tmp_path, relighter):
     import cv2
 
-    from relight_rt import video
+    from relight_rt.video import job as video
 
     env = np.clip(envmap.envmap_from_light(lights.preset("rim"), 16), 0, 1)
     cv2.imwrite(str(tmp_path / "sky.png"), (env[..., ::-1] * 255).astype(np.uint8))  # 2:1, an env map
@@ -235,7 +235,7 @@ def test_a_new_kind_is_one_registration(tmp_path):
     onnx = pytest.importorskip("onnx")
     from onnx import TensorProto, helper
 
-    from relight_rt.session import load_model
+    from relight_rt.engine.session import load_model
 
     spec = register_kind(KindSpec("test_matte", inputs=(TensorSpec("image", 4, 3),),
                                   outputs=(TensorSpec("alpha", 4, 1),), fixed_size=True,

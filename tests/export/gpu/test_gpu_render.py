@@ -13,7 +13,7 @@ from export.gpu import bank  # noqa: E402
 from export.gpu.render import DeviceSubject, RenderSettings, render_sample, sh_basis, sphere_directions  # noqa: E402
 from export.render.scene import Subject  # noqa: E402
 from export.render.shapes import plane, sphere  # noqa: E402
-from relight_rt.sh import basis  # noqa: E402
+from relight_rt.light.sh import basis  # noqa: E402
 
 
 def _device_subject(parts, tmp_path, name="s"):

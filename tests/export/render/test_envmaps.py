@@ -12,8 +12,8 @@ from export.__main__ import main
 from export.render import envmaps
 from export.render.lights_cli import environment, list_environments, load_environment
 from relight_rt import RelightError
-from relight_rt.envmap import load_envmap, project_envmap
-from relight_rt.sh import rotate_z
+from relight_rt.light.envmap import load_envmap, project_envmap
+from relight_rt.light.sh import rotate_z
 
 
 @pytest.mark.parametrize("kind", envmaps.KINDS)

@@ -19,7 +19,7 @@ from export.render.raycast import Tracer  # noqa: E402
 from export.render.scene import Subject  # noqa: E402
 from export.render.transport import render_gbuffer, transport  # noqa: E402
 from relight_rt import RelightError  # noqa: E402
-from relight_rt.envmap import directions_envmap, project_envmap, solid_angles_envmap  # noqa: E402
+from relight_rt.light.envmap import directions_envmap, project_envmap, solid_angles_envmap  # noqa: E402
 
 RES = 24
 

@@ -19,7 +19,7 @@ from export.render.transport import (  # noqa: E402
     transport,
 )
 from relight_rt import RelightError  # noqa: E402
-from relight_rt.sh import basis, cosine_lobe  # noqa: E402
+from relight_rt.light.sh import basis, cosine_lobe  # noqa: E402
 
 
 def test_unoccluded_sphere_matches_cosine_lobe():

@@ -87,7 +87,7 @@ def test_decompose_stores_the_transport_at_the_network_size(work, capsys, models
     """issue 34: transport.npz held the float32 map at the photo's size (51 MB for 2.5 megapixels); now the
     network's (R, R, 9) float16 with the crop geometry, brought back to the photo's size on reading."""
     from relight_rt import Relighter, RuntimeConfig
-    from relight_rt.transport_file import load_transport
+    from relight_rt.relight.transport_file import load_transport
 
     photo = write_person(work, h=600, w=400)
     code, _, err = run(["decompose", photo, "-o", "dec"], capsys)

@@ -1,13 +1,10 @@
-"""The CLI wing (issue 31): argument parsing only in relight_rt/cli/, the library never reaching up into it, no
-private names taken across the wing's modules, one failure printer, and the video job as a library function
-(relight_rt.video.relight_clip) that the command and each Ray task run."""
+"""The CLI wing (issue 31): every command listed once, one failure printer, and the video job as a library function
+(relight_rt.video.job.relight_clip) that the command and each Ray task run. Argument parsing only in cli/, the
+library never reaching up into it and no private name across modules: runtime/test_module_imports.py, for the
+whole package."""
 
 from __future__ import annotations
 
-import ast
-import importlib
-import subprocess
-import sys
 import warnings
 from pathlib import Path
 
@@ -16,72 +13,10 @@ import numpy as np
 import pytest
 from _graphs import models_dir
 
-import relight_rt
 from relight_rt import cli
 from relight_rt.cli.report import finish, finish_batch
 
 __all__ = ["models_dir"]  # fixture
-
-PACKAGE = Path(relight_rt.__file__).parent
-CLI = PACKAGE / "cli"
-# the entry points, above the CLI: `python -m relight_rt`, the console script, `python -m relight_rt.bench`, and
-# the deprecated mask_cli that re-exports from relight_rt.cli.mask for one release
-ENTRY_POINTS = {"__main__.py", "_launch.py", "bench.py", "mask_cli.py"}
-# the CLI wing's library halves (issue 31 item 3: no private name imported across modules)
-WING = [*sorted(CLI.glob("*.py")), *(PACKAGE / n for n in ("bench.py", "timing.py", "demo.py", "doctor.py",
-        "distributed.py", "video.py", "reference_import.py", "mask_cli.py", "studio/__init__.py"))]  # fmt: skip
-
-
-def _runtime_files():
-    return sorted(p for p in PACKAGE.rglob("*.py") if "__pycache__" not in p.parts)
-
-
-def _imports(path: Path):
-    """(module the statement names, with dots for relative imports; the names it takes) per import."""
-    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-        if isinstance(node, ast.Import):
-            for alias in node.names:
-                yield alias.name, ()
-        elif isinstance(node, ast.ImportFrom):
-            yield "." * node.level + (node.module or ""), tuple(a.name for a in node.names)
-
-
-def _absolute(path: Path, module: str) -> str:
-    """relight_rt.x.y for a relative import in ``path``."""
-    if not module.startswith("."):
-        return module
-    level = len(module) - len(module.lstrip("."))
-    package = list(path.relative_to(PACKAGE.parent).parts[:-1])  # a module's package (an __init__'s own)
-    base = package[: len(package) - (level - 1)]
-    return ".".join([*base, module.lstrip(".")]).rstrip(".")
-
-
-def test_only_the_cli_parses_arguments():
-    outside = [str(p.relative_to(PACKAGE)) for p in _runtime_files()
-               if CLI not in p.parents and any(m == "argparse" for m, _ in _imports(p))]  # fmt: skip
-    assert outside == []
-
-
-def test_the_library_never_imports_the_cli():
-    """Arrows run down: the commands use the library, the library never the commands (entry points aside)."""
-    up = []
-    for p in _runtime_files():
-        if CLI in p.parents or str(p.relative_to(PACKAGE)) in ENTRY_POINTS:
-            continue
-        for module, names in _imports(p):
-            full = _absolute(p, module)
-            cli_named = full == "relight_rt" and "cli" in names
-            if full == "relight_rt.cli" or full.startswith("relight_rt.cli.") or cli_named:
-                up.append(f"{p.relative_to(PACKAGE)}: {module}")
-    assert up == []
-
-
-def test_no_private_name_is_imported_across_the_wing():
-    """Private modules (``from .. import _light_sheet``) are fine; a private name out of another module is not."""
-    taken = [f"{p.relative_to(PACKAGE)}: {module} {name}" for p in WING for module, names in _imports(p)
-             if module.strip(".") for name in names if name.startswith("_") and not name.startswith("__")]  # fmt: skip
-    assert taken == []
-
 
 def test_every_command_is_listed_once():
     parser = cli.build_parser()
@@ -99,22 +34,6 @@ def test_one_failure_printer(capsys):
         "relight-rt: 2 failed, 3 written"]  # fmt: skip
     assert finish_batch([("a.png", "bad")], written=0, many=False) == 2
     assert capsys.readouterr().err.splitlines() == ["relight-rt: error: a.png: bad"]
-
-
-def test_python_m_relight_rt_bench_still_runs(tmp_path):
-    env_path = str(PACKAGE.parent)
-    proc = subprocess.run([sys.executable, "-m", "relight_rt.bench", "--help"], capture_output=True, text=True,
-                          cwd=tmp_path, env={"PYTHONPATH": env_path, "PATH": "/usr/bin:/bin"}, timeout=120)  # fmt: skip
-    assert proc.returncode == 0 and proc.stdout.startswith("usage: python -m relight_rt.bench"), proc.stderr
-
-
-def test_old_mask_cli_module_warns_and_still_gives_its_functions(monkeypatch):
-    monkeypatch.delitem(sys.modules, "relight_rt.mask_cli", raising=False)
-    with pytest.warns(DeprecationWarning, match="relight_rt.cli.mask"):
-        old = importlib.import_module("relight_rt.mask_cli")
-    from relight_rt.cli.mask import cutout, read_photo
-
-    assert old.read_photo is read_photo and old.cutout is cutout
 
 
 # ------------------------------------------------------------------------------------------- the video job
@@ -138,7 +57,7 @@ def _files(folder: Path) -> dict[str, bytes]:
 
 def test_relight_clip_writes_what_the_video_command_writes(tmp_path, models_dir):
     from relight_rt import LightSpec, RuntimeConfig
-    from relight_rt.video import ClipLights, relight_clip
+    from relight_rt.video.job import ClipLights, relight_clip
 
     clip = _clip(tmp_path / "clip")
     common = ["--models", str(models_dir), "--device", "cpu", "--batch-size", "2"]
@@ -155,8 +74,9 @@ def test_relight_clip_writes_what_the_video_command_writes(tmp_path, models_dir)
 def test_a_ray_clip_task_runs_the_library_job(tmp_path, models_dir):
     """The Ray task is relight_clip with the clip's settings (no argparse Namespace rebuilt in the worker)."""
     pytest.importorskip("ray")
-    from relight_rt import RuntimeConfig, distributed
-    from relight_rt.video import ClipLights, relight_clip
+    from relight_rt import RuntimeConfig
+    from relight_rt.apps import ray_jobs as distributed
+    from relight_rt.video.job import ClipLights, relight_clip
 
     clip = _clip(tmp_path / "clip")
     settings = {"src": str(clip), "lights": ClipLights(per_frame=str(tmp_path / "l.npy")), "stabilize": False,
@@ -180,7 +100,7 @@ def test_a_ray_clip_task_runs_the_library_job(tmp_path, models_dir):
 ])  # fmt: skip
 def test_clip_lights_are_one_kind_of_light(kwargs, match):
     from relight_rt import RelightError
-    from relight_rt.video import ClipLights
+    from relight_rt.video.job import ClipLights
 
     with pytest.raises(RelightError, match=match):
         ClipLights(**kwargs)
@@ -188,7 +108,7 @@ def test_clip_lights_are_one_kind_of_light(kwargs, match):
 
 def test_clip_lights_name_the_files_they_read(tmp_path):
     from relight_rt import LightSpec
-    from relight_rt.video import ClipLights
+    from relight_rt.video.job import ClipLights
 
     assert ClipLights(spec=LightSpec.preset("studio")).paths == ()
     assert ClipLights(per_frame=tmp_path / "l.npy").paths == (str(tmp_path / "l.npy"),)

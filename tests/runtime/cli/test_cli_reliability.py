@@ -192,7 +192,7 @@ def test_max_pixels(work, capsys):
 
 
 def test_memory_error_is_one_line(work, capsys, monkeypatch):
-    from relight_rt.relighter import Relighter
+    from relight_rt.relight.relighter import Relighter
 
     def boom(*args, **kwargs):
         raise MemoryError()
@@ -242,7 +242,7 @@ def test_skip_existing_resumes_a_batch(work, capsys):
 
 _DRIVER = """
 import os, signal, sys
-import relight_rt._io as io
+import relight_rt.image.io as io
 from relight_rt import cli
 # a run started in the background without job control inherits SIGINT ignored (and Python then installs no
 # KeyboardInterrupt handler); this driver stands for a user at a terminal, so it restores Python's default
@@ -382,7 +382,7 @@ def test_models_are_protected(work, capsys, tmp_path_factory):
 
 
 def test_protected_paths_follow_links_and_inodes(tmp_path):
-    from relight_rt._io import ProtectedPaths, check_target
+    from relight_rt.engine.files import ProtectedPaths, check_target
 
     (tmp_path / "a.png").write_bytes(b"a")
     (tmp_path / "sym.png").symlink_to(tmp_path / "a.png")

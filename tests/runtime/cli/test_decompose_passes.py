@@ -1,4 +1,5 @@
-"""``relight-rt decompose --format exr|png16``: compositor passes from the command line (relight_rt.passes)."""
+"""``relight-rt decompose --format exr|png16``: compositor passes from the command line
+(relight_rt.apps.render_passes)."""
 
 import json
 

@@ -1,4 +1,4 @@
-"""``relight-rt mask`` (relight_rt.mask_cli) end to end on the bundled example person."""
+"""``relight-rt mask`` (relight_rt.cli.mask) end to end on the bundled example person."""
 
 from __future__ import annotations
 

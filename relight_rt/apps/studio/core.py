@@ -1,0 +1,542 @@
+"""The studio's state, free of any web framework: one decomposed photo, its preview layers, renders, uploads.
+
+The photo is decomposed once (stage 1). The page relights a *preview* by itself from the layers this
+module packs at display resolution (albedo, transport, mask, background); the server runs the full
+pipeline (stage 2 and full-resolution detail) on request. Renders are kept in a bounded store whose
+entries expire, so an export fetches exactly the picture that was shown.
+
+Security: nothing here takes a filesystem path from a request. Uploads arrive as bytes, are limited in
+size, typed by their first bytes (never by a client's file name or content type), sized from their
+header by the runtime's one header parser (relight_rt.engine.limits.header_size: a size it cannot read, or more
+than MAX_UPLOAD_PIXELS, is refused before any decoder runs) and, where a reader needs a file, written to
+a temporary file whose name this module chooses, removed right after. What the web layer guards (origin,
+content types, concurrent uploads, bytes held) is in relight_rt.apps.studio.app.
+"""
+
+from __future__ import annotations
+
+import inspect
+import io
+import json
+import logging
+import math
+import secrets
+import shlex
+import tempfile
+import threading
+import time
+from collections import OrderedDict
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from ...engine.errors import RelightError
+from ...engine.limits import header_size, shrink
+from ...image.color import srgb_to_linear
+from ...image.compositing import Background
+from ...image.io import as_colour, decode_bytes, encode_image, read_image, sibling_mask
+from ...light import envmap, presets, sh
+from ...relight.strength import restore_bands
+
+log = logging.getLogger(__name__)
+
+MAX_UPLOAD_BYTES = 32 << 20  # an env map or a photo; bigger uploads are refused before decoding
+MAX_UPLOAD_PIXELS = 40_000_000  # decoded size limit (a small file can hold a huge image)
+# what an upload is shrunk to right after decoding, before any float copy: each becomes 27 numbers (an env map's
+# degree-2 SH, a background's or a person's light from stage 1), and at full size a 40-MP one cost ~60 bytes a
+# pixel, four at once past 4 GB (issue 50 bug 6); decoded, a pixel costs 3-12 bytes
+UPLOAD_WORK_PIXELS = 2_000_000
+EXPOSURE_SAMPLES = 1 << 15  # network-frame pixels of the person that the page's exposure rule reads (at most)
+from ...light import exposure as _exposure  # noqa: E402  (the one exposure rule)
+from ...light.exposure import METER_POWER, exposure_scale, guarded, mean_luminance, parse_exposure  # noqa: E402
+from ...light.spec import LightSpec  # noqa: E402  (the one light parser)
+from ...relight.compose import grade_of_sums  # noqa: E402  (the one background grade)
+from ...relight.decomposition import intrinsic_layers  # noqa: E402
+from ...relight.look import SKIN_CHROMA, skin_chroma  # noqa: E402  (the shaded-skin rule the preview mirrors)
+
+# (leading bytes, kind, suffix the readers go by)
+_MAGIC = (
+    (b"\x89PNG\r\n\x1a\n", "png", ".png"),
+    (b"\xff\xd8\xff", "jpeg", ".jpg"),
+    (b"#?RADIANCE", "hdr", ".hdr"),
+    (b"#?RGBE", "hdr", ".hdr"),
+    (b"RIFF", "webp", ".webp"),  # checked further below: RIFF....WEBP
+    (b"BM", "bmp", ".bmp"),
+)
+
+
+def sniff(data: bytes) -> tuple[str, str] | None:
+    """(kind, suffix) of an upload from its first bytes, or None for anything else."""
+    for magic, kind, suffix in _MAGIC:
+        if data.startswith(magic):
+            if kind == "webp" and data[8:12] != b"WEBP":
+                return None
+            return kind, suffix
+    return None
+
+
+def check_upload(data: bytes, name: str, allowed: tuple[str, ...], limit: int = MAX_UPLOAD_BYTES) -> str:
+    """Check an upload's size and type (by content); returns the file suffix for its kind.
+
+    Raises:
+        RelightError: empty, larger than ``limit``, not one of ``allowed`` kinds, a header whose image size
+            cannot be read (relight_rt.engine.limits.header_size) or an image of more than MAX_UPLOAD_PIXELS.
+    """
+    if not data:
+        raise RelightError(f"{name}: the upload is empty")
+    if len(data) > limit:
+        raise RelightError(f"{name}: the upload is {len(data) / 2**20:.1f} MiB, the limit is {limit / 2**20:.0f} MiB")
+    found = sniff(data)
+    if found is None or found[0] not in allowed:
+        what = "an unknown type" if found is None else f"a {found[0]} file"
+        raise RelightError(f"{name}: expected {' or '.join(a.upper() for a in allowed)} (by content), got {what}")
+    # the size from the header, read by the runtime's one parser, before any decoder allocates the image
+    size = header_size(data, name)
+    if size is None:
+        raise RelightError(f"{name}: cannot read the image size from its {found[0].upper()} header (damaged or "
+                           "truncated file)")  # fmt: skip
+    if size[0] * size[1] > MAX_UPLOAD_PIXELS:
+        raise RelightError(f"{name}: the image is {size[0]}x{size[1]}, more than {MAX_UPLOAD_PIXELS} pixels")
+    return found[1]
+
+
+def decode_upload(data: bytes, name: str, max_pixels: int = UPLOAD_WORK_PIXELS) -> np.ndarray:
+    """An uploaded PNG/JPEG/WebP/BMP as float32 RGB(A) in [0, 1] (alpha kept), checked by content, shrunk to at
+    most ``max_pixels`` (relight_rt.engine.limits ``shrink``) as decoded, before the float conversion."""
+    check_upload(data, name, ("png", "jpeg", "webp", "bmp"))
+    img = decode_bytes(np.frombuffer(data, np.uint8))  # turned as its EXIF orientation says
+    if img is None:
+        raise RelightError(f"{name}: cannot decode the image (corrupt file)")
+    img = shrink(img, max_pixels)
+    # (its size was checked from the header by check_upload) OpenCV's BGR(A) as RGB(A), gray as colour
+    return read_image(as_colour(img, bgr=True), name)  # checks channels, depth, size; a new float32 array
+
+
+class ResultStore:
+    """A bounded, expiring in-memory store: at most ``capacity`` entries, each dropped ``ttl`` seconds
+    after it was last read or written (least recently used first when full). Thread-safe.
+    Keys are random tokens made here (``put`` returns one), never taken from a request."""
+
+    def __init__(self, capacity: int = 16, ttl: float = 900.0, clock: Callable[[], float] = time.monotonic) -> None:
+        if capacity < 1 or ttl <= 0:
+            raise RelightError(f"ResultStore: expected capacity >= 1 and ttl > 0, got {capacity}, {ttl}")
+        self.capacity, self.ttl, self._clock = capacity, ttl, clock
+        self._items: OrderedDict[str, tuple[float, object]] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def _expire(self, now: float) -> None:
+        for key in [k for k, (t, _) in self._items.items() if now - t > self.ttl]:
+            del self._items[key]
+
+    def put(self, value) -> str:
+        key = secrets.token_urlsafe(12)
+        with self._lock:
+            now = self._clock()
+            self._expire(now)
+            self._items[key] = (now, value)
+            while len(self._items) > self.capacity:
+                self._items.popitem(last=False)
+        return key
+
+    def get(self, key: str):
+        """The value, or None when unknown or expired."""
+        with self._lock:
+            now = self._clock()
+            self._expire(now)
+            item = self._items.get(key)
+            if item is None:
+                return None
+            self._items[key] = (now, item[1])
+            self._items.move_to_end(key)
+            return item[1]
+
+    def __len__(self) -> int:
+        with self._lock:
+            self._expire(self._clock())
+            return len(self._items)
+
+
+@dataclass(frozen=True)
+class Render:
+    """One full-resolution result: its PNG, the light and exposure that made it, and how long it took."""
+
+    png: bytes
+    light: np.ndarray  # (9, 3) float32 RGB, exactly as used
+    exposure: object
+    seconds: float
+    grade_background: bool = False  # the original background followed the light (Background.grade)
+
+
+def command_line(program: list[str], operands: list, options: list[tuple[str, object]]) -> str:
+    """A command line to show and copy, by one rule for every word: each option as one ``--name=VALUE`` word (a
+    value that starts with "-", such as an EV of -1e-05, is never read as an option), each operand (a path) with
+    ``./`` before it when it is relative and starts with "-" (``-x.png`` is not an option either), all of it
+    quoted for a POSIX shell by ``shlex.join`` (issue 50 bugs 10 and 11)."""
+    words = [*program]
+    for value in operands:
+        text = str(value)
+        words.append(f"./{text}" if text.startswith("-") else text)
+    words += [name if value is None else f"{name}={value}" for name, value in options]
+    return shlex.join(words)
+
+
+def light_json(light: np.ndarray) -> str:
+    """The project's light .json (DESIGN.md §6), written from float32 values so that it reloads exactly."""
+    rows = [[float(v) for v in row] for row in np.asarray(light, np.float32)]
+    return json.dumps({"sh": rows, "order": "rgb"}, indent=1)
+
+
+def light_npy(light: np.ndarray) -> bytes:
+    """The light as .npy bytes: (9, 3) float32 RGB, never pickled."""
+    buf = io.BytesIO()
+    np.save(buf, np.asarray(light, np.float32), allow_pickle=False)
+    return buf.getvalue()
+
+
+def request_light(value) -> np.ndarray:
+    """The (9, 3) float32 RGB light of a render request's 27 numbers (``LightSpec.from_numbers``)."""
+    return LightSpec.from_numbers(value).resolve()
+
+
+def request_exposure(value) -> object:
+    """A render request's exposure: absent is "auto", anything else ``relight_rt.light.exposure.parse_exposure``."""
+    return "auto" if value is None else parse_exposure(value)
+
+
+def _exposure_sample(dec) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The person's pixels in the network frame that the page's exposure rule reads: every ``step``-th pixel
+    inside the mask, at most EXPOSURE_SAMPLES (all of them for networks up to about 300² pixels of person).
+
+    Returns:
+        albedo (n, 3) (the network's, masked, as relight_rt.light.exposure takes it), transport (n, 9), mask (n,),
+        float32.
+    """
+    m = np.asarray(dec.network_mask, np.float32).reshape(-1)
+    inside = np.flatnonzero(m > 0)
+    idx = inside[:: max(1, math.ceil(inside.size / EXPOSURE_SAMPLES))]
+    albedo = np.asarray(dec.albedo, np.float32).reshape(-1, 3)[idx]
+    transport = np.asarray(dec.transport, np.float32).reshape(-1, 9)[idx]
+    return albedo, transport, m[idx]
+
+
+def _highlight_sample(relighter, dec) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """What the exposure's highlight guard reads (relight_rt.light.exposure ``highlight_factor``; the relighter's
+    ``highlight_inputs``), every ``step``-th pixel, at most EXPOSURE_SAMPLES: lit (n, 3), steady (n, 3),
+    transport (n, 9) and the share allowed past white. A runtime without the guard gives no pixels (factor 1)."""
+    inputs = getattr(relighter, "highlight_inputs", None)
+    if inputs is None:
+        return np.zeros((0, 3), np.float32), np.zeros((0, 3), np.float32), np.zeros((0, 9), np.float32), 1.0
+    lit, steady, transport, allowed = inputs(dec)
+    step = max(1, math.ceil(lit.shape[0] / EXPOSURE_SAMPLES))
+    return (np.ascontiguousarray(lit[::step], np.float32), np.ascontiguousarray(steady[::step], np.float32),
+            np.ascontiguousarray(transport[::step], np.float32), float(allowed))
+
+
+def _display_size(h: int, w: int, max_pixels: int) -> tuple[int, int]:
+    s = min(1.0, math.sqrt(max_pixels / (h * w)))
+    return max(2, round(h * s)), max(2, round(w * s))
+
+
+def _resize(a: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+    h, w = size
+    if a.shape[:2] == (h, w):
+        return np.ascontiguousarray(a, np.float32)
+    interp = cv2.INTER_AREA if h < a.shape[0] else cv2.INTER_LINEAR
+    chans = [
+        cv2.resize(np.ascontiguousarray(a[..., i : i + 4]), (w, h), interpolation=interp)
+        for i in range(0, a.shape[2], 4)
+    ]
+    chans = [c[..., None] if c.ndim == 2 else c for c in chans]
+    return np.concatenate(chans, axis=2).astype(np.float32)
+
+
+class Studio:
+    """One photo, decomposed once, and what the page asks of it.
+
+    Args:
+        photo: image file (RGB or RGBA; see ``Relighter.decompose``).
+        mask: mask file; None: NAME_mask.png beside the photo, else its alpha channel.
+        background: "original", "transparent" or an image file of the photo's size.
+        relighter: a ``relight_rt.Relighter`` (the caller chooses models and device).
+        preview_pixels: the most pixels of the in-browser preview (the photo is shrunk to fit, never enlarged).
+        models: the models folder the relighter came from, for the exported command line (None: default).
+    """
+
+    def __init__(self, photo, mask, background, relighter, preview_pixels: int = 1_000_000, models=None) -> None:
+        self.photo = Path(photo)
+        self.mask = Path(mask) if mask is not None else sibling_mask(self.photo)
+        self.background = str(background)
+        self.models = models
+        if self.background not in ("original", "transparent") and not Path(self.background).is_file():
+            raise RelightError(f"--background {self.background}: expected original, transparent or an image file")
+        if not isinstance(preview_pixels, int) or preview_pixels < 64 * 64:
+            raise RelightError(f"preview_pixels: expected a whole number >= 4096, got {preview_pixels!r}")
+        self.relighter = relighter
+        self.dec = relighter.decompose(self.photo, self.mask)
+        self._bg = None if self.background in ("original", "transparent") else self.background
+        self._lock = threading.Lock()  # one pipeline run at a time (the Decomposition caches results)
+        self.renders = ResultStore(capacity=16, ttl=900.0)
+        self.exposure_supported = "exposure" in inspect.signature(relighter.relight).parameters
+        self._layers = self._pack_layers(preview_pixels)
+        self._photo_png: bytes | None = None
+
+    # ------------------------------------------------------------------------------------ preview layers
+
+    def _background_image(self) -> np.ndarray | None:
+        """(H, W, 3) background in the input frame; None for transparent."""
+        if self.background == "transparent":
+            return None
+        if self.background == "original":
+            return np.asarray(self.dec.image)
+        bg = read_image(self.background, "background")
+        if bg.shape[:2] != self.dec.image.shape[:2]:
+            raise RelightError(
+                f"--background {self.background}: is {bg.shape[0]}x{bg.shape[1]}, expected the photo's "
+                f"{self.dec.image.shape[0]}x{self.dec.image.shape[1]}"
+            )
+        return bg[..., :3]
+
+    def _pack_layers(self, max_pixels: int) -> dict:
+        """Display-resolution layers, quantised: transport as uint16 (per-channel offset and scale),
+        albedo (premultiplied by the mask), mask, background, the skin's chroma ((c + 1) / 2) and weight as uint8;
+        channel-planar, little-endian."""
+        dec = self.dec
+        h, w = dec.image.shape[:2]
+        size = _display_size(h, w, max_pixels)
+        # the transport the final result relights with: stage 1's with its directional bands restored
+        # (relight_rt.relight.strength), so that the preview changes as strongly as the result does
+        restored = restore_bands(np.ascontiguousarray(dec.transport))
+        transport = _resize(dec.to_input(restored), size)
+        # the photo's own albedo (photo / its shading under its own light, white): the preview then relights the
+        # photo as the final result does, not stage 1's network albedo (whose colours are a guess); divided by the
+        # shading the final result divides by (bands restored) rather than stage 1's own (a refit own light,
+        # relight_rt.relight.strength.refit_light, can leave that one dark where the restored one is not)
+        albedo = _resize(intrinsic_layers(dec, sh.shading(restored, dec.white_light))["albedo"], size)
+        mask = _resize(np.asarray(dec.mask)[..., None], size)
+        bg = self._background_image()
+        bg = np.zeros(size + (3,), np.float32) if bg is None else _resize(bg, size)
+        # what the final result's shaded-skin rule reads (relight_rt.relight.look.shaded_skin): the skin's local
+        # chroma (P - Y) / P, stored as (c + 1) / 2, and the skin weight; the page applies the rule with them
+        chroma, weight = skin_chroma(dec.network_image, dec.skin)
+        skin = dec.to_input(np.concatenate([chroma, weight[..., None]], axis=2))
+        skin = _resize(np.concatenate([(skin[..., :3] + 1) / 2, skin[..., 3:]], axis=2), size)
+        lo = transport.reshape(-1, 9).min(axis=0)
+        hi = transport.reshape(-1, 9).max(axis=0)
+        scale = np.where(hi > lo, (hi - lo) / 65535.0, 1.0)
+        q16 = np.rint((transport - lo) / scale).clip(0, 65535).astype("<u2").transpose(2, 0, 1)
+        eight = np.concatenate([albedo, mask, bg, skin], axis=2)
+        q8 = np.rint(np.clip(eight, 0, 1) * 255).astype(np.uint8).transpose(2, 0, 1)
+        # the exposure rule of the final result (relight_rt.light.exposure: the mean luminance of the network's diffuse
+        # image inside the mask, the photo's own light as the target) on the person's network-frame pixels
+        albedo_s, transport_s, mask_s = self._exposure = _exposure_sample(dec)
+        target = mean_luminance(albedo_s[None], transport_s[None], mask_s[None], dec.white_light, METER_POWER)
+        # the exposure's highlight guard (relight_rt.light.exposure.highlight_factor) on the pixels the final result
+        # reads
+        lit_h, steady_h, transport_h, allowed = self._highlight = _highlight_sample(self.relighter, dec)
+        head = q16.tobytes() + q8.tobytes()
+        offset = -(-len(head) // 4) * 4  # float32 planes start 4-byte aligned
+        planes = np.concatenate([transport_s.T, albedo_s.T, mask_s[None]]).astype("<f4")
+        guard = np.concatenate([lit_h.T, steady_h.T, transport_h.T]).astype("<f4")
+        return {
+            "height": size[0],
+            "width": size[1],
+            "transport_offset": lo.astype(float).tolist(),
+            "transport_scale": scale.astype(float).tolist(),
+            "exposure_target": target,
+            "exposure_power": METER_POWER,
+            "display_gamma": _exposure.DISPLAY_GAMMA,  # an EV's gain on encoded values: 2 ** (EV / this)
+            "exposure_samples": int(mask_s.size),
+            "exposure_offset": offset,
+            "highlight_samples": int(lit_h.shape[0]),
+            "highlight_offset": offset + planes.nbytes,
+            "highlight_allowed": allowed,
+            "highlight_limit": _exposure.HIGHLIGHT_LIMIT,
+            "highlight_max_down": _exposure.HIGHLIGHT_MAX_DOWN,
+            "skin_chroma": SKIN_CHROMA,
+            "own_white": np.asarray(dec.white_light, np.float64)[:, 0].tolist(),
+            "data": head + bytes(offset - len(head)) + planes.tobytes() + guard.tobytes(),
+        }
+
+    def preview_light(self, light, exposure="auto") -> np.ndarray:
+        """The light the page's preview draws for ``light`` (27 numbers or (9, 3)) and ``exposure``: the final
+        result's exposure rule (relight_rt.light.exposure: the mean-keeping scale, its highlight guard, the EV) on the
+        page's samples, so that the preview and the final result have one brightness. What studio.js
+        ``previewLight`` computes."""
+        lit = request_light(light)
+        exp = request_exposure(exposure)
+        if not self.exposure_supported:
+            return lit
+        if exp == "physical":
+            return lit
+        albedo_s, transport_s, mask_s = self._exposure
+        target = self._layers["exposure_target"]
+        scale = exposure_scale(albedo_s[None], transport_s[None], mask_s[None], lit, target, "auto", METER_POWER)
+        return guarded(lit * np.float32(scale), exp, self._highlight)
+
+    def preview_grade(self, shown) -> np.ndarray:
+        """(3,) the background's grade the page's preview draws for the light it shows (``preview_light``'s) when
+        the background follows the light: the final result's rule (relight_rt.relight.compose
+        ``background_grade``) on the highlight sample, the result's picture without stage 2's residual (relit:
+        lit S + steady S / Y(S); own: lit Y(W) + steady, W the photo's own light, white). What sh.js
+        ``backgroundGrade`` computes."""
+        lit_h, steady_h, transport_h, _ = self._highlight
+        light = np.asarray(shown, np.float32).reshape(9, 3)
+        shading = np.maximum(transport_h @ light, 0)
+        y = np.maximum(shading @ _exposure.REC709, 1e-4)[:, None]
+        own = np.maximum(transport_h @ np.asarray(self.dec.white_light, np.float32)[:, 0], 0)[:, None]
+        new = srgb_to_linear(np.clip(lit_h * shading + steady_h * shading / y, 0, 1)).sum(axis=0, dtype=np.float64)
+        old = srgb_to_linear(np.clip(lit_h * own + steady_h, 0, 1)).sum(axis=0, dtype=np.float64)
+        return grade_of_sums(new, old, float(lit_h.shape[0]))
+
+    def photo_png(self) -> bytes:
+        """The photo as the pipeline reads it (upright, RGB, full resolution) as PNG: the page's "before"."""
+        if self._photo_png is None:
+            self._photo_png = encode_image(np.asarray(self.dec.image)[..., :3], ".png", "photo")
+        return self._photo_png
+
+    def layers_bytes(self) -> bytes:
+        """The binary the page reads: 9 planes of uint16 transport, then 7 planes of uint8 (albedo R, G, B
+        premultiplied by the mask, mask, background R, G, B), each plane height x width, row-major; then, from
+        byte ``exposure_offset``, the exposure sample (``_exposure_sample``) as float32 planes of
+        ``exposure_samples`` values: transport 0…8, albedo R, G, B, mask; then, from byte ``highlight_offset``,
+        the highlight guard's sample (``_highlight_sample``) as float32 planes of ``highlight_samples`` values:
+        lit R, G, B, steady R, G, B, transport 0…8."""
+        return self._layers["data"]
+
+    def info(self) -> dict:
+        """What the page needs to start: sizes, layer format, the photo's own light, presets, features."""
+        h, w = self.dec.image.shape[:2]
+        own = np.asarray(self.dec.white_light, np.float32)
+        return {
+            "photo": self.photo.name,
+            "width": w,
+            "height": h,
+            "preview": {k: v for k, v in self._layers.items() if k != "data"},
+            "background": "transparent" if self.background == "transparent" else "image",
+            "original_background": self.background == "original",  # the toggle "background follows the light"
+            "own_light": own.tolist(),
+            "presets": {name: presets.preset(name).astype(np.float32).tolist() for name in presets.list_presets()},
+            "preset_exposure": {name: presets.preset_exposure(name) for name in presets.list_presets()},
+            "diffuse_only": bool(self.relighter.diffuse_only),
+            "people": self._people(),
+            "exposure": self.exposure_supported,
+            "max_upload_mb": MAX_UPLOAD_BYTES >> 20,
+        }
+
+    def _people(self) -> int:
+        """How many people the full result relights one by one (a group photo with matting="all"; the live
+        preview draws the group's layers, one body); 1 otherwise."""
+        return len(getattr(self.dec, "people", ())) or 1
+
+    # ------------------------------------------------------------------------------------ full results
+
+    def render(self, light, exposure="auto", grade_background=False) -> tuple[str, Render]:
+        """Run the full pipeline under ``light`` (27 numbers, RGB) and keep the PNG; returns (id, render).
+        ``grade_background``: the original background follows the light (Background.grade; the studio's toggle,
+        ignored for other backgrounds)."""
+        lit = request_light(light)
+        exp = request_exposure(exposure)
+        if not isinstance(grade_background, bool):
+            raise RelightError(f"grade_background: expected true or false, got {grade_background!r}")
+        grade = grade_background and self.background == "original"
+        kwargs = {"background": Background.original(grade=True) if grade else self._bg or self.background}
+        if self.exposure_supported:
+            kwargs["exposure"] = exp
+        with self._lock:
+            t0 = time.perf_counter()
+            image = self.relighter.relight(self.dec, lit, **kwargs)
+            png = encode_image(image, ".png", "result")
+            seconds = time.perf_counter() - t0
+        rec = Render(png, lit, exp if self.exposure_supported else "auto", seconds, grade)
+        return self.renders.put(rec), rec
+
+    def command(self, render: Render, light_file: str) -> str:
+        """The ``relight-rt relight`` command line that reproduces ``render`` from the exported light file, its
+        words made by one rule (:func:`command_line`)."""
+        # paths as the user gave them to ``relight-rt studio`` (relative ones: to where the server was started)
+        options: list[tuple[str, object]] = []
+        if self.mask is not None:
+            options.append(("--mask", self.mask))
+        elif getattr(getattr(self.relighter, "config", None), "matting", "auto") == "all":
+            options.append(("--person", "all"))  # the studio's matte took everyone: so must the command's
+        options.append(("--light", light_file))
+        if self.background != "original":
+            options.append(("--background", self.background))
+        if render.grade_background:
+            options.append(("--grade-background", None))
+        if self.exposure_supported and render.exposure != "auto":
+            options.append(("--exposure", render.exposure))
+        if self.models is not None:
+            options.append(("--models", self.models))
+        options.append(("--output", f"{self.photo.stem}_relit.png"))
+        return command_line(["relight-rt", "relight"], [self.photo], options)
+
+    # ------------------------------------------------------------------------------------ uploaded lights
+
+    def envmap_light(self, data: bytes) -> np.ndarray:
+        """(9, 3) float32 light of an uploaded equirectangular map (:func:`envmap_upload_light`)."""
+        return envmap_upload_light(data)
+
+    def photo_light(self, data: bytes) -> np.ndarray:
+        """(9, 3) float32 light estimated (stage 1) from an uploaded photo of a person; mask: its alpha, else
+        the automatic person matte."""
+        image = decode_upload(data, "photo")
+        with self._lock:
+            dec = self.relighter.decompose_batch([image], [None])[0] if image.shape[2] == 4 else \
+                self.relighter.decompose(image[..., :3], None)
+        return np.array(dec.white_light, dtype=np.float32)
+
+    def background_light(self, data: bytes, key_light=None) -> np.ndarray:
+        """(9, 3) float32 light of an uploaded background photo (:func:`background_upload_light`)."""
+        return background_upload_light(data, key_light)
+
+
+def envmap_upload_light(data: bytes) -> np.ndarray:
+    """(9, 3) float32 light of an uploaded equirectangular map (.hdr, or an sRGB PNG/JPEG, linearised), shrunk
+    to UPLOAD_WORK_PIXELS as decoded (envmap.load_envmap's ``max_pixels``)."""
+    suffix = check_upload(data, "environment map", ("hdr", "png", "jpeg"))
+    with tempfile.TemporaryDirectory(prefix="relight-studio-") as folder:
+        path = Path(folder) / f"upload{suffix}"  # our name; the client's is never used
+        path.write_bytes(data)
+        env = envmap.load_envmap(path, max_pixels=UPLOAD_WORK_PIXELS)  # its size was checked from the header above
+    return envmap.project_envmap(env).astype(np.float32)
+
+
+def background_upload_light(data: bytes, key_light=None) -> np.ndarray:
+    """(9, 3) float32 light of an uploaded background photo (relight_rt.light.from_background, 60° field of view),
+    shrunk to UPLOAD_WORK_PIXELS as decoded; ``key_light`` "AZ,EL" (degrees) or a pair steers its key light
+    (scene_light.parse_key_light)."""
+    from ...light.from_background import light_from_background, parse_key_light
+
+    key = parse_key_light(key_light)  # checked before the upload is decoded
+    image = decode_upload(data, "background")
+    light, _ = light_from_background(np.ascontiguousarray(image[..., :3]), key_light=key)
+    return np.asarray(light, dtype=np.float32)
+
+
+def unpack_layers(data: bytes, meta: dict) -> dict:
+    """The inverse of ``Studio.layers_bytes`` (what the page's decodeLayers does): float32 planes
+    "transport" (9, h, w), "albedo" (3, h, w) premultiplied, "mask" (h, w), "background" (3, h, w),
+    "skin_chroma" (3, h, w) in [-1, 1] and "skin" (h, w) (relight_rt.relight.look.skin_chroma), and
+    "exposure": {"transport" (n, 9), "albedo" (n, 3), "mask" (n,)}, the exposure sample, and "highlight":
+    {"lit" (m, 3), "steady" (m, 3), "transport" (m, 9)}, the highlight guard's."""
+    h, w = meta["height"], meta["width"]
+    n = h * w
+    ns, offset = int(meta["exposure_samples"]), int(meta["exposure_offset"])
+    nh, hoffset = int(meta["highlight_samples"]), int(meta["highlight_offset"])
+    if offset < 29 * n or hoffset != offset + 52 * ns or len(data) != hoffset + 60 * nh:
+        raise RelightError(f"layers: expected {hoffset + 60 * nh} bytes for {h}x{w}, {ns} and {nh} samples, got "
+                           f"{len(data)}")
+    q16 = np.frombuffer(data, "<u2", 9 * n).reshape(9, h, w).astype(np.float32)
+    off = np.array(meta["transport_offset"], np.float32)[:, None, None]
+    scale = np.array(meta["transport_scale"], np.float32)[:, None, None]
+    eight = np.frombuffer(data, np.uint8, 11 * n, 18 * n).reshape(11, h, w).astype(np.float32) / 255
+    planes = np.frombuffer(data, "<f4", 13 * ns, offset).reshape(13, ns).astype(np.float32)
+    sample = {"transport": planes[:9].T.copy(), "albedo": planes[9:12].T.copy(), "mask": planes[12].copy()}
+    guard = np.frombuffer(data, "<f4", 15 * nh, hoffset).reshape(15, nh).astype(np.float32)
+    highlight = {"lit": guard[:3].T.copy(), "steady": guard[3:6].T.copy(), "transport": guard[6:].T.copy()}
+    return {"transport": off + q16 * scale, "albedo": eight[:3], "mask": eight[3], "background": eight[4:7],
+            "skin_chroma": 2 * eight[7:10] - 1, "skin": eight[10], "exposure": sample, "highlight": highlight}

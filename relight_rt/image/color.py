@@ -1,0 +1,80 @@
+"""sRGB transfer functions (IEC 61966-2-1), the one place that converts between display and linear values.
+
+Both functions work element-wise on arrays of any shape and channel order, return new arrays and
+never modify their input. Float input keeps its dtype (float32 stays float32); integer images are
+read as display values (uint8 / 255, uint16 / 65535) and give float32.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from ..engine.errors import RelightError
+
+__all__ = ["SRGB8_TO_LINEAR", "linear_to_srgb", "srgb8_to_linear", "srgb_to_linear"]
+
+# Breakpoints and slopes of the sRGB curve (IEC 61966-2-1).
+_SRGB_KNEE = 0.04045
+_LINEAR_KNEE = 0.0031308
+_SLOPE = 12.92
+_GAMMA = 2.4
+_OFFSET = 0.055
+
+
+def _as_float(x, name: str) -> np.ndarray:
+    """Return x as a float array (a new one for integer input); reject bools, complex and objects."""
+    arr = np.asarray(x)
+    if arr.dtype == np.uint8:
+        return arr.astype(np.float32) / np.float32(255)
+    if arr.dtype == np.uint16:
+        return arr.astype(np.float32) / np.float32(65535)
+    if arr.dtype.kind == "f":
+        return arr
+    raise RelightError(f"{name}: expected a float array (or uint8/uint16 image), got dtype {arr.dtype}")
+
+
+def srgb_to_linear(x) -> np.ndarray:
+    """Decode sRGB display values to linear light.
+
+    Args:
+        x: array of any shape, float in [0, 1] (values outside are extended: the linear segment below
+            0, the power curve above 1), or uint8 / uint16 display values.
+
+    Returns:
+        New array of the same shape, linear values; float32 for float32 and integer input, float64 for
+        float64.
+    """
+    v = _as_float(x, "srgb_to_linear input")
+    t = v.dtype.type
+    low = v / t(_SLOPE)
+    high = ((np.maximum(v, t(_SRGB_KNEE)) + t(_OFFSET)) / t(1 + _OFFSET)) ** t(_GAMMA)
+    return np.where(v <= _SRGB_KNEE, low, high).astype(v.dtype, copy=False)
+
+
+def linear_to_srgb(x) -> np.ndarray:
+    """Encode linear light as sRGB display values (no clipping: clip to [0, 1] before saving).
+
+    Args:
+        x: array of any shape, float linear values (usually in [0, 1]), or uint8 / uint16 (read as
+            values / 255 or / 65535).
+
+    Returns:
+        New array of the same shape with sRGB-encoded values; float32 for float32 and integer input,
+        float64 for float64.
+    """
+    v = _as_float(x, "linear_to_srgb input")
+    t = v.dtype.type
+    low = v * t(_SLOPE)
+    high = t(1 + _OFFSET) * np.maximum(v, t(_LINEAR_KNEE)) ** t(1 / _GAMMA) - t(_OFFSET)
+    return np.where(v <= _LINEAR_KNEE, low, high).astype(v.dtype, copy=False)
+
+
+SRGB8_TO_LINEAR = srgb_to_linear(np.arange(256, dtype=np.uint8))  # (256,) float32: 8-bit sRGB level → linear
+SRGB8_TO_LINEAR.flags.writeable = False
+
+
+def srgb8_to_linear(image: np.ndarray) -> np.ndarray:
+    """``srgb_to_linear`` for a uint8 image of any channel count, by a 256-entry table (cv2.LUT): new float32."""
+    out = cv2.LUT(np.ascontiguousarray(image), SRGB8_TO_LINEAR.reshape(256, 1))
+    return out if out.shape == image.shape else out.reshape(image.shape)

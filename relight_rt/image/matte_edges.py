@@ -1,0 +1,268 @@
+"""Edge refinement of a coarse person matte at the photo's own resolution, in a band around its outline.
+
+The coarse matte (the segmentation graphs' 256² output, upsampled and guided-filtered) gets the outline's
+place right but its soft part wrong: a smear several pixels wide that follows no strand of hair. In a band
+around the coarse outline, each pixel's alpha is re-estimated from colour: the person's colour F and the
+background's colour B near the pixel are the means of the photo over the sure-foreground and the
+sure-background pixels of a window around it (box filters: fast at any size), and alpha is where the
+pixel's colour lies on the line from B to F (the colour-line model of Levin et al.'s closed-form matting,
+solved per pixel with F and B held fixed):
+
+    alpha_c = clip(((I - B) . (F - B)) / (|F - B|^2 + eps), 0, 1)
+
+Where F and B are alike (a dark coat before a dark doorway) colour says nothing: the estimate is blended
+with the coarse alpha by a confidence |F - B|^2 / (|F - B|^2 + tau). A small guided filter (the photo as
+guide) then removes pixel noise while keeping strands. On the background's side of the outline the estimate is
+held under a ceiling that falls smoothly from 1 at the outline to the coarse alpha at the band's outer edge: a
+light patch of background that colour puts between B and F (a white awning beside dark hair on the reference
+photo) then fades out instead of ending in the band's straight edge. Outside the band the coarse matte is kept, except
+that a faint veil (alpha < 0.2 on the background side, > 0.8 on the person's; < 0.05 / > 0.95 anywhere
+away from the outline) is snapped to 0 / 1: composited, it would show the old background. A body that runs out
+of the photo's bottom border is made opaque there, away from its outline (:func:`opaque_where_cut`).
+
+Inside the person, further from the outline than the band, the graphs sometimes half-see a gap: a sliver of
+backdrop between an arm and the body that they leave at alpha 0.4-0.9. Such pixels get colour's answer too
+(:func:`_open_gap`), with the background's colour taken from further away (the backdrop beyond the arm): a gap
+of background colour opens, a soft patch of the person's own colour stays.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import cv2
+import numpy as np
+
+from .guided_filter import fast_guided_filter
+
+_SURE = 0.95  # coarse alpha above this (after erosion) is sure foreground, below 1 - this sure background
+_SNAP = 0.05  # ... and away from the outline, alpha below this is 0, above 1 - this 1
+_VEIL = 0.2  # more than the band's width from the outline, alpha below this is 0 (above 1 - this: 1)
+_BAND_FRAC = 0.008  # half-width of the band, as a fraction of the photo's longer side (16 px at 2000 px) ...
+_BAND_MIN = 3  # ... at least this many pixels
+_EPS = 1e-4
+_TAU = 0.3  # |F - B|^2 at which colour and the coarse matte count equally (benchmarks/matting_eval.py)
+_GF_RADIUS = 1
+_GF_EPS = 1e-3
+_CUT_REACH = 0.2  # a body cut by the bottom border is made opaque up to this x the photo's height above it
+_FADED = 0.25  # ... where the bottom row's alpha is at least this (the graphs' answer fading toward the border)
+_CUT_INSIDE = 0.4  # ... and where alpha is at least this in a colour not the backdrop's (a pale shirt half-seen)
+_GAP = 0.9  # beyond the band inside the outline, coarse alpha below this is a gap the graphs half-see ...
+_ENCLOSED = 0.7  # ... in a pocket whose rim is at least this share the person's interior (not a soft outline) ...
+_GAP_REACH = 4  # ... whose background colour is the sure background's within this x the band's width (2x where none)
+_GAP_MATCH = 0.03  # ... opens where a pixel's colour lies within this squared distance of that background colour
+
+
+def band_width(shape: tuple[int, int]) -> int:
+    """Half-width in pixels of the band refined around the outline of an (h, w) photo's matte."""
+    return max(_BAND_MIN, int(round(_BAND_FRAC * max(shape))))
+
+
+def _box(x: np.ndarray, r: int) -> np.ndarray:
+    return cv2.boxFilter(x, -1, (2 * r + 1, 2 * r + 1), normalize=False, borderType=cv2.BORDER_CONSTANT)
+
+
+def refine_edges(rgb: np.ndarray, alpha: np.ndarray, band: int | None = None) -> np.ndarray:
+    """Refine a soft matte in a band around its outline (module docstring).
+
+    Args:
+        rgb: (H, W, 3) float32 RGB in [0, 1].
+        alpha: (H, W) float32 coarse matte in [0, 1].
+        band: half-width of the band in pixels (default :func:`band_width`).
+
+    Returns:
+        New (H, W) float32 alpha in [0, 1]; outside the band ``alpha`` snapped to 0 / 1 where faint.
+    """
+    h, w = alpha.shape
+    r = band_width((h, w)) if band is None else int(band)
+    out = alpha.copy()
+    # away from the outline the matte is snapped: a faint veil of the segmentation over the background
+    # (or a faint hole in the person) would carry the old background into any composite
+    out[out < _SNAP] = 0.0
+    out[out > 1 - _SNAP] = 1.0
+    edge = (alpha > _SNAP) & (alpha < 1 - _SNAP)
+    m = 3 * r + 2  # work on the outlines' bounding boxes only (plus the windows' reach)
+    for box in _outline_boxes(edge, m):
+        _refine_box(rgb, alpha, out, box, r)
+    return opaque_where_cut(out, r, rgb)
+
+
+def _outline_boxes(edge: np.ndarray, margin: int) -> list[tuple[int, int, int, int]]:
+    """(y0, y1, x0, x1) boxes that hold every pixel of ``edge`` with ``margin`` around it: one per group of outlines
+    whose boxes meet (a group photo's people apart: their own boxes, not one box round all of them, which cost 16
+    people on 25 MP 2.4 GB of temporaries; issue 50 bug 1)."""
+    n, _, stats, _ = cv2.connectedComponentsWithStats(edge.astype(np.uint8), connectivity=8)
+    if n <= 1:
+        return []
+    h, w = edge.shape
+    grown = [(max(y - margin, 0), min(y + bh + margin, h), max(x - margin, 0), min(x + bw + margin, w))
+             for x, y, bw, bh, _ in stats[1:]]  # fmt: skip
+    cell = 16  # the grown boxes are drawn on a grid of this many pixels: those that touch there are one group
+    coarse = np.zeros((-(-h // cell), -(-w // cell)), np.uint8)
+    for y0, y1, x0, x1 in grown:
+        coarse[y0 // cell : -(-y1 // cell), x0 // cell : -(-x1 // cell)] = 1
+    _, labels = cv2.connectedComponents(coarse, connectivity=8)
+    groups: dict[int, tuple[int, int, int, int]] = {}
+    for y0, y1, x0, x1 in grown:  # each group's box: its outlines' bounding box and the margin, exactly
+        key = int(labels[y0 // cell, x0 // cell])
+        g = groups.get(key)
+        groups[key] = (y0, y1, x0, x1) if g is None else (min(g[0], y0), max(g[1], y1), min(g[2], x0), max(g[3], x1))
+    return list(groups.values())
+
+
+def _refine_box(rgb: np.ndarray, alpha: np.ndarray, out: np.ndarray, box: tuple[int, int, int, int], r: int) -> None:
+    """:func:`refine_edges` inside ``box`` (y0, y1, x0, x1), in place on ``out``."""
+    y0, y1, x0, x1 = box
+    a = np.ascontiguousarray(alpha[y0:y1, x0:x1])
+    img = np.ascontiguousarray(rgb[y0:y1, x0:x1])
+    inside = (a >= 0.5).astype(np.uint8)
+    fg = cv2.distanceTransform(inside, cv2.DIST_L2, 3) > r  # sure: more than r px from the outline
+    outside = cv2.distanceTransform(1 - inside, cv2.DIST_L2, 3)
+    bg = outside > r
+    unknown = ~(fg | bg)
+    fg_w = (fg & (a >= _SURE)).astype(np.float32)
+    bg_w = (bg & (a <= 1 - _SURE)).astype(np.float32)
+    # mean colour of the sure pixels in a window of radius 2r (4r where the nearer window holds none)
+    b_col, blend = _colour_alpha(img, a, fg_w, bg_w, 2 * r, 2 * r)
+    est = _guided(img, blend)
+    sub = out[y0:y1, x0:x1]
+    # on the background's side, colour's answer fades out toward the band's outer edge (where the coarse matte is
+    # sure of background): a light patch of background there would otherwise end in the band's straight edge
+    t = np.clip(outside[unknown] / r, 0.0, 1.0)
+    ceiling = np.maximum(a[unknown], 1 - t * t * (3 - 2 * t))
+    sub[unknown] = np.clip(np.minimum(est[unknown], ceiling), 0.0, 1.0)
+    sub[bg & (a < _VEIL)] = 0.0
+    sub[fg & (a > 1 - _VEIL)] = 1.0
+    for (py, px), pocket in _pockets(a < _GAP, fg, min_area=r):
+        _open_gap(rgb, alpha, out, pocket, (y0 + py, x0 + px), r)
+
+
+def _pockets(low: np.ndarray, interior: np.ndarray, min_area: int) -> Iterator[tuple[tuple[int, int], np.ndarray]]:
+    """The connected parts of ``low & interior`` whose rim (the pixels just around them) lies mostly in
+    ``interior``: a pocket the person closes around (the slivers between arm and dress: 0.71-1.0 of the rim), not a
+    soft stretch along the outline (the soft top of Grace Hopper's dark cap before a dark blue flag: 0.49).
+    Pockets under ``min_area`` pixels are left out. Yields each as ((top, left), mask of its bounding box)."""
+    n, labels, stats, _ = cv2.connectedComponentsWithStats((low & interior).astype(np.uint8), connectivity=8)
+    h, w = low.shape
+    for i in range(1, n):
+        x, y, bw, bh, area = (int(v) for v in stats[i])
+        if area < min_area:  # a speck: nothing a composite would show, and each pocket costs a window of the photo
+            continue
+        y0, y1, x0, x1 = max(y - 1, 0), min(y + bh + 1, h), max(x - 1, 0), min(x + bw + 1, w)
+        comp = labels[y0:y1, x0:x1] == i
+        rim = (cv2.dilate(comp.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0) & ~comp
+        if rim.any() and interior[y0:y1, x0:x1][rim].mean() >= _ENCLOSED:
+            yield (y0, x0), comp
+
+
+def _open_gap(rgb: np.ndarray, alpha: np.ndarray, out: np.ndarray, pocket: np.ndarray, at: tuple[int, int], r: int):
+    """Colour's alpha for a pocket (a mask whose top left is at ``at`` in the photo): the person's colour from the
+    sure foreground around it (radius 2r), the background's from the sure background up to _GAP_REACH x r away,
+    where the backdrop shows beyond the limb that closes the pocket. Only the pocket's pixels near that background
+    colour change; the rest keep the graphs' answer (a fold of the person's own colour). The reference video's
+    frames leave the slivers between arm and dress at 0.4-0.9 in the coarse matte. In place on ``out``."""
+    h, w = alpha.shape
+    m = 2 * _GAP_REACH * r + 1
+    y0, x0 = max(at[0] - m, 0), max(at[1] - m, 0)
+    y1, x1 = min(at[0] + pocket.shape[0] + m, h), min(at[1] + pocket.shape[1] + m, w)
+    a = np.ascontiguousarray(alpha[y0:y1, x0:x1])
+    img = np.ascontiguousarray(rgb[y0:y1, x0:x1])
+    inside = (a >= 0.5).astype(np.uint8)
+    fg_w = ((cv2.distanceTransform(inside, cv2.DIST_L2, 3) > r) & (a >= _SURE)).astype(np.float32)
+    bg_w = ((cv2.distanceTransform(1 - inside, cv2.DIST_L2, 3) > r) & (a <= 1 - _SURE)).astype(np.float32)
+    b_col, blend = _colour_alpha(img, a, fg_w, bg_w, 2 * r, _GAP_REACH * r)
+    near_b = _backdrop_coloured(img, b_col)
+    est = _guided(img, np.where(near_b, blend, a))
+    sel = np.zeros(a.shape, bool)
+    py, px = at[0] - y0, at[1] - x0
+    sel[py : py + pocket.shape[0], px : px + pocket.shape[1]] = pocket
+    sel &= near_b
+    out[y0:y1, x0:x1][sel] = np.clip(est[sel], 0.0, 1.0)
+
+
+def opaque_where_cut(alpha: np.ndarray, r: int, rgb: np.ndarray | None = None) -> np.ndarray:
+    """``alpha`` with the body that runs out of the photo's bottom border made opaque there: the pixels of the
+    matte (alpha >= 0.5) more than ``r`` from its outline (the image border is no outline: the body goes on past
+    it), within _CUT_REACH x the height above the bottom border and joined to it through such pixels, set to 1.
+    The segmentation graphs are least sure where the frame cuts the body (a patterned shirt, a dark coat):
+    DPR's portrait kept its checked shirt at alpha 0.53-0.73 over the bottom right, and a composite showed the
+    new background through it. With ``rgb`` (the photo, float RGB), a pixel the graphs leave a little under
+    0.5 (down to _CUT_INSIDE) counts as body too where its colour is not the backdrop's (beyond _GAP_MATCH of
+    the sure background's mean within _GAP_REACH x r; anywhere no sure background is that near): the same
+    portrait's pale blue collar sat at 0.47-0.52 in a patch the outline went round, and relit it stayed a pale
+    blob, while a ring of red backdrop at 0.4-0.5 around a gap between arm and body must stay soft. The
+    outline's band keeps its soft alpha. In place; returns ``alpha``."""
+    h, w = alpha.shape
+    n = min(max(int(round(_CUT_REACH * h)), r + 2), h)
+    low = alpha[h - n :]
+    inside = low >= 0.5
+    unsure = (low >= _CUT_INSIDE) & ~inside
+    if rgb is not None and unsure.any():
+        img = rgb[h - n :]
+        reach = _GAP_REACH * r
+        # the backdrop's mean over windows this wide is smooth: measured at 1/s of the size (s x s blocks,
+        # area-averaged; counts in blocks' shares), read back by linear interpolation
+        s = max(1, reach // 8)
+        size = (max(w // s, 1), max(n // s, 1))
+        small = cv2.resize(img, size, interpolation=cv2.INTER_AREA)
+        sure = cv2.resize((low <= 1 - _SURE).astype(np.float32), size, interpolation=cv2.INTER_AREA)
+        b_col, b_n = _side_mean(small, sure, max(reach // s, 1))
+        b_col = cv2.resize(b_col, (w, n), interpolation=cv2.INTER_LINEAR)
+        b_n = cv2.resize(b_n, (w, n), interpolation=cv2.INTER_LINEAR)
+        uy, ux = np.nonzero(unsure)
+        far = ~_backdrop_coloured(img[uy, ux], b_col[uy, ux]) | (b_n[uy, ux] < 0.5 / (s * s))
+        inside[uy[far], ux[far]] = True
+    inside = inside.astype(np.uint8)
+    # the graphs' answer fades toward the border (zidane's coat: 0.85 -> 0.45 over the last 14 rows), which
+    # would put an outline along it: over the last rows the body is taken to be where it is just above them,
+    # in the columns where the border row still holds some of it (not below feet that end above the border)
+    fade = min(2 * r + 2, n - 1)
+    inside[n - fade :] = inside[n - fade - 1] & (alpha[h - 1] >= _FADED)
+    if not inside[-1].any():
+        return alpha
+    core = cv2.distanceTransform(np.pad(inside, ((1, 0), (0, 0)), constant_values=1), cv2.DIST_L2, 3)[1:] > r
+    _, labels = cv2.connectedComponents(core.astype(np.uint8), connectivity=8)
+    cut = np.unique(labels[-1][core[-1]])
+    if cut.size:
+        alpha[h - n :][np.isin(labels, cut)] = 1.0
+    return alpha
+
+
+def _colour_alpha(
+    img: np.ndarray, a: np.ndarray, fg_w: np.ndarray, bg_w: np.ndarray, f_reach: int, b_reach: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Colour's alpha (module docstring), blended with the coarse ``a`` by its confidence, from the mean colours of
+    the sure foreground (weights ``fg_w``, windows of radius ``f_reach``) and the sure background (``bg_w``,
+    ``b_reach``). Returns (the background colour B per pixel (h, w, 3), the blended alpha (h, w) float32)."""
+    f_col, f_n = _side_mean(img, fg_w, f_reach)
+    b_col, b_n = _side_mean(img, bg_w, b_reach)
+    d = f_col - b_col
+    dd = (d * d).sum(-1)
+    a_c = np.clip(((img - b_col) * d).sum(-1) / (dd + _EPS), 0.0, 1.0)
+    conf = dd / (dd + _TAU) * (f_n > 0) * (b_n > 0)
+    return b_col, (conf * a_c + (1 - conf) * a).astype(np.float32)
+
+
+def _backdrop_coloured(img: np.ndarray, b_col: np.ndarray) -> np.ndarray:
+    """Where a pixel's colour lies within _GAP_MATCH (squared distance) of the backdrop's colour ``b_col``: the
+    one rule by which a half-seen pocket opens (``_open_gap``) and a half-seen patch at the border stays soft
+    (``opaque_where_cut``)."""
+    return ((img - b_col) ** 2).sum(-1) < _GAP_MATCH
+
+
+def _side_mean(img: np.ndarray, weight: np.ndarray, r: int) -> tuple[np.ndarray, np.ndarray]:
+    """Weighted mean colour in windows of radius r, falling back to radius 2r where a window holds none."""
+    n = _box(weight, r)
+    s = _box(img * weight[..., None], r)
+    n2 = _box(weight, 2 * r)
+    s2 = _box(img * weight[..., None], 2 * r)
+    near = n > 0.5
+    num = np.where(near[..., None], s, s2)
+    den = np.where(near, n, n2)
+    return num / np.maximum(den, 1e-6)[..., None], den
+
+
+def _guided(img: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """A gray-guided filter of radius _GF_RADIUS (He et al.), to remove pixel noise along the strands."""
+    g = cv2.cvtColor(img, cv2.COLOR_RGB2GRAY)
+    return fast_guided_filter(p, g, g, _GF_RADIUS, _GF_EPS)

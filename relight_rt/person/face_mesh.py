@@ -1,0 +1,267 @@
+"""The face's shape for the relighting factor: normals from a face mesh, where stage 1's transport is a blur.
+
+Stage 1 regresses the transport of the whole person from one 256-px square; on a face its normals are a smooth
+blob (the nose, the eye sockets, the cheekbones' turn are not in it), so a new light changes a face far less, and
+less precisely, than a relighter trained on faces (DPR). A face has a known shape: MediaPipe's face landmarker
+(``face_mesh.onnx``, Apache-2.0, ``python -m export face-mesh``) gives 468 3D points of a dense mesh for a face
+found by the bundled face detector (``matte_face.onnx``), and the mesh's triangles
+(``face_mesh_triangles.txt``) give its normals.
+
+The normals are drawn into the network frame (flat per triangle, nearest last, the mesh's openings at the eyes
+and the lips closed with the normals around them, then smoothed over about a nose's half-width), turned into
+transport with DESIGN.md §3's unoccluded cosine lobe, and scaled by stage 1's own degree-0 coefficient (so the
+network's visibility, hence exposure, is kept). The Relighter blends that transport into
+stage 1's over the face, feathered at the mesh's border (relight_rt.relight.relighter ``_own``); both sides of the
+relighting factor use the result, so the photo's own light still gives the photo back. Around the mesh (hair,
+skull, ears) an ellipsoid head fitted to the mesh's extent lends its normals, at HEAD_STRENGTH: without it a side
+light darkened half a close face in a patch bounded by the mesh while the hair beside it, left to stage 1's blur,
+stayed lit (docs/RESULTS.md, "A head around the face mesh").
+
+Optional: without the three files in the models folder nothing changes. Upright faces only (the landmarker's crop
+is not rotated): a face tilted far from upright gives a poor mesh, which the landmarker's face flag rejects.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from ..engine.errors import RelightError
+from ..image.regions import Region, crop_region
+from ..light import sh
+from .face_detector import FACE_SIZE, decode, weighted_nms
+
+log = logging.getLogger(__name__)
+
+MESH_FILE = "face_mesh.onnx"
+TRIANGLES_FILE = "face_mesh_triangles.txt"
+DETECTOR_FILE = "matte_face.onnx"
+MESH_SIZE = 192  # the landmarker's input side
+N_POINTS = 468
+ROI_SCALE = 1.5  # the landmarker's square: this many face-box sides around the detected face (MediaPipe's)
+MIN_FACE_NET = 24  # a face smaller than this in network pixels is left to stage 1 (and the head pass)
+MIN_FLAG = 0.5  # the landmarker's face probability needed to trust its mesh
+CLOSE_UP_SCALE = 2.0  # no face in the box's square: look again at a square this many times as large (FaceMesh.faces)
+SMOOTH = 0.055  # normals smoothed over this fraction of the face's size (0.04: a hard nose edge, a dark blob)
+HOLE_SPREAD = 0.05  # the eyes' and mouth's normals: spread in from this fraction of the face's size around
+FEATHER = 0.25  # the face transport fades in over this fraction of the face's size inside the mesh's border
+# (0.12 drew the mesh's outline as a line: docs/RESULTS.md, "Face mesh artefacts")
+HEAD_WIDTH = 1.1  # the head's ellipse: this many mesh widths across (the mesh stops short of the ears)
+HEAD_TOP = 0.35  # ... and reaching this fraction of the mesh's height above its top (the skull under the hair)
+HEAD_REACH = 1.35  # the head's normals fade out between the ellipse and this many times its size
+SKIN_INSET = 0.12  # face_transport's skin: the mesh's pixels at least this share of the face's size inside its border
+HEAD_STRENGTH = 0.4  # how far they replace stage 1's transport there (0.7 looks best, but DPR agreement 0.79)
+
+def lobe_transport(normals: np.ndarray) -> np.ndarray:
+    """(..., 9) float32 unoccluded transport A_l * Y_k(n) of unit normals (..., 3) in the subject frame (§3)."""
+    return (sh.basis(np.asarray(normals, np.float32)) * _LOBE).astype(np.float32)
+
+
+_LOBE = sh.cosine_lobe().astype(np.float32)
+_T0 = float(_LOBE[0] * sh.basis(np.array([0.0, 0.0, 1.0]))[0])  # degree 0 of any unit normal: π · Y00
+
+
+def rasterise_normals(
+    points: np.ndarray, triangles: np.ndarray, shape: tuple[int, int]
+) -> tuple[np.ndarray, np.ndarray]:
+    """Normals and coverage of a triangle mesh seen from the camera, in the subject frame (DESIGN.md §3).
+
+    Args:
+        points: (N, 3) vertices in pixels of the target image: x right, y down, z away from the camera (the same
+            units as x, y).
+        triangles: (T, 3) vertex indices.
+        shape: (h, w) of the target image.
+
+    Returns:
+        normals (h, w, 3) float32, unit length where covered, zero elsewhere: each triangle's normal turned toward
+        the camera (a triangle the camera sees faces it), the nearest triangle drawn last; coverage (h, w) float32
+        in {0, 1}.
+    """
+    h, w = shape
+    p = np.asarray(points, np.float64)
+    tri = np.asarray(triangles, np.int64)
+    v = p[tri]  # (T, 3, 3)
+    n = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
+    n[n[:, 2] > 0] *= -1  # toward the camera (negative z)
+    length = np.linalg.norm(n, axis=1)
+    keep = length > 1e-9
+    n = n[keep] / length[keep, None]
+    v = v[keep]
+    # image axes (x right, y down, z away) -> subject frame (+x toward the camera, +y image right, +z up)
+    subj = np.stack([-n[:, 2], n[:, 0], -n[:, 1]], axis=1).astype(np.float32)
+    order = np.argsort(-v[:, :, 2].mean(axis=1))  # far first: the nearest triangle is drawn last
+    normals = np.zeros((h, w, 3), np.float32)
+    cover = np.zeros((h, w), np.float32)
+    shift = 4
+    corners = np.round(v[:, :, :2] * (1 << shift)).astype(np.int32)
+    for i in order:
+        c = corners[i]
+        cv2.fillConvexPoly(normals, c, subj[i].tolist(), lineType=cv2.LINE_8, shift=shift)
+        cv2.fillConvexPoly(cover, c, 1.0, lineType=cv2.LINE_8, shift=shift)
+    return normals, cover
+
+
+def face_transport(
+    points: np.ndarray, triangles: np.ndarray, t0: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The face's transport, its blending weight and its skin in a network-frame window.
+
+    Args:
+        points: (468, 3) mesh vertices in the window's pixels (x right, y down, z away, same units).
+        triangles: (T, 3) the mesh's triangles.
+        t0: (h, w) stage 1's degree-0 transport coefficient there (unpremultiplied): the visibility kept.
+
+    Returns:
+        transport (h, w, 9) float32, weight (h, w) float32 in [0, 1] (0 off the face), and skin (h, w) bool:
+        the face's skin well inside its mesh (``SKIN_INSET`` of its size from the border) without the mesh's
+        openings (eyes, an open mouth), where a light fit can take the skin as one colour
+        (relight_rt.relight.strength ``face_refit``).
+    """
+    h, w = t0.shape
+    normals, cover = rasterise_normals(points, triangles, (h, w))
+    span = np.ptp(points[:, :2], axis=0)
+    size = float(max(span.max(), 1.0))
+    skin = cv2.distanceTransform((cover > 0).astype(np.uint8), cv2.DIST_L2, 3) > SKIN_INSET * size
+    normals, cover = _fill_holes(normals, cover, size)
+    sigma = max(SMOOTH * size, 0.5)
+    normals = cv2.GaussianBlur(normals, (0, 0), sigma)
+    normals = normals / np.maximum(np.linalg.norm(normals, axis=2, keepdims=True), 1e-6)
+    # weight: inside the mesh, rising smoothly from 0 at its border to 1 at FEATHER of the face's size inside
+    dist = cv2.distanceTransform((cover > 0).astype(np.uint8), cv2.DIST_L2, 3)
+    t = np.clip(dist / max(FEATHER * size, 1.0), 0, 1)
+    mesh_weight = t * t * (3 - 2 * t)
+    # around the mesh (hair, skull, ears) the head's rounded shape: without it a side light darkens half the face
+    # while the hair beside it, left to stage 1's blur, stays lit
+    head, head_weight = head_normals(points, (h, w))
+    m = mesh_weight[..., None]
+    normals = m * normals + (1 - m) * head
+    normals = normals / np.maximum(np.linalg.norm(normals, axis=2, keepdims=True), 1e-6)
+    transport = lobe_transport(normals) * (np.maximum(t0, 0) / _T0)[..., None]
+    weight = mesh_weight + (1 - mesh_weight) * HEAD_STRENGTH * head_weight
+    return transport, np.clip(weight, 0, 1).astype(np.float32), skin
+
+
+def _fill_holes(normals: np.ndarray, cover: np.ndarray, size: float) -> tuple[np.ndarray, np.ndarray]:
+    """The mesh with its openings (the eyes, an open mouth) closed: covered, with normals spread in from around.
+
+    The landmarker's mesh leaves the eyes and the lips' gap uncovered; the eyes and the mouth are part of the
+    face's surface, so they take the surrounding normals (a normalised blur over HOLE_SPREAD of the face's size)
+    instead of the fade to the head and stage 1 that an opening would otherwise cut into the face (a mask's eye
+    holes: docs/RESULTS.md, "Face mesh artefacts").
+    """
+    covered = (cover > 0).astype(np.uint8)
+    outside = np.pad(covered, 1)  # a free ring round the window: everything uncovered that touches a border is out
+    cv2.floodFill(outside, None, (0, 0), 2)
+    holes = outside[1:-1, 1:-1] == 0  # neither covered nor reached from outside
+    if not holes.any() or HOLE_SPREAD <= 0:
+        return normals, cover
+    sigma = max(HOLE_SPREAD * size, 0.5)
+    spread = cv2.GaussianBlur(normals * covered[..., None], (0, 0), sigma)
+    weight = cv2.GaussianBlur(covered.astype(np.float32), (0, 0), sigma)
+    fill = spread / np.maximum(weight, 1e-6)[..., None]
+    fill /= np.maximum(np.linalg.norm(fill, axis=2, keepdims=True), 1e-6)
+    normals = np.where(holes[..., None], fill, normals).astype(np.float32)
+    return normals, np.maximum(cover, holes.astype(np.float32))
+
+
+def head_normals(points: np.ndarray, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """Normals of an ellipsoid head around a face mesh, in the subject frame, and where to trust them.
+
+    The ellipse spans the mesh's width (times HEAD_WIDTH) and runs from the chin to HEAD_TOP of the mesh's height
+    above its top (the skull above the landmarks); inside it the normal is the ellipsoid's, beyond it the
+    outline's (horizontal, pointing away). The weight is 1 inside, falls to 0 at HEAD_REACH times the ellipse and
+    below the chin (the neck is not the head's surface).
+
+    Returns:
+        normals (h, w, 3) float32 unit, weight (h, w) float32 in [0, 1].
+    """
+    h, w = shape
+    p = np.asarray(points, np.float64)
+    (x0, y0), (x1, y1) = p[:, :2].min(0), p[:, :2].max(0)
+    cx, a = (x0 + x1) / 2, max((x1 - x0) / 2 * HEAD_WIDTH, 1.0)
+    top = y0 - HEAD_TOP * (y1 - y0)
+    cy, b = (top + y1) / 2, max((y1 - top) / 2, 1.0)
+    yy, xx = np.ogrid[0:h, 0:w]
+    u, v = (xx - cx) / a, (yy - cy) / b  # (1, w) and (h, 1)
+    r = np.sqrt(u * u + v * v)
+    scale = 1.0 / np.maximum(r, 1.0)  # beyond the ellipse: onto its outline
+    u, v = u * scale, v * scale
+    toward = np.sqrt(np.maximum(1 - u * u - v * v, 0))  # u² + v² + toward² = 1: unit already
+    normals = np.stack([toward, u, -v], axis=2).astype(np.float32)  # +x toward the camera, +y right, +z up
+    t = np.clip((HEAD_REACH - r) / (HEAD_REACH - 1), 0, 1)
+    below = np.clip((yy - y1) / max(0.08 * (y1 - y0), 1.0), 0, 1)  # fades out over the chin's last rows
+    t = t * (1 - below)
+    return normals, (t * t * (3 - 2 * t)).astype(np.float32)
+
+
+class FaceMesh:
+    """The face detector and landmarker of a models folder, or nothing (``available`` False) without them."""
+
+    def __init__(self, folder: Path, device: str = "cpu"):
+        self.detector = self.mesh = self.triangles = None
+        files = [folder / f for f in (DETECTOR_FILE, MESH_FILE, TRIANGLES_FILE)]
+        if not all(f.is_file() for f in files):
+            return
+        import onnxruntime as ort
+
+        from ..engine.graph_cache import open_session
+        from ..engine.session import load_model
+
+        self.detector = load_model(files[0], "matte_face", device=device, warmup=False)
+        opts = ort.SessionOptions()
+        opts.intra_op_num_threads = 1
+        try:
+            self.mesh = open_session(files[1], opts, ["CPUExecutionProvider"])
+        except Exception as exc:  # a broken file: one clear error
+            raise RelightError(f"{files[1]}: cannot load the face landmarker ({exc})") from None
+        try:
+            tri = np.loadtxt(files[2], dtype=np.int64, ndmin=2)
+        except ValueError as exc:
+            raise RelightError(f"{files[2]}: expected rows of three vertex indices ({exc})") from None
+        if tri.ndim != 2 or tri.shape[1] != 3 or tri.size == 0 or tri.min() < 0 or tri.max() >= N_POINTS:
+            raise RelightError(f"{files[2]}: expected (T, 3) vertex indices below {N_POINTS}, got shape {tri.shape}")
+        self.triangles = tri.astype(np.int64)
+
+    @property
+    def available(self) -> bool:
+        return self.mesh is not None
+
+    def faces(self, rgb: np.ndarray, box: tuple[int, int, int, int]) -> list[np.ndarray]:
+        """Meshes of the faces in ``rgb`` inside ``box`` (y0, y1, x0, x1): [(468, 3) x, y, z in input pixels].
+
+        The detector looks at the box's square first; where it finds no face there it looks once more at a square
+        ``CLOSE_UP_SCALE`` times as large (zero past the photo's edge): a face that fills the photo (a close-up
+        portrait, a face crop) is too large for the short-range detector, which found none on any of the 12 Yale
+        faces (168 x 192, the face filling the frame) and one on each with the photo padded (issue 48).
+        """
+        y0, y1, x0, x1 = box
+        for scale in (1.0, CLOSE_UP_SCALE):
+            region = Region.around(x0, y0, x1, y1, scale=scale)
+            out = self.detector.run({"image": crop_region(rgb, region, FACE_SIZE).transpose(2, 0, 1)[None]})
+            rx0, ry0, _, _ = region.box()
+            found = [(np.array([rx0, ry0, rx0, ry0]) + fbox * region.side).tolist()
+                     for fbox, _score in weighted_nms(decode(out["boxes"][0], out["scores"][0]))]
+            # the wider look keeps only faces centred in the box (not a neighbour's beside it)
+            if scale > 1:
+                found = [f for f in found if x0 <= (f[0] + f[2]) / 2 < x1 and y0 <= (f[1] + f[3]) / 2 < y1]
+            if found:
+                break
+        meshes = []
+        for fx0, fy0, fx1, fy1 in found:
+            roi = Region.around(fx0, fy0, fx1, fy1, scale=ROI_SCALE)
+            crop = crop_region(rgb, roi, MESH_SIZE)
+            lm, flag = self.mesh.run(["landmarks", "face_flag"], {"image": crop.transpose(2, 0, 1)[None]})
+            if 1.0 / (1.0 + math.exp(-float(flag.reshape(-1)[0]))) < MIN_FLAG:
+                continue
+            pts = lm.reshape(N_POINTS, 3).astype(np.float64)
+            k = roi.side / MESH_SIZE  # the canvas pixel (u, v) has its centre at roi's corner + (u + 0.5) k
+            bx, by, _, _ = roi.box()
+            pts[:, 0] = bx + pts[:, 0] * k
+            pts[:, 1] = by + pts[:, 1] * k
+            pts[:, 2] *= k
+            meshes.append(pts)
+        return meshes

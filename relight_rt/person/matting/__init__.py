@@ -1,0 +1,102 @@
+"""Automatic person matting, bundled and offline: any photo of a person, no mask needed.
+
+Three graphs converted from Google MediaPipe (Apache-2.0; ``python -m export mask-models``, model card):
+
+- ``matte_roi.onnx`` (MediaPipe selfie segmentation, 250 kB) runs on the whole image letterboxed to
+  256x256 and says where people are (connected regions of its probability map). When it finds nobody
+  at that scale, overlapping tiles (2x2 up to 6x6, each >= 256 px) are searched, so a small person in
+  a big photo is still found.
+- ``matte_pose.onnx`` (MediaPipe pose landmark "full", segmentation head, 5.7 MB) runs on a square
+  region 1.25x the person's box (zero-padded past the image border, as MediaPipe does) and gives
+  person logits at 256x256 plus a pose-presence probability. The region is re-centred on that
+  segmentation until it is stable (at most ``max_passes`` runs), so a crude first box is corrected;
+  where the segmentation runs into the region's edge, the next region reaches further that way.
+- ``matte_face.onnx`` (MediaPipe BlazeFace full range, 1.1 MB; optional: relight_rt.person.face_detector) finds faces.
+  A face is the second way in where the pose graph's presence flag says nobody (close portraits: the
+  selfie graph then segments the face's region), and with ``person="all"`` it tells apart people whom
+  the selfie graph sees as one blob (a group is matted face by face).
+
+Where the pose graph's presence flag says nobody, the selfie graph vouches for a person when its segmentation of
+the same region has the pose graph's shape (a runner in mid-air, a man lying down); a close portrait is checked as
+one when a face at least 0.3x the person's width lies in a pose-graph person ending near the bottom; what the pose
+graph half-sees is the person's where the selfie graph agrees (dark trousers); and with nobody else found, the
+default matte takes the selfie graph's blob when it is sure of it (measured on a broad real set:
+benchmarks/people_masks_eval.py).
+
+``person="all"`` gathers the selfie graph's probability over every tile scale (not only the first that
+finds anybody), so passers-by beside a big subject are candidates too; a candidate already inside the
+people matted is skipped, a wide blob where the pose graph sees nobody is tried strip by strip, and
+people shorter than MIN_PERSON_FRACTION of the photo's height are left out. What it finds (measured on
+benchmarks/people_photos.py, docs/RESULTS.md "Automatic mattes"): everyone at least 6 % of the photo's
+height tall who stands apart from the others and is in view, down to the street photo's passers-by at
+10 % (130 px, faces of 15 px); people who overlap one another in the picture (walking side by side, one
+half behind another) can come as one person or, the one behind, not at all, and so can a person of whom
+only a sliver shows at the frame's edge.
+
+The 256² logits are mapped back onto a working grid (the region at <= 512 px), turned into a
+probability, and refined to full resolution by a fast guided filter steered by the photo (He & Sun
+2015: the local linear model alpha ≈ a·I + b is fitted on the working grid with the gray photo as
+guide; a and b are upsampled and applied to the full-resolution gray photo), so hair and arm outlines
+follow the photo's own edges. Only the person's region is processed at full resolution. Then
+(``edges=True``, photos only) the alpha is re-estimated from colour in a band around the outline at
+full resolution (relight_rt.image.matte_edges: hair strands, no smear of the old background).
+
+:class:`VideoMatter` keeps state between frames: the person's region comes from the previous frame's
+matte (the detector runs again only when the person is lost or every ``redetect_every`` frames), and
+the working-grid probability is blended with the previous one warped by DIS optical flow, weighted by
+how well the flow explains the frame (photometric agreement), which steadies the outline without
+dragging it behind a moving person. :func:`outline_flicker` measures what is left.
+
+Modules (one concept each; this package re-exports the public names):
+
+- ``_models``: the graph files, :func:`find_matting_models`, and :func:`as_rgb` (the images matting
+  accepts, through the runtime's one image intake relight_rt.image.io).
+- ``_regions``: square regions, the graphs' canvases and the working grid (:class:`Region`,
+  :func:`crop_region`, :func:`person_box`).
+- ``_detect``: where people are (selfie-graph blobs over tiles, faces, a wide blob's strips, faint places).
+- ``_matter``: :class:`PersonMatter` (segmentation, choosing the people, the full-resolution alpha) and
+  :func:`shared_matter`.
+- ``_parts``: a group's people as parts of one matte (a segmentation split by faces, rejoined for the matte,
+  each person's share of it).
+- ``_coarse``: the coarse matte at full resolution (working grid + fast guided filter, relight_rt.image.guided_filter).
+- ``_video``: :class:`VideoMatter` and :func:`outline_flicker` (flow from relight_rt.image.flow).
+
+Public API (the matting protocol of relight_rt.person.masks: rgb (H, W, 3) float32 in [0, 1] -> soft alpha
+(H, W) float32 in [0, 1] at full resolution): ``PersonMatter``, ``VideoMatter``, ``outline_flicker``,
+``find_matting_models``, ``shared_matter``, and ``estimate_foreground`` (relight_rt.image.foreground: the
+decontaminated foreground colour of a matte's soft edge, for compositing over a new backdrop).
+"""
+
+from __future__ import annotations
+
+from ...engine.session import bundled_models_dir as bundled_models_dir
+from ...image.foreground import estimate_foreground as estimate_foreground  # re-exported (issue 33)
+from ...image.matte_edges import refine_edges as refine_edges  # re-exported: the edge refinement photos get
+from ._coarse import region_alpha
+from ._matter import GUIDES, MIN_PERSON_FRACTION, PERSON_MODES, PersonMatter, shared_matter
+from ._models import FACE_FILE, MIN_SIDE, POSE_FILE, ROI_FILE, SIZE, as_rgb, find_matting_models
+from ._regions import Person, Region, crop_region, person_box
+from ._video import VideoMatter, outline_flicker
+
+__all__ = [
+    "FACE_FILE",
+    "GUIDES",
+    "MIN_PERSON_FRACTION",
+    "MIN_SIDE",
+    "PERSON_MODES",
+    "POSE_FILE",
+    "ROI_FILE",
+    "SIZE",
+    "Person",
+    "PersonMatter",
+    "Region",
+    "VideoMatter",
+    "as_rgb",
+    "crop_region",
+    "estimate_foreground",
+    "find_matting_models",
+    "outline_flicker",
+    "person_box",
+    "region_alpha",
+    "shared_matter",
+]

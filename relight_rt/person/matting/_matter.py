@@ -1,0 +1,751 @@
+"""The person matter: which people a photo holds and their soft alpha at full resolution.
+
+Candidates come from the region finders (relight_rt.person.matting._detect); each is segmented by the pose graph
+on a square region re-centred until it settles (:meth:`PersonMatter.segment`), with the selfie graph as the
+second way in for close portraits and faces; the chosen people's segmentations become the coarse matte
+(relight_rt.person.matting._coarse) and, for photos, its outline is refined from colour (relight_rt.image.matte_edges).
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import threading
+from dataclasses import replace
+
+import cv2
+import numpy as np
+
+from ...engine.errors import RelightError
+from ...engine.session import Model, load_model
+from ...image.matte_edges import refine_edges
+from ..face_detector import Face
+from ._coarse import region_alpha
+from ._detect import MIN_TILE, faint_places, find_close_faces, find_faces, find_people, grid_pixels, roi_prob, strips
+from ._models import FACE_FILE, POSE_FILE, ROI_FILE, SIZE, as_rgb, find_matting_models
+from ._parts import Crop, faces_side_by_side, rejoin, shares, split_by_faces
+from ._regions import (
+    COARSE_MIN_AREA,
+    LOGIT_CLIP,
+    Person,
+    Region,
+    contains,
+    crop_region,
+    grid_of_region,
+    logits_on_grid,
+    person_box,
+    prob_at,
+    reductions_shared,
+    sigmoid,
+    tile_levels,
+    warp_to_grid,
+    working_grid,
+)
+
+PERSON_MODES = ("largest", "all")
+GUIDES = ("gray", "color")
+PRESENCE_MIN = 0.5  # pose-presence probability below which a region holds no person (unless a face vouches)
+_AGREE = 0.75  # ... or where the selfie graph's segmentation of its region overlaps the pose graph's this much
+_NOBODY = 0.05  # person="all": a face under which the pose graph's presence is below this ...
+_SURE_FACE = 0.8  # ... is a person only when the face graph's score is at least this
+_BACKED = 0.1  # a pose-graph person's pixels at this probability or more are theirs where the selfie graph agrees
+_SURE_BLOB = 0.9  # person="largest", nobody else found: the selfie graph's blob is a person when this sure of it
+PRESENCE_FAINT = 0.9  # ... for a person the selfie graph hardly sees (faint_places): the pose graph must be sure
+MIN_PERSON_FRACTION = 0.06  # person="all": people whose box is shorter than this x the image's height are left out
+_COVERED = 0.5  # a candidate (blob) this much inside people already matted is one of them
+_COVERED_FACE = 0.8  # ... and a face's person this much inside them
+_MAX_REQUEUE = 16  # person="all": leftovers of blobs searched again (several people in one blob)
+_MAX_TRIES = 32  # person="all": candidates segmented at most (each costs 1-4 pose-graph runs)
+_MAX_FAINT = 16  # ... and faint places (:func:`faint_places`) tried at most after them
+_FAINT_FRAME = 2.0  # ... each framed at least this x the smallest person kept (a faint blob is often part of one)
+_GIVE_UP = 0.02  # person="all": a blob whose first pose-graph pass says this little is nobody (no re-centring)
+_SETTLED_IOU = 0.9  # the region has settled when the next one overlaps it this much
+_REFRAME = 0.9  # the selfie graph is run again on its own segmentation's region when that is this much smaller
+_MAX_GROW = 2  # selfie-graph runs on a higher region while its segmentation is cut by the region's top (_uncut)
+_STRADDLE = 0.75  # person="all": a pose-graph person this much inside the others together straddles two
+_PORTRAIT_REACH = 0.3  # a pose-graph person ending this close to the bottom (x the height) may be a portrait
+_PORTRAIT_FACE = 0.3  # ... and holding a face this x its width wide
+_CUT_WIDTH = 0.125  # a portrait's body is cut by the bottom border over at least this x its box's width
+_FRAGMENT = 0.003  # person="largest": a separate part of the matte at least this x its main part's area is checked
+_MAX_FRAGMENTS = 8  # ... at most this many of them (largest first)
+_OTHER_OVERLAP = 0.25  # ... a segmentation holding the part and at most this share of the main part is someone else
+
+log = logging.getLogger(__name__)
+
+
+class PersonMatter:
+    """Soft person alpha for any photo, from the bundled MediaPipe-derived graphs (module docstring).
+
+    Args:
+        models: folder holding matte_pose.onnx and matte_roi.onnx (default: $RELIGHT_RT_MODELS when it
+            holds them, else the bundled ones).
+        device: "cpu" (default), "cuda" or "auto".
+        person: "largest" (default: the person with the largest area) or "all" (everyone at least
+            MIN_PERSON_FRACTION of the photo's height tall that the graphs see at any tile scale; see
+            :meth:`people`; people overlapping one another can come as one, see the package docstring).
+        refine: refine the edges with the photo (guided filter); False gives the upsampled segmentation.
+        guide: "gray" (default, fast) or "color" (a colour guide: separates edges that differ in colour
+            but not in brightness, e.g. pale shoes on a white floor; ~4x the refinement time).
+        edges: with ``refine``, re-estimate alpha from colour in a band around the outline at full
+            resolution (relight_rt.image.matte_edges: hair strands, no smear of the old background).
+        max_passes: pose-graph runs per person while the region settles (>= 1).
+
+    Calling it: ``alpha = matter(rgb)``, rgb (H, W, 3) float32 [0, 1] (uint8, RGBA and grayscale are
+    accepted too, see :func:`as_rgb`) -> alpha (H, W) float32 in [0, 1].
+
+    Raises (when called):
+        RelightError: a bad image (see :func:`as_rgb`), or "no person found in IMAGE".
+    """
+
+    def __init__(
+        self,
+        models: str | os.PathLike | None = None,
+        *,
+        device: str = "cpu",
+        person: str = "largest",
+        refine: bool = True,
+        guide: str = "gray",
+        max_passes: int = 4,
+        edges: bool = True,
+    ):
+        if guide not in GUIDES:
+            raise RelightError(f"guide: expected one of {list(GUIDES)}, got {guide!r}")
+        if person not in PERSON_MODES:
+            raise RelightError(f"person: expected one of {list(PERSON_MODES)}, got {person!r}")
+        if int(max_passes) < 1:
+            raise RelightError(f"max_passes: expected >= 1, got {max_passes}")
+        folder = find_matting_models(models)
+        # warmed up on CUDA only (kernels chosen up front); on the CPU a run on zeros is only time lost for one photo
+        self.pose: Model = load_model(folder / POSE_FILE, "matte_pose", device=device, warmup=False)
+        self.roi: Model = load_model(folder / ROI_FILE, "matte_roi", device=device, warmup=False)
+        face = folder / FACE_FILE
+        self.face: Model | None = (load_model(face, "matte_face", device=device, warmup=False) if face.is_file()
+                                   else None)
+        for model in (self.pose, self.roi, self.face):
+            if model is not None and model.on_cuda:
+                model.warm_up()
+        self.person = person
+        self.refine = bool(refine)
+        self.guide = guide
+        self.max_passes = int(max_passes)
+        self.edges = bool(edges)
+
+    # -- detection ----------------------------------------------------------------------------------
+
+    def _roi_prob(self, rgb: np.ndarray, region: Region) -> np.ndarray:
+        return roi_prob(self.roi, rgb, region)
+
+    def _roi_person(self, rgb: np.ndarray, region: Region, presence: float) -> Person:
+        """The selfie graph's segmentation of ``region`` as a Person (its probability kept as logits)."""
+        prob = self._roi_prob(rgb, region).astype(np.float64)
+        logits = np.log(np.clip(prob, 1e-7, 1.0)) - np.log(np.clip(1.0 - prob, 1e-7, 1.0))
+        return Person(region, logits.astype(np.float32), presence, "roi")
+
+    def _reframed(self, rgb: np.ndarray, roi: Person) -> Person:
+        """The selfie graph's segmentation again on a region framed on its first answer (ROI_SCALE x its box),
+        when that region is smaller: the regions it is first run on are framed for a whole body (the pose
+        graph's) or guessed from a face, and in them a portrait's head spans half the canvas or less. Grace
+        Hopper's white cap before the white flag stripes: alpha over the crown 0.59 -> 0.96."""
+        box = person_box(roi, rgb.shape[:2])
+        if box is None:
+            return roi
+        tight = Region.around(*box)
+        if tight.side >= _REFRAME * roi.region.side:
+            return roi
+        return self._roi_person(rgb, tight, roi.presence)
+
+    def _uncut(self, rgb: np.ndarray, roi: Person) -> tuple[Person, Person | None]:
+        """The selfie graph's segmentation again on a region reaching higher while it runs into its region's top
+        inside the image (:func:`_grow_where_cut`, upwards only), and the segmentation it started from (None:
+        not run again). The region is the pose graph's (or a face's guess), and on a close portrait the pose
+        graph misses the top of the head, so its region, centred on what it saw, can start below the crown;
+        alpha outside the region is 0, so the head was cut off flat (DPR's portrait: at row 188 of 909, the
+        forehead and hair missing). The higher region's answer is kept to the first one's columns
+        (:func:`_held`): the selfie graph segments everyone in its region, and a larger region takes in more
+        of the people beside. Not sideways, for the same reason."""
+        first = None
+        for _ in range(_MAX_GROW):
+            box = person_box(roi, rgb.shape[:2])
+            if box is None:
+                break
+            top = _grow_where_cut(box, roi.region, rgb.shape[:2])[1]
+            if top >= box[1]:
+                break
+            first = roi if first is None else first
+            raised = self._roi_person(rgb, Region.around(box[0], top, box[2], box[3]), roi.presence)
+            roi = _held(raised, first, rgb.shape[:2])
+        return roi, first
+
+    def find_people(self, rgb: np.ndarray) -> list[tuple[float, tuple[float, float, float, float]]]:
+        """Where people are, from the image alone (relight_rt.person.matting._detect.find_people): [(area in image
+        pixels, (x0, y0, x1, y1))], largest first; empty when nobody is found."""
+        return find_people(self.roi, rgb)
+
+    def find_faces(self, rgb: np.ndarray, *, every: bool = False) -> list[Face]:
+        """Faces (the bundled face detector; none without it), best first: on the whole image, and with
+        ``every`` also in overlapping tiles for smaller faces (relight_rt.person.matting._detect.find_faces)."""
+        return find_faces(self.face, rgb, every=every)
+
+    # -- segmentation -------------------------------------------------------------------------------
+
+    def _pose(self, rgb: np.ndarray, region: Region) -> Person:
+        out = self.pose.run({"image": crop_region(rgb, region).transpose(2, 0, 1)[None]})
+        return Person(region, out["segmentation"][0, 0], float(out["presence"].reshape(-1)[0]))
+
+    def segment(
+        self, rgb: np.ndarray, region: Region, give_up: float = 0.0, past_border: bool = False,
+        passes: int | None = None,
+    ) -> Person:  # fmt: skip
+        """Run the pose graph on one square region; re-centre on its segmentation until it settles (or, with
+        ``give_up``, stop when the presence flag is below it: nobody there). With ``past_border``, a region
+        whose presence stays low while the segmentation runs into the image border is tried once more,
+        reaching past that border (:func:`_past_border`). ``passes``: at most this many runs (default
+        ``max_passes``; 1: the region as given, not re-centred)."""
+        person = None
+        for _ in range(self.max_passes if passes is None else passes):
+            person = self._pose(rgb, region)
+            if person.presence < give_up:
+                break
+            box = person_box(person, rgb.shape[:2])
+            if box is None or box[2] <= box[0] or box[3] <= box[1]:
+                break
+            nxt = Region.around(*_grow_where_cut(box, region, rgb.shape[:2]))
+            if nxt.iou(region) > _SETTLED_IOU:
+                break
+            region = nxt
+        if past_border and person is not None and person.presence < PRESENCE_MIN:
+            wider = _past_border(person_box(person, rgb.shape[:2]), rgb.shape[:2])
+            if wider is not None:
+                retry = self._pose(rgb, Region.around(*wider))
+                person = retry if retry.presence > person.presence else person
+        if person is None:
+            return person
+        region = self._portrait_region(rgb, person)
+        if region is None:
+            return person
+        roi = self._roi_person(rgb, region, person.presence)
+        return self._reframed(rgb, roi) if _is_portrait(roi, rgb.shape[:2]) else person
+
+    def _portrait_region(self, rgb: np.ndarray, person: Person) -> Region | None:
+        """Where the selfie graph checks for a portrait (:func:`_is_portrait`): the pose graph's region when it
+        reaches past the image's bottom; else, when the pose graph's person ends within _PORTRAIT_REACH x the
+        image's height above the bottom, a region around that person reaching down to the bottom (the pose graph
+        loses the shoulders and chest of a close portrait, and its region, framed on what it saw, then stops
+        above the bottom: a portrait before an orange wall was matted down to the collar) and a face at least
+        _PORTRAIT_FACE x that person's width wide lies inside it (a portrait's face is half the width the pose
+        graph sees; a whole body crouching at the bottom of a frame, whose face is a tenth of it, is no
+        portrait: the selfie graph would take the bushes around the runner's legs); None: no check."""
+        h = rgb.shape[0]
+        if person.region.box()[3] > h:
+            return person.region
+        box = person_box(person, rgb.shape[:2])
+        if box is None or box[3] < h * (1.0 - _PORTRAIT_REACH):
+            return None
+        for f in self.find_faces(rgb):
+            cx, cy = (f.box[0] + f.box[2]) / 2, (f.box[1] + f.box[3]) / 2
+            inside = box[0] <= cx <= box[2] and box[1] <= cy <= box[3]
+            if inside and f.box[2] - f.box[0] >= _PORTRAIT_FACE * (box[2] - box[0]):
+                return Region.around(box[0], box[1], box[2], float(h))
+        return None
+
+    def people(self, rgb: np.ndarray, name: str = "image") -> list[Person]:
+        """Segmented people (the largest for person="largest", everyone for "all"); empty when nobody is found.
+
+        Candidates come from the selfie graph (blobs of its person probability: bodies seen from any side) and
+        from faces; each is segmented by the pose graph (:meth:`segment`) and kept when the pose graph's
+        presence flag says a person is there or a face vouches for one (close portraits, where the pose graph
+        sees no body: the selfie graph then segments the region). "largest" tries the blobs of the first
+        scale that has any (largest first) and the faces only when no blob holds a person. "all" gathers the
+        selfie graph's probability over every tile scale and the faces in tiles too, skips candidates that lie
+        inside the people already matted (a group seen as one blob is taken face by face; one selfie-graph
+        segmentation holding several faces side by side is one person per face, :func:`split_by_faces`),
+        drops duplicates, tries last where the selfie graph's probability stays faint (:func:`faint_places`: the pose
+        graph must be sure there), and keeps people at least MIN_PERSON_FRACTION of the image's height tall.
+        The detectors' crops of one call share the photo's reductions (:func:`reductions_shared`). Last, a
+        selfie-graph person whose region cuts off the top of their head is given it (:meth:`_uncut`).
+        """
+        with reductions_shared(rgb):  # the detectors' crops share one set of reduced copies of the photo
+            if self.person == "all":
+                found = self._everyone(rgb)
+            else:
+                found = [self._without_others(rgb, p) for p in self._largest(rgb)]
+                if found:
+                    self._note_others(rgb, found[0], name)
+            # who is found is settled: the heads their regions cut are added now (the selfie graph segments
+            # everyone in a region, so a higher region found earlier would take in the people beside)
+            found = [self._uncut(rgb, p)[0] if p.source == "roi" and p.whole is None else p for p in found]
+            return [self._backed(rgb, p) if p.source == "pose" else p for p in found]
+
+    def _backed(self, rgb: np.ndarray, person: Person) -> Person:
+        """A pose-graph person with the pixels it half-sees (probability >= _BACKED) that the selfie graph on the
+        same region sees as a person (>= 0.5) made part of them (logit 1: the guided filter then follows the
+        photo's edges there). The pose graph half-sees dark trousers (the parkour runner's legs at 0.1-0.5 in
+        several frames) and clothes before a background of their colour; the selfie graph alone takes in shadows
+        and the wall behind, so only what both see is added. One selfie-graph run per person (~10 ms). Measured
+        (benchmarks/people_masks_eval.py, _BACKED 0.05-0.3): clip 0.914 -> 0.917, photos half A 0.843 -> 0.847-0.849."""
+        roi = self._roi_prob(rgb, person.region) > 0.5
+        lift = roi & (person.logits > np.float32(np.log(_BACKED / (1.0 - _BACKED)))) & (person.logits < 1.0)
+        if not lift.any():
+            return person
+        return replace(person, logits=np.where(lift, np.float32(1.0), person.logits).astype(np.float32))
+
+    def _largest(self, rgb: np.ndarray) -> list[Person]:
+        h, w = rgb.shape[:2]
+        found = self.find_people(rgb)  # the selfie graph over the photo and its tiles: once, for both uses below
+        for _, box in found:
+            p = self._person_at(rgb, box, None)
+            if p is not None:
+                return [p]
+        faces = self.find_faces(rgb)  # no body found: a face is the second way in
+        for face in sorted(faces, key=lambda f: -_box_area(f.body_box((h, w)))):
+            p = self._person_at(rgb, face.body_box((h, w)), face)
+            if p is not None:
+                return [p]
+        # a frame that is mostly one face (a crop through the forehead or the eyes): the face graph finds it
+        # zoomed out only, and the pose graph sees no body in it
+        for face in find_close_faces(self.face, rgb):
+            p = self._person_at(rgb, face.body_box((h, w)), face)
+            if p is not None:
+                return [p]
+        # neither the pose graph nor a face vouches for anyone: the selfie graph's own segmentation of its largest
+        # blob, when it is sure of it (a man lying on a shop floor, a couple taking a selfie, a woman seen from
+        # behind: the pose graph's presence 0.003-0.27 there, and no face found; the selfie graph alone 0.69-0.84
+        # IoU where the matte was empty)
+        for _, box in found[:1]:
+            roi = self._reframed(rgb, self._roi_person(rgb, Region.around(*box), 0.0))
+            mine = roi.logits > 0
+            if mine.sum() >= COARSE_MIN_AREA and float(sigmoid(roi.logits[mine]).mean()) >= _SURE_BLOB:
+                return [roi]
+        return []
+
+    def _note_others(self, rgb: np.ndarray, person: Person, name: str) -> None:
+        """Say (log, INFO) how many faces the face graph sees outside the largest person's segmentation: a group
+        photo relit for one person of it is a surprise unless said (the face graph on the whole photo: ~4 ms)."""
+        faces = self.find_faces(rgb)
+        if not faces:
+            return
+        xs = np.array([(f.box[0] + f.box[2]) / 2 for f in faces])
+        ys = np.array([(f.box[1] + f.box[3]) / 2 for f in faces])
+        n = int((prob_at(person, xs, ys) < 0.5).sum())
+        if n:
+            log.info("%s: the largest person is matted, %d more face%s seen beside them (person=\"all\", "
+                     "relight --person all: everyone, each relit on their own)", name, n, "s" if n > 1 else "")
+
+    def _without_others(self, rgb: np.ndarray, person: Person) -> Person:
+        """``person`` without the parts of its segmentation that belong to someone else (person="largest").
+
+        The pose graph segments everyone in the region it is given, so one person's matte can carry pieces of a
+        person beside or behind (two_dancers: the man's far leg, a knee and a hand, 12 % of the woman's matte,
+        none joined to her). A part's distance from the body cannot tell them apart (skater's raised hand lies
+        apart from her arm too); the other person's own segmentation can: for each separate part (largest
+        first, at least ``_FRAGMENT`` of the main part's area, at most ``_MAX_FRAGMENTS``), the pose graph is run
+        on a region of the person's size centred on it (or a segmentation found for an earlier part is reused);
+        a person there who holds most of the part and at most ``_OTHER_OVERLAP`` of the main part is someone
+        else, and the part leaves the matte. Where the graph finds the same person (her own hand) or nobody, the
+        part stays.
+        """
+        if person.source != "pose":
+            return person
+        n, labels, stats, _ = cv2.connectedComponentsWithStats((person.logits > 0).astype(np.uint8), connectivity=8)
+        if n <= 2:
+            return person
+        order = np.argsort(-stats[1:, cv2.CC_STAT_AREA]) + 1
+        main = labels == order[0]
+        k, bx, by = grid_of_region(person.region)
+
+        def image_points(where: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            ys, xs = np.nonzero(where)
+            step = max(1, ys.size // 2000)
+            return (xs[::step] - bx) / k, (ys[::step] - by) / k  # canvas pixel centres -> image coordinates
+
+        main_xy = image_points(main)
+        logits, others = person.logits, []
+        for label in order[1 : 1 + _MAX_FRAGMENTS]:
+            if stats[label, cv2.CC_STAT_AREA] < _FRAGMENT * stats[order[0], cv2.CC_STAT_AREA]:
+                break
+            part = labels == label
+            xs, ys = image_points(part)
+            other = next((o for o in others if (prob_at(o, xs, ys) > 0.5).mean() >= 0.5), None)
+            if other is None:
+                other = self.segment(rgb, Region(float(xs.mean()), float(ys.mean()), person.region.side),
+                                     give_up=PRESENCE_MIN)  # fmt: skip
+                if other.presence < PRESENCE_MIN or (prob_at(other, *main_xy) > 0.5).mean() > _OTHER_OVERLAP:
+                    continue  # nobody there, or the same person
+                others.append(other)
+            if (prob_at(other, xs, ys) > 0.5).mean() < 0.5:
+                continue
+            if logits is person.logits:
+                logits = person.logits.copy()
+            # the part and its soft rim (2 canvas px), never the main part
+            rim = cv2.dilate(part.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool) & ~main
+            logits[rim] = -LOGIT_CLIP
+        return person if logits is person.logits else replace(person, logits=logits)
+
+    def _everyone(self, rgb: np.ndarray) -> list[Person]:
+        h, w = rgb.shape[:2]
+        grid = working_grid((0, 0, w, h))
+        gw, gh, kx, ky, bx, by = grid
+        prob = np.zeros((gh, gw), np.float32)
+        for windows in tile_levels(h, w, MIN_TILE):
+            for win in windows:
+                np.maximum(prob, warp_to_grid(self._roi_prob(rgb, win), win, grid, 0.0), out=prob)
+        min_rows = MIN_PERSON_FRACTION * h * ky * 0.5  # (a blob may be part of a person)
+
+        def blobs(mask: np.ndarray) -> list[tuple[float, tuple, None, np.ndarray]]:
+            n, labels, stats, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=8)
+            out = []
+            for i in range(1, n):
+                x, y, bw, bh, area = (int(v) for v in stats[i])
+                if bh >= min_rows:
+                    box = ((x - bx) / kx, (y - by) / ky, (x + bw - bx) / kx, (y + bh - by) / ky)
+                    out.append((area / kx / ky, box, None, np.flatnonzero(labels == i)))
+            return out
+
+        faces = self.find_faces(rgb, every=True)
+        cands: list = blobs(prob > 0.5)
+        cands += [(_box_area(f.body_box((h, w))) * 0.5, f.body_box((h, w)), k, None) for k, f in enumerate(faces)]
+        cands.sort(key=lambda t: -t[0])
+        occupied = np.zeros((gh, gw), bool)
+        owned: set[int] = set()  # faces whose person is matted
+        found: list[Person] = []
+        requeued = tries = 0
+        while cands and tries < _MAX_TRIES:
+            _, box, k, pix = cands.pop(0)
+            face = faces[k] if k is not None else None
+            if (k is not None and k in owned) or (pix is not None and occupied.flat[pix].mean() >= _COVERED):
+                continue
+            tries += 1
+            p = self._person_at(rgb, box, face, _GIVE_UP, sure_face=_SURE_FACE if found else 0.0, vouch=not found)
+            if p is not None and face is None and _mostly_in(logits_on_grid(p, grid) > 0, occupied):
+                # it slid onto a neighbour matted already (two passers-by side by side, one blob): the pose graph
+                # framed on the blob's part beside that neighbour, not re-centred, may see the other one
+                beside = _beside(box, person_box(p, (h, w)))
+                p = None if beside is None else self._person_at(rgb, beside, None, _GIVE_UP, passes=1, vouch=False)
+            if p is not None and _box_height(person_box(p, (h, w))) >= MIN_PERSON_FRACTION * h:
+                mask = logits_on_grid(p, grid) > 0
+                # a person mostly inside the people matted already is one of them again (a face's person may
+                # overlap more: in a group, the selfie graph's region of one face shows the neighbours too)
+                if mask.any() and occupied[mask].mean() < (_COVERED if face is None else _COVERED_FACE):
+                    occupied |= mask
+                    people, mine = _as_people(p, k, faces, owned, (h, w))
+                    found.extend(people)
+                    owned.update(mine)
+            if pix is None or requeued >= _MAX_REQUEUE:
+                continue
+            rest = np.zeros(gh * gw, bool)
+            rest[pix[~occupied.flat[pix]]] = True
+            if rest.sum() < pix.size:  # people beside the one matted in the same blob
+                more = [c for c in blobs(rest.reshape(gh, gw)) if c[3].size >= 0.2 * pix.size]
+            else:  # nobody in this blob as a whole: a wide one may be people side by side, strip by strip
+                more = strips(pix, gw, grid, (h, w))
+            requeued += len(more)
+            cands = sorted(cands + more, key=lambda t: -t[0])
+        tries = 0  # the faint places have tries of their own (a blob cut into strips used them all up)
+        for box in faint_places(prob, grid, _FAINT_FRAME * MIN_PERSON_FRACTION * h):
+            if tries >= _MAX_FAINT:
+                break
+            pix = grid_pixels(box, grid)
+            if pix.size == 0 or occupied.flat[pix].mean() >= _COVERED:
+                continue
+            tries += 1
+            p = self._person_at(rgb, box, None, _GIVE_UP, vouch=False)
+            if p is None or p.presence < PRESENCE_FAINT or _box_height(person_box(p, (h, w))) < MIN_PERSON_FRACTION * h:
+                continue
+            if _past_border(person_box(p, (h, w)), (h, w)) is not None:
+                # seen whole or not at all: cut by the frame, a faint place was a pattern (rose_hair's poster
+                # letters in the top corner, framed on 2x the smallest person: presence 0.95)
+                continue
+            mask = logits_on_grid(p, grid) > 0
+            if mask.any() and occupied[mask].mean() < _COVERED:
+                occupied |= mask
+                found.append(p)
+        return _without_straddlers(found, grid, faces, (h, w))
+
+    def _person_at(
+        self, rgb: np.ndarray, box, face: Face | None, give_up: float = 0.0, passes: int | None = None,
+        sure_face: float = 0.0, vouch: bool = True,
+    ) -> Person | None:  # fmt: skip
+        """The person in ``box`` (a blob's or a face's body box), or None when the pose graph says nobody is
+        there and no face vouches for one (``give_up``: see :meth:`segment`). A face vouches when the pose graph
+        sees at least a trace of a body under it (presence >= _NOBODY) or its score is at least ``sure_face``
+        (person="all" asks for _SURE_FACE once someone is found: its faces come from tiles, where the face graph
+        also finds faces in things, 0.66-0.73 on a red bench and a treadmill's console beside the person, with
+        presence 0.00-0.01 under them, while the faces of other people under which the pose graph sees nobody
+        scored 0.87-0.90 on the photos of benchmarks/people_masks_eval.py; a close portrait's face, the only
+        person in the photo, can score 0.71). With ``vouch`` False only the pose graph's flag says whether a blob
+        holds a person (person="all" once someone is found: a pile of clothes on a chair beside a man at a desk,
+        which both graphs segment alike, was a second person)."""
+        p = self.segment(
+            rgb, Region.around(*box), give_up if face is None else 0.0, past_border=face is None, passes=passes
+        )
+        # the pose graph segments something in any region; its presence output says whether a person is there
+        # (0.0000 on a colour gradient the region finder took for one, >= 0.87 on people in full view), or the
+        # selfie graph sees the same shape there (:meth:`vouched`)
+        if face is None and (p.presence >= PRESENCE_MIN or (vouch and self.vouched(rgb, p))):
+            return p
+        if p.presence >= PRESENCE_MIN and face is not None and contains(p, face, rgb.shape[:2]):
+            return p
+        if face is None or (p.presence < _NOBODY and face.score < sure_face):
+            return None
+        # a face, but the pose graph sees no body here (a close portrait) or another person: the selfie graph
+        # segments the face's region instead (made for head-and-shoulders framing)
+        region = Region.around(*face.body_box(rgb.shape[:2]))
+        roi = self._reframed(rgb, self._roi_person(rgb, region, max(p.presence, face.score)))
+        return roi if contains(roi, face, rgb.shape[:2]) else None
+
+    def vouched(self, rgb: np.ndarray, person: Person) -> bool:
+        """Whether ``person`` (the pose graph's segmentation of a region) is a person: the pose graph's presence
+        flag says so, or the selfie graph on the same region segments the same shape (IoU >= _AGREE of their
+        two masks on the canvas). The presence flag is made for upright bodies: it says nobody for a runner in
+        mid-air over a railing (0.00-0.09 on 10 of the 100 frames of the parkour clip), a man lying on a floor,
+        a woman seen from behind reaching out (0.003), while both graphs segment the same body there (IoU
+        0.78-0.95); on a region holding nobody the two disagree or see nothing."""
+        if person.presence >= PRESENCE_MIN:
+            return True
+        if person.source == "pose":
+            mine, other = person.logits > 0, self._roi_prob(rgb, person.region) > 0.5
+        else:  # the selfie graph's (a portrait's): the pose graph on the same region must see the same shape
+            mine, other = person.logits > 0, self._pose(rgb, person.region).logits > 0
+        return bool(mine.any() and (mine & other).sum() >= _AGREE * (mine | other).sum())
+
+    # -- full resolution ----------------------------------------------------------------------------
+
+    def alpha(self, rgb: np.ndarray, people: list[Person], *, refine: bool | None = None) -> np.ndarray:
+        """Full-resolution soft alpha (H, W) of ``people`` (max over them)."""
+        h, w = rgb.shape[:2]
+        alpha = np.zeros((h, w), np.float32)
+        refine = self.refine if refine is None else refine
+        for p in rejoin(people):
+            x0, y0, x1, y1 = p.region.box()
+            rx0, ry0 = max(int(np.floor(x0)), 0), max(int(np.floor(y0)), 0)
+            rx1, ry1 = min(int(np.ceil(x1)), w), min(int(np.ceil(y1)), h)
+            if rx1 <= rx0 or ry1 <= ry0:
+                continue
+            a = region_alpha(rgb, p, (rx0, ry0, rx1, ry1), refine=refine, guide=self.guide)
+            np.maximum(alpha[ry0:ry1, rx0:rx1], a, out=alpha[ry0:ry1, rx0:rx1])
+        if refine and self.edges and people:
+            alpha = refine_edges(rgb, alpha)
+        return alpha
+
+    def __call__(self, image: np.ndarray, name: str = "image") -> np.ndarray:
+        return self._matte(image, name)[0]
+
+    def parts(self, image: np.ndarray, name: str = "image") -> tuple[np.ndarray, list[np.ndarray]]:
+        """The matte (what calling the matter returns) and each person's share of it.
+
+        Returns:
+            (alpha, parts): alpha (H, W) float32 as ``matter(image)``; parts, one (H, W) float32 alpha per person
+            found (one for person="largest"), summing to ``alpha``. Where people overlap, each pixel goes to the
+            person whose segmentation is surer of it, softly over a few pixels (:func:`shares`): a group photo can
+            then be relit person by person, each with their own shape (relight_rt.Relighter, matting="all").
+
+        Raises:
+            RelightError: a bad image, or "no person found in IMAGE".
+        """
+        alpha, people = self._matte(image, name)
+        return alpha, [alpha * s for s in shares(people, alpha)] if len(people) > 1 else [alpha]
+
+    def part_crops(self, image: np.ndarray, name: str = "image") -> tuple[np.ndarray, list[Crop]]:
+        """:meth:`parts`, each person's share held only where it is not 0: (alpha, [((y0, y1, x0, x1), part)]),
+        ``part`` the (y1 - y0, x1 - x0) float32 piece of what :meth:`parts` gives (0 outside its box). A group
+        photo of many people then holds about one photo of shares, not one per person (issue 50 bug 1)."""
+        alpha, people = self._matte(image, name)
+        h, w = alpha.shape
+        if len(people) < 2:
+            return alpha, [((0, h, 0, w), alpha)]
+        return alpha, [(box, alpha[box[0] : box[1], box[2] : box[3]] * share)
+                       for box, share in shares(people, alpha, crops=True)]  # fmt: skip
+
+    def _matte(self, image: np.ndarray, name: str) -> tuple[np.ndarray, list[Person]]:
+        rgb = as_rgb(image, name, copy=False)  # only read from here on
+        people = self.people(rgb, name)
+        alpha = self.alpha(rgb, people) if people else None
+        if alpha is None or not (alpha >= 0.5).any():
+            raise RelightError(
+                f"no person found in {name} (no body or face the bundled detectors recognise; people shorter than "
+                f"{MIN_PERSON_FRACTION:.0%} of the photo, seen only in part or in deep shadow can be missed)"
+            )
+        return alpha, people
+
+
+_SHARED: dict[tuple[str, str, str], PersonMatter] = {}
+_SHARED_LOCK = threading.Lock()
+
+
+def shared_matter(
+    models: str | os.PathLike | None = None, *, device: str = "cpu", person: str = "largest"
+) -> PersonMatter:
+    """A PersonMatter per (models folder, device, person), loaded on first use and reused afterwards
+    (loading the two graphs takes ~0.3 s). A PersonMatter keeps no state between calls and onnxruntime
+    sessions may run from several threads, so the shared one can serve them all."""
+    key = (str(find_matting_models(models).resolve()), device, person)
+    with _SHARED_LOCK:
+        if key not in _SHARED:
+            _SHARED[key] = PersonMatter(key[0], device=device, person=person)
+        return _SHARED[key]
+
+
+def _grow_where_cut(
+    box: tuple[float, float, float, float], region: Region, shape: tuple[int, int]
+) -> tuple[float, float, float, float]:
+    """Extend ``box`` by half its size past each side where the segmentation runs into the region's edge
+    inside the image: the person goes on beyond the region (the region finder saw only part of them,
+    e.g. the head of a small person), so the next region must reach further."""
+    h, w = shape
+    x0, y0, x1, y1 = box
+    rx0, ry0, rx1, ry1 = region.box()
+    m = 0.03 * region.side
+    bw, bh = x1 - x0, y1 - y0
+    grow = 0.5 * max(bw, bh)
+    nx0 = x0 - grow if x0 <= rx0 + m and rx0 > 0 else x0
+    ny0 = y0 - grow if y0 <= ry0 + m and ry0 > 0 else y0
+    nx1 = x1 + grow if x1 >= rx1 - m and rx1 < w else x1
+    ny1 = y1 + grow if y1 >= ry1 - m and ry1 < h else y1
+    return max(nx0, 0.0), max(ny0, 0.0), min(nx1, float(w)), min(ny1, float(h))
+
+
+def _past_border(box, shape: tuple[int, int]) -> tuple[float, float, float, float] | None:
+    """A segmentation ``box`` that runs into the image border, extended by half its size past each border it
+    touches (not clipped), or None when it touches none. The pose graph sees a person by their whole body:
+    framed on the visible part of someone cut by the border (a fighter cut at the thighs) it can say nobody
+    is there (presence 0.006), framed as if the body went on it sees them (0.99)."""
+    if box is None:
+        return None
+    h, w = shape
+    x0, y0, x1, y1 = box
+    grow = 0.5 * max(x1 - x0, y1 - y0)
+    cut = (x0 <= 1, y0 <= 1, x1 >= w - 1, y1 >= h - 1)
+    if not any(cut):
+        return None
+    return x0 - grow * cut[0], y0 - grow * cut[1], x1 + grow * cut[2], y1 + grow * cut[3]
+
+
+def _is_portrait(roi: Person, shape: tuple[int, int]) -> bool:
+    """Head-and-shoulders (or chest-up) framing: the person as the selfie graph sees them in the region runs
+    off the bottom of the image across at least _CUT_WIDTH of their box's width (the torso is cut there), and
+    their visible box is less than 1.8x as tall as wide. The pose graph was trained on bodies and loses the
+    shoulders of such crops (IoU 0.71-0.85 on crops of the reference video); the selfie graph, made for them,
+    keeps them (0.97-0.99). Full bodies and knee-up crops stay with the pose graph (0.97-0.99 there, the selfie
+    graph 0.92-0.97), and so does a body across the frame that only a foot or skate cuts at the bottom (a
+    skater in a spin: 0.07 of the width, where portraits measure 0.5-0.99 and a waist-up photo 0.18): wide
+    and touching the bottom, it looked like a portrait."""
+    h, w = shape
+    box = person_box(roi, shape)
+    if box is None:
+        return False
+    x0, y0, x1, y1 = box
+    if y1 < h - 2 or (y1 - y0) >= 1.8 * (x1 - x0):
+        return False
+    xs = np.linspace(x0, x1, 256)
+    return bool((prob_at(roi, xs, np.full(xs.shape, h - 1.0)) > 0.5).mean() >= _CUT_WIDTH)
+
+
+def _without_straddlers(
+    people: list[Person], grid, faces: list[Face] = (), shape: tuple[int, int] | None = None
+) -> list[Person]:
+    """``people`` less each pose-graph person whose segmentation lies at least _STRADDLE inside the other people
+    together: a region framed between two people side by side, on which the pose graph (which segments one
+    person) answers with a body across both (two men crouching face to face came out as 3: the straddling one
+    lies 0.81 inside the two, 0.46 at most inside either; between distinct people found by the pose graph on the
+    13 photos of benchmarks/people_photos.py with several people, each at 3 framings shifted by 0-1 px, at most
+    0.47). The one lying most inside the others goes first. The others are the pose-graph people and the parts of
+    selfie-graph segmentations split by faces (:func:`split_by_faces`: each is one person's share of the
+    canvas; group_t1's pose-graph box across Rachel's head and Ross's body lay 0.19 inside Rachel and 0.68
+    inside Ross's part). A person who alone holds one of ``faces`` (image ``shape``) stays: on group_t1 shifted
+    by a pixel that box was the only one holding Rachel's face. Only pose-graph people are dropped, and an
+    unsplit selfie-graph person is not one of the others: it segments everyone in its region, so it overlaps its
+    neighbours by nature (up to 0.99 in a group seen face by face)."""
+    ones = [i for i, p in enumerate(people) if p.source == "pose" or p.whole is not None]
+    if len(ones) < 3 or not any(people[i].source == "pose" for i in ones):
+        return people
+    masks = {i: logits_on_grid(people[i], grid) > 0 for i in ones}
+    holds = {i: {j for j, f in enumerate(faces) if shape is not None and contains(people[i], f, shape)} for i in ones}
+    kept = set(ones)
+    while len(kept) >= 3:
+        inside = {}
+        for i in kept:
+            if people[i].source != "pose":
+                continue
+            others = np.zeros_like(masks[i])
+            held = set()
+            for j in kept - {i}:
+                others |= masks[j]
+                held |= holds[j]
+            if holds[i] <= held:
+                inside[i] = float(others[masks[i]].mean()) if masks[i].any() else 0.0
+        if not inside:
+            break
+        worst = max(inside, key=inside.get)
+        if inside[worst] < _STRADDLE:
+            break
+        kept.discard(worst)
+    return [p for i, p in enumerate(people) if i in kept or i not in masks]
+
+
+def _held(raised: Person, first: Person, shape: tuple[int, int]) -> Person:
+    """The selfie graph's segmentation ``raised`` (of a region reaching higher than ``first``'s) joined with
+    ``first`` (the larger logit where both regions reach) and kept to ``first``'s columns (its box, widened by
+    3 % of its width each side). Joined: framed on the whole head, the selfie graph is less sure of the body
+    at the bottom corners (DPR's portrait: the checked shirt 0.96 / 0.50 -> 0.59 / 0.41 at the bottom left /
+    right). The larger logit, not the smaller: ``first``'s answer is weakest right below the top its region cut
+    (held to it, the hair had a notch at the temple)."""
+    box = person_box(first, shape)
+    if box is None:
+        return raised
+    margin = 0.03 * (box[2] - box[0])
+    k, bx, by = grid_of_region(raised.region)
+    c = np.arange(SIZE, dtype=np.float64)
+    x, y = (c - bx) / k, (c - by) / k  # image coordinates of the canvas columns' and rows' centres
+    kf, bxf, byf = grid_of_region(first.region)
+    i = np.floor(kf * y + byf + 0.5).astype(int)  # nearest canvas pixel of first's region
+    j = np.floor(kf * x + bxf + 0.5).astype(int)
+    rows, cols = (i >= 0) & (i < SIZE), (j >= 0) & (j < SIZE)
+    before = np.full((SIZE, SIZE), -LOGIT_CLIP, np.float32)
+    before[np.ix_(rows, cols)] = first.logits[np.ix_(i[rows], j[cols])]
+    within = ((x >= box[0] - margin) & (x <= box[2] + margin))[None, :]
+    logits = np.where(within, np.maximum(raised.logits, before), np.float32(-LOGIT_CLIP)).astype(np.float32)
+    return Person(raised.region, logits, raised.presence, raised.source)
+
+
+def _as_people(
+    p: Person, k: int | None, faces: list[Face], owned: set[int], shape: tuple[int, int]
+) -> tuple[list[Person], list[int]]:
+    """A segmentation newly kept by person="all" as people, and the faces it takes (indices into ``faces``;
+    ``k``: the face it was found from, None for a blob). The selfie graph segments everyone in its region, so
+    people side by side come as one segmentation holding several faces: one person per face not taken yet
+    (:func:`split_by_faces`; the matte stays their union). The faces of people matted already take their share
+    of the canvas too, so that a new person's part holds none of them (group_t1: Monica's face gave a part
+    holding Rachel, Ross and half of Chandler, and a straddling box across Rachel and Ross lay inside it)."""
+    held = [j for j, f in enumerate(faces) if contains(p, f, shape)]
+    mine = [j for j in held if j not in owned]
+    side_by_side = faces_side_by_side([faces[j] for j in held])
+    taken = {id(faces[j]) for j in owned}  # side_by_side holds the same Face objects
+    new = [i for i, f in enumerate(side_by_side) if id(f) not in taken]
+    if p.source == "roi" and len(side_by_side) >= 2 and new:
+        parts = split_by_faces(p, side_by_side)
+        return [parts[i] for i in new], mine
+    return [p], ([k] if k is not None else mine[:1])
+
+
+def _beside(box, other) -> tuple[float, float, float, float] | None:
+    """The part of ``box`` left of or right of the box ``other`` (the wider part), or None when less than a
+    quarter of ``box``'s width remains."""
+    if other is None:
+        return None
+    x0, y0, x1, y1 = box
+    left, right = (x0, min(x1, other[0])), (max(x0, other[2]), x1)
+    a, b = max(left, right, key=lambda t: t[1] - t[0])
+    return (a, y0, b, y1) if b - a >= 0.25 * (x1 - x0) else None
+
+
+def _mostly_in(mask: np.ndarray, occupied: np.ndarray) -> bool:
+    """Whether a person's mask (working grid) lies mostly (_COVERED) inside the people matted already."""
+    return bool(mask.any() and occupied[mask].mean() >= _COVERED)
+
+
+def _box_area(box) -> float:
+    return max(box[2] - box[0], 0.0) * max(box[3] - box[1], 0.0)
+
+
+def _box_height(box) -> float:
+    return 0.0 if box is None else box[3] - box[1]

@@ -1,0 +1,167 @@
+"""A group's people as parts of one matte: a selfie-graph segmentation holding several people split by their
+faces (:func:`split_by_faces`), the parts joined again for the matte (:func:`rejoin`), and each person's share
+of the matte (:func:`shares`: relight_rt.person.matting.PersonMatter.parts and part_crops)."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from ...image.regions import Crop
+from ..face_detector import Face
+from ._models import SIZE
+from ._regions import LOGIT_CLIP, Person, grid_of_region, logits_on_grid, working_grid
+
+_PART_SOFT = 0.01  # parts: people's shares meet softly over about this x the photo's longer side
+_SHARE_MIN = 0.01  # parts: a person's share below this is none
+_MIN_PART = 256  # parts: a person with fewer opaque pixels of the matte than this (hidden) is not a part of their own
+
+
+def split_by_faces(person: Person, faces: list[Face]) -> list[Person]:
+    """One selfie-graph segmentation holding several people (their faces inside it) as one Person per face:
+    every canvas pixel goes to the face nearest in x (in units of that face's width: a nearer, larger face
+    claims more), so the parts partition the canvas and their logits' maximum is the segmentation again
+    (:func:`rejoin`)."""
+    k, bx, by = grid_of_region(person.region)
+    cols = np.arange(SIZE, dtype=np.float64)
+    dist = []
+    for f in faces:
+        x0, _, x1, _ = f.box
+        centre, width = k * (x0 + x1) / 2 + bx, max(k * (x1 - x0), 1.0)
+        dist.append(np.abs(cols - centre) / width)
+    owner = np.argmin(np.stack(dist), axis=0)  # per canvas column
+    out = []
+    for i in range(len(faces)):
+        logits = np.where(owner[None, :] == i, person.logits, np.float32(-LOGIT_CLIP)).astype(np.float32)
+        out.append(Person(person.region, logits, person.presence, person.source, whole=person.logits))
+    return out
+
+
+def faces_side_by_side(faces: list[Face]) -> list[Face]:
+    """The faces that can stand for people side by side, largest first: a face whose centre lies within a
+    larger one's width of its centre is left out (a badge or a print below a face, found as a face: a
+    split by columns cannot hold two people there)."""
+    kept: list[Face] = []
+    for f in sorted(faces, key=lambda f: -f.size):
+        c = (f.box[0] + f.box[2]) / 2
+        if all(abs(c - (g.box[0] + g.box[2]) / 2) >= g.box[2] - g.box[0] for g in kept):
+            kept.append(f)
+    return kept
+
+
+
+
+def shares(people: list[Person], alpha: np.ndarray, *, crops: bool = False) -> list[np.ndarray] | list[Crop]:
+    """Each person's share of the matte ``alpha`` (H, W): (H, W) float32 weights summing to 1 everywhere (with
+    ``crops``: each as ((y0, y1, x0, x1), its values there), exact where ``alpha`` is not 0 and 0 far from it, in
+    the box holding every pixel where it is not 0: alpha x share is the same, and a person's box stays near them).
+
+    A pixel goes to the people in proportion to the softmax of their segmentations' logits there (a person
+    whose segmentation is surer of it takes it; beyond everyone's segmentation, on a refined hair edge, the
+    nearest outline's person, whose logit falls least; a person whose segmentation does not reach it at all, none
+    of it; where no one's does, the person whose region is nearest), on a working grid; a share under
+    ``_SHARE_MIN`` is none; the shares are blurred over ``_PART_SOFT`` of the photo's longer side (two people meet
+    softly; the blur taken over the matte's cells only), a share under ``_SHARE_MIN`` again none, and upsampled
+    smoothly. A person left with fewer than ``_MIN_PART`` opaque pixels of the matte (hidden behind others) gets
+    no share (the list is shorter by them): theirs goes to the rest.
+    """
+    h, w = alpha.shape
+    if len(people) < 2:
+        return [((0, h, 0, w), np.ones((h, w), np.float32))] if crops else [np.ones((h, w), np.float32)]
+    grid = working_grid((0, 0, w, h))
+    logits = np.stack([logits_on_grid(p, grid) for p in people])
+    opaque = cv2.resize((alpha >= 0.5).astype(np.float32), (grid[0], grid[1]), interpolation=cv2.INTER_AREA)
+    scale = h * w / float(grid[0] * grid[1])
+    keep = np.ones(len(people), bool)
+    # a person whose segmentation does not reach a cell (their logit at the floor: outside their region) has no
+    # share of it; a cell no one's reaches goes to the nearest person's region. An equal share of such cells for
+    # everyone put a little of every person into every other's pixels (issue 50 bug 1: with 16 people each
+    # person's part spanned the whole group)
+    reached = logits > -LOGIT_CLIP + 1e-3
+    nearest = _nearest_region(people, grid)
+    while True:
+        z, seen = logits[keep], reached[keep]
+        weights = np.exp(z - z.max(axis=0, keepdims=True)) * seen
+        weights = np.where(seen.any(axis=0), weights, nearest[keep])
+        weights /= weights.sum(axis=0, keepdims=True)
+        pixels = (weights * opaque).sum(axis=(1, 2)) * scale
+        if keep.sum() == 1 or (pixels >= _MIN_PART).all():
+            break
+        keep[np.flatnonzero(keep)[int(np.argmin(pixels))]] = False
+    # a share too small to see is none (each person's part then stays near them: their crop, not the group's)
+    weights[weights < _SHARE_MIN] = 0
+    weights /= weights.sum(axis=0, keepdims=True)
+    # softened: people split from one segmentation by columns (split_by_faces) meet at a straight cut, which
+    # a change of light would draw as a seam; blurred shares still sum to 1
+    sigma = _PART_SOFT * max(grid[0], grid[1])
+    # blurred over the matte only (where no one's segmentation reaches, the background, every person has an equal
+    # share: blurred in, 1/N of it spread into everyone's pixels, so with 16 people every person's part spanned
+    # the whole group, and each was decomposed as small as the group's crop made them: issue 50 bug 1), and a
+    # share under _SHARE_MIN again none
+    present = cv2.resize(alpha, (grid[0], grid[1]), interpolation=cv2.INTER_AREA) > 0  # cells holding some matte
+    inside = present.astype(np.float32)
+    reach = cv2.GaussianBlur(inside, (0, 0), sigma)
+    soft = np.stack([cv2.GaussianBlur(wk.astype(np.float32) * inside, (0, 0), sigma) for wk in weights])
+    soft = np.where(reach > 0, soft / np.maximum(reach, 1e-30), np.float32(1 / len(weights)))
+    soft[soft < _SHARE_MIN] = 0
+    soft = (soft / soft.sum(axis=0, keepdims=True)).astype(np.float32)
+    if crops:  # only where the matte is: the cells holding some of it and their neighbours (a pixel's taps)
+        near = cv2.dilate(present.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
+        return [_upsampled_crop(np.where(near, wk, np.float32(0)), (h, w)) for wk in soft]
+    return [cv2.resize(wk, (w, h), interpolation=cv2.INTER_LINEAR) for wk in soft]
+
+
+def _nearest_region(people: list[Person], grid) -> np.ndarray:
+    """(N, gh, gw) float32, 1 for the person whose region lies nearest each cell of ``grid`` (working_grid), else 0
+    (ties: the first)."""
+    gw, gh, kx, ky, bx, by = grid
+    xs = (np.arange(gw) - bx) / kx  # cell centres in pixels
+    ys = (np.arange(gh) - by) / ky
+    dist = np.empty((len(people), gh, gw), np.float32)
+    for k, p in enumerate(people):
+        x0, y0, x1, y1 = p.region.box()
+        dx = np.maximum(np.maximum(x0 - xs, xs - x1), 0)
+        dy = np.maximum(np.maximum(y0 - ys, ys - y1), 0)
+        dist[k] = np.hypot(dy[:, None], dx[None, :])
+    return (np.arange(len(people))[:, None, None] == dist.argmin(axis=0)[None]).astype(np.float32)
+
+
+def _linear_taps(start: int, stop: int, n_in: int, n_out: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Output pixels start..stop-1 of a linear resize from n_in to n_out samples (cv2.resize's INTER_LINEAR:
+    centres aligned, the edge sample repeated): (i0, i1, f), each output = (1 - f) in[i0] + f in[i1]."""
+    s = np.clip((np.arange(start, stop) + 0.5) * (n_in / n_out) - 0.5, 0, n_in - 1)
+    i0 = np.floor(s).astype(np.intp)
+    return i0, np.minimum(i0 + 1, n_in - 1), (s - i0).astype(np.float32)
+
+
+def _upsampled_crop(grid: np.ndarray, size: tuple[int, int]) -> Crop:
+    """``grid`` (gh, gw) resized linearly to ``size`` (h, w), computed only inside the box beyond which the result
+    is 0: the pixels whose taps reach a non-zero cell."""
+    (h, w), (gh, gw) = size, grid.shape
+    rows, cols = np.flatnonzero(grid.any(axis=1)), np.flatnonzero(grid.any(axis=0))
+    if rows.size == 0:
+        return (0, 0, 0, 0), np.zeros((0, 0), np.float32)
+    # an output pixel's taps lie within a cell of its centre: beyond one cell from the non-zero cells it is 0
+    y0 = max(int(np.floor((rows[0] - 0.5) * h / gh - 0.5)), 0)
+    y1 = min(int(np.ceil((rows[-1] + 1.5) * h / gh + 0.5)), h)
+    x0 = max(int(np.floor((cols[0] - 0.5) * w / gw - 0.5)), 0)
+    x1 = min(int(np.ceil((cols[-1] + 1.5) * w / gw + 0.5)), w)
+    r0, r1, fy = _linear_taps(y0, y1, gh, h)
+    c0, c1, fx = _linear_taps(x0, x1, gw, w)
+    lines = grid[r0] * (1 - fy)[:, None] + grid[r1] * fy[:, None]
+    out = lines[:, c0] * (1 - fx)
+    out += lines[:, c1] * fx
+    return (y0, y1, x0, x1), out.astype(np.float32, copy=False)
+
+
+def rejoin(people: list[Person]) -> list[Person]:
+    """People split from one segmentation (:func:`split_by_faces`) joined again for the matte: cut apart, each
+    part's upsampled edge would open a seam between them."""
+    out, seen = [], set()
+    for p in people:
+        if p.whole is None:
+            out.append(p)
+        elif id(p.whole) not in seen:
+            seen.add(id(p.whole))
+            out.append(Person(p.region, p.whole, p.presence, p.source))
+    return out

@@ -1,0 +1,145 @@
+"""The 256² canvases the graphs see in square regions of a photo: the geometry of person matting.
+
+A :class:`Region` is a square (it may reach past the image border); :func:`crop_region` resamples it to a
+graph's canvas by one exact affine warp, :func:`grid_of_region` maps image coordinates to canvas indices (the
+three live in relight_rt.image.regions, below matting, for the face meshes too), and a working grid
+(:func:`working_grid`, long side <= 512 px) carries canvases back over the image (:func:`warp_to_grid`). A
+:class:`Person` is one graph's segmentation of one region.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from ...image.regions import ROI_SCALE as ROI_SCALE  # re-exported: the square geometry lives below matting
+from ...image.regions import Region as Region
+from ...image.regions import crop_region as crop_region
+from ...image.regions import grid_of_region as grid_of_region
+from ...image.regions import pyramid_of as pyramid_of
+from ...image.regions import reductions_shared as reductions_shared
+from ..face_detector import Face
+from ._models import SIZE
+
+COARSE_MIN_AREA = 24  # canvas pixels: smaller blobs of the region finder are noise or far-away people
+_TILE_LEVELS = (1, 2, 3, 4, 6)  # whole image, then n x n overlapping tiles while nobody is found ...
+_WORK_MAX = 512  # long side of the working grid (guided-filter fit, temporal blend)
+LOGIT_CLIP = 30.0
+
+Grid = tuple[int, int, float, float, float, float]  # (gw, gh, kx, ky, bx, by): see working_grid
+
+
+
+@dataclass(frozen=True)
+class Person:
+    """One matted person: the region the pose graph saw, its logits there, and its presence score."""
+
+    region: Region
+    logits: np.ndarray  # (256, 256) float32 person logits in the region's canvas
+    presence: float
+    source: str = "pose"  # which graph's segmentation: "pose" (bodies) or "roi" (head-and-shoulders)
+    whole: np.ndarray | None = field(default=None, repr=False, compare=False)  # split from these logits (see
+    # relight_rt.person.matting._parts.split_by_faces): the matte is made from the whole, not from the parts
+
+
+
+
+def sigmoid(x: np.ndarray) -> np.ndarray:
+    x = np.clip(x, -LOGIT_CLIP, LOGIT_CLIP)
+    return 1.0 / (1.0 + np.exp(-x))
+
+
+def components(prob: np.ndarray, min_area: int) -> list[tuple[int, tuple[int, int, int, int]]]:
+    """(area, (x0, y0, x1, y1)) of the 8-connected regions of prob > 0.5, largest first."""
+    n, _, stats, _ = cv2.connectedComponentsWithStats((prob > 0.5).astype(np.uint8), connectivity=8)
+    out = []
+    for i in range(1, n):
+        x, y, bw, bh, area = (int(v) for v in stats[i])
+        if area >= min_area:
+            out.append((area, (x, y, x + bw, y + bh)))
+    out.sort(key=lambda t: -t[0])
+    return out
+
+
+def person_box(person: Person, shape: tuple[int, int]) -> tuple[float, float, float, float] | None:
+    """Image-space box (x0, y0, x1, y1) of the person's segmentation (logits > 0), clipped to the image;
+    None when it is empty."""
+    comps = components(person.logits > 0, COARSE_MIN_AREA)
+    if not comps:
+        return None
+    k, bx, by = grid_of_region(person.region)
+    x0 = min(b[0] for _, b in comps)
+    y0 = min(b[1] for _, b in comps)
+    x1 = max(b[2] for _, b in comps)
+    y1 = max(b[3] for _, b in comps)
+    h, w = shape
+    box = ((x0 - bx - 0.5) / k, (y0 - by - 0.5) / k, (x1 - bx - 0.5) / k, (y1 - by - 0.5) / k)
+    return max(box[0], 0.0), max(box[1], 0.0), min(box[2], float(w)), min(box[3], float(h))
+
+
+def tile_levels(h: int, w: int, min_tile: float, max_level: int = _TILE_LEVELS[-1]) -> list[list[Region]]:
+    """The search windows per scale: the whole image, then n x n overlapping tiles (n in _TILE_LEVELS, each
+    1.5x its share of the image) while they stay at least ``min_tile`` px."""
+    big = max(h, w)
+    levels = []
+    for level in _TILE_LEVELS:
+        if level > max_level:
+            break
+        if level == 1:
+            levels.append([Region(w / 2, h / 2, big)])
+            continue
+        side = min(big / level * 1.5, max(h, w))
+        side = max(side, min(h, w) / level * 1.5)
+        if side < min_tile:
+            break
+        xs = np.linspace(side / 2, max(w - side / 2, side / 2), level) if w > side else [w / 2]
+        ys = np.linspace(side / 2, max(h - side / 2, side / 2), level) if h > side else [h / 2]
+        levels.append([Region(float(x), float(y), side) for y in ys for x in xs])
+    return levels
+
+
+def prob_at(person: Person, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """The person's probability (sigmoid of its logits) at image points (xs, ys); 0 outside its region."""
+    k, bx, by = grid_of_region(person.region)
+    i = np.floor(k * ys + by + 0.5).astype(int)
+    j = np.floor(k * xs + bx + 0.5).astype(int)
+    inside = (i >= 0) & (i < SIZE) & (j >= 0) & (j < SIZE)
+    out = np.zeros(xs.shape, np.float32)
+    out[inside] = sigmoid(person.logits[i[inside], j[inside]])
+    return out
+
+
+def contains(person: Person, face: Face, shape: tuple[int, int]) -> bool:
+    """Whether the person's segmentation covers the middle of the face."""
+    x0, y0, x1, y1 = face.box
+    xs = np.array([(x0 + x1) / 2, 0.35 * x0 + 0.65 * x1, 0.65 * x0 + 0.35 * x1])
+    ys = np.array([(y0 + y1) / 2] * 3)
+    return bool((prob_at(person, xs, ys) > 0.5).sum() >= 2)
+
+
+def working_grid(rect: tuple[int, int, int, int]) -> Grid:
+    """(gw, gh, kx, ky, bx, by): a grid over the image rectangle with long side <= _WORK_MAX."""
+    rx0, ry0, rx1, ry1 = rect
+    rw, rh = rx1 - rx0, ry1 - ry0
+    s = min(1.0, _WORK_MAX / max(rw, rh))
+    gw, gh = max(int(round(rw * s)), 1), max(int(round(rh * s)), 1)
+    kx, ky = gw / rw, gh / rh
+    return gw, gh, kx, ky, -kx * rx0 - 0.5, -ky * ry0 - 0.5
+
+
+def logits_on_grid(person: Person, grid: Grid) -> np.ndarray:
+    """The person's canvas logits resampled onto a working grid (very negative outside the region)."""
+    return warp_to_grid(np.clip(person.logits, -LOGIT_CLIP, LOGIT_CLIP), person.region, grid, -LOGIT_CLIP)
+
+
+def warp_to_grid(canvas: np.ndarray, region: Region, grid: Grid, outside: float) -> np.ndarray:
+    """A (256, 256) map over ``region`` resampled onto a working grid (``outside`` beyond the region)."""
+    gw, gh, kx, ky, bx, by = grid
+    k, cbx, cby = grid_of_region(region)
+    m = np.array([[k / kx, 0.0, cbx - k / kx * bx], [0.0, k / ky, cby - k / ky * by]])
+    return cv2.warpAffine(
+        canvas, m, (gw, gh), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_CONSTANT,
+        borderValue=outside,
+    )  # fmt: skip

@@ -1,0 +1,160 @@
+"""Person alpha for the frames of a video, steady over time, and a measure of what flicker is left.
+
+:class:`VideoMatter` keeps state between frames: the person's region comes from the previous frame's
+matte (the detector runs again only when the person is lost or every ``redetect_every`` frames), and
+the working-grid probability is blended with the previous one warped by DIS optical flow (relight_rt.image.flow),
+weighted by how well the flow explains the frame (photometric agreement), which steadies the outline
+without dragging it behind a moving person. :func:`outline_flicker` measures what is left.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+
+import cv2
+import numpy as np
+
+from ...engine.errors import RelightError
+from ...image.flow import dis_flow, warp
+from ...image.guided_filter import fast_guided_filter
+from ._coarse import GF_EPS, guide_radius
+from ._matter import PersonMatter
+from ._models import as_rgb
+from ._regions import Region, logits_on_grid, person_box, reductions_shared, sigmoid, working_grid
+
+log = logging.getLogger(__name__)
+
+
+def _gray_u8(gray: np.ndarray) -> np.ndarray:
+    """(H, W) float gray in [0, 1] -> uint8 for the flow (truncated, as the video matter always did)."""
+    return np.clip(gray * 255.0, 0, 255).astype(np.uint8)
+
+
+_REGION_KEEP_IOU = 0.8
+
+
+def _inside(box: tuple[float, float, float, float], region: Region, margin: float = 0.05) -> bool:
+    """True when ``box`` lies inside ``region`` with ``margin`` x side to spare on every side."""
+    x0, y0, x1, y1 = region.box()
+    m = margin * region.side
+    return box[0] >= x0 + m and box[1] >= y0 + m and box[2] <= x1 - m and box[3] <= y1 - m
+
+
+class VideoMatter:
+    """Person alpha for the frames of a video, steady over time (module docstring).
+
+    The region the pose graph sees follows the person from the previous frame's matte (the region finder
+    runs on the first frame, when the person is lost, and every ``redetect_every`` frames if > 0). The
+    person probability on the working grid is blended with the previous frame's, warped by DIS optical
+    flow: ``p = (1 - w) p_now + w p_prev_warped``, ``w = smoothing * exp(-|I_now - I_prev_warped| / 0.05)``
+    (the history counts only where the flow explains the picture), then refined by the guided filter.
+
+    Args:
+        matter: a :class:`PersonMatter` to use (default: a new one with ``models`` and ``device``).
+        smoothing: weight of the warped history in [0, 1); 0 turns temporal smoothing off.
+        redetect_every: run the region finder every N frames even when the person is tracked (0: never).
+        refine: guided-filter edge refinement (as in PersonMatter; always with the gray guide, for speed).
+
+    Calling it on each frame in order: ``alpha = vm(rgb)``; a frame with nobody in it gives an all-zero
+    alpha (no error) and the next frame searches again. Only the largest person is followed.
+    """
+
+    def __init__(
+        self,
+        matter: PersonMatter | None = None,
+        *,
+        models: str | os.PathLike | None = None,
+        device: str = "cpu",
+        smoothing: float = 0.7,
+        redetect_every: int = 0,
+        refine: bool = True,
+    ):
+        if not 0.0 <= float(smoothing) < 1.0:
+            raise RelightError(f"smoothing: expected a value in [0, 1), got {smoothing}")
+        if int(redetect_every) < 0:
+            raise RelightError(f"redetect_every: expected >= 0, got {redetect_every}")
+        self.matter = matter if matter is not None else PersonMatter(models, device=device)
+        self.smoothing = float(smoothing)
+        self.redetect_every = int(redetect_every)
+        self.refine = bool(refine)
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the previous frames (call between videos)."""
+        self._region: Region | None = None
+        self._prev_prob: np.ndarray | None = None
+        self._prev_gray: np.ndarray | None = None
+        self._shape: tuple[int, int] | None = None
+        self.index = 0
+
+    def __call__(self, image: np.ndarray, name: str = "frame") -> np.ndarray:
+        rgb = as_rgb(image, name, copy=False)  # only read from here on
+        h, w = rgb.shape[:2]
+        if self._shape is not None and self._shape != (h, w):
+            raise RelightError(f"{name}: frame is {h}x{w}, the previous frames were {self._shape[0]}x{self._shape[1]}")
+        self._shape = (h, w)
+        index, self.index = self.index, self.index + 1
+        region = self._region
+        with reductions_shared(rgb):  # the detectors' crops share one set of reduced copies of the frame
+            if region is None or (self.redetect_every and index % self.redetect_every == 0):
+                found = self.matter.find_people(rgb)
+                region = Region.around(*found[0][1]) if found else None
+            person = self.matter.segment(rgb, region) if region is not None else None
+        box = person_box(person, (h, w)) if person is not None else None
+        if person is None or box is None or not self.matter.vouched(rgb, person):
+            log.debug("%s: no person found; searching again on the next frame", name)
+            self._region, self._prev_prob, self._prev_gray = None, None, None
+            return np.zeros((h, w), np.float32)
+        new = Region.around(*box)
+        # hysteresis: the pose graph's answer shifts with its crop, so the region stays put while the
+        # person stays well inside it (a crop that moves every frame makes the outline shimmer)
+        if self._region is None or new.iou(self._region) < _REGION_KEEP_IOU or not _inside(box, self._region):
+            self._region = new
+
+        rect = (0, 0, w, h)
+        grid = working_grid(rect)
+        prob = sigmoid(logits_on_grid(person, grid)).astype(np.float32)
+        gray_full = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
+        gray_small = gray_full if grid[:2] == (w, h) else cv2.resize(gray_full, grid[:2], interpolation=cv2.INTER_AREA)
+        if self.smoothing > 0 and self._prev_prob is not None:
+            flow = dis_flow(_gray_u8(gray_small), _gray_u8(self._prev_gray), "ultrafast")  # this frame -> the last
+            prev_prob = warp(self._prev_prob, flow, border_value=None)
+            agree = np.exp(-np.abs(gray_small - warp(self._prev_gray, flow, border_value=None)) / np.float32(0.05))
+            wgt = np.float32(self.smoothing) * agree
+            prob = prob + wgt * (prev_prob - prob)
+        self._prev_prob, self._prev_gray = prob, gray_small
+        if not self.refine:
+            return cv2.resize(prob, (w, h), interpolation=cv2.INTER_LINEAR) if grid[:2] != (w, h) else prob
+        return fast_guided_filter(prob, gray_small, gray_full, guide_radius(person, grid), GF_EPS)
+
+
+def outline_flicker(alphas: list[np.ndarray], frames: list[np.ndarray] | None = None, band: int = 4) -> float:
+    """Outline flicker of a matte sequence: mean |alpha_t - alpha_{t-1}| over a band of ``band`` pixels on
+    each side of frame t's outline (alpha = 0.5), averaged over frames 1..N-1.
+
+    With ``frames`` (the RGB frames), alpha_{t-1} is first warped onto frame t by DIS optical flow
+    (medium preset, full resolution), so the person's own motion is not counted: what remains is the
+    edge jumping about. Without frames the raw change is measured (motion included).
+    """
+    if len(alphas) < 2:
+        raise RelightError(f"outline_flicker: expected at least 2 frames, got {len(alphas)}")
+    if frames is not None and len(frames) != len(alphas):
+        raise RelightError(f"outline_flicker: {len(frames)} frames for {len(alphas)} alphas")
+    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * band + 1, 2 * band + 1))
+    total, count = 0.0, 0
+    for t in range(1, len(alphas)):
+        cur = np.asarray(alphas[t], np.float32)
+        prev = np.asarray(alphas[t - 1], np.float32)
+        if cur.shape != prev.shape:
+            raise RelightError(f"outline_flicker: alpha {t} is {cur.shape}, alpha {t - 1} is {prev.shape}")
+        if frames is not None:
+            g1 = cv2.cvtColor(np.asarray(frames[t], np.float32), cv2.COLOR_RGB2GRAY)
+            g0 = cv2.cvtColor(np.asarray(frames[t - 1], np.float32), cv2.COLOR_RGB2GRAY)
+            prev = warp(prev, dis_flow(_gray_u8(g1), _gray_u8(g0), "medium"), border_value=None)
+        fg = (cur >= 0.5).astype(np.uint8)
+        ring = cv2.dilate(fg, kernel) != cv2.erode(fg, kernel)
+        if ring.any():
+            total += float(np.abs(cur - prev)[ring].sum())
+            count += int(ring.sum())
+    return total / max(count, 1)

@@ -1,0 +1,78 @@
+"""Full-resolution detail transfer: carry the input's own detail into a result computed at low resolution.
+
+The Relighter computes, in the network frame, the ratio relit / reconstruction (the reconstruction is
+the pipeline's output under the photo's own light). These helpers unpremultiply it by the network mask,
+extend it a few pixels past the outline (so upsampling does not blend in meaningless values from
+outside the person), and upsample it edge-aware with a fast guided filter steered by the
+full-resolution input; the result multiplies the input.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from ..image.crop import CropGeometry
+from ..image.guided_filter import gray_coefficients
+
+GUIDE_EPS = 1e-3  # guided-filter regulariser (guide values in [0, 1])
+GUIDE_RADIUS = 2  # guided-filter window radius, in network pixels
+
+
+def window(network_mask: np.ndarray, margin: int = 8) -> tuple[int, int, int, int]:
+    """(y0, y1, x0, x1): the box of ``network_mask > 0`` widened by ``margin`` (the whole frame if empty)."""
+    m = network_mask > 0
+    rows, cols = np.flatnonzero(m.any(axis=1)), np.flatnonzero(m.any(axis=0))
+    h, w = m.shape
+    if rows.size == 0:
+        return 0, h, 0, w
+    y0, y1 = max(int(rows[0]) - margin, 0), min(int(rows[-1]) + 1 + margin, h)
+    x0, x1 = max(int(cols[0]) - margin, 0), min(int(cols[-1]) + 1 + margin, w)
+    return y0, y1, x0, x1
+
+
+def unpremultiply(premult: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """(R, R, 3) colour ⊙ alpha → colour where alpha > 0.5 (stable), 0 elsewhere."""
+    a = alpha[..., None]
+    return np.divide(premult, a, out=np.zeros(premult.shape, np.float32), where=a > 0.5)
+
+
+def extend_outward(values: np.ndarray, inner: np.ndarray, sigma: float = 2.0) -> np.ndarray:
+    """Keep (R, R, C) ``values`` where ``inner``; outside, fill with a Gaussian-weighted average of nearby inner
+    values (normalised convolution), so that upsampling near the outline does not mix in meaningless values.
+    Far from the person (no inner pixel near) the fill is 1."""
+    w = inner.astype(np.float32)
+    num = cv2.GaussianBlur(values * w[..., None], (0, 0), sigma).reshape(values.shape)  # cv2 drops a C=1 axis
+    den = cv2.GaussianBlur(w, (0, 0), sigma)[..., None]
+    filled = np.divide(num, den, out=np.ones_like(num), where=den > 1e-3)
+    return np.where(inner[..., None], values, filled)
+
+
+def guided_upsample(
+    geom: CropGeometry, src: np.ndarray, guide_net: np.ndarray, guide: np.ndarray, origin: tuple[int, int]
+) -> np.ndarray:
+    """Edge-aware upsampling of a network-frame (R, R, C) map to the crop box, by the fast guided filter.
+
+    The local linear model src ≈ a·I + b (I: gray guide) is fitted in (2r+1)² windows at network resolution
+    (relight_rt.image.guided_filter), the window-averaged a and b are mapped to the crop box, and applied there with the
+    full-resolution gray guide, so edges of the full-resolution input carry into the result (He & Sun, "Fast Guided
+    Filter", 2015; He, Sun & Tang, "Guided Image Filtering", 2013).
+
+    Args:
+        geom: the crop geometry.
+        src: (r, r', C) float32 map: a window of the network frame starting at ``origin``.
+        guide_net: (r, r', 3) RGB input, the same window.
+        guide: (h, w, 3) RGB input in the crop box, full resolution, or its (h, w) gray (cv2's RGB2GRAY)
+            when the caller keeps it for several calls.
+        origin: (y, x) of the window in the network frame.
+
+    Returns:
+        (h, w, C) float32.
+    """
+    a, b = gray_coefficients(src, cv2.cvtColor(guide_net, cv2.COLOR_RGB2GRAY), GUIDE_RADIUS, GUIDE_EPS)
+    # a and b mapped separately: each has <= 4 channels, which OpenCV resamples in one call (a 6-channel
+    # stack would be resampled in slices and concatenated: a full-size copy, ~40 % of this function's time)
+    out = geom.to_crop(a, origin).reshape(guide.shape[:2] + (-1,))
+    out *= (guide if guide.ndim == 2 else cv2.cvtColor(guide, cv2.COLOR_RGB2GRAY))[..., None]
+    out += geom.to_crop(b, origin).reshape(out.shape)
+    return out

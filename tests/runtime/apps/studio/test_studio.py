@@ -1,0 +1,556 @@
+"""relight-rt studio, server side: the Studio state (layers, renders, uploads, store) and its HTTP routes.
+
+The browser side (the page, WebGL preview, drag, export) is in tests/integration/test_studio_browser.py.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+from _graphs import models_dir, person
+
+import relight_rt
+from relight_rt import Relighter, RelightError, RuntimeConfig, envmap, lights
+from relight_rt.apps.studio.core import (
+    MAX_UPLOAD_BYTES,
+    ResultStore,
+    Studio,
+    check_upload,
+    light_json,
+    request_exposure,
+    request_light,
+    sniff,
+    unpack_layers,
+)
+from relight_rt.cli import main
+from relight_rt.engine.limits import header_size
+from relight_rt.image.compositing import Background
+from relight_rt.light.exposure import DISPLAY_GAMMA, METER_POWER
+from relight_rt.relight.look import SKIN_CHROMA, skin_chroma
+from relight_rt.relight.strength import restore_bands
+
+__all__ = ["models_dir"]  # fixture
+REPO = Path(__file__).resolve().parents[4]
+
+
+def _png_bytes(rgb_or_rgba: np.ndarray) -> bytes:
+    a = (np.clip(rgb_or_rgba, 0, 1) * 255 + 0.5).astype(np.uint8)
+    a = cv2.cvtColor(a, cv2.COLOR_RGBA2BGRA if a.shape[2] == 4 else cv2.COLOR_RGB2BGR)
+    return cv2.imencode(".png", a)[1].tobytes()
+
+
+@pytest.fixture(scope="module")
+def photo(tmp_path_factory):
+    """A textured 'person' (rectangle) as an RGBA PNG whose alpha is the mask."""
+    img, mask = person(90, 60, box=(10, 80, 15, 45))
+    path = tmp_path_factory.mktemp("studio") / "someone.png"
+    path.write_bytes(_png_bytes(np.concatenate([img, mask[..., None]], axis=2)))
+    return path
+
+
+@pytest.fixture(scope="module")
+def studio(photo, models_dir):
+    relighter = relight_rt.open(RuntimeConfig(models=models_dir, device="cpu"))
+    return Studio(photo, None, "original", relighter, preview_pixels=4096, models=models_dir)
+
+
+# ------------------------------------------------------------------------------------------------ core
+
+
+def test_sniff_by_content_not_name():
+    assert sniff(b"\x89PNG\r\n\x1a\n....") == ("png", ".png")
+    assert sniff(b"\xff\xd8\xff\xe0") == ("jpeg", ".jpg")
+    assert sniff(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe") == ("hdr", ".hdr")
+    assert sniff(b"RIFF\x00\x00\x00\x00WEBPVP8 ") == ("webp", ".webp")
+    assert sniff(b"RIFF\x00\x00\x00\x00WAVEfmt ") is None
+    assert sniff(b"<html>not an image</html>") is None
+
+
+def test_check_upload_refuses_bad_files():
+    with pytest.raises(RelightError, match="empty"):
+        check_upload(b"", "environment map", ("hdr",))
+    with pytest.raises(RelightError, match="expected HDR or PNG .*unknown type"):
+        check_upload(b"GIF89a....", "environment map", ("hdr", "png"))
+    with pytest.raises(RelightError, match="expected HDR .*png file"):
+        check_upload(b"\x89PNG\r\n\x1a\n" + bytes(20), "environment map", ("hdr",))
+    with pytest.raises(RelightError, match="limit"):
+        check_upload(b"#?RADIANCE" + bytes(100), "environment map", ("hdr",), limit=50)
+    huge = b"\x89PNG\r\n\x1a\n" + b"\x00\x00\x00\rIHDR" + (100_000).to_bytes(4, "big") * 2 + bytes(10)
+    with pytest.raises(RelightError, match="pixels"):
+        check_upload(huge, "photo", ("png",))
+
+
+@pytest.mark.parametrize("ext", [".png", ".jpg", ".bmp", ".webp", ".hdr"])
+def test_image_size_from_the_header(ext):
+    img = np.zeros((37, 53, 3), np.float32 if ext == ".hdr" else np.uint8)
+    data = cv2.imencode(ext, img)[1].tobytes()
+    assert sniff(data) is not None and header_size(data) == (53, 37)  # the runtime's one header parser
+
+
+def test_huge_image_refused_before_decoding():
+    data = bytearray(cv2.imencode(".jpg", np.zeros((8, 8, 3), np.uint8))[1].tobytes())
+    sof = data.index(b"\xff\xc0")
+    data[sof + 5 : sof + 9] = (30000).to_bytes(2, "big") * 2  # claims 30000 x 30000
+    with pytest.raises(RelightError, match="pixels"):
+        check_upload(bytes(data), "photo", ("jpeg",))
+
+
+def test_result_store_is_bounded_and_expires():
+    now = [0.0]
+    store = ResultStore(capacity=2, ttl=10.0, clock=lambda: now[0])
+    a = store.put("a")
+    b = store.put("b")
+    assert store.get(a) == "a"  # a is now the most recent
+    c = store.put("c")  # evicts b, the least recently used
+    assert store.get(b) is None and store.get(a) == "a" and store.get(c) == "c"
+    now[0] = 25.0
+    assert store.get(a) is None and len(store) == 0
+    assert len({store.put(i) for i in range(50)}) == 50  # random, distinct ids
+    assert len(store) == 2
+    with pytest.raises(RelightError):
+        ResultStore(capacity=0)
+
+
+@pytest.mark.parametrize(
+    "value, match",
+    [([1.0] * 26, "27 numbers"), ("studio", "27 numbers"), ([float("nan")] * 27, "finite"), ([1e9] * 27, "finite")],
+)
+def test_request_light_rejects(value, match):
+    with pytest.raises(RelightError, match=match):
+        request_light(value)
+
+
+def test_request_light_and_exposure():
+    light = request_light(np.arange(27).tolist())
+    assert light.shape == (9, 3) and light.dtype == np.float32 and light[1, 0] == 3
+    assert request_exposure(None) == "auto" and request_exposure("physical") == "physical"
+    assert request_exposure("-1.5") == -1.5
+    for bad in ("bright", 50, float("inf")):
+        with pytest.raises(RelightError, match="exposure"):
+            request_exposure(bad)
+
+
+def test_layers_match_the_decomposition(studio):
+    info = studio.info()
+    meta = info["preview"]
+    assert (info["height"], info["width"]) == (90, 60)
+    assert meta["height"] * meta["width"] <= 4096 and meta["height"] / meta["width"] == pytest.approx(1.5, rel=0.05)
+    layers = unpack_layers(studio.layers_bytes(), meta)
+    dec = studio.dec
+    size = (meta["width"], meta["height"])
+    full = dec.to_input(restore_bands(np.ascontiguousarray(dec.transport)))  # what the final result relights with
+    transport = np.stack([cv2.resize(full[..., k], size, interpolation=cv2.INTER_AREA) for k in range(9)], axis=2)
+    step = np.array(meta["transport_scale"])
+    err = np.abs(layers["transport"].transpose(1, 2, 0) - transport)
+    assert (err <= step * 0.51 + 1e-6).all()  # uint16 quantisation: half a step
+    mask = cv2.resize(np.asarray(dec.mask), size, interpolation=cv2.INTER_AREA)
+    np.testing.assert_allclose(layers["mask"], mask, atol=0.5 / 255 + 1e-6)
+    photo = cv2.resize(np.asarray(dec.image), size, interpolation=cv2.INTER_AREA)
+    np.testing.assert_allclose(layers["background"].transpose(1, 2, 0), photo, atol=0.5 / 255 + 1e-6)
+    # the shaded-skin rule's inputs (relight_rt.relight.look.skin_chroma), as the page reads them
+    chroma, weight = skin_chroma(dec.network_image, dec.skin)
+    skin = dec.to_input(np.concatenate([chroma, weight[..., None]], axis=2))
+    skin = np.stack([cv2.resize(skin[..., k], size, interpolation=cv2.INTER_AREA) for k in range(4)], axis=2)
+    np.testing.assert_allclose(layers["skin_chroma"].transpose(1, 2, 0), skin[..., :3], atol=1 / 255 + 1e-5)
+    np.testing.assert_allclose(layers["skin"], skin[..., 3], atol=0.5 / 255 + 1e-6)
+    assert meta["skin_chroma"] == SKIN_CHROMA and len(meta["own_white"]) == 9
+    assert meta["exposure_power"] == METER_POWER and meta["display_gamma"] == DISPLAY_GAMMA  # the page takes both
+    assert info["presets"].keys() == set(lights.list_presets())
+    np.testing.assert_allclose(info["own_light"], dec.light)
+    with pytest.raises(RelightError, match="bytes"):
+        unpack_layers(studio.layers_bytes()[:-1], meta)
+
+
+def test_render_is_the_relighters_result(studio, models_dir):
+    light = lights.preset("window-left").astype(np.float32)
+    rid, rec = studio.render(light.tolist())
+    assert studio.renders.get(rid) is rec
+    png = cv2.imdecode(np.frombuffer(rec.png, np.uint8), cv2.IMREAD_UNCHANGED)
+    expected = Relighter(RuntimeConfig(models=models_dir, device="cpu")).relight(studio.photo, light)
+    np.testing.assert_array_equal(png[..., ::-1], (np.clip(expected, 0, 1) * 255 + 0.5).astype(np.uint8))
+    np.testing.assert_array_equal(rec.light, light)
+    cmd = studio.command(rec, "someone_light.npy")
+    assert cmd.startswith("relight-rt relight ") and "--light=someone_light.npy" in cmd
+    assert "--output=someone_relit.png" in cmd
+    assert json.loads(light_json(rec.light))["order"] == "rgb"
+
+
+def test_render_grades_the_original_background_when_asked(studio, models_dir):
+    """The studio's toggle: the full result is the Relighter's with Background.original(grade=True), and the
+    command it shows asks for the same (--grade-background); not asked, nothing changes."""
+    light = lights.preset("night").astype(np.float32)
+    assert studio.info()["original_background"] is True
+    _, rec = studio.render(light.tolist(), grade_background=True)
+    png = cv2.imdecode(np.frombuffer(rec.png, np.uint8), cv2.IMREAD_UNCHANGED)
+    rl = Relighter(RuntimeConfig(models=models_dir, device="cpu"))
+    expected = rl.relight(studio.photo, light, background=Background.original(grade=True))
+    np.testing.assert_array_equal(png[..., ::-1], (np.clip(expected, 0, 1) * 255 + 0.5).astype(np.uint8))
+    assert rec.grade_background and studio.command(rec, "l.npy").split().count("--grade-background") == 1
+    _, plain = studio.render(light.tolist())
+    assert not plain.grade_background and "--grade-background" not in studio.command(plain, "l.npy")
+    assert plain.png != rec.png
+    with pytest.raises(RelightError, match="grade_background"):
+        studio.render(light.tolist(), grade_background="yes")
+
+
+def _check_preview_exposure(studio):
+    layers = unpack_layers(studio.layers_bytes(), studio.info()["preview"])
+    assert layers["exposure"]["mask"].size == int((studio.dec.network_mask > 0).sum())
+    assert layers["highlight"]["lit"].shape[0] == int((studio.dec.network_mask > 0.5).sum())
+    factors = []
+    for name in ("studio", "rim", "window-left"):
+        light = lights.preset(name).astype(np.float32)
+        for exposure in ("auto", 1.0, "physical"):
+            want = studio.relighter.layers(studio.dec, light, exposure=exposure).light
+            np.testing.assert_allclose(studio.preview_light(light.tolist(), exposure), want, rtol=1e-5, atol=1e-7)
+        mean_kept = studio.preview_light(light.tolist(), "auto")[0, 0] / exposure_scale_of(studio, light)
+        factors.append(float(mean_kept / light[0, 0]))
+    return factors
+
+
+def exposure_scale_of(studio, light):
+    """The mean-keeping scale alone (no highlight guard) on the page's exposure sample."""
+    from relight_rt.light.exposure import exposure_scale
+
+    albedo, transport, mask = studio._exposure
+    return exposure_scale(albedo[None], transport[None], mask[None], light, studio.info()["preview"]["exposure_target"])
+
+
+def test_preview_exposure_is_the_final_results(studio):
+    """One exposure rule: the preview's light is the light the final result uses (relight_rt.light.exposure: the
+    mean-keeping scale, the highlight guard, the EV), exactly when the samples hold every pixel of the person (as
+    here: a 64² network)."""
+    _check_preview_exposure(studio)
+
+
+def test_preview_exposure_follows_the_highlight_guard(photo, models_dir, monkeypatch):
+    """With a limit this test person's lit side passes (the guard acting), the preview still has the final's light."""
+    from relight_rt.light import exposure
+
+    monkeypatch.setattr(exposure, "HIGHLIGHT_LIMIT", 0.6)
+    relighter = Relighter(RuntimeConfig(models=models_dir, device="cpu"))
+    own = relighter._factor.highlight_inputs  # what the final result and the preview both read
+    monkeypatch.setattr(relighter._factor, "highlight_inputs", lambda dec: own(dec)[:3] + (0.05,))  # 5 % past the limit
+    guarded = Studio(photo, None, "original", relighter, preview_pixels=4096, models=models_dir)
+    factors = _check_preview_exposure(guarded)
+    assert min(factors) < 0.95, factors  # the guard lowered at least one light
+
+
+def test_envmap_upload_gives_the_projected_light(studio, tmp_path):
+    rng = np.random.default_rng(1)
+    env = rng.random((16, 32, 3)).astype(np.float32) * 3
+    path = tmp_path / "sky.hdr"
+    cv2.imwrite(str(path), env[..., ::-1])
+    light = studio.envmap_light(path.read_bytes())
+    np.testing.assert_allclose(light, envmap.project_envmap(envmap.load_envmap(path)), rtol=1e-5, atol=1e-6)
+    with pytest.raises(RelightError, match="width = 2"):
+        cv2.imwrite(str(tmp_path / "square.hdr"), env[:, :16, ::-1].copy())
+        studio.envmap_light((tmp_path / "square.hdr").read_bytes())
+    with pytest.raises(RelightError, match="environment map: expected HDR"):
+        studio.envmap_light(b"this is not an image")
+
+
+def test_photo_light_alpha_else_automatic_matte(studio, photo):
+    own = studio.photo_light(photo.read_bytes())
+    np.testing.assert_allclose(own, studio.dec.light, rtol=1e-5, atol=1e-6)
+    grey = np.full((64, 64, 3), 128, np.uint8)  # no alpha and nobody in it: the matte says so
+    with pytest.raises(RelightError, match="no person found"):
+        studio.photo_light(cv2.imencode(".png", grey)[1].tobytes())
+    scene = (REPO / "relight_rt" / "data" / "example_scene.jpg").read_bytes()  # no alpha: the matte finds her
+    assert studio.photo_light(scene).shape == (9, 3)
+    with pytest.raises(RelightError, match="cannot read the image size from its PNG header"):
+        studio.photo_light(b"\x89PNG\r\n\x1a\n" + bytes(40))  # no IHDR: refused before decoding
+    ihdr = b"\x00\x00\x00\rIHDR" + (64).to_bytes(4, "big") * 2 + b"\x08\x02\x00\x00\x00"
+    with pytest.raises(RelightError, match="cannot decode"):
+        studio.photo_light(b"\x89PNG\r\n\x1a\n" + ihdr + bytes(40))  # a header, then nothing
+
+
+def test_studio_checks_its_arguments(photo, models_dir, tmp_path):
+    relighter = Relighter(RuntimeConfig(models=models_dir, device="cpu"))
+    with pytest.raises(RelightError, match="--background"):
+        Studio(photo, None, str(tmp_path / "missing.png"), relighter)
+    with pytest.raises(RelightError, match="preview_pixels"):
+        Studio(photo, None, "original", relighter, preview_pixels=10)
+
+
+# ------------------------------------------------------------------------------------------------ routes
+
+
+@pytest.fixture(scope="module")
+def client(studio):
+    pytest.importorskip("fastapi")
+    pytest.importorskip("httpx")
+    import warnings
+
+    with warnings.catch_warnings():  # newer starlette prefers "httpx2"; httpx still works
+        warnings.simplefilter("ignore")
+        from fastapi.testclient import TestClient
+
+    from relight_rt.apps.studio import create_app
+
+    with TestClient(create_app(studio), base_url="http://127.0.0.1") as c:
+        yield c
+
+
+def test_routes_page_info_layers(client, studio):
+    page = client.get("/")
+    assert page.status_code == 200 and "relight-rt" in page.text
+    assert "default-src 'self'" in page.headers["content-security-policy"]
+    for name in ("studio.js", "sh.js", "preview.js", "view.js", "studio.css"):
+        assert client.get(f"/static/{name}").status_code == 200
+    assert client.get("/static/../core.py").status_code == 404
+    info = client.get("/api/info").json()
+    assert info["photo"] == "someone.png" and "exposure" in info
+    assert client.get("/api/layers").content == studio.layers_bytes()
+
+
+def test_route_photo_is_the_photo_the_pipeline_reads(client, studio):
+    """The page's "before" view: the decoded photo (RGB, upright) at full resolution, as PNG."""
+    res = client.get("/api/photo.png")
+    assert res.status_code == 200 and res.headers["content-type"] == "image/png"
+    got = cv2.imdecode(np.frombuffer(res.content, np.uint8), cv2.IMREAD_UNCHANGED)[..., ::-1]
+    want = np.rint(np.clip(np.asarray(studio.dec.image)[..., :3], 0, 1) * 255).astype(np.uint8)
+    assert got.shape == want.shape == (90, 60, 3)
+    np.testing.assert_array_equal(got, want)
+
+
+def test_routes_render_and_export(client):
+    light = lights.preset("neon").astype(np.float32)
+    out = client.post("/api/render", json={"light": light.tolist(), "exposure": "auto"}).json()
+    png = client.get(f"/api/result/{out['id']}.png?download=1")
+    assert png.status_code == 200 and png.content.startswith(b"\x89PNG")
+    assert 'filename="someone_relit.png"' in png.headers["content-disposition"]
+    npy = np.load(io.BytesIO(client.get(f"/api/result/{out['id']}/light.npy").content), allow_pickle=False)
+    np.testing.assert_array_equal(npy, light)
+    js = json.loads(client.get(f"/api/result/{out['id']}/light.json").content)
+    np.testing.assert_array_equal(np.array(js["sh"], np.float32), light)
+    assert client.get("/api/result/nope.png").status_code == 400
+
+
+@pytest.mark.parametrize(
+    "body, match",
+    [(b"not json", "JSON body"), (b"[1, 2]", "JSON object"), (b'{"light": [1, 2]}', "27 numbers")],
+)
+def test_routes_render_bad_request(client, body, match):
+    res = client.post("/api/render", content=body, headers={"content-type": "application/json"})
+    assert res.status_code == 400 and match in res.json()["error"]
+
+
+def test_routes_uploads(client, tmp_path):
+    raw = {"content-type": "application/octet-stream"}  # what the page sends (studio.js, uploadLight)
+    bad = client.post("/api/envmap", content=b"<svg>not an hdr</svg>", headers=raw)
+    assert bad.status_code == 400 and "environment map: expected" in bad.json()["error"]
+    big = client.post("/api/photo-light", content=b"\x89PNG" + bytes(MAX_UPLOAD_BYTES), headers=raw)
+    assert big.status_code == 400 and "limit" in big.json()["error"]
+    env = np.ones((8, 16, 3), np.float32)
+    cv2.imwrite(str(tmp_path / "e.hdr"), env)
+    good = client.post("/api/envmap", content=(tmp_path / "e.hdr").read_bytes(), headers=raw)
+    assert good.status_code == 200 and np.array(good.json()["light"]).shape == (9, 3)
+    scene = client.post("/api/background-light", content=cv2.imencode(".jpg", np.full((80, 120, 3), 90, np.uint8))[1]
+                        .tobytes(), headers=raw)
+    assert scene.status_code == 200 and np.array(scene.json()["light"]).shape == (9, 3)
+    photo = cv2.imencode(".jpg", np.full((80, 120, 3), 90, np.uint8))[1].tobytes()
+    keyed = client.post("/api/background-light?key=180,30", content=photo, headers=raw)
+    assert keyed.status_code == 200 and not np.allclose(keyed.json()["light"], scene.json()["light"])
+    bad_key = client.post("/api/background-light?key=up", content=photo, headers=raw)
+    assert bad_key.status_code == 400 and "key light" in bad_key.json()["error"]
+    assert client.get("/api/info").status_code == 200  # still serving
+
+
+def test_foreign_host_header_refused(client):
+    assert client.get("/api/info", headers={"host": "attacker.example"}).status_code == 400
+
+
+# ------------------------------------------------------------------------------------------------ CLI
+
+
+def test_import_and_cli_stay_lean():
+    code = (
+        "import sys, relight_rt, relight_rt.apps.studio, relight_rt.apps.studio.core; "
+        "from relight_rt.cli import build_parser; "
+        "build_parser(); bad = [m for m in ('fastapi', 'uvicorn', 'starlette') if m in sys.modules]; "
+        "sys.exit(1 if bad else 0)"
+    )
+    assert subprocess.run([sys.executable, "-c", code], check=False).returncode == 0
+
+
+def test_cli_studio_errors(tmp_path, capsys):
+    pytest.importorskip("fastapi")
+    pytest.importorskip("uvicorn")
+    assert main(["studio", str(tmp_path / "missing.png")]) == 2
+    assert "not found" in capsys.readouterr().err
+    assert main(["studio", str(tmp_path / "x.png"), "--port", "70000"]) == 2
+    assert "--port" in capsys.readouterr().err
+
+
+def test_missing_extra_is_named(monkeypatch):
+    from relight_rt.apps import studio as studio_pkg
+
+    monkeypatch.setitem(sys.modules, "fastapi", None)  # makes ``import fastapi`` fail
+    with pytest.raises(RelightError, match=r"relight-rt\[studio\]"):
+        studio_pkg.create_app(None)
+
+
+def test_exposure_reaches_the_relighter_and_the_command(photo, models_dir):
+    class Recording(Relighter):
+        seen: list = []
+
+        def relight(self, image, light, *, mask=None, background="original", exposure="auto"):
+            self.seen.append(exposure)
+            return super().relight(image, light, mask=mask, background=background, exposure=exposure)
+
+    recording = Recording(RuntimeConfig(models=models_dir, device="cpu"))
+    studio = Studio(photo, None, "original", recording, preview_pixels=4096)
+    assert studio.info()["exposure"] is True
+    _, rec = studio.render(lights.preset("studio").tolist(), exposure=1.5)
+    assert Recording.seen == [1.5] and "--exposure=1.5" in studio.command(rec, "l.npy")
+    _, rec = studio.render(lights.preset("studio").tolist(), exposure="auto")
+    assert "--exposure" not in studio.command(rec, "l.npy")  # auto is the CLI's default too
+
+
+def test_cli_serves_and_prints_its_url(photo, models_dir):
+    pytest.importorskip("fastapi")
+    pytest.importorskip("uvicorn")
+    import urllib.request
+
+    cmd = [sys.executable, "-m", "relight_rt", "studio", str(photo), "--port", "0", "--models", str(models_dir)]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO)
+    try:
+        line = proc.stdout.readline()
+        assert "relight-rt studio: someone.png at http://127.0.0.1:" in line, (line, proc.stderr.read())
+        url = line.split(" at ", 1)[1].split()[0]
+        with urllib.request.urlopen(url + "api/info", timeout=10) as res:
+            assert json.load(res)["photo"] == "someone.png"
+    finally:
+        proc.terminate()
+        proc.wait(10)
+        proc.stdout.close()
+        proc.stderr.close()
+
+
+def test_background_image_and_transparent(photo, models_dir, tmp_path):
+    relighter = Relighter(RuntimeConfig(models=models_dir, device="cpu"))
+    bg = np.zeros((90, 60, 3), np.float32)
+    bg[..., 2] = 0.8  # blue
+    bg_path = tmp_path / "blue.png"
+    bg_path.write_bytes(_png_bytes(bg))
+    studio = Studio(photo, None, str(bg_path), relighter, preview_pixels=5400)
+    layers = unpack_layers(studio.layers_bytes(), studio.info()["preview"])
+    np.testing.assert_allclose(layers["background"][2], 0.8, atol=1 / 255)
+    _, rec = studio.render(lights.preset("front").tolist())
+    png = cv2.imdecode(np.frombuffer(rec.png, np.uint8), cv2.IMREAD_UNCHANGED)
+    assert tuple(png[0, 0]) == (204, 0, 0)  # BGR: the blue background outside the person
+    assert f"--background={bg_path}" in studio.command(rec, "l.npy")
+    clear = Studio(photo, None, "transparent", relighter, preview_pixels=5400)
+    assert clear.info()["background"] == "transparent"
+    _, rec = clear.render(lights.preset("front").tolist())
+    png = cv2.imdecode(np.frombuffer(rec.png, np.uint8), cv2.IMREAD_UNCHANGED)
+    assert png.shape == (90, 60, 4) and png[0, 0, 3] == 0 and png[45, 30, 3] == 255
+    with pytest.raises(RelightError, match="expected the photo's"):
+        small = tmp_path / "small.png"
+        small.write_bytes(_png_bytes(bg[:50]))
+        Studio(photo, None, str(small), relighter)
+
+
+def test_cli_port_in_use_is_one_error_line(photo, models_dir, capsys):
+    pytest.importorskip("fastapi")
+    pytest.importorskip("uvicorn")
+    import socket
+
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen(1)
+        port = taken.getsockname()[1]
+        assert main(["studio", str(photo), "--port", str(port), "--models", str(models_dir), "--device", "cpu"]) == 2
+    assert f"cannot listen on 127.0.0.1:{port}" in capsys.readouterr().err
+
+
+def test_ci_install_browser_script(tmp_path):
+    script = REPO / ".ci" / "install-browser"
+    fake = tmp_path / "chromium"
+    fake.write_text("#!/bin/sh\necho 'Chromium 1.2.3'\n")
+    fake.chmod(0o755)
+    found = subprocess.run(
+        ["/bin/bash", str(script)], env={"RELIGHT_RT_CHROMIUM": str(fake), "PATH": "/usr/bin:/bin"},
+        capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    assert found.returncode == 0 and "found Chromium 1.2.3" in found.stdout
+    missing = subprocess.run(
+        ["/bin/bash", str(script)], env={"RELIGHT_RT_CHROMIUM": str(tmp_path / "none"), "PATH": str(tmp_path)},
+        capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    assert missing.returncode == 1 and "no apt-get" in missing.stderr
+
+
+def test_background_light_comes_from_the_scene(studio):
+    scene = np.full((120, 160, 3), 40, np.uint8)
+    scene[:, 120:] = 250  # a bright window on the photo's right: light from +y (DESIGN.md §3)
+    light = studio.background_light(cv2.imencode(".png", scene)[1].tobytes())
+    assert light.shape == (9, 3) and (light[1] > 0.2 * light[0]).all()
+    with pytest.raises(RelightError, match="background"):
+        studio.background_light(b"\x89PNG\r\n\x1a\n" + bytes(40))
+    # the key light can be steered (the handle of the scene's light): from the image's left, less light from +y
+    left = studio.background_light(cv2.imencode(".png", scene)[1].tobytes(), "-90,20")
+    assert (left[1] < light[1]).all()
+    with pytest.raises(RelightError, match="key light"):
+        studio.background_light(cv2.imencode(".png", scene)[1].tobytes(), "east")
+
+
+def test_cli_studio_takes_every_runtime_option(photo, models_dir, monkeypatch):
+    """issue 31: studio accepted --precision/--preprocess/--no-detail and ignored them; they reach its Relighter."""
+    pytest.importorskip("fastapi")
+    pytest.importorskip("uvicorn")
+    import relight_rt.apps.studio as studio_cli
+
+    served = []
+    monkeypatch.setattr(studio_cli, "serve", lambda studio, host, port, open_browser: served.append(studio))
+    args = ["studio", str(photo), "--models", str(models_dir), "--device", "cpu", "--no-detail", "--preprocess",
+            "reference"]
+    assert main(args) == 0
+    assert served and served[0].relighter.detail is False and served[0].relighter.preprocess == "reference"
+
+
+def test_a_signal_the_server_swallowed_still_ends_the_serve(photo, models_dir, monkeypatch):
+    """uvicorn raises the signal that stopped it again from inside its event loop, where asyncio's own Ctrl-C
+    handling can swallow it: under load a Ctrl-C'd studio once exited with status 0 and no line. A run that
+    ends quietly after a signal now raises it again: KeyboardInterrupt for Ctrl-C."""
+    pytest.importorskip("fastapi")
+    uvicorn = pytest.importorskip("uvicorn")
+    import signal
+
+    from relight_rt.apps import studio as studio_pkg
+
+    def quiet_run(self, sockets=None):
+        self.handle_exit(signal.SIGINT, None)  # stopped by Ctrl-C, the re-raise lost
+
+    monkeypatch.setattr(uvicorn.Server, "run", quiet_run)
+    session = Studio(photo, None, "original", Relighter(RuntimeConfig(models=models_dir, device="cpu")))
+    with pytest.raises(KeyboardInterrupt):
+        studio_pkg.serve(session, port=0)
+
+
+@pytest.mark.parametrize("ev", [-1e-05, -2e-07, -3.0, 1e-05])
+@pytest.mark.parametrize("name", ["-x.png", "--help.png", "-o.png", "a b;rm -rf.png"])
+def test_exported_command_parses_as_it_reads(studio, monkeypatch, name, ev):
+    """Issue 50 bugs 10, 11: an EV of -1e-05 was written "--exposure -1e-05" (argparse took it for an option), and a
+    photo named -x.png gave "relight -x.png --light -x_light.npy" (INPUT missing). Every option is one --name=VALUE
+    word and a relative path that starts with "-" gets ./, so the command parses to what the studio used."""
+    import shlex
+
+    from relight_rt.apps.studio.core import Render
+    from relight_rt.cli import build_parser
+
+    monkeypatch.setattr(studio, "photo", Path(name))
+    monkeypatch.setattr(studio, "mask", Path("-" + name))
+    cmd = studio.command(Render(b"", np.zeros((9, 3), np.float32), ev, 0.0), Path(name).stem + "_light.npy")
+    args = build_parser().parse_args(shlex.split(cmd)[1:])
+    operand = f"./{name}" if name.startswith("-") else name
+    assert args.inputs == [operand] and args.mask == f"-{name}" and args.exposure == str(ev), cmd
+    assert args.light == Path(name).stem + "_light.npy" and args.output == Path(name).stem + "_relit.png"

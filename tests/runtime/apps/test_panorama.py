@@ -1,0 +1,337 @@
+"""relight_rt.apps.panorama: a panorama used exactly (the plate, the light in the view's frame, composite --view)."""
+
+import math
+import re
+
+import cv2
+import numpy as np
+import pytest
+from _cli import in_folder, run
+from _graphs import diffuse_models_dir, models_dir, write_person
+
+from relight_rt import Relighter, RelightError, RuntimeConfig, envmap, sh
+from relight_rt.apps.panorama import (
+    METER_GREY,
+    composite_panorama,
+    panorama_view,
+    parse_size,
+    parse_view,
+    render_view,
+    source,
+    view_rotation,
+)
+from relight_rt.image.color import srgb_to_linear
+from relight_rt.light.exposure import REC709
+from relight_rt.light.from_background import envmap_view
+
+__all__ = ["diffuse_models_dir", "models_dir"]  # fixtures
+
+PANORAMAS = ("sunset", "apartment", "city")  # a low sun, an interior with windows, a street under the sky
+
+
+@pytest.fixture(scope="module")
+def hdri(shared_dir):
+    folder = shared_dir / "hdri"
+    if not (folder / "city.hdr").is_file():
+        pytest.skip("../shared/hdri is not present")
+    return folder
+
+
+def lumpy_panorama(h=64):
+    """A smooth map with a bright spot to the right of the view's centre (azimuth +40°, elevation 20°)."""
+    d = envmap.directions_envmap(h)
+    spot = np.array([-math.cos(math.radians(20)) * math.cos(math.radians(40)),
+                     math.cos(math.radians(20)) * math.sin(math.radians(40)), math.sin(math.radians(20))])  # fmt: skip
+    env = 0.2 + 0.1 * d[..., 2:3] + 20 * np.exp((d @ spot - 1) / 0.01)[..., None] * np.array([1.0, 0.8, 0.6])
+    return env.astype(np.float32), spot
+
+
+def rotated_map(env, rotation, height=128):
+    """The map seen from the camera frame by resampling pixels (independent of the SH rotation): pixel ω_c of the
+    new map shows the panorama at R · ω_c. Area-resized first so that bilinear look-up integrates well."""
+    small = cv2.resize(env, (2 * 2 * height, 2 * height), interpolation=cv2.INTER_AREA)
+    d = envmap.directions_envmap(height) @ np.asarray(rotation).T
+    theta = np.arccos(np.clip(d[..., 2], -1, 1))
+    phi = np.mod(np.arctan2(-d[..., 1], d[..., 0]), 2 * np.pi)
+    eh, ew = small.shape[:2]
+    padded = np.concatenate([small[:, -1:], small, small[:, :1]], axis=1)
+    mapx = (phi / (2 * np.pi) * ew + 0.5).astype(np.float32)
+    mapy = np.clip(theta / np.pi * eh - 0.5, 0, eh - 1).astype(np.float32)
+    return cv2.remap(padded, mapx, mapy, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+
+
+def irradiance_error(light, truth) -> float:
+    """RMS over all normals of the luminance irradiance difference, over the RMS of the truth's irradiance."""
+    n = sh.sphere_directions(2000)
+    a, b = sh.irradiance(light, n) @ REC709, sh.irradiance(truth, n) @ REC709
+    return float(np.sqrt(np.mean((a - b) ** 2)) / np.sqrt(np.mean(b**2)))
+
+
+# ------------------------------------------------------------------------------------------------ the view
+
+
+@pytest.mark.parametrize("value, expected", [("30,0", (30, 0, 60)), ("-90, 10, 75", (-90, 10, 75)),
+                                             ((370, -5), (10, -5, 60)), ("180,0", (180, 0, 60)),
+                                             ("-180,0", (180, 0, 60))])  # fmt: skip
+def test_parse_view(value, expected):
+    assert parse_view(value) == pytest.approx(expected)
+
+
+@pytest.mark.parametrize("value", ["30", "a,b", "0,95", "0,-81", "0,0,200", "0,0,5", "nan,0", "1,2,3,4", "", 5, None])
+def test_bad_views_get_one_clear_error(value):
+    with pytest.raises(RelightError, match=r"^view: .*(AZIMUTH,ELEVATION|elevation|field of view)"):
+        parse_view(value)
+
+
+@pytest.mark.parametrize("value, match", [("640x480", (640, 480)), ((128, 96), (128, 96))])
+def test_parse_size(value, match):
+    assert parse_size(value) == match
+
+
+@pytest.mark.parametrize("value", ["640", "32x480", "640x-1", "axb", (64.5, 64), (True, 64), "100000x100000"])
+def test_bad_sizes(value):
+    with pytest.raises(RelightError, match="^size: (expected WxH|image is 100000x100000.*more than the limit)"):
+        parse_size(value)
+
+
+def test_view_rotation_points_the_camera_where_asked():
+    forward = np.array([-1.0, 0, 0])
+    np.testing.assert_allclose(view_rotation(90, 0) @ forward, [0, 1, 0], atol=1e-12)  # right = +y
+    np.testing.assert_allclose(view_rotation(0, 30) @ forward, [-math.cos(math.pi / 6), 0, 0.5], atol=1e-12)
+    r = view_rotation(-37, 12)
+    np.testing.assert_allclose(r @ r.T, np.eye(3), atol=1e-12)
+    assert np.linalg.det(r) == pytest.approx(1)
+
+
+def test_the_plate_is_oriented_as_envmap_view():
+    env, _ = lumpy_panorama(64)
+    env = env + np.linspace(0, 1, 128, dtype=np.float32)[None, :, None]  # columns told apart
+    np.testing.assert_allclose(render_view(env, (48, 64), 0, 0, 60), envmap_view(env, (48, 64), 60), rtol=1e-4)
+    # looking 90° to the right shows what envmap_view shows of the map turned so that that column is its centre
+    turned = np.roll(env, -env.shape[1] // 4, axis=1)
+    np.testing.assert_allclose(render_view(env, (48, 64), 90, 0, 60), envmap_view(turned, (48, 64), 60), rtol=1e-4)
+    np.testing.assert_allclose(render_view(env, (48, 64), -180, 0, 60), render_view(env, (48, 64), 180, 0, 60),
+                               atol=1e-5)  # fmt: skip
+
+
+def test_the_spot_appears_where_the_view_puts_it():
+    env, _ = lumpy_panorama(128)
+    right = render_view(env, (60, 80), 0, 0, 120) @ REC709  # the spot 40° right, 20° up: upper right
+    i, j = np.unravel_index(int(np.argmax(right)), right.shape)
+    assert j > 40 and i < 30
+    centred = render_view(env, (61, 81), 40, 20, 60) @ REC709  # looking at it: the centre
+    i, j = np.unravel_index(int(np.argmax(centred)), centred.shape)
+    assert abs(i - 30) <= 1 and abs(j - 40) <= 1
+
+
+def test_the_plate_is_the_metered_view_and_the_light_is_in_its_units():
+    env, spot = lumpy_panorama(64)
+    pv = panorama_view(env, (96, 72), "0,0,70")
+    linear = render_view(env, (72, 96), 0, 0, 70)
+    assert pv.plate.shape == (72, 96, 3) and pv.plate.dtype == np.uint8
+    assert pv.exposure == pytest.approx(METER_GREY / float((linear @ REC709).mean()), rel=1e-5)
+    expect = np.clip(linear * pv.exposure, 0, 1)
+    np.testing.assert_allclose(srgb_to_linear(pv.plate), expect, atol=0.01)
+    # a uniform panorama: a white surface gets shading equal to the plate's value
+    flat = panorama_view(np.full((32, 64, 3), 3.0, np.float32), (64, 64), (0, 0))
+    shading = sh.irradiance(flat.light, np.array([[1.0, 0, 0]]))[0]
+    np.testing.assert_allclose(shading, srgb_to_linear(flat.plate)[32, 32], rtol=0.02)
+    # the spot (40° right of the view, 20° up): the light comes from the right and above, from behind the person
+    d, _ = sh.dominant_direction(pv.light @ REC709)
+    assert d[1] > 0.3 and d[2] > 0.1 and d[0] < 0
+
+
+@pytest.mark.parametrize("name", PANORAMAS)
+@pytest.mark.parametrize("view", [(0, 0, 60), (135, 10, 75), (-60, -15, 50)])
+def test_the_light_is_the_panoramas_in_the_views_frame(hdri, name, view):
+    """The light equals the panorama resampled into the camera's frame and projected (irradiance error <= 2 %)."""
+    env = envmap.load_envmap(hdri / f"{name}.hdr")
+    pv = panorama_view(env, (96, 64), view)
+    truth = envmap.project_envmap(rotated_map(env, view_rotation(*view[:2]))) * (pv.exposure / math.pi)
+    assert irradiance_error(pv.light, truth) <= 0.02
+    other = envmap.project_envmap(rotated_map(env, view_rotation(view[0] + 90, view[1]))) * (pv.exposure / math.pi)
+    assert irradiance_error(other, truth) > 0.05  # the test can tell a view turned by 90°
+
+
+# ------------------------------------------------------------------------------------------------ composite
+
+
+@pytest.fixture(scope="module")
+def diffuse(diffuse_models_dir):
+    return Relighter(RuntimeConfig(models=diffuse_models_dir, device="cpu", detail=False))
+
+
+def flat_person(h=150, w=100):
+    img = np.full((h, w, 3), 128, np.uint8)
+    mask = np.zeros((h, w), np.float32)
+    mask[20:140, 30:70] = 1.0
+    return img, mask
+
+
+@pytest.mark.parametrize("name", PANORAMAS)
+def test_composite_lights_the_person_with_the_panoramas_light(hdri, diffuse, monkeypatch, name):
+    seen = []
+    relight = diffuse.relight
+
+    def spy(dec, light, *args, **kwargs):
+        seen.append(np.array(light, np.float64))
+        return relight(dec, light, *args, **kwargs)
+
+    monkeypatch.setattr(diffuse, "relight", spy)
+    img, mask = flat_person()
+    view = (30, 5, 70)
+    out = composite_panorama(diffuse, img, hdri / f"{name}.hdr", view, mask=mask, meter="background")
+    assert out.shape == (150, 100, 3)
+    env = envmap.load_envmap(hdri / f"{name}.hdr")
+    pv = panorama_view(env, (100, 150), view)
+    truth = envmap.project_envmap(rotated_map(env, view_rotation(*view[:2]))) * (pv.exposure / math.pi)
+    assert len(seen) == 1 and irradiance_error(seen[0], truth) <= 0.02
+    np.testing.assert_allclose(out[:10, :10], pv.plate[:10, :10] / 255, atol=2 / 255)  # the plate, away from the person
+    seen.clear()
+    composite_panorama(diffuse, img, env, view, mask=mask, exposure=1.0, size="120x90", meter="background")
+    wide = panorama_view(env, (120, 90), view).light  # another size: another view, metered again
+    np.testing.assert_allclose(seen[0], 2 * wide, rtol=1e-4, atol=1e-6)  # EV +1 doubles it
+
+
+def test_the_panorama_composite_reads_the_photo_once_and_estimates_no_light(diffuse_models_dir, tmp_path,
+                                                                            monkeypatch):
+    """Review: composite_panorama decoded the person photo just for its size, and scene.composite estimated the
+    plate's light (relight_rt.light.from_background) though the panorama gives it."""
+    import relight_rt.scene as scene
+
+    import relight_rt.image.io as io
+
+    img, mask = flat_person()
+    path = tmp_path / "person.png"
+    cv2.imwrite(str(path), img[..., ::-1])
+    r = Relighter(RuntimeConfig(models=diffuse_models_dir, device="cpu", detail=False),
+                  matter=lambda rgb, name="image": mask)  # fmt: skip
+    env, _ = lumpy_panorama(64)
+    calls = []
+    decode = io.decode_file
+    monkeypatch.setattr(io, "decode_file", lambda *a, **k: calls.append(a[0]) or decode(*a, **k))
+    monkeypatch.setattr(scene, "scene_light", lambda *a, **k: pytest.fail("the scene light was estimated"))
+    out = composite_panorama(r, path, env, (10, 0), meter="background")
+    assert calls == [path] and out.shape == (150, 100, 3)
+    monkeypatch.undo()
+    np.testing.assert_array_equal(out, composite_panorama(r, img, env, (10, 0), mask=mask, meter="background"))
+
+
+# ------------------------------------------------------------------------------------------------ CLI
+
+
+@pytest.fixture
+def work(tmp_path, models_dir, monkeypatch):
+    in_folder(tmp_path, models_dir, monkeypatch)
+    write_person(tmp_path, seed=1)
+    env, _ = lumpy_panorama(64)
+    cv2.imwrite("pano.hdr", env[..., ::-1])
+    cv2.imwrite("wide.hdr", np.ones((64, 96, 3), np.float32))
+    return tmp_path
+
+
+def test_cli_composite_with_a_view(work, capsys):
+    code, _, err = run(["composite", "p.png", "--background", "pano.hdr", "--view", "40,5", "-o", "out.png"], capsys)
+    assert code == 0, err
+    assert cv2.imread("out.png").shape == (150, 100, 3)
+    argv = ["composite", "p.png", "--background", "pano.hdr", "--view=-20,0,80", "--size", "160x96", "-o", "o.jpg",
+            "--no-shadow", "--meter", "background", "--rim"]  # fmt: skip
+    code, _, err = run(argv, capsys)
+    assert code == 0, err
+    assert cv2.imread("o.jpg").shape == (96, 160, 3)
+
+
+@pytest.mark.parametrize(
+    "extra, match",
+    [
+        (["--background", "pano.hdr"], r"holds radiance, not a photo.*--view AZIMUTH,ELEVATION"),
+        (["--background", "pano.hdr", "--view", "10"], r"view: expected AZIMUTH,ELEVATION"),
+        (["--background", "pano.hdr", "--view", "0,90"], r"view: elevation"),
+        (["--background", "pano.hdr", "--view", "0,0,180"], r"view: field of view"),
+        (["--background", "wide.hdr", "--view", "0,0"], r"not an equirectangular panorama"),
+        (["--background", "pano.hdr", "--view", "0,0", "--preset", "studio"], r"drop --preset"),
+        (["--background", "pano.hdr", "--view", "0,0", "--fov", "50"], r"drop --fov"),
+        (["--background", "pano.hdr", "--view", "0,0", "--size", "10x10"], r"size: expected WxH"),
+        (["--background", "p.png", "--size", "100x100"], r"--size: only with --view"),
+        (["--background", "pano.hdr", "--view", "0,0", "--camera-height", "-1"], r"camera height: expected metres"),
+    ],
+)
+def test_cli_view_errors(work, capsys, extra, match):
+    code, _, err = run(["composite", "p.png", *extra, "-o", "out.png"], capsys)
+    assert code == 2 and err.startswith("relight-rt: error:") and len(err.strip().splitlines()) == 1, err
+    assert re.search(match, err), err
+    assert not (work / "out.png").exists()
+
+
+def test_an_hdr_background_photo_says_what_to_do(work):
+    from relight_rt.light.from_background import read_background
+
+    with pytest.raises(RelightError, match="holds radiance, not a photo.*composite --view"):
+        read_background(work / "pano.hdr")
+
+
+def test_the_source_is_the_bright_spot():
+    env, spot = lumpy_panorama(128)
+    direction, power = source(env)
+    assert math.degrees(math.acos(min(1.0, float(direction @ spot)))) < 2
+    d = envmap.directions_envmap(128)
+    only_spot = (20 * np.exp((d @ spot - 1) / 0.01)[..., None] * np.array([1.0, 0.8, 0.6]))
+    total = (only_spot * envmap.solid_angles_envmap(128)[..., None]).reshape(-1, 3).sum(0)
+    assert 0.4 * total[0] < power[0] < total[0]  # the core of the spot (>= half the peak), not the sky
+    np.testing.assert_allclose(power / power[0], [1.0, 0.8, 0.6], rtol=0.05)
+    pv = panorama_view(env, (96, 72), (40, 20))  # looking straight at it: behind the person, along −x
+    np.testing.assert_allclose(pv.source_direction, [-1, 0, 0], atol=0.03)
+
+
+def test_a_sun_in_frame_puts_a_rim_on_its_side(diffuse):
+    """The spot 40° right of the map's centre, 20° up, seen from azimuth 20: behind the person, to the right."""
+    img, mask = flat_person()
+    env, _ = lumpy_panorama(128)
+    pv = panorama_view(env, (100, 150), (20, 0))
+    assert pv.source_direction[0] < -0.8 and pv.source_direction[1] > 0.2
+    kw = {"mask": mask, "meter": "background", "match_camera": False, "light_wrap": False, "shadow": False,
+          "position": (0.5, 0.95), "height": 0.8}  # fmt: skip
+    plain = composite_panorama(diffuse, img, env, (20, 0), **kw)
+    rim = composite_panorama(diffuse, img, env, (20, 0), rim=True, **kw)
+    gain = (srgb_to_linear(rim) @ REC709) / np.maximum(srgb_to_linear(plain) @ REC709, 1e-6)
+    body = np.s_[60:110]  # rows between the head's top (lit too: the spot is 34° up) and the feet
+    cols = np.flatnonzero(gain[body].max(0) > 1.08)  # in linear light: 1 + gain · n·d · band at the outline
+    assert cols.size and cols.min() > 50  # brightened: the right side of the outline (the person spans 31-69)
+    assert np.abs(rim[body][:, :45] - plain[body][:, :45]).max() < 1e-6  # the left side as it was
+
+
+def test_an_hdr_array_as_a_background_says_what_to_do():
+    from relight_rt.light.from_background import read_background
+
+    with pytest.raises(RelightError, match=r"values up to 7.*HDR image.*relight_rt.apps.panorama"):
+        read_background(np.full((64, 64, 3), 7.0, np.float32))
+    with pytest.raises(RelightError, match=r"expected finite float values in \[0, 1\]$"):
+        read_background(np.full((64, 64, 3), -2.0, np.float32))
+
+
+# issue 50, round 4 fuzz (benchmarks/fuzz_round5.py): a panorama of any finite scale, and clear errors for the rest
+
+
+@pytest.mark.parametrize("scale", [3e38 / 20, 1e-38])
+def test_a_panorama_of_any_finite_scale_gives_the_same_view(scale, recwarn):
+    env, _ = lumpy_panorama(32)
+    ref = panorama_view(env, (96, 64), (0, 0))
+    pv = panorama_view((env.astype(np.float64) * scale / env.max()).astype(np.float32), (96, 64), (0, 0))
+    assert not [w for w in recwarn if issubclass(w.category, RuntimeWarning)]
+    assert np.abs(pv.plate.astype(int) - ref.plate).max() <= 1
+    np.testing.assert_allclose(pv.light, ref.light, rtol=1e-4, atol=1e-7)
+    np.testing.assert_allclose(pv.source_shading, ref.source_shading, rtol=1e-4)
+    assert pv.exposure == pytest.approx(ref.exposure * env.max() / scale, rel=1e-4)
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_nan_or_inf_pixels_say_so(bad):
+    env, _ = lumpy_panorama(32)
+    env[:] = bad
+    with pytest.raises(RelightError, match="NaN or Inf"):
+        panorama_view(env, (96, 64), (0, 0))
+
+
+def test_a_black_view_names_azimuth_0_not_minus_0():
+    with pytest.raises(RelightError, match=r"view 0,0 is black"):
+        panorama_view(np.zeros((32, 64, 3), np.float32), (96, 64), (0, 0))

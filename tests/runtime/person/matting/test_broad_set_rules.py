@@ -1,0 +1,218 @@
+"""Issue 48, the matte on photos nobody here chose (benchmarks/people_masks_eval.py): the rules it added, each on
+a synthetic image with stand-in graphs (the figures they were measured by are in their docstrings)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from test_matting import iou
+from test_people_found import _Bright, head_and_shoulders
+
+from relight_rt import RelightError
+from relight_rt.person import matting as M
+from relight_rt.person.face_detector import Face
+from relight_rt.person.matting import _matter
+
+
+class _Unsure:
+    """A stand-in for the pose graph: segments the bright part of the canvas, but its presence flag says nobody
+    (as the real one does for a runner in mid-air)."""
+
+    def run(self, feeds):
+        seg = np.where(feeds["image"][0].mean(0) > 0.5, 10.0, -10.0).astype(np.float32)
+        return {"segmentation": seg[None, None], "presence": np.array([[0.01]], np.float32)}
+
+
+class _Blind:
+    """A stand-in for the selfie graph that sees nobody."""
+
+    def run(self, feeds):
+        return {"segmentation": np.zeros((1, 1, 256, 256), np.float32)}
+
+
+class _Left:
+    """A stand-in for the selfie graph that sees only the left half of what is bright."""
+
+    def run(self, feeds):
+        prob = feeds["image"][0].mean(0)
+        prob[:, 128:] = 0.0
+        return {"segmentation": prob[None, None]}
+
+
+def crouching(h: int = 300, w: int = 400) -> np.ndarray:
+    """A bright blob (a body curled up) on a dark photo."""
+    yy, xx = np.mgrid[0:h, 0:w] + 0.5
+    return ((((xx - 200) / 80) ** 2 + ((yy - 140) / 60) ** 2) < 1).astype(np.float32)
+
+
+def test_the_selfie_graph_vouches_for_a_body_the_presence_flag_misses():
+    """Where the pose graph's presence flag says nobody but the selfie graph segments the same shape on the same
+    region, a person is there: the parkour clip's runner in mid-air (10 frames of 100 were empty mattes)."""
+    body = crouching()
+    rgb = np.repeat(body[..., None], 3, 2)
+    matter = M.PersonMatter(refine=False)
+    matter.roi, matter.pose, matter.face = _Bright(), _Unsure(), None
+    person = matter.segment(rgb, M.Region.around(120.0, 80.0, 280.0, 200.0))
+    assert person.presence < _matter.PRESENCE_MIN
+    assert matter.vouched(rgb, person)
+    assert iou(matter(rgb), body) > 0.95  # was "no person found"
+    matter.roi = _Left()  # the selfie graph sees another shape there: no one vouches
+    assert not matter.vouched(rgb, person)
+    matter.roi = _Blind()
+    assert not matter.vouched(rgb, person)
+    with pytest.raises(RelightError, match="no person found"):
+        matter(rgb)
+
+
+def test_the_video_matter_keeps_a_body_the_selfie_graph_vouches_for():
+    body = crouching()
+    rgb = np.repeat(body[..., None], 3, 2)
+    matter = M.PersonMatter(refine=False)
+    matter.roi, matter.pose, matter.face = _Bright(), _Unsure(), None
+    video = M.VideoMatter(matter, refine=False)
+    for _ in range(2):  # found, then followed
+        assert iou(video(rgb), body) > 0.95
+
+
+class _AnyColour:
+    """A stand-in for the selfie graph: person probability = the canvas's brightest channel."""
+
+    def run(self, feeds):
+        return {"segmentation": feeds["image"][0].max(0)[None, None]}
+
+
+class _HeadOnly:
+    """A stand-in for the pose graph: sure of a person, but it segments only the red part of the canvas (the
+    head: it loses a close portrait's shoulders, as the real one does before an orange wall)."""
+
+    def run(self, feeds):
+        image = feeds["image"][0]
+        seg = np.where((image[0] > 0.5) & (image[1] < 0.5), 10.0, -10.0).astype(np.float32)
+        return {"segmentation": seg[None, None], "presence": np.array([[0.9]], np.float32)}
+
+
+def red_headed_portrait() -> tuple[np.ndarray, np.ndarray]:
+    person = head_and_shoulders()
+    rgb = np.repeat(person[..., None], 3, 2)
+    head = (person > 0) & (np.arange(person.shape[0])[:, None] < 260)
+    rgb[head, 1:] = 0.0  # a red head and collar on a white chest
+    return rgb, person
+
+
+@pytest.mark.parametrize(("face_width", "portrait"), [(140.0, True), (30.0, False)])
+def test_a_portrait_whose_pose_region_stops_above_the_bottom_is_checked(face_width, portrait):
+    """The pose graph sees only the head and collar; its region, framed on them, stops above the bottom. With a
+    face half the head's width inside, the selfie graph on a region reaching the bottom gives the chest too (a portrait
+    before an orange wall: IoU 0.46 -> 0.98); a face a tenth of the person's width (a body crouching at the
+    bottom of the frame) keeps the pose graph's answer."""
+    rgb, person = red_headed_portrait()
+    matter = M.PersonMatter(refine=False)
+    matter.roi, matter.pose = _AnyColour(), _HeadOnly()
+    cx = 150.0
+    matter.find_faces = lambda rgb, every=False: [Face((cx - face_width / 2, 60.0, cx + face_width / 2, 160.0), 0.9)]
+    found = matter.segment(rgb, M.Region.around(20.0, 10.0, 280.0, 260.0))
+    alpha = matter.alpha(rgb, [found])
+    if portrait:
+        assert found.source == "roi"
+        assert iou(alpha, person) > 0.95
+    else:
+        assert found.source == "pose"
+        assert (alpha[270:] >= 0.5).sum() == 0  # the chest stays out: no portrait
+    matter.find_faces = lambda rgb, every=False: []
+    assert matter.segment(rgb, M.Region.around(20.0, 10.0, 280.0, 260.0)).source == "pose"  # no face: no check
+
+
+def test_a_portrait_region_is_looked_for_only_near_the_bottom():
+    rgb, _ = red_headed_portrait()
+    matter = M.PersonMatter(refine=False)
+    matter.find_faces = lambda rgb, every=False: [Face((80.0, 60.0, 220.0, 160.0), 0.9)]
+    person = M.Person(M.Region(150.0, 140.0, 240.0), np.full((256, 256), 10.0, np.float32), 0.9)
+    region = matter._portrait_region(rgb, person)  # ends at row 260 of 360: near the bottom
+    assert region is not None and region.box()[3] >= 360
+    high = M.Person(M.Region(150.0, 60.0, 100.0), np.full((256, 256), 10.0, np.float32), 0.9)  # ends at row 110
+    assert matter._portrait_region(rgb, high) is None
+
+
+class _Nobody:
+    """A stand-in for the pose graph that sees nobody."""
+
+    def run(self, feeds):
+        return {"segmentation": np.full((1, 1, 256, 256), -10.0, np.float32),
+                "presence": np.array([[0.0]], np.float32)}  # fmt: skip
+
+
+@pytest.mark.parametrize(("score", "sure", "kept"), [(0.7, 0.0, True), (0.7, 0.8, False), (0.9, 0.8, True)])
+def test_a_face_with_no_body_under_it_needs_a_sure_score_when_asked(score, sure, kept):
+    """person="all" asks a face beside someone found already for a sure score where the pose graph sees no body
+    under it (faces found in a red bench and a treadmill's console scored 0.66-0.73); the first face of a photo
+    (a close portrait, 0.71) is taken as before."""
+    body = crouching()
+    rgb = np.repeat(body[..., None], 3, 2)
+    matter = M.PersonMatter(refine=False)
+    matter.roi, matter.pose, matter.face = _Bright(), _Nobody(), None
+    face = Face((170.0, 100.0, 230.0, 160.0), score)
+    p = matter._person_at(rgb, face.body_box(rgb.shape[:2]), face, sure_face=sure)
+    assert (p is not None) == kept
+
+
+class _DimLegs:
+    """A stand-in for the pose graph: sure of the bright body (logit 10), half-sees the grey legs (probability
+    0.2), as the real one half-sees dark trousers."""
+
+    def run(self, feeds):
+        grey = feeds["image"][0].mean(0)
+        seg = np.where(grey > 0.6, 10.0, np.where(grey > 0.2, np.log(0.2 / 0.8), -10.0)).astype(np.float32)
+        return {"segmentation": seg[None, None], "presence": np.array([[0.95]], np.float32)}
+
+
+class _Seen:
+    """A stand-in for the selfie graph: a person wherever the canvas is not black."""
+
+    def run(self, feeds):
+        return {"segmentation": (feeds["image"][0].mean(0) > 0.2).astype(np.float32)[None, None]}
+
+
+@pytest.mark.parametrize(("selfie", "legs"), [(_Seen, True), (_Blind, False)])
+def test_what_the_pose_graph_half_sees_is_the_persons_where_the_selfie_graph_agrees(selfie, legs):
+    h, w = 300, 400
+    yy, xx = np.mgrid[0:h, 0:w] + 0.5
+    torso = (((xx - 200) / 50) ** 2 + ((yy - 100) / 70) ** 2) < 1
+    trousers = (np.abs(xx - 200) < 35) & (yy > 150) & (yy < 260)
+    rgb = np.zeros((h, w, 3), np.float32)
+    rgb[trousers] = 0.4
+    rgb[torso] = 1.0
+    matter = M.PersonMatter(refine=False)
+    matter.roi, matter.pose, matter.face = selfie(), _DimLegs(), None
+    person = matter._backed(rgb, matter.segment(rgb, M.Region.around(150.0, 30.0, 250.0, 260.0), passes=1))
+    alpha = matter.alpha(rgb, [person])
+    assert (alpha[torso] >= 0.5).mean() > 0.95
+    below = trousers & (yy > 175)
+    assert ((alpha[below] >= 0.5).mean() > 0.9) == legs
+
+
+@pytest.mark.parametrize(("brightness", "found"), [(1.0, True), (0.7, False)])
+def test_a_blob_the_selfie_graph_is_sure_of_is_the_person_when_nothing_else_vouches(brightness, found):
+    """person="largest": when neither the pose graph nor a face vouches for anyone, the selfie graph's own
+    segmentation of its largest blob is the person if it is sure of it (mean probability >= _SURE_BLOB over it: a
+    couple taking a selfie, a woman seen from behind were empty mattes)."""
+    body = crouching()
+    rgb = np.repeat(body[..., None] * brightness, 3, 2)
+    matter = M.PersonMatter(refine=False)
+    matter.roi, matter.pose, matter.face = _Bright(), _Nobody(), None
+    if found:
+        assert iou(matter(rgb), body) > 0.95
+    else:
+        with pytest.raises(RelightError, match="no person found"):
+            matter(rgb)
+
+
+def test_a_blob_needs_the_pose_graphs_flag_when_vouching_is_off():
+    """person="all" once someone is found: a blob both graphs segment alike but the pose graph's flag calls nobody
+    (a pile of clothes on a chair beside a man at a desk) is no second person."""
+    body = crouching()
+    rgb = np.repeat(body[..., None], 3, 2)
+    matter = M.PersonMatter(refine=False)
+    matter.roi, matter.pose, matter.face = _Bright(), _Unsure(), None
+    box = (120.0, 80.0, 280.0, 200.0)
+    assert matter._person_at(rgb, box, None) is not None
+    assert matter._person_at(rgb, box, None, vouch=False) is None

@@ -1,0 +1,235 @@
+"""relight_rt.person.face_mesh: face normals from the bundled face mesh, blended into the relighting transport."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from _graphs import unoccluded_transport
+
+import relight_rt
+from relight_rt import RelightError, RuntimeConfig, lights
+from relight_rt.engine.session import bundled_models_dir
+from relight_rt.person.face_mesh import (
+    HEAD_STRENGTH,
+    FaceMesh,
+    face_transport,
+    head_normals,
+    lobe_transport,
+    rasterise_normals,
+)
+from relight_rt.relight.factor import Factor
+
+REFERENCE = Path(__file__).resolve().parents[4] / "shared" / "reference"
+
+
+@pytest.mark.parametrize("normal", [(1, 0, 0), (0, 1, 0), (0.3, -0.5, 0.81), (-0.2, 0.1, -0.97)])
+def test_lobe_transport_is_design_sections_unoccluded_transport(normal):
+    n = np.asarray(normal, np.float64) / np.linalg.norm(normal)
+    np.testing.assert_allclose(lobe_transport(n), unoccluded_transport(n), atol=1e-6)
+
+
+def _plane(slope_x: float, slope_y: float, size: int = 40):
+    """Two triangles covering a square of the image, on the plane z = slope_x * x + slope_y * y."""
+    pts = np.array([[5, 5], [5 + size, 5], [5 + size, 5 + size], [5, 5 + size]], np.float64)
+    z = slope_x * pts[:, 0] + slope_y * pts[:, 1]
+    return np.column_stack([pts, z]), np.array([[0, 1, 2], [0, 2, 3]])
+
+
+def test_a_plane_facing_the_camera_has_the_normal_plus_x_and_is_covered():
+    pts, tris = _plane(0, 0)
+    normals, cover = rasterise_normals(pts, tris, (60, 60))
+    np.testing.assert_allclose(normals[25, 25], [1, 0, 0], atol=1e-6)
+    assert cover[10:40, 10:40].min() == 1 and cover[50:, :].max() == 0 and cover[:, 50:].max() == 0
+    np.testing.assert_array_equal(normals[cover == 0], 0)
+
+
+def test_the_normal_turns_toward_the_side_that_recedes_in_the_subject_frame():
+    """z grows away from the camera: a plane whose right side recedes faces the image's right (+y), one whose
+    lower side recedes faces down (-z); the triangles' winding does not matter."""
+    normals, _ = rasterise_normals(*_plane(1.0, 0.0), (60, 60))
+    n = normals[25, 25]
+    np.testing.assert_allclose(n, [1 / np.sqrt(2), 1 / np.sqrt(2), 0], atol=1e-6)
+    pts, tris = _plane(0.0, 1.0)
+    normals, _ = rasterise_normals(pts, tris[:, ::-1], (60, 60))  # wound the other way round
+    np.testing.assert_allclose(normals[25, 25], [1 / np.sqrt(2), 0, -1 / np.sqrt(2)], atol=1e-6)
+
+
+def test_the_nearest_triangle_is_seen():
+    near = np.array([[10, 10, 0.0], [50, 10, 0.0], [30, 50, 0.0]])
+    far = np.array([[10, 10, 50.0], [50, 10, 90.0], [30, 50, 50.0]])  # tilted, behind
+    for order in ((near, far), (far, near)):
+        pts = np.concatenate(order)
+        normals, _ = rasterise_normals(pts, np.array([[0, 1, 2], [3, 4, 5]]), (60, 60))
+        np.testing.assert_allclose(normals[25, 30], [1, 0, 0], atol=1e-6)
+
+
+def test_face_transport_keeps_band_zero_and_fades_in_inside_the_mesh():
+    pts, tris = _plane(0.5, 0.0)
+    t0 = np.full((60, 60), 0.7, np.float32)
+    t, w, _ = face_transport(pts, tris, t0)
+    np.testing.assert_allclose(t[..., 0], 0.7, rtol=1e-5)
+    assert w.min() >= 0 and w.max() <= 1
+    assert w[25, 25] > 0.99 and w[55, 55] == 0  # below the chin: neither the face nor the head
+    assert 0 < w[6, 25] < w[12, 25]  # feathered at the mesh's border
+    n = np.array([1, 0.5, 0]) / np.linalg.norm([1, 0.5, 0])  # the plane's normal, subject frame
+    np.testing.assert_allclose(t[25, 25], lobe_transport(n) * 0.7 / lobe_transport(n)[0], atol=1e-4)
+
+
+def test_the_meshs_openings_are_the_faces_surface_not_holes_in_it():
+    """The landmarker's mesh leaves the eyes and the lips' gap open: they must take the face's weight and the
+    normals around them, not fade to the head and stage 1 (a mask's eye holes, dark sockets under a low light)."""
+    outer = [[5, 5], [45, 5], [45, 45], [5, 45]]
+    inner = [[20, 20], [30, 20], [30, 30], [20, 30]]  # a 10-px opening in the middle of a 40-px face
+    pts = np.column_stack([np.array(outer + inner, np.float64), np.zeros(8)])
+    ring = np.array([[i, (i + 1) % 4, 4 + i] for i in range(4)]
+                    + [[(i + 1) % 4, 4 + (i + 1) % 4, 4 + i] for i in range(4)])
+    normals, cover = rasterise_normals(pts, ring, (60, 60))
+    assert cover[25, 25] == 0 and cover[12, 25] == 1  # the mesh itself has the hole
+    t0 = np.full((60, 60), 0.7, np.float32)
+    t, w, _ = face_transport(pts, ring, t0)
+    assert w[25, 25] > 0.99 and w[21, 25] > 0.99  # as deep in the face as the mesh around it
+    n = np.array([1.0, 0, 0])
+    np.testing.assert_allclose(t[25, 25], lobe_transport(n) * 0.7 / lobe_transport(n)[0], atol=1e-4)
+
+
+def test_the_head_around_the_mesh_turns_away_and_stops_at_the_chin():
+    """Beyond the mesh the head's rounded shape (hair, skull, ears): a side light then darkens the hair beside the
+    shaded half of the face too, not the face alone."""
+    pts, tris = _plane(0, 0)  # a 40-px face, x and y 5..45
+    normals, weight = head_normals(pts, (80, 80))
+    np.testing.assert_allclose(np.linalg.norm(normals, axis=2), 1, atol=1e-5)
+    assert normals[0, 25, 2] > 0.5 and weight[0, 25] == 1  # above the face: the skull leans up (+z)
+    assert normals[25, 1, 1] < -0.9 and normals[25, 49, 1] > 0.9  # beyond its sides: the outline, left / right
+    assert weight[60, 25] == 0 and weight[25, 79] == 0  # below the chin, and far off the head
+    t0 = np.full((80, 80), 0.7, np.float32)
+    t, w, _ = face_transport(pts, tris, t0)
+    assert w[0, 25] == pytest.approx(HEAD_STRENGTH, abs=1e-6) and w[60, 25] == 0
+    np.testing.assert_allclose(t[..., 0], 0.7, rtol=1e-5)  # the visibility stays stage 1's there too
+    left = lights.directional((0.3, -1.0, 0.0), (1, 1, 1), 1.0)[:, 0]
+    assert t[25, 2] @ left > t[25, 48] @ left  # a light from the image's left lights the head's left side only
+
+
+def test_the_skin_interior_is_inside_the_mesh_away_from_its_border_and_its_openings():
+    """A square mesh 80 px across with a square opening (an eye): the skin is what lies more than SKIN_INSET of
+    the face's size (9.6 px) inside the mesh, so neither the border nor the opening's rim is in it."""
+    g = np.linspace(10, 90, 9)
+    xx, yy = np.meshgrid(g, g)
+    pts = np.stack([xx.ravel(), yy.ravel(), np.zeros(81)], 1)
+    tris = []
+    for i in range(8):
+        for j in range(8):
+            if (i, j) == (4, 4):
+                continue  # the opening: the cell from (50, 50) to (60, 60)
+            a, b, c, d = i * 9 + j, i * 9 + j + 1, (i + 1) * 9 + j, (i + 1) * 9 + j + 1
+            tris += [(a, b, d), (a, d, c)]
+    _, _, skin = face_transport(pts, np.array(tris), np.full((100, 100), 0.7, np.float32))
+    assert skin.dtype == bool and skin[30, 30] and skin[75, 30]
+    assert not skin[5, 50] and not skin[14, 50] and not skin[55, 55] and not skin[55, 64]
+    assert skin[55, 75]  # beyond the opening's reach
+
+
+def test_a_models_folder_without_the_mesh_has_none(tmp_path):
+    assert not FaceMesh(tmp_path).available
+
+
+def test_a_broken_triangle_table_is_one_relight_error(tmp_path):
+    for name in ("matte_face.onnx", "face_mesh.onnx"):
+        (tmp_path / name).write_bytes((bundled_models_dir() / name).read_bytes())
+    (tmp_path / "face_mesh_triangles.txt").write_text("0 1 2\n3 4 999\n")
+    with pytest.raises(RelightError, match="vertex indices"):
+        FaceMesh(tmp_path)
+    (tmp_path / "face_mesh_triangles.txt").write_text("0 1\nx y z\n")
+    with pytest.raises(RelightError, match="vertex indices"):
+        FaceMesh(tmp_path)
+
+
+@pytest.mark.skipif(not REFERENCE.is_dir(), reason="../shared/reference is absent")
+def test_a_face_that_fills_the_photo_gets_its_mesh(monkeypatch):
+    """issue 48: the short-range detector finds no face that fills its square (the 12 Yale face crops: none), so
+    FaceMesh.faces looks again at a square twice as large. The bundled example cut to its face's mesh: found
+    only with that second look, and the mesh lands where the whole photo's mesh is."""
+    from relight_rt.cli.demo import example_path
+    from relight_rt.image.io import read_image
+    from relight_rt.person import face_mesh as _face_geometry
+
+    img = np.ascontiguousarray(read_image(example_path())[..., :3])
+    mesh = FaceMesh(bundled_models_dir())
+    whole = mesh.faces(img, (0, img.shape[0], 0, img.shape[1]))
+    assert len(whole) == 1
+    (x0, y0), (x1, y1) = whole[0][:, :2].min(0).astype(int), whole[0][:, :2].max(0).astype(int)
+    crop = np.ascontiguousarray(img[y0:y1, x0:x1])
+    box = (0, crop.shape[0], 0, crop.shape[1])
+    found = mesh.faces(crop, box)
+    assert len(found) == 1
+    shift = found[0][:, :2] + (x0, y0) - whole[0][:, :2]
+    assert np.abs(shift).mean() < 0.1 * (x1 - x0)
+    monkeypatch.setattr(_face_geometry, "CLOSE_UP_SCALE", 1.0)  # the box's square alone
+    assert mesh.faces(crop, box) == []
+
+
+def test_the_face_in_a_real_photo_gets_its_mesh_and_the_light_models_it(monkeypatch):
+    """The reference photo (full body): the head pass finds the face's mesh; the relit face differs from the one
+    without the mesh only around the head, a light from the image's right brightens the face's right half more
+    with the mesh than without it, and the photo's own light still gives the photo back. (The photo's light is
+    refit to the transport, mesh included (relight_rt.relight.strength.refit_light), which moves the whole picture a
+    little; that refit is held off here to see where the mesh itself acts.)"""
+    photo = REFERENCE / "photo" / "sample.jpg"
+    mask = REFERENCE / "photo" / "sample_mask.png"
+    r = relight_rt.open(RuntimeConfig(device="cpu"))
+    dec = r.decompose(photo, mask)
+    np.testing.assert_allclose(r.relight(dec, dec), dec.image, atol=2e-3)  # with the refit light
+    monkeypatch.setattr(Factor, "refit", lambda self, dec: dec)
+    r = relight_rt.open(RuntimeConfig(device="cpu"))
+    dec = r.decompose(photo, mask)
+    head, box = dec.head, dec.head_box
+    light = lights.directional((0.4, 1, 0.3)) + lights.ambient(0.08)
+    with_mesh = r.relight(dec, light)
+    assert len(head.face_meshes) == 1
+    np.testing.assert_allclose(r.relight(dec, dec), dec.image, atol=2e-3)
+
+    plain_r = relight_rt.open(RuntimeConfig(device="cpu"))
+    plain_r._faces._mesh = FaceMesh(Path("/nonexistent"))  # no mesh files: stage 1's transport alone
+    plain = plain_r.relight(plain_r.decompose(photo, mask), light)
+    y0, y1, x0, x1 = box
+    diff = np.abs(with_mesh - plain).max(axis=2)
+    outside = np.ones(diff.shape, bool)
+    outside[y0:y1, x0:x1] = False
+    assert diff[outside].max() < 1e-6 and diff[y0:y1, x0:x1].max() > 0.05
+
+    def side_ratio(img):
+        face = img[y0 + (y1 - y0) // 3 : y1 - (y1 - y0) // 3, x0 + (x1 - x0) // 3 : x1 - (x1 - x0) // 3]
+        lum = face @ np.array([0.2126, 0.7152, 0.0722])
+        half = lum.shape[1] // 2
+        return lum[:, half:].mean() / lum[:, :half].mean()
+
+    assert side_ratio(with_mesh) > side_ratio(plain) > 1
+
+
+def test_the_mesh_triangles_are_the_edge_lists_three_cliques():
+    face_mesh = pytest.importorskip("export.face_mesh")
+    square = [(0, 1), (1, 2), (2, 3), (3, 0), (0, 2)]  # a square split by one diagonal
+    np.testing.assert_array_equal(face_mesh.triangles_from_edges(square), [[0, 1, 2], [0, 2, 3]])
+    tetra = [(a, b) for a in range(4) for b in range(a + 1, 4)]
+    assert len(face_mesh.triangles_from_edges(tetra)) == 4
+    tris = np.loadtxt(bundled_models_dir() / "face_mesh_triangles.txt", dtype=np.int64)
+    assert tris.shape == (854, 3) and tris.min() == 0 and tris.max() == 467
+
+
+def test_a_portraits_light_is_turned_by_its_face_and_still_gives_the_photo_back(dpr_portrait, monkeypatch):
+    """DPR's portrait, lit from the front: stage 1 reads its light as coming from above; the face mesh's skin
+    turns it toward the camera (relight_rt.relight.strength.face_refit), and the photo's own light, so refit, still
+    gives the photo back."""
+    rec709 = np.array([0.2126, 0.7152, 0.0722])
+    r = relight_rt.open(RuntimeConfig(device="cpu"))
+    dec = r.decompose(dpr_portrait)
+    assert r._factor.restored(dec)["face_skin"].sum() > 1000
+    back = np.abs(r.relight(dec, dec) - dec.image)
+    assert (back > 0.5 / 255).sum() <= 10 and back.max() < 5e-3  # a soft hair edge's colour: 2 values, 0.002
+    monkeypatch.setattr("relight_rt.relight.factor.face_refit", lambda light, *args: light)
+    plain = relight_rt.open(RuntimeConfig(device="cpu")).decompose(dpr_portrait)
+    up = lambda light: float(light[2] @ rec709) / float(light[0] @ rec709)  # noqa: E731
+    toward = lambda light: float(light[3] @ rec709) / float(light[0] @ rec709)  # noqa: E731
+    assert up(dec.light) < up(plain.light) - 0.1
+    assert toward(dec.light) > 0.5 * toward(plain.light)

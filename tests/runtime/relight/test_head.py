@@ -1,0 +1,118 @@
+"""The second stage-1 pass on a face seen small (relight_rt.relight.head and the Relighter's use of it)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import relight_rt
+from relight_rt import Relighter, RuntimeConfig, lights
+from relight_rt.image.crop import CropGeometry
+from relight_rt.relight.head import MIN_HEAD_INPUT, SMALL_FACE, feather, head_box
+
+REFERENCE = Path(__file__).resolve().parents[4] / "shared" / "reference"
+
+
+def _person(r: int, face: int, face_y: int, face_x: int):
+    """A standing person in the network square with a skin blob of ``face`` pixels for a face."""
+    mask = np.zeros((r, r), np.float32)
+    mask[20 : r - 4, r // 2 - 30 : r // 2 + 30] = 1
+    skin = np.zeros((r, r), np.float32)
+    skin[face_y : face_y + face, face_x : face_x + face] = 1
+    skin[r - 40 : r - 30, r // 2 + 20 : r // 2 + 28] = 1  # a hand, lower down and larger than nothing
+    return skin * mask, mask
+
+
+def test_head_box_is_found_around_a_small_face_in_input_pixels():
+    r = 128
+    skin, mask = _person(r, face=12, face_y=26, face_x=58)
+    photo_mask = np.zeros((1000, 600), np.float32)
+    photo_mask[40:960, 100:500] = 1
+    geom = CropGeometry.from_mask(photo_mask, r)  # side 930 px for 128 network px
+    box = head_box(skin, mask, geom)
+    assert box is not None
+    y0, y1, x0, x1 = box
+    # the face's centre (network x 63.5, y 31.5: the blob's centroid) in input pixels, by the geometry's mapping
+    k = geom.scale
+    cy = (31.5 + 0.5) * k - 0.5 - geom.offset[0] + geom.box[0]
+    cx = (63.5 + 0.5) * k - 0.5 - geom.offset[1] + geom.box[2]
+    assert abs((y0 + y1) / 2 - cy) < 2 and abs((x0 + x1) / 2 - cx) < 2
+    assert y1 - y0 == pytest.approx(3 * 12 * k, abs=2) and x1 - x0 == pytest.approx(3 * 12 * k, abs=2)
+
+
+def test_no_head_pass_for_a_large_face_no_face_or_too_few_pixels():
+    r = 128
+    photo_mask = np.zeros((1000, 600), np.float32)
+    photo_mask[40:960, 100:500] = 1
+    geom = CropGeometry.from_mask(photo_mask, r)
+    big = int(SMALL_FACE * r) + 4
+    skin, mask = _person(r, face=big, face_y=24, face_x=64 - big // 2)
+    assert head_box(skin, mask, geom) is None  # already seen large
+    skin, mask = _person(r, face=12, face_y=26, face_x=58)
+    skin[:70] = 0  # a person seen from behind: skin only lower down (a hand)
+    assert head_box(skin, mask, geom) is None
+    small = np.zeros((120, 80), np.float32)
+    small[5:115, 10:70] = 1
+    tiny_geom = CropGeometry.from_mask(small, r)  # 115 input px for 128 network px: nothing more to see
+    skin, mask = _person(r, face=12, face_y=26, face_x=58)
+    assert 3 * 12 * tiny_geom.scale < MIN_HEAD_INPUT and head_box(skin, mask, tiny_geom) is None
+
+
+def test_no_head_pass_on_a_temple_beside_a_large_face_lower_down():
+    """A portrait framed from the chest up: the face fills the square and its centre lies below the upper part,
+    so the largest skin blob there was a patch of temple (DPR's portrait: a 7x9 blob) and the second pass ran on a
+    96-px square of it (a red patch under neon). A large face whose top is in the upper part means no second pass."""
+    r = 128
+    photo_mask = np.zeros((1000, 600), np.float32)
+    photo_mask[40:960, 100:500] = 1
+    geom = CropGeometry.from_mask(photo_mask, r)
+    mask = np.ones((r, r), np.float32)
+    skin = np.zeros((r, r), np.float32)
+    skin[20:120, 30:80] = 1  # the face: 50 x 100 network pixels, centre at 0.55 of the person's height
+    skin[24:32, 86:94] = 1  # a patch of temple beyond the hair
+    assert head_box(skin, mask, geom) is None
+
+
+def test_feather_fades_to_zero_at_open_sides_and_keeps_cut_sides():
+    w = feather(40, 30)
+    assert w[20, 15] == pytest.approx(1) and w.max() <= 1 and w.min() >= 0
+    assert w[0].max() < 0.05 and w[:, 0].max() < 0.05 and w[-1].max() < 0.05
+    cut = feather(40, 30, (True, False, False, False))  # the box ends at the photo's top
+    assert cut[0, 15] == pytest.approx(1) and cut[-1, 15] < 0.05
+
+
+@pytest.mark.skipif(not REFERENCE.is_dir(), reason="../shared/reference is absent")
+def test_full_body_photo_gets_a_head_pass_that_changes_only_the_head():
+    r = Relighter(RuntimeConfig(device="cpu"))
+    photo = REFERENCE / "photo" / "sample.jpg"
+    mask = REFERENCE / "photo" / "sample_mask.png"
+    dec = r.decompose(photo, mask)
+    assert dec.head is not None
+    y0, y1, x0, x1 = dec.head_box
+    light = lights.directional((0.4, 1, 0.3)) + lights.ambient(0.08)
+    with_head = r.relight(dec, light)
+    r.face_pass = False
+    plain = r.relight(r.decompose(photo, mask), light)
+    diff = np.abs(with_head - plain).max(axis=2)
+    outside = np.ones(diff.shape, bool)
+    outside[y0:y1, x0:x1] = False
+    assert diff[outside].max() < 1e-6 and diff[y0:y1, x0:x1].mean() > 0.003
+    # the light from the image's right: the face's right half is brighter than its left
+    face = with_head[y0 + (y1 - y0) // 3 : y1 - (y1 - y0) // 3, x0 + (x1 - x0) // 3 : x1 - (x1 - x0) // 3]
+    lum = face @ np.array([0.2126, 0.7152, 0.0722])
+    half = lum.shape[1] // 2
+    assert lum[:, half:].mean() > 1.2 * lum[:, :half].mean()
+
+
+@pytest.mark.skipif(not REFERENCE.is_dir(), reason="../shared/reference is absent")
+def test_the_photos_own_light_gives_the_photo_back_with_head_pass_and_soft_matte():
+    """A real frame with its automatic (soft) matte: the head pass, the foreground colours of the soft edge and
+    the background behind it all cancel under the photo's own light."""
+    r = relight_rt.open(RuntimeConfig(device="cpu"))
+    dec = r.decompose(REFERENCE / "video" / "frame_001.png")  # no mask: the automatic matte
+    alpha = np.asarray(dec.mask)
+    assert ((alpha > 0.05) & (alpha < 0.95)).sum() > 1000 and dec.head is not None
+    out = r.relight(dec, dec)
+    assert np.abs(out - dec.image).max() < 0.01

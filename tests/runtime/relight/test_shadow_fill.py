@@ -1,0 +1,43 @@
+"""relight_rt.relight.factor ``Factor.gain_and_fill``: where the photo's own shading is near zero (a hard shadow:
+the albedo is there, the photo is black) the new light's change is added (stage 1's albedo under the new shading), not
+multiplied into the photo's black; the photo's own light still gives the photo back.
+
+The analytic stage 1 (tests/_graphs.py) reads the photo as its albedo; a shadow is made by giving the
+Decomposition of a photo with a black half the albedo of the photo without it."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from _graphs import OWN_LIGHT, models_dir, person
+
+import relight_rt
+from relight_rt.engine.config import RuntimeConfig
+from relight_rt.light.exposure import REC709
+
+__all__ = ["models_dir"]  # fixtures
+
+
+@pytest.fixture(scope="module")
+def relighter(models_dir):
+    return relight_rt.open(RuntimeConfig(models=models_dir, device="cpu"))
+
+
+def test_a_hard_shadow_is_filled_and_the_own_light_gives_the_photo_back(relighter, monkeypatch):
+    img, mask = person()
+    shadowed = img.copy()
+    shadowed[20:140, 30:55] *= 0.01  # the person's left half at levels 0-2
+    core = np.zeros(mask.shape, bool)
+    core[40:120, 36:50] = True
+    dec = replace(relighter.decompose(shadowed, mask), albedo_chw=relighter.decompose(img, mask).albedo_chw)
+    own = relighter.relight(dec, OWN_LIGHT, exposure="physical")
+    np.testing.assert_allclose(own, shadowed, atol=1e-4)  # nothing added under the photo's own light
+    filled = relighter.relight(dec, 2 * OWN_LIGHT, exposure="physical")
+    monkeypatch.setattr(relighter._factor, "shadow_weight", lambda *args: None)
+    multiplied = relighter.relight(dec, 2 * OWN_LIGHT, exposure="physical")
+    lit = float((filled[core] @ REC709).mean())
+    assert lit > 0.1 and lit > 10 * float((multiplied[core] @ REC709).mean())  # the light reaches the shadow
+    lit_side = ~core & (mask > 0)
+    lit_side[:, :60] = False
+    # the lit half as it was (within a level or two: the edge-aware upsampling reaches a few pixels past the shadow)
+    assert np.abs(filled[lit_side] - multiplied[lit_side]).max() < 0.01
