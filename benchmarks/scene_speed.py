@@ -53,8 +53,8 @@ def split(relighter, call) -> dict[str, float]:
         wrapped.append((owner, name, fn))
 
     wrap(pano_mod, "panorama_view", "plate and light")
-    wrap(scene_mod, "_decode_person", "decode photo")
-    wrap(scene_mod, "_matte_on_the_photo", "matte")
+    wrap(scene_mod, "decode_person", "decode photo")
+    wrap(scene_mod, "matte_on_the_photo", "matte")
     wrap(relighter, "decompose", "decompose (stage 1)")
     wrap(relighter, "relight", "relight (stage 2)")
     wrap(scene_mod, "place", "place")

@@ -325,15 +325,15 @@ def composite_panorama(
         (height, width, 3) float32 sRGB in [0, 1].
     """
     from ..light import exposure as _exposure
-    from .scene import _decode_person, _matte_on_the_photo, composite
+    from .scene import composite, decode_person, matte_on_the_photo
 
     mode = _exposure.parse_exposure(exposure)
     az, el, fov = parse_view(view)
     plate_size = parse_size(size) if size is not None else None
-    image, name = _decode_person(image)  # decoded once: its size, its matte and the person all read this copy
+    image, name = decode_person(image)  # decoded once: its size, its matte and the person all read this copy
     if plate_size is None:
         plate_size = _photo_size(image)
-    mask = _matte_on_the_photo(relighter, image, mask, name)
+    mask = matte_on_the_photo(relighter, image, mask, name)
     pv = panorama_view(panorama, plate_size, (az, el, fov))
     light = pv.light if mode in ("auto", "physical") else pv.light * 2.0**mode
     hz = min(max(pv.horizon, 0.0), 1.0) if horizon is None else horizon

@@ -118,7 +118,7 @@ _NOISE_SEED = 36
 _UNIT = np.arange(256, dtype=np.float32) / np.float32(255)  # 8-bit → float in [0, 1]
 
 
-def _matte_on_the_photo(relighter, image, mask, name: str | None = None):
+def matte_on_the_photo(relighter, image, mask, name: str | None = None):
     """The automatic matte, when one is needed, taken on the photo as it is (sRGB, what the matting graphs
     see in every other command), not on the linearised copy stage 1 gets here: linear values are darker and
     lose the person in dim photos. A given mask, or the alpha of an RGBA photo, passes through unchanged."""
@@ -134,7 +134,7 @@ def _matte_on_the_photo(relighter, image, mask, name: str | None = None):
     return resolve_mask(shown, mask, matter=relighter.matter, name=name)
 
 
-def _decode_person(image):
+def decode_person(image):
     """(the person photo, its name): a path to an 8-bit RGB(A) file decoded once, as an RGB(A) uint8 array that
     both the matte and the linear copy read; anything else passes through as given."""
     if not isinstance(image, (str, os.PathLike)):
@@ -687,8 +687,8 @@ def composite(
     # it is, as relight_rt.apps.panorama gives: "physical", no balance)
     parts = scene_light(bg, fov) if light is None or white_balance or mode != "physical" else None
     bg_light = None if parts is None else parts.light(key)
-    image, name = _decode_person(image)  # decoded once for the matte and the linear copy
-    mask = _matte_on_the_photo(relighter, image, mask, name)
+    image, name = decode_person(image)  # decoded once for the matte and the linear copy
+    mask = matte_on_the_photo(relighter, image, mask, name)
     person = _linear_person(image)
     dec = relighter.decompose(person, mask)
     lighting = scene_lighting(relighter, dec, parts, bg_light, key, light, white_balance=white_balance, rim=rim,

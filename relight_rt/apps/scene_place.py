@@ -46,8 +46,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from ._errors import RelightError
-from ._pairs import number_pair
+from ..engine.errors import RelightError
+from ..engine.number_pair import number_pair
 
 __all__ = [
     "CAMERA_M", "DEFAULT_FEET", "HORIZON_ESTIMATE_MAX", "PERSON_M", "Framing", "Placement", "check_camera_height",

@@ -62,8 +62,8 @@ def _limit(gib: float):
 # prints the grandchild's pid, and waits; with "clean" it shuts down as ray_session does.
 DRIVER = textwrap.dedent("""
     import subprocess, sys, time
-    from relight_rt import distributed
-    reaper = distributed._start_reaper()
+    from relight_rt.apps import ray_jobs
+    reaper = ray_jobs._start_reaper()
     agent = [sys.executable, "-c", "import time; time.sleep(300)"]
     middle = subprocess.Popen([sys.executable, "-c",
         "import subprocess, sys, time; p = subprocess.Popen(sys.argv[1:], start_new_session=True); "
@@ -71,7 +71,7 @@ DRIVER = textwrap.dedent("""
     print(middle.pid, middle.stdout.readline().strip(), flush=True)
     time.sleep(1.5)  # the watcher notes the tree (it looks twice a second)
     if sys.argv[1] == "clean":
-        distributed._stop_reaper(reaper, clean=True)
+        ray_jobs._stop_reaper(reaper, clean=True)
         print("done", flush=True)
     time.sleep(300)
 """)

@@ -197,8 +197,7 @@ def test_the_panorama_composite_reads_the_photo_once_and_estimates_no_light(diff
                                                                             monkeypatch):
     """Review: composite_panorama decoded the person photo just for its size, and scene.composite estimated the
     plate's light (relight_rt.light.from_background) though the panorama gives it."""
-    import relight_rt.scene as scene
-
+    import relight_rt.apps.scene as scene
     import relight_rt.image.io as io
 
     img, mask = flat_person()
