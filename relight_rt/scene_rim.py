@@ -48,7 +48,8 @@ RIM_MAX = 1.0  #: the rim's luminance at most (linear, the plate's white)
 PHOTO_MAX_AREA = 0.03  #: a photo's clipped region counts as a source when at most this share of the frame
 _MIN_PIXELS = 2  # a photo's clipped region of fewer pixels is noise
 _CLIP_LEVEL = 250
-_SOURCE_HEIGHT = 256  # a panorama's source is found on a copy at most this many rows high (area-averaged)
+_SOURCE_HEIGHT = 128  # a panorama's source is found on a copy at most this many rows high (area-averaged: its
+# power kept; 1.4° a row)
 LOBE_SR = 2 * math.pi * (1 - math.cos(math.radians(LOBE_DEG)))  #: the lobe's solid angle, steradians
 
 
@@ -110,12 +111,11 @@ def photo_rim(photo: np.ndarray, fov: float) -> tuple[np.ndarray, np.ndarray] | 
     from .scene_light import HIGHLIGHT_GAIN
 
     h, w = photo.shape[:2]
-    if photo.dtype == np.uint8:
-        clipped = photo.max(axis=2) >= _CLIP_LEVEL
-        lin = srgb8_to_linear(photo)
+    if photo.dtype == np.uint8:  # OpenCV's channel maximum: several times numpy's
+        r, g, b = cv2.split(photo)
+        clipped = cv2.max(cv2.max(r, g), b) >= _CLIP_LEVEL
     else:
         clipped = photo.max(axis=2) >= _CLIP_LEVEL / 255
-        lin = srgb_to_linear(np.clip(photo, 0, 1)).astype(np.float32)
     n, labels, stats, _ = cv2.connectedComponentsWithStats(clipped.astype(np.uint8), connectivity=8)
     if n <= 1:
         return None
@@ -124,12 +124,17 @@ def photo_rim(photo: np.ndarray, fov: float) -> tuple[np.ndarray, np.ndarray] | 
     if not ok.any():
         return None
     focal = (w / 2) / math.tan(math.radians(fov) / 2)
-    ys, xs = np.nonzero(labels == 1 + int(np.argmax(np.where(ok, areas, 0))))  # the largest such region
+    k = 1 + int(np.argmax(np.where(ok, areas, 0)))  # the largest such region, read inside its box
+    x0, y0, bw, bh = (int(v) for v in stats[k, :4])
+    ys, xs = np.nonzero(labels[y0 : y0 + bh, x0 : x0 + bw] == k)
+    ys, xs = ys + y0, xs + x0
     y = (xs + 0.5 - w / 2) / focal  # toward the image's right, per unit behind
     z = (h / 2 - ys - 0.5) / focal  # up
     norm = np.sqrt(1 + y * y + z * z)
     d_omega = 1 / (focal * focal * norm**3)  # a pixel's solid angle
-    power = (lin[ys, xs].astype(np.float64) * HIGHLIGHT_GAIN * d_omega[:, None]).sum(0)
+    pixels = photo[ys, xs]  # only the source's pixels are linearised
+    lin = srgb8_to_linear(pixels) if pixels.dtype == np.uint8 else srgb_to_linear(np.clip(pixels, 0, 1))
+    power = (lin.astype(np.float64) * HIGHLIGHT_GAIN * d_omega[:, None]).sum(0)
     d = np.stack([-1 / norm, y / norm, z / norm], 1).T @ d_omega
     d /= max(float(np.linalg.norm(d)), 1e-12)
     return d, rim_colour(power, float(d_omega.sum()), d)

@@ -238,6 +238,12 @@ def test_cli_composite_with_a_view(work, capsys):
     code, _, err = run(argv, capsys)
     assert code == 0, err
     assert cv2.imread("o.jpg").shape == (96, 160, 3)
+    argv = ["composite", "p.png", "--background", "pano.hdr", "--view", "20,0", "--no-shadow", "--meter", "background"]
+    for out, extra in (("on.png", []), ("rim.png", ["--rim"]), ("off.png", ["--no-rim"])):
+        code, _, err = run([*argv, "-o", out, *extra], capsys)
+        assert code == 0, err
+    on, off = cv2.imread("on.png").astype(int), cv2.imread("off.png").astype(int)
+    assert (on == cv2.imread("rim.png").astype(int)).all() and np.abs(on - off).max() > 2  # on by default with --view
 
 
 @pytest.mark.parametrize(
