@@ -282,11 +282,11 @@ def _key_rim(composed: np.ndarray, alpha: np.ndarray, direction: np.ndarray, col
     if not (d[0] < 0 and rgb.max() > 0):
         return out
     a = np.clip(alpha, 0, 1).astype(np.float32)
-    reach = cv2.GaussianBlur(1 - a, (0, 0), radius, borderType=cv2.BORDER_REFLECT)
+    reach = _wide_blur(1 - a, radius)
     edge = (a > 0) & (reach > 1e-3)
     if not edge.any():
         return out
-    soft = cv2.GaussianBlur(a, (0, 0), radius, borderType=cv2.BORDER_REFLECT)
+    soft = _wide_blur(a, radius)
     gx = cv2.Sobel(soft, cv2.CV_32F, 1, 0)[edge]  # toward the image's right
     gy = cv2.Sobel(soft, cv2.CV_32F, 0, 1)[edge]  # toward its bottom
     norm = np.maximum(np.hypot(gx, gy), 1e-6)
