@@ -9,7 +9,9 @@ exposure, laid over the background photo. The estimate is the renderer's albedo 
 by relight_rt.light.from_background's light from the background photo (shipped numbers) or by the true SH light of B
 (oracle: no exposure or colour error, only the SH's missing rim), laid over the same photo; then
 relight_rt.scene's light wrap with each (radius, strength) of the grid, radius a fraction of the frame height
-(the default is WRAP_RADIUS, WRAP_STRENGTH).
+(the default is WRAP_RADIUS, WRAP_STRENGTH); ``r=rim``: the shipped wrap and then the rim (relight_rt.apps.scene_rim):
+for the estimate, a compact clipped source in the background photo, else its back key (``composite --rim``); for
+the oracle, the map's own brightest source behind the person (``composite --view``'s default).
 
 Scores, over every (person, map): the RMSE (linear RGB, both frames clipped to [0, 1] as a camera records them)
 in the *edge band* (matte > 0.02 and within 3 px of the
@@ -24,6 +26,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 
@@ -39,6 +42,7 @@ import scene_eval as se  # noqa: E402
 
 from relight_rt import envmap, sh  # noqa: E402
 from relight_rt import scene as scene_mod  # noqa: E402
+from relight_rt.apps.scene_rim import panorama_rim, photo_rim  # noqa: E402
 from relight_rt.image.color import srgb_to_linear  # noqa: E402
 from relight_rt.light import from_background as bgmod  # noqa: E402
 
@@ -78,7 +82,12 @@ def main(argv=None) -> int:
         parts = bgmod.scene_light(view, 60.0)
         lights = {"est": parts.light(), "oracle": true_light}
         (az, el), back_key = parts.key()
-        rim = (bgmod.key_direction(az, el), scene_mod._rim_gain(parts, lights["est"])) if back_key else None
+        # the rims composite's step 7 uses (relight_rt.apps.scene_rim): the estimate's, a clipped source in the photo or
+        # else its back key; the oracle's, the map's own source behind the person (composite --view's)
+        rims = {"est": photo_rim(view, 60.0), "oracle": panorama_rim(env * np.float32(math.pi), np.eye(3), k)}
+        if rims["est"] is None and back_key:
+            front = np.maximum(bgmod.FRONT_WEIGHTS @ np.asarray(lights["est"], np.float64), 0)
+            rims["est"] = (bgmod.key_direction(az, el), scene_mod._rim_gain(parts, lights["est"]) * front)
         back_lit = se.front_back(true_light) <= -se.CLEAR_EV
         for subject in subjects:
             sample = dataset.read_sample(args.people, subject)
@@ -100,8 +109,9 @@ def main(argv=None) -> int:
                     e_frame = se.frame(bg_lin, person * np.float32(f), truth["mask"], place)
                     for radius, strength in configs:
                         out = e_frame
-                        if radius == "rim":  # the shipped wrap, then the back key's rim (composite's step 7)
+                        if radius == "rim":  # the shipped wrap, then the rim (composite's step 7)
                             out = scene_mod._light_wrap(e_frame, bg_lin, a, max(0.5, WRAP_PX), WRAP_S)
+                            rim = rims[kind]
                             if rim is not None:
                                 height = float((a > 0.005).any(1).sum())
                                 out = scene_mod._key_rim(

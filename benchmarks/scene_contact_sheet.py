@@ -2,15 +2,16 @@
 
     python benchmarks/scene_contact_sheet.py --out runs/scene/contact \\
         --person full:PHOTO[:MASK] --person half:PHOTO[:MASK] --person portrait:PHOTO[:MASK] ... \\
-        --hdri ../shared/hdri --views sunset:20,0 dawn:30,0 ... --photos PLACE.jpg ... [--size 640x480] [--rim]
+        --hdri ../shared/hdri --views sunset:20,0 dawn:30,0 ... --photos PLACE.jpg ... [--size 640x480] [--[no-]rim]
 
-Each person (its kind, "full", "half" or "portrait", is only a label: ``relight_rt.apps.scene_place`` tells from the
-matte how the photo framed them) goes into every place: a panorama view (``NAME:AZ,EL[,FOV]`` of ``--hdri``,
-by ``relight_rt.apps.panorama.composite_panorama``: the plate and the light from the map, as ``composite --view``)
-and every ``--photos`` photo of a place (``relight_rt.apps.scene.composite``: the light estimated from the photo,
-centre-cropped to ``--size``'s aspect and resized to it first). Everything else is the command's default
-(automatic placement, shadows, camera matching, light wrap, frame metering; ``--rim`` adds the rim of a key behind
-the person).
+Each person (its kind, "full", "half" or "portrait", is only a label: ``relight_rt.scene_place`` tells from the
+matte how the photo framed them) goes into every place: a panorama view (``NAME:AZ,EL[,FOV]`` of ``--hdri``, by
+``relight_rt.apps.panorama.composite_panorama``: the plate and the light from the map, as ``composite --view``) and
+every
+``--photos`` photo of a place (``relight_rt.scene.composite``: the light estimated from the photo, centre-cropped to
+``--size``'s aspect and resized to it first). Everything else is the command's default (automatic placement,
+shadows, camera matching, light wrap, frame metering; the rim of a source behind the person on views, as
+``composite --view``; ``--rim`` adds it on photos, ``--no-rim`` drops it).
 
 Writes under ``--out``: every composite at 100 % (``PERSON/PLACE.png``), one sheet per person (``PERSON.png``, the
 places in a grid at half size, each labelled) and ``report.json`` (each composite's placement: the person's box,
@@ -76,7 +77,9 @@ def main(argv=None) -> int:
     ap.add_argument("--views", nargs="*", default=[], metavar="NAME:AZ,EL[,FOV]")
     ap.add_argument("--photos", type=Path, nargs="*", default=[])
     ap.add_argument("--size", default="640x480", help="the places' size, WxH")
-    ap.add_argument("--rim", action="store_true")
+    ap.add_argument("--rim", action=argparse.BooleanOptionalAction, default=None,
+                    help="the rim of a source behind the person (default: on for views, as composite --view; "
+                    "off for photos)")  # fmt: skip
     ap.add_argument("--models", default=None)
     args = ap.parse_args(argv)
     size = parse_size(args.size)
@@ -102,9 +105,9 @@ def main(argv=None) -> int:
             t0 = time.perf_counter()
             if how == "view":
                 env, view = thing
-                out = composite_panorama(rl, photo, env, view, size=size, mask=mask_arr, rim=args.rim)
+                out = composite_panorama(rl, photo, env, view, size=size, mask=mask_arr, rim=args.rim is not False)
             else:
-                out = scene_mod.composite(rl, photo, thing, mask=mask_arr, rim=args.rim)
+                out = scene_mod.composite(rl, photo, thing, mask=mask_arr, rim=bool(args.rim))
             seconds = time.perf_counter() - t0
             write_image(args.out / who / f"{name}.png", out)
             fr = framing(matte.astype(np.float32) / 255) if matte is not None else None

@@ -67,6 +67,8 @@ if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
 from relight_rt import envmap, sh  # noqa: E402
+from relight_rt.apps import scene as scene_mod  # noqa: E402
+from relight_rt.apps.scene_rim import photo_rim  # noqa: E402
 from relight_rt.image.color import linear_to_srgb, srgb_to_linear  # noqa: E402
 from relight_rt.light import from_background as bgmod  # noqa: E402
 from relight_rt.light.exposure import REC709  # noqa: E402
@@ -360,6 +362,9 @@ def main(argv=None) -> int:
     p.add_argument("--saturation", type=float, default=None, metavar="S",
                    help="fix COLOUR_SATURATION at S instead of fitting it (1: the light takes the scene's median "
                    "colour as it is)")  # fmt: skip
+    p.add_argument("--rim", action="store_true",
+                   help="add composite's rim to the estimate (apps.scene_rim: a compact clipped source in the "
+                   "background photo, else the back key's; composite --rim) before it is scored")  # fmt: skip
     p.add_argument(
         "--no-oracles",
         action="store_true",
@@ -458,6 +463,14 @@ def main(argv=None) -> int:
     chosen = {s: fit_for(s) for s in scenes}
     shipped = fit_all(maps)
     est = {m: parts[m].light(**chosen[scene_of(m)]) for m in maps}  # background-photo units
+    rims = {}  # --rim: composite's rim of each map's background photo (relight_rt.scene's step 7), or None
+    for m in maps if args.rim else ():
+        rims[m] = photo_rim(views[m], 60.0)
+        f = chosen[scene_of(m)]
+        (az, el), back = parts[m].key(None, f["backlight"], f["geometry"])
+        if rims[m] is None and back:
+            front = np.maximum(FRONT_W @ np.asarray(est[m], np.float64), 0)
+            rims[m] = (bgmod.key_direction(az, el), scene_mod._rim_gain(parts[m], est[m]) * front)
     oracles = {}  # name: {map: light}, each fitted with the map's scene left out, as the estimate
     if not args.no_oracles:
         chosen_view = {s: fit_for(s, view_parts) for s in scenes}
@@ -490,6 +503,9 @@ def main(argv=None) -> int:
             inside = truth["mask"] > 0.5
             place = placement(truth["mask"])
             r_est = albedo * sh.shading(transport, est[b])
+            if rims.get(b) is not None:
+                height = float((truth["mask"] > 0.005).any(1).sum())
+                r_est = scene_mod._key_rim(r_est, truth["mask"], *rims[b], max(0.5, scene_mod.RIM_RADIUS * height))
             r_oracle = albedo * sh.shading(transport, true1[b])
             si_oracles = {name: si_rmse(albedo * sh.shading(transport, lights[b]), truth["photo"], inside)
                           for name, lights in oracles.items()}  # fmt: skip

@@ -21,10 +21,11 @@ camera's highlights clip) and written as 8-bit sRGB. The light is the panorama's
 of ``relight_rt.light.from_background`` (a white diffuse surface under a uniform radiance that the plate shows as v gets
 shading v), so the person is exactly as bright as the place's light makes a white surface in that plate.
 
-The rim (``rim=True``). A degree-2 SH light spreads a small bright source over the whole body; behind the person (a
-sun or window in or near the view) it should light the outline on its side. ``source`` finds the panorama's
-brightest source (its pixels of at least half the peak luminance: direction and power), and ``relight_rt.apps.scene``'s
-rim brightens the outline by the source's shading facing it over the person's front's (its step 7).
+The rim (``rim=True``, the default here: the light is known). A degree-2 SH light spreads a small bright source over
+the whole body; behind the person (a sun or window in or near the view) it should light the outline on its side.
+``relight_rt.apps.scene_rim.panorama_rim`` finds the brightest source behind the person in the map and the radiance
+its outline scatters forward (the source's power over a grazing lobe, not the map's mean); ``relight_rt.apps.scene``'s
+step 7 adds it to the outline on that side. ``source`` (the brightest source anywhere) is kept for its shading.
 """
 
 from __future__ import annotations
@@ -42,8 +43,9 @@ from ..engine.errors import RelightError
 from ..image.color import linear_to_srgb
 from ..light import envmap, sh
 from ..light.exposure import REC709
-from ..light.from_background import FOV_RANGE, FRONT_WEIGHTS, MIN_SIZE, envmap_view
+from ..light.from_background import FOV_RANGE, MIN_SIZE, envmap_view
 from .scene_place import CAMERA_M
+from .scene_rim import panorama_rim
 
 __all__ = [
     "MAX_ELEVATION",
@@ -163,6 +165,8 @@ class PanoramaView:
         view: (azimuth, elevation, fov), degrees.
         source_direction: (3,) unit direction, in the camera's frame, of the panorama's brightest source (``source``).
         source_shading: (3,) RGB shading that source alone gives a surface facing it, in the plate's units.
+        rim: (direction (3,) in the camera's frame, rim RGB (3,) in the plate's linear units) of the brightest
+            source behind the person (``relight_rt.apps.scene_rim.panorama_rim``), or None.
     """
 
     plate: np.ndarray
@@ -172,6 +176,7 @@ class PanoramaView:
     view: tuple[float, float, float]
     source_direction: np.ndarray
     source_shading: np.ndarray
+    rim: tuple | None = None
 
 
 def source(env) -> tuple[np.ndarray, np.ndarray]:
@@ -253,7 +258,8 @@ def panorama_view(panorama, size: tuple[int, int], view) -> PanoramaView:
     horizon = 0.5 + math.tan(math.radians(el)) / (2 * tan_v)  # a level world's horizon, seen by the tilted camera
     direction, power = source(env)
     return PanoramaView(plate=plate, light=light, exposure=k / peak, horizon=horizon, view=(az, el, fov),
-                        source_direction=rot.T @ direction, source_shading=power * (k / math.pi))  # fmt: skip
+                        source_direction=rot.T @ direction, source_shading=power * (k / math.pi),
+                        rim=panorama_rim(env, rot, k))  # fmt: skip
 
 
 _LEVELS = 65535  # the plate's linear values are read at this many steps for the 8-bit encoding (_encode8)
@@ -296,7 +302,7 @@ def composite_panorama(
     meter: str = "frame",
     match_camera: bool = True,
     light_wrap: bool = True,
-    rim: bool = False,
+    rim: bool = True,
     camera_height: float = CAMERA_M,
 ) -> np.ndarray:
     """Put the person of ``image`` into a panorama seen in direction ``view``, lit by the panorama's own light.
@@ -317,9 +323,8 @@ def composite_panorama(
             offset to it.
         horizon: the horizon's row (fraction of the height); None: where the view's elevation puts it (clipped
             to [0, 1]).
-        rim: the panorama's source, when it lies behind the person (a sun or window in or near the view), puts a rim
-            of light on the outline on its side (``relight_rt.apps.scene``'s step 7), its gain the source's shading over
-            the person's front's under the light.
+        rim: the panorama's brightest source behind the person (a sun or window in or near the view) puts a rim
+            of light on the outline on its side (``relight_rt.apps.scene_rim``, ``relight_rt.apps.scene``'s step 7).
 
     Returns:
         (height, width, 3) float32 sRGB in [0, 1].
@@ -337,11 +342,10 @@ def composite_panorama(
     pv = panorama_view(panorama, plate_size, (az, el, fov))
     light = pv.light if mode in ("auto", "physical") else pv.light * 2.0**mode
     hz = min(max(pv.horizon, 0.0), 1.0) if horizon is None else horizon
-    rim_key = None
-    if rim:
-        front = float(FRONT_WEIGHTS @ (pv.light @ REC709))
-        rim_key = (pv.source_direction, float(pv.source_shading @ REC709) / front if front > 1e-12 else 0.0)
+    rim_key = pv.rim if rim else None
+    if rim_key is not None and mode not in ("auto", "physical"):
+        rim_key = (rim_key[0], rim_key[1] * 2.0**mode)  # the rim is the person's light: the same offset
     return composite(relighter, image, pv.plate, mask=mask, light=light.astype(np.float32), position=position,
                      height=height, shadow=shadow, exposure="physical", fov=fov, white_balance=False, horizon=hz,
-                     meter=meter, match_camera=match_camera, light_wrap=light_wrap, rim=rim,
+                     meter=meter, match_camera=match_camera, light_wrap=light_wrap, rim=rim_key is not None,
                      rim_key=rim_key, camera_height=camera_height)  # fmt: skip

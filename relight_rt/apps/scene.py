@@ -45,11 +45,11 @@ Steps (all colour arithmetic in linear light; both photos are read as sRGB, as c
    (``light_wrap=True``, the default; ``_light_wrap``): inside the person's edge, within ``WRAP_RADIUS`` of the
    frame's height, the person is lifted toward the background's light behind the edge where that is brighter
    (``WRAP_STRENGTH`` of the excess at most), as a rim of back light and a lens's glare would; and, with
-   ``rim=True`` (off by default: on path-traced renders it raises the edge's error, docs/RESULTS.md) when the key
-   is a back key (the background read as back-lit, or a ``key_light`` from behind), the key's rim (``_key_rim``):
-   the outline on the key's side, within ``RIM_RADIUS`` of the person's height, brightened by the key's
-   irradiance facing it over the irradiance of the person's front (a degree-2 SH light spreads it over the whole
-   body instead), by how squarely the outline faces the key's side in the image plane; then sRGB again.
+   ``rim=True``, a rim (``_key_rim``; a degree-2 SH light spreads a small source behind the person over the whole
+   body instead): the outline on the source's side, within ``RIM_RADIUS`` of the person's height, gets the
+   rim's radiance added by how squarely it faces the source's side in the image plane. The source and the
+   radiance: ``relight_rt.apps.scene_rim`` (a compact clipped source in the photo; else, when the key is a back key,
+   the key's irradiance facing it over the front's, times the front's shading); then sRGB again.
 8. Metering (``meter``): "frame" (default) exposes the composed frame as a camera that meters the whole
    frame would: one scale so its mean linear luminance equals the background photo's own (a large bright
    person darkens the frame a little), limited to ±``METER_LIMIT_EV``; "background" keeps the background's
@@ -97,6 +97,7 @@ from .scene_place import (
     parse_position,
     place,
 )
+from .scene_rim import photo_rim
 
 __all__ = [
     "Placement", "SceneLighting", "Shadows", "camera_match", "composite", "grade", "parse_position", "place",
@@ -251,25 +252,25 @@ def _rim_gain(parts, light: np.ndarray) -> float:
     return KEY_BACK * AMBIENT_GAIN * parts.level / front if front > 1e-12 else 0.0
 
 
-def _key_rim(composed: np.ndarray, alpha: np.ndarray, direction: np.ndarray, gain: float, radius: float) -> np.ndarray:
-    """A back key's rim on the person's outline (step 7 of the module docstring).
+def _key_rim(composed: np.ndarray, alpha: np.ndarray, direction: np.ndarray, colour, radius: float) -> np.ndarray:
+    """A source behind the person as a rim on their outline (step 7 of the module docstring; the rule and the
+    rim's radiance: ``relight_rt.apps.scene_rim``).
 
-    A key behind the person (``direction``, the subject frame: x toward the camera, y the image's right, z up)
-    lights the silhouette, and what grows there (hair, the fuzz of cloth) scatters it forward, toward the camera:
-    a rim on the key's side, all round for a key straight behind. A degree-2 SH light (the relighting's) spreads
-    that over the whole body and loses it; a Lambertian silhouette alone (max(0, n · d), n in the image plane)
-    would show almost none of a key nearly behind. So each pixel inside the matte near the outside is multiplied
-    by 1 + ``gain`` · facing · band, where facing = max(0, n · p̂) with n the outline's outward normal in the
-    image plane (the gradient of the blurred matte) and p̂ the key's direction in that plane (facing = 1 for a
-    key straight behind), ``gain`` the key's irradiance facing it over the irradiance the person's front gets
-    (so the rim has the light's own ratio: the person's colour, that much brighter), and band = 2 · alpha × the
-    share of outside pixels within ``radius`` (1 at a hard edge, falling to 0 a few ``radius`` inside).
+    The source (``direction``, the subject frame: x toward the camera, y the image's right, z up) lights the
+    silhouette, and what grows there (hair, the fuzz of skin and cloth) scatters it forward, toward the camera: a
+    rim on the source's side, all round for a source straight behind. So ``colour`` (linear RGB radiance) is
+    added to each pixel inside the matte near the outside, times facing · band: facing = max(0, n · p̂) with n
+    the outline's outward normal in the image plane (the gradient of the blurred matte) and p̂ the source's
+    direction in that plane (facing = 1 for a source straight behind; a Lambertian max(0, n · d) would show
+    almost none of a source nearly behind), band = 2 · alpha × the share of outside pixels within ``radius``
+    (1 at a hard edge, falling to 0 a few ``radius`` inside). Added, not multiplied: a dark coat's rim is as
+    bright as a light one's.
 
     Args:
         composed: (h, w, 3) linear frame with the person laid over the background.
         alpha: (h, w) the person's matte in this window.
-        direction: (3,) unit direction the key comes from (x < 0: behind the person; otherwise nothing).
-        gain: >= 0.
+        direction: (3,) unit direction the source is in (x < 0: behind the person; otherwise nothing).
+        colour: (3,) linear RGB radiance of the rim (>= 0), or a scalar grey.
         radius: Gaussian sigma of the reach, pixels (> 0).
 
     Returns:
@@ -277,24 +278,25 @@ def _key_rim(composed: np.ndarray, alpha: np.ndarray, direction: np.ndarray, gai
     """
     out = np.array(composed, dtype=np.float32)
     d = np.asarray(direction, np.float64)
-    if not (d[0] < 0 and gain > 0):
+    rgb = np.broadcast_to(np.maximum(np.asarray(colour, np.float32), 0), (3,))
+    if not (d[0] < 0 and rgb.max() > 0):
         return out
     a = np.clip(alpha, 0, 1).astype(np.float32)
-    reach = cv2.GaussianBlur(1 - a, (0, 0), radius, borderType=cv2.BORDER_REFLECT)
+    reach = _wide_blur(1 - a, radius)
     edge = (a > 0) & (reach > 1e-3)
     if not edge.any():
         return out
-    soft = cv2.GaussianBlur(a, (0, 0), radius, borderType=cv2.BORDER_REFLECT)
+    soft = _wide_blur(a, radius)
     gx = cv2.Sobel(soft, cv2.CV_32F, 1, 0)[edge]  # toward the image's right
     gy = cv2.Sobel(soft, cv2.CV_32F, 0, 1)[edge]  # toward its bottom
     norm = np.maximum(np.hypot(gx, gy), 1e-6)
-    side = math.hypot(d[1], d[2])  # the key's direction in the image plane
+    side = math.hypot(d[1], d[2])  # the source's direction in the image plane
     if side < 1e-6:
         facing = np.ones_like(gx)
     else:  # outward = −gradient; image up = −rows = +z
         facing = np.maximum(0, (-gx * d[1] + gy * d[2]) / (norm * side))
     band = np.minimum(2 * a[edge] * reach[edge], 1)
-    out[edge] *= (1 + np.float32(gain) * facing * band)[:, None].astype(np.float32)
+    out[edge] += (facing * band)[:, None] * rgb[None, :]
     return out
 
 
@@ -400,7 +402,8 @@ class SceneLighting:
     """What the scene's light does to the person (steps 1, 2 and 6): the light to relight them under (before
     exposure), the background's own light (the exposure's target; None when a light is used as it is), the
     direction their shadow falls away from (None: no dominant direction) and how directional the light is, and a
-    back key's rim (direction or None, gain).
+    rim (``relight_rt.apps.scene_rim``): the direction of the source behind the person (or None) and the rim's linear
+    RGB radiance.
     """
 
     light: np.ndarray
@@ -408,7 +411,7 @@ class SceneLighting:
     shadow_dir: np.ndarray | None
     directional: float
     rim_dir: np.ndarray | None = None
-    rim_gain: float = 0.0
+    rim_colour: np.ndarray | None = None
 
 
 def scene_lighting(relighter, dec, parts, background_light: np.ndarray | None, key, light, *,
@@ -416,17 +419,19 @@ def scene_lighting(relighter, dec, parts, background_light: np.ndarray | None, k
     """Step 1 and 2's light for the person of ``dec`` in the scene whose light ``parts`` describes
     (relight_rt.light.from_background ``scene_light``; ``background_light`` = ``parts.light(key)``): the background's
     own light with its key (``key``: parse_key_light's), or ``light`` (anything ``Relighter.resolve_light`` accepts)
-    white-balanced to it (``parts`` and ``background_light`` None: ``light`` as it is); ``rim_key``: with ``light``
-    and ``rim``, (direction (3,), gain) of a key known exactly (relight_rt.apps.panorama's source) that gives the
-    rim."""
+    white-balanced to it (``parts`` and ``background_light`` None: ``light`` as it is). With ``rim``: ``rim_key``
+    = (direction (3,), rim RGB (3,)) of a source behind the person (``relight_rt.apps.scene_rim``: a panorama's, or
+    one in the background photo) gives the rim; without one, the estimate's back key gives it (its irradiance
+    facing it over the front's, ``_rim_gain``, times the front's shading: the light's own colour)."""
     bg_light = background_light
-    rim_dir, rim_gain = None, 0.0
+    rim_dir, rim_rgb = None, None
     if light is None:
         lit = bg_light
         (az, el), back = parts.key(key)
         shadow_dir = key_direction(az, el)
-        if back and rim:
-            rim_dir, rim_gain = shadow_dir, _rim_gain(parts, bg_light)
+        if back and rim and rim_key is None:
+            front = FRONT_WEIGHTS @ np.asarray(bg_light, np.float64)
+            rim_dir, rim_rgb = shadow_dir, _rim_gain(parts, bg_light) * np.maximum(front, 0)
         _, directional = _dominant_direction(bg_light)
         directional = max(directional, 0.35)  # the key is there by construction: never an invisible shadow
     else:
@@ -434,9 +439,9 @@ def scene_lighting(relighter, dec, parts, background_light: np.ndarray | None, k
         if white_balance and bg_light is not None:
             lit = _white_balance(dec, lit, bg_light)
         shadow_dir, directional = _dominant_direction(lit)
-        if rim and rim_key is not None:  # a key known exactly (relight_rt.apps.panorama)
-            rim_dir, rim_gain = np.asarray(rim_key[0], np.float64), float(rim_key[1])
-    return SceneLighting(lit, bg_light, shadow_dir, directional, rim_dir, rim_gain)
+    if rim and rim_key is not None:  # a source read from the panorama or the photo (relight_rt.apps.scene_rim)
+        rim_dir, rim_rgb = np.asarray(rim_key[0], np.float64), np.asarray(rim_key[1], np.float64)
+    return SceneLighting(lit, bg_light, shadow_dir, directional, rim_dir, rim_rgb)
 
 
 def relight_person(relighter, dec, lighting: SceneLighting, mode) -> np.ndarray:
@@ -660,9 +665,11 @@ def composite(
         meter: "frame" or "background" (step 8).
         match_camera: match the background camera's blur and noise (step 5).
         light_wrap: let the background's light wrap over the person's edge where it is brighter (step 7).
-        rim: a back key (automatic or ``key_light``) puts a rim of light on the outline on its side (step 7).
-        rim_key: with ``light`` and ``rim``: (direction (3,), gain) of a key known exactly (relight_rt.apps.panorama's
-            sun or window), the rim's direction and gain in place of the estimated back key's.
+        rim: a source behind the person puts a rim of light on the outline on its side (step 7): ``rim_key``, else
+            (the background's own light) a compact clipped source in the photo (``apps.scene_rim.photo_rim``),
+            else a back key (automatic or ``key_light``).
+        rim_key: with ``rim``: (direction (3,), rim RGB (3,)) of a source known exactly (``relight_rt.apps.scene_rim``;
+            relight_rt.apps.panorama's sun or window).
         camera_height: the background camera's height above the ground, metres (step 4's perspective).
 
     Returns:
@@ -691,6 +698,8 @@ def composite(
     mask = matte_on_the_photo(relighter, image, mask, name)
     person = _linear_person(image)
     dec = relighter.decompose(person, mask)
+    if rim and rim_key is None and light is None:  # a sun, window or lamp in frame (relight_rt.apps.scene_rim)
+        rim_key = photo_rim(bg, fov)
     lighting = scene_lighting(relighter, dec, parts, bg_light, key, light, white_balance=white_balance, rim=rim,
                               rim_key=rim_key)
     rgba = relight_person(relighter, dec, lighting, mode)
@@ -744,5 +753,5 @@ def composite(
             if wrap:
                 lin = _light_wrap(lin, behind, window_alpha, wrap_radius)
             if rim_dir is not None:
-                lin = _key_rim(lin, window_alpha, rim_dir, lighting.rim_gain, rim_radius)
+                lin = _key_rim(lin, window_alpha, rim_dir, lighting.rim_colour, rim_radius)
     return grade(bg, lin, (ry0, ry1, rx0, rx1), before, meter, noise_add, alpha_region)

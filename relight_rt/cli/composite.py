@@ -75,8 +75,9 @@ def add_parser(subparsers) -> None:
                    help="match the background's blur and noise (default: on)")  # fmt: skip
     p.add_argument("--light-wrap", action=argparse.BooleanOptionalAction, default=True,
                    help="a brighter background's light wraps over the person's edge (default: on)")  # fmt: skip
-    p.add_argument("--rim", action=argparse.BooleanOptionalAction, default=False,
-                   help="a back key puts a rim of light on its side of the outline (default: off)")  # fmt: skip
+    p.add_argument("--rim", action=argparse.BooleanOptionalAction, default=None,
+                   help="a sun, window or lamp behind the person puts a rim of light on its side of the outline "
+                   "(default: on with --view, where the panorama holds the source; off for a photo)")  # fmt: skip
     p.add_argument(
         "--fov",
         type=fov,
@@ -125,7 +126,7 @@ def cmd_composite(args: argparse.Namespace) -> int:
                       shadow=args.shadow, exposure=exposure, fov=args.fov, key_light=key,
                       horizon=args.horizon,
                       meter=args.meter, match_camera=args.match_camera, light_wrap=args.light_wrap,
-                      rim=args.rim, camera_height=camera)  # fmt: skip
+                      rim=bool(args.rim), camera_height=camera)  # fmt: skip
     write_image(out, image, protect=protect)
     log.info("%s + %s -> %s", person, args.background, out)
     return 0
@@ -154,7 +155,7 @@ def _composite_panorama(args: argparse.Namespace, out: Path, person: Path) -> in
     image = composite_panorama(rl, person, pano, view, size=size, mask=mask, exposure=exposure,
                                position=position, height=args.height, horizon=args.horizon, shadow=args.shadow,
                                meter=args.meter, match_camera=args.match_camera,
-                               light_wrap=args.light_wrap, rim=args.rim, camera_height=camera)  # fmt: skip
+                               light_wrap=args.light_wrap, rim=args.rim is not False, camera_height=camera)  # fmt: skip
     write_image(out, image, protect=protect)
     log.info("%s + %s (view %g,%g,%g) -> %s", person, args.background, *view, out)
     return 0

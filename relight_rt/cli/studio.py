@@ -20,6 +20,9 @@ def add_parser(subparsers) -> None:
     p.add_argument("--mask", metavar="M", help="mask file")
     add_person_option(p)
     p.add_argument("--background", default="original", metavar="BG", help="original | transparent | IMAGE")
+    p.add_argument("--panorama", action="append", default=[], metavar="PANO",
+                   help="an equirectangular panorama (.hdr/.exr) the page may view as the scene: the plate and the "
+                   "person lit by its light turned to the view (repeatable)")  # fmt: skip
     p.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine only)")
     p.add_argument("--port", type=int, default=8000, help="port (default 8000; 0: any free port)")
     p.add_argument("--open", action="store_true", help="open the page in the default browser")
@@ -45,7 +48,8 @@ def cmd_studio(args: argparse.Namespace) -> int:
     from ..apps.studio.core import Studio
 
     rl = relighter(args)  # --models, --device, --precision, --preprocess, --no-detail
-    session = Studio(args.photo, args.mask, args.background, rl, args.preview_pixels, models=args.models)
+    session = Studio(args.photo, args.mask, args.background, rl, args.preview_pixels, models=args.models,
+                     panoramas=args.panorama)
     # Ctrl-C and SIGTERM: uvicorn stops serving, then raises the signal again under the CLI's own handlers,
     # so the command ends as every command does (130 / 143, one line; relight_rt.cli)
     studio.serve(session, args.host, args.port, args.open)

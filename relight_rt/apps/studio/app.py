@@ -15,6 +15,9 @@ Routes (no route takes a filesystem path; ids are random tokens of the server's 
     POST /api/envmap               raw body: an .hdr / PNG / JPEG equirectangular map -> {"light"}
     POST /api/photo-light          raw body: a PNG/WebP photo of a person with alpha -> {"light"}
     POST /api/background-light     raw body: a photo of the scene behind the person -> {"light"}
+    POST /api/panorama-view        {"panorama": index, "view": [az, el, fov]} (one of the panoramas the server was
+                                   started with) -> {"id", "light", "view", "horizon", "name"}
+    GET  /api/panorama/ID.png      that view's plate (the background), at the preview's size
 
 Guards (issue 35): the Host header must be a local name (DNS rebinding); a request whose Origin header is
 present must come from the server's own origin (403), so no page of another site can drive the studio;
@@ -271,6 +274,29 @@ def create_app(studio: Studio, allowed_hosts: list[str] | None = None, budget: B
             "command": studio.command(rec, f"{studio.photo.stem}_light.npy"),
             "light": np.asarray(rec.light).tolist(),
         }
+
+    @app.post("/api/panorama-view")
+    async def panorama_view(request: Request):
+        from starlette.concurrency import run_in_threadpool
+
+        _require_type(request, JSON, "panorama view")
+        async with budget.body(request, "panorama view", JSON_LIMIT) as raw:
+            try:
+                body = json.loads(raw)
+            except (ValueError, RecursionError):
+                why = 'panorama view: expected a JSON body {"panorama": N, "view": [az, el, fov]}'
+                raise RelightError(why) from None
+        if not isinstance(body, dict):
+            raise RelightError("panorama view: expected a JSON object")
+        pid, out = await run_in_threadpool(studio.panorama_view, body.get("panorama"), body.get("view"))
+        return {"id": pid, **out}
+
+    @app.get("/api/panorama/{pid}.png")
+    def panorama_plate(pid: str):
+        png = studio.plates.get(pid)
+        if png is None:
+            raise RelightError(f"plate {pid}: unknown or expired; choose the view again")
+        return Response(png, media_type="image/png")
 
     def _render(rid: str):
         rec = studio.renders.get(rid)

@@ -263,15 +263,22 @@ class Studio:
         relighter: a ``relight_rt.Relighter`` (the caller chooses models and device).
         preview_pixels: the most pixels of the in-browser preview (the photo is shrunk to fit, never enlarged).
         models: the models folder the relighter came from, for the exported command line (None: default).
+        panoramas: equirectangular panorama files (.hdr, .exr, ...) the page may view as the scene
+            (``panorama_view``); the page chooses among them by index, never by path.
     """
 
-    def __init__(self, photo, mask, background, relighter, preview_pixels: int = 1_000_000, models=None) -> None:
+    def __init__(self, photo, mask, background, relighter, preview_pixels: int = 1_000_000, models=None,
+                 panoramas=()) -> None:  # fmt: skip
         self.photo = Path(photo)
         self.mask = Path(mask) if mask is not None else sibling_mask(self.photo)
         self.background = str(background)
         self.models = models
         if self.background not in ("original", "transparent") and not Path(self.background).is_file():
             raise RelightError(f"--background {self.background}: expected original, transparent or an image file")
+        self.panoramas = [Path(p) for p in panoramas]
+        for p in self.panoramas:
+            if not p.is_file():
+                raise RelightError(f"--panorama {p}: file not found")
         if not isinstance(preview_pixels, int) or preview_pixels < 64 * 64:
             raise RelightError(f"preview_pixels: expected a whole number >= 4096, got {preview_pixels!r}")
         self.relighter = relighter
@@ -279,6 +286,9 @@ class Studio:
         self._bg = None if self.background in ("original", "transparent") else self.background
         self._lock = threading.Lock()  # one pipeline run at a time (the Decomposition caches results)
         self.renders = ResultStore(capacity=16, ttl=900.0)
+        self.plates = ResultStore(capacity=8, ttl=900.0)  # panorama views' plates (PNG), by id
+        self._panorama_cache: dict[int, np.ndarray] = {}  # index: the loaded map (the latest one only)
+        self._panorama_lock = threading.Lock()
         self.exposure_supported = "exposure" in inspect.signature(relighter.relight).parameters
         self._layers = self._pack_layers(preview_pixels)
         self._photo_png: bytes | None = None
@@ -424,6 +434,7 @@ class Studio:
             "people": self._people(),
             "exposure": self.exposure_supported,
             "max_upload_mb": MAX_UPLOAD_BYTES >> 20,
+            "panoramas": [p.name for p in self.panoramas],
         }
 
     def _people(self) -> int:
@@ -488,6 +499,31 @@ class Studio:
             dec = self.relighter.decompose_batch([image], [None])[0] if image.shape[2] == 4 else \
                 self.relighter.decompose(image[..., :3], None)
         return np.array(dec.white_light, dtype=np.float32)
+
+    def panorama_view(self, index, view) -> tuple[str, dict]:
+        """The panorama number ``index`` (of those the server was started with) seen in direction ``view``
+        ((azimuth, elevation, fov) degrees or "AZ,EL[,FOV]": ``relight_rt.apps.panorama.parse_view``): its plate at
+        the preview's size (PNG, kept under the returned id) and its SH light rotated into that view, in the
+        plate's units (``relight_rt.apps.panorama.panorama_view``: what ``composite --view`` lights the person with).
+
+        Returns:
+            (plate id, {"light": 27 numbers, "view": [az, el, fov], "horizon": row fraction, "name": file name}).
+        """
+        from ..panorama import load_panorama, panorama_view, parse_view
+
+        if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index < len(self.panoramas):
+            raise RelightError(f"panorama: expected a number from 0 to {len(self.panoramas) - 1} (the panoramas the "
+                               f"studio was started with), got {index!r}")  # fmt: skip
+        az, el, fov = parse_view(view)
+        with self._panorama_lock:
+            env = self._panorama_cache.get(index)
+            if env is None:
+                env = load_panorama(self.panoramas[index], f"--panorama {self.panoramas[index].name}")
+                self._panorama_cache = {index: env}  # one map held at a time
+        pv = panorama_view(env, (self._layers["width"], self._layers["height"]), (az, el, fov))
+        pid = self.plates.put(encode_image(pv.plate, ".png", "plate"))
+        return pid, {"light": pv.light.astype(np.float32).tolist(), "view": [az, el, fov],
+                     "horizon": float(pv.horizon), "name": self.panoramas[index].name}  # fmt: skip
 
     def background_light(self, data: bytes, key_light=None) -> np.ndarray:
         """(9, 3) float32 light of an uploaded background photo (:func:`background_upload_light`)."""

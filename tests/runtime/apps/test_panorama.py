@@ -238,6 +238,12 @@ def test_cli_composite_with_a_view(work, capsys):
     code, _, err = run(argv, capsys)
     assert code == 0, err
     assert cv2.imread("o.jpg").shape == (96, 160, 3)
+    argv = ["composite", "p.png", "--background", "pano.hdr", "--view", "20,0", "--no-shadow", "--meter", "background"]
+    for out, extra in (("on.png", []), ("rim.png", ["--rim"]), ("off.png", ["--no-rim"])):
+        code, _, err = run([*argv, "-o", out, *extra], capsys)
+        assert code == 0, err
+    on, off = cv2.imread("on.png").astype(int), cv2.imread("off.png").astype(int)
+    assert (on == cv2.imread("rim.png").astype(int)).all() and np.abs(on - off).max() > 2  # on by default with --view
 
 
 @pytest.mark.parametrize(
@@ -290,11 +296,11 @@ def test_a_sun_in_frame_puts_a_rim_on_its_side(diffuse):
     assert pv.source_direction[0] < -0.8 and pv.source_direction[1] > 0.2
     kw = {"mask": mask, "meter": "background", "match_camera": False, "light_wrap": False, "shadow": False,
           "position": (0.5, 0.95), "height": 0.8}  # fmt: skip
-    plain = composite_panorama(diffuse, img, env, (20, 0), **kw)
-    rim = composite_panorama(diffuse, img, env, (20, 0), rim=True, **kw)
+    plain = composite_panorama(diffuse, img, env, (20, 0), rim=False, **kw)
+    rim = composite_panorama(diffuse, img, env, (20, 0), **kw)  # on by default: the panorama holds the source
     gain = (srgb_to_linear(rim) @ REC709) / np.maximum(srgb_to_linear(plain) @ REC709, 1e-6)
     body = np.s_[60:110]  # rows between the head's top (lit too: the spot is 34° up) and the feet
-    cols = np.flatnonzero(gain[body].max(0) > 1.08)  # in linear light: 1 + gain · n·d · band at the outline
+    cols = np.flatnonzero(gain[body].max(0) > 1.08)  # linear: + the rim's radiance · facing · band
     assert cols.size and cols.min() > 50  # brightened: the right side of the outline (the person spans 31-69)
     assert np.abs(rim[body][:, :45] - plain[body][:, :45]).max() < 1e-6  # the left side as it was
 

@@ -253,7 +253,7 @@ def test_a_back_key_puts_a_rim_on_its_side_of_the_outline(diffuse):
 
 def test_a_key_nearly_behind_still_lights_its_side_of_the_outline():
     """A sun nearly behind the person (dawn's: 16° right of the axis, 5° up) lights the outline on its side with its
-    whole gain: the rim takes the key's side in the image plane, not the Lambertian n · d (0.28 of it here), and a
+    whole rim: the rim takes the key's side in the image plane, not the Lambertian n · d (0.28 of it here), and a
     key straight behind lights the whole outline."""
     from relight_rt.apps.scene import _key_rim
 

@@ -411,6 +411,73 @@ function bindSceneKey() {
   }
 }
 
+// ------------------------------------------------------------------------------------------------ panorama
+
+// A panorama the server was started with, seen in the view the sliders set: its plate, and its light turned to
+// that view as the base light (the lamp and the ambient off: the person lit by the panorama alone).
+async function panoramaChanged() {
+  const seq = (state.panoramaSeq = (state.panoramaSeq || 0) + 1);
+  const view = ["pano-az", "pano-el", "pano-fov"].map((id) => Number($(id).value));
+  try {
+    const res = await api("/api/panorama-view", {
+      method: "POST",
+      headers: { "Content-Type": "application/json" },
+      body: JSON.stringify({ panorama: Number($("panorama").value), view }),
+    });
+    const out = await res.json();
+    if (seq !== state.panoramaSeq) return;  // the sliders moved on meanwhile
+    const plate = $("panorama-plate");
+    plate.src = `/api/panorama/${out.id}.png`;
+    plate.hidden = false;
+    state.panorama = out;
+    const name = "panorama";
+    const select = $("base");
+    let option = [...select.options].find((o) => o.value === name);
+    if (!option) {
+      option = new Option("", name);
+      select.add(option);
+    }
+    option.textContent = `panorama: ${out.name} ${out.view.map((v) => Math.round(v)).join(",")}`;
+    state.uploads[name] = out.light.flat();
+    state.lamp.on = false;
+    $("lamp-on").checked = false;
+    state.ambient = 0;
+    setSlider("ambient", 0);
+    state.base.rotate = 0;
+    setSlider("base-rotate", 0);
+    state.base.level = 1;
+    setSlider("base-level", 1);
+    select.value = name;
+    setBase(name);
+    showMessage("", "panorama");
+  } catch (err) {
+    showMessage(err.message, "panorama");
+  }
+}
+
+function setSlider(id, value) {
+  const input = $(id);
+  input.value = String(value);
+  input.dispatchEvent(new Event("show"));
+}
+
+function bindPanorama() {
+  const names = state.info.panoramas || [];
+  if (!names.length) return;
+  $("panorama-box").hidden = false;
+  const select = $("panorama");
+  names.forEach((n, i) => select.add(new Option(n, String(i))));
+  select.addEventListener("change", () => panoramaChanged());
+  for (const [id, unit] of [["pano-az", "°"], ["pano-el", "°"], ["pano-fov", "°"]]) {
+    const input = $(id);
+    const show = () => { input.parentElement.querySelector("output").textContent = `${input.value}${unit}`; };
+    show();
+    input.addEventListener("input", show);
+    input.addEventListener("change", () => panoramaChanged());  // on release: one request per view
+  }
+  $("pano-use").addEventListener("click", () => panoramaChanged());
+}
+
 // ------------------------------------------------------------------------------------------------ panel
 
 function setBase(name) {
@@ -446,6 +513,7 @@ function bindSlider(id, apply, format) {
   const out = input.parentElement.querySelector("output");
   const show = () => { if (out) out.textContent = format(Number(input.value)); };
   show();
+  input.addEventListener("show", show);  // set from the script (setSlider)
   input.addEventListener("input", (e) => { apply(Number(input.value)); show(); lightChanged(e); });
   input.addEventListener("change", () => requestFull());
 }
@@ -484,6 +552,7 @@ function bindPanel() {
   $("photo-file").addEventListener("change", (e) => uploadLight(e.target, "/api/photo-light", "photo"));
   $("background-file").addEventListener("change", (e) => uploadLight(e.target, "/api/background-light", "scene"));
   bindSceneKey();
+  bindPanorama();
   $("copy-command").addEventListener("click", () => navigator.clipboard && navigator.clipboard.writeText($("command").textContent));
 
   const sphere = sphereCanvas();
@@ -558,5 +627,6 @@ async function start() {
 }
 
 // for tests and benchmarks
-window.studio = { sh, state, composedLight, previewLight, previewGrade, paint, requestFull, decodeLayers, createPreview, facePoint };
+window.studio = { sh, state, composedLight, previewLight, previewGrade, paint, requestFull, decodeLayers, createPreview,
+  facePoint, panoramaChanged };
 start();

@@ -1,0 +1,140 @@
+"""A small bright source behind the person as a rim of light on their outline: which source, how bright.
+
+A degree-2 SH light (the relighting's) spreads a sun or a window behind the person over the whole body, and
+lights the body's silhouette no more than its front. In a photo such a source puts a rim on the outline on its
+side: at the silhouette the surface is seen edge-on, and the light that reaches the camera from there has come
+from behind at a grazing angle, scattered forward by what grows or hangs there (hair, the fuzz of skin and
+cloth). Forward scattering keeps direction: that light is the radiance of the few degrees behind the outline,
+not the scene's mean (a sun holding 1 % of a map's light is still the brightest thing along those directions).
+
+The rule (``rim_colour``): the source is the brightest part of the half of the sphere behind the person (x < 0
+in the subject frame, DESIGN.md §3: +x toward the camera, +y the image's right, +z up), its pixels of at least
+``SOURCE_SHARE`` of that half's peak luminance; it is seen through a forward-scattering lobe of ``LOBE_DEG``
+(half-angle) around the grazing direction, so the radiance the outline scatters is the source's power averaged
+over the lobe's solid angle (or over its own, when it is wider than the lobe: then its mean radiance), times
+``SCATTER`` (the share a fibre sends on into the camera), times how far behind the person it stands (−x: a
+source beside the person lights the side, which the SH light already does). The result is a linear RGB radiance
+in the plate's units, *added* to the outline on the source's side (``relight_rt.scene``'s step 7), so a dark
+coat gets a rim as bright as a light one, in the source's colour; its luminance is at most ``RIM_MAX`` (the
+plate's white: a rim clips as a camera's does).
+
+Where the source is read:
+- a panorama (``panorama_rim``): from the map itself, exactly, in the view's camera frame;
+- a background photo (``photo_rim``): from the frame, a compact clipped region (brightest channel >= 250/255)
+  no larger than ``PHOTO_MAX_AREA`` of the frame (a sun, a window, a lamp; not an overcast sky or a white wall),
+  its radiance the clipped value times ``light.from_background.HIGHLIGHT_GAIN`` (the estimate's own reading of
+  what a clipped highlight holds), its direction through the camera of field of view ``fov``.
+
+Measured on the benchmark's renders (docs/RESULTS.md "Into any scene", ``benchmarks/scene_rim.py``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+
+from ..light import envmap
+from ..light.exposure import REC709
+
+__all__ = ["LOBE_DEG", "PHOTO_MAX_AREA", "RIM_MAX", "SCATTER", "SOURCE_SHARE", "panorama_rim", "photo_rim",
+           "rim_colour"]  # fmt: skip
+
+SOURCE_SHARE = 0.5  #: the source: pixels of at least this share of the peak luminance behind the person
+LOBE_DEG = 5.0  #: half-angle of the forward-scattering lobe (a hair fibre's transmitted lobe: a few degrees wide)
+SCATTER = 0.1  #: the share of the light seen through the lobe that the outline sends on into the camera
+RIM_MAX = 1.0  #: the rim's luminance at most (linear, the plate's white)
+PHOTO_MAX_AREA = 0.03  #: a photo's clipped region counts as a source when at most this share of the frame
+_MIN_PIXELS = 2  # a photo's clipped region of fewer pixels is noise
+_CLIP_LEVEL = 250
+_SOURCE_HEIGHT = 128  # a panorama's source is found on a copy at most this many rows high (area-averaged: its
+# power kept; 1.4° a row)
+LOBE_SR = 2 * math.pi * (1 - math.cos(math.radians(LOBE_DEG)))  #: the lobe's solid angle, steradians
+
+
+def rim_colour(power, solid_angle: float, direction) -> np.ndarray:
+    """The rim's linear RGB radiance (module docstring) of a source of RGB ``power`` (∫ radiance dω over it, in
+    the plate's units) spread over ``solid_angle`` steradians, coming from the unit ``direction`` (subject frame);
+    zeros for a source not behind the person (x >= 0)."""
+    d = np.asarray(direction, np.float64)
+    behind = max(0.0, -float(d[0]))
+    rgb = SCATTER * behind * np.asarray(power, np.float64) / max(LOBE_SR, float(solid_angle))
+    lum = float(rgb @ REC709)
+    if lum > RIM_MAX:
+        rgb *= RIM_MAX / lum
+    return np.maximum(rgb, 0)
+
+
+def panorama_rim(env, rotation: np.ndarray, scale: float) -> tuple[np.ndarray, np.ndarray] | None:
+    """The rim of the panorama's brightest source behind the person seen by a camera turned by ``rotation``
+    (ω_pano = R · ω_camera, ``relight_rt.panorama.view_rotation``), the plate being ``scale`` × the map.
+
+    Args:
+        env: (H, 2H, 3) float linear RGB map.
+        rotation: (3, 3).
+        scale: the plate's linear value per unit of the map's radiance.
+
+    Returns:
+        (direction (3,) in the camera frame, rim RGB (3,)), or None when nothing behind the person is lit.
+    """
+    arr = np.asarray(env, np.float32)
+    if arr.shape[0] > _SOURCE_HEIGHT:
+        arr = cv2.resize(arr, (2 * _SOURCE_HEIGHT, _SOURCE_HEIGHT), interpolation=cv2.INTER_AREA)
+    h = arr.shape[0]
+    cam = envmap.directions_envmap(h) @ np.asarray(rotation, np.float64)  # Rᵀ · ω for every pixel
+    behind = cam[..., 0] < 0
+    lum = np.where(behind, np.maximum(arr @ REC709.astype(np.float32), 0), 0)
+    peak = float(lum.max())
+    if not peak > 0:
+        return None
+    keep = lum >= SOURCE_SHARE * peak
+    d_omega = envmap.solid_angles_envmap(h)[keep]
+    power = (arr[keep].astype(np.float64) * d_omega[:, None]).sum(0) * scale
+    d = (cam[keep] * (lum[keep] * d_omega)[:, None]).sum(0)
+    d /= max(float(np.linalg.norm(d)), 1e-12)
+    return d, rim_colour(power, float(d_omega.sum()), d)
+
+
+def photo_rim(photo: np.ndarray, fov: float) -> tuple[np.ndarray, np.ndarray] | None:
+    """The rim of a compact clipped source in a background photo (module docstring).
+
+    Args:
+        photo: (H, W, 3) uint8 sRGB, or float sRGB in [0, 1].
+        fov: the photo's horizontal field of view, degrees.
+
+    Returns:
+        (direction (3,) in the subject frame, rim RGB (3,) in the photo's linear units), or None: no clipped
+        region, or none small enough to be a source.
+    """
+    from ..image.color import srgb8_to_linear, srgb_to_linear
+    from ..light.from_background import HIGHLIGHT_GAIN
+
+    h, w = photo.shape[:2]
+    if photo.dtype == np.uint8:  # OpenCV's channel maximum: several times numpy's
+        r, g, b = cv2.split(photo)
+        clipped = cv2.max(cv2.max(r, g), b) >= _CLIP_LEVEL
+    else:
+        clipped = photo.max(axis=2) >= _CLIP_LEVEL / 255
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(clipped.astype(np.uint8), connectivity=8)
+    if n <= 1:
+        return None
+    areas = stats[1:, cv2.CC_STAT_AREA]
+    ok = (areas >= _MIN_PIXELS) & (areas <= PHOTO_MAX_AREA * h * w)
+    if not ok.any():
+        return None
+    focal = (w / 2) / math.tan(math.radians(fov) / 2)
+    k = 1 + int(np.argmax(np.where(ok, areas, 0)))  # the largest such region, read inside its box
+    x0, y0, bw, bh = (int(v) for v in stats[k, :4])
+    ys, xs = np.nonzero(labels[y0 : y0 + bh, x0 : x0 + bw] == k)
+    ys, xs = ys + y0, xs + x0
+    y = (xs + 0.5 - w / 2) / focal  # toward the image's right, per unit behind
+    z = (h / 2 - ys - 0.5) / focal  # up
+    norm = np.sqrt(1 + y * y + z * z)
+    d_omega = 1 / (focal * focal * norm**3)  # a pixel's solid angle
+    pixels = photo[ys, xs]  # only the source's pixels are linearised
+    lin = srgb8_to_linear(pixels) if pixels.dtype == np.uint8 else srgb_to_linear(np.clip(pixels, 0, 1))
+    power = (lin.astype(np.float64) * HIGHLIGHT_GAIN * d_omega[:, None]).sum(0)
+    d = np.stack([-1 / norm, y / norm, z / norm], 1).T @ d_omega
+    d /= max(float(np.linalg.norm(d)), 1e-12)
+    return d, rim_colour(power, float(d_omega.sum()), d)

@@ -1,0 +1,85 @@
+"""relight_rt.apps.scene_rim: a small bright source behind the person becomes a rim, its strength from the source's
+radiance along grazing directions, not the map's mean."""
+
+import math
+
+import numpy as np
+import pytest
+
+from relight_rt import envmap
+from relight_rt.apps.panorama import panorama_view, view_rotation
+from relight_rt.apps.scene import _key_rim
+from relight_rt.apps.scene_rim import LOBE_SR, RIM_MAX, panorama_rim, photo_rim, rim_colour
+from relight_rt.light.exposure import REC709
+from relight_rt.light.from_background import FRONT_WEIGHTS
+
+
+def sunset_map(sky: float, share: float = 0.01, h: int = 64, right_deg: float = 16.0):
+    """A uniform sky of radiance ``sky`` and a one-pixel sun holding ``share`` of a uniform sky of radiance 1's
+    power, ``right_deg`` right of the map's centre, on the horizon (the centre column is the view at azimuth 0)."""
+    env = np.full((h, 2 * h, 3), sky, np.float32)
+    dirs, d_omega = envmap.directions_envmap(h), envmap.solid_angles_envmap(h)
+    target = view_rotation(0, 0) @ np.array([-math.cos(math.radians(right_deg)), math.sin(math.radians(right_deg)), 0])
+    r, c = np.unravel_index(np.argmax(dirs @ target), dirs.shape[:2])
+    env[r, c] += share * 4 * math.pi / d_omega[r, c]
+    return env
+
+
+def test_a_sun_with_a_hundredth_of_the_light_still_gives_a_visible_rim():
+    """The sunset map's case: the sun holds 1 % of the light; its rim is at least 0.4 of the person's front shading
+    (the old rule, the sun's irradiance over the front's, gave 0.04), on the image's right."""
+    pv = panorama_view(sunset_map(1.0), (160, 120), (0, 0))
+    direction, rgb = pv.rim
+    front = float(FRONT_WEIGHTS @ (pv.light @ REC709))
+    assert direction[0] < -0.9 and direction[1] > 0.2
+    assert float(rgb @ REC709) > 0.4 * front
+    assert float(pv.source_shading @ REC709) < 0.1 * front  # what the old gain was
+
+
+def test_the_rim_follows_the_sources_power_not_the_maps_mean():
+    """The same sun under a sky 8 times as bright: the rim (in the map's units) is the same (within the sky's own
+    radiance in the sun's pixel, 1.3 %); the sun twice as strong: twice the rim."""
+    rot = view_rotation(0, 0)
+    (_, dim), (_, bright) = panorama_rim(sunset_map(0.1), rot, 1.0), panorama_rim(sunset_map(0.8), rot, 1.0)
+    np.testing.assert_allclose(dim, bright, rtol=0.03)
+    _, double = panorama_rim(sunset_map(0.1, share=0.02), rot, 1.0)
+    np.testing.assert_allclose(double, 2 * dim, rtol=0.03)
+
+
+def test_no_rim_from_a_source_in_front_or_beside_and_the_rim_clips_at_white():
+    assert not rim_colour([1.0, 1.0, 1.0], 0.001, [0.5, 0.0, 0.87]).any()  # in front of the person
+    assert not rim_colour([1.0, 1.0, 1.0], 0.001, [0.0, 1.0, 0.0]).any()  # straight beside: the SH light's
+    huge = rim_colour([1e6, 5e5, 1e5], 0.001, [-1.0, 0.0, 0.0])
+    assert float(huge @ REC709) == pytest.approx(RIM_MAX) and huge[0] > huge[1] > huge[2]  # the source's colour
+    p = [0.01, 0.01, 0.01]
+    wide = rim_colour(p, 100 * LOBE_SR, [-1.0, 0.0, 0.0])  # wider than the lobe: its mean radiance
+    np.testing.assert_allclose(wide, rim_colour(p, LOBE_SR, [-1.0, 0.0, 0.0]) / 100)
+    np.testing.assert_allclose(rim_colour(p, LOBE_SR / 10, [-1.0, 0.0, 0.0]), rim_colour(p, LOBE_SR, [-1.0, 0.0, 0.0]))
+
+
+def test_a_clipped_sun_in_a_photo_is_a_source_on_its_side_and_an_overcast_sky_is_not():
+    photo = np.full((120, 160, 3), 90, np.uint8)
+    photo[30:36, 120:126] = 255  # upper right
+    direction, rgb = photo_rim(photo, 60.0)
+    assert direction[0] < -0.8 and direction[1] > 0.2 and direction[2] > 0.1 and float(rgb @ REC709) > 0
+    bigger = photo.copy()
+    bigger[28:38, 118:128] = 255
+    assert float(photo_rim(bigger, 60.0)[1] @ REC709) > float(rgb @ REC709)  # more clipped light, a brighter rim
+    overcast = np.full((120, 160, 3), 90, np.uint8)
+    overcast[:50] = 255  # a blown-out sky: no compact source
+    assert photo_rim(overcast, 60.0) is None
+    assert photo_rim(np.full((120, 160, 3), 90, np.uint8), 60.0) is None
+
+
+def test_the_rim_is_added_so_a_dark_coat_gets_it_too():
+    """The rim adds the source's radiance: the same absolute rim on a dark and a light body, on the source's side."""
+    alpha = np.zeros((120, 120), np.float32)
+    alpha[20:100, 40:80] = 1.0
+    d = np.array([-0.96, 0.27, 0.09])
+    d /= np.linalg.norm(d)
+    rgb = np.array([0.3, 0.2, 0.1], np.float32)
+    for level in (0.01, 0.3):
+        out = _key_rim(np.full((120, 120, 3), level, np.float32), alpha, d, rgb, 2.0)
+        added = out[60, 79] - level
+        assert added[0] > 0.5 * rgb[0] and added[0] > added[1] > added[2]
+        assert out[60, 40] == pytest.approx(level) and out[60, 60] == pytest.approx(level)  # left side, middle
