@@ -22,11 +22,11 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from relight_rt.demo import example_path
 
 import relight_rt
 from relight_rt import RuntimeConfig, lights
 from relight_rt.apps.studio.core import Studio, unpack_layers
+from relight_rt.cli.demo import example_path
 from relight_rt.light.exposure import DISPLAY_GAMMA, REC709
 from relight_rt.relight import factor as _factor
 

@@ -17,12 +17,11 @@ pytest.importorskip("fastapi")
 pytest.importorskip("uvicorn")
 sync_api = pytest.importorskip("playwright.sync_api")
 
-from relight_rt.demo import example_path  # noqa: E402
-
 import relight_rt  # noqa: E402
 from relight_rt import RelightError, RuntimeConfig, envmap  # noqa: E402
 from relight_rt.apps.panorama import panorama_view, view_rotation  # noqa: E402
 from relight_rt.apps.studio.core import Studio  # noqa: E402
+from relight_rt.cli.demo import example_path  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO / "benchmarks"))
