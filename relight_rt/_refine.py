@@ -237,29 +237,38 @@ def _colour_alpha(
     f_col, f_n = _side_mean(img, fg_w, f_reach)
     b_col, b_n = _side_mean(img, bg_w, b_reach)
     d = f_col - b_col
-    dd = (d * d).sum(-1)
-    a_c = np.clip(((img - b_col) * d).sum(-1) / (dd + _EPS), 0.0, 1.0)
+    dd = _channel_sum(d * d)
+    a_c = np.clip(_channel_sum((img - b_col) * d) / (dd + _EPS), 0.0, 1.0)
     conf = dd / (dd + _TAU) * (f_n > 0) * (b_n > 0)
     return b_col, (conf * a_c + (1 - conf) * a).astype(np.float32)
+
+
+def _channel_sum(x: np.ndarray) -> np.ndarray:
+    """(h, w) the sum of an (h, w, 3) array's channels, added in numpy's own order for three, (c0 + c1) + c2 (the
+    same values as ``x.sum(-1)``, without its strided reduction: several times faster at full size)."""
+    out = x[..., 0] + x[..., 1]
+    out += x[..., 2]
+    return out
 
 
 def _backdrop_coloured(img: np.ndarray, b_col: np.ndarray) -> np.ndarray:
     """Where a pixel's colour lies within _GAP_MATCH (squared distance) of the backdrop's colour ``b_col``: the
     one rule by which a half-seen pocket opens (``_open_gap``) and a half-seen patch at the border stays soft
     (``opaque_where_cut``)."""
-    return ((img - b_col) ** 2).sum(-1) < _GAP_MATCH
+    d = img - b_col
+    return _channel_sum(d * d) < _GAP_MATCH
 
 
 def _side_mean(img: np.ndarray, weight: np.ndarray, r: int) -> tuple[np.ndarray, np.ndarray]:
     """Weighted mean colour in windows of radius r, falling back to radius 2r where a window holds none."""
-    n = _box(weight, r)
-    s = _box(img * weight[..., None], r)
-    n2 = _box(weight, 2 * r)
-    s2 = _box(img * weight[..., None], 2 * r)
-    near = n > 0.5
-    num = np.where(near[..., None], s, s2)
-    den = np.where(near, n, n2)
-    return num / np.maximum(den, 1e-6)[..., None], den
+    weighted = img * weight[..., None]
+    num, den = _box(weighted, r), _box(weight, r)
+    far = den <= 0.5  # no sure pixel within r: the wider window's
+    if far.any():
+        np.copyto(num, _box(weighted, 2 * r), where=far[..., None])
+        np.copyto(den, _box(weight, 2 * r), where=far)
+    num /= np.maximum(den, 1e-6)[..., None]
+    return num, den
 
 
 def _guided(img: np.ndarray, p: np.ndarray) -> np.ndarray:

@@ -98,9 +98,9 @@ def _sweep(f: np.ndarray, b: np.ndarray, prepared: tuple) -> None:
     Per pixel and channel, with the neighbours' F and B held fixed:
     [a^2 + W, a(1-a); a(1-a), (1-a)^2 + W] [F; B] = [a I + sum w F_j; (1-a) I + sum w B_j], W = sum w."""
     idx, nbr, wgt, (c22, c12, c11), ai, bi = prepared
-    r1 = np.einsum("kn,knc->nc", wgt, f[nbr])
+    r1 = np.einsum("kn,knc->nc", wgt, np.take(f, nbr, axis=0))  # take: the same gather as f[nbr], ~3x faster
     r1 += ai
-    r2 = np.einsum("kn,knc->nc", wgt, b[nbr])
+    r2 = np.einsum("kn,knc->nc", wgt, np.take(b, nbr, axis=0))
     r2 += bi
     f[idx] = np.clip(c22 * r1 - c12 * r2, 0.0, 1.0)
     b[idx] = np.clip(c11 * r2 - c12 * r1, 0.0, 1.0)
