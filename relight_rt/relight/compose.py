@@ -69,10 +69,19 @@ def background_grade(colour: np.ndarray, own: np.ndarray, alpha: np.ndarray) -> 
 def light_sums(colour: np.ndarray, own: np.ndarray, alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
     """``background_grade``'s sums over a matte: the relit and the own colour in light, each (3,) float64, and the
     matte's sum. Sums of several people (a group, relit person by person) add up to the group's grade."""
+    return (light_sum(colour, alpha),) + own_light_sum(own, alpha)
+
+
+def light_sum(colour: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """(3,) float64: ``colour`` (h, w, 3, sRGB) decoded to light and summed over the matte ``alpha`` per channel."""
     a = alpha.reshape(alpha.shape[:2] + (1,)).astype(np.float32)
-    new = (srgb_to_linear(np.clip(colour, 0, 1)) * a).sum(axis=(0, 1), dtype=np.float64)
-    old = (srgb_to_linear(np.clip(own, 0, 1)) * a).sum(axis=(0, 1), dtype=np.float64)
-    return new, old, float(a.sum())
+    return (srgb_to_linear(np.clip(colour, 0, 1)) * a).sum(axis=(0, 1), dtype=np.float64)
+
+
+def own_light_sum(own: np.ndarray, alpha: np.ndarray) -> tuple[np.ndarray, float]:
+    """``light_sums``' part that does not depend on the light: the own colour's sum and the matte's (kept per
+    Decomposition by ``Composer``, which grades every light of one photo against them)."""
+    return light_sum(own, alpha), float(alpha.astype(np.float32).sum())
 
 
 def grade_of_sums(new: np.ndarray, old: np.ndarray, weight: float) -> np.ndarray:
@@ -175,6 +184,13 @@ class Composer:
             state[key] = own_colours(dec, always)
         return state[key]
 
+    def own_light(self, dec: Decomposition) -> tuple[np.ndarray, float]:
+        """``own_light_sum`` of ``dec``'s own colour over its matte in the crop box, found once per Decomposition."""
+        state = self.memo(dec)
+        if "own_light" not in state:
+            state["own_light"] = own_light_sum(self.foreground(dec)[0], dec.geometry.crop(dec.mask))
+        return state["own_light"]
+
     def compose(
         self, dec: Decomposition, light: np.ndarray, outputs: tuple, backdrop: np.ndarray | None, clean: bool = False,
         grade: bool = False,
@@ -201,7 +217,7 @@ class Composer:
             fg, bg = self.foreground(dec)
             behind = None if bg is fg else bg
             if grade:
-                gain = background_grade(colour, fg, alpha)
+                gain = grade_of_sums(light_sum(colour, alpha), *self.own_light(dec))
         return over_box(colour, alpha[..., None], geom.box, backdrop, dec.mask, behind, gain)
 
     def with_layers(self, dec: Decomposition, lit: np.ndarray, outputs: tuple, backdrop: np.ndarray | None,

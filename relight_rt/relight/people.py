@@ -141,8 +141,8 @@ def by_person(
             colour = clean_edge_colour(colour, np.ascontiguousarray(part.geometry.crop(part.image)),
                                        composer.foreground(part, always=True)[0], share[..., 0])
         if graded:  # the person's change in light, over their share (people add up to the group's)
-            for i, v in enumerate(compose.light_sums(colour, composer.foreground(part)[0], share)):
-                sums[i] = sums[i] + v
+            old, weight = composer.own_light(part)  # found once per person, whatever the light
+            sums = [sums[0] + compose.light_sum(colour, share), sums[1] + old, sums[2] + weight]
         colour *= share
         region[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0] += colour[cy0 - py0 : cy1 - py0, cx0 - px0 : cx1 - px0]
         del colour, residual, relit, looks
