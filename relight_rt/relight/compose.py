@@ -27,15 +27,15 @@ def consistent(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray, bg: np.ndar
     the soft pixels, B is solved from it (kept in [0, 1]) and then F from B, so that composing them over each
     other gives the photo back (to rounding) wherever that is possible in [0, 1].
     """
-    soft = (alpha > _SOFT) & (alpha < 1 - _SOFT)
-    a = alpha[soft][:, None]
-    i, f = image[soft], fg[soft]
+    ys, xs = np.nonzero((alpha > _SOFT) & (alpha < 1 - _SOFT))  # the soft pixels (a band along the outline)
+    a = alpha[ys, xs][:, None]
+    i, f = image[ys, xs], fg[ys, xs]
     b = np.clip((i - a * f) / (1 - a), 0, 1)
-    bg[soft] = b
-    fg[soft] = np.clip((i - (1 - a) * b) / a, 0, 1)
-    background, person = alpha <= _SOFT, alpha >= 1 - _SOFT  # exactly the photo where it is not mixed
-    bg[background] = image[background]
-    fg[person] = image[person]
+    bg[ys, xs] = b
+    fg[ys, xs] = np.clip((i - (1 - a) * b) / a, 0, 1)
+    # exactly the photo where it is not mixed (copyto: the same values as a masked assignment, several times faster)
+    np.copyto(bg, image, where=(alpha <= _SOFT)[..., None])
+    np.copyto(fg, image, where=(alpha >= 1 - _SOFT)[..., None])
     return fg, bg
 
 
