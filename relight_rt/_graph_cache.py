@@ -17,6 +17,7 @@ it off for that graph (logged at debug).
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import logging
 import platform
@@ -34,8 +35,10 @@ _CPU = "CPUExecutionProvider"
 _FORMAT = "1"  # bump when what is stored changes
 
 
+@functools.cache
 def _cpu_features() -> str:
-    """The CPU's model name and feature flags (Linux), else the platform's processor string."""
+    """The CPU's model name and feature flags (Linux), else the platform's processor string (read once a process,
+    not once a graph)."""
     try:
         with open("/proc/cpuinfo", encoding="utf-8", errors="replace") as f:
             text = f.read(1 << 16)
