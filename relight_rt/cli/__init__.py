@@ -29,7 +29,7 @@ from .report import error, os_error_text
 
 # every command, in the order ``relight-rt -h`` lists them: its name, its module in relight_rt.cli and the function
 # there that adds it to the subparsers. A run of one command imports that command's module only (``build_parser``):
-# the others' imports (Ray's manifest, the bench's harness, video, the studio) cost a one-photo run ~0.1 s of CPU.
+# the others' imports (the bench's harness, video, the studio, ...) cost a one-photo run ~30 ms of CPU.
 COMMANDS = (
     ("relight", "relight", "add_relight"),
     ("decompose", "relight", "add_decompose"),
