@@ -17,7 +17,7 @@ import numpy  # noqa: E402, F401
 import onnxruntime  # noqa: E402, F401
 
 import relight_rt  # noqa: E402
-import relight_rt.cli  # noqa: E402, F401
+import relight_rt.cli.relight  # noqa: E402, F401 - what `relight-rt relight` imports
 import relight_rt.person.matting  # noqa: E402, F401
 import relight_rt.relight.relighter  # noqa: E402, F401
 

@@ -51,7 +51,7 @@ from .. import __version__
 from ..engine.errors import RelightError
 from ..engine.files import ProtectedPaths, bytes_writer, write_all
 from ..image.exr import encode_exr
-from ..relight.decomposition import intrinsic_layers
+from ..relight.decomposition import shading_layer
 from ..relight.relighter import Decomposition, Relighter
 
 FORMATS = ("exr", "png16")
@@ -114,15 +114,15 @@ def compute_passes(relighter: Relighter, image, light=None, *, mask=None, exposu
     result = relighter.layers(dec, light, background="transparent", exposure=exposure)
     alpha = np.asarray(result.image[..., 3], np.float32)
     foreground = np.ascontiguousarray(result.image[..., :3], dtype=np.float32)
-    own = intrinsic_layers(dec)  # albedo (premultiplied) and the photo's own shading (premultiplied)
-    new = intrinsic_layers(dec, shading=dec.shading(result.light))  # the new shading, the same way
-    albedo = np.asarray(own["albedo"], np.float32)
-    shading = _straight(new["shading"], alpha)
+    # the albedo (premultiplied: intrinsic_layers', which the layers hold) and the shading under the photo's own
+    # light and under the new one, the same way (premultiplied)
+    albedo = np.asarray(result.layers["albedo"], np.float32)
+    shading = _straight(shading_layer(dec, dec.shading(result.light)), alpha)
     diffuse = albedo * shading
     beauty_rgb = foreground * alpha[..., None]
     layers = {
         "albedo": albedo,
-        "shading_photo": _straight(own["shading"], alpha),
+        "shading_photo": _straight(shading_layer(dec), alpha),
         "shading": shading,
         "diffuse": diffuse,
         "residual": beauty_rgb - diffuse,

@@ -17,6 +17,7 @@ command reads (relight_rt.engine.files.ProtectedPaths). Native libraries' own st
 from __future__ import annotations
 
 import argparse
+import importlib
 import logging
 import re
 import sys
@@ -25,22 +26,23 @@ from .. import __version__
 from ..engine.errors import RelightError
 from ..engine.limits import DEFAULT_MAX_PIXELS, pixel_limit
 from ..engine.process import interrupt_handling, quiet_native_libraries
-from . import bench, composite, demo, doctor, import_reference, lights, mask, relight, studio, video
 from .report import error, os_error_text
 
-# every command, in the order ``relight-rt -h`` lists them: a function that adds it to the subparsers
+# every command, in the order ``relight-rt -h`` lists them: its name, its module in relight_rt.cli and the function
+# there that adds it to the subparsers. A run of one command imports that command's module only (``build_parser``):
+# the others' imports (the bench's harness, video, the studio, ...) cost a one-photo run ~30 ms of CPU.
 COMMANDS = (
-    relight.add_relight,
-    relight.add_decompose,
-    lights.add_parser,
-    doctor.add_parser,
-    video.add_parser,
-    demo.add_parser,
-    bench.add_parser,
-    composite.add_parser,
-    mask.add_parser,
-    studio.add_parser,
-    import_reference.add_parser,
+    ("relight", "relight", "add_relight"),
+    ("decompose", "relight", "add_decompose"),
+    ("lights", "lights", "add_parser"),
+    ("doctor", "doctor", "add_parser"),
+    ("video", "video", "add_parser"),
+    ("demo", "demo", "add_parser"),
+    ("bench", "bench", "add_parser"),
+    ("composite", "composite", "add_parser"),
+    ("mask", "mask", "add_parser"),
+    ("studio", "studio", "add_parser"),
+    ("import-reference", "import_reference", "add_parser"),
 )
 
 
@@ -61,15 +63,24 @@ class Parser(argparse.ArgumentParser):
         self.exit(2, f"relight-rt: error: {message}; see {self.prog} -h\n")
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The parser of every command, or of ``command`` alone (a name in ``COMMANDS``: only its module is imported)."""
     parser = Parser(prog="relight-rt", description="Relight people in photos and videos.")
     parser.add_argument("--version", action="version", version=f"relight-rt {__version__}")
     _add_log_options(parser)
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for add in COMMANDS:
-        add(subparsers)
+    for name, module, adder in COMMANDS:
+        if command is None or name == command:
+            getattr(importlib.import_module(f"{__name__}.{module}"), adder)(subparsers)
     _remember_parsers(parser)
     return parser
+
+
+def _command_named(argv: list[str]) -> str | None:
+    """The command ``argv`` runs when its first word that is not an option names one (the top level's options take
+    no value), else None (help, a misspelt command: every command's parser is built)."""
+    word = next((a for a in argv if not a.startswith("-")), None)
+    return word if any(word == name for name, _, _ in COMMANDS) else None
 
 
 def _remember_parsers(parser: argparse.ArgumentParser) -> None:
@@ -92,7 +103,7 @@ def main(argv: list[str] | None = None) -> int:
     """Run the CLI; returns the process exit code (0 ok, 1 doctor found problems, 2 bad input or a file that
     cannot be read or written, 130 Ctrl-C, 143 SIGTERM). Every failure is one line on stderr, never a
     traceback; SIGTERM and Ctrl-C unwind through the atomic writers, which remove their temporary files."""
-    parser = build_parser()
+    parser = build_parser(_command_named(sys.argv[1:] if argv is None else list(argv)))
     try:
         args, extra = parser.parse_known_args(argv)
         if extra:  # an unrecognised argument: the subcommand's usage, not the top-level one

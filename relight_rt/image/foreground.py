@@ -89,21 +89,25 @@ def _prepare(idx: np.ndarray, h: int, w: int, img: np.ndarray, alpha: np.ndarray
     inv = 1.0 / (wsum * (a * a + (1 - a) * (1 - a) + wsum))  # = 1 / det, without the cancellation
     i = img[idx]
     coef = (((1 - a) * (1 - a) + wsum) * inv, a * (1 - a) * inv, (a * a + wsum) * inv)
-    return idx, nbr, wgt, coef, a * i, (1 - a) * i
+    flat = (idx[:, None] * 3 + np.arange(3)).reshape(-1)  # the pixels' values in the flat (n * 3,) F and B
+    return flat, nbr, wgt, coef, a * i, (1 - a) * i
 
 
 def _sweep(f: np.ndarray, b: np.ndarray, prepared: tuple) -> None:
-    """One Gauss-Seidel update of the flat (n, 3) F and B at the prepared pixels (in place: the solver's state).
+    """One Gauss-Seidel update of the flat (n, 3) F and B at the prepared pixels (in place: the solver's state, both
+    C-contiguous, so that their flat views are them).
 
     Per pixel and channel, with the neighbours' F and B held fixed:
-    [a^2 + W, a(1-a); a(1-a), (1-a)^2 + W] [F; B] = [a I + sum w F_j; (1-a) I + sum w B_j], W = sum w."""
-    idx, nbr, wgt, (c22, c12, c11), ai, bi = prepared
-    r1 = np.einsum("kn,knc->nc", wgt, f[nbr])
+    [a^2 + W, a(1-a); a(1-a), (1-a)^2 + W] [F; B] = [a I + sum w F_j; (1-a) I + sum w B_j], W = sum w.
+    The gathers by ``np.take`` and the writes through the flat indices are the same values as ``f[nbr]`` and
+    ``f[idx] = ...``, several times faster."""
+    flat, nbr, wgt, (c22, c12, c11), ai, bi = prepared
+    r1 = np.einsum("kn,knc->nc", wgt, np.take(f, nbr, axis=0))
     r1 += ai
-    r2 = np.einsum("kn,knc->nc", wgt, b[nbr])
+    r2 = np.einsum("kn,knc->nc", wgt, np.take(b, nbr, axis=0))
     r2 += bi
-    f[idx] = np.clip(c22 * r1 - c12 * r2, 0.0, 1.0)
-    b[idx] = np.clip(c11 * r2 - c12 * r1, 0.0, 1.0)
+    f.reshape(-1)[flat] = np.clip(c22 * r1 - c12 * r2, 0.0, 1.0).reshape(-1)
+    b.reshape(-1)[flat] = np.clip(c11 * r2 - c12 * r1, 0.0, 1.0).reshape(-1)
 
 
 def estimate_foreground(rgb: np.ndarray, alpha: np.ndarray, *, return_background: bool = False):

@@ -219,11 +219,10 @@ def intrinsic_layers(dec: Decomposition, shading: np.ndarray | None = None) -> d
     geom = dec.geometry
     alpha = dec.network_mask
     inner = alpha > 0.5
-    shading_net = extend_outward(unpremultiply(dec.shading() if shading is None else shading, alpha), inner)
     albedo_net = extend_outward(unpremultiply(np.ascontiguousarray(dec.albedo), alpha), inner)
     skin_net = extend_outward(unpremultiply(np.repeat(dec.skin[..., None], 3, axis=2), alpha), inner)
     photo = np.ascontiguousarray(geom.crop(dec.image))
-    shading = np.maximum(geom.to_crop(shading_net), 0)
+    shading = _shading_crop(dec, shading)
     albedo_up = np.clip(geom.to_crop(albedo_net), 0, 1)
     if geom.side > geom.resolution:
         y0, y1, x0, x1 = window(alpha)
@@ -241,4 +240,21 @@ def intrinsic_layers(dec: Decomposition, shading: np.ndarray | None = None) -> d
     out["albedo"][y0:y1, x0:x1] = albedo * m
     out["shading"][y0:y1, x0:x1] = shading * m
     out["skin"][y0:y1, x0:x1] = np.clip(skin[..., 0], 0, 1) * m[..., 0]
+    return out
+
+
+def _shading_crop(dec: Decomposition, shading: np.ndarray | None) -> np.ndarray:
+    """``intrinsic_layers``' shading in the crop box, straight (upsampled plainly, not below 0)."""
+    alpha = dec.network_mask
+    net = extend_outward(unpremultiply(dec.shading() if shading is None else shading, alpha), alpha > 0.5)
+    return np.maximum(dec.geometry.to_crop(net), 0)
+
+
+def shading_layer(dec: Decomposition, shading: np.ndarray | None = None) -> np.ndarray:
+    """``intrinsic_layers(dec, shading)["shading"]`` alone (H, W, 3), without the albedo and skin it also makes
+    (relight_rt.apps.render_passes takes the shading under two lights and the albedo once)."""
+    geom = dec.geometry
+    y0, y1, x0, x1 = geom.box
+    out = np.zeros(geom.frame + (3,), np.float32)
+    out[y0:y1, x0:x1] = _shading_crop(dec, shading) * geom.crop(dec.mask)[..., None]
     return out

@@ -15,6 +15,7 @@ from .look import dark_colour, knee
 
 MAX_PEOPLE = 16  # matting="all": a photo of more people than this is relit as one group (stage 1 once a person)
 _ROWS = 256  # rows of the photo done at a time where a temporary would otherwise be the photo's size
+_LIGHTS_BYTES = 1 << 28  # a group photo relit under several lights: at most this many bytes of pictures held at once
 _PART_MARGIN = 0.1  # a person of a group is decomposed in their share's box grown by this x its size on each side
 
 
@@ -97,6 +98,23 @@ def by_person(
     ``composer``: the Relighter's; ``network_relit``: its stage-2 pass (a decomposition, lights (K, 9, 3), a batch
     size and ``want_layers`` -> (diffuse, residual, relit) per light, as ``Relighter`` runs it).
     """
+    return by_person_lights(composer, network_relit, dec, parts, np.asarray(light)[None], [exposure], bg)[0]
+
+
+def lights_at_once(frame: tuple[int, int], channels: int, most: int) -> int:
+    """How many lights ``by_person_lights`` takes together for a group photo of ``frame`` (H, W): up to ``most``,
+    as many pictures as ``_LIGHTS_BYTES`` holds (a 25-MP group: one at a time)."""
+    return max(1, min(most, _LIGHTS_BYTES // max(frame[0] * frame[1] * channels * 4, 1)))
+
+
+def by_person_lights(
+    composer: compose.Composer, network_relit: Callable, dec: Decomposition, parts: tuple[Decomposition, ...],
+    lights: np.ndarray, exposures: list, bg: Background,
+) -> list[np.ndarray]:
+    """``by_person`` under each of the (K, 9, 3) ``lights`` with its exposure: person by person, what a person's
+    relit colour needs whatever the light (their own colour's ``dark_colour`` and ``knee``, the full-resolution
+    guide) made once for the K lights and let go before the next person; the K pictures are held together
+    (``lights_at_once`` says how many a photo's size allows)."""
     memo, factor = composer.memo, composer.factor
     backdrop = compose.backdrop_of(dec, bg)
     clean = bg.kind != "original"
@@ -125,34 +143,42 @@ def by_person(
             a = dec.mask[cy0:cy1, cx0:cx1, None]
             region[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0] = behind[inner] * (1 - a)
         people.append((part, (cy0, cy1, cx0, cx1), (py0, px0)))
+    outs = [out] + [out.copy() for _ in range(len(lights) - 1)]  # one picture per light, the backdrop in each
+    regions = [o[y0:y1, x0:x1, :3] if backdrop is None else o[y0:y1, x0:x1] for o in outs]
     if graded:  # what shows of the backdrop in the box, graded once the people's change is known
         under = region.copy()
-        sums = [np.zeros(3), np.zeros(3), 0.0]
+        sums = [[np.zeros(3), np.zeros(3), 0.0] for _ in outs]
     for part, (cy0, cy1, cx0, cx1), (py0, px0) in people:
-        lit = factor.expose(part, light[None], exposure)[0]
-        _, residual, relit = next(network_relit(part, lit[None], 1, want_layers=composer.detail))
         looks = None
-        if composer.detail:  # made per light from the person's own colour, not kept for every person
+        if composer.detail:  # made once per person for the K lights, not kept for every person
             fg = composer.foreground(part)[0]
             looks = dark_colour(fg), knee(fg)
-        colour = composer.person_colour(part, lit, residual, relit, looks)
         share = part.geometry.crop(part.mask)[..., None]
-        if clean and not composer.detail:
-            colour = clean_edge_colour(colour, np.ascontiguousarray(part.geometry.crop(part.image)),
-                                       composer.foreground(part, always=True)[0], share[..., 0])
-        if graded:  # the person's change in light, over their share (people add up to the group's)
-            for i, v in enumerate(compose.light_sums(colour, composer.foreground(part)[0], share)):
-                sums[i] = sums[i] + v
-        colour *= share
-        region[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0] += colour[cy0 - py0 : cy1 - py0, cx0 - px0 : cx1 - px0]
-        del colour, residual, relit, looks
-        memo(part).pop("gray", None)  # the guide is remade per light, not kept for every person (issue 50 bug 1)
-    if backdrop is None:
-        np.divide(region, alpha, out=region, where=alpha > 0)
-        out[..., 3] = dec.mask
-    elif graded:  # the group's change, summed over the people (relight_rt.image.compositing's grade)
-        gain = compose.grade_of_sums(*sums)
-        region += under * (gain - 1)  # the backdrop's share of the box, and everything outside it
-        for band in (out[:y0], out[y1:], out[y0:y1, :x0], out[y0:y1, x1:]):
-            band *= gain
-    return np.clip(out, 0, 1, out=out)
+        for k, (light, exposure) in enumerate(zip(lights, exposures, strict=True)):
+            lit = factor.expose(part, light[None], exposure)[0]
+            _, residual, relit = next(network_relit(part, lit[None], 1, want_layers=composer.detail))
+            colour = composer.person_colour(part, lit, residual, relit, looks)
+            if clean and not composer.detail:
+                colour = clean_edge_colour(colour, np.ascontiguousarray(part.geometry.crop(part.image)),
+                                           composer.foreground(part, always=True)[0], share[..., 0])
+            if graded:  # the person's change in light, over their share (people add up to the group's)
+                old, weight = composer.own_light(part)  # found once per person, whatever the light
+                sums[k] = [sums[k][0] + compose.light_sum(colour, share), sums[k][1] + old, sums[k][2] + weight]
+            colour *= share
+            regions[k][cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0] += colour[cy0 - py0 : cy1 - py0,
+                                                                           cx0 - px0 : cx1 - px0]
+            del colour, residual, relit
+        del looks
+        memo(part).pop("gray", None)  # the guide is remade per call, not kept for every person (issue 50 bug 1)
+    for k, out in enumerate(outs):
+        region = regions[k]
+        if backdrop is None:
+            np.divide(region, alpha, out=region, where=alpha > 0)
+            out[..., 3] = dec.mask
+        elif graded:  # the group's change, summed over the people (relight_rt.image.compositing's grade)
+            gain = compose.grade_of_sums(*sums[k])
+            region += under * (gain - 1)  # the backdrop's share of the box, and everything outside it
+            for band in (out[:y0], out[y1:], out[y0:y1, :x0], out[y0:y1, x1:]):
+                band *= gain
+        np.clip(out, 0, 1, out=out)
+    return outs

@@ -428,10 +428,12 @@ class Relighter:
         exposures = [_exposure.for_light(exposure, v) for v in lights] if isinstance(lights, list) else \
             [_exposure.parse_exposure(exposure)] * len(resolved)
         parts = dec.people
-        if parts:
+        if parts:  # a group: each person's light-independent work done once for several lights
             bg = parse_background(background)
-            for light, exp in zip(resolved, exposures, strict=True):
-                yield per_person.by_person(self._composer, self._network.relit, dec, parts, light, exp, bg)
+            step = per_person.lights_at_once(dec.geometry.frame, bg.channels, batch_size)
+            for s in range(0, len(resolved), step):
+                yield from per_person.by_person_lights(self._composer, self._network.relit, dec, parts,
+                                                       resolved[s : s + step], exposures[s : s + step], bg)
             return
         expose = self._factor.expose
         if all(e == exposures[0] for e in exposures):

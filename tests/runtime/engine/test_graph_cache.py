@@ -7,7 +7,7 @@ import pytest
 from _graphs import save, stage1_model
 
 from relight_rt.engine import environment
-from relight_rt.engine.graph_cache import graph_key, open_session
+from relight_rt.engine.graph_cache import graph_digest, graph_key, open_session
 from relight_rt.engine.session import _warmup_feeds, cpu_session_options, load_model
 
 CPU = ["CPUExecutionProvider"]
@@ -27,6 +27,11 @@ def cache(tmp_path, monkeypatch):
     return folder
 
 
+def graphs(cache):
+    """The optimised graphs in the cache folder (not its ``digests/``)."""
+    return sorted(p for p in cache.iterdir() if p.is_file())
+
+
 def run(model):
     feeds = _warmup_feeds(model.session, model.config)
     feeds = {k: np.random.default_rng(1).random(v.shape).astype(np.float32) for k, v in feeds.items()}
@@ -35,11 +40,11 @@ def run(model):
 
 def test_written_once_then_loaded_with_the_same_results(graph, cache):
     first = load_model(graph, "stage1", device="cpu", warmup=False)
-    files = sorted(cache.iterdir())
+    files = graphs(cache)
     assert len(files) == 1 and files[0].name.startswith("stage1-") and files[0].suffix == ".onnx"
     stamp = files[0].stat().st_mtime_ns
     second = load_model(graph, "stage1", device="cpu", warmup=False)
-    assert sorted(cache.iterdir()) == files and files[0].stat().st_mtime_ns == stamp  # read, not written again
+    assert graphs(cache) == files and files[0].stat().st_mtime_ns == stamp  # read, not written again
     assert second.config == first.config  # the metadata travels with the optimised graph
     for a, b in zip(run(first), run(second), strict=True):
         np.testing.assert_array_equal(a, b)
@@ -61,11 +66,34 @@ def test_key_follows_the_graph_and_onnxruntime(graph, tmp_path):
 
 def test_a_damaged_file_is_optimised_again(graph, cache):
     load_model(graph, "stage1", device="cpu", warmup=False)
-    (cached,) = cache.iterdir()
+    (cached,) = graphs(cache)
     cached.write_bytes(b"not a graph")
     model = load_model(graph, "stage1", device="cpu", warmup=False)
     assert model.config.kind == "stage1" and cached.stat().st_size > 1000  # whole again
-    assert not [p for p in cache.iterdir() if p.name.endswith(".tmp")]  # no temporary file left
+    assert not [p for p in cache.rglob("*") if ".tmp" in p.name]  # no temporary file left
+
+
+def test_the_digest_is_remembered_and_follows_the_file(graph, tmp_path):
+    """A cold process reads the graph's digest from a note instead of hashing the file; writing the file (its change
+    time moves, even when its size and modification time are put back) makes a new note."""
+    import os
+
+    folder = tmp_path / "cache"
+    plain = graph_digest(graph)
+    assert graph_digest(graph, str(folder)) == plain  # hashed, then noted
+    (note,) = (folder / "digests").iterdir()
+    note.write_text("0" * 40)  # the note is what is read the second time
+    assert graph_digest(graph, str(folder)) == "0" * 40
+    st = graph.stat()
+    other = tmp_path / "other.onnx"
+    save(stage1_model(128), other)
+    graph.write_bytes(other.read_bytes()[: st.st_size].ljust(st.st_size, b"\0"))  # another graph, same size
+    os.utime(graph, ns=(st.st_atime_ns, st.st_mtime_ns))  # and the same modification time
+    assert graph_digest(graph, str(folder)) == graph_digest(graph) != plain
+    (new_note,) = set((folder / "digests").iterdir()) - {note}
+    new_note.write_text("not a digest")  # a damaged note: the file is hashed again
+    assert graph_key(graph, ort.GraphOptimizationLevel.ORT_ENABLE_ALL, CPU, str(folder)) == graph_key(
+        graph, ort.GraphOptimizationLevel.ORT_ENABLE_ALL, CPU)
 
 
 def test_off_writes_nothing(graph, tmp_path, monkeypatch):
