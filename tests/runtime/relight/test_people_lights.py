@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from relight_rt.demo import example_path
 
 import relight_rt
 from relight_rt import RuntimeConfig, lights
+from relight_rt.cli.demo import example_path
 from relight_rt.image.compositing import Background
 from relight_rt.image.io import read_image
 from relight_rt.relight import people
