@@ -351,20 +351,29 @@ class PersonMatter:
         grid = working_grid((0, 0, w, h))
         mine = logits_on_grid(main, grid) > 0
         tall = box[3] - box[1]
+        everyone = self._everyone(rgb, _PEER_HEIGHT * tall)
         peers = []
-        for p in self._everyone(rgb, _PEER_HEIGHT * tall):
+        for p in everyone:
+            mask = logits_on_grid(p, grid) > 0
+            if mask.any() and (mask & mine).sum() >= _COVERED * mask.sum():
+                # mostly ``main`` again: the pose graph segments everyone in its region, so the segmentation of a
+                # couple side by side holds both; what lies outside ``main`` may be the other one, whole
+                p = _outside(p, main)
+                mask = logits_on_grid(p, grid) > 0
             b = person_box(p, (h, w))
-            if b is None or not _PEER_HEIGHT * tall <= b[3] - b[1] <= tall / _PEER_HEIGHT:
+            if b is None or not mask.any() or not _PEER_HEIGHT * tall <= b[3] - b[1] <= tall / _PEER_HEIGHT:
                 continue
             if b[0] <= 1 or b[1] <= 1 or b[2] >= w - 1 or (b[3] >= h - 1 and box[3] < h - 1):
                 continue  # cut by the frame: whole or not at all
-            mask = logits_on_grid(p, grid) > 0
-            if not mask.any() or (mask & mine).sum() >= _COVERED * mask.sum():
-                continue
             if p.source != "pose" and not any(contains(p, f, (h, w)) for f in outside):
                 continue
             peers.append(p)
-        return peers
+        # a part split from a selfie-graph segmentation holding several people is matted from the whole of it
+        # (rejoin): only where every part of that whole is taken, else from its own part
+        taken = {id(p.whole) for p in peers if p.whole is not None}
+        split = {key: sum(id(q.whole) == key for q in everyone) for key in taken}
+        return [p if p.whole is None or sum(id(q.whole) == id(p.whole) for q in peers) == split[id(p.whole)]
+                else replace(p, whole=None) for p in peers]  # fmt: skip
 
     def _note_others(self, people: list[Person], faces: list[Face], name: str) -> None:
         """Say (log, INFO) how many of ``faces`` lie outside the segmentations of ``people`` (the largest person
@@ -633,6 +642,17 @@ def shared_matter(
         if key not in _SHARED:
             _SHARED[key] = PersonMatter(key[0], device=device, person=person)
         return _SHARED[key]
+
+
+def _outside(person: Person, other: Person) -> Person:
+    """``person`` less what ``other`` holds: at each pixel of its canvas the smaller of its logit and the negated
+    logit of ``other`` there (a soft cut along ``other``'s outline)."""
+    k, bx, by = grid_of_region(person.region)
+    c = (np.arange(SIZE, dtype=np.float64) - np.array([[bx], [by]])) / k  # image x of the columns, y of the rows
+    xs, ys = np.meshgrid(c[0], c[1])
+    p = np.clip(prob_at(other, xs.ravel(), ys.ravel()).reshape(SIZE, SIZE), 1e-6, 1 - 1e-6)
+    theirs = np.log(p) - np.log1p(-p)
+    return replace(person, logits=np.minimum(person.logits, -theirs).astype(np.float32), whole=None)
 
 
 def _someone_beside(box, blobs: list, faces: list[Face]) -> bool:
