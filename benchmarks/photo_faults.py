@@ -46,6 +46,7 @@ import numpy as np
 # real_photos puts this checkout (and benchmarks/) first on sys.path: the relight_rt imported below is this one
 from real_photos import LEFT, REPO, RIGHT, luminance
 
+import relight_rt
 from relight_rt import Relighter, RuntimeConfig, lights
 from relight_rt.person.face_mesh import FaceMesh
 
@@ -224,7 +225,8 @@ def main(argv=None) -> int:
     for attr, alt in (("people", "../shared/realdata/people_masks"), ("reference", "../shared/reference")):
         if not getattr(args, attr).is_dir() and Path(alt).is_dir():
             setattr(args, attr, Path(alt))
-    relighter = Relighter(RuntimeConfig(models=args.models, device="cpu"))
+    # relight_rt.open hands in the automatic matte (Relighter(config) alone has none: the clip's figures need it)
+    relighter = relight_rt.open(RuntimeConfig(models=args.models, device="cpu"))
     mesh = FaceMesh(relighter.models_dir)
     names = args.lights.split(",") if args.lights else [*lights.list_presets(), "LEFT", "RIGHT"]
     args.out.mkdir(parents=True, exist_ok=True)

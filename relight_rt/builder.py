@@ -66,7 +66,8 @@ class _Lazy:
 
 
 class _LazyPeople(_Lazy):
-    """``_Lazy`` for a matter of everyone (``parts``: each person's share of the matte, relight_rt.relight.people)."""
+    """``_Lazy`` for a person matter that keeps each person's share of the matte (``parts``,
+    relight_rt.relight.people)."""
 
     def parts(self, rgb: np.ndarray, name: str = "image"):
         return self._get().parts(rgb, name)
@@ -85,8 +86,8 @@ def person_matter(config: RuntimeConfig) -> Matter | None:
     from .person.matting import shared_matter
 
     person = "all" if config.matting == "all" else "largest"
-    build = lambda: shared_matter(device=config.device, person=person)  # noqa: E731
-    return _LazyPeople(build) if person == "all" else _Lazy(build)
+    # "largest" keeps the people who stand with that person too (a group posing together): each keeps a share
+    return _LazyPeople(lambda: shared_matter(device=config.device, person=person))
 
 
 def video_matter(config: RuntimeConfig) -> Matter | None:

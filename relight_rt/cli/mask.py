@@ -44,7 +44,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", required=True, metavar="OUT",
                    help="output .png (one image), folder, or video file (.avi/.mp4/.mkv; a video input)")  # fmt: skip
     p.add_argument("--person", choices=("largest", "all"), default="largest",
-                   help="which people to mask: the largest (default) or all: everyone at least 6%% of the "
+                   help="which people to mask: the largest and those standing with them, as tall and in full view "
+                   "(default), or all: everyone at least 6%% of the "
                    "photo's height tall and in view (people overlapping one another may come as one, or the one "
                    "behind be missed)")  # fmt: skip
     p.add_argument("--no-refine", action="store_true", help="skip the guided-filter edge refinement")

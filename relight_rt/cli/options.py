@@ -50,8 +50,9 @@ def add_max_pixels(p) -> None:
 def add_person_option(p: argparse.ArgumentParser) -> None:
     """``--person largest|all``: whom the automatic matte takes when no mask is given (RuntimeConfig.matting)."""
     p.add_argument("--person", dest="people", choices=("largest", "all"), default="largest",
-                   help="whom the automatic matte takes (no mask given): the largest person (default) or everyone it "
-                   "finds (a group photo; each person is then smaller in the network's square)")  # fmt: skip
+                   help="whom the automatic matte takes (no mask given): the largest person and those standing with "
+                   "them, as tall and in full view (default), or everyone it finds (a group photo; each person is "
+                   "then smaller in the network's square)")  # fmt: skip
 
 
 def runtime_config(args: argparse.Namespace) -> RuntimeConfig:

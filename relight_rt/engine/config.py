@@ -33,9 +33,10 @@ class RuntimeConfig:
         detail: carry the input's full-resolution detail into results larger than the network's square.
         warmup: run each graph once at load; None: only on CUDA.
         matting: "auto": a photo with neither a mask nor an alpha channel gets an automatic person matte of
-            its largest person (when a matting model is installed); "all": of everyone the matte finds (a group
-            photo relit whole, person by person, each with their share of the matte; relight_rt.person.matting
-            ``person="all"``, ``PersonMatter.parts``); "off": such a photo is an error.
+            its largest person and the people who stand with them, as tall and seen whole (a group posing
+            together, relit person by person; when a matting model is installed); "all": of everyone the matte
+            finds (a group photo relit whole, person by person, each with their share of the matte;
+            relight_rt.person.matting ``person="all"``, ``PersonMatter.parts``); "off": such a photo is an error.
     """
 
     models: str | None = None

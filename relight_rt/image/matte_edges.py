@@ -11,10 +11,11 @@ solved per pixel with F and B held fixed):
     alpha_c = clip(((I - B) . (F - B)) / (|F - B|^2 + eps), 0, 1)
 
 Where F and B are alike (a dark coat before a dark doorway) colour says nothing: the estimate is blended
-with the coarse alpha by a confidence |F - B|^2 / (|F - B|^2 + tau). A small guided filter (the photo as
-guide) then removes pixel noise while keeping strands. On the background's side of the outline the estimate is
-held under a ceiling that falls smoothly from 1 at the outline to the coarse alpha at the band's outer edge: a
-light patch of background that colour puts between B and F (a white awning beside dark hair on the reference
+with the coarse alpha by a confidence |F - B|^2 / (|F - B|^2 + tau), except where colour clearly says plain
+background (alpha 0: the coarse matte's soft rim past the outline, :func:`_colour_alpha`). A small guided filter
+(the photo as guide) then removes pixel noise while keeping strands. On the background's side of the outline the
+estimate is held under a ceiling that falls smoothly from 1 at the outline to the coarse alpha at the band's outer
+edge: a light patch of background that colour puts between B and F (a white awning beside dark hair on the reference
 photo) then fades out instead of ending in the band's straight edge. Outside the band the coarse matte is kept, except
 that a faint veil (alpha < 0.2 on the background side, > 0.8 on the person's; < 0.05 / > 0.95 anywhere
 away from the outline) is snapped to 0 / 1: composited, it would show the old background. A body that runs out
@@ -42,6 +43,9 @@ _BAND_FRAC = 0.008  # half-width of the band, as a fraction of the photo's longe
 _BAND_MIN = 3  # ... at least this many pixels
 _EPS = 1e-4
 _TAU = 0.3  # |F - B|^2 at which colour and the coarse matte count equally (benchmarks/matting_eval.py)
+_CLEAR = 0.01  # a pixel within sqrt(this) x |F - B| of the background's colour B is plain background ...
+_CLEAR_MIN = 0.02  # ... where |F - B|^2 is at least this (person and background told apart by colour)
+_CLEAR_BELOW = 0.9  # ... in the coarse matte's soft part (coarse alpha below this: not its sure interior)
 _GF_RADIUS = 1
 _GF_EPS = 1e-3
 _CUT_REACH = 0.2  # a body cut by the bottom border is made opaque up to this x the photo's height above it
@@ -139,8 +143,9 @@ def _refine_box(rgb: np.ndarray, alpha: np.ndarray, out: np.ndarray, box: tuple[
     fg_w = (fg & (a >= _SURE)).astype(np.float32)
     bg_w = (bg & (a <= 1 - _SURE)).astype(np.float32)
     # mean colour of the sure pixels in a window of radius 2r (4r where the nearer window holds none)
-    b_col, blend = _colour_alpha(img, a, fg_w, bg_w, 2 * r, 2 * r)
+    b_col, blend, clear = _colour_alpha(img, a, fg_w, bg_w, 2 * r, 2 * r)
     est = _guided(img, blend)
+    est[clear] = 0.0  # the guided filter's smear of the person's alpha over plain background
     sub = out[y0:y1, x0:x1]
     # on the background's side, colour's answer fades out toward the band's outer edge (where the coarse matte is
     # sure of background): a light patch of background there would otherwise end in the band's straight edge
@@ -186,7 +191,7 @@ def _open_gap(rgb: np.ndarray, alpha: np.ndarray, out: np.ndarray, pocket: np.nd
     inside = (a >= 0.5).astype(np.uint8)
     fg_w = ((cv2.distanceTransform(inside, cv2.DIST_L2, 3) > r) & (a >= _SURE)).astype(np.float32)
     bg_w = ((cv2.distanceTransform(1 - inside, cv2.DIST_L2, 3) > r) & (a <= 1 - _SURE)).astype(np.float32)
-    b_col, blend = _colour_alpha(img, a, fg_w, bg_w, 2 * r, _GAP_REACH * r)
+    b_col, blend, _ = _colour_alpha(img, a, fg_w, bg_w, 2 * r, _GAP_REACH * r)
     near_b = _backdrop_coloured(img, b_col)
     est = _guided(img, np.where(near_b, blend, a))
     sel = np.zeros(a.shape, bool)
@@ -246,17 +251,28 @@ def opaque_where_cut(alpha: np.ndarray, r: int, rgb: np.ndarray | None = None) -
 
 def _colour_alpha(
     img: np.ndarray, a: np.ndarray, fg_w: np.ndarray, bg_w: np.ndarray, f_reach: int, b_reach: int
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Colour's alpha (module docstring), blended with the coarse ``a`` by its confidence, from the mean colours of
     the sure foreground (weights ``fg_w``, windows of radius ``f_reach``) and the sure background (``bg_w``,
-    ``b_reach``). Returns (the background colour B per pixel (h, w, 3), the blended alpha (h, w) float32)."""
+    ``b_reach``). A pixel is plain background, alpha 0, where colour says so clearly: its colour lies within
+    sqrt(_CLEAR) x |F - B| of B and colour's alpha is under _SNAP, person and background differ by colour
+    (|F - B|^2 >= _CLEAR_MIN), and the coarse matte is not sure of the person there (below _CLEAR_BELOW). The
+    coarse matte's soft rim reaches 3-8 px past the outline (0.18 at 3-4 px outside the reference clip's dress,
+    where the pixels lie 0.02 from the white backdrop's colour), and the blend by confidence kept a third of it:
+    relit, that rim changed the background beside the person (issue 48). Within 0.1 |F - B| of B (_CLEAR 0.01): at
+    0.2 the faint strands of the reference photo's hair went too (error in its hand mask's soft band 0.224 -> 0.234;
+    0.230 at 0.1) for the same band. Returns (the background colour B per pixel (h, w, 3), the blended alpha (h, w)
+    float32, where colour says plain background (h, w) bool)."""
     f_col, f_n = _side_mean(img, fg_w, f_reach)
     b_col, b_n = _side_mean(img, bg_w, b_reach)
     d = f_col - b_col
     dd = _channel_sum(d * d)
     a_c = np.clip(_channel_sum((img - b_col) * d) / (dd + _EPS), 0.0, 1.0)
     conf = dd / (dd + _TAU) * (f_n > 0) * (b_n > 0)
-    return b_col, (conf * a_c + (1 - conf) * a).astype(np.float32)
+    near_b = ((img - b_col) ** 2).sum(-1) < _CLEAR * dd
+    clear = near_b & (a_c < _SNAP) & (dd >= _CLEAR_MIN) & (f_n > 0) & (b_n > 0)
+    clear &= a < _CLEAR_BELOW  # where the graphs are sure of the person, a part may wear the backdrop's colour
+    return b_col, np.where(clear, 0.0, conf * a_c + (1 - conf) * a).astype(np.float32), clear
 
 
 def _channel_sum(x: np.ndarray) -> np.ndarray:

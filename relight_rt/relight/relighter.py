@@ -74,7 +74,7 @@ class Relighter:
             reference's resize bit for bit), detail transfer, warm-up and automatic matting. None: the
             defaults (the bundled models, or $RELIGHT_RT_MODELS). Kept once, as ``self.config``.
         matter: the automatic person matte (any relight_rt.person.masks.Matter) for a photo given neither a mask nor an
-            alpha channel; one with ``parts`` and ``config.matting == "all"`` relights a group person by person.
+            alpha channel; one with ``parts`` (``config.matting`` not "off") relights a group person by person.
             None: such a photo is refused. ``relight_rt.open(config)`` hands in the bundled one.
         providers: explicit onnxruntime providers (win over the config's device).
 
@@ -212,7 +212,7 @@ class Relighter:
             return decs  # colours, the light's refit): per frame it would cost more than it shows
         decs = self._photos(decs)
         for i, crops in enumerate(people):
-            if crops is not None:  # a group photo (matting="all"): each person decomposed on their own too
+            if crops is not None:  # a group photo (several people matted): each person decomposed on their own too
                 decs[i] = self._group(decs[i], crops)
         # a group relit person by person holds no colours of its own: its people carry theirs (found on first use
         # when it is relit as one)
@@ -262,7 +262,7 @@ class Relighter:
         """Stage 1 on a batch: read, resolve masks, crop, run; one Decomposition per image (a photo unless
         ``allow_full``, its face meshes found with ``faces``), and per image its people's masks or None."""
         matter = self.matter
-        group = self.config.matting == "all" and not allow_full  # a group photo: relit person by person
+        group = self.config.matting != "off" and not allow_full  # a group photo: relit person by person
         rgbs, ms, geoms, people = read_batch(images, masks, matter, group, allow_full, self.resolution,
                                              self.preprocess)
         net_imgs = [g.to_network(rgb) for g, rgb in zip(geoms, rgbs, strict=True)]

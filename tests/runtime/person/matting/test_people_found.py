@@ -460,6 +460,22 @@ def two_people(example_rgba) -> tuple[np.ndarray, np.ndarray]:
     return np.ascontiguousarray(np.hstack([one, one[:, ::-1]])), np.hstack([a[..., 0], a[:, ::-1, 0]])
 
 
+@pytest.fixture(scope="module")
+def near_and_far(example_rgba) -> tuple[np.ndarray, np.ndarray]:
+    """The example person over grey and, beside them, the same person 0.6x as tall standing further back (feet
+    higher, as on the same ground further away): a person and a passer-by; and the true alpha."""
+    a = example_rgba[..., 3:4]
+    one = example_rgba[..., :3] * a + 0.55 * (1 - a)
+    h, w = one.shape[:2]
+    small = cv2.resize(np.concatenate([one, a], axis=2)[:, ::-1], None, fx=0.6, fy=0.6, interpolation=cv2.INTER_AREA)
+    far = np.full_like(one, 0.55)
+    far_a = np.zeros_like(a[..., 0])
+    y, x = int(0.15 * h), (w - small.shape[1]) // 2
+    far[y : y + small.shape[0], x : x + small.shape[1]] = small[..., :3]
+    far_a[y : y + small.shape[0], x : x + small.shape[1]] = small[..., 3]
+    return np.ascontiguousarray(np.hstack([one, far])), np.hstack([a[..., 0], far_a])
+
+
 def _covered(mask: np.ndarray, truth: np.ndarray) -> tuple[float, float]:
     """The share of each half's person the mask holds (left, right)."""
     w = truth.shape[1] // 2
@@ -467,21 +483,37 @@ def _covered(mask: np.ndarray, truth: np.ndarray) -> tuple[float, float]:
     return float((m & t)[:, :w].sum() / t[:, :w].sum()), float((m & t)[:, w:].sum() / t[:, w:].sum())
 
 
-def test_relighting_takes_everyone_with_matting_all(two_people):
+def test_relighting_takes_everyone_with_matting_all(near_and_far, two_people):
     """RuntimeConfig(matting="all") (`relight --person all`): a photo without a mask is relit for everyone the matte
-    finds, not only its largest person."""
+    finds; the default takes the largest person and those who stand with them (as tall, seen whole: two people
+    side by side), not a passer-by further back."""
     from relight_rt import RuntimeConfig
 
-    image, truth = two_people
+    image, truth = near_and_far
     largest = _covered(relight_rt.open(RuntimeConfig(device="cpu")).decompose(image).mask, truth)
     everyone = _covered(relight_rt.open(RuntimeConfig(device="cpu", matting="all")).decompose(image).mask, truth)
-    assert min(everyone) > 0.98  # measured 0.999 and 0.9995
-    assert max(largest) > 0.98 and min(largest) < 0.02  # one of the two
+    assert min(everyone) > 0.95
+    assert largest[0] > 0.98 and largest[1] < 0.02  # the near one only
+    image, truth = two_people
+    assert min(_covered(relight_rt.open(RuntimeConfig(device="cpu")).decompose(image).mask, truth)) > 0.98
+
+
+def test_largest_takes_those_beside_only_whole(two_people):
+    """person="largest" takes a person standing beside as tall only seen whole: cut by the frame's side, they are
+    left out (whole or not at all)."""
+    image, truth = two_people
+    w = image.shape[1]
+    cut = np.ascontiguousarray(image[:, : int(0.8 * w)])
+    alpha = M.PersonMatter()(cut)
+    seen = truth[:, : cut.shape[1]] > 0.5
+    assert (alpha >= 0.5)[:, : w // 2][seen[:, : w // 2]].mean() > 0.98
+    assert (alpha >= 0.5)[:, w // 2 :][seen[:, w // 2 :]].mean() < 0.02
 
 
 def test_parts_share_the_matte_person_by_person(two_people):
     """PersonMatter.parts: the matte and one share of it per person found, summing to it, each person's share on
-    their own side; for person="largest" the one part is the matte."""
+    their own side; person="largest" takes both too (as tall, side by side), and for one person the one part is
+    the matte."""
     image, truth = two_people
     everyone = M.PersonMatter(person="all")
     alpha, parts = everyone.parts(image)
@@ -491,6 +523,8 @@ def test_parts_share_the_matte_person_by_person(two_people):
     held = sorted(_covered(p, truth) for p in parts)  # (left, right) share of each person that a part holds
     assert held[0][0] < 0.01 < 0.99 < held[0][1] and held[1][0] > 0.99 > 0.01 > held[1][1]
     alpha1, parts1 = M.PersonMatter().parts(image)
+    assert len(parts1) == 2 and min(_covered(alpha1, truth)) > 0.98
+    alpha1, parts1 = M.PersonMatter().parts(np.ascontiguousarray(image[:, : image.shape[1] // 2]))
     assert len(parts1) == 1 and np.array_equal(parts1[0], alpha1)
     # part_crops: the same shares, each held only inside the box where it is not 0 (issue 50 bug 1)
     alpha2, crops = everyone.part_crops(image)
@@ -503,10 +537,10 @@ def test_parts_share_the_matte_person_by_person(two_people):
         np.testing.assert_allclose(whole, part, atol=1e-6)
 
 
-def test_largest_says_when_others_are_beside(two_people, example_rgba, caplog):
-    """person="largest" matting a photo with another face beside the person says so (INFO), naming --person all;
-    a photo of one person, or person="all", says nothing."""
-    image, _ = two_people
+def test_largest_says_when_others_are_beside(near_and_far, example_rgba, caplog):
+    """person="largest" matting a photo with another face beside the person (a passer-by further back) says so
+    (INFO), naming --person all; a photo of one person, or person="all", says nothing."""
+    image, _ = near_and_far
     with caplog.at_level("INFO", logger="relight_rt.person.matting._matter"):
         M.PersonMatter()(image, name="two.png")
     assert "two.png: the largest person is matted, 1 more face seen beside them" in caplog.text
@@ -573,17 +607,19 @@ def test_group_photo_relit_person_by_person(two_people):
         assert own.sum() > 0.3 * (truth > 0.5).sum() / 2
         # each person's crop is their own (issue 50 bug 1: the shares leaked, every crop was the group's): the
         # colours a person takes from the group (soft-edge foreground, dark pixels' colour) differ from those
-        # computed alone at their crop's edge: measured max 4.1 / 255, 99.9th percentile 0.73 / 255
+        # computed alone at their crop's edge: measured max 7.7 / 255, 99.9th percentile 3.6 / 255, 0.6 % over
+        # 1 / 255, along the outline (4.1, 0.73, under 0.5 % while the matte's rim was soft there; the refinement
+        # now ends it where colour says plain background: issue 48's background band)
         for picture in (group, rgba[..., :3]):
             d = np.abs(picture[own] - alone[own])
-            assert d.max() < 6 / 255 and np.percentile(d, 99.9) < 1 / 255 and (d > 1 / 255).mean() < 0.005
+            assert d.max() < 10 / 255 and np.percentile(d, 99.9) < 5 / 255 and (d > 1 / 255).mean() < 0.01
         assert np.abs(as_one[own] - alone[own]).mean() > 4 / 255  # measured 12.7 and 10.6 / 255: not each alone
 
 
-def test_relight_cli_people_all(two_people, tmp_path, capsys):
+def test_relight_cli_people_all(near_and_far, tmp_path, capsys):
     from relight_rt import cli
 
-    image, truth = two_people
+    image, truth = near_and_far
     path = tmp_path / "two.png"
     cv2.imwrite(str(path), (image[..., ::-1] * 255 + 0.5).astype(np.uint8))
     outs = {}
@@ -623,9 +659,10 @@ def test_more_people_than_the_cap_are_relit_as_one(two_people, monkeypatch, capl
     assert not dec.people and "2 people found, relit as one group" in caplog.text
 
 
-def test_studio_of_a_group(two_people, tmp_path):
+def test_studio_of_a_group(two_people, near_and_far, tmp_path):
     """The studio opened with --person all: its info says how many people the full result relights one by one (the
-    page's badge says so), and its exported command line carries --person all (without it the command relit one)."""
+    page's badge says so), and its exported command line carries --person all (without it the command relit one);
+    by default, two people side by side are both relit, a passer-by further back is not."""
     pytest.importorskip("fastapi")
     from relight_rt import RuntimeConfig
     from relight_rt.apps.studio.core import Studio
@@ -636,6 +673,9 @@ def test_studio_of_a_group(two_people, tmp_path):
     assert studio.info()["people"] == 2
     _, render = studio.render(np.zeros(27).tolist())
     assert "--person=all" in studio.command(render, "light.npy")
+    both = Studio(path, None, "original", relight_rt.open(RuntimeConfig(device="cpu")))
+    assert both.info()["people"] == 2 and "--person" not in both.command(render, "light.npy")
+    cv2.imwrite(str(path), (near_and_far[0][..., ::-1] * 255 + 0.5).astype(np.uint8))
     one = Studio(path, None, "original", relight_rt.open(RuntimeConfig(device="cpu")))
     assert one.info()["people"] == 1 and "--person" not in one.command(render, "light.npy")
 
