@@ -22,8 +22,24 @@ from ...image.matte_edges import refine_edges
 from ..face_detector import Face
 from ._coarse import region_alpha
 from ._detect import MIN_TILE, faint_places, find_close_faces, find_faces, find_people, grid_pixels, roi_prob, strips
-from ._models import FACE_FILE, POSE_FILE, ROI_FILE, SIZE, as_rgb, find_matting_models
-from ._parts import Crop, faces_side_by_side, rejoin, shares, split_by_faces
+from ._layout import (
+    COVERED,
+    PEER_HEIGHT,
+    as_people,
+    box_area,
+    box_beside,
+    box_height,
+    box_past_border,
+    grow_where_cut,
+    held,
+    is_portrait,
+    mostly_in,
+    person_outside,
+    someone_beside,
+    without_straddlers,
+)
+from ._models import FACE_FILE, POSE_FILE, ROI_FILE, as_rgb, find_matting_models
+from ._parts import Crop, rejoin, shares
 from ._regions import (
     COARSE_MIN_AREA,
     LOGIT_CLIP,
@@ -52,7 +68,6 @@ _BACKED = 0.1  # a pose-graph person's pixels at this probability or more are th
 _SURE_BLOB = 0.9  # person="largest", nobody else found: the selfie graph's blob is a person when this sure of it
 PRESENCE_FAINT = 0.9  # ... for a person the selfie graph hardly sees (faint_places): the pose graph must be sure
 MIN_PERSON_FRACTION = 0.06  # person="all": people whose box is shorter than this x the image's height are left out
-_COVERED = 0.5  # a candidate (blob) this much inside people already matted is one of them
 _COVERED_FACE = 0.8  # ... and a face's person this much inside them
 _MAX_REQUEUE = 16  # person="all": leftovers of blobs searched again (several people in one blob)
 _MAX_TRIES = 32  # person="all": candidates segmented at most (each costs 1-4 pose-graph runs)
@@ -62,15 +77,11 @@ _GIVE_UP = 0.02  # person="all": a blob whose first pose-graph pass says this li
 _SETTLED_IOU = 0.9  # the region has settled when the next one overlaps it this much
 _REFRAME = 0.9  # the selfie graph is run again on its own segmentation's region when that is this much smaller
 _MAX_GROW = 2  # selfie-graph runs on a higher region while its segmentation is cut by the region's top (_uncut)
-_STRADDLE = 0.75  # person="all": a pose-graph person this much inside the others together straddles two
 _PORTRAIT_REACH = 0.3  # a pose-graph person ending this close to the bottom (x the height) may be a portrait
 _PORTRAIT_FACE = 0.3  # ... and holding a face this x its width wide
-_CUT_WIDTH = 0.125  # a portrait's body is cut by the bottom border over at least this x its box's width
 _FRAGMENT = 0.003  # person="largest": a separate part of the matte at least this x its main part's area is checked
 _MAX_FRAGMENTS = 8  # ... at most this many of them (largest first)
 _OTHER_OVERLAP = 0.25  # ... a segmentation holding the part and at most this share of the main part is someone else
-_PEER_HEIGHT = 0.75  # person="largest": someone beside the person, as tall within this factor, stands with them
-_BESIDE = 0.1  # ... looked for where a blob of the selfie graph reaches this x the person's width past their box
 
 log = logging.getLogger(__name__)
 
@@ -159,24 +170,24 @@ class PersonMatter:
 
     def _uncut(self, rgb: np.ndarray, roi: Person) -> tuple[Person, Person | None]:
         """The selfie graph's segmentation again on a region reaching higher while it runs into its region's top
-        inside the image (:func:`_grow_where_cut`, upwards only), and the segmentation it started from (None:
+        inside the image (:func:`grow_where_cut`, upwards only), and the segmentation it started from (None:
         not run again). The region is the pose graph's (or a face's guess), and on a close portrait the pose
         graph misses the top of the head, so its region, centred on what it saw, can start below the crown;
         alpha outside the region is 0, so the head was cut off flat (DPR's portrait: at row 188 of 909, the
         forehead and hair missing). The higher region's answer is kept to the first one's columns
-        (:func:`_held`): the selfie graph segments everyone in its region, and a larger region takes in more
+        (:func:`held`): the selfie graph segments everyone in its region, and a larger region takes in more
         of the people beside. Not sideways, for the same reason."""
         first = None
         for _ in range(_MAX_GROW):
             box = person_box(roi, rgb.shape[:2])
             if box is None:
                 break
-            top = _grow_where_cut(box, roi.region, rgb.shape[:2])[1]
+            top = grow_where_cut(box, roi.region, rgb.shape[:2])[1]
             if top >= box[1]:
                 break
             first = roi if first is None else first
             raised = self._roi_person(rgb, Region.around(box[0], top, box[2], box[3]), roi.presence)
-            roi = _held(raised, first, rgb.shape[:2])
+            roi = held(raised, first, rgb.shape[:2])
         return roi, first
 
     def find_people(self, rgb: np.ndarray) -> list[tuple[float, tuple[float, float, float, float]]]:
@@ -202,7 +213,7 @@ class PersonMatter:
         """Run the pose graph on one square region; re-centre on its segmentation until it settles (or, with
         ``give_up``, stop when the presence flag is below it: nobody there). With ``past_border``, a region
         whose presence stays low while the segmentation runs into the image border is tried once more,
-        reaching past that border (:func:`_past_border`). ``passes``: at most this many runs (default
+        reaching past that border (:func:`past_border`). ``passes``: at most this many runs (default
         ``max_passes``; 1: the region as given, not re-centred)."""
         person = None
         for _ in range(self.max_passes if passes is None else passes):
@@ -212,12 +223,12 @@ class PersonMatter:
             box = person_box(person, rgb.shape[:2])
             if box is None or box[2] <= box[0] or box[3] <= box[1]:
                 break
-            nxt = Region.around(*_grow_where_cut(box, region, rgb.shape[:2]))
+            nxt = Region.around(*grow_where_cut(box, region, rgb.shape[:2]))
             if nxt.iou(region) > _SETTLED_IOU:
                 break
             region = nxt
         if past_border and person is not None and person.presence < PRESENCE_MIN:
-            wider = _past_border(person_box(person, rgb.shape[:2]), rgb.shape[:2])
+            wider = box_past_border(person_box(person, rgb.shape[:2]), rgb.shape[:2])
             if wider is not None:
                 retry = self._pose(rgb, Region.around(*wider))
                 person = retry if retry.presence > person.presence else person
@@ -227,10 +238,10 @@ class PersonMatter:
         if region is None:
             return person
         roi = self._roi_person(rgb, region, person.presence)
-        return self._reframed(rgb, roi) if _is_portrait(roi, rgb.shape[:2]) else person
+        return self._reframed(rgb, roi) if is_portrait(roi, rgb.shape[:2]) else person
 
     def _portrait_region(self, rgb: np.ndarray, person: Person) -> Region | None:
-        """Where the selfie graph checks for a portrait (:func:`_is_portrait`): the pose graph's region when it
+        """Where the selfie graph checks for a portrait (:func:`is_portrait`): the pose graph's region when it
         reaches past the image's bottom; else, when the pose graph's person ends within _PORTRAIT_REACH x the
         image's height above the bottom, a region around that person reaching down to the bottom (the pose graph
         loses the shoulders and chest of a close portrait, and its region, framed on what it saw, then stops
@@ -305,7 +316,7 @@ class PersonMatter:
             if p is not None:
                 return [p], found
         faces = self.find_faces(rgb)  # no body found: a face is the second way in
-        for face in sorted(faces, key=lambda f: -_box_area(f.body_box((h, w)))):
+        for face in sorted(faces, key=lambda f: -box_area(f.body_box((h, w)))):
             p = self._person_at(rgb, face.body_box((h, w)), face)
             if p is not None:
                 return [p], found
@@ -329,39 +340,39 @@ class PersonMatter:
     def _peers(self, rgb: np.ndarray, main: Person, blobs: list, faces: list[Face]) -> list[Person]:
         """The people who stand with the largest person ``main`` (person="largest"): a group posing together is the
         photo's subject, a passer-by further back is not. A peer is a person that person="all" finds (:meth:`_everyone`)
-        who is as tall as ``main`` within a factor _PEER_HEIGHT (seen at the same distance), seen whole (their box
+        who is as tall as ``main`` within a factor PEER_HEIGHT (seen at the same distance), seen whole (their box
         touches no border of the photo but the bottom, and that only where ``main``'s does too), not mostly ``main``
-        again (at most _COVERED of them inside ``main``'s segmentation), and a body the pose graph sees or holding a
+        again (at most COVERED of them inside ``main``'s segmentation), and a body the pose graph sees or holding a
         face outside ``main`` (the selfie graph's segmentation of a treadmill beside a runner is neither; ``faces``:
         the face graph's on the whole photo). Looked for only where the selfie graph's ``blobs`` or ``faces`` show
-        someone beside ``main`` (:func:`_someone_beside`): a photo of one person costs nothing more.
+        someone beside ``main`` (:func:`someone_beside`): a photo of one person costs nothing more.
 
         Measured (benchmarks/people_masks_eval.py, photos half A; the service masks everyone in a group): mean IoU
-        0.848 -> 0.903, share under 0.8 20 % -> 7.7 %, 15 photos better, none worse, at _PEER_HEIGHT 0.7-0.85 (0.5:
+        0.848 -> 0.903, share under 0.8 20 % -> 7.7 %, 15 photos better, none worse, at PEER_HEIGHT 0.7-0.85 (0.5:
         a man cut by the frame's side and a passer-by further back taken, 2 photos worse); looked for on 35 of the
-        104 photos at _BESIDE 0.1 (everywhere: the same figures; 0.25: 25 photos, two couples one behind the other
+        104 photos at BESIDE 0.1 (everywhere: the same figures; 0.25: 25 photos, two couples one behind the other
         missed)."""
         h, w = rgb.shape[:2]
         box = person_box(main, (h, w))
         if box is None:
             return []
         outside = [f for f in faces if not contains(main, f, (h, w))]
-        if not _someone_beside(box, blobs, outside):
+        if not someone_beside(box, blobs, outside):
             return []
         grid = working_grid((0, 0, w, h))
         mine = logits_on_grid(main, grid) > 0
         tall = box[3] - box[1]
-        everyone = self._everyone(rgb, _PEER_HEIGHT * tall)
+        everyone = self._everyone(rgb, PEER_HEIGHT * tall)
         peers = []
         for p in everyone:
             mask = logits_on_grid(p, grid) > 0
-            if mask.any() and (mask & mine).sum() >= _COVERED * mask.sum():
+            if mask.any() and (mask & mine).sum() >= COVERED * mask.sum():
                 # mostly ``main`` again: the pose graph segments everyone in its region, so the segmentation of a
                 # couple side by side holds both; what lies outside ``main`` may be the other one, whole
-                p = _outside(p, main)
+                p = person_outside(p, main)
                 mask = logits_on_grid(p, grid) > 0
             b = person_box(p, (h, w))
-            if b is None or not mask.any() or not _PEER_HEIGHT * tall <= b[3] - b[1] <= tall / _PEER_HEIGHT:
+            if b is None or not mask.any() or not PEER_HEIGHT * tall <= b[3] - b[1] <= tall / PEER_HEIGHT:
                 continue
             if b[0] <= 1 or b[1] <= 1 or b[2] >= w - 1 or (b[3] >= h - 1 and box[3] < h - 1):
                 continue  # cut by the frame: whole or not at all
@@ -462,7 +473,7 @@ class PersonMatter:
 
         faces = self.find_faces(rgb, every=True)
         cands: list = blobs(prob > 0.5)
-        cands += [(_box_area(f.body_box((h, w))) * 0.5, f.body_box((h, w)), k, None) for k, f in enumerate(faces)]
+        cands += [(box_area(f.body_box((h, w))) * 0.5, f.body_box((h, w)), k, None) for k, f in enumerate(faces)]
         cands.sort(key=lambda t: -t[0])
         occupied = np.zeros((gh, gw), bool)
         owned: set[int] = set()  # faces whose person is matted
@@ -471,22 +482,22 @@ class PersonMatter:
         while cands and tries < _MAX_TRIES:
             _, box, k, pix = cands.pop(0)
             face = faces[k] if k is not None else None
-            if (k is not None and k in owned) or (pix is not None and occupied.flat[pix].mean() >= _COVERED):
+            if (k is not None and k in owned) or (pix is not None and occupied.flat[pix].mean() >= COVERED):
                 continue
             tries += 1
             p = self._person_at(rgb, box, face, _GIVE_UP, sure_face=_SURE_FACE if found else 0.0, vouch=not found)
-            if p is not None and face is None and _mostly_in(logits_on_grid(p, grid) > 0, occupied):
+            if p is not None and face is None and mostly_in(logits_on_grid(p, grid) > 0, occupied):
                 # it slid onto a neighbour matted already (two passers-by side by side, one blob): the pose graph
                 # framed on the blob's part beside that neighbour, not re-centred, may see the other one
-                beside = _beside(box, person_box(p, (h, w)))
+                beside = box_beside(box, person_box(p, (h, w)))
                 p = None if beside is None else self._person_at(rgb, beside, None, _GIVE_UP, passes=1, vouch=False)
-            if p is not None and _box_height(person_box(p, (h, w))) >= MIN_PERSON_FRACTION * h:
+            if p is not None and box_height(person_box(p, (h, w))) >= MIN_PERSON_FRACTION * h:
                 mask = logits_on_grid(p, grid) > 0
                 # a person mostly inside the people matted already is one of them again (a face's person may
                 # overlap more: in a group, the selfie graph's region of one face shows the neighbours too)
-                if mask.any() and occupied[mask].mean() < (_COVERED if face is None else _COVERED_FACE):
+                if mask.any() and occupied[mask].mean() < (COVERED if face is None else _COVERED_FACE):
                     occupied |= mask
-                    people, mine = _as_people(p, k, faces, owned, (h, w))
+                    people, mine = as_people(p, k, faces, owned, (h, w))
                     found.extend(people)
                     owned.update(mine)
             if pix is None or requeued >= _MAX_REQUEUE:
@@ -504,21 +515,21 @@ class PersonMatter:
             if tries >= _MAX_FAINT:
                 break
             pix = grid_pixels(box, grid)
-            if pix.size == 0 or occupied.flat[pix].mean() >= _COVERED:
+            if pix.size == 0 or occupied.flat[pix].mean() >= COVERED:
                 continue
             tries += 1
             p = self._person_at(rgb, box, None, _GIVE_UP, vouch=False)
-            if p is None or p.presence < PRESENCE_FAINT or _box_height(person_box(p, (h, w))) < MIN_PERSON_FRACTION * h:
+            if p is None or p.presence < PRESENCE_FAINT or box_height(person_box(p, (h, w))) < MIN_PERSON_FRACTION * h:
                 continue
-            if _past_border(person_box(p, (h, w)), (h, w)) is not None:
+            if box_past_border(person_box(p, (h, w)), (h, w)) is not None:
                 # seen whole or not at all: cut by the frame, a faint place was a pattern (rose_hair's poster
                 # letters in the top corner, framed on 2x the smallest person: presence 0.95)
                 continue
             mask = logits_on_grid(p, grid) > 0
-            if mask.any() and occupied[mask].mean() < _COVERED:
+            if mask.any() and occupied[mask].mean() < COVERED:
                 occupied |= mask
                 found.append(p)
-        return _without_straddlers(found, grid, faces, (h, w))
+        return without_straddlers(found, grid, faces, (h, w))
 
     def _person_at(
         self, rgb: np.ndarray, box, face: Face | None, give_up: float = 0.0, passes: int | None = None,
@@ -642,194 +653,3 @@ def shared_matter(
         if key not in _SHARED:
             _SHARED[key] = PersonMatter(key[0], device=device, person=person)
         return _SHARED[key]
-
-
-def _outside(person: Person, other: Person) -> Person:
-    """``person`` less what ``other`` holds: at each pixel of its canvas the smaller of its logit and the negated
-    logit of ``other`` there (a soft cut along ``other``'s outline)."""
-    k, bx, by = grid_of_region(person.region)
-    c = (np.arange(SIZE, dtype=np.float64) - np.array([[bx], [by]])) / k  # image x of the columns, y of the rows
-    xs, ys = np.meshgrid(c[0], c[1])
-    p = np.clip(prob_at(other, xs.ravel(), ys.ravel()).reshape(SIZE, SIZE), 1e-6, 1 - 1e-6)
-    theirs = np.log(p) - np.log1p(-p)
-    return replace(person, logits=np.minimum(person.logits, -theirs).astype(np.float32), whole=None)
-
-
-def _someone_beside(box, blobs: list, faces: list[Face]) -> bool:
-    """Whether anyone may stand beside the person in ``box``: a face outside them, or a blob of the selfie graph
-    (:func:`relight_rt.person.matting._detect.find_people`) at least _PEER_HEIGHT x their height tall that reaches
-    _BESIDE x their width or more past their box's sides."""
-    if faces:
-        return True
-    x0, y0, x1, y1 = box
-    for _, (bx0, by0, bx1, by1) in blobs:
-        past = max(x0 - bx0, 0.0) + max(bx1 - x1, 0.0) if by1 > y0 and by0 < y1 else bx1 - bx0
-        if by1 - by0 >= _PEER_HEIGHT * (y1 - y0) and past >= _BESIDE * (x1 - x0):
-            return True
-    return False
-
-
-def _grow_where_cut(
-    box: tuple[float, float, float, float], region: Region, shape: tuple[int, int]
-) -> tuple[float, float, float, float]:
-    """Extend ``box`` by half its size past each side where the segmentation runs into the region's edge
-    inside the image: the person goes on beyond the region (the region finder saw only part of them,
-    e.g. the head of a small person), so the next region must reach further."""
-    h, w = shape
-    x0, y0, x1, y1 = box
-    rx0, ry0, rx1, ry1 = region.box()
-    m = 0.03 * region.side
-    bw, bh = x1 - x0, y1 - y0
-    grow = 0.5 * max(bw, bh)
-    nx0 = x0 - grow if x0 <= rx0 + m and rx0 > 0 else x0
-    ny0 = y0 - grow if y0 <= ry0 + m and ry0 > 0 else y0
-    nx1 = x1 + grow if x1 >= rx1 - m and rx1 < w else x1
-    ny1 = y1 + grow if y1 >= ry1 - m and ry1 < h else y1
-    return max(nx0, 0.0), max(ny0, 0.0), min(nx1, float(w)), min(ny1, float(h))
-
-
-def _past_border(box, shape: tuple[int, int]) -> tuple[float, float, float, float] | None:
-    """A segmentation ``box`` that runs into the image border, extended by half its size past each border it
-    touches (not clipped), or None when it touches none. The pose graph sees a person by their whole body:
-    framed on the visible part of someone cut by the border (a fighter cut at the thighs) it can say nobody
-    is there (presence 0.006), framed as if the body went on it sees them (0.99)."""
-    if box is None:
-        return None
-    h, w = shape
-    x0, y0, x1, y1 = box
-    grow = 0.5 * max(x1 - x0, y1 - y0)
-    cut = (x0 <= 1, y0 <= 1, x1 >= w - 1, y1 >= h - 1)
-    if not any(cut):
-        return None
-    return x0 - grow * cut[0], y0 - grow * cut[1], x1 + grow * cut[2], y1 + grow * cut[3]
-
-
-def _is_portrait(roi: Person, shape: tuple[int, int]) -> bool:
-    """Head-and-shoulders (or chest-up) framing: the person as the selfie graph sees them in the region runs
-    off the bottom of the image across at least _CUT_WIDTH of their box's width (the torso is cut there), and
-    their visible box is less than 1.8x as tall as wide. The pose graph was trained on bodies and loses the
-    shoulders of such crops (IoU 0.71-0.85 on crops of the reference video); the selfie graph, made for them,
-    keeps them (0.97-0.99). Full bodies and knee-up crops stay with the pose graph (0.97-0.99 there, the selfie
-    graph 0.92-0.97), and so does a body across the frame that only a foot or skate cuts at the bottom (a
-    skater in a spin: 0.07 of the width, where portraits measure 0.5-0.99 and a waist-up photo 0.18): wide
-    and touching the bottom, it looked like a portrait."""
-    h, w = shape
-    box = person_box(roi, shape)
-    if box is None:
-        return False
-    x0, y0, x1, y1 = box
-    if y1 < h - 2 or (y1 - y0) >= 1.8 * (x1 - x0):
-        return False
-    xs = np.linspace(x0, x1, 256)
-    return bool((prob_at(roi, xs, np.full(xs.shape, h - 1.0)) > 0.5).mean() >= _CUT_WIDTH)
-
-
-def _without_straddlers(
-    people: list[Person], grid, faces: list[Face] = (), shape: tuple[int, int] | None = None
-) -> list[Person]:
-    """``people`` less each pose-graph person whose segmentation lies at least _STRADDLE inside the other people
-    together: a region framed between two people side by side, on which the pose graph (which segments one
-    person) answers with a body across both (two men crouching face to face came out as 3: the straddling one
-    lies 0.81 inside the two, 0.46 at most inside either; between distinct people found by the pose graph on the
-    13 photos of benchmarks/people_photos.py with several people, each at 3 framings shifted by 0-1 px, at most
-    0.47). The one lying most inside the others goes first. The others are the pose-graph people and the parts of
-    selfie-graph segmentations split by faces (:func:`split_by_faces`: each is one person's share of the
-    canvas; group_t1's pose-graph box across Rachel's head and Ross's body lay 0.19 inside Rachel and 0.68
-    inside Ross's part). A person who alone holds one of ``faces`` (image ``shape``) stays: on group_t1 shifted
-    by a pixel that box was the only one holding Rachel's face. Only pose-graph people are dropped, and an
-    unsplit selfie-graph person is not one of the others: it segments everyone in its region, so it overlaps its
-    neighbours by nature (up to 0.99 in a group seen face by face)."""
-    ones = [i for i, p in enumerate(people) if p.source == "pose" or p.whole is not None]
-    if len(ones) < 3 or not any(people[i].source == "pose" for i in ones):
-        return people
-    masks = {i: logits_on_grid(people[i], grid) > 0 for i in ones}
-    holds = {i: {j for j, f in enumerate(faces) if shape is not None and contains(people[i], f, shape)} for i in ones}
-    kept = set(ones)
-    while len(kept) >= 3:
-        inside = {}
-        for i in kept:
-            if people[i].source != "pose":
-                continue
-            others = np.zeros_like(masks[i])
-            held = set()
-            for j in kept - {i}:
-                others |= masks[j]
-                held |= holds[j]
-            if holds[i] <= held:
-                inside[i] = float(others[masks[i]].mean()) if masks[i].any() else 0.0
-        if not inside:
-            break
-        worst = max(inside, key=inside.get)
-        if inside[worst] < _STRADDLE:
-            break
-        kept.discard(worst)
-    return [p for i, p in enumerate(people) if i in kept or i not in masks]
-
-
-def _held(raised: Person, first: Person, shape: tuple[int, int]) -> Person:
-    """The selfie graph's segmentation ``raised`` (of a region reaching higher than ``first``'s) joined with
-    ``first`` (the larger logit where both regions reach) and kept to ``first``'s columns (its box, widened by
-    3 % of its width each side). Joined: framed on the whole head, the selfie graph is less sure of the body
-    at the bottom corners (DPR's portrait: the checked shirt 0.96 / 0.50 -> 0.59 / 0.41 at the bottom left /
-    right). The larger logit, not the smaller: ``first``'s answer is weakest right below the top its region cut
-    (held to it, the hair had a notch at the temple)."""
-    box = person_box(first, shape)
-    if box is None:
-        return raised
-    margin = 0.03 * (box[2] - box[0])
-    k, bx, by = grid_of_region(raised.region)
-    c = np.arange(SIZE, dtype=np.float64)
-    x, y = (c - bx) / k, (c - by) / k  # image coordinates of the canvas columns' and rows' centres
-    kf, bxf, byf = grid_of_region(first.region)
-    i = np.floor(kf * y + byf + 0.5).astype(int)  # nearest canvas pixel of first's region
-    j = np.floor(kf * x + bxf + 0.5).astype(int)
-    rows, cols = (i >= 0) & (i < SIZE), (j >= 0) & (j < SIZE)
-    before = np.full((SIZE, SIZE), -LOGIT_CLIP, np.float32)
-    before[np.ix_(rows, cols)] = first.logits[np.ix_(i[rows], j[cols])]
-    within = ((x >= box[0] - margin) & (x <= box[2] + margin))[None, :]
-    logits = np.where(within, np.maximum(raised.logits, before), np.float32(-LOGIT_CLIP)).astype(np.float32)
-    return Person(raised.region, logits, raised.presence, raised.source)
-
-
-def _as_people(
-    p: Person, k: int | None, faces: list[Face], owned: set[int], shape: tuple[int, int]
-) -> tuple[list[Person], list[int]]:
-    """A segmentation newly kept by person="all" as people, and the faces it takes (indices into ``faces``;
-    ``k``: the face it was found from, None for a blob). The selfie graph segments everyone in its region, so
-    people side by side come as one segmentation holding several faces: one person per face not taken yet
-    (:func:`split_by_faces`; the matte stays their union). The faces of people matted already take their share
-    of the canvas too, so that a new person's part holds none of them (group_t1: Monica's face gave a part
-    holding Rachel, Ross and half of Chandler, and a straddling box across Rachel and Ross lay inside it)."""
-    held = [j for j, f in enumerate(faces) if contains(p, f, shape)]
-    mine = [j for j in held if j not in owned]
-    side_by_side = faces_side_by_side([faces[j] for j in held])
-    taken = {id(faces[j]) for j in owned}  # side_by_side holds the same Face objects
-    new = [i for i, f in enumerate(side_by_side) if id(f) not in taken]
-    if p.source == "roi" and len(side_by_side) >= 2 and new:
-        parts = split_by_faces(p, side_by_side)
-        return [parts[i] for i in new], mine
-    return [p], ([k] if k is not None else mine[:1])
-
-
-def _beside(box, other) -> tuple[float, float, float, float] | None:
-    """The part of ``box`` left of or right of the box ``other`` (the wider part), or None when less than a
-    quarter of ``box``'s width remains."""
-    if other is None:
-        return None
-    x0, y0, x1, y1 = box
-    left, right = (x0, min(x1, other[0])), (max(x0, other[2]), x1)
-    a, b = max(left, right, key=lambda t: t[1] - t[0])
-    return (a, y0, b, y1) if b - a >= 0.25 * (x1 - x0) else None
-
-
-def _mostly_in(mask: np.ndarray, occupied: np.ndarray) -> bool:
-    """Whether a person's mask (working grid) lies mostly (_COVERED) inside the people matted already."""
-    return bool(mask.any() and occupied[mask].mean() >= _COVERED)
-
-
-def _box_area(box) -> float:
-    return max(box[2] - box[0], 0.0) * max(box[3] - box[1], 0.0)
-
-
-def _box_height(box) -> float:
-    return 0.0 if box is None else box[3] - box[1]

@@ -11,7 +11,7 @@ from test_people_found import _Bright, head_and_shoulders
 from relight_rt import RelightError
 from relight_rt.person import matting as M
 from relight_rt.person.face_detector import Face
-from relight_rt.person.matting import _matter
+from relight_rt.person.matting import _layout, _matter
 
 
 class _Unsure:
@@ -219,13 +219,13 @@ def test_a_blob_needs_the_pose_graphs_flag_when_vouching_is_off():
 
 
 def test_the_part_of_a_segmentation_outside_another_person():
-    """_outside: a segmentation holding two people side by side (as the pose graph gives a couple) less the one
+    """person_outside: a segmentation holding two people side by side (as the pose graph gives a couple) less the one
     matted already keeps the other one whole, and nothing of the first."""
     region = M.Region.around(0.0, 0.0, 200.0, 200.0)
     cols = np.arange(256)[None, :].repeat(256, 0)
     both = np.where((cols > 40) & (cols < 216), 8.0, -8.0).astype(np.float32)
     left = M.Person(region, np.where((cols > 40) & (cols < 128), 8.0, -8.0).astype(np.float32), 1.0)
-    rest = _matter._outside(M.Person(region, both, 1.0), left)
+    rest = _layout.person_outside(M.Person(region, both, 1.0), left)
     assert not (rest.logits[:, 44:124] > 0).any()  # none of the person matted already
     assert (rest.logits[:, 132:212] > 0).all()  # all of the other one
     assert rest.whole is None
@@ -236,8 +236,8 @@ def test_someone_beside_from_blobs_and_faces():
     _BESIDE x their width (a couple one behind the other), or a face lies outside them; a blob within the person's
     box, or a short one beside them, is nobody."""
     box = (100.0, 50.0, 200.0, 350.0)  # 100 wide, 300 tall
-    assert not _matter._someone_beside(box, [(1.0, (97.0, 50.0, 203.0, 350.0))], [])  # 6 px past
-    assert _matter._someone_beside(box, [(1.0, (80.0, 50.0, 205.0, 350.0))], [])  # 20 px past: 0.2 x the width
-    assert not _matter._someone_beside(box, [(1.0, (300.0, 200.0, 360.0, 330.0))], [])  # 130 tall: a child far off
-    assert _matter._someone_beside(box, [(1.0, (300.0, 60.0, 380.0, 340.0))], [])
-    assert _matter._someone_beside(box, [], [Face((300.0, 60.0, 320.0, 80.0), 0.9)])
+    assert not _layout.someone_beside(box, [(1.0, (97.0, 50.0, 203.0, 350.0))], [])  # 6 px past
+    assert _layout.someone_beside(box, [(1.0, (80.0, 50.0, 205.0, 350.0))], [])  # 20 px past: 0.2 x the width
+    assert not _layout.someone_beside(box, [(1.0, (300.0, 200.0, 360.0, 330.0))], [])  # 130 tall: a child far off
+    assert _layout.someone_beside(box, [(1.0, (300.0, 60.0, 380.0, 340.0))], [])
+    assert _layout.someone_beside(box, [], [Face((300.0, 60.0, 320.0, 80.0), 0.9)])

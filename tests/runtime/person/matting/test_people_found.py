@@ -12,7 +12,7 @@ import relight_rt
 from relight_rt.image.io import read_image
 from relight_rt.person import matting as M
 from relight_rt.person.face_detector import Face
-from relight_rt.person.matting import _detect, _matter
+from relight_rt.person.matting import _detect, _layout
 from relight_rt.person.matting import _parts as parts_module
 
 
@@ -99,8 +99,8 @@ def test_region_cut_by_the_border_is_tried_past_it():
     assert matter.segment(rgb, region).presence < 0.5
     found = matter.segment(rgb, region, past_border=True)
     assert found.presence > 0.5 and found.region.box()[3] > 300 + 60  # reaches past the bottom
-    assert _matter._past_border((60.0, 120.0, 180.0, 300.0), (300, 600)) == (60.0, 120.0, 180.0, 390.0)
-    assert _matter._past_border((60.0, 120.0, 180.0, 250.0), (300, 600)) is None  # inside: nothing to extend
+    assert _layout.box_past_border((60.0, 120.0, 180.0, 300.0), (300, 600)) == (60.0, 120.0, 180.0, 390.0)
+    assert _layout.box_past_border((60.0, 120.0, 180.0, 250.0), (300, 600)) is None  # inside: nothing to extend
 
 
 def test_both_passers_by_under_the_umbrellas_are_found(reference_dir):
@@ -116,10 +116,11 @@ def test_both_passers_by_under_the_umbrellas_are_found(reference_dir):
 
 
 def test_beside_is_the_wider_part_next_to_the_neighbour():
-    assert _matter._beside((946.0, 435.0, 1011.0, 576.0), (933.0, 427.0, 987.0, 574.0)) == (987.0, 435.0, 1011.0, 576.0)
-    assert _matter._beside((0.0, 0.0, 100.0, 50.0), (30.0, 0.0, 90.0, 50.0)) == (0.0, 0.0, 30.0, 50.0)
-    assert _matter._beside((0.0, 0.0, 100.0, 50.0), (10.0, 0.0, 90.0, 50.0)) is None  # nothing left beside
-    assert _matter._beside((0.0, 0.0, 100.0, 50.0), None) is None
+    got = _layout.box_beside((946.0, 435.0, 1011.0, 576.0), (933.0, 427.0, 987.0, 574.0))
+    assert got == (987.0, 435.0, 1011.0, 576.0)
+    assert _layout.box_beside((0.0, 0.0, 100.0, 50.0), (30.0, 0.0, 90.0, 50.0)) == (0.0, 0.0, 30.0, 50.0)
+    assert _layout.box_beside((0.0, 0.0, 100.0, 50.0), (10.0, 0.0, 90.0, 50.0)) is None  # nothing left beside
+    assert _layout.box_beside((0.0, 0.0, 100.0, 50.0), None) is None
 
 
 class _Bright:
@@ -305,17 +306,17 @@ def test_a_pose_person_straddling_two_others_is_dropped():
     grid = M._regions.working_grid((0, 0, 400, 400))
     left, right = box_person((40, 100, 200, 380)), box_person((200, 100, 360, 380))
     straddler = box_person((130, 100, 270, 380))
-    assert _matter._without_straddlers([left, straddler, right], grid) == [left, right]
+    assert _layout.without_straddlers([left, straddler, right], grid) == [left, right]
     # people side by side who overlap a little (a pose-graph person lies at most 0.47 inside the others on the
     # 25 photos of benchmarks/people_photos.py) are all kept, and so is a third beside them
     near = box_person((180, 100, 330, 380))
     third = box_person((330, 100, 390, 380))
-    assert _matter._without_straddlers([left, near, third], grid) == [left, near, third]
+    assert _layout.without_straddlers([left, near, third], grid) == [left, near, third]
     # selfie-graph people overlap their neighbours by nature (it segments everyone in its region): kept
     roi = box_person((130, 100, 270, 380), "roi")
-    assert _matter._without_straddlers([left, roi, right], grid) == [left, roi, right]
+    assert _layout.without_straddlers([left, roi, right], grid) == [left, roi, right]
     # two people: neither straddles
-    assert _matter._without_straddlers([left, straddler], grid) == [left, straddler]
+    assert _layout.without_straddlers([left, straddler], grid) == [left, straddler]
 
 
 def test_a_pose_person_straddling_a_pose_person_and_a_split_part_is_dropped():
@@ -326,21 +327,21 @@ def test_a_pose_person_straddling_a_pose_person_and_a_split_part_is_dropped():
     left, straddler = box_person((40, 100, 200, 380)), box_person((130, 100, 270, 380))
     whole = box_person((200, 100, 360, 380), "roi")
     part = M.Person(whole.region, whole.logits, whole.presence, "roi", whole=whole.logits)
-    assert _matter._without_straddlers([left, straddler, part], grid) == [left, part]
+    assert _layout.without_straddlers([left, straddler, part], grid) == [left, part]
     # an unsplit selfie-graph person holds its neighbours by nature: not one of the others, as before
-    assert _matter._without_straddlers([left, straddler, whole], grid) == [left, straddler, whole]
+    assert _layout.without_straddlers([left, straddler, whole], grid) == [left, straddler, whole]
     # and a split part is never dropped itself
-    assert _matter._without_straddlers([left, box_person((200, 100, 360, 380)), part], grid)[-1] is part
+    assert _layout.without_straddlers([left, box_person((200, 100, 360, 380)), part], grid)[-1] is part
     # a straddler that alone holds a face stays (group_t1 shifted by a pixel: the box across Rachel and Ross was
     # the only one holding Rachel's face, and there was no other Rachel)
     face = Face((140.0, 110.0, 170.0, 140.0), 0.9)
-    kept = _matter._without_straddlers([left, straddler, part], grid, [face], (400, 400))
+    kept = _layout.without_straddlers([left, straddler, part], grid, [face], (400, 400))
     assert kept == [left, part]  # left holds the face too
     lone = Face((250.0, 110.0, 266.0, 140.0), 0.9)  # in the straddler and in the part: held by another too
-    assert _matter._without_straddlers([left, straddler, part], grid, [lone], (400, 400)) == [left, part]
+    assert _layout.without_straddlers([left, straddler, part], grid, [lone], (400, 400)) == [left, part]
     lower = box_person((40, 150, 200, 380))  # the left one no longer reaches the face: the straddler alone holds it
-    assert _matter._without_straddlers([lower, straddler, part], grid) == [lower, part]  # 0.91 inside the others
-    kept = _matter._without_straddlers([lower, straddler, part], grid, [face], (400, 400))
+    assert _layout.without_straddlers([lower, straddler, part], grid) == [lower, part]  # 0.91 inside the others
+    kept = _layout.without_straddlers([lower, straddler, part], grid, [face], (400, 400))
     assert kept == [lower, straddler, part]
 
 
@@ -352,17 +353,17 @@ def test_a_new_face_takes_no_share_of_the_people_matted_before():
     whole = box_person((20, 100, 380, 380), "roi")
     faces = [Face((40.0, 110.0, 100.0, 170.0), 0.9), Face((170.0, 110.0, 230.0, 170.0), 0.9),
              Face((300.0, 110.0, 360.0, 170.0), 0.9)]  # fmt: skip
-    people, taken = _matter._as_people(whole, 1, faces, {0, 2}, (int(side), int(side)))
+    people, taken = _layout.as_people(whole, 1, faces, {0, 2}, (int(side), int(side)))
     assert len(people) == 1 and taken == [1]
     box = M.person_box(people[0], (400, 400))
     assert 100 < box[0] < 170 and 230 < box[2] < 300  # its columns only (was the whole: 20 to 380)
     assert people[0].whole is whole.logits  # the matte is still the whole segmentation
     # no face taken before: one person per face, as before
-    people, taken = _matter._as_people(whole, None, faces, set(), (400, 400))
+    people, taken = _layout.as_people(whole, None, faces, set(), (400, 400))
     assert len(people) == 3 and sorted(taken) == [0, 1, 2]
     # a pose-graph person is never split
     body = box_person((20, 100, 380, 380))
-    assert _matter._as_people(body, None, faces, {0}, (400, 400)) == ([body], [1])
+    assert _layout.as_people(body, None, faces, {0}, (400, 400)) == ([body], [1])
 
 
 def test_group_t1_is_six_people(group_t1):
@@ -404,7 +405,7 @@ def test_raised_answer_keeps_what_the_first_was_sure_of():
     # the first answer: sure of a person all over its region (rows 200-400, x 100-300)
     first = M.Person(M.Region(200.0, 300.0, 200.0), np.full((256, 256), 10.0, np.float32), 0.9, "roi")
     raised = M.Person(M.Region(200.0, 200.0, 400.0), np.full((256, 256), -10.0, np.float32), 0.9, "roi")
-    held = _matter._held(raised, first, shape)
+    held = _layout.held(raised, first, shape)
     xs, ys = np.array([110.0, 290.0, 200.0, 200.0, 40.0]), np.array([390.0, 390.0, 300.0, 100.0, 390.0])
     inside = M._regions.prob_at(held, xs, ys)
     assert inside[:3].min() > 0.99  # the first answer's person, inside its region, kept

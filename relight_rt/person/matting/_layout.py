@@ -1,0 +1,210 @@
+"""Where the matter's people stand: boxes against the image's border and each other, a person less another, who
+straddles two, who stands beside (the geometric rules of relight_rt.person.matting._matter's choices)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from ..face_detector import Face
+from ._models import SIZE
+from ._parts import faces_side_by_side, split_by_faces
+from ._regions import LOGIT_CLIP, Person, Region, contains, grid_of_region, logits_on_grid, person_box, prob_at
+
+COVERED = 0.5  # a candidate (blob) this much inside people already matted is one of them
+STRADDLE = 0.75  # person="all": a pose-graph person this much inside the others together straddles two
+CUT_WIDTH = 0.125  # a portrait's body is cut by the bottom border over at least this x its box's width
+PEER_HEIGHT = 0.75  # person="largest": someone beside the person, as tall within this factor, stands with them
+BESIDE = 0.1  # ... looked for where a blob of the selfie graph reaches this x the person's width past their box
+
+
+def person_outside(person: Person, other: Person) -> Person:
+    """``person`` less what ``other`` holds: at each pixel of its canvas the smaller of its logit and the negated
+    logit of ``other`` there (a soft cut along ``other``'s outline)."""
+    k, bx, by = grid_of_region(person.region)
+    c = (np.arange(SIZE, dtype=np.float64) - np.array([[bx], [by]])) / k  # image x of the columns, y of the rows
+    xs, ys = np.meshgrid(c[0], c[1])
+    p = np.clip(prob_at(other, xs.ravel(), ys.ravel()).reshape(SIZE, SIZE), 1e-6, 1 - 1e-6)
+    theirs = np.log(p) - np.log1p(-p)
+    return replace(person, logits=np.minimum(person.logits, -theirs).astype(np.float32), whole=None)
+
+
+def someone_beside(box, blobs: list, faces: list[Face]) -> bool:
+    """Whether anyone may stand beside the person in ``box``: a face outside them, or a blob of the selfie graph
+    (:func:`relight_rt.person.matting._detect.find_people`) at least PEER_HEIGHT x their height tall that reaches
+    BESIDE x their width or more past their box's sides."""
+    if faces:
+        return True
+    x0, y0, x1, y1 = box
+    for _, (bx0, by0, bx1, by1) in blobs:
+        past = max(x0 - bx0, 0.0) + max(bx1 - x1, 0.0) if by1 > y0 and by0 < y1 else bx1 - bx0
+        if by1 - by0 >= PEER_HEIGHT * (y1 - y0) and past >= BESIDE * (x1 - x0):
+            return True
+    return False
+
+
+def grow_where_cut(
+    box: tuple[float, float, float, float], region: Region, shape: tuple[int, int]
+) -> tuple[float, float, float, float]:
+    """Extend ``box`` by half its size past each side where the segmentation runs into the region's edge
+    inside the image: the person goes on beyond the region (the region finder saw only part of them,
+    e.g. the head of a small person), so the next region must reach further."""
+    h, w = shape
+    x0, y0, x1, y1 = box
+    rx0, ry0, rx1, ry1 = region.box()
+    m = 0.03 * region.side
+    bw, bh = x1 - x0, y1 - y0
+    grow = 0.5 * max(bw, bh)
+    nx0 = x0 - grow if x0 <= rx0 + m and rx0 > 0 else x0
+    ny0 = y0 - grow if y0 <= ry0 + m and ry0 > 0 else y0
+    nx1 = x1 + grow if x1 >= rx1 - m and rx1 < w else x1
+    ny1 = y1 + grow if y1 >= ry1 - m and ry1 < h else y1
+    return max(nx0, 0.0), max(ny0, 0.0), min(nx1, float(w)), min(ny1, float(h))
+
+
+def box_past_border(box, shape: tuple[int, int]) -> tuple[float, float, float, float] | None:
+    """A segmentation ``box`` that runs into the image border, extended by half its size past each border it
+    touches (not clipped), or None when it touches none. The pose graph sees a person by their whole body:
+    framed on the visible part of someone cut by the border (a fighter cut at the thighs) it can say nobody
+    is there (presence 0.006), framed as if the body went on it sees them (0.99)."""
+    if box is None:
+        return None
+    h, w = shape
+    x0, y0, x1, y1 = box
+    grow = 0.5 * max(x1 - x0, y1 - y0)
+    cut = (x0 <= 1, y0 <= 1, x1 >= w - 1, y1 >= h - 1)
+    if not any(cut):
+        return None
+    return x0 - grow * cut[0], y0 - grow * cut[1], x1 + grow * cut[2], y1 + grow * cut[3]
+
+
+def is_portrait(roi: Person, shape: tuple[int, int]) -> bool:
+    """Head-and-shoulders (or chest-up) framing: the person as the selfie graph sees them in the region runs
+    off the bottom of the image across at least CUT_WIDTH of their box's width (the torso is cut there), and
+    their visible box is less than 1.8x as tall as wide. The pose graph was trained on bodies and loses the
+    shoulders of such crops (IoU 0.71-0.85 on crops of the reference video); the selfie graph, made for them,
+    keeps them (0.97-0.99). Full bodies and knee-up crops stay with the pose graph (0.97-0.99 there, the selfie
+    graph 0.92-0.97), and so does a body across the frame that only a foot or skate cuts at the bottom (a
+    skater in a spin: 0.07 of the width, where portraits measure 0.5-0.99 and a waist-up photo 0.18): wide
+    and touching the bottom, it looked like a portrait."""
+    h, w = shape
+    box = person_box(roi, shape)
+    if box is None:
+        return False
+    x0, y0, x1, y1 = box
+    if y1 < h - 2 or (y1 - y0) >= 1.8 * (x1 - x0):
+        return False
+    xs = np.linspace(x0, x1, 256)
+    return bool((prob_at(roi, xs, np.full(xs.shape, h - 1.0)) > 0.5).mean() >= CUT_WIDTH)
+
+
+def without_straddlers(
+    people: list[Person], grid, faces: list[Face] = (), shape: tuple[int, int] | None = None
+) -> list[Person]:
+    """``people`` less each pose-graph person whose segmentation lies at least STRADDLE inside the other people
+    together: a region framed between two people side by side, on which the pose graph (which segments one
+    person) answers with a body across both (two men crouching face to face came out as 3: the straddling one
+    lies 0.81 inside the two, 0.46 at most inside either; between distinct people found by the pose graph on the
+    13 photos of benchmarks/people_photos.py with several people, each at 3 framings shifted by 0-1 px, at most
+    0.47). The one lying most inside the others goes first. The others are the pose-graph people and the parts of
+    selfie-graph segmentations split by faces (:func:`split_by_faces`: each is one person's share of the
+    canvas; group_t1's pose-graph box across Rachel's head and Ross's body lay 0.19 inside Rachel and 0.68
+    inside Ross's part). A person who alone holds one of ``faces`` (image ``shape``) stays: on group_t1 shifted
+    by a pixel that box was the only one holding Rachel's face. Only pose-graph people are dropped, and an
+    unsplit selfie-graph person is not one of the others: it segments everyone in its region, so it overlaps its
+    neighbours by nature (up to 0.99 in a group seen face by face)."""
+    ones = [i for i, p in enumerate(people) if p.source == "pose" or p.whole is not None]
+    if len(ones) < 3 or not any(people[i].source == "pose" for i in ones):
+        return people
+    masks = {i: logits_on_grid(people[i], grid) > 0 for i in ones}
+    holds = {i: {j for j, f in enumerate(faces) if shape is not None and contains(people[i], f, shape)} for i in ones}
+    kept = set(ones)
+    while len(kept) >= 3:
+        inside = {}
+        for i in kept:
+            if people[i].source != "pose":
+                continue
+            others = np.zeros_like(masks[i])
+            held = set()
+            for j in kept - {i}:
+                others |= masks[j]
+                held |= holds[j]
+            if holds[i] <= held:
+                inside[i] = float(others[masks[i]].mean()) if masks[i].any() else 0.0
+        if not inside:
+            break
+        worst = max(inside, key=inside.get)
+        if inside[worst] < STRADDLE:
+            break
+        kept.discard(worst)
+    return [p for i, p in enumerate(people) if i in kept or i not in masks]
+
+
+def held(raised: Person, first: Person, shape: tuple[int, int]) -> Person:
+    """The selfie graph's segmentation ``raised`` (of a region reaching higher than ``first``'s) joined with
+    ``first`` (the larger logit where both regions reach) and kept to ``first``'s columns (its box, widened by
+    3 % of its width each side). Joined: framed on the whole head, the selfie graph is less sure of the body
+    at the bottom corners (DPR's portrait: the checked shirt 0.96 / 0.50 -> 0.59 / 0.41 at the bottom left /
+    right). The larger logit, not the smaller: ``first``'s answer is weakest right below the top its region cut
+    (held to it, the hair had a notch at the temple)."""
+    box = person_box(first, shape)
+    if box is None:
+        return raised
+    margin = 0.03 * (box[2] - box[0])
+    k, bx, by = grid_of_region(raised.region)
+    c = np.arange(SIZE, dtype=np.float64)
+    x, y = (c - bx) / k, (c - by) / k  # image coordinates of the canvas columns' and rows' centres
+    kf, bxf, byf = grid_of_region(first.region)
+    i = np.floor(kf * y + byf + 0.5).astype(int)  # nearest canvas pixel of first's region
+    j = np.floor(kf * x + bxf + 0.5).astype(int)
+    rows, cols = (i >= 0) & (i < SIZE), (j >= 0) & (j < SIZE)
+    before = np.full((SIZE, SIZE), -LOGIT_CLIP, np.float32)
+    before[np.ix_(rows, cols)] = first.logits[np.ix_(i[rows], j[cols])]
+    within = ((x >= box[0] - margin) & (x <= box[2] + margin))[None, :]
+    logits = np.where(within, np.maximum(raised.logits, before), np.float32(-LOGIT_CLIP)).astype(np.float32)
+    return Person(raised.region, logits, raised.presence, raised.source)
+
+
+def as_people(
+    p: Person, k: int | None, faces: list[Face], owned: set[int], shape: tuple[int, int]
+) -> tuple[list[Person], list[int]]:
+    """A segmentation newly kept by person="all" as people, and the faces it takes (indices into ``faces``;
+    ``k``: the face it was found from, None for a blob). The selfie graph segments everyone in its region, so
+    people side by side come as one segmentation holding several faces: one person per face not taken yet
+    (:func:`split_by_faces`; the matte stays their union). The faces of people matted already take their share
+    of the canvas too, so that a new person's part holds none of them (group_t1: Monica's face gave a part
+    holding Rachel, Ross and half of Chandler, and a straddling box across Rachel and Ross lay inside it)."""
+    held = [j for j, f in enumerate(faces) if contains(p, f, shape)]
+    mine = [j for j in held if j not in owned]
+    side_by_side = faces_side_by_side([faces[j] for j in held])
+    taken = {id(faces[j]) for j in owned}  # side_by_side holds the same Face objects
+    new = [i for i, f in enumerate(side_by_side) if id(f) not in taken]
+    if p.source == "roi" and len(side_by_side) >= 2 and new:
+        parts = split_by_faces(p, side_by_side)
+        return [parts[i] for i in new], mine
+    return [p], ([k] if k is not None else mine[:1])
+
+
+def box_beside(box, other) -> tuple[float, float, float, float] | None:
+    """The part of ``box`` left of or right of the box ``other`` (the wider part), or None when less than a
+    quarter of ``box``'s width remains."""
+    if other is None:
+        return None
+    x0, y0, x1, y1 = box
+    left, right = (x0, min(x1, other[0])), (max(x0, other[2]), x1)
+    a, b = max(left, right, key=lambda t: t[1] - t[0])
+    return (a, y0, b, y1) if b - a >= 0.25 * (x1 - x0) else None
+
+
+def mostly_in(mask: np.ndarray, occupied: np.ndarray) -> bool:
+    """Whether a person's mask (working grid) lies mostly (COVERED) inside the people matted already."""
+    return bool(mask.any() and occupied[mask].mean() >= COVERED)
+
+
+def box_area(box) -> float:
+    return max(box[2] - box[0], 0.0) * max(box[3] - box[1], 0.0)
+
+
+def box_height(box) -> float:
+    return 0.0 if box is None else box[3] - box[1]
