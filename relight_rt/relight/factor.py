@@ -295,8 +295,8 @@ class Factor:
                     sigma = max(2.0, 0.03 * max(w.shape))
                     num = cv2.GaussianBlur(rgb * trust[..., None], (0, 0), sigma)
                     den = cv2.GaussianBlur(photo * trust, (0, 0), sigma)[..., None]
+                    # luminance 1 already: photo is the Rec. 709 luminance of rgb, and the blur is linear
                     chroma = np.divide(num, den, out=np.ones_like(num), where=den > 1e-4)
-                    chroma /= np.maximum(chroma @ _exposure.REC709, 1e-6)[..., None]
                     result = (readonly(w.astype(np.float32)), readonly(chroma.astype(np.float32)))
             state["shadow"] = result
         return state["shadow"]
