@@ -235,8 +235,9 @@ class Factor:
         self, dec: Decomposition, light: np.ndarray, image: np.ndarray, residual: np.ndarray | None = None,
         fill: bool = True,
     ) -> tuple[np.ndarray, tuple | None]:
-        """``gain`` and, with ``fill``, the deep shadow's fill (``fill``'s docstring); the gain then takes the
-        photo as it is where the fill adds the change (its share w of the ratio's factor goes to 1)."""
+        """``gain`` and, with ``fill``, the deep shadow's fill (``_to_crop_part``: (box, part, weight) or None); the
+        gain then takes the photo as it is where the fill adds the change (its share w of the ratio's factor goes
+        to 1)."""
         own = self.own(dec, with_residual=residual is not None)
         y0, y1, x0, x1 = own["window"]
         light = np.asarray(light, np.float32)
@@ -303,8 +304,9 @@ class Factor:
 
     def _to_crop_part(self, dec: Decomposition, added: np.ndarray, w: np.ndarray, origin: tuple[int, int]) -> tuple:
         """The fill (``gain_and_fill``): ``added`` (r, r', 3), the change the light adds where the photo's own
-        shading is near zero (w > 0), mapped to the crop box: (box, part), ``part`` over the part ``box`` (a pair of
-        slices) of the crop box that holds it (the whole box unless enlarging), or None.
+        shading is near zero (w > 0), mapped to the crop box: (box, part, weight), ``part`` (3 channels) and
+        ``weight`` (w) over the part ``box`` (a pair of slices) of the crop box that holds it (the whole box unless
+        enlarging), or None.
 
         Where the photo's own shading is near zero, photo x ratio multiplies noise (a side-lit face's black half
         relit from the front stays black, its speckle amplified); there the change is added instead: the relit
@@ -314,8 +316,10 @@ class Factor:
         """
         geom = dec.geometry
         h, wd = geom.crop_shape
+        both = np.concatenate([added, w[..., None]], axis=2)  # one mapping for the change and its weight
         if geom.side <= geom.resolution:
-            return (slice(0, h), slice(0, wd)), geom.to_crop(added, origin)
+            part = geom.to_crop(both, origin)
+            return (slice(0, h), slice(0, wd)), part[..., :3], part[..., 3]
         # enlarging: only the part of the crop box the shadow covers, by to_crop's own mapping (CropGeometry)
         ys, xs = np.nonzero(w > 1e-3)
         if ys.size == 0:
@@ -333,16 +337,18 @@ class Factor:
             return None
         m = np.array([[k, 0.0, (ox + cx0 + 0.5) * k - 0.5 - origin[1]],
                       [0.0, k, (oy + cy0 + 0.5) * k - 0.5 - origin[0]]])
-        part = cv2.warpAffine(np.ascontiguousarray(added, np.float32), m, (cx1 - cx0, cy1 - cy0),
+        part = cv2.warpAffine(np.ascontiguousarray(both, np.float32), m, (cx1 - cx0, cy1 - cy0),
                               flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_REPLICATE)
-        return (slice(cy0, cy1), slice(cx0, cx1)), part
+        return (slice(cy0, cy1), slice(cx0, cx1)), part[..., :3], part[..., 3]
 
     def blend_head(self, dec: Decomposition, gain: np.ndarray, light: np.ndarray, head: Decomposition,
-                    box: tuple[int, int, int, int]) -> None:
+                    box: tuple[int, int, int, int], fill: tuple | None = None) -> None:
         """Blend the head pass's change of shading into ``gain`` (the body's, crop frame), in place.
 
         The head pass sees the face larger, so it gives the shape of the change; its overall level is the
-        body pass's (the two estimate the photo's light separately), matched on the head's skin.
+        body pass's (the two estimate the photo's light separately), matched on the head's skin. ``fill``: the
+        body's deep-shadow fill (``gain_and_fill``); where it adds the change (its weight w), the body's gain holds
+        the photo as it is, and the head's ratio takes only the rest (1 - w): it would count the light a second time.
         """
         by0, by1, bx0, bx1 = dec.geometry.box
         hy0, hy1, hx0, hx1 = head.geometry.box  # in the head square's frame
@@ -357,6 +363,13 @@ class Factor:
                          (box[0] == 0, box[1] == h_img, box[2] == 0, box[3] == w_img))
         weight = weight[cy0 - box[0] : cy1 - box[0], cx0 - box[2] : cx1 - box[2]]
         weight = weight * dec.mask[cy0:cy1, cx0:cx1]
+        if fill is not None:  # the fill's weight where its part (crop frame) meets the head's region
+            (fy, fx), _, w = fill
+            ry, rx = cy0 - by0, cx0 - bx0  # the head's region in the crop frame starts here
+            ya, yb, xa, xb = max(fy.start, ry), min(fy.stop, cy1 - by0), max(fx.start, rx), min(fx.stop, cx1 - bx0)
+            if yb > ya and xb > xa:
+                weight[ya - ry : yb - ry, xa - rx : xb - rx] *= 1 - np.clip(
+                    w[ya - fy.start : yb - fy.start, xa - fx.start : xb - fx.start], 0, 1)
         region = gain[cy0 - by0 : cy1 - by0, cx0 - bx0 : cx1 - bx0]
         skin = head.to_input(head.skin)[cy0 - box[0] : cy1 - box[0], cx0 - box[2] : cx1 - box[2]] * weight
         if skin.sum() < 1:
