@@ -27,9 +27,7 @@ overall brightness of a relit person is one scalar on the light, and an automati
 
 Mean luminance: Rec. 709 weights (0.2126 R + 0.7152 G + 0.0722 B) on the values of the pipeline, which
 treats them as linear, averaged inside the (soft) mask and weighted by it, on the network-resolution
-diffuse image albedo ⊙ max(0, T·L) before clipping (``expose``; the Relighter passes the picture as it is shown
-instead: the photo times the part of its relighting factor that scales with the light, relight_rt.relight.factor
-``Factor.expose``, same rule). The Relighter's "auto" meters the power mean
+diffuse image albedo ⊙ max(0, T·L) before clipping. The Relighter's "auto" (``expose``) meters the power mean
 (mean of Y ** ``METER_POWER``) ** (1 / ``METER_POWER``): its values are encoded, the light seen goes as their 2.2nd
 power, and the plain mean let a light that spreads the picture (a hard small moon: night) keep the encoded mean
 while the light seen rose (night came out +0.26 EV above its stop; benchmarks/photo_faults.py, issue 48). The

@@ -332,11 +332,6 @@ class Relighter:
         ``Factor.highlight_inputs``; the studio's preview samples it)."""
         return self._factor.highlight_inputs(dec)
 
-    def meter_inputs(self, dec: Decomposition) -> tuple:
-        """What "auto" exposure meters of ``dec`` (relight_rt.relight.factor ``Factor.meter_inputs``; the studio's
-        preview samples it)."""
-        return self._factor.meter_inputs(dec)
-
     def _prepare(self, image, mask) -> Decomposition:
         if isinstance(image, Decomposition):
             if mask is not None:

@@ -379,35 +379,17 @@ class Factor:
         region += weight[..., None] * (level * g_head - region)
 
     def expose(self, dec: Decomposition, lights: np.ndarray, exposure) -> np.ndarray:
-        """The exposure rule (relight_rt.exposure) on the picture as it is shown: each light scaled so that the
-        power mean (``METER_POWER``) of the luminance of the person's relit pixels equals the photo's own, then the
-        highlight guard (``highlight_factor``) before any EV offset.
-
-        The pixels are ``meter_inputs``' (the photo times the part of the relighting factor that scales with the
-        light), measured by ``relight_rt.exposure.mean_luminance``, so the scale stays exact (homogeneous in the
-        light) and the photo's own light keeps the photo's level. Stage 1's diffuse image under the light (metered
-        before) is not what is shown: its transport is the unrestored one, its albedo not the photo's (Extended
-        Yale B, benchmarks/yale_eval.py: relight contrast 0.644 -> 0.647, de-light correlation 0.866 -> 0.872;
-        presets' EV as seen within 0.04 of before on 27 real photos, night -1.02)."""
+        """relight_rt.exposure.expose with the photo's own mean luminance measured once per Decomposition, then
+        the highlight guard (relight_rt.exposure ``highlight_factor``) on each light before any EV offset."""
         mode = _exposure.parse_exposure(exposure)
         if mode == "physical":
             return np.array(lights, np.float32)
-        lit, transport, weight = self.meter_inputs(dec)
         state = self.memo(dec)
         if "target" not in state:
-            state["target"] = _exposure.mean_luminance(lit, transport, weight, dec.white_light, _exposure.METER_POWER)
-        flat = np.asarray(lights, np.float32).reshape(-1, 9, 3)
-        scales = [_exposure.exposure_scale(lit, transport, weight, one, state["target"], "auto", _exposure.METER_POWER)
-                  for one in flat]
-        lits = (flat * np.asarray(scales, np.float32)[:, None, None]).reshape(np.shape(lights))
+            state["target"] = _exposure.mean_luminance(dec.albedo, dec.transport, dec.network_mask, dec.white_light,
+                                                       _exposure.METER_POWER)
+        lits = _exposure.expose(dec, lights, "auto", target_luminance=state["target"])
         return _exposure.guarded(lits, mode, self.highlight_inputs(dec))
-
-    def meter_inputs(self, dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """What "auto" meters (``expose``), as ``relight_rt.exposure.mean_luminance`` takes it: (1, N, 3) the
-        colour per unit of shading of the person's N pixels as the relit picture is made of them
-        (``highlight_inputs``' "lit"), (1, N, 9) their transport and (1, N) weights (ones)."""
-        lit, _, transport, _ = self.highlight_inputs(dec)
-        return lit[None], transport[None], np.ones((1, lit.shape[0]), np.float32)
 
     def highlight_inputs(self, dec: Decomposition) -> tuple:
         """What ``highlight_factor`` reads of ``dec`` whatever the light (cached): the person's pixels (alpha > 0.5,

@@ -215,22 +215,14 @@ def request_exposure(value) -> object:
     return "auto" if value is None else parse_exposure(value)
 
 
-def _exposure_sample(relighter, dec) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _exposure_sample(dec) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The person's pixels in the network frame that the page's exposure rule reads: every ``step``-th pixel
-    the final result's "auto" meters (the relighter's ``meter_inputs``: the picture as it is shown), at most
-    EXPOSURE_SAMPLES (all of them for networks up to about 300² pixels of person); a runtime without it: the
-    network's diffuse image inside the mask.
+    inside the mask, at most EXPOSURE_SAMPLES (all of them for networks up to about 300² pixels of person).
 
     Returns:
-        colour per unit of shading (n, 3) (as relight_rt.exposure takes an albedo), transport (n, 9), weight (n,),
+        albedo (n, 3) (the network's, masked, as relight_rt.exposure takes it), transport (n, 9), mask (n,),
         float32.
     """
-    inputs = getattr(relighter, "meter_inputs", None)
-    if inputs is not None:
-        lit, transport, weight = (a[0] for a in inputs(dec))
-        step = max(1, math.ceil(lit.shape[0] / EXPOSURE_SAMPLES))
-        return (np.ascontiguousarray(lit[::step], np.float32), np.ascontiguousarray(transport[::step], np.float32),
-                np.ascontiguousarray(weight[::step], np.float32))
     m = np.asarray(dec.network_mask, np.float32).reshape(-1)
     inside = np.flatnonzero(m > 0)
     idx = inside[:: max(1, math.ceil(inside.size / EXPOSURE_SAMPLES))]
@@ -346,9 +338,9 @@ class Studio:
         q16 = np.rint((transport - lo) / scale).clip(0, 65535).astype("<u2").transpose(2, 0, 1)
         eight = np.concatenate([albedo, mask, bg, skin], axis=2)
         q8 = np.rint(np.clip(eight, 0, 1) * 255).astype(np.uint8).transpose(2, 0, 1)
-        # the exposure rule of the final result (relight_rt.exposure: the power mean of the relit picture's
-        # luminance, the photo's own light as the target) on the pixels the final result meters
-        albedo_s, transport_s, mask_s = self._exposure = _exposure_sample(self.relighter, dec)
+        # the exposure rule of the final result (relight_rt.exposure: the mean luminance of the network's diffuse
+        # image inside the mask, the photo's own light as the target) on the person's network-frame pixels
+        albedo_s, transport_s, mask_s = self._exposure = _exposure_sample(dec)
         target = mean_luminance(albedo_s[None], transport_s[None], mask_s[None], dec.white_light, METER_POWER)
         # the exposure's highlight guard (relight_rt.exposure.highlight_factor) on the pixels the final result reads
         lit_h, steady_h, transport_h, allowed = self._highlight = _highlight_sample(self.relighter, dec)

@@ -222,14 +222,13 @@ def test_auto_exposure_keeps_a_side_lamp_from_flattening_a_fair_face(reference_d
     kept = relighter.layers(dec, lamp)
     np.testing.assert_allclose(relighter.layers(dec, dec.light).light, own, rtol=1e-6)
     factor = float(guarded.light[0, 0] / kept.light[0, 0])
-    assert 0.5 <= factor < 0.95  # measured 0.90 (0.87 metering stage 1's diffuse image; 0.77 the encoded mean)
+    assert 0.5 <= factor < 0.95  # measured 0.87 (-0.20 EV; 0.77 when "auto" kept the mean of encoded values)
     np.testing.assert_allclose(guarded.light, factor * kept.light, rtol=1e-5)  # one scalar: direction, colour kept
 
     def near_white(image):
         return float(np.mean(image[inside].max(axis=1) >= 0.95))
 
-    # measured 6.5 % against 8.5 % (9.4 % when "auto" metered stage 1's diffuse image: the same guarded picture)
-    assert near_white(guarded.image) < 0.8 * near_white(kept.image)
+    assert near_white(guarded.image) < 0.75 * near_white(kept.image)
 
 
 def test_guarded_puts_the_guard_before_the_ev():
