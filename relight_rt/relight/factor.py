@@ -64,6 +64,7 @@ _RATIO_EPS = np.float32(0.01)  # the ratio's denominator is floored here (dark p
 _OWN_FLOOR = np.float32(0.5)  # light the model misses, up to this share of the photo, stays under a new light (own)
 FILL_LOW, FILL_HIGH = 0.1, 0.35  # shown shading / its median: below LOW the deep shadow is filled, above HIGH not
 FILL_SIGMA = 2.5  # ... the shading shown smoothed over this many network pixels first (texture is not a shadow)
+UNSHADE_MIN_SKIN = 50  # unshaded_albedo: the fewest face-skin pixels (network frame) its fit is made on
 
 
 def luminance_window(chw: np.ndarray, alpha: np.ndarray, box: tuple[int, int, int, int]) -> np.ndarray:
@@ -72,6 +73,37 @@ def luminance_window(chw: np.ndarray, alpha: np.ndarray, box: tuple[int, int, in
     lum = np.tensordot(_exposure.REC709, chw[:, y0:y1, x0:x1], axes=1)
     return np.divide(lum, alpha, out=np.zeros_like(lum), where=alpha > 0.5)
 
+
+
+def unshaded_albedo(albedo: np.ndarray, shading: np.ndarray, skin: np.ndarray, inner: np.ndarray) -> np.ndarray:
+    """Stage 1's albedo luminance with the part of the photo's own shading it took in taken out.
+
+    A face's skin is one material, so its albedo does not follow the light: the slope b of log albedo on log
+    shading over ``skin`` (the least-squares fit, kept in [0, 1]) is the share of the photo's own shading that
+    stage 1 put into the albedo (on side-lit Extended Yale B faces the shaded half's albedo came out 15-30 % darker
+    than the lit half's: the ratio then kept that much of the photo's shadow, benchmarks/yale_eval.py). Over the
+    person (``inner``) the albedo becomes albedo x (shading / its median over the skin) ** -b; elsewhere it stays.
+    With fewer than ``UNSHADE_MIN_SKIN`` skin pixels (no face mesh) nothing changes.
+
+    Args:
+        albedo, shading: (r, r') float32 luminance of stage 1's albedo and of the shading under the photo's own
+            light (both > 0 where they mean anything).
+        skin, inner: (r, r') bool, the face's skin (a mesh's) and the person's pixels.
+
+    Returns:
+        (r, r') float32, a new array (``albedo`` itself when nothing is taken out).
+    """
+    ok = skin & (shading > 1e-3) & (albedo > 1e-3)
+    if int(ok.sum()) < UNSHADE_MIN_SKIN:
+        return albedo
+    x, y = np.log(shading[ok]), np.log(albedo[ok])
+    x = x - x.mean()
+    b = float(np.clip((x * (y - y.mean())).sum() / max(float((x * x).sum()), 1e-9), 0, 1))
+    if b == 0:
+        return albedo
+    level = float(np.median(shading[ok]))
+    out = np.where(inner, albedo * (np.maximum(shading, 1e-3) / level) ** -b, albedo)
+    return out.astype(np.float32)
 
 
 class Factor:
@@ -130,8 +162,13 @@ class Factor:
         key = "own" if with_residual else "own_diffuse"
         if key not in state:
             base = self.restored(dec)
-            # the shading the photo shows and stage 1 misses, kept along the photo's own light (relight_rt._strength)
             white = dec.white_light[:, 0]
+            if dec.photo:  # the photo's own shading that stage 1 put into a face's albedo taken out (not per frame:
+                # a fit frame by frame would flicker)
+                shading = base["transport"] @ white
+                base = {**base, "albedo": readonly(unshaded_albedo(base["albedo"], shading, base["face_skin"],
+                                                                   base["inner"]))}
+            # the shading the photo shows and stage 1 misses, kept along the photo's own light (relight_rt._strength)
             moved = explain_photo(base["transport"], base["albedo"], base["photo"], white, base["inner"])
             base = {**base, "transport": readonly(moved)}
             own = base["albedo"] * sh.shading(base["transport"], dec.white_light)[..., 0]  # white: columns equal
