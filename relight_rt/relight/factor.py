@@ -83,8 +83,9 @@ def unshaded_albedo(albedo: np.ndarray, shading: np.ndarray, skin: np.ndarray, i
     shading over ``skin`` (the least-squares fit, kept in [0, 1]) is the share of the photo's own shading that
     stage 1 put into the albedo (on side-lit Extended Yale B faces the shaded half's albedo came out 15-30 % darker
     than the lit half's: the ratio then kept that much of the photo's shadow, benchmarks/yale_eval.py). Over the
-    person (``inner``) the albedo becomes albedo x (shading / its median over the skin) ** -b; elsewhere it stays.
-    With fewer than ``UNSHADE_MIN_SKIN`` skin pixels (no face mesh) nothing changes.
+    person (``inner``) the albedo becomes albedo x (shading / its median over the skin) ** -b, the shading held
+    within the 2-98 % range the fit saw (stage 1 does this to every material; only skin shows how much); outside
+    it stays. With fewer than ``UNSHADE_MIN_SKIN`` skin pixels (no face mesh) nothing changes.
 
     Args:
         albedo, shading: (r, r') float32 luminance of stage 1's albedo and of the shading under the photo's own
@@ -102,9 +103,10 @@ def unshaded_albedo(albedo: np.ndarray, shading: np.ndarray, skin: np.ndarray, i
     b = float(np.clip((x * (y - y.mean())).sum() / max(float((x * x).sum()), 1e-9), 0, 1))
     if b == 0:
         return albedo
-    level = float(np.median(shading[ok]))
-    out = np.where(inner, albedo * (np.maximum(shading, 1e-3) / level) ** -b, albedo)
-    return out.astype(np.float32)
+    # within the shading the fit saw: a profile's hair turned away in deep shade came out 3x brighter without
+    lo, level, hi = np.percentile(shading[ok], [2, 50, 98])
+    gain = np.where(inner, (np.clip(shading, lo, hi) / level) ** -b, 1)
+    return (albedo * gain).astype(np.float32)
 
 
 class Factor:
