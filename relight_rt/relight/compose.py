@@ -185,7 +185,7 @@ class Composer:
         gain, fill = self.factor.gain_and_fill(dec, light, image, residual)  # fill: deep shadow, the change added
         state = self.memo(dec)
         if dec.head is not None:
-            self.factor.blend_head(dec, gain, light, dec.head, dec.head_box)
+            self.factor.blend_head(dec, gain, light, dec.head, dec.head_box, fill)
         if looks is None:
             if "dark" not in state:  # once per photo: what steadying dark pixels' colour needs whatever the light
                 state["dark"] = tuple(readonly(a) for a in dark_colour(image))

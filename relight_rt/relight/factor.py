@@ -34,7 +34,8 @@ gives the input back. A face that stage 1 saw small gets a second pass (relight_
 shading is near zero (a side-lit face's black half, levels 0-3) the photo times a factor stays black with its
 speckle amplified; there the change is added instead, stage 1's albedo under the new shading less under the
 photo's own (``Factor.gain_and_fill``; Extended Yale B de-lighting, benchmarks/yale_eval.py: 0.83 / 0.62 ->
-0.87 / 0.70).
+0.87 / 0.70). On a photo with a face mesh, the share of the photo's own shading that stage 1 put into the albedo
+is taken out first (``unshaded_albedo``; de-lighting 0.87 / 0.70 -> 0.88 / 0.78).
 (``cv2.ximgproc.guidedFilter`` at full resolution gives the same kind of result but costs ~0.6 s per 2-megapixel
 crop with a colour guide; this costs ~30 ms.)
 With ``detail=False`` the network's relit image is upsampled as it is.
@@ -64,6 +65,7 @@ _RATIO_EPS = np.float32(0.01)  # the ratio's denominator is floored here (dark p
 _OWN_FLOOR = np.float32(0.5)  # light the model misses, up to this share of the photo, stays under a new light (own)
 FILL_LOW, FILL_HIGH = 0.1, 0.35  # shown shading / its median: below LOW the deep shadow is filled, above HIGH not
 FILL_SIGMA = 2.5  # ... the shading shown smoothed over this many network pixels first (texture is not a shadow)
+UNSHADE_MIN_SKIN = 50  # unshaded_albedo: the fewest face-skin pixels (network frame) its fit is made on
 
 
 def luminance_window(chw: np.ndarray, alpha: np.ndarray, box: tuple[int, int, int, int]) -> np.ndarray:
@@ -72,6 +74,39 @@ def luminance_window(chw: np.ndarray, alpha: np.ndarray, box: tuple[int, int, in
     lum = np.tensordot(_exposure.REC709, chw[:, y0:y1, x0:x1], axes=1)
     return np.divide(lum, alpha, out=np.zeros_like(lum), where=alpha > 0.5)
 
+
+
+def unshaded_albedo(albedo: np.ndarray, shading: np.ndarray, skin: np.ndarray, inner: np.ndarray) -> np.ndarray:
+    """Stage 1's albedo luminance with the part of the photo's own shading it took in taken out.
+
+    A face's skin is one material, so its albedo does not follow the light: the slope b of log albedo on log
+    shading over ``skin`` (the least-squares fit, kept in [0, 1]) is the share of the photo's own shading that
+    stage 1 put into the albedo (on side-lit Extended Yale B faces the shaded half's albedo came out 15-30 % darker
+    than the lit half's: the ratio then kept that much of the photo's shadow, benchmarks/yale_eval.py). Over the
+    person (``inner``) the albedo becomes albedo x (shading / its median over the skin) ** -b, the shading held
+    within the 2-98 % range the fit saw (stage 1 does this to every material; only skin shows how much); outside
+    it stays. With fewer than ``UNSHADE_MIN_SKIN`` skin pixels (no face mesh) nothing changes.
+
+    Args:
+        albedo, shading: (r, r') float32 luminance of stage 1's albedo and of the shading under the photo's own
+            light (both > 0 where they mean anything).
+        skin, inner: (r, r') bool, the face's skin (a mesh's) and the person's pixels.
+
+    Returns:
+        (r, r') float32, a new array (``albedo`` itself when nothing is taken out).
+    """
+    ok = skin & (shading > 1e-3) & (albedo > 1e-3)
+    if int(ok.sum()) < UNSHADE_MIN_SKIN:
+        return albedo
+    x, y = np.log(shading[ok]), np.log(albedo[ok])
+    x = x - x.mean()
+    b = float(np.clip((x * (y - y.mean())).sum() / max(float((x * x).sum()), 1e-9), 0, 1))
+    if b == 0:
+        return albedo
+    # within the shading the fit saw: a profile's hair turned away in deep shade came out 3x brighter without
+    lo, level, hi = np.percentile(shading[ok], [2, 50, 98])
+    gain = np.where(inner, (np.clip(shading, lo, hi) / level) ** -b, 1)
+    return (albedo * gain).astype(np.float32)
 
 
 class Factor:
@@ -131,9 +166,14 @@ class Factor:
         key = "own" if with_residual else "own_diffuse"
         if key not in state:
             base = self.restored(dec)
+            white = dec.white_light[:, 0]
+            if dec.photo:  # the photo's own shading that stage 1 put into a face's albedo taken out (not per frame:
+                # a fit frame by frame would flicker)
+                shading = base["transport"] @ white
+                base = {**base, "albedo": readonly(unshaded_albedo(base["albedo"], shading, base["face_skin"],
+                                                                   base["inner"]))}
             # the shading the photo shows and stage 1 misses, kept along the photo's own light
             # (relight_rt.relight.strength)
-            white = dec.white_light[:, 0]
             moved = explain_photo(base["transport"], base["albedo"], base["photo"], white, base["inner"])
             base = {**base, "transport": readonly(moved)}
             own = base["albedo"] * sh.shading(base["transport"], dec.white_light)[..., 0]  # white: columns equal
@@ -238,8 +278,9 @@ class Factor:
         self, dec: Decomposition, light: np.ndarray, image: np.ndarray, residual: np.ndarray | None = None,
         fill: bool = True,
     ) -> tuple[np.ndarray, tuple | None]:
-        """``gain`` and, with ``fill``, the deep shadow's fill (``fill``'s docstring); the gain then takes the
-        photo as it is where the fill adds the change (its share w of the ratio's factor goes to 1)."""
+        """``gain`` and, with ``fill``, the deep shadow's fill (``_to_crop_part``: (box, part, weight) or None); the
+        gain then takes the photo as it is where the fill adds the change (its share w of the ratio's factor goes
+        to 1)."""
         own = self.own(dec, with_residual=residual is not None)
         y0, y1, x0, x1 = own["window"]
         light = np.asarray(light, np.float32)
@@ -298,16 +339,17 @@ class Factor:
                     sigma = max(2.0, 0.03 * max(w.shape))
                     num = cv2.GaussianBlur(rgb * trust[..., None], (0, 0), sigma)
                     den = cv2.GaussianBlur(photo * trust, (0, 0), sigma)[..., None]
+                    # luminance 1 already: photo is the Rec. 709 luminance of rgb, and the blur is linear
                     chroma = np.divide(num, den, out=np.ones_like(num), where=den > 1e-4)
-                    chroma /= np.maximum(chroma @ _exposure.REC709, 1e-6)[..., None]
                     result = (readonly(w.astype(np.float32)), readonly(chroma.astype(np.float32)))
             state["shadow"] = result
         return state["shadow"]
 
     def _to_crop_part(self, dec: Decomposition, added: np.ndarray, w: np.ndarray, origin: tuple[int, int]) -> tuple:
         """The fill (``gain_and_fill``): ``added`` (r, r', 3), the change the light adds where the photo's own
-        shading is near zero (w > 0), mapped to the crop box: (box, part), ``part`` over the part ``box`` (a pair of
-        slices) of the crop box that holds it (the whole box unless enlarging), or None.
+        shading is near zero (w > 0), mapped to the crop box: (box, part, weight), ``part`` (3 channels) and
+        ``weight`` (w) over the part ``box`` (a pair of slices) of the crop box that holds it (the whole box unless
+        enlarging), or None.
 
         Where the photo's own shading is near zero, photo x ratio multiplies noise (a side-lit face's black half
         relit from the front stays black, its speckle amplified); there the change is added instead: the relit
@@ -317,8 +359,10 @@ class Factor:
         """
         geom = dec.geometry
         h, wd = geom.crop_shape
+        both = np.concatenate([added, w[..., None]], axis=2)  # one mapping for the change and its weight
         if geom.side <= geom.resolution:
-            return (slice(0, h), slice(0, wd)), geom.to_crop(added, origin)
+            part = geom.to_crop(both, origin)
+            return (slice(0, h), slice(0, wd)), part[..., :3], part[..., 3]
         # enlarging: only the part of the crop box the shadow covers, by to_crop's own mapping (CropGeometry)
         ys, xs = np.nonzero(w > 1e-3)
         if ys.size == 0:
@@ -336,16 +380,18 @@ class Factor:
             return None
         m = np.array([[k, 0.0, (ox + cx0 + 0.5) * k - 0.5 - origin[1]],
                       [0.0, k, (oy + cy0 + 0.5) * k - 0.5 - origin[0]]])
-        part = cv2.warpAffine(np.ascontiguousarray(added, np.float32), m, (cx1 - cx0, cy1 - cy0),
+        part = cv2.warpAffine(np.ascontiguousarray(both, np.float32), m, (cx1 - cx0, cy1 - cy0),
                               flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_REPLICATE)
-        return (slice(cy0, cy1), slice(cx0, cx1)), part
+        return (slice(cy0, cy1), slice(cx0, cx1)), part[..., :3], part[..., 3]
 
     def blend_head(self, dec: Decomposition, gain: np.ndarray, light: np.ndarray, head: Decomposition,
-                    box: tuple[int, int, int, int]) -> None:
+                    box: tuple[int, int, int, int], fill: tuple | None = None) -> None:
         """Blend the head pass's change of shading into ``gain`` (the body's, crop frame), in place.
 
         The head pass sees the face larger, so it gives the shape of the change; its overall level is the
-        body pass's (the two estimate the photo's light separately), matched on the head's skin.
+        body pass's (the two estimate the photo's light separately), matched on the head's skin. ``fill``: the
+        body's deep-shadow fill (``gain_and_fill``); where it adds the change (its weight w), the body's gain holds
+        the photo as it is, and the head's ratio takes only the rest (1 - w): it would count the light a second time.
         """
         by0, by1, bx0, bx1 = dec.geometry.box
         hy0, hy1, hx0, hx1 = head.geometry.box  # in the head square's frame
@@ -360,6 +406,13 @@ class Factor:
                          (box[0] == 0, box[1] == h_img, box[2] == 0, box[3] == w_img))
         weight = weight[cy0 - box[0] : cy1 - box[0], cx0 - box[2] : cx1 - box[2]]
         weight = weight * dec.mask[cy0:cy1, cx0:cx1]
+        if fill is not None:  # the fill's weight where its part (crop frame) meets the head's region
+            (fy, fx), _, w = fill
+            ry, rx = cy0 - by0, cx0 - bx0  # the head's region in the crop frame starts here
+            ya, yb, xa, xb = max(fy.start, ry), min(fy.stop, cy1 - by0), max(fx.start, rx), min(fx.stop, cx1 - bx0)
+            if yb > ya and xb > xa:
+                weight[ya - ry : yb - ry, xa - rx : xb - rx] *= 1 - np.clip(
+                    w[ya - fy.start : yb - fy.start, xa - fx.start : xb - fx.start], 0, 1)
         region = gain[cy0 - by0 : cy1 - by0, cx0 - bx0 : cx1 - bx0]
         skin = head.to_input(head.skin)[cy0 - box[0] : cy1 - box[0], cx0 - box[2] : cx1 - box[2]] * weight
         if skin.sum() < 1:
