@@ -19,6 +19,7 @@ from relight_rt.person.face_mesh import (
     lobe_transport,
     rasterise_normals,
 )
+from relight_rt.relight import factor as factor_module
 from relight_rt.relight.factor import Factor
 
 REFERENCE = Path(__file__).resolve().parents[4] / "shared" / "reference"
@@ -173,14 +174,17 @@ def test_the_face_in_a_real_photo_gets_its_mesh_and_the_light_models_it(monkeypa
     """The reference photo (full body): the head pass finds the face's mesh; the relit face differs from the one
     without the mesh only around the head, a light from the image's right brightens the face's right half more
     with the mesh than without it, and the photo's own light still gives the photo back. (The photo's light is
-    refit to the transport, mesh included (relight_rt.relight.strength.refit_light), which moves the whole picture a
-    little; that refit is held off here to see where the mesh itself acts.)"""
+    refit to the transport, mesh included (relight_rt.relight.strength.refit_light), and the share of the photo's
+    shading in the albedo is taken out over the whole person, fitted on the mesh's skin
+    (relight_rt.relight.factor.unshaded_albedo): both move the whole picture a little and are held off here to see
+    where the mesh's transport itself acts.)"""
     photo = REFERENCE / "photo" / "sample.jpg"
     mask = REFERENCE / "photo" / "sample_mask.png"
     r = relight_rt.open(RuntimeConfig(device="cpu"))
     dec = r.decompose(photo, mask)
     np.testing.assert_allclose(r.relight(dec, dec), dec.image, atol=2e-3)  # with the refit light
     monkeypatch.setattr(Factor, "refit", lambda self, dec: dec)
+    monkeypatch.setattr(factor_module, "unshaded_albedo", lambda albedo, *_: albedo)
     r = relight_rt.open(RuntimeConfig(device="cpu"))
     dec = r.decompose(photo, mask)
     head, box = dec.head, dec.head_box
