@@ -160,7 +160,7 @@ def dark_colour(image: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     its grey near-black pixels past a* -8 under rim without this rule, 0.3 % with it) or a green backdrop's spill
     in dark hair (3.7 % -> 0.4 % under window-left), that is right; where it is the cloth's own colour, the folds
     of a dark teal shirt ((0.04, 0.10, 0.12), C* ~6 at L* ~8, green where lit), it is not: the pulled folds turn
-    brown-olive beside the green ones under campfire (docs/results_pending/faults.md).
+    brown-olive beside the green ones under campfire (docs/RESULTS.md, "Real photos, broad sets").
     """
     y = cv2.transform(image, _exposure.REC709.reshape(1, 3))  # (h, w): one output channel
     dark = (y < _DARK).astype(np.float32)
