@@ -7,6 +7,7 @@ Needs the ``studio`` extra (uvicorn), playwright (pip) and a chromium binary (.c
 
 from __future__ import annotations
 
+import contextlib
 import threading
 import time
 
@@ -63,3 +64,27 @@ def launch_chromium(playwright, executable: str, profile: str, viewport: tuple[i
     return playwright.chromium.launch_persistent_context(
         profile, executable_path=executable, headless=True, args=CHROMIUM_ARGS,
         viewport={"width": viewport[0], "height": viewport[1]}, **options)  # fmt: skip
+
+
+@contextlib.contextmanager
+def serving(studio):
+    """``start_server``'s URL for a ``with`` block; the server stops at the block's end."""
+    srv, thread, url = start_server(studio)
+    try:
+        yield url
+    finally:
+        srv.should_exit = True
+        thread.join(10)
+
+
+@contextlib.contextmanager
+def chromium(executable: str, profile: str, viewport: tuple[int, int] = (1280, 800), **options):
+    """``launch_chromium``'s context for a ``with`` block, Playwright started and stopped around it."""
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as p:
+        context = launch_chromium(p, executable, profile, viewport, **options)
+        try:
+            yield context
+        finally:
+            context.close()

@@ -34,26 +34,13 @@ REPO = Path(__file__).resolve().parents[1]
 if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
+from scene_sheet import photo_background  # noqa: E402  (a photo of a place at the sheet's size)
+
 from relight_rt import Relighter, RuntimeConfig, envmap  # noqa: E402
 from relight_rt import scene as scene_mod  # noqa: E402
 from relight_rt.apps.panorama import composite_panorama, parse_size  # noqa: E402
 from relight_rt.apps.scene_place import framing  # noqa: E402
-from relight_rt.image.io import read_image, write_image  # noqa: E402
-
-
-def photo_place(path: Path, size: tuple[int, int]) -> np.ndarray:
-    """8-bit sRGB (H, W, 3): a photo of a place, centre-cropped to ``size``'s aspect and resized to it."""
-    img = read_image(path, "place")[..., :3]
-    h, w = img.shape[:2]
-    want = size[0] / size[1]  # width / height
-    if w / h > want:
-        cw = round(h * want)
-        img = img[:, (w - cw) // 2 : (w - cw) // 2 + cw]
-    else:
-        ch = round(w / want)
-        img = img[(h - ch) // 2 : (h - ch) // 2 + ch]
-    img = cv2.resize(img, size, interpolation=cv2.INTER_AREA)
-    return (np.clip(img, 0, 1) * 255 + 0.5).astype(np.uint8)
+from relight_rt.image.io import write_image  # noqa: E402
 
 
 def label(tile: np.ndarray, text: str) -> np.ndarray:
@@ -90,7 +77,7 @@ def main(argv=None) -> int:
         env = envmap.load_envmap(args.hdri / f"{name}.hdr")
         places.append((f"{name}_{view.replace(',', '_')}", "view", (env, view)))
     for path in args.photos:
-        places.append((path.stem, "photo", photo_place(path, size)))
+        places.append((path.stem, "photo", photo_background(path, (size[1], size[0]))))
     report = []
     for spec in args.person:
         kind, rest = spec.split(":", 1)

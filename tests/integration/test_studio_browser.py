@@ -23,7 +23,7 @@ import pytest
 
 pytest.importorskip("fastapi")
 pytest.importorskip("uvicorn")
-sync_api = pytest.importorskip("playwright.sync_api")
+pytest.importorskip("playwright.sync_api")
 
 import relight_rt  # noqa: E402
 from relight_rt import RuntimeConfig, lightfile, lights, sh  # noqa: E402
@@ -34,7 +34,7 @@ from relight_rt.light.exposure import exposure_scale  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO / "benchmarks"))  # the studio's server and chromium, as its benchmarks run them
-from headless_studio import launch_chromium, start_server  # noqa: E402
+from headless_studio import chromium, serving  # noqa: E402
 
 CHROMIUM = os.environ.get("RELIGHT_RT_CHROMIUM", "/usr/bin/chromium")
 BUNDLED = Path(relight_rt.__file__).resolve().parent / "models"
@@ -50,19 +50,15 @@ def studio():
 
 @pytest.fixture(scope="module")
 def server(studio):
-    srv, thread, url = start_server(studio)
-    yield url
-    srv.should_exit = True
-    thread.join(10)
+    with serving(studio) as url:
+        yield url
 
 
 @pytest.fixture(scope="module")
 def browser(tmp_path_factory):
-    with sync_api.sync_playwright() as p:
-        profile = str(tmp_path_factory.mktemp("chromium-profile"))  # a fresh --user-data-dir
-        context = launch_chromium(p, CHROMIUM, profile, (1280, 800), accept_downloads=True)
+    profile = str(tmp_path_factory.mktemp("chromium-profile"))  # a fresh --user-data-dir
+    with chromium(CHROMIUM, profile, accept_downloads=True) as context:
         yield context
-        context.close()
 
 
 def open_page(browser, url: str, viewport: tuple[int, int] | None = None):
@@ -655,10 +651,8 @@ def street():
     """A Studio of the bundled street photo (a backdrop to grade; the automatic matte) and its server's URL."""
     st = Studio(str(REPO / "relight_rt" / "data" / "example_scene.jpg"), None, "original",
                 relight_rt.open(RuntimeConfig(models=BUNDLED, device="cpu")))
-    srv, thread, url = start_server(st)
-    yield st, url
-    srv.should_exit = True
-    thread.join(10)
+    with serving(st) as url:
+        yield st, url
 
 
 @pytest.mark.parametrize("renderer", ["webgl", "canvas"])

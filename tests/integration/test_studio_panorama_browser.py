@@ -15,7 +15,7 @@ import pytest
 
 pytest.importorskip("fastapi")
 pytest.importorskip("uvicorn")
-sync_api = pytest.importorskip("playwright.sync_api")
+pytest.importorskip("playwright.sync_api")
 
 import relight_rt  # noqa: E402
 from relight_rt import RelightError, RuntimeConfig, envmap  # noqa: E402
@@ -25,7 +25,7 @@ from relight_rt.cli.demo import example_path  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO / "benchmarks"))
-from headless_studio import launch_chromium, start_server  # noqa: E402
+from headless_studio import chromium, serving  # noqa: E402
 
 CHROMIUM = os.environ.get("RELIGHT_RT_CHROMIUM", "/usr/bin/chromium")
 BUNDLED = Path(relight_rt.__file__).resolve().parent / "models"
@@ -63,18 +63,14 @@ def studio(panoramas):
 
 @pytest.fixture(scope="module")
 def server(studio):
-    srv, thread, url = start_server(studio)
-    yield url
-    srv.should_exit = True
-    thread.join(10)
+    with serving(studio) as url:
+        yield url
 
 
 @pytest.fixture(scope="module")
 def browser(tmp_path_factory):
-    with sync_api.sync_playwright() as p:
-        context = launch_chromium(p, CHROMIUM, str(tmp_path_factory.mktemp("profile")), (1280, 800))
+    with chromium(CHROMIUM, str(tmp_path_factory.mktemp("profile"))) as context:
         yield context
-        context.close()
 
 
 def test_a_panorama_view_shows_its_plate_and_lights_the_person_with_its_turned_light(browser, server, panoramas):

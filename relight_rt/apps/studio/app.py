@@ -250,20 +250,25 @@ def create_app(studio: Studio, allowed_hosts: list[str] | None = None, budget: B
     def photo():
         return Response(studio.photo_png(), media_type="image/png")
 
+    async def _json_object(request: Request, name: str, shape: str) -> dict:
+        """The request's JSON body as an object, within JSON_LIMIT bytes; ``shape`` says what is expected."""
+        _require_type(request, JSON, name)
+        async with budget.body(request, name, JSON_LIMIT) as raw:
+            try:
+                body = json.loads(raw)
+            except ValueError:
+                raise RelightError(f"{name}: expected a JSON body {shape}") from None
+            except RecursionError:  # "[" x 60000
+                raise RelightError(f"{name}: the JSON body is nested too deeply") from None
+        if not isinstance(body, dict):
+            raise RelightError(f"{name}: expected a JSON object")
+        return body
+
     @app.post("/api/render")
     async def render(request: Request):
         from starlette.concurrency import run_in_threadpool
 
-        _require_type(request, JSON, "render")
-        async with budget.body(request, "render", JSON_LIMIT) as raw:
-            try:
-                body = json.loads(raw)
-            except ValueError:
-                raise RelightError('render: expected a JSON body {"light": [27 numbers], "exposure": ...}') from None
-            except RecursionError:  # "[" x 60000
-                raise RelightError("render: the JSON body is nested too deeply") from None
-        if not isinstance(body, dict):
-            raise RelightError("render: expected a JSON object")
+        body = await _json_object(request, "render", '{"light": [27 numbers], "exposure": ...}')
         rid, rec = await run_in_threadpool(studio.render, body.get("light"), body.get("exposure", "auto"),
                                            body.get("grade_background", False))
         return {
@@ -279,15 +284,7 @@ def create_app(studio: Studio, allowed_hosts: list[str] | None = None, budget: B
     async def panorama_view(request: Request):
         from starlette.concurrency import run_in_threadpool
 
-        _require_type(request, JSON, "panorama view")
-        async with budget.body(request, "panorama view", JSON_LIMIT) as raw:
-            try:
-                body = json.loads(raw)
-            except (ValueError, RecursionError):
-                why = 'panorama view: expected a JSON body {"panorama": N, "view": [az, el, fov]}'
-                raise RelightError(why) from None
-        if not isinstance(body, dict):
-            raise RelightError("panorama view: expected a JSON object")
+        body = await _json_object(request, "panorama view", '{"panorama": N, "view": [az, el, fov]}')
         pid, out = await run_in_threadpool(studio.panorama_view, body.get("panorama"), body.get("view"))
         return {"id": pid, **out}
 
