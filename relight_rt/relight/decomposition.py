@@ -12,8 +12,8 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from ..image.color import REC709
 from ..image.crop import CropGeometry
-from ..light import exposure as _exposure
 from ..light import sh
 from .detail import extend_outward, guided_upsample, unpremultiply, window
 
@@ -126,7 +126,7 @@ class Decomposition:
         The runtime divides by the shading under this light (a white-balanced photo's colours are its
         albedo's), so an error in the estimate's colour cannot tint the result.
         """
-        lum = self.light.astype(np.float64) @ _exposure.REC709.astype(np.float64)
+        lum = self.light.astype(np.float64) @ REC709.astype(np.float64)
         return np.repeat(lum[:, None], 3, axis=1).astype(np.float32)
 
     def shading(self, light: np.ndarray | None = None) -> np.ndarray:
