@@ -30,9 +30,9 @@ resolution on the gray input, and a, b are upsampled and applied with the full-r
 input's own high-frequency detail survives. Colours made brighter than the photo's own peak are rolled off by a
 smooth shoulder on the brightest channel, all three channels scaled together (a bright lit side keeps its hue and
 its gradation; a per-channel clip would turn it yellow, a hard clip flat). Relighting with the photo's own light
-gives the input back. A face that stage 1 saw small gets a second pass (relight_rt.relight.head). Where the photo's own
-shading is near zero (a side-lit face's black half, levels 0-3) the photo times a factor stays black with its
-speckle amplified; there the change is added instead, stage 1's albedo under the new shading less under the
+gives the input back. A face that stage 1 saw small gets a second pass (relight_rt.relight.face_pass). Where the
+photo's own shading is near zero (a side-lit face's black half, levels 0-3) the photo times a factor stays black
+with its speckle amplified; there the change is added instead, stage 1's albedo under the new shading less under the
 photo's own (``Factor.gain_and_fill``; Extended Yale B de-lighting, benchmarks/yale_eval.py: 0.83 / 0.62 ->
 0.87 / 0.70). On a photo with a face mesh, the share of the photo's own shading that stage 1 put into the albedo
 is taken out first (``unshaded_albedo``; de-lighting 0.87 / 0.70 -> 0.88 / 0.78).
@@ -57,8 +57,7 @@ from ..light import exposure as _exposure
 from ..light import sh
 from .decomposition import Decomposition, Memo, readonly
 from .detail import extend_outward, guided_upsample, unpremultiply, window
-from .faces import FacePass
-from .head import feather
+from .face_pass import FacePass, feather
 from .look import channel_max, shaded_skin, skin_chroma, tint_range
 from .strength import EXPLAIN_ALBEDO_MIN, explain_photo, face_refit, refit_light, restore_bands
 
