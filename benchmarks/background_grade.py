@@ -22,9 +22,9 @@ import math
 import numpy as np
 
 import relight_rt
-from relight_rt.image.color import srgb_to_linear
+from relight_rt.image.color import REC709, srgb_to_linear
 from relight_rt.image.compositing import Background
-from relight_rt.light.exposure import REC709, for_light
+from relight_rt.light.exposure import for_light
 
 EXAMPLE = "relight_rt/data/example_scene.jpg"
 

@@ -32,6 +32,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from relight_rt.image.color import REC709
 from relight_rt.light.sh import basis, cosine_lobe
 
 DEMO_SCALE = 0.7  # testNetwork_demo_512.py: sh = sh * 0.7
@@ -97,7 +98,7 @@ def dpr_to_ours(sh: np.ndarray) -> np.ndarray:
 def ours_to_dpr(light: np.ndarray, dc: float | None = None) -> np.ndarray:
     """Our (9, 3) light → DPR's 9 coefficients (its Rec. 709 luminance), optionally rescaled to DC ``dc``."""
     c, _ = conversion()
-    lum = np.asarray(light, np.float64) @ np.array([0.2126, 0.7152, 0.0722])
+    lum = np.asarray(light, np.float64) @ REC709.astype(np.float64)
     sh = np.linalg.solve(c, lum)
     return sh * (dc / sh[0]) if dc is not None else sh
 

@@ -46,8 +46,9 @@ REPO = Path(__file__).resolve().parents[1]
 if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
+from relight_rt.image.color import REC709  # noqa: E402
+
 FRAMINGS = ("full", "knees-up", "waist-up", "head-shoulders", "face")
-REC709 = np.array([0.2126, 0.7152, 0.0722])
 EPS = 1e-3
 LAMPS = {  # direction the light comes from, subject frame: +x toward the camera, +y image right, +z up
     "left": (0.35, -1.0, 0.25), "right": (0.35, 1.0, 0.25), "upper_left": (0.6, -0.7, 0.7),

@@ -39,8 +39,9 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from relight_rt import RelightError  # noqa: E402
+from relight_rt.image.regions import Region, crop_region, grid_of_region  # noqa: E402
 from relight_rt.person import matting as M  # noqa: E402
-from relight_rt.person.matting._regions import Region, crop_region, grid_of_region, sigmoid  # noqa: E402
+from relight_rt.person.matting._segmentation import sigmoid  # noqa: E402
 
 METHODS = ("ours", "all", "selfie", "pose", "video")
 GROSS = 0.8

@@ -36,8 +36,8 @@ if str(REPO) not in sys.path:
 
 import relight_rt  # noqa: E402
 from relight_rt import RuntimeConfig, lights  # noqa: E402
+from relight_rt.image.color import REC709  # noqa: E402
 from relight_rt.image.io import read_image, read_mask  # noqa: E402
-from relight_rt.light.exposure import REC709  # noqa: E402
 
 WHITE = {
     "front": lights.preset("front"),

@@ -73,8 +73,7 @@ import dpr_protocol as dprp  # noqa: E402
 
 import relight_rt  # noqa: E402
 from relight_rt import Relighter, RuntimeConfig, lights  # noqa: E402
-from relight_rt.image.color import srgb_to_linear  # noqa: E402
-from relight_rt.light.exposure import REC709  # noqa: E402
+from relight_rt.image.color import REC709, srgb_to_linear  # noqa: E402
 
 EPS = 1e-3
 # white side lights, as benchmarks/portrait_check.py has them (a 0.6-rad lamp: DPR's demo lights are as soft)

@@ -69,9 +69,8 @@ if str(REPO) not in sys.path:
 from relight_rt import envmap, sh  # noqa: E402
 from relight_rt.apps import scene as scene_mod  # noqa: E402
 from relight_rt.apps.scene_rim import photo_rim  # noqa: E402
-from relight_rt.image.color import linear_to_srgb, srgb_to_linear  # noqa: E402
+from relight_rt.image.color import REC709, linear_to_srgb, srgb_to_linear  # noqa: E402
 from relight_rt.light import from_background as bgmod  # noqa: E402
-from relight_rt.light.exposure import REC709  # noqa: E402
 
 VIEW = (192, 256)  # (height, width)
 GREY = 0.18

@@ -36,9 +36,8 @@ from scene_eval import (  # noqa: E402
 )
 
 from relight_rt import envmap  # noqa: E402
-from relight_rt.image.color import srgb8_to_linear  # noqa: E402
+from relight_rt.image.color import REC709, srgb8_to_linear  # noqa: E402
 from relight_rt.light import from_background as bgmod  # noqa: E402
-from relight_rt.light.exposure import REC709  # noqa: E402
 
 
 def features(photo: np.ndarray) -> dict[str, float]:

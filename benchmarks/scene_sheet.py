@@ -40,9 +40,8 @@ import relight_rt  # noqa: E402
 from relight_rt import RuntimeConfig, envmap, sh  # noqa: E402
 from relight_rt import scene as scene_mod  # noqa: E402
 from relight_rt.apps.scene_camera import camera_blur, grey  # noqa: E402
-from relight_rt.image.color import linear_to_srgb  # noqa: E402
+from relight_rt.image.color import REC709, linear_to_srgb  # noqa: E402
 from relight_rt.image.io import read_image, read_mask, write_image  # noqa: E402
-from relight_rt.light.exposure import REC709  # noqa: E402
 from relight_rt.light.from_background import envmap_view, light_from_background  # noqa: E402
 
 # (file stem, turn in degrees): turned where the unturned view shows little (a black backdrop, a wall)

@@ -27,7 +27,8 @@ import relight_rt
 from relight_rt import RuntimeConfig, lights
 from relight_rt.apps.studio.core import Studio, unpack_layers
 from relight_rt.cli.demo import example_path
-from relight_rt.light.exposure import DISPLAY_GAMMA, REC709
+from relight_rt.image.color import REC709
+from relight_rt.light.exposure import DISPLAY_GAMMA
 from relight_rt.relight import factor as _factor
 
 BUNDLED = Path(relight_rt.__file__).resolve().parent / "models"

@@ -20,8 +20,8 @@ import cv2
 import numpy as np
 
 from relight_rt.engine.errors import RelightError
+from relight_rt.image.color import REC709
 from relight_rt.light.envmap import directions_envmap, project_envmap, solid_angles_envmap
-from relight_rt.light.exposure import REC709
 from relight_rt.light.sh import irradiance
 
 log = logging.getLogger(__name__)

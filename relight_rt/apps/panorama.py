@@ -40,9 +40,8 @@ import cv2
 import numpy as np
 
 from ..engine.errors import RelightError
-from ..image.color import linear_to_srgb
+from ..image.color import REC709, linear_to_srgb
 from ..light import envmap, sh
-from ..light.exposure import REC709
 from ..light.from_background import FOV_RANGE, MIN_SIZE, envmap_view
 from .scene_place import CAMERA_M
 from .scene_rim import panorama_rim

@@ -71,7 +71,7 @@ import cv2
 import numpy as np
 
 from ..engine.errors import RelightError
-from ..image.color import SRGB8_TO_LINEAR, linear_to_srgb, srgb8_to_linear, srgb_to_linear
+from ..image.color import REC709, SRGB8_TO_LINEAR, linear_to_srgb, srgb8_to_linear, srgb_to_linear
 from ..light import exposure as _exposure
 from ..light import sh
 from ..light.from_background import (
@@ -187,7 +187,7 @@ def _white_balance(dec, light: np.ndarray, reference: np.ndarray) -> np.ndarray:
     def mean_shade(lit):
         s = sh.shading(t, lit)
         c = (m @ s) / m.sum()
-        return c / max(float(c @ _exposure.REC709), 1e-12)
+        return c / max(float(c @ REC709), 1e-12)
 
     ref, cur = mean_shade(reference), mean_shade(light)
     if not (np.all(cur > 1e-6) and np.all(ref > 1e-6)):
@@ -248,7 +248,7 @@ def _light_wrap(
 def _rim_gain(parts, light: np.ndarray) -> float:
     """A back key's irradiance facing it (relight_rt.light.from_background's rule: ``KEY_BACK`` × the ambient) over the
     irradiance of the person's camera-facing side under ``light`` (its luminance): ``_key_rim``'s gain."""
-    front = float(FRONT_WEIGHTS @ (np.asarray(light, np.float64) @ _exposure.REC709))
+    front = float(FRONT_WEIGHTS @ (np.asarray(light, np.float64) @ REC709))
     return KEY_BACK * AMBIENT_GAIN * parts.level / front if front > 1e-12 else 0.0
 
 
@@ -303,7 +303,7 @@ def _key_rim(composed: np.ndarray, alpha: np.ndarray, direction: np.ndarray, col
 def _dominant_direction(light: np.ndarray) -> tuple[np.ndarray | None, float]:
     """The unit direction the light mostly comes from and how directional it is (sh.dominant_direction of its
     Rec. 709 luminance)."""
-    return sh.dominant_direction(np.asarray(light, np.float64) @ _exposure.REC709.astype(np.float64))
+    return sh.dominant_direction(np.asarray(light, np.float64) @ REC709.astype(np.float64))
 
 
 class _Occluder:
@@ -588,10 +588,10 @@ def grade(bg: np.ndarray, lin: np.ndarray, box: tuple[int, int, int, int], befor
     if meter == "frame":
         if bg.dtype == np.uint8:  # the frame's linear luminance from the channels' histograms (fast)
             hist = [cv2.calcHist([bg], [c], None, [256], [0, 256]).reshape(-1) @ SRGB8_TO_LINEAR for c in range(3)]
-            total = float(np.asarray(hist, np.float64) @ _exposure.REC709.astype(np.float64))
+            total = float(np.asarray(hist, np.float64) @ REC709.astype(np.float64))
         else:
-            total = float((srgb_to_linear(bg) @ _exposure.REC709).sum())
-        after = total - before + float((lin @ _exposure.REC709).sum())
+            total = float((srgb_to_linear(bg) @ REC709).sum())
+        after = total - before + float((lin @ REC709).sum())
         if after > 1e-9 and total > 1e-9:
             gain = float(np.clip(total / after, 2.0**-METER_LIMIT_EV, 2.0**METER_LIMIT_EV))
     if abs(math.log2(gain)) > 1e-3:
@@ -733,7 +733,7 @@ def composite(
         return bg.astype(np.float32) * np.float32(1 / 255) if bg.dtype == np.uint8 else bg.astype(np.float32, copy=True)
     region_bg = bg[ry0:ry1, rx0:rx1]
     lin = SRGB8_TO_LINEAR[region_bg] if region_bg.dtype == np.uint8 else srgb_to_linear(region_bg)
-    before = float((lin @ _exposure.REC709).sum())
+    before = float((lin @ REC709).sum())
     if cast is not None:
         shade(lin, (ry0, rx0), cast)
     # the person's pixels inside the region (step 7)

@@ -35,8 +35,8 @@ import math
 import cv2
 import numpy as np
 
+from ..image.color import REC709
 from ..light import envmap
-from ..light.exposure import REC709
 
 __all__ = ["LOBE_DEG", "PHOTO_MAX_AREA", "RIM_MAX", "SCATTER", "SOURCE_SHARE", "panorama_rim", "photo_rim",
            "rim_colour"]  # fmt: skip

@@ -1,4 +1,5 @@
-"""sRGB transfer functions (IEC 61966-2-1), the one place that converts between display and linear values.
+"""Colour: the sRGB transfer functions (IEC 61966-2-1), the one place that converts between display and linear
+values, and the one luminance (Rec. 709 weights).
 
 Both functions work element-wise on arrays of any shape and channel order, return new arrays and
 never modify their input. Float input keeps its dtype (float32 stays float32); integer images are
@@ -12,7 +13,12 @@ import numpy as np
 
 from ..engine.errors import RelightError
 
-__all__ = ["SRGB8_TO_LINEAR", "linear_to_srgb", "srgb8_to_linear", "srgb_to_linear"]
+__all__ = ["REC709", "SRGB8_TO_LINEAR", "linear_to_srgb", "srgb8_to_linear", "srgb_to_linear"]
+
+# Luminance Y = 0.2126 R + 0.7152 G + 0.0722 B (ITU-R BT.709, the sRGB primaries), (3,) float32 in RGB order:
+# ``rgb @ REC709`` on linear values is luminance; the pipeline also meters its encoded values with it.
+REC709 = np.array([0.2126, 0.7152, 0.0722], np.float32)
+REC709.flags.writeable = False
 
 # Breakpoints and slopes of the sRGB curve (IEC 61966-2-1).
 _SRGB_KNEE = 0.04045

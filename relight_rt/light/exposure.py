@@ -25,7 +25,7 @@ overall brightness of a relit person is one scalar on the light, and an automati
   works in linear light, where ``exposure_scale``'s 2**EV is already a stop per EV.
 * ``"physical"``: the light's absolute intensity is kept (no scaling).
 
-Mean luminance: Rec. 709 weights (0.2126 R + 0.7152 G + 0.0722 B) on the values of the pipeline, which
+Mean luminance: Rec. 709 weights (``relight_rt.image.color.REC709``) on the values of the pipeline, which
 treats them as linear, averaged inside the (soft) mask and weighted by it, on the network-resolution
 diffuse image albedo ⊙ max(0, T·L) before clipping. The Relighter's "auto" (``expose``) meters the power mean
 (mean of Y ** ``METER_POWER``) ** (1 / ``METER_POWER``): its values are encoded, the light seen goes as their 2.2nd
@@ -45,13 +45,12 @@ import os
 import numpy as np
 
 from ..engine.errors import RelightError
+from ..image.color import REC709
 from . import sh
 
-__all__ = ["DISPLAY_GAMMA", "HIGHLIGHT_LIMIT", "HIGHLIGHT_MAX_DOWN", "HIGHLIGHT_SHARE", "METER_POWER", "REC709",
-           "ev_gain",
+__all__ = ["DISPLAY_GAMMA", "HIGHLIGHT_LIMIT", "HIGHLIGHT_MAX_DOWN", "HIGHLIGHT_SHARE", "METER_POWER", "ev_gain",
            "exposure_scale", "guarded", "highlight_factor", "mean_luminance", "parse_exposure"]
 
-REC709 = np.array([0.2126, 0.7152, 0.0722], np.float32)
 MAX_EV = 20.0  # |EV| beyond this is a mistake, not a photograph
 HIGHLIGHT_LIMIT = 1.0  # white: the brightest channel of a relit pixel past this is held by the highlight shoulder
 HIGHLIGHT_SHARE = 0.08  # the share of the person "auto" lets past white (or the photo's own share, when larger)

@@ -69,9 +69,8 @@ import numpy as np
 
 from ..engine.errors import RelightError
 from ..engine.number_pair import number_pair
-from ..image.color import srgb8_to_linear, srgb_to_linear
+from ..image.color import REC709, srgb8_to_linear, srgb_to_linear
 from . import envmap, sh
-from .exposure import REC709
 from .presets import directional
 
 __all__ = [

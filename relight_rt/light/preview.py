@@ -17,9 +17,8 @@ import math
 import cv2
 import numpy as np
 
-from ..image.color import linear_to_srgb
+from ..image.color import REC709, linear_to_srgb
 from . import sh
-from .exposure import REC709
 
 _LUMA = REC709.astype(np.float64)
 _FRONT, _BACK = np.array([1.0, 0.0, 0.0]), np.array([-1.0, 0.0, 0.0])

@@ -12,8 +12,8 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from ..image.color import REC709
 from ..image.crop import CropGeometry
-from ..light import exposure as _exposure
 from ..light import sh
 from .detail import extend_outward, guided_upsample, unpremultiply, window
 
@@ -58,7 +58,7 @@ class Decomposition:
         face_meshes: the meshes of the faces found in the photo ((468, 3) float64 x, y, z in input pixels,
             relight_rt.person.face_mesh), blended into the transport; None: no face mesh is used (video frames,
             ``detail=False``).
-        head: the head's second stage-1 pass, for a face stage 1 saw small (relight_rt.relight.head), with this
+        head: the head's second stage-1 pass, for a face stage 1 saw small (relight_rt.relight.face_pass), with this
             decomposition's light; None without one. ``head_box`` (y0, y1, x0, x1): where it lies in the photo.
         people: a group photo's people, each decomposed on their own with their share of the matte, in a window
             of the photo around them (``origin``; relight_rt.relight.people; empty: one person, or the group relit
@@ -126,7 +126,7 @@ class Decomposition:
         The runtime divides by the shading under this light (a white-balanced photo's colours are its
         albedo's), so an error in the estimate's colour cannot tint the result.
         """
-        lum = self.light.astype(np.float64) @ _exposure.REC709.astype(np.float64)
+        lum = self.light.astype(np.float64) @ REC709.astype(np.float64)
         return np.repeat(lum[:, None], 3, axis=1).astype(np.float32)
 
     def shading(self, light: np.ndarray | None = None) -> np.ndarray:

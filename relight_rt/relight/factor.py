@@ -30,9 +30,9 @@ resolution on the gray input, and a, b are upsampled and applied with the full-r
 input's own high-frequency detail survives. Colours made brighter than the photo's own peak are rolled off by a
 smooth shoulder on the brightest channel, all three channels scaled together (a bright lit side keeps its hue and
 its gradation; a per-channel clip would turn it yellow, a hard clip flat). Relighting with the photo's own light
-gives the input back. A face that stage 1 saw small gets a second pass (relight_rt.relight.head). Where the photo's own
-shading is near zero (a side-lit face's black half, levels 0-3) the photo times a factor stays black with its
-speckle amplified; there the change is added instead, stage 1's albedo under the new shading less under the
+gives the input back. A face that stage 1 saw small gets a second pass (relight_rt.relight.face_pass). Where the
+photo's own shading is near zero (a side-lit face's black half, levels 0-3) the photo times a factor stays black
+with its speckle amplified; there the change is added instead, stage 1's albedo under the new shading less under the
 photo's own (``Factor.gain_and_fill``; Extended Yale B de-lighting, benchmarks/yale_eval.py: 0.83 / 0.62 ->
 0.87 / 0.70). On a photo with a face mesh, the share of the photo's own shading that stage 1 put into the albedo
 is taken out first (``unshaded_albedo``; de-lighting 0.87 / 0.70 -> 0.88 / 0.78).
@@ -52,12 +52,12 @@ from dataclasses import replace
 import cv2
 import numpy as np
 
+from ..image.color import REC709
 from ..light import exposure as _exposure
 from ..light import sh
 from .decomposition import Decomposition, Memo, readonly
 from .detail import extend_outward, guided_upsample, unpremultiply, window
-from .faces import FacePass
-from .head import feather
+from .face_pass import FacePass, feather
 from .look import channel_max, shaded_skin, skin_chroma, tint_range
 from .strength import EXPLAIN_ALBEDO_MIN, explain_photo, face_refit, refit_light, restore_bands
 
@@ -71,7 +71,7 @@ UNSHADE_MIN_SKIN = 50  # unshaded_albedo: the fewest face-skin pixels (network f
 def luminance_window(chw: np.ndarray, alpha: np.ndarray, box: tuple[int, int, int, int]) -> np.ndarray:
     """(r, r') Rec. 709 luminance of a masked (3, R, R) network output inside ``box``, unpremultiplied."""
     y0, y1, x0, x1 = box
-    lum = np.tensordot(_exposure.REC709, chw[:, y0:y1, x0:x1], axes=1)
+    lum = np.tensordot(REC709, chw[:, y0:y1, x0:x1], axes=1)
     return np.divide(lum, alpha, out=np.zeros_like(lum), where=alpha > 0.5)
 
 
@@ -145,8 +145,8 @@ class Factor:
             skin = np.zeros(alpha.shape, bool)
             if dec.face_meshes:  # a face's shape from its mesh where stage 1's transport is a blur
                 skin = self.faces.add_faces(dec, transport, (y0, y1, x0, x1))
-            albedo = unpremultiply(np.ascontiguousarray(dec.albedo[y0:y1, x0:x1]), alpha) @ _exposure.REC709
-            photo = dec.network_image[y0:y1, x0:x1] @ _exposure.REC709
+            albedo = unpremultiply(np.ascontiguousarray(dec.albedo[y0:y1, x0:x1]), alpha) @ REC709
+            photo = dec.network_image[y0:y1, x0:x1] @ REC709
             state["restored"] = {"window": (y0, y1, x0, x1), "alpha": alpha, "inner": alpha > 0.5,
                                  "transport": readonly(transport), "albedo": readonly(albedo.astype(np.float32)),
                                  "photo": readonly(photo.astype(np.float32)),
@@ -246,7 +246,7 @@ class Factor:
         factor, the new light's colour at each pixel (luminance 1) and the new luminance the ratio divides."""
         transport, alpha = own["transport"], own["alpha"]
         shading = sh.shading(transport, light)
-        lum = shading @ _exposure.REC709
+        lum = shading @ REC709
         new = own["albedo"] * lum
         if residual is not None:
             new += luminance_window(residual, alpha, own["window"])
@@ -254,14 +254,14 @@ class Factor:
         ratio = np.maximum(new, _RATIO_EPS) / own["own"]  # both floored: the photo's own light gives 1
         # the colour of the new light at each pixel, luminance 1 (where it leaves the pixel dark: its overall colour,
         # or white when that is not a colour: a light whose mean is not positive)
-        dc_lum = float(light[0] @ _exposure.REC709)
+        dc_lum = float(light[0] @ REC709)
         dc = light[0] / dc_lum if dc_lum > 1e-6 and (light[0] > 0).all() else np.ones(3, np.float32)
         tint = np.divide(shading, lum[..., None], out=np.broadcast_to(dc.astype(np.float32), shading.shape).copy(),
                          where=lum[..., None] > 1e-4)
         span = tint_range(light)
         if span is not None:  # no colour the light cannot give (tint_range), at the same luminance
             np.clip(tint, *span, out=tint)
-            tint /= np.maximum(tint @ _exposure.REC709, 1e-6)[..., None]
+            tint /= np.maximum(tint @ REC709, 1e-6)[..., None]
             np.clip(tint, *span, out=tint)  # the rescale can lift one channel past its bound again
         return ratio, tint, new
 
@@ -417,7 +417,7 @@ class Factor:
         skin = head.to_input(head.skin)[cy0 - box[0] : cy1 - box[0], cx0 - box[2] : cx1 - box[2]] * weight
         if skin.sum() < 1:
             return
-        level = float((region @ _exposure.REC709 * skin).sum()) / max(float((g_head @ _exposure.REC709 * skin).sum()),
+        level = float((region @ REC709 * skin).sum()) / max(float((g_head @ REC709 * skin).sum()),
                                                                       1e-6)
         region += weight[..., None] * (level * g_head - region)
 

@@ -13,7 +13,7 @@ import threading
 import cv2
 import numpy as np
 
-from ..light import exposure as _exposure
+from ..image.color import REC709
 from ..light import sh
 
 _DARK = np.float32(0.25)  # steady_chroma: a pixel below this luminance, brightened by a gain, takes its dark
@@ -67,7 +67,7 @@ def tint_range(light: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     this range; a learned transport can leave one channel's shading at 0 where another's is not (the ringing of a
     warm sun and a blue sky: the reference photo's dark scarf went saturated blue under golden-hour)."""
     e = sh.irradiance(light, _SPHERE)
-    y = e @ _exposure.REC709
+    y = e @ REC709
     top = float(y.max())
     if top <= 1e-6:
         return None
@@ -104,7 +104,7 @@ def skin_chroma(photo: np.ndarray, skin: np.ndarray) -> tuple[np.ndarray, np.nda
     weight = np.clip(skin, 0, 1).astype(np.float32)
     colour = cv2.GaussianBlur(np.asarray(photo, np.float32) * weight[..., None], (0, 0), _SKIN_SIGMA)
     colour /= np.maximum(cv2.GaussianBlur(weight, (0, 0), _SKIN_SIGMA), 1e-6)[..., None]
-    y = (colour @ _exposure.REC709)[..., None]
+    y = (colour @ REC709)[..., None]
     chroma = np.clip((colour - y) / np.maximum(colour, 1e-3), -1.0, 1.0).astype(np.float32)
     # stage 1's skin map is blurry and gives clothes up to ~0.5 (a coat, a striped top): the rule is for skin, so
     # the weight also asks for a skin colour (YCrCb: Cr 135-180, Cb 85-135, soft over 8 levels; Chai & Ngan 1999)
@@ -162,7 +162,7 @@ def dark_colour(image: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     of a dark teal shirt ((0.04, 0.10, 0.12), C* ~6 at L* ~8, green where lit), it is not: the pulled folds turn
     brown-olive beside the green ones under campfire (docs/RESULTS.md, "Real photos, broad sets").
     """
-    y = cv2.transform(image, _exposure.REC709.reshape(1, 3))  # (h, w): one output channel
+    y = cv2.transform(image, REC709.reshape(1, 3))  # (h, w): one output channel
     dark = (y < _DARK).astype(np.float32)
     size = (2 * _CHROMA_RADIUS + 1,) * 2
     colour = cv2.boxFilter(image * dark[..., None], -1, size)
@@ -201,7 +201,7 @@ def steady_chroma(image: np.ndarray, gain: np.ndarray, dark: tuple | None = None
     ``dark_colour(image)``, computed here when not given (it does not depend on the light: the runtime keeps it per
     photo).
     """
-    g = cv2.transform(gain, _exposure.REC709.reshape(1, 3))
+    g = cv2.transform(gain, REC709.reshape(1, 3))
     y, darkness, colour = dark_colour(image) if dark is None else dark
     w = np.minimum(darkness * np.clip((g - 1) / _AMPLIFIED, 0, 1), 1)  # darkness: up to _NEUTRAL_PULL
     if not w.any():

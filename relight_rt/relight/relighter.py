@@ -40,7 +40,7 @@ from ..person.masks import Matter
 from . import people as per_person
 from .compose import Composer, backdrop_of, own_colours
 from .decomposition import Decomposition, ImageLike, Memo, RelightResult, diffuse_batch
-from .faces import FacePass, head_crops
+from .face_pass import FacePass, head_crops
 from .factor import Factor
 from .intake import read_batch
 from .look import prepare_lab
@@ -90,7 +90,7 @@ class Relighter:
             raise RelightError(f"Relighter: expected a RuntimeConfig (or None), got {type(config).__name__}")
         self.config = config
         self.models_dir = find_models(config.models)
-        # a second stage-1 pass on a face seen small (relight_rt.relight.head); photos only, with detail on
+        # a second stage-1 pass on a face seen small (relight_rt.relight.face_pass); photos only, with detail on
         self.face_pass = True
         self._session_args = {"device": config.device, "device_id": config.device_id, "providers": providers}
         self.stage1: Model = load_model(self._graph("stage1"), "stage1", warmup=False, **self._session_args)
@@ -244,7 +244,8 @@ class Relighter:
         return self._factor.derive(dec, people=tuple(parts))
 
     def _look_at_faces(self, decs: list[Decomposition]) -> None:
-        """Run stage 1 again on the head of each person whose face it saw small (relight_rt.relight.head), in place."""
+        """Run stage 1 again on the head of each person whose face it saw small (relight_rt.relight.face_pass), in
+        place."""
         todo = head_crops(decs)
         if not todo:
             return

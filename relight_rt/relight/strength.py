@@ -29,7 +29,7 @@ import cv2
 import numpy as np
 
 from ..engine.errors import RelightError
-from ..light.exposure import REC709
+from ..image.color import REC709
 
 BAND_GAIN = (1.0, 1.05, 1.15)  # degree 0, 1, 2: what the measured transport and light leave short (module docstring)
 

@@ -35,7 +35,7 @@ import numpy as np
 
 from ...engine.errors import RelightError
 from ...engine.limits import header_size, shrink
-from ...image.color import srgb_to_linear
+from ...image.color import REC709, srgb_to_linear
 from ...image.compositing import Background
 from ...image.io import as_colour, decode_bytes, encode_image, read_image, sibling_mask
 from ...light import envmap, presets, sh
@@ -395,7 +395,7 @@ class Studio:
         lit_h, steady_h, transport_h, _ = self._highlight
         light = np.asarray(shown, np.float32).reshape(9, 3)
         shading = np.maximum(transport_h @ light, 0)
-        y = np.maximum(shading @ _exposure.REC709, 1e-4)[:, None]
+        y = np.maximum(shading @ REC709, 1e-4)[:, None]
         own = np.maximum(transport_h @ np.asarray(self.dec.white_light, np.float32)[:, 0], 0)[:, None]
         new = srgb_to_linear(np.clip(lit_h * shading + steady_h * shading / y, 0, 1)).sum(axis=0, dtype=np.float64)
         old = srgb_to_linear(np.clip(lit_h * own + steady_h, 0, 1)).sum(axis=0, dtype=np.float64)

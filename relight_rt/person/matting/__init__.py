@@ -51,8 +51,9 @@ Modules (one concept each; this package re-exports the public names):
 
 - ``_models``: the graph files, :func:`find_matting_models`, and :func:`as_rgb` (the images matting
   accepts, through the runtime's one image intake relight_rt.image.io).
-- ``_regions``: square regions, the graphs' canvases and the working grid (:class:`Region`,
-  :func:`crop_region`, :func:`person_box`).
+- ``_segmentation``: a graph's segmentation of one square region (:class:`Person`, :func:`person_box`) and the
+  working grid that carries it back over the photo (the square regions themselves, :class:`Region` and
+  :func:`crop_region`, are relight_rt.image.regions', re-exported here).
 - ``_detect``: where people are (selfie-graph blobs over tiles, faces, a wide blob's strips, faint places).
 - ``_matter``: :class:`PersonMatter` (segmentation, choosing the people, the full-resolution alpha) and
   :func:`shared_matter`.
@@ -72,10 +73,11 @@ from __future__ import annotations
 from ...engine.session import bundled_models_dir as bundled_models_dir
 from ...image.foreground import estimate_foreground as estimate_foreground  # re-exported (issue 33)
 from ...image.matte_edges import refine_edges as refine_edges  # re-exported: the edge refinement photos get
+from ...image.regions import Region, crop_region
 from ._coarse import region_alpha
 from ._matter import GUIDES, MIN_PERSON_FRACTION, PERSON_MODES, PersonMatter, shared_matter
 from ._models import FACE_FILE, MIN_SIDE, POSE_FILE, ROI_FILE, SIZE, as_rgb, find_matting_models
-from ._regions import Person, Region, crop_region, person_box
+from ._segmentation import Person, person_box
 from ._video import VideoMatter, outline_flicker
 
 __all__ = [

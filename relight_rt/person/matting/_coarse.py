@@ -9,7 +9,7 @@ import numpy as np
 
 from ...image.guided_filter import fast_guided_filter
 from ._models import SIZE
-from ._regions import Grid, Person, logits_on_grid, sigmoid, working_grid
+from ._segmentation import Grid, Person, logits_on_grid, sigmoid, working_grid
 
 GF_EPS = 1e-3  # guided-filter regulariser (guide in [0, 1]); benchmarks/matting_eval.py picked it
 _GF_RADIUS = 1.0  # guided-filter window radius, in pixels of the 256² segmentation

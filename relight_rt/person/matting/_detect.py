@@ -7,9 +7,10 @@ import cv2
 import numpy as np
 
 from ...engine.session import Model
+from ...image.regions import Region, crop_region, grid_of_region, pyramid_of
 from ..face_detector import FACE_SIZE, Face, decode, weighted_nms
 from ._models import SIZE
-from ._regions import COARSE_MIN_AREA, Region, components, crop_region, grid_of_region, pyramid_of, tile_levels
+from ._segmentation import COARSE_MIN_AREA, components, tile_levels
 
 MIN_TILE = SIZE  # tiles are searched as long as they stay at least 256 px (a smaller one would only be upsampled)
 CLOSE_ZOOM = 2.0  # find_close_faces: the window is this x the image's longer side

@@ -7,10 +7,11 @@ from dataclasses import replace
 
 import numpy as np
 
+from ...image.regions import Region, grid_of_region
 from ..face_detector import Face
 from ._models import SIZE
 from ._parts import faces_side_by_side, split_by_faces
-from ._regions import LOGIT_CLIP, Person, Region, contains, grid_of_region, logits_on_grid, person_box, prob_at
+from ._segmentation import LOGIT_CLIP, Person, contains, logits_on_grid, person_box, prob_at
 
 COVERED = 0.5  # a candidate (blob) this much inside people already matted is one of them
 STRADDLE = 0.75  # person="all": a pose-graph person this much inside the others together straddles two

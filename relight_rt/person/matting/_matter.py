@@ -19,6 +19,7 @@ import numpy as np
 from ...engine.errors import RelightError
 from ...engine.session import Model, load_model
 from ...image.matte_edges import refine_edges
+from ...image.regions import Region, crop_region, grid_of_region, reductions_shared
 from ..face_detector import Face
 from ._coarse import region_alpha
 from ._detect import MIN_TILE, faint_places, find_close_faces, find_faces, find_people, grid_pixels, roi_prob, strips
@@ -40,18 +41,14 @@ from ._layout import (
 )
 from ._models import FACE_FILE, POSE_FILE, ROI_FILE, as_rgb, find_matting_models
 from ._parts import Crop, rejoin, shares
-from ._regions import (
+from ._segmentation import (
     COARSE_MIN_AREA,
     LOGIT_CLIP,
     Person,
-    Region,
     contains,
-    crop_region,
-    grid_of_region,
     logits_on_grid,
     person_box,
     prob_at,
-    reductions_shared,
     sigmoid,
     tile_levels,
     warp_to_grid,

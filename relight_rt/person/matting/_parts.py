@@ -7,10 +7,10 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from ...image.regions import Crop
+from ...image.regions import Crop, grid_of_region
 from ..face_detector import Face
 from ._models import SIZE
-from ._regions import LOGIT_CLIP, Person, grid_of_region, logits_on_grid, working_grid
+from ._segmentation import LOGIT_CLIP, Person, logits_on_grid, working_grid
 
 _PART_SOFT = 0.01  # parts: people's shares meet softly over about this x the photo's longer side
 _SHARE_MIN = 0.01  # parts: a person's share below this is none

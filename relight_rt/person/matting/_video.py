@@ -18,10 +18,11 @@ import numpy as np
 from ...engine.errors import RelightError
 from ...image.flow import dis_flow, warp
 from ...image.guided_filter import fast_guided_filter
+from ...image.regions import Region, reductions_shared
 from ._coarse import GF_EPS, guide_radius
 from ._matter import PersonMatter
 from ._models import as_rgb
-from ._regions import Region, logits_on_grid, person_box, reductions_shared, sigmoid, working_grid
+from ._segmentation import logits_on_grid, person_box, sigmoid, working_grid
 
 log = logging.getLogger(__name__)
 

@@ -20,8 +20,7 @@ from relight_rt.apps.panorama import (
     source,
     view_rotation,
 )
-from relight_rt.image.color import srgb_to_linear
-from relight_rt.light.exposure import REC709
+from relight_rt.image.color import REC709, srgb_to_linear
 from relight_rt.light.from_background import envmap_view
 
 __all__ = ["diffuse_models_dir", "models_dir"]  # fixtures

@@ -10,7 +10,7 @@ from relight_rt import envmap
 from relight_rt.apps.panorama import panorama_view, view_rotation
 from relight_rt.apps.scene import _key_rim
 from relight_rt.apps.scene_rim import LOBE_SR, RIM_MAX, panorama_rim, photo_rim, rim_colour
-from relight_rt.light.exposure import REC709
+from relight_rt.image.color import REC709
 from relight_rt.light.from_background import FRONT_WEIGHTS
 
 

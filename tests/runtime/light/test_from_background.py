@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from relight_rt import RelightError, envmap, sh
+from relight_rt.image.color import REC709
 from relight_rt.light import from_background as bgmod
 from relight_rt.light.from_background import envmap_view, light_from_background, parse_key_light, scene_light
 
@@ -172,12 +173,12 @@ def test_step_6_keeps_the_front_exposure_and_colour_and_the_front_back_call():
     parts = scene_light(img)
     light, raw = parts.light(), parts.light(shape_weight=1.0, front_back_power=1.0)
     np.testing.assert_allclose(bgmod.FRONT_WEIGHTS @ light, bgmod.FRONT_WEIGHTS @ raw, rtol=1e-6)
-    ratio = lambda lt: float(bgmod.BACK_WEIGHTS @ lt @ bgmod.REC709) / float(bgmod.FRONT_WEIGHTS @ lt @ bgmod.REC709)  # noqa: E731
+    ratio = lambda lt: float(bgmod.BACK_WEIGHTS @ lt @ REC709) / float(bgmod.FRONT_WEIGHTS @ lt @ REC709)  # noqa: E731
     assert ratio(raw) > 1  # back-lit
     assert ratio(light) == pytest.approx(ratio(raw) ** bgmod.FRONT_BACK_POWER, rel=1e-6)
     assert not np.allclose(light, raw)
     # all the weight on the prior: the luminance shape is the prior's but for its x (front/back) coefficient
-    prior_only = parts.light(shape_weight=0.0) @ bgmod.REC709
+    prior_only = parts.light(shape_weight=0.0) @ REC709
     prior = np.asarray(bgmod.SHAPE_PRIOR)
     keep = [0, 1, 2, 4, 5, 6, 7, 8]
     np.testing.assert_allclose(prior_only[keep] / prior_only[0], prior[keep] / prior[0], rtol=1e-6, atol=1e-9)
@@ -198,7 +199,7 @@ def test_step_6_puts_the_front_back_ratio_on_the_side_of_the_call(monkeypatch):
     parts = scene_light(img)
     monkeypatch.setattr(bgmod, "BACKLIGHT", (-1.0, 0.0, 0.0))  # every view read as back-lit ...
     monkeypatch.setattr(bgmod, "KEY_BACK", 0.0)  # ... with no back key: the raw light is brighter in front
-    ratio = lambda lt: float(bgmod.BACK_WEIGHTS @ lt @ bgmod.REC709) / float(bgmod.FRONT_WEIGHTS @ lt @ bgmod.REC709)  # noqa: E731
+    ratio = lambda lt: float(bgmod.BACK_WEIGHTS @ lt @ REC709) / float(bgmod.FRONT_WEIGHTS @ lt @ REC709)  # noqa: E731
     raw, light = parts.light(shape_weight=1.0, front_back_power=1.0), parts.light()
     assert ratio(raw) < 1
     assert ratio(light) == pytest.approx(ratio(raw) ** -bgmod.FRONT_BACK_POWER, rel=1e-6)

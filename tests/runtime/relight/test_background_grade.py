@@ -14,9 +14,8 @@ import relight_rt
 from relight_rt import RelightError
 from relight_rt.cli import main
 from relight_rt.engine.config import RuntimeConfig
-from relight_rt.image.color import linear_to_srgb, srgb_to_linear
+from relight_rt.image.color import REC709, linear_to_srgb, srgb_to_linear
 from relight_rt.image.compositing import Background, parse_background
-from relight_rt.light.exposure import REC709
 from relight_rt.relight.compose import background_grade
 
 __all__ = ["models_dir"]  # fixture

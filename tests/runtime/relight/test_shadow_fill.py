@@ -13,7 +13,7 @@ from _graphs import OWN_LIGHT, models_dir, person
 
 import relight_rt
 from relight_rt.engine.config import RuntimeConfig
-from relight_rt.light.exposure import REC709
+from relight_rt.image.color import REC709
 
 __all__ = ["models_dir"]  # fixtures
 

@@ -139,7 +139,7 @@ def test_crop_region_of_a_large_region_samples_the_image_where_grid_of_region_sa
     img = _ramp(h, w)
     region = M.Region(0.37 * w, 0.55 * h, side)
     out = M.crop_region(img, region)
-    k, bx, by = M._regions.grid_of_region(region)
+    k, bx, by = _square.grid_of_region(region)
     cx = (np.arange(256) - bx) / k  # image x of each canvas column's centre
     cy = (np.arange(256) - by) / k
     margin = 3 / k  # the canvas pixel's footprint, reduction and warp included
@@ -160,7 +160,7 @@ def test_crops_inside_reductions_shared_are_the_same_and_reduce_the_photo_once(m
     calls = []
     blocks = _square._blocks
     monkeypatch.setattr(_square, "_blocks", lambda a, n, b: calls.append(a.shape) or blocks(a, n, b))
-    with M._regions.reductions_shared(img):
+    with _square.reductions_shared(img):
         shared = [M.crop_region(img, r) for r in regions]
         again = M.crop_region(img, regions[1])
     for a, b in zip(alone, shared, strict=True):
@@ -177,7 +177,7 @@ def test_crop_region_of_a_large_region_keeps_the_dtype():
 
 def test_reductions_shared_keeps_only_the_last_few_crops():
     img = np.zeros((600, 900, 3), np.float32)
-    with M._regions.reductions_shared(img) as pyr:
+    with _square.reductions_shared(img) as pyr:
         crops = [M.crop_region(img, M.Region(300.0 + 10 * i, 300.0, 600.0)) for i in range(10)]
         assert len(pyr._crops) <= _square._KEEP_CROPS  # person="all" crops 66 tiles: they are not all kept
         assert M.crop_region(img, M.Region(390.0, 300.0, 600.0)) is crops[-1]
@@ -186,7 +186,7 @@ def test_reductions_shared_keeps_only_the_last_few_crops():
 def test_reductions_shared_keeps_nothing_after_the_block():
     img = np.zeros((900, 1400, 3), np.float32)
     region = M.Region(700.0, 450.0, 1400.0)
-    with M._regions.reductions_shared(img):
+    with _square.reductions_shared(img):
         assert M.crop_region(img, region).max() == 0.0
     img[:] = 1.0  # a caller may reuse its buffer for the next frame
     assert M.crop_region(img, region)[100:150, 100:150].min() > 0.99

@@ -10,6 +10,7 @@ from test_matting import EXAMPLE, head_crop, iou
 
 import relight_rt
 from relight_rt.image.io import read_image
+from relight_rt.image.regions import grid_of_region
 from relight_rt.person import matting as M
 from relight_rt.person.face_detector import Face
 from relight_rt.person.matting import _detect, _layout
@@ -247,7 +248,7 @@ def test_a_blob_of_two_walking_side_by_side_is_tried_strip_by_strip():
     """The reference street photo shifted by a column: two men walking side by side, one half behind the other,
     are one blob 76 x 153 px; framed on the blob the pose graph saw nobody, and the blob was too narrow for
     strips, so both were missed. Now a blob at least _PAIR_WIDTH x as wide as tall is two overlapping strips."""
-    grid = M._regions.working_grid((0, 0, 300, 200))  # 1:1
+    grid = M._segmentation.working_grid((0, 0, 300, 200))  # 1:1
     gw = grid[0]
     ys, xs = np.mgrid[20:173, 100:176]  # 76 x 153
     strips = _detect.strips((ys * gw + xs).ravel(), gw, grid, (200, 300))
@@ -276,7 +277,7 @@ def test_the_pair_on_the_left_is_found_with_the_photo_shifted_by_a_column(refere
 
 def test_faint_boxes_are_blobs_that_stay_under_half_and_frame_a_person_tall_enough():
     h, w = 200, 300
-    grid = M._regions.working_grid((0, 0, w, h))  # 1:1
+    grid = M._segmentation.working_grid((0, 0, w, h))  # 1:1
     prob = np.zeros((h, w), np.float32)
     prob[50:60, 40:50] = 0.42  # faint: a box at least 80 px tall around it
     prob[100:180, 200:230] = 0.3
@@ -292,7 +293,7 @@ def test_faint_boxes_are_blobs_that_stay_under_half_and_frame_a_person_tall_enou
 def box_person(box, source: str = "pose", side: float = 400.0) -> M.Person:
     """A Person over a (side x side) image whose segmentation is the image box (x0, y0, x1, y1)."""
     region = M.Region(side / 2, side / 2, side)
-    k, bx, by = M._regions.grid_of_region(region)
+    k, bx, by = grid_of_region(region)
     c = np.arange(256)
     xs, ys = (c - bx) / k, (c - by) / k  # image coordinates of the canvas pixels' centres
     inside = ((ys >= box[1]) & (ys < box[3]))[:, None] & ((xs >= box[0]) & (xs < box[2]))[None, :]
@@ -303,7 +304,7 @@ def test_a_pose_person_straddling_two_others_is_dropped():
     """Two men crouching face to face came out as 3 (--person all): between them, the pose graph framed on the
     middle of their blob answered with a body across both, lying 0.81 inside the two together and 0.46 at most
     inside either."""
-    grid = M._regions.working_grid((0, 0, 400, 400))
+    grid = M._segmentation.working_grid((0, 0, 400, 400))
     left, right = box_person((40, 100, 200, 380)), box_person((200, 100, 360, 380))
     straddler = box_person((130, 100, 270, 380))
     assert _layout.without_straddlers([left, straddler, right], grid) == [left, right]
@@ -323,7 +324,7 @@ def test_a_pose_person_straddling_a_pose_person_and_a_split_part_is_dropped():
     """group_t1 (six people round a table) came out as 7: a pose-graph box across Rachel's head and Ross's body
     lay 0.19 inside Rachel (pose graph) and 0.68 inside Ross's part of a selfie-graph segmentation split by
     faces, which the rule did not count among the others."""
-    grid = M._regions.working_grid((0, 0, 400, 400))
+    grid = M._segmentation.working_grid((0, 0, 400, 400))
     left, straddler = box_person((40, 100, 200, 380)), box_person((130, 100, 270, 380))
     whole = box_person((200, 100, 360, 380), "roi")
     part = M.Person(whole.region, whole.logits, whole.presence, "roi", whole=whole.logits)
@@ -407,7 +408,7 @@ def test_raised_answer_keeps_what_the_first_was_sure_of():
     raised = M.Person(M.Region(200.0, 200.0, 400.0), np.full((256, 256), -10.0, np.float32), 0.9, "roi")
     held = _layout.held(raised, first, shape)
     xs, ys = np.array([110.0, 290.0, 200.0, 200.0, 40.0]), np.array([390.0, 390.0, 300.0, 100.0, 390.0])
-    inside = M._regions.prob_at(held, xs, ys)
+    inside = M._segmentation.prob_at(held, xs, ys)
     assert inside[:3].min() > 0.99  # the first answer's person, inside its region, kept
     assert inside[3] < 0.01  # above the first region: the raised answer's (nobody)
     assert inside[4] < 0.01  # left of the first answer's columns (x 100-300 +3 %)

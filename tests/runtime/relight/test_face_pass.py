@@ -1,4 +1,4 @@
-"""The second stage-1 pass on a face seen small (relight_rt.relight.head and the Relighter's use of it)."""
+"""The second stage-1 pass on a face seen small (relight_rt.relight.face_pass and the Relighter's use of it)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pytest
 import relight_rt
 from relight_rt import Relighter, RuntimeConfig, lights
 from relight_rt.image.crop import CropGeometry
-from relight_rt.relight.head import MIN_HEAD_INPUT, SMALL_FACE, feather, head_box
+from relight_rt.relight.face_pass import MIN_HEAD_INPUT, SMALL_FACE, feather, head_box
 
 REFERENCE = Path(__file__).resolve().parents[4] / "shared" / "reference"
 

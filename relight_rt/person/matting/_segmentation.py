@@ -1,10 +1,11 @@
-"""The 256² canvases the graphs see in square regions of a photo: the geometry of person matting.
+"""A graph's segmentation of one square region of a photo, and how it is read back over the photo.
 
-A :class:`Region` is a square (it may reach past the image border); :func:`crop_region` resamples it to a
-graph's canvas by one exact affine warp, :func:`grid_of_region` maps image coordinates to canvas indices (the
-three live in relight_rt.image.regions, below matting, for the face meshes too), and a working grid
-(:func:`working_grid`, long side <= 512 px) carries canvases back over the image (:func:`warp_to_grid`). A
-:class:`Person` is one graph's segmentation of one region.
+A :class:`Person` is one graph's segmentation (logits on the 256² canvas) of one :class:`Region`; the square
+regions themselves, their canvases (``crop_region``) and the map from image coordinates to canvas indices
+(``grid_of_region``) live in relight_rt.image.regions, below matting, for the face meshes too. Here: a person's
+box, probability at image points and faces it covers (:func:`person_box`, :func:`prob_at`, :func:`contains`), the
+search tiles (:func:`tile_levels`), and a working grid (:func:`working_grid`, long side <= 512 px) that carries
+canvases back over the image (:func:`warp_to_grid`, :func:`logits_on_grid`).
 """
 
 from __future__ import annotations
@@ -14,12 +15,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from ...image.regions import ROI_SCALE as ROI_SCALE  # re-exported: the square geometry lives below matting
-from ...image.regions import Region as Region
-from ...image.regions import crop_region as crop_region
-from ...image.regions import grid_of_region as grid_of_region
-from ...image.regions import pyramid_of as pyramid_of
-from ...image.regions import reductions_shared as reductions_shared
+from ...image.regions import Region, grid_of_region
 from ..face_detector import Face
 from ._models import SIZE
 

@@ -1,0 +1,168 @@
+"""The face pass: what the Relighter does for a face beyond stage 1's one look at the whole person.
+
+A second look at a face that stage 1 saw small (``head_box``, ``head_crops``, ``feather``). Stage 1 sees the whole
+person in one R x R square, so in a full-body photo the face is 10-20 network pixels tall and its transport is a
+blur: a new light barely changes the face and a light from below paints blotches where the blur is wrong. When the
+face is small, the Relighter runs stage 1 a second time on a square around the head (the bundled stage 1 is
+trained on head-and-shoulders and face framings too) and takes the change of shading on the head from that pass,
+blended into the body's over a feathered border. The face is found from stage 1's own skin map: the largest skin
+blob in the upper part of the person. No extra model is needed; when no such blob exists (a person seen from
+behind, a face hidden), nothing changes.
+
+A face the detector finds gets the normals of its mesh blended into the transport (``FacePass``;
+relight_rt.person.face_mesh).
+"""
+
+from __future__ import annotations
+
+import threading
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from ..engine.errors import RelightError
+from ..image.crop import CropGeometry
+from ..person.face_mesh import MIN_FACE_NET, FaceMesh, face_transport
+from .decomposition import Decomposition
+
+SMALL_FACE = 0.2  # a face taller or wider than this fraction of the network square is seen well enough
+MIN_FACE_PX = 6  # a skin blob smaller than this (network pixels) is not trusted as a face
+HEAD_SIDE = 3.0  # side of the head square, in face sizes (hair, ears, neck and a little shoulder)
+MIN_HEAD_INPUT = 64  # the head square must hold at least this many input pixels a side
+UPPER_PART = 0.45  # the face's centre lies in this upper fraction of the person's height
+FEATHER = 0.3  # the head pass fades out over this fraction of the head square at each side
+
+
+def head_box(skin: np.ndarray, network_mask: np.ndarray, geometry: CropGeometry) -> tuple[int, int, int, int] | None:
+    """The square around a small face, in input pixels (y0, y1, x0, x1, end exclusive), or None.
+
+    Args:
+        skin: (R, R) stage 1's skin probability, masked.
+        network_mask: (R, R) the person's mask in the network frame.
+        geometry: the crop geometry of the decomposition.
+
+    Returns:
+        None when no face is found, when it is already large in the network square, or when the photo has
+        too few pixels there for a second pass to see more.
+    """
+    inner = network_mask > 0.5
+    rows = np.flatnonzero(inner.any(axis=1))
+    if rows.size == 0:
+        return None
+    top, height = int(rows[0]), int(rows[-1] - rows[0] + 1)
+    blobs = ((skin > 0.5) & inner).astype(np.uint8)
+    n, _, stats, centres = cv2.connectedComponentsWithStats(blobs, connectivity=8)
+    r = geometry.resolution
+    best, best_area = None, 0
+    for i in range(1, n):
+        x, y, bw, bh, area = (int(v) for v in stats[i])
+        if y <= top + UPPER_PART * height and min(bw, bh) > SMALL_FACE * r:
+            # a large skin blob from the upper part down: a face seen well whose centre lies lower (a portrait
+            # framed from the chest up); a small blob beside it is a temple or an ear, not a small face (DPR's
+            # portrait got a second pass on a 96-px square of its temple, and a red patch there under neon)
+            return None
+        if centres[i][1] <= top + UPPER_PART * height and area > best_area:
+            best, best_area = i, area
+    if best is None:
+        return None
+    face = max(int(stats[best, cv2.CC_STAT_WIDTH]), int(stats[best, cv2.CC_STAT_HEIGHT]))
+    if face < MIN_FACE_PX or face > SMALL_FACE * r:
+        return None
+    # network pixel u is at square pixel (u + 0.5) S/R - 0.5; the square's origin is the crop box minus offset
+    k = geometry.scale
+    cx, cy = centres[best]
+    y0b, _, x0b, _ = geometry.box
+    oy, ox = geometry.offset
+    cx_in = (cx + 0.5) * k - 0.5 - ox + x0b
+    cy_in = (cy + 0.5) * k - 0.5 - oy + y0b
+    side = HEAD_SIDE * face * k
+    if side < MIN_HEAD_INPUT:
+        return None
+    h, w = geometry.frame
+    y0, x0 = max(int(round(cy_in - side / 2)), 0), max(int(round(cx_in - side / 2)), 0)
+    y1, x1 = min(int(round(cy_in + side / 2)), h), min(int(round(cx_in + side / 2)), w)
+    if y1 - y0 < MIN_HEAD_INPUT or x1 - x0 < MIN_HEAD_INPUT:
+        return None
+    return y0, y1, x0, x1
+
+
+def feather(h: int, w: int, cut: tuple[bool, bool, bool, bool] = (False, False, False, False)) -> np.ndarray:
+    """(h, w) float32 weight: 1 in the middle of a box, falling smoothly to 0 at its sides.
+
+    ``cut`` (top, bottom, left, right): sides where the box ends at the photo's border keep weight 1 there
+    (nothing lies beyond to blend with).
+    """
+
+    def ramp(n: int, cut_start: bool, cut_end: bool) -> np.ndarray:
+        t = (np.arange(n, dtype=np.float32) + 0.5) / n
+        up = np.ones(n, np.float32) if cut_start else np.clip(t / FEATHER, 0, 1)
+        down = np.ones(n, np.float32) if cut_end else np.clip((1 - t) / FEATHER, 0, 1)
+        r = np.minimum(up, down)
+        return r * r * (3 - 2 * r)  # smoothstep
+
+    return ramp(h, cut[0], cut[1])[:, None] * ramp(w, cut[2], cut[3])[None, :]
+
+
+
+def head_crops(decs: list[Decomposition]) -> list[tuple]:
+    """Per decomposition whose face stage 1 saw small (``head_box``): (its index, it, the head's
+    box (y0, y1, x0, x1) in the input frame, the photo inside that box (a read-only view: stage 1 reads it without
+    a copy) and the mask there)."""
+    todo = []
+    for i, dec in enumerate(decs):
+        box = head_box(dec.skin, dec.network_mask, dec.geometry)
+        if box is not None:
+            y0, y1, x0, x1 = box
+            todo.append((i, dec, box, dec.image[y0:y1, x0:x1],
+                         np.ascontiguousarray(dec.mask[y0:y1, x0:x1])))
+    return todo
+
+
+class FacePass:
+    """The face detector and landmarker of a models folder (relight_rt.person.face_mesh), loaded on first use."""
+
+    def __init__(self, models_dir: Path) -> None:
+        self.models_dir = models_dir
+        self._mesh: FaceMesh | None = None
+        self._lock = threading.Lock()
+
+    def mesh(self) -> FaceMesh:
+        """The face detector and landmarker of the models folder (relight_rt.person.face_mesh), loaded once."""
+        if self._mesh is None:
+            with self._lock:
+                if self._mesh is None:
+                    self._mesh = FaceMesh(self.models_dir, device="cpu")
+        return self._mesh
+
+    def find(self, image: np.ndarray, box: tuple[int, int, int, int]) -> tuple[np.ndarray, ...]:
+        """The meshes of the faces in ``image`` (H, W, 3) inside ``box`` (y0, y1, x0, x1), none without the face
+        models: ((468, 3) float64 x, y, z in input pixels, ...)."""
+        mesh = self.mesh()
+        return tuple(mesh.faces(image, box)) if mesh.available else ()
+
+    def add_faces(self, dec: Decomposition, transport: np.ndarray, window: tuple[int, int, int, int]) -> np.ndarray:
+        """Blend the transport of each of ``dec.face_meshes`` into ``transport`` (the window's, unpremultiplied), in
+        place; returns where the faces' skin lies well inside their meshes (``face_transport``; none without a
+        mesh)."""
+        mesh = self.mesh()
+        if not dec.face_meshes:
+            return np.zeros(transport.shape[:2], bool)
+        if not mesh.available:
+            raise RelightError(f"{self.models_dir}: a decomposition with face meshes needs the face models to relight")
+        geom = dec.geometry
+        k = geom.scale
+        (by0, _, bx0, _), (oy, ox) = geom.box, geom.offset
+        y0, _, x0, _ = window
+        skin = np.zeros(transport.shape[:2], bool)
+        for pts in dec.face_meshes:
+            net = np.empty_like(pts)  # input pixels -> the window's pixel indices (centres at integers)
+            net[:, 0] = (pts[:, 0] - bx0 + ox) / k - 0.5 - x0
+            net[:, 1] = (pts[:, 1] - by0 + oy) / k - 0.5 - y0
+            net[:, 2] = pts[:, 2] / k
+            if np.ptp(net[:, :2], axis=0).max() < MIN_FACE_NET:
+                continue
+            t_face, weight, face_skin = face_transport(net, mesh.triangles, transport[..., 0])
+            transport += weight[..., None] * (t_face - transport)
+            skin |= face_skin
+        return skin
