@@ -31,6 +31,7 @@ step 7 adds it to the outline on that side. ``source`` (the brightest source any
 from __future__ import annotations
 
 import math
+import numbers
 import os
 import re
 from dataclasses import dataclass
@@ -80,19 +81,21 @@ def parse_view(value) -> tuple[float, float, float]:
     """
     if isinstance(value, str):
         parts = value.replace(" ", "").split(",")
-    else:
-        try:
-            parts = list(value)
-        except TypeError:
-            raise RelightError(f"view: expected {_VIEW_FORM}, got {value!r}") from None
+    elif isinstance(value, (list, tuple, np.ndarray)):
+        parts = list(value)
+        # numbers only: a request's true/false or "10" is not an angle
+        if not all(isinstance(p, numbers.Real) and not isinstance(p, (bool, np.bool_)) for p in parts):
+            raise RelightError(f"view: expected numbers {_VIEW_FORM}, got {_shown(value)}")
+    else:  # a mapping would give its keys, a number no pair
+        raise RelightError(f"view: expected {_VIEW_FORM}, got {_shown(value)}")
     if len(parts) not in (2, 3):
-        raise RelightError(f"view: expected {_VIEW_FORM}, got {value!r}")
+        raise RelightError(f"view: expected {_VIEW_FORM}, got {_shown(value)}")
     try:
         nums = [float(p) for p in parts]
-    except (TypeError, ValueError):
-        raise RelightError(f"view: expected numbers {_VIEW_FORM}, got {value!r}") from None
+    except (TypeError, ValueError, OverflowError):  # OverflowError: a JSON integer of hundreds of digits
+        raise RelightError(f"view: expected finite numbers {_VIEW_FORM}, got {_shown(value)}") from None
     if not all(math.isfinite(v) for v in nums):
-        raise RelightError(f"view: expected finite numbers {_VIEW_FORM}, got {value!r}")
+        raise RelightError(f"view: expected finite numbers {_VIEW_FORM}, got {_shown(value)}")
     az, el = nums[0], nums[1]
     fov = nums[2] if len(nums) == 3 else _DEFAULT_FOV
     if abs(el) > MAX_ELEVATION:
@@ -101,6 +104,12 @@ def parse_view(value) -> tuple[float, float, float]:
         raise RelightError(f"view: field of view must lie in ({FOV_RANGE[0]:g}, {FOV_RANGE[1]:g}) degrees, got {fov:g}")
     az = -((-az + 180.0) % 360.0 - 180.0) + 0.0  # (−180, 180]; + 0.0: never −0
     return az, el, fov
+
+
+def _shown(value) -> str:
+    """``value`` as an error message quotes it: at most 80 characters (a request may send megabytes)."""
+    text = repr(value)
+    return text if len(text) <= 80 else text[:77] + "..."
 
 
 def parse_size(value) -> tuple[int, int]:
@@ -118,7 +127,7 @@ def parse_size(value) -> tuple[int, int]:
         ok = ok and all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) for v in pair)
         pair = (int(pair[0]), int(pair[1])) if ok else None
     if pair is None or min(pair) < MIN_SIZE:
-        raise RelightError(f"size: expected {form}, got {value!r}")
+        raise RelightError(f"size: expected {form}, got {_shown(value)}")
     from ..engine.limits import check_pixels
 
     check_pixels(pair[0], pair[1], "size")

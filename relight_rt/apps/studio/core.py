@@ -196,6 +196,16 @@ def light_npy(light: np.ndarray) -> bytes:
     return buf.getvalue()
 
 
+def plate_size(width: int, height: int) -> tuple[int, int]:
+    """(width, height) of a panorama view's plate for a preview of width x height: the preview's, enlarged at its
+    aspect to at least ``MIN_SIZE`` a side where it is smaller (a view needs that much; the page scales the plate to
+    its column)."""
+    from ...light.from_background import MIN_SIZE
+
+    scale = max(1.0, MIN_SIZE / min(width, height))
+    return math.ceil(width * scale), math.ceil(height * scale)
+
+
 def request_light(value) -> np.ndarray:
     """The (9, 3) float32 RGB light of a render request's 27 numbers (``LightSpec.from_numbers``)."""
     return LightSpec.from_numbers(value).resolve()
@@ -520,7 +530,7 @@ class Studio:
             if env is None:
                 env = load_panorama(self.panoramas[index], f"--panorama {self.panoramas[index].name}")
                 self._panorama_cache = {index: env}  # one map held at a time
-        pv = panorama_view(env, (self._layers["width"], self._layers["height"]), (az, el, fov))
+        pv = panorama_view(env, plate_size(self._layers["width"], self._layers["height"]), (az, el, fov))
         pid = self.plates.put(encode_image(pv.plate, ".png", "plate"))
         return pid, {"light": pv.light.astype(np.float32).tolist(), "view": [az, el, fov],
                      "horizon": float(pv.horizon), "name": self.panoramas[index].name}  # fmt: skip
