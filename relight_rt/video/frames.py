@@ -507,6 +507,17 @@ class _AVWriter:
             pass
 
 
+def _make_folder(folder: Path) -> list[Path]:
+    """Create ``folder`` and its missing parents; returns the ones created, deepest first."""
+    missing = []
+    p = folder
+    while not p.exists() and p.parent != p:
+        missing.append(p)
+        p = p.parent
+    folder.mkdir(parents=True, exist_ok=True)
+    return missing
+
+
 class FrameSink:
     """Writes relit frames to a video file and/or a folder of PNGs; nothing half-written is left.
 
@@ -529,6 +540,7 @@ class FrameSink:
         if video is None and frames_dir is None:
             raise RelightError("output: expected a video file and/or a frames folder, got neither")
         check_fps(fps)
+        self._made: list[Path] = []  # folders this sink created: removed again on a failure
         self._protect = ProtectedPaths(protect)  # checked for every frame written: resolved once
         self.video = None if video is None else Path(video)
         self.frames_dir = None if frames_dir is None else Path(frames_dir)
@@ -540,7 +552,7 @@ class FrameSink:
         if self.frames_dir is not None:
             if any(same_file(self.frames_dir, folder) for folder in {p.parent for p in self._protect}):
                 raise RelightError(f"{self.frames_dir}: refusing to write frames into the input folder")
-            self.frames_dir.mkdir(parents=True, exist_ok=True)
+            self._made += _make_folder(self.frames_dir)
         self.rate = fps if isinstance(fps, fractions.Fraction) else fractions.Fraction(float(fps)).limit_denominator(
             1001000)
         self.fps = float(self.rate)
@@ -554,7 +566,7 @@ class FrameSink:
 
     def _open(self, width: int, height: int) -> None:
         folder = self.video.parent
-        folder.mkdir(parents=True, exist_ok=True)
+        self._made += _make_folder(folder)
         suffix = self.video.suffix.lower()
         fd, tmp = tempfile.mkstemp(prefix=f".{self.video.name}.", suffix=f".tmp{suffix}", dir=folder)
         self._tmp = Path(tmp)
@@ -624,6 +636,22 @@ class FrameSink:
         if not ok:
             for path in frames:
                 path.unlink(missing_ok=True)
+        try:
+            self._close_writer(ok)
+        finally:
+            if not ok:
+                self._remove_made()
+
+    def _remove_made(self) -> None:
+        """The folders this sink created, where a failure left them empty (a failed run leaves no new folder)."""
+        made, self._made = self._made, []
+        for folder in sorted(made, key=lambda p: len(p.parts), reverse=True):  # the deepest first
+            try:
+                folder.rmdir()
+            except OSError:  # not empty (another output, a frame someone else put there) or gone: leave it
+                pass
+
+    def _close_writer(self, ok: bool) -> None:
         writer, self._writer = self._writer, None
         if writer is None:
             return

@@ -540,4 +540,4 @@ def test_a_clip_of_nobody_is_an_error_and_writes_nothing(tmp_path, tiny_models):
     with pytest.raises(RelightError, match="no person found in any of the 3 frames"):
         _run_cli(["video", str(clip), "-o", str(out), "--frames-out", str(frames), "--models", str(tiny_models),
                   "--preset", "studio", "--device", "cpu"])  # fmt: skip
-    assert not out.exists() and not list(frames.iterdir()) and not list(tmp_path.glob(".*"))
+    assert not out.exists() and not frames.exists() and not list(tmp_path.glob(".*"))  # no folder left either
