@@ -136,9 +136,11 @@ def compute_passes(relighter: Relighter, image, light=None, *, mask=None, exposu
 
 def _png16_range(name: str, values: np.ndarray) -> tuple[float, float]:
     """(offset, scale) of a pass in a 16-bit PNG: stored = (value - offset) / scale."""
+    peak = float(np.abs(values).max()) if values.size else 0.0
+    if not math.isfinite(peak):  # as exr refuses them (no range holds them; a NaN would be stored as 0)
+        raise RelightError(f"png16: the {name} pass holds NaN or Inf values")
     if name in ("albedo", "foreground", "beauty", "alpha"):
         return 0.0, 1.0
-    peak = float(np.abs(values).max()) if values.size else 0.0
     top = 2.0 ** max(0, math.ceil(math.log2(max(peak, 1e-6))))  # a power of two >= the largest value, >= 1
     if name == "normal":
         return -1.0, 2.0

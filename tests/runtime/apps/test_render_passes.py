@@ -196,3 +196,19 @@ def test_writes_all_or_none(tmp_path, scene):
     (tmp_path / "file").write_bytes(b"")
     with pytest.raises(RelightError, match="not a folder"):
         write_passes(tmp_path / "file", passes, "exr")
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+@pytest.mark.parametrize("name", ["residual", "albedo"])
+def test_png16_refuses_nan_as_exr_does(tmp_path, bad, name):
+    """Round 6: a NaN or Inf in the residual was a ValueError out of math.ceil, in the albedo a silent 0."""
+    from relight_rt.apps.render_passes import PASSES, Passes, write_passes
+
+    layers = {n: np.zeros((4, 4, 4 if n in ("beauty", "foreground") else 3), np.float32) for n in PASSES}
+    layers["alpha"] = np.zeros((4, 4), np.float32)
+    layers[name][1, 1] = bad
+    passes = Passes(layers, np.zeros((9, 3), np.float32), np.zeros((9, 3), np.float32))
+    for fmt, match in (("png16", f"png16: the {name} pass holds NaN or Inf"), ("exr", "holds NaN or Inf")):
+        with pytest.raises(RelightError, match=match):
+            write_passes(tmp_path / fmt, passes, fmt)
+        assert not (tmp_path / fmt).exists()  # refused before any file or folder
