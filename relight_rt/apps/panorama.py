@@ -52,6 +52,7 @@ __all__ = [
     "METER_GREY",
     "PanoramaView",
     "SOURCE_SHARE",
+    "check_panorama_file",
     "composite_panorama",
     "load_panorama",
     "panorama_view",
@@ -213,22 +214,36 @@ def source(env) -> tuple[np.ndarray, np.ndarray]:
     return d / max(float(np.linalg.norm(d)), 1e-12), power.astype(np.float64)
 
 
+def check_panorama_file(path, name: str = "panorama") -> Path:
+    """``path`` as a panorama file, checked from its name and header only (no decoding): a file, of a map's type
+    (envmap's), 2:1 where its header says its size. Returns it as a Path.
+
+    Raises:
+        RelightError: any of those not so; a 2:1-less file gets an error that says what to do.
+    """
+    from ..engine.limits import header_size
+
+    p = Path(path)
+    if not p.is_file():
+        raise RelightError(f"{name} {p}: {'not a regular file' if p.exists() else 'file not found'}")
+    if p.suffix.lower() not in envmap._ENV_EXTS:
+        raise RelightError(f"{name} {p}: expected an equirectangular panorama file ({', '.join(envmap._ENV_EXTS)})")
+    wh = header_size(p, f"{name} {p}")
+    if wh is not None and wh[0] != 2 * wh[1]:
+        raise RelightError(
+            f"{name} {p}: {wh[0]} x {wh[1]} (W x H) is not an equirectangular panorama (width = 2 x height), "
+            "which a view needs; give an ordinary 8-bit photo of the place without a view instead (tone-map an "
+            "HDR photo to .png/.jpg first)"
+        )
+    return p
+
+
 def load_panorama(panorama, name: str = "panorama") -> np.ndarray:
-    """The panorama as (H, 2H, 3) float linear RGB; a file of another shape gets an error that says what to do."""
+    """The panorama as (H, 2H, 3) float linear RGB; a file of another shape gets an error that says what to do
+    (``check_panorama_file``)."""
     if not isinstance(panorama, (str, os.PathLike)):
         return envmap._check_envmap(panorama, name)
-    p = Path(panorama)
-    if p.is_file() and p.suffix.lower() in envmap._ENV_EXTS:
-        from ..engine.limits import header_size
-
-        wh = header_size(p, f"{name} {p}")
-        if wh is not None and wh[0] != 2 * wh[1]:
-            raise RelightError(
-                f"{name} {p}: {wh[0]} x {wh[1]} (W x H) is not an equirectangular panorama (width = 2 x height), "
-                "which a view needs; give an ordinary 8-bit photo of the place without a view instead (tone-map an "
-                "HDR photo to .png/.jpg first)"
-            )
-    return envmap.load_envmap(p)
+    return envmap.load_envmap(check_panorama_file(panorama, name))
 
 
 def panorama_view(panorama, size: tuple[int, int], view) -> PanoramaView:

@@ -285,10 +285,9 @@ class Studio:
         self.models = models
         if self.background not in ("original", "transparent") and not Path(self.background).is_file():
             raise RelightError(f"--background {self.background}: expected original, transparent or an image file")
-        self.panoramas = [Path(p) for p in panoramas]
-        for p in self.panoramas:
-            if not p.is_file():
-                raise RelightError(f"--panorama {p}: file not found")
+        from ..panorama import check_panorama_file
+
+        self.panoramas = [check_panorama_file(p, "--panorama") for p in panoramas]  # before the server starts
         if not isinstance(preview_pixels, int) or preview_pixels < 64 * 64:
             raise RelightError(f"preview_pixels: expected a whole number >= 4096, got {preview_pixels!r}")
         self.relighter = relighter

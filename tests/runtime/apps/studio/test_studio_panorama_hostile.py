@@ -38,10 +38,9 @@ def client(tmp_path_factory, models_dir):
     env = np.full((16, 32, 3), 0.2, np.float32)
     env[4, 8:11] = 20.0
     cv2.imwrite(str(folder / "good.hdr"), env)
-    cv2.imwrite(str(folder / "wide.hdr"), np.ones((16, 48, 3), np.float32))
     cv2.imwrite(str(folder / "black.hdr"), np.zeros((16, 32, 3), np.float32))
     (folder / "corrupt.hdr").write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 16 +X 32\n" + b"\x02\x02" * 9)
-    panoramas = [folder / n for n in ("good.hdr", "wide.hdr", "black.hdr", "corrupt.hdr")]
+    panoramas = [folder / n for n in ("good.hdr", "black.hdr", "corrupt.hdr")]  # a 3:1 one: refused at the start
     relighter = Relighter(RuntimeConfig(models=models_dir, device="cpu"))
     studio = Studio(photo, None, "original", relighter, preview_pixels=4096, panoramas=panoramas)
     with TestClient(create_app(studio), base_url=f"http://{LOCAL}:8000", raise_server_exceptions=False) as c:
@@ -109,3 +108,25 @@ def test_a_huge_view_is_quoted_short():
     with pytest.raises(RelightError) as caught:
         parse_view("0,0," + "9" * 5000)
     assert len(str(caught.value)) < 200
+
+
+BAD_FILES = [("wide.hdr", "not an equirectangular panorama"), ("pano.txt", "expected an equirectangular panorama file"),
+             ("folder", "not a regular file"), ("missing.hdr", "file not found")]  # fmt: skip
+
+
+@pytest.mark.parametrize("name, match", BAD_FILES)
+def test_a_bad_panorama_is_refused_before_the_server_starts(tmp_path, models_dir, monkeypatch, name, match):
+    """Round 6: a 3:1 or a text file given as --panorama started the server; each view of it was then a 400."""
+    from relight_rt import RelightError
+    from relight_rt.apps.studio import core
+
+    monkeypatch.setattr(Relighter, "decompose", lambda *a, **k: pytest.fail("decomposed before the check"))
+    cv2.imwrite(str(tmp_path / "wide.hdr"), np.ones((16, 48, 3), np.float32))
+    (tmp_path / "pano.txt").write_text("0 0 0\n")
+    (tmp_path / "folder").mkdir()
+    img, mask = person(48, 32, box=(6, 42, 8, 24))
+    photo = tmp_path / "someone.png"
+    cv2.imwrite(str(photo), (img[..., ::-1] * 255).astype(np.uint8))
+    relighter = Relighter(RuntimeConfig(models=models_dir, device="cpu"))
+    with pytest.raises(RelightError, match=f"--panorama .*{match}"):
+        core.Studio(photo, None, "original", relighter, preview_pixels=4096, panoramas=[tmp_path / name])
