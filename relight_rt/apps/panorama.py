@@ -353,11 +353,19 @@ def composite_panorama(
         (height, width, 3) float32 sRGB in [0, 1].
     """
     from ..light import exposure as _exposure
-    from .scene import composite, decode_person, matte_on_the_photo
+    from .scene import METERS, composite, decode_person, matte_on_the_photo
+    from .scene_place import check_camera_height, check_height, check_horizon, parse_position
 
     mode = _exposure.parse_exposure(exposure)
     az, el, fov = parse_view(view)
     plate_size = parse_size(size) if size is not None else None
+    # the placement's values are checked before the matte and the view are made (composite checks them there)
+    position = None if position is None else parse_position(position)
+    height = check_height(height)
+    horizon = None if horizon is None else check_horizon(horizon)
+    camera_height = check_camera_height(camera_height)
+    if meter not in METERS:
+        raise RelightError(f"meter: expected one of {list(METERS)}, got {meter!r}")
     image, name = decode_person(image)  # decoded once: its size, its matte and the person all read this copy
     if plate_size is None:
         plate_size = _photo_size(image)

@@ -339,3 +339,21 @@ def test_nan_or_inf_pixels_say_so(bad):
 def test_a_black_view_names_azimuth_0_not_minus_0():
     with pytest.raises(RelightError, match=r"view 0,0 is black"):
         panorama_view(np.zeros((32, 64, 3), np.float32), (96, 64), (0, 0))
+
+
+@pytest.mark.parametrize("bad", [{"height": math.nan}, {"height": 2.0}, {"horizon": math.inf}, {"horizon": -0.5},
+                                 {"position": (0.5, math.nan)}, {"camera_height": 0.0}, {"meter": "spot"}])  # fmt: skip
+def test_a_bad_placement_is_refused_before_the_view_is_made(monkeypatch, bad):
+    """Round 6: composite_panorama's height, horizon, position, camera height and meter were checked only after
+    the person's matte and the panorama's view had been made (seconds on a large photo and panorama)."""
+    import relight_rt.apps.panorama as panorama
+    import relight_rt.apps.scene as scene
+
+    def too_late(*args, **kwargs):
+        raise AssertionError("the work began before the check")
+
+    monkeypatch.setattr(panorama, "panorama_view", too_late)
+    monkeypatch.setattr(scene, "matte_on_the_photo", too_late)
+    img, mask = flat_person(96, 64)
+    with pytest.raises(RelightError, match=r"^(height|horizon|position|camera height|meter): "):
+        composite_panorama(None, img, lumpy_panorama(16)[0], (0, 0), mask=mask, **bad)
