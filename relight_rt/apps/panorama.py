@@ -49,6 +49,7 @@ from .scene_rim import panorama_rim
 
 __all__ = [
     "MAX_ELEVATION",
+    "MAX_SIDE",
     "METER_GREY",
     "PanoramaView",
     "SOURCE_SHARE",
@@ -67,6 +68,7 @@ METER_GREY = 0.18  #: the plate's camera exposes the view's mean linear luminanc
 SOURCE_SHARE = 0.5  #: the panorama's source: its pixels of at least this share of the peak luminance
 _SOURCE_HEIGHT = 256  # the source is found on a copy at most this many rows high
 MAX_ELEVATION = 80.0  #: |elevation| limit of a view, degrees
+MAX_SIDE = 32766  #: a view's longest side, pixels: OpenCV's remap takes maps under 32767 (SHRT_MAX) a side
 _DEFAULT_FOV = 60.0
 _VIEW_FORM = "AZIMUTH,ELEVATION[,FOV] in degrees (e.g. 30,0 or -90,10,75)"
 
@@ -114,7 +116,8 @@ def _shown(value) -> str:
 
 
 def parse_size(value) -> tuple[int, int]:
-    """'WxH' (or a (width, height) pair of integers) → (width, height) in pixels, each at least ``MIN_SIZE``."""
+    """'WxH' (or a (width, height) pair of integers) → (width, height) in pixels, each at least ``MIN_SIZE`` and at
+    most ``MAX_SIDE``, within the pixel limit (relight_rt.engine.limits)."""
     form = f"WxH in pixels, each >= {MIN_SIZE} (e.g. 1280x720)"
     if isinstance(value, str):
         m = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", value)
@@ -132,6 +135,8 @@ def parse_size(value) -> tuple[int, int]:
     from ..engine.limits import check_pixels
 
     check_pixels(pair[0], pair[1], "size")
+    if max(pair) > MAX_SIDE:
+        raise RelightError(f"size: each side at most {MAX_SIDE} pixels got {pair[0]}x{pair[1]}")
     return pair
 
 

@@ -73,6 +73,7 @@ BAD_COMPOSITE = [
     ["--view", "0,0", "--size", "100000x100000"],
     ["--view", "0,0", "--size", "-5x5"], ["--view", "0,0", "--size", "1e3x10"], ["--view", "0,0", "--size", "64"],
     ["--view", "0,0", "--size", "99999999999999999999x64"],
+    ["--view", "0,0", "--size", "64x100000"],  # within the pixel limit, past OpenCV remap's 32767: was a traceback
     # --camera-height
     *(["--view", "0,0", "--camera-height", v] for v in ("0", "-1", "nan", "inf", "1e9", "abc", "")),
     # --height / --horizon / --position / --exposure
