@@ -136,7 +136,7 @@ def parse_size(value) -> tuple[int, int]:
 
     check_pixels(pair[0], pair[1], "size")
     if max(pair) > MAX_SIDE:
-        raise RelightError(f"size: each side at most {MAX_SIDE} pixels got {pair[0]}x{pair[1]}")
+        raise RelightError(f"size: each side at most {MAX_SIDE} pixels, got {pair[0]}x{pair[1]}")
     return pair
 
 
