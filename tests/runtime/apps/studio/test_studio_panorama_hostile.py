@@ -130,3 +130,21 @@ def test_a_bad_panorama_is_refused_before_the_server_starts(tmp_path, models_dir
     relighter = Relighter(RuntimeConfig(models=models_dir, device="cpu"))
     with pytest.raises(RelightError, match=f"--panorama .*{match}"):
         core.Studio(photo, None, "original", relighter, preview_pixels=4096, panoramas=[tmp_path / name])
+
+
+LIGHT = "[" + ", ".join(["0.5"] * 3 + ["0"] * 24) + "]"
+BAD_RENDERS = [
+    '{"light": [' + ", ".join(["true"] * 27) + "]}", '{"light": ' + LIGHT + ', "exposure": true}',
+    '{"light": ' + LIGHT + ', "exposure": 1e999}', '{"light": ' + LIGHT + ', "exposure": NaN}',
+    '{"light": ' + LIGHT + f', "exposure": {BIG}}}', '{"light": ' + LIGHT + ', "grade_background": "yes"}',
+    '{"light": ' + LIGHT + ', "grade_background": 1}', '{"light": [' + ", ".join([BIG] * 27) + "]}",
+    '{"light": [' + ", ".join(["NaN"] * 27) + "]}", '{"light": "night"}', '{"light": {"sh": 1}}',
+]
+
+
+@pytest.mark.parametrize("body", BAD_RENDERS, ids=range(len(BAD_RENDERS)))
+def test_bad_render_requests_are_400(client, body):
+    res = client.post("/api/render", content=body, headers=JSON)
+    assert res.status_code == 400, (body[:80], res.status_code, res.text[:300])
+    error = res.json()["error"]
+    assert error and "\n" not in error, error
