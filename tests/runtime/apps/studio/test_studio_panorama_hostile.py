@@ -139,6 +139,7 @@ BAD_RENDERS = [
     '{"light": ' + LIGHT + f', "exposure": {BIG}}}', '{"light": ' + LIGHT + ', "grade_background": "yes"}',
     '{"light": ' + LIGHT + ', "grade_background": 1}', '{"light": [' + ", ".join([BIG] * 27) + "]}",
     '{"light": [' + ", ".join(["NaN"] * 27) + "]}", '{"light": "night"}', '{"light": {"sh": 1}}',
+    '{"light": [' + ", ".join(['"0.5"'] * 27) + "]}", '{"light": [' + ", ".join(["0.5"] * 26 + ["false"]) + "]}",
 ]
 
 
