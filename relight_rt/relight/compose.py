@@ -75,7 +75,8 @@ def light_sums(colour: np.ndarray, own: np.ndarray, alpha: np.ndarray) -> tuple[
 
     A mean needs no more than ``GRADE_SAMPLES`` pixels: the sums are taken on an even sample of the matte's pixels
     and scaled to all of them (decoding sRGB costs ~100 ms a megapixel; the grade moves by < 0.1 % of itself)."""
-    return (light_sum(colour, alpha),) + own_light_sum(own, alpha)
+    sample = _sample(alpha)
+    return _summed(colour, sample), _summed(own, sample), _weight(alpha)
 
 
 def _sample(alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray, float] | None:
@@ -93,10 +94,8 @@ def _sample(alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray, float] | None:
     return pick, w, float(a.sum(dtype=np.float64)) / max(float(w.sum(dtype=np.float64)), 1e-12)
 
 
-def light_sum(colour: np.ndarray, alpha: np.ndarray) -> np.ndarray:
-    """(3,) float64: ``colour`` (h, w, 3, sRGB) decoded to light and summed over the matte ``alpha`` per channel
-    (on ``_sample``'s pixels, scaled to the whole matte)."""
-    sample = _sample(alpha)
+def _summed(colour: np.ndarray, sample: tuple[np.ndarray, np.ndarray, float] | None) -> np.ndarray:
+    """(3,) float64: ``colour`` (h, w, 3, sRGB) decoded to light on ``_sample``'s pixels, scaled to the matte."""
     if sample is None:
         return np.zeros(3)
     pick, w, scale = sample
@@ -104,10 +103,20 @@ def light_sum(colour: np.ndarray, alpha: np.ndarray) -> np.ndarray:
     return (srgb_to_linear(values) * w).sum(axis=0, dtype=np.float64) * scale
 
 
+def _weight(alpha: np.ndarray) -> float:
+    return float(alpha.astype(np.float32, copy=False).sum(dtype=np.float64))
+
+
+def light_sum(colour: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """(3,) float64: ``colour`` (h, w, 3, sRGB) decoded to light and summed over the matte ``alpha`` per channel
+    (on ``_sample``'s pixels, scaled to the whole matte)."""
+    return _summed(colour, _sample(alpha))
+
+
 def own_light_sum(own: np.ndarray, alpha: np.ndarray) -> tuple[np.ndarray, float]:
     """``light_sums``' part that does not depend on the light: the own colour's sum and the matte's (kept per
     Decomposition by ``Composer``, which grades every light of one photo against them)."""
-    return light_sum(own, alpha), float(alpha.astype(np.float32).sum(dtype=np.float64))
+    return light_sum(own, alpha), _weight(alpha)
 
 
 def grade_of_sums(new: np.ndarray, old: np.ndarray, weight: float) -> np.ndarray:

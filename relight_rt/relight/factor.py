@@ -75,7 +75,6 @@ def luminance_window(chw: np.ndarray, alpha: np.ndarray, box: tuple[int, int, in
     return np.divide(lum, alpha, out=np.zeros_like(lum), where=alpha > 0.5)
 
 
-
 def unshaded_albedo(albedo: np.ndarray, shading: np.ndarray, skin: np.ndarray, inner: np.ndarray) -> np.ndarray:
     """Stage 1's albedo luminance with the part of the photo's own shading it took in taken out.
 
