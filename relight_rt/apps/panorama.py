@@ -37,7 +37,6 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 from ..engine.errors import RelightError
@@ -45,7 +44,7 @@ from ..image.color import REC709, linear_to_srgb
 from ..light import envmap, sh
 from ..light.from_background import FOV_RANGE, MIN_SIZE, envmap_view
 from .scene_place import CAMERA_M
-from .scene_rim import panorama_rim
+from .scene_rim import SOURCE_SHARE, brightest, panorama_rim
 
 __all__ = [
     "MAX_ELEVATION",
@@ -65,7 +64,6 @@ __all__ = [
 ]
 
 METER_GREY = 0.18  #: the plate's camera exposes the view's mean linear luminance to this
-SOURCE_SHARE = 0.5  #: the panorama's source: its pixels of at least this share of the peak luminance
 _SOURCE_HEIGHT = 256  # the source is found on a copy at most this many rows high
 MAX_ELEVATION = 80.0  #: |elevation| limit of a view, degrees
 MAX_SIDE = 32766  #: a view's longest side, pixels: OpenCV's remap takes maps under 32767 (SHRT_MAX) a side
@@ -204,19 +202,10 @@ def source(env) -> tuple[np.ndarray, np.ndarray]:
         (direction, power): the (3,) unit luminance-weighted mean direction of those pixels (the panorama's frame) and
         the (3,) RGB ∫ radiance dω over them (the irradiance they give a surface facing them, if small).
     """
-    arr = envmap._check_envmap(env, "panorama")
-    if arr.shape[0] > _SOURCE_HEIGHT:
-        arr = cv2.resize(arr, (2 * _SOURCE_HEIGHT, _SOURCE_HEIGHT), interpolation=cv2.INTER_AREA)
-    h = arr.shape[0]
-    lum = np.maximum(arr @ REC709.astype(arr.dtype), 0)
-    peak = float(lum.max())
-    if not peak > 0:
+    found = brightest(envmap._check_envmap(env, "panorama"), height=_SOURCE_HEIGHT)
+    if found is None:
         return np.array([-1.0, 0.0, 0.0]), np.zeros(3)
-    keep = lum >= SOURCE_SHARE * peak
-    d_omega = envmap.solid_angles_envmap(h)[keep]
-    power = (arr[keep] * d_omega[:, None]).sum(0)
-    d = (envmap.directions_envmap(h)[keep] * (lum[keep] * d_omega)[:, None]).sum(0)
-    return d / max(float(np.linalg.norm(d)), 1e-12), power.astype(np.float64)
+    return found[0], found[1]
 
 
 def check_panorama_file(path, name: str = "panorama") -> Path:

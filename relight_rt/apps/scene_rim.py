@@ -38,7 +38,7 @@ import numpy as np
 from ..image.color import REC709
 from ..light import envmap
 
-__all__ = ["LOBE_DEG", "PHOTO_MAX_AREA", "RIM_MAX", "SCATTER", "SOURCE_SHARE", "panorama_rim", "photo_rim",
+__all__ = ["LOBE_DEG", "PHOTO_MAX_AREA", "RIM_MAX", "SCATTER", "SOURCE_SHARE", "brightest", "panorama_rim", "photo_rim",
            "rim_colour"]  # fmt: skip
 
 SOURCE_SHARE = 0.5  #: the source: pixels of at least this share of the peak luminance behind the person
@@ -78,21 +78,40 @@ def panorama_rim(env, rotation: np.ndarray, scale: float) -> tuple[np.ndarray, n
     Returns:
         (direction (3,) in the camera frame, rim RGB (3,)), or None when nothing behind the person is lit.
     """
+    rot = np.asarray(rotation, np.float64)
+    found = brightest(env, within=lambda dirs: (dirs @ rot)[..., 0] < 0)  # behind: x < 0 in the camera's frame
+    if found is None:
+        return None
+    direction, power, solid_angle = found
+    d = direction @ rot  # Rᵀ · ω: the camera's frame
+    return d, rim_colour(power * scale, solid_angle, d)
+
+
+def brightest(env, within=None, height: int = _SOURCE_HEIGHT) -> tuple[np.ndarray, np.ndarray, float] | None:
+    """A map's brightest source: its pixels of at least ``SOURCE_SHARE`` of the peak luminance (among the
+    directions ``within`` keeps, a function of the (h, 2h, 3) pixel directions; all by default), found on a copy at
+    most ``height`` rows high (area-averaged: the power kept).
+
+    Returns:
+        (direction (3,) unit, luminance-weighted, the map's frame; power (3,) RGB ∫ radiance dω over those pixels;
+        their solid angle), or None when nothing there is lit.
+    """
     arr = np.asarray(env, np.float32)
-    if arr.shape[0] > _SOURCE_HEIGHT:
-        arr = cv2.resize(arr, (2 * _SOURCE_HEIGHT, _SOURCE_HEIGHT), interpolation=cv2.INTER_AREA)
+    if arr.shape[0] > height:
+        arr = cv2.resize(arr, (2 * height, height), interpolation=cv2.INTER_AREA)
     h = arr.shape[0]
-    cam = envmap.directions_envmap(h) @ np.asarray(rotation, np.float64)  # Rᵀ · ω for every pixel
-    behind = cam[..., 0] < 0
-    lum = np.where(behind, np.maximum(arr @ REC709.astype(np.float32), 0), 0)
+    dirs = envmap.directions_envmap(h)
+    lum = np.maximum(arr @ REC709.astype(np.float32), 0)
+    if within is not None:
+        lum = np.where(within(dirs), lum, 0)
     peak = float(lum.max())
     if not peak > 0:
         return None
     keep = lum >= SOURCE_SHARE * peak
     d_omega = envmap.solid_angles_envmap(h)[keep]
-    power = (arr[keep].astype(np.float64) * d_omega[:, None]).sum(0) * scale
-    d = (cam[keep] * (lum[keep] * d_omega)[:, None]).sum(0)
-    d /= max(float(np.linalg.norm(d)), 1e-12)
+    power = (arr[keep].astype(np.float64) * d_omega[:, None]).sum(0)
+    d = (dirs[keep] * (lum[keep] * d_omega)[:, None]).sum(0)
+    return d / max(float(np.linalg.norm(d)), 1e-12), power, float(d_omega.sum())
     return d, rim_colour(power, float(d_omega.sum()), d)
 
 
