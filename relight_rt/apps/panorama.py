@@ -21,6 +21,15 @@ camera's highlights clip) and written as 8-bit sRGB. The light is the panorama's
 of ``relight_rt.light.from_background`` (a white diffuse surface under a uniform radiance that the plate shows as v gets
 shading v), so the person is exactly as bright as the place's light makes a white surface in that plate.
 
+The plate's blur (``plate_blur``). A view magnifies the map: a map H rows high spans π/H radians a pixel, a plate
+pixel 2·tan(fov/2)/width at its centre, so m = π·width / (2·H·tan(fov/2)) plate pixels show one map pixel (7 for a
+512 x 256 map seen 60° wide on 640 pixels). The map's pixels (boxes: variance 1/12) read by bilinear look-up (a
+triangle: 1/6) blur the plate by a Gaussian σ = m/2 plate pixels on average over where an edge falls. That is
+known exactly, so a full-body person, whose feet stand on ground the plate shows at their distance, is blurred to
+it (``relight_rt.apps.scene``'s step 5 takes the larger of it and the blur it measures): a sharp figure on a soft
+plate looks pasted. A half body or a portrait, close to the camera, stays sharp before a plate that reads as out
+of focus.
+
 The rim (``rim=True``, the default here: the light is known). A degree-2 SH light spreads a small bright source over
 the whole body; behind the person (a sun or window in or near the view) it should light the outline on its side.
 ``relight_rt.apps.scene_rim.panorama_rim`` finds the brightest source behind the person in the map and the radiance
@@ -58,6 +67,7 @@ __all__ = [
     "panorama_view",
     "parse_size",
     "parse_view",
+    "plate_blur",
     "render_view",
     "source",
     "view_rotation",
@@ -146,6 +156,12 @@ def view_rotation(azimuth: float, elevation: float) -> np.ndarray:
     return sh.rotation_matrix(yaw=-azimuth, pitch=elevation, degrees=True)
 
 
+def plate_blur(map_height: int, width: int, fov: float) -> float:
+    """The blur (Gaussian σ, plate pixels) at the centre of a ``width``-pixel view ``fov`` degrees wide of a map
+    ``map_height`` rows high: half the plate pixels one map pixel spans (module docstring, "The plate's blur")."""
+    return math.pi * width / (4 * map_height * math.tan(math.radians(fov) / 2))
+
+
 def render_view(env, size: tuple[int, int], azimuth: float = 0.0, elevation: float = 0.0,
                 fov: float = _DEFAULT_FOV) -> np.ndarray:  # fmt: skip
     """The perspective view of an equirectangular map from the subject (bilinear, wrapping in azimuth).
@@ -179,6 +195,7 @@ class PanoramaView:
         source_shading: (3,) RGB shading that source alone gives a surface facing it, in the plate's units.
         rim: (direction (3,) in the camera's frame, rim RGB (3,) in the plate's linear units) of the brightest
             source behind the person (``relight_rt.apps.scene_rim.panorama_rim``), or None.
+        blur: the plate's own blur at its centre, Gaussian σ in pixels (``plate_blur``).
     """
 
     plate: np.ndarray
@@ -189,6 +206,7 @@ class PanoramaView:
     source_direction: np.ndarray
     source_shading: np.ndarray
     rim: tuple | None = None
+    blur: float = 0.0
 
 
 def source(env) -> tuple[np.ndarray, np.ndarray]:
@@ -276,7 +294,7 @@ def panorama_view(panorama, size: tuple[int, int], view) -> PanoramaView:
     direction, power = source(env)
     return PanoramaView(plate=plate, light=light, exposure=k / peak, horizon=horizon, view=(az, el, fov),
                         source_direction=rot.T @ direction, source_shading=power * (k / math.pi),
-                        rim=panorama_rim(env, rot, k))  # fmt: skip
+                        rim=panorama_rim(env, rot, k), blur=plate_blur(env.shape[0], width, fov))  # fmt: skip
 
 
 _LEVELS = 65535  # the plate's linear values are read at this many steps for the 8-bit encoding (_encode8)
@@ -335,7 +353,8 @@ def composite_panorama(
         view: (azimuth, elevation[, fov]) or 'AZ,EL[,FOV]' in degrees (``parse_view``).
         size: the plate's (width, height) or 'WxH'; None: the person photo's size.
         mask, position, height, shadow, meter, match_camera, light_wrap, camera_height: as
-            ``relight_rt.apps.scene.composite`` (the camera height: where the panorama was shot from).
+            ``relight_rt.apps.scene.composite`` (the camera height: where the panorama was shot from; the camera's
+            blur of a full body: at least the plate's own, ``plate_blur``).
         exposure: "auto" or "physical" (the panorama's light as it is in the plate's units: the same here) or an EV
             offset to it.
         horizon: the horizon's row (fraction of the height); None: where the view's elevation puts it (clipped
@@ -373,4 +392,4 @@ def composite_panorama(
     return composite(relighter, image, pv.plate, mask=mask, light=light.astype(np.float32), position=position,
                      height=height, shadow=shadow, exposure="physical", fov=fov, white_balance=False, horizon=hz,
                      meter=meter, match_camera=match_camera, light_wrap=light_wrap, rim=rim_key is not None,
-                     rim_key=rim_key, camera_height=camera_height)  # fmt: skip
+                     rim_key=rim_key, camera_height=camera_height, plate_blur=pv.blur)  # fmt: skip

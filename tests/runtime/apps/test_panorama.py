@@ -16,6 +16,7 @@ from relight_rt.apps.panorama import (
     panorama_view,
     parse_size,
     parse_view,
+    plate_blur,
     render_view,
     source,
     view_rotation,
@@ -152,6 +153,25 @@ def test_the_light_is_the_panoramas_in_the_views_frame(hdri, name, view):
     assert irradiance_error(other, truth) > 0.05  # the test can tell a view turned by 90°
 
 
+@pytest.mark.parametrize(("height", "width", "fov"), [(32, 320, 60), (64, 320, 60), (32, 240, 90)])
+def test_the_plate_blur_is_half_the_plate_pixels_of_a_map_pixel(height, width, fov):
+    """A sharp meridian (a step in azimuth, area-averaged into the map's pixels as a map's camera records it) seen in
+    the plate: the rms over 8 sub-pixel places of the edge of its profile's σ is ``plate_blur`` (within 3 %)."""
+    variances = []
+    for offset in (np.arange(8) + 0.5) / 8:
+        cols = np.arange(2 * height) - height + 0.5  # a map column's centre, map pixels from the view's axis
+        share = np.clip(cols + 0.5 - offset, 0, 1)  # of the column lying right of the edge (the edge at offset)
+        env = np.repeat((0.1 + 0.9 * share[::-1])[None, :, None], height, 0)  # azimuth runs right to left
+        env = np.repeat(env, 3, 2).astype(np.float32)
+        row = render_view(env, (9, width), 0, 0, fov)[4, :, 0]
+        t = np.diff((row - 0.1) / 0.9)  # the edge's profile as a density over the plate's columns
+        c = np.arange(width - 1) + 0.5
+        mean = float(t @ c / t.sum())
+        variances.append(float(t @ (c - mean) ** 2 / t.sum()))
+    assert math.sqrt(np.mean(variances)) == pytest.approx(plate_blur(height, width, fov), rel=0.03)
+    assert plate_blur(2 * height, width, fov) == pytest.approx(plate_blur(height, width, fov) / 2)
+
+
 # ------------------------------------------------------------------------------------------------ composite
 
 
@@ -190,6 +210,34 @@ def test_composite_lights_the_person_with_the_panoramas_light(hdri, diffuse, mon
     composite_panorama(diffuse, img, env, view, mask=mask, exposure=1.0, size="120x90", meter="background")
     wide = panorama_view(env, (120, 90), view).light  # another size: another view, metered again
     np.testing.assert_allclose(seen[0], 2 * wide, rtol=1e-4, atol=1e-6)  # EV +1 doubles it
+
+
+def test_a_full_body_is_blurred_to_the_plates_own_blur(diffuse, monkeypatch):
+    """A 512 x 256 map seen 60° wide on 640 pixels blurs the plate by σ ≈ 3.4 px (``plate_blur``), more than the
+    plate's sharpest part measures (the bilinear ramps of a magnified map read as ~1.5 px): a full body is blurred
+    to it (before, a sharp figure stood on a soft plate); a half body is not."""
+    import relight_rt.apps.scene as scene
+
+    seen = []
+    match = scene.camera_match
+
+    def spy(bg, placed, known_blur=0.0):
+        seen.append(known_blur)
+        return match(bg, placed, known_blur)
+
+    monkeypatch.setattr(scene, "camera_match", spy)
+    img, mask = flat_person()
+    env, _ = lumpy_panorama(64)
+    composite_panorama(diffuse, img, env, (0, 0, 60), mask=mask, size=(200, 150), meter="background")
+    assert seen == [pytest.approx(plate_blur(64, 200, 60))] and seen[0] > 2
+    seen.clear()
+    half = mask.copy()
+    half[100:] = half[99]
+    composite_panorama(diffuse, img, env, (0, 0, 60), mask=half, size=(200, 150), meter="background")
+    assert seen == [0.0]
+    seen.clear()
+    composite_panorama(diffuse, img, env, (0, 0, 60), mask=mask, size=(200, 150), match_camera=False)
+    assert seen == []
 
 
 def test_the_panorama_composite_reads_the_photo_once_and_estimates_no_light(diffuse_models_dir, tmp_path,
