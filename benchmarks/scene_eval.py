@@ -394,6 +394,7 @@ def main(argv=None) -> int:
     p.add_argument("--out", type=Path)
     p.add_argument("--pairs-per-target", type=int, default=2, help="places A drawn per (person, B)")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--sets", metavar="A,B", help="only these scene sets (shared, blender, npm; default: every map)")
     p.add_argument("--protocol", choices=("loso", "cross"), default="loso",
                    help="loso: each scene's numbers fitted on every other scene; cross: on the other scene set only "
                    "(the maps of ../shared/hdri against blender-data's bl-*: places the fit never saw)")  # fmt: skip
@@ -429,6 +430,8 @@ def main(argv=None) -> int:
 
     args.out.mkdir(parents=True, exist_ok=True)
     by_subject, subjects, maps = photos_by_subject(args.photos)
+    if args.sets:
+        maps = [m for m in maps if scene_set(m) in args.sets.split(",")]
     scenes = sorted({scene_of(m) for m in maps})
 
     # per map: the background camera, the light read from its photo, the true light at k = 1
