@@ -30,6 +30,14 @@ it (``relight_rt.apps.scene``'s step 5 takes the larger of it and the blur it me
 plate looks pasted. A half body or a portrait, close to the camera, stays sharp before a plate that reads as out
 of focus.
 
+Round suns (``round_sources``). Where the map holds more than the plate's white (a sun, a lamp: pixels brighter than
+1/k), the clipped outline in the plate is a level set of the look-up's kernel around those few pixels, and
+bilinear look-up's kernel is a square pyramid: a one-pixel sun clips as a square. Those pixels' excess over white
+is drawn instead with the isotropic Gaussian of the same variance (σ = half a map pixel, π/(2H) radians: the same
+blur, ``plate_blur``) by the angle to each pixel's centre, its power (radiance × solid angle) kept: the sun clips
+as a disc. Only a compact excess (at most ``ROUND_MAX_PIXELS`` map pixels: a large bright area's outline is the
+scene's own, not the kernel's); the light and the exposure are the map's as before.
+
 The rim (``rim=True``, the default here: the light is known). A degree-2 SH light spreads a small bright source over
 the whole body; behind the person (a sun or window in or near the view) it should light the outline on its side.
 ``relight_rt.apps.scene_rim.panorama_rim`` finds the brightest source behind the person in the map and the radiance
@@ -69,11 +77,13 @@ __all__ = [
     "parse_view",
     "plate_blur",
     "render_view",
+    "round_sources",
     "source",
     "view_rotation",
 ]
 
 METER_GREY = 0.18  #: the plate's camera exposes the view's mean linear luminance to this
+ROUND_MAX_PIXELS = 256  #: round_sources redraws a map's excess over white when it holds at most this many pixels
 _SOURCE_HEIGHT = 256  # the source is found on a copy at most this many rows high
 MAX_ELEVATION = 80.0  #: |elevation| limit of a view, degrees
 MAX_SIDE = 32766  #: a view's longest side, pixels: OpenCV's remap takes maps under 32767 (SHRT_MAX) a side
@@ -181,6 +191,62 @@ def render_view(env, size: tuple[int, int], azimuth: float = 0.0, elevation: flo
     return envmap_view(envmap._check_envmap(env, "panorama"), size, fov, view_rotation(azimuth, elevation))
 
 
+def round_sources(linear: np.ndarray, env: np.ndarray, white: float, rotation: np.ndarray, fov: float) -> np.ndarray:
+    """The view ``linear`` (``render_view`` of ``env`` with ``rotation`` and ``fov``) with the map's excess over
+    ``white`` drawn by an isotropic Gaussian instead of bilinear look-up (module docstring, "Round suns").
+
+    Args:
+        linear: (h, w, 3) float32 linear view of ``env``.
+        env: (H, 2H, 3) float linear map.
+        white: the map's value that the plate shows as white (1/k).
+        rotation: (3, 3) the view's ``view_rotation``.
+        fov: the view's horizontal field of view, degrees.
+
+    Returns:
+        (h, w, 3) float32: a new array, or ``linear`` itself when nothing in the map exceeds ``white`` or the excess
+        is not compact.
+    """
+    excess = np.maximum(env - np.float32(white), 0)
+    hot = excess.max(axis=2) > 0
+    count = int(np.count_nonzero(hot))
+    if count == 0 or count > ROUND_MAX_PIXELS:
+        return linear
+    eh = env.shape[0]
+    ys, xs = np.nonzero(hot)
+    d_cam = envmap.directions_envmap(eh)[ys, xs] @ np.asarray(rotation, np.float64)  # ω_camera = Rᵀ ω_map
+    sigma = math.pi / (2 * eh)  # radians: half a map pixel
+    power = excess[ys, xs].astype(np.float64) * envmap.solid_angles_envmap(eh)[ys, xs][:, None]  # radiance × sr
+    vh, vw = linear.shape[:2]
+    focal = (vw / 2) / math.tan(math.radians(fov) / 2)
+    rot = np.asarray(rotation, np.float64)
+    out = linear.copy()
+    for d, p, e, i, j in zip(d_cam, power, excess[ys, xs], ys, xs, strict=True):
+        if -d[0] < 0.05:  # behind the camera or beside it (far outside any frame)
+            continue
+        cx, cy = d[1] / -d[0] * focal + vw / 2, vh / 2 - d[2] / -d[0] * focal  # where it lands, pixels
+        # out to where the Gaussian falls under 1 % of white (a bright sun's tail stays above white for 5 σ)
+        tail = math.sqrt(2 * math.log(max(float(p.max()) / (2 * math.pi * sigma**2) / (0.01 * white), math.e)))
+        reach = (tail + 1) * sigma * focal * (1 + ((cx - vw / 2) ** 2 + (cy - vh / 2) ** 2) / focal**2) + 2
+        x0, x1 = max(0, int(cx - reach)), min(vw, int(cx + reach) + 1)
+        y0, y1 = max(0, int(cy - reach)), min(vh, int(cy + reach) + 1)
+        if x1 <= x0 or y1 <= y0:
+            continue
+        cols = (np.arange(x0, x1) + 0.5 - vw / 2) / focal
+        rows = (vh / 2 - np.arange(y0, y1) - 0.5) / focal
+        rays = np.stack(np.broadcast_arrays(-1.0, cols[None, :], rows[:, None]), axis=-1)
+        rays /= np.linalg.norm(rays, axis=-1, keepdims=True)
+        # the pixel's part in envmap_view's bilinear look-up (its map coordinates, wrapping in azimuth), taken out
+        w_map = rays @ rot.T
+        mx = np.mod(np.arctan2(-w_map[..., 1], w_map[..., 0]), 2 * np.pi) / (2 * np.pi) * (2 * eh) - 0.5
+        my = np.clip(np.arctan2(np.hypot(w_map[..., 0], w_map[..., 1]), w_map[..., 2]) / np.pi * eh - 0.5, 0, eh - 1)
+        dx = np.abs(np.mod(mx - j + eh, 2 * eh) - eh)
+        bilinear = np.maximum(1 - dx, 0) * np.maximum(1 - np.abs(my - i), 0)
+        # drawn again: its power spread by the Gaussian of the angle to its centre (radiance: per steradian)
+        gauss = np.exp(-(np.arccos(np.clip(rays @ d, -1, 1)) ** 2) / (2 * sigma**2)) / (2 * math.pi * sigma**2)
+        out[y0:y1, x0:x1] += (gauss[..., None] * p - bilinear[..., None] * e).astype(np.float32)
+    return np.maximum(out, 0)
+
+
 @dataclass(frozen=True)
 class PanoramaView:
     """A panorama seen in one direction (``panorama_view``).
@@ -286,8 +352,8 @@ def panorama_view(panorama, size: tuple[int, int], view) -> PanoramaView:
     if not mean > 0:
         raise RelightError(f"panorama: the view {az:g},{el:g} is black (nothing to expose); choose another --view")
     k = METER_GREY / mean
-    plate = _encode8(linear, k)
     rot = view_rotation(az, el)
+    plate = _encode8(round_sources(linear, env, 1 / k, rot, fov), k)
     light = sh.rotate(envmap.project_envmap(env), rot.T) * (k / math.pi)
     tan_v = math.tan(math.radians(fov) / 2) * height / width
     horizon = 0.5 + math.tan(math.radians(el)) / (2 * tan_v)  # a level world's horizon, seen by the tilted camera
