@@ -35,8 +35,9 @@ Round suns (``round_sources``). Where the map holds more than the plate's white 
 bilinear look-up's kernel is a square pyramid: a one-pixel sun clips as a square. Those pixels' excess over white
 is drawn instead with the isotropic Gaussian of the same variance (σ = half a map pixel, π/(2H) radians: the same
 blur, ``plate_blur``) by the angle to each pixel's centre, its power (radiance × solid angle) kept: the sun clips
-as a disc. Only a compact excess (at most ``ROUND_MAX_PIXELS`` map pixels: a large bright area's outline is the
-scene's own, not the kernel's); the light and the exposure are the map's as before.
+as a disc. Only compact regions (at most ``ROUND_MAX_AREA`` map pixels: a large bright area's outline is the scene's
+own, not the kernel's) in or near the view, at most ``ROUND_MAX_PIXELS`` pixels in all (the time it takes); the
+light and the exposure are the map's as before.
 
 The rim (``rim=True``, the default here: the light is known). A degree-2 SH light spreads a small bright source over
 the whole body; behind the person (a sun or window in or near the view) it should light the outline on its side.
@@ -54,6 +55,7 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from ..engine.errors import RelightError
@@ -68,6 +70,8 @@ __all__ = [
     "MAX_SIDE",
     "METER_GREY",
     "PanoramaView",
+    "ROUND_MAX_AREA",
+    "ROUND_MAX_PIXELS",
     "SOURCE_SHARE",
     "check_panorama_file",
     "composite_panorama",
@@ -83,7 +87,8 @@ __all__ = [
 ]
 
 METER_GREY = 0.18  #: the plate's camera exposes the view's mean linear luminance to this
-ROUND_MAX_PIXELS = 256  #: round_sources redraws a map's excess over white when it holds at most this many pixels
+ROUND_MAX_AREA = 64  #: round_sources: a region of the map brighter than white of at most this many pixels is a source
+ROUND_MAX_PIXELS = 1024  #: round_sources: at most this many such pixels in or near the view (else none is redrawn)
 _SOURCE_HEIGHT = 256  # the source is found on a copy at most this many rows high
 MAX_ELEVATION = 80.0  #: |elevation| limit of a view, degrees
 MAX_SIDE = 32766  #: a view's longest side, pixels: OpenCV's remap takes maps under 32767 (SHRT_MAX) a side
@@ -203,47 +208,63 @@ def round_sources(linear: np.ndarray, env: np.ndarray, white: float, rotation: n
         fov: the view's horizontal field of view, degrees.
 
     Returns:
-        (h, w, 3) float32: a new array, or ``linear`` itself when nothing in the map exceeds ``white`` or the excess
-        is not compact.
+        (h, w, 3) float32: a new array, or ``linear`` itself when no compact region of the map in or near the view
+        exceeds ``white``.
     """
     excess = np.maximum(env - np.float32(white), 0)
-    hot = excess.max(axis=2) > 0
-    count = int(np.count_nonzero(hot))
-    if count == 0 or count > ROUND_MAX_PIXELS:
+    hot = (excess.max(axis=2) > 0).astype(np.uint8)
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(hot, connectivity=8)
+    if n <= 1:
         return linear
+    compact = np.zeros(n, bool)
+    compact[1:] = stats[1:, cv2.CC_STAT_AREA] <= ROUND_MAX_AREA  # a larger bright area's outline is the scene's
+    ys, xs = np.nonzero(compact[labels])
     eh = env.shape[0]
-    ys, xs = np.nonzero(hot)
     d_cam = envmap.directions_envmap(eh)[ys, xs] @ np.asarray(rotation, np.float64)  # ω_camera = Rᵀ ω_map
-    sigma = math.pi / (2 * eh)  # radians: half a map pixel
-    power = excess[ys, xs].astype(np.float64) * envmap.solid_angles_envmap(eh)[ys, xs][:, None]  # radiance × sr
     vh, vw = linear.shape[:2]
     focal = (vw / 2) / math.tan(math.radians(fov) / 2)
+    keep = -d_cam[:, 0] > 0.05  # ahead of the camera, and within the frame or just outside it
+    keep &= np.abs(d_cam[:, 1]) < -d_cam[:, 0] * 1.2 * vw / (2 * focal)
+    keep &= np.abs(d_cam[:, 2]) < -d_cam[:, 0] * (vh / 2 + 0.1 * vw) / focal
+    if not keep.any() or np.count_nonzero(keep) > ROUND_MAX_PIXELS:
+        return linear
+    ys, xs, d_cam, region = ys[keep], xs[keep], d_cam[keep], labels[ys[keep], xs[keep]]
+    sigma = math.pi / (2 * eh)  # radians: half a map pixel
+    power = excess[ys, xs].astype(np.float64) * envmap.solid_angles_envmap(eh)[ys, xs][:, None]  # radiance × sr
+    # where each lands (pixels) and how far its Gaussian reaches: to under 1 % of white (a sun's tail stays above
+    # white for 5 σ), σ magnified as the view stretches off its axis
+    cx, cy = d_cam[:, 1] / -d_cam[:, 0] * focal + vw / 2, vh / 2 - d_cam[:, 2] / -d_cam[:, 0] * focal
+    peak = power.max(axis=1) / (2 * math.pi * sigma**2)
+    tail = np.sqrt(2 * np.log(np.maximum(peak / (0.01 * white), math.e)))
+    reach = (tail + 1) * sigma * focal * (1 + ((cx - vw / 2) ** 2 + (cy - vh / 2) ** 2) / focal**2) + 2
     rot = np.asarray(rotation, np.float64)
     out = linear.copy()
-    for d, p, e, i, j in zip(d_cam, power, excess[ys, xs], ys, xs, strict=True):
-        if -d[0] < 0.05:  # behind the camera or beside it (far outside any frame)
-            continue
-        cx, cy = d[1] / -d[0] * focal + vw / 2, vh / 2 - d[2] / -d[0] * focal  # where it lands, pixels
-        # out to where the Gaussian falls under 1 % of white (a bright sun's tail stays above white for 5 σ)
-        tail = math.sqrt(2 * math.log(max(float(p.max()) / (2 * math.pi * sigma**2) / (0.01 * white), math.e)))
-        reach = (tail + 1) * sigma * focal * (1 + ((cx - vw / 2) ** 2 + (cy - vh / 2) ** 2) / focal**2) + 2
-        x0, x1 = max(0, int(cx - reach)), min(vw, int(cx + reach) + 1)
-        y0, y1 = max(0, int(cy - reach)), min(vh, int(cy + reach) + 1)
+    for label in np.unique(region):  # one window per source: its rays and their map coordinates once
+        mine = np.flatnonzero(region == label)
+        x0, x1 = max(0, int((cx - reach)[mine].min())), min(vw, int((cx + reach)[mine].max()) + 1)
+        y0, y1 = max(0, int((cy - reach)[mine].min())), min(vh, int((cy + reach)[mine].max()) + 1)
         if x1 <= x0 or y1 <= y0:
             continue
         cols = (np.arange(x0, x1) + 0.5 - vw / 2) / focal
         rows = (vh / 2 - np.arange(y0, y1) - 0.5) / focal
         rays = np.stack(np.broadcast_arrays(-1.0, cols[None, :], rows[:, None]), axis=-1)
         rays /= np.linalg.norm(rays, axis=-1, keepdims=True)
-        # the pixel's part in envmap_view's bilinear look-up (its map coordinates, wrapping in azimuth), taken out
-        w_map = rays @ rot.T
+        w_map = rays @ rot.T  # envmap_view's map coordinates of the rays (wrapping in azimuth)
         mx = np.mod(np.arctan2(-w_map[..., 1], w_map[..., 0]), 2 * np.pi) / (2 * np.pi) * (2 * eh) - 0.5
         my = np.clip(np.arctan2(np.hypot(w_map[..., 0], w_map[..., 1]), w_map[..., 2]) / np.pi * eh - 0.5, 0, eh - 1)
-        dx = np.abs(np.mod(mx - j + eh, 2 * eh) - eh)
-        bilinear = np.maximum(1 - dx, 0) * np.maximum(1 - np.abs(my - i), 0)
-        # drawn again: its power spread by the Gaussian of the angle to its centre (radiance: per steradian)
-        gauss = np.exp(-(np.arccos(np.clip(rays @ d, -1, 1)) ** 2) / (2 * sigma**2)) / (2 * math.pi * sigma**2)
-        out[y0:y1, x0:x1] += (gauss[..., None] * p - bilinear[..., None] * e).astype(np.float32)
+        delta = np.zeros((y1 - y0, x1 - x0, 3))
+        for k in mine:  # each pixel on its own part of the window
+            r0, c0 = max(0, int(cy[k] - reach[k]) - y0), max(0, int(cx[k] - reach[k]) - x0)
+            r1, c1 = min(vh, int(cy[k] + reach[k]) + 1) - y0, min(vw, int(cx[k] + reach[k]) + 1) - x0
+            win = np.s_[r0 : max(r0, r1), c0 : max(c0, c1)]
+            # the pixel's part in the bilinear look-up taken out ...
+            dx = np.abs(np.mod(mx[win] - xs[k] + eh, 2 * eh) - eh)
+            bilinear = np.maximum(1 - dx, 0) * np.maximum(1 - np.abs(my[win] - ys[k]), 0)
+            # ... and its power spread by the Gaussian of the angle to its centre (the chord: small angles)
+            chord2 = np.maximum(2 - 2 * (rays[win] @ d_cam[k]), 0)
+            gauss = np.exp(-chord2 / (2 * sigma**2)) / (2 * math.pi * sigma**2)
+            delta[win] += gauss[..., None] * power[k] - bilinear[..., None] * excess[ys[k], xs[k]]
+        out[y0:y1, x0:x1] += delta.astype(np.float32)
     return np.maximum(out, 0)
 
 

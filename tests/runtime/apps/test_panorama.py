@@ -184,7 +184,7 @@ def one_sun(h=32, excess=1000.0, where=(0, 0)):
     env = np.full((h, 2 * h, 3), 0.2, np.float32)
     az, el = where
     i = int((90 - el) / 180 * h)
-    j = int((0.5 - az / 360) * 2 * h) % (2 * h)  # the map's centre column is the view's axis; azimuth runs leftward
+    j = int((0.5 + az / 360) * 2 * h) % (2 * h)  # the map's centre column is the view's axis, its right the image's
     env[i, j] += excess
     return env, 1.0
 
@@ -217,6 +217,13 @@ def test_a_bright_pixel_is_drawn_round_with_its_power():
     dull = np.full((32, 64, 3), 0.5, np.float32)
     flat = render_view(dull, size, 0, 0, 60)
     assert round_sources(flat, dull, 1.0, rot, 60) is flat
+    wide = env.copy()
+    wide[12:21, 20:28] += 5.0  # 72 map pixels over white in one region at the frame's left: a bright area
+    seen = render_view(wide, size, 0, 0, 60)
+    kept = round_sources(seen, wide, white, rot, 60)
+    assert seen[:, :20].max() > 2 * white  # the area is in the frame ...
+    np.testing.assert_array_equal(kept[:, :30], seen[:, :30])  # ... and its own outline is kept
+    assert np.abs(kept - seen).max() > 1  # the sun, a region of its own, is still drawn round
 
 
 def test_round_sources_is_the_gaussian_drawn_everywhere():
