@@ -2,11 +2,15 @@
 
     python benchmarks/scene_frontback.py --envs runs/scene/envs [--out runs/scene/frontback.json]
 
-ENVS: ``benchmarks/scene_eval.py --prepare-envs`` (17 scenes x 4 turns). For each map, the background photo is
-scene_eval's (a 60° view, metered to 0.18, 8-bit sRGB), the truth its SH light's camera-facing over back
-irradiance (scene_eval.front_back); scored on the maps whose sides differ by >= 1 EV. Each rule is scored three
-ways: with its numbers fitted with the map's whole scene left out (loso), and fitted on the other scene set only
-(cross: ../shared/hdri ↔ blender-data), per set. Rules without a fitted number score the same everywhere.
+ENVS: ``benchmarks/scene_eval.py --prepare-envs`` (25 scenes x 4 turns: ../shared/hdri, blender-data, npm's
+@pmndrs/assets). For each map, the background photo is scene_eval's (a 60° view, metered to 0.18, 8-bit sRGB), the
+truth its SH light's camera-facing over back irradiance (scene_eval.front_back); scored on the maps whose sides
+differ by >= 1 EV. Each rule is scored with its numbers fitted with the map's whole scene left out (loso), and
+fitted on the other scene sets only (cross), per set. Rules without a fitted number score the same everywhere
+("today" is the shipped BACKLIGHT, fitted on ../shared/hdri and blender-data: only its npm figure is held out).
+``glow``: the mean luminance 5-15 px around the largest compact clipped region (apps.scene_rim's source) over the
+median, in EV: a source in frame lights its surround (a sun's aureole, a lamp's flare), a sunlit facade's edge
+meets shade.
 """
 
 from __future__ import annotations
