@@ -61,7 +61,7 @@ import numpy as np
 from ..engine.errors import RelightError
 from ..image.color import REC709, linear_to_srgb
 from ..light import envmap, sh
-from ..light.from_background import FOV_RANGE, MIN_SIZE, envmap_view
+from ..light.from_background import FOV_RANGE, MIN_SIZE, check_fov, envmap_view
 from .scene_place import CAMERA_M
 from .scene_rim import SOURCE_SHARE, brightest, panorama_rim
 
@@ -174,6 +174,10 @@ def view_rotation(azimuth: float, elevation: float) -> np.ndarray:
 def plate_blur(map_height: int, width: int, fov: float) -> float:
     """The blur (Gaussian σ, plate pixels) at the centre of a ``width``-pixel view ``fov`` degrees wide of a map
     ``map_height`` rows high: half the plate pixels one map pixel spans (module docstring, "The plate's blur")."""
+    if not all(isinstance(v, numbers.Integral) and not isinstance(v, bool) and v >= 1 for v in (map_height, width)):
+        raise RelightError(f"plate_blur: expected a map height and a view width of at least 1 pixel, got "
+                           f"{map_height!r} and {width!r}")  # fmt: skip
+    fov = check_fov(fov)
     return math.pi * width / (4 * map_height * math.tan(math.radians(fov) / 2))
 
 
@@ -211,6 +215,13 @@ def round_sources(linear: np.ndarray, env: np.ndarray, white: float, rotation: n
         (h, w, 3) float32: a new array, or ``linear`` itself when no compact region of the map in or near the view
         exceeds ``white``.
     """
+    env = envmap._check_envmap(env, "panorama")
+    fov = check_fov(fov)
+    if not (isinstance(white, numbers.Real) and math.isfinite(white) and white > 0):
+        raise RelightError(f"white: expected a finite positive value, got {white!r}")
+    if linear.ndim != 3 or linear.shape[2] != 3 or np.shape(rotation) != (3, 3):
+        raise RelightError(f"expected an (h, w, 3) view and a (3, 3) rotation, got {linear.shape} and "
+                           f"{np.shape(rotation)}")  # fmt: skip
     excess = np.maximum(env - np.float32(white), 0)
     hot = (excess.max(axis=2) > 0).astype(np.uint8)
     n, labels, stats, _ = cv2.connectedComponentsWithStats(hot, connectivity=8)

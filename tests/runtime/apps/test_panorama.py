@@ -178,6 +178,25 @@ def test_the_plate_blur_is_half_the_plate_pixels_of_a_map_pixel(height, width, f
     assert plate_blur(2 * height, width, fov) == pytest.approx(plate_blur(height, width, fov) / 2)
 
 
+@pytest.mark.parametrize(("args", "match"), [((0, 320, 60), "map height"), ((32, 2.5, 60), "view width"),
+                                             ((32, 320, 180), "field of view")])  # fmt: skip
+def test_bad_plate_blur_arguments(args, match):
+    with pytest.raises(RelightError, match=match):
+        plate_blur(*args)
+
+
+def test_bad_round_sources_arguments():
+    env, white = one_sun()
+    view = render_view(env, (30, 40), 0, 0, 60)
+    rot = view_rotation(0, 0)
+    bad = [((view, env, 0.0, rot, 60), "white"), ((view, env, float("nan"), rot, 60), "white"),
+           ((view[..., 0], env, white, rot, 60), "view"), ((view, env, white, rot[:2], 60), "rotation"),
+           ((view, env[:, :40], white, rot, 60), "panorama"), ((view, env, white, rot, 5), "field")]  # fmt: skip
+    for args, match in bad:
+        with pytest.raises(RelightError, match=match):
+            round_sources(*args)
+
+
 def one_sun(h=32, excess=1000.0, where=(0, 0)):
     """(map, white): a grey map (0.2) with one pixel ``excess`` × white brighter, near azimuth / elevation
     ``where`` (degrees from the view's axis), white = 1."""
