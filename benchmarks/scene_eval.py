@@ -1,15 +1,17 @@
 """Into any scene, measured fairly: the light from one background photo on real panoramas (docs/RESULTS.md).
 
-    python benchmarks/scene_eval.py --prepare-envs ../shared/hdri BLENDER_WORLD --envs ENVS
+    python benchmarks/scene_eval.py --prepare-npm pmndrs-assets-1.7.0.tgz NPM     # after npm pack @pmndrs/assets@1.7.0
+    python benchmarks/scene_eval.py --prepare-envs ../shared/hdri BLENDER_WORLD NPM --envs ENVS
     python benchmarks/scene_eval.py --photos PHOTOS --people PEOPLE --envs ENVS --out runs/scene36/report
-    python benchmarks/scene_eval.py ... --protocol cross      # fitted on the other scene set (issue 49)
+    python benchmarks/scene_eval.py ... --protocol cross      # fitted on the other scene sets (issue 49)
 
 BLENDER_WORLD is ``datafiles/studiolights/world`` of Debian's ``blender-data`` package (eight CC0 Poly Haven
 maps, 1024 x 512 OpenEXR, DWA-compressed; reading them needs ``pip install OpenEXR``, only here; they are
-named ``bl-NAME``). Every map is area-resized to 128 rows, normalised (brightest SH irradiance 1) and turned
-by 0/90/180/270° about +z: 4 maps per scene. PEOPLE: ``python -m export render`` (albedo, transport);
-PHOTOS: ``python -m export render-photos --full-shading`` of every person under every map (hard shadows,
-GGX specular, subsurface: what a camera records). Commands: docs/RESULTS.md, "Into any scene".
+named ``bl-NAME``); NPM the eight maps of npm's ``@pmndrs/assets`` 1.7.0 in neither (CC0 Poly Haven maps,
+512 x 256, named ``pm-NAME``: ``prepare_npm``). Every map is area-resized to 128 rows, normalised (brightest SH
+irradiance 1) and turned by 0/90/180/270° about +z: 4 maps per scene. PEOPLE: ``python -m export render``
+(albedo, transport); PHOTOS: ``python -m export render-photos --full-shading`` of every person under every map
+(hard shadows, GGX specular, subsurface: what a camera records). Commands: docs/RESULTS.md, "Into any scene".
 
 The cameras. The background photo of a map B is a 256 x 192 perspective view (60°, the camera at the subject
 looking along −x; relight_rt.light.from_background.envmap_view) of π·B (the units in which the person's renders are
@@ -30,9 +32,9 @@ COLOUR_SATURATION, KEY_GEOMETRY, SHAPE_PRIOR, SHAPE_WEIGHT, FRONT_BACK_POWER) ar
 turns) left out: for each scene the fits below (``fit``, ``fit_all``) run on the other scenes' maps only.
 - ``oracle``: the true SH light of B in the truth's units (the best any SH light can do).
 
-``--protocol cross`` fits each scene's numbers on the other scene set only (the maps of ../shared/hdri on
-blender-data's, and the reverse: places the fit never saw); with the oracles, the table ends with issue 49's figures
-per scene set (the estimate against the ``view`` oracle, ``must_show``).
+``--protocol cross`` fits each scene's numbers on the other scene sets only (the maps of ../shared/hdri on
+blender-data's and @pmndrs/assets', and so on: places the fit never saw); with the oracles, the table ends with
+issue 49's figures per scene set (the estimate against the ``view`` oracle, ``must_show``).
 
 Four scores, separately:
 1. exposure error (EV) of the light on the person's camera-facing side: log2 of the mean irradiance over
@@ -124,13 +126,44 @@ def prepare_envs(folders: list[Path], out: Path, height: int = 128) -> None:
                 write_hdr(out / f"{name}_y{step * 90:03d}.hdr", rotate_envmap(env, step, 4))
 
 
+#: @pmndrs/assets' maps left out of its set: the nine already in ../shared/hdri (the same files), and sunrise (the
+#: Poly Haven map of blender-data's sunrise.exr: their log luminances correlate at 0.998)
+NPM_SKIP = ("apartment", "bridge", "city", "dawn", "forest", "lab", "night", "studio", "sunset", "sunrise")
+
+
+def prepare_npm(package: Path, out: Path) -> list[str]:
+    """The maps of npm's ``@pmndrs/assets`` (CC0 Poly Haven maps, 512 x 256 DWA-compressed OpenEXR, each held in
+    ``hdri/NAME.exr.js`` as a base64 data URL) not in NPM_SKIP, written as ``out/pm-NAME.hdr`` (negative values of
+    the lossy compression clipped to 0). ``package``: the tarball of ``npm pack @pmndrs/assets@1.7.0``."""
+    import base64
+    import re
+    import tarfile
+    import tempfile
+
+    out.mkdir(parents=True, exist_ok=True)
+    names = []
+    with tarfile.open(package) as tar, tempfile.TemporaryDirectory() as tmp:
+        for member in tar.getmembers():
+            found = re.fullmatch(r"package/hdri/(\w+)\.exr\.js", member.name)
+            if not found or found.group(1) in NPM_SKIP:
+                continue
+            text = tar.extractfile(member).read().decode("ascii")
+            exr = Path(tmp) / f"{found.group(1)}.exr"
+            exr.write_bytes(base64.b64decode(re.search(r"base64,([A-Za-z0-9+/=]+)", text).group(1)))
+            env = np.maximum(read_exr(exr), 0)
+            cv2.imwrite(str(out / f"pm-{found.group(1)}.hdr"), np.ascontiguousarray(env[..., ::-1]))
+            names.append(found.group(1))
+    return sorted(names)
+
+
 def scene_of(map_name: str) -> str:
     return map_name.rsplit("_y", 1)[0]
 
 
 def scene_set(name: str) -> str:
-    """The scene set of a map or scene: "blender" (blender-data's, named bl-*) or "shared" (../shared/hdri)."""
-    return "blender" if name.startswith("bl-") else "shared"
+    """The scene set of a map or scene: "blender" (blender-data's, named bl-*), "npm" (the maps of npm's
+    ``@pmndrs/assets`` not in ../shared/hdri, named pm-*: ``--prepare-npm``) or "shared" (../shared/hdri)."""
+    return {"bl-": "blender", "pm-": "npm"}.get(name[:3], "shared")
 
 
 # ------------------------------------------------------------------------------------------------ scores
@@ -307,7 +340,8 @@ def must_show(rows: list, maps: list, fb: dict, clear: list, est: dict, view: di
            "(clear maps): est / oracle | colour median deg: est / oracle | better than the paste (si) |",
            "|---|---|---|---|---|---|"]  # fmt: skip
     for label, keep in (("all", lambda m: True), ("../shared/hdri", lambda m: scene_set(m) == "shared"),
-                        ("blender-data", lambda m: scene_set(m) == "blender")):  # fmt: skip
+                        ("blender-data", lambda m: scene_set(m) == "blender"),
+                        ("@pmndrs/assets", lambda m: scene_set(m) == "npm")):  # fmt: skip
         rs = [r for r in rows if keep(r["B"])]
         cl = [m for m in clear if keep(m)]
         if not rs:
@@ -347,12 +381,20 @@ def photos_by_subject(photos: Path) -> tuple[dict[str, dict[str, str]], list[str
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--prepare-envs", type=Path, nargs="+", metavar="FOLDER", help="only write the maps into --envs")
+    p.add_argument(
+        "--prepare-npm",
+        type=Path,
+        nargs=2,
+        metavar=("TGZ", "FOLDER"),
+        help="only write @pmndrs/assets' maps (npm pack @pmndrs/assets@1.7.0) into FOLDER as pm-*.hdr",
+    )
     p.add_argument("--photos", type=Path)
     p.add_argument("--people", type=Path)
-    p.add_argument("--envs", type=Path, required=True)
+    p.add_argument("--envs", type=Path)
     p.add_argument("--out", type=Path)
     p.add_argument("--pairs-per-target", type=int, default=2, help="places A drawn per (person, B)")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--sets", metavar="A,B", help="only these scene sets (shared, blender, npm; default: every map)")
     p.add_argument("--protocol", choices=("loso", "cross"), default="loso",
                    help="loso: each scene's numbers fitted on every other scene; cross: on the other scene set only "
                    "(the maps of ../shared/hdri against blender-data's bl-*: places the fit never saw)")  # fmt: skip
@@ -370,6 +412,11 @@ def main(argv=None) -> int:
         help="skip the lights that know the view / the half in front of the camera perfectly (faster)",
     )
     args = p.parse_args(argv)
+    if args.prepare_npm:
+        print(" ".join(prepare_npm(*args.prepare_npm)))
+        return 0
+    if args.envs is None:
+        p.error("--envs is needed")
     if args.prepare_envs:
         prepare_envs(args.prepare_envs, args.envs)
         return 0
@@ -383,6 +430,8 @@ def main(argv=None) -> int:
 
     args.out.mkdir(parents=True, exist_ok=True)
     by_subject, subjects, maps = photos_by_subject(args.photos)
+    if args.sets:
+        maps = [m for m in maps if scene_set(m) in args.sets.split(",")]
     scenes = sorted({scene_of(m) for m in maps})
 
     # per map: the background camera, the light read from its photo, the true light at k = 1

@@ -21,6 +21,24 @@ camera's highlights clip) and written as 8-bit sRGB. The light is the panorama's
 of ``relight_rt.light.from_background`` (a white diffuse surface under a uniform radiance that the plate shows as v gets
 shading v), so the person is exactly as bright as the place's light makes a white surface in that plate.
 
+The plate's blur (``plate_blur``). A view magnifies the map: a map H rows high spans π/H radians a pixel, a plate
+pixel 2·tan(fov/2)/width at its centre, so m = π·width / (2·H·tan(fov/2)) plate pixels show one map pixel (7 for a
+512 x 256 map seen 60° wide on 640 pixels). The map's pixels (boxes: variance 1/12) read by bilinear look-up (a
+triangle: 1/6) blur the plate by a Gaussian σ = m/2 plate pixels on average over where an edge falls. That is
+known exactly, so a full-body person, whose feet stand on ground the plate shows at their distance, is blurred to
+it (``relight_rt.apps.scene``'s step 5 takes the larger of it and the blur it measures): a sharp figure on a soft
+plate looks pasted. A half body or a portrait, close to the camera, stays sharp before a plate that reads as out
+of focus.
+
+Round suns (``round_sources``). Where the map holds more than the plate's white (a sun, a lamp: pixels brighter than
+1/k), the clipped outline in the plate is a level set of the look-up's kernel around those few pixels, and
+bilinear look-up's kernel is a square pyramid: a one-pixel sun clips as a square. Those pixels' excess over white
+is drawn instead with the isotropic Gaussian of the same variance (σ = half a map pixel, π/(2H) radians: the same
+blur, ``plate_blur``) by the angle to each pixel's centre, its power (radiance × solid angle) kept: the sun clips
+as a disc. Only compact regions (at most ``ROUND_MAX_AREA`` map pixels: a large bright area's outline is the scene's
+own, not the kernel's) in or near the view, at most ``ROUND_MAX_PIXELS`` pixels in all (the time it takes); the
+light and the exposure are the map's as before.
+
 The rim (``rim=True``, the default here: the light is known). A degree-2 SH light spreads a small bright source over
 the whole body; behind the person (a sun or window in or near the view) it should light the outline on its side.
 ``relight_rt.apps.scene_rim.panorama_rim`` finds the brightest source behind the person in the map and the radiance
@@ -37,12 +55,13 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from ..engine.errors import RelightError
 from ..image.color import REC709, linear_to_srgb
 from ..light import envmap, sh
-from ..light.from_background import FOV_RANGE, MIN_SIZE, envmap_view
+from ..light.from_background import FOV_RANGE, MIN_SIZE, check_fov, envmap_view
 from .scene_place import CAMERA_M
 from .scene_rim import SOURCE_SHARE, brightest, panorama_rim
 
@@ -51,6 +70,8 @@ __all__ = [
     "MAX_SIDE",
     "METER_GREY",
     "PanoramaView",
+    "ROUND_MAX_AREA",
+    "ROUND_MAX_PIXELS",
     "SOURCE_SHARE",
     "check_panorama_file",
     "composite_panorama",
@@ -58,12 +79,16 @@ __all__ = [
     "panorama_view",
     "parse_size",
     "parse_view",
+    "plate_blur",
     "render_view",
+    "round_sources",
     "source",
     "view_rotation",
 ]
 
 METER_GREY = 0.18  #: the plate's camera exposes the view's mean linear luminance to this
+ROUND_MAX_AREA = 64  #: round_sources: a region of the map brighter than white of at most this many pixels is a source
+ROUND_MAX_PIXELS = 1024  #: round_sources: at most this many such pixels in or near the view (else none is redrawn)
 _SOURCE_HEIGHT = 256  # the source is found on a copy at most this many rows high
 MAX_ELEVATION = 80.0  #: |elevation| limit of a view, degrees
 MAX_SIDE = 32766  #: a view's longest side, pixels: OpenCV's remap takes maps under 32767 (SHRT_MAX) a side
@@ -146,6 +171,16 @@ def view_rotation(azimuth: float, elevation: float) -> np.ndarray:
     return sh.rotation_matrix(yaw=-azimuth, pitch=elevation, degrees=True)
 
 
+def plate_blur(map_height: int, width: int, fov: float) -> float:
+    """The blur (Gaussian σ, plate pixels) at the centre of a ``width``-pixel view ``fov`` degrees wide of a map
+    ``map_height`` rows high: half the plate pixels one map pixel spans (module docstring, "The plate's blur")."""
+    if not all(isinstance(v, numbers.Integral) and not isinstance(v, bool) and v >= 1 for v in (map_height, width)):
+        raise RelightError(f"plate_blur: expected a map height and a view width of at least 1 pixel, got "
+                           f"{map_height!r} and {width!r}")  # fmt: skip
+    fov = check_fov(fov)
+    return math.pi * width / (4 * map_height * math.tan(math.radians(fov) / 2))
+
+
 def render_view(env, size: tuple[int, int], azimuth: float = 0.0, elevation: float = 0.0,
                 fov: float = _DEFAULT_FOV) -> np.ndarray:  # fmt: skip
     """The perspective view of an equirectangular map from the subject (bilinear, wrapping in azimuth).
@@ -165,6 +200,85 @@ def render_view(env, size: tuple[int, int], azimuth: float = 0.0, elevation: flo
     return envmap_view(envmap._check_envmap(env, "panorama"), size, fov, view_rotation(azimuth, elevation))
 
 
+def round_sources(linear: np.ndarray, env: np.ndarray, white: float, rotation: np.ndarray, fov: float) -> np.ndarray:
+    """The view ``linear`` (``render_view`` of ``env`` with ``rotation`` and ``fov``) with the map's excess over
+    ``white`` drawn by an isotropic Gaussian instead of bilinear look-up (module docstring, "Round suns").
+
+    Args:
+        linear: (h, w, 3) float32 linear view of ``env``.
+        env: (H, 2H, 3) float linear map.
+        white: the map's value that the plate shows as white (1/k).
+        rotation: (3, 3) the view's ``view_rotation``.
+        fov: the view's horizontal field of view, degrees.
+
+    Returns:
+        (h, w, 3) float32: a new array, or ``linear`` itself when no compact region of the map in or near the view
+        exceeds ``white``.
+    """
+    env = envmap._check_envmap(env, "panorama")
+    fov = check_fov(fov)
+    if not (isinstance(white, numbers.Real) and math.isfinite(white) and white > 0):
+        raise RelightError(f"white: expected a finite positive value, got {white!r}")
+    if linear.ndim != 3 or linear.shape[2] != 3 or np.shape(rotation) != (3, 3):
+        raise RelightError(f"expected an (h, w, 3) view and a (3, 3) rotation, got {linear.shape} and "
+                           f"{np.shape(rotation)}")  # fmt: skip
+    excess = np.maximum(env - np.float32(white), 0)
+    hot = (excess.max(axis=2) > 0).astype(np.uint8)
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(hot, connectivity=8)
+    if n <= 1:
+        return linear
+    compact = np.zeros(n, bool)
+    compact[1:] = stats[1:, cv2.CC_STAT_AREA] <= ROUND_MAX_AREA  # a larger bright area's outline is the scene's
+    ys, xs = np.nonzero(compact[labels])
+    eh = env.shape[0]
+    d_cam = envmap.directions_envmap(eh)[ys, xs] @ np.asarray(rotation, np.float64)  # ω_camera = Rᵀ ω_map
+    vh, vw = linear.shape[:2]
+    focal = (vw / 2) / math.tan(math.radians(fov) / 2)
+    keep = -d_cam[:, 0] > 0.05  # ahead of the camera, and within the frame or just outside it
+    keep &= np.abs(d_cam[:, 1]) < -d_cam[:, 0] * 1.2 * vw / (2 * focal)
+    keep &= np.abs(d_cam[:, 2]) < -d_cam[:, 0] * (vh / 2 + 0.1 * vw) / focal
+    if not keep.any() or np.count_nonzero(keep) > ROUND_MAX_PIXELS:
+        return linear
+    ys, xs, d_cam, region = ys[keep], xs[keep], d_cam[keep], labels[ys[keep], xs[keep]]
+    sigma = math.pi / (2 * eh)  # radians: half a map pixel
+    power = excess[ys, xs].astype(np.float64) * envmap.solid_angles_envmap(eh)[ys, xs][:, None]  # radiance × sr
+    # where each lands (pixels) and how far its Gaussian reaches: to under 1 % of white (a sun's tail stays above
+    # white for 5 σ), σ magnified as the view stretches off its axis
+    cx, cy = d_cam[:, 1] / -d_cam[:, 0] * focal + vw / 2, vh / 2 - d_cam[:, 2] / -d_cam[:, 0] * focal
+    peak = power.max(axis=1) / (2 * math.pi * sigma**2)
+    tail = np.sqrt(2 * np.log(np.maximum(peak / (0.01 * white), math.e)))
+    reach = (tail + 1) * sigma * focal * (1 + ((cx - vw / 2) ** 2 + (cy - vh / 2) ** 2) / focal**2) + 2
+    rot = np.asarray(rotation, np.float64)
+    out = linear.copy()
+    for label in np.unique(region):  # one window per source: its rays and their map coordinates once
+        mine = np.flatnonzero(region == label)
+        x0, x1 = max(0, int((cx - reach)[mine].min())), min(vw, int((cx + reach)[mine].max()) + 1)
+        y0, y1 = max(0, int((cy - reach)[mine].min())), min(vh, int((cy + reach)[mine].max()) + 1)
+        if x1 <= x0 or y1 <= y0:
+            continue
+        cols = (np.arange(x0, x1) + 0.5 - vw / 2) / focal
+        rows = (vh / 2 - np.arange(y0, y1) - 0.5) / focal
+        rays = np.stack(np.broadcast_arrays(-1.0, cols[None, :], rows[:, None]), axis=-1)
+        rays /= np.linalg.norm(rays, axis=-1, keepdims=True)
+        w_map = rays @ rot.T  # envmap_view's map coordinates of the rays (wrapping in azimuth)
+        mx = np.mod(np.arctan2(-w_map[..., 1], w_map[..., 0]), 2 * np.pi) / (2 * np.pi) * (2 * eh) - 0.5
+        my = np.clip(np.arctan2(np.hypot(w_map[..., 0], w_map[..., 1]), w_map[..., 2]) / np.pi * eh - 0.5, 0, eh - 1)
+        delta = np.zeros((y1 - y0, x1 - x0, 3))
+        for k in mine:  # each pixel on its own part of the window
+            r0, c0 = max(0, int(cy[k] - reach[k]) - y0), max(0, int(cx[k] - reach[k]) - x0)
+            r1, c1 = min(vh, int(cy[k] + reach[k]) + 1) - y0, min(vw, int(cx[k] + reach[k]) + 1) - x0
+            win = np.s_[r0 : max(r0, r1), c0 : max(c0, c1)]
+            # the pixel's part in the bilinear look-up taken out ...
+            dx = np.abs(np.mod(mx[win] - xs[k] + eh, 2 * eh) - eh)
+            bilinear = np.maximum(1 - dx, 0) * np.maximum(1 - np.abs(my[win] - ys[k]), 0)
+            # ... and its power spread by the Gaussian of the angle to its centre (the chord: small angles)
+            chord2 = np.maximum(2 - 2 * (rays[win] @ d_cam[k]), 0)
+            gauss = np.exp(-chord2 / (2 * sigma**2)) / (2 * math.pi * sigma**2)
+            delta[win] += gauss[..., None] * power[k] - bilinear[..., None] * excess[ys[k], xs[k]]
+        out[y0:y1, x0:x1] += delta.astype(np.float32)
+    return np.maximum(out, 0)
+
+
 @dataclass(frozen=True)
 class PanoramaView:
     """A panorama seen in one direction (``panorama_view``).
@@ -179,6 +293,7 @@ class PanoramaView:
         source_shading: (3,) RGB shading that source alone gives a surface facing it, in the plate's units.
         rim: (direction (3,) in the camera's frame, rim RGB (3,) in the plate's linear units) of the brightest
             source behind the person (``relight_rt.apps.scene_rim.panorama_rim``), or None.
+        blur: the plate's own blur at its centre, Gaussian σ in pixels (``plate_blur``).
     """
 
     plate: np.ndarray
@@ -189,6 +304,7 @@ class PanoramaView:
     source_direction: np.ndarray
     source_shading: np.ndarray
     rim: tuple | None = None
+    blur: float = 0.0
 
 
 def source(env) -> tuple[np.ndarray, np.ndarray]:
@@ -268,15 +384,15 @@ def panorama_view(panorama, size: tuple[int, int], view) -> PanoramaView:
     if not mean > 0:
         raise RelightError(f"panorama: the view {az:g},{el:g} is black (nothing to expose); choose another --view")
     k = METER_GREY / mean
-    plate = _encode8(linear, k)
     rot = view_rotation(az, el)
+    plate = _encode8(round_sources(linear, env, 1 / k, rot, fov), k)
     light = sh.rotate(envmap.project_envmap(env), rot.T) * (k / math.pi)
     tan_v = math.tan(math.radians(fov) / 2) * height / width
     horizon = 0.5 + math.tan(math.radians(el)) / (2 * tan_v)  # a level world's horizon, seen by the tilted camera
     direction, power = source(env)
     return PanoramaView(plate=plate, light=light, exposure=k / peak, horizon=horizon, view=(az, el, fov),
                         source_direction=rot.T @ direction, source_shading=power * (k / math.pi),
-                        rim=panorama_rim(env, rot, k))  # fmt: skip
+                        rim=panorama_rim(env, rot, k), blur=plate_blur(env.shape[0], width, fov))  # fmt: skip
 
 
 _LEVELS = 65535  # the plate's linear values are read at this many steps for the 8-bit encoding (_encode8)
@@ -335,7 +451,8 @@ def composite_panorama(
         view: (azimuth, elevation[, fov]) or 'AZ,EL[,FOV]' in degrees (``parse_view``).
         size: the plate's (width, height) or 'WxH'; None: the person photo's size.
         mask, position, height, shadow, meter, match_camera, light_wrap, camera_height: as
-            ``relight_rt.apps.scene.composite`` (the camera height: where the panorama was shot from).
+            ``relight_rt.apps.scene.composite`` (the camera height: where the panorama was shot from; the camera's
+            blur of a full body: at least the plate's own, ``plate_blur``).
         exposure: "auto" or "physical" (the panorama's light as it is in the plate's units: the same here) or an EV
             offset to it.
         horizon: the horizon's row (fraction of the height); None: where the view's elevation puts it (clipped
@@ -373,4 +490,4 @@ def composite_panorama(
     return composite(relighter, image, pv.plate, mask=mask, light=light.astype(np.float32), position=position,
                      height=height, shadow=shadow, exposure="physical", fov=fov, white_balance=False, horizon=hz,
                      meter=meter, match_camera=match_camera, light_wrap=light_wrap, rim=rim_key is not None,
-                     rim_key=rim_key, camera_height=camera_height)  # fmt: skip
+                     rim_key=rim_key, camera_height=camera_height, plate_blur=pv.blur)  # fmt: skip

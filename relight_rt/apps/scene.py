@@ -27,7 +27,10 @@ Steps (all colour arithmetic in linear light; both photos are read as sRGB, as c
    sharpest part, ``camera_blur``: the person is what the camera focuses on, so a background soft only in
    parts, by depth, lends it nothing) exceeds the placed full-body person's (edge-width estimate,
    ``blur_sigma``), the person is blurred by the difference (a cut-off person too: it is in focus, but the
-   camera's own softness is everywhere); when the background around the person is noisier (``noise_sigma``,
+   camera's own softness is everywhere). Where the plate's blur is known (``plate_blur``: a panorama's plate,
+   soft by its map's resolution), a full body takes at least that: its feet stand on ground the plate shows at
+   their distance, in the same focus; a cut-off person, close to the camera, does not (the plate reads as a
+   background out of focus behind it). When the background around the person is noisier (``noise_sigma``,
    Immerkær's estimate), Gaussian noise of the missing standard deviation is added to the person (a fixed
    seed: the same inputs give the same picture).
 6. Shadows (``shadow=True``, the default; full-body people only), multiplied into the background before the
@@ -64,6 +67,7 @@ compositing verb (the Relighter has none: the relighting core never imports this
 from __future__ import annotations
 
 import math
+import numbers
 import os
 from dataclasses import dataclass, replace
 
@@ -456,9 +460,10 @@ def relight_person(relighter, dec, lighting: SceneLighting, mode) -> np.ndarray:
     return relighter.relight(dec, lit, background="transparent", exposure="physical")
 
 
-def camera_match(bg: np.ndarray, placed: Placement) -> tuple[Placement, float]:
-    """Step 5: ``placed`` blurred by what the background ``bg``'s camera blurs more, and the standard deviation of
-    the noise (sRGB) to add to the person after the encoding (0: none)."""
+def camera_match(bg: np.ndarray, placed: Placement, known_blur: float = 0.0) -> tuple[Placement, float]:
+    """Step 5: ``placed`` blurred by what the background ``bg``'s camera blurs more (its measured blur, at least
+    ``known_blur`` px), and the standard deviation of the noise (sRGB) to add to the person after the encoding
+    (0: none)."""
     premult, top, left = placed.premult, placed.top, placed.left
     new_h, new_w, feet_y = placed.height, placed.width, placed.feet_y
     hb, wb = bg.shape[:2]
@@ -475,7 +480,7 @@ def camera_match(bg: np.ndarray, placed: Placement) -> tuple[Placement, float]:
                            where=premult[..., 3:] > 1e-3)  # fmt: skip
         p_srgb = linear_to_srgb(np.clip(colour, 0, 1))
         # the person's sharpness: its premultiplied colour, so that its outline counts too
-        b_bg = camera_blur(grey(bg))
+        b_bg = max(camera_blur(grey(bg)), known_blur)
         b_p = blur_sigma(linear_to_srgb(premult[..., :3]).mean(axis=2))
         if b_bg > b_p + 0.25:  # the camera's own softness reaches a close portrait too
             sigma = min(math.sqrt(b_bg**2 - b_p**2), 8.0)
@@ -638,6 +643,7 @@ def composite(
     rim: bool = False,
     rim_key=None,
     camera_height: float = CAMERA_M,
+    plate_blur: float = 0.0,
 ) -> np.ndarray:
     """Relight the person of ``image`` for the scene of ``background`` and put it there (module docstring).
 
@@ -671,6 +677,8 @@ def composite(
         rim_key: with ``rim``: (direction (3,), rim RGB (3,)) of a source known exactly (``relight_rt.apps.scene_rim``;
             relight_rt.apps.panorama's sun or window).
         camera_height: the background camera's height above the ground, metres (step 4's perspective).
+        plate_blur: the background's own blur where it is known (Gaussian σ, px; relight_rt.apps.panorama's plate):
+            step 5 blurs a full-body person to at least that.
 
     Returns:
         (H_bg, W_bg, 3) float32 sRGB in [0, 1].
@@ -689,6 +697,8 @@ def composite(
     if meter not in METERS:
         raise RelightError(f"meter: expected one of {list(METERS)}, got {meter!r}")
     fov = check_fov(fov)
+    if not (isinstance(plate_blur, numbers.Real) and math.isfinite(plate_blur) and plate_blur >= 0):
+        raise RelightError(f"plate_blur: expected a finite blur >= 0 in pixels, got {plate_blur!r}")
     bg = read_background(background)
     # the background's own light: the light, its white balance or the exposure's target (not for a light used as
     # it is, as relight_rt.apps.panorama gives: "physical", no balance)
@@ -709,7 +719,7 @@ def composite(
     placed = place(rgba, bg.shape, pos, frac, hz, cam)
     noise_add = 0.0
     if match_camera:  # blur now, noise after the sRGB encoding
-        placed, noise_add = camera_match(bg, placed)
+        placed, noise_add = camera_match(bg, placed, float(plate_blur) if placed.full_body else 0.0)
     hb, wb = bg.shape[:2]
     top, left, premult = placed.top, placed.left, placed.premult
     box_bottom, box_right = top + premult.shape[0], left + premult.shape[1]

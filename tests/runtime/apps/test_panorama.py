@@ -16,7 +16,9 @@ from relight_rt.apps.panorama import (
     panorama_view,
     parse_size,
     parse_view,
+    plate_blur,
     render_view,
+    round_sources,
     source,
     view_rotation,
 )
@@ -129,8 +131,13 @@ def test_the_plate_is_the_metered_view_and_the_light_is_in_its_units():
     linear = render_view(env, (72, 96), 0, 0, 70)
     assert pv.plate.shape == (72, 96, 3) and pv.plate.dtype == np.uint8
     assert pv.exposure == pytest.approx(METER_GREY / float((linear @ REC709).mean()), rel=1e-5)
-    expect = np.clip(linear * pv.exposure, 0, 1)
-    np.testing.assert_allclose(srgb_to_linear(pv.plate), expect, atol=0.01)
+    # the metered view, its map pixels brighter than white drawn round (round_sources)
+    rounded = round_sources(linear, env, 1 / pv.exposure, view_rotation(0, 0), 70)
+    np.testing.assert_allclose(srgb_to_linear(pv.plate), np.clip(rounded * pv.exposure, 0, 1), atol=0.01)
+    assert np.abs(rounded - linear).max() * pv.exposure > 0.01  # the spot is brighter than white: it was redrawn
+    far = np.abs(rounded - linear).max(axis=2) == 0  # elsewhere the plate is the view as it is
+    assert far.mean() > 0.8
+    np.testing.assert_allclose(srgb_to_linear(pv.plate)[far], np.clip(linear * pv.exposure, 0, 1)[far], atol=0.01)
     # a uniform panorama: a white surface gets shading equal to the plate's value
     flat = panorama_view(np.full((32, 64, 3), 3.0, np.float32), (64, 64), (0, 0))
     shading = sh.irradiance(flat.light, np.array([[1.0, 0, 0]]))[0]
@@ -150,6 +157,118 @@ def test_the_light_is_the_panoramas_in_the_views_frame(hdri, name, view):
     assert irradiance_error(pv.light, truth) <= 0.02
     other = envmap.project_envmap(rotated_map(env, view_rotation(view[0] + 90, view[1]))) * (pv.exposure / math.pi)
     assert irradiance_error(other, truth) > 0.05  # the test can tell a view turned by 90°
+
+
+@pytest.mark.parametrize(("height", "width", "fov"), [(32, 320, 60), (64, 320, 60), (32, 240, 90)])
+def test_the_plate_blur_is_half_the_plate_pixels_of_a_map_pixel(height, width, fov):
+    """A sharp meridian (a step in azimuth, area-averaged into the map's pixels as a map's camera records it) seen in
+    the plate: the rms over 8 sub-pixel places of the edge of its profile's σ is ``plate_blur`` (within 3 %)."""
+    variances = []
+    for offset in (np.arange(8) + 0.5) / 8:
+        cols = np.arange(2 * height) - height + 0.5  # a map column's centre, map pixels from the view's axis
+        share = np.clip(cols + 0.5 - offset, 0, 1)  # of the column lying right of the edge (the edge at offset)
+        env = np.repeat((0.1 + 0.9 * share[::-1])[None, :, None], height, 0)  # azimuth runs right to left
+        env = np.repeat(env, 3, 2).astype(np.float32)
+        row = render_view(env, (9, width), 0, 0, fov)[4, :, 0]
+        t = np.diff((row - 0.1) / 0.9)  # the edge's profile as a density over the plate's columns
+        c = np.arange(width - 1) + 0.5
+        mean = float(t @ c / t.sum())
+        variances.append(float(t @ (c - mean) ** 2 / t.sum()))
+    assert math.sqrt(np.mean(variances)) == pytest.approx(plate_blur(height, width, fov), rel=0.03)
+    assert plate_blur(2 * height, width, fov) == pytest.approx(plate_blur(height, width, fov) / 2)
+
+
+@pytest.mark.parametrize(("args", "match"), [((0, 320, 60), "map height"), ((32, 2.5, 60), "view width"),
+                                             ((32, 320, 180), "field of view")])  # fmt: skip
+def test_bad_plate_blur_arguments(args, match):
+    with pytest.raises(RelightError, match=match):
+        plate_blur(*args)
+
+
+def test_bad_round_sources_arguments():
+    env, white = one_sun()
+    view = render_view(env, (30, 40), 0, 0, 60)
+    rot = view_rotation(0, 0)
+    bad = [((view, env, 0.0, rot, 60), "white"), ((view, env, float("nan"), rot, 60), "white"),
+           ((view[..., 0], env, white, rot, 60), "view"), ((view, env, white, rot[:2], 60), "rotation"),
+           ((view, env[:, :40], white, rot, 60), "panorama"), ((view, env, white, rot, 5), "field")]  # fmt: skip
+    for args, match in bad:
+        with pytest.raises(RelightError, match=match):
+            round_sources(*args)
+
+
+def one_sun(h=32, excess=1000.0, where=(0, 0)):
+    """(map, white): a grey map (0.2) with one pixel ``excess`` × white brighter, near azimuth / elevation
+    ``where`` (degrees from the view's axis), white = 1."""
+    env = np.full((h, 2 * h, 3), 0.2, np.float32)
+    az, el = where
+    i = int((90 - el) / 180 * h)
+    j = int((0.5 + az / 360) * 2 * h) % (2 * h)  # the map's centre column is the view's axis, its right the image's
+    env[i, j] += excess
+    return env, 1.0
+
+
+def test_a_bright_pixel_is_drawn_round_with_its_power():
+    """A one-pixel sun 1000 x brighter than white: bilinear look-up clips it as a square (its clipped box is
+    filled), round_sources as a disc (the box filled about π/4) of the same size in every direction; its power on
+    the plate is kept (within 3 %); a map with nothing over white is left as it is."""
+    env, white = one_sun()
+    rot = view_rotation(0, 0)
+    size = (120, 160)
+    linear = render_view(env, size, 0, 0, 60)
+    rounded = round_sources(linear, env, white, rot, 60)
+
+    def clipped_box(img):
+        ys, xs = np.nonzero(img.max(axis=2) > white)
+        box = (ys.max() - ys.min() + 1) * (xs.max() - xs.min() + 1)
+        return len(ys) / box, (ys.max() - ys.min() + 1) / (xs.max() - xs.min() + 1)
+
+    square_fill, _ = clipped_box(linear)
+    round_fill, aspect = clipped_box(rounded)
+    assert square_fill > 0.9 and 0.7 < round_fill < 0.86 and aspect == pytest.approx(1, abs=0.12)
+    # the power: the added radiance times each plate pixel's solid angle, against the bilinear look-up's
+    focal = 80 / math.tan(math.radians(30))
+    yy, xx = np.mgrid[:120, :160]
+    d_omega = 1 / (focal**2 * (1 + ((xx + 0.5 - 80) ** 2 + (yy + 0.5 - 60) ** 2) / focal**2) ** 1.5)
+    base = render_view(np.full_like(env, 0.2), size, 0, 0, 60)
+    power = lambda img: float(((img - base)[..., 0] * d_omega).sum())  # noqa: E731
+    assert power(rounded) == pytest.approx(power(linear), rel=0.03)
+    dull = np.full((32, 64, 3), 0.5, np.float32)
+    flat = render_view(dull, size, 0, 0, 60)
+    assert round_sources(flat, dull, 1.0, rot, 60) is flat
+    wide = env.copy()
+    wide[12:21, 20:28] += 5.0  # 72 map pixels over white in one region at the frame's left: a bright area
+    seen = render_view(wide, size, 0, 0, 60)
+    kept = round_sources(seen, wide, white, rot, 60)
+    assert seen[:, :20].max() > 2 * white  # the area is in the frame ...
+    np.testing.assert_array_equal(kept[:, :30], seen[:, :30])  # ... and its own outline is kept
+    assert np.abs(kept - seen).max() > 1  # the sun, a region of its own, is still drawn round
+
+
+def test_round_sources_is_the_gaussian_drawn_everywhere():
+    """Against a brute-force drawing (every plate pixel, every hot pixel, the excess's bilinear part from
+    envmap_view): equal within 1 % of white, for three hot pixels of a turned view."""
+    env, white = one_sun(32, 50.0, (10, 5))
+    env[10, 20] += 3.0
+    env[14, 40] += 20.0
+    view = (25, 8, 70)
+    rot = view_rotation(*view[:2])
+    size = (90, 120)
+    linear = render_view(env, size, *view)
+    excess = np.maximum(env - white, 0)
+    expect = linear - envmap_view(excess, size, view[2], rot)
+    ys, xs = np.nonzero(excess.max(axis=2) > 0)
+    dirs = envmap.directions_envmap(32)[ys, xs] @ rot
+    power = excess[ys, xs] * envmap.solid_angles_envmap(32)[ys, xs][:, None]
+    focal = 60 / math.tan(math.radians(35))
+    yy, xx = np.mgrid[:90, :120]
+    rays = np.stack([-np.ones(xx.shape), (xx + 0.5 - 60) / focal, (45 - yy - 0.5) / focal], -1)
+    rays /= np.linalg.norm(rays, axis=-1, keepdims=True)
+    sigma = math.pi / 64
+    angle = np.arccos(np.clip(rays @ dirs.T, -1, 1))
+    expect = expect + np.exp(-(angle**2) / (2 * sigma**2)) / (2 * math.pi * sigma**2) @ power
+    np.testing.assert_allclose(round_sources(linear, env, white, rot, view[2]), np.maximum(expect, 0),
+                               atol=0.01 * white)  # fmt: skip
 
 
 # ------------------------------------------------------------------------------------------------ composite
@@ -190,6 +309,34 @@ def test_composite_lights_the_person_with_the_panoramas_light(hdri, diffuse, mon
     composite_panorama(diffuse, img, env, view, mask=mask, exposure=1.0, size="120x90", meter="background")
     wide = panorama_view(env, (120, 90), view).light  # another size: another view, metered again
     np.testing.assert_allclose(seen[0], 2 * wide, rtol=1e-4, atol=1e-6)  # EV +1 doubles it
+
+
+def test_a_full_body_is_blurred_to_the_plates_own_blur(diffuse, monkeypatch):
+    """A 512 x 256 map seen 60° wide on 640 pixels blurs the plate by σ ≈ 3.4 px (``plate_blur``), more than the
+    plate's sharpest part measures (the bilinear ramps of a magnified map read as ~1.5 px): a full body is blurred
+    to it (before, a sharp figure stood on a soft plate); a half body is not."""
+    import relight_rt.apps.scene as scene
+
+    seen = []
+    match = scene.camera_match
+
+    def spy(bg, placed, known_blur=0.0):
+        seen.append(known_blur)
+        return match(bg, placed, known_blur)
+
+    monkeypatch.setattr(scene, "camera_match", spy)
+    img, mask = flat_person()
+    env, _ = lumpy_panorama(64)
+    composite_panorama(diffuse, img, env, (0, 0, 60), mask=mask, size=(200, 150), meter="background")
+    assert seen == [pytest.approx(plate_blur(64, 200, 60))] and seen[0] > 2
+    seen.clear()
+    half = mask.copy()
+    half[100:] = half[99]
+    composite_panorama(diffuse, img, env, (0, 0, 60), mask=half, size=(200, 150), meter="background")
+    assert seen == [0.0]
+    seen.clear()
+    composite_panorama(diffuse, img, env, (0, 0, 60), mask=mask, size=(200, 150), match_camera=False)
+    assert seen == []
 
 
 def test_the_panorama_composite_reads_the_photo_once_and_estimates_no_light(diffuse_models_dir, tmp_path,

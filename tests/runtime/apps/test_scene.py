@@ -177,6 +177,28 @@ def test_a_half_body_takes_the_cameras_own_blur(diffuse):
     assert steepest(sharp, True) == pytest.approx(steepest(sharp, False), rel=0.05)
 
 
+def test_a_known_plate_blur_blurs_a_full_body_to_it(diffuse):
+    """``plate_blur`` (a panorama's plate, whose blur is known) blurs a full-body person where the plate's measured
+    blur would not (a flat plate has no edge to measure); a half body, close to the camera, stays sharp; a bad
+    value is refused."""
+    img, mask = flat_person()
+    plate = np.full((150, 100, 3), 40, np.uint8)
+    kw = {**SAME, "match_camera": True}
+
+    def steepest(blur, m=mask, **extra):
+        row = composite(diffuse, img, plate, mask=m, plate_blur=blur, **{**kw, **extra})[80, 20:45].mean(1)
+        return float(np.abs(np.diff(row)).max())
+
+    assert steepest(3.0) < 0.6 * steepest(0.0)
+    half = mask.copy()
+    half[100:] = half[99]  # cut by the bottom border: placed as framed
+    loose = {"position": None, "height": None}
+    assert steepest(3.0, half, **loose) == pytest.approx(steepest(0.0, half, **loose), rel=1e-6)
+    for bad in (-1.0, float("nan"), "3"):
+        with pytest.raises(RelightError, match="plate_blur"):
+            composite(diffuse, img, plate, mask=mask, plate_blur=bad, **kw)
+
+
 def test_the_person_hides_some_sky_from_the_ground_around_its_feet(diffuse):
     """Ambient occlusion (step 6): under an even light the ground beside the feet, beyond the small contact
     ellipse, is darker by the share of the sky the body hides, less the farther it is; before, it was unchanged
