@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import cv2
 import numpy as np
 
 from ...image.regions import Region, grid_of_region
@@ -18,6 +19,7 @@ STRADDLE = 0.75  # person="all": a pose-graph person this much inside the others
 CUT_WIDTH = 0.125  # a portrait's body is cut by the bottom border over at least this x its box's width
 PEER_HEIGHT = 0.75  # person="largest": someone beside the person, as tall within this factor, stands with them
 BESIDE = 0.1  # ... looked for where a blob of the selfie graph reaches this x the person's width past their box
+JOIN_GAP = 2  # canvas pixels: a part of the selfie graph's segmentation this close to the matte is joined to it
 
 
 def person_outside(person: Person, other: Person) -> Person:
@@ -209,3 +211,22 @@ def box_area(box) -> float:
 
 def box_height(box) -> float:
     return 0.0 if box is None else box[3] - box[1]
+
+
+def joined_part(prob: np.ndarray, mine: np.ndarray, seeds: list[tuple[int, int]]) -> np.ndarray | None:
+    """Where the selfie graph sees someone joined to the people matted: the 8-connected components of its person
+    pixels outside them (``prob`` >= 0.5 and not ``mine``, both on one canvas) that hold a ``seeds`` point (row,
+    column: a face the matte does not hold) and touch ``mine`` (within JOIN_GAP canvas pixels); None when none does.
+    A face alone says someone is there; joined in the selfie graph's view, they stand with the person (a couple
+    embracing, a child leaning on a mother); a face apart from them is a passer-by."""
+    n, labels = cv2.connectedComponents(((prob >= 0.5) & ~mine).astype(np.uint8), connectivity=8)
+    if n <= 1:
+        return None
+    near = cv2.dilate(mine.astype(np.uint8), np.ones((2 * JOIN_GAP + 1,) * 2, np.uint8)).astype(bool)
+    picked = {int(labels[i, j]) for i, j in seeds if 0 <= i < labels.shape[0] and 0 <= j < labels.shape[1]} - {0}
+    part = np.zeros(mine.shape, bool)
+    for label in picked:
+        comp = labels == label
+        if (comp & near).any():
+            part |= comp
+    return part if part.any() else None

@@ -241,3 +241,45 @@ def test_someone_beside_from_blobs_and_faces():
     assert not _layout.someone_beside(box, [(1.0, (300.0, 200.0, 360.0, 330.0))], [])  # 130 tall: a child far off
     assert _layout.someone_beside(box, [(1.0, (300.0, 60.0, 380.0, 340.0))], [])
     assert _layout.someone_beside(box, [], [Face((300.0, 60.0, 320.0, 80.0), 0.9)])
+
+
+def two_bodies(gap: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A bright body on the left and another on the right ``gap`` px apart (negative: overlapping), on black: the
+    photo (H, W, 3) and the two bodies' masks."""
+    h, w = 300, 400
+    yy, xx = np.mgrid[0:h, 0:w] + 0.5
+    left = (((xx - 130) / 60) ** 2 + ((yy - 150) / 120) ** 2) < 1
+    right = (((xx - (250 + gap)) / 60) ** 2 + ((yy - 160) / 110) ** 2) < 1
+    right &= ~left
+    rgb = np.repeat((left | right).astype(np.float32)[..., None], 3, 2)
+    return rgb, left, right
+
+
+def matted(rgb: np.ndarray, mask: np.ndarray) -> M.Person:
+    """The pose graph's segmentation of ``mask`` alone (a person found), on a region around it."""
+    ys, xs = np.nonzero(mask)
+    region = M.Region.around(float(xs.min()), float(ys.min()), float(xs.max() + 1), float(ys.max() + 1))
+    canvas = M.crop_region(np.repeat(mask.astype(np.float32)[..., None], 3, 2), region)[..., 0]
+    return M.Person(region, np.where(canvas > 0.5, 10.0, -10.0).astype(np.float32), 0.99)
+
+
+@pytest.mark.parametrize(
+    ("gap", "score", "where", "joined"),
+    [(-20.0, 0.9, "right", True), (40.0, 0.9, "right", False), (-20.0, 0.6, "right", False),
+     (-20.0, 0.9, "left", False)],
+)  # fmt: skip
+def test_someone_joined_to_the_person_with_a_face_of_their_own_is_taken(gap, score, where, joined):
+    """person="largest": a face outside the matte (score >= _JOINED_FACE) lying in a part of the selfie graph's
+    segmentation that touches the matte brings that part in (a couple embracing, a boy sitting against his mother:
+    people_masks photos half B 0.863 -> 0.870); a face apart from the person (a passer-by), an unsure one, or one the
+    matte holds already brings nothing."""
+    rgb, left, right = two_bodies(gap)
+    matter = M.PersonMatter(refine=False)
+    matter.roi, matter.face = _Bright(), None
+    main = matted(rgb, left)
+    cx = 250.0 + gap if where == "right" else 130.0
+    face = Face((cx - 20.0, 70.0, cx + 20.0, 110.0), score)
+    extra = matter._joined(rgb, [main], [face])
+    assert len(extra) == int(joined)
+    alpha = matter.alpha(rgb, [main, *extra])
+    assert iou(alpha, left | right if joined else left) > 0.95
