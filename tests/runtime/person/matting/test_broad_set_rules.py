@@ -11,7 +11,7 @@ from test_people_found import _Bright, head_and_shoulders
 from relight_rt import RelightError
 from relight_rt.person import matting as M
 from relight_rt.person.face_detector import Face
-from relight_rt.person.matting import _layout, _matter
+from relight_rt.person.matting import _layout, _matter, _segmentation
 
 
 class _Unsure:
@@ -283,3 +283,41 @@ def test_someone_joined_to_the_person_with_a_face_of_their_own_is_taken(gap, sco
     assert len(extra) == int(joined)
     alpha = matter.alpha(rgb, [main, *extra])
     assert iou(alpha, left | right if joined else left) > 0.95
+
+
+def test_a_selfie_graph_person_cut_by_its_regions_side_is_taken_whole():
+    """_widened: where the selfie graph's segmentation runs into its region's left or right side inside the photo,
+    it is run again on a region reaching past that side, so whoever stands there comes whole, not cut down the
+    middle (an old man's friend in profile halved: people_masks p277-like 0.66 -> 0.96); a segmentation clear of its
+    region's sides is kept as it is."""
+    rgb, left, right = two_bodies(-20.0)
+    both = left | right
+    matter = M.PersonMatter(refine=False)
+    matter.roi, matter.face = _Bright(), None
+    cut = matter._roi_person(rgb, M.Region(125.0, 150.0, 250.0), 0.9)  # reaches x 0..250, the bodies 70..290
+    box = M.person_box(cut, rgb.shape[:2])
+    assert box[2] == pytest.approx(250.0, abs=3.0)  # cut by the region's right side
+    whole = matter._widened(rgb, cut)
+    assert M.person_box(whole, rgb.shape[:2])[2] == pytest.approx(290.0, abs=3.0)
+    assert iou(matter.alpha(rgb, [whole]), both) > 0.95
+    clear = matter._roi_person(rgb, M.Region(190.0, 150.0, 400.0), 0.9)
+    assert matter._widened(rgb, clear) is clear
+    rgb[right & (rgb[..., 0] > 0) & ~left] = 0.7  # the graph unsure (0.7) of what lies past the cut: not taken
+    dim = matter._roi_person(rgb, M.Region(125.0, 150.0, 250.0), 0.9)
+    assert matter._widened(rgb, dim) is dim
+
+
+def test_a_continuation_takes_from_the_wider_answer_only_what_goes_on_from_the_cut():
+    """continued: over the first region the first answer stays (framed larger, the graph can lose half a face); past
+    the cut side only the wider answer's parts joined to the cut are added, not a blob apart from it."""
+    first = M.Person(M.Region(100.0, 100.0, 200.0), np.full((256, 256), -10.0, np.float32), 0.9, "roi")
+    first.logits[64:192, 128:] = 10.0  # a person running into the region's right side (x 200) at rows 50..150
+    wide = M.Person(M.Region(200.0, 100.0, 400.0), np.full((256, 256), -10.0, np.float32), 0.9, "roi")
+    # on wide's canvas (x 0..400, 0.64 px a pixel): nothing over first's region, the person going on to x 300, and
+    # a blob apart at x 340..380
+    wide.logits[96:160, 128:192] = 10.0
+    wide.logits[96:160, 218:243] = 10.0
+    out = _layout.continued(wide, first, (False, False, True, False))
+    xs = np.array([150.0, 250.0, 360.0])
+    assert (_segmentation.prob_at(out, xs, np.full(3, 100.0)) > 0.5).tolist() == [True, True, False]
+    assert _layout.continued(wide, first, (True, False, False, False)) is first  # the left side was not cut
