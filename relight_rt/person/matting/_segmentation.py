@@ -35,7 +35,8 @@ class Person:
     region: Region
     logits: np.ndarray  # (256, 256) float32 person logits in the region's canvas
     presence: float
-    source: str = "pose"  # which graph's segmentation: "pose" (bodies) or "roi" (head-and-shoulders)
+    source: str = "pose"  # which graph's segmentation: "pose" (bodies) or "roi" (head-and-shoulders); "own": the
+    # selfie graph's, kept to the people's own colours (PersonMatter._own_colours: part of them, not a person)
     whole: np.ndarray | None = field(default=None, repr=False, compare=False)  # split from these logits (see
     # relight_rt.person.matting._parts.split_by_faces): the matte is made from the whole, not from the parts
 

@@ -11,7 +11,7 @@ from test_people_found import _Bright, head_and_shoulders
 from relight_rt import RelightError
 from relight_rt.person import matting as M
 from relight_rt.person.face_detector import Face
-from relight_rt.person.matting import _layout, _matter, _segmentation
+from relight_rt.person.matting import _colours, _layout, _matter, _segmentation
 
 
 class _Unsure:
@@ -321,3 +321,64 @@ def test_a_continuation_takes_from_the_wider_answer_only_what_goes_on_from_the_c
     xs = np.array([150.0, 250.0, 360.0])
     assert (_segmentation.prob_at(out, xs, np.full(3, 100.0)) > 0.5).tolist() == [True, True, False]
     assert _layout.continued(wide, first, (True, False, False, False)) is first  # the left side was not cut
+
+
+class _NotGround:
+    """A stand-in for the selfie graph: a person wherever the canvas is not the mid-grey ground (nor black padding),
+    so it sees a runner's shadow as much as his trousers."""
+
+    def run(self, feeds):
+        img = feeds["image"][0]
+        seen = (np.abs(img - 0.5).max(0) > 0.05) & (img.max(0) > 0.0) | (img.max(0) < 0.08) & (img.max(0) > 0.0)
+        return {"segmentation": seen.astype(np.float32)[None, None]}
+
+
+def runner(h: int = 300, w: int = 400) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """A blue shirt and black trousers (two legs) on mid-grey ground, a dark grey shadow on the ground at the feet."""
+    yy, xx = np.mgrid[0:h, 0:w] + 0.5
+    parts = {
+        "shirt": (np.abs(xx - 200) < 40) & (yy > 60) & (yy < 150),
+        "leg1": (np.abs(xx - 180) < 12) & (yy >= 150) & (yy < 250),
+        "leg2": (np.abs(xx - 220) < 12) & (yy >= 150) & (yy < 250),
+        "shadow": (xx > 232) & (xx < 330) & (yy > 235) & (yy < 250),
+    }
+    rgb = np.full((h, w, 3), 0.5, np.float32)
+    rgb[parts["shirt"]] = (0.2, 0.3, 0.8)
+    rgb[parts["leg1"] | parts["leg2"]] = 0.03
+    rgb[parts["shadow"]] = 0.3
+    return rgb, parts
+
+
+@pytest.mark.parametrize("ratio", [_colours.OWN_RATIO, 0.0])
+def test_a_part_the_selfie_graph_sees_in_the_persons_own_colours_is_theirs(ratio, monkeypatch):
+    """_own_colours: what the selfie graph sees joined to the matte is the person's where its colour is theirs (the
+    runner's other black trouser leg, which the pose graph missed: the parkour clip's worst frames 0.60 -> 0.94), not
+    where it is the ground's (his shadow); with the colour test made to refuse everything, nothing is added."""
+    monkeypatch.setattr(_colours, "OWN_RATIO", ratio)
+    rgb, parts = runner()
+    matter = M.PersonMatter(refine=False)
+    matter.roi, matter.face = _NotGround(), None
+    found = matted(rgb, parts["shirt"] | parts["leg1"])
+    extra = matter._own_colours(rgb, [found])
+    alpha = matter.alpha(rgb, [found, *extra])
+    leg2 = (alpha[parts["leg2"]] >= 0.5).mean()
+    assert (alpha[parts["shadow"]] >= 0.5).mean() < 0.1
+    if ratio:
+        assert leg2 > 0.9
+        monkeypatch.setattr(matter, "people", lambda rgb, name="image": [found, *extra])
+        whole, parts = matter.parts(rgb)  # the leg is part of the runner, not a person of its own
+        assert len(parts) == 1 and np.array_equal(parts[0], whole)
+    else:
+        assert extra == [] and leg2 < 0.1
+
+
+def test_colour_centres_find_each_cluster_and_give_the_same_answer_each_call():
+    rng = np.random.default_rng(1)
+    a = rng.normal((10.0, 0.0, 0.0), 1.0, (600, 3))
+    b = rng.normal((80.0, 20.0, -20.0), 1.0, (900, 3))
+    x = np.concatenate([a, b]).astype(np.float32)
+    c = _colours.centres(x, 2)
+    assert np.allclose(np.sort(c[:, 0]), [10.0, 80.0], atol=0.5)
+    assert np.array_equal(c, _colours.centres(x, 2))
+    d, label = _colours.nearest(np.array([[11.0, 0.0, 0.0]], np.float32), c)
+    assert d[0] < 2.0 and c[label[0], 0] < 20.0
