@@ -189,6 +189,7 @@ def continued(wide: Person, first: Person, cut: tuple[bool, bool, bool, bool]) -
     rim = cv2.dilate(part.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool) & past
     return Person(wide.region, np.where(rim, wide.logits, before).astype(np.float32), first.presence, first.source)
 
+
 def held(raised: Person, first: Person, shape: tuple[int, int]) -> Person:
     """The selfie graph's segmentation ``raised`` (of a region reaching higher than ``first``'s) joined with
     ``first`` (the larger logit where both regions reach) and kept to ``first``'s columns (its box, widened by

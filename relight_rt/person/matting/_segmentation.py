@@ -48,6 +48,19 @@ def sigmoid(x: np.ndarray) -> np.ndarray:
     return 1.0 / (1.0 + np.exp(-x))
 
 
+def as_logits(prob: np.ndarray) -> np.ndarray:
+    """A probability map as float32 logits (clipped at 1e-7 from 0 and 1)."""
+    p = prob.astype(np.float64)
+    return (np.log(np.clip(p, 1e-7, 1.0)) - np.log(np.clip(1.0 - p, 1e-7, 1.0))).astype(np.float32)
+
+
+def canvas_points(region: Region) -> tuple[np.ndarray, np.ndarray]:
+    """Image coordinates (xs, ys), each (256, 256) float64, of the centres of ``region``'s canvas pixels."""
+    k, bx, by = grid_of_region(region)
+    c = np.arange(SIZE, dtype=np.float64)
+    return np.meshgrid((c - bx) / k, (c - by) / k)
+
+
 def components(prob: np.ndarray, min_area: int) -> list[tuple[int, tuple[int, int, int, int]]]:
     """(area, (x0, y0, x1, y1)) of the 8-connected regions of prob > 0.5, largest first."""
     n, _, stats, _ = cv2.connectedComponentsWithStats((prob > 0.5).astype(np.uint8), connectivity=8)
