@@ -20,8 +20,11 @@ Where the pose graph's presence flag says nobody, the selfie graph vouches for a
 the same region has the pose graph's shape (a runner in mid-air, a man lying down); a close portrait is checked as
 one when a face at least 0.3x the person's width lies in a pose-graph person ending near the bottom; what the pose
 graph half-sees is the person's where the selfie graph agrees (dark trousers); and with nobody else found, the
-default matte takes the selfie graph's blob when it is sure of it (measured on a broad real set:
-benchmarks/people_masks_eval.py).
+default matte takes the selfie graph's blob when it is sure of it. The default matte also takes someone the selfie
+graph sees joined to the person who shows a face of their own (an embracing couple), carries a selfie-graph
+segmentation on past its region's side where it was cut there (whole or not at all), and takes what the selfie graph
+sees joined to the person in the person's own colours (dark trousers the pose graph misses, not their shadow)
+(measured on a broad real set: benchmarks/people_masks_eval.py).
 
 ``person="all"`` gathers the selfie graph's probability over every tile scale (not only the first that
 finds anybody), so passers-by beside a big subject are candidates too; a candidate already inside the
@@ -57,6 +60,7 @@ Modules (one concept each; this package re-exports the public names):
 - ``_detect``: where people are (selfie-graph blobs over tiles, faces, a wide blob's strips, faint places).
 - ``_matter``: :class:`PersonMatter` (segmentation, choosing the people, the full-resolution alpha) and
   :func:`shared_matter`.
+- ``_colours``: the person's own colours (what the selfie graph sees joined to the matte, kept by colour).
 - ``_parts``: a group's people as parts of one matte (a segmentation split by faces, rejoined for the matte,
   each person's share of it).
 - ``_coarse``: the coarse matte at full resolution (working grid + fast guided filter, relight_rt.image.guided_filter).

@@ -5,19 +5,22 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import cv2
 import numpy as np
 
 from ...image.regions import Region, grid_of_region
 from ..face_detector import Face
 from ._models import SIZE
 from ._parts import faces_side_by_side, split_by_faces
-from ._segmentation import LOGIT_CLIP, Person, contains, logits_on_grid, person_box, prob_at
+from ._segmentation import LOGIT_CLIP, Person, contains, logits_on_grid, person_box, prob_at, sigmoid
 
 COVERED = 0.5  # a candidate (blob) this much inside people already matted is one of them
 STRADDLE = 0.75  # person="all": a pose-graph person this much inside the others together straddles two
 CUT_WIDTH = 0.125  # a portrait's body is cut by the bottom border over at least this x its box's width
 PEER_HEIGHT = 0.75  # person="largest": someone beside the person, as tall within this factor, stands with them
 BESIDE = 0.1  # ... looked for where a blob of the selfie graph reaches this x the person's width past their box
+SURE_PART = 0.95  # a part carried on past a region's cut side needs the selfie graph's mean probability this high
+JOIN_GAP = 2  # canvas pixels: a part of the selfie graph's segmentation this close to the matte is joined to it
 
 
 def person_outside(person: Person, other: Person) -> Person:
@@ -142,6 +145,51 @@ def without_straddlers(
     return [p for i, p in enumerate(people) if i in kept or i not in masks]
 
 
+def resampled(person: Person, region: Region) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``person``'s logits on ``region``'s canvas (nearest canvas pixel; -LOGIT_CLIP outside ``person``'s region),
+    and the image x of that canvas's columns' centres and y of its rows'."""
+    k, bx, by = grid_of_region(region)
+    c = np.arange(SIZE, dtype=np.float64)
+    x, y = (c - bx) / k, (c - by) / k
+    kf, bxf, byf = grid_of_region(person.region)
+    i = np.floor(kf * y + byf + 0.5).astype(int)  # nearest canvas pixel of person's region
+    j = np.floor(kf * x + bxf + 0.5).astype(int)
+    rows, cols = (i >= 0) & (i < SIZE), (j >= 0) & (j < SIZE)
+    out = np.full((SIZE, SIZE), -LOGIT_CLIP, np.float32)
+    out[np.ix_(rows, cols)] = person.logits[np.ix_(i[rows], j[cols])]
+    return out, x, y
+
+
+def continued(wide: Person, first: Person, cut: tuple[bool, bool, bool, bool]) -> Person:
+    """``first`` (a selfie-graph segmentation that runs into its region's sides ``cut`` = (left, top, right, bottom)
+    inside the image) carried on past those sides by ``wide`` (the same graph's segmentation of a region reaching
+    further), on ``wide``'s canvas: ``first``'s logits over its own region, and past each cut side only the parts of
+    ``wide``'s segmentation that go on from where ``first`` was cut (8-connected to a canvas pixel next to one of
+    ``first``'s person pixels on its region's edge) and that the graph is sure of (mean probability >= SURE_PART: a
+    red wall's glow and a blurred shoulder behind were taken at 0.9), with one canvas pixel around them. Nothing of
+    ``wide`` elsewhere: framed larger, the graph can answer worse over ``first``'s region (half a face lost against
+    a bright sky)."""
+    before, x, y = resampled(first, wide.region)
+    x0, y0, x1, y1 = first.region.box()
+    xs, ys = x[None, :], y[:, None]
+    own = (xs >= x0) & (xs <= x1) & (ys >= y0) & (ys <= y1)
+    sides = (xs < x0, ys < y0, xs > x1, ys > y1)
+    past = np.zeros((SIZE, SIZE), bool)
+    for side, beyond in zip(cut, sides, strict=True):
+        if side:
+            past |= beyond & ~own
+    seeds = past & cv2.dilate(((before > 0) & own).astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
+    mask = (wide.logits > 0) & past
+    _, labels = cv2.connectedComponents(mask.astype(np.uint8), connectivity=8)
+    keep = [k for k in np.unique(labels[seeds & mask]) if k > 0]
+    keep = [k for k in keep if sigmoid(wide.logits[labels == k]).mean() >= SURE_PART]
+    part = np.isin(labels, keep)
+    if not part.any():
+        return first
+    rim = cv2.dilate(part.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool) & past
+    return Person(wide.region, np.where(rim, wide.logits, before).astype(np.float32), first.presence, first.source)
+
+
 def held(raised: Person, first: Person, shape: tuple[int, int]) -> Person:
     """The selfie graph's segmentation ``raised`` (of a region reaching higher than ``first``'s) joined with
     ``first`` (the larger logit where both regions reach) and kept to ``first``'s columns (its box, widened by
@@ -153,15 +201,7 @@ def held(raised: Person, first: Person, shape: tuple[int, int]) -> Person:
     if box is None:
         return raised
     margin = 0.03 * (box[2] - box[0])
-    k, bx, by = grid_of_region(raised.region)
-    c = np.arange(SIZE, dtype=np.float64)
-    x, y = (c - bx) / k, (c - by) / k  # image coordinates of the canvas columns' and rows' centres
-    kf, bxf, byf = grid_of_region(first.region)
-    i = np.floor(kf * y + byf + 0.5).astype(int)  # nearest canvas pixel of first's region
-    j = np.floor(kf * x + bxf + 0.5).astype(int)
-    rows, cols = (i >= 0) & (i < SIZE), (j >= 0) & (j < SIZE)
-    before = np.full((SIZE, SIZE), -LOGIT_CLIP, np.float32)
-    before[np.ix_(rows, cols)] = first.logits[np.ix_(i[rows], j[cols])]
+    before, x, _ = resampled(first, raised.region)
     within = ((x >= box[0] - margin) & (x <= box[2] + margin))[None, :]
     logits = np.where(within, np.maximum(raised.logits, before), np.float32(-LOGIT_CLIP)).astype(np.float32)
     return Person(raised.region, logits, raised.presence, raised.source)
@@ -209,3 +249,22 @@ def box_area(box) -> float:
 
 def box_height(box) -> float:
     return 0.0 if box is None else box[3] - box[1]
+
+
+def joined_part(prob: np.ndarray, mine: np.ndarray, seeds: list[tuple[int, int]]) -> np.ndarray | None:
+    """Where the selfie graph sees someone joined to the people matted: the 8-connected components of its person
+    pixels outside them (``prob`` >= 0.5 and not ``mine``, both on one canvas) that hold a ``seeds`` point (row,
+    column: a face the matte does not hold) and touch ``mine`` (within JOIN_GAP canvas pixels); None when none does.
+    A face alone says someone is there; joined in the selfie graph's view, they stand with the person (a couple
+    embracing, a child leaning on a mother); a face apart from them is a passer-by."""
+    n, labels = cv2.connectedComponents(((prob >= 0.5) & ~mine).astype(np.uint8), connectivity=8)
+    if n <= 1:
+        return None
+    near = cv2.dilate(mine.astype(np.uint8), np.ones((2 * JOIN_GAP + 1,) * 2, np.uint8)).astype(bool)
+    picked = {int(labels[i, j]) for i, j in seeds if 0 <= i < labels.shape[0] and 0 <= j < labels.shape[1]} - {0}
+    part = np.zeros(mine.shape, bool)
+    for label in picked:
+        comp = labels == label
+        if (comp & near).any():
+            part |= comp
+    return part if part.any() else None

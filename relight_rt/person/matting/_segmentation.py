@@ -35,7 +35,8 @@ class Person:
     region: Region
     logits: np.ndarray  # (256, 256) float32 person logits in the region's canvas
     presence: float
-    source: str = "pose"  # which graph's segmentation: "pose" (bodies) or "roi" (head-and-shoulders)
+    source: str = "pose"  # which graph's segmentation: "pose" (bodies) or "roi" (head-and-shoulders); "own": the
+    # selfie graph's, kept to the people's own colours (PersonMatter._own_colours: part of them, not a person)
     whole: np.ndarray | None = field(default=None, repr=False, compare=False)  # split from these logits (see
     # relight_rt.person.matting._parts.split_by_faces): the matte is made from the whole, not from the parts
 
@@ -45,6 +46,19 @@ class Person:
 def sigmoid(x: np.ndarray) -> np.ndarray:
     x = np.clip(x, -LOGIT_CLIP, LOGIT_CLIP)
     return 1.0 / (1.0 + np.exp(-x))
+
+
+def as_logits(prob: np.ndarray) -> np.ndarray:
+    """A probability map as float32 logits (clipped at 1e-7 from 0 and 1)."""
+    p = prob.astype(np.float64)
+    return (np.log(np.clip(p, 1e-7, 1.0)) - np.log(np.clip(1.0 - p, 1e-7, 1.0))).astype(np.float32)
+
+
+def canvas_points(region: Region) -> tuple[np.ndarray, np.ndarray]:
+    """Image coordinates (xs, ys), each (256, 256) float64, of the centres of ``region``'s canvas pixels."""
+    k, bx, by = grid_of_region(region)
+    c = np.arange(SIZE, dtype=np.float64)
+    return np.meshgrid((c - bx) / k, (c - by) / k)
 
 
 def components(prob: np.ndarray, min_area: int) -> list[tuple[int, tuple[int, int, int, int]]]:

@@ -11,7 +11,7 @@ from test_people_found import _Bright, head_and_shoulders
 from relight_rt import RelightError
 from relight_rt.person import matting as M
 from relight_rt.person.face_detector import Face
-from relight_rt.person.matting import _layout, _matter
+from relight_rt.person.matting import _colours, _layout, _matter, _segmentation
 
 
 class _Unsure:
@@ -241,3 +241,144 @@ def test_someone_beside_from_blobs_and_faces():
     assert not _layout.someone_beside(box, [(1.0, (300.0, 200.0, 360.0, 330.0))], [])  # 130 tall: a child far off
     assert _layout.someone_beside(box, [(1.0, (300.0, 60.0, 380.0, 340.0))], [])
     assert _layout.someone_beside(box, [], [Face((300.0, 60.0, 320.0, 80.0), 0.9)])
+
+
+def two_bodies(gap: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A bright body on the left and another on the right ``gap`` px apart (negative: overlapping), on black: the
+    photo (H, W, 3) and the two bodies' masks."""
+    h, w = 300, 400
+    yy, xx = np.mgrid[0:h, 0:w] + 0.5
+    left = (((xx - 130) / 60) ** 2 + ((yy - 150) / 120) ** 2) < 1
+    right = (((xx - (250 + gap)) / 60) ** 2 + ((yy - 160) / 110) ** 2) < 1
+    right &= ~left
+    rgb = np.repeat((left | right).astype(np.float32)[..., None], 3, 2)
+    return rgb, left, right
+
+
+def matted(rgb: np.ndarray, mask: np.ndarray) -> M.Person:
+    """The pose graph's segmentation of ``mask`` alone (a person found), on a region around it."""
+    ys, xs = np.nonzero(mask)
+    region = M.Region.around(float(xs.min()), float(ys.min()), float(xs.max() + 1), float(ys.max() + 1))
+    canvas = M.crop_region(np.repeat(mask.astype(np.float32)[..., None], 3, 2), region)[..., 0]
+    return M.Person(region, np.where(canvas > 0.5, 10.0, -10.0).astype(np.float32), 0.99)
+
+
+@pytest.mark.parametrize(
+    ("gap", "score", "where", "joined"),
+    [(-20.0, 0.9, "right", True), (40.0, 0.9, "right", False), (-20.0, 0.6, "right", False),
+     (-20.0, 0.9, "left", False)],
+)  # fmt: skip
+def test_someone_joined_to_the_person_with_a_face_of_their_own_is_taken(gap, score, where, joined):
+    """person="largest": a face outside the matte (score >= _JOINED_FACE) lying in a part of the selfie graph's
+    segmentation that touches the matte brings that part in (a couple embracing, a boy sitting against his mother:
+    people_masks photos half B 0.863 -> 0.870); a face apart from the person (a passer-by), an unsure one, or one the
+    matte holds already brings nothing."""
+    rgb, left, right = two_bodies(gap)
+    matter = M.PersonMatter(refine=False)
+    matter.roi, matter.face = _Bright(), None
+    main = matted(rgb, left)
+    cx = 250.0 + gap if where == "right" else 130.0
+    face = Face((cx - 20.0, 70.0, cx + 20.0, 110.0), score)
+    extra = matter._joined(rgb, [main], [face])
+    assert len(extra) == int(joined)
+    alpha = matter.alpha(rgb, [main, *extra])
+    assert iou(alpha, left | right if joined else left) > 0.95
+
+
+def test_a_selfie_graph_person_cut_by_its_regions_side_is_taken_whole():
+    """_widened: where the selfie graph's segmentation runs into its region's left or right side inside the photo,
+    it is run again on a region reaching past that side, so whoever stands there comes whole, not cut down the
+    middle (an old man's friend in profile halved: people_masks p277-like 0.66 -> 0.96); a segmentation clear of its
+    region's sides is kept as it is."""
+    rgb, left, right = two_bodies(-20.0)
+    both = left | right
+    matter = M.PersonMatter(refine=False)
+    matter.roi, matter.face = _Bright(), None
+    cut = matter._roi_person(rgb, M.Region(125.0, 150.0, 250.0), 0.9)  # reaches x 0..250, the bodies 70..290
+    box = M.person_box(cut, rgb.shape[:2])
+    assert box[2] == pytest.approx(250.0, abs=3.0)  # cut by the region's right side
+    whole = matter._widened(rgb, cut)
+    assert M.person_box(whole, rgb.shape[:2])[2] == pytest.approx(290.0, abs=3.0)
+    assert iou(matter.alpha(rgb, [whole]), both) > 0.95
+    clear = matter._roi_person(rgb, M.Region(190.0, 150.0, 400.0), 0.9)
+    assert matter._widened(rgb, clear) is clear
+    rgb[right & (rgb[..., 0] > 0) & ~left] = 0.7  # the graph unsure (0.7) of what lies past the cut: not taken
+    dim = matter._roi_person(rgb, M.Region(125.0, 150.0, 250.0), 0.9)
+    assert matter._widened(rgb, dim) is dim
+
+
+def test_a_continuation_takes_from_the_wider_answer_only_what_goes_on_from_the_cut():
+    """continued: over the first region the first answer stays (framed larger, the graph can lose half a face); past
+    the cut side only the wider answer's parts joined to the cut are added, not a blob apart from it."""
+    first = M.Person(M.Region(100.0, 100.0, 200.0), np.full((256, 256), -10.0, np.float32), 0.9, "roi")
+    first.logits[64:192, 128:] = 10.0  # a person running into the region's right side (x 200) at rows 50..150
+    wide = M.Person(M.Region(200.0, 100.0, 400.0), np.full((256, 256), -10.0, np.float32), 0.9, "roi")
+    # on wide's canvas (x 0..400, 0.64 px a pixel): nothing over first's region, the person going on to x 300, and
+    # a blob apart at x 340..380
+    wide.logits[96:160, 128:192] = 10.0
+    wide.logits[96:160, 218:243] = 10.0
+    out = _layout.continued(wide, first, (False, False, True, False))
+    xs = np.array([150.0, 250.0, 360.0])
+    assert (_segmentation.prob_at(out, xs, np.full(3, 100.0)) > 0.5).tolist() == [True, True, False]
+    assert _layout.continued(wide, first, (True, False, False, False)) is first  # the left side was not cut
+
+
+class _NotGround:
+    """A stand-in for the selfie graph: a person wherever the canvas is not the mid-grey ground (nor black padding),
+    so it sees a runner's shadow as much as his trousers."""
+
+    def run(self, feeds):
+        img = feeds["image"][0]
+        seen = (np.abs(img - 0.5).max(0) > 0.05) & (img.max(0) > 0.0) | (img.max(0) < 0.08) & (img.max(0) > 0.0)
+        return {"segmentation": seen.astype(np.float32)[None, None]}
+
+
+def runner(h: int = 300, w: int = 400) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """A blue shirt and black trousers (two legs) on mid-grey ground, a dark grey shadow on the ground at the feet."""
+    yy, xx = np.mgrid[0:h, 0:w] + 0.5
+    parts = {
+        "shirt": (np.abs(xx - 200) < 40) & (yy > 60) & (yy < 150),
+        "leg1": (np.abs(xx - 180) < 12) & (yy >= 150) & (yy < 250),
+        "leg2": (np.abs(xx - 220) < 12) & (yy >= 150) & (yy < 250),
+        "shadow": (xx > 232) & (xx < 330) & (yy > 235) & (yy < 250),
+    }
+    rgb = np.full((h, w, 3), 0.5, np.float32)
+    rgb[parts["shirt"]] = (0.2, 0.3, 0.8)
+    rgb[parts["leg1"] | parts["leg2"]] = 0.03
+    rgb[parts["shadow"]] = 0.3
+    return rgb, parts
+
+
+@pytest.mark.parametrize("ratio", [_colours.OWN_RATIO, 0.0])
+def test_a_part_the_selfie_graph_sees_in_the_persons_own_colours_is_theirs(ratio, monkeypatch):
+    """_own_colours: what the selfie graph sees joined to the matte is the person's where its colour is theirs (the
+    runner's other black trouser leg, which the pose graph missed: the parkour clip's worst frames 0.60 -> 0.94), not
+    where it is the ground's (his shadow); with the colour test made to refuse everything, nothing is added."""
+    monkeypatch.setattr(_colours, "OWN_RATIO", ratio)
+    rgb, parts = runner()
+    matter = M.PersonMatter(refine=False)
+    matter.roi, matter.face = _NotGround(), None
+    found = matted(rgb, parts["shirt"] | parts["leg1"])
+    extra = matter._own_colours(rgb, [found])
+    alpha = matter.alpha(rgb, [found, *extra])
+    leg2 = (alpha[parts["leg2"]] >= 0.5).mean()
+    assert (alpha[parts["shadow"]] >= 0.5).mean() < 0.1
+    if ratio:
+        assert leg2 > 0.9
+        monkeypatch.setattr(matter, "people", lambda rgb, name="image": [found, *extra])
+        whole, parts = matter.parts(rgb)  # the leg is part of the runner, not a person of its own
+        assert len(parts) == 1 and np.array_equal(parts[0], whole)
+    else:
+        assert extra == [] and leg2 < 0.1
+
+
+def test_colour_centres_find_each_cluster_and_give_the_same_answer_each_call():
+    rng = np.random.default_rng(1)
+    a = rng.normal((10.0, 0.0, 0.0), 1.0, (600, 3))
+    b = rng.normal((80.0, 20.0, -20.0), 1.0, (900, 3))
+    x = np.concatenate([a, b]).astype(np.float32)
+    c = _colours.centres(x, 2)
+    assert np.allclose(np.sort(c[:, 0]), [10.0, 80.0], atol=0.5)
+    assert np.array_equal(c, _colours.centres(x, 2))
+    d, label = _colours.nearest(np.array([[11.0, 0.0, 0.0]], np.float32), c)
+    assert d[0] < 2.0 and c[label[0], 0] < 20.0

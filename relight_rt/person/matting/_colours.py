@@ -1,0 +1,86 @@
+"""The person's own colours: what the selfie graph sees joined to the matte, kept where its colour is the person's.
+
+The pose graph does not see dark trousers on a runner (probability < 0.01 over them on the parkour clip's worst
+frames), nor the selfie graph a patch of them; the selfie graph on the whole photo sees most of them, and the
+shadow on the ground beside them too. Colour tells them apart: the trousers are the colour of the person's other
+leg, the shadow is the ground's. On one square region's canvas (the person's), the colours of the person's sure
+interior and of a ring of background around them are each summarised by a few k-means centres (CIELAB); a pixel the
+selfie graph sees (>= OWN_SURE) outside the matte, joined to it, is the person's where its colour lies nearer to
+the person's nearest centre than OWN_RATIO x its distance to the background's nearest centre (and what is kept
+stays joined to the matte). Measured in relight_rt.person.matting._matter.PersonMatter._own_colours.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+OWN_SURE = 0.7  # the selfie graph's probability over a pixel that may be the person's own colour
+OWN_RATIO = 0.4  # ... nearer to the person's colours than this x its distance to the background's
+OWN_CENTRES = 6  # k-means centres per side
+OWN_SAMPLES = 1500  # pixels sampled per side for the centres (every n-th: the same answer each call)
+OWN_MIN = 0.01  # candidates, or a part kept, of fewer than this x the matte's pixels are its rim: not looked at
+OWN_RING = 0.1  # the background ring reaches this x the person's extent past them (canvas pixels, at least 2)
+_ITERATIONS = 6
+
+
+def centres(samples: np.ndarray, k: int = OWN_CENTRES) -> np.ndarray:
+    """(k', 3) k-means centres of (N, 3) float32 ``samples`` (k' = min(k, N)), deterministic: started from the
+    samples at evenly spaced ranks of their first channel (lightness), _ITERATIONS Lloyd steps."""
+    x = samples[:: max(1, len(samples) // OWN_SAMPLES)].astype(np.float32)
+    k = min(k, len(x))
+    order = np.argsort(x[:, 0], kind="stable")
+    c = x[order[((np.arange(k) + 0.5) * len(x) / k).astype(int)]].copy()
+    for _ in range(_ITERATIONS):
+        label = nearest(x, c)[1]
+        for i in range(k):
+            mine = x[label == i]
+            if len(mine):
+                c[i] = mine.mean(0)
+    return c
+
+
+def nearest(x: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Distance from each of (N, 3) ``x`` to its nearest centre of ``c``, and that centre's index."""
+    d = (x * x).sum(1)[:, None] - 2.0 * (x @ c.T) + (c * c).sum(1)[None, :]
+    label = d.argmin(1)
+    return np.sqrt(np.maximum(d[np.arange(len(x)), label], 0.0)), label
+
+
+def joined(part: np.ndarray, mine: np.ndarray) -> np.ndarray:
+    """The 8-connected components of ``part`` | ``mine`` that hold some of ``mine``, less ``mine``."""
+    _, labels = cv2.connectedComponents((part | mine).astype(np.uint8), connectivity=8)
+    keep = np.unique(labels[mine])
+    return np.isin(labels, keep[keep > 0]) & part
+
+
+def own_part(canvas: np.ndarray, inside: np.ndarray, mine: np.ndarray, prob: np.ndarray) -> np.ndarray | None:
+    """The pixels of a canvas that are the person's own colour (module docstring); None when none are (or fewer
+    than OWN_MIN x the matte's).
+
+    Args:
+        canvas: (S, S, 3) float32 RGB in [0, 1].
+        inside: (S, S) bool, the canvas pixels inside the photo.
+        mine: (S, S) bool, the matte (the people found).
+        prob: (S, S) float, the selfie graph's person probability.
+    """
+    cand = joined((prob >= OWN_SURE) & ~mine & inside, mine)
+    if cand.sum() < max(1.0, OWN_MIN * mine.sum()):
+        return None
+    one = np.ones((3, 3), np.uint8)
+    interior = cv2.erode(mine.astype(np.uint8), one).astype(bool) & inside
+    ys, xs = np.nonzero(mine)
+    r = max(2, int(OWN_RING * max(np.ptp(ys), np.ptp(xs))))
+    both = (mine | cand).astype(np.uint8)
+    ring = cv2.dilate(both, np.ones((2 * r + 1, 2 * r + 1), np.uint8)).astype(bool)
+    ring &= ~cv2.dilate(both, one).astype(bool) & inside
+    if interior.sum() < 20 or ring.sum() < 20:
+        return None
+    lab = cv2.cvtColor(np.ascontiguousarray(canvas, dtype=np.float32), cv2.COLOR_RGB2Lab)  # L 0-100
+    person, backdrop = centres(lab[interior]), centres(lab[ring])
+    x = lab[cand]
+    ok = nearest(x, person)[0] < OWN_RATIO * nearest(x, backdrop)[0]
+    part = np.zeros(mine.shape, bool)
+    part[cand] = ok
+    part = joined(part, mine)
+    return part if part.sum() >= max(1.0, OWN_MIN * mine.sum()) else None
