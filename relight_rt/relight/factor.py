@@ -308,15 +308,17 @@ class Factor:
     def shadow_weight(self, dec: Decomposition) -> tuple[np.ndarray, np.ndarray] | None:
         """Where the photo's own shading is too low for the ratio (cached): (w, chroma) in the person's window, w
         (r, r') in [0, 1] (1: photo / shading is noise) and chroma (r, r', 3) the person's colour there at
-        luminance 1, taken from the reliable pixels around, times the albedo of the reliable pixels around over
-        stage 1's own there (kept within ``FILL_ALBEDO_RANGE``); None where no pixel is that dark, and for a video
-        frame.
+        luminance 1, taken from the reliable pixels around, and on a face mesh's skin times the albedo of the
+        reliable skin around over stage 1's own there (kept within ``FILL_ALBEDO_RANGE``); None where no pixel is
+        that dark, and for a video frame.
 
         In a deep shadow stage 1's albedo is a guess: it takes part of a hard cast shadow for dark skin (a nose's
         shadow on a cheek came out at 0.14-0.24 beside 0.6 on Extended Yale B) and ``unshaded_albedo`` lifts all of
         it by the same law (a shaded cheek 1.3-1.5); the new light on that albedo draws the shadow's hard outline
-        and blotches. The lit pixels around know the person's albedo there (skin is one material): the fill takes
-        their mean albedo, spread over ``FILL_ALBEDO_SPREAD`` of the window's side, as it takes their colour.
+        and blotches. Skin is one material, so the lit skin around knows its albedo: on the mesh's skin the fill
+        takes their mean albedo, spread over ``FILL_ALBEDO_SPREAD`` of the window's side. Not elsewhere: the pixels
+        around dark hair are often another material (a green shirt's albedo lifted a girl's shaded hair and
+        turned it green, benchmarks/photo_faults.py).
 
         The shading the photo shows, its luminance over the albedo's (floored at ``EXPLAIN_ALBEDO_MIN``: black cloth
         shows its shading too) and smoothed over ``FILL_SIGMA`` pixels (a black stripe of a shirt whose albedo stage
@@ -350,14 +352,16 @@ class Factor:
                     den = cv2.GaussianBlur(photo * trust, (0, 0), sigma)[..., None]
                     # luminance 1 already: photo is the Rec. 709 luminance of rgb, and the blur is linear
                     chroma = np.divide(num, den, out=np.ones_like(num), where=den > 1e-4)
-                    albedo = own["albedo"]
-                    spread = FILL_ALBEDO_SPREAD * max(w.shape)
-                    num = cv2.GaussianBlur(albedo * trust, (0, 0), spread)
-                    den = cv2.GaussianBlur(trust, (0, 0), spread)
-                    around = np.divide(num, den, out=albedo.copy(), where=den > 1e-4)
-                    lift = np.clip(around / np.maximum(albedo, EXPLAIN_ALBEDO_MIN), 1 / FILL_ALBEDO_RANGE,
-                                   FILL_ALBEDO_RANGE)
-                    chroma *= lift[..., None]
+                    skin = own["face_skin"]
+                    if skin.any():  # a face's skin (one material): the albedo of the lit skin around, not stage 1's
+                        albedo, on = own["albedo"], skin.astype(np.float32)
+                        spread = FILL_ALBEDO_SPREAD * max(w.shape)
+                        num = cv2.GaussianBlur(albedo * trust * on, (0, 0), spread)
+                        den = cv2.GaussianBlur(trust * on, (0, 0), spread)
+                        around = np.divide(num, den, out=albedo.copy(), where=den > 1e-4)
+                        lift = np.clip(around / np.maximum(albedo, EXPLAIN_ALBEDO_MIN), 1 / FILL_ALBEDO_RANGE,
+                                       FILL_ALBEDO_RANGE)
+                        chroma *= np.where(skin, lift, 1)[..., None]
                     result = (readonly(w.astype(np.float32)), readonly(chroma.astype(np.float32)))
             state["shadow"] = result
         return state["shadow"]
