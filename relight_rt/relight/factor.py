@@ -59,7 +59,15 @@ from .decomposition import Decomposition, Memo, readonly
 from .detail import extend_outward, guided_upsample, unpremultiply, window
 from .face_pass import FacePass, feather
 from .look import channel_max, shaded_skin, skin_chroma, tint_range
-from .strength import EXPLAIN_ALBEDO_MIN, explain_photo, face_refit, refit_light, restore_bands
+from .strength import (
+    EXPLAIN_ALBEDO_MIN,
+    EXPLAIN_SHADOW_SHARE,
+    EXPLAIN_SHARE,
+    explain_photo,
+    face_refit,
+    refit_light,
+    restore_bands,
+)
 
 _RATIO_EPS = np.float32(0.01)  # the ratio's denominator is floored here (dark pixels: noise, not light)
 _OWN_FLOOR = np.float32(0.5)  # light the model misses, up to this share of the photo, stays under a new light (own)
@@ -174,8 +182,11 @@ class Factor:
                 base = {**base, "albedo": readonly(unshaded_albedo(base["albedo"], shading, base["face_skin"],
                                                                    base["inner"]))}
             # the shading the photo shows and stage 1 misses, kept along the photo's own light
-            # (relight_rt.relight.strength)
-            moved = explain_photo(base["transport"], base["albedo"], base["photo"], white, base["inner"])
+            # (relight_rt.relight.strength); on a face's skin, where the photo shows less, all of it (a shadow)
+            skin = base["face_skin"]
+            shadow = np.where(skin, EXPLAIN_SHADOW_SHARE, EXPLAIN_SHARE).astype(np.float32) if skin.any() else None
+            moved = explain_photo(base["transport"], base["albedo"], base["photo"], white, base["inner"],
+                                  shadow_share=shadow)
             base = {**base, "transport": readonly(moved)}
             own = base["albedo"] * sh.shading(base["transport"], dec.white_light)[..., 0]  # white: columns equal
             residual = self.own_residual(dec) if with_residual else None
