@@ -23,8 +23,8 @@ DPR (zhhoper/DPR, benchmarks/dpr_protocol.py: its 512-px grey network on the CPU
 the same way beside ours, unless --no-dpr or no copy of its repository is found.
 
 Writes OUT/yale.json (every pair and the medians) and OUT/yale_worst.jpg (the worst pairs by correlation:
-source | ours | DPR | truth, and the two changes, ours | truth, grey = no change). The data is for evaluation
-only: keep OUT out of the repository.
+source | ours | DPR | truth, and the two changes, ours | truth, grey = no change; OUT/yale_worst_delight.jpg the
+same for the de-light pairs alone). The data is for evaluation only: keep OUT out of the repository.
 """
 
 from __future__ import annotations
@@ -202,6 +202,7 @@ def main(argv=None) -> int:
                                           for m in ("ours", "dpr")}
     (args.out / "yale.json").write_text(json.dumps({"summary": summary, "pairs": rows}, indent=1))
     sheet(rows, pictures, args.out / "yale_worst.jpg")
+    sheet([r for r in rows if r["task"] == "delight"], pictures, args.out / "yale_worst_delight.jpg")
     fmt = lambda v: "  -  " if v is None else f"{v:5.2f}"  # noqa: E731
     print(f"{'':22s} {'ours corr':>9s} {'contrast':>8s} {'DPR corr':>9s} {'contrast':>8s}")
     for task, s in summary.items():

@@ -198,6 +198,11 @@ def head_normals(points: np.ndarray, shape: tuple[int, int]) -> tuple[np.ndarray
     return normals, (t * t * (3 - 2 * t)).astype(np.float32)
 
 
+def _lifted(crop: np.ndarray, power: float) -> np.ndarray:
+    """``crop`` (values in [0, 1]) raised to ``power`` as float32, a new array; ``crop`` itself for 1."""
+    return crop if power == 1 else np.power(np.clip(crop, 0, 1), np.float32(power), dtype=np.float32)
+
+
 class FaceMesh:
     """The face detector and landmarker of a models folder, or nothing (``available`` False) without them."""
 
@@ -230,8 +235,11 @@ class FaceMesh:
     def available(self) -> bool:
         return self.mesh is not None
 
-    def faces(self, rgb: np.ndarray, box: tuple[int, int, int, int]) -> list[np.ndarray]:
+    def faces(self, rgb: np.ndarray, box: tuple[int, int, int, int], lift: float = 1.0) -> list[np.ndarray]:
         """Meshes of the faces in ``rgb`` inside ``box`` (y0, y1, x0, x1): [(468, 3) x, y, z in input pixels].
+
+        ``lift``: the graphs are shown their crops raised to this power (< 1 lifts the shadows: a face half in
+        deep shadow, relight_rt.relight.face_pass ``SHADOW_LIFTS``); only the small crops are raised, not the photo.
 
         The detector looks at the box's square first; where it finds no face there it looks once more at a square
         ``CLOSE_UP_SCALE`` times as large (zero past the photo's edge): a face that fills the photo (a close-up
@@ -241,7 +249,8 @@ class FaceMesh:
         y0, y1, x0, x1 = box
         for scale in (1.0, CLOSE_UP_SCALE):
             region = Region.around(x0, y0, x1, y1, scale=scale)
-            out = self.detector.run({"image": crop_region(rgb, region, FACE_SIZE).transpose(2, 0, 1)[None]})
+            look = _lifted(crop_region(rgb, region, FACE_SIZE), lift)
+            out = self.detector.run({"image": look.transpose(2, 0, 1)[None]})
             rx0, ry0, _, _ = region.box()
             found = [(np.array([rx0, ry0, rx0, ry0]) + fbox * region.side).tolist()
                      for fbox, _score in weighted_nms(decode(out["boxes"][0], out["scores"][0]))]
@@ -253,7 +262,7 @@ class FaceMesh:
         meshes = []
         for fx0, fy0, fx1, fy1 in found:
             roi = Region.around(fx0, fy0, fx1, fy1, scale=ROI_SCALE)
-            crop = crop_region(rgb, roi, MESH_SIZE)
+            crop = _lifted(crop_region(rgb, roi, MESH_SIZE), lift)
             lm, flag = self.mesh.run(["landmarks", "face_flag"], {"image": crop.transpose(2, 0, 1)[None]})
             if 1.0 / (1.0 + math.exp(-float(flag.reshape(-1)[0]))) < MIN_FLAG:
                 continue

@@ -199,6 +199,7 @@ def face_refit(
 # ------------------------------------------------------------------------------- the photo's own shading, kept
 
 EXPLAIN_SHARE = 0.5  # explain_photo: the share of the shading stage 1 leaves unexplained that goes into the transport
+EXPLAIN_SHADOW_SHARE = 1.0  # ... where a face's skin shows less than the transport (Factor.own: a shadow, not texture)
 EXPLAIN_CLIP = 1.0  # ... at most this much shading (the photo's own light's units) moved per pixel
 EXPLAIN_SIGMA = 1.5  # ... the move smoothed over this many pixels: shading is smooth, a stripe the albedo missed is not
 EXPLAIN_ALBEDO_MIN = 0.05  # ... the albedo luminance the photo is divided by, floored here (black cloth, hair)
@@ -206,7 +207,7 @@ EXPLAIN_ALBEDO_MIN = 0.05  # ... the albedo luminance the photo is divided by, f
 
 def explain_photo(
     transport: np.ndarray, albedo: np.ndarray, photo: np.ndarray, light: np.ndarray, where: np.ndarray,
-    share: float | None = None,
+    share: float | None = None, shadow_share: float | np.ndarray | None = None,
 ) -> np.ndarray:  # fmt: skip
     """The transport moved, along the photo's own light, part of the way to the shading the photo shows.
 
@@ -229,6 +230,8 @@ def explain_photo(
         light: (9,) the photo's own light's luminance (white light: any column).
         where: (h, w) bool, the pixels to move (the person's inner pixels); the others are returned as they are.
         share: the share of the difference moved (0: the transport unchanged); None: ``EXPLAIN_SHARE``.
+        shadow_share: the share where the photo shows less shading than the transport (d < 0), one for all pixels
+            or (h, w) per pixel; None: ``share``.
 
     Returns:
         (h, w, 9) float32, a new array.
@@ -239,11 +242,13 @@ def explain_photo(
         raise RelightError(f"explain_photo: transport (..., 9) and a (9,) light expected, got {t.shape}, {l.shape}")
     norm = float(l @ l)
     share = EXPLAIN_SHARE if share is None else float(share)
-    if share <= 0 or norm <= 1e-12:
+    shadow = np.float32(share) if shadow_share is None else np.asarray(shadow_share, np.float32)
+    if max(share, float(shadow.max())) <= 0 or norm <= 1e-12:
         return t.copy()
     shown = np.asarray(photo, np.float32) / np.maximum(np.asarray(albedo, np.float32), EXPLAIN_ALBEDO_MIN)
     w = np.asarray(where, np.float32)
-    move = share * np.clip(shown - t @ l, -EXPLAIN_CLIP, EXPLAIN_CLIP) * w
+    d = np.clip(shown - t @ l, -EXPLAIN_CLIP, EXPLAIN_CLIP)
+    move = np.where(d < 0, shadow, np.float32(share)) * d * w
     if EXPLAIN_SIGMA > 0:  # shading is smooth; what is not (a stripe the albedo missed) is texture, not shading
         den = cv2.GaussianBlur(w, (0, 0), EXPLAIN_SIGMA)
         move = np.where(w > 0, cv2.GaussianBlur(move, (0, 0), EXPLAIN_SIGMA) / np.maximum(den, 1e-3), 0)

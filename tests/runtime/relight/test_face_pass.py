@@ -10,7 +10,7 @@ import pytest
 import relight_rt
 from relight_rt import Relighter, RuntimeConfig, lights
 from relight_rt.image.crop import CropGeometry
-from relight_rt.relight.face_pass import MIN_HEAD_INPUT, SMALL_FACE, feather, head_box
+from relight_rt.relight.face_pass import MIN_HEAD_INPUT, SHADOW_LIFTS, SMALL_FACE, FacePass, feather, head_box
 
 REFERENCE = Path(__file__).resolve().parents[4] / "shared" / "reference"
 
@@ -143,3 +143,61 @@ def test_the_head_pass_leaves_the_body_gain_where_the_shadow_fill_adds_the_chang
     np.testing.assert_allclose(blended(0.0), plain, rtol=1e-6, atol=1e-7)  # no fill: the head pass as before
     half = blended(0.5)  # half filled: the head pass takes half its share
     np.testing.assert_allclose(half - body, 0.5 * (plain - body), rtol=1e-4, atol=1e-5)
+
+
+class _DarkShySearch:
+    """A face mesh stand-in that finds a face only where the box's mean level is at least ``need`` (a detector
+    that misses a face half in deep shadow); it records the mean level of each image it was shown."""
+
+    available = True
+
+    def __init__(self, need: float) -> None:
+        self.need, self.seen = need, []
+
+    def faces(self, rgb: np.ndarray, box: tuple[int, int, int, int], lift: float = 1.0) -> list[np.ndarray]:
+        y0, y1, x0, x1 = box
+        level = float((rgb[y0:y1, x0:x1] ** lift).mean())
+        self.seen.append(level)
+        return [np.full((468, 3), level)] if level >= self.need else []
+
+
+def _face_pass_with(search: _DarkShySearch) -> FacePass:
+    faces = FacePass(Path("/nonexistent"))
+    faces._mesh = search
+    return faces
+
+
+def test_a_face_missed_in_deep_shadow_is_looked_for_again_with_the_shadows_lifted():
+    photo = np.full((64, 64, 3), 0.1, np.float32)  # mean 0.1: lifted by gamma 0.5 to 0.32
+    search = _DarkShySearch(need=0.3)
+    found = _face_pass_with(search).find(photo, (0, 64, 0, 64))
+    assert len(found) == 1
+    assert search.seen[0] == pytest.approx(0.1) and search.seen[-1] == pytest.approx(0.1 ** SHADOW_LIFTS[0], rel=1e-5)
+    assert (np.asarray(photo) == np.float32(0.1)).all()  # the photo itself untouched
+
+
+def test_a_face_found_as_the_photo_is_gets_no_second_look_and_none_is_made_up():
+    photo = np.full((64, 64, 3), 0.5, np.float32)
+    search = _DarkShySearch(need=0.3)
+    assert len(_face_pass_with(search).find(photo, (0, 64, 0, 64))) == 1 and len(search.seen) == 1
+    search = _DarkShySearch(need=0.99)  # no face however lifted: nothing, after one look per lift
+    assert _face_pass_with(search).find(photo, (0, 64, 0, 64)) == ()
+    assert len(search.seen) == 1 + len(SHADOW_LIFTS)
+
+
+def test_the_face_mesh_shows_its_graphs_the_lifted_crops_not_a_lifted_photo(monkeypatch):
+    from relight_rt.person import face_mesh
+
+    shown = []
+
+    class Graph:
+        def run(self, feeds):
+            shown.append(float(feeds["image"].mean()))
+            return {"boxes": np.zeros((1, 16, 48, 48), np.float32), "scores": np.full((1, 1, 48, 48), -20, np.float32)}
+
+    mesh = face_mesh.FaceMesh(Path("/nonexistent"))
+    mesh.detector = Graph()
+    photo = np.full((80, 80, 3), 0.25, np.float32)
+    assert mesh.faces(photo, (10, 70, 10, 70), lift=0.5) == []
+    assert shown[0] == pytest.approx(0.25 ** 0.5, rel=1e-4)  # the first look lies inside the photo
+    assert (photo == np.float32(0.25)).all()

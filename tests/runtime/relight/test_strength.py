@@ -329,6 +329,61 @@ def test_explain_photo_moves_along_the_photos_light_only(monkeypatch):
         explain_photo(t[..., :4], albedo, photo, light, where)
 
 
+def test_explain_photo_moves_a_shadow_by_its_own_share_where_given(monkeypatch):
+    """Unsmoothed: ``shadow_share`` (per pixel) moves where the photo shows less shading than the transport (a
+    shadow), ``share`` where it shows more; without it both move by ``share``."""
+    from relight_rt.relight.strength import explain_photo
+
+    monkeypatch.setattr(strength, "EXPLAIN_SIGMA", 0.0)
+    t = np.zeros((2, 2, 9), np.float32)
+    t[..., 0] = 1.0
+    light = np.zeros(9, np.float32)
+    light[0] = 1.0
+    albedo = np.full((2, 2), 0.5, np.float32)
+    photo = 0.5 * np.array([[0.4, 0.4], [1.6, 1.6]], np.float32)  # shows 0.4 (a shadow), then 1.6 (a surplus) of 1
+    where = np.ones((2, 2), bool)
+    shadow = np.array([[1.0, 0.5], [1.0, 0.5]], np.float32)  # all of a shadow in the first column, half in the second
+    moved = explain_photo(t, albedo, photo, light, where, share=0.5, shadow_share=shadow) @ light
+    np.testing.assert_allclose(moved, [[0.4, 0.7], [1.3, 1.3]], atol=1e-6)
+    plain = explain_photo(t, albedo, photo, light, where, share=0.5) @ light
+    np.testing.assert_allclose(plain, [[0.7, 0.7], [1.3, 1.3]], atol=1e-6)
+
+
+def test_the_factor_moves_all_of_a_shadow_on_a_face_meshs_skin_only(monkeypatch):
+    """``Factor.own`` hands ``explain_photo`` the shadow share ``EXPLAIN_SHADOW_SHARE`` on a face mesh's skin and
+    ``EXPLAIN_SHARE`` elsewhere (dark cloth or hair the albedo missed is texture as often as shadow); nothing
+    per pixel without a mesh."""
+    from relight_rt.relight import factor
+    from relight_rt.relight.factor import Factor
+
+    seen = []
+
+    def spy(*args, **kwargs):
+        seen.append(kwargs.get("shadow_share"))
+        return strength.explain_photo(*args, **kwargs)
+
+    monkeypatch.setattr(factor, "explain_photo", spy)
+    inner = np.ones((4, 4), bool)
+    skin = np.zeros((4, 4), bool)
+    skin[1:3, 1:3] = True
+    base = {"window": (0, 4, 0, 4), "alpha": np.ones((4, 4), np.float32), "inner": inner,
+            "transport": np.tile(np.float32([1, 0, 0, 0, 0, 0, 0, 0, 0]), (4, 4, 1)),
+            "albedo": np.full((4, 4), 0.5, np.float32), "photo": np.full((4, 4), 0.2, np.float32)}
+
+    class Dec:
+        photo = False
+        white_light = np.tile(np.float32([[1], [0], [0], [0], [0], [0], [0], [0], [0]]), (1, 3))
+
+    for face_skin in (skin, np.zeros_like(skin)):
+        memo: dict = {}
+        f = Factor(lambda d, m=memo: m, None, True, lambda d: None)
+        monkeypatch.setattr(f, "restored", lambda d, fs=face_skin: {**base, "face_skin": fs})
+        f.own(Dec(), with_residual=False)
+    np.testing.assert_array_equal(seen[0], np.where(skin, strength.EXPLAIN_SHADOW_SHARE, strength.EXPLAIN_SHARE))
+    assert seen[1] is None
+    assert strength.EXPLAIN_SHADOW_SHARE == 1.0
+
+
 def test_explain_photo_keeps_texture_out():
     """Smoothed (the default EXPLAIN_SIGMA): stripes of the photo the albedo missed (one-pixel rows alternately
     brighter and darker than the transport says) move the transport by about their mean, not stripe by stripe,
