@@ -8,7 +8,9 @@ face: centre at 0.50, 0.52 of the image, semi-axes 0.44 W and 0.46 H) under a wh
 lamp direction plus 0.05 ambient (``lamp``), exposure "auto". Compared: the change of log luminance (Rec. 709 of
 linearised sRGB, + 1e-3) from the source photo, ours against the real photo's under the target lamp, both
 reduced to a 48 x 48 grid (area average of the luminance) and taken inside the ellipse; per pair the Pearson
-correlation and the contrast (least-squares slope of ours on the truth's, both centred); medians over pairs.
+correlation and the contrast (least-squares slope of ours on the truth's, both centred); medians over pairs. The
+blotches of the sheets, as shares of the face (``detail_shares``, means over pairs): "speckle" where the relit
+photo has more than twice the real photo's fine detail, "flat" where it has less than half.
 
 - relight: the frontal photo (A+000E+00) relit to each lamp at elevation 0 and |azimuth| 25, 50, 70;
 - de-light: the photos lit from |azimuth| 50 and 70 (elevation 0) relit to the frontal lamp, against the
@@ -53,6 +55,9 @@ GRID = 48
 AMBIENT = 0.05
 RELIGHT_AZ = (25, 50, 70)
 DELIGHT_AZ = (50, 70)
+DETAIL_SIGMA = 2.0  # detail_shares: the fine detail is the log luminance less its blur over this many pixels,
+DETAIL_BLOCK = 12  # ... its RMS over blocks this many pixels wide,
+DETAIL_ERODE = 9  # ... inside the ellipse eroded this many pixels (its own edge is no detail)
 DPR_DC = dprp.DEMO_SCALE * 1.0841254962824531  # the DC of DPR's demo lights as its demo uses them
 
 
@@ -96,6 +101,24 @@ def compare(source: np.ndarray, relit: np.ndarray, truth: np.ndarray, region: np
             "contrast": float((da * db).sum() / max((db * db).sum(), 1e-30))}
 
 
+def fine_detail(rgb: np.ndarray) -> np.ndarray:
+    """(H, W) the local RMS of the log luminance's fine detail (less its blur over ``DETAIL_SIGMA`` pixels)."""
+    y = np.log(luminance(rgb) + EPS)
+    d = y - cv2.GaussianBlur(y, (0, 0), DETAIL_SIGMA)
+    return np.sqrt(cv2.blur(d * d, (DETAIL_BLOCK, DETAIL_BLOCK)))
+
+
+def detail_shares(relit: np.ndarray, truth: np.ndarray, mask: np.ndarray) -> dict:
+    """The blotches the sheets show, as shares of the face: "speckle", where the relit photo has more than twice the
+    real photo's fine detail (``fine_detail``: noise multiplied, a seam), and "flat", less than half of it (texture
+    lost), inside ``mask`` (the ellipse, eroded ``DETAIL_ERODE`` pixels)."""
+    inner = cv2.erode((mask > 0.5).astype(np.uint8), np.ones((DETAIL_ERODE, DETAIL_ERODE), np.uint8)) > 0
+    if not inner.any():
+        return {"speckle": 0.0, "flat": 0.0}
+    ours, real = fine_detail(relit)[inner], fine_detail(truth)[inner]
+    return {"speckle": float(np.mean(ours > 2 * real)), "flat": float(np.mean(ours < 0.5 * real))}
+
+
 def find_file(yale: Path, subject: str, az: int, el: int = 0) -> Path:
     return yale / subject / f"{subject}_P00A{az:+04d}E{el:+03d}.png"
 
@@ -103,6 +126,17 @@ def find_file(yale: Path, subject: str, az: int, el: int = 0) -> Path:
 def median(rows: list[dict], method: str, key: str) -> float | None:
     vals = [r[method][key] for r in rows if r.get(method)]
     return float(np.median(vals)) if vals else None
+
+
+def mean(rows: list[dict], method: str, key: str) -> float | None:
+    vals = [r[method][key] for r in rows if r.get(method) and key in r[method]]
+    return float(np.mean(vals)) if vals else None
+
+
+def figures(rows: list[dict], method: str) -> dict:
+    """The medians of the correlation and contrast, the means of the detail shares (``detail_shares``)."""
+    return {**{k: median(rows, method, k) for k in ("corr", "contrast")},
+            **{k: mean(rows, method, k) for k in ("speckle", "flat")}}
 
 
 def change_image(source: np.ndarray, out: np.ndarray) -> np.ndarray:
@@ -157,15 +191,17 @@ def main(argv=None) -> int:
     t0 = time.time()
 
     def run(task: str, subject: str, src_az: int, dst_az: int, source: np.ndarray, dec, truth: np.ndarray) -> None:
-        region = cv2.resize(ellipse(source.shape[:2]), (GRID, GRID), interpolation=cv2.INTER_AREA) > 0.99
+        face = ellipse(source.shape[:2])
+        region = cv2.resize(face, (GRID, GRID), interpolation=cv2.INTER_AREA) > 0.99
         light = lamp(dst_az)
         ours = relighter.relight(dec, light)
         row = {"id": f"{task}:{subject}:{src_az:+d}->{dst_az:+d}", "task": task, "subject": subject,
-               "source_az": src_az, "target_az": dst_az, "ours": compare(source, ours, truth, region)}
+               "source_az": src_az, "target_az": dst_az,
+               "ours": {**compare(source, ours, truth, region), **detail_shares(ours, truth, face)}}
         theirs = None
         if dpr is not None:
             theirs = dpr.relight(source, dprp.ours_to_dpr(light, dc=DPR_DC))
-            row["dpr"] = compare(source, theirs, truth, region)
+            row["dpr"] = {**compare(source, theirs, truth, region), **detail_shares(theirs, truth, face)}
         rows.append(row)
         pictures[row["id"]] = (source, ours, theirs, truth)
 
@@ -194,21 +230,21 @@ def main(argv=None) -> int:
         sel = [r for r in rows if r["task"] == task]
         summary[task] = {"pairs": len(sel)}
         for method in ("ours", "dpr"):
-            summary[task][method] = {k: median(sel, method, k) for k in ("corr", "contrast")}
+            summary[task][method] = figures(sel, method)
         for a in (RELIGHT_AZ if task == "relight" else DELIGHT_AZ):
             key = "target_az" if task == "relight" else "source_az"
             sub = [r for r in sel if abs(r[key]) == a]
-            summary[task][f"|az| {a}"] = {m: {k: median(sub, m, k) for k in ("corr", "contrast")}
-                                          for m in ("ours", "dpr")}
+            summary[task][f"|az| {a}"] = {m: figures(sub, m) for m in ("ours", "dpr")}
     (args.out / "yale.json").write_text(json.dumps({"summary": summary, "pairs": rows}, indent=1))
     sheet(rows, pictures, args.out / "yale_worst.jpg")
     sheet([r for r in rows if r["task"] == "delight"], pictures, args.out / "yale_worst_delight.jpg")
     fmt = lambda v: "  -  " if v is None else f"{v:5.2f}"  # noqa: E731
-    print(f"{'':22s} {'ours corr':>9s} {'contrast':>8s} {'DPR corr':>9s} {'contrast':>8s}")
+    cols = ("corr", "contrast", "speckle", "flat")
+    print(f"{'':22s} ours {' '.join(f'{c:>8s}' for c in cols)}   DPR {' '.join(f'{c:>8s}' for c in cols)}")
     for task, s in summary.items():
         for label, v in [("all", s), *[(k, s[k]) for k in s if k.startswith("|az|")]]:
-            print(f"{task + ' ' + label:22s} {fmt(v['ours']['corr']):>9s} {fmt(v['ours']['contrast']):>8s} "
-                  f"{fmt(v['dpr']['corr']):>9s} {fmt(v['dpr']['contrast']):>8s}")
+            ours, dpr = (" ".join(f"{fmt(v[m][c]):>8s}" for c in cols) for m in ("ours", "dpr"))
+            print(f"{task + ' ' + label:22s}      {ours}       {dpr}")
     worst = sorted(rows, key=lambda r: r["ours"]["corr"])[:5]
     print("worst:", ", ".join(f"{r['id']} {r['ours']['corr']:.2f}" for r in worst))
     return 0

@@ -37,7 +37,9 @@ photo's own (``Factor.gain_and_fill``; Extended Yale B de-lighting, benchmarks/y
 0.87 / 0.70). On a photo with a face mesh, the share of the photo's own shading that stage 1 put into the albedo
 is taken out first (``unshaded_albedo``; de-lighting 0.87 / 0.70 -> 0.88 / 0.78); on its skin the fill takes the
 albedo of the lit skin around, and all of a shadow the transport misses goes with the photo's light (de-lighting
-with the face search's shadow lifts 0.89 / 0.80 -> 0.91 / 0.83).
+with the face search's shadow lifts 0.89 / 0.80 -> 0.91 / 0.83); on its skin a light that would multiply the
+photo more than ``RATIO_CAP`` multiplies it that much and adds the rest of the change as the fill (``Factor.handover``:
+the speckle and the seam beside a side-lit face's black half).
 (``cv2.ximgproc.guidedFilter`` at full resolution gives the same kind of result but costs ~0.6 s per 2-megapixel
 crop with a colour guide; this costs ~30 ms.)
 With ``detail=False`` the network's relit image is upsampled as it is.
@@ -77,6 +79,8 @@ FILL_LOW, FILL_HIGH = 0.1, 0.35  # shown shading / its median: below LOW the dee
 FILL_SIGMA = 2.5  # ... the shading shown smoothed over this many network pixels first (texture is not a shadow)
 FILL_ALBEDO_SPREAD = 0.08  # ... its albedo that of the lit pixels around, over this share of the window's side,
 FILL_ALBEDO_RANGE = 2.0  # ... at most this factor from stage 1's own albedo there
+RATIO_CAP = 2.0  # beside a deep shadow the photo's own detail is multiplied at most this much (Factor.handover),
+CAP_SKIN_SPREAD = 0.02  # ... on a face's skin, its edge softened over this share of the window's side
 UNSHADE_MIN_SKIN = 50  # unshaded_albedo: the fewest face-skin pixels (network frame) its fit is made on
 
 
@@ -308,6 +312,7 @@ class Factor:
         added = None
         if shadow is not None:
             w, chroma = shadow
+            w = self.handover(own, w, ratio)
             factor += w[..., None] * (1 - factor)
             # as the ratio: 0 under the photo's own light
             added = (w * (np.maximum(new, _RATIO_EPS) - own["own"]))[..., None] * tint * chroma
@@ -316,7 +321,31 @@ class Factor:
         if gray is None:  # drops theirs after use, relight_rt.relight.people, maybe in another thread)
             gray = state["gray"] = readonly(cv2.cvtColor(image, cv2.COLOR_RGB2GRAY))
         gain = guided_upsample(dec.geometry, gain, dec.network_image[y0:y1, x0:x1], gray, (y0, x0))
-        return gain, (None if added is None else self._to_crop_part(dec, added, shadow[0], (y0, x0)))
+        return gain, (None if added is None else self._to_crop_part(dec, added, w, (y0, x0)))
+
+    def handover(self, own: dict, w: np.ndarray, ratio: np.ndarray) -> np.ndarray:
+        """The fill's weight under one light: ``w`` (``shadow_weight``'s), raised on a face mesh's skin where the light
+        multiplies the photo by more than ``RATIO_CAP``, so that the photo there is multiplied at most that much.
+
+        Just above the fill's own handover (a side-lit face's lips and nose beside its black half, the photo at levels
+        20-30) a light from the other side multiplies the photo 3-5x, and with it its noise and the part of the shadow
+        stage 1 put into the albedo: a speckled bright patch, and a seam down the nose where the flat fill begins
+        (Extended Yale B from 70°, benchmarks/yale_eval.py). The factor is (1 - w) x ratio + w and the fill adds w x the
+        change, so w = (ratio - cap) / (ratio - 1) where the ratio passes the cap gives the photo x cap plus the rest of
+        the change, added: the same light where the albedo is right, the photo's noise multiplied by the cap only. A
+        light that brightens the photo less than the cap, the photo's own light included, changes nothing. Only on a
+        face's skin (its edge softened over ``CAP_SKIN_SPREAD`` of the window's side), where the fill carries the lit
+        skin's albedo: over a whole person the added change, smooth, flattened a striped shirt's and jeans' own
+        texture (the bundled example under ``studio``, a cap of 2.5: 14 % of its values moved, up to 50 levels).
+        """
+        if not RATIO_CAP > 1:  # the rule off
+            return w
+        skin = own["face_skin"]
+        if not skin.any():
+            return w
+        soft = cv2.GaussianBlur(skin.astype(np.float32), (0, 0), CAP_SKIN_SPREAD * max(skin.shape)) * own["inner"]
+        over = np.clip((ratio - RATIO_CAP) / np.maximum(ratio - 1, 1e-6), 0, 1) * np.minimum(2 * soft, 1)
+        return np.maximum(w, over).astype(np.float32)
 
     def shadow_weight(self, dec: Decomposition) -> tuple[np.ndarray, np.ndarray] | None:
         """Where the photo's own shading is too low for the ratio (cached): (w, chroma) in the person's window, w

@@ -76,3 +76,42 @@ def test_the_fill_takes_the_albedo_of_the_lit_skin_around_where_stage1_took_the_
     on_skin = replace(taken)
     np.testing.assert_allclose(relighter.relight(on_skin, OWN_LIGHT, exposure="physical"), shadowed, atol=1e-4)
     assert core_level(on_skin) > 0.85 * want
+
+
+def test_where_a_light_multiplies_a_dim_photo_the_fill_takes_over_and_its_noise_is_not_multiplied(
+        relighter, monkeypatch):
+    """Beside a deep shadow the photo is dim (a penumbra at a third of the lit side, above the fill's own handover)
+    and a light that lifts it 4x multiplies its noise 4x: a speckled patch beside the fill's smooth one (Extended
+    Yale B's lips and nose lit from 70°). On a face mesh's skin, where the ratio passes ``RATIO_CAP`` the change
+    beyond it is added as the fill (``Factor.handover``): the noise the photo has and the albedo has not is multiplied
+    at most by the cap; the photo's own light still gives the photo back. Elsewhere nothing changes."""
+    img, mask = person(box=(20, 140, 20, 90))
+    shaded = img.copy()
+    shaded[20:140, 20:30] *= 0.01  # the deep shadow (the fill's)
+    shaded[20:140, 30:50] *= 0.3  # the dim band beside it, where the ratio would multiply
+    noise = np.zeros_like(img)
+    noise[20:140, 30:50] = np.random.default_rng(1).normal(0, 0.01, (120, 20, 1))
+    core = np.zeros(mask.shape, bool)
+    core[40:120, 36:44] = True
+    albedo = relighter.decompose(img, mask).albedo_chw
+
+    def noise_gain(light):
+        clean = replace(relighter.decompose(shaded, mask), albedo_chw=albedo)
+        noisy = replace(relighter.decompose(shaded + noise, mask), albedo_chw=albedo)
+        if light is OWN_LIGHT:
+            np.testing.assert_allclose(relighter.relight(noisy, light, exposure="physical"), shaded + noise,
+                                       atol=1e-4)
+        diff = relighter.relight(noisy, light, exposure="physical") - relighter.relight(clean, light,
+                                                                                      exposure="physical")
+        return float(diff[core].std() / noise[core].std())
+
+    plain = noise_gain(4 * OWN_LIGHT)  # no face mesh: the rule is a face's skin's only, the photo is multiplied
+    factor = relighter._factor
+    restored = factor.restored
+    # the analytic stage 1 finds no face: the whole person taken for a face mesh's skin
+    monkeypatch.setattr(factor, "restored", lambda dec: {**restored(dec), "face_skin": restored(dec)["inner"]})
+    noise_gain(OWN_LIGHT)
+    handed, cap = noise_gain(4 * OWN_LIGHT), relight_factor.RATIO_CAP
+    monkeypatch.setattr(relight_factor, "RATIO_CAP", 1.0)  # the rule off
+    multiplied = noise_gain(4 * OWN_LIGHT)
+    assert plain > 3.0 and multiplied > 3.0 and handed < cap + 0.25  # 3.4, 3.6 against 2.05 (the cap: 2)
