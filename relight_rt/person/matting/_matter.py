@@ -329,6 +329,13 @@ class PersonMatter:
                 self._note_others(found, faces, name)
             return found
 
+    def completed(self, rgb: np.ndarray, person: Person) -> list[Person]:
+        """One person found on their own (the video matter's :meth:`segment` of a followed region) with what
+        :meth:`people` adds to the largest person: the half-seen pixels both graphs see (:meth:`_backed`) and the
+        parts joined in their own colours (:meth:`_own_colours`): [person, *parts]."""
+        found = [self._backed(rgb, person) if person.source == "pose" else person]
+        return found + self._own_colours(rgb, found)
+
     def _own_colours(self, rgb: np.ndarray, people: list[Person]) -> list[Person]:
         """What the selfie graph sees joined to ``people`` in their own colours (relight_rt.person.matting._colours:
         dark trousers the pose graph misses, not their shadow on the ground): [one Person holding it, source "own": part
