@@ -268,3 +268,14 @@ def joined_part(prob: np.ndarray, mine: np.ndarray, seeds: list[tuple[int, int]]
         if (comp & near).any():
             part |= comp
     return part if part.any() else None
+
+
+WHOLE_IN = 0.9  # seen_whole: this share of the pose graph's person lies inside the selfie graph's view of the photo
+WHOLE_IOU = 0.6  # ... and the two overlap this much (IoU)
+
+
+def seen_whole(mine: np.ndarray, seen: np.ndarray) -> bool:
+    """Whether the pose graph's person ``mine`` (bool, its canvas) is the shape the selfie graph sees on the whole
+    photo (``seen``, on the same canvas): at least WHOLE_IN of it inside, overlapping at least WHOLE_IOU."""
+    both = int((mine & seen).sum())
+    return both > 0 and both >= WHOLE_IN * int(mine.sum()) and both >= WHOLE_IOU * int((mine | seen).sum())

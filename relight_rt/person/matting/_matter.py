@@ -39,6 +39,7 @@ from ._layout import (
     joined_part,
     mostly_in,
     person_outside,
+    seen_whole,
     someone_beside,
     without_straddlers,
 )
@@ -84,6 +85,7 @@ _PORTRAIT_FACE = 0.3  # ... and holding a face this x its width wide
 _FRAGMENT = 0.003  # person="largest": a separate part of the matte at least this x its main part's area is checked
 _MAX_FRAGMENTS = 8  # ... at most this many of them (largest first)
 _OTHER_OVERLAP = 0.25  # ... a segmentation holding the part and at most this share of the main part is someone else
+_TRACE = 0.1  # person="largest", nobody else found: the pose graph's presence over a blob the whole photo vouches for
 _JOINED_FACE = 0.75  # person="largest": a face outside the matte at least this sure, joined to it, is someone with them
 
 log = logging.getLogger(__name__)
@@ -447,6 +449,13 @@ class PersonMatter:
             mine = roi.logits > 0
             if mine.sum() >= COARSE_MIN_AREA and float(sigmoid(roi.logits[mine]).mean()) >= _SURE_BLOB:
                 return [roi], found
+            # ... else the pose graph's, when it sees a trace of a person there and the selfie graph on the whole photo
+            # sees the same shape (:func:`seen_whole`; a man in dark clothes in a dim arcade, the selfie graph on his
+            # region seeing nothing of him)
+            p = self.segment(rgb, Region.around(*box), past_border=True)
+            seen = prob_at(self._roi_person(rgb, Region(w / 2, h / 2, float(max(h, w))), 0.0), *canvas_points(p.region))
+            if p.presence >= _TRACE and seen_whole(p.logits > 0, seen > 0.5):
+                return [p], found
         return [], found
 
     def _peers(self, rgb: np.ndarray, main: Person, blobs: list, faces: list[Face]) -> list[Person]:

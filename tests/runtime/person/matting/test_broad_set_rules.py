@@ -416,3 +416,50 @@ def test_the_video_matter_searches_again_in_the_frame_where_the_followed_person_
     video = M.VideoMatter(matter, refine=False, smoothing=0.0)
     assert iou(video(rgb), body) > 0.95
     assert iou(video(moved), moved[..., 0] > 0.5) > 0.9
+
+
+class _FarOnly:
+    """A stand-in for the selfie graph that sees what is bright only on a canvas where little is (a person seen on
+    the whole photo), nothing where the bright part fills the canvas (the real one on a dim arcade's man, region)."""
+
+    def run(self, feeds):
+        bright = (feeds["image"][0].mean(0) > 0.5).astype(np.float32)
+        return {"segmentation": (bright * (bright.mean() < 0.15))[None, None]}
+
+
+class _Presence:
+    """A stand-in for the pose graph: segments the bright part of the canvas with a given presence flag."""
+
+    def __init__(self, presence: float):
+        self.presence = presence
+
+    def run(self, feeds):
+        seg = np.where(feeds["image"][0].mean(0) > 0.5, 10.0, -10.0).astype(np.float32)
+        return {"segmentation": seg[None, None], "presence": np.array([[self.presence]], np.float32)}
+
+
+@pytest.mark.parametrize(("presence", "found"), [(0.3, True), (0.05, False)])
+def test_a_pose_person_the_whole_photo_vouches_for_is_taken_when_nothing_else_is(presence, found):
+    """person="largest", nobody found otherwise: the pose graph's segmentation of the largest blob is the person when
+    its flag shows a trace of one (>= _TRACE) and the selfie graph on the whole photo sees that very shape, though on
+    the person's own region it sees nothing (people_masks p195, a man in dark clothes in a dim arcade: 0.00 -> 0.89)."""
+    body = crouching()
+    rgb = np.repeat(body[..., None], 3, 2)
+    matter = M.PersonMatter(refine=False)
+    matter.roi, matter.pose, matter.face = _FarOnly(), _Presence(presence), None
+    if found:
+        assert iou(matter(rgb), body) > 0.95
+    else:
+        with pytest.raises(RelightError, match="no person found"):
+            matter(rgb)
+
+
+def test_seen_whole_asks_for_the_shape_inside_and_most_of_the_view():
+    mine = np.zeros((20, 20), bool)
+    mine[5:15, 5:10] = True
+    seen = mine.copy()
+    assert _layout.seen_whole(mine, seen)
+    seen[5:15, 10:14] = True  # the view is much larger than the person: IoU 50/90
+    assert not _layout.seen_whole(mine, seen)
+    assert not _layout.seen_whole(mine, np.roll(mine, 3, axis=1))  # partly outside the view
+    assert not _layout.seen_whole(mine, np.zeros_like(mine))
