@@ -28,6 +28,7 @@ from ._layout import (
     COVERED,
     PEER_HEIGHT,
     as_people,
+    blended,
     box_area,
     box_beside,
     box_height,
@@ -153,6 +154,11 @@ class PersonMatter:
 
     def _roi_prob(self, rgb: np.ndarray, region: Region) -> np.ndarray:
         return roi_prob(self.roi, rgb, region)
+
+    def _seen(self, rgb: np.ndarray, region: Region) -> np.ndarray:
+        """The selfie graph's answer on the whole photo (asked by the region finder already) on ``region``'s canvas."""
+        h, w = rgb.shape[:2]
+        return prob_at(self._roi_person(rgb, Region(w / 2, h / 2, float(max(h, w))), 0.0), *canvas_points(region))
 
     def _roi_person(self, rgb: np.ndarray, region: Region, presence: float) -> Person:
         """The selfie graph's segmentation of ``region`` as a Person (its probability kept as logits)."""
@@ -328,6 +334,7 @@ class PersonMatter:
             if self.person != "all" and found:
                 found += self._joined(rgb, found, faces)
                 found += self._own_colours(rgb, found)
+                found = [blended(p, self._seen(rgb, p.region)) if p.source == "roi" else p for p in found]
                 self._note_others(found, faces, name)
             return found
 
@@ -453,8 +460,7 @@ class PersonMatter:
             # sees the same shape (:func:`seen_whole`; a man in dark clothes in a dim arcade, the selfie graph on his
             # region seeing nothing of him)
             p = self.segment(rgb, Region.around(*box), past_border=True)
-            seen = prob_at(self._roi_person(rgb, Region(w / 2, h / 2, float(max(h, w))), 0.0), *canvas_points(p.region))
-            if p.presence >= _TRACE and seen_whole(p.logits > 0, seen > 0.5):
+            if p.presence >= _TRACE and seen_whole(p.logits > 0, self._seen(rgb, p.region) > 0.5):
                 return [p], found
         return [], found
 

@@ -463,3 +463,19 @@ def test_seen_whole_asks_for_the_shape_inside_and_most_of_the_view():
     assert not _layout.seen_whole(mine, seen)
     assert not _layout.seen_whole(mine, np.roll(mine, 3, axis=1))  # partly outside the view
     assert not _layout.seen_whole(mine, np.zeros_like(mine))
+
+
+def test_a_selfie_graph_person_is_averaged_with_the_whole_photos_answer_only_where_the_two_agree():
+    """_layout.blended: framed on the person, the selfie graph takes a rim of what stands behind them (grass, a blurred
+    guitar) that it leaves out on the whole photo; the two answers averaged lose that rim (people_masks photos A 0.910
+    -> 0.911, B +0.0005), but only when they agree: a whole-photo answer that is another shape is not used."""
+    yy, xx = np.mgrid[0:256, 0:256] + 0.5
+    body = (((xx - 128) / 60) ** 2 + ((yy - 140) / 90) ** 2) < 1
+    rim = ((((xx - 128) / 65) ** 2 + ((yy - 140) / 97) ** 2) < 1) & ~body
+    region = M.Region(128.0, 128.0, 256.0)
+    framed = _segmentation.Person(region, np.where(body, 6.0, np.where(rim, 0.5, -6.0)).astype(np.float32), 0.9, "roi")
+    whole = np.where(body, 0.95, 0.02).astype(np.float32)  # the whole photo's answer: the body, not the rim
+    out = _layout.blended(framed, whole)
+    assert (out.logits[body] > 0).all() and (out.logits[rim] < 0).all()  # the rim is gone, the body kept
+    other = np.where(xx < 100, 0.95, 0.02).astype(np.float32)  # the whole photo's answer is someone else
+    assert _layout.blended(framed, other) is framed
