@@ -22,8 +22,8 @@ one when a face at least 0.3x the person's width lies in a pose-graph person end
 graph half-sees is the person's where the selfie graph agrees (dark trousers); and with nobody else found, the
 default matte takes the selfie graph's blob when it is sure of it, else the pose graph's segmentation of it when the
 selfie graph on the whole photo sees that shape. A selfie-graph person is averaged with the selfie graph's answer on
-the whole photo where the two agree (less of what stands behind a portrait). The default matte also takes someone the selfie
-graph sees joined to the person who shows a face of their own (an embracing couple), carries a selfie-graph
+the whole photo where the two agree (less of what stands behind a portrait). The default matte also takes someone
+the selfie graph sees joined to the person who shows a face of their own (an embracing couple), carries a selfie-graph
 segmentation on past its region's side where it was cut there (whole or not at all), and takes what the selfie graph
 sees joined to the person in the person's own colours (dark trousers the pose graph misses, not their shadow)
 (measured on a broad real set: benchmarks/people_masks_eval.py).

@@ -50,9 +50,10 @@ class VideoMatter:
     ``redetect_every`` frames if > 0). The person is completed as in a photo (:meth:`PersonMatter.completed`:
     half-seen trousers, parts in their own colours; measured on the parkour clip, benchmarks/people_masks_eval.py
     --methods video: 0.913 -> 0.917, and 0.926 with the search in the same frame, which found frame 66's runner
-    after his jump instead of leaving that frame empty). The person probability on the working grid is blended with the previous frame's, warped by DIS optical
-    flow: ``p = (1 - w) p_now + w p_prev_warped``, ``w = smoothing * exp(-|I_now - I_prev_warped| / 0.05)``
-    (the history counts only where the flow explains the picture), then refined by the guided filter.
+    after his jump instead of leaving that frame empty). The person probability on the working grid is blended
+    with the previous frame's, warped by DIS optical flow: ``p = (1 - w) p_now + w p_prev_warped``,
+    ``w = smoothing * exp(-|I_now - I_prev_warped| / 0.05)`` (the history counts only where the flow explains the
+    picture), then refined by the guided filter.
 
     Args:
         matter: a :class:`PersonMatter` to use (default: a new one with ``models`` and ``device``).
