@@ -20,8 +20,10 @@ Where the pose graph's presence flag says nobody, the selfie graph vouches for a
 the same region has the pose graph's shape (a runner in mid-air, a man lying down); a close portrait is checked as
 one when a face at least 0.3x the person's width lies in a pose-graph person ending near the bottom; what the pose
 graph half-sees is the person's where the selfie graph agrees (dark trousers); and with nobody else found, the
-default matte takes the selfie graph's blob when it is sure of it. The default matte also takes someone the selfie
-graph sees joined to the person who shows a face of their own (an embracing couple), carries a selfie-graph
+default matte takes the selfie graph's blob when it is sure of it, else the pose graph's segmentation of it when the
+selfie graph on the whole photo sees that shape. A selfie-graph person is averaged with the selfie graph's answer on
+the whole photo where the two agree (less of what stands behind a portrait). The default matte also takes someone
+the selfie graph sees joined to the person who shows a face of their own (an embracing couple), carries a selfie-graph
 segmentation on past its region's side where it was cut there (whole or not at all), and takes what the selfie graph
 sees joined to the person in the person's own colours (dark trousers the pose graph misses, not their shadow)
 (measured on a broad real set: benchmarks/people_masks_eval.py).
@@ -45,7 +47,8 @@ follow the photo's own edges. Only the person's region is processed at full reso
 full resolution (relight_rt.image.matte_edges: hair strands, no smear of the old background).
 
 :class:`VideoMatter` keeps state between frames: the person's region comes from the previous frame's
-matte (the detector runs again only when the person is lost or every ``redetect_every`` frames), and
+matte (the detector runs again, in the same frame, only when the person is lost, or every ``redetect_every``
+frames), the person is completed as in a photo (half-seen trousers, parts in their own colours), and
 the working-grid probability is blended with the previous one warped by DIS optical flow, weighted by
 how well the flow explains the frame (photometric agreement), which steadies the outline without
 dragging it behind a moving person. :func:`outline_flicker` measures what is left.

@@ -28,6 +28,7 @@ from ._layout import (
     COVERED,
     PEER_HEIGHT,
     as_people,
+    blended,
     box_area,
     box_beside,
     box_height,
@@ -39,6 +40,7 @@ from ._layout import (
     joined_part,
     mostly_in,
     person_outside,
+    seen_whole,
     someone_beside,
     without_straddlers,
 )
@@ -84,6 +86,7 @@ _PORTRAIT_FACE = 0.3  # ... and holding a face this x its width wide
 _FRAGMENT = 0.003  # person="largest": a separate part of the matte at least this x its main part's area is checked
 _MAX_FRAGMENTS = 8  # ... at most this many of them (largest first)
 _OTHER_OVERLAP = 0.25  # ... a segmentation holding the part and at most this share of the main part is someone else
+_TRACE = 0.1  # person="largest", nobody else found: the pose graph's presence over a blob the whole photo vouches for
 _JOINED_FACE = 0.75  # person="largest": a face outside the matte at least this sure, joined to it, is someone with them
 
 log = logging.getLogger(__name__)
@@ -151,6 +154,11 @@ class PersonMatter:
 
     def _roi_prob(self, rgb: np.ndarray, region: Region) -> np.ndarray:
         return roi_prob(self.roi, rgb, region)
+
+    def _seen(self, rgb: np.ndarray, region: Region) -> np.ndarray:
+        """The selfie graph's answer on the whole photo (asked by the region finder already) on ``region``'s canvas."""
+        h, w = rgb.shape[:2]
+        return prob_at(self._roi_person(rgb, Region(w / 2, h / 2, float(max(h, w))), 0.0), *canvas_points(region))
 
     def _roi_person(self, rgb: np.ndarray, region: Region, presence: float) -> Person:
         """The selfie graph's segmentation of ``region`` as a Person (its probability kept as logits)."""
@@ -326,8 +334,16 @@ class PersonMatter:
             if self.person != "all" and found:
                 found += self._joined(rgb, found, faces)
                 found += self._own_colours(rgb, found)
+                found = [blended(p, self._seen(rgb, p.region)) if p.source == "roi" else p for p in found]
                 self._note_others(found, faces, name)
             return found
+
+    def completed(self, rgb: np.ndarray, person: Person) -> list[Person]:
+        """One person found on their own (the video matter's :meth:`segment` of a followed region) with what
+        :meth:`people` adds to the largest person: the half-seen pixels both graphs see (:meth:`_backed`) and the
+        parts joined in their own colours (:meth:`_own_colours`): [person, *parts]."""
+        found = [self._backed(rgb, person) if person.source == "pose" else person]
+        return found + self._own_colours(rgb, found)
 
     def _own_colours(self, rgb: np.ndarray, people: list[Person]) -> list[Person]:
         """What the selfie graph sees joined to ``people`` in their own colours (relight_rt.person.matting._colours:
@@ -440,6 +456,12 @@ class PersonMatter:
             mine = roi.logits > 0
             if mine.sum() >= COARSE_MIN_AREA and float(sigmoid(roi.logits[mine]).mean()) >= _SURE_BLOB:
                 return [roi], found
+            # ... else the pose graph's, when it sees a trace of a person there and the selfie graph on the whole photo
+            # sees the same shape (:func:`seen_whole`; a man in dark clothes in a dim arcade, the selfie graph on his
+            # region seeing nothing of him)
+            p = self.segment(rgb, Region.around(*box), past_border=True)
+            if p.presence >= _TRACE and seen_whole(p.logits > 0, self._seen(rgb, p.region) > 0.5):
+                return [p], found
         return [], found
 
     def _peers(self, rgb: np.ndarray, main: Person, blobs: list, faces: list[Face]) -> list[Person]:

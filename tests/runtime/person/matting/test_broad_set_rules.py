@@ -382,3 +382,100 @@ def test_colour_centres_find_each_cluster_and_give_the_same_answer_each_call():
     assert np.array_equal(c, _colours.centres(x, 2))
     d, label = _colours.nearest(np.array([[11.0, 0.0, 0.0]], np.float32), c)
     assert d[0] < 2.0 and c[label[0], 0] < 20.0
+
+
+def test_the_video_matter_adds_what_the_photo_matte_adds_to_the_person():
+    """VideoMatter goes through :meth:`PersonMatter.completed` (issue 48, matte4): the grey legs the pose graph
+    half-sees and the selfie graph sees are the person's in video as in a photo (_backed; the parkour clip's video
+    figure 0.913 -> 0.917); with the photo's rules taken out (``completed`` giving the person alone) they are lost."""
+    h, w = 300, 400
+    yy, xx = np.mgrid[0:h, 0:w] + 0.5
+    torso = (((xx - 200) / 50) ** 2 + ((yy - 100) / 70) ** 2) < 1
+    legs = (np.abs(xx - 200) < 35) & (yy > 170) & (yy < 190)
+    rgb = np.zeros((h, w, 3), np.float32)
+    rgb[(np.abs(xx - 200) < 35) & (yy > 150) & (yy < 190)] = 0.4
+    rgb[torso] = 1.0
+    for complete in (True, False):
+        matter = M.PersonMatter(refine=False)
+        matter.roi, matter.pose, matter.face = _Seen(), _DimLegs(), None
+        if not complete:
+            matter.completed = lambda rgb, person: [person]
+        alpha = M.VideoMatter(matter, refine=False, smoothing=0.0)(rgb)
+        assert (alpha[torso] >= 0.5).mean() > 0.95
+        assert ((alpha[legs] >= 0.5).mean() > 0.9) == complete
+
+
+def test_the_video_matter_searches_again_in_the_frame_where_the_followed_person_is_lost():
+    """A person who leaves the region followed from the last frame (a jump, a cut) is searched for again in the same
+    frame, not one frame later (the parkour clip's frame 66 was an empty matte: video 0.917 -> 0.926)."""
+    body = crouching(w=800)
+    rgb = np.repeat(body[..., None], 3, 2)
+    moved = np.roll(rgb, 400, axis=1)  # the body, now far to the right, out of the region followed
+    matter = M.PersonMatter(refine=False)
+    matter.roi, matter.pose, matter.face = _Bright(), _Unsure(), None
+    video = M.VideoMatter(matter, refine=False, smoothing=0.0)
+    assert iou(video(rgb), body) > 0.95
+    assert iou(video(moved), moved[..., 0] > 0.5) > 0.9
+
+
+class _FarOnly:
+    """A stand-in for the selfie graph that sees what is bright only on a canvas where little is (a person seen on
+    the whole photo), nothing where the bright part fills the canvas (the real one on a dim arcade's man, region)."""
+
+    def run(self, feeds):
+        bright = (feeds["image"][0].mean(0) > 0.5).astype(np.float32)
+        return {"segmentation": (bright * (bright.mean() < 0.15))[None, None]}
+
+
+class _Presence:
+    """A stand-in for the pose graph: segments the bright part of the canvas with a given presence flag."""
+
+    def __init__(self, presence: float):
+        self.presence = presence
+
+    def run(self, feeds):
+        seg = np.where(feeds["image"][0].mean(0) > 0.5, 10.0, -10.0).astype(np.float32)
+        return {"segmentation": seg[None, None], "presence": np.array([[self.presence]], np.float32)}
+
+
+@pytest.mark.parametrize(("presence", "found"), [(0.3, True), (0.05, False)])
+def test_a_pose_person_the_whole_photo_vouches_for_is_taken_when_nothing_else_is(presence, found):
+    """person="largest", nobody found otherwise: the pose graph's segmentation of the largest blob is the person when
+    its flag shows a trace of one (>= _TRACE) and the selfie graph on the whole photo sees that very shape, though on
+    the person's own region it sees nothing (people_masks p195, a man in dark clothes in a dim arcade: 0.00 -> 0.89)."""
+    body = crouching()
+    rgb = np.repeat(body[..., None], 3, 2)
+    matter = M.PersonMatter(refine=False)
+    matter.roi, matter.pose, matter.face = _FarOnly(), _Presence(presence), None
+    if found:
+        assert iou(matter(rgb), body) > 0.95
+    else:
+        with pytest.raises(RelightError, match="no person found"):
+            matter(rgb)
+
+
+def test_seen_whole_asks_for_the_shape_inside_and_most_of_the_view():
+    mine = np.zeros((20, 20), bool)
+    mine[5:15, 5:10] = True
+    seen = mine.copy()
+    assert _layout.seen_whole(mine, seen)
+    seen[5:15, 10:14] = True  # the view is much larger than the person: IoU 50/90
+    assert not _layout.seen_whole(mine, seen)
+    assert not _layout.seen_whole(mine, np.roll(mine, 3, axis=1))  # partly outside the view
+    assert not _layout.seen_whole(mine, np.zeros_like(mine))
+
+
+def test_a_selfie_graph_person_is_averaged_with_the_whole_photos_answer_only_where_the_two_agree():
+    """_layout.blended: framed on the person, the selfie graph takes a rim of what stands behind them (grass, a blurred
+    guitar) that it leaves out on the whole photo; the two answers averaged lose that rim (people_masks photos A 0.910
+    -> 0.913, B 0.8835 -> 0.8851), but only when they agree: a whole-photo answer that is another shape is not used."""
+    yy, xx = np.mgrid[0:256, 0:256] + 0.5
+    body = (((xx - 128) / 60) ** 2 + ((yy - 140) / 90) ** 2) < 1
+    rim = ((((xx - 128) / 65) ** 2 + ((yy - 140) / 97) ** 2) < 1) & ~body
+    region = M.Region(128.0, 128.0, 256.0)
+    framed = _segmentation.Person(region, np.where(body, 6.0, np.where(rim, 0.5, -6.0)).astype(np.float32), 0.9, "roi")
+    whole = np.where(body, 0.95, 0.02).astype(np.float32)  # the whole photo's answer: the body, not the rim
+    out = _layout.blended(framed, whole)
+    assert (out.logits[body] > 0).all() and (out.logits[rim] < 0).all()  # the rim is gone, the body kept
+    other = np.where(xx < 100, 0.95, 0.02).astype(np.float32)  # the whole photo's answer is someone else
+    assert _layout.blended(framed, other) is framed
