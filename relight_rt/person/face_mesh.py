@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import logging
 import math
+import numbers
 from pathlib import Path
 
 import cv2
@@ -246,6 +247,11 @@ class FaceMesh:
         portrait, a face crop) is too large for the short-range detector, which found none on any of the 12 Yale
         faces (168 x 192, the face filling the frame) and one on each with the photo padded (issue 48).
         """
+        rgb = np.asarray(rgb)
+        if rgb.ndim != 3 or rgb.shape[2] != 3:
+            raise RelightError(f"face search: expected an (H, W, 3) RGB image, got shape {rgb.shape}")
+        if not (isinstance(lift, numbers.Real) and math.isfinite(lift) and lift > 0):
+            raise RelightError(f"face search: lift must be a finite power > 0, got {lift!r}")
         y0, y1, x0, x1 = box
         for scale in (1.0, CLOSE_UP_SCALE):
             region = Region.around(x0, y0, x1, y1, scale=scale)
