@@ -219,11 +219,15 @@ def round_sources(linear: np.ndarray, env: np.ndarray, white: float, rotation: n
     fov = check_fov(fov)
     if not (isinstance(white, numbers.Real) and math.isfinite(white) and white > 0):
         raise RelightError(f"white: expected a finite positive value, got {white!r}")
+    linear = np.asarray(linear)
     if linear.ndim != 3 or linear.shape[2] != 3 or np.shape(rotation) != (3, 3):
         raise RelightError(f"expected an (h, w, 3) view and a (3, 3) rotation, got {linear.shape} and "
                            f"{np.shape(rotation)}")  # fmt: skip
     excess = np.maximum(env - np.float32(white), 0)
-    hot = (excess.max(axis=2) > 0).astype(np.uint8)
+    top = excess.max(axis=2)
+    if not np.isfinite(top.max(initial=0.0)):  # an Inf (or NaN) would give the Gaussian an endless reach
+        raise RelightError("panorama: holds NaN or Inf values")
+    hot = (top > 0).astype(np.uint8)
     n, labels, stats, _ = cv2.connectedComponentsWithStats(hot, connectivity=8)
     if n <= 1:
         return linear
@@ -384,6 +388,8 @@ def panorama_view(panorama, size: tuple[int, int], view) -> PanoramaView:
     if not mean > 0:
         raise RelightError(f"panorama: the view {az:g},{el:g} is black (nothing to expose); choose another --view")
     k = METER_GREY / mean
+    if not math.isfinite(k / peak):  # a map of subnormal values: its exposure does not fit a float
+        raise RelightError(f"panorama: its values are too small to expose (brightest {peak:g}); scale the map up")
     rot = view_rotation(az, el)
     plate = _encode8(round_sources(linear, env, 1 / k, rot, fov), k)
     light = sh.rotate(envmap.project_envmap(env), rot.T) * (k / math.pi)

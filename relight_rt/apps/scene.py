@@ -480,7 +480,7 @@ def camera_match(bg: np.ndarray, placed: Placement, known_blur: float = 0.0) -> 
                            where=premult[..., 3:] > 1e-3)  # fmt: skip
         p_srgb = linear_to_srgb(np.clip(colour, 0, 1))
         # the person's sharpness: its premultiplied colour, so that its outline counts too
-        b_bg = max(camera_blur(grey(bg)), known_blur)
+        b_bg = max(camera_blur(grey(bg)), min(known_blur, 1e6))  # 1e6: far past the cap of 8 below; b_bg**2 finite
         b_p = blur_sigma(linear_to_srgb(premult[..., :3]).mean(axis=2))
         if b_bg > b_p + 0.25:  # the camera's own softness reaches a close portrait too
             sigma = min(math.sqrt(b_bg**2 - b_p**2), 8.0)

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import logging
 import math
+import numbers
 from pathlib import Path
 
 import cv2
@@ -203,6 +204,12 @@ def _lifted(crop: np.ndarray, power: float) -> np.ndarray:
     return crop if power == 1 else np.power(np.clip(crop, 0, 1), np.float32(power), dtype=np.float32)
 
 
+def _check_finite(crop: np.ndarray) -> None:
+    """RelightError where a crop the graphs are shown holds NaN or Inf (the graphs' output would be blamed)."""
+    if not np.isfinite(crop).all():
+        raise RelightError("face search: the image holds NaN or Inf values")
+
+
 class FaceMesh:
     """The face detector and landmarker of a models folder, or nothing (``available`` False) without them."""
 
@@ -246,10 +253,17 @@ class FaceMesh:
         portrait, a face crop) is too large for the short-range detector, which found none on any of the 12 Yale
         faces (168 x 192, the face filling the frame) and one on each with the photo padded (issue 48).
         """
+        rgb = np.asarray(rgb)
+        if rgb.ndim != 3 or rgb.shape[2] != 3 or rgb.dtype.kind != "f":
+            raise RelightError(f"face search: expected an (H, W, 3) float RGB image in [0, 1], got {rgb.dtype} of "
+                               f"shape {rgb.shape}")  # fmt: skip
+        if not (isinstance(lift, numbers.Real) and math.isfinite(lift) and lift > 0):
+            raise RelightError(f"face search: lift must be a finite power > 0, got {lift!r}")
         y0, y1, x0, x1 = box
         for scale in (1.0, CLOSE_UP_SCALE):
             region = Region.around(x0, y0, x1, y1, scale=scale)
             look = _lifted(crop_region(rgb, region, FACE_SIZE), lift)
+            _check_finite(look)
             out = self.detector.run({"image": look.transpose(2, 0, 1)[None]})
             rx0, ry0, _, _ = region.box()
             found = [(np.array([rx0, ry0, rx0, ry0]) + fbox * region.side).tolist()
@@ -263,6 +277,7 @@ class FaceMesh:
         for fx0, fy0, fx1, fy1 in found:
             roi = Region.around(fx0, fy0, fx1, fy1, scale=ROI_SCALE)
             crop = _lifted(crop_region(rgb, roi, MESH_SIZE), lift)
+            _check_finite(crop)
             lm, flag = self.mesh.run(["landmarks", "face_flag"], {"image": crop.transpose(2, 0, 1)[None]})
             if 1.0 / (1.0 + math.exp(-float(flag.reshape(-1)[0]))) < MIN_FLAG:
                 continue

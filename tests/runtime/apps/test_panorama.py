@@ -197,6 +197,29 @@ def test_bad_round_sources_arguments():
             round_sources(*args)
 
 
+def test_round_sources_hostile_maps_and_views():
+    """fuzz7: an Inf in the map (a half-float file's 1e30) is one RelightError, not an OverflowError from the
+    Gaussian's endless reach; a nested list is taken as the view it spells."""
+    env, white = one_sun()
+    rot = view_rotation(0, 0)
+    view = render_view(env, (30, 40), 0, 0, 60)
+    env[16, 32] = np.inf
+    with pytest.raises(RelightError, match="NaN or Inf"):
+        round_sources(view, env, white, rot, 60)
+    env, white = one_sun()
+    out = round_sources(view.tolist(), env, white, rot, 60)
+    assert out.shape == view.shape and np.isfinite(out).all()
+
+
+def test_a_panorama_of_subnormal_values_is_one_clear_error():
+    """fuzz7: a map of float64 5e-324 everywhere has a view to meter, but its exposure (k / peak) overflows to
+    Inf; one RelightError rather than a PanoramaView with an infinite exposure. 1e-300 is still exposed."""
+    with pytest.raises(RelightError, match="too small"):
+        panorama_view(np.full((8, 16, 3), 5e-324), (64, 64), "0,0")
+    pv = panorama_view(np.full((8, 16, 3), 1e-300), (64, 64), "0,0")
+    assert math.isfinite(pv.exposure) and np.isfinite(pv.light).all()
+
+
 def one_sun(h=32, excess=1000.0, where=(0, 0)):
     """(map, white): a grey map (0.2) with one pixel ``excess`` × white brighter, near azimuth / elevation
     ``where`` (degrees from the view's axis), white = 1."""

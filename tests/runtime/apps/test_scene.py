@@ -197,6 +197,8 @@ def test_a_known_plate_blur_blurs_a_full_body_to_it(diffuse):
     for bad in (-1.0, float("nan"), "3"):
         with pytest.raises(RelightError, match="plate_blur"):
             composite(diffuse, img, plate, mask=mask, plate_blur=bad, **kw)
+    # fuzz7: a huge finite blur is the largest blur (8 px), not an OverflowError from squaring it
+    assert steepest(1e200) == pytest.approx(steepest(1e3), rel=1e-6)
 
 
 def test_the_person_hides_some_sky_from_the_ground_around_its_feet(diffuse):

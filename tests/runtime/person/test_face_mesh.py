@@ -170,6 +170,24 @@ def test_a_face_that_fills_the_photo_gets_its_mesh(monkeypatch):
     assert mesh.faces(crop, box) == []
 
 
+def test_bad_lifts_and_images_are_one_clear_error():
+    """fuzz7: a lift of 0, below 0, NaN or Inf (0 ** -1 = Inf crops) used to reach the detector and be blamed on
+    the graph ("output 'boxes' holds NaN or Inf"), as was a NaN image; a grey (H, W) image failed on a transpose, a
+    uint8 one was shown to the graphs as 0-255 and found nothing."""
+    mesh = FaceMesh(bundled_models_dir())
+    img = np.full((64, 64, 3), 0.5, np.float32)
+    for lift in (0.0, -1.0, float("nan"), float("inf"), "0.5"):
+        with pytest.raises(RelightError, match="lift"):
+            mesh.faces(img, (0, 64, 0, 64), lift=lift)
+    for bad in (img[..., 0], (img * 255).astype(np.uint8)):
+        with pytest.raises(RelightError, match=r"\(H, W, 3\) float"):
+            mesh.faces(bad, (0, 64, 0, 64))
+    for v in (np.nan, np.inf):
+        with pytest.raises(RelightError, match="NaN or Inf"):
+            mesh.faces(np.full((64, 64, 3), v, np.float32), (0, 64, 0, 64))
+    assert mesh.faces(img, (0, 64, 0, 64), lift=0.5) == []
+
+
 def test_the_face_in_a_real_photo_gets_its_mesh_and_the_light_models_it(monkeypatch):
     """The reference photo (full body): the head pass finds the face's mesh; the relit face differs from the one
     without the mesh only around the head, a light from the image's right brightens the face's right half more
