@@ -227,6 +227,22 @@ def as_people(
     return [p], ([k] if k is not None else mine[:1])
 
 
+def face_share(p: Person, k: int | None, faces: list[Face], shape: tuple[int, int]) -> Person:
+    """The part of ``p`` that stands for face ``k`` (``faces[k]``): its share when ``p`` is a selfie-graph
+    segmentation holding that face among several side by side (:func:`split_by_faces`, as :func:`as_people`
+    splits it), else ``p`` itself. A face's person is judged on this share: the selfie graph's region of one face
+    in a group shows the neighbours too, and whether they were matted already says nothing of that face's
+    person (group_t1 less its top row: Joey's segmentation, three faces wide, lay 0.80 inside the people matted
+    before, his own share 0.44, and he was taken for one of them: 5 people)."""
+    if k is None or p.source != "roi" or not contains(p, faces[k], shape):
+        return p
+    side_by_side = faces_side_by_side([f for f in faces if contains(p, f, shape)])
+    if len(side_by_side) < 2:
+        return p
+    mine = [i for i, f in enumerate(side_by_side) if f is faces[k]]
+    return split_by_faces(p, side_by_side)[mine[0]] if mine else p
+
+
 def box_beside(box, other) -> tuple[float, float, float, float] | None:
     """The part of ``box`` left of or right of the box ``other`` (the wider part), or None when less than a
     quarter of ``box``'s width remains."""

@@ -34,6 +34,7 @@ from ._layout import (
     box_height,
     box_past_border,
     continued,
+    face_share,
     grow_where_cut,
     held,
     is_portrait,
@@ -621,8 +622,9 @@ class PersonMatter:
             if p is not None and box_height(person_box(p, (h, w))) >= MIN_PERSON_FRACTION * h:
                 mask = logits_on_grid(p, grid) > 0
                 # a person mostly inside the people matted already is one of them again (a face's person may
-                # overlap more: in a group, the selfie graph's region of one face shows the neighbours too)
-                if mask.any() and occupied[mask].mean() < (COVERED if face is None else _COVERED_FACE):
+                # overlap more, and is judged on their own share of a segmentation showing the neighbours too)
+                own = mask if face is None else logits_on_grid(face_share(p, k, faces, (h, w)), grid) > 0
+                if own.any() and occupied[own].mean() < (COVERED if face is None else _COVERED_FACE):
                     occupied |= mask
                     people, mine = as_people(p, k, faces, owned, (h, w))
                     found.extend(people)

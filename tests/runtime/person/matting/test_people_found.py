@@ -374,12 +374,47 @@ def test_group_t1_is_six_people(group_t1):
     assert len(everyone.people(group_t1)) == 6  # was 7
 
 
-@pytest.mark.xfail(strict=True, reason="known fault: shifted by one row, the search finds 5 (the regions it tries move)")
-def test_group_t1_shifted_by_a_row_is_six_people(group_t1):
-    """The same photo less its top row: the people found should not depend on it. Today 5 (a 'pose' region at the
-    left table end and two 'roi' answers for one man replace the six); failing since matte2, seen 2026-11-29."""
+@pytest.mark.parametrize("crop", [np.s_[1:], np.s_[2:]])
+def test_group_t1_shifted_by_a_row_is_six_people(group_t1, crop):
+    """The same photo less its top row(s): the people found do not depend on it. Less one row it came out as 5
+    (from matte2 to matte4): the pose graph, re-centred on the blob holding the whole group, settled on another
+    body, its portrait check ran (its box ended 620 px down, the check starts at 619.5), and what it found then
+    took Chandler with Joey's body; Joey's face then gave a segmentation three faces wide lying 0.80 inside the
+    people matted already (his own share 0.44), judged on the whole of it he was one of them
+    (:func:`_layout.face_share`)."""
     everyone = M.PersonMatter(person="all")
-    assert len(everyone.people(np.ascontiguousarray(group_t1[1:]))) == 6
+    assert len(everyone.people(np.ascontiguousarray(group_t1[crop]))) == 6
+
+
+@pytest.mark.xfail(strict=True, reason="known fault: a pose-graph box across Rachel and Ross takes Ross's face, "
+                                       "then is dropped as a straddler: 5 people")  # fmt: skip
+@pytest.mark.parametrize("crop", [np.s_[:-1], np.s_[:, :-1]])
+def test_group_t1_less_its_bottom_row_or_right_column_is_six_people(group_t1, crop):
+    """Less its bottom row or right column, group_t1 comes out as 5 (seen by matte5, 2026-11-29): the pose graph
+    framed between Rachel and Ross answers with a body across both; it takes Ross's face (held by it first),
+    Ross's own search is skipped, and the box is dropped as a straddler once Rachel's part and a box from
+    Monica's face (holding Ross's face too) are found. Splitting such a box by its faces, and dropping a blob's
+    segmentation that holds only faces matted already (else 7 less two rows), made all six framings 6 but
+    lost 0.03-0.26 IoU on 6 photos of people_masks with --methods all (gained 0.41 on one; the box holds little
+    of the second person, whose face it claims): not done."""
+    everyone = M.PersonMatter(person="all")
+    assert len(everyone.people(np.ascontiguousarray(group_t1[crop]))) == 6
+
+
+def test_a_face_is_judged_on_its_own_share():
+    """face_share: a selfie-graph segmentation holding several faces side by side stands for one of them by that
+    face's columns (as as_people splits it); holding that face alone, or found from a blob (no face), whole."""
+    whole = box_person((20, 100, 380, 380), "roi")
+    faces = [Face((40.0, 110.0, 100.0, 170.0), 0.9), Face((170.0, 110.0, 230.0, 170.0), 0.9),
+             Face((300.0, 110.0, 360.0, 170.0), 0.9)]  # fmt: skip
+    mine = _layout.face_share(whole, 1, faces, (400, 400))
+    box = M.person_box(mine, (400, 400))
+    assert 100 < box[0] < 170 and 230 < box[2] < 300
+    assert _layout.face_share(whole, None, faces, (400, 400)) is whole
+    alone = box_person((140, 100, 260, 380), "roi")
+    assert _layout.face_share(alone, 1, faces, (400, 400)) is alone
+    body = box_person((20, 100, 380, 380))  # a pose-graph person is kept whole (as_people), and judged so
+    assert _layout.face_share(body, 1, faces, (400, 400)) is body
 
 
 def test_raised_portrait_region_keeps_out_a_taller_neighbour():
