@@ -215,7 +215,12 @@ def as_people(
     people side by side come as one segmentation holding several faces: one person per face not taken yet
     (:func:`split_by_faces`; the matte stays their union). The faces of people matted already take their share
     of the canvas too, so that a new person's part holds none of them (group_t1: Monica's face gave a part
-    holding Rachel, Ross and half of Chandler, and a straddling box across Rachel and Ross lay inside it)."""
+    holding Rachel, Ross and half of Chandler, and a straddling box across Rachel and Ross lay inside it). A
+    pose-graph person found from a blob holding several faces side by side takes none of them: the pose graph
+    segments one person, and framed between two in a group it answers with a body across both, holding little
+    of the second (group_t1 less its bottom row: such a box across Rachel and Ross took Ross's face, Ross's own
+    search was skipped, and the box was dropped as a straddler: 5 people); the faces' own searches find them
+    (:func:`without_straddlers` then drops the box)."""
     held = [j for j, f in enumerate(faces) if contains(p, f, shape)]
     mine = [j for j in held if j not in owned]
     side_by_side = faces_side_by_side([faces[j] for j in held])
@@ -224,6 +229,8 @@ def as_people(
     if p.source == "roi" and len(side_by_side) >= 2 and new:
         parts = split_by_faces(p, side_by_side)
         return [parts[i] for i in new], mine
+    if p.source == "pose" and k is None and len(side_by_side) >= 2:
+        return [p], []  # a box across people side by side: each face's own search decides who they are
     return [p], ([k] if k is not None else mine[:1])
 
 
