@@ -250,6 +250,19 @@ def face_share(p: Person, k: int | None, faces: list[Face], shape: tuple[int, in
     return split_by_faces(p, side_by_side)[mine[0]] if mine else p
 
 
+def within_photo(region: Region, shape: tuple[int, int]) -> Region:
+    """``region``, or the whole photo's square (centred, as wide as its longer side) when ``region`` is wider: a
+    portrait's region framed on a box as wide as the photo shows the selfie graph the photo smaller than the
+    photo itself does, with empty margins around it, and it then took the halo and the print of a red poster
+    behind a man's head (p183 of people_masks: IoU 0.67 framed 800 px wide, 0.86 on the photo's square).
+    Keeping the region's centre at the photo's width instead gained half as much (default matte photos
+    +0.001, not +0.002)."""
+    h, w = shape
+    if region.side <= max(h, w):
+        return region
+    return Region(w / 2, h / 2, float(max(h, w)))
+
+
 def box_beside(box, other) -> tuple[float, float, float, float] | None:
     """The part of ``box`` left of or right of the box ``other`` (the wider part), or None when less than a
     quarter of ``box``'s width remains."""
