@@ -34,6 +34,7 @@ from ._layout import (
     box_height,
     box_past_border,
     continued,
+    face_share,
     grow_where_cut,
     held,
     is_portrait,
@@ -42,6 +43,7 @@ from ._layout import (
     person_outside,
     seen_whole,
     someone_beside,
+    within_photo,
     without_straddlers,
 )
 from ._models import FACE_FILE, POSE_FILE, ROI_FILE, SIZE, as_rgb, find_matting_models
@@ -286,10 +288,11 @@ class PersonMatter:
         above the bottom: a portrait before an orange wall was matted down to the collar) and a face at least
         _PORTRAIT_FACE x that person's width wide lies inside it (a portrait's face is half the width the pose
         graph sees; a whole body crouching at the bottom of a frame, whose face is a tenth of it, is no
-        portrait: the selfie graph would take the bushes around the runner's legs); None: no check."""
+        portrait: the selfie graph would take the bushes around the runner's legs); None: no check. Either region
+        is at most the photo's own square (:func:`within_photo`)."""
         h = rgb.shape[0]
         if person.region.box()[3] > h:
-            return person.region
+            return within_photo(person.region, rgb.shape[:2])
         box = person_box(person, rgb.shape[:2])
         if box is None or box[3] < h * (1.0 - _PORTRAIT_REACH):
             return None
@@ -297,7 +300,7 @@ class PersonMatter:
             cx, cy = (f.box[0] + f.box[2]) / 2, (f.box[1] + f.box[3]) / 2
             inside = box[0] <= cx <= box[2] and box[1] <= cy <= box[3]
             if inside and f.box[2] - f.box[0] >= _PORTRAIT_FACE * (box[2] - box[0]):
-                return Region.around(box[0], box[1], box[2], float(h))
+                return within_photo(Region.around(box[0], box[1], box[2], float(h)), rgb.shape[:2])
         return None
 
     def people(self, rgb: np.ndarray, name: str = "image") -> list[Person]:
@@ -621,8 +624,9 @@ class PersonMatter:
             if p is not None and box_height(person_box(p, (h, w))) >= MIN_PERSON_FRACTION * h:
                 mask = logits_on_grid(p, grid) > 0
                 # a person mostly inside the people matted already is one of them again (a face's person may
-                # overlap more: in a group, the selfie graph's region of one face shows the neighbours too)
-                if mask.any() and occupied[mask].mean() < (COVERED if face is None else _COVERED_FACE):
+                # overlap more, and is judged on their own share of a segmentation showing the neighbours too)
+                own = mask if face is None else logits_on_grid(face_share(p, k, faces, (h, w)), grid) > 0
+                if own.any() and occupied[own].mean() < (COVERED if face is None else _COVERED_FACE):
                     occupied |= mask
                     people, mine = as_people(p, k, faces, owned, (h, w))
                     found.extend(people)

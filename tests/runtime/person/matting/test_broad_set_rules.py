@@ -479,3 +479,18 @@ def test_a_selfie_graph_person_is_averaged_with_the_whole_photos_answer_only_whe
     assert (out.logits[body] > 0).all() and (out.logits[rim] < 0).all()  # the rim is gone, the body kept
     other = np.where(xx < 100, 0.95, 0.02).astype(np.float32)  # the whole photo's answer is someone else
     assert _layout.blended(framed, other) is framed
+
+
+def test_portrait_region_is_no_wider_than_the_photo():
+    """A portrait's region framed on a pose-graph box as wide as the photo (800 px for a 640 x 480 poster of a
+    man) showed the selfie graph the photo smaller than the photo itself, with empty margins: it took the halo
+    and the print behind him (p183: IoU 0.67, 0.86 framed on the photo). Such a region is the photo's own
+    square; a region within the photo's longer side is kept as it is."""
+    rgb = np.zeros((480, 640, 3), np.float32)
+    matter = M.PersonMatter(refine=False)
+    logits = np.zeros((256, 256), np.float32)
+    wide = M.Person(M.Region(320.0, 260.0, 800.0), logits, 0.99, "pose")  # reaches past the bottom
+    assert matter._portrait_region(rgb, wide) == M.Region(320.0, 240.0, 640.0)
+    close = M.Person(M.Region(300.0, 300.0, 500.0), logits, 0.99, "pose")
+    assert matter._portrait_region(rgb, close) == close.region
+    assert _layout.within_photo(M.Region(100.0, 50.0, 700.0), (480, 640)) == M.Region(320.0, 240.0, 640.0)

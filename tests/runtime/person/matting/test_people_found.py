@@ -362,9 +362,13 @@ def test_a_new_face_takes_no_share_of_the_people_matted_before():
     # no face taken before: one person per face, as before
     people, taken = _layout.as_people(whole, None, faces, set(), (400, 400))
     assert len(people) == 3 and sorted(taken) == [0, 1, 2]
-    # a pose-graph person is never split
+    # a pose-graph person is never split; found from a blob across faces side by side, it takes none of them
+    # (each face's own search finds its person), found from a face or holding one face only, that face
     body = box_person((20, 100, 380, 380))
-    assert _layout.as_people(body, None, faces, {0}, (400, 400)) == ([body], [1])
+    assert _layout.as_people(body, None, faces, {0}, (400, 400)) == ([body], [])
+    assert _layout.as_people(body, 1, faces, {0}, (400, 400)) == ([body], [1])
+    one = box_person((150, 100, 250, 380))
+    assert _layout.as_people(one, None, faces, set(), (400, 400)) == ([one], [1])
 
 
 def test_group_t1_is_six_people(group_t1):
@@ -374,12 +378,44 @@ def test_group_t1_is_six_people(group_t1):
     assert len(everyone.people(group_t1)) == 6  # was 7
 
 
-@pytest.mark.xfail(strict=True, reason="known fault: shifted by one row, the search finds 5 (the regions it tries move)")
-def test_group_t1_shifted_by_a_row_is_six_people(group_t1):
-    """The same photo less its top row: the people found should not depend on it. Today 5 (a 'pose' region at the
-    left table end and two 'roi' answers for one man replace the six); failing since matte2, seen 2026-11-29."""
+@pytest.mark.parametrize("crop", [np.s_[1:], np.s_[2:]])
+def test_group_t1_shifted_by_a_row_is_six_people(group_t1, crop):
+    """The same photo less its top row(s): the people found do not depend on it. Less one row it came out as 5
+    (from matte2 to matte4): the pose graph, re-centred on the blob holding the whole group, settled on another
+    body, its portrait check ran (its box ended 620 px down, the check starts at 619.5), and what it found then
+    took Chandler with Joey's body; Joey's face then gave a segmentation three faces wide lying 0.80 inside the
+    people matted already (his own share 0.44), judged on the whole of it he was one of them
+    (:func:`_layout.face_share`)."""
     everyone = M.PersonMatter(person="all")
-    assert len(everyone.people(np.ascontiguousarray(group_t1[1:]))) == 6
+    assert len(everyone.people(np.ascontiguousarray(group_t1[crop]))) == 6
+
+
+@pytest.mark.parametrize("crop", [np.s_[:-1], np.s_[:, :-1], np.s_[:, 1:]])
+def test_group_t1_less_its_bottom_row_or_a_column_is_six_people(group_t1, crop):
+    """Less its bottom row or right column, group_t1 came out as 5 (seen by matte5, 2026-11-29): the pose graph
+    framed between Rachel and Ross answers with a body across both; it took Ross's face (the first it held),
+    Ross's own search was skipped, and the box was dropped as a straddler once Rachel's part and a box from
+    Monica's face (holding Ross's face too) were found. Such a box takes no face now (:func:`_layout.as_people`).
+    Splitting it by its faces instead lost 0.03-0.21 IoU on 4 photos of people_masks (the box holds little of
+    the second person, whose face it claimed)."""
+    everyone = M.PersonMatter(person="all")
+    assert len(everyone.people(np.ascontiguousarray(group_t1[crop]))) == 6
+
+
+def test_a_face_is_judged_on_its_own_share():
+    """face_share: a selfie-graph segmentation holding several faces side by side stands for one of them by that
+    face's columns (as as_people splits it); holding that face alone, or found from a blob (no face), whole."""
+    whole = box_person((20, 100, 380, 380), "roi")
+    faces = [Face((40.0, 110.0, 100.0, 170.0), 0.9), Face((170.0, 110.0, 230.0, 170.0), 0.9),
+             Face((300.0, 110.0, 360.0, 170.0), 0.9)]  # fmt: skip
+    mine = _layout.face_share(whole, 1, faces, (400, 400))
+    box = M.person_box(mine, (400, 400))
+    assert 100 < box[0] < 170 and 230 < box[2] < 300
+    assert _layout.face_share(whole, None, faces, (400, 400)) is whole
+    alone = box_person((140, 100, 260, 380), "roi")
+    assert _layout.face_share(alone, 1, faces, (400, 400)) is alone
+    body = box_person((20, 100, 380, 380))  # a pose-graph person is kept whole (as_people), and judged so
+    assert _layout.face_share(body, 1, faces, (400, 400)) is body
 
 
 def test_raised_portrait_region_keeps_out_a_taller_neighbour():
