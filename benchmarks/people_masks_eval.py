@@ -43,7 +43,7 @@ from relight_rt.image.regions import Region, crop_region, grid_of_region  # noqa
 from relight_rt.person import matting as M  # noqa: E402
 from relight_rt.person.matting._segmentation import sigmoid  # noqa: E402
 
-METHODS = ("ours", "all", "selfie", "pose", "video")
+METHODS = ("ours", "all", "selfie", "pose", "video", "video-complete")
 GROSS = 0.8
 
 
@@ -101,7 +101,8 @@ def run_methods(
     everyone = M.PersonMatter(person="all") if "all" in methods else None
     out: dict[str, dict[str, float]] = {m: {} for m in methods}
     secs: dict[str, float] = {m: 0.0 for m in methods}
-    vm = M.VideoMatter(largest) if "video" in methods and which == "clip" else None
+    vms = {m: M.VideoMatter(largest, complete=m == "video-complete") for m in methods if m.startswith("video")}
+    vms = vms if which == "clip" else {}
     listed = items(root, which)
     if half is not None and which == "photos":
         halves = half_of([n for n, _, _ in listed])
@@ -110,7 +111,7 @@ def run_methods(
         rgb = read_rgb(img)
         gt = read_mask(mask, rgb.shape[:2])
         for m in methods:
-            if m == "video" and vm is None:
+            if m.startswith("video") and m not in vms:
                 continue
             t = time.perf_counter()
             if m == "ours":
@@ -128,7 +129,7 @@ def run_methods(
             elif m == "pose":
                 a = whole_image(largest.pose, rgb, "segmentation", logits=True)
             else:
-                a = vm(rgb, name)
+                a = vms[m](rgb, name)
             secs[m] += time.perf_counter() - t
             pred = a >= 0.5
             out[m][name] = iou(pred, gt)

@@ -47,10 +47,11 @@ class VideoMatter:
 
     The region the pose graph sees follows the person from the previous frame's matte (the region finder
     runs on the first frame, in the very frame where the person is lost from the region followed, and every
-    ``redetect_every`` frames if > 0). The person is completed as in a photo (:meth:`PersonMatter.completed`:
-    half-seen trousers, parts in their own colours; measured on the parkour clip, benchmarks/people_masks_eval.py
-    --methods video: 0.913 -> 0.917, and 0.926 with the search in the same frame, which found frame 66's runner
-    after his jump instead of leaving that frame empty). The person probability on the working grid is blended
+    ``redetect_every`` frames if > 0; the search in the same frame found the parkour clip's frame 66 runner after his
+    jump instead of leaving that frame empty: benchmarks/people_masks_eval.py --methods video 0.913 -> 0.922). With
+    ``complete`` the person is completed as in a photo (:meth:`PersonMatter.completed`: half-seen trousers, parts in
+    their own colours; the clip 0.922 -> 0.926, ``--methods video-complete``) at two more selfie-graph runs a frame
+    (720p: ~26 -> ~17 frames/s idle, docs/BENCHMARKS.md), so it is off by default. The person probability on the working grid is blended
     with the previous frame's, warped by DIS optical flow: ``p = (1 - w) p_now + w p_prev_warped``,
     ``w = smoothing * exp(-|I_now - I_prev_warped| / 0.05)`` (the history counts only where the flow explains the
     picture), then refined by the guided filter.
@@ -60,6 +61,7 @@ class VideoMatter:
         smoothing: weight of the warped history in [0, 1); 0 turns temporal smoothing off.
         redetect_every: run the region finder every N frames even when the person is tracked (0: never).
         refine: guided-filter edge refinement (as in PersonMatter; always with the gray guide, for speed).
+        complete: add to the person what the photo matte adds (:meth:`PersonMatter.completed`); slower.
 
     Calling it on each frame in order: ``alpha = vm(rgb)``; a frame with nobody in it gives an all-zero
     alpha (no error) and the next frame searches again. Only the largest person is followed.
@@ -74,6 +76,7 @@ class VideoMatter:
         smoothing: float = 0.7,
         redetect_every: int = 0,
         refine: bool = True,
+        complete: bool = False,
     ):
         if not 0.0 <= float(smoothing) < 1.0:
             raise RelightError(f"smoothing: expected a value in [0, 1), got {smoothing}")
@@ -83,6 +86,7 @@ class VideoMatter:
         self.smoothing = float(smoothing)
         self.redetect_every = int(redetect_every)
         self.refine = bool(refine)
+        self.complete = bool(complete)
         self.reset()
 
     def reset(self) -> None:
@@ -133,8 +137,8 @@ class VideoMatter:
         rect = (0, 0, w, h)
         grid = working_grid(rect)
         # what the photo matte adds to the person (half-seen trousers both graphs see, parts in their own colours)
-        prob = np.max([sigmoid(logits_on_grid(p, grid)) for p in self.matter.completed(rgb, person)], axis=0)
-        prob = prob.astype(np.float32)
+        parts = self.matter.completed(rgb, person) if self.complete else [person]
+        prob = np.max([sigmoid(logits_on_grid(p, grid)) for p in parts], axis=0).astype(np.float32)
         gray_full = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
         gray_small = gray_full if grid[:2] == (w, h) else cv2.resize(gray_full, grid[:2], interpolation=cv2.INTER_AREA)
         if self.smoothing > 0 and self._prev_prob is not None:
