@@ -4,10 +4,7 @@ No DPR repository, no torch and no photos are needed: the conversion is checked 
 dpr_protocol from its utils/utils_SH.py) and against geometry, the metrics on synthetic images whose answer is known.
 """
 
-import importlib.util
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,27 +13,15 @@ from relight_rt import lights
 from relight_rt.image.color import linear_to_srgb, srgb_to_linear
 from relight_rt.light.sh import irradiance
 
-BENCH = Path(__file__).resolve().parents[2] / "benchmarks"
 
-
-def _load(name: str):
-    if str(BENCH) not in sys.path:
-        sys.path.insert(0, str(BENCH))
-    spec = importlib.util.spec_from_file_location(name, BENCH / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module  # its dataclasses look their module up
-    spec.loader.exec_module(module)
-    return module
+@pytest.fixture(scope="module")
+def dprp(load_benchmark):
+    return load_benchmark("dpr_protocol")
 
 
 @pytest.fixture(scope="module")
-def dprp():
-    return _load("dpr_protocol")
-
-
-@pytest.fixture(scope="module")
-def rp():
-    return _load("real_photos")
+def rp(load_benchmark):
+    return load_benchmark("real_photos")
 
 
 def test_conversion_is_exact_and_a_signed_permutation(dprp):

@@ -1,10 +1,6 @@
 """benchmarks/scene_eval.py's oracles (issue 36, fifth pass): lights that know the view, or the half of the sphere in
 front of the camera, perfectly but not what lies behind the camera; checked on synthetic maps whose answer is known."""
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -12,18 +8,10 @@ from relight_rt import envmap
 from relight_rt.image.color import srgb_to_linear
 from relight_rt.light import from_background as bgmod
 
-BENCH = Path(__file__).resolve().parents[2] / "benchmarks"
-
 
 @pytest.fixture(scope="module")
-def se():
-    if str(BENCH) not in sys.path:
-        sys.path.insert(0, str(BENCH))
-    spec = importlib.util.spec_from_file_location("scene_eval", BENCH / "scene_eval.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["scene_eval"] = module
-    spec.loader.exec_module(module)
-    return module
+def se(load_benchmark):
+    return load_benchmark("scene_eval")
 
 
 def _map(front: float, back: float, h: int = 32) -> np.ndarray:

@@ -1,28 +1,12 @@
 """benchmarks/yale_eval.py ``detail_shares``: the sheets' blotches as shares of the face, on synthetic pictures whose
 answer is known (no Yale data needed)."""
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import cv2
 import numpy as np
 
-BENCH = Path(__file__).resolve().parents[2] / "benchmarks"
 
-
-def _yale_eval():
-    if str(BENCH) not in sys.path:
-        sys.path.insert(0, str(BENCH))
-    spec = importlib.util.spec_from_file_location("yale_eval", BENCH / "yale_eval.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["yale_eval"] = module
-    spec.loader.exec_module(module)
-    return module
-
-
-def test_speckle_and_flat_shares_name_where_the_fine_detail_is_multiplied_or_lost():
-    ye = _yale_eval()
+def test_speckle_and_flat_shares_name_where_the_fine_detail_is_multiplied_or_lost(load_benchmark):
+    ye = load_benchmark("yale_eval")
     rng = np.random.default_rng(0)
     h, w = 96, 84
     skin = 0.5 * np.exp(0.05 * rng.standard_normal((h, w))).astype(np.float32)  # the real photo's texture
