@@ -203,7 +203,13 @@ class Factor:
             # it 3-5x brighter, blown out): that missing light, up to a share of the photo, is taken to stay under
             # every new light (added to both sides of the ratio, so the photo's own light still gives the photo)
             missing = np.maximum(_OWN_FLOOR * base["photo"] - own, 0).astype(np.float32)
-            state[key] = {**base, "missing": readonly(missing),
+            # where ``handover`` caps the ratio: the face's skin, its edge softened (the same for every light)
+            cap = None
+            if skin.any():
+                spread = CAP_SKIN_SPREAD * max(skin.shape)
+                cap = readonly(np.minimum(2 * cv2.GaussianBlur(skin.astype(np.float32), (0, 0), spread)
+                                          * base["inner"], 1).astype(np.float32))
+            state[key] = {**base, "missing": readonly(missing), "cap_skin": cap,
                           "own": readonly(np.maximum(own + missing, _RATIO_EPS).astype(np.float32))}
         return state[key]
 
@@ -338,13 +344,9 @@ class Factor:
         skin's albedo: over a whole person the added change, smooth, flattened a striped shirt's and jeans' own
         texture (the bundled example under ``studio``, a cap of 2.5: 14 % of its values moved, up to 50 levels).
         """
-        if not RATIO_CAP > 1:  # the rule off
+        if not RATIO_CAP > 1 or own["cap_skin"] is None:  # the rule off, or no face's skin
             return w
-        skin = own["face_skin"]
-        if not skin.any():
-            return w
-        soft = cv2.GaussianBlur(skin.astype(np.float32), (0, 0), CAP_SKIN_SPREAD * max(skin.shape)) * own["inner"]
-        over = np.clip((ratio - RATIO_CAP) / np.maximum(ratio - 1, 1e-6), 0, 1) * np.minimum(2 * soft, 1)
+        over = np.clip((ratio - RATIO_CAP) / np.maximum(ratio - 1, 1e-6), 0, 1) * own["cap_skin"]
         return np.maximum(w, over).astype(np.float32)
 
     def shadow_weight(self, dec: Decomposition) -> tuple[np.ndarray, np.ndarray] | None:
