@@ -76,3 +76,33 @@ def guided_upsample(
     out *= (guide if guide.ndim == 2 else cv2.cvtColor(guide, cv2.COLOR_RGB2GRAY))[..., None]
     out += geom.to_crop(b, origin).reshape(out.shape)
     return out
+
+
+def shadow_texture(gray: np.ndarray, reference: np.ndarray, scales: tuple[float, float], block: float,
+                   share: float) -> np.ndarray | None:
+    """The photo's own fine detail as a factor, for what is added where its shading is too dark to multiply.
+
+    The detail is the log of ``gray`` (+ one 8-bit level) blurred over ``scales[0]`` pixels less its blur over
+    ``scales[1]`` (a band: the single-pixel noise and quantisation of a deep shadow left out, the skin's texture
+    kept). Where its local power (over ``block`` pixels) passes the ``share`` quantile of that power over the
+    ``reference`` pixels (the lit skin: the texture this material shows where the light is enough), it is scaled
+    down to it: in a shadow at levels 2-10 the detail is mostly noise, many times the skin's own texture, and held
+    to the lit skin's amplitude it reads as skin, not speckle; a clean shadow's own detail is kept as it is.
+
+    Args:
+        gray: (h, w) float32 in [0, 1], the photo's grey in the crop box.
+        reference: (h, w) bool, the pixels whose detail is the material's own (at least 64 of them).
+        scales: (fine, coarse) Gaussian sigmas of the band, in input pixels.
+        block: the window of the detail's local power (Gaussian sigma), in input pixels.
+        share: the quantile of the reference's power the detail is held to, in (0, 1).
+
+    Returns:
+        (h, w) float32 exp(detail) (1: none), a new array; None when ``reference`` has too few pixels.
+    """
+    if int(np.count_nonzero(reference)) < 64:
+        return None
+    y = np.log(gray.astype(np.float32) + np.float32(1 / 255))
+    detail = cv2.GaussianBlur(y, (0, 0), scales[0]) - cv2.GaussianBlur(y, (0, 0), scales[1])
+    power = cv2.GaussianBlur(detail * detail, (0, 0), block)
+    allowed = max(float(np.quantile(power[reference], share)), 1e-12)
+    return np.exp(detail * np.sqrt(allowed / np.maximum(power, allowed))).astype(np.float32)
