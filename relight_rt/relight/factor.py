@@ -344,9 +344,9 @@ class Factor:
         The fill adds the change in the person's smoothed colour: on a side-lit face's dark half relit from the
         front, a fifth of the face came out with under half the real photo's fine detail (Extended Yale B from 70°,
         benchmarks/yale_eval.py "flat"). The photo's own log detail there, in the band ``TEXTURE_SCALES`` (input
-        pixels) and held to the ``TEXTURE_SHARE`` quantile of the power the lit skin shows (a face mesh's skin, else
-        the person, where the fill adds nothing), multiplies the fill, so the added light falls on the pixel's own
-        texture (de-light "flat" 0.158 -> 0.110, "speckle" 0.122 -> 0.127). ``gray``: the photo's grey in the
+        pixels) and held to the ``TEXTURE_SHARE`` quantile of the power the lit person shows where the fill adds
+        nothing (on a face mesh's skin, the lit skin's), multiplies the fill, so the added light falls on the pixel's
+        own texture (de-light "flat" 0.158 -> 0.108, "speckle" 0.122 -> 0.127). ``gray``: the photo's grey in the
         crop box.
         """
         state = self.memo(dec)
@@ -356,10 +356,16 @@ class Factor:
             if shadow is not None:
                 own = self.own(dec, with_residual=False)
                 y0, _, x0, _ = own["window"]
-                skin = own["face_skin"] if own["face_skin"].any() else own["inner"]
-                lit = (skin & (shadow[0] < 0.05)).astype(np.float32)
-                reference = dec.geometry.to_crop(lit, (y0, x0)) > 0.99
-                result = shadow_texture(gray, reference, TEXTURE_SCALES, TEXTURE_BLOCK, TEXTURE_SHARE)
+                lit = shadow[0] < 0.05
+
+                def to_crop(a: np.ndarray) -> np.ndarray:
+                    return dec.geometry.to_crop(a.astype(np.float32), (y0, x0))
+
+                reference = to_crop(own["inner"] & lit) > 0.99
+                skin = None  # a face's skin: held to the lit skin's own texture, its edge as soft as the ratio cap's
+                if own["cap_skin"] is not None:
+                    skin = (to_crop(own["cap_skin"]), to_crop(own["face_skin"] & lit) > 0.99)
+                result = shadow_texture(gray, reference, TEXTURE_SCALES, TEXTURE_BLOCK, TEXTURE_SHARE, skin)
                 result = None if result is None else readonly(result)
             state["texture"] = result
         return state["texture"]
