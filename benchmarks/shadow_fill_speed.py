@@ -5,7 +5,8 @@
 Decomposes PHOTO once, then relights it under ``--light`` with the fill and with it switched off
 (``shadow_weight`` returning None), interleaved in one process so that a loaded CPU weighs on both alike; prints
 the minimum and the 25th percentile of each. The fill costs nothing where no deep shadow is found, and in
-proportion to the shadow's box where one is.
+proportion to the shadow's box where one is. Also the fill's texture (``Factor.texture``, found once per
+Decomposition over the crop box, then a multiply per light): its first computation timed alone, repeated.
 """
 
 from __future__ import annotations
@@ -45,7 +46,16 @@ def main() -> None:
             r.relight(dec, args.light)
             times[name].append(time.perf_counter() - t)
     factor.shadow_weight = real
+    state, gray = factor.memo(dec), factor.memo(dec).get("gray")
+    times["texture, once"] = []
+    for _ in range(args.repeats if gray is not None else 0):
+        state.pop("texture", None)
+        t = time.perf_counter()
+        factor.texture(dec, gray)
+        times["texture, once"].append(time.perf_counter() - t)
     for name, ts in times.items():
+        if not ts:
+            continue
         ts.sort()
         print(f"{name:10s} min {1000 * ts[0]:.0f} ms, p25 {1000 * ts[len(ts) // 4]:.0f} ms")
 

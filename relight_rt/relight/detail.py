@@ -76,3 +76,40 @@ def guided_upsample(
     out *= (guide if guide.ndim == 2 else cv2.cvtColor(guide, cv2.COLOR_RGB2GRAY))[..., None]
     out += geom.to_crop(b, origin).reshape(out.shape)
     return out
+
+
+def shadow_texture(gray: np.ndarray, reference: np.ndarray, scales: tuple[float, float], block: float,
+                   share: float, skin: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray | None:
+    """The photo's own fine detail as a factor, for what is added where its shading is too dark to multiply.
+
+    The detail is the log of ``gray`` (+ one 8-bit level) blurred over ``scales[0]`` pixels less its blur over
+    ``scales[1]`` (a band: the single-pixel noise and quantisation of a deep shadow left out, the skin's texture
+    kept). Where its local power (over ``block`` pixels) passes the ``share`` quantile of that power over the
+    ``reference`` pixels (the lit person: the texture shown where the light is enough), it is scaled down to it; on
+    ``skin`` to the quantile over the lit skin's own pixels instead. In a shadow at levels 2-10 the detail is mostly
+    noise, many times the material's own texture: held to the lit side's amplitude it reads as skin, not speckle; a
+    clean shadow's own detail is kept as it is.
+
+    Args:
+        gray: (h, w) float32 in [0, 1], the photo's grey in the crop box.
+        reference: (h, w) bool, the lit pixels whose detail is the person's own (at least 64 of them).
+        scales: (fine, coarse) Gaussian sigmas of the band, in input pixels.
+        block: the window of the detail's local power (Gaussian sigma), in input pixels.
+        share: the quantile of the reference's power the detail is held to, in (0, 1).
+        skin: (weight, reference): (h, w) float32 in [0, 1], where the lit skin's amplitude holds instead (a soft
+            edge blends the two), and (h, w) bool its lit pixels; None (or fewer than 64 lit skin pixels): the
+            person's everywhere.
+
+    Returns:
+        (h, w) float32 exp(detail) (1: none), a new array; None when ``reference`` has too few pixels.
+    """
+    if int(np.count_nonzero(reference)) < 64:
+        return None
+    y = np.log(gray.astype(np.float32) + np.float32(1 / 255))
+    detail = cv2.GaussianBlur(y, (0, 0), scales[0]) - cv2.GaussianBlur(y, (0, 0), scales[1])
+    power = cv2.GaussianBlur(detail * detail, (0, 0), block)
+    allowed = np.float32(max(float(np.quantile(power[reference], share)), 1e-12))
+    if skin is not None and int(np.count_nonzero(skin[1])) >= 64:
+        on_skin = max(float(np.quantile(power[skin[1]], share)), 1e-12)
+        allowed = allowed + skin[0].astype(np.float32) * np.float32(on_skin - allowed)
+    return np.exp(detail * np.sqrt(allowed / np.maximum(power, allowed))).astype(np.float32)

@@ -1,11 +1,12 @@
-"""relight_rt.relight.detail.guided_upsample: a and b resampled separately give the same map as one 6-channel stack."""
+"""relight_rt.relight.detail: guided_upsample (a and b resampled separately give the same map as one 6-channel stack)
+and shadow_texture (the photo's own detail for the deep shadow's fill, held to the lit side's)."""
 
 import cv2
 import numpy as np
 import pytest
 
 from relight_rt.image.crop import CropGeometry
-from relight_rt.relight.detail import GUIDE_EPS, GUIDE_RADIUS, guided_upsample
+from relight_rt.relight.detail import GUIDE_EPS, GUIDE_RADIUS, guided_upsample, shadow_texture
 
 
 def stacked(geom, src, guide_net, guide, origin):
@@ -39,3 +40,50 @@ def test_guided_upsample_matches_the_stacked_form(size):
     # 4 channels, so the two groupings agree to about 1/32 of the local slope, not to float precision
     np.testing.assert_allclose(got, want, atol=5e-3)
     assert np.abs(got - want).mean() < 5e-4
+
+
+def _textured(h=120, w=160, seed=0):
+    """A grey whose left half is a clean texture at 0.5 and whose right half is the same texture at 0.03 with its
+    detail multiplied 4x (a deep shadow's noise)."""
+    rng = np.random.default_rng(seed)
+    grain = cv2.GaussianBlur(rng.normal(0, 1, (h, w)).astype(np.float32), (0, 0), 1.2)
+    grain /= grain.std()
+    gray = 0.5 * np.exp(0.1 * grain)
+    gray[:, w // 2 :] = 0.03 * np.exp(0.4 * grain[:, w // 2 :])
+    return gray.astype(np.float32)
+
+
+def _rms(texture, where):
+    return float(np.log(texture)[where].std())
+
+
+def test_shadow_texture_holds_a_noisy_shadow_to_the_lit_sides_texture():
+    gray = _textured()
+    lit = np.zeros(gray.shape, bool)
+    lit[10:-10, 10:70] = True
+    shadow = np.zeros(gray.shape, bool)
+    shadow[10:-10, 90:150] = True
+    texture = shadow_texture(gray, lit, (1.0, 2.0), 4.0, 0.5)
+    assert texture.shape == gray.shape and texture.dtype == np.float32
+    assert 0.6 < _rms(texture, shadow) / _rms(texture, lit) < 1.4  # not the shadow's 4x
+    free = shadow_texture(gray, lit, (1.0, 2.0), 4.0, 1.0 - 1e-9)  # the hold at the lit side's largest power
+    assert _rms(free, shadow) > _rms(texture, shadow)
+    assert shadow_texture(gray, np.zeros(gray.shape, bool), (1.0, 2.0), 4.0, 0.5) is None  # nothing lit: none
+
+
+def test_shadow_texture_on_a_faces_skin_follows_the_skins_own_and_leaves_the_rest():
+    """A face's skin is held to the lit skin's texture; off the skin (weight 0) the result is the one without."""
+    gray = _textured()
+    lit = np.zeros(gray.shape, bool)
+    lit[10:-10, 10:70] = True
+    smooth_skin = lit.copy()
+    smooth_skin[:, 40:] = False
+    gray[:, :40] = 0.5 * np.exp(0.25 * np.log(gray[:, :40] / 0.5))  # the lit skin's texture a quarter of the rest's
+    weight = np.zeros(gray.shape, np.float32)
+    weight[:60, :] = 1.0  # the skin: the upper half
+    plain = shadow_texture(gray, lit, (1.0, 2.0), 4.0, 0.5)
+    faced = shadow_texture(gray, lit, (1.0, 2.0), 4.0, 0.5, (weight, smooth_skin))
+    np.testing.assert_array_equal(faced[60:], plain[60:])
+    upper = np.zeros(gray.shape, bool)
+    upper[10:50, 90:150] = True
+    assert _rms(faced, upper) < 0.6 * _rms(plain, upper)
