@@ -255,20 +255,20 @@ def opaque_where_cut(alpha: np.ndarray, r: int, rgb: np.ndarray | None = None) -
 def _colour_alpha(
     img: np.ndarray, a: np.ndarray, fg_w: np.ndarray, bg_w: np.ndarray, f_reach: int, b_reach: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Colour's alpha (module docstring), blended with the coarse ``a`` by its confidence, from the mean colours of
-    the sure foreground (weights ``fg_w``, windows of radius ``f_reach``) and the sure background (``bg_w``,
-    ``b_reach``); the confidence is multiplied by exp(-d^2 / (_OFF_LINE |F - B|^2)), d the distance of the pixel's
-    colour from the segment B..F: a colour that no mix of B and F makes (on people_masks, IoU photos 0.9013 ->
-    0.9022, half A 0.9155 -> 0.9163, B 0.8872 -> 0.8881; clip 0.9232 -> 0.9248; the reference masks' soft band
-    unchanged, 0.230 photo / 0.194 video). A pixel is plain background, alpha 0, where colour says so clearly: its colour lies within
-    sqrt(_CLEAR) x |F - B| of B and colour's alpha is under _SNAP, person and background differ by colour
-    (|F - B|^2 >= _CLEAR_MIN), and the coarse matte is not sure of the person there (below _CLEAR_BELOW). The
-    coarse matte's soft rim reaches 3-8 px past the outline (0.18 at 3-4 px outside the reference clip's dress,
-    where the pixels lie 0.02 from the white backdrop's colour), and the blend by confidence kept a third of it:
-    relit, that rim changed the background beside the person (issue 48). Within 0.1 |F - B| of B (_CLEAR 0.01): at
-    0.2 the faint strands of the reference photo's hair went too (error in its hand mask's soft band 0.224 -> 0.234;
-    0.230 at 0.1) for the same band. Returns (the background colour B per pixel (h, w, 3), the blended alpha (h, w)
-    float32, where colour says plain background (h, w) bool)."""
+    """Colour's alpha (module docstring), blended with the coarse ``a`` by its confidence, from the mean colours of the
+    sure foreground (weights ``fg_w``, windows of radius ``f_reach``) and the sure background (``bg_w``, ``b_reach``);
+    the confidence is multiplied by exp(-d^2 / (_OFF_LINE |F - B|^2)), d the distance of the pixel's colour from the
+    segment B..F: a colour that no mix of B and F makes says nothing of alpha (people_masks, IoU: photos 0.9013 ->
+    0.9021, half A 0.9155 -> 0.9161, B 0.8872 -> 0.8881; clip 0.9232 -> 0.9248; the reference masks' soft band
+    unchanged, 0.230 photo / 0.194 video). A pixel is plain background, alpha 0, where colour says so clearly: its
+    colour lies within sqrt(_CLEAR) x |F - B| of B and colour's alpha is under _SNAP, person and background differ by
+    colour (|F - B|^2 >= _CLEAR_MIN), and the coarse matte is not sure of the person there (below _CLEAR_BELOW). The
+    coarse matte's soft rim reaches 3-8 px past the outline (0.18 at 3-4 px outside the reference clip's dress, where
+    the pixels lie 0.02 from the white backdrop's colour), and the blend by confidence kept a third of it: relit, that
+    rim changed the background beside the person (issue 48). Within 0.1 |F - B| of B (_CLEAR 0.01): at 0.2 the faint
+    strands of the reference photo's hair went too (error in its hand mask's soft band 0.224 -> 0.234; 0.230 at 0.1) for
+    the same band. Returns (the background colour B per pixel (h, w, 3), the blended alpha (h, w) float32, where colour
+    says plain background (h, w) bool)."""
     f_col, f_n = _side_mean(img, fg_w, f_reach)
     b_col, b_n = _side_mean(img, bg_w, b_reach)
     d = f_col - b_col
