@@ -17,14 +17,16 @@ Methods (alpha >= 0.5 against mask >= 0.5, IoU per image):
 - ``selfie``: MediaPipe's selfie graph alone (matte_roi.onnx) on the whole image letterboxed to 256x256, its
   probability resized bilinearly to the image (the usual way to run it);
 - ``pose``: the pose graph's segmentation alone (matte_pose.onnx) on the whole image letterboxed, likewise;
-- ``video`` (clip only): VideoMatter over the frames in order.
+- ``video`` (clip only): VideoMatter over the frames in order;
+- ``ours-unrefined`` / ``ours-no-edges``: ``ours`` with ``refine=False`` (the segmentation upsampled) / with
+  ``edges=False`` (guided filter, no colour band): where along the way an outline moves.
 
 Figures: mean IoU, share of images with IoU < 0.8 ("gross"), per half, and the photos where ``ours`` is
 below ``selfie``. Targets (issue 48): clip mean >= 0.93; photos mean >= 0.92 and never below the selfie graph;
 gross errors <= 8 % over clip and photos together.
 
 ``--outline`` (:func:`outline_offset`): how far inside each mask's outline the photo's own edge reaches its half
-mix (colour halfway from the backdrop's to the person's), for the given masks and for the first method's: 0 when an
+mix (colour halfway from the backdrop's to the person's), for the given masks and for each method's: 0 when an
 outline runs through the middle of the blurred edge, +1 when it takes one pixel more of the edge's backdrop side.
 Nothing of the data is written except where --sheet and
 --save point (keep them under /tmp: the data may not enter the repository).
@@ -49,7 +51,7 @@ from relight_rt.image.regions import Region, crop_region, grid_of_region  # noqa
 from relight_rt.person import matting as M  # noqa: E402
 from relight_rt.person.matting._segmentation import sigmoid  # noqa: E402
 
-METHODS = ("ours", "all", "selfie", "pose", "video", "video-complete")
+METHODS = ("ours", "all", "selfie", "pose", "video", "video-complete", "ours-unrefined", "ours-no-edges")
 GROSS = 0.8
 
 
@@ -147,6 +149,7 @@ def run_methods(
     """IoU per method per image; ``keep`` (optional) collects the predicted masks by (method, name)."""
     largest = M.PersonMatter(person="largest")
     everyone = M.PersonMatter(person="all") if "all" in methods else None
+    variants = {m: M.PersonMatter(refine=m != "ours-unrefined", edges=False) for m in methods if m.startswith("ours-")}
     out: dict[str, dict[str, float]] = {m: {} for m in methods}
     secs: dict[str, float] = {m: 0.0 for m in methods}
     vms = {m: M.VideoMatter(largest, complete=m == "video-complete") for m in methods if m.startswith("video")}
@@ -167,9 +170,9 @@ def run_methods(
                     a = largest(rgb, name)
                 except RelightError:
                     a = np.zeros(gt.shape, np.float32)
-            elif m == "all":
+            elif m in ("all", *variants):
                 try:
-                    a = everyone(rgb, name)
+                    a = (everyone if m == "all" else variants[m])(rgb, name)
                 except RelightError:
                     a = np.zeros(gt.shape, np.float32)
             elif m == "selfie":
@@ -217,16 +220,18 @@ def sheet(root: Path, names: list[str], keep: dict, path: Path, method: str = "o
     cv2.imwrite(str(path), np.concatenate(rows, axis=0))
 
 
-def outline_offsets(root: Path, which: str, keep: dict, method: str) -> dict[str, np.ndarray]:
-    """:func:`outline_offset` of every image's mask ("masks") and of ``method``'s matte (kept by run_methods)."""
-    out: dict[str, list[float]] = {"masks": [], method: []}
+def outline_offsets(root: Path, which: str, keep: dict, methods: list[str]) -> dict[str, np.ndarray]:
+    """:func:`outline_offset` of every image's mask ("masks") and of each method's matte (kept by run_methods)."""
+    out: dict[str, list[float]] = {"masks": []} | {m: [] for m in methods}
     for name, img, mask in items(root, which):
-        if (method, name) not in keep:
+        if (methods[0], name) not in keep:
             continue
         rgb = read_rgb(img)
         out["masks"].append(outline_offset(rgb, read_mask(mask, rgb.shape[:2])))
-        out[method].append(outline_offset(rgb, keep[(method, name)]))
-    return {k: np.array(v) for k, v in out.items()}
+        for m in methods:
+            if (m, name) in keep:
+                out[m].append(outline_offset(rgb, keep[(m, name)]))
+    return {k: np.array(v) for k, v in out.items() if v}
 
 
 def speed(photo: Path, repeats: int = 7) -> None:
@@ -257,7 +262,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--outline",
         action="store_true",
-        help="where the masks' and the first method's outlines cut the photo's edges (outline_offset)",
+        help="where the masks' and the methods' outlines cut the photo's edges (outline_offset)",
     )
     ap.add_argument(
         "--speed",
@@ -315,7 +320,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"sheet: {args.sheet} ({', '.join(f'{n} {ours[n]:.2f}' for n in worst)})")
     if args.outline:
         for s in sets:
-            offsets = outline_offsets(root, s, keep, methods[0])
+            offsets = outline_offsets(root, s, keep, methods)
             for who, v in offsets.items():
                 v = v[np.isfinite(v)]
                 q1, med, q3 = np.percentile(v, [25, 50, 75])
