@@ -4,6 +4,7 @@
     python benchmarks/people_masks_eval.py --set photos --methods ours --table   # + per-photo table
     python benchmarks/people_masks_eval.py --sheet /tmp/worst.png              # the 12 worst photos (ours)
     python benchmarks/people_masks_eval.py --speed [PHOTO]     # the default matte's time on a photo (2.5 MP)
+    python benchmarks/people_masks_eval.py --methods ours --outline    # where each outline cuts the photo's edges
 
 Sets: ``clip/`` (100 frames of a runner vaulting a railing, DAVIS 2016 "parkour", masks drawn by hand) and
 ``photos/`` (208 web photos, masks made by a commercial matting service: a second opinion, not truth). The
@@ -16,11 +17,18 @@ Methods (alpha >= 0.5 against mask >= 0.5, IoU per image):
 - ``selfie``: MediaPipe's selfie graph alone (matte_roi.onnx) on the whole image letterboxed to 256x256, its
   probability resized bilinearly to the image (the usual way to run it);
 - ``pose``: the pose graph's segmentation alone (matte_pose.onnx) on the whole image letterboxed, likewise;
-- ``video`` (clip only): VideoMatter over the frames in order.
+- ``video`` (clip only): VideoMatter over the frames in order;
+- ``ours-unrefined`` / ``ours-no-edges``: ``ours`` with ``refine=False`` (the segmentation upsampled) / with
+  ``edges=False`` (guided filter, no colour band): where along the way an outline moves.
 
 Figures: mean IoU, share of images with IoU < 0.8 ("gross"), per half, and the photos where ``ours`` is
 below ``selfie``. Targets (issue 48): clip mean >= 0.93; photos mean >= 0.92 and never below the selfie graph;
-gross errors <= 8 % over clip and photos together. Nothing of the data is written except where --sheet and
+gross errors <= 8 % over clip and photos together.
+
+``--outline`` (:func:`outline_offset`): how far inside each mask's outline the photo's own edge reaches its half
+mix (colour halfway from the backdrop's to the person's), for the given masks and for each method's: 0 when an
+outline runs through the middle of the blurred edge, +1 when it takes one pixel more of the edge's backdrop side.
+Nothing of the data is written except where --sheet and
 --save point (keep them under /tmp: the data may not enter the repository).
 """
 
@@ -43,8 +51,50 @@ from relight_rt.image.regions import Region, crop_region, grid_of_region  # noqa
 from relight_rt.person import matting as M  # noqa: E402
 from relight_rt.person.matting._segmentation import sigmoid  # noqa: E402
 
-METHODS = ("ours", "all", "selfie", "pose", "video", "video-complete")
+METHODS = ("ours", "all", "selfie", "pose", "video", "video-complete", "ours-unrefined", "ours-no-edges")
 GROSS = 0.8
+
+
+_SIDE = (3.5, 6.5)  # outline_offset: the person's and the backdrop's colours from this far (px) either side
+_MIN_CONTRAST = 0.04  # ... where they differ at least this much (squared RGB distance)
+
+
+def outline_offset(rgb: np.ndarray, mask: np.ndarray, reach: int = 6) -> float:
+    """How many pixels inside ``mask``'s outline the photo's edge reaches its half mix (NaN where no edge shows
+    colour enough). Each pixel within 4 px of the outline gets colour's alpha from the mean colours of the mask's
+    pixels _SIDE px inside (F) and outside (B) the outline within ``reach`` px: ((I - B) . (F - B)) / |F - B|^2;
+    its median over the pixels at each whole distance from the outline (-3.5 .. 3.5 px, + inside) is the
+    edge's profile, and the place where that profile crosses 0.5 (linear between distances, the profile made
+    non-decreasing first) is returned. An outline drawn through the middle of a blurred edge gives ~0; one that
+    takes in the edge's whole mixed rim, about half the blur's width."""
+    inside = mask.astype(np.uint8)
+    dist = np.where(mask, cv2.distanceTransform(inside, cv2.DIST_L2, 5) - 0.5,
+                    0.5 - cv2.distanceTransform(1 - inside, cv2.DIST_L2, 5))  # fmt: skip
+    size = (2 * reach + 1, 2 * reach + 1)
+
+    def side_mean(where: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        w = where.astype(np.float32)
+        n = cv2.boxFilter(w, -1, size, normalize=False, borderType=cv2.BORDER_CONSTANT)
+        total = cv2.boxFilter(rgb * w[..., None], -1, size, normalize=False, borderType=cv2.BORDER_CONSTANT)
+        return total / np.maximum(n, 1e-6)[..., None], n
+
+    f, nf = side_mean((dist > _SIDE[0]) & (dist < _SIDE[1]))
+    b, nb = side_mean((dist < -_SIDE[0]) & (dist > -_SIDE[1]))
+    d = f - b
+    dd = (d * d).sum(-1)
+    a = ((rgb - b) * d).sum(-1) / np.maximum(dd, 1e-6)
+    ok = (nf > 3) & (nb > 3) & (dd > _MIN_CONTRAST)
+    at, prof = [], []
+    for x in np.arange(-3.5, 3.6, 1.0):
+        sel = ok & (np.abs(dist - x) < 0.5)
+        if sel.sum() > 20:
+            at.append(x)
+            prof.append(float(np.median(a[sel])))
+    prof = np.maximum.accumulate(np.array(prof)) if prof else np.array([])
+    for i in range(len(prof) - 1):
+        if prof[i] < 0.5 <= prof[i + 1]:
+            return float(at[i] + (0.5 - prof[i]) / (prof[i + 1] - prof[i]) * (at[i + 1] - at[i]))
+    return float("nan")
 
 
 def data_root() -> Path:
@@ -99,6 +149,7 @@ def run_methods(
     """IoU per method per image; ``keep`` (optional) collects the predicted masks by (method, name)."""
     largest = M.PersonMatter(person="largest")
     everyone = M.PersonMatter(person="all") if "all" in methods else None
+    variants = {m: M.PersonMatter(refine=m != "ours-unrefined", edges=False) for m in methods if m.startswith("ours-")}
     out: dict[str, dict[str, float]] = {m: {} for m in methods}
     secs: dict[str, float] = {m: 0.0 for m in methods}
     vms = {m: M.VideoMatter(largest, complete=m == "video-complete") for m in methods if m.startswith("video")}
@@ -119,9 +170,9 @@ def run_methods(
                     a = largest(rgb, name)
                 except RelightError:
                     a = np.zeros(gt.shape, np.float32)
-            elif m == "all":
+            elif m in ("all", *variants):
                 try:
-                    a = everyone(rgb, name)
+                    a = (everyone if m == "all" else variants[m])(rgb, name)
                 except RelightError:
                     a = np.zeros(gt.shape, np.float32)
             elif m == "selfie":
@@ -169,6 +220,20 @@ def sheet(root: Path, names: list[str], keep: dict, path: Path, method: str = "o
     cv2.imwrite(str(path), np.concatenate(rows, axis=0))
 
 
+def outline_offsets(root: Path, which: str, keep: dict, methods: list[str]) -> dict[str, np.ndarray]:
+    """:func:`outline_offset` of every image's mask ("masks") and of each method's matte (kept by run_methods)."""
+    out: dict[str, list[float]] = {"masks": []} | {m: [] for m in methods}
+    for name, img, mask in items(root, which):
+        if (methods[0], name) not in keep:
+            continue
+        rgb = read_rgb(img)
+        out["masks"].append(outline_offset(rgb, read_mask(mask, rgb.shape[:2])))
+        for m in methods:
+            if (m, name) in keep:
+                out[m].append(outline_offset(rgb, keep[(m, name)]))
+    return {k: np.array(v) for k, v in out.items() if v}
+
+
 def speed(photo: Path, repeats: int = 7) -> None:
     """The default matte (PersonMatter(), person="largest") on one photo: best and median of ``repeats`` calls
     after a warm-up, milliseconds (default photo: the reference photo of ../shared/reference, 2.5 MP)."""
@@ -195,6 +260,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--sheet", type=Path, help="write the 12 worst photos (ours) as a sheet here (under /tmp)")
     ap.add_argument("--save", type=Path, help="write every IoU as JSON here")
     ap.add_argument(
+        "--outline",
+        action="store_true",
+        help="where the masks' and the methods' outlines cut the photo's edges (outline_offset)",
+    )
+    ap.add_argument(
         "--speed",
         nargs="?",
         const=REPO.parents[1] / "shared" / "reference" / "photo" / "sample.jpg",
@@ -210,7 +280,7 @@ def main(argv: list[str] | None = None) -> int:
         ap.error(f"--methods: expected some of {METHODS}")
     root = data_root()
     sets = ("clip", "photos") if args.set == "both" else (args.set,)
-    keep: dict | None = {} if args.sheet else None
+    keep: dict | None = {} if args.sheet or args.outline else None
     results = {s: run_methods(root, s, methods, keep, args.half) for s in sets}
 
     print("set      half  method   n    mean IoU  IoU<0.8")
@@ -248,6 +318,16 @@ def main(argv: list[str] | None = None) -> int:
         worst = sorted(ours, key=ours.get)[:12]
         sheet(root, worst, keep, args.sheet, methods[0])
         print(f"sheet: {args.sheet} ({', '.join(f'{n} {ours[n]:.2f}' for n in worst)})")
+    if args.outline:
+        for s in sets:
+            offsets = outline_offsets(root, s, keep, methods)
+            for who, v in offsets.items():
+                v = v[np.isfinite(v)]
+                q1, med, q3 = np.percentile(v, [25, 50, 75])
+                print(
+                    f"{s:8s} {who:7s} half mix inside the outline: median {med:+.2f} px (quartiles {q1:+.2f}, "
+                    f"{q3:+.2f}); over 0.5 px: {np.mean(v > 0.5):.0%} of {len(v)}"
+                )
     if args.save:
         args.save.write_text(json.dumps(results, indent=1))
     return 0

@@ -76,6 +76,25 @@ def test_where_colours_are_alike_the_coarse_matte_stays():
     np.testing.assert_allclose(R.refine_edges(grey, coarse, band=10)[mid], coarse[mid], atol=0.01)
 
 
+def test_a_part_of_a_third_colour_at_the_outline_keeps_the_coarse_matte():
+    """A green belt of the red person's, reaching the outline against a blue backdrop: its colour lies far off the
+    line from the backdrop's colour to the person's, so colour cannot say how much of it is person (projected on
+    that line it reads about half). The coarse matte is sure of it and stays; without the off-line weight
+    (_OFF_LINE) the belt came out at 0.71-0.74 across the band's inner half: a hole showing the old background."""
+    h, w, band = 120, 160, 8
+    truth = np.zeros((h, w), np.float32)
+    truth[:, :80] = 1.0
+    rgb = np.empty((h, w, 3), np.float32)
+    rgb[:] = (0.1, 0.3, 0.9)
+    rgb[:, :80] = (0.9, 0.2, 0.1)
+    rgb[56:64, :80] = (0.1, 0.8, 0.1)
+    coarse = np.clip(cv2.GaussianBlur(truth, (0, 0), 1.5), 0.0, 1.0)
+    out = R.refine_edges(rgb, coarse, band=band)
+    belt, plain = out[58:62, 80 - band : 78], out[28:32, 80 - band : 78]
+    assert belt.min() >= 0.9 and np.abs(belt - plain).max() < 0.1  # measured 0.97 (0.71 without)
+    assert out[58:62, 80:].max() < 0.85 and out[58:62, 82:].max() == 0.0  # the outline stays where it was
+
+
 def test_empty_and_full_mattes_unchanged():  # (and only faint values are snapped)
     rgb = np.random.default_rng(0).random((40, 50, 3), dtype=np.float32)
     for a in (np.zeros((40, 50), np.float32), np.ones((40, 50), np.float32)):
