@@ -279,7 +279,7 @@ def fit_half_oracle(halves: list, truths: list) -> tuple[float, float]:
 def unclipped_view(parts, linear_view: np.ndarray, fov: float = 60.0, height: int = 64):
     """``parts`` (relight_rt.light.from_background's reading of the 8-bit photo) with its front half read from the
     photo's unclipped linear values instead (step 2 on the same small copy, no clipping, no highlight gain): the rule
-    given the view perfectly. The statistics (median, colour, top/bottom, contrast) stay the photo's."""
+    given the view perfectly. The statistics (median, colour, top/bottom, colour share) stay the photo's."""
     from dataclasses import replace
 
     ph, pw = linear_view.shape[:2]
@@ -305,10 +305,10 @@ def map_tile(env: np.ndarray, view: np.ndarray, k: float, label: str) -> np.ndar
 
 def fit(parts: list, truths: list, geometry=None) -> dict:
     """The fitted numbers of relight_rt.light.from_background from the given maps (background metering), in order:
-    BACKLIGHT by least squares of the truth's front/back EV on [1, top_bottom, contrast]; then AMBIENT_GAIN,
+    BACKLIGHT by least squares of the truth's front/back EV on [1, top_bottom, colour_share]; then AMBIENT_GAIN,
     KEY_FRONT and KEY_BACK by the least mean |EV error| over GRID (the light is linear in them); then
     COLOUR_SATURATION by the least mean colour error over GRID."""
-    feats = np.array([[1.0, p.top_bottom, p.contrast] for p in parts])
+    feats = np.array([p.backlight_features() for p in parts])
     fb = np.array([front_back(t) for t in truths])
     backlight = tuple(float(v) for v in np.linalg.lstsq(feats, fb, rcond=None)[0])
     g, kf, kb = GRID["ambient_gain"], GRID["key_front"], GRID["key_back"]
