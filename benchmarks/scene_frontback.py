@@ -22,7 +22,8 @@ is deep blue over sunlit, warmer ground; unchanged by white balance. ``chroma_sp
 numerator alone. ``sky_over_ground``: the median log2 luminance of the smooth bright region joined to the top
 edge (a sky, a ceiling) over the view's median: toward the sun a bright sky over shaded ground. ``sky_slope``:
 that region's log2 luminance per 10° of elevation: circumsolar brightening above a sun ahead, darkening toward
-90° from a sun behind.
+90° from a sun behind. ``perez_ahead``: a clear-sky model (Perez, Preetham's coefficients) fitted to that region's
+unclipped pixels with the sun free: does a sun ahead of the camera explain it better than one behind?
 
 ``--fit`` prints the shipped rule's BACKLIGHT fitted on every map (least squares, as scene_eval.fit).
 """
@@ -108,11 +109,41 @@ def sky_region(photo: np.ndarray, lum: np.ndarray) -> dict[str, float]:
     lab = cv2.connectedComponents(sky.astype(np.uint8), connectivity=4)[1]
     sky &= np.isin(lab, np.unique(lab[0][sky[0]]))
     if sky.sum() < 0.02 * h * w:
-        return {"sky_over_ground": 0.0, "sky_slope": 0.0}
+        return {"sky_over_ground": 0.0, "sky_slope": 0.0, "perez_ahead": 0.0}
     tan_v = math.tan(math.radians(30)) * h / w
     el = np.broadcast_to(np.degrees(np.arctan((1 - (np.arange(h) + 0.5) / h * 2) * tan_v))[:, None], (h, w))[sky]
     slope = np.linalg.lstsq(np.stack([np.ones_like(el), el], 1), ll[sky], rcond=None)[0][1]
-    return {"sky_over_ground": float(np.median(ll[sky]) - np.median(ll)), "sky_slope": float(slope) * 10}
+    return {"sky_over_ground": float(np.median(ll[sky]) - np.median(ll)), "sky_slope": float(slope) * 10,
+            "perez_ahead": perez_ahead(ll, sky & (photo.max(axis=2) < 250))}  # fmt: skip
+
+
+#: Preetham et al.'s luminance coefficients (A..E) of the Perez sky model at turbidity 3 (a clear sky)
+_PEREZ = tuple(a * 3.0 + b for a, b in ((0.1787, -1.4630), (-0.3554, 0.4275), (-0.0227, 5.3251), (0.1206, -2.5771),
+                                        (-0.0670, 0.3703)))  # fmt: skip
+
+
+def perez_ahead(ll: np.ndarray, sky: np.ndarray) -> float:
+    """``perez_ahead``: log of the best fit's mean squared log-luminance error over the sky pixels with the sun
+    behind the camera over that with it ahead (a clear-sky Perez model, the sun on a 10° x 6° grid of azimuths and
+    elevations 2-74°, the scale free); > 0: a sun ahead explains the sky better. 0 with under 3 % of sky."""
+    h, w = ll.shape
+    ys, xs = np.nonzero(sky)
+    if len(ys) < 0.03 * h * w:
+        return 0.0
+    tan_h = math.tan(math.radians(30))
+    d = np.stack([-np.ones(len(xs)), ((xs + 0.5) / w * 2 - 1) * tan_h, (1 - (ys + 0.5) / h * 2) * tan_h * h / w], 1)
+    d /= np.linalg.norm(d, axis=1, keepdims=True)  # the camera looks along -x, the image's right +y, up +z
+    a, b, c, dd, e = _PEREZ
+    zenith = 1 + a * np.exp(b / np.maximum(d[:, 2], 0.02))
+    y = ll[ys, xs] * math.log(2)
+    best = {True: math.inf, False: math.inf}
+    for az in np.radians(np.arange(0, 360, 10)):
+        for el in np.radians(np.arange(2, 75, 6)):
+            cos_g = np.clip(d @ [math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el)], -1, 1)
+            r = y - np.log(np.maximum(zenith * (1 + c * np.exp(dd * np.arccos(cos_g)) + e * cos_g**2), 1e-6))
+            ahead = math.cos(az) < 0
+            best[ahead] = min(best[ahead], float(r.var()))
+    return math.log(best[False] / best[True])
 
 
 def source_glow(photo: np.ndarray, lum: np.ndarray, med: float) -> float:
@@ -177,6 +208,8 @@ RULES = {
     "lstsq top_bottom+contrast+sky_ground_blue": lstsq_rule(["top_bottom", "contrast", "sky_ground_blue"]),
     "threshold sky_over_ground": threshold_rule("sky_over_ground"),
     "lstsq top_bottom+contrast+sky_over_ground": lstsq_rule(["top_bottom", "contrast", "sky_over_ground"]),
+    "perez_ahead > 0": lambda train: lambda f: f["perez_ahead"] > 0,
+    "lstsq top_bottom+colour_share+perez_ahead": lstsq_rule(["top_bottom", "colour_share", "perez_ahead"]),
     "threshold sky_slope": threshold_rule("sky_slope", -1),
     "lstsq top_bottom+contrast+sky_slope": lstsq_rule(["top_bottom", "contrast", "sky_slope"]),
     "lstsq +mean_median": lstsq_rule(["top_bottom", "contrast", "mean_median"]),
