@@ -406,6 +406,9 @@ def main(argv=None) -> int:
     p.add_argument("--rim", action="store_true",
                    help="add composite's rim to the estimate (apps.scene_rim: a compact clipped source in the "
                    "background photo, else the back key's; composite --rim) before it is scored")  # fmt: skip
+    p.add_argument("--rim-gated", action="store_true",
+                   help="with --rim: only where the estimate calls the view back-lit and a compact clipped source is "
+                   "in the photo (a rim that needs both)")  # fmt: skip
     p.add_argument(
         "--no-oracles",
         action="store_true",
@@ -516,7 +519,9 @@ def main(argv=None) -> int:
         rims[m] = photo_rim(views[m], 60.0)
         f = chosen[scene_of(m)]
         (az, el), back = parts[m].key(None, f["backlight"], f["geometry"])
-        if rims[m] is None and back:
+        if args.rim_gated and not back:
+            rims[m] = None
+        elif rims[m] is None and back and not args.rim_gated:
             front = np.maximum(FRONT_W @ np.asarray(est[m], np.float64), 0)
             rims[m] = (bgmod.key_direction(az, el), scene_mod._rim_gain(parts[m], est[m]) * front)
     oracles = {}  # name: {map: light}, each fitted with the map's scene left out, as the estimate
