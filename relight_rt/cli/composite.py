@@ -2,7 +2,7 @@
 
 ``relight-rt composite PERSON [--mask M] --background BG -o OUT [--preset P | --light L | --envmap E]
 [--key-light AZ,EL] [--position X,Y] [--height H] [--horizon Y] [--camera-height M] [--no-shadow]
-[--exposure auto|EV|physical] [--meter frame|background] [--no-match-camera] [--no-light-wrap] [--rim] [--fov 60]``
+[--exposure auto|EV|physical] [--meter frame|background] [--no-match-camera] [--no-light-wrap] [--[no-]rim] [--fov 60]``
 
 ``relight-rt composite PERSON --background PANO.hdr --view AZ,EL[,FOV] [--size WxH] -o OUT [...]``: the scene is
 an equirectangular panorama, seen in that direction, lighting the person with its own light (relight_rt.apps.panorama).
@@ -77,7 +77,8 @@ def add_parser(subparsers) -> None:
                    help="a brighter background's light wraps over the person's edge (default: on)")  # fmt: skip
     p.add_argument("--rim", action=argparse.BooleanOptionalAction, default=None,
                    help="a sun, window or lamp behind the person puts a rim of light on its side of the outline "
-                   "(default: on with --view, where the panorama holds the source; off for a photo)")  # fmt: skip
+                   "(default: on with --view, where the panorama holds the source; on a photo, where a clipped "
+                   "source is in frame and the photo reads as back-lit)")  # fmt: skip
     p.add_argument(
         "--fov",
         type=fov,
@@ -126,7 +127,7 @@ def cmd_composite(args: argparse.Namespace) -> int:
                       shadow=args.shadow, exposure=exposure, fov=args.fov, key_light=key,
                       horizon=args.horizon,
                       meter=args.meter, match_camera=args.match_camera, light_wrap=args.light_wrap,
-                      rim=bool(args.rim), camera_height=camera)  # fmt: skip
+                      rim=args.rim, camera_height=camera)  # fmt: skip
     write_image(out, image, protect=protect)
     log.info("%s + %s -> %s", person, args.background, out)
     return 0

@@ -254,9 +254,9 @@ def test_a_bright_background_wraps_its_light_over_the_persons_edge(diffuse):
 
 
 def test_a_back_key_puts_a_rim_on_its_side_of_the_outline(diffuse):
-    """Step 7's rim (``rim=True``; off by default): a key from behind the person and the image's right brightens
-    the right edge of the outline, not the left one, nor the body's middle; a key from the camera's side gives
-    no rim (both edges alike)."""
+    """Step 7's rim (``rim=True``; by default none without a source in the photo): a key from behind the person and
+    the image's right brightens the right edge of the outline, not the left one, nor the body's middle; a key from
+    the camera's side gives no rim (both edges alike)."""
     img, mask = flat_person()
     mask[20:140, 30:35] = 1.0  # hard edges: left at column 30, right at 69
     bg = np.full((150, 100, 3), 110, np.uint8)  # uniform: the light wrap is the same on both sides
@@ -273,6 +273,30 @@ def test_a_back_key_puts_a_rim_on_its_side_of_the_outline(diffuse):
     assert r > l + 0.15 and d == pytest.approx(1.0, abs=1e-5)
     l, r, d = ratios("30,30")
     assert r == pytest.approx(l, abs=0.02) and d == pytest.approx(1.0, abs=1e-5)
+
+
+def test_by_default_a_rim_where_a_source_is_in_frame_and_the_light_reads_back_lit(diffuse):
+    """Step 7's default (``rim=None``): a clipped sun upper right in the photo puts a rim on the outline's right
+    when the key is a back key, none when the key is in front (the same sun), none from a back key with no source
+    in frame (``rim=True`` gives that one), and ``rim=False`` none at all."""
+    img, mask = flat_person()
+    mask[20:140, 30:35] = 1.0  # hard edges: left at column 30, right at 69
+    bg = np.full((150, 100, 3), 110, np.uint8)
+    sun = bg.copy()
+    sun[8:12, 86:90] = 255  # upper right, beside the person's box
+    left, right = np.s_[40:120, 30], np.s_[40:120, 69]
+
+    def gain(background, key, **kw):
+        args = {**SAME, "key_light": key}
+        on = srgb_to_linear(composite(diffuse, img, background, mask=mask, **args, **kw))
+        off = srgb_to_linear(composite(diffuse, img, background, mask=mask, **args, rim=False))
+        return [float(on[s].mean() / off[s].mean()) - 1 for s in (left, right)]
+
+    l, r = gain(sun, "150,30")
+    assert r > 0.3 and r > l + 0.3  # a rim of RIM_PHOTO on a person of ~0.2: clearly seen, on the sun's side
+    assert gain(sun, "30,30") == pytest.approx([0, 0], abs=1e-6)  # a front key: the source in frame is not behind
+    assert gain(bg, "150,30") == pytest.approx([0, 0], abs=1e-6)  # a back key, no source in frame
+    assert gain(bg, "150,30", rim=True)[1] > 0.05  # asked for: the back key's rim
 
 
 def test_a_key_nearly_behind_still_lights_its_side_of_the_outline():
