@@ -70,7 +70,7 @@ if str(REPO) not in sys.path:
 
 from relight_rt import envmap, sh  # noqa: E402
 from relight_rt.apps import scene as scene_mod  # noqa: E402
-from relight_rt.apps.scene_rim import photo_rim  # noqa: E402
+from relight_rt.apps.scene_rim import panorama_rim, photo_rim  # noqa: E402
 from relight_rt.image.color import REC709, linear_to_srgb, srgb_to_linear  # noqa: E402
 from relight_rt.light import from_background as bgmod  # noqa: E402
 
@@ -409,6 +409,10 @@ def main(argv=None) -> int:
     p.add_argument("--rim-gated", action="store_true",
                    help="with --rim: only where the estimate calls the view back-lit and a compact clipped source is "
                    "in the photo (a rim that needs both)")  # fmt: skip
+    p.add_argument("--rim-from-map", action="store_true",
+                   help="with --rim: where the photo has a source, the rim of the map's own brightest source behind "
+                   "the person (apps.scene_rim.panorama_rim, exact under the rim's model) in place of the photo's "
+                   "reading: what the renders make of the model itself")  # fmt: skip
     p.add_argument(
         "--no-oracles",
         action="store_true",
@@ -517,6 +521,8 @@ def main(argv=None) -> int:
     rims = {}  # --rim: composite's rim of each map's background photo (relight_rt.scene's step 7), or None
     for m in maps if args.rim else ():
         rims[m] = photo_rim(views[m], 60.0)
+        if args.rim_from_map and rims[m] is not None:  # the view's camera is the map's frame; plate = π k env
+            rims[m] = panorama_rim(envmap.load_envmap(args.envs / f"{m}.hdr"), np.eye(3), math.pi * k_bg[m])
         f = chosen[scene_of(m)]
         (az, el), back = parts[m].key(None, f["backlight"], f["geometry"])
         if args.rim_gated and not back:
