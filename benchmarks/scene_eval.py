@@ -303,16 +303,16 @@ def map_tile(env: np.ndarray, view: np.ndarray, k: float, label: str) -> np.ndar
 # ------------------------------------------------------------------------------------------------ tuning
 
 
-def fit(parts: list, truths: list, geometry=None) -> dict:
+def fit(parts: list, truths: list, geometry=None, objective: str = "mean") -> dict:
     """The fitted numbers of relight_rt.light.from_background from the given maps (background metering), in order:
     BACKLIGHT by least squares of the truth's front/back EV on [1, top_bottom, colour_share]; then AMBIENT_GAIN,
-    KEY_FRONT and KEY_BACK by the least mean |EV error| over GRID (the light is linear in them); then
-    COLOUR_SATURATION by the least mean colour error over GRID."""
+    KEY_FRONT and KEY_BACK by the least mean |EV error| over GRID (the light is linear in them; ``objective``
+    "median": the least median); then COLOUR_SATURATION by the least mean colour error over GRID."""
     feats = np.array([p.backlight_features() for p in parts])
     fb = np.array([front_back(t) for t in truths])
     backlight = tuple(float(v) for v in np.linalg.lstsq(feats, fb, rcond=None)[0])
     g, kf, kb = GRID["ambient_gain"], GRID["key_front"], GRID["key_back"]
-    err = np.zeros((len(g), len(kf), len(kb)))
+    errs = []
     for p, t in zip(parts, truths, strict=True):
         base = lum(side_rgb(p.view + p.source))
         (az, el), back = p.key(None, backlight, geometry)
@@ -320,7 +320,9 @@ def fit(parts: list, truths: list, geometry=None) -> dict:
         amb = p.level * float(FRONT_W @ p.behind)
         key = (kb[None, :] if back else kf[:, None]) * unit
         e = base + g[:, None, None] * (amb + key)[None]
-        err += np.abs(np.log2(np.maximum(e, 1e-9) / max(lum(side_rgb(t)), 1e-9)))
+        e = np.abs(np.log2(np.maximum(e, 1e-9) / max(lum(side_rgb(t)), 1e-9)))
+        errs.append(np.broadcast_to(e, (len(g), len(kf), len(kb))))
+    err = np.median(errs, axis=0) if objective == "median" else np.mean(errs, axis=0)
     i, j, k = np.unravel_index(int(np.argmin(err)), err.shape)
     out = {"ambient_gain": float(g[i]), "key_front": float(kf[j]), "key_back": float(kb[k]), "backlight": backlight,
            "geometry": geometry}  # fmt: skip
@@ -403,6 +405,8 @@ def main(argv=None) -> int:
     p.add_argument("--saturation", type=float, default=None, metavar="S",
                    help="fix COLOUR_SATURATION at S instead of fitting it (1: the light takes the scene's median "
                    "colour as it is)")  # fmt: skip
+    p.add_argument("--objective", choices=("mean", "median"), default="mean",
+                   help="the exposure numbers (AMBIENT_GAIN, KEY_*) by the least mean or median |EV error| (fit)")
     p.add_argument("--rim", action="store_true",
                    help="add composite's rim to the estimate (apps.scene_rim: a compact clipped source in the "
                    "background photo, else the back key's; composite --rim) before it is scored")  # fmt: skip
@@ -486,7 +490,7 @@ def main(argv=None) -> int:
         pp = parts if pp is None else pp
         best = None
         for geometry in GEOMETRIES:
-            f = fit([pp[m] for m in train], [true1[m] * k_bg[m] for m in train], geometry)
+            f = fit([pp[m] for m in train], [true1[m] * k_bg[m] for m in train], geometry, args.objective)
             err = si_mean(train, {**f, "shape_weight": 1.0, "front_back_power": 1.0}, pp)
             if best is None or err < best[0]:
                 best = (err, f)
