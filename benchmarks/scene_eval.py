@@ -406,7 +406,8 @@ def main(argv=None) -> int:
                    help="fix COLOUR_SATURATION at S instead of fitting it (1: the light takes the scene's median "
                    "colour as it is)")  # fmt: skip
     p.add_argument("--objective", choices=("mean", "median"), default="mean",
-                   help="the exposure numbers (AMBIENT_GAIN, KEY_*) by the least mean or median |EV error| (fit)")
+                   help="the exposure numbers (AMBIENT_GAIN, KEY_*) by the least mean or median |EV error| "
+                   "(fit)")  # fmt: skip
     p.add_argument("--rim", action="store_true",
                    help="add composite's rim to the estimate (apps.scene_rim: a compact clipped source in the "
                    "background photo, else the back key's; composite --rim) before it is scored")  # fmt: skip
