@@ -1,7 +1,7 @@
 """Speed of ``composite``: a 2-megapixel person photo onto a 2-megapixel background, files in and out.
 
     python benchmarks/composite_bench.py --hdri ../shared/hdri --work runs/composite_bench [--repeats 7] \
-        [--models DIR] [--map city.hdr] [--rim]
+        [--models DIR] [--map city.hdr] [--rim [auto]]
 
 Makes the inputs once (the bundled example person, sRGB-encoded and enlarged to 1200 x 1700 = 2.04 MP with
 its mask; a 1920 x 1080 = 2.07 MP perspective view of ../shared/hdri/city.hdr, or ``--map``), then times,
@@ -74,9 +74,11 @@ def main(argv=None) -> int:
     ap.add_argument("--models", default=None)
     ap.add_argument("--repeats", type=int, default=7)
     ap.add_argument("--map", default="city.hdr", help="the background's map in --hdri")
-    ap.add_argument("--rim", action="store_true", help="composite with rim=True")
+    ap.add_argument("--rim", nargs="?", const="on", choices=("on", "auto"), default=None,
+                    help="composite with rim=True (auto: rim='auto', composite --rim auto)")  # fmt: skip
     args = ap.parse_args(argv)
     person, mask, bg = make_inputs(args.hdri, args.work, args.map)
+    rim = {"on": True, "auto": "auto"}.get(args.rim, False)
     relighter = relight_rt.open(RuntimeConfig(models=args.models, device="cpu"))
     results = {}
     for suffix in (".jpg", ".png"):
@@ -84,7 +86,7 @@ def main(argv=None) -> int:
 
         def once(out=out):
             t, c = time.perf_counter(), time.process_time()
-            image = composite(relighter, person, bg, mask=mask, shadow=True, rim=args.rim)
+            image = composite(relighter, person, bg, mask=mask, shadow=True, rim=rim)
             write_image(out, image, protect=[person, mask, bg])
             return time.perf_counter() - t, time.process_time() - c
 
@@ -96,7 +98,7 @@ def main(argv=None) -> int:
     cmd = [sys.executable, "-m", "relight_rt", "composite", str(person), "--mask", str(mask), "--background", str(bg),
            "-o", str(args.work / "cli.jpg"), "--shadow", "--device", "cpu"]  # fmt: skip
     if args.rim:
-        cmd.append("--rim")
+        cmd += ["--rim", args.rim]
     if args.models:
         cmd += ["--models", args.models]
     t = time.perf_counter()

@@ -2,7 +2,8 @@
 
     python benchmarks/scene_contact_sheet.py --out runs/scene/contact \\
         --person full:PHOTO[:MASK] --person half:PHOTO[:MASK] --person portrait:PHOTO[:MASK] ... \\
-        --hdri ../shared/hdri --views sunset:20,0 dawn:30,0 ... --photos PLACE.jpg ... [--size 640x480] [--[no-]rim]
+        --hdri ../shared/hdri --views sunset:20,0 dawn:30,0 ... --photos PLACE.jpg ... [--size 640x480] \\
+        [--rim on|auto|off]
 
 Each person (its kind, "full", "half" or "portrait", is only a label: ``relight_rt.scene_place`` tells from the
 matte how the photo framed them) goes into every place: a panorama view (``NAME:AZ,EL[,FOV]`` of ``--hdri``, by
@@ -10,8 +11,10 @@ matte how the photo framed them) goes into every place: a panorama view (``NAME:
 every
 ``--photos`` photo of a place (``relight_rt.scene.composite``: the light estimated from the photo, centre-cropped to
 ``--size``'s aspect and resized to it first). Everything else is the command's default (automatic placement,
-shadows, camera matching, light wrap, frame metering; the rim of a source behind the person on views, as
-``composite --view``; ``--rim`` adds it on photos, ``--no-rim`` drops it).
+shadows, camera matching, light wrap, frame metering), except the rim of a source behind the person: on views as
+``composite --view`` (on), on photos as ``composite --rim auto`` (where a clipped source is in frame and the photo
+reads as back-lit; ``composite``'s default is none); ``--rim on`` puts it on every photo (the source, else a back
+key's), ``--rim off`` on none, views included.
 
 Writes under ``--out``: every composite at 100 % (``PERSON/PLACE.png``), one sheet per person (``PERSON.png``, the
 places in a grid at half size, each labelled) and ``report.json`` (each composite's placement: the person's box,
@@ -64,9 +67,9 @@ def main(argv=None) -> int:
     ap.add_argument("--views", nargs="*", default=[], metavar="NAME:AZ,EL[,FOV]")
     ap.add_argument("--photos", type=Path, nargs="*", default=[])
     ap.add_argument("--size", default="640x480", help="the places' size, WxH")
-    ap.add_argument("--rim", action=argparse.BooleanOptionalAction, default=None,
-                    help="the rim of a source behind the person (default: on for views, as composite --view; "
-                    "off for photos)")  # fmt: skip
+    ap.add_argument("--rim", choices=("on", "auto", "off"), default="auto",
+                    help="the rim of a source behind the person on photos (composite's rim=True, 'auto', False; "
+                    "views: on unless off)")  # fmt: skip
     ap.add_argument("--models", default=None)
     args = ap.parse_args(argv)
     size = parse_size(args.size)
@@ -92,9 +95,10 @@ def main(argv=None) -> int:
             t0 = time.perf_counter()
             if how == "view":
                 env, view = thing
-                out = composite_panorama(rl, photo, env, view, size=size, mask=mask_arr, rim=args.rim is not False)
+                out = composite_panorama(rl, photo, env, view, size=size, mask=mask_arr, rim=args.rim != "off")
             else:
-                out = scene_mod.composite(rl, photo, thing, mask=mask_arr, rim=bool(args.rim))
+                rim = {"on": True, "auto": "auto"}.get(args.rim, False)
+                out = scene_mod.composite(rl, photo, thing, mask=mask_arr, rim=rim)
             seconds = time.perf_counter() - t0
             write_image(args.out / who / f"{name}.png", out)
             fr = framing(matte.astype(np.float32) / 255) if matte is not None else None

@@ -70,7 +70,7 @@ if str(REPO) not in sys.path:
 
 from relight_rt import envmap, sh  # noqa: E402
 from relight_rt.apps import scene as scene_mod  # noqa: E402
-from relight_rt.apps.scene_rim import photo_rim  # noqa: E402
+from relight_rt.apps.scene_rim import panorama_rim, photo_rim  # noqa: E402
 from relight_rt.image.color import REC709, linear_to_srgb, srgb_to_linear  # noqa: E402
 from relight_rt.light import from_background as bgmod  # noqa: E402
 
@@ -279,7 +279,7 @@ def fit_half_oracle(halves: list, truths: list) -> tuple[float, float]:
 def unclipped_view(parts, linear_view: np.ndarray, fov: float = 60.0, height: int = 64):
     """``parts`` (relight_rt.light.from_background's reading of the 8-bit photo) with its front half read from the
     photo's unclipped linear values instead (step 2 on the same small copy, no clipping, no highlight gain): the rule
-    given the view perfectly. The statistics (median, colour, top/bottom, contrast) stay the photo's."""
+    given the view perfectly. The statistics (median, colour, top/bottom, colour share) stay the photo's."""
     from dataclasses import replace
 
     ph, pw = linear_view.shape[:2]
@@ -303,16 +303,16 @@ def map_tile(env: np.ndarray, view: np.ndarray, k: float, label: str) -> np.ndar
 # ------------------------------------------------------------------------------------------------ tuning
 
 
-def fit(parts: list, truths: list, geometry=None) -> dict:
+def fit(parts: list, truths: list, geometry=None, objective: str = "mean") -> dict:
     """The fitted numbers of relight_rt.light.from_background from the given maps (background metering), in order:
-    BACKLIGHT by least squares of the truth's front/back EV on [1, top_bottom, contrast]; then AMBIENT_GAIN,
-    KEY_FRONT and KEY_BACK by the least mean |EV error| over GRID (the light is linear in them); then
-    COLOUR_SATURATION by the least mean colour error over GRID."""
-    feats = np.array([[1.0, p.top_bottom, p.contrast] for p in parts])
+    BACKLIGHT by least squares of the truth's front/back EV on [1, top_bottom, colour_share]; then AMBIENT_GAIN,
+    KEY_FRONT and KEY_BACK by the least mean |EV error| over GRID (the light is linear in them; ``objective``
+    "median": the least median); then COLOUR_SATURATION by the least mean colour error over GRID."""
+    feats = np.array([p.backlight_features() for p in parts])
     fb = np.array([front_back(t) for t in truths])
     backlight = tuple(float(v) for v in np.linalg.lstsq(feats, fb, rcond=None)[0])
     g, kf, kb = GRID["ambient_gain"], GRID["key_front"], GRID["key_back"]
-    err = np.zeros((len(g), len(kf), len(kb)))
+    errs = []
     for p, t in zip(parts, truths, strict=True):
         base = lum(side_rgb(p.view + p.source))
         (az, el), back = p.key(None, backlight, geometry)
@@ -320,7 +320,9 @@ def fit(parts: list, truths: list, geometry=None) -> dict:
         amb = p.level * float(FRONT_W @ p.behind)
         key = (kb[None, :] if back else kf[:, None]) * unit
         e = base + g[:, None, None] * (amb + key)[None]
-        err += np.abs(np.log2(np.maximum(e, 1e-9) / max(lum(side_rgb(t)), 1e-9)))
+        e = np.abs(np.log2(np.maximum(e, 1e-9) / max(lum(side_rgb(t)), 1e-9)))
+        errs.append(np.broadcast_to(e, (len(g), len(kf), len(kb))))
+    err = np.median(errs, axis=0) if objective == "median" else np.mean(errs, axis=0)
     i, j, k = np.unravel_index(int(np.argmin(err)), err.shape)
     out = {"ambient_gain": float(g[i]), "key_front": float(kf[j]), "key_back": float(kb[k]), "backlight": backlight,
            "geometry": geometry}  # fmt: skip
@@ -403,9 +405,19 @@ def main(argv=None) -> int:
     p.add_argument("--saturation", type=float, default=None, metavar="S",
                    help="fix COLOUR_SATURATION at S instead of fitting it (1: the light takes the scene's median "
                    "colour as it is)")  # fmt: skip
+    p.add_argument("--objective", choices=("mean", "median"), default="mean",
+                   help="the exposure numbers (AMBIENT_GAIN, KEY_*) by the least mean or median |EV error| "
+                   "(fit)")  # fmt: skip
     p.add_argument("--rim", action="store_true",
                    help="add composite's rim to the estimate (apps.scene_rim: a compact clipped source in the "
                    "background photo, else the back key's; composite --rim) before it is scored")  # fmt: skip
+    p.add_argument("--rim-gated", action="store_true",
+                   help="with --rim: only where the estimate calls the view back-lit and a compact clipped source is "
+                   "in the photo (a rim that needs both)")  # fmt: skip
+    p.add_argument("--rim-from-map", action="store_true",
+                   help="with --rim: where the photo has a source, the rim of the map's own brightest source behind "
+                   "the person (apps.scene_rim.panorama_rim, exact under the rim's model) in place of the photo's "
+                   "reading: what the renders make of the model itself")  # fmt: skip
     p.add_argument(
         "--no-oracles",
         action="store_true",
@@ -479,7 +491,7 @@ def main(argv=None) -> int:
         pp = parts if pp is None else pp
         best = None
         for geometry in GEOMETRIES:
-            f = fit([pp[m] for m in train], [true1[m] * k_bg[m] for m in train], geometry)
+            f = fit([pp[m] for m in train], [true1[m] * k_bg[m] for m in train], geometry, args.objective)
             err = si_mean(train, {**f, "shape_weight": 1.0, "front_back_power": 1.0}, pp)
             if best is None or err < best[0]:
                 best = (err, f)
@@ -514,9 +526,13 @@ def main(argv=None) -> int:
     rims = {}  # --rim: composite's rim of each map's background photo (relight_rt.scene's step 7), or None
     for m in maps if args.rim else ():
         rims[m] = photo_rim(views[m], 60.0)
+        if args.rim_from_map and rims[m] is not None:  # the view's camera is the map's frame; plate = π k env
+            rims[m] = panorama_rim(envmap.load_envmap(args.envs / f"{m}.hdr"), np.eye(3), math.pi * k_bg[m])
         f = chosen[scene_of(m)]
         (az, el), back = parts[m].key(None, f["backlight"], f["geometry"])
-        if rims[m] is None and back:
+        if args.rim_gated and not back:
+            rims[m] = None
+        elif rims[m] is None and back and not args.rim_gated:
             front = np.maximum(FRONT_W @ np.asarray(est[m], np.float64), 0)
             rims[m] = (bgmod.key_direction(az, el), scene_mod._rim_gain(parts[m], est[m]) * front)
     oracles = {}  # name: {map: light}, each fitted with the map's scene left out, as the estimate

@@ -2,7 +2,8 @@
 
 ``relight-rt composite PERSON [--mask M] --background BG -o OUT [--preset P | --light L | --envmap E]
 [--key-light AZ,EL] [--position X,Y] [--height H] [--horizon Y] [--camera-height M] [--no-shadow]
-[--exposure auto|EV|physical] [--meter frame|background] [--no-match-camera] [--no-light-wrap] [--rim] [--fov 60]``
+[--exposure auto|EV|physical] [--meter frame|background] [--no-match-camera] [--no-light-wrap]
+[--rim [auto] | --no-rim] [--fov 60]``
 
 ``relight-rt composite PERSON --background PANO.hdr --view AZ,EL[,FOV] [--size WxH] -o OUT [...]``: the scene is
 an equirectangular panorama, seen in that direction, lighting the person with its own light (relight_rt.apps.panorama).
@@ -75,9 +76,11 @@ def add_parser(subparsers) -> None:
                    help="match the background's blur and noise (default: on)")  # fmt: skip
     p.add_argument("--light-wrap", action=argparse.BooleanOptionalAction, default=True,
                    help="a brighter background's light wraps over the person's edge (default: on)")  # fmt: skip
-    p.add_argument("--rim", action=argparse.BooleanOptionalAction, default=None,
-                   help="a sun, window or lamp behind the person puts a rim of light on its side of the outline "
-                   "(default: on with --view, where the panorama holds the source; off for a photo)")  # fmt: skip
+    p.add_argument("--rim", nargs="?", const="on", choices=("on", "auto"), default=None,
+                   help="a sun, window or lamp behind the person puts a rim of light on its side of the outline; "
+                   "auto: only where a clipped source is in the photo and it reads as back-lit (default: on with "
+                   "--view, where the panorama holds the source; off for a photo)")  # fmt: skip
+    p.add_argument("--no-rim", dest="rim", action="store_const", const="off", help="no rim, with --view too")
     p.add_argument(
         "--fov",
         type=fov,
@@ -126,7 +129,7 @@ def cmd_composite(args: argparse.Namespace) -> int:
                       shadow=args.shadow, exposure=exposure, fov=args.fov, key_light=key,
                       horizon=args.horizon,
                       meter=args.meter, match_camera=args.match_camera, light_wrap=args.light_wrap,
-                      rim=bool(args.rim), camera_height=camera)  # fmt: skip
+                      rim={"on": True, "auto": "auto"}.get(args.rim, False), camera_height=camera)  # fmt: skip
     write_image(out, image, protect=protect)
     log.info("%s + %s -> %s", person, args.background, out)
     return 0
@@ -155,7 +158,7 @@ def _composite_panorama(args: argparse.Namespace, out: Path, person: Path) -> in
     image = composite_panorama(rl, person, pano, view, size=size, mask=mask, exposure=exposure,
                                position=position, height=args.height, horizon=args.horizon, shadow=args.shadow,
                                meter=args.meter, match_camera=args.match_camera,
-                               light_wrap=args.light_wrap, rim=args.rim is not False, camera_height=camera)  # fmt: skip
+                               light_wrap=args.light_wrap, rim=args.rim != "off", camera_height=camera)  # fmt: skip
     write_image(out, image, protect=protect)
     log.info("%s + %s (view %g,%g,%g) -> %s", person, args.background, *view, out)
     return 0

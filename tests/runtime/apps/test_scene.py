@@ -275,6 +275,34 @@ def test_a_back_key_puts_a_rim_on_its_side_of_the_outline(diffuse):
     assert r == pytest.approx(l, abs=0.02) and d == pytest.approx(1.0, abs=1e-5)
 
 
+def test_rim_auto_where_a_source_is_in_frame_and_the_light_reads_back_lit(diffuse):
+    """Step 7's ``rim="auto"``: a clipped sun upper right in the photo puts a rim on the outline's right when the
+    key is a back key, none when the key is in front (the same sun), none from a back key with no source in frame
+    (``rim=True`` gives that one); by default (``rim=False``) none; a rim neither a bool nor "auto" is refused."""
+    img, mask = flat_person()
+    mask[20:140, 30:35] = 1.0  # hard edges: left at column 30, right at 69
+    bg = np.full((150, 100, 3), 110, np.uint8)
+    sun = bg.copy()
+    sun[8:12, 86:90] = 255  # upper right, beside the person's box
+    left, right = np.s_[40:120, 30], np.s_[40:120, 69]
+
+    def gain(background, key, rim="auto"):
+        args = {**SAME, "key_light": key}
+        on = srgb_to_linear(composite(diffuse, img, background, mask=mask, **args, rim=rim))
+        off = srgb_to_linear(composite(diffuse, img, background, mask=mask, **args, rim=False))
+        return [float(on[s].mean() / off[s].mean()) - 1 for s in (left, right)]
+
+    l, r = gain(sun, "150,30")
+    assert r > 0.3 and r > l + 0.3  # a rim of RIM_PHOTO on a person of ~0.2: clearly seen, on the sun's side
+    assert gain(sun, "30,30") == pytest.approx([0, 0], abs=1e-6)  # a front key: the source in frame is not behind
+    assert gain(bg, "150,30") == pytest.approx([0, 0], abs=1e-6)  # a back key, no source in frame
+    assert gain(bg, "150,30", rim=True)[1] > 0.05  # asked for: the back key's rim
+    assert gain(sun, "150,30", rim=False) == pytest.approx([0, 0], abs=1e-6)  # the default: none
+    assert composite.__kwdefaults__["rim"] is False
+    with pytest.raises(RelightError, match="rim"):
+        composite(diffuse, img, sun, mask=mask, rim="on")
+
+
 def test_a_key_nearly_behind_still_lights_its_side_of_the_outline():
     """A sun nearly behind the person (dawn's: 16° right of the axis, 5° up) lights the outline on its side with its
     whole rim: the rim takes the key's side in the image plane, not the Lambertian n · d (0.28 of it here), and a
@@ -399,6 +427,17 @@ def test_cli_composite(work, capsys):
     code, _, err = run([*argv[:5], "o5.png", *argv[6:], "--rim"], capsys)  # the key from behind: a rim on top
     assert code == 0, err
     assert np.abs(cv2.imread("o5.png").astype(int) - wrapped).max() > 2  # off by default; --rim turns it on
+    code, _, err = run([*argv[:5], "o6.png", *argv[6:], "--rim", "auto"], capsys)  # no clipped source: no rim
+    assert code == 0, err
+    np.testing.assert_array_equal(cv2.imread("o6.png"), cv2.imread("o3.png"))
+    sun = cv2.imread("bg.png")
+    sun[6:10, 140:144] = 255  # a clipped sun upper right: --rim auto puts a rim on (the key is behind)
+    cv2.imwrite("sun.png", sun)
+    sun_argv = [*argv[:3], "sun.png", *argv[4:]]
+    for out, extra in (("s0.png", []), ("s1.png", ["--rim", "auto"])):
+        code, _, err = run([*sun_argv[:5], out, *sun_argv[6:], *extra], capsys)
+        assert code == 0, err
+    assert np.abs(cv2.imread("s1.png").astype(int) - cv2.imread("s0.png").astype(int)).max() > 10
     argv = ["composite", "p.png", "--background", "bg.png", "-o", "o2.jpg", "--preset", "studio"]
     code, _, err = run([*argv, "--position", "0.3,0.9", "--height", "0.6", "--exposure", "-1", "--fov", "80"], capsys)
     assert code == 0, err

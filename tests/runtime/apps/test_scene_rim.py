@@ -9,7 +9,7 @@ import pytest
 from relight_rt import envmap
 from relight_rt.apps.panorama import panorama_view, view_rotation
 from relight_rt.apps.scene import _key_rim
-from relight_rt.apps.scene_rim import LOBE_SR, RIM_MAX, panorama_rim, photo_rim, rim_colour
+from relight_rt.apps.scene_rim import LOBE_SR, RIM_MAX, RIM_PHOTO, panorama_rim, photo_rim, rim_colour
 from relight_rt.image.color import REC709
 from relight_rt.light.from_background import FRONT_WEIGHTS
 
@@ -62,13 +62,31 @@ def test_a_clipped_sun_in_a_photo_is_a_source_on_its_side_and_an_overcast_sky_is
     photo[30:36, 120:126] = 255  # upper right
     direction, rgb = photo_rim(photo, 60.0)
     assert direction[0] < -0.8 and direction[1] > 0.2 and direction[2] > 0.1 and float(rgb @ REC709) > 0
-    bigger = photo.copy()
-    bigger[28:38, 118:128] = 255
-    assert float(photo_rim(bigger, 60.0)[1] @ REC709) > float(rgb @ REC709)  # more clipped light, a brighter rim
     overcast = np.full((120, 160, 3), 90, np.uint8)
     overcast[:50] = 255  # a blown-out sky: no compact source
     assert photo_rim(overcast, 60.0) is None
     assert photo_rim(np.full((120, 160, 3), 90, np.uint8), 60.0) is None
+
+
+def test_a_photos_clipped_source_gives_a_visible_rim_whatever_its_size_in_its_colour():
+    """The clip hides a source's power (scene_rim's docstring): the rim of a clipped source is ``RIM_PHOTO`` times
+    how far behind the person it stands, however few pixels clipped (read as the plate's white over its pixels, a
+    36-pixel sun gave a rim of ~0.002, nothing to see), in the clipped pixels' colour."""
+    photo = np.full((120, 160, 3), 90, np.uint8)
+    photo[57:63, 77:83] = 255  # straight behind
+    direction, rgb = photo_rim(photo, 60.0)
+    assert float(rgb @ REC709) == pytest.approx(RIM_PHOTO * -direction[0], rel=1e-6) and -direction[0] > 0.99
+    bigger = photo.copy()
+    bigger[52:68, 72:88] = 255
+    np.testing.assert_allclose(photo_rim(bigger, 60.0)[1], rgb, rtol=1e-3)
+    warm = photo.copy()
+    warm[57:63, 77:83] = (255, 252, 236)  # clipped in red only (>= 250 in its brightest channel)
+    _, w = photo_rim(warm, 60.0)
+    assert float(w @ REC709) == pytest.approx(float(rgb @ REC709), rel=1e-6) and w[0] > w[1] > w[2]
+    aside = np.full((120, 160, 3), 90, np.uint8)
+    aside[57:63, 150:156] = 255  # near the right border: less behind, a weaker rim
+    d, a = photo_rim(aside, 60.0)
+    assert float(a @ REC709) == pytest.approx(RIM_PHOTO * -d[0], rel=1e-6) and -d[0] < 0.9
 
 
 def test_the_rim_is_added_so_a_dark_coat_gets_it_too():

@@ -75,6 +75,55 @@ def test_front_and_back_are_told_apart():
         assert scene_light(photo).key()[1] is back_lit
 
 
+def _patches(saturation: float) -> np.ndarray:
+    """A view of 8 x 6 patches, a bright top row (a white sky) over patches of several levels, each in a random hue
+    of the given saturation."""
+    rng = np.random.default_rng(3)
+    levels = rng.uniform(0.05, 0.3, (6, 8))
+    levels[0] = 0.8
+    hues = rng.uniform(0, 1, (6, 8, 1))
+    tint = 1 + saturation * np.concatenate([np.cos(2 * np.pi * (hues + k / 3)) for k in range(3)], axis=2)
+    tint[0] = 1  # the sky white
+    rgb = levels[..., None] * tint / (tint @ np.asarray(REC709))[..., None]
+    lin = np.clip(np.kron(rgb, np.ones((20, 20, 1))), 0, 0.9)
+    return ((np.where(lin <= 0.0031308, 12.92 * lin, 1.055 * lin ** (1 / 2.4) - 0.055)) * 255 + 0.5).astype(np.uint8)
+
+
+def test_a_view_that_varies_by_colour_is_front_lit_one_that_varies_by_light_back_lit():
+    """Step 4's colour share: the same luminance layout (a bright top over darker patches) reads back-lit when
+    the patches are nearly grey (what varies is light: a sky over shaded things) and front-lit when they are
+    saturated hues (what varies is the surfaces' colour: a lit view). A black-and-white view tells nothing by its
+    colour: it gets GREY_SHARE, and its call rests on top/bottom."""
+    grey, colourful = scene_light(_patches(0.05)), scene_light(_patches(0.8))
+    assert colourful.top_bottom == pytest.approx(grey.top_bottom, abs=0.1)
+    assert colourful.contrast == pytest.approx(grey.contrast, abs=0.1)
+    assert grey.colour_share < 0.2 < 1 < colourful.colour_share
+    assert grey.key()[1] is True and colourful.key()[1] is False
+    assert scene_light(_patches(0.0)).colour_share == bgmod.GREY_SHARE
+
+
+def test_the_colour_share_does_not_change_with_white_balance_or_exposure():
+    """A camera's white balance and exposure are gains per channel in linear light: they shift log2 R/G and B/G
+    without spreading them, and move log2 luminance little (luminance weighs the channels), so the share stays
+    within a few per cent."""
+    lin = np.clip(np.kron(np.random.default_rng(4).uniform(0.02, 0.5, (6, 8, 3)), np.ones((20, 20, 1))), 0, 1)
+    shares = []
+    for gain in ((1.0, 1.0, 1.0), (0.7, 1.0, 1.4), (1.5, 1.2, 0.8), (0.5, 0.5, 0.5)):
+        v = np.clip(lin * np.asarray(gain), 0, 0.95)
+        photo = ((np.where(v <= 0.0031308, 12.92 * v, 1.055 * v ** (1 / 2.4) - 0.055)) * 255 + 0.5).astype(np.uint8)
+        shares.append(scene_light(photo).colour_share)
+    assert max(shares) - min(shares) < 0.1 * shares[0]
+    assert bgmod.colour_share(np.ones((16, 16, 3), np.float32), np.ones((16, 16), np.float32), 0.0) == 0.0
+
+
+def test_an_even_view_is_front_lit_whatever_the_score(monkeypatch):
+    """No source and no shade in frame (log2 luminance spread < 0.1): nothing says back-lit."""
+    monkeypatch.setattr(bgmod, "BACKLIGHT", (-1.0, 0.0, 0.0))
+    assert scene_light(np.full((96, 128, 3), 120, np.uint8)).key()[1] is False
+    ramp = np.repeat(np.linspace(90, 150, 96).astype(np.uint8)[:, None, None], 128, axis=1).repeat(3, axis=2)
+    assert scene_light(ramp).key()[1] is True
+
+
 def test_the_key_light_can_be_steered():
     img = np.full((90, 120, 3), 80, np.uint8)
     right, _ = light_from_background(img, key_light=(90, 20))
@@ -168,7 +217,7 @@ def test_step_6_keeps_the_front_exposure_and_colour_and_the_front_back_call():
     """The shape is drawn toward the usual light's (module docstring, step 6); what the person's camera-facing
     side gets (exposure, colour) and which side is brighter stay the rule's; a key the user gives skips it."""
     rng = np.random.default_rng(5)
-    img = np.clip(rng.normal(90, 25, (96, 128, 3)), 0, 255).astype(np.uint8)
+    img = np.repeat(np.clip(rng.normal(90, 25, (96, 128, 1)), 0, 255).astype(np.uint8), 3, axis=2)  # grey shade
     img[:30] = (240, 200, 150)  # a warm, bright top: back-lit
     parts = scene_light(img)
     light, raw = parts.light(), parts.light(shape_weight=1.0, front_back_power=1.0)
@@ -195,8 +244,8 @@ def test_step_6_puts_the_front_back_ratio_on_the_side_of_the_call(monkeypatch):
     """The raw light (the view, the ambient, the key) can be brighter in front while step 4 calls the view back-lit
     (a weak back key, a bright view lighting the front): step 6 then gives the light the same back/front ratio the
     other way round, so the light says what the rule read; the front's exposure and colour stay the raw light's."""
-    img = np.full((96, 128, 3), 120, np.uint8)
-    parts = scene_light(img)
+    img = np.repeat(np.linspace(90, 150, 96).astype(np.uint8)[:, None, None], 128, axis=1).repeat(3, axis=2)
+    parts = scene_light(img)  # not even (an even view is front-lit whatever the score)
     monkeypatch.setattr(bgmod, "BACKLIGHT", (-1.0, 0.0, 0.0))  # every view read as back-lit ...
     monkeypatch.setattr(bgmod, "KEY_BACK", 0.0)  # ... with no back key: the raw light is brighter in front
     ratio = lambda lt: float(bgmod.BACK_WEIGHTS @ lt @ REC709) / float(bgmod.FRONT_WEIGHTS @ lt @ REC709)  # noqa: E731
