@@ -75,7 +75,7 @@ def main(argv=None) -> int:
     ap.add_argument("--repeats", type=int, default=7)
     ap.add_argument("--map", default="city.hdr", help="the background's map in --hdri")
     ap.add_argument("--rim", nargs="?", const="on", choices=("on", "auto"), default=None,
-                    help="composite with rim=True (auto: rim='auto', composite --rim auto)")  # fmt: skip
+                    help="composite with rim=True (auto: rim='auto', composite --rim-auto)")  # fmt: skip
     args = ap.parse_args(argv)
     person, mask, bg = make_inputs(args.hdri, args.work, args.map)
     rim = {"on": True, "auto": "auto"}.get(args.rim, False)
@@ -98,7 +98,7 @@ def main(argv=None) -> int:
     cmd = [sys.executable, "-m", "relight_rt", "composite", str(person), "--mask", str(mask), "--background", str(bg),
            "-o", str(args.work / "cli.jpg"), "--shadow", "--device", "cpu"]  # fmt: skip
     if args.rim:
-        cmd += ["--rim", args.rim]
+        cmd += ["--rim-auto" if args.rim == "auto" else "--rim"]
     if args.models:
         cmd += ["--models", args.models]
     t = time.perf_counter()

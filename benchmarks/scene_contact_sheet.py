@@ -12,7 +12,7 @@ every
 ``--photos`` photo of a place (``relight_rt.scene.composite``: the light estimated from the photo, centre-cropped to
 ``--size``'s aspect and resized to it first). Everything else is the command's default (automatic placement,
 shadows, camera matching, light wrap, frame metering), except the rim of a source behind the person: on views as
-``composite --view`` (on), on photos as ``composite --rim auto`` (where a clipped source is in frame and the photo
+``composite --view`` (on), on photos as ``composite --rim-auto`` (where a clipped source is in frame and the photo
 reads as back-lit; ``composite``'s default is none); ``--rim on`` puts it on every photo (the source, else a back
 key's), ``--rim off`` on none, views included.
 

@@ -3,7 +3,7 @@
 ``relight-rt composite PERSON [--mask M] --background BG -o OUT [--preset P | --light L | --envmap E]
 [--key-light AZ,EL] [--position X,Y] [--height H] [--horizon Y] [--camera-height M] [--no-shadow]
 [--exposure auto|EV|physical] [--meter frame|background] [--no-match-camera] [--no-light-wrap]
-[--rim [auto] | --no-rim] [--fov 60]``
+[--rim | --rim-auto | --no-rim] [--fov 60]``
 
 ``relight-rt composite PERSON --background PANO.hdr --view AZ,EL[,FOV] [--size WxH] -o OUT [...]``: the scene is
 an equirectangular panorama, seen in that direction, lighting the person with its own light (relight_rt.apps.panorama).
@@ -76,10 +76,11 @@ def add_parser(subparsers) -> None:
                    help="match the background's blur and noise (default: on)")  # fmt: skip
     p.add_argument("--light-wrap", action=argparse.BooleanOptionalAction, default=True,
                    help="a brighter background's light wraps over the person's edge (default: on)")  # fmt: skip
-    p.add_argument("--rim", nargs="?", const="on", choices=("on", "auto"), default=None,
-                   help="a sun, window or lamp behind the person puts a rim of light on its side of the outline; "
-                   "auto: only where a clipped source is in the photo and it reads as back-lit (default: on with "
-                   "--view, where the panorama holds the source; off for a photo)")  # fmt: skip
+    p.add_argument("--rim", dest="rim", action="store_const", const="on", default=None,
+                   help="a sun, window or lamp behind the person puts a rim of light on its side of the outline "
+                   "(default: on with --view, where the panorama holds the source; off for a photo)")  # fmt: skip
+    p.add_argument("--rim-auto", dest="rim", action="store_const", const="auto",
+                   help="a rim only where a clipped source is in the photo and the photo reads as back-lit")  # fmt: skip
     p.add_argument("--no-rim", dest="rim", action="store_const", const="off", help="no rim, with --view too")
     p.add_argument(
         "--fov",

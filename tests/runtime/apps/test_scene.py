@@ -427,14 +427,17 @@ def test_cli_composite(work, capsys):
     code, _, err = run([*argv[:5], "o5.png", *argv[6:], "--rim"], capsys)  # the key from behind: a rim on top
     assert code == 0, err
     assert np.abs(cv2.imread("o5.png").astype(int) - wrapped).max() > 2  # off by default; --rim turns it on
-    code, _, err = run([*argv[:5], "o6.png", *argv[6:], "--rim", "auto"], capsys)  # no clipped source: no rim
+    code, _, err = run([*argv[:5], "o6.png", *argv[6:], "--rim-auto"], capsys)  # no clipped source: no rim
     assert code == 0, err
     np.testing.assert_array_equal(cv2.imread("o6.png"), cv2.imread("o3.png"))
+    code, _, err = run(["composite", "--rim", *argv[1:5], "o7.png", *argv[6:]], capsys)  # a flag: takes no value
+    assert code == 0, err
+    np.testing.assert_array_equal(cv2.imread("o7.png"), cv2.imread("o5.png"))
     sun = cv2.imread("bg.png")
-    sun[6:10, 140:144] = 255  # a clipped sun upper right: --rim auto puts a rim on (the key is behind)
+    sun[6:10, 140:144] = 255  # a clipped sun upper right: --rim-auto puts a rim on (the key is behind)
     cv2.imwrite("sun.png", sun)
     sun_argv = [*argv[:3], "sun.png", *argv[4:]]
-    for out, extra in (("s0.png", []), ("s1.png", ["--rim", "auto"])):
+    for out, extra in (("s0.png", []), ("s1.png", ["--rim-auto"])):
         code, _, err = run([*sun_argv[:5], out, *sun_argv[6:], *extra], capsys)
         assert code == 0, err
     assert np.abs(cv2.imread("s1.png").astype(int) - cv2.imread("s0.png").astype(int)).max() > 10
