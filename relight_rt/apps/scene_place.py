@@ -259,11 +259,16 @@ def sky_line(photo: np.ndarray) -> float | None:
     too few columns show sky over ground.
 
     Args:
-        photo: (H, W, 3) RGB, uint8 or float in [0, 1] (sRGB).
+        photo: (H, W, 3) RGB, uint8 or float in [0, 1] (sRGB), at least 2 px a side.
+
+    Raises:
+        RelightError: another shape.
     """
     img = np.asarray(photo)
+    if img.ndim != 3 or img.shape[2] != 3 or min(img.shape[:2]) < 2:
+        raise RelightError(f"sky line: expected an (H, W, 3) RGB photo, got {img.shape} {img.dtype}")
     if img.dtype != np.uint8:
-        img = (np.clip(img, 0, 1) * 255 + 0.5).astype(np.uint8)
+        img = (np.clip(np.nan_to_num(img.astype(np.float32)), 0, 1) * 255 + 0.5).astype(np.uint8)
     h, w = img.shape[:2]
     small = cv2.resize(img, (_SKY_WIDTH, max(2 * SKY_STEP, round(h * _SKY_WIDTH / w))), interpolation=cv2.INTER_AREA)
     lin = cv2.GaussianBlur(SRGB8_TO_LINEAR[small], (0, 0), 1.0) + np.float32(1e-3)

@@ -239,6 +239,17 @@ def test_no_sky_below_the_horizon():
     assert find_horizon(down, 60.0) == pytest.approx(estimate_horizon(down, 60.0))
 
 
+def test_sky_line_inputs():
+    from relight_rt.apps.scene_place import sky_line
+
+    bg, _ = launch_pad(8.0, 35.0, size=(320, 240))
+    assert sky_line(bg.astype(np.float32) / 255) == pytest.approx(sky_line(bg), abs=0.01)
+    assert sky_line(bg[:2, :2]) is None  # tiny: no room for a run
+    for bad in (bg[..., 0], bg[..., :2], np.zeros((1, 5, 3), np.uint8)):
+        with pytest.raises(RelightError, match="sky line: expected an"):
+            sky_line(bad)
+
+
 def test_composite_keeps_the_feet_out_of_the_sky(diffuse_models_dir):
     """composite's default horizon is find_horizon's: on the launch pad the person is as small as the ground's
     distance makes them, not a giant standing in the sky above the lamps."""
