@@ -45,10 +45,11 @@ most about 1/3 under that sky) or blue (log2 B/R at least ``SKY_BLUE``: a clear 
 pad at dusk); a run that reaches the bottom edge is a backdrop, not a sky over ground (and when more such runs
 reach it than stop above it, there is no sky line). With sky in at least ``SKY_MIN_COLUMNS`` of the columns, the
 ``SKY_QUANTILE`` of their lower ends is the sky line (a bound: poles, wires and branches end runs higher), and
-``find_horizon`` (what ``relight_rt.apps.scene.composite`` uses) puts the horizon no higher than it, unless the
-verticals see the camera level or turned down: a camera turned up at a launch pad, whose towers' convergence reads
-a horizon too high (the focal length is a guess), would otherwise stand a large person in the sky above the pad's
-lights. A plain backdrop behind a portrait, over the sitter's dark clothes, reads as sky too.
+``find_horizon`` (what ``relight_rt.apps.scene.composite`` uses) puts the horizon no higher than it where the
+verticals see the camera turned up: a camera turned up at a launch pad, whose towers' convergence reads a horizon
+too high (the focal length is a guess), would otherwise stand a large person in the sky above the pad's lights.
+Alone, without the verticals, it is not used: a bright wall or curtain over a darker floor, a calm sea, a backdrop
+behind a portrait over the sitter's dark clothes read as sky.
 """
 
 from __future__ import annotations
@@ -291,16 +292,18 @@ def sky_line(photo: np.ndarray) -> float | None:
 
 
 def find_horizon(photo: np.ndarray, fov: float = 60.0) -> float:
-    """The horizon ``relight_rt.apps.scene.composite`` uses when none is given: the verticals' (``estimate_horizon``,
-    else a level camera's 0.5), no higher than the sky line (``sky_line``), at most ``HORIZON_ESTIMATE_MAX``.
+    """The horizon ``relight_rt.apps.scene.composite`` uses when none is given: the verticals' (``estimate_horizon``;
+    a level camera's 0.5 without them), where they see the camera turned up no higher than the sky line
+    (``sky_line``), at most ``HORIZON_ESTIMATE_MAX``.
 
     The verticals tell which way the camera is turned more surely than how far (how far scales with the focal
     length squared, and ``fov`` is a guess): where they see it turned up (a horizon below the middle), the sky may
-    put the horizon lower still; where they see it level or turned down, sky below their horizon contradicts them
-    (a bright wall or backdrop over dark clothes reads as sky), and they stand."""
+    put the horizon lower still. Where they see it level or turned down, sky below their horizon contradicts them,
+    and they stand; where they say nothing, the sky line alone is not trusted (a bright wall or curtain over a
+    darker floor, a calm sea under its sky, a backdrop over dark clothes read as sky)."""
     found = estimate_horizon(photo, fov)
     hz = 0.5 if found is None else found
-    if found is None or found > 0.5:
+    if found is not None and found > 0.5:
         line = sky_line(photo)
         if line is not None:
             hz = max(hz, line)

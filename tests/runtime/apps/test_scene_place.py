@@ -194,16 +194,17 @@ def test_composite_stands_the_person_on_the_estimated_horizons_ground(diffuse_mo
     assert not np.array_equal(composite(r, img, bg, **kw), composite(r, img, bg, horizon=0.5, **kw))
 
 
-def launch_pad(tilt=8.0, fov=35.0, size=(640, 480), sky_to=None, backdrop=False):
+def launch_pad(tilt=8.0, fov=35.0, size=(640, 480), sky_to=None, backdrop=False, towers=True):
     """``poles`` (a camera turned up ``tilt`` degrees, its horizontal field of view ``fov``) without the slanted
     distractors, over a twilight sky, dark blue and smooth, down to the horizon (or the row fraction ``sky_to``)
     and dark, textured ground with a few bright lamps below it, as a launch pad at dusk is photographed;
-    ``backdrop``: the blue runs down to the bottom edge (no ground). Returns the picture and its true horizon."""
+    ``backdrop``: the blue runs down to the bottom edge (no ground); ``towers=False``: no poles, nothing vertical.
+    Returns the picture and its true horizon."""
     w, h = size
     f = (w / 2) / np.tan(np.radians(fov) / 2)
     truth = (h / 2 + f * np.tan(np.radians(tilt))) / h
     edge = truth if sky_to is None else sky_to
-    img = poles(tilt, size=size, fov=fov)
+    img = poles(tilt, size=size, fov=fov) if towers else np.zeros((h, w, 3), np.uint8)
     rows = np.arange(h, dtype=np.float32)[:, None] / h
     sky = np.array([25, 40, 95], np.float32) + rows[..., None] * np.array([30, 45, 60], np.float32)
     ground = np.random.default_rng(1).uniform(10, 45, (h, w, 1)).astype(np.float32).repeat(3, axis=2)
@@ -237,6 +238,10 @@ def test_no_sky_below_the_horizon():
     down, _ = launch_pad(-10.0, 60.0, sky_to=0.6)
     assert 0.55 < sky_line(down) <= 0.61
     assert find_horizon(down, 60.0) == pytest.approx(estimate_horizon(down, 60.0))
+    # no verticals: the sky line alone is not trusted (walls, curtains and seas read as sky), a level camera's 0.5
+    open_sky, truth = launch_pad(8.0, 35.0, towers=False)
+    assert estimate_horizon(open_sky, 60.0) is None and sky_line(open_sky) > 0.75
+    assert find_horizon(open_sky, 60.0) == 0.5
 
 
 def test_sky_line_inputs():
