@@ -13,8 +13,8 @@ Also the sky line (``sky_line``: no sky below the horizon) and what ``composite`
 verticals' answer or 0.5; where they see the camera turned up, no higher than the sky line; at most 0.9): on the
 views, how often the sky line lies more than 0.02 below the true horizon (a bound should not), and the error of
 ``find_horizon`` against the verticals' answer-or-0.5 over all views. Every view's readings go to ``--out``, so
-other ways to combine them can be scored from the file. ``--places``: photos of places (centre-cropped to ``--size``'s aspect as
-benchmarks/scene_sheet.py does) with each reading, to look at.
+other ways to combine them can be scored from the file. ``--places``: photos of places (centre-cropped to
+``--size``'s aspect as benchmarks/scene_sheet.py does) with each reading, to look at.
 """
 
 from __future__ import annotations
