@@ -19,8 +19,9 @@ Steps (all colour arithmetic in linear light; both photos are read as sRGB, as c
    with their feet (the matte's lowest rows) on the ground at ``position`` (default: x as in their own photo,
    y = ``DEFAULT_FEET``), as tall as perspective makes them for a level camera ``camera_height`` metres above the
    ground (default ``CAMERA_M``, a standing camera) whose horizon is the row ``horizon`` (default: where the
-   background's verticals put it, else 0.5, a level camera's); ``height`` (a fraction of the background's height)
-   overrides that.
+   background's verticals put it, below any sky where they see the camera turned up, else 0.5, a level camera's:
+   ``scene_place.find_horizon``);
+   ``height`` (a fraction of the background's height) overrides that.
    A *cut-off* person (a half body or a portrait) is placed as their photo framed them: their relative height
    kept and every border that cut them on the same border of the background. Parts beyond the edges are cut off.
 5. Matched to the background's camera: when the background camera's own blur (the blur of the photo's
@@ -97,12 +98,11 @@ from ..person.masks import AUTO, resolve_mask
 from .scene_camera import blur_sigma, camera_blur, grey, noise_sigma
 from .scene_place import (
     CAMERA_M,
-    HORIZON_ESTIMATE_MAX,
     Placement,
     check_camera_height,
     check_height,
     check_horizon,
-    estimate_horizon,
+    find_horizon,
     parse_position,
     place,
 )
@@ -675,8 +675,9 @@ def composite(
         key_light: (azimuth, elevation) degrees or "AZ,EL": where the background's key light comes from
             (relight_rt.light.from_background.parse_key_light); None: the key the view implies. Ignored with ``light``.
         horizon: the horizon's row, a fraction of the background's height in [0, 1]; None: where the background's
-            verticals put it (``relight_rt.apps.scene_place.estimate_horizon``, at most ``HORIZON_ESTIMATE_MAX``), or
-            0.5 (a level camera) where they say nothing.
+            verticals put it (``relight_rt.apps.scene_place.estimate_horizon``; where they see the camera turned
+            up, no higher than the lowest sky, ``sky_line``), or 0.5 (a level camera) where they say nothing, at
+            most ``HORIZON_ESTIMATE_MAX`` (``scene_place.find_horizon``).
         meter: "frame" or "background" (step 8).
         match_camera: match the background camera's blur and noise (step 5).
         light_wrap: let the background's light wrap over the person's edge where it is brighter (step 7).
@@ -726,8 +727,7 @@ def composite(
                               rim_key=rim_key)
     rgba = relight_person(relighter, dec, lighting, mode)
     if hz is None:
-        found = estimate_horizon(bg, fov)
-        hz = 0.5 if found is None else min(max(found, 0.0), HORIZON_ESTIMATE_MAX)
+        hz = find_horizon(bg, fov)
     placed = place(rgba, bg.shape, pos, frac, hz, cam)
     noise_add = 0.0
     if match_camera:  # blur now, noise after the sRGB encoding
