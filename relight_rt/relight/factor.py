@@ -60,6 +60,7 @@ from ..image.color import REC709
 from ..light import exposure as _exposure
 from ..light import sh
 from .decomposition import Decomposition, Memo, readonly
+from .cast_shadow import MeshView, shadow_factor
 from .detail import extend_outward, guided_upsample, shadow_texture, unpremultiply, window
 from .face_pass import FacePass, feather
 from .look import channel_max, shaded_skin, skin_chroma, tint_range
@@ -160,14 +161,16 @@ class Factor:
             # ratio
             transport = restore_bands(unpremultiply(np.ascontiguousarray(dec.transport[y0:y1, x0:x1]), alpha))
             skin = np.zeros(alpha.shape, bool)
+            points = ()
             if dec.face_meshes:  # a face's shape from its mesh where stage 1's transport is a blur
                 skin = self.faces.add_faces(dec, transport, (y0, y1, x0, x1))
+                points = self.faces.window_points(dec, (y0, y1, x0, x1))
             albedo = unpremultiply(np.ascontiguousarray(dec.albedo[y0:y1, x0:x1]), alpha) @ REC709
             photo = dec.network_image[y0:y1, x0:x1] @ REC709
             state["restored"] = {"window": (y0, y1, x0, x1), "alpha": alpha, "inner": alpha > 0.5,
                                  "transport": readonly(transport), "albedo": readonly(albedo.astype(np.float32)),
                                  "photo": readonly(photo.astype(np.float32)),
-                                 "face_skin": readonly(skin & (alpha > 0.5))}
+                                 "face_skin": readonly(skin & (alpha > 0.5)), "face_points": points}
         return state["restored"]
 
     def own(self, dec: Decomposition, with_residual: bool = True) -> dict:
@@ -211,7 +214,14 @@ class Factor:
                 spread = CAP_SKIN_SPREAD * max(skin.shape)
                 cap = readonly(np.minimum(2 * cv2.GaussianBlur(skin.astype(np.float32), (0, 0), spread)
                                           * base["inner"], 1).astype(np.float32))
-            state[key] = {**base, "missing": readonly(missing), "cap_skin": cap,
+            # the faces' cast shadows under the photo's own light (relight_rt.relight.cast_shadow): a new light's are
+            # taken relative to them
+            cast, views = None, ()
+            if cap is not None and base["face_points"]:
+                views = tuple(MeshView(p, self.faces.mesh().triangles, cap.shape) for p in base["face_points"])
+                cast = shadow_factor(base["transport"], white, views, cap)
+                cast = cast if cast is None else readonly(cast)
+            state[key] = {**base, "missing": readonly(missing), "cap_skin": cap, "cast_own": cast, "mesh_views": views,
                           "own": readonly(np.maximum(own + missing, _RATIO_EPS).astype(np.float32))}
         return state[key]
 
@@ -272,6 +282,12 @@ class Factor:
         factor, the new light's colour at each pixel (luminance 1) and the new luminance the ratio divides."""
         transport, alpha = own["transport"], own["alpha"]
         shading = sh.shading(transport, light)
+        if own["mesh_views"]:  # the face's cast shadows (relight_rt.relight.cast_shadow)
+            cast = shadow_factor(transport, light @ REC709, own["mesh_views"], own["cap_skin"])
+            if cast is not None:
+                if own["cast_own"] is not None:  # only darker than the photo's own: its own light gives it back
+                    cast = np.minimum(cast / np.maximum(own["cast_own"], 1e-3), 1)
+                shading = shading * cast[..., None]
         lum = shading @ REC709
         new = own["albedo"] * lum
         if residual is not None:
