@@ -31,6 +31,7 @@ MAX_ANGLE = math.radians(60)  # a lamp wider than this (half-angle) casts no sha
 BIAS = 0.015  # a point is shadowed where the mesh lies this share of the face's size nearer the lamp than it ...
 SLOPE_BIAS = 1.5  # ... plus this many pixels times the tangent of its angle to the lamp (the map's steps)
 RAMP = 0.02  # ... fully shadowed past that depth plus this share of the face's size
+GRAZING = (0.05, 0.15)  # a shadow is trusted from the first to the second cosine of the lamp's angle to the surface
 MIN_SOFT = 0.02  # the shadow's border: blurred over at least this share of the face's size
 MAX_COS = 0.25  # lamps within ~75 degrees of the camera's axis only: a lamp from behind lights the mesh's back
 
@@ -183,7 +184,9 @@ def visibility(view: MeshView, direction: np.ndarray, angle: float) -> np.ndarra
     own = x * toward[0] + y * toward[1] + z * toward[2]
     tangent = np.sqrt(np.maximum(1 - cos * cos, 0)) / np.maximum(cos, 0.2)
     gap = top - own - (BIAS * size + SLOPE_BIAS * tangent)
-    shadow = np.clip(gap / (RAMP * size), 0, 1)
+    # where the lamp grazes the surface its map is a thin strip whose steps no bias covers
+    trust = np.clip((cos - GRAZING[0]) / (GRAZING[1] - GRAZING[0]), 0, 1)
+    shadow = np.clip(gap / (RAMP * size), 0, 1) * np.where(facing[view.ids] > 0, trust, 1)
     vis[view.y.astype(np.int64), view.x.astype(np.int64)] = 1 - shadow
     # the penumbra: the occluders' height over the skin they shadow times tan(angle), at least MIN_SOFT x size
     deep = shadow > 0.5

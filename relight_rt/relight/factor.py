@@ -39,7 +39,9 @@ is taken out first (``unshaded_albedo``; de-lighting 0.87 / 0.70 -> 0.88 / 0.78)
 albedo of the lit skin around, and all of a shadow the transport misses goes with the photo's light (de-lighting
 with the face search's shadow lifts 0.89 / 0.80 -> 0.91 / 0.83); on its skin a light that would multiply the
 photo more than ``RATIO_CAP`` multiplies it that much and adds the rest of the change as the fill (``Factor.handover``:
-the speckle and the seam beside a side-lit face's black half).
+the speckle and the seam beside a side-lit face's black half). On a face mesh's skin a new light's lamp casts the
+mesh's own shadows (the nose's, the brows'; relight_rt.relight.cast_shadow), where they are darker than the photo's
+own light's: degree-2 SH cannot (Extended Yale B relight 0.859 / 0.6505 -> 0.870 / 0.733).
 (``cv2.ximgproc.guidedFilter`` at full resolution gives the same kind of result but costs ~0.6 s per 2-megapixel
 crop with a colour guide; this costs ~30 ms.)
 With ``detail=False`` the network's relit image is upsampled as it is.
