@@ -32,6 +32,9 @@ BIAS = 0.015  # a point is shadowed where the mesh lies this share of the face's
 SLOPE_BIAS = 1.5  # ... plus this many pixels times the tangent of its angle to the lamp (the map's steps)
 RAMP = 0.02  # ... fully shadowed past that depth plus this share of the face's size
 GRAZING = (0.05, 0.15)  # a shadow is trusted from the first to the second cosine of the lamp's angle to the surface
+STRIDE_SIZE = 100  # a face at least this large (window pixels) is tested at every other pixel
+CAP_SAMPLED = math.radians(4)  # a lamp wider than this (half-angle) is tested from several directions over its disc:
+CAP_RING = 4  # ... its centre and this many around it
 MIN_SOFT = 0.02  # the shadow's border: blurred over at least this share of the face's size
 MAX_COS = 0.25  # lamps within ~75 degrees of the camera's axis only: a lamp from behind lights the mesh's back
 
@@ -118,17 +121,26 @@ class MeshView:
         points: (N, 3) mesh vertices in the window's pixels (x right, y down, z away from the camera, same units).
         triangles: (T, 3) vertex indices.
         shape: (h, w) of the window.
+        where: (h, w) bool, the pixels a shadow may fall on (the face's skin and a margin; None: all); the mesh
+            casts its shadow from all of its surface.
     """
 
-    def __init__(self, points: np.ndarray, triangles: np.ndarray, shape: tuple[int, int]) -> None:
+    def __init__(self, points: np.ndarray, triangles: np.ndarray, shape: tuple[int, int],
+                 where: np.ndarray | None = None) -> None:
         self.points = np.asarray(points, np.float64)
         self.triangles = np.asarray(triangles, np.int64)
         self.shape = shape
         self.size = float(max(np.ptp(self.points[:, :2], axis=0).max(), 1.0))
         p, tri = self.points, self.triangles
         cam = _raster_ids(p[:, :2], -p[:, 2], tri, shape)  # the nearest (least z) drawn last
-        self.cover = (cam >= 0).astype(np.float32)
-        py, px = np.nonzero(cam >= 0)
+        # a large face is tested at every other pixel: its shadow's border is blurred over MIN_SOFT of its size
+        stride = 2 if self.size >= STRIDE_SIZE else 1
+        sampled = np.zeros(shape, bool)
+        sampled[::stride, ::stride] = True
+        if where is not None:
+            sampled &= where
+        self.cover = ((cam >= 0) & sampled).astype(np.float32)
+        py, px = np.nonzero(self.cover > 0)
         self.ids = cam[py, px]
         self.x, self.y = px.astype(np.float64), py.astype(np.float64)
         self.z = _on_planes(_planes(p[:, :2], p[:, 2], tri), self.ids, self.x, self.y)
@@ -139,23 +151,11 @@ class MeshView:
         self.normals = n
 
 
-def visibility(view: MeshView, direction: np.ndarray, angle: float) -> np.ndarray:
-    """(h, w) float32 in [0, 1]: how much of a lamp each pixel of a face mesh sees past the mesh itself (1 off the
-    mesh and where the lamp is seen; the mesh's openings, the eyes and the lips, take it from around).
-
-    Args:
-        view: the mesh as the camera sees it.
-        direction: (3,) unit, toward the lamp, subject frame (DESIGN.md §3).
-        angle: the lamp's half-angle (radians): the penumbra's width.
-    """
-    h, w = view.shape
-    vis = np.ones((h, w), np.float32)
-    if view.ids.size == 0:
-        return vis
+def _hidden(view: MeshView, toward: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per pixel the mesh covers (``view``'s order): how far it is hidden from a point lamp in direction ``toward``
+    (window axes: x right, y down, z away), in [0, 1], and the height of what hides it above it along ``toward``
+    (window pixels; -inf where nothing lies above it)."""
     p, size = view.points, view.size
-    # toward the lamp in the window's axes (x right, y down, z away): subject (x to camera, y right, z up)
-    toward = np.array([direction[1], -direction[2], -direction[0]], np.float64)
-    toward /= max(float(np.linalg.norm(toward)), 1e-12)
     facing = view.normals @ toward
     cos = np.abs(facing)[view.ids]
     # the lamp's view: an orthographic depth map along ``toward``, one window pixel per map pixel, of the triangles
@@ -181,17 +181,61 @@ def visibility(view: MeshView, direction: np.ndarray, angle: float) -> np.ndarra
     if hit.any():
         top[hit] = _on_planes(_planes(uv, height, view.triangles[lit]), seen[hit], mx[hit].astype(np.float64),
                               my[hit].astype(np.float64))
-    own = x * toward[0] + y * toward[1] + z * toward[2]
+    above = top - (x * toward[0] + y * toward[1] + z * toward[2])
     tangent = np.sqrt(np.maximum(1 - cos * cos, 0)) / np.maximum(cos, 0.2)
-    gap = top - own - (BIAS * size + SLOPE_BIAS * tangent)
+    gap = above - (BIAS * size + SLOPE_BIAS * tangent)
     # where the lamp grazes the surface its map is a thin strip whose steps no bias covers
     trust = np.clip((cos - GRAZING[0]) / (GRAZING[1] - GRAZING[0]), 0, 1)
-    shadow = np.clip(gap / (RAMP * size), 0, 1) * np.where(facing[view.ids] > 0, trust, 1)
-    vis[view.y.astype(np.int64), view.x.astype(np.int64)] = 1 - shadow
-    # the penumbra: the occluders' height over the skin they shadow times tan(angle), at least MIN_SOFT x size
-    deep = shadow > 0.5
-    height_over = float(np.median((top - own)[deep])) if deep.any() else 0.0
-    sigma = max(MIN_SOFT * size, 0.5 * height_over * math.tan(min(angle, MAX_ANGLE)))
+    return np.clip(gap / (RAMP * size), 0, 1) * np.where(facing[view.ids] > 0, trust, 1), above
+
+
+def _cap_directions(direction: np.ndarray, angle: float) -> np.ndarray:
+    """(K, 3) unit directions spread over a cap of half-angle ``angle`` around ``direction``: the centre alone for
+    a small lamp, else the centre and ``CAP_RING`` around it at 0.76 ``angle`` (equal shares of the cap's area)."""
+    d = np.asarray(direction, np.float64) / np.linalg.norm(direction)
+    if angle < CAP_SAMPLED:
+        return d[None]
+    helper = np.array([0.0, 0.0, 1.0]) if abs(d[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    a = np.cross(d, helper)
+    a /= np.linalg.norm(a)
+    b = np.cross(d, a)
+    r = 0.76 * angle
+    phi = 2 * np.pi * (np.arange(CAP_RING) + 0.5) / CAP_RING
+    ring = math.cos(r) * d + math.sin(r) * (np.cos(phi)[:, None] * a + np.sin(phi)[:, None] * b)
+    return np.concatenate([d[None], ring])
+
+
+def visibility(view: MeshView, direction: np.ndarray, angle: float) -> np.ndarray:
+    """(h, w) float32 in [0, 1]: how much of a lamp each pixel of a face mesh sees past the mesh itself (1 off the
+    mesh and where the lamp is seen; the mesh's openings, the eyes and the lips, take it from around).
+
+    A lamp wider than ``CAP_SAMPLED`` is tested from several directions over its disc (``_cap_directions``), the
+    share of them hidden kept: a wide lamp's shadow fades with the distance from what casts it. The border is then
+    softened by what the samples leave (the occluders' height over the skin times the samples' spacing), never
+    less than ``MIN_SOFT`` of the face's size.
+
+    Args:
+        view: the mesh as the camera sees it.
+        direction: (3,) unit, toward the lamp, subject frame (DESIGN.md §3).
+        angle: the lamp's half-angle (radians).
+    """
+    h, w = view.shape
+    vis = np.ones((h, w), np.float32)
+    if view.ids.size == 0:
+        return vis
+    samples = _cap_directions(direction, angle)
+    hidden = np.zeros(view.ids.size)
+    heights = []
+    for d in samples:  # toward the lamp in the window's axes (x right, y down, z away)
+        part, above = _hidden(view, np.array([d[1], -d[2], -d[0]], np.float64))
+        hidden += part / len(samples)
+        heights.append(above[part > 0.5])
+    vis[view.y.astype(np.int64), view.x.astype(np.int64)] = 1 - hidden
+    # the penumbra the samples leave: the occluders' height over the skin they shadow times the samples' spacing
+    above = np.concatenate(heights)
+    height_over = float(np.median(above)) if above.size else 0.0
+    spread = angle if len(samples) == 1 else angle / math.sqrt(len(samples))
+    sigma = max(MIN_SOFT * view.size, 0.5 * height_over * math.tan(min(spread, MAX_ANGLE)))
     # soften over the mesh only (its openings filled from around), a normalised blur
     cover = view.cover
     num = cv2.GaussianBlur(vis * cover, (0, 0), sigma)

@@ -61,8 +61,8 @@ import numpy as np
 from ..image.color import REC709
 from ..light import exposure as _exposure
 from ..light import sh
-from .decomposition import Decomposition, Memo, readonly
 from .cast_shadow import MeshView, shadow_factor
+from .decomposition import Decomposition, Memo, readonly
 from .detail import extend_outward, guided_upsample, shadow_texture, unpremultiply, window
 from .face_pass import FacePass, feather
 from .look import channel_max, shaded_skin, skin_chroma, tint_range
@@ -220,7 +220,8 @@ class Factor:
             # taken relative to them
             cast, views = None, ()
             if cap is not None and base["face_points"]:
-                views = tuple(MeshView(p, self.faces.mesh().triangles, cap.shape) for p in base["face_points"])
+                triangles = self.faces.mesh().triangles
+                views = tuple(MeshView(p, triangles, cap.shape, cap > 0) for p in base["face_points"])
                 cast = shadow_factor(base["transport"], white, views, cap)
                 cast = cast if cast is None else readonly(cast)
             state[key] = {**base, "missing": readonly(missing), "cap_skin": cap, "cast_own": cast, "mesh_views": views,
@@ -279,17 +280,32 @@ class Factor:
                 state[key] = old[key]
         return new
 
-    def _change(self, own: dict, light: np.ndarray, residual: np.ndarray | None) -> tuple:
+    def cast(self, dec: Decomposition, own: dict, light: np.ndarray) -> np.ndarray | None:
+        """(r, r') what the faces' cast shadows under ``light`` leave of its shading in the person's window
+        (relight_rt.relight.cast_shadow), where darker than the photo's own light's (so that light gives the photo
+        back); None without a face mesh or a lamp worth a shadow. Cached per light direction and shape (a light's
+        scale changes nothing: the exposure meter and the factor share one)."""
+        if not own["mesh_views"]:
+            return None
+        lum = np.asarray(light, np.float32) @ REC709
+        key = (lum / lum[0] if lum[0] > 1e-9 else lum).round(5).tobytes()
+        cache = self.memo(dec).setdefault("cast", {})
+        if key not in cache:
+            cast = shadow_factor(own["transport"], lum, own["mesh_views"], own["cap_skin"])
+            if cast is not None and own["cast_own"] is not None:
+                cast = np.minimum(cast / np.maximum(own["cast_own"], 1e-3), 1)
+            cache[key] = None if cast is None else readonly(cast.astype(np.float32))
+        return cache[key]
+
+    def _change(self, own: dict, light: np.ndarray, residual: np.ndarray | None,
+                cast: np.ndarray | None = None) -> tuple:
         """Under ``light``, in the person's window: (ratio, tint, new): the luminance ratio of the relighting
-        factor, the new light's colour at each pixel (luminance 1) and the new luminance the ratio divides."""
+        factor, the new light's colour at each pixel (luminance 1) and the new luminance the ratio divides.
+        ``cast``: the faces' cast shadows under it (``cast``), a factor on its shading."""
         transport, alpha = own["transport"], own["alpha"]
         shading = sh.shading(transport, light)
-        if own["mesh_views"]:  # the face's cast shadows (relight_rt.relight.cast_shadow)
-            cast = shadow_factor(transport, light @ REC709, own["mesh_views"], own["cap_skin"])
-            if cast is not None:
-                if own["cast_own"] is not None:  # only darker than the photo's own: its own light gives it back
-                    cast = np.minimum(cast / np.maximum(own["cast_own"], 1e-3), 1)
-                shading = shading * cast[..., None]
+        if cast is not None:
+            shading = shading * cast[..., None]
         lum = shading @ REC709
         new = own["albedo"] * lum
         if residual is not None:
@@ -328,7 +344,7 @@ class Factor:
         own = self.own(dec, with_residual=residual is not None)
         y0, y1, x0, x1 = own["window"]
         light = np.asarray(light, np.float32)
-        ratio, tint, new = self._change(own, light, residual)
+        ratio, tint, new = self._change(own, light, residual, self.cast(dec, own, light))
         state = self.memo(dec)
         if "skin_chroma" not in state:  # the shaded-skin rule's light-independent inputs, kept for every light
             state["skin_chroma"] = tuple(map(readonly, skin_chroma(dec.network_image[y0:y1, x0:x1],
@@ -556,7 +572,31 @@ class Factor:
             state["target"] = _exposure.mean_luminance(dec.albedo, dec.transport, dec.network_mask, dec.white_light,
                                                        _exposure.METER_POWER)
         lits = _exposure.expose(dec, lights, "auto", target_luminance=state["target"])
+        if self.detail:  # the faces' cast shadows are part of the light as seen (``cast``)
+            lits = self.meter_shadows(dec, lits)
         return _exposure.guarded(lits, mode, self.highlight_inputs(dec))
+
+    def meter_shadows(self, dec: Decomposition, lights: np.ndarray) -> np.ndarray:
+        """``lights`` (K, 9, 3) or (9, 3), each scaled up by what the faces' cast shadows under it take from the
+        person's mean luminance as seen (the power mean of relight_rt.light.exposure ``METER_POWER`` over the
+        person's pixels in the network frame): "auto" keeps the light as seen, a shadow included (without, the
+        white side lamps' median EV as seen went from -0.18 to -0.20 on 59 photos, benchmarks/photo_faults.py)."""
+        lits = np.asarray(lights, np.float32)
+        own = self.own(dec, with_residual=False)
+        if not own["mesh_views"]:
+            return lits
+        flat = lits.reshape(-1, 9, 3).copy()
+        inner, p = own["inner"], _exposure.METER_POWER
+        weight = own["alpha"][inner]
+        for i, light in enumerate(flat):
+            cast = self.cast(dec, own, light)
+            if cast is None:
+                continue
+            lum = np.maximum(own["albedo"][inner] * (own["transport"][inner] @ (light @ REC709)), 0) ** p
+            shadowed = float((lum * cast[inner] ** p) @ weight)
+            if shadowed > 1e-12:
+                flat[i] *= np.float32((float(lum @ weight) / shadowed) ** (1 / p))
+        return flat.reshape(lits.shape)
 
     def highlight_inputs(self, dec: Decomposition) -> tuple:
         """What ``highlight_factor`` reads of ``dec`` whatever the light (cached): the person's pixels (alpha > 0.5,

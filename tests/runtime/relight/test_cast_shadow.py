@@ -121,30 +121,62 @@ def test_two_lamps_read_as_one_wide_lamp_toward_the_stronger():
     assert lamp(a)[2] == pytest.approx(0, abs=1e-3)
 
 
-def test_a_lamp_beside_a_real_face_darkens_only_its_skin_on_the_side_away_from_the_lamp(reference_dir, monkeypatch):
-    """The reference photo (full body; the head pass finds the face's mesh): a lamp 25 degrees to the image's right
-    darkens the face beside the nose on the image's left and nothing outside the head; the photo's own light still
-    gives the photo back. Without the rule (``shadow_factor`` off) nothing darkens."""
+@pytest.fixture(scope="module")
+def portrait(reference_dir):
+    """The reference photo's head and shoulders (its head pass's square), decomposed: a face the body pass meshes."""
+    import cv2
+
     import relight_rt
     from relight_rt import RuntimeConfig
-    from relight_rt.relight import factor as factor_module
 
     r = relight_rt.open(RuntimeConfig(device="cpu"))
-    dec = r.decompose(reference_dir / "photo" / "sample.jpg", reference_dir / "photo" / "sample_mask.png")
+    full = r.decompose(reference_dir / "photo" / "sample.jpg", reference_dir / "photo" / "sample_mask.png")
+    y0, y1, x0, x1 = full.head_box
+    photo = cv2.cvtColor(cv2.imread(str(reference_dir / "photo" / "sample.jpg")), cv2.COLOR_BGR2RGB)[y0:y1, x0:x1]
+    mask = cv2.imread(str(reference_dir / "photo" / "sample_mask.png"), cv2.IMREAD_GRAYSCALE)[y0:y1, x0:x1]
+    dec = r.decompose(np.ascontiguousarray(photo), np.ascontiguousarray(mask))
+    assert dec.face_meshes and r._factor.own(dec, with_residual=False)["mesh_views"]
+    return r, dec
+
+
+def test_a_lamp_beside_a_real_face_darkens_only_its_skin_on_the_side_away_from_the_lamp(portrait, monkeypatch):
+    """A lamp 25 degrees to the image's right darkens the face beside the nose on the image's left, only on the
+    face, and never lightens; the photo's own light still gives the photo back. Without the rule (``Factor.cast``
+    off) nothing darkens. (Exposure "physical": the meter's share is the next test's.)"""
+    from relight_rt.relight.factor import Factor
+
+    r, dec = portrait
     np.testing.assert_allclose(r.relight(dec, dec), dec.image, atol=2e-3)
     light = lights.directional(toward(25, 10)) + lights.ambient(0.05)
-    shadowed = r.relight(dec, light)
-    monkeypatch.setattr(factor_module, "shadow_factor", lambda *args: None)
-    plain = r.relight(dec, light)
+    shadowed = r.relight(dec, light, exposure="physical")
+    monkeypatch.setattr(Factor, "cast", lambda self, *args: None)
+    plain = r.relight(dec, light, exposure="physical")
     darker = (plain - shadowed) @ REC709
-    y0, y1, x0, x1 = dec.head_box
+    pts = dec.face_meshes[0]
+    (fx0, fy0), (fx1, fy1) = pts[:, :2].min(0).astype(int), pts[:, :2].max(0).astype(int)
+    m = (fx1 - fx0) // 10  # the edge-aware upsampling reaches a few pixels past the mesh
     outside = np.ones(darker.shape, bool)
-    outside[y0:y1, x0:x1] = False
-    assert np.abs(darker[outside]).max() < 1e-6
+    outside[fy0 - m : fy1 + m, fx0 - m : fx1 + m] = False
+    assert np.abs(darker[outside]).max() < 1e-6  # only on the mesh's skin
     assert darker.min() > -1e-3  # a shadow only darkens
-    pts = dec.head.face_meshes[0]
-    cx = int(round(pts[:, 0].mean())) + x0
-    fy0, fy1 = int(pts[:, 1].min()) + y0, int(pts[:, 1].max()) + y0
-    half = int(np.ptp(pts[:, 0]) / 2)
+    cx, half = (fx0 + fx1) // 2, (fx1 - fx0) // 2
     left, right = darker[fy0:fy1, cx - half : cx].mean(), darker[fy0:fy1, cx : cx + half].mean()
     assert darker.max() > 0.03 and left > 3 * right
+
+
+def test_auto_exposure_meters_the_cast_shadow_as_part_of_the_light_as_seen(portrait, monkeypatch):
+    """"auto" keeps the person's light as seen: a lamp whose shadow darkens the face is scaled up by what the shadow
+    takes (``Factor.meter_shadows``), a light without a lamp (ambient) not at all."""
+    from relight_rt.relight.factor import Factor
+
+    r, dec = portrait
+    light = (lights.directional(toward(25, 10)) + lights.ambient(0.05)).astype(np.float32)
+    metered = r._factor.meter_shadows(dec, light)
+    assert 1.0001 < float(metered[0, 0] / light[0, 0]) < 1.2  # the face is a small part of the person here
+    np.testing.assert_allclose(metered / metered[0, 0], light / light[0, 0], rtol=1e-6)  # a scale, not a new light
+    flat = lights.ambient(0.5).astype(np.float32)
+    np.testing.assert_array_equal(r._factor.meter_shadows(dec, flat), flat)
+    both = r._factor.meter_shadows(dec, np.stack([light, flat]))
+    np.testing.assert_allclose(both, np.stack([metered, flat]), rtol=1e-6)
+    monkeypatch.setattr(Factor, "cast", lambda self, *args: None)
+    np.testing.assert_array_equal(r._factor.meter_shadows(dec, light), light)
