@@ -150,8 +150,9 @@ class Factor:
         square is not smaller than the photo's: to_crop takes a window only when enlarging); "alpha", "inner"
         (alpha > 0.5); "transport" (r, r', 9) unpremultiplied, its directional bands restored
         (relight_rt.relight.strength) and the face mesh's transport blended in, "albedo" luminance (r, r')
-        unpremultiplied, "photo" (r, r') the luminance of the photo stage 1 saw, and "face_skin" (r, r') bool, the
-        person's pixels well inside a face mesh (``FacePass.add_faces``; none without one).
+        unpremultiplied, "photo" (r, r') the luminance of the photo stage 1 saw, "face_skin" (r, r') bool, the
+        person's pixels well inside a face mesh (``FacePass.add_faces``; none without one), and "face_points" the
+        meshes in the window's pixels (``FacePass.window_points``: their cast shadows, ``cast``).
         """
         state = self.memo(dec)
         if "restored" not in state:
