@@ -178,5 +178,28 @@ def test_auto_exposure_meters_the_cast_shadow_as_part_of_the_light_as_seen(portr
     np.testing.assert_array_equal(r._factor.meter_shadows(dec, flat), flat)
     both = r._factor.meter_shadows(dec, np.stack([light, flat]))
     np.testing.assert_allclose(both, np.stack([metered, flat]), rtol=1e-6)
+    exposed = r._factor.expose(dec, light, "auto")  # the relighter's exposure goes through the meter
+    monkeypatch.setattr(Factor, "meter_shadows", lambda self, dec, lits: lits)
+    unmetered = r._factor.expose(dec, light, "auto")
+    assert float(exposed[0, 0] / unmetered[0, 0]) == pytest.approx(float(metered[0, 0] / light[0, 0]), rel=1e-5)
+    monkeypatch.undo()
     monkeypatch.setattr(Factor, "cast", lambda self, *args: None)
     np.testing.assert_array_equal(r._factor.meter_shadows(dec, light), light)
+
+
+@pytest.mark.parametrize("sampled", [True, False])
+def test_a_wide_lamps_shadow_fades_with_the_distance_from_what_casts_it(monkeypatch, sampled):
+    """A lamp 20 degrees in radius: near the ridge all of its disc is hidden, farther out only the part farther from
+    the camera's axis still is (tested over the disc: ``CAP_SAMPLED``); one hard shadow blurred by the lamp's size
+    is as dark far out as near."""
+    from relight_rt.relight import cast_shadow
+
+    if not sampled:
+        monkeypatch.setattr(cast_shadow, "CAP_SAMPLED", 10.0)  # the disc never sampled
+    pts, tris = grid_mesh(ridge=40.0)
+    vis = visibility(MeshView(pts, tris, (SIDE, SIDE)), toward(25), 0.35)
+    rows = slice(40, 60)
+    near, far = vis[rows, int(RIDGE_X) - 7].mean(), vis[rows, int(RIDGE_X) - 15].mean()
+    assert (far > near + 0.15) == sampled
+    if sampled:
+        assert near < 0.2
