@@ -12,9 +12,12 @@ band along that direction its size (a uniform cap of half-angle a has degree-2 /
 sqrt(5/3) cos a, a point lamp sqrt(5/3)); what a lamp of that direction, strength and size leaves of the light
 (ambient, sky, other lamps) casts no shadow here. At each pixel the shadow takes away the lamp's share of the
 shading there (the lamp's transported light over the whole light's, in [0, 1]): a soft, even light casts almost
-nothing, a skin pixel turned away from the lamp is not darkened twice. The shadow's border is softened by the
-lamp's size (its penumbra: the occluder's height over the skin times tan a) and never sharper than
-``MIN_SOFT`` of the face's size (the mesh is a regression: its nose tip is not exact to a pixel).
+nothing, a skin pixel turned away from the lamp is not darkened twice. A lamp wider than ``CAP_SAMPLED`` is tested
+from several directions over its disc (its shadow fades with the distance from what casts it); the border is then
+softened by what the samples leave and never sharper than ``MIN_SOFT`` of the face's size (the mesh is a
+regression: its nose tip is not exact to a pixel). About 10 ms per light on a face 256 network pixels tall
+(benchmarks/cast_shadow_speed.py); the Relighter keeps it per light direction (relight_rt.relight.factor
+``Factor.cast``).
 """
 
 from __future__ import annotations

@@ -41,7 +41,7 @@ with the face search's shadow lifts 0.89 / 0.80 -> 0.91 / 0.83); on its skin a l
 photo more than ``RATIO_CAP`` multiplies it that much and adds the rest of the change as the fill (``Factor.handover``:
 the speckle and the seam beside a side-lit face's black half). On a face mesh's skin a new light's lamp casts the
 mesh's own shadows (the nose's, the brows'; relight_rt.relight.cast_shadow), where they are darker than the photo's
-own light's: degree-2 SH cannot (Extended Yale B relight 0.859 / 0.6505 -> 0.870 / 0.733).
+own light's: degree-2 SH cannot (Extended Yale B relight 0.859 / 0.6505 -> 0.870 / 0.734).
 (``cv2.ximgproc.guidedFilter`` at full resolution gives the same kind of result but costs ~0.6 s per 2-megapixel
 crop with a colour guide; this costs ~30 ms.)
 With ``detail=False`` the network's relit image is upsampled as it is.
