@@ -162,19 +162,27 @@ class FacePass:
             return np.zeros(transport.shape[:2], bool)
         if not mesh.available:
             raise RelightError(f"{self.models_dir}: a decomposition with face meshes needs the face models to relight")
-        geom = dec.geometry
-        k = geom.scale
-        (by0, _, bx0, _), (oy, ox) = geom.box, geom.offset
-        y0, _, x0, _ = window
         skin = np.zeros(transport.shape[:2], bool)
-        for pts in dec.face_meshes:
-            net = np.empty_like(pts)  # input pixels -> the window's pixel indices (centres at integers)
-            net[:, 0] = (pts[:, 0] - bx0 + ox) / k - 0.5 - x0
-            net[:, 1] = (pts[:, 1] - by0 + oy) / k - 0.5 - y0
-            net[:, 2] = pts[:, 2] / k
-            if np.ptp(net[:, :2], axis=0).max() < MIN_FACE_NET:
-                continue
+        for net in self.window_points(dec, window):
             t_face, weight, face_skin = face_transport(net, mesh.triangles, transport[..., 0])
             transport += weight[..., None] * (t_face - transport)
             skin |= face_skin
         return skin
+
+    @staticmethod
+    def window_points(dec: Decomposition, window: tuple[int, int, int, int]) -> tuple[np.ndarray, ...]:
+        """``dec.face_meshes`` in the pixels of a window (y0, y1, x0, x1) of the network frame (pixel centres at
+        integers, z in the same units), those too small there (``MIN_FACE_NET``) left out."""
+        geom = dec.geometry
+        k = geom.scale
+        (by0, _, bx0, _), (oy, ox) = geom.box, geom.offset
+        y0, _, x0, _ = window
+        out = []
+        for pts in dec.face_meshes or ():
+            net = np.empty_like(pts)  # input pixels -> the window's pixel indices (centres at integers)
+            net[:, 0] = (pts[:, 0] - bx0 + ox) / k - 0.5 - x0
+            net[:, 1] = (pts[:, 1] - by0 + oy) / k - 0.5 - y0
+            net[:, 2] = pts[:, 2] / k
+            if np.ptp(net[:, :2], axis=0).max() >= MIN_FACE_NET:
+                out.append(net)
+        return tuple(out)

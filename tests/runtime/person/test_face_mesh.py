@@ -194,8 +194,9 @@ def test_the_face_in_a_real_photo_gets_its_mesh_and_the_light_models_it(monkeypa
     with the mesh than without it, and the photo's own light still gives the photo back. (The photo's light is
     refit to the transport, mesh included (relight_rt.relight.strength.refit_light), and the share of the photo's
     shading in the albedo is taken out over the whole person, fitted on the mesh's skin
-    (relight_rt.relight.factor.unshaded_albedo): both move the whole picture a little and are held off here to see
-    where the mesh's transport itself acts.)"""
+    (relight_rt.relight.factor.unshaded_albedo), and "auto" exposure meters the face's cast shadow
+    (``Factor.meter_shadows``): all three move the whole picture a little and are held off here to see where the
+    mesh's transport itself acts.)"""
     photo = REFERENCE / "photo" / "sample.jpg"
     mask = REFERENCE / "photo" / "sample_mask.png"
     r = relight_rt.open(RuntimeConfig(device="cpu"))
@@ -203,6 +204,7 @@ def test_the_face_in_a_real_photo_gets_its_mesh_and_the_light_models_it(monkeypa
     np.testing.assert_allclose(r.relight(dec, dec), dec.image, atol=2e-3)  # with the refit light
     monkeypatch.setattr(Factor, "refit", lambda self, dec: dec)
     monkeypatch.setattr(factor_module, "unshaded_albedo", lambda albedo, *_: albedo)
+    monkeypatch.setattr(Factor, "meter_shadows", lambda self, dec, lits: lits)  # the face's cast shadow, metered
     r = relight_rt.open(RuntimeConfig(device="cpu"))
     dec = r.decompose(photo, mask)
     head, box = dec.head, dec.head_box

@@ -368,7 +368,7 @@ def test_the_factor_moves_all_of_a_shadow_on_a_face_meshs_skin_only(monkeypatch)
     skin[1:3, 1:3] = True
     base = {"window": (0, 4, 0, 4), "alpha": np.ones((4, 4), np.float32), "inner": inner,
             "transport": np.tile(np.float32([1, 0, 0, 0, 0, 0, 0, 0, 0]), (4, 4, 1)),
-            "albedo": np.full((4, 4), 0.5, np.float32), "photo": np.full((4, 4), 0.2, np.float32)}
+            "albedo": np.full((4, 4), 0.5, np.float32), "photo": np.full((4, 4), 0.2, np.float32), "face_points": ()}
 
     class Dec:
         photo = False
