@@ -52,6 +52,7 @@ warning is logged at load, and ``RelightResult.diffuse_only`` says so.
 
 from __future__ import annotations
 
+from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import replace
 
@@ -87,6 +88,7 @@ CAP_SKIN_SPREAD = 0.02  # ... on a face's skin, its edge softened over this shar
 TEXTURE_SCALES = (1.0, 2.0)  # the fill's texture (Factor.texture): the photo's log detail in this band (input px),
 TEXTURE_BLOCK, TEXTURE_SHARE = 4.0, 0.25  # ... its power over this many px held to this quantile of the lit skin's
 UNSHADE_MIN_SKIN = 50  # unshaded_albedo: the fewest face-skin pixels (network frame) its fit is made on
+CAST_CACHE = 4  # Factor.cast keeps the cast shadows of this many light directions per Decomposition
 
 
 def luminance_window(chw: np.ndarray, alpha: np.ndarray, box: tuple[int, int, int, int]) -> np.ndarray:
@@ -285,17 +287,21 @@ class Factor:
         """(r, r') what the faces' cast shadows under ``light`` leave of its shading in the person's window
         (relight_rt.relight.cast_shadow), where darker than the photo's own light's (so that light gives the photo
         back); None without a face mesh or a lamp worth a shadow. Cached per light direction and shape (a light's
-        scale changes nothing: the exposure meter and the factor share one)."""
+        scale changes nothing: the exposure meter and the factor share one), the last ``CAST_CACHE`` directions only."""
         if not own["mesh_views"]:
             return None
         lum = np.asarray(light, np.float32) @ REC709
         key = (lum / lum[0] if lum[0] > 1e-9 else lum).round(5).tobytes()
-        cache = self.memo(dec).setdefault("cast", {})
-        if key not in cache:
-            cast = shadow_factor(own["transport"], lum, own["mesh_views"], own["cap_skin"])
-            if cast is not None and own["cast_own"] is not None:
-                cast = np.minimum(cast / np.maximum(own["cast_own"], 1e-3), 1)
-            cache[key] = None if cast is None else readonly(cast.astype(np.float32))
+        cache = self.memo(dec).setdefault("cast", OrderedDict())
+        if key in cache:
+            cache.move_to_end(key)
+            return cache[key]
+        cast = shadow_factor(own["transport"], lum, own["mesh_views"], own["cap_skin"])
+        if cast is not None and own["cast_own"] is not None:
+            cast = np.minimum(cast / np.maximum(own["cast_own"], 1e-3), 1)
+        cache[key] = None if cast is None else readonly(cast.astype(np.float32))
+        while len(cache) > CAST_CACHE:  # a light dragged about in the studio: each is a window-sized map
+            cache.popitem(last=False)
         return cache[key]
 
     def _change(self, own: dict, light: np.ndarray, residual: np.ndarray | None,

@@ -203,3 +203,20 @@ def test_a_wide_lamps_shadow_fades_with_the_distance_from_what_casts_it(monkeypa
     assert (far > near + 0.15) == sampled
     if sampled:
         assert near < 0.2
+
+
+def test_the_cast_shadows_kept_per_decomposition_are_the_last_few_light_directions(portrait):
+    """A light dragged about (the studio) leaves at most ``CAST_CACHE`` window-sized maps on its Decomposition; a
+    direction asked again after being dropped gives the same map."""
+    from relight_rt.relight import factor as F
+
+    r, dec = portrait
+    f = r._factor
+    first = (lights.directional(toward(25, 10)) + lights.ambient(0.05)).astype(np.float32)
+    own = f.own(dec)
+    kept = f.cast(dec, own, first)
+    assert kept is not None
+    for az in range(5, 5 + 3 * (F.CAST_CACHE + 3), 3):
+        f.cast(dec, own, (lights.directional(toward(az, 10)) + lights.ambient(0.05)).astype(np.float32))
+    assert len(f.memo(dec)["cast"]) == F.CAST_CACHE
+    np.testing.assert_array_equal(f.cast(dec, own, first), kept)
