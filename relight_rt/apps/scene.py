@@ -50,8 +50,8 @@ Steps (all colour arithmetic in linear light; both photos are read as sRGB, as c
    frame's height, the person is lifted toward the background's light behind the edge where that is brighter
    (``WRAP_STRENGTH`` of the excess at most), as a rim of back light and a lens's glare would; and a rim
    (``_key_rim``; a degree-2 SH light spreads a small source behind the person over the whole body instead): the
-   outline on the source's side, within ``RIM_RADIUS`` of the person's height, gets the rim's radiance added by
-   how squarely it faces the source's side in the image plane. The source and the radiance:
+   outline, within ``RIM_RADIUS`` of the person's height, gets the rim's radiance added as the fibres there
+   would scatter it (all round for a source straight behind, on its side for one to the side). The source and the radiance:
    ``relight_rt.apps.scene_rim``. ``rim="auto"``: a photo gets it where both say so, a compact clipped source in
    frame (a sun, a window, a lamp) and the background's light read as back-lit (the key a back key): either alone
    is wrong too often (a source in frame on 64 of the benchmark's 100 views, 35 of them back-lit; both, 28, 20
@@ -106,7 +106,7 @@ from .scene_place import (
     parse_position,
     place,
 )
-from .scene_rim import photo_rim
+from .scene_rim import photo_rim, rim_facing
 
 __all__ = [
     "Placement", "SceneLighting", "Shadows", "camera_match", "composite", "grade", "parse_position", "place",
@@ -268,10 +268,11 @@ def _key_rim(composed: np.ndarray, alpha: np.ndarray, direction: np.ndarray, col
     The source (``direction``, the subject frame: x toward the camera, y the image's right, z up) lights the
     silhouette, and what grows there (hair, the fuzz of skin and cloth) scatters it forward, toward the camera: a
     rim on the source's side, all round for a source straight behind. So ``colour`` (linear RGB radiance) is
-    added to each pixel inside the matte near the outside, times facing · band: facing = max(0, n · p̂) with n
-    the outline's outward normal in the image plane (the gradient of the blurred matte) and p̂ the source's
-    direction in that plane (facing = 1 for a source straight behind; a Lambertian max(0, n · d) would show
-    almost none of a source nearly behind), band = 2 · alpha × the share of outside pixels within ``radius``
+    added to each pixel inside the matte near the outside, times facing · band: facing =
+    ``scene_rim.rim_facing`` of n, the outline's outward normal in the image plane (the gradient of the blurred
+    matte): all round for a source straight behind, most where n faces its projection, that side only for one to
+    the side (a Lambertian max(0, n · d) would show almost none of a source nearly behind), band = 2 · alpha × the
+    share of outside pixels within ``radius``
     (1 at a hard edge, falling to 0 a few ``radius`` inside). Added, not multiplied: a dark coat's rim is as
     bright as a light one's.
 
@@ -299,11 +300,7 @@ def _key_rim(composed: np.ndarray, alpha: np.ndarray, direction: np.ndarray, col
     gx = cv2.Sobel(soft, cv2.CV_32F, 1, 0)[edge]  # toward the image's right
     gy = cv2.Sobel(soft, cv2.CV_32F, 0, 1)[edge]  # toward its bottom
     norm = np.maximum(np.hypot(gx, gy), 1e-6)
-    side = math.hypot(d[1], d[2])  # the source's direction in the image plane
-    if side < 1e-6:
-        facing = np.ones_like(gx)
-    else:  # outward = −gradient; image up = −rows = +z
-        facing = np.maximum(0, (-gx * d[1] + gy * d[2]) / (norm * side))
+    facing = rim_facing(-gx / norm, gy / norm, d)  # outward = −gradient; image up = −rows = +z
     band = np.minimum(2 * a[edge] * reach[edge], 1)
     out[edge] += (facing * band)[:, None] * rgb[None, :]
     return out

@@ -43,8 +43,8 @@ import numpy as np
 from ..image.color import REC709
 from ..light import envmap
 
-__all__ = ["LOBE_DEG", "PHOTO_MAX_AREA", "RIM_MAX", "RIM_PHOTO", "SCATTER", "SOURCE_SHARE", "brightest", "panorama_rim",
-           "photo_rim", "rim_colour"]  # fmt: skip
+__all__ = ["FIBRE_DEG", "LOBE_DEG", "PHOTO_MAX_AREA", "RIM_MAX", "RIM_PHOTO", "SCATTER", "SOURCE_SHARE", "brightest",
+           "panorama_rim", "photo_rim", "rim_colour", "rim_facing"]  # fmt: skip
 
 SOURCE_SHARE = 0.5  #: the source: pixels of at least this share of the peak luminance behind the person
 LOBE_DEG = 5.0  #: half-angle of the forward-scattering lobe (a hair fibre's transmitted lobe: a few degrees wide)
@@ -52,6 +52,7 @@ SCATTER = 0.1  #: the share of the light seen through the lobe that the outline 
 RIM_MAX = 1.0  #: the rim's luminance at most (linear, the plate's white)
 PHOTO_MAX_AREA = 0.03  #: a photo's clipped region counts as a source when at most this share of the frame
 RIM_PHOTO = 0.25  #: a photo's source: the rim's luminance (linear, the plate's units) for a source straight behind
+FIBRE_DEG = 20.0  #: how far the outline's fibres stray from it (hair, fuzz): the rim's spread round the outline
 _MIN_PIXELS = 2  # a photo's clipped region of fewer pixels is noise
 _CLIP_LEVEL = 250
 _SOURCE_HEIGHT = 128  # a panorama's source is found on a copy at most this many rows high (area-averaged: its
@@ -70,6 +71,44 @@ def rim_colour(power, solid_angle: float, direction) -> np.ndarray:
     if lum > RIM_MAX:
         rgb *= RIM_MAX / lum
     return np.maximum(rgb, 0)
+
+
+def rim_facing(normal_y, normal_z, direction) -> np.ndarray:
+    """How much of the rim each point of the outline gets (0-1): the share of the source's forward-scattered light
+    that reaches the camera from there, its peak over the outline's directions 1 (so a source to one side puts
+    ``rim_colour`` on that side, as before).
+
+    A fibre lying along the outline (its tangent t in the image plane; outward normal n; the camera along +x)
+    scatters forward a source in the plane of x and n: a source out of that plane by β reaches it only through
+    how far the fibres stray from the outline (a Gaussian of ``FIBRE_DEG`` in β); within the plane, a source on the
+    body's side of the grazing direction (azimuth ψ < 0 from straight behind toward n) is hidden by the body,
+    on the outward side it is not (a ramp over ±``FIBRE_DEG``). So a source straight behind (β = ψ = 0 all round)
+    lights the whole outline evenly; one a little off it, all round, most where the outline faces its projection;
+    one to the side, that side only. The old weight, max(0, n · p̂) with p̂ the source's unit projection, jumped
+    from one half of the outline to the other as the source crossed straight behind.
+
+    Args:
+        normal_y, normal_z: the outline's outward unit normals in the image plane (toward the right, up), arrays.
+        direction: (3,) unit direction to the source (subject frame: +x toward the camera).
+
+    Returns:
+        float32 array of normal_y's shape.
+    """
+    d = np.asarray(direction, np.float64)
+    spread = math.radians(FIBRE_DEG)
+
+    def share(ny, nz):
+        a = ny * d[1] + nz * d[2]  # toward the outline's outside
+        out_of_plane = np.arctan2(np.abs(ny * d[2] - nz * d[1]), np.hypot(a, -d[0]))
+        azimuth = np.arctan2(a, -d[0])
+        return np.clip(0.5 + azimuth / (2 * spread), 0, 1) * np.exp(-0.5 * (out_of_plane / spread) ** 2)
+
+    if not d[0] < 0:
+        return np.zeros(np.shape(normal_y), np.float32)
+    round_ = np.linspace(0, 2 * math.pi, 360, endpoint=False)
+    peak = float(share(np.cos(round_), np.sin(round_)).max())
+    f = share(np.asarray(normal_y, np.float64), np.asarray(normal_z, np.float64))
+    return (f / peak).astype(np.float32) if peak > 0 else np.zeros(f.shape, np.float32)
 
 
 def panorama_rim(env, rotation: np.ndarray, scale: float) -> tuple[np.ndarray, np.ndarray] | None:
