@@ -51,7 +51,9 @@ Steps (all colour arithmetic in linear light; both photos are read as sRGB, as c
    (``WRAP_STRENGTH`` of the excess at most), as a rim of back light and a lens's glare would; and a rim
    (``_key_rim``; a degree-2 SH light spreads a small source behind the person over the whole body instead): the
    outline, within ``RIM_RADIUS`` of the person's height, gets the rim's radiance added as the fibres there
-   would scatter it (all round for a source straight behind, on its side for one to the side). The source and the radiance:
+   would scatter it (all round for a source straight behind, on its side for one to the side). The wrap and the
+   rim read the same light, the radiance just behind the outline scattered toward the camera: where both lift a
+   pixel it takes the larger of the two, not their sum. The source and the radiance:
    ``relight_rt.apps.scene_rim``. ``rim="auto"``: a photo gets it where both say so, a compact clipped source in
    frame (a sun, a window, a lamp) and the background's light read as back-lit (the key a back key): either alone
    is wrong too often (a source in frame on 64 of the benchmark's 100 views, 35 of them back-lit; both, 28, 20
@@ -769,8 +771,9 @@ def composite(
         if wrap or rim_dir is not None:  # step 7's light wrap and a back key's rim
             window_alpha = np.zeros(lin.shape[:2], np.float32)
             window_alpha[py0 - ry0 : py1 - ry0, px0 - rx0 : px1 - rx0] = p[..., 3]
-            if wrap:
+            rimmed = None if rim_dir is None else _key_rim(lin, window_alpha, rim_dir, lighting.rim_colour, rim_radius)
+            if wrap:  # both read the light behind the outline: each pixel takes the larger lift, not the sum
                 lin = _light_wrap(lin, behind, window_alpha, wrap_radius)
-            if rim_dir is not None:
-                lin = _key_rim(lin, window_alpha, rim_dir, lighting.rim_colour, rim_radius)
+            if rimmed is not None:
+                lin = np.maximum(lin, rimmed) if wrap else rimmed
     return grade(bg, lin, (ry0, ry1, rx0, rx1), before, meter, noise_add, alpha_region)

@@ -53,6 +53,7 @@ RIM_MAX = 1.0  #: the rim's luminance at most (linear, the plate's white)
 PHOTO_MAX_AREA = 0.03  #: a photo's clipped region counts as a source when at most this share of the frame
 RIM_PHOTO = 0.25  #: a photo's source: the rim's luminance (linear, the plate's units) for a source straight behind
 FIBRE_DEG = 20.0  #: how far the outline's fibres stray from it (hair, fuzz): the rim's spread round the outline
+# (chosen, not fitted: nothing here measures it, the renders have no fibres)
 _MIN_PIXELS = 2  # a photo's clipped region of fewer pixels is noise
 _CLIP_LEVEL = 250
 _SOURCE_HEIGHT = 128  # a panorama's source is found on a copy at most this many rows high (area-averaged: its
