@@ -263,7 +263,8 @@ def _rim_gain(parts, light: np.ndarray) -> float:
     return KEY_BACK * AMBIENT_GAIN * parts.level / front if front > 1e-12 else 0.0
 
 
-def _key_rim(composed: np.ndarray, alpha: np.ndarray, direction: np.ndarray, colour, radius: float) -> np.ndarray:
+def _key_rim(composed: np.ndarray, alpha: np.ndarray, direction: np.ndarray, colour, radius: float,
+             view: tuple[float, float, float] | None = None) -> np.ndarray:
     """A source behind the person as a rim on their outline (step 7 of the module docstring; the rule and the
     rim's radiance: ``relight_rt.apps.scene_rim``).
 
@@ -284,6 +285,8 @@ def _key_rim(composed: np.ndarray, alpha: np.ndarray, direction: np.ndarray, col
         direction: (3,) unit direction the source is in (x < 0: behind the person; otherwise nothing).
         colour: (3,) linear RGB radiance of the rim (>= 0), or a scalar grey.
         radius: Gaussian sigma of the reach, pixels (> 0).
+        view: (focal, top, left) in pixels, the window's corner relative to the frame's centre: each point's own
+            ray from the camera (``rim_facing``'s rays); None: every point on the camera's axis.
 
     Returns:
         New (h, w, 3) float32.
@@ -302,7 +305,12 @@ def _key_rim(composed: np.ndarray, alpha: np.ndarray, direction: np.ndarray, col
     gx = cv2.Sobel(soft, cv2.CV_32F, 1, 0)[edge]  # toward the image's right
     gy = cv2.Sobel(soft, cv2.CV_32F, 0, 1)[edge]  # toward its bottom
     norm = np.maximum(np.hypot(gx, gy), 1e-6)
-    facing = rim_facing(-gx / norm, gy / norm, d)  # outward = −gradient; image up = −rows = +z
+    rays = None
+    if view is not None:
+        focal, top, left = view
+        rows, cols = np.nonzero(edge)
+        rays = ((left + cols + 0.5) / focal, -(top + rows + 0.5) / focal)
+    facing = rim_facing(-gx / norm, gy / norm, d, rays)  # outward = −gradient; image up = −rows = +z
     band = np.minimum(2 * a[edge] * reach[edge], 1)
     out[edge] += (facing * band)[:, None] * rgb[None, :]
     return out
@@ -771,7 +779,9 @@ def composite(
         if wrap or rim_dir is not None:  # step 7's light wrap and a back key's rim
             window_alpha = np.zeros(lin.shape[:2], np.float32)
             window_alpha[py0 - ry0 : py1 - ry0, px0 - rx0 : px1 - rx0] = p[..., 3]
-            rimmed = None if rim_dir is None else _key_rim(lin, window_alpha, rim_dir, lighting.rim_colour, rim_radius)
+            view = ((wb / 2) / math.tan(math.radians(fov) / 2), ry0 - hb / 2, rx0 - wb / 2)
+            rimmed = None if rim_dir is None else _key_rim(lin, window_alpha, rim_dir, lighting.rim_colour, rim_radius,
+                                                           view)  # fmt: skip
             if wrap:  # both read the light behind the outline: each pixel takes the larger lift, not the sum
                 lin = _light_wrap(lin, behind, window_alpha, wrap_radius)
             if rimmed is not None:

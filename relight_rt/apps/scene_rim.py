@@ -74,10 +74,10 @@ def rim_colour(power, solid_angle: float, direction) -> np.ndarray:
     return np.maximum(rgb, 0)
 
 
-def rim_facing(normal_y, normal_z, direction) -> np.ndarray:
+def rim_facing(normal_y, normal_z, direction, rays=None) -> np.ndarray:
     """How much of the rim each point of the outline gets (0-1): the share of the source's forward-scattered light
-    that reaches the camera from there, its peak over the outline's directions 1 (so a source to one side puts
-    ``rim_colour`` on that side, as before).
+    that reaches the camera from there, its peak over the outline's directions 1 for the source as seen along the
+    camera's axis (so a source to one side puts ``rim_colour`` on that side, as before).
 
     A fibre lying along the outline (its tangent t in the image plane; outward normal n; the camera along +x)
     scatters forward a source in the plane of x and n: a source out of that plane by β reaches it only through
@@ -86,30 +86,44 @@ def rim_facing(normal_y, normal_z, direction) -> np.ndarray:
     on the outward side it is not (a ramp over ±``FIBRE_DEG``). So a source straight behind (β = ψ = 0 all round)
     lights the whole outline evenly; one a little off it, all round, most where the outline faces its projection;
     one to the side, that side only. The old weight, max(0, n · p̂) with p̂ the source's unit projection, jumped
-    from one half of the outline to the other as the source crossed straight behind.
+    from one half of the outline to the other as the source crossed straight behind. "Straight behind" is along
+    each point's own ray from the camera (``rays``): a low sun straight behind a standing person's head is above
+    the rays through their legs, so the head glows all round and the legs only on their upper edges.
 
     Args:
         normal_y, normal_z: the outline's outward unit normals in the image plane (toward the right, up), arrays.
         direction: (3,) unit direction to the source (subject frame: +x toward the camera).
+        rays: None (every point seen along the camera's axis) or (y, z), arrays like normal_y: each point's ray
+            from the camera, (−1, y, z) before normalising (its image position over the focal length).
 
     Returns:
-        float32 array of normal_y's shape.
+        float32 array of normal_y's shape (at most 1: off the axis a point may see the source more to one side).
     """
     d = np.asarray(direction, np.float64)
     spread = math.radians(FIBRE_DEG)
 
-    def share(ny, nz):
-        a = ny * d[1] + nz * d[2]  # toward the outline's outside
-        out_of_plane = np.arctan2(np.abs(ny * d[2] - nz * d[1]), np.hypot(a, -d[0]))
-        azimuth = np.arctan2(a, -d[0])
+    def share(ny, nz, dx, dy, dz):
+        a = ny * dy + nz * dz  # toward the outline's outside
+        out_of_plane = np.arctan2(np.abs(ny * dz - nz * dy), np.hypot(a, -dx))
+        azimuth = np.arctan2(a, -dx)
         return np.clip(0.5 + azimuth / (2 * spread), 0, 1) * np.exp(-0.5 * (out_of_plane / spread) ** 2)
 
     if not d[0] < 0:
         return np.zeros(np.shape(normal_y), np.float32)
     round_ = np.linspace(0, 2 * math.pi, 360, endpoint=False)
-    peak = float(share(np.cos(round_), np.sin(round_)).max())
-    f = share(np.asarray(normal_y, np.float64), np.asarray(normal_z, np.float64))
-    return (f / peak).astype(np.float32) if peak > 0 else np.zeros(f.shape, np.float32)
+    peak = float(share(np.cos(round_), np.sin(round_), *d).max())
+    ny, nz = np.asarray(normal_y, np.float64), np.asarray(normal_z, np.float64)
+    if rays is None:
+        local = d
+    else:  # d in each point's frame: x back along its ray, y and z across it (y kept in the horizontal plane)
+        ry, rz = np.asarray(rays[0], np.float64), np.asarray(rays[1], np.float64)
+        norm = np.sqrt(1 + ry * ry + rz * rz)
+        ex = np.stack([1 / norm, -ry / norm, -rz / norm])  # toward the camera
+        ey = np.stack([ry, np.ones_like(ry), np.zeros_like(ry)]) / np.sqrt(1 + ry * ry)  # ⟂ ex, horizontal
+        ez = np.stack([ex[1] * ey[2] - ex[2] * ey[1], ex[2] * ey[0] - ex[0] * ey[2], ex[0] * ey[1] - ex[1] * ey[0]])
+        local = tuple(np.tensordot(d, e, axes=(0, 0)) for e in (ex, ey, ez))
+    f = share(ny, nz, *local)
+    return np.minimum(f / peak, 1).astype(np.float32) if peak > 0 else np.zeros(f.shape, np.float32)
 
 
 def panorama_rim(env, rotation: np.ndarray, scale: float) -> tuple[np.ndarray, np.ndarray] | None:

@@ -331,7 +331,8 @@ def test_the_wrap_and_the_rim_share_the_light_behind_the_outline(diffuse):
     dim[0] = 0.05  # a dark person before a bright background: the wrap lifts the edge
     kw = {**SAME, "light": dim, "exposure": "physical"}
     bright = np.full((150, 100, 3), 230, np.uint8)
-    key = (np.array([-1.0, 0.0, 0.0]), np.full(3, 0.06))  # a source straight behind: a rim all round
+    ray = np.array([-1.0, (30.5 - 50) / 86.6, (75 - 80.5) / 86.6])  # the left edge's ray (fov 60: focal 86.6 px)
+    key = (ray / np.linalg.norm(ray), np.full(3, 0.15))  # a source straight behind the left edge: a rim there
 
     def lin(wrap, rim):
         return srgb_to_linear(composite(diffuse, img, bright, mask=mask, **{**kw, "light_wrap": wrap}, rim=rim,
@@ -339,7 +340,7 @@ def test_the_wrap_and_the_rim_share_the_light_behind_the_outline(diffuse):
 
     plain = lin(False, False)
     wrap, rim, both = lin(True, False) - plain, lin(False, True) - plain, lin(True, True) - plain
-    edge = np.s_[40:120, 30:34]
+    edge = np.s_[60:100, 30:34]
     assert wrap[edge].mean() > 0.01 and rim[edge].mean() > 0.01  # each lifts the edge on its own
     np.testing.assert_allclose(both[edge], np.maximum(wrap[edge], rim[edge]), atol=2e-3)
     assert both[edge].sum() < 0.8 * (wrap[edge] + rim[edge]).sum()  # not the sum

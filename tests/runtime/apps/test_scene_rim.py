@@ -136,3 +136,18 @@ def test_a_source_to_one_side_lights_that_side_at_todays_strength():
         d = np.asarray(d) / np.linalg.norm(d)
         assert float(rim_facing(np.cos(round_), np.sin(round_), d).max()) == pytest.approx(1.0, abs=1e-3)
     assert not rim_facing(np.cos(round_), np.sin(round_), [0.3, 0.95, 0.0]).any()  # in front: none
+
+
+def test_straight_behind_is_along_each_points_own_ray():
+    """A low sun straight behind a standing person's head (on the camera's axis, the head at the frame's centre): the
+    head's sides glow as the source is straight behind them, the feet's sides far less (the sun is ~25 degrees above
+    their rays) and the top of the head most; without the rays (every point on the axis) head and feet alike."""
+    alpha = np.zeros((400, 120), np.float32)
+    alpha[190:390, 40:80] = 1.0  # the head's top at the frame's centre (row 200), the feet 190 rows below
+    focal = 400.0  # the window is the frame: its corner 200 rows, 60 columns before the centre
+    zero = np.zeros((400, 120, 3), np.float32)
+    on = _key_rim(zero, alpha, np.array([-1.0, 0.0, 0.0]), 1.0, 2.0, view=(focal, -200.0, -60.0))[..., 0]
+    flat = _key_rim(zero, alpha, np.array([-1.0, 0.0, 0.0]), 1.0, 2.0)[..., 0]
+    head, feet = on[200, 79], on[380, 79]
+    assert head > 0.7 * flat[200, 79] and feet < 0.6 * head and on[190, 60] >= head
+    assert flat[380, 79] == pytest.approx(flat[200, 79], rel=1e-3)
