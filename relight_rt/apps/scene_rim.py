@@ -14,7 +14,8 @@ in the subject frame, DESIGN.md §3: +x toward the camera, +y the image's right,
 over the lobe's solid angle (or over its own, when it is wider than the lobe: then its mean radiance), times
 ``SCATTER`` (the share a fibre sends on into the camera), times how far behind the person it stands (−x: a
 source beside the person lights the side, which the SH light already does). The result is a linear RGB radiance
-in the plate's units, *added* to the outline on the source's side (``relight_rt.scene``'s step 7), so a dark
+in the plate's units, *added* to the outline where its fibres scatter it (``rim_facing``: all round for a source
+straight behind, on its side for one to the side; ``relight_rt.scene``'s step 7), so a dark
 coat gets a rim as bright as a light one, in the source's colour; its luminance is at most ``RIM_MAX`` (the
 plate's white: a rim clips as a camera's does).
 
