@@ -264,7 +264,7 @@ def _rim_gain(parts, light: np.ndarray) -> float:
 
 
 def _key_rim(composed: np.ndarray, alpha: np.ndarray, direction: np.ndarray, colour, radius: float,
-             view: tuple[float, float, float] | None = None) -> np.ndarray:
+             view: tuple[float, float, float] | None = None) -> np.ndarray:  # fmt: skip
     """A source behind the person as a rim on their outline (step 7 of the module docstring; the rule and the
     rim's radiance: ``relight_rt.apps.scene_rim``).
 

@@ -104,7 +104,6 @@ def test_the_rim_is_added_so_a_dark_coat_gets_it_too():
         assert (far >= 0).all() and far[0] < 0.15 * added[0] and out[60, 60] == pytest.approx(level)  # middle: none
 
 
-
 def _box_rim(d, size=160):
     """The rim a unit grey source in ``d`` adds to a hard-edged box, at the middle of its four sides."""
     alpha = np.zeros((size, size), np.float32)
@@ -127,7 +126,8 @@ def test_a_source_straight_behind_lights_the_outline_all_round():
 
 def test_a_source_to_one_side_lights_that_side_at_todays_strength():
     """A sun 45 degrees right of straight behind: the right side gets the rim's full radiance (as the old weight
-    gave it, times the band's weight), the top and bottom a little, the left none; the peak over the outline's directions is 1."""
+    gave it, times the band's weight), the top and bottom a little, the left none; the peak over the outline's
+    directions is 1."""
     side, full = _box_rim([-0.707, 0.707, 0.0]), _box_rim([-1.0, 0.0, 0.0])["right"]  # the band's own weight
     assert side["right"] == pytest.approx(full, rel=0.01) and side["left"] < 0.01
     assert side["top"] < 0.2 * side["right"] and side["bottom"] == pytest.approx(side["top"], rel=0.05)
