@@ -569,7 +569,10 @@ def main(argv=None) -> int:
             r_est = albedo * sh.shading(transport, est[b])
             if rims.get(b) is not None:
                 height = float((truth["mask"] > 0.005).any(1).sum())
-                r_est = scene_mod._key_rim(r_est, truth["mask"], *rims[b], max(0.5, scene_mod.RIM_RADIUS * height))
+                hh, ww = truth["mask"].shape[:2]  # each point's own ray, as composite's (the renders' fov: 60°)
+                view = ((ww / 2) / math.tan(math.radians(60.0) / 2), -hh / 2, -ww / 2)
+                r_est = scene_mod._key_rim(r_est, truth["mask"], *rims[b], max(0.5, scene_mod.RIM_RADIUS * height),
+                                           view)  # fmt: skip
             r_oracle = albedo * sh.shading(transport, true1[b])
             si_oracles = {name: si_rmse(albedo * sh.shading(transport, lights[b]), truth["photo"], inside)
                           for name, lights in oracles.items()}  # fmt: skip

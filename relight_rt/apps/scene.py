@@ -50,8 +50,10 @@ Steps (all colour arithmetic in linear light; both photos are read as sRGB, as c
    frame's height, the person is lifted toward the background's light behind the edge where that is brighter
    (``WRAP_STRENGTH`` of the excess at most), as a rim of back light and a lens's glare would; and a rim
    (``_key_rim``; a degree-2 SH light spreads a small source behind the person over the whole body instead): the
-   outline on the source's side, within ``RIM_RADIUS`` of the person's height, gets the rim's radiance added by
-   how squarely it faces the source's side in the image plane. The source and the radiance:
+   outline, within ``RIM_RADIUS`` of the person's height, gets the rim's radiance added as the fibres there
+   would scatter it (all round for a source straight behind, on its side for one to the side). The wrap and the
+   rim read the same light, the radiance just behind the outline scattered toward the camera: where both lift a
+   pixel it takes the larger of the two, not their sum. The source and the radiance:
    ``relight_rt.apps.scene_rim``. ``rim="auto"``: a photo gets it where both say so, a compact clipped source in
    frame (a sun, a window, a lamp) and the background's light read as back-lit (the key a back key): either alone
    is wrong too often (a source in frame on 64 of the benchmark's 100 views, 35 of them back-lit; both, 28, 20
@@ -106,7 +108,7 @@ from .scene_place import (
     parse_position,
     place,
 )
-from .scene_rim import photo_rim
+from .scene_rim import photo_rim, rim_facing
 
 __all__ = [
     "Placement", "SceneLighting", "Shadows", "camera_match", "composite", "grade", "parse_position", "place",
@@ -261,17 +263,19 @@ def _rim_gain(parts, light: np.ndarray) -> float:
     return KEY_BACK * AMBIENT_GAIN * parts.level / front if front > 1e-12 else 0.0
 
 
-def _key_rim(composed: np.ndarray, alpha: np.ndarray, direction: np.ndarray, colour, radius: float) -> np.ndarray:
+def _key_rim(composed: np.ndarray, alpha: np.ndarray, direction: np.ndarray, colour, radius: float,
+             view: tuple[float, float, float] | None = None) -> np.ndarray:  # fmt: skip
     """A source behind the person as a rim on their outline (step 7 of the module docstring; the rule and the
     rim's radiance: ``relight_rt.apps.scene_rim``).
 
     The source (``direction``, the subject frame: x toward the camera, y the image's right, z up) lights the
     silhouette, and what grows there (hair, the fuzz of skin and cloth) scatters it forward, toward the camera: a
     rim on the source's side, all round for a source straight behind. So ``colour`` (linear RGB radiance) is
-    added to each pixel inside the matte near the outside, times facing · band: facing = max(0, n · p̂) with n
-    the outline's outward normal in the image plane (the gradient of the blurred matte) and p̂ the source's
-    direction in that plane (facing = 1 for a source straight behind; a Lambertian max(0, n · d) would show
-    almost none of a source nearly behind), band = 2 · alpha × the share of outside pixels within ``radius``
+    added to each pixel inside the matte near the outside, times facing · band: facing =
+    ``scene_rim.rim_facing`` of n, the outline's outward normal in the image plane (the gradient of the blurred
+    matte): all round for a source straight behind, most where n faces its projection, that side only for one to
+    the side (a Lambertian max(0, n · d) would show almost none of a source nearly behind), band = 2 · alpha × the
+    share of outside pixels within ``radius``
     (1 at a hard edge, falling to 0 a few ``radius`` inside). Added, not multiplied: a dark coat's rim is as
     bright as a light one's.
 
@@ -281,6 +285,8 @@ def _key_rim(composed: np.ndarray, alpha: np.ndarray, direction: np.ndarray, col
         direction: (3,) unit direction the source is in (x < 0: behind the person; otherwise nothing).
         colour: (3,) linear RGB radiance of the rim (>= 0), or a scalar grey.
         radius: Gaussian sigma of the reach, pixels (> 0).
+        view: (focal, top, left) in pixels, the window's corner relative to the frame's centre: each point's own
+            ray from the camera (``rim_facing``'s rays); None: every point on the camera's axis.
 
     Returns:
         New (h, w, 3) float32.
@@ -299,11 +305,12 @@ def _key_rim(composed: np.ndarray, alpha: np.ndarray, direction: np.ndarray, col
     gx = cv2.Sobel(soft, cv2.CV_32F, 1, 0)[edge]  # toward the image's right
     gy = cv2.Sobel(soft, cv2.CV_32F, 0, 1)[edge]  # toward its bottom
     norm = np.maximum(np.hypot(gx, gy), 1e-6)
-    side = math.hypot(d[1], d[2])  # the source's direction in the image plane
-    if side < 1e-6:
-        facing = np.ones_like(gx)
-    else:  # outward = −gradient; image up = −rows = +z
-        facing = np.maximum(0, (-gx * d[1] + gy * d[2]) / (norm * side))
+    rays = None
+    if view is not None:
+        focal, top, left = view
+        rows, cols = np.nonzero(edge)
+        rays = ((left + cols + 0.5) / focal, -(top + rows + 0.5) / focal)
+    facing = rim_facing(-gx / norm, gy / norm, d, rays)  # outward = −gradient; image up = −rows = +z
     band = np.minimum(2 * a[edge] * reach[edge], 1)
     out[edge] += (facing * band)[:, None] * rgb[None, :]
     return out
@@ -772,8 +779,11 @@ def composite(
         if wrap or rim_dir is not None:  # step 7's light wrap and a back key's rim
             window_alpha = np.zeros(lin.shape[:2], np.float32)
             window_alpha[py0 - ry0 : py1 - ry0, px0 - rx0 : px1 - rx0] = p[..., 3]
-            if wrap:
+            view = ((wb / 2) / math.tan(math.radians(fov) / 2), ry0 - hb / 2, rx0 - wb / 2)
+            rimmed = None if rim_dir is None else _key_rim(lin, window_alpha, rim_dir, lighting.rim_colour, rim_radius,
+                                                           view)  # fmt: skip
+            if wrap:  # both read the light behind the outline: each pixel takes the larger lift, not the sum
                 lin = _light_wrap(lin, behind, window_alpha, wrap_radius)
-            if rim_dir is not None:
-                lin = _key_rim(lin, window_alpha, rim_dir, lighting.rim_colour, rim_radius)
+            if rimmed is not None:
+                lin = np.maximum(lin, rimmed) if wrap else rimmed
     return grade(bg, lin, (ry0, ry1, rx0, rx1), before, meter, noise_add, alpha_region)

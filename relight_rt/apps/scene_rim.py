@@ -14,7 +14,8 @@ in the subject frame, DESIGN.md §3: +x toward the camera, +y the image's right,
 over the lobe's solid angle (or over its own, when it is wider than the lobe: then its mean radiance), times
 ``SCATTER`` (the share a fibre sends on into the camera), times how far behind the person it stands (−x: a
 source beside the person lights the side, which the SH light already does). The result is a linear RGB radiance
-in the plate's units, *added* to the outline on the source's side (``relight_rt.scene``'s step 7), so a dark
+in the plate's units, *added* to the outline where its fibres scatter it (``rim_facing``: all round for a source
+straight behind, on its side for one to the side; ``relight_rt.scene``'s step 7), so a dark
 coat gets a rim as bright as a light one, in the source's colour; its luminance is at most ``RIM_MAX`` (the
 plate's white: a rim clips as a camera's does).
 
@@ -43,8 +44,8 @@ import numpy as np
 from ..image.color import REC709
 from ..light import envmap
 
-__all__ = ["LOBE_DEG", "PHOTO_MAX_AREA", "RIM_MAX", "RIM_PHOTO", "SCATTER", "SOURCE_SHARE", "brightest", "panorama_rim",
-           "photo_rim", "rim_colour"]  # fmt: skip
+__all__ = ["FIBRE_DEG", "LOBE_DEG", "PHOTO_MAX_AREA", "RIM_MAX", "RIM_PHOTO", "SCATTER", "SOURCE_SHARE", "brightest",
+           "panorama_rim", "photo_rim", "rim_colour", "rim_facing"]  # fmt: skip
 
 SOURCE_SHARE = 0.5  #: the source: pixels of at least this share of the peak luminance behind the person
 LOBE_DEG = 5.0  #: half-angle of the forward-scattering lobe (a hair fibre's transmitted lobe: a few degrees wide)
@@ -52,6 +53,8 @@ SCATTER = 0.1  #: the share of the light seen through the lobe that the outline 
 RIM_MAX = 1.0  #: the rim's luminance at most (linear, the plate's white)
 PHOTO_MAX_AREA = 0.03  #: a photo's clipped region counts as a source when at most this share of the frame
 RIM_PHOTO = 0.25  #: a photo's source: the rim's luminance (linear, the plate's units) for a source straight behind
+FIBRE_DEG = 20.0  #: how far the outline's fibres stray from it (hair, fuzz): the rim's spread round the outline
+# (chosen, not fitted: nothing here measures it, the renders have no fibres)
 _MIN_PIXELS = 2  # a photo's clipped region of fewer pixels is noise
 _CLIP_LEVEL = 250
 _SOURCE_HEIGHT = 128  # a panorama's source is found on a copy at most this many rows high (area-averaged: its
@@ -70,6 +73,58 @@ def rim_colour(power, solid_angle: float, direction) -> np.ndarray:
     if lum > RIM_MAX:
         rgb *= RIM_MAX / lum
     return np.maximum(rgb, 0)
+
+
+def rim_facing(normal_y, normal_z, direction, rays=None) -> np.ndarray:
+    """How much of the rim each point of the outline gets (0-1): the share of the source's forward-scattered light
+    that reaches the camera from there, its peak over the outline's directions 1 for the source as seen along the
+    camera's axis (so a source to one side puts ``rim_colour`` on that side, as before).
+
+    A fibre lying along the outline (its tangent t in the image plane; outward normal n; the camera along +x)
+    scatters forward a source in the plane of x and n: a source out of that plane by β reaches it only through
+    how far the fibres stray from the outline (a Gaussian of ``FIBRE_DEG`` in β); within the plane, a source on the
+    body's side of the grazing direction (azimuth ψ < 0 from straight behind toward n) is hidden by the body,
+    on the outward side it is not (a ramp over ±``FIBRE_DEG``). So a source straight behind (β = ψ = 0 all round)
+    lights the whole outline evenly; one a little off it, all round, most where the outline faces its projection;
+    one to the side, that side only. The old weight, max(0, n · p̂) with p̂ the source's unit projection, jumped
+    from one half of the outline to the other as the source crossed straight behind. "Straight behind" is along
+    each point's own ray from the camera (``rays``): a low sun straight behind a standing person's head is above
+    the rays through their legs, so the head glows all round and the legs only on their upper edges.
+
+    Args:
+        normal_y, normal_z: the outline's outward unit normals in the image plane (toward the right, up), arrays.
+        direction: (3,) unit direction to the source (subject frame: +x toward the camera).
+        rays: None (every point seen along the camera's axis) or (y, z), arrays like normal_y: each point's ray
+            from the camera, (−1, y, z) before normalising (its image position over the focal length).
+
+    Returns:
+        float32 array of normal_y's shape (at most 1: off the axis a point may see the source more to one side).
+    """
+    d = np.asarray(direction, np.float64)
+    spread = math.radians(FIBRE_DEG)
+
+    def share(ny, nz, dx, dy, dz):
+        a = ny * dy + nz * dz  # toward the outline's outside
+        out_of_plane = np.arctan2(np.abs(ny * dz - nz * dy), np.hypot(a, -dx))
+        azimuth = np.arctan2(a, -dx)
+        return np.clip(0.5 + azimuth / (2 * spread), 0, 1) * np.exp(-0.5 * (out_of_plane / spread) ** 2)
+
+    if not d[0] < 0:
+        return np.zeros(np.shape(normal_y), np.float32)
+    round_ = np.linspace(0, 2 * math.pi, 360, endpoint=False)
+    peak = float(share(np.cos(round_), np.sin(round_), *d).max())
+    ny, nz = np.asarray(normal_y, np.float64), np.asarray(normal_z, np.float64)
+    if rays is None:
+        local = d
+    else:  # d in each point's frame: x back along its ray, y and z across it (y kept in the horizontal plane)
+        ry, rz = np.asarray(rays[0], np.float64), np.asarray(rays[1], np.float64)
+        norm = np.sqrt(1 + ry * ry + rz * rz)
+        ex = np.stack([1 / norm, -ry / norm, -rz / norm])  # toward the camera
+        ey = np.stack([ry, np.ones_like(ry), np.zeros_like(ry)]) / np.sqrt(1 + ry * ry)  # ⟂ ex, horizontal
+        ez = np.stack([ex[1] * ey[2] - ex[2] * ey[1], ex[2] * ey[0] - ex[0] * ey[2], ex[0] * ey[1] - ex[1] * ey[0]])
+        local = tuple(np.tensordot(d, e, axes=(0, 0)) for e in (ex, ey, ez))
+    f = share(ny, nz, *local)
+    return np.minimum(f / peak, 1).astype(np.float32) if peak > 0 else np.zeros(f.shape, np.float32)
 
 
 def panorama_rim(env, rotation: np.ndarray, scale: float) -> tuple[np.ndarray, np.ndarray] | None:

@@ -9,7 +9,7 @@ import pytest
 from relight_rt import envmap
 from relight_rt.apps.panorama import panorama_view, view_rotation
 from relight_rt.apps.scene import _key_rim
-from relight_rt.apps.scene_rim import LOBE_SR, RIM_MAX, RIM_PHOTO, panorama_rim, photo_rim, rim_colour
+from relight_rt.apps.scene_rim import LOBE_SR, RIM_MAX, RIM_PHOTO, panorama_rim, photo_rim, rim_colour, rim_facing
 from relight_rt.image.color import REC709
 from relight_rt.light.from_background import FRONT_WEIGHTS
 
@@ -100,4 +100,54 @@ def test_the_rim_is_added_so_a_dark_coat_gets_it_too():
         out = _key_rim(np.full((120, 120, 3), level, np.float32), alpha, d, rgb, 2.0)
         added = out[60, 79] - level
         assert added[0] > 0.5 * rgb[0] and added[0] > added[1] > added[2]
-        assert out[60, 40] == pytest.approx(level) and out[60, 60] == pytest.approx(level)  # left side, middle
+        far = out[60, 40] - level  # the left side: the body hides most of a source 16 degrees to the right
+        assert (far >= 0).all() and far[0] < 0.15 * added[0] and out[60, 60] == pytest.approx(level)  # middle: none
+
+
+def _box_rim(d, size=160):
+    """The rim a unit grey source in ``d`` adds to a hard-edged box, at the middle of its four sides."""
+    alpha = np.zeros((size, size), np.float32)
+    alpha[30:130, 50:110] = 1.0
+    out = _key_rim(np.zeros((size, size, 3), np.float32), alpha, np.asarray(d) / np.linalg.norm(d), 1.0, 2.0)
+    return {"top": out[30, 80, 0], "bottom": out[129, 80, 0], "left": out[80, 50, 0], "right": out[80, 109, 0]}
+
+
+def test_a_source_straight_behind_lights_the_outline_all_round():
+    """bl-sunrise_toward's sun (x = -0.99, its projection up a little): a rim on every side, most on the top. The old
+    weight, max(0, n . p) with p the projection's unit vector, gave the top and nothing at the bottom, and jumped to
+    the bottom as the sun crossed to a little below straight behind."""
+    exact = _box_rim([-1.0, 0.0, 0.0])
+    assert min(exact.values()) > 0.9 * max(exact.values()) > 0
+    up = _box_rim([-0.99, 0.014, 0.139])
+    assert up["top"] == max(up.values()) and min(up["left"], up["right"]) > 0.3 * up["top"] and up["bottom"] > 0
+    down = _box_rim([-0.99, 0.014, -0.139])
+    np.testing.assert_allclose([down["top"], down["bottom"]], [up["bottom"], up["top"]], rtol=0.02)  # continuous
+
+
+def test_a_source_to_one_side_lights_that_side_at_todays_strength():
+    """A sun 45 degrees right of straight behind: the right side gets the rim's full radiance (as the old weight
+    gave it, times the band's weight), the top and bottom a little, the left none; the peak over the outline's
+    directions is 1."""
+    side, full = _box_rim([-0.707, 0.707, 0.0]), _box_rim([-1.0, 0.0, 0.0])["right"]  # the band's own weight
+    assert side["right"] == pytest.approx(full, rel=0.01) and side["left"] < 0.01
+    assert side["top"] < 0.2 * side["right"] and side["bottom"] == pytest.approx(side["top"], rel=0.05)
+    round_ = np.linspace(0, 2 * math.pi, 720, endpoint=False)
+    for d in ([-1.0, 0.0, 0.0], [-0.9, 0.3, 0.3], [-0.2, -0.5, 0.84]):
+        d = np.asarray(d) / np.linalg.norm(d)
+        assert float(rim_facing(np.cos(round_), np.sin(round_), d).max()) == pytest.approx(1.0, abs=1e-3)
+    assert not rim_facing(np.cos(round_), np.sin(round_), [0.3, 0.95, 0.0]).any()  # in front: none
+
+
+def test_straight_behind_is_along_each_points_own_ray():
+    """A low sun straight behind a standing person's head (on the camera's axis, the head at the frame's centre): the
+    head's sides glow as the source is straight behind them, the feet's sides far less (the sun is ~25 degrees above
+    their rays) and the top of the head most; without the rays (every point on the axis) head and feet alike."""
+    alpha = np.zeros((400, 120), np.float32)
+    alpha[190:390, 40:80] = 1.0  # the head's top at the frame's centre (row 200), the feet 190 rows below
+    focal = 400.0  # the window is the frame: its corner 200 rows, 60 columns before the centre
+    zero = np.zeros((400, 120, 3), np.float32)
+    on = _key_rim(zero, alpha, np.array([-1.0, 0.0, 0.0]), 1.0, 2.0, view=(focal, -200.0, -60.0))[..., 0]
+    flat = _key_rim(zero, alpha, np.array([-1.0, 0.0, 0.0]), 1.0, 2.0)[..., 0]
+    head, feet = on[200, 79], on[380, 79]
+    assert head > 0.7 * flat[200, 79] and feet < 0.6 * head and on[190, 60] >= head
+    assert flat[380, 79] == pytest.approx(flat[200, 79], rel=1e-3)
