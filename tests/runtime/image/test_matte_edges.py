@@ -166,6 +166,17 @@ def test_a_patch_just_under_half_where_the_frame_cuts_the_body_is_body_unless_it
     assert R.opaque_where_cut(coarse.copy(), 4)[205:225, 65:85].max() < 0.5  # without the photo: left as it was
 
 
+def test_a_doubted_blob_the_border_cuts_beside_the_body_is_not_made_opaque():
+    """A small portrait: the graphs half-saw the blurred garden (0.5-0.7) where the bottom border cuts it, joined to
+    the shoulder's side, and the whole block up to the reach was made opaque. Nothing sure lies above it in its
+    columns: it stays as the graphs left it, while the body's own doubted patch beside it is still filled."""
+    rgb, coarse = _cut_portrait()
+    coarse[185:, :44] = 0.65  # backdrop blue, half-seen, running into the torso's side (columns 40-160)
+    out = R.opaque_where_cut(coarse.copy(), 4, rgb)
+    np.testing.assert_allclose(out[190:, :30], 0.65)  # was 1.0
+    assert out[200:, 100:140].min() == 1.0  # the torso's doubted patch (0.6) still filled
+
+
 def test_bottom_rows_of_a_body_not_at_the_border_are_left_alone():
     rgb, coarse = _cut_portrait()
     flipped = np.ascontiguousarray(coarse[::-1])  # the torso now runs out of the top: no cut at the bottom
