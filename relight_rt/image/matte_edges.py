@@ -22,8 +22,8 @@ photo) then fades out instead of ending in the band's straight edge. Outside the
 that a faint veil (alpha < 0.2 on the background side, > 0.8 on the person's; < 0.05 / > 0.95 anywhere
 away from the outline) is snapped to 0 / 1: composited, it would show the old background. A body that runs out
 of the photo's bottom border is made opaque there, away from its outline, under the part the graphs are sure of
-(:func:`opaque_where_cut`); a separate part of the matte that they are nowhere sure of, away from the rest, is
-dropped (:func:`without_doubted_parts`).
+(:func:`opaque_where_cut`). For one person's matte, a separate part that the graphs are nowhere sure of, away
+from the rest, is dropped after (:func:`without_doubted_parts`).
 
 Inside the person, further from the outline than the band, the graphs sometimes half-see a gap: a sliver of
 backdrop between an arm and the body that they leave at alpha 0.4-0.9. Such pixels get colour's answer too
@@ -96,7 +96,7 @@ def refine_edges(rgb: np.ndarray, alpha: np.ndarray, band: int | None = None) ->
     m = 3 * r + 2  # work on the outlines' bounding boxes only (plus the windows' reach)
     for box in _outline_boxes(edge, m):
         _refine_box(rgb, alpha, out, box, r)
-    return without_doubted_parts(opaque_where_cut(out, r, rgb), r)
+    return opaque_where_cut(out, r, rgb)
 
 
 def without_doubted_parts(alpha: np.ndarray, r: int) -> np.ndarray:

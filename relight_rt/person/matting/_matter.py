@@ -18,7 +18,7 @@ import numpy as np
 
 from ...engine.errors import RelightError
 from ...engine.session import Model, load_model
-from ...image.matte_edges import refine_edges
+from ...image.matte_edges import band_width, refine_edges, without_doubted_parts
 from ...image.regions import Region, crop_region, grid_of_region, reductions_shared
 from ..face_detector import Face
 from ._coarse import region_alpha
@@ -730,6 +730,8 @@ class PersonMatter:
             np.maximum(alpha[ry0:ry1, rx0:rx1], a, out=alpha[ry0:ry1, rx0:rx1])
         if refine and self.edges and people:
             alpha = refine_edges(rgb, alpha)
+            if self.person != "all":  # in everyone's matte a faint person apart is someone
+                alpha = without_doubted_parts(alpha, band_width(alpha.shape))
         return alpha
 
     def __call__(self, image: np.ndarray, name: str = "image") -> np.ndarray:

@@ -188,7 +188,7 @@ def test_a_separate_part_the_graphs_are_nowhere_sure_of_goes_and_a_sure_one_stay
     rgb = truth[..., None] * np.array([0.9, 0.2, 0.1], np.float32) + (1 - truth[..., None]) * 0.5
     coarse = np.clip(cv2.GaussianBlur(truth, (0, 0), 1.5), 0.0, 1.0)
     coarse[60:120, 20:80] = np.maximum(coarse[60:120, 20:80], 0.65)  # the garden half-seen, in the backdrop's grey
-    out = R.refine_edges(rgb, coarse, band=4)
+    out = R.without_doubted_parts(R.refine_edges(rgb, coarse, band=4), 4)
     assert out[50:130, 10:90].max() == 0.0  # was 0.65 inside: a blob of garden
     assert out[65:85, 220:230].min() > 0.95 and out[60:, 130:190].min() == 1.0
     doubted = np.where(coarse > 0.5, 0.6, coarse).astype(np.float32)  # every part doubted: the largest stays
