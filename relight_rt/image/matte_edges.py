@@ -110,10 +110,36 @@ def without_doubted_parts(alpha: np.ndarray, r: int) -> np.ndarray:
     0.7 where the clip stays; _PART_APART 2, 3, 5: half A +0.0011 each, 5 the one with no image worse on any set):
     half A 0.9168 -> 0.9178, half B 0.8900 -> 0.8902, the clip unchanged, no image worse (the small portrait's
     garden 0.80 -> 0.90); the reference photo's IoU, boundary F and soft-band error unchanged (0.9727, 0.9937,
-    0.230). ~5 ms on a 2.5-MP matte of one part. In place; returns ``alpha``."""
+    0.230). ~2 ms on a 2.5-MP matte of one part, ~14 ms on the reference photo's (17 parts, strands near the hair). In
+    place; returns ``alpha``."""
     n, labels = cv2.connectedComponents((alpha >= 0.5).astype(np.uint8), connectivity=8)  # (4x ...WithStats' speed)
     if n <= 2:
         return alpha
+    big = 1 + int(np.bincount(labels.ravel(), minlength=n)[1:].argmax())
+    ys, xs = np.nonzero((labels > 0) & (labels != big))  # the other parts' pixels: few, read on their own
+    of = labels[ys, xs]
+    keep = np.bincount(of[alpha[ys, xs] >= _PART_SURE], minlength=n) > 0
+    keep[[0, big]] = True
+    doubted = ~keep[of]
+    if not doubted.any():
+        return alpha
+    # each doubted part on its own box, reaching _PART_APART x r past it (the parts kept beyond are farther)
+    ys, xs, of = ys[doubted], xs[doubted], of[doubted]
+    reach = int(np.ceil(_PART_APART * r))
+    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
+    for label in np.unique(of):
+        py, px = ys[of == label], xs[of == label]
+        y0, x0 = max(int(py.min()) - reach, 0), max(int(px.min()) - reach, 0)
+        y1, x1 = int(py.max()) + reach + 1, int(px.max()) + reach + 1
+        box = labels[y0:y1, x0:x1]
+        part = box == label
+        kept = keep[box] & (box > 0)
+        # near the parts kept, a doubted part is a strand of their hair or a fold of their clothes seen apart
+        if kept.any() and cv2.distanceTransform((~kept).astype(np.uint8), cv2.DIST_L2, 3)[part].min() <= reach:
+            continue
+        a = alpha[y0:y1, x0:x1]
+        a[part | (cv2.dilate(part.astype(np.uint8), disc).astype(bool) & (a < 0.5))] = 0.0
+    return alpha
     keep = np.bincount(labels[alpha >= _PART_SURE], minlength=n) > 0  # (bincount: several times np.unique's speed)
     keep[0] = True
     keep[1 + int(np.bincount(labels.ravel(), minlength=n)[1:].argmax())] = True
