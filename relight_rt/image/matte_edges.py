@@ -140,18 +140,6 @@ def without_doubted_parts(alpha: np.ndarray, r: int) -> np.ndarray:
         a = alpha[y0:y1, x0:x1]
         a[part | (cv2.dilate(part.astype(np.uint8), disc).astype(bool) & (a < 0.5))] = 0.0
     return alpha
-    keep = np.bincount(labels[alpha >= _PART_SURE], minlength=n) > 0  # (bincount: several times np.unique's speed)
-    keep[0] = True
-    keep[1 + int(np.bincount(labels.ravel(), minlength=n)[1:].argmax())] = True
-    if keep.all():
-        return alpha
-    # near the parts kept, a doubted part is a strand of their hair or a fold of their clothes seen apart
-    far = cv2.distanceTransform((~keep[labels] | (labels == 0)).astype(np.uint8), cv2.DIST_L2, 3) > _PART_APART * r
-    keep |= np.bincount(labels[~far], minlength=n) > 0
-    gone = ~keep[labels]
-    rim = cv2.dilate(gone.astype(np.uint8), cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1)))
-    alpha[gone | (rim.astype(bool) & (alpha < 0.5))] = 0.0
-    return alpha
 
 
 def _outline_boxes(edge: np.ndarray, margin: int) -> list[tuple[int, int, int, int]]:
@@ -302,7 +290,7 @@ def opaque_where_cut(alpha: np.ndarray, r: int, rgb: np.ndarray | None = None) -
         far = ~_backdrop_coloured(img[uy, ux], b_col[uy, ux]) | (b_n[uy, ux] < 0.5 / (s * s))
         inside[uy[far], ux[far]] = True
     # only under the body the graphs are sure of: a doubted blob the border cuts, with nothing sure above it in its
-    # columns, is the backdrop the graphs half-see (p016's blurred garden), not a body running out of the frame
+    # columns, is the backdrop the graphs half-see (a small portrait's blurred garden), not a body leaving the frame
     inside &= (alpha[: h - n] >= _CUT_SURE).any(axis=0) | np.logical_or.accumulate(low >= _CUT_SURE, axis=0)
     inside = inside.astype(np.uint8)
     # the graphs' answer fades toward the border (zidane's coat: 0.85 -> 0.45 over the last 14 rows), which
