@@ -18,7 +18,7 @@ import numpy as np
 
 from ...engine.errors import RelightError
 from ...engine.session import Model, load_model
-from ...image.matte_edges import refine_edges
+from ...image.matte_edges import band_width, refine_edges, without_doubted_parts
 from ...image.regions import Region, crop_region, grid_of_region, reductions_shared
 from ..face_detector import Face
 from ._coarse import region_alpha
@@ -40,6 +40,7 @@ from ._layout import (
     is_portrait,
     joined_part,
     mostly_in,
+    people_whole,
     person_outside,
     seen_whole,
     someone_beside,
@@ -400,8 +401,9 @@ class PersonMatter:
         photos 0.18-0.20 worse, a shop's mannequin and a child's face beside the person in a street), the clip
         unchanged (no face joined)."""
         h, w = rgb.shape[:2]
-        outside = [f for f in faces if f.score >= _JOINED_FACE and not any(contains(p, f, (h, w)) for p in people)]
-        if not outside:
+        sure = [f for f in faces if f.score >= _JOINED_FACE]
+        outside = [f for f in sure if not any(contains(p, f, (h, w)) for p in people)]
+        if not outside and len(sure) < 2:
             return []
         region = Region(w / 2, h / 2, float(max(h, w)))
         prob = self._roi_prob(rgb, region)
@@ -409,13 +411,15 @@ class PersonMatter:
         xs, ys = canvas_points(region)
         mine = np.any([prob_at(p, xs, ys) > 0.5 for p in people], axis=0)
         seeds = [(int(np.floor(k * (f.box[1] + f.box[3]) / 2 + by + 0.5)),
-                  int(np.floor(k * (f.box[0] + f.box[2]) / 2 + bx + 0.5))) for f in outside]  # fmt: skip
-        part = joined_part(prob, mine, seeds)
+                  int(np.floor(k * (f.box[0] + f.box[2]) / 2 + bx + 0.5))) for f in sure]  # fmt: skip
+        part = people_whole(prob, mine, seeds)  # two people at the matte: both whole
+        if part is None:  # else a face outside the matte brings the part of its own that touches the matte
+            part = joined_part(prob, mine, [s for s, f in zip(seeds, sure, strict=True) if f in outside])
         if part is None:
             return []
         rim = cv2.dilate(part.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool) & ~mine
         logits = np.where(rim, as_logits(prob), -LOGIT_CLIP).astype(np.float32)
-        return [Person(region, logits, max(f.score for f in outside), "roi")]
+        return [Person(region, logits, max(f.score for f in outside or sure), "roi")]
 
     def _backed(self, rgb: np.ndarray, person: Person) -> Person:
         """A pose-graph person with the pixels it half-sees (probability >= _BACKED) that the selfie graph on the
@@ -726,6 +730,8 @@ class PersonMatter:
             np.maximum(alpha[ry0:ry1, rx0:rx1], a, out=alpha[ry0:ry1, rx0:rx1])
         if refine and self.edges and people:
             alpha = refine_edges(rgb, alpha)
+            if self.person != "all":  # in everyone's matte a faint person apart is someone
+                alpha = without_doubted_parts(alpha, band_width(alpha.shape))
         return alpha
 
     def __call__(self, image: np.ndarray, name: str = "image") -> np.ndarray:

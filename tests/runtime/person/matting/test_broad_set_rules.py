@@ -285,6 +285,27 @@ def test_someone_joined_to_the_person_with_a_face_of_their_own_is_taken(gap, sco
     assert iou(alpha, left | right if joined else left) > 0.95
 
 
+@pytest.mark.parametrize(
+    ("held", "faces", "whole"),
+    [("upper", 2, True), ("band", 2, True), ("upper", 1, False)],
+)  # fmt: skip
+def test_a_second_person_the_matte_holds_in_part_is_completed(held, faces, whole):
+    """person="largest": two sure faces at the matte (held by it or joined to it) are two people, and the one the
+    matte holds in part is completed as the selfie graph sees them: two women posing arm in arm, the pose graph
+    taking the second without her legs ("upper": both faces in the matte); a couple embracing, his head and legs
+    outside the matte, which holds his chest ("band": :func:`_layout.joined_part` alone brought his head back,
+    stopping where the matte cuts him). With one face the second body is no one's: nothing is added."""
+    rgb, left, right = two_bodies(-20.0)
+    yy = np.mgrid[0 : left.shape[0], 0 : left.shape[1]][0]
+    part = right & (yy < 200) if held == "upper" else right & (yy >= 130) & (yy < 200)
+    matter = M.PersonMatter(refine=False)
+    matter.roi, matter.face = _Bright(), None
+    main = matted(rgb, left | part)
+    found = [Face((110.0, 50.0, 150.0, 90.0), 0.9), Face((210.0, 70.0, 250.0, 110.0), 0.9)][:faces]
+    alpha = matter.alpha(rgb, [main, *matter._joined(rgb, [main], found)])
+    assert iou(alpha, left | right if whole else left | part) > 0.95
+
+
 def test_a_selfie_graph_person_cut_by_its_regions_side_is_taken_whole():
     """_widened: where the selfie graph's segmentation runs into its region's left or right side inside the photo,
     it is run again on a region reaching past that side, so whoever stands there comes whole, not cut down the
