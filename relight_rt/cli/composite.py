@@ -80,7 +80,7 @@ def add_parser(subparsers) -> None:
                    help="a sun, window or lamp behind the person puts a rim of light on its side of the outline "
                    "(default: on with --view, where the panorama holds the source; off for a photo)")  # fmt: skip
     p.add_argument("--rim-auto", dest="rim", action="store_const", const="auto",
-                   help="a rim only where a clipped source is in the photo and the photo reads as back-lit")  # fmt: skip
+                   help="a rim only where a clipped source is in the photo and it reads as back-lit")  # fmt: skip
     p.add_argument("--no-rim", dest="rim", action="store_const", const="off", help="no rim, with --view too")
     p.add_argument(
         "--fov",

@@ -48,17 +48,23 @@ def test_outside_the_band_the_coarse_matte_is_kept_and_faint_veils_go():
     assert not out[:, -40:].any()  # the veil would show the old background in a composite
 
 
+def person_left(person, backdrop, h=120, w=160):
+    """(truth, rgb): a person of one colour filling the left half of an (h, w) picture, a plain backdrop right."""
+    truth = np.zeros((h, w), np.float32)
+    truth[:, : w // 2] = 1.0
+    rgb = np.empty((h, w, 3), np.float32)
+    rgb[:] = backdrop
+    rgb[:, : w // 2] = person
+    return truth, rgb
+
+
 def test_a_light_patch_of_background_in_the_band_fades_out_without_an_edge():
     """A white stripe of background (an awning) beside a red person on a dark background: colour puts it between
     the dark background and the person, so its alpha comes out high; toward the band's outer edge, where the coarse
     matte is sure of background, it must fade to 0 and not end in a step at the band's edge (a straight-edged
     grey patch in every composite: the reference photo's awning beside the hair)."""
-    h, w, band = 120, 160, 12
-    truth = np.zeros((h, w), np.float32)
-    truth[:, :80] = 1.0
-    rgb = np.empty((h, w, 3), np.float32)
-    rgb[:] = (0.1, 0.1, 0.1)
-    rgb[:, :80] = (0.8, 0.3, 0.2)
+    band = 12
+    truth, rgb = person_left((0.8, 0.3, 0.2), (0.1, 0.1, 0.1))
     rgb[46:54, 80:] = (0.95, 0.95, 0.95)  # a thin stripe runs from the outline out of the band
     coarse = np.clip(cv2.GaussianBlur(truth, (0, 0), 1.5), 0.0, 1.0)
     out = R.refine_edges(rgb, coarse, band=band)
@@ -81,12 +87,8 @@ def test_a_part_of_a_third_colour_at_the_outline_keeps_the_coarse_matte():
     line from the backdrop's colour to the person's, so colour cannot say how much of it is person (projected on
     that line it reads about half). The coarse matte is sure of it and stays; without the off-line weight
     (_OFF_LINE) the belt came out at 0.71-0.74 across the band's inner half: a hole showing the old background."""
-    h, w, band = 120, 160, 8
-    truth = np.zeros((h, w), np.float32)
-    truth[:, :80] = 1.0
-    rgb = np.empty((h, w, 3), np.float32)
-    rgb[:] = (0.1, 0.3, 0.9)
-    rgb[:, :80] = (0.9, 0.2, 0.1)
+    band = 8
+    truth, rgb = person_left((0.9, 0.2, 0.1), (0.1, 0.3, 0.9))
     rgb[56:64, :80] = (0.1, 0.8, 0.1)
     coarse = np.clip(cv2.GaussianBlur(truth, (0, 0), 1.5), 0.0, 1.0)
     out = R.refine_edges(rgb, coarse, band=band)
