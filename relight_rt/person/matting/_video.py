@@ -53,8 +53,8 @@ class VideoMatter:
     their own colours; the clip 0.922 -> 0.926, ``--methods video-complete``) at two more selfie-graph runs a frame
     (720p: ~26 -> ~17 frames/s idle, docs/BENCHMARKS.md), so it is off by default. The person probability on the
     working grid is blended with the previous frame's, warped by DIS optical flow:
-    ``p = (1 - w) p_now + w p_prev_warped``, ``w = smoothing * exp(-|I_now - I_prev_warped| / 0.05)`` (the history counts only where the flow explains the
-    picture), then refined by the guided filter.
+    ``p = (1 - w) p_now + w p_prev_warped``, ``w = smoothing * exp(-|I_now - I_prev_warped| / 0.05)`` (the history
+    counts only where the flow explains the picture), then refined by the guided filter.
 
     Args:
         matter: a :class:`PersonMatter` to use (default: a new one with ``models`` and ``device``).
