@@ -518,3 +518,41 @@ def test_portrait_region_is_no_wider_than_the_photo():
     close = M.Person(M.Region(300.0, 300.0, 500.0), logits, 0.99, "pose")
     assert matter._portrait_region(rgb, close) == close.region
     assert _layout.within_photo(M.Region(100.0, 50.0, 700.0), (480, 640)) == M.Region(320.0, 240.0, 640.0)
+
+
+def test_a_gap_between_two_people_in_the_grounds_colour_is_not_taken_to_complete_them():
+    """person="largest", two people at the matte completed as the selfie graph sees them
+    (:func:`_layout.people_whole`): where the graph fills the gap between people standing close with the wall
+    between them, those pixels are the wall's colour, not the people's: left out (:func:`_layout.like_ground`);
+    the second person's own pixels, in a colour of their own, are kept."""
+    colour = np.zeros((256, 256, 3), np.float32)
+    colour[:] = (0.45, 0.55, 0.35)  # a green-grey wall
+    left = np.zeros((256, 256), bool)
+    left[40:, 40:110] = True
+    right = np.zeros((256, 256), bool)
+    right[40:, 126:200] = True
+    gap = np.zeros((256, 256), bool)
+    gap[120:, 110:126] = True  # under their arms: the graph fills it; the wall shows above it
+    colour[left] = (0.8, 0.2, 0.2)
+    colour[right] = (0.2, 0.3, 0.8)
+    prob = np.where(left | right | gap, 0.99, 0.02).astype(np.float32)
+    mine = left.copy()
+    mine[150:] = False  # the matte holds the first person's upper body
+    seeds = [(60, 75), (60, 163)]
+    lab = _layout.canvas_colours(colour, *np.meshgrid(np.arange(256.0), np.arange(256.0)))
+    blind = _layout.people_whole(prob, mine, seeds)
+    seeing = _layout.people_whole(prob, mine, seeds, lab)
+    near_wall = gap & (np.arange(256)[:, None] < 120 + _layout.GROUND_REACH // 2)
+    assert blind[near_wall].all()  # without the colours the gap is taken
+    assert not seeing[near_wall].any()
+    assert seeing[right].all() and seeing[left & ~mine].all()
+    assert seeing[gap].sum() < blind[gap].sum()
+
+
+def test_canvas_colours_samples_the_photo_where_the_canvas_points_lie():
+    rgb = np.zeros((20, 30, 3), np.float32)
+    rgb[:, 15:] = 1.0
+    xs, ys = np.meshgrid(np.array([2.0, 25.0, 40.0]), np.array([5.0]))
+    lab = _layout.canvas_colours(rgb, xs, ys)
+    assert lab.shape == (1, 3, 3)
+    assert lab[0, 0, 0] < 1.0 and lab[0, 1, 0] > 99.0 and lab[0, 2, 0] > 99.0  # past the photo: its border
