@@ -344,10 +344,9 @@ GROUND_REACH = 12  # canvas pixels: like_ground compares a pixel with the ground
 def canvas_colours(rgb: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
     """The photo's colours (``rgb`` float32 [0, 1]) in CIE L*a*b* (float32, (256, 256, 3)) at the canvas points
     ``xs``, ``ys`` (image coordinates, :func:`canvas_points`), bilinear, the border's colour past the photo."""
+    lab = cv2.cvtColor(np.ascontiguousarray(rgb, np.float32), cv2.COLOR_RGB2LAB)
     x, y = xs.astype(np.float32), ys.astype(np.float32)
-    photo = np.ascontiguousarray(rgb, np.float32)
-    on_canvas = cv2.remap(photo, x, y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-    return cv2.cvtColor(on_canvas, cv2.COLOR_RGB2LAB)  # on the canvas: 64k pixels converted, not the photo's
+    return cv2.remap(lab, x, y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
 
 
 def like_ground(part: np.ndarray, people: np.ndarray, colours: np.ndarray) -> np.ndarray:
