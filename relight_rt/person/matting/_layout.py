@@ -309,9 +309,7 @@ def joined_part(prob: np.ndarray, mine: np.ndarray, seeds: list[tuple[int, int]]
 WHOLE_SURE = 0.95  # people_whole: the selfie graph's probability over what completes a second person
 
 
-def people_whole(
-    prob: np.ndarray, mine: np.ndarray, seeds: list[tuple[int, int]], colours: np.ndarray | None = None
-) -> np.ndarray | None:
+def people_whole(prob: np.ndarray, mine: np.ndarray, seeds: list[tuple[int, int]]) -> np.ndarray | None:
     """The selfie graph's people at the matte, each whole: when its person pixels (``prob`` >= 0.5, one canvas with
     ``mine``) that touch ``mine`` (within JOIN_GAP canvas pixels) hold two or more ``seeds`` (faces), the components
     holding them, less ``mine``; else None. Two faces in the matte or joined to it are two people, and the matte
@@ -333,39 +331,7 @@ def people_whole(
     if sum(label in touching for label in held) < 2:
         return None
     part = np.isin(labels, list(touching)) & ~mine & (prob >= WHOLE_SURE)
-    if colours is not None:
-        part &= ~like_ground(part, prob >= 0.5, colours)
     return part if part.any() else None
-
-
-GROUND_REACH = 12  # canvas pixels: like_ground compares a pixel with the ground and the people this close to it
-
-
-def canvas_colours(rgb: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
-    """The photo's colours (``rgb`` float32 [0, 1]) in CIE L*a*b* (float32, (256, 256, 3)) at the canvas points
-    ``xs``, ``ys`` (image coordinates, :func:`canvas_points`), bilinear, the border's colour past the photo."""
-    lab = cv2.cvtColor(np.ascontiguousarray(rgb, np.float32), cv2.COLOR_RGB2LAB)
-    x, y = xs.astype(np.float32), ys.astype(np.float32)
-    return cv2.remap(lab, x, y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-
-
-def like_ground(part: np.ndarray, people: np.ndarray, colours: np.ndarray) -> np.ndarray:
-    """The pixels of ``part`` (bool, a canvas) whose colour (``colours``, L*a*b* on the canvas) lies nearer the
-    mean of the ground beside them (not ``people``, within GROUND_REACH canvas pixels) than the mean of the people
-    there (``people``): a gap between people standing close that the selfie graph fills (a wall, foliage)."""
-    size = (2 * GROUND_REACH + 1,) * 2
-
-    def near_mean(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        m = mask.astype(np.float32)
-        n = cv2.boxFilter(m, -1, size, normalize=False)
-        s = cv2.boxFilter(colours * m[..., None], -1, size, normalize=False)
-        return s / np.maximum(n, 1.0)[..., None], n
-
-    ground, n_ground = near_mean(~people)
-    body, n_body = near_mean(people)
-    d_ground = np.linalg.norm(colours - ground, axis=2)
-    d_body = np.linalg.norm(colours - body, axis=2)
-    return part & (n_ground > 0) & (n_body > 0) & (d_ground < d_body)
 
 
 WHOLE_IN = 0.9  # seen_whole: this share of the pose graph's person lies inside the selfie graph's view of the photo

@@ -33,7 +33,6 @@ from ._layout import (
     box_beside,
     box_height,
     box_past_border,
-    canvas_colours,
     continued,
     face_share,
     grow_where_cut,
@@ -413,7 +412,7 @@ class PersonMatter:
         mine = np.any([prob_at(p, xs, ys) > 0.5 for p in people], axis=0)
         seeds = [(int(np.floor(k * (f.box[1] + f.box[3]) / 2 + by + 0.5)),
                   int(np.floor(k * (f.box[0] + f.box[2]) / 2 + bx + 0.5))) for f in sure]  # fmt: skip
-        part = people_whole(prob, mine, seeds, canvas_colours(rgb, xs, ys))  # two people at the matte: both whole
+        part = people_whole(prob, mine, seeds)  # two people at the matte: both whole
         if part is None:  # else a face outside the matte brings the part of its own that touches the matte
             part = joined_part(prob, mine, [s for s, f in zip(seeds, sure, strict=True) if f in outside])
         if part is None:
