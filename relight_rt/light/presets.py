@@ -17,7 +17,7 @@ import math
 import numpy as np
 
 from ..engine.errors import RelightError
-from .sh import BAND, N_COEFFS, basis, check_lights, cosine_lobe, irradiance, rotate, rotate_z
+from .sh import BAND, N_COEFFS, basis, cap_zonal, check_lights, cosine_lobe, irradiance, rotate, rotate_z
 
 __all__ = [
     "ambient",
@@ -56,17 +56,6 @@ def _scalar(value, name: str, low: float = -math.inf, high: float = math.inf) ->
     return v
 
 
-def _cap_zonal(cos_a: float) -> np.ndarray:
-    """Per-band zonal factors g_l of a uniform cap of half-angle a, normalised by its solid angle.
-
-    The cap of unit radiance around d has SH coefficients Ω · g_l · Y_k(d) with Ω = 2π(1 − cos a):
-    ∫_cap Y_l0 = 2π ∫_{cos a}^1 sqrt((2l+1)/4π) P_l(t) dt gives g_0 = 1, g_1 = (1 + cos a)/2,
-    g_2 = cos a (1 + cos a)/2 (all → 1 as a → 0: the delta limit).
-    """
-    c = cos_a
-    return np.array([1.0, (1 + c) / 2, c * (1 + c) / 2])
-
-
 def directional(direction, color=(1.0, 1.0, 1.0), intensity: float = 1.0, angular_radius: float = 0.0) -> np.ndarray:
     """A lamp: the exact degree-2 SH of a uniform spherical cap of light arriving from `direction`.
 
@@ -97,7 +86,7 @@ def directional(direction, color=(1.0, 1.0, 1.0), intensity: float = 1.0, angula
     rgb = _vec3(color, "color", nonneg=True)
     power = _scalar(intensity, "intensity", low=0.0)
     radius = _scalar(angular_radius, "angular_radius", low=0.0, high=math.pi)
-    g = _cap_zonal(math.cos(radius))[list(BAND)]
+    g = cap_zonal(math.cos(radius))[list(BAND)]
     # Degree-2 irradiance at the facing normal per unit Ω·ρ: Σ_k A_l g_l Y_k(d)² = Σ_l A_l g_l (2l+1)/4π.
     facing = float(np.sum(cosine_lobe() * g * basis(d) ** 2))
     return (power / facing) * (g * basis(d))[:, None] * rgb[None, :]

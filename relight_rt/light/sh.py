@@ -109,6 +109,17 @@ def basis(dirs) -> np.ndarray:
     return out
 
 
+def cap_zonal(cos_a: float) -> np.ndarray:
+    """Per-band zonal factors g_l (l = 0, 1, 2) of a uniform cap of half-angle a, normalised by its solid angle.
+
+    The cap of unit radiance around d has SH coefficients Ω · g_l · Y_k(d) with Ω = 2π(1 − cos a):
+    ∫_cap Y_l0 = 2π ∫_{cos a}^1 sqrt((2l+1)/4π) P_l(t) dt gives g_0 = 1, g_1 = (1 + cos a)/2,
+    g_2 = cos a (1 + cos a)/2 (all → 1 as a → 0: the delta limit). Per coefficient: ``cap_zonal(c)[list(BAND)]``.
+    """
+    c = cos_a
+    return np.array([1.0, (1 + c) / 2, c * (1 + c) / 2])
+
+
 def cosine_lobe() -> np.ndarray:
     """Zonal coefficients A_l of the clamped cosine max(0, n·ω), repeated per coefficient.
 

@@ -65,19 +65,9 @@ def lamp(light: np.ndarray) -> tuple[np.ndarray, np.ndarray, float] | None:
     if ratio < math.cos(MAX_ANGLE):
         return None
     cos_a = min(ratio, 1.0)
-    # a cap of half-angle a: zonal coefficients z_l = sqrt((2l+1)/4pi) * int P_l over the cap, times its radiance:
-    # band 0: 2 pi (1 - c), band 1: pi (1 - c^2), band 2: pi c (1 - c^2); scaled to the light's band 1
-    c1 = math.sqrt(3 / (4 * math.pi))
-    scale = z1 / (c1 * math.pi * (1 - cos_a * cos_a)) if cos_a < 1 else None
-    if scale is None:  # a point lamp: Y_k(d) times its strength
-        cap = y * (z1 / c1)
-    else:
-        zonal = (math.sqrt(1 / (4 * math.pi)) * 2 * math.pi * (1 - cos_a),
-                 c1 * math.pi * (1 - cos_a * cos_a),
-                 c2 * math.pi * cos_a * (1 - cos_a * cos_a))
-        # a zonal function with coefficients z_l around d has SH z_l sqrt(4 pi / (2l + 1)) Y_lm(d)
-        per = np.array([zonal[b] * math.sqrt(4 * math.pi / (2 * b + 1)) for b in sh.BAND])
-        cap = per * y * scale
+    # a cap around d has SH Omega g_l Y_k(d) (sh.cap_zonal), scaled so that its degree-1 band is the light's
+    g = sh.cap_zonal(cos_a)[list(sh.BAND)]
+    cap = g * y * (z1 / (g[1] * math.sqrt(3 / (4 * math.pi))))
     return direction, cap, math.acos(cos_a)
 
 
