@@ -293,17 +293,24 @@ def joined_part(prob: np.ndarray, mine: np.ndarray, seeds: list[tuple[int, int]]
     column: a face the matte does not hold) and touch ``mine`` (within JOIN_GAP canvas pixels); None when none does.
     A face alone says someone is there; joined in the selfie graph's view, they stand with the person (a couple
     embracing, a child leaning on a mother); a face apart from them is a passer-by."""
-    n, labels = cv2.connectedComponents(((prob >= 0.5) & ~mine).astype(np.uint8), connectivity=8)
+    found = _seeded_parts((prob >= 0.5) & ~mine, mine, seeds)
+    if found is None:
+        return None
+    labels, _, touching = found
+    part = np.isin(labels, list(touching))
+    return part if part.any() else None
+
+
+def _seeded_parts(person: np.ndarray, mine: np.ndarray, seeds: list[tuple[int, int]]):
+    """The 8-connected components of ``person`` (bool canvas): (labels, the label under each seed that lies on the
+    canvas (0: none), the set of those components that touch ``mine`` within JOIN_GAP); None without a component."""
+    n, labels = cv2.connectedComponents(person.astype(np.uint8), connectivity=8)
     if n <= 1:
         return None
     near = cv2.dilate(mine.astype(np.uint8), np.ones((2 * JOIN_GAP + 1,) * 2, np.uint8)).astype(bool)
-    picked = {int(labels[i, j]) for i, j in seeds if 0 <= i < labels.shape[0] and 0 <= j < labels.shape[1]} - {0}
-    part = np.zeros(mine.shape, bool)
-    for label in picked:
-        comp = labels == label
-        if (comp & near).any():
-            part |= comp
-    return part if part.any() else None
+    held = [int(labels[i, j]) for i, j in seeds if 0 <= i < labels.shape[0] and 0 <= j < labels.shape[1]]
+    touching = {label for label in set(held) - {0} if (near & (labels == label)).any()}
+    return labels, held, touching
 
 
 WHOLE_SURE = 0.95  # people_whole: the selfie graph's probability over what completes a second person
@@ -322,12 +329,10 @@ def people_whole(prob: np.ndarray, mine: np.ndarray, seeds: list[tuple[int, int]
     couple holding hands -0.010 and three men -0.005, the gaps between them), half B 0.8881 -> 0.8900 (the couple
     embracing 0.63 -> 0.84, the women arm in arm 0.854 -> 0.879; the wall between two girls on a bench -0.016, a group
     -0.017), the clip unchanged. No graph run more (the whole photo's answer is the region finder's)."""
-    n, labels = cv2.connectedComponents((prob >= 0.5).astype(np.uint8), connectivity=8)
-    if n <= 1:
+    found = _seeded_parts(prob >= 0.5, mine, seeds)
+    if found is None:
         return None
-    near = cv2.dilate(mine.astype(np.uint8), np.ones((2 * JOIN_GAP + 1,) * 2, np.uint8)).astype(bool)
-    held = [int(labels[i, j]) for i, j in seeds if 0 <= i < labels.shape[0] and 0 <= j < labels.shape[1]]
-    touching = {label for label in set(held) - {0} if (near & (labels == label)).any()}
+    labels, held, touching = found
     if sum(label in touching for label in held) < 2:
         return None
     part = np.isin(labels, list(touching)) & ~mine & (prob >= WHOLE_SURE)
