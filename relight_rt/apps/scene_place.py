@@ -198,6 +198,14 @@ def framing(alpha: np.ndarray) -> Framing:
     return Framing((y0, y1, x0, x1), a.shape, cut, feet_x, feet_w)
 
 
+def _as_uint8(photo) -> np.ndarray:
+    """An sRGB photo as uint8 (itself when it is one; float in [0, 1] rounded, NaN as 0)."""
+    img = np.asarray(photo)
+    if img.dtype == np.uint8:
+        return img
+    return (np.clip(np.nan_to_num(img.astype(np.float32)), 0, 1) * 255 + 0.5).astype(np.uint8)
+
+
 def estimate_horizon(photo: np.ndarray, fov: float = 60.0) -> float | None:
     """The horizon's row in ``photo`` as a fraction of its height, from the tilt its verticals show (module
     docstring), or None when too few near-vertical segments agree.
@@ -209,9 +217,7 @@ def estimate_horizon(photo: np.ndarray, fov: float = 60.0) -> float | None:
     Returns:
         A fraction (below 0 or above 1 when the horizon lies outside the picture), or None.
     """
-    img = np.asarray(photo)
-    grey = cv2.cvtColor(img if img.dtype == np.uint8 else (np.clip(img, 0, 1) * 255 + 0.5).astype(np.uint8),
-                        cv2.COLOR_RGB2GRAY)  # fmt: skip
+    grey = cv2.cvtColor(_as_uint8(photo), cv2.COLOR_RGB2GRAY)
     h, w = grey.shape
     if w > _HORIZON_WIDTH:
         grey = cv2.resize(grey, (_HORIZON_WIDTH, max(2, round(h * _HORIZON_WIDTH / w))), interpolation=cv2.INTER_AREA)
@@ -268,8 +274,7 @@ def sky_line(photo: np.ndarray) -> float | None:
     img = np.asarray(photo)
     if img.ndim != 3 or img.shape[2] != 3 or min(img.shape[:2]) < 2:
         raise RelightError(f"sky line: expected an (H, W, 3) RGB photo, got {img.shape} {img.dtype}")
-    if img.dtype != np.uint8:
-        img = (np.clip(np.nan_to_num(img.astype(np.float32)), 0, 1) * 255 + 0.5).astype(np.uint8)
+    img = _as_uint8(img)
     h, w = img.shape[:2]
     small = cv2.resize(img, (_SKY_WIDTH, max(2 * SKY_STEP, round(h * _SKY_WIDTH / w))), interpolation=cv2.INTER_AREA)
     lin = cv2.GaussianBlur(SRGB8_TO_LINEAR[small], (0, 0), 1.0) + np.float32(1e-3)
