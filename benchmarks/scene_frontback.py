@@ -86,6 +86,42 @@ def features(photo: np.ndarray) -> dict[str, float]:
         "chroma_spread": parts.colour_share * max(parts.contrast, 0.05),
         "sky_ground_blue": blue_red(srgb8_to_linear(photo[: h // 3])) - blue_red(srgb8_to_linear(photo[-(h // 3) :])),
         **sky_region(photo, lum),
+        **shading_cues(lum),
+    }
+
+
+#: shading_cues: a log2-luminance step (per pixel, after a 1-px blur) from which an edge counts
+_EDGE = 0.5
+
+
+def shading_cues(lum: np.ndarray) -> dict[str, float]:
+    """The view's own objects' shading (issue 49, scene10; chosen before any was scored), all in log2 luminance of
+    the (h, w) linear view, the horizon at mid-height (a level camera):
+    ``lower_contrast``: the spread of the bottom half (ground, the near sides of things): toward the light the
+    camera sees shaded sides beside lit tops and shadows falling toward it; lit from behind, surfaces lit evenly
+    and their shadows hidden behind them. ``lower_over_upper``: that spread minus the top half's.
+    ``lower_dark``: the share of the bottom half darker than a quarter of the view's median (shade toward the camera).
+    ``ground_gradient``: the band just below the horizon (rows h/2 .. 2h/3) over the bottom third: toward the sun
+    the far ground shines (forward scattering, sheen at grazing angles) and near things show their shaded side;
+    away from it the near ground nearer the anti-solar point is the brighter (the hot spot).
+    ``edge_polarity``: over the strong vertical steps (|Δ| > _EDGE between the rows above and below), the share
+    brighter above minus the share brighter below: toward the light, silhouettes against a bright sky and dark
+    faces under lit tops; lit from behind, lit faces against the sky and under them."""
+    import cv2
+
+    h, w = lum.shape
+    ll = cv2.GaussianBlur(np.log2(np.maximum(lum, 2.0**-13)).astype(np.float32), (0, 0), 1.0)
+    upper, lower = ll[: h // 2], ll[h // 2 :]
+    med = float(np.median(ll))
+    dy = ll[:-2] - ll[2:]  # above minus below
+    strong = np.abs(dy) > _EDGE
+    n = max(int(strong.sum()), 1)
+    return {
+        "lower_contrast": float(lower.std()),
+        "lower_over_upper": float(lower.std() - upper.std()),
+        "lower_dark": float((lower < med - 2).mean()),
+        "ground_gradient": float(ll[h // 2 : 2 * h // 3].mean() - ll[2 * h // 3 :].mean()),
+        "edge_polarity": float(((dy > _EDGE).sum() - (dy < -_EDGE).sum()) / n) if strong.any() else 0.0,
     }
 
 
@@ -223,6 +259,20 @@ RULES = {
     "glow >= 2 EV or lstsq": either(lambda train: lambda f: f["glow"] >= 2, lstsq_rule(["top_bottom", "contrast"])),
     "glow >= 3 EV or lstsq": either(lambda train: lambda f: f["glow"] >= 3, lstsq_rule(["top_bottom", "contrast"])),
     "lstsq top_bottom+contrast+glow": lstsq_rule(["top_bottom", "contrast", "glow"]),
+    # the view's own objects' shading (shading_cues; scene10)
+    "threshold lower_contrast": threshold_rule("lower_contrast"),
+    "threshold lower_over_upper": threshold_rule("lower_over_upper"),
+    "threshold lower_dark": threshold_rule("lower_dark"),
+    "threshold ground_gradient": threshold_rule("ground_gradient"),
+    "threshold edge_polarity": threshold_rule("edge_polarity"),
+    "lstsq top_bottom+colour_share+lower_contrast": lstsq_rule(["top_bottom", "colour_share", "lower_contrast"]),
+    "lstsq top_bottom+colour_share+lower_over_upper": lstsq_rule(["top_bottom", "colour_share", "lower_over_upper"]),
+    "lstsq top_bottom+colour_share+lower_dark": lstsq_rule(["top_bottom", "colour_share", "lower_dark"]),
+    "lstsq top_bottom+colour_share+ground_gradient": lstsq_rule(["top_bottom", "colour_share", "ground_gradient"]),
+    "lstsq top_bottom+colour_share+edge_polarity": lstsq_rule(["top_bottom", "colour_share", "edge_polarity"]),
+    "lstsq colour_share+ground_gradient+edge_polarity": lstsq_rule(
+        ["colour_share", "ground_gradient", "edge_polarity"]
+    ),
     "threshold mean_median": threshold_rule("mean_median"),
     "threshold contrast": threshold_rule("contrast"),
     "threshold top_bottom": threshold_rule("top_bottom"),
