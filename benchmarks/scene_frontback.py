@@ -297,6 +297,22 @@ def score(rule, rows, train_of) -> dict:
     return out
 
 
+def opposed_order(rows: dict, name: str = "score") -> tuple[int, list[str]]:
+    """The clear maps come in opposite views of one place (turned 180°: one back-lit, the other front-lit): over
+    those pairs, (how many the feature ``name`` orders right, i.e. lower on the back-lit view, the pairs' back-lit
+    maps). A rule's call is ``feature < threshold``: a pair ordered right but called wrong is the place's offset
+    (one view cannot see it), not the cue's direction."""
+    clear = {m for m, (_, t) in rows.items() if abs(t) >= CLEAR_EV}
+    right, backs = 0, []
+    for m in sorted(clear):
+        place, turn = m.rsplit("_y", 1)
+        other = f"{place}_y{(int(turn) + 180) % 360:03d}"
+        if rows[m][1] < 0 and other in clear:
+            backs.append(m)
+            right += rows[m][0][name] < rows[other][0][name]
+    return right, backs
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--envs", type=Path, required=True)
@@ -320,6 +336,9 @@ def main(argv=None) -> int:
               f"blender {100 * a['blender'][0]:3.0f}% npm {100 * a['npm'][0]:3.0f}% | cross shared "
               f"{100 * c['shared'][0]:3.0f}% blender {100 * c['blender'][0]:3.0f}% npm {100 * c['npm'][0]:3.0f}%  "
               f"wrong(loso): {' '.join(a['wrong'])}")  # fmt: skip
+    right, backs = opposed_order(rows)
+    report["opposed_order"] = {"right": right, "pairs": len(backs)}
+    print(f"the shipped score orders {right} of {len(backs)} opposite clear pairs right (lower on the back-lit view)")
     report["maps"] = {m: {"truth_ev": t, **f} for m, (f, t) in rows.items()}
     if args.fit:
         x = np.array([[1.0, f["top_bottom"], f["colour_share"]] for f, _ in rows.values()])
