@@ -22,7 +22,8 @@ The shape is then taken apart: ``side fixed`` gives the estimate the true light'
 coefficient, luminance, per unit camera-facing irradiance) and nothing else; y weighs nothing in the camera-facing
 or the back irradiance (FRONT_WEIGHTS[1] = BACK_WEIGHTS[1] = 0), so this changes neither the exposure, the colour nor
 the front/back scores. ``side read`` puts there the raw light's own y (steps 1-5 of
-relight_rt.light.from_background: what the view says of the side), ``side wrong`` the true y with its sign turned.
+relight_rt.light.from_background: what the view says of the side), ``side wrong`` the true y with its sign turned,
+``side gated T xK`` K × the raw light's y where that is at least T in size (``GATES``), none elsewhere.
 The pairs are also counted by how side-lit the place is (|y| of the true light, bands ``SIDE_BANDS``), per set, and
 the view's side readings (the raw light's y, the brighter half) scored by their sign on the maps with |y| >= 0.3.
 """
@@ -50,7 +51,10 @@ from relight_rt.light import from_background as bgmod  # noqa: E402
 
 SETS = {"shared": "../shared/hdri", "blender": "blender-data", "npm": "@pmndrs/assets"}
 SIDE_BANDS = (0.3, 0.6)  #: |y| bands (low, mid, high) of the true light's left-right term (module docstring)
-COUNTERFACTUALS = ("colour fixed", "shape fixed", "side fixed", "side read", "side wrong")
+#: ``side gated``: the raw light's y × k where its size is >= t, else none (the view's strongest side readings only)
+GATES = tuple((t, k) for t in (0.5, 1.0, 1.5) for k in (0.125, 0.25, 0.5))
+COUNTERFACTUALS = ("colour fixed", "shape fixed", "side fixed", "side read", "side wrong",
+                   *(f"side gated {t:g} x{k:g}" for t, k in GATES))  # fmt: skip
 
 
 def side(light: np.ndarray) -> float:
@@ -181,6 +185,10 @@ def main(argv=None) -> int:
                 si(with_side(est[m], sides[m])),
                 si(with_side(est[m], reads["raw light's y"][m])),
                 si(with_side(est[m], -sides[m])),
+                *(
+                    si(with_side(est[m], k * y) if abs(y := reads["raw light's y"][m]) >= t else est[m])
+                    for t, k in GATES
+                ),
             )
             again = si(est[m])
             for i, r in enumerate(rows):
@@ -191,7 +199,8 @@ def main(argv=None) -> int:
               **analyse(rows, extra, sides), "side_signs": side_signs(reads, sides)}  # fmt: skip
     for label in ("all", *SETS):
         a = report[label]
-        fixes = ", ".join(f"{name} {100 * a[f'{name}_better']:.0f} %" for name in COUNTERFACTUALS)
+        fixes = ", ".join(f"{name} {100 * a[f'{name}_better']:.0f} %" for name in COUNTERFACTUALS[:5])
+        gated = ", ".join(f"{name[11:]} {100 * a[f'{name}_better']:.1f} %" for name in COUNTERFACTUALS[5:])
         print(f"{label:8s} pairs {a['pairs']:4d}  better than paste {100 * a['better_than_paste']:.0f} %  "
               f"(oracle {100 * a['oracle_better_than_paste']:.0f} %, {fixes})")  # fmt: skip
         print(f"         lost {a['lost']}: {a['causes']}  same place {a['lost_same_place']}/{a['lost']} "
@@ -201,6 +210,7 @@ def main(argv=None) -> int:
         print("         by |side|: " + ", ".join(f"{k} {100 * v['better_than_paste']:.0f} % ({v['maps']} maps)"
                                                  for k, v in a["by_side"].items() if v["maps"]))  # fmt: skip
         print(f"         lost by scene: {a['lost_by_scene']}")
+        print(f"         today {100 * a['better_than_paste']:.1f} %; side gated: {gated}")
     for label, v in report["side_signs"].items():
         print(
             f"side's sign read from the view, {label} ({v['maps']} maps with |side| >= {SIDE_BANDS[0]}): "

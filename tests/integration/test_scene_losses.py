@@ -66,7 +66,8 @@ def test_analyse_counts_the_lost_pairs_by_set_and_side(sl):
         {"subject": "p", "A": "bl-a_y000", "B": "c_y000", "si_paste": 0.05, "si_est": 0.03, "si_oracle": 0.02,
          "colour_est": 2.0, "ev_est_background": 0.2},
     ]  # fmt: skip
-    extra = {0: (0.07, 0.04, 0.04, 0.07, 0.08), 1: (0.03,) * 5, 2: (0.03,) * 5}
+    n = len(sl.COUNTERFACTUALS)  # colour fixed, shape fixed, side fixed, side read, side wrong, the gated sides
+    extra = {0: (0.07, 0.04, 0.04, 0.07, 0.08) + (0.06,) * (n - 5), 1: (0.03,) * n, 2: (0.03,) * n}
     out = sl.analyse(rows, extra, {"bl-a_y000": 0.9, "c_y000": 0.1})
     assert out["all"]["lost"] == 1 and out["all"]["better_than_paste"] == pytest.approx(2 / 3)
     assert out["blender"]["causes"] == {"shape": 1} and out["shared"]["lost"] == 0
