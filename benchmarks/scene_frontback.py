@@ -106,7 +106,10 @@ def shading_cues(lum: np.ndarray) -> dict[str, float]:
     away from it the near ground nearer the anti-solar point is the brighter (the hot spot).
     ``edge_polarity``: over the strong vertical steps (|Δ| > _EDGE between the rows above and below), the share
     brighter above minus the share brighter below: toward the light, silhouettes against a bright sky and dark
-    faces under lit tops; lit from behind, lit faces against the sky and under them."""
+    faces under lit tops; lit from behind, lit faces against the sky and under them.
+    ``vertical_dark``: the band around the horizon (rows 0.4 h .. 0.6 h, where a level camera sees the vertical faces
+    of things: walls, trunks, hills) below the mean of the view's top and bottom fifths: toward the light those faces
+    are in their own shade between a bright sky (or lamp) and lit ground; lit from behind they face the light."""
     import cv2
 
     h, w = lum.shape
@@ -121,6 +124,7 @@ def shading_cues(lum: np.ndarray) -> dict[str, float]:
         "lower_over_upper": float(lower.std() - upper.std()),
         "lower_dark": float((lower < med - 2).mean()),
         "ground_gradient": float(ll[h // 2 : 2 * h // 3].mean() - ll[2 * h // 3 :].mean()),
+        "vertical_dark": float((ll[: h // 5].mean() + ll[-(h // 5) :].mean()) / 2 - ll[2 * h // 5 : 3 * h // 5].mean()),
         "edge_polarity": float(((dy > _EDGE).sum() - (dy < -_EDGE).sum()) / n) if strong.any() else 0.0,
     }
 
@@ -265,6 +269,8 @@ RULES = {
     "threshold lower_dark": threshold_rule("lower_dark"),
     "threshold ground_gradient": threshold_rule("ground_gradient"),
     "threshold edge_polarity": threshold_rule("edge_polarity"),
+    "threshold vertical_dark": threshold_rule("vertical_dark"),
+    "lstsq top_bottom+colour_share+vertical_dark": lstsq_rule(["top_bottom", "colour_share", "vertical_dark"]),
     "lstsq top_bottom+colour_share+lower_contrast": lstsq_rule(["top_bottom", "colour_share", "lower_contrast"]),
     "lstsq top_bottom+colour_share+lower_over_upper": lstsq_rule(["top_bottom", "colour_share", "lower_over_upper"]),
     "lstsq top_bottom+colour_share+lower_dark": lstsq_rule(["top_bottom", "colour_share", "lower_dark"]),
