@@ -25,7 +25,8 @@ the front/back scores. ``side read`` puts there the raw light's own y (steps 1-5
 relight_rt.light.from_background: what the view says of the side), ``side wrong`` the true y with its sign turned,
 ``side gated T xK`` K × the raw light's y where that is at least T in size (``GATES``), none elsewhere.
 The pairs are also counted by how side-lit the place is (|y| of the true light, bands ``SIDE_BANDS``), per set, and
-the view's side readings (the raw light's y, the brighter half) scored by their sign on the maps with |y| >= 0.3.
+the view's side readings (the raw light's y, the brighter half, ``shading_side``) scored by their sign on the maps
+with |y| >= 0.3.
 """
 
 from __future__ import annotations
@@ -46,7 +47,7 @@ for p in (REPO, REPO / "benchmarks"):
 import scene_eval as se  # noqa: E402  (the benchmark's cameras and scores)
 
 from relight_rt import envmap, sh  # noqa: E402
-from relight_rt.image.color import REC709  # noqa: E402
+from relight_rt.image.color import REC709, srgb8_to_linear  # noqa: E402
 from relight_rt.light import from_background as bgmod  # noqa: E402
 
 SETS = {"shared": "../shared/hdri", "blender": "blender-data", "npm": "@pmndrs/assets"}
@@ -133,6 +134,20 @@ def analyse(rows: list, extra: dict, sides: dict) -> dict:
     return out
 
 
+def shading_side(lum: np.ndarray) -> tuple[float, float]:
+    """Two readings of the side from the (h, w) linear view's shading (> 0: light from the image's right): things lit
+    from the right are brighter on their right (log2 luminance after a 1-px blur, steps over 2 px): the mean step
+    to the right, each clipped to +-1, and over the strong steps (> 0.5) the share brighter on the right minus the
+    share brighter on the left."""
+    import cv2
+
+    ll = cv2.GaussianBlur(np.log2(np.maximum(lum, 2.0**-13)).astype(np.float32), (0, 0), 1.0)
+    dx = ll[:, 2:] - ll[:, :-2]
+    strong = int((np.abs(dx) > 0.5).sum())
+    polarity = float(((dx > 0.5).sum() - (dx < -0.5).sum()) / strong) if strong else 0.0
+    return float(np.clip(dx, -1, 1).mean()), polarity
+
+
 def side_signs(reads: dict, sides: dict) -> dict:
     """Per scene set and all: on the maps whose true ``side`` is at least SIDE_BANDS[0] in size, the share where
     each reading in ``reads`` ({name: {map: value}}) has its sign."""
@@ -157,11 +172,14 @@ def main(argv=None) -> int:
     res = json.loads(args.results.read_text())
     rows, fits = res["rows"], res["loso_fit"]
     by_subject, _, _ = se.photos_by_subject(args.photos)
-    est, true1, reads = {}, {}, {"raw light's y": {}, "brighter half": {}}
+    est, true1 = {}, {}
+    reads = {"raw light's y": {}, "brighter half": {}, "shading gradient": {}, "edge polarity": {}}
     for m in sorted({r["B"] for r in rows}):
         env = envmap.load_envmap(args.envs / f"{m}.hdr")
         lin = se.view_linear(env)
-        parts = bgmod.scene_light(se.photograph(lin, se.GREY / max(se.mean_lum(lin), 1e-9)), 60.0)
+        photo = se.photograph(lin, se.GREY / max(se.mean_lum(lin), 1e-9))
+        parts = bgmod.scene_light(photo, 60.0)
+        reads["shading gradient"][m], reads["edge polarity"][m] = shading_side(srgb8_to_linear(photo) @ REC709)
         est[m] = parts.light(**fits[se.scene_of(m)])
         true1[m] = envmap.project_envmap(env)
         reads["raw light's y"][m] = side(parts.light(**{**fits[se.scene_of(m)], "shape_weight": 1.0,

@@ -78,3 +78,13 @@ def test_analyse_counts_the_lost_pairs_by_set_and_side(sl):
     assert out["blender"]["lost_ev_est_median"] == 1.5 and out["blender"]["won_ev_est_median"] == 0.5
     signs = sl.side_signs({"view": {"bl-a_y000": 0.2, "c_y000": -1.0}}, {"bl-a_y000": 0.9, "c_y000": 0.1})
     assert signs["all"] == {"maps": 1, "view": 1.0}  # c_y000's side is under 0.3: not scored
+
+
+def test_shading_side_reads_a_view_brighter_to_its_right(sl):
+    cols = np.linspace(0.05, 0.8, 128)
+    lit_right = np.tile(cols, (96, 1))
+    grad, _ = sl.shading_side(lit_right)
+    assert grad > 0 and sl.shading_side(lit_right[:, ::-1])[0] == pytest.approx(-grad, rel=1e-4)
+    steps = np.where(np.arange(144) % 32 < 16, 0.05, 0.4)[None, :].repeat(96, 0)  # 4 steps up, 4 down
+    assert sl.shading_side(steps)[1] == pytest.approx(0.0, abs=0.02)
+    assert sl.shading_side(np.full((96, 128), 0.2)) == (0.0, 0.0)  # an even view: no side
