@@ -23,7 +23,8 @@ coefficient, luminance, per unit camera-facing irradiance) and nothing else; y w
 or the back irradiance (FRONT_WEIGHTS[1] = BACK_WEIGHTS[1] = 0), so this changes neither the exposure, the colour nor
 the front/back scores. ``side read`` puts there the raw light's own y (steps 1-5 of
 relight_rt.light.from_background: what the view says of the side), ``side wrong`` the true y with its sign turned,
-``side gated T xK`` K × the raw light's y where that is at least T in size (``GATES``), none elsewhere.
+``side gated T xK`` K × the raw light's y where that is at least T in size (``GATES``), none elsewhere; ``up fixed``
+the true light's up-down term (z, also weightless in those scores) in place of the estimate's.
 The pairs are also counted by how side-lit the place is (|y| of the true light, bands ``SIDE_BANDS``), per set, and
 the view's side readings (the raw light's y, the brighter half, ``shading_side``) scored by their sign on the maps
 with |y| >= 0.3.
@@ -54,23 +55,24 @@ SETS = {"shared": "../shared/hdri", "blender": "blender-data", "npm": "@pmndrs/a
 SIDE_BANDS = (0.3, 0.6)  #: |y| bands (low, mid, high) of the true light's left-right term (module docstring)
 #: ``side gated``: the raw light's y × k where its size is >= t, else none (the view's strongest side readings only)
 GATES = tuple((t, k) for t in (0.5, 1.0, 1.5) for k in (0.125, 0.25, 0.5))
-COUNTERFACTUALS = ("colour fixed", "shape fixed", "side fixed", "side read", "side wrong",
+COUNTERFACTUALS = ("colour fixed", "shape fixed", "side fixed", "side read", "side wrong", "up fixed",
                    *(f"side gated {t:g} x{k:g}" for t, k in GATES))  # fmt: skip
 
 
-def side(light: np.ndarray) -> float:
+def side(light: np.ndarray, term: int = 1) -> float:
     """The left-right term of a (9, 3) light: its luminance SH y coefficient over its camera-facing irradiance
-    (> 0: more light from the image's right, +y)."""
+    (> 0: more light from the image's right, +y); ``term`` 2: the up-down term (z) alike."""
     lum = np.asarray(light, np.float64) @ REC709
-    return float(lum[1] / max(float(se.FRONT_W @ lum), 1e-12))
+    return float(lum[term] / max(float(se.FRONT_W @ lum), 1e-12))
 
 
-def with_side(light: np.ndarray, y: float) -> np.ndarray:
-    """(9, 3) ``light`` with its left-right term (``side``) set to ``y`` in every channel alike (in proportion to
-    the channel's camera-facing irradiance); its camera-facing and back irradiance unchanged."""
+def with_side(light: np.ndarray, y: float, term: int = 1) -> np.ndarray:
+    """(9, 3) ``light`` with its left-right term (``side``; ``term`` 2: its up-down term) set to ``y`` in every
+    channel alike (in proportion to the channel's camera-facing irradiance); its camera-facing and back irradiance
+    unchanged."""
     rgb = se.side_rgb(light)
     out = np.array(light, np.float64)
-    out[1] = y * rgb
+    out[term] = y * rgb
     return out
 
 
@@ -203,6 +205,7 @@ def main(argv=None) -> int:
                 si(with_side(est[m], sides[m])),
                 si(with_side(est[m], reads["raw light's y"][m])),
                 si(with_side(est[m], -sides[m])),
+                si(with_side(est[m], side(true1[m], 2), 2)),
                 *(
                     si(with_side(est[m], k * y) if abs(y := reads["raw light's y"][m]) >= t else est[m])
                     for t, k in GATES
@@ -217,8 +220,8 @@ def main(argv=None) -> int:
               **analyse(rows, extra, sides), "side_signs": side_signs(reads, sides)}  # fmt: skip
     for label in ("all", *SETS):
         a = report[label]
-        fixes = ", ".join(f"{name} {100 * a[f'{name}_better']:.0f} %" for name in COUNTERFACTUALS[:5])
-        gated = ", ".join(f"{name[11:]} {100 * a[f'{name}_better']:.1f} %" for name in COUNTERFACTUALS[5:])
+        fixes = ", ".join(f"{n} {100 * a[f'{n}_better']:.0f} %" for n in COUNTERFACTUALS if "gated" not in n)
+        gated = ", ".join(f"{n[11:]} {100 * a[f'{n}_better']:.1f} %" for n in COUNTERFACTUALS if "gated" in n)
         print(f"{label:8s} pairs {a['pairs']:4d}  better than paste {100 * a['better_than_paste']:.0f} %  "
               f"(oracle {100 * a['oracle_better_than_paste']:.0f} %, {fixes})")  # fmt: skip
         print(f"         lost {a['lost']}: {a['causes']}  same place {a['lost_same_place']}/{a['lost']} "

@@ -32,7 +32,10 @@ def test_recolour_takes_the_colour_and_keeps_the_luminance_and_shape(sl):
 def test_side_reads_the_lamps_side_and_with_side_changes_nothing_else(sl):
     right, left = _light((0.3, 0.9, 0.3)), _light((0.3, -0.9, 0.3))
     assert sl.side(right) > 0.3 and sl.side(left) < -0.3
-    assert sl.side(_light((0.8, 0.0, 0.6))) == pytest.approx(0.0, abs=1e-9)
+    assert sl.side(_light((0.8, 0.0, 0.6))) == pytest.approx(0.0, abs=1e-6)
+    assert sl.side(_light((0.3, 0.0, 0.9)), 2) > sl.side(_light((0.3, 0.0, -0.9)), 2) + 0.5  # term 2: up-down
+    low = sl.with_side(right, 0.1, 2)
+    assert sl.side(low, 2) == pytest.approx(0.1, rel=1e-5) and sl.side(low) == pytest.approx(sl.side(right))
     turned = sl.with_side(right, sl.side(left))
     assert sl.side(turned) == pytest.approx(sl.side(left), rel=1e-5)  # y weighs ~1e-7 by quadrature
     # y weighs nothing in the camera-facing or the back irradiance: exposure, colour and front/back unchanged
@@ -66,7 +69,7 @@ def test_analyse_counts_the_lost_pairs_by_set_and_side(sl):
         {"subject": "p", "A": "bl-a_y000", "B": "c_y000", "si_paste": 0.05, "si_est": 0.03, "si_oracle": 0.02,
          "colour_est": 2.0, "ev_est_background": 0.2},
     ]  # fmt: skip
-    n = len(sl.COUNTERFACTUALS)  # colour fixed, shape fixed, side fixed, side read, side wrong, the gated sides
+    n = len(sl.COUNTERFACTUALS)  # colour fixed, shape fixed, side fixed, side read, side wrong, up fixed, gated
     extra = {0: (0.07, 0.04, 0.04, 0.07, 0.08) + (0.06,) * (n - 5), 1: (0.03,) * n, 2: (0.03,) * n}
     out = sl.analyse(rows, extra, {"bl-a_y000": 0.9, "c_y000": 0.1})
     assert out["all"]["lost"] == 1 and out["all"]["better_than_paste"] == pytest.approx(2 / 3)
