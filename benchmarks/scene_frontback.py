@@ -25,6 +25,11 @@ that region's log2 luminance per 10° of elevation: circumsolar brightening abov
 90° from a sun behind. ``perez_ahead``: a clear-sky model (Perez, Preetham's coefficients) fitted to that region's
 unclipped pixels with the sun free: does a sun ahead of the camera explain it better than one behind?
 
+The view's own objects' shading (issue 49, scene10; ``shading_cues``): the bottom half's spread and dark share, the
+ground's gradient below the horizon, the polarity of vertical steps, the vertical faces' shade between sky and
+ground. ``opposed_order``: how many of the clear maps' opposite views (the same place turned 180°) the shipped score
+orders right, i.e. how many wrong calls are the place's offset rather than the cue's direction.
+
 ``--fit`` prints the shipped rule's BACKLIGHT fitted on every map (least squares, as scene_eval.fit).
 """
 
