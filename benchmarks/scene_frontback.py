@@ -324,6 +324,20 @@ def opposed_order(rows: dict, name: str = "score") -> tuple[int, list[str]]:
     return right, backs
 
 
+def best_line(rows: dict, names=("top_bottom", "colour_share")) -> float:
+    """The ceiling of a rule on two features: the best share of the clear maps any line in their plane (720
+    directions, every threshold) calls right, chosen on the answers (in-sample: held out it can only do worse)."""
+    clear = [(f, t) for f, t in rows.values() if abs(t) >= CLEAR_EV]
+    x = np.array([[f[n] for n in names] for f, _ in clear])
+    back = np.array([t < 0 for _, t in clear])
+    best = 0.0
+    for angle in np.linspace(0, 2 * math.pi, 720, endpoint=False):
+        z = x @ [math.cos(angle), math.sin(angle)]
+        for cut in np.concatenate([z - 1e-9, z + 1e-9]):
+            best = max(best, float(np.mean((z < cut) == back)))
+    return best
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--envs", type=Path, required=True)
@@ -349,6 +363,10 @@ def main(argv=None) -> int:
               f"wrong(loso): {' '.join(a['wrong'])}")  # fmt: skip
     right, backs = opposed_order(rows)
     report["opposed_order"] = {"right": right, "pairs": len(backs)}
+    report["best_line_in_sample"] = best_line(rows)
+    print(
+        f"any line on top_bottom and colour_share, chosen on the answers: {100 * report['best_line_in_sample']:.0f} %"
+    )
     print(f"the shipped score orders {right} of {len(backs)} opposite clear pairs right (lower on the back-lit view)")
     report["maps"] = {m: {"truth_ev": t, **f} for m, (f, t) in rows.items()}
     if args.fit:

@@ -60,3 +60,10 @@ def test_opposed_order_counts_the_opposite_views_a_cue_orders(fb):
         "c_y000": ({"score": 0.0}, -0.5), "c_y180": ({"score": 1.0}, 0.5),  # not clear: not counted
     }  # fmt: skip
     assert fb.opposed_order(rows) == (1, ["a_y000", "b_y090"])
+
+
+def test_best_line_is_the_in_sample_ceiling(fb):
+    rows = {f"m{i}": ({"top_bottom": float(i), "colour_share": 0.0}, -1.5 if i < 3 else 1.5) for i in range(6)}
+    assert fb.best_line(rows) == 1.0  # separable: a threshold on top_bottom
+    rows["m5"] = ({"top_bottom": 0.0, "colour_share": 0.0}, 1.5)  # the same point as m0, the other answer
+    assert fb.best_line(rows) == pytest.approx(5 / 6)
