@@ -25,6 +25,11 @@ that region's log2 luminance per 10° of elevation: circumsolar brightening abov
 90° from a sun behind. ``perez_ahead``: a clear-sky model (Perez, Preetham's coefficients) fitted to that region's
 unclipped pixels with the sun free: does a sun ahead of the camera explain it better than one behind?
 
+The view's own objects' shading (issue 49, scene10; ``shading_cues``): the bottom half's spread and dark share, the
+ground's gradient below the horizon, the polarity of vertical steps, the vertical faces' shade between sky and
+ground. ``opposed_order``: how many of the clear maps' opposite views (the same place turned 180°) the shipped score
+orders right, i.e. how many wrong calls are the place's offset rather than the cue's direction.
+
 ``--fit`` prints the shipped rule's BACKLIGHT fitted on every map (least squares, as scene_eval.fit).
 """
 
@@ -86,6 +91,46 @@ def features(photo: np.ndarray) -> dict[str, float]:
         "chroma_spread": parts.colour_share * max(parts.contrast, 0.05),
         "sky_ground_blue": blue_red(srgb8_to_linear(photo[: h // 3])) - blue_red(srgb8_to_linear(photo[-(h // 3) :])),
         **sky_region(photo, lum),
+        **shading_cues(lum),
+    }
+
+
+#: shading_cues: a log2-luminance step (per pixel, after a 1-px blur) from which an edge counts
+_EDGE = 0.5
+
+
+def shading_cues(lum: np.ndarray) -> dict[str, float]:
+    """The view's own objects' shading (issue 49, scene10; chosen before any was scored), all in log2 luminance of
+    the (h, w) linear view, the horizon at mid-height (a level camera):
+    ``lower_contrast``: the spread of the bottom half (ground, the near sides of things): toward the light the
+    camera sees shaded sides beside lit tops and shadows falling toward it; lit from behind, surfaces lit evenly
+    and their shadows hidden behind them. ``lower_over_upper``: that spread minus the top half's.
+    ``lower_dark``: the share of the bottom half darker than a quarter of the view's median (shade toward the camera).
+    ``ground_gradient``: the band just below the horizon (rows h/2 .. 2h/3) over the bottom third: toward the sun
+    the far ground shines (forward scattering, sheen at grazing angles) and near things show their shaded side;
+    away from it the near ground nearer the anti-solar point is the brighter (the hot spot).
+    ``edge_polarity``: over the strong vertical steps (|Δ| > _EDGE between the rows above and below), the share
+    brighter above minus the share brighter below: toward the light, silhouettes against a bright sky and dark
+    faces under lit tops; lit from behind, lit faces against the sky and under them.
+    ``vertical_dark``: the band around the horizon (rows 0.4 h .. 0.6 h, where a level camera sees the vertical faces
+    of things: walls, trunks, hills) below the mean of the view's top and bottom fifths: toward the light those faces
+    are in their own shade between a bright sky (or lamp) and lit ground; lit from behind they face the light."""
+    import cv2
+
+    h, w = lum.shape
+    ll = cv2.GaussianBlur(np.log2(np.maximum(lum, 2.0**-13)).astype(np.float32), (0, 0), 1.0)
+    upper, lower = ll[: h // 2], ll[h // 2 :]
+    med = float(np.median(ll))
+    dy = ll[:-2] - ll[2:]  # above minus below
+    strong = np.abs(dy) > _EDGE
+    n = max(int(strong.sum()), 1)
+    return {
+        "lower_contrast": float(lower.std()),
+        "lower_over_upper": float(lower.std() - upper.std()),
+        "lower_dark": float((lower < med - 2).mean()),
+        "ground_gradient": float(ll[h // 2 : 2 * h // 3].mean() - ll[2 * h // 3 :].mean()),
+        "vertical_dark": float((ll[: h // 5].mean() + ll[-(h // 5) :].mean()) / 2 - ll[2 * h // 5 : 3 * h // 5].mean()),
+        "edge_polarity": float(((dy > _EDGE).sum() - (dy < -_EDGE).sum()) / n) if strong.any() else 0.0,
     }
 
 
@@ -223,6 +268,22 @@ RULES = {
     "glow >= 2 EV or lstsq": either(lambda train: lambda f: f["glow"] >= 2, lstsq_rule(["top_bottom", "contrast"])),
     "glow >= 3 EV or lstsq": either(lambda train: lambda f: f["glow"] >= 3, lstsq_rule(["top_bottom", "contrast"])),
     "lstsq top_bottom+contrast+glow": lstsq_rule(["top_bottom", "contrast", "glow"]),
+    # the view's own objects' shading (shading_cues; scene10)
+    "threshold lower_contrast": threshold_rule("lower_contrast"),
+    "threshold lower_over_upper": threshold_rule("lower_over_upper"),
+    "threshold lower_dark": threshold_rule("lower_dark"),
+    "threshold ground_gradient": threshold_rule("ground_gradient"),
+    "threshold edge_polarity": threshold_rule("edge_polarity"),
+    "threshold vertical_dark": threshold_rule("vertical_dark"),
+    "lstsq top_bottom+colour_share+vertical_dark": lstsq_rule(["top_bottom", "colour_share", "vertical_dark"]),
+    "lstsq top_bottom+colour_share+lower_contrast": lstsq_rule(["top_bottom", "colour_share", "lower_contrast"]),
+    "lstsq top_bottom+colour_share+lower_over_upper": lstsq_rule(["top_bottom", "colour_share", "lower_over_upper"]),
+    "lstsq top_bottom+colour_share+lower_dark": lstsq_rule(["top_bottom", "colour_share", "lower_dark"]),
+    "lstsq top_bottom+colour_share+ground_gradient": lstsq_rule(["top_bottom", "colour_share", "ground_gradient"]),
+    "lstsq top_bottom+colour_share+edge_polarity": lstsq_rule(["top_bottom", "colour_share", "edge_polarity"]),
+    "lstsq colour_share+ground_gradient+edge_polarity": lstsq_rule(
+        ["colour_share", "ground_gradient", "edge_polarity"]
+    ),
     "threshold mean_median": threshold_rule("mean_median"),
     "threshold contrast": threshold_rule("contrast"),
     "threshold top_bottom": threshold_rule("top_bottom"),
@@ -245,6 +306,36 @@ def score(rule, rows, train_of) -> dict:
         out[s] = (float(np.mean(v)) if v else float("nan"), len(v))
     out["wrong"] = sorted(m for m, r in right.items() if not r)
     return out
+
+
+def opposed_order(rows: dict, name: str = "score") -> tuple[int, list[str]]:
+    """The clear maps come in opposite views of one place (turned 180°: one back-lit, the other front-lit): over
+    those pairs, (how many the feature ``name`` orders right, i.e. lower on the back-lit view, the pairs' back-lit
+    maps). A rule's call is ``feature < threshold``: a pair ordered right but called wrong is the place's offset
+    (one view cannot see it), not the cue's direction."""
+    clear = {m for m, (_, t) in rows.items() if abs(t) >= CLEAR_EV}
+    right, backs = 0, []
+    for m in sorted(clear):
+        place, turn = m.rsplit("_y", 1)
+        other = f"{place}_y{(int(turn) + 180) % 360:03d}"
+        if rows[m][1] < 0 and other in clear:
+            backs.append(m)
+            right += rows[m][0][name] < rows[other][0][name]
+    return right, backs
+
+
+def best_line(rows: dict, names=("top_bottom", "colour_share")) -> float:
+    """The ceiling of a rule on two features: the best share of the clear maps any line in their plane (720
+    directions, every threshold) calls right, chosen on the answers (in-sample: held out it can only do worse)."""
+    clear = [(f, t) for f, t in rows.values() if abs(t) >= CLEAR_EV]
+    x = np.array([[f[n] for n in names] for f, _ in clear])
+    back = np.array([t < 0 for _, t in clear])
+    best = 0.0
+    for angle in np.linspace(0, 2 * math.pi, 720, endpoint=False):
+        z = x @ [math.cos(angle), math.sin(angle)]
+        for cut in np.concatenate([z - 1e-9, z + 1e-9]):
+            best = max(best, float(np.mean((z < cut) == back)))
+    return best
 
 
 def main(argv=None) -> int:
@@ -270,6 +361,13 @@ def main(argv=None) -> int:
               f"blender {100 * a['blender'][0]:3.0f}% npm {100 * a['npm'][0]:3.0f}% | cross shared "
               f"{100 * c['shared'][0]:3.0f}% blender {100 * c['blender'][0]:3.0f}% npm {100 * c['npm'][0]:3.0f}%  "
               f"wrong(loso): {' '.join(a['wrong'])}")  # fmt: skip
+    right, backs = opposed_order(rows)
+    report["opposed_order"] = {"right": right, "pairs": len(backs)}
+    report["best_line_in_sample"] = best_line(rows)
+    print(
+        f"any line on top_bottom and colour_share, chosen on the answers: {100 * report['best_line_in_sample']:.0f} %"
+    )
+    print(f"the shipped score orders {right} of {len(backs)} opposite clear pairs right (lower on the back-lit view)")
     report["maps"] = {m: {"truth_ev": t, **f} for m, (f, t) in rows.items()}
     if args.fit:
         x = np.array([[1.0, f["top_bottom"], f["colour_share"]] for f, _ in rows.values()])

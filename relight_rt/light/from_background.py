@@ -109,7 +109,9 @@ GREY_SHARE = 0.34
 #: the ambient colour is the photo's median colour with its saturation scaled by this (0: neutral)
 COLOUR_SATURATION = 0.1875
 #: the usual light's shape (step 6): luminance SH coefficients, camera-facing irradiance 1 (the mean of the
-#: benchmark scenes' true lights, each scaled so; the y, xy and yz terms set to 0: left-right symmetric)
+#: benchmark scenes' true lights, each scaled so; the y, xy and yz terms set to 0: left-right symmetric). The side is
+#: what loses most pairs to the paste (the true y alone: 78 -> 88 % on blender-data), but the view reads its sign on
+#: 58-79 % of side-lit maps and every weight given to that reading costs (benchmarks/scene_losses.py)
 SHAPE_PRIOR = (1.283, 0.0, 0.746, -0.216, 0.0, 0.0, -0.153, -0.148, 0.006)
 #: step 6: the weight of the rule's own shape against SHAPE_PRIOR, and the power on its back/front ratio
 SHAPE_WEIGHT = 0.25

@@ -34,3 +34,36 @@ def test_a_sun_ahead_is_told_from_one_behind(fb, elevation):
     behind = fb.perez_ahead(_sky(fb, 10.0, elevation), mask)
     assert ahead > 0.5 and behind < -0.5
     assert fb.perez_ahead(_sky(fb, 170.0, elevation), np.zeros_like(mask)) == 0.0  # no sky: no answer
+
+
+def test_shading_cues_read_a_silhouette_under_a_bright_sky(fb):
+    lum = np.full((96, 128), 0.2)
+    lum[:40] = 2.0  # a bright sky over the horizon
+    lum[40:58] = 0.02  # the dark faces of things toward the camera
+    cues = fb.shading_cues(lum)
+    assert cues["edge_polarity"] == pytest.approx(0.0, abs=1e-6)  # one step down at 40, one up at 58
+    assert cues["vertical_dark"] > 3
+    assert cues["lower_dark"] > 0 and cues["ground_gradient"] < 0  # the dark band reaches below the horizon
+    lit = np.full((96, 128), 0.2)
+    lit[:40] = 2.0
+    assert fb.shading_cues(lit)["edge_polarity"] == 1.0  # only brighter above
+    even = fb.shading_cues(np.full((96, 128), 0.3))
+    assert set(even) == {"lower_contrast", "lower_over_upper", "lower_dark", "ground_gradient", "vertical_dark",
+                         "edge_polarity"}  # fmt: skip
+    assert all(v == pytest.approx(0.0, abs=1e-5) for v in even.values())  # an even view: no cue (float32 blur)
+
+
+def test_opposed_order_counts_the_opposite_views_a_cue_orders(fb):
+    rows = {
+        "a_y000": ({"score": -0.5}, -2.0), "a_y180": ({"score": -0.1}, 2.0),  # ordered right, both called back
+        "b_y090": ({"score": 0.3}, -1.5), "b_y270": ({"score": 0.1}, 1.5),  # ordered wrong
+        "c_y000": ({"score": 0.0}, -0.5), "c_y180": ({"score": 1.0}, 0.5),  # not clear: not counted
+    }  # fmt: skip
+    assert fb.opposed_order(rows) == (1, ["a_y000", "b_y090"])
+
+
+def test_best_line_is_the_in_sample_ceiling(fb):
+    rows = {f"m{i}": ({"top_bottom": float(i), "colour_share": 0.0}, -1.5 if i < 3 else 1.5) for i in range(6)}
+    assert fb.best_line(rows) == 1.0  # separable: a threshold on top_bottom
+    rows["m5"] = ({"top_bottom": 0.0, "colour_share": 0.0}, 1.5)  # the same point as m0, the other answer
+    assert fb.best_line(rows) == pytest.approx(5 / 6)
