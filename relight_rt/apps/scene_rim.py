@@ -390,10 +390,10 @@ def fibres_in(patch: np.ndarray, at: tuple[int, int], window: tuple[int, int, in
 
 def body(alpha: np.ndarray, radius: float) -> np.ndarray:
     """The matte ``alpha`` ((h, w) float in [0, 1]) as the rim sees it: its holes (below 1/2, not touching the border)
-    and fragments (from 1/2) of fewer than (2 ``radius``)² pixels filled (alpha 1) and emptied (0), and what lies
+    and fragments (from 1/2) of fewer than (4 ``radius``)² pixels filled (alpha 1) and emptied (0), and what lies
     beyond 2 ``radius`` of the rest emptied too. Returns a new (h, w) float32."""
     a = np.array(alpha, dtype=np.float32)
-    least = max(4.0, (2 * radius) ** 2)
+    least = max(4.0, (4 * radius) ** 2)
     inside = (a >= 0.5).astype(np.uint8)
     for value, mask in ((1.0, 1 - inside), (0.0, inside)):  # holes, then fragments
         n, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
