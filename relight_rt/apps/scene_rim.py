@@ -179,18 +179,22 @@ def brightest(env, within=None, height: int = _SOURCE_HEIGHT, halo: bool = False
     directions ``within`` keeps, a function of the (h, 2h, 3) pixel directions; all by default), found on a copy at
     most ``height`` rows high (area-averaged: the power kept).
 
-    With ``halo``, a map that clips (its largest value reached by two channels or two pixels: a ceiling, not a
-    peak) gives the source the colour of its halo where that is the more saturated (``halo_colour``: the pixels
-    beside it whose brightest channel is at least the share of the ceiling ``HALO_LEVEL`` is of 8-bit white), its
-    power's luminance kept.
+    With ``halo``, a map that clips (its largest value reached again, by another channel or a pixel beside it: a
+    ceiling, not a peak) gives the source the colour of its halo where that is the more saturated (``halo_colour``:
+    the pixels beside it whose brightest channel is at least the share of the ceiling ``HALO_LEVEL`` is of 8-bit
+    white, linearised), its power's luminance kept.
 
     Returns:
         (direction (3,) unit, luminance-weighted, the map's frame; power (3,) RGB ∫ radiance dω over those pixels;
         their solid angle), or None when nothing there is lit.
     """
     arr = np.asarray(env, np.float32)
-    ceiling = float(arr.max()) if halo and arr.size else 0.0
-    clips = ceiling > 0 and int(np.count_nonzero(arr >= np.float32(ceiling * 0.999))) >= 2
+    ceiling, clips = 0.0, False
+    if halo and arr.size:  # a ceiling: the largest value reached twice within 4 pixels of where it is first reached
+        i, j, _ = np.unravel_index(int(np.argmax(arr)), arr.shape)
+        ceiling = float(arr[i, j].max())
+        near = arr[max(0, i - 4) : i + 5, max(0, j - 4) : j + 5]
+        clips = ceiling > 0 and int(np.count_nonzero(near >= np.float32(ceiling * 0.999))) >= 2
     if arr.shape[0] > height:
         arr = cv2.resize(arr, (2 * height, height), interpolation=cv2.INTER_AREA)
     h = arr.shape[0]
