@@ -393,23 +393,22 @@ def fibres_in(patch: np.ndarray, at: tuple[int, int], window: tuple[int, int, in
 
 
 def body(alpha: np.ndarray, radius: float) -> np.ndarray:
-    """The matte ``alpha`` ((h, w) float in [0, 1]) as the rim sees it: its holes (below 1/2, not touching the border)
-    and fragments (from 1/2) of fewer than (4 ``radius``)² pixels filled (alpha 1) and emptied (0), and what lies
-    beyond 2 ``radius`` of the rest emptied too. Returns a new (h, w) float32."""
+    """The matte ``alpha`` ((h, w) float in [0, 1]) as the rim sees it: its holes (places not quite opaque, alpha
+    under 0.99, cut off from the outside and from the border: a pinhole, a dip a blur left of one) and its fragments
+    (from 1/2) of fewer than (4 ``radius``)² pixels filled (alpha 1) and emptied (0), and what lies beyond 2
+    ``radius`` of the rest emptied too. Returns a new (h, w) float32."""
     a = np.array(alpha, dtype=np.float32)
+    h, w = a.shape
     least = max(4.0, (4 * radius) ** 2)
-    inside = (a >= 0.5).astype(np.uint8)
-    for value, mask in ((1.0, 1 - inside), (0.0, inside)):  # holes, then fragments
-        n, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
-        h, w = a.shape
+    for value, mask in ((1.0, a < 0.99), (0.0, a >= 0.5)):  # holes, then fragments
+        n, labels, stats, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=8)
         x, y, bw, bh, area = (stats[1:, i] for i in range(5))
         border = (x == 0) | (y == 0) | (x + bw == w) | (y + bh == h)
         small = (area < least) & (~border if value == 1.0 else True)
         if small.any():
             a[np.concatenate([[False], small])[labels]] = value
-            inside = (a >= 0.5).astype(np.uint8)
     r = max(1, int(math.ceil(2 * radius)))
-    near = cv2.dilate(inside, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1)))
+    near = cv2.dilate((a >= 0.5).astype(np.uint8), cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1)))
     a[near == 0] = 0
     return a
 
