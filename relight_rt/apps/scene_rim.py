@@ -394,17 +394,17 @@ def fibres_in(patch: np.ndarray, at: tuple[int, int], window: tuple[int, int, in
 
 def body(alpha: np.ndarray, radius: float) -> np.ndarray:
     """The matte ``alpha`` ((h, w) float in [0, 1]) as the rim sees it: its holes (places not quite opaque, alpha
-    under 0.99, cut off from the outside and from the border: a pinhole, a dip a blur left of one) and its fragments
-    (from 1/2) of fewer than (4 ``radius``)² pixels filled (alpha 1) and emptied (0), and what lies beyond 2
-    ``radius`` of the rest emptied too. Returns a new (h, w) float32."""
+    under 0.99, cut off from the outside and from the border: a pinhole, a dip a blur left of one, an earring's loop)
+    of fewer than (8 ``radius``)² pixels filled (alpha 1), its fragments (from 1/2) of fewer than (4 ``radius``)²
+    emptied (0), and what lies beyond 2 ``radius`` of the rest emptied too (sizes chosen, not fitted: a gap between
+    an arm and the body stays outside). Returns a new (h, w) float32."""
     a = np.array(alpha, dtype=np.float32)
     h, w = a.shape
-    least = max(4.0, (4 * radius) ** 2)
-    for value, mask in ((1.0, a < 0.99), (0.0, a >= 0.5)):  # holes, then fragments
+    for value, mask, least in ((1.0, a < 0.99, (8 * radius) ** 2), (0.0, a >= 0.5, (4 * radius) ** 2)):
         n, labels, stats, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=8)
         x, y, bw, bh, area = (stats[1:, i] for i in range(5))
         border = (x == 0) | (y == 0) | (x + bw == w) | (y + bh == h)
-        small = (area < least) & (~border if value == 1.0 else True)
+        small = (area < max(4.0, least)) & (~border if value == 1.0 else True)
         if small.any():
             a[np.concatenate([[False], small])[labels]] = value
     r = max(1, int(math.ceil(2 * radius)))
