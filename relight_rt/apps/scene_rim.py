@@ -37,8 +37,8 @@ A clipped source carries no colour (the clip cuts its largest channels: a sunris
 halo's, the unclipped glow round it, where that is the more saturated (``halo_colour``; in a photo the pixels within
 half the region's size whose brightest channel is at least ``HALO_LEVEL``; in a map that clips at a ceiling, those
 beside the source at least that level of the ceiling, linearised). Against the rim of each benchmark view's own
-brightest source in frame, the photo rim's colour errs by a median 4.1° with the halo, 8.6° from the clipped pixels
-(21 views with a visible rim; 3.3° and 5.4° over all 64 with a region).
+brightest source in frame, the photo rim's colour errs by a median 4.6° with the halo, 8.6° from the clipped pixels
+(21 views with a visible rim; 3.4° and 5.2° over all 64 with a region; ``benchmarks/scene_rim_photo.py``).
 
 Where on the outline (``key_rim``): a back light glows through fine translucent fibres (hair, fuzz, a thin fabric's
 edge) and only grazes smooth opaque cloth. The matte tells which (``fibre_share``): strands make a soft, wide alpha
