@@ -14,7 +14,9 @@ from relight_rt.apps.scene_rim import (
     RIM_MAX,
     RIM_PHOTO,
     body,
+    fibre_patch,
     fibre_share,
+    fibres_in,
     key_rim,
     panorama_rim,
     photo_rim,
@@ -252,3 +254,23 @@ def test_a_map_that_clips_gives_its_source_its_halos_colour():
     env_white[32, 64] = (9000.0, 8000.0, 7000.0)  # one bright pixel, not a ceiling: its own colour
     _, own = panorama_rim(env_white, rot, 1.0)
     assert own[0] / own[2] < 1.6
+
+
+def test_the_fibres_are_read_on_the_photo_and_placed_with_the_person():
+    """composite reads the fibres on the person's own matte and puts them where ``place`` puts the person: the soft
+    top of the matte (at half size here) is strands, its hard sides are not, and ``fibres_in`` cuts the placed map to
+    a window of the frame."""
+    from relight_rt.apps.scene_place import place
+
+    alpha = _hair_on_top()
+    rgba = np.dstack([np.full(alpha.shape + (3,), 0.3, np.float32), alpha])
+    placed = place(rgba, (400, 400, 3), position=(0.5, 0.9), height=0.3)
+    patch = fibre_patch(alpha, placed)
+    assert patch.shape == (placed.height, placed.width)
+    assert patch[:4, placed.width // 2].max() > 0.9  # the strands on top, at the box's top
+    assert patch[placed.height // 2, :3].max() < 0.1 and patch[placed.height // 2, -3:].max() < 0.1  # hard sides
+    window = (placed.top - 5, placed.top + 20, placed.left - 7, placed.left + placed.width + 7)
+    cut = fibres_in(patch, (placed.top, placed.left), window)
+    assert cut.shape == (25, placed.width + 14)
+    np.testing.assert_array_equal(cut[5:, 7:-7], patch[:20])
+    assert not cut[:5].any() and not cut[:, :7].any()
