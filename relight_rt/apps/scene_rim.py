@@ -425,12 +425,13 @@ def key_rim(composed: np.ndarray, alpha: np.ndarray, direction: np.ndarray, colo
     outline's outward normal in the image plane (the gradient of the blurred matte); band, where the outline is
     fibres (``fibres``), 2 · alpha × the share of outside pixels within ``radius`` (1 at a hard edge, falling to 0 a
     few ``radius`` inside), and where it is a smooth opaque edge the same within ``GRAZE_WIDTH`` of ``radius``: a
-    thin grazing line (a back light only grazes smooth cloth). Added, not multiplied: a dark coat's rim is as bright
-    as a light one's.
+    thin grazing line (a back light only grazes smooth cloth; across a soft transition both light its fractional
+    pixels, the share sets how far the glow reaches into the opaque body). Added, not multiplied: a dark coat's rim
+    is as bright as a light one's.
 
     The rim follows the body's outline, not the matte's fringes (``body``): a hole in the matte or a fragment of it
-    smaller than the rim's own reach (a speck of old backdrop in hair, a crumb of matte beside the body) is neither
-    outside nor outline.
+    a few times smaller than the rim's reach across (a pinhole, an earring's loop, a crumb of matte beside the body)
+    is neither outside nor outline.
 
     Args:
         composed: (h, w, 3) linear frame with the person laid over the background.
