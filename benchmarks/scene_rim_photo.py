@@ -103,10 +103,11 @@ def region_features(view: np.ndarray) -> dict | None:
     mean luminance of the unclipped pixels 0-1/2, 1/2-1, 1-2 and 2-4 equivalent radii from it, over the frame's
     median."""
     clipped = (view.max(2) >= 250).astype(np.uint8)
-    n, labels, stats, _ = cv2.connectedComponentsWithStats(clipped, connectivity=8)
+    n, labels, stats, centroids = cv2.connectedComponentsWithStats(clipped, connectivity=8)
     if n <= 1:
         return None
     j = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
+    row = float(centroids[j][1]) / view.shape[0]  # its centre's row, a fraction of the height (0: the top)
     region = (labels == j).astype(np.uint8)
     area = int(stats[j, cv2.CC_STAT_AREA])
     contours, _ = cv2.findContours(region, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
@@ -118,7 +119,8 @@ def region_features(view: np.ndarray) -> dict | None:
     for lo, hi in ((0, 0.5), (0.5, 1), (1, 2), (2, 4)):
         ring = (dist > r * lo) & (dist <= r * hi) & (clipped == 0)
         glow.append(float(lum[ring].mean()) / med if ring.any() else 0.0)
-    return {"area": area / clipped.size, "compact": 4 * math.pi * area / perimeter**2, "glow": glow}
+    return {"area": area / clipped.size, "compact": 4 * math.pi * area / perimeter**2, "glow": glow, "row": row,
+            "clipped": float(clipped.mean())}  # fmt: skip
 
 
 def glowing(f: dict | None, level: float, max_area: float = 0.1) -> bool:
@@ -139,6 +141,12 @@ GATES = {  # name: rule(view row) -> fires
     "compactness >= 0.5 (region <= 10 %) and back-lit": lambda r: (
         r["region"] is not None and r["region"]["area"] <= 0.1 and r["region"]["compact"] >= 0.5 and r["back_call"]
     ),
+    "compact region in the upper half": lambda r: r["found"] and r["region"]["row"] < 0.5,
+    "compact region in the upper half, and back-lit": lambda r: (
+        r["found"] and r["region"]["row"] < 0.5 and r["back_call"]
+    ),
+    "compact region, at most 5 % of the frame clipped": lambda r: r["found"] and r["region"]["clipped"] <= 0.05,
+    "never": lambda r: False,
 }
 
 
