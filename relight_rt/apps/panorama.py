@@ -42,8 +42,9 @@ light and the exposure are the map's as before.
 The rim (``rim=True``, the default here: the light is known). A degree-2 SH light spreads a small bright source over
 the whole body; behind the person (a sun or window in or near the view) it should light the outline on its side.
 ``relight_rt.apps.scene_rim.panorama_rim`` finds the brightest source behind the person in the map and the radiance
-its outline scatters forward (the source's power over a grazing lobe, not the map's mean); ``relight_rt.apps.scene``'s
-step 7 adds it to the outline on that side. ``source`` (the brightest source anywhere) is kept for its shading.
+its outline scatters forward (the source's power over a grazing lobe, not the map's mean; in its halo's colour where the
+map clips there); ``relight_rt.apps.scene``'s step 7 adds it to the outline on that side, wide where the matte says
+strands, a thin line where it says a smooth edge. ``source`` (the brightest source anywhere) is kept for its shading.
 """
 
 from __future__ import annotations

@@ -49,9 +49,11 @@ Steps (all colour arithmetic in linear light; both photos are read as sRGB, as c
    (``light_wrap=True``, the default; ``_light_wrap``): inside the person's edge, within ``WRAP_RADIUS`` of the
    frame's height, the person is lifted toward the background's light behind the edge where that is brighter
    (``WRAP_STRENGTH`` of the excess at most), as a rim of back light and a lens's glare would; and a rim
-   (``_key_rim``; a degree-2 SH light spreads a small source behind the person over the whole body instead): the
-   outline, within ``RIM_RADIUS`` of the person's height, gets the rim's radiance added as the fibres there
-   would scatter it (all round for a source straight behind, on its side for one to the side). The wrap and the
+   (``scene_rim.key_rim``; a degree-2 SH light spreads a small source behind the person over the whole body
+   instead): the outline, within ``RIM_RADIUS`` of the person's height where the matte says strands (hair, fuzz:
+   a soft, wide edge, ``scene_rim.fibre_share`` of the person's photo's matte) and in a thin grazing line where it
+   says a smooth hard edge, gets the rim's radiance added as the fibres there would scatter it (all round for a
+   source straight behind, on its side for one to the side), not on the matte's specks and pinholes. The wrap and the
    rim read the same light, the radiance just behind the outline scattered toward the camera: where both lift a
    pixel it takes the larger of the two, not their sum. The source and the radiance:
    ``relight_rt.apps.scene_rim``. ``rim="auto"``: a photo gets it where both say so, a compact clipped source in
@@ -108,7 +110,9 @@ from .scene_place import (
     parse_position,
     place,
 )
-from .scene_rim import photo_rim, rim_facing
+from .scene_rim import fibre_patch, fibres_in, key_rim, photo_rim, wide_blur
+
+_key_rim = key_rim  # the name benchmarks/scene_eval.py and light_wrap_eval.py call
 
 __all__ = [
     "Placement", "SceneLighting", "Shadows", "camera_match", "composite", "grade", "parse_position", "place",
@@ -206,17 +210,6 @@ def _white_balance(dec, light: np.ndarray, reference: np.ndarray) -> np.ndarray:
     return (light * (ref / cur)[None, :]).astype(np.float32)
 
 
-def _wide_blur(img: np.ndarray, sigma: float) -> np.ndarray:
-    """A Gaussian blur of ``sigma`` pixels (reflected border); from ``sigma`` >= 4 on a half-size copy (area
-    halving, the rest of the blur there, resized back up): the same to ~1e-3 of its range, a quarter of the work."""
-    if sigma < 4 or min(img.shape[:2]) < 16:
-        return cv2.GaussianBlur(img, (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
-    h, w = img.shape[:2]
-    small = cv2.resize(img, ((w + 1) // 2, (h + 1) // 2), interpolation=cv2.INTER_AREA)
-    small = cv2.GaussianBlur(small, (0, 0), math.sqrt((sigma / 2) ** 2 - 0.25), borderType=cv2.BORDER_REFLECT)
-    return cv2.resize(small, (w, h), interpolation=cv2.INTER_LINEAR)
-
-
 def _light_wrap(
     composed: np.ndarray, behind: np.ndarray, alpha: np.ndarray, radius: float, strength: float = WRAP_STRENGTH
 ) -> np.ndarray:
@@ -243,12 +236,12 @@ def _light_wrap(
     """
     a = np.clip(alpha, 0, 1).astype(np.float32)
     outside = 1 - a
-    reach = _wide_blur(outside, radius)
+    reach = wide_blur(outside, radius)
     out = np.array(composed, dtype=np.float32)
     edge = (a > 0) & (reach > 1e-3)  # the band: only these pixels change
     if not edge.any():
         return out
-    near = _wide_blur(behind * outside[..., None], radius)[edge]
+    near = wide_blur(behind * outside[..., None], radius)[edge]
     near /= reach[edge][:, None]
     band = (a[edge] * reach[edge])[:, None]
     c = out[edge]
@@ -258,62 +251,9 @@ def _light_wrap(
 
 def _rim_gain(parts, light: np.ndarray) -> float:
     """A back key's irradiance facing it (relight_rt.light.from_background's rule: ``KEY_BACK`` × the ambient) over the
-    irradiance of the person's camera-facing side under ``light`` (its luminance): ``_key_rim``'s gain."""
+    irradiance of the person's camera-facing side under ``light`` (its luminance): ``key_rim``'s gain."""
     front = float(FRONT_WEIGHTS @ (np.asarray(light, np.float64) @ REC709))
     return KEY_BACK * AMBIENT_GAIN * parts.level / front if front > 1e-12 else 0.0
-
-
-def _key_rim(composed: np.ndarray, alpha: np.ndarray, direction: np.ndarray, colour, radius: float,
-             view: tuple[float, float, float] | None = None) -> np.ndarray:  # fmt: skip
-    """A source behind the person as a rim on their outline (step 7 of the module docstring; the rule and the
-    rim's radiance: ``relight_rt.apps.scene_rim``).
-
-    The source (``direction``, the subject frame: x toward the camera, y the image's right, z up) lights the
-    silhouette, and what grows there (hair, the fuzz of skin and cloth) scatters it forward, toward the camera: a
-    rim on the source's side, all round for a source straight behind. So ``colour`` (linear RGB radiance) is
-    added to each pixel inside the matte near the outside, times facing · band: facing =
-    ``scene_rim.rim_facing`` of n, the outline's outward normal in the image plane (the gradient of the blurred
-    matte): all round for a source straight behind, most where n faces its projection, that side only for one to
-    the side (a Lambertian max(0, n · d) would show almost none of a source nearly behind), band = 2 · alpha × the
-    share of outside pixels within ``radius``
-    (1 at a hard edge, falling to 0 a few ``radius`` inside). Added, not multiplied: a dark coat's rim is as
-    bright as a light one's.
-
-    Args:
-        composed: (h, w, 3) linear frame with the person laid over the background.
-        alpha: (h, w) the person's matte in this window.
-        direction: (3,) unit direction the source is in (x < 0: behind the person; otherwise nothing).
-        colour: (3,) linear RGB radiance of the rim (>= 0), or a scalar grey.
-        radius: Gaussian sigma of the reach, pixels (> 0).
-        view: (focal, top, left) in pixels, the window's corner relative to the frame's centre: each point's own
-            ray from the camera (``rim_facing``'s rays); None: every point on the camera's axis.
-
-    Returns:
-        New (h, w, 3) float32.
-    """
-    out = np.array(composed, dtype=np.float32)
-    d = np.asarray(direction, np.float64)
-    rgb = np.broadcast_to(np.maximum(np.asarray(colour, np.float32), 0), (3,))
-    if not (d[0] < 0 and rgb.max() > 0):
-        return out
-    a = np.clip(alpha, 0, 1).astype(np.float32)
-    reach = _wide_blur(1 - a, radius)
-    edge = (a > 0) & (reach > 1e-3)
-    if not edge.any():
-        return out
-    soft = _wide_blur(a, radius)
-    gx = cv2.Sobel(soft, cv2.CV_32F, 1, 0)[edge]  # toward the image's right
-    gy = cv2.Sobel(soft, cv2.CV_32F, 0, 1)[edge]  # toward its bottom
-    norm = np.maximum(np.hypot(gx, gy), 1e-6)
-    rays = None
-    if view is not None:
-        focal, top, left = view
-        rows, cols = np.nonzero(edge)
-        rays = ((left + cols + 0.5) / focal, -(top + rows + 0.5) / focal)
-    facing = rim_facing(-gx / norm, gy / norm, d, rays)  # outward = −gradient; image up = −rows = +z
-    band = np.minimum(2 * a[edge] * reach[edge], 1)
-    out[edge] += (facing * band)[:, None] * rgb[None, :]
-    return out
 
 
 def _dominant_direction(light: np.ndarray) -> tuple[np.ndarray | None, float]:
@@ -736,6 +676,8 @@ def composite(
     if hz is None:
         hz = find_horizon(bg, fov)
     placed = place(rgba, bg.shape, pos, frac, hz, cam)
+    # the rim's fibres: read on the photo's matte, placed with the person (before any blur)
+    fibres = None if lighting.rim_dir is None else (fibre_patch(rgba[..., 3], placed), (placed.top, placed.left))
     noise_add = 0.0
     if match_camera:  # blur now, noise after the sRGB encoding
         placed, noise_add = camera_match(bg, placed, float(plate_blur) if placed.full_body else 0.0)
@@ -780,8 +722,8 @@ def composite(
             window_alpha = np.zeros(lin.shape[:2], np.float32)
             window_alpha[py0 - ry0 : py1 - ry0, px0 - rx0 : px1 - rx0] = p[..., 3]
             view = ((wb / 2) / math.tan(math.radians(fov) / 2), ry0 - hb / 2, rx0 - wb / 2)
-            rimmed = None if rim_dir is None else _key_rim(lin, window_alpha, rim_dir, lighting.rim_colour, rim_radius,
-                                                           view)  # fmt: skip
+            rimmed = None if fibres is None else key_rim(lin, window_alpha, rim_dir, lighting.rim_colour, rim_radius,
+                                                         view, fibres_in(*fibres, (ry0, ry1, rx0, rx1)))  # fmt: skip
             if wrap:  # both read the light behind the outline: each pixel takes the larger lift, not the sum
                 lin = _light_wrap(lin, behind, window_alpha, wrap_radius)
             if rimmed is not None:

@@ -8,6 +8,7 @@ from _graphs import diffuse_models_dir, models_dir, write_person
 
 from relight_rt import Relighter, RelightError, RuntimeConfig, lights
 from relight_rt.apps.scene import composite, parse_position
+from relight_rt.apps.scene_rim import RIM_PHOTO
 from relight_rt.image.color import linear_to_srgb, srgb_to_linear
 
 __all__ = ["diffuse_models_dir", "models_dir"]  # fixtures
@@ -25,6 +26,18 @@ def flat_person(h=150, w=100, colour=(150, 110, 90)):
     mask[20:140, 30:70] = 1.0
     mask[20:140, 30:35] = 0.5  # a soft band on the left
     return img, mask
+
+
+def strands(mask, side):
+    """``mask`` with its box's last 8 columns on ``side`` ("left" or "right") a ramp of alpha from 1 to 1/8 outward:
+    a soft, wide edge (hair, fuzz) where the rest of the outline is hard: scene_rim.fibre_share 1 there."""
+    out = mask.copy()
+    ramp = np.arange(8, 0, -1, dtype=np.float32) / 8
+    if side == "right":
+        out[20:140, 62:70] = ramp
+    else:
+        out[20:140, 30:38] = ramp[::-1]
+    return out
 
 
 # the flat person (150 x 100, body rows 20-140, centred) put back on its own pixels of a same-size background
@@ -280,20 +293,21 @@ def test_rim_auto_where_a_source_is_in_frame_and_the_light_reads_back_lit(diffus
     key is a back key, none when the key is in front (the same sun), none from a back key with no source in frame
     (``rim=True`` gives that one); by default (``rim=False``) none; a rim neither a bool nor "auto" is refused."""
     img, mask = flat_person()
-    mask[20:140, 30:35] = 1.0  # hard edges: left at column 30, right at 69
+    mask[20:140, 30:35] = 1.0  # hard edges: left at column 30
+    mask = strands(mask, "right")  # the right edge soft: the full rim (a hard one keeps a thin line)
     bg = np.full((150, 100, 3), 110, np.uint8)
     sun = bg.copy()
     sun[8:12, 86:90] = 255  # upper right, beside the person's box
-    left, right = np.s_[40:120, 30], np.s_[40:120, 69]
+    left, right = np.s_[40:120, 26:40], np.s_[40:120, 58:74]
 
-    def gain(background, key, rim="auto"):
+    def gain(background, key, rim="auto"):  # the light the rim adds across each edge, per row, over RIM_PHOTO
         args = {**SAME, "key_light": key}
         on = srgb_to_linear(composite(diffuse, img, background, mask=mask, **args, rim=rim))
         off = srgb_to_linear(composite(diffuse, img, background, mask=mask, **args, rim=False))
-        return [float(on[s].mean() / off[s].mean()) - 1 for s in (left, right)]
+        return [float((on[s] - off[s]).mean(axis=(0, 2)).sum()) / RIM_PHOTO for s in (left, right)]
 
     l, r = gain(sun, "150,30")
-    assert r > 0.3 and r > l + 0.3  # a rim of RIM_PHOTO on a person of ~0.2: clearly seen, on the sun's side
+    assert r > 0.3 and r > 4 * l  # RIM_PHOTO over a third of a pixel at least (0.43) on the sun's side
     assert gain(sun, "30,30") == pytest.approx([0, 0], abs=1e-6)  # a front key: the source in frame is not behind
     assert gain(bg, "150,30") == pytest.approx([0, 0], abs=1e-6)  # a back key, no source in frame
     assert gain(bg, "150,30", rim=True)[1] > 0.05  # asked for: the back key's rim
@@ -307,17 +321,17 @@ def test_a_key_nearly_behind_still_lights_its_side_of_the_outline():
     """A sun nearly behind the person (dawn's: 16° right of the axis, 5° up) lights the outline on its side with its
     whole rim: the rim takes the key's side in the image plane, not the Lambertian n · d (0.28 of it here), and a
     key straight behind lights the whole outline."""
-    from relight_rt.apps.scene import _key_rim
+    from relight_rt.apps.scene_rim import key_rim
 
     alpha = np.zeros((120, 120), np.float32)
     alpha[20:100, 40:80] = 1.0
     composed = np.full((120, 120, 3), 0.1, np.float32)
     d = np.array([-0.96, 0.27, 0.09])
-    out = _key_rim(composed, alpha, d / np.linalg.norm(d), 1.0, 2.0)
+    out = key_rim(composed, alpha, d / np.linalg.norm(d), 1.0, 2.0)
     right, left = out[60, 79, 0] / 0.1 - 1, out[60, 40, 0] / 0.1 - 1
     assert right > 0.6 and 0 <= left < 0.15 * right  # most of the gain (Lambertian: at most 0.28); the far side
     # little: the body hides a source 16° to the right from it (scene_rim.rim_facing)
-    behind = _key_rim(composed, alpha, np.array([-1.0, 0.0, 0.0]), 1.0, 2.0)
+    behind = key_rim(composed, alpha, np.array([-1.0, 0.0, 0.0]), 1.0, 2.0)
     assert behind[60, 40, 0] == pytest.approx(behind[60, 79, 0], rel=1e-3) and behind[20, 60, 0] > 0.15
     assert behind[60, 60, 0] == pytest.approx(0.1)  # the body's middle untouched
 
@@ -326,7 +340,7 @@ def test_the_wrap_and_the_rim_share_the_light_behind_the_outline(diffuse):
     """Both lift the outline by the light behind it (step 7): with both on, each pixel takes the larger lift, not
     the sum (summed, the lab view's half body drew a white outline); the rim alone and the wrap alone as before."""
     img, mask = flat_person()
-    mask[20:140, 30:35] = 1.0
+    mask = strands(mask, "left")  # the left edge soft: the full rim, as wide as the wrap
     dim = np.zeros((9, 3), np.float32)
     dim[0] = 0.05  # a dark person before a bright background: the wrap lifts the edge
     kw = {**SAME, "light": dim, "exposure": "physical"}

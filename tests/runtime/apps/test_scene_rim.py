@@ -3,13 +3,26 @@ radiance along grazing directions, not the map's mean."""
 
 import math
 
+import cv2
 import numpy as np
 import pytest
 
 from relight_rt import envmap
 from relight_rt.apps.panorama import panorama_view, view_rotation
-from relight_rt.apps.scene import _key_rim
-from relight_rt.apps.scene_rim import LOBE_SR, RIM_MAX, RIM_PHOTO, panorama_rim, photo_rim, rim_colour, rim_facing
+from relight_rt.apps.scene_rim import (
+    LOBE_SR,
+    RIM_MAX,
+    RIM_PHOTO,
+    body,
+    fibre_patch,
+    fibre_share,
+    fibres_in,
+    key_rim,
+    panorama_rim,
+    photo_rim,
+    rim_colour,
+    rim_facing,
+)
 from relight_rt.image.color import REC709
 from relight_rt.light.from_background import FRONT_WEIGHTS
 
@@ -97,7 +110,7 @@ def test_the_rim_is_added_so_a_dark_coat_gets_it_too():
     d /= np.linalg.norm(d)
     rgb = np.array([0.3, 0.2, 0.1], np.float32)
     for level in (0.01, 0.3):
-        out = _key_rim(np.full((120, 120, 3), level, np.float32), alpha, d, rgb, 2.0)
+        out = key_rim(np.full((120, 120, 3), level, np.float32), alpha, d, rgb, 2.0, fibres=1.0)  # strands
         added = out[60, 79] - level
         assert added[0] > 0.5 * rgb[0] and added[0] > added[1] > added[2]
         far = out[60, 40] - level  # the left side: the body hides most of a source 16 degrees to the right
@@ -108,7 +121,7 @@ def _box_rim(d, size=160):
     """The rim a unit grey source in ``d`` adds to a hard-edged box, at the middle of its four sides."""
     alpha = np.zeros((size, size), np.float32)
     alpha[30:130, 50:110] = 1.0
-    out = _key_rim(np.zeros((size, size, 3), np.float32), alpha, np.asarray(d) / np.linalg.norm(d), 1.0, 2.0)
+    out = key_rim(np.zeros((size, size, 3), np.float32), alpha, np.asarray(d) / np.linalg.norm(d), 1.0, 2.0)
     return {"top": out[30, 80, 0], "bottom": out[129, 80, 0], "left": out[80, 50, 0], "right": out[80, 109, 0]}
 
 
@@ -146,8 +159,118 @@ def test_straight_behind_is_along_each_points_own_ray():
     alpha[190:390, 40:80] = 1.0  # the head's top at the frame's centre (row 200), the feet 190 rows below
     focal = 400.0  # the window is the frame: its corner 200 rows, 60 columns before the centre
     zero = np.zeros((400, 120, 3), np.float32)
-    on = _key_rim(zero, alpha, np.array([-1.0, 0.0, 0.0]), 1.0, 2.0, view=(focal, -200.0, -60.0))[..., 0]
-    flat = _key_rim(zero, alpha, np.array([-1.0, 0.0, 0.0]), 1.0, 2.0)[..., 0]
+    on = key_rim(zero, alpha, np.array([-1.0, 0.0, 0.0]), 1.0, 2.0, view=(focal, -200.0, -60.0))[..., 0]
+    flat = key_rim(zero, alpha, np.array([-1.0, 0.0, 0.0]), 1.0, 2.0)[..., 0]
     head, feet = on[200, 79], on[380, 79]
     assert head > 0.7 * flat[200, 79] and feet < 0.6 * head and on[190, 60] >= head
     assert flat[380, 79] == pytest.approx(flat[200, 79], rel=1e-3)
+
+
+def _hair_on_top(size=160, ramp=10):
+    """A box whose top edge is a wide soft ramp of alpha (strands) and whose other edges are hard."""
+    alpha = np.zeros((size, size), np.float32)
+    alpha[30:130, 50:110] = 1.0
+    alpha[30 - ramp : 30, 50:110] = (np.arange(1, ramp + 1, dtype=np.float32) / (ramp + 1))[:, None]
+    return alpha
+
+
+def test_the_matte_tells_strands_from_a_smooth_edge():
+    """fibre_share: a binary matte has no fibres; a matte soft on top (a ramp of 10 px) and hard elsewhere has them
+    on top only; a matte soft everywhere alike has none (its own hard edge is that soft)."""
+    hard = _hair_on_top(ramp=0)
+    assert not fibre_share(hard).any()
+    hair = fibre_share(_hair_on_top())
+    assert hair[25, 80] == pytest.approx(1.0) and hair[80, 50] == 0 and hair[80, 109] == 0 and hair[129, 80] == 0
+    even = cv2.GaussianBlur(hard, (0, 0), 3)
+    assert fibre_share(even)[80, 50] < 0.2 and fibre_share(even)[30, 80] < 0.2
+
+
+def test_a_back_light_glows_through_strands_and_only_grazes_a_smooth_edge():
+    """A source straight behind: the strands on top take the full rim over their width; the hard sides keep a thin
+    line (their outermost pixel lit, a third of the strands' light or less, nothing two pixels in). Without the
+    rule every edge took the same wide band (sunset_toward: an orange outline down both legs)."""
+    alpha = _hair_on_top()
+    out = key_rim(np.zeros((160, 160, 3), np.float32), alpha, np.array([-1.0, 0.0, 0.0]), 1.0, 3.0)[..., 0]
+    top = out[16:40, 80].sum()  # across the strands and the body's top
+    side = out[80, 50:70].sum()  # across the left side
+    assert side > 0.05 and side < 0.35 * top
+    assert out[80, 50] > 0.1 and out[80, 53] < 0.01  # a line, not a band
+    wide = key_rim(np.zeros((160, 160, 3), np.float32), alpha, np.array([-1.0, 0.0, 0.0]), 1.0, 3.0, fibres=1.0)
+    assert wide[..., 0][80, 50:70].sum() > 2.5 * side  # the same edge taken as strands: the old wide band
+
+
+def test_the_rim_follows_the_body_not_the_mattes_specks_and_holes():
+    """A crumb of matte beside the body and a pinhole in it get no rim of their own (each took the rim's full
+    radiance before: the rim drew the matte's fringes); the body's outline keeps its rim."""
+    alpha = np.zeros((120, 120), np.float32)
+    alpha[20:100, 40:80] = 1.0
+    alpha[50:52, 90:92] = 1.0  # a crumb 10 px right of the body
+    alpha[60:62, 70:72] = 0.0  # a pinhole 8 px inside its right edge
+    out = key_rim(np.zeros((120, 120, 3), np.float32), alpha, np.array([-1.0, 0.0, 0.0]), 1.0, 3.0, fibres=1.0)
+    edge = out[30, 79, 0]
+    assert edge > 0.3
+    assert out[50:52, 90:92, 0].max() < 0.05 * edge
+    assert out[58:64, 68:74, 0].max() < 0.05 * edge and out[60:62, 70:72].max() == 0
+    kept = body(alpha, 3.0)
+    assert kept[50, 90] == 0 and kept[60, 70] == 1 and kept[30, 60] == 1
+    blurred = cv2.GaussianBlur(alpha, (0, 0), 1.0)  # the pinhole a dip to ~0.6 after a camera's blur: still no rim
+    assert blurred[60:62, 70:72].min() > 0.5
+    soft = key_rim(np.zeros((120, 120, 3), np.float32), blurred, np.array([-1.0, 0.0, 0.0]), 1.0, 3.0, fibres=1.0)
+    assert soft[58:64, 66:72, 0].max() <= soft[40:46, 66:72, 0].max() + 0.01  # what the body's edge gives anyway
+
+
+def _disc(img, cy, cx, r, value):
+    yy, xx = np.mgrid[: img.shape[0], : img.shape[1]]
+    img[(yy - cy) ** 2 + (xx - cx) ** 2 <= r * r] = value
+
+
+def test_a_clipped_sun_takes_its_colour_from_its_halo():
+    """bl-sunrise_toward's case: the sun clipped white inside an orange glow. The clip carries no colour (its rim was
+    white: R/B 1.0); the glow just outside it does: the rim is orange (R/B > 2), its luminance RIM_PHOTO as before.
+    A white window in a dim wall (no bright glow round it) stays white."""
+    photo = np.full((120, 160, 3), 60, np.uint8)
+    _disc(photo, 50, 80, 9, (240, 150, 60))  # the glow, unclipped (brightest channel < 250)
+    _disc(photo, 50, 80, 4, 255)  # the clipped disc
+    direction, rgb = photo_rim(photo, 60.0)
+    assert rgb[0] / rgb[2] > 2 and float(rgb @ REC709) == pytest.approx(RIM_PHOTO * -direction[0], rel=1e-6)
+    window = np.full((120, 160, 3), 60, np.uint8)
+    _disc(window, 50, 80, 9, (120, 80, 40))  # a dim orange wall round it
+    _disc(window, 50, 80, 4, 255)
+    _, white = photo_rim(window, 60.0)
+    np.testing.assert_allclose(white / white.max(), 1.0, atol=1e-6)
+
+
+def test_a_map_that_clips_gives_its_source_its_halos_colour():
+    """A panorama whose sun clipped at a ceiling (a flat 3 x 3 of equal white values) in an orange halo: the rim takes
+    the halo's colour at the sun's luminance; an unclipped sun (one peak pixel) keeps its own colour."""
+    rot = view_rotation(0, 0)
+    env = np.full((64, 128, 3), 0.2, np.float32)
+    env[30:35, 62:67] = (400.0, 200.0, 60.0)  # the halo
+    env[31:34, 63:66] = 1000.0  # the clipped sun, straight ahead of the camera: behind the person
+    _, rgb = panorama_rim(env, rot, 1.0)
+    assert rgb[0] / rgb[2] > 4
+    env_white = env.copy()
+    env_white[31:34, 63:66] = 0.0
+    env_white[32, 64] = (9000.0, 8000.0, 7000.0)  # one bright pixel, not a ceiling: its own colour
+    _, own = panorama_rim(env_white, rot, 1.0)
+    assert own[0] / own[2] < 1.6
+
+
+def test_the_fibres_are_read_on_the_photo_and_placed_with_the_person():
+    """composite reads the fibres on the person's own matte and puts them where ``place`` puts the person: the soft
+    top of the matte (at half size here) is strands, its hard sides are not, and ``fibres_in`` cuts the placed map to
+    a window of the frame."""
+    from relight_rt.apps.scene_place import place
+
+    alpha = _hair_on_top()
+    rgba = np.dstack([np.full(alpha.shape + (3,), 0.3, np.float32), alpha])
+    placed = place(rgba, (400, 400, 3), position=(0.5, 0.9), height=0.3)
+    patch = fibre_patch(alpha, placed)
+    assert patch.shape == (placed.height, placed.width)
+    assert patch[:4, placed.width // 2].max() > 0.9  # the strands on top, at the box's top
+    assert patch[placed.height // 2, :3].max() < 0.1 and patch[placed.height // 2, -3:].max() < 0.1  # hard sides
+    window = (placed.top - 5, placed.top + 20, placed.left - 7, placed.left + placed.width + 7)
+    cut = fibres_in(patch, (placed.top, placed.left), window)
+    assert cut.shape == (25, placed.width + 14)
+    np.testing.assert_array_equal(cut[5:, 7:-7], patch[:20])
+    assert not cut[:5].any() and not cut[:, :7].any()
