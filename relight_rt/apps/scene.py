@@ -686,7 +686,7 @@ def composite(
             verticals put it (``relight_rt.apps.scene_place.estimate_horizon``; where they see the camera turned
             up, no higher than the lowest sky, ``sky_line``), or 0.5 (a level camera) where they say nothing, at
             most ``HORIZON_ESTIMATE_MAX`` (``scene_place.find_horizon``); with standing people in the background
-            (found when ``relighter`` mattes automatically), as ``relight_rt.apps.scene_people`` combines both.
+            (looked for unless the relighter's matting is "off"), as ``relight_rt.apps.scene_people`` combines both.
         meter: "frame" or "background" (step 8).
         match_camera: match the background camera's blur and noise (step 5).
         light_wrap: let the background's light wrap over the person's edge where it is brighter (step 7).

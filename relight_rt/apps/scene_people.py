@@ -22,7 +22,9 @@ widened by ``VERTICALS_SE``: what it errs by on panorama views, where the focal 
 agree when they differ by at most ``DISAGREE`` combined standard errors: then their inverse-variance mean; when they
 disagree, the people's (they stand on the ground the new person will stand on; the verticals of a street's bus, a
 slanted façade or a lens's distortion mislead them); without verticals, the people's; without people, the verticals'
-rule as before (``scene_place.find_horizon``).
+rule as before (``scene_place.find_horizon``). Only people standing on the ground in view count: their feet below the
+verticals' horizon (feet above it stand on something higher, or are a pattern the graphs took for a person: a lobby's
+lit wall panels), or, without verticals, below ``FEET_LEVEL`` (a camera about level).
 
 **Room** (``make_room``): a full body placed by default (no position given) whose box lies over a person already there
 (more than ``OVERLAP`` of its box on theirs) moves along its row (the same depth, so the same size) to the nearest
@@ -76,6 +78,7 @@ RATIO_SPREAD = 0.12  #: the prior on person height / camera height is known to t
 OUTLIER = 3.0  #: with >= 3 people, one whose standardised residual exceeds this is left out (once)
 VERTICALS_SE = 0.03  #: the verticals' standard error is widened by this (their errors on panorama views: median 0.022)
 DISAGREE = 3.0  #: the two readings disagree beyond this many combined standard errors
+FEET_LEVEL = 0.4  #: without verticals, people whose feet are higher than this row do not stand on the ground in view
 OVERLAP = 0.1  #: a new person is over someone when more than this share of their box lies on that person's box
 
 
@@ -143,18 +146,24 @@ def find_people(photo, matter) -> list[Someone]:
 
 
 def people_finder(relighter):
-    """A ``photo -> list[Someone]`` for ``relighter``'s compositing: the bundled person graphs when it mattes photos
-    automatically (``relighter.matter`` is set: matting not "off") and the graphs are there; else None."""
-    if getattr(relighter, "matter", None) is None:
-        return None
-    from ..person.matting import shared_matter
-
+    """A ``photo -> list[Someone]`` for ``relighter``'s compositing: the bundled person graphs (``shared_matter``,
+    on ``relighter.config.device``; nobody where they are not installed), or None where its config turns automatic
+    matting off (nobody is looked for)."""
     config = getattr(relighter, "config", None)
-    try:
-        matter = shared_matter(device=getattr(config, "device", "cpu"))
-    except RelightError:  # no graphs installed: nobody is looked for
+    if getattr(config, "matting", "auto") == "off":
         return None
-    return lambda photo: find_people(photo, matter)
+    device = getattr(config, "device", "cpu")
+
+    def finder(photo) -> list[Someone]:
+        from ..person.matting import shared_matter
+
+        try:
+            matter = shared_matter(device=device)  # loaded at the first full body (~0.3 s), then kept
+        except RelightError:  # no graphs installed: nobody is looked for
+            return []
+        return find_people(photo, matter)
+
+    return finder
 
 
 def _fit(feet: np.ndarray, tall: np.ndarray, k0: float) -> tuple[np.ndarray, np.ndarray]:
@@ -169,10 +178,11 @@ def _fit(feet: np.ndarray, tall: np.ndarray, k0: float) -> tuple[np.ndarray, np.
     return cov @ r, cov
 
 
-def people_horizon(people: list[Someone], camera_height: float = CAMERA_M) -> tuple[float, float] | None:
-    """The horizon the full bodies among ``people`` give and its standard error (fractions of the height; module
-    docstring), or None without any."""
-    full = [p for p in people if p.full_body]
+def people_horizon(people: list[Someone], camera_height: float = CAMERA_M, below: float = 0.0
+                   ) -> tuple[float, float] | None:  # fmt: skip
+    """The horizon the full bodies among ``people`` whose feet are lower than the row ``below`` give, and its
+    standard error (fractions of the height; module docstring), or None without any."""
+    full = [p for p in people if p.full_body and p.feet > below]
     if not full:
         return None
     feet = np.array([p.feet for p in full], np.float64)
@@ -210,7 +220,9 @@ def combine_horizons(verticals: tuple[float, float] | None, people: tuple[float,
 def scene_horizon(photo, fov: float, people: list[Someone], camera_height: float = CAMERA_M) -> float:
     """The horizon composite uses when none is given: ``combine_horizons`` of the verticals and ``people``; without
     people ``scene_place.find_horizon``; at most ``HORIZON_ESTIMATE_MAX``."""
-    both = combine_horizons(horizon_reading(photo, fov), people_horizon(people, camera_height))
+    verticals = horizon_reading(photo, fov)
+    below = FEET_LEVEL if verticals is None else verticals[0]
+    both = combine_horizons(verticals, people_horizon(people, camera_height, below))
     if both is None:
         return find_horizon(photo, fov)
     return min(max(both[0], 0.0), HORIZON_ESTIMATE_MAX)

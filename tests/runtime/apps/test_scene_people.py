@@ -161,3 +161,25 @@ def test_place_among_people_takes_the_horizon_from_the_people():
         raise AssertionError("looked for people for a cut-off person")
 
     assert place_among_people(cut, bg, None, None, None, CAMERA_M, 60.0, no_call)[1] == 0.5
+
+
+def test_people_are_not_looked_for_with_matting_off():
+    from types import SimpleNamespace
+
+    from relight_rt.apps.scene_people import people_finder
+
+    assert people_finder(SimpleNamespace(config=SimpleNamespace(matting="off", device="cpu"))) is None
+    finder = people_finder(SimpleNamespace(config=SimpleNamespace(matting="auto", device="cpu")))
+    assert callable(finder)
+    assert finder(np.full((240, 320, 3), 0.5, np.float32)) == []  # the bundled graphs: nobody in an even grey
+
+
+def test_only_people_standing_on_the_ground_in_view_count():
+    high = standing(0.34, 0.06)  # feet above the verticals' horizon: a balcony, or a pattern taken for a person
+    low = standing(0.9, 0.45)
+    assert people_horizon([high, low], below=0.5)[0] == pytest.approx(0.45, abs=1e-9)
+    assert people_horizon([high], below=0.5) is None
+    # no verticals (an even grey): feet above FEET_LEVEL do not stand on the ground a level camera sees
+    bg = np.full((400, 600, 3), 128, np.uint8)
+    placed, hz = place_among_people(figure(), bg, None, None, None, CAMERA_M, 60.0, lambda photo: [high])
+    assert hz == 0.5
