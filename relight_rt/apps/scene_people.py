@@ -13,7 +13,9 @@ rows (similar triangles), so each full body gives a line h = k · feet + b with 
 people at different depths fix both (their heads' line and their feet's line meet at the horizon, whatever c); one
 person, or people at one depth, fix the horizon through the prior k ≈ ``PERSON_M`` / camera height. Weighted least
 squares, each person's height known to ``PERSON_SPREAD`` of itself (people's heights, posture, the matte's box), the
-prior to ``RATIO_SPREAD`` (people and standing cameras vary); the horizon's standard error by the delta method. With
+prior to ``RATIO_SPREAD`` (cameras from about 0.9 to 2 m: full bodies are often shot from waist height; at 0.12,
+for standing cameras only, the people's horizon lay a median 0.17 of the height from the verticals' on 61 real photos
+of people, far outside its error); the horizon's standard error by the delta method. With
 three people or more, one whose residual exceeds ``OUTLIER`` standard deviations (a child, someone on a step) is
 left out once.
 
@@ -74,7 +76,7 @@ EDGE = 0.01  #: a box edge within this fraction of a border is cut by it
 UPRIGHT = 1.8  #: a standing full body is at least this many times as tall as wide
 MIN_HEIGHT = 0.06  #: ... and at least this fraction of the photo's height tall
 PERSON_SPREAD = 0.07  #: a person's height in the photo is known to this share of itself (heights, posture, box)
-RATIO_SPREAD = 0.12  #: the prior on person height / camera height is known to this share of itself (cameras 1.3-1.7 m)
+RATIO_SPREAD = 0.35  #: the prior on person height / camera height is known to this share of itself (module docstring)
 OUTLIER = 3.0  #: with >= 3 people, one whose standardised residual exceeds this is left out (once)
 VERTICALS_SE = 0.03  #: the verticals' standard error is widened by this (their errors on panorama views: median 0.022)
 DISAGREE = 3.0  #: the two readings disagree beyond this many combined standard errors

@@ -41,7 +41,7 @@ def test_one_person_gives_the_horizon_through_the_standing_camera():
     for hz in (0.3, 0.45, 0.6):
         got, se = people_horizon([standing(0.9, hz)])
         assert got == pytest.approx(hz, abs=1e-9)  # the prior's own camera: exact
-        assert 0.01 < se < 0.1  # ... but only as sure as the camera's height is
+        assert 0.05 < se < 0.25  # ... but only as sure as the camera's height is
 
 
 def test_people_at_several_depths_find_the_horizon_whatever_the_camera():
