@@ -13,17 +13,16 @@ rows (similar triangles), so each full body gives a line h = k · feet + b with 
 people at different depths fix both (their heads' line and their feet's line meet at the horizon, whatever c); one
 person, or people at one depth, fix the horizon through the prior k ≈ ``PERSON_M`` / camera height. Weighted least
 squares, each person's height known to ``PERSON_SPREAD`` of itself (people's heights, posture, the matte's box), the
-prior to ``RATIO_SPREAD`` (cameras from about 0.9 to 2 m: full bodies are often shot from waist height; at 0.12,
-for standing cameras only, the people's horizon lay a median 0.17 of the height from the verticals' on 61 real photos
-of people, far outside its error); the horizon's standard error by the delta method. With
-three people or more, one whose residual exceeds ``OUTLIER`` standard deviations (a child, someone on a step) is
-left out once.
+prior to ``RATIO_SPREAD`` (cameras from about 0.9 to 2 m: full bodies are often shot from waist height; at 0.12, for
+standing cameras only, the people's horizon lay a median 0.17 of the height from the verticals' on 61 real photos of
+people, far outside its error); the horizon's standard error by the delta method. With three people or more, one
+whose residual exceeds ``OUTLIER`` standard deviations (a child, someone on a step) is left out once.
 
 **Which horizon** (``combine_horizons``): the verticals' reading (``scene_place.horizon_reading``, its standard error
 widened by ``VERTICALS_SE``: what it errs by on panorama views, where the focal length is a guess) and the people's
 agree when they differ by at most ``DISAGREE`` combined standard errors: then their inverse-variance mean; when they
-disagree, the people's (they stand on the ground the new person will stand on; the verticals of a street's bus, a
-slanted façade or a lens's distortion mislead them); without verticals, the people's; without people, the verticals'
+disagree, the people's (they stand on the ground the new person will stand on; slanted edges taken for verticals, or
+a lens's distortion, mislead the verticals); without verticals, the people's; without people, the verticals'
 rule as before (``scene_place.find_horizon``). Only people standing on the ground in view count: their feet below the
 verticals' horizon (feet above it stand on something higher, or are a pattern the graphs took for a person: a lobby's
 lit wall panels), or, without verticals, below ``FEET_LEVEL`` (a camera about level).
