@@ -45,11 +45,15 @@ most about 1/3 under that sky) or blue (log2 B/R at least ``SKY_BLUE``: a clear 
 pad at dusk); a run that reaches the bottom edge is a backdrop, not a sky over ground (and when more such runs
 reach it than stop above it, there is no sky line). With sky in at least ``SKY_MIN_COLUMNS`` of the columns, the
 ``SKY_QUANTILE`` of their lower ends is the sky line (a bound: poles, wires and branches end runs higher), and
-``find_horizon`` (what ``relight_rt.apps.scene.composite`` uses) puts the horizon no higher than it where the
+``find_horizon`` (composite's without people) puts the horizon no higher than it where the
 verticals see the camera turned up: a camera turned up at a launch pad, whose towers' convergence reads a horizon
 too high (the focal length is a guess), would otherwise stand a large person in the sky above the pad's lights.
 Alone, without the verticals, it is not used: a bright wall or curtain over a darker floor, a calm sea, a backdrop
 behind a portrait over the sitter's dark clothes read as sky.
+
+People standing in the background tell the horizon too (their heads and feet): ``relight_rt.apps.scene_people``
+combines their reading with the verticals' (``horizon_reading``: the verticals' answer and its standard error) and
+falls back on ``find_horizon`` where nobody stands whole in view.
 """
 
 from __future__ import annotations
