@@ -256,6 +256,7 @@ def make_room(placed: Placement, people: list[Someone], background_shape: tuple[
         if free.size:
             shift = int(free[0]) - left
             feet_x = None if placed.feet_x is None else placed.feet_x + shift
+            log.info("composite: the person moved %+d px along their row, off someone already in the background", shift)
             return replace(placed, left=left + shift, feet_x=feet_x)
     where = "at the given position" if not moved else "and no free ground on its row"
     log.warning(
