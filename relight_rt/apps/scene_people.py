@@ -28,9 +28,10 @@ verticals' horizon (feet above it stand on something higher, or are a pattern th
 lit wall panels), or, without verticals, below ``FEET_LEVEL`` (a camera about level).
 
 **Room** (``make_room``): a full body placed by default (no position given) whose box lies over a person already there
-(more than ``OVERLAP`` of its box on theirs) moves along its row (the same depth, so the same size) to the nearest
-place where it overlaps nobody and stays in the picture; with no such place, or at a given position, it stays and a
-warning says so. Cut-off people (half bodies, portraits) keep their photo's framing and are not moved.
+(more than ``OVERLAP`` of its box on theirs, widened by ``BESIDE``) moves along its row (the same depth, so the same
+size) to the nearest place where it overlaps nobody and stays in the picture; with no such place, or at a given
+position, it stays and a warning says so. Cut-off people (half bodies, portraits) keep their photo's framing and are
+not moved.
 """
 
 from __future__ import annotations
@@ -80,7 +81,8 @@ OUTLIER = 3.0  #: with >= 3 people, one whose standardised residual exceeds this
 VERTICALS_SE = 0.03  #: the verticals' standard error is widened by this (their errors on panorama views: median 0.022)
 DISAGREE = 3.0  #: the two readings disagree beyond this many combined standard errors
 FEET_LEVEL = 0.4  #: without verticals, people whose feet are higher than this row do not stand on the ground in view
-OVERLAP = 0.1  #: a new person is over someone when more than this share of their box lies on that person's box
+OVERLAP = 0.02  #: a new person is over someone when more than this share of their box lies on that person's box ...
+BESIDE = 0.1  #: ... widened by this share of its width on each side (the segmentation's box misses a bag, an elbow)
 
 
 @dataclass(frozen=True)
@@ -245,7 +247,9 @@ def make_room(placed: Placement, people: list[Someone], background_shape: tuple[
     if not placed.full_body or not people:
         return placed
     hb, wb = background_shape[:2]
-    boxes = np.array([p.box for p in people], np.float64) * [wb, hb, wb, hb]
+    boxes = np.array([p.box for p in people], np.float64)
+    pad = BESIDE * (boxes[:, 2] - boxes[:, 0])
+    boxes = np.stack([boxes[:, 0] - pad, boxes[:, 1], boxes[:, 2] + pad, boxes[:, 3]], axis=1) * [wb, hb, wb, hb]
     top, left, w, h = placed.top, placed.left, placed.width, placed.height
     if _over(np.array([left]), top, w, h, boxes)[0] <= OVERLAP:
         return placed
