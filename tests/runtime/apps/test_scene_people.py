@@ -5,6 +5,7 @@ import logging
 
 import numpy as np
 import pytest
+from _graphs import diffuse_models_dir
 
 from relight_rt import RelightError
 from relight_rt.apps import scene_people
@@ -18,6 +19,8 @@ from relight_rt.apps.scene_people import (
 )
 from relight_rt.apps.scene_place import CAMERA_M, PERSON_M, place
 from relight_rt.person.matting import Region
+
+__all__ = ["diffuse_models_dir"]  # fixtures
 
 
 def standing(feet, horizon, x=0.5, metres=PERSON_M, camera=CAMERA_M, full=True):
@@ -183,3 +186,33 @@ def test_only_people_standing_on_the_ground_in_view_count():
     bg = np.full((400, 600, 3), 128, np.uint8)
     placed, hz = place_among_people(figure(), bg, None, None, None, CAMERA_M, 60.0, lambda photo: [high])
     assert hz == 0.5
+
+
+def test_composite_stands_a_full_body_off_the_people_found_and_by_their_horizon(diffuse_models_dir, monkeypatch):
+    from relight_rt import Relighter, RuntimeConfig
+    from relight_rt.apps import scene
+
+    relighter = Relighter(RuntimeConfig(models=diffuse_models_dir, device="cpu", detail=False))
+    img = np.zeros((150, 100, 3), np.uint8)
+    img[:] = (150, 110, 90)
+    mask = np.zeros((150, 100), np.float32)
+    mask[20:140, 30:70] = 1.0  # a whole body, feet in frame
+    bg = np.full((200, 300, 3), 90, np.uint8)  # no verticals
+    kw = {"mask": mask, "meter": "background", "shadow": False, "match_camera": False, "light_wrap": False}
+
+    def person_box(out):
+        rows = np.flatnonzero((np.abs(out - 90 / 255).max(2) > 0.02).any(1))
+        cols = np.flatnonzero((np.abs(out - 90 / 255).max(2) > 0.02).any(0))
+        return rows[0], rows[-1] + 1, cols[0], cols[-1] + 1
+
+    monkeypatch.setattr(scene, "people_finder", lambda r: None)
+    y0, y1, x0, x1 = person_box(scene.composite(relighter, img, bg, **kw))  # a level camera's 0.5
+    # someone stands where the person would, and with another further back puts the horizon at 0.3
+    here = standing(y1 / 200, 0.3, x=(x0 + x1) / 600)
+    there = standing(0.6, 0.3, x=0.9)
+    monkeypatch.setattr(scene, "people_finder", lambda r: (lambda photo: [here, there]))
+    z0, z1, u0, u1 = person_box(scene.composite(relighter, img, bg, **kw))
+    assert z1 == pytest.approx(y1, abs=1)  # the same feet row
+    assert (z1 - z0) == pytest.approx((y1 - y0) * (y1 / 200 - 0.3) / (y1 / 200 - 0.5), abs=3)  # taller: horizon 0.3
+    hx0, _, hx1, _ = here.box
+    assert u0 >= hx1 * 300 or u1 <= hx0 * 300  # clear of the person there
