@@ -3,7 +3,7 @@
     python benchmarks/scene_contact_sheet.py --out runs/scene/contact \\
         --person full:PHOTO[:MASK] --person half:PHOTO[:MASK] --person portrait:PHOTO[:MASK] ... \\
         --hdri ../shared/hdri --views sunset:20,0 dawn:30,0 ... --photos PLACE.jpg ... [--size 640x480] \\
-        [--rim on|auto|off]
+        [--rim on|auto|off] [--no-people]
 
 Each person (its kind, "full", "half" or "portrait", is only a label: ``relight_rt.scene_place`` tells from the
 matte how the photo framed them) goes into every place: a panorama view (``NAME:AZ,EL[,FOV]`` of ``--hdri``, by
@@ -71,9 +71,12 @@ def main(argv=None) -> int:
                     help="the rim of a source behind the person on photos (composite's rim=True, 'auto', False; "
                     "views: on unless off)")  # fmt: skip
     ap.add_argument("--models", default=None)
+    ap.add_argument("--no-people", action="store_true",
+                    help="look for nobody in the places (as with matting off: the horizon from the verticals alone, "
+                    "no room made beside people there); the people's masks must be given")  # fmt: skip
     args = ap.parse_args(argv)
     size = parse_size(args.size)
-    rl = Relighter(RuntimeConfig(models=args.models, device="cpu"))
+    rl = Relighter(RuntimeConfig(models=args.models, device="cpu", matting="off" if args.no_people else "auto"))
     places = []  # (name, kind, thing)
     for spec in args.views:
         name, view = spec.split(":", 1)

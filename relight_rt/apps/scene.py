@@ -20,7 +20,8 @@ Steps (all colour arithmetic in linear light; both photos are read as sRGB, as c
    y = ``DEFAULT_FEET``), as tall as perspective makes them for a level camera ``camera_height`` metres above the
    ground (default ``CAMERA_M``, a standing camera) whose horizon is the row ``horizon`` (default: where the
    background's verticals put it, below any sky where they see the camera turned up, else 0.5, a level camera's:
-   ``scene_place.find_horizon``);
+   ``scene_place.find_horizon``; with standing people in the background, their heads' and feet's, off people there:
+   ``scene_people``);
    ``height`` (a fraction of the background's height) overrides that.
    A *cut-off* person (a half body or a portrait) is placed as their photo framed them: their relative height
    kept and every border that cut them on the same border of the background. Parts beyond the edges are cut off.
@@ -100,13 +101,13 @@ from ..light.from_background import (
 )
 from ..person.masks import AUTO, resolve_mask
 from .scene_camera import blur_sigma, camera_blur, grey, noise_sigma
+from .scene_people import people_finder, place_among_people
 from .scene_place import (
     CAMERA_M,
     Placement,
     check_camera_height,
     check_height,
     check_horizon,
-    find_horizon,
     parse_position,
     place,
 )
@@ -624,7 +625,8 @@ def composite(
         horizon: the horizon's row, a fraction of the background's height in [0, 1]; None: where the background's
             verticals put it (``relight_rt.apps.scene_place.estimate_horizon``; where they see the camera turned
             up, no higher than the lowest sky, ``sky_line``), or 0.5 (a level camera) where they say nothing, at
-            most ``HORIZON_ESTIMATE_MAX`` (``scene_place.find_horizon``).
+            most ``HORIZON_ESTIMATE_MAX`` (``scene_place.find_horizon``); with standing people in the background
+            (looked for unless the relighter's matting is "off"), as ``relight_rt.apps.scene_people`` combines both.
         meter: "frame" or "background" (step 8).
         match_camera: match the background camera's blur and noise (step 5).
         light_wrap: let the background's light wrap over the person's edge where it is brighter (step 7).
@@ -673,9 +675,7 @@ def composite(
     lighting = scene_lighting(relighter, dec, parts, bg_light, key, light, white_balance=white_balance, rim=rim,
                               rim_key=rim_key)
     rgba = relight_person(relighter, dec, lighting, mode)
-    if hz is None:
-        hz = find_horizon(bg, fov)
-    placed = place(rgba, bg.shape, pos, frac, hz, cam)
+    placed, hz = place_among_people(rgba, bg, pos, frac, hz, cam, fov, people_finder(relighter))
     # the rim's fibres: read on the photo's matte, placed with the person (before any blur)
     fibres = None if lighting.rim_dir is None else (fibre_patch(rgba[..., 3], placed), (placed.top, placed.left))
     noise_add = 0.0

@@ -45,11 +45,15 @@ most about 1/3 under that sky) or blue (log2 B/R at least ``SKY_BLUE``: a clear 
 pad at dusk); a run that reaches the bottom edge is a backdrop, not a sky over ground (and when more such runs
 reach it than stop above it, there is no sky line). With sky in at least ``SKY_MIN_COLUMNS`` of the columns, the
 ``SKY_QUANTILE`` of their lower ends is the sky line (a bound: poles, wires and branches end runs higher), and
-``find_horizon`` (what ``relight_rt.apps.scene.composite`` uses) puts the horizon no higher than it where the
+``find_horizon`` (composite's without people) puts the horizon no higher than it where the
 verticals see the camera turned up: a camera turned up at a launch pad, whose towers' convergence reads a horizon
 too high (the focal length is a guess), would otherwise stand a large person in the sky above the pad's lights.
 Alone, without the verticals, it is not used: a bright wall or curtain over a darker floor, a calm sea, a backdrop
 behind a portrait over the sitter's dark clothes read as sky.
+
+People standing in the background tell the horizon too (their heads and feet): ``relight_rt.apps.scene_people``
+combines their reading with the verticals' (``horizon_reading``: the verticals' answer and its standard error) and
+falls back on ``find_horizon`` where nobody stands whole in view.
 """
 
 from __future__ import annotations
@@ -66,7 +70,7 @@ from ..image.color import REC709, SRGB8_TO_LINEAR
 
 __all__ = [
     "CAMERA_M", "DEFAULT_FEET", "HORIZON_ESTIMATE_MAX", "PERSON_M", "Framing", "Placement", "check_camera_height",
-    "estimate_horizon", "find_horizon", "framing", "parse_position", "place", "sky_line",
+    "estimate_horizon", "find_horizon", "framing", "horizon_reading", "parse_position", "place", "sky_line",
 ]
 
 ALPHA_BOX = 0.005  #: the person's box: matte above this
@@ -217,6 +221,13 @@ def estimate_horizon(photo: np.ndarray, fov: float = 60.0) -> float | None:
     Returns:
         A fraction (below 0 or above 1 when the horizon lies outside the picture), or None.
     """
+    found = horizon_reading(photo, fov)
+    return None if found is None else found[0]
+
+
+def horizon_reading(photo: np.ndarray, fov: float = 60.0) -> tuple[float, float] | None:
+    """``estimate_horizon``'s answer with its standard error (from the agreeing segments' spread alone, both
+    fractions of the height), or None."""
     grey = cv2.cvtColor(_as_uint8(photo), cv2.COLOR_RGB2GRAY)
     h, w = grey.shape
     if w > _HORIZON_WIDTH:
@@ -254,11 +265,12 @@ def estimate_horizon(photo: np.ndarray, fov: float = 60.0) -> float | None:
     # how precisely the agreeing segments fix the horizon: u's standard error, as rows of the picture
     ga, ra = g[agree], r[agree]
     se_u = math.sqrt(float(ra @ ra) / max(ga.size - 1, 1) / max(float(ga @ ga), 1e-12))
-    if f * f * se_u / h > MAX_HORIZON_ERROR:
+    se = f * f * se_u / h
+    if se > MAX_HORIZON_ERROR:
         return None
     tilt = math.degrees(math.atan(-u * f))
     tilt = max(-MAX_TILT, min(MAX_TILT, tilt))
-    return (cy + f * math.tan(math.radians(tilt))) / h
+    return (cy + f * math.tan(math.radians(tilt))) / h, se
 
 
 def sky_line(photo: np.ndarray) -> float | None:

@@ -56,13 +56,14 @@ def add_parser(subparsers) -> None:
     add_light_options(p, required=False)
     add_key_light_option(p)
     p.add_argument("--position", metavar="X,Y", help="where the feet (a cut-off person's bottom centre) go, fractions "
-                   "of the background (default: a full body stands at y = 0.92 or below a low horizon, a cut-off one "
-                   "on the borders its photo cut it by)")  # fmt: skip
+                   "of the background (default: a full body stands at y = 0.92 or below a low horizon, off the people "
+                   "there, a cut-off one on the borders its photo cut it by)")  # fmt: skip
     p.add_argument("--height", type=float, metavar="H", help="the person's height, fraction of the background's "
                    "(default: from perspective for a full body, as in its own photo for a cut-off one)")  # fmt: skip
     p.add_argument("--horizon", type=float, default=None, metavar="Y",
                    help="the horizon's row, fraction of the background's height (default: where the background's "
-                   "verticals put it, else 0.5, a level camera's; with --view, where the view's elevation puts it)")
+                   "verticals and the people standing in it put it, else 0.5, a level camera's; with --view, where "
+                   "the view's elevation puts it)")  # fmt: skip
     p.add_argument("--camera-height", default=None, metavar="M",
                    help="the background camera's height above the ground in metres, which with the horizon sets a "
                    "full body's size (default 1.5: a standing camera; lower it for a camera held low)")  # fmt: skip
