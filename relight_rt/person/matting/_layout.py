@@ -388,12 +388,12 @@ def backed_logits(logits: np.ndarray, lift: np.ndarray) -> np.ndarray:
     sees as a person) made theirs: BACKED_EDGE (0.73) within BACKED_DEPTH canvas pixels of the outline of what they
     then hold, where the guided filter is to follow the photo's edges, and BACKED_INSIDE (0.95) further in. At 0.73
     everywhere, a body the pose graph half-sees as a whole stayed translucent inside (an embracing couple's shirts
-    and faces at alpha 0.6-0.75 over a third of them): relit, the old photo showed through. Measured
-    (benchmarks/people_masks_eval.py, --inset 1; translucent: the share of the mask's interior, two edge bands in, at
-    alpha 0.05-0.95; BACKED_INSIDE and BACKED_DEPTH chosen on photos half A among 3-5 and 2-5 px, within 0.0002): half A
-    IoU 0.9238 -> 0.9240, translucent interior 2.1 % -> 1.5 % (photos over 5 %: 15 -> 9); half B 0.9011 -> 0.9014,
-    3.5 % -> 2.1 % (18 -> 12); the clip 0.9248 -> 0.9247, 2.2 % -> 1.2 %. Everywhere at 0.95: the clip 0.9234
-    (the legs' outline)."""
+    and faces at alpha 0.6-0.75 over a third of them): relit, the old photo showed through. Measured (IoU:
+    benchmarks/people_masks_eval.py --inset 1; translucent: benchmarks/matte_translucent.py, the share of the mask's
+    interior at alpha 0.05-0.95; BACKED_INSIDE and BACKED_DEPTH chosen on photos half A among 3, 5 and 2, 3, 5 px, IoU
+    within 0.0002 of each other): half A IoU 0.9238 -> 0.9240, translucent 2.24 % -> 1.56 % (images over 5 %: 15 -> 9);
+    half B 0.9011 -> 0.9014, 3.63 % -> 2.22 % (17 -> 12); the clip 0.9248 -> 0.9247, 2.18 % -> 1.17 % (13 -> 6).
+    BACKED_INSIDE everywhere (no edge): the clip 0.9234 (the legs' outline)."""
     out = np.where(lift, np.float32(BACKED_EDGE), logits).astype(np.float32)
     k = 2 * BACKED_DEPTH + 1
     inner = cv2.erode((out > 0).astype(np.uint8), np.ones((k, k), np.uint8)).astype(bool)
