@@ -28,6 +28,7 @@ from ._layout import (
     COVERED,
     PEER_HEIGHT,
     as_people,
+    backed_logits,
     blended,
     box_area,
     box_beside,
@@ -423,16 +424,15 @@ class PersonMatter:
 
     def _backed(self, rgb: np.ndarray, person: Person) -> Person:
         """A pose-graph person with the pixels it half-sees (probability >= _BACKED) that the selfie graph on the
-        same region sees as a person (>= 0.5) made part of them (logit 1: the guided filter then follows the
-        photo's edges there). The pose graph half-sees dark trousers (the parkour runner's legs at 0.1-0.5 in
-        several frames) and clothes before a background of their colour; the selfie graph alone takes in shadows
-        and the wall behind, so only what both see is added. One selfie-graph run per person (~10 ms). Measured
-        (benchmarks/people_masks_eval.py, _BACKED 0.05-0.3): clip 0.914 -> 0.917, photos half A 0.843 -> 0.847-0.849."""
+        same region sees as a person (>= 0.5) made part of them (:func:`backed_logits`: soft at the outline, sure
+        inside). The pose graph half-sees dark trousers (the parkour runner's legs at 0.1-0.5 in several frames) and
+        clothes before a background of their colour; the selfie graph alone takes in shadows and the wall behind, so
+        only what both see is added. ~10 ms. Measured (_BACKED 0.05-0.3): clip 0.914 -> 0.917, photos A +0.004-0.006."""
         roi = self._roi_prob(rgb, person.region) > 0.5
         lift = roi & (person.logits > np.float32(np.log(_BACKED / (1.0 - _BACKED)))) & (person.logits < 1.0)
         if not lift.any():
             return person
-        return replace(person, logits=np.where(lift, np.float32(1.0), person.logits).astype(np.float32))
+        return replace(person, logits=backed_logits(person.logits, lift))
 
     def _largest(self, rgb: np.ndarray) -> tuple[list[Person], list]:
         """The largest person ([] or [one]) and the selfie graph's blobs (:meth:`find_people`) they were

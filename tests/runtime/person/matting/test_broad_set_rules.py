@@ -190,6 +190,36 @@ def test_what_the_pose_graph_half_sees_is_the_persons_where_the_selfie_graph_agr
     assert ((alpha[below] >= 0.5).mean() > 0.9) == legs
 
 
+class _HalfSeen:
+    """A stand-in for the pose graph: sure it sees a person (presence 0.95), but only half-sees the whole body
+    (probability 0.3 over it), as the real one half-sees an embracing couple's shirts and faces."""
+
+    def run(self, feeds):
+        seg = np.where(feeds["image"][0].mean(0) > 0.5, np.log(0.3 / 0.7), -10.0).astype(np.float32)
+        return {"segmentation": seg[None, None], "presence": np.array([[0.95]], np.float32)}
+
+
+def test_a_body_both_graphs_see_is_opaque_inside_and_soft_only_at_its_outline():
+    """What the pose graph half-sees and the selfie graph sees is the person's (_backed): sure inside
+    (_layout.BACKED_INSIDE), soft only within BACKED_DEPTH canvas pixels of the outline. At the outline's logit
+    everywhere, the body stayed translucent inside (alpha 0.73: relit, the old photo showed through)."""
+    body = crouching()
+    rgb = np.repeat(body[..., None], 3, 2)
+    matter = M.PersonMatter(refine=False)
+    matter.roi, matter.pose, matter.face = _Seen(), _HalfSeen(), None
+    person = matter._backed(rgb, matter.segment(rgb, M.Region.around(120.0, 80.0, 280.0, 200.0), passes=1))
+    alpha = matter.alpha(rgb, [person])
+    yy, xx = np.mgrid[0:300, 0:400] + 0.5
+    inside = (((xx - 200) / 70) ** 2 + ((yy - 140) / 50) ** 2) < 1  # 10 px (3 canvas px) in from the outline
+    assert alpha[inside].min() >= 0.94  # was 0.73
+    assert iou(alpha, body) > 0.95
+    lift = np.zeros((15, 15), bool)
+    lift[3:12, 3:12] = True
+    logits = _layout.backed_logits(np.full((15, 15), -10.0, np.float32), lift)
+    assert logits[7, 7] == _layout.BACKED_INSIDE and logits[3, 7] == logits[7, 11] == _layout.BACKED_EDGE
+    assert logits[0, 0] == -10.0
+
+
 @pytest.mark.parametrize(("brightness", "found"), [(1.0, True), (0.7, False)])
 def test_a_blob_the_selfie_graph_is_sure_of_is_the_person_when_nothing_else_vouches(brightness, found):
     """person="largest": when neither the pose graph nor a face vouches for anyone, the selfie graph's own
