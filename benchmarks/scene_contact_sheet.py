@@ -85,6 +85,7 @@ def main(argv=None) -> int:
     for path in args.photos:
         places.append((path.stem, "photo", photo_background(path, (size[1], size[0]))))
     report = []
+    seen = set()
     for spec in args.person:
         kind, rest = spec.split(":", 1)
         photo, _, mask = rest.partition(":")
@@ -92,6 +93,9 @@ def main(argv=None) -> int:
         mask_arr = mask or None  # a path, or None: the automatic matte
         matte = cv2.imread(mask, cv2.IMREAD_GRAYSCALE) if mask else None
         who = f"{kind}_{photo.stem}"
+        while who in seen:  # two people from photos of one name: each keeps its own folder and sheet
+            who += "_"
+        seen.add(who)
         (args.out / who).mkdir(parents=True, exist_ok=True)
         tiles = []
         for name, how, thing in places:
