@@ -47,6 +47,7 @@ from ._layout import (
     within_photo,
     without_straddlers,
 )
+from ._turned import turned_people
 from ._models import FACE_FILE, POSE_FILE, ROI_FILE, SIZE, as_rgb, find_matting_models
 from ._parts import Crop, rejoin, shares
 from ._segmentation import (
@@ -338,6 +339,7 @@ class PersonMatter:
             if self.person != "all" and found:
                 found += self._joined(rgb, found, faces)
                 found += self._own_colours(rgb, found)
+                found += turned_people(self.roi, rgb, found)  # limbs seen only turned (_turned)
                 found = [blended(p, self._seen(rgb, p.region)) if p.source == "roi" else p for p in found]
                 self._note_others(found, faces, name)
             return found
