@@ -8,14 +8,19 @@ the same canvas shows the legs standing, and the selfie graph sees them (0.9 and
 the backdrop between an arm and the body in a turned view, so a part is taken only where three tests agree: both
 turns see it (their smaller probability, :data:`TURNED_SURE` on average over the part), an upright view sees it too
 (the selfie graph on the region or on the whole photo, :data:`UPRIGHT_SEEN` on average: a turned view alone also
-sees sky and lawn as a body) and its colours are the person's (the median over its pixels of the distance to the
-person's nearest k-means centre over that to the background ring's, below :data:`TURNED_COLOUR`: a gap between arm
-and body shows the backdrop's colours). Only parts outside the matte that reach more than :data:`TURNED_OPEN`
-canvas pixels past it and touch it are looked at: the turned views' outline differs from the matte's by a pixel or
-two all round, which is no limb.
+sees sky and lawn as a body) and its colours are not clearly the backdrop's (the median over its pixels of the
+distance to the person's nearest k-means centre over that to the background ring's, below :data:`TURNED_COLOUR`: a
+pale wall between arm and body). Only parts outside the matte that reach more than :data:`TURNED_OPEN` canvas pixels
+past it and touch it are looked at: the turned views' outline differs from the matte's by a pixel or two all round,
+which is no limb. The turned views are asked only where the upright view has such a part to offer (most photos of
+one person have none: one selfie-graph run, shared with the own colours' test on the same region).
 
-Measured in relight_rt.person.matting._matter.PersonMatter.people (benchmarks/people_masks_eval.py); the tests are in
-tests/runtime/person/matting/test_turned.py.
+Measured (benchmarks/people_masks_eval.py --methods ours; the form chosen on the clip and an offline replay of both
+halves of the photos, TURNED_COLOUR on the clip and half A among 0.8, 1.0, 1.3, 2.0, none: clip 0.9257, 0.9288, 0.9296,
+0.9298, 0.9288; half A 0.9186 at 0.8-1.0, 0.9186 (+0.005 on one photo) at 1.3): clip 0.9248 -> 0.9296 (frame 31, the
+runner lying on the wall, 0.54 -> 0.86; frame 19 +0.16, frame 50 +0.14; frame 96 -0.06: a dark car behind his arm,
+the trousers' colour), photos half A 0.9178 -> 0.9186 (p184 +0.08; p194 -0.02), half B 0.8902 -> 0.8929 (checked: p227
++0.22, p158 +0.04; p098 -0.04). Tests: tests/runtime/person/matting/test_turned.py.
 """
 
 from __future__ import annotations
@@ -32,7 +37,7 @@ from ._segmentation import LOGIT_CLIP, Person, as_logits, canvas_points, person_
 
 TURNED_SURE = 0.75  # the turned views' smaller probability, averaged over a part
 UPRIGHT_SEEN = 0.5  # ... the upright selfie graph's (on the region or on the whole photo), averaged over it
-TURNED_COLOUR = 0.8  # ... the median of its colours' distance to the person's over that to the background's
+TURNED_COLOUR = 1.3  # ... the median of its colours' distance to the person's over that to the background's
 TURNED_OPEN = 7  # canvas pixels: a part must hold a disc this wide outside the matte
 
 
@@ -45,6 +50,19 @@ def turned_views(roi: Model, canvas: np.ndarray) -> np.ndarray:
         prob = roi.run({"image": turned.transpose(2, 0, 1)[None]})["segmentation"][0, 0]
         out.append(np.rot90(prob, -k))
     return np.minimum(out[0], out[1]).astype(np.float32)
+
+
+def reaching_past(cand: np.ndarray, mine: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[int]]:
+    """The parts of ``cand`` (bool canvas) that reach past the matte ``mine``: ``cand`` opened by a disc TURNED_OPEN
+    canvas pixels wide (its core), the core's 8-connected labels, and the labels of the components within
+    TURNED_OPEN + 1 pixels of ``mine``."""
+    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (TURNED_OPEN, TURNED_OPEN))
+    core = cv2.morphologyEx(cand.astype(np.uint8), cv2.MORPH_OPEN, disc)
+    if not core.any():
+        return core.astype(bool), core.astype(np.int32), []
+    near = cv2.dilate(mine.astype(np.uint8), np.ones((TURNED_OPEN + 2,) * 2, np.uint8)).astype(bool)
+    n, labels = cv2.connectedComponents(core, connectivity=8)
+    return core.astype(bool), labels, [int(i) for i in np.unique(labels[near]) if i > 0]
 
 
 def turned_part(
@@ -63,13 +81,7 @@ def turned_part(
         (S, S) bool, the pixels added (each part as the turned views see it at >= 0.5), or None when none is.
     """
     cand = (turned >= 0.5) & ~mine & inside
-    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (TURNED_OPEN, TURNED_OPEN))
-    core = cv2.morphologyEx(cand.astype(np.uint8), cv2.MORPH_OPEN, disc).astype(bool)
-    if not core.any():
-        return None
-    near = cv2.dilate(mine.astype(np.uint8), np.ones((TURNED_OPEN + 2,) * 2, np.uint8)).astype(bool)
-    n, labels = cv2.connectedComponents(core.astype(np.uint8), connectivity=8)
-    parts = [i for i in range(1, n) if (near & (labels == i)).any()]
+    core, labels, parts = reaching_past(cand, mine)
     if not parts:
         return None
     one = np.ones((3, 3), np.uint8)
@@ -94,6 +106,7 @@ def turned_part(
     if not keep.any():
         return None
     # the part as the turned views see it: the opening's core grown back over their answer (its neck to the matte)
+    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (TURNED_OPEN, TURNED_OPEN))
     grown = cv2.dilate(keep.astype(np.uint8), disc).astype(bool) & cand
     _, labels = cv2.connectedComponents(grown.astype(np.uint8), connectivity=8)
     held = np.unique(labels[keep & grown])
@@ -122,6 +135,8 @@ def turned_people(roi: Model, rgb: np.ndarray, people: list[Person]) -> list[Per
     xs, ys = canvas_points(region)
     inside = (xs >= 0) & (xs < w) & (ys >= 0) & (ys < h)
     mine = np.any([prob_at(p, xs, ys) > 0.5 for p in people], axis=0)
+    if not reaching_past((upright >= 0.5) & ~mine & inside, mine)[2]:
+        return []  # nothing upright reaches past the matte: no part could pass (a photo of one person, mostly)
     canvas = crop_region(rgb, region)
     turned = turned_views(roi, canvas)
     part = turned_part(canvas, inside, mine, upright, turned)

@@ -109,3 +109,29 @@ def test_the_turned_views_add_nothing_where_the_upright_ones_see_nothing():
         upright[170:190, 20:100] = seen
         part = _turned.turned_part(canvas, inside, mine, upright, turned)
         assert (part is not None and part[175:185, 30:90].all()) == added
+
+
+class _UprightBody:
+    """A stand-in for the pose graph: segments the largest thing on the canvas that is tall (as _Upright sees it
+    surely), and is sure a person is there."""
+
+    def run(self, feeds):
+        tall = _Upright().run(feeds)["segmentation"][0, 0] > 0.9
+        n, labels, stats, _ = cv2.connectedComponentsWithStats(tall.astype(np.uint8), connectivity=8)
+        body = labels == 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA])) if n > 1 else tall
+        seg = np.where(body, 10.0, -10.0).astype(np.float32)
+        return {"segmentation": seg[None, None], "presence": np.array([[0.99]], np.float32)}
+
+
+@pytest.mark.parametrize("sure", [_turned.TURNED_SURE, 1.01])
+def test_the_default_matte_takes_the_limb_seen_turned(sure, monkeypatch):
+    """PersonMatter() asks the turned views after the other rules (people()): the lying leg is in the matte; with no
+    turned view sure enough, it is not (the matte as before the rule)."""
+    monkeypatch.setattr(_turned, "TURNED_SURE", sure)
+    rgb, parts = lying()
+    matter = M.PersonMatter(refine=False)
+    matter.roi, matter.pose, matter.face = _Upright(), _UprightBody(), None
+    alpha = matter(rgb)
+    assert iou(alpha, parts["shirt"] | parts["hips"]) > 0.85
+    assert ((alpha[parts["leg"]] >= 0.5).mean() > 0.9) == (sure <= 1.0)
+    assert (alpha[parts["gap"]] >= 0.5).mean() < 0.1
