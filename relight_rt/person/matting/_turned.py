@@ -30,7 +30,7 @@ import numpy as np
 
 from ...engine.session import Model
 from ...image.regions import Region, crop_region, grid_of_region
-from ._colours import OWN_RING, centres, nearest
+from ._colours import OWN_MIN, OWN_RING, centres, nearest
 from ._detect import roi_prob
 from ._models import SIZE
 from ._segmentation import LOGIT_CLIP, Person, as_logits, canvas_points, person_box, prob_at
@@ -55,14 +55,17 @@ def turned_views(roi: Model, canvas: np.ndarray) -> np.ndarray:
 def reaching_past(cand: np.ndarray, mine: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[int]]:
     """The parts of ``cand`` (bool canvas) that reach past the matte ``mine``: ``cand`` opened by a disc TURNED_OPEN
     canvas pixels wide (its core), the core's 8-connected labels, and the labels of the components within
-    TURNED_OPEN + 1 pixels of ``mine``."""
+    TURNED_OPEN + 1 pixels of ``mine`` and at least OWN_MIN x its size (smaller ones are its rim, as for the own
+    colours)."""
     disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (TURNED_OPEN, TURNED_OPEN))
     core = cv2.morphologyEx(cand.astype(np.uint8), cv2.MORPH_OPEN, disc)
     if not core.any():
         return core.astype(bool), core.astype(np.int32), []
     near = cv2.dilate(mine.astype(np.uint8), np.ones((TURNED_OPEN + 2,) * 2, np.uint8)).astype(bool)
     n, labels = cv2.connectedComponents(core, connectivity=8)
-    return core.astype(bool), labels, [int(i) for i in np.unique(labels[near]) if i > 0]
+    size = np.bincount(labels.ravel(), minlength=n)
+    least = OWN_MIN * int(mine.sum())
+    return core.astype(bool), labels, [int(i) for i in np.unique(labels[near]) if i > 0 and size[i] >= least]
 
 
 def turned_part(
