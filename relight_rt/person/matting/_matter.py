@@ -355,8 +355,8 @@ class PersonMatter:
         """What the selfie graph sees joined to ``people`` in their own colours (relight_rt.person.matting._colours:
         dark trousers the pose graph misses, not their shadow on the ground): [one Person holding it, source "own": part
         of the matte, no one's share of it in :meth:`parts`] or [].
-        On the canvas of a region around ``people`` (ROI_SCALE x their box), where the selfie graph sees it both on the
-        whole photo and on that region (_colours: one run, which _turned's search on the same region then shares).
+        On the canvas of a region around ``people`` (ROI_SCALE x their box), where the selfie graph sees it on the whole
+        photo and on that region too (_colours: one run, which _turned's search on the same region then shares).
 
         Measured (benchmarks/people_masks_eval.py; OWN_SURE 0.7 and OWN_RATIO 0.4 chosen on photos half A among
         0.5-0.9 and 0.2-0.7, where every choice moved A by less than 0.001): clip 0.917 -> 0.923 (the four worst
@@ -378,7 +378,7 @@ class PersonMatter:
         prob = cv2.warpAffine(self._roi_prob(rgb, whole), m, (SIZE, SIZE),
                               flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
                               borderMode=cv2.BORDER_CONSTANT, borderValue=0.0)  # fmt: skip
-        prob = np.minimum(prob, self._roi_prob(rgb, region))  # seen framed on the people too (_colours' docstring)
+        prob = np.where(self._roi_prob(rgb, region) >= 0.5, prob, 0.0).astype(np.float32)  # _colours: framed too
         xs, ys = canvas_points(region)
         inside = (xs >= 0) & (xs < w) & (ys >= 0) & (ys < h)
         mine = np.any([prob_at(p, xs, ys) > 0.5 for p in people], axis=0)
