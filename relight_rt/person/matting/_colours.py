@@ -8,6 +8,15 @@ interior and of a ring of background around them are each summarised by a few k-
 selfie graph sees (>= OWN_SURE) outside the matte, joined to it, is the person's where its colour lies nearer to
 the person's nearest centre than OWN_RATIO x its distance to the background's nearest centre (and what is kept
 stays joined to the matte). Measured in relight_rt.person.matting._matter.PersonMatter._own_colours.
+
+A candidate must also be seen (>= 0.5) by the graph framed on the people's own region: on the whole photo the graph,
+seeing the person small, takes in the dark post or wall block the feet stand on, the very colour of black trousers,
+which framed on the person it leaves out (parkour clip frames 85-88: 0.815 -> 0.92 for frame 85). Measured with
+_turned (benchmarks/people_masks_eval.py --methods ours): clip 0.9296 -> 0.9319 (with _turned's OWN_MIN bound, +0.0004
+alone; frames 85, 87, 7, 93, 88 +0.02-0.11;
+frame 49 -0.14: a trailing leg the graph sees only on the whole photo), photos half A 0.9186 -> 0.9196, half B 0.8929
+-> 0.8931 (checked). Both answers >= OWN_SURE instead (their smaller one): clip 0.9321, A 0.9194, but the skater's
+beige sleeve left out, her raised hand apart from her arm (tests/runtime/person/matting/test_people_found.py).
 """
 
 from __future__ import annotations

@@ -65,6 +65,7 @@ from ._segmentation import (
     warp_to_grid,
     working_grid,
 )
+from ._turned import turned_people
 
 PERSON_MODES = ("largest", "all")
 GUIDES = ("gray", "color")
@@ -339,6 +340,7 @@ class PersonMatter:
             if self.person != "all" and found:
                 found += self._joined(rgb, found, faces)
                 found += self._own_colours(rgb, found)
+                found += turned_people(self.roi, rgb, found)  # limbs seen only turned (_turned)
                 found = [blended(p, self._seen(rgb, p.region)) if p.source == "roi" else p for p in found]
                 self._note_others(found, faces, name)
             return found
@@ -354,8 +356,8 @@ class PersonMatter:
         """What the selfie graph sees joined to ``people`` in their own colours (relight_rt.person.matting._colours:
         dark trousers the pose graph misses, not their shadow on the ground): [one Person holding it, source "own": part
         of the matte, no one's share of it in :meth:`parts`] or [].
-        On the canvas of a region around ``people`` (ROI_SCALE x their box), from the selfie graph's answer on the
-        whole photo (asked already by the region finder: no new run).
+        On the canvas of a region around ``people`` (ROI_SCALE x their box), where the selfie graph sees it on the whole
+        photo and on that region too (_colours: one run, which _turned's search on the same region then shares).
 
         Measured (benchmarks/people_masks_eval.py; OWN_SURE 0.7 and OWN_RATIO 0.4 chosen on photos half A among
         0.5-0.9 and 0.2-0.7, where every choice moved A by less than 0.001): clip 0.917 -> 0.923 (the four worst
@@ -377,6 +379,7 @@ class PersonMatter:
         prob = cv2.warpAffine(self._roi_prob(rgb, whole), m, (SIZE, SIZE),
                               flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
                               borderMode=cv2.BORDER_CONSTANT, borderValue=0.0)  # fmt: skip
+        prob = np.where(self._roi_prob(rgb, region) >= 0.5, prob, 0.0).astype(np.float32)  # _colours: framed too
         xs, ys = canvas_points(region)
         inside = (xs >= 0) & (xs < w) & (ys >= 0) & (ys < h)
         mine = np.any([prob_at(p, xs, ys) > 0.5 for p in people], axis=0)
