@@ -569,8 +569,10 @@ class Factor:
         region += weight[..., None] * (level * g_head - region)
 
     def expose(self, dec: Decomposition, lights: np.ndarray, exposure) -> np.ndarray:
-        """relight_rt.light.exposure.expose with the photo's own mean luminance measured once per Decomposition, then
-        the highlight guard (relight_rt.light.exposure ``highlight_factor``) on each light before any EV offset."""
+        """relight_rt.light.exposure.expose with the photo's own mean luminance measured once per Decomposition, the
+        faces' cast shadows metered (``meter_shadows``), then relight_rt.light.exposure ``guarded``: the highlight
+        shoulder's loss given back (``shoulder_gain``) and the highlight guard (``highlight_factor``) on each light,
+        before any EV offset."""
         mode = _exposure.parse_exposure(exposure)
         if mode == "physical":
             return np.array(lights, np.float32)
@@ -581,7 +583,8 @@ class Factor:
         lits = _exposure.expose(dec, lights, "auto", target_luminance=state["target"])
         if self.detail:  # the faces' cast shadows are part of the light as seen (``cast``)
             lits = self.meter_shadows(dec, lits)
-        return _exposure.guarded(lits, mode, self.highlight_inputs(dec))
+        # what the highlight shoulder takes is given back (``shoulder_gain``), then the guard, then any EV
+        return _exposure.guarded(lits, mode, self.highlight_inputs(dec), dec.white_light[:, 0])
 
     def meter_shadows(self, dec: Decomposition, lights: np.ndarray) -> np.ndarray:
         """``lights`` (K, 9, 3) or (9, 3), each scaled up by what the faces' cast shadows under it take from the

@@ -343,6 +343,20 @@ def test_exposure_rule_in_js_matches_python(browser, server, studio, monkeypatch
         py = exposure.highlight_factor(guard["lit"], guard["steady"], guard["transport"], light, allowed)
         assert js == pytest.approx(py, rel=1e-4), (limit, allowed)
     assert py < 1  # the last limit lowered the light
+    # the shoulder's loss given back (exposure.shoulder_gain), also where it acts (a light this person's lit side
+    # takes past its knee)
+    white = studio.info()["preview"]["own_white"]
+    gains = []
+    for scale in (1.0, 3.0, 30.0):
+        bright = (scale * light).astype(np.float32)
+        js = page.evaluate(
+            "([L, W]) => studio.sh.shoulderGain(studio.state.layers.highlight, L, W, [0.8, 0.999], 2, 2.2, 1e-4)",
+            [bright.ravel().tolist(), white],
+        )
+        py = exposure.shoulder_gain(guard["lit"], guard["steady"], guard["transport"], bright, np.float32(white))
+        assert js == pytest.approx(py, rel=1e-4), scale
+        gains.append(py)
+    assert gains[1] > 1.001 and gains[2] > gains[1]  # it acted
     page.close()
 
 

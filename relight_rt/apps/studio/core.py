@@ -374,6 +374,9 @@ class Studio:
             "highlight_allowed": allowed,
             "highlight_limit": _exposure.HIGHLIGHT_LIMIT,
             "highlight_max_down": _exposure.HIGHLIGHT_MAX_DOWN,
+            "shoulder_knee": list(_exposure.KNEE_RANGE),  # the shoulder's loss given back (exposure.shoulder_gain)
+            "shoulder_max_up": _exposure.SHOULDER_MAX_UP,
+            "shoulder_tol": _exposure.SHOULDER_TOL,
             "skin_chroma": SKIN_CHROMA,
             "own_white": np.asarray(dec.white_light, np.float64)[:, 0].tolist(),
             "data": head + bytes(offset - len(head)) + planes.tobytes() + guard.tobytes(),
@@ -393,7 +396,7 @@ class Studio:
         albedo_s, transport_s, mask_s = self._exposure
         target = self._layers["exposure_target"]
         scale = exposure_scale(albedo_s[None], transport_s[None], mask_s[None], lit, target, "auto", METER_POWER)
-        return guarded(lit * np.float32(scale), exp, self._highlight)
+        return guarded(lit * np.float32(scale), exp, self._highlight, np.asarray(self.dec.white_light)[:, 0])
 
     def preview_grade(self, shown) -> np.ndarray:
         """(3,) the background's grade the page's preview draws for the light it shows (``preview_light``'s) when

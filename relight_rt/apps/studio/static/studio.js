@@ -52,12 +52,16 @@ function previewLight(light) {
   const ev = state.exposure.mode === "ev" ? state.exposure.ev : 0;
   const meta = state.info.preview;
   const s = sh.exposureScale(state.layers.exposure, light, meta.exposure_target, 0, 1, meta.exposure_power ?? 1);
-  // float32 as the server holds the exposed light, then the highlight guard, then the EV (relight_rt.exposure)
+  // float32 as the server holds the exposed light, then the shoulder's loss given back, the highlight guard (its
+  // bound counted from the light as it came), then the EV (relight_rt.light.exposure.guarded)
   const exposed = sh.scale(light, s).map((v) => Math.fround(v));
-  const guard = sh.highlightFactor(state.layers.highlight, exposed, meta.highlight_limit, meta.highlight_allowed,
-    meta.highlight_max_down);
+  const up = sh.shoulderGain(state.layers.highlight, exposed, meta.own_white, meta.shoulder_knee,
+    meta.shoulder_max_up, meta.exposure_power ?? 1, meta.shoulder_tol);
+  const lifted = sh.scale(exposed, up).map((v) => Math.fround(v));
+  const guard = sh.highlightFactor(state.layers.highlight, lifted, meta.highlight_limit, meta.highlight_allowed,
+    meta.highlight_max_down / up);
   // an EV acts on the light as seen: 2 ** (EV / display_gamma) on the encoded values (relight_rt.exposure.ev_gain)
-  return sh.scale(light, s * guard * Math.pow(2, ev / meta.display_gamma));
+  return sh.scale(light, s * up * guard * Math.pow(2, ev / meta.display_gamma));
 }
 
 // The background's grade the preview draws: the final result's (sh.backgroundGrade) when the toggle asks for it.
