@@ -304,6 +304,46 @@ class Factor:
             cache.popitem(last=False)
         return cache[key]
 
+    def shadow_layer(self, dec: Decomposition, light: np.ndarray) -> tuple[np.ndarray | None, float]:
+        """What the faces' cast shadows under ``light`` take of its shading, in the input frame, and what "auto" lifts
+        the light by for them: (depth, meter), depth (H, W) float32 in [0, 1] (1 - ``cast``: 0 where no shadow falls)
+        or None without one, meter ``meter_shadows``'s factor (1 without a shadow). The head pass's shadows
+        (``blend_head``) are blended in over its feathered box, as its gain is. For the studio's preview, which
+        relights without them (relight_rt.apps.studio): the final result's shading is its shading x (1 - depth).
+        """
+        light = np.asarray(light, np.float32)
+        if not self.detail:
+            return None, 1.0
+
+        def depth_of(d: Decomposition) -> np.ndarray | None:
+            own = self.own(d, with_residual=False)
+            cast = self.cast(d, own, light)
+            if cast is None:
+                return None
+            y0, y1, x0, x1 = own["window"]
+            full = np.zeros(d.network_mask.shape, np.float32)
+            full[y0:y1, x0:x1] = 1 - cast
+            return np.clip(d.to_input(full), 0, 1)
+
+        depth = depth_of(dec)
+        head = dec.head
+        if head is not None and dec.head_box is not None:
+            on_head = depth_of(head)
+            if on_head is not None:
+                y0, y1, x0, x1 = dec.head_box
+                h_img, w_img = dec.geometry.frame
+                weight = feather(y1 - y0, x1 - x0, (y0 == 0, y1 == h_img, x0 == 0, x1 == w_img))
+                weight = weight * dec.mask[y0:y1, x0:x1]
+                depth = np.zeros(dec.geometry.frame, np.float32) if depth is None else depth.copy()
+                region = depth[y0:y1, x0:x1]
+                region += weight * (on_head - region)
+        meter = 1.0
+        if depth is not None:
+            metered = self.meter_shadows(dec, light)
+            size = float(np.linalg.norm(light))
+            meter = float(np.linalg.norm(metered)) / size if size > 1e-12 else 1.0
+        return depth, meter
+
     def _change(self, own: dict, light: np.ndarray, residual: np.ndarray | None,
                 cast: np.ndarray | None = None) -> tuple:
         """Under ``light``, in the person's window: (ratio, tint, new): the luminance ratio of the relighting
