@@ -264,9 +264,9 @@ def shoulder_gain(lit, steady, transport, light, white, power: float = METER_POW
     benchmarks/photo_faults.py, issue 48), none of it where the photo's own light keeps every pixel under its own
     peak (that light gives the photo back). Each of the person's pixels is taken as ``highlight_factor`` takes it
     (s * lit * S + steady * S / Y(S)), its knee its own peak in the photo (lit * Y(W) + steady, W the shading of the
-    photo's own light, white: ``white``) within ``KNEE_RANGE``; the gain k >= 1 has the shouldered picture's power mean at k equal the unshouldered one's
-    at 1 (within ``SHOULDER_TOL``), found by the secant on log seen against log k from k = 1 and the first step
-    (target / seen(1)) ** (1 / power), at most ``SHOULDER_MAX_UP``. Every step-th pixel, at most
+    photo's own light, white: ``white``) within ``KNEE_RANGE``; the gain k >= 1 has the shouldered picture's power
+    mean at k equal the unshouldered one's at 1 (within ``SHOULDER_TOL``), found by the secant on log seen against
+    log k from k = 1 and the first step (target / seen(1)) ** (1 / power), at most ``SHOULDER_MAX_UP``. Every step-th pixel, at most
     ``SHOULDER_SAMPLES`` (the studio's preview reads the same sample).
 
     Args:
