@@ -5,12 +5,13 @@
 The final result darkens the face mesh's cast shadows under a new light's lamp (the nose's, the brows';
 relight_rt.relight.cast_shadow); the preview the page draws from its layers (albedo x max(0, T.L),
 relight_rt.apps.studio) had none. Per photo and light (the white side lamps ``LEFT`` and ``RIGHT`` of
-benchmarks/real_photos.py), the preview is drawn as the page draws it (``relight_rt.apps.studio.core.preview_picture``, the light ``Studio.preview_light``) without
-and with the server's shadow layer (``Studio.shadow``), and the final result (``Studio.render``) is reduced to the
-preview's size. Figures, CIE L* of both: mean |dL*| over the shadow's pixels (depth >= 0.1), its signed mean (> 0: the
-preview brighter) and mean |dL*| over the whole person (mask > 0.5). Photos: the reference photo with its mask
-(../shared/reference) and a frontal Extended Yale B face with an ellipse mask (benchmarks/yale_eval.py; evaluation
-only, nothing is written but the figures). Writes OUT/preview_shadow.json and prints the table.
+benchmarks/real_photos.py), the preview is drawn as the page draws it (``relight_rt.apps.studio.core.preview_picture``,
+the light ``Studio.preview_light``) without and with the server's shadow layer (``Studio.shadow``), and the final result
+(``Studio.render``) is reduced to the preview's size. Figures, CIE L* of both: mean |dL*| over the shadow's pixels
+(depth >= 0.1), its signed mean (> 0: the preview brighter) and mean |dL*| over the whole person (mask > 0.5). Photos:
+the reference photo with its mask (../shared/reference) and a frontal Extended Yale B face with an ellipse mask
+(benchmarks/yale_eval.py; evaluation only, nothing is written but the figures). Writes OUT/preview_shadow.json and
+prints the table.
 """
 
 from __future__ import annotations

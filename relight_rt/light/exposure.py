@@ -257,17 +257,17 @@ def shoulder_gain(lit, steady, transport, light, white, power: float = METER_POW
     """How much "auto" raises an exposed light so that the picture keeps, after the highlight shoulder, the light as
     seen that the mean-keeping scale gave it before (the power mean of luminance ** ``power``).
 
-    The mean-keeping scale meters the relit person before the shoulder (relight_rt.relight.look ``shoulder``) rolls
-    its highlights off toward white: a light that spreads the picture (a white side lamp: one cheek twice as bright)
-    keeps its mean only with values past white that the shoulder then takes back. On 59 real photos that loss was
-    0.17 of the white side lamps' median -0.19 EV as seen (-0.01 without the shoulder and the guard;
-    benchmarks/photo_faults.py, issue 48), none of it where the photo's own light keeps every pixel under its own
-    peak (that light gives the photo back). Each of the person's pixels is taken as ``highlight_factor`` takes it
-    (s * lit * S + steady * S / Y(S)), its knee its own peak in the photo (lit * Y(W) + steady, W the shading of the
-    photo's own light, white: ``white``) within ``KNEE_RANGE``; the gain k >= 1 has the shouldered picture's power
-    mean at k equal the unshouldered one's at 1 (within ``SHOULDER_TOL``), found by the secant on log seen against
-    log k from k = 1 and the first step (target / seen(1)) ** (1 / power), at most ``SHOULDER_MAX_UP``. Every step-th pixel, at most
-    ``SHOULDER_SAMPLES`` (the studio's preview reads the same sample).
+    The mean-keeping scale meters the relit person before the shoulder (relight_rt.relight.look ``shoulder``) rolls its
+    highlights off toward white: a light that spreads the picture (a white side lamp: one cheek twice as bright) keeps
+    its mean only with values past white that the shoulder then takes back. On 59 real photos that loss was 0.17 of the
+    white side lamps' median -0.19 EV as seen (-0.01 without the shoulder and the guard; benchmarks/photo_faults.py,
+    issue 48), none of it where the photo's own light keeps every pixel under its own peak (that light gives the photo
+    back). Each of the person's pixels is taken as ``highlight_factor`` takes it (s * lit * S + steady * S / Y(S)), its
+    knee its own peak in the photo (lit * Y(W) + steady, W the shading of the photo's own light, white: ``white``)
+    within ``KNEE_RANGE``; the gain k >= 1 has the shouldered picture's power mean at k equal the unshouldered one's at
+    1 (within ``SHOULDER_TOL``), found by the secant on log seen against log k from k = 1 and the first step (target /
+    seen(1)) ** (1 / power), at most ``SHOULDER_MAX_UP``. Every step-th pixel, at most ``SHOULDER_SAMPLES`` (the
+    studio's preview reads the same sample).
 
     Args:
         lit, steady, transport: (N, 3), (N, 3), (N, 9), ``highlight_factor``'s per-pixel picture.
