@@ -23,6 +23,7 @@ const state = {
   before: false,   // the original photo is shown (while the before key or button is held)
   shadow: null,    // the faces' cast shadows of the final result for one light: {key, plane, meter} (fetchShadow)
   shadowBusy: false,
+  shadowPending: false,  // a light settled while a shadow request was on its way
 };
 
 // ------------------------------------------------------------------------------------------------ light
@@ -56,15 +57,20 @@ function shadowFor(light) {
 }
 
 // Ask the server for the cast shadows of the light the user has set, once it has settled (on release, as the full
-// result): one request at a time, again while the light moved on meanwhile; the answer is drawn only for its light.
+// result): one request at a time; a light that settles while one is on its way is asked for after it. The answer is
+// drawn only for its own light.
 async function fetchShadow() {
-  if (state.shadowBusy) return;
+  if (state.shadowBusy) {
+    state.shadowPending = true;
+    return;
+  }
   state.shadowBusy = true;
   try {
-    for (let i = 0; i < 4; i++) {
+    do {
+      state.shadowPending = false;
       const light = composedLight();
       const key = light.join(",");
-      if (state.shadow && state.shadow.key === key) break;
+      if (state.shadow && state.shadow.key === key) continue;
       const res = await api("/api/shadow", {
         method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify({ light }),
       });
@@ -83,9 +89,8 @@ async function fetchShadow() {
       if (composedLight().join(",") === key) {
         state.dirty = true;
         requestAnimationFrame(paint);
-        break;
       }
-    }
+    } while (state.shadowPending);
   } catch (err) {
     state.shadow = null;  // the preview goes on without them
     console.warn("cast shadows unavailable:", err);
