@@ -387,7 +387,7 @@ def test_exposure_rule_in_js_matches_python(browser, server, studio, monkeypatch
     for scale in (1.0, 3.0, 30.0):
         bright = (scale * light).astype(np.float32)
         js = page.evaluate(
-            "([L, W]) => studio.sh.shoulderGain(studio.state.layers.highlight, L, W, [0.8, 0.999], 2, 2.2, 1e-4)",
+            "([L, W]) => studio.sh.shoulderGain(studio.state.layers.highlight, L, W, [0.8, 0.999], 2, 2.2, 1e-4, 8192)",
             [bright.ravel().tolist(), white],
         )
         py = exposure.shoulder_gain(guard["lit"], guard["steady"], guard["transport"], bright, np.float32(white))

@@ -379,6 +379,7 @@ class Studio:
             "shoulder_knee": list(_exposure.KNEE_RANGE),  # the shoulder's loss given back (exposure.shoulder_gain)
             "shoulder_max_up": _exposure.SHOULDER_MAX_UP,
             "shoulder_tol": _exposure.SHOULDER_TOL,
+            "shoulder_samples": _exposure.SHOULDER_SAMPLES,
             "skin_chroma": SKIN_CHROMA,
             "own_white": np.asarray(dec.white_light, np.float64)[:, 0].tolist(),
             "data": head + bytes(offset - len(head)) + planes.tobytes() + guard.tobytes(),

@@ -215,30 +215,36 @@ export function highlightFactor(guard, light, limit, allowed, maxDown) {
 // ** power it had before the shoulder. guard: the highlight sample (as highlightFactor); a pixel's knee is its own
 // peak in the photo, lit · Y(W) + steady (W the shading of the photo's own light, white: ownWhite, 9 numbers),
 // within knee = [lo, hi]; the gain k, at most maxUp, has seen(k) within tol (log ratio) of the target.
-export function shoulderGain(guard, light, ownWhite, knee, maxUp, power, tol) {
+export function shoulderGain(guard, light, ownWhite, knee, maxUp, power, tol, samples) {
   const T = guard.transport, lit = guard.lit, steady = guard.steady;
-  const n = lit[0].length;
-  if (n === 0) return 1;
+  const all = lit[0].length;
+  if (all === 0) return 1;
+  const step = Math.max(1, Math.ceil(all / samples));  // every step-th pixel, at most `samples` (as Python)
+  const n = Math.ceil(all / step);
   const a = [new Float64Array(n), new Float64Array(n), new Float64Array(n)];
   const b = [new Float64Array(n), new Float64Array(n), new Float64Array(n)];
   const q = new Float64Array(n);
   const S = [0, 0, 0];
-  let target = 0;
+  let target = 0, over = false;
   for (let p = 0; p < n; p++) {
-    const y = shadingAt(T, p, light, S);
+    const i = p * step;
+    const y = shadingAt(T, i, light, S);
     let w = 0;
-    for (let k = 0; k < 9; k++) w += T[k][p] * ownWhite[k];
+    for (let k = 0; k < 9; k++) w += T[k][i] * ownWhite[k];
     w = Math.max(w, 0);
-    let peak = -Infinity, lum = 0;
+    let peak = -Infinity, now = -Infinity, lum = 0;
     for (let c = 0; c < 3; c++) {
-      a[c][p] = lit[c][p] * S[c];
-      b[c][p] = (steady[c][p] * S[c]) / y;
-      peak = Math.max(peak, lit[c][p] * w + steady[c][p]);
+      a[c][p] = lit[c][i] * S[c];
+      b[c][p] = (steady[c][i] * S[c]) / y;
+      peak = Math.max(peak, lit[c][i] * w + steady[c][i]);
+      now = Math.max(now, a[c][p] + b[c][p]);
       lum += LUMA[c] * (a[c][p] + b[c][p]);
     }
     q[p] = Math.min(Math.max(peak, knee[0]), knee[1]);
+    if (now > q[p]) over = true;
     target += Math.pow(Math.max(lum, 0), power);
   }
+  if (!over) return 1;  // nothing past its knee: the shoulder takes nothing
   const seen = (k) => {
     let sum = 0;
     for (let p = 0; p < n; p++) {

@@ -112,7 +112,7 @@ function previewLight(light) {
   const meter = cast ? cast.meter : 1;
   const exposed = sh.scale(sh.scale(light, s).map((v) => Math.fround(v)), meter).map((v) => Math.fround(v));
   const up = sh.shoulderGain(state.layers.highlight, exposed, meta.own_white, meta.shoulder_knee,
-    meta.shoulder_max_up, meta.exposure_power ?? 1, meta.shoulder_tol);
+    meta.shoulder_max_up, meta.exposure_power ?? 1, meta.shoulder_tol, meta.shoulder_samples);
   const lifted = sh.scale(exposed, up).map((v) => Math.fround(v));
   const guard = sh.highlightFactor(state.layers.highlight, lifted, meta.highlight_limit, meta.highlight_allowed,
     meta.highlight_max_down / up);
