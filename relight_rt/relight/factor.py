@@ -62,6 +62,7 @@ import numpy as np
 from ..image.color import REC709
 from ..light import exposure as _exposure
 from ..light import sh
+from ..person.face_mesh import SKIN_INSET
 from .cast_shadow import MeshView, shadow_factor
 from .decomposition import Decomposition, Memo, readonly
 from .detail import extend_outward, guided_upsample, shadow_texture, unpremultiply, window
@@ -90,8 +91,8 @@ TEXTURE_BLOCK, TEXTURE_SHARE = 4.0, 0.25  # ... its power over this many px held
 UNSHADE_MIN_SKIN = 50  # unshaded_albedo: the fewest face-skin pixels (network frame) its fit is made on
 # a face's openings (inside the mesh's outline, off its skin: the eyes' sockets) take the skin's ratio cap and fill
 # albedo (``handover``, ``shadow_weight``): on a side-lit face's dark half the socket's grazing light was multiplied
-# into a bright patch (Extended Yale B from 70°, its socket over the face's mean 0.76 against 1.48 without, the real
-# photo's 0.42; de-light correlation / contrast 0.9105 / 0.826 -> 0.916 / 0.839, speckle 0.127 -> 0.087)
+# into a bright patch (Extended Yale B from 70°, its socket over the face's mean 0.75 against 1.48 without, the real
+# photo's 0.42; de-light correlation / contrast 0.9105 / 0.826 -> 0.9162 / 0.839, speckle 0.127 -> 0.088)
 OPENINGS_AS_SKIN = True
 CAST_CACHE = 4  # Factor.cast keeps the cast shadows of this many light directions per Decomposition
 
@@ -159,8 +160,9 @@ class Factor:
         (relight_rt.relight.strength) and the face mesh's transport blended in, "albedo" luminance (r, r')
         unpremultiplied, "photo" (r, r') the luminance of the photo stage 1 saw, "face_skin" (r, r') bool, the
         person's pixels well inside a face mesh (``FacePass.add_faces``; none without one), "face_opening" (r, r')
-        bool, the person's pixels inside a mesh's outline (its points' convex hull) off that skin (the eyes' sockets
-        the skin's inset leaves out), and "face_points" the meshes in the window's pixels (``FacePass.window_points``:
+        bool, the person's pixels inside a mesh's outline (its points' convex hull) by more than the skin's inset
+        (``face_mesh.SKIN_INSET``) and off that skin: the eyes' sockets the inset leaves out, not the outline's ring
+        (hair, the jaw's edge), and "face_points" the meshes in the window's pixels (``FacePass.window_points``:
         their cast shadows, ``cast``).
         """
         state = self.memo(dec)
@@ -178,10 +180,13 @@ class Factor:
             if dec.face_meshes:  # a face's shape from its mesh where stage 1's transport is a blur
                 skin = self.faces.add_faces(dec, transport, (y0, y1, x0, x1))
                 points = self.faces.window_points(dec, (y0, y1, x0, x1))
-                hull = np.zeros(alpha.shape, np.uint8)
-                for pts in points:  # the face beyond its skin: the eyes' sockets the skin's inset leaves out
+                for pts in points:  # the face beyond its skin: the eyes' sockets the skin's inset leaves out (not
+                    # its outer ring: hair, the jaw's edge)
+                    hull = np.zeros(alpha.shape, np.uint8)
                     cv2.fillConvexPoly(hull, cv2.convexHull(np.rint(pts[:, :2]).astype(np.int32)), 1)
-                opening = (hull > 0) & ~skin
+                    inset = SKIN_INSET * float(max(np.ptp(pts[:, :2], axis=0).max(), 1.0))
+                    opening |= cv2.distanceTransform(hull, cv2.DIST_L2, 3) > inset
+                opening &= ~skin
             albedo = unpremultiply(np.ascontiguousarray(dec.albedo[y0:y1, x0:x1]), alpha) @ REC709
             photo = dec.network_image[y0:y1, x0:x1] @ REC709
             state["restored"] = {"window": (y0, y1, x0, x1), "alpha": alpha, "inner": alpha > 0.5,
