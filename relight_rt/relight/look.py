@@ -15,6 +15,7 @@ import numpy as np
 
 from ..image.color import REC709
 from ..light import sh
+from ..light.exposure import KNEE_RANGE, rolled_off
 
 _DARK = np.float32(0.25)  # steady_chroma: a pixel below this luminance, brightened by a gain, takes its dark
 _AMPLIFIED = np.float32(2.0)  # ... neighbours' colour, fully from a gain of 1 + this,
@@ -120,15 +121,17 @@ def channel_max(rgb: np.ndarray) -> np.ndarray:
 
 
 def knee(photo: np.ndarray) -> np.ndarray:
-    """(H, W) where the highlight shoulder starts for each pixel: the photo's own peak, within [0.8, 0.999]."""
-    return np.clip(channel_max(photo), 0.8, 0.999)
+    """(H, W) where the highlight shoulder starts for each pixel: the photo's own peak, within
+    relight_rt.light.exposure ``KNEE_RANGE`` ([0.8, 0.999])."""
+    return np.clip(channel_max(photo), *KNEE_RANGE)
 
 
 def shoulder(colour: np.ndarray, knee: np.ndarray) -> np.ndarray:
     """Bring colours made brighter than 1 back into [0, 1] as film does, in place: a smooth shoulder.
 
     The brightest channel m of a pixel is rolled off above a knee q, m -> q + (1 - q)(1 - exp(-(m - q)/(1 - q)))
-    (slope 1 at q, approaching 1), and the three channels are scaled together, so a brightly lit side keeps
+    (slope 1 at q, approaching 1; relight_rt.light.exposure ``rolled_off``, the one curve: "auto" meters what it
+    takes, ``shoulder_gain``), and the three channels are scaled together, so a brightly lit side keeps
     its hue and its gradation (a per-channel clip turns skin yellow; a plain rescale of the peak to 1 flattens
     it). The knee (``knee``) is the photo's own peak, at least 0.8: a pixel no brighter than it was in the
     photo is untouched, so the photo's own light gives the photo back.
@@ -136,9 +139,8 @@ def shoulder(colour: np.ndarray, knee: np.ndarray) -> np.ndarray:
     peak = channel_max(colour)
     over = peak > knee
     if over.any():
-        m, q = peak[over], knee[over]
-        rolled = q + (1 - q) * -np.expm1(-(m - q) / (1 - q))
-        colour[over] *= (rolled / m)[:, None]
+        m = peak[over]
+        colour[over] *= (rolled_off(m, knee[over]) / m)[:, None]
     return colour
 
 

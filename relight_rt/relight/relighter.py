@@ -327,6 +327,13 @@ class Relighter:
         ``Factor.highlight_inputs``; the studio's preview samples it)."""
         return self._factor.highlight_inputs(dec)
 
+    def cast_shadows(self, dec: Decomposition, light) -> tuple[np.ndarray | None, float]:
+        """The faces' cast shadows the final result puts under ``light`` (any light ``resolve_light`` takes) and the
+        exposure's lift for them (relight_rt.relight.factor ``Factor.shadow_layer``): (depth (H, W) float32 in [0, 1]
+        in the input frame, 1 - the factor on the shading, or None without a face mesh's shadow; meter). The studio's
+        preview draws them (relight_rt.apps.studio)."""
+        return self._factor.shadow_layer(dec, self.resolve_light(light))
+
     def _prepare(self, image, mask) -> Decomposition:
         if isinstance(image, Decomposition):
             if mask is not None:

@@ -171,6 +171,43 @@ def preview_diffuse(layers: dict, meta: dict, light: np.ndarray) -> np.ndarray:
 
 
 @pytest.mark.parametrize("renderer", ["webgl", "canvas"])
+def test_preview_draws_the_final_results_cast_shadows(browser, server, studio, renderer):
+    """Once the light settles the page asks the server for the faces' cast shadows of the final result
+    (``Studio.shadow``: the bundled example's face mesh under a lamp from the image's left) and draws them, with
+    their exposure meter, in both renderers; a light it has no answer for is drawn without them."""
+    from relight_rt.apps.studio.core import preview_picture, shadow_plane
+
+    page = open_renderer(browser, server, renderer)
+    meta = studio.info()["preview"]
+    layers = unpack_layers(studio.layers_bytes(), meta)
+    side = (lights.directional((0.35, -1.0, 0.25), (1, 1, 1), 1.0, 0.6) + lights.ambient(0.06)).astype(np.float32)
+    page.evaluate(
+        "L => { const s = studio.state; s.lamp.on = false; s.ambient = 0; s.exposure.mode = 'auto';"
+        " s.base.light = L; s.base.rotate = 0; s.base.level = 1; }",
+        side.ravel().tolist(),
+    )
+    without = canvas_rgb(page).astype(np.int16)  # not asked yet: no shadow
+    page.evaluate("studio.fetchShadow()")
+    page.wait_for_function("() => studio.state.shadow && studio.state.shadow.key === studio.composedLight().join(',')",
+                           timeout=30_000)
+    got = canvas_rgb(page).astype(np.int16)
+    light = np.array(page.evaluate("studio.composedLight()"), np.float32).reshape(9, 3)
+    answer = studio.shadow(light.ravel().tolist())
+    assert answer["box"], "the example's face casts a shadow under a side lamp"
+    plane = shadow_plane(answer, meta["height"], meta["width"])
+    shown = studio.preview_light(light, "auto", answer["meter"])
+    np.testing.assert_allclose(np.reshape(page.evaluate("L => studio.previewLight(L)", light.ravel().tolist()),
+                                          (9, 3)), shown, rtol=1e-4, atol=1e-7)
+    back = layers["background"].transpose(1, 2, 0) * (1 - layers["mask"][..., None])
+    want = np.rint(np.clip(back + preview_picture(layers, meta, shown, plane), 0, 1) * 255).astype(np.int16)
+    diff = np.abs(got - want)
+    assert diff.max() <= 2 and diff.mean() < 0.2, (diff.max(), diff.mean())
+    deep = plane < 0.8
+    assert deep.sum() >= 10 and float((without - got)[deep].mean()) > 5  # darker where the shadow falls
+    page.close()
+
+
+@pytest.mark.parametrize("renderer", ["webgl", "canvas"])
 def test_preview_is_the_diffuse_image(browser, server, studio, renderer):
     """The page draws albedo x shading with the shaded-skin gain, in both renderers: under a bright coloured
     light (the skin brightened everywhere: no gain) and under a lamp from the image's left with a little ambient
@@ -343,6 +380,20 @@ def test_exposure_rule_in_js_matches_python(browser, server, studio, monkeypatch
         py = exposure.highlight_factor(guard["lit"], guard["steady"], guard["transport"], light, allowed)
         assert js == pytest.approx(py, rel=1e-4), (limit, allowed)
     assert py < 1  # the last limit lowered the light
+    # the shoulder's loss given back (exposure.shoulder_gain), also where it acts (a light this person's lit side
+    # takes past its knee)
+    white = studio.info()["preview"]["own_white"]
+    gains = []
+    for scale in (1.0, 3.0, 30.0):
+        bright = (scale * light).astype(np.float32)
+        js = page.evaluate(
+            "([L, W]) => studio.sh.shoulderGain(studio.state.layers.highlight, L, W, [0.8, 0.999], 2, 2.2, 1e-4, 8192)",
+            [bright.ravel().tolist(), white],
+        )
+        py = exposure.shoulder_gain(guard["lit"], guard["steady"], guard["transport"], bright, np.float32(white))
+        assert js == pytest.approx(py, rel=1e-4), scale
+        gains.append(py)
+    assert gains[1] > 1.001 and gains[2] > gains[1]  # it acted
     page.close()
 
 

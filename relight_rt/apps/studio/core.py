@@ -50,6 +50,7 @@ MAX_UPLOAD_PIXELS = 40_000_000  # decoded size limit (a small file can hold a hu
 # pixel, four at once past 4 GB (issue 50 bug 6); decoded, a pixel costs 3-12 bytes
 UPLOAD_WORK_PIXELS = 2_000_000
 EXPOSURE_SAMPLES = 1 << 15  # network-frame pixels of the person that the page's exposure rule reads (at most)
+SHADOW_CACHE = 8  # the faces' cast shadows (``Studio.shadow``) kept for this many lights, the latest ones
 from ...light import exposure as _exposure  # noqa: E402  (the one exposure rule)
 from ...light.exposure import METER_POWER, exposure_scale, guarded, mean_luminance, parse_exposure  # noqa: E402
 from ...light.spec import LightSpec  # noqa: E402  (the one light parser)
@@ -299,6 +300,7 @@ class Studio:
         self._panorama_cache: dict[int, np.ndarray] = {}  # index: the loaded map (the latest one only)
         self._panorama_lock = threading.Lock()
         self.exposure_supported = "exposure" in inspect.signature(relighter.relight).parameters
+        self._shadows: OrderedDict[bytes, dict] = OrderedDict()  # light -> ``shadow``'s answer, the latest ones
         self._layers = self._pack_layers(preview_pixels)
         self._photo_png: bytes | None = None
 
@@ -374,15 +376,20 @@ class Studio:
             "highlight_allowed": allowed,
             "highlight_limit": _exposure.HIGHLIGHT_LIMIT,
             "highlight_max_down": _exposure.HIGHLIGHT_MAX_DOWN,
+            "shoulder_knee": list(_exposure.KNEE_RANGE),  # the shoulder's loss given back (exposure.shoulder_gain)
+            "shoulder_max_up": _exposure.SHOULDER_MAX_UP,
+            "shoulder_tol": _exposure.SHOULDER_TOL,
+            "shoulder_samples": _exposure.SHOULDER_SAMPLES,
             "skin_chroma": SKIN_CHROMA,
             "own_white": np.asarray(dec.white_light, np.float64)[:, 0].tolist(),
             "data": head + bytes(offset - len(head)) + planes.tobytes() + guard.tobytes(),
         }
 
-    def preview_light(self, light, exposure="auto") -> np.ndarray:
+    def preview_light(self, light, exposure="auto", meter: float = 1.0) -> np.ndarray:
         """The light the page's preview draws for ``light`` (27 numbers or (9, 3)) and ``exposure``: the final
-        result's exposure rule (relight_rt.light.exposure: the mean-keeping scale, its highlight guard, the EV) on the
-        page's samples, so that the preview and the final result have one brightness. What studio.js
+        result's exposure rule (relight_rt.light.exposure: the mean-keeping scale, the faces' cast shadows metered
+        (``meter``: ``shadow``'s for this light, 1 without), the shoulder's loss given back, the highlight guard, the
+        EV) on the page's samples, so that the preview and the final result have one brightness. What studio.js
         ``previewLight`` computes."""
         lit = request_light(light)
         exp = request_exposure(exposure)
@@ -393,7 +400,37 @@ class Studio:
         albedo_s, transport_s, mask_s = self._exposure
         target = self._layers["exposure_target"]
         scale = exposure_scale(albedo_s[None], transport_s[None], mask_s[None], lit, target, "auto", METER_POWER)
-        return guarded(lit * np.float32(scale), exp, self._highlight)
+        exposed = (lit * np.float32(scale)).astype(np.float32) * np.float32(meter)
+        return guarded(exposed, exp, self._highlight, np.asarray(self.dec.white_light)[:, 0])
+
+    def shadow(self, light) -> dict:
+        """The faces' cast shadows that the final result puts under ``light`` (27 numbers; relight_rt.relight.relighter
+        ``Relighter.cast_shadows``), at the preview's size, for the page to draw: {"box": [y0, y1, x0, x1] (preview
+        pixels; empty: no shadow), "meter": the exposure's lift for them (``preview_light``), "depth": bytes, uint8,
+        255 x (1 - the factor on the shading) over the box, row-major}. Kept for the last ``SHADOW_CACHE`` lights
+        (the page asks again for a light it comes back to); a runtime without them answers no shadow."""
+        lit = request_light(light)
+        key = lit.tobytes()
+        with self._lock:
+            hit = self._shadows.get(key)
+            if hit is not None:
+                self._shadows.move_to_end(key)
+                return hit
+            find = getattr(self.relighter, "cast_shadows", None)
+            depth, meter = find(self.dec, lit) if find is not None else (None, 1.0)
+            hit = {"box": [], "meter": float(meter), "depth": b""}
+            if depth is not None:
+                size = (self._layers["height"], self._layers["width"])
+                q = np.rint(np.clip(_resize(depth[..., None], size)[..., 0], 0, 1) * 255).astype(np.uint8)
+                ys, xs = np.nonzero(q)
+                if ys.size:
+                    y0, y1, x0, x1 = int(ys.min()), int(ys.max()) + 1, int(xs.min()), int(xs.max()) + 1
+                    hit = {"box": [y0, y1, x0, x1], "meter": float(meter),
+                           "depth": np.ascontiguousarray(q[y0:y1, x0:x1]).tobytes()}
+            self._shadows[key] = hit
+            while len(self._shadows) > SHADOW_CACHE:
+                self._shadows.popitem(last=False)
+        return hit
 
     def preview_grade(self, shown) -> np.ndarray:
         """(3,) the background's grade the page's preview draws for the light it shows (``preview_light``'s) when
@@ -585,3 +622,31 @@ def unpack_layers(data: bytes, meta: dict) -> dict:
     highlight = {"lit": guard[:3].T.copy(), "steady": guard[3:6].T.copy(), "transport": guard[6:].T.copy()}
     return {"transport": off + q16 * scale, "albedo": eight[:3], "mask": eight[3], "background": eight[4:7],
             "skin_chroma": 2 * eight[7:10] - 1, "skin": eight[10], "exposure": sample, "highlight": highlight}
+
+
+def shadow_plane(answer: dict, height: int, width: int) -> np.ndarray:
+    """(height, width) float32 the factor ``Studio.shadow``'s ``answer`` puts on the preview's shading (1 outside
+    its box): what the page draws with."""
+    plane = np.ones((height, width), np.float32)
+    if answer["box"]:
+        y0, y1, x0, x1 = answer["box"]
+        depth = np.frombuffer(answer["depth"], np.uint8).reshape(y1 - y0, x1 - x0).astype(np.float32) / 255
+        plane[y0:y1, x0:x1] = 1 - depth
+    return plane
+
+
+def preview_picture(layers: dict, meta: dict, light: np.ndarray, shadow: np.ndarray | None = None) -> np.ndarray:
+    """(h, w, 3) float32 the person as the page draws it (premultiplied, over nothing) under the shown light (9, 3):
+    albedo x max(0, T.L) x ``shadow`` (``shadow_plane``; None: none) x the shaded-skin gain of the final result
+    (relight_rt.relight.look.shaded_skin on the layers' skin chroma and weight), clipped to [0, 1]. ``layers``:
+    ``unpack_layers``'; the page's WebGL and Canvas renderers compute the same (tests/integration)."""
+    t = layers["transport"].transpose(1, 2, 0)
+    lit = np.maximum(np.einsum("hwk,kc->hwc", t, np.asarray(light, np.float32)), 0)
+    if shadow is not None:
+        lit = lit * shadow[..., None]
+    own = t @ np.array(meta["own_white"], np.float32)
+    r = (lit @ REC709) / np.maximum(own, 1e-3)
+    boost = np.clip(r, 1e-4, 1.0)[..., None] ** (meta["skin_chroma"] - 1.0) - 1.0
+    chroma, w = layers["skin_chroma"].transpose(1, 2, 0), layers["skin"][..., None]
+    gain = 1 + w * (np.clip(1 + boost * chroma, 0.25, 4.0) - 1)
+    return np.clip(layers["albedo"].transpose(1, 2, 0) * lit * gain, 0, 1).astype(np.float32)

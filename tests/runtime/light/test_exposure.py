@@ -16,6 +16,7 @@ from relight_rt.light.exposure import (
     highlight_factor,
     mean_luminance,
     parse_exposure,
+    shoulder_gain,
 )
 
 __all__ = ["diffuse_models_dir", "models_dir"]  # fixtures
@@ -242,3 +243,82 @@ def test_guarded_puts_the_guard_before_the_ev():
     np.testing.assert_allclose(both[1], 0.5 * light, rtol=1e-6)  # half as bright nothing reaches white: not lowered
     with pytest.raises(RelightError, match="physical"):
         guarded(light, "physical", highlight)
+
+
+def _seen(colour, knee=None):
+    """The power mean's sum of luminance ** METER_POWER of (N, 3) colours, shouldered at ``knee`` (None: not)."""
+    colour = np.asarray(colour, np.float64)
+    y = np.maximum(colour @ REC709, 0)
+    if knee is not None:
+        peak = colour.max(axis=1)
+        y = y * np.where(peak > knee, _exposure.rolled_off(peak, knee) / np.maximum(peak, 1e-9), 1)
+    return float(np.mean(y ** METER_POWER))
+
+
+def test_shoulder_gain_gives_back_what_the_shoulder_takes():
+    """A picture spread past white (a side lamp's lit cheek): the shouldered picture under the gained light has the
+    light as seen the unshouldered one had (issue 48: the white side lamps' median -0.19 EV as seen was this loss)."""
+    lit, steady, transport, light = _flat_pixels(np.linspace(0.1, 1.3, 1000))
+    white = np.zeros(9, np.float32)
+    white[0] = 0.5  # the photo: lit * 0.5, every pixel's knee at 0.8
+    k = shoulder_gain(lit, steady, transport, light, white)
+    assert 1.02 < k < _exposure.SHOULDER_MAX_UP
+    assert _seen(k * lit, 0.8) == pytest.approx(_seen(lit), rel=1e-3)
+    assert _seen(lit, 0.8) < 0.97 * _seen(lit)  # what it gives back
+    # under the knee nothing is taken: no gain (the photo's own light gives the photo back)
+    assert shoulder_gain(0.7 * lit / 1.3, steady, transport, light, white) == 1.0
+    # the photo's own peak is its knee: a pixel as bright as it was is not rolled off
+    assert shoulder_gain(lit / 1.3, steady, transport, light, 2 * white) == 1.0
+    assert shoulder_gain(lit[:0], steady[:0], transport[:0], light, white) == 1.0
+    far, *_ = _flat_pixels(np.full(100, 50.0))  # everything far past white: bounded
+    assert shoulder_gain(far, steady[:100], transport[:100], light, white) == _exposure.SHOULDER_MAX_UP
+    with pytest.raises(RelightError, match="pixels"):
+        shoulder_gain(lit, steady[:5], transport, light, white)
+
+
+def test_guarded_gives_the_shoulders_loss_back_before_the_guard():
+    """With the photo's own light (``white``) the order is: the shoulder's loss given back, the guard, the EV; the
+    guard's one-stop bound counts from the light as it came (the lift never lets more past white than that)."""
+    lit, steady, transport, light = _flat_pixels(np.linspace(0.1, 1.02, 1000))  # 2 % past white
+    white = np.zeros(9, np.float32)
+    white[0] = 0.5
+    highlight = (lit, steady, transport, 0.03)
+    k = shoulder_gain(lit, steady, transport, light, white)
+    assert k > 1.02
+    f = highlight_factor(lit, steady, transport, (k * light).astype(np.float32), 0.03, 0.5 / k)
+    assert 1 / k < f < 1  # the lift puts more than 3 % past white: the guard takes part of it back
+    np.testing.assert_allclose(guarded(light, "auto", highlight, white), k * f * light, rtol=1e-5)
+    np.testing.assert_allclose(guarded(light, 1.0, highlight, white), ev_gain(1.0) * k * f * light, rtol=1e-5)
+    np.testing.assert_allclose(guarded(light, "auto", highlight), light, rtol=1e-6)  # no white: no lift
+    hot, *_ = _flat_pixels(np.full(200, 10.0))  # ten times past white: one stop below the light as it came
+    np.testing.assert_allclose(guarded(light, "auto", (hot, steady[:200], transport[:200], 0.1), white),
+                               _exposure.HIGHLIGHT_MAX_DOWN * light, rtol=1e-6)
+
+
+def test_the_relighters_auto_gives_the_shoulders_loss_back(tmp_path, monkeypatch):
+    """The wiring (relight_rt.relight.factor ``Factor.expose``): "auto" lifts the mean-keeping light by
+    ``shoulder_gain`` of the photo's own pixels, and the relit person's light as seen (the power mean of luminance **
+    METER_POWER over its pixels) comes nearer the photo's than without the lift. The person's halves face the
+    image's left and right (``stage1_sides_model``): a lamp from the right doubles one half past its knee."""
+    from _graphs import make_models_dir, stage1_sides_model
+
+    folder = make_models_dir(tmp_path / "sides", stage1=stage1_sides_model())
+    relighter = Relighter(RuntimeConfig(models=folder, device="cpu"))
+    img, mask = person(seed=5)
+    img = np.clip(0.25 + 0.8 * img, 0, 1).astype(np.float32)
+    dec = relighter.decompose(img, mask)
+    lamp = lights.directional((0.0, 1.0, 0.0), (1, 1, 1), 1.0) + lights.ambient(0.5)
+    lifted = relighter.layers(dec, lamp)
+    gains = []
+    real = _exposure.shoulder_gain
+    monkeypatch.setattr(_exposure, "shoulder_gain", lambda *a, **k: gains.append(real(*a, **k)) or 1.0)
+    plain = relighter.layers(dec, lamp)
+    assert len(gains) == 1 and gains[0] > 1.03  # measured 1.054
+    inside = mask > 0.5
+
+    def seen(image):
+        return float(np.mean(np.maximum(image[inside] @ REC709, 0) ** METER_POWER))
+
+    factor = float(lifted.light[0, 0] / plain.light[0, 0])
+    assert 1.01 < factor <= gains[0] + 1e-6  # the lift (1.034: the guard took part of it back)
+    assert abs(np.log(seen(lifted.image) / seen(img))) < abs(np.log(seen(plain.image) / seen(img)))

@@ -220,3 +220,40 @@ def test_the_cast_shadows_kept_per_decomposition_are_the_last_few_light_directio
         f.cast(dec, own, (lights.directional(toward(az, 10)) + lights.ambient(0.05)).astype(np.float32))
     assert len(f.memo(dec)["cast"]) == F.CAST_CACHE
     np.testing.assert_array_equal(f.cast(dec, own, first), kept)
+
+
+def test_the_relighters_shadow_layer_is_where_the_final_result_darkens():
+    """``Relighter.cast_shadows`` (what the studio's preview draws): on the bundled example (its face mesh, its head
+    pass) under a lamp from the image's left, the final result is darker than without the cast shadows where the
+    layer says a deep shadow falls, and unchanged where it says none (the exposure's meter aside)."""
+    from pathlib import Path
+
+    import relight_rt
+    from relight_rt import Relighter, RuntimeConfig
+    from relight_rt.cli.demo import example_path
+    from relight_rt.relight.factor import Factor
+
+    bundled = Path(relight_rt.__file__).resolve().parent / "models"
+    if not (bundled / "stage1.onnx").is_file():
+        pytest.skip("no bundled models")
+    relighter = Relighter(RuntimeConfig(models=bundled, device="cpu"))
+    dec = relighter.decompose(example_path())  # the example's own alpha is its mask
+    side = lights.directional((0.35, -1.0, 0.25), (1, 1, 1), 1.0, 0.6) + lights.ambient(0.06)
+    depth, meter = relighter.cast_shadows(dec, side)
+    assert depth is not None and depth.shape == dec.image.shape[:2] and 0.999 <= meter < 1.1
+    shaded = relighter.relight(dec, side, exposure="physical")
+    real_cast = Factor.cast
+    Factor.cast = lambda self, d, own, light: None
+    try:
+        plain = relighter.relight(dec, side, exposure="physical")
+    finally:
+        Factor.cast = real_cast
+    y_shaded, y_plain = shaded @ REC709, plain @ REC709
+    person = np.asarray(dec.mask) > 0.5
+    deep = person & (depth > 0.2) & (y_plain > 0.005)  # the example's shaded side: levels ~6 (measured 128 px)
+    assert deep.sum() >= 10
+    assert float(np.median(y_shaded[deep] / y_plain[deep])) < 0.85  # measured 0.68
+    far = person & (depth == 0)
+    far[: int(np.nonzero(depth)[0].max()) + 40] = False  # below the head: the body, no shadow of the face's
+    assert far.sum() > 100 and float(np.abs(y_shaded[far] - y_plain[far]).max()) < 2 / 255
+

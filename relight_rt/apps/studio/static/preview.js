@@ -67,6 +67,7 @@ uniform sampler2D t1;  // T4..T7
 uniform sampler2D t2;  // T8, albedo r, g, b (premultiplied)
 uniform sampler2D t3;  // background r, g, b, mask
 uniform sampler2D t4;  // skin chroma r, g, b (in [-1, 1]), skin weight
+uniform sampler2D t5;  // the faces' cast shadows: the factor on the shading (1: none; setShadow)
 uniform vec3 L[9];
 uniform float W[9];  // the photo's own light, white (one column)
 uniform float G;  // the shaded-skin exponent
@@ -80,7 +81,7 @@ void main() {
   vec3 s = a.x * L[0] + a.y * L[1] + a.z * L[2] + a.w * L[3]
          + b.x * L[4] + b.y * L[5] + b.z * L[6] + b.w * L[7] + c.x * L[8];
   vec4 e = texelFetch(t4, p, 0);
-  vec3 lit = max(s, 0.0);
+  vec3 lit = max(s, 0.0) * texelFetch(t5, p, 0).r;
   float own = a.x * W[0] + a.y * W[1] + a.z * W[2] + a.w * W[3] + b.x * W[4] + b.y * W[5] + b.z * W[6]
             + b.w * W[7] + c.x * W[8];
   float r = dot(lit, vec3(0.2126, 0.7152, 0.0722)) / max(own, 1e-3);
@@ -148,7 +149,15 @@ class WebGLPreview {
     floatTexture(2, pack([T[8], A[0], A[1], A[2]]));
     floatTexture(3, pack([B[0], B[1], B[2], M]));
     floatTexture(4, pack([C[0], C[1], C[2], S]));
-    for (let i = 0; i < 5; i++) gl.uniform1i(gl.getUniformLocation(prog, `t${i}`), i);
+    // the cast shadows' factor, one channel (setShadow replaces it)
+    gl.activeTexture(gl.TEXTURE0 + 5);
+    this.shadowTexture = gl.createTexture();
+    gl.bindTexture(gl.TEXTURE_2D, this.shadowTexture);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
+    gl.texImage2D(gl.TEXTURE_2D, 0, gl.R32F, w, h, 0, gl.RED, gl.FLOAT, new Float32Array(n).fill(1));
+    this.shadow = null;
+    for (let i = 0; i < 6; i++) gl.uniform1i(gl.getUniformLocation(prog, `t${i}`), i);
     gl.uniform1fv(gl.getUniformLocation(prog, "W"), new Float32Array(layers.ownWhite));
     gl.uniform1f(gl.getUniformLocation(prog, "G"), layers.skinExponent);
     gl.uniform1i(gl.getUniformLocation(prog, "height"), h);
@@ -156,6 +165,16 @@ class WebGLPreview {
     this.lightLoc = gl.getUniformLocation(prog, "L");
     this.gradeLoc = gl.getUniformLocation(prog, "grade");
     gl.viewport(0, 0, w, h);
+  }
+
+  // The faces' cast shadows to draw with: a plane (height x width Float32Array, the factor on the shading) or null.
+  setShadow(plane) {
+    if (plane === this.shadow) return;
+    const gl = this.gl, { width: w, height: h } = this.layers;
+    gl.activeTexture(gl.TEXTURE0 + 5);
+    gl.bindTexture(gl.TEXTURE_2D, this.shadowTexture);
+    gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, w, h, gl.RED, gl.FLOAT, plane ?? new Float32Array(w * h).fill(1));
+    this.shadow = plane;
   }
 
   draw(light, grade = [1, 1, 1]) {
@@ -208,6 +227,12 @@ class CanvasPreview {
     }
     this.skin = skin;
     this.exponent = layers.skinExponent;
+    this.shadow = null;
+  }
+
+  // The faces' cast shadows to draw with: a plane (height x width Float32Array, the factor on the shading) or null.
+  setShadow(plane) {
+    this.shadow = plane;
   }
 
   draw(light, grade = [1, 1, 1]) {
@@ -217,7 +242,7 @@ class CanvasPreview {
     const l9 = L[9], l10 = L[10], l11 = L[11], l12 = L[12], l13 = L[13], l14 = L[14], l15 = L[15], l16 = L[16];
     const l17 = L[17], l18 = L[18], l19 = L[19], l20 = L[20], l21 = L[21], l22 = L[22], l23 = L[23], l24 = L[24];
     const l25 = L[25], l26 = L[26];
-    const f = this.packed, px = this.pixels;
+    const f = this.packed, px = this.pixels, cast = this.shadow;
     const n = px.length;
     const back = this.back = this.back ?? new Float32Array(3 * n);  // the graded background's share, + 0.5 (rounding)
     for (let p = 0, o = 0, u = 0; p < n; p++, o += 16, u += 3) {
@@ -230,9 +255,10 @@ class CanvasPreview {
       const sr = q0 * l0 + q1 * l3 + q2 * l6 + q3 * l9 + q4 * l12 + q5 * l15 + q6 * l18 + q7 * l21 + q8 * l24;
       const sg = q0 * l1 + q1 * l4 + q2 * l7 + q3 * l10 + q4 * l13 + q5 * l16 + q6 * l19 + q7 * l22 + q8 * l25;
       const sb = q0 * l2 + q1 * l5 + q2 * l8 + q3 * l11 + q4 * l14 + q5 * l17 + q6 * l20 + q7 * l23 + q8 * l26;
-      const dr = sr > 0 ? Math.min(1, f[o + 9] * sr) : 0;
-      const dg = sg > 0 ? Math.min(1, f[o + 10] * sg) : 0;
-      const db = sb > 0 ? Math.min(1, f[o + 11] * sb) : 0;
+      const c = cast ? cast[p] : 1;
+      const dr = sr > 0 ? Math.min(1, f[o + 9] * sr * c) : 0;
+      const dg = sg > 0 ? Math.min(1, f[o + 10] * sg * c) : 0;
+      const db = sb > 0 ? Math.min(1, f[o + 11] * sb * c) : 0;
       const r = Math.min(255, back[u] + 255 * dr) | 0;
       const g = Math.min(255, back[u + 1] + 255 * dg) | 0;
       const b = Math.min(255, back[u + 2] + 255 * db) | 0;
@@ -247,7 +273,8 @@ class CanvasPreview {
       let sr = q0 * l0 + q1 * l3 + q2 * l6 + q3 * l9 + q4 * l12 + q5 * l15 + q6 * l18 + q7 * l21 + q8 * l24;
       let sg = q0 * l1 + q1 * l4 + q2 * l7 + q3 * l10 + q4 * l13 + q5 * l16 + q6 * l19 + q7 * l22 + q8 * l25;
       let sb = q0 * l2 + q1 * l5 + q2 * l8 + q3 * l11 + q4 * l14 + q5 * l17 + q6 * l20 + q7 * l23 + q8 * l26;
-      sr = sr > 0 ? sr : 0; sg = sg > 0 ? sg : 0; sb = sb > 0 ? sb : 0;
+      const c = cast ? cast[p] : 1;
+      sr = sr > 0 ? sr * c : 0; sg = sg > 0 ? sg * c : 0; sb = sb > 0 ? sb * c : 0;
       const ratio = (0.2126 * sr + 0.7152 * sg + 0.0722 * sb) / Math.max(s[u + 4], 1e-3);
       if (ratio >= 1) continue;
       const boost = Math.pow(Math.max(ratio, 1e-4), g1) - 1, w = s[u + 3];

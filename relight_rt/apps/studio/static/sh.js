@@ -208,3 +208,70 @@ export function highlightFactor(guard, light, limit, allowed, maxDown) {
   const k = Math.min(Math.floor(Math.min(Math.max(allowed, 0), 1) * n), n - 1);
   return Math.min(Math.max(reach[k], maxDown), 1);
 }
+
+// The shoulder's loss given back (relight_rt.light.exposure.shoulder_gain): how much "auto" raises the exposed light
+// so that the picture, its highlights rolled off toward white (relight_rt.relight.look.shoulder: past a pixel's knee
+// q, its brightest channel m goes to q + (1 - q)(1 - exp(-(m - q) / (1 - q)))), keeps the power mean of luminance
+// ** power it had before the shoulder. guard: the highlight sample (as highlightFactor); a pixel's knee is its own
+// peak in the photo, lit · Y(W) + steady (W the shading of the photo's own light, white: ownWhite, 9 numbers),
+// within knee = [lo, hi]; the gain k, at most maxUp, has seen(k) within tol (log ratio) of the target.
+export function shoulderGain(guard, light, ownWhite, knee, maxUp, power, tol, samples) {
+  const T = guard.transport, lit = guard.lit, steady = guard.steady;
+  const all = lit[0].length;
+  if (all === 0) return 1;
+  const step = Math.max(1, Math.ceil(all / samples));  // every step-th pixel, at most `samples` (as Python)
+  const n = Math.ceil(all / step);
+  const a = [new Float64Array(n), new Float64Array(n), new Float64Array(n)];
+  const b = [new Float64Array(n), new Float64Array(n), new Float64Array(n)];
+  const q = new Float64Array(n);
+  const S = [0, 0, 0];
+  let target = 0, over = false;
+  for (let p = 0; p < n; p++) {
+    const i = p * step;
+    const y = shadingAt(T, i, light, S);
+    let w = 0;
+    for (let k = 0; k < 9; k++) w += T[k][i] * ownWhite[k];
+    w = Math.max(w, 0);
+    let peak = -Infinity, now = -Infinity, lum = 0;
+    for (let c = 0; c < 3; c++) {
+      a[c][p] = lit[c][i] * S[c];
+      b[c][p] = (steady[c][i] * S[c]) / y;
+      peak = Math.max(peak, lit[c][i] * w + steady[c][i]);
+      now = Math.max(now, a[c][p] + b[c][p]);
+      lum += LUMA[c] * (a[c][p] + b[c][p]);
+    }
+    q[p] = Math.min(Math.max(peak, knee[0]), knee[1]);
+    if (now > q[p]) over = true;
+    target += Math.pow(Math.max(lum, 0), power);
+  }
+  if (!over) return 1;  // nothing past its knee: the shoulder takes nothing
+  const seen = (k) => {
+    let sum = 0;
+    for (let p = 0; p < n; p++) {
+      let peak = -Infinity, lum = 0;
+      for (let c = 0; c < 3; c++) {
+        const v = k * a[c][p] + b[c][p];
+        peak = Math.max(peak, v);
+        lum += LUMA[c] * v;
+      }
+      if (peak > q[p]) lum *= (q[p] + (1 - q[p]) * -Math.expm1(-(peak - q[p]) / (1 - q[p]))) / peak;
+      sum += Math.pow(Math.max(lum, 0), power);
+    }
+    return sum;
+  };
+  // the secant on log seen against log k from k = 1 (relight_rt.light.exposure.shoulder_gain, step for step)
+  const logRatio = (now) => (now > 0 && target > 0 ? Math.log(now / target) : target > 0 ? -Infinity : 0);
+  const top = Math.log(maxUp);
+  let x0 = 0, f0 = logRatio(seen(1));
+  if (f0 >= -tol) return 1;  // a loss under tol of the light seen is none (the photo's own pixels at white)
+  let x1 = Math.min(-f0 / power, top);
+  let f1 = logRatio(seen(Math.exp(x1)));
+  for (let i = 0; i < 8; i++) {
+    if (Math.abs(f1) < tol || (x1 >= top && f1 < 0)) break;
+    const x2 = f1 !== f0 ? x1 - (f1 * (x1 - x0)) / (f1 - f0) : x1 - f1 / power;
+    x0 = x1; f0 = f1;
+    x1 = Math.min(Math.max(x2, 0), top);
+    f1 = logRatio(seen(Math.exp(x1)));
+  }
+  return Math.exp(x1);
+}

@@ -21,6 +21,9 @@ const state = {
   stats: { frames: 0, latencies: [], frameTimes: [] },  // frameTimes: the latest frames drawn for the user's input
   view: null,      // the ZoomView of the photo area
   before: false,   // the original photo is shown (while the before key or button is held)
+  shadow: null,    // the faces' cast shadows of the final result for one light: {key, plane, meter} (fetchShadow)
+  shadowBusy: false,
+  shadowPending: false,  // a light settled while a shadow request was on its way
 };
 
 // ------------------------------------------------------------------------------------------------ light
@@ -46,18 +49,75 @@ function exposureValue() {
   return e.mode === "physical" ? "physical" : e.mode === "ev" ? e.ev : "auto";
 }
 
+// The faces' cast shadows the final result puts under `light` (the server's, Studio.shadow), when they are known for
+// that light: {key, plane (the factor on the preview's shading, height x width), meter (the exposure's lift)}.
+function shadowFor(light) {
+  const key = light.join(",");
+  return state.shadow && state.shadow.key === key ? state.shadow : null;
+}
+
+// Ask the server for the cast shadows of the light the user has set, once it has settled (on release, as the full
+// result): one request at a time; a light that settles while one is on its way is asked for after it. The answer is
+// drawn only for its own light.
+async function fetchShadow() {
+  if (state.shadowBusy) {
+    state.shadowPending = true;
+    return;
+  }
+  state.shadowBusy = true;
+  try {
+    do {
+      state.shadowPending = false;
+      const light = composedLight();
+      const key = light.join(",");
+      if (state.shadow && state.shadow.key === key) continue;
+      const res = await api("/api/shadow", {
+        method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify({ light }),
+      });
+      const out = await res.json();
+      const { width: w, height: h } = state.layers;
+      let plane = null;
+      if (out.box.length === 4) {
+        const [y0, y1, x0, x1] = out.box, bw = x1 - x0;
+        const depth = Uint8Array.from(atob(out.depth), (c) => c.charCodeAt(0));
+        plane = new Float32Array(w * h).fill(1);
+        for (let y = y0; y < y1; y++) {
+          for (let x = x0; x < x1; x++) plane[y * w + x] = 1 - depth[(y - y0) * bw + (x - x0)] / 255;
+        }
+      }
+      state.shadow = { key, plane, meter: out.meter };
+      if (composedLight().join(",") === key) {
+        state.dirty = true;
+        requestAnimationFrame(paint);
+      }
+    } while (state.shadowPending);
+  } catch (err) {
+    state.shadow = null;  // the preview goes on without them
+    console.warn("cast shadows unavailable:", err);
+  } finally {
+    state.shadowBusy = false;
+  }
+}
+
 // The light the preview shows: the server applies the exposure itself when its runtime supports it.
 function previewLight(light) {
   if (!state.info.exposure || state.exposure.mode === "physical") return light;
   const ev = state.exposure.mode === "ev" ? state.exposure.ev : 0;
   const meta = state.info.preview;
   const s = sh.exposureScale(state.layers.exposure, light, meta.exposure_target, 0, 1, meta.exposure_power ?? 1);
-  // float32 as the server holds the exposed light, then the highlight guard, then the EV (relight_rt.exposure)
-  const exposed = sh.scale(light, s).map((v) => Math.fround(v));
-  const guard = sh.highlightFactor(state.layers.highlight, exposed, meta.highlight_limit, meta.highlight_allowed,
-    meta.highlight_max_down);
+  // float32 as the server holds the exposed light, the faces' cast shadows metered (when known for this light),
+  // then the shoulder's loss given back, the highlight guard (its bound counted from the light as it came), then the
+  // EV (relight_rt.light.exposure.guarded)
+  const cast = shadowFor(light);
+  const meter = cast ? cast.meter : 1;
+  const exposed = sh.scale(sh.scale(light, s).map((v) => Math.fround(v)), meter).map((v) => Math.fround(v));
+  const up = sh.shoulderGain(state.layers.highlight, exposed, meta.own_white, meta.shoulder_knee,
+    meta.shoulder_max_up, meta.exposure_power ?? 1, meta.shoulder_tol, meta.shoulder_samples);
+  const lifted = sh.scale(exposed, up).map((v) => Math.fround(v));
+  const guard = sh.highlightFactor(state.layers.highlight, lifted, meta.highlight_limit, meta.highlight_allowed,
+    meta.highlight_max_down / up);
   // an EV acts on the light as seen: 2 ** (EV / display_gamma) on the encoded values (relight_rt.exposure.ev_gain)
-  return sh.scale(light, s * guard * Math.pow(2, ev / meta.display_gamma));
+  return sh.scale(light, s * meter * up * guard * Math.pow(2, ev / meta.display_gamma));
 }
 
 // The background's grade the preview draws: the final result's (sh.backgroundGrade) when the toggle asks for it.
@@ -73,7 +133,10 @@ function paint() {
   if (!state.dirty || !state.preview) return;
   state.dirty = false;
   const t0 = performance.now();
-  const shown = previewLight(composedLight());
+  const composed = composedLight();
+  const cast = shadowFor(composed);
+  state.preview.setShadow(cast ? cast.plane : null);
+  const shown = previewLight(composed);
   state.preview.draw(shown, previewGrade(shown));
   // a frame that answers the user's input is timed: wait until it is really drawn (WebGL: the GPU), so the time
   // is true; other frames are not held up (a read-back on every frame would stall the pipeline)
@@ -299,6 +362,7 @@ async function api(path, options) {
 }
 
 async function requestFull() {
+  fetchShadow();  // the light has settled: the preview draws its cast shadows too
   const seq = state.seq;
   const light = composedLight();
   // a group relit person by person: the preview draws the group's layers (one body), the full result each person
@@ -628,5 +692,5 @@ async function start() {
 
 // for tests and benchmarks
 window.studio = { sh, state, composedLight, previewLight, previewGrade, paint, requestFull, decodeLayers, createPreview,
-  facePoint, panoramaChanged };
+  facePoint, panoramaChanged, fetchShadow };
 start();

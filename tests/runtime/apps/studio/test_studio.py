@@ -554,3 +554,77 @@ def test_exported_command_parses_as_it_reads(studio, monkeypatch, name, ev):
     operand = f"./{name}" if name.startswith("-") else name
     assert args.inputs == [operand] and args.mask == f"-{name}" and args.exposure == str(ev), cmd
     assert args.light == Path(name).stem + "_light.npy" and args.output == Path(name).stem + "_relit.png"
+
+
+# ------------------------------------------------------------------------------------------------ cast shadows
+
+
+def _disc_depth(h: int, w: int, depth: float = 0.6) -> np.ndarray:
+    """(h, w) a cast shadow as ``Relighter.cast_shadows`` gives it: 1 - the factor on the shading, a disc."""
+    yy, xx = np.mgrid[0:h, 0:w]
+    return np.where((yy - 0.4 * h) ** 2 + (xx - 0.5 * w) ** 2 < (0.15 * h) ** 2, depth, 0).astype(np.float32)
+
+
+def test_shadow_layer_is_the_final_results_at_the_previews_size(photo, models_dir, monkeypatch):
+    """``Studio.shadow``: the faces' cast shadows the relighter reports for a light (here a disc the test sets),
+    reduced to the preview's size and cut to its box as uint8; its meter goes into the preview's exposure; one
+    answer per light, the latest SHADOW_CACHE kept; no shadow (box empty, meter 1) where the relighter has none."""
+    from relight_rt.apps.studio import core
+
+    relighter = relight_rt.open(RuntimeConfig(models=models_dir, device="cpu"))
+    plain = Studio(photo, None, "original", relighter, preview_pixels=4096, models=models_dir)
+    light = lights.preset("window-left").astype(np.float32)
+    none = plain.shadow(light.tolist())
+    assert none == {"box": [], "meter": 1.0, "depth": b""}  # the test models have no face mesh
+    calls = []
+    h, w = plain.dec.image.shape[:2]
+    monkeypatch.setattr(relighter, "cast_shadows", lambda dec, lit: calls.append(lit) or (_disc_depth(h, w), 1.25))
+    studio = Studio(photo, None, "original", relighter, preview_pixels=4096, models=models_dir)
+    meta = studio.info()["preview"]
+    answer = studio.shadow(light.tolist())
+    assert studio.shadow(light.tolist()) is answer and len(calls) == 1  # kept
+    plane = core.shadow_plane(answer, meta["height"], meta["width"])
+    want = 1 - cv2.resize(_disc_depth(h, w), (meta["width"], meta["height"]), interpolation=cv2.INTER_AREA)
+    np.testing.assert_allclose(plane, want, atol=0.5 / 255 + 1e-6)
+    assert answer["meter"] == 1.25 and plane.min() < 0.5
+    # the meter lifts the mean-keeping light before the shoulder's gain and the guard (Factor.expose's order)
+    from relight_rt.light.exposure import exposure_scale, guarded
+
+    albedo, transport, mask = studio._exposure
+    scale = exposure_scale(albedo[None], transport[None], mask[None], light, meta["exposure_target"], "auto",
+                           METER_POWER)
+    kept = (light * np.float32(scale)).astype(np.float32)
+    want = guarded(kept * np.float32(1.25), "auto", studio._highlight, np.asarray(studio.dec.white_light)[:, 0])
+    np.testing.assert_allclose(studio.preview_light(light, "auto", 1.25), want, rtol=1e-5)
+    for i in range(core.SHADOW_CACHE):
+        studio.shadow((light * (1 + 0.01 * (i + 1))).tolist())
+    assert len(studio._shadows) == core.SHADOW_CACHE
+    studio.shadow(light.tolist())
+    assert len(calls) == core.SHADOW_CACHE + 2  # the first light was dropped and asked again
+    with pytest.raises(RelightError, match="27 numbers"):
+        studio.shadow([1, 2])
+
+
+def test_preview_picture_darkens_only_where_the_shadow_falls(studio):
+    from relight_rt.apps.studio.core import preview_picture
+
+    meta = studio.info()["preview"]
+    layers = unpack_layers(studio.layers_bytes(), meta)
+    light = studio.preview_light(lights.preset("front"))
+    plane = 1 - _disc_depth(meta["height"], meta["width"], 0.5)
+    plain, shaded = preview_picture(layers, meta, light), preview_picture(layers, meta, light, plane)
+    dark = (plane < 1) & (layers["mask"] > 0.5) & (plain.max(axis=2) > 0.05)
+    assert dark.any()
+    np.testing.assert_allclose(shaded[plane == 1], plain[plane == 1])
+    assert float(np.median((shaded[dark] @ REC709_) / (plain[dark] @ REC709_))) < 0.75  # the shaded-skin gain aside
+
+
+REC709_ = np.array([0.2126, 0.7152, 0.0722], np.float32)
+
+
+def test_route_shadow(client, studio):
+    light = lights.preset("window-left").astype(np.float32)
+    out = client.post("/api/shadow", json={"light": light.tolist()}).json()
+    assert out == {"box": [], "meter": 1.0, "depth": ""}
+    res = client.post("/api/shadow", json={"light": [1, 2]})
+    assert res.status_code == 400 and "27 numbers" in res.json()["error"]
