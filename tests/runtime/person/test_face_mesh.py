@@ -11,6 +11,7 @@ from _graphs import unoccluded_transport
 import relight_rt
 from relight_rt import RelightError, RuntimeConfig, lights
 from relight_rt.engine.session import bundled_models_dir
+from relight_rt.light import exposure as exposure_module
 from relight_rt.person.face_mesh import (
     HEAD_STRENGTH,
     FaceMesh,
@@ -195,8 +196,9 @@ def test_the_face_in_a_real_photo_gets_its_mesh_and_the_light_models_it(monkeypa
     refit to the transport, mesh included (relight_rt.relight.strength.refit_light), and the share of the photo's
     shading in the albedo is taken out over the whole person, fitted on the mesh's skin
     (relight_rt.relight.factor.unshaded_albedo), and "auto" exposure meters the face's cast shadow
-    (``Factor.meter_shadows``): all three move the whole picture a little and are held off here to see where the
-    mesh's transport itself acts.)"""
+    (``Factor.meter_shadows``) and gives back what the highlight shoulder takes of the picture, face included
+    (relight_rt.light.exposure.shoulder_gain): all four move the whole picture a little and are held off here to see
+    where the mesh's transport itself acts.)"""
     photo = REFERENCE / "photo" / "sample.jpg"
     mask = REFERENCE / "photo" / "sample_mask.png"
     r = relight_rt.open(RuntimeConfig(device="cpu"))
@@ -205,6 +207,7 @@ def test_the_face_in_a_real_photo_gets_its_mesh_and_the_light_models_it(monkeypa
     monkeypatch.setattr(Factor, "refit", lambda self, dec: dec)
     monkeypatch.setattr(factor_module, "unshaded_albedo", lambda albedo, *_: albedo)
     monkeypatch.setattr(Factor, "meter_shadows", lambda self, dec, lits: lits)  # the face's cast shadow, metered
+    monkeypatch.setattr(exposure_module, "shoulder_gain", lambda *args, **kwargs: 1.0)  # the shoulder's loss, metered
     r = relight_rt.open(RuntimeConfig(device="cpu"))
     dec = r.decompose(photo, mask)
     head, box = dec.head, dec.head_box
