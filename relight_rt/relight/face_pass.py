@@ -31,6 +31,7 @@ MIN_FACE_PX = 6  # a skin blob smaller than this (network pixels) is not trusted
 HEAD_SIDE = 3.0  # side of the head square, in face sizes (hair, ears, neck and a little shoulder)
 MIN_HEAD_INPUT = 64  # the head square must hold at least this many input pixels a side
 UPPER_PART = 0.45  # the face's centre lies in this upper fraction of the person's height
+FACE_ASPECT = 2.5  # a face's skin blob is at most this many times as tall as wide or as wide as tall (an arm is not)
 FEATHER = 0.3  # the head pass fades out over this fraction of the head square at each side
 SHADOW_LIFTS = (0.5, 0.35)  # FacePass.find: no face found, it looks again with the shadows lifted (these powers)
 
@@ -63,7 +64,8 @@ def head_box(skin: np.ndarray, network_mask: np.ndarray, geometry: CropGeometry)
             # framed from the chest up); a small blob beside it is a temple or an ear, not a small face (DPR's
             # portrait got a second pass on a 96-px square of its temple, and a red patch there under neon)
             return None
-        if centres[i][1] <= top + UPPER_PART * height and area > best_area:
+        compact = max(bw, bh) <= FACE_ASPECT * min(bw, bh)  # the reference clip's raised forearm (13 x 86) outweighed
+        if compact and centres[i][1] <= top + UPPER_PART * height and area > best_area:  # its face (25 x 35) by 2 %
             best, best_area = i, area
     if best is None:
         return None

@@ -42,6 +42,22 @@ def test_head_box_is_found_around_a_small_face_in_input_pixels():
     assert y1 - y0 == pytest.approx(3 * 12 * k, abs=2) and x1 - x0 == pytest.approx(3 * 12 * k, abs=2)
 
 
+def test_a_raised_forearm_larger_than_the_face_is_not_taken_for_it():
+    """An arm's skin in the upper part, larger than the face but long and thin (4 x 40 network px against 12 x 12),
+    is not the face: the head pass still finds the face (the reference clip's raised forearm outweighed its face)."""
+    r = 128
+    skin, mask = _person(r, face=12, face_y=26, face_x=58)
+    skin[22:62, 40:44] = mask[22:62, 40:44]  # 160 px against the face's 144
+    photo_mask = np.zeros((1000, 600), np.float32)
+    photo_mask[40:960, 100:500] = 1
+    geom = CropGeometry.from_mask(photo_mask, r)
+    box = head_box(skin, mask, geom)
+    assert box is not None
+    k = geom.scale
+    cx = (63.5 + 0.5) * k - 0.5 - geom.offset[1] + geom.box[2]
+    assert abs((box[2] + box[3]) / 2 - cx) < 2
+
+
 def test_no_head_pass_for_a_large_face_no_face_or_too_few_pixels():
     r = 128
     photo_mask = np.zeros((1000, 600), np.float32)
