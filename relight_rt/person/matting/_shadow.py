@@ -16,6 +16,10 @@ stands (taller than wide, _UPRIGHT) and ends above the photo's bottom border (fe
    person (``sure``);
 4. dropped: a part of the candidates (8-connected) that reaches the matte's outline and holds a pixel _THICK x the
    matte's height inside it (a patch, not a shoe's mixed rim); never more than _MAX_SHARE of the lowest part.
+
+Measured (benchmarks/people_masks_eval.py; thresholds on the clip and photos half A): the clip 0.9318 -> 0.9325
+(frames 5, 9-12, 51 +0.007-0.019, none worse), photos unchanged (A 0.9197, B 0.8950; p182 -0.002, a shoe's lower edge).
+The pose graph's segmentation cannot be the guard: it is as sure of the shadow as of the legs (0.95-1.0).
 """
 
 from __future__ import annotations
