@@ -65,6 +65,7 @@ from ._segmentation import (
     warp_to_grid,
     working_grid,
 )
+from ._shadow import selfie_sure, without_cast_shadow
 from ._turned import turned_people
 
 PERSON_MODES = ("largest", "all")
@@ -735,6 +736,7 @@ class PersonMatter:
             alpha = refine_edges(rgb, alpha)
             if self.person != "all":  # in everyone's matte a faint person apart is someone
                 alpha = without_doubted_parts(alpha, band_width(alpha.shape))
+                alpha = without_cast_shadow(rgb, alpha, selfie_sure(self.roi, rgb, alpha))  # (_shadow)
         return alpha
 
     def __call__(self, image: np.ndarray, name: str = "image") -> np.ndarray:
