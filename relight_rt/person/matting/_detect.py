@@ -10,7 +10,7 @@ from ...engine.session import Model
 from ...image.regions import Region, crop_region, grid_of_region, pyramid_of
 from ..face_detector import FACE_SIZE, Face, decode, weighted_nms
 from ._models import SIZE
-from ._segmentation import COARSE_MIN_AREA, components, tile_levels
+from ._segmentation import COARSE_MIN_AREA, Person, canvas_points, components, person_box, prob_at, tile_levels
 
 MIN_TILE = SIZE  # tiles are searched as long as they stay at least 256 px (a smaller one would only be upsampled)
 CLOSE_ZOOM = 2.0  # find_close_faces: the window is this x the image's longer side
@@ -39,6 +39,29 @@ def roi_prob(roi: Model, rgb: np.ndarray, region: Region) -> np.ndarray:
         while len(pyr.answers) > _KEEP_ANSWERS:  # the last few (person="all" runs it on ~70 tiles once each)
             del pyr.answers[next(iter(pyr.answers))]
     return prob
+
+
+def around_people(roi: Model, rgb: np.ndarray, people: list[Person]):
+    """What the searches for a part beside ``people`` start from (``PersonMatter._own_colours``, ``_turned``): the
+    region around their boxes (``Region.around``), and on its canvas the selfie graph's answer on the whole photo,
+    where the canvas lies inside the photo, and the people's own pixels (> 0.5); None when no one has a box."""
+    h, w = rgb.shape[:2]
+    boxes = [b for b in (person_box(p, (h, w)) for p in people) if b is not None]
+    if not boxes:
+        return None
+    region = Region.around(min(b[0] for b in boxes), min(b[1] for b in boxes), max(b[2] for b in boxes),
+                           max(b[3] for b in boxes))  # fmt: skip
+    whole = Region(w / 2, h / 2, float(max(h, w)))
+    k, bx, by = grid_of_region(region)
+    kw, bxw, byw = grid_of_region(whole)
+    s = kw / k  # region canvas index -> whole canvas index
+    m = np.array([[s, 0.0, bxw - s * bx], [0.0, s, byw - s * by]])
+    seen = cv2.warpAffine(roi_prob(roi, rgb, whole), m, (SIZE, SIZE), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
+                          borderMode=cv2.BORDER_CONSTANT, borderValue=0.0)  # fmt: skip
+    xs, ys = canvas_points(region)
+    inside = (xs >= 0) & (xs < w) & (ys >= 0) & (ys < h)
+    mine = np.any([prob_at(p, xs, ys) > 0.5 for p in people], axis=0)
+    return region, seen, inside, mine
 
 
 def find_people(roi: Model, rgb: np.ndarray) -> list[tuple[float, Box]]:

@@ -23,7 +23,17 @@ from ...image.regions import Region, crop_region, grid_of_region, reductions_sha
 from ..face_detector import Face
 from ._coarse import region_alpha
 from ._colours import own_part
-from ._detect import MIN_TILE, faint_places, find_close_faces, find_faces, find_people, grid_pixels, roi_prob, strips
+from ._detect import (
+    MIN_TILE,
+    around_people,
+    faint_places,
+    find_close_faces,
+    find_faces,
+    find_people,
+    grid_pixels,
+    roi_prob,
+    strips,
+)
 from ._layout import (
     COVERED,
     PEER_HEIGHT,
@@ -48,7 +58,7 @@ from ._layout import (
     within_photo,
     without_straddlers,
 )
-from ._models import FACE_FILE, POSE_FILE, ROI_FILE, SIZE, as_rgb, find_matting_models
+from ._models import FACE_FILE, POSE_FILE, ROI_FILE, as_rgb, find_matting_models
 from ._parts import Crop, rejoin, shares
 from ._segmentation import (
     COARSE_MIN_AREA,
@@ -58,6 +68,7 @@ from ._segmentation import (
     canvas_points,
     contains,
     logits_on_grid,
+    own_person,
     person_box,
     prob_at,
     sigmoid,
@@ -366,30 +377,15 @@ class PersonMatter:
         frames, up to -0.09), photos half B 0.870 -> 0.875, half A 0.9101 -> 0.9098 (a blurred neighbour's dark hair
         and a dark passer-by beside, -0.04 each), images under 0.8 IoU 9.4 % -> 8.1 % over both sets. ~7 ms a photo
         (the k-means on 1500 samples a side), nothing more where the candidates are only the matte's rim."""
-        h, w = rgb.shape[:2]
-        boxes = [b for b in (person_box(p, (h, w)) for p in people) if b is not None]
-        if not boxes:
+        start = around_people(self.roi, rgb, people)
+        if start is None:
             return []
-        region = Region.around(min(b[0] for b in boxes), min(b[1] for b in boxes), max(b[2] for b in boxes),
-                               max(b[3] for b in boxes))  # fmt: skip
-        whole = Region(w / 2, h / 2, float(max(h, w)))
-        k, bx, by = grid_of_region(region)
-        kw, bxw, byw = grid_of_region(whole)
-        s = kw / k  # region canvas index -> whole canvas index
-        m = np.array([[s, 0.0, bxw - s * bx], [0.0, s, byw - s * by]])
-        prob = cv2.warpAffine(self._roi_prob(rgb, whole), m, (SIZE, SIZE),
-                              flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
-                              borderMode=cv2.BORDER_CONSTANT, borderValue=0.0)  # fmt: skip
-        prob = np.where(self._roi_prob(rgb, region) >= 0.5, prob, 0.0).astype(np.float32)  # _colours: framed too
-        xs, ys = canvas_points(region)
-        inside = (xs >= 0) & (xs < w) & (ys >= 0) & (ys < h)
-        mine = np.any([prob_at(p, xs, ys) > 0.5 for p in people], axis=0)
+        region, seen, inside, mine = start
+        prob = np.where(self._roi_prob(rgb, region) >= 0.5, seen, 0.0).astype(np.float32)  # _colours: framed too
         part = own_part(crop_region(rgb, region), inside, mine, prob)
         if part is None:
             return []
-        rim = cv2.dilate(part.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool) & ~mine
-        return [Person(region, np.where(rim, as_logits(prob), -LOGIT_CLIP).astype(np.float32), people[0].presence,
-                       "own")]  # fmt: skip
+        return [own_person(region, part, mine, prob, people[0].presence)]
 
     def _joined(self, rgb: np.ndarray, people: list[Person], faces: list[Face]) -> list[Person]:
         """The people joined to ``people`` in the selfie graph's view of the whole photo who show a face of their

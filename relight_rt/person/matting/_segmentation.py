@@ -54,6 +54,14 @@ def as_logits(prob: np.ndarray) -> np.ndarray:
     return (np.log(np.clip(p, 1e-7, 1.0)) - np.log(np.clip(1.0 - p, 1e-7, 1.0))).astype(np.float32)
 
 
+def own_person(region: Region, part: np.ndarray, mine: np.ndarray, prob: np.ndarray, presence: float) -> Person:
+    """A part found beside the people whose pixels ``mine`` are on ``region``'s canvas, as a Person of source "own"
+    (part of the matte, no one's share of it): ``prob``'s logits over the part and a pixel round it, off the people's
+    own; nothing elsewhere."""
+    rim = cv2.dilate(part.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool) & ~mine
+    return Person(region, np.where(rim, as_logits(prob), -LOGIT_CLIP).astype(np.float32), presence, "own")
+
+
 def canvas_points(region: Region) -> tuple[np.ndarray, np.ndarray]:
     """Image coordinates (xs, ys), each (256, 256) float64, of the centres of ``region``'s canvas pixels."""
     k, bx, by = grid_of_region(region)

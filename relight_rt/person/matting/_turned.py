@@ -29,11 +29,10 @@ import cv2
 import numpy as np
 
 from ...engine.session import Model
-from ...image.regions import Region, crop_region, grid_of_region
+from ...image.regions import crop_region
 from ._colours import OWN_MIN, OWN_RING, centres, nearest
-from ._detect import roi_prob
-from ._models import SIZE
-from ._segmentation import LOGIT_CLIP, Person, as_logits, canvas_points, person_box, prob_at
+from ._detect import around_people, roi_prob
+from ._segmentation import Person, own_person
 
 TURNED_SURE = 0.75  # the turned views' smaller probability, averaged over a part
 UPRIGHT_SEEN = 0.5  # ... the upright selfie graph's (on the region or on the whole photo), averaged over it
@@ -121,23 +120,11 @@ def turned_people(roi: Model, rgb: np.ndarray, people: list[Person]) -> list[Per
     part of the matte, no one's share of it] or []. On the canvas of a region around ``people`` (ROI_SCALE x their
     box); three selfie-graph runs (upright, and turned either way), the upright one shared with the other rules
     asking for that region."""
-    h, w = rgb.shape[:2]
-    boxes = [b for b in (person_box(p, (h, w)) for p in people) if b is not None]
-    if not boxes:
+    start = around_people(roi, rgb, people)
+    if start is None:
         return []
-    region = Region.around(min(b[0] for b in boxes), min(b[1] for b in boxes), max(b[2] for b in boxes),
-                           max(b[3] for b in boxes))  # fmt: skip
-    whole = Region(w / 2, h / 2, float(max(h, w)))
-    k, bx, by = grid_of_region(region)
-    kw, bxw, byw = grid_of_region(whole)
-    s = kw / k  # region canvas index -> whole canvas index
-    m = np.array([[s, 0.0, bxw - s * bx], [0.0, s, byw - s * by]])
-    seen = cv2.warpAffine(roi_prob(roi, rgb, whole), m, (SIZE, SIZE), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
-                          borderMode=cv2.BORDER_CONSTANT, borderValue=0.0)  # fmt: skip
+    region, seen, inside, mine = start
     upright = np.maximum(roi_prob(roi, rgb, region), seen)
-    xs, ys = canvas_points(region)
-    inside = (xs >= 0) & (xs < w) & (ys >= 0) & (ys < h)
-    mine = np.any([prob_at(p, xs, ys) > 0.5 for p in people], axis=0)
     if not reaching_past((upright >= 0.5) & ~mine & inside, mine)[2]:
         return []  # nothing upright reaches past the matte: no part could pass (a photo of one person, mostly)
     canvas = crop_region(rgb, region)
@@ -145,6 +132,4 @@ def turned_people(roi: Model, rgb: np.ndarray, people: list[Person]) -> list[Per
     part = turned_part(canvas, inside, mine, upright, turned)
     if part is None:
         return []
-    rim = cv2.dilate(part.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool) & ~mine
-    logits = np.where(rim, as_logits(turned), -LOGIT_CLIP).astype(np.float32)
-    return [Person(region, logits, people[0].presence, "own")]
+    return [own_person(region, part, mine, turned, people[0].presence)]
