@@ -10,7 +10,10 @@ linearised sRGB, + 1e-3) from the source photo, ours against the real photo's un
 reduced to a 48 x 48 grid (area average of the luminance) and taken inside the ellipse; per pair the Pearson
 correlation and the contrast (least-squares slope of ours on the truth's, both centred); medians over pairs. The
 blotches of the sheets, as shares of the face (``detail_shares``, means over pairs): "speckle" where the relit
-photo has more than twice the real photo's fine detail, "flat" where it has less than half.
+photo has more than twice the real photo's fine detail, "flat" where it has less than half. The eye sockets
+(``socket_ratio``, de-light pairs from |azimuth| 70): each eye's luminance (MediaPipe's eye contour on the real
+frontal photo's face mesh, dilated 7 px) over the face's mean in ours, over the same in the real photo; the mean
+|log| of that over the pairs, for the eye on the photo's dark side and on its lit side.
 
 - relight: the frontal photo (A+000E+00) relit to each lamp at elevation 0 and |azimuth| 25, 50, 70;
 - de-light: the photos lit from |azimuth| 50 and 70 (elevation 0) relit to the frontal lamp, against the
@@ -49,6 +52,7 @@ from real_photos import REPO, luminance
 import dpr_protocol as dprp  # imports relight_rt: after real_photos
 
 from relight_rt import Relighter, RuntimeConfig, lights
+from relight_rt.person.face_mesh import FaceMesh
 
 EPS = 1e-3
 GRID = 48
@@ -59,6 +63,11 @@ DETAIL_SIGMA = 2.0  # detail_shares: the fine detail is the log luminance less i
 DETAIL_BLOCK = 12  # ... its RMS over blocks this many pixels wide,
 DETAIL_ERODE = 9  # ... inside the ellipse eroded this many pixels (its own edge is no detail)
 DPR_DC = dprp.DEMO_SCALE * 1.0841254962824531  # the DC of DPR's demo lights as its demo uses them
+# socket_ratio: MediaPipe's face mesh eye contours (FACEMESH_RIGHT_EYE: the subject's right, the image's left)
+RIGHT_EYE = (33, 7, 163, 144, 145, 153, 154, 155, 133, 173, 157, 158, 159, 160, 161, 246)
+LEFT_EYE = (362, 382, 381, 380, 374, 373, 390, 249, 263, 466, 388, 387, 386, 385, 384, 398)
+SOCKET_DILATE = 7  # ... the eye's contour dilated this many pixels (its lids and lashes)
+SOCKET_AZ = 70  # ... measured on the de-light pairs from this |azimuth|
 
 
 def lamp_direction(azimuth_deg: float, elevation_deg: float) -> tuple[float, float, float]:
@@ -117,6 +126,32 @@ def detail_shares(relit: np.ndarray, truth: np.ndarray, mask: np.ndarray) -> dic
         return {"speckle": 0.0, "flat": 0.0}
     ours, real = fine_detail(relit)[inner], fine_detail(truth)[inner]
     return {"speckle": float(np.mean(ours > 2 * real)), "flat": float(np.mean(ours < 0.5 * real))}
+
+
+def eye_region(points: np.ndarray, eye: tuple[int, ...], shape: tuple[int, int]) -> np.ndarray:
+    """(H, W) bool: an eye's contour on the face mesh ``points`` (468, >= 2), filled and dilated."""
+    reg = np.zeros(shape, np.uint8)
+    cv2.fillConvexPoly(reg, cv2.convexHull(np.asarray(points)[list(eye), :2].astype(np.int32)), 1)
+    return cv2.dilate(reg, np.ones((SOCKET_DILATE, SOCKET_DILATE), np.uint8)) > 0
+
+
+def socket_ratio(relit: np.ndarray, truth: np.ndarray, face: np.ndarray, eye: np.ndarray) -> float:
+    """The eye's socket over the face's mean luminance (linear) in ``relit``, over the same in ``truth``: 1 when the
+    relit socket is as much darker than the face as the real one (a de-lit face's dark-side eye: faces9 / faces10)."""
+    lr, lt = luminance(relit), luminance(truth)
+    return float((lr[eye].mean() / lr[face].mean()) / (lt[eye].mean() / lt[face].mean()))
+
+
+def sockets(rows: list[dict]) -> dict | None:
+    """The de-light pairs' socket figures: mean |log| of ``socket_ratio`` for the eye on the photo's dark side and on
+    its lit side, and how many dark-side sockets came out more than 1.5x too bright."""
+    dark = [r["sockets"]["dark"] for r in rows if "sockets" in r]
+    if not dark:
+        return None
+    lit = [r["sockets"]["lit"] for r in rows if "sockets" in r]
+    return {"pairs": len(dark), "dark_mean_abs_log": float(np.mean(np.abs(np.log(dark)))),
+            "dark_over_1.5x": int(sum(d > 1.5 for d in dark)), "lit_mean_abs_log": float(np.mean(np.abs(np.log(lit)))),
+            "lit_median": float(np.median(lit))}
 
 
 def find_file(yale: Path, subject: str, az: int, el: int = 0) -> Path:
@@ -185,12 +220,14 @@ def main(argv=None) -> int:
     repo = None if args.no_dpr else dprp.DPRRepo.find(args.dpr)
     dpr = dprp.DPRNet(repo, args.cache) if repo is not None else None
     relighter = Relighter(RuntimeConfig(models=args.models, device="cpu"))
+    mesh = FaceMesh(relighter.models_dir)
     args.out.mkdir(parents=True, exist_ok=True)
 
     rows, pictures = [], {}
     t0 = time.time()
 
-    def run(task: str, subject: str, src_az: int, dst_az: int, source: np.ndarray, dec, truth: np.ndarray) -> None:
+    def run(task: str, subject: str, src_az: int, dst_az: int, source: np.ndarray, dec, truth: np.ndarray,
+            points: np.ndarray | None = None) -> None:
         face = ellipse(source.shape[:2])
         region = cv2.resize(face, (GRID, GRID), interpolation=cv2.INTER_AREA) > 0.99
         light = lamp(dst_az)
@@ -202,6 +239,10 @@ def main(argv=None) -> int:
         if dpr is not None:
             theirs = dpr.relight(source, dprp.ours_to_dpr(light, dc=DPR_DC))
             row["dpr"] = {**compare(source, theirs, truth, region), **detail_shares(theirs, truth, face)}
+        if points is not None and task == "delight" and abs(src_az) == SOCKET_AZ:  # negative: the image's right lit
+            dark_eye, lit_eye = (RIGHT_EYE, LEFT_EYE) if src_az < 0 else (LEFT_EYE, RIGHT_EYE)
+            row["sockets"] = {name: socket_ratio(ours, truth, face > 0, eye_region(points, eye, face.shape))
+                              for name, eye in (("dark", dark_eye), ("lit", lit_eye))}
         rows.append(row)
         pictures[row["id"]] = (source, ours, theirs, truth)
 
@@ -211,6 +252,9 @@ def main(argv=None) -> int:
             continue
         frontal = read_grey(frontal_path)
         mask = ellipse(frontal.shape[:2])
+        h, w = frontal.shape[:2]
+        meshes = mesh.faces(frontal, (0, h, 0, w)) if mesh.available else []
+        points = meshes[0] if meshes else None  # the real frontal photo's eyes (socket_ratio)
         dec = relighter.decompose(frontal, mask)
         for a in RELIGHT_AZ:
             for az in (-a, a):
@@ -222,7 +266,7 @@ def main(argv=None) -> int:
                 path = find_file(args.yale, subject, az)
                 if path.is_file():
                     side = read_grey(path)
-                    run("delight", subject, az, 0, side, relighter.decompose(side, mask), frontal)
+                    run("delight", subject, az, 0, side, relighter.decompose(side, mask), frontal, points)
         print(f"{subject}: {len(rows)} pairs, {time.time() - t0:.0f} s", flush=True)
 
     summary = {}
@@ -235,6 +279,7 @@ def main(argv=None) -> int:
             key = "target_az" if task == "relight" else "source_az"
             sub = [r for r in sel if abs(r[key]) == a]
             summary[task][f"|az| {a}"] = {m: figures(sub, m) for m in ("ours", "dpr")}
+    summary["delight"]["sockets"] = sockets([r for r in rows if r["task"] == "delight"])
     (args.out / "yale.json").write_text(json.dumps({"summary": summary, "pairs": rows}, indent=1))
     sheet(rows, pictures, args.out / "yale_worst.jpg")
     sheet([r for r in rows if r["task"] == "delight"], pictures, args.out / "yale_worst_delight.jpg")
@@ -245,6 +290,11 @@ def main(argv=None) -> int:
         for label, v in [("all", s), *[(k, s[k]) for k in s if k.startswith("|az|")]]:
             ours, dpr = (" ".join(f"{fmt(v[m][c]):>8s}" for c in cols) for m in ("ours", "dpr"))
             print(f"{task + ' ' + label:22s}      {ours}       {dpr}")
+    sock = summary["delight"]["sockets"]
+    if sock is not None:
+        print(f"de-light from {SOCKET_AZ} deg, eye socket / face against the real photo's ({sock['pairs']} "
+              f"pairs): dark side mean |log| {sock['dark_mean_abs_log']:.3f}, {sock['dark_over_1.5x']} over 1.5x; "
+              f"lit side mean |log| {sock['lit_mean_abs_log']:.3f}, median {sock['lit_median']:.2f}")
     worst = sorted(rows, key=lambda r: r["ours"]["corr"])[:5]
     print("worst:", ", ".join(f"{r['id']} {r['ours']['corr']:.2f}" for r in worst))
     return 0

@@ -22,7 +22,8 @@ _AMPLIFIED = np.float32(2.0)  # ... neighbours' colour, fully from a gain of 1 +
 _CHROMA_RADIUS = 4  # ... those within this many pixels (the constants: the reference photo's jaw, module tests)
 _NEUTRAL_L = (30.0, 40.0)  # dark_colour: a pixel of Lab L* below the first is dark, from the second not ...
 _NEUTRAL_C = (6.0, 12.0)  # ... and near-black when its Lab chroma C* is below the first, from the second not,
-_NEUTRAL_A = (-4.0, -1.0)  # ... with a green-cyan cast: a* below the first, none from the second up
+_NEUTRAL_A = (-4.0, -1.0)  # ... with a green-cyan cast: a* below the first, none from the second up,
+_NEUTRAL_HUE = (0.4, 0.7)  # ... or a faint one by its direction: -a* / C* above the second, none below the first
 _NEUTRAL_STEP = 4  # ... measured on the photo reduced this many times (a cloth's cast is shared by its pixels)
 _NEUTRAL_PULL = np.float32(2.0)  # ... and pulled toward grey this many times as readily as a dark pixel's colour
 _TINT_LIT = 0.05  # tint_range: the normals a light gives at least this share of its brightest irradiance
@@ -153,7 +154,10 @@ def dark_colour(image: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
     Near-black: 1 where the photo's CIE Lab L*, chroma C* and a* (on the photo reduced ``_NEUTRAL_STEP`` times: a
     cloth's cast is shared by its pixels) are below ``_NEUTRAL_L[0]``, ``_NEUTRAL_C[0]`` and ``_NEUTRAL_A[0]``, 0
-    from ``_NEUTRAL_L[1]``, ``_NEUTRAL_C[1]`` or ``_NEUTRAL_A[1]`` up, linear between. Only a green-cyan cast
+    from ``_NEUTRAL_L[1]``, ``_NEUTRAL_C[1]`` or ``_NEUTRAL_A[1]`` up, linear between; a cast too faint for the a*
+    gate counts by its direction, -a* / C* from ``_NEUTRAL_HUE[0]`` (none) to ``_NEUTRAL_HUE[1]`` (all): grey cloth
+    at levels (22, 24, 22), a* -1.3 and C* 1.6, went past a* -8 under a side lamp that brightened it 4-5x (grey
+    near-black pixels turned teal over 52 real photos, worst 0.61 % -> 0.33 %). Only a green-cyan cast
     (what a light turns teal): without that gate the deep shade of blue jeans ((6, 9, 14), a* 0) and shaded dark
     skin (warm, C* 8-12 at L* < 30) went grey on the bundled example under studio (up to 33 levels). Dark pixels
     whose neighbours agree on a green-cyan cast keep it under the neighbours' rule, and a light that brightens them
@@ -174,8 +178,12 @@ def dark_colour(image: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
                        interpolation=cv2.INTER_AREA)
     lab = _lab(small)
     ramp = lambda v, lo, hi: np.clip((hi - v) / (hi - lo), 0, 1)  # noqa: E731 - 1 below lo, 0 above hi
-    black = ramp(lab[..., 0], *_NEUTRAL_L) * ramp(np.hypot(lab[..., 1], lab[..., 2]), *_NEUTRAL_C)
-    black *= ramp(lab[..., 1], *_NEUTRAL_A)  # a green-cyan cast only: what a brightening light turns teal
+    chroma = np.hypot(lab[..., 1], lab[..., 2])
+    black = ramp(lab[..., 0], *_NEUTRAL_L) * ramp(chroma, *_NEUTRAL_C)
+    # a green-cyan cast only: what a brightening light turns teal; a faint one by its direction (a* small because C*
+    # is: grey cloth at levels (22, 24, 22), a* -1.3, went past a* -8 under a side lamp's 4-5x)
+    hue = -lab[..., 1] / np.maximum(chroma, 1e-3)
+    black *= np.maximum(ramp(lab[..., 1], *_NEUTRAL_A), ramp(-hue, -_NEUTRAL_HUE[1], -_NEUTRAL_HUE[0]))
     darkness = np.clip(1 - y / _DARK, 0, 1)
     if not black.any():  # most photos: nothing near-black with a cast
         return y, darkness, colour

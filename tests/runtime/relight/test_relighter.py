@@ -592,6 +592,24 @@ def test_a_light_that_brightens_near_black_cloth_does_not_turn_its_faint_cast_te
         np.testing.assert_allclose(_steady_chroma(cloth, white3), cloth * 3, rtol=1e-4)
 
 
+def test_a_faint_green_cast_on_grey_cloth_counts_by_its_direction():
+    """issue 48 (faces10): grey cloth at levels (22, 24, 22) has a* -1.3 only because its chroma is tiny (C* 1.6):
+    the a* gate let it through, and a side lamp that brightened it 4-5x made it a* -5 to -10 on real photos. Its cast
+    points to green (-a* / C* 0.8), so it is pulled toward grey as the a* gate's casts are; blue jeans' deep shade
+    (a* 0, its cast blue) keeps its colour."""
+    import cv2
+
+    from relight_rt.relight.look import steady_chroma
+
+    lab = lambda c: cv2.cvtColor(np.clip(c, 0, 1).astype(np.float32), cv2.COLOR_RGB2Lab)[7, 7]  # noqa: E731
+    cloth = np.broadcast_to(np.array([22, 24, 22], np.float32) / 255, (15, 15, 3)).copy()
+    gain = np.full((15, 15, 3), 4.7, np.float32)
+    assert lab(cloth * gain)[1] < -5  # the plain product: the cast amplified
+    assert abs(float(lab(steady_chroma(cloth, gain))[1])) < 1
+    jeans = np.broadcast_to(np.array([6, 9, 14], np.float32) / 255, (15, 15, 3)).copy()
+    np.testing.assert_allclose(steady_chroma(jeans, gain), jeans * gain, rtol=1e-4)
+
+
 def test_a_strong_gain_does_not_turn_a_dark_pixels_compression_colour_into_a_fringe():
     """Dark pixels beside a lit jaw carry JPEG's colour errors ((0.13, 0.04, 0.0) on the reference photo); brightened
     5x they became a red fringe. Such a pixel is pulled toward its dark neighbours' colour; a dark cloth whose
