@@ -42,7 +42,7 @@ import scene_eval as se  # noqa: E402
 
 from relight_rt import envmap, sh  # noqa: E402
 from relight_rt import scene as scene_mod  # noqa: E402
-from relight_rt.apps.scene_rim import panorama_rim, photo_rim  # noqa: E402
+from relight_rt.apps.scene_rim import key_rim, panorama_rim, photo_rim  # noqa: E402
 from relight_rt.image.color import srgb_to_linear  # noqa: E402
 from relight_rt.light import from_background as bgmod  # noqa: E402
 
@@ -114,7 +114,7 @@ def main(argv=None) -> int:
                             rim = rims[kind]
                             if rim is not None:
                                 height = float((a > 0.005).any(1).sum())
-                                out = scene_mod._key_rim(
+                                out = key_rim(
                                     out, a, rim[0], rim[1], max(0.5, scene_mod.RIM_RADIUS * height)
                                 )
                         elif radius is not None:

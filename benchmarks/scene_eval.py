@@ -70,7 +70,7 @@ if str(REPO) not in sys.path:
 
 from relight_rt import envmap, sh  # noqa: E402
 from relight_rt.apps import scene as scene_mod  # noqa: E402
-from relight_rt.apps.scene_rim import panorama_rim, photo_rim  # noqa: E402
+from relight_rt.apps.scene_rim import key_rim, panorama_rim, photo_rim  # noqa: E402
 from relight_rt.image.color import REC709, linear_to_srgb, srgb_to_linear  # noqa: E402
 from relight_rt.light import from_background as bgmod  # noqa: E402
 
@@ -571,7 +571,7 @@ def main(argv=None) -> int:
                 height = float((truth["mask"] > 0.005).any(1).sum())
                 hh, ww = truth["mask"].shape[:2]  # each point's own ray, as composite's (the renders' fov: 60°)
                 view = ((ww / 2) / math.tan(math.radians(60.0) / 2), -hh / 2, -ww / 2)
-                r_est = scene_mod._key_rim(r_est, truth["mask"], *rims[b], max(0.5, scene_mod.RIM_RADIUS * height),
+                r_est = key_rim(r_est, truth["mask"], *rims[b], max(0.5, scene_mod.RIM_RADIUS * height),
                                            view)  # fmt: skip
             r_oracle = albedo * sh.shading(transport, true1[b])
             si_oracles = {name: si_rmse(albedo * sh.shading(transport, lights[b]), truth["photo"], inside)

@@ -113,8 +113,6 @@ from .scene_place import (
 )
 from .scene_rim import fibre_patch, fibres_in, key_rim, photo_rim, wide_blur
 
-_key_rim = key_rim  # the name benchmarks/scene_eval.py and light_wrap_eval.py call
-
 __all__ = [
     "Placement", "SceneLighting", "Shadows", "camera_match", "composite", "grade", "parse_position", "place",
     "relight_person", "scene_lighting", "shade", "shadows",
