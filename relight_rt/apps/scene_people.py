@@ -103,35 +103,22 @@ class Someone:
         return self.box[3]
 
 
-def _as_float_rgb(photo) -> np.ndarray:
-    img = np.asarray(photo)
-    if img.ndim != 3 or img.shape[2] != 3 or min(img.shape[:2]) < 2:
-        raise RelightError(f"people: expected an (H, W, 3) RGB photo, got {img.shape} {img.dtype}")
-    if img.dtype == np.uint8:
-        return img.astype(np.float32) * np.float32(1 / 255)
-    return np.clip(np.nan_to_num(img.astype(np.float32)), 0, 1)
-
-
-def _iou(a, b) -> float:
-    ix = max(0.0, min(a[2], b[2]) - max(a[0], b[0]))
-    iy = max(0.0, min(a[3], b[3]) - max(a[1], b[1]))
-    inter = ix * iy
-    union = (a[2] - a[0]) * (a[3] - a[1]) + (b[2] - b[0]) * (b[3] - b[1]) - inter
-    return inter / union if union > 0 else 0.0
-
-
 def find_people(photo, matter) -> list[Someone]:
     """The people ``matter`` (a relight_rt.person.matting.PersonMatter) finds in ``photo`` ((H, W, 3) RGB, uint8 or
     float in [0, 1]), largest first (module docstring)."""
-    from ..person.matting import Region, person_box
+    from ..person.face_detector import box_iou
+    from ..person.matting import Region, as_rgb, person_box
 
-    rgb = _as_float_rgb(photo)
-    h, w = rgb.shape[:2]
-    if w > DETECT_WIDTH:
-        rgb = cv2.resize(rgb, (DETECT_WIDTH, max(2, round(h * DETECT_WIDTH / w))), interpolation=cv2.INTER_AREA)
-        h, w = rgb.shape[:2]
+    img = np.asarray(photo)
+    if img.ndim != 3 or img.shape[2] != 3 or min(img.shape[:2]) < 2:
+        raise RelightError(f"people: expected an (H, W, 3) RGB photo, got {img.shape} {img.dtype}")
+    h, w = img.shape[:2]
+    if w > DETECT_WIDTH:  # shrunk first: the intake below then converts only the small copy
+        img = cv2.resize(img, (DETECT_WIDTH, max(2, round(h * DETECT_WIDTH / w))), interpolation=cv2.INTER_AREA)
+        h, w = img.shape[:2]
     if min(h, w) < 16:
         return []
+    rgb = as_rgb(img, "background", copy=False)  # the matters' one intake
     found: list[Someone] = []
     for _, blob in matter.find_people(rgb)[:MAX_PEOPLE]:
         p = matter.segment(rgb, Region.around(*blob), PRESENCE, passes=SEGMENT_PASSES)
@@ -139,7 +126,7 @@ def find_people(photo, matter) -> list[Someone]:
         if box is None or box[2] <= box[0] or box[3] <= box[1]:
             continue
         frac = (box[0] / w, box[1] / h, box[2] / w, box[3] / h)
-        if any(_iou(frac, other.box) > 0.5 for other in found):
+        if any(box_iou(frac, other.box) > 0.5 for other in found):
             continue  # two blobs of one person
         inside = frac[0] > EDGE and frac[1] > EDGE and frac[2] < 1 - EDGE and frac[3] < 1 - EDGE
         tall = box[3] - box[1]
@@ -227,7 +214,7 @@ def scene_horizon(photo, fov: float, people: list[Someone], camera_height: float
     below = FEET_LEVEL if verticals is None else verticals[0]
     both = combine_horizons(verticals, people_horizon(people, camera_height, below))
     if both is None:
-        return find_horizon(photo, fov)
+        return find_horizon(photo, fov, verticals)
     return min(max(both[0], 0.0), HORIZON_ESTIMATE_MAX)
 
 
@@ -280,6 +267,6 @@ def place_among_people(rgba: np.ndarray, background, position, height, horizon: 
     people = finder(background) if finder is not None and full else []
     hz = horizon
     if hz is None:
-        hz = scene_horizon(background, fov, people, camera_height) if people else find_horizon(background, fov)
+        hz = scene_horizon(background, fov, people, camera_height)
     placed = place(rgba, background.shape, position, height, hz, camera_height)
     return make_room(placed, people, background.shape, moved=position is None), hz

@@ -308,7 +308,7 @@ def sky_line(photo: np.ndarray) -> float | None:
     return float(np.quantile(ends[sky], SKY_QUANTILE)) / rows
 
 
-def find_horizon(photo: np.ndarray, fov: float = 60.0) -> float:
+def find_horizon(photo: np.ndarray, fov: float = 60.0, reading=...) -> float:
     """The horizon ``relight_rt.apps.scene.composite`` uses when none is given: the verticals' (``estimate_horizon``;
     a level camera's 0.5 without them), where they see the camera turned up no higher than the sky line
     (``sky_line``), at most ``HORIZON_ESTIMATE_MAX``.
@@ -317,8 +317,11 @@ def find_horizon(photo: np.ndarray, fov: float = 60.0) -> float:
     length squared, and ``fov`` is a guess): where they see it turned up (a horizon below the middle), the sky may
     put the horizon lower still. Where they see it level or turned down, sky below their horizon contradicts them,
     and they stand; where they say nothing, the sky line alone is not trusted (a bright wall or curtain over a
-    darker floor, a calm sea under its sky, a backdrop over dark clothes read as sky)."""
-    found = estimate_horizon(photo, fov)
+    darker floor, a calm sea under its sky, a backdrop over dark clothes read as sky). ``reading``:
+    ``horizon_reading``'s answer on ``photo`` where the caller has it already."""
+    if reading is ...:
+        reading = horizon_reading(photo, fov)
+    found = None if reading is None else reading[0]
     hz = 0.5 if found is None else found
     if found is not None and found > 0.5:
         line = sky_line(photo)
