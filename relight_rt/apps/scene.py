@@ -674,8 +674,10 @@ def composite(
                               rim_key=rim_key)
     rgba = relight_person(relighter, dec, lighting, mode)
     placed, hz = place_among_people(rgba, bg, pos, frac, hz, cam, fov, people_finder(relighter))
-    # the rim's fibres: read on the photo's matte, placed with the person (before any blur)
-    fibres = None if lighting.rim_dir is None else (fibre_patch(rgba[..., 3], placed), (placed.top, placed.left))
+    # the rim's fibres: read on the photo's matte, placed with the person (before any blur); only where a rim is
+    # drawn at all (a key from behind, of some colour: ``key_rim`` draws nothing otherwise)
+    rims = lighting.rim_dir is not None and lighting.rim_dir[0] < 0 and float(np.max(lighting.rim_colour)) > 0
+    fibres = (fibre_patch(rgba[..., 3], placed), (placed.top, placed.left)) if rims else None
     noise_add = 0.0
     if match_camera:  # blur now, noise after the sRGB encoding
         placed, noise_add = camera_match(bg, placed, float(plate_blur) if placed.full_body else 0.0)

@@ -456,7 +456,7 @@ def key_rim(composed: np.ndarray, alpha: np.ndarray, direction: np.ndarray, colo
     a = body(a0, radius)
     soft = wide_blur(a, radius)
     outside = 1 - a
-    reach = wide_blur(outside, radius)
+    reach = 1 - soft  # the blur of what lies outside (the blur is linear and keeps a constant)
     a = np.minimum(a, a0)  # a filled hole shows what is behind the person: no rim on it
     edge = (a > 0) & (reach > 1e-3)
     if not edge.any():
