@@ -56,7 +56,7 @@ from ...light.exposure import METER_POWER, exposure_scale, guarded, mean_luminan
 from ...light.spec import LightSpec  # noqa: E402  (the one light parser)
 from ...relight.compose import grade_of_sums  # noqa: E402  (the one background grade)
 from ...relight.decomposition import intrinsic_layers  # noqa: E402
-from ...relight.look import SKIN_CHROMA, skin_chroma  # noqa: E402  (the shaded-skin rule the preview mirrors)
+from ...relight.look import SKIN_CHROMA, shaded_skin, skin_chroma  # noqa: E402  (the shaded-skin rule the preview mirrors)
 
 # (leading bytes, kind, suffix the readers go by)
 _MAGIC = (
@@ -641,12 +641,10 @@ def preview_picture(layers: dict, meta: dict, light: np.ndarray, shadow: np.ndar
     (relight_rt.relight.look.shaded_skin on the layers' skin chroma and weight), clipped to [0, 1]. ``layers``:
     ``unpack_layers``'; the page's WebGL and Canvas renderers compute the same (tests/integration)."""
     t = layers["transport"].transpose(1, 2, 0)
-    lit = np.maximum(np.einsum("hwk,kc->hwc", t, np.asarray(light, np.float32)), 0)
+    lit = sh.shading(t, np.asarray(light, np.float32))
     if shadow is not None:
         lit = lit * shadow[..., None]
     own = t @ np.array(meta["own_white"], np.float32)
-    r = (lit @ REC709) / np.maximum(own, 1e-3)
-    boost = np.clip(r, 1e-4, 1.0)[..., None] ** (meta["skin_chroma"] - 1.0) - 1.0
-    chroma, w = layers["skin_chroma"].transpose(1, 2, 0), layers["skin"][..., None]
-    gain = 1 + w * (np.clip(1 + boost * chroma, 0.25, 4.0) - 1)
-    return np.clip(layers["albedo"].transpose(1, 2, 0) * lit * gain, 0, 1).astype(np.float32)
+    factor = shaded_skin(lit, (lit @ REC709) / np.maximum(own, 1e-3), layers["skin_chroma"].transpose(1, 2, 0),
+                         layers["skin"])  # fmt: skip
+    return np.clip(layers["albedo"].transpose(1, 2, 0) * factor, 0, 1).astype(np.float32)
