@@ -362,7 +362,7 @@ class Factor:
                 h_img, w_img = dec.geometry.frame
                 weight = feather(y1 - y0, x1 - x0, (y0 == 0, y1 == h_img, x0 == 0, x1 == w_img))
                 weight = weight * dec.mask[y0:y1, x0:x1]
-                depth = np.zeros(dec.geometry.frame, np.float32) if depth is None else depth.copy()
+                depth = np.zeros(dec.geometry.frame, np.float32) if depth is None else depth  # depth_of's own
                 region = depth[y0:y1, x0:x1]
                 region += weight * (on_head - region)
         meter = 1.0

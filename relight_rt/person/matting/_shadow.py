@@ -30,6 +30,7 @@ import cv2
 import numpy as np
 
 from ...engine.session import Model
+from ...image.color import REC709
 from ...image.regions import Region, grid_of_region
 from ._detect import roi_prob
 
@@ -55,7 +56,7 @@ Sure = Callable[[tuple[int, int, int, int]], np.ndarray]  # (x0, y0, x1, y1) -> 
 def _log_colour(img: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(log-luminance (H, W), log-chromaticity (H, W, 2): log R/G, log B/G) of float RGB in [0, 1]."""
     eps = 0.02
-    lum = img @ np.array([0.2126, 0.7152, 0.0722], np.float32)
+    lum = img @ REC709
     chroma = np.log(img[..., (0, 2)] + eps) - np.log(img[..., 1:2] + eps)
     return np.log(lum + eps), chroma
 
