@@ -63,6 +63,26 @@ def joined(part: np.ndarray, mine: np.ndarray) -> np.ndarray:
     return np.isin(labels, keep[keep > 0]) & part
 
 
+def colour_model(canvas: np.ndarray, inside: np.ndarray, mine: np.ndarray, around: np.ndarray,
+                 apart: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """The person's and the backdrop's colours on a canvas: (its L*a*b*, the k-means centres of the matte ``mine``'s
+    interior, those of a ring ``OWN_RING`` x the matte's size wide round ``around`` (the matte and what is asked
+    about), less ``apart``), or None when either holds under 20 pixels inside the photo (``inside``)."""
+    one = np.ones((3, 3), np.uint8)
+    interior = cv2.erode(mine.astype(np.uint8), one).astype(bool) & inside
+    ys, xs = np.nonzero(mine)
+    r = max(2, int(OWN_RING * max(np.ptp(ys), np.ptp(xs))))
+    base = around.astype(np.uint8)
+    ring = cv2.dilate(base, np.ones((2 * r + 1, 2 * r + 1), np.uint8)).astype(bool)
+    ring &= ~cv2.dilate(base, one).astype(bool) & inside
+    if apart is not None:
+        ring &= ~apart
+    if interior.sum() < 20 or ring.sum() < 20:
+        return None
+    lab = cv2.cvtColor(np.ascontiguousarray(canvas, dtype=np.float32), cv2.COLOR_RGB2Lab)  # L 0-100
+    return lab, centres(lab[interior]), centres(lab[ring])
+
+
 def own_part(canvas: np.ndarray, inside: np.ndarray, mine: np.ndarray, prob: np.ndarray) -> np.ndarray | None:
     """The pixels of a canvas that are the person's own colour (module docstring); None when none are (or fewer
     than OWN_MIN x the matte's).
@@ -76,17 +96,10 @@ def own_part(canvas: np.ndarray, inside: np.ndarray, mine: np.ndarray, prob: np.
     cand = joined((prob >= OWN_SURE) & ~mine & inside, mine)
     if cand.sum() < max(1.0, OWN_MIN * mine.sum()):
         return None
-    one = np.ones((3, 3), np.uint8)
-    interior = cv2.erode(mine.astype(np.uint8), one).astype(bool) & inside
-    ys, xs = np.nonzero(mine)
-    r = max(2, int(OWN_RING * max(np.ptp(ys), np.ptp(xs))))
-    both = (mine | cand).astype(np.uint8)
-    ring = cv2.dilate(both, np.ones((2 * r + 1, 2 * r + 1), np.uint8)).astype(bool)
-    ring &= ~cv2.dilate(both, one).astype(bool) & inside
-    if interior.sum() < 20 or ring.sum() < 20:
+    model = colour_model(canvas, inside, mine, mine | cand)
+    if model is None:
         return None
-    lab = cv2.cvtColor(np.ascontiguousarray(canvas, dtype=np.float32), cv2.COLOR_RGB2Lab)  # L 0-100
-    person, backdrop = centres(lab[interior]), centres(lab[ring])
+    lab, person, backdrop = model
     x = lab[cand]
     ok = nearest(x, person)[0] < OWN_RATIO * nearest(x, backdrop)[0]
     part = np.zeros(mine.shape, bool)

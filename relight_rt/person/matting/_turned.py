@@ -30,7 +30,7 @@ import numpy as np
 
 from ...engine.session import Model
 from ...image.regions import crop_region
-from ._colours import OWN_MIN, OWN_RING, centres, nearest
+from ._colours import OWN_MIN, colour_model, nearest
 from ._detect import around_people, roi_prob
 from ._segmentation import Person, own_person
 
@@ -86,17 +86,10 @@ def turned_part(
     core, labels, parts = reaching_past(cand, mine)
     if not parts:
         return None
-    one = np.ones((3, 3), np.uint8)
-    interior = cv2.erode(mine.astype(np.uint8), one).astype(bool) & inside
-    ys, xs = np.nonzero(mine)
-    r = max(2, int(OWN_RING * max(np.ptp(ys), np.ptp(xs))))
-    m8 = mine.astype(np.uint8)
-    ring = cv2.dilate(m8, np.ones((2 * r + 1,) * 2, np.uint8)).astype(bool) & ~cv2.dilate(m8, one).astype(bool)
-    ring &= inside & ~core
-    if interior.sum() < 20 or ring.sum() < 20:
+    model = colour_model(canvas, inside, mine, mine, apart=core)
+    if model is None:
         return None
-    lab = cv2.cvtColor(np.ascontiguousarray(canvas, dtype=np.float32), cv2.COLOR_RGB2Lab)
-    person, backdrop = centres(lab[interior]), centres(lab[ring])
+    lab, person, backdrop = model
     keep = np.zeros(mine.shape, bool)
     for i in parts:
         part = labels == i
