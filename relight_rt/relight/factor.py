@@ -62,7 +62,6 @@ import numpy as np
 from ..image.color import REC709
 from ..light import exposure as _exposure
 from ..light import sh
-from ..person.face_mesh import SKIN_INSET
 from .cast_shadow import MeshView, shadow_factor
 from .decomposition import Decomposition, Memo, readonly
 from .detail import extend_outward, guided_upsample, shadow_texture, unpremultiply, window
@@ -160,9 +159,9 @@ class Factor:
         (relight_rt.relight.strength) and the face mesh's transport blended in, "albedo" luminance (r, r')
         unpremultiplied, "photo" (r, r') the luminance of the photo stage 1 saw, "face_skin" (r, r') bool, the
         person's pixels well inside a face mesh (``FacePass.add_faces``; none without one), "face_opening" (r, r')
-        bool, the person's pixels inside a mesh's outline (its points' convex hull) by more than the skin's inset
-        (``face_mesh.SKIN_INSET``) and off that skin: the eyes' sockets the inset leaves out, not the outline's ring
-        (hair, the jaw's edge), and "face_points" the meshes in the window's pixels (``FacePass.window_points``:
+        bool, the person's pixels inside a mesh's outline (its openings closed) by more than the skin's inset
+        (``face_mesh.face_transport``) and off that skin: the eyes' sockets the inset leaves out, not the outline's
+        ring (hair, the jaw's edge), and "face_points" the meshes in the window's pixels (``FacePass.window_points``:
         their cast shadows, ``cast``).
         """
         state = self.memo(dec)
@@ -174,19 +173,12 @@ class Factor:
             # the directional bands restored to their true strength (relight_rt.relight.strength), for both sides of the
             # ratio
             transport = restore_bands(unpremultiply(np.ascontiguousarray(dec.transport[y0:y1, x0:x1]), alpha))
-            skin = np.zeros(alpha.shape, bool)
+            skin = opening = np.zeros(alpha.shape, bool)
             points = ()
-            opening = np.zeros(alpha.shape, bool)
-            if dec.face_meshes:  # a face's shape from its mesh where stage 1's transport is a blur
-                skin = self.faces.add_faces(dec, transport, (y0, y1, x0, x1))
+            if dec.face_meshes:  # a face's shape from its mesh where stage 1's transport is a blur; the face beyond
+                # its skin: the eyes' sockets the skin's inset leaves out (not its outer ring: hair, the jaw's edge)
+                skin, opening = self.faces.add_faces(dec, transport, (y0, y1, x0, x1))
                 points = self.faces.window_points(dec, (y0, y1, x0, x1))
-                for pts in points:  # the face beyond its skin: the eyes' sockets the skin's inset leaves out (not
-                    # its outer ring: hair, the jaw's edge)
-                    hull = np.zeros(alpha.shape, np.uint8)
-                    cv2.fillConvexPoly(hull, cv2.convexHull(np.rint(pts[:, :2]).astype(np.int32)), 1)
-                    inset = SKIN_INSET * float(max(np.ptp(pts[:, :2], axis=0).max(), 1.0))
-                    opening |= cv2.distanceTransform(hull, cv2.DIST_L2, 3) > inset
-                opening &= ~skin
             albedo = unpremultiply(np.ascontiguousarray(dec.albedo[y0:y1, x0:x1]), alpha) @ REC709
             photo = dec.network_image[y0:y1, x0:x1] @ REC709
             state["restored"] = {"window": (y0, y1, x0, x1), "alpha": alpha, "inner": alpha > 0.5,
