@@ -374,8 +374,9 @@ def guarded(lights, exposure, highlight: tuple) -> np.ndarray:
     """Lights at the mean-keeping scale (``expose(..., "auto")``) → the exposure's lights: each times its
     ``shoulder_gain`` k (where ``highlight`` has knees) and its ``highlight_factor``, the two as one clip of the
     guard's scale to [``HIGHLIGHT_MAX_DOWN``, k] (the guard takes back what the lift lets past white beyond the share
-    allowed, and its one-stop bound counts from the light as it came), then ``ev_gain(EV)`` for an EV offset. The one order of the
-    rule (the shoulder's loss given back, the guard, then the EV), for the runtime and the studio's preview alike.
+    allowed, and its one-stop bound counts from the light as it came), then ``ev_gain(EV)`` for an EV offset. The one
+    order of the rule (the shoulder's loss given back, the guard, then the EV), for the runtime and the studio's
+    preview alike.
 
     Args:
         lights: (K, 9, 3) or (9, 3) float32 lights, each already scaled to keep the mean luminance.
