@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import math
 import os
+from typing import NamedTuple
 
 import numpy as np
 
@@ -53,8 +54,8 @@ from ..image.color import REC709
 from . import sh
 
 __all__ = ["DISPLAY_GAMMA", "HIGHLIGHT_LIMIT", "HIGHLIGHT_MAX_DOWN", "HIGHLIGHT_SHARE", "KNEE_RANGE", "METER_POWER",
-           "SHOULDER_MAX_UP", "ev_gain", "exposure_scale", "guarded", "highlight_factor", "mean_luminance",
-           "parse_exposure", "rolled_off", "shoulder_gain"]
+           "SHOULDER_MAX_UP", "Highlight", "ev_gain", "exposure_scale", "guarded", "highlight_factor", "mean_luminance",
+           "own_light_knee", "parse_exposure", "rolled_off", "shoulder_gain"]
 
 MAX_EV = 20.0  # |EV| beyond this is a mistake, not a photograph
 HIGHLIGHT_LIMIT = 1.0  # white: the brightest channel of a relit pixel past this is held by the highlight shoulder
@@ -197,47 +198,79 @@ def exposure_scale(albedo, transport, mask, light, target_luminance: float, expo
     return gain * target / current
 
 
-def highlight_factor(lit, steady, transport, light, allowed: float, max_down: float = HIGHLIGHT_MAX_DOWN) -> float:
-    """How much "auto" lowers an exposed light so that at most ``allowed`` of the person goes past white.
+class Highlight(NamedTuple):
+    """What the highlight guard (``highlight_factor``) and the shoulder's loss (``shoulder_gain``) read of a relit
+    person, whatever the light: its pixels as the relit picture is made of them, under ``s`` times a light with RGB
+    shading S = max(0, T·light) and luminance Y(S), ``s * lit * S + steady * S / Y(S)``.
 
-    The relit colour of each of the person's pixels (network resolution, before stage 2 and the highlight
-    shoulder) under ``s`` times ``light`` is taken as ``s * lit * S + steady * S / Y(S)``, with S = max(0, T·light)
-    the pixel's RGB shading and Y its Rec. 709 luminance: the part that scales with the light and the part that
-    stays whatever its strength (relight_rt.relight.relighter: the light the model misses), both carried in the new
-    light's colour. A pixel goes past white (``HIGHLIGHT_LIMIT`` on its brightest channel) from some scale s_i
-    on; the factor is the largest s <= 1 at which no more than ``allowed`` of the pixels are past it, and at
-    least ``HIGHLIGHT_MAX_DOWN``.
-
-    Args:
-        lit: (N, 3) per pixel, the colour per unit of shading that scales with the light.
-        steady: (N, 3) per pixel, the colour per unit of the light's luminance that stays (zeros for none).
-        transport: (N, 9) the transport the relighting uses.
-        light: (9, 3) the exposed light.
+    Attributes:
+        lit: (N, 3) float32 per pixel, the colour per unit of shading that scales with the light.
+        steady: (N, 3) float32 per pixel, the colour per unit of the light's luminance that stays (zeros for none).
+        transport: (N, 9) float32, the transport the relighting uses.
         allowed: the share of the N pixels that may go past white (in [0, 1]).
-        max_down: the least factor.
-
-    Returns:
-        The factor in [``max_down``, 1]; 1 for no pixels.
+        knee: (N,) float32, where the highlight shoulder starts for each pixel (relight_rt.relight.look ``knee``:
+            its own peak in the photo, within ``KNEE_RANGE``); None: the shoulder's loss is not given back.
     """
+
+    lit: np.ndarray
+    steady: np.ndarray
+    transport: np.ndarray
+    allowed: float
+    knee: np.ndarray | None = None
+
+
+def _pixels(lit, steady, transport) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``Highlight``'s per-pixel arrays as float32 (N, 3), (N, 3), (N, 9), checked to hold one count of pixels."""
     lit = np.asarray(lit, np.float32).reshape(-1, 3)
     steady = np.asarray(steady, np.float32).reshape(-1, 3)
     t = np.asarray(transport, np.float32).reshape(-1, 9)
     if not (lit.shape[0] == steady.shape[0] == t.shape[0]):
         raise RelightError(f"exposure: {lit.shape[0]} lit, {steady.shape[0]} steady and {t.shape[0]} transport pixels")
-    n = t.shape[0]
-    if n == 0:
-        return 1.0
+    return lit, steady, t
+
+
+def _relit(lit: np.ndarray, steady: np.ndarray, t: np.ndarray, light) -> tuple[np.ndarray, np.ndarray]:
+    """Each pixel relit under ``light`` (``Highlight``'s picture at s = 1), in its two parts: (scaled, fixed), (N, 3)
+    each, the colour that scales with the light (lit * S) and the one that stays (steady * S / Y(S))."""
     shading = sh.shading(t, np.asarray(light, np.float32))
     lum = shading @ REC709
-    scaled = lit * shading
-    fixed = steady * shading / np.maximum(lum, 1e-4)[:, None]
+    return lit * shading, steady * shading / np.maximum(lum, 1e-4)[:, None]
+
+
+def highlight_factor(lit, steady, transport, light, allowed: float, max_down: float = HIGHLIGHT_MAX_DOWN,
+                     top: float = 1.0) -> float:
+    """How much "auto" lowers an exposed light so that at most ``allowed`` of the person goes past white.
+
+    The relit colour of each of the person's pixels (network resolution, before stage 2 and the highlight
+    shoulder) under ``s`` times ``light`` is taken as ``s * lit * S + steady * S / Y(S)`` (``Highlight``): the part
+    that scales with the light and the part that stays whatever its strength (relight_rt.relight.relighter: the
+    light the model misses), both carried in the new light's colour. A pixel goes past white (``HIGHLIGHT_LIMIT`` on
+    its brightest channel) from some scale s_i on; the factor is the largest s <= ``top`` at which no more than
+    ``allowed`` of the pixels are past it, and at least ``max_down``.
+
+    Args:
+        lit, steady, transport: (N, 3), (N, 3), (N, 9), ``Highlight``'s per-pixel picture.
+        light: (9, 3) the exposed light.
+        allowed: the share of the N pixels that may go past white (in [0, 1]).
+        max_down: the least factor.
+        top: the largest factor (``guarded``: the shoulder's lift, which the guard takes back where it lets more
+            past white than ``allowed``).
+
+    Returns:
+        The factor in [``max_down``, ``top``]; ``top`` for no pixels.
+    """
+    lit, steady, t = _pixels(lit, steady, transport)
+    n = t.shape[0]
+    if n == 0:
+        return float(top)
+    scaled, fixed = _relit(lit, steady, t, light)
     # the scale at which each channel reaches white (0 when it is there already, inf when it never does)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         reach = np.where(scaled > 0, (HIGHLIGHT_LIMIT - fixed) / scaled, np.inf)
     reach = np.where(fixed >= HIGHLIGHT_LIMIT, 0.0, reach).min(axis=1)
     k = min(int(math.floor(float(np.clip(allowed, 0, 1)) * n)), n - 1)
     s = float(np.partition(reach, k)[k])  # k pixels at most reach white below this scale
-    return float(np.clip(s, max_down, 1.0))
+    return float(min(max(s, max_down), top))
 
 
 def rolled_off(peak: np.ndarray, knee: np.ndarray) -> np.ndarray:
@@ -254,7 +287,18 @@ def rolled_off(peak: np.ndarray, knee: np.ndarray) -> np.ndarray:
     return out
 
 
-def shoulder_gain(lit, steady, transport, light, white, power: float = METER_POWER) -> float:
+def own_light_knee(lit, steady, transport, white) -> np.ndarray:
+    """(N,) float32 each pixel's knee where only ``Highlight``'s picture is at hand: its peak under the photo's own
+    light, white (``white`` (9,): ``Decomposition.white_light[:, 0]``), lit * Y(W) + steady with W = max(0, T·white),
+    within ``KNEE_RANGE``. Where the picture is the photo times the relighting factor (relight_rt.relight.factor) this
+    is the photo's own peak (relight_rt.relight.look ``knee``), which ``Factor.highlight_inputs`` reads directly; the
+    network's image (``detail=False``) and the studio page's copy of ``shoulder_gain`` rebuild it this way."""
+    lit, steady, t = _pixels(lit, steady, transport)
+    own = np.maximum(t @ np.asarray(white, np.float32).reshape(9), 0)
+    return np.clip(_peak(lit * own[:, None] + steady), *KNEE_RANGE).astype(np.float32)
+
+
+def shoulder_gain(lit, steady, transport, light, knee, power: float = METER_POWER) -> float:
     """How much "auto" raises an exposed light so that the picture keeps, after the highlight shoulder, the light as
     seen that the mean-keeping scale gave it before (the power mean of luminance ** ``power``).
 
@@ -263,39 +307,30 @@ def shoulder_gain(lit, steady, transport, light, white, power: float = METER_POW
     its mean only with values past white that the shoulder then takes back. On 59 real photos that loss was 0.17 of the
     white side lamps' median -0.19 EV as seen (-0.01 without the shoulder and the guard; benchmarks/photo_faults.py,
     issue 48), none of it where the photo's own light keeps every pixel under its own peak (that light gives the photo
-    back). Each of the person's pixels is taken as ``highlight_factor`` takes it (s * lit * S + steady * S / Y(S)), its
-    knee its own peak in the photo (lit * Y(W) + steady, W the shading of the photo's own light, white: ``white``)
-    within ``KNEE_RANGE``; the gain k >= 1 has the shouldered picture's power mean at k equal the unshouldered one's at
-    1 (within ``SHOULDER_TOL``), found by the secant on log seen against log k from k = 1 and the first step (target /
-    seen(1)) ** (1 / power), at most ``SHOULDER_MAX_UP``. Every step-th pixel, at most ``SHOULDER_SAMPLES`` (the
-    studio's preview takes every step-th of its own sample the same way).
+    back). Each of the person's pixels is taken as ``highlight_factor`` takes it (``Highlight``), rolled off past its
+    ``knee``; the gain k >= 1 has the shouldered picture's power mean at k equal the unshouldered one's at 1 (within
+    ``SHOULDER_TOL``), found by the secant on log seen against log k from k = 1 and the first step (target / seen(1))
+    ** (1 / power), at most ``SHOULDER_MAX_UP``. Every step-th pixel, at most ``SHOULDER_SAMPLES`` (the studio's
+    preview takes every step-th of its own sample the same way).
 
     Args:
-        lit, steady, transport: (N, 3), (N, 3), (N, 9), ``highlight_factor``'s per-pixel picture.
+        lit, steady, transport: (N, 3), (N, 3), (N, 9), ``Highlight``'s per-pixel picture.
         light: (9, 3) the exposed light.
-        white: (9,) the photo's own light, white (one column: ``Decomposition.white_light[:, 0]``).
+        knee: (N,) where the shoulder starts for each pixel (``Highlight.knee``).
         power: the power mean kept (``METER_POWER``).
 
     Returns:
         The gain in [1, ``SHOULDER_MAX_UP``]; 1 for no pixels.
     """
-    lit = np.asarray(lit, np.float32).reshape(-1, 3)
-    steady = np.asarray(steady, np.float32).reshape(-1, 3)
-    t = np.asarray(transport, np.float32).reshape(-1, 9)
-    if not (lit.shape[0] == steady.shape[0] == t.shape[0]):
-        raise RelightError(f"exposure: {lit.shape[0]} lit, {steady.shape[0]} steady and {t.shape[0]} transport pixels")
+    lit, steady, t = _pixels(lit, steady, transport)
+    knee = np.asarray(knee, np.float32).reshape(-1)
+    if knee.shape[0] != t.shape[0]:
+        raise RelightError(f"exposure: {knee.shape[0]} knees for {t.shape[0]} pixels")
     step = max(1, math.ceil(t.shape[0] / SHOULDER_SAMPLES))
-    lit, steady, t = lit[::step], steady[::step], t[::step]
+    lit, steady, t, knee = lit[::step], steady[::step], t[::step], knee[::step]
     if t.shape[0] == 0:
         return 1.0
-    shading = sh.shading(t, np.asarray(light, np.float32))
-    lum = shading @ REC709
-    scaled = lit * shading
-    fixed = steady * shading / np.maximum(lum, 1e-4)[:, None]
-    own = np.maximum(t @ np.asarray(white, np.float32).reshape(9), 0)
-    photo = lit * own[:, None] + steady
-    knee = np.clip(photo.max(axis=1), *KNEE_RANGE)
-
+    scaled, fixed = _relit(lit, steady, t, light)
     y_scaled, y_fixed = scaled @ REC709, fixed @ REC709
 
     def seen(k: float, shouldered: bool = True) -> float:
@@ -335,18 +370,19 @@ def _peak(rgb: np.ndarray) -> np.ndarray:
     return np.maximum(np.maximum(rgb[:, 0], rgb[:, 1]), rgb[:, 2])
 
 
-def guarded(lights, exposure, highlight: tuple, white=None) -> np.ndarray:
+def guarded(lights, exposure, highlight: tuple) -> np.ndarray:
     """Lights at the mean-keeping scale (``expose(..., "auto")``) → the exposure's lights: each times its
-    ``shoulder_gain`` (with ``white``), then its ``highlight_factor`` (at least ``HIGHLIGHT_MAX_DOWN`` of the light as
-    it came: the guard undoes the lift first), then ``ev_gain(EV)`` for an EV offset. The
-    one order of the rule (the shoulder's loss given back, the guard, then the EV), for the runtime and the studio's
+    ``shoulder_gain`` k (where ``highlight`` has knees) and its ``highlight_factor``, the two as one clip of the
+    guard's scale to [``HIGHLIGHT_MAX_DOWN``, k] (the guard takes back what the lift lets past white beyond the share
+    allowed, and its one-stop bound counts from the light as it came), then ``ev_gain(EV)`` for an EV offset. The one
+    order of the rule (the shoulder's loss given back, the guard, then the EV), for the runtime and the studio's
     preview alike.
 
     Args:
         lights: (K, 9, 3) or (9, 3) float32 lights, each already scaled to keep the mean luminance.
         exposure: "auto" or an EV offset (not "physical": those lights are not scaled at all).
-        highlight: (lit, steady, transport, allowed), what ``highlight_factor`` reads of the person.
-        white: (9,) the photo's own light, white (``shoulder_gain``); None: the shoulder's loss is not given back.
+        highlight: a ``Highlight`` (or the tuple of its fields, ``knee`` optional: without it the shoulder's loss is
+            not given back).
 
     Returns:
         float32 lights of the same shape.
@@ -355,14 +391,13 @@ def guarded(lights, exposure, highlight: tuple, white=None) -> np.ndarray:
     if mode == "physical":
         raise RelightError('exposure: "physical" lights are not scaled, so not guarded')
     gain = 1.0 if mode == "auto" else ev_gain(mode)
+    lit, steady, transport, allowed, knee = Highlight(*highlight)
     lits = np.asarray(lights, np.float32)
     flat = lits.reshape(-1, 9, 3)
     factors = []
     for one in flat:
-        up = 1.0 if white is None else shoulder_gain(*highlight[:3], one, white)
-        lifted = (one * np.float32(up)).astype(np.float32)  # float32, as the light is held
-        # the guard's bound counts from the mean-keeping light: the lift never lets more past white than it allowed
-        factors.append(gain * up * highlight_factor(*highlight[:3], lifted, highlight[3], HIGHLIGHT_MAX_DOWN / up))
+        up = 1.0 if knee is None else shoulder_gain(lit, steady, transport, one, knee)
+        factors.append(gain * highlight_factor(lit, steady, transport, one, allowed, HIGHLIGHT_MAX_DOWN, up))
     return (flat * np.asarray(factors, np.float32)[:, None, None]).reshape(lits.shape)
 
 

@@ -108,8 +108,8 @@ def rasterise_normals(
 
 def face_transport(
     points: np.ndarray, triangles: np.ndarray, t0: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The face's transport, its blending weight and its skin in a network-frame window.
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The face's transport, its blending weight, its skin and its openings in a network-frame window.
 
     Args:
         points: (468, 3) mesh vertices in the window's pixels (x right, y down, z away, same units).
@@ -120,7 +120,9 @@ def face_transport(
         transport (h, w, 9) float32, weight (h, w) float32 in [0, 1] (0 off the face), and skin (h, w) bool:
         the face's skin well inside its mesh (``SKIN_INSET`` of its size from the border) without the mesh's
         openings (eyes, an open mouth), where a light fit can take the skin as one colour
-        (relight_rt.relight.strength ``face_refit``).
+        (relight_rt.relight.strength ``face_refit``), and openings (h, w) bool: the face inside its outline (the mesh
+        with its openings closed) by as much as the skin is, off that skin: the eyes' sockets and an open mouth, not
+        the outline's ring (hair, the jaw's edge).
     """
     h, w = t0.shape
     normals, cover = rasterise_normals(points, triangles, (h, w))
@@ -143,7 +145,8 @@ def face_transport(
     normals = normals / np.maximum(np.linalg.norm(normals, axis=2, keepdims=True), 1e-6)
     transport = lobe_transport(normals) * (np.maximum(t0, 0) / _T0)[..., None]
     weight = mesh_weight + (1 - mesh_weight) * HEAD_STRENGTH * head_weight
-    return transport, np.clip(weight, 0, 1).astype(np.float32), skin
+    openings = (dist > SKIN_INSET * size) & ~skin
+    return transport, np.clip(weight, 0, 1).astype(np.float32), skin, openings
 
 
 def _fill_holes(normals: np.ndarray, cover: np.ndarray, size: float) -> tuple[np.ndarray, np.ndarray]:

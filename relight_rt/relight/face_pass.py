@@ -155,21 +155,25 @@ class FacePass:
                 return tuple(found)
         return ()
 
-    def add_faces(self, dec: Decomposition, transport: np.ndarray, window: tuple[int, int, int, int]) -> np.ndarray:
+    def add_faces(self, dec: Decomposition, transport: np.ndarray,
+                  window: tuple[int, int, int, int]) -> tuple[np.ndarray, np.ndarray]:
         """Blend the transport of each of ``dec.face_meshes`` into ``transport`` (the window's, unpremultiplied), in
-        place; returns where the faces' skin lies well inside their meshes (``face_transport``; none without a
+        place; returns (skin, openings), (h, w) bool each: where the faces' skin lies well inside their meshes, and
+        their openings as deep inside, off every face's skin (the eyes' sockets; ``face_transport``; none without a
         mesh)."""
         mesh = self.mesh()
+        skin = np.zeros(transport.shape[:2], bool)
+        openings = np.zeros(transport.shape[:2], bool)
         if not dec.face_meshes:
-            return np.zeros(transport.shape[:2], bool)
+            return skin, openings
         if not mesh.available:
             raise RelightError(f"{self.models_dir}: a decomposition with face meshes needs the face models to relight")
-        skin = np.zeros(transport.shape[:2], bool)
         for net in self.window_points(dec, window):
-            t_face, weight, face_skin = face_transport(net, mesh.triangles, transport[..., 0])
+            t_face, weight, face_skin, face_openings = face_transport(net, mesh.triangles, transport[..., 0])
             transport += weight[..., None] * (t_face - transport)
             skin |= face_skin
-        return skin
+            openings |= face_openings
+        return skin, openings & ~skin
 
     @staticmethod
     def window_points(dec: Decomposition, window: tuple[int, int, int, int]) -> tuple[np.ndarray, ...]:

@@ -62,12 +62,11 @@ import numpy as np
 from ..image.color import REC709
 from ..light import exposure as _exposure
 from ..light import sh
-from ..person.face_mesh import SKIN_INSET
 from .cast_shadow import MeshView, shadow_factor
 from .decomposition import Decomposition, Memo, readonly
 from .detail import extend_outward, guided_upsample, shadow_texture, unpremultiply, window
 from .face_pass import FacePass, feather
-from .look import channel_max, shaded_skin, skin_chroma, tint_range
+from .look import channel_max, knee, shaded_skin, skin_chroma, tint_range
 from .strength import (
     EXPLAIN_ALBEDO_MIN,
     EXPLAIN_SHADOW_SHARE,
@@ -160,9 +159,9 @@ class Factor:
         (relight_rt.relight.strength) and the face mesh's transport blended in, "albedo" luminance (r, r')
         unpremultiplied, "photo" (r, r') the luminance of the photo stage 1 saw, "face_skin" (r, r') bool, the
         person's pixels well inside a face mesh (``FacePass.add_faces``; none without one), "face_opening" (r, r')
-        bool, the person's pixels inside a mesh's outline (its points' convex hull) by more than the skin's inset
-        (``face_mesh.SKIN_INSET``) and off that skin: the eyes' sockets the inset leaves out, not the outline's ring
-        (hair, the jaw's edge), and "face_points" the meshes in the window's pixels (``FacePass.window_points``:
+        bool, the person's pixels inside a mesh's outline (its openings closed) by more than the skin's inset
+        (``face_mesh.face_transport``) and off that skin: the eyes' sockets the inset leaves out, not the outline's
+        ring (hair, the jaw's edge), and "face_points" the meshes in the window's pixels (``FacePass.window_points``:
         their cast shadows, ``cast``).
         """
         state = self.memo(dec)
@@ -174,19 +173,12 @@ class Factor:
             # the directional bands restored to their true strength (relight_rt.relight.strength), for both sides of the
             # ratio
             transport = restore_bands(unpremultiply(np.ascontiguousarray(dec.transport[y0:y1, x0:x1]), alpha))
-            skin = np.zeros(alpha.shape, bool)
+            skin = opening = np.zeros(alpha.shape, bool)
             points = ()
-            opening = np.zeros(alpha.shape, bool)
-            if dec.face_meshes:  # a face's shape from its mesh where stage 1's transport is a blur
-                skin = self.faces.add_faces(dec, transport, (y0, y1, x0, x1))
+            if dec.face_meshes:  # a face's shape from its mesh where stage 1's transport is a blur; the face beyond
+                # its skin: the eyes' sockets the skin's inset leaves out (not its outer ring: hair, the jaw's edge)
+                skin, opening = self.faces.add_faces(dec, transport, (y0, y1, x0, x1))
                 points = self.faces.window_points(dec, (y0, y1, x0, x1))
-                for pts in points:  # the face beyond its skin: the eyes' sockets the skin's inset leaves out (not
-                    # its outer ring: hair, the jaw's edge)
-                    hull = np.zeros(alpha.shape, np.uint8)
-                    cv2.fillConvexPoly(hull, cv2.convexHull(np.rint(pts[:, :2]).astype(np.int32)), 1)
-                    inset = SKIN_INSET * float(max(np.ptp(pts[:, :2], axis=0).max(), 1.0))
-                    opening |= cv2.distanceTransform(hull, cv2.DIST_L2, 3) > inset
-                opening &= ~skin
             albedo = unpremultiply(np.ascontiguousarray(dec.albedo[y0:y1, x0:x1]), alpha) @ REC709
             photo = dec.network_image[y0:y1, x0:x1] @ REC709
             state["restored"] = {"window": (y0, y1, x0, x1), "alpha": alpha, "inner": alpha > 0.5,
@@ -654,7 +646,7 @@ class Factor:
         if self.detail:  # the faces' cast shadows are part of the light as seen (``cast``)
             lits = self.meter_shadows(dec, lits)
         # what the highlight shoulder takes is given back (``shoulder_gain``), then the guard, then any EV
-        return _exposure.guarded(lits, mode, self.highlight_inputs(dec), dec.white_light[:, 0])
+        return _exposure.guarded(lits, mode, self.highlight_inputs(dec))
 
     def meter_shadows(self, dec: Decomposition, lights: np.ndarray) -> np.ndarray:
         """``lights`` (K, 9, 3) or (9, 3), each scaled up by what the faces' cast shadows under it take from the
@@ -678,14 +670,17 @@ class Factor:
                 flat[i] *= np.float32((float(lum @ weight) / shadowed) ** (1 / p))
         return flat.reshape(lits.shape)
 
-    def highlight_inputs(self, dec: Decomposition) -> tuple:
-        """What ``highlight_factor`` reads of ``dec`` whatever the light (cached): the person's pixels (alpha > 0.5,
-        network frame) as the relit picture is made of them, and the share past white allowed.
+    def highlight_inputs(self, dec: Decomposition) -> _exposure.Highlight:
+        """What ``highlight_factor`` and ``shoulder_gain`` read of ``dec`` whatever the light (cached,
+        relight_rt.light.exposure ``Highlight``): the person's pixels (alpha > 0.5, network frame) as the relit
+        picture is made of them, the share past white allowed, and each pixel's knee.
 
         With detail the picture is the photo times the relighting factor (module docstring; diffuse part): per
         pixel the photo's colour times albedo / own scales with the light and the photo's colour times missing /
-        own stays; without it, the network's albedo times the shading. The share allowed is the photo's own
-        share at white there, at least ``HIGHLIGHT_SHARE``.
+        own stays, and the highlight shoulder starts at the photo's own peak (``look.knee``, as ``Composer`` rolls it
+        off); without it, the network's albedo times the shading, its knee that picture's peak under the photo's own
+        light (``own_light_knee``). The share allowed is the photo's own share at white there, at least
+        ``HIGHLIGHT_SHARE``.
         """
         state = self.memo(dec)
         if "highlight" not in state:
@@ -698,6 +693,7 @@ class Factor:
                 lit = photo * (own["albedo"][inner] / base)[:, None]
                 steady = photo * (own["missing"][inner] / base)[:, None]
                 transport = own["transport"][inner]
+                peaks = knee(photo)
             else:
                 alpha = dec.network_mask
                 inner = alpha > 0.5
@@ -705,9 +701,10 @@ class Factor:
                 lit = unpremultiply(np.ascontiguousarray(dec.albedo), alpha)[inner]
                 steady = np.zeros_like(lit)
                 transport = unpremultiply(np.ascontiguousarray(dec.transport), alpha)[inner]
+                peaks = _exposure.own_light_knee(lit, steady, transport, dec.white_light[:, 0])
             at_white = float(np.mean(channel_max(photo) >= 0.99 * _exposure.HIGHLIGHT_LIMIT)) if photo.size else 0.0
-            state["highlight"] = (readonly(lit.astype(np.float32)), readonly(steady.astype(np.float32)),
-                                  readonly(np.ascontiguousarray(transport, np.float32)),
-                                  max(at_white, _exposure.HIGHLIGHT_SHARE))
+            state["highlight"] = _exposure.Highlight(
+                readonly(lit.astype(np.float32)), readonly(steady.astype(np.float32)),
+                readonly(np.ascontiguousarray(transport, np.float32)), max(at_white, _exposure.HIGHLIGHT_SHARE),
+                readonly(np.asarray(peaks, np.float32)))
         return state["highlight"]
-

@@ -390,7 +390,8 @@ def test_exposure_rule_in_js_matches_python(browser, server, studio, monkeypatch
             "([L, W]) => studio.sh.shoulderGain(studio.state.layers.highlight, L, W, [0.8, 0.999], 2, 2.2, 1e-4, 8192)",
             [bright.ravel().tolist(), white],
         )
-        py = exposure.shoulder_gain(guard["lit"], guard["steady"], guard["transport"], bright, np.float32(white))
+        knee = exposure.own_light_knee(guard["lit"], guard["steady"], guard["transport"], np.float32(white))
+        py = exposure.shoulder_gain(guard["lit"], guard["steady"], guard["transport"], bright, knee)
         assert js == pytest.approx(py, rel=1e-4), scale
         gains.append(py)
     assert gains[1] > 1.001 and gains[2] > gains[1]  # it acted

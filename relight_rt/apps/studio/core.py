@@ -52,7 +52,7 @@ UPLOAD_WORK_PIXELS = 2_000_000
 EXPOSURE_SAMPLES = 1 << 15  # network-frame pixels of the person that the page's exposure rule reads (at most)
 SHADOW_CACHE = 8  # the faces' cast shadows (``Studio.shadow``) kept for this many lights, the latest ones
 from ...light import exposure as _exposure  # noqa: E402  (the one exposure rule)
-from ...light.exposure import METER_POWER, exposure_scale, guarded, mean_luminance, parse_exposure  # noqa: E402
+from ...light.exposure import METER_POWER, Highlight, exposure_scale, guarded, mean_luminance, parse_exposure  # noqa: E402
 from ...light.spec import LightSpec  # noqa: E402  (the one light parser)
 from ...relight.compose import grade_of_sums  # noqa: E402  (the one background grade)
 from ...relight.decomposition import intrinsic_layers  # noqa: E402
@@ -233,17 +233,19 @@ def _exposure_sample(dec) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return albedo, transport, m[idx]
 
 
-def _highlight_sample(relighter, dec) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
-    """What the exposure's highlight guard reads (relight_rt.light.exposure ``highlight_factor``; the relighter's
+def _highlight_sample(relighter, dec) -> Highlight:
+    """What the exposure's highlight guard reads (relight_rt.light.exposure ``Highlight``; the relighter's
     ``highlight_inputs``), every ``step``-th pixel, at most EXPOSURE_SAMPLES: lit (n, 3), steady (n, 3),
-    transport (n, 9) and the share allowed past white. A runtime without the guard gives no pixels (factor 1)."""
+    transport (n, 9), the share allowed past white and the knees (n,). A runtime without the guard gives no pixels
+    (factor 1)."""
     inputs = getattr(relighter, "highlight_inputs", None)
     if inputs is None:
-        return np.zeros((0, 3), np.float32), np.zeros((0, 3), np.float32), np.zeros((0, 9), np.float32), 1.0
-    lit, steady, transport, allowed = inputs(dec)
+        return Highlight(np.zeros((0, 3), np.float32), np.zeros((0, 3), np.float32), np.zeros((0, 9), np.float32), 1.0)
+    lit, steady, transport, allowed, knee = Highlight(*inputs(dec))
     step = max(1, math.ceil(lit.shape[0] / EXPOSURE_SAMPLES))
-    return (np.ascontiguousarray(lit[::step], np.float32), np.ascontiguousarray(steady[::step], np.float32),
-            np.ascontiguousarray(transport[::step], np.float32), float(allowed))
+    return Highlight(np.ascontiguousarray(lit[::step], np.float32), np.ascontiguousarray(steady[::step], np.float32),
+                     np.ascontiguousarray(transport[::step], np.float32), float(allowed),
+                     None if knee is None else np.ascontiguousarray(knee[::step], np.float32))
 
 
 def _display_size(h: int, w: int, max_pixels: int) -> tuple[int, int]:
@@ -356,7 +358,7 @@ class Studio:
         target = mean_luminance(albedo_s[None], transport_s[None], mask_s[None], dec.white_light, METER_POWER)
         # the exposure's highlight guard (relight_rt.light.exposure.highlight_factor) on the pixels the final result
         # reads
-        lit_h, steady_h, transport_h, allowed = self._highlight = _highlight_sample(self.relighter, dec)
+        lit_h, steady_h, transport_h, allowed, _ = self._highlight = _highlight_sample(self.relighter, dec)
         head = q16.tobytes() + q8.tobytes()
         offset = -(-len(head) // 4) * 4  # float32 planes start 4-byte aligned
         planes = np.concatenate([transport_s.T, albedo_s.T, mask_s[None]]).astype("<f4")
@@ -401,7 +403,7 @@ class Studio:
         target = self._layers["exposure_target"]
         scale = exposure_scale(albedo_s[None], transport_s[None], mask_s[None], lit, target, "auto", METER_POWER)
         exposed = (lit * np.float32(scale)).astype(np.float32) * np.float32(meter)
-        return guarded(exposed, exp, self._highlight, np.asarray(self.dec.white_light)[:, 0])
+        return guarded(exposed, exp, self._highlight)
 
     def shadow(self, light) -> dict:
         """The faces' cast shadows that the final result puts under ``light`` (27 numbers; relight_rt.relight.relighter
@@ -438,7 +440,7 @@ class Studio:
         ``background_grade``) on the highlight sample, the result's picture without stage 2's residual (relit:
         lit S + steady S / Y(S); own: lit Y(W) + steady, W the photo's own light, white). What sh.js
         ``backgroundGrade`` computes."""
-        lit_h, steady_h, transport_h, _ = self._highlight
+        lit_h, steady_h, transport_h = self._highlight[:3]
         light = np.asarray(shown, np.float32).reshape(9, 3)
         shading = np.maximum(transport_h @ light, 0)
         y = np.maximum(shading @ REC709, 1e-4)[:, None]

@@ -15,6 +15,7 @@ from relight_rt.light.exposure import (
     guarded,
     highlight_factor,
     mean_luminance,
+    own_light_knee,
     parse_exposure,
     shoulder_gain,
 )
@@ -199,7 +200,7 @@ def test_relight_applies_the_guard_as_one_scalar_before_the_ev(diffuse, monkeypa
     np.testing.assert_allclose(guarded, 0.7 * kept, rtol=1e-5)
     np.testing.assert_allclose(diffuse.layers(dec, lamp, exposure=1.0).light, 0.7 * ev_gain(1.0) * kept, rtol=1e-5)
     np.testing.assert_allclose(diffuse.layers(dec, lamp, exposure="physical").light, lamp)
-    assert len(calls) == 2 and calls[0][-1] >= _exposure.HIGHLIGHT_SHARE  # the share allowed: at least the default
+    assert len(calls) == 2 and calls[0][4] >= _exposure.HIGHLIGHT_SHARE  # the share allowed: at least the default
 
 
 def test_auto_exposure_keeps_a_side_lamp_from_flattening_a_fair_face(reference_dir, monkeypatch):
@@ -255,44 +256,79 @@ def _seen(colour, knee=None):
     return float(np.mean(y ** METER_POWER))
 
 
+def test_highlight_factor_clips_to_its_top():
+    """``top`` bounds the factor from above as ``max_down`` does from below (``guarded``: the shoulder's lift)."""
+    lit, steady, transport, light = _flat_pixels(np.linspace(0.2, 0.9, 1000))  # nothing past white at 1
+    assert highlight_factor(lit, steady, transport, light, 0.10) == 1.0
+    f = highlight_factor(lit, steady, transport, light, 0.10, top=2.0)
+    assert f == pytest.approx(1 / np.quantile(lit[:, 0], 0.90), rel=0.01) and 1 < f < 2
+    assert highlight_factor(lit, steady, transport, light, 0.10, top=1.05) == 1.05
+    assert highlight_factor(lit[:0], steady[:0], transport[:0], light, 0.1, top=1.5) == 1.5
+
+
+def test_own_light_knee_is_the_pictures_peak_under_the_photos_own_light():
+    lit, steady, transport, _ = _flat_pixels(np.linspace(0.1, 1.3, 1000))
+    steady[:, 2] = 0.05
+    white = np.zeros(9, np.float32)
+    white[0] = 0.75
+    knee = own_light_knee(lit, steady, transport, white)
+    np.testing.assert_allclose(knee, np.clip(0.75 * lit[:, 0] + 0.05, *_exposure.KNEE_RANGE), rtol=1e-6)
+    with pytest.raises(RelightError, match="pixels"):
+        own_light_knee(lit, steady[:5], transport, white)
+
+
 def test_shoulder_gain_gives_back_what_the_shoulder_takes():
     """A picture spread past white (a side lamp's lit cheek): the shouldered picture under the gained light has the
     light as seen the unshouldered one had (issue 48: the white side lamps' median -0.19 EV as seen was this loss)."""
     lit, steady, transport, light = _flat_pixels(np.linspace(0.1, 1.3, 1000))
-    white = np.zeros(9, np.float32)
-    white[0] = 0.5  # the photo: lit * 0.5, every pixel's knee at 0.8
-    k = shoulder_gain(lit, steady, transport, light, white)
+    knee = np.full(1000, 0.8, np.float32)  # the photo: lit * 0.5, every pixel's knee at 0.8
+    k = shoulder_gain(lit, steady, transport, light, knee)
     assert 1.02 < k < _exposure.SHOULDER_MAX_UP
     assert _seen(k * lit, 0.8) == pytest.approx(_seen(lit), rel=1e-3)
     assert _seen(lit, 0.8) < 0.97 * _seen(lit)  # what it gives back
     # under the knee nothing is taken: no gain (the photo's own light gives the photo back)
-    assert shoulder_gain(0.7 * lit / 1.3, steady, transport, light, white) == 1.0
+    assert shoulder_gain(0.7 * lit / 1.3, steady, transport, light, knee) == 1.0
     # the photo's own peak is its knee: a pixel as bright as it was is not rolled off
-    assert shoulder_gain(lit / 1.3, steady, transport, light, 2 * white) == 1.0
-    assert shoulder_gain(lit[:0], steady[:0], transport[:0], light, white) == 1.0
+    assert shoulder_gain(lit / 1.3, steady, transport, light, np.clip(lit[:, 0] / 1.3, 0.8, 0.999)) == 1.0
+    assert shoulder_gain(lit[:0], steady[:0], transport[:0], light, knee[:0]) == 1.0
     far, *_ = _flat_pixels(np.full(100, 50.0))  # everything far past white: bounded
-    assert shoulder_gain(far, steady[:100], transport[:100], light, white) == _exposure.SHOULDER_MAX_UP
+    assert shoulder_gain(far, steady[:100], transport[:100], light, knee[:100]) == _exposure.SHOULDER_MAX_UP
     with pytest.raises(RelightError, match="pixels"):
-        shoulder_gain(lit, steady[:5], transport, light, white)
+        shoulder_gain(lit, steady[:5], transport, light, knee)
+    with pytest.raises(RelightError, match="knees"):
+        shoulder_gain(lit, steady, transport, light, knee[:5])
 
 
 def test_guarded_gives_the_shoulders_loss_back_before_the_guard():
-    """With the photo's own light (``white``) the order is: the shoulder's loss given back, the guard, the EV; the
-    guard's one-stop bound counts from the light as it came (the lift never lets more past white than that)."""
+    """With knees (``Highlight.knee``) the order is: the shoulder's loss given back, the guard, the EV; the guard's
+    one-stop bound counts from the light as it came (the lift never lets more past white than that). The lift and
+    the guard are one clip: the guard on the lifted light, bounded below by a stop under the light as it came, is
+    the guard on that light clipped to [a stop down, the lift]."""
     lit, steady, transport, light = _flat_pixels(np.linspace(0.1, 1.02, 1000))  # 2 % past white
-    white = np.zeros(9, np.float32)
-    white[0] = 0.5
-    highlight = (lit, steady, transport, 0.03)
-    k = shoulder_gain(lit, steady, transport, light, white)
+    knee = np.full(1000, 0.8, np.float32)
+    highlight = _exposure.Highlight(lit, steady, transport, 0.03, knee)
+    k = shoulder_gain(lit, steady, transport, light, knee)
     assert k > 1.02
     f = highlight_factor(lit, steady, transport, (k * light).astype(np.float32), 0.03, 0.5 / k)
     assert 1 / k < f < 1  # the lift puts more than 3 % past white: the guard takes part of it back
-    np.testing.assert_allclose(guarded(light, "auto", highlight, white), k * f * light, rtol=1e-5)
-    np.testing.assert_allclose(guarded(light, 1.0, highlight, white), ev_gain(1.0) * k * f * light, rtol=1e-5)
-    np.testing.assert_allclose(guarded(light, "auto", highlight), light, rtol=1e-6)  # no white: no lift
+    np.testing.assert_allclose(guarded(light, "auto", highlight), k * f * light, rtol=1e-5)
+    np.testing.assert_allclose(guarded(light, 1.0, highlight), ev_gain(1.0) * k * f * light, rtol=1e-5)
+    np.testing.assert_allclose(guarded(light, "auto", highlight[:4]), light, rtol=1e-6)  # no knees: no lift
     hot, *_ = _flat_pixels(np.full(200, 10.0))  # ten times past white: one stop below the light as it came
-    np.testing.assert_allclose(guarded(light, "auto", (hot, steady[:200], transport[:200], 0.1), white),
+    np.testing.assert_allclose(guarded(light, "auto", (hot, steady[:200], transport[:200], 0.1, knee[:200])),
                                _exposure.HIGHLIGHT_MAX_DOWN * light, rtol=1e-6)
+
+
+def test_the_relighters_knee_is_the_photos_own_peak(models_dir):
+    """``Factor.highlight_inputs`` takes each pixel's knee from the photo it has (``look.knee``, the shoulder's own),
+    not rebuilt per light: the picture under the photo's own light is the photo, so the two agree."""
+    relighter = Relighter(RuntimeConfig(models=models_dir, device="cpu"))
+    img, mask = person(seed=5)
+    dec = relighter.decompose(np.clip(0.25 + 0.9 * img, 0, 1).astype(np.float32), mask)
+    highlight = relighter.highlight_inputs(dec)
+    rebuilt = own_light_knee(highlight.lit, highlight.steady, highlight.transport, dec.white_light[:, 0])
+    assert highlight.knee.shape == rebuilt.shape and (highlight.knee > 0.8).mean() > 0.05  # some above the floor
+    np.testing.assert_allclose(highlight.knee, rebuilt, atol=2e-5)
 
 
 def test_the_relighters_auto_gives_the_shoulders_loss_back(tmp_path, monkeypatch):

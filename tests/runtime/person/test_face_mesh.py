@@ -70,7 +70,7 @@ def test_the_nearest_triangle_is_seen():
 def test_face_transport_keeps_band_zero_and_fades_in_inside_the_mesh():
     pts, tris = _plane(0.5, 0.0)
     t0 = np.full((60, 60), 0.7, np.float32)
-    t, w, _ = face_transport(pts, tris, t0)
+    t, w, _, _ = face_transport(pts, tris, t0)
     np.testing.assert_allclose(t[..., 0], 0.7, rtol=1e-5)
     assert w.min() >= 0 and w.max() <= 1
     assert w[25, 25] > 0.99 and w[55, 55] == 0  # below the chin: neither the face nor the head
@@ -90,7 +90,7 @@ def test_the_meshs_openings_are_the_faces_surface_not_holes_in_it():
     normals, cover = rasterise_normals(pts, ring, (60, 60))
     assert cover[25, 25] == 0 and cover[12, 25] == 1  # the mesh itself has the hole
     t0 = np.full((60, 60), 0.7, np.float32)
-    t, w, _ = face_transport(pts, ring, t0)
+    t, w, _, _ = face_transport(pts, ring, t0)
     assert w[25, 25] > 0.99 and w[21, 25] > 0.99  # as deep in the face as the mesh around it
     n = np.array([1.0, 0, 0])
     np.testing.assert_allclose(t[25, 25], lobe_transport(n) * 0.7 / lobe_transport(n)[0], atol=1e-4)
@@ -106,7 +106,7 @@ def test_the_head_around_the_mesh_turns_away_and_stops_at_the_chin():
     assert normals[25, 1, 1] < -0.9 and normals[25, 49, 1] > 0.9  # beyond its sides: the outline, left / right
     assert weight[60, 25] == 0 and weight[25, 79] == 0  # below the chin, and far off the head
     t0 = np.full((80, 80), 0.7, np.float32)
-    t, w, _ = face_transport(pts, tris, t0)
+    t, w, _, _ = face_transport(pts, tris, t0)
     assert w[0, 25] == pytest.approx(HEAD_STRENGTH, abs=1e-6) and w[60, 25] == 0
     np.testing.assert_allclose(t[..., 0], 0.7, rtol=1e-5)  # the visibility stays stage 1's there too
     left = lights.directional((0.3, -1.0, 0.0), (1, 1, 1), 1.0)[:, 0]
@@ -115,7 +115,8 @@ def test_the_head_around_the_mesh_turns_away_and_stops_at_the_chin():
 
 def test_the_skin_interior_is_inside_the_mesh_away_from_its_border_and_its_openings():
     """A square mesh 80 px across with a square opening (an eye): the skin is what lies more than SKIN_INSET of
-    the face's size (9.6 px) inside the mesh, so neither the border nor the opening's rim is in it."""
+    the face's size (9.6 px) inside the mesh, so neither the border nor the opening's rim is in it; the openings
+    are what lies as deep inside the mesh with its opening closed, off the skin (relight_rt.relight.factor)."""
     g = np.linspace(10, 90, 9)
     xx, yy = np.meshgrid(g, g)
     pts = np.stack([xx.ravel(), yy.ravel(), np.zeros(81)], 1)
@@ -126,10 +127,14 @@ def test_the_skin_interior_is_inside_the_mesh_away_from_its_border_and_its_openi
                 continue  # the opening: the cell from (50, 50) to (60, 60)
             a, b, c, d = i * 9 + j, i * 9 + j + 1, (i + 1) * 9 + j, (i + 1) * 9 + j + 1
             tris += [(a, b, d), (a, d, c)]
-    _, _, skin = face_transport(pts, np.array(tris), np.full((100, 100), 0.7, np.float32))
+    _, _, skin, openings = face_transport(pts, np.array(tris), np.full((100, 100), 0.7, np.float32))
     assert skin.dtype == bool and skin[30, 30] and skin[75, 30]
     assert not skin[5, 50] and not skin[14, 50] and not skin[55, 55] and not skin[55, 64]
     assert skin[55, 75]  # beyond the opening's reach
+    # the openings: inside the outline (the opening closed) as deep as the skin, off it: the eye, not the border
+    assert openings.dtype == bool and not (openings & skin).any()
+    assert openings[55, 55] and openings[52, 58] and not openings[5, 50] and not openings[14, 50]
+    assert not openings[30, 30] and not openings[55, 75]
 
 
 def test_a_models_folder_without_the_mesh_has_none(tmp_path):

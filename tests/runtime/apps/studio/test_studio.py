@@ -237,7 +237,8 @@ def test_preview_exposure_follows_the_highlight_guard(photo, models_dir, monkeyp
     monkeypatch.setattr(exposure, "HIGHLIGHT_LIMIT", 0.6)
     relighter = Relighter(RuntimeConfig(models=models_dir, device="cpu"))
     own = relighter._factor.highlight_inputs  # what the final result and the preview both read
-    monkeypatch.setattr(relighter._factor, "highlight_inputs", lambda dec: own(dec)[:3] + (0.05,))  # 5 % past the limit
+    # 5 % past the limit
+    monkeypatch.setattr(relighter._factor, "highlight_inputs", lambda dec: own(dec)._replace(allowed=0.05))
     guarded = Studio(photo, None, "original", relighter, preview_pixels=4096, models=models_dir)
     factors = _check_preview_exposure(guarded)
     assert min(factors) < 0.95, factors  # the guard lowered at least one light
@@ -594,7 +595,7 @@ def test_shadow_layer_is_the_final_results_at_the_previews_size(photo, models_di
     scale = exposure_scale(albedo[None], transport[None], mask[None], light, meta["exposure_target"], "auto",
                            METER_POWER)
     kept = (light * np.float32(scale)).astype(np.float32)
-    want = guarded(kept * np.float32(1.25), "auto", studio._highlight, np.asarray(studio.dec.white_light)[:, 0])
+    want = guarded(kept * np.float32(1.25), "auto", studio._highlight)
     np.testing.assert_allclose(studio.preview_light(light, "auto", 1.25), want, rtol=1e-5)
     for i in range(core.SHADOW_CACHE):
         studio.shadow((light * (1 + 0.01 * (i + 1))).tolist())
