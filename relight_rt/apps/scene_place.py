@@ -357,7 +357,7 @@ def _too_large(new_w: int, new_h: int, wb: int, hb: int) -> RelightError:
 
 
 def place(rgba: np.ndarray, background_shape: tuple[int, ...], position=None, height=None, horizon: float = 0.5,
-          camera_height: float = CAMERA_M) -> Placement:  # fmt: skip
+          camera_height: float = CAMERA_M, framed: Framing | None = None) -> Placement:  # fmt: skip
     """The relit person ``rgba`` ((h, w, 4) straight-alpha linear RGBA, their photo's size) scaled and put into a
     background of ``background_shape`` (module docstring).
 
@@ -368,6 +368,7 @@ def place(rgba: np.ndarray, background_shape: tuple[int, ...], position=None, he
         height: a checked fraction (``check_height``) or None.
         horizon: a checked row fraction (``check_horizon``).
         camera_height: a checked height in metres (``check_camera_height``).
+        framed: ``framing(rgba[..., 3])`` where the caller has it already (None: read here).
 
     Raises:
         RelightError: an empty matte; a full body's feet on or above the horizon without a height; a given
@@ -376,7 +377,7 @@ def place(rgba: np.ndarray, background_shape: tuple[int, ...], position=None, he
     pos, frac, hz = position, height, horizon
     hb, wb = background_shape[:2]
     hp, wp = rgba.shape[:2]
-    fr = framing(rgba[..., 3])
+    fr = framing(rgba[..., 3]) if framed is None else framed
     y0, y1, x0, x1 = fr.box
     box_h, box_w = y1 - y0, x1 - x0
     given = frac is not None
