@@ -1,24 +1,29 @@
-"""Where a hard mask's outline is hair: the rim's fibre share (``relight_rt.apps.scene_rim.fibre_share``) on the head's
-outline against the body's, on real photos with binary masks, and on the benchmark's renders (issue 49).
+"""Where a hard mask's outline is hair: a back light's fibre share on the head's outline against the body's, on real
+photos with binary masks and on the benchmark's renders; the cue tried for issue 49 (scene12) and not shipped.
 
     python benchmarks/scene_fibres.py --photos ../shared/realdata/people_masks/photos \\
-        --renders runs/scene/photos [--out docs/bench_results/scene_fibres_49.json]
+        --renders runs/scene/photos [--auto-matte] [--out docs/bench_results/scene_fibres_49.json]
 
-A back light glows through hair and only grazes smooth cloth; a binary mask says nothing of which its outline cuts
-through, so ``fibre_share`` reads the photo's own transition across it (``scene_rim.photo_transition``). With no
-truth of where hair is, the face says where it mostly is: on each photo with one face (the bundled face graph), the
-**head's outline** is the outline above the face's middle (x within half a face of its box, y from a face above its
-top to half a face below it: hair, or a scalp), the **body's** the outline more than a face below its chin
-(shoulders, sleeves, trousers; arms' skin too). A cue that finds hair gives the head more share than the body.
-Chosen before measuring, not fitted. Also a second cue tried, not shipped: the photo's variation *along* the outline
-(strands cross it, a smooth or defocused edge varies only across it): the tangential gradient energy in the band,
-less the two sides' own, over the normal energy there (``texture``), alone and times the width's (``both``).
+A back light glows through hair and only grazes smooth cloth. ``relight_rt.apps.scene_rim.fibre_share`` (shipped)
+reads that from the matte's softness, so a binary mask gives hair the coat's thin line. The cue tried here reads it
+from the photo instead (``photo_fibre_share``): across the matte's outline, each pixel's linear colour as a mix t of
+the two sides' local colours (the rings one to two band widths inside and outside), in transition where t is within
+an edge's 10-90 % rise; the transition's width per pixel of outline against the outline's own lower quartile (at
+least ``HARD_PX``), full fibres from ``FIBRE_RATIO`` times it, as the shipped rule does with the matte's fractional
+pixels. Chosen, not fitted; read where the two sides differ by at least ``PHOTO_CONTRAST`` (else the matte's).
 
-On the renders (hard masks, no fibres in their truth: black backdrop, no hair strands) every share is a false
-fibre: the mean share on their outlines is what the benchmark's rim pays for.
+With no truth of where hair is, the face says where it mostly is: on each photo with one face (the bundled face
+graph), the **head's outline** is the outline above the face's middle (x within half a face of its box, y from a
+face above its top to half a face below it: hair, or a scalp), the **body's** the outline more than a face below its
+chin (shoulders, sleeves, trousers; arms' skin too). A cue that finds hair gives the head more share than the body.
+Also tried: the photo's variation *along* the outline (strands cross it, a smooth or defocused edge varies only
+across it): the tangential gradient energy in the band, less the two sides' own, over the normal energy there
+(``texture``), alone and times the width's (``both``). ``--auto-matte``: the same on the bundled matter's soft matte
+(no mask): its own softness (``auto``, shipped) and the photo's cue on its outline (``auto_photo``).
 
-Reports, per cue: photos measured, the median head and body shares, the share of photos whose head exceeds the body by
-0.1 (and the reverse), the renders' mean share. The photos are for measuring only: nothing is written but numbers.
+On the renders (hard masks, no fibres in their truth: black backdrop, no strands) every share is a false fibre: the
+mean share on their outlines is what the benchmark's rim would pay. The photos are for measuring only: nothing is
+written but numbers.
 """
 
 from __future__ import annotations
@@ -38,9 +43,90 @@ if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
 from relight_rt.apps import scene_rim  # noqa: E402
+from relight_rt.apps.scene_rim import FIBRE_RATIO, HARD_PX, wide_blur  # noqa: E402
 from relight_rt.image.color import srgb8_to_linear  # noqa: E402
 
+PHOTO_RISE = (0.1, 0.9)  # in transition: the mix of the two sides within an edge's 10-90 % rise
+PHOTO_CONTRAST = 0.05  # the photo tells where its two sides differ by at least this (linear RGB, Euclidean)
+PHOTO_TOLD = 0.1  # ... on at least this share of the outline (else the matte's reading)
+PHOTO_BAND = 4  # read within at least this many pixels of the outline (else 2 % of the person's height)
+PHOTO_WORK = 640  # read on a copy where the person is at most this many rows tall
+WIDTH_REACH = 0.02  # scene_rim's: an edge's width is averaged over this share of the person's height
 RISE = (0.07, 0.5)  # texture: the share rises from tan²(15°) (a mask drawn 15° off the edge leaks that much) to 1/2
+
+
+def outline_of(a: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """(inside: alpha >= 1/2 as uint8, its outline (bool), the reach σ along it: 2 % of the person's height)."""
+    inside = (a >= 0.5).astype(np.uint8)
+    line = (inside - cv2.erode(inside, np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], np.uint8),
+                               borderType=cv2.BORDER_REPLICATE)) > 0  # fmt: skip
+    rows = np.flatnonzero(inside.any(1))
+    return inside, line, max(2.0, WIDTH_REACH * float(rows[-1] + 1 - rows[0])) if rows.size else 2.0
+
+
+def local_mean(lin: np.ndarray, ring: np.ndarray, reach: float, at: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The mean colour of ``lin`` over ``ring`` under a Gaussian of ``reach`` px at the pixels ``at`` ((N, 3)) and
+    whether the ring reaches each: on copies shrunk to ~4 px per ``reach``, read back bilinearly."""
+    h, w = ring.shape
+    f = max(1, int(reach // 4))
+    r = ring.astype(np.float32)
+    parts = [lin * r[..., None], r]
+    if f > 1:
+        size = (max(1, -(-w // f)), max(1, -(-h // f)))
+        parts = [cv2.resize(x, size, interpolation=cv2.INTER_AREA) for x in parts]
+    small = np.dstack([cv2.GaussianBlur(x, (0, 0), reach / f, borderType=cv2.BORDER_REFLECT) for x in parts])
+    ys, xs = np.nonzero(at)
+    n, cols = ys.size, 4096  # remap's maps stay under 32767 a side
+    mx = np.pad((xs + 0.5) / f - 0.5, (0, -n % cols)).astype(np.float32).reshape(-1, cols)
+    my = np.pad((ys + 0.5) / f - 0.5, (0, -n % cols)).astype(np.float32).reshape(-1, cols)
+    vals = cv2.remap(small, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE).reshape(-1, 4)[:n]
+    return vals[:, :3] / np.maximum(vals[:, 3:], 1e-6), vals[:, 3] > 1e-3
+
+
+def photo_transition(lin: np.ndarray, inside: np.ndarray, sigma: float) -> tuple[np.ndarray, np.ndarray]:
+    """(where the photo is in transition across the outline, where it tells): module docstring."""
+    band = max(PHOTO_BAND, int(math.ceil(sigma)))
+    reach = max(sigma, float(band))
+    d_in = cv2.distanceTransform(inside, cv2.DIST_L2, 3)
+    d_out = cv2.distanceTransform(1 - inside, cv2.DIST_L2, 3)
+    near = ((inside > 0) & (d_in <= band)) | ((inside == 0) & (d_out <= band))
+    rings = ((inside > 0) & (d_in > band) & (d_in <= 2 * band), (inside == 0) & (d_out > band) & (d_out <= 2 * band))
+    (c_in, has_in), (c_out, has_out) = (local_mean(lin, ring, reach, near) for ring in rings)
+    step = c_in - c_out
+    size2 = (step * step).sum(1)
+    told_at = has_in & has_out & (size2 >= PHOTO_CONTRAST**2)
+    t = ((lin[near] - c_out) * step).sum(1) / np.maximum(size2, 1e-12)
+    told, seen = np.zeros(near.shape, bool), np.zeros(near.shape, bool)
+    told[near] = told_at
+    seen[near] = told_at & (t > PHOTO_RISE[0]) & (t < PHOTO_RISE[1])
+    return seen, told
+
+
+def photo_fibre_share(alpha: np.ndarray, lin: np.ndarray) -> np.ndarray:
+    """The tried cue (module docstring): scene_rim.fibre_share's rule on the photo's transition, read on a copy where
+    the person is at most PHOTO_WORK rows tall."""
+    a = np.clip(np.asarray(alpha, np.float32), 0, 1)
+    inside, line, sigma = outline_of(a)
+    if not line.any():
+        return np.zeros(a.shape, np.float32)
+    h, w = a.shape
+    k = max(1, math.ceil(sigma / (WIDTH_REACH * PHOTO_WORK)))
+    if k == 1:
+        seen, told = photo_transition(lin, inside, sigma)
+    else:
+        size = (max(2, round(w / k)), max(2, round(h / k)))
+        small_in = (cv2.resize(a, size, interpolation=cv2.INTER_AREA) >= 0.5).astype(np.uint8)
+        answers = photo_transition(cv2.resize(lin, size, interpolation=cv2.INTER_AREA), small_in, max(2.0, sigma / k))
+        seen, told = (cv2.resize(x.astype(np.uint8), (w, h), interpolation=cv2.INTER_NEAREST) > 0 for x in answers)
+    moving = seen if np.count_nonzero(told[line]) >= PHOTO_TOLD * np.count_nonzero(line) else (a > 0.02) & (a < 0.98)
+    along = wide_blur(line.astype(np.float32), sigma)
+    near = along > 1e-3 * float(along.max())
+    width = np.zeros(a.shape, np.float32)
+    width[near] = wide_blur(moving.astype(np.float32), sigma)[near] / along[near]
+    hard = max(HARD_PX, float(np.percentile(width[line], 25)))
+    out = np.zeros(a.shape, np.float32)
+    out[near] = np.clip((width[near] / hard - 1) / (FIBRE_RATIO - 1), 0, 1)
+    return out
 
 
 def outline(alpha: np.ndarray) -> np.ndarray:
@@ -54,7 +140,7 @@ def texture_share(lin: np.ndarray, alpha: np.ndarray) -> np.ndarray:
     inside = (alpha >= 0.5).astype(np.uint8)
     rows = np.flatnonzero(inside.any(1))
     sigma = max(2.0, 0.02 * float(rows[-1] + 1 - rows[0])) if rows.size else 2.0
-    band = max(scene_rim.PHOTO_BAND, int(math.ceil(sigma)))
+    band = max(PHOTO_BAND, int(math.ceil(sigma)))
     d_in = cv2.distanceTransform(inside, cv2.DIST_L2, 3)
     d_out = cv2.distanceTransform(1 - inside, cv2.DIST_L2, 3)
     near = ((inside > 0) & (d_in <= band)) | ((inside == 0) & (d_out <= band))
@@ -70,15 +156,14 @@ def texture_share(lin: np.ndarray, alpha: np.ndarray) -> np.ndarray:
     et = ((-gx * ny[..., None] + gy * nx[..., None]) ** 2).sum(2)
 
     def mean(v, where):
-        return scene_rim.wide_blur(v * where, sigma) / np.maximum(scene_rim.wide_blur(where.astype(np.float32), sigma),
-                                                                  1e-6)  # fmt: skip
+        return wide_blur(v * where, sigma) / np.maximum(wide_blur(where.astype(np.float32), sigma), 1e-6)
 
     rho = np.maximum(mean(et, near) - mean(et, sides), 0) / np.maximum(mean(en, near), 1e-9)
     return np.clip((rho - RISE[0]) / (RISE[1] - RISE[0]), 0, 1).astype(np.float32)
 
 
 def cues(lin: np.ndarray, alpha: np.ndarray) -> dict[str, np.ndarray]:
-    width = scene_rim.fibre_share(alpha, lin)
+    width = photo_fibre_share(alpha, lin)
     texture = texture_share(lin, alpha)
     return {"matte": scene_rim.fibre_share(alpha), "width": width, "texture": texture, "both": width * texture}
 
@@ -125,7 +210,7 @@ def main(argv=None) -> int:
             sh = (sx >= x0 - 0.5 * sw) & (sx <= x1 + 0.5 * sw) & (sy >= y0 - s) & (sy <= y0 + 0.5 * s)
             sb = sy > y1 + s
             shares_auto = {}
-            for k, f in (("auto", scene_rim.fibre_share(soft)), ("auto_photo", scene_rim.fibre_share(soft, lin))):
+            for k, f in (("auto", scene_rim.fibre_share(soft)), ("auto_photo", photo_fibre_share(soft, lin))):
                 ok = sh.sum() >= 5 and sb.sum() >= 5
                 shares_auto[k] = (float(f[sy[sh], sx[sh]].mean()), float(f[sy[sb], sx[sb]].mean())) if ok else None
         per_photo.append({"name": photo_path.stem})

@@ -50,12 +50,12 @@ Steps (all colour arithmetic in linear light; both photos are read as sRGB, as c
    frame's height, the person is lifted toward the background's light behind the edge where that is brighter
    (``WRAP_STRENGTH`` of the excess at most), as a rim of back light and a lens's glare would; and a rim
    (``scene_rim.key_rim``; a degree-2 SH light spreads a small source behind the person over the whole body
-   instead): the outline, within ``RIM_RADIUS`` of the person's height where the photo shows strands (hair, fuzz: a
-   wide transition across the matte's outline, ``scene_rim.fibre_share`` of the person's photo and matte) and in a
-   thin grazing line where it shows a sharp step, gets the rim's radiance added as the fibres there would scatter
-   it (all round for a source straight behind, on its side for one to the side), not on the matte's specks and
-   pinholes. The wrap and the rim read the same light, the radiance just behind the outline scattered toward the
-   camera: where both lift a pixel it takes the larger of the two, not their sum. The source and the radiance:
+   instead): the outline, within ``RIM_RADIUS`` of the person's height where the matte says strands (hair, fuzz:
+   a soft, wide edge, ``scene_rim.fibre_share`` of the person's photo's matte) and in a thin grazing line where it
+   says a smooth hard edge, gets the rim's radiance added as the fibres there would scatter it (all round for a
+   source straight behind, on its side for one to the side), not on the matte's specks and pinholes. The wrap and the
+   rim read the same light, the radiance just behind the outline scattered toward the camera: where both lift a
+   pixel it takes the larger of the two, not their sum. The source and the radiance:
    ``relight_rt.apps.scene_rim``. ``rim="auto"``: a photo gets it where both say so, a compact clipped source in
    frame (a sun, a window, a lamp) and the background's light read as back-lit (the key a back key): either alone
    is wrong too often (a source in frame on 64 of the benchmark's 100 views, 35 of them back-lit; both, 28, 20
@@ -673,10 +673,10 @@ def composite(
                               rim_key=rim_key)
     rgba = relight_person(relighter, dec, lighting, mode)
     placed, hz = place_among_people(rgba, bg, pos, frac, hz, cam, fov, people_finder(relighter))
-    # the rim's fibres: read on the person's photo across its matte's outline, placed with the person (before any
-    # blur); only where a rim is drawn at all (a key from behind, of some colour: ``key_rim`` draws nothing otherwise)
+    # the rim's fibres: read on the photo's matte, placed with the person (before any blur); only where a rim is
+    # drawn at all (a key from behind, of some colour: ``key_rim`` draws nothing otherwise)
     rims = lighting.rim_dir is not None and lighting.rim_dir[0] < 0 and float(np.max(lighting.rim_colour)) > 0
-    fibres = (fibre_patch(rgba[..., 3], placed, person[..., :3]), (placed.top, placed.left)) if rims else None
+    fibres = (fibre_patch(rgba[..., 3], placed), (placed.top, placed.left)) if rims else None
     noise_add = 0.0
     if match_camera:  # blur now, noise after the sRGB encoding
         placed, noise_add = camera_match(bg, placed, float(plate_blur) if placed.full_body else 0.0)

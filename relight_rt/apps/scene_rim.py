@@ -41,16 +41,12 @@ brightest source in frame, the photo rim's colour errs by a median 4.6° with th
 (21 views with a visible rim; 3.4° and 5.2° over all 64 with a region; ``benchmarks/scene_rim_photo.py``).
 
 Where on the outline (``key_rim``): a back light glows through fine translucent fibres (hair, fuzz, a thin fabric's
-edge) and only grazes smooth opaque cloth. The picture tells which (``fibre_share``): strands make a wide transition
-from the background to the person, a smooth edge a sharp step; read in the person's photo across the matte's
-outline (``photo_transition``) whatever the matte (a binary mask says nothing of what it cuts through; an automatic
-matte's softness follows its own doubt as much as the strands), the matte's own softness only without a photo or
-where the photo's two sides are too alike to tell. Strands take the full rim, ``RIM_RADIUS`` of
-``relight_rt.apps.scene`` deep; a hard edge a thin grazing line (``GRAZE_WIDTH`` of it). On 98 real photos with
-binary masks and one face (``benchmarks/scene_fibres.py``) the head's outline reads a median 0.53 fibres, the body's
-0.45 (the head more on 51 % of photos, less on 30 %); a mask alone read 0 everywhere, an automatic matte's softness
-0.20 / 0.26 (27 % / 36 %). A weak cue: at these photos' sizes a short-haired head is often as sharp as a defocused
-shoulder. The rim follows the body, not the matte's holes and crumbs (``body``).
+edge) and only grazes smooth opaque cloth. The matte tells which (``fibre_share``): strands make a soft, wide alpha
+transition, a smooth edge a hard one. Strands take the full rim, ``RIM_RADIUS`` of ``relight_rt.apps.scene`` deep;
+a hard edge a thin grazing line (``GRAZE_WIDTH`` of it). A binary mask has no fibres anywhere (a thin line all round);
+an automatic matte's softness follows its own uncertainty as much as the strands (on the contact sheet's four
+people it calls one's legs hard and hair soft, another's smooth shirt soft and hair hard). The rim follows the body,
+not the matte's holes and crumbs (``body``).
 """
 
 from __future__ import annotations
@@ -60,14 +56,12 @@ import math
 import cv2
 import numpy as np
 
-from ..engine.errors import RelightError
 from ..image.color import REC709
 from ..light import envmap
 
 __all__ = ["FIBRE_DEG", "FIBRE_RATIO", "GRAZE_WIDTH", "HALO_LEVEL", "HARD_PX", "LOBE_DEG", "PHOTO_MAX_AREA", "RIM_MAX",
            "RIM_PHOTO", "SCATTER", "SOURCE_SHARE", "body", "brightest", "fibre_patch", "fibre_share", "fibres_in",
-           "halo_colour", "key_rim", "panorama_rim", "photo_rim", "photo_transition", "rim_colour", "rim_facing",
-           "wide_blur"]  # fmt: skip
+           "halo_colour", "key_rim", "panorama_rim", "photo_rim", "rim_colour", "rim_facing", "wide_blur"]  # fmt: skip
 
 SOURCE_SHARE = 0.5  #: the source: pixels of at least this share of the peak luminance behind the person
 LOBE_DEG = 5.0  #: half-angle of the forward-scattering lobe (a hair fibre's transmitted lobe: a few degrees wide)
@@ -83,14 +77,6 @@ FIBRE_RATIO = 2.0  #: an edge this many times as wide as the matte's own hard ed
 # the full rim (chosen: a wider transition than the matte gives a smooth outline is what fibres add)
 GRAZE_WIDTH = 0.25  #: a hard edge's grazing line: its reach, this share of the rim's (chosen: a pixel or so)
 HALO_LEVEL = 160  #: a clipped source's halo: the pixels round it whose brightest channel is at least this (8-bit sRGB)
-PHOTO_RISE = (0.1, 0.9)  #: the photo is in transition across the outline where its colour mixes the two sides in
-# this range (an edge's 10-90 % rise, its usual width)
-PHOTO_CONTRAST = 0.05  #: ... where the two sides differ by at least this (linear RGB): else the photo cannot tell
-PHOTO_WORK = 640  #: ... read on a copy where the person is at most this many rows tall (a fringe is still pixels wide)
-PHOTO_TOLD = 0.1  #: ... the photo's reading is used where it tells on at least this share of the outline (else the
-# matte's: a person cut out onto a backdrop of their own colour)
-PHOTO_BAND = 4  #: ... read within at least this many pixels of the outline (chosen: room on each side for the
-# width FIBRE_RATIO x HARD_PX at which an edge counts as strands)
 _WIDTH_REACH = 0.02  # an edge's width is read over this share of the person's height along the outline
 _MIN_PIXELS = 2  # a photo's clipped region of fewer pixels is noise
 _CLIP_LEVEL = 250
@@ -334,147 +320,46 @@ def wide_blur(img: np.ndarray, sigma: float) -> np.ndarray:
     return cv2.resize(small, (w, h), interpolation=cv2.INTER_LINEAR)
 
 
-def _outline(a: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
-    """(inside: alpha >= 1/2 as uint8, its outline: inside pixels beside one that is not, the reach σ along it)."""
+def fibre_share(alpha: np.ndarray) -> np.ndarray:
+    """How much of the outline near each pixel is fibres (1: hair, fuzz, a thin fabric's edge) rather than a smooth
+    opaque edge (0), read from the matte: a back light glows through fine translucent strands and only grazes smooth
+    cloth, and strands are what makes a matte's alpha go from 0 to 1 over a wide band.
+
+    The edge's width w: the pixels of fractional alpha (0.02-0.98) per pixel of outline (alpha >= 1/2 beside one
+    below), both averaged along the outline over ``_WIDTH_REACH`` of the person's height. A matte has hard edges of
+    its own width (a binary mask none, an automatic one its grid's smear): the lower quartile of w over the outline,
+    at least ``HARD_PX``. The share is 0 up to that width and 1 from ``FIBRE_RATIO`` times it on, linear between: a
+    binary mask has no fibres anywhere, a soft one fibres where it is softer than its own hard edges.
+
+    Args:
+        alpha: (h, w) float matte in [0, 1] at its photo's resolution (or as seen in a frame).
+
+    Returns:
+        (h, w) float32 in [0, 1]; 0 far from the outline and everywhere when the matte has none.
+    """
+    a = np.clip(np.asarray(alpha, np.float32), 0, 1)
     inside = (a >= 0.5).astype(np.uint8)
     line = inside - cv2.erode(inside, np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], np.uint8),
                               borderType=cv2.BORDER_REPLICATE)  # fmt: skip
     rows = np.flatnonzero(inside.any(1))
-    sigma = max(2.0, _WIDTH_REACH * float(rows[-1] + 1 - rows[0])) if rows.size else 2.0
-    return inside, line, sigma
-
-
-def _widths(frac: np.ndarray, line: np.ndarray, sigma: float) -> tuple[np.ndarray, np.ndarray]:
-    """(the transition's width near each pixel: ``frac``'s pixels per pixel of outline ``line``, both averaged along
-    it over σ; where that is read)."""
+    out = np.zeros(a.shape, np.float32)
+    if not line.any():
+        return out
+    sigma = max(2.0, _WIDTH_REACH * float(rows[-1] + 1 - rows[0]))
+    frac = ((a > 0.02) & (a < 0.98)).astype(np.float32)
     along = wide_blur(line.astype(np.float32), sigma)
     near = along > 1e-3 * float(along.max())
-    width = np.zeros(frac.shape, np.float32)
-    width[near] = wide_blur(frac.astype(np.float32), sigma)[near] / along[near]
-    return width, near
-
-
-def _share(width: np.ndarray, near: np.ndarray, line: np.ndarray) -> np.ndarray:
-    """0 up to the outline's own hard width (the lower quartile along it, at least ``HARD_PX``), 1 from
-    ``FIBRE_RATIO`` times it, linear between."""
+    width = np.zeros(a.shape, np.float32)
+    width[near] = wide_blur(frac, sigma)[near] / along[near]
     hard = max(HARD_PX, float(np.percentile(width[line > 0], 25)))
-    out = np.zeros(width.shape, np.float32)
     out[near] = np.clip((width[near] / hard - 1) / (FIBRE_RATIO - 1), 0, 1)
     return out
 
 
-def photo_transition(photo: np.ndarray, inside: np.ndarray, sigma: float) -> tuple[np.ndarray, np.ndarray]:
-    """(the pixels where the photo itself is in transition across the outline, those where it tells: bool (h, w)
-    each). Within
-    ``max(PHOTO_BAND, σ)`` px of it, the photo's linear colour c read as a mix of the outline's two sides, t =
-    (c − c_out) · (c_in − c_out) / |c_in − c_out|² (c_in, c_out: the local means of the rings from one to two band
-    widths inside and outside, averaged over the larger of σ and the band), strictly within ``PHOTO_RISE`` (an edge's
-    10-90 % rise: a lens's or a sensor's blur of a smooth edge spans a pixel or two of it, strands in front of the
-    background many); it tells where the two sides differ by at least ``PHOTO_CONTRAST`` (linear RGB, Euclidean; not:
-    dark hair on a dark ground, a person on a backdrop of their own colour)."""
-    band = max(PHOTO_BAND, int(math.ceil(sigma)))
-    reach = max(sigma, float(band))  # the sides' means reach across the band
-    out = 1 - inside
-    d_in = cv2.distanceTransform(inside, cv2.DIST_L2, 3)
-    d_out = cv2.distanceTransform(out, cv2.DIST_L2, 3)
-    near = ((inside > 0) & (d_in <= band)) | ((out > 0) & (d_out <= band))
-    lin = np.asarray(photo, np.float32)
-    rings = ((inside > 0) & (d_in > band) & (d_in <= 2 * band), (out > 0) & (d_out > band) & (d_out <= 2 * band))
-    (c_in, has_in), (c_out, has_out) = (_local_mean(lin, ring, reach, near) for ring in rings)
-    c = lin[near]
-    step = c_in - c_out
-    size2 = (step * step).sum(1)
-    told_at = has_in & has_out & (size2 >= PHOTO_CONTRAST**2)
-    t = ((c - c_out) * step).sum(1) / np.maximum(size2, 1e-12)
-    told, seen = np.zeros(near.shape, bool), np.zeros(near.shape, bool)
-    told[near] = told_at
-    seen[near] = told_at & (t > PHOTO_RISE[0]) & (t < PHOTO_RISE[1])
-    return seen, told
-
-
-def _local_mean(lin: np.ndarray, ring: np.ndarray, reach: float, at: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(the mean colour of ``lin`` over the pixels ``ring`` under a Gaussian of ``reach`` px, (N, 3) at the N pixels
-    ``at``; whether the ring reaches each): on copies shrunk to about 4 px per ``reach`` (area averages: a smooth
-    mean loses nothing), read back bilinearly at those pixels only."""
-    h, w = ring.shape
-    f = max(1, int(reach // 4))
-    r = ring.astype(np.float32)
-    size = (max(1, -(-w // f)), max(1, -(-h // f)))
-    parts = [lin * r[..., None], r]
-    if f > 1:
-        parts = [cv2.resize(x, size, interpolation=cv2.INTER_AREA) for x in parts]
-    small = np.dstack([cv2.GaussianBlur(x, (0, 0), reach / f, borderType=cv2.BORDER_REFLECT) for x in parts])
-    ys, xs = np.nonzero(at)
-    n = ys.size
-    cols = 4096  # OpenCV's remap takes maps under 32767 a side: the N points as rows of this many
-    pad = -n % cols
-    mx = np.pad((xs + 0.5) / f - 0.5, (0, pad)).astype(np.float32).reshape(-1, cols)
-    my = np.pad((ys + 0.5) / f - 0.5, (0, pad)).astype(np.float32).reshape(-1, cols)
-    vals = cv2.remap(small, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE).reshape(-1, 4)[:n]
-    return vals[:, :3] / np.maximum(vals[:, 3:], 1e-6), vals[:, 3] > 1e-3
-
-
-def _photo_transition_at(photo: np.ndarray, alpha: np.ndarray, sigma: float) -> tuple[np.ndarray, np.ndarray]:
-    """``photo_transition`` read on a copy shrunk (area averages) so that the person is at most ``PHOTO_WORK`` rows
-    tall, its answers brought back to the photo's pixels (nearest): a fringe a hundredth of a person's height is
-    still several pixels wide there, and a 2-MP person costs what a small one does."""
-    h, w = alpha.shape
-    k = max(1, math.ceil(sigma / (_WIDTH_REACH * PHOTO_WORK)))
-    if k == 1:
-        return photo_transition(photo, (alpha >= 0.5).astype(np.uint8), sigma)
-    size = (max(2, round(w / k)), max(2, round(h / k)))
-    small = cv2.resize(np.ascontiguousarray(photo, np.float32), size, interpolation=cv2.INTER_AREA)
-    inside = (cv2.resize(alpha, size, interpolation=cv2.INTER_AREA) >= 0.5).astype(np.uint8)
-    answers = photo_transition(small, inside, max(2.0, sigma / k))
-    return tuple(cv2.resize(x.astype(np.uint8), (w, h), interpolation=cv2.INTER_NEAREST) > 0 for x in answers)
-
-
-def fibre_share(alpha: np.ndarray, photo: np.ndarray | None = None) -> np.ndarray:
-    """How much of the outline near each pixel is fibres (1: hair, fuzz, a thin fabric's edge) rather than a smooth
-    opaque edge (0): a back light glows through fine translucent strands and only grazes smooth cloth, and strands
-    are what makes the picture go from the background to the person over a wide band.
-
-    The edge's width w: the pixels in transition per pixel of outline (alpha >= 1/2 beside one below), both averaged
-    along the outline over ``_WIDTH_REACH`` of the person's height. In transition, with ``photo``: the photo's own
-    (``photo_transition``: a hair fringe is a wide mix of strands and background, a coat's edge a sharp step), whatever
-    the matte (a binary mask says nothing of what its outline cuts through, and an automatic matte's softness follows
-    its own doubt as much as the strands: ``benchmarks/scene_fibres.py``); without it, or where the photo's two sides
-    are too alike to tell, the matte's fractional pixels (0.02-0.98). An outline has hard edges of its own width (the
-    lens, the matte's grid): the lower quartile of w along it, at least ``HARD_PX``. The share is 0 up to that width
-    and 1 from ``FIBRE_RATIO`` times it on, linear between: fibres where the outline is softer than its own hard
-    edges.
-
-    Args:
-        alpha: (h, w) float matte in [0, 1] at its photo's resolution (or as seen in a frame).
-        photo: None, or (h, w, 3) float linear RGB: the photo the matte is of, its background included.
-
-    Returns:
-        (h, w) float32 in [0, 1]; 0 far from the outline and everywhere when the matte has none.
-
-    Raises:
-        RelightError: a photo of another size than the matte.
-    """
-    a = np.clip(np.asarray(alpha, np.float32), 0, 1)
-    rgb = None if photo is None else np.asarray(photo, np.float32)
-    if rgb is not None and (rgb.ndim != 3 or rgb.shape[:2] != a.shape or rgb.shape[2] < 3):
-        raise RelightError(f"fibre share: expected the matte's photo, (h, w, 3) for {a.shape}, got {rgb.shape}")
-    inside, line, sigma = _outline(a)
-    if not line.any():
-        return np.zeros(a.shape, np.float32)
-    moving = (a > 0.02) & (a < 0.98)
-    if rgb is not None:
-        seen, told = _photo_transition_at(rgb[..., :3], a, sigma)
-        if np.count_nonzero(told[line > 0]) >= PHOTO_TOLD * np.count_nonzero(line):
-            moving = seen
-    width, near = _widths(moving, line, sigma)
-    return _share(width, near, line)
-
-
-def fibre_patch(alpha: np.ndarray, placed, photo: np.ndarray | None = None) -> np.ndarray:
-    """``fibre_share`` of the person's matte ``alpha`` (their photo's resolution; with ``photo``, that photo as
-    linear RGB, read where the picture itself changes) as placed in the frame: cut to their box
-    (``scene_place.box``) and resized to ``placed``'s (a ``scene_place.Placement``) height and width, its top-left
-    corner at ``placed.top``, ``placed.left`` (as placed, before any blur).
+def fibre_patch(alpha: np.ndarray, placed) -> np.ndarray:
+    """``fibre_share`` of the person's matte ``alpha`` (their photo's resolution) as placed in the frame: cut to
+    their box (``scene_place.box``) and resized to ``placed``'s (a ``scene_place.Placement``) height and width,
+    its top-left corner at ``placed.top``, ``placed.left`` (as placed, before any blur).
 
     Returns:
         (placed.height, placed.width) float32 in [0, 1].
@@ -485,8 +370,7 @@ def fibre_patch(alpha: np.ndarray, placed, photo: np.ndarray | None = None) -> n
     y0, y1, x0, x1 = box(a)
     m = max(1, int(math.ceil(6 * _WIDTH_REACH * (y1 - y0))))  # the outline's neighbours, for its averages
     cy0, cx0 = max(0, y0 - m), max(0, x0 - m)
-    near = None if photo is None else np.asarray(photo)[cy0 : y1 + m, cx0 : x1 + m]
-    share = fibre_share(a[cy0 : y1 + m, cx0 : x1 + m], near)[y0 - cy0 : y1 - cy0, x0 - cx0 : x1 - cx0]
+    share = fibre_share(a[cy0 : y1 + m, cx0 : x1 + m])[y0 - cy0 : y1 - cy0, x0 - cx0 : x1 - cx0]
     small = placed.height < share.shape[0]
     return cv2.resize(share, (placed.width, placed.height), interpolation=cv2.INTER_AREA if small else cv2.INTER_LINEAR)
 

@@ -185,54 +185,6 @@ def test_the_matte_tells_strands_from_a_smooth_edge():
     assert fibre_share(even)[80, 50] < 0.2 and fibre_share(even)[30, 80] < 0.2
 
 
-def _strands_photo(size=160, reach=6, seed=0):
-    """A binary box mask and its linear photo: a coat (0.15, 0.1, 0.08) on a light wall (0.6), its sides and bottom
-    sharp steps; on top, dark hair (0.03) whose fringe of strands finer than a pixel covers each pixel by a ragged
-    share (a ramp over ``reach`` px each side of the mask's top edge, ± 0.3 at random): a wide, textured transition
-    that the binary mask cuts straight through."""
-    rng = np.random.default_rng(seed)
-    mask = np.zeros((size, size), np.float32)
-    mask[30:130, 50:110] = 1.0
-    photo = np.full((size, size, 3), 0.6, np.float32)
-    photo[30:130, 50:110] = (0.15, 0.1, 0.08)
-    photo[30:45, 50:110] = 0.03  # the hair
-    rows = np.arange(30 - reach, 30 + reach)
-    cover = (rows[:, None] - (30 - reach) + 0.5) / (2 * reach) + rng.uniform(-0.3, 0.3, (rows.size, 60))
-    cover = np.clip(cover, 0, 1)[..., None]
-    photo[30 - reach : 30 + reach, 50:110] = cover * 0.03 + (1 - cover) * 0.6
-    return mask, photo
-
-
-def test_a_binary_mask_reads_the_strands_where_the_photo_shows_them():
-    """fibre_share with the photo: a binary mask's outline takes the photo's own transition across it, so hair whose
-    strands straddle it is fibres (the full rim) and the coat's sharp sides are not; from the mask alone all is hard
-    (the thin line all round, hair too: what composite did before)."""
-    mask, photo = _strands_photo()
-    assert not fibre_share(mask).any()
-    share = fibre_share(mask, photo)
-    assert share[29:32, 60:100].mean() > 0.9  # the hair's top
-    assert share[60:100, 49:51].max() < 0.1 and share[60:100, 109:111].max() < 0.1  # the coat's sides
-    assert share[128:131, 60:100].max() < 0.1  # its bottom
-    out = key_rim(np.zeros((160, 160, 3), np.float32), mask, np.array([-1.0, 0.0, 0.0]), 1.0, 3.0, fibres=share)
-    top, side = out[30:40, 60:100, 0].sum(0).mean(), out[60:100, 50:60, 0].sum(1).mean()
-    assert top > 3 * side  # the hair glows over its width, the coat's side keeps a thin line
-
-
-def test_the_photo_read_only_where_it_tells():
-    """A photo whose two sides of the outline are alike (a cut-out on a backdrop of the person's colour) says nothing:
-    the matte's reading stands; a photo of another size than the matte is refused."""
-    from relight_rt import RelightError
-
-    soft = _hair_on_top()
-    flat = np.full(soft.shape + (3,), 0.3, np.float32)
-    np.testing.assert_array_equal(fibre_share(soft, flat), fibre_share(soft))
-    mask, photo = _strands_photo()
-    with pytest.raises(RelightError, match="photo"):
-        fibre_share(mask, photo[:-1])
-    with pytest.raises(RelightError, match="photo"):
-        fibre_share(mask, photo[..., 0])
-
-
 def test_a_back_light_glows_through_strands_and_only_grazes_a_smooth_edge():
     """A source straight behind: the strands on top take the full rim over their width; the hard sides keep a thin
     line (their outermost pixel lit, a third of the strands' light or less, nothing two pixels in). Without the
