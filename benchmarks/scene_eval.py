@@ -411,6 +411,9 @@ def main(argv=None) -> int:
     p.add_argument("--rim", action="store_true",
                    help="add composite's rim to the estimate (apps.scene_rim: a compact clipped source in the "
                    "background photo, else the back key's; composite --rim) before it is scored")  # fmt: skip
+    p.add_argument("--rim-photo-edges", action="store_true",
+                   help="with --rim: the outline's fibres read on the person's photo (benchmarks/scene_fibres.py's "
+                   "tried cue, not shipped) instead of the mask's softness")  # fmt: skip
     p.add_argument("--rim-gated", action="store_true",
                    help="with --rim: only where the estimate calls the view back-lit and a compact clipped source is "
                    "in the photo (a rim that needs both)")  # fmt: skip
@@ -571,8 +574,13 @@ def main(argv=None) -> int:
                 height = float((truth["mask"] > 0.005).any(1).sum())
                 hh, ww = truth["mask"].shape[:2]  # each point's own ray, as composite's (the renders' fov: 60°)
                 view = ((ww / 2) / math.tan(math.radians(60.0) / 2), -hh / 2, -ww / 2)
+                fibres = None  # the shipped reading: the mask's softness (key_rim's own)
+                if args.rim_photo_edges:  # scene12's tried cue: on the person's photo under another map than the
+                    from scene_fibres import photo_fibre_share  # target's, as a composite's input is
+
+                    fibres = photo_fibre_share(truth["mask"], photo_of(next(m for m in maps if m != b))["photo"])
                 r_est = key_rim(r_est, truth["mask"], *rims[b], max(0.5, scene_mod.RIM_RADIUS * height),
-                                           view)  # fmt: skip
+                                view, fibres)  # fmt: skip
             r_oracle = albedo * sh.shading(transport, true1[b])
             si_oracles = {name: si_rmse(albedo * sh.shading(transport, lights[b]), truth["photo"], inside)
                           for name, lights in oracles.items()}  # fmt: skip

@@ -36,6 +36,7 @@ not moved.
 
 from __future__ import annotations
 
+import copy
 import logging
 import math
 from dataclasses import dataclass, replace
@@ -119,6 +120,7 @@ def find_people(photo, matter) -> list[Someone]:
     if min(h, w) < 16:
         return []
     rgb = as_rgb(img, "background", copy=False)  # the matters' one intake
+    matter = _faces_once(matter, rgb)
     found: list[Someone] = []
     for _, blob in matter.find_people(rgb)[:MAX_PEOPLE]:
         p = matter.segment(rgb, Region.around(*blob), PRESENCE, passes=SEGMENT_PASSES)
@@ -133,6 +135,28 @@ def find_people(photo, matter) -> list[Someone]:
         full = inside and tall >= UPRIGHT * (box[2] - box[0]) and tall >= MIN_HEIGHT * h
         found.append(Someone(frac, float(p.presence), bool(full)))
     return found
+
+
+def _faces_once(matter, rgb: np.ndarray):
+    """``matter`` whose face graph runs at most once on ``rgb``: each blob's ``segment`` checks for a close portrait
+    with the faces of the whole photo (``PersonMatter.find_faces``), the same answer for every blob. A shallow copy
+    (the graphs shared) whose ``find_faces`` keeps its first answer on ``rgb``; ``matter`` itself unchanged (it may
+    be the process's shared one) and returned as it is when it has no face graph call."""
+    if not callable(getattr(matter, "find_faces", None)):
+        return matter
+    ask = matter.find_faces
+    kept: dict[bool, list] = {}
+
+    def find_faces(image, *, every: bool = False):
+        if image is not rgb:
+            return ask(image, every=every)
+        if every not in kept:
+            kept[every] = ask(image, every=every)
+        return list(kept[every])
+
+    once = copy.copy(matter)
+    once.find_faces = find_faces
+    return once
 
 
 def people_finder(relighter):
@@ -263,10 +287,10 @@ def place_among_people(rgba: np.ndarray, background, position, height, horizon: 
     the background's verticals and its people (``scene_horizon``), and a default place off the people there
     (``make_room``). ``finder``: ``photo -> list[Someone]`` (``people_finder``) or None (nobody looked for).
     Returns the placement and the horizon used."""
-    full = framing(rgba[..., 3]).full_body
-    people = finder(background) if finder is not None and full else []
+    framed = framing(rgba[..., 3])  # read once: place takes it
+    people = finder(background) if finder is not None and framed.full_body else []
     hz = horizon
     if hz is None:
         hz = scene_horizon(background, fov, people, camera_height)
-    placed = place(rgba, background.shape, position, height, hz, camera_height)
+    placed = place(rgba, background.shape, position, height, hz, camera_height, framed)
     return make_room(placed, people, background.shape, moved=position is None), hz

@@ -109,6 +109,34 @@ def test_find_people_keeps_upright_whole_people_as_full_bodies():
     assert find_people(photo, FakeMatter(boxes, presence=0.1)) == []  # the pose graph sees nobody
 
 
+class FacedMatter(FakeMatter):
+    """FakeMatter whose segment asks for the whole photo's faces, as PersonMatter.segment's portrait check does."""
+
+    def __init__(self, boxes):
+        super().__init__(boxes)
+        self.face_runs = 0
+
+    def find_faces(self, rgb, *, every=False):
+        self.face_runs += 1
+        return []
+
+    def segment(self, rgb, region, give_up=0.0, passes=None):
+        self.find_faces(rgb)
+        return super().segment(rgb, region, give_up, passes)
+
+
+def test_the_face_graph_runs_once_per_background_not_once_per_blob():
+    photo = np.zeros((300, 400, 3), np.uint8)
+    boxes = [(100, 60, 140, 220), (300, 100, 360, 299.5), (10, 200, 120, 260)]
+    matter = FacedMatter(boxes)
+    found = find_people(photo, matter)
+    assert matter.face_runs == 1  # three blobs, one photo: once
+    assert found == find_people(photo, FakeMatter(boxes))  # the same people
+    assert "find_faces" not in vars(matter)  # the matter handed in (maybe the shared one) is left as it was
+    find_people(photo, matter)
+    assert matter.face_runs == 2  # a new call, a new photo: asked again
+
+
 def test_find_people_looks_on_a_small_copy():
     matter = FakeMatter([(200, 100, 260, 340)])
     found = find_people(np.zeros((900, 1600, 3), np.float32), matter)
@@ -164,6 +192,25 @@ def test_place_among_people_takes_the_horizon_from_the_people():
         raise AssertionError("looked for people for a cut-off person")
 
     assert place_among_people(cut, bg, None, None, None, CAMERA_M, 60.0, no_call)[1] == 0.5
+
+
+def test_place_among_people_reads_the_framing_once(monkeypatch):
+    from relight_rt.apps import scene_place
+
+    calls, framing = [], scene_place.framing
+
+    def counted(alpha):
+        calls.append(alpha.shape)
+        return framing(alpha)
+
+    bg = np.full((300, 400, 3), 90, np.uint8)
+    alone = place(figure(), bg.shape, None, None, 0.5)
+    monkeypatch.setattr(scene_people, "framing", counted)
+    monkeypatch.setattr(scene_place, "framing", counted)
+    placed, _ = place_among_people(figure(), bg, None, None, 0.5, CAMERA_M, 60.0, None)
+    assert len(calls) == 1  # the full-body check and the placement share one reading
+    assert (placed.top, placed.left, placed.height, placed.width) == (alone.top, alone.left, alone.height, alone.width)
+    assert np.array_equal(placed.premult, alone.premult)
 
 
 def test_people_are_not_looked_for_with_matting_off():
