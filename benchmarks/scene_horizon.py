@@ -9,12 +9,12 @@ its error (fractions of the picture's height) where it does, against the level c
 ``--photos DIR``: also every .jpg/.png there (real photos, no truth): how often it answers and the spread of its
 answers (most photos of people are taken nearly level: a wide spread means wild answers).
 
-Also what ``composite`` uses without people (``find_horizon``: the verticals' answer or 0.5, at most 0.9): its error
-over all views. Every view's readings go to ``--out`` (and each photo's ``find_horizon``), so other ways to combine
-them can be scored from the file, and two versions compared view by view. ``--places``: photos of places
-(centre-cropped to ``--size``'s aspect as benchmarks/scene_sheet.py does) with each reading, to look at. (scene7's
-sky line, a bound from the sky under the horizon, was measured here and removed by scene12: it moved no view nor
-photo.)
+Also the sky line (``sky_line``: no sky below the horizon) and what ``composite`` uses (``find_horizon``: the
+verticals' answer or 0.5; where they see the camera turned up, no higher than the sky line; at most 0.9): on the
+views, how often the sky line lies more than 0.02 below the true horizon (a bound should not), and the error of
+``find_horizon`` against the verticals' answer-or-0.5 over all views. Every view's readings go to ``--out``, so
+other ways to combine them can be scored from the file. ``--places``: photos of places (centre-cropped to
+``--size``'s aspect as benchmarks/scene_sheet.py does) with each reading, to look at.
 
 The people in a background (relight_rt.apps.scene_people: the person graphs find them, the full bodies' heads and
 feet give a horizon): on every plain view, whether anybody is found and whether composite's horizon moves (it should
@@ -43,7 +43,7 @@ if str(REPO) not in sys.path:
 from relight_rt import envmap  # noqa: E402
 from relight_rt.apps.panorama import panorama_view, parse_size  # noqa: E402
 from relight_rt.apps.scene_people import find_people, people_horizon, scene_horizon  # noqa: E402
-from relight_rt.apps.scene_place import estimate_horizon, find_horizon  # noqa: E402
+from relight_rt.apps.scene_place import HORIZON_ESTIMATE_MAX, estimate_horizon, find_horizon, sky_line  # noqa: E402
 
 
 def load_renders(renders: Path, people: Path) -> list[tuple[np.ndarray, np.ndarray, float]]:
@@ -146,7 +146,7 @@ def main(argv=None) -> int:
                 used = find_horizon(pv.plate, 60.0)
                 people = find_people(pv.plate, matter)
                 rows.append({"map": path.stem, "az": az, "el": el, "truth": pv.horizon, "estimate": est,
-                             "used": used, "people_found": len(people),
+                             "sky_line": sky_line(pv.plate), "used": used, "people_found": len(people),
                              "full_bodies": sum(p.full_body for p in people),
                              "used_with_people": scene_horizon(pv.plate, 60.0, people)})  # fmt: skip
                 for n in (1, 2, 3) if renders else ():
@@ -169,10 +169,21 @@ def main(argv=None) -> int:
         "level_camera_median_error_same_views": float(np.median(level)),
         "within_0.05": float(np.mean(err <= 0.05)),
     }  # fmt: skip
-    # what composite uses without people (find_horizon), on every view
-    used = np.array([abs(r["used"] - r["truth"]) for r in rows])
-    summary["composite_horizon_error"] = {"median": float(np.median(used)), "mean": float(used.mean()),
-                                          "p90": float(np.quantile(used, 0.9)), "max": float(used.max())}  # fmt: skip
+    # what composite used before the sky line (the verticals' answer or 0.5, clipped) and uses now, on every view
+    before = np.array([abs(min(max(0.5 if r["estimate"] is None else r["estimate"], 0.0), HORIZON_ESTIMATE_MAX)
+                           - r["truth"]) for r in rows])  # fmt: skip
+    after = np.array([abs(r["used"] - r["truth"]) for r in rows])
+    sky = [r for r in rows if r["sky_line"] is not None]
+    summary["sky_line"] = {
+        "answered": len(sky), "below_truth_by_over_0.02": sum(r["sky_line"] > r["truth"] + 0.02 for r in sky),
+        "composite_horizon_error_before": {"median": float(np.median(before)), "mean": float(before.mean()),
+                                           "p90": float(np.quantile(before, 0.9)), "max": float(before.max())},
+        "composite_horizon_error_after": {"median": float(np.median(after)), "mean": float(after.mean()),
+                                          "p90": float(np.quantile(after, 0.9)), "max": float(after.max())},
+        "views_changed": int(np.sum(np.abs(after - before) > 1e-9)),
+        "views_better_by_0.02": int(np.sum(after < before - 0.02)),
+        "views_worse_by_0.02": int(np.sum(after > before + 0.02)),
+    }  # fmt: skip
     summary["people_on_plain_views"] = {
         "views_with_anybody": sum(r["people_found"] > 0 for r in rows),
         "views_with_a_full_body": sum(r["full_bodies"] > 0 for r in rows),
@@ -199,7 +210,7 @@ def main(argv=None) -> int:
     for r in found:
         if abs(r["estimate"] - r["truth"]) > 0.05:
             print(f"off: {r['map']} {r['az']},{r['el']}: {r['estimate']:.2f} for {r['truth']:.2f}")
-    photos, photo_used, photo_people, people_moved = {}, {}, {}, {}
+    photos, skies, moved, photo_people, people_moved = {}, {}, {}, {}, {}
     if args.photos:
         import cv2
 
@@ -207,17 +218,21 @@ def main(argv=None) -> int:
             img = cv2.imread(str(path), cv2.IMREAD_COLOR)
             if img is not None and not path.stem.endswith("_mask"):
                 rgb = np.ascontiguousarray(img[..., ::-1])
-                photos[path.name], photo_used[path.name] = estimate_horizon(rgb, 60.0), find_horizon(rgb, 60.0)
+                photos[path.name], skies[path.name] = estimate_horizon(rgb, 60.0), sky_line(rgb)
                 found_people = find_people(rgb, matter)
                 ph = people_horizon(found_people)
                 photo_people[path.name] = None if ph is None else ph[0]
-                shift = scene_horizon(rgb, 60.0, found_people) - photo_used[path.name]
+                shift = scene_horizon(rgb, 60.0, found_people) - find_horizon(rgb, 60.0)
                 if abs(shift) > 1e-9:
                     people_moved[path.name] = shift
-        got = np.array([v for v in photos.values() if v is not None])
-        print(json.dumps({"photos": len(photos), "verticals": int(got.size),
-                          "percentiles_5_25_50_75_95": np.percentile(got, [5, 25, 50, 75, 95]).round(3).tolist()
-                          if got.size else []}))  # fmt: skip
+                old = min(max(0.5 if photos[path.name] is None else photos[path.name], 0.0), HORIZON_ESTIMATE_MAX)
+                if abs(find_horizon(rgb, 60.0) - old) > 1e-9:
+                    moved[path.name] = (old, find_horizon(rgb, 60.0))
+        for name, found in (("verticals", photos), ("sky_line", skies)):
+            got = np.array([v for v in found.values() if v is not None])
+            print(json.dumps({"photos": len(found), name: int(got.size),
+                              "percentiles_5_25_50_75_95": np.percentile(got, [5, 25, 50, 75, 95]).round(3).tolist()
+                              if got.size else []}))  # fmt: skip
         both = [(photos[k], v) for k, v in photo_people.items() if v is not None and photos[k] is not None]
         diff = np.array([abs(a - b) for a, b in both])
         print(json.dumps({"photos": len(photo_people), "people_answered": sum(v is not None for v in
@@ -225,17 +240,21 @@ def main(argv=None) -> int:
                           "people_minus_verticals_abs": error_summary(diff),
                           "composite_horizon_moved_by_people": len(people_moved),
                           "moved_by_abs": error_summary([abs(v) for v in people_moved.values()])}))  # fmt: skip
+        print(
+            f"composite's horizon moved by the sky line on {len(moved)} photos: "
+            + ", ".join(f"{k} {a:.2f} -> {b:.2f}" for k, (a, b) in sorted(moved.items()))
+        )
     if args.places:
         from scene_sheet import photo_background
 
         for path in args.places:
             bg = photo_background(path, (size[1], size[0]))
-            est = estimate_horizon(bg, 60.0)
-            est_s = "-" if est is None else f"{est:.3f}"
+            est, line = estimate_horizon(bg, 60.0), sky_line(bg)
+            est_s, line_s = "-" if est is None else f"{est:.3f}", "-" if line is None else f"{line:.3f}"
             people = find_people(bg, matter)
             ph = people_horizon(people)
             ph_s = "-" if ph is None else f"{ph[0]:.3f}±{ph[1]:.3f}"
-            print(f"{path.name:28s} verticals {est_s:>6s}  used {find_horizon(bg, 60.0):.3f}  "
+            print(f"{path.name:28s} verticals {est_s:>6s}  sky line {line_s:>6s}  used {find_horizon(bg, 60.0):.3f}  "
                   f"people {ph_s:>12s} ({len(people)} found, {sum(p.full_body for p in people)} whole)  "
                   f"with people {scene_horizon(bg, 60.0, people):.3f}")  # fmt: skip
     if args.speed:
@@ -262,7 +281,7 @@ def main(argv=None) -> int:
                     "summary": summary,
                     "views": rows,
                     "photos": photos,
-                    "photo_used": photo_used,
+                    "photo_sky_lines": skies,
                     "photo_people": photo_people,
                     "pasted": pasted,
                 },

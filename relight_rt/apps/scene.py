@@ -19,8 +19,9 @@ Steps (all colour arithmetic in linear light; both photos are read as sRGB, as c
    with their feet (the matte's lowest rows) on the ground at ``position`` (default: x as in their own photo,
    y = ``DEFAULT_FEET``), as tall as perspective makes them for a level camera ``camera_height`` metres above the
    ground (default ``CAMERA_M``, a standing camera) whose horizon is the row ``horizon`` (default: where the
-   background's verticals put it, else 0.5, a level camera's: ``scene_place.find_horizon``; with standing people
-   in the background, their heads' and feet's, off people there: ``scene_people``);
+   background's verticals put it, below any sky where they see the camera turned up, else 0.5, a level camera's:
+   ``scene_place.find_horizon``; with standing people in the background, their heads' and feet's, off people there:
+   ``scene_people``);
    ``height`` (a fraction of the background's height) overrides that.
    A *cut-off* person (a half body or a portrait) is placed as their photo framed them: their relative height
    kept and every border that cut them on the same border of the background. Parts beyond the edges are cut off.
@@ -620,10 +621,10 @@ def composite(
         key_light: (azimuth, elevation) degrees or "AZ,EL": where the background's key light comes from
             (relight_rt.light.from_background.parse_key_light); None: the key the view implies. Ignored with ``light``.
         horizon: the horizon's row, a fraction of the background's height in [0, 1]; None: where the background's
-            verticals put it (``relight_rt.apps.scene_place.estimate_horizon``), or 0.5 (a level camera) where they
-            say nothing, at most ``HORIZON_ESTIMATE_MAX`` (``scene_place.find_horizon``); with standing people in
-            the background (looked for unless the relighter's matting is "off"), as ``relight_rt.apps.scene_people``
-            combines both.
+            verticals put it (``relight_rt.apps.scene_place.estimate_horizon``; where they see the camera turned
+            up, no higher than the lowest sky, ``sky_line``), or 0.5 (a level camera) where they say nothing, at
+            most ``HORIZON_ESTIMATE_MAX`` (``scene_place.find_horizon``); with standing people in the background
+            (looked for unless the relighter's matting is "off"), as ``relight_rt.apps.scene_people`` combines both.
         meter: "frame" or "background" (step 8).
         match_camera: match the background camera's blur and noise (step 5).
         light_wrap: let the background's light wrap over the person's edge where it is brighter (step 7).

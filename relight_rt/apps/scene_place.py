@@ -35,8 +35,21 @@ without ``MIN_VERTICALS`` segments that agree (a landscape, a flat wall), or whe
 horizon no better than ``MAX_HORIZON_ERROR`` of the height (one standard error: hair, a few strands near the
 middle), it returns None and the level camera's 0.5 stands. The camera is assumed not to roll. A full body's
 default feet are ``DEFAULT_FEET`` down, or halfway from a low horizon to the bottom edge (the ground between them
-is what the camera sees of it). (A bound from the sky, no sky below the horizon, moved none of 225 panorama views
-and 229 photos measured, only one launch pad's: removed, ``benchmarks/scene_horizon.py``.)
+is what the camera sees of it).
+
+The sky bounds the horizon from below (``sky_line``): flat ground reaches the horizon, and anything standing on it
+hides sky only above it, so no sky is seen below the horizon. Each column's run from the top edge, down to its first
+step in log luminance or chromaticity (``SKY_JUMP`` over ``SKY_STEP`` rows), is sky when it is at least
+``SKY_RATIO`` times as bright as the ground (the median of the bottom ``SKY_GROUND`` rows: a ground of albedo at
+most about 1/3 under that sky) or blue (log2 B/R at least ``SKY_BLUE``: a clear or twilight sky, darker than a lit
+pad at dusk); a run that reaches the bottom edge is a backdrop, not a sky over ground (and when more such runs
+reach it than stop above it, there is no sky line). With sky in at least ``SKY_MIN_COLUMNS`` of the columns, the
+``SKY_QUANTILE`` of their lower ends is the sky line (a bound: poles, wires and branches end runs higher), and
+``find_horizon`` (composite's without people) puts the horizon no higher than it where the
+verticals see the camera turned up: a camera turned up at a launch pad, whose towers' convergence reads a horizon
+too high (the focal length is a guess), would otherwise stand a large person in the sky above the pad's lights.
+Alone, without the verticals, it is not used: a bright wall or curtain over a darker floor, a calm sea, a backdrop
+behind a portrait over the sitter's dark clothes read as sky.
 
 People standing in the background tell the horizon too (their heads and feet): ``relight_rt.apps.scene_people``
 combines their reading with the verticals' (``horizon_reading``: the verticals' answer and its standard error) and
@@ -53,10 +66,11 @@ import numpy as np
 
 from ..engine.errors import RelightError
 from ..engine.number_pair import number_pair
+from ..image.color import REC709, SRGB8_TO_LINEAR
 
 __all__ = [
     "CAMERA_M", "DEFAULT_FEET", "HORIZON_ESTIMATE_MAX", "PERSON_M", "Framing", "Placement", "check_camera_height",
-    "estimate_horizon", "find_horizon", "framing", "horizon_reading", "parse_position", "place",
+    "estimate_horizon", "find_horizon", "framing", "horizon_reading", "parse_position", "place", "sky_line",
 ]
 
 ALPHA_BOX = 0.005  #: the person's box: matte above this
@@ -76,6 +90,14 @@ _MIN_SEGMENT = 0.04  # a segment's least length, fraction of the photo's height
 _AGREE = 0.03  # a segment agrees with the tilt when its slope is within this of the one predicted (~1.7°)
 _HORIZON_WIDTH = 640  # the segments are found on a copy at most this wide
 HEAD_ROOM = 0.25  #: a person cut at both sides loses at most this share of their box off the top to reach both
+SKY_STEP = 4  #: sky_line: a run from the top ends at a step over this many rows (of a copy ``_SKY_WIDTH`` wide)
+SKY_JUMP = 0.25  #: ... of at least this in log2 luminance or log2 R/G, B/G (a quarter stop)
+SKY_RATIO = 3.0  #: a run is sky when its median linear luminance is this many times the ground's ...
+SKY_BLUE = 1.0  #: ... or its median log2 B/R is at least this
+SKY_GROUND = 0.2  #: the ground: the bottom this fraction of the rows
+SKY_MIN_COLUMNS = 0.2  #: a sky line needs sky in at least this fraction of the columns
+SKY_QUANTILE = 0.75  #: the sky line: this quantile of the sky columns' lower ends
+_SKY_WIDTH = 320
 
 
 def parse_position(value) -> tuple[float, float]:
@@ -251,14 +273,60 @@ def horizon_reading(photo: np.ndarray, fov: float = 60.0) -> tuple[float, float]
     return (cy + f * math.tan(math.radians(tilt))) / h, se
 
 
+def sky_line(photo: np.ndarray) -> float | None:
+    """The row above which the sky in ``photo`` lies (module docstring), a fraction of its height, or None when
+    too few columns show sky over ground.
+
+    Args:
+        photo: (H, W, 3) RGB, uint8 or float in [0, 1] (sRGB), at least 2 px a side.
+
+    Raises:
+        RelightError: another shape.
+    """
+    img = np.asarray(photo)
+    if img.ndim != 3 or img.shape[2] != 3 or min(img.shape[:2]) < 2:
+        raise RelightError(f"sky line: expected an (H, W, 3) RGB photo, got {img.shape} {img.dtype}")
+    img = _as_uint8(img)
+    h, w = img.shape[:2]
+    small = cv2.resize(img, (_SKY_WIDTH, max(2 * SKY_STEP, round(h * _SKY_WIDTH / w))), interpolation=cv2.INTER_AREA)
+    lin = cv2.GaussianBlur(SRGB8_TO_LINEAR[small], (0, 0), 1.0) + np.float32(1e-3)
+    lum = lin @ REC709
+    rows = lum.shape[0]
+    logs = np.dstack([np.log2(lum), np.log2(lin[..., 0] / lin[..., 1]), np.log2(lin[..., 2] / lin[..., 1])])
+    step = (np.abs(logs[SKY_STEP:] - logs[:-SKY_STEP]) > SKY_JUMP).any(axis=2)  # (rows - SKY_STEP, W)
+    ends = np.where(step.any(axis=0), step.argmax(axis=0) + SKY_STEP // 2, rows)  # each column's run: rows [0, end)
+    ground = max(float(np.median(lum[int(rows * (1 - SKY_GROUND)) :])), 1e-4)
+    in_run = np.arange(rows)[:, None] < ends[None, :]
+    blue = np.log2(lin[..., 2] / lin[..., 0])
+    # each run's medians (NaN outside it), columns with a run of at least two rows that stops above the bottom
+    run_lum = np.nanmedian(np.where(in_run, lum, np.nan), axis=0)
+    run_blue = np.nanmedian(np.where(in_run, blue, np.nan), axis=0)
+    like = (ends >= 2) & ((run_lum >= SKY_RATIO * ground) | (run_blue >= SKY_BLUE))
+    sky = like & (ends < rows)
+    if int(sky.sum()) < SKY_MIN_COLUMNS * sky.size or int((like & (ends >= rows)).sum()) > int(sky.sum()):
+        return None  # too little sky, or more of it runs down to the bottom edge than stops over ground
+    return float(np.quantile(ends[sky], SKY_QUANTILE)) / rows
+
+
 def find_horizon(photo: np.ndarray, fov: float = 60.0, reading=...) -> float:
-    """The horizon ``relight_rt.apps.scene.composite`` uses when none is given and nobody stands in the background:
-    the verticals' (``estimate_horizon``), a level camera's 0.5 where they say nothing, within [0,
-    ``HORIZON_ESTIMATE_MAX``]. ``reading``: ``horizon_reading``'s answer on ``photo`` where the caller has it
-    already."""
+    """The horizon ``relight_rt.apps.scene.composite`` uses when none is given: the verticals' (``estimate_horizon``;
+    a level camera's 0.5 without them), where they see the camera turned up no higher than the sky line
+    (``sky_line``), at most ``HORIZON_ESTIMATE_MAX``.
+
+    The verticals tell which way the camera is turned more surely than how far (how far scales with the focal
+    length squared, and ``fov`` is a guess): where they see it turned up (a horizon below the middle), the sky may
+    put the horizon lower still. Where they see it level or turned down, sky below their horizon contradicts them,
+    and they stand; where they say nothing, the sky line alone is not trusted (a bright wall or curtain over a
+    darker floor, a calm sea under its sky, a backdrop over dark clothes read as sky). ``reading``:
+    ``horizon_reading``'s answer on ``photo`` where the caller has it already."""
     if reading is ...:
         reading = horizon_reading(photo, fov)
-    hz = 0.5 if reading is None else reading[0]
+    found = None if reading is None else reading[0]
+    hz = 0.5 if found is None else found
+    if found is not None and found > 0.5:
+        line = sky_line(photo)
+        if line is not None:
+            hz = max(hz, line)
     return min(max(hz, 0.0), HORIZON_ESTIMATE_MAX)
 
 

@@ -194,15 +194,83 @@ def test_composite_stands_the_person_on_the_estimated_horizons_ground(diffuse_mo
     assert not np.array_equal(composite(r, img, bg, **kw), composite(r, img, bg, horizon=0.5, **kw))
 
 
-def test_composites_horizon_is_the_verticals_or_a_level_cameras():
-    """find_horizon (composite's default without people): the verticals' answer where they give one, 0.5 where they
-    say nothing, never below HORIZON_ESTIMATE_MAX (the feet need ground under the horizon) nor above the top; no
-    bound from the sky (scene7's, which moved no view nor photo measured but one launch pad, is gone)."""
-    from relight_rt.apps.scene_place import HORIZON_ESTIMATE_MAX, estimate_horizon, find_horizon
+def launch_pad(tilt=8.0, fov=35.0, size=(640, 480), sky_to=None, backdrop=False, towers=True):
+    """``poles`` (a camera turned up ``tilt`` degrees, its horizontal field of view ``fov``) without the slanted
+    distractors, over a twilight sky, dark blue and smooth, down to the horizon (or the row fraction ``sky_to``)
+    and dark, textured ground with a few bright lamps below it, as a launch pad at dusk is photographed;
+    ``backdrop``: the blue runs down to the bottom edge (no ground); ``towers=False``: no poles, nothing vertical.
+    Returns the picture and its true horizon."""
+    w, h = size
+    f = (w / 2) / np.tan(np.radians(fov) / 2)
+    truth = (h / 2 + f * np.tan(np.radians(tilt))) / h
+    edge = truth if sky_to is None else sky_to
+    img = poles(tilt, size=size, fov=fov) if towers else np.zeros((h, w, 3), np.uint8)
+    rows = np.arange(h, dtype=np.float32)[:, None] / h
+    sky = np.array([25, 40, 95], np.float32) + rows[..., None] * np.array([30, 45, 60], np.float32)
+    ground = np.random.default_rng(1).uniform(10, 45, (h, w, 1)).astype(np.float32).repeat(3, axis=2)
+    back = np.broadcast_to(sky, (h, w, 3)) if backdrop else np.where(rows[..., None] < edge, sky, ground)
+    out = np.where(img.mean(axis=2, keepdims=True) > 110, img, back).astype(np.uint8)  # the poles, nothing else
+    if not backdrop:
+        for x in range(40, w, 90):  # lamps on the ground line
+            cv2.circle(out, (x, int(edge * h) + 8), 4, (255, 240, 200), -1)
+    return out, truth
 
-    bg = poles(8.0)
-    assert find_horizon(bg, 60.0) == pytest.approx(estimate_horizon(bg, 60.0))
-    assert find_horizon(np.full((240, 320, 3), 120, np.uint8)) == 0.5
-    assert find_horizon(bg, 60.0, reading=(1.3, 0.01)) == HORIZON_ESTIMATE_MAX
-    assert find_horizon(bg, 60.0, reading=(-0.2, 0.01)) == 0.0
-    assert find_horizon(bg, 60.0, reading=None) == 0.5
+
+def test_no_sky_below_the_horizon():
+    """A camera turned up with a longer lens than the 60° guessed: the verticals read its horizon too high (how
+    far scales with the focal length squared); the sky line (no sky is seen below the horizon) puts it lower,
+    near the true one."""
+    from relight_rt.apps.scene_place import HORIZON_ESTIMATE_MAX, estimate_horizon, find_horizon, sky_line
+
+    bg, truth = launch_pad(8.0, 35.0)
+    assert truth == pytest.approx(0.797, abs=0.001)
+    assert estimate_horizon(bg, 60.0) < truth - 0.15
+    line = sky_line(bg)
+    assert truth - 0.03 < line <= truth + 0.01  # a bound: at most the sky's lowest row
+    assert find_horizon(bg, 60.0) == line
+    assert find_horizon(launch_pad(8.0, 35.0, sky_to=0.96)[0], 60.0) == HORIZON_ESTIMATE_MAX  # ground below it
+    # no ground under it: a backdrop, not a sky; a grey wall over a floor as bright: not a sky either
+    assert sky_line(launch_pad(8.0, 35.0, backdrop=True)[0]) is None
+    wall = np.full((240, 320, 3), 180, np.uint8)
+    wall[170:] = np.random.default_rng(2).uniform(120, 200, (70, 320, 1)).astype(np.uint8)
+    assert sky_line(wall) is None
+    # the verticals see the camera turned down: sky below their horizon contradicts them, and they stand
+    down, _ = launch_pad(-10.0, 60.0, sky_to=0.6)
+    assert 0.55 < sky_line(down) <= 0.61
+    assert find_horizon(down, 60.0) == pytest.approx(estimate_horizon(down, 60.0))
+    # no verticals: the sky line alone is not trusted (walls, curtains and seas read as sky), a level camera's 0.5
+    open_sky, truth = launch_pad(8.0, 35.0, towers=False)
+    assert estimate_horizon(open_sky, 60.0) is None and sky_line(open_sky) > 0.75
+    assert find_horizon(open_sky, 60.0) == 0.5
+
+
+def test_sky_line_inputs():
+    from relight_rt.apps.scene_place import sky_line
+
+    bg, _ = launch_pad(8.0, 35.0, size=(320, 240))
+    assert sky_line(bg.astype(np.float32) / 255) == pytest.approx(sky_line(bg), abs=0.01)
+    assert sky_line(bg[:2, :2]) is None  # tiny: no room for a run
+    for bad in (bg[..., 0], bg[..., :2], np.zeros((1, 5, 3), np.uint8)):
+        with pytest.raises(RelightError, match="sky line: expected an"):
+            sky_line(bad)
+
+
+def test_composite_keeps_the_feet_out_of_the_sky(diffuse_models_dir):
+    """composite's default horizon is find_horizon's: on the launch pad the person is as small as the ground's
+    distance makes them, not a giant standing in the sky above the lamps."""
+    from relight_rt import Relighter, RuntimeConfig
+    from relight_rt.apps.scene import composite
+    from relight_rt.apps.scene_place import estimate_horizon, find_horizon
+
+    r = Relighter(RuntimeConfig(models=diffuse_models_dir, device="cpu", detail=False))
+    img = np.full((150, 100, 3), (150, 110, 90), np.uint8)
+    mask = np.zeros((150, 100), np.float32)
+    mask[20:140, 30:70] = 1.0
+    bg, truth = launch_pad(8.0, 35.0, size=(320, 240))
+    hz = find_horizon(bg)
+    assert hz > estimate_horizon(bg) + 0.1
+    kw = {"mask": mask, "meter": "background", "shadow": False, "match_camera": False, "light_wrap": False}
+    out = composite(r, img, bg, **kw)
+    np.testing.assert_array_equal(out, composite(r, img, bg, horizon=hz, **kw))
+    person = np.flatnonzero((np.abs(out - bg / 255).max(axis=2) > 0.05).any(axis=1))
+    assert person[0] > (truth - 0.1) * 240  # the head near the horizon (a standing camera), none of them in the sky
