@@ -25,6 +25,7 @@ from ._coarse import region_alpha
 from ._colours import own_part
 from ._detect import (
     MIN_TILE,
+    Around,
     around_people,
     faint_places,
     find_close_faces,
@@ -351,8 +352,9 @@ class PersonMatter:
             found = [self._backed(rgb, p) if p.source == "pose" else p for p in found]
             if self.person != "all" and found:
                 found += self._joined(rgb, found, faces)
-                found += self._own_colours(rgb, found)
-                found += turned_people(self.roi, rgb, found)  # limbs seen only turned (_turned)
+                start = around_people(self.roi, rgb, found)  # the own colours' region, the turned views' too unless
+                own = self._own_colours(rgb, found, start)  # ... a part is added (it widens the region: its own run)
+                found += own + turned_people(self.roi, rgb, found + own, None if own else start)  # _turned
                 found = [blended(p, self._seen(rgb, p.region)) if p.source == "roi" else p for p in found]
                 self._note_others(found, faces, name)
             return found
@@ -364,7 +366,7 @@ class PersonMatter:
         found = [self._backed(rgb, person) if person.source == "pose" else person]
         return found + self._own_colours(rgb, found)
 
-    def _own_colours(self, rgb: np.ndarray, people: list[Person]) -> list[Person]:
+    def _own_colours(self, rgb: np.ndarray, people: list[Person], start: Around | None = None) -> list[Person]:
         """What the selfie graph sees joined to ``people`` in their own colours (relight_rt.person.matting._colours:
         dark trousers the pose graph misses, not their shadow on the ground): [one Person holding it, source "own": part
         of the matte, no one's share of it in :meth:`parts`] or [].
@@ -377,7 +379,7 @@ class PersonMatter:
         frames, up to -0.09), photos half B 0.870 -> 0.875, half A 0.9101 -> 0.9098 (a blurred neighbour's dark hair
         and a dark passer-by beside, -0.04 each), images under 0.8 IoU 9.4 % -> 8.1 % over both sets. ~7 ms a photo
         (the k-means on 1500 samples a side), nothing more where the candidates are only the matte's rim."""
-        start = around_people(self.roi, rgb, people)
+        start = around_people(self.roi, rgb, people) if start is None else start  # (or the caller's, for them)
         if start is None:
             return []
         region, seen, inside, mine = start
@@ -732,7 +734,7 @@ class PersonMatter:
             alpha = refine_edges(rgb, alpha)
             if self.person != "all":  # in everyone's matte a faint person apart is someone
                 alpha = without_doubted_parts(alpha, band_width(alpha.shape))
-                alpha = without_cast_shadow(rgb, alpha, selfie_sure(self.roi, rgb, alpha))  # (_shadow)
+                alpha = without_cast_shadow(rgb, alpha, selfie_sure(self.roi, rgb))  # (_shadow)
         return alpha
 
     def __call__(self, image: np.ndarray, name: str = "image") -> np.ndarray:
