@@ -3,6 +3,8 @@ over the whole image and over overlapping tiles, and faces from the face detecto
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import cv2
 import numpy as np
 
@@ -41,10 +43,22 @@ def roi_prob(roi: Model, rgb: np.ndarray, region: Region) -> np.ndarray:
     return prob
 
 
-def around_people(roi: Model, rgb: np.ndarray, people: list[Person]):
-    """What the searches for a part beside ``people`` start from (``PersonMatter._own_colours``, ``_turned``): the
-    region around their boxes (``Region.around``), and on its canvas the selfie graph's answer on the whole photo,
-    where the canvas lies inside the photo, and the people's own pixels (> 0.5); None when no one has a box."""
+class Around(NamedTuple):
+    """What the searches for a part beside the people start from (:func:`around_people`): a square ``region`` around
+    their boxes (``Region.around``) and on its (S, S) canvas the selfie graph's answer on the whole photo (``seen``,
+    float32; 0 where the canvas leaves the photo), the pixels inside the photo (``inside``, bool) and the people's own
+    (``mine``, bool: > 0.5)."""
+
+    region: Region
+    seen: np.ndarray
+    inside: np.ndarray
+    mine: np.ndarray
+
+
+def around_people(roi: Model, rgb: np.ndarray, people: list[Person]) -> Around | None:
+    """Where the searches for a part beside ``people`` start (``PersonMatter._own_colours``, ``_turned``): the
+    region around their boxes, and on its canvas the selfie graph's answer on the whole photo, where the canvas lies
+    inside the photo, and the people's own pixels (:class:`Around`); None when no one has a box."""
     h, w = rgb.shape[:2]
     boxes = [b for b in (person_box(p, (h, w)) for p in people) if b is not None]
     if not boxes:
@@ -61,7 +75,7 @@ def around_people(roi: Model, rgb: np.ndarray, people: list[Person]):
     xs, ys = canvas_points(region)
     inside = (xs >= 0) & (xs < w) & (ys >= 0) & (ys < h)
     mine = np.any([prob_at(p, xs, ys) > 0.5 for p in people], axis=0)
-    return region, seen, inside, mine
+    return Around(region, seen, inside, mine)
 
 
 def find_people(roi: Model, rgb: np.ndarray) -> list[tuple[float, Box]]:

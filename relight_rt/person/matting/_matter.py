@@ -25,6 +25,7 @@ from ._coarse import region_alpha
 from ._colours import own_part
 from ._detect import (
     MIN_TILE,
+    Around,
     around_people,
     faint_places,
     find_close_faces,
@@ -100,9 +101,6 @@ _REFRAME = 0.9  # the selfie graph is run again on its own segmentation's region
 _MAX_GROW = 2  # selfie-graph runs on a higher region while its segmentation is cut by the region's top (_uncut)
 _PORTRAIT_REACH = 0.3  # a pose-graph person ending this close to the bottom (x the height) may be a portrait
 _PORTRAIT_FACE = 0.3  # ... and holding a face this x its width wide
-_FRAGMENT = 0.003  # person="largest": a separate part of the matte at least this x its main part's area is checked
-_MAX_FRAGMENTS = 8  # ... at most this many of them (largest first)
-_OTHER_OVERLAP = 0.25  # ... a segmentation holding the part and at most this share of the main part is someone else
 _TRACE = 0.1  # person="largest", nobody else found: the pose graph's presence over a blob the whole photo vouches for
 _JOINED_FACE = 0.75  # person="largest": a face outside the matte at least this sure, joined to it, is someone with them
 
@@ -339,8 +337,7 @@ class PersonMatter:
             if self.person == "all":
                 found = self._everyone(rgb)
             else:
-                largest, blobs = self._largest(rgb)
-                found = [self._without_others(rgb, p) for p in largest]
+                found, blobs = self._largest(rgb)
                 if found:
                     faces = self.find_faces(rgb)  # the face graph on the whole photo (~4 ms), for both below
                     found += self._peers(rgb, found[0], blobs, faces)
@@ -351,8 +348,9 @@ class PersonMatter:
             found = [self._backed(rgb, p) if p.source == "pose" else p for p in found]
             if self.person != "all" and found:
                 found += self._joined(rgb, found, faces)
-                found += self._own_colours(rgb, found)
-                found += turned_people(self.roi, rgb, found)  # limbs seen only turned (_turned)
+                start = around_people(self.roi, rgb, found)  # the own colours' region, the turned views' too unless
+                own = self._own_colours(rgb, found, start)  # ... a part is added (it widens the region: its own run)
+                found += own + turned_people(self.roi, rgb, found + own, None if own else start)  # _turned
                 found = [blended(p, self._seen(rgb, p.region)) if p.source == "roi" else p for p in found]
                 self._note_others(found, faces, name)
             return found
@@ -364,7 +362,7 @@ class PersonMatter:
         found = [self._backed(rgb, person) if person.source == "pose" else person]
         return found + self._own_colours(rgb, found)
 
-    def _own_colours(self, rgb: np.ndarray, people: list[Person]) -> list[Person]:
+    def _own_colours(self, rgb: np.ndarray, people: list[Person], start: Around | None = None) -> list[Person]:
         """What the selfie graph sees joined to ``people`` in their own colours (relight_rt.person.matting._colours:
         dark trousers the pose graph misses, not their shadow on the ground): [one Person holding it, source "own": part
         of the matte, no one's share of it in :meth:`parts`] or [].
@@ -377,7 +375,7 @@ class PersonMatter:
         frames, up to -0.09), photos half B 0.870 -> 0.875, half A 0.9101 -> 0.9098 (a blurred neighbour's dark hair
         and a dark passer-by beside, -0.04 each), images under 0.8 IoU 9.4 % -> 8.1 % over both sets. ~7 ms a photo
         (the k-means on 1500 samples a side), nothing more where the candidates are only the matte's rim."""
-        start = around_people(self.roi, rgb, people)
+        start = around_people(self.roi, rgb, people) if start is None else start  # (or the caller's, for them)
         if start is None:
             return []
         region, seen, inside, mine = start
@@ -533,56 +531,6 @@ class PersonMatter:
             log.info("%s: %s matted, %d more face%s seen beside them (person=\"all\", relight --person all: "
                      "everyone, each relit on their own)", name, who, n, "s" if n > 1 else "")
 
-    def _without_others(self, rgb: np.ndarray, person: Person) -> Person:
-        """``person`` without the parts of its segmentation that belong to someone else (person="largest").
-
-        The pose graph segments everyone in the region it is given, so one person's matte can carry pieces of a
-        person beside or behind (two_dancers: the man's far leg, a knee and a hand, 12 % of the woman's matte,
-        none joined to her). A part's distance from the body cannot tell them apart (skater's raised hand lies
-        apart from her arm too); the other person's own segmentation can: for each separate part (largest
-        first, at least ``_FRAGMENT`` of the main part's area, at most ``_MAX_FRAGMENTS``), the pose graph is run
-        on a region of the person's size centred on it (or a segmentation found for an earlier part is reused);
-        a person there who holds most of the part and at most ``_OTHER_OVERLAP`` of the main part is someone
-        else, and the part leaves the matte. Where the graph finds the same person (her own hand) or nobody, the
-        part stays.
-        """
-        if person.source != "pose":
-            return person
-        n, labels, stats, _ = cv2.connectedComponentsWithStats((person.logits > 0).astype(np.uint8), connectivity=8)
-        if n <= 2:
-            return person
-        order = np.argsort(-stats[1:, cv2.CC_STAT_AREA]) + 1
-        main = labels == order[0]
-        k, bx, by = grid_of_region(person.region)
-
-        def image_points(where: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            ys, xs = np.nonzero(where)
-            step = max(1, ys.size // 2000)
-            return (xs[::step] - bx) / k, (ys[::step] - by) / k  # canvas pixel centres -> image coordinates
-
-        main_xy = image_points(main)
-        logits, others = person.logits, []
-        for label in order[1 : 1 + _MAX_FRAGMENTS]:
-            if stats[label, cv2.CC_STAT_AREA] < _FRAGMENT * stats[order[0], cv2.CC_STAT_AREA]:
-                break
-            part = labels == label
-            xs, ys = image_points(part)
-            other = next((o for o in others if (prob_at(o, xs, ys) > 0.5).mean() >= 0.5), None)
-            if other is None:
-                other = self.segment(rgb, Region(float(xs.mean()), float(ys.mean()), person.region.side),
-                                     give_up=PRESENCE_MIN)  # fmt: skip
-                if other.presence < PRESENCE_MIN or (prob_at(other, *main_xy) > 0.5).mean() > _OTHER_OVERLAP:
-                    continue  # nobody there, or the same person
-                others.append(other)
-            if (prob_at(other, xs, ys) > 0.5).mean() < 0.5:
-                continue
-            if logits is person.logits:
-                logits = person.logits.copy()
-            # the part and its soft rim (2 canvas px), never the main part
-            rim = cv2.dilate(part.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool) & ~main
-            logits[rim] = -LOGIT_CLIP
-        return person if logits is person.logits else replace(person, logits=logits)
-
     def _everyone(self, rgb: np.ndarray, tall: float = 0.0) -> list[Person]:
         """Everyone (person="all", :meth:`people`); with ``tall`` (image pixels), only those who may be that tall:
         blobs shorter than half of it are not tried, nor the faint places (:meth:`_peers`' search)."""
@@ -732,7 +680,7 @@ class PersonMatter:
             alpha = refine_edges(rgb, alpha)
             if self.person != "all":  # in everyone's matte a faint person apart is someone
                 alpha = without_doubted_parts(alpha, band_width(alpha.shape))
-                alpha = without_cast_shadow(rgb, alpha, selfie_sure(self.roi, rgb, alpha))  # (_shadow)
+                alpha = without_cast_shadow(rgb, alpha, selfie_sure(self.roi, rgb))  # (_shadow)
         return alpha
 
     def __call__(self, image: np.ndarray, name: str = "image") -> np.ndarray:

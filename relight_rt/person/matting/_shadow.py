@@ -50,7 +50,8 @@ _THICK = 0.01  # a dropped part holds a pixel this x the matte's height (>= 2 px
 _MAX_SHARE = 0.5  # never more than this share of the lowest part's matte is dropped (else nothing is)
 _SURE = 0.7  # the selfie graph on the matte's region (:func:`selfie_sure`) this sure of a pixel: never dropped
 
-Sure = Callable[[tuple[int, int, int, int]], np.ndarray]  # (x0, y0, x1, y1) -> bool (y1 - y0, x1 - x0): person sure
+Box = tuple[int, int, int, int]  # (x0, y0, x1, y1), image pixels, x1 and y1 past the end
+Sure = Callable[[Box, Box], np.ndarray]  # (box, the matte's box) -> bool (y1 - y0, x1 - x0): where the person is sure
 
 
 def _log_colour(img: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -74,8 +75,9 @@ def without_cast_shadow(rgb: np.ndarray, alpha: np.ndarray, sure: Sure | None = 
     Args:
         rgb: (H, W, 3) float32 RGB in [0, 1], the photo.
         alpha: (H, W) float32 matte in [0, 1].
-        sure: optional: given an image box (x0, y0, x1, y1), where in it the person is sure (bool (y1 - y0,
-            x1 - x0)): no such pixel is dropped. Asked once, and only when there are candidates (:func:`selfie_sure`).
+        sure: optional: given an image box (x0, y0, x1, y1) and the matte's (alpha >= 0.5) bounding box, where in the
+            first the person is sure (bool (y1 - y0, x1 - x0)): no such pixel is dropped. Asked once, and only when
+            there are candidates (:func:`selfie_sure`).
 
     Returns:
         (H, W) float32 alpha: ``alpha`` itself when nothing is dropped, else a copy with the shadow's pixels at 0.
@@ -116,7 +118,7 @@ def without_cast_shadow(rgb: np.ndarray, alpha: np.ndarray, sure: Sure | None = 
     off = chroma - ground_chroma
     cand = like & m.astype(bool) & (off[..., 1] >= _BLUER) & (off[..., 0] <= 0.0)
     if sure is not None and cand.any():
-        cand &= ~sure((x0, y0, x1, y1))
+        cand &= ~sure((x0, y0, x1, y1), (int(cols_all[0]), top, int(cols_all[-1]) + 1, bot + 1))
     if not cand.any():
         return alpha
     # attached: a part of the candidates that reaches the matte's outline (the ground goes on past it) ...
@@ -134,15 +136,14 @@ def without_cast_shadow(rgb: np.ndarray, alpha: np.ndarray, sure: Sure | None = 
     return out
 
 
-def selfie_sure(roi: Model, rgb: np.ndarray, alpha: np.ndarray) -> Sure:
-    """Where the selfie graph, run on the square around the matte (alpha >= 0.5; ROI_SCALE x its box), is at least
-    _SURE sure of a person, for :func:`without_cast_shadow`: one selfie-graph run (~5 ms), made when first asked. On the
-    parkour clip the graph framed on the runner is sure of his grey trousers (>= 0.7) and unsure of his shadow (0.2-0.6
-    at the pixels the hand mask leaves out)."""
+def selfie_sure(roi: Model, rgb: np.ndarray) -> Sure:
+    """Where the selfie graph, run on the square around the matte (ROI_SCALE x its box, which
+    :func:`without_cast_shadow` has found already), is at least _SURE sure of a person: one selfie-graph run (~5 ms),
+    made when first asked. On the parkour clip the graph framed on the runner is sure of his grey trousers (>= 0.7) and
+    unsure of his shadow (0.2-0.6 at the pixels the hand mask leaves out)."""
 
-    def sure(box: tuple[int, int, int, int]) -> np.ndarray:
-        ys, xs = np.nonzero(alpha >= 0.5)
-        region = Region.around(float(xs.min()), float(ys.min()), float(xs.max() + 1), float(ys.max() + 1))
+    def sure(box: Box, matte_box: Box) -> np.ndarray:
+        region = Region.around(*(float(v) for v in matte_box))
         k, bx, by = grid_of_region(region)
         x0, y0, x1, y1 = box
         to_canvas = np.array([[k, 0.0, bx + k * x0], [0.0, k, by + k * y0]], np.float64)

@@ -31,7 +31,7 @@ import numpy as np
 from ...engine.session import Model
 from ...image.regions import crop_region
 from ._colours import OWN_MIN, colour_model, nearest
-from ._detect import around_people, roi_prob
+from ._detect import Around, around_people, roi_prob
 from ._segmentation import Person, own_person
 
 TURNED_SURE = 0.75  # the turned views' smaller probability, averaged over a part
@@ -108,12 +108,12 @@ def turned_part(
     return np.isin(labels, held[held > 0]) | keep
 
 
-def turned_people(roi: Model, rgb: np.ndarray, people: list[Person]) -> list[Person]:
+def turned_people(roi: Model, rgb: np.ndarray, people: list[Person], start: Around | None = None) -> list[Person]:
     """What the selfie graph sees of ``people`` only turned (module docstring): [one Person holding it, source "own":
     part of the matte, no one's share of it] or []. On the canvas of a region around ``people`` (ROI_SCALE x their
-    box); three selfie-graph runs (upright, and turned either way), the upright one shared with the other rules
-    asking for that region."""
-    start = around_people(roi, rgb, people)
+    box; ``start``: :func:`around_people`'s answer for ``people`` when the caller has it); three selfie-graph runs
+    (upright, and turned either way), the upright one shared with the other rules asking for that region."""
+    start = around_people(roi, rgb, people) if start is None else start
     if start is None:
         return []
     region, seen, inside, mine = start
