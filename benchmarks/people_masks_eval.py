@@ -278,7 +278,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--speed",
         nargs="?",
-        const=REPO.parents[1] / "shared" / "reference" / "photo" / "sample.jpg",
+        const=REPO.parent / "shared" / "reference" / "photo" / "sample.jpg",
         type=Path,
         help="only time the default matte on this photo (default: the reference photo)",
     )
