@@ -370,7 +370,7 @@ def _peak(rgb: np.ndarray) -> np.ndarray:
     return np.maximum(np.maximum(rgb[:, 0], rgb[:, 1]), rgb[:, 2])
 
 
-def guarded(lights, exposure, highlight: tuple) -> np.ndarray:
+def guarded(lights, exposure, highlight: Highlight) -> np.ndarray:
     """Lights at the mean-keeping scale (``expose(..., "auto")``) → the exposure's lights: each times its
     ``shoulder_gain`` k (where ``highlight`` has knees) and its ``highlight_factor``, the two as one clip of the
     guard's scale to [``HIGHLIGHT_MAX_DOWN``, k] (the guard takes back what the lift lets past white beyond the share

@@ -121,7 +121,8 @@ def face_transport(
         the face's skin well inside its mesh (``SKIN_INSET`` of its size from the border) without the mesh's
         openings (eyes, an open mouth), where a light fit can take the skin as one colour
         (relight_rt.relight.strength ``face_refit``), and openings (h, w) bool: the face inside its outline (the mesh
-        with its openings closed) by as much as the skin is, off that skin: the eyes' sockets and an open mouth, not
+        with its enclosed openings closed: a hole that reaches the window's border stays open) by as much as the skin
+        is, off that skin: the eyes' sockets and an open mouth, not
         the outline's ring (hair, the jaw's edge).
     """
     h, w = t0.shape

@@ -173,7 +173,7 @@ class Factor:
             # the directional bands restored to their true strength (relight_rt.relight.strength), for both sides of the
             # ratio
             transport = restore_bands(unpremultiply(np.ascontiguousarray(dec.transport[y0:y1, x0:x1]), alpha))
-            skin = opening = np.zeros(alpha.shape, bool)
+            skin, opening = np.zeros(alpha.shape, bool), np.zeros(alpha.shape, bool)
             points = ()
             if dec.face_meshes:  # a face's shape from its mesh where stage 1's transport is a blur; the face beyond
                 # its skin: the eyes' sockets the skin's inset leaves out (not its outer ring: hair, the jaw's edge)

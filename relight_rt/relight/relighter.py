@@ -322,7 +322,7 @@ class Relighter:
 
     # ------------------------------------------------------------------------------------ relight
 
-    def highlight_inputs(self, dec: Decomposition) -> tuple:
+    def highlight_inputs(self, dec: Decomposition) -> _exposure.Highlight:
         """What the exposure's highlight guard reads of ``dec`` (relight_rt.relight.factor
         ``Factor.highlight_inputs``; the studio's preview samples it)."""
         return self._factor.highlight_inputs(dec)
