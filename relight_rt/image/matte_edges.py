@@ -233,13 +233,15 @@ def _deep_inside(inside: np.ndarray, r: int) -> np.ndarray:
     of its outside that do not reach the box's border). The coarse matte puts the middle of a gap two canvas pixels
     wide under 0.5 (the reference clip's arms and dress: 0.4-0.6 there): a hole, whose own outline left the gap's
     sides out of the interior, so no pocket was found and the gap stayed half-held (alpha 0.5-0.8). Filled, the gap
-    is one pocket, its rim the person around it."""
+    is one pocket, its rim the person around it. One part outside (the usual case: no hole) is taken to reach the
+    border, and ``inside`` is used as it is."""
     n, labels = cv2.connectedComponents(1 - inside, connectivity=4)
-    if n <= 1:
+    if n <= 2:
         return cv2.distanceTransform(inside, cv2.DIST_L2, 3) > r
-    border = np.unique(np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]]))
-    filled = ~np.isin(labels, border[border > 0])
-    return cv2.distanceTransform(filled.astype(np.uint8), cv2.DIST_L2, 3) > r
+    filled = np.ones(n, np.uint8)  # per label: 1 where a hole (or the inside, label 0)
+    filled[np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]])] = 0
+    filled[0] = 1
+    return cv2.distanceTransform(filled[labels], cv2.DIST_L2, 3) > r
 
 
 def _open_gap(rgb: np.ndarray, alpha: np.ndarray, out: np.ndarray, pocket: np.ndarray, at: tuple[int, int], r: int):
