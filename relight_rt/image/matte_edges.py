@@ -28,7 +28,8 @@ from the rest, is dropped after (:func:`without_doubted_parts`).
 Inside the person, further from the outline than the band, the graphs sometimes half-see a gap: a sliver of
 backdrop between an arm and the body that they leave at alpha 0.4-0.9. Such pixels get colour's answer too
 (:func:`_open_gap`), with the background's colour taken from further away (the backdrop beyond the arm): a gap
-of background colour opens, a soft patch of the person's own colour stays.
+of background colour opens, and a half-held patch of another colour is the person's (opaque). A gap whose middle the
+coarse matte puts under 0.5 is such a pocket too (the interior is taken with its holes filled, :func:`_deep_inside`).
 """
 
 from __future__ import annotations
@@ -205,7 +206,7 @@ def _refine_box(rgb: np.ndarray, alpha: np.ndarray, out: np.ndarray, box: tuple[
     sub[unknown] = np.clip(np.minimum(est[unknown], ceiling), 0.0, 1.0)
     sub[bg & (a < _VEIL)] = 0.0
     sub[fg & (a > 1 - _VEIL)] = 1.0
-    for (py, px), pocket in _pockets(a < _GAP, fg, min_area=r):
+    for (py, px), pocket in _pockets(a < _GAP, _deep_inside(inside, r), min_area=r):
         _open_gap(rgb, alpha, out, pocket, (y0 + py, x0 + px), r)
 
 
@@ -227,12 +228,30 @@ def _pockets(low: np.ndarray, interior: np.ndarray, min_area: int) -> Iterator[t
             yield (y0, x0), comp
 
 
+def _deep_inside(inside: np.ndarray, r: int) -> np.ndarray:
+    """The pixels more than ``r`` from the outline of ``inside`` (uint8, 1 inside) once its holes are filled (the parts
+    of its outside that do not reach the box's border). The coarse matte puts the middle of a gap two canvas pixels
+    wide under 0.5 (the reference clip's arms and dress: 0.4-0.6 there): a hole, whose own outline left the gap's
+    sides out of the interior, so no pocket was found and the gap stayed half-held (alpha 0.5-0.8). Filled, the gap
+    is one pocket, its rim the person around it. One part outside (the usual case: no hole) is taken to reach the
+    border, and ``inside`` is used as it is."""
+    n, labels = cv2.connectedComponents(1 - inside, connectivity=4)
+    if n <= 2:
+        return cv2.distanceTransform(inside, cv2.DIST_L2, 3) > r
+    filled = np.ones(n, np.uint8)  # per label: 1 where a hole (or the inside, label 0)
+    filled[np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]])] = 0
+    filled[0] = 1
+    return cv2.distanceTransform(filled[labels], cv2.DIST_L2, 3) > r
+
+
 def _open_gap(rgb: np.ndarray, alpha: np.ndarray, out: np.ndarray, pocket: np.ndarray, at: tuple[int, int], r: int):
     """Colour's alpha for a pocket (a mask whose top left is at ``at`` in the photo): the person's colour from the
     sure foreground around it (radius 2r), the background's from the sure background up to _GAP_REACH x r away,
-    where the backdrop shows beyond the limb that closes the pocket. Only the pocket's pixels near that background
-    colour change; the rest keep the graphs' answer (a fold of the person's own colour). The reference video's
-    frames leave the slivers between arm and dress at 0.4-0.9 in the coarse matte. In place on ``out``."""
+    where the backdrop shows beyond the limb that closes the pocket. The pocket's pixels near that background colour
+    get colour's answer; the rest that the graphs half-hold (>= 0.5) are the person's, opaque (a fold of the person's
+    own colour: kept at the graphs' 0.5-0.9, relit it showed the old photo through). The reference video's frames
+    leave the slivers between arm and dress at 0.4-0.9 in the coarse matte (_layout.backed_logits leaves them in
+    doubt). In place on ``out``."""
     h, w = alpha.shape
     m = 2 * _GAP_REACH * r + 1
     y0, x0 = max(at[0] - m, 0), max(at[1] - m, 0)
@@ -248,6 +267,7 @@ def _open_gap(rgb: np.ndarray, alpha: np.ndarray, out: np.ndarray, pocket: np.nd
     sel = np.zeros(a.shape, bool)
     py, px = at[0] - y0, at[1] - x0
     sel[py : py + pocket.shape[0], px : px + pocket.shape[1]] = pocket
+    out[y0:y1, x0:x1][sel & ~near_b & (a >= 0.5)] = 1.0  # the person's own colour, which the graphs half-hold
     sel &= near_b
     out[y0:y1, x0:x1][sel] = np.clip(est[sel], 0.0, 1.0)
 

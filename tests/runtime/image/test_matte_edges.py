@@ -149,8 +149,9 @@ def test_body_cut_by_the_bottom_border_is_opaque_there():
     rgb, coarse = _cut_portrait()
     out = R.refine_edges(rgb, coarse, band=4)
     assert out[200:, 100:140].min() == 1.0  # was 0.6
-    np.testing.assert_allclose(out[80:100, 80:120], coarse[80:100, 80:120], atol=0.05)
     assert out[239, :36].max() < 0.05 and 0.5 < out[239, 40:43].min() < 0.99  # the outline meets the border soft
+    # far above the border the patch is not the cut's (refine_edges closes it as a pocket of the person's colour)
+    np.testing.assert_allclose(R.opaque_where_cut(coarse.copy(), 4, rgb)[80:100, 80:120], 0.6)
 
 
 def test_a_patch_just_under_half_where_the_frame_cuts_the_body_is_body_unless_it_is_the_backdrop():
@@ -201,7 +202,7 @@ def test_a_separate_part_the_graphs_are_nowhere_sure_of_goes_and_a_sure_one_stay
 def test_bottom_rows_of_a_body_not_at_the_border_are_left_alone():
     rgb, coarse = _cut_portrait()
     flipped = np.ascontiguousarray(coarse[::-1])  # the torso now runs out of the top: no cut at the bottom
-    out = R.refine_edges(np.ascontiguousarray(rgb[::-1]), flipped, band=4)
+    out = R.opaque_where_cut(flipped.copy(), 4, np.ascontiguousarray(rgb[::-1]))
     np.testing.assert_allclose(out[:40, 100:140], 0.6, atol=0.05)
 
 
@@ -242,13 +243,26 @@ def test_a_half_seen_gap_between_arm_and_body_opens():
     assert out[30:180, 70:120].min() == 1.0 and out[50:170, 140:146].min() == 1.0  # body and arm stay
 
 
-def test_a_soft_pocket_not_in_the_backdrops_colour_stays():
+def test_a_soft_pocket_not_in_the_backdrops_colour_is_the_persons():
     """The same pocket in a colour between the body's and the backdrop's (a pale fold of the dress): colour alone
-    would put it halfway; it is not the backdrop's colour, so it keeps the graphs' answer."""
+    would put it halfway; it is not the backdrop's colour, so it is the person's, opaque. It kept the graphs' answer
+    (0.7) before: relit, a translucent seam of the old photo (people_masks, translucent interior: photos A 1.56 % ->
+    1.44 %, B 2.22 % -> 2.02 %, the clip 1.17 % -> 1.01 %, with the gaps _layout.backed_logits leaves in doubt)."""
     rgb, _, coarse = _arm_and_body()
     rgb[50:170, 130:136] = (0.55, 0.6, 0.8)
     out = R.refine_edges(rgb, coarse, band=4)
-    np.testing.assert_allclose(out[60:160, 131:135], 0.7, atol=0.02)
+    assert out[60:160, 131:135].min() == 1.0
+
+
+def test_a_gap_whose_middle_the_coarse_matte_drops_under_half_is_still_a_pocket():
+    """A gap two canvas pixels wide: the coarse matte has its middle under 0.5 (a hole) and its sides at 0.6-0.8
+    (the reference clip's arms and dress). As a hole, its own outline took the sides out of the interior and no
+    pocket was found: the gap stayed half-held (0.5-0.8). Filled (_deep_inside), it is one pocket and opens."""
+    rgb, _, coarse = _arm_and_body()
+    coarse[60:160, 132:134] = 0.4
+    out = R.refine_edges(rgb, coarse, band=4)
+    assert out[60:160, 131:135].max() < 0.3
+    assert out[30:180, 70:120].min() == 1.0 and out[50:170, 140:146].min() == 1.0
 
 
 def test_a_soft_stretch_along_the_outline_is_not_a_gap():

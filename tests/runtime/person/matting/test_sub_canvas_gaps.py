@@ -1,0 +1,87 @@
+"""Issue 48: a gap narrower than the segmentation canvas can draw (the backdrop seen between an arm and a dress)
+stays open where the photo shows the backdrop, and closes where it shows the person (_layout.backed_logits, then
+relight_rt.image.matte_edges at full resolution). Stand-in graphs on synthetic photos."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from relight_rt.person import matting as M
+from relight_rt.person.matting import _layout
+
+H, W = 700, 700
+GAP = slice(247, 250)  # the gap's columns: 3 px, about one canvas pixel of the region below
+ROWS = slice(150, 400)  # the gap's rows (the arm's length)
+REGION = M.Region(350.0, 350.0, 700.0)  # the photo, 2.7 photo px a canvas pixel
+
+
+def dress_and_arm(backdrop_in_gap: bool) -> np.ndarray:
+    """A grey dress and a paler arm on a white backdrop, 3 px apart over the arm's length: the backdrop shows
+    between them, or (``backdrop_in_gap`` False) the dress's own colour does (a white shirt before a white wall
+    would be the same for colour, so the photo decides, not colour alone)."""
+    rgb = np.ones((H, W, 3), np.float32)
+    rgb[100:500, 150:247] = 0.3  # the dress
+    rgb[150:400, 250:270] = 0.55  # the arm
+    rgb[100:150, 247:270] = 0.3  # the shoulder joins them above ...
+    rgb[400:430, 247:270] = 0.55  # ... and the hand on the hip below
+    if not backdrop_in_gap:
+        rgb[ROWS, GAP] = 0.3
+    return rgb
+
+
+class _Canvas:
+    """A stand-in for a graph that answers from the canvas of a fixed photo (its crop of ``REGION``), whatever the
+    photo it is given: both graphs see the gapped photo, as the real ones see the same canvas at 256 px."""
+
+    def __init__(self, pose: bool):
+        self.pose = pose
+        self.seen = M.crop_region(dress_and_arm(True), REGION).mean(2)
+
+    def run(self, feeds):
+        g = self.seen  # black: the canvas past the photo's border, where neither sees anyone
+        if not self.pose:  # the selfie graph: all of the person, the gap too (as on the reference clip)
+            return {"segmentation": ((g > 0.05) & (g < 0.97)).astype(np.float32)[None, None]}
+        # the pose graph: sure of what is wholly the person, half-sees a canvas pixel the gap runs through
+        seg = np.where(g < 0.56, 10.0, np.where(g < 0.97, np.log(0.55 / 0.45), -10.0))
+        seg = np.where(g > 0.05, seg, -10.0).astype(np.float32)
+        return {"segmentation": seg[None, None], "presence": np.array([[0.95]], np.float32)}
+
+
+def matted(rgb: np.ndarray) -> np.ndarray:
+    matter = M.PersonMatter()
+    matter.roi, matter.pose, matter.face = _Canvas(False), _Canvas(True), None
+    person = matter._backed(rgb, matter._pose(rgb, REGION))
+    return matter.alpha(rgb, [person])
+
+
+@pytest.mark.parametrize("backdrop", [True, False])
+def test_a_gap_narrower_than_the_canvas_opens_only_where_the_photo_shows_the_backdrop(backdrop):
+    """The pose graph half-sees the canvas pixels the 3-px gap runs through (probability 0.55, sure on both sides),
+    the selfie graph sees a person there. Made sure (BACKED_INSIDE), the gap was matted opaque (alpha 1.0: relit as
+    the person, the reference clip's white backdrop turned orange under campfire); left in doubt there
+    (_layout.BACKED_DOUBT), the photo at full resolution says what it is."""
+    alpha = matted(dress_and_arm(backdrop))
+    gap = alpha[170:380, GAP]
+    if backdrop:
+        assert gap.max() < 0.5 and np.median(gap) < 0.1  # open: the backdrop is kept as it is
+    else:
+        assert gap.min() >= 0.95  # the person's own colour: opaque, not a translucent seam
+    assert alpha[200:350, 160:230].min() >= 0.99 and alpha[200:350, 256:264].min() >= 0.99  # dress and arm
+    assert alpha[:, :120].max() == 0.0 and alpha[:, 310:].max() == 0.0  # the backdrop beside
+
+
+def test_backed_logits_leaves_a_valley_of_the_pose_graph_in_doubt():
+    """On the canvas: a lifted column one pixel wide between sure pixels (a valley of the pose graph's probability
+    narrower than the window) gets BACKED_DOUBT, still the person's (> 0) but soft, while a broad body the pose graph
+    half-sees is sure inside and soft at its outline as before."""
+    logits = np.full((20, 30), -10.0, np.float32)
+    logits[2:18, 2:12] = 10.0
+    logits[2:18, 13:17] = 10.0
+    logits[2:18, 12] = 0.2  # the gap: half-seen between the two sure parts
+    logits[2:18, 18:28] = np.log(0.3 / 0.7)  # a body the pose graph half-sees as a whole
+    lift = (logits > np.log(0.1 / 0.9)) & (logits < 1.0)
+    out = _layout.backed_logits(logits, lift)
+    assert (out[2:18, 12] == _layout.BACKED_DOUBT).all() and 0 < _layout.BACKED_DOUBT < _layout.BACKED_EDGE
+    assert (out[6:14, 21:25] == _layout.BACKED_INSIDE).all()
+    assert out[2, 20] == _layout.BACKED_EDGE and out[0, 0] == -10.0 and out[8, 5] == 10.0
