@@ -57,7 +57,12 @@ HEAD_REACH = 1.35  # the head's normals fade out between the ellipse and this ma
 SKIN_INSET = 0.12  # face_transport's skin: the mesh's pixels at least this share of the face's size inside its border
 HEAD_STRENGTH = 0.4  # how far they replace stage 1's transport there (0.7 looks best, but DPR agreement 0.79)
 # the mesh's own occlusion (``occlusion_loss``): a recess (an eye socket under the brow and beside the nose) gets
-# less light than its normals say. Set by geometry, not fitted to any photo:
+# less light than its normals say. Off: on Extended Yale B it raised the relight contrast 0.734 -> 0.760 but left
+# the de-lit dark eye socket as bright as before (its error 0.442 -> 0.450; a frontal lamp sees what the camera sees,
+# so the recess hides ~1 % of it), and the bundled example's face moved <= 5 levels, not visibly better
+# (faces12; docs/results_pending/faces12.md; ``benchmarks/yale_eval.py --mesh-occlusion``)
+MESH_OCCLUSION = False
+# set by geometry, not fitted to any photo:
 OCCLUSION_REACH = 0.25  # occluders looked for within this fraction of the face's size (the brow over the eye)
 OCCLUSION_AZIMUTHS = 16  # directions in the image plane along which the depth map's horizon is found
 OCCLUSION_STEPS = 8  # ... sampled at this many distances each
@@ -116,7 +121,7 @@ def rasterise_normals(
 
 
 def face_transport(
-    points: np.ndarray, triangles: np.ndarray, t0: np.ndarray, occlusion: bool = True
+    points: np.ndarray, triangles: np.ndarray, t0: np.ndarray, occlusion: bool | None = None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The face's transport, its blending weight, its skin and its openings in a network-frame window.
 
@@ -125,7 +130,7 @@ def face_transport(
         triangles: (T, 3) the mesh's triangles.
         t0: (h, w) stage 1's degree-0 transport coefficient there (unpremultiplied): the visibility kept.
         occlusion: take out the light the mesh's own relief hides (``occlusion_loss``: the brow and the nose over
-            an eye's socket), where the mesh is.
+            an eye's socket), where the mesh is; None: ``MESH_OCCLUSION``.
 
     Returns:
         transport (h, w, 9) float32, weight (h, w) float32 in [0, 1] (0 off the face), and skin (h, w) bool:
@@ -154,7 +159,9 @@ def face_transport(
     m = mesh_weight[..., None]
     # the light the mesh's relief hides, found with the mesh's own normals (the head's, blended in toward the
     # border, do not lie on its depth map: they would take the mesh's own slope for an occluder) and faded as they are
-    hidden = m * _mesh_occlusion(points, triangles, normals, size) if occlusion else 0
+    hidden = 0
+    if MESH_OCCLUSION if occlusion is None else occlusion:
+        hidden = m * _mesh_occlusion(points, triangles, normals, size)
     normals = m * normals + (1 - m) * head
     normals = normals / np.maximum(np.linalg.norm(normals, axis=2, keepdims=True), 1e-6)
     transport = lobe_transport(normals) - hidden

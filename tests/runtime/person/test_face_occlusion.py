@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from relight_rt.light import sh
+from relight_rt.person import face_mesh
 from relight_rt.person.face_mesh import face_transport, lobe_transport, occlusion_loss, rasterise_depth
 
 
@@ -64,7 +65,7 @@ def test_the_bottom_of_a_pit_gets_less_light_than_its_normal_says(size):
     shape = (size + 20, size + 20)
     t0 = np.full(shape, 0.7, np.float32)
     free, weight, _, _ = face_transport(pts, tris, t0, occlusion=False)
-    seen, *_ = face_transport(pts, tris, t0)
+    seen, *_ = face_transport(pts, tris, t0, occlusion=True)
     assert weight[c, c] > 0.99
     assert free[c, c, 0] == pytest.approx(0.7, rel=1e-5)
     assert seen[c, c, 0] < 0.9 * 0.7  # the walls hide more than a tenth of the light
@@ -89,3 +90,12 @@ def test_a_ledge_above_hides_the_light_from_above_not_from_below():
     assert below_ledge @ from_above > 0.1 * unoccluded
     assert below_ledge @ from_above > 3 * (below_ledge @ from_below)
     assert np.abs(loss[12, 25]).max() < 1e-2 * unoccluded  # on the ledge itself nothing rises above the point
+
+
+def test_the_switch_decides_when_not_told(monkeypatch):
+    (pts, tris), c = _pit(40)
+    t0 = np.full((60, 60), 0.7, np.float32)
+    for on in (False, True):
+        monkeypatch.setattr(face_mesh, "MESH_OCCLUSION", on)
+        told = face_transport(pts, tris, t0, occlusion=on)[0]
+        np.testing.assert_array_equal(face_transport(pts, tris, t0)[0], told)
