@@ -225,8 +225,8 @@ def occlusion_loss(depth: np.ndarray, seen: np.ndarray, normals: np.ndarray, siz
     sum over ``OCCLUSION_DIRECTIONS`` of the hidden directions' clamped cosine times the SH basis (DESIGN.md §3's
     transport, with the visibility the unoccluded lobe leaves out). A plane hides nothing of its front (its own
     horizon is its tangent, and the directions below that are behind its normal); a socket under a brow loses part
-    of its light from above and the side. Directions away from the camera are never taken as hidden (the depth map cannot see
-    behind the face).
+    of its light from above and the side. Directions away from the camera are never taken as hidden (the depth map
+    cannot see behind the face).
 
     Args:
         depth: (h, w) z away from the camera in pixels, +inf where nothing is (``rasterise_depth``).
