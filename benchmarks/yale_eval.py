@@ -1,7 +1,7 @@
 """Real faces under known lamps (Extended Yale B, ../shared/realdata/yale): relighting and de-lighting against truth.
 
     python benchmarks/yale_eval.py --out runs/yale [--yale ../shared/realdata/yale] [--dpr DPR_REPO | --no-dpr]
-        [--cache runs/dpr_cache] [--subjects yaleB02 yaleB05 ...]
+        [--cache runs/dpr_cache] [--subjects yaleB02 yaleB05 ...] [--mesh-occlusion]
 
 Issue 48's protocol. Every photo is grey (the PNG's one channel as R = G = B), relit with an ellipse mask (the
 face: centre at 0.50, 0.52 of the image, semi-axes 0.44 W and 0.46 H) under a white point lamp in the photo's
@@ -52,6 +52,7 @@ from real_photos import REPO, luminance
 import dpr_protocol as dprp  # imports relight_rt: after real_photos
 
 from relight_rt import Relighter, RuntimeConfig, lights
+from relight_rt.person import face_mesh as face_mesh_module
 from relight_rt.person.face_mesh import FaceMesh
 
 EPS = 1e-3
@@ -206,7 +207,11 @@ def main(argv=None) -> int:
     p.add_argument("--no-dpr", action="store_true")
     p.add_argument("--cache", type=Path, default=Path("runs/dpr_cache"))
     p.add_argument("--subjects", nargs="*", default=None)
+    p.add_argument("--mesh-occlusion", action="store_true",
+                   help="the face mesh's own occlusion on (face_mesh.MESH_OCCLUSION; off by default, faces12)")
     args = p.parse_args(argv)
+    if args.mesh_occlusion:
+        face_mesh_module.MESH_OCCLUSION = True
     if not args.yale.is_dir():
         alt = Path("../shared/realdata/yale")
         if alt.is_dir():

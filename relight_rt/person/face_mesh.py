@@ -56,6 +56,20 @@ HEAD_TOP = 0.35  # ... and reaching this fraction of the mesh's height above its
 HEAD_REACH = 1.35  # the head's normals fade out between the ellipse and this many times its size
 SKIN_INSET = 0.12  # face_transport's skin: the mesh's pixels at least this share of the face's size inside its border
 HEAD_STRENGTH = 0.4  # how far they replace stage 1's transport there (0.7 looks best, but DPR agreement 0.79)
+# the mesh's own occlusion (``occlusion_loss``): a recess (an eye socket under the brow and beside the nose) gets
+# less light than its normals say. Off: on Extended Yale B it raised the relight contrast 0.734 -> 0.760 but left
+# the de-lit dark eye socket as bright as before (its error 0.442 -> 0.450; a frontal lamp sees what the camera sees,
+# so the recess hides ~1 % of it), and the bundled example's face moved <= 5 levels, not visibly better
+# (faces12; docs/results_pending/faces12.md; ``benchmarks/yale_eval.py --mesh-occlusion``)
+MESH_OCCLUSION = False
+# set by geometry, not fitted to any photo:
+OCCLUSION_REACH = 0.25  # occluders looked for within this fraction of the face's size (the brow over the eye)
+OCCLUSION_AZIMUTHS = 16  # directions in the image plane along which the depth map's horizon is found
+OCCLUSION_STEPS = 8  # ... sampled at this many distances each
+OCCLUSION_DIRECTIONS = 128  # directions of the sphere the transport is summed over
+OCCLUSION_SOFT = math.radians(10)  # a direction fades from seen to hidden over this angle below the horizon
+OCCLUSION_SMOOTH = SMOOTH  # the loss smoothed over this fraction of the face's size, as the normals are
+OCCLUSION_GRID = 96  # ... so it is found on a grid where the face is at most this many pixels (4x faster at 200)
 
 def lobe_transport(normals: np.ndarray) -> np.ndarray:
     """(..., 9) float32 unoccluded transport A_l * Y_k(n) of unit normals (..., 3) in the subject frame (§3)."""
@@ -107,7 +121,7 @@ def rasterise_normals(
 
 
 def face_transport(
-    points: np.ndarray, triangles: np.ndarray, t0: np.ndarray
+    points: np.ndarray, triangles: np.ndarray, t0: np.ndarray, occlusion: bool | None = None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The face's transport, its blending weight, its skin and its openings in a network-frame window.
 
@@ -115,6 +129,8 @@ def face_transport(
         points: (468, 3) mesh vertices in the window's pixels (x right, y down, z away, same units).
         triangles: (T, 3) the mesh's triangles.
         t0: (h, w) stage 1's degree-0 transport coefficient there (unpremultiplied): the visibility kept.
+        occlusion: take out the light the mesh's own relief hides (``occlusion_loss``: the brow and the nose over
+            an eye's socket), where the mesh is; None: ``MESH_OCCLUSION``.
 
     Returns:
         transport (h, w, 9) float32, weight (h, w) float32 in [0, 1] (0 off the face), and skin (h, w) bool:
@@ -142,12 +158,151 @@ def face_transport(
     # while the hair beside it, left to stage 1's blur, stays lit
     head, head_weight = head_normals(points, (h, w))
     m = mesh_weight[..., None]
+    # the light the mesh's relief hides, found with the mesh's own normals (the head's, blended in toward the
+    # border, do not lie on its depth map: they would take the mesh's own slope for an occluder) and faded as they are
+    hidden = 0
+    if MESH_OCCLUSION if occlusion is None else occlusion:
+        hidden = m * _mesh_occlusion(points, triangles, normals, size)
     normals = m * normals + (1 - m) * head
     normals = normals / np.maximum(np.linalg.norm(normals, axis=2, keepdims=True), 1e-6)
-    transport = lobe_transport(normals) * (np.maximum(t0, 0) / _T0)[..., None]
+    transport = lobe_transport(normals) - hidden
+    transport = transport * (np.maximum(t0, 0) / _T0)[..., None]
     weight = mesh_weight + (1 - mesh_weight) * HEAD_STRENGTH * head_weight
     openings = (dist > SKIN_INSET * size) & ~skin
     return transport, np.clip(weight, 0, 1).astype(np.float32), skin, openings
+
+
+def rasterise_depth(
+    points: np.ndarray, triangles: np.ndarray, shape: tuple[int, int]
+) -> tuple[np.ndarray, np.ndarray]:
+    """The depth of a triangle mesh seen from the camera, its openings closed.
+
+    Args:
+        points: (N, 3) vertices in pixels (x right, y down, z away from the camera, same units).
+        triangles: (T, 3) vertex indices.
+        shape: (h, w) of the target image.
+
+    Returns:
+        depth (h, w) float32, z (away from the camera) of the nearest triangle's plane at each pixel centre, the
+        mesh's openings (eyes, an open mouth: ``_fill_holes``) given the depth around them, +inf off the mesh; and
+        seen (h, w) bool, where the depth is finite.
+    """
+    h, w = shape
+    p = np.asarray(points, np.float64)
+    v = p[np.asarray(triangles, np.int64)]  # (T, 3, 3)
+    e1, e2 = v[:, 1, :2] - v[:, 0, :2], v[:, 2, :2] - v[:, 0, :2]
+    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    keep = np.abs(det) > 1e-9  # a triangle seen edge-on covers nothing
+    v, e1, e2, det = v[keep], e1[keep], e2[keep], det[keep]
+    dz1, dz2 = v[:, 1, 2] - v[:, 0, 2], v[:, 2, 2] - v[:, 0, 2]
+    gx = (dz1 * e2[:, 1] - dz2 * e1[:, 1]) / det  # each triangle's plane: z = z0 + gx (x - x0) + gy (y - y0)
+    gy = (dz2 * e1[:, 0] - dz1 * e2[:, 0]) / det
+    ids = np.full((h, w), -1, np.int32)
+    shift = 4
+    corners = np.round(v[:, :, :2] * (1 << shift)).astype(np.int32)
+    for i in np.argsort(-v[:, :, 2].mean(axis=1)):  # far first: the nearest triangle is drawn last
+        cv2.fillConvexPoly(ids, corners[i], int(i), lineType=cv2.LINE_8, shift=shift)
+    covered = ids >= 0
+    yy, xx = np.nonzero(covered)
+    t = ids[covered]
+    depth = np.full((h, w), np.inf, np.float32)
+    depth[covered] = v[t, 0, 2] + gx[t] * (xx - v[t, 0, 0]) + gy[t] * (yy - v[t, 0, 1])
+    holes = _holes(covered)
+    if holes.any():  # the eyes' and the mouth's surface: the depth around them spread in
+        sigma = max(HOLE_SPREAD * float(np.ptp(p[:, :2], axis=0).max()), 0.5)
+        near = np.where(covered, depth, 0).astype(np.float32)
+        spread = cv2.GaussianBlur(near, (0, 0), sigma)
+        share = cv2.GaussianBlur(covered.astype(np.float32), (0, 0), sigma)
+        depth = np.where(holes, spread / np.maximum(share, 1e-6), depth).astype(np.float32)
+    return depth, covered | holes
+
+
+def occlusion_loss(depth: np.ndarray, seen: np.ndarray, normals: np.ndarray, size: float) -> np.ndarray:
+    """The transport a surface's own relief hides: subtract it from the unoccluded lobe (``lobe_transport``).
+
+    Screen-space horizons: along ``OCCLUSION_AZIMUTHS`` directions of the image plane, the steepest rise of the
+    depth map toward the camera within ``OCCLUSION_REACH`` of the face's size; a direction of the sphere is hidden
+    where it leaves the surface below its azimuth's horizon (fully ``OCCLUSION_SOFT`` below it). The loss is the
+    sum over ``OCCLUSION_DIRECTIONS`` of the hidden directions' clamped cosine times the SH basis (DESIGN.md §3's
+    transport, with the visibility the unoccluded lobe leaves out). A plane hides nothing of its front (its own
+    horizon is its tangent, and the directions below that are behind its normal); a socket under a brow loses part
+    of its light from above and the side. Directions away from the camera are never taken as hidden (the depth map
+    cannot see behind the face).
+
+    Args:
+        depth: (h, w) z away from the camera in pixels, +inf where nothing is (``rasterise_depth``).
+        seen: (h, w) bool, where the loss is wanted (finite depth).
+        normals: (h, w, 3) unit normals in the subject frame (+x toward the camera, +y image right, +z up).
+        size: the face's size in pixels (the reach's unit).
+
+    Returns:
+        (h, w, 9) float32, zero where not ``seen``.
+    """
+    h, w = depth.shape
+    out = np.zeros((h, w, 9), np.float32)
+    reach = OCCLUSION_REACH * size
+    if not seen.any() or reach < 1:
+        return out
+    pad = int(math.ceil(reach)) + 1
+    padded = np.pad(depth.astype(np.float32), pad, constant_values=np.inf)
+    z = np.where(seen, depth, 0).astype(np.float32)
+    n_az = OCCLUSION_AZIMUTHS
+    horizon = np.full((n_az, h, w), -np.inf, np.float32)  # tan of the horizon's angle above the image plane
+    for k in range(n_az):
+        angle = 2 * math.pi * k / n_az
+        for j in range(1, OCCLUSION_STEPS + 1):
+            r = reach * j / OCCLUSION_STEPS
+            dx, dy = int(round(r * math.cos(angle))), int(round(r * math.sin(angle)))
+            if dx == 0 and dy == 0:
+                continue
+            far = padded[pad + dy:pad + dy + h, pad + dx:pad + dx + w]
+            np.maximum(horizon[k], (z - far) * np.float32(1 / math.hypot(dx, dy)), out=horizon[k])
+    rows, cols = np.nonzero(seen)
+    above = np.arctan(horizon[:, rows, cols])  # (K, P): each azimuth's horizon angle, -pi/2 where nothing rises
+    dirs = sh.sphere_directions(OCCLUSION_DIRECTIONS)
+    dirs = dirs[dirs[:, 0] > 0]  # toward the camera: the depth map says nothing of those away from it
+    rise = np.arctan2(dirs[:, 0], np.hypot(dirs[:, 1], dirs[:, 2])).astype(np.float32)  # above the image plane
+    az = np.round(np.arctan2(-dirs[:, 2], dirs[:, 1]) / (2 * math.pi / n_az)).astype(int) % n_az  # x right, y down
+    hidden = above[az]  # (D, P): (horizon - rise) / soft, in [0, 1]
+    hidden -= rise[:, None]
+    hidden *= np.float32(1 / OCCLUSION_SOFT)
+    np.clip(hidden, 0, 1, out=hidden)
+    hidden *= np.maximum(dirs.astype(np.float32) @ normals[rows, cols].T, 0)  # times the clamped cosine
+    weights = (4 * math.pi / OCCLUSION_DIRECTIONS) * sh.basis(dirs).astype(np.float32)  # (D, 9)
+    out[rows, cols] = hidden.T @ weights
+    # as smooth as the normals it is taken from (face_transport's SMOOTH): the flat triangles' steps are no relief
+    sigma = max(OCCLUSION_SMOOTH * size, 0.5)
+    share = cv2.GaussianBlur(seen.astype(np.float32), (0, 0), sigma)
+    out = cv2.GaussianBlur(out, (0, 0), sigma) / np.maximum(share, 1e-6)[..., None]
+    return np.where(seen[..., None], out, 0).astype(np.float32)
+
+
+def _mesh_occlusion(points: np.ndarray, triangles: np.ndarray, normals: np.ndarray, size: float) -> np.ndarray:
+    """``occlusion_loss`` of a mesh (window pixels) for ``normals`` (h, w, 3), found where the face is at most
+    ``OCCLUSION_GRID`` pixels across (the loss is smoothed over more than a pixel there) and resized back."""
+    h, w = normals.shape[:2]
+    k = min(1.0, OCCLUSION_GRID / max(size, 1.0))
+    if k == 1.0:
+        depth, seen = rasterise_depth(points, triangles, (h, w))
+        return occlusion_loss(depth, seen, normals, size)
+    small = (max(1, round(h * k)), max(1, round(w * k)))
+    ky, kx = small[0] / h, small[1] / w
+    p = np.asarray(points, np.float64).copy()  # pixel centres as cv2.resize maps them: (x + 0.5) k - 0.5
+    p[:, 0] = (p[:, 0] + 0.5) * kx - 0.5
+    p[:, 1] = (p[:, 1] + 0.5) * ky - 0.5
+    p[:, 2] *= (kx + ky) / 2
+    depth, seen = rasterise_depth(p, triangles, small)
+    n = cv2.resize(normals, small[::-1], interpolation=cv2.INTER_AREA)
+    n /= np.maximum(np.linalg.norm(n, axis=2, keepdims=True), 1e-6)
+    loss = occlusion_loss(depth, seen, n, size * (kx + ky) / 2)
+    return cv2.resize(loss, (w, h), interpolation=cv2.INTER_LINEAR)
+
+
+def _holes(covered: np.ndarray) -> np.ndarray:
+    """(h, w) bool: the pixels neither covered nor reached from the window's border (a mesh's openings)."""
+    outside = np.pad(covered.astype(np.uint8), 1)  # a free ring round the window
+    cv2.floodFill(outside, None, (0, 0), 2)
+    return outside[1:-1, 1:-1] == 0
 
 
 def _fill_holes(normals: np.ndarray, cover: np.ndarray, size: float) -> tuple[np.ndarray, np.ndarray]:
@@ -159,9 +314,7 @@ def _fill_holes(normals: np.ndarray, cover: np.ndarray, size: float) -> tuple[np
     holes: docs/RESULTS.md, "Face mesh artefacts").
     """
     covered = (cover > 0).astype(np.uint8)
-    outside = np.pad(covered, 1)  # a free ring round the window: everything uncovered that touches a border is out
-    cv2.floodFill(outside, None, (0, 0), 2)
-    holes = outside[1:-1, 1:-1] == 0  # neither covered nor reached from outside
+    holes = _holes(covered > 0)
     if not holes.any() or HOLE_SPREAD <= 0:
         return normals, cover
     sigma = max(HOLE_SPREAD * size, 0.5)
