@@ -1,7 +1,7 @@
 """Real faces under known lamps (Extended Yale B, ../shared/realdata/yale): relighting and de-lighting against truth.
 
     python benchmarks/yale_eval.py --out runs/yale [--yale ../shared/realdata/yale] [--dpr DPR_REPO | --no-dpr]
-        [--cache runs/dpr_cache] [--subjects yaleB02 yaleB05 ...] [--mesh-occlusion]
+        [--cache runs/dpr_cache] [--subjects yaleB02 yaleB05 ...] [--no-mesh-occlusion]
 
 Issue 48's protocol. Every photo is grey (the PNG's one channel as R = G = B), relit with an ellipse mask (the
 face: centre at 0.50, 0.52 of the image, semi-axes 0.44 W and 0.46 H) under a white point lamp in the photo's
@@ -207,11 +207,11 @@ def main(argv=None) -> int:
     p.add_argument("--no-dpr", action="store_true")
     p.add_argument("--cache", type=Path, default=Path("runs/dpr_cache"))
     p.add_argument("--subjects", nargs="*", default=None)
-    p.add_argument("--mesh-occlusion", action="store_true",
-                   help="the face mesh's own occlusion on (face_mesh.MESH_OCCLUSION; off by default, faces12)")
+    p.add_argument("--no-mesh-occlusion", action="store_true",
+                   help="the face mesh's own occlusion off (face_mesh.MESH_OCCLUSION; on by default since faces12)")
     args = p.parse_args(argv)
-    if args.mesh_occlusion:
-        face_mesh_module.MESH_OCCLUSION = True
+    if args.no_mesh_occlusion:
+        face_mesh_module.MESH_OCCLUSION = False
     if not args.yale.is_dir():
         alt = Path("../shared/realdata/yale")
         if alt.is_dir():
