@@ -243,6 +243,19 @@ def occlusion_loss(depth: np.ndarray, seen: np.ndarray, normals: np.ndarray, siz
     reach = OCCLUSION_REACH * size
     if not seen.any() or reach < 1:
         return out
+    # only the face's box and the final blur's reach: beyond it nothing is seen (depth +inf, as the padding)
+    m = int(math.ceil(4 * max(OCCLUSION_SMOOTH * size, 0.5))) + 2
+    rows, cols = np.nonzero(seen.any(axis=1))[0], np.nonzero(seen.any(axis=0))[0]
+    y0, y1 = max(int(rows[0]) - m, 0), min(int(rows[-1]) + 1 + m, h)
+    x0, x1 = max(int(cols[0]) - m, 0), min(int(cols[-1]) + 1 + m, w)
+    out[y0:y1, x0:x1] = _window_loss(depth[y0:y1, x0:x1], seen[y0:y1, x0:x1], normals[y0:y1, x0:x1], size, reach)
+    return out
+
+
+def _window_loss(depth: np.ndarray, seen: np.ndarray, normals: np.ndarray, size: float, reach: float) -> np.ndarray:
+    """``occlusion_loss`` on a box holding all of ``seen``."""
+    h, w = depth.shape
+    out = np.zeros((h, w, 9), np.float32)
     pad = int(math.ceil(reach)) + 1
     padded = np.pad(depth.astype(np.float32), pad, constant_values=np.inf)
     z = np.where(seen, depth, 0).astype(np.float32)
