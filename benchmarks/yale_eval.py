@@ -54,6 +54,7 @@ import dpr_protocol as dprp  # imports relight_rt: after real_photos
 from relight_rt import Relighter, RuntimeConfig, lights
 from relight_rt.person import face_mesh as face_mesh_module
 from relight_rt.person.face_mesh import FaceMesh
+from relight_rt.relight import factor as factor_module
 
 EPS = 1e-3
 GRID = 48
@@ -209,9 +210,14 @@ def main(argv=None) -> int:
     p.add_argument("--subjects", nargs="*", default=None)
     p.add_argument("--no-mesh-occlusion", action="store_true",
                    help="the face mesh's own occlusion off (face_mesh.MESH_OCCLUSION; on by default since faces12)")
+    p.add_argument("--no-mirror-dark", action="store_true",
+                   help="a face's opening far darker than its mirror image not taken as shadow "
+                        "(relight.factor.MIRROR_DARK; on by default since faces13)")
     args = p.parse_args(argv)
     if args.no_mesh_occlusion:
         face_mesh_module.MESH_OCCLUSION = False
+    if args.no_mirror_dark:
+        factor_module.MIRROR_DARK = None
     if not args.yale.is_dir():
         alt = Path("../shared/realdata/yale")
         if alt.is_dir():

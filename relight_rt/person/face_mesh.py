@@ -70,6 +70,12 @@ OCCLUSION_DIRECTIONS = 128  # directions of the sphere the transport is summed o
 OCCLUSION_SOFT = math.radians(10)  # a direction fades from seen to hidden over this angle below the horizon
 OCCLUSION_SMOOTH = SMOOTH  # the loss smoothed over this fraction of the face's size, as the normals are
 OCCLUSION_GRID = 96  # ... so it is found on a grid where the face is at most this many pixels (4x faster at 200)
+# the mesh's left/right correspondence (``mirror``): MediaPipe's two eye contours point for point (the image's left
+# eye first: outer corner, lower lid, inner corner, upper lid) and points on its mid-line (nose tip and bridge,
+# forehead, chin, lips)
+MIRROR_PAIRS = ((33, 263), (7, 249), (163, 390), (144, 373), (145, 374), (153, 380), (154, 381), (155, 382),
+                (133, 362), (173, 398), (157, 384), (158, 385), (159, 386), (160, 387), (161, 388), (246, 466))
+MIRROR_MIDLINE = (1, 4, 6, 168, 10, 152, 0, 17)
 
 def lobe_transport(normals: np.ndarray) -> np.ndarray:
     """(..., 9) float32 unoccluded transport A_l * Y_k(n) of unit normals (..., 3) in the subject frame (§3)."""
@@ -309,6 +315,22 @@ def _mesh_occlusion(points: np.ndarray, triangles: np.ndarray, normals: np.ndarr
     n /= np.maximum(np.linalg.norm(n, axis=2, keepdims=True), 1e-6)
     loss = occlusion_loss(depth, seen, n, size * (kx + ky) / 2)
     return cv2.resize(loss, (w, h), interpolation=cv2.INTER_LINEAR)
+
+
+def mirror(points: np.ndarray) -> np.ndarray:
+    """The face's mirror in the image plane: a (2, 3) affine map taking a pixel (x, y, 1) to where the same place of
+    the face's other half lies, fitted by least squares to ``MIRROR_PAIRS`` (each point to its partner, both ways)
+    and ``MIRROR_MIDLINE`` (each point to itself). An affine map, not a plane's reflection: a face turned a little
+    is foreshortened unequally, which the fit's shear and scale take up around the eyes.
+    """
+    p = np.asarray(points, np.float64)[:, :2]
+    a, b = np.array(MIRROR_PAIRS).T
+    mid = np.array(MIRROR_MIDLINE)
+    src = np.concatenate([p[a], p[b], p[mid]])
+    dst = np.concatenate([p[b], p[a], p[mid]])
+    design = np.concatenate([src, np.ones((len(src), 1))], axis=1)
+    fit, *_ = np.linalg.lstsq(design, dst, rcond=None)
+    return fit.T.astype(np.float32)
 
 
 def _holes(covered: np.ndarray) -> np.ndarray:

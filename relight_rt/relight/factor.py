@@ -62,6 +62,7 @@ import numpy as np
 from ..image.color import REC709
 from ..light import exposure as _exposure
 from ..light import sh
+from ..person.face_mesh import mirror
 from .cast_shadow import MeshView, shadow_factor
 from .decomposition import Decomposition, Memo, readonly
 from .detail import extend_outward, guided_upsample, shadow_texture, unpremultiply, window
@@ -93,6 +94,11 @@ UNSHADE_MIN_SKIN = 50  # unshaded_albedo: the fewest face-skin pixels (network f
 # into a bright patch (Extended Yale B from 70°, its socket over the face's mean 0.75 against 1.48 without, the real
 # photo's 0.42; de-light correlation / contrast 0.9105 / 0.826 -> 0.9162 / 0.839, speckle 0.127 -> 0.088)
 OPENINGS_AS_SKIN = True
+# ... and an opening far darker under the photo's own light than its mirror image through the face
+# (``face_mesh.mirror``) is in the photo's deep shadow whatever stage 1's albedo says: the fill takes it whole
+# (``mirror_shadow``; Extended Yale B from 70°, faces13). From MIRROR_DARK[1] of the mirror's shading down to
+# MIRROR_DARK[0] the fill's weight there rises from none to all; None: off
+MIRROR_DARK: tuple[float, float] | None = (0.35, 0.7)
 CAST_CACHE = 4  # Factor.cast keeps the cast shadows of this many light directions per Decomposition
 
 
@@ -134,6 +140,38 @@ def unshaded_albedo(albedo: np.ndarray, shading: np.ndarray, skin: np.ndarray, i
     lo, level, hi = np.percentile(shading[ok], [2, 50, 98])
     gain = np.where(inner, (np.clip(shading, lo, hi) / level) ** -b, 1)
     return (albedo * gain).astype(np.float32)
+
+
+def mirror_shadow(shading: np.ndarray, opening: np.ndarray, face: np.ndarray,
+                  points: tuple[np.ndarray, ...]) -> np.ndarray:
+    """(r, r') float32 in [0, 1]: how far each of a face's openings lies in the photo's own shadow by its mirror
+    image through the face (``MIRROR_DARK``; the fill's weight is raised to it, ``Factor.shadow_weight``).
+
+    Args:
+        shading: (r, r') the shading under the photo's own light (the transport the factor divides with).
+        opening, face: (r, r') bool, the faces' openings, and their skin with the openings.
+        points: the face meshes in the window's pixels (``FacePass.window_points``).
+
+    On a side-lit face the socket on the dark side is black in the photo, and stage 1 often reads that black as the
+    socket's albedo: the fill's weight, found from the photo over that albedo, then sees no shadow and the ratio
+    multiplies the black (or the little grazing light there) into the relit socket. The mesh's own shading under
+    the photo's light does not depend on that albedo: a face is near symmetric, so a socket whose shading is far
+    below its mirror image's (the lit socket) is in shadow. Where the mirror image lies off the face, nothing. The
+    share is softened over ``CAP_SKIN_SPREAD`` of the window's side (an opening's border is no edge in the photo).
+    """
+    lo, hi = MIRROR_DARK
+    h, w = shading.shape
+    out = np.zeros((h, w), np.float32)
+    inside = face.astype(np.float32)
+    for pts in points:
+        m = mirror(pts)
+        there, on_face = (cv2.warpAffine(np.ascontiguousarray(a, np.float32), m, (w, h),
+                                         flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_CONSTANT)
+                          for a in (shading, inside))
+        q = np.clip((hi - shading / np.maximum(there, 1e-6)) / (hi - lo), 0, 1)
+        out = np.maximum(out, opening * (there > 1e-4) * q * q * (3 - 2 * q) * on_face)
+    # no edge of its own: the share softened as the skin's cap is (an opening's border crosses a shaded cheek)
+    return cv2.GaussianBlur(out, (0, 0), CAP_SKIN_SPREAD * max(h, w))
 
 
 class Factor:
@@ -550,6 +588,11 @@ class Factor:
                                        FILL_ALBEDO_RANGE)
                         on_face = skin if own["face_opening"] is None else skin | own["face_opening"]
                         chroma *= np.where(on_face, lift, 1)[..., None]
+                        if MIRROR_DARK is not None and own["face_opening"] is not None and own["face_points"]:
+                            # a socket in the photo's shadow by the face's mirror, whatever stage 1's albedo says
+                            shading = own["transport"] @ dec.white_light[:, 0]
+                            w = np.maximum(w, mirror_shadow(shading, own["face_opening"], on_face,
+                                                            own["face_points"]))
                     result = (readonly(w.astype(np.float32)), readonly(chroma.astype(np.float32)))
             state["shadow"] = result
         return state["shadow"]

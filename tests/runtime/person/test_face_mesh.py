@@ -14,10 +14,13 @@ from relight_rt.engine.session import bundled_models_dir
 from relight_rt.light import exposure as exposure_module
 from relight_rt.person.face_mesh import (
     HEAD_STRENGTH,
+    MIRROR_MIDLINE,
+    MIRROR_PAIRS,
     FaceMesh,
     face_transport,
     head_normals,
     lobe_transport,
+    mirror,
     rasterise_normals,
 )
 from relight_rt.relight import factor as factor_module
@@ -265,3 +268,24 @@ def test_a_portraits_light_is_turned_by_its_face_and_still_gives_the_photo_back(
     toward = lambda light: float(light[3] @ rec709) / float(light[0] @ rec709)  # noqa: E731
     assert up(dec.light) < up(plain.light) - 0.1
     assert toward(dec.light) > 0.5 * toward(plain.light)
+
+
+def test_the_faces_mirror_takes_each_eye_to_the_other_and_keeps_the_mid_line():
+    """``mirror``: on a face symmetric about x = 60 (turned a little: foreshortened by 0.8 on its right) the fit is
+    that reflection; the image's left eye's contour lands on the right eye's."""
+    rng = np.random.default_rng(3)
+    points = np.zeros((468, 3))
+    a, b = np.array(MIRROR_PAIRS).T
+    left = rng.uniform([10, 20], [50, 80], (len(a), 2))
+    points[a, :2] = left
+    points[b, :2] = np.stack([60 + (60 - left[:, 0]), left[:, 1]], axis=1)
+    points[list(MIRROR_MIDLINE), :2] = np.stack([np.full(len(MIRROR_MIDLINE), 60.0),
+                                                  rng.uniform(10, 90, len(MIRROR_MIDLINE))], axis=1)
+    m = mirror(points)
+    np.testing.assert_allclose(m, [[-1, 0, 120], [0, 1, 0]], atol=1e-4)
+    squeezed = points.copy()  # the face's right half foreshortened: an affine fit, not an exact mirror
+    squeezed[b, 0] = 60 + 0.8 * (squeezed[b, 0] - 60)
+    m = mirror(squeezed)
+    moved = squeezed[a, :2] @ m[:, :2].T + m[:, 2]
+    assert np.abs(moved - squeezed[b, :2]).max() < 0.15 * np.ptp(squeezed[:, 0])
+    assert np.linalg.det(m[:, :2]) < 0  # a reflection
