@@ -50,7 +50,8 @@ class VideoMatter:
     ``redetect_every`` frames if > 0; the search in the same frame found the parkour clip's frame 66 runner after his
     jump instead of leaving that frame empty: benchmarks/people_masks_eval.py --methods video 0.913 -> 0.922). With
     ``complete`` the person is completed as in a photo (:meth:`PersonMatter.completed`: half-seen trousers, parts in
-    their own colours; the clip 0.922 -> 0.926, ``--methods video-complete``) at two more selfie-graph runs a frame
+    their own colours, limbs seen only turned; the clip 0.922 -> 0.926, 0.927 with the turned views (matte13: frame 50
+    0.78 -> 0.95, 96-97 -0.04 each), ``--methods video-complete``) at two more selfie-graph runs a frame
     (720p: ~26 -> ~17 frames/s idle, docs/BENCHMARKS.md), so it is off by default. The person probability on the
     working grid is blended with the previous frame's, warped by DIS optical flow:
     ``p = (1 - w) p_now + w p_prev_warped``, ``w = smoothing * exp(-|I_now - I_prev_warped| / 0.05)`` (the history
