@@ -100,6 +100,27 @@ def refine_edges(rgb: np.ndarray, alpha: np.ndarray, band: int | None = None) ->
     return opaque_where_cut(out, r, rgb)
 
 
+def open_pockets(rgb: np.ndarray, alpha: np.ndarray, band: int | None = None) -> np.ndarray:
+    """:func:`refine_edges`' pocket decision alone, for a matte not refined here (the video matter's guided filter):
+    a pocket the matte half-holds (alpha under _GAP more than ``band`` from the outline once the interior's holes are
+    filled, its rim mostly the person) opens where it shows the backdrop's colour and is opaque where it shows any
+    other (:func:`_open_gap`). ``VideoMatter(complete=True)`` runs ``backed_logits``, which leaves such a gap in doubt
+    (~0.8) for this decision to settle. Returns a new (H, W) float32 alpha."""
+    r = band_width(alpha.shape) if band is None else int(band)
+    out = alpha.copy()
+    rows, cols = np.flatnonzero((alpha >= 0.5).any(axis=1)), np.flatnonzero((alpha >= 0.5).any(axis=0))
+    if rows.size == 0:
+        return out
+    # pockets lie inside the matte: looked for on its bounding box and one pixel of outside round it (a third of a
+    # 720p frame's pixels on the reference video)
+    y0, y1 = max(int(rows[0]) - 1, 0), min(int(rows[-1]) + 2, alpha.shape[0])
+    x0, x1 = max(int(cols[0]) - 1, 0), min(int(cols[-1]) + 2, alpha.shape[1])
+    a = alpha[y0:y1, x0:x1]
+    for (py, px), pocket in _pockets(a < _GAP, _deep_inside((a >= 0.5).astype(np.uint8), r), min_area=r):
+        _open_gap(rgb, alpha, out, pocket, (y0 + py, x0 + px), r)
+    return out
+
+
 def without_doubted_parts(alpha: np.ndarray, r: int) -> np.ndarray:
     """``alpha`` without the separate parts of the matte (8-connected, alpha >= 0.5) that the graphs are nowhere
     sure of (alpha under _PART_SURE throughout), the largest part kept whatever it holds; their soft rim within ``r``
