@@ -53,7 +53,9 @@ class VideoMatter:
     ``complete`` the person is completed as in a photo (:meth:`PersonMatter.completed`: half-seen trousers, parts in
     their own colours, limbs seen only turned; the clip 0.922 -> 0.926, 0.927 with the turned views (matte13: frame 50
     0.78 -> 0.95, 96-97 -0.04 each), ``--methods video-complete``) at two more selfie-graph runs a frame
-    (720p: ~26 -> ~17 frames/s idle, docs/BENCHMARKS.md), so it is off by default. The person probability on the
+    (720p: ~26 -> ~17 frames/s idle, docs/BENCHMARKS.md), so it is off by default; its gaps both graphs half-see,
+    which ``backed_logits`` leaves in doubt, are settled by the photo's colour (``matte_edges.open_pockets``, matte13:
+    the reference video's boundary F 0.928 -> 0.990; ~+25 % a frame). The person probability on the
     working grid is blended with the previous frame's, warped by DIS optical flow:
     ``p = (1 - w) p_now + w p_prev_warped``, ``w = smoothing * exp(-|I_now - I_prev_warped| / 0.05)`` (the history
     counts only where the flow explains the picture), then refined by the guided filter.
