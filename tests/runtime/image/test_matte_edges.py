@@ -280,10 +280,10 @@ def test_a_soft_stretch_along_the_outline_is_not_a_gap():
 def test_a_lighter_streak_of_the_persons_own_colour_stays_opaque(rule, monkeypatch):
     """A pocket the graphs half-hold in a lighter shade of the clothes around it, before a backdrop of nearly that
     colour (p236: beige trousers and jacket folds on beige pavement): each pixel lies within _GAP_MATCH of the
-    backdrop, so pixel by pixel it half-opened (1.0 -> 0.53-0.69); its colour is its rim's, not the backdrop's, so it
-    is the person's (_RIM_MATCH). Without the rim test (0) it half-opens."""
+    backdrop, so pixel by pixel it half-opened (1.0 -> 0.53-0.69). The clothes around it pass that test too: colour
+    says nothing there, and the pocket is the person's (``_rim_like_backdrop``). Without that test it half-opens."""
     if not rule:
-        monkeypatch.setattr(R, "_RIM_MATCH", 0.0)
+        monkeypatch.setattr(R, "_rim_like_backdrop", lambda *args: False)
     rgb, _, coarse = _arm_and_body()
     rgb[:] = (0.68, 0.64, 0.58)  # pavement
     rgb[20:190, 60:150] = (0.6, 0.55, 0.5)  # trousers: body, arm and what lies between
