@@ -357,10 +357,13 @@ class PersonMatter:
 
     def completed(self, rgb: np.ndarray, person: Person) -> list[Person]:
         """One person found on their own (the video matter's :meth:`segment` of a followed region) with what
-        :meth:`people` adds to the largest person: the half-seen pixels both graphs see (:meth:`_backed`) and the
-        parts joined in their own colours (:meth:`_own_colours`): [person, *parts]."""
+        :meth:`people` adds to the largest person: the half-seen pixels both graphs see (:meth:`_backed`), the
+        parts joined in their own colours (:meth:`_own_colours`) and the limbs seen only turned (_turned):
+        [person, *parts]. The turned views run only where an upright view offers a part past the matte."""
         found = [self._backed(rgb, person) if person.source == "pose" else person]
-        return found + self._own_colours(rgb, found)
+        start = around_people(self.roi, rgb, found)
+        own = self._own_colours(rgb, found, start)
+        return found + own + turned_people(self.roi, rgb, found + own, None if own else start)
 
     def _own_colours(self, rgb: np.ndarray, people: list[Person], start: Around | None = None) -> list[Person]:
         """What the selfie graph sees joined to ``people`` in their own colours (relight_rt.person.matting._colours:

@@ -294,3 +294,23 @@ def test_a_soft_stretch_along_the_outline_is_not_a_gap():
     rgb[20:40, 65:125] = 1.0  # in the backdrop's colour
     out = R.refine_edges(rgb, coarse, band=4)
     np.testing.assert_allclose(out[26:38, 75:115], 0.7, atol=0.02)
+
+
+@pytest.mark.parametrize("rule", [True, False])
+def test_a_lighter_streak_of_the_persons_own_colour_stays_opaque(rule, monkeypatch):
+    """A pocket the graphs half-hold in a lighter shade of the clothes around it, before a backdrop of nearly that
+    colour (p236: beige trousers and jacket folds on beige pavement): each pixel lies within _GAP_MATCH of the
+    backdrop, so pixel by pixel it half-opened (1.0 -> 0.53-0.69). The clothes around it pass that test too: colour
+    says nothing there, and the pocket is the person's (``_rim_like_backdrop``). Without that test it half-opens."""
+    if not rule:
+        monkeypatch.setattr(R, "_rim_like_backdrop", lambda *args: False)
+    rgb, _, coarse = _arm_and_body()
+    rgb[:] = (0.68, 0.64, 0.58)  # pavement
+    rgb[20:190, 60:150] = (0.6, 0.55, 0.5)  # trousers: body, arm and what lies between
+    rgb[50:170, 130:136] = (0.62, 0.57, 0.52)  # the lighter streak
+    out = R.refine_edges(rgb, coarse, band=4)
+    streak = out[60:160, 131:135]
+    assert (streak.min() == 1.0) == rule
+    if not rule:
+        assert streak.min() < 0.8
+    assert out[30:180, 70:120].min() == 1.0 and out[50:170, 140:146].min() == 1.0

@@ -85,3 +85,38 @@ def test_backed_logits_leaves_a_valley_of_the_pose_graph_in_doubt():
     assert (out[2:18, 12] == _layout.BACKED_DOUBT).all() and 0 < _layout.BACKED_DOUBT < _layout.BACKED_EDGE
     assert (out[6:14, 21:25] == _layout.BACKED_INSIDE).all()
     assert out[2, 20] == _layout.BACKED_EDGE and out[0, 0] == -10.0 and out[8, 5] == 10.0
+
+
+def video_matted(rgb: np.ndarray, pockets: bool, monkeypatch) -> np.ndarray:
+    """The first frame of ``VideoMatter(complete=True)`` on ``rgb`` (the person found in REGION; the completion's
+    own-colour and turned parts left out: the stand-ins answer one fixed canvas), with or without the pocket
+    decision."""
+    from relight_rt.person.matting import _matter, _video
+
+    matter = M.PersonMatter()
+    matter.roi, matter.pose, matter.face = _Canvas(False), _Canvas(True), None
+    monkeypatch.setattr(matter, "find_people", lambda rgb: [(1.0, (150.0, 100.0, 270.0, 500.0))])
+    monkeypatch.setattr(matter, "segment", lambda rgb, region, **kw: matter._pose(rgb, REGION))
+    monkeypatch.setattr(matter, "vouched", lambda rgb, person: True)
+    monkeypatch.setattr(matter, "_own_colours", lambda *args: [])
+    monkeypatch.setattr(_matter, "turned_people", lambda *args: [])
+    if not pockets:
+        monkeypatch.setattr(_video, "open_pockets", lambda rgb, alpha: alpha)
+    return M.VideoMatter(matter, smoothing=0.0, complete=True)(rgb)
+
+
+@pytest.mark.parametrize("pockets", [True, False])
+@pytest.mark.parametrize("backdrop", [True, False])
+def test_the_video_matters_completion_decides_a_doubted_gap_as_the_photo_matte_does(backdrop, pockets, monkeypatch):
+    """``VideoMatter(complete=True)`` runs ``backed_logits``, which leaves the gap in doubt; the guided filter kept it
+    half-held (~0.8: relit as part person, part backdrop). ``matte_edges.open_pockets`` settles it as the photo matte
+    does (matte13): open where the photo shows the backdrop, opaque where it shows the person's colour."""
+    alpha = video_matted(dress_and_arm(backdrop), pockets, monkeypatch)
+    gap = alpha[170:380, GAP]
+    if not pockets:
+        assert 0.5 < np.median(gap) < 0.95  # the doubt the guided filter leaves, either way
+    elif backdrop:
+        assert gap.max() < 0.5 and np.median(gap) < 0.1
+    else:
+        assert gap.min() >= 0.95
+    assert alpha[200:350, 160:230].min() >= 0.95 and alpha[200:350, 256:264].min() >= 0.95  # dress and arm
