@@ -52,10 +52,11 @@ class VideoMatter:
     jump instead of leaving that frame empty: benchmarks/people_masks_eval.py --methods video 0.913 -> 0.922). With
     ``complete`` the person is completed as in a photo (:meth:`PersonMatter.completed`: half-seen trousers, parts in
     their own colours, limbs seen only turned; the clip 0.922 -> 0.926, 0.927 with the turned views (matte13: frame 50
-    0.78 -> 0.95, 96-97 -0.04 each), ``--methods video-complete``) at two more selfie-graph runs a frame
-    (720p: ~26 -> ~17 frames/s idle, docs/BENCHMARKS.md), so it is off by default; its gaps both graphs half-see,
-    which ``backed_logits`` leaves in doubt, are settled by the photo's colour (``matte_edges.open_pockets``, matte13:
-    the reference video's boundary F 0.928 -> 0.990; ~+25 % a frame). The person probability on the
+    0.78 -> 0.95, 96-97 -0.04 each), ``--methods video-complete``) at more selfie-graph runs a frame (two before
+    the turned views; 720p: ~26 -> ~17 frames/s idle then, docs/BENCHMARKS.md), so it is off by default; its gaps
+    both graphs half-see, which ``backed_logits`` leaves in doubt, are settled by the photo's colour
+    (``matte_edges.open_pockets``, matte13: the reference video's boundary F 0.928 -> 0.990; ~+25 % a frame). The
+    person probability on the
     working grid is blended with the previous frame's, warped by DIS optical flow:
     ``p = (1 - w) p_now + w p_prev_warped``, ``w = smoothing * exp(-|I_now - I_prev_warped| / 0.05)`` (the history
     counts only where the flow explains the picture), then refined by the guided filter.
@@ -128,6 +129,9 @@ class VideoMatter:
             person, box = self._found(rgb, None if searched else region)
             if person is None and not searched:  # lost where it was followed: searched for again in this frame
                 person, box = self._found(rgb, None)
+            # what the photo matte adds to the person (half-seen trousers both graphs see, parts in their own colours,
+            # limbs seen only turned), within the shared reductions: the turned views reuse the upright selfie run
+            parts = self.matter.completed(rgb, person) if self.complete and person is not None else [person]
         if person is None:
             log.debug("%s: no person found; searching again on the next frame", name)
             self._region, self._prev_prob, self._prev_gray = None, None, None
@@ -140,8 +144,6 @@ class VideoMatter:
 
         rect = (0, 0, w, h)
         grid = working_grid(rect)
-        # what the photo matte adds to the person (half-seen trousers both graphs see, parts in their own colours)
-        parts = self.matter.completed(rgb, person) if self.complete else [person]
         prob = np.max([sigmoid(logits_on_grid(p, grid)) for p in parts], axis=0).astype(np.float32)
         gray_full = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
         gray_small = gray_full if grid[:2] == (w, h) else cv2.resize(gray_full, grid[:2], interpolation=cv2.INTER_AREA)
