@@ -249,8 +249,8 @@ def occlusion_loss(depth: np.ndarray, seen: np.ndarray, normals: np.ndarray, siz
     reach = OCCLUSION_REACH * size
     if not seen.any() or reach < 1:
         return out
-    # only the face's box and the final blur's reach: beyond it nothing is seen (depth +inf, as the padding)
-    m = int(math.ceil(4 * max(OCCLUSION_SMOOTH * size, 0.5))) + 2
+    # only the face's box, the horizons' reach and the final blur's: the depth beyond it is never read
+    m = max(int(math.ceil(4 * max(OCCLUSION_SMOOTH * size, 0.5))), int(math.ceil(reach))) + 2
     rows, cols = np.nonzero(seen.any(axis=1))[0], np.nonzero(seen.any(axis=0))[0]
     y0, y1 = max(int(rows[0]) - m, 0), min(int(rows[-1]) + 1 + m, h)
     x0, x1 = max(int(cols[0]) - m, 0), min(int(cols[-1]) + 1 + m, w)

@@ -154,10 +154,12 @@ def mirror_shadow(shading: np.ndarray, opening: np.ndarray, face: np.ndarray,
 
     On a side-lit face the socket on the dark side is black in the photo, and stage 1 often reads that black as the
     socket's albedo: the fill's weight, found from the photo over that albedo, then sees no shadow and the ratio
-    multiplies the black (or the little grazing light there) into the relit socket. The mesh's own shading under
-    the photo's light does not depend on that albedo: a face is near symmetric, so a socket whose shading is far
-    below its mirror image's (the lit socket) is in shadow. Where the mirror image lies off the face, nothing. The
-    share is softened over ``CAP_SKIN_SPREAD`` of the window's side (an opening's border is no edge in the photo).
+    multiplies the black (or the little grazing light there) into the relit socket. A face is near symmetric, so a
+    socket whose shading is far below its mirror image's (the lit socket) is in shadow. (The shading is the
+    transport the factor divides with: the mesh's shape, moved toward the photo by ``explain_photo``, so stage 1's
+    albedo reaches it in part; the mesh-only transport was not measured.) Where the mirror image lies off the face,
+    nothing. The share is softened over ``CAP_SKIN_SPREAD`` of the window's side (an opening's border is no edge in
+    the photo).
     """
     lo, hi = MIRROR_DARK
     h, w = shading.shape

@@ -99,3 +99,23 @@ def test_the_switch_decides_when_not_told(monkeypatch):
         monkeypatch.setattr(face_mesh, "MESH_OCCLUSION", on)
         told = face_transport(pts, tris, t0, occlusion=on)[0]
         np.testing.assert_array_equal(face_transport(pts, tris, t0)[0], told)
+
+
+def test_the_loss_on_the_seen_box_is_the_loss_on_the_whole_window():
+    """``occlusion_loss`` works on the seen box and what its horizons and blur read: the same as on the whole window,
+    also where the depth goes on (finite) beyond the seen part, with a tall ledge near the horizons' reach (past the
+    blur's, 0.22 of the size against 0.25)."""
+    (pts, tris), _ = _pit(200)
+    depth, seen = rasterise_depth(pts, tris, (220, 220))
+    big_depth = np.zeros((600, 600), np.float32)
+    big_depth[150:370, 150:370] = np.where(seen, depth, 0.0)
+    big_seen = np.zeros((600, 600), bool)
+    big_seen[150:370, 150:370] = seen
+    right = int(np.nonzero(big_seen.any(axis=0))[0][-1])
+    big_depth[:, right + 47 : right + 50] = -500.0  # nearer the camera: hides what the seen edge sees of the sky
+    normals = np.zeros((600, 600, 3), np.float32)
+    normals[..., 0] = 1.0
+    cropped = occlusion_loss(big_depth, big_seen, normals, 200.0)
+    whole = face_mesh._window_loss(big_depth, big_seen, normals, 200.0, face_mesh.OCCLUSION_REACH * 200.0)
+    assert np.abs(whole).max() > 1e-3  # the pit hides something
+    np.testing.assert_allclose(cropped, whole, atol=1e-7)
