@@ -279,8 +279,7 @@ def _open_gap(rgb: np.ndarray, alpha: np.ndarray, out: np.ndarray, pocket: np.nd
     a = np.ascontiguousarray(alpha[y0:y1, x0:x1])
     img = np.ascontiguousarray(rgb[y0:y1, x0:x1])
     inside = (a >= 0.5).astype(np.uint8)
-    deep = cv2.distanceTransform(inside, cv2.DIST_L2, 3) > r  # beyond the band of the outline, holes' included
-    fg_w = (deep & (a >= _SURE)).astype(np.float32)
+    fg_w = ((cv2.distanceTransform(inside, cv2.DIST_L2, 3) > r) & (a >= _SURE)).astype(np.float32)
     bg_w = ((cv2.distanceTransform(1 - inside, cv2.DIST_L2, 3) > r) & (a <= 1 - _SURE)).astype(np.float32)
     b_col, blend, _ = _colour_alpha(img, a, fg_w, bg_w, 2 * r, _GAP_REACH * r)
     near_b = _backdrop_coloured(img, b_col)
@@ -290,11 +289,23 @@ def _open_gap(rgb: np.ndarray, alpha: np.ndarray, out: np.ndarray, pocket: np.nd
     sel[py : py + pocket.shape[0], px : px + pocket.shape[1]] = pocket
     if _rim_like_backdrop(img, a, sel, b_col, r):  # colour cannot tell it from the person (p236's beige folds)
         near_b = np.zeros_like(near_b)
-    # the person's own colour, which the graphs half-hold; not in the band of an outline (a real hole's soft rim,
-    # refined there: made opaque, its error 0.019 -> 0.108 on a blurred 100 x 80 hole)
-    out[y0:y1, x0:x1][sel & ~near_b & (a >= 0.5) & deep] = 1.0
+    # the person's own colour, which the graphs half-hold; not in the band of a real outline (a hole holding sure
+    # background: its soft rim, refined there, made opaque had its error 0.019 -> 0.108 on a blurred 100 x 80 hole)
+    out[y0:y1, x0:x1][sel & ~near_b & (a >= 0.5) & _beyond_real_outline(inside, a, r)] = 1.0
     sel &= near_b
     out[y0:y1, x0:x1][sel] = np.clip(est[sel], 0.0, 1.0)
+
+
+def _beyond_real_outline(inside: np.ndarray, a: np.ndarray, r: int) -> np.ndarray:
+    """The pixels more than ``r`` from the outline of ``inside`` (uint8) where only the outside that reaches the box's
+    border or holds sure background (``a`` <= 1 - _SURE) counts: a gap's under-0.5 middle is filled (its sides are
+    the pocket's, :func:`_deep_inside`), a real hole keeps its band."""
+    n, labels = cv2.connectedComponents(1 - inside, connectivity=4)
+    outside = np.zeros(n, bool)
+    outside[np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]])] = True
+    outside[labels[a <= 1 - _SURE]] = True
+    outside[0] = False  # label 0: the inside itself
+    return cv2.distanceTransform((~outside[labels]).astype(np.uint8), cv2.DIST_L2, 3) > r
 
 
 def _rim_like_backdrop(img: np.ndarray, a: np.ndarray, sel: np.ndarray, b_col: np.ndarray, r: int) -> bool:

@@ -265,6 +265,17 @@ def test_a_gap_whose_middle_the_coarse_matte_drops_under_half_is_still_a_pocket(
     assert out[30:180, 70:120].min() == 1.0 and out[50:170, 140:146].min() == 1.0
 
 
+def test_a_fold_of_the_persons_colour_whose_middle_drops_under_half_is_the_persons():
+    """A pale fold of the dress two canvas pixels wide whose coarse middle is under 0.5: filled, it is a pocket of the
+    person's colour, opaque; measuring the band from every hole's outline (a real hole's rule) left its sides at
+    0.5-0.8, a translucent seam."""
+    rgb, _, coarse = _arm_and_body()
+    rgb[50:170, 130:136] = (0.55, 0.6, 0.8)
+    coarse[60:160, 132:134] = 0.4
+    out = R.refine_edges(rgb, coarse, band=4)
+    assert out[70:150, 130:132].min() == 1.0 and out[70:150, 134:136].min() == 1.0
+
+
 def test_a_real_hole_keeps_its_soft_rim():
     """The backdrop seen through a large hole (the crook of an arm on the hip), its edge blurred: the hole holds sure
     background, so it is no gap to fill; filled, its whole soft rim was one pocket of "not the backdrop's colour"
