@@ -167,6 +167,8 @@ def mirror_shadow(shading: np.ndarray, opening: np.ndarray, face: np.ndarray,
     inside = face.astype(np.float32)
     for pts in points:
         m = mirror(pts)
+        if np.linalg.det(m[:, :2]) > -0.5:  # no reflection (a mesh collapsed to a line or a point): no mirror to read
+            continue
         there, on_face = (cv2.warpAffine(np.ascontiguousarray(a, np.float32), m, (w, h),
                                          flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_CONSTANT)
                           for a in (shading, inside))

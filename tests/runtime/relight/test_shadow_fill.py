@@ -289,3 +289,18 @@ def test_mirror_shadow_finds_the_opening_whose_mirror_is_lit():
     assert 0.3 < out[50, 80] < 0.7 and out[50, 76] < 0.1  # soft at its border
     assert out[40:60, 20:40].max() < 0.01  # the lit one
     assert out[80:90, 117:121].max() < 0.01  # mirrored off the face
+
+
+def test_mirror_shadow_reads_no_mirror_of_a_collapsed_mesh():
+    """A mesh whose points all lie on one line fits no reflection (the affine map's determinant is not -1): nothing
+    is called shadow, whatever the shading."""
+    points = np.zeros((468, 3))
+    points[:, 0] = np.linspace(10, 110, 468)
+    points[:, 1] = 60.0
+    shading = np.full((120, 121), 0.2, np.float32)
+    shading[:, :60] = 1.0
+    face = np.ones((120, 121), bool)
+    opening = np.zeros_like(face)
+    opening[40:60, 80:100] = True
+    out = relight_factor.mirror_shadow(shading, opening, face, (points,))
+    assert not out.any()
