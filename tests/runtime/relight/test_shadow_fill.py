@@ -180,45 +180,46 @@ def yale_dir(shared_dir):
     return path
 
 
+def _yale_b05(yale_dir):
+    """yale_eval's helpers, a CPU relighter and subject 05's frontal photo with its face mesh (where the eyes are)."""
+    import sys
+    from pathlib import Path
+
+    from relight_rt.person.face_mesh import FaceMesh
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "benchmarks"))
+    import yale_eval
+
+    relighter = relight_rt.open(RuntimeConfig(device="cpu"))
+    mesh = FaceMesh(relighter.models_dir)
+    if not mesh.available:
+        pytest.skip("no face mesh model")
+    front = yale_eval.read_grey(yale_dir / "yaleB05" / "yaleB05_P00A+000E+00.png")
+    h, w = front.shape[:2]
+    return yale_eval, relighter, mesh.faces(front, (0, h, 0, w))[0][:, :2], (h, w)
+
+
+def _socket_over_face(ye, relighter, photo: np.ndarray, eye: np.ndarray) -> float:
+    """The eye's socket over the face's mean (linear luminance), ``photo`` relit to the frontal lamp."""
+    from real_photos import luminance  # linear light, as yale_eval measures
+
+    ellipse = ye.ellipse(photo.shape[:2])
+    out = luminance(relighter.relight(relighter.decompose(photo, ellipse), ye.lamp(0)))
+    return float(out[eye].mean() / out[ellipse > 0].mean())
+
+
 def test_a_face_opening_off_the_skin_takes_the_skins_rules_in_a_deep_shadow(yale_dir, monkeypatch):
     """An eye socket on a side-lit face's dark half (Extended Yale B, subject 05 lit from 70° on the image's right):
     the photo shows a little grazing light there, stage 1 takes it for a bright albedo, and a lamp from the front
     multiplied it into a bright patch with a hard border, 1.5x the face's mean where the real frontal photo's socket
     is 0.42x. The face mesh's skin leaves the eyes' sockets out (its inset); inside the mesh's outline (``restored``'s
     "face_opening") the ratio cap and the fill's albedo of the lit skin around now apply as on the skin: 0.75x."""
-    import sys
-    from pathlib import Path
-
-    import cv2
-
-    from relight_rt.person.face_mesh import FaceMesh
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "benchmarks"))
-    from real_photos import luminance  # linear light, as yale_eval measures
-    from yale_eval import ellipse, lamp, read_grey
-
-    relighter = relight_rt.open(RuntimeConfig(device="cpu"))
-    mesh = FaceMesh(relighter.models_dir)
-    if not mesh.available:
-        pytest.skip("no face mesh model")
-    side = read_grey(yale_dir / "yaleB05" / "yaleB05_P00A-070E+00.png")
-    front = read_grey(yale_dir / "yaleB05" / "yaleB05_P00A+000E+00.png")
-    h, w = side.shape[:2]
-    points = mesh.faces(front, (0, h, 0, w))[0][:, :2]  # where the eye is, from the real frontal photo
-    eye = [33, 7, 163, 144, 145, 153, 154, 155, 133, 173, 157, 158, 159, 160, 161, 246]  # MediaPipe: the image's left
-    socket = np.zeros((h, w), np.uint8)
-    cv2.fillConvexPoly(socket, cv2.convexHull(points[eye].astype(np.int32)), 1)
-    socket = cv2.dilate(socket, np.ones((7, 7), np.uint8)) > 0
-    face = ellipse((h, w)) > 0
-
-    def socket_over_face():
-        dec = relighter.decompose(side, ellipse((h, w)))
-        out = luminance(relighter.relight(dec, lamp(0)))
-        return float(out[socket].mean() / out[face].mean())
-
-    ruled = socket_over_face()
+    ye, relighter, points, shape = _yale_b05(yale_dir)
+    side = ye.read_grey(yale_dir / "yaleB05" / "yaleB05_P00A-070E+00.png")
+    socket = ye.eye_region(points, ye.RIGHT_EYE, shape)  # the image's left eye, where the real frontal photo has it
+    ruled = _socket_over_face(ye, relighter, side, socket)
     monkeypatch.setattr(relight_factor, "OPENINGS_AS_SKIN", False)
-    plain = socket_over_face()
+    plain = _socket_over_face(ye, relighter, side, socket)
     assert plain > 1.2 and ruled < 0.95, (plain, ruled)  # measured 1.48 and 0.75 (the real photo: 0.42)
 
 
@@ -228,36 +229,13 @@ def test_a_socket_far_darker_than_its_mirror_is_in_shadow_whatever_stage1s_albed
     and the ratio multiplies that light into a socket at 0.80-0.85 of the face's mean (the real frontal photo:
     0.41-0.43). The mesh's own shading there under the photo's light is far below its mirror image's (the lit
     socket, ``factor.mirror_shadow``): the fill takes it whole, 0.62-0.71."""
-    import sys
-    from pathlib import Path
-
-    from relight_rt.person.face_mesh import FaceMesh
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "benchmarks"))
-    from real_photos import luminance
-    from yale_eval import LEFT_EYE, RIGHT_EYE, ellipse, lamp, read_grey
-
-    relighter = relight_rt.open(RuntimeConfig(device="cpu"))
-    mesh = FaceMesh(relighter.models_dir)
-    if not mesh.available:
-        pytest.skip("no face mesh model")
-    front = read_grey(yale_dir / "yaleB05" / "yaleB05_P00A+000E+00.png")
-    h, w = front.shape[:2]
-    points = mesh.faces(front, (0, h, 0, w))[0][:, :2]
-    face = ellipse((h, w)) > 0
-    for azimuth, eye in (("-070", RIGHT_EYE), ("+070", LEFT_EYE)):  # the dark side's eye (yale_eval's sides)
-        side = read_grey(yale_dir / "yaleB05" / f"yaleB05_P00A{azimuth}E+00.png")
-        socket = np.zeros((h, w), np.uint8)
-        cv2.fillConvexPoly(socket, cv2.convexHull(points[list(eye)].astype(np.int32)), 1)
-        socket = cv2.dilate(socket, np.ones((7, 7), np.uint8)) > 0
-
-        def socket_over_face(photo: np.ndarray, eye: np.ndarray) -> float:
-            out = luminance(relighter.relight(relighter.decompose(photo, ellipse((h, w))), lamp(0)))
-            return float(out[eye].mean() / out[face].mean())
-
-        ruled = socket_over_face(side, socket)
+    ye, relighter, points, shape = _yale_b05(yale_dir)
+    for azimuth, eye in (("-070", ye.RIGHT_EYE), ("+070", ye.LEFT_EYE)):  # the dark side's eye (yale_eval's sides)
+        side = ye.read_grey(yale_dir / "yaleB05" / f"yaleB05_P00A{azimuth}E+00.png")
+        socket = ye.eye_region(points, eye, shape)
+        ruled = _socket_over_face(ye, relighter, side, socket)
         monkeypatch.setattr(relight_factor, "MIRROR_DARK", None)
-        plain = socket_over_face(side, socket)
+        plain = _socket_over_face(ye, relighter, side, socket)
         monkeypatch.undo()
         # measured 0.80 -> 0.68 (-70) and 0.85 -> 0.76 (+70); the real photo's 0.43 / 0.41
         assert plain > 0.78 and ruled < 0.8 and ruled < plain - 0.07, (azimuth, plain, ruled)
