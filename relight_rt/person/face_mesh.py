@@ -178,6 +178,41 @@ def face_transport(
     return transport, np.clip(weight, 0, 1).astype(np.float32), skin, openings
 
 
+def triangle_ids(xy: np.ndarray, depth: np.ndarray, triangles: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """(h, w) int32: the index of the triangle seen at each pixel (-1: none), the one of greatest ``depth`` (mean
+    over its corners) drawn last. ``xy`` (N, 2) vertices in the image's pixels (centres at integers)."""
+    h, w = shape
+    ids = np.full((h, w), -1, np.int32)
+    order = np.argsort(depth[triangles].mean(axis=1))
+    shift = 4
+    corners = np.round(xy[triangles] * (1 << shift)).astype(np.int32)
+    for i in order:
+        cv2.fillConvexPoly(ids, corners[i], int(i), lineType=cv2.LINE_8, shift=shift)
+    return ids
+
+
+def triangle_planes(xy: np.ndarray, values: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """(T, 3) per triangle the plane (a, b, c) with value = a x + b y + c through its corners' ``values`` (N,) at
+    ``xy`` (N, 2); a triangle seen edge-on (no area) takes its corners' mean."""
+    a, b, c = (xy[triangles[:, i]] for i in range(3))
+    va, vb, vc = (values[triangles[:, i]] for i in range(3))
+    e1, e2 = b - a, c - a
+    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    ok = np.abs(det) > 1e-9
+    safe = np.where(ok, det, 1.0)
+    d1, d2 = vb - va, vc - va
+    ga = np.where(ok, (d1 * e2[:, 1] - d2 * e1[:, 1]) / safe, 0.0)
+    gb = np.where(ok, (d2 * e1[:, 0] - d1 * e2[:, 0]) / safe, 0.0)
+    gc = np.where(ok, va - ga * a[:, 0] - gb * a[:, 1], (va + vb + vc) / 3)
+    return np.stack([ga, gb, gc], axis=1)
+
+
+def on_planes(planes: np.ndarray, ids: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """The value of each point (x, y) on the plane of its triangle ``ids`` (``triangle_planes``)."""
+    q = planes[ids]
+    return q[:, 0] * x + q[:, 1] * y + q[:, 2]
+
+
 def rasterise_depth(
     points: np.ndarray, triangles: np.ndarray, shape: tuple[int, int]
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -195,24 +230,14 @@ def rasterise_depth(
     """
     h, w = shape
     p = np.asarray(points, np.float64)
-    v = p[np.asarray(triangles, np.int64)]  # (T, 3, 3)
-    e1, e2 = v[:, 1, :2] - v[:, 0, :2], v[:, 2, :2] - v[:, 0, :2]
-    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-    keep = np.abs(det) > 1e-9  # a triangle seen edge-on covers nothing
-    v, e1, e2, det = v[keep], e1[keep], e2[keep], det[keep]
-    dz1, dz2 = v[:, 1, 2] - v[:, 0, 2], v[:, 2, 2] - v[:, 0, 2]
-    gx = (dz1 * e2[:, 1] - dz2 * e1[:, 1]) / det  # each triangle's plane: z = z0 + gx (x - x0) + gy (y - y0)
-    gy = (dz2 * e1[:, 0] - dz1 * e2[:, 0]) / det
-    ids = np.full((h, w), -1, np.int32)
-    shift = 4
-    corners = np.round(v[:, :, :2] * (1 << shift)).astype(np.int32)
-    for i in np.argsort(-v[:, :, 2].mean(axis=1)):  # far first: the nearest triangle is drawn last
-        cv2.fillConvexPoly(ids, corners[i], int(i), lineType=cv2.LINE_8, shift=shift)
+    tri = np.asarray(triangles, np.int64)
+    e1, e2 = p[tri[:, 1], :2] - p[tri[:, 0], :2], p[tri[:, 2], :2] - p[tri[:, 0], :2]
+    tri = tri[np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]) > 1e-9]  # a triangle seen edge-on covers nothing
+    ids = triangle_ids(p[:, :2], -p[:, 2], tri, (h, w))  # the nearest (least z) drawn last
     covered = ids >= 0
     yy, xx = np.nonzero(covered)
-    t = ids[covered]
     depth = np.full((h, w), np.inf, np.float32)
-    depth[covered] = v[t, 0, 2] + gx[t] * (xx - v[t, 0, 0]) + gy[t] * (yy - v[t, 0, 1])
+    depth[covered] = on_planes(triangle_planes(p[:, :2], p[:, 2], tri), ids[covered], xx, yy)
     holes = _holes(covered)
     if holes.any():  # the eyes' and the mouth's surface: the depth around them spread in
         sigma = max(HOLE_SPREAD * float(np.ptp(p[:, :2], axis=0).max()), 0.5)

@@ -28,6 +28,7 @@ import cv2
 import numpy as np
 
 from ..light import sh
+from ..person.face_mesh import on_planes, triangle_ids, triangle_planes
 
 MIN_SHARE = 0.15  # a light whose lamp is below this share of its degree-0 band casts no shadow (nothing computed)
 MAX_ANGLE = math.radians(60)  # a lamp wider than this (half-angle) casts no shadow here
@@ -71,41 +72,6 @@ def lamp(light: np.ndarray) -> tuple[np.ndarray, np.ndarray, float] | None:
     return direction, cap, math.acos(cos_a)
 
 
-def _raster_ids(xy: np.ndarray, depth: np.ndarray, triangles: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
-    """(h, w) int32: the index of the triangle seen at each pixel (-1: none), the one of greatest ``depth`` (mean
-    over its corners) drawn last. ``xy`` (N, 2) vertices in the image's pixels (centres at integers)."""
-    h, w = shape
-    ids = np.full((h, w), -1, np.int32)
-    order = np.argsort(depth[triangles].mean(axis=1))
-    shift = 4
-    corners = np.round(xy[triangles] * (1 << shift)).astype(np.int32)
-    for i in order:
-        cv2.fillConvexPoly(ids, corners[i], int(i), lineType=cv2.LINE_8, shift=shift)
-    return ids
-
-
-def _planes(xy: np.ndarray, values: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """(T, 3) per triangle the plane (a, b, c) with value = a x + b y + c through its corners' ``values`` (N,) at
-    ``xy`` (N, 2); a triangle seen edge-on (no area) takes its corners' mean."""
-    a, b, c = (xy[triangles[:, i]] for i in range(3))
-    va, vb, vc = (values[triangles[:, i]] for i in range(3))
-    e1, e2 = b - a, c - a
-    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-    ok = np.abs(det) > 1e-9
-    safe = np.where(ok, det, 1.0)
-    d1, d2 = vb - va, vc - va
-    ga = np.where(ok, (d1 * e2[:, 1] - d2 * e1[:, 1]) / safe, 0.0)
-    gb = np.where(ok, (d2 * e1[:, 0] - d1 * e2[:, 0]) / safe, 0.0)
-    gc = np.where(ok, va - ga * a[:, 0] - gb * a[:, 1], (va + vb + vc) / 3)
-    return np.stack([ga, gb, gc], axis=1)
-
-
-def _on_planes(planes: np.ndarray, ids: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """The value of each point (x, y) on the plane of its triangle ``ids`` (``_planes``)."""
-    q = planes[ids]
-    return q[:, 0] * x + q[:, 1] * y + q[:, 2]
-
-
 class MeshView:
     """A face mesh as the camera sees it in a window: the point of the mesh at each pixel it covers (made once per
     Decomposition; ``visibility`` tests it against each light's lamp).
@@ -125,7 +91,7 @@ class MeshView:
         self.shape = shape
         self.size = float(max(np.ptp(self.points[:, :2], axis=0).max(), 1.0))
         p, tri = self.points, self.triangles
-        cam = _raster_ids(p[:, :2], -p[:, 2], tri, shape)  # the nearest (least z) drawn last
+        cam = triangle_ids(p[:, :2], -p[:, 2], tri, shape)  # the nearest (least z) drawn last
         # a large face is tested at every other pixel: its shadow's border is blurred over MIN_SOFT of its size
         stride = 2 if self.size >= STRIDE_SIZE else 1
         sampled = np.zeros(shape, bool)
@@ -136,7 +102,7 @@ class MeshView:
         py, px = np.nonzero(self.cover > 0)
         self.ids = cam[py, px]
         self.x, self.y = px.astype(np.float64), py.astype(np.float64)
-        self.z = _on_planes(_planes(p[:, :2], p[:, 2], tri), self.ids, self.x, self.y)
+        self.z = on_planes(triangle_planes(p[:, :2], p[:, 2], tri), self.ids, self.x, self.y)
         v = p[tri]
         n = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
         n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
@@ -163,7 +129,7 @@ def _hidden(view: MeshView, toward: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     mh, mw = int(math.ceil(uv[:, 1].max())) + 3, int(math.ceil(uv[:, 0].max())) + 3
     height = p @ toward  # greater: nearer the lamp
     lit = np.flatnonzero(facing > 0)
-    lamp_ids = _raster_ids(uv, height, view.triangles[lit], (mh, mw))
+    lamp_ids = triangle_ids(uv, height, view.triangles[lit], (mh, mw))
     # each skin point's place in the lamp's map (nearest map pixel) and the mesh's height there
     x, y, z = view.x, view.y, view.z
     mx = np.clip(np.round(x * u[0] + y * u[1] + z * u[2] - lo[0]).astype(np.int64), 0, mw - 1)
@@ -172,7 +138,7 @@ def _hidden(view: MeshView, toward: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     top = np.full(x.size, -np.inf)
     hit = seen >= 0
     if hit.any():
-        top[hit] = _on_planes(_planes(uv, height, view.triangles[lit]), seen[hit], mx[hit].astype(np.float64),
+        top[hit] = on_planes(triangle_planes(uv, height, view.triangles[lit]), seen[hit], mx[hit].astype(np.float64),
                               my[hit].astype(np.float64))
     above = top - (x * toward[0] + y * toward[1] + z * toward[2])
     tangent = np.sqrt(np.maximum(1 - cos * cos, 0)) / np.maximum(cos, 0.2)
