@@ -329,7 +329,8 @@ class PersonMatter:
         segmentation holding several faces side by side is one person per face, :func:`split_by_faces`),
         drops duplicates, tries last where the selfie graph's probability stays faint (:func:`faint_places`: the pose
         graph must be sure there), and keeps people at least MIN_PERSON_FRACTION of the image's height tall.
-        The detectors' crops of one call share the photo's reductions (:func:`reductions_shared`). Last, a
+        The detectors' crops of one call share the photo's reductions (:func:`reductions_shared`), which keep the
+        selfie and face graphs' answers per region too (asked again, a region costs no run). Last, a
         selfie-graph person whose region cuts off the top of their head is given it (:meth:`_uncut`).
         """
         faces: list[Face] = []
