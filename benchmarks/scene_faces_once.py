@@ -1,16 +1,21 @@
-"""How often ``relight_rt.apps.scene_people.find_people`` runs the face graph on a background: once per blob whose
-segmentation checks for a close portrait (before scene12), or at most once per background (now); and whether the
-people found are the same (issue 49, scene12).
+"""How often ``relight_rt.apps.scene_people.find_people`` runs each person graph on a background, and who it finds
+(issue 49, scene12; issue 48's review: the face graph's answers are kept per window in the photo's reductions,
+``relight_rt.image.regions.Pyramid.answer``, inside the one ``reductions_shared`` block ``find_people`` opens, so each
+blob's portrait check reads the whole photo's faces from one run).
 
-    python benchmarks/scene_faces_once.py ../shared/realdata/people_masks/photos
+    python benchmarks/scene_faces_once.py ../shared/realdata/people_masks/photos [--save found.json]
+    python benchmarks/scene_faces_once.py ../shared/realdata/people_masks/photos --code /tmp/base --save base.json
 
-Counts the calls by wrapping the matter's face search (``relight_rt.person.matting._matter.find_faces``, private:
-this is a measurement of it) and runs each photo twice, with ``scene_people``'s once-per-background copy of the
-matter turned off and on. Prints the totals; the photos are for measuring only.
+Counts the runs of the shared matter's pose, selfie and face graphs (a wrapper around each graph's ``run``) over every
+photo of the folder used as a background, and with ``--save`` writes the people found (box, presence, full body) per
+photo as JSON: run it on this checkout and with ``--code`` on another's relight_rt (``git archive`` into /tmp), and
+compare the two files. The photos are for measuring only: nothing of them is written but the boxes.
 """
 
 from __future__ import annotations
 
+import argparse
+import json
 import sys
 from pathlib import Path
 
@@ -18,41 +23,41 @@ import cv2
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
-if str(REPO) not in sys.path:
-    sys.path.insert(0, str(REPO))
-
-import relight_rt.apps.scene_people as people  # noqa: E402
-import relight_rt.person.matting._matter as matter_module  # noqa: E402
-from relight_rt.person.matting import shared_matter  # noqa: E402
+GRAPHS = ("pose", "roi", "face")
 
 
 def main(argv=None) -> int:
-    folder = Path((argv or sys.argv[1:])[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("folder", type=Path, help="photos used as backgrounds (*_mask files are skipped)")
+    ap.add_argument("--code", type=Path, help="the folder whose relight_rt to measure (default: this checkout's)")
+    ap.add_argument("--save", type=Path, help="write the people found per photo here (JSON)")
+    args = ap.parse_args(argv)
+    sys.path.insert(0, str((args.code or REPO).resolve()))
+    # imported here, so that --code's relight_rt is the one loaded
+    import relight_rt.apps.scene_people as people
+    from relight_rt.person.matting import shared_matter
+
     matter = shared_matter(device="cpu")
-    calls = [0]
-    search = matter_module.find_faces
+    count = dict.fromkeys(GRAPHS, 0)
+    for name in GRAPHS:
+        run = getattr(matter, name).run
 
-    def counted(*args, **kwargs):
-        calls[0] += 1
-        return search(*args, **kwargs)
+        def counted(feeds, _run=run, _name=name):
+            count[_name] += 1
+            return _run(feeds)
 
-    matter_module.find_faces = counted
-    once = people._faces_once
-    paths = sorted(p for p in folder.iterdir() if p.suffix.lower() in (".jpg", ".png") and not p.stem.endswith("_mask"))
-    total, several, same = {"before": 0, "now": 0}, 0, 0
+        object.__setattr__(getattr(matter, name), "run", counted)
+    paths = sorted(p for p in args.folder.iterdir()
+                   if p.suffix.lower() in (".jpg", ".png") and not p.stem.endswith("_mask"))  # fmt: skip
+    found = {}
     for path in paths:
         rgb = np.ascontiguousarray(cv2.imread(str(path))[..., ::-1])
-        found = {}
-        for mode in ("before", "now"):
-            people._faces_once = (lambda m, r: m) if mode == "before" else once
-            calls[0] = 0
-            found[mode] = people.find_people(rgb, matter)
-            total[mode] += calls[0]
-            several += mode == "before" and calls[0] > 1
-        same += found["before"] == found["now"]
-    people._faces_once = once
-    print(f"{len(paths)} backgrounds: face-graph runs before {total['before']}, now {total['now']}; backgrounds with "
-          f"more than one before: {several}; people found identical on {same}")
+        found[path.name] = [[list(map(float, s.box)), s.presence, s.full_body] for s in people.find_people(rgb, matter)]
+    print(f"relight_rt from {Path(people.__file__).parents[2]}")
+    print(f"{len(paths)} backgrounds, {sum(bool(f) for f in found.values())} with people: graph runs pose "
+          f"{count['pose']}, selfie {count['roi']}, face {count['face']}")  # fmt: skip
+    if args.save is not None:
+        args.save.write_text(json.dumps(found, indent=0))
     return 0
 
 

@@ -36,7 +36,6 @@ not moved.
 
 from __future__ import annotations
 
-import copy
 import logging
 import math
 from dataclasses import dataclass, replace
@@ -107,6 +106,7 @@ class Someone:
 def find_people(photo, matter) -> list[Someone]:
     """The people ``matter`` (a relight_rt.person.matting.PersonMatter) finds in ``photo`` ((H, W, 3) RGB, uint8 or
     float in [0, 1]), largest first (module docstring)."""
+    from ..image.regions import reductions_shared
     from ..person.face_detector import box_iou
     from ..person.matting import Region, as_rgb, person_box
 
@@ -120,43 +120,23 @@ def find_people(photo, matter) -> list[Someone]:
     if min(h, w) < 16:
         return []
     rgb = as_rgb(img, "background", copy=False)  # the matters' one intake
-    matter = _faces_once(matter, rgb)
     found: list[Someone] = []
-    for _, blob in matter.find_people(rgb)[:MAX_PEOPLE]:
-        p = matter.segment(rgb, Region.around(*blob), PRESENCE, passes=SEGMENT_PASSES)
-        box = None if p.presence < PRESENCE else person_box(p, (h, w))
-        if box is None or box[2] <= box[0] or box[3] <= box[1]:
-            continue
-        frac = (box[0] / w, box[1] / h, box[2] / w, box[3] / h)
-        if any(box_iou(frac, other.box) > 0.5 for other in found):
-            continue  # two blobs of one person
-        inside = frac[0] > EDGE and frac[1] > EDGE and frac[2] < 1 - EDGE and frac[3] < 1 - EDGE
-        tall = box[3] - box[1]
-        full = inside and tall >= UPRIGHT * (box[2] - box[0]) and tall >= MIN_HEIGHT * h
-        found.append(Someone(frac, float(p.presence), bool(full)))
+    # one block for the search and every blob's segmentation: the graphs' answers on this photo are kept in its
+    # reductions (relight_rt.image.regions), so the face graph runs once on it, however many blobs check for a portrait
+    with reductions_shared(rgb):
+        for _, blob in matter.find_people(rgb)[:MAX_PEOPLE]:
+            p = matter.segment(rgb, Region.around(*blob), PRESENCE, passes=SEGMENT_PASSES)
+            box = None if p.presence < PRESENCE else person_box(p, (h, w))
+            if box is None or box[2] <= box[0] or box[3] <= box[1]:
+                continue
+            frac = (box[0] / w, box[1] / h, box[2] / w, box[3] / h)
+            if any(box_iou(frac, other.box) > 0.5 for other in found):
+                continue  # two blobs of one person
+            inside = frac[0] > EDGE and frac[1] > EDGE and frac[2] < 1 - EDGE and frac[3] < 1 - EDGE
+            tall = box[3] - box[1]
+            full = inside and tall >= UPRIGHT * (box[2] - box[0]) and tall >= MIN_HEIGHT * h
+            found.append(Someone(frac, float(p.presence), bool(full)))
     return found
-
-
-def _faces_once(matter, rgb: np.ndarray):
-    """``matter`` whose face graph runs at most once on ``rgb``: each blob's ``segment`` checks for a close portrait
-    with the faces of the whole photo (``PersonMatter.find_faces``), the same answer for every blob. A shallow copy
-    (the graphs shared) whose ``find_faces`` keeps its first answer on ``rgb``; ``matter`` itself unchanged (it may
-    be the process's shared one) and returned as it is when it has no face graph call."""
-    if not callable(getattr(matter, "find_faces", None)):
-        return matter
-    ask = matter.find_faces
-    kept: dict[bool, list] = {}
-
-    def find_faces(image, *, every: bool = False):
-        if image is not rgb:
-            return ask(image, every=every)
-        if every not in kept:
-            kept[every] = ask(image, every=every)
-        return list(kept[every])
-
-    once = copy.copy(matter)
-    once.find_faces = find_faces
-    return once
 
 
 def people_finder(relighter):

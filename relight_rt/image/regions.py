@@ -8,9 +8,10 @@ meshes (relight_rt.person.face_mesh) crop with it.
 from __future__ import annotations
 
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
+from typing import TypeVar
 
 import cv2
 import numpy as np
@@ -21,6 +22,7 @@ _KEEP_CROPS = 4  # crops a Pyramid keeps (the 66 tiles of person="all" would hol
 
 
 Crop = tuple[tuple[int, int, int, int], np.ndarray]  # ((y0, y1, x0, x1), an array's values inside that box)
+T = TypeVar("T")
 
 
 @dataclass(frozen=True)
@@ -93,7 +95,21 @@ class Pyramid:
         self.memo = False  # keep the reductions and each crop (read-only) for the next request
         self._levels: dict[int, np.ndarray] = {}
         self._crops: dict[tuple[Region, int], np.ndarray] = {}
-        self.answers: dict[tuple[int, Region], np.ndarray] = {}  # a graph's answer per (graph, region), when memo
+        self._answers: dict[int, dict[Region, object]] = {}  # per graph (its id), its answer per region, when memo
+
+    def answer(self, graph: object, region: Region, ask: Callable[[], T], keep: int) -> T:
+        """``ask()``: ``graph``'s answer on ``region`` of this image. With memo (:func:`reductions_shared`) it is
+        asked once and kept, the last ``keep`` regions per graph (the selfie graph's probability, the face graph's
+        boxes: the people search, the portrait check and the pose-graph person's backing ask for the same region);
+        the answer is then shared, so the caller hands out a read-only one. Without memo, asked every time."""
+        if not self.memo:
+            return ask()
+        kept = self._answers.setdefault(id(graph), {})
+        if region not in kept:
+            kept[region] = ask()
+            while len(kept) > keep:
+                del kept[next(iter(kept))]
+        return kept[region]  # type: ignore[return-value]
 
     def level(self, n: int) -> np.ndarray:
         """The whole image reduced by n (a power of 2), from the reduction by n / 2."""
@@ -193,9 +209,11 @@ def pyramid_of(rgb: np.ndarray) -> Pyramid:
 @contextmanager
 def reductions_shared(rgb: np.ndarray) -> Iterator[Pyramid]:
     """Within the block, every :func:`crop_region` of this array (in this thread) reduces it from one
-    :class:`Pyramid` and the same region and size is cropped once. The matters open it around one call:
-    they only read the photo then, so the reductions stay true to it (a caller may change the array
-    between calls)."""
+    :class:`Pyramid`, the same region and size is cropped once, and a graph asked for the same region again
+    answers from the first time (:meth:`Pyramid.answer`). The matters open it around one call, and a caller
+    around several on one photo (relight_rt.apps.scene_people: the people search, then each blob's
+    segmentation): they only read the photo then, so the reductions and answers stay true to it (a caller
+    may change the array between blocks)."""
     prev = getattr(_SCOPE, "pyramid", None)
     pyr = prev if prev is not None and prev.rgb is rgb else Pyramid(rgb)
     pyr.memo = True

@@ -50,7 +50,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..engine.errors import RelightError
-from ..image.color import REC709
+from ..image.color import REC709, channel_max
 from . import sh
 
 __all__ = ["DISPLAY_GAMMA", "HIGHLIGHT_LIMIT", "HIGHLIGHT_MAX_DOWN", "HIGHLIGHT_SHARE", "KNEE_RANGE", "METER_POWER",
@@ -295,7 +295,7 @@ def own_light_knee(lit, steady, transport, white) -> np.ndarray:
     network's image (``detail=False``) and the studio page's copy of ``shoulder_gain`` rebuild it this way."""
     lit, steady, t = _pixels(lit, steady, transport)
     own = np.maximum(t @ np.asarray(white, np.float32).reshape(9), 0)
-    return np.clip(_peak(lit * own[:, None] + steady), *KNEE_RANGE).astype(np.float32)
+    return np.clip(channel_max(lit * own[:, None] + steady), *KNEE_RANGE).astype(np.float32)
 
 
 def shoulder_gain(lit, steady, transport, light, knee, power: float = METER_POWER) -> float:
@@ -336,7 +336,7 @@ def shoulder_gain(lit, steady, transport, light, knee, power: float = METER_POWE
     def seen(k: float, shouldered: bool = True) -> float:
         y = np.maximum(k * y_scaled + y_fixed, 0)
         if shouldered:
-            peak = _peak(k * scaled + fixed)
+            peak = channel_max(k * scaled + fixed)
             over = peak > knee
             if over.any():
                 y[over] *= rolled_off(peak[over], knee[over]) / peak[over]
@@ -363,11 +363,6 @@ def shoulder_gain(lit, steady, transport, light, knee, power: float = METER_POWE
 def _log_ratio(now: float, target: float) -> float:
     """log(now / target), -inf for nothing seen."""
     return math.log(now / target) if now > 0 and target > 0 else -math.inf if target > 0 else 0.0
-
-
-def _peak(rgb: np.ndarray) -> np.ndarray:
-    """(N,) the brightest channel of (N, 3) colours."""
-    return np.maximum(np.maximum(rgb[:, 0], rgb[:, 1]), rgb[:, 2])
 
 
 def guarded(lights, exposure, highlight: Highlight) -> np.ndarray:

@@ -13,7 +13,7 @@ import threading
 import cv2
 import numpy as np
 
-from ..image.color import REC709
+from ..image.color import REC709, channel_max
 from ..light import sh
 from ..light.exposure import KNEE_RANGE, rolled_off
 
@@ -114,11 +114,6 @@ def skin_chroma(photo: np.ndarray, skin: np.ndarray) -> tuple[np.ndarray, np.nda
     cr, cb = ycc[..., 1], ycc[..., 2]
     ramp = lambda v, lo, hi: np.clip(np.minimum(v - lo, hi - v) / 8 + 0.5, 0, 1)  # noqa: E731
     return chroma, (weight * ramp(cr, 135, 180) * ramp(cb, 85, 135)).astype(np.float32)
-
-
-def channel_max(rgb: np.ndarray) -> np.ndarray:
-    """(H, W) the brightest of the three channels (two elementwise maxima: ~10x faster than max(axis=2))."""
-    return np.maximum(np.maximum(rgb[..., 0], rgb[..., 1]), rgb[..., 2])
 
 
 def knee(photo: np.ndarray) -> np.ndarray:

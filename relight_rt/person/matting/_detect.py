@@ -18,6 +18,7 @@ MIN_TILE = SIZE  # tiles are searched as long as they stay at least 256 px (a sm
 CLOSE_ZOOM = 2.0  # find_close_faces: the window is this x the image's longer side
 CLOSE_FACE = 0.5  # ... and keeps faces at least this x the image's shorter side wide
 _KEEP_ANSWERS = 8  # selfie-graph answers kept per call (roi_prob)
+_KEEP_FACES = 16  # face-graph answers kept per call (_face_boxes): the whole photo and every tile of every=True
 _FACE_TILE_MIN = 2 * FACE_SIZE  # face search in tiles (every=True) while the tiles stay this large
 FAINT_PROB = 0.25  # person="all": the selfie graph's probability that marks where such a person may stand
 _PAIR_WIDTH = 0.45  # person="all": a blob nobody is found in, this x as wide as tall or wider, may be two
@@ -28,19 +29,15 @@ Box = tuple[float, float, float, float]
 def roi_prob(roi: Model, rgb: np.ndarray, region: Region) -> np.ndarray:
     """The selfie graph's (256, 256) person probability over ``region`` (read-only). Inside
     :func:`reductions_shared` a region's answer is kept for the call (the portrait check and the pose-graph
-    person's backing, :meth:`PersonMatter._backed`, ask for the same region)."""
-    pyr = pyramid_of(rgb)
-    key = (id(roi), region)
-    if pyr.memo and key in pyr.answers:
-        return pyr.answers[key]
-    canvas = crop_region(rgb, region)
-    prob = roi.run({"image": canvas.transpose(2, 0, 1)[None]})["segmentation"][0, 0]
-    if pyr.memo:
+    person's backing, :meth:`PersonMatter._backed`, ask for the same region): :meth:`Pyramid.answer`."""
+
+    def ask() -> np.ndarray:
+        prob = roi.run({"image": crop_region(rgb, region).transpose(2, 0, 1)[None]})["segmentation"][0, 0]
         prob.flags.writeable = False
-        pyr.answers[key] = prob
-        while len(pyr.answers) > _KEEP_ANSWERS:  # the last few (person="all" runs it on ~70 tiles once each)
-            del pyr.answers[next(iter(pyr.answers))]
-    return prob
+        return prob
+
+    # the last few (person="all" runs it on ~70 tiles once each)
+    return pyramid_of(rgb).answer(roi, region, ask, _KEEP_ANSWERS)
 
 
 class Around(NamedTuple):
@@ -123,21 +120,36 @@ def find_close_faces(face: Model | None, rgb: np.ndarray) -> list[Face]:
 
 
 def _faces_in(face: Model, rgb: np.ndarray, windows: list[Region], min_width: float = 0.0) -> list[Face]:
-    """The face graph on each window, its boxes in image pixels merged (weighted NMS) and clipped to the image;
+    """The face graph on each window (:func:`_face_boxes`), its boxes merged (weighted NMS) and clipped to the image;
     boxes narrower than ``min_width`` (or empty) are left out."""
     h, w = rgb.shape[:2]
-    found = []
-    for win in windows:
-        out = face.run({"image": crop_region(rgb, win, FACE_SIZE).transpose(2, 0, 1)[None]})
-        x0, y0, _, _ = win.box()
-        for box, score in decode(out["boxes"][0], out["scores"][0]):
-            found.append((np.array([x0, y0, x0, y0]) + box * win.side, score))
+    found = [answer for win in windows for answer in _face_boxes(face, rgb, win)]
     faces = []
     for box, score in weighted_nms(found):
         b = (max(box[0], 0.0), max(box[1], 0.0), min(box[2], float(w)), min(box[3], float(h)))
         if b[2] > b[0] and b[2] - b[0] >= min_width and b[3] > b[1]:
             faces.append(Face(b, score))
     return faces
+
+
+def _face_boxes(face: Model, rgb: np.ndarray, win: Region) -> tuple[tuple[np.ndarray, float], ...]:
+    """The face graph's boxes on one window, before merging: ((x0, y0, x1, y1) in image pixels, read-only; score).
+    Inside :func:`reductions_shared` a window's answer is kept (:meth:`Pyramid.answer`), as the selfie graph's is
+    (:func:`roi_prob`): the portrait check of each region segmented (:meth:`PersonMatter.segment`), the faces for
+    the people beside the largest (:meth:`PersonMatter.people`) and the tiles' search (``every``) look at the whole
+    photo again, and relight_rt.apps.scene_people segments each blob of a background in one such block."""
+
+    def ask() -> tuple[tuple[np.ndarray, float], ...]:
+        out = face.run({"image": crop_region(rgb, win, FACE_SIZE).transpose(2, 0, 1)[None]})
+        x0, y0, _, _ = win.box()
+        found = []
+        for box, score in decode(out["boxes"][0], out["scores"][0]):
+            box = np.array([x0, y0, x0, y0]) + box * win.side
+            box.flags.writeable = False
+            found.append((box, score))
+        return tuple(found)
+
+    return pyramid_of(rgb).answer(face, win, ask, _KEEP_FACES)
 
 
 def merge_boxes(found: list[tuple[float, Box]]) -> list[tuple[float, Box]]:

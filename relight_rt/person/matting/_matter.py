@@ -45,10 +45,8 @@ from ._layout import (
     box_beside,
     box_height,
     box_past_border,
-    continued,
     face_share,
     grow_where_cut,
-    held,
     is_portrait,
     joined_part,
     mostly_in,
@@ -77,6 +75,7 @@ from ._segmentation import (
     warp_to_grid,
     working_grid,
 )
+from ._selfie import reframed, roi_person, seen_on, uncut, widened
 from ._shadow import selfie_sure, without_cast_shadow
 from ._turned import turned_people
 
@@ -97,8 +96,6 @@ _MAX_FAINT = 16  # ... and faint places (:func:`faint_places`) tried at most aft
 _FAINT_FRAME = 2.0  # ... each framed at least this x the smallest person kept (a faint blob is often part of one)
 _GIVE_UP = 0.02  # person="all": a blob whose first pose-graph pass says this little is nobody (no re-centring)
 _SETTLED_IOU = 0.9  # the region has settled when the next one overlaps it this much
-_REFRAME = 0.9  # the selfie graph is run again on its own segmentation's region when that is this much smaller
-_MAX_GROW = 2  # selfie-graph runs on a higher region while its segmentation is cut by the region's top (_uncut)
 _PORTRAIT_REACH = 0.3  # a pose-graph person ending this close to the bottom (x the height) may be a portrait
 _PORTRAIT_FACE = 0.3  # ... and holding a face this x its width wide
 _TRACE = 0.1  # person="largest", nobody else found: the pose graph's presence over a blob the whole photo vouches for
@@ -170,79 +167,6 @@ class PersonMatter:
     def _roi_prob(self, rgb: np.ndarray, region: Region) -> np.ndarray:
         return roi_prob(self.roi, rgb, region)
 
-    def _seen(self, rgb: np.ndarray, region: Region) -> np.ndarray:
-        """The selfie graph's answer on the whole photo (asked by the region finder already) on ``region``'s canvas."""
-        h, w = rgb.shape[:2]
-        return prob_at(self._roi_person(rgb, Region(w / 2, h / 2, float(max(h, w))), 0.0), *canvas_points(region))
-
-    def _roi_person(self, rgb: np.ndarray, region: Region, presence: float) -> Person:
-        """The selfie graph's segmentation of ``region`` as a Person (its probability kept as logits)."""
-        return Person(region, as_logits(self._roi_prob(rgb, region)), presence, "roi")
-
-    def _reframed(self, rgb: np.ndarray, roi: Person) -> Person:
-        """The selfie graph's segmentation again on a region framed on its first answer (ROI_SCALE x its box),
-        when that region is smaller: the regions it is first run on are framed for a whole body (the pose
-        graph's) or guessed from a face, and in them a portrait's head spans half the canvas or less. Grace
-        Hopper's white cap before the white flag stripes: alpha over the crown 0.59 -> 0.96."""
-        box = person_box(roi, rgb.shape[:2])
-        if box is None:
-            return roi
-        tight = Region.around(*box)
-        if tight.side >= _REFRAME * roi.region.side:
-            return roi
-        return self._roi_person(rgb, tight, roi.presence)
-
-    def _uncut(self, rgb: np.ndarray, roi: Person) -> tuple[Person, Person | None]:
-        """The selfie graph's segmentation again on a region reaching higher while it runs into its region's top
-        inside the image (:func:`grow_where_cut`, upwards only), and the segmentation it started from (None:
-        not run again). The region is the pose graph's (or a face's guess), and on a close portrait the pose
-        graph misses the top of the head, so its region, centred on what it saw, can start below the crown;
-        alpha outside the region is 0, so the head was cut off flat (DPR's portrait: at row 188 of 909, the
-        forehead and hair missing). The higher region's answer is kept to the first one's columns
-        (:func:`held`): the selfie graph segments everyone in its region, and a larger region takes in more
-        of the people beside. Not sideways, for the same reason."""
-        first = None
-        for _ in range(_MAX_GROW):
-            box = person_box(roi, rgb.shape[:2])
-            if box is None:
-                break
-            top = grow_where_cut(box, roi.region, rgb.shape[:2])[1]
-            if top >= box[1]:
-                break
-            first = roi if first is None else first
-            raised = self._roi_person(rgb, Region.around(box[0], top, box[2], box[3]), roi.presence)
-            roi = held(raised, first, rgb.shape[:2])
-        return roi, first
-
-    def _widened(self, rgb: np.ndarray, roi: Person) -> Person:
-        """The selfie graph's segmentation carried on past its region's left or right side where it runs into it
-        inside the image: whole or not at all. Cut there, the matte ended in a straight line through whoever stood
-        beside (an old man's friend in profile halved down his coat; a man holding hands with the woman found, whom
-        :meth:`_uncut` then kept to her columns). The graph is run again on a region reaching past every cut side
-        (:func:`grow_where_cut`, at most _MAX_GROW runs), and of its answer only what goes on from the cut and is
-        sure is added (:func:`continued`): framed larger, the graph answers worse elsewhere.
-
-        Measured (benchmarks/people_masks_eval.py, photos; the selfie graph's mean over the added part >= SURE_PART
-        chosen on half A): half A +0.005 (two photos +0.21, +0.31), half B +0.001 (two photos +0.04, +0.06), no photo
-        worse; the whole new answer instead: A +0.003, B -0.006 (a bright-sky portrait's face half lost, -0.56);
-        the continuation without the sureness test: A +0.0035 (a red wall's glow and a blurred shoulder behind, -0.09
-        each)."""
-        shape = rgb.shape[:2]
-        for _ in range(_MAX_GROW):
-            box = person_box(roi, shape)
-            if box is None:
-                break
-            grown = grow_where_cut(box, roi.region, shape)
-            if grown[0] >= box[0] and grown[2] <= box[2]:
-                break
-            wide = self._roi_person(rgb, Region.around(*grown), roi.presence)
-            cut = (grown[0] < box[0], grown[1] < box[1], grown[2] > box[2], grown[3] > box[3])
-            more = continued(wide, roi, cut)
-            if more is roi:
-                break
-            roi = more
-        return roi
-
     def find_people(self, rgb: np.ndarray) -> list[tuple[float, tuple[float, float, float, float]]]:
         """Where people are, from the image alone (relight_rt.person.matting._detect.find_people): [(area in image
         pixels, (x0, y0, x1, y1))], largest first; empty when nobody is found."""
@@ -290,8 +214,8 @@ class PersonMatter:
         region = self._portrait_region(rgb, person)
         if region is None:
             return person
-        roi = self._roi_person(rgb, region, person.presence)
-        return self._reframed(rgb, roi) if is_portrait(roi, rgb.shape[:2]) else person
+        roi = roi_person(self.roi, rgb, region, person.presence)
+        return reframed(self.roi, rgb, roi) if is_portrait(roi, rgb.shape[:2]) else person
 
     def _portrait_region(self, rgb: np.ndarray, person: Person) -> Region | None:
         """Where the selfie graph checks for a portrait (:func:`is_portrait`): the pose graph's region when it
@@ -329,8 +253,9 @@ class PersonMatter:
         segmentation holding several faces side by side is one person per face, :func:`split_by_faces`),
         drops duplicates, tries last where the selfie graph's probability stays faint (:func:`faint_places`: the pose
         graph must be sure there), and keeps people at least MIN_PERSON_FRACTION of the image's height tall.
-        The detectors' crops of one call share the photo's reductions (:func:`reductions_shared`). Last, a
-        selfie-graph person whose region cuts off the top of their head is given it (:meth:`_uncut`).
+        The detectors' crops of one call share the photo's reductions (:func:`reductions_shared`), which keep the
+        selfie and face graphs' answers per region too (asked again, a region costs no run). Last, a
+        selfie-graph person whose region cuts off the top of their head is given it (:func:`uncut`).
         """
         faces: list[Face] = []
         with reductions_shared(rgb):  # the detectors' crops share one set of reduced copies of the photo
@@ -343,7 +268,7 @@ class PersonMatter:
                     found += self._peers(rgb, found[0], blobs, faces)
             # who is found is settled: the heads their regions cut are added now (the selfie graph segments
             # everyone in a region, so a higher region found earlier would take in the people beside)
-            found = [self._uncut(rgb, self._widened(rgb, p))[0] if p.source == "roi" and p.whole is None else p
+            found = [uncut(self.roi, rgb, widened(self.roi, rgb, p))[0] if p.source == "roi" and p.whole is None else p
                      for p in found]  # fmt: skip
             found = [self._backed(rgb, p) if p.source == "pose" else p for p in found]
             if self.person != "all" and found:
@@ -351,7 +276,7 @@ class PersonMatter:
                 start = around_people(self.roi, rgb, found)  # the own colours' region, the turned views' too unless
                 own = self._own_colours(rgb, found, start)  # ... a part is added (it widens the region: its own run)
                 found += own + turned_people(self.roi, rgb, found + own, None if own else start)  # _turned
-                found = [blended(p, self._seen(rgb, p.region)) if p.source == "roi" else p for p in found]
+                found = [blended(p, seen_on(self.roi, rgb, p.region)) if p.source == "roi" else p for p in found]
                 self._note_others(found, faces, name)
             return found
 
@@ -460,7 +385,7 @@ class PersonMatter:
         # behind: the pose graph's presence 0.003-0.27 there, and no face found; the selfie graph alone 0.69-0.84
         # IoU where the matte was empty)
         for _, box in found[:1]:
-            roi = self._reframed(rgb, self._roi_person(rgb, Region.around(*box), 0.0))
+            roi = reframed(self.roi, rgb, roi_person(self.roi, rgb, Region.around(*box), 0.0))
             mine = roi.logits > 0
             if mine.sum() >= COARSE_MIN_AREA and float(sigmoid(roi.logits[mine]).mean()) >= _SURE_BLOB:
                 return [roi], found
@@ -468,7 +393,7 @@ class PersonMatter:
             # sees the same shape (:func:`seen_whole`; a man in dark clothes in a dim arcade, the selfie graph on his
             # region seeing nothing of him)
             p = self.segment(rgb, Region.around(*box), past_border=True)
-            if p.presence >= _TRACE and seen_whole(p.logits > 0, self._seen(rgb, p.region) > 0.5):
+            if p.presence >= _TRACE and seen_whole(p.logits > 0, seen_on(self.roi, rgb, p.region) > 0.5):
                 return [p], found
         return [], found
 
@@ -646,7 +571,7 @@ class PersonMatter:
         # a face, but the pose graph sees no body here (a close portrait) or another person: the selfie graph
         # segments the face's region instead (made for head-and-shoulders framing)
         region = Region.around(*face.body_box(rgb.shape[:2]))
-        roi = self._reframed(rgb, self._roi_person(rgb, region, max(p.presence, face.score)))
+        roi = reframed(self.roi, rgb, roi_person(self.roi, rgb, region, max(p.presence, face.score)))
         return roi if contains(roi, face, rgb.shape[:2]) else None
 
     def vouched(self, rgb: np.ndarray, person: Person) -> bool:

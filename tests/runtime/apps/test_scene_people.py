@@ -18,7 +18,8 @@ from relight_rt.apps.scene_people import (
     place_among_people,
 )
 from relight_rt.apps.scene_place import CAMERA_M, PERSON_M, place
-from relight_rt.person.matting import Region
+from relight_rt.person.face_detector import FACE_SIZE, GRID
+from relight_rt.person.matting import PersonMatter, Region
 
 __all__ = ["diffuse_models_dir"]  # fixtures
 
@@ -109,16 +110,27 @@ def test_find_people_keeps_upright_whole_people_as_full_bodies():
     assert find_people(photo, FakeMatter(boxes, presence=0.1)) == []  # the pose graph sees nobody
 
 
+class NoFaceGraph:
+    """A stand-in for the face graph that finds no face and counts its runs."""
+
+    def __init__(self):
+        self.runs = 0
+
+    def run(self, feeds):
+        self.runs += 1
+        assert feeds["image"].shape == (1, 3, FACE_SIZE, FACE_SIZE)
+        return {"boxes": np.zeros((1, 16, GRID, GRID), np.float32), "scores": np.full((1, 1, GRID, GRID), -50.0)}
+
+
 class FacedMatter(FakeMatter):
-    """FakeMatter whose segment asks for the whole photo's faces, as PersonMatter.segment's portrait check does."""
+    """FakeMatter whose segment asks for the whole photo's faces, as PersonMatter.segment's portrait check does
+    (PersonMatter.find_faces itself, on a face graph that counts its runs)."""
+
+    find_faces = PersonMatter.find_faces
 
     def __init__(self, boxes):
         super().__init__(boxes)
-        self.face_runs = 0
-
-    def find_faces(self, rgb, *, every=False):
-        self.face_runs += 1
-        return []
+        self.face = NoFaceGraph()
 
     def segment(self, rgb, region, give_up=0.0, passes=None):
         self.find_faces(rgb)
@@ -130,11 +142,10 @@ def test_the_face_graph_runs_once_per_background_not_once_per_blob():
     boxes = [(100, 60, 140, 220), (300, 100, 360, 299.5), (10, 200, 120, 260)]
     matter = FacedMatter(boxes)
     found = find_people(photo, matter)
-    assert matter.face_runs == 1  # three blobs, one photo: once
+    assert matter.face.runs == 1  # three blobs, each checking for a portrait, one photo: one run (its answer kept)
     assert found == find_people(photo, FakeMatter(boxes))  # the same people
-    assert "find_faces" not in vars(matter)  # the matter handed in (maybe the shared one) is left as it was
     find_people(photo, matter)
-    assert matter.face_runs == 2  # a new call, a new photo: asked again
+    assert matter.face.runs == 2  # a new call, a new photo: asked again
 
 
 def test_find_people_looks_on_a_small_copy():

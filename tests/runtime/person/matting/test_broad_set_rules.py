@@ -11,7 +11,7 @@ from test_people_found import _Bright, head_and_shoulders
 from relight_rt import RelightError
 from relight_rt.person import matting as M
 from relight_rt.person.face_detector import Face
-from relight_rt.person.matting import _colours, _layout, _matter, _segmentation
+from relight_rt.person.matting import _colours, _layout, _matter, _segmentation, _selfie
 
 
 class _Unsure:
@@ -337,25 +337,26 @@ def test_a_second_person_the_matte_holds_in_part_is_completed(held, faces, whole
 
 
 def test_a_selfie_graph_person_cut_by_its_regions_side_is_taken_whole():
-    """_widened: where the selfie graph's segmentation runs into its region's left or right side inside the photo,
-    it is run again on a region reaching past that side, so whoever stands there comes whole, not cut down the
-    middle (an old man's friend in profile halved: people_masks p277-like 0.66 -> 0.96); a segmentation clear of its
-    region's sides is kept as it is."""
+    """_selfie.widened: where the selfie graph's segmentation runs into its region's left or right side inside the
+    photo, it is run again on a region reaching past that side, so whoever stands there comes whole, not cut down
+    the middle (an old man's friend in profile halved: people_masks p277-like 0.66 -> 0.96); a segmentation clear of
+    its region's sides is kept as it is."""
     rgb, left, right = two_bodies(-20.0)
     both = left | right
     matter = M.PersonMatter(refine=False)
     matter.roi, matter.face = _Bright(), None
-    cut = matter._roi_person(rgb, M.Region(125.0, 150.0, 250.0), 0.9)  # reaches x 0..250, the bodies 70..290
+    # reaches x 0..250, the bodies 70..290
+    cut = _selfie.roi_person(matter.roi, rgb, M.Region(125.0, 150.0, 250.0), 0.9)
     box = M.person_box(cut, rgb.shape[:2])
     assert box[2] == pytest.approx(250.0, abs=3.0)  # cut by the region's right side
-    whole = matter._widened(rgb, cut)
+    whole = _selfie.widened(matter.roi, rgb, cut)
     assert M.person_box(whole, rgb.shape[:2])[2] == pytest.approx(290.0, abs=3.0)
     assert iou(matter.alpha(rgb, [whole]), both) > 0.95
-    clear = matter._roi_person(rgb, M.Region(190.0, 150.0, 400.0), 0.9)
-    assert matter._widened(rgb, clear) is clear
+    clear = _selfie.roi_person(matter.roi, rgb, M.Region(190.0, 150.0, 400.0), 0.9)
+    assert _selfie.widened(matter.roi, rgb, clear) is clear
     rgb[right & (rgb[..., 0] > 0) & ~left] = 0.7  # the graph unsure (0.7) of what lies past the cut: not taken
-    dim = matter._roi_person(rgb, M.Region(125.0, 150.0, 250.0), 0.9)
-    assert matter._widened(rgb, dim) is dim
+    dim = _selfie.roi_person(matter.roi, rgb, M.Region(125.0, 150.0, 250.0), 0.9)
+    assert _selfie.widened(matter.roi, rgb, dim) is dim
 
 
 def test_a_continuation_takes_from_the_wider_answer_only_what_goes_on_from_the_cut():

@@ -3,6 +3,7 @@ conversion (export/mask_models.py)."""
 
 from __future__ import annotations
 
+import copy
 from pathlib import Path
 
 import cv2
@@ -190,6 +191,40 @@ def test_reductions_shared_keeps_nothing_after_the_block():
         assert M.crop_region(img, region).max() == 0.0
     img[:] = 1.0  # a caller may reuse its buffer for the next frame
     assert M.crop_region(img, region)[100:150, 100:150].min() > 0.99
+
+
+class CountedGraph:
+    """A graph whose runs are counted (it answers as the graph it wraps)."""
+
+    def __init__(self, model):
+        self.model, self.runs = model, 0
+
+    def run(self, feeds):
+        self.runs += 1
+        return self.model.run(feeds)
+
+
+def test_the_face_graph_answers_once_per_window_inside_reductions_shared(matter):
+    head = cv2.resize(head_crop(read_image(EXAMPLE))[0], None, fx=2.0, fy=2.0)
+    photo = np.full((600, 800, 3), 0.4, np.float32)
+    photo[: head.shape[0], 100 : 100 + head.shape[1]] = head  # a face seen whole
+    counted = copy.copy(matter)  # (the module's matter is left as it is)
+    counted.face = CountedGraph(matter.face)
+    alone = counted.find_faces(photo)
+    assert alone and counted.find_faces(photo) == alone and counted.face.runs == 2  # outside: asked every time
+    every = counted.find_faces(photo, every=True)
+    windows = counted.face.runs - 2  # the whole photo and its tiles
+    assert windows > 2
+    counted.face.runs = 0
+    with _square.reductions_shared(photo):
+        assert counted.find_faces(photo) == alone and counted.find_faces(photo) == alone  # the same answer ...
+        assert counted.face.runs == 1  # ... from one run
+        assert counted.find_faces(photo, every=True) == every  # the whole photo's window is among the tiles'
+        assert counted.face.runs == windows
+        counted.find_faces(photo, every=True)
+        assert counted.face.runs == windows
+    counted.find_faces(photo)
+    assert counted.face.runs == windows + 1  # nothing kept after the block
 
 
 def test_blocks_average_and_treat_the_image_as_zero_past_its_edge():

@@ -13,7 +13,7 @@ from relight_rt.image.io import read_image
 from relight_rt.image.regions import grid_of_region
 from relight_rt.person import matting as M
 from relight_rt.person.face_detector import Face
-from relight_rt.person.matting import _detect, _layout
+from relight_rt.person.matting import _detect, _layout, _selfie
 from relight_rt.person.matting import _parts as parts_module
 
 
@@ -150,11 +150,11 @@ def test_selfie_graph_is_run_again_framed_on_its_answer():
     rgb = np.repeat(disk[..., None], 3, 2)
     matter = M.PersonMatter(refine=False)
     matter.roi = _Bright()
-    wide = matter._roi_person(rgb, M.Region(200.0, 200.0, 1600.0), 0.9)
-    framed = matter._reframed(rgb, wide)
+    wide = _selfie.roi_person(matter.roi, rgb, M.Region(200.0, 200.0, 1600.0), 0.9)
+    framed = _selfie.reframed(matter.roi, rgb, wide)
     assert framed.region.side < 0.2 * wide.region.side and framed.source == "roi"
     assert iou(matter.alpha(rgb, [framed]), disk) > iou(matter.alpha(rgb, [wide]), disk) + 0.02
-    assert matter._reframed(rgb, framed).region == framed.region  # framed already: kept
+    assert _selfie.reframed(matter.roi, rgb, framed).region == framed.region  # framed already: kept
 
 
 def head_and_shoulders(h: int = 360, w: int = 300) -> np.ndarray:
@@ -173,17 +173,18 @@ def test_portrait_region_that_starts_below_the_crown_is_raised():
     rgb = np.repeat(person[..., None], 3, 2)
     matter = M.PersonMatter(refine=False)
     matter.roi = _Bright()
-    low = matter._roi_person(rgb, M.Region(150.0, 230.0, 300.0), 0.9)  # rows 80-380: below the crown (row 10)
+    # rows 80-380: below the crown (row 10)
+    low = _selfie.roi_person(matter.roi, rgb, M.Region(150.0, 230.0, 300.0), 0.9)
     assert M.person_box(low, rgb.shape[:2])[1] == pytest.approx(80.0, abs=2)  # cut by the region's top
-    raised, started = matter._uncut(rgb, low)
+    raised, started = _selfie.uncut(matter.roi, rgb, low)
     assert started is low
     alpha = matter.alpha(rgb, [raised])
     assert M.person_box(raised, rgb.shape[:2])[1] == pytest.approx(10.0, abs=3)  # was 80
     assert iou(alpha[:80], person[:80]) > 0.9  # the head above the old region: was 0
     assert iou(alpha, person) > 0.95
     # a segmentation inside its region is left as it is (one selfie-graph run)
-    inside = matter._roi_person(rgb, M.Region(150.0, 200.0, 420.0), 0.9)
-    assert matter._uncut(rgb, inside) == (inside, None)
+    inside = _selfie.roi_person(matter.roi, rgb, M.Region(150.0, 200.0, 420.0), 0.9)
+    assert _selfie.uncut(matter.roi, rgb, inside) == (inside, None)
 
 
 def test_dpr_portrait_keeps_its_forehead_and_hair(dpr_portrait):
@@ -227,9 +228,10 @@ def test_portrait_is_not_widened_into_people_beside_it():
     rgb = np.repeat(np.hstack([person, person])[..., None], 3, 2)
     matter = M.PersonMatter(refine=False)
     matter.roi = _Bright()
-    mine = matter._roi_person(rgb, M.Region(150.0, 200.0, 420.0), 0.9)  # x -60-360: the neighbour's shoulder
+    # x -60-360: the neighbour's shoulder
+    mine = _selfie.roi_person(matter.roi, rgb, M.Region(150.0, 200.0, 420.0), 0.9)
     assert M.person_box(mine, rgb.shape[:2])[2] >= 355  # runs into the region's right edge
-    assert matter._uncut(rgb, mine) == (mine, None)
+    assert _selfie.uncut(matter.roi, rgb, mine) == (mine, None)
 
 
 @pytest.mark.parametrize("rows", [0, 1])
@@ -438,10 +440,10 @@ def test_raised_portrait_region_keeps_out_a_taller_neighbour():
     rgb = np.repeat(both[..., None], 3, 2)
     matter = M.PersonMatter(refine=False)
     matter.roi = _Bright()
-    first = matter._roi_person(rgb, M.Region(150.0, 270.0, 300.0), 0.9)  # rows 120-420, x 0-300
+    first = _selfie.roi_person(matter.roi, rgb, M.Region(150.0, 270.0, 300.0), 0.9)  # rows 120-420, x 0-300
     x0, y0, x1, _ = M.person_box(first, rgb.shape[:2])
     assert y0 == pytest.approx(120.0, abs=2)  # cut by the region's top
-    raised, started = matter._uncut(rgb, first)
+    raised, started = _selfie.uncut(matter.roi, rgb, first)
     assert started is first
     box = M.person_box(raised, rgb.shape[:2])
     assert box[1] == pytest.approx(90.0, abs=3) and box[2] <= x1 + 0.03 * (x1 - x0) + 2
