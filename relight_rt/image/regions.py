@@ -92,19 +92,21 @@ class Pyramid:
 
     def __init__(self, rgb: np.ndarray):
         self.rgb = rgb
-        self.memo = False  # keep the reductions and each crop (read-only) for the next request
+        self.memo = False  # keep the reductions, each crop and the graphs' answers (read-only) for the next request
         self._levels: dict[int, np.ndarray] = {}
         self._crops: dict[tuple[Region, int], np.ndarray] = {}
-        self._answers: dict[int, dict[Region, object]] = {}  # per graph (its id), its answer per region, when memo
+        # per graph (its id, the graph held so the id stays its own) and kind of question, its answer per region
+        self._answers: dict[tuple[int, str], tuple[object, dict[Region, object]]] = {}
 
-    def answer(self, graph: object, region: Region, ask: Callable[[], T], keep: int) -> T:
+    def answer(self, graph: object, kind: str, region: Region, ask: Callable[[], T], keep: int) -> T:
         """``ask()``: ``graph``'s answer on ``region`` of this image. With memo (:func:`reductions_shared`) it is
-        asked once and kept, the last ``keep`` regions per graph (the selfie graph's probability, the face graph's
-        boxes: the people search, the portrait check and the pose-graph person's backing ask for the same region);
-        the answer is then shared, so the caller hands out a read-only one. Without memo, asked every time."""
+        asked once and kept, ``keep`` regions per graph and ``kind`` (the first asked dropped first; the selfie
+        graph's probability, the face graph's boxes: the people search, the portrait check and the pose-graph
+        person's backing ask for the same region); the answer is then shared, so the caller hands out a read-only
+        one. Without memo, asked every time."""
         if not self.memo:
             return ask()
-        kept = self._answers.setdefault(id(graph), {})
+        kept = self._answers.setdefault((id(graph), kind), (graph, {}))[1]
         if region not in kept:
             kept[region] = ask()
             while len(kept) > keep:

@@ -59,7 +59,7 @@ from dataclasses import replace
 import cv2
 import numpy as np
 
-from ..image.color import REC709
+from ..image.color import REC709, channel_max
 from ..light import exposure as _exposure
 from ..light import sh
 from ..person.face_mesh import mirror
@@ -67,7 +67,7 @@ from .cast_shadow import MeshView, shadow_factor
 from .decomposition import Decomposition, Memo, readonly
 from .detail import extend_outward, guided_upsample, shadow_texture, unpremultiply, window
 from .face_pass import FacePass, feather
-from .look import channel_max, knee, shaded_skin, skin_chroma, tint_range
+from .look import knee, shaded_skin, skin_chroma, tint_range
 from .strength import (
     EXPLAIN_ALBEDO_MIN,
     EXPLAIN_SHADOW_SHARE,

@@ -17,8 +17,8 @@ from ._segmentation import COARSE_MIN_AREA, Person, canvas_points, components, p
 MIN_TILE = SIZE  # tiles are searched as long as they stay at least 256 px (a smaller one would only be upsampled)
 CLOSE_ZOOM = 2.0  # find_close_faces: the window is this x the image's longer side
 CLOSE_FACE = 0.5  # ... and keeps faces at least this x the image's shorter side wide
-_KEEP_ANSWERS = 8  # selfie-graph answers kept per call (roi_prob)
-_KEEP_FACES = 16  # face-graph answers kept per call (_face_boxes): the whole photo and every tile of every=True
+_KEEP_ANSWERS = 8  # selfie-graph answers kept while the photo's reductions are shared (roi_prob)
+_KEEP_FACES = 16  # face-graph answers kept so (_face_boxes): the whole photo and every tile of every=True
 _FACE_TILE_MIN = 2 * FACE_SIZE  # face search in tiles (every=True) while the tiles stay this large
 FAINT_PROB = 0.25  # person="all": the selfie graph's probability that marks where such a person may stand
 _PAIR_WIDTH = 0.45  # person="all": a blob nobody is found in, this x as wide as tall or wider, may be two
@@ -28,7 +28,7 @@ Box = tuple[float, float, float, float]
 
 def roi_prob(roi: Model, rgb: np.ndarray, region: Region) -> np.ndarray:
     """The selfie graph's (256, 256) person probability over ``region`` (read-only). Inside
-    :func:`reductions_shared` a region's answer is kept for the call (the portrait check and the pose-graph
+    :func:`reductions_shared` a region's answer is kept for the block (the portrait check and the pose-graph
     person's backing, :meth:`PersonMatter._backed`, ask for the same region): :meth:`Pyramid.answer`."""
 
     def ask() -> np.ndarray:
@@ -37,7 +37,7 @@ def roi_prob(roi: Model, rgb: np.ndarray, region: Region) -> np.ndarray:
         return prob
 
     # the last few (person="all" runs it on ~70 tiles once each)
-    return pyramid_of(rgb).answer(roi, region, ask, _KEEP_ANSWERS)
+    return pyramid_of(rgb).answer(roi, "selfie", region, ask, _KEEP_ANSWERS)
 
 
 class Around(NamedTuple):
@@ -149,7 +149,7 @@ def _face_boxes(face: Model, rgb: np.ndarray, win: Region) -> tuple[tuple[np.nda
             found.append((box, score))
         return tuple(found)
 
-    return pyramid_of(rgb).answer(face, win, ask, _KEEP_FACES)
+    return pyramid_of(rgb).answer(face, "face", win, ask, _KEEP_FACES)
 
 
 def merge_boxes(found: list[tuple[float, Box]]) -> list[tuple[float, Box]]:

@@ -164,9 +164,6 @@ class PersonMatter:
 
     # -- detection ----------------------------------------------------------------------------------
 
-    def _roi_prob(self, rgb: np.ndarray, region: Region) -> np.ndarray:
-        return roi_prob(self.roi, rgb, region)
-
     def find_people(self, rgb: np.ndarray) -> list[tuple[float, tuple[float, float, float, float]]]:
         """Where people are, from the image alone (relight_rt.person.matting._detect.find_people): [(area in image
         pixels, (x0, y0, x1, y1))], largest first; empty when nobody is found."""
@@ -307,7 +304,7 @@ class PersonMatter:
         if start is None:
             return []
         region, seen, inside, mine = start
-        prob = np.where(self._roi_prob(rgb, region) >= 0.5, seen, 0.0).astype(np.float32)  # _colours: framed too
+        prob = np.where(roi_prob(self.roi, rgb, region) >= 0.5, seen, 0.0).astype(np.float32)  # _colours: framed too
         part = own_part(crop_region(rgb, region), inside, mine, prob)
         if part is None:
             return []
@@ -333,7 +330,7 @@ class PersonMatter:
         if not outside and len(sure) < 2:
             return []
         region = Region(w / 2, h / 2, float(max(h, w)))
-        prob = self._roi_prob(rgb, region)
+        prob = roi_prob(self.roi, rgb, region)
         k, bx, by = grid_of_region(region)
         xs, ys = canvas_points(region)
         mine = np.any([prob_at(p, xs, ys) > 0.5 for p in people], axis=0)
@@ -354,7 +351,7 @@ class PersonMatter:
         inside). The pose graph half-sees dark trousers (the parkour runner's legs at 0.1-0.5 in several frames) and
         clothes before a background of their colour; the selfie graph alone takes in shadows and the wall behind, so
         only what both see is added. ~10 ms. Measured (_BACKED 0.05-0.3): clip 0.914 -> 0.917, photos A +0.004-0.006."""
-        roi = self._roi_prob(rgb, person.region) > 0.5
+        roi = roi_prob(self.roi, rgb, person.region) > 0.5
         lift = roi & (person.logits > np.float32(np.log(_BACKED / (1.0 - _BACKED)))) & (person.logits < 1.0)
         if not lift.any():
             return person
@@ -468,7 +465,7 @@ class PersonMatter:
         prob = np.zeros((gh, gw), np.float32)
         for windows in tile_levels(h, w, MIN_TILE):
             for win in windows:
-                np.maximum(prob, warp_to_grid(self._roi_prob(rgb, win), win, grid, 0.0), out=prob)
+                np.maximum(prob, warp_to_grid(roi_prob(self.roi, rgb, win), win, grid, 0.0), out=prob)
         min_rows = max(MIN_PERSON_FRACTION * h, tall) * ky * 0.5  # (a blob may be part of a person)
 
         def blobs(mask: np.ndarray) -> list[tuple[float, tuple, None, np.ndarray]]:
@@ -584,7 +581,7 @@ class PersonMatter:
         if person.presence >= PRESENCE_MIN:
             return True
         if person.source == "pose":
-            mine, other = person.logits > 0, self._roi_prob(rgb, person.region) > 0.5
+            mine, other = person.logits > 0, roi_prob(self.roi, rgb, person.region) > 0.5
         else:  # the selfie graph's (a portrait's): the pose graph on the same region must see the same shape
             mine, other = person.logits > 0, self._pose(rgb, person.region).logits > 0
         return bool(mine.any() and (mine & other).sum() >= _AGREE * (mine | other).sum())
