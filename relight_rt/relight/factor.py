@@ -52,6 +52,7 @@ warning is logged at load, and ``RelightResult.diffuse_only`` says so.
 
 from __future__ import annotations
 
+import math
 from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import replace
@@ -99,6 +100,9 @@ OPENINGS_AS_SKIN = True
 # (``mirror_shadow``; Extended Yale B from 70°, faces13). From MIRROR_DARK[1] of the mirror's shading down to
 # MIRROR_DARK[0] the fill's weight there rises from none to all; None: off
 MIRROR_DARK: tuple[float, float] | None = (0.35, 0.7)
+# ... that share softened over this share of the face's size (its mesh's extent), face by face: on Extended Yale B
+# (faces of 290-370 px in a 256-px window) the 0.02 of the window's side faces13 softened it over (faces14)
+MIRROR_SPREAD = 0.015
 CAST_CACHE = 4  # Factor.cast keeps the cast shadows of this many light directions per Decomposition
 
 
@@ -157,25 +161,41 @@ def mirror_shadow(shading: np.ndarray, opening: np.ndarray, face: np.ndarray,
     multiplies the black (or the little grazing light there) into the relit socket. A face is near symmetric, so a
     socket whose shading is far below its mirror image's (the lit socket) is in shadow. (The shading is the
     transport the factor divides with: the mesh's shape, moved toward the photo by ``explain_photo``, so stage 1's
-    albedo reaches it in part; the mesh-only transport was not measured.) Where the mirror image lies off the face,
-    nothing. The share is softened over ``CAP_SKIN_SPREAD`` of the window's side (an opening's border is no edge in
-    the photo).
+    albedo reaches it in part; the mesh-only transport was not measured.) Each face's mirror reads only that face:
+    its own openings, and its own face where the mirror image lands (both inside its mesh's convex hull; a
+    neighbour's sockets are another face's business), nothing where the mirror image lies off it. Each face's
+    share is softened over ``MIRROR_SPREAD`` of its own size (an opening's border is no edge in the photo), so a
+    small face in a large window keeps its share.
     """
     lo, hi = MIRROR_DARK
     h, w = shading.shape
     out = np.zeros((h, w), np.float32)
-    inside = face.astype(np.float32)
     for pts in points:
         m = mirror(pts)
         if np.linalg.det(m[:, :2]) > -0.5:  # no reflection (a mesh collapsed to a line or a point): no mirror to read
             continue
-        there, on_face = (cv2.warpAffine(np.ascontiguousarray(a, np.float32), m, (w, h),
+        xy = np.asarray(pts, np.float64)[:, :2]
+        sigma = max(MIRROR_SPREAD * float(np.ptp(xy, axis=0).max()), 0.5)
+        hull = np.zeros((h, w), np.uint8)  # this face's own pixels: its mesh's convex hull (4 bits of sub-pixel)
+        cv2.fillConvexPoly(hull, np.round(cv2.convexHull(xy.astype(np.float32)) * 16).astype(np.int32), 1, shift=4)
+        mine = opening & (hull > 0)
+        if not mine.any():
+            continue
+        # where its share can reach once softened: its openings' box and the blur's reach, within the window
+        ys, xs = np.nonzero(mine)
+        reach = int(math.ceil(4 * sigma)) + 1
+        y0, y1 = max(int(ys.min()) - reach, 0), min(int(ys.max()) + reach + 1, h)
+        x0, x1 = max(int(xs.min()) - reach, 0), min(int(xs.max()) + reach + 1, w)
+        at = m.astype(np.float64)  # the mirror from the box's pixels (its origin at (x0, y0)) to the window's
+        at[:, 2] += at[:, :2] @ (x0, y0)
+        there, on_face = (cv2.warpAffine(np.ascontiguousarray(a, np.float32), at, (x1 - x0, y1 - y0),
                                          flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_CONSTANT)
-                          for a in (shading, inside))
-        q = np.clip((hi - shading / np.maximum(there, 1e-6)) / (hi - lo), 0, 1)
-        out = np.maximum(out, opening * (there > 1e-4) * q * q * (3 - 2 * q) * on_face)
-    # no edge of its own: the share softened as the skin's cap is (an opening's border crosses a shaded cheek)
-    return cv2.GaussianBlur(out, (0, 0), CAP_SKIN_SPREAD * max(h, w))
+                          for a in (shading, face & (hull > 0)))
+        q = np.clip((hi - shading[y0:y1, x0:x1] / np.maximum(there, 1e-6)) / (hi - lo), 0, 1)
+        share = mine[y0:y1, x0:x1] * (there > 1e-4) * q * q * (3 - 2 * q) * on_face
+        # no edge of its own: softened over the face's size (an opening's border crosses a shaded cheek)
+        out[y0:y1, x0:x1] = np.maximum(out[y0:y1, x0:x1], cv2.GaussianBlur(share.astype(np.float32), (0, 0), sigma))
+    return out
 
 
 class Factor:
@@ -596,7 +616,7 @@ class Factor:
                             # a socket in the photo's shadow by the face's mirror, whatever stage 1's albedo says
                             shading = own["transport"] @ dec.white_light[:, 0]
                             w = np.maximum(w, mirror_shadow(shading, own["face_opening"], on_face,
-                                                            own["face_points"]))
+                                                            own["face_points"]) * inner)
                     result = (readonly(w.astype(np.float32)), readonly(chroma.astype(np.float32)))
             state["shadow"] = result
         return state["shadow"]

@@ -241,32 +241,102 @@ def test_a_socket_far_darker_than_its_mirror_is_in_shadow_whatever_stage1s_albed
         assert plain > 0.78 and ruled < 0.8 and ruled < plain - 0.07, (azimuth, plain, ruled)
 
 
+def test_the_mirrors_fill_weight_stays_on_the_person(yale_dir, monkeypatch):
+    """Whatever ``mirror_shadow`` says, the fill's weight it raises stays on the person (alpha > 0.5), as the fill's
+    own weight does: a share softened past an opening reached off the matte (faces13: up to 0.47 there on this
+    photo, over 1369 window pixels). Subject 05 lit from 70°, its ellipse mask; ``mirror_shadow`` made to answer 1
+    everywhere."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "benchmarks"))
+    import yale_eval
+
+    relighter = relight_rt.open(RuntimeConfig(device="cpu"))
+    side = yale_eval.read_grey(yale_dir / "yaleB05" / "yaleB05_P00A-070E+00.png")
+    dec = relighter.decompose(side, yale_eval.ellipse(side.shape[:2]))
+    monkeypatch.setattr(relight_factor, "mirror_shadow", lambda shading, *args: np.ones_like(shading))
+    w, _ = relighter._factor.shadow_weight(dec)
+    inner = relighter._factor.restored(dec)["inner"]
+    assert (~inner).any() and (w[inner] == 1).all()  # the mirror's answer reached the weight ...
+    assert not w[~inner].any()  # ... on the person only
+
+
+def _symmetric_mesh(centre: float, top: float, half: float, height: float, seed: int = 1) -> np.ndarray:
+    """(468, 3) mesh points whose ``MIRROR_PAIRS`` mirror each other about x = ``centre`` and whose mid-line lies on
+    it: a face ``2 half`` wide and ``height`` tall from y = ``top`` (the other points at its centre)."""
+    from relight_rt.person.face_mesh import MIRROR_MIDLINE, MIRROR_PAIRS
+
+    points = np.zeros((468, 3))
+    points[:, :2] = centre, top + height / 2
+    a, b = np.array(MIRROR_PAIRS).T
+    left = np.random.default_rng(seed).uniform([centre - half, top], [centre, top + height], (len(a), 2))
+    points[a, :2] = left
+    points[b, :2] = np.stack([2 * centre - left[:, 0], left[:, 1]], axis=1)
+    points[list(MIRROR_MIDLINE), :2] = np.stack([np.full(len(MIRROR_MIDLINE), centre),
+                                                  np.linspace(top, top + height, len(MIRROR_MIDLINE))], axis=1)
+    return points
+
+
 def test_mirror_shadow_finds_the_opening_whose_mirror_is_lit():
     """``mirror_shadow`` on a face symmetric about x = 60: of two openings, the one whose shading is a fifth of its
     mirror image's is in shadow, the lit one and one whose mirror lies off the face are not; the share is soft at
     the opening's border (no edge of its own)."""
-    from relight_rt.person.face_mesh import MIRROR_MIDLINE, MIRROR_PAIRS
-
-    points = np.zeros((468, 3))
-    a, b = np.array(MIRROR_PAIRS).T
-    rng = np.random.default_rng(1)
-    left = rng.uniform([5, 10], [55, 110], (len(a), 2))
-    points[a, :2] = left
-    points[b, :2] = np.stack([120 - left[:, 0], left[:, 1]], axis=1)
-    points[list(MIRROR_MIDLINE), :2] = np.stack([np.full(len(MIRROR_MIDLINE), 60.0),
-                                                  np.linspace(10, 110, len(MIRROR_MIDLINE))], axis=1)
+    points = _symmetric_mesh(60.0, 10.0, 55.0, 100.0)
     shading = np.ones((120, 121), np.float32)
     shading[:, 61:] = 0.2  # the face's right half in the photo's shadow
     face = np.zeros((120, 121), bool)
     face[10:110, 5:116] = True
     opening = np.zeros_like(face)
     opening[40:60, 20:40] = opening[40:60, 80:100] = True  # two sockets, each the other's mirror
-    opening[80:90, 117:121] = face[80:90, 117:121] = True  # an opening whose mirror (x 0-3) lies off the face
+    opening[80:90, 90:100] = True  # an opening whose mirror lies off the face (a strand of hair over it)
+    face[76:94, 16:34] = False
     out = relight_factor.mirror_shadow(shading, opening, face, (points,))
     assert out[45:55, 85:95].min() > 0.95  # the dark socket
     assert 0.3 < out[50, 80] < 0.7 and out[50, 76] < 0.1  # soft at its border
     assert out[40:60, 20:40].max() < 0.01  # the lit one
-    assert out[80:90, 117:121].max() < 0.01  # mirrored off the face
+    assert out[80:90, 90:100].max() < 0.01  # mirrored off the face
+
+
+def test_mirror_shadow_is_softened_by_the_faces_size_not_the_windows():
+    """A 95-px face with a dark socket of 15 x 9 px, in a window of 128 px (head and shoulders) and of 512 px: the
+    share is the same in both, all of it over the socket, none 6 px beside it. Softened over a share of the window's
+    side (faces13) the 512-px window kept 0.18 of it at the socket's centre (0.92 in the 128-px one)."""
+    points = _symmetric_mesh(60.0, 10.0, 47.5, 95.0)
+    outs = []
+    for side in (128, 512):
+        shading = np.ones((side, side), np.float32)
+        shading[:, 61:] = 0.2
+        face = np.zeros((side, side), bool)
+        face[10:105, 13:108] = True
+        opening = np.zeros_like(face)
+        opening[45:54, 30:45] = opening[45:54, 76:91] = True
+        outs.append(relight_factor.mirror_shadow(shading, opening, face, (points,)))
+    near, far = outs
+    np.testing.assert_allclose(far[:128, :128], near, atol=1e-5)
+    assert not far[128:].any() and not far[:, 128:].any()
+    assert far[47:52, 79:88].min() > 0.9
+    assert far[45:54, 30:45].max() < 0.01 and far[49, 70] < 0.05  # the lit socket; 6 px off the dark one
+
+
+def test_each_faces_mirror_reads_only_its_own_openings():
+    """Three faces in a row, each symmetric about its own mid-line, the left one in the shade all over and the
+    other two lit: none of the left face's sockets is in shadow by its own mirror (it is as dark as they are).
+    The middle face's mirror takes the left face's sockets onto the right face's lit ones; read there (faces13),
+    it called them shadow."""
+    faces = tuple(_symmetric_mesh(c, 10.0, 55.0, 100.0, seed) for seed, c in enumerate((60.0, 180.0, 300.0)))
+    shading = np.ones((120, 361), np.float32)
+    shading[:, :120] = 0.2  # the left face in the shade
+    face = np.zeros((120, 361), bool)
+    opening = np.zeros_like(face)
+    for c in (60, 180, 300):
+        face[10:110, c - 55 : c + 55] = True
+        opening[40:60, c - 40 : c - 20] = opening[40:60, c + 20 : c + 40] = True
+    out = relight_factor.mirror_shadow(shading, opening, face, faces)
+    assert out[:, :120].max() < 0.01
+    shading[:, 61:120] = 0.04  # its right half deeper still: its own mirror sees that
+    out = relight_factor.mirror_shadow(shading, opening, face, faces)
+    assert out[45:55, 85:95].min() > 0.95 and out[:, :60].max() < 0.01
 
 
 def test_mirror_shadow_reads_no_mirror_of_a_collapsed_mesh():
