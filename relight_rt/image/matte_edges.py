@@ -293,7 +293,8 @@ def _open_gap(rgb: np.ndarray, alpha: np.ndarray, out: np.ndarray, pocket: np.nd
     est = _guided(img_c, np.where(near_b, blend, a_c))
     sel = np.zeros(a_c.shape, bool)
     sel[py - cy0 : py - cy0 + pocket.shape[0], px - cx0 : px - cx0 + pocket.shape[1]] = pocket
-    if _rim_like_backdrop(img_c, a_c, sel, b_col, r):  # colour cannot tell it from the person (p236's beige folds)
+    # colour cannot tell it from the person (p236's beige folds); asked only where some of the pocket would open
+    if (near_b & sel).any() and _rim_like_backdrop(img_c, a_c, sel, b_col, r):
         near_b = np.zeros_like(near_b)
     into = out[y0 + cy0 : y0 + cy1, x0 + cx0 : x0 + cx1]
     # the person's own colour, which the graphs half-hold; not in the band of a real outline (a hole holding sure
