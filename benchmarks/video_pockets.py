@@ -3,6 +3,8 @@ hand masks, with and without the pocket decision (``matte_edges.open_pockets``, 
 
     PYTHONPATH=$PWD python benchmarks/video_pockets.py            # ~1-2 min
     PYTHONPATH=$PWD python benchmarks/video_pockets.py --rounds 6 # more timing rounds (a loaded machine)
+    git show 75de3c2:relight_rt/image/matte_edges.py > /tmp/matte_edges_base.py   # the module before video14
+    PYTHONPATH=$PWD python benchmarks/video_pockets.py --cost-only --base /tmp/matte_edges_base.py
 
 Rows: the default ``VideoMatter`` without the pocket decision (``pockets=False``), the default (it decides them),
 ``complete=True`` without and with it. Columns: IoU (alpha >= 0.5), boundary F and the edge band's mean error
@@ -10,12 +12,15 @@ Rows: the default ``VideoMatter`` without the pocket decision (``pockets=False``
 (half-held: relit part person, part backdrop). Then the cost on 720p frames (matting_eval's 1280x720 frames):
 ``open_pockets`` alone, median and best; and the default ``VideoMatter`` with / without it, a frame of each in turn
 (their order swapped every frame) so that a loaded machine slows both alike: the paired ratio's median is the figure.
+With ``--base``, another version of relight_rt/image/matte_edges.py (a file) is timed against this one in turn, on the
+same alphas, and their outputs compared.
 The reference data stay in ../shared; nothing of them is written.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import sys
 import time
 from pathlib import Path
@@ -79,15 +84,42 @@ def cost(ref: Path, pm: M.PersonMatter, rounds: int) -> None:
     )
 
 
+def against(ref: Path, pm: M.PersonMatter, base: Path, rounds: int) -> None:
+    """``open_pockets`` of this module against that of ``base`` (loaded as a module of relight_rt.image), in turn."""
+    spec = importlib.util.spec_from_file_location("relight_rt.image._matte_edges_base", base)
+    old = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(old)
+    hd = E.frames_720p(ref)
+    alphas = [M.VideoMatter(pm, pockets=False)(f) for f in hd]
+    pairs = list(zip(hd, alphas, strict=True))
+    differ = max(float(np.abs(old.open_pockets(f, a) - open_pockets(f, a)).max()) for f, a in pairs)
+    t_old, t_new = [], []
+    for _ in range(rounds):
+        for f, a in pairs:
+            for fn, ts in ((old.open_pockets, t_old), (open_pockets, t_new)):
+                t = time.perf_counter()
+                fn(f, a)
+                ts.append(time.perf_counter() - t)
+    new, was = np.array(t_new), np.array(t_old)
+    print(
+        f"open_pockets against {base}: largest difference {differ:.3g}; median {1000 * np.median(new):.1f} / "
+        f"{1000 * np.median(was):.1f} ms (best {1000 * new.min():.1f} / {1000 * was.min():.1f}); paired ratio median "
+        f"{np.median(new / was):.3f}, {len(new)} pairs"
+    )
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rounds", type=int, default=3, help="timing rounds over the 24 frames (default 3)")
     ap.add_argument("--cost-only", action="store_true", help="only the timings")
+    ap.add_argument("--base", type=Path, help="another matte_edges.py to time open_pockets against (a file)")
     args = ap.parse_args(argv)
     ref = E.shared_reference()
     pm = M.PersonMatter()
     if not args.cost_only:
         quality(ref, pm)
+    if args.base is not None:
+        against(ref, pm, args.base, args.rounds)
     cost(ref, pm, args.rounds)
 
 
