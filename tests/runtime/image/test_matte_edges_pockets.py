@@ -1,5 +1,5 @@
-"""The pocket decision worked out on the pocket's box (video14): the helpers that read a window's sums and distances on a
-box give the values of the whole window's, exactly (relight_rt.image.matte_edges)."""
+"""The pocket decision worked out on the pocket's box (video14): the helpers that read a window's sums and distances
+on a box give the values of the whole window's, exactly (relight_rt.image.matte_edges)."""
 
 from __future__ import annotations
 

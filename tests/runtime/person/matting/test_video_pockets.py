@@ -32,10 +32,10 @@ class _HalfSeenGap:
     """A stand-in for :class:`M.PersonMatter`: the person found in REGION, sure of the dress and the arm (logit +8),
     half-seeing the gap between them (logit +1: probability 0.73), as the graphs see the reference video's arms."""
 
-    def __init__(self):
+    def __init__(self, gap_logit: float = 1.0):
         label = np.full((H, W, 3), -8.0, np.float32)
         label[100:500, 150:272] = 8.0
-        label[GAP_ROWS, GAP_COLS] = 1.0
+        label[GAP_ROWS, GAP_COLS] = gap_logit
         self.logits = M.crop_region(label, REGION)[..., 0].copy()
 
     def find_people(self, rgb):
@@ -48,8 +48,8 @@ class _HalfSeenGap:
         return True
 
 
-def video_alpha(rgb: np.ndarray, **options) -> np.ndarray:
-    return M.VideoMatter(_HalfSeenGap(), smoothing=0.0, **options)(rgb)
+def video_alpha(rgb: np.ndarray, gap_logit: float = 1.0, **options) -> np.ndarray:
+    return M.VideoMatter(_HalfSeenGap(gap_logit), smoothing=0.0, **options)(rgb)
 
 
 def test_without_the_pocket_decision_the_gap_stays_half_held():
@@ -75,3 +75,10 @@ def test_the_default_video_matter_decides_a_half_held_gap_by_the_frames_colour(b
 def test_pockets_is_a_plain_switch():
     vm = M.VideoMatter(_HalfSeenGap())
     assert vm.pockets and not M.VideoMatter(_HalfSeenGap(), pockets=False).pockets
+
+
+def test_a_frame_with_no_half_held_pocket_is_left_as_it_was():
+    """The graphs sure of the gap's pixels (the dress's colour there): nothing is half-held inside the person, and the
+    default alpha is the one without the decision, to the bit."""
+    rgb = dress_and_arm(False)
+    assert np.array_equal(video_alpha(rgb, gap_logit=8.0), video_alpha(rgb, gap_logit=8.0, pockets=False))
