@@ -3,15 +3,17 @@ hand masks, with and without the pocket decision (``matte_edges.open_pockets``, 
 
     PYTHONPATH=$PWD python benchmarks/video_pockets.py            # ~1-2 min
     PYTHONPATH=$PWD python benchmarks/video_pockets.py --rounds 6 # more timing rounds (a loaded machine)
+    PYTHONPATH=$PWD python benchmarks/video_pockets.py --cost-only --height 1080   # the timings on 1080p frames
     git show 75de3c2:relight_rt/image/matte_edges.py > /tmp/matte_edges_base.py   # the module before video14
     PYTHONPATH=$PWD python benchmarks/video_pockets.py --cost-only --base /tmp/matte_edges_base.py
 
 Rows: the default ``VideoMatter`` without the pocket decision (``pockets=False``), the default (it decides them),
 ``complete=True`` without and with it. Columns: IoU (alpha >= 0.5), boundary F and the edge band's mean error
 (benchmarks/matting_eval.py's measures), outline flicker (motion-compensated), and pixels held at 0.5-0.95 per frame
-(half-held: relit part person, part backdrop). Then the cost on 720p frames (matting_eval's 1280x720 frames):
-``open_pockets`` alone, median and best; and the default ``VideoMatter`` with / without it, a frame of each in turn
-(their order swapped every frame) so that a loaded machine slows both alike: the paired ratio's median is the figure.
+(half-held: relit part person, part backdrop). Then the cost on 720p frames (matting_eval's 1280x720 frames; with
+``--height``, those resized): ``open_pockets`` alone, median and best; and the default ``VideoMatter`` with / without
+it, a frame of each in turn (their order swapped every frame) so that a loaded machine slows both alike: the paired
+ratio's median is the figure.
 With ``--base``, another version of relight_rt/image/matte_edges.py (a file) is timed against this one in turn, on the
 same alphas, and their outputs compared.
 The reference data stay in ../shared; nothing of them is written.
@@ -25,6 +27,7 @@ import sys
 import time
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
@@ -57,16 +60,20 @@ def quality(ref: Path, pm: M.PersonMatter) -> None:
         )
 
 
-def cost(ref: Path, pm: M.PersonMatter, rounds: int) -> None:
+def cost(ref: Path, pm: M.PersonMatter, rounds: int, height: int = 720) -> None:
     hd = E.frames_720p(ref)
-    alphas = [M.VideoMatter(pm, pockets=False)(f) for f in hd]
+    if height != 720:  # the 720p frames resized (16:9 kept)
+        hd = [cv2.resize(f, (round(f.shape[1] * height / 720), height), interpolation=cv2.INTER_LINEAR) for f in hd]
+    vm = M.VideoMatter(pm, pockets=False)  # one over the frames in order, as a video is matted
+    alphas = [vm(f) for f in hd]
     alone = []
     for _ in range(rounds):
         for f, a in zip(hd, alphas, strict=True):
             t = time.perf_counter()
             open_pockets(f, a)
             alone.append(time.perf_counter() - t)
-    print(f"\nopen_pockets on 720p frames: median {1000 * np.median(alone):.1f} ms, best {1000 * min(alone):.1f} ms")
+    med, best = 1000 * np.median(alone), 1000 * min(alone)
+    print(f"\nopen_pockets on {height}p frames: median {med:.1f} ms, best {best:.1f} ms")
     vms = {True: M.VideoMatter(pm), False: M.VideoMatter(pm, pockets=False)}
     times: dict[bool, list[float]] = {True: [], False: []}
     for k in range(rounds):
@@ -78,9 +85,9 @@ def cost(ref: Path, pm: M.PersonMatter, rounds: int) -> None:
     on, off = np.array(times[True]), np.array(times[False])
     q = np.percentile(on / off, [25, 50, 75])
     print(
-        f"default VideoMatter on 720p frames, with / without the pocket decision: median {1000 * np.median(on):.1f} / "
-        f"{1000 * np.median(off):.1f} ms (best {1000 * on.min():.1f} / {1000 * off.min():.1f}); paired ratio median "
-        f"{q[1]:.3f} (quartiles {q[0]:.3f}-{q[2]:.3f}), {len(on)} pairs"
+        f"default VideoMatter on {height}p frames, with / without the pocket decision: median "
+        f"{1000 * np.median(on):.1f} / {1000 * np.median(off):.1f} ms (best {1000 * on.min():.1f} / "
+        f"{1000 * off.min():.1f}); paired ratio median {q[1]:.3f} (quartiles {q[0]:.3f}-{q[2]:.3f}), {len(on)} pairs"
     )
 
 
@@ -90,7 +97,8 @@ def against(ref: Path, pm: M.PersonMatter, base: Path, rounds: int) -> None:
     old = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(old)
     hd = E.frames_720p(ref)
-    alphas = [M.VideoMatter(pm, pockets=False)(f) for f in hd]
+    vm = M.VideoMatter(pm, pockets=False)  # one over the frames in order, as a video is matted
+    alphas = [vm(f) for f in hd]
     pairs = list(zip(hd, alphas, strict=True))
     differ = max(float(np.abs(old.open_pockets(f, a) - open_pockets(f, a)).max()) for f, a in pairs)
     t_old, t_new = [], []
@@ -112,6 +120,7 @@ def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rounds", type=int, default=3, help="timing rounds over the 24 frames (default 3)")
     ap.add_argument("--cost-only", action="store_true", help="only the timings")
+    ap.add_argument("--height", type=int, default=720, help="time on the 720p frames resized to this height")
     ap.add_argument("--base", type=Path, help="another matte_edges.py to time open_pockets against (a file)")
     args = ap.parse_args(argv)
     ref = E.shared_reference()
@@ -120,7 +129,7 @@ def main(argv: list[str] | None = None) -> None:
         quality(ref, pm)
     if args.base is not None:
         against(ref, pm, args.base, args.rounds)
-    cost(ref, pm, args.rounds)
+    cost(ref, pm, args.rounds, args.height)
 
 
 if __name__ == "__main__":
