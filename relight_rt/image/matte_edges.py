@@ -478,8 +478,9 @@ def _side_mean_at(img: np.ndarray, weight: np.ndarray, r: int, box: tuple[int, i
         sy, sx = max(y0 - k, 0), max(x0 - k, 0)
         wgt = weight[sy : min(y1 + k, h), sx : min(x1 + k, w)]
         inner = (slice(y0 - sy, y1 - sy), slice(x0 - sx, x1 - sx))
-        num = _box(img[sy : sy + wgt.shape[0], sx : sx + wgt.shape[1]] * wgt[..., None], k)[inner]
-        return num, _box(wgt, k)[inner]
+        # OpenCV's product, the same float32 values as numpy's (whose broadcast over three channels costs ~20x)
+        part = img[sy : sy + wgt.shape[0], sx : sx + wgt.shape[1]]
+        return _box(cv2.multiply(part, cv2.cvtColor(wgt, cv2.COLOR_GRAY2RGB)), k)[inner], _box(wgt, k)[inner]
 
     num, den = sums(r)
     far = den <= 0.5  # no sure pixel within r: the wider window's
