@@ -63,3 +63,34 @@ def test_beyond_real_outline_on_a_box_is_the_whole_windows(seed, r):
         y0, x0 = int(rng.integers(0, h - 1)), int(rng.integers(0, w - 1))
         y1, x1 = int(rng.integers(y0 + 1, h + 1)), int(rng.integers(x0 + 1, w + 1))
         assert np.array_equal(R._beyond_real_outline(inside, a, r, (y0, y1, x0, x1)), whole[y0:y1, x0:x1])
+
+
+def _pockets_over_the_whole(low, interior, min_area):
+    """``_pockets`` as first written: labelled over the whole array."""
+    n, labels, stats, _ = cv2.connectedComponentsWithStats((low & interior).astype(np.uint8), connectivity=8)
+    h, w = low.shape
+    for i in range(1, n):
+        x, y, bw, bh, area = (int(v) for v in stats[i])
+        if area < min_area:
+            continue
+        y0, y1, x0, x1 = max(y - 1, 0), min(y + bh + 1, h), max(x - 1, 0), min(x + bw + 1, w)
+        comp = labels[y0:y1, x0:x1] == i
+        rim = (cv2.dilate(comp.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0) & ~comp
+        if rim.any() and interior[y0:y1, x0:x1][rim].mean() >= R._ENCLOSED:
+            yield (y0, x0), comp
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_pockets_labelled_on_their_box_are_those_over_the_whole(seed):
+    """The same pockets, in the same order, with the same masks: parts at the borders, specks, none at all."""
+    rng = np.random.default_rng(seed)
+    h, w = rng.integers(20, 200, 2)
+    low = rng.random((h, w)) < rng.uniform(0.05, 0.4)
+    interior = rng.random((h, w)) < rng.uniform(0.85, 1.0)
+    if seed == 0:
+        low[:] = False
+    got = list(R._pockets(low, interior, 3))
+    want = list(_pockets_over_the_whole(low, interior, 3))
+    assert len(got) == len(want) and (seed == 0 or want)
+    for (at, mask), (at_w, mask_w) in zip(got, want, strict=True):
+        assert at == at_w and np.array_equal(mask, mask_w)
