@@ -106,7 +106,8 @@ def open_pockets(rgb: np.ndarray, alpha: np.ndarray, band: int | None = None) ->
     a pocket the matte half-holds (alpha under _GAP more than ``band`` from the outline once the interior's holes are
     filled, its rim mostly the person) opens where it shows the backdrop's colour and is opaque where it shows any
     other (:func:`_open_gap`). ``VideoMatter`` runs it on every frame (``pockets``; with ``complete``, ``backed_logits``
-    leaves such a gap in doubt, ~0.8, for this decision to settle). Returns a new (H, W) float32 alpha."""
+    leaves such a gap in doubt, ~0.8, for this decision to settle). ``rgb``: (H, W, 3) float32 RGB in [0, 1], as for
+    :func:`refine_edges`. Returns a new (H, W) float32 alpha."""
     r = band_width(alpha.shape) if band is None else int(band)
     out = alpha.copy()
     bx, by, bw, bh = cv2.boundingRect((alpha >= 0.5).view(np.uint8))
@@ -292,7 +293,7 @@ def _open_gap(rgb: np.ndarray, alpha: np.ndarray, out: np.ndarray, pocket: np.nd
     # colour's answer is read on the pocket only: worked out on its box and the rim test's reach round it (r >= the
     # guided filter's 2 px), from the window's sums (the values of the whole window's answer, but for a float32 ulp
     # where the guided filter's running sums round: 6 pixels of 60 random mattes; none on the reference frames;
-    # open_pockets on 720p frames ~0.55x the time, benchmarks/video_pockets.py)
+    # open_pockets on 720p frames ~0.42x the time with the helpers below, benchmarks/video_pockets.py --base)
     cy0, cx0 = max(py - r, 0), max(px - r, 0)
     cy1, cx1 = min(py + pocket.shape[0] + r, a.shape[0]), min(px + pocket.shape[1] + r, a.shape[1])
     b_col, blend, _ = _colour_alpha(img, a, fg_w, bg_w, 2 * r, _GAP_REACH * r, at=(cy0, cy1, cx0, cx1))

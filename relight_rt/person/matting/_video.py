@@ -57,9 +57,9 @@ class VideoMatter:
     ``pockets`` (the default), a gap between arm and body that the matte half-holds (alpha under 0.9 inside the person)
     is settled by the photo's colour as in a photo (``matte_edges.open_pockets``): open where it shows the backdrop,
     opaque where it shows the person (the reference video's boundary F 0.948 -> 0.991 on the default path, 0.928 ->
-    0.990 with ``complete``, whose ``backed_logits`` leaves such gaps in doubt; +~30 % a 720p frame, paired A/B on 2
-    loaded cores, benchmarks/video_pockets.py). The person probability on the working grid is blended with the
-    previous frame's, warped by DIS optical flow: ``p = (1 - w) p_now + w p_prev_warped``,
+    0.990 with ``complete``, whose ``backed_logits`` leaves such gaps in doubt; +~20 % a 720p frame, +~45 % at 1080p,
+    paired A/B on 2 loaded cores, benchmarks/video_pockets.py). The person probability on the working grid is
+    blended with the previous frame's, warped by DIS optical flow: ``p = (1 - w) p_now + w p_prev_warped``,
     ``w = smoothing * exp(-|I_now - I_prev_warped| / 0.05)`` (the history counts only where the flow explains the
     picture), then refined by the guided filter.
 
