@@ -285,7 +285,8 @@ def _open_gap(rgb: np.ndarray, alpha: np.ndarray, out: np.ndarray, pocket: np.nd
     m = 2 * _GAP_REACH * r + 1
     y0, x0 = max(at[0] - m, 0), max(at[1] - m, 0)
     y1, x1 = min(at[0] + pocket.shape[0] + m, h), min(at[1] + pocket.shape[1] + m, w)
-    a, img = alpha[y0:y1, x0:x1], rgb[y0:y1, x0:x1]  # views: read where the windows reach, never copied whole
+    # views: read where the windows reach, never copied whole (a float64 photo's window as float32, OpenCV's products)
+    a, img = alpha[y0:y1, x0:x1], np.asarray(rgb[y0:y1, x0:x1], np.float32)
     inside = (a >= 0.5).astype(np.uint8)
     fg_w = ((cv2.distanceTransform(inside, cv2.DIST_L2, 3) > r) & (a >= _SURE)).astype(np.float32)
     bg_w = ((cv2.distanceTransform(1 - inside, cv2.DIST_L2, 3) > r) & (a <= 1 - _SURE)).astype(np.float32)
