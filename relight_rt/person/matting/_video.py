@@ -53,13 +53,15 @@ class VideoMatter:
     ``complete`` the person is completed as in a photo (:meth:`PersonMatter.completed`: half-seen trousers, parts in
     their own colours, limbs seen only turned; the clip 0.922 -> 0.926, 0.927 with the turned views (matte13: frame 50
     0.78 -> 0.95, 96-97 -0.04 each), ``--methods video-complete``) at more selfie-graph runs a frame (two before
-    the turned views; 720p: ~26 -> ~17 frames/s idle then, docs/BENCHMARKS.md), so it is off by default; its gaps
-    both graphs half-see, which ``backed_logits`` leaves in doubt, are settled by the photo's colour
-    (``matte_edges.open_pockets``, matte13: the reference video's boundary F 0.928 -> 0.990; ~+25 % a frame). The
-    person probability on the
-    working grid is blended with the previous frame's, warped by DIS optical flow:
-    ``p = (1 - w) p_now + w p_prev_warped``, ``w = smoothing * exp(-|I_now - I_prev_warped| / 0.05)`` (the history
-    counts only where the flow explains the picture), then refined by the guided filter.
+    the turned views; 720p: ~26 -> ~17 frames/s idle then, docs/BENCHMARKS.md), so it is off by default. With
+    ``pockets`` (the default), a gap between arm and body that the matte half-holds (alpha under 0.9 inside the person)
+    is settled by the photo's colour as in a photo (``matte_edges.open_pockets``): open where it shows the backdrop,
+    opaque where it shows the person (the reference video's boundary F 0.948 -> 0.991 on the default path, 0.928 ->
+    0.990 with ``complete``, whose ``backed_logits`` leaves such gaps in doubt; +~20 % a 720p frame, +~45 % at 1080p,
+    paired A/B on 2 loaded cores, benchmarks/video_pockets.py). The person probability on the working grid is
+    blended with the previous frame's, warped by DIS optical flow: ``p = (1 - w) p_now + w p_prev_warped``,
+    ``w = smoothing * exp(-|I_now - I_prev_warped| / 0.05)`` (the history counts only where the flow explains the
+    picture), then refined by the guided filter.
 
     Args:
         matter: a :class:`PersonMatter` to use (default: a new one with ``models`` and ``device``).
@@ -67,6 +69,7 @@ class VideoMatter:
         redetect_every: run the region finder every N frames even when the person is tracked (0: never).
         refine: guided-filter edge refinement (as in PersonMatter; always with the gray guide, for speed).
         complete: add to the person what the photo matte adds (:meth:`PersonMatter.completed`); slower.
+        pockets: settle the gaps the matte half-holds inside the person by the photo's colour (refine only).
 
     Calling it on each frame in order: ``alpha = vm(rgb)``; a frame with nobody in it gives an all-zero
     alpha (no error) and the next frame searches again. Only the largest person is followed.
@@ -82,6 +85,7 @@ class VideoMatter:
         redetect_every: int = 0,
         refine: bool = True,
         complete: bool = False,
+        pockets: bool = True,
     ):
         if not 0.0 <= float(smoothing) < 1.0:
             raise RelightError(f"smoothing: expected a value in [0, 1), got {smoothing}")
@@ -92,6 +96,7 @@ class VideoMatter:
         self.redetect_every = int(redetect_every)
         self.refine = bool(refine)
         self.complete = bool(complete)
+        self.pockets = bool(pockets)
         self.reset()
 
     def reset(self) -> None:
@@ -157,8 +162,9 @@ class VideoMatter:
         if not self.refine:
             return cv2.resize(prob, (w, h), interpolation=cv2.INTER_LINEAR) if grid[:2] != (w, h) else prob
         alpha = fast_guided_filter(prob, gray_small, gray_full, guide_radius(person, grid), GF_EPS)
-        # the completion leaves a gap both graphs half-see in doubt (_layout.backed_logits): the photo's colour decides
-        return open_pockets(rgb, alpha) if self.complete else alpha
+        # a gap between arm and body that the graphs half-see (left in doubt by the completion's backed_logits too)
+        # is decided by the photo's colour
+        return open_pockets(rgb, alpha) if self.pockets else alpha
 
 
 def outline_flicker(alphas: list[np.ndarray], frames: list[np.ndarray] | None = None, band: int = 4) -> float:
