@@ -56,6 +56,7 @@ from ._layout import (
     person_outside,
     seen_whole,
     someone_beside,
+    unconfirmed_cut,
     within_photo,
     without_straddlers,
 )
@@ -237,6 +238,7 @@ class PersonMatter:
                 break
             wide = self._roi_person(rgb, Region.around(*grown), roi.presence)
             cut = (grown[0] < box[0], grown[1] < box[1], grown[2] > box[2], grown[3] > box[3])
+            roi = unconfirmed_cut(wide, roi, cut)  # what runs into a cut side: whole or not at all
             more = continued(wide, roi, cut)
             if more is roi:
                 break
