@@ -12,7 +12,7 @@ import numpy as np
 from ...engine.session import Model
 from ...image.regions import Region
 from ._detect import roi_prob
-from ._layout import continued, grow_where_cut, held
+from ._layout import continued, grow_where_cut, held, unconfirmed_cut
 from ._segmentation import Person, as_logits, canvas_points, person_box, prob_at
 
 _REFRAME = 0.9  # the selfie graph is run again on its own segmentation's region when that is this much smaller
@@ -90,6 +90,7 @@ def widened(roi: Model, rgb: np.ndarray, person: Person) -> Person:
             break
         wide = roi_person(roi, rgb, Region.around(*grown), person.presence)
         cut = (grown[0] < box[0], grown[1] < box[1], grown[2] > box[2], grown[3] > box[3])
+        person = unconfirmed_cut(wide, person, cut)  # what runs into a cut side: whole or not at all
         more = continued(wide, person, cut)
         if more is person:
             break

@@ -359,6 +359,36 @@ def test_a_selfie_graph_person_cut_by_its_regions_side_is_taken_whole():
     assert _selfie.widened(matter.roi, rgb, dim) is dim
 
 
+@pytest.mark.parametrize(("ground", "dropped"), [(0.7, True), (0.99, False)])
+def test_what_runs_into_a_cut_side_unseen_framed_wider_is_dropped(ground, dropped, monkeypatch):
+    """_selfie.widened / _layout.unconfirmed_cut: the selfie graph framed tight takes in the ground its region cuts (grass
+    around a woman lying in it, matted in two blocks ending in the region's straight sides: people_masks p101-like);
+    framed wider it does not. What runs into a cut side that the wider run does not see and the first run is not sure
+    of (< SURE_PART) is dropped; a part it is sure of stays (framed larger, the graph can lose half a face)."""
+    h, w = 300, 400
+
+    def framed(roi, rgb, region):
+        xs, ys = _segmentation.canvas_points(region)
+        body = (((xs - 200) / 60) ** 2 + ((ys - 150) / 120) ** 2) < 1
+        inside = (xs >= 0) & (xs < w) & (ys >= 0) & (ys < h)
+        tight = inside & (ys >= 230) & (region.side < 300)  # the ground, taken in only when framed tight
+        return np.where(body, 1.0, np.where(tight, ground, 0.0)).astype(np.float32)
+
+    monkeypatch.setattr(_selfie, "roi_prob", framed)
+    rgb = np.zeros((h, w, 3), np.float32)
+    first = _selfie.roi_person(None, rgb, M.Region(200.0, 150.0, 280.0), 0.9)  # x 60..340: the ground runs into both
+    out = _selfie.widened(None, rgb, first)
+    yy, xx = np.mgrid[0:h, 0:w] + 0.5
+    body = (((xx - 200) / 60) ** 2 + ((yy - 150) / 120) ** 2) < 1
+    seen = _segmentation.prob_at(out, xx, yy) > 0.5
+    assert (seen & body).sum() >= 0.99 * body.sum()
+    ground_seen = (yy >= 230) & (yy < 290) & (xx >= 60) & (xx < 340) & ~body  # in the first region
+    if dropped:
+        assert (seen & ~body).sum() < 0.005 * body.sum()  # (the canvas's staircase at the outline)
+    else:
+        assert (seen & ground_seen).sum() > 0.95 * ground_seen.sum()
+
+
 def test_a_continuation_takes_from_the_wider_answer_only_what_goes_on_from_the_cut():
     """continued: over the first region the first answer stays (framed larger, the graph can lose half a face); past
     the cut side only the wider answer's parts joined to the cut are added, not a blob apart from it."""
