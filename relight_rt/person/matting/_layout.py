@@ -197,9 +197,11 @@ def unconfirmed_cut(wide: Person, first: Person, cut: tuple[bool, bool, bool, bo
     pixels outside ``wide``'s person, 8-connected to a cut side's edge column or row of its canvas. Whole or not at
     all, as :func:`continued` carries on only what goes on past the side: the graph takes in whatever its frame cuts
     at the bottom (grass around a woman lying in it matted in two blocks ending in the region's straight sides),
-    framed wider it does not. Measured (benchmarks/people_masks_eval.py, matte14; no new threshold): half A 0.91967
-    -> 0.92047 (p101 +0.083: that grass; p083 +0.002; the worst p177 -0.001), half B 0.89509 -> 0.89602 (p265
-    +0.076: the grass under sitting children beside a region's side; p225 +0.018), the clip unchanged."""
+    framed wider it does not. Nothing is dropped where it would be the whole person (the wider run lost them: it
+    can lose half a face against a bright sky, :func:`relight_rt.person.matting._selfie.widened`). Measured
+    (benchmarks/people_masks_eval.py, matte14; no new threshold): half A 0.91967 -> 0.92047 (p101 +0.083: that
+    grass; p083 +0.002; the worst p177 -0.001), half B 0.89509 -> 0.89602 (p265 +0.076: the grass under sitting
+    children beside a region's side; p225 +0.018), the clip unchanged."""
     after, _, _ = resampled(wide, first.region)
     cand = (first.logits > 0) & (after <= 0)
     edge = np.zeros((SIZE, SIZE), bool)
@@ -209,9 +211,10 @@ def unconfirmed_cut(wide: Person, first: Person, cut: tuple[bool, bool, bool, bo
     _, labels = cv2.connectedComponents(cand.astype(np.uint8), connectivity=8)
     drop = [k for k in np.unique(labels[edge & cand]) if k > 0]
     drop = [k for k in drop if sigmoid(first.logits[labels == k]).mean() < SURE_PART]
-    if not drop:
+    gone = np.isin(labels, drop)
+    if not drop or not ((first.logits > 0) & ~gone).any():  # all of the person: the wider run lost them, not ground
         return first
-    logits = np.where(np.isin(labels, drop), np.float32(-LOGIT_CLIP), first.logits).astype(np.float32)
+    logits = np.where(gone, np.float32(-LOGIT_CLIP), first.logits).astype(np.float32)
     return replace(first, logits=logits)
 
 
@@ -444,7 +447,7 @@ def backed_logits(logits: np.ndarray, lift: np.ndarray) -> np.ndarray:
 
     The sure ends (matte14): with the closing's test alone any local dip was a gap, and a body the pose graph half-sees
     with noisy probability (0.4 +- 0.1) had 27 % of its interior left in doubt (a reviewer's finding). A real gap
-    lies between body the pose graph is sure of, at most 2 * BACKED_DEPTH pixels to either side, as far as the
+    lies between body the pose graph is sure of, its two ends at most 4 * BACKED_DEPTH + 1 pixels apart, as far as the
     closing reaches (at BACKED_DEPTH it missed the 5-canvas-px top of a gap between the parkour runner's arm and
     body: frame 3 -0.001). Measured: the sets, the translucent interiors and the reference clip's relit band as
     before (clip 0.93254, A 0.91967, B 0.89508 -> 0.89509; 0.798 / 1.448 / 2.032 -> 2.030 %; band within 2e-5
@@ -468,5 +471,6 @@ def _between(sure: np.ndarray, k: int) -> np.ndarray:
     src = sure.astype(np.uint8)
     out = np.zeros(sure.shape, bool)
     for line in lines:
-        out |= cv2.morphologyEx(src, cv2.MORPH_CLOSE, line).astype(bool)
+        # past the canvas nothing is sure (OpenCV's default border would count it as sure body in the erosion)
+        out |= cv2.morphologyEx(src, cv2.MORPH_CLOSE, line, borderType=cv2.BORDER_CONSTANT, borderValue=0).astype(bool)
     return out

@@ -579,3 +579,20 @@ def test_portrait_region_is_no_wider_than_the_photo():
     close = M.Person(M.Region(300.0, 300.0, 500.0), logits, 0.99, "pose")
     assert matter._portrait_region(rgb, close) == close.region
     assert _layout.within_photo(M.Region(100.0, 50.0, 700.0), (480, 640)) == M.Region(320.0, 240.0, 640.0)
+
+
+def test_what_runs_into_a_cut_side_is_never_the_whole_person():
+    """_layout.unconfirmed_cut drops ground the tight frame took in, not the person: where the wider run sees nobody
+    (it can lose half a face against a bright sky) and the whole person runs into the cut side unsure (< SURE_PART),
+    the first answer stays (it had emptied the person; the review of matte14)."""
+    first = M.Person(M.Region(100.0, 100.0, 200.0), np.full((256, 256), -10.0, np.float32), 0.9, "roi")
+    first.logits[40:200, :90] = np.log(0.9 / 0.1)  # a person at 0.9 running into the canvas's left side
+    wide = M.Person(M.Region(60.0, 100.0, 300.0), np.full((256, 256), -10.0, np.float32), 0.9, "roi")
+    assert _layout.unconfirmed_cut(wide, first, (True, False, False, False)) is first
+    # with a part the wider run sees, the unseen ground joined to the cut still goes
+    wide.logits[:, :] = -10.0
+    seen = _segmentation.prob_at(first, *_segmentation.canvas_points(wide.region)) > 0.5
+    wide.logits[seen] = 10.0
+    first.logits[200:256, :90] = np.log(0.7 / 0.3)  # ground below, touching the cut side and the bottom
+    out = _layout.unconfirmed_cut(wide, first, (True, False, False, False))
+    assert (out.logits[40:200, :90] > 0).all() and (out.logits[200:256, :90] <= 0).all()
