@@ -70,7 +70,7 @@ def person_photo() -> np.ndarray:
     return (rgba[..., :3] * a + np.array([200, 190, 180]) * (1 - a)).astype(np.uint8)
 
 
-def matte_cases() -> None:
+def matte_cases(side: int = 1000) -> None:
     from relight_rt.image.matte_edges import open_pockets, refine_edges
 
     rng = np.random.default_rng(0)
@@ -98,21 +98,24 @@ def matte_cases() -> None:
             }.items():
                 for f in (open_pockets, refine_edges):
                     case("matte", f"{f.__name__} {h}x{w} {an} {rn}", lambda f=f, img=img, a=a: f(img, a))
-    # a matte riddled with pockets: time, not only correctness (fuzz8: 12 s a megapixel before the cap)
-    side = 1000
+    # a matte riddled with pockets (of half the band's width + 2 px, 12 px apart): time, not only correctness
+    from relight_rt.image.matte_edges import band_width
+
     yy, xx = np.indices((side, side))
     a = np.ones((side, side), np.float32)
     a[:20], a[-20:], a[:, :20], a[:, -20:] = 0, 0, 0, 0
-    pockets = (yy > 40) & (yy < side - 40) & (xx > 40) & (xx < side - 40) & (yy % 18 < 6) & (xx % 18 < 6)
+    hole = max(3, band_width((side, side)) // 2 + 2)
+    inner = (yy > 40) & (yy < side - 40) & (xx > 40) & (xx < side - 40)
+    pockets = inner & (yy % (12 + hole) < hole) & (xx % (12 + hole) < hole)
     a[pockets] = 0.7
     img = rng.random((side, side, 3)).astype(np.float32) * 0.2 + 0.4
     for name, alpha in {
-        "2,600 pockets": a,
-        "diagonal seams": np.where((yy > 500) & ((yy + xx) % 7 != 0), 1.0, 0.0).astype(np.float32),
+        "pockets everywhere": a,
+        "diagonal seams": np.where((yy > side // 2) & ((yy + xx) % 7 != 0), 1.0, 0.0).astype(np.float32),
     }.items():
         start = time.perf_counter()
         case("matte", f"riddled {name}", lambda alpha=alpha: open_pockets(img, alpha))
-        print(f"  open_pockets, 1 MP matte, {name}: {time.perf_counter() - start:.2f} s")
+        print(f"  open_pockets, {side} x {side} matte, {name}: {time.perf_counter() - start:.2f} s")
 
 
 def mesh_cases() -> None:
@@ -160,6 +163,54 @@ def mesh_cases() -> None:
                     rng.random(shape).astype(np.float32), np.ones(shape, bool), np.ones(shape, bool), (p,)
                 ),
             )
+
+
+def region_cases() -> None:
+    from relight_rt.image.regions import Region, crop_region, reductions_shared
+    from relight_rt.person.matting._layout import backed_logits
+
+    images = [
+        np.zeros((1, 1, 3), np.float32),
+        np.zeros((1, 500, 3), np.float32),
+        np.ones((500, 1, 3), np.float32),
+        np.random.default_rng(2).random((64, 64, 3)).astype(np.float32),
+    ]
+    for values in [(0, 0, 1e-9), (-1e9, 5, 10), (32, 32, 1e9), (0.5, 0.5, 1), (1e12, 1e12, 3)]:
+        for img in images:
+
+            def shared(img=img, values=values):
+                with reductions_shared(img):
+                    crop_region(img, Region(*values))
+                    return crop_region(img, Region(*values))
+
+            case(
+                "regions",
+                f"crop {values} of {img.shape}",
+                lambda img=img, values=values: crop_region(img, Region(*values)),
+            )
+            case("regions", f"crop {values} of {img.shape}, shared", shared)
+    for values in [(0, 0, 0), (32, 32, -10), (float("nan"), 0, 10), (0, float("inf"), 10), (0, 0, float("inf"))]:
+        case("regions", f"region {values}", lambda values=values: Region(*values), True)
+    rng = np.random.default_rng(3)
+    for shape in [(1, 1), (2, 2), (1, 256), (256, 1), (256, 256)]:
+        for name, logits in {
+            "zeros": np.zeros(shape),
+            "random": rng.normal(0, 3, shape),
+            "1e30": np.full(shape, 1e30),
+            "-1e30": np.full(shape, -1e30),
+        }.items():
+            for lift_name, lift in {
+                "none": np.zeros(shape, bool),
+                "all": np.ones(shape, bool),
+                "checker": np.indices(shape).sum(0) % 2 == 1,
+            }.items():
+                case(
+                    "regions",
+                    f"backed_logits {shape} {name} {lift_name}",
+                    lambda logits=logits, lift=lift: (
+                        np.tanh(backed_logits(logits.astype(np.float32), lift)) * 0.5 + 0.5
+                    ),
+                )
 
 
 def yale_faces() -> list[np.ndarray]:
@@ -490,12 +541,14 @@ def cli_cases() -> None:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--only", help="one surface: matte, mesh, relighter, video, people, threads, cli")
+    parser.add_argument("--only", help="one surface: matte, regions, mesh, relighter, video, people, threads, cli")
     parser.add_argument("--no-cli", action="store_true")
+    parser.add_argument("--matte-side", type=int, default=1000, help="side of the riddled mattes timed (default 1000)")
     args = parser.parse_args()
     sys.path.insert(0, str(REPO / "benchmarks"))
     surfaces = {
         "matte": matte_cases,
+        "regions": region_cases,
         "mesh": mesh_cases,
         "relighter": relighter_cases,
         "video": video_cases,
@@ -510,7 +563,7 @@ def main() -> int:
             print("skip relighter: ../shared/realdata/yale is absent")
             continue
         start = time.perf_counter()
-        run()
+        run(args.matte_side) if name == "matte" else run()
         print(f"{name}: {time.perf_counter() - start:.0f} s")
     broken = 0
     for surface, (tried, held) in COUNTS.items():
