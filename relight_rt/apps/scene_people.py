@@ -111,7 +111,7 @@ def find_people(photo, matter) -> list[Someone]:
     from ..person.matting import Region, as_rgb, person_box
 
     img = np.asarray(photo)
-    if img.ndim != 3 or img.shape[2] != 3 or min(img.shape[:2]) < 2:
+    if img.ndim != 3 or img.shape[2] != 3 or img.size == 0:  # a photo 1 px tall or wide has nobody in it: below
         raise RelightError(f"people: expected an (H, W, 3) RGB photo, got {img.shape} {img.dtype}")
     h, w = img.shape[:2]
     if w > DETECT_WIDTH:  # shrunk first: the intake below then converts only the small copy

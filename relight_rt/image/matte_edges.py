@@ -65,6 +65,10 @@ _GAP_MATCH = 0.03  # ... opens where a pixel's colour lies within this squared d
 _RIM_MATCH = 0.25  # ... unless its rim is that colour too and the pocket nearer its rim than this x (squared) it
 _PART_SURE = 0.7  # a separate part of the matte under this everywhere is dropped (largest kept) ...
 _PART_APART = 5  # ... where it lies more than this x the band's width from the parts kept
+_MAX_POCKETS = 64  # the largest this many pockets of one matte are decided (real photos and the clip: at most 12; a
+# matte riddled with 2,600 pockets took 12 s a megapixel, each pocket a window of the photo: fuzz8) ...
+_POCKET_SPAN = 1.0  # ... while their bounding boxes add up to at most this x the area searched (64 diagonal lines
+# across a megapixel matte, each a pocket as wide as the photo: 6 s)
 
 
 def band_width(shape: tuple[int, int]) -> int:
@@ -237,25 +241,30 @@ def _pockets(low: np.ndarray, interior: np.ndarray, min_area: int) -> Iterator[t
     """The connected parts of ``low & interior`` whose rim (the pixels just around them) lies mostly in
     ``interior``: a pocket the person closes around (the slivers between arm and dress: 0.71-1.0 of the rim), not a
     soft stretch along the outline (the soft top of Grace Hopper's dark cap before a dark blue flag: 0.49).
-    Pockets under ``min_area`` pixels are left out. Yields each as ((top, left), mask of its bounding box)."""
+    Pockets under ``min_area`` pixels are left out, and all but the largest _MAX_POCKETS, as long as their boxes
+    span _POCKET_SPAN of ``low``'s area. Yields each as ((top, left), mask of its bounding box)."""
     part = (low & interior).astype(np.uint8)
     # labelled on the box that holds them (a tenth of a 720p video frame's matte box), a pixel of nothing round it: the
-    # same parts in the same (raster) order as over the whole
+    # same parts as over the whole
     cx, cy, cw, ch = cv2.boundingRect(part)
     if cw == 0:
         return
     n, labels, stats, _ = cv2.connectedComponentsWithStats(part[cy : cy + ch, cx : cx + cw], connectivity=8)
     labels = np.pad(labels, 1)
     h, w = low.shape
-    for i in range(1, n):
+    found, span = 0, 0
+    for i in 1 + np.argsort(-stats[1:, cv2.CC_STAT_AREA], kind="stable"):  # largest first
         x, y, bw, bh, area = (int(v) for v in stats[i])
-        if area < min_area:  # a speck: nothing a composite would show, and each pocket costs a window of the photo
-            continue
+        if area < min_area or found == _MAX_POCKETS:  # a speck: nothing a composite would show, and each pocket
+            break  # costs a window of the photo
         x, y = x + cx, y + cy
         y0, y1, x0, x1 = max(y - 1, 0), min(y + bh + 1, h), max(x - 1, 0), min(x + bw + 1, w)
         comp = labels[y0 - cy + 1 : y1 - cy + 1, x0 - cx + 1 : x1 - cx + 1] == i
         rim = (cv2.dilate(comp.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0) & ~comp
         if rim.any() and interior[y0:y1, x0:x1][rim].mean() >= _ENCLOSED:
+            found, span = found + 1, span + bw * bh
+            if span > _POCKET_SPAN * h * w:
+                break
             yield (y0, x0), comp
 
 

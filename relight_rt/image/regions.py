@@ -7,6 +7,7 @@ meshes (relight_rt.person.face_mesh) crop with it.
 
 from __future__ import annotations
 
+import math
 import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -15,6 +16,8 @@ from typing import TypeVar
 
 import cv2
 import numpy as np
+
+from ..engine.errors import RelightError
 
 SIZE = 256  # the person-matting graphs' input side: the default canvas
 ROI_SCALE = 1.25  # square region side = this x the person's longest box side (MediaPipe's choice)
@@ -33,6 +36,11 @@ class Region:
     cx: float
     cy: float
     side: float
+
+    def __post_init__(self):
+        # one place for every crop (a side of 0 divided by zero in grid_of_region, NaN failed converting to int)
+        if not (math.isfinite(self.cx) and math.isfinite(self.cy) and math.isfinite(self.side) and self.side > 0):
+            raise RelightError(f"region: expected a finite centre and a finite side > 0, got {self}")
 
     @staticmethod
     def around(x0: float, y0: float, x1: float, y1: float, scale: float = ROI_SCALE) -> Region:

@@ -46,6 +46,9 @@ N_POINTS = 468
 ROI_SCALE = 1.5  # the landmarker's square: this many face-box sides around the detected face (MediaPipe's)
 MIN_FACE_NET = 24  # a face smaller than this in network pixels is left to stage 1 (and the head pass)
 MIN_FLAG = 0.5  # the landmarker's face probability needed to trust its mesh
+MESH_REACH = 3.0  # ... and its mesh at most this many of its crop's sides across on every axis, all finite (a face
+# spans 0.60-0.77 of it: 185 meshes on Yale and people photos; one blown up 1000x had the cast shadow's lamp map ask
+# for 309 GB, one Inf point failed in OpenCV: fuzz8)
 CLOSE_UP_SCALE = 2.0  # no face in the box's square: look again at a square this many times as large (FaceMesh.faces)
 SMOOTH = 0.055  # normals smoothed over this fraction of the face's size (0.04: a hard nose edge, a dark blob)
 HOLE_SPREAD = 0.05  # the eyes' and mouth's normals: spread in from this fraction of the face's size around
@@ -504,5 +507,9 @@ class FaceMesh:
             pts[:, 0] = bx + pts[:, 0] * k
             pts[:, 1] = by + pts[:, 1] * k
             pts[:, 2] *= k
+            across = float(np.ptp(pts, axis=0).max()) / roi.side
+            if not (np.isfinite(pts).all() and across <= MESH_REACH):  # no face's shape: every map drawn from it
+                log.debug("face mesh dropped: not finite, or %.3g crop sides across", across)  # is sized by it
+                continue
             meshes.append(pts)
         return meshes

@@ -373,18 +373,24 @@ class Factor:
         if not own["mesh_views"]:
             return None
         lum = np.asarray(light, np.float32) @ REC709
-        key = (lum / lum[0] if lum[0] > 1e-9 else lum).round(5).tobytes()
+        # the map is made from its key, the light without its scale: the meter's light and the exposed one share it,
+        # and it was made from whichever came first (relights differed by up to 7e-7 by their order: fuzz8)
+        lum = (lum / lum[0] if lum[0] > 1e-9 else lum).round(5)
+        key = lum.tobytes()
         cache = self.memo(dec).setdefault("cast", OrderedDict())
-        if key in cache:
-            cache.move_to_end(key)
-            return cache[key]
+        with self.memo.lock:  # relights of one Decomposition from several threads (the studio, a caller's pool)
+            if key in cache:
+                cache.move_to_end(key)
+                return cache[key]
         cast = shadow_factor(own["transport"], lum, own["mesh_views"], own["cap_skin"])
         if cast is not None and own["cast_own"] is not None:
             cast = np.minimum(cast / np.maximum(own["cast_own"], 1e-3), 1)
-        cache[key] = None if cast is None else readonly(cast.astype(np.float32))
-        while len(cache) > CAST_CACHE:  # a light dragged about in the studio: each is a window-sized map
-            cache.popitem(last=False)
-        return cache[key]
+        cast = None if cast is None else readonly(cast.astype(np.float32))
+        with self.memo.lock:
+            cache[key] = cast
+            while len(cache) > CAST_CACHE:  # a light dragged about in the studio: each is a window-sized map
+                cache.popitem(last=False)
+        return cast
 
     def shadow_layer(self, dec: Decomposition, light: np.ndarray) -> tuple[np.ndarray | None, float]:
         """What the faces' cast shadows under ``light`` take of its shading, in the input frame, and what "auto" lifts

@@ -157,6 +157,17 @@ def test_find_people_looks_on_a_small_copy():
         find_people(np.zeros((90, 160), np.uint8), matter)
 
 
+def test_a_photo_one_pixel_tall_or_wide_has_nobody_in_it_and_an_empty_one_is_an_error():
+    """fuzz8: a 1 x 1, 1 x N or N x 1 photo was refused as "expected an (H, W, 3) RGB photo, got (1, 50, 3)" (it is
+    one) where a 2 x 2 or a 15 x 900 one finds nobody; now all of them find nobody, and only an empty array is an
+    error."""
+    for shape in ((1, 1, 3), (1, 50, 3), (50, 1, 3), (1, 5000, 3), (5000, 1, 3), (2, 2, 3)):
+        assert find_people(np.zeros(shape, np.uint8), FakeMatter([(0, 0, 1, 1)])) == []
+    for shape in ((0, 5, 3), (5, 0, 3), (0, 0, 3)):
+        with pytest.raises(RelightError, match="RGB photo"):
+            find_people(np.zeros(shape, np.uint8), FakeMatter([]))
+
+
 def test_a_default_place_moves_along_its_row_off_a_person_there():
     bg_shape = (400, 600, 3)
     rgba = figure()

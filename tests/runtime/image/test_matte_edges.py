@@ -243,6 +243,33 @@ def test_a_half_seen_gap_between_arm_and_body_opens():
     assert out[30:180, 70:120].min() == 1.0 and out[50:170, 140:146].min() == 1.0  # body and arm stay
 
 
+def test_a_matte_riddled_with_pockets_decides_its_largest_and_stays_fast(monkeypatch):
+    """fuzz8: every pocket costs a window of the photo (:func:`R._open_gap`), so a matte riddled with them (2,600 at a
+    megapixel) took 12 s; real photos and the reference clip have at most 12. The largest _MAX_POCKETS are decided
+    while their boxes span at most the matte's (_POCKET_SPAN); the arm's sliver still opens, the rest keep the
+    coarse matte."""
+    rgb, _, coarse = _arm_and_body(400, 400)
+    rgb[220:390, 20:390], coarse[220:390, 20:390] = (0.25, 0.3, 0.6), 1.0  # and a coat below, riddled with specks
+    yy, xx = np.mgrid[232:380:10, 32:380:10].reshape(2, -1)
+    for y, x in zip(yy, xx, strict=True):
+        coarse[y : y + 3, x : x + 3] = 0.7
+    calls = []
+    gap = R._open_gap
+    monkeypatch.setattr(R, "_open_gap", lambda *args: (calls.append(1), gap(*args)))
+    out = R.open_pockets(rgb, coarse, band=4)
+    assert len(yy) > 2 * R._MAX_POCKETS and len(calls) == R._MAX_POCKETS
+    assert out[60:160, 131:135].max() < 0.5  # the sliver, the largest, opens
+    # fewer pockets, each as wide as the coat (diagonal seams: 6 s at a megapixel): while their boxes span the matte's
+    rgb, _, coarse = _arm_and_body(400, 400)
+    rgb[220:390, 20:390], coarse[220:390, 20:390] = (0.25, 0.3, 0.6), 1.0
+    yy, xx = np.mgrid[232:378, 32:378]
+    coarse[232:378, 32:378][(yy + xx) % 9 == 0] = 0.7
+    calls.clear()
+    out = R.open_pockets(rgb, coarse, band=4)
+    assert 1 < len(calls) < 20  # of 56 seams
+    assert out[60:160, 131:135].max() < 0.5
+
+
 def test_a_soft_pocket_not_in_the_backdrops_colour_is_the_persons():
     """The same pocket in a colour between the body's and the backdrop's (a pale fold of the dress): colour alone
     would put it halfway; it is not the backdrop's colour, so it is the person's, opaque. It kept the graphs' answer

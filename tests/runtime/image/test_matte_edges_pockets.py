@@ -66,17 +66,21 @@ def test_beyond_real_outline_on_a_box_is_the_whole_windows(seed, r):
 
 
 def _pockets_over_the_whole(low, interior, min_area):
-    """``_pockets`` as first written: labelled over the whole array."""
+    """``_pockets`` labelled over the whole array (largest first, capped at _MAX_POCKETS and _POCKET_SPAN)."""
     n, labels, stats, _ = cv2.connectedComponentsWithStats((low & interior).astype(np.uint8), connectivity=8)
     h, w = low.shape
-    for i in range(1, n):
+    found, span = 0, 0
+    for i in 1 + np.argsort(-stats[1:, cv2.CC_STAT_AREA], kind="stable"):
         x, y, bw, bh, area = (int(v) for v in stats[i])
-        if area < min_area:
-            continue
+        if area < min_area or found == R._MAX_POCKETS:
+            break
         y0, y1, x0, x1 = max(y - 1, 0), min(y + bh + 1, h), max(x - 1, 0), min(x + bw + 1, w)
         comp = labels[y0:y1, x0:x1] == i
         rim = (cv2.dilate(comp.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0) & ~comp
         if rim.any() and interior[y0:y1, x0:x1][rim].mean() >= R._ENCLOSED:
+            found, span = found + 1, span + bw * bh
+            if span > R._POCKET_SPAN * h * w:
+                break
             yield (y0, x0), comp
 
 

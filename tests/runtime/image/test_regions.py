@@ -1,10 +1,13 @@
-"""image.regions.Pyramid.answer: what a graph answered on a region of one photo, kept inside reductions_shared."""
+"""image.regions: Pyramid.answer (what a graph answered on a region of one photo, kept inside reductions_shared);
+a Region's own check."""
 
 import gc
 
 import numpy as np
+import pytest
 
-from relight_rt.image.regions import Region, pyramid_of, reductions_shared
+from relight_rt import RelightError
+from relight_rt.image.regions import Region, crop_region, pyramid_of, reductions_shared
 
 
 class _Graph:
@@ -42,3 +45,16 @@ def test_one_graph_asked_two_kinds_of_question_on_a_region_keeps_both_answers_ap
         assert pyr.answer(g, "selfie", region, g.ask, 8) == "probability"  # kept: not asked again
     assert g.runs == 0
     assert pyramid_of(rgb).answer(g, "selfie", region, g.ask, 8) == 1.0  # outside the block: asked every time
+
+
+@pytest.mark.parametrize("values", [(0.0, 0.0, 0.0), (32.0, 32.0, -10.0), (float("nan"), 0.0, 10.0),
+                                    (0.0, float("inf"), 10.0), (0.0, 0.0, float("inf"))])
+def test_a_region_without_a_finite_centre_and_side_is_one_clear_error(values):
+    """fuzz8: a side of 0 failed in grid_of_region (ZeroDivisionError), a NaN or Inf centre or side converting to int
+    (ValueError, OverflowError), from crop_region and PersonMatter.segment alike; a region far past the image is
+    still a canvas of zeros."""
+    with pytest.raises(RelightError, match="region"):
+        Region(*values)
+    img = np.ones((4, 500, 3), np.float32)
+    assert not crop_region(img, Region(-1e9, 5.0, 10.0)).any()
+    assert crop_region(img, Region(250.0, 2.0, 1e-6)).shape == (256, 256, 3)

@@ -289,3 +289,35 @@ def test_the_faces_mirror_takes_each_eye_to_the_other_and_keeps_the_mid_line():
     moved = squeezed[a, :2] @ m[:, :2].T + m[:, 2]
     assert np.abs(moved - squeezed[b, :2]).max() < 0.15 * np.ptp(squeezed[:, 0])
     assert np.linalg.det(m[:, :2]) < 0  # a reflection
+
+
+def test_a_landmarker_answer_that_is_no_face_shape_is_dropped():
+    """fuzz8: the mesh sizes every map drawn from it (the cast shadow's lamp map, the occlusion's window) by its
+    extent, so a landmarker answer blown up 1000x asked for 309 GB (MemoryError) and one Inf point failed inside
+    OpenCV. FaceMesh.faces keeps a mesh only when it is finite and at most MESH_REACH of its crop's sides across
+    (real faces: 0.60-0.77); the bundled example's own mesh is kept."""
+    from relight_rt.cli.demo import example_path
+    from relight_rt.image.io import read_image
+
+    img = np.ascontiguousarray(read_image(example_path())[..., :3])
+    box = (0, img.shape[0], 0, img.shape[1])
+    mesh = FaceMesh(bundled_models_dir())
+    assert len(mesh.faces(img, box)) == 1
+    real = mesh.mesh
+
+    class Landmarker:  # the real graph's answer, changed
+        def __init__(self, change):
+            self.change = change
+
+        def run(self, names, feeds):
+            lm, flag = real.run(names, feeds)
+            pts = lm.reshape(-1, 3).astype(np.float64)
+            return self.change(pts).reshape(lm.shape).astype(lm.dtype), flag
+
+    centre = lambda p: p.mean(axis=0)  # noqa: E731
+    for change in (lambda p: (p - centre(p)) * 1000 + centre(p), lambda p: np.where(np.arange(len(p))[:, None] == 1,
+                                                                                    np.inf, p)):
+        mesh.mesh = Landmarker(change)
+        assert mesh.faces(img, box) == []
+    mesh.mesh = Landmarker(lambda p: (p - centre(p)) * 2 + centre(p))  # a face twice its size is still one
+    assert len(mesh.faces(img, box)) == 1
