@@ -400,18 +400,19 @@ def blended(person: Person, seen: np.ndarray) -> Person:
     half A 0.910 -> 0.913 (mannequins +0.10, the worst -0.02), half B 0.8835 -> 0.8851 (the worst -0.015).
 
     The average only takes from the region's answer (matte15): where that answer leaves a pixel out and the whole
-    photo's sees more, the mean of a 0 and a 0.9 is a veil at alpha 0.3-0.45, pasted into every composite (p101: over
-    a grass block :func:`unconfirmed_cut` had dropped whole and over her arm beside it; p285: a jacket's shoulder the
-    framed run missed). There the pixel is decided, not mixed: the whole photo's answer where it is sure (>=
-    BLEND_TAKE) in a part joined to the person (within JOIN_GAP canvas pixels: a sure blob apart is someone else), the
-    region's answer elsewhere (a rule's drop stays dropped). Measured (people_masks_eval.py; BLEND_TAKE among 0.8,
-    0.9, 0.95 on half A: 0.92085, 0.92087, 0.92087): half A 0.92047 -> 0.92087 (p285 +0.028: the shoulder whole; p083
-    +0.021; p101 -0.005: the grass veil gone, a strip of her arm with it; the worst p270 -0.004), half B 0.89602 -> 0.89581 (p190 -0.026: a patch above a seated man's
-    head that the whole photo sees at 0.97 and the service's mask leaves out, now opaque, before a veil at 0.68; p246 -0.014: a group's far side
-    the whole photo half-sees, 0.34 -> 0.30; p282 +0.009), the clip unchanged (0.93254); translucent interiors
-    (benchmarks/matte_translucent.py) A 1.45 -> 1.42 %, B 2.03 -> 1.92 %, clip 0.80 % unchanged. Averaged
-    everywhere but never lifting (the region's answer kept wherever the whole photo's is higher): A unchanged at
-    0.92047 (p101 -0.023, p285 -0.010: the arm and shoulder lost with the veil)."""
+    photo's sees more, the mean of a 0 and a 0.9 is a veil at alpha 0.3-0.45, pasted into every composite (p101: over a
+    grass block :func:`unconfirmed_cut` had dropped whole and over her arm beside it; p285: a jacket's shoulder the
+    framed run missed). There the pixel is decided, not mixed: the whole photo's answer where it is sure (>= BLEND_TAKE)
+    in a part joined to the person (within JOIN_GAP canvas pixels: a sure blob apart is someone else), the region's
+    answer elsewhere (a rule's drop stays dropped). Measured (people_masks_eval.py; BLEND_TAKE among 0.8, 0.9, 0.95 on
+    half A: 0.92085, 0.92087, 0.92087): half A 0.92047 -> 0.92087 (p285 +0.028: the shoulder whole; p083 +0.021; p101
+    -0.005: the grass veil gone, a strip of her arm with it; the worst p270 -0.004), half B 0.89602 -> 0.89581 (p190
+    -0.026: a patch above a seated man's head that the whole photo sees at 0.97 and the service's mask leaves out, now
+    opaque, before a veil at 0.68; p246 -0.014: a group's far side the whole photo half-sees, 0.34 -> 0.30; p282
+    +0.009), the clip unchanged (0.93254); translucent interiors (benchmarks/matte_translucent.py) A 1.45 -> 1.42 %, B
+    2.03 -> 1.92 %, clip 0.80 % unchanged. Averaged everywhere but never lifting (the region's answer kept wherever the
+    whole photo's is higher): A unchanged at 0.92047 (p101 -0.023, p285 -0.010: the arm and shoulder lost with the
+    veil)."""
     mine, whole = person.logits > 0, seen > 0.5
     if (mine & whole).sum() < BLEND_IOU * (mine | whole).sum():
         return person

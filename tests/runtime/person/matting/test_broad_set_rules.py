@@ -363,10 +363,10 @@ def test_a_selfie_graph_person_cut_by_its_regions_side_is_taken_whole():
 
 @pytest.mark.parametrize(("ground", "dropped"), [(0.7, True), (0.99, False)])
 def test_what_runs_into_a_cut_side_unseen_framed_wider_is_dropped(ground, dropped, monkeypatch):
-    """_selfie.widened / _layout.unconfirmed_cut: the selfie graph framed tight takes in the ground its region cuts (grass
-    around a woman lying in it, matted in two blocks ending in the region's straight sides: people_masks p101-like);
-    framed wider it does not. What runs into a cut side that the wider run does not see and the first run is not sure
-    of (< SURE_PART) is dropped; a part it is sure of stays (framed larger, the graph can lose half a face)."""
+    """_selfie.widened / _layout.unconfirmed_cut: the selfie graph framed tight takes in the ground its region cuts
+    (grass around a woman lying in it, matted in two blocks ending in the region's straight sides: people_masks
+    p101-like); framed wider it does not. What runs into a cut side that the wider run does not see and the first run is
+    not sure of (< SURE_PART) is dropped; a part it is sure of stays (framed larger, the graph can lose half a face)."""
     h, w = 300, 400
 
     def framed(roi, rgb, region):
