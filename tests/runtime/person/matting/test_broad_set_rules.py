@@ -3,6 +3,8 @@ a synthetic image with stand-in graphs (the figures they were measured by are in
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from test_matting import iou
@@ -361,10 +363,10 @@ def test_a_selfie_graph_person_cut_by_its_regions_side_is_taken_whole():
 
 @pytest.mark.parametrize(("ground", "dropped"), [(0.7, True), (0.99, False)])
 def test_what_runs_into_a_cut_side_unseen_framed_wider_is_dropped(ground, dropped, monkeypatch):
-    """_selfie.widened / _layout.unconfirmed_cut: the selfie graph framed tight takes in the ground its region cuts (grass
-    around a woman lying in it, matted in two blocks ending in the region's straight sides: people_masks p101-like);
-    framed wider it does not. What runs into a cut side that the wider run does not see and the first run is not sure
-    of (< SURE_PART) is dropped; a part it is sure of stays (framed larger, the graph can lose half a face)."""
+    """_selfie.widened / _layout.unconfirmed_cut: the selfie graph framed tight takes in the ground its region cuts
+    (grass around a woman lying in it, matted in two blocks ending in the region's straight sides: people_masks
+    p101-like); framed wider it does not. What runs into a cut side that the wider run does not see and the first run is
+    not sure of (< SURE_PART) is dropped; a part it is sure of stays (framed larger, the graph can lose half a face)."""
     h, w = 300, 400
 
     def framed(roi, rgb, region):
@@ -564,6 +566,47 @@ def test_a_selfie_graph_person_is_averaged_with_the_whole_photos_answer_only_whe
     assert (out.logits[body] > 0).all() and (out.logits[rim] < 0).all()  # the rim is gone, the body kept
     other = np.where(xx < 100, 0.95, 0.02).astype(np.float32)  # the whole photo's answer is someone else
     assert _layout.blended(framed, other) is framed
+
+
+def test_the_average_with_the_whole_photos_answer_brings_back_nothing_a_rule_dropped():
+    """_layout.blended after _layout.unconfirmed_cut: the ground the selfie graph framed tight takes in where its
+    region cuts it is dropped whole (logit -LOGIT_CLIP), and the whole photo's answer, half sure of that ground
+    (0.6), agrees with the rest of the person. Averaged there as well, the ground came back as a veil at alpha 0.3
+    (people_masks p101: the grass block at 0.3-0.45, pasted into every composite). The average may take from the
+    region's answer, never add to what it leaves out; inside the person it is the average still."""
+    yy, xx = np.mgrid[0:256, 0:256] + 0.5
+    body = (((xx - 128) / 50) ** 2 + ((yy - 120) / 90) ** 2) < 1
+    grass = (yy > 215) & (xx > 40) & (xx < 216) & ~body  # runs into the canvas's bottom row: the region's cut side
+    region = M.Region(128.0, 128.0, 256.0)
+    first = _segmentation.Person(region, np.where(body | grass, 4.0, -6.0).astype(np.float32), 0.9, "roi")
+    first = replace(first, logits=np.where(grass, np.float32(1.0), first.logits))  # unsure of the grass (0.73)
+    wide = _segmentation.Person(M.Region(128.0, 192.0, 384.0), np.full((256, 256), -6.0, np.float32), 0.9, "roi")
+    wide.logits[_layout.resampled(first, wide.region)[0] > 3.0] = 6.0  # the wider run: the body, no grass
+    cut = _layout.unconfirmed_cut(wide, first, (False, False, False, True))
+    assert (_segmentation.sigmoid(cut.logits[grass]) < 0.01).all()  # dropped whole
+    seen = np.where(body, 0.97, np.where(grass, 0.6, 0.02)).astype(np.float32)
+    out = _segmentation.sigmoid(_layout.blended(cut, seen).logits)
+    assert out[grass].max() < 0.01  # no veil where the rule dropped the grass
+    inside = _segmentation.sigmoid(cut.logits[body])
+    assert np.allclose(out[body], 0.5 * (inside + 0.97), atol=1e-3)  # the person is still the average
+
+
+def test_what_the_whole_photo_is_sure_of_beside_the_person_is_taken_whole_not_half():
+    """_layout.blended: a shoulder the region's answer leaves out (0.02) and the whole photo's answer is sure of
+    (0.97) came out at their mean, 0.5: a veil over the person (people_masks p285: a jacket's shoulder at alpha
+    0.44). Joined to the person and at least BLEND_TAKE sure, it is the whole photo's answer; a sure blob apart from
+    the person (someone else) and a part the whole photo is unsure of (0.6) stay as the region's answer had them."""
+    yy, xx = np.mgrid[0:256, 0:256] + 0.5
+    body = (((xx - 128) / 50) ** 2 + ((yy - 120) / 90) ** 2) < 1
+    shoulder = (yy > 190) & (xx > 40) & (xx < 128) & ~body  # beside the body, against it
+    unsure = (yy > 220) & (xx >= 128) & (xx < 216) & ~body
+    apart = (xx < 20) & (yy < 20)  # far from the body
+    region = M.Region(128.0, 128.0, 256.0)
+    framed = _segmentation.Person(region, np.where(body, 4.0, -4.0).astype(np.float32), 0.9, "roi")
+    seen = np.where(body | shoulder | apart, 0.97, np.where(unsure, 0.6, 0.02)).astype(np.float32)
+    out = _segmentation.sigmoid(_layout.blended(framed, seen).logits)
+    assert np.allclose(out[shoulder], 0.97, atol=1e-3)  # taken whole: no pixel at the half mix
+    assert np.allclose(out[unsure | apart], _segmentation.sigmoid(np.float32(-4.0)), atol=1e-3)
 
 
 def test_portrait_region_is_no_wider_than_the_photo():
