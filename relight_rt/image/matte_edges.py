@@ -253,7 +253,8 @@ def _pockets(low: np.ndarray, interior: np.ndarray, min_area: int) -> Iterator[t
     labels = np.pad(labels, 1)
     h, w = low.shape
     found, span = 0, 0
-    for i in 1 + np.argsort(-stats[1:, cv2.CC_STAT_AREA], kind="stable"):  # largest first
+    st = stats[1:]  # largest first, ties by place (labels number differently on a box than over the whole)
+    for i in 1 + np.lexsort((st[:, cv2.CC_STAT_LEFT] + cx, st[:, cv2.CC_STAT_TOP] + cy, -st[:, cv2.CC_STAT_AREA])):
         x, y, bw, bh, area = (int(v) for v in stats[i])
         if area < min_area or found == _MAX_POCKETS:  # a speck: nothing a composite would show, and each pocket
             break  # costs a window of the photo
