@@ -55,7 +55,7 @@ from . import sh
 
 __all__ = ["DISPLAY_GAMMA", "HIGHLIGHT_LIMIT", "HIGHLIGHT_MAX_DOWN", "HIGHLIGHT_SHARE", "KNEE_RANGE", "METER_POWER",
            "SHOULDER_MAX_UP", "Highlight", "ev_gain", "exposure_scale", "guarded", "highlight_factor", "mean_luminance",
-           "own_light_knee", "parse_exposure", "rolled_off", "shoulder_gain"]
+           "knee", "own_light_knee", "parse_exposure", "rolled_off", "shoulder_gain"]
 
 MAX_EV = 20.0  # |EV| beyond this is a mistake, not a photograph
 HIGHLIGHT_LIMIT = 1.0  # white: the brightest channel of a relit pixel past this is held by the highlight shoulder
@@ -287,15 +287,21 @@ def rolled_off(peak: np.ndarray, knee: np.ndarray) -> np.ndarray:
     return out
 
 
+def knee(photo: np.ndarray) -> np.ndarray:
+    """(...) where the highlight shoulder starts for each pixel of ``photo`` (..., 3): its own peak (brightest
+    channel), within ``KNEE_RANGE`` ([0.8, 0.999])."""
+    return np.clip(channel_max(photo), *KNEE_RANGE)
+
+
 def own_light_knee(lit, steady, transport, white) -> np.ndarray:
     """(N,) float32 each pixel's knee where only ``Highlight``'s picture is at hand: its peak under the photo's own
     light, white (``white`` (9,): ``Decomposition.white_light[:, 0]``), lit * Y(W) + steady with W = max(0, T·white),
     within ``KNEE_RANGE``. Where the picture is the photo times the relighting factor (relight_rt.relight.factor) this
-    is the photo's own peak (relight_rt.relight.look ``knee``), which ``Factor.highlight_inputs`` reads directly; the
+    is the photo's own peak (:func:`knee` of the photo), which ``Factor.highlight_inputs`` reads directly; the
     network's image (``detail=False``) and the studio page's copy of ``shoulder_gain`` rebuild it this way."""
     lit, steady, t = _pixels(lit, steady, transport)
     own = np.maximum(t @ np.asarray(white, np.float32).reshape(9), 0)
-    return np.clip(channel_max(lit * own[:, None] + steady), *KNEE_RANGE).astype(np.float32)
+    return knee(lit * own[:, None] + steady).astype(np.float32)
 
 
 def shoulder_gain(lit, steady, transport, light, knee, power: float = METER_POWER) -> float:

@@ -12,10 +12,10 @@ import numpy as np
 from ..image.color import srgb_to_linear
 from ..image.compositing import Background, clean_edge_colour, over_box
 from ..image.foreground import estimate_foreground, nearest_colours
-from ..light.exposure import DISPLAY_GAMMA
+from ..light.exposure import DISPLAY_GAMMA, knee
 from .decomposition import Decomposition, Memo, RelightResult, intrinsic_layers, readonly
 from .factor import Factor
-from .look import dark_colour, knee, shoulder, steady_chroma
+from .look import dark_colour, shoulder, steady_chroma
 
 _ALPHA_MIN = np.float32(1e-3)
 _SOFT = 1.0 / 255  # a matte value further than this from 0 and 1 is a soft edge (mixes person and background)

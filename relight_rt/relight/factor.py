@@ -68,7 +68,7 @@ from .cast_shadow import MeshView, shadow_factor
 from .decomposition import Decomposition, Memo, readonly
 from .detail import extend_outward, guided_upsample, shadow_texture, unpremultiply, window
 from .face_pass import FacePass, feather
-from .look import knee, shaded_skin, skin_chroma, tint_range
+from .look import shaded_skin, skin_chroma, tint_range
 from .strength import (
     EXPLAIN_ALBEDO_MIN,
     EXPLAIN_SHADOW_SHARE,
@@ -750,7 +750,7 @@ class Factor:
 
         With detail the picture is the photo times the relighting factor (module docstring; diffuse part): per
         pixel the photo's colour times albedo / own scales with the light and the photo's colour times missing /
-        own stays, and the highlight shoulder starts at the photo's own peak (``look.knee``, as ``Composer`` rolls it
+        own stays, and the highlight shoulder starts at the photo's own peak (``knee``, as ``Composer`` rolls it
         off); without it, the network's albedo times the shading, its knee that picture's peak under the photo's own
         light (``own_light_knee``). The share allowed is the photo's own share at white there, at least
         ``HIGHLIGHT_SHARE``.
@@ -766,7 +766,7 @@ class Factor:
                 lit = photo * (own["albedo"][inner] / base)[:, None]
                 steady = photo * (own["missing"][inner] / base)[:, None]
                 transport = own["transport"][inner]
-                peaks = knee(photo)
+                peaks = _exposure.knee(photo)
             else:
                 alpha = dec.network_mask
                 inner = alpha > 0.5

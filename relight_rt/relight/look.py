@@ -15,7 +15,7 @@ import numpy as np
 
 from ..image.color import REC709, channel_max
 from ..light import sh
-from ..light.exposure import KNEE_RANGE, rolled_off
+from ..light.exposure import rolled_off
 
 _DARK = np.float32(0.25)  # steady_chroma: a pixel below this luminance, brightened by a gain, takes its dark
 _AMPLIFIED = np.float32(2.0)  # ... neighbours' colour, fully from a gain of 1 + this,
@@ -114,12 +114,6 @@ def skin_chroma(photo: np.ndarray, skin: np.ndarray) -> tuple[np.ndarray, np.nda
     cr, cb = ycc[..., 1], ycc[..., 2]
     ramp = lambda v, lo, hi: np.clip(np.minimum(v - lo, hi - v) / 8 + 0.5, 0, 1)  # noqa: E731
     return chroma, (weight * ramp(cr, 135, 180) * ramp(cb, 85, 135)).astype(np.float32)
-
-
-def knee(photo: np.ndarray) -> np.ndarray:
-    """(H, W) where the highlight shoulder starts for each pixel: the photo's own peak, within
-    relight_rt.light.exposure ``KNEE_RANGE`` ([0.8, 0.999])."""
-    return np.clip(channel_max(photo), *KNEE_RANGE)
 
 
 def shoulder(colour: np.ndarray, knee: np.ndarray) -> np.ndarray:

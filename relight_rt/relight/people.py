@@ -9,9 +9,10 @@ import numpy as np
 
 from ..image.compositing import Background, clean_edge_colour
 from ..image.regions import Crop
+from ..light.exposure import knee
 from . import compose
 from .decomposition import Decomposition
-from .look import dark_colour, knee
+from .look import dark_colour
 
 MAX_PEOPLE = 16  # matting="all": a photo of more people than this is relit as one group (stage 1 once a person)
 _ROWS = 256  # rows of the photo done at a time where a temporary would otherwise be the photo's size

@@ -548,7 +548,8 @@ def test_no_mask_without_matting_says_how_to_give_one(models_dir):
 def test_highlight_shoulder_keeps_hue_and_gradation_and_the_photo():
     """Colours made brighter than 1 roll off smoothly, all channels scaled together; what is no brighter than the
     photo's own peak (knee >= 0.8) is untouched."""
-    from relight_rt.relight.look import knee, shoulder
+    from relight_rt.light.exposure import knee
+    from relight_rt.relight.look import shoulder
 
     photo = np.array([[[0.5, 0.3, 0.2], [0.5, 0.3, 0.2], [0.5, 0.3, 0.2], [0.95, 0.6, 0.4]]], np.float32)
     colour = np.array([[[0.6, 0.36, 0.24], [1.2, 0.72, 0.48], [1.6, 0.96, 0.64], [0.95, 0.6, 0.4]]], np.float32)
