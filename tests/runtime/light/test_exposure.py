@@ -320,7 +320,7 @@ def test_guarded_gives_the_shoulders_loss_back_before_the_guard():
 
 
 def test_the_relighters_knee_is_the_photos_own_peak(models_dir):
-    """``Factor.highlight_inputs`` takes each pixel's knee from the photo it has (``exposure.knee``, the shoulder's own),
+    """``Factor.highlight_inputs`` takes each pixel's knee from the photo it has (``knee``, the shoulder's own),
     not rebuilt per light: the picture under the photo's own light is the photo, so the two agree."""
     relighter = Relighter(RuntimeConfig(models=models_dir, device="cpu"))
     img, mask = person(seed=5)
