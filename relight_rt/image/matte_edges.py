@@ -269,6 +269,16 @@ def _pockets(low: np.ndarray, interior: np.ndarray, min_area: int) -> Iterator[t
             yield (y0, x0), comp
 
 
+def _outside_parts(inside: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The 4-connected parts of the outside of ``inside`` (uint8, 1 inside; label 0 the inside itself) and, per
+    label, whether it reaches the box's border (a hole does not): (labels (H, W), outside (n,) bool)."""
+    n, labels = cv2.connectedComponents(1 - inside, connectivity=4)
+    outside = np.zeros(n, bool)
+    outside[np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]])] = True
+    outside[0] = False
+    return labels, outside
+
+
 def _deep_inside(inside: np.ndarray, r: int) -> np.ndarray:
     """The pixels more than ``r`` from the outline of ``inside`` (uint8, 1 inside) once its holes are filled (the parts
     of its outside that do not reach the box's border). The coarse matte puts the middle of a gap two canvas pixels
@@ -276,10 +286,8 @@ def _deep_inside(inside: np.ndarray, r: int) -> np.ndarray:
     sides out of the interior, so no pocket was found and the gap stayed half-held (alpha 0.5-0.8). Filled, the gap
     is one pocket, its rim the person around it. A real hole (the backdrop in the crook of an arm) is filled too: its
     rim is a pocket whose band-refined edge :func:`_open_gap` leaves as it is."""
-    n, labels = cv2.connectedComponents(1 - inside, connectivity=4)
-    filled = np.ones(n, np.uint8)  # per label: 1 where a hole (or the inside, label 0)
-    filled[np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]])] = 0
-    filled[0] = 1
+    labels, outside = _outside_parts(inside)
+    filled = (~outside).astype(np.uint8)  # per label: 1 where a hole (or the inside, label 0)
     return cv2.distanceTransform(filled[labels], cv2.DIST_L2, 3) > r
 
 
@@ -330,9 +338,7 @@ def _beyond_real_outline(inside: np.ndarray, a: np.ndarray, r: int, at: tuple[in
     """The pixels of the box ``at`` (y0, y1, x0, x1) more than ``r`` from the outline of ``inside`` (uint8) where only
     the outside that reaches the border of ``inside`` or holds sure background (``a`` <= 1 - _SURE) counts: a gap's
     under-0.5 middle is filled (its sides are the pocket's, :func:`_deep_inside`), a real hole keeps its band."""
-    n, labels = cv2.connectedComponents(1 - inside, connectivity=4)
-    outside = np.zeros(n, bool)
-    outside[np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]])] = True
+    labels, outside = _outside_parts(inside)
     outside[labels[a <= 1 - _SURE]] = True
     outside[0] = False  # label 0: the inside itself
     # the distance on the box and as far round it as an outside pixel may lie within r: OpenCV's 3x3 chamfer distance
