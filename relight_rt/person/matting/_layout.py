@@ -339,13 +339,18 @@ def joined_part(prob: np.ndarray, mine: np.ndarray, seeds: list[tuple[int, int]]
     return part if part.any() else None
 
 
+def _near(mine: np.ndarray) -> np.ndarray:
+    """(H, W) bool: within JOIN_GAP canvas pixels of ``mine`` (a part there is joined to it)."""
+    return cv2.dilate(mine.astype(np.uint8), np.ones((2 * JOIN_GAP + 1,) * 2, np.uint8)).astype(bool)
+
+
 def _seeded_parts(person: np.ndarray, mine: np.ndarray, seeds: list[tuple[int, int]]):
     """The 8-connected components of ``person`` (bool canvas): (labels, the label under each seed that lies on the
     canvas (0: none), the set of those components that touch ``mine`` within JOIN_GAP); None without a component."""
     n, labels = cv2.connectedComponents(person.astype(np.uint8), connectivity=8)
     if n <= 1:
         return None
-    near = cv2.dilate(mine.astype(np.uint8), np.ones((2 * JOIN_GAP + 1,) * 2, np.uint8)).astype(bool)
+    near = _near(mine)
     held = [int(labels[i, j]) for i, j in seeds if 0 <= i < labels.shape[0] and 0 <= j < labels.shape[1]]
     touching = {label for label in set(held) - {0} if (near & (labels == label)).any()}
     return labels, held, touching
@@ -430,7 +435,7 @@ def _touching(part: np.ndarray, mine: np.ndarray) -> np.ndarray:
     n, labels = cv2.connectedComponents(part.astype(np.uint8), connectivity=8)
     if n <= 1:
         return part
-    near = cv2.dilate(mine.astype(np.uint8), np.ones((2 * JOIN_GAP + 1,) * 2, np.uint8)).astype(bool)
+    near = _near(mine)
     return np.isin(labels, [k for k in np.unique(labels[near & part]) if k > 0])
 
 

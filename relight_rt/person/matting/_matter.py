@@ -270,9 +270,7 @@ class PersonMatter:
             found = [self._backed(rgb, p) if p.source == "pose" else p for p in found]
             if self.person != "all" and found:
                 found += self._joined(rgb, found, faces)
-                start = around_people(self.roi, rgb, found)  # the own colours' region, the turned views' too unless
-                own = self._own_colours(rgb, found, start)  # ... a part is added (it widens the region: its own run)
-                found += own + turned_people(self.roi, rgb, found + own, None if own else start)  # _turned
+                found += self._own_and_turned(rgb, found)
                 found = [blended(p, seen_on(self.roi, rgb, p.region)) if p.source == "roi" else p for p in found]
                 self._note_others(found, faces, name)
             return found
@@ -283,9 +281,14 @@ class PersonMatter:
         parts joined in their own colours (:meth:`_own_colours`) and the limbs seen only turned (_turned):
         [person, *parts]. The turned views run only where an upright view offers a part past the matte."""
         found = [self._backed(rgb, person) if person.source == "pose" else person]
-        start = around_people(self.roi, rgb, found)
-        own = self._own_colours(rgb, found, start)
-        return found + own + turned_people(self.roi, rgb, found + own, None if own else start)
+        return found + self._own_and_turned(rgb, found)
+
+    def _own_and_turned(self, rgb: np.ndarray, found: list[Person]) -> list[Person]:
+        """The parts joined to ``found`` in their own colours (:meth:`_own_colours`) and the limbs seen only turned
+        (_turned), in that order."""
+        start = around_people(self.roi, rgb, found)  # the own colours' region, the turned views' too unless
+        own = self._own_colours(rgb, found, start)  # ... a part is added (it widens the region: its own run)
+        return own + turned_people(self.roi, rgb, found + own, None if own else start)
 
     def _own_colours(self, rgb: np.ndarray, people: list[Person], start: Around | None = None) -> list[Person]:
         """What the selfie graph sees joined to ``people`` in their own colours (relight_rt.person.matting._colours:
