@@ -15,6 +15,7 @@ import numpy as np
 
 from ..image.color import REC709, channel_max
 from ..light import sh
+from ..light.exposure import knee as knee  # the public name here (the one definition sits in light.exposure)
 from ..light.exposure import rolled_off
 
 _DARK = np.float32(0.25)  # steady_chroma: a pixel below this luminance, brightened by a gain, takes its dark
