@@ -25,7 +25,8 @@ selfie graph on the whole photo sees that shape. A selfie-graph person is averag
 the whole photo where the two agree (less of what stands behind a portrait). The default matte also takes someone
 the selfie graph sees joined to the person who shows a face of their own (an embracing couple), carries a selfie-graph
 segmentation on past its region's side where it was cut there (whole or not at all), and takes what the selfie graph
-sees joined to the person in the person's own colours (dark trousers the pose graph misses, not their shadow)
+sees joined to the person in the person's own colours (dark trousers the pose graph misses, not their shadow), and
+leaves out, whole, someone out of focus behind the person (a smaller, blurred face of their own in the matte)
 (measured on a broad real set: benchmarks/people_masks_eval.py).
 
 ``person="all"`` gathers the selfie graph's probability over every tile scale (not only the first that

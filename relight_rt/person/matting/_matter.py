@@ -21,6 +21,7 @@ from ...engine.session import Model, load_model
 from ...image.matte_edges import band_width, refine_edges, without_doubted_parts
 from ...image.regions import Region, crop_region, grid_of_region, reductions_shared
 from ..face_detector import Face
+from ._behind import without_behind
 from ._coarse import region_alpha
 from ._colours import own_part
 from ._detect import (
@@ -272,6 +273,7 @@ class PersonMatter:
                 found += self._joined(rgb, found, faces)
                 found += self._own_and_turned(rgb, found)
                 found = [blended(p, seen_on(self.roi, rgb, p.region)) if p.source == "roi" else p for p in found]
+                found = without_behind(self.roi, rgb, found, faces)  # someone out of focus behind: not theirs
                 self._note_others(found, faces, name)
             return found
 

@@ -1,0 +1,144 @@
+"""Issue 48: someone out of focus behind the person leaves the default matte, whole (relight_rt.person.matting._behind),
+on synthetic photos with stand-in graphs (the figures the rule was measured by are in its docstrings)."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+from test_matting import iou
+from test_people_found import _Bright
+
+from relight_rt.person import matting as M
+from relight_rt.person.face_detector import Face
+from relight_rt.person.matting import _behind, _matter
+
+H, W = 300, 400
+SUBJECT_FACE = Face((218.0, 48.0, 282.0, 112.0), 0.9)  # 64 px wide
+
+
+def texture(seed: int = 0) -> np.ndarray:
+    """A scene's texture: per-pixel grain and a coarser weave (H, W), zero mean."""
+    rng = np.random.default_rng(seed)
+    yy, xx = np.mgrid[0:H, 0:W]
+    return 0.08 * rng.uniform(-1, 1, (H, W)) + 0.08 * np.sin(xx / 2.0) * np.sin(yy / 2.5)
+
+
+def scene(behind_width: float, blurred: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray, Face]:
+    """A sharp subject (an upright ellipse on the right, face 64 px wide) in front of another person on the left
+    (overlapping them, face ``behind_width`` px wide), who is out of focus when ``blurred`` (the whole layer behind the
+    subject blurred, their outline too), on a dark plain backdrop: (photo (H, W, 3), subject's mask, other's mask,
+    the other's face)."""
+    yy, xx = np.mgrid[0:H, 0:W] + 0.5
+    subject = (((xx - 250) / 80) ** 2 + ((yy - 170) / 140) ** 2) < 1
+    s = behind_width / 40.0
+    other = (((xx - 140) / (50 * s)) ** 2 + ((yy - (110 + 90 * s)) / (100 * s)) ** 2) < 1
+    grain = texture()
+    back = np.where(other, 0.7 + grain, 0.05).astype(np.float32)
+    if blurred:
+        back = cv2.GaussianBlur(back, (0, 0), 3.0)
+    photo = np.where(subject, 0.75 + grain, back).astype(np.float32)
+    cx, top = 140.0, 110.0 + 90 * s - 100 * s + 20 * s
+    face = Face((cx - behind_width / 2, top, cx + behind_width / 2, top + behind_width), 0.85)
+    return np.repeat(photo[..., None], 3, 2), subject, other & ~subject, face
+
+
+def segmented(rgb: np.ndarray, mask: np.ndarray) -> M.Person:
+    """A selfie-graph segmentation holding ``mask`` (both people: it segments everyone in its region)."""
+    ys, xs = np.nonzero(mask)
+    region = M.Region.around(float(xs.min()), float(ys.min()), float(xs.max() + 1), float(ys.max() + 1))
+    canvas = M.crop_region(np.repeat(mask.astype(np.float32)[..., None], 3, 2), region)[..., 0]
+    return M.Person(region, np.where(canvas > 0.5, 10.0, -10.0).astype(np.float32), 0.99, "roi")
+
+
+@pytest.mark.parametrize(
+    ("behind_width", "blurred", "dropped"),
+    [(40.0, True, True), (40.0, False, False), (60.0, True, False)],
+)  # fmt: skip
+def test_a_blurred_smaller_face_behind_the_subject_leaves_the_matte_whole(behind_width, blurred, dropped):
+    """people_masks p103 / p257: a blurred woman behind a sharp one, a blurred man's face beside a woman's hand, came
+    into her matte (the selfie graph segments both). A face the matte holds that is smaller than the subject's (0.62
+    x: further back) and blurred where hers is sharp is someone behind: their whole body leaves the matte. A sharp
+    smaller face (a child beside their mother) or a blurred one as large as hers (standing with her, a shallow focus)
+    stays."""
+    rgb, subject, other, face = scene(behind_width, blurred)
+    matter = M.PersonMatter(refine=False)
+    matter.roi, matter.face = _Bright(), None
+    both = segmented(rgb, subject | other)
+    before = matter.alpha(rgb, [both])
+    assert iou(before, subject | other) > 0.95  # the segmentation holds both
+    people = _behind.without_behind(matter.roi, rgb, [both], [SUBJECT_FACE, face])
+    alpha = matter.alpha(rgb, people)
+    if dropped:
+        assert iou(alpha, subject) > 0.95
+        assert (alpha[other] >= 0.5).mean() < 0.02  # whole: not a piece of them left
+    else:
+        assert people[0] is both
+        assert iou(alpha, subject | other) > 0.95
+
+
+def test_behind_faces_compares_size_and_sharpness_with_the_subjects_face():
+    """The subject's face is the largest one the matte holds; a face outside the matte, or the only face, is no one
+    behind."""
+    rgb, subject, other, face = scene(40.0, True)
+    gray = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
+    both = segmented(rgb, subject | other)
+    found = _behind.behind_faces(gray, [both], [face, SUBJECT_FACE])
+    assert found is not None
+    assert found.subject is SUBJECT_FACE and found.faces == [face]
+    assert _behind.behind_faces(gray, [both], [SUBJECT_FACE]) is None
+    assert _behind.behind_faces(gray, [segmented(rgb, subject)], [SUBJECT_FACE, face]) is None
+
+
+def test_a_photo_enlarged_is_read_where_the_subjects_face_is_face_px_wide():
+    """A web photo enlarged reads as blurred everywhere at full size (p103 and p257 enlarged 5x to 2.5 MP: no face
+    behind found); read reduced until the subject's face is FACE_PX wide, the face behind is still found, and the
+    person behind leaves the matte as at the photo's own size."""
+    rgb, subject, other, face = scene(40.0, True)
+    z = 5  # enlarged so (bicubic): at full size the face behind measures 0.90 x the subject's fine detail
+    big = np.clip(cv2.resize(rgb, (z * W, z * H), interpolation=cv2.INTER_CUBIC), 0.0, 1.0)
+    grow = [Face(tuple(z * v for v in f.box), f.score) for f in (SUBJECT_FACE, face)]
+    matter = M.PersonMatter(refine=False)
+    matter.roi, matter.face = _Bright(), None
+    big_subject = cv2.resize(subject.astype(np.uint8), (z * W, z * H), interpolation=cv2.INTER_NEAREST) > 0
+    big_other = cv2.resize(other.astype(np.uint8), (z * W, z * H), interpolation=cv2.INTER_NEAREST) > 0
+    both = segmented(big, big_subject | big_other)
+    found = _behind.behind_faces(cv2.cvtColor(big, cv2.COLOR_RGB2GRAY), [both], grow)
+    assert found is not None and found.faces == [grow[1]]
+    alpha = matter.alpha(big, _behind.without_behind(matter.roi, big, [both], grow))
+    assert iou(alpha, big_subject) > 0.95
+
+
+def test_fine_detail_falls_with_blur_and_not_with_contrast():
+    """fine_detail: a ratio of fine over mid-scale detail, lower on a blurred copy, the same at half the contrast."""
+    grain = texture().astype(np.float32)
+    box = (100.0, 100.0, 200.0, 200.0)
+    sharp = _behind.fine_detail(0.5 + grain, box)
+    assert _behind.fine_detail(0.5 + cv2.GaussianBlur(grain, (0, 0), 2.0), box) < 0.6 * sharp
+    assert _behind.fine_detail(0.5 + 0.5 * grain, box) == pytest.approx(sharp, rel=1e-4)
+
+
+def test_the_default_matte_leaves_out_the_person_behind_and_everyones_keeps_them(monkeypatch):
+    """PersonMatter.people, person="largest", drops the blurred person behind (the call site); person="all" never
+    asks (it takes everyone)."""
+    rgb, subject, other, face = scene(40.0, True)
+    both = segmented(rgb, subject | other)
+    asked = []
+
+    def spy(roi, rgb_, people, faces):
+        asked.append(len(faces))
+        return _behind.without_behind(roi, rgb_, people, faces)
+
+    monkeypatch.setattr(_matter, "without_behind", spy)
+    for person in ("largest", "all"):
+        matter = M.PersonMatter(refine=False, person=person)
+        matter.roi, matter.face = _Bright(), None
+        monkeypatch.setattr(matter, "find_faces", lambda rgb_, every=False: [SUBJECT_FACE, face])
+        monkeypatch.setattr(matter, "_largest", lambda rgb_: ([both], []))
+        monkeypatch.setattr(matter, "_everyone", lambda rgb_, tall=0.0: [both])
+        monkeypatch.setattr(matter, "_peers", lambda *a: [])
+        monkeypatch.setattr(matter, "_joined", lambda *a: [])
+        monkeypatch.setattr(matter, "_own_and_turned", lambda *a: [])
+        alpha = matter.alpha(rgb, matter.people(rgb))
+        assert iou(alpha, subject if person == "largest" else subject | other) > 0.95
+    assert asked == [2]
