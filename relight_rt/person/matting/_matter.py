@@ -24,6 +24,7 @@ from ..face_detector import Face
 from ._behind import without_behind
 from ._coarse import region_alpha
 from ._colours import own_part
+from ._cut_body import cut_part
 from ._detect import (
     MIN_TILE,
     Around,
@@ -295,8 +296,9 @@ class PersonMatter:
     def _own_colours(self, rgb: np.ndarray, people: list[Person], start: Around | None = None) -> list[Person]:
         """What the selfie graph sees joined to ``people`` in their own colours (relight_rt.person.matting._colours:
         dark trousers the pose graph misses, not their shadow on the ground): [one Person holding it, source "own": part
-        of the matte, no one's share of it in :meth:`parts`] or [].
-        On the canvas of a region around ``people`` (ROI_SCALE x their box), where the selfie graph sees it on the whole
+        of the matte, no one's share of it in :meth:`parts`] or []. With them, what the selfie graph is sure of under a
+        matte that the photo's bottom border cuts (relight_rt.person.matting._cut_body: a trouser leg before a wall of
+        its grey, which the colour test refuses). On the canvas of a region around ``people`` (ROI_SCALE x their box), where the selfie graph sees it on the whole
         photo and on that region too (_colours: one run, which _turned's search on the same region then shares).
 
         Measured (benchmarks/people_masks_eval.py; OWN_SURE 0.7 and OWN_RATIO 0.4 chosen on photos half A among
@@ -310,9 +312,12 @@ class PersonMatter:
             return []
         region, seen, inside, mine = start
         prob = np.where(roi_prob(self.roi, rgb, region) >= 0.5, seen, 0.0).astype(np.float32)  # _colours: framed too
-        part = own_part(crop_region(rgb, region), inside, mine, prob)
-        if part is None:
+        canvas = crop_region(rgb, region)  # the own colours, and what the photo's bottom border cuts (_cut_body)
+        found = (own_part(canvas, inside, mine, prob), cut_part(canvas, inside, mine, prob))
+        parts = [p for p in found if p is not None]
+        if not parts:
             return []
+        part = np.any(parts, axis=0)
         return [own_person(region, part, mine, prob, people[0].presence)]
 
     def _joined(self, rgb: np.ndarray, people: list[Person], faces: list[Face]) -> list[Person]:
