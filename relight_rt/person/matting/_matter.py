@@ -298,8 +298,9 @@ class PersonMatter:
         dark trousers the pose graph misses, not their shadow on the ground): [one Person holding it, source "own": part
         of the matte, no one's share of it in :meth:`parts`] or []. With them, what the selfie graph is sure of under a
         matte that the photo's bottom border cuts (relight_rt.person.matting._cut_body: a trouser leg before a wall of
-        its grey, which the colour test refuses). On the canvas of a region around ``people`` (ROI_SCALE x their box), where the selfie graph sees it on the whole
-        photo and on that region too (_colours: one run, which _turned's search on the same region then shares).
+        its grey, which the colour test refuses). On the canvas of a region around ``people`` (ROI_SCALE x their box),
+        where the selfie graph sees it on the whole photo and on that region too (_colours: one run, which _turned's
+        search on the same region then shares).
 
         Measured (benchmarks/people_masks_eval.py; OWN_SURE 0.7 and OWN_RATIO 0.4 chosen on photos half A among
         0.5-0.9 and 0.2-0.7, where every choice moved A by less than 0.001): clip 0.917 -> 0.923 (the four worst
