@@ -21,6 +21,7 @@ PEER_HEIGHT = 0.75  # person="largest": someone beside the person, as tall withi
 BESIDE = 0.1  # ... looked for where a blob of the selfie graph reaches this x the person's width past their box
 SURE_PART = 0.95  # a part carried on past a region's cut side needs the selfie graph's mean probability this high
 JOIN_GAP = 2  # canvas pixels: a part of the selfie graph's segmentation this close to the matte is joined to it
+DOUBTED_PART = 0.8  # a part of a portrait framed on the whole photo that framed on its face is unseen: kept this sure
 
 
 def person_outside(person: Person, other: Person) -> Person:
@@ -208,11 +209,32 @@ def unconfirmed_cut(wide: Person, first: Person, cut: tuple[bool, bool, bool, bo
     for side, line in zip(cut, (np.s_[:, 0], np.s_[0, :], np.s_[:, -1], np.s_[-1, :]), strict=True):
         if side:
             edge[line] = True
+    return _less_unsure(first, cand, edge, SURE_PART)
+
+
+def unconfirmed(first: Person, second: Person) -> Person:
+    """``first`` (the selfie graph's segmentation of a region) less the parts that ``second`` (the same graph framed
+    otherwise) does not see (< 0.5) and ``first`` is unsure of (mean probability < DOUBTED_PART): the 8-connected
+    components of ``first``'s person pixels outside ``second``'s person that reach further than JOIN_GAP canvas pixels
+    from it (nearer, the two answers only draw one outline a little apart: the photo decides there at full
+    resolution), whole. Nothing is dropped where it would be the whole person. Framed on the whole photo, the graph
+    sees its background small and takes in textured ground joined to the person at 0.5-0.7 (the pale rocks beside a
+    woman's shoulder, a blurred hedge beside a portrait), which framed on the person it leaves out; what it is sure of
+    stays (a lit star decoration a man stands beside, 0.83, which the service's mask holds)."""
+    after, _, _ = resampled(second, first.region)
+    cand = (first.logits > 0) & (after <= 0)
+    return _less_unsure(first, cand, cand & ~_near(after > 0), DOUBTED_PART)
+
+
+def _less_unsure(first: Person, cand: np.ndarray, seeds: np.ndarray, sure: float) -> Person:
+    """``first`` less the 8-connected components of ``cand`` (bool canvas) holding a pixel of ``seeds`` whose mean
+    probability under ``first`` is below ``sure``, whole; ``first`` itself where none is, or where they are all of
+    its person (the other answer lost them, not ground)."""
     _, labels = cv2.connectedComponents(cand.astype(np.uint8), connectivity=8)
-    drop = [k for k in np.unique(labels[edge & cand]) if k > 0]
-    drop = [k for k in drop if sigmoid(first.logits[labels == k]).mean() < SURE_PART]
+    drop = [k for k in np.unique(labels[seeds & cand]) if k > 0]
+    drop = [k for k in drop if sigmoid(first.logits[labels == k]).mean() < sure]
     gone = np.isin(labels, drop)
-    if not drop or not ((first.logits > 0) & ~gone).any():  # all of the person: the wider run lost them, not ground
+    if not drop or not ((first.logits > 0) & ~gone).any():
         return first
     logits = np.where(gone, np.float32(-LOGIT_CLIP), first.logits).astype(np.float32)
     return replace(first, logits=logits)

@@ -77,7 +77,7 @@ from ._segmentation import (
     warp_to_grid,
     working_grid,
 )
-from ._selfie import reframed, roi_person, seen_on, uncut, widened
+from ._selfie import confirmed, reframed, roi_person, seen_on, uncut, widened
 from ._shadow import selfie_sure, without_cast_shadow
 from ._turned import turned_people
 
@@ -214,7 +214,9 @@ class PersonMatter:
         if region is None:
             return person
         roi = roi_person(self.roi, rgb, region, person.presence)
-        return reframed(self.roi, rgb, roi) if is_portrait(roi, rgb.shape[:2]) else person
+        if not is_portrait(roi, rgb.shape[:2]):
+            return person
+        return confirmed(self.roi, rgb, reframed(self.roi, rgb, roi), self.find_faces(rgb))
 
     def _portrait_region(self, rgb: np.ndarray, person: Person) -> Region | None:
         """Where the selfie graph checks for a portrait (:func:`is_portrait`): the pose graph's region when it
