@@ -19,17 +19,17 @@ import cv2
 import numpy as np
 
 from ...engine.session import Model
-from ...image.regions import Region, grid_of_region
+from ...image.regions import Region, crop_region
 from ..face_detector import Face
 from ._detect import roi_prob
-from ._models import SIZE
-from ._segmentation import LOGIT_CLIP, Person, as_logits, contains
+from ._segmentation import Person, as_logits, contains, logits_on_grid, prob_at, warp_to_grid
 
 BEHIND_SIZE = 0.7  # a face at most this x as wide as the subject's (the largest face in the matte) is further back ...
 BEHIND_SHARP = 0.7  # ... and, where its fine detail (:func:`fine_detail`) is at most this x the subject's, behind them
 TEXTURE = 0.01  # blurred_side: the photo shows texture where its mid-scale detail (mean |I - G3 I|) is this or more
 _FINE, _MID = 1.0, 3.0  # Gaussian sigmas (photo px) of the fine and mid-scale detail
 _WINDOW = 12  # blurred_side: detail averaged over windows this many times smaller than the face behind is wide
+OUTSIDE_REACH = 0.5  # a face behind has the matte's outside within this x its width of its box (not a print inside)
 FACE_PX = 100  # the photo is read reduced until a face is at most this wide (never enlarged): behind_faces, _part_of
 _FILL = 4  # behind_part: holes of the part up to this many times smaller than the face behind are filled
 
@@ -63,10 +63,12 @@ def fine_detail(gray: np.ndarray, box) -> float:
 
 
 class Behind(NamedTuple):
-    """The faces behind the subject (:func:`behind_faces`): ``faces``, and the subject's face."""
+    """The faces behind the subject (:func:`behind_faces`): ``faces``, the subject's face, and the photo's grey
+    (H, W) float32 that they were read on."""
 
     faces: list[Face]
     subject: Face
+    gray: np.ndarray
 
 
 def _scaled(face: Face, scale: float) -> Face:
@@ -87,12 +89,37 @@ def reduced(gray: np.ndarray, face: Face) -> tuple[np.ndarray, float]:
     return cv2.resize(gray, size, interpolation=cv2.INTER_AREA), scale
 
 
-def behind_faces(gray: np.ndarray, people: list[Person], faces: list[Face]) -> Behind | None:
+def _own(face: Face, faces: list[Face]) -> bool:
+    """Whether ``face``'s middle lies inside a larger one of ``faces``' box (a second box on that face)."""
+    cx, cy = (face.box[0] + face.box[2]) / 2, (face.box[1] + face.box[3]) / 2
+    return any(_width(g) > _width(face) and g.box[0] <= cx <= g.box[2] and g.box[1] <= cy <= g.box[3] for g in faces)
+
+
+def reaches_outside(people: list[Person], face: Face, shape: tuple[int, int]) -> bool:
+    """Whether the matte's outside (no one of ``people`` > 0.5) lies within OUTSIDE_REACH x ``face``'s width around
+    its box, inside the photo: someone behind shows past the subject's outline (a face printed on a shirt, or a badge,
+    lies inside it)."""
+    h, w = shape
+    x0, y0, x1, y1 = face.box
+    m = OUTSIDE_REACH * (x1 - x0)
+    t = np.linspace(0.0, 1.0, 17)
+    xa, xb, ya, yb = x0 - m, x1 + m, y0 - m, y1 + m
+    xs = np.concatenate([xa + (xb - xa) * t, xa + (xb - xa) * t, np.full(17, xa), np.full(17, xb)])
+    ys = np.concatenate([np.full(17, ya), np.full(17, yb), ya + (yb - ya) * t, ya + (yb - ya) * t])
+    seen = (xs >= 0) & (xs < w) & (ys >= 0) & (ys < h)
+    if not seen.any():
+        return False
+    held = np.any([prob_at(p, xs[seen], ys[seen]) > 0.5 for p in people], axis=0)
+    return bool((~held).any())
+
+
+def behind_faces(rgb: np.ndarray, people: list[Person], faces: list[Face]) -> Behind | None:
     """The faces behind the subject (:class:`Behind`), or None where none is. Of ``faces`` whose middle ``people``
-    cover (:func:`contains`; ``gray``: the photo's grey, (H, W) float32), the largest is the subject's; another is
-    behind them when it is at most BEHIND_SIZE x as wide and its fine detail (:func:`fine_detail`) at most BEHIND_SHARP
-    x the subject's, both measured on the photo reduced until the subject's face is at most FACE_PX wide (a web photo
-    enlarged 5x reads as blurred everywhere at full size; the blur of a face behind keeps its share of a face's width).
+    cover (:func:`contains`), less a second box on a larger face (:func:`_own`), the largest is the subject's; another
+    is behind them when it is at most BEHIND_SIZE x as wide, shows past the matte's outline (:func:`reaches_outside`:
+    not a print on a shirt) and its fine detail (:func:`fine_detail`) is at most BEHIND_SHARP x the subject's, both
+    measured on the photo reduced until the subject's face is at most FACE_PX wide (a web photo enlarged 5x reads as
+    blurred everywhere at full size; the blur of a face behind keeps its share of a face's width).
 
     Measured on benchmarks/people_masks_eval.py's photos (the faces the default matte holds beside the subject's: 34
     on 28 photos): the two behind, which the service's masks leave out, 0.58 / 0.61 x as wide and 0.50 / 0.59 x as
@@ -101,18 +128,21 @@ def behind_faces(gray: np.ndarray, people: list[Person], faces: list[Face]) -> B
     behind, 15 with the subject: any size limit in 0.61-0.70 and sharpness limit in 0.59-0.90 give the same), half B
     checked (one behind, 17 with the subject: the same answer). FACE_PX among 64, 100, 150 and none (full size): the
     two behind 0.67 / 0.53, 0.59 / 0.50, 0.55 / 0.47, 0.55 / 0.47 x as sharp, the others at least 0.83 at each."""
-    shape = gray.shape
+    shape = rgb.shape[:2]
     held = [f for f in faces if any(contains(p, f, shape) for p in people)]
+    held = [f for f in held if not _own(f, held)]
     if len(held) < 2:
         return None
     subject = max(held, key=_width)
     small = [f for f in held if f is not subject and _width(f) <= BEHIND_SIZE * _width(subject)]
+    small = [f for f in small if reaches_outside(people, f, shape)]
     if not small:
         return None
-    gray, scale = reduced(gray, subject)
+    full = _gray(rgb)  # only here: most photos hold one face, or none smaller
+    gray, scale = reduced(full, subject)
     sharp = fine_detail(gray, _scaled(subject, scale).box)
     behind = [f for f in small if fine_detail(gray, _scaled(f, scale).box) <= BEHIND_SHARP * sharp]
-    return Behind(behind, subject) if behind and np.isfinite(sharp) else None
+    return Behind(behind, subject, full) if behind and np.isfinite(sharp) else None
 
 
 def _box_mask(shape: tuple[int, int], box) -> np.ndarray:
@@ -184,9 +214,10 @@ def behind_part(
     holes up to 1 / _FILL of the face's width closed (noise and a print on a blurred blouse read as sharp specks), and
     the blurred pixels of the matte up to 1 / _FILL of the face's width around it (their blurred outline, which their
     region's segmentation leaves out where the matte holds it: a ghost ring left), and last the pieces of the matte this
-    cuts off that hold none of the ``staying`` faces and lie mostly inside their region's segmentation or read mostly
-    blurred (a blurred flower on their blouse, which their region's segmentation leaves out: a blob left floating);
-    None when the face's middle is not in such a part."""
+    cuts off that touch the middle half of none of the ``staying`` faces and read mostly blurred (a blurred flower on
+    their blouse, which their region's segmentation leaves out: a blob left floating; the subject's sharp hand before
+    them stays, though their region's segmentation holds it too); None when the face's middle is not in such a
+    part."""
     cand = (matte & blurred & claim).astype(np.uint8)
     n, labels = cv2.connectedComponents(cand, connectivity=8)
     cy, cx = _middle(face, matte.shape)
@@ -199,40 +230,19 @@ def behind_part(
     part = matte & (closed | (blurred & cv2.dilate(closed.astype(np.uint8), window).astype(bool)))
     n, labels = cv2.connectedComponents((matte & ~part).astype(np.uint8), connectivity=8)
     near = cv2.dilate(part.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
-    kept = {int(labels[_middle(f, matte.shape)]) for f in staying}
+    kept = set()  # every piece under a staying face's middle half (its middle pixel may lie in a hole of the matte)
+    for f in staying:
+        kept.update(int(v) for v in np.unique(labels[_box_mask(matte.shape, _middle_half(f.box))]))
     for label in np.unique(labels[near & ~part]):
         piece = labels == label
-        if label > 0 and int(label) not in kept and max(claim[piece].mean(), blurred[piece].mean()) >= 0.5:
+        if label > 0 and int(label) not in kept and blurred[piece].mean() >= 0.5:
             part |= piece
     return part
 
 
-def _to_canvas(region: Region, scale: float) -> np.ndarray:
-    """The 2 x 3 map from a pixel of the photo reduced to ``scale`` x its size (cv2.resize's pixel centres) to
-    ``region``'s canvas."""
-    k, bx, by = grid_of_region(region)
-    shift = k * (0.5 / scale - 0.5)
-    return np.array([[k / scale, 0.0, bx + shift], [0.0, k / scale, by + shift]], np.float64)
-
-
-def _on_photo(canvas: np.ndarray, region: Region, scale: float, size: tuple[int, int], outside: float) -> np.ndarray:
-    """A (SIZE, SIZE) canvas of ``region`` on the photo reduced to ``scale`` (``size``: its (width, height)),
-    bilinear, ``outside`` past the canvas."""
-    return cv2.warpAffine(canvas, _to_canvas(region, scale), size, flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
-                          borderMode=cv2.BORDER_CONSTANT, borderValue=outside)  # fmt: skip
-
-
 def on_canvas(mask: np.ndarray, region: Region) -> np.ndarray:
-    """A (H, W) float mask of the photo on ``region``'s (SIZE, SIZE) canvas (its mean over each canvas pixel where the
-    canvas is coarser than the photo; 0 past the photo)."""
-    k, bx, by = grid_of_region(region)
-    src = mask.astype(np.float32)
-    if k < 1.0:
-        n = max(int(round(1.0 / k)), 1)
-        src = cv2.blur(src, (n, n))
-    m = np.array([[k, 0.0, bx], [0.0, k, by]], np.float64)
-    return cv2.warpAffine(src, m, (SIZE, SIZE), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
-                          borderValue=0.0)  # fmt: skip
+    """A (H, W) mask of the photo on ``region``'s canvas (:func:`crop_region`: 0 past the photo)."""
+    return crop_region(np.ascontiguousarray(mask, np.float32), region)
 
 
 def _part_of(
@@ -245,16 +255,18 @@ def _part_of(
     strip of the man's hair (0.964 -> 0.953). ``staying``: the faces not behind (:func:`behind_part`)."""
     h, w = full.shape
     gray, scale = reduced(full, face)
-    size = (gray.shape[1], gray.shape[0])
+    gh, gw = gray.shape
+    grid = (gw, gh, gw / w, gh / h, -0.5, -0.5)  # the reduced photo's pixels (cv2.resize's centres)
     seen, mine = _scaled(face, scale), _scaled(subject, scale)
     matte = np.zeros(gray.shape, bool)  # the matte as the people's segmentations hold it (> 0.5), at that scale
-    for p in people:
-        matte |= _on_photo(p.logits, p.region, scale, size, -LOGIT_CLIP) > 0
+    for p in people:  # a part split from one segmentation is read as that whole (its parts leave seams)
+        whole = p if p.whole is None else replace(p, logits=p.whole)
+        matte |= logits_on_grid(whole, grid) > 0
     level = 0.5 * (fine_detail(gray, mine.box) + fine_detail(gray, seen.box))
     window = max(int(_width(seen) / _WINDOW), 1) | 1
     blurred = blurred_side(gray, matte, level, window, mine.box, seen.box)
     region = Region.around(*face.body_box((h, w)))
-    claim = _on_photo(roi_prob(roi, rgb, region), region, scale, size, 0.0) > 0.5
+    claim = warp_to_grid(roi_prob(roi, rgb, region), region, grid, 0.0) > 0.5
     part = behind_part(matte, blurred, claim, seen, [_scaled(f, scale) for f in staying])
     if part is None:
         return np.zeros((h, w), np.float32)
@@ -278,19 +290,19 @@ def without_behind(roi: Model, rgb: np.ndarray, people: list[Person], faces: lis
     (this 2-core CPU, shared): < 1 ms where no face is behind (p093: the face boxes only), 20-25 ms on p103 / p257,
     40-80 ms on them enlarged to 2.5 MP (one selfie-graph run, the photo's detail at the scale of the face behind)."""
     h, w = rgb.shape[:2]
-    full = _gray(rgb)
-    found = behind_faces(full, people, faces)
+    found = behind_faces(rgb, people, faces)
     if found is None:
         return people
     staying = [f for f in faces if all(f is not g for g in found.faces)]
     share = np.zeros((h, w), np.float32)
     for face in found.faces:
-        share = np.maximum(share, _part_of(roi, rgb, full, people, staying, found.subject, face))
+        share = np.maximum(share, _part_of(roi, rgb, found.gray, people, staying, found.subject, face))
     if not share.any():
         return people
     out, wholes = [], {}
     for p in people:
-        keep = as_logits(1.0 - on_canvas(share, p.region))
+        leaving = on_canvas(share, p.region)
+        keep = np.where(leaving > 0, as_logits(1.0 - leaving), np.float32(np.inf))  # untouched where nothing leaves
         logits = np.minimum(p.logits, keep).astype(np.float32)
         whole = p.whole
         if whole is not None:  # the parts of one segmentation keep one whole (relight_rt.person.matting._parts.rejoin)

@@ -81,13 +81,12 @@ def test_behind_faces_compares_size_and_sharpness_with_the_subjects_face():
     """The subject's face is the largest one the matte holds; a face outside the matte, or the only face, is no one
     behind."""
     rgb, subject, other, face = scene(40.0, True)
-    gray = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
     both = segmented(rgb, subject | other)
-    found = _behind.behind_faces(gray, [both], [face, SUBJECT_FACE])
+    found = _behind.behind_faces(rgb, [both], [face, SUBJECT_FACE])
     assert found is not None
     assert found.subject is SUBJECT_FACE and found.faces == [face]
-    assert _behind.behind_faces(gray, [both], [SUBJECT_FACE]) is None
-    assert _behind.behind_faces(gray, [segmented(rgb, subject)], [SUBJECT_FACE, face]) is None
+    assert _behind.behind_faces(rgb, [both], [SUBJECT_FACE]) is None
+    assert _behind.behind_faces(rgb, [segmented(rgb, subject)], [SUBJECT_FACE, face]) is None
 
 
 def test_a_photo_enlarged_is_read_where_the_subjects_face_is_face_px_wide():
@@ -103,7 +102,7 @@ def test_a_photo_enlarged_is_read_where_the_subjects_face_is_face_px_wide():
     big_subject = cv2.resize(subject.astype(np.uint8), (z * W, z * H), interpolation=cv2.INTER_NEAREST) > 0
     big_other = cv2.resize(other.astype(np.uint8), (z * W, z * H), interpolation=cv2.INTER_NEAREST) > 0
     both = segmented(big, big_subject | big_other)
-    found = _behind.behind_faces(cv2.cvtColor(big, cv2.COLOR_RGB2GRAY), [both], grow)
+    found = _behind.behind_faces(big, [both], grow)
     assert found is not None and found.faces == [grow[1]]
     alpha = matter.alpha(big, _behind.without_behind(matter.roi, big, [both], grow))
     assert iou(alpha, big_subject) > 0.95
@@ -142,3 +141,56 @@ def test_the_default_matte_leaves_out_the_person_behind_and_everyones_keeps_them
         alpha = matter.alpha(rgb, matter.people(rgb))
         assert iou(alpha, subject if person == "largest" else subject | other) > 0.95
     assert asked == [2]
+
+
+def _stand_in() -> M.PersonMatter:
+    matter = M.PersonMatter(refine=False)
+    matter.roi, matter.face = _Bright(), None
+    return matter
+
+
+@pytest.mark.parametrize("side", [44.0, 34.0])
+def test_a_second_smaller_box_on_the_subjects_own_face_removes_nothing(side):
+    """The face graph can answer a second, smaller box over a smooth part of the subject's own face (an IoU of 0.28
+    with it passes its non-maximum suppression): read as someone behind, the matte was emptied. A face whose middle
+    lies within a larger one's width of it is that face's (_parts.faces_side_by_side)."""
+    rgb, subject, _, _ = scene(40.0, False)
+    img = rgb.copy()
+    img[70:110, 220:260] = cv2.GaussianBlur(rgb, (0, 0), 1.5)[70:110, 220:260]  # smooth skin
+    second = Face((220.0, 70.0, 220.0 + side, 70.0 + side), 0.6)
+    matter = _stand_in()
+    both = segmented(img, subject)
+    people = _behind.without_behind(matter.roi, img, [both], [SUBJECT_FACE, second])
+    assert people[0] is both
+
+
+def test_a_blurred_print_on_the_subjects_plain_shirt_removes_nothing():
+    """A face printed on a plain shirt (the face graph finds prints and badges) and blurred: the shirt's texture-less
+    pixels took the print's side, and the shirt left the matte (0.15 of it kept)."""
+    yy, xx = np.mgrid[0:H, 0:W] + 0.5
+    subject = (((xx - 250) / 80) ** 2 + ((yy - 170) / 140) ** 2) < 1
+    grain = texture()
+    photo = np.where(subject, np.where(yy < 125, 0.75 + grain, 0.75), 0.05).astype(np.float32)
+    photo[180:214, 233:267] = cv2.GaussianBlur(0.6 + grain, (0, 0), 2.0)[180:214, 233:267]
+    rgb = np.repeat(photo[..., None], 3, 2)
+    matter = _stand_in()
+    both = segmented(rgb, subject)
+    people = _behind.without_behind(matter.roi, rgb, [both], [SUBJECT_FACE, Face((233.0, 180.0, 267.0, 214.0), 0.6)])
+    alpha = matter.alpha(rgb, people)
+    assert (alpha[subject] >= 0.5).mean() > 0.98
+
+
+def test_the_subjects_sharp_hand_before_the_person_behind_stays():
+    """p257's hand: the subject's sharp hand over the blurred person behind, cut off from her by their part, stays
+    with her (a cut-off piece leaves only when it reads blurred; the selfie graph framed on the person behind claims
+    everyone, the hand too); the person behind still leaves."""
+    rgb, subject, other, face = scene(40.0, True)
+    yy, xx = np.mgrid[0:H, 0:W] + 0.5
+    hand = (((xx - 140) ** 2 + (yy - 215) ** 2) < 14**2) & ~subject
+    img = rgb.copy()
+    img[hand] = (0.8 + texture(1)[hand])[:, None]
+    matter = _stand_in()
+    both = segmented(img, subject | hand | other)
+    alpha = matter.alpha(img, _behind.without_behind(matter.roi, img, [both], [SUBJECT_FACE, face]))
+    assert (alpha[hand] >= 0.5).mean() > 0.9
+    assert (alpha[other & ~hand] >= 0.5).mean() < 0.05
