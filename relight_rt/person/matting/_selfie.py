@@ -1,9 +1,9 @@
 """The selfie graph's segmentation of a square region as a person, and the regions it is run on again when its first
 answer does not fit its region: framed tighter on that answer (:func:`reframed`), raised where the answer runs into
-the region's top (:func:`uncut`), carried on past a cut side (:func:`widened`; and by the whole photo's answer,
-:func:`carried_past`). The person matter
-(relight_rt.person.matting._matter) asks for them on close portraits and faces, where the pose graph sees no body;
-every answer comes through :func:`roi_prob` (kept per region inside ``reductions_shared``).
+the region's top (:func:`uncut`), carried on past a cut side (:func:`widened`, and by the whole photo's answer:
+:func:`carried_past`). The person matter (relight_rt.person.matting._matter) asks for them on close portraits and
+faces, where the pose graph sees no body; every answer comes through :func:`roi_prob` (kept per region inside
+``reductions_shared``).
 """
 
 from __future__ import annotations
