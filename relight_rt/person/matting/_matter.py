@@ -77,7 +77,7 @@ from ._segmentation import (
     warp_to_grid,
     working_grid,
 )
-from ._selfie import confirmed, reframed, roi_person, seen_on, uncut, widened
+from ._selfie import carried_past, confirmed, reframed, roi_person, seen_on, uncut, widened
 from ._shadow import selfie_sure, without_cast_shadow
 from ._turned import turned_people
 
@@ -276,6 +276,7 @@ class PersonMatter:
                 found += self._joined(rgb, found, faces)
                 found += self._own_and_turned(rgb, found)
                 found = [blended(p, seen_on(self.roi, rgb, p.region)) if p.source == "roi" else p for p in found]
+                found += [q for p in found if p.source == "roi" for q in carried_past(self.roi, rgb, p)]
                 found = without_behind(self.roi, rgb, found, faces)  # someone out of focus behind: not theirs
                 self._note_others(found, faces, name)
             return found
