@@ -159,3 +159,33 @@ def test_an_outline_a_little_apart_stays_and_an_unsure_part_the_other_does_not_s
     first = M.Person(first.region, np.where(disk, _canvas(disk).logits, first.logits), 0.9, "roi")
     out = _layout.unconfirmed(first, _canvas(disk))
     assert (out.logits[disk] > 0).all() and (out.logits[blob & ~disk] <= 0).all()
+
+
+@pytest.mark.parametrize(
+    "other",
+    [np.zeros_like(_BODY), (_XX - 128) ** 2 + (_YY - 110) ** 2 < 12**2],
+    ids=["other-lost-the-person", "other-sees-only-the-face"],
+)
+def test_an_unsure_person_the_other_framing_loses_stays_whole(other):
+    """Where what would go holds most of the first answer's person (LOST_SHARE), the other framing lost the person:
+    an unsure body (0.75) stays whole, beside a sure part apart from it (a lit decoration at 0.95) too."""
+    star = (_XX - 20) ** 2 + (_YY - 20) ** 2 < 8**2
+    first = _canvas(_BODY, sure=0.75)
+    first = M.Person(first.region, np.where(star, _canvas(star, sure=0.95).logits, first.logits), 0.9, "roi")
+    assert _layout.unconfirmed(first, _canvas(other)) is first
+
+
+def test_what_lies_outside_the_other_framings_region_is_unknown_and_stays():
+    """A second person (0.78, smaller than the first: not LOST_SHARE of the answer) beside the first, wholly outside
+    the other framing's region (framed on the first's face, it does not reach them), is not "unseen" there: they
+    stay, and so does the first."""
+    left = (_XX - 70) ** 2 + (_YY - 150) ** 2 < 40**2
+    right = (_XX - 190) ** 2 + (_YY - 150) ** 2 < 30**2
+    first = _canvas(left | right, sure=0.78)
+    first = M.Person(first.region, np.where(left, _canvas(left, sure=0.95).logits, first.logits), 0.9, "roi")
+    region = M.Region(70.0, 150.0, 128.0)  # on first's canvas: x 6..134; the right person from x 150 on
+    xs, ys = _segmentation.canvas_points(region)
+    second = _canvas((xs - 70) ** 2 + (ys - 150) ** 2 < 40**2)
+    second = M.Person(region, second.logits, 0.9, "roi")
+    out = _layout.unconfirmed(first, second)
+    assert (out.logits[right] > 0).all() and (out.logits[left] > 0).all()
