@@ -22,6 +22,7 @@ BESIDE = 0.1  # ... looked for where a blob of the selfie graph reaches this x t
 SURE_PART = 0.95  # a part carried on past a region's cut side needs the selfie graph's mean probability this high
 JOIN_GAP = 2  # canvas pixels: a part of the selfie graph's segmentation this close to the matte is joined to it
 DOUBTED_PART = 0.8  # a part of a portrait framed on the whole photo that framed on its face is unseen: kept this sure
+LOST_SHARE = 0.5  # a drop holding this share of the first answer's person or more: the other answer lost them
 
 
 def person_outside(person: Person, other: Person) -> Person:
@@ -198,7 +199,7 @@ def unconfirmed_cut(wide: Person, first: Person, cut: tuple[bool, bool, bool, bo
     pixels outside ``wide``'s person, 8-connected to a cut side's edge column or row of its canvas. Whole or not at
     all, as :func:`continued` carries on only what goes on past the side: the graph takes in whatever its frame cuts
     at the bottom (grass around a woman lying in it matted in two blocks ending in the region's straight sides),
-    framed wider it does not. Nothing is dropped where it would be the whole person (the wider run lost them: it
+    framed wider it does not. Nothing is dropped where it would take most of the person (the wider run lost them: it
     can lose half a face against a bright sky, :func:`relight_rt.person.matting._selfie.widened`). Measured
     (benchmarks/people_masks_eval.py, matte14; no new threshold): half A 0.91967 -> 0.92047 (p101 +0.083: that
     grass; p083 +0.002; the worst p177 -0.001), half B 0.89509 -> 0.89602 (p265 +0.076: the grass under sitting
@@ -214,27 +215,33 @@ def unconfirmed_cut(wide: Person, first: Person, cut: tuple[bool, bool, bool, bo
 
 def unconfirmed(first: Person, second: Person) -> Person:
     """``first`` (the selfie graph's segmentation of a region) less the parts that ``second`` (the same graph framed
-    otherwise) does not see (< 0.5) and ``first`` is unsure of (mean probability < DOUBTED_PART): the 8-connected
-    components of ``first``'s person pixels outside ``second``'s person that reach further than JOIN_GAP canvas pixels
-    from it (nearer, the two answers only draw one outline a little apart: the photo decides there at full
-    resolution), whole. Nothing is dropped where it would be the whole person. Framed on the whole photo, the graph
-    sees its background small and takes in textured ground joined to the person at 0.5-0.7 (the pale rocks beside a
-    woman's shoulder, a blurred hedge beside a portrait), which framed on the person it leaves out; what it is sure of
-    stays (a lit star decoration a man stands beside, 0.83, which the service's mask holds)."""
-    after, _, _ = resampled(second, first.region)
+    otherwise) does not see (< 0.5) where it looks and ``first`` is unsure of (mean probability < DOUBTED_PART): the
+    8-connected components of ``first``'s person pixels outside ``second``'s person that reach, inside ``second``'s
+    region, further than JOIN_GAP canvas pixels from it (nearer, the two answers only draw one outline a little
+    apart: the photo decides there at full resolution), whole. Outside ``second``'s region nothing is known: a part
+    lying all there stays (someone beside the person the face's framing does not reach). Nothing is dropped where it
+    would take LOST_SHARE or more of the person (:func:`_less_unsure`). Framed on the whole photo, the graph sees its
+    background small and takes in textured ground joined to the person at 0.5-0.7 (the pale rocks beside a woman's
+    shoulder, a blurred hedge beside a portrait), which framed on the person it leaves out; what it is sure of stays
+    (a lit star decoration a man stands beside, 0.83, which the service's mask holds)."""
+    after, x, y = resampled(second, first.region)
+    x0, y0, x1, y1 = second.region.box()
+    looked = ((y >= y0) & (y < y1))[:, None] & ((x >= x0) & (x < x1))[None, :]
     cand = (first.logits > 0) & (after <= 0)
-    return _less_unsure(first, cand, cand & ~_near(after > 0), DOUBTED_PART)
+    return _less_unsure(first, cand, cand & looked & ~_near(after > 0), DOUBTED_PART)
 
 
 def _less_unsure(first: Person, cand: np.ndarray, seeds: np.ndarray, sure: float) -> Person:
     """``first`` less the 8-connected components of ``cand`` (bool canvas) holding a pixel of ``seeds`` whose mean
-    probability under ``first`` is below ``sure``, whole; ``first`` itself where none is, or where they are all of
-    its person (the other answer lost them, not ground)."""
+    probability under ``first`` is below ``sure``, whole; ``first`` itself where none is, or where they hold
+    LOST_SHARE or more of its person pixels: the other answer lost the person (half a face against a bright sky, a
+    body seen only at the face), it did not find ground beside them."""
     _, labels = cv2.connectedComponents(cand.astype(np.uint8), connectivity=8)
     drop = [k for k in np.unique(labels[seeds & cand]) if k > 0]
     drop = [k for k in drop if sigmoid(first.logits[labels == k]).mean() < sure]
     gone = np.isin(labels, drop)
-    if not drop or not ((first.logits > 0) & ~gone).any():
+    mine = first.logits > 0
+    if not drop or (gone & mine).sum() >= LOST_SHARE * mine.sum():
         return first
     logits = np.where(gone, np.float32(-LOGIT_CLIP), first.logits).astype(np.float32)
     return replace(first, logits=logits)

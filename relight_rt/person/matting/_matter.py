@@ -77,7 +77,7 @@ from ._segmentation import (
     warp_to_grid,
     working_grid,
 )
-from ._selfie import carried_past, confirmed, reframed, roi_person, seen_on, uncut, widened
+from ._selfie import carried_past, confirmed, face_person, reframed, roi_person, seen_on, uncut, widened
 from ._shadow import selfie_sure, without_cast_shadow
 from ._turned import turned_people
 
@@ -216,7 +216,7 @@ class PersonMatter:
         roi = roi_person(self.roi, rgb, region, person.presence)
         if not is_portrait(roi, rgb.shape[:2]):
             return person
-        return confirmed(self.roi, rgb, reframed(self.roi, rgb, roi), self.find_faces(rgb))
+        return confirmed(self.roi, rgb, reframed(self.roi, rgb, roi), self.find_faces)
 
     def _portrait_region(self, rgb: np.ndarray, person: Person) -> Region | None:
         """Where the selfie graph checks for a portrait (:func:`is_portrait`): the pose graph's region when it
@@ -581,8 +581,7 @@ class PersonMatter:
             return None
         # a face, but the pose graph sees no body here (a close portrait) or another person: the selfie graph
         # segments the face's region instead (made for head-and-shoulders framing)
-        region = Region.around(*face.body_box(rgb.shape[:2]))
-        roi = reframed(self.roi, rgb, roi_person(self.roi, rgb, region, max(p.presence, face.score)))
+        roi = face_person(self.roi, rgb, face, max(p.presence, face.score))
         return roi if contains(roi, face, rgb.shape[:2]) else None
 
     def vouched(self, rgb: np.ndarray, person: Person) -> bool:
