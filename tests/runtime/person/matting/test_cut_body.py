@@ -95,8 +95,9 @@ def test_what_the_selfie_graph_sees_under_a_person_cut_by_the_bottom_border_is_t
 
 @pytest.mark.parametrize("scale", [0.5, 0.25])
 def test_the_cut_leg_on_a_photo_smaller_than_the_canvas(scale):
-    """The same scene at half and a quarter size (the canvas's last row then lies on the photo's last row): the grey
-    leg is still taken, down to the border."""
+    """The same scene at half and a quarter size, the canvas finer than the photo (1.6 and 3.2 canvas pixels a photo
+    pixel: the selfie graph's outline, read on the canvas, lies a canvas pixel past the matte's and joins the bench to
+    the leg): the grey leg is still taken, down to the border."""
     rgb, parts = standing(300)
     h, w = int(300 * scale), int(400 * scale)
     rgb = cv2.resize(rgb, (w, h), interpolation=cv2.INTER_NEAREST)
