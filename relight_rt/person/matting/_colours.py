@@ -32,6 +32,8 @@ OWN_MIN = 0.01  # candidates, or a part kept, of fewer than this x the matte's p
 OWN_RING = 0.1  # the background ring reaches this x the person's extent past them (canvas pixels, at least 2)
 _ITERATIONS = 6
 
+Colours = tuple[np.ndarray, np.ndarray, np.ndarray]  # a canvas's L*a*b*, the person's centres, the backdrop's
+
 
 def centres(samples: np.ndarray, k: int = OWN_CENTRES) -> np.ndarray:
     """(k', 3) k-means centres of (N, 3) float32 ``samples`` (k' = min(k, N)), deterministic: started from the
@@ -64,7 +66,7 @@ def joined(part: np.ndarray, mine: np.ndarray) -> np.ndarray:
 
 
 def colour_model(canvas: np.ndarray, inside: np.ndarray, mine: np.ndarray, around: np.ndarray,
-                 apart: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+                 apart: np.ndarray | None = None) -> Colours | None:
     """The person's and the backdrop's colours on a canvas: (its L*a*b*, the k-means centres of the matte ``mine``'s
     interior, those of a ring ``OWN_RING`` x the matte's size wide round ``around`` (the matte and what is asked
     about), less ``apart``), or None when either holds under 20 pixels inside the photo (``inside``)."""
@@ -83,22 +85,32 @@ def colour_model(canvas: np.ndarray, inside: np.ndarray, mine: np.ndarray, aroun
     return lab, centres(lab[interior]), centres(lab[ring])
 
 
-def own_part(canvas: np.ndarray, inside: np.ndarray, mine: np.ndarray, prob: np.ndarray) -> np.ndarray | None:
-    """The pixels of a canvas that are the person's own colour (module docstring); None when none are (or fewer
-    than OWN_MIN x the matte's).
+def candidates(canvas: np.ndarray, inside: np.ndarray, mine: np.ndarray,
+               prob: np.ndarray) -> tuple[np.ndarray, Colours] | None:  # fmt: skip
+    """What the own colours' step looks at on a canvas (module docstring): the pixels the selfie graph sees
+    (>= OWN_SURE) outside the matte, joined to it, and the colour model round them (:func:`colour_model`); None when
+    they are fewer than OWN_MIN x the matte's pixels (its rim) or the model cannot be made. :func:`own_part` and
+    relight_rt.person.matting._cut_body.cut_part both decide on them.
 
     Args:
         canvas: (S, S, 3) float32 RGB in [0, 1].
         inside: (S, S) bool, the canvas pixels inside the photo.
         mine: (S, S) bool, the matte (the people found).
         prob: (S, S) float, the selfie graph's person probability.
+
+    Returns:
+        ((S, S) bool candidates, (L*a*b* canvas, the person's centres, the backdrop's)) or None.
     """
     cand = joined((prob >= OWN_SURE) & ~mine & inside, mine)
     if cand.sum() < max(1.0, OWN_MIN * mine.sum()):
         return None
     model = colour_model(canvas, inside, mine, mine | cand)
-    if model is None:
-        return None
+    return None if model is None else (cand, model)
+
+
+def own_part(mine: np.ndarray, cand: np.ndarray, model: Colours) -> np.ndarray | None:
+    """The candidates ``cand`` (:func:`candidates`) that are the person's own colour (module docstring); None when
+    none are (or fewer than OWN_MIN x the matte ``mine``'s pixels). (S, S) bool."""
     lab, person, backdrop = model
     x = lab[cand]
     ok = nearest(x, person)[0] < OWN_RATIO * nearest(x, backdrop)[0]

@@ -23,8 +23,8 @@ from ...image.regions import Region, crop_region, grid_of_region, reductions_sha
 from ..face_detector import Face
 from ._behind import without_behind
 from ._coarse import region_alpha
-from ._colours import own_part
-from ._cut_body import cut_part
+from ._colours import candidates, own_part
+from ._cut_body import cut_part, photo_bottom
 from ._detect import (
     MIN_TILE,
     Around,
@@ -316,8 +316,11 @@ class PersonMatter:
             return []
         region, seen, inside, mine = start
         prob = np.where(roi_prob(self.roi, rgb, region) >= 0.5, seen, 0.0).astype(np.float32)  # _colours: framed too
-        canvas = crop_region(rgb, region)  # the own colours, and what the photo's bottom border cuts (_cut_body)
-        found = (own_part(canvas, inside, mine, prob), cut_part(canvas, inside, mine, prob))
+        own = candidates(crop_region(rgb, region), inside, mine, prob)  # one colour model for both steps
+        if own is None:
+            return []
+        cand, model = own  # the own colours, and what the photo's bottom border cuts (_cut_body)
+        found = (own_part(mine, cand, model), cut_part(mine, cand, model, photo_bottom(region, rgb.shape[:2])))
         parts = [p for p in found if p is not None]
         if not parts:
             return []
