@@ -1,7 +1,8 @@
 """Real faces under known lamps (Extended Yale B, ../shared/realdata/yale): relighting and de-lighting against truth.
 
     python benchmarks/yale_eval.py --out runs/yale [--yale ../shared/realdata/yale] [--dpr DPR_REPO | --no-dpr]
-        [--cache runs/dpr_cache] [--subjects yaleB02 yaleB05 ...] [--no-mesh-occlusion]
+        [--cache runs/dpr_cache] [--subjects yaleB02 yaleB05 ...] [--no-mesh-occlusion] [--no-mirror-dark]
+        [--no-rim-fill]
 
 Issue 48's protocol. Every photo is grey (the PNG's one channel as R = G = B), relit with an ellipse mask (the
 face: centre at 0.50, 0.52 of the image, semi-axes 0.44 W and 0.46 H) under a white point lamp in the photo's
@@ -55,6 +56,7 @@ from relight_rt import Relighter, RuntimeConfig, lights
 from relight_rt.person import face_mesh as face_mesh_module
 from relight_rt.person.face_mesh import FaceMesh
 from relight_rt.relight import factor as factor_module
+from relight_rt.relight import shadow_rim
 
 EPS = 1e-3
 GRID = 48
@@ -65,6 +67,9 @@ DETAIL_SIGMA = 2.0  # detail_shares: the fine detail is the log luminance less i
 DETAIL_BLOCK = 12  # ... its RMS over blocks this many pixels wide,
 DETAIL_ERODE = 9  # ... inside the ellipse eroded this many pixels (its own edge is no detail)
 DPR_DC = dprp.DEMO_SCALE * 1.0841254962824531  # the DC of DPR's demo lights as its demo uses them
+EDGE_FLOOR = 0.02  # new_edges: linear luminance added before the log (a black shadow's noise is no edge),
+EDGE_SIGMA = 1.0  # ... both pictures blurred over this many pixels,
+EDGE_STEP = 0.1  # ... a change's gradient past this (log luminance per pixel) is an edge
 # socket_ratio: MediaPipe's face mesh eye contours (FACEMESH_RIGHT_EYE: the subject's right, the image's left)
 RIGHT_EYE = (33, 7, 163, 144, 145, 153, 154, 155, 133, 173, 157, 158, 159, 160, 161, 246)
 LEFT_EYE = (362, 382, 381, 380, 374, 373, 390, 249, 263, 466, 388, 387, 386, 385, 384, 398)
@@ -130,6 +135,32 @@ def detail_shares(relit: np.ndarray, truth: np.ndarray, mask: np.ndarray) -> dic
     return {"speckle": float(np.mean(ours > 2 * real)), "flat": float(np.mean(ours < 0.5 * real))}
 
 
+def new_edges(source: np.ndarray, relit: np.ndarray, mask: np.ndarray, truth: np.ndarray | None = None) -> float:
+    """The share of the face where the change draws an edge the photo does not have (issue 48: "no new edge in
+    the change that the photo does not have"): where the gradient of the change of log luminance (``EDGE_FLOOR``
+    added, so that a black photo's noise is no edge; both blurred over ``EDGE_SIGMA`` pixels) passes ``EDGE_STEP``
+    per pixel and twice the source photo's own gradient there (and, given ``truth``, twice the real photo's under
+    the new light: an edge the light reveals in a shadow is the truth's too), inside ``mask`` eroded as
+    ``detail_shares``'s. A fill that ends inside a black shadow, a blend's box, a mask's notch count; the photo's
+    own shadow edge cancelled does not (the photo has it)."""
+    inner = cv2.erode((mask > 0.5).astype(np.uint8), np.ones((DETAIL_ERODE, DETAIL_ERODE), np.uint8)) > 0
+    if not inner.any():
+        return 0.0
+
+    def log_lum(rgb: np.ndarray) -> np.ndarray:
+        return cv2.GaussianBlur(np.log(luminance(rgb) + EDGE_FLOOR).astype(np.float32), (0, 0), EDGE_SIGMA)
+
+    def grad(y: np.ndarray) -> np.ndarray:
+        return np.hypot(cv2.Sobel(y, cv2.CV_32F, 1, 0, ksize=3), cv2.Sobel(y, cv2.CV_32F, 0, 1, ksize=3)) / 8
+
+    own = log_lum(source)
+    change = grad(log_lum(relit) - own)
+    new = (change > EDGE_STEP) & (change > 2 * grad(own))
+    if truth is not None:
+        new &= change > 2 * grad(log_lum(truth))
+    return float(np.mean(new[inner]))
+
+
 def eye_region(points: np.ndarray, eye: tuple[int, ...], shape: tuple[int, int]) -> np.ndarray:
     """(H, W) bool: an eye's contour on the face mesh ``points`` (468, >= 2), filled and dilated."""
     reg = np.zeros(shape, np.uint8)
@@ -171,9 +202,10 @@ def mean(rows: list[dict], method: str, key: str) -> float | None:
 
 
 def figures(rows: list[dict], method: str) -> dict:
-    """The medians of the correlation and contrast, the means of the detail shares (``detail_shares``)."""
+    """The medians of the correlation and contrast, the means of the detail shares (``detail_shares``) and of the
+    new edges' share (``new_edges``)."""
     return {**{k: median(rows, method, k) for k in ("corr", "contrast")},
-            **{k: mean(rows, method, k) for k in ("speckle", "flat")}}
+            **{k: mean(rows, method, k) for k in ("speckle", "flat", "edge")}}
 
 
 def change_image(source: np.ndarray, out: np.ndarray) -> np.ndarray:
@@ -213,7 +245,12 @@ def main(argv=None) -> int:
     p.add_argument("--no-mirror-dark", action="store_true",
                    help="a face's opening far darker than its mirror image not taken as shadow "
                         "(relight.factor.MIRROR_DARK; on by default since faces13)")
+    p.add_argument("--no-rim-fill", action="store_true",
+                   help="the deep shadow's fill off a face mesh keeps stage 1's albedo, not its rim's "
+                        "(relight.shadow_rim.RIM_RANGE; on by default since faces15)")
     args = p.parse_args(argv)
+    if args.no_rim_fill:
+        shadow_rim.RIM_RANGE = None
     if args.no_mesh_occlusion:
         face_mesh_module.MESH_OCCLUSION = False
     if args.no_mirror_dark:
@@ -245,11 +282,13 @@ def main(argv=None) -> int:
         ours = relighter.relight(dec, light)
         row = {"id": f"{task}:{subject}:{src_az:+d}->{dst_az:+d}", "task": task, "subject": subject,
                "source_az": src_az, "target_az": dst_az,
-               "ours": {**compare(source, ours, truth, region), **detail_shares(ours, truth, face)}}
+               "ours": {**compare(source, ours, truth, region), **detail_shares(ours, truth, face),
+                        "edge": new_edges(source, ours, face, truth)}}
         theirs = None
         if dpr is not None:
             theirs = dpr.relight(source, dprp.ours_to_dpr(light, dc=DPR_DC))
-            row["dpr"] = {**compare(source, theirs, truth, region), **detail_shares(theirs, truth, face)}
+            row["dpr"] = {**compare(source, theirs, truth, region), **detail_shares(theirs, truth, face),
+                          "edge": new_edges(source, theirs, face, truth)}
         if points is not None and task == "delight" and abs(src_az) == SOCKET_AZ:  # negative: the image's right lit
             dark_eye, lit_eye = (RIGHT_EYE, LEFT_EYE) if src_az < 0 else (LEFT_EYE, RIGHT_EYE)
             row["sockets"] = {name: socket_ratio(ours, truth, face > 0, eye_region(points, eye, face.shape))
@@ -294,8 +333,8 @@ def main(argv=None) -> int:
     (args.out / "yale.json").write_text(json.dumps({"summary": summary, "pairs": rows}, indent=1))
     sheet(rows, pictures, args.out / "yale_worst.jpg")
     sheet([r for r in rows if r["task"] == "delight"], pictures, args.out / "yale_worst_delight.jpg")
-    fmt = lambda v: "  -  " if v is None else f"{v:5.2f}"  # noqa: E731
-    cols = ("corr", "contrast", "speckle", "flat")
+    fmt = lambda v: "  -  " if v is None else f"{v:5.3f}"  # noqa: E731
+    cols = ("corr", "contrast", "speckle", "flat", "edge")
     print(f"{'':22s} ours {' '.join(f'{c:>8s}' for c in cols)}   DPR {' '.join(f'{c:>8s}' for c in cols)}")
     for task, s in summary.items():
         for label, v in [("all", s), *[(k, s[k]) for k in s if k.startswith("|az|")]]:
