@@ -14,7 +14,9 @@ blotches of the sheets, as shares of the face (``detail_shares``, means over pai
 photo has more than twice the real photo's fine detail, "flat" where it has less than half. The eye sockets
 (``socket_ratio``, de-light pairs from |azimuth| 70): each eye's luminance (MediaPipe's eye contour on the real
 frontal photo's face mesh, dilated 7 px) over the face's mean in ours, over the same in the real photo; the mean
-|log| of that over the pairs, for the eye on the photo's dark side and on its lit side.
+|log| of that over the pairs, for the eye on the photo's dark side and on its lit side. "edge" (means over pairs):
+the share of the face where the change draws an edge that neither the source photo nor the real one under the
+target lamp has (benchmarks/new_edges.py ``new_edges``: a fill's border inside a black shadow, a blend's box).
 
 - relight: the frontal photo (A+000E+00) relit to each lamp at elevation 0 and |azimuth| 25, 50, 70;
 - de-light: the photos lit from |azimuth| 50 and 70 (elevation 0) relit to the frontal lamp, against the
@@ -51,6 +53,7 @@ from real_photos import REPO, luminance
 
 # isort: split
 import dpr_protocol as dprp  # imports relight_rt: after real_photos
+from new_edges import new_edges
 
 from relight_rt import Relighter, RuntimeConfig, lights
 from relight_rt.person import face_mesh as face_mesh_module
@@ -67,9 +70,6 @@ DETAIL_SIGMA = 2.0  # detail_shares: the fine detail is the log luminance less i
 DETAIL_BLOCK = 12  # ... its RMS over blocks this many pixels wide,
 DETAIL_ERODE = 9  # ... inside the ellipse eroded this many pixels (its own edge is no detail)
 DPR_DC = dprp.DEMO_SCALE * 1.0841254962824531  # the DC of DPR's demo lights as its demo uses them
-EDGE_FLOOR = 0.02  # new_edges: linear luminance added before the log (a black shadow's noise is no edge),
-EDGE_SIGMA = 1.0  # ... both pictures blurred over this many pixels,
-EDGE_STEP = 0.1  # ... a change's gradient past this (log luminance per pixel) is an edge
 # socket_ratio: MediaPipe's face mesh eye contours (FACEMESH_RIGHT_EYE: the subject's right, the image's left)
 RIGHT_EYE = (33, 7, 163, 144, 145, 153, 154, 155, 133, 173, 157, 158, 159, 160, 161, 246)
 LEFT_EYE = (362, 382, 381, 380, 374, 373, 390, 249, 263, 466, 388, 387, 386, 385, 384, 398)
@@ -133,32 +133,6 @@ def detail_shares(relit: np.ndarray, truth: np.ndarray, mask: np.ndarray) -> dic
         return {"speckle": 0.0, "flat": 0.0}
     ours, real = fine_detail(relit)[inner], fine_detail(truth)[inner]
     return {"speckle": float(np.mean(ours > 2 * real)), "flat": float(np.mean(ours < 0.5 * real))}
-
-
-def new_edges(source: np.ndarray, relit: np.ndarray, mask: np.ndarray, truth: np.ndarray | None = None) -> float:
-    """The share of the face where the change draws an edge the photo does not have (issue 48: "no new edge in
-    the change that the photo does not have"): where the gradient of the change of log luminance (``EDGE_FLOOR``
-    added, so that a black photo's noise is no edge; both blurred over ``EDGE_SIGMA`` pixels) passes ``EDGE_STEP``
-    per pixel and twice the source photo's own gradient there (and, given ``truth``, twice the real photo's under
-    the new light: an edge the light reveals in a shadow is the truth's too), inside ``mask`` eroded as
-    ``detail_shares``'s. A fill that ends inside a black shadow, a blend's box, a mask's notch count; the photo's
-    own shadow edge cancelled does not (the photo has it)."""
-    inner = cv2.erode((mask > 0.5).astype(np.uint8), np.ones((DETAIL_ERODE, DETAIL_ERODE), np.uint8)) > 0
-    if not inner.any():
-        return 0.0
-
-    def log_lum(rgb: np.ndarray) -> np.ndarray:
-        return cv2.GaussianBlur(np.log(luminance(rgb) + EDGE_FLOOR).astype(np.float32), (0, 0), EDGE_SIGMA)
-
-    def grad(y: np.ndarray) -> np.ndarray:
-        return np.hypot(cv2.Sobel(y, cv2.CV_32F, 1, 0, ksize=3), cv2.Sobel(y, cv2.CV_32F, 0, 1, ksize=3)) / 8
-
-    own = log_lum(source)
-    change = grad(log_lum(relit) - own)
-    new = (change > EDGE_STEP) & (change > 2 * grad(own))
-    if truth is not None:
-        new &= change > 2 * grad(log_lum(truth))
-    return float(np.mean(new[inner]))
 
 
 def eye_region(points: np.ndarray, eye: tuple[int, ...], shape: tuple[int, int]) -> np.ndarray:
