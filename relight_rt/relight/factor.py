@@ -604,7 +604,8 @@ class Factor:
                 w, each = np.where(inner, 1 - q * q * (3 - 2 * q), 0).astype(np.float32)
                 if w.max() > 0.05:  # near a shadow each pixel's own shading places its edge (the photo's, not the
                     # smoothing's: a black band inside it was multiplied, a dark line along the shadow's border)
-                    w = np.maximum(w, each * np.clip(2 * cv2.GaussianBlur(w, (0, 0), FILL_SIGMA), 0, 1))
+                    core = (w > 0.5).astype(np.float32)  # a shadow's (a stripe's smoothed weight stays low)
+                    w = np.maximum(w, each * np.clip(2 * cv2.GaussianBlur(core, (0, 0), FILL_SIGMA), 0, 1))
                     w = cv2.GaussianBlur(w, (0, 0), 1.0) * inner
                     y0, y1, x0, x1 = own["window"]
                     rgb = dec.network_image[y0:y1, x0:x1]
