@@ -5,7 +5,8 @@ lamp standing in as a second witness).
 
     python benchmarks/new_edges.py [PHOTO[:MASK] ...] [--lights studio,campfire,LEFT,RIGHT] [--sheet OUT.png]
 
-Default photos: the reference photo with its mask (../shared/reference/photo) and the bundled example (its alpha).
+Default photos: the reference photo with its mask (../shared/reference/photo) and the bundled example (its alpha);
+a photo given without a mask or alpha gets the automatic matte.
 Lights: presets by name and two white side lamps (LEFT, RIGHT: benchmarks/real_photos.py's, written out here so
 that this script runs on any checkout: ``PYTHONPATH=/path/to/other/checkout python benchmarks/new_edges.py`` measures
 that checkout's relight_rt, the before of a before/after). Prints the share per photo and light (the person: alpha >
@@ -68,7 +69,8 @@ def new_edges(source: np.ndarray, relit: np.ndarray, mask: np.ndarray, truth: np
 
 
 def main(argv=None) -> int:
-    from relight_rt import Relighter, RuntimeConfig, lights
+    import relight_rt
+    from relight_rt import RuntimeConfig, lights
     from relight_rt.person.face_mesh import FaceMesh
 
     here = Path(__file__).resolve().parents[1]
@@ -82,7 +84,7 @@ def main(argv=None) -> int:
                              str(here / "relight_rt/data/example.png")]
     side = {"LEFT": lights.directional((0.35, -1.0, 0.25), (1, 1, 1), 1.0, angular_radius=0.6) + lights.ambient(0.06),
             "RIGHT": lights.directional((0.35, 1.0, 0.25), (1, 1, 1), 1.0, angular_radius=0.6) + lights.ambient(0.06)}
-    relighter = Relighter(RuntimeConfig(device="cpu"))
+    relighter = relight_rt.open(RuntimeConfig(device="cpu"))
     mesh = FaceMesh(relighter.models_dir)
     rows, tiles = [], []
     for item in photos:
@@ -92,13 +94,13 @@ def main(argv=None) -> int:
             print(f"{path}: not readable, skipped", file=sys.stderr)
             continue
         rgb = cv2.cvtColor(raw[..., :3], cv2.COLOR_BGR2RGB).astype(np.float32) / 255
+        mask = None  # none given: the automatic matte's (the bundled one, as the CLI's)
         if mask_path:
             mask = cv2.imread(mask_path, cv2.IMREAD_GRAYSCALE).astype(np.float32) / 255
         elif raw.ndim == 3 and raw.shape[2] == 4:
             mask = raw[..., 3].astype(np.float32) / 255
-        else:
-            print(f"{path}: no mask, skipped", file=sys.stderr)
-            continue
+        dec = relighter.decompose(rgb, mask)
+        mask = dec.mask
         h, w = mask.shape
         faces = mesh.faces(rgb, (0, h, 0, w)) if mesh.available else []
         face = np.zeros((h, w), np.float32)
@@ -107,7 +109,6 @@ def main(argv=None) -> int:
             x1, y1 = np.ceil(pts[:, :2].max(axis=0)).astype(int)
             face[max(y0, 0):y1, max(x0, 0):x1] = 1
         face *= mask
-        dec = relighter.decompose(rgb, mask)
         for name in args.lights.split(","):
             out = relighter.relight(dec, side.get(name, name))
             edges = new_edge_map(rgb, out)
