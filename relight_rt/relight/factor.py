@@ -69,7 +69,7 @@ from .decomposition import Decomposition, Memo, readonly
 from .detail import extend_outward, guided_upsample, shadow_texture, unpremultiply, window
 from .face_pass import FacePass, feather
 from .look import shaded_skin, skin_chroma, tint_range
-from .shadow_rim import rim_lift
+from .shadow_rim import rim_lift, spread_mean
 from .strength import (
     EXPLAIN_ALBEDO_MIN,
     EXPLAIN_SHADOW_SHARE,
@@ -622,10 +622,7 @@ class Factor:
                     off = np.ones_like(w) if off is None else off
                     if skin.any():  # a face's skin (one material): the albedo of the lit skin around, not stage 1's
                         albedo, on = own["albedo"], skin.astype(np.float32)
-                        spread = FILL_ALBEDO_SPREAD * max(w.shape)
-                        num = cv2.GaussianBlur(albedo * trust * on, (0, 0), spread)
-                        den = cv2.GaussianBlur(trust * on, (0, 0), spread)
-                        around = np.divide(num, den, out=albedo.copy(), where=den > 1e-4)
+                        around = spread_mean(albedo, trust * on, FILL_ALBEDO_SPREAD * max(w.shape), albedo)
                         lift = np.clip(around / np.maximum(albedo, EXPLAIN_ALBEDO_MIN), 1 / FILL_ALBEDO_RANGE,
                                        FILL_ALBEDO_RANGE)
                         on_face = skin if own["face_opening"] is None else skin | own["face_opening"]

@@ -99,3 +99,20 @@ def test_the_rims_albedo_is_not_taken_where_stage1_sees_no_skin(relighter):
     lit, kept = (float((relighter.relight(d, 2 * OWN_LIGHT, exposure="physical") @ REC709)[40:120, 28:34].mean())
                  for d in (dec, skinless))
     assert kept < 0.6 * lit, (kept, lit)
+
+
+def test_the_lit_skins_albedo_reaches_past_the_blurs_kernel_without_a_step():
+    """The fill's albedo spread from lit skin (``shadow_rim.spread_mean``) was a normalised convolution that fell
+    back to stage 1's albedo where the blur's kernel (cut at 4 sigma) no longer reached a lit pixel: a straight step
+    down the far cheek of a face lit from 70 degrees (Extended Yale B yaleB08 and yaleB33). Far from the lit skin its
+    mean over the window holds, and the change toward it is gradual."""
+    lit = np.zeros((60, 300), np.float32)
+    lit[:, 220:] = 1
+    values = np.full(lit.shape, 0.6, np.float32)
+    values[:, 230:] = 0.7  # the lit skin is not uniform: near it, its own values
+    stage1 = np.full(lit.shape, 0.2, np.float32)  # what the shadow's albedo reads as
+    spread = shadow_rim.spread_mean(values, lit, 10.0, stage1)
+    row = spread[30]
+    assert np.abs(np.diff(row)).max() < 0.01  # no step anywhere (a fallback to 0.2 at x ~ 180 stepped by 0.4)
+    assert abs(float(row[:100].mean()) - float(values[lit > 0].mean())) < 0.01  # far off: the lit skin's mean
+    assert np.allclose(shadow_rim.spread_mean(values, np.zeros_like(lit), 10.0, stage1), stage1)  # no lit skin
