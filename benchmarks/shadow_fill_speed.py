@@ -6,7 +6,8 @@ Decomposes PHOTO once, then relights it under ``--light`` with the fill and with
 (``shadow_weight`` returning None), interleaved in one process so that a loaded CPU weighs on both alike; prints
 the minimum and the 25th percentile of each. The fill costs nothing where no deep shadow is found, and in
 proportion to the shadow's box where one is. Also the fill's texture (``Factor.texture``, found once per
-Decomposition over the crop box, then a multiply per light): its first computation timed alone, repeated.
+Decomposition over the crop box, then a multiply per light): its first computation timed alone, repeated; and the
+fill's weight and colour (``Factor.shadow_weight``, also once per Decomposition) the same way.
 """
 
 from __future__ import annotations
@@ -53,11 +54,17 @@ def main() -> None:
         t = time.perf_counter()
         factor.texture(dec, gray)
         times["texture, once"].append(time.perf_counter() - t)
+    times["weight, once"] = []  # where the fill goes and its colour (``shadow_weight``), found once per Decomposition
+    for _ in range(args.repeats):
+        state.pop("shadow", None)
+        t = time.perf_counter()
+        factor.shadow_weight(dec)
+        times["weight, once"].append(time.perf_counter() - t)
     for name, ts in times.items():
         if not ts:
             continue
         ts.sort()
-        print(f"{name:10s} min {1000 * ts[0]:.0f} ms, p25 {1000 * ts[len(ts) // 4]:.0f} ms")
+        print(f"{name:10s} min {1000 * ts[0]:.1f} ms, p25 {1000 * ts[len(ts) // 4]:.1f} ms")
 
 
 if __name__ == "__main__":

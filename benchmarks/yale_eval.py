@@ -1,7 +1,8 @@
 """Real faces under known lamps (Extended Yale B, ../shared/realdata/yale): relighting and de-lighting against truth.
 
     python benchmarks/yale_eval.py --out runs/yale [--yale ../shared/realdata/yale] [--dpr DPR_REPO | --no-dpr]
-        [--cache runs/dpr_cache] [--subjects yaleB02 yaleB05 ...] [--no-mesh-occlusion]
+        [--cache runs/dpr_cache] [--subjects yaleB02 yaleB05 ...] [--no-mesh-occlusion] [--no-mirror-dark]
+        [--no-rim-fill]
 
 Issue 48's protocol. Every photo is grey (the PNG's one channel as R = G = B), relit with an ellipse mask (the
 face: centre at 0.50, 0.52 of the image, semi-axes 0.44 W and 0.46 H) under a white point lamp in the photo's
@@ -13,7 +14,9 @@ blotches of the sheets, as shares of the face (``detail_shares``, means over pai
 photo has more than twice the real photo's fine detail, "flat" where it has less than half. The eye sockets
 (``socket_ratio``, de-light pairs from |azimuth| 70): each eye's luminance (MediaPipe's eye contour on the real
 frontal photo's face mesh, dilated 7 px) over the face's mean in ours, over the same in the real photo; the mean
-|log| of that over the pairs, for the eye on the photo's dark side and on its lit side.
+|log| of that over the pairs, for the eye on the photo's dark side and on its lit side. "edge" (means over pairs):
+the share of the face where the change draws an edge that neither the source photo nor the real one under the
+target lamp has (benchmarks/new_edges.py ``new_edges``: a fill's border inside a black shadow, a blend's box).
 
 - relight: the frontal photo (A+000E+00) relit to each lamp at elevation 0 and |azimuth| 25, 50, 70;
 - de-light: the photos lit from |azimuth| 50 and 70 (elevation 0) relit to the frontal lamp, against the
@@ -50,11 +53,13 @@ from real_photos import REPO, luminance
 
 # isort: split
 import dpr_protocol as dprp  # imports relight_rt: after real_photos
+from new_edges import new_edges
 
 from relight_rt import Relighter, RuntimeConfig, lights
 from relight_rt.person import face_mesh as face_mesh_module
 from relight_rt.person.face_mesh import FaceMesh
 from relight_rt.relight import factor as factor_module
+from relight_rt.relight import shadow_rim
 
 EPS = 1e-3
 GRID = 48
@@ -171,9 +176,10 @@ def mean(rows: list[dict], method: str, key: str) -> float | None:
 
 
 def figures(rows: list[dict], method: str) -> dict:
-    """The medians of the correlation and contrast, the means of the detail shares (``detail_shares``)."""
+    """The medians of the correlation and contrast, the means of the detail shares (``detail_shares``) and of the
+    new edges' share (``new_edges``)."""
     return {**{k: median(rows, method, k) for k in ("corr", "contrast")},
-            **{k: mean(rows, method, k) for k in ("speckle", "flat")}}
+            **{k: mean(rows, method, k) for k in ("speckle", "flat", "edge")}}
 
 
 def change_image(source: np.ndarray, out: np.ndarray) -> np.ndarray:
@@ -213,7 +219,12 @@ def main(argv=None) -> int:
     p.add_argument("--no-mirror-dark", action="store_true",
                    help="a face's opening far darker than its mirror image not taken as shadow "
                         "(relight.factor.MIRROR_DARK; on by default since faces13)")
+    p.add_argument("--no-rim-fill", action="store_true",
+                   help="the deep shadow's fill off a face mesh keeps stage 1's albedo, not its rim's "
+                        "(relight.shadow_rim.RIM_RANGE; on by default since faces15)")
     args = p.parse_args(argv)
+    if args.no_rim_fill:
+        shadow_rim.RIM_RANGE = None
     if args.no_mesh_occlusion:
         face_mesh_module.MESH_OCCLUSION = False
     if args.no_mirror_dark:
@@ -245,11 +256,13 @@ def main(argv=None) -> int:
         ours = relighter.relight(dec, light)
         row = {"id": f"{task}:{subject}:{src_az:+d}->{dst_az:+d}", "task": task, "subject": subject,
                "source_az": src_az, "target_az": dst_az,
-               "ours": {**compare(source, ours, truth, region), **detail_shares(ours, truth, face)}}
+               "ours": {**compare(source, ours, truth, region), **detail_shares(ours, truth, face),
+                        "edge": new_edges(source, ours, face, truth)}}
         theirs = None
         if dpr is not None:
             theirs = dpr.relight(source, dprp.ours_to_dpr(light, dc=DPR_DC))
-            row["dpr"] = {**compare(source, theirs, truth, region), **detail_shares(theirs, truth, face)}
+            row["dpr"] = {**compare(source, theirs, truth, region), **detail_shares(theirs, truth, face),
+                          "edge": new_edges(source, theirs, face, truth)}
         if points is not None and task == "delight" and abs(src_az) == SOCKET_AZ:  # negative: the image's right lit
             dark_eye, lit_eye = (RIGHT_EYE, LEFT_EYE) if src_az < 0 else (LEFT_EYE, RIGHT_EYE)
             row["sockets"] = {name: socket_ratio(ours, truth, face > 0, eye_region(points, eye, face.shape))
@@ -294,8 +307,8 @@ def main(argv=None) -> int:
     (args.out / "yale.json").write_text(json.dumps({"summary": summary, "pairs": rows}, indent=1))
     sheet(rows, pictures, args.out / "yale_worst.jpg")
     sheet([r for r in rows if r["task"] == "delight"], pictures, args.out / "yale_worst_delight.jpg")
-    fmt = lambda v: "  -  " if v is None else f"{v:5.2f}"  # noqa: E731
-    cols = ("corr", "contrast", "speckle", "flat")
+    fmt = lambda v: "  -  " if v is None else f"{v:5.3f}"  # noqa: E731
+    cols = ("corr", "contrast", "speckle", "flat", "edge")
     print(f"{'':22s} ours {' '.join(f'{c:>8s}' for c in cols)}   DPR {' '.join(f'{c:>8s}' for c in cols)}")
     for task, s in summary.items():
         for label, v in [("all", s), *[(k, s[k]) for k in s if k.startswith("|az|")]]:

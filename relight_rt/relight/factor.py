@@ -69,6 +69,7 @@ from .decomposition import Decomposition, Memo, readonly
 from .detail import extend_outward, guided_upsample, shadow_texture, unpremultiply, window
 from .face_pass import FacePass, feather
 from .look import shaded_skin, skin_chroma, tint_range
+from .shadow_rim import rim_lift, spread_mean
 from .strength import (
     EXPLAIN_ALBEDO_MIN,
     EXPLAIN_SHADOW_SHARE,
@@ -83,12 +84,13 @@ _RATIO_EPS = np.float32(0.01)  # the ratio's denominator is floored here (dark p
 _OWN_FLOOR = np.float32(0.5)  # light the model misses, up to this share of the photo, stays under a new light (own)
 FILL_LOW, FILL_HIGH = 0.1, 0.35  # shown shading / its median: below LOW the deep shadow is filled, above HIGH not
 FILL_SIGMA = 2.5  # ... the shading shown smoothed over this many network pixels first (texture is not a shadow)
+FILL_EDGE_SIGMA = 1.0  # ... within its reach of a shadow each pixel's own shading (smoothed this much) counts
 FILL_ALBEDO_SPREAD = 0.08  # ... its albedo that of the lit pixels around, over this share of the window's side,
-FILL_ALBEDO_RANGE = 2.0  # ... at most this factor from stage 1's own albedo there
+FILL_ALBEDO_RANGE = 4.0  # ... at most this factor from stage 1's own albedo there
 RATIO_CAP = 2.0  # beside a deep shadow the photo's own detail is multiplied at most this much (Factor.handover),
 CAP_SKIN_SPREAD = 0.02  # ... on a face's skin, its edge softened over this share of the window's side
 TEXTURE_SCALES = (1.0, 2.0)  # the fill's texture (Factor.texture): the photo's log detail in this band (input px),
-TEXTURE_BLOCK, TEXTURE_SHARE = 4.0, 0.25  # ... its power over this many px held to this quantile of the lit skin's
+TEXTURE_BLOCK, TEXTURE_SHARE = 4.0, 0.35  # ... its power over this many px held to this quantile of the lit skin's
 UNSHADE_MIN_SKIN = 50  # unshaded_albedo: the fewest face-skin pixels (network frame) its fit is made on
 # a face's openings (inside the mesh's outline, off its skin: the eyes' sockets) take the skin's ratio cap and fill
 # albedo (``handover``, ``shadow_weight``): on a side-lit face's dark half the socket's grazing light was multiplied
@@ -571,15 +573,17 @@ class Factor:
         shadow on a cheek came out at 0.14-0.24 beside 0.6 on Extended Yale B) and ``unshaded_albedo`` lifts all of
         it by the same law (a shaded cheek 1.3-1.5); the new light on that albedo draws the shadow's hard outline
         and blotches. Skin is one material, so the lit skin around knows its albedo: on the mesh's skin the fill
-        takes their mean albedo, spread over ``FILL_ALBEDO_SPREAD`` of the window's side. Not elsewhere: the pixels
-        around dark hair are often another material (a green shirt's albedo lifted a girl's shaded hair and
-        turned it green, benchmarks/photo_faults.py).
+        takes their mean albedo, spread over ``FILL_ALBEDO_SPREAD`` of the window's side (within 4x: at 2x a side-lit
+        Yale face kept a dark patch, faces15), its weight softened past the mesh's outline (``cap_face``). Off it,
+        as far as stage 1 sees skin, the albedo of the fill's own rim (relight_rt.relight.shadow_rim): the pixels around
+        dark hair are often another material (a green shirt's albedo lifted a girl's shaded hair green).
 
         The shading the photo shows, its luminance over the albedo's (floored at ``EXPLAIN_ALBEDO_MIN``: black cloth
         shows its shading too) and smoothed over ``FILL_SIGMA`` pixels (a black stripe of a shirt whose albedo stage
         1 blurred is texture, not shadow), against its median over the person: from ``FILL_HIGH`` of it down to
         ``FILL_LOW`` the ratio's share goes from all to none (a hard shadow at levels 0-3 of a side-lit face is
-        0.02 of the lit side's).
+        0.02 of the lit side's); within that smoothing's reach of such a shadow, each pixel's own shading counts too,
+        so that the weight's edge is the photo's (smoothed alone it ended inside the black: a dark line, multiplied).
         """
         state = self.memo(dec)
         if not dec.photo:  # a video frame: a weight found frame by frame would flicker where the shadow's edge moves
@@ -591,13 +595,17 @@ class Factor:
             level = float(np.median(shown[inner])) if inner.any() else 0.0
             # a shadow is wide, a black stripe the albedo blurred away is not: the shading shown, smoothed
             keep = inner.astype(np.float32)
-            shown = cv2.GaussianBlur(shown * keep, (0, 0), FILL_SIGMA) / np.maximum(
+            smooth = cv2.GaussianBlur(shown * keep, (0, 0), FILL_SIGMA) / np.maximum(
                 cv2.GaussianBlur(keep, (0, 0), FILL_SIGMA), 1e-3)
             result = None
-            if level > 0:
-                q = np.clip((shown / level - FILL_LOW) / (FILL_HIGH - FILL_LOW), 0, 1)
-                w = np.where(inner, 1 - q * q * (3 - 2 * q), 0).astype(np.float32)
-                if w.max() > 0.05:
+            if level > 0:  # the weight of the shading smoothed, and of each pixel's own (``FILL_EDGE_SIGMA``)
+                both = np.stack([smooth, cv2.GaussianBlur(shown, (0, 0), FILL_EDGE_SIGMA)])
+                q = np.clip((both / level - FILL_LOW) / (FILL_HIGH - FILL_LOW), 0, 1)
+                w, each = np.where(inner, 1 - q * q * (3 - 2 * q), 0).astype(np.float32)
+                if w.max() > 0.05:  # near a shadow each pixel's own shading places its edge (the photo's, not the
+                    # smoothing's: a black band inside it was multiplied, a dark line along the shadow's border)
+                    core = (w > 0.5).astype(np.float32)  # a shadow's (a stripe's smoothed weight stays low)
+                    w = np.maximum(w, each * np.clip(2 * cv2.GaussianBlur(core, (0, 0), FILL_SIGMA), 0, 1))
                     w = cv2.GaussianBlur(w, (0, 0), 1.0) * inner
                     y0, y1, x0, x1 = own["window"]
                     rgb = dec.network_image[y0:y1, x0:x1]
@@ -608,21 +616,25 @@ class Factor:
                     # luminance 1 already: photo is the Rec. 709 luminance of rgb, and the blur is linear
                     chroma = np.divide(num, den, out=np.ones_like(num), where=den > 1e-4)
                     skin = own["face_skin"]
+                    # off a face mesh's skin, as far as stage 1 sees skin: its rim's albedo (relight.shadow_rim)
+                    off = rim_lift(own["albedo"], photo, own["own"], w, trust, unpremultiply(
+                        dec.skin[y0:y1, x0:x1, None], own["alpha"])[..., 0], EXPLAIN_ALBEDO_MIN)
+                    off = np.ones_like(w) if off is None else off
                     if skin.any():  # a face's skin (one material): the albedo of the lit skin around, not stage 1's
                         albedo, on = own["albedo"], skin.astype(np.float32)
-                        spread = FILL_ALBEDO_SPREAD * max(w.shape)
-                        num = cv2.GaussianBlur(albedo * trust * on, (0, 0), spread)
-                        den = cv2.GaussianBlur(trust * on, (0, 0), spread)
-                        around = np.divide(num, den, out=albedo.copy(), where=den > 1e-4)
+                        around = spread_mean(albedo, trust * on, FILL_ALBEDO_SPREAD * max(w.shape), albedo)
                         lift = np.clip(around / np.maximum(albedo, EXPLAIN_ALBEDO_MIN), 1 / FILL_ALBEDO_RANGE,
                                        FILL_ALBEDO_RANGE)
                         on_face = skin if own["face_opening"] is None else skin | own["face_opening"]
-                        chroma *= np.where(on_face, lift, 1)[..., None]
+                        face = np.where(on_face, 1, own["cap_face"])  # the mesh's outline softened: no edge of its own
+                        chroma *= (off + face * (lift - off))[..., None]
                         if MIRROR_DARK is not None and own["face_opening"] is not None and own["face_points"]:
                             # a socket in the photo's shadow by the face's mirror, whatever stage 1's albedo says
                             shading = own["transport"] @ dec.white_light[:, 0]
                             w = np.maximum(w, mirror_shadow(shading, own["face_opening"], on_face,
                                                             own["face_points"]) * inner)
+                    else:
+                        chroma *= off[..., None]
                     result = (readonly(w.astype(np.float32)), readonly(chroma.astype(np.float32)))
             state["shadow"] = result
         return state["shadow"]

@@ -40,8 +40,9 @@ def test_a_hard_shadow_is_filled_and_the_own_light_gives_the_photo_back(relighte
     lit = float((filled[core] @ REC709).mean())
     assert lit > 0.1 and lit > 10 * float((multiplied[core] @ REC709).mean())  # the light reaches the shadow
     lit_side = ~core & (mask > 0)
-    lit_side[:, :60] = False
-    # the lit half as it was (within a level or two: the edge-aware upsampling reaches a few pixels past the shadow)
+    lit_side[:, :64] = False
+    # the lit half as it was (within a level or two: the edge-aware upsampling reaches a few pixels past the shadow,
+    # and the fill's weight now reaches the photo's own edge at 55: 2 input pixels a network pixel here)
     assert np.abs(filled[lit_side] - multiplied[lit_side]).max() < 0.01
 
 
@@ -50,8 +51,8 @@ def test_the_fill_takes_the_albedo_of_the_lit_skin_around_where_stage1_took_the_
         relighter, monkeypatch):
     """Stage 1 takes part of a hard shadow for a dark albedo (a nose's shadow on a cheek); the fill then draws the
     shadow under any light. On a face mesh's skin it takes the albedo of the lit skin around
-    (``FILL_ALBEDO_SPREAD``), within a factor ``FILL_ALBEDO_RANGE`` of stage 1's; elsewhere (no mesh: hair, cloth,
-    another material beside) stage 1's."""
+    (``FILL_ALBEDO_SPREAD``), within a factor ``FILL_ALBEDO_RANGE`` of stage 1's; elsewhere, where stage 1 sees no
+    skin (hair, cloth, another material beside), stage 1's (where it sees skin: ``test_a_fill_without_a_mesh...``)."""
     img, mask = person()
     shadowed, dark = img.copy(), img.copy()
     shadowed[20:140, 30:55] *= 0.01
@@ -65,8 +66,10 @@ def test_the_fill_takes_the_albedo_of_the_lit_skin_around_where_stage1_took_the_
     def core_level(dec):
         return float((relighter.relight(dec, 2 * OWN_LIGHT, exposure="physical")[core] @ REC709).mean())
 
-    want, no_mesh = core_level(true), core_level(taken)
-    assert no_mesh < 0.6 * want  # no face skin: stage 1's albedo, half of the shadow stays
+    want = core_level(true)
+    # no face mesh and no skin to stage 1 (the analytic graph's skin is 0.5 everywhere): stage 1's albedo, half of
+    # the shadow stays
+    assert core_level(replace(taken, skin=np.zeros_like(taken.skin))) < 0.6 * want
     factor = relighter._factor
     restored = factor.restored
     # the analytic stage 1 finds no face: the whole person taken for a face mesh's skin
@@ -115,7 +118,8 @@ def test_where_a_light_multiplies_a_dim_photo_the_fill_takes_over_and_its_noise_
     handed, cap = noise_gain(4 * OWN_LIGHT), relight_factor.RATIO_CAP
     monkeypatch.setattr(relight_factor, "RATIO_CAP", 1.0)  # the rule off
     multiplied = noise_gain(4 * OWN_LIGHT)
-    assert plain > 3.0 and multiplied > 3.0 and handed < cap + 0.25  # 3.4, 3.6 against 2.05 (the cap: 2)
+    # 3.6, 3.8 against 2.25 (the cap: 2; 2.248 before faces15's fill reached the photo's own shadow edge)
+    assert plain > 3.0 and multiplied > 3.0 and handed < cap + 0.3
 
 
 def _band(rgb: np.ndarray) -> np.ndarray:
@@ -237,8 +241,9 @@ def test_a_socket_far_darker_than_its_mirror_is_in_shadow_whatever_stage1s_albed
         monkeypatch.setattr(relight_factor, "MIRROR_DARK", None)
         plain = _socket_over_face(ye, relighter, side, socket)
         monkeypatch.undo()
-        # measured 0.80 -> 0.68 (-70) and 0.85 -> 0.76 (+70); the real photo's 0.43 / 0.41
-        assert plain > 0.78 and ruled < 0.8 and ruled < plain - 0.07, (azimuth, plain, ruled)
+        # measured 0.80 -> 0.68 (-70) and 0.85 -> 0.76 (+70); since faces15 (the fill's albedo within 4x of stage
+        # 1's, its edge the photo's) 0.72 -> 0.60 and 0.83 -> 0.74; the real photo's 0.43 / 0.41
+        assert plain > 0.65 and ruled < 0.8 and ruled < plain - 0.07, (azimuth, plain, ruled)
 
 
 def test_the_mirrors_fill_weight_stays_on_the_person(yale_dir, monkeypatch):

@@ -1,0 +1,78 @@
+"""The deep shadow's fill where no face mesh covers it: its albedo is its rim's, so that it meets the ratio unseen.
+
+Where the photo's own shading is near zero the relighting factor adds the new light's change instead of multiplying
+the photo (relight_rt.relight.factor ``Factor.shadow_weight``, ``Factor.gain_and_fill``); around it the photo is
+multiplied by the ratio. The two agree at the handover only where they see the same albedo: the ratio the photo's
+own, A x photo / own (``own`` the pipeline's luminance under the photo's own light), the fill stage 1's A. Stage 1
+often takes a hard shadow for a dark albedo (on Extended Yale B's side-lit faces the shaded cheek's albedo came out
+at 0.16-0.23 beside 0.55-0.7 lit), so a fill on its albedo stays dark while the ratio just outside lifts the dim
+photo 10-20x: the weight's contour, a threshold's inside a black area where the photo has no edge, becomes a hard
+edge around a dark patch (yaleB21 from -50 degrees, which no face mesh is found for: ``FacePass.find``).
+
+On a face mesh's skin the fill already takes the albedo of the lit skin around (``Factor.shadow_weight``). Elsewhere
+``rim_lift`` gives it the albedo the ratio shows at the fill's own rim (the trusted pixels within ``RIM_REACH``
+network pixels of it), spread inward over ``RIM_SPREAD`` of the window's side: the fill then joins the ratio at its
+border whatever the threshold, and the shadow's interior takes the surface that borders it. A shadow's rim is the
+same surface as the shadow far more often than another material, but not always (dark hair in shade beside lit skin,
+a black jacket beside a white shirt): the rim's albedo is taken only as far as stage 1 sees skin there (its skin
+probability times ``RIM_SKIN_GATE``, smoothed: skin is one material, hair and cloth keep stage 1's albedo).
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+RIM_REACH = 3.0  # the fill's rim: trusted pixels within about this many network pixels of its weight (a Gaussian)
+RIM_SPREAD = 0.08  # ... their albedo spread inward over this share of the window's side
+RIM_RANGE: float | None = 4.0  # ... at most this factor from stage 1's albedo (None: the rule off)
+RIM_SKIN_GATE = 2.0  # ... taken as far as stage 1's skin probability times this (1: all; a shaded cheek reads 0.3-0.5)
+RIM_SKIN_SIGMA = 2.5  # ... that probability smoothed over this many network pixels
+SPREAD_PRIOR = 1e-3  # spread_mean: the window's mean counts as this much weight at every pixel
+
+
+def spread_mean(values: np.ndarray, weight: np.ndarray, sigma: float, fallback: np.ndarray) -> np.ndarray:
+    """(r, r') float32: the ``weight``-weighted mean of ``values`` around each pixel (a Gaussian of ``sigma``), leaning
+    on their mean over the whole window (``SPREAD_PRIOR``) where little weight is near; ``fallback`` where there is
+    no weight at all.
+
+    A plain normalised convolution falls back at the blur's reach (OpenCV cuts its kernel at 4 sigma): the far side
+    of a face lit from 70 degrees, 80 px from any lit skin, kept stage 1's albedo beyond a straight line down the
+    cheek (Extended Yale B yaleB08 and yaleB33 from -70: a vertical step in the fill, 0.14 of the pair's new edges).
+    Skin is one material: far from its lit part the best guess is that part's albedo as a whole.
+    """
+    total = float(weight.sum())
+    if total <= 1e-6:
+        return np.asarray(fallback, np.float32).copy()
+    prior = float((values * weight).sum()) / total
+    num = cv2.GaussianBlur((values * weight).astype(np.float32), (0, 0), sigma)
+    den = cv2.GaussianBlur(weight.astype(np.float32), (0, 0), sigma)
+    return ((num + SPREAD_PRIOR * prior) / (den + SPREAD_PRIOR)).astype(np.float32)
+
+
+def rim_lift(albedo: np.ndarray, photo: np.ndarray, own: np.ndarray, weight: np.ndarray, trust: np.ndarray,
+             skin: np.ndarray, floor: float) -> np.ndarray | None:
+    """(r, r') float32: the factor on the fill's albedo that gives it its rim's (module docstring), 1 where stage 1
+    sees no skin; None when the rule is off (``RIM_RANGE`` None).
+
+    Args:
+        albedo: (r, r') stage 1's albedo luminance (what the fill multiplies the change of shading by).
+        photo, own: (r, r') the photo's luminance and the pipeline's under the photo's own light (> 0).
+        weight: (r, r') the fill's weight in [0, 1] (``Factor.shadow_weight``'s w).
+        trust: (r, r') in [0, 1], the pixels whose photo / own is measured (the person's, lit enough, off the fill).
+        skin: (r, r') stage 1's skin probability in [0, 1], unpremultiplied.
+        floor: the albedo the lift is measured against is floored here (black cloth, hair).
+    """
+    if RIM_RANGE is None:
+        return None
+    rim = (trust * cv2.GaussianBlur(weight.astype(np.float32), (0, 0), RIM_REACH)).astype(np.float32)
+    seen = (albedo * photo / own).astype(np.float32)  # the albedo the ratio shows: photo x new / own = seen x new / A
+    around = spread_mean(seen, rim, RIM_SPREAD * max(weight.shape), albedo)
+    # a lift, never past the albedo the person's trusted pixels show (their median): the rim of a stage 1 error
+    # (a bright albedo around an eye, the ratio blowing it out) is not spread into the shadow it borders
+    lit = trust > 0.5
+    level = float(np.median(seen[lit])) if lit.any() else float(np.max(albedo))
+    around = np.minimum(around, np.maximum(albedo, level))
+    lift = np.clip(around / np.maximum(albedo, floor), 1, RIM_RANGE)
+    gate = np.clip(cv2.GaussianBlur(skin.astype(np.float32), (0, 0), RIM_SKIN_SIGMA) * RIM_SKIN_GATE, 0, 1)
+    return (lift ** gate).astype(np.float32)
