@@ -275,7 +275,8 @@ class PersonMatter:
             if self.person != "all" and found:
                 found += self._joined(rgb, found, faces)
                 found += self._own_and_turned(rgb, found)
-                found = [blended(p, seen_on(self.roi, rgb, p.region)) if p.source == "roi" else p for p in found]
+                side = float(max(rgb.shape[:2]))  # the whole photo's canvas spans its longer side
+                found = [blended(p, seen_on(self.roi, rgb, p.region), side) if p.source == "roi" else p for p in found]
                 found += [q for p in found if p.source == "roi" for q in carried_past(self.roi, rgb, p)]
                 found = without_behind(self.roi, rgb, found, faces)  # someone out of focus behind: not theirs
                 self._note_others(found, faces, name)
