@@ -180,16 +180,28 @@ def continued(wide: Person, first: Person, cut: tuple[bool, bool, bool, bool]) -
     for side, beyond in zip(cut, sides, strict=True):
         if side:
             past |= beyond & ~own
-    seeds = past & cv2.dilate(((before > 0) & own).astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
-    mask = (wide.logits > 0) & past
-    _, labels = cv2.connectedComponents(mask.astype(np.uint8), connectivity=8)
-    keep = [k for k in np.unique(labels[seeds & mask]) if k > 0]
-    keep = [k for k in keep if sigmoid(wide.logits[labels == k]).mean() >= SURE_PART]
-    part = np.isin(labels, keep)
+    part = parts_going_on(wide.logits, before, own, past, SURE_PART) > 0
     if not part.any():
         return first
     rim = cv2.dilate(part.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool) & past
     return Person(wide.region, np.where(rim, wide.logits, before).astype(np.float32), first.presence, first.source)
+
+
+def parts_going_on(
+    wide: np.ndarray, before: np.ndarray, own: np.ndarray, past: np.ndarray, sure: float
+) -> np.ndarray:  # fmt: skip
+    """The parts of a wider answer that go on past a region's cut sides from the person cut there, all on one canvas
+    ((256, 256) each): ``wide`` the wider answer's logits, ``before`` the person's logits, ``own`` the pixels of the
+    person's region, ``past`` those beyond its cut sides. Returns the 8-connected components' labels (int32, 0 none)
+    of ``wide``'s person pixels past the cut that hold a pixel next to one of the person's pixels inside the region
+    and whose mean probability under ``wide`` is ``sure`` or more; every other component's label is 0
+    (:func:`continued`; relight_rt.person.matting._selfie.carried_past)."""
+    seeds = past & cv2.dilate(((before > 0) & own).astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
+    mask = (wide > 0) & past
+    _, labels = cv2.connectedComponents(mask.astype(np.uint8), connectivity=8)
+    keep = [k for k in np.unique(labels[seeds & mask]) if k > 0]
+    keep = [k for k in keep if sigmoid(wide[labels == k]).mean() >= sure]
+    return np.where(np.isin(labels, keep), labels, 0).astype(np.int32)
 
 
 def unconfirmed_cut(wide: Person, first: Person, cut: tuple[bool, bool, bool, bool]) -> Person:

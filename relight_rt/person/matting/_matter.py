@@ -77,7 +77,7 @@ from ._segmentation import (
     warp_to_grid,
     working_grid,
 )
-from ._selfie import carried_past, confirmed, face_person, reframed, roi_person, seen_on, uncut, widened
+from ._selfie import carried_past, confirmed, face_person, owning, reframed, roi_person, seen_on, uncut, widened
 from ._shadow import selfie_sure, without_cast_shadow
 from ._turned import turned_people
 
@@ -277,7 +277,8 @@ class PersonMatter:
                 found += self._own_and_turned(rgb, found)
                 side = float(max(rgb.shape[:2]))  # the whole photo's canvas spans its longer side
                 found = [blended(p, seen_on(self.roi, rgb, p.region), side) if p.source == "roi" else p for p in found]
-                found += [q for p in found if p.source == "roi" for q in carried_past(self.roi, rgb, p)]
+                apart = [f for f in faces if not any(contains(p, f, rgb.shape[:2]) for p in found if p.source != "own")]
+                found += [q for p in _once(found) if p.source == "roi" for q in carried_past(self.roi, rgb, p, apart)]
                 found = without_behind(self.roi, rgb, found, faces)  # someone out of focus behind: not theirs
                 self._note_others(found, faces, name)
             return found
@@ -663,7 +664,24 @@ class PersonMatter:
                 f"no person found in {name} (no body or face the bundled detectors recognise; people shorter than "
                 f"{MIN_PERSON_FRACTION:.0%} of the photo, seen only in part or in deep shadow can be missed)"
             )
-        return alpha, [p for p in people if p.source != "own"]  # the own colours' part is the others' to share
+        # the own colours' part is the others' to share; a part carried past a region's side, its person's
+        carried = [p for p in people if p.source == "own" and p.of is not None]
+        return alpha, [owning(p, [q for q in carried if q.of == p.region]) for p in people if p.source != "own"]
+
+
+def _once(people: list[Person]) -> list[Person]:
+    """``people`` with the parts split from one segmentation (:func:`split_by_faces`) as one person (the larger of
+    their logits at each pixel: the parts partition the canvas), at the first part's place: what is carried on from
+    that segmentation (:func:`carried_past`) is made once, not once per part."""
+    out, seen = [], set()
+    for p in people:
+        if p.whole is None:
+            out.append(p)
+        elif id(p.whole) not in seen:
+            seen.add(id(p.whole))
+            parts = [q.logits for q in people if q.whole is p.whole]
+            out.append(replace(p, logits=np.max(parts, axis=0).astype(np.float32), whole=None))
+    return out
 
 
 _SHARED: dict[tuple[str, str, str], PersonMatter] = {}

@@ -8,7 +8,7 @@ faces, where the pose graph sees no body; every answer comes through :func:`roi_
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 
 import cv2
@@ -18,7 +18,7 @@ from ...engine.session import Model
 from ...image.regions import Region, grid_of_region
 from ..face_detector import Face
 from ._detect import roi_prob
-from ._layout import continued, grow_where_cut, held, resampled, unconfirmed, unconfirmed_cut
+from ._layout import continued, grow_where_cut, held, parts_going_on, resampled, unconfirmed, unconfirmed_cut
 from ._models import SIZE
 from ._segmentation import (
     LOGIT_CLIP,
@@ -29,7 +29,6 @@ from ._segmentation import (
     logits_on_grid,
     person_box,
     prob_at,
-    sigmoid,
 )
 
 _REFRAME = 0.9  # the selfie graph is run again on its own segmentation's region when that is this much smaller
@@ -158,19 +157,26 @@ def widened(roi: Model, rgb: np.ndarray, person: Person) -> Person:
     return person
 
 
-def carried_past(roi: Model, rgb: np.ndarray, person: Person) -> list[Person]:
+def carried_past(roi: Model, rgb: np.ndarray, person: Person, faces: Sequence[Face] = ()) -> list[Person]:
     """What the selfie graph on the whole photo sees past a side of ``person``'s region that cuts them inside the
-    photo (:func:`grow_where_cut`), going on from the cut: [a Person of source "own" (part of the matte, no one's share
-    of it) holding it] or []. A portrait's region, framed on a face or on what the pose graph saw, can stop short of a
-    shoulder that runs on to the photo's corner, and alpha outside a region is 0: the matte ended in the region's
-    straight side. :func:`widened` runs the graph on a region reaching past that side, but framed larger than the
-    photo it loses the shoulder too or is not sure of it (< SURE_PART); the whole photo's answer (asked by the region
-    finder already: no graph run) is kept where it goes on from the person's pixels at the cut (8-connected to a
-    canvas pixel next to them, as :func:`relight_rt.person.matting._layout.continued`) and is sure enough (mean
-    probability >= PAST_SURE). The part is the person's: PAST_INSIDE inside, the graph's own answer at its outline
-    (where the photo then draws it), and it overlaps the person over _SEAM canvas pixels inside the cut side so that
-    the two alphas meet without a seam. Carried onto a region around the part (bilinearly): the matte is filtered over
-    each person's region, and over the whole photo that cost ~0.1 s on a 2.5-MP photo.
+    photo (:func:`grow_where_cut`), going on from the cut: [a Person of source "own" holding it, ``of`` ``person``'s
+    region: part of the matte, and in :meth:`relight_rt.person.matting.PersonMatter.parts` that person's share, as
+    :func:`owning` merges it] or []. A portrait's region, framed on a face or on what the pose graph saw, can stop
+    short of a shoulder that runs on to the photo's corner, and alpha outside a region is 0: the matte ended in the
+    region's straight side. :func:`widened` runs the graph on a region reaching past that side, but framed larger
+    than the photo it loses the shoulder too or is not sure of it (< SURE_PART); the whole photo's answer (asked by
+    the region finder already: no graph run) is kept where it goes on from the person's pixels at the cut
+    (:func:`relight_rt.person.matting._layout.parts_going_on`, as :func:`relight_rt.person.matting._layout.continued`:
+    8-connected to a canvas pixel next to them) and is sure enough (mean probability >= PAST_SURE), whole, and never a
+    part that holds the middle of one of ``faces`` (two of the three points
+    :func:`relight_rt.person.matting._segmentation.contains` reads; the part lies past the region, so it is not the
+    person's own face): someone else joined to them in the whole photo's answer, a passer-by cut by the photo's
+    border touching the shoulder, whom person="largest" takes only when seen whole. The matter passes the faces that
+    no one it found holds: a part joined to a peer it took whole stays. The part is the person's: PAST_INSIDE inside,
+    the graph's own answer at its outline (where the photo then draws it), and it overlaps the person over _SEAM
+    canvas pixels inside the cut side so that the two alphas meet without a seam. Carried onto a region around the
+    part (bilinearly): the matte is filtered over each person's region, and over the whole photo that cost ~0.1 s on
+    a 2.5-MP photo.
 
     Measured (benchmarks/people_masks_eval.py --methods ours,selfie; PAST_SURE chosen on photos half A among 0.5 and
     0.75: the parts the rule finds there have means 0.56 and 0.78-0.83, and at 0.5 the 0.56 one, a red wall's glow
@@ -179,7 +185,10 @@ def carried_past(roi: Model, rgb: np.ndarray, person: Person) -> list[Person]:
     -> 0.89979 (p024 +0.007, p265 +0.001), no photo worse, the clip unchanged (0.93254: its people are the pose
     graph's); photos under the selfie graph alone 47 -> 45; translucent interiors (benchmarks/matte_translucent.py) A
     1.43 -> 1.42 %, B 1.89 -> 1.87 %. Asked for the selfie graph's people only: past the region of a pose-graph person
-    (none cut in half A) the whole photo's answer ran on into a shop counter and its floor (B p181 0.84 -> 0.26)."""
+    (none cut in half A) the whole photo's answer ran on into a shop counter and its floor (B p181 0.84 -> 0.26).
+    The faces' rule, the shares and the one run per split segmentation (mend19) move no photo nor clip frame (half A
+    0.92329, B 0.90124, the clip 0.93254, each photo as at the branch's head: on these sets no carried part holds a
+    face no one found holds; p265's holds two children's faces, both found: it stays)."""
     h, w = rgb.shape[:2]
     box = person_box(person, (h, w))
     if box is None:
@@ -202,12 +211,8 @@ def carried_past(roi: Model, rgb: np.ndarray, person: Person) -> list[Person]:
         if side:
             past |= beyond & ~own
             seam |= near & own
-    seeds = past & cv2.dilate(((before > 0) & own).astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
-    mask = (whole.logits > 0) & past
-    _, labels = cv2.connectedComponents(mask.astype(np.uint8), connectivity=8)
-    keep = [c for c in np.unique(labels[seeds & mask]) if c > 0]
-    keep = [c for c in keep if sigmoid(whole.logits[labels == c]).mean() >= PAST_SURE]
-    part = np.isin(labels, keep)
+    labels = parts_going_on(whole.logits, before, own, past, PAST_SURE)
+    part = (labels > 0) & ~np.isin(labels, [k for f in faces for k in _middle_holders(labels, whole.region, f)])
     if not part.any():
         return []
     window = np.ones((2 * _SEAM + 1,) * 2, np.uint8)
@@ -217,10 +222,42 @@ def carried_past(roi: Model, rgb: np.ndarray, person: Person) -> list[Person]:
     inner = cv2.erode(part.astype(np.uint8), ring).astype(bool)  # decided: sure inside, the graph's own at the outline
     logits = np.where(inner, np.maximum(whole.logits, np.float32(PAST_INSIDE)), whole.logits)
     found = Person(whole.region, np.where(rim, logits, np.float32(-LOGIT_CLIP)).astype(np.float32), person.presence,
-                   "own")  # fmt: skip
+                   "own", of=person.region)  # fmt: skip
     box = person_box(found, (h, w))
     if box is None:  # (a part of fewer than COARSE_MIN_AREA canvas pixels)
         return []
     tight = Region.around(*box)
     k, bx, by = grid_of_region(tight)
     return [replace(found, region=tight, logits=logits_on_grid(found, (SIZE, SIZE, k, k, bx, by)))]
+
+
+def _middle_holders(labels: np.ndarray, region: Region, face: Face) -> list[int]:
+    """The labels (> 0) of ``labels`` (components on ``region``'s canvas) that hold two or more of the three points
+    of ``face``'s middle that :func:`relight_rt.person.matting._segmentation.contains` reads."""
+    fx0, fy0, fx1, fy1 = face.box
+    k, bx, by = grid_of_region(region)
+    px = np.array([(fx0 + fx1) / 2, 0.35 * fx0 + 0.65 * fx1, 0.65 * fx0 + 0.35 * fx1])
+    i = int(np.floor(k * (fy0 + fy1) / 2 + by + 0.5))
+    j = np.floor(k * px + bx + 0.5).astype(int)
+    if not 0 <= i < labels.shape[0]:
+        return []
+    held = labels[i, j[(j >= 0) & (j < labels.shape[1])]]
+    values, counts = np.unique(held[held > 0], return_counts=True)
+    return [int(v) for v, c in zip(values, counts, strict=True) if c >= 2]
+
+
+def owning(person: Person, parts: Sequence[Person]) -> Person:
+    """``person`` with the logits of ``parts`` (what :func:`carried_past` carried on from them, ``of`` their region)
+    merged in (the larger at each pixel), on the canvas of a region around all of theirs: the person as
+    :func:`relight_rt.person.matting._parts.shares` weighs them, so that a part outside their own region (where
+    their logits do not reach) is theirs and not the share of whoever else's region reaches it. ``person`` itself
+    when ``parts`` is empty. The canvas is coarser than the person's own: only the shares read it, on a working grid
+    of the photo, blurred over a percent of its side."""
+    if not parts:
+        return person
+    boxes = np.array([p.region.box() for p in (person, *parts)])
+    region = Region.around(*boxes[:, :2].min(axis=0), *boxes[:, 2:].max(axis=0), scale=1.0)
+    k, bx, by = grid_of_region(region)
+    grid = (SIZE, SIZE, k, k, bx, by)
+    logits = np.max([logits_on_grid(p, grid) for p in (person, *parts)], axis=0)
+    return replace(person, region=region, logits=logits.astype(np.float32), whole=None)
