@@ -162,7 +162,7 @@ def matter_of(monkeypatch):
             monkeypatch.setattr(matter, name, lambda *a: [])
         monkeypatch.setattr(_matter, "widened", lambda roi, rgb, p: p)
         monkeypatch.setattr(_matter, "uncut", lambda roi, rgb, p: (p, None))
-        monkeypatch.setattr(_matter, "blended", lambda p, seen: p)
+        monkeypatch.setattr(_matter, "blended", lambda p, seen, side: p)
         monkeypatch.setattr(_matter, "seen_on", lambda roi, rgb, region: None)
         monkeypatch.setattr(_matter, "without_behind", lambda roi, rgb, people, faces: people)
         return matter
