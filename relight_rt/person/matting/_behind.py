@@ -274,8 +274,9 @@ def behind_part(
     half of none of the ``staying`` faces that reads mostly blurred leaves whole (a blurred flower on their blouse,
     which their region's segmentation leaves out: a blob left floating); from one that stays (the subject's sharp hand
     before them, though their region's segmentation holds it too), the blurred and claimed parts at least half the
-    face's width square under no staying face's middle half leave, grown as the part (their body below the subject's
-    sharp arm, joined by that arm to the subject: 0.99 of it was left). None when the face's middle is not in such a
+    face's width square once opened by the window (not the subject's outline, which reads blurred against a plain
+    backdrop) under no staying face's middle half leave, grown as the part (their body below the subject's sharp arm,
+    joined by that arm to the subject: 0.99 of it was left). None when the face's middle is not in such a
     part, or the person behind cannot be told from a staying one's."""
     k = max(int((face.box[2] - face.box[0]) / _FILL), 1) | 1
     window = np.ones((k, k), np.uint8)
@@ -302,7 +303,8 @@ def behind_part(
             if blurred[piece].mean() >= 0.5:
                 out |= piece
             continue
-        m, parts, stats, _ = cv2.connectedComponentsWithStats((piece & cand).astype(np.uint8), connectivity=8)
+        body = cv2.morphologyEx((piece & cand).astype(np.uint8), cv2.MORPH_OPEN, window)  # not a thin outline
+        m, parts, stats, _ = cv2.connectedComponentsWithStats(body, connectivity=8)
         held = _under(parts, staying)
         for j in range(1, m):
             if stats[j, cv2.CC_STAT_AREA] >= large and j not in held:

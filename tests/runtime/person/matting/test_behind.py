@@ -363,3 +363,19 @@ def test_a_staying_faces_blurred_part_in_a_piece_that_stays_is_kept():
     part = _behind.behind_part(matte, blurred, claim, face, [staying])
     assert part[50:, 40:120].all()
     assert not part[60:100, 128:160].any()
+
+
+def test_the_subjects_outline_is_no_part_of_the_person_behind():
+    """The person behind raised so their region's segmentation claims the top of the subject's head: the subject's
+    outline against the plain backdrop reads blurred there, a thin strip of her piece (which stays) as large as half
+    the face behind's width square; only parts that survive an opening by the window leave (IoU with her 0.973 ->
+    0.991)."""
+    shift = 60.0
+    other = (((_XX - 140) / 50) ** 2 + ((_YY - (200 - shift)) / 100) ** 2) < 1
+    img = _layered([other])
+    face = Face((120.0, 120.0 - shift, 160.0, 160.0 - shift), 0.85)
+    matter = _stand_in()
+    both = segmented(img, _SUBJECT | other)
+    alpha = matter.alpha(img, _behind.without_behind(matter.roi, img, [both], [SUBJECT_FACE, face]))
+    assert (alpha[other & ~_SUBJECT] >= 0.5).mean() < 0.02
+    assert iou(alpha, _SUBJECT) > 0.985
