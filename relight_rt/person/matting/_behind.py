@@ -214,7 +214,7 @@ def _middle(face: Face, shape: tuple[int, int]) -> tuple[int, int]:
     return cy, cx
 
 
-def _under(labels: np.ndarray, faces: list[Face], less=None) -> set[int]:
+def _under(labels: np.ndarray, faces: list[Face], less: tuple[float, ...] | None = None) -> set[int]:
     """The labels (> 0) of ``labels`` under the middle half of any of ``faces`` (a face's middle pixel may lie in a
     hole of the matte), none of box ``less``."""
     out = set()
@@ -228,13 +228,13 @@ def _under(labels: np.ndarray, faces: list[Face], less=None) -> set[int]:
 
 def _staying_blur(matte: np.ndarray, blurred: np.ndarray, face: Face, staying: list[Face]) -> np.ndarray | None:
     """The blurred pixels of the matte that are a ``staying`` face's person's (a blurred friend standing with the
-    subject, too large to be behind, touching the person behind: 0.92 of them left with that person). The pieces of
-    the blurred matte under a staying face's middle half, none of ``face``'s box (there the subject's may read blurred,
-    as in :func:`blurred_side`; p257); where one is also under ``face``'s, the blurred matte opened
-    by a disc of 1 / _FILL, 1 / 2, then 1 x ``face``'s width, until the core under ``face``'s middle half is apart
-    from those under the staying faces' (a neck between two people is narrower than they are), each blurred pixel
-    going with the nearest core. None where no such size parts them, or a core vanishes first: the person behind
-    cannot be told from a staying one, and stays whole."""
+    subject, too large to be behind, touching the person behind: 0.92 of them left with that person): the pieces of
+    the blurred matte under a staying face's middle half less ``face``'s box (there the subject's may read blurred, as
+    :func:`blurred_side` reads it: p257). Where one is also under ``face``'s middle half, the blurred matte is opened
+    by a disc of 1 / _FILL, 1 / 2, then 1 x ``face``'s width until the core under it is apart from those under the
+    staying faces' (a neck between two people is narrower than they are), and each blurred pixel goes with the
+    nearest core. None where no such size parts them, or a core vanishes first: the person behind cannot be told from
+    a staying one, and stays whole."""
     blur = (matte & blurred).astype(np.uint8)
     _, labels = cv2.connectedComponents(blur, connectivity=8)
     theirs = _under(labels, staying, face.box)
