@@ -6,8 +6,9 @@ shows a face of their own inside the matte that is smaller than the subject's (f
 subject's is sharp (defocus is depth), read where the subject's face is FACE_PX wide: :func:`behind_faces`. Their
 pixels, read where their own face is FACE_PX wide, are the matte's pixels that their own region's segmentation claims
 (the selfie graph on their face's body box) and that read blurred (:func:`blurred_side`), the part under their face
-with its holes, its blurred rim and the pieces it cuts off (:func:`behind_part`); they leave every person's
-segmentation (:func:`without_behind`), and the matte's outline along the subject is then the photo's to draw.
+with its holes, its blurred rim and the pieces it cuts off, their body below the subject's sharp arm too, less any
+blurred person standing with the subject (a staying face's) they touch (:func:`behind_part`); they leave every
+person's segmentation (:func:`without_behind`), and the matte's outline along the subject is then the photo's to draw.
 """
 
 from __future__ import annotations
@@ -98,19 +99,26 @@ def _own(face: Face, faces: list[Face]) -> bool:
 def reaches_outside(people: list[Person], face: Face, shape: tuple[int, int]) -> bool:
     """Whether the matte's outside (no one of ``people`` > 0.5) lies within OUTSIDE_REACH x ``face``'s width around
     its box, inside the photo: someone behind shows past the subject's outline (a face printed on a shirt, or a badge,
-    lies inside it)."""
+    lies inside it). The whole band (the box grown by that margin, less the box) is read, on a grid of one pixel, or
+    of width / FACE_PX pixels for a face wider than FACE_PX (the scale the faces are read at): a ring of 68 points at
+    the margin missed a pocket of outside between it and the box, and a gap narrower than its spacing."""
     h, w = shape
     x0, y0, x1, y1 = face.box
     m = OUTSIDE_REACH * (x1 - x0)
-    t = np.linspace(0.0, 1.0, 17)
-    xa, xb, ya, yb = x0 - m, x1 + m, y0 - m, y1 + m
-    xs = np.concatenate([xa + (xb - xa) * t, xa + (xb - xa) * t, np.full(17, xa), np.full(17, xb)])
-    ys = np.concatenate([np.full(17, ya), np.full(17, yb), ya + (yb - ya) * t, ya + (yb - ya) * t])
-    seen = (xs >= 0) & (xs < w) & (ys >= 0) & (ys < h)
-    if not seen.any():
+    step = max(1.0, (x1 - x0) / FACE_PX)
+    xs = np.arange(np.floor(max(x0 - m, 0.0)) + 0.5, min(x1 + m, w), step)
+    ys = np.arange(np.floor(max(y0 - m, 0.0)) + 0.5, min(y1 + m, h), step)
+    gx, gy = np.meshgrid(xs, ys)
+    band = ~((gx >= x0) & (gx <= x1) & (gy >= y0) & (gy <= y1))
+    if not band.any():
         return False
-    held = np.any([prob_at(p, xs[seen], ys[seen]) > 0.5 for p in people], axis=0)
+    held = np.any([prob_at(p, gx[band], gy[band]) > 0.5 for p in people], axis=0)
     return bool((~held).any())
+
+
+def _finite(faces: list[Face]) -> list[Face]:
+    """``faces`` less any whose box is not finite (a NaN box is nobody's face)."""
+    return [f for f in faces if np.all(np.isfinite(f.box))]
 
 
 def behind_faces(rgb: np.ndarray, people: list[Person], faces: list[Face]) -> Behind | None:
@@ -129,7 +137,7 @@ def behind_faces(rgb: np.ndarray, people: list[Person], faces: list[Face]) -> Be
     checked (one behind, 17 with the subject: the same answer). FACE_PX among 64, 100, 150 and none (full size): the
     two behind 0.67 / 0.53, 0.59 / 0.50, 0.55 / 0.47, 0.55 / 0.47 x as sharp, the others at least 0.83 at each."""
     shape = rgb.shape[:2]
-    held = [f for f in faces if any(contains(p, f, shape) for p in people)]
+    held = [f for f in _finite(faces) if any(contains(p, f, shape) for p in people)]
     held = [f for f in held if not _own(f, held)]
     if len(held) < 2:
         return None
@@ -206,38 +214,102 @@ def _middle(face: Face, shape: tuple[int, int]) -> tuple[int, int]:
     return cy, cx
 
 
+def _under(labels: np.ndarray, faces: list[Face], less: tuple[float, ...] | None = None) -> set[int]:
+    """The labels (> 0) of ``labels`` under the middle half of any of ``faces`` (a face's middle pixel may lie in a
+    hole of the matte), none of box ``less``."""
+    out = set()
+    for f in faces:
+        inside = _box_mask(labels.shape, _middle_half(f.box))
+        inside &= ~_box_mask(labels.shape, less) if less is not None else True
+        out.update(int(v) for v in np.unique(labels[inside]))
+    out.discard(0)
+    return out
+
+
+def _staying_blur(matte: np.ndarray, blurred: np.ndarray, face: Face, staying: list[Face]) -> np.ndarray | None:
+    """The blurred pixels of the matte that are a ``staying`` face's person's (a blurred friend standing with the
+    subject, too large to be behind, touching the person behind: 0.92 of them left with that person): the pieces of
+    the blurred matte under a staying face's middle half less ``face``'s box (there the subject's may read blurred, as
+    :func:`blurred_side` reads it: p257). Where one is also under ``face``'s middle half, the blurred matte is opened
+    by a disc of 1 / _FILL, 1 / 2, then 1 x ``face``'s width until the core under it is apart from those under the
+    staying faces' (a neck between two people is narrower than they are), and each blurred pixel goes with the
+    nearest core. None where no such size parts them, or a core vanishes first: the person behind cannot be told from
+    a staying one, and stays whole."""
+    blur = (matte & blurred).astype(np.uint8)
+    _, labels = cv2.connectedComponents(blur, connectivity=8)
+    theirs = _under(labels, staying, face.box)
+    if not theirs & _under(labels, [face]):
+        return np.isin(labels, list(theirs))
+    width = face.box[2] - face.box[0]
+    for size in (width / _FILL, width / 2, width):
+        k = max(int(size), 1) | 1
+        opened = cv2.morphologyEx(blur, cv2.MORPH_OPEN, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)))
+        _, labels = cv2.connectedComponents(opened, connectivity=8)
+        theirs, mine = _under(labels, staying, face.box), _under(labels, [face])
+        if not theirs or not mine:
+            return None
+        if not mine & theirs:
+            cores = np.isin(labels, list(mine | theirs))
+            _, nearest = cv2.distanceTransformWithLabels((~cores).astype(np.uint8), cv2.DIST_L2, 5,
+                                                         labelType=cv2.DIST_LABEL_CCOMP)  # fmt: skip
+            return blur.astype(bool) & np.isin(nearest, np.unique(nearest[np.isin(labels, list(theirs))]))
+    return None
+
+
+def _grown(core: np.ndarray, matte: np.ndarray, blurred: np.ndarray, claim: np.ndarray, window) -> np.ndarray:
+    """``core`` with its holes up to the ``window``'s size closed where claimed and the blurred matte within the
+    window around it (their blurred outline, which their region's segmentation leaves out where the matte holds it)."""
+    closed = cv2.morphologyEx(core.astype(np.uint8), cv2.MORPH_CLOSE, window).astype(bool) & claim
+    return matte & (closed | (blurred & cv2.dilate(closed.astype(np.uint8), window).astype(bool)))
+
+
 def behind_part(
     matte: np.ndarray, blurred: np.ndarray, claim: np.ndarray, face: Face, staying: list[Face]
 ) -> np.ndarray | None:  # fmt: skip
     """The pixels of the person behind with ``face``: of ``matte`` (bool, the photo's size) those that read
-    ``blurred`` and that their own region's segmentation ``claims``, the 8-connected part under the face's middle, its
-    holes up to 1 / _FILL of the face's width closed (noise and a print on a blurred blouse read as sharp specks), and
-    the blurred pixels of the matte up to 1 / _FILL of the face's width around it (their blurred outline, which their
-    region's segmentation leaves out where the matte holds it: a ghost ring left), and last the pieces of the matte this
-    cuts off that touch the middle half of none of the ``staying`` faces and read mostly blurred (a blurred flower on
-    their blouse, which their region's segmentation leaves out: a blob left floating; the subject's sharp hand before
-    them stays, though their region's segmentation holds it too); None when the face's middle is not in such a
-    part."""
-    cand = (matte & blurred & claim).astype(np.uint8)
-    n, labels = cv2.connectedComponents(cand, connectivity=8)
+    ``blurred`` and that their own region's segmentation ``claims``, less the blurred people of the ``staying`` faces
+    (:func:`_staying_blur`), the 8-connected part under the face's middle, its holes up to 1 / _FILL of the face's
+    width closed (noise and a print on a blurred blouse read as sharp specks) and its blurred outline up to that far
+    around it (a ghost ring left, :func:`_grown`). Then the pieces of the matte this cuts off: one under the middle
+    half of none of the ``staying`` faces that reads mostly blurred leaves whole (a blurred flower on their blouse,
+    which their region's segmentation leaves out: a blob left floating); from one that stays (the subject's sharp hand
+    before them, though their region's segmentation holds it too), the blurred and claimed parts at least half the
+    face's width square once opened by the window (not the subject's outline, which reads blurred against a plain
+    backdrop) under no staying face's middle half leave, grown as the part (their body below the subject's sharp arm,
+    joined by that arm to the subject: 0.99 of it was left). None when the face's middle is not in such a
+    part, or the person behind cannot be told from a staying one's."""
+    k = max(int((face.box[2] - face.box[0]) / _FILL), 1) | 1
+    window = np.ones((k, k), np.uint8)
+    theirs = _staying_blur(matte, blurred, face, staying)
+    if theirs is None:
+        return None
+    mine = matte & ~theirs
+    cand = mine & blurred & claim
+    n, labels = cv2.connectedComponents(cand.astype(np.uint8), connectivity=8)
     cy, cx = _middle(face, matte.shape)
     if n <= 1 or labels[cy, cx] == 0:
         return None
-    part = (labels == labels[cy, cx]).astype(np.uint8)
-    k = max(int((face.box[2] - face.box[0]) / _FILL), 1) | 1
-    window = np.ones((k, k), np.uint8)
-    closed = cv2.morphologyEx(part, cv2.MORPH_CLOSE, window).astype(bool) & claim
-    part = matte & (closed | (blurred & cv2.dilate(closed.astype(np.uint8), window).astype(bool)))
-    n, labels = cv2.connectedComponents((matte & ~part).astype(np.uint8), connectivity=8)
+    part = _grown(labels == labels[cy, cx], mine, blurred, claim, window)
+    n, pieces = cv2.connectedComponents((matte & ~part).astype(np.uint8), connectivity=8)
     near = cv2.dilate(part.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
-    kept = set()  # every piece under a staying face's middle half (its middle pixel may lie in a hole of the matte)
-    for f in staying:
-        kept.update(int(v) for v in np.unique(labels[_box_mask(matte.shape, _middle_half(f.box))]))
-    for label in np.unique(labels[near & ~part]):
-        piece = labels == label
-        if label > 0 and int(label) not in kept and blurred[piece].mean() >= 0.5:
-            part |= piece
-    return part
+    kept = _under(pieces, staying) | {int(v) for v in np.unique(pieces[theirs])}  # a staying person's piece
+    large = ((face.box[2] - face.box[0]) / 2) ** 2
+    out = part.copy()
+    for label in np.unique(pieces[near & ~part]):
+        piece = pieces == label
+        if label == 0:
+            continue
+        if int(label) not in kept:
+            if blurred[piece].mean() >= 0.5:
+                out |= piece
+            continue
+        body = cv2.morphologyEx((piece & cand).astype(np.uint8), cv2.MORPH_OPEN, window)  # not a thin outline
+        m, parts, stats, _ = cv2.connectedComponentsWithStats(body, connectivity=8)
+        held = _under(parts, staying)
+        for j in range(1, m):
+            if stats[j, cv2.CC_STAT_AREA] >= large and j not in held:
+                out |= _grown(parts == j, mine & piece, blurred, claim, window)
+    return out
 
 
 def on_canvas(mask: np.ndarray, region: Region) -> np.ndarray:
@@ -281,7 +353,7 @@ def without_behind(roi: Model, rgb: np.ndarray, people: list[Person], faces: lis
     graph on the face's body box claims and that read blurred, :func:`blurred_side`, at the level halfway between the
     two faces' fine detail) leave every segmentation, softly over a canvas pixel (each person's logit held under the
     logit of 1 - that part's share of the pixel). ``people`` itself where no face is behind (the usual case: only the
-    face graph's boxes are looked at, no graph is run).
+    face graph's boxes are looked at, no graph is run). A face box that is not finite is no one's.
 
     Measured (benchmarks/people_masks_eval.py --methods ours,selfie): p103 (a blurred woman behind a sharp blonde)
     0.664 -> 0.952, p257 (a blurred man's face beside a woman's hand) 0.805 -> 0.961, no other photo nor clip frame
@@ -290,6 +362,7 @@ def without_behind(roi: Model, rgb: np.ndarray, people: list[Person], faces: lis
     (this 2-core CPU, shared): < 1 ms where no face is behind (p093: the face boxes only), 20-25 ms on p103 / p257,
     40-80 ms on them enlarged to 2.5 MP (one selfie-graph run, the photo's detail at the scale of the face behind)."""
     h, w = rgb.shape[:2]
+    faces = _finite(faces)
     found = behind_faces(rgb, people, faces)
     if found is None:
         return people

@@ -3,6 +3,8 @@ on synthetic photos with stand-in graphs (the figures the rule was measured by a
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import cv2
 import numpy as np
 import pytest
@@ -11,7 +13,7 @@ from test_people_found import _Bright
 
 from relight_rt.person import matting as M
 from relight_rt.person.face_detector import Face
-from relight_rt.person.matting import _behind, _matter
+from relight_rt.person.matting import _behind, _matter, _segmentation
 
 H, W = 300, 400
 SUBJECT_FACE = Face((218.0, 48.0, 282.0, 112.0), 0.9)  # 64 px wide
@@ -106,6 +108,14 @@ def test_a_photo_enlarged_is_read_where_the_subjects_face_is_face_px_wide():
     assert found is not None and found.faces == [grow[1]]
     alpha = matter.alpha(big, _behind.without_behind(matter.roi, big, [both], grow))
     assert iou(alpha, big_subject) > 0.95
+    # the part, read on the reduced photo's pixels (cv2.resize's centres), lands back where the matte is: its left and
+    # top outline within 0.6 px of the matte's (0.16 / 0.32; a grid half a reduced pixel off: 1.3 / 2.2 px)
+    gray = cv2.cvtColor(big, cv2.COLOR_RGB2GRAY)
+    share = _behind._part_of(matter.roi, big, gray, [both], [grow[0]], grow[0], grow[1]) >= 0.5
+    matte = matter.alpha(big, [both]) >= 0.5
+    rows, cols = slice(z * 150, z * 250), slice(z * 110, z * 150)
+    assert abs((np.argmax(share[rows], 1) - np.argmax(matte[rows], 1)).mean()) < 0.6
+    assert abs((np.argmax(share[:, cols], 0) - np.argmax(matte[:, cols], 0)).mean()) < 0.6
 
 
 def test_fine_detail_falls_with_blur_and_not_with_contrast():
@@ -153,7 +163,7 @@ def _stand_in() -> M.PersonMatter:
 def test_a_second_smaller_box_on_the_subjects_own_face_removes_nothing(side):
     """The face graph can answer a second, smaller box over a smooth part of the subject's own face (an IoU of 0.28
     with it passes its non-maximum suppression): read as someone behind, the matte was emptied. A face whose middle
-    lies within a larger one's width of it is that face's (_parts.faces_side_by_side)."""
+    lies inside a larger one's box is that face's (_behind._own)."""
     rgb, subject, _, _ = scene(40.0, False)
     img = rgb.copy()
     img[70:110, 220:260] = cv2.GaussianBlur(rgb, (0, 0), 1.5)[70:110, 220:260]  # smooth skin
@@ -194,3 +204,178 @@ def test_the_subjects_sharp_hand_before_the_person_behind_stays():
     alpha = matter.alpha(img, _behind.without_behind(matter.roi, img, [both], [SUBJECT_FACE, face]))
     assert (alpha[hand] >= 0.5).mean() > 0.9
     assert (alpha[other & ~hand] >= 0.5).mean() < 0.05
+
+
+_YY, _XX = np.mgrid[0:H, 0:W] + 0.5
+_SUBJECT = (((_XX - 250) / 80) ** 2 + ((_YY - 170) / 140) ** 2) < 1  # scene's
+_BEHIND = (((_XX - 140) / 50) ** 2 + ((_YY - 200) / 100) ** 2) < 1  # their face 40 px wide: behind
+_BEHIND_FACE = Face((120.0, 120.0, 160.0, 160.0), 0.85)
+
+
+def _layered(layers: list[np.ndarray]) -> np.ndarray:
+    """The sharp subject of :func:`scene` in front of ``layers`` (masks of people out of focus, blurred together with
+    their outline) on the dark backdrop: (H, W, 3)."""
+    grain = texture()
+    back = cv2.GaussianBlur(np.where(np.any(layers, 0), 0.7 + grain, 0.05).astype(np.float32), (0, 0), 3.0)
+    return np.repeat(np.where(_SUBJECT, 0.75 + grain, back).astype(np.float32)[..., None], 3, 2)
+
+
+@pytest.mark.parametrize("half_width", [50.0, 40.0])
+def test_the_person_behind_leaves_whole_below_the_subjects_sharp_arm(half_width):
+    """The subject's sharp forearm across the person behind cuts their body below it off their part; that piece is
+    joined to the subject through the arm, reads mostly sharp as one piece, and stayed (0.99 of it, both when it
+    touches the subject and when the arm alone joins them). Their large blurred parts of a piece that stays leave; the
+    arm stays."""
+    other = (((_XX - 140) / half_width) ** 2 + ((_YY - 200) / 100) ** 2) < 1
+    arm = (_YY > 235) & (_YY < 250) & (_XX > 80) & (_XX < 250)
+    img = _layered([other])
+    img[arm] = (0.8 + texture(2)[arm])[:, None]
+    matter = _stand_in()
+    both = segmented(img, _SUBJECT | other | arm)
+    alpha = matter.alpha(img, _behind.without_behind(matter.roi, img, [both], [SUBJECT_FACE, _BEHIND_FACE]))
+    rest = other & ~_SUBJECT & ~arm
+    assert (alpha[rest & (_YY > 250)] >= 0.5).mean() < 0.05
+    assert (alpha[rest & (_YY < 235)] >= 0.5).mean() < 0.05
+    assert (alpha[arm & ~_SUBJECT] >= 0.5).mean() > 0.9
+    assert (alpha[_SUBJECT] >= 0.5).mean() > 0.98
+
+
+def _friend(hole: bool) -> tuple[np.ndarray, np.ndarray, Face]:
+    """A blurred friend standing with the subject on the left (face 60 px: too large to be behind), their hand on the
+    person behind's shoulder (a bridge 15 px tall); ``hole``: the segmentation misses a few pixels at their face's
+    middle. (friend's mask, segmentation's mask, friend's face)."""
+    friend = ((((_XX - 35) / 45) ** 2 + ((_YY - 170) / 140) ** 2) < 1) | (
+        (_YY > 190) & (_YY < 205) & (_XX > 60) & (_XX < 100)
+    )
+    mask = _SUBJECT | _BEHIND | friend
+    if hole:
+        mask &= ~((np.abs(_XX - 35) < 4) & (np.abs(_YY - 80) < 4))
+    return friend, mask, Face((5.0, 50.0, 65.0, 110.0), 0.9)
+
+
+@pytest.mark.parametrize("hole", [False, True])
+def test_a_blurred_friend_touching_the_person_behind_stays(hole):
+    """A blurred person as large as the subject (standing with her, a shallow focus) whose hand touches the person
+    behind: their pixels joined that person's part and left with them (0.08 of them kept). They are parted at the
+    neck between them (the blurred matte opened until the cores under the two faces are apart) before the person
+    behind's part is taken; the friend's face counts by its middle half, which the matte holds though its middle
+    pixel falls in a hole."""
+    friend, mask, friend_face = _friend(hole)
+    img = _layered([_BEHIND, friend])
+    matter = _stand_in()
+    both = segmented(img, mask)
+    people = _behind.without_behind(matter.roi, img, [both], [SUBJECT_FACE, _BEHIND_FACE, friend_face])
+    alpha = matter.alpha(img, people)
+    assert (alpha[friend & ~_BEHIND & mask] >= 0.5).mean() > 0.95
+    assert (alpha[_BEHIND & ~_SUBJECT & ~friend] >= 0.5).mean() < 0.05
+    assert (alpha[_SUBJECT] >= 0.5).mean() > 0.98
+
+
+def test_a_blurred_friend_who_cannot_be_told_from_the_person_behind_keeps_both():
+    """Touching the person behind over more than their face's width (no opening up to that parts the two), the
+    friend cannot be told from them: the person behind stays whole rather than take the friend with them."""
+    friend = (((_XX - 45) / 45) ** 2 + ((_YY - 170) / 140) ** 2) < 1
+    img = _layered([_BEHIND, friend])
+    matter = _stand_in()
+    both = segmented(img, _SUBJECT | _BEHIND | friend)
+    people = _behind.without_behind(
+        matter.roi, img, [both], [SUBJECT_FACE, _BEHIND_FACE, Face((15.0, 50.0, 75.0, 110.0), 0.9)]
+    )
+    assert people[0] is both
+
+
+def _outside_where(gap) -> M.Person:
+    """A segmentation holding the whole photo but where ``gap(xs, ys)`` (image coordinates) is True."""
+    region = M.Region(W / 2, H / 2, float(W))
+    xs, ys = _segmentation.canvas_points(region)
+    return M.Person(region, np.where(gap(xs, ys), -10.0, 10.0).astype(np.float32), 0.9, "roi")
+
+
+@pytest.mark.parametrize(
+    ("gap", "reaches"),
+    [
+        (lambda x, y: np.zeros_like(x, bool), False),
+        (lambda x, y: (y > 76) & (y < 84), True),  # outside on the band's rim, 20 px out
+        (lambda x, y: (y > 86) & (y < 94) & (x > 185) & (x < 215), True),  # a pocket 8 px above the box
+        (lambda x, y: (x > 186) & (x < 189) & (y < 100), True),  # a 3-px slit through the band
+        (lambda x, y: (y > 108) & (y < 132) & (x > 188) & (x < 212), False),  # inside the box: a print's own
+        (lambda x, y: y < 76, False),  # past the band
+    ],
+)  # fmt: skip
+def test_reaches_outside_reads_the_whole_band_around_the_face(gap, reaches):
+    """A face 40 px wide: the matte's outside anywhere within 20 px of its box counts; the ring of 68 points at 20 px
+    out missed a pocket between it and the box and a slit narrower than their spacing."""
+    face = Face((180.0, 100.0, 220.0, 140.0), 0.8)
+    assert _behind.reaches_outside([_outside_where(gap)], face, (H, W)) is reaches
+
+
+def test_a_face_box_that_is_not_finite_is_no_ones():
+    """A NaN box beside the face behind crashed _box_mask through the staying faces; it is ignored."""
+    rgb, subject, other, face = scene(40.0, True)
+    matter = _stand_in()
+    both = segmented(rgb, subject | other)
+    nan = Face((np.nan, np.nan, np.nan, np.nan), 0.5)
+    alpha = matter.alpha(rgb, _behind.without_behind(matter.roi, rgb, [both], [SUBJECT_FACE, face, nan]))
+    assert (alpha[other] >= 0.5).mean() < 0.02
+    assert _behind.without_behind(matter.roi, rgb, [both], [SUBJECT_FACE, nan])[0] is both
+
+
+def test_logits_are_held_only_where_someone_leaves():
+    """Each segmentation's logits are held under the logit of 1 - the leaving share only where something leaves: a
+    sure pixel elsewhere (logit 25, past that of a share of 0: 16.1) keeps its logit."""
+    rgb, subject, other, face = scene(40.0, True)
+    both = segmented(rgb, subject | other)
+    sure = replace(both, logits=2.5 * both.logits)
+    out = _behind.without_behind(_stand_in().roi, rgb, [sure], [SUBJECT_FACE, face])[0]
+    assert (out.logits < sure.logits).any()  # someone left
+    untouched = (out.logits == sure.logits) & (sure.logits > 0)
+    assert untouched.sum() > 0.5 * (sure.logits > 0).sum()  # the subject, most of the matte
+
+
+def test_a_person_split_from_one_segmentation_is_read_as_its_whole():
+    """The parts split from one segmentation (_parts.split_by_faces) leave a seam between them where each part's
+    edge is upsampled; read part by part, a seam across the person behind below their face cut their body off their
+    part, and it stayed. They are read as the whole they were split from."""
+    rgb, subject, other, face = scene(40.0, True)
+    both = segmented(rgb, subject | other)
+    _, ys = _segmentation.canvas_points(both.region)
+    cut = face.box[3] + 15.0  # below their face
+    top = np.where(ys < cut - 3, both.logits, -30.0).astype(np.float32)
+    bottom = np.where(ys > cut + 3, both.logits, -30.0).astype(np.float32)
+    parts = [replace(both, logits=top, whole=both.logits), replace(both, logits=bottom, whole=both.logits)]
+    matter = _stand_in()
+    alpha = matter.alpha(rgb, _behind.without_behind(matter.roi, rgb, parts, [SUBJECT_FACE, face]))
+    assert (alpha[other] >= 0.5).mean() < 0.02
+    assert iou(alpha, subject) > 0.95
+
+
+def test_a_staying_faces_blurred_part_in_a_piece_that_stays_is_kept():
+    """behind_part on drawn masks: where a staying face overlaps the face behind's box (p257: the subject's face
+    beside the man's), its middle half there may read blurred, and that blurred part of a piece that stays is not the
+    person behind's body (as below the subject's arm, test above): it stays."""
+    matte = np.zeros((200, 200), bool)
+    matte[50:, 40:200] = True  # the person behind (x < 120) and the subject (x >= 120), touching
+    blurred = np.zeros_like(matte)
+    blurred[50:, 40:120] = True
+    blurred[60:100, 128:160] = True  # the subject's, under her face's middle half, 8 px of sharp from them
+    claim = matte.copy()
+    face, staying = Face((90.0, 60.0, 130.0, 100.0), 0.8), Face((112.0, 62.0, 136.0, 98.0), 0.9)
+    part = _behind.behind_part(matte, blurred, claim, face, [staying])
+    assert part[50:, 40:120].all()
+    assert not part[60:100, 128:160].any()
+
+
+def test_the_subjects_outline_is_no_part_of_the_person_behind():
+    """The person behind raised so their region's segmentation claims the top of the subject's head: the subject's
+    outline against the plain backdrop reads blurred there, a thin strip of her piece (which stays) as large as half
+    the face behind's width square; only parts that survive an opening by the window leave (IoU with her 0.973 ->
+    0.991)."""
+    shift = 60.0
+    other = (((_XX - 140) / 50) ** 2 + ((_YY - (200 - shift)) / 100) ** 2) < 1
+    img = _layered([other])
+    face = Face((120.0, 120.0 - shift, 160.0, 160.0 - shift), 0.85)
+    matter = _stand_in()
+    both = segmented(img, _SUBJECT | other)
+    alpha = matter.alpha(img, _behind.without_behind(matter.roi, img, [both], [SUBJECT_FACE, face]))
+    assert (alpha[other & ~_SUBJECT] >= 0.5).mean() < 0.02
+    assert iou(alpha, _SUBJECT) > 0.985
