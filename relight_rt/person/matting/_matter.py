@@ -278,7 +278,7 @@ class PersonMatter:
                 side = float(max(rgb.shape[:2]))  # the whole photo's canvas spans its longer side
                 found = [blended(p, seen_on(self.roi, rgb, p.region), side) if p.source == "roi" else p for p in found]
                 apart = [f for f in faces if not any(contains(p, f, rgb.shape[:2]) for p in found if p.source != "own")]
-                found += [q for p in _once(found) if p.source == "roi" for q in carried_past(self.roi, rgb, p, apart)]
+                found += [q for p in rejoin(found) if p.source == "roi" for q in carried_past(self.roi, rgb, p, apart)]
                 found = without_behind(self.roi, rgb, found, faces)  # someone out of focus behind: not theirs
                 self._note_others(found, faces, name)
             return found
@@ -667,21 +667,6 @@ class PersonMatter:
         # the own colours' part is the others' to share; a part carried past a region's side, its person's
         carried = [p for p in people if p.source == "own" and p.of is not None]
         return alpha, [owning(p, [q for q in carried if q.of == p.region]) for p in people if p.source != "own"]
-
-
-def _once(people: list[Person]) -> list[Person]:
-    """``people`` with the parts split from one segmentation (:func:`split_by_faces`) as one person (the larger of
-    their logits at each pixel: the parts partition the canvas), at the first part's place: what is carried on from
-    that segmentation (:func:`carried_past`) is made once, not once per part."""
-    out, seen = [], set()
-    for p in people:
-        if p.whole is None:
-            out.append(p)
-        elif id(p.whole) not in seen:
-            seen.add(id(p.whole))
-            parts = [q.logits for q in people if q.whole is p.whole]
-            out.append(replace(p, logits=np.max(parts, axis=0).astype(np.float32), whole=None))
-    return out
 
 
 _SHARED: dict[tuple[str, str, str], PersonMatter] = {}
