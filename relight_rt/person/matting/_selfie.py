@@ -235,6 +235,8 @@ def _middle_holders(labels: np.ndarray, region: Region, face: Face) -> list[int]
     """The labels (> 0) of ``labels`` (components on ``region``'s canvas) that hold two or more of the three points
     of ``face``'s middle that :func:`relight_rt.person.matting._segmentation.contains` reads."""
     fx0, fy0, fx1, fy1 = face.box
+    if not np.all(np.isfinite(face.box)):
+        return []  # a box the detector could not place holds nothing
     k, bx, by = grid_of_region(region)
     px = np.array([(fx0 + fx1) / 2, 0.35 * fx0 + 0.65 * fx1, 0.65 * fx0 + 0.35 * fx1])
     i = int(np.floor(k * (fy0 + fy1) / 2 + by + 0.5))

@@ -149,6 +149,15 @@ def test_the_same_shoulder_without_a_passer_by_is_still_carried(monkeypatch):
     assert len(more) == 1 and (_segmentation.prob_at(more[0], xs.ravel(), ys.ravel()) > 0.5).all()
 
 
+def test_a_face_box_with_nan_holds_nothing(monkeypatch):
+    """A face box the detector could not place (NaN) is no one's face: the shoulder is carried as without it."""
+    monkeypatch.setattr(_selfie, "roi_prob", graph(0.95, person=short_portrait))
+    rgb = np.zeros((H, W, 3), np.float32)
+    person = _selfie.roi_person(None, rgb, FACE_REGION, 0.9)
+    nan = Face((float("nan"), 30.0, 400.0, float("nan")), 0.9)
+    assert len(_selfie.carried_past(None, rgb, person, [nan])) == 1
+
+
 @pytest.fixture
 def matter_of(monkeypatch):
     """A PersonMatter whose people() starts from ``found`` (the region finder's answer) and whose other steps keep
