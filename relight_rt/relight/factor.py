@@ -618,7 +618,7 @@ class Factor:
                     skin = own["face_skin"]
                     # off a face mesh's skin, as far as stage 1 sees skin: its rim's albedo (relight.shadow_rim)
                     off = rim_lift(own["albedo"], photo, own["own"], w, trust, unpremultiply(
-                        dec.skin[y0:y1, x0:x1, None], own["alpha"])[..., 0], EXPLAIN_ALBEDO_MIN)
+                        dec.skin[y0:y1, x0:x1, None], own["alpha"])[..., 0], EXPLAIN_ALBEDO_MIN, rgb)
                     off = np.ones_like(w) if off is None else off
                     if skin.any():  # a face's skin (one material): the albedo of the lit skin around, not stage 1's
                         albedo, on = own["albedo"], skin.astype(np.float32)
