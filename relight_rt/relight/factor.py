@@ -601,12 +601,12 @@ class Factor:
                 both = np.stack([smooth, masked_blur(shown, keep, FILL_EDGE_SIGMA), shown])
                 q = np.clip((both / level - FILL_LOW) / (FILL_HIGH - FILL_LOW), 0, 1)
                 w, each, bare = np.where(inner, 1 - q * q * (3 - 2 * q), 0).astype(np.float32)
-                each = np.minimum(each, bare)  # a lit pixel beside the shadow is none of it (the edge not crossed)
                 if w.max() > 0.05:  # near a shadow each pixel's own shading places its edge (the photo's, not the
                     # smoothing's: a black band inside it was multiplied, a dark line along the shadow's border)
                     core = (w > 0.5).astype(np.float32)  # a shadow's (a stripe's smoothed weight stays low)
-                    near = each * np.clip(2 * cv2.GaussianBlur(core, (0, 0), FILL_SIGMA), 0, 1)
-                    w = np.maximum(cv2.GaussianBlur(w, (0, 0), 1.0), near) * inner  # (near unblurred: no crossing)
+                    near = cv2.GaussianBlur(each * np.clip(2 * cv2.GaussianBlur(core, (0, 0), FILL_SIGMA), 0, 1),
+                                            (0, 0), 1.0)  # (its blur held to each pixel's own: the edge not crossed)
+                    w = np.maximum(cv2.GaussianBlur(w, (0, 0), 1.0), np.minimum(near, bare)) * inner
                     y0, y1, x0, x1 = own["window"]
                     rgb = dec.network_image[y0:y1, x0:x1]
                     trust = ((1 - w) * inner * (photo > 0.02)).astype(np.float32)

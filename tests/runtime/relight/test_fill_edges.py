@@ -20,6 +20,7 @@ from _graphs import OWN_LIGHT, models_dir
 import relight_rt
 from relight_rt.engine.config import RuntimeConfig
 from relight_rt.image.color import REC709
+from relight_rt.relight import factor as relight_factor
 from relight_rt.relight import shadow_rim
 
 __all__ = ["models_dir"]  # fixtures
@@ -134,3 +135,50 @@ def test_the_lit_skins_albedo_reaches_past_the_blurs_kernel_without_a_step():
     assert np.abs(np.diff(row)).max() < 0.01  # no step anywhere (a fallback to 0.2 at x ~ 180 stepped by 0.4)
     assert abs(float(row[:100].mean()) - float(values[lit > 0].mean())) < 0.01  # far off: the lit skin's mean
     assert np.allclose(shadow_rim.spread_mean(values, np.zeros_like(lit), 10.0, stage1), stage1)  # no lit skin
+
+
+def test_the_rims_albedo_is_held_to_the_persons_median_and_to_rim_range():
+    """``rim_lift`` lifts the fill's albedo to the one its rim shows, never past the albedo the person's trusted
+    pixels show (their median: a rim that is a stage 1 error, a bright albedo around an eye that the ratio blows
+    out, is not spread into the shadow it borders), and at most ``RIM_RANGE``x."""
+    r = 64
+    albedo = np.full((r, r), 0.2, np.float32)
+    weight = np.zeros((r, r), np.float32)
+    weight[:, :24] = 1  # the fill: the left part
+    photo, own = np.full((r, r), 0.4, np.float32), np.full((r, r), 0.2, np.float32)  # the albedo shown: 0.4
+    skin = np.ones((r, r), np.float32)
+    photo[:, 24:30] = 0.9  # the rim: 0.9 shown, the person's median 0.4
+    lift = shadow_rim.rim_lift(albedo, photo, own, weight, 1 - weight, skin, 0.02)[:, :20]
+    assert np.allclose(lift, 2.0, atol=1e-3), (lift.min(), lift.max())  # 0.4 / 0.2 (4x without the median)
+    photo[:] = 0.7  # rim and median alike 0.7 shown: 3.5x, within RIM_RANGE (4)
+    lift = shadow_rim.rim_lift(albedo, photo, own, weight, 1 - weight, skin, 0.02)[:, :20]
+    assert np.allclose(lift, 3.5, atol=1e-3), (lift.min(), lift.max())
+
+
+def test_a_face_meshs_fill_albedo_is_softened_past_its_outline(relighter, monkeypatch):
+    """On a face mesh's skin the fill takes the lit skin's albedo (up to ``FILL_ALBEDO_RANGE``x stage 1's); off it,
+    where stage 1 sees no skin, stage 1's. The handover is the mesh's outline softened (``cap_face``): taken hard,
+    the outline drew a step across the shadow (0.11 between two rows of a 0.20 rise; 0.044 softened)."""
+    img = np.broadcast_to(np.float32([0.62, 0.47, 0.40]), (150, 100, 3)).copy()
+    mask = np.zeros((150, 100), np.float32)
+    mask[20:140, 20:85] = 1
+    shadowed, dark = img.copy(), img.copy()
+    shadowed[20:140, 30:55] *= 0.01
+    dark[20:140, 30:55] *= 0.3  # stage 1 took most of the shadow for a dark albedo
+    dec = relighter.decompose(shadowed, mask)
+    dec = replace(dec, albedo_chw=relighter.decompose(dark, mask).albedo_chw, skin=np.zeros_like(dec.skin))
+    factor = relighter._factor
+    restored = factor.restored
+
+    def upper_face(d):  # the face mesh's skin: the upper half of the person (the analytic stage 1 finds no face)
+        base = restored(d)
+        skin = base["inner"].copy()
+        skin[skin.shape[0] // 2 :] = False
+        return {**base, "face_skin": skin}
+
+    monkeypatch.setattr(factor, "restored", upper_face)
+    monkeypatch.setattr(relight_factor, "EXPLAIN_SHADOW_SHARE", relight_factor.EXPLAIN_SHARE)  # as the fill's tests
+    profile = (relighter.relight(dec, 2 * OWN_LIGHT, exposure="physical") @ REC709)[30:130, 38:48].mean(axis=1)
+    rise = float(profile[:20].mean() - profile[-20:].mean())
+    assert rise > 0.15, rise  # the face's part lifted (measured 0.20)
+    assert np.abs(np.diff(profile)).max() < 0.35 * rise, (np.abs(np.diff(profile)).max(), rise)
