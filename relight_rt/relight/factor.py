@@ -594,13 +594,15 @@ class Factor:
             shown = photo / np.maximum(own["albedo"], EXPLAIN_ALBEDO_MIN)
             level = float(np.median(shown[inner])) if inner.any() else 0.0
             # a shadow is wide, a black stripe the albedo blurred away is not: the shading shown, smoothed
-            keep = inner.astype(np.float32)  # (both blurs masked: the background moves no weight)
+            # (both blurs masked to the solid person: the background, in a soft edge's pixels too, moves no weight)
+            keep = (inner & (own["alpha"] > 0.9)).astype(np.float32)
             smooth = masked_blur(shown, keep, FILL_SIGMA)
             result = None
             if level > 0:  # the weight of the shading smoothed, of each pixel's own (``FILL_EDGE_SIGMA``) and unblurred
                 both = np.stack([smooth, masked_blur(shown, keep, FILL_EDGE_SIGMA), shown])
                 q = np.clip((both / level - FILL_LOW) / (FILL_HIGH - FILL_LOW), 0, 1)
                 w, each, bare = np.where(inner, 1 - q * q * (3 - 2 * q), 0).astype(np.float32)
+                bare = np.where(keep > 0, bare, each)  # a soft edge's own pixel mixes the background in
                 if w.max() > 0.05:  # near a shadow each pixel's own shading places its edge (the photo's, not the
                     # smoothing's: a black band inside it was multiplied, a dark line along the shadow's border)
                     core = (w > 0.5).astype(np.float32)  # a shadow's (a stripe's smoothed weight stays low)

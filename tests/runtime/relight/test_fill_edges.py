@@ -182,3 +182,17 @@ def test_a_face_meshs_fill_albedo_is_softened_past_its_outline(relighter, monkey
     rise = float(profile[:20].mean() - profile[-20:].mean())
     assert rise > 0.15, rise  # the face's part lifted (measured 0.20)
     assert np.abs(np.diff(profile)).max() < 0.35 * rise, (np.abs(np.diff(profile)).max(), rise)
+
+
+def test_the_background_moves_no_fill_weight(relighter):
+    """The weight's blurs of the shading were unmasked, and a soft edge's own pixel mixes the background in: a
+    white background instead of a black one moved the weight by up to 0.44 along the person's top. Both blurs now
+    count only the solid person (alpha > 0.9), and a soft edge's pixel takes its neighbours' shading."""
+    photo, _, true, mask = scene()
+    weights = []
+    for bg in (0.0, 1.0):
+        back = bg * (1 - mask[..., None])
+        dec = relighter.decompose(photo * mask[..., None] + back, mask)
+        dec = replace(dec, albedo_chw=relighter.decompose(true * mask[..., None] + back, mask).albedo_chw)
+        weights.append(relighter._factor.shadow_weight(dec)[0])
+    assert np.abs(weights[1] - weights[0]).max() < 0.01, np.abs(weights[1] - weights[0]).max()  # measured 0
