@@ -69,14 +69,21 @@ def spread_mean(values: np.ndarray, weight: np.ndarray, sigma: float, fallback: 
 def rim_colour_gate(rgb: np.ndarray, rim: np.ndarray, lit: np.ndarray, sigma: float) -> np.ndarray | None:
     """(r, r') in [0, 1]: how far the colour of the ``rim`` pixels (weights, in [0, 1]) spread over ``sigma`` pixels
     around each pixel, at the lit person's luminance, is a skin's (``skin_chroma``'s YCrCb rule on the network image
-    ``rgb``, (r, r', 3)); None
-    where the photo is grey (the ``lit`` person's channel spread under ``RIM_GREY``: a black jacket and a white
-    shirt are grey in any photo, the skin elsewhere is not)."""
+    ``rgb``, (r, r', 3)); None where the photo is grey (the ``lit`` person's channel spread under ``RIM_GREY``: a
+    black jacket and a white shirt are grey in any photo, the skin elsewhere is not) or there is no rim."""
     rim = rim.astype(np.float32)
     spread = (rgb.max(axis=-1) - rgb.min(axis=-1))[lit]
-    if spread.size == 0 or float(np.percentile(spread, 99)) < RIM_GREY:
+    if spread.size == 0 or float(rim.sum()) <= 1e-6 or float(np.percentile(spread, 99)) < RIM_GREY:
         return None
-    colour = np.stack([spread_mean(rgb[..., c], rim, sigma, rgb[..., c]) for c in range(3)], axis=-1)
+    # spread_mean's rule, the three channels in one blur, at a quarter of the size (a colour spread over sigma >= 8
+    # pixels loses nothing there; the whole weight took 17 ms instead of 7 on the 2.5-MP reference photo at full size)
+    weighted = np.dstack([rgb * rim[..., None], rim]).astype(np.float32)
+    prior = weighted[..., :3].reshape(-1, 3).sum(axis=0) / float(rim.sum())
+    step = 4 if sigma >= 8 else 1
+    small = cv2.resize(weighted, None, fx=1 / step, fy=1 / step, interpolation=cv2.INTER_AREA) if step > 1 else weighted
+    small = cv2.GaussianBlur(small, (0, 0), sigma / step)
+    both = cv2.resize(small, rim.shape[::-1], interpolation=cv2.INTER_LINEAR) if step > 1 else small
+    colour = ((both[..., :3] + SPREAD_PRIOR * prior) / (both[..., 3:] + SPREAD_PRIOR)).astype(np.float32)
     # the rule is for a lit colour (a dim one reads grey by it: its Cr, Cb scale with its luminance): the rim's
     # colour at the lit person's median luminance (the rim's own pixels are partly shaded)
     level = float(np.median(rgb[lit] @ REC709))
@@ -111,6 +118,7 @@ def rim_lift(albedo: np.ndarray, photo: np.ndarray, own: np.ndarray, weight: np.
     around = np.minimum(around, np.maximum(albedo, level))
     lift = np.clip(around / np.maximum(albedo, floor), 1, RIM_RANGE)
     gate = np.clip(cv2.GaussianBlur(skin.astype(np.float32), (0, 0), RIM_SKIN_SIGMA) * RIM_SKIN_GATE, 0, 1)
-    colour = None if rgb is None else rim_colour_gate(rgb, rim, lit, RIM_SPREAD * max(weight.shape))
+    asked = rgb is not None and bool(((lift > 1) & (gate > 0)).any())  # (nothing to gate: not measured)
+    colour = rim_colour_gate(rgb, rim, lit, RIM_SPREAD * max(weight.shape)) if asked else None
     gate = gate if colour is None else gate * colour
     return (lift ** gate).astype(np.float32)
