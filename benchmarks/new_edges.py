@@ -10,8 +10,9 @@ a photo given without a mask or alpha gets the automatic matte.
 Lights: presets by name and two white side lamps (LEFT, RIGHT: benchmarks/real_photos.py's, written out here so
 that this script runs on any checkout: ``PYTHONPATH=/path/to/other/checkout python benchmarks/new_edges.py`` measures
 that checkout's relight_rt, the before of a before/after). Prints the share per photo and light (the person: alpha >
-0.5 eroded 9 px; and a face box when the face mesh finds one) and their mean; ``--sheet``: photo | relit | new edges
-in red, per photo and light, for looking at (keep it out of the repository when a photo is realdata's).
+0.5 eroded 9 px; and a face box when the face mesh finds one; measured with the person's box at 256 px, ``to_frame``)
+and their mean; ``--sheet``: photo | relit | new edges in red, per photo and light, in the person's frame
+(``FRAME``), for looking at (keep it out of the repository when a photo is realdata's).
 """
 
 from __future__ import annotations
@@ -23,10 +24,13 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+FRAME = 256  # every picture is measured with the person's box's longer side at this many pixels (the network's
+# window, about): the thresholds below are per pixel, and the same fill border soft over 2 network pixels scored
+# 0.0234 at 256 px and 0 at 512-2048 px measured at the input's size
 EDGE_FLOOR = 0.02  # linear luminance added before the log (a black shadow's noise is no edge),
 EDGE_SIGMA = 1.0  # ... both pictures blurred over this many pixels,
 EDGE_STEP = 0.1  # ... a change's gradient past this (log luminance per pixel) is an edge
-ERODE = 9  # the person's region: alpha > 0.5 eroded this many pixels (the matte's own edge is no new edge)
+ERODE = 9  # the person's region: alpha > 0.5 eroded this many pixels of FRAME's (the matte's own edge is no new edge)
 REC709 = np.array([0.2126, 0.7152, 0.0722], np.float32)
 
 
@@ -62,8 +66,25 @@ def region(mask: np.ndarray) -> np.ndarray:
     return cv2.erode((mask > 0.5).astype(np.uint8), np.ones((ERODE, ERODE), np.uint8)) > 0
 
 
-def new_edges(source: np.ndarray, relit: np.ndarray, mask: np.ndarray, truth: np.ndarray | None = None) -> float:
-    """The share of ``region(mask)`` that ``new_edge_map`` marks (0 when the region is empty)."""
+def to_frame(mask: np.ndarray, *pictures: np.ndarray | None, frame: int = FRAME) -> list:
+    """``mask`` and ``pictures`` (None kept) resized together so that the box of ``mask`` > 0.5 has its longer side
+    at ``frame`` pixels (area-averaged down, linear up); unchanged when the mask is empty."""
+    ys, xs = np.nonzero(mask > 0.5)
+    if ys.size == 0:
+        return [mask, *pictures]
+    scale = frame / max(int(ys.max() - ys.min()) + 1, int(xs.max() - xs.min()) + 1)
+    h, w = mask.shape[:2]
+    size = (max(1, round(w * scale)), max(1, round(h * scale)))
+    how = cv2.INTER_AREA if scale < 1 else cv2.INTER_LINEAR
+    return [None if p is None else cv2.resize(np.asarray(p, np.float32), size, interpolation=how)
+            for p in (mask, *pictures)]
+
+
+def new_edges(source: np.ndarray, relit: np.ndarray, mask: np.ndarray, truth: np.ndarray | None = None,
+              frame: int = FRAME) -> float:
+    """The share of ``region(mask)`` that ``new_edge_map`` marks (0 when the region is empty), all measured in the
+    person's frame (``to_frame``; ``frame``: the network window's side, about, whose pixels the relight's own are)."""
+    mask, source, relit, truth = to_frame(mask, source, relit, truth, frame=frame)
     inner = region(mask)
     return float(np.mean(new_edge_map(source, relit, truth)[inner])) if inner.any() else 0.0
 
@@ -111,8 +132,9 @@ def main(argv=None) -> int:
         face *= mask
         for name in args.lights.split(","):
             out = relighter.relight(dec, side.get(name, name))
-            edges = new_edge_map(rgb, out)
-            inner, on_face = region(mask), region(face)
+            frame_mask, frame_face, src, out = to_frame(mask, face, rgb, out)  # (the face's box in the same frame)
+            edges = new_edge_map(src, out)
+            inner, on_face = region(frame_mask), region(frame_face)
             row = {"photo": Path(path).name, "light": name, "person": float(np.mean(edges[inner])),
                    "face": float(np.mean(edges[on_face])) if on_face.any() else None}
             rows.append(row)
@@ -121,7 +143,7 @@ def main(argv=None) -> int:
             if args.sheet is not None:
                 marked = np.clip(out, 0, 1).copy()
                 marked[edges & inner] = (1, 0, 0)
-                tiles.append(np.hstack([rgb, np.clip(out, 0, 1), marked]))
+                tiles.append(np.hstack([np.clip(src, 0, 1), np.clip(out, 0, 1), marked]))
     if rows:
         faces_ = [r["face"] for r in rows if r["face"] is not None]
         print(f"mean over {len(rows)}: person {np.mean([r['person'] for r in rows]):.4f}"

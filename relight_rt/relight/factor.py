@@ -69,7 +69,7 @@ from .decomposition import Decomposition, Memo, readonly
 from .detail import extend_outward, guided_upsample, shadow_texture, unpremultiply, window
 from .face_pass import FacePass, feather
 from .look import shaded_skin, skin_chroma, tint_range
-from .shadow_rim import rim_lift, spread_mean
+from .shadow_rim import masked_blur, rim_lift, spread_mean
 from .strength import (
     EXPLAIN_ALBEDO_MIN,
     EXPLAIN_SHADOW_SHARE,
@@ -594,19 +594,21 @@ class Factor:
             shown = photo / np.maximum(own["albedo"], EXPLAIN_ALBEDO_MIN)
             level = float(np.median(shown[inner])) if inner.any() else 0.0
             # a shadow is wide, a black stripe the albedo blurred away is not: the shading shown, smoothed
-            keep = inner.astype(np.float32)
-            smooth = cv2.GaussianBlur(shown * keep, (0, 0), FILL_SIGMA) / np.maximum(
-                cv2.GaussianBlur(keep, (0, 0), FILL_SIGMA), 1e-3)
+            # (both blurs masked to the solid person: the background, in a soft edge's pixels too, moves no weight)
+            keep = (inner & (own["alpha"] > 0.9)).astype(np.float32)
+            smooth = masked_blur(shown, keep, FILL_SIGMA)
             result = None
-            if level > 0:  # the weight of the shading smoothed, and of each pixel's own (``FILL_EDGE_SIGMA``)
-                both = np.stack([smooth, cv2.GaussianBlur(shown, (0, 0), FILL_EDGE_SIGMA)])
+            if level > 0:  # the weight of the shading smoothed, of each pixel's own (``FILL_EDGE_SIGMA``) and unblurred
+                both = np.stack([smooth, masked_blur(shown, keep, FILL_EDGE_SIGMA), shown])
                 q = np.clip((both / level - FILL_LOW) / (FILL_HIGH - FILL_LOW), 0, 1)
-                w, each = np.where(inner, 1 - q * q * (3 - 2 * q), 0).astype(np.float32)
+                w, each, bare = np.where(inner, 1 - q * q * (3 - 2 * q), 0).astype(np.float32)
+                bare = np.where(keep > 0, bare, each)  # a soft edge's own pixel mixes the background in
                 if w.max() > 0.05:  # near a shadow each pixel's own shading places its edge (the photo's, not the
                     # smoothing's: a black band inside it was multiplied, a dark line along the shadow's border)
                     core = (w > 0.5).astype(np.float32)  # a shadow's (a stripe's smoothed weight stays low)
-                    w = np.maximum(w, each * np.clip(2 * cv2.GaussianBlur(core, (0, 0), FILL_SIGMA), 0, 1))
-                    w = cv2.GaussianBlur(w, (0, 0), 1.0) * inner
+                    near = cv2.GaussianBlur(each * np.clip(2 * cv2.GaussianBlur(core, (0, 0), FILL_SIGMA), 0, 1),
+                                            (0, 0), 1.0)  # (its blur held to each pixel's own: the edge not crossed)
+                    w = np.maximum(cv2.GaussianBlur(w, (0, 0), 1.0), np.minimum(near, bare)) * inner
                     y0, y1, x0, x1 = own["window"]
                     rgb = dec.network_image[y0:y1, x0:x1]
                     trust = ((1 - w) * inner * (photo > 0.02)).astype(np.float32)
@@ -618,7 +620,7 @@ class Factor:
                     skin = own["face_skin"]
                     # off a face mesh's skin, as far as stage 1 sees skin: its rim's albedo (relight.shadow_rim)
                     off = rim_lift(own["albedo"], photo, own["own"], w, trust, unpremultiply(
-                        dec.skin[y0:y1, x0:x1, None], own["alpha"])[..., 0], EXPLAIN_ALBEDO_MIN)
+                        dec.skin[y0:y1, x0:x1, None], own["alpha"])[..., 0], EXPLAIN_ALBEDO_MIN, rgb)
                     off = np.ones_like(w) if off is None else off
                     if skin.any():  # a face's skin (one material): the albedo of the lit skin around, not stage 1's
                         albedo, on = own["albedo"], skin.astype(np.float32)

@@ -40,15 +40,36 @@ def test_a_hard_shadow_is_filled_and_the_own_light_gives_the_photo_back(relighte
     lit = float((filled[core] @ REC709).mean())
     assert lit > 0.1 and lit > 10 * float((multiplied[core] @ REC709).mean())  # the light reaches the shadow
     lit_side = ~core & (mask > 0)
-    lit_side[:, :64] = False
-    # the lit half as it was (within a level or two: the edge-aware upsampling reaches a few pixels past the shadow,
-    # and the fill's weight now reaches the photo's own edge at 55: 2 input pixels a network pixel here)
+    lit_side[:, :62] = False
+    # the lit half as it was (within a level or two). The fill's weight stops at the photo's edge at 55 (next test),
+    # but the edge-aware upsampling of the gain spreads its last black network pixel's fill (2.3 input pixels a
+    # network pixel here) over 56-61: up to 0.06 at 56, 0.018 at 60, 0.004 at 62 (faces15's fill reaching the edge)
     assert np.abs(filled[lit_side] - multiplied[lit_side]).max() < 0.01
 
 
+def test_the_fills_weight_does_not_cross_the_photos_shadow_edge(relighter):
+    """Near a shadow each pixel's own shading places the fill's edge (faces15); blurred over a pixel it reached the
+    lit pixel beside the shadow too (0.053 there, 0.004 from the smoothed weight alone): the lit side's texture was
+    partly replaced by the fill's. Its blur is held to each pixel's own unblurred weight now."""
+    img, mask = person()
+    shadowed = img.copy()
+    shadowed[20:140, 30:55] *= 0.01
+    dec = replace(relighter.decompose(shadowed, mask), albedo_chw=relighter.decompose(img, mask).albedo_chw)
+    w, _ = relighter._factor.shadow_weight(dec)
+    own = relighter._factor.own(dec, with_residual=False)
+    shown = own["photo"] / np.maximum(own["albedo"], relight_factor.EXPLAIN_ALBEDO_MIN)
+    lit = own["inner"] & (shown > relight_factor.FILL_HIGH * np.median(shown[own["inner"]]))  # no part of a shadow
+    shadow = own["inner"] & (shown < relight_factor.FILL_LOW * np.median(shown[own["inner"]]))
+    beside = lit & (cv2.dilate(shadow.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0)
+    r = w.shape[0]
+    beside[: r // 4] = beside[3 * r // 4 :] = False  # the shadow's side, not its ends at the mask's
+    assert beside.sum() > 20 and w[beside].max() < 0.02, w[beside].max()  # measured 0.004 (0.053 before)
 
+
+
+@pytest.mark.parametrize("taken_share", [0.5, 0.3])  # 0.3: past FILL_ALBEDO_RANGE 2 (a side-lit Yale face's 3-4x)
 def test_the_fill_takes_the_albedo_of_the_lit_skin_around_where_stage1_took_the_shadow_for_dark(
-        relighter, monkeypatch):
+        relighter, monkeypatch, taken_share):
     """Stage 1 takes part of a hard shadow for a dark albedo (a nose's shadow on a cheek); the fill then draws the
     shadow under any light. On a face mesh's skin it takes the albedo of the lit skin around
     (``FILL_ALBEDO_SPREAD``), within a factor ``FILL_ALBEDO_RANGE`` of stage 1's; elsewhere, where stage 1 sees no
@@ -56,7 +77,7 @@ def test_the_fill_takes_the_albedo_of_the_lit_skin_around_where_stage1_took_the_
     img, mask = person()
     shadowed, dark = img.copy(), img.copy()
     shadowed[20:140, 30:55] *= 0.01
-    dark[20:140, 30:55] *= 0.5  # stage 1's albedo: half of the shadow taken for the skin's own darkness
+    dark[20:140, 30:55] *= taken_share  # stage 1's albedo: part of the shadow taken for the skin's own darkness
     core = np.zeros(mask.shape, bool)
     core[40:120, 36:50] = True
     plain = relighter.decompose(shadowed, mask)
@@ -79,7 +100,7 @@ def test_the_fill_takes_the_albedo_of_the_lit_skin_around_where_stage1_took_the_
     monkeypatch.setattr(relight_factor, "EXPLAIN_SHADOW_SHARE", relight_factor.EXPLAIN_SHARE)
     on_skin = replace(taken)
     np.testing.assert_allclose(relighter.relight(on_skin, OWN_LIGHT, exposure="physical"), shadowed, atol=1e-4)
-    assert core_level(on_skin) > 0.85 * want
+    assert core_level(on_skin) > 0.85 * want  # 0.3: 0.96 of it (0.62 with a range of 2)
 
 
 def test_where_a_light_multiplies_a_dim_photo_the_fill_takes_over_and_its_noise_is_not_multiplied(
@@ -171,6 +192,7 @@ def test_the_fill_carries_the_photos_own_texture_held_to_the_lit_skins(relighter
     noisy[20:140, 30:55] *= (spots / spots.mean()).astype(np.float32)
     lit = _band(img)[lit_side].std()
     assert _band(noisy)[core].std() > 2 * lit  # 2.2x
+    print("TEX", filled(noisy).std() / lit)
     assert filled(noisy).std() < 0.9 * lit  # 0.84x (without the hold 1.1x)
 
 
