@@ -24,6 +24,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from relight_rt.image.color import REC709, srgb_to_linear
+
 FRAME = 256  # every picture is measured with the person's box's longer side at this many pixels (the network's
 # window, about): the thresholds below are per pixel, and the same fill border soft over 2 network pixels scored
 # 0.0234 at 256 px and 0 at 512-2048 px measured at the input's size
@@ -31,13 +33,11 @@ EDGE_FLOOR = 0.02  # linear luminance added before the log (a black shadow's noi
 EDGE_SIGMA = 1.0  # ... both pictures blurred over this many pixels,
 EDGE_STEP = 0.1  # ... a change's gradient past this (log luminance per pixel) is an edge
 ERODE = 9  # the person's region: alpha > 0.5 eroded this many pixels of FRAME's (the matte's own edge is no new edge)
-REC709 = np.array([0.2126, 0.7152, 0.0722], np.float32)
 
 
 def luminance(rgb: np.ndarray) -> np.ndarray:
     """(H, W) linear luminance (Rec. 709 of linearised sRGB) of an sRGB picture in [0, 1]."""
-    x = np.clip(rgb, 0, 1).astype(np.float32)
-    return np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4) @ REC709
+    return srgb_to_linear(np.clip(rgb, 0, 1).astype(np.float32)) @ REC709
 
 
 def new_edge_map(source: np.ndarray, relit: np.ndarray, truth: np.ndarray | None = None) -> np.ndarray:

@@ -149,7 +149,7 @@ class Pyramid:
         ix0, iy0 = max(int(np.floor(x0)) - 1, 0), max(int(np.floor(y0)) - 1, 0)
         ix1, iy1 = min(int(np.ceil(x1)) + 1, w), min(int(np.ceil(y1)) + 1, h)
         if ix1 <= ix0 or iy1 <= iy0:
-            return np.zeros((size, size, 3), np.float32)
+            return np.zeros((size, size, *self.rgb.shape[2:]), np.float32)  # (a 2-D map: a 2-D canvas)
         if k < 0.5:  # reduce by a power of 2 to about twice the canvas resolution first
             n = 2 ** max(1, int(np.floor(np.log2(0.5 / k) + 0.5)))
             bx0, by0, bx1, by1 = ix0 // n, iy0 // n, -(-ix1 // n), -(-iy1 // n)  # the blocks the crop touches

@@ -23,6 +23,7 @@ from ...engine.session import Model
 from ...image.regions import Region, crop_region
 from ..face_detector import Face
 from ._detect import roi_prob
+from ._parts import rejoin
 from ._segmentation import Person, as_logits, contains, logits_on_grid, prob_at, warp_to_grid
 
 BEHIND_SIZE = 0.7  # a face at most this x as wide as the subject's (the largest face in the matte) is further back ...
@@ -331,9 +332,8 @@ def _part_of(
     grid = (gw, gh, gw / w, gh / h, -0.5, -0.5)  # the reduced photo's pixels (cv2.resize's centres)
     seen, mine = _scaled(face, scale), _scaled(subject, scale)
     matte = np.zeros(gray.shape, bool)  # the matte as the people's segmentations hold it (> 0.5), at that scale
-    for p in people:  # a part split from one segmentation is read as that whole (its parts leave seams)
-        whole = p if p.whole is None else replace(p, logits=p.whole)
-        matte |= logits_on_grid(whole, grid) > 0
+    for p in rejoin(people):  # a part split from one segmentation is read as that whole (its parts leave seams)
+        matte |= logits_on_grid(p, grid) > 0
     level = 0.5 * (fine_detail(gray, mine.box) + fine_detail(gray, seen.box))
     window = max(int(_width(seen) / _WINDOW), 1) | 1
     blurred = blurred_side(gray, matte, level, window, mine.box, seen.box)

@@ -72,12 +72,12 @@ def cut_part(mine: np.ndarray, cand: np.ndarray, model: Colours, bottom: np.ndar
     Returns:
         (S, S) bool, the pixels added, or None when none is.
     """
-    pieces, piece = cv2.connectedComponents(mine.astype(np.uint8), connectivity=8)
-    cut = np.unique(piece[mine & bottom])  # the pieces of the matte that run into the bottom border
-    if not len(cut) or not (cand & bottom).any():
+    if not (mine & bottom).any() or not (cand & bottom).any():
         return None  # no one is cut by the bottom border: what lies under them may be their ground
+    _, piece = cv2.connectedComponents(mine.astype(np.uint8), connectivity=8)
+    cut = np.unique(piece[mine & bottom])  # the pieces of the matte that run into the bottom border
     near = cv2.dilate(mine.astype(np.uint8), np.ones((2 * CUT_NEAR + 1,) * 2, np.uint8)).astype(bool)
-    n, labels = cv2.connectedComponents((cand & ~near & ~bottom).astype(np.uint8), connectivity=8)
+    n, labels, stats, _ = cv2.connectedComponentsWithStats((cand & ~near & ~bottom).astype(np.uint8), connectivity=8)
     above = np.maximum.accumulate(mine, axis=0)  # the matte somewhere above in the same column
     least = max(1.0, OWN_MIN * int(mine.sum()))
     reach = cv2.dilate(bottom.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
@@ -88,9 +88,11 @@ def cut_part(mine: np.ndarray, cand: np.ndarray, model: Colours, bottom: np.ndar
     ratio[cand] = nearest(x, person)[0] / np.maximum(nearest(x, backdrop)[0], 1e-3)
     keep = np.zeros(mine.shape, bool)
     for k in range(1, n):
+        size = int(stats[k, cv2.CC_STAT_AREA])
+        if size < least:
+            continue  # (the canvas-wide tests below only for parts large enough)
         part = labels == k
-        size = int(part.sum())
-        if size < least or not (part & reach).any() or (part & above).sum() < CUT_UNDER * size:
+        if not (part & reach).any() or (part & above).sum() < CUT_UNDER * size:
             continue
         around = cv2.dilate(part.astype(np.uint8), beside).astype(bool)
         if np.isin(piece[around & mine], cut).any() and np.median(ratio[part]) < CUT_BACKDROP:
