@@ -179,9 +179,8 @@ def without_things_behind(rgb: np.ndarray, alpha: np.ndarray, people: list[Perso
     unseen, parts = sticking_out(matte, sigmoid(held), sigmoid(seen), bottom=y1 == h)
     if not parts:
         return alpha
-    crop = rgb[y0:y1, x0:x1]
-    crop = crop if s >= 1.0 else cv2.resize(crop, (gw, gh), interpolation=cv2.INTER_AREA)
-    gray = cv2.cvtColor(np.ascontiguousarray(crop, np.float32), cv2.COLOR_RGB2GRAY)
+    gray = cv2.cvtColor(np.ascontiguousarray(rgb[y0:y1, x0:x1], np.float32), cv2.COLOR_RGB2GRAY)
+    gray = gray if s >= 1.0 else cv2.resize(gray, (gw, gh), interpolation=cv2.INTER_AREA)
     things = blurred_of(gray, matte, sigmoid(seen), unseen, parts)
     if not things.any():
         return alpha
