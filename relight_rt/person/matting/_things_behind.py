@@ -25,8 +25,8 @@ that the service's mask holds, -0.005 on p266; 0.5 a smooth red phone held up to
 0.918 -> 0.940), half B and the clip unchanged (0.90164, 0.93254: no part qualifies), no image worse; the four photos
 enlarged to 2.5 MP gain alike. Time: a pose-graph person, 4-6 ms on the 2.5-MP reference photo; a selfie-graph person
 (a portrait), one pose-graph run more, 15-30 ms in all (benchmarks/things_behind_speed.py, 2-core CPU under load).
-Parts the rule cannot tell (things at the photo's bottom border, in focus, or unsure but sharp: a floor, a blanket)
-stay: docs/RESULTS.md.
+Things the rule cannot tell stay: at the photo's bottom border (p192's floor, p265's grass), in focus, or sharp where
+the graphs are unsure.
 """
 
 from __future__ import annotations
