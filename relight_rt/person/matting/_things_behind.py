@@ -186,13 +186,13 @@ def without_things_behind(rgb: np.ndarray, alpha: np.ndarray, people: list[Perso
     for p in people:
         if p.region not in runs:
             runs[p.region] = logits_on_grid(Person(p.region, pose(p), p.presence), grid)
-    seen = np.max(list(runs.values()), axis=0)
-    unseen, parts = sticking_out(matte, sigmoid(held), sigmoid(seen), bottom=y1 == h)
+    seen = sigmoid(np.max(list(runs.values()), axis=0))
+    unseen, parts = sticking_out(matte, sigmoid(held), seen, bottom=y1 == h)
     if not parts:
         return alpha
     gray = cv2.cvtColor(np.ascontiguousarray(rgb[y0:y1, x0:x1], np.float32), cv2.COLOR_RGB2GRAY)
     gray = gray if s >= 1.0 else cv2.resize(gray, (gw, gh), interpolation=cv2.INTER_AREA)
-    things = blurred_of(gray, matte, sigmoid(seen), unseen, parts)
+    things = blurred_of(gray, matte, seen, unseen, parts)
     if not things.any():
         return alpha
     if s < 1.0:
