@@ -79,6 +79,7 @@ from ._segmentation import (
 )
 from ._selfie import carried_past, confirmed, face_person, owning, reframed, roi_person, seen_on, uncut, widened
 from ._shadow import selfie_sure, without_cast_shadow
+from ._things_behind import without_things_behind
 from ._turned import turned_people
 
 PERSON_MODES = ("largest", "all")
@@ -624,6 +625,9 @@ class PersonMatter:
             if self.person != "all":  # in everyone's matte a faint person apart is someone
                 alpha = without_doubted_parts(alpha, band_width(alpha.shape))
                 alpha = without_cast_shadow(rgb, alpha, selfie_sure(self.roi, rgb))  # (_shadow)
+                alpha = without_things_behind(  # (_things_behind: the pose graph's view, a pose-graph person's own)
+                    rgb, alpha, people, lambda p: p.logits if p.source == "pose" else self._pose(rgb, p.region).logits
+                )
         return alpha
 
     def __call__(self, image: np.ndarray, name: str = "image") -> np.ndarray:

@@ -1,0 +1,74 @@
+"""The time of the things-behind rule (relight_rt.person.matting._things_behind) alone, on the default matte of photos.
+
+    python benchmarks/things_behind_speed.py                          # the 2.5-MP reference photo
+    python benchmarks/things_behind_speed.py PHOTO [PHOTO ...] --mp 2.5 --repeats 7
+
+For each photo (optionally enlarged or reduced to ``--mp`` megapixels first): the default matte's people and alpha
+before the rule, then the rule on them ``--repeats`` times after one warm-up call, as PersonMatter.alpha calls it (a
+selfie-graph person's pose-graph view is one more pose-graph run; a pose-graph person's is its own logits): best and
+median, milliseconds, and the matte's own time (PersonMatter()(rgb), best of 3) beside it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from relight_rt.person import matting as M  # noqa: E402
+from relight_rt.person.matting._things_behind import without_things_behind  # noqa: E402
+
+
+def read_rgb(path: Path, mp: float | None) -> np.ndarray:
+    bgr = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    if bgr is None:
+        raise SystemExit(f"cannot read {path}")
+    rgb = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB).astype(np.float32) / 255.0
+    if mp:
+        s = float(np.sqrt(mp * 1e6 / (rgb.shape[0] * rgb.shape[1])))
+        rgb = np.clip(cv2.resize(rgb, None, fx=s, fy=s, interpolation=cv2.INTER_CUBIC), 0.0, 1.0)
+    return rgb
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("photos", nargs="*", type=Path)
+    ap.add_argument("--mp", type=float, help="resize each photo to this many megapixels first")
+    ap.add_argument("--repeats", type=int, default=7)
+    args = ap.parse_args(argv)
+    photos = args.photos or [REPO.parent / "shared" / "reference" / "photo" / "sample.jpg"]
+    matter = M.PersonMatter()
+    for path in photos:
+        rgb = read_rgb(path, args.mp)
+        people = matter.people(rgb, path.name)
+        alpha = matter.alpha(rgb, people)  # (the rule included: its input differs only where it took a part)
+
+        def pose(p, rgb=rgb):  # as PersonMatter.alpha asks for the pose graph's view
+            return p.logits if p.source == "pose" else matter._pose(rgb, p.region).logits
+
+        without_things_behind(rgb, alpha, people, pose)
+        times = []
+        for _ in range(args.repeats):
+            t = time.perf_counter()
+            without_things_behind(rgb, alpha, people, pose)
+            times.append(1000 * (time.perf_counter() - t))
+        whole = []
+        for _ in range(3):
+            t = time.perf_counter()
+            matter(rgb)
+            whole.append(1000 * (time.perf_counter() - t))
+        sources = "/".join(p.source for p in people)
+        print(f"{path.name} {rgb.shape[1]}x{rgb.shape[0]} ({sources}): rule best {min(times):.1f} ms, median "
+              f"{float(np.median(times)):.1f} ms; the matte best {min(whole):.0f} ms")  # fmt: skip
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
