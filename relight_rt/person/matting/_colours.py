@@ -66,12 +66,12 @@ def joined(part: np.ndarray, mine: np.ndarray) -> np.ndarray:
 
 
 def colour_model(canvas: np.ndarray, inside: np.ndarray, mine: np.ndarray, around: np.ndarray,
-                 apart: np.ndarray | None = None) -> Colours | None:
+                 apart: np.ndarray | None = None, like: Colours | None = None) -> Colours | None:  # fmt: skip
     """The person's and the backdrop's colours on a canvas: (its L*a*b*, the k-means centres of the matte ``mine``'s
     interior, those of a ring ``OWN_RING`` x the matte's size wide round ``around`` (the matte and what is asked
-    about), less ``apart``), or None when either holds under 20 pixels inside the photo (``inside``)."""
+    about), less ``apart``), or None when either holds under 20 pixels inside the photo (``inside``). With ``like``, a
+    model of the same canvas and matte, its L*a*b* and person's centres are reused: only the backdrop's are made."""
     one = np.ones((3, 3), np.uint8)
-    interior = cv2.erode(mine.astype(np.uint8), one).astype(bool) & inside
     ys, xs = np.nonzero(mine)
     r = max(2, int(OWN_RING * max(np.ptp(ys), np.ptp(xs))))
     base = around.astype(np.uint8)
@@ -79,6 +79,9 @@ def colour_model(canvas: np.ndarray, inside: np.ndarray, mine: np.ndarray, aroun
     ring &= ~cv2.dilate(base, one).astype(bool) & inside
     if apart is not None:
         ring &= ~apart
+    if like is not None:
+        return (like[0], like[1], centres(like[0][ring])) if ring.sum() >= 20 else None
+    interior = cv2.erode(mine.astype(np.uint8), one).astype(bool) & inside
     if interior.sum() < 20 or ring.sum() < 20:
         return None
     lab = cv2.cvtColor(np.ascontiguousarray(canvas, dtype=np.float32), cv2.COLOR_RGB2Lab)  # L 0-100
@@ -120,11 +123,11 @@ def candidates(canvas: np.ndarray, inside: np.ndarray, mine: np.ndarray, seen: n
     if below.sum() < max(1.0, OWN_MIN * mine.sum()):
         return None
     model = colour_model(canvas, inside, mine, mine | cand)
-    more = (below & ~cand).any()
-    below_model = colour_model(canvas, inside, mine, mine | cand, below & ~cand) if more else model
-    if model is None or below_model is None:
+    if model is None:
         return None
-    return (cand, model), (below, below_model)
+    more = below & ~cand
+    below_model = colour_model(canvas, inside, mine, mine | cand, more, like=model) if more.any() else model
+    return None if below_model is None else ((cand, model), (below, below_model))
 
 
 def own_part(mine: np.ndarray, cand: np.ndarray, model: Colours) -> np.ndarray | None:

@@ -38,10 +38,13 @@ photo the graph, seeing people small, is unsure of their own clothes at the bord
 sea: the man's brown trousers 0.9+ framed on the couple, 0.3-0.6 on the whole photo, the pose graph < 0.1). The colour
 model's backdrop ring leaves those pixels out. Measured (benchmarks/people_masks_eval.py --methods ours; main of the
 day A 0.92340, B 0.90164, clip 0.93254): A and the clip unchanged (p094 +0.00001), B 0.90164 -> 0.90222 (p093 0.842 ->
-0.902, p126 +0.0003, p259 -0.0002); a second colour model (~4 ms) on 39 of the 208 photos, none on the reference photo.
+0.902, p126 +0.0003, p259 -0.0002); a second backdrop model (~2 ms, benchmarks/own_colours_speed.py) on 39 of the
+208 photos, none on the reference photo.
 Tried (IoU on the canvas, a scratch estimate): the framed answer >= 0.5 (clip frame 84 -0.03), the ring drawn round all
 the candidates (measured: p259 -0.002, a white top's bottom whose colour then lies near the new ring's), the thresholds
-swapped for the own colours' step (framed >= OWN_SURE, whole photo >= 0.5: A -0.0001, p239 and p259 -0.02).
+swapped for the own colours' step (framed >= OWN_SURE, whole photo >= 0.5: A -0.0001, p239 and p259 -0.02); for that
+step both >= 0.5 and either >= OWN_SURE (measured: B -0.0001, p246 +0.014 a child's dark trousers but p259 -0.019,
+the clip 0.93254 -> 0.93243, frame 92 -0.024).
 Tests: tests/runtime/person/matting/test_cut_body.py.
 """
 
