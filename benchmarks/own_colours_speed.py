@@ -4,9 +4,10 @@
 
 The default matte (PersonMatter(), person="largest") is run once per photo to catch the canvas its own colours' step
 (PersonMatter._own_colours) reads; then each piece of that step is timed on it (process time, mean of --repeat calls):
-``_colours.candidates`` (the candidates and the one colour model, its k-means), ``_colours.own_part``,
+``_colours.candidates`` (the candidates and their colour models, the k-means), ``_colours.own_part``,
 ``_cut_body.cut_part`` and ``photo_bottom``, and ``_colours.colour_model`` alone (the call each of the two steps made
-for itself before they shared one). Nothing of the data is written.
+for itself before they shared one), and the bottom border's own model where it has one (its candidates are more than
+the own colours'). Nothing of the data is written.
 """
 
 from __future__ import annotations
@@ -58,19 +59,22 @@ def main(argv: list[str] | None = None) -> int:
         caught.clear()
         matter(read_rgb(root / "photos" / f"{name}.jpg"), name)
         own = candidates(*caught["canvas"]) if "canvas" in caught else None
-        if own is None or "bottom" not in caught:
+        if own is None:
             print(f"{name}: no candidates")
             continue
-        canvas, inside, mine, prob = caught["canvas"]
-        cand, model = own
-        bottom = _cut_body.photo_bottom(*caught["bottom"])
+        canvas, inside, mine, seen, framed, bottom = caught["canvas"]
+        (cand, model), (below, below_model) = own
         times = {
-            "candidates": per_call(candidates, (canvas, inside, mine, prob), args.repeat),
+            "candidates": per_call(candidates, caught["canvas"], args.repeat),
             "own_part": per_call(_colours.own_part, (mine, cand, model), args.repeat),
-            "cut_part": per_call(_cut_body.cut_part, (mine, cand, model, bottom), args.repeat),
+            "cut_part": per_call(_cut_body.cut_part, (mine, below, below_model, bottom), args.repeat),
             "photo_bottom": per_call(_cut_body.photo_bottom, caught["bottom"], args.repeat),
             "colour_model alone": per_call(_colours.colour_model, (canvas, inside, mine, mine | cand), args.repeat),
         }
+        if below_model is not model:
+            times["bottom border's model"] = per_call(
+                _colours.colour_model, (canvas, inside, mine, mine | cand, below & ~cand, model), args.repeat
+            )
         print(f"{name}: " + ", ".join(f"{k} {v:.2f} ms" for k, v in times.items()))
     return 0
 

@@ -66,12 +66,12 @@ def joined(part: np.ndarray, mine: np.ndarray) -> np.ndarray:
 
 
 def colour_model(canvas: np.ndarray, inside: np.ndarray, mine: np.ndarray, around: np.ndarray,
-                 apart: np.ndarray | None = None) -> Colours | None:
+                 apart: np.ndarray | None = None, like: Colours | None = None) -> Colours | None:  # fmt: skip
     """The person's and the backdrop's colours on a canvas: (its L*a*b*, the k-means centres of the matte ``mine``'s
     interior, those of a ring ``OWN_RING`` x the matte's size wide round ``around`` (the matte and what is asked
-    about), less ``apart``), or None when either holds under 20 pixels inside the photo (``inside``)."""
+    about), less ``apart``), or None when either holds under 20 pixels inside the photo (``inside``). With ``like``, a
+    model of the same canvas and matte, its L*a*b* and person's centres are reused: only the backdrop's are made."""
     one = np.ones((3, 3), np.uint8)
-    interior = cv2.erode(mine.astype(np.uint8), one).astype(bool) & inside
     ys, xs = np.nonzero(mine)
     r = max(2, int(OWN_RING * max(np.ptp(ys), np.ptp(xs))))
     base = around.astype(np.uint8)
@@ -79,33 +79,55 @@ def colour_model(canvas: np.ndarray, inside: np.ndarray, mine: np.ndarray, aroun
     ring &= ~cv2.dilate(base, one).astype(bool) & inside
     if apart is not None:
         ring &= ~apart
+    if like is not None:
+        return (like[0], like[1], centres(like[0][ring])) if ring.sum() >= 20 else None
+    interior = cv2.erode(mine.astype(np.uint8), one).astype(bool) & inside
     if interior.sum() < 20 or ring.sum() < 20:
         return None
     lab = cv2.cvtColor(np.ascontiguousarray(canvas, dtype=np.float32), cv2.COLOR_RGB2Lab)  # L 0-100
     return lab, centres(lab[interior]), centres(lab[ring])
 
 
-def candidates(canvas: np.ndarray, inside: np.ndarray, mine: np.ndarray,
-               prob: np.ndarray) -> tuple[np.ndarray, Colours] | None:  # fmt: skip
-    """What the own colours' step looks at on a canvas (module docstring): the pixels the selfie graph sees
-    (>= OWN_SURE) outside the matte, joined to it, and the colour model round them (:func:`colour_model`); None when
-    they are fewer than OWN_MIN x the matte's pixels (its rim) or the model cannot be made. :func:`own_part` and
-    relight_rt.person.matting._cut_body.cut_part both decide on them.
+def candidates(canvas: np.ndarray, inside: np.ndarray, mine: np.ndarray, seen: np.ndarray, framed: np.ndarray,
+               bottom: np.ndarray) -> tuple[tuple[np.ndarray, Colours], tuple[np.ndarray, Colours]] | None:  # fmt: skip
+    """What the own colours' step and the bottom border's (relight_rt.person.matting._cut_body) look at on a canvas,
+    each with its colour model (:func:`colour_model`, the ring round the matte and the first): the
+    pixels outside the matte, joined to it, that the selfie graph sees (module docstring: >= OWN_SURE on the whole
+    photo, >= 0.5 framed on the people), and for the bottom border's step, where the matte reaches the photo's bottom
+    rows, those with the pixels the graph framed on the people alone is sure of (>= OWN_SURE), and their ring less
+    these pixels (the backdrop's colours are sampled where no view sees the person); one set and one model for both
+    where the matte does not reach those rows or the two are the same pixels. None when the second
+    are fewer than OWN_MIN x the matte's pixels (its rim) or a model cannot be made. :func:`own_part` decides on the
+    first, relight_rt.person.matting._cut_body.cut_part on the second.
+
+    The whole photo's answer is asked so that the ground under a person's feet, which that graph, seeing the person
+    small, takes in, stays out; under a body the photo's bottom border cuts, that ground is out of the frame, and there
+    the framed answer alone is the surer (a man's brown trousers at the bottom border of a photo of an embracing
+    couple: 0.9+ framed on the couple, 0.3-0.6 on the whole photo; measured in relight_rt.person.matting._cut_body).
 
     Args:
         canvas: (S, S, 3) float32 RGB in [0, 1].
         inside: (S, S) bool, the canvas pixels inside the photo.
         mine: (S, S) bool, the matte (the people found).
-        prob: (S, S) float, the selfie graph's person probability.
+        seen: (S, S) float, the selfie graph's person probability on the whole photo.
+        framed: (S, S) float, the selfie graph's person probability framed on the canvas's region.
+        bottom: (S, S) bool, the photo's bottom rows on the canvas (relight_rt.person.matting._cut_body.photo_bottom).
 
     Returns:
-        ((S, S) bool candidates, (L*a*b* canvas, the person's centres, the backdrop's)) or None.
+        ((own colours' candidates, their model), (the bottom border's, theirs)), each candidates an (S, S) bool and each
+        model (L*a*b* canvas, the person's centres, the backdrop's); or None.
     """
-    cand = joined((prob >= OWN_SURE) & ~mine & inside, mine)
-    if cand.sum() < max(1.0, OWN_MIN * mine.sum()):
+    outside = ~mine & inside
+    cand = joined((framed >= 0.5) & (seen >= OWN_SURE) & outside, mine)
+    below = cand | joined((framed >= OWN_SURE) & outside, mine) if (mine & bottom).any() else cand
+    if below.sum() < max(1.0, OWN_MIN * mine.sum()):
         return None
     model = colour_model(canvas, inside, mine, mine | cand)
-    return None if model is None else (cand, model)
+    if model is None:
+        return None
+    more = below & ~cand
+    below_model = colour_model(canvas, inside, mine, mine | cand, more, like=model) if more.any() else model
+    return None if below_model is None else ((cand, model), (below, below_model))
 
 
 def own_part(mine: np.ndarray, cand: np.ndarray, model: Colours) -> np.ndarray | None:

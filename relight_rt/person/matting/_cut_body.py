@@ -29,7 +29,23 @@ taken here); without the colour test: B 0.89687 (p150 -0.008: the light between 
 (benchmarks/matte_translucent.py) B 1.92 % -> 1.89 %. The ring, the per-pixel colour test and the piece of the matte
 reaching the bottom rows, added later (main of the day A 0.92339, B 0.90116, clip 0.93254): A and the clip unchanged,
 B 0.90117 (p259 0.8990 -> 0.9001: 80 canvas pixels of the backdrop's colour off the top; p126 0.9725 -> 0.9724: 8
-pixels of the ring beside the leg not given back). Tests: tests/runtime/person/matting/test_cut_body.py.
+pixels of the ring beside the leg not given back).
+
+Its candidates are the own colours' and, where the matte reaches the bottom rows, the pixels joined to it that the
+graph framed on the people alone is sure of (>= OWN_SURE; relight_rt.person.matting._colours.candidates): the whole
+photo's answer is asked to keep out the ground under a person's feet, which here lies out of the frame, and on the whole
+photo the graph, seeing people small, is unsure of their own clothes at the border (p093, an embracing couple before the
+sea: the man's brown trousers 0.9+ framed on the couple, 0.3-0.6 on the whole photo, the pose graph < 0.1). The colour
+model's backdrop ring leaves those pixels out. Measured (benchmarks/people_masks_eval.py --methods ours; main of the
+day A 0.92340, B 0.90164, clip 0.93254): A and the clip unchanged (p094 +0.00001), B 0.90164 -> 0.90222 (p093 0.842 ->
+0.902, p126 +0.0003, p259 -0.0002); a second backdrop model (~2 ms, benchmarks/own_colours_speed.py) on 39 of the
+208 photos, none on the reference photo.
+Tried (IoU on the canvas, a scratch estimate): the framed answer >= 0.5 (clip frame 84 -0.03), the ring drawn round all
+the candidates (measured: p259 -0.002, a white top's bottom whose colour then lies near the new ring's), the thresholds
+swapped for the own colours' step (framed >= OWN_SURE, whole photo >= 0.5: A -0.0001, p239 and p259 -0.02); for that
+step both >= 0.5 and either >= OWN_SURE (measured: B -0.0001, p246 +0.014 a child's dark trousers but p259 -0.019,
+the clip 0.93254 -> 0.93243, frame 92 -0.024).
+Tests: tests/runtime/person/matting/test_cut_body.py.
 """
 
 from __future__ import annotations

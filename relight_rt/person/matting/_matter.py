@@ -306,7 +306,7 @@ class PersonMatter:
         matte that the photo's bottom border cuts (relight_rt.person.matting._cut_body: a trouser leg before a wall of
         its grey, which the colour test refuses). On the canvas of a region around ``people`` (ROI_SCALE x their box),
         where the selfie graph sees it on the whole photo and on that region too (_colours: one run, which _turned's
-        search on the same region then shares).
+        search on the same region then shares; under a matte the bottom border cuts, on that region alone suffices).
 
         Measured (benchmarks/people_masks_eval.py; OWN_SURE 0.7 and OWN_RATIO 0.4 chosen on photos half A among
         0.5-0.9 and 0.2-0.7, where every choice moved A by less than 0.001): clip 0.917 -> 0.923 (the four worst
@@ -318,17 +318,19 @@ class PersonMatter:
         if start is None:
             return []
         region, seen, inside, mine = start
-        prob = np.where(roi_prob(self.roi, rgb, region) >= 0.5, seen, 0.0).astype(np.float32)  # _colours: framed too
-        own = candidates(crop_region(rgb, region), inside, mine, prob)  # one colour model for both steps
+        framed = roi_prob(self.roi, rgb, region)
+        bottom = photo_bottom(region, rgb.shape[:2])
+        own = candidates(crop_region(rgb, region), inside, mine, seen, framed, bottom)  # with their colour models
         if own is None:
             return []
-        cand, model = own  # the own colours, and what the photo's bottom border cuts (_cut_body)
-        found = (own_part(mine, cand, model), cut_part(mine, cand, model, photo_bottom(region, rgb.shape[:2])))
+        (cand, model), (below, below_model) = own  # the own colours; what the bottom border cuts (_cut_body)
+        found = own_part(mine, cand, model) if cand.any() else None, cut_part(mine, below, below_model, bottom)
         parts = [p for p in found if p is not None]
         if not parts:
             return []
-        part = np.any(parts, axis=0)
-        return [own_person(region, part, mine, prob, people[0].presence)]
+        # the part's alpha: the whole photo's answer where both see it (_colours), the framed one where it alone does
+        prob = np.where(below & ~cand, framed, np.where(framed >= 0.5, seen, 0.0)).astype(np.float32)
+        return [own_person(region, np.any(parts, axis=0), mine, prob, people[0].presence)]
 
     def _joined(self, rgb: np.ndarray, people: list[Person], faces: list[Face]) -> list[Person]:
         """The people joined to ``people`` in the selfie graph's view of the whole photo who show a face of their

@@ -108,6 +108,53 @@ def test_the_cut_leg_on_a_photo_smaller_than_the_canvas(scale):
     assert (alpha[parts["gap"] | parts["bench"]] >= 0.5).mean() < 0.1
 
 
+class _FaintOnTheWhole(_NotWall):
+    """The stand-in seeing the grey of the missed leg (and of the bench) at ``whole`` on the whole photo (letterboxed:
+    black bars at the top) and at ``framed`` framed on the people (no bars): the real graph, shown a couple small on the
+    whole photo, is unsure of the man's trousers at the bottom border that it is sure of framed on them."""
+
+    def __init__(self, whole: float, framed: float):
+        self.whole, self.framed = whole, framed
+
+    def run(self, feeds):
+        img = feeds["image"][0]
+        seen = super().run(feeds)["segmentation"][0, 0]
+        grey = np.abs(img - GREY).max(0) < 0.005
+        seen = np.where(grey, self.whole if img[:, :4].max() == 0.0 else self.framed, seen)
+        return {"segmentation": seen.astype(np.float32)[None, None]}
+
+
+@pytest.mark.parametrize(("whole", "framed", "taken"), [(0.5, 0.95, True), (0.2, 0.8, True), (0.5, 0.6, False)])
+def test_under_a_body_cut_by_the_bottom_border_the_graph_framed_on_the_people_alone_decides(whole, framed, taken):
+    """The grey leg the selfie graph is sure of framed on the people (>= OWN_SURE) comes though the graph on the whole
+    photo is unsure of it (before the rule both had to see it, the whole photo's >= OWN_SURE, and it stayed out), with
+    its alpha from the framed answer, down to the border; sure of it on neither, it stays out. The bench in its colour
+    (not under the matte) and the light between the legs stay out either way."""
+    rgb, parts = standing(300)
+    matter = M.PersonMatter(refine=False)
+    matter.roi, matter.face = _FaintOnTheWhole(whole, framed), None
+    found = [matted(rgb, parts["top"] | parts["leg1"] | parts["crotch"])]
+    alpha = matter.alpha(rgb, [*found, *matter._own_colours(rgb, found)])
+    assert ((alpha[parts["leg2"]] >= 0.5).mean() > 0.9) == taken
+    if taken:
+        assert (alpha[299, 212:238] >= 0.5).all()
+    assert (alpha[parts["bench"]] >= 0.5).mean() < 0.1
+    assert (alpha[parts["gap"] & (np.abs(np.arange(400) - 200) < 7)] >= 0.5).mean() < 0.05
+
+
+@pytest.mark.parametrize("framed", [0.95, 0.5])
+def test_under_the_feet_of_a_standing_person_the_framed_answer_alone_takes_nothing(framed):
+    """Feet above the bottom border: the dark ground the graph framed on the person is sure of, the whole photo's not
+    (0.2), stays out (the bottom border's step is for bodies it cuts; the own colours' asks the whole photo too)."""
+    rgb, people, ground = feet_above_the_border(False)
+    rgb[ground] = GREY
+    matter = M.PersonMatter(refine=False)
+    matter.roi, matter.face = _FaintOnTheWhole(0.2, framed), None
+    found = [matted(rgb, m) for m in people]
+    alpha = matter.alpha(rgb, [*found, *matter._own_colours(rgb, found)])
+    assert (alpha[ground] >= 0.5).mean() < 0.1
+
+
 def feet_above_the_border(other: bool) -> tuple[np.ndarray, list[np.ndarray], np.ndarray]:
     """A person standing before the wall, feet 20 px above the bottom border, on a dark ground the selfie graph sees
     as theirs down to the border (a shadow); with ``other``, someone else beside them, cut by the bottom border."""
@@ -146,15 +193,16 @@ def test_the_light_between_two_legs_cut_by_the_bottom_border_is_not_theirs():
 
 
 def test_the_own_colours_test_alone_refuses_the_grey_leg(monkeypatch):
-    """The case the rule is for: the own colours' per-pixel test (OWN_RATIO) leaves the grey leg out. Both steps
-    decide on one set of candidates and one colour model, made once."""
+    """The case the rule is for: the own colours' per-pixel test (OWN_RATIO) leaves the grey leg out. Where the matte
+    does not reach the bottom border, both steps decide on one set of candidates and one colour model, made once."""
     rgb, parts = standing(300)
     roi = _NotWall()
     region, seen, inside, mine = around_people(roi, rgb, [matted(rgb, parts["top"] | parts["leg1"] | parts["crotch"])])
-    prob = np.where(roi_prob(roi, rgb, region) >= 0.5, seen, 0.0).astype(np.float32)
-    cand, model = _colours.candidates(M.crop_region(rgb, region), inside, mine, prob)
+    bottom = _cut_body.photo_bottom(region, rgb.shape[:2])
+    (cand, model), (below, below_model) = _colours.candidates(M.crop_region(rgb, region), inside, mine, seen,
+                                                               roi_prob(roi, rgb, region), bottom)  # fmt: skip
     own = _colours.own_part(mine, cand, model)
-    cut = _cut_body.cut_part(mine, cand, model, _cut_body.photo_bottom(region, rgb.shape[:2]))
+    cut = _cut_body.cut_part(mine, below, below_model, bottom)
     xs, ys = canvas_points(region)
     leg2 = parts["leg2"][np.clip(ys.astype(int), 0, 299), np.clip(xs.astype(int), 0, 399)] & inside
     assert own is None or (own & leg2).sum() < 0.1 * leg2.sum()
@@ -163,7 +211,9 @@ def test_the_own_colours_test_alone_refuses_the_grey_leg(monkeypatch):
     monkeypatch.setattr(_colours, "colour_model", lambda *a, **k: made.append(1) or model)
     matter = M.PersonMatter(refine=False)
     matter.roi, matter.face = roi, None
-    assert matter._own_colours(rgb, [matted(rgb, parts["top"] | parts["leg1"] | parts["crotch"])]) and len(made) == 1
+    rgb, people, _ = feet_above_the_border(False)
+    matter._own_colours(rgb, [matted(rgb, people[0])])
+    assert len(made) == 1
 
 
 @pytest.mark.parametrize(
