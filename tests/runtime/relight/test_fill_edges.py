@@ -51,10 +51,10 @@ def scene() -> tuple[np.ndarray, ...]:
     return true * shade[..., None], true * dark[..., None], true, mask
 
 
-def relit(relighter, photo: np.ndarray, albedo: np.ndarray, mask: np.ndarray) -> np.ndarray:
+def relit(relighter, photo: np.ndarray, albedo: np.ndarray, mask: np.ndarray, scale: float = 2) -> np.ndarray:
     dec = relighter.decompose(photo, mask)
     dec = replace(dec, albedo_chw=relighter.decompose(albedo, mask).albedo_chw)
-    return relighter.relight(dec, 2 * OWN_LIGHT, exposure="physical")
+    return relighter.relight(dec, scale * OWN_LIGHT, exposure="physical")
 
 
 def test_the_fills_edge_is_the_photos_own_not_a_dark_line_inside_the_shadow(relighter):
@@ -67,6 +67,26 @@ def test_the_fills_edge_is_the_photos_own_not_a_dark_line_inside_the_shadow(reli
     core = float(out[40:120, 28:34].mean())
     band = out[40:120, EDGE_X - 9 : EDGE_X - 2].mean(axis=0)  # just inside the photo's edge
     assert core > 0.3 and band.min() > 0.5 * core, (core, band)  # measured 0.318: band min 0.196, 0.105 before
+
+
+def test_a_light_that_lifts_the_penumbra_past_the_cap_draws_no_dark_line_between_fill_and_lit_side(
+        relighter, monkeypatch):
+    """Between the fill and the lit side the photo's penumbra (0.1-0.35 of the lit side) is multiplied by the ratio;
+    the transport's shading there is the smooth model's, above the photo's, so a light that lifts the photo 4x lifted
+    the penumbra too little: a dark line along the shadow's border (Extended Yale B's yaleB21 from -50, no face mesh:
+    0.0121 of its face new edges). Within ``CAP_SHADOW_REACH`` of a deep shadow's core the ratio multiplies the photo
+    at most ``RATIO_CAP`` and the rest is added, as on a face mesh's skin (``Factor.handover``)."""
+    photo, _, true, mask = scene()
+
+    def line() -> float:  # the penumbra (the photo at 0.3 and 0.7 of the lit side) against the fill and the lit side
+        out = relit(relighter, photo, true, mask, 4) @ REC709
+        prof = out[40:120].mean(axis=0)
+        return float(prof[EDGE_X - 1 : EDGE_X + 1].min() / min(prof[28:34].mean(), prof[EDGE_X + 6 : 80].mean()))
+
+    capped = line()
+    monkeypatch.setattr(relight_factor, "CAP_SHADOW_REACH", None)
+    multiplied = line()
+    assert capped > 0.95 and multiplied < 0.9, (capped, multiplied)  # measured 0.99 (0.86 without)
 
 
 def test_a_fill_without_a_mesh_takes_its_rims_albedo_where_stage1_sees_skin(relighter, monkeypatch):
