@@ -2,7 +2,7 @@
 
     python benchmarks/yale_eval.py --out runs/yale [--yale ../shared/realdata/yale] [--dpr DPR_REPO | --no-dpr]
         [--cache runs/dpr_cache] [--subjects yaleB02 yaleB05 ...] [--no-mesh-occlusion] [--no-mirror-dark]
-        [--no-rim-fill]
+        [--no-rim-fill] [--no-penumbra-cap] [--no-rim-shown]
 
 Issue 48's protocol. Every photo is grey (the PNG's one channel as R = G = B), relit with an ellipse mask (the
 face: centre at 0.50, 0.52 of the image, semi-axes 0.44 W and 0.46 H) under a white point lamp in the photo's
@@ -222,9 +222,18 @@ def main(argv=None) -> int:
     p.add_argument("--no-rim-fill", action="store_true",
                    help="the deep shadow's fill off a face mesh keeps stage 1's albedo, not its rim's "
                         "(relight.shadow_rim.RIM_RANGE; on by default since faces15)")
+    p.add_argument("--no-penumbra-cap", action="store_true",
+                   help="the ratio cap only on a face mesh's skin, not in the penumbra around any deep shadow "
+                        "(relight.factor.CAP_SHADOW_REACH; on by default since faces16)")
+    p.add_argument("--no-rim-shown", action="store_true",
+                   help="the fill's rim albedo read in the penumbra too (shadow_rim.RIM_SHOWN; on since faces16)")
     args = p.parse_args(argv)
     if args.no_rim_fill:
         shadow_rim.RIM_RANGE = None
+    if args.no_penumbra_cap:
+        factor_module.CAP_SHADOW_REACH = None
+    if args.no_rim_shown:
+        shadow_rim.RIM_SHOWN = None
     if args.no_mesh_occlusion:
         face_mesh_module.MESH_OCCLUSION = False
     if args.no_mirror_dark:

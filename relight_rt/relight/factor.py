@@ -39,7 +39,9 @@ is taken out first (``unshaded_albedo``; de-lighting 0.87 / 0.70 -> 0.88 / 0.78)
 albedo of the lit skin around, and all of a shadow the transport misses goes with the photo's light (de-lighting
 with the face search's shadow lifts 0.89 / 0.80 -> 0.91 / 0.83); on its skin a light that would multiply the
 photo more than ``RATIO_CAP`` multiplies it that much and adds the rest of the change as the fill (``Factor.handover``:
-the speckle and the seam beside a side-lit face's black half). On a face mesh's skin a new light's lamp casts the
+the speckle and the seam beside a side-lit face's black half), and so does the penumbra around any deep shadow; the
+fill's weight meets the ratio at the photo's own shadow edge, per input pixel (relight_rt.relight.fill_edge). On a
+face mesh's skin a new light's lamp casts the
 mesh's own shadows (the nose's, the brows'; relight_rt.relight.cast_shadow), where they are darker than the photo's
 own light's: degree-2 SH cannot (Extended Yale B relight 0.859 / 0.6505 -> 0.870 / 0.734).
 (``cv2.ximgproc.guidedFilter`` at full resolution gives the same kind of result but costs ~0.6 s per 2-megapixel
@@ -68,6 +70,7 @@ from .cast_shadow import MeshView, shadow_factor
 from .decomposition import Decomposition, Memo, readonly
 from .detail import extend_outward, guided_upsample, shadow_texture, unpremultiply, window
 from .face_pass import FacePass, feather
+from .fill_edge import crop_part, edge_weight
 from .look import shaded_skin, skin_chroma, tint_range
 from .shadow_rim import masked_blur, rim_lift, spread_mean
 from .strength import (
@@ -79,6 +82,7 @@ from .strength import (
     refit_light,
     restore_bands,
 )
+from .unshade import UNSHADE_MIN_SKIN, unshaded_albedo  # noqa: F401 (UNSHADE_MIN_SKIN: kept importable here)
 
 _RATIO_EPS = np.float32(0.01)  # the ratio's denominator is floored here (dark pixels: noise, not light)
 _OWN_FLOOR = np.float32(0.5)  # light the model misses, up to this share of the photo, stays under a new light (own)
@@ -88,10 +92,10 @@ FILL_EDGE_SIGMA = 1.0  # ... within its reach of a shadow each pixel's own shadi
 FILL_ALBEDO_SPREAD = 0.08  # ... its albedo that of the lit pixels around, over this share of the window's side,
 FILL_ALBEDO_RANGE = 4.0  # ... at most this factor from stage 1's own albedo there
 RATIO_CAP = 2.0  # beside a deep shadow the photo's own detail is multiplied at most this much (Factor.handover),
-CAP_SKIN_SPREAD = 0.02  # ... on a face's skin, its edge softened over this share of the window's side
+CAP_SKIN_SPREAD = 0.02  # ... on a face's skin, its edge softened over this share of the window's side,
+CAP_SHADOW_REACH: float | None = 5.0  # ... elsewhere within about this many network px of a shadow's core (None: off)
 TEXTURE_SCALES = (1.0, 2.0)  # the fill's texture (Factor.texture): the photo's log detail in this band (input px),
 TEXTURE_BLOCK, TEXTURE_SHARE = 4.0, 0.35  # ... its power over this many px held to this quantile of the lit skin's
-UNSHADE_MIN_SKIN = 50  # unshaded_albedo: the fewest face-skin pixels (network frame) its fit is made on
 # a face's openings (inside the mesh's outline, off its skin: the eyes' sockets) take the skin's ratio cap and fill
 # albedo (``handover``, ``shadow_weight``): on a side-lit face's dark half the socket's grazing light was multiplied
 # into a bright patch (Extended Yale B from 70°, its socket over the face's mean 0.75 against 1.48 without, the real
@@ -113,39 +117,6 @@ def luminance_window(chw: np.ndarray, alpha: np.ndarray, box: tuple[int, int, in
     y0, y1, x0, x1 = box
     lum = np.tensordot(REC709, chw[:, y0:y1, x0:x1], axes=1)
     return np.divide(lum, alpha, out=np.zeros_like(lum), where=alpha > 0.5)
-
-
-def unshaded_albedo(albedo: np.ndarray, shading: np.ndarray, skin: np.ndarray, inner: np.ndarray) -> np.ndarray:
-    """Stage 1's albedo luminance with the part of the photo's own shading it took in taken out.
-
-    A face's skin is one material, so its albedo does not follow the light: the slope b of log albedo on log
-    shading over ``skin`` (the least-squares fit, kept in [0, 1]) is the share of the photo's own shading that
-    stage 1 put into the albedo (on side-lit Extended Yale B faces the shaded half's albedo came out 15-30 % darker
-    than the lit half's: the ratio then kept that much of the photo's shadow, benchmarks/yale_eval.py). Over the
-    person (``inner``) the albedo becomes albedo x (shading / its median over the skin) ** -b, the shading held
-    within the 2-98 % range the fit saw (stage 1 does this to every material; only skin shows how much); outside
-    it stays. With fewer than ``UNSHADE_MIN_SKIN`` skin pixels (no face mesh) nothing changes.
-
-    Args:
-        albedo, shading: (r, r') float32 luminance of stage 1's albedo and of the shading under the photo's own
-            light (both > 0 where they mean anything).
-        skin, inner: (r, r') bool, the face's skin (a mesh's) and the person's pixels.
-
-    Returns:
-        (r, r') float32, a new array (``albedo`` itself when nothing is taken out).
-    """
-    ok = skin & (shading > 1e-3) & (albedo > 1e-3)
-    if int(ok.sum()) < UNSHADE_MIN_SKIN:
-        return albedo
-    x, y = np.log(shading[ok]), np.log(albedo[ok])
-    x = x - x.mean()
-    b = float(np.clip((x * (y - y.mean())).sum() / max(float((x * x).sum()), 1e-9), 0, 1))
-    if b == 0:
-        return albedo
-    # within the shading the fit saw: a profile's hair turned away in deep shade came out 3x brighter without
-    lo, level, hi = np.percentile(shading[ok], [2, 50, 98])
-    gain = np.where(inner, (np.clip(shading, lo, hi) / level) ** -b, 1)
-    return (albedo * gain).astype(np.float32)
 
 
 def mirror_shadow(shading: np.ndarray, opening: np.ndarray, face: np.ndarray,
@@ -475,9 +446,16 @@ class Factor:
         self, dec: Decomposition, light: np.ndarray, image: np.ndarray, residual: np.ndarray | None = None,
         fill: bool = True,
     ) -> tuple[np.ndarray, tuple | None]:
-        """``gain`` and, with ``fill``, the deep shadow's fill (``_to_crop_part``: (box, part, weight) or None); the
-        gain then takes the photo as it is where the fill adds the change (its share w of the ratio's factor goes
-        to 1)."""
+        """``gain`` and, with ``fill``, the deep shadow's fill: (box, part, weight) or None, ``part`` (3 channels) the
+        change the light adds and ``weight`` its share, over ``box`` (a pair of slices of the crop box), decided at
+        the photo's resolution (relight_rt.relight.fill_edge); the gain takes the photo as it is there (its share
+        ``weight`` of the ratio's factor goes to 1).
+
+        Where the photo's own shading is near zero, photo x ratio multiplies noise (a side-lit face's black half
+        relit from the front stays black, its speckle amplified); there the change is added instead: the relit
+        colour is the photo plus w x chroma x the new light's colour x (new - own), the luminance the light adds
+        to stage 1's albedo under the new shading over the photo's own (zero under the photo's own light, so the
+        photo comes back)."""
         own = self.own(dec, with_residual=residual is not None)
         y0, y1, x0, x1 = own["window"]
         light = np.asarray(light, np.float32)
@@ -487,26 +465,61 @@ class Factor:
             state["skin_chroma"] = tuple(map(readonly, skin_chroma(dec.network_image[y0:y1, x0:x1],
                                                                      dec.skin[y0:y1, x0:x1])))
         factor = shaded_skin(tint * ratio[..., None], ratio, *state["skin_chroma"])  # shaded skin keeps its colour
-        shadow = self.shadow_weight(dec) if fill else None
-        added = None
-        if shadow is not None:
-            w, chroma = shadow
-            w = self.handover(own, w, ratio)
-            factor += w[..., None] * (1 - factor)
-            # as the ratio: 0 under the photo's own light
-            added = (w * (np.maximum(new, _RATIO_EPS) - own["own"]))[..., None] * tint * chroma
-        gain = extend_outward(factor, own["inner"])
         gray = state.get("gray")  # the full-resolution guide, kept for every light (read once: a group's person
         if gray is None:  # drops theirs after use, relight_rt.relight.people, maybe in another thread)
             gray = state["gray"] = readonly(cv2.cvtColor(image, cv2.COLOR_RGB2GRAY))
+        shadow = self.shadow_weight(dec) if fill else None
+        base = None if shadow is None else self.fill_base(dec, gray)
+        if base is not None:
+            chroma = shadow[1]
+            over = self.handover(ratio, base["reach"])
+            change = (np.maximum(new, _RATIO_EPS) - own["own"])[..., None] * tint * chroma  # as the ratio: 0 under
+            maps = change if over is None else np.dstack([change, over])  # the photo's own light
+        gain = extend_outward(factor, own["inner"])
         gain = guided_upsample(dec.geometry, gain, dec.network_image[y0:y1, x0:x1], gray, (y0, x0))
-        part = None if added is None else self._to_crop_part(dec, added, w, (y0, x0))
-        if part is not None:  # the photo's own fine detail carried into what is added (``texture``)
-            texture = self.texture(dec, gray)
-            if texture is not None:
-                box, values, weight = part
-                part = box, values * texture[box][..., None], weight
-        return gain, part
+        if base is None:
+            return gain, None
+        box, part = crop_part(dec.geometry, maps, base["where"], (y0, x0))
+        weight = base["weight"] if over is None else np.maximum(base["weight"], part[..., 3])
+        region = gain[box]
+        region += weight[..., None] * (1 - region)
+        values = part[..., :3] * weight[..., None]
+        texture = self.texture(dec, gray)  # the photo's own fine detail carried into what is added
+        if texture is not None:
+            values *= texture[box][..., None]
+        return gain, (box, values, weight)
+
+    def fill_base(self, dec: Decomposition, gray: np.ndarray) -> dict | None:
+        """What the deep shadow's fill needs at the photo's resolution whatever the light (cached; ``shadow_weight``
+        not None): "reach" (r, r') where ``handover`` may raise the weight (None: nowhere), "where" (r, r') bool the
+        network pixels the fill may cover, "box" and "weight" the crop box's part they map to and the weight there
+        (relight_rt.relight.fill_edge ``edge_weight``: along the shadow's border each input pixel's own shading).
+        ``gray``: the photo's grey in the crop box."""
+        state = self.memo(dec)
+        if "fill_base" not in state:
+            own = self.own(dec, with_residual=False)
+            w = self.shadow_weight(dec)[0]
+            reach = None
+            if CAP_SHADOW_REACH is not None:  # the penumbra around a deep shadow's core
+                core = (w > 0.5).astype(np.float32)
+                reach = np.minimum(2 * cv2.GaussianBlur(core, (0, 0), CAP_SHADOW_REACH), 1) * own["inner"]
+            if own["cap_skin"] is not None:  # a face's skin and openings
+                reach = own["cap_face"] if reach is None else np.maximum(reach, own["cap_face"])
+            where = (w > 1e-3) | (reach > 1e-3) if reach is not None else w > 1e-3
+            y0, _, x0, _ = own["window"]
+            around = np.ones((3, 3), np.uint8)
+            maps = np.dstack([w, cv2.erode(w, around), cv2.dilate(w, around), own["albedo"]])
+            mapped = crop_part(dec.geometry, maps, where, (y0, x0))
+            result = None
+            if mapped is not None:
+                box, part = mapped
+                weight = edge_weight(part[..., 0], part[..., 1], part[..., 2], gray[box],
+                                     np.maximum(part[..., 3], EXPLAIN_ALBEDO_MIN), state["shadow_level"],
+                                     FILL_LOW, FILL_HIGH)
+                result = {"reach": None if reach is None else readonly(reach.astype(np.float32)),
+                          "where": readonly(where), "box": box, "weight": readonly(weight)}
+            state["fill_base"] = result
+        return state["fill_base"]
 
     def texture(self, dec: Decomposition, gray: np.ndarray) -> np.ndarray | None:
         """(h, w) the photo's own fine detail in the crop box as a factor on the deep shadow's fill (cached;
@@ -541,9 +554,10 @@ class Factor:
             state["texture"] = result
         return state["texture"]
 
-    def handover(self, own: dict, w: np.ndarray, ratio: np.ndarray) -> np.ndarray:
-        """The fill's weight under one light: ``w`` (``shadow_weight``'s), raised on a face mesh's skin where the light
-        multiplies the photo by more than ``RATIO_CAP``, so that the photo there is multiplied at most that much.
+    def handover(self, ratio: np.ndarray, reach: np.ndarray | None) -> np.ndarray | None:
+        """(r, r') what the fill's weight is raised to under one light where it ``reach``es (``fill_base``: a face
+        mesh's skin and openings, the penumbra around a deep shadow's core): where the light multiplies the photo by
+        more than ``RATIO_CAP``, the photo there is multiplied at most that much; None where the rule is off.
 
         Just above the fill's own handover (a side-lit face's lips and nose beside its black half, the photo at levels
         20-30) a light from the other side multiplies the photo 3-5x, and with it its noise and the part of the shadow
@@ -551,16 +565,18 @@ class Factor:
         (Extended Yale B from 70°, benchmarks/yale_eval.py). The factor is (1 - w) x ratio + w and the fill adds w x the
         change, so w = (ratio - cap) / (ratio - 1) where the ratio passes the cap gives the photo x cap plus the rest of
         the change, added: the same light where the albedo is right, the photo's noise multiplied by the cap only. A
-        light that brightens the photo less than the cap, the photo's own light included, changes nothing. Only on a
+        light that brightens the photo less than the cap, the photo's own light included, changes nothing. On a
         face's skin and its openings (``OPENINGS_AS_SKIN``; its edge softened over ``CAP_SKIN_SPREAD`` of the window's
-        side), where the fill carries the lit skin's albedo: over a whole person the added change, smooth, flattened a
-        striped shirt's and jeans' own texture (the bundled example under ``studio``, a cap of 2.5: 14 % of its values
-        moved, up to 50 levels).
+        side), where the fill carries the lit skin's albedo; elsewhere only within ``CAP_SHADOW_REACH`` of a deep
+        shadow's core (its penumbra: the transport's shading, smoother than the photo's edge, stays well above the
+        photo's there, and the ratio too low by 1.5-2x drew a dark line between the fill and the lit side: Extended
+        Yale B's yaleB21 from -50, no face mesh); over a whole person the added change, smooth, flattened a striped
+        shirt's and jeans' own texture (the bundled example under ``studio``, a cap of 2.5: 14 % of its values moved,
+        up to 50 levels).
         """
-        if not RATIO_CAP > 1 or own["cap_skin"] is None:  # the rule off, or no face's skin
-            return w
-        over = np.clip((ratio - RATIO_CAP) / np.maximum(ratio - 1, 1e-6), 0, 1) * own["cap_face"]
-        return np.maximum(w, over).astype(np.float32)
+        if not RATIO_CAP > 1 or reach is None:  # the rule off, or nowhere to reach
+            return None
+        return (np.clip((ratio - RATIO_CAP) / np.maximum(ratio - 1, 1e-6), 0, 1) * reach).astype(np.float32)
 
     def shadow_weight(self, dec: Decomposition) -> tuple[np.ndarray, np.ndarray] | None:
         """Where the photo's own shading is too low for the ratio (cached): (w, chroma) in the person's window, w
@@ -592,7 +608,7 @@ class Factor:
             own = self.own(dec, with_residual=False)
             inner, photo = own["inner"], own["photo"]
             shown = photo / np.maximum(own["albedo"], EXPLAIN_ALBEDO_MIN)
-            level = float(np.median(shown[inner])) if inner.any() else 0.0
+            level = state["shadow_level"] = float(np.median(shown[inner])) if inner.any() else 0.0
             # a shadow is wide, a black stripe the albedo blurred away is not: the shading shown, smoothed
             # (both blurs masked to the solid person: the background, in a soft edge's pixels too, moves no weight)
             keep = (inner & (own["alpha"] > 0.9)).astype(np.float32)
@@ -640,45 +656,6 @@ class Factor:
                     result = (readonly(w.astype(np.float32)), readonly(chroma.astype(np.float32)))
             state["shadow"] = result
         return state["shadow"]
-
-    def _to_crop_part(self, dec: Decomposition, added: np.ndarray, w: np.ndarray, origin: tuple[int, int]) -> tuple:
-        """The fill (``gain_and_fill``): ``added`` (r, r', 3), the change the light adds where the photo's own
-        shading is near zero (w > 0), mapped to the crop box: (box, part, weight), ``part`` (3 channels) and
-        ``weight`` (w) over the part ``box`` (a pair of slices) of the crop box that holds it (the whole box unless
-        enlarging), or None.
-
-        Where the photo's own shading is near zero, photo x ratio multiplies noise (a side-lit face's black half
-        relit from the front stays black, its speckle amplified); there the change is added instead: the relit
-        colour is the photo plus w x chroma x the new light's colour x (new - own), the luminance the light adds
-        to stage 1's albedo under the new shading over the photo's own (zero under the photo's own light, so the
-        photo comes back).
-        """
-        geom = dec.geometry
-        h, wd = geom.crop_shape
-        both = np.concatenate([added, w[..., None]], axis=2)  # one mapping for the change and its weight
-        if geom.side <= geom.resolution:
-            part = geom.to_crop(both, origin)
-            return (slice(0, h), slice(0, wd)), part[..., :3], part[..., 3]
-        # enlarging: only the part of the crop box the shadow covers, by to_crop's own mapping (CropGeometry)
-        ys, xs = np.nonzero(w > 1e-3)
-        if ys.size == 0:
-            return None
-        (oy, ox), k = geom.offset, geom.resolution / geom.side
-
-        def span(lo: int, hi: int, start: int, offset: int, size: int) -> tuple[int, int]:
-            a = int(np.floor((lo - 1 + start + 0.5) / k - 0.5 - offset))
-            b = int(np.ceil((hi + 1 + start + 0.5) / k - 0.5 - offset)) + 1
-            return max(a, 0), min(b, size)
-
-        cy0, cy1 = span(int(ys.min()), int(ys.max()), origin[0], oy, h)
-        cx0, cx1 = span(int(xs.min()), int(xs.max()), origin[1], ox, wd)
-        if cy1 <= cy0 or cx1 <= cx0:
-            return None
-        m = np.array([[k, 0.0, (ox + cx0 + 0.5) * k - 0.5 - origin[1]],
-                      [0.0, k, (oy + cy0 + 0.5) * k - 0.5 - origin[0]]])
-        part = cv2.warpAffine(np.ascontiguousarray(both, np.float32), m, (cx1 - cx0, cy1 - cy0),
-                              flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_REPLICATE)
-        return (slice(cy0, cy1), slice(cx0, cx1)), part[..., :3], part[..., 3]
 
     def blend_head(self, dec: Decomposition, gain: np.ndarray, light: np.ndarray, head: Decomposition,
                     box: tuple[int, int, int, int], fill: tuple | None = None) -> None:

@@ -12,7 +12,11 @@ edge around a dark patch (yaleB21 from -50 degrees, which no face mesh is found 
 On a face mesh's skin the fill already takes the albedo of the lit skin around (``Factor.shadow_weight``). Elsewhere
 ``rim_lift`` gives it the albedo the ratio shows at the fill's own rim (the trusted pixels within ``RIM_REACH``
 network pixels of it), spread inward over ``RIM_SPREAD`` of the window's side: the fill then joins the ratio at its
-border whatever the threshold, and the shadow's interior takes the surface that borders it. A shadow's rim is the
+border whatever the threshold, and the shadow's interior takes the surface that borders it. The rim is read where
+the photo is as bright as the pipeline's own image says (``RIM_SHOWN``): in the penumbra just outside the fill the
+transport's shading is smoother than the photo's edge, the photo falls short of it and shows a darker albedo (beside
+yaleB21's fill from -50, 0.38-0.44 against the lit cheek's 0.6-0.7: a dark fill, the photo-lit triangle on the lower
+cheek left standing out). A shadow's rim is the
 same surface as the shadow far more often than another material, but not always (dark hair in shade beside lit skin,
 a black jacket beside a white shirt): the rim's albedo is taken only as far as stage 1 sees skin there (its skin
 probability times ``RIM_SKIN_GATE``, smoothed: skin is one material, hair and cloth keep stage 1's albedo) and, in a
@@ -32,6 +36,9 @@ from .look import skin_chroma
 
 RIM_REACH = 3.0  # the fill's rim: trusted pixels within about this many network pixels of its weight (a Gaussian)
 RIM_SPREAD = 0.08  # ... their albedo spread inward over this share of the window's side
+# ... each counted from none to all as photo / own goes from the first to the second share of its median over the lit
+# person (a penumbra, where the photo falls short of the model's smooth shading, is not the rim); None: all count
+RIM_SHOWN: tuple[float, float] | None = (0.5, 0.9)
 RIM_RANGE: float | None = 4.0  # ... at most this factor from stage 1's albedo (None: the rule off)
 RIM_SKIN_GATE = 2.0  # ... taken as far as stage 1's skin probability times this (1: all; a shaded cheek reads 0.3-0.5)
 RIM_SKIN_SIGMA = 2.5  # ... that probability smoothed over this many network pixels
@@ -109,12 +116,19 @@ def rim_lift(albedo: np.ndarray, photo: np.ndarray, own: np.ndarray, weight: np.
     """
     if RIM_RANGE is None:
         return None
-    rim = (trust * cv2.GaussianBlur(weight.astype(np.float32), (0, 0), RIM_REACH)).astype(np.float32)
-    seen = (albedo * photo / own).astype(np.float32)  # the albedo the ratio shows: photo x new / own = seen x new / A
+    shows = (photo / own).astype(np.float32)
+    lit = trust > 0.5
+    # only where the photo is as bright as the model says (against the lit person's median): in a penumbra the
+    # transport's shading is smoother than the photo's, the photo falls short of it and shows a darker albedo
+    bright = np.float32(1)
+    if RIM_SHOWN is not None:
+        norm = float(np.median(shows[lit])) if lit.any() else 1.0
+        bright = np.clip((shows / max(norm, 1e-6) - RIM_SHOWN[0]) / (RIM_SHOWN[1] - RIM_SHOWN[0]), 0, 1)
+    rim = (trust * bright * cv2.GaussianBlur(weight.astype(np.float32), (0, 0), RIM_REACH)).astype(np.float32)
+    seen = albedo * shows  # the albedo the ratio shows: photo x new / own = seen x new / A
     around = spread_mean(seen, rim, RIM_SPREAD * max(weight.shape), albedo)
     # a lift, never past the albedo the person's trusted pixels show (their median): the rim of a stage 1 error
     # (a bright albedo around an eye, the ratio blowing it out) is not spread into the shadow it borders
-    lit = trust > 0.5
     level = float(np.median(seen[lit])) if lit.any() else float(np.max(albedo))
     around = np.minimum(around, np.maximum(albedo, level))
     lift = np.clip(around / np.maximum(albedo, floor), 1, RIM_RANGE)

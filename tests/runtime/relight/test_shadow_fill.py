@@ -41,10 +41,26 @@ def test_a_hard_shadow_is_filled_and_the_own_light_gives_the_photo_back(relighte
     assert lit > 0.1 and lit > 10 * float((multiplied[core] @ REC709).mean())  # the light reaches the shadow
     lit_side = ~core & (mask > 0)
     lit_side[:, :62] = False
-    # the lit half as it was (within a level or two). The fill's weight stops at the photo's edge at 55 (next test),
-    # but the edge-aware upsampling of the gain spreads its last black network pixel's fill (2.3 input pixels a
-    # network pixel here) over 56-61: up to 0.06 at 56, 0.018 at 60, 0.004 at 62 (faces15's fill reaching the edge)
-    assert np.abs(filled[lit_side] - multiplied[lit_side]).max() < 0.01
+    assert np.abs(filled[lit_side] - multiplied[lit_side]).max() < 0.01  # the lit half as it was
+
+
+def test_the_fill_begins_and_ends_at_the_photos_own_edge_not_the_networks(relighter, monkeypatch):
+    """The photo (150 x 100) is larger than the network's square (64: 2.3 input pixels a network pixel). The fill's
+    weight was blended into the factor on the network's grid and upsampled: its last black network pixel carried the
+    fill onto the lit side (up to 0.060 at the photo's edge at 55, 0.018 at 60), and the network pixel straddling the
+    edge, read lit, ended it short inside the black (0.10-0.26 two to four pixels inside against 0.32 in the core).
+    Now the weight is decided per input pixel along the border (relight_rt.relight.fill_edge ``edge_weight``)."""
+    img, mask = person()
+    shadowed = img.copy()
+    shadowed[20:140, 30:55] *= 0.01  # the photo's own edge between 54 and 55
+    dec = replace(relighter.decompose(shadowed, mask), albedo_chw=relighter.decompose(img, mask).albedo_chw)
+    filled = relighter.relight(dec, 2 * OWN_LIGHT, exposure="physical")
+    core = float((filled[40:120, 36:46] @ REC709).mean())
+    inside = (filled[40:120, 49:54] @ REC709).mean(axis=0)  # the black's last five pixels but its edge's own
+    assert core > 0.3 and inside.min() > 0.6 * core, (core, inside)  # measured 0.326: 0.233 (0.101 before)
+    monkeypatch.setattr(relighter._factor, "shadow_weight", lambda *args: None)
+    multiplied = relighter.relight(replace(dec), 2 * OWN_LIGHT, exposure="physical")
+    assert np.abs(filled[40:120, 55:62] - multiplied[40:120, 55:62]).max() < 0.03  # measured 0.021 (0.060 before)
 
 
 def test_the_fills_weight_does_not_cross_the_photos_shadow_edge(relighter):
@@ -109,7 +125,8 @@ def test_where_a_light_multiplies_a_dim_photo_the_fill_takes_over_and_its_noise_
     and a light that lifts it 4x multiplies its noise 4x: a speckled patch beside the fill's smooth one (Extended
     Yale B's lips and nose lit from 70°). On a face mesh's skin, where the ratio passes ``RATIO_CAP`` the change
     beyond it is added as the fill (``Factor.handover``): the noise the photo has and the albedo has not is multiplied
-    at most by the cap; the photo's own light still gives the photo back. Elsewhere nothing changes."""
+    at most by the cap; the photo's own light still gives the photo back. Off a face's skin only within
+    ``CAP_SHADOW_REACH`` of a deep shadow's core (test_fill_edges: the penumbra's dark line)."""
     img, mask = person(box=(20, 140, 20, 90))
     shaded = img.copy()
     shaded[20:140, 20:30] *= 0.01  # the deep shadow (the fill's)
@@ -130,7 +147,12 @@ def test_where_a_light_multiplies_a_dim_photo_the_fill_takes_over_and_its_noise_
                                                                                       exposure="physical")
         return float(diff[core].std() / noise[core].std())
 
-    plain = noise_gain(4 * OWN_LIGHT)  # no face mesh: the rule is a face's skin's only, the photo is multiplied
+    reach = relight_factor.CAP_SHADOW_REACH
+    monkeypatch.setattr(relight_factor, "CAP_SHADOW_REACH", None)
+    plain = noise_gain(4 * OWN_LIGHT)  # no face mesh and no reach: the photo is multiplied
+    monkeypatch.setattr(relight_factor, "CAP_SHADOW_REACH", reach)
+    near = noise_gain(4 * OWN_LIGHT)  # no face mesh: only within reach of the deep shadow's core (6-14 px from it)
+    assert near < plain - 0.5, (near, plain)
     factor = relighter._factor
     restored = factor.restored
     # the analytic stage 1 finds no face: the whole person taken for a face mesh's skin

@@ -1,0 +1,91 @@
+"""The deep shadow's fill at the photo's own resolution: its edge is the photo's shadow edge, not the network's grid.
+
+Where the photo's own shading is near zero the relighting factor adds the new light's change instead of multiplying
+the photo (relight_rt.relight.factor ``Factor.shadow_weight``, ``Factor.gain_and_fill``). The weight w of that fill is
+found on the network's grid. It used to be blended into the factor there ((1 - w) x ratio + w) before the edge-aware
+upsampling, and the fill itself was mapped on its own. Where the photo is larger than the network's square (one
+network pixel 2-8 input pixels), the last black network pixel then carried the fill and the factor's 1 onto the lit
+side of the photo's own edge, through the guided filter's windows and the linear mapping: up to 0.06 on the lit
+pixel beside a hard shadow, still 0.018 four input pixels away (tests/runtime/relight/test_shadow_fill.py). Now the
+ratio is upsampled as it is (high in a black shadow, lower in its penumbra, 1-2 on the lit side: a slope the guided
+filter's local linear model follows, not the ridge the blend made), the weight is mapped to the crop box and decided
+at the photo's resolution (``edge_weight``), and the two meet per input pixel.
+
+``edge_weight``: along a shadow's border (where the network's weight steps from one network pixel to the next) each
+input pixel's own shading (its grey over the albedo, against the same median the network's weight is measured on)
+decides, held between the least and the greatest network weight around it: a lit input pixel is multiplied, a black
+one filled, whichever network pixel it falls in (the fill had also stopped short of the edge inside the black, the
+last network pixel straddling it reading lit: 0.10 instead of 0.32 two input pixels inside). Only there: stage 1
+often takes part of a shadow for a dark albedo, so an input pixel's own shading inside a wide shadow can read lit (a
+mole, a brow) where the network's smoothed weight rightly says shadow, and a textured shadow's own weight follows
+its texture (the fill's texture then no longer the photo's: correlation 0.67 -> 0.57 in test_shadow_fill).
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from ..image.crop import CropGeometry
+
+EDGE_OWN_SIGMA = 0.7  # edge_weight: each input pixel's own grey smoothed over this many input pixels (noise),
+EDGE_SPAN = (0.3, 0.7)  # ... deciding where the network's weights around differ by more than this (a border)
+
+
+def crop_part(geom: CropGeometry, maps: np.ndarray, where: np.ndarray, origin: tuple[int, int]) -> tuple | None:
+    """``maps`` (r, r', C), a window of the network frame starting at ``origin``, mapped to the crop box as
+    ``CropGeometry.to_crop`` maps it: (box, part), ``part`` (h', w', C) over ``box`` (a pair of slices of the crop
+    box), the whole box unless enlarging, else only the part ``where`` (r, r') bool covers; None when that is empty.
+    """
+    h, wd = geom.crop_shape
+    if geom.side <= geom.resolution:
+        return (slice(0, h), slice(0, wd)), geom.to_crop(maps, origin)
+    ys, xs = np.nonzero(where)
+    if ys.size == 0:
+        return None
+    (oy, ox), k = geom.offset, geom.resolution / geom.side
+
+    def span(lo: int, hi: int, start: int, offset: int, size: int) -> tuple[int, int]:
+        a = int(np.floor((lo - 1 + start + 0.5) / k - 0.5 - offset))
+        b = int(np.ceil((hi + 1 + start + 0.5) / k - 0.5 - offset)) + 1
+        return max(a, 0), min(b, size)
+
+    cy0, cy1 = span(int(ys.min()), int(ys.max()), origin[0], oy, h)
+    cx0, cx1 = span(int(xs.min()), int(xs.max()), origin[1], ox, wd)
+    if cy1 <= cy0 or cx1 <= cx0:
+        return None
+    m = np.array([[k, 0.0, (ox + cx0 + 0.5) * k - 0.5 - origin[1]],
+                  [0.0, k, (oy + cy0 + 0.5) * k - 0.5 - origin[0]]])
+    maps = np.ascontiguousarray(maps, np.float32)
+    size = (cx1 - cx0, cy1 - cy0)
+    parts = [cv2.warpAffine(np.ascontiguousarray(maps[..., i : i + 4]), m, size,  # OpenCV: <= 4 channels a call
+                            flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_REPLICATE)
+             for i in range(0, maps.shape[2], 4)]
+    part = np.dstack([p.reshape(size[1], size[0], -1) for p in parts])
+    return (slice(cy0, cy1), slice(cx0, cx1)), part
+
+
+def edge_weight(w: np.ndarray, least: np.ndarray, most: np.ndarray, gray: np.ndarray, albedo: np.ndarray,
+                level: float, low: float, high: float) -> np.ndarray:
+    """(h', w') float32 in [0, 1]: the fill's weight at the photo's resolution (module docstring): along a shadow's
+    border each input pixel's own weight, held between the least and the greatest of the network's weights around
+    it; elsewhere the network's.
+
+    Args:
+        w, least, most: (h', w') the network's weight mapped to the input pixels, and the least and the greatest of
+            it over each network pixel's 3 x 3 neighbours, mapped the same way. Where they differ by more than
+            ``EDGE_SPAN`` (a border: the weight steps within a network pixel) the pixel's own weight takes over, in
+            full from ``EDGE_SPAN[1]`` on; inside a shadow, away from one and along a smooth ramp the network's stays.
+        gray: (h', w') the photo's grey there, in [0, 1]; albedo: (h', w') stage 1's albedo luminance mapped there
+            (floored by the caller).
+        level: the shading shown (photo over albedo) that the network's weight is measured against (its median).
+        low, high: from ``high`` x level of the shading shown down to ``low`` x level the pixel's own weight goes
+            from none to all (the network weight's own thresholds).
+    """
+    span = np.clip((most - least - EDGE_SPAN[0]) / (EDGE_SPAN[1] - EDGE_SPAN[0]), 0, 1)
+    if not span.any():
+        return w.astype(np.float32)
+    shown = cv2.GaussianBlur(gray.astype(np.float32), (0, 0), EDGE_OWN_SIGMA) / albedo
+    q = np.clip((shown / max(level, 1e-6) - low) / (high - low), 0, 1)
+    own = np.clip(1 - q * q * (3 - 2 * q), least, most)
+    return (w + span * (own - w)).astype(np.float32)
