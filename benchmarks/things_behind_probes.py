@@ -60,9 +60,13 @@ def pieces(alpha: np.ndarray) -> tuple[int, int]:
     return int(n - 2) if n > 1 else 0, int(sizes[:-1].sum())
 
 
+def taken(alpha: np.ndarray, out: np.ndarray) -> float:
+    """The share of the matte (>= 0.5) that the rule takes."""
+    return float(((alpha >= 0.5) & (out < 0.5)).sum() / max(int((alpha >= 0.5).sum()), 1))
+
+
 def report(name: str, alpha: np.ndarray, out: np.ndarray, gt: np.ndarray) -> None:
-    taken = ((alpha >= 0.5) & (out < 0.5)).sum() / max(int((alpha >= 0.5).sum()), 1)
-    print(f"{name}: the rule takes {taken:.1%} of the matte; IoU {E.iou(alpha >= 0.5, gt):.4f} -> "
+    print(f"{name}: the rule takes {taken(alpha, out):.1%} of the matte; IoU {E.iou(alpha >= 0.5, gt):.4f} -> "
           f"{E.iou(out >= 0.5, gt):.4f}")  # fmt: skip
 
 
@@ -70,31 +74,45 @@ def pad(a: np.ndarray, rows: int, value: float) -> np.ndarray:
     return np.concatenate([a, np.full((rows, *a.shape[1:]), value, a.dtype)])
 
 
+def read(name: str) -> tuple[np.ndarray, np.ndarray]:
+    rgb = E.read_rgb(PHOTOS / f"{name}.jpg")
+    return rgb, E.read_mask(PHOTOS / f"{name}_mask.png", rgb.shape[:2])
+
+
+def couple(matter: M.PersonMatter, sigma: float, rows: int = 60) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """p089, its second partner blurred by ``sigma`` px, ``rows`` black rows below: (matte before the rule, after it,
+    the service's mask), all with the rows."""
+    rgb, gt = read("p089")
+    people, alpha = before_rule(matter, rgb)
+    h, w = alpha.shape
+    main = people[0]
+    view = Person(main.region, matter._pose(rgb, main.region).logits, 0.0)
+    seen = sigmoid(logits_on_grid(view, (w, h, 1.0, 1.0, -0.5, -0.5)))
+    partner = (seen < 0.1) & (alpha >= 0.5) & (np.arange(w)[None, :] > 0.45 * w)
+    partner = cv2.dilate(partner.astype(np.uint8), np.ones((21, 21), np.uint8)).astype(bool)
+    blurred = rgb.copy()
+    blurred[partner] = cv2.GaussianBlur(rgb, (0, 0), sigma)[partner]
+    alpha = pad(alpha, rows, 0.0)
+    return alpha, rule(matter, pad(blurred, rows, 0.0), alpha, people), pad(gt, rows, False)
+
+
+def band(matter: M.PersonMatter, name: str, rows: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Photo ``name`` with a white band of ``rows`` rows below: as :func:`couple`."""
+    rgb, gt = read(name)
+    people, alpha = before_rule(matter, rgb)
+    alpha = pad(alpha, rows, 0.0)
+    return alpha, rule(matter, pad(rgb, rows, 1.0), alpha, people), pad(gt, rows, False)
+
+
 def main() -> int:
     if not PHOTOS.is_dir():
         raise SystemExit(f"{PHOTOS} not found (the probes read ../shared/realdata)")
     matter = M.PersonMatter()
-    rgb = E.read_rgb(PHOTOS / "p089.jpg")
-    gt = E.read_mask(PHOTOS / "p089_mask.png", rgb.shape[:2])
-    people, alpha = before_rule(matter, rgb)
-    h, w = alpha.shape
-    grid = (w, h, 1.0, 1.0, -0.5, -0.5)
-    main = people[0]
-    seen = sigmoid(logits_on_grid(Person(main.region, matter._pose(rgb, main.region).logits, 0.0), grid))
-    partner = (seen < 0.1) & (alpha >= 0.5) & (np.arange(w)[None, :] > 0.45 * w)
-    partner = cv2.dilate(partner.astype(np.uint8), np.ones((21, 21), np.uint8)).astype(bool)
     for sigma in (1.0, 2.0):
-        blurred = rgb.copy()
-        blurred[partner] = cv2.GaussianBlur(rgb, (0, 0), sigma)[partner]
-        changed, a, g = pad(blurred, 60, 0.0), pad(alpha, 60, 0.0), pad(gt, 60, False)
-        report(f"couple p089, partner blurred {sigma:g} px, 60 rows below", a, rule(matter, changed, a, people), g)
+        report(f"couple p089, partner blurred {sigma:g} px, 60 rows below", *couple(matter, sigma))
     for name in ("p285", "p287"):
-        rgb = E.read_rgb(PHOTOS / f"{name}.jpg")
-        gt = E.read_mask(PHOTOS / f"{name}_mask.png", rgb.shape[:2])
-        people, alpha = before_rule(matter, rgb)
         for rows in (40, 100):
-            a, g = pad(alpha, rows, 0.0), pad(gt, rows, False)
-            report(f"band {name}, {rows} white rows below", a, rule(matter, pad(rgb, rows, 1.0), a, people), g)
+            report(f"band {name}, {rows} white rows below", *band(matter, name, rows))
     for name in ("p104", "p064", "p089"):
         rgb = E.read_rgb(PHOTOS / f"{name}.jpg")
         k = float(np.sqrt(2.5e6 / (rgb.shape[0] * rgb.shape[1])))
@@ -102,8 +120,8 @@ def main() -> int:
         people, alpha = before_rule(matter, rgb)
         out = rule(matter, rgb, alpha, people)
         (n0, px0), (n1, px1) = pieces(alpha), pieces(out)
-        taken = ((alpha >= 0.5) & (out < 0.5)).sum() / max(int((alpha >= 0.5).sum()), 1)
-        print(f"slivers {name} at 2.5 MP: the rule takes {taken:.1%}; pieces apart {n0} ({px0} px) -> {n1} ({px1} px)")
+        print(f"slivers {name} at 2.5 MP: the rule takes {taken(alpha, out):.1%}; pieces apart {n0} ({px0} px) -> "
+              f"{n1} ({px1} px)")  # fmt: skip
     return 0
 
 
