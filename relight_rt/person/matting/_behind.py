@@ -36,11 +36,12 @@ FACE_PX = 100  # the photo is read reduced until a face is at most this wide (ne
 _FILL = 4  # behind_part: holes of the part up to this many times smaller than the face behind are filled
 
 
-def _gray(rgb: np.ndarray) -> np.ndarray:
+def grey_of(rgb: np.ndarray) -> np.ndarray:
+    """(H, W) float32 grey of an (H, W, 3) RGB photo (OpenCV's weights), the one the detail measures read."""
     return cv2.cvtColor(np.ascontiguousarray(rgb, np.float32), cv2.COLOR_RGB2GRAY)
 
 
-def _details(gray: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def details(gray: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """|I - G(_FINE) I| and |I - G(_MID) I| of a grey image: the detail finer than about 1 and 3 pixels."""
     fine = np.abs(gray - cv2.GaussianBlur(gray, (0, 0), _FINE))
     mid = np.abs(gray - cv2.GaussianBlur(gray, (0, 0), _MID))
@@ -49,7 +50,7 @@ def _details(gray: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def fine_detail(gray: np.ndarray, box) -> float:
     """How sharp the photo is in ``box`` (image px; a face's): the mean fine detail over the mean mid-scale detail
-    there (:func:`_details`, with a margin of 3 * _MID pixels around the box). Blurred, a face loses its finest detail
+    there (:func:`details`, with a margin of 3 * _MID pixels around the box). Blurred, a face loses its finest detail
     first: 0.17 and 0.20 on the two blurred faces behind a subject among benchmarks/people_masks_eval.py's photos,
     their subjects' 0.36-0.37; the faces the default matte holds there measure 0.17-0.70 (median 0.39): a photo's own
     sharpness varies, so a face is compared with the subject's of the same photo. A ratio: contrast and light cancel."""
@@ -59,7 +60,7 @@ def fine_detail(gray: np.ndarray, box) -> float:
     x1, y1 = min(int(np.ceil(box[2])) + m, w), min(int(np.ceil(box[3])) + m, h)
     if x1 - x0 <= 2 * m or y1 - y0 <= 2 * m:
         return float("nan")
-    fine, mid = _details(gray[y0:y1, x0:x1])
+    fine, mid = details(gray[y0:y1, x0:x1])
     fine, mid = fine[m:-m, m:-m], mid[m:-m, m:-m]
     return float(fine.mean() / max(float(mid.mean()), 1e-6))
 
@@ -147,7 +148,7 @@ def behind_faces(rgb: np.ndarray, people: list[Person], faces: list[Face]) -> Be
     small = [f for f in small if reaches_outside(people, f, shape)]
     if not small:
         return None
-    full = _gray(rgb)  # only here: most photos hold one face, or none smaller
+    full = grey_of(rgb)  # only here: most photos hold one face, or none smaller
     gray, scale = reduced(full, subject)
     sharp = fine_detail(gray, _scaled(subject, scale).box)
     behind = [f for f in small if fine_detail(gray, _scaled(f, scale).box) <= BEHIND_SHARP * sharp]
@@ -184,7 +185,7 @@ def blurred_side(
     window holds that outline: a band of the person behind along it stays with the subject). _WINDOW chosen among 8,
     12, 16 on p257 (half A: 0.958, 0.961, 0.959; enlarged 4.7x to 2.5 MP 0.956, 0.958, 0.914), p103 (half B) checked
     (0.952, 0.952, 0.947)."""
-    fine, mid = _details(gray)
+    fine, mid = details(gray)
     fine = cv2.blur(fine, (window, window))
     mid = cv2.blur(mid, (window, window))
     blur = fine < level * mid

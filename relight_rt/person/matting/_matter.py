@@ -627,8 +627,8 @@ class PersonMatter:
             if self.person != "all":  # in everyone's matte a faint person apart is someone
                 alpha = without_doubted_parts(alpha, band_width(alpha.shape))
                 alpha = without_cast_shadow(rgb, alpha, selfie_sure(self.roi, rgb))  # (_shadow)
-                alpha = without_things_behind(  # (_things_behind: the pose graph's view, a pose-graph person's own)
-                    rgb, alpha, people, lambda p: p.logits if p.source == "pose" else self._pose(rgb, p.region).logits
+                alpha = without_things_behind(  # (_things_behind: the pose graph's view of a selfie-graph person)
+                    rgb, alpha, people, lambda p: self._pose(rgb, p.region).logits, lambda: self.find_faces(rgb)
                 )
         return alpha
 

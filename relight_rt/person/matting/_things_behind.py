@@ -1,32 +1,46 @@
-"""Things out of focus behind the person, left out of the default matte (person="largest").
+"""Things out of focus behind the person, left out of the default matte (person="largest", photos only).
 
 The selfie graph segments a person with what lies close behind them when it is out of focus: a guitar leaning behind a
-girl's shoulder, a red stage light beside a singer's head, a blob of foliage below a couple's joined hands. Such a part
-has three marks that a person's own parts (an arm, the hair, a held phone, a bag) do not have together:
+girl's shoulder, a red stage light beside a singer's head, a blob of foliage below a couple's joined hands. The pose
+graph, made for bodies, does not take those in; but it does not see every body the selfie graph holds either (a close
+portrait's torso, the second partner of a couple: 37-51 % of the matte of p064, p089, p285). So a part leaves only
+where it has every mark of a thing behind and none of a person:
 
-1. the pose graph, made for bodies, does not see it (probability under _UNSEEN on the person's region);
-2. it is blurred where the person is sharp: its fine detail over its mid-scale detail (the measure of
-   relight_rt.person.matting._behind, :func:`detail_ratio`) is at most _BLURRED x that of the part of the matte that
-   the pose graph sees (defocus is depth: the person is the photo's focus);
+1. the pose graph does not see it (probability under _UNSEEN): only a selfie-graph person's matte can hold such a part
+   (a pose-graph person's segmentation is the pose graph's own view: nothing is looked at, no time is spent);
+2. it is blurred where the person is sharp: its fine over mid-scale detail (:func:`detail_ratio`, on the detail maps
+   of relight_rt.person.matting._behind) is at most _BLURRED x that of the matte's pixels the pose graph sees (defocus
+   is depth: the person is the photo's focus);
 3. it sticks out of the matte: under _APART of a thin ring around it lies inside the matte (a thing beside the person
-   is mostly surrounded by the backdrop; a held phone or a sleeve lies against the body).
+   is mostly surrounded by the backdrop; a held phone or a sleeve lies against the body);
+4. it is a thing, not part of someone: at most _MAX_PART of the matte (a torso, a second person, is more), holding no
+   face's middle and reaching under none (:func:`bodily`: a face's person goes on below it; who is behind the subject,
+   whole, is relight_rt.person.matting._behind's to decide), and not cut by the photo's bottom border (a body cut by
+   the frame goes on). A side or the top border is no such sign: p016's blob and p064's stage light, both things
+   behind, are cut by them.
 
-Such a part (:func:`blurred_things`: a piece of the matte's pose-unseen pixels that an opening of _OPEN x the matte's
-side leaves, at least _MIN_PART of the matte, not touching the photo's bottom border, where a body cut by the frame
-goes on) leaves the matte with its soft rim (:func:`without_things_behind`). Parts the people's segmentations hardly
-hold (the own colours' parts, relight_rt.person.matting._colours) are not looked at. The matte is read on a grid whose
-side is at most _SIDE pixels on the side of the matte's area (a 2.5-MP photo costs what a web photo does).
+A part is a piece of the matte's pose-unseen pixels that an opening by a disc of _OPEN x the matte's side leaves (the
+pose graph's outline lies a pixel or two inside the matte's: the opening parts that strip from the thing)
+(:func:`blurred_things`). It leaves the matte softly (:func:`without_things_behind`, :func:`_leave`): alpha x (1 - its
+share of each pixel), with the pieces its cut leaves apart from the matte and its soft rim; the body's soft edge
+beside it stays. Parts the people's segmentations hardly hold (the own colours' parts,
+relight_rt.person.matting._colours) are not looked at. The matte is read on a grid whose side is at most _SIDE pixels
+on the side of the matte's area (:func:`reading_grid`: a 2.5-MP photo costs what a web photo does). VideoMatter does
+not apply the rule: a part leaving on some frames and not on others would flicker, and each frame would pay for it.
 
-Measured (benchmarks/people_masks_eval.py --methods ours; chosen on photos half A, where _BLURRED 0.6-0.7, _OPEN
-0.02-0.05 and _APART 0.3 gave the same four photos and nothing else; _APART 0.4 adds small pieces of a group of three
-that the service's mask holds, -0.005 on p266; 0.5 a smooth red phone held up to the camera, which reads as blurred,
--0.07 on p287): half A 0.92340 -> 0.92569 (p104's guitar 0.859 ->
-0.947, p064's stage light 0.877 -> 0.978, p016's blurred blob 0.927 -> 0.953, p089's foliage below the joined hands
-0.918 -> 0.940), half B and the clip unchanged (0.90164, 0.93254: no part qualifies), no image worse; the four photos
-enlarged to 2.5 MP gain alike. Time: a pose-graph person, 4-6 ms on the 2.5-MP reference photo; a selfie-graph person
-(a portrait), one pose-graph run more, 15-30 ms in all (benchmarks/things_behind_speed.py, 2-core CPU under load).
-Things the rule cannot tell stay: at the photo's bottom border (p192's floor, p265's grass), in focus, or sharp where
-the graphs are unsure.
+What each threshold is measured on (benchmarks/people_masks_eval.py --methods ours; chosen on photos half A, four
+photos in all: the margins are thin): _BLURRED 0.6-0.7 and _OPEN 0.02-0.05 gave the same four photos and nothing
+else; _APART 0.3, where p089's foliage has a ring share of 0.27 and p285's torso, below a white band added under the
+photo, 0.38 (0.4 adds small pieces of a group of three that the service's mask holds, -0.005 on p266; 0.5 a smooth red
+phone held up to the camera, ring share 0.47, -0.07 on p287); _MAX_PART 0.2, where the four parts that leave are
+0.025-0.106 of the matte and a couple's blurred partner 0.47; _NECK 0.5, where p064's stage light overlaps the edge
+of its singer's face box and p104's guitar lies 0.2 face widths beside it (beside, not under). _UNSEEN, _SEEN, _RING,
+_SIDE and _MARGIN are set by reasoning, not fitted. Half A 0.92340 -> 0.92575 (p104's guitar 0.859 -> 0.947, p064's
+stage light 0.877 -> 0.979, p016's blurred blob 0.927 -> 0.956, p089's foliage below the joined hands 0.918 -> 0.940,
+p083 and p234 +0.002 and +0.001), half B and the clip unchanged (no part qualifies). Time: nothing for pose-graph
+people; a selfie-graph person, one pose-graph run per region and a few ms (benchmarks/things_behind_speed.py). Things
+the rule cannot tell stay: at the photo's bottom border (p192's floor, p265's grass), in focus, or sharp where the
+graphs are unsure.
 """
 
 from __future__ import annotations
@@ -38,49 +52,54 @@ import numpy as np
 
 from ...image.matte_edges import band_width
 from ...image.regions import Region
+from ..face_detector import Face
+from ._behind import details, grey_of
 from ._segmentation import Grid, Person, logits_on_grid, sigmoid
 
 _SIDE = 300  # the matte is read with the square of its area at most this many pixels on a side
 _UNSEEN = 0.1  # the pose graph does not see a pixel under this probability ...
 _SEEN = 0.5  # ... and sees it at this or more (the person's own sharpness is read there)
 _OPEN = 0.03  # a part is what an opening by a disc this x the matte's side leaves of the unseen pixels ...
-_MIN_PART = 0.002  # ... at least this share of the matte
+_MAX_PART = 0.2  # ... at most this share of the matte (more is a body: a torso, a second person)
 _HELD = 0.3  # the people's segmentations hold a part at this mean probability or more (else an own-colours part)
 _BLURRED = 0.65  # a part's fine / mid-scale detail at most this x the seen body's: out of focus
 _APART = 0.3  # a part sticks out when under this share of the ring around it lies in the matte
-_RING = 3  # the ring's width (grid px) ...
-_INSET = 2  # ... and the matte's rim (grid px) left out of the sharpness measures (there the outline is read)
-_FINE, _MID = 1.0, 3.0  # Gaussian sigmas (grid px) of the fine and mid-scale detail (as _behind's)
+_RING = 3  # the ring's width (grid px)
+_NECK = 0.5  # a face's person goes on this x the face's width below its box (the chin, the neck)
 _MARGIN = 12  # grid px read around the matte's bounding box (the ring, and the blurs' reach)
+_REACH = 9  # grid px: three sigmas of the mid-scale blur of _behind.details, read around the matte
 
-PoseLogits = Callable[[Person], np.ndarray]  # a person -> the pose graph's logits on their region's canvas
+PoseLogits = Callable[[Person], np.ndarray]  # a selfie-graph person -> the pose graph's logits on their region's canvas
+Faces = Callable[[], list[Face]]  # the photo's faces (asked only when a part would leave)
+Box = tuple[float, float, float, float]  # (x0, y0, x1, y1), pixel edges
 
 
 def detail_ratio(fine: np.ndarray, mid: np.ndarray, where: np.ndarray) -> float:
-    """Sum of the fine detail over the sum of the mid-scale detail at ``where`` (bool): how sharp a part is, light and
-    contrast cancelled; NaN where the part shows no detail at all."""
+    """Sum of the fine detail over the sum of the mid-scale detail (relight_rt.person.matting._behind.details) at
+    ``where`` (bool): how sharp a part is, light and contrast cancelled (_behind.fine_detail reads it on a box); NaN
+    where the part shows no detail at all."""
     total = float(mid[where].sum())
     return float(fine[where].sum()) / total if total > 1e-6 else float("nan")
 
 
-def _disc(size: int) -> np.ndarray:
+def _disc(size: float) -> np.ndarray:
     size = max(int(size), 1) | 1
     return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))
 
 
 def sticking_out(
     matte: np.ndarray, held: np.ndarray, pose: np.ndarray, bottom: bool = True
-) -> tuple[np.ndarray, list[np.ndarray]]:  # fmt: skip
-    """The parts of ``matte`` that may be things behind the person before their sharpness is read: (the matte's pixels
-    the pose graph does not see, [each part's pixels]), the parts being the pieces of those pixels that an opening by
-    a disc of _OPEN x the matte's side leaves, at least _MIN_PART of the matte, above the photo's bottom border, that
-    the people's segmentations hold (mean ``held`` >= _HELD) and that stick out of the matte (under _APART of the ring
-    around them in it). Arrays as :func:`blurred_things`'s; ``bottom``: whether the grid's last row is the photo's
+) -> list[np.ndarray]:  # fmt: skip
+    """The parts of ``matte`` that may be things behind the person before their sharpness is read (bool, each): the
+    pieces of the matte's pixels that the pose graph does not see that an opening by
+    a disc of _OPEN x the matte's side leaves, at most _MAX_PART of the matte, above the photo's bottom border,
+    that the people's segmentations hold (mean ``held`` >= _HELD) and that stick out of the matte (under _APART of the
+    ring around them in it). Arrays as :func:`blurred_things`'s; ``bottom``: whether the grid's last row is the photo's
     bottom row (a grid over part of the photo may end above it)."""
     area = int(matte.sum())
     unseen = (matte & (pose < _UNSEEN)).astype(np.uint8)
     if area == 0 or not unseen.any():
-        return unseen.astype(bool), []
+        return []
     opened = cv2.morphologyEx(unseen, cv2.MORPH_OPEN, _disc(_OPEN * np.sqrt(area)))
     n, labels, stats, _ = cv2.connectedComponentsWithStats(opened, connectivity=8)
     h = matte.shape[0]
@@ -88,8 +107,8 @@ def sticking_out(
     parts = []
     for i in range(1, n):
         x, y, bw, bh, size = (int(v) for v in stats[i])
-        if size < _MIN_PART * area or (bottom and y + bh >= h):  # small, or a body cut by the frame's bottom goes on
-            continue
+        if size > _MAX_PART * area or (bottom and y + bh >= h):
+            continue  # a body, or a body cut by the frame's bottom (it goes on)
         y0, x0 = max(y - _RING, 0), max(x - _RING, 0)  # read in its box and the ring's
         box = (slice(y0, y + bh + _RING), slice(x0, x + bw + _RING))
         part = labels[box] == i
@@ -101,10 +120,42 @@ def sticking_out(
         whole = np.zeros(matte.shape, bool)
         whole[box] = part
         parts.append(whole)
-    return unseen.astype(bool), parts
+    return parts
 
 
-def blurred_things(gray: np.ndarray, matte: np.ndarray, held: np.ndarray, pose: np.ndarray) -> np.ndarray:
+def blurred_of(gray: np.ndarray, matte: np.ndarray, pose: np.ndarray, parts: list[np.ndarray]) -> list[np.ndarray]:
+    """Those of ``parts`` (:func:`sticking_out`) that are out of focus: their fine / mid-scale detail at most _BLURRED
+    x that of the matte's pixels the pose graph sees (the body). The detail is read in the matte's bounding box only;
+    a body without detail decides nothing."""
+    if not parts:
+        return []
+    ys, xs = np.nonzero(matte)
+    box = (
+        slice(max(int(ys.min()) - _REACH, 0), int(ys.max()) + _REACH + 1),
+        slice(max(int(xs.min()) - _REACH, 0), int(xs.max()) + _REACH + 1),
+    )
+    fine, mid = details(np.ascontiguousarray(gray[box], np.float32))
+    sharp = detail_ratio(fine, mid, matte[box] & (pose[box] >= _SEEN))  # NaN (no detail): no part compares below it
+    return [part for part in parts if detail_ratio(fine, mid, part[box]) < _BLURRED * sharp]
+
+
+def bodily(part: np.ndarray, faces: list[Box]) -> bool:
+    """Whether ``part`` (bool, a grid) is someone's: it holds a pixel of a face's middle half or of the strip below it
+    (the middle half's columns, down to _NECK x the face's width below its box: a chin, a neck, a torso going on).
+    ``faces``: boxes on that grid (pixel edges)."""
+    h, w = part.shape
+    for x0, y0, x1, y1 in faces:
+        fw, fh = x1 - x0, y1 - y0
+        c0, c1 = max(int(np.floor(x0 + fw / 4)), 0), min(int(np.ceil(x1 - fw / 4)), w)
+        r0, r1 = max(int(np.floor(y0 + fh / 4)), 0), min(int(np.ceil(y1 + _NECK * fw)), h)
+        if c1 > c0 and r1 > r0 and part[r0:r1, c0:c1].any():
+            return True
+    return False
+
+
+def blurred_things(
+    gray: np.ndarray, matte: np.ndarray, held: np.ndarray, pose: np.ndarray, faces: list[Box] = (), bottom: bool = True
+) -> np.ndarray:  # fmt: skip
     """The parts of ``matte`` that are things out of focus behind the person (module docstring), on one grid.
 
     Args:
@@ -112,97 +163,117 @@ def blurred_things(gray: np.ndarray, matte: np.ndarray, held: np.ndarray, pose: 
         matte: (h, w) bool, the matte (alpha >= 0.5).
         held: (h, w) float32 in [0, 1], the people's segmentations (max over them; none for the own colours' parts).
         pose: (h, w) float32 in [0, 1], the pose graph's probability on the people's regions (max over them).
+        faces: the photo's face boxes (x0, y0, x1, y1) on the grid, pixel edges (:func:`bodily`).
+        bottom: whether the grid's last row is the photo's bottom row.
 
     Returns:
         (h, w) bool: the pixels that leave (False everywhere when nothing does): each blurred part of
-        :func:`sticking_out`, with the unseen pixels next to it that the opening shaved off.
+        :func:`sticking_out` that is no one's (:func:`bodily`), as the opening took it (what the opening shaved off
+        its rim goes with it at full resolution: :func:`without_things_behind`).
     """
-    unseen, parts = sticking_out(matte, held, pose)
-    return blurred_of(gray, matte, pose, unseen, parts)
+    parts = [p for p in blurred_of(gray, matte, pose, sticking_out(matte, held, pose, bottom)) if not bodily(p, faces)]
+    return np.any(parts, axis=0) if parts else np.zeros(matte.shape, bool)
 
 
-def blurred_of(gray: np.ndarray, matte: np.ndarray, pose: np.ndarray, unseen: np.ndarray, parts: list[np.ndarray]
-               ) -> np.ndarray:  # fmt: skip
-    """Of ``parts`` (:func:`sticking_out`), those out of focus (fine / mid-scale detail at most _BLURRED x the seen
-    body's, the matte's rim of _INSET px left out of both), grown by the ``unseen`` pixels within the opening's disc:
-    :func:`blurred_things`'s answer. The detail is read in the matte's bounding box only."""
-    out = np.zeros(matte.shape, bool)
-    if not parts:
-        return out
-    ys, xs = np.nonzero(matte)
-    m = int(np.ceil(3 * _MID))
-    box = (
-        slice(max(int(ys.min()) - m, 0), int(ys.max()) + m + 1),
-        slice(max(int(xs.min()) - m, 0), int(xs.max()) + m + 1),
-    )
-    g = np.ascontiguousarray(gray[box], np.float32)
-    fine = np.abs(g - cv2.GaussianBlur(g, (0, 0), _FINE))
-    mid = np.abs(g - cv2.GaussianBlur(g, (0, 0), _MID))
-    inner = cv2.erode(matte[box].astype(np.uint8), np.ones((2 * _INSET + 1, 2 * _INSET + 1), np.uint8)).astype(bool)
-    sharp = detail_ratio(fine, mid, inner & (pose[box] >= _SEEN))
-    if not np.isfinite(sharp) or sharp <= 0.0:
-        return out
-    for part in parts:
-        ratio = detail_ratio(fine, mid, part[box] & inner)
-        if np.isfinite(ratio) and ratio < _BLURRED * sharp:
-            out |= part
-    if out.any():  # the part as the opening took it, with the unseen pixels next to it that the opening shaved off
-        out = cv2.dilate(out.astype(np.uint8), _disc(_OPEN * np.sqrt(matte.sum()))).astype(bool) & unseen
+def _leave(alpha: np.ndarray, weight: np.ndarray, reach: int, ramp: float) -> np.ndarray:
+    """``alpha`` (a (h, w) window around a part) less the part, whose share of each pixel is ``weight``: alpha x
+    (1 - weight); then, within ``reach`` px of the part, the pieces of the matte (>= 0.5) left apart from the rest go
+    (slivers along the cut, bits of the part's own soft rim that read >= 0.5; the largest piece stays when none
+    reaches further), the part's own pixels go except within ``ramp`` px of the matte that stays (there the cut stays
+    soft), and each soft pixel (< 0.5) goes with the nearer of the part and the matte that stays (the part's soft rim
+    leaves, the body's stays). The window reaches ``reach`` + 1 px past the part."""
+    out = alpha * (1.0 - weight)
+    zone = cv2.dilate((weight > 0).astype(np.uint8), _disc(2 * reach + 1)).astype(bool)
+    hard = (out >= 0.5).astype(np.uint8)
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(hard, connectivity=8)
+    apart = np.ones(n, bool)
+    apart[0] = False
+    apart[np.unique(labels[~zone])] = False  # a piece reaching past the zone goes on into the matte that stays
+    if n > 1 and apart[1:].all():
+        apart[1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))] = False
+    kept = hard.astype(bool) & ~apart[labels]
+    part = zone & (alpha >= 0.5) & ~kept
+    to_kept = (cv2.distanceTransform((~kept).astype(np.uint8), cv2.DIST_L2, 5) if kept.any()
+               else np.full(alpha.shape, np.inf, np.float32))  # fmt: skip
+    to_part = cv2.distanceTransform((~part).astype(np.uint8), cv2.DIST_L2, 5)
+    soft = zone & ~part & ~kept
+    out[(part & (to_kept > ramp)) | (soft & (to_part < to_kept))] = 0.0
     return out
 
 
-def without_things_behind(rgb: np.ndarray, alpha: np.ndarray, people: list[Person], pose: PoseLogits) -> np.ndarray:
+def reading_grid(inside: np.ndarray) -> tuple[Grid, tuple[int, int, int, int], float]:
+    """The grid the matte ``inside`` ((H, W) uint8, alpha >= 0.5, not empty) is read on: (grid, (x0, y0, x1, y1) the
+    photo's box it covers, the matte's bounding box with _MARGIN grid px around it, scale s <= 1 that makes the matte's
+    side at most _SIDE px). Its pixels are those of the box reduced by cv2.resize (their centres)."""
+    h, w = inside.shape
+    s = min(1.0, _SIDE / float(np.sqrt(cv2.countNonZero(inside))))
+    bx, by, bw, bh = cv2.boundingRect(inside)
+    m = int(np.ceil(_MARGIN / s))
+    x0, y0, x1, y1 = max(bx - m, 0), max(by - m, 0), min(bx + bw + m, w), min(by + bh + m, h)
+    gw, gh = max(int(round((x1 - x0) * s)), 1), max(int(round((y1 - y0) * s)), 1)
+    kx, ky = gw / (x1 - x0), gh / (y1 - y0)
+    return (gw, gh, kx, ky, -kx * x0 - 0.5, -ky * y0 - 0.5), (x0, y0, x1, y1), s
+
+
+def without_things_behind(
+    rgb: np.ndarray, alpha: np.ndarray, people: list[Person], pose: PoseLogits, faces: Faces
+) -> np.ndarray:  # fmt: skip
     """``alpha`` without the things out of focus behind ``people`` (module docstring), read on a grid over the matte's
     bounding box (with _MARGIN grid px around it) whose scale makes the matte's side at most _SIDE px.
 
     Args:
         rgb: (H, W, 3) float32 RGB in [0, 1], the photo.
         alpha: (H, W) float32 matte in [0, 1] (person="largest"'s, refined).
-        people: the people matted; those of source "own" (a part in the person's own colours) are not read.
-        pose: gives the pose graph's logits on a person's region canvas (a pose-graph person's own; asked once per
-            region).
+        people: the people matted; those of source "own" (a part in the person's own colours) are not read, and
+            without a selfie-graph person ("roi") nothing is.
+        pose: gives the pose graph's logits on a selfie-graph person's region canvas (asked once per region; a
+            pose-graph person's view is their own logits).
+        faces: gives the photo's faces (image px), asked only when a part would leave.
 
     Returns:
-        (H, W) float32: ``alpha`` itself when nothing leaves, else a copy with the parts and their soft rim at 0.
+        (H, W) float32: ``alpha`` itself when nothing leaves, else a copy without the parts (:func:`_leave`).
     """
     people = [p for p in people if p.source != "own"]
+    if not any(p.source == "roi" for p in people):
+        return alpha  # the pose graph's own segmentations: nothing they hold is unseen
     inside = (alpha >= 0.5).view(np.uint8)
     area = cv2.countNonZero(inside)
-    if not people or area == 0:
+    if area == 0:
         return alpha
     h, w = alpha.shape
-    s = min(1.0, _SIDE / float(np.sqrt(area)))
-    bx, by, bw, bh = cv2.boundingRect(inside)
-    m = int(np.ceil(_MARGIN / s))
-    x0, y0, x1, y1 = max(bx - m, 0), max(by - m, 0), min(bx + bw + m, w), min(by + bh + m, h)
-    gw, gh = max(int(round((x1 - x0) * s)), 1), max(int(round((y1 - y0) * s)), 1)
-    kx, ky = gw / (x1 - x0), gh / (y1 - y0)
-    grid: Grid = (gw, gh, kx, ky, -kx * x0 - 0.5, -ky * y0 - 0.5)  # the reduced box's pixels (cv2.resize's centres)
+    grid, (x0, y0, x1, y1), s = reading_grid(inside)
+    gw, gh, kx, ky = grid[:4]
     small = alpha[y0:y1, x0:x1]
     small = small if s >= 1.0 else cv2.resize(small, (gw, gh), interpolation=cv2.INTER_AREA)
     matte = small >= 0.5
     held = np.max([logits_on_grid(p, grid) for p in people], axis=0)
-    runs: dict[Region, np.ndarray] = {}  # one pose-graph view per region (the parts split from one segmentation)
+    views: dict[Region, np.ndarray] = {}  # one pose-graph view per region (the parts split from one segmentation)
     for p in people:
-        if p.region not in runs:
-            runs[p.region] = logits_on_grid(Person(p.region, pose(p), p.presence), grid)
-    seen = sigmoid(np.max(list(runs.values()), axis=0))
-    unseen, parts = sticking_out(matte, sigmoid(held), seen, bottom=y1 == h)
+        if p.region not in views:
+            views[p.region] = logits_on_grid(p if p.source == "pose" else Person(p.region, pose(p), 0.0), grid)
+    seen = sigmoid(np.max(list(views.values()), axis=0))
+    parts = sticking_out(matte, sigmoid(held), seen, bottom=y1 == h)
     if not parts:
         return alpha
-    gray = cv2.cvtColor(np.ascontiguousarray(rgb[y0:y1, x0:x1], np.float32), cv2.COLOR_RGB2GRAY)
+    gray = grey_of(rgb[y0:y1, x0:x1])
     gray = gray if s >= 1.0 else cv2.resize(gray, (gw, gh), interpolation=cv2.INTER_AREA)
-    things = blurred_of(gray, matte, seen, unseen, parts)
-    if not things.any():
+    parts = blurred_of(gray, matte, seen, parts)
+    if parts:
+        boxes = [(kx * (f.box[0] - x0), ky * (f.box[1] - y0), kx * (f.box[2] - x0), ky * (f.box[3] - y0))
+                 for f in faces() if np.all(np.isfinite(f.box))]  # fmt: skip
+        parts = [p for p in parts if not bodily(p, boxes)]
+    if not parts:
         return alpha
-    if s < 1.0:
-        things = cv2.resize(things.astype(np.float32), (x1 - x0, y1 - y0), interpolation=cv2.INTER_LINEAR) >= 0.5
-    r = band_width(alpha.shape)  # the soft rim: the refined band's width around the part, where alpha < 0.5
-    rx0, ry0, rx1, ry1 = max(x0 - r, 0), max(y0 - r, 0), min(x1 + r, w), min(y1 + r, h)
-    leaving = np.zeros((ry1 - ry0, rx1 - rx0), bool)
-    leaving[y0 - ry0 : y1 - ry0, x0 - rx0 : x1 - rx0] = things
+    weight = np.any(parts, axis=0).astype(np.float32)
+    if s < 1.0:  # the part's share of each pixel of the photo (a soft cut, not a staircase of grid pixels)
+        weight = cv2.resize(weight, (x1 - x0, y1 - y0), interpolation=cv2.INTER_LINEAR)
+    r = band_width(alpha.shape)  # how far the part's soft rim and the slivers its cut leaves reach
+    ys, xs = np.nonzero(weight > 0)
+    wx0, wy0 = max(x0 + int(xs.min()) - r - 2, 0), max(y0 + int(ys.min()) - r - 2, 0)
+    wx1, wy1 = min(x0 + int(xs.max()) + r + 3, w), min(y0 + int(ys.max()) + r + 3, h)
+    share = np.zeros((wy1 - wy0, wx1 - wx0), np.float32)
+    iy0, iy1, ix0, ix1 = max(y0, wy0), min(y1, wy1), max(x0, wx0), min(x1, wx1)
+    share[iy0 - wy0 : iy1 - wy0, ix0 - wx0 : ix1 - wx0] = weight[iy0 - y0 : iy1 - y0, ix0 - x0 : ix1 - x0]
     out = alpha.copy()
-    near = out[ry0:ry1, rx0:rx1]
-    rim = cv2.dilate(leaving.astype(np.uint8), _disc(2 * r + 1)).astype(bool) & (near < 0.5)
-    near[leaving | rim] = 0.0
+    out[wy0:wy1, wx0:wx1] = _leave(alpha[wy0:wy1, wx0:wx1], share, r, 1.0 / s + 1.0)
     return out
