@@ -23,8 +23,8 @@ from ...image.regions import Region, crop_region, grid_of_region, reductions_sha
 from ..face_detector import Face
 from ._behind import without_behind
 from ._coarse import region_alpha
-from ._colours import candidates, own_part
-from ._cut_body import cut_part, photo_bottom
+from ._colours import OWN_MIN, candidates, colour_model, own_part
+from ._cut_body import cut_body, photo_bottom
 from ._detect import (
     MIN_TILE,
     Around,
@@ -319,17 +319,21 @@ class PersonMatter:
             return []
         region, seen, inside, mine = start
         framed = roi_prob(self.roi, rgb, region)
-        bottom = photo_bottom(region, rgb.shape[:2])
-        own = candidates(crop_region(rgb, region), inside, mine, seen, framed, bottom)  # with their colour models
-        if own is None:
+        cand = candidates(inside, mine, seen, framed)  # the own colours' (_colours)
+        cut = cut_body(inside, mine, cand, framed, photo_bottom(region, rgb.shape[:2]))  # the bottom border's
+        own = cand.sum() >= max(1.0, OWN_MIN * mine.sum())
+        if not own and cut is None:
+            return []  # (no part can be kept: no colours looked at)
+        model = colour_model(crop_region(rgb, region), inside, mine, mine | cand)  # (the k-means: one model for both)
+        if model is None:
             return []
-        (cand, model), (below, below_model) = own  # the own colours; what the bottom border cuts (_cut_body)
-        found = own_part(mine, cand, model) if cand.any() else None, cut_part(mine, below, below_model, bottom)
+        found = own_part(mine, cand, model) if own else None, cut.part(model) if cut is not None else None
         parts = [p for p in found if p is not None]
         if not parts:
             return []
         # the part's alpha: the whole photo's answer where both see it (_colours), the framed one where it alone does
-        prob = np.where(below & ~cand, framed, np.where(framed >= 0.5, seen, 0.0)).astype(np.float32)
+        alone = cut.below & ~cand if cut is not None else np.zeros_like(cand)
+        prob = np.where(alone, framed, np.where(framed >= 0.5, seen, 0.0)).astype(np.float32)
         return [own_person(region, np.any(parts, axis=0), mine, prob, people[0].presence)]
 
     def _joined(self, rgb: np.ndarray, people: list[Person], faces: list[Face]) -> list[Person]:
