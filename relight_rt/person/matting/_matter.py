@@ -306,14 +306,15 @@ class PersonMatter:
         matte that the photo's bottom border cuts (relight_rt.person.matting._cut_body: a trouser leg before a wall of
         its grey, which the colour test refuses). On the canvas of a region around ``people`` (ROI_SCALE x their box),
         where the selfie graph sees it on the whole photo and on that region too (_colours: one run, which _turned's
-        search on the same region then shares; under a matte the bottom border cuts, on that region alone suffices).
+        search on the same region then shares; under a matte the bottom border cuts, on that region alone suffices
+        where the part's colours are the person's: _cut_body).
 
         Measured (benchmarks/people_masks_eval.py; OWN_SURE 0.7 and OWN_RATIO 0.4 chosen on photos half A among
         0.5-0.9 and 0.2-0.7, where every choice moved A by less than 0.001): clip 0.917 -> 0.923 (the four worst
         frames' trousers +0.13-0.33; the railing's dark post between the legs, their very colour, taken on a few
         frames, up to -0.09), photos half B 0.870 -> 0.875, half A 0.9101 -> 0.9098 (a blurred neighbour's dark hair
         and a dark passer-by beside, -0.04 each), images under 0.8 IoU 9.4 % -> 8.1 % over both sets. ~7 ms a photo
-        (the k-means on 1500 samples a side), nothing more where the candidates are only the matte's rim."""
+        (the k-means on 1500 samples a side), none where no part can be kept (the candidates only the matte's rim)."""
         start = around_people(self.roi, rgb, people) if start is None else start  # (or the caller's, for them)
         if start is None:
             return []
