@@ -116,7 +116,7 @@ class CutBody:
         if not held:
             return None
         beside = backdrop_less(model, self.inside, self.mine, self.mine | self.cand, alone) if alone.any() else None
-        ratio = ratios(self.below, model if beside is None else beside)
+        ratio = judged if beside is None else ratios(self.below, beside)
         # carried on down to the border over the candidates in the bottom rows beside them; of it, the pixels whose own
         # colour is not clearly the backdrop's, joined to the matte
         keep = np.any(held, axis=0)
