@@ -65,69 +65,48 @@ def joined(part: np.ndarray, mine: np.ndarray) -> np.ndarray:
     return np.isin(labels, keep[keep > 0]) & part
 
 
-def colour_model(canvas: np.ndarray, inside: np.ndarray, mine: np.ndarray, around: np.ndarray,
-                 apart: np.ndarray | None = None, like: Colours | None = None) -> Colours | None:  # fmt: skip
-    """The person's and the backdrop's colours on a canvas: (its L*a*b*, the k-means centres of the matte ``mine``'s
-    interior, those of a ring ``OWN_RING`` x the matte's size wide round ``around`` (the matte and what is asked
-    about), less ``apart``), or None when either holds under 20 pixels inside the photo (``inside``). With ``like``, a
-    model of the same canvas and matte, its L*a*b* and person's centres are reused: only the backdrop's are made."""
-    one = np.ones((3, 3), np.uint8)
+def backdrop_ring(inside: np.ndarray, mine: np.ndarray, around: np.ndarray) -> np.ndarray:
+    """(S, S) bool: the ring ``OWN_RING`` x the matte ``mine``'s size wide (at least 2 canvas pixels) round
+    ``around`` (the matte and what is asked about), a pixel off it, inside the photo (``inside``)."""
     ys, xs = np.nonzero(mine)
     r = max(2, int(OWN_RING * max(np.ptp(ys), np.ptp(xs))))
     base = around.astype(np.uint8)
     ring = cv2.dilate(base, np.ones((2 * r + 1, 2 * r + 1), np.uint8)).astype(bool)
-    ring &= ~cv2.dilate(base, one).astype(bool) & inside
+    return ring & ~cv2.dilate(base, np.ones((3, 3), np.uint8)).astype(bool) & inside
+
+
+def colour_model(canvas: np.ndarray, inside: np.ndarray, mine: np.ndarray, around: np.ndarray,
+                 apart: np.ndarray | None = None) -> Colours | None:  # fmt: skip
+    """The person's and the backdrop's colours on a canvas: (its L*a*b*, the k-means centres of the matte ``mine``'s
+    interior, those of :func:`backdrop_ring` round ``around``, less ``apart``), or None when either holds under 20
+    pixels inside the photo (``inside``)."""
+    interior = cv2.erode(mine.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool) & inside
+    ring = backdrop_ring(inside, mine, around)
     if apart is not None:
         ring &= ~apart
-    if like is not None:
-        return (like[0], like[1], centres(like[0][ring])) if ring.sum() >= 20 else None
-    interior = cv2.erode(mine.astype(np.uint8), one).astype(bool) & inside
     if interior.sum() < 20 or ring.sum() < 20:
         return None
     lab = cv2.cvtColor(np.ascontiguousarray(canvas, dtype=np.float32), cv2.COLOR_RGB2Lab)  # L 0-100
     return lab, centres(lab[interior]), centres(lab[ring])
 
 
-def candidates(canvas: np.ndarray, inside: np.ndarray, mine: np.ndarray, seen: np.ndarray, framed: np.ndarray,
-               bottom: np.ndarray) -> tuple[tuple[np.ndarray, Colours], tuple[np.ndarray, Colours]] | None:  # fmt: skip
-    """What the own colours' step and the bottom border's (relight_rt.person.matting._cut_body) look at on a canvas,
-    each with its colour model (:func:`colour_model`, the ring round the matte and the first): the
-    pixels outside the matte, joined to it, that the selfie graph sees (module docstring: >= OWN_SURE on the whole
-    photo, >= 0.5 framed on the people), and for the bottom border's step, where the matte reaches the photo's bottom
-    rows, those with the pixels the graph framed on the people alone is sure of (>= OWN_SURE), and their ring less
-    these pixels (the backdrop's colours are sampled where no view sees the person); one set and one model for both
-    where the matte does not reach those rows or the two are the same pixels. None when the second
-    are fewer than OWN_MIN x the matte's pixels (its rim) or a model cannot be made. :func:`own_part` decides on the
-    first, relight_rt.person.matting._cut_body.cut_part on the second.
+def backdrop_less(model: Colours, inside: np.ndarray, mine: np.ndarray, around: np.ndarray,
+                  apart: np.ndarray) -> Colours | None:  # fmt: skip
+    """``model`` (:func:`colour_model` of the same canvas, matte ``mine`` and ``around``) with its backdrop's centres
+    drawn again from the ring less ``apart``: its L*a*b* and the person's centres as they are; None when that ring
+    holds under 20 pixels."""
+    lab, person, _ = model
+    ring = backdrop_ring(inside, mine, around) & ~apart
+    return (lab, person, centres(lab[ring])) if ring.sum() >= 20 else None
 
-    The whole photo's answer is asked so that the ground under a person's feet, which that graph, seeing the person
-    small, takes in, stays out; under a body the photo's bottom border cuts, that ground is out of the frame, and there
-    the framed answer alone is the surer (a man's brown trousers at the bottom border of a photo of an embracing
-    couple: 0.9+ framed on the couple, 0.3-0.6 on the whole photo; measured in relight_rt.person.matting._cut_body).
 
-    Args:
-        canvas: (S, S, 3) float32 RGB in [0, 1].
-        inside: (S, S) bool, the canvas pixels inside the photo.
-        mine: (S, S) bool, the matte (the people found).
-        seen: (S, S) float, the selfie graph's person probability on the whole photo.
-        framed: (S, S) float, the selfie graph's person probability framed on the canvas's region.
-        bottom: (S, S) bool, the photo's bottom rows on the canvas (relight_rt.person.matting._cut_body.photo_bottom).
-
-    Returns:
-        ((own colours' candidates, their model), (the bottom border's, theirs)), each candidates an (S, S) bool and each
-        model (L*a*b* canvas, the person's centres, the backdrop's); or None.
-    """
-    outside = ~mine & inside
-    cand = joined((framed >= 0.5) & (seen >= OWN_SURE) & outside, mine)
-    below = cand | joined((framed >= OWN_SURE) & outside, mine) if (mine & bottom).any() else cand
-    if below.sum() < max(1.0, OWN_MIN * mine.sum()):
-        return None
-    model = colour_model(canvas, inside, mine, mine | cand)
-    if model is None:
-        return None
-    more = below & ~cand
-    below_model = colour_model(canvas, inside, mine, mine | cand, more, like=model) if more.any() else model
-    return None if below_model is None else ((cand, model), (below, below_model))
+def candidates(inside: np.ndarray, mine: np.ndarray, seen: np.ndarray, framed: np.ndarray) -> np.ndarray:
+    """The own colours' candidates on a canvas: the pixels inside the photo (``inside``) outside the matte ``mine``,
+    joined to it, that the selfie graph sees both on the whole photo (``seen`` >= OWN_SURE) and framed on the people's
+    region (``framed`` >= 0.5; module docstring). (S, S) bool. :func:`own_part` decides on them with the
+    :func:`colour_model` of the ring round the matte and them; relight_rt.person.matting._cut_body adds, for a body the
+    photo's bottom border cuts, what the framed graph alone is sure of."""
+    return joined((framed >= 0.5) & (seen >= OWN_SURE) & ~mine & inside, mine)
 
 
 def own_part(mine: np.ndarray, cand: np.ndarray, model: Colours) -> np.ndarray | None:

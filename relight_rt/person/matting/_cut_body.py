@@ -1,14 +1,15 @@
 """The body the photo's bottom border cuts: what the selfie graph is sure of under the matte, down to that border.
 
-A person whose matte runs into the photo's bottom border is cut by the frame: the ground they stand or sit on lies
-outside the photo. Under their matte, down to that border, lies more of them. The pose graph, framed on what it sees,
-can miss a part there (a trouser leg, the bottom of a white top: probability < 0.1 over it) that the selfie graph is
-sure of both on the whole photo and framed on the person (each pixel >= OWN_SURE on the whole photo and >= 0.5 framed
-on the people: the own colours' candidates). The own colours' step (relight_rt.person.matting._colours) refuses such
-a part where its colours lie near the backdrop's (grey trousers before a grey wall: 11 % of their pixels pass its
-test); here the ground the own colours' test is made to refuse is out of the frame, so the part is taken unless its
-colours are clearly the backdrop's (median CUT_BACKDROP x nearer the backdrop's colours than the person's), and of it
-only the pixels whose own colour passes that test (light between two legs that run off the frame, joined to a leg).
+A person whose matte runs into the photo's bottom border is cut by the frame: under their matte, down to that border,
+lies more of them. The pose graph, framed on what it sees, can miss a part there (a trouser leg, the bottom of a white
+top: probability < 0.1 over it) that the selfie graph is sure of both on the whole photo and framed on the person
+(each pixel >= OWN_SURE on the whole photo and >= 0.5 framed on the people: the own colours' candidates). The own
+colours' step (relight_rt.person.matting._colours) refuses such a part where its colours lie near the backdrop's (grey
+trousers before a grey wall: 11 % of their pixels pass its test); here the part is taken unless its colours are
+clearly the backdrop's (median CUT_BACKDROP x nearer the backdrop's colours than the person's), and of it only the
+pixels whose own colour passes that test (light between two legs that run off the frame, joined to a leg). The ground
+can be in the frame here too (a woman seated on grass, p265; one lying in it, p101): what keeps it out is the colour
+test, and that a part must lie under the matte and reach the bottom rows (below).
 
 The candidates are told apart away from the matte (CUT_NEAR canvas pixels: the selfie graph's outline lies a pixel or
 two outside the pose graph's, a ring that would join a bench beside the person to their missed leg) and above the
@@ -32,15 +33,24 @@ B 0.90117 (p259 0.8990 -> 0.9001: 80 canvas pixels of the backdrop's colour off 
 pixels of the ring beside the leg not given back).
 
 Its candidates are the own colours' and, where the matte reaches the bottom rows, the pixels joined to it that the
-graph framed on the people alone is sure of (>= OWN_SURE; relight_rt.person.matting._colours.candidates): the whole
-photo's answer is asked to keep out the ground under a person's feet, which here lies out of the frame, and on the whole
-photo the graph, seeing people small, is unsure of their own clothes at the border (p093, an embracing couple before the
-sea: the man's brown trousers 0.9+ framed on the couple, 0.3-0.6 on the whole photo, the pose graph < 0.1). The colour
-model's backdrop ring leaves those pixels out. Measured (benchmarks/people_masks_eval.py --methods ours; main of the
-day A 0.92340, B 0.90164, clip 0.93254): A and the clip unchanged (p094 +0.00001), B 0.90164 -> 0.90222 (p093 0.842 ->
-0.902, p126 +0.0003, p259 -0.0002); a second backdrop model (~2 ms, benchmarks/own_colours_speed.py) on 39 of the
-208 photos, none on the reference photo.
-Tried (IoU on the canvas, a scratch estimate): the framed answer >= 0.5 (clip frame 84 -0.03), the ring drawn round all
+graph framed on the people alone is sure of (>= OWN_SURE): on the whole photo the graph, seeing people small, is unsure
+of their own clothes at the border (p093, an embracing couple before the sea: the man's brown trousers 0.9+ framed on
+the couple, 0.3-0.6 on the whole photo, the pose graph < 0.1). What that graph alone sees may as well be a chair or
+someone behind, seen between the legs, or the ground a seated person is on: a part is judged on the own colours'
+model, whose backdrop ring round the matte and the own colours' candidates holds those pixels (a thing of no colour of
+the person's is then the backdrop's: a brown chair between two legs, median ratio 700), and once it holds up, its
+pixels on that ring's backdrop drawn again without them (the creases of a trouser leg, a shade the matte lacks, would
+otherwise be their own backdrop: p093's trousers, judged on the first model alone, keep 894 of their 1262 canvas
+pixels). Measured (benchmarks/people_masks_eval.py --methods ours; main of the day A 0.92340, B 0.90164, clip 0.93254),
+with the backdrop without them for both: A and the clip unchanged (p094 +0.00001), B 0.90164 -> 0.90222 (p093 0.842 ->
+0.902, p126 +0.0003, p259 -0.0002); judging the part on the first model changed no photo's canvas (p093's part:
+median ratio 1.67 on it, 0.64 without them; p265's grass 2.8-3.3, refused; p101's and p234's fail where they lie).
+The colours are looked at only where a part can be kept (the own colours' candidates at least OWN_MIN x the matte, or
+a part of the bottom border's that passes the tests of where it lies); the second backdrop only once a part holds up
+(~2 ms: benchmarks/own_colours_speed.py).
+Tried (IoU on the canvas, a scratch estimate): a stricter colour test for what the framed graph alone sees instead of
+the ring that holds it (a dark-wood chair between the legs has a median ratio of 0.34 without it, p093's trousers
+0.64); the framed answer >= 0.5 (clip frame 84 -0.03), the ring drawn round all
 the candidates (measured: p259 -0.002, a white top's bottom whose colour then lies near the new ring's), the thresholds
 swapped for the own colours' step (framed >= OWN_SURE, whole photo >= 0.5: A -0.0001, p239 and p259 -0.02); for that
 step both >= 0.5 and either >= OWN_SURE (measured: B -0.0001, p246 +0.014 a child's dark trousers but p259 -0.019,
@@ -50,11 +60,13 @@ Tests: tests/runtime/person/matting/test_cut_body.py.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import cv2
 import numpy as np
 
 from ...image.regions import SIZE, Region, grid_of_region
-from ._colours import OWN_MIN, Colours, joined, nearest
+from ._colours import OWN_MIN, OWN_SURE, Colours, backdrop_less, joined, nearest
 from ._layout import JOIN_GAP
 
 CUT_UNDER = 0.9  # a part lies under the matte: this share of its pixels has the matte above them in their column
@@ -75,34 +87,83 @@ def photo_bottom(region: Region, shape: tuple[int, int], size: int = SIZE) -> np
     return rows[:, None] & ((x >= 0) & (x < w))[None, :]
 
 
-def cut_part(mine: np.ndarray, cand: np.ndarray, model: Colours, bottom: np.ndarray) -> np.ndarray | None:
-    """The parts of a canvas that are the person's because the photo's bottom border cuts them (module docstring), or
-    None.
+@dataclass(frozen=True)
+class CutBody:
+    """A body the photo's bottom border cuts, on a canvas (:func:`cut_body`): the matte ``mine``, the own colours'
+    candidates ``cand``, the bottom border's ``below`` (``cand`` and what the framed graph alone is sure of), the
+    pixels inside the photo (``inside``) and its bottom rows (``bottom``), all (S, S) bool; and the ``parts`` of
+    ``below`` that lie where that body goes on, each (part, its share of the ring beside the matte)."""
+
+    mine: np.ndarray
+    cand: np.ndarray
+    below: np.ndarray
+    inside: np.ndarray
+    bottom: np.ndarray
+    parts: tuple[tuple[np.ndarray, np.ndarray], ...]
+
+    def part(self, model: Colours) -> np.ndarray | None:
+        """The pixels added (module docstring), or None when none is. (S, S) bool.
+
+        Args:
+            model: the own colours' model (relight_rt.person.matting._colours.colour_model: the canvas's L*a*b*, the
+                person's centres, those of the backdrop's ring round the matte and ``cand``, the pixels the framed
+                graph alone is sure of kept in it). A part is judged on it; its pixels on it with that ring's
+                backdrop drawn again without those pixels (or on it where no 20 pixels would be left).
+        """
+        alone = self.below & ~self.cand  # what the framed graph alone is sure of
+        judged = ratios(self.below, model)
+        held = [p | share for p, share in self.parts if np.median(judged[p]) < CUT_BACKDROP]
+        if not held:
+            return None
+        beside = backdrop_less(model, self.inside, self.mine, self.mine | self.cand, alone) if alone.any() else None
+        ratio = judged if beside is None else ratios(self.below, beside)
+        # carried on down to the border over the candidates in the bottom rows beside them; of it, the pixels whose own
+        # colour is not clearly the backdrop's, joined to the matte
+        keep = np.any(held, axis=0)
+        rows = np.ones((2 * JOIN_GAP + 3, 3), np.uint8)
+        keep |= cv2.dilate(keep.astype(np.uint8), rows).astype(bool) & self.below & self.bottom
+        keep = joined(keep & (ratio < CUT_BACKDROP), self.mine)
+        return keep if keep.any() else None
+
+
+def ratios(cand: np.ndarray, model: Colours) -> np.ndarray:
+    """(S, S) float32: each of ``cand``'s pixels' distance to the person's nearest centre over that to the backdrop's
+    (``model``), inf elsewhere."""
+    lab, person, backdrop = model
+    ratio = np.full(cand.shape, np.inf, np.float32)
+    x = lab[cand]
+    ratio[cand] = nearest(x, person)[0] / np.maximum(nearest(x, backdrop)[0], 1e-3)
+    return ratio
+
+
+def cut_body(inside: np.ndarray, mine: np.ndarray, cand: np.ndarray, framed: np.ndarray,
+             bottom: np.ndarray) -> CutBody | None:  # fmt: skip
+    """Where the bottom border cuts the people on a canvas, the parts that may be theirs by where they lie (module
+    docstring: away from the matte and the bottom rows, reaching those rows, under the matte, at least OWN_MIN x its
+    pixels, beside a piece of it that reaches the bottom rows); None when there is none (no colours need be looked
+    at).
 
     Args:
+        inside: (S, S) bool, the canvas pixels inside the photo.
         mine: (S, S) bool, the matte (the people found).
         cand: (S, S) bool, the own colours' candidates (relight_rt.person.matting._colours.candidates).
-        model: their colour model (the canvas's L*a*b*, the person's centres, the backdrop's: the same call).
+        framed: (S, S) float, the selfie graph's person probability framed on the canvas's region.
         bottom: (S, S) bool, the photo's bottom rows on the canvas (:func:`photo_bottom`).
-
-    Returns:
-        (S, S) bool, the pixels added, or None when none is.
     """
-    if not (mine & bottom).any() or not (cand & bottom).any():
+    if not (mine & bottom).any():
         return None  # no one is cut by the bottom border: what lies under them may be their ground
+    below = cand | joined((framed >= OWN_SURE) & ~mine & inside, mine)
+    if not (below & bottom).any():
+        return None
     _, piece = cv2.connectedComponents(mine.astype(np.uint8), connectivity=8)
     cut = np.unique(piece[mine & bottom])  # the pieces of the matte that run into the bottom border
     near = cv2.dilate(mine.astype(np.uint8), np.ones((2 * CUT_NEAR + 1,) * 2, np.uint8)).astype(bool)
-    n, labels, stats, _ = cv2.connectedComponentsWithStats((cand & ~near & ~bottom).astype(np.uint8), connectivity=8)
+    n, labels, stats, _ = cv2.connectedComponentsWithStats((below & ~near & ~bottom).astype(np.uint8), connectivity=8)
     above = np.maximum.accumulate(mine, axis=0)  # the matte somewhere above in the same column
     least = max(1.0, OWN_MIN * int(mine.sum()))
     reach = cv2.dilate(bottom.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
     beside = np.ones((2 * CUT_NEAR + 3,) * 2, np.uint8)  # a part's share of the ring, and the matte it lies beside
-    lab, person, backdrop = model
-    ratio = np.full(mine.shape, np.inf, np.float32)  # each candidate's distance to the person's / the backdrop's
-    x = lab[cand]
-    ratio[cand] = nearest(x, person)[0] / np.maximum(nearest(x, backdrop)[0], 1e-3)
-    keep = np.zeros(mine.shape, bool)
+    parts = []
     for k in range(1, n):
         size = int(stats[k, cv2.CC_STAT_AREA])
         if size < least:
@@ -111,13 +172,6 @@ def cut_part(mine: np.ndarray, cand: np.ndarray, model: Colours, bottom: np.ndar
         if not (part & reach).any() or (part & above).sum() < CUT_UNDER * size:
             continue
         around = cv2.dilate(part.astype(np.uint8), beside).astype(bool)
-        if np.isin(piece[around & mine], cut).any() and np.median(ratio[part]) < CUT_BACKDROP:
-            keep |= part | (around & cand & near)
-    if not keep.any():
-        return None
-    # carried on down to the border over the candidates in the bottom rows beside them; of it, the pixels whose own
-    # colour is not clearly the backdrop's, joined to the matte
-    rows = np.ones((2 * JOIN_GAP + 3, 3), np.uint8)
-    keep |= cv2.dilate(keep.astype(np.uint8), rows).astype(bool) & cand & bottom
-    keep = joined(keep & (ratio < CUT_BACKDROP), mine)
-    return keep if keep.any() else None
+        if np.isin(piece[around & mine], cut).any():
+            parts.append((part, around & below & near))
+    return CutBody(mine, cand, below, inside, bottom, tuple(parts)) if parts else None

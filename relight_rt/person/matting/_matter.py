@@ -23,8 +23,8 @@ from ...image.regions import Region, crop_region, grid_of_region, reductions_sha
 from ..face_detector import Face
 from ._behind import without_behind
 from ._coarse import region_alpha
-from ._colours import candidates, own_part
-from ._cut_body import cut_part, photo_bottom
+from ._colours import OWN_MIN, candidates, colour_model, own_part
+from ._cut_body import cut_body, photo_bottom
 from ._detect import (
     MIN_TILE,
     Around,
@@ -306,30 +306,35 @@ class PersonMatter:
         matte that the photo's bottom border cuts (relight_rt.person.matting._cut_body: a trouser leg before a wall of
         its grey, which the colour test refuses). On the canvas of a region around ``people`` (ROI_SCALE x their box),
         where the selfie graph sees it on the whole photo and on that region too (_colours: one run, which _turned's
-        search on the same region then shares; under a matte the bottom border cuts, on that region alone suffices).
+        search on the same region then shares; under a matte the bottom border cuts, on that region alone suffices
+        where the part's colours are the person's: _cut_body).
 
         Measured (benchmarks/people_masks_eval.py; OWN_SURE 0.7 and OWN_RATIO 0.4 chosen on photos half A among
         0.5-0.9 and 0.2-0.7, where every choice moved A by less than 0.001): clip 0.917 -> 0.923 (the four worst
         frames' trousers +0.13-0.33; the railing's dark post between the legs, their very colour, taken on a few
         frames, up to -0.09), photos half B 0.870 -> 0.875, half A 0.9101 -> 0.9098 (a blurred neighbour's dark hair
         and a dark passer-by beside, -0.04 each), images under 0.8 IoU 9.4 % -> 8.1 % over both sets. ~7 ms a photo
-        (the k-means on 1500 samples a side), nothing more where the candidates are only the matte's rim."""
+        (the k-means on 1500 samples a side), none where no part can be kept (the candidates only the matte's rim)."""
         start = around_people(self.roi, rgb, people) if start is None else start  # (or the caller's, for them)
         if start is None:
             return []
         region, seen, inside, mine = start
         framed = roi_prob(self.roi, rgb, region)
-        bottom = photo_bottom(region, rgb.shape[:2])
-        own = candidates(crop_region(rgb, region), inside, mine, seen, framed, bottom)  # with their colour models
-        if own is None:
+        cand = candidates(inside, mine, seen, framed)  # the own colours' (_colours)
+        cut = cut_body(inside, mine, cand, framed, photo_bottom(region, rgb.shape[:2]))  # the bottom border's
+        own = cand.sum() >= max(1.0, OWN_MIN * mine.sum())
+        if not own and cut is None:
+            return []  # (no part can be kept: no colours looked at)
+        model = colour_model(crop_region(rgb, region), inside, mine, mine | cand)  # (the k-means: one model for both)
+        if model is None:
             return []
-        (cand, model), (below, below_model) = own  # the own colours; what the bottom border cuts (_cut_body)
-        found = own_part(mine, cand, model) if cand.any() else None, cut_part(mine, below, below_model, bottom)
+        found = own_part(mine, cand, model) if own else None, cut.part(model) if cut is not None else None
         parts = [p for p in found if p is not None]
         if not parts:
             return []
         # the part's alpha: the whole photo's answer where both see it (_colours), the framed one where it alone does
-        prob = np.where(below & ~cand, framed, np.where(framed >= 0.5, seen, 0.0)).astype(np.float32)
+        alone = cut.below & ~cand if cut is not None else np.zeros_like(cand)
+        prob = np.where(alone, framed, np.where(framed >= 0.5, seen, 0.0)).astype(np.float32)
         return [own_person(region, np.any(parts, axis=0), mine, prob, people[0].presence)]
 
     def _joined(self, rgb: np.ndarray, people: list[Person], faces: list[Face]) -> list[Person]:

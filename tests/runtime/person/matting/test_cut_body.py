@@ -9,7 +9,7 @@ import pytest
 from test_broad_set_rules import matted
 
 from relight_rt.person import matting as M
-from relight_rt.person.matting import _colours, _cut_body, _layout
+from relight_rt.person.matting import _colours, _cut_body, _detect, _layout, _matter
 from relight_rt.person.matting._detect import around_people, roi_prob
 from relight_rt.person.matting._segmentation import canvas_points
 
@@ -108,51 +108,128 @@ def test_the_cut_leg_on_a_photo_smaller_than_the_canvas(scale):
     assert (alpha[parts["gap"] | parts["bench"]] >= 0.5).mean() < 0.1
 
 
-class _FaintOnTheWhole(_NotWall):
-    """The stand-in seeing the grey of the missed leg (and of the bench) at ``whole`` on the whole photo (letterboxed:
-    black bars at the top) and at ``framed`` framed on the people (no bars): the real graph, shown a couple small on the
-    whole photo, is unsure of the man's trousers at the bottom border that it is sure of framed on them."""
+def graph_maps(monkeypatch, whole: np.ndarray, framed: np.ndarray) -> None:
+    """The selfie graph as two maps over the photo, each (H, W) float read at the canvas pixels' centres: ``whole``
+    its answer on the whole photo, ``framed`` on a region framed on the people (every other region)."""
 
-    def __init__(self, whole: float, framed: float):
-        self.whole, self.framed = whole, framed
+    def answer(roi, rgb, region):
+        h, w = rgb.shape[:2]
+        xs, ys = canvas_points(region)
+        prob = whole if region == M.Region(w / 2, h / 2, float(max(h, w))) else framed
+        at = prob[np.clip(ys.astype(int), 0, h - 1), np.clip(xs.astype(int), 0, w - 1)]
+        return np.where((xs >= 0) & (xs < w) & (ys >= 0) & (ys < h), at, 0.0).astype(np.float32)
 
-    def run(self, feeds):
-        img = feeds["image"][0]
-        seen = super().run(feeds)["segmentation"][0, 0]
-        grey = np.abs(img - GREY).max(0) < 0.005
-        seen = np.where(grey, self.whole if img[:, :4].max() == 0.0 else self.framed, seen)
-        return {"segmentation": seen.astype(np.float32)[None, None]}
+    monkeypatch.setattr(_detect, "roi_prob", answer)
+    monkeypatch.setattr(_matter, "roi_prob", answer)
 
 
-@pytest.mark.parametrize(("whole", "framed", "taken"), [(0.5, 0.95, True), (0.2, 0.8, True), (0.5, 0.6, False)])
-def test_under_a_body_cut_by_the_bottom_border_the_graph_framed_on_the_people_alone_decides(whole, framed, taken):
-    """The grey leg the selfie graph is sure of framed on the people (>= OWN_SURE) comes though the graph on the whole
-    photo is unsure of it (before the rule both had to see it, the whole photo's >= OWN_SURE, and it stayed out), with
-    its alpha from the framed answer, down to the border; sure of it on neither, it stays out. The bench in its colour
-    (not under the matte) and the light between the legs stay out either way."""
-    rgb, parts = standing(300)
+def own_alpha(rgb: np.ndarray, matte: np.ndarray) -> np.ndarray:
+    """:func:`run_own` with the selfie graph's answers as :func:`graph_maps` set them."""
     matter = M.PersonMatter(refine=False)
-    matter.roi, matter.face = _FaintOnTheWhole(whole, framed), None
-    found = [matted(rgb, parts["top"] | parts["leg1"] | parts["crotch"])]
-    alpha = matter.alpha(rgb, [*found, *matter._own_colours(rgb, found)])
+    matter.face = None
+    found = [matted(rgb, matte)]
+    return matter.alpha(rgb, [*found, *matter._own_colours(rgb, found)])
+
+
+FOLD = 0.3  # the lit creases of a dark trouser leg at the hip: a shade the person's matted parts lack
+
+
+def framed_alone(leg: str, whole: float = 0.5, framed: float = 0.95) -> tuple[np.ndarray, dict, np.ndarray, np.ndarray]:
+    """:func:`standing` with the second leg missed by the pose graph, seen at ``whole`` on the whole photo and at
+    ``framed`` framed on the people: "dark", the first leg's dark with its top 40 rows (by the hip, near the matte)
+    in :data:`FOLD`, or "grey" (no colour of the person's). The bench in its colour is seen by both (a candidate);
+    the top, the first leg and the crotch are the matte. Returns (photo, parts, the whole photo's answer, the framed
+    one's)."""
+    rgb, parts = standing(300)
+    if leg == "dark":
+        rgb[parts["leg2"]] = 0.08
+        rgb[parts["leg2"] & (np.arange(300)[:, None] < 200)] = FOLD
+    seen = (parts["top"] | parts["leg1"] | parts["crotch"] | parts["bench"]).astype(np.float32)
+    return rgb, parts, np.where(parts["leg2"], whole, seen), np.where(parts["leg2"], framed, seen)
+
+
+@pytest.mark.parametrize(
+    ("leg", "whole", "framed", "taken"),
+    [("dark", 0.5, 0.95, True), ("dark", 0.2, 0.8, True), ("dark", 0.5, 0.6, False), ("grey", 0.5, 0.95, False)],
+)  # fmt: skip
+def test_under_a_body_cut_by_the_bottom_border_the_graph_framed_on_the_people_alone_decides(
+    leg, whole, framed, taken, monkeypatch
+):
+    """The leg in the person's dark that the selfie graph is sure of framed on the people (>= OWN_SURE) comes though
+    the graph on the whole photo is unsure of it (the own colours' step asks both), creases and all (their shade is
+    no colour of the person's, nor the backdrop's: against a backdrop sampled with them in, they would be its), with
+    its alpha from the framed answer, down to the border; sure of it on neither, it stays out. A grey leg the framed
+    graph alone sees stays out: its colour is no colour of the person's, as a chair's would be (the grey leg both
+    graphs see is taken: the first test). The bench (not under the matte) and the light between the legs stay out
+    either way."""
+    rgb, parts, seen, sure = framed_alone(leg, whole, framed)
+    graph_maps(monkeypatch, seen, sure)
+    alpha = own_alpha(rgb, parts["top"] | parts["leg1"] | parts["crotch"])
     assert ((alpha[parts["leg2"]] >= 0.5).mean() > 0.9) == taken
     if taken:
+        assert (alpha[parts["leg2"] & (rgb[..., 0] == FOLD)] >= 0.5).mean() > 0.9  # the creases
         assert (alpha[299, 212:238] >= 0.5).all()
+        assert abs(np.median(alpha[parts["leg2"]]) - framed) < 0.02  # (not the whole photo's)
     assert (alpha[parts["bench"]] >= 0.5).mean() < 0.1
     assert (alpha[parts["gap"] & (np.abs(np.arange(400) - 200) < 7)] >= 0.5).mean() < 0.05
 
 
-@pytest.mark.parametrize("framed", [0.95, 0.5])
-def test_under_the_feet_of_a_standing_person_the_framed_answer_alone_takes_nothing(framed):
-    """Feet above the bottom border: the dark ground the graph framed on the person is sure of, the whole photo's not
-    (0.2), stays out (the bottom border's step is for bodies it cuts; the own colours' asks the whole photo too)."""
-    rgb, people, ground = feet_above_the_border(False)
-    rgb[ground] = GREY
+CHAIR, DARK_WOOD, BEHIND = (0.45, 0.28, 0.12), (0.2, 0.12, 0.06), (0.7, 0.15, 0.15)
+
+
+@pytest.mark.parametrize("colour", [CHAIR, DARK_WOOD, BEHIND])
+def test_a_thing_only_the_framed_graph_sees_under_a_cut_body_stays_out(colour, monkeypatch):
+    """Both legs matted and cut by the bottom border; between them a chair (brown, or dark wood nearer the trousers'
+    dark than the wall) or someone behind in red, which the graph framed on the people is sure of (0.95) and the
+    whole photo's is not (0.3): it stays out. The backdrop the part is judged against holds it, and its colour is
+    none of the person's (a rule that sampled the backdrop without it took 99 % of the chair)."""
+    rgb, parts = standing(300)
+    rgb[parts["leg2"]] = 0.08
+    rgb[parts["gap"]] = colour
+    person = parts["top"] | parts["leg1"] | parts["leg2"] | parts["crotch"]
+    seen = (person | parts["bench"]).astype(np.float32)
+    graph_maps(monkeypatch, np.where(parts["gap"], 0.3, seen), np.where(parts["gap"], 0.95, seen))
+    alpha = own_alpha(rgb, person)
+    assert (alpha[parts["gap"]] >= 0.5).mean() < 0.05
+    assert (alpha[person] >= 0.5).mean() > 0.95
+
+
+def test_the_own_colours_part_is_kept_where_the_framed_graph_alone_sees_all_around(monkeypatch):
+    """A body cut by the bottom border with an arm out to the side in the top's blue that the pose graph missed and
+    both views see; the graph framed on the people is sure of the whole wall too (0.8), the whole photo's not (0.2).
+    The arm is the own colours' (its model's backdrop ring holds the wall) and is taken; the wall stays out (the
+    bottom border's step finds no part of it under the matte). A rule that made a model without the pixels the framed
+    graph alone sees, found none left for it, and gave up on both, lost the arm."""
+    rgb, parts = standing(300)
+    rgb[parts["leg2"] | parts["gap"]] = 0.08
+    rgb[parts["bench"]] = WALL
+    yy, xx = np.mgrid[0:300, 0:400]
+    arm = (xx >= 245) & (xx < 330) & (yy >= 60) & (yy < 85)
+    rgb[arm] = (0.2, 0.3, 0.8)
+    person = parts["top"] | parts["leg1"] | parts["leg2"] | parts["crotch"] | parts["gap"]
+    both = (person | arm).astype(np.float32)
+    graph_maps(monkeypatch, np.maximum(both, 0.2), np.maximum(both, 0.8))
+    alpha = own_alpha(rgb, person)
+    assert (alpha[arm] >= 0.5).mean() > 0.9
+    assert (alpha[~(person | arm)] >= 0.5).mean() < 0.01
+
+
+@pytest.mark.parametrize("other", [False, True])
+def test_under_the_feet_of_a_standing_person_the_framed_answer_alone_takes_nothing(other, monkeypatch):
+    """Feet above the bottom border on a ground of the trousers' very dark (a colour test cannot refuse it), which
+    the graph framed on the people is sure of (0.95) and the whole photo's is not (0.2): it stays out, the bottom
+    border's step being for bodies it cuts. With someone else beside them cut by the border (the step runs), what
+    keeps it out is that it lies beside no piece of the matte that runs into the border."""
+    rgb, people, ground = feet_above_the_border(other)
+    rgb[ground] = 0.08
+    seen = np.any(people, axis=0).astype(np.float32)
+    graph_maps(monkeypatch, np.where(ground, 0.2, seen), np.where(ground, 0.95, seen))
     matter = M.PersonMatter(refine=False)
-    matter.roi, matter.face = _FaintOnTheWhole(0.2, framed), None
+    matter.face = None
     found = [matted(rgb, m) for m in people]
     alpha = matter.alpha(rgb, [*found, *matter._own_colours(rgb, found)])
-    assert (alpha[ground] >= 0.5).mean() < 0.1
+    assert (alpha[ground] >= 0.5).mean() < 0.05
+    assert (alpha[np.any(people, axis=0)] >= 0.5).mean() > 0.95
 
 
 def feet_above_the_border(other: bool) -> tuple[np.ndarray, list[np.ndarray], np.ndarray]:
@@ -192,28 +269,73 @@ def test_the_light_between_two_legs_cut_by_the_bottom_border_is_not_theirs():
     assert (alpha[parts["leg2"]] >= 0.5).mean() > 0.9
 
 
-def test_the_own_colours_test_alone_refuses_the_grey_leg(monkeypatch):
-    """The case the rule is for: the own colours' per-pixel test (OWN_RATIO) leaves the grey leg out. Where the matte
-    does not reach the bottom border, both steps decide on one set of candidates and one colour model, made once."""
+def test_the_own_colours_test_alone_refuses_the_grey_leg():
+    """The case the rule is for: the own colours' per-pixel test (OWN_RATIO) leaves the grey leg out; the bottom
+    border's step, on the same colour model, takes it."""
     rgb, parts = standing(300)
     roi = _NotWall()
     region, seen, inside, mine = around_people(roi, rgb, [matted(rgb, parts["top"] | parts["leg1"] | parts["crotch"])])
-    bottom = _cut_body.photo_bottom(region, rgb.shape[:2])
-    (cand, model), (below, below_model) = _colours.candidates(M.crop_region(rgb, region), inside, mine, seen,
-                                                               roi_prob(roi, rgb, region), bottom)  # fmt: skip
+    framed = roi_prob(roi, rgb, region)
+    cand = _colours.candidates(inside, mine, seen, framed)
+    model = _colours.colour_model(M.crop_region(rgb, region), inside, mine, mine | cand)
     own = _colours.own_part(mine, cand, model)
-    cut = _cut_body.cut_part(mine, below, below_model, bottom)
+    cut = _cut_body.cut_body(inside, mine, cand, framed, _cut_body.photo_bottom(region, rgb.shape[:2]))
     xs, ys = canvas_points(region)
     leg2 = parts["leg2"][np.clip(ys.astype(int), 0, 299), np.clip(xs.astype(int), 0, 399)] & inside
     assert own is None or (own & leg2).sum() < 0.1 * leg2.sum()
-    assert cut is not None and (cut & leg2).sum() > 0.9 * leg2.sum()
-    made = []
-    monkeypatch.setattr(_colours, "colour_model", lambda *a, **k: made.append(1) or model)
+    assert cut is not None and (cut.part(model) & leg2).sum() > 0.9 * leg2.sum()
+
+
+def test_a_candidate_of_the_own_colours_is_seen_by_both_views():
+    """A pixel joined to the matte is an own colours' candidate where the whole photo's answer is >= OWN_SURE and the
+    framed one's >= 0.5 (not the dark post the whole photo takes in under the feet: _colours' module docstring);
+    under a matte that runs into the photo's bottom rows, the bottom border's step also looks at what the framed
+    answer alone is sure of (>= OWN_SURE)."""
+    mine = np.zeros((64, 64), bool)
+    mine[6:62, 20:30] = mine[6:10, 20:45] = True  # a body and an arm over the strips, cut by the bottom rows
+    inside, bottom = np.ones_like(mine), np.zeros_like(mine)
+    bottom[-3:] = True
+    seen, framed = np.zeros((64, 64), np.float32), np.zeros((64, 64), np.float32)
+    for i, (s, f) in enumerate([(0.9, 0.6), (0.9, 0.3), (0.5, 0.9), (0.6, 0.6)]):  # both, whole, framed, neither
+        seen[12 + 12 * i : 20 + 12 * i, 30:40], framed[12 + 12 * i : 20 + 12 * i, 30:40] = s, f
+    seen[57:, 30:40], framed[57:, 30:40] = 0.5, 0.9  # (a part the bottom border's step keeps: it runs)
+    cand = _colours.candidates(inside, mine, seen, framed)
+    assert [bool(cand[16 + 12 * i, 35]) for i in range(4)] == [True, False, False, False]
+    cut = _cut_body.cut_body(inside, mine, cand, framed, bottom)
+    assert cut is not None and [bool(cut.below[16 + 12 * i, 35]) for i in range(4)] == [True, False, True, False]
+
+
+@pytest.mark.parametrize(("scene", "runs"), [("feet", 2), ("bench", 0), ("chair", 2), ("folds", 3)])
+def test_the_colours_are_looked_at_only_where_a_part_can_be_kept(scene, runs, monkeypatch):
+    """The k-means runs (two a colour model: the person's, the backdrop's) of the own colours' step: one model where
+    the own colours' candidates are enough for a part (the ground under the feet of a standing person); none where
+    they are not and no part of what the framed graph alone sees lies where a body cut by the border goes on (a bench
+    beside it); one where such a part is refused against it (a chair between the legs), and one backdrop more where
+    a part holds up and its pixels are judged without what the framed graph alone sees (a leg with creases)."""
+    count = []
+    centres = _colours.centres
+    monkeypatch.setattr(_colours, "centres", lambda *a, **k: count.append(1) or centres(*a, **k))
     matter = M.PersonMatter(refine=False)
-    matter.roi, matter.face = roi, None
-    rgb, people, _ = feet_above_the_border(False)
-    matter._own_colours(rgb, [matted(rgb, people[0])])
-    assert len(made) == 1
+    matter.face = None
+    if scene == "feet":
+        rgb, people, _ = feet_above_the_border(False)
+        matter.roi, matte = _NotWall(), people[0]
+    elif scene == "folds":
+        rgb, parts, seen, sure = framed_alone("dark")
+        graph_maps(monkeypatch, seen, sure)
+        matte = parts["top"] | parts["leg1"] | parts["crotch"]
+    else:
+        rgb, parts = standing(300)
+        thing = parts["bench"] if scene == "bench" else parts["gap"]
+        matte = parts["top"] | parts["leg1"] | parts["leg2"] | parts["crotch"]
+        if scene == "bench":
+            matte = matte | parts["gap"]
+        rgb[matte & ~parts["top"]] = 0.08
+        rgb[thing] = CHAIR
+        seen = inset(matte, 2)  # (the graph's outline inside the matte: no rim of candidates round it)
+        graph_maps(monkeypatch, np.where(thing, 0.3, seen), np.where(thing, 0.95, seen))
+    matter._own_colours(rgb, [matted(rgb, matte)])
+    assert len(count) == runs
 
 
 @pytest.mark.parametrize(
