@@ -70,7 +70,7 @@ from .cast_shadow import MeshView, shadow_factor
 from .decomposition import Decomposition, Memo, readonly
 from .detail import extend_outward, guided_upsample, shadow_texture, unpremultiply, window
 from .face_pass import FacePass, feather
-from .fill_edge import crop_part, edge_weight
+from .fill_edge import crop_part, edge_weight, fill_share, soften
 from .look import shaded_skin, skin_chroma, tint_range
 from .shadow_rim import masked_blur, rim_lift, spread_mean
 from .strength import (
@@ -262,17 +262,14 @@ class Factor:
             cap = None
             if skin.any():
                 spread = CAP_SKIN_SPREAD * max(skin.shape)
-                cap = readonly(np.minimum(2 * cv2.GaussianBlur(skin.astype(np.float32), (0, 0), spread)
-                                          * base["inner"], 1).astype(np.float32))
+                cap = readonly(soften(skin, spread, base["inner"]))
             # the face beyond its skin (``restored``'s "face_opening"): the ratio cap and the fill's skin albedo reach
             # it too (``handover``, ``shadow_weight``)
             opening = cap_face = None
             found = base.get("face_opening")  # (a ``restored`` made elsewhere may not say)
             if cap is not None and OPENINGS_AS_SKIN and found is not None and found.any():
                 opening = found
-                area = (skin | opening).astype(np.float32)
-                cap_face = readonly(np.minimum(2 * cv2.GaussianBlur(area, (0, 0), spread) * base["inner"],
-                                               1).astype(np.float32))
+                cap_face = readonly(soften(skin | opening, spread, base["inner"]))
             # the faces' cast shadows under the photo's own light (relight_rt.relight.cast_shadow): a new light's are
             # taken relative to them
             cast, views = None, ()
@@ -502,7 +499,7 @@ class Factor:
             reach = None
             if CAP_SHADOW_REACH is not None:  # the penumbra around a deep shadow's core
                 core = (w > 0.5).astype(np.float32)
-                reach = np.minimum(2 * cv2.GaussianBlur(core, (0, 0), CAP_SHADOW_REACH), 1) * own["inner"]
+                reach = soften(core, CAP_SHADOW_REACH, own["inner"])
             if own["cap_skin"] is not None:  # a face's skin and openings
                 reach = own["cap_face"] if reach is None else np.maximum(reach, own["cap_face"])
             where = (w > 1e-3) | (reach > 1e-3) if reach is not None else w > 1e-3
@@ -616,14 +613,13 @@ class Factor:
             result = None
             if level > 0:  # the weight of the shading smoothed, of each pixel's own (``FILL_EDGE_SIGMA``) and unblurred
                 both = np.stack([smooth, masked_blur(shown, keep, FILL_EDGE_SIGMA), shown])
-                q = np.clip((both / level - FILL_LOW) / (FILL_HIGH - FILL_LOW), 0, 1)
-                w, each, bare = np.where(inner, 1 - q * q * (3 - 2 * q), 0).astype(np.float32)
+                w, each, bare = np.where(inner, fill_share(both, level, FILL_LOW, FILL_HIGH), 0).astype(np.float32)
                 bare = np.where(keep > 0, bare, each)  # a soft edge's own pixel mixes the background in
                 if w.max() > 0.05:  # near a shadow each pixel's own shading places its edge (the photo's, not the
                     # smoothing's: a black band inside it was multiplied, a dark line along the shadow's border)
                     core = (w > 0.5).astype(np.float32)  # a shadow's (a stripe's smoothed weight stays low)
-                    near = cv2.GaussianBlur(each * np.clip(2 * cv2.GaussianBlur(core, (0, 0), FILL_SIGMA), 0, 1),
-                                            (0, 0), 1.0)  # (its blur held to each pixel's own: the edge not crossed)
+                    near = cv2.GaussianBlur(each * soften(core, FILL_SIGMA), (0, 0), 1.0)  # (its blur held to
+                    # each pixel's own: the edge not crossed)
                     w = np.maximum(cv2.GaussianBlur(w, (0, 0), 1.0), np.minimum(near, bare)) * inner
                     y0, y1, x0, x1 = own["window"]
                     rgb = dec.network_image[y0:y1, x0:x1]

@@ -32,6 +32,20 @@ EDGE_OWN_SIGMA = 0.7  # edge_weight: each input pixel's own grey smoothed over t
 EDGE_SPAN = (0.3, 0.7)  # ... deciding where the network's weights around differ by more than this (a border)
 
 
+def fill_share(shown: np.ndarray, level: float, low: float, high: float) -> np.ndarray:
+    """The fill's share from the shading shown (photo over albedo, any shape): all of it from ``low`` x ``level``
+    down, none from ``high`` x ``level`` up, a smoothstep between (the dtype of ``shown``)."""
+    q = np.clip((shown / max(level, 1e-6) - low) / (high - low), 0, 1)
+    return 1 - q * q * (3 - 2 * q)
+
+
+def soften(area: np.ndarray, sigma: float, inner: np.ndarray | None = None) -> np.ndarray:
+    """(r, r') float32 in [0, 1]: ``area`` (bool or [0, 1]) with its edge softened over ``sigma`` pixels, all of it
+    from half-way into the blur on (twice the blurred area, at most 1), times ``inner`` (the person) when given."""
+    out = np.minimum(2 * cv2.GaussianBlur(area.astype(np.float32), (0, 0), sigma), 1)
+    return (out if inner is None else out * inner).astype(np.float32)
+
+
 def crop_part(geom: CropGeometry, maps: np.ndarray, where: np.ndarray, origin: tuple[int, int]) -> tuple | None:
     """``maps`` (r, r', C), a window of the network frame starting at ``origin``, mapped to the crop box as
     ``CropGeometry.to_crop`` maps it: (box, part), ``part`` (h', w', C) over ``box`` (a pair of slices of the crop
@@ -86,6 +100,5 @@ def edge_weight(w: np.ndarray, least: np.ndarray, most: np.ndarray, gray: np.nda
     if not span.any():
         return w.astype(np.float32)
     shown = cv2.GaussianBlur(gray.astype(np.float32), (0, 0), EDGE_OWN_SIGMA) / albedo
-    q = np.clip((shown / max(level, 1e-6) - low) / (high - low), 0, 1)
-    own = np.clip(1 - q * q * (3 - 2 * q), least, most)
+    own = np.clip(fill_share(shown, level, low, high), least, most)
     return (w + span * (own - w)).astype(np.float32)
