@@ -466,7 +466,7 @@ class Factor:
         if gray is None:  # drops theirs after use, relight_rt.relight.people, maybe in another thread)
             gray = state["gray"] = readonly(cv2.cvtColor(image, cv2.COLOR_RGB2GRAY))
         shadow = self.shadow_weight(dec) if fill else None
-        base = None if shadow is None else self.fill_base(dec, gray)
+        base = None if shadow is None else self.fill_base(dec, image)
         if base is not None:
             chroma = shadow[1]
             over = self.handover(ratio, base["reach"])
@@ -486,12 +486,12 @@ class Factor:
             values *= texture[box][..., None]
         return gain, (box, values, weight)
 
-    def fill_base(self, dec: Decomposition, gray: np.ndarray) -> dict | None:
+    def fill_base(self, dec: Decomposition, image: np.ndarray) -> dict | None:
         """What the deep shadow's fill needs at the photo's resolution whatever the light (cached; ``shadow_weight``
         not None): "reach" (r, r') where ``handover`` may raise the weight (None: nowhere), "where" (r, r') bool the
         network pixels the fill may cover, "box" and "weight" the crop box's part they map to and the weight there
         (relight_rt.relight.fill_edge ``edge_weight``: along the shadow's border each input pixel's own shading).
-        ``gray``: the photo's grey in the crop box."""
+        ``image``: (h, w, 3) the person's colour in the crop box (``Composer.foreground``), float32 RGB."""
         state = self.memo(dec)
         if "fill_base" not in state:
             own = self.own(dec, with_residual=False)
@@ -510,7 +510,8 @@ class Factor:
             result = None
             if mapped is not None:
                 box, part = mapped
-                weight = edge_weight(part[..., 0], part[..., 1], part[..., 2], gray[box],
+                luma = image[box] @ REC709  # the luminance the weight on the network's grid is measured on
+                weight = edge_weight(part[..., 0], part[..., 1], part[..., 2], luma,
                                      np.maximum(part[..., 3], EXPLAIN_ALBEDO_MIN), state["shadow_level"],
                                      FILL_LOW, FILL_HIGH)
                 result = {"reach": None if reach is None else readonly(reach.astype(np.float32)),

@@ -12,7 +12,7 @@ filter's local linear model follows, not the ridge the blend made), the weight i
 at the photo's resolution (``edge_weight``), and the two meet per input pixel.
 
 ``edge_weight``: along a shadow's border (where the network's weight steps from one network pixel to the next) each
-input pixel's own shading (its grey over the albedo, against the same median the network's weight is measured on)
+input pixel's own shading (its luminance over the albedo, against the same median the network's weight is measured on)
 decides, held between the least and the greatest network weight around it: a lit input pixel is multiplied, a black
 one filled, whichever network pixel it falls in (the fill had also stopped short of the edge inside the black, the
 last network pixel straddling it reading lit: 0.10 instead of 0.32 two input pixels inside). Only there: stage 1
@@ -28,7 +28,7 @@ import numpy as np
 
 from ..image.crop import CropGeometry
 
-EDGE_OWN_SIGMA = 0.7  # edge_weight: each input pixel's own grey smoothed over this many input pixels (noise),
+EDGE_OWN_SIGMA = 0.7  # edge_weight: each input pixel's own luminance smoothed over this many input pixels (noise),
 EDGE_SPAN = (0.3, 0.7)  # ... deciding where the network's weights around differ by more than this (a border)
 
 
@@ -79,7 +79,7 @@ def crop_part(geom: CropGeometry, maps: np.ndarray, where: np.ndarray, origin: t
     return (slice(cy0, cy1), slice(cx0, cx1)), part
 
 
-def edge_weight(w: np.ndarray, least: np.ndarray, most: np.ndarray, gray: np.ndarray, albedo: np.ndarray,
+def edge_weight(w: np.ndarray, least: np.ndarray, most: np.ndarray, luma: np.ndarray, albedo: np.ndarray,
                 level: float, low: float, high: float) -> np.ndarray:
     """(h', w') float32 in [0, 1]: the fill's weight at the photo's resolution (module docstring): along a shadow's
     border each input pixel's own weight, held between the least and the greatest of the network's weights around
@@ -90,8 +90,9 @@ def edge_weight(w: np.ndarray, least: np.ndarray, most: np.ndarray, gray: np.nda
             it over each network pixel's 3 x 3 neighbours, mapped the same way. Where they differ by more than
             ``EDGE_SPAN`` (a border: the weight steps within a network pixel) the pixel's own weight takes over, in
             full from ``EDGE_SPAN[1]`` on; inside a shadow, away from one and along a smooth ramp the network's stays.
-        gray: (h', w') the photo's grey there, in [0, 1]; albedo: (h', w') stage 1's albedo luminance mapped there
-            (floored by the caller).
+        luma: (h', w') the photo's Rec. 709 luminance there, in [0, 1] (the weight on the network's grid is the
+            photo's Rec. 709 luminance over the albedo's too: a BT.601 grey moved the threshold by 10-15 % on
+            saturated colours); albedo: (h', w') stage 1's albedo luminance mapped there (floored by the caller).
         level: the shading shown (photo over albedo) that the network's weight is measured against (its median).
         low, high: from ``high`` x level of the shading shown down to ``low`` x level the pixel's own weight goes
             from none to all (the network weight's own thresholds).
@@ -99,6 +100,6 @@ def edge_weight(w: np.ndarray, least: np.ndarray, most: np.ndarray, gray: np.nda
     span = np.clip((most - least - EDGE_SPAN[0]) / (EDGE_SPAN[1] - EDGE_SPAN[0]), 0, 1)
     if not span.any():
         return w.astype(np.float32)
-    shown = cv2.GaussianBlur(gray.astype(np.float32), (0, 0), EDGE_OWN_SIGMA) / albedo
+    shown = cv2.GaussianBlur(luma.astype(np.float32), (0, 0), EDGE_OWN_SIGMA) / albedo
     own = np.clip(fill_share(shown, level, low, high), least, most)
     return (w + span * (own - w)).astype(np.float32)

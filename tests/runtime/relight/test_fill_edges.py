@@ -231,3 +231,41 @@ def test_the_background_moves_no_fill_weight(relighter):
         dec = replace(dec, albedo_chw=relighter.decompose(true * mask[..., None] + back, mask).albedo_chw)
         weights.append(relighter._factor.shadow_weight(dec)[0])
     assert np.abs(weights[1] - weights[0]).max() < 0.01, np.abs(weights[1] - weights[0]).max()  # measured 0
+
+
+def test_the_fills_weight_is_the_same_for_any_colour_of_the_same_luminance(relighter):
+    """The fill's weight on the network's grid is the photo's Rec. 709 luminance over the albedo's; along the shadow's
+    border ``edge_weight`` read each input pixel's BT.601 grey over that albedo (OpenCV's RGB2GRAY), 1.3x a
+    saturated blue's luminance: its border pixels read lit. One shading under grey and under a saturated blue of the
+    same luminance gives one weight."""
+    h, w = 150, 100
+    xx = np.mgrid[0:h, 0:w][1].astype(np.float32)
+    mask = np.zeros((h, w), np.float32)
+    mask[20:140, 20:85] = 1
+    shade = cv2.GaussianBlur(np.where(xx < EDGE_X, 0.02, 1.0).astype(np.float32), (0, 0), 1.5)
+    blue = np.float32([0.1, 0.1, 0.8])
+    weights = []
+    for colour in (blue, np.full(3, float(blue @ REC709), np.float32)):
+        true = np.broadcast_to(colour, (h, w, 3)).astype(np.float32)
+        dec = relighter.decompose(true * shade[..., None], mask)
+        dec = replace(dec, albedo_chw=relighter.decompose(true, mask).albedo_chw)
+        weights.append(relighter._factor.fill_base(dec, relighter._composer.foreground(dec)[0])["weight"])
+    assert weights[0].shape == weights[1].shape
+    assert np.abs(weights[0] - weights[1]).max() < 0.01, np.abs(weights[0] - weights[1]).max()
+
+
+def test_a_shadow_at_a_twentieth_of_the_lit_side_is_filled_up_to_its_edge(relighter):
+    """A shadow at 5 % of the lit side's shading is deep (``FILL_LOW`` 0.1): along its border each input pixel's own
+    weight (``edge_weight``, against the person's median shading, the network weight's own level) fills its last dark
+    pixels as far as the network's weight around allows. Against a level a third as high (a 1 % shadow passes that
+    too) they read half lit: the last dark pixel's weight 0.06 instead of 0.58."""
+    photo, _, true, mask = scene()
+    xx = np.mgrid[0:150, 0:100][1]
+    shade = cv2.GaussianBlur(np.where(xx < EDGE_X, 0.05, 1.0).astype(np.float32), (0, 0), 1.0)
+    photo = true * shade[..., None]  # the shadow's last dark pixel at EDGE_X - 2 (EDGE_X - 1 blurred to 0.34)
+    dec = replace(relighter.decompose(photo, mask), albedo_chw=relighter.decompose(true, mask).albedo_chw)
+    base = relighter._factor.fill_base(dec, relighter._composer.foreground(dec)[0])
+    (ys, xs), weight = base["box"], base["weight"]
+    oy, ox = ys.start + dec.geometry.box[0], xs.start + dec.geometry.box[2]  # the box's origin in the photo
+    last = weight[40 - oy : 120 - oy, EDGE_X - 4 - ox : EDGE_X - 1 - ox].mean(axis=0)
+    assert float(last.min()) > 0.4, last  # measured 0.84, 0.71, 0.58 (0.77, 0.51, 0.06 against 0.3 x the level)
