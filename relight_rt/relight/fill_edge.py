@@ -30,6 +30,10 @@ from ..image.crop import CropGeometry
 
 EDGE_OWN_SIGMA = 0.7  # edge_weight: each input pixel's own luminance smoothed over this many input pixels (noise),
 EDGE_SPAN = (0.3, 0.7)  # ... deciding where the network's weights around differ by more than this (a border)
+# crop_part: the box reaches this many network pixels past ``where``: the weight's 3 x 3 greatest (``edge_weight``'s
+# ``most``) reaches one past it, and the box's first pixels must see it fall to nothing (with 1 the box began where
+# the greatest was still a neighbour's: a step in the weight at the box's border)
+BOX_MARGIN = 2
 
 
 def fill_share(shown: np.ndarray, level: float, low: float, high: float) -> np.ndarray:
@@ -60,8 +64,8 @@ def crop_part(geom: CropGeometry, maps: np.ndarray, where: np.ndarray, origin: t
     (oy, ox), k = geom.offset, geom.resolution / geom.side
 
     def span(lo: int, hi: int, start: int, offset: int, size: int) -> tuple[int, int]:
-        a = int(np.floor((lo - 1 + start + 0.5) / k - 0.5 - offset))
-        b = int(np.ceil((hi + 1 + start + 0.5) / k - 0.5 - offset)) + 1
+        a = int(np.floor((lo - BOX_MARGIN + start + 0.5) / k - 0.5 - offset))
+        b = int(np.ceil((hi + BOX_MARGIN + start + 0.5) / k - 0.5 - offset)) + 1
         return max(a, 0), min(b, size)
 
     cy0, cy1 = span(int(ys.min()), int(ys.max()), origin[0], oy, h)

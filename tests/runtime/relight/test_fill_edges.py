@@ -15,7 +15,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
-from _graphs import OWN_LIGHT, models_dir
+from _graphs import OWN_LIGHT, models_dir, person
 
 import relight_rt
 from relight_rt.engine.config import RuntimeConfig
@@ -231,6 +231,38 @@ def test_the_background_moves_no_fill_weight(relighter):
         dec = replace(dec, albedo_chw=relighter.decompose(true * mask[..., None] + back, mask).albedo_chw)
         weights.append(relighter._factor.shadow_weight(dec)[0])
     assert np.abs(weights[1] - weights[0]).max() < 0.01, np.abs(weights[1] - weights[0]).max()  # measured 0
+
+
+def _dim_block(relighter, monkeypatch, photo: np.ndarray, mask: np.ndarray, albedo: np.ndarray):
+    """The Decomposition of ``photo`` given ``albedo``'s albedo, with the fill's weight found (its level set), then
+    replaced by a 0.45 block of network pixels with no core (rows 24-40, columns 20-30 of the 64-px window)."""
+    dec = replace(relighter.decompose(photo, mask), albedo_chw=relighter.decompose(albedo, mask).albedo_chw)
+    factor = relighter._factor
+    w, chroma = factor.shadow_weight(dec)
+    block = np.zeros_like(w)
+    block[24:40, 20:30] = 0.45
+    monkeypatch.setattr(factor, "shadow_weight", lambda d: (block, chroma))
+    return dec
+
+
+def test_the_fills_box_ends_where_its_weight_is_nothing(relighter, monkeypatch):
+    """The fill is mapped to a box around the network pixels it may cover (relight_rt.relight.fill_edge
+    ``crop_part``); past the box its weight is nothing. Along a border ``edge_weight`` reads the greatest network
+    weight of each pixel's 3 x 3 neighbours, one network pixel past the fill: with a box one network pixel wide of it
+    the box's first input pixels still saw that greatest weight, and a dim pixel there took 0.065 of the fill
+    while the pixel beside it, outside, took none (a step in the relit photo). Here a 0.45 block of weight with no
+    core over a dim band (a fifth of the lit side's shading): the box's outermost pixels carry no weight."""
+    img, mask = person(h=200, w=150, box=(10, 190, 10, 140))
+    photo = img.copy()
+    photo[60:140, 30:90] *= 0.2  # the dim band, wider than the block's 2.3 input px a network px
+    dec = _dim_block(relighter, monkeypatch, photo, mask, img)
+    image = relighter._composer.foreground(dec)[0]
+    base = relighter._factor.fill_base(dec, image)
+    (ys, xs), weight = base["box"], base["weight"]
+    assert ys.start > 0 and xs.start > 0 and ys.stop < image.shape[0] and xs.stop < image.shape[1]  # inside the crop
+    assert float(weight.max()) > 0.3  # the block is there
+    border = np.concatenate([weight[0], weight[-1], weight[:, 0], weight[:, -1]])
+    assert float(border.max()) < 1e-3, float(border.max())  # measured 0 (0.065 with a margin of 1)
 
 
 def test_the_fills_weight_is_the_same_for_any_colour_of_the_same_luminance(relighter):
