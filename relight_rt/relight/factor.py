@@ -39,11 +39,11 @@ is taken out first (``unshaded_albedo``; de-lighting 0.87 / 0.70 -> 0.88 / 0.78)
 albedo of the lit skin around, and all of a shadow the transport misses goes with the photo's light (de-lighting
 with the face search's shadow lifts 0.89 / 0.80 -> 0.91 / 0.83); on its skin a light that would multiply the
 photo more than ``RATIO_CAP`` multiplies it that much and adds the rest of the change as the fill (``Factor.handover``:
-the speckle and the seam beside a side-lit face's black half), and so does the penumbra around any deep shadow; the
-fill's weight meets the ratio at the photo's own shadow edge, per input pixel (relight_rt.relight.fill_edge). On a
-face mesh's skin a new light's lamp casts the
-mesh's own shadows (the nose's, the brows'; relight_rt.relight.cast_shadow), where they are darker than the photo's
-own light's: degree-2 SH cannot (Extended Yale B relight 0.859 / 0.6505 -> 0.870 / 0.734).
+the speckle and the seam beside a side-lit face's black half), and so does the skin in the penumbra around a wide deep
+shadow; the fill's weight meets the ratio at the photo's own shadow edge, per input pixel
+(relight_rt.relight.fill_edge). On a face mesh's skin a new light's lamp casts the mesh's own shadows (the nose's,
+the brows'; relight_rt.relight.cast_shadow), where they are darker than the photo's own light's: degree-2 SH cannot
+(Extended Yale B relight 0.859 / 0.6505 -> 0.870 / 0.734).
 (``cv2.ximgproc.guidedFilter`` at full resolution gives the same kind of result but costs ~0.6 s per 2-megapixel
 crop with a colour guide; this costs ~30 ms.)
 With ``detail=False`` the network's relit image is upsampled as it is.
@@ -72,7 +72,7 @@ from .detail import extend_outward, guided_upsample, shadow_texture, unpremultip
 from .face_pass import FacePass, feather
 from .fill_edge import crop_part, edge_weight, fill_share, soften
 from .look import shaded_skin, skin_chroma, tint_range
-from .shadow_rim import masked_blur, rim_lift, spread_mean
+from .shadow_rim import masked_blur, rim_lift, skin_gate, spread_mean
 from .strength import (
     EXPLAIN_ALBEDO_MIN,
     EXPLAIN_SHADOW_SHARE,
@@ -93,7 +93,9 @@ FILL_ALBEDO_SPREAD = 0.08  # ... its albedo that of the lit pixels around, over 
 FILL_ALBEDO_RANGE = 4.0  # ... at most this factor from stage 1's own albedo there
 RATIO_CAP = 2.0  # beside a deep shadow the photo's own detail is multiplied at most this much (Factor.handover),
 CAP_SKIN_SPREAD = 0.02  # ... on a face's skin, its edge softened over this share of the window's side,
-CAP_SHADOW_REACH: float | None = 5.0  # ... elsewhere within about this many network px of a shadow's core (None: off)
+# ... elsewhere, as far as stage 1 sees skin, over a Gaussian of this many network px around a deep shadow's core (all
+# of it within about that of a wide core's edge; a narrow core's reach is weaker: 0.11 at a 3 x 3 core's centre)
+CAP_SHADOW_REACH: float | None = 5.0
 TEXTURE_SCALES = (1.0, 2.0)  # the fill's texture (Factor.texture): the photo's log detail in this band (input px),
 TEXTURE_BLOCK, TEXTURE_SHARE = 4.0, 0.35  # ... its power over this many px held to this quantile of the lit skin's
 # a face's openings (inside the mesh's outline, off its skin: the eyes' sockets) take the skin's ratio cap and fill
@@ -497,9 +499,14 @@ class Factor:
             own = self.own(dec, with_residual=False)
             w = self.shadow_weight(dec)[0]
             reach = None
-            if CAP_SHADOW_REACH is not None:  # the penumbra around a deep shadow's core
-                core = (w > 0.5).astype(np.float32)
-                reach = soften(core, CAP_SHADOW_REACH, own["inner"])
+            core = w > 0.5
+            if CAP_SHADOW_REACH is not None and core.any():  # the penumbra around a deep shadow's core, as far as
+                # stage 1 sees skin there (relight_rt.relight.shadow_rim ``skin_gate``): on cloth and hair the
+                # added change, smooth in colour, flattened a striped shirt's stripes beside a shadow
+                y0, y1, x0, x1 = own["window"]
+                skin = unpremultiply(dec.skin[y0:y1, x0:x1, None], own["alpha"])[..., 0]
+                reach = soften(core, CAP_SHADOW_REACH, own["inner"]) * skin_gate(skin)
+                reach = reach if reach.max() > 1e-3 else None  # (no skin near: nothing to map)
             if own["cap_skin"] is not None:  # a face's skin and openings
                 reach = own["cap_face"] if reach is None else np.maximum(reach, own["cap_face"])
             where = (w > 1e-3) | (reach > 1e-3) if reach is not None else w > 1e-3
@@ -565,12 +572,15 @@ class Factor:
         the change, added: the same light where the albedo is right, the photo's noise multiplied by the cap only. A
         light that brightens the photo less than the cap, the photo's own light included, changes nothing. On a
         face's skin and its openings (``OPENINGS_AS_SKIN``; its edge softened over ``CAP_SKIN_SPREAD`` of the window's
-        side), where the fill carries the lit skin's albedo; elsewhere only within ``CAP_SHADOW_REACH`` of a deep
-        shadow's core (its penumbra: the transport's shading, smoother than the photo's edge, stays well above the
-        photo's there, and the ratio too low by 1.5-2x drew a dark line between the fill and the lit side: Extended
-        Yale B's yaleB21 from -50, no face mesh); over a whole person the added change, smooth, flattened a striped
-        shirt's and jeans' own texture (the bundled example under ``studio``, a cap of 2.5: 14 % of its values moved,
-        up to 50 levels).
+        side), where the fill carries the lit skin's albedo; elsewhere only around a deep shadow's core (a Gaussian
+        of ``CAP_SHADOW_REACH`` network px: all of it within about that of a wide core's edge, less around a narrow
+        one) and as far as stage 1 sees skin there (relight_rt.relight.shadow_rim ``skin_gate``): in a face's
+        penumbra the transport's shading, smoother than the photo's edge, stays well above the photo's, and the
+        ratio too low by 1.5-2x drew a dark line between the fill and the lit side (Extended Yale B's yaleB21 from
+        -50, no face mesh). On cloth and hair the added change, smooth in colour, flattens the photo's own texture:
+        over a whole person a striped shirt's and jeans' (the bundled example under ``studio``, a cap of 2.5: 14 % of
+        its values moved, up to 50 levels); beside a shadow, ungated, a shirt's colour stripes lost a third of their
+        contrast 2 px from the edge (tests/runtime/relight/test_fill_edges.py).
         """
         if not RATIO_CAP > 1 or reach is None:  # the rule off, or nowhere to reach
             return None

@@ -233,6 +233,33 @@ def test_the_background_moves_no_fill_weight(relighter):
     assert np.abs(weights[1] - weights[0]).max() < 0.01, np.abs(weights[1] - weights[0]).max()  # measured 0
 
 
+def test_the_penumbra_cap_leaves_clothings_colour_stripes_where_stage1_sees_no_skin(relighter, monkeypatch):
+    """The penumbra's cap (``CAP_SHADOW_REACH``) adds the change past ``RATIO_CAP`` in the fill's smooth colour: on a
+    shirt of red and blue 2-px stripes beside a hard shadow under 4x the light their colour contrast fell to 0.67 of
+    its own 2 px from the edge and 0.77 at 10 px (0.98 and 1.00 without the cap). The cap reaches only as far as
+    stage 1 sees skin (relight_rt.relight.shadow_rim ``skin_gate``); the face's penumbra keeps it (stage 1's skin:
+    ``test_a_light_that_lifts_the_penumbra_past_the_cap...``)."""
+    h, w, edge = 300, 400, 150
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+    on = (yy % 4 < 2)[..., None]
+    true = np.where(on, np.float32([0.25, 0.06, 0.06]), np.float32([0.05, 0.12, 0.25])).astype(np.float32)
+    mask = np.zeros((h, w), np.float32)
+    mask[30:270, 40:360] = 1
+    shade = cv2.GaussianBlur(np.where(xx < edge, 0.01, 1.0).astype(np.float32), (0, 0), 1.0)
+    dec = relighter.decompose(true * shade[..., None], mask)
+    dec = replace(dec, albedo_chw=relighter.decompose(true, mask).albedo_chw)
+    dec = replace(dec, skin=np.zeros_like(dec.skin))  # cloth: stage 1 sees no skin
+
+    def contrast(out: np.ndarray, d: int) -> float:  # the two stripes' colour difference over their mean colour
+        cols = out[60:240, edge + d - 1 : edge + d + 2].mean(axis=1)
+        stripe = (np.arange(60, 240) % 4) < 2
+        return float(np.abs(cols[stripe].mean(0) - cols[~stripe].mean(0)).sum() / cols.mean(0).sum())
+
+    out = relighter.relight(dec, 4 * OWN_LIGHT, exposure="physical")
+    kept = [contrast(out, d) / contrast(out, 100) for d in (2, 10)]
+    assert min(kept) > 0.9, kept  # measured 0.98, 1.00 (0.67, 0.77 with the cap on cloth)
+
+
 def _dim_block(relighter, monkeypatch, photo: np.ndarray, mask: np.ndarray, albedo: np.ndarray):
     """The Decomposition of ``photo`` given ``albedo``'s albedo, with the fill's weight found (its level set), then
     replaced by a 0.45 block of network pixels with no core (rows 24-40, columns 20-30 of the 64-px window)."""
