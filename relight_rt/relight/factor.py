@@ -480,12 +480,15 @@ class Factor:
             return gain, None
         box, part = crop_part(dec.geometry, maps, base["where"], (y0, x0))
         weight = base["weight"] if over is None else np.maximum(base["weight"], part[..., 3])
-        region = gain[box]
-        region += weight[..., None] * (1 - region)
-        values = part[..., :3] * weight[..., None]
+        # (the box may be most of a photo: each pass over it counts, and numpy's (h, w, 1) x (h, w, 3) broadcast
+        # costs about 8 ms a megapixel where the same product on 3 channels made by cv2.merge costs 1)
+        region = gain[box]  # region += weight x (1 - region)
+        rest = np.subtract(1, region)
+        rest *= cv2.merge([weight] * 3)
+        region += rest
         texture = self.texture(dec, gray)  # the photo's own fine detail carried into what is added
-        if texture is not None:
-            values *= texture[box][..., None]
+        share = weight if texture is None else weight * texture[box]
+        values = np.multiply(part[..., :3], cv2.merge([share] * 3))
         return gain, (box, values, weight)
 
     def fill_base(self, dec: Decomposition, image: np.ndarray) -> dict | None:

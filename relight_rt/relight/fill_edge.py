@@ -79,8 +79,8 @@ def crop_part(geom: CropGeometry, maps: np.ndarray, where: np.ndarray, origin: t
     parts = [cv2.warpAffine(np.ascontiguousarray(maps[..., i : i + 4]), m, size,  # OpenCV: <= 4 channels a call
                             flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_REPLICATE)
              for i in range(0, maps.shape[2], 4)]
-    part = np.dstack([p.reshape(size[1], size[0], -1) for p in parts])
-    return (slice(cy0, cy1), slice(cx0, cx1)), part
+    parts = [p.reshape(size[1], size[0], -1) for p in parts]
+    return (slice(cy0, cy1), slice(cx0, cx1)), parts[0] if len(parts) == 1 else np.dstack(parts)
 
 
 def edge_weight(w: np.ndarray, least: np.ndarray, most: np.ndarray, luma: np.ndarray, albedo: np.ndarray,
