@@ -473,7 +473,10 @@ class Factor:
             chroma = shadow[1]
             over = self.handover(ratio, base["reach"])
             change = (np.maximum(new, _RATIO_EPS) - own["own"])[..., None] * tint * chroma  # as the ratio: 0 under
-            maps = change if over is None else np.dstack([change, over])  # the photo's own light
+            # the photo's own light; a soft edge's own pixels take the solid person's beside (their albedo and colour
+            # mix the background in: a bright one lifted the fill into a bright rim where a shadow meets the edge)
+            change = extend_outward(change, own["inner"] & (own["alpha"] > 0.9))
+            maps = change if over is None else np.dstack([change, over])
         gain = extend_outward(factor, own["inner"])
         gain = guided_upsample(dec.geometry, gain, dec.network_image[y0:y1, x0:x1], gray, (y0, x0))
         if base is None:
