@@ -74,8 +74,9 @@ def test_a_light_that_lifts_the_penumbra_past_the_cap_draws_no_dark_line_between
     """Between the fill and the lit side the photo's penumbra (0.1-0.35 of the lit side) is multiplied by the ratio;
     the transport's shading there is the smooth model's, above the photo's, so a light that lifts the photo 4x lifted
     the penumbra too little: a dark line along the shadow's border (Extended Yale B's yaleB21 from -50, no face mesh:
-    0.0121 of its face new edges). Within ``CAP_SHADOW_REACH`` of a deep shadow's core the ratio multiplies the photo
-    at most ``RATIO_CAP`` and the rest is added, as on a face mesh's skin (``Factor.handover``)."""
+    0.0121 of its face new edges). Within ``CAP_SHADOW_REACH`` of a deep shadow's core, where stage 1 sees skin (the
+    analytic graph's 0.5 everywhere: ``skin_gate`` open), the ratio multiplies the photo at most ``RATIO_CAP`` and the
+    rest is added, as on a face mesh's skin (``Factor.handover``)."""
     photo, _, true, mask = scene()
 
     def line() -> float:  # the penumbra (the photo at 0.3 and 0.7 of the lit side) against the fill and the lit side
