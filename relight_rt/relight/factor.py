@@ -39,11 +39,11 @@ is taken out first (``unshaded_albedo``; de-lighting 0.87 / 0.70 -> 0.88 / 0.78)
 albedo of the lit skin around, and all of a shadow the transport misses goes with the photo's light (de-lighting
 with the face search's shadow lifts 0.89 / 0.80 -> 0.91 / 0.83); on its skin a light that would multiply the
 photo more than ``RATIO_CAP`` multiplies it that much and adds the rest of the change as the fill (``Factor.handover``:
-the speckle and the seam beside a side-lit face's black half), and so does the penumbra around any deep shadow; the
-fill's weight meets the ratio at the photo's own shadow edge, per input pixel (relight_rt.relight.fill_edge). On a
-face mesh's skin a new light's lamp casts the
-mesh's own shadows (the nose's, the brows'; relight_rt.relight.cast_shadow), where they are darker than the photo's
-own light's: degree-2 SH cannot (Extended Yale B relight 0.859 / 0.6505 -> 0.870 / 0.734).
+the speckle and the seam beside a side-lit face's black half), and so does the skin in the penumbra around a wide deep
+shadow; the fill's weight meets the ratio at the photo's own shadow edge, per input pixel
+(relight_rt.relight.fill_edge). On a face mesh's skin a new light's lamp casts the mesh's own shadows (the nose's,
+the brows'; relight_rt.relight.cast_shadow), where they are darker than the photo's own light's: degree-2 SH cannot
+(Extended Yale B relight 0.859 / 0.6505 -> 0.870 / 0.734).
 (``cv2.ximgproc.guidedFilter`` at full resolution gives the same kind of result but costs ~0.6 s per 2-megapixel
 crop with a colour guide; this costs ~30 ms.)
 With ``detail=False`` the network's relit image is upsampled as it is.
@@ -70,9 +70,9 @@ from .cast_shadow import MeshView, shadow_factor
 from .decomposition import Decomposition, Memo, readonly
 from .detail import extend_outward, guided_upsample, shadow_texture, unpremultiply, window
 from .face_pass import FacePass, feather
-from .fill_edge import crop_part, edge_weight
+from .fill_edge import crop_part, edge_weight, fill_share, soften
 from .look import shaded_skin, skin_chroma, tint_range
-from .shadow_rim import masked_blur, rim_lift, spread_mean
+from .shadow_rim import masked_blur, rim_lift, skin_gate, spread_mean
 from .strength import (
     EXPLAIN_ALBEDO_MIN,
     EXPLAIN_SHADOW_SHARE,
@@ -93,7 +93,9 @@ FILL_ALBEDO_SPREAD = 0.08  # ... its albedo that of the lit pixels around, over 
 FILL_ALBEDO_RANGE = 4.0  # ... at most this factor from stage 1's own albedo there
 RATIO_CAP = 2.0  # beside a deep shadow the photo's own detail is multiplied at most this much (Factor.handover),
 CAP_SKIN_SPREAD = 0.02  # ... on a face's skin, its edge softened over this share of the window's side,
-CAP_SHADOW_REACH: float | None = 5.0  # ... elsewhere within about this many network px of a shadow's core (None: off)
+# ... elsewhere, as far as stage 1 sees skin, over a Gaussian of this many network px around a deep shadow's core (all
+# of it within about that of a wide core's edge; a narrow core's reach is weaker: 0.11 at a 3 x 3 core's centre)
+CAP_SHADOW_REACH: float | None = 5.0
 TEXTURE_SCALES = (1.0, 2.0)  # the fill's texture (Factor.texture): the photo's log detail in this band (input px),
 TEXTURE_BLOCK, TEXTURE_SHARE = 4.0, 0.35  # ... its power over this many px held to this quantile of the lit skin's
 # a face's openings (inside the mesh's outline, off its skin: the eyes' sockets) take the skin's ratio cap and fill
@@ -262,17 +264,14 @@ class Factor:
             cap = None
             if skin.any():
                 spread = CAP_SKIN_SPREAD * max(skin.shape)
-                cap = readonly(np.minimum(2 * cv2.GaussianBlur(skin.astype(np.float32), (0, 0), spread)
-                                          * base["inner"], 1).astype(np.float32))
+                cap = readonly(soften(skin, spread, base["inner"]))
             # the face beyond its skin (``restored``'s "face_opening"): the ratio cap and the fill's skin albedo reach
             # it too (``handover``, ``shadow_weight``)
             opening = cap_face = None
             found = base.get("face_opening")  # (a ``restored`` made elsewhere may not say)
             if cap is not None and OPENINGS_AS_SKIN and found is not None and found.any():
                 opening = found
-                area = (skin | opening).astype(np.float32)
-                cap_face = readonly(np.minimum(2 * cv2.GaussianBlur(area, (0, 0), spread) * base["inner"],
-                                               1).astype(np.float32))
+                cap_face = readonly(soften(skin | opening, spread, base["inner"]))
             # the faces' cast shadows under the photo's own light (relight_rt.relight.cast_shadow): a new light's are
             # taken relative to them
             cast, views = None, ()
@@ -469,40 +468,51 @@ class Factor:
         if gray is None:  # drops theirs after use, relight_rt.relight.people, maybe in another thread)
             gray = state["gray"] = readonly(cv2.cvtColor(image, cv2.COLOR_RGB2GRAY))
         shadow = self.shadow_weight(dec) if fill else None
-        base = None if shadow is None else self.fill_base(dec, gray)
+        base = None if shadow is None else self.fill_base(dec, image)
         if base is not None:
             chroma = shadow[1]
             over = self.handover(ratio, base["reach"])
             change = (np.maximum(new, _RATIO_EPS) - own["own"])[..., None] * tint * chroma  # as the ratio: 0 under
-            maps = change if over is None else np.dstack([change, over])  # the photo's own light
+            # the photo's own light; a soft edge's own pixels take the solid person's beside (their albedo and colour
+            # mix the background in: a bright one lifted the fill into a bright rim where a shadow meets the edge)
+            change = extend_outward(change, own["inner"] & (own["alpha"] > 0.9))
+            maps = change if over is None else np.dstack([change, over])
         gain = extend_outward(factor, own["inner"])
         gain = guided_upsample(dec.geometry, gain, dec.network_image[y0:y1, x0:x1], gray, (y0, x0))
         if base is None:
             return gain, None
         box, part = crop_part(dec.geometry, maps, base["where"], (y0, x0))
         weight = base["weight"] if over is None else np.maximum(base["weight"], part[..., 3])
-        region = gain[box]
-        region += weight[..., None] * (1 - region)
-        values = part[..., :3] * weight[..., None]
+        # (the box may be most of a photo: each pass over it counts, and numpy's (h, w, 1) x (h, w, 3) broadcast
+        # costs about 8 ms a megapixel where the same product on 3 channels made by cv2.merge costs 1)
+        region = gain[box]  # region += weight x (1 - region)
+        rest = np.subtract(1, region)
+        rest *= cv2.merge([weight] * 3)
+        region += rest
         texture = self.texture(dec, gray)  # the photo's own fine detail carried into what is added
-        if texture is not None:
-            values *= texture[box][..., None]
+        share = weight if texture is None else weight * texture[box]
+        values = np.multiply(part[..., :3], cv2.merge([share] * 3))
         return gain, (box, values, weight)
 
-    def fill_base(self, dec: Decomposition, gray: np.ndarray) -> dict | None:
+    def fill_base(self, dec: Decomposition, image: np.ndarray) -> dict | None:
         """What the deep shadow's fill needs at the photo's resolution whatever the light (cached; ``shadow_weight``
         not None): "reach" (r, r') where ``handover`` may raise the weight (None: nowhere), "where" (r, r') bool the
         network pixels the fill may cover, "box" and "weight" the crop box's part they map to and the weight there
         (relight_rt.relight.fill_edge ``edge_weight``: along the shadow's border each input pixel's own shading).
-        ``gray``: the photo's grey in the crop box."""
+        ``image``: (h, w, 3) the person's colour in the crop box (``Composer.foreground``), float32 RGB."""
         state = self.memo(dec)
         if "fill_base" not in state:
             own = self.own(dec, with_residual=False)
             w = self.shadow_weight(dec)[0]
             reach = None
-            if CAP_SHADOW_REACH is not None:  # the penumbra around a deep shadow's core
-                core = (w > 0.5).astype(np.float32)
-                reach = np.minimum(2 * cv2.GaussianBlur(core, (0, 0), CAP_SHADOW_REACH), 1) * own["inner"]
+            core = w > 0.5
+            if CAP_SHADOW_REACH is not None and core.any():  # the penumbra around a deep shadow's core, as far as
+                # stage 1 sees skin there (relight_rt.relight.shadow_rim ``skin_gate``): on cloth and hair the
+                # added change, smooth in colour, flattened a striped shirt's stripes beside a shadow
+                y0, y1, x0, x1 = own["window"]
+                skin = unpremultiply(dec.skin[y0:y1, x0:x1, None], own["alpha"])[..., 0]
+                reach = soften(core, CAP_SHADOW_REACH, own["inner"]) * skin_gate(skin)
+                reach = reach if reach.max() > 1e-3 else None  # (no skin near: nothing to map)
             if own["cap_skin"] is not None:  # a face's skin and openings
                 reach = own["cap_face"] if reach is None else np.maximum(reach, own["cap_face"])
             where = (w > 1e-3) | (reach > 1e-3) if reach is not None else w > 1e-3
@@ -513,7 +523,8 @@ class Factor:
             result = None
             if mapped is not None:
                 box, part = mapped
-                weight = edge_weight(part[..., 0], part[..., 1], part[..., 2], gray[box],
+                luma = image[box] @ REC709  # the luminance the weight on the network's grid is measured on
+                weight = edge_weight(part[..., 0], part[..., 1], part[..., 2], luma,
                                      np.maximum(part[..., 3], EXPLAIN_ALBEDO_MIN), state["shadow_level"],
                                      FILL_LOW, FILL_HIGH)
                 result = {"reach": None if reach is None else readonly(reach.astype(np.float32)),
@@ -567,12 +578,15 @@ class Factor:
         the change, added: the same light where the albedo is right, the photo's noise multiplied by the cap only. A
         light that brightens the photo less than the cap, the photo's own light included, changes nothing. On a
         face's skin and its openings (``OPENINGS_AS_SKIN``; its edge softened over ``CAP_SKIN_SPREAD`` of the window's
-        side), where the fill carries the lit skin's albedo; elsewhere only within ``CAP_SHADOW_REACH`` of a deep
-        shadow's core (its penumbra: the transport's shading, smoother than the photo's edge, stays well above the
-        photo's there, and the ratio too low by 1.5-2x drew a dark line between the fill and the lit side: Extended
-        Yale B's yaleB21 from -50, no face mesh); over a whole person the added change, smooth, flattened a striped
-        shirt's and jeans' own texture (the bundled example under ``studio``, a cap of 2.5: 14 % of its values moved,
-        up to 50 levels).
+        side), where the fill carries the lit skin's albedo; elsewhere only around a deep shadow's core (a Gaussian
+        of ``CAP_SHADOW_REACH`` network px: all of it within about that of a wide core's edge, less around a narrow
+        one) and as far as stage 1 sees skin there (relight_rt.relight.shadow_rim ``skin_gate``): in a face's
+        penumbra the transport's shading, smoother than the photo's edge, stays well above the photo's, and the
+        ratio too low by 1.5-2x drew a dark line between the fill and the lit side (Extended Yale B's yaleB21 from
+        -50, no face mesh). On cloth and hair the added change, smooth in colour, flattens the photo's own texture:
+        over a whole person a striped shirt's and jeans' (the bundled example under ``studio``, a cap of 2.5: 14 % of
+        its values moved, up to 50 levels); beside a shadow, ungated, a shirt's colour stripes lost a third of their
+        contrast 2 px from the edge (tests/runtime/relight/test_fill_edges.py).
         """
         if not RATIO_CAP > 1 or reach is None:  # the rule off, or nowhere to reach
             return None
@@ -616,14 +630,13 @@ class Factor:
             result = None
             if level > 0:  # the weight of the shading smoothed, of each pixel's own (``FILL_EDGE_SIGMA``) and unblurred
                 both = np.stack([smooth, masked_blur(shown, keep, FILL_EDGE_SIGMA), shown])
-                q = np.clip((both / level - FILL_LOW) / (FILL_HIGH - FILL_LOW), 0, 1)
-                w, each, bare = np.where(inner, 1 - q * q * (3 - 2 * q), 0).astype(np.float32)
+                w, each, bare = np.where(inner, fill_share(both, level, FILL_LOW, FILL_HIGH), 0).astype(np.float32)
                 bare = np.where(keep > 0, bare, each)  # a soft edge's own pixel mixes the background in
                 if w.max() > 0.05:  # near a shadow each pixel's own shading places its edge (the photo's, not the
                     # smoothing's: a black band inside it was multiplied, a dark line along the shadow's border)
                     core = (w > 0.5).astype(np.float32)  # a shadow's (a stripe's smoothed weight stays low)
-                    near = cv2.GaussianBlur(each * np.clip(2 * cv2.GaussianBlur(core, (0, 0), FILL_SIGMA), 0, 1),
-                                            (0, 0), 1.0)  # (its blur held to each pixel's own: the edge not crossed)
+                    near = cv2.GaussianBlur(each * soften(core, FILL_SIGMA), (0, 0), 1.0)  # (its blur held to
+                    # each pixel's own: the edge not crossed)
                     w = np.maximum(cv2.GaussianBlur(w, (0, 0), 1.0), np.minimum(near, bare)) * inner
                     y0, y1, x0, x1 = own["window"]
                     rgb = dec.network_image[y0:y1, x0:x1]

@@ -12,7 +12,7 @@ filter's local linear model follows, not the ridge the blend made), the weight i
 at the photo's resolution (``edge_weight``), and the two meet per input pixel.
 
 ``edge_weight``: along a shadow's border (where the network's weight steps from one network pixel to the next) each
-input pixel's own shading (its grey over the albedo, against the same median the network's weight is measured on)
+input pixel's own shading (its luminance over the albedo, against the same median the network's weight is measured on)
 decides, held between the least and the greatest network weight around it: a lit input pixel is multiplied, a black
 one filled, whichever network pixel it falls in (the fill had also stopped short of the edge inside the black, the
 last network pixel straddling it reading lit: 0.10 instead of 0.32 two input pixels inside). Only there: stage 1
@@ -28,8 +28,26 @@ import numpy as np
 
 from ..image.crop import CropGeometry
 
-EDGE_OWN_SIGMA = 0.7  # edge_weight: each input pixel's own grey smoothed over this many input pixels (noise),
+EDGE_OWN_SIGMA = 0.7  # edge_weight: each input pixel's own luminance smoothed over this many input pixels (noise),
 EDGE_SPAN = (0.3, 0.7)  # ... deciding where the network's weights around differ by more than this (a border)
+# crop_part: the box reaches this many network pixels past ``where``: the weight's 3 x 3 greatest (``edge_weight``'s
+# ``most``) reaches one past it, and the box's first pixels must see it fall to nothing (with 1 the box began where
+# the greatest was still a neighbour's: a step in the weight at the box's border)
+BOX_MARGIN = 2
+
+
+def fill_share(shown: np.ndarray, level: float, low: float, high: float) -> np.ndarray:
+    """The fill's share from the shading shown (photo over albedo, any shape): all of it from ``low`` x ``level``
+    down, none from ``high`` x ``level`` up, a smoothstep between (the dtype of ``shown``)."""
+    q = np.clip((shown / max(level, 1e-6) - low) / (high - low), 0, 1)
+    return 1 - q * q * (3 - 2 * q)
+
+
+def soften(area: np.ndarray, sigma: float, inner: np.ndarray | None = None) -> np.ndarray:
+    """(r, r') float32 in [0, 1]: ``area`` (bool or [0, 1]) with its edge softened over ``sigma`` pixels, all of it
+    from half-way into the blur on (twice the blurred area, at most 1), times ``inner`` (the person) when given."""
+    out = np.minimum(2 * cv2.GaussianBlur(area.astype(np.float32), (0, 0), sigma), 1)
+    return (out if inner is None else out * inner).astype(np.float32)
 
 
 def crop_part(geom: CropGeometry, maps: np.ndarray, where: np.ndarray, origin: tuple[int, int]) -> tuple | None:
@@ -46,8 +64,8 @@ def crop_part(geom: CropGeometry, maps: np.ndarray, where: np.ndarray, origin: t
     (oy, ox), k = geom.offset, geom.resolution / geom.side
 
     def span(lo: int, hi: int, start: int, offset: int, size: int) -> tuple[int, int]:
-        a = int(np.floor((lo - 1 + start + 0.5) / k - 0.5 - offset))
-        b = int(np.ceil((hi + 1 + start + 0.5) / k - 0.5 - offset)) + 1
+        a = int(np.floor((lo - BOX_MARGIN + start + 0.5) / k - 0.5 - offset))
+        b = int(np.ceil((hi + BOX_MARGIN + start + 0.5) / k - 0.5 - offset)) + 1
         return max(a, 0), min(b, size)
 
     cy0, cy1 = span(int(ys.min()), int(ys.max()), origin[0], oy, h)
@@ -61,11 +79,11 @@ def crop_part(geom: CropGeometry, maps: np.ndarray, where: np.ndarray, origin: t
     parts = [cv2.warpAffine(np.ascontiguousarray(maps[..., i : i + 4]), m, size,  # OpenCV: <= 4 channels a call
                             flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_REPLICATE)
              for i in range(0, maps.shape[2], 4)]
-    part = np.dstack([p.reshape(size[1], size[0], -1) for p in parts])
-    return (slice(cy0, cy1), slice(cx0, cx1)), part
+    parts = [p.reshape(size[1], size[0], -1) for p in parts]
+    return (slice(cy0, cy1), slice(cx0, cx1)), parts[0] if len(parts) == 1 else np.dstack(parts)
 
 
-def edge_weight(w: np.ndarray, least: np.ndarray, most: np.ndarray, gray: np.ndarray, albedo: np.ndarray,
+def edge_weight(w: np.ndarray, least: np.ndarray, most: np.ndarray, luma: np.ndarray, albedo: np.ndarray,
                 level: float, low: float, high: float) -> np.ndarray:
     """(h', w') float32 in [0, 1]: the fill's weight at the photo's resolution (module docstring): along a shadow's
     border each input pixel's own weight, held between the least and the greatest of the network's weights around
@@ -76,8 +94,9 @@ def edge_weight(w: np.ndarray, least: np.ndarray, most: np.ndarray, gray: np.nda
             it over each network pixel's 3 x 3 neighbours, mapped the same way. Where they differ by more than
             ``EDGE_SPAN`` (a border: the weight steps within a network pixel) the pixel's own weight takes over, in
             full from ``EDGE_SPAN[1]`` on; inside a shadow, away from one and along a smooth ramp the network's stays.
-        gray: (h', w') the photo's grey there, in [0, 1]; albedo: (h', w') stage 1's albedo luminance mapped there
-            (floored by the caller).
+        luma: (h', w') the photo's Rec. 709 luminance there, in [0, 1] (the weight on the network's grid is the
+            photo's Rec. 709 luminance over the albedo's too: a BT.601 grey moved the threshold by 10-15 % on
+            saturated colours); albedo: (h', w') stage 1's albedo luminance mapped there (floored by the caller).
         level: the shading shown (photo over albedo) that the network's weight is measured against (its median).
         low, high: from ``high`` x level of the shading shown down to ``low`` x level the pixel's own weight goes
             from none to all (the network weight's own thresholds).
@@ -85,7 +104,6 @@ def edge_weight(w: np.ndarray, least: np.ndarray, most: np.ndarray, gray: np.nda
     span = np.clip((most - least - EDGE_SPAN[0]) / (EDGE_SPAN[1] - EDGE_SPAN[0]), 0, 1)
     if not span.any():
         return w.astype(np.float32)
-    shown = cv2.GaussianBlur(gray.astype(np.float32), (0, 0), EDGE_OWN_SIGMA) / albedo
-    q = np.clip((shown / max(level, 1e-6) - low) / (high - low), 0, 1)
-    own = np.clip(1 - q * q * (3 - 2 * q), least, most)
+    shown = cv2.GaussianBlur(luma.astype(np.float32), (0, 0), EDGE_OWN_SIGMA) / albedo
+    own = np.clip(fill_share(shown, level, low, high), least, most)
     return (w + span * (own - w)).astype(np.float32)

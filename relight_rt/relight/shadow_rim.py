@@ -99,6 +99,13 @@ def rim_colour_gate(rgb: np.ndarray, rim: np.ndarray, lit: np.ndarray, sigma: fl
     return skin_chroma(np.clip(colour, 0, 1), np.ones(rim.shape, np.float32))[1]
 
 
+def skin_gate(skin: np.ndarray) -> np.ndarray:
+    """(r, r') float32 in [0, 1]: how far stage 1 sees skin around each pixel: its skin probability (unpremultiplied)
+    smoothed over ``RIM_SKIN_SIGMA`` network pixels, times ``RIM_SKIN_GATE``, at most 1 (a shaded cheek reads 0.3-0.5:
+    open; hair and cloth closed, the rule's edge soft)."""
+    return np.clip(cv2.GaussianBlur(skin.astype(np.float32), (0, 0), RIM_SKIN_SIGMA) * RIM_SKIN_GATE, 0, 1)
+
+
 def rim_lift(albedo: np.ndarray, photo: np.ndarray, own: np.ndarray, weight: np.ndarray, trust: np.ndarray,
              skin: np.ndarray, floor: float, rgb: np.ndarray | None = None) -> np.ndarray | None:
     """(r, r') float32: the factor on the fill's albedo that gives it its rim's (module docstring), 1 where stage 1
@@ -132,7 +139,7 @@ def rim_lift(albedo: np.ndarray, photo: np.ndarray, own: np.ndarray, weight: np.
     level = float(np.median(seen[lit])) if lit.any() else float(np.max(albedo))
     around = np.minimum(around, np.maximum(albedo, level))
     lift = np.clip(around / np.maximum(albedo, floor), 1, RIM_RANGE)
-    gate = np.clip(cv2.GaussianBlur(skin.astype(np.float32), (0, 0), RIM_SKIN_SIGMA) * RIM_SKIN_GATE, 0, 1)
+    gate = skin_gate(skin)
     asked = rgb is not None and bool(((lift > 1) & (gate > 0)).any())  # (nothing to gate: not measured)
     colour = rim_colour_gate(rgb, rim, lit, RIM_SPREAD * max(weight.shape)) if asked else None
     gate = gate if colour is None else gate * colour

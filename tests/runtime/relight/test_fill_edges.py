@@ -15,7 +15,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
-from _graphs import OWN_LIGHT, models_dir
+from _graphs import OWN_LIGHT, models_dir, person
 
 import relight_rt
 from relight_rt.engine.config import RuntimeConfig
@@ -74,8 +74,9 @@ def test_a_light_that_lifts_the_penumbra_past_the_cap_draws_no_dark_line_between
     """Between the fill and the lit side the photo's penumbra (0.1-0.35 of the lit side) is multiplied by the ratio;
     the transport's shading there is the smooth model's, above the photo's, so a light that lifts the photo 4x lifted
     the penumbra too little: a dark line along the shadow's border (Extended Yale B's yaleB21 from -50, no face mesh:
-    0.0121 of its face new edges). Within ``CAP_SHADOW_REACH`` of a deep shadow's core the ratio multiplies the photo
-    at most ``RATIO_CAP`` and the rest is added, as on a face mesh's skin (``Factor.handover``)."""
+    0.0121 of its face new edges). Within ``CAP_SHADOW_REACH`` of a deep shadow's core, where stage 1 sees skin (the
+    analytic graph's 0.5 everywhere: ``skin_gate`` open), the ratio multiplies the photo at most ``RATIO_CAP`` and the
+    rest is added, as on a face mesh's skin (``Factor.handover``)."""
     photo, _, true, mask = scene()
 
     def line() -> float:  # the penumbra (the photo at 0.3 and 0.7 of the lit side) against the fill and the lit side
@@ -231,3 +232,124 @@ def test_the_background_moves_no_fill_weight(relighter):
         dec = replace(dec, albedo_chw=relighter.decompose(true * mask[..., None] + back, mask).albedo_chw)
         weights.append(relighter._factor.shadow_weight(dec)[0])
     assert np.abs(weights[1] - weights[0]).max() < 0.01, np.abs(weights[1] - weights[0]).max()  # measured 0
+
+
+def test_the_penumbra_cap_leaves_clothings_colour_stripes_where_stage1_sees_no_skin(relighter, monkeypatch):
+    """The penumbra's cap (``CAP_SHADOW_REACH``) adds the change past ``RATIO_CAP`` in the fill's smooth colour: on a
+    shirt of red and blue 2-px stripes beside a hard shadow under 4x the light their colour contrast fell to 0.67 of
+    its own 2 px from the edge and 0.77 at 10 px (0.98 and 1.00 without the cap). The cap reaches only as far as
+    stage 1 sees skin (relight_rt.relight.shadow_rim ``skin_gate``); the face's penumbra keeps it (stage 1's skin:
+    ``test_a_light_that_lifts_the_penumbra_past_the_cap...``)."""
+    h, w, edge = 300, 400, 150
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+    on = (yy % 4 < 2)[..., None]
+    true = np.where(on, np.float32([0.25, 0.06, 0.06]), np.float32([0.05, 0.12, 0.25])).astype(np.float32)
+    mask = np.zeros((h, w), np.float32)
+    mask[30:270, 40:360] = 1
+    shade = cv2.GaussianBlur(np.where(xx < edge, 0.01, 1.0).astype(np.float32), (0, 0), 1.0)
+    dec = relighter.decompose(true * shade[..., None], mask)
+    dec = replace(dec, albedo_chw=relighter.decompose(true, mask).albedo_chw)
+    dec = replace(dec, skin=np.zeros_like(dec.skin))  # cloth: stage 1 sees no skin
+
+    def contrast(out: np.ndarray, d: int) -> float:  # the two stripes' colour difference over their mean colour
+        cols = out[60:240, edge + d - 1 : edge + d + 2].mean(axis=1)
+        stripe = (np.arange(60, 240) % 4) < 2
+        return float(np.abs(cols[stripe].mean(0) - cols[~stripe].mean(0)).sum() / cols.mean(0).sum())
+
+    out = relighter.relight(dec, 4 * OWN_LIGHT, exposure="physical")
+    kept = [contrast(out, d) / contrast(out, 100) for d in (2, 10)]
+    assert min(kept) > 0.9, kept  # measured 0.98, 1.00 (0.67, 0.77 with the cap on cloth)
+
+
+def _dim_block(relighter, monkeypatch, photo: np.ndarray, mask: np.ndarray, albedo: np.ndarray):
+    """The Decomposition of ``photo`` given ``albedo``'s albedo, with the fill's weight found (its level set), then
+    replaced by a 0.45 block of network pixels with no core (rows 24-40, columns 20-30 of the 64-px window)."""
+    dec = replace(relighter.decompose(photo, mask), albedo_chw=relighter.decompose(albedo, mask).albedo_chw)
+    factor = relighter._factor
+    w, chroma = factor.shadow_weight(dec)
+    block = np.zeros_like(w)
+    block[24:40, 20:30] = 0.45
+    monkeypatch.setattr(factor, "shadow_weight", lambda d: (block, chroma))
+    return dec
+
+
+def test_the_fills_box_ends_where_its_weight_is_nothing(relighter, monkeypatch):
+    """The fill is mapped to a box around the network pixels it may cover (relight_rt.relight.fill_edge
+    ``crop_part``); past the box its weight is nothing. Along a border ``edge_weight`` reads the greatest network
+    weight of each pixel's 3 x 3 neighbours, one network pixel past the fill: with a box one network pixel wide of it
+    the box's first input pixels still saw that greatest weight, and a dim pixel there took 0.065 of the fill
+    while the pixel beside it, outside, took none (a step in the relit photo). Here a 0.45 block of weight with no
+    core over a dim band (a fifth of the lit side's shading): the box's outermost pixels carry no weight."""
+    img, mask = person(h=200, w=150, box=(10, 190, 10, 140))
+    photo = img.copy()
+    photo[60:140, 30:90] *= 0.2  # the dim band, wider than the block's 2.3 input px a network px
+    dec = _dim_block(relighter, monkeypatch, photo, mask, img)
+    image = relighter._composer.foreground(dec)[0]
+    base = relighter._factor.fill_base(dec, image)
+    (ys, xs), weight = base["box"], base["weight"]
+    assert ys.start > 0 and xs.start > 0 and ys.stop < image.shape[0] and xs.stop < image.shape[1]  # inside the crop
+    assert float(weight.max()) > 0.3  # the block is there
+    border = np.concatenate([weight[0], weight[-1], weight[:, 0], weight[:, -1]])
+    assert float(border.max()) < 1e-3, float(border.max())  # measured 0 (0.065 with a margin of 1)
+
+
+def test_the_fills_weight_is_the_same_for_any_colour_of_the_same_luminance(relighter):
+    """The fill's weight on the network's grid is the photo's Rec. 709 luminance over the albedo's; along the shadow's
+    border ``edge_weight`` read each input pixel's BT.601 grey over that albedo (OpenCV's RGB2GRAY), 1.3x a
+    saturated blue's luminance: its border pixels read lit. One shading under grey and under a saturated blue of the
+    same luminance gives one weight."""
+    h, w = 150, 100
+    xx = np.mgrid[0:h, 0:w][1].astype(np.float32)
+    mask = np.zeros((h, w), np.float32)
+    mask[20:140, 20:85] = 1
+    shade = cv2.GaussianBlur(np.where(xx < EDGE_X, 0.02, 1.0).astype(np.float32), (0, 0), 1.5)
+    blue = np.float32([0.1, 0.1, 0.8])
+    weights = []
+    for colour in (blue, np.full(3, float(blue @ REC709), np.float32)):
+        true = np.broadcast_to(colour, (h, w, 3)).astype(np.float32)
+        dec = relighter.decompose(true * shade[..., None], mask)
+        dec = replace(dec, albedo_chw=relighter.decompose(true, mask).albedo_chw)
+        weights.append(relighter._factor.fill_base(dec, relighter._composer.foreground(dec)[0])["weight"])
+    assert weights[0].shape == weights[1].shape
+    assert np.abs(weights[0] - weights[1]).max() < 0.01, np.abs(weights[0] - weights[1]).max()
+
+
+def test_a_shadow_at_a_twentieth_of_the_lit_side_is_filled_up_to_its_edge(relighter):
+    """A shadow at 5 % of the lit side's shading is deep (``FILL_LOW`` 0.1): along its border each input pixel's own
+    weight (``edge_weight``, against the person's median shading, the network weight's own level) fills its last dark
+    pixels as far as the network's weight around allows. Against a level a third as high (a 1 % shadow passes that
+    too) they read half lit: the last dark pixel's weight 0.06 instead of 0.58."""
+    photo, _, true, mask = scene()
+    xx = np.mgrid[0:150, 0:100][1]
+    shade = cv2.GaussianBlur(np.where(xx < EDGE_X, 0.05, 1.0).astype(np.float32), (0, 0), 1.0)
+    photo = true * shade[..., None]  # the shadow's last dark pixel at EDGE_X - 2 (EDGE_X - 1 blurred to 0.34)
+    dec = replace(relighter.decompose(photo, mask), albedo_chw=relighter.decompose(true, mask).albedo_chw)
+    base = relighter._factor.fill_base(dec, relighter._composer.foreground(dec)[0])
+    (ys, xs), weight = base["box"], base["weight"]
+    oy, ox = ys.start + dec.geometry.box[0], xs.start + dec.geometry.box[2]  # the box's origin in the photo
+    last = weight[40 - oy : 120 - oy, EDGE_X - 4 - ox : EDGE_X - 1 - ox].mean(axis=0)
+    assert float(last.min()) > 0.4, last  # measured 0.84, 0.71, 0.58 (0.77, 0.51, 0.06 against 0.3 x the level)
+
+
+def test_a_deep_shadow_meets_a_soft_matte_edge_against_a_bright_background_without_a_rim(relighter):
+    """At a soft matte edge the photo mixes the background in, and so do stage 1's albedo and the fill's colour there
+    (unpremultiplied: 0.59 at alpha 0.84 against 0.51 inside, before a white background). Where a deep shadow reaches
+    the edge the fill's change, mapped from those pixels and decided per input pixel (relight_rt.relight.fill_edge),
+    drew a bright rim, then a dark one (the composite 0.031 over the core's fill mixed with the background at alpha
+    0.9, 0.136 under it at alpha 0.6). The change there is the solid person's beside (``extend_outward``)."""
+    h, w = 150, 100
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+    true = np.array([0.62, 0.47, 0.40], np.float32) * (1 + 0.05 * np.sin(yy / 9.0))[..., None]
+    hard = np.zeros((h, w), np.float32)
+    hard[20:140, 20:70] = 1
+    mask = cv2.GaussianBlur(hard, (0, 0), 2.0)  # soft: alpha 0.96-0.6 over columns 66-69
+    shade = cv2.GaussianBlur(np.where(xx < 45, 1.0, 0.01).astype(np.float32), (0, 0), 1.0)  # dark up to the edge
+    a = mask[..., None]
+    dec = relighter.decompose(true * shade[..., None] * a + (1 - a), mask)  # over white
+    dec = replace(dec, albedo_chw=relighter.decompose(true * a + (1 - a), mask).albedo_chw)
+    out = (relighter.relight(dec, 2 * OWN_LIGHT, exposure="physical") @ REC709)[40:120].mean(axis=0)
+    core = float(out[55:62].mean())  # the fill inside the shadow
+    alpha = mask[40:120, 66:70].mean(axis=0)
+    off = out[66:70] - (alpha * core + 1 - alpha)  # against the core's fill over the background
+    assert off.max() < 0.015 and off.min() > -0.06, off  # measured -0.013, -0.006, -0.022, -0.037 (before: +0.004,
+    # +0.031, -0.049, -0.136)

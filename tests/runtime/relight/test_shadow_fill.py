@@ -126,7 +126,8 @@ def test_where_a_light_multiplies_a_dim_photo_the_fill_takes_over_and_its_noise_
     Yale B's lips and nose lit from 70°). On a face mesh's skin, where the ratio passes ``RATIO_CAP`` the change
     beyond it is added as the fill (``Factor.handover``): the noise the photo has and the albedo has not is multiplied
     at most by the cap; the photo's own light still gives the photo back. Off a face's skin only within
-    ``CAP_SHADOW_REACH`` of a deep shadow's core (test_fill_edges: the penumbra's dark line)."""
+    ``CAP_SHADOW_REACH`` of a deep shadow's core and where stage 1 sees skin (test_fill_edges: the penumbra's dark
+    line; a shirt's stripes)."""
     img, mask = person(box=(20, 140, 20, 90))
     shaded = img.copy()
     shaded[20:140, 20:30] *= 0.01  # the deep shadow (the fill's)

@@ -4,7 +4,7 @@ face's albedo (the slope of log albedo on log shading over the face's skin) take
 import numpy as np
 import pytest
 
-from relight_rt.relight.factor import UNSHADE_MIN_SKIN, unshaded_albedo
+from relight_rt.relight.unshade import UNSHADE_MIN_SKIN, unshaded_albedo
 
 
 def _face(share: float, size: int = 40):
