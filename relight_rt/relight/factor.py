@@ -475,7 +475,10 @@ class Factor:
             change = (np.maximum(new, _RATIO_EPS) - own["own"])[..., None] * tint * chroma  # as the ratio: 0 under
             # the photo's own light; a soft edge's own pixels take the solid person's beside (their albedo and colour
             # mix the background in: a bright one lifted the fill into a bright rim where a shadow meets the edge)
-            change = extend_outward(change, own["inner"] & (own["alpha"] > 0.9))
+            # (only near solid person: far from any, extend_outward's neutral 1 is a factor's, a white fill here)
+            solid = own["inner"] & (own["alpha"] > 0.9)
+            near = cv2.GaussianBlur(solid.astype(np.float32), (0, 0), 2.0) > 1e-3  # extend_outward's own reach
+            change = np.where(near[..., None], extend_outward(change, solid), change)
             maps = change if over is None else np.dstack([change, over])
         gain = extend_outward(factor, own["inner"])
         gain = guided_upsample(dec.geometry, gain, dec.network_image[y0:y1, x0:x1], gray, (y0, x0))

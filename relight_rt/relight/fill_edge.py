@@ -94,9 +94,10 @@ def edge_weight(w: np.ndarray, least: np.ndarray, most: np.ndarray, luma: np.nda
             it over each network pixel's 3 x 3 neighbours, mapped the same way. Where they differ by more than
             ``EDGE_SPAN`` (a border: the weight steps within a network pixel) the pixel's own weight takes over, in
             full from ``EDGE_SPAN[1]`` on; inside a shadow, away from one and along a smooth ramp the network's stays.
-        luma: (h', w') the photo's Rec. 709 luminance there, in [0, 1] (the weight on the network's grid is the
-            photo's Rec. 709 luminance over the albedo's too: a BT.601 grey moved the threshold by 10-15 % on
-            saturated colours); albedo: (h', w') stage 1's albedo luminance mapped there (floored by the caller).
+        luma: (h', w') the person's Rec. 709 luminance there (the foreground estimate's: the photo's inside the
+            person, at a soft edge the background taken out), in [0, 1] (the weight on the network's grid is a
+            Rec. 709 luminance over the albedo's too: a BT.601 grey moved the threshold by 10-15 % on saturated
+            colours); albedo: (h', w') stage 1's albedo luminance mapped there (floored by the caller).
         level: the shading shown (photo over albedo) that the network's weight is measured against (its median).
         low, high: from ``high`` x level of the shading shown down to ``low`` x level the pixel's own weight goes
             from none to all (the network weight's own thresholds).

@@ -234,7 +234,7 @@ def test_the_background_moves_no_fill_weight(relighter):
     assert np.abs(weights[1] - weights[0]).max() < 0.01, np.abs(weights[1] - weights[0]).max()  # measured 0
 
 
-def test_the_penumbra_cap_leaves_clothings_colour_stripes_where_stage1_sees_no_skin(relighter, monkeypatch):
+def test_the_penumbra_cap_leaves_clothings_colour_stripes_where_stage1_sees_no_skin(relighter):
     """The penumbra's cap (``CAP_SHADOW_REACH``) adds the change past ``RATIO_CAP`` in the fill's smooth colour: on a
     shirt of red and blue 2-px stripes beside a hard shadow under 4x the light their colour contrast fell to 0.67 of
     its own 2 px from the edge and 0.77 at 10 px (0.98 and 1.00 without the cap). The cap reaches only as far as
@@ -353,3 +353,26 @@ def test_a_deep_shadow_meets_a_soft_matte_edge_against_a_bright_background_witho
     off = out[66:70] - (alpha * core + 1 - alpha)  # against the core's fill over the background
     assert off.max() < 0.015 and off.min() > -0.06, off  # measured -0.013, -0.006, -0.022, -0.037 (before: +0.004,
     # +0.031, -0.049, -0.136)
+
+
+@pytest.mark.parametrize("level", [0.8, 0.6])
+def test_a_matte_that_is_nowhere_solid_gets_no_white_fill(relighter, level):
+    """The fill's change at a soft edge is the solid person's beside; where no pixel of the person is solid (alpha
+    > 0.9) within reach (a user's 8-bit mask whose maximum is 204, a wide motion-blurred matte) it stays its own: the
+    extension's neutral 1 is a factor's, and added as a change it lifted the shadow toward white (reviewer of
+    mend16f: 0.30 -> 0.79 mean luminance in the shadow of a mask at 0.8 everywhere)."""
+    h, w = 150, 100
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+    true = np.array([0.62, 0.47, 0.40], np.float32) * (1 + 0.05 * np.sin(yy / 9.0))[..., None]
+    shade = cv2.GaussianBlur(np.where(xx < 45, 0.01, 1.0).astype(np.float32), (0, 0), 1.0)
+    mask = np.zeros((h, w), np.float32)
+    mask[20:140, 20:85] = level
+    a = mask[..., None]
+    bg = np.full((h, w, 3), 0.3, np.float32)
+    dec = relighter.decompose(true * shade[..., None] * a + bg * (1 - a), mask)
+    dec = replace(dec, albedo_chw=relighter.decompose(true * a + bg * (1 - a), mask).albedo_chw)
+    out = relighter.relight(dec, 2 * OWN_LIGHT, exposure="physical") @ REC709
+    shadow = float(out[40:120, 24:42].mean())
+    lit = float(out[40:120, 50:80].mean())
+    # measured 0.305 / 0.300 against the lit side's 0.73 / 0.62 (0.80 / 0.66 with the white fill)
+    assert shadow < 0.6 * lit, (shadow, lit)

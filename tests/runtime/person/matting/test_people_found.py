@@ -670,8 +670,8 @@ def test_group_photo_relit_person_by_person(two_people):
         assert own.sum() > 0.3 * (truth > 0.5).sum() / 2
         # each person's crop is their own (issue 50 bug 1: the shares leaked, every crop was the group's): the
         # colours a person takes from the group (soft-edge foreground, dark pixels' colour) differ from those
-        # computed alone at their crop's edge: measured max 10.1 / 255 (9.0 before the fill's weight was decided
-        # per input pixel, faces16: one pixel 1.4 px inside the outline), 99.9th percentile 3.7 / 255, 0.83 % over
+        # computed alone at their crop's edge: measured max 8.0 / 255 (9.0 before faces16's per-pixel fill
+        # weight, 10.1 at faces16: one pixel 1.4 px inside the outline), 99.9th percentile 3.7 / 255, 0.83 % over
         # 1 / 255, along the outline (4.1, 0.73, under 0.5 % while the matte's rim was soft there; the refinement
         # now ends it where colour says plain background: issue 48's background band)
         for picture in (group, rgba[..., :3]):
