@@ -82,7 +82,7 @@ class VideoMatter:
     Measured on the parkour clip (one video, 100 frames: ``benchmarks/people_masks_eval.py --set clip --methods
     video,video-complete``): neither 0.92207, every frame 0.92752 (frame 50 0.78 -> 0.95, 96-97 -0.04 each: a dark car
     taken), on a drop 0.92974 with 16 frames of 100 completed (18-19, 44, 49-50, 58, 63, 66-67, 69, 79-82, 84-85; not
-    96-97: nothing is dropped there; +11 % a frame on average, benchmarks/video_on_drop.py --clip), DROPPED_SHARE
+    96-97: nothing is dropped there; +12-16 % a frame on average, benchmarks/video_on_drop.py --clip), DROPPED_SHARE
     0.04-0.06 within 0.0004 of it. The 720p reference frames complete none and keep their speed (with smoothing 0
     the flow now runs for the rule: +7 %; docs/BENCHMARKS.md, video16). With
     ``pockets`` (the default), a gap between arm and body that the matte half-holds (alpha under 0.9 inside the person)
