@@ -4,7 +4,9 @@
 matte (the detector runs again only when the person is lost or every ``redetect_every`` frames), and
 the working-grid probability is blended with the previous one warped by DIS optical flow (relight_rt.image.flow),
 weighted by how well the flow explains the frame (photometric agreement), which steadies the outline
-without dragging it behind a moving person. :func:`outline_flicker` measures what is left.
+without dragging it behind a moving person. The person is completed as in a photo only in the frames where the
+followed matte drops part of what the flow carries from the last frame (:func:`dropped_share`).
+:func:`outline_flicker` measures what is left.
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ from ...image.regions import Region, reductions_shared
 from ._coarse import GF_EPS, guide_radius
 from ._matter import PersonMatter
 from ._models import as_rgb
-from ._segmentation import Person, logits_on_grid, person_box, sigmoid, working_grid
+from ._segmentation import Grid, Person, logits_on_grid, person_box, sigmoid, working_grid
 
 log = logging.getLogger(__name__)
 
@@ -34,6 +36,8 @@ def _gray_u8(gray: np.ndarray) -> np.ndarray:
 
 
 _REGION_KEEP_IOU = 0.8
+_AGREE_SCALE = 0.05  # gray levels (0-1): the flow explains a pixel by exp(-|I_now - I_prev_warped| / this)
+DROPPED_SHARE = 0.05  # VideoMatter completes a frame where the followed matte drops this share of the carried one
 
 
 def _inside(box: tuple[float, float, float, float], region: Region, margin: float = 0.05) -> bool:
@@ -43,17 +47,44 @@ def _inside(box: tuple[float, float, float, float], region: Region, margin: floa
     return box[0] >= x0 + m and box[1] >= y0 + m and box[2] <= x1 - m and box[3] <= y1 - m
 
 
+def dropped_share(prob: np.ndarray, carried: np.ndarray, agree: np.ndarray) -> float:
+    """The share of the matte carried over from the last frame that this frame's matte drops.
+
+    Args:
+        prob: (h, w) float32 person probability of this frame, in [0, 1] (the followed person alone).
+        carried: (h, w) float32 the last frame's probability warped onto this frame by the flow, in [0, 1].
+        agree: (h, w) float32 in [0, 1], how well the flow explains each pixel (1: the warped last frame's
+            picture matches this one's), so that what is dropped where the flow is lost (a limb moving fast,
+            the backdrop uncovered) counts little.
+
+    Returns:
+        sum(agree over carried >= 0.5 and prob < 0.5) / count(carried >= 0.5); 0 when nothing is carried.
+    """
+    held = carried >= 0.5
+    n = int(held.sum())
+    if n == 0:
+        return 0.0
+    return float(agree[held & (prob < 0.5)].sum()) / n
+
+
 class VideoMatter:
     """Person alpha for the frames of a video, steady over time (module docstring).
 
     The region the pose graph sees follows the person from the previous frame's matte (the region finder
     runs on the first frame, in the very frame where the person is lost from the region followed, and every
     ``redetect_every`` frames if > 0; the search in the same frame found the parkour clip's frame 66 runner after his
-    jump instead of leaving that frame empty: benchmarks/people_masks_eval.py --methods video 0.913 -> 0.922). With
-    ``complete`` the person is completed as in a photo (:meth:`PersonMatter.completed`: half-seen trousers, parts in
-    their own colours, limbs seen only turned; the clip 0.922 -> 0.926, 0.927 with the turned views (matte13: frame 50
-    0.78 -> 0.95, 96-97 -0.04 each), ``--methods video-complete``) at more selfie-graph runs a frame (two before
-    the turned views; 720p: ~26 -> ~17 frames/s idle then, docs/BENCHMARKS.md), so it is off by default. With
+    jump instead of leaving that frame empty: benchmarks/people_masks_eval.py --methods video 0.913 -> 0.922). A frame
+    is completed as in a photo (:meth:`PersonMatter.completed`: half-seen trousers, parts in their own colours, limbs
+    seen only turned; two or more selfie-graph runs) where the followed matte gives a reason: where it drops at least
+    ``complete_on_drop`` (DROPPED_SHARE) of the matte the flow carries over from the last frame, counted where the
+    flow explains the picture (:func:`dropped_share`: a leg the pose graph loses for a frame or two, which the
+    completion finds again); with ``complete`` every frame is (``completions`` counts the frames completed).
+    Measured on the parkour clip (one video, 100 frames: ``benchmarks/people_masks_eval.py --set clip --methods
+    video,video-complete``): neither 0.92207, every frame 0.92752 (frame 50 0.78 -> 0.95, 96-97 -0.04 each: a dark car
+    taken), on a drop 0.92974 with 16 frames of 100 completed (18-19, 44, 49-50, 58, 63, 66-67, 69, 79-82, 84-85; not
+    96-97: nothing is dropped there; +12-16 % a frame on average, benchmarks/video_on_drop.py --clip), DROPPED_SHARE
+    0.04-0.06 within 0.0004 of it. The 720p reference frames complete none and keep their speed (with smoothing 0
+    the flow now runs for the rule: +7 %; docs/BENCHMARKS.md, video16). With
     ``pockets`` (the default), a gap between arm and body that the matte half-holds (alpha under 0.9 inside the person)
     is settled by the photo's colour as in a photo (``matte_edges.open_pockets``): open where it shows the backdrop,
     opaque where it shows the person (the reference video's boundary F 0.948 -> 0.991 on the default path, 0.928 ->
@@ -68,7 +99,9 @@ class VideoMatter:
         smoothing: weight of the warped history in [0, 1); 0 turns temporal smoothing off.
         redetect_every: run the region finder every N frames even when the person is tracked (0: never).
         refine: guided-filter edge refinement (as in PersonMatter; always with the gray guide, for speed).
-        complete: add to the person what the photo matte adds (:meth:`PersonMatter.completed`); slower.
+        complete: add to the person what the photo matte adds (:meth:`PersonMatter.completed`) in every frame; slower.
+        complete_on_drop: ... in a frame where the followed matte drops at least this share (in (0, 1]) of what the
+            flow carries over from the last frame (:func:`dropped_share`); None: only with ``complete``.
         pockets: settle the gaps the matte half-holds inside the person by the photo's colour (refine only).
 
     Calling it on each frame in order: ``alpha = vm(rgb)``; a frame with nobody in it gives an all-zero
@@ -85,17 +118,21 @@ class VideoMatter:
         redetect_every: int = 0,
         refine: bool = True,
         complete: bool = False,
+        complete_on_drop: float | None = DROPPED_SHARE,
         pockets: bool = True,
     ):
         if not 0.0 <= float(smoothing) < 1.0:
             raise RelightError(f"smoothing: expected a value in [0, 1), got {smoothing}")
         if int(redetect_every) < 0:
             raise RelightError(f"redetect_every: expected >= 0, got {redetect_every}")
+        if complete_on_drop is not None and not 0.0 < float(complete_on_drop) <= 1.0:
+            raise RelightError(f"complete_on_drop: expected a share in (0, 1] or None, got {complete_on_drop}")
         self.matter = matter if matter is not None else PersonMatter(models, device=device)
         self.smoothing = float(smoothing)
         self.redetect_every = int(redetect_every)
         self.refine = bool(refine)
         self.complete = bool(complete)
+        self.complete_on_drop = None if complete_on_drop is None else float(complete_on_drop)
         self.pockets = bool(pockets)
         self.reset()
 
@@ -106,6 +143,7 @@ class VideoMatter:
         self._prev_gray: np.ndarray | None = None
         self._shape: tuple[int, int] | None = None
         self.index = 0
+        self.completions = 0  # frames completed as a photo since the last reset
 
     def _found(self, rgb: np.ndarray, region: Region | None) -> tuple[Person | None, tuple | None]:
         """The person segmented in ``region`` (None: where the region finder finds them first) and their box, when
@@ -121,6 +159,35 @@ class VideoMatter:
             return None, None
         return person, box
 
+    def _carried(self, gray_small: np.ndarray) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """The last frame's probability warped onto this frame by DIS flow and how well the flow explains each pixel
+        (exp(-|I_now - I_prev_warped| / _AGREE_SCALE)), both on the working grid; (None, None) without a last frame,
+        or where neither the smoothing nor the completion's rule reads them."""
+        if self._prev_prob is None or (self.smoothing == 0 and (self.complete or self.complete_on_drop is None)):
+            return None, None
+        flow = dis_flow(_gray_u8(gray_small), _gray_u8(self._prev_gray), "ultrafast")  # this frame -> the last
+        carried = warp(self._prev_prob, flow, border_value=None)
+        diff = np.abs(gray_small - warp(self._prev_gray, flow, border_value=None))
+        return carried, np.exp(-diff / np.float32(_AGREE_SCALE))
+
+    def _matte(
+        self, rgb: np.ndarray, person: Person, grid: Grid, gray_small: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+        """The person's probability on the working grid, completed as in a photo with ``complete`` or where it drops
+        ``complete_on_drop`` of what the flow carries over, with what :meth:`_carried` gives. Called within the frame's
+        shared reductions (the turned views reuse the upright selfie run)."""
+        carried, agree = self._carried(gray_small)
+        if not self.complete:
+            prob = sigmoid(logits_on_grid(person, grid)).astype(np.float32)
+            limit = self.complete_on_drop
+            if limit is None or carried is None or dropped_share(prob, carried, agree) < limit:
+                return prob, carried, agree
+        # what the photo matte adds to the person: half-seen trousers both graphs see, parts in their own colours,
+        # limbs seen only turned
+        parts = self.matter.completed(rgb, person)
+        self.completions += 1
+        return np.max([sigmoid(logits_on_grid(p, grid)) for p in parts], axis=0).astype(np.float32), carried, agree
+
     def __call__(self, image: np.ndarray, name: str = "frame") -> np.ndarray:
         rgb = as_rgb(image, name, copy=False)  # only read from here on
         h, w = rgb.shape[:2]
@@ -130,13 +197,15 @@ class VideoMatter:
         index, self.index = self.index, self.index + 1
         region = self._region
         searched = region is None or bool(self.redetect_every and index % self.redetect_every == 0)
+        grid = working_grid((0, 0, w, h))
+        gray_full = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
+        gray_small = gray_full if grid[:2] == (w, h) else cv2.resize(gray_full, grid[:2], interpolation=cv2.INTER_AREA)
         with reductions_shared(rgb):  # the detectors' crops share one set of reduced copies of the frame
             person, box = self._found(rgb, None if searched else region)
             if person is None and not searched:  # lost where it was followed: searched for again in this frame
                 person, box = self._found(rgb, None)
-            # what the photo matte adds to the person (half-seen trousers both graphs see, parts in their own colours,
-            # limbs seen only turned), within the shared reductions: the turned views reuse the upright selfie run
-            parts = self.matter.completed(rgb, person) if self.complete and person is not None else [person]
+            if person is not None:
+                prob, carried, agree = self._matte(rgb, person, grid, gray_small)
         if person is None:
             log.debug("%s: no person found; searching again on the next frame", name)
             self._region, self._prev_prob, self._prev_gray = None, None, None
@@ -147,17 +216,9 @@ class VideoMatter:
         if self._region is None or new.iou(self._region) < _REGION_KEEP_IOU or not _inside(box, self._region):
             self._region = new
 
-        rect = (0, 0, w, h)
-        grid = working_grid(rect)
-        prob = np.max([sigmoid(logits_on_grid(p, grid)) for p in parts], axis=0).astype(np.float32)
-        gray_full = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
-        gray_small = gray_full if grid[:2] == (w, h) else cv2.resize(gray_full, grid[:2], interpolation=cv2.INTER_AREA)
-        if self.smoothing > 0 and self._prev_prob is not None:
-            flow = dis_flow(_gray_u8(gray_small), _gray_u8(self._prev_gray), "ultrafast")  # this frame -> the last
-            prev_prob = warp(self._prev_prob, flow, border_value=None)
-            agree = np.exp(-np.abs(gray_small - warp(self._prev_gray, flow, border_value=None)) / np.float32(0.05))
+        if self.smoothing > 0 and carried is not None:
             wgt = np.float32(self.smoothing) * agree
-            prob = prob + wgt * (prev_prob - prob)
+            prob = prob + wgt * (carried - prob)
         self._prev_prob, self._prev_gray = prob, gray_small
         if not self.refine:
             return cv2.resize(prob, (w, h), interpolation=cv2.INTER_LINEAR) if grid[:2] != (w, h) else prob

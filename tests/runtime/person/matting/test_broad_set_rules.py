@@ -471,8 +471,8 @@ def test_colour_centres_find_each_cluster_and_give_the_same_answer_each_call():
 def test_the_video_matter_adds_what_the_photo_matte_adds_to_the_person_when_asked():
     """VideoMatter(complete=True) goes through :meth:`PersonMatter.completed` (issue 48, matte4): the grey legs the
     pose graph half-sees and the selfie graph sees are the person's in video as in a photo (_backed); with the
-    photo's rules taken out (``completed`` giving the person alone), or by default (off: two more graph runs a
-    frame), they are lost."""
+    photo's rules taken out (``completed`` giving the person alone), or by default on a first frame (completed only
+    where the matte drops what the last frame held: test_video_completion.py), they are lost."""
     h, w = 300, 400
     yy, xx = np.mgrid[0:h, 0:w] + 0.5
     torso = (((xx - 200) / 50) ** 2 + ((yy - 100) / 70) ** 2) < 1

@@ -1,0 +1,137 @@
+"""The video matte completed where it drops what the flow carries (issue 48, video16): ``VideoMatter`` completes a
+frame as a photo (``PersonMatter.completed``) only where the followed matte drops ``complete_on_drop`` of the matte
+carried over from the last frame. Quality on the reference video, which frames of the parkour clip are completed, and
+the 720p cost against another version of ``_video.py`` in turn.
+
+    PYTHONPATH=$PWD python benchmarks/video_on_drop.py                 # reference video quality + 720p cost (~2 min)
+    git show main:relight_rt/person/matting/_video.py > /tmp/video_base.py
+    PYTHONPATH=$PWD python benchmarks/video_on_drop.py --cost-only --base /tmp/video_base.py --rounds 4
+    PYTHONPATH=$PWD python benchmarks/video_on_drop.py --clip          # the parkour clip: frames completed, IoU
+
+Quality rows (the reference video's 24 frames against their hand masks, benchmarks/matting_eval.py's measures): the
+rule off (``complete_on_drop=None``: the default before video16), the default, ``complete=True``; columns IoU,
+boundary F (min), edge band error, outline flicker (motion-compensated) and the frames completed.
+Cost: this ``VideoMatter`` (default) and ``base``'s (its module loaded in relight_rt.person.matting, default too) on
+matting_eval's 720p frames in order, a frame of each in turn (their order swapped every frame) so that a loaded machine
+slows both alike: medians, best, and the paired ratio's median (new / base). Without ``--base``, the rule off stands
+for the base. ``--clip`` reads ../shared/realdata/people_masks/clip (evaluation only; nothing is written).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+sys.path.insert(0, str(REPO / "benchmarks"))
+
+import matting_eval as E  # noqa: E402
+
+from relight_rt.person import matting as M  # noqa: E402
+
+
+def quality(ref: Path, pm: M.PersonMatter) -> None:
+    files = sorted((ref / "video").glob("frame_[0-9][0-9][0-9].png"))
+    frames = [E.read_rgb(f) for f in files]
+    gts = [E.read_gt(f.with_name(f"{f.stem}_mask.png")) for f in files]
+    print("| VideoMatter | IoU | boundary F (min) | edge band error | flicker | frames completed |")
+    print("|---|---|---|---|---|---|")
+    rows = (("complete_on_drop=None (before video16)", {"complete_on_drop": None}), ("default", {}),
+            ("complete=True", {"complete": True}))  # fmt: skip
+    for label, options in rows:
+        vm = M.VideoMatter(pm, **options)
+        outs = [vm(f) for f in frames]
+        v = np.array([(E.iou(a, g), E.boundary_f(a, g), E.band_error(a, g)[0]) for a, g in zip(outs, gts, strict=True)])
+        print(
+            f"| {label} | {v[:, 0].mean():.4f} | {v[:, 1].mean():.4f} ({v[:, 1].min():.4f}) | {v[:, 2].mean():.3f} "
+            f"| {M.outline_flicker(outs, frames):.4f} | {vm.completions} of {len(frames)} |"
+        )
+
+
+def clip(pm: M.PersonMatter) -> None:
+    """The default VideoMatter over the parkour clip (854x480) and one with the rule off, a frame of each in turn
+    (their order swapped every frame): IoU, the frames completed, the time a frame."""
+    import people_masks_eval as P
+
+    items = P.items(P.data_root(), "clip")
+    vms = {"default": M.VideoMatter(pm), "off": M.VideoMatter(pm, complete_on_drop=None)}
+    done, ious, times = [], {k: [] for k in vms}, {k: [] for k in vms}
+    for i, (name, img, mask) in enumerate(items):
+        rgb = P.read_rgb(img)
+        gt = P.read_mask(mask, rgb.shape[:2])
+        before = vms["default"].completions
+        for key in ("default", "off") if i % 2 else ("off", "default"):
+            t = time.perf_counter()
+            a = vms[key](rgb, name)
+            times[key].append(time.perf_counter() - t)
+            ious[key].append(P.iou(a >= 0.5, gt))
+        if vms["default"].completions > before:
+            done.append(i)
+    ratio = np.array(times["default"][1:]) / np.array(times["off"][1:])
+    print(
+        f"parkour clip, VideoMatter default / complete_on_drop=None: mean IoU {np.mean(ious['default']):.5f} / "
+        f"{np.mean(ious['off']):.5f}; median {1000 * np.median(times['default']):.1f} / "
+        f"{1000 * np.median(times['off']):.1f} ms a frame, mean {1000 * np.mean(times['default']):.1f} / "
+        f"{1000 * np.mean(times['off']):.1f}; paired ratio median {np.median(ratio):.3f}, mean {ratio.mean():.3f}; "
+        f"{len(done)} of {len(items)} frames completed: {done}"
+    )
+
+
+def cost(ref: Path, pm: M.PersonMatter, rounds: int, base: Path | None, smoothing: float) -> None:
+    if base is not None:
+        spec = importlib.util.spec_from_file_location("relight_rt.person.matting._video_base", base)
+        old = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(old)
+        was = old.VideoMatter(pm, smoothing=smoothing)
+    else:
+        was = M.VideoMatter(pm, smoothing=smoothing, complete_on_drop=None)
+    now = M.VideoMatter(pm, smoothing=smoothing)
+    hd = E.frames_720p(ref)
+    was(hd[0])  # warm-up (and the first frame's search)
+    now(hd[0])
+    times: dict[str, list[float]] = {"new": [], "base": []}
+    for k in range(rounds):
+        for i, f in enumerate(hd):
+            pair = (("new", now), ("base", was)) if (k * len(hd) + i) % 2 else (("base", was), ("new", now))
+            for key, vm in pair:
+                t = time.perf_counter()
+                vm(f)
+                times[key].append(time.perf_counter() - t)
+    new, old_t = np.array(times["new"]), np.array(times["base"])
+    q = np.percentile(new / old_t, [25, 50, 75])
+    label = base or "complete_on_drop=None"
+    med_new, med_old = np.median(new), np.median(old_t)
+    print(
+        f"720p VideoMatter (smoothing {smoothing}), this / {label}: median {1000 * med_new:.1f} / "
+        f"{1000 * med_old:.1f} ms ({1 / med_new:.1f} / {1 / med_old:.1f} frames/s; best {1000 * new.min():.1f} / "
+        f"{1000 * old_t.min():.1f}); paired ratio median {q[1]:.3f} (quartiles {q[0]:.3f}-{q[2]:.3f}), "
+        f"{len(new)} pairs; frames completed {now.completions} of {len(hd) * rounds + 1}"
+    )
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--rounds", type=int, default=3, help="timing rounds over the 24 frames (default 3)")
+    ap.add_argument("--cost-only", action="store_true", help="only the timings")
+    ap.add_argument("--base", type=Path, help="another _video.py to time VideoMatter against (a file)")
+    ap.add_argument("--smoothing", type=float, default=0.7, help="the VideoMatters' smoothing (cost; default 0.7)")
+    ap.add_argument("--clip", action="store_true", help="only the parkour clip: the frames completed and the IoU")
+    args = ap.parse_args(argv)
+    pm = M.PersonMatter()
+    if args.clip:
+        clip(pm)
+        return
+    ref = E.shared_reference()
+    if not args.cost_only:
+        quality(ref, pm)
+    cost(ref, pm, args.rounds, args.base, args.smoothing)
+
+
+if __name__ == "__main__":
+    main()
