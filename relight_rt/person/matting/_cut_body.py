@@ -36,25 +36,33 @@ Its candidates are the own colours' and, where the matte reaches the bottom rows
 graph framed on the people alone is sure of (>= OWN_SURE): on the whole photo the graph, seeing people small, is unsure
 of their own clothes at the border (p093, an embracing couple before the sea: the man's brown trousers 0.9+ framed on
 the couple, 0.3-0.6 on the whole photo, the pose graph < 0.1). What that graph alone sees may as well be a chair or
-someone behind, seen between the legs, or the ground a seated person is on: a part is judged on the own colours'
-model, whose backdrop ring round the matte and the own colours' candidates holds those pixels (a thing of no colour of
-the person's is then the backdrop's: a brown chair between two legs, median ratio 700), and once it holds up, its
-pixels on that ring's backdrop drawn again without them (the creases of a trouser leg, a shade the matte lacks, would
+someone behind, seen between the legs, or the ground a seated person is on. Of it only the shades of the person's
+colours count (a*b* within CUT_SHADE of a colour of the matte's brought to the pixel's lightness: a lit crease of their
+trousers, not a brown chair nor someone in red, who may touch a leg that graph alone sees and make one part with it:
+judged by that part's median, the leg decided for the chair, 99 % of it taken). A part is judged, over those pixels, on
+the own colours' model, whose backdrop ring round the matte and the own colours' candidates holds the framed graph's
+pixels (a thing in a shade of the person's that is also the backdrop's stays out), and once it holds up, its pixels
+on that ring's backdrop drawn again without them (the creases of a trouser leg, a shade the matte lacks, would
 otherwise be their own backdrop: p093's trousers, judged on the first model alone, keep 894 of their 1262 canvas
-pixels). Measured (benchmarks/people_masks_eval.py --methods ours; main of the day A 0.92340, B 0.90164, clip 0.93254),
-with the backdrop without them for both: A and the clip unchanged (p094 +0.00001), B 0.90164 -> 0.90222 (p093 0.842 ->
-0.902, p126 +0.0003, p259 -0.0002); judging the part on the first model changed no photo's canvas (p093's part:
-median ratio 1.67 on it, 0.64 without them; p265's grass 2.8-3.3, refused; p101's and p234's fail where they lie).
+pixels); where under 20 of that ring's pixels are left, the framed graph's pixels are kept as judged (testing them on
+the first model, the creases joining the leg to the matte failed: the leg was lost whole). Measured
+(benchmarks/people_masks_eval.py --methods ours; main of the day A 0.92340, B 0.90164, clip 0.93254), with the
+backdrop without them for both: A and the clip unchanged (p094 +0.00001), B 0.90164 -> 0.90222 (p093 0.842 -> 0.902,
+p126 +0.0003, p259 -0.0002); judging the part on the first model changed no photo's canvas (p093's part: median ratio
+1.67 on it, 0.64 without them; p265's grass 2.8-3.3, refused; p101's and p234's fail where they lie). The shades'
+test changed no photo's canvas either (p093's trousers lie within 4.3 of the matte's colours, p126's 19 such pixels
+within 9.9; a dark-wood chair's 16 from black trousers).
 The colours are looked at only where a part can be kept (the own colours' candidates at least OWN_MIN x the matte, or
 a part of the bottom border's that passes the tests of where it lies); the second backdrop only once a part holds up
 (~2 ms: benchmarks/own_colours_speed.py).
 Tried (IoU on the canvas, a scratch estimate): a stricter colour test for what the framed graph alone sees instead of
-the ring that holds it (a dark-wood chair between the legs has a median ratio of 0.34 without it, p093's trousers
-0.64); the framed answer >= 0.5 (clip frame 84 -0.03), the ring drawn round all
-the candidates (measured: p259 -0.002, a white top's bottom whose colour then lies near the new ring's), the thresholds
-swapped for the own colours' step (framed >= OWN_SURE, whole photo >= 0.5: A -0.0001, p239 and p259 -0.02); for that
-step both >= 0.5 and either >= OWN_SURE (measured: B -0.0001, p246 +0.014 a child's dark trousers but p259 -0.019,
-the clip 0.93254 -> 0.93243, frame 92 -0.024).
+the ring that holds it (a dark-wood chair between the legs has a median ratio of 0.34 without it, p093's trousers 0.64);
+each connected piece of what the framed graph alone sees judged on its own on the first model (the creases' median ratio
+1.4-2.2 on it, a dark-wood chair's 2.15: no bound keeps one and refuses the other, and they touch); the framed answer >=
+0.5 (clip frame 84 -0.03), the ring drawn round all the candidates (measured: p259 -0.002, a white top's bottom whose
+colour then lies near the new ring's), the thresholds swapped for the own colours' step (framed >= OWN_SURE, whole photo
+>= 0.5: A -0.0001, p239 and p259 -0.02); for that step both >= 0.5 and either >= OWN_SURE (measured: B -0.0001, p246
++0.014 a child's dark trousers but p259 -0.019, the clip 0.93254 -> 0.93243, frame 92 -0.024).
 Tests: tests/runtime/person/matting/test_cut_body.py.
 """
 
@@ -71,6 +79,7 @@ from ._layout import JOIN_GAP
 
 CUT_UNDER = 0.9  # a part lies under the matte: this share of its pixels has the matte above them in their column
 CUT_BACKDROP = 2.0  # ... refused when its colours' median distance to the person's is this x that to the backdrop's
+CUT_SHADE = 12.0  # a*b*: what the framed graph alone sees is a shade of the person's colour within this of it
 CUT_NEAR = 2  # canvas pixels: candidates this near the matte are its rim (the selfie graph's outline past the matte)
 
 
@@ -107,23 +116,39 @@ class CutBody:
         Args:
             model: the own colours' model (relight_rt.person.matting._colours.colour_model: the canvas's L*a*b*, the
                 person's centres, those of the backdrop's ring round the matte and ``cand``, the pixels the framed
-                graph alone is sure of kept in it). A part is judged on it; its pixels on it with that ring's
-                backdrop drawn again without those pixels (or on it where no 20 pixels would be left).
+                graph alone is sure of kept in it). Of those pixels only the shades of the person's colours
+                (:func:`shade_distances` < CUT_SHADE) may be added; a part is judged on the model over the pixels
+                that may be; they are kept where their colour passes on it with that ring's backdrop drawn again
+                without the framed graph's pixels (where no 20 pixels would be left: as judged, the own colours'
+                candidates on the model).
         """
         alone = self.below & ~self.cand  # what the framed graph alone is sure of
-        judged = ratios(self.below, model)
-        held = [p | share for p, share in self.parts if np.median(judged[p]) < CUT_BACKDROP]
+        lab, person, _ = model
+        may = self.cand.copy()  # of it, the shades of the person's colours (not a chair nor someone behind)
+        may[alone] = shade_distances(lab[alone], person) < CUT_SHADE
+        judged = ratios(may, model)
+        held = [p | share for p, share in self.parts if (p & may).any() and np.median(judged[p & may]) < CUT_BACKDROP]
         if not held:
             return None
         beside = backdrop_less(model, self.inside, self.mine, self.mine | self.cand, alone) if alone.any() else None
-        ratio = judged if beside is None else ratios(self.below, beside)
+        ratio = np.where(alone, 0.0, judged) if beside is None else ratios(may, beside)
         # carried on down to the border over the candidates in the bottom rows beside them; of it, the pixels whose own
         # colour is not clearly the backdrop's, joined to the matte
         keep = np.any(held, axis=0)
         rows = np.ones((2 * JOIN_GAP + 3, 3), np.uint8)
         keep |= cv2.dilate(keep.astype(np.uint8), rows).astype(bool) & self.below & self.bottom
-        keep = joined(keep & (ratio < CUT_BACKDROP), self.mine)
+        keep = joined(keep & may & (ratio < CUT_BACKDROP), self.mine)
         return keep if keep.any() else None
+
+
+def shade_distances(x: np.ndarray, centres: np.ndarray) -> np.ndarray:
+    """(N,) float: each of (N, 3) L*a*b* ``x``'s a*b* distance to the nearest of (k, 3) ``centres`` brought to its
+    lightness (a*, b* times (L* + 16) over the centre's: the same surface in more or less light, where L*a*b*'s cube
+    root holds, L* > 8): small for a lit crease of the person's trousers, large for a thing of another hue."""
+    s = (x[:, :1] + 16.0) / (centres[:, 0] + 16.0)[None, :]
+    da = x[:, 1:2] - s * centres[None, :, 1]
+    db = x[:, 2:3] - s * centres[None, :, 2]
+    return np.sqrt(da * da + db * db).min(axis=1)
 
 
 def ratios(cand: np.ndarray, model: Colours) -> np.ndarray:

@@ -194,6 +194,58 @@ def test_a_thing_only_the_framed_graph_sees_under_a_cut_body_stays_out(colour, m
     assert (alpha[person] >= 0.5).mean() > 0.95
 
 
+@pytest.mark.parametrize("colour", [CHAIR, DARK_WOOD, BEHIND])
+def test_a_thing_only_the_framed_graph_sees_beside_a_leg_it_alone_sees_stays_out(colour, monkeypatch):
+    """The second leg in the trousers' dark with its lit creases (:func:`framed_alone`), which only the graph framed on
+    the people is sure of, and in the gap between the legs, touching it, a chair (brown, dark wood) or someone behind
+    in red that it is as sure of (0.95; the whole photo's 0.3): the leg is taken, creases and all, the chair is not.
+    One part holds both; judged by its median, the leg's pixels decided for the chair, whose pixels were then tested
+    against a backdrop drawn without it (99 % of the brown and the dark-wood chair taken), and someone behind took
+    the leg down with them (0 % of it)."""
+    rgb, parts, seen, sure = framed_alone("dark")
+    rgb[parts["gap"]] = colour
+    graph_maps(monkeypatch, np.where(parts["gap"], 0.3, seen), np.where(parts["gap"], 0.95, sure))
+    alpha = own_alpha(rgb, parts["top"] | parts["leg1"] | parts["crotch"])
+    assert (alpha[parts["leg2"]] >= 0.5).mean() > 0.9
+    assert (alpha[parts["leg2"] & (rgb[..., 0] == FOLD)] >= 0.5).mean() > 0.9  # the creases
+    assert (alpha[parts["gap"]] >= 0.5).mean() < 0.1  # (the matte's soft edge along the first leg aside)
+    assert (alpha[parts["gap"] & (np.abs(np.arange(400) - 200) < 7)] >= 0.5).mean() == 0.0
+
+
+def test_a_leg_the_framed_graph_alone_sees_is_kept_whole_where_no_backdrop_is_left_without_it(monkeypatch):
+    """Where the backdrop's ring holds under 20 pixels once what the framed graph alone sees is taken out of it, the
+    part is kept as judged: the leg with its creases, not a leg lost whole (its creases, tested against a backdrop
+    that holds them, failed, and the rest of the leg was no longer joined to the matte: 0 % of it)."""
+    rgb, parts, seen, sure = framed_alone("dark")
+    graph_maps(monkeypatch, seen, sure)
+    monkeypatch.setattr(_cut_body, "backdrop_less", lambda *args: None)
+    alpha = own_alpha(rgb, parts["top"] | parts["leg1"] | parts["crotch"])
+    assert (alpha[parts["leg2"]] >= 0.5).mean() > 0.9
+    assert (alpha[parts["leg2"] & (rgb[..., 0] == FOLD)] >= 0.5).mean() > 0.9
+
+
+def test_a_shade_of_the_persons_colour_is_near_it_another_hue_is_not():
+    """:func:`_cut_body.shade_distances`: a colour in more or less light (linear RGB scaled) lies within a few a*b*
+    units of it; against the person of :func:`standing` (black trousers, a blue top), the creases' grey is a shade of
+    theirs, a chair, dark wood (its chroma: 16) and someone behind in red are not."""
+
+    def lab(rgb):
+        return cv2.cvtColor(np.array([rgb], np.float32), cv2.COLOR_RGB2Lab)[0]
+
+    def linear(c):
+        return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+    def srgb(c):
+        return np.where(c <= 0.0031308, 12.92 * c, 1.055 * c ** (1 / 2.4) - 0.055)
+
+    brown = np.array([0.35, 0.25, 0.18])
+    lit = srgb(np.clip(linear(brown) * np.array([[0.5], [2.0], [3.0]]), 0, 1))  # the same cloth, half to 3x the light
+    assert (_cut_body.shade_distances(lab(lit), lab([brown])) < 1.5).all()
+    person = lab([[0.08, 0.08, 0.08], [0.2, 0.3, 0.8]])
+    assert _cut_body.shade_distances(lab([[FOLD] * 3]), person)[0] < 0.1
+    assert (_cut_body.shade_distances(lab([CHAIR, DARK_WOOD, BEHIND]), person) > _cut_body.CUT_SHADE).all()
+
+
 def test_the_own_colours_part_is_kept_where_the_framed_graph_alone_sees_all_around(monkeypatch):
     """A body cut by the bottom border with an arm out to the side in the top's blue that the pose graph missed and
     both views see; the graph framed on the people is sure of the whole wall too (0.8), the whole photo's not (0.2).
@@ -351,3 +403,25 @@ def test_the_photos_bottom_rows_on_a_canvas(cx, cy, rows, cols):
     assert _layout.JOIN_GAP == 2
     r, c = np.nonzero(_cut_body.photo_bottom(M.Region(cx, cy, 256.0), (300, 400)))
     assert set(r) == set(rows) and set(c) == set(cols)
+
+
+def test_the_backdrop_ring_lies_inside_the_photo():
+    """A person at the photo's left edge, a trouser leg in a dark a shade off the matted one's missed by the pose graph
+    (both views see it): the own colours take it, the backdrop's ring round the matte reaching past the photo's edge
+    into the canvas's black padding, which is no backdrop (counted as one, the leg lay as near it as the person's dark:
+    1 % of it taken). The ring itself holds no pixel outside the photo."""
+    h, w = 300, 400
+    yy, xx = np.mgrid[0:h, 0:w] + 0.5
+    top = (xx >= 4) & (xx < 96) & (yy > 40) & (yy < 160)
+    leg1, leg2 = ((xx >= x) & (xx < x + 30) & (yy >= 160) & (yy < 280) for x in (10, 60))
+    crotch = (xx >= 40) & (xx < 60) & (yy >= 160) & (yy < 190)
+    rgb = np.full((h, w, 3), WALL, np.float32)
+    rgb[top] = (0.2, 0.3, 0.8)
+    rgb[leg1 | crotch] = 0.08
+    rgb[leg2] = 0.13
+    alpha = run_own(rgb, top | leg1 | crotch)
+    assert (alpha[leg2] >= 0.5).mean() > 0.9
+    assert (alpha[~(top | leg1 | leg2 | crotch)] >= 0.5).mean() < 0.01
+    region, _, inside, mine = around_people(_NotWall(), rgb, [matted(rgb, top | leg1 | crotch)])
+    ring = _colours.backdrop_ring(inside, mine, mine)
+    assert region.cx - region.side / 2 < 0 and ring.any() and not (ring & ~inside).any()
