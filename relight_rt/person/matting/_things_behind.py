@@ -23,12 +23,11 @@ where it has every mark of a thing behind and none of a person:
 
 A part is a piece of the matte's pose-unseen pixels that an opening by a disc of _OPEN x the matte's side leaves (the
 pose graph's outline lies a pixel or two inside the matte's: the opening parts that strip from the thing)
-(:func:`sticking_out`); what the opening stripped off it that its leaving cuts off from the matte goes with it (a
-guitar's neck, :func:`with_strips`). It leaves the matte softly (:func:`without_things_behind`, :func:`_leave`):
-alpha x (1 - its share of each pixel), with the pieces its cut leaves apart from the matte (slivers; its own tail,
-which the pose graph half-sees) and its soft rim (the soft pixels nearer it than the matte that stays, up to _HALO x
-the matte's side: the selfie graph's soft take on a blurred thing reaches far); the body's soft edge beside it
-stays. Parts the people's segmentations hardly hold (the own colours' parts,
+(:func:`sticking_out`). It leaves the matte softly (:func:`without_things_behind`, :func:`_leave`): alpha x (1 - its
+share of each pixel), with the pieces its cut leaves apart from the matte (slivers; what the opening stripped off it,
+a guitar's neck; its own tail, which the pose graph half-sees) and its soft rim (the soft pixels nearer it than the
+matte that stays, up to _HALO x the matte's side: the selfie graph's soft take on a blurred thing reaches far); the
+body's soft edge beside it stays. Parts the people's segmentations hardly hold (the own colours' parts,
 relight_rt.person.matting._colours) are not looked at. The matte is read on a grid whose side is at most _SIDE pixels
 on the side of the matte's area (:func:`reading_grid`: a 2.5-MP photo costs what a web photo does). VideoMatter does
 not apply the rule: a part leaving on some frames and not on others would flicker, and each frame would pay for it.
@@ -144,26 +143,6 @@ def sticking_out(matte: np.ndarray, held: list[np.ndarray], pose: np.ndarray) ->
         whole[box] = part
         parts.append(whole)
     return parts
-
-
-def with_strips(matte: np.ndarray, pose: np.ndarray, parts: list[np.ndarray]) -> list[np.ndarray]:
-    """``parts`` (:func:`sticking_out`, on the grid) each with the pieces of the matte that the opening stripped off
-    it and that its leaving cuts off from the rest of the matte (a guitar's neck, thinner than the opening's disc):
-    the pieces of the matte less every part that lie wholly in the part's piece of the pose-unseen pixels."""
-    if not parts:
-        return parts
-    taken = np.any(parts, axis=0)
-    n, pieces = cv2.connectedComponents((matte & ~taken).astype(np.uint8), connectivity=8)
-    _, unseen = cv2.connectedComponents((matte & (pose < _UNSEEN)).astype(np.uint8), connectivity=8)
-    out = []
-    for part in parts:
-        own = unseen == unseen[part][0]  # (a part is one piece of the unseen pixels, opened)
-        out_of = np.zeros(n, bool)
-        out_of[np.unique(pieces[~own])] = True  # a piece with a pixel elsewhere goes on into the matte that stays
-        inside = np.unique(pieces[own & (pieces > 0)])
-        strips = inside[~out_of[inside]]
-        out.append(part | np.isin(pieces, strips) if strips.size else part)
-    return out
 
 
 def blurred_of(gray: np.ndarray, matte: np.ndarray, pose: np.ndarray, parts: list[np.ndarray]) -> list[np.ndarray]:
@@ -296,7 +275,7 @@ def without_things_behind(
         parts = [p for p in parts if not bodily(p, boxes)]
     if not parts:
         return alpha
-    weight = np.any(with_strips(matte, seen, parts), axis=0).astype(np.float32)
+    weight = np.any(parts, axis=0).astype(np.float32)
     if s < 1.0:  # the part's share of each pixel of the photo (a soft cut, not a staircase of grid pixels)
         weight = cv2.resize(weight, (x1 - x0, y1 - y0), interpolation=cv2.INTER_LINEAR)
     r = band_width(alpha.shape)  # how far the slivers its cut leaves reach
