@@ -2,12 +2,15 @@
 
     python benchmarks/things_behind_speed.py                          # the 2.5-MP reference photo
     python benchmarks/things_behind_speed.py PHOTO [PHOTO ...] --mp 2.5 --repeats 7
+    python benchmarks/things_behind_speed.py PHOTO --before     # on the matte before the rule: a part leaves
 
 For each photo (optionally enlarged or reduced to ``--mp`` megapixels first): the default matte's people and alpha
 before the rule, then the rule on them ``--repeats`` times after one warm-up call, as PersonMatter.alpha calls it (a
 selfie-graph person's pose-graph view is one more pose-graph run; with pose-graph people only the rule returns at
 once; the faces are found only when a part would leave): best and median, milliseconds, and the matte's own time
-(PersonMatter()(rgb), best of 3) beside it.
+(PersonMatter()(rgb), best of 3) beside it. The rule is read on the matte it made (a second call: no part is left to
+take, so neither the faces nor the leaving are paid) unless ``--before`` gives it the matte without it (the cost of a
+photo where a part leaves: the face-graph run and the leaving included).
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from relight_rt.person import matting as M  # noqa: E402
+from relight_rt.person.matting import _matter  # noqa: E402
 from relight_rt.person.matting._things_behind import without_things_behind  # noqa: E402
 
 
@@ -43,13 +47,19 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("photos", nargs="*", type=Path)
     ap.add_argument("--mp", type=float, help="resize each photo to this many megapixels first")
     ap.add_argument("--repeats", type=int, default=7)
+    ap.add_argument("--before", action="store_true", help="time the rule on the matte before it (a part leaves)")
     args = ap.parse_args(argv)
     photos = args.photos or [REPO.parent / "shared" / "reference" / "photo" / "sample.jpg"]
     matter = M.PersonMatter()
     for path in photos:
         rgb = read_rgb(path, args.mp)
         people = matter.people(rgb, path.name)
-        alpha = matter.alpha(rgb, people)  # (the rule included: its input differs only where it took a part)
+        if args.before:
+            _matter.without_things_behind = lambda rgb, alpha, *rest: alpha
+        try:
+            alpha = matter.alpha(rgb, people)  # (with the rule: its input differs only where it took a part)
+        finally:
+            _matter.without_things_behind = without_things_behind
 
         def pose(p, rgb=rgb):  # as PersonMatter.alpha asks for the pose graph's view of a selfie-graph person
             return matter._pose(rgb, p.region).logits

@@ -13,17 +13,21 @@ where it has every mark of a thing behind and none of a person:
    is depth: the person is the photo's focus);
 3. it sticks out of the matte: under _APART of a thin ring around it lies inside the matte (a thing beside the person
    is mostly surrounded by the backdrop; a held phone or a sleeve lies against the body);
-4. it is a thing, not part of someone: at most _MAX_PART of the matte (a torso, a second person, is more), holding no
-   face's middle and reaching under none (:func:`bodily`: a face's person goes on below it; who is behind the subject,
-   whole, is relight_rt.person.matting._behind's to decide), and not cut by the photo's bottom border (a body cut by
-   the frame goes on). A side or the top border is no such sign: p016's blob and p064's stage light, both things
-   behind, are cut by them.
+4. it is a thing, not part of someone: at most _MAX_PART of the segmentation of the person who holds it most (a torso
+   is more; so is a second person of a group segmented on their own, however small a share of everyone's matte),
+   holding no face's middle and reaching under none (:func:`bodily`, the faces of PersonMatter.find_faces on the whole
+   photo: a face's person goes on below it; who is behind the subject, whole, is relight_rt.person.matting._behind's
+   to decide), and not cut by the photo's bottom border (a body cut by the frame goes on: the grid reaches _MARGIN
+   grid px below the matte, so only such a part reaches its last row). A side or the top border is no such sign:
+   p016's blob and p064's stage light, both things behind, are cut by them.
 
 A part is a piece of the matte's pose-unseen pixels that an opening by a disc of _OPEN x the matte's side leaves (the
 pose graph's outline lies a pixel or two inside the matte's: the opening parts that strip from the thing)
-(:func:`blurred_things`). It leaves the matte softly (:func:`without_things_behind`, :func:`_leave`): alpha x (1 - its
-share of each pixel), with the pieces its cut leaves apart from the matte and its soft rim; the body's soft edge
-beside it stays. Parts the people's segmentations hardly hold (the own colours' parts,
+(:func:`sticking_out`). It leaves the matte softly (:func:`without_things_behind`, :func:`_leave`): alpha x (1 - its
+share of each pixel), with the pieces its cut leaves apart from the matte (slivers; what the opening stripped off it,
+a guitar's neck; its own tail, which the pose graph half-sees) and its soft rim (the soft pixels nearer it than the
+matte that stays, up to _HALO x the matte's side: the selfie graph's soft take on a blurred thing reaches far); the
+body's soft edge beside it stays. Parts the people's segmentations hardly hold (the own colours' parts,
 relight_rt.person.matting._colours) are not looked at. The matte is read on a grid whose side is at most _SIDE pixels
 on the side of the matte's area (:func:`reading_grid`: a 2.5-MP photo costs what a web photo does). VideoMatter does
 not apply the rule: a part leaving on some frames and not on others would flicker, and each frame would pay for it.
@@ -34,13 +38,19 @@ else; _APART 0.3, where p089's foliage has a ring share of 0.27 and p285's torso
 photo, 0.38 (0.4 adds small pieces of a group of three that the service's mask holds, -0.005 on p266; 0.5 a smooth red
 phone held up to the camera, ring share 0.47, -0.07 on p287); _MAX_PART 0.2, where the four parts that leave are
 0.025-0.106 of the matte and a couple's blurred partner 0.47; _NECK 0.5, where p064's stage light overlaps the edge
-of its singer's face box and p104's guitar lies 0.2 face widths beside it (beside, not under). _UNSEEN, _SEEN, _RING,
-_SIDE and _MARGIN are set by reasoning, not fitted. Half A 0.92340 -> 0.92575 (p104's guitar 0.859 -> 0.947, p064's
-stage light 0.877 -> 0.979, p016's blurred blob 0.927 -> 0.956, p089's foliage below the joined hands 0.918 -> 0.940,
-p083 and p234 +0.002 and +0.001), half B and the clip unchanged (no part qualifies). Time: nothing for pose-graph
-people; a selfie-graph person, one pose-graph run per region and a few ms (benchmarks/things_behind_speed.py). Things
-the rule cannot tell stay: at the photo's bottom border (p192's floor, p265's grass), in focus, or sharp where the
-graphs are unsure.
+of its singer's face box and p104's guitar lies 0.2 face widths beside it (beside, not under); _HALO 0.5, where the
+soft rim left beside p016's blob reaches 0.55 x its matte's side (95th percentile: 2892 -> 342 px of alpha < 0.5 nearer
+the blob than the body) and p064's 0.18 (4385 -> 21). _UNSEEN, _SEEN, _RING, _TAIL, _SIDE and _MARGIN are set by
+reasoning, not fitted. Half A 0.92340 -> 0.92575 (p104's guitar 0.859 -> 0.947, p064's stage light 0.877 -> 0.979,
+p016's blurred blob 0.927 -> 0.956, p089's foliage below the joined hands 0.918 -> 0.940, p083 and p234 +0.002 and
++0.001), half B and the clip unchanged (no part qualifies). Time (benchmarks/things_behind_speed.py --before):
+nothing for pose-graph people; with a selfie-graph person, one pose-graph run per region and, when a part would leave,
+one face-graph run (outside PersonMatter.people's shared reductions) and the leaving: 25-70 ms a web photo (p064 29 ->
+42 ms with the soft rim and the tails), p064 enlarged 4x 80 -> 240 ms (its window reaches twice _HALO x the matte's
+side: the whole photo there). Things the rule cannot tell stay: at the photo's bottom border (p192's floor, p265's
+grass), in focus, or sharp where the graphs are unsure. Sharpness is read on the photo's own pixels until the matte is
+wider than _SIDE, so it depends on the photo's size: p016's blob enlarged 2x-4x no longer reads blurred against the
+body, and stays.
 """
 
 from __future__ import annotations
@@ -67,6 +77,8 @@ _APART = 0.3  # a part sticks out when under this share of the ring around it li
 _RING = 3  # the ring's width (grid px)
 _NECK = 0.5  # a face's person goes on this x the face's width below its box (the chin, the neck)
 _MARGIN = 12  # grid px read around the matte's bounding box (the ring, and the blurs' reach)
+_TAIL = 0.1  # a piece cut off beside the part goes with it when the pose graph sees at most this share of it
+_HALO = 0.5  # a part's soft rim is cleared up to this x the matte's side (square root of its area, px) from it
 _REACH = 9  # grid px: three sigmas of the mid-scale blur of _behind.details, read around the matte
 
 PoseLogits = Callable[[Person], np.ndarray]  # a selfie-graph person -> the pose graph's logits on their region's canvas
@@ -87,15 +99,21 @@ def _disc(size: float) -> np.ndarray:
     return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))
 
 
-def sticking_out(
-    matte: np.ndarray, held: np.ndarray, pose: np.ndarray, bottom: bool = True
-) -> list[np.ndarray]:  # fmt: skip
+def sticking_out(matte: np.ndarray, held: list[np.ndarray], pose: np.ndarray) -> list[np.ndarray]:
     """The parts of ``matte`` that may be things behind the person before their sharpness is read (bool, each): the
-    pieces of the matte's pixels that the pose graph does not see that an opening by
-    a disc of _OPEN x the matte's side leaves, at most _MAX_PART of the matte, above the photo's bottom border,
-    that the people's segmentations hold (mean ``held`` >= _HELD) and that stick out of the matte (under _APART of the
-    ring around them in it). Arrays as :func:`blurred_things`'s; ``bottom``: whether the grid's last row is the photo's
-    bottom row (a grid over part of the photo may end above it)."""
+    pieces of the matte's pixels that the pose graph does not see that an opening by a disc of _OPEN x the matte's
+    side leaves, at most _MAX_PART of the segmentation of the person who holds them most (a second person of a group
+    is measured against their own, not against everyone's matte), not reaching the grid's last row, that the people's
+    segmentations hold (mean max of ``held`` >= _HELD) and that stick out of the matte (under _APART of the ring
+    around them in it).
+
+    Args:
+        matte: (h, w) bool, the matte (alpha >= 0.5) on the grid.
+        held: one (h, w) float32 map in [0, 1] per person, their segmentation on the grid.
+        pose: (h, w) float32 in [0, 1], the pose graph's probability on the people's regions (max over them).
+
+    The grid reaches _MARGIN grid px past the matte unless the photo ends first: a part on its last row is cut by the
+    photo's bottom border (a body cut by the frame goes on)."""
     area = int(matte.sum())
     unseen = (matte & (pose < _UNSEEN)).astype(np.uint8)
     if area == 0 or not unseen.any():
@@ -104,16 +122,20 @@ def sticking_out(
     n, labels, stats, _ = cv2.connectedComponentsWithStats(opened, connectivity=8)
     h = matte.shape[0]
     ring_k = np.ones((2 * _RING + 1, 2 * _RING + 1), np.uint8)
+    anyone = np.max(held, axis=0)
     parts = []
     for i in range(1, n):
         x, y, bw, bh, size = (int(v) for v in stats[i])
-        if size > _MAX_PART * area or (bottom and y + bh >= h):
-            continue  # a body, or a body cut by the frame's bottom (it goes on)
+        if size > _MAX_PART * area or y + bh >= h:
+            continue  # a body (more than a share of everyone's matte is more than one person's), or cut by the bottom
         y0, x0 = max(y - _RING, 0), max(x - _RING, 0)  # read in its box and the ring's
         box = (slice(y0, y + bh + _RING), slice(x0, x + bw + _RING))
         part = labels[box] == i
-        if float(held[box][part].mean()) < _HELD:
+        if float(anyone[box][part].mean()) < _HELD:
             continue
+        mine = max(held, key=lambda m: float(m[box][part].mean()))  # the person who holds it most ...
+        if size > _MAX_PART * int((matte & (mine >= 0.5)).sum()):
+            continue  # ... and more than a share of them: a torso, or a person of the group
         ring = cv2.dilate(part.astype(np.uint8), ring_k).astype(bool) & ~part
         if ring.any() and (ring & matte[box]).sum() >= _APART * ring.sum():
             continue
@@ -153,50 +175,39 @@ def bodily(part: np.ndarray, faces: list[Box]) -> bool:
     return False
 
 
-def blurred_things(
-    gray: np.ndarray, matte: np.ndarray, held: np.ndarray, pose: np.ndarray, faces: list[Box] = (), bottom: bool = True
-) -> np.ndarray:  # fmt: skip
-    """The parts of ``matte`` that are things out of focus behind the person (module docstring), on one grid.
-
-    Args:
-        gray: (h, w) float32 grey photo in [0, 1].
-        matte: (h, w) bool, the matte (alpha >= 0.5).
-        held: (h, w) float32 in [0, 1], the people's segmentations (max over them; none for the own colours' parts).
-        pose: (h, w) float32 in [0, 1], the pose graph's probability on the people's regions (max over them).
-        faces: the photo's face boxes (x0, y0, x1, y1) on the grid, pixel edges (:func:`bodily`).
-        bottom: whether the grid's last row is the photo's bottom row.
-
-    Returns:
-        (h, w) bool: the pixels that leave (False everywhere when nothing does): each blurred part of
-        :func:`sticking_out` that is no one's (:func:`bodily`), as the opening took it (what the opening shaved off
-        its rim goes with it at full resolution: :func:`without_things_behind`).
-    """
-    parts = [p for p in blurred_of(gray, matte, pose, sticking_out(matte, held, pose, bottom)) if not bodily(p, faces)]
-    return np.any(parts, axis=0) if parts else np.zeros(matte.shape, bool)
-
-
-def _leave(alpha: np.ndarray, weight: np.ndarray, reach: int, ramp: float) -> np.ndarray:
+def _leave(alpha: np.ndarray, weight: np.ndarray, seen: np.ndarray, reach: int, halo: float, ramp: float,
+           alone: bool, most: float) -> np.ndarray:  # fmt: skip
     """``alpha`` (a (h, w) window around a part) less the part, whose share of each pixel is ``weight``: alpha x
-    (1 - weight); then, within ``reach`` px of the part, the pieces of the matte (>= 0.5) left apart from the rest go
-    (slivers along the cut, bits of the part's own soft rim that read >= 0.5; the largest piece stays when none
-    reaches further), the part's own pixels go except within ``ramp`` px of the matte that stays (there the cut stays
-    soft), and each soft pixel (< 0.5) goes with the nearer of the part and the matte that stays (the part's soft rim
-    leaves, the body's stays). The window reaches ``reach`` + 1 px past the part."""
+    (1 - weight); then the pieces of the matte (>= 0.5) left apart from the rest go: those within ``reach`` px of the
+    part (slivers along the cut, bits of the part's own soft rim that read >= 0.5; only when the matte lies wholly in
+    the window, ``alone``, does its largest piece stay when none reaches further), and those that touch that reach,
+    lie wholly in the window, hold at most ``most`` pixels (a body apart is more) and of which the pose graph sees
+    (``seen``, bool) at most _TAIL (the part's own tail, cut off from it); the part's own pixels go except within
+    ``ramp`` px of the matte that stays (there the cut stays soft); and each soft pixel (< 0.5) within ``halo`` px of
+    the part goes with the nearer of the part and the matte that stays (the part's soft rim leaves, the body's stays).
+    The window reaches 2 ``halo`` + 1 px past the part (the matte past it is further from such a pixel than the part)
+    or to the photo's edge."""
     out = alpha * (1.0 - weight)
-    zone = cv2.dilate((weight > 0).astype(np.uint8), _disc(2 * reach + 1)).astype(bool)
+    to_weight = cv2.distanceTransform((weight <= 0).astype(np.uint8), cv2.DIST_L2, 3)  # (3: a few % off, 4x as fast)
+    zone = to_weight <= reach
     hard = (out >= 0.5).astype(np.uint8)
     n, labels, stats, _ = cv2.connectedComponentsWithStats(hard, connectivity=8)
-    apart = np.ones(n, bool)
+    area = stats[:, cv2.CC_STAT_AREA]
+    near = np.bincount(labels[zone], minlength=n) > 0
+    apart = np.bincount(labels[~zone], minlength=n) == 0  # a piece reaching past the zone goes on into the matte
     apart[0] = False
-    apart[np.unique(labels[~zone])] = False  # a piece reaching past the zone goes on into the matte that stays
-    if n > 1 and apart[1:].all():
-        apart[1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))] = False
-    kept = hard.astype(bool) & ~apart[labels]
-    part = zone & (alpha >= 0.5) & ~kept
-    to_kept = (cv2.distanceTransform((~kept).astype(np.uint8), cv2.DIST_L2, 5) if kept.any()
+    if alone and n > 1 and apart[1:].all():
+        apart[1 + int(np.argmax(area[1:]))] = False
+    edges = np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]])
+    tail = near & (np.bincount(edges, minlength=n) == 0) & (area <= most)  # (a piece at the window's edge may go on)
+    tail &= np.bincount(labels[seen], minlength=n) <= _TAIL * area
+    tail[0] = False
+    kept = hard.astype(bool) & ~(apart | tail)[labels]
+    part = (zone | tail[labels]) & (alpha >= 0.5) & ~kept
+    to_kept = (cv2.distanceTransform((~kept).astype(np.uint8), cv2.DIST_L2, 3) if kept.any()
                else np.full(alpha.shape, np.inf, np.float32))  # fmt: skip
-    to_part = cv2.distanceTransform((~part).astype(np.uint8), cv2.DIST_L2, 5)
-    soft = zone & ~part & ~kept
+    to_part = cv2.distanceTransform((~part).astype(np.uint8), cv2.DIST_L2, 3)
+    soft = (to_weight <= halo) & ~part & ~kept
     out[(part & (to_kept > ramp)) | (soft & (to_part < to_kept))] = 0.0
     return out
 
@@ -246,13 +257,13 @@ def without_things_behind(
     small = alpha[y0:y1, x0:x1]
     small = small if s >= 1.0 else cv2.resize(small, (gw, gh), interpolation=cv2.INTER_AREA)
     matte = small >= 0.5
-    held = np.max([logits_on_grid(p, grid) for p in people], axis=0)
+    held = [sigmoid(logits_on_grid(p, grid)) for p in people]
     views: dict[Region, np.ndarray] = {}  # one pose-graph view per region (the parts split from one segmentation)
     for p in people:
         if p.region not in views:
             views[p.region] = logits_on_grid(p if p.source == "pose" else Person(p.region, pose(p), 0.0), grid)
     seen = sigmoid(np.max(list(views.values()), axis=0))
-    parts = sticking_out(matte, sigmoid(held), seen, bottom=y1 == h)
+    parts = sticking_out(matte, held, seen)
     if not parts:
         return alpha
     gray = grey_of(rgb[y0:y1, x0:x1])
@@ -267,13 +278,21 @@ def without_things_behind(
     weight = np.any(parts, axis=0).astype(np.float32)
     if s < 1.0:  # the part's share of each pixel of the photo (a soft cut, not a staircase of grid pixels)
         weight = cv2.resize(weight, (x1 - x0, y1 - y0), interpolation=cv2.INTER_LINEAR)
-    r = band_width(alpha.shape)  # how far the part's soft rim and the slivers its cut leaves reach
+    r = band_width(alpha.shape)  # how far the slivers its cut leaves reach
     ys, xs = np.nonzero(weight > 0)
-    wx0, wy0 = max(x0 + int(xs.min()) - r - 2, 0), max(y0 + int(ys.min()) - r - 2, 0)
-    wx1, wy1 = min(x0 + int(xs.max()) + r + 3, w), min(y0 + int(ys.max()) + r + 3, h)
+    halo = max(float(r), _HALO * np.sqrt(float(area)))  # how far its soft rim is cleared (the matte's size's)
+    m = int(np.ceil(2 * halo)) + 2
+    wx0, wy0 = max(x0 + int(xs.min()) - m, 0), max(y0 + int(ys.min()) - m, 0)
+    wx1, wy1 = min(x0 + int(xs.max()) + m + 1, w), min(y0 + int(ys.max()) + m + 1, h)
     share = np.zeros((wy1 - wy0, wx1 - wx0), np.float32)
     iy0, iy1, ix0, ix1 = max(y0, wy0), min(y1, wy1), max(x0, wx0), min(x1, wx1)
     share[iy0 - wy0 : iy1 - wy0, ix0 - wx0 : ix1 - wx0] = weight[iy0 - y0 : iy1 - y0, ix0 - x0 : ix1 - x0]
+    sure = (seen >= _SEEN).astype(np.float32)  # what the pose graph sees, on the photo's pixels
+    sure = sure if s >= 1.0 else cv2.resize(sure, (x1 - x0, y1 - y0), interpolation=cv2.INTER_LINEAR)
+    looked = np.zeros(share.shape, bool)
+    looked[iy0 - wy0 : iy1 - wy0, ix0 - wx0 : ix1 - wx0] = sure[iy0 - y0 : iy1 - y0, ix0 - x0 : ix1 - x0] > 0
+    alone = cv2.countNonZero(inside[wy0:wy1, wx0:wx1]) == area  # no matte past the window
     out = alpha.copy()
-    out[wy0:wy1, wx0:wx1] = _leave(alpha[wy0:wy1, wx0:wx1], share, r, 1.0 / s + 1.0)
+    out[wy0:wy1, wx0:wx1] = _leave(alpha[wy0:wy1, wx0:wx1], share, looked, r, halo, 1.0 / s + 1.0, alone,
+                                   _MAX_PART * area)  # fmt: skip
     return out
