@@ -125,8 +125,12 @@ class VideoMatter:
             raise RelightError(f"smoothing: expected a value in [0, 1), got {smoothing}")
         if int(redetect_every) < 0:
             raise RelightError(f"redetect_every: expected >= 0, got {redetect_every}")
-        if complete_on_drop is not None and not 0.0 < float(complete_on_drop) <= 1.0:
-            raise RelightError(f"complete_on_drop: expected a share in (0, 1] or None, got {complete_on_drop}")
+        if complete_on_drop is not None and (
+            isinstance(complete_on_drop, (bool, str, bytes))
+            or not isinstance(complete_on_drop, (int, float, np.integer, np.floating))
+            or not 0.0 < float(complete_on_drop) <= 1.0
+        ):
+            raise RelightError(f"complete_on_drop: expected a share in (0, 1] or None, got {complete_on_drop!r}")
         self.matter = matter if matter is not None else PersonMatter(models, device=device)
         self.smoothing = float(smoothing)
         self.redetect_every = int(redetect_every)
@@ -141,6 +145,7 @@ class VideoMatter:
         self._region: Region | None = None
         self._prev_prob: np.ndarray | None = None
         self._prev_gray: np.ndarray | None = None
+        self._prev_held: np.ndarray | None = None  # the rule's history: the followed matte, not what completion adds
         self._shape: tuple[int, int] | None = None
         self.index = 0
         self.completions = 0  # frames completed as a photo since the last reset
@@ -159,34 +164,49 @@ class VideoMatter:
             return None, None
         return person, box
 
-    def _carried(self, gray_small: np.ndarray) -> tuple[np.ndarray | None, np.ndarray | None]:
-        """The last frame's probability warped onto this frame by DIS flow and how well the flow explains each pixel
-        (exp(-|I_now - I_prev_warped| / _AGREE_SCALE)), both on the working grid; (None, None) without a last frame,
-        or where neither the smoothing nor the completion's rule reads them."""
-        if self._prev_prob is None or (self.smoothing == 0 and (self.complete or self.complete_on_drop is None)):
-            return None, None
+    def _carried(self, gray_small: np.ndarray) -> tuple[np.ndarray | None, ...]:
+        """What the flow carries from the last frame onto this one, on the working grid: the last probability, how
+        well the flow explains each pixel (exp(-|I_now - I_prev_warped| / _AGREE_SCALE)), the rule's history (the
+        followed matte, :meth:`_matte`) and the rule's agreement (the same, less the change's median over the person
+        held, so that a change of exposure does not hide a drop). None for each without a last frame or where neither
+        the smoothing nor the rule reads it."""
+        rule = not self.complete and self.complete_on_drop is not None
+        if self._prev_prob is None or (self.smoothing == 0 and not rule):
+            return None, None, None, None
         flow = dis_flow(_gray_u8(gray_small), _gray_u8(self._prev_gray), "ultrafast")  # this frame -> the last
         carried = warp(self._prev_prob, flow, border_value=None)
-        diff = np.abs(gray_small - warp(self._prev_gray, flow, border_value=None))
-        return carried, np.exp(-diff / np.float32(_AGREE_SCALE))
+        change = gray_small - warp(self._prev_gray, flow, border_value=None)
+        agree = np.exp(-np.abs(change) / np.float32(_AGREE_SCALE))
+        if not rule or self._prev_held is None:
+            return carried, agree, None, None
+        held = warp(self._prev_held, flow, border_value=None)
+        inside = held >= 0.5
+        shift = np.float32(np.median(change[inside])) if inside.any() else np.float32(0)
+        return carried, agree, held, np.exp(-np.abs(change - shift) / np.float32(_AGREE_SCALE))
 
-    def _matte(
-        self, rgb: np.ndarray, person: Person, grid: Grid, gray_small: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
-        """The person's probability on the working grid, completed as in a photo with ``complete`` or where it drops
-        ``complete_on_drop`` of what the flow carries over, with what :meth:`_carried` gives. Called within the frame's
-        shared reductions (the turned views reuse the upright selfie run)."""
-        carried, agree = self._carried(gray_small)
+    def _matte(self, rgb: np.ndarray, person: Person, grid: Grid, gray_small: np.ndarray) -> tuple[np.ndarray, ...]:
+        """The person's probability on the working grid, completed as in a photo with ``complete`` or where the
+        followed matte drops ``complete_on_drop`` of the rule's history carried over; with the rule's record of this
+        frame and what :meth:`_carried` gives. Called within the frame's shared reductions (the turned views reuse the
+        upright selfie run).
+
+        The rule's history is the followed matte (the pose graph's, unsmoothed), plus, in a completed frame, what the
+        completion found again of what that history held (a lost leg): never what only the completion adds (a bag the
+        pose graph half-sees), which compared with the next frame's followed matte would count as dropped in every
+        frame after and keep completing."""
+        carried, agree, held, held_agree = self._carried(gray_small)
         if not self.complete:
             prob = sigmoid(logits_on_grid(person, grid)).astype(np.float32)
             limit = self.complete_on_drop
-            if limit is None or carried is None or dropped_share(prob, carried, agree) < limit:
-                return prob, carried, agree
+            if limit is None or held is None or dropped_share(prob, held, held_agree) < limit:
+                return prob, (prob if limit is not None else None), carried, agree
         # what the photo matte adds to the person: half-seen trousers both graphs see, parts in their own colours,
         # limbs seen only turned
         parts = self.matter.completed(rgb, person)
         self.completions += 1
-        return np.max([sigmoid(logits_on_grid(p, grid)) for p in parts], axis=0).astype(np.float32), carried, agree
+        full = np.max([sigmoid(logits_on_grid(p, grid)) for p in parts], axis=0).astype(np.float32)
+        record = None if self.complete else np.maximum(prob, np.minimum(full, held))
+        return full, record, carried, agree
 
     def __call__(self, image: np.ndarray, name: str = "frame") -> np.ndarray:
         rgb = as_rgb(image, name, copy=False)  # only read from here on
@@ -205,10 +225,10 @@ class VideoMatter:
             if person is None and not searched:  # lost where it was followed: searched for again in this frame
                 person, box = self._found(rgb, None)
             if person is not None:
-                prob, carried, agree = self._matte(rgb, person, grid, gray_small)
+                prob, record, carried, agree = self._matte(rgb, person, grid, gray_small)
         if person is None:
             log.debug("%s: no person found; searching again on the next frame", name)
-            self._region, self._prev_prob, self._prev_gray = None, None, None
+            self._region, self._prev_prob, self._prev_gray, self._prev_held = None, None, None, None
             return np.zeros((h, w), np.float32)
         new = Region.around(*box)
         # hysteresis: the pose graph's answer shifts with its crop, so the region stays put while the
@@ -219,7 +239,7 @@ class VideoMatter:
         if self.smoothing > 0 and carried is not None:
             wgt = np.float32(self.smoothing) * agree
             prob = prob + wgt * (carried - prob)
-        self._prev_prob, self._prev_gray = prob, gray_small
+        self._prev_prob, self._prev_gray, self._prev_held = prob, gray_small, record
         if not self.refine:
             return cv2.resize(prob, (w, h), interpolation=cv2.INTER_LINEAR) if grid[:2] != (w, h) else prob
         alpha = fast_guided_filter(prob, gray_small, gray_full, guide_radius(person, grid), GF_EPS)
