@@ -146,6 +146,7 @@ class VideoMatter:
         self._prev_prob: np.ndarray | None = None
         self._prev_gray: np.ndarray | None = None
         self._prev_held: np.ndarray | None = None  # the rule's history: the followed matte, not what completion adds
+        self._dropped = False  # the last frame dropped part of the rule's history (and was completed)
         self._shape: tuple[int, int] | None = None
         self.index = 0
         self.completions = 0  # frames completed as a photo since the last reset
@@ -186,20 +187,29 @@ class VideoMatter:
 
     def _matte(self, rgb: np.ndarray, person: Person, grid: Grid, gray_small: np.ndarray) -> tuple[np.ndarray, ...]:
         """The person's probability on the working grid, completed as in a photo with ``complete`` or where the
-        followed matte drops ``complete_on_drop`` of the rule's history carried over; with the rule's record of this
-        frame and what :meth:`_carried` gives. Called within the frame's shared reductions (the turned views reuse the
-        upright selfie run).
+        followed matte drops ``complete_on_drop`` of the rule's history carried over (or, in the frame right after such
+        a drop, of the last matte as completed); with the rule's record of this frame and what :meth:`_carried` gives.
+        Called within the frame's shared reductions (the turned views reuse the upright selfie run).
 
         The rule's history is the followed matte (the pose graph's, unsmoothed), plus, in a completed frame, what the
         completion found again of what that history held (a lost leg): never what only the completion adds (a bag the
-        pose graph half-sees), which compared with the next frame's followed matte would count as dropped in every
-        frame after and keep completing."""
+        pose graph half-sees), which compared with every later frame's followed matte would count as dropped in each
+        and keep completing for good (video16's rule did); the one frame after a drop that compares with it finds the
+        rest of a part lost over two frames (the parkour clip's frames 50 and 67: 0.78 -> 0.95, 0.92 -> 0.95)."""
         carried, agree, held, held_agree = self._carried(gray_small)
         if not self.complete:
             prob = sigmoid(logits_on_grid(person, grid)).astype(np.float32)
             limit = self.complete_on_drop
-            if limit is None or held is None or dropped_share(prob, held, held_agree) < limit:
-                return prob, (prob if limit is not None else None), carried, agree
+            if limit is None or held is None:
+                self._dropped = False
+                return prob, (None if limit is None else prob), carried, agree
+            dropped = dropped_share(prob, held, held_agree) >= limit
+            # the frame after such a drop is compared with the last matte as completed too (the rest of a part the
+            # pose graph loses over two frames); once only, so that what the completion alone adds ends there
+            after = not dropped and self._dropped and dropped_share(prob, carried, held_agree) >= limit
+            self._dropped = dropped
+            if not (dropped or after):
+                return prob, prob, carried, agree
         # what the photo matte adds to the person: half-seen trousers both graphs see, parts in their own colours,
         # limbs seen only turned
         parts = self.matter.completed(rgb, person)
@@ -229,6 +239,7 @@ class VideoMatter:
         if person is None:
             log.debug("%s: no person found; searching again on the next frame", name)
             self._region, self._prev_prob, self._prev_gray, self._prev_held = None, None, None, None
+            self._dropped = False
             return np.zeros((h, w), np.float32)
         new = Region.around(*box)
         # hysteresis: the pose graph's answer shifts with its crop, so the region stays put while the
