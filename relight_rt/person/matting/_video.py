@@ -181,8 +181,8 @@ class VideoMatter:
         if not rule or self._prev_held is None:
             return carried, agree, None, None
         held = warp(self._prev_held, flow, border_value=None)
-        inside = held >= 0.5
-        shift = np.float32(np.median(change[inside])) if inside.any() else np.float32(0)
+        inside = held[::2, ::2] >= 0.5  # the median of a quarter of the pixels: a quarter of the time (~1 ms at 720p)
+        shift = np.float32(np.median(change[::2, ::2][inside])) if inside.any() else np.float32(0)
         return carried, agree, held, np.exp(-np.abs(change - shift) / np.float32(_AGREE_SCALE))
 
     def _matte(self, rgb: np.ndarray, person: Person, grid: Grid, gray_small: np.ndarray) -> tuple[np.ndarray, ...]:
