@@ -76,15 +76,23 @@ class VideoMatter:
     jump instead of leaving that frame empty: benchmarks/people_masks_eval.py --methods video 0.913 -> 0.922). A frame
     is completed as in a photo (:meth:`PersonMatter.completed`: half-seen trousers, parts in their own colours, limbs
     seen only turned; two or more selfie-graph runs) where the followed matte gives a reason: where it drops at least
-    ``complete_on_drop`` (DROPPED_SHARE) of the matte the flow carries over from the last frame, counted where the
-    flow explains the picture (:func:`dropped_share`: a leg the pose graph loses for a frame or two, which the
-    completion finds again); with ``complete`` every frame is (``completions`` counts the frames completed).
+    ``complete_on_drop`` (DROPPED_SHARE) of the rule's history that the flow carries over from the last frame,
+    counted where the flow explains the picture (:func:`dropped_share`; the agreement less its median change over the
+    person, so that a change of exposure does not hide a drop): a leg the pose graph loses for a frame or two, which
+    the completion finds again. The rule's history is the followed matte plus what a completion found again of it,
+    never what only the completion adds (compared with that, every later frame would count as dropping it and be
+    completed in turn); the frame right after a drop is compared with the last matte as completed too, once (the rest
+    of a part lost over two frames). ``complete`` completes every frame and overrides ``complete_on_drop``
+    (``completions`` counts the frames completed). This default is what ``relight-rt mask`` (a video, ``--sequence``)
+    and ``relight-rt video`` matte with (no option there; ``complete_on_drop=None`` here turns it off).
     Measured on the parkour clip (one video, 100 frames: ``benchmarks/people_masks_eval.py --set clip --methods
     video,video-complete``): neither 0.92207, every frame 0.92752 (frame 50 0.78 -> 0.95, 96-97 -0.04 each: a dark car
     taken), on a drop 0.92974 with 16 frames of 100 completed (18-19, 44, 49-50, 58, 63, 66-67, 69, 79-82, 84-85; not
     96-97: nothing is dropped there; +12-16 % a frame on average, benchmarks/video_on_drop.py --clip), DROPPED_SHARE
-    0.04-0.06 within 0.0004 of it. The 720p reference frames complete none and keep their speed (with smoothing 0
-    the flow now runs for the rule: +7 %; docs/BENCHMARKS.md, video16). With
+    0.04-0.06 within 0.0004 of it. The 720p reference frames complete none and keep their speed (the rule's own
+    history: +~2 %; with smoothing 0 the flow runs for the rule: +~10 %); a video whose every frame drops part of
+    the person pays what ``complete=True`` does, ~1.6x the default (720p ~19-20 frames/s on 2 loaded cores;
+    docs/BENCHMARKS.md, video16 and mendv16). With
     ``pockets`` (the default), a gap between arm and body that the matte half-holds (alpha under 0.9 inside the person)
     is settled by the photo's colour as in a photo (``matte_edges.open_pockets``): open where it shows the backdrop,
     opaque where it shows the person (the reference video's boundary F 0.948 -> 0.991 on the default path, 0.928 ->
@@ -100,8 +108,9 @@ class VideoMatter:
         redetect_every: run the region finder every N frames even when the person is tracked (0: never).
         refine: guided-filter edge refinement (as in PersonMatter; always with the gray guide, for speed).
         complete: add to the person what the photo matte adds (:meth:`PersonMatter.completed`) in every frame; slower.
-        complete_on_drop: ... in a frame where the followed matte drops at least this share (in (0, 1]) of what the
-            flow carries over from the last frame (:func:`dropped_share`); None: only with ``complete``.
+        complete_on_drop: ... in a frame where the followed matte drops at least this share (a number in (0, 1];
+            a bool or a string is refused) of the rule's history the flow carries over from the last frame
+            (:func:`dropped_share`); None: only with ``complete``, which overrides it.
         pockets: settle the gaps the matte half-holds inside the person by the photo's colour (refine only).
 
     Calling it on each frame in order: ``alpha = vm(rgb)``; a frame with nobody in it gives an all-zero
