@@ -7,6 +7,7 @@ the 720p cost against another version of ``_video.py`` in turn.
     git show main:relight_rt/person/matting/_video.py > /tmp/video_base.py
     PYTHONPATH=$PWD python benchmarks/video_on_drop.py --cost-only --base /tmp/video_base.py --rounds 4
     PYTHONPATH=$PWD python benchmarks/video_on_drop.py --clip          # the parkour clip: frames completed, IoU
+    PYTHONPATH=$PWD python benchmarks/video_on_drop.py --worst --rounds 2   # every frame dropping: the rule's worst
 
 Quality rows (the reference video's 24 frames against their hand masks, benchmarks/matting_eval.py's measures): the
 rule off (``complete_on_drop=None``: the default before video16), the default, ``complete=True``; columns IoU,
@@ -32,14 +33,14 @@ sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "benchmarks"))
 
 import matting_eval as E  # noqa: E402
+from video_pockets import measures, reference_video  # noqa: E402
 
 from relight_rt.person import matting as M  # noqa: E402
+from relight_rt.person.matting import _video  # noqa: E402
 
 
 def quality(ref: Path, pm: M.PersonMatter) -> None:
-    files = sorted((ref / "video").glob("frame_[0-9][0-9][0-9].png"))
-    frames = [E.read_rgb(f) for f in files]
-    gts = [E.read_gt(f.with_name(f"{f.stem}_mask.png")) for f in files]
+    frames, gts = reference_video(ref)
     print("| VideoMatter | IoU | boundary F (min) | edge band error | flicker | frames completed |")
     print("|---|---|---|---|---|---|")
     rows = (("complete_on_drop=None (before video16)", {"complete_on_drop": None}), ("default", {}),
@@ -47,7 +48,7 @@ def quality(ref: Path, pm: M.PersonMatter) -> None:
     for label, options in rows:
         vm = M.VideoMatter(pm, **options)
         outs = [vm(f) for f in frames]
-        v = np.array([(E.iou(a, g), E.boundary_f(a, g), E.band_error(a, g)[0]) for a, g in zip(outs, gts, strict=True)])
+        v = measures(outs, gts)
         print(
             f"| {label} | {v[:, 0].mean():.4f} | {v[:, 1].mean():.4f} ({v[:, 1].min():.4f}) | {v[:, 2].mean():.3f} "
             f"| {M.outline_flicker(outs, frames):.4f} | {vm.completions} of {len(frames)} |"
@@ -115,6 +116,43 @@ def cost(ref: Path, pm: M.PersonMatter, rounds: int, base: Path | None, smoothin
     )
 
 
+def worst(ref: Path, pm: M.PersonMatter, rounds: int, smoothing: float) -> None:
+    """The rule's worst case, a video where every frame drops what the flow carries: the rule made to fire on every
+    frame (``_video.dropped_share`` read as 1 while that VideoMatter runs), against the default and
+    ``complete=True`` on matting_eval's 720p frames, a frame of each in turn (the order rotated every frame): medians
+    and paired ratios."""
+    share = _video.dropped_share
+    vms = {
+        "default": M.VideoMatter(pm, smoothing=smoothing),
+        "every frame dropping": M.VideoMatter(pm, smoothing=smoothing),
+        "complete=True": M.VideoMatter(pm, smoothing=smoothing, complete=True),
+    }
+    hd = E.frames_720p(ref)
+    keys = list(vms)
+    times: dict[str, list[float]] = {k: [] for k in keys}
+    try:
+        for vm in vms.values():
+            vm(hd[0])  # warm-up (and the first frame's search)
+        for k in range(rounds):
+            for i, f in enumerate(hd):
+                j = (k * len(hd) + i) % len(keys)
+                for key in keys[j:] + keys[:j]:
+                    _video.dropped_share = (lambda p, c, a: 1.0) if key == "every frame dropping" else share
+                    t = time.perf_counter()
+                    vms[key](f)
+                    times[key].append(time.perf_counter() - t)
+    finally:
+        _video.dropped_share = share
+    t = {k: np.array(v) for k, v in times.items()}
+    print(
+        f"720p VideoMatter (smoothing {smoothing}), "
+        + "; ".join(f"{k}: median {1000 * np.median(v):.1f} ms, {vms[k].completions} completed" for k, v in t.items())
+        + f"; paired ratio medians: every frame dropping / default "
+        f"{np.median(t['every frame dropping'] / t['default']):.3f}, / complete=True "
+        f"{np.median(t['every frame dropping'] / t['complete=True']):.3f}; {len(t['default'])} frames each"
+    )
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rounds", type=int, default=3, help="timing rounds over the 24 frames (default 3)")
@@ -122,10 +160,14 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--base", type=Path, help="another _video.py to time VideoMatter against (a file)")
     ap.add_argument("--smoothing", type=float, default=0.7, help="the VideoMatters' smoothing (cost; default 0.7)")
     ap.add_argument("--clip", action="store_true", help="only the parkour clip: the frames completed and the IoU")
+    ap.add_argument("--worst", action="store_true", help="only the cost when every frame drops (the rule forced)")
     args = ap.parse_args(argv)
     pm = M.PersonMatter()
     if args.clip:
         clip(pm)
+        return
+    if args.worst:
+        worst(E.shared_reference(), pm, args.rounds, args.smoothing)
         return
     ref = E.shared_reference()
     if not args.cost_only:

@@ -40,10 +40,21 @@ from relight_rt.image.matte_edges import open_pockets  # noqa: E402
 from relight_rt.person import matting as M  # noqa: E402
 
 
-def quality(ref: Path, pm: M.PersonMatter) -> None:
+def reference_video(ref: Path) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """The reference video's 24 frames (RGB float) and their hand masks, in order (shared with video_on_drop.py)."""
     files = sorted((ref / "video").glob("frame_[0-9][0-9][0-9].png"))
-    frames = [E.read_rgb(f) for f in files]
-    gts = [E.read_gt(f.with_name(f"{f.stem}_mask.png")) for f in files]
+    return [E.read_rgb(f) for f in files], [E.read_gt(f.with_name(f"{f.stem}_mask.png")) for f in files]
+
+
+def measures(alphas: list[np.ndarray], gts: list[np.ndarray]) -> np.ndarray:
+    """(N, 3) per frame: IoU (alpha >= 0.5), boundary F, the edge band's mean error (matting_eval's measures)."""
+    return np.array(
+        [(E.iou(a, g), E.boundary_f(a, g), E.band_error(a, g)[0]) for a, g in zip(alphas, gts, strict=True)]
+    )
+
+
+def quality(ref: Path, pm: M.PersonMatter) -> None:
+    frames, gts = reference_video(ref)
     print("| VideoMatter | IoU | boundary F | edge band error | flicker | px at 0.5-0.95 |")
     print("|---|---|---|---|---|---|")
     rows = (("default, pockets=False", False, False), ("default", False, True),
@@ -51,7 +62,7 @@ def quality(ref: Path, pm: M.PersonMatter) -> None:
     for label, complete, pockets in rows:
         vm = M.VideoMatter(pm, complete=complete, pockets=pockets)
         outs = [vm(f) for f in frames]
-        v = np.array([(E.iou(a, g), E.boundary_f(a, g), E.band_error(a, g)[0]) for a, g in zip(outs, gts, strict=True)])
+        v = measures(outs, gts)
         held = np.mean([((a > 0.5) & (a < 0.95)).sum() for a in outs])
         f_min = v[:, 1].min()
         print(

@@ -76,15 +76,23 @@ class VideoMatter:
     jump instead of leaving that frame empty: benchmarks/people_masks_eval.py --methods video 0.913 -> 0.922). A frame
     is completed as in a photo (:meth:`PersonMatter.completed`: half-seen trousers, parts in their own colours, limbs
     seen only turned; two or more selfie-graph runs) where the followed matte gives a reason: where it drops at least
-    ``complete_on_drop`` (DROPPED_SHARE) of the matte the flow carries over from the last frame, counted where the
-    flow explains the picture (:func:`dropped_share`: a leg the pose graph loses for a frame or two, which the
-    completion finds again); with ``complete`` every frame is (``completions`` counts the frames completed).
+    ``complete_on_drop`` (DROPPED_SHARE) of the rule's history that the flow carries over from the last frame,
+    counted where the flow explains the picture (:func:`dropped_share`; the agreement less its median change over the
+    person, so that a change of exposure does not hide a drop): a leg the pose graph loses for a frame or two, which
+    the completion finds again. The rule's history is the followed matte plus what a completion found again of it,
+    never what only the completion adds (compared with that, every later frame would count as dropping it and be
+    completed in turn); the frame right after a drop is compared with the last matte as completed too, once (the rest
+    of a part lost over two frames). ``complete`` completes every frame and overrides ``complete_on_drop``
+    (``completions`` counts the frames completed). This default is what ``relight-rt mask`` (a video, ``--sequence``)
+    and ``relight-rt video`` matte with (no option there; ``complete_on_drop=None`` here turns it off).
     Measured on the parkour clip (one video, 100 frames: ``benchmarks/people_masks_eval.py --set clip --methods
     video,video-complete``): neither 0.92207, every frame 0.92752 (frame 50 0.78 -> 0.95, 96-97 -0.04 each: a dark car
     taken), on a drop 0.92974 with 16 frames of 100 completed (18-19, 44, 49-50, 58, 63, 66-67, 69, 79-82, 84-85; not
     96-97: nothing is dropped there; +12-16 % a frame on average, benchmarks/video_on_drop.py --clip), DROPPED_SHARE
-    0.04-0.06 within 0.0004 of it. The 720p reference frames complete none and keep their speed (with smoothing 0
-    the flow now runs for the rule: +7 %; docs/BENCHMARKS.md, video16). With
+    0.04-0.06 within 0.0004 of it. The 720p reference frames complete none and keep their speed (the rule's own
+    history: +~2 %; with smoothing 0 the flow runs for the rule: +~10 %); a video whose every frame drops part of
+    the person pays what ``complete=True`` does, ~1.6x the default (720p ~19-20 frames/s on 2 loaded cores;
+    docs/BENCHMARKS.md, video16 and mendv16). With
     ``pockets`` (the default), a gap between arm and body that the matte half-holds (alpha under 0.9 inside the person)
     is settled by the photo's colour as in a photo (``matte_edges.open_pockets``): open where it shows the backdrop,
     opaque where it shows the person (the reference video's boundary F 0.948 -> 0.991 on the default path, 0.928 ->
@@ -100,8 +108,9 @@ class VideoMatter:
         redetect_every: run the region finder every N frames even when the person is tracked (0: never).
         refine: guided-filter edge refinement (as in PersonMatter; always with the gray guide, for speed).
         complete: add to the person what the photo matte adds (:meth:`PersonMatter.completed`) in every frame; slower.
-        complete_on_drop: ... in a frame where the followed matte drops at least this share (in (0, 1]) of what the
-            flow carries over from the last frame (:func:`dropped_share`); None: only with ``complete``.
+        complete_on_drop: ... in a frame where the followed matte drops at least this share (a number in (0, 1];
+            a bool or a string is refused) of the rule's history the flow carries over from the last frame
+            (:func:`dropped_share`); None: only with ``complete``, which overrides it.
         pockets: settle the gaps the matte half-holds inside the person by the photo's colour (refine only).
 
     Calling it on each frame in order: ``alpha = vm(rgb)``; a frame with nobody in it gives an all-zero
@@ -125,8 +134,12 @@ class VideoMatter:
             raise RelightError(f"smoothing: expected a value in [0, 1), got {smoothing}")
         if int(redetect_every) < 0:
             raise RelightError(f"redetect_every: expected >= 0, got {redetect_every}")
-        if complete_on_drop is not None and not 0.0 < float(complete_on_drop) <= 1.0:
-            raise RelightError(f"complete_on_drop: expected a share in (0, 1] or None, got {complete_on_drop}")
+        if complete_on_drop is not None and (
+            isinstance(complete_on_drop, (bool, str, bytes))
+            or not isinstance(complete_on_drop, (int, float, np.integer, np.floating))
+            or not 0.0 < float(complete_on_drop) <= 1.0
+        ):
+            raise RelightError(f"complete_on_drop: expected a share in (0, 1] or None, got {complete_on_drop!r}")
         self.matter = matter if matter is not None else PersonMatter(models, device=device)
         self.smoothing = float(smoothing)
         self.redetect_every = int(redetect_every)
@@ -141,6 +154,8 @@ class VideoMatter:
         self._region: Region | None = None
         self._prev_prob: np.ndarray | None = None
         self._prev_gray: np.ndarray | None = None
+        self._prev_held: np.ndarray | None = None  # the rule's history: the followed matte, not what completion adds
+        self._dropped = False  # the last frame dropped part of the rule's history (and was completed)
         self._shape: tuple[int, int] | None = None
         self.index = 0
         self.completions = 0  # frames completed as a photo since the last reset
@@ -159,34 +174,58 @@ class VideoMatter:
             return None, None
         return person, box
 
-    def _carried(self, gray_small: np.ndarray) -> tuple[np.ndarray | None, np.ndarray | None]:
-        """The last frame's probability warped onto this frame by DIS flow and how well the flow explains each pixel
-        (exp(-|I_now - I_prev_warped| / _AGREE_SCALE)), both on the working grid; (None, None) without a last frame,
-        or where neither the smoothing nor the completion's rule reads them."""
-        if self._prev_prob is None or (self.smoothing == 0 and (self.complete or self.complete_on_drop is None)):
-            return None, None
+    def _carried(self, gray_small: np.ndarray) -> tuple[np.ndarray | None, ...]:
+        """What the flow carries from the last frame onto this one, on the working grid: the last probability, how
+        well the flow explains each pixel (exp(-|I_now - I_prev_warped| / _AGREE_SCALE)), the rule's history (the
+        followed matte, :meth:`_matte`) and the rule's agreement (the same, less the change's median over the person
+        held, so that a change of exposure does not hide a drop). None for each without a last frame or where neither
+        the smoothing nor the rule reads it."""
+        rule = not self.complete and self.complete_on_drop is not None
+        if self._prev_prob is None or (self.smoothing == 0 and not rule):
+            return None, None, None, None
         flow = dis_flow(_gray_u8(gray_small), _gray_u8(self._prev_gray), "ultrafast")  # this frame -> the last
         carried = warp(self._prev_prob, flow, border_value=None)
-        diff = np.abs(gray_small - warp(self._prev_gray, flow, border_value=None))
-        return carried, np.exp(-diff / np.float32(_AGREE_SCALE))
+        change = gray_small - warp(self._prev_gray, flow, border_value=None)
+        agree = np.exp(-np.abs(change) / np.float32(_AGREE_SCALE))
+        if not rule or self._prev_held is None:
+            return carried, agree, None, None
+        held = warp(self._prev_held, flow, border_value=None)
+        inside = held[::2, ::2] >= 0.5  # the median of a quarter of the pixels: a quarter of the time (~1 ms at 720p)
+        shift = np.float32(np.median(change[::2, ::2][inside])) if inside.any() else np.float32(0)
+        return carried, agree, held, np.exp(-np.abs(change - shift) / np.float32(_AGREE_SCALE))
 
-    def _matte(
-        self, rgb: np.ndarray, person: Person, grid: Grid, gray_small: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
-        """The person's probability on the working grid, completed as in a photo with ``complete`` or where it drops
-        ``complete_on_drop`` of what the flow carries over, with what :meth:`_carried` gives. Called within the frame's
-        shared reductions (the turned views reuse the upright selfie run)."""
-        carried, agree = self._carried(gray_small)
+    def _matte(self, rgb: np.ndarray, person: Person, grid: Grid, gray_small: np.ndarray) -> tuple[np.ndarray, ...]:
+        """The person's probability on the working grid, completed as in a photo with ``complete`` or where the
+        followed matte drops ``complete_on_drop`` of the rule's history carried over (or, in the frame right after such
+        a drop, of the last matte as completed); with the rule's record of this frame and what :meth:`_carried` gives.
+        Called within the frame's shared reductions (the turned views reuse the upright selfie run).
+
+        The rule's history is the followed matte (the pose graph's, unsmoothed), plus, in a completed frame, what the
+        completion found again of what that history held (a lost leg): never what only the completion adds (a bag the
+        pose graph half-sees), which compared with every later frame's followed matte would count as dropped in each
+        and keep completing for good (video16's rule did); the one frame after a drop that compares with it finds the
+        rest of a part lost over two frames (the parkour clip's frames 50 and 67: 0.78 -> 0.95, 0.92 -> 0.95)."""
+        carried, agree, held, held_agree = self._carried(gray_small)
         if not self.complete:
             prob = sigmoid(logits_on_grid(person, grid)).astype(np.float32)
             limit = self.complete_on_drop
-            if limit is None or carried is None or dropped_share(prob, carried, agree) < limit:
-                return prob, carried, agree
+            if limit is None or held is None:
+                self._dropped = False
+                return prob, (None if limit is None else prob), carried, agree
+            dropped = dropped_share(prob, held, held_agree) >= limit
+            # the frame after such a drop is compared with the last matte as completed too (the rest of a part the
+            # pose graph loses over two frames); once only, so that what the completion alone adds ends there
+            after = not dropped and self._dropped and dropped_share(prob, carried, held_agree) >= limit
+            self._dropped = dropped
+            if not (dropped or after):
+                return prob, prob, carried, agree
         # what the photo matte adds to the person: half-seen trousers both graphs see, parts in their own colours,
         # limbs seen only turned
         parts = self.matter.completed(rgb, person)
         self.completions += 1
-        return np.max([sigmoid(logits_on_grid(p, grid)) for p in parts], axis=0).astype(np.float32), carried, agree
+        full = np.max([sigmoid(logits_on_grid(p, grid)) for p in parts], axis=0).astype(np.float32)
+        record = None if self.complete else np.maximum(prob, np.minimum(full, held))
+        return full, record, carried, agree
 
     def __call__(self, image: np.ndarray, name: str = "frame") -> np.ndarray:
         rgb = as_rgb(image, name, copy=False)  # only read from here on
@@ -205,10 +244,11 @@ class VideoMatter:
             if person is None and not searched:  # lost where it was followed: searched for again in this frame
                 person, box = self._found(rgb, None)
             if person is not None:
-                prob, carried, agree = self._matte(rgb, person, grid, gray_small)
+                prob, record, carried, agree = self._matte(rgb, person, grid, gray_small)
         if person is None:
             log.debug("%s: no person found; searching again on the next frame", name)
-            self._region, self._prev_prob, self._prev_gray = None, None, None
+            self._region, self._prev_prob, self._prev_gray, self._prev_held = None, None, None, None
+            self._dropped = False
             return np.zeros((h, w), np.float32)
         new = Region.around(*box)
         # hysteresis: the pose graph's answer shifts with its crop, so the region stays put while the
@@ -219,7 +259,7 @@ class VideoMatter:
         if self.smoothing > 0 and carried is not None:
             wgt = np.float32(self.smoothing) * agree
             prob = prob + wgt * (carried - prob)
-        self._prev_prob, self._prev_gray = prob, gray_small
+        self._prev_prob, self._prev_gray, self._prev_held = prob, gray_small, record
         if not self.refine:
             return cv2.resize(prob, (w, h), interpolation=cv2.INTER_LINEAR) if grid[:2] != (w, h) else prob
         alpha = fast_guided_filter(prob, gray_small, gray_full, guide_radius(person, grid), GF_EPS)
