@@ -180,26 +180,30 @@ def _leave(alpha: np.ndarray, weight: np.ndarray, seen: np.ndarray, reach: int, 
     """``alpha`` (a (h, w) window around a part) less the part, whose share of each pixel is ``weight``: alpha x
     (1 - weight); then the pieces of the matte (>= 0.5) left apart from the rest go: those within ``reach`` px of the
     part (slivers along the cut, bits of the part's own soft rim that read >= 0.5; only when the matte lies wholly in
-    the window, ``alone``, does its largest piece stay when none reaches further), and those that touch that reach,
-    lie wholly in the window, hold at most ``most`` pixels (a body apart is more) and of which the pose graph sees
+    the window, ``alone``, does its largest piece stay when none reaches further), and those that were joined to the
+    part before the cut (a piece apart from it all along, a hand or a small peer beside it, is not its tail), lie
+    wholly in the window, hold at most ``most`` pixels (a body apart is more) and of which the pose graph sees
     (``seen``, bool) at most _TAIL (the part's own tail, cut off from it); the part's own pixels go except within
     ``ramp`` px of the matte that stays (there the cut stays soft); and each soft pixel (< 0.5) within ``halo`` px of
     the part goes with the nearer of the part and the matte that stays (the part's soft rim leaves, the body's stays).
     The window reaches 2 ``halo`` + 1 px past the part (the matte past it is further from such a pixel than the part)
     or to the photo's edge."""
+    _, before = cv2.connectedComponents((alpha >= 0.5).astype(np.uint8), connectivity=8)
+    touched = np.bincount(before[weight > 0], minlength=int(before.max()) + 1) > 0  # the pieces joined to the part
+    touched[0] = False
     out = alpha * (1.0 - weight)
     to_weight = cv2.distanceTransform((weight <= 0).astype(np.uint8), cv2.DIST_L2, 3)  # (3: a few % off, 4x as fast)
     zone = to_weight <= reach
     hard = (out >= 0.5).astype(np.uint8)
     n, labels, stats, _ = cv2.connectedComponentsWithStats(hard, connectivity=8)
     area = stats[:, cv2.CC_STAT_AREA]
-    near = np.bincount(labels[zone], minlength=n) > 0
+    joined = np.bincount(labels[touched[before]], minlength=n) > 0  # (so beside the cut: within ``reach``)
     apart = np.bincount(labels[~zone], minlength=n) == 0  # a piece reaching past the zone goes on into the matte
     apart[0] = False
     if alone and n > 1 and apart[1:].all():
         apart[1 + int(np.argmax(area[1:]))] = False
     edges = np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]])
-    tail = near & (np.bincount(edges, minlength=n) == 0) & (area <= most)  # (a piece at the window's edge may go on)
+    tail = joined & (np.bincount(edges, minlength=n) == 0) & (area <= most)  # (a piece at the window's edge may go on)
     tail &= np.bincount(labels[seen], minlength=n) <= _TAIL * area
     tail[0] = False
     kept = hard.astype(bool) & ~(apart | tail)[labels]
