@@ -24,13 +24,13 @@ where it has every mark of a thing behind and none of a person:
 A part is a piece of the matte's pose-unseen pixels that an opening by a disc of _OPEN x the matte's side leaves (the
 pose graph's outline lies a pixel or two inside the matte's: the opening parts that strip from the thing)
 (:func:`sticking_out`). It leaves the matte softly (:func:`without_things_behind`, :func:`_leave`): alpha x (1 - its
-share of each pixel), with the pieces its cut leaves apart from the matte (slivers; what the opening stripped off it,
-a guitar's neck; its own tail, which the pose graph half-sees) and its soft rim (the soft pixels nearer it than the
-matte that stays, up to _HALO x the matte's side: the selfie graph's soft take on a blurred thing reaches far); the
-body's soft edge beside it stays. Parts the people's segmentations hardly hold (the own colours' parts,
-relight_rt.person.matting._colours) are not looked at. The matte is read on a grid whose side is at most _SIDE pixels
-on the side of the matte's area (:func:`reading_grid`: a 2.5-MP photo costs what a web photo does). VideoMatter does
-not apply the rule: a part leaving on some frames and not on others would flicker, and each frame would pay for it.
+share of each pixel), with the pieces its cut leaves apart from the matte (slivers; what the opening stripped off it, a
+guitar's neck; its own tail, joined to it before the cut, which the pose graph half-sees) and its soft rim (the soft
+pixels nearer it than the matte that stays, up to _HALO x the matte's side: the selfie graph's soft take on a blurred
+thing reaches far); the body's soft edge beside it stays. Parts the people's segmentations hardly hold (the own colours'
+parts, relight_rt.person.matting._colours) are not looked at. The matte is read on a grid whose side is at most _SIDE
+pixels on the side of the matte's area (:func:`reading_grid`: a 2.5-MP photo costs what a web photo does). VideoMatter
+does not apply the rule: a part leaving on some frames and not on others would flicker, and each frame would pay for it.
 
 What each threshold is measured on (benchmarks/people_masks_eval.py --methods ours; chosen on photos half A, four
 photos in all: the margins are thin): _BLURRED 0.6-0.7 and _OPEN 0.02-0.05 gave the same four photos and nothing
