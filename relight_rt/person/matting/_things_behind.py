@@ -24,13 +24,13 @@ where it has every mark of a thing behind and none of a person:
 A part is a piece of the matte's pose-unseen pixels that an opening by a disc of _OPEN x the matte's side leaves (the
 pose graph's outline lies a pixel or two inside the matte's: the opening parts that strip from the thing)
 (:func:`sticking_out`). It leaves the matte softly (:func:`without_things_behind`, :func:`_leave`): alpha x (1 - its
-share of each pixel), with the pieces its cut leaves apart from the matte (slivers; what the opening stripped off it,
-a guitar's neck; its own tail, which the pose graph half-sees) and its soft rim (the soft pixels nearer it than the
-matte that stays, up to _HALO x the matte's side: the selfie graph's soft take on a blurred thing reaches far); the
-body's soft edge beside it stays. Parts the people's segmentations hardly hold (the own colours' parts,
-relight_rt.person.matting._colours) are not looked at. The matte is read on a grid whose side is at most _SIDE pixels
-on the side of the matte's area (:func:`reading_grid`: a 2.5-MP photo costs what a web photo does). VideoMatter does
-not apply the rule: a part leaving on some frames and not on others would flicker, and each frame would pay for it.
+share of each pixel), with the pieces its cut leaves apart from the matte (slivers; what the opening stripped off it, a
+guitar's neck; its own tail, joined to it before the cut, which the pose graph half-sees) and its soft rim (the soft
+pixels nearer it than the matte that stays, up to _HALO x the matte's side: the selfie graph's soft take on a blurred
+thing reaches far); the body's soft edge beside it stays. Parts the people's segmentations hardly hold (the own colours'
+parts, relight_rt.person.matting._colours) are not looked at. The matte is read on a grid whose side is at most _SIDE
+pixels on the side of the matte's area (:func:`reading_grid`: a 2.5-MP photo costs what a web photo does). VideoMatter
+does not apply the rule: a part leaving on some frames and not on others would flicker, and each frame would pay for it.
 
 What each threshold is measured on (benchmarks/people_masks_eval.py --methods ours; chosen on photos half A, four
 photos in all: the margins are thin): _BLURRED 0.6-0.7 and _OPEN 0.02-0.05 gave the same four photos and nothing
@@ -180,26 +180,30 @@ def _leave(alpha: np.ndarray, weight: np.ndarray, seen: np.ndarray, reach: int, 
     """``alpha`` (a (h, w) window around a part) less the part, whose share of each pixel is ``weight``: alpha x
     (1 - weight); then the pieces of the matte (>= 0.5) left apart from the rest go: those within ``reach`` px of the
     part (slivers along the cut, bits of the part's own soft rim that read >= 0.5; only when the matte lies wholly in
-    the window, ``alone``, does its largest piece stay when none reaches further), and those that touch that reach,
-    lie wholly in the window, hold at most ``most`` pixels (a body apart is more) and of which the pose graph sees
+    the window, ``alone``, does its largest piece stay when none reaches further), and those that were joined to the
+    part before the cut (a piece apart from it all along, a hand or a small peer beside it, is not its tail), lie
+    wholly in the window, hold at most ``most`` pixels (a body apart is more) and of which the pose graph sees
     (``seen``, bool) at most _TAIL (the part's own tail, cut off from it); the part's own pixels go except within
     ``ramp`` px of the matte that stays (there the cut stays soft); and each soft pixel (< 0.5) within ``halo`` px of
     the part goes with the nearer of the part and the matte that stays (the part's soft rim leaves, the body's stays).
     The window reaches 2 ``halo`` + 1 px past the part (the matte past it is further from such a pixel than the part)
     or to the photo's edge."""
+    _, before = cv2.connectedComponents((alpha >= 0.5).astype(np.uint8), connectivity=8)
+    touched = np.bincount(before[weight > 0], minlength=int(before.max()) + 1) > 0  # the pieces joined to the part
+    touched[0] = False
     out = alpha * (1.0 - weight)
     to_weight = cv2.distanceTransform((weight <= 0).astype(np.uint8), cv2.DIST_L2, 3)  # (3: a few % off, 4x as fast)
     zone = to_weight <= reach
     hard = (out >= 0.5).astype(np.uint8)
     n, labels, stats, _ = cv2.connectedComponentsWithStats(hard, connectivity=8)
     area = stats[:, cv2.CC_STAT_AREA]
-    near = np.bincount(labels[zone], minlength=n) > 0
+    joined = np.bincount(labels[touched[before]], minlength=n) > 0  # (so beside the cut: within ``reach``)
     apart = np.bincount(labels[~zone], minlength=n) == 0  # a piece reaching past the zone goes on into the matte
     apart[0] = False
     if alone and n > 1 and apart[1:].all():
         apart[1 + int(np.argmax(area[1:]))] = False
     edges = np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]])
-    tail = near & (np.bincount(edges, minlength=n) == 0) & (area <= most)  # (a piece at the window's edge may go on)
+    tail = joined & (np.bincount(edges, minlength=n) == 0) & (area <= most)  # (a piece at the window's edge may go on)
     tail &= np.bincount(labels[seen], minlength=n) <= _TAIL * area
     tail[0] = False
     kept = hard.astype(bool) & ~(apart | tail)[labels]

@@ -425,3 +425,17 @@ def test_the_backdrop_ring_lies_inside_the_photo():
     region, _, inside, mine = around_people(_NotWall(), rgb, [matted(rgb, top | leg1 | crotch)])
     ring = _colours.backdrop_ring(inside, mine, mine)
     assert region.cx - region.side / 2 < 0 and ring.any() and not (ring & ~inside).any()
+
+
+@pytest.mark.parametrize("colour", [CHAIR, DARK_WOOD, BEHIND])
+def test_a_chair_beside_a_leg_the_framed_graph_alone_sees_stays_out_where_no_backdrop_is_left(colour, monkeypatch):
+    """As above, the chair (or someone behind) between the legs touching the second leg, where no backdrop is left
+    without what the framed graph alone sees (the pixels it alone is sure of then read as the person's): the leg is
+    taken, the chair stays out (it is no shade of the person's colours, so it may not be added)."""
+    rgb, parts, seen, sure = framed_alone("dark")
+    rgb[parts["gap"]] = colour
+    graph_maps(monkeypatch, np.where(parts["gap"], 0.3, seen), np.where(parts["gap"], 0.95, sure))
+    monkeypatch.setattr(_cut_body, "backdrop_less", lambda *args: None)
+    alpha = own_alpha(rgb, parts["top"] | parts["leg1"] | parts["crotch"])
+    assert (alpha[parts["leg2"]] >= 0.5).mean() > 0.9
+    assert (alpha[parts["gap"] & (np.abs(np.arange(400) - 200) < 7)] >= 0.5).mean() == 0.0

@@ -478,3 +478,52 @@ def test_the_things_tail_the_pose_graph_half_sees_leaves_with_it(seen, leaves):
         np.testing.assert_array_equal(out[_erode(tail, 1)], alpha[_erode(tail, 1)])
     n, _ = cv2.connectedComponents((out >= 0.5).astype(np.uint8), connectivity=8)
     assert n == (2 if leaves else 3)
+
+
+# -- the third review (mend21c) ----------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("own", [False, True])
+def test_a_sharp_piece_apart_from_the_thing_is_not_its_tail(own):
+    rgb, parts = scene()  # 3 px below the thing, never joined to it: a hand with a soft wrist, a small peer ...
+    yy, xx = np.mgrid[0:H, 0:W] + 0.5
+    to_thing = cv2.distanceTransform((~parts["thing"]).astype(np.uint8), cv2.DIST_L2, 5)
+    to_body = cv2.distanceTransform((~parts["body"]).astype(np.uint8), cv2.DIST_L2, 5)
+    piece = (xx > 20) & (xx < 50) & (yy > 110) & (yy < 150) & (to_thing > 2) & (to_body > 2)
+    assert piece.sum() > 1000 and to_thing[piece].min() < 4  # (within the band the cut's slivers are read in)
+    rgb[piece] = rgb[parts["body"]][: piece.sum()]  # ... sharp, in the body's texture
+    alpha = (parts["body"] | parts["thing"] | piece).astype(np.float32)
+    _, held, pose = maps(parts)
+    held[piece], pose[piece] = 0.99, 0.01  # ... that the pose graph misses
+    region = Region(W / 2, H / 2, float(H))
+    people = ([_person(np.where(piece, 0.01, held), region), _person(np.where(piece, 0.99, 0.01), region)] if own
+              else [_person(held, region)])  # fmt: skip
+    out = tb.without_things_behind(rgb, alpha, people, lambda p: _person(pose, region).logits, _faces())
+    assert (out[_erode(parts["thing"], 1)] == 0).all()  # the thing leaves ...
+    np.testing.assert_array_equal(out[piece], alpha[piece])  # ... the piece beside it stays, whole
+
+
+@pytest.mark.parametrize(("end", "leaves"), [(50, True), (60, False)])
+def test_a_tail_that_runs_on_past_the_window_stays(end, leaves):
+    yy, xx = np.mgrid[0:60, 0:60] + 0.5
+    weight = (((xx - 30) ** 2 + (yy - 30) ** 2) < 8**2).astype(np.float32)  # the part
+    body = xx < 8  # the matte that stays, apart from it
+    tail = (xx > 30) & (xx < end) & (np.abs(yy - 30) < 3)  # joined to it, unseen; to the window's edge: it goes on
+    alpha = (body | tail | (weight > 0)).astype(np.float32)
+    out = tb._leave(alpha, weight, np.zeros(alpha.shape, bool), 2, 2.0, 1.0, False, 1000.0)
+    past = tail & (xx > 42)
+    assert (out[past] == 0).all() if leaves else (out[past] == 1).all()
+    assert (out[body] == 1).all()
+
+
+def test_the_soft_rim_is_cleared_only_up_to_the_halo():
+    yy, xx = np.mgrid[0:80, 0:80] + 0.5
+    weight = (((xx - 25) ** 2 + (yy - 40) ** 2) < 6**2).astype(np.float32)  # the part
+    body = xx > 72  # the matte that stays, far from it
+    to_part = cv2.distanceTransform((weight <= 0).astype(np.uint8), cv2.DIST_L2, 5)
+    soft = (xx < 31) & (weight == 0)  # soft pixels on the part's far side, nearer it than the body
+    alpha = np.where(body | (weight > 0), 1.0, np.where(soft, 0.3, 0.0)).astype(np.float32)
+    out = tb._leave(alpha, weight, np.zeros(alpha.shape, bool), 2, 8.0, 1.0, False, 0.0)
+    assert (out[soft & (to_part < 7)] == 0).all()  # its rim, within the halo, leaves ...
+    far = soft & (to_part > 9)
+    assert far.sum() > 100 and (out[far] == alpha[far]).all()  # ... what lies past it stays
