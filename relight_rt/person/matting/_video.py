@@ -38,6 +38,9 @@ def _gray_u8(gray: np.ndarray) -> np.ndarray:
 _REGION_KEEP_IOU = 0.8
 _AGREE_SCALE = 0.05  # gray levels (0-1): the flow explains a pixel by exp(-|I_now - I_prev_warped| / this)
 DROPPED_SHARE = 0.05  # VideoMatter completes a frame where the followed matte drops this share of the carried one
+# after this many frames completed in a row, what the completions found again leaves the rule's history (a part the
+# pose graph has not held for ~0.5 s is left to it; the parkour clip's longest run is 4)
+COMPLETED_RUN = 12
 
 
 def _inside(box: tuple[float, float, float, float], region: Region, margin: float = 0.05) -> bool:
@@ -84,9 +87,12 @@ class VideoMatter:
     one-frame spike of the pose graph is no part to drop) plus what a completion found again of the history, never
     what only the completion adds (compared with that, every later frame would count as dropping it and be completed
     in turn); the frame right after a drop is compared with the last matte as completed too, once (the rest of a part
-    lost over two frames). ``complete`` completes every frame and overrides ``complete_on_drop``
-    (``completions`` counts the frames completed). This default is what ``relight-rt mask`` (a video, ``--sequence``)
-    and ``relight-rt video`` matte with (no option there; ``complete_on_drop=None`` here turns it off).
+    lost over two frames). After ``COMPLETED_RUN`` (12) frames completed in a row, what only the completions held
+    leaves the history (a part the pose graph holds for two frames and then half-sees reads as a lost leg: kept, but
+    not for good; a leg the pose graph never sees again goes too). ``complete`` completes every frame and overrides
+    ``complete_on_drop`` (``completions`` counts the frames completed). This default is what ``relight-rt mask`` (a
+    video, ``--sequence``) and ``relight-rt video`` matte with (no option there; ``complete_on_drop=None`` here turns
+    it off).
     Measured on the parkour clip (one video, 100 frames: ``benchmarks/people_masks_eval.py --set clip --methods
     video,video-complete``): neither 0.92207, every frame 0.92752 (frame 50 0.78 -> 0.95, 96-97 -0.04 each: a dark car
     taken), on a drop 0.92974 with 16 frames of 100 completed (18-19, 44, 49-50, 58, 63, 66-67, 69, 79-82, 84-85; not
@@ -159,6 +165,7 @@ class VideoMatter:
         self._prev_held: np.ndarray | None = None  # the rule's history: the followed matte, not what completion adds
         self._prev_followed: np.ndarray | None = None  # the last frame's followed matte (unsmoothed), for the history
         self._dropped = False  # the last frame dropped part of the rule's history (and was completed)
+        self._run = 0  # frames completed by the rule in a row up to the last one
         self._shape: tuple[int, int] | None = None
         self.index = 0
         self.completions = 0  # frames completed as a photo since the last reset
@@ -221,13 +228,13 @@ class VideoMatter:
             prob = sigmoid(logits_on_grid(person, grid)).astype(np.float32)
             limit = self.complete_on_drop
             if limit is None:
-                self._dropped = False
+                self._dropped, self._run = False, 0
                 return prob, None, None, carried, agree
             # a part enters the history once the followed matte has held it in two frames in a row: a one-frame
             # spike of the pose graph (a half-seen bag over 0.5 once) is no part the next frame can drop
             steady = None if followed is None else np.minimum(prob, followed)
             if held is None:
-                self._dropped = False
+                self._dropped, self._run = False, 0
                 return prob, steady, prob, carried, agree
             dropped = dropped_share(prob, held, held_agree) >= limit
             # the frame after such a drop is compared with the last matte as completed too (the rest of a part the
@@ -235,6 +242,7 @@ class VideoMatter:
             after = not dropped and self._dropped and dropped_share(prob, carried, held_agree) >= limit
             self._dropped = dropped
             if not (dropped or after):
+                self._run = 0
                 return prob, steady, prob, carried, agree
         # what the photo matte adds to the person: half-seen trousers both graphs see, parts in their own colours,
         # limbs seen only turned
@@ -243,6 +251,9 @@ class VideoMatter:
         full = np.max([sigmoid(logits_on_grid(p, grid)) for p in parts], axis=0).astype(np.float32)
         if self.complete:
             return full, None, None, carried, agree
+        self._run += 1
+        if self._run >= COMPLETED_RUN:  # a part held by the completions alone for so long is left to the pose graph
+            return full, steady, prob, carried, agree
         return full, np.maximum(steady, np.minimum(full, held)), prob, carried, agree
 
     def __call__(self, image: np.ndarray, name: str = "frame") -> np.ndarray:
@@ -267,7 +278,7 @@ class VideoMatter:
             log.debug("%s: no person found; searching again on the next frame", name)
             self._region, self._prev_prob, self._prev_gray, self._prev_held = None, None, None, None
             self._prev_followed = None
-            self._dropped = False
+            self._dropped, self._run = False, 0
             return np.zeros((h, w), np.float32)
         new = Region.around(*box)
         # hysteresis: the pose graph's answer shifts with its crop, so the region stays put while the

@@ -286,3 +286,15 @@ def test_what_the_completion_does_not_see_leaves_the_history():
     done, bags = _bag_video(0.15, {0, 1}, 0.7)
     assert done == [2, 3]
     assert bags[-1] < 0.3, bags
+
+
+@pytest.mark.parametrize("smoothing", [0.7, 0.0])
+def test_a_run_of_completions_is_capped(smoothing):
+    """The pose graph sure of the bag in frames 3-4 (held two frames in a row, as the legs of the first test are):
+    the frame that drops it is completed, and the next ones while the completion finds it again, but only
+    COMPLETED_RUN in a row; then what only the completions held leaves the history, one frame more compares with the
+    last matte as completed, and the bag leaves the matte. Without the cap, every frame from 5 on was completed and the
+    bag stayed (alpha 0.89)."""
+    done, bags = _bag_video(0.3, {3, 4}, smoothing, n=_video.COMPLETED_RUN + 16)
+    assert done == list(range(5, 5 + _video.COMPLETED_RUN + 1))
+    assert bags[-1] < 0.3, bags
