@@ -55,9 +55,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    "out of the soft edge (decontaminated), alpha = the mask; a .png for one image, else a folder "
                    "of NAME_foreground.png")  # fmt: skip
     p.add_argument("--sequence", action="store_true",
-                   help="a folder is one video's frames: follow the person, smooth the outline over time (a "
-                   "video too; a frame whose matte drops part of the person the last frame held is completed as a "
-                   "photo)")  # fmt: skip
+                   help="a folder is one video's frames (as for a video file): follow the person, smooth the "
+                   "outline over time, and complete as a photo a frame whose matte drops part of the person the last "
+                   "frames held")  # fmt: skip
     p.add_argument("--smoothing", type=float, default=0.7,
                    help="video: weight of the motion-compensated history in [0, 1) (default 0.7; 0 = off)")  # fmt: skip
     p.add_argument("--models", metavar="DIR", help="folder with matte_pose.onnx and matte_roi.onnx (default: bundled)")

@@ -38,6 +38,9 @@ def _gray_u8(gray: np.ndarray) -> np.ndarray:
 _REGION_KEEP_IOU = 0.8
 _AGREE_SCALE = 0.05  # gray levels (0-1): the flow explains a pixel by exp(-|I_now - I_prev_warped| / this)
 DROPPED_SHARE = 0.05  # VideoMatter completes a frame where the followed matte drops this share of the carried one
+# after this many frames completed in a row, what the completions found again leaves the rule's history (a part the
+# pose graph has not held for ~0.5 s is left to it; the parkour clip's longest run is 4)
+COMPLETED_RUN = 12
 
 
 def _inside(box: tuple[float, float, float, float], region: Region, margin: float = 0.05) -> bool:
@@ -48,11 +51,12 @@ def _inside(box: tuple[float, float, float, float], region: Region, margin: floa
 
 
 def dropped_share(prob: np.ndarray, carried: np.ndarray, agree: np.ndarray) -> float:
-    """The share of the matte carried over from the last frame that this frame's matte drops.
+    """The share of what is carried over from the last frame that this frame's matte drops.
 
     Args:
         prob: (h, w) float32 person probability of this frame, in [0, 1] (the followed person alone).
-        carried: (h, w) float32 the last frame's probability warped onto this frame by the flow, in [0, 1].
+        carried: (h, w) float32 what is compared with, warped onto this frame by the flow, in [0, 1]: for
+            :class:`VideoMatter`, the rule's history (or, once after a drop, the last frame's matte as completed).
         agree: (h, w) float32 in [0, 1], how well the flow explains each pixel (1: the warped last frame's
             picture matches this one's), so that what is dropped where the flow is lost (a limb moving fast,
             the backdrop uncovered) counts little.
@@ -79,12 +83,16 @@ class VideoMatter:
     ``complete_on_drop`` (DROPPED_SHARE) of the rule's history that the flow carries over from the last frame,
     counted where the flow explains the picture (:func:`dropped_share`; the agreement less its median change over the
     person, so that a change of exposure does not hide a drop): a leg the pose graph loses for a frame or two, which
-    the completion finds again. The rule's history is the followed matte plus what a completion found again of it,
-    never what only the completion adds (compared with that, every later frame would count as dropping it and be
-    completed in turn); the frame right after a drop is compared with the last matte as completed too, once (the rest
-    of a part lost over two frames). ``complete`` completes every frame and overrides ``complete_on_drop``
-    (``completions`` counts the frames completed). This default is what ``relight-rt mask`` (a video, ``--sequence``)
-    and ``relight-rt video`` matte with (no option there; ``complete_on_drop=None`` here turns it off).
+    the completion finds again. The rule's history is what the followed matte has held in two frames in a row (a
+    one-frame spike of the pose graph is no part to drop) plus what a completion found again of the history, never
+    what only the completion adds (compared with that, every later frame would count as dropping it and be completed
+    in turn); the frame right after a drop is compared with the last matte as completed too, once (the rest of a part
+    lost over two frames). After ``COMPLETED_RUN`` (12) frames completed in a row, what only the completions held
+    leaves the history (a part the pose graph holds for two frames and then half-sees reads as a lost leg: kept, but
+    not for good; a leg the pose graph never sees again goes too). ``complete`` completes every frame and overrides
+    ``complete_on_drop`` (``completions`` counts the frames completed). This default is what ``relight-rt mask`` (a
+    video, ``--sequence``) and ``relight-rt video`` matte with (no option there; ``complete_on_drop=None`` here turns
+    it off).
     Measured on the parkour clip (one video, 100 frames: ``benchmarks/people_masks_eval.py --set clip --methods
     video,video-complete``): neither 0.92207, every frame 0.92752 (frame 50 0.78 -> 0.95, 96-97 -0.04 each: a dark car
     taken), on a drop 0.92974 with 16 frames of 100 completed (18-19, 44, 49-50, 58, 63, 66-67, 69, 79-82, 84-85; not
@@ -155,7 +163,9 @@ class VideoMatter:
         self._prev_prob: np.ndarray | None = None
         self._prev_gray: np.ndarray | None = None
         self._prev_held: np.ndarray | None = None  # the rule's history: the followed matte, not what completion adds
+        self._prev_followed: np.ndarray | None = None  # the last frame's followed matte (unsmoothed), for the history
         self._dropped = False  # the last frame dropped part of the rule's history (and was completed)
+        self._run = 0  # frames completed by the rule in a row up to the last one
         self._shape: tuple[int, int] | None = None
         self.index = 0
         self.completions = 0  # frames completed as a photo since the last reset
@@ -176,23 +186,26 @@ class VideoMatter:
 
     def _carried(self, gray_small: np.ndarray) -> tuple[np.ndarray | None, ...]:
         """What the flow carries from the last frame onto this one, on the working grid: the last probability, how
-        well the flow explains each pixel (exp(-|I_now - I_prev_warped| / _AGREE_SCALE)), the rule's history (the
-        followed matte, :meth:`_matte`) and the rule's agreement (the same, less the change's median over the person
-        held, so that a change of exposure does not hide a drop). None for each without a last frame or where neither
-        the smoothing nor the rule reads it."""
+        well the flow explains each pixel (exp(-|I_now - I_prev_warped| / _AGREE_SCALE)), the rule's history
+        (:meth:`_matte`), the rule's agreement (the same, less the change's median over the person held, so that a
+        change of exposure does not hide a drop) and the last frame's followed matte. None for each without a last
+        frame or where neither the smoothing nor the rule reads it."""
         rule = not self.complete and self.complete_on_drop is not None
         if self._prev_prob is None or (self.smoothing == 0 and not rule):
-            return None, None, None, None
+            return None, None, None, None, None
         flow = dis_flow(_gray_u8(gray_small), _gray_u8(self._prev_gray), "ultrafast")  # this frame -> the last
         carried = warp(self._prev_prob, flow, border_value=None)
         change = gray_small - warp(self._prev_gray, flow, border_value=None)
         agree = np.exp(-np.abs(change) / np.float32(_AGREE_SCALE))
-        if not rule or self._prev_held is None:
-            return carried, agree, None, None
+        if not rule or self._prev_followed is None:
+            return carried, agree, None, None, None
+        followed = warp(self._prev_followed, flow, border_value=None)
+        if self._prev_held is None:
+            return carried, agree, None, None, followed
         held = warp(self._prev_held, flow, border_value=None)
         inside = held[::2, ::2] >= 0.5  # the median of a quarter of the pixels: a quarter of the time (~1 ms at 720p)
         shift = np.float32(np.median(change[::2, ::2][inside])) if inside.any() else np.float32(0)
-        return carried, agree, held, np.exp(-np.abs(change - shift) / np.float32(_AGREE_SCALE))
+        return carried, agree, held, np.exp(-np.abs(change - shift) / np.float32(_AGREE_SCALE)), followed
 
     def _matte(self, rgb: np.ndarray, person: Person, grid: Grid, gray_small: np.ndarray) -> tuple[np.ndarray, ...]:
         """The person's probability on the working grid, completed as in a photo with ``complete`` or where the
@@ -200,32 +213,48 @@ class VideoMatter:
         a drop, of the last matte as completed); with the rule's record of this frame and what :meth:`_carried` gives.
         Called within the frame's shared reductions (the turned views reuse the upright selfie run).
 
-        The rule's history is the followed matte (the pose graph's, unsmoothed), plus, in a completed frame, what the
-        completion found again of what that history held (a lost leg): never what only the completion adds (a bag the
+        The rule's history is what the followed matte (the pose graph's, unsmoothed) has held in this frame and the
+        last, min(followed now, followed last warped), plus, in a completed frame, what the completion found again of
+        what the history held (a lost leg), min(completed, history): never what only the completion adds (a bag the
         pose graph half-sees), which compared with every later frame's followed matte would count as dropped in each
-        and keep completing for good (video16's rule did); the one frame after a drop that compares with it finds the
-        rest of a part lost over two frames (the parkour clip's frames 50 and 67: 0.78 -> 0.95, 0.92 -> 0.95)."""
-        carried, agree, held, held_agree = self._carried(gray_small)
+        and keep completing for good (video16's rule did). Taking the followed matte of one frame alone, a single
+        frame where the pose graph is sure of such a bag did the same (mendv16's rule: the next frame dropped it, its
+        completion found it again, and so on). The one frame after a drop that compares with the last matte as
+        completed finds the rest of a part lost over two frames (the parkour clip's frames 50 and 67: 0.78 -> 0.95,
+        0.92 -> 0.95). Returns the probability, the history's record of this frame, the followed matte (both None
+        where the rule is off), what the flow carried and its agreement."""
+        carried, agree, held, held_agree, followed = self._carried(gray_small)
         if not self.complete:
             prob = sigmoid(logits_on_grid(person, grid)).astype(np.float32)
             limit = self.complete_on_drop
-            if limit is None or held is None:
-                self._dropped = False
-                return prob, (None if limit is None else prob), carried, agree
+            if limit is None:
+                self._dropped, self._run = False, 0
+                return prob, None, None, carried, agree
+            # a part enters the history once the followed matte has held it in two frames in a row: a one-frame
+            # spike of the pose graph (a half-seen bag over 0.5 once) is no part the next frame can drop
+            steady = None if followed is None else np.minimum(prob, followed)
+            if held is None:
+                self._dropped, self._run = False, 0
+                return prob, steady, prob, carried, agree
             dropped = dropped_share(prob, held, held_agree) >= limit
             # the frame after such a drop is compared with the last matte as completed too (the rest of a part the
             # pose graph loses over two frames); once only, so that what the completion alone adds ends there
             after = not dropped and self._dropped and dropped_share(prob, carried, held_agree) >= limit
             self._dropped = dropped
             if not (dropped or after):
-                return prob, prob, carried, agree
+                self._run = 0
+                return prob, steady, prob, carried, agree
         # what the photo matte adds to the person: half-seen trousers both graphs see, parts in their own colours,
         # limbs seen only turned
         parts = self.matter.completed(rgb, person)
         self.completions += 1
         full = np.max([sigmoid(logits_on_grid(p, grid)) for p in parts], axis=0).astype(np.float32)
-        record = None if self.complete else np.maximum(prob, np.minimum(full, held))
-        return full, record, carried, agree
+        if self.complete:
+            return full, None, None, carried, agree
+        self._run += 1
+        if self._run >= COMPLETED_RUN:  # a part held by the completions alone for so long is left to the pose graph
+            return full, steady, prob, carried, agree
+        return full, np.maximum(steady, np.minimum(full, held)), prob, carried, agree
 
     def __call__(self, image: np.ndarray, name: str = "frame") -> np.ndarray:
         rgb = as_rgb(image, name, copy=False)  # only read from here on
@@ -244,11 +273,12 @@ class VideoMatter:
             if person is None and not searched:  # lost where it was followed: searched for again in this frame
                 person, box = self._found(rgb, None)
             if person is not None:
-                prob, record, carried, agree = self._matte(rgb, person, grid, gray_small)
+                prob, record, followed, carried, agree = self._matte(rgb, person, grid, gray_small)
         if person is None:
             log.debug("%s: no person found; searching again on the next frame", name)
             self._region, self._prev_prob, self._prev_gray, self._prev_held = None, None, None, None
-            self._dropped = False
+            self._prev_followed = None
+            self._dropped, self._run = False, 0
             return np.zeros((h, w), np.float32)
         new = Region.around(*box)
         # hysteresis: the pose graph's answer shifts with its crop, so the region stays put while the
@@ -259,7 +289,7 @@ class VideoMatter:
         if self.smoothing > 0 and carried is not None:
             wgt = np.float32(self.smoothing) * agree
             prob = prob + wgt * (carried - prob)
-        self._prev_prob, self._prev_gray, self._prev_held = prob, gray_small, record
+        self._prev_prob, self._prev_gray, self._prev_held, self._prev_followed = prob, gray_small, record, followed
         if not self.refine:
             return cv2.resize(prob, (w, h), interpolation=cv2.INTER_LINEAR) if grid[:2] != (w, h) else prob
         alpha = fast_guided_filter(prob, gray_small, gray_full, guide_radius(person, grid), GF_EPS)
