@@ -527,3 +527,22 @@ def test_the_soft_rim_is_cleared_only_up_to_the_halo():
     assert (out[soft & (to_part < 7)] == 0).all()  # its rim, within the halo, leaves ...
     far = soft & (to_part > 9)
     assert far.sum() > 100 and (out[far] == alpha[far]).all()  # ... what lies past it stays
+
+
+@pytest.mark.parametrize("scale, gap", [(5, 1), (8, 2)])
+def test_a_piece_beside_a_part_read_on_a_reduced_grid_is_not_its_tail(scale, gap):
+    """A part decided on a reduced grid is scaled up bilinearly: its share reaches ~1 / (2 s) px past it, so a piece
+    apart from it that close read as joined before the cut and left as its tail (final reader of mend21c: a piece 1 px
+    from a part scaled up 5x, 2 px at 8x, went whole). Joined means joined to the part itself (share >= 0.5)."""
+    grid = np.zeros((40, 40), np.float32)
+    grid[10:20, 10:30] = 1
+    weight = cv2.resize(grid, (40 * scale, 40 * scale), interpolation=cv2.INTER_LINEAR)
+    yy, xx = np.mgrid[0 : 40 * scale, 0 : 40 * scale]
+    part = weight >= 0.5
+    bottom = int(np.nonzero(part.any(axis=1))[0].max())
+    body = ((xx < 20) & (yy > 25) & (yy < 65)) | ((xx >= 20) & (xx < 32) & (yy > 35) & (yy < 50))  # joined to it
+    piece = (yy >= bottom + 1 + gap) & (yy < bottom + 13 + gap) & (xx > 50) & (xx < 80)
+    alpha = (part | body | piece).astype(np.float32)
+    out = tb._leave(alpha, weight, np.zeros(alpha.shape, bool), 3, 3.0, 4.0, False, 5000.0)
+    assert (out[piece] >= 0.5).all()  # before: none of it
+    assert (out[part & (yy < bottom - 10)] < 0.5).all()  # the part itself leaves
