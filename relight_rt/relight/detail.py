@@ -37,14 +37,16 @@ def unpremultiply(premult: np.ndarray, alpha: np.ndarray) -> np.ndarray:
     return np.divide(premult, a, out=np.zeros(premult.shape, np.float32), where=a > 0.5)
 
 
-def extend_outward(values: np.ndarray, inner: np.ndarray, sigma: float = 2.0) -> np.ndarray:
+def extend_outward(values: np.ndarray, inner: np.ndarray, sigma: float = 2.0, *, far_own: bool = False) -> np.ndarray:
     """Keep (R, R, C) ``values`` where ``inner``; outside, fill with a Gaussian-weighted average of nearby inner
     values (normalised convolution), so that upsampling near the outline does not mix in meaningless values.
-    Far from the person (no inner pixel near) the fill is 1."""
+    Far from the person (no inner pixel near) the fill is 1 (a factor's neutral), or with ``far_own`` the values
+    themselves (a change added to the photo, whose neutral is not 1)."""
     w = inner.astype(np.float32)
     num = cv2.GaussianBlur(values * w[..., None], (0, 0), sigma).reshape(values.shape)  # cv2 drops a C=1 axis
     den = cv2.GaussianBlur(w, (0, 0), sigma)[..., None]
-    filled = np.divide(num, den, out=np.ones_like(num), where=den > 1e-3)
+    out = values.astype(num.dtype, copy=True) if far_own else np.ones_like(num)
+    filled = np.divide(num, den, out=out, where=den > 1e-3)
     return np.where(inner[..., None], values, filled)
 
 

@@ -82,7 +82,7 @@ from .strength import (
     refit_light,
     restore_bands,
 )
-from .unshade import UNSHADE_MIN_SKIN, unshaded_albedo  # noqa: F401 (UNSHADE_MIN_SKIN: kept importable here)
+from .unshade import unshaded_albedo
 
 _RATIO_EPS = np.float32(0.01)  # the ratio's denominator is floored here (dark pixels: noise, not light)
 _OWN_FLOOR = np.float32(0.5)  # light the model misses, up to this share of the photo, stays under a new light (own)
@@ -475,10 +475,8 @@ class Factor:
             change = (np.maximum(new, _RATIO_EPS) - own["own"])[..., None] * tint * chroma  # as the ratio: 0 under
             # the photo's own light; a soft edge's own pixels take the solid person's beside (their albedo and colour
             # mix the background in: a bright one lifted the fill into a bright rim where a shadow meets the edge)
-            # (only near solid person: far from any, extend_outward's neutral 1 is a factor's, a white fill here)
-            solid = own["inner"] & (own["alpha"] > 0.9)
-            near = cv2.GaussianBlur(solid.astype(np.float32), (0, 0), 2.0) > 1e-3  # extend_outward's own reach
-            change = np.where(near[..., None], extend_outward(change, solid), change)
+            # (far from any solid person the change stays its own: extend_outward's neutral 1 is a factor's)
+            change = extend_outward(change, own["inner"] & (own["alpha"] > 0.9), far_own=True)
             maps = change if over is None else np.dstack([change, over])
         gain = extend_outward(factor, own["inner"])
         gain = guided_upsample(dec.geometry, gain, dec.network_image[y0:y1, x0:x1], gray, (y0, x0))
@@ -490,11 +488,11 @@ class Factor:
         # costs about 8 ms a megapixel where the same product on 3 channels made by cv2.merge costs 1)
         region = gain[box]  # region += weight x (1 - region)
         rest = np.subtract(1, region)
-        rest *= cv2.merge([weight] * 3)
+        weight3 = cv2.merge([weight] * 3)
+        rest *= weight3
         region += rest
         texture = self.texture(dec, gray)  # the photo's own fine detail carried into what is added
-        share = weight if texture is None else weight * texture[box]
-        values = np.multiply(part[..., :3], cv2.merge([share] * 3))
+        values = np.multiply(part[..., :3], weight3 if texture is None else cv2.merge([weight * texture[box]] * 3))
         return gain, (box, values, weight)
 
     def fill_base(self, dec: Decomposition, image: np.ndarray) -> dict | None:
