@@ -155,6 +155,12 @@ def behind_faces(rgb: np.ndarray, people: list[Person], faces: list[Face]) -> Be
     return Behind(behind, subject, full) if behind and np.isfinite(sharp) else None
 
 
+def disc(size: float) -> np.ndarray:
+    """An elliptic structuring element about ``size`` px across (odd, at least 1)."""
+    size = max(int(size), 1) | 1
+    return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))
+
+
 def _box_mask(shape: tuple[int, int], box) -> np.ndarray:
     """(H, W) bool: the pixels inside ``box`` (x0, y0, x1, y1)."""
     h, w = shape
@@ -244,8 +250,7 @@ def _staying_blur(matte: np.ndarray, blurred: np.ndarray, face: Face, staying: l
         return np.isin(labels, list(theirs))
     width = face.box[2] - face.box[0]
     for size in (width / _FILL, width / 2, width):
-        k = max(int(size), 1) | 1
-        opened = cv2.morphologyEx(blur, cv2.MORPH_OPEN, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)))
+        opened = cv2.morphologyEx(blur, cv2.MORPH_OPEN, disc(size))
         _, labels = cv2.connectedComponents(opened, connectivity=8)
         theirs, mine = _under(labels, staying, face.box), _under(labels, [face])
         if not theirs or not mine:

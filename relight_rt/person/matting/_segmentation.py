@@ -142,8 +142,14 @@ def contains(person: Person, face: Face, shape: tuple[int, int]) -> bool:
 def working_grid(rect: tuple[int, int, int, int]) -> Grid:
     """(gw, gh, kx, ky, bx, by): a grid over the image rectangle with long side <= _WORK_MAX."""
     rx0, ry0, rx1, ry1 = rect
+    return grid_over(rect, min(1.0, _WORK_MAX / max(rx1 - rx0, ry1 - ry0)))
+
+
+def grid_over(rect: tuple[int, int, int, int], s: float) -> Grid:
+    """(gw, gh, kx, ky, bx, by): a grid over the image rectangle ``rect`` at ``s`` grid px an image px (rounded to
+    whole grid pixels, at least one), pixel centres matched as cv2.resize's."""
+    rx0, ry0, rx1, ry1 = rect
     rw, rh = rx1 - rx0, ry1 - ry0
-    s = min(1.0, _WORK_MAX / max(rw, rh))
     gw, gh = max(int(round(rw * s)), 1), max(int(round(rh * s)), 1)
     kx, ky = gw / rw, gh / rh
     return gw, gh, kx, ky, -kx * rx0 - 0.5, -ky * ry0 - 0.5

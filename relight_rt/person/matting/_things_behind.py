@@ -63,8 +63,8 @@ import numpy as np
 from ...image.matte_edges import band_width
 from ...image.regions import Region
 from ..face_detector import Face
-from ._behind import details, grey_of
-from ._segmentation import Grid, Person, logits_on_grid, sigmoid
+from ._behind import details, disc, grey_of
+from ._segmentation import Grid, Person, grid_over, logits_on_grid, sigmoid
 
 _SIDE = 300  # the matte is read with the square of its area at most this many pixels on a side
 _UNSEEN = 0.1  # the pose graph does not see a pixel under this probability ...
@@ -94,11 +94,6 @@ def detail_ratio(fine: np.ndarray, mid: np.ndarray, where: np.ndarray) -> float:
     return float(fine[where].sum()) / total if total > 1e-6 else float("nan")
 
 
-def _disc(size: float) -> np.ndarray:
-    size = max(int(size), 1) | 1
-    return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))
-
-
 def sticking_out(matte: np.ndarray, held: list[np.ndarray], pose: np.ndarray) -> list[np.ndarray]:
     """The parts of ``matte`` that may be things behind the person before their sharpness is read (bool, each): the
     pieces of the matte's pixels that the pose graph does not see that an opening by a disc of _OPEN x the matte's
@@ -118,7 +113,7 @@ def sticking_out(matte: np.ndarray, held: list[np.ndarray], pose: np.ndarray) ->
     unseen = (matte & (pose < _UNSEEN)).astype(np.uint8)
     if area == 0 or not unseen.any():
         return []
-    opened = cv2.morphologyEx(unseen, cv2.MORPH_OPEN, _disc(_OPEN * np.sqrt(area)))
+    opened = cv2.morphologyEx(unseen, cv2.MORPH_OPEN, disc(_OPEN * np.sqrt(area)))
     n, labels, stats, _ = cv2.connectedComponentsWithStats(opened, connectivity=8)
     h = matte.shape[0]
     ring_k = np.ones((2 * _RING + 1, 2 * _RING + 1), np.uint8)
@@ -226,9 +221,7 @@ def reading_grid(inside: np.ndarray) -> tuple[Grid, tuple[int, int, int, int], f
     bx, by, bw, bh = cv2.boundingRect(inside)
     m = int(np.ceil(_MARGIN / s))
     x0, y0, x1, y1 = max(bx - m, 0), max(by - m, 0), min(bx + bw + m, w), min(by + bh + m, h)
-    gw, gh = max(int(round((x1 - x0) * s)), 1), max(int(round((y1 - y0) * s)), 1)
-    kx, ky = gw / (x1 - x0), gh / (y1 - y0)
-    return (gw, gh, kx, ky, -kx * x0 - 0.5, -ky * y0 - 0.5), (x0, y0, x1, y1), s
+    return grid_over((x0, y0, x1, y1), s), (x0, y0, x1, y1), s
 
 
 def without_things_behind(
