@@ -68,11 +68,11 @@ from ..light import sh
 from ..person.face_mesh import mirror
 from .cast_shadow import MeshView, shadow_factor
 from .decomposition import Decomposition, Memo, readonly
-from .detail import extend_outward, guided_upsample, shadow_texture, unpremultiply, window
+from .detail import extend_outward, guided_upsample, masked_blur, shadow_texture, unpremultiply, window
 from .face_pass import FacePass, feather
 from .fill_edge import crop_part, edge_weight, fill_share, soften
 from .look import shaded_skin, skin_chroma, tint_range
-from .shadow_rim import masked_blur, rim_lift, skin_gate, spread_mean
+from .shadow_rim import rim_lift, skin_gate, spread_mean
 from .strength import (
     EXPLAIN_ALBEDO_MIN,
     EXPLAIN_SHADOW_SHARE,

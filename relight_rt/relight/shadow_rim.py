@@ -46,14 +46,6 @@ RIM_GREY = 0.02  # ... a photo whose lit person shows no channel spread past thi
 SPREAD_PRIOR = 1e-3  # spread_mean: the window's mean counts as this much weight at every pixel
 
 
-def masked_blur(values: np.ndarray, keep: np.ndarray, sigma: float) -> np.ndarray:
-    """(r, r') float32: ``values`` blurred over ``sigma`` pixels with only the ``keep`` pixels (in [0, 1]) counting
-    (a normalised convolution): the background beside the person moves nothing."""
-    keep = keep.astype(np.float32)
-    return (cv2.GaussianBlur((values * keep).astype(np.float32), (0, 0), sigma)
-            / np.maximum(cv2.GaussianBlur(keep, (0, 0), sigma), 1e-3)).astype(np.float32)
-
-
 def spread_mean(values: np.ndarray, weight: np.ndarray, sigma: float, fallback: np.ndarray) -> np.ndarray:
     """(r, r') float32: the ``weight``-weighted mean of ``values`` around each pixel (a Gaussian of ``sigma``), leaning
     on their mean over the whole window (``SPREAD_PRIOR``) where little weight is near; ``fallback`` where there is
