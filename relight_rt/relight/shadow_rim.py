@@ -102,7 +102,7 @@ def skin_gate(skin: np.ndarray) -> np.ndarray:
 
 
 def rim_lift(albedo: np.ndarray, photo: np.ndarray, own: np.ndarray, weight: np.ndarray, trust: np.ndarray,
-             skin: np.ndarray, floor: float, rgb: np.ndarray | None = None) -> np.ndarray | None:
+             gate: np.ndarray, floor: float, rgb: np.ndarray | None = None) -> np.ndarray | None:
     """(r, r') float32: the factor on the fill's albedo that gives it its rim's (module docstring), 1 where stage 1
     sees no skin; None when the rule is off (``RIM_RANGE`` None).
 
@@ -111,7 +111,7 @@ def rim_lift(albedo: np.ndarray, photo: np.ndarray, own: np.ndarray, weight: np.
         photo, own: (r, r') the photo's luminance and the pipeline's under the photo's own light (> 0).
         weight: (r, r') the fill's weight in [0, 1] (``Factor.shadow_weight``'s w).
         trust: (r, r') in [0, 1], the pixels whose photo / own is measured (the person's, lit enough, off the fill).
-        skin: (r, r') stage 1's skin probability in [0, 1], unpremultiplied.
+        gate: (r, r') in [0, 1], how far stage 1 sees skin (``skin_gate`` of its skin probability, unpremultiplied).
         floor: the albedo the lift is measured against is floored here (black cloth, hair).
         rgb: (r, r', 3) the network image there: the rim's colour must be a skin's (``rim_colour_gate``); None: not
             asked.
@@ -134,7 +134,6 @@ def rim_lift(albedo: np.ndarray, photo: np.ndarray, own: np.ndarray, weight: np.
     level = float(np.median(seen[lit])) if lit.any() else float(np.max(albedo))
     around = np.minimum(around, np.maximum(albedo, level))
     lift = np.clip(around / np.maximum(albedo, floor), 1, RIM_RANGE)
-    gate = skin_gate(skin)
     asked = rgb is not None and bool(((lift > 1) & (gate > 0)).any())  # (nothing to gate: not measured)
     colour = rim_colour_gate(rgb, rim, lit, RIM_SPREAD * max(weight.shape)) if asked else None
     gate = gate if colour is None else gate * colour
