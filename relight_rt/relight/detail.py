@@ -4,7 +4,8 @@ The Relighter computes, in the network frame, the ratio relit / reconstruction (
 the pipeline's output under the photo's own light). These helpers unpremultiply it by the network mask,
 extend it a few pixels past the outline (so upsampling does not blend in meaningless values from
 outside the person), and upsample it edge-aware with a fast guided filter steered by the
-full-resolution input; the result multiplies the input.
+full-resolution input; the result multiplies the input. ``masked_blur`` is the same normalised convolution for a
+map that only the person's pixels may move (the deep shadow's fill, relight_rt.relight.factor).
 """
 
 from __future__ import annotations
@@ -48,6 +49,14 @@ def extend_outward(values: np.ndarray, inner: np.ndarray, sigma: float = 2.0, *,
     out = values.astype(num.dtype, copy=True) if far_own else np.ones_like(num)
     filled = np.divide(num, den, out=out, where=den > 1e-3)
     return np.where(inner[..., None], values, filled)
+
+
+def masked_blur(values: np.ndarray, keep: np.ndarray, sigma: float) -> np.ndarray:
+    """(r, r') float32: ``values`` blurred over ``sigma`` pixels with only the ``keep`` pixels (in [0, 1]) counting
+    (a normalised convolution): the background beside the person moves nothing."""
+    keep = keep.astype(np.float32)
+    return (cv2.GaussianBlur((values * keep).astype(np.float32), (0, 0), sigma)
+            / np.maximum(cv2.GaussianBlur(keep, (0, 0), sigma), 1e-3)).astype(np.float32)
 
 
 def guided_upsample(

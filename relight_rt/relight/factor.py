@@ -68,11 +68,11 @@ from ..light import sh
 from ..person.face_mesh import mirror
 from .cast_shadow import MeshView, shadow_factor
 from .decomposition import Decomposition, Memo, readonly
-from .detail import extend_outward, guided_upsample, shadow_texture, unpremultiply, window
+from .detail import extend_outward, guided_upsample, masked_blur, shadow_texture, unpremultiply, window
 from .face_pass import FacePass, feather
 from .fill_edge import crop_part, edge_weight, fill_share, soften
 from .look import shaded_skin, skin_chroma, tint_range
-from .shadow_rim import masked_blur, rim_lift, skin_gate, spread_mean
+from .shadow_rim import rim_lift, skin_gate, spread_mean
 from .strength import (
     EXPLAIN_ALBEDO_MIN,
     EXPLAIN_SHADOW_SHARE,
@@ -190,16 +190,17 @@ class Factor:
     def restored(self, dec: Decomposition) -> dict:
         """What the relighting factor needs that does not depend on any light, in the person's window (cached).
 
-        "window" (y0, y1, x0, x1): the network pixels near the person (the whole square when the network's
-        square is not smaller than the photo's: to_crop takes a window only when enlarging); "alpha", "inner"
-        (alpha > 0.5); "transport" (r, r', 9) unpremultiplied, its directional bands restored
+        "window" (y0, y1, x0, x1): the network pixels near the person (the whole square when the network's square is not
+        smaller than the photo's: to_crop takes a window only when enlarging); "alpha", "inner" (alpha > 0.5), "solid"
+        (alpha > 0.9: the person's own pixels, no background mixed in), "skin" (r, r') float32 stage 1's skin
+        probability unpremultiplied; "transport" (r, r', 9) unpremultiplied, its directional bands restored
         (relight_rt.relight.strength) and the face mesh's transport blended in, "albedo" luminance (r, r')
-        unpremultiplied, "photo" (r, r') the luminance of the photo stage 1 saw, "face_skin" (r, r') bool, the
-        person's pixels well inside a face mesh (``FacePass.add_faces``; none without one), "face_opening" (r, r')
-        bool, the person's pixels inside a mesh's outline (its openings closed) by more than the skin's inset
-        (``face_mesh.face_transport``) and off that skin: the eyes' sockets the inset leaves out, not the outline's
-        ring (hair, the jaw's edge), and "face_points" the meshes in the window's pixels (``FacePass.window_points``:
-        their cast shadows, ``cast``).
+        unpremultiplied, "photo" (r, r') the luminance of the photo stage 1 saw, "face_skin" (r, r') bool, the person's
+        pixels well inside a face mesh (``FacePass.add_faces``; none without one), "face_opening" (r, r') bool, the
+        person's pixels inside a mesh's outline (its openings closed) by more than the skin's inset
+        (``face_mesh.face_transport``) and off that skin: the eyes' sockets the inset leaves out, not the outline's ring
+        (hair, the jaw's edge), and "face_points" the meshes in the window's pixels (``FacePass.window_points``: their
+        cast shadows, ``cast``).
         """
         state = self.memo(dec)
         if "restored" not in state:
@@ -218,7 +219,9 @@ class Factor:
                 points = self.faces.window_points(dec, (y0, y1, x0, x1))
             albedo = unpremultiply(np.ascontiguousarray(dec.albedo[y0:y1, x0:x1]), alpha) @ REC709
             photo = dec.network_image[y0:y1, x0:x1] @ REC709
+            skin_net = unpremultiply(dec.skin[y0:y1, x0:x1, None], alpha)[..., 0]
             state["restored"] = {"window": (y0, y1, x0, x1), "alpha": alpha, "inner": alpha > 0.5,
+                                 "solid": readonly(alpha > 0.9), "skin": readonly(skin_net),
                                  "transport": readonly(transport), "albedo": readonly(albedo.astype(np.float32)),
                                  "photo": readonly(photo.astype(np.float32)),
                                  "face_skin": readonly(skin & (alpha > 0.5)), "face_points": points,
@@ -476,7 +479,7 @@ class Factor:
             # the photo's own light; a soft edge's own pixels take the solid person's beside (their albedo and colour
             # mix the background in: a bright one lifted the fill into a bright rim where a shadow meets the edge)
             # (far from any solid person the change stays its own: extend_outward's neutral 1 is a factor's)
-            change = extend_outward(change, own["inner"] & (own["alpha"] > 0.9), far_own=True)
+            change = extend_outward(change, own["solid"], far_own=True)
             maps = change if over is None else np.dstack([change, over])
         gain = extend_outward(factor, own["inner"])
         gain = guided_upsample(dec.geometry, gain, dec.network_image[y0:y1, x0:x1], gray, (y0, x0))
@@ -510,9 +513,7 @@ class Factor:
             if CAP_SHADOW_REACH is not None and core.any():  # the penumbra around a deep shadow's core, as far as
                 # stage 1 sees skin there (relight_rt.relight.shadow_rim ``skin_gate``): on cloth and hair the
                 # added change, smooth in colour, flattened a striped shirt's stripes beside a shadow
-                y0, y1, x0, x1 = own["window"]
-                skin = unpremultiply(dec.skin[y0:y1, x0:x1, None], own["alpha"])[..., 0]
-                reach = soften(core, CAP_SHADOW_REACH, own["inner"]) * skin_gate(skin)
+                reach = soften(core, CAP_SHADOW_REACH, own["inner"]) * self.skin_gate(dec)
                 reach = reach if reach.max() > 1e-3 else None  # (no skin near: nothing to map)
             if own["cap_skin"] is not None:  # a face's skin and openings
                 reach = own["cap_face"] if reach is None else np.maximum(reach, own["cap_face"])
@@ -593,6 +594,15 @@ class Factor:
             return None
         return (np.clip((ratio - RATIO_CAP) / np.maximum(ratio - 1, 1e-6), 0, 1) * reach).astype(np.float32)
 
+    def skin_gate(self, dec: Decomposition) -> np.ndarray:
+        """(r, r') float32 in [0, 1]: how far stage 1 sees skin around each pixel of the person's window
+        (relight_rt.relight.shadow_rim ``skin_gate`` of ``restored``'s "skin"; cached: the fill's rim and the
+        penumbra's reach both read it)."""
+        state = self.memo(dec)
+        if "skin_gate" not in state:
+            state["skin_gate"] = readonly(skin_gate(self.restored(dec)["skin"]))
+        return state["skin_gate"]
+
     def shadow_weight(self, dec: Decomposition) -> tuple[np.ndarray, np.ndarray] | None:
         """Where the photo's own shading is too low for the ratio (cached): (w, chroma) in the person's window, w
         (r, r') in [0, 1] (1: photo / shading is noise) and chroma (r, r', 3) the person's colour there at
@@ -626,7 +636,7 @@ class Factor:
             level = state["shadow_level"] = float(np.median(shown[inner])) if inner.any() else 0.0
             # a shadow is wide, a black stripe the albedo blurred away is not: the shading shown, smoothed
             # (both blurs masked to the solid person: the background, in a soft edge's pixels too, moves no weight)
-            keep = (inner & (own["alpha"] > 0.9)).astype(np.float32)
+            keep = own["solid"].astype(np.float32)
             smooth = masked_blur(shown, keep, FILL_SIGMA)
             result = None
             if level > 0:  # the weight of the shading smoothed, of each pixel's own (``FILL_EDGE_SIGMA``) and unblurred
@@ -649,8 +659,8 @@ class Factor:
                     chroma = np.divide(num, den, out=np.ones_like(num), where=den > 1e-4)
                     skin = own["face_skin"]
                     # off a face mesh's skin, as far as stage 1 sees skin: its rim's albedo (relight.shadow_rim)
-                    off = rim_lift(own["albedo"], photo, own["own"], w, trust, unpremultiply(
-                        dec.skin[y0:y1, x0:x1, None], own["alpha"])[..., 0], EXPLAIN_ALBEDO_MIN, rgb)
+                    off = rim_lift(own["albedo"], photo, own["own"], w, trust, self.skin_gate(dec), EXPLAIN_ALBEDO_MIN,
+                                   rgb)
                     off = np.ones_like(w) if off is None else off
                     if skin.any():  # a face's skin (one material): the albedo of the lit skin around, not stage 1's
                         albedo, on = own["albedo"], skin.astype(np.float32)

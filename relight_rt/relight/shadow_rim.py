@@ -46,14 +46,6 @@ RIM_GREY = 0.02  # ... a photo whose lit person shows no channel spread past thi
 SPREAD_PRIOR = 1e-3  # spread_mean: the window's mean counts as this much weight at every pixel
 
 
-def masked_blur(values: np.ndarray, keep: np.ndarray, sigma: float) -> np.ndarray:
-    """(r, r') float32: ``values`` blurred over ``sigma`` pixels with only the ``keep`` pixels (in [0, 1]) counting
-    (a normalised convolution): the background beside the person moves nothing."""
-    keep = keep.astype(np.float32)
-    return (cv2.GaussianBlur((values * keep).astype(np.float32), (0, 0), sigma)
-            / np.maximum(cv2.GaussianBlur(keep, (0, 0), sigma), 1e-3)).astype(np.float32)
-
-
 def spread_mean(values: np.ndarray, weight: np.ndarray, sigma: float, fallback: np.ndarray) -> np.ndarray:
     """(r, r') float32: the ``weight``-weighted mean of ``values`` around each pixel (a Gaussian of ``sigma``), leaning
     on their mean over the whole window (``SPREAD_PRIOR``) where little weight is near; ``fallback`` where there is
@@ -96,6 +88,9 @@ def rim_colour_gate(rgb: np.ndarray, rim: np.ndarray, lit: np.ndarray, sigma: fl
     # colour at the lit person's median luminance (the rim's own pixels are partly shaded)
     level = float(np.median(rgb[lit] @ REC709))
     colour *= (level / np.maximum(colour @ REC709, 1e-4))[..., None]
+    # skin_chroma blurs this already-spread colour once more (its own 1.5-px spread, a plain blur under a weight of
+    # ones): kept, since its YCrCb ramp read straight off the colour moves the gate by up to 0.008 (mean 1e-4) on the
+    # bundled example and two real portraits (tidy17): not the same result to float rounding
     return skin_chroma(np.clip(colour, 0, 1), np.ones(rim.shape, np.float32))[1]
 
 
@@ -107,7 +102,7 @@ def skin_gate(skin: np.ndarray) -> np.ndarray:
 
 
 def rim_lift(albedo: np.ndarray, photo: np.ndarray, own: np.ndarray, weight: np.ndarray, trust: np.ndarray,
-             skin: np.ndarray, floor: float, rgb: np.ndarray | None = None) -> np.ndarray | None:
+             gate: np.ndarray, floor: float, rgb: np.ndarray | None = None) -> np.ndarray | None:
     """(r, r') float32: the factor on the fill's albedo that gives it its rim's (module docstring), 1 where stage 1
     sees no skin; None when the rule is off (``RIM_RANGE`` None).
 
@@ -116,7 +111,7 @@ def rim_lift(albedo: np.ndarray, photo: np.ndarray, own: np.ndarray, weight: np.
         photo, own: (r, r') the photo's luminance and the pipeline's under the photo's own light (> 0).
         weight: (r, r') the fill's weight in [0, 1] (``Factor.shadow_weight``'s w).
         trust: (r, r') in [0, 1], the pixels whose photo / own is measured (the person's, lit enough, off the fill).
-        skin: (r, r') stage 1's skin probability in [0, 1], unpremultiplied.
+        gate: (r, r') in [0, 1], how far stage 1 sees skin (``skin_gate`` of its skin probability, unpremultiplied).
         floor: the albedo the lift is measured against is floored here (black cloth, hair).
         rgb: (r, r', 3) the network image there: the rim's colour must be a skin's (``rim_colour_gate``); None: not
             asked.
@@ -139,7 +134,6 @@ def rim_lift(albedo: np.ndarray, photo: np.ndarray, own: np.ndarray, weight: np.
     level = float(np.median(seen[lit])) if lit.any() else float(np.max(albedo))
     around = np.minimum(around, np.maximum(albedo, level))
     lift = np.clip(around / np.maximum(albedo, floor), 1, RIM_RANGE)
-    gate = skin_gate(skin)
     asked = rgb is not None and bool(((lift > 1) & (gate > 0)).any())  # (nothing to gate: not measured)
     colour = rim_colour_gate(rgb, rim, lit, RIM_SPREAD * max(weight.shape)) if asked else None
     gate = gate if colour is None else gate * colour

@@ -161,12 +161,20 @@ def disc(size: float) -> np.ndarray:
     return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))
 
 
-def _box_mask(shape: tuple[int, int], box) -> np.ndarray:
-    """(H, W) bool: the pixels inside ``box`` (x0, y0, x1, y1)."""
+def _box_span(shape: tuple[int, int], box) -> tuple[int, int, int, int]:
+    """(y0, y1, x0, x1): the rows y0..y1 - 1 and columns x0..x1 - 1 of an (H, W) image inside ``box`` (x0, y0, x1,
+    y1), 0 <= y0, y1 <= H (none where y1 <= y0), as numpy reads the slice [floor(y0):ceil(y1)] clipped at 0 and H."""
     h, w = shape
+    y0, y1, _ = slice(max(int(np.floor(box[1])), 0), min(int(np.ceil(box[3])), h)).indices(h)
+    x0, x1, _ = slice(max(int(np.floor(box[0])), 0), min(int(np.ceil(box[2])), w)).indices(w)
+    return y0, y1, x0, x1
+
+
+def _box_mask(shape: tuple[int, int], box) -> np.ndarray:
+    """(H, W) bool: the pixels inside ``box`` (x0, y0, x1, y1) (:func:`_box_span`)."""
+    y0, y1, x0, x1 = _box_span(shape, box)
     out = np.zeros(shape, bool)
-    x0, y0 = max(int(np.floor(box[0])), 0), max(int(np.floor(box[1])), 0)
-    out[y0 : min(int(np.ceil(box[3])), h), x0 : min(int(np.ceil(box[2])), w)] = True
+    out[y0:y1, x0:x1] = True
     return out
 
 
@@ -226,10 +234,15 @@ def _under(labels: np.ndarray, faces: list[Face], less: tuple[float, ...] | None
     """The labels (> 0) of ``labels`` under the middle half of any of ``faces`` (a face's middle pixel may lie in a
     hole of the matte), none of box ``less``."""
     out = set()
-    for f in faces:
-        inside = _box_mask(labels.shape, _middle_half(f.box))
-        inside &= ~_box_mask(labels.shape, less) if less is not None else True
-        out.update(int(v) for v in np.unique(labels[inside]))
+    ly0, ly1, lx0, lx1 = _box_span(labels.shape, less) if less is not None else (0, 0, 0, 0)
+    for f in faces:  # read within the middle half's span (no mask of the photo's size per face)
+        y0, y1, x0, x1 = _box_span(labels.shape, _middle_half(f.box))
+        inside = labels[y0:y1, x0:x1]
+        if less is not None and inside.size:
+            keep = np.ones(inside.shape, bool)
+            keep[max(ly0 - y0, 0) : max(ly1 - y0, 0), max(lx0 - x0, 0) : max(lx1 - x0, 0)] = False
+            inside = inside[keep]
+        out.update(int(v) for v in np.unique(inside))
     out.discard(0)
     return out
 

@@ -126,12 +126,13 @@ class CutBody:
         lab, person, _ = model
         may = self.cand.copy()  # of it, the shades of the person's colours (not a chair nor someone behind)
         may[alone] = shade_distances(lab[alone], person) < CUT_SHADE
-        judged = ratios(may, model)
+        to_person = nearest(lab[may], person)[0]  # the same for both backdrops: measured once
+        judged = ratios(may, model, to_person)
         held = [p | share for p, share in self.parts if (p & may).any() and np.median(judged[p & may]) < CUT_BACKDROP]
         if not held:
             return None
         beside = backdrop_less(model, self.inside, self.mine, self.mine | self.cand, alone) if alone.any() else None
-        ratio = np.where(alone, 0.0, judged) if beside is None else ratios(may, beside)
+        ratio = np.where(alone, 0.0, judged) if beside is None else ratios(may, beside, to_person)
         # carried on down to the border over the candidates in the bottom rows beside them; of it, the pixels whose own
         # colour is not clearly the backdrop's, joined to the matte
         keep = np.any(held, axis=0)
@@ -151,13 +152,15 @@ def shade_distances(x: np.ndarray, centres: np.ndarray) -> np.ndarray:
     return np.sqrt(da * da + db * db).min(axis=1)
 
 
-def ratios(cand: np.ndarray, model: Colours) -> np.ndarray:
+def ratios(cand: np.ndarray, model: Colours, to_person: np.ndarray | None = None) -> np.ndarray:
     """(S, S) float32: each of ``cand``'s pixels' distance to the person's nearest centre over that to the backdrop's
-    (``model``), inf elsewhere."""
+    (``model``), inf elsewhere. ``to_person``: the (N,) first distances (``cand``'s pixels in row-major order) when
+    already measured on the same L*a*b* and person's centres (None: measured here)."""
     lab, person, backdrop = model
     ratio = np.full(cand.shape, np.inf, np.float32)
     x = lab[cand]
-    ratio[cand] = nearest(x, person)[0] / np.maximum(nearest(x, backdrop)[0], 1e-3)
+    near = nearest(x, person)[0] if to_person is None else to_person
+    ratio[cand] = near / np.maximum(nearest(x, backdrop)[0], 1e-3)
     return ratio
 
 

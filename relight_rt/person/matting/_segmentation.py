@@ -120,23 +120,32 @@ def tile_levels(h: int, w: int, min_tile: float, max_level: int = _TILE_LEVELS[-
     return levels
 
 
+def canvas_index(region: Region, xs: np.ndarray, ys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(i, j) int arrays: the row and column of ``region``'s canvas pixel nearest each image point (xs, ys); a point
+    outside the region gets an index outside [0, SIZE)."""
+    k, bx, by = grid_of_region(region)
+    return np.floor(k * ys + by + 0.5).astype(int), np.floor(k * xs + bx + 0.5).astype(int)
+
+
 def prob_at(person: Person, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
     """The person's probability (sigmoid of its logits) at image points (xs, ys); 0 outside its region."""
-    k, bx, by = grid_of_region(person.region)
-    i = np.floor(k * ys + by + 0.5).astype(int)
-    j = np.floor(k * xs + bx + 0.5).astype(int)
+    i, j = canvas_index(person.region, xs, ys)
     inside = (i >= 0) & (i < SIZE) & (j >= 0) & (j < SIZE)
     out = np.zeros(xs.shape, np.float32)
     out[inside] = sigmoid(person.logits[i[inside], j[inside]])
     return out
 
 
-def contains(person: Person, face: Face, shape: tuple[int, int]) -> bool:
-    """Whether the person's segmentation covers the middle of the face."""
+def face_middle(face: Face) -> tuple[np.ndarray, np.ndarray]:
+    """(xs, ys), three image points across the middle of ``face``'s box (its centre and 15 % of its width to each
+    side), which :func:`contains` reads."""
     x0, y0, x1, y1 = face.box
-    xs = np.array([(x0 + x1) / 2, 0.35 * x0 + 0.65 * x1, 0.65 * x0 + 0.35 * x1])
-    ys = np.array([(y0 + y1) / 2] * 3)
-    return bool((prob_at(person, xs, ys) > 0.5).sum() >= 2)
+    return np.array([(x0 + x1) / 2, 0.35 * x0 + 0.65 * x1, 0.65 * x0 + 0.35 * x1]), np.array([(y0 + y1) / 2] * 3)
+
+
+def contains(person: Person, face: Face, shape: tuple[int, int]) -> bool:
+    """Whether the person's segmentation covers the middle of the face (two of :func:`face_middle`'s points)."""
+    return bool((prob_at(person, *face_middle(face)) > 0.5).sum() >= 2)
 
 
 def working_grid(rect: tuple[int, int, int, int]) -> Grid:

@@ -24,8 +24,10 @@ from ._segmentation import (
     LOGIT_CLIP,
     Person,
     as_logits,
+    canvas_index,
     canvas_points,
     contains,
+    face_middle,
     logits_on_grid,
     person_box,
     prob_at,
@@ -233,17 +235,12 @@ def carried_past(roi: Model, rgb: np.ndarray, person: Person, faces: Sequence[Fa
 
 def _middle_holders(labels: np.ndarray, region: Region, face: Face) -> list[int]:
     """The labels (> 0) of ``labels`` (components on ``region``'s canvas) that hold two or more of the three points
-    of ``face``'s middle that :func:`relight_rt.person.matting._segmentation.contains` reads."""
-    fx0, fy0, fx1, fy1 = face.box
+    of ``face``'s middle that :func:`relight_rt.person.matting._segmentation.contains` reads (:func:`face_middle`)."""
     if not np.all(np.isfinite(face.box)):
         return []  # a box the detector could not place holds nothing
-    k, bx, by = grid_of_region(region)
-    px = np.array([(fx0 + fx1) / 2, 0.35 * fx0 + 0.65 * fx1, 0.65 * fx0 + 0.35 * fx1])
-    i = int(np.floor(k * (fy0 + fy1) / 2 + by + 0.5))
-    j = np.floor(k * px + bx + 0.5).astype(int)
-    if not 0 <= i < labels.shape[0]:
-        return []
-    held = labels[i, j[(j >= 0) & (j < labels.shape[1])]]
+    i, j = canvas_index(region, *face_middle(face))
+    inside = (i >= 0) & (i < labels.shape[0]) & (j >= 0) & (j < labels.shape[1])
+    held = labels[i[inside], j[inside]]
     values, counts = np.unique(held[held > 0], return_counts=True)
     return [int(v) for v, c in zip(values, counts, strict=True) if c >= 2]
 

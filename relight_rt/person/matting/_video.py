@@ -39,7 +39,8 @@ _REGION_KEEP_IOU = 0.8
 _AGREE_SCALE = 0.05  # gray levels (0-1): the flow explains a pixel by exp(-|I_now - I_prev_warped| / this)
 DROPPED_SHARE = 0.05  # VideoMatter completes a frame where the followed matte drops this share of the carried one
 # after this many frames completed in a row, what the completions found again leaves the rule's history (a part the
-# pose graph has not held for ~0.5 s is left to it; the parkour clip's longest run is 4)
+# pose graph has not held for ~0.5 s is left to it; the parkour clip's longest run is 4); with the frame after a drop,
+# a run holds at most COMPLETED_RUN + 1 completions (VideoMatter)
 COMPLETED_RUN = 12
 
 
@@ -89,7 +90,11 @@ class VideoMatter:
     in turn); the frame right after a drop is compared with the last matte as completed too, once (the rest of a part
     lost over two frames). After ``COMPLETED_RUN`` (12) frames completed in a row, what only the completions held
     leaves the history (a part the pose graph holds for two frames and then half-sees reads as a lost leg: kept, but
-    not for good; a leg the pose graph never sees again goes too). ``complete`` completes every frame and overrides
+    not for good; a leg the pose graph never sees again goes too); the cap's frame is a drop like any other, so the
+    frame after it is compared once with the last matte as completed and, still finding the part dropped, completed
+    too: a run holds at most ``COMPLETED_RUN`` + 1 completions, as intended (the cap ends the history's hold on the
+    part, not the after-a-drop rule; the part then leaves the matte in the next frame). A plain frame ends a run: the
+    next one counts from one. ``complete`` completes every frame and overrides
     ``complete_on_drop`` (``completions`` counts the frames completed). This default is what ``relight-rt mask`` (a
     video, ``--sequence``) and ``relight-rt video`` matte with (no option there; ``complete_on_drop=None`` here turns
     it off).

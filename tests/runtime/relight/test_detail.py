@@ -1,12 +1,13 @@
 """relight_rt.relight.detail: guided_upsample (a and b resampled separately give the same map as one 6-channel stack)
-and shadow_texture (the photo's own detail for the deep shadow's fill, held to the lit side's)."""
+shadow_texture (the photo's own detail for the deep shadow's fill, held to the lit side's) and masked_blur (a blur in
+which only the person's pixels count)."""
 
 import cv2
 import numpy as np
 import pytest
 
 from relight_rt.image.crop import CropGeometry
-from relight_rt.relight.detail import GUIDE_EPS, GUIDE_RADIUS, guided_upsample, shadow_texture
+from relight_rt.relight.detail import GUIDE_EPS, GUIDE_RADIUS, guided_upsample, masked_blur, shadow_texture
 
 
 def stacked(geom, src, guide_net, guide, origin):
@@ -87,3 +88,21 @@ def test_shadow_texture_on_a_faces_skin_follows_the_skins_own_and_leaves_the_res
     upper = np.zeros(gray.shape, bool)
     upper[10:50, 90:150] = True
     assert _rms(faced, upper) < 0.6 * _rms(plain, upper)
+
+
+def test_masked_blur_is_moved_by_the_kept_pixels_only():
+    """A flat value on the kept pixels stays flat up to their edge whatever lies beside them (a plain blur drags a
+    bright background in), the background's values move nothing anywhere, and where every pixel counts it is a plain
+    blur."""
+    keep = np.zeros((40, 60), np.float32)
+    keep[:, :30] = 1
+    values = np.where(keep > 0, 0.3, 5.0).astype(np.float32)
+    got = masked_blur(values, keep, 3.0)
+    assert got.dtype == np.float32 and got.shape == values.shape
+    assert np.allclose(got[:, :30], 0.3, atol=1e-5)
+    assert cv2.GaussianBlur(values, (0, 0), 3.0)[:, 29].min() > 1.0  # what it guards against
+    other = np.where(keep > 0, 0.3, -7.0).astype(np.float32)
+    assert np.array_equal(masked_blur(other, keep, 3.0), got)  # the background's values count nowhere
+    rng = np.random.default_rng(0)
+    free = rng.random((40, 60), dtype=np.float32)
+    assert np.allclose(masked_blur(free, np.ones_like(free), 2.0), cv2.GaussianBlur(free, (0, 0), 2.0), atol=1e-5)

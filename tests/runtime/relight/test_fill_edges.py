@@ -182,12 +182,12 @@ def test_the_rims_albedo_is_held_to_the_persons_median_and_to_rim_range():
     weight = np.zeros((r, r), np.float32)
     weight[:, :24] = 1  # the fill: the left part
     photo, own = np.full((r, r), 0.4, np.float32), np.full((r, r), 0.2, np.float32)  # the albedo shown: 0.4
-    skin = np.ones((r, r), np.float32)
+    gate = shadow_rim.skin_gate(np.ones((r, r), np.float32))  # skin everywhere: open
     photo[:, 24:30] = 0.9  # the rim: 0.9 shown, the person's median 0.4
-    lift = shadow_rim.rim_lift(albedo, photo, own, weight, 1 - weight, skin, 0.02)[:, :20]
+    lift = shadow_rim.rim_lift(albedo, photo, own, weight, 1 - weight, gate, 0.02)[:, :20]
     assert np.allclose(lift, 2.0, atol=1e-3), (lift.min(), lift.max())  # 0.4 / 0.2 (4x without the median)
     photo[:] = 0.7  # rim and median alike 0.7 shown: 3.5x, within RIM_RANGE (4)
-    lift = shadow_rim.rim_lift(albedo, photo, own, weight, 1 - weight, skin, 0.02)[:, :20]
+    lift = shadow_rim.rim_lift(albedo, photo, own, weight, 1 - weight, gate, 0.02)[:, :20]
     assert np.allclose(lift, 3.5, atol=1e-3), (lift.min(), lift.max())
 
 

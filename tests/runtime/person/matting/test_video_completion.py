@@ -298,3 +298,26 @@ def test_a_run_of_completions_is_capped(smoothing):
     done, bags = _bag_video(0.3, {3, 4}, smoothing, n=_video.COMPLETED_RUN + 16)
     assert done == list(range(5, 5 + _video.COMPLETED_RUN + 1))
     assert bags[-1] < 0.3, bags
+
+
+@pytest.mark.parametrize("smoothing", [0.7, 0.0])
+def test_a_plain_frame_ends_a_run_and_the_next_run_counts_from_one(smoothing):
+    """The pose graph sure of the bag in frames 3-4 and again in 8-9: frames 5-7 are completed (a run of three), 8 and
+    9 are plain (the followed matte holds the bag), and the run from frame 10 counts from one again: COMPLETED_RUN
+    frames and the one after, as a first run. A counter that a plain frame does not reset would cap the second run
+    three frames early (frames 10-19)."""
+    run = _video.COMPLETED_RUN
+    done, bags = _bag_video(0.3, {3, 4, 8, 9}, smoothing, n=run + 20)
+    assert done == [5, 6, 7] + list(range(10, 10 + run + 1))
+    assert bags[-1] < 0.3, bags
+
+
+@pytest.mark.parametrize("smoothing", [0.7, 0.0])
+def test_a_one_frame_spike_on_the_second_frame_does_not_latch_the_rule(smoothing):
+    """The pose graph sure of the half-seen bag in frame 1 alone (the first frame with a last frame, and no history
+    yet): the bag does not enter the history, no frame is completed and the bag leaves the matte. A history that took
+    frame 1's followed matte whole (there is no history to compare with yet) latched: frame 2 dropped the bag, its
+    completion found it again, and so on."""
+    done, bags = _bag_video(0.3, {1}, smoothing)
+    assert done == []
+    assert bags[-1] < 0.3 and max(bags[3:]) < 0.5, bags
