@@ -163,10 +163,13 @@ def disc(size: float) -> np.ndarray:
 
 def _box_span(shape: tuple[int, int], box) -> tuple[int, int, int, int]:
     """(y0, y1, x0, x1): the rows y0..y1 - 1 and columns x0..x1 - 1 of an (H, W) image inside ``box`` (x0, y0, x1,
-    y1), 0 <= y0, y1 <= H (none where y1 <= y0), as numpy reads the slice [floor(y0):ceil(y1)] clipped at 0 and H."""
+    y1), 0 <= y0, y1 <= H (none where y1 <= y0): [floor(y0), ceil(y1)) clipped at 0 and H, so a box wholly above or
+    left of the image holds no pixel (a negative end is not read from the far side)."""
     h, w = shape
-    y0, y1, _ = slice(max(int(np.floor(box[1])), 0), min(int(np.ceil(box[3])), h)).indices(h)
-    x0, x1, _ = slice(max(int(np.floor(box[0])), 0), min(int(np.ceil(box[2])), w)).indices(w)
+    y0 = min(max(int(np.floor(box[1])), 0), h)
+    x0 = min(max(int(np.floor(box[0])), 0), w)
+    y1 = min(max(int(np.ceil(box[3])), y0), h)
+    x1 = min(max(int(np.ceil(box[2])), x0), w)
     return y0, y1, x0, x1
 
 

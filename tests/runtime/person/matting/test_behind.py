@@ -379,3 +379,10 @@ def test_the_subjects_outline_is_no_part_of_the_person_behind():
     alpha = matter.alpha(img, _behind.without_behind(matter.roi, img, [both], [SUBJECT_FACE, face]))
     assert (alpha[other & ~_SUBJECT] >= 0.5).mean() < 0.02
     assert iou(alpha, _SUBJECT) > 0.985
+
+
+@pytest.mark.parametrize("box, count", [((2, -20, 5, -5), 0), ((-20, 2, -5, 5), 0), ((2, 12, 5, 15), 0),
+                                        ((-3, -3, 2.5, 1.2), 6), ((8.5, 8.5, 30, 30), 4)])
+def test_a_box_off_the_photo_holds_only_its_pixels_inside(box, count):
+    """A box wholly above or left of the photo marked pixels from the far side (a negative slice end)."""
+    assert int(_behind._box_mask((10, 10), box).sum()) == count
