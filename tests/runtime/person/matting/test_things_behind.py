@@ -362,6 +362,37 @@ def test_a_couples_blurred_partner_stays_and_the_foliage_leaves(probes):
     assert probes.E.iou(out >= 0.5, gt) > probes.E.iou(alpha >= 0.5, gt) + 0.01
 
 
+class _Counted:
+    """A graph that counts its runs."""
+
+    def __init__(self, model):
+        self.model, self.runs = model, 0
+
+    def run(self, feeds):
+        self.runs += 1
+        return self.model.run(feeds)
+
+
+def test_the_matter_runs_the_face_graph_once_where_a_part_leaves(probes):
+    """The things-behind step asks for the whole photo's faces, which the people search found already: the matter
+    answers it from the same photo's block (relight_rt.image.regions.reductions_shared) instead of a second run."""
+    import copy
+
+    from relight_rt.person.matting import shared_matter
+
+    rgb, _ = probes.read("p104")  # a guitar behind the girl's shoulder leaves
+    matter = copy.copy(shared_matter())  # (the shared matter is left as it is)
+    matter.face = _Counted(matter.face)
+    people, before = probes.before_rule(matter, rgb)  # (the rule left out: no faces asked for the matte)
+    searched = matter.face.runs
+    assert searched >= 1
+    matter.face.runs = 0
+    alpha = matter(rgb)
+    assert probes.taken(before, alpha) > 0.02  # the part leaves: the faces were asked for ...
+    assert matter.face.runs == searched  # ... and no run was added to the people search's (before: one more)
+    np.testing.assert_array_equal(alpha, probes.rule(matter, rgb, before, people))  # the same matte
+
+
 # -- the second review (mend21b) ---------------------------------------------------------------------------------------
 
 
