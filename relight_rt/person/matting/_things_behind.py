@@ -171,7 +171,8 @@ def bodily(part: np.ndarray, faces: list[Box]) -> bool:
 
 
 def _leave(alpha: np.ndarray, weight: np.ndarray, seen: np.ndarray, reach: int, halo: float, ramp: float,
-           alone: bool, most: float, step: int = 1) -> np.ndarray:  # fmt: skip
+           alone: bool, most: float, step: int = 1, sides: tuple[bool, bool, bool, bool] = (True,) * 4
+           ) -> np.ndarray:  # fmt: skip
     """``alpha`` (a (h, w) window around a part) less the part, whose share of each pixel is ``weight``: alpha x
     (1 - weight); then the pieces of the matte (>= 0.5) left apart from the rest go: those within ``reach`` px of the
     part (slivers along the cut, bits of the part's own soft rim that read >= 0.5; only when the matte lies wholly in
@@ -183,6 +184,9 @@ def _leave(alpha: np.ndarray, weight: np.ndarray, seen: np.ndarray, reach: int, 
     the part goes with the nearer of the part and the matte that stays (the part's soft rim leaves, the body's stays).
     The window reaches 2 ``halo`` + 1 px past the part (the matte past it is further from such a pixel than the part)
     or to the photo's edge.
+
+    ``sides`` (top, bottom, left, right): whether the matte may go on past each of the window's sides (a piece at
+    one is no tail); where the caller cut the window to the box of what can change, it does not.
 
     The soft pixels' split is read on blocks of ``step`` x ``step`` px (:func:`_soft_rim`; 1: each pixel), every other
     decision on the photo's pixels; distances up to ``reach`` and ``ramp`` are measured in boxes around the part
@@ -197,15 +201,20 @@ def _leave(alpha: np.ndarray, weight: np.ndarray, seen: np.ndarray, reach: int, 
     hard = (out >= 0.5).astype(np.uint8)
     n, labels, stats, _ = cv2.connectedComponentsWithStats(hard, connectivity=8)
     area = stats[:, cv2.CC_STAT_AREA]
-    joined = np.bincount(labels[touched[before]], minlength=n) > 0  # (so beside the cut: within ``reach``)
+    # a piece lies in one piece of the matte before the cut (it only lost pixels): read at its first pixel
+    joined = np.array([False] + [touched[before[at]] for at in _first_pixels(labels, stats)])  # (so within ``reach``)
     apart = np.bincount(labels[zone], minlength=n) == area  # a piece reaching past the zone goes on into the matte
     apart[0] = False
     if alone and n > 1 and apart[1:].all():
         apart[1 + int(np.argmax(area[1:]))] = False
-    edges = np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]])
-    tail = joined & (np.bincount(edges, minlength=n) == 0) & (area <= most)  # (a piece at the window's edge may go on)
-    tail &= np.bincount(labels[seen], minlength=n) <= _TAIL * area
-    tail[0] = False
+    at_edge = np.zeros(n, bool)  # (a piece at the window's edge may go on)
+    for rim, on in zip((labels[0], labels[-1], labels[:, 0], labels[:, -1]), sides, strict=True):
+        at_edge[rim] |= on
+    tail = joined & ~at_edge & (area <= most)
+    for k in np.flatnonzero(tail):  # (few and small: read in their boxes)
+        x, y, bw, bh = stats[k, :4]
+        box = (slice(y, y + bh), slice(x, x + bw))
+        tail[k] = np.count_nonzero((labels[box] == k) & seen[box]) <= _TAIL * area[k]
     fate = (apart | tail).view(np.uint8) + tail  # per piece: 0 kept, 1 apart, 2 a tail (one look-up for both)
     fate[0] = 1  # (not the matte)
     piece = fate[labels]
@@ -213,6 +222,16 @@ def _leave(alpha: np.ndarray, weight: np.ndarray, seen: np.ndarray, reach: int, 
     part = (zone | (piece == 2)) & (alpha >= 0.5) & ~kept
     cut = part & ~_near(kept, ramp, part)  # the part's pixels further than ``ramp`` from the matte that stays
     out[cut | (_soft_rim(shared, part, kept, halo, step) & ~part & ~kept)] = 0.0  # (soft: >= 0.5 is either)
+    return out
+
+
+def _first_pixels(labels: np.ndarray, stats: np.ndarray) -> list[tuple[int, int]]:
+    """(row, column) of one pixel of each piece 1, 2, ... of cv2.connectedComponentsWithStats (``labels``, ``stats``):
+    the first of its top row."""
+    out = []
+    for k in range(1, len(stats)):
+        x, y, bw = (int(v) for v in stats[k, :3])
+        out.append((y, x + int(np.argmax(labels[y, x : x + bw] == k))))
     return out
 
 
@@ -336,6 +355,14 @@ def without_things_behind(
     m = int(np.ceil(2 * halo)) + 2
     wx0, wy0 = max(x0 + px - m, 0), max(y0 + py - m, 0)
     wx1, wy1 = min(x0 + px + pw + m, w), min(y0 + py + ph + m, h)
+    alone = cv2.countNonZero(inside[wy0:wy1, wx0:wx1]) == area  # no matte past the window
+    # only the window's matte (> 0) and the part's share change: the leaving reads their box (the window's sides
+    # that it keeps are those a piece may go on past)
+    mx, my, mw, mh = cv2.boundingRect((alpha[wy0:wy1, wx0:wx1] > 0).view(np.uint8))
+    cx0, cy0 = min(wx0 + mx, x0 + px), min(wy0 + my, y0 + py)
+    cx1, cy1 = max(wx0 + mx + mw, x0 + px + pw), max(wy0 + my + mh, y0 + py + ph)
+    sides = (cy0 == wy0, cy1 == wy1, cx0 == wx0, cx1 == wx1)
+    wx0, wy0, wx1, wy1 = cx0, cy0, cx1, cy1
     share = np.zeros((wy1 - wy0, wx1 - wx0), np.float32)
     iy0, iy1, ix0, ix1 = max(y0, wy0), min(y1, wy1), max(x0, wx0), min(x1, wx1)
     share[iy0 - wy0 : iy1 - wy0, ix0 - wx0 : ix1 - wx0] = weight[iy0 - y0 : iy1 - y0, ix0 - x0 : ix1 - x0]
@@ -343,8 +370,7 @@ def without_things_behind(
     sure = sure if s >= 1.0 else cv2.resize(sure, (x1 - x0, y1 - y0), interpolation=cv2.INTER_LINEAR)
     looked = np.zeros(share.shape, bool)
     looked[iy0 - wy0 : iy1 - wy0, ix0 - wx0 : ix1 - wx0] = sure[iy0 - y0 : iy1 - y0, ix0 - x0 : ix1 - x0] > 0
-    alone = cv2.countNonZero(inside[wy0:wy1, wx0:wx1]) == area  # no matte past the window
     out = alpha.copy()
     out[wy0:wy1, wx0:wx1] = _leave(alpha[wy0:wy1, wx0:wx1], share, looked, r, halo, 1.0 / s + 1.0, alone,
-                                   _MAX_PART * area, int(1.0 / s))  # fmt: skip
+                                   _MAX_PART * area, int(1.0 / s), sides)  # fmt: skip
     return out
