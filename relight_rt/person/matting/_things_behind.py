@@ -29,7 +29,10 @@ guitar's neck; its own tail, joined to it before the cut, which the pose graph h
 pixels nearer it than the matte that stays, up to _HALO x the matte's side: the selfie graph's soft take on a blurred
 thing reaches far); the body's soft edge beside it stays. Parts the people's segmentations hardly hold (the own colours'
 parts, relight_rt.person.matting._colours) are not looked at. The matte is read on a grid whose side is at most _SIDE
-pixels on the side of the matte's area (:func:`reading_grid`: a 2.5-MP photo costs what a web photo does). VideoMatter
+pixels on the side of the matte's area (:func:`reading_grid`: a 2.5-MP photo costs what a web photo does); the leaving
+works on the photo's pixels in the box of what can change, but splits the soft rim on blocks of int(1 / s) px (the
+grid's pitch, s its scale: the hard matte is the same as per pixel; 41-521 soft pixels of a 2.5-4.5 MP photo go the
+other way, and none up to twice the grid's side, where a block is a pixel). VideoMatter
 does not apply the rule: a part leaving on some frames and not on others would flicker, and each frame would pay for it.
 
 What each threshold is measured on (benchmarks/people_masks_eval.py --methods ours; chosen on photos half A, four
@@ -45,9 +48,9 @@ reasoning, not fitted. Half A 0.92340 -> 0.92575 (p104's guitar 0.859 -> 0.947, 
 p016's blurred blob 0.927 -> 0.956, p089's foliage below the joined hands 0.918 -> 0.940, p083 and p234 +0.002 and
 +0.001), half B and the clip unchanged (no part qualifies). Time (benchmarks/things_behind_speed.py --before):
 nothing for pose-graph people; with a selfie-graph person, one pose-graph run per region and, when a part would leave,
-one face-graph run (outside PersonMatter.people's shared reductions) and the leaving: 25-70 ms a web photo (p064 29 ->
-42 ms with the soft rim and the tails), p064 enlarged 4x 80 -> 240 ms (its window reaches twice _HALO x the matte's
-side: the whole photo there). Things the rule cannot tell stay: at the photo's bottom border (p192's floor, p265's
+the faces (PersonMatter answers them from its people search's face-graph run on the photo) and the leaving: 25-60 ms a
+web photo (p064 29 -> 42 ms with the soft rim and the tails), 130-175 ms at 4.5 MP (p064, p089, p104 enlarged; 210-350
+ms before the blocks and the box, speed17: the window reaches twice _HALO x the matte's side, the whole photo there). Things the rule cannot tell stay: at the photo's bottom border (p192's floor, p265's
 grass), in focus, or sharp where the graphs are unsure. Sharpness is read on the photo's own pixels until the matte is
 wider than _SIDE, so it depends on the photo's size: p016's blob enlarged 2x-4x no longer reads blurred against the
 body, and stays.
