@@ -50,8 +50,9 @@ p016's blurred blob 0.927 -> 0.956, p089's foliage below the joined hands 0.918 
 nothing for pose-graph people; with a selfie-graph person, one pose-graph run per region and, when a part would leave,
 the faces (PersonMatter answers them from its people search's face-graph run on the photo) and the leaving: 25-60 ms a
 web photo (p064 29 -> 42 ms with the soft rim and the tails), 130-175 ms at 4.5 MP (p064, p089, p104 enlarged; 210-350
-ms before the blocks and the box, speed17: the window reaches twice _HALO x the matte's side, the whole photo there). Things the rule cannot tell stay: at the photo's bottom border (p192's floor, p265's
-grass), in focus, or sharp where the graphs are unsure. Sharpness is read on the photo's own pixels until the matte is
+ms before the blocks and the box, speed17: the window reaches twice _HALO x the matte's side, the whole photo there).
+Things the rule cannot tell stay: at the photo's bottom border (p192's floor, p265's grass), in focus, or sharp where
+the graphs are unsure. Sharpness is read on the photo's own pixels until the matte is
 wider than _SIDE, so it depends on the photo's size: p016's blob enlarged 2x-4x no longer reads blurred against the
 body, and stays.
 """
