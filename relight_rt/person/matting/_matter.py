@@ -668,8 +668,11 @@ class PersonMatter:
 
     def _matte(self, image: np.ndarray, name: str) -> tuple[np.ndarray, list[Person]]:
         rgb = as_rgb(image, name, copy=False)  # only read from here on
-        people = self.people(rgb, name)
-        alpha = self.alpha(rgb, people) if people else None
+        # one block for both: the graphs' answers on a region of this very photo hold for the matte too (the face
+        # graph's on the whole photo, which the things-behind step asks for again), and its crops reuse the reductions
+        with reductions_shared(rgb):
+            people = self.people(rgb, name)
+            alpha = self.alpha(rgb, people) if people else None
         if alpha is None or not (alpha >= 0.5).any():
             raise RelightError(
                 f"no person found in {name} (no body or face the bundled detectors recognise; people shorter than "

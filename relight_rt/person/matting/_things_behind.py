@@ -29,7 +29,10 @@ guitar's neck; its own tail, joined to it before the cut, which the pose graph h
 pixels nearer it than the matte that stays, up to _HALO x the matte's side: the selfie graph's soft take on a blurred
 thing reaches far); the body's soft edge beside it stays. Parts the people's segmentations hardly hold (the own colours'
 parts, relight_rt.person.matting._colours) are not looked at. The matte is read on a grid whose side is at most _SIDE
-pixels on the side of the matte's area (:func:`reading_grid`: a 2.5-MP photo costs what a web photo does). VideoMatter
+pixels on the side of the matte's area (:func:`reading_grid`: a 2.5-MP photo costs what a web photo does); the leaving
+works on the photo's pixels in the box of what can change, but splits the soft rim on blocks of int(1 / s) px (the
+grid's pitch, s its scale: the hard matte is the same as per pixel; 41-521 soft pixels of a 2.5-4.5 MP photo go the
+other way, and none up to twice the grid's side, where a block is a pixel). VideoMatter
 does not apply the rule: a part leaving on some frames and not on others would flicker, and each frame would pay for it.
 
 What each threshold is measured on (benchmarks/people_masks_eval.py --methods ours; chosen on photos half A, four
@@ -45,10 +48,11 @@ reasoning, not fitted. Half A 0.92340 -> 0.92575 (p104's guitar 0.859 -> 0.947, 
 p016's blurred blob 0.927 -> 0.956, p089's foliage below the joined hands 0.918 -> 0.940, p083 and p234 +0.002 and
 +0.001), half B and the clip unchanged (no part qualifies). Time (benchmarks/things_behind_speed.py --before):
 nothing for pose-graph people; with a selfie-graph person, one pose-graph run per region and, when a part would leave,
-one face-graph run (outside PersonMatter.people's shared reductions) and the leaving: 25-70 ms a web photo (p064 29 ->
-42 ms with the soft rim and the tails), p064 enlarged 4x 80 -> 240 ms (its window reaches twice _HALO x the matte's
-side: the whole photo there). Things the rule cannot tell stay: at the photo's bottom border (p192's floor, p265's
-grass), in focus, or sharp where the graphs are unsure. Sharpness is read on the photo's own pixels until the matte is
+the faces (PersonMatter answers them from its people search's face-graph run on the photo) and the leaving: 25-60 ms a
+web photo (p064 29 -> 42 ms with the soft rim and the tails), 130-175 ms at 4.5 MP (p064, p089, p104 enlarged; 210-350
+ms before the blocks and the box, speed17: the window reaches twice _HALO x the matte's side, the whole photo there).
+Things the rule cannot tell stay: at the photo's bottom border (p192's floor, p265's grass), in focus, or sharp where
+the graphs are unsure. Sharpness is read on the photo's own pixels until the matte is
 wider than _SIDE, so it depends on the photo's size: p016's blob enlarged 2x-4x no longer reads blurred against the
 body, and stays.
 """
@@ -171,7 +175,8 @@ def bodily(part: np.ndarray, faces: list[Box]) -> bool:
 
 
 def _leave(alpha: np.ndarray, weight: np.ndarray, seen: np.ndarray, reach: int, halo: float, ramp: float,
-           alone: bool, most: float) -> np.ndarray:  # fmt: skip
+           alone: bool, most: float, step: int = 1, sides: tuple[bool, bool, bool, bool] = (True,) * 4
+           ) -> np.ndarray:  # fmt: skip
     """``alpha`` (a (h, w) window around a part) less the part, whose share of each pixel is ``weight``: alpha x
     (1 - weight); then the pieces of the matte (>= 0.5) left apart from the rest go: those within ``reach`` px of the
     part (slivers along the cut, bits of the part's own soft rim that read >= 0.5; only when the matte lies wholly in
@@ -182,34 +187,104 @@ def _leave(alpha: np.ndarray, weight: np.ndarray, seen: np.ndarray, reach: int, 
     ``ramp`` px of the matte that stays (there the cut stays soft); and each soft pixel (< 0.5) within ``halo`` px of
     the part goes with the nearer of the part and the matte that stays (the part's soft rim leaves, the body's stays).
     The window reaches 2 ``halo`` + 1 px past the part (the matte past it is further from such a pixel than the part)
-    or to the photo's edge."""
+    or to the photo's edge.
+
+    ``sides`` (top, bottom, left, right): whether the matte may go on past each of the window's sides (a piece at
+    one is no tail); where the caller cut the window to the box of what can change, it does not.
+
+    The soft pixels' split is read on blocks of ``step`` x ``step`` px (:func:`_soft_rim`; 1: each pixel), every other
+    decision on the photo's pixels; distances up to ``reach`` and ``ramp`` are measured in boxes around the part
+    only (:func:`_near`), which gives them exactly as over the whole window."""
     _, before = cv2.connectedComponents((alpha >= 0.5).astype(np.uint8), connectivity=8)
     # the pieces joined to the part itself (>= 0.5: its bilinear share reaches ~1 / (2 s) px past it on a reduced grid)
     touched = np.bincount(before[weight >= 0.5], minlength=int(before.max()) + 1) > 0
     touched[0] = False
     out = alpha * (1.0 - weight)
-    to_weight = cv2.distanceTransform((weight <= 0).astype(np.uint8), cv2.DIST_L2, 3)  # (3: a few % off, 4x as fast)
-    zone = to_weight <= reach
+    shared = weight > 0
+    zone = _near(shared, reach)
     hard = (out >= 0.5).astype(np.uint8)
     n, labels, stats, _ = cv2.connectedComponentsWithStats(hard, connectivity=8)
     area = stats[:, cv2.CC_STAT_AREA]
-    joined = np.bincount(labels[touched[before]], minlength=n) > 0  # (so beside the cut: within ``reach``)
-    apart = np.bincount(labels[~zone], minlength=n) == 0  # a piece reaching past the zone goes on into the matte
+    # a piece lies in one piece of the matte before the cut (it only lost pixels): read at its first pixel
+    joined = np.array([False] + [touched[before[at]] for at in _first_pixels(labels, stats)])  # (so within ``reach``)
+    apart = np.bincount(labels[zone], minlength=n) == area  # a piece reaching past the zone goes on into the matte
     apart[0] = False
     if alone and n > 1 and apart[1:].all():
         apart[1 + int(np.argmax(area[1:]))] = False
-    edges = np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]])
-    tail = joined & (np.bincount(edges, minlength=n) == 0) & (area <= most)  # (a piece at the window's edge may go on)
-    tail &= np.bincount(labels[seen], minlength=n) <= _TAIL * area
-    tail[0] = False
-    kept = hard.astype(bool) & ~(apart | tail)[labels]
-    part = (zone | tail[labels]) & (alpha >= 0.5) & ~kept
-    to_kept = (cv2.distanceTransform((~kept).astype(np.uint8), cv2.DIST_L2, 3) if kept.any()
-               else np.full(alpha.shape, np.inf, np.float32))  # fmt: skip
-    to_part = cv2.distanceTransform((~part).astype(np.uint8), cv2.DIST_L2, 3)
-    soft = (to_weight <= halo) & ~part & ~kept
-    out[(part & (to_kept > ramp)) | (soft & (to_part < to_kept))] = 0.0
+    at_edge = np.zeros(n, bool)  # (a piece at the window's edge may go on)
+    for rim, on in zip((labels[0], labels[-1], labels[:, 0], labels[:, -1]), sides, strict=True):
+        at_edge[rim] |= on
+    tail = joined & ~at_edge & (area <= most)
+    for k in np.flatnonzero(tail):  # (few and small: read in their boxes)
+        x, y, bw, bh = stats[k, :4]
+        box = (slice(y, y + bh), slice(x, x + bw))
+        tail[k] = np.count_nonzero((labels[box] == k) & seen[box]) <= _TAIL * area[k]
+    fate = (apart | tail).view(np.uint8) + tail  # per piece: 0 kept, 1 apart, 2 a tail (one look-up for both)
+    fate[0] = 1  # (not the matte)
+    piece = fate[labels]
+    kept = piece == 0
+    part = (zone | (piece == 2)) & (alpha >= 0.5) & ~kept
+    cut = part & ~_near(kept, ramp, part)  # the part's pixels further than ``ramp`` from the matte that stays
+    out[cut | (_soft_rim(shared, part, kept, halo, step) & ~part & ~kept)] = 0.0  # (soft: >= 0.5 is either)
     return out
+
+
+def _first_pixels(labels: np.ndarray, stats: np.ndarray) -> list[tuple[int, int]]:
+    """(row, column) of one pixel of each piece 1, 2, ... of cv2.connectedComponentsWithStats (``labels``, ``stats``):
+    the first of its top row."""
+    out = []
+    for k in range(1, len(stats)):
+        x, y, bw = (int(v) for v in stats[k, :3])
+        out.append((y, x + int(np.argmax(labels[y, x : x + bw] == k))))
+    return out
+
+
+def _near(mask: np.ndarray, reach: float, where: np.ndarray | None = None) -> np.ndarray:
+    """The pixels within ``reach`` px of ``mask`` (bool, (h, w); cv2.distanceTransform's 3x3 L2 mask) among those of
+    ``where`` (default: every pixel), measured in the box around ``where``'s pixels (``mask``'s by default) and
+    reach / 0.95 + 1 px past it: the mask's 3x3 distance is at least 0.955 x the larger of the row and column steps
+    and is taken along a path inside the box of its two ends, so no pixel of ``mask`` outside that box is as near,
+    and one inside it is measured as over the whole array."""
+    near = np.zeros(mask.shape, bool)
+    box = cv2.boundingRect((mask if where is None else where).view(np.uint8))
+    if box[2] == 0 or not mask.any():
+        return near
+    m = int(np.ceil(reach / 0.95)) + 1
+    h, w = mask.shape
+    y0, x0, y1, x1 = max(box[1] - m, 0), max(box[0] - m, 0), min(box[1] + box[3] + m, h), min(box[0] + box[2] + m, w)
+    inside = mask[y0:y1, x0:x1]
+    if inside.any():
+        near[y0:y1, x0:x1] = cv2.distanceTransform((~inside).view(np.uint8), cv2.DIST_L2, 3) <= reach
+    if where is not None:
+        near &= where
+    return near
+
+
+def _soft_rim(weight: np.ndarray, part: np.ndarray, kept: np.ndarray, halo: float, step: int) -> np.ndarray:
+    """(h, w) bool: the pixels within ``halo`` px of ``weight`` (bool, the part's share > 0) and nearer ``part`` than
+    ``kept`` (bool), read on blocks of ``step`` x ``step`` px from the window's corner (a block holds a mask when one
+    of its pixels does; distances between the blocks' centres), each pixel given its block's answer. With ``step`` 1:
+    each pixel's own (cv2.distanceTransform's 3x3 L2 mask, as everywhere here)."""
+    h, w = weight.shape
+    to_weight, to_part = (_distance(_blocks(m, step)) for m in (weight, part))  # (in blocks)
+    to_kept = _distance(_blocks(kept, step)) if kept.any() else np.inf
+    near = (to_weight <= halo / step) & (to_part < to_kept)
+    return near if step == 1 else near.repeat(step, axis=0).repeat(step, axis=1)[:h, :w]
+
+
+def _blocks(mask: np.ndarray, step: int) -> np.ndarray:
+    """(ceil(h / step), ceil(w / step)) bool: whether each ``step`` x ``step`` block of ``mask`` (bool, (h, w); blocks
+    from the top left corner, the last ones cut by the edge) holds a True pixel; ``mask`` itself for a step of 1."""
+    if step == 1:
+        return mask
+    block = np.ones((step, step), np.uint8)  # each pixel the max of the block it starts (0 past the edge)
+    return cv2.dilate(mask.view(np.uint8), block, anchor=(0, 0), borderType=cv2.BORDER_CONSTANT, borderValue=0
+                      )[::step, ::step] > 0  # fmt: skip
+
+
+def _distance(mask: np.ndarray) -> np.ndarray:
+    """(h, w) float32: each pixel's distance to ``mask`` (bool), cv2.distanceTransform's 3x3 L2 mask."""
+    return cv2.distanceTransform((~mask).view(np.uint8), cv2.DIST_L2, 3)  # (3: a few % off, 4x as fast as 5)
 
 
 def reading_grid(inside: np.ndarray) -> tuple[Grid, tuple[int, int, int, int], float]:
@@ -277,11 +352,19 @@ def without_things_behind(
     if s < 1.0:  # the part's share of each pixel of the photo (a soft cut, not a staircase of grid pixels)
         weight = cv2.resize(weight, (x1 - x0, y1 - y0), interpolation=cv2.INTER_LINEAR)
     r = band_width(alpha.shape)  # how far the slivers its cut leaves reach
-    ys, xs = np.nonzero(weight > 0)
+    px, py, pw, ph = cv2.boundingRect((weight > 0).view(np.uint8))  # the part's box
     halo = max(float(r), _HALO * np.sqrt(float(area)))  # how far its soft rim is cleared (the matte's size's)
     m = int(np.ceil(2 * halo)) + 2
-    wx0, wy0 = max(x0 + int(xs.min()) - m, 0), max(y0 + int(ys.min()) - m, 0)
-    wx1, wy1 = min(x0 + int(xs.max()) + m + 1, w), min(y0 + int(ys.max()) + m + 1, h)
+    wx0, wy0 = max(x0 + px - m, 0), max(y0 + py - m, 0)
+    wx1, wy1 = min(x0 + px + pw + m, w), min(y0 + py + ph + m, h)
+    alone = cv2.countNonZero(inside[wy0:wy1, wx0:wx1]) == area  # no matte past the window
+    # only the window's matte (> 0) and the part's share change: the leaving reads their box (the window's sides
+    # that it keeps are those a piece may go on past)
+    mx, my, mw, mh = cv2.boundingRect((alpha[wy0:wy1, wx0:wx1] > 0).view(np.uint8))
+    cx0, cy0 = min(wx0 + mx, x0 + px), min(wy0 + my, y0 + py)
+    cx1, cy1 = max(wx0 + mx + mw, x0 + px + pw), max(wy0 + my + mh, y0 + py + ph)
+    sides = (cy0 == wy0, cy1 == wy1, cx0 == wx0, cx1 == wx1)
+    wx0, wy0, wx1, wy1 = cx0, cy0, cx1, cy1
     share = np.zeros((wy1 - wy0, wx1 - wx0), np.float32)
     iy0, iy1, ix0, ix1 = max(y0, wy0), min(y1, wy1), max(x0, wx0), min(x1, wx1)
     share[iy0 - wy0 : iy1 - wy0, ix0 - wx0 : ix1 - wx0] = weight[iy0 - y0 : iy1 - y0, ix0 - x0 : ix1 - x0]
@@ -289,8 +372,7 @@ def without_things_behind(
     sure = sure if s >= 1.0 else cv2.resize(sure, (x1 - x0, y1 - y0), interpolation=cv2.INTER_LINEAR)
     looked = np.zeros(share.shape, bool)
     looked[iy0 - wy0 : iy1 - wy0, ix0 - wx0 : ix1 - wx0] = sure[iy0 - y0 : iy1 - y0, ix0 - x0 : ix1 - x0] > 0
-    alone = cv2.countNonZero(inside[wy0:wy1, wx0:wx1]) == area  # no matte past the window
     out = alpha.copy()
     out[wy0:wy1, wx0:wx1] = _leave(alpha[wy0:wy1, wx0:wx1], share, looked, r, halo, 1.0 / s + 1.0, alone,
-                                   _MAX_PART * area)  # fmt: skip
+                                   _MAX_PART * area, int(1.0 / s), sides)  # fmt: skip
     return out

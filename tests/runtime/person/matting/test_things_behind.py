@@ -362,6 +362,37 @@ def test_a_couples_blurred_partner_stays_and_the_foliage_leaves(probes):
     assert probes.E.iou(out >= 0.5, gt) > probes.E.iou(alpha >= 0.5, gt) + 0.01
 
 
+class _Counted:
+    """A graph that counts its runs."""
+
+    def __init__(self, model):
+        self.model, self.runs = model, 0
+
+    def run(self, feeds):
+        self.runs += 1
+        return self.model.run(feeds)
+
+
+def test_the_matter_runs_the_face_graph_once_where_a_part_leaves(probes):
+    """The things-behind step asks for the whole photo's faces, which the people search found already: the matter
+    answers it from the same photo's block (relight_rt.image.regions.reductions_shared) instead of a second run."""
+    import copy
+
+    from relight_rt.person.matting import shared_matter
+
+    rgb, _ = probes.read("p104")  # a guitar behind the girl's shoulder leaves
+    matter = copy.copy(shared_matter())  # (the shared matter is left as it is)
+    matter.face = _Counted(matter.face)
+    people, before = probes.before_rule(matter, rgb)  # (the rule left out: no faces asked for the matte)
+    searched = matter.face.runs
+    assert searched >= 1
+    matter.face.runs = 0
+    alpha = matter(rgb)
+    assert probes.taken(before, alpha) > 0.02  # the part leaves: the faces were asked for ...
+    assert matter.face.runs == searched  # ... and no run was added to the people search's (before: one more)
+    np.testing.assert_array_equal(alpha, probes.rule(matter, rgb, before, people))  # the same matte
+
+
 # -- the second review (mend21b) ---------------------------------------------------------------------------------------
 
 
@@ -546,3 +577,82 @@ def test_a_piece_beside_a_part_read_on_a_reduced_grid_is_not_its_tail(scale, gap
     out = tb._leave(alpha, weight, np.zeros(alpha.shape, bool), 3, 3.0, 4.0, False, 5000.0)
     assert (out[piece] >= 0.5).all()  # before: none of it
     assert (out[part & (yy < bottom - 10)] < 0.5).all()  # the part itself leaves
+
+
+# -- speed17: the leaving's cost at large photos -----------------------------------------------------------------------
+
+
+def _dt(mask: np.ndarray) -> np.ndarray:
+    return cv2.distanceTransform((~mask).astype(np.uint8), cv2.DIST_L2, 3)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_near_measured_in_a_box_is_the_whole_windows_distance(seed):
+    rng = np.random.default_rng(seed)
+    h, w = rng.integers(60, 160, 2)
+    mask = np.zeros((h, w), bool)
+    y, x = rng.integers(10, h - 10), rng.integers(10, w - 10)
+    mask[y - 5 : y + 5, x - 8 : x + 3] = rng.random((10, 11)) > 0.3  # a ragged part in the middle
+    for reach in (1.0, 4.5, 13.0, 40.0):
+        np.testing.assert_array_equal(tb._near(mask, reach), _dt(mask) <= reach)
+    where = np.zeros((h, w), bool)
+    where[rng.integers(0, h, 30), rng.integers(0, w, 30)] = True
+    kept = rng.random((h, w)) > 0.97  # the matte that stays, scattered over the window
+    for ramp in (1.0, 2.5, 6.0):
+        np.testing.assert_array_equal(tb._near(kept, ramp, where), where & (_dt(kept) <= ramp))
+    assert not tb._near(np.zeros((h, w), bool), 5.0).any() and not tb._near(kept, 5.0, np.zeros((h, w), bool)).any()
+
+
+def test_blocks_hold_a_pixel_where_one_of_theirs_does():
+    mask = np.zeros((7, 10), bool)
+    mask[0, 0] = mask[4, 5] = mask[6, 9] = True  # the last block row and column are cut by the edge
+    blocks = tb._blocks(mask, 3)
+    assert blocks.shape == (3, 4)
+    assert np.array_equal(np.argwhere(blocks), [[0, 0], [1, 1], [2, 3]])
+    assert tb._blocks(mask, 1) is mask
+
+
+def _soft_scene() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(alpha, weight, seen) of a window: a body (x > 110) and a part (a disc) joined by a neck, each with a wide
+    soft rim that meets the other's between them."""
+    yy, xx = np.mgrid[0:160, 0:200] + 0.5
+    part = (xx - 60) ** 2 + (yy - 80) ** 2 < 25**2
+    body = (xx > 110) | ((np.abs(yy - 80) < 6) & (xx > 80))
+    alpha = 0.9 * cv2.GaussianBlur((part | body).astype(np.float32), (0, 0), 6.0)  # (< 0.5 outside them)
+    alpha[part | body] = 1.0
+    weight = cv2.GaussianBlur(part.astype(np.float32), (0, 0), 1.0)
+    weight[weight < 0.02] = 0.0
+    return alpha.astype(np.float32), weight.astype(np.float32), np.zeros(alpha.shape, bool)
+
+
+def test_the_soft_rim_read_on_blocks_moves_only_soft_pixels_by_the_cut():
+    alpha, weight, seen = _soft_scene()
+    exact = tb._leave(alpha, weight, seen, 4, 30.0, 2.0, True, 5000.0)
+    rim = (alpha > 0) & (alpha < 0.5) & (exact == 0)
+    assert rim.sum() > 1000  # the part's soft rim leaves ...
+    assert (exact[(alpha > 0) & (alpha < 0.5) & (np.mgrid[0:160, 0:200][1] > 120)] > 0).all()  # ... the body's stays
+    for step in (2, 3, 5):
+        blocks = tb._leave(alpha, weight, seen, 4, 30.0, 2.0, True, 5000.0, step)
+        moved = blocks != exact
+        np.testing.assert_array_equal(blocks >= 0.5, exact >= 0.5)  # the hard matte as it was
+        assert moved.sum() < 0.05 * rim.sum() and (alpha[moved] < 0.5).all()
+        # each moved pixel lies within a block of the split between the part and the body, or of the halo's end
+        part_px = (exact == 0) & (alpha >= 0.5)
+        to_part, to_kept, to_weight = _dt(part_px), _dt(exact >= 0.5), _dt(weight > 0)
+        assert (np.minimum(np.abs(to_part - to_kept), np.abs(to_weight - 30.0))[moved] <= 2 * step).all()
+
+
+@pytest.mark.parametrize("pad", [(0, 0, 0, 0), (7, 0, 12, 3), (20, 15, 9, 11)])
+def test_a_window_cut_to_the_box_of_what_changes_gives_the_same_matte(pad):
+    alpha, weight, seen = _soft_scene()
+    yy, xx = np.mgrid[0:160, 0:200] + 0.5
+    tail = (xx > 35) & (xx < 55) & (yy > 95)  # joined to the part, unseen: its tail, down to the box's bottom
+    alpha[tail] = np.maximum(alpha[tail], 0.8)
+    tail &= weight == 0
+    top, bottom, left, right = pad  # the window before the cut reached this far past the box (nothing of the matte)
+    big = [np.pad(a, ((top, bottom), (left, right))) for a in (alpha, weight, seen)]
+    whole = tb._leave(*big, 4, 30.0, 2.0, False, 5000.0)
+    sides = (top == 0, bottom == 0, left == 0, right == 0)
+    cut = tb._leave(alpha, weight, seen, 4, 30.0, 2.0, False, 5000.0, 1, sides)
+    np.testing.assert_array_equal(whole[top : top + 160, left : left + 200], cut)
+    assert (cut[tail] < 0.5).all() == (bottom > 0)  # at the window's bottom edge the tail may go on: it stays
