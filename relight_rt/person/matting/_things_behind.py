@@ -82,6 +82,7 @@ _RING = 3  # the ring's width (grid px)
 _NECK = 0.5  # a face's person goes on this x the face's width below its box (the chin, the neck)
 _MARGIN = 12  # grid px read around the matte's bounding box (the ring, and the blurs' reach)
 _TAIL = 0.1  # a piece cut off beside the part goes with it when the pose graph sees at most this share of it
+_FEW_PIECES = 256  # more pieces than this: joined read in one window-wide look-up, not one per piece
 _HALO = 0.5  # a part's soft rim is cleared up to this x the matte's side (square root of its area, px) from it
 _REACH = 9  # grid px: three sigmas of the mid-scale blur of _behind.details, read around the matte
 
@@ -205,8 +206,14 @@ def _leave(alpha: np.ndarray, weight: np.ndarray, seen: np.ndarray, reach: int, 
     hard = (out >= 0.5).astype(np.uint8)
     n, labels, stats, _ = cv2.connectedComponentsWithStats(hard, connectivity=8)
     area = stats[:, cv2.CC_STAT_AREA]
-    # a piece lies in one piece of the matte before the cut (it only lost pixels): read at its first pixel
-    joined = np.array([False] + [touched[before[at]] for at in _first_pixels(labels, stats)])  # (so within ``reach``)
+    # a piece lies in one piece of the matte before the cut (it only lost pixels): read at its first pixel, or with
+    # one window-wide look-up where the pieces are too many for a loop (specks: the same answer)
+    if n - 1 <= _FEW_PIECES:
+        joined = np.array([False] + [touched[before[at]] for at in _first_pixels(labels, stats)])  # (within ``reach``)
+    else:
+        joined = np.zeros(n, bool)
+        joined[labels[touched[before]]] = True
+        joined[0] = False
     apart = np.bincount(labels[zone], minlength=n) == area  # a piece reaching past the zone goes on into the matte
     apart[0] = False
     if alone and n > 1 and apart[1:].all():
