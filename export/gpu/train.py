@@ -6,7 +6,8 @@ It renders samples on the training device (:mod:`export.gpu.render`) into a pool
 in part (up to ``--fresh-per-step`` samples, while rendering has taken at most ``--render-share`` of the
 time: whichever of rendering and training is faster on the device, neither starves the other), trains
 on random batches of the pool, each sample under a random training light of the bank and flipped at random
-(as export.torch_data does), with the loss of ``train-stage1`` and Adam, the learning rate falling along
+(as export.torch_data does), with the loss of ``train-stage1`` (by default with the shipped stage 1's band and
+direction terms, ``--band-weight 2 --direction-weight 5``) and Adam, the learning rate falling along
 one cosine from ``--lr`` to ``--lr-min`` over the time there is. It starts from the shipped stage 1
 (export.warm_start) unless told otherwise. The last ``--val-people`` people of the bank are held out of
 training (:mod:`export.gpu.validate`): their loss is measured before the first step and every ``--val-every``
@@ -68,8 +69,8 @@ class GpuTrainConfig:
     lr: float = 3e-4
     lr_min: float = 3e-5
     sf_scale: float = 0.2
-    band_weight: float = 0.0
-    direction_weight: float = 0.0
+    band_weight: float = 2.0  # the shipped stage 1's recipe (models/README.md): without them the bands shrink
+    direction_weight: float = 5.0
     val_people: int = 4
     val_samples: int = 32
     val_every: float = 30.0
@@ -110,7 +111,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--lr-min", type=float, default=d.lr_min, help="learning rate at the deadline")
     parser.add_argument("--sf-scale", type=float, default=d.sf_scale, help="factor on the SF loss bands")
     parser.add_argument("--band-weight", type=float, default=d.band_weight,
-                        help="weight of the transport band-magnitude loss (as train-stage1; default %(default)s)")
+                        help="weight of the transport band-magnitude loss (as train-stage1; default %(default)s, the "
+                             "shipped stage 1's: without it the degree-2 band shrinks)")
     parser.add_argument("--direction-weight", type=float, default=d.direction_weight,
                         help="weight of the degree-1 direction loss (as train-stage1; default %(default)s)")
     parser.add_argument("--val-people", type=int, default=d.val_people,
@@ -422,7 +424,9 @@ def run(config: GpuTrainConfig) -> int:
             if state["step"] % config.log_every == 0:
                 logger.write({"event": "step", "step": state["step"], "elapsed_s": time.monotonic() - start,
                               "lr": optimizer.param_groups[0]["lr"], "total": value,
-                              "rendered": sampler.rendered, "render_s": sampler.seconds, "train_s": state["train_s"]})
+                              "rendered": sampler.rendered, "render_s": sampler.seconds, "train_s": state["train_s"],
+                              **{k: float(terms[k].detach()) for k in ("transport_bands", "transport_direction")
+                                 if k in terms}})
             if time.monotonic() - last_ckpt >= config.checkpoint_every:
                 save_checkpoint(out / "last.pt", model, step=state["step"], meta=json.dumps({"command": "gpu-train"}))
                 logger.write({"event": "checkpoint", "step": state["step"], "elapsed_s": time.monotonic() - start})

@@ -253,3 +253,16 @@ def test_split_people_holds_out_the_last_ones():
 
     assert split_people(["a", "b", "c", "d"], 2) == (["a", "b"], ["c", "d"])
     assert split_people(["a"], 0) == (["a"], [])
+
+
+@pytest.mark.parametrize("extra, logged", [
+    ([], {"transport_bands", "transport_direction"}),  # the shipped stage 1's recipe by default
+    (["--band-weight", "0", "--direction-weight", "0"], set()),  # the paper's objective, as the first lend ran
+])
+def test_the_band_and_direction_terms_are_trained_by_default(bank_dir, tmp_path, extra, logged):
+    out = tmp_path / "run"
+    assert main(["gpu-train", "--bank", str(bank_dir), "--out", str(out), "--init", "none", "--max-steps", "1",
+                 *TINY, *extra]) == 0
+    step = next(r for r in read_jsonl(out / "log.jsonl") if r["event"] == "step")
+    assert {"transport_bands", "transport_direction"} & set(step) == logged
+    assert all(step[k] > 0 for k in logged)
