@@ -8,7 +8,9 @@ Renders (once, cached in ``--cache``) stage-1 samples of three kinds and scores 
   ``--embree-dirs``) on the bank's meshes and 512-px textures: the renderer alone differs from ``new/torch``;
 - ``new/embree``: the same, from the person rebuilt by ``python -m export render``'s own code (full-size textures):
   what the shipped stage 1's training data and the held-out renders are (needs anny; skipped without it);
-- ``new256/torch`` (with ``--new256``): the same people from a bank of 256-px textures, torch renderer.
+- ``new256/torch`` (with ``--new256``): the same people from a bank of 256-px textures, torch renderer;
+- ``heldout/embree`` and ``heldout/photo`` (with ``--heldout``): the people of benchmarks/heldout_change.py, their
+  diffuse inputs, then their non-diffuse photos (render-photos) as the input (each under its own lamp).
 
 Each sample is scored under fixed lights (``--bank-lights`` of the bank's training lights and the six lamps of
 benchmarks/heldout_change.py, projected to SH): the input image is clip(a ⊙ max(0, t·l), 0, 1) ⊙ mask as in
@@ -110,7 +112,37 @@ def render_sets(args) -> dict[str, list[dict]]:
             print(f"{kind} {name} {framing} yaw {yaw:+.0f}: {time.monotonic() - t0:.0f} s", flush=True)
         with np.load(path) as z:
             sets.setdefault(kind, []).append({k: z[k] for k in z.files} | {"name": name, "framing": framing})
+    if args.heldout is not None:
+        sets.update(heldout_sets(Path(args.heldout)))
     return sets
+
+
+def heldout_sets(root: Path) -> dict[str, list[dict]]:
+    """The people of benchmarks/heldout_change.py (``make``'s folder): ``heldout/embree``, their embree samples
+    (test_FRAMING); ``heldout/photo``, the same with the photos of render-photos (photos_FRAMING: non-diffuse,
+    under the lamps) as the input in place of the diffuse image, each photo with its own true light."""
+    import cv2
+
+    from export import dataset
+
+    sets: dict[str, list[dict]] = {"heldout/embree": [], "heldout/photo": []}
+    for test in sorted(root.glob("test_*")):
+        framing = test.name.split("_", 1)[1]
+        photos = root / f"photos_{framing}"
+        for name in dataset.list_samples(test):
+            s = dataset.read_sample(test, name)
+            sample = {"albedo": s["albedo"], "mask": s["mask"][..., None], "skin": s["skin"][..., None],
+                      "transport": s["transport"], "name": name, "framing": framing}
+            sets["heldout/embree"].append(sample)
+            shots = []
+            for f in sorted(photos.glob(f"{name}__L*_photo.png")):
+                bgr = cv2.imread(str(f), cv2.IMREAD_COLOR)
+                light = np.load(str(f).replace("_photo.png", "_light.npy"), allow_pickle=False)[:, ::-1]
+                shots.append((cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB).astype(np.float32) / 255,
+                              np.ascontiguousarray(light, np.float32)))
+            if shots:
+                sets["heldout/photo"].append(sample | {"photos": shots})
+    return {k: v for k, v in sets.items() if v}
 
 
 def _band_ratio(t, m) -> float:
@@ -138,16 +170,21 @@ def score(sets: dict[str, list[dict]], graphs: dict[str, Path], lights: np.ndarr
             for s in samples:
                 b = {k: torch.as_tensor(s[k].transpose(2, 0, 1))[None].float() for k in
                      ("albedo", "mask", "skin", "transport")}
-                n = len(light_t)
-                batch = {k: v.expand(n, -1, -1, -1) for k, v in b.items()} | {"light": light_t}
+                own = light_t
+                if "photos" in s:  # the photos are the input, each under its own light
+                    own = torch.as_tensor(np.stack([light for _, light in s["photos"]]))
+                n = len(own)
+                batch = {k: v.expand(n, -1, -1, -1) for k, v in b.items()} | {"light": own}
                 image = render_diffuse(batch["albedo"], batch["transport"], batch["light"], batch["mask"])
+                if "photos" in s:
+                    image = torch.as_tensor(np.stack([p.transpose(2, 0, 1) for p, _ in s["photos"]])) * batch["mask"]
                 pred = stage.run({"image": image, "mask": batch["mask"]})
                 m = batch["mask"] > 0.5
                 for i in range(n):
                     one = {k: v[i : i + 1] for k, v in batch.items()}
                     p = {k: pred[k][i : i + 1] for k in ("transport", "albedo", "skin", "light")}
                     terms = loss_fn(p, one)
-                    other = light_t[(i + 1) % n][None]
+                    other = own[(i + 1) % n][None]
                     relit = (p["albedo"] * shade(p["transport"], other).clamp_min(0)).clamp(0, 1)
                     truth = (one["albedo"] * shade(one["transport"], other).clamp_min(0)).clamp(0, 1)
                     mi = m[i : i + 1].expand_as(relit)
@@ -170,6 +207,7 @@ def main(argv=None) -> int:
     p.add_argument("--bank", type=Path, required=True, help="the training bank")
     p.add_argument("--new", type=Path, required=True, help="a bank of people never trained on")
     p.add_argument("--new256", type=Path, help="the --new people in a bank of smaller textures (optional)")
+    p.add_argument("--heldout", type=Path, help="benchmarks/heldout_change.py make's folder (optional)")
     p.add_argument("--cache", type=Path, required=True, help="rendered samples are kept here")
     p.add_argument("--graphs", nargs="+", required=True, help="NAME=PATH stage-1 graphs")
     p.add_argument("--n-bank", type=int, default=6)
@@ -179,12 +217,14 @@ def main(argv=None) -> int:
     p.add_argument("--shadow-size", type=int, default=256)
     p.add_argument("--embree-dirs", type=int, default=128)
     p.add_argument("--bank-lights", type=int, default=4)
+    p.add_argument("--sets", nargs="+", help="score only these sets (default: all)")
     p.add_argument("--json", type=Path)
     args = p.parse_args(argv)
     from export.gpu import bank
 
     graphs = {g.split("=", 1)[0]: Path(g.split("=", 1)[1]) for g in args.graphs}
     sets = render_sets(args)
+    sets = {k: v for k, v in sets.items() if not args.sets or k in args.sets}
     bank_lights = bank.read_lights(args.bank, bank.read_index(args.bank))
     picked = bank_lights[np.random.default_rng(3).choice(len(bank_lights), args.bank_lights, replace=False)]
     result = {"albedo_mae_vs_full_textures": {}}
@@ -196,14 +236,15 @@ def main(argv=None) -> int:
                 result["albedo_mae_vs_full_textures"][sname] = float(np.mean(errs))
         print("albedo MAE against the full-size textures:", result["albedo_mae_vs_full_textures"])
     for lname, lights in (("bank lights", picked), ("lamps", lamp_lights())):
-        result[lname] = score(sets, graphs, lights)
+        chosen = {k: v for k, v in sets.items() if lname == "lamps" or k != "heldout/photo"}  # photos: own lamps
+        result[lname] = score(chosen, graphs, lights)
         print(f"\n{lname}: loss / transport L1 / relit RMSE / degree-2/0 (truth)")
-        for sname in sets:
+        for sname in result[lname][next(iter(graphs))]:
             cells = [f"{g} {r[sname]['loss']:.3f} / {r[sname]['transport_l1']:.4f} / {r[sname]['relit_rmse']:.4f} / "
                      f"{r[sname]['band2']:.2f} ({r[sname]['band2_true']:.2f})" for g, r in result[lname].items()]
             print(f"  {sname:16s} " + " | ".join(cells))
         print(f"{lname}: albedo L1 / light L1 / band loss / direction loss")
-        for sname in sets:
+        for sname in result[lname][next(iter(graphs))]:
             cells = [f"{g} {r[sname]['albedo_l1']:.4f} / {r[sname]['light_l1']:.4f} / {r[sname]['band_loss']:.4f} / "
                      f"{r[sname]['direction_loss']:.4f}" for g, r in result[lname].items()]
             print(f"  {sname:16s} " + " | ".join(cells))
