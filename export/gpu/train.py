@@ -10,8 +10,9 @@ on random batches of the pool, each sample under a random training light of the 
 direction terms, ``--band-weight 2 --direction-weight 5``) and Adam, the learning rate falling along
 one cosine from ``--lr`` to ``--lr-min`` over the time there is. It starts from the shipped stage 1
 (export.warm_start) unless told otherwise. The last ``--val-people`` people of the bank are held out of
-training (:mod:`export.gpu.validate`): their loss is measured before the first step and every ``--val-every``
-seconds, and the weights of the lowest one are the ones exported (``best.pt``; ``last.pt`` holds the last).
+training (:mod:`export.gpu.validate`): their relit RMSE and loss are measured before the first step and every
+``--val-every`` seconds, and the weights of the lowest ``--val-metric`` are the ones exported (``best.pt``;
+``last.pt`` holds the last).
 
 Whatever happens, the run folder ends with ``stage1.onnx`` (the best weights on the held-out people, or the
 last ones without any, exported with the usual checks), ``last.pt`` and ``best.pt`` (weights only: under 16 MiB
@@ -74,6 +75,7 @@ class GpuTrainConfig:
     val_people: int = 4
     val_samples: int = 32
     val_every: float = 30.0
+    val_metric: str = "relit_rmse"
     seed: int = 0
     device: str = "auto"
     checkpoint_every: float = 60.0
@@ -122,6 +124,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="validation samples of the held-out people, rendered once (default %(default)s)")
     parser.add_argument("--val-every", type=float, default=d.val_every,
                         help="seconds between validations (default %(default)s)")
+    parser.add_argument("--val-metric", choices=("relit_rmse", "loss"), default=d.val_metric,
+                        help="the held-out figure whose lowest value picks the exported weights (default "
+                             "%(default)s: the first lend lowered the loss on new people without relighting them "
+                             "better)")
     parser.add_argument("--seed", type=int, default=d.seed)
     parser.add_argument("--device", default=d.device, help="auto (CUDA when present), cpu, cuda, ...")
     parser.add_argument("--checkpoint-every", type=float, default=d.checkpoint_every, help="seconds")
@@ -141,7 +147,7 @@ def config_from_args(args: argparse.Namespace) -> GpuTrainConfig:
         dirs=args.dirs, shadow_size=args.shadow_size, framings=args.framings, max_yaw=args.max_yaw, lr=args.lr,
         lr_min=args.lr_min, sf_scale=args.sf_scale, band_weight=args.band_weight,
         direction_weight=args.direction_weight, val_people=args.val_people, val_samples=args.val_samples,
-        val_every=args.val_every, seed=args.seed, device=args.device,
+        val_every=args.val_every, val_metric=args.val_metric, seed=args.seed, device=args.device,
         checkpoint_every=args.checkpoint_every, export_reserve=args.export_reserve, max_steps=args.max_steps,
         log_every=max(1, args.log_every), amp=args.amp,
     )
@@ -191,6 +197,8 @@ def _check(config: GpuTrainConfig) -> None:
     if not (config.band_weight >= 0 and config.direction_weight >= 0):
         raise RelightError(f"expected --band-weight >= 0 and --direction-weight >= 0, got {config.band_weight} and "
                            f"{config.direction_weight}")
+    if config.val_metric not in ("relit_rmse", "loss"):
+        raise RelightError(f"--val-metric: expected relit_rmse or loss, got {config.val_metric!r}")
     if config.val_people < 0 or config.val_samples < 1 or not config.val_every > 0:
         raise RelightError(f"expected --val-people >= 0, --val-samples >= 1 and --val-every > 0, got "
                            f"{config.val_people}, {config.val_samples} and {config.val_every}")
@@ -359,13 +367,13 @@ def run(config: GpuTrainConfig) -> int:
     def validate() -> None:
         """Measure the held-out loss now; keep (and write) the weights when it is the lowest so far."""
         t0 = time.monotonic()
-        value = state["val"].loss(model, loss_fn, config.batch_size, config.amp)
-        if state["best"].offer(model, state["step"], value):
-            save_checkpoint(out / "best.pt", model, step=state["step"], meta=json.dumps({"command": "gpu-train",
-                                                                                       "val_loss": value}))
+        figures = state["val"].measure(model, loss_fn, config.batch_size, config.amp)
+        if state["best"].offer(model, state["step"], figures[config.val_metric]):
+            meta = {"command": "gpu-train", **{f"val_{k}": v for k, v in figures.items()}}
+            save_checkpoint(out / "best.pt", model, step=state["step"], meta=json.dumps(meta))
         state["val_s"] += time.monotonic() - t0
         logger.write({"event": "val", "step": state["step"], "elapsed_s": time.monotonic() - start,
-                      "val_loss": value, "best_step": state["best"].step})
+                      **{f"val_{k}": v for k, v in figures.items()}, "best_step": state["best"].step})
 
     previous = signal.signal(signal.SIGTERM, _on_sigterm)
     stop_at = start + config.deadline - config.export_reserve
@@ -494,14 +502,15 @@ def _finish(config, model, sampler, state, start, index, device_name, logger) ->
         "loss_last": float(np.mean(losses[-k:])) if losses else None,
         "elapsed_s": round(elapsed, 1), "init": state["init"], "onnx": exported["path"] if exported else None,
         "subjects": len(index["subjects"]), "trained_people": len(sampler.subjects), "exported": chosen,
-        "val": None if state["val"] is None else {**best.summary(), "people": state["val"].names,
+        "val": None if state["val"] is None else {**best.summary(), "metric": config.val_metric,
+                                                  "people": state["val"].names,
                                                   "samples": len(state["val"]), "seconds": round(state["val_s"], 2)},
         "config": {k2: str(v) for k2, v in asdict(config).items()},
     }
     write_json(out / "summary.json", summary)
     logger.write({"event": "end", **{k2: v for k2, v in summary.items() if k2 != "config"}})
-    log.info("gpu-train: %s after %d steps, %d samples rendered (%.2f/s), loss %s -> %s, %.0f s; held-out loss "
+    log.info("gpu-train: %s after %d steps, %d samples rendered (%.2f/s), loss %s -> %s, %.0f s; held-out %s "
              "%s -> best %s at step %s; onnx (%s weights): %s", state["stopped"], state["step"], sampler.rendered,
-             summary["samples_per_s"], summary["loss_first"], summary["loss_last"], elapsed, best.first,
-             None if best.step is None else best.loss, best.step, chosen, summary["onnx"] or export_error)
+             summary["samples_per_s"], summary["loss_first"], summary["loss_last"], elapsed, config.val_metric,
+             best.first, None if best.step is None else best.loss, best.step, chosen, summary["onnx"] or export_error)
     return 0 if state["error"] is None and exported is not None else 1

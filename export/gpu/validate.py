@@ -4,10 +4,12 @@ The first lend's run trained 7,450 steps on 48 bank people and came back worse o
 with nothing inside the run to tell (docs/GPU.md, "What the first lend taught"). Here the last ``--val-people``
 people of the bank (in its order, so every run holds out the same ones) are never trained on; ``--val-samples``
 samples of them are rendered once at the start with fixed seeds (person, framing of the mix in turn, turn, light:
-all drawn from ``--seed``, none flipped), and the validation loss (the training loss, network in eval mode) is
-measured before the first step and then every ``--val-every`` seconds. The weights of the lowest one are kept
-(on the device and in ``best.pt``) and are the ones exported: a run whose training only overfits exports the
-weights it started from.
+all drawn from ``--seed``, none flipped). Two figures are measured before the first step and then every
+``--val-every`` seconds, network in eval mode: the training loss, and the relit RMSE (Â ⊙ max(0, T̂·l') against
+a ⊙ max(0, t·l') under a second light l' of each sample, both clipped to [0, 1], in the mask). The weights of
+the lowest ``--val-metric`` (the relit RMSE by default: the first lend's run lowered the loss on new people
+without relighting them any better) are kept, on the device and in ``best.pt``, and are the ones exported: a
+run whose training only overfits exports the weights it started from.
 """
 
 from __future__ import annotations
@@ -48,31 +50,35 @@ class HeldOut:
 
         rng = np.random.default_rng([seed, 0x7A1])
         device = lights.device
-        data, light_index = [], []
+        data, light_index, other_index = [], [], []
         self.names = [s.name for s in subjects]
         with torch.no_grad():
             for i in range(n):
                 yaw = float(rng.uniform(-max_yaw, max_yaw))
                 light_index.append(int(rng.integers(len(lights))))
+                other_index.append(int(rng.integers(len(lights))))
                 s = render_sample(subjects[i % len(subjects)], settings, framing=framings[i % len(framings)],
                                   yaw_deg=yaw, generator=torch.Generator().manual_seed(seed * 1_000_003 + i))
                 data.append(torch.cat([s["albedo"], s["mask"], s["skin"], s["transport"]]).to(torch.float16))
         self.data = torch.stack(data)
         self.lights = lights[torch.as_tensor(light_index, device=device)]
+        self.others = lights[torch.as_tensor(other_index, device=device)]
 
     def __len__(self) -> int:
         return len(self.data)
 
-    def loss(self, model, loss_fn, batch_size: int, amp: bool) -> float:
-        """Mean training loss over the samples, ``model`` in eval mode (its mode is restored)."""
+    def measure(self, model, loss_fn, batch_size: int, amp: bool) -> dict[str, float]:
+        """{"loss": mean training loss, "relit_rmse": mean relit RMSE} over the samples (module doc), ``model`` in
+        eval mode (its mode is restored)."""
         import torch
 
+        from export.shading import shade
         from export.torch_data import render_input
         from export.training import autocast
 
         was_training = model.training
         model.eval()
-        total = 0.0
+        total = relit = 0.0
         try:
             with torch.no_grad():
                 for s in range(0, len(self.data), batch_size):
@@ -83,9 +89,15 @@ class HeldOut:
                         t, a, k, light = model((2.0 * render_input(batch) - 1.0) * batch["mask"])
                         terms = loss_fn({"transport": t, "albedo": a, "skin": k, "light": light}, batch)
                     total += float(terms["total"]) * len(x)
+                    other = self.others[s : s + batch_size]
+                    ours = (a.float() * shade(t.float(), other).clamp_min(0.0)).clamp(0.0, 1.0)
+                    truth = (batch["albedo"] * shade(batch["transport"], other).clamp_min(0.0)).clamp(0.0, 1.0)
+                    m = batch["mask"]
+                    err = ((ours - truth) ** 2 * m).sum((1, 2, 3)) / (3.0 * m.sum((1, 2, 3))).clamp_min(1.0)
+                    relit += float(err.sqrt().sum())
         finally:
             model.train(was_training)
-        return total / len(self.data)
+        return {"loss": total / len(self.data), "relit_rmse": relit / len(self.data)}
 
 
 class Best:

@@ -218,27 +218,33 @@ def test_held_out_people_are_never_trained_on_and_their_loss_is_logged(bank_dir,
     assert val["checks"] == 3 and val["last_step"] == 2  # before the first step, then after each of the two
     records = read_jsonl(out / "log.jsonl")
     assert records[0]["val_people"] == ["shapes_300001"]
-    losses = [r["val_loss"] for r in records if r["event"] == "val"]
-    assert len(losses) == 3 and all(np.isfinite(losses))
-    assert val["best"] == min(losses) and summary["exported"] == f"best (step {val['best_step']})"
+    vals = [r for r in records if r["event"] == "val"]
+    assert len(vals) == 3 and all(np.isfinite([r["val_loss"] for r in vals]))
+    relit = [r["val_relit_rmse"] for r in vals]
+    assert all(0 < x < 1 for x in relit) and val["metric"] == "relit_rmse"
+    assert val["best"] == min(relit) and summary["exported"] == f"best (step {val['best_step']})"
     assert (out / "best.pt").is_file()
 
 
-def test_the_weights_of_the_lowest_held_out_loss_are_exported(bank_dir, tmp_path, monkeypatch):
+@pytest.mark.parametrize("metric, winner", [("relit_rmse", 2), ("loss", 1)])
+def test_the_weights_of_the_lowest_held_out_figure_are_exported(bank_dir, tmp_path, monkeypatch, metric, winner):
     """Training that only overfits must not ship: the graph is the one of the best validation, not the last."""
     from export.gpu import validate
 
-    scripted = iter([1.0, 0.5, 2.0, 3.0])  # before step 1, after steps 1, 2 and 3: step 1 wins
-    monkeypatch.setattr(validate.HeldOut, "loss", lambda self, *a, **k: next(scripted))
+    # before step 1, after steps 1, 2 and 3: the loss is lowest after step 1, the relit RMSE after step 2
+    scripted = iter([{"loss": 1.0, "relit_rmse": 0.3}, {"loss": 0.5, "relit_rmse": 0.4},
+                     {"loss": 2.0, "relit_rmse": 0.1}, {"loss": 3.0, "relit_rmse": 0.5}])
+    monkeypatch.setattr(validate.HeldOut, "measure", lambda self, *a, **k: next(scripted))
     out = tmp_path / "run"
     assert main(["gpu-train", "--bank", str(bank_dir), "--out", str(out), "--init", "none", "--max-steps", "3",
-                 "--lr", "0.05", *TINY, *HOLD_ONE]) == 0
+                 "--lr", "0.05", *TINY, *HOLD_ONE, "--val-metric", metric]) == 0
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["exported"] == "best (step 1)" and summary["val"]["best_step"] == 1
-    assert summary["val"]["first"] == 1.0 and summary["val"]["last"] == 3.0
+    assert summary["exported"] == f"best (step {winner})" and summary["val"]["best_step"] == winner
+    assert summary["val"]["first"] == {"loss": 1.0, "relit_rmse": 0.3}[metric]
+    assert summary["val"]["last"] == {"loss": 3.0, "relit_rmse": 0.5}[metric]
     best, best_ckpt = load_checkpoint(out / "best.pt")
     last, last_ckpt = load_checkpoint(out / "last.pt")
-    assert best_ckpt["step"] == 1 and last_ckpt["step"] == 3
+    assert best_ckpt["step"] == winner and last_ckpt["step"] == 3
     image = torch.rand(1, 3, 64, 64, generator=torch.Generator().manual_seed(0))
     mask = torch.ones(1, 1, 64, 64)
     got = OnnxStage(out / "stage1.onnx", "stage1").run({"image": image, "mask": mask})["transport"]
@@ -266,3 +272,30 @@ def test_the_band_and_direction_terms_are_trained_by_default(bank_dir, tmp_path,
     step = next(r for r in read_jsonl(out / "log.jsonl") if r["event"] == "step")
     assert {"transport_bands", "transport_direction"} & set(step) == logged
     assert all(step[k] > 0 for k in logged)
+
+
+def test_the_relit_rmse_is_zero_for_the_truth_and_grows_with_a_wrong_albedo(bank_dir):
+    from export.gpu import bank
+    from export.gpu.render import DeviceSubject, RenderSettings
+    from export.gpu.validate import HeldOut
+    from export.losses import Stage1Loss
+
+    data = bank.read_subject(bank_dir / "shapes_300001.npz", bank.read_template(bank_dir))
+    subject = DeviceSubject.from_data(data, torch.device("cpu"))
+    lights = torch.as_tensor(np.load(bank_dir / "lights.npy"))
+    held = HeldOut([subject], lights, RenderSettings(resolution=32, dirs=8, shadow_size=16), ["full", "face"], 2,
+                   45.0, 0)
+
+    class Truth(torch.nn.Module):  # answers every batch with the held-out samples' own truth, albedo scaled
+        def __init__(self, scale):
+            super().__init__()
+            self.scale = scale
+
+        def forward(self, x):
+            d = held.data[: len(x)].float()
+            return d[:, 5:], d[:, :3] * self.scale, d[:, 4:5], held.lights[: len(x)]
+
+    exact = held.measure(Truth(1.0), Stage1Loss(sf_scale=0.2), 2, amp=False)
+    dim = held.measure(Truth(0.5), Stage1Loss(sf_scale=0.2), 2, amp=False)
+    assert exact["relit_rmse"] == pytest.approx(0.0, abs=1e-6)
+    assert dim["relit_rmse"] > 0.01 and dim["loss"] > exact["loss"]
