@@ -119,7 +119,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="weight of the degree-1 direction loss (as train-stage1; default %(default)s)")
     parser.add_argument("--val-people", type=int, default=d.val_people,
                         help="the bank's last N people are never trained on: the exported weights are those of "
-                             "their lowest loss (0: none held out, the last weights exported; default %(default)s)")
+                             "their lowest --val-metric (0: none held out, the last weights exported; default "
+                             "%(default)s)")
     parser.add_argument("--val-samples", type=int, default=d.val_samples,
                         help="validation samples of the held-out people, rendered once (default %(default)s)")
     parser.add_argument("--val-every", type=float, default=d.val_every,
@@ -365,7 +366,7 @@ def run(config: GpuTrainConfig) -> int:
              "val": None, "best": Best(), "val_s": 0.0}
 
     def validate() -> None:
-        """Measure the held-out loss now; keep (and write) the weights when it is the lowest so far."""
+        """Measure the held-out figures now; keep (and write) the weights when theirs is the lowest so far."""
         t0 = time.monotonic()
         figures = state["val"].measure(model, loss_fn, config.batch_size, config.amp)
         if state["best"].offer(model, state["step"], figures[config.val_metric]):
@@ -477,7 +478,8 @@ def _finish(config, model, sampler, state, start, index, device_name, logger) ->
     losses = state["losses"]
     k = max(1, min(20, len(losses) // 4)) if losses else 1
     steps = state["step"] if best.step is None else best.step
-    source = (f"relight_rt gpu-train: {steps} steps on samples rendered from {len(sampler.subjects)} bank people "
+    source = (f"relight_rt gpu-train: {steps} steps on {sampler.rendered} samples rendered from "
+              f"{len(sampler.subjects)} bank people "
               f"({len(index['subjects']) - len(sampler.subjects)} more held out) on {device_name}, from "
               f"{state['init'] or 'random weights'}")
     exported = None
