@@ -1,7 +1,8 @@
 """People held out of a ``gpu-train`` run: a fixed validation set, its loss, and the best weights so far.
 
-The first lend's run trained 7,450 steps on 48 bank people and came back worse on people it had never seen,
-with nothing inside the run to tell (docs/GPU.md, "What the first lend taught"). Here the last ``--val-people``
+The first lend's run trained 7,450 steps on 48 bank people and came back relighting them far better and people it
+had never seen no better (worse on the held-out table's four), with nothing inside the run to tell (docs/GPU.md,
+"What the first lend taught"). Here the last ``--val-people``
 people of the bank (in its order, so every run holds out the same ones) are never trained on; ``--val-samples``
 samples of them are rendered once at the start with fixed seeds (person, framing of the mix in turn, turn, light:
 all drawn from ``--seed``, none flipped). Two figures are measured before the first step and then every
@@ -40,7 +41,7 @@ class HeldOut:
         framings: framing names of the mix; sample i has framing ``framings[i % len(framings)]``.
         n: number of samples; sample i shows subject ``i % len(subjects)``.
         max_yaw: largest turn, degrees.
-        seed: the run's seed (the set depends on it and on nothing else).
+        seed: the run's seed (every random draw of the set comes from it).
     """
 
     def __init__(self, subjects: list, lights, settings, framings: list[str], n: int, max_yaw: float, seed: int):
