@@ -215,7 +215,7 @@ CHECK = ["gpu-check", "--bank", "bank", "--n", "1", "--resolution", "32", "--dir
          "--reference-dirs", "8", "--embree-dirs", "8"]
 TINY = ["--resolution", "64", "--width", "4", "--batch-size", "2", "--pool", "4", "--fresh-per-step", "1",
         "--render-share", "1", "--dirs", "8", "--shadow-size", "32", "--log-every", "1", "--device", "cpu",
-        "--init", "none", "--max-steps", "1"]
+        "--val-people", "0", "--init", "none", "--max-steps", "1"]  # the 2-person bank: none held out
 BANKS = ["b_noindex", "b_index_garbage", "b_index_list", "b_index_no_subjects", "b_index_subjects_string",
          "b_index_subjects_numbers", "b_index_outside", "b_index_absolute", "b_index_devzero", "b_lights_devzero",
          "b_lights_outside", "b_lights_missing", "b_lights_huge", "b_lights_shape", "b_lights_nan",

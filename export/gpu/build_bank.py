@@ -7,8 +7,9 @@ rewritten at the end. The training lights are copied in as one RGB array.
 
 Example (the bank docs/GPU.md carries to the device)::
 
-    python -m export lights --out data/lights
-    python -m export gpu-bank --out data/gpu_bank --lights data/lights --n 60 --seed 300000
+    python -m export lights --out data/lights_dir --kinds sun_sky lamps window softbox sun_sky lamps overcast \
+        --white-balance 0.6
+    python -m export gpu-bank --out data/gpu_bank --lights data/lights_dir --n 96 --seed 300000 --texture-size 256
 """
 
 from __future__ import annotations

@@ -6,14 +6,19 @@ It renders samples on the training device (:mod:`export.gpu.render`) into a pool
 in part (up to ``--fresh-per-step`` samples, while rendering has taken at most ``--render-share`` of the
 time: whichever of rendering and training is faster on the device, neither starves the other), trains
 on random batches of the pool, each sample under a random training light of the bank and flipped at random
-(as export.torch_data does), with the loss of ``train-stage1`` and Adam, the learning rate falling along
+(as export.torch_data does), with the loss of ``train-stage1`` (by default with the shipped stage 1's band and
+direction terms, ``--band-weight 2 --direction-weight 5``) and Adam, the learning rate falling along
 one cosine from ``--lr`` to ``--lr-min`` over the time there is. It starts from the shipped stage 1
-(export.warm_start) unless told otherwise.
+(export.warm_start) unless told otherwise. The last ``--val-people`` people of the bank are held out of
+training (:mod:`export.gpu.validate`): their relit RMSE and loss are measured before the first step and every
+``--val-every`` seconds, and the weights of the lowest ``--val-metric`` are the ones exported (``best.pt``;
+``last.pt`` holds the last).
 
-Whatever happens, the run folder ends with ``stage1.onnx`` (the weights it has, exported with the usual
-checks), ``last.pt`` (weights only: under 16 MiB, so it comes back from the device), ``log.jsonl`` and
-``summary.json``: training stops ``--export-reserve`` seconds before ``--deadline`` (counted from the
-start of the command) to leave time for that, and a SIGTERM or an error stops it early the same way.
+Whatever happens, the run folder ends with ``stage1.onnx`` (the best weights on the held-out people, or the
+last ones without any, exported with the usual checks), ``last.pt`` and ``best.pt`` (weights only: under 16 MiB
+each, so they come back from the device), ``log.jsonl`` and ``summary.json`` (which step won): training stops
+``--export-reserve`` seconds before ``--deadline`` (counted from the start of the command) to leave time for
+that, and a SIGTERM or an error stops it early the same way.
 A checkpoint is written every ``--checkpoint-every`` seconds.
 
 Example (CPU rehearsal; the device call is in docs/GPU.md)::
@@ -35,6 +40,8 @@ from pathlib import Path
 import numpy as np
 
 from relight_rt import RelightError
+
+from .validate import Best, HeldOut, split_people
 
 log = logging.getLogger(__name__)
 
@@ -63,6 +70,12 @@ class GpuTrainConfig:
     lr: float = 3e-4
     lr_min: float = 3e-5
     sf_scale: float = 0.2
+    band_weight: float = 2.0  # the shipped stage 1's recipe (models/README.md): without them the bands shrink
+    direction_weight: float = 5.0
+    val_people: int = 4
+    val_samples: int = 32
+    val_every: float = 30.0
+    val_metric: str = "relit_rmse"
     seed: int = 0
     device: str = "auto"
     checkpoint_every: float = 60.0
@@ -99,6 +112,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--lr", type=float, default=d.lr, help="first learning rate")
     parser.add_argument("--lr-min", type=float, default=d.lr_min, help="learning rate at the deadline")
     parser.add_argument("--sf-scale", type=float, default=d.sf_scale, help="factor on the SF loss bands")
+    parser.add_argument("--band-weight", type=float, default=d.band_weight,
+                        help="weight of the transport band-magnitude loss (as train-stage1; default %(default)s, the "
+                             "shipped stage 1's: without it the degree-2 band shrinks)")
+    parser.add_argument("--direction-weight", type=float, default=d.direction_weight,
+                        help="weight of the degree-1 direction loss (as train-stage1; default %(default)s)")
+    parser.add_argument("--val-people", type=int, default=d.val_people,
+                        help="the bank's last N people are never trained on: the exported weights are those of "
+                             "their lowest --val-metric (0: none held out, the last weights exported; default "
+                             "%(default)s)")
+    parser.add_argument("--val-samples", type=int, default=d.val_samples,
+                        help="validation samples of the held-out people, rendered once (default %(default)s)")
+    parser.add_argument("--val-every", type=float, default=d.val_every,
+                        help="seconds between validations (default %(default)s)")
+    parser.add_argument("--val-metric", choices=("relit_rmse", "loss"), default=d.val_metric,
+                        help="the held-out figure whose lowest value picks the exported weights (default "
+                             "%(default)s: the first lend lowered the loss on new people without relighting them "
+                             "better)")
     parser.add_argument("--seed", type=int, default=d.seed)
     parser.add_argument("--device", default=d.device, help="auto (CUDA when present), cpu, cuda, ...")
     parser.add_argument("--checkpoint-every", type=float, default=d.checkpoint_every, help="seconds")
@@ -116,7 +146,9 @@ def config_from_args(args: argparse.Namespace) -> GpuTrainConfig:
         width=args.width, batch_size=args.batch_size, pool=args.pool, fresh_per_step=args.fresh_per_step,
         render_share=args.render_share,
         dirs=args.dirs, shadow_size=args.shadow_size, framings=args.framings, max_yaw=args.max_yaw, lr=args.lr,
-        lr_min=args.lr_min, sf_scale=args.sf_scale, seed=args.seed, device=args.device,
+        lr_min=args.lr_min, sf_scale=args.sf_scale, band_weight=args.band_weight,
+        direction_weight=args.direction_weight, val_people=args.val_people, val_samples=args.val_samples,
+        val_every=args.val_every, val_metric=args.val_metric, seed=args.seed, device=args.device,
         checkpoint_every=args.checkpoint_every, export_reserve=args.export_reserve, max_steps=args.max_steps,
         log_every=max(1, args.log_every), amp=args.amp,
     )
@@ -156,12 +188,21 @@ def _check(config: GpuTrainConfig) -> None:
     if not (config.deadline > 0 and 0 <= config.export_reserve < config.deadline):
         raise RelightError(f"expected --deadline > --export-reserve >= 0, got {config.deadline} and "
                            f"{config.export_reserve}")
-    for name in ("lr", "lr_min", "max_yaw", "sf_scale", "checkpoint_every", "export_reserve"):
+    for name in ("lr", "lr_min", "max_yaw", "sf_scale", "checkpoint_every", "export_reserve", "band_weight",
+                 "direction_weight", "val_every"):
         if not math.isfinite(getattr(config, name)):
             raise RelightError(f"--{name.replace('_', '-')}: expected a finite number, got {getattr(config, name)}")
     if not (config.checkpoint_every > 0 and config.sf_scale >= 0 and 0 <= config.max_yaw <= 180):
         raise RelightError(f"expected --checkpoint-every > 0, --sf-scale >= 0 and 0 <= --max-yaw <= 180, got "
                            f"{config.checkpoint_every}, {config.sf_scale} and {config.max_yaw}")
+    if not (config.band_weight >= 0 and config.direction_weight >= 0):
+        raise RelightError(f"expected --band-weight >= 0 and --direction-weight >= 0, got {config.band_weight} and "
+                           f"{config.direction_weight}")
+    if config.val_metric not in ("relit_rmse", "loss"):
+        raise RelightError(f"--val-metric: expected relit_rmse or loss, got {config.val_metric!r}")
+    if config.val_people < 0 or config.val_samples < 1 or not config.val_every > 0:
+        raise RelightError(f"expected --val-people >= 0, --val-samples >= 1 and --val-every > 0, got "
+                           f"{config.val_people}, {config.val_samples} and {config.val_every}")
     if not (config.lr > 0 and 0 <= config.lr_min <= config.lr):
         raise RelightError(f"expected --lr > 0 and 0 <= --lr-min <= --lr, got {config.lr} and {config.lr_min}")
     out, bank = Path(config.out), Path(config.bank)
@@ -290,6 +331,8 @@ def run(config: GpuTrainConfig) -> int:
     device = pick_device(config.device)
     torch.manual_seed(config.seed)
     index, subjects, lights_np = _load_bank(Path(config.bank), device)
+    trained, held = split_people(index["subjects"], config.val_people)  # before the run folder: one error
+    subjects, held_subjects = subjects[: len(trained)], subjects[len(trained) :]  # the index's order
     model = Stage1Net(width=config.width, resolution=config.resolution, norm="batch")
     init = None
     if config.init is not None:  # before the run folder, as the bank: a bad --init is one error, not a failed run
@@ -302,13 +345,15 @@ def run(config: GpuTrainConfig) -> int:
     logger = JsonlLog(out / "log.jsonl")
     device_name = torch.cuda.get_device_name(device) if device.type == "cuda" else "cpu"
     logger.write({"event": "start", "device": device_name, "torch": torch.__version__, "subjects": len(subjects),
-                  "lights": len(lights_np), "config": {k: str(v) for k, v in asdict(config).items()}})
-    log.info("gpu-train on %s: %d subjects, %d lights, %d² px, %d directions, depth maps %d²", device_name,
-             len(subjects), len(lights_np), config.resolution, config.dirs, config.shadow_size)
+                  "val_people": held, "lights": len(lights_np),
+                  "config": {k: str(v) for k, v in asdict(config).items()}})
+    log.info("gpu-train on %s: %d subjects (%d more held out), %d lights, %d² px, %d directions, depth maps %d²",
+             device_name, len(subjects), len(held), len(lights_np), config.resolution, config.dirs, config.shadow_size)
 
     sampler = _Sampler(config, subjects, device)
     pool = _Pool(config.pool, config.resolution, device)
-    loss_fn = Stage1Loss(sf_scale=config.sf_scale).to(device)
+    loss_fn = Stage1Loss(sf_scale=config.sf_scale, band_weight=config.band_weight,
+                         direction_weight=config.direction_weight).to(device)
     rng = torch.Generator(device="cpu").manual_seed(config.seed + 1)
 
     def draw(n: int) -> dict:
@@ -317,7 +362,20 @@ def run(config: GpuTrainConfig) -> int:
         flips = torch.randint(2, (n,), generator=rng).bool()
         return pool.batch(idx.to(device), lights[light_idx.to(device)], flips.to(device))
 
-    state = {"step": 0, "stopped": "deadline", "losses": [], "train_s": 0.0, "init": init, "error": None}
+    state = {"step": 0, "stopped": "deadline", "losses": [], "train_s": 0.0, "init": init, "error": None,
+             "val": None, "best": Best(), "val_s": 0.0}
+
+    def validate() -> None:
+        """Measure the held-out figures now; keep (and write) the weights when theirs is the lowest so far."""
+        t0 = time.monotonic()
+        figures = state["val"].measure(model, loss_fn, config.batch_size, config.amp)
+        if state["best"].offer(model, state["step"], figures[config.val_metric]):
+            meta = {"command": "gpu-train", **{f"val_{k}": v for k, v in figures.items()}}
+            save_checkpoint(out / "best.pt", model, step=state["step"], meta=json.dumps(meta))
+        state["val_s"] += time.monotonic() - t0
+        logger.write({"event": "val", "step": state["step"], "elapsed_s": time.monotonic() - start,
+                      **{f"val_{k}": v for k, v in figures.items()}, "best_step": state["best"].step})
+
     previous = signal.signal(signal.SIGTERM, _on_sigterm)
     stop_at = start + config.deadline - config.export_reserve
     try:
@@ -330,9 +388,16 @@ def run(config: GpuTrainConfig) -> int:
             batches = [draw(config.batch_size) for _ in range(4)]
             warm_start.calibrate_norms(model, ((2.0 * render_input(b) - 1.0) * b["mask"] for b in batches))
             log.info("stage 1 starts from %s", state["init"])
+        if held_subjects:
+            t0 = time.monotonic()
+            state["val"] = HeldOut(held_subjects, lights, sampler.settings, sampler.names, config.val_samples,
+                                   config.max_yaw, config.seed)
+            log.info("%d validation samples of %s rendered in %.1f s", len(state["val"]), ", ".join(held),
+                     time.monotonic() - t0)
+            validate()
         optimizer = torch.optim.Adam(model.parameters(), lr=config.lr, betas=(0.5, 0.999))
         train_start = time.monotonic()
-        last_ckpt = train_start
+        last_ckpt = last_val = train_start
         model.train()
         while True:
             now = time.monotonic()
@@ -368,11 +433,16 @@ def run(config: GpuTrainConfig) -> int:
             if state["step"] % config.log_every == 0:
                 logger.write({"event": "step", "step": state["step"], "elapsed_s": time.monotonic() - start,
                               "lr": optimizer.param_groups[0]["lr"], "total": value,
-                              "rendered": sampler.rendered, "render_s": sampler.seconds, "train_s": state["train_s"]})
+                              "rendered": sampler.rendered, "render_s": sampler.seconds, "train_s": state["train_s"],
+                              **{k: float(terms[k].detach()) for k in ("transport_bands", "transport_direction")
+                                 if k in terms}})
             if time.monotonic() - last_ckpt >= config.checkpoint_every:
                 save_checkpoint(out / "last.pt", model, step=state["step"], meta=json.dumps({"command": "gpu-train"}))
                 logger.write({"event": "checkpoint", "step": state["step"], "elapsed_s": time.monotonic() - start})
                 last_ckpt = time.monotonic()
+            if state["val"] is not None and time.monotonic() - last_val >= config.val_every:
+                validate()
+                last_val = time.monotonic()
     except (_Stop, KeyboardInterrupt) as exc:
         state["stopped"] = f"interrupted ({type(exc).__name__})"
     except Exception as exc:  # noqa: BLE001  (whatever stopped it, the weights there are still exported)
@@ -381,6 +451,11 @@ def run(config: GpuTrainConfig) -> int:
         log.error("gpu-train stopped: %s", exc)
     finally:
         signal.signal(signal.SIGTERM, previous)
+    if state["val"] is not None and state["best"].last_step != state["step"]:
+        try:  # the last weights are a candidate too (within the export reserve: one pass over a few samples)
+            validate()
+        except Exception as exc:  # noqa: BLE001  (the weights kept so far are still exported)
+            log.error("the last validation failed: %s", exc)
     return _finish(config, model, sampler, state, start, index, device_name, logger)
 
 
@@ -395,10 +470,18 @@ def _finish(config, model, sampler, state, start, index, device_name, logger) ->
     out = Path(config.out)
     model.eval()
     save_checkpoint(out / "last.pt", model, step=state["step"], meta=json.dumps({"command": "gpu-train"}))
+    best = state["best"]
+    chosen = "last"
+    if best.state is not None:  # the held-out people's choice (best.pt was written when it was reached)
+        model.load_state_dict(best.state)
+        chosen = f"best (step {best.step})"
     losses = state["losses"]
     k = max(1, min(20, len(losses) // 4)) if losses else 1
-    source = (f"relight_rt gpu-train: {state['step']} steps on {sampler.rendered} samples rendered from "
-              f"{len(index['subjects'])} bank people on {device_name}, from {state['init'] or 'random weights'}")
+    steps = state["step"] if best.step is None else best.step
+    source = (f"relight_rt gpu-train: {steps} steps on {sampler.rendered} samples rendered from "
+              f"{len(sampler.subjects)} bank people "
+              f"({len(index['subjects']) - len(sampler.subjects)} more held out) on {device_name}, from "
+              f"{state['init'] or 'random weights'}")
     exported = None
     export_error = None
     if all(torch.isfinite(p).all() for p in model.parameters()):
@@ -420,11 +503,16 @@ def _finish(config, model, sampler, state, start, index, device_name, logger) ->
         "loss_first": float(np.mean(losses[:k])) if losses else None,
         "loss_last": float(np.mean(losses[-k:])) if losses else None,
         "elapsed_s": round(elapsed, 1), "init": state["init"], "onnx": exported["path"] if exported else None,
-        "subjects": len(index["subjects"]), "config": {k2: str(v) for k2, v in asdict(config).items()},
+        "subjects": len(index["subjects"]), "trained_people": len(sampler.subjects), "exported": chosen,
+        "val": None if state["val"] is None else {**best.summary(), "metric": config.val_metric,
+                                                  "people": state["val"].names,
+                                                  "samples": len(state["val"]), "seconds": round(state["val_s"], 2)},
+        "config": {k2: str(v) for k2, v in asdict(config).items()},
     }
     write_json(out / "summary.json", summary)
     logger.write({"event": "end", **{k2: v for k2, v in summary.items() if k2 != "config"}})
-    log.info("gpu-train: %s after %d steps, %d samples rendered (%.2f/s), loss %s -> %s, %.0f s; onnx: %s",
-             state["stopped"], state["step"], sampler.rendered, summary["samples_per_s"], summary["loss_first"],
-             summary["loss_last"], elapsed, summary["onnx"] or export_error)
+    log.info("gpu-train: %s after %d steps, %d samples rendered (%.2f/s), loss %s -> %s, %.0f s; held-out %s "
+             "%s -> best %s at step %s; onnx (%s weights): %s", state["stopped"], state["step"], sampler.rendered,
+             summary["samples_per_s"], summary["loss_first"], summary["loss_last"], elapsed, config.val_metric,
+             best.first, None if best.step is None else best.loss, best.step, chosen, summary["onnx"] or export_error)
     return 0 if state["error"] is None and exported is not None else 1

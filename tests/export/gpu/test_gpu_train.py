@@ -16,7 +16,9 @@ from export.toy_data import make_lights  # noqa: E402
 from export.training import read_jsonl  # noqa: E402
 
 TINY = ["--resolution", "64", "--width", "4", "--batch-size", "2", "--pool", "4", "--fresh-per-step", "1",
-        "--render-share", "1", "--dirs", "8", "--shadow-size", "32", "--log-every", "1", "--device", "cpu"]
+        "--render-share", "1", "--dirs", "8", "--shadow-size", "32", "--log-every", "1", "--device", "cpu",
+        "--val-people", "0"]
+HOLD_ONE = ["--val-people", "1", "--val-samples", "2", "--val-every", "1e-9"]  # shapes_300001 held out, every step
 
 
 @pytest.fixture(scope="module")
@@ -119,6 +121,10 @@ def test_flipped_batches_shade_as_the_mirror_image():
     (["--max-yaw", "nan"], "--max-yaw"),
     (["--checkpoint-every", "nan"], "--checkpoint-every"),
     (["--framings", "nope"], "--framings"),
+    (["--val-people", "2"], "--val-people 2: the bank has 2 people"),  # nobody left to train on
+    (["--val-samples", "0"], "--val-samples"),
+    (["--val-every", "nan"], "--val-every"),
+    (["--band-weight", "-1"], "--band-weight"),
 ])
 def test_bad_settings_get_one_line(bank_dir, tmp_path, capsys, argv, message):
     args = ["gpu-train", "--bank", str(bank_dir), "--out", str(tmp_path / "run"), *TINY, *argv]
@@ -194,7 +200,102 @@ def test_it_needs_nothing_the_gpu_machine_lacks(bank_dir, tmp_path):
         "sys.exit(main(sys.argv[1:]))\n"
     )
     out = tmp_path / "run"
-    argv = ["gpu-train", "--bank", str(bank_dir), "--out", str(out), "--init", "none", "--max-steps", "1", *TINY]
+    argv = ["gpu-train", "--bank", str(bank_dir), "--out", str(out), "--init", "none", "--max-steps", "1", *TINY,
+            *HOLD_ONE]
     done = subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr[-2000:]
     assert json.loads((out / "summary.json").read_text())["steps"] == 1
+
+
+def test_held_out_people_are_never_trained_on_and_their_loss_is_logged(bank_dir, tmp_path):
+    out = tmp_path / "run"
+    assert main(["gpu-train", "--bank", str(bank_dir), "--out", str(out), "--init", "none", "--max-steps", "2",
+                 *TINY, *HOLD_ONE]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["trained_people"] == 1 and summary["subjects"] == 2
+    val = summary["val"]
+    assert val["people"] == ["shapes_300001"] and val["samples"] == 2
+    assert val["checks"] == 3 and val["last_step"] == 2  # before the first step, then after each of the two
+    records = read_jsonl(out / "log.jsonl")
+    assert records[0]["val_people"] == ["shapes_300001"]
+    vals = [r for r in records if r["event"] == "val"]
+    assert len(vals) == 3 and all(np.isfinite([r["val_loss"] for r in vals]))
+    relit = [r["val_relit_rmse"] for r in vals]
+    assert all(0 < x < 1 for x in relit) and val["metric"] == "relit_rmse"
+    assert val["best"] == min(relit) and summary["exported"] == f"best (step {val['best_step']})"
+    assert (out / "best.pt").is_file()
+
+
+@pytest.mark.parametrize("metric, winner", [("relit_rmse", 2), ("loss", 1)])
+def test_the_weights_of_the_lowest_held_out_figure_are_exported(bank_dir, tmp_path, monkeypatch, metric, winner):
+    """Training that only overfits must not ship: the graph is the one of the best validation, not the last."""
+    from export.gpu import validate
+
+    # before step 1, after steps 1, 2 and 3: the loss is lowest after step 1, the relit RMSE after step 2
+    scripted = iter([{"loss": 1.0, "relit_rmse": 0.3}, {"loss": 0.5, "relit_rmse": 0.4},
+                     {"loss": 2.0, "relit_rmse": 0.1}, {"loss": 3.0, "relit_rmse": 0.5}])
+    monkeypatch.setattr(validate.HeldOut, "measure", lambda self, *a, **k: next(scripted))
+    out = tmp_path / "run"
+    assert main(["gpu-train", "--bank", str(bank_dir), "--out", str(out), "--init", "none", "--max-steps", "3",
+                 "--lr", "0.05", *TINY, *HOLD_ONE, "--val-metric", metric]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["exported"] == f"best (step {winner})" and summary["val"]["best_step"] == winner
+    assert summary["val"]["first"] == {"loss": 1.0, "relit_rmse": 0.3}[metric]
+    assert summary["val"]["last"] == {"loss": 3.0, "relit_rmse": 0.5}[metric]
+    best, best_ckpt = load_checkpoint(out / "best.pt")
+    last, last_ckpt = load_checkpoint(out / "last.pt")
+    assert best_ckpt["step"] == winner and last_ckpt["step"] == 3
+    image = torch.rand(1, 3, 64, 64, generator=torch.Generator().manual_seed(0))
+    mask = torch.ones(1, 1, 64, 64)
+    got = OnnxStage(out / "stage1.onnx", "stage1").run({"image": image, "mask": mask})["transport"]
+    with torch.no_grad():
+        want = [m.eval()((2 * image - 1) * mask)[0] for m in (best, last)]
+    assert torch.allclose(got, want[0], atol=1e-4)
+    assert not torch.allclose(got, want[1], atol=1e-3)
+
+
+def test_split_people_holds_out_the_last_ones():
+    from export.gpu.validate import split_people
+
+    assert split_people(["a", "b", "c", "d"], 2) == (["a", "b"], ["c", "d"])
+    assert split_people(["a"], 0) == (["a"], [])
+
+
+@pytest.mark.parametrize("extra, logged", [
+    ([], {"transport_bands", "transport_direction"}),  # the shipped stage 1's recipe by default
+    (["--band-weight", "0", "--direction-weight", "0"], set()),  # the paper's objective, as the first lend ran
+])
+def test_the_band_and_direction_terms_are_trained_by_default(bank_dir, tmp_path, extra, logged):
+    out = tmp_path / "run"
+    assert main(["gpu-train", "--bank", str(bank_dir), "--out", str(out), "--init", "none", "--max-steps", "1",
+                 *TINY, *extra]) == 0
+    step = next(r for r in read_jsonl(out / "log.jsonl") if r["event"] == "step")
+    assert {"transport_bands", "transport_direction"} & set(step) == logged
+    assert all(step[k] > 0 for k in logged)
+
+
+def test_the_relit_rmse_is_zero_for_the_truth_and_grows_with_a_wrong_albedo(bank_dir):
+    from export.gpu import bank
+    from export.gpu.render import DeviceSubject, RenderSettings
+    from export.gpu.validate import HeldOut
+    from export.losses import Stage1Loss
+
+    data = bank.read_subject(bank_dir / "shapes_300001.npz", bank.read_template(bank_dir))
+    subject = DeviceSubject.from_data(data, torch.device("cpu"))
+    lights = torch.as_tensor(np.load(bank_dir / "lights.npy"))
+    held = HeldOut([subject], lights, RenderSettings(resolution=32, dirs=8, shadow_size=16), ["full", "face"], 2,
+                   45.0, 0)
+
+    class Truth(torch.nn.Module):  # answers every batch with the held-out samples' own truth, albedo scaled
+        def __init__(self, scale):
+            super().__init__()
+            self.scale = scale
+
+        def forward(self, x):
+            d = held.data[: len(x)].float()
+            return d[:, 5:], d[:, :3] * self.scale, d[:, 4:5], held.lights[: len(x)]
+
+    exact = held.measure(Truth(1.0), Stage1Loss(sf_scale=0.2), 2, amp=False)
+    dim = held.measure(Truth(0.5), Stage1Loss(sf_scale=0.2), 2, amp=False)
+    assert exact["relit_rmse"] == pytest.approx(0.0, abs=1e-6)
+    assert dim["relit_rmse"] > 0.01 and dim["loss"] > exact["loss"]
