@@ -81,6 +81,7 @@ def render_sets(args) -> dict[str, list[dict]]:
     sets: dict[str, list[dict]] = {}
     plan = []
     train = bank.read_index(args.bank)["subjects"]
+    train = train[: len(train) - args.held_out] if args.held_out else train  # (gpu-train's held-out people)
     picks = [train[int(i)] for i in np.linspace(0, len(train) - 1, args.n_bank).round()]
     plan += [("bank/torch", args.bank, v) for v in _views(picks, 1)]
     new = bank.read_index(args.new)["subjects"][: args.n_new]
@@ -211,6 +212,9 @@ def main(argv=None) -> int:
     p.add_argument("--cache", type=Path, required=True, help="rendered samples are kept here")
     p.add_argument("--graphs", nargs="+", required=True, help="NAME=PATH stage-1 graphs")
     p.add_argument("--n-bank", type=int, default=6)
+    p.add_argument("--held-out", type=int, default=4,
+                   help="the bank's last people gpu-train held out (its --val-people): never picked as trained on; "
+                        "0 for a bank trained whole (the first lend's)")
     p.add_argument("--n-new", type=int, default=6)
     p.add_argument("--resolution", type=int, default=256)
     p.add_argument("--dirs", type=int, default=128)

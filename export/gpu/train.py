@@ -363,12 +363,21 @@ def run(config: GpuTrainConfig) -> int:
         return pool.batch(idx.to(device), lights[light_idx.to(device)], flips.to(device))
 
     state = {"step": 0, "stopped": "deadline", "losses": [], "train_s": 0.0, "init": init, "error": None,
-             "val": None, "best": Best(), "val_s": 0.0}
+             "val": None, "best": Best(), "val_s": 0.0, "val_error": None}
 
     def validate() -> None:
-        """Measure the held-out figures now; keep (and write) the weights when theirs is the lowest so far."""
+        """Measure the held-out figures now; keep (and write) the weights when theirs is the lowest so far. A check
+        that fails turns the checks off and training goes on (it has never run on the device before a lend: a
+        failure there must not cost the run; the weights of the best check so far, or the last, are exported)."""
         t0 = time.monotonic()
-        figures = state["val"].measure(model, loss_fn, config.batch_size, config.amp)
+        try:
+            figures = state["val"].measure(model, loss_fn, config.batch_size, config.amp)
+        except _Stop:
+            raise
+        except Exception as exc:  # noqa: BLE001  (whatever broke, training and its export are worth more)
+            state["val_error"] = f"{type(exc).__name__}: {exc}"
+            log.error("held-out check failed at step %d, checks off: %s", state["step"], exc)
+            return
         if state["best"].offer(model, state["step"], figures[config.val_metric]):
             meta = {"command": "gpu-train", **{f"val_{k}": v for k, v in figures.items()}}
             save_checkpoint(out / "best.pt", model, step=state["step"], meta=json.dumps(meta))
@@ -390,11 +399,18 @@ def run(config: GpuTrainConfig) -> int:
             log.info("stage 1 starts from %s", state["init"])
         if held_subjects:
             t0 = time.monotonic()
-            state["val"] = HeldOut(held_subjects, lights, sampler.settings, sampler.names, config.val_samples,
-                                   config.max_yaw, config.seed)
-            log.info("%d validation samples of %s rendered in %.1f s", len(state["val"]), ", ".join(held),
-                     time.monotonic() - t0)
-            validate()
+            try:
+                state["val"] = HeldOut(held_subjects, lights, sampler.settings, sampler.names, config.val_samples,
+                                       config.max_yaw, config.seed)
+            except _Stop:
+                raise
+            except Exception as exc:  # noqa: BLE001  (as a failed check: training goes on without)
+                state["val_error"] = f"{type(exc).__name__}: {exc}"
+                log.error("held-out samples failed, checks off: %s", exc)
+            else:
+                log.info("%d validation samples of %s rendered in %.1f s", len(state["val"]), ", ".join(held),
+                         time.monotonic() - t0)
+                validate()
         optimizer = torch.optim.Adam(model.parameters(), lr=config.lr, betas=(0.5, 0.999))
         train_start = time.monotonic()
         last_ckpt = last_val = train_start
@@ -440,7 +456,8 @@ def run(config: GpuTrainConfig) -> int:
                 save_checkpoint(out / "last.pt", model, step=state["step"], meta=json.dumps({"command": "gpu-train"}))
                 logger.write({"event": "checkpoint", "step": state["step"], "elapsed_s": time.monotonic() - start})
                 last_ckpt = time.monotonic()
-            if state["val"] is not None and time.monotonic() - last_val >= config.val_every:
+            checking = state["val"] is not None and state["val_error"] is None
+            if checking and time.monotonic() - last_val >= config.val_every:
                 validate()
                 last_val = time.monotonic()
     except (_Stop, KeyboardInterrupt) as exc:
@@ -451,11 +468,8 @@ def run(config: GpuTrainConfig) -> int:
         log.error("gpu-train stopped: %s", exc)
     finally:
         signal.signal(signal.SIGTERM, previous)
-    if state["val"] is not None and state["best"].last_step != state["step"]:
-        try:  # the last weights are a candidate too (within the export reserve: one pass over a few samples)
-            validate()
-        except Exception as exc:  # noqa: BLE001  (the weights kept so far are still exported)
-            log.error("the last validation failed: %s", exc)
+    if state["val"] is not None and state["val_error"] is None and state["best"].last_step != state["step"]:
+        validate()  # the last weights are a candidate too (within the export reserve: one pass over a few samples)
     return _finish(config, model, sampler, state, start, index, device_name, logger)
 
 
@@ -504,6 +518,7 @@ def _finish(config, model, sampler, state, start, index, device_name, logger) ->
         "loss_last": float(np.mean(losses[-k:])) if losses else None,
         "elapsed_s": round(elapsed, 1), "init": state["init"], "onnx": exported["path"] if exported else None,
         "subjects": len(index["subjects"]), "trained_people": len(sampler.subjects), "exported": chosen,
+        "val_error": state["val_error"],
         "val": None if state["val"] is None else {**best.summary(), "metric": config.val_metric,
                                                   "people": state["val"].names,
                                                   "samples": len(state["val"]), "seconds": round(state["val_s"], 2)},

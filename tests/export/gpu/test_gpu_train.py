@@ -299,3 +299,24 @@ def test_the_relit_rmse_is_zero_for_the_truth_and_grows_with_a_wrong_albedo(bank
     dim = held.measure(Truth(0.5), Stage1Loss(sf_scale=0.2), 2, amp=False)
     assert exact["relit_rmse"] == pytest.approx(0.0, abs=1e-6)
     assert dim["relit_rmse"] > 0.01 and dim["loss"] > exact["loss"]
+
+
+@pytest.mark.parametrize("where", ["measure", "samples"])
+def test_a_failing_held_out_check_turns_the_checks_off_and_training_goes_on(bank_dir, tmp_path, monkeypatch, where):
+    """The checks never ran on the device before a lend: one that fails there must not cost the run's training."""
+    from export.gpu import validate
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("CUDA-only trouble")
+
+    if where == "measure":
+        monkeypatch.setattr(validate.HeldOut, "measure", broken)
+    else:
+        monkeypatch.setattr(validate.HeldOut, "__init__", broken)
+    out = tmp_path / "run"
+    assert main(["gpu-train", "--bank", str(bank_dir), "--out", str(out), "--init", "none", "--max-steps", "3",
+                 *TINY, *HOLD_ONE]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["steps"] == 3 and summary["error"] is None and summary["stopped"] == "steps"
+    assert "CUDA-only trouble" in summary["val_error"] and summary["exported"] == "last"
+    assert (out / "stage1.onnx").is_file()
