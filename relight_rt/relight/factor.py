@@ -68,9 +68,9 @@ from ..light import sh
 from ..person.face_mesh import mirror
 from .cast_shadow import MeshView, shadow_factor
 from .decomposition import Decomposition, Memo, readonly
-from .detail import extend_outward, guided_upsample, masked_blur, shadow_texture, unpremultiply, window
+from .detail import extend_outward, guided_upsample, shadow_texture, unpremultiply, window
 from .face_pass import FacePass, feather
-from .fill_edge import crop_part, edge_weight, fill_share, soften
+from .fill_edge import crop_part, edge_weight, grid_weight, soften
 from .look import shaded_skin, skin_chroma, tint_range
 from .shadow_rim import rim_lift, skin_gate, spread_mean
 from .strength import (
@@ -624,7 +624,8 @@ class Factor:
         1 blurred is texture, not shadow), against its median over the person: from ``FILL_HIGH`` of it down to
         ``FILL_LOW`` the ratio's share goes from all to none (a hard shadow at levels 0-3 of a side-lit face is
         0.02 of the lit side's); within that smoothing's reach of such a shadow, each pixel's own shading counts too,
-        so that the weight's edge is the photo's (smoothed alone it ended inside the black: a dark line, multiplied).
+        so that the weight's edge is the photo's (smoothed alone it ended inside the black: a dark line, multiplied),
+        and the weight grows into the near-black pixels beside it (relight_rt.relight.fill_edge ``grid_weight``).
         """
         state = self.memo(dec)
         if not dec.photo:  # a video frame: a weight found frame by frame would flicker where the shadow's edge moves
@@ -634,21 +635,12 @@ class Factor:
             inner, photo = own["inner"], own["photo"]
             shown = photo / np.maximum(own["albedo"], EXPLAIN_ALBEDO_MIN)
             level = state["shadow_level"] = float(np.median(shown[inner])) if inner.any() else 0.0
-            # a shadow is wide, a black stripe the albedo blurred away is not: the shading shown, smoothed
-            # (both blurs masked to the solid person: the background, in a soft edge's pixels too, moves no weight)
-            keep = own["solid"].astype(np.float32)
-            smooth = masked_blur(shown, keep, FILL_SIGMA)
+            # a shadow is wide, a black stripe the albedo blurred away is not; near one each pixel's own shading places
+            # its edge (relight_rt.relight.fill_edge ``grid_weight``)
             result = None
-            if level > 0:  # the weight of the shading smoothed, of each pixel's own (``FILL_EDGE_SIGMA``) and unblurred
-                both = np.stack([smooth, masked_blur(shown, keep, FILL_EDGE_SIGMA), shown])
-                w, each, bare = np.where(inner, fill_share(both, level, FILL_LOW, FILL_HIGH), 0).astype(np.float32)
-                bare = np.where(keep > 0, bare, each)  # a soft edge's own pixel mixes the background in
-                if w.max() > 0.05:  # near a shadow each pixel's own shading places its edge (the photo's, not the
-                    # smoothing's: a black band inside it was multiplied, a dark line along the shadow's border)
-                    core = (w > 0.5).astype(np.float32)  # a shadow's (a stripe's smoothed weight stays low)
-                    near = cv2.GaussianBlur(each * soften(core, FILL_SIGMA), (0, 0), 1.0)  # (its blur held to
-                    # each pixel's own: the edge not crossed)
-                    w = np.maximum(cv2.GaussianBlur(w, (0, 0), 1.0), np.minimum(near, bare)) * inner
+            if level > 0:
+                w = grid_weight(shown, own["solid"], inner, level, FILL_LOW, FILL_HIGH, FILL_SIGMA, FILL_EDGE_SIGMA)
+                if w is not None:
                     y0, y1, x0, x1 = own["window"]
                     rgb = dec.network_image[y0:y1, x0:x1]
                     trust = ((1 - w) * inner * (photo > 0.02)).astype(np.float32)

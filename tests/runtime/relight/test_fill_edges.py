@@ -111,8 +111,12 @@ def test_a_fill_without_a_mesh_takes_its_rims_albedo_where_stage1_sees_skin(reli
 def test_the_rims_albedo_is_read_where_the_photo_is_as_bright_as_the_model_says(relighter, monkeypatch):
     """Just outside the fill the photo's penumbra falls short of the transport's smooth shading: there it shows a
     darker albedo than the lit skin's (yaleB21 from -50: 0.38-0.44 around its fill against 0.6-0.7), and the fill took
-    it (``shadow_rim.RIM_SHOWN``: read only where photo / own is near its lit median)."""
-    photo, taken, true, mask = scene()
+    it (``shadow_rim.RIM_SHOWN``: read only where photo / own is near its lit median). Here a penumbra 1.5 px wide
+    (the scene's 1-px one: since the fill reaches the photo's edge, faces17, its rim lies past that penumbra, 0.90
+    without the rule)."""
+    _, taken, true, mask = scene()
+    xx = np.mgrid[0:150, 0:100][1].astype(np.float32)
+    photo = true * cv2.GaussianBlur(np.where(xx < EDGE_X, 0.01, 1.0).astype(np.float32), (0, 0), 1.5)[..., None]
     want = float((relit(relighter, photo, true, mask) @ REC709)[40:120, 28:34].mean())
 
     def level() -> float:
@@ -120,7 +124,7 @@ def test_the_rims_albedo_is_read_where_the_photo_is_as_bright_as_the_model_says(
 
     read = level()
     monkeypatch.setattr(shadow_rim, "RIM_SHOWN", None)  # the penumbra counted as rim
-    assert read > 0.85 and level() < 0.7, read  # measured 0.92 (0.62 with the penumbra)
+    assert read > 0.85 and level() < 0.7, read  # measured 0.90 (0.64 with the penumbra)
 
 
 def test_the_rims_albedo_is_not_taken_where_stage1_sees_no_skin(relighter):
