@@ -72,7 +72,7 @@ from .detail import extend_outward, guided_upsample, shadow_texture, unpremultip
 from .face_pass import FacePass, feather
 from .fill_edge import crop_part, edge_weight, grid_weight, soften
 from .look import shaded_skin, skin_chroma, tint_range
-from .shadow_rim import rim_lift, skin_gate, spread_mean
+from .shadow_rim import penumbra_gate, rim_lift, skin_gate, spread_mean
 from .strength import (
     EXPLAIN_ALBEDO_MIN,
     EXPLAIN_SHADOW_SHARE,
@@ -511,9 +511,12 @@ class Factor:
             reach = None
             core = w > 0.5
             if CAP_SHADOW_REACH is not None and core.any():  # the penumbra around a deep shadow's core, as far as
-                # stage 1 sees skin there (relight_rt.relight.shadow_rim ``skin_gate``): on cloth and hair the
-                # added change, smooth in colour, flattened a striped shirt's stripes beside a shadow
-                reach = soften(core, CAP_SHADOW_REACH, own["inner"]) * self.skin_gate(dec)
+                # stage 1 sees skin there and its colour is a skin's (relight_rt.relight.shadow_rim
+                # ``penumbra_gate``): on cloth and hair the added change, smooth, flattened a shirt's stripes
+                reach = soften(core, CAP_SHADOW_REACH, own["inner"])
+                y0, y1, x0, x1 = own["window"]
+                reach = reach * penumbra_gate(self.skin_gate(dec), dec.network_image[y0:y1, x0:x1], reach * (1 - w),
+                                              own["inner"] & (w < 0.5), CAP_SHADOW_REACH)
                 reach = reach if reach.max() > 1e-3 else None  # (no skin near: nothing to map)
             if own["cap_skin"] is not None:  # a face's skin and openings
                 reach = own["cap_face"] if reach is None else np.maximum(reach, own["cap_face"])
