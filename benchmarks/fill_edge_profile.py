@@ -1,7 +1,8 @@
 """How far the deep shadow's fill reaches toward the photo's own shadow edge (issue 48, faces17): its weight against
-each near-black pixel's distance to the shadow's edge, in input pixels.
+each near-black pixel's distance to the shadow's edge, in input pixels; and where the penumbra's ratio cap reaches.
 
     python benchmarks/fill_edge_profile.py [--yale ../shared/realdata/yale] [--no-yale] [--per-photo]
+        [--reference ../shared/reference]
 
 A pixel counts when its own weight (its luminance over stage 1's albedo, unblurred, by ``fill_edge.fill_share``) is
 >= 0.95 (near black) and the network's weight says a shadow's core is within 4 px; its distance is to the nearest
@@ -14,6 +15,12 @@ filled: darker than the fill, a new edge.
   smooth skin-coloured one whose shadow's edge is blurred over 1 px (test_fill_edges.py); the weight the relight uses
   (``Factor.gain_and_fill``) under twice the photo's own light; and A's lit side: the largest change 0-6 px beside
   the edge against the relight without the fill (the "leak").
+- stripes: the penumbra's ratio cap beside a hard shadow (``CAP_SHADOW_REACH``, its gate
+  ``shadow_rim.penumbra_gate``) on a striped shirt (2-px stripes, red / blue, dark / light grey, beige / brown), stage
+  1's skin probability 0 and 0.5 (clothes read up to about 0.5): the stripes' contrast 2 and 10 px from the edge under
+  4x the light, over their contrast 100 px away (1: kept), and the same with the skin probability alone as the gate.
+- photos: the reference photo (../shared/reference) and the bundled example: the share of the person off a face mesh
+  that the penumbra cap reaches (> 0.1), with ``penumbra_gate`` and with the skin probability alone.
 - Yale: Extended Yale B's photos lit from |azimuth| 50 and 70 (the ellipse mask of benchmarks/yale_eval.py), de-lit
   to its frontal lamp: the weight the relight uses (the ratio cap's handover included). Evaluation data only.
 """
@@ -132,6 +139,98 @@ def synthetic() -> None:
         show("synthetic B (edge blurred 1 px)", profile(weight, seen))
 
 
+def skin_alone():
+    """A context in which the penumbra cap's gate is the skin probability alone (before faces17)."""
+    import contextlib
+
+    @contextlib.contextmanager
+    def patched():
+        gate = factor_module.penumbra_gate
+        factor_module.penumbra_gate = lambda skin, *args: skin
+        try:
+            yield
+        finally:
+            factor_module.penumbra_gate = gate
+
+    return patched()
+
+
+def stripes() -> None:
+    from _graphs import OWN_LIGHT, make_models_dir
+
+    import relight_rt
+    from relight_rt.engine.config import RuntimeConfig
+
+    h, w, edge = 300, 400, 150
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+    mask = np.zeros((h, w), np.float32)
+    mask[30:270, 40:360] = 1
+    shade = cv2.GaussianBlur(np.where(xx < edge, 0.01, 1.0).astype(np.float32), (0, 0), 1.0)
+    cloths = {"red / blue": ((0.25, 0.06, 0.06), (0.05, 0.12, 0.25)), "grey": ((0.08,) * 3, (0.25,) * 3),
+              "beige / brown": ((0.55, 0.42, 0.33), (0.30, 0.20, 0.14))}
+
+    def contrast(out: np.ndarray, d: int) -> float:
+        cols = out[60:240, edge + d - 1 : edge + d + 2].mean(axis=1)
+        stripe = (np.arange(60, 240) % 4) < 2
+        return float(np.abs(cols[stripe].mean(0) - cols[~stripe].mean(0)).sum() / cols.mean(0).sum())
+
+    with tempfile.TemporaryDirectory() as tmp:
+        relighter = relight_rt.open(RuntimeConfig(models=make_models_dir(Path(tmp), 64, stage2=True, dvp=True),
+                                                  device="cpu"))
+        for name, (a, b) in cloths.items():
+            true = np.where((yy % 4 < 2)[..., None], np.float32(a), np.float32(b)).astype(np.float32)
+            line = []
+            for skin in (0.0, 0.5):
+                for alone in (False, True):
+                    dec = relighter.decompose(true * shade[..., None], mask)
+                    dec = replace(dec, albedo_chw=relighter.decompose(true, mask).albedo_chw,
+                                  skin=dec.skin * np.float32(skin / 0.5))  # the analytic graph's skin: 0.5
+                    if alone:
+                        with skin_alone():
+                            out = relighter.relight(dec, 4 * OWN_LIGHT, exposure="physical")
+                    else:
+                        out = relighter.relight(dec, 4 * OWN_LIGHT, exposure="physical")
+                    kept = [contrast(out, d) / contrast(out, 100) for d in (2, 10)]
+                    line.append(f"skin {skin:.1f}{' (skin alone)' if alone else ''} {kept[0]:.2f} / {kept[1]:.2f}")
+            print(f"stripes {name:14s} kept at 2 / 10 px: " + ",  ".join(line), flush=True)
+
+
+def photos(reference: Path) -> None:
+    import relight_rt
+    from relight_rt import RuntimeConfig
+
+    items = [(reference / "photo" / "sample.jpg", reference / "photo" / "sample_mask.png"),
+             (HERE.parent / "relight_rt" / "data" / "example.png", None)]
+    for path, mask_path in items:
+        if not path.is_file():
+            print(f"{path}: missing, skipped", file=sys.stderr)
+            continue
+        raw = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+        rgb = cv2.cvtColor(raw[..., :3], cv2.COLOR_BGR2RGB).astype(np.float32) / 255
+        if mask_path is not None:
+            mask = cv2.imread(str(mask_path), cv2.IMREAD_GRAYSCALE).astype(np.float32) / 255
+        else:
+            mask = raw[..., 3].astype(np.float32) / 255
+        shares = []
+        for alone in (False, True):
+            relighter = relight_rt.open(RuntimeConfig(device="cpu"))
+            dec = relighter.decompose(rgb, mask)
+            own = relighter._factor.own(dec, with_residual=False)
+            if relighter._factor.shadow_weight(dec) is None:
+                shares.append(0.0)
+                continue
+            if alone:
+                with skin_alone():
+                    base = relighter._factor.fill_base(dec, relighter._composer.foreground(dec)[0])
+            else:
+                base = relighter._factor.fill_base(dec, relighter._composer.foreground(dec)[0])
+            off = own["inner"] & ~(own["cap_face"] > 0 if own["cap_face"] is not None else False)
+            reach = base["reach"]
+            shares.append(0.0 if reach is None else float((reach[off] > 0.1).mean()))
+        print(f"{path.name:24s} the penumbra cap reaches {shares[0]:.4f} of the person off a face mesh "
+              f"({shares[1]:.4f} with the skin probability alone)", flush=True)
+
+
 def yale(folder: Path, per_photo: bool) -> None:
     from yale_eval import ellipse, find_file, lamp, read_grey
 
@@ -170,8 +269,11 @@ def main(argv=None) -> int:
     p.add_argument("--yale", type=Path, default=HERE.parent.parent / "shared" / "realdata" / "yale")
     p.add_argument("--no-yale", action="store_true")
     p.add_argument("--per-photo", action="store_true")
+    p.add_argument("--reference", type=Path, default=HERE.parent.parent / "shared" / "reference")
     args = p.parse_args(argv)
     synthetic()
+    stripes()
+    photos(args.reference)
     if not args.no_yale:
         if args.yale.is_dir():
             yale(args.yale, args.per_photo)

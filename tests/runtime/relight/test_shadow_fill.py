@@ -35,21 +35,13 @@ def test_a_hard_shadow_is_filled_and_the_own_light_gives_the_photo_back(relighte
     own = relighter.relight(dec, OWN_LIGHT, exposure="physical")
     np.testing.assert_allclose(own, shadowed, atol=1e-4)  # nothing added under the photo's own light
     filled = relighter.relight(dec, 2 * OWN_LIGHT, exposure="physical")
-    reach = relight_factor.CAP_SHADOW_REACH
-    monkeypatch.setattr(relight_factor, "CAP_SHADOW_REACH", None)
-    uncapped = relighter.relight(replace(dec), 2 * OWN_LIGHT, exposure="physical")
-    monkeypatch.setattr(relight_factor, "CAP_SHADOW_REACH", reach)
     monkeypatch.setattr(relighter._factor, "shadow_weight", lambda *args: None)
     multiplied = relighter.relight(dec, 2 * OWN_LIGHT, exposure="physical")
     lit = float((filled[core] @ REC709).mean())
     assert lit > 0.1 and lit > 10 * float((multiplied[core] @ REC709).mean())  # the light reaches the shadow
     lit_side = ~core & (mask > 0)
     lit_side[:, :62] = False
-    # the lit half as it was, 7 px or more from the edge; what moves there is the penumbra's ratio cap (the toy stage
-    # 2 lifts the ratio a little past RATIO_CAP), counted from the shadow's core, which reaches the photo's edge since
-    # faces17 (0.0081 before, 0.011 now); the fill itself leaves it as it was (0 with the cap off)
-    assert np.abs(filled[lit_side] - multiplied[lit_side]).max() < 0.015
-    assert np.abs(uncapped[lit_side] - multiplied[lit_side]).max() < 0.001
+    assert np.abs(filled[lit_side] - multiplied[lit_side]).max() < 0.01  # the lit half as it was
 
 
 def test_the_fill_begins_and_ends_at_the_photos_own_edge_not_the_networks(relighter, monkeypatch):
@@ -65,10 +57,12 @@ def test_the_fill_begins_and_ends_at_the_photos_own_edge_not_the_networks(religh
     filled = relighter.relight(dec, 2 * OWN_LIGHT, exposure="physical")
     core = float((filled[40:120, 36:46] @ REC709).mean())
     inside = (filled[40:120, 49:54] @ REC709).mean(axis=0)  # the black's last five pixels but its edge's own
-    assert core > 0.3 and inside.min() > 0.6 * core, (core, inside)  # measured 0.326: 0.233 (0.101 before)
+    assert core > 0.3 and inside.min() > 0.6 * core, (core, inside)  # measured 0.325: 0.339 (0.233 at faces16, 0.101 before)
     monkeypatch.setattr(relighter._factor, "shadow_weight", lambda *args: None)
     multiplied = relighter.relight(replace(dec), 2 * OWN_LIGHT, exposure="physical")
-    assert np.abs(filled[40:120, 55:62] - multiplied[40:120, 55:62]).max() < 0.03  # measured 0.021 (0.060 before)
+    # measured 0.0003: the fill's own (0.060 before faces16); 0.021 at faces16, the penumbra's ratio cap, which since
+    # faces17 reaches only a skin's colour (this texture, skin-tinted: 0.024, the lit side 7 px on 0.010)
+    assert np.abs(filled[40:120, 55:62] - multiplied[40:120, 55:62]).max() < 0.03
 
 
 def test_the_fill_reaches_a_hard_edge_from_inside_with_no_darker_band(relighter):
