@@ -72,7 +72,7 @@ from .detail import extend_outward, guided_upsample, shadow_texture, unpremultip
 from .face_pass import FacePass, feather
 from .fill_edge import crop_part, edge_weight, grid_weight, soften
 from .look import shaded_skin, skin_chroma, tint_range
-from .shadow_rim import penumbra_gate, rim_lift, skin_gate, spread_mean
+from .shadow_rim import RIM_SPREAD, penumbra_gate, rim_lift, skin_gate, spread_mean
 from .strength import (
     EXPLAIN_ALBEDO_MIN,
     EXPLAIN_SHADOW_SHARE,
@@ -516,7 +516,7 @@ class Factor:
                 reach = soften(core, CAP_SHADOW_REACH, own["inner"])
                 y0, y1, x0, x1 = own["window"]
                 reach = reach * penumbra_gate(self.skin_gate(dec), dec.network_image[y0:y1, x0:x1], reach * (1 - w),
-                                              own["inner"] & (w < 0.5), CAP_SHADOW_REACH)
+                                              own["inner"] & (w < 0.5), RIM_SPREAD * max(w.shape))
                 reach = reach if reach.max() > 1e-3 else None  # (no skin near: nothing to map)
             if own["cap_skin"] is not None:  # a face's skin and openings
                 reach = own["cap_face"] if reach is None else np.maximum(reach, own["cap_face"])

@@ -105,8 +105,9 @@ def penumbra_gate(gate: np.ndarray, rgb: np.ndarray, penumbra: np.ndarray, lit: 
                   sigma: float) -> np.ndarray:
     """(r, r') float32 in [0, 1]: how far the ratio cap may reach into the penumbra around a deep shadow
     (relight_rt.relight.factor ``Factor.handover``, ``CAP_SHADOW_REACH``): ``gate`` (``skin_gate``: stage 1 sees skin
-    there) times how far the penumbra's own colour, spread over ``sigma`` pixels, is a skin's (``rim_colour_gate``, the
-    fill's rim's rule), ``gate`` alone in a grey photo.
+    there) times how far the penumbra's own colour, spread over ``sigma`` pixels (the factor: ``RIM_SPREAD`` of the
+    window's side, as the rim's), is a skin's (``rim_colour_gate``, the fill's rim's rule), ``gate`` alone in a grey
+    photo.
 
     Stage 1 gives clothes a skin probability up to about 0.5, where ``skin_gate`` is open, and a shaded cheek reads
     0.3-0.6 (Extended Yale B's penumbrae: medians 0.32-0.62), so the probability cannot tell them apart; under the cap
