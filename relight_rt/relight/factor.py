@@ -588,11 +588,10 @@ class Factor:
         one) and as far as stage 1 sees skin there and the colour is a skin's (relight_rt.relight.shadow_rim
         ``penumbra_gate``): in a face's penumbra the transport's shading, smoother than the photo's edge, stays well
         above the photo's, and the ratio too low by 1.5-2x drew a dark line between the fill and the lit side
-        (Extended Yale B's yaleB21 from
-        -50, no face mesh). On cloth and hair the added change, smooth in colour, flattens the photo's own texture:
-        over a whole person a striped shirt's and jeans' (the bundled example under ``studio``, a cap of 2.5: 14 % of
-        its values moved, up to 50 levels); beside a shadow, ungated, a shirt's colour stripes lost a third of their
-        contrast 2 px from the edge (tests/runtime/relight/test_fill_edges.py).
+        (Extended Yale B's yaleB21 from -50, no face mesh). On cloth and hair the added change, smooth in colour,
+        flattens the photo's own texture: over a whole person a striped shirt's and jeans' (the bundled example under
+        ``studio``, a cap of 2.5: 14 % of its values moved, up to 50 levels); beside a shadow, ungated, a shirt's
+        colour stripes lost a third of their contrast 2 px from the edge (tests/runtime/relight/test_fill_edges.py).
         """
         if not RATIO_CAP > 1 or reach is None:  # the rule off, or nowhere to reach
             return None
