@@ -68,11 +68,11 @@ from ..light import sh
 from ..person.face_mesh import mirror
 from .cast_shadow import MeshView, shadow_factor
 from .decomposition import Decomposition, Memo, readonly
-from .detail import extend_outward, guided_upsample, masked_blur, shadow_texture, unpremultiply, window
+from .detail import extend_outward, guided_upsample, shadow_texture, unpremultiply, window
 from .face_pass import FacePass, feather
-from .fill_edge import crop_part, edge_weight, fill_share, soften
+from .fill_edge import crop_part, edge_weight, grid_weight, soften
 from .look import shaded_skin, skin_chroma, tint_range
-from .shadow_rim import rim_lift, skin_gate, spread_mean
+from .shadow_rim import RIM_SPREAD, penumbra_gate, rim_lift, skin_gate, spread_mean
 from .strength import (
     EXPLAIN_ALBEDO_MIN,
     EXPLAIN_SHADOW_SHARE,
@@ -511,9 +511,12 @@ class Factor:
             reach = None
             core = w > 0.5
             if CAP_SHADOW_REACH is not None and core.any():  # the penumbra around a deep shadow's core, as far as
-                # stage 1 sees skin there (relight_rt.relight.shadow_rim ``skin_gate``): on cloth and hair the
-                # added change, smooth in colour, flattened a striped shirt's stripes beside a shadow
-                reach = soften(core, CAP_SHADOW_REACH, own["inner"]) * self.skin_gate(dec)
+                # stage 1 sees skin there and its colour is a skin's (relight_rt.relight.shadow_rim
+                # ``penumbra_gate``): on cloth and hair the added change, smooth, flattened a shirt's stripes
+                reach = soften(core, CAP_SHADOW_REACH, own["inner"])
+                y0, y1, x0, x1 = own["window"]
+                reach = reach * penumbra_gate(self.skin_gate(dec), dec.network_image[y0:y1, x0:x1], reach * (1 - w),
+                                              own["inner"] & (w < 0.5), RIM_SPREAD * max(w.shape))
                 reach = reach if reach.max() > 1e-3 else None  # (no skin near: nothing to map)
             if own["cap_skin"] is not None:  # a face's skin and openings
                 reach = own["cap_face"] if reach is None else np.maximum(reach, own["cap_face"])
@@ -582,13 +585,13 @@ class Factor:
         face's skin and its openings (``OPENINGS_AS_SKIN``; its edge softened over ``CAP_SKIN_SPREAD`` of the window's
         side), where the fill carries the lit skin's albedo; elsewhere only around a deep shadow's core (a Gaussian
         of ``CAP_SHADOW_REACH`` network px: all of it within about that of a wide core's edge, less around a narrow
-        one) and as far as stage 1 sees skin there (relight_rt.relight.shadow_rim ``skin_gate``): in a face's
-        penumbra the transport's shading, smoother than the photo's edge, stays well above the photo's, and the
-        ratio too low by 1.5-2x drew a dark line between the fill and the lit side (Extended Yale B's yaleB21 from
-        -50, no face mesh). On cloth and hair the added change, smooth in colour, flattens the photo's own texture:
-        over a whole person a striped shirt's and jeans' (the bundled example under ``studio``, a cap of 2.5: 14 % of
-        its values moved, up to 50 levels); beside a shadow, ungated, a shirt's colour stripes lost a third of their
-        contrast 2 px from the edge (tests/runtime/relight/test_fill_edges.py).
+        one) and as far as stage 1 sees skin there and the colour is a skin's (relight_rt.relight.shadow_rim
+        ``penumbra_gate``): in a face's penumbra the transport's shading, smoother than the photo's edge, stays well
+        above the photo's, and the ratio too low by 1.5-2x drew a dark line between the fill and the lit side
+        (Extended Yale B's yaleB21 from -50, no face mesh). On cloth and hair the added change, smooth in colour,
+        flattens the photo's own texture: over a whole person a striped shirt's and jeans' (the bundled example under
+        ``studio``, a cap of 2.5: 14 % of its values moved, up to 50 levels); beside a shadow, ungated, a shirt's
+        colour stripes lost a third of their contrast 2 px from the edge (tests/runtime/relight/test_fill_edges.py).
         """
         if not RATIO_CAP > 1 or reach is None:  # the rule off, or nowhere to reach
             return None
@@ -624,7 +627,8 @@ class Factor:
         1 blurred is texture, not shadow), against its median over the person: from ``FILL_HIGH`` of it down to
         ``FILL_LOW`` the ratio's share goes from all to none (a hard shadow at levels 0-3 of a side-lit face is
         0.02 of the lit side's); within that smoothing's reach of such a shadow, each pixel's own shading counts too,
-        so that the weight's edge is the photo's (smoothed alone it ended inside the black: a dark line, multiplied).
+        so that the weight's edge is the photo's (smoothed alone it ended inside the black: a dark line, multiplied),
+        and the weight grows into the near-black pixels beside it (relight_rt.relight.fill_edge ``grid_weight``).
         """
         state = self.memo(dec)
         if not dec.photo:  # a video frame: a weight found frame by frame would flicker where the shadow's edge moves
@@ -634,21 +638,12 @@ class Factor:
             inner, photo = own["inner"], own["photo"]
             shown = photo / np.maximum(own["albedo"], EXPLAIN_ALBEDO_MIN)
             level = state["shadow_level"] = float(np.median(shown[inner])) if inner.any() else 0.0
-            # a shadow is wide, a black stripe the albedo blurred away is not: the shading shown, smoothed
-            # (both blurs masked to the solid person: the background, in a soft edge's pixels too, moves no weight)
-            keep = own["solid"].astype(np.float32)
-            smooth = masked_blur(shown, keep, FILL_SIGMA)
+            # a shadow is wide, a black stripe the albedo blurred away is not; near one each pixel's own shading places
+            # its edge (relight_rt.relight.fill_edge ``grid_weight``)
             result = None
-            if level > 0:  # the weight of the shading smoothed, of each pixel's own (``FILL_EDGE_SIGMA``) and unblurred
-                both = np.stack([smooth, masked_blur(shown, keep, FILL_EDGE_SIGMA), shown])
-                w, each, bare = np.where(inner, fill_share(both, level, FILL_LOW, FILL_HIGH), 0).astype(np.float32)
-                bare = np.where(keep > 0, bare, each)  # a soft edge's own pixel mixes the background in
-                if w.max() > 0.05:  # near a shadow each pixel's own shading places its edge (the photo's, not the
-                    # smoothing's: a black band inside it was multiplied, a dark line along the shadow's border)
-                    core = (w > 0.5).astype(np.float32)  # a shadow's (a stripe's smoothed weight stays low)
-                    near = cv2.GaussianBlur(each * soften(core, FILL_SIGMA), (0, 0), 1.0)  # (its blur held to
-                    # each pixel's own: the edge not crossed)
-                    w = np.maximum(cv2.GaussianBlur(w, (0, 0), 1.0), np.minimum(near, bare)) * inner
+            if level > 0:
+                w = grid_weight(shown, own["solid"], inner, level, FILL_LOW, FILL_HIGH, FILL_SIGMA, FILL_EDGE_SIGMA)
+                if w is not None:
                     y0, y1, x0, x1 = own["window"]
                     rgb = dec.network_image[y0:y1, x0:x1]
                     trust = ((1 - w) * inner * (photo > 0.02)).astype(np.float32)

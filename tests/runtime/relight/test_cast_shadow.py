@@ -157,7 +157,10 @@ def test_a_lamp_beside_a_real_face_darkens_only_its_skin_on_the_side_away_from_t
     m = (fx1 - fx0) // 10  # the edge-aware upsampling reaches a few pixels past the mesh
     outside = np.ones(darker.shape, bool)
     outside[fy0 - m : fy1 + m, fx0 - m : fx1 + m] = False
-    assert np.abs(darker[outside]).max() < 1e-6  # only on the mesh's skin
+    # only on the mesh's skin: outside its box nothing visible (1e-4 is 0.03 of an 8-bit level; measured 7.6e-6, 8.2e-7
+    # before faces17, whose fill reaches a near-black pixel beside the face, 0.30 against 0.11, and with it the cast
+    # shadow's softened edge through the change the fill adds)
+    assert np.abs(darker[outside]).max() < 1e-4
     assert darker.min() > -1e-3  # a shadow only darkens
     cx, half = (fx0 + fx1) // 2, (fx1 - fx0) // 2
     left, right = darker[fy0:fy1, cx - half : cx].mean(), darker[fy0:fy1, cx : cx + half].mean()
