@@ -72,7 +72,7 @@ from .detail import extend_outward, guided_upsample, shadow_texture, unpremultip
 from .face_pass import FacePass, feather
 from .fill_edge import crop_part, edge_weight, grid_weight, soften
 from .look import shaded_skin, skin_chroma, tint_range
-from .shadow_rim import RIM_SPREAD, penumbra_gate, rim_lift, skin_gate, spread_mean
+from .shadow_rim import rim_lift, skin_gate, spread_mean
 from .strength import (
     EXPLAIN_ALBEDO_MIN,
     EXPLAIN_SHADOW_SHARE,
@@ -511,12 +511,9 @@ class Factor:
             reach = None
             core = w > 0.5
             if CAP_SHADOW_REACH is not None and core.any():  # the penumbra around a deep shadow's core, as far as
-                # stage 1 sees skin there and its colour is a skin's (relight_rt.relight.shadow_rim
-                # ``penumbra_gate``): on cloth and hair the added change, smooth, flattened a shirt's stripes
-                reach = soften(core, CAP_SHADOW_REACH, own["inner"])
-                y0, y1, x0, x1 = own["window"]
-                reach = reach * penumbra_gate(self.skin_gate(dec), dec.network_image[y0:y1, x0:x1], reach * (1 - w),
-                                              own["inner"] & (w < 0.5), RIM_SPREAD * max(w.shape))
+                # stage 1 sees skin there (relight_rt.relight.shadow_rim ``skin_gate``): on cloth and hair the
+                # added change, smooth in colour, flattened a striped shirt's stripes beside a shadow
+                reach = soften(core, CAP_SHADOW_REACH, own["inner"]) * self.skin_gate(dec)
                 reach = reach if reach.max() > 1e-3 else None  # (no skin near: nothing to map)
             if own["cap_skin"] is not None:  # a face's skin and openings
                 reach = own["cap_face"] if reach is None else np.maximum(reach, own["cap_face"])
@@ -583,16 +580,15 @@ class Factor:
         the change, added: the same light where the albedo is right, the photo's noise multiplied by the cap only. A
         light that brightens the photo less than the cap, the photo's own light included, changes nothing. On a
         face's skin and its openings (``OPENINGS_AS_SKIN``; its edge softened over ``CAP_SKIN_SPREAD`` of the window's
-        side), where the fill carries the lit skin's albedo; elsewhere only around a deep shadow's core (a Gaussian
-        of ``CAP_SHADOW_REACH`` network px: all of it within about that of a wide core's edge, less around a narrow
-        one) and as far as stage 1 sees skin there and the colour is a skin's (relight_rt.relight.shadow_rim
-        ``penumbra_gate``): in a face's penumbra the transport's shading, smoother than the photo's edge, stays well
-        above the photo's, and the ratio too low by 1.5-2x drew a dark line between the fill and the lit side
-        (Extended Yale B's yaleB21 from -50, no face mesh). On cloth and hair the added change, smooth in colour,
-        flattens the photo's own texture: over a whole person a striped shirt's and jeans' (the bundled example under
-        ``studio``, a cap of 2.5: 14 % of its values moved, up to 50 levels); beside a shadow, ungated, a shirt's
-        colour stripes lost a third of their contrast 2 px from the edge (tests/runtime/relight/test_fill_edges.py).
-        """
+        side), where the fill carries the lit skin's albedo; elsewhere only around a deep shadow's core (a Gaussian of
+        ``CAP_SHADOW_REACH`` network px: all of it within about that of a wide core's edge, less around a narrow one)
+        and as far as stage 1 sees skin there (relight_rt.relight.shadow_rim ``skin_gate``): in a face's penumbra the
+        transport's shading, smoother than the photo's edge, stays well above the photo's, and the ratio too low by
+        1.5-2x drew a dark line between the fill and the lit side (Extended Yale B's yaleB21 from -50, no face mesh). On
+        cloth and hair the added change, smooth in colour, flattens the photo's own texture: over a whole person a
+        striped shirt's and jeans' (the bundled example under ``studio``, a cap of 2.5: 14 % of its values moved, up to
+        50 levels); beside a shadow, ungated, a shirt's colour stripes lost a third of their contrast 2 px from the edge
+        (tests/runtime/relight/test_fill_edges.py)."""
         if not RATIO_CAP > 1 or reach is None:  # the rule off, or nowhere to reach
             return None
         return (np.clip((ratio - RATIO_CAP) / np.maximum(ratio - 1, 1e-6), 0, 1) * reach).astype(np.float32)

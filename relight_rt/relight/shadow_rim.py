@@ -101,30 +101,6 @@ def skin_gate(skin: np.ndarray) -> np.ndarray:
     return np.clip(cv2.GaussianBlur(skin.astype(np.float32), (0, 0), RIM_SKIN_SIGMA) * RIM_SKIN_GATE, 0, 1)
 
 
-def penumbra_gate(gate: np.ndarray, rgb: np.ndarray, penumbra: np.ndarray, lit: np.ndarray,
-                  sigma: float) -> np.ndarray:
-    """(r, r') float32 in [0, 1]: how far the ratio cap may reach into the penumbra around a deep shadow
-    (relight_rt.relight.factor ``Factor.handover``, ``CAP_SHADOW_REACH``): ``gate`` (``skin_gate``: stage 1 sees skin
-    there) times how far the penumbra's own colour, spread over ``sigma`` pixels (the factor: ``RIM_SPREAD`` of the
-    window's side, as the rim's), is a skin's (``rim_colour_gate``, the fill's rim's rule), ``gate`` alone in a grey
-    photo.
-
-    Stage 1 gives clothes a skin probability up to about 0.5, where ``skin_gate`` is open, and a shaded cheek reads
-    0.3-0.6 (Extended Yale B's penumbrae: medians 0.32-0.62), so the probability cannot tell them apart; under the cap
-    the change beyond ``RATIO_CAP`` is added smooth, and a shirt's red and blue stripes at skin 0.5 beside a hard
-    shadow kept 0.66 of their colour contrast 2 px from it (tests/runtime/relight/test_fill_edges.py). A skin-coloured
-    cloth and anything in a grey photo stay open: the colour cannot tell them.
-
-    Args:
-        gate: (r, r') ``skin_gate`` of stage 1's skin probability.
-        rgb: (r, r', 3) the network image there.
-        penumbra: (r, r') in [0, 1], the penumbra's pixels as weights (its reach off the shadow's core).
-        lit: (r, r') bool, the lit person (``rim_colour_gate``: grey or not, and the luminance the colour is read at).
-    """
-    colour = rim_colour_gate(rgb, penumbra, lit, sigma)
-    return gate.astype(np.float32) if colour is None else (gate * colour).astype(np.float32)
-
-
 def rim_lift(albedo: np.ndarray, photo: np.ndarray, own: np.ndarray, weight: np.ndarray, trust: np.ndarray,
              gate: np.ndarray, floor: float, rgb: np.ndarray | None = None) -> np.ndarray | None:
     """(r, r') float32: the factor on the fill's albedo that gives it its rim's (module docstring), 1 where stage 1

@@ -265,45 +265,6 @@ def test_the_penumbra_cap_leaves_clothings_colour_stripes_where_stage1_sees_no_s
     assert min(kept) > 0.9, kept  # measured 0.98, 1.00 (0.67, 0.77 with the cap on cloth)
 
 
-def test_the_penumbra_cap_leaves_colour_stripes_where_stage1_half_sees_skin(relighter):
-    """Stage 1 gives clothes a skin probability up to about 0.5, where ``skin_gate`` is open (a shaded cheek reads
-    0.3-0.6 too); the cap then flattened a shirt's red and blue stripes beside a hard shadow to 0.66 of their colour
-    contrast 2 px from it, 0.70 at 10 px. The penumbra's colour must be a skin's too (relight_rt.relight.shadow_rim
-    ``penumbra_gate``). Here the analytic graph's own skin, 0.5 everywhere; the skin-coloured person's penumbra keeps
-    the cap (``test_a_light_that_lifts_the_penumbra_past_the_cap...``)."""
-    h, w, edge = 300, 400, 150
-    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
-    true = np.where((yy % 4 < 2)[..., None], np.float32([0.25, 0.06, 0.06]), np.float32([0.05, 0.12, 0.25]))
-    mask = np.zeros((h, w), np.float32)
-    mask[30:270, 40:360] = 1
-    shade = cv2.GaussianBlur(np.where(xx < edge, 0.01, 1.0).astype(np.float32), (0, 0), 1.0)
-    dec = relighter.decompose(true * shade[..., None], mask)
-    dec = replace(dec, albedo_chw=relighter.decompose(true.astype(np.float32), mask).albedo_chw)
-    assert float(dec.skin[dec.network_mask > 0.99].min()) > 0.49  # stage 1 half sees skin on the whole shirt
-
-    def contrast(out: np.ndarray, d: int) -> float:
-        cols = out[60:240, edge + d - 1 : edge + d + 2].mean(axis=1)
-        stripe = (np.arange(60, 240) % 4) < 2
-        return float(np.abs(cols[stripe].mean(0) - cols[~stripe].mean(0)).sum() / cols.mean(0).sum())
-
-    out = relighter.relight(dec, 4 * OWN_LIGHT, exposure="physical")
-    kept = [contrast(out, d) / contrast(out, 100) for d in (2, 10)]
-    assert min(kept) > 0.85, kept  # measured 0.90, 0.93 (0.66, 0.70 with the skin probability alone)
-
-
-def test_the_penumbra_gate_is_the_skin_gate_in_a_grey_photo_and_closes_on_a_non_skin_colour():
-    gate = np.full((40, 40), 0.8, np.float32)
-    penumbra = np.zeros((40, 40), np.float32)
-    penumbra[:, 15:25] = 1
-    lit = np.ones((40, 40), bool)
-    grey = np.full((40, 40, 3), 0.4, np.float32)
-    np.testing.assert_allclose(shadow_rim.penumbra_gate(gate, grey, penumbra, lit, 5.0), gate)
-    skin = np.broadcast_to(np.float32([0.62, 0.47, 0.40]), (40, 40, 3)).copy()
-    blue = np.broadcast_to(np.float32([0.10, 0.20, 0.45]), (40, 40, 3)).copy()
-    assert float(shadow_rim.penumbra_gate(gate, skin, penumbra, lit, 5.0).min()) > 0.75
-    assert float(shadow_rim.penumbra_gate(gate, blue, penumbra, lit, 5.0).max()) < 0.05
-
-
 def _dim_block(relighter, monkeypatch, photo: np.ndarray, mask: np.ndarray, albedo: np.ndarray):
     """The Decomposition of ``photo`` given ``albedo``'s albedo, with the fill's weight found (its level set), then
     replaced by a 0.45 block of network pixels with no core (rows 24-40, columns 20-30 of the 64-px window)."""
@@ -340,8 +301,7 @@ def test_the_fills_weight_is_the_same_for_any_colour_of_the_same_luminance(relig
     """The fill's weight on the network's grid is the photo's Rec. 709 luminance over the albedo's; along the shadow's
     border ``edge_weight`` read each input pixel's BT.601 grey over that albedo (OpenCV's RGB2GRAY), 1.3x a
     saturated blue's luminance: its border pixels read lit. One shading under grey and under a saturated blue of the
-    same luminance gives one weight (compared where both boxes reach: the penumbra cap's reach, which the box also
-    covers, asks for a skin's colour since faces17, and grey is no colour to tell by)."""
+    same luminance gives one weight."""
     h, w = 150, 100
     xx = np.mgrid[0:h, 0:w][1].astype(np.float32)
     mask = np.zeros((h, w), np.float32)
@@ -353,15 +313,9 @@ def test_the_fills_weight_is_the_same_for_any_colour_of_the_same_luminance(relig
         true = np.broadcast_to(colour, (h, w, 3)).astype(np.float32)
         dec = relighter.decompose(true * shade[..., None], mask)
         dec = replace(dec, albedo_chw=relighter.decompose(true, mask).albedo_chw)
-        base = relighter._factor.fill_base(dec, relighter._composer.foreground(dec)[0])
-        weights.append((base["box"], base["weight"]))
-    (ya, xa), (yb, xb) = weights[0][0], weights[1][0]
-    ys = slice(max(ya.start, yb.start), min(ya.stop, yb.stop))
-    xs = slice(max(xa.start, xb.start), min(xa.stop, xb.stop))
-    both = [wt[ys.start - y.start : ys.stop - y.start, xs.start - x.start : xs.stop - x.start]
-            for (y, x), wt in weights]
-    assert both[0].size > 2000 and float(both[0].max()) > 0.9  # the shadow is in both
-    assert np.abs(both[0] - both[1]).max() < 0.01, np.abs(both[0] - both[1]).max()
+        weights.append(relighter._factor.fill_base(dec, relighter._composer.foreground(dec)[0])["weight"])
+    assert weights[0].shape == weights[1].shape
+    assert np.abs(weights[0] - weights[1]).max() < 0.01, np.abs(weights[0] - weights[1]).max()
 
 
 def test_a_shadow_at_a_twentieth_of_the_lit_side_is_filled_up_to_its_edge(relighter):
