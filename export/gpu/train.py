@@ -469,7 +469,11 @@ def run(config: GpuTrainConfig) -> int:
     finally:
         signal.signal(signal.SIGTERM, previous)
     if state["val"] is not None and state["val_error"] is None and state["best"].last_step != state["step"]:
-        validate()  # the last weights are a candidate too (within the export reserve: one pass over a few samples)
+        try:  # the last weights are a candidate too (within the export reserve: one pass over a few samples)
+            validate()
+        except Exception as exc:  # noqa: BLE001  (keeping the best, not the check, failed: the export still comes)
+            state["val_error"] = f"{type(exc).__name__}: {exc}"
+            log.error("the last held-out check failed: %s", exc)
     return _finish(config, model, sampler, state, start, index, device_name, logger)
 
 
@@ -486,7 +490,9 @@ def _finish(config, model, sampler, state, start, index, device_name, logger) ->
     save_checkpoint(out / "last.pt", model, step=state["step"], meta=json.dumps({"command": "gpu-train"}))
     best = state["best"]
     chosen = "last"
-    if best.state is not None:  # the held-out people's choice (best.pt was written when it was reached)
+    if state["val_error"] is not None:  # the checks broke off: they judged only part of the run, whose weights are
+        chosen = "last (the held-out checks failed)"  # the last ones; best.pt (if any) stays beside, to compare here
+    elif best.state is not None:  # the held-out people's choice (best.pt was written when it was reached)
         model.load_state_dict(best.state)
         chosen = f"best (step {best.step})"
     losses = state["losses"]

@@ -301,22 +301,48 @@ def test_the_relit_rmse_is_zero_for_the_truth_and_grows_with_a_wrong_albedo(bank
     assert dim["relit_rmse"] > 0.01 and dim["loss"] > exact["loss"]
 
 
-@pytest.mark.parametrize("where", ["measure", "samples"])
+@pytest.mark.parametrize("where", ["measure", "samples", "later", "keeping"])
 def test_a_failing_held_out_check_turns_the_checks_off_and_training_goes_on(bank_dir, tmp_path, monkeypatch, where):
-    """The checks never ran on the device before a lend: one that fails there must not cost the run's training."""
+    """The checks never ran on the device before a lend: one that fails there must not cost the run's training, nor
+    its export: at step 0, after a best was kept (the step-0 weights, the shipped stage 1 on the device, must not be
+    what comes back), or in keeping the last check's best (after the training loop)."""
     from export.gpu import validate
+
+    calls = []
 
     def broken(*args, **kwargs):
         raise RuntimeError("CUDA-only trouble")
 
+    def measure_once(self, *args, **kwargs):  # step 0 is measured, every later check fails
+        calls.append(1)
+        if len(calls) > 1:
+            broken()
+        return {"loss": 1.0, "relit_rmse": 0.1}
+
+    offer = validate.Best.offer
+
+    def offer_once(self, *args, **kwargs):  # the first best is kept, keeping a later one fails
+        if self.step is not None:
+            broken()
+        return offer(self, *args, **kwargs)
+
     if where == "measure":
         monkeypatch.setattr(validate.HeldOut, "measure", broken)
-    else:
+    elif where == "samples":
         monkeypatch.setattr(validate.HeldOut, "__init__", broken)
+    elif where == "later":
+        monkeypatch.setattr(validate.HeldOut, "measure", measure_once)
+    else:
+        monkeypatch.setattr(validate.HeldOut, "measure", lambda self, *a, **k: {"loss": 1.0, "relit_rmse": 0.1})
+        monkeypatch.setattr(validate.Best, "offer", offer_once)
     out = tmp_path / "run"
-    assert main(["gpu-train", "--bank", str(bank_dir), "--out", str(out), "--init", "none", "--max-steps", "3",
-                 *TINY, *HOLD_ONE]) == 0
+    argv = ["gpu-train", "--bank", str(bank_dir), "--out", str(out), "--init", "none", "--max-steps", "3", *TINY,
+            *HOLD_ONE]
+    if where == "keeping":
+        argv += ["--val-every", "1000"]  # no check inside the loop: only step 0's and the last one's
+    assert main(argv) == 0
     summary = json.loads((out / "summary.json").read_text())
     assert summary["steps"] == 3 and summary["error"] is None and summary["stopped"] == "steps"
-    assert "CUDA-only trouble" in summary["val_error"] and summary["exported"] == "last"
+    assert "CUDA-only trouble" in summary["val_error"]
+    assert summary["exported"].startswith("last")
     assert (out / "stage1.onnx").is_file()
