@@ -178,6 +178,7 @@ def stripes() -> None:
 def photos(reference: Path) -> None:
     import relight_rt
     from relight_rt import RuntimeConfig
+    from relight_rt.image.io import read_image, read_mask
 
     items = [(reference / "photo" / "sample.jpg", reference / "photo" / "sample_mask.png"),
              (HERE.parent / "relight_rt" / "data" / "example.png", None)]
@@ -185,12 +186,9 @@ def photos(reference: Path) -> None:
         if not path.is_file():
             print(f"{path}: missing, skipped", file=sys.stderr)
             continue
-        raw = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
-        rgb = cv2.cvtColor(raw[..., :3], cv2.COLOR_BGR2RGB).astype(np.float32) / 255
-        if mask_path is not None:
-            mask = cv2.imread(str(mask_path), cv2.IMREAD_GRAYSCALE).astype(np.float32) / 255
-        else:
-            mask = raw[..., 3].astype(np.float32) / 255
+        raw = read_image(path, path.name)  # (the project's intake: the bundled example's alpha is its mask)
+        rgb = np.ascontiguousarray(raw[..., :3])
+        mask = read_mask(mask_path, rgb.shape[:2]) if mask_path is not None else raw[..., 3]
         relighter = relight_rt.open(RuntimeConfig(device="cpu"))
         dec = relighter.decompose(rgb, mask)
         own = relighter._factor.own(dec, with_residual=False)

@@ -13,10 +13,11 @@ Renders (once, cached in ``--cache``) stage-1 samples of three kinds and scores 
   diffuse inputs, then their non-diffuse photos (render-photos) as the input (each under its own lamp).
 
 Each sample is scored under fixed lights (``--bank-lights`` of the bank's training lights and the six lamps of
-benchmarks/heldout_change.py, projected to SH): the input image is clip(a ⊙ max(0, t·l), 0, 1) ⊙ mask as in
-training, and per graph: the stage-1 loss of gpu-train (``Stage1Loss(sf_scale=0.2)``), the transport's L1, the
-relit diffuse image's RMSE under another of the lights (Â ⊙ max(0, T̂·l') against a ⊙ max(0, t·l')), and the
-transport's degree-2/0 band ratio (mean over the mask of |T₂|/|T₀|, the truth's beside it). Means per set.
+benchmarks/heldout_change.py, projected to SH): the input image is clip(a ⊙ max(0, t·l), 0, 1) ⊙ mask as in training,
+and per graph: the stage-1 loss of the first lend's gpu-train (``Stage1Loss(sf_scale=0.2)``, no band or direction terms:
+gpu-train adds them since), the transport's L1, the relit diffuse image's RMSE under another of the lights (Â ⊙ max(0,
+T̂·l') against a ⊙ max(0, t·l')), and the transport's degree-2/0 band ratio (mean over the mask of |T₂|/|T₀|, the
+truth's beside it). Means per set.
 
     PYTHONPATH=. python benchmarks/gpu_gap.py --bank data/gpu_bank --new /tmp/gpu17_new --cache /tmp/gpu17_cache \
         --new256 /tmp/gpu17_new256 --n-bank 10 --n-new 10 \
@@ -37,7 +38,7 @@ REPO = Path(__file__).resolve().parents[1]
 if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
-ORDER = ("full", "knees-up", "waist-up", "head-shoulders", "face")
+from benchmarks.heldout_change import FRAMINGS as ORDER  # noqa: E402  (the held-out set's framings, in its order)
 
 
 def lamp_lights() -> np.ndarray:
@@ -122,8 +123,7 @@ def heldout_sets(root: Path) -> dict[str, list[dict]]:
     """The people of benchmarks/heldout_change.py (``make``'s folder): ``heldout/embree``, their embree samples
     (test_FRAMING); ``heldout/photo``, the same with the photos of render-photos (photos_FRAMING: non-diffuse,
     under the lamps) as the input in place of the diffuse image, each photo with its own true light."""
-    import cv2
-
+    from benchmarks.heldout_change import _read
     from export import dataset
 
     sets: dict[str, list[dict]] = {"heldout/embree": [], "heldout/photo": []}
@@ -137,10 +137,8 @@ def heldout_sets(root: Path) -> dict[str, list[dict]]:
             sets["heldout/embree"].append(sample)
             shots = []
             for f in sorted(photos.glob(f"{name}__L*_photo.png")):
-                bgr = cv2.imread(str(f), cv2.IMREAD_COLOR)
-                light = np.load(str(f).replace("_photo.png", "_light.npy"), allow_pickle=False)[:, ::-1]
-                shots.append((cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB).astype(np.float32) / 255,
-                              np.ascontiguousarray(light, np.float32)))
+                photo, _, light = _read(photos, f.name[: -len("_photo.png")])  # (heldout_change's reader)
+                shots.append((photo, light))
             if shots:
                 sets["heldout/photo"].append(sample | {"photos": shots})
     return {k: v for k, v in sets.items() if v}
@@ -159,7 +157,7 @@ def score(sets: dict[str, list[dict]], graphs: dict[str, Path], lights: np.ndarr
 
     from export.frozen import OnnxStage
     from export.losses import Stage1Loss, band_magnitude_loss, direction_loss
-    from export.shading import render_diffuse, shade
+    from export.shading import render_diffuse, shading
 
     loss_fn = Stage1Loss(sf_scale=0.2)
     light_t = torch.as_tensor(lights)
@@ -186,8 +184,8 @@ def score(sets: dict[str, list[dict]], graphs: dict[str, Path], lights: np.ndarr
                     p = {k: pred[k][i : i + 1] for k in ("transport", "albedo", "skin", "light")}
                     terms = loss_fn(p, one)
                     other = own[(i + 1) % n][None]
-                    relit = (p["albedo"] * shade(p["transport"], other).clamp_min(0)).clamp(0, 1)
-                    truth = (one["albedo"] * shade(one["transport"], other).clamp_min(0)).clamp(0, 1)
+                    relit = (p["albedo"] * shading(p["transport"], other)).clamp(0, 1)
+                    truth = (one["albedo"] * shading(one["transport"], other)).clamp(0, 1)
                     mi = m[i : i + 1].expand_as(relit)
                     rows.append({
                         "loss": float(terms["total"]), "transport_l1": float(terms["transport"]),

@@ -32,10 +32,10 @@ from relight_rt.person.matting._things_behind import without_things_behind  # no
 
 
 def read_rgb(path: Path, mp: float | None) -> np.ndarray:
-    bgr = cv2.imread(str(path), cv2.IMREAD_COLOR)
-    if bgr is None:
-        raise SystemExit(f"cannot read {path}")
-    rgb = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB).astype(np.float32) / 255.0
+    """The photo through the project's one intake (relight_rt.image.io.read_image), resized to ``mp`` megapixels."""
+    from relight_rt.image.io import read_image
+
+    rgb = read_image(path, path.name)[..., :3]
     if mp:
         s = float(np.sqrt(mp * 1e6 / (rgb.shape[0] * rgb.shape[1])))
         rgb = np.clip(cv2.resize(rgb, None, fx=s, fy=s, interpolation=cv2.INTER_CUBIC), 0.0, 1.0)

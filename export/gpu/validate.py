@@ -73,7 +73,7 @@ class HeldOut:
         eval mode (its mode is restored)."""
         import torch
 
-        from export.shading import shade
+        from export.shading import shading
         from export.torch_data import render_input
         from export.training import autocast
 
@@ -91,8 +91,8 @@ class HeldOut:
                         terms = loss_fn({"transport": t, "albedo": a, "skin": k, "light": light}, batch)
                     total += float(terms["total"]) * len(x)
                     other = self.others[s : s + batch_size]
-                    ours = (a.float() * shade(t.float(), other).clamp_min(0.0)).clamp(0.0, 1.0)
-                    truth = (batch["albedo"] * shade(batch["transport"], other).clamp_min(0.0)).clamp(0.0, 1.0)
+                    ours = (a.float() * shading(t.float(), other)).clamp(0.0, 1.0)
+                    truth = (batch["albedo"] * shading(batch["transport"], other)).clamp(0.0, 1.0)
                     m = batch["mask"]
                     err = ((ours - truth) ** 2 * m).sum((1, 2, 3)) / (3.0 * m.sum((1, 2, 3))).clamp_min(1.0)
                     relit += float(err.sqrt().sum())
