@@ -245,6 +245,11 @@ def test_the_weights_of_the_lowest_held_out_figure_are_exported(bank_dir, tmp_pa
     best, best_ckpt = load_checkpoint(out / "best.pt")
     last, last_ckpt = load_checkpoint(out / "last.pt")
     assert best_ckpt["step"] == winner and last_ckpt["step"] == 3
+    # the graph's metadata names what its weights had seen: the best check's steps and samples, not the run's
+    source = _source(out / "stage1.onnx")
+    assert source.startswith(f"relight_rt gpu-train: {winner} steps on ")
+    seen = int(source.split(" steps on ")[1].split()[0])
+    assert 0 < seen < summary["samples_rendered"]  # rendering goes on after the best check
     image = torch.rand(1, 3, 64, 64, generator=torch.Generator().manual_seed(0))
     mask = torch.ones(1, 1, 64, 64)
     got = OnnxStage(out / "stage1.onnx", "stage1").run({"image": image, "mask": mask})["transport"]
@@ -346,3 +351,11 @@ def test_a_failing_held_out_check_turns_the_checks_off_and_training_goes_on(bank
     assert "CUDA-only trouble" in summary["val_error"]
     assert summary["exported"].startswith("last")
     assert (out / "stage1.onnx").is_file()
+    assert _source(out / "stage1.onnx").startswith(f"relight_rt gpu-train: 3 steps on {summary['samples_rendered']} ")
+
+
+def _source(graph):
+    """The ``relight_rt.source`` metadata of an ONNX graph."""
+    import onnx
+
+    return {p.key: p.value for p in onnx.load(str(graph)).metadata_props}["relight_rt.source"]
