@@ -26,7 +26,6 @@ from relight_rt.person.face_mesh import (
 from relight_rt.relight import factor as factor_module
 from relight_rt.relight.factor import Factor
 
-REFERENCE = Path(__file__).resolve().parents[4] / "shared" / "reference"
 
 
 @pytest.mark.parametrize("normal", [(1, 0, 0), (0, 1, 0), (0.3, -0.5, 0.81), (-0.2, 0.1, -0.97)])
@@ -155,7 +154,6 @@ def test_a_broken_triangle_table_is_one_relight_error(tmp_path):
         FaceMesh(tmp_path)
 
 
-@pytest.mark.skipif(not REFERENCE.is_dir(), reason="../shared/reference is absent")
 def test_a_face_that_fills_the_photo_gets_its_mesh(monkeypatch):
     """issue 48: the short-range detector finds no face that fills its square (the 12 Yale face crops: none), so
     FaceMesh.faces looks again at a square twice as large. The bundled example cut to its face's mesh: found
@@ -197,7 +195,7 @@ def test_bad_lifts_and_images_are_one_clear_error():
     assert mesh.faces(img, (0, 64, 0, 64), lift=0.5) == []
 
 
-def test_the_face_in_a_real_photo_gets_its_mesh_and_the_light_models_it(monkeypatch):
+def test_the_face_in_a_real_photo_gets_its_mesh_and_the_light_models_it(monkeypatch, reference_dir):
     """The reference photo (full body): the head pass finds the face's mesh; the relit face differs from the one
     without the mesh only around the head, a light from the image's right brightens the face's right half more
     with the mesh than without it, and the photo's own light still gives the photo back. (The photo's light is
@@ -207,8 +205,8 @@ def test_the_face_in_a_real_photo_gets_its_mesh_and_the_light_models_it(monkeypa
     (``Factor.meter_shadows``) and gives back what the highlight shoulder takes of the picture, face included
     (relight_rt.light.exposure.shoulder_gain): all four move the whole picture a little and are held off here to see
     where the mesh's transport itself acts.)"""
-    photo = REFERENCE / "photo" / "sample.jpg"
-    mask = REFERENCE / "photo" / "sample_mask.png"
+    photo = reference_dir / "photo" / "sample.jpg"
+    mask = reference_dir / "photo" / "sample_mask.png"
     r = relight_rt.open(RuntimeConfig(device="cpu"))
     dec = r.decompose(photo, mask)
     np.testing.assert_allclose(r.relight(dec, dec), dec.image, atol=2e-3)  # with the refit light

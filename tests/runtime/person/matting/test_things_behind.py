@@ -351,7 +351,9 @@ def probes(shared_dir, load_benchmark):
     issue 48): the test is skipped when it is absent."""
     if not (shared_dir / "realdata" / "people_masks" / "photos").is_dir():
         pytest.skip("../shared/realdata/people_masks is not present")
-    return load_benchmark("things_behind_probes")
+    module = load_benchmark("things_behind_probes")
+    module.PHOTOS = shared_dir / "realdata" / "people_masks" / "photos"  # where the fixture found it (a worktree's too)
+    return module
 
 
 def test_a_couples_blurred_partner_stays_and_the_foliage_leaves(probes):
