@@ -3,8 +3,11 @@
     python benchmarks/people_masks_eval.py                       # clip + photos, every method, summary table
     python benchmarks/people_masks_eval.py --set photos --methods ours --table   # + per-photo table
     python benchmarks/people_masks_eval.py --sheet /tmp/worst.png              # the 12 worst photos (ours)
+    python benchmarks/people_masks_eval.py --set photos --methods ours,selfie --below-sheet /tmp/below.png
+                                                       # the 12 furthest below the selfie graph, its matte beside
     python benchmarks/people_masks_eval.py --speed [PHOTO]     # the default matte's time on a photo (2.5 MP)
     python benchmarks/people_masks_eval.py --methods ours --outline    # where each outline cuts the photo's edges
+    python benchmarks/people_masks_eval.py --methods ours,selfie --grow 1   # ours' outline moved 1 px out: both sets
 
 Sets: ``clip/`` (100 frames of a runner vaulting a railing, DAVIS 2016 "parkour", masks drawn by hand) and
 ``photos/`` (208 web photos, masks made by a commercial matting service: a second opinion, not truth). The
@@ -144,11 +147,14 @@ def whole_image(model, rgb: np.ndarray, output: str, logits: bool) -> np.ndarray
 
 
 def run_methods(
-    root: Path, which: str, methods: list[str], keep: dict | None, half: str | None = None, inset: int = 0
+    root: Path, which: str, methods: list[str], keep: dict | None, half: str | None = None, inset: int = 0,
+    grow: int = 0,
 ) -> dict[str, dict[str, float]]:  # fmt: skip
     """IoU per method per image; ``keep`` (optional) collects the predicted masks by (method, name); ``inset``: the
     photos' service masks are eroded by this many pixels first (their outline runs ~1 px past the edge's half mix,
-    ``--outline``; the clip's hand masks sit on it and are never eroded)."""
+    ``--outline``; the clip's hand masks sit on it and are never eroded); ``grow``: the hard mattes of the ``ours``
+    methods are dilated by this many pixels (3x3 square steps) on both sets: what moving the outline past the half
+    mix, to the service's convention, would give and cost (a measurement, not a setting of the matte)."""
     largest = M.PersonMatter(person="largest")
     everyone = M.PersonMatter(person="all") if "all" in methods else None
     variants = {m: M.PersonMatter(refine=m != "ours-unrefined", edges=False) for m in methods if m.startswith("ours-")}
@@ -187,6 +193,8 @@ def run_methods(
                 a = vms[m](rgb, name)
             secs[m] += time.perf_counter() - t
             pred = a >= 0.5
+            if grow and m.startswith("ours"):
+                pred = cv2.dilate(pred.astype(np.uint8), np.ones((3, 3), np.uint8), iterations=grow) > 0
             out[m][name] = iou(pred, gt)
             if keep is not None:
                 keep[(m, name)] = pred
@@ -201,20 +209,28 @@ def summary(scores: dict[str, float]) -> tuple[float, float, int]:
     return float(v.mean()), float((v < GROSS).mean()), len(v)
 
 
-def sheet(root: Path, names: list[str], keep: dict, path: Path, method: str = "ours", height: int = 240) -> None:
-    """photo | reference | ours (ours: green where it agrees, red where it adds, blue where it misses), one row
-    each, written to ``path`` (keep it under /tmp)."""
+def sheet(
+    root: Path, names: list[str], keep: dict, path: Path, method: str = "ours", height: int = 240,
+    beside: str | None = None,
+) -> None:  # fmt: skip
+    """photo | reference | ours [| ``beside``'s] (each method: green where it agrees, red where it adds, blue where
+    it misses), one row each, written to ``path`` (keep it under /tmp)."""
+
+    def over(img: np.ndarray, pred: np.ndarray, gt: np.ndarray) -> np.ndarray:
+        out = (img * 0.5).astype(np.uint8)
+        out[pred & gt] = (0.4 * img[pred & gt] + [0, 150, 0]).clip(0, 255)
+        out[pred & ~gt] = (0.4 * img[pred & ~gt] + [0, 0, 200]).clip(0, 255)
+        out[~pred & gt] = (0.4 * img[~pred & gt] + [200, 0, 0]).clip(0, 255)
+        return out
+
     rows = []
     for name in names:
         img = cv2.imread(str(root / "photos" / f"{name}.jpg"), cv2.IMREAD_COLOR)
         gt = read_mask(root / "photos" / f"{name}_mask.png", img.shape[:2])
-        pred = keep[(method, name)]
         ref = np.repeat((gt * 255).astype(np.uint8)[..., None], 3, axis=2)
-        over = (img * 0.5).astype(np.uint8)
-        over[pred & gt] = (0.4 * img[pred & gt] + [0, 150, 0]).clip(0, 255)
-        over[pred & ~gt] = (0.4 * img[pred & ~gt] + [0, 0, 200]).clip(0, 255)
-        over[~pred & gt] = (0.4 * img[~pred & gt] + [200, 0, 0]).clip(0, 255)
-        row = np.concatenate([img, ref, over], axis=1)
+        panels = [img, ref, over(img, keep[(method, name)], gt)]
+        panels += [over(img, keep[(beside, name)], gt)] if beside is not None else []
+        row = np.concatenate(panels, axis=1)
         s = height / row.shape[0]
         row = cv2.resize(row, (int(row.shape[1] * s), height), interpolation=cv2.INTER_AREA)
         cv2.putText(row, name, (4, 18), cv2.FONT_HERSHEY_SIMPLEX, 0.6, (0, 255, 255), 2)
@@ -262,6 +278,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--half", choices=("A", "B"), help="only this half of the photos")
     ap.add_argument("--table", action="store_true", help="print the per-photo table")
     ap.add_argument("--sheet", type=Path, help="write the 12 worst photos (ours) as a sheet here (under /tmp)")
+    ap.add_argument(
+        "--below-sheet",
+        type=Path,
+        help="with ours and selfie: the 12 photos furthest below the selfie graph, photo | reference | ours | selfie",
+    )
     ap.add_argument("--save", type=Path, help="write every IoU as JSON here")
     ap.add_argument(
         "--inset",
@@ -269,6 +290,13 @@ def main(argv: list[str] | None = None) -> int:
         default=0,
         metavar="PX",
         help="erode the photos' service masks by PX pixels first (their outline's ~1-px rim past the half mix)",
+    )
+    ap.add_argument(
+        "--grow",
+        type=int,
+        default=0,
+        metavar="PX",
+        help="dilate the ours methods' hard mattes by PX pixels before IoU (the service's outline convention)",
     )
     ap.add_argument(
         "--outline",
@@ -291,10 +319,14 @@ def main(argv: list[str] | None = None) -> int:
         ap.error(f"--methods: expected some of {METHODS}")
     if not 0 <= args.inset <= 8:
         ap.error("--inset: expected 0-8 pixels")
+    if not 0 <= args.grow <= 8:
+        ap.error("--grow: expected 0-8 pixels")
+    if args.below_sheet and not {"ours", "selfie"} <= set(methods):
+        ap.error("--below-sheet: needs --methods with ours and selfie")
     root = data_root()
     sets = ("clip", "photos") if args.set == "both" else (args.set,)
-    keep: dict | None = {} if args.sheet or args.outline else None
-    results = {s: run_methods(root, s, methods, keep, args.half, args.inset) for s in sets}
+    keep: dict | None = {} if args.sheet or args.below_sheet or args.outline else None
+    results = {s: run_methods(root, s, methods, keep, args.half, args.inset, args.grow) for s in sets}
 
     print("set      half  method   n    mean IoU  IoU<0.8")
     for s in sets:
@@ -331,6 +363,12 @@ def main(argv: list[str] | None = None) -> int:
         worst = sorted(ours, key=ours.get)[:12]
         sheet(root, worst, keep, args.sheet, methods[0])
         print(f"sheet: {args.sheet} ({', '.join(f'{n} {ours[n]:.2f}' for n in worst)})")
+    if args.below_sheet and "photos" in results:
+        ours, selfie = results["photos"]["ours"], results["photos"]["selfie"]
+        worst = sorted((n for n in ours if ours[n] < selfie[n] - 1e-9), key=lambda n: ours[n] - selfie[n])[:12]
+        if worst:
+            sheet(root, worst, keep, args.below_sheet, "ours", beside="selfie")
+        print(f"below-sheet: {args.below_sheet} ({len(worst)} photos)")
     if args.outline:
         for s in sets:
             offsets = outline_offsets(root, s, keep, methods)

@@ -1,9 +1,11 @@
-"""benchmarks/people_masks_eval.py's outline_offset: where a mask's outline cuts the photo's own (blurred) edge."""
+"""benchmarks/people_masks_eval.py: outline_offset (where a mask's outline cuts the photo's own, blurred, edge), the
+sheets, and the options it refuses."""
 
 from __future__ import annotations
 
 import cv2
 import numpy as np
+import pytest
 
 
 def disc_photo(radius: float = 40.0, blur: float = 1.2, size: int = 160):
@@ -27,3 +29,36 @@ def test_an_outline_through_the_edges_half_mix_is_at_zero_and_a_generous_one_is_
     assert 0.6 < wide - on < 1.4 and 0.6 < on - tight < 1.4  # one pixel more or less of the edge's backdrop side
     grey = np.full_like(rgb, 0.5)  # no edge to measure against
     assert np.isnan(pme.outline_offset(grey, r < 40.0))
+
+
+def test_the_below_sheet_shows_each_method_beside_the_reference(load_benchmark, tmp_path):
+    pme = load_benchmark("people_masks_eval")
+    (tmp_path / "photos").mkdir()
+    h, w = 120, 160
+    photo = np.full((h, w, 3), 200, np.uint8)
+    gt = np.zeros((h, w), bool)
+    gt[30:90, 40:100] = True
+    cv2.imwrite(str(tmp_path / "photos" / "x.jpg"), photo)
+    cv2.imwrite(str(tmp_path / "photos" / "x_mask.png"), gt.astype(np.uint8) * 255)
+    ours = gt.copy()
+    ours[30:90, 100:130] = True  # ours adds a strip the selfie graph leaves out
+    keep = {("ours", "x"): ours, ("selfie", "x"): gt.copy()}
+    out = tmp_path / "sheet.png"
+    pme.sheet(tmp_path, ["x"], keep, out, "ours", height=h, beside="selfie")
+    sheet = cv2.imread(str(out), cv2.IMREAD_COLOR)
+    assert sheet.shape[1] == 4 * w  # photo | reference | ours | selfie
+    strip = (60, 115)  # a pixel of the added strip, in each panel
+    ours_px = sheet[strip[0], 2 * w + strip[1]].astype(int)
+    selfie_px = sheet[strip[0], 3 * w + strip[1]].astype(int)
+    assert ours_px[2] > ours_px[1] + 100  # red: ours adds here
+    assert abs(selfie_px[2] - selfie_px[1]) < 10  # grey: the selfie graph agrees with the mask (background)
+    pme.sheet(tmp_path, ["x"], keep, out, "ours", height=h)
+    assert cv2.imread(str(out), cv2.IMREAD_COLOR).shape[1] == 3 * w  # without beside: three panels
+
+
+def test_grow_and_below_sheet_refuse_what_they_cannot_do(load_benchmark):
+    pme = load_benchmark("people_masks_eval")
+    with pytest.raises(SystemExit):
+        pme.main(["--grow", "9"])
+    with pytest.raises(SystemExit):
+        pme.main(["--methods", "ours", "--below-sheet", "/tmp/x.png"])
