@@ -363,7 +363,7 @@ def run(config: GpuTrainConfig) -> int:
         return pool.batch(idx.to(device), lights[light_idx.to(device)], flips.to(device))
 
     state = {"step": 0, "stopped": "deadline", "losses": [], "train_s": 0.0, "init": init, "error": None,
-             "val": None, "best": Best(), "val_s": 0.0, "val_error": None, "best_rendered": 0}
+             "val": None, "best": Best(), "val_s": 0.0, "val_error": None}
 
     def validate() -> None:
         """Measure the held-out figures now; keep (and write) the weights when theirs is the lowest so far. A check
@@ -378,8 +378,7 @@ def run(config: GpuTrainConfig) -> int:
             state["val_error"] = f"{type(exc).__name__}: {exc}"
             log.error("held-out check failed at step %d, checks off: %s", state["step"], exc)
             return
-        if state["best"].offer(model, state["step"], figures[config.val_metric]):
-            state["best_rendered"] = sampler.rendered  # what the exported weights had seen, for their metadata
+        if state["best"].offer(model, state["step"], figures[config.val_metric], sampler.rendered):
             meta = {"command": "gpu-train", **{f"val_{k}": v for k, v in figures.items()}}
             save_checkpoint(out / "best.pt", model, step=state["step"], meta=json.dumps(meta))
         state["val_s"] += time.monotonic() - t0
@@ -498,9 +497,9 @@ def _finish(config, model, sampler, state, start, index, device_name, logger) ->
         chosen = f"best (step {best.step})"
     losses = state["losses"]
     k = max(1, min(20, len(losses) // 4)) if losses else 1
-    steps, rendered = state["step"], sampler.rendered  # the exported weights': the last ones, or the best's
-    if chosen.startswith("best"):
-        steps, rendered = best.step, state["best_rendered"]
+    steps, rendered = state["step"], sampler.rendered  # what the exported weights had seen: the last ones', ...
+    if state["val_error"] is None and best.state is not None:  # ... or the best's (at step 0: nothing trained on)
+        steps, rendered = best.step, best.rendered if best.step else 0
     source = (f"relight_rt gpu-train: {steps} steps on {rendered} samples rendered from "
               f"{len(sampler.subjects)} bank people "
               f"({len(index['subjects']) - len(sampler.subjects)} more held out) on {device_name}, from "

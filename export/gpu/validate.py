@@ -107,21 +107,23 @@ class Best:
     def __init__(self):
         self.loss = math.inf
         self.step: int | None = None
+        self.rendered = 0
         self.state: dict | None = None
         self.first: float | None = None
         self.last: float | None = None
         self.last_step: int | None = None
         self.checks = 0
 
-    def offer(self, model, step: int, loss: float) -> bool:
-        """Record a validation; keep the weights when ``loss`` is the lowest so far. Returns whether it was."""
+    def offer(self, model, step: int, loss: float, rendered: int = 0) -> bool:
+        """Record a validation; keep the weights when ``loss`` is the lowest so far, with ``rendered`` (the samples
+        rendered until then, named in the exported graph's metadata). Returns whether it was."""
         self.checks += 1
         self.last, self.last_step = loss, step
         if self.first is None:
             self.first = loss
         if not (math.isfinite(loss) and loss < self.loss):
             return False
-        self.loss, self.step = loss, step
+        self.loss, self.step, self.rendered = loss, step, rendered
         self.state = {k: v.detach().clone() for k, v in model.state_dict().items()}
         return True
 

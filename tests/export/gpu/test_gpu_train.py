@@ -249,7 +249,7 @@ def test_the_weights_of_the_lowest_held_out_figure_are_exported(bank_dir, tmp_pa
     source = _source(out / "stage1.onnx")
     assert source.startswith(f"relight_rt gpu-train: {winner} steps on ")
     seen = int(source.split(" steps on ")[1].split()[0])
-    assert 0 < seen < summary["samples_rendered"]  # rendering goes on after the best check
+    assert seen == 2 + winner  # TINY: a pool of 2, then one fresh sample a step (as test_two_steps counts)
     image = torch.rand(1, 3, 64, 64, generator=torch.Generator().manual_seed(0))
     mask = torch.ones(1, 1, 64, 64)
     got = OnnxStage(out / "stage1.onnx", "stage1").run({"image": image, "mask": mask})["transport"]
@@ -258,6 +258,19 @@ def test_the_weights_of_the_lowest_held_out_figure_are_exported(bank_dir, tmp_pa
     assert torch.allclose(got, want[0], atol=1e-4)
     assert not torch.allclose(got, want[1], atol=1e-3)
 
+
+
+def test_a_step_0_best_is_named_as_untrained(bank_dir, tmp_path, monkeypatch):
+    """Training that never beats the start exports the start, and its metadata says it saw nothing of the run."""
+    from export.gpu import validate
+
+    scripted = iter([0.1, 0.2, 0.3, 0.4])
+    monkeypatch.setattr(validate.HeldOut, "measure", lambda self, *a, **k: {"loss": 1.0, "relit_rmse": next(scripted)})
+    out = tmp_path / "run"
+    assert main(["gpu-train", "--bank", str(bank_dir), "--out", str(out), "--init", "none", "--max-steps", "3",
+                 *TINY, *HOLD_ONE]) == 0
+    assert json.loads((out / "summary.json").read_text())["exported"] == "best (step 0)"
+    assert _source(out / "stage1.onnx").startswith("relight_rt gpu-train: 0 steps on 0 samples rendered")
 
 def test_split_people_holds_out_the_last_ones():
     from export.gpu.validate import split_people
