@@ -27,7 +27,6 @@ from relight_rt.relight import factor as factor_module
 from relight_rt.relight.factor import Factor
 
 
-
 @pytest.mark.parametrize("normal", [(1, 0, 0), (0, 1, 0), (0.3, -0.5, 0.81), (-0.2, 0.1, -0.97)])
 def test_lobe_transport_is_design_sections_unoccluded_transport(normal):
     n = np.asarray(normal, np.float64) / np.linalg.norm(normal)
