@@ -235,10 +235,13 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     if args.teal_only:
         args.skip_clip = True
-    if not args.skip_photos and not (args.people / "photos").is_dir():
+    people, reference = (args.people / "photos").is_dir(), args.reference.is_dir()
+    if not args.skip_photos and not people:
         warn_missing(args.people / "photos", "the people_masks photos")
-    if not (args.skip_photos and args.skip_clip) and not args.reference.is_dir():
+    if not (args.skip_photos and args.skip_clip) and not reference:
         warn_missing(args.reference, "the reference photo and frames")
+    if not ((not args.skip_photos and (people or reference)) or (not args.skip_clip and reference)):
+        raise SystemExit("photo_faults: no photos and no clip to measure")
     # relight_rt.open hands in the automatic matte (Relighter(config) alone has none: the clip's figures need it)
     relighter = relight_rt.open(RuntimeConfig(models=args.models, device="cpu"))
     mesh = FaceMesh(relighter.models_dir)
