@@ -15,7 +15,9 @@ import statistics
 import time
 from pathlib import Path
 
-REFERENCE = Path(__file__).resolve().parents[2] / "shared" / "reference" / "photo" / "sample.jpg"
+from _shared import missing, shared_path
+
+REFERENCE = shared_path("reference", "photo", "sample.jpg")
 
 
 def main() -> None:
@@ -24,6 +26,8 @@ def main() -> None:
     p.add_argument("--repeats", type=int, default=40)
     p.add_argument("--lights", default="studio,window-left,campfire")
     args = p.parse_args()
+    if not Path(args.photo).is_file():
+        raise SystemExit(missing(Path(args.photo)))
 
     import relight_rt
     from relight_rt import RuntimeConfig, lights

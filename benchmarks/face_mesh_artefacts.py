@@ -34,7 +34,8 @@ import cv2
 import numpy as np
 
 # real_photos puts this checkout (and benchmarks/) first on sys.path: the relight_rt imported below is this one
-from real_photos import LEFT, REPO, RIGHT, change
+from _shared import shared_path, warn_missing
+from real_photos import LEFT, RIGHT, change
 
 import relight_rt
 from relight_rt import RuntimeConfig
@@ -108,6 +109,8 @@ def measures(change: np.ndarray, pts: np.ndarray, tri: np.ndarray, lamp_left: bo
 
 def photos(args) -> dict[str, Path]:
     found = {}
+    if args.reference is not None and not args.reference.is_dir():
+        warn_missing(args.reference, "the reference photo and frames")
     if args.reference is not None:
         for name, rel in (("reference_photo", "photo/sample.jpg"), ("frame_001", "video/frame_001.png"),
                           ("frame_012", "video/frame_012.png")):
@@ -124,7 +127,7 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--out", type=Path, required=True)
     p.add_argument("--people", type=Path, default=None, help="benchmarks/people_photos.py's cache")
-    p.add_argument("--reference", type=Path, default=REPO.parent / "shared" / "reference")
+    p.add_argument("--reference", type=Path, default=shared_path("reference"))
     p.add_argument("--crops", action="store_true")
     p.add_argument("--only", nargs="*", default=None, help="photo names")
     args = p.parse_args(argv)

@@ -42,6 +42,8 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parent / "tests"))
 
+from _shared import missing, shared_path  # noqa: E402
+
 from relight_rt.relight import factor as factor_module  # noqa: E402
 from relight_rt.relight import fill_edge  # noqa: E402
 
@@ -184,7 +186,7 @@ def photos(reference: Path) -> None:
              (HERE.parent / "relight_rt" / "data" / "example.png", None)]
     for path, mask_path in items:
         if not path.is_file():
-            print(f"{path}: missing, skipped", file=sys.stderr)
+            print(f"WARNING: {missing(path)}; skipped", file=sys.stderr)
             continue
         raw = read_image(path, path.name)  # (the project's intake: the bundled example's alpha is its mask)
         rgb = np.ascontiguousarray(raw[..., :3])
@@ -236,10 +238,10 @@ def yale(folder: Path, per_photo: bool) -> None:
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--yale", type=Path, default=HERE.parent.parent / "shared" / "realdata" / "yale")
+    p.add_argument("--yale", type=Path, default=shared_path("realdata", "yale"))
     p.add_argument("--no-yale", action="store_true")
     p.add_argument("--per-photo", action="store_true")
-    p.add_argument("--reference", type=Path, default=HERE.parent.parent / "shared" / "reference")
+    p.add_argument("--reference", type=Path, default=shared_path("reference"))
     args = p.parse_args(argv)
     synthetic()
     stripes()
@@ -248,7 +250,7 @@ def main(argv=None) -> int:
         if args.yale.is_dir():
             yale(args.yale, args.per_photo)
         else:
-            print(f"no Yale data at {args.yale}: skipped", file=sys.stderr)
+            print(f"WARNING: {missing(args.yale)}; the Yale faces left out", file=sys.stderr)
     return 0
 
 

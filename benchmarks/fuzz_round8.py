@@ -29,9 +29,10 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+from _shared import shared_path, warn_missing
 
 REPO = Path(__file__).resolve().parents[1]
-YALE = REPO.parent / "shared" / "realdata" / "yale"
+YALE = shared_path("realdata", "yale")
 COUNTS: dict[str, list[int]] = collections.defaultdict(lambda: [0, 0])
 
 
@@ -419,7 +420,9 @@ def thread_cases() -> None:
         return np.stack([vm(person), vm(np.ascontiguousarray(person[:, ::-1])), vm(person)])
 
     same("VideoMatter(complete=True)", [clip(0)] * 4, at_once(clip))
-    if YALE.is_dir():
+    if not YALE.is_dir():
+        warn_missing(YALE, "the threads' two-face cases")
+    else:
         f = yale_faces()
         el = ellipse(f[0].shape[:2])
         img, mask = np.hstack(f[:2]), np.hstack([el, el])
@@ -560,7 +563,7 @@ def main() -> int:
         if (args.only and args.only != name) or (name == "cli" and args.no_cli):
             continue
         if name == "relighter" and not YALE.is_dir():
-            print("skip relighter: ../shared/realdata/yale is absent")
+            warn_missing(YALE, "the relighter cases")
             continue
         start = time.perf_counter()
         run(args.matte_side) if name == "matte" else run()

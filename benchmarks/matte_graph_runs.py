@@ -24,6 +24,8 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "benchmarks"))
 
+from _shared import missing, shared_path  # noqa: E402
+
 GRAPHS = ("pose", "roi", "face")
 
 
@@ -46,11 +48,13 @@ def counting(matter) -> dict[str, int]:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--photo", type=Path, default=REPO.parent / "shared" / "reference" / "photo" / "sample.jpg")
+    ap.add_argument("--photo", type=Path, default=shared_path("reference", "photo", "sample.jpg"))
     ap.add_argument("--photo-only", action="store_true", help="only the one photo")
     ap.add_argument("--repeats", type=int, default=15)
     ap.add_argument("--code", type=Path, help="the folder whose relight_rt to time (default: this checkout's)")
     args = ap.parse_args(argv)
+    if not args.photo.is_file():
+        raise SystemExit(missing(args.photo))
     if args.code is not None:
         sys.path.insert(0, str(args.code.resolve()))
     # imported here, so that --code's relight_rt is the one people_masks_eval's imports find loaded

@@ -34,14 +34,15 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from _shared import missing, shared_dir, shared_path  # noqa: E402
+
 from relight_rt.person import matting as M  # noqa: E402
 
 
 def shared_reference() -> Path:
-    for parent in REPO.parents:
-        if (parent / "shared" / "reference").is_dir():
-            return parent / "shared" / "reference"
-    raise SystemExit("../shared/reference not found")
+    if shared_dir("reference") is None:
+        raise SystemExit(missing(shared_path("reference")))
+    return shared_path("reference")
 
 
 def read_rgb(path: Path) -> np.ndarray:

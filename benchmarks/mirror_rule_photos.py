@@ -23,9 +23,10 @@ from pathlib import Path
 import numpy as np
 
 # real_photos puts this checkout (and benchmarks/) first on sys.path: the relight_rt imported below is this one
-from real_photos import LEFT, REPO, RIGHT
+from real_photos import LEFT, RIGHT
 
 # isort: split
+from _shared import shared_path, warn_missing
 from photo_faults import read_mask, read_rgb
 
 from relight_rt import Relighter, RuntimeConfig
@@ -41,8 +42,8 @@ def levels(rgb: np.ndarray) -> np.ndarray:
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--out", type=Path, required=True)
-    p.add_argument("--people", type=Path, default=REPO.parent.parent / "shared" / "realdata" / "people_masks")
-    p.add_argument("--reference", type=Path, default=REPO.parent.parent / "shared" / "reference")
+    p.add_argument("--people", type=Path, default=shared_path("realdata", "people_masks"))
+    p.add_argument("--reference", type=Path, default=shared_path("reference"))
     p.add_argument("--stride", type=int, default=4)
     p.add_argument("--max-side", type=int, default=1000)
     args = p.parse_args(argv)
@@ -50,9 +51,13 @@ def main(argv=None) -> int:
     sample = args.reference / "photo" / "sample.jpg"
     if sample.is_file():
         inputs.append(("sample", sample, sample.with_name("sample_mask.png")))
-    if args.people.is_dir():
+    else:
+        warn_missing(sample, "the reference photo")
+    if (args.people / "photos").is_dir():
         people = sorted((args.people / "photos").glob("*.jpg"))[:: args.stride]
         inputs += [(f.stem, f, f.with_name(f"{f.stem}_mask.png")) for f in people]
+    else:
+        warn_missing(args.people / "photos", "the people_masks photos")
     if not inputs:
         print("no photos (../shared/reference, ../shared/realdata/people_masks)", file=sys.stderr)
         return 2

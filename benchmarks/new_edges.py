@@ -100,9 +100,16 @@ def main(argv=None) -> int:
     p.add_argument("--lights", default="studio,campfire,rim,night,LEFT,RIGHT")
     p.add_argument("--sheet", type=Path, default=None)
     args = p.parse_args(argv)
-    photos = args.photos or [f"{here.parent / 'shared/reference/photo/sample.jpg'}:"
-                             f"{here.parent / 'shared/reference/photo/sample_mask.png'}",
-                             str(here / "relight_rt/data/example.png")]
+    photos = args.photos
+    if not photos:
+        from _shared import shared_path, warn_missing  # (here: tests load this file without benchmarks/ on the path)
+
+        ref = shared_path("reference", "photo")
+        photos = [str(here / "relight_rt/data/example.png")]
+        if ref.is_dir():
+            photos.insert(0, f"{ref / 'sample.jpg'}:{ref / 'sample_mask.png'}")
+        else:
+            warn_missing(ref, "the reference photo")
     side = {"LEFT": lights.directional((0.35, -1.0, 0.25), (1, 1, 1), 1.0, angular_radius=0.6) + lights.ambient(0.06),
             "RIGHT": lights.directional((0.35, 1.0, 0.25), (1, 1, 1), 1.0, angular_radius=0.6) + lights.ambient(0.06)}
     relighter = relight_rt.open(RuntimeConfig(device="cpu"))

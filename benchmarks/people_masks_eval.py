@@ -49,6 +49,8 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from _shared import missing, shared_dir, shared_path  # noqa: E402
+
 from relight_rt import RelightError  # noqa: E402
 from relight_rt.image.regions import Region, crop_region, grid_of_region  # noqa: E402
 from relight_rt.person import matting as M  # noqa: E402
@@ -101,10 +103,9 @@ def outline_offset(rgb: np.ndarray, mask: np.ndarray, reach: int = 6) -> float:
 
 
 def data_root() -> Path:
-    for parent in REPO.parents:
-        if (parent / "shared" / "realdata" / "people_masks").is_dir():
-            return parent / "shared" / "realdata" / "people_masks"
-    raise SystemExit("../shared/realdata/people_masks not found")
+    if shared_dir("realdata", "people_masks") is None:
+        raise SystemExit(missing(shared_path("realdata", "people_masks")))
+    return shared_path("realdata", "people_masks")
 
 
 def read_rgb(path: Path) -> np.ndarray:
@@ -306,12 +307,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--speed",
         nargs="?",
-        const=REPO.parent / "shared" / "reference" / "photo" / "sample.jpg",
+        const=shared_path("reference", "photo", "sample.jpg"),
         type=Path,
         help="only time the default matte on this photo (default: the reference photo)",
     )
     args = ap.parse_args(argv)
     if args.speed:
+        if not args.speed.is_file():
+            raise SystemExit(missing(args.speed))
         speed(args.speed)
         return 0
     methods = [m for m in args.methods.split(",") if m]

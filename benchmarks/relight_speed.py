@@ -17,7 +17,9 @@ import statistics
 import time
 from pathlib import Path
 
-REFERENCE = Path(__file__).resolve().parents[2] / "shared" / "reference" / "photo"
+from _shared import missing, shared_path
+
+REFERENCE = shared_path("reference", "photo")
 
 
 def timed(fn, repeats: int) -> tuple[float, float]:
@@ -37,6 +39,9 @@ def main() -> None:
     p.add_argument("--repeats", type=int, default=7)
     p.add_argument("--models", default=None)
     args = p.parse_args()
+    for path in (Path(args.photo), Path(args.mask)):
+        if not path.is_file():
+            raise SystemExit(missing(path))
 
     import numpy as np
 

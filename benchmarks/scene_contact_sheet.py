@@ -37,6 +37,7 @@ REPO = Path(__file__).resolve().parents[1]
 if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
+from _shared import missing, shared_path  # noqa: E402
 from scene_sheet import photo_background  # noqa: E402  (a photo of a place at the sheet's size)
 
 from relight_rt import Relighter, RuntimeConfig, envmap  # noqa: E402
@@ -63,7 +64,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, required=True)
     ap.add_argument("--person", action="append", default=[], metavar="KIND:PHOTO[:MASK]", required=True)
-    ap.add_argument("--hdri", type=Path, default=REPO.parent / "shared" / "hdri")
+    ap.add_argument("--hdri", type=Path, default=shared_path("hdri"))
     ap.add_argument("--views", nargs="*", default=[], metavar="NAME:AZ,EL[,FOV]")
     ap.add_argument("--photos", type=Path, nargs="*", default=[])
     ap.add_argument("--size", default="640x480", help="the places' size, WxH")
@@ -75,6 +76,8 @@ def main(argv=None) -> int:
                     help="look for nobody in the places (as with matting off: the horizon from the verticals alone, "
                     "no room made beside people there); the people's masks must be given")  # fmt: skip
     args = ap.parse_args(argv)
+    if args.views and not args.hdri.is_dir():
+        raise SystemExit(missing(args.hdri))
     size = parse_size(args.size)
     rl = Relighter(RuntimeConfig(models=args.models, device="cpu", matting="off" if args.no_people else "auto"))
     places = []  # (name, kind, thing)

@@ -28,13 +28,14 @@ sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "benchmarks"))
 
 import people_masks_eval as E  # noqa: E402
+from _shared import missing, shared_path  # noqa: E402
 
 from relight_rt.person import matting as M  # noqa: E402
 from relight_rt.person.matting import _matter  # noqa: E402
 from relight_rt.person.matting._segmentation import Person, logits_on_grid, sigmoid  # noqa: E402
 from relight_rt.person.matting._things_behind import without_things_behind  # noqa: E402
 
-PHOTOS = REPO.parent / "shared" / "realdata" / "people_masks" / "photos"
+PHOTOS = shared_path("realdata", "people_masks", "photos")
 
 
 def before_rule(matter: M.PersonMatter, rgb: np.ndarray) -> tuple[list, np.ndarray]:
@@ -106,7 +107,7 @@ def band(matter: M.PersonMatter, name: str, rows: int) -> tuple[np.ndarray, np.n
 
 def main() -> int:
     if not PHOTOS.is_dir():
-        raise SystemExit(f"{PHOTOS} not found (the probes read ../shared/realdata)")
+        raise SystemExit(missing(PHOTOS))
     matter = M.PersonMatter()
     for sigma in (1.0, 2.0):
         report(f"couple p089, partner blurred {sigma:g} px, 60 rows below", *couple(matter, sigma))

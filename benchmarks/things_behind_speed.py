@@ -26,6 +26,8 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from _shared import missing, shared_path  # noqa: E402
+
 from relight_rt.person import matting as M  # noqa: E402
 from relight_rt.person.matting import _matter  # noqa: E402
 from relight_rt.person.matting._things_behind import without_things_behind  # noqa: E402
@@ -49,7 +51,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeats", type=int, default=7)
     ap.add_argument("--before", action="store_true", help="time the rule on the matte before it (a part leaves)")
     args = ap.parse_args(argv)
-    photos = args.photos or [REPO.parent / "shared" / "reference" / "photo" / "sample.jpg"]
+    photos = args.photos or [shared_path("reference", "photo", "sample.jpg")]
+    for path in photos:
+        if not path.is_file():
+            raise SystemExit(missing(path))
     matter = M.PersonMatter()
     for path in photos:
         rgb = read_rgb(path, args.mp)

@@ -19,8 +19,9 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+from _shared import missing, shared_path
 
-REFERENCE = Path(__file__).resolve().parents[2] / "shared" / "reference" / "video"
+REFERENCE = shared_path("reference", "video")
 BANDS = ((0.02, 0.1), (0.1, 0.25), (0.25, 0.5), (0.5, 0.75))
 
 
@@ -49,7 +50,7 @@ def main(argv=None) -> int:
 
     frames = sorted(p for p in args.frames.glob("*.png") if not p.stem.endswith("_mask"))[: args.count]
     if not frames:
-        print(f"{args.frames}: no frames", file=sys.stderr)
+        print(missing(args.frames) if not args.frames.is_dir() else f"{args.frames}: no frames", file=sys.stderr)
         return 2
     with tempfile.TemporaryDirectory() as tmp:
         clip = Path(tmp) / "clip"

@@ -29,6 +29,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "benchmarks"))
 
+from _shared import shared_path, warn_missing  # noqa: E402
 from matte_graph_runs import GRAPHS, counting  # noqa: E402 (no relight_rt import: --code's is the one loaded)
 
 _REPEAT = 5  # a portrait frame given this many times (the first one searched, the others followed)
@@ -48,17 +49,22 @@ def clips(ref: Path) -> dict[str, list[np.ndarray]]:
         "head+chest 260x260": [img[0:260, 15:275]] * _REPEAT,
         "head+shoulders 177x232": [img[0:177, 29:261]] * _REPEAT,
         "wide 200x356": [wide] * _REPEAT,
-        "reference 720p": frames_720p(ref),
     }
-    parkour = REPO.parent / "shared" / "realdata" / "people_masks" / "clip"
+    if (ref / "video").is_dir():
+        out["reference 720p"] = frames_720p(ref)
+    else:
+        warn_missing(ref / "video", "the reference 720p clip")
+    parkour = shared_path("realdata", "people_masks", "clip")
     if parkour.is_dir():
         out["people_masks clip"] = [_read(f) for f in sorted(parkour.glob("*[0-9].jpg"))]
+    else:
+        warn_missing(parkour, "the people_masks clip")
     return out
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--ref", type=Path, default=REPO.parent / "shared" / "reference")
+    ap.add_argument("--ref", type=Path, default=shared_path("reference"))
     ap.add_argument("--code", type=Path, help="the folder whose relight_rt to count (default: this checkout's)")
     args = ap.parse_args(argv)
     if args.code is not None:

@@ -49,10 +49,11 @@ import cv2
 import numpy as np
 
 # real_photos puts this checkout (and benchmarks/) first on sys.path: the relight_rt imported below is this one
-from real_photos import REPO, luminance
+from real_photos import luminance
 
 # isort: split
 import dpr_protocol as dprp  # imports relight_rt: after real_photos
+from _shared import missing, shared_path
 from new_edges import new_edges
 
 from relight_rt import Relighter, RuntimeConfig, lights
@@ -208,7 +209,7 @@ def sheet(rows: list[dict], pictures: dict, path: Path, n: int = 8) -> None:
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--out", type=Path, required=True)
-    p.add_argument("--yale", type=Path, default=REPO.parent.parent / "shared" / "realdata" / "yale")
+    p.add_argument("--yale", type=Path, default=shared_path("realdata", "yale"))
     p.add_argument("--models", type=Path, default=None)
     p.add_argument("--dpr", default=None, help="DPR repository (checkout or bare git dir); default: dpr_protocol's")
     p.add_argument("--no-dpr", action="store_true")
@@ -239,12 +240,8 @@ def main(argv=None) -> int:
     if args.no_mirror_dark:
         factor_module.MIRROR_DARK = None
     if not args.yale.is_dir():
-        alt = Path("../shared/realdata/yale")
-        if alt.is_dir():
-            args.yale = alt
-        else:
-            print(f"no Yale data at {args.yale}", file=sys.stderr)
-            return 2
+        print(missing(args.yale), file=sys.stderr)
+        return 2
     with open(args.yale / "lights.csv") as f:
         subjects = sorted({row["subject"] for row in csv.DictReader(f)})
     subjects = args.subjects or subjects

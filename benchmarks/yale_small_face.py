@@ -28,10 +28,11 @@ import cv2
 import numpy as np
 
 # real_photos puts this checkout (and benchmarks/) first on sys.path: the relight_rt imported below is this one
-from real_photos import REPO
+import real_photos  # noqa: F401
 
 # isort: split
 import yale_eval as ye  # imports relight_rt: after real_photos
+from _shared import missing, shared_path
 
 from relight_rt import Relighter, RuntimeConfig
 from relight_rt.person.face_mesh import FaceMesh
@@ -77,15 +78,13 @@ def fill_weight(relighter: Relighter, dec, shape: tuple[int, int], at: tuple[int
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--out", type=Path, required=True)
-    p.add_argument("--yale", type=Path, default=REPO.parent.parent / "shared" / "realdata" / "yale")
+    p.add_argument("--yale", type=Path, default=shared_path("realdata", "yale"))
     p.add_argument("--framings", type=float, nargs="*", default=[1, 2, 3, 4, 6])
     p.add_argument("--subjects", nargs="*", default=None)
     args = p.parse_args(argv)
     if not args.yale.is_dir():
-        args.yale = Path("../shared/realdata/yale")
-        if not args.yale.is_dir():
-            print("no Yale data", file=sys.stderr)
-            return 2
+        print(missing(args.yale), file=sys.stderr)
+        return 2
     subjects = args.subjects or sorted(d.name for d in args.yale.iterdir() if d.is_dir())
     relighter = Relighter(RuntimeConfig(device="cpu"))
     mesh = FaceMesh(relighter.models_dir)

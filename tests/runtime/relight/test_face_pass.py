@@ -12,8 +12,6 @@ from relight_rt import Relighter, RuntimeConfig, lights
 from relight_rt.image.crop import CropGeometry
 from relight_rt.relight.face_pass import MIN_HEAD_INPUT, SHADOW_LIFTS, SMALL_FACE, FacePass, feather, head_box
 
-REFERENCE = Path(__file__).resolve().parents[4] / "shared" / "reference"
-
 
 def _person(r: int, face: int, face_y: int, face_x: int):
     """A standing person in the network square with a skin blob of ``face`` pixels for a face."""
@@ -99,11 +97,10 @@ def test_feather_fades_to_zero_at_open_sides_and_keeps_cut_sides():
     assert cut[0, 15] == pytest.approx(1) and cut[-1, 15] < 0.05
 
 
-@pytest.mark.skipif(not REFERENCE.is_dir(), reason="../shared/reference is absent")
-def test_full_body_photo_gets_a_head_pass_that_changes_only_the_head():
+def test_full_body_photo_gets_a_head_pass_that_changes_only_the_head(reference_dir):
     r = Relighter(RuntimeConfig(device="cpu"))
-    photo = REFERENCE / "photo" / "sample.jpg"
-    mask = REFERENCE / "photo" / "sample_mask.png"
+    photo = reference_dir / "photo" / "sample.jpg"
+    mask = reference_dir / "photo" / "sample_mask.png"
     dec = r.decompose(photo, mask)
     assert dec.head is not None
     y0, y1, x0, x1 = dec.head_box
@@ -122,24 +119,22 @@ def test_full_body_photo_gets_a_head_pass_that_changes_only_the_head():
     assert lum[:, half:].mean() > 1.2 * lum[:, :half].mean()
 
 
-@pytest.mark.skipif(not REFERENCE.is_dir(), reason="../shared/reference is absent")
-def test_the_photos_own_light_gives_the_photo_back_with_head_pass_and_soft_matte():
+def test_the_photos_own_light_gives_the_photo_back_with_head_pass_and_soft_matte(reference_dir):
     """A real frame with its automatic (soft) matte: the head pass, the foreground colours of the soft edge and
     the background behind it all cancel under the photo's own light."""
     r = relight_rt.open(RuntimeConfig(device="cpu"))
-    dec = r.decompose(REFERENCE / "video" / "frame_001.png")  # no mask: the automatic matte
+    dec = r.decompose(reference_dir / "video" / "frame_001.png")  # no mask: the automatic matte
     alpha = np.asarray(dec.mask)
     assert ((alpha > 0.05) & (alpha < 0.95)).sum() > 1000 and dec.head is not None
     out = r.relight(dec, dec)
     assert np.abs(out - dec.image).max() < 0.01
 
 
-@pytest.mark.skipif(not REFERENCE.is_dir(), reason="../shared/reference is absent")
-def test_the_head_pass_leaves_the_body_gain_where_the_shadow_fill_adds_the_change():
+def test_the_head_pass_leaves_the_body_gain_where_the_shadow_fill_adds_the_change(reference_dir):
     """Where the body's deep-shadow fill adds the change (Factor.gain_and_fill: its weight w), the body's gain holds
     the photo and the head's ratio takes only 1 - w: blended over the fill it would count the light twice."""
     r = Relighter(RuntimeConfig(device="cpu"))
-    dec = r.decompose(REFERENCE / "photo" / "sample.jpg", REFERENCE / "photo" / "sample_mask.png")
+    dec = r.decompose(reference_dir / "photo" / "sample.jpg", reference_dir / "photo" / "sample_mask.png")
     assert dec.head is not None
     light = lights.directional((0.4, 1, 0.3)) + lights.ambient(0.08)
     image, _ = r._composer.foreground(dec)

@@ -1,0 +1,53 @@
+"""Where ../shared is (the reference data, realdata and hdri beside the checkout), from any checkout.
+
+The benchmark scripts import this instead of counting parents: ``REPO.parent / "shared"`` holds only beside the
+main checkout or a clone (/work/main -> /work/shared), ``REPO.parent.parent`` only beside a git worktree
+(/work/wt/X -> /work/shared). ``shared_dir`` walks every folder above the checkout, as tests/conftest.py's
+``_find_shared`` does, and honours the same override, ``RELIGHT_RT_SHARED``.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+ENV = "RELIGHT_RT_SHARED"
+
+
+def shared_dir(*parts: str) -> Path | None:
+    """The shared/ folder that holds ``parts`` (``shared_dir("realdata", "yale")``), or None.
+
+    ``$RELIGHT_RT_SHARED`` when it is set (and then only it); else the nearest ``shared/`` beside the checkout or
+    beside any folder above it that holds ``parts``.
+    """
+    env = os.environ.get(ENV)
+    if env:
+        return Path(env) if Path(env, *parts).exists() else None
+    for parent in REPO.parents:
+        candidate = parent / "shared"
+        if candidate.joinpath(*parts).exists():
+            return candidate
+    return None
+
+
+def shared_path(*parts: str) -> Path:
+    """``parts`` inside the shared folder that holds them; where none does, the path they would have beside the
+    checkout (or under ``$RELIGHT_RT_SHARED``), which does not exist: a default that the script reports missing."""
+    found = shared_dir(*parts)
+    if found is None:
+        env = os.environ.get(ENV)
+        found = Path(env) if env else REPO.parent / "shared"
+    return found.joinpath(*parts)
+
+
+def missing(path: Path) -> str:
+    """What to say when ``path`` (a shared set a script reads) is absent."""
+    return (f"{path} not found (give its path, set {ENV} to the shared folder, or put shared/ beside the checkout "
+            "or a folder above it)")
+
+
+def warn_missing(path: Path, what: str) -> None:
+    """One loud line on stderr: ``what`` (the part of the measurement that ``path`` feeds) is left out."""
+    print(f"WARNING: {missing(path)}; {what} left out", file=sys.stderr, flush=True)
