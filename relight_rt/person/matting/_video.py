@@ -93,8 +93,12 @@ class VideoMatter:
     matte's alone), the box the next region is built on has lost that part as well, and the pose graph framed on the
     rest can go on missing it (the parkour clip's frame 19 on frame 18's region, built without the legs: 0.74, the photo
     matte 0.94); the next frame starts where the region finder sees the person whole, as a photo's search does
-    (:meth:`PersonMatter.find_people`: the selfie graph's blob that holds the most of the last box, at least _REGAINED
-    of it; no blob of someone else), and follows on from there (video23: frame 19 0.74 -> 0.90). A frame is completed as
+    (:meth:`PersonMatter.find_people` on the whole frame alone, one selfie-graph run: the blob that holds the most of
+    the last box, at least _REGAINED of it), and follows on from there (video23: frame 19 0.74 -> 0.90) if the person
+    the pose graph finds there still holds _REGAINED of the last box; else the region followed is segmented, as
+    without the search (the finder merges people who stand close into one blob, and the pose graph framed between
+    them can take the other one). Someone who covers half the last box themselves (in front of the person, or
+    overlapping them) can still be taken. A frame is completed as
     in a photo (:meth:`PersonMatter.completed`: half-seen trousers, parts in their own colours, limbs seen only turned;
     two or more selfie-graph runs) where the followed matte gives a reason: where it drops at least ``complete_on_drop``
     (DROPPED_SHARE) of the rule's history that the flow carries over from the last frame, counted where the flow
@@ -208,11 +212,15 @@ class VideoMatter:
         return person, box
 
     def _regained(self, rgb: np.ndarray) -> Region | None:
-        """Where the person followed is whole: the region around the region finder's blob (the selfie graph on the
-        whole frame, :meth:`PersonMatter.find_people`, where a photo's search starts) that holds the most of the last
-        frame's box, at least _REGAINED of it; None when no blob does (someone else's blob is not taken)."""
-        blobs = [b for _, b in self.matter.find_people(rgb)]
-        held = [_held_share(b, self._box) for b in blobs] if self._box is not None else []
+        """Where the person followed may be whole: the region around the region finder's blob (the selfie graph on
+        the whole frame alone, one run, where a photo's search starts: :meth:`PersonMatter.find_people` with
+        ``max_level=1``; no tiles, so a small person it misses costs no half a second a frame) that holds the most of
+        the last frame's box, at least _REGAINED of it; None when no blob does. A blob can hold two people who
+        stand close (the finder merges them), so the person segmented there is checked as well (:meth:`__call__`)."""
+        if self._box is None:
+            return None
+        blobs = [b for _, b in self.matter.find_people(rgb, max_level=1)]
+        held = [_held_share(b, self._box) for b in blobs]
         if not held or max(held) < _REGAINED:
             return None
         return Region.around(*blobs[int(np.argmax(held))])
@@ -307,9 +315,16 @@ class VideoMatter:
         gray_full = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
         gray_small = gray_full if grid[:2] == (w, h) else cv2.resize(gray_full, grid[:2], interpolation=cv2.INTER_AREA)
         with reductions_shared(rgb):  # the detectors' crops share one set of reduced copies of the frame
-            if regain:  # the last frame's box lost part of the person: start where the region finder sees them whole
-                region = self._regained(rgb) or region
-            person, box = self._found(rgb, None if searched else region)
+            person = box = None
+            wider = self._regained(rgb) if regain else None  # the last box lost part of the person: seen whole?
+            if wider is not None:
+                person, box = self._found(rgb, wider)
+                # the blob may hold someone standing close beside them, whom the pose graph framed there can take
+                # instead: the person found must still hold the last box, else the region followed is segmented
+                if person is not None and _held_share(box, self._box) < _REGAINED:
+                    person = box = None
+            if person is None:
+                person, box = self._found(rgb, None if searched else region)
             if person is None and not searched:  # lost where it was followed: searched for again in this frame
                 person, box = self._found(rgb, None)
             if person is not None:
