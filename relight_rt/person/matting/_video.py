@@ -139,7 +139,9 @@ class VideoMatter:
         smoothing: weight of the warped history in [0, 1); 0 turns temporal smoothing off.
         redetect_every: run the region finder every N frames even when the person is tracked (0: never).
         refine: guided-filter edge refinement (as in PersonMatter; always with the gray guide, for speed).
-        complete: add to the person what the photo matte adds (:meth:`PersonMatter.completed`) in every frame; slower.
+        complete: add to the person what the photo matte adds (:meth:`PersonMatter.completed`) in every frame; slower
+            (with ``complete_on_drop`` set, the flow runs in every frame for the search after a drop, smoothing 0 too:
+            720p +~7 % at smoothing 0, +~2 % at 0.7, docs/BENCHMARKS.md video23).
         complete_on_drop: ... in a frame where the followed matte drops at least this share (a number in (0, 1];
             a bool or a string is refused) of the rule's history the flow carries over from the last frame
             (:func:`dropped_share`), and the next frame searches again; None: only with ``complete``, which overrides
