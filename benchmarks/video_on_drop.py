@@ -6,6 +6,7 @@ the 720p cost against another version of ``_video.py`` in turn.
     PYTHONPATH=$PWD python benchmarks/video_on_drop.py                 # reference video quality + 720p cost (~2 min)
     git show main:relight_rt/person/matting/_video.py > /tmp/video_base.py
     PYTHONPATH=$PWD python benchmarks/video_on_drop.py --cost-only --base /tmp/video_base.py --rounds 4
+    PYTHONPATH=$PWD python benchmarks/video_on_drop.py --cost-only --complete --base /tmp/video_base.py --rounds 2
     PYTHONPATH=$PWD python benchmarks/video_on_drop.py --clip          # the parkour clip: frames completed, IoU
     PYTHONPATH=$PWD python benchmarks/video_on_drop.py --worst --rounds 2   # every frame dropping: the rule's worst
 
@@ -84,15 +85,18 @@ def clip(pm: M.PersonMatter) -> None:
     )
 
 
-def cost(ref: Path, pm: M.PersonMatter, rounds: int, base: Path | None, smoothing: float) -> None:
+def cost(
+    ref: Path, pm: M.PersonMatter, rounds: int, base: Path | None, smoothing: float, complete: bool = False
+) -> None:
+    """With ``complete``, both VideoMatters complete every frame (``complete=True``)."""
     if base is not None:
         spec = importlib.util.spec_from_file_location("relight_rt.person.matting._video_base", base)
         old = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(old)
-        was = old.VideoMatter(pm, smoothing=smoothing)
+        was = old.VideoMatter(pm, smoothing=smoothing, complete=complete)
     else:
-        was = M.VideoMatter(pm, smoothing=smoothing, complete_on_drop=None)
-    now = M.VideoMatter(pm, smoothing=smoothing)
+        was = M.VideoMatter(pm, smoothing=smoothing, complete=complete, complete_on_drop=None)
+    now = M.VideoMatter(pm, smoothing=smoothing, complete=complete)
     hd = E.frames_720p(ref)
     was(hd[0])  # warm-up (and the first frame's search)
     now(hd[0])
@@ -108,8 +112,9 @@ def cost(ref: Path, pm: M.PersonMatter, rounds: int, base: Path | None, smoothin
     q = np.percentile(new / old_t, [25, 50, 75])
     label = base or "complete_on_drop=None"
     med_new, med_old = np.median(new), np.median(old_t)
+    mode = ", complete=True" if complete else ""
     print(
-        f"720p VideoMatter (smoothing {smoothing}), this / {label}: median {1000 * med_new:.1f} / "
+        f"720p VideoMatter (smoothing {smoothing}{mode}), this / {label}: median {1000 * med_new:.1f} / "
         f"{1000 * med_old:.1f} ms ({1 / med_new:.1f} / {1 / med_old:.1f} frames/s; best {1000 * new.min():.1f} / "
         f"{1000 * old_t.min():.1f}); paired ratio median {q[1]:.3f} (quartiles {q[0]:.3f}-{q[2]:.3f}), "
         f"{len(new)} pairs; frames completed {now.completions} of {len(hd) * rounds + 1}"
@@ -160,6 +165,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--base", type=Path, help="another _video.py to time VideoMatter against (a file)")
     ap.add_argument("--smoothing", type=float, default=0.7, help="the VideoMatters' smoothing (cost; default 0.7)")
     ap.add_argument("--clip", action="store_true", help="only the parkour clip: the frames completed and the IoU")
+    ap.add_argument("--complete", action="store_true", help="cost: both VideoMatters with complete=True")
     ap.add_argument("--worst", action="store_true", help="only the cost when every frame drops (the rule forced)")
     args = ap.parse_args(argv)
     pm = M.PersonMatter()
@@ -172,7 +178,7 @@ def main(argv: list[str] | None = None) -> None:
     ref = E.shared_reference()
     if not args.cost_only:
         quality(ref, pm)
-    cost(ref, pm, args.rounds, args.base, args.smoothing)
+    cost(ref, pm, args.rounds, args.base, args.smoothing, args.complete)
 
 
 if __name__ == "__main__":

@@ -75,12 +75,14 @@ def around_people(roi: Model, rgb: np.ndarray, people: list[Person]) -> Around |
     return Around(region, seen, inside, mine)
 
 
-def find_people(roi: Model, rgb: np.ndarray) -> list[tuple[float, Box]]:
+def find_people(roi: Model, rgb: np.ndarray, max_level: int | None = None) -> list[tuple[float, Box]]:
     """Where people are, from the image alone: [(area in image pixels, (x0, y0, x1, y1))], largest
     first; empty when nobody is found. Whole image first, then 2x2, 3x3, 4x4 and 6x6 overlapping tiles
-    (each 1.5x its share of the image, at least 256 px: small images stop early) while nobody is found."""
+    (each 1.5x its share of the image, at least 256 px: small images stop early) while nobody is found;
+    ``max_level``: no tiles finer than n x n (1: the whole image alone, one selfie-graph run)."""
     h, w = rgb.shape[:2]
-    for windows in tile_levels(h, w, MIN_TILE):
+    levels = tile_levels(h, w, MIN_TILE) if max_level is None else tile_levels(h, w, MIN_TILE, max_level)
+    for windows in levels:
         found = []
         for win in windows:
             prob = roi_prob(roi, rgb, win)

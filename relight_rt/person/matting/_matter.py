@@ -167,10 +167,15 @@ class PersonMatter:
 
     # -- detection ----------------------------------------------------------------------------------
 
-    def find_people(self, rgb: np.ndarray) -> list[tuple[float, tuple[float, float, float, float]]]:
+    def find_people(
+        self, rgb: np.ndarray, *, max_level: int | None = None
+    ) -> list[tuple[float, tuple[float, float, float, float]]]:
         """Where people are, from the image alone (relight_rt.person.matting._detect.find_people): [(area in image
-        pixels, (x0, y0, x1, y1))], largest first; empty when nobody is found."""
-        return find_people(self.roi, rgb)
+        pixels, (x0, y0, x1, y1))], largest first; empty when nobody is found. ``max_level``: no tiles finer than
+        n x n (1: the whole image alone)."""
+        if max_level is not None and (isinstance(max_level, bool) or not isinstance(max_level, int) or max_level < 1):
+            raise RelightError(f"find_people: max_level must be a whole number >= 1 or None, got {max_level!r}")
+        return find_people(self.roi, rgb, max_level)
 
     def find_faces(self, rgb: np.ndarray, *, every: bool = False) -> list[Face]:
         """Faces (the bundled face detector; none without it), best first: on the whole image, and with
