@@ -79,15 +79,6 @@ OCCLUSION_GRID = 96  # ... so it is found on a grid where the face is at most th
 MIRROR_PAIRS = ((33, 263), (7, 249), (163, 390), (144, 373), (145, 374), (153, 380), (154, 381), (155, 382),
                 (133, 362), (173, 398), (157, 384), (158, 385), (159, 386), (160, 387), (161, 388), (246, 466))
 MIRROR_MIDLINE = (1, 4, 6, 168, 10, 152, 0, 17)
-# ``mirror_held``: a value is held to its mirror image's only where the photo is in shadow against its mirror image:
-# its luminance over the mirror's, from the second share down to the first, from none of the lift to all of it
-# (factor.MIRROR_DARK's shares, not fitted again; a face lit from the front keeps its own), that luminance smoothed
-# over this many pixels first (texture is no shadow)
-MIRROR_SHADOW = (0.35, 0.7)
-MIRROR_SHADOW_SIGMA = 1.5
-# stage 1's visibility (its degree-0 transport, which scales the mesh's: ``face_transport``) held so too: stage 1 reads
-# part of a hard shadow as lost visibility, and the mesh's transport then kept it under every light (faces23)
-MIRROR_VISIBILITY = True
 
 def lobe_transport(normals: np.ndarray) -> np.ndarray:
     """(..., 9) float32 unoccluded transport A_l * Y_k(n) of unit normals (..., 3) in the subject frame (§3)."""
@@ -139,8 +130,7 @@ def rasterise_normals(
 
 
 def face_transport(
-    points: np.ndarray, triangles: np.ndarray, t0: np.ndarray, occlusion: bool | None = None,
-    photo: np.ndarray | None = None,
+    points: np.ndarray, triangles: np.ndarray, t0: np.ndarray, occlusion: bool | None = None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The face's transport, its blending weight, its skin and its openings in a network-frame window.
 
@@ -150,8 +140,6 @@ def face_transport(
         t0: (h, w) stage 1's degree-0 transport coefficient there (unpremultiplied): the visibility kept.
         occlusion: take out the light the mesh's own relief hides (``occlusion_loss``: the brow and the nose over
             an eye's socket), where the mesh is; None: ``MESH_OCCLUSION``.
-        photo: (h, w) the photo's luminance in the window: where it is in shadow against its mirror image, ``t0`` is
-            held to the mirror's (``mirror_held``, ``MIRROR_VISIBILITY``); None: not held.
 
     Returns:
         transport (h, w, 9) float32, weight (h, w) float32 in [0, 1] (0 off the face), and skin (h, w) bool:
@@ -187,8 +175,6 @@ def face_transport(
     normals = m * normals + (1 - m) * head
     normals = normals / np.maximum(np.linalg.norm(normals, axis=2, keepdims=True), 1e-6)
     transport = lobe_transport(normals) - hidden
-    if MIRROR_VISIBILITY and photo is not None:  # a hard shadow stage 1 read as lost visibility: the lit half
-        t0 = mirror_held(t0, points, mesh_weight, photo)  # knows the face's own
     transport = transport * (np.maximum(t0, 0) / _T0)[..., None]
     weight = mesh_weight + (1 - mesh_weight) * HEAD_STRENGTH * head_weight
     openings = (dist > SKIN_INSET * size) & ~skin
@@ -373,51 +359,6 @@ def mirror(points: np.ndarray) -> np.ndarray:
     design = np.concatenate([src, np.ones((len(src), 1))], axis=1)
     fit, *_ = np.linalg.lstsq(design, dst, rcond=None)
     return fit.T.astype(np.float32)
-
-
-def mirror_held(values: np.ndarray, points: np.ndarray, weight: np.ndarray | None = None,
-                photo: np.ndarray | None = None) -> np.ndarray:
-    """(h, w) float32: ``values`` (h, w) held to at least their mirror image's through the face (``mirror``), where
-    that image lands in the window; as they are where it does not, or where the mesh gives no mirror (collapsed, or
-    fewer than the landmarker's ``N_POINTS``).
-
-    Args:
-        values: (h, w) float, the map to hold: stage 1's degree-0 transport (``face_transport``) or its albedo
-            luminance (relight_rt.relight.factor ``MIRROR_ALBEDO``) in the window.
-        points: (468, >= 2) the face mesh in the window's pixels.
-        weight: (h, w) in [0, 1], how far a pixel is the face's skin: held only as far as both the pixel and its mirror
-            image are (the hair beside a turned face is not the cheek's mirror); None: everywhere.
-        photo: (h, w) the photo's luminance there: held only as far as the pixel is in shadow against its mirror
-            image (``MIRROR_SHADOW``); None: everywhere.
-
-    A face is near symmetric: its skin is one material on both halves, and its visibility follows its relief. In a
-    side-lit photo stage 1 splits a hard shadow between a dark albedo and lost visibility, on the shaded half only
-    (the nose's cast shadow on the far cheek from +50 degrees on Extended Yale B: albedo 0.72-0.78 of the lit skin's,
-    visibility 0.92 of its mirror's), and a new light on them keeps the shadow (benchmarks/nose_triangle.py); the
-    photo's lit mirror image shows the face's own. Only a lift: a pixel brighter than its mirror keeps its value.
-    """
-    v = np.ascontiguousarray(values, np.float32)
-    if len(points) < N_POINTS:  # not the landmarker's mesh: no left / right correspondence
-        return v.copy()
-    m = mirror(points)
-    if np.linalg.det(m[:, :2]) > -0.5:  # no reflection (a mesh collapsed to a line or a point)
-        return v.copy()
-    h, w = v.shape
-    flags = cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP
-    there = cv2.warpAffine(v, m.astype(np.float64), (w, h), flags=flags, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
-    lift = np.maximum(there - v, 0)
-    if photo is not None:  # only where the photo's own shadow can have lowered it: darker than its mirror image
-        lo, hi = MIRROR_SHADOW
-        y = cv2.GaussianBlur(np.ascontiguousarray(photo, np.float32), (0, 0), MIRROR_SHADOW_SIGMA)
-        y_there = cv2.warpAffine(y, m.astype(np.float64), (w, h), flags=flags, borderMode=cv2.BORDER_CONSTANT,
-                                 borderValue=0)
-        q = np.clip((hi - y / np.maximum(y_there, 1e-4)) / (hi - lo), 0, 1)
-        lift *= np.where(y_there > 1e-3, q * q * (3 - 2 * q), 0)
-    if weight is not None:
-        k = np.ascontiguousarray(weight, np.float32)
-        lift *= k * cv2.warpAffine(k, m.astype(np.float64), (w, h), flags=flags, borderMode=cv2.BORDER_CONSTANT,
-                                   borderValue=0)
-    return (v + lift).astype(np.float32)
 
 
 def _holes(covered: np.ndarray) -> np.ndarray:

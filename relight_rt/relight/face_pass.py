@@ -22,7 +22,6 @@ import cv2
 import numpy as np
 
 from ..engine.errors import RelightError
-from ..image.color import REC709
 from ..image.crop import CropGeometry
 from ..person.face_mesh import MIN_FACE_NET, FaceMesh, face_transport
 from .decomposition import Decomposition
@@ -169,11 +168,8 @@ class FacePass:
             return skin, openings
         if not mesh.available:
             raise RelightError(f"{self.models_dir}: a decomposition with face meshes needs the face models to relight")
-        y0, y1, x0, x1 = window
-        photo = dec.network_image[y0:y1, x0:x1] @ REC709  # (a hard shadow on one half: face_mesh.mirror_held)
         for net in self.window_points(dec, window):
-            t_face, weight, face_skin, face_openings = face_transport(net, mesh.triangles, transport[..., 0],
-                                                                      photo=photo)
+            t_face, weight, face_skin, face_openings = face_transport(net, mesh.triangles, transport[..., 0])
             transport += weight[..., None] * (t_face - transport)
             skin |= face_skin
             openings |= face_openings

@@ -12,7 +12,6 @@ import relight_rt
 from relight_rt import RelightError, RuntimeConfig, lights
 from relight_rt.engine.session import bundled_models_dir
 from relight_rt.light import exposure as exposure_module
-from relight_rt.person import face_mesh as face_mesh_module
 from relight_rt.person.face_mesh import (
     HEAD_STRENGTH,
     MIRROR_MIDLINE,
@@ -22,7 +21,6 @@ from relight_rt.person.face_mesh import (
     head_normals,
     lobe_transport,
     mirror,
-    mirror_held,
     rasterise_normals,
 )
 from relight_rt.relight import factor as factor_module
@@ -291,55 +289,6 @@ def test_the_faces_mirror_takes_each_eye_to_the_other_and_keeps_the_mid_line():
     moved = squeezed[a, :2] @ m[:, :2].T + m[:, 2]
     assert np.abs(moved - squeezed[b, :2]).max() < 0.15 * np.ptp(squeezed[:, 0])
     assert np.linalg.det(m[:, :2]) < 0  # a reflection
-
-
-def _symmetric_points(cx: float = 60.0) -> np.ndarray:
-    """(468, 3) a face's mirror points symmetric about x = ``cx`` (the rest at the centre)."""
-    rng = np.random.default_rng(5)
-    points = np.full((468, 3), [cx, 50.0, 0.0])
-    a, b = np.array(MIRROR_PAIRS).T
-    left = rng.uniform([20, 20], [50, 80], (len(a), 2))
-    points[a, :2] = left
-    points[b, :2] = np.stack([2 * cx - left[:, 0], left[:, 1]], axis=1)
-    points[list(MIRROR_MIDLINE), :2] = np.stack([np.full(len(MIRROR_MIDLINE), cx),
-                                                  rng.uniform(10, 90, len(MIRROR_MIDLINE))], axis=1)
-    return points
-
-
-def test_a_visibility_lost_in_a_shadow_on_one_half_of_the_face_is_held_to_its_mirror_images():
-    """faces23: stage 1 reads part of a hard shadow (the nose's on the far cheek) as lost visibility, on one half of a
-    side-lit face only; ``mirror_held`` holds its degree-0 transport to the mirror image's (never lowers it) where
-    the photo there is in shadow against its mirror image, and ``face_transport`` scales the mesh's transport by
-    that: the patch's shading under a frontal lamp is its mirror image's; without the rule it kept the patch's 0.5.
-    Where the photo is as bright as its mirror (a face lit from the front), stage 1's own stays."""
-    points = _symmetric_points()
-    t0 = np.full((100, 120), 0.9, np.float32)
-    t0[40:60, 70:85] = 0.45  # the image's right half: x 70-84 mirrors to 35-49
-    t0[10:20, 30:40] = 1.2  # brighter than its mirror: kept as it is
-    photo = np.full(t0.shape, 0.6, np.float32)
-    photo[36:64, 66:89] = 0.05  # the hard shadow over the patch
-    held = mirror_held(t0, points, photo=photo)
-    np.testing.assert_allclose(held[42:58, 72:83], 0.9, atol=1e-5)
-    np.testing.assert_allclose(held[10:20, 30:40], 1.2, atol=1e-6)
-    assert (held >= t0).all() and held.dtype == np.float32
-    lit = mirror_held(t0, points, photo=np.full(t0.shape, 0.6, np.float32))  # no shadow: nothing held
-    np.testing.assert_array_equal(lit, t0)
-    np.testing.assert_array_equal(mirror_held(t0, np.zeros((468, 3)), photo=photo), t0)  # no mirror: unchanged
-    off = np.ones_like(t0)
-    off[:, :55] = 0  # the mirror image off the face: nothing held
-    np.testing.assert_array_equal(mirror_held(t0, points, off, photo), t0)
-    face = points.copy()  # a mesh over the whole window on points the mirror's fit does not read
-    face[400:404] = [[0, 0, 0], [120, 0, 0], [120, 100, 0], [0, 100, 0]]
-    tris = np.array([[400, 401, 402], [400, 402, 403]])
-    frontal = np.asarray(lights.directional((1, 0, 0), (1, 1, 1), 1.0)[:, 0], np.float32)
-    shade = {}
-    for on in (False, True):
-        with pytest.MonkeyPatch.context() as mp:
-            mp.setattr(face_mesh_module, "MIRROR_VISIBILITY", on)
-            t, _, _, _ = face_transport(face, tris, t0, occlusion=False, photo=photo)
-        shade[on] = (t @ frontal)[48, 77] / (t @ frontal)[48, 42]
-    assert shade[False] == pytest.approx(0.5, abs=0.02)
-    assert shade[True] == pytest.approx(1.0, abs=0.02)
 
 
 def test_a_landmarker_answer_that_is_no_face_shape_is_dropped():
