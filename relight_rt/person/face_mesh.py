@@ -79,6 +79,12 @@ OCCLUSION_GRID = 96  # ... so it is found on a grid where the face is at most th
 MIRROR_PAIRS = ((33, 263), (7, 249), (163, 390), (144, 373), (145, 374), (153, 380), (154, 381), (155, 382),
                 (133, 362), (173, 398), (157, 384), (158, 385), (159, 386), (160, 387), (161, 388), (246, 466))
 MIRROR_MIDLINE = (1, 4, 6, 168, 10, 152, 0, 17)
+# ``mirror_held``: a value is held to its mirror image's only where the photo is in shadow against its mirror image:
+# its luminance over the mirror's, from the second share down to the first, from none of the lift to all of it
+# (factor.MIRROR_DARK's shares, not fitted again; a face lit from the front keeps its own), that luminance smoothed
+# over this many pixels first (texture is no shadow)
+MIRROR_SHADOW = (0.35, 0.7)
+MIRROR_SHADOW_SIGMA = 1.5
 
 def lobe_transport(normals: np.ndarray) -> np.ndarray:
     """(..., 9) float32 unoccluded transport A_l * Y_k(n) of unit normals (..., 3) in the subject frame (§3)."""
@@ -359,6 +365,53 @@ def mirror(points: np.ndarray) -> np.ndarray:
     design = np.concatenate([src, np.ones((len(src), 1))], axis=1)
     fit, *_ = np.linalg.lstsq(design, dst, rcond=None)
     return fit.T.astype(np.float32)
+
+
+def mirror_held(values: np.ndarray, points: np.ndarray, weight: np.ndarray | None = None,
+                photo: np.ndarray | None = None) -> np.ndarray:
+    """(h, w) float32: ``values`` (h, w) held to at least their mirror image's through the face (``mirror``), where
+    that image lands in the window; as they are where it does not, or where the mesh gives no mirror (collapsed, or
+    fewer than the landmarker's ``N_POINTS``).
+
+    Args:
+        values: (h, w) float, the map to hold (relight_rt.relight.factor ``MIRROR_ALBEDO``: the albedo luminance).
+        points: (468, >= 2) the face mesh in the window's pixels.
+        weight: (h, w) in [0, 1], how far a pixel is the face's skin: held only as far as both the pixel and its mirror
+            image are, and both inside this face's mesh (its convex hull: another face beside it is not its mirror, the
+            hair beside a turned face not the cheek's); None: everywhere.
+        photo: (h, w) the photo's luminance there: held only as far as the pixel is in shadow against its mirror
+            image (``MIRROR_SHADOW``); None: everywhere.
+
+    A face's skin is one material on both halves. In a side-lit photo stage 1 takes part of a hard shadow for a dark
+    albedo, on the shaded half only (the nose's cast shadow on the far cheek from +50 degrees on Extended Yale B:
+    0.72-0.78 of the lit skin's), and a new light on it keeps the shadow (benchmarks/nose_triangle.py); the photo's lit
+    mirror image shows the skin's own. Only a lift: a pixel brighter than its mirror keeps its value.
+    """
+    v = np.ascontiguousarray(values, np.float32)
+    if len(points) < N_POINTS:  # not the landmarker's mesh: no left / right correspondence
+        return v.copy()
+    m = mirror(points)
+    if np.linalg.det(m[:, :2]) > -0.5:  # no reflection (a mesh collapsed to a line or a point)
+        return v.copy()
+    h, w = v.shape
+    flags = cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP
+    there = cv2.warpAffine(v, m.astype(np.float64), (w, h), flags=flags, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    lift = np.maximum(there - v, 0)
+    if photo is not None:  # only where the photo's own shadow can have lowered it: darker than its mirror image
+        lo, hi = MIRROR_SHADOW
+        y = cv2.GaussianBlur(np.ascontiguousarray(photo, np.float32), (0, 0), MIRROR_SHADOW_SIGMA)
+        y_there = cv2.warpAffine(y, m.astype(np.float64), (w, h), flags=flags, borderMode=cv2.BORDER_CONSTANT,
+                                 borderValue=0)
+        q = np.clip((hi - y / np.maximum(y_there, 1e-4)) / (hi - lo), 0, 1)
+        lift *= np.where(y_there > 1e-3, q * q * (3 - 2 * q), 0)
+    if weight is not None:
+        hull = np.zeros((h, w), np.uint8)
+        corners = cv2.convexHull(np.ascontiguousarray(np.asarray(points)[:, :2], np.float32))
+        cv2.fillConvexPoly(hull, np.round(corners * 16).astype(np.int32), 1, shift=4)
+        k = np.ascontiguousarray(weight, np.float32) * hull
+        lift *= k * cv2.warpAffine(k, m.astype(np.float64), (w, h), flags=flags, borderMode=cv2.BORDER_CONSTANT,
+                                   borderValue=0)
+    return (v + lift).astype(np.float32)
 
 
 def _holes(covered: np.ndarray) -> np.ndarray:
