@@ -14,6 +14,7 @@ from relight_rt.engine.session import bundled_models_dir
 from relight_rt.light import exposure as exposure_module
 from relight_rt.person.face_mesh import (
     HEAD_STRENGTH,
+    MIRROR_CHEEK_PAIRS,
     MIRROR_MIDLINE,
     MIRROR_PAIRS,
     FaceMesh,
@@ -335,6 +336,25 @@ def test_a_value_darkened_by_a_shadow_on_one_half_of_the_face_is_held_to_its_mir
     outside = points.copy()  # the patch outside this face's mesh (its hull: x 20-100, y 10-90)
     outside[:, 1] = np.clip(outside[:, 1], 10, 38)
     np.testing.assert_array_equal(mirror_held(albedo, outside, on, photo)[40:60, 70:85], albedo[40:60, 70:85])
+
+
+def test_a_value_far_darker_than_its_mirror_image_or_a_mirror_that_misses_the_cheeks_is_not_held():
+    """faces23r: a pixel under ``MIRROR_OWN_SHARE`` of its mirror image's value is another material over one half (a
+    fringe of hair, an iris looking sideways onto the other eye's white), not the same skin in a shadow: kept, though
+    the photo is darker there; and a head turned so far that the mirror misses its cheeks' landmark pairs by more than
+    ``MIRROR_MISS`` of the face's size holds nothing."""
+    points = _symmetric_points()
+    albedo = np.full((100, 120), 0.6, np.float32)
+    albedo[40:60, 70:85] = 0.12  # 0.2 of its mirror's: hair or an iris, not a shadow split with the albedo
+    photo = np.full(albedo.shape, 0.6, np.float32)
+    photo[36:64, 66:89] = 0.05
+    np.testing.assert_array_equal(mirror_held(albedo, points, photo=photo), albedo)
+    albedo[40:60, 70:85] = 0.42  # 0.7 of it: held
+    np.testing.assert_allclose(mirror_held(albedo, points, photo=photo)[42:58, 72:83], 0.6, atol=1e-5)
+    turned = points.copy()  # the cheeks' pairs (not in the mirror's fit) 0.3 of the face's size off their mirror
+    for a, b in MIRROR_CHEEK_PAIRS:
+        turned[a, :2], turned[b, :2] = [35.0, 60.0], [60.0 + 25.0 + 0.3 * 80, 60.0]
+    np.testing.assert_array_equal(mirror_held(albedo, turned, photo=photo), albedo)
 
 
 def test_a_landmarker_answer_that_is_no_face_shape_is_dropped():
