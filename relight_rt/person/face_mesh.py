@@ -79,6 +79,22 @@ OCCLUSION_GRID = 96  # ... so it is found on a grid where the face is at most th
 MIRROR_PAIRS = ((33, 263), (7, 249), (163, 390), (144, 373), (145, 374), (153, 380), (154, 381), (155, 382),
                 (133, 362), (173, 398), (157, 384), (158, 385), (159, 386), (160, 387), (161, 388), (246, 466))
 MIRROR_MIDLINE = (1, 4, 6, 168, 10, 152, 0, 17)
+# ``mirror_held``: a value is held to its mirror image's only where the photo is in shadow against its mirror image:
+# its luminance over the mirror's, from the second share down to the first, from none of the lift to all of it
+# (factor.MIRROR_DARK's shares, not fitted again; a face lit from the front keeps its own), that luminance smoothed
+# over this many pixels first (texture is no shadow)
+MIRROR_SHADOW = (0.35, 0.7)
+MIRROR_SHADOW_SIGMA = 1.5
+# ... and only as far as the value is at least this share of its mirror image's, from none of the lift to all of it:
+# stage 1 takes part of a shadow for a dark albedo (Extended Yale B's lifted pixels: median 0.84 of the mirror's,
+# 2 % under 0.4), while a far darker one is another material over one half (a fringe of hair over a brow, an iris
+# looking sideways onto the other eye's white, a mole), not the same skin (faces23r: a fringe lifted by 40 levels)
+MIRROR_OWN_SHARE = (0.3, 0.5)
+# ... and only as far as the mirror lands on the face: where it misses the cheeks' landmark pairs (not in its fit) by
+# more than the first share of the face's size, less, to none past the second (a head turned 30-45 degrees: 0.18-0.30;
+# Extended Yale B's faces: at most 0.047; faces23r)
+MIRROR_CHEEK_PAIRS = ((50, 280), (205, 425), (187, 411))
+MIRROR_MISS = (0.1, 0.2)
 
 def lobe_transport(normals: np.ndarray) -> np.ndarray:
     """(..., 9) float32 unoccluded transport A_l * Y_k(n) of unit normals (..., 3) in the subject frame (§3)."""
@@ -359,6 +375,69 @@ def mirror(points: np.ndarray) -> np.ndarray:
     design = np.concatenate([src, np.ones((len(src), 1))], axis=1)
     fit, *_ = np.linalg.lstsq(design, dst, rcond=None)
     return fit.T.astype(np.float32)
+
+
+def mirror_held(values: np.ndarray, points: np.ndarray, weight: np.ndarray | None = None,
+                photo: np.ndarray | None = None) -> np.ndarray:
+    """(h, w) float32: ``values`` (h, w) held to at least their mirror image's through the face (``mirror``), where
+    that image lands in the window; as they are where it does not, or where the mesh gives no mirror (collapsed, or
+    fewer than the landmarker's ``N_POINTS``).
+
+    Args:
+        values: (h, w) float, the map to hold (relight_rt.relight.factor ``MIRROR_ALBEDO``: the albedo luminance).
+        points: (468, >= 2) the face mesh in the window's pixels.
+        weight: (h, w) in [0, 1], how far a pixel is the face's skin: held only as far as both the pixel and its mirror
+            image are, and both inside this face's mesh (its convex hull: another face beside it is not its mirror, the
+            hair beside a turned face not the cheek's); None: everywhere.
+        photo: (h, w) the photo's luminance there: held only as far as the pixel is in shadow against its mirror
+            image (``MIRROR_SHADOW``); None: everywhere.
+
+    A face's skin is one material on both halves. In a side-lit photo stage 1 takes part of a hard shadow for a dark
+    albedo, on the shaded half only (the nose's cast shadow on the far cheek from +50 degrees on Extended Yale B:
+    0.72-0.78 of the lit skin's), and a new light on it keeps the shadow (benchmarks/nose_triangle.py); the photo's lit
+    mirror image shows the skin's own. Only a lift: a pixel brighter than its mirror keeps its value; one far darker
+    than its mirror (under ``MIRROR_OWN_SHARE`` of it: hair, an iris, a mole) is another material and keeps it too, and
+    a face whose mirror misses its cheeks (``MIRROR_MISS``: a turned head) is held less, or not at all.
+    """
+    v = np.ascontiguousarray(values, np.float32)
+    if len(points) < N_POINTS:  # not the landmarker's mesh: no left / right correspondence
+        return v.copy()
+    m = mirror(points)
+    if np.linalg.det(m[:, :2]) > -0.5:  # no reflection (a mesh collapsed to a line or a point)
+        return v.copy()
+    p = np.asarray(points, np.float64)[:, :2]
+    a, b = np.array(MIRROR_CHEEK_PAIRS).T
+    size = max(float(np.ptp(p, axis=0).max()), 1e-6)
+    miss = max(float(np.linalg.norm(p[a] @ m[:, :2].T + m[:, 2] - p[b], axis=1).max()),
+               float(np.linalg.norm(p[b] @ m[:, :2].T + m[:, 2] - p[a], axis=1).max())) / size
+    landed = _smooth_step((MIRROR_MISS[1] - miss) / (MIRROR_MISS[1] - MIRROR_MISS[0]))
+    if not landed > 0:  # a turned head: the mirror lands beside the other half's place
+        return v.copy()
+    h, w = v.shape
+    flags = cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP
+    there = cv2.warpAffine(v, m.astype(np.float64), (w, h), flags=flags, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    lo, hi = MIRROR_OWN_SHARE  # far darker than its mirror: another material, not the same skin in a shadow
+    lift = np.maximum(there - v, 0) * landed * _smooth_step((v / np.maximum(there, 1e-4) - lo) / (hi - lo))
+    if photo is not None:  # only where the photo's own shadow can have lowered it: darker than its mirror image
+        lo, hi = MIRROR_SHADOW
+        y = cv2.GaussianBlur(np.ascontiguousarray(photo, np.float32), (0, 0), MIRROR_SHADOW_SIGMA)
+        y_there = cv2.warpAffine(y, m.astype(np.float64), (w, h), flags=flags, borderMode=cv2.BORDER_CONSTANT,
+                                 borderValue=0)
+        lift *= np.where(y_there > 1e-3, _smooth_step((hi - y / np.maximum(y_there, 1e-4)) / (hi - lo)), 0)
+    if weight is not None:
+        hull = np.zeros((h, w), np.uint8)
+        corners = cv2.convexHull(np.ascontiguousarray(np.asarray(points)[:, :2], np.float32))
+        cv2.fillConvexPoly(hull, np.round(corners * 16).astype(np.int32), 1, shift=4)
+        k = np.ascontiguousarray(weight, np.float32) * hull
+        lift *= k * cv2.warpAffine(k, m.astype(np.float64), (w, h), flags=flags, borderMode=cv2.BORDER_CONSTANT,
+                                   borderValue=0)
+    return (v + lift).astype(np.float32)
+
+
+def _smooth_step(x):
+    """3 x^2 - 2 x^3 of ``x`` clipped to [0, 1] (array or float)."""
+    q = np.clip(x, 0, 1)
+    return q * q * (3 - 2 * q)
 
 
 def _holes(covered: np.ndarray) -> np.ndarray:

@@ -65,7 +65,7 @@ import numpy as np
 from ..image.color import REC709, channel_max
 from ..light import exposure as _exposure
 from ..light import sh
-from ..person.face_mesh import mirror
+from ..person.face_mesh import mirror, mirror_held
 from .cast_shadow import MeshView, shadow_factor
 from .decomposition import Decomposition, Memo, readonly
 from .detail import extend_outward, guided_upsample, shadow_texture, unpremultiply, window
@@ -111,6 +111,8 @@ MIRROR_DARK: tuple[float, float] | None = (0.35, 0.7)
 # ... that share softened over this share of the face's size (its mesh's extent), face by face: on Extended Yale B
 # (faces of 290-370 px in a 256-px window) the 0.02 of the window's side faces13 softened it over (faces14)
 MIRROR_SPREAD = 0.015
+# a face in the photo's shadow against its mirror image takes at least the mirror's albedo (face_mesh.mirror_held)
+MIRROR_ALBEDO = True
 CAST_CACHE = 4  # Factor.cast keeps the cast shadows of this many light directions per Decomposition
 
 
@@ -245,12 +247,22 @@ class Factor:
             if dec.photo:  # the photo's own shading that stage 1 put into a face's albedo taken out (not per frame:
                 # a fit frame by frame would flicker)
                 shading = base["transport"] @ white
-                base = {**base, "albedo": readonly(unshaded_albedo(base["albedo"], shading, base["face_skin"],
-                                                                   base["inner"]))}
+                albedo = unshaded_albedo(base["albedo"], shading, base["face_skin"], base["inner"])
+                if MIRROR_ALBEDO and base["face_points"] and base["face_skin"].any():  # stage 1 took part of a shadow
+                    # for a dark albedo: the face's skin, edge softened (not its openings: an eye's iris looking
+                    # sideways mirrors onto the other eye's white, and the openings' softened edge reached the brows
+                    # and a fringe of hair, up to 15 levels on real photos; Yale's figures the same without, faces23r)
+                    keep = soften(base["face_skin"], CAP_SKIN_SPREAD * max(albedo.shape), base["inner"])
+                    for pts in base["face_points"]:  # each face by its own mirror, on its own skin
+                        albedo = mirror_held(albedo, pts, keep, base["photo"])
+                base = {**base, "albedo": readonly(albedo)}
             # the shading the photo shows and stage 1 misses, kept along the photo's own light
-            # (relight_rt.relight.strength); on a face's skin, where the photo shows less, all of it (a shadow)
+            # (relight_rt.relight.strength); on a face's skin, where the photo shows less, all of it (a shadow), that
+            # share ramped up inside the skin's edge over the ratio cap's spread (a hard switch drew a line where the
+            # skin's inset around an eye crosses a cheek's shadow, faces23; outside it the hair beside a face moved)
             skin = base["face_skin"]
-            shadow = np.where(skin, EXPLAIN_SHADOW_SHARE, EXPLAIN_SHARE).astype(np.float32) if skin.any() else None
+            soft = 1 - soften(~skin, CAP_SKIN_SPREAD * max(skin.shape)) if skin.any() else None
+            shadow = None if soft is None else (EXPLAIN_SHARE + soft * (EXPLAIN_SHADOW_SHARE - EXPLAIN_SHARE))
             moved = explain_photo(base["transport"], base["albedo"], base["photo"], white, base["inner"],
                                   shadow_share=shadow)
             base = {**base, "transport": readonly(moved)}

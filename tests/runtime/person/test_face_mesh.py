@@ -14,6 +14,7 @@ from relight_rt.engine.session import bundled_models_dir
 from relight_rt.light import exposure as exposure_module
 from relight_rt.person.face_mesh import (
     HEAD_STRENGTH,
+    MIRROR_CHEEK_PAIRS,
     MIRROR_MIDLINE,
     MIRROR_PAIRS,
     FaceMesh,
@@ -21,6 +22,7 @@ from relight_rt.person.face_mesh import (
     head_normals,
     lobe_transport,
     mirror,
+    mirror_held,
     rasterise_normals,
 )
 from relight_rt.relight import factor as factor_module
@@ -286,6 +288,70 @@ def test_the_faces_mirror_takes_each_eye_to_the_other_and_keeps_the_mid_line():
     moved = squeezed[a, :2] @ m[:, :2].T + m[:, 2]
     assert np.abs(moved - squeezed[b, :2]).max() < 0.15 * np.ptp(squeezed[:, 0])
     assert np.linalg.det(m[:, :2]) < 0  # a reflection
+
+
+def _symmetric_points(cx: float = 60.0) -> np.ndarray:
+    """(468, 3) a face's mirror points symmetric about x = ``cx`` (the rest at the centre)."""
+    rng = np.random.default_rng(5)
+    points = np.full((468, 3), [cx, 50.0, 0.0])
+    a, b = np.array(MIRROR_PAIRS).T
+    left = rng.uniform([20, 20], [50, 80], (len(a), 2))
+    points[a, :2] = left
+    points[b, :2] = np.stack([2 * cx - left[:, 0], left[:, 1]], axis=1)
+    points[list(MIRROR_MIDLINE), :2] = np.stack([np.full(len(MIRROR_MIDLINE), cx),
+                                                  rng.uniform(10, 90, len(MIRROR_MIDLINE))], axis=1)
+    return points
+
+
+def test_a_value_darkened_by_a_shadow_on_one_half_of_the_face_is_held_to_its_mirror_images():
+    """faces23: stage 1 takes part of a hard shadow (the nose's on the far cheek) for a dark albedo, on one half of a
+    side-lit face only; ``mirror_held`` holds it to the mirror image's (never lowers it) where the photo there is in
+    shadow against its mirror image, as far as both lie on the face (its weight, within its mesh's hull). Where the
+    photo is as bright as its mirror (a face lit from the front), or the mesh gives no mirror, nothing moves."""
+    points = _symmetric_points()
+    albedo = np.full((100, 120), 0.6, np.float32)
+    albedo[40:60, 70:85] = 0.3  # the image's right half: x 70-84 mirrors to 35-49
+    albedo[10:20, 30:40] = 0.9  # brighter than its mirror: kept as it is
+    photo = np.full(albedo.shape, 0.6, np.float32)
+    photo[36:64, 66:89] = 0.05  # the hard shadow over the patch
+    held = mirror_held(albedo, points, photo=photo)
+    np.testing.assert_allclose(held[42:58, 72:83], 0.6, atol=1e-5)
+    np.testing.assert_allclose(held[10:20, 30:40], 0.9, atol=1e-6)
+    assert (held >= albedo).all() and held.dtype == np.float32
+    plain = held.copy()
+    plain[36:64, 66:89] = albedo[36:64, 66:89]
+    np.testing.assert_array_equal(plain, albedo)  # nothing moves outside the shadow
+    lit = mirror_held(albedo, points, photo=np.full(albedo.shape, 0.6, np.float32))  # no shadow: nothing held
+    np.testing.assert_array_equal(lit, albedo)
+    np.testing.assert_array_equal(mirror_held(albedo, np.zeros((468, 3)), photo=photo), albedo)  # no mirror
+    np.testing.assert_array_equal(mirror_held(albedo, points[:4], photo=photo), albedo)  # not the landmarker's mesh
+    on = np.ones_like(albedo)
+    np.testing.assert_allclose(mirror_held(albedo, points, on, photo)[42:58, 72:83], 0.6, atol=1e-5)  # on the face
+    off = on.copy()
+    off[:, :55] = 0  # the mirror image off the face: nothing held
+    np.testing.assert_array_equal(mirror_held(albedo, points, off, photo), albedo)
+    outside = points.copy()  # the patch outside this face's mesh (its hull: x 20-100, y 10-90)
+    outside[:, 1] = np.clip(outside[:, 1], 10, 38)
+    np.testing.assert_array_equal(mirror_held(albedo, outside, on, photo)[40:60, 70:85], albedo[40:60, 70:85])
+
+
+def test_a_value_far_darker_than_its_mirror_image_or_a_mirror_that_misses_the_cheeks_is_not_held():
+    """faces23r: a pixel under ``MIRROR_OWN_SHARE`` of its mirror image's value is another material over one half (a
+    fringe of hair, an iris looking sideways onto the other eye's white), not the same skin in a shadow: kept, though
+    the photo is darker there; and a head turned so far that the mirror misses its cheeks' landmark pairs by more than
+    ``MIRROR_MISS`` of the face's size holds nothing."""
+    points = _symmetric_points()
+    albedo = np.full((100, 120), 0.6, np.float32)
+    albedo[40:60, 70:85] = 0.12  # 0.2 of its mirror's: hair or an iris, not a shadow split with the albedo
+    photo = np.full(albedo.shape, 0.6, np.float32)
+    photo[36:64, 66:89] = 0.05
+    np.testing.assert_array_equal(mirror_held(albedo, points, photo=photo), albedo)
+    albedo[40:60, 70:85] = 0.42  # 0.7 of it: held
+    np.testing.assert_allclose(mirror_held(albedo, points, photo=photo)[42:58, 72:83], 0.6, atol=1e-5)
+    turned = points.copy()  # the cheeks' pairs (not in the mirror's fit) 0.3 of the face's size off their mirror
+    for a, b in MIRROR_CHEEK_PAIRS:
+        turned[a, :2], turned[b, :2] = [35.0, 60.0], [60.0 + 25.0 + 0.3 * 80, 60.0]
+    np.testing.assert_array_equal(mirror_held(albedo, turned, photo=photo), albedo)
 
 
 def test_a_landmarker_answer_that_is_no_face_shape_is_dropped():
