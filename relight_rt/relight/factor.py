@@ -249,9 +249,7 @@ class Factor:
                 shading = base["transport"] @ white
                 albedo = unshaded_albedo(base["albedo"], shading, base["face_skin"], base["inner"])
                 if MIRROR_ALBEDO and base["face_points"] and base["face_skin"].any():  # stage 1 took part of a shadow
-                    # for a dark albedo: the face's skin, edge softened (not its openings: an eye's iris looking
-                    # sideways mirrors onto the other eye's white, and the openings' softened edge reached the brows
-                    # and a fringe of hair, up to 15 levels on real photos; Yale's figures the same without, faces23r)
+                    # for a dark albedo: the face's skin, edge softened (not its openings, whose edge reached a fringe)
                     keep = soften(base["face_skin"], CAP_SKIN_SPREAD * max(albedo.shape), base["inner"])
                     for pts in base["face_points"]:  # each face by its own mirror, on its own skin
                         albedo = mirror_held(albedo, pts, keep, base["photo"])
