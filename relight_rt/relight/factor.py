@@ -75,12 +75,11 @@ from .look import shaded_skin, skin_chroma, tint_range
 from .shadow_rim import rim_lift, skin_gate, spread_mean
 from .strength import (
     EXPLAIN_ALBEDO_MIN,
-    EXPLAIN_SHADOW_SHARE,
-    EXPLAIN_SHARE,
     explain_photo,
     face_refit,
     refit_light,
     restore_bands,
+    skin_shadow_share,
 )
 from .unshade import unshaded_albedo
 
@@ -255,12 +254,9 @@ class Factor:
                         albedo = mirror_held(albedo, pts, keep, base["photo"])
                 base = {**base, "albedo": readonly(albedo)}
             # the shading the photo shows and stage 1 misses, kept along the photo's own light
-            # (relight_rt.relight.strength); on a face's skin, where the photo shows less, all of it (a shadow), that
-            # share ramped up inside the skin's edge over the ratio cap's spread (a hard switch drew a line where the
-            # skin's inset around an eye crosses a cheek's shadow, faces23; outside it the hair beside a face moved)
+            # (relight_rt.relight.strength); on a face's skin, where the photo shows less, all of it (a shadow)
             skin = base["face_skin"]
-            soft = 1 - soften(~skin, CAP_SKIN_SPREAD * max(skin.shape)) if skin.any() else None
-            shadow = None if soft is None else (EXPLAIN_SHARE + soft * (EXPLAIN_SHADOW_SHARE - EXPLAIN_SHARE))
+            shadow = skin_shadow_share(skin, CAP_SKIN_SPREAD * max(skin.shape))
             moved = explain_photo(base["transport"], base["albedo"], base["photo"], white, base["inner"],
                                   shadow_share=shadow)
             base = {**base, "transport": readonly(moved)}

@@ -30,6 +30,7 @@ import numpy as np
 
 from ..engine.errors import RelightError
 from ..image.color import REC709
+from .fill_edge import soften
 
 BAND_GAIN = (1.0, 1.05, 1.15)  # degree 0, 1, 2: what the measured transport and light leave short (module docstring)
 
@@ -203,6 +204,19 @@ EXPLAIN_SHADOW_SHARE = 1.0  # ... where a face's skin shows less than the transp
 EXPLAIN_CLIP = 1.0  # ... at most this much shading (the photo's own light's units) moved per pixel
 EXPLAIN_SIGMA = 1.5  # ... the move smoothed over this many pixels: shading is smooth, a stripe the albedo missed is not
 EXPLAIN_ALBEDO_MIN = 0.05  # ... the albedo luminance the photo is divided by, floored here (black cloth, hair)
+
+
+def skin_shadow_share(skin: np.ndarray, spread: float) -> np.ndarray | None:
+    """(h, w) float32: ``explain_photo``'s ``shadow_share`` for a face's ``skin`` (h, w) bool: ``EXPLAIN_SHADOW_SHARE``
+    inside the skin, ramped down to ``EXPLAIN_SHARE`` at and past its edge over ``spread`` pixels; None without skin.
+
+    A hard switch at the skin's edge drew a line where the skin's inset around an eye crosses a cheek's shadow
+    (faces23); ramped outward instead, the hair beside a face moved 3-4 levels.
+    """
+    if not skin.any():
+        return None
+    inside = 1 - soften(~skin, spread)
+    return (EXPLAIN_SHARE + inside * (EXPLAIN_SHADOW_SHARE - EXPLAIN_SHARE)).astype(np.float32)
 
 
 def explain_photo(

@@ -22,6 +22,7 @@ from relight_rt.engine.config import RuntimeConfig
 from relight_rt.image.color import REC709
 from relight_rt.relight import factor as relight_factor
 from relight_rt.relight import shadow_rim
+from relight_rt.relight import strength as relight_strength
 
 __all__ = ["models_dir"]  # fixtures
 
@@ -217,7 +218,7 @@ def test_a_face_meshs_fill_albedo_is_softened_past_its_outline(relighter, monkey
         return {**base, "face_skin": skin}
 
     monkeypatch.setattr(factor, "restored", upper_face)
-    monkeypatch.setattr(relight_factor, "EXPLAIN_SHADOW_SHARE", relight_factor.EXPLAIN_SHARE)  # as the fill's tests
+    monkeypatch.setattr(relight_strength, "EXPLAIN_SHADOW_SHARE", relight_strength.EXPLAIN_SHARE)  # as the fill's tests
     profile = (relighter.relight(dec, 2 * OWN_LIGHT, exposure="physical") @ REC709)[30:130, 38:48].mean(axis=1)
     rise = float(profile[:20].mean() - profile[-20:].mean())
     assert rise > 0.15, rise  # the face's part lifted (measured 0.20)

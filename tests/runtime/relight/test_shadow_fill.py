@@ -16,6 +16,7 @@ import relight_rt
 from relight_rt.engine.config import RuntimeConfig
 from relight_rt.image.color import REC709
 from relight_rt.relight import factor as relight_factor
+from relight_rt.relight import strength as relight_strength
 
 __all__ = ["models_dir"]  # fixtures
 
@@ -147,7 +148,7 @@ def test_the_fill_takes_the_albedo_of_the_lit_skin_around_where_stage1_took_the_
     monkeypatch.setattr(factor, "restored", lambda dec: {**restored(dec), "face_skin": restored(dec)["inner"]})
     # on a face's skin a shadow is moved into the transport whole (strength.EXPLAIN_SHADOW_SHARE), and the photo's
     # own light doubled then keeps it, as it should; set aside here, where the fill's albedo is what is measured
-    monkeypatch.setattr(relight_factor, "EXPLAIN_SHADOW_SHARE", relight_factor.EXPLAIN_SHARE)
+    monkeypatch.setattr(relight_strength, "EXPLAIN_SHADOW_SHARE", relight_strength.EXPLAIN_SHARE)
     on_skin = replace(taken)
     np.testing.assert_allclose(relighter.relight(on_skin, OWN_LIGHT, exposure="physical"), shadowed, atol=1e-4)
     assert core_level(on_skin) > 0.85 * want  # 0.3: 0.96 of it (0.62 with a range of 2)

@@ -401,3 +401,21 @@ def test_explain_photo_keeps_texture_out():
     assert np.abs(moved[5:35, 5:35] @ light - 1.0).max() < 0.05  # the stripes (+-0.2) averaged out
     smooth = explain_photo(t, albedo, 0.5 * np.full((40, 40), 1.2, np.float32), light, where, share=1.0)
     np.testing.assert_allclose(smooth @ light, 1.2, atol=1e-4)
+
+
+def test_the_skin_shadow_share_ramps_from_the_share_at_the_skins_edge_to_all_of_it_inside():
+    """faces23: explain_photo's shadow share on a face's skin rises inside the skin's edge, not across it in one
+    step (a hard switch drew a line where the skin's inset around an eye crosses a cheek's shadow), and stays the
+    ordinary share outside the skin (the hair beside a face is not moved)."""
+    from relight_rt.relight.strength import EXPLAIN_SHADOW_SHARE, EXPLAIN_SHARE, skin_shadow_share
+
+    assert skin_shadow_share(np.zeros((32, 32), bool), 3.0) is None
+    skin = np.zeros((64, 64), bool)
+    skin[:, 32:] = True
+    share = skin_shadow_share(skin, 3.0)
+    row = share[32]
+    np.testing.assert_allclose(row[:32], EXPLAIN_SHARE, atol=1e-6)  # outside the skin: the ordinary share
+    np.testing.assert_allclose(row[50:], EXPLAIN_SHADOW_SHARE, atol=1e-3)  # deep inside: all of the shadow
+    ramp = row[32:42]
+    assert EXPLAIN_SHARE < ramp[0] < EXPLAIN_SHADOW_SHARE - 0.1  # a ramp, not a step, at the edge ...
+    assert np.all(np.diff(row[32:50]) >= -1e-6)  # ... rising inward
