@@ -33,7 +33,7 @@ sys.path.insert(0, str(HERE))
 
 from _shared import shared_path  # noqa: E402
 from real_photos import luminance  # noqa: E402
-from yale_eval import EPS, ellipse, find_file, lamp, read_grey  # noqa: E402  (puts this checkout first)
+from yale_eval import EPS, find_file, lamp, read_frontal, read_grey  # noqa: E402  (puts this checkout first)
 
 from relight_rt import Relighter, RuntimeConfig  # noqa: E402
 from relight_rt.person.face_mesh import FaceMesh  # noqa: E402
@@ -111,14 +111,11 @@ def main(argv=None) -> int:
         args.out.mkdir(parents=True, exist_ok=True)
     rows = []
     for subject in subjects:
-        frontal_path = find_file(args.yale, subject, 0)
-        if not frontal_path.is_file():
+        found = read_frontal(args.yale, subject, mesh)
+        if found is None:
             continue
-        frontal = read_grey(frontal_path)
-        face = ellipse(frontal.shape[:2])
-        h, w = frontal.shape[:2]
-        meshes = mesh.faces(frontal, (0, h, 0, w)) if mesh.available else []
-        if not meshes:
+        frontal, face, points = found
+        if points is None:
             print(f"{subject}: no face mesh on the frontal photo: skipped", file=sys.stderr)
             continue
         for a in AZIMUTHS:
@@ -128,7 +125,7 @@ def main(argv=None) -> int:
                     continue
                 source = read_grey(path)
                 side = "right" if az > 0 else "left"  # a positive azimuth lights the image's left
-                where = region(meshes[0], side, source, face)
+                where = region(points, side, source, face)
                 if where.sum() < 20:
                     continue
                 dec = relighter.decompose(source, face)

@@ -103,6 +103,18 @@ def read_grey(path: Path) -> np.ndarray:
     return np.repeat((g.astype(np.float32) / 255)[..., None], 3, axis=2)
 
 
+def read_frontal(yale: Path, subject: str, mesh: FaceMesh) -> tuple[np.ndarray, np.ndarray, np.ndarray | None] | None:
+    """A subject's frontal photo (lit from azimuth 0), its face ellipse and its face mesh's points (None where no
+    mesh is found); None where the photo is absent."""
+    path = find_file(yale, subject, 0)
+    if not path.is_file():
+        return None
+    frontal = read_grey(path)
+    h, w = frontal.shape[:2]
+    meshes = mesh.faces(frontal, (0, h, 0, w)) if mesh.available else []
+    return frontal, ellipse((h, w)), (meshes[0] if meshes else None)
+
+
 def grid_log_lum(rgb: np.ndarray) -> np.ndarray:
     lum = luminance(rgb)
     return np.log(cv2.resize(lum, (GRID, GRID), interpolation=cv2.INTER_AREA) + EPS)
@@ -277,14 +289,10 @@ def main(argv=None) -> int:
         pictures[row["id"]] = (source, ours, theirs, truth)
 
     for subject in subjects:
-        frontal_path = find_file(args.yale, subject, 0)
-        if not frontal_path.is_file():
+        found = read_frontal(args.yale, subject, mesh)
+        if found is None:
             continue
-        frontal = read_grey(frontal_path)
-        mask = ellipse(frontal.shape[:2])
-        h, w = frontal.shape[:2]
-        meshes = mesh.faces(frontal, (0, h, 0, w)) if mesh.available else []
-        points = meshes[0] if meshes else None  # the real frontal photo's eyes (socket_ratio)
+        frontal, mask, points = found  # points: the real frontal photo's eyes (socket_ratio)
         dec = relighter.decompose(frontal, mask)
         for a in RELIGHT_AZ:
             for az in (-a, a):

@@ -268,6 +268,20 @@ def _sample_textures(subject: DeviceSubject, face: torch.Tensor, uv: torch.Tenso
     return rgba
 
 
+SAMPLE_CHANNELS = 14  # a packed sample: albedo 3, mask 1, skin 1, transport 9 (``pack``, ``unpack``)
+
+
+def pack(sample: dict[str, torch.Tensor]) -> torch.Tensor:
+    """(14, R, R): a ``render_sample`` dict's maps stacked in ``SAMPLE_CHANNELS``' order (the training pool's and the
+    held-out set's layout)."""
+    return torch.cat([sample["albedo"], sample["mask"], sample["skin"], sample["transport"]])
+
+
+def unpack(x: torch.Tensor) -> dict[str, torch.Tensor]:
+    """A batch (N, 14, R, R) of packed samples as ``render_sample``'s maps (views of ``x``)."""
+    return {"albedo": x[:, :3], "mask": x[:, 3:4], "skin": x[:, 4:5], "transport": x[:, 5:]}
+
+
 def render_sample(
     subject: DeviceSubject,
     settings: RenderSettings,

@@ -229,14 +229,16 @@ class _Pool:
     def __init__(self, size: int, resolution: int, device):
         import torch
 
-        self.data = torch.zeros((size, 14, resolution, resolution), dtype=torch.float16, device=device)
+        from .render import SAMPLE_CHANNELS
+
+        self.data = torch.zeros((size, SAMPLE_CHANNELS, resolution, resolution), dtype=torch.float16, device=device)
         self.count = 0
         self.next = 0
 
     def add(self, sample: dict) -> None:
-        import torch
+        from .render import pack
 
-        self.data[self.next] = torch.cat([sample["albedo"], sample["mask"], sample["skin"], sample["transport"]])
+        self.data[self.next] = pack(sample)
         self.next = (self.next + 1) % len(self.data)
         self.count = min(self.count + 1, len(self.data))
 
@@ -246,13 +248,14 @@ class _Pool:
 
         from export.losses import FLIP_SIGNS
 
+        from .render import unpack
+
         x = self.data[index].float()
         x = torch.where(flips[:, None, None, None], x.flip(-1), x)
         signs = torch.tensor(FLIP_SIGNS, device=x.device)
         sign = torch.where(flips[:, None], signs[None], torch.ones_like(signs)[None])
-        transport = x[:, 5:] * sign[:, :, None, None]
-        return {"albedo": x[:, :3], "mask": x[:, 3:4], "skin": x[:, 4:5], "transport": transport,
-                "light": lights * sign[:, :, None]}
+        maps = unpack(x)
+        return {**maps, "transport": maps["transport"] * sign[:, :, None, None], "light": lights * sign[:, :, None]}
 
 
 class _Sampler:

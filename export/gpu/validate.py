@@ -47,7 +47,7 @@ class HeldOut:
     def __init__(self, subjects: list, lights, settings, framings: list[str], n: int, max_yaw: float, seed: int):
         import torch
 
-        from .render import render_sample
+        from .render import pack, render_sample
 
         rng = np.random.default_rng([seed, 0x7A1])
         device = lights.device
@@ -60,7 +60,7 @@ class HeldOut:
                 other_index.append(int(rng.integers(len(lights))))
                 s = render_sample(subjects[i % len(subjects)], settings, framing=framings[i % len(framings)],
                                   yaw_deg=yaw, generator=torch.Generator().manual_seed(seed * 1_000_003 + i))
-                data.append(torch.cat([s["albedo"], s["mask"], s["skin"], s["transport"]]).to(torch.float16))
+                data.append(pack(s).to(torch.float16))
         self.data = torch.stack(data)
         self.lights = lights[torch.as_tensor(light_index, device=device)]
         self.others = lights[torch.as_tensor(other_index, device=device)]
@@ -77,6 +77,8 @@ class HeldOut:
         from export.torch_data import render_input
         from export.training import autocast
 
+        from .render import unpack
+
         was_training = model.training
         model.eval()
         total = relit = 0.0
@@ -84,8 +86,7 @@ class HeldOut:
             with torch.no_grad():
                 for s in range(0, len(self.data), batch_size):
                     x = self.data[s : s + batch_size].float()
-                    batch = {"albedo": x[:, :3], "mask": x[:, 3:4], "skin": x[:, 4:5], "transport": x[:, 5:],
-                             "light": self.lights[s : s + batch_size]}
+                    batch = {**unpack(x), "light": self.lights[s : s + batch_size]}
                     with autocast(x.device, amp):
                         t, a, k, light = model((2.0 * render_input(batch) - 1.0) * batch["mask"])
                         terms = loss_fn({"transport": t, "albedo": a, "skin": k, "light": light}, batch)

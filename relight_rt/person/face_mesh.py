@@ -177,8 +177,7 @@ def face_transport(
     normals = normals / np.maximum(np.linalg.norm(normals, axis=2, keepdims=True), 1e-6)
     # weight: inside the mesh, rising smoothly from 0 at its border to 1 at FEATHER of the face's size inside
     dist = cv2.distanceTransform((cover > 0).astype(np.uint8), cv2.DIST_L2, 3)
-    t = np.clip(dist / max(FEATHER * size, 1.0), 0, 1)
-    mesh_weight = t * t * (3 - 2 * t)
+    mesh_weight = _smooth_step(dist / max(FEATHER * size, 1.0))
     # around the mesh (hair, skull, ears) the head's rounded shape: without it a side light darkens half the face
     # while the hair beside it, left to stage 1's blur, stays lit
     head, head_weight = head_normals(points, (h, w))
@@ -494,8 +493,7 @@ def head_normals(points: np.ndarray, shape: tuple[int, int]) -> tuple[np.ndarray
     normals = np.stack([toward, u, -v], axis=2).astype(np.float32)  # +x toward the camera, +y right, +z up
     t = np.clip((HEAD_REACH - r) / (HEAD_REACH - 1), 0, 1)
     below = np.clip((yy - y1) / max(0.08 * (y1 - y0), 1.0), 0, 1)  # fades out over the chin's last rows
-    t = t * (1 - below)
-    return normals, (t * t * (3 - 2 * t)).astype(np.float32)
+    return normals, _smooth_step(t * (1 - below)).astype(np.float32)
 
 
 def _lifted(crop: np.ndarray, power: float) -> np.ndarray:

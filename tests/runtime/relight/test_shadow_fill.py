@@ -452,6 +452,7 @@ def test_a_cheek_in_the_noses_shadow_takes_its_mirror_images_albedo(yale_dir, mo
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "benchmarks"))
     import nose_triangle as nt
+    import yale_eval
 
     from relight_rt.person.face_mesh import FaceMesh
 
@@ -461,7 +462,7 @@ def test_a_cheek_in_the_noses_shadow_takes_its_mirror_images_albedo(yale_dir, mo
         pytest.skip("no face mesh model")
     front = nt.read_grey(yale_dir / "yaleB02" / "yaleB02_P00A+000E+00.png")
     side = nt.read_grey(yale_dir / "yaleB02" / "yaleB02_P00A+050E+00.png")
-    face = nt.ellipse(front.shape[:2])
+    face = yale_eval.ellipse(front.shape[:2])
     h, w = face.shape
     where = nt.region(mesh.faces(front, (0, h, 0, w))[0], "right", side, face)
     lit = (face > 0.5) & (np.arange(w)[None, :] < 0.35 * w)  # the image's left: lit in the photo
