@@ -266,20 +266,27 @@ def yale_dir(shared_dir):
     return path
 
 
-def _yale_b05(yale_dir):
-    """yale_eval's helpers, a CPU relighter and subject 05's frontal photo with its face mesh (where the eyes are)."""
+def _relighter_and_mesh():
+    """A CPU relighter and the bundled face mesh (the test is skipped without its model); benchmarks/ on sys.path, so
+    that its Yale scripts import."""
     import sys
     from pathlib import Path
 
     from relight_rt.person.face_mesh import FaceMesh
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "benchmarks"))
-    import yale_eval
-
     relighter = relight_rt.open(RuntimeConfig(device="cpu"))
     mesh = FaceMesh(relighter.models_dir)
     if not mesh.available:
         pytest.skip("no face mesh model")
+    return relighter, mesh
+
+
+def _yale_b05(yale_dir):
+    """yale_eval's helpers, a CPU relighter and subject 05's frontal photo with its face mesh (where the eyes are)."""
+    relighter, mesh = _relighter_and_mesh()
+    import yale_eval
+
     front = yale_eval.read_grey(yale_dir / "yaleB05" / "yaleB05_P00A+000E+00.png")
     h, w = front.shape[:2]
     return yale_eval, relighter, mesh.faces(front, (0, h, 0, w))[0][:, :2], (h, w)
@@ -447,19 +454,10 @@ def test_a_cheek_in_the_noses_shadow_takes_its_mirror_images_albedo(yale_dir, mo
     far darker than in the real frontal photo (benchmarks/nose_triangle.py's error: -1.01 in log). Its mirror image,
     lit in the photo, gives the skin's albedo (``factor.MIRROR_ALBEDO``, face_mesh ``mirror_held``): -0.73 (faces23);
     the lit half moves by 0.3 levels on average (the exposure's level)."""
-    import sys
-    from pathlib import Path
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "benchmarks"))
+    relighter, mesh = _relighter_and_mesh()
     import nose_triangle as nt
     import yale_eval
 
-    from relight_rt.person.face_mesh import FaceMesh
-
-    relighter = relight_rt.open(RuntimeConfig(device="cpu"))
-    mesh = FaceMesh(relighter.models_dir)
-    if not mesh.available:
-        pytest.skip("no face mesh model")
     front = nt.read_grey(yale_dir / "yaleB02" / "yaleB02_P00A+000E+00.png")
     side = nt.read_grey(yale_dir / "yaleB02" / "yaleB02_P00A+050E+00.png")
     face = yale_eval.ellipse(front.shape[:2])
