@@ -127,7 +127,7 @@ def main() -> None:
             tile = np.concatenate([np.pad(c, ((2, 2), (2, 2), (0, 0)), constant_values=1.0) for c in cells], axis=1)
             tiles.append((photo.name, tile))
     r = np.array([[*b, *c] for b, c in rows])
-    ok = ~np.isnan(r[:, 1])
+    ok = ~np.isnan(r[:, 1]) & ~np.isnan(r[:, 3])  # both mattes have a direction to measure along
     print(f"\nmean over {len(rows)} photos: backdrop share {r[:, 0].mean():.3f} -> {r[:, 2].mean():.3f}; ", end="")
     print(f"toward the old background ({ok.sum()} photos) {r[ok, 1].mean():.1f} -> {r[ok, 3].mean():.1f} levels")
     if args.sheet is not None and tiles:
