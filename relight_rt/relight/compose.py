@@ -197,7 +197,7 @@ def shown_edge(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray) -> tuple[np
     reach = np.where(f > i, i / np.maximum(f, 1e-6), np.where(f < i, (1 - i) / np.maximum(1 - f, 1e-6), 1))
     shown[up] = np.minimum(shown[up], np.maximum(alpha[up], reach.min(axis=1)))
     behind = np.array(image, dtype=np.float32)
-    mixed = (shown > _SOFT) & (shown < 1 - _SOFT)
+    mixed = (shown > 0) & (shown < 1)  # every partial pixel, so that the photo comes back to rounding
     s = shown[mixed][:, None]
     behind[mixed] = np.clip((image[mixed] - s * fg[mixed]) / (1 - s), 0, 1)
     return shown, behind
