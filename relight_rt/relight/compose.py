@@ -343,10 +343,10 @@ class Composer:
         elif not clean and backdrop is not None:
             fg, bg = self.foreground(dec)
             behind = None if bg is fg else bg
+            if grade:  # over the matte, as ``own_light`` sums the own colour (the own light: a gain of 1)
+                gain = grade_of_sums(light_sum(colour, alpha), *self.own_light(dec))
             if dec.edge is not None:  # the automatic matte's edge as the photo shows it (``photo_colours``)
                 alpha = dec.edge
-            if grade:
-                gain = grade_of_sums(light_sum(colour, alpha), *self.own_light(dec))
         return over_box(colour, alpha[..., None], geom.box, backdrop, dec.mask, behind, gain)
 
     def with_layers(self, dec: Decomposition, lit: np.ndarray, outputs: tuple, backdrop: np.ndarray | None,

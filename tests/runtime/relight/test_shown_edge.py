@@ -9,6 +9,7 @@ import pytest
 from _graphs import models_dir
 
 from relight_rt import Relighter, RuntimeConfig, lights
+from relight_rt.image.compositing import Background
 from relight_rt.relight.compose import colours_of, shown_edge
 
 __all__ = ["models_dir"]  # fixture
@@ -121,3 +122,15 @@ def test_only_the_automatic_matte_takes_the_shown_edge(models_dir):
               for k, d in (("auto", auto), ("given", given))}
     assert change["given"] > 0.005  # the feathered matte carries the person's change onto the wall ...
     assert change["auto"] < 0.3 * change["given"]  # ... which the shown edge leaves (mostly) as the photo has it
+
+
+def test_a_graded_background_under_the_photos_own_light_is_the_photo(models_dir):
+    """The background's grade compares the relit person with their own colour over one matte (``own_light``'s):
+    measured over the shown edge on one side and the matte on the other, the photo's own light had moved the whole
+    background by about a level."""
+    img, soft = _portrait()
+    relighter = Relighter(RuntimeConfig(models=str(models_dir), device="cpu"), matter=lambda rgb, name="image": soft)
+    dec = relighter.decompose(img)
+    assert dec.edge is not None
+    out = np.asarray(relighter.relight(dec, dec, background=Background.original(grade=True)))
+    np.testing.assert_allclose(out, img, atol=0.5 / 255)
