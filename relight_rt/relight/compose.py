@@ -236,6 +236,17 @@ def photo_colours(dec: Decomposition, automatic: bool) -> dict:
     return {"foreground": (fg, behind), "edge": shown}
 
 
+def shown_mask(dec: Decomposition) -> np.ndarray:
+    """(H, W) float32, new: the matte the relit person goes over their own photo with, ``dec.mask`` with its crop
+    box's soft edge as the photo shows it (``dec.edge``, ``photo_colours``) where the Decomposition has one (the
+    studio's preview composites with it, as ``Composer.compose`` does)."""
+    out = np.array(dec.mask, dtype=np.float32)
+    if dec.edge is not None:
+        y0, y1, x0, x1 = dec.geometry.box
+        out[y0:y1, x0:x1] = dec.edge
+    return out
+
+
 def colours_of(image: np.ndarray, alpha: np.ndarray, multilevel: bool) -> tuple[np.ndarray, np.ndarray]:
     """``own_colours``' rule on ``image`` (h, w, 3) under ``alpha`` (h, w): (F, B), read-only; ``multilevel``: the
     multilevel estimate for a soft edge wider than feathering (else the solid colours beside it). A group's person
