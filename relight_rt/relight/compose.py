@@ -132,16 +132,23 @@ def grade_of_sums(new: np.ndarray, old: np.ndarray, weight: float) -> np.ndarray
     return (light ** (1.0 / DISPLAY_GAMMA)).astype(np.float32)
 
 
-def _side_mean(image: np.ndarray, where: np.ndarray, r: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The mean of ``image`` over ``where`` in the (2r + 1)^2 box around each pixel, the variance there (summed over
-    the channels), and whether the box holds any such pixel."""
+def _side_sums(image: np.ndarray, where: np.ndarray, r: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Sums over ``where`` in the (2r + 1)^2 box around each pixel: the count (h, w), ``image``'s (h, w, 3) and its
+    square's (h, w, 3) (``_side_at`` reads a mean and a variance from them on the pixels it needs)."""
     w = where.astype(np.float32)
     size = (2 * r + 1, 2 * r + 1)
     box = lambda x: cv2.boxFilter(x, -1, size, normalize=False, borderType=cv2.BORDER_CONSTANT)  # noqa: E731
-    n = np.maximum(box(w), 1e-6)[..., None]
-    mean = box(image * w[..., None]) / n
-    var = np.maximum(box(image * image * w[..., None]) / n - mean * mean, 0).sum(axis=2)
-    return mean, var, n[..., 0] > 0.5
+    return box(w), box(image * w[..., None]), box(image * image * w[..., None])
+
+
+def _side_at(sums: tuple[np.ndarray, np.ndarray, np.ndarray], ys: np.ndarray, xs: np.ndarray
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """``_side_sums``' mean (n, 3) and variance (n,), summed over the channels, at the pixels (ys, xs) (only
+    there: on the whole crop box that arithmetic was most of ``shown_edge``'s time)."""
+    count, total, squares = sums
+    n = np.maximum(count[ys, xs], 1e-6)[:, None]
+    mean = total[ys, xs] / n
+    return mean, np.maximum(squares[ys, xs] / n - mean * mean, 0).sum(axis=1)
 
 
 def shown_edge(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
@@ -172,15 +179,15 @@ def shown_edge(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray) -> tuple[np
     if not soft.any():
         return alpha, None
     r = max(_SHOWN_REACH_MIN, math.ceil(_SHOWN_REACH * soft_edge_width(alpha)))
-    b, b_var, has_b = _side_mean(image, alpha <= _SOFT, r)
-    f, f_var, has_f = _side_mean(image, alpha >= 1 - _SOFT, r)
-    ys, xs = np.nonzero(soft & has_b & has_f)
-    i, b, f = image[ys, xs], b[ys, xs], f[ys, xs]
+    b_sums, f_sums = _side_sums(image, alpha <= _SOFT, r), _side_sums(image, alpha >= 1 - _SOFT, r)
+    ys, xs = np.nonzero(soft & (b_sums[0] > 0.5) & (f_sums[0] > 0.5))  # soft, with both sides within reach
+    (b, b_var), (f, f_var) = _side_at(b_sums, ys, xs), _side_at(f_sums, ys, xs)
+    i = image[ys, xs]
     d = f - b
     apart = (d * d).sum(axis=1)
     t = ((i - b) * d).sum(axis=1) / (apart + 1e-6)
     off = ((i - b - t[:, None] * d) ** 2).sum(axis=1)
-    spread = b_var[ys, xs] + f_var[ys, xs]  # texture and noise on either side: colour tells them apart only beyond it
+    spread = b_var + f_var  # texture and noise on either side: colour tells them apart only beyond it
     w = apart / (apart + _SHOWN_TAU + _SHOWN_SPREAD * spread) * np.exp(-off / (_SHOWN_OFF_LINE * apart + 1e-6))
     shift = np.zeros(alpha.shape, np.float32)
     shift[ys, xs] = w * (np.clip(t, 0, 1) - alpha[ys, xs])
