@@ -21,6 +21,12 @@ _ALPHA_MIN = np.float32(1e-3)
 _SOFT = 1.0 / 255  # a matte value further than this from 0 and 1 is a soft edge (mixes person and background)
 _THIN_EDGE = 4.0  # px: a soft edge no wider than this on average is feathering or anti-aliasing (F/B from beside it)
 GRADE_SAMPLES = 1 << 16  # light_sums: the matte's pixels the background's grade is measured on (at most)
+_SHOWN_REACH = 1.5  # shown_edge: the solid person and background are looked for this x the soft edge's width away ...
+_SHOWN_REACH_MIN = 3  # ... and at least this many pixels
+_SHOWN_TAU = 0.02  # ... |F - B|^2 at which colour's word on a soft pixel counts half (person and background alike)
+_SHOWN_SPREAD = 4.0  # ... and it counts half where |F - B|^2 is this x the two sides' variance (texture, noise)
+_SHOWN_STEADY = 1  # ... the shifts averaged over the soft pixels within this many pixels
+_SHOWN_OFF_LINE = 0.1  # ... and it falls as exp(-d^2 / (this x |F - B|^2)), d the colour's distance from the line B..F
 
 
 def consistent(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray, bg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -126,6 +132,84 @@ def grade_of_sums(new: np.ndarray, old: np.ndarray, weight: float) -> np.ndarray
     return (light ** (1.0 / DISPLAY_GAMMA)).astype(np.float32)
 
 
+def _side_sums(image: np.ndarray, where: np.ndarray, r: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Sums over ``where`` in the (2r + 1)^2 box around each pixel: the count (h, w), ``image``'s (h, w, 3) and its
+    square's (h, w, 3) (``_side_at`` reads a mean and a variance from them on the pixels it needs)."""
+    w = where.astype(np.float32)
+    size = (2 * r + 1, 2 * r + 1)
+    box = lambda x: cv2.boxFilter(x, -1, size, normalize=False, borderType=cv2.BORDER_CONSTANT)  # noqa: E731
+    return box(w), box(image * w[..., None]), box(image * image * w[..., None])
+
+
+def _side_at(sums: tuple[np.ndarray, np.ndarray, np.ndarray], ys: np.ndarray, xs: np.ndarray
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """``_side_sums``' mean (n, 3) and variance (n,), summed over the channels, at the pixels (ys, xs) (only
+    there: on the whole crop box that arithmetic was most of ``shown_edge``'s time)."""
+    count, total, squares = sums
+    n = np.maximum(count[ys, xs], 1e-6)[:, None]
+    mean = total[ys, xs] / n
+    return mean, np.maximum(squares[ys, xs] / n - mean * mean, 0).sum(axis=1)
+
+
+def shown_edge(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+    """The soft edge as the photo's colours show it, for the relit person over their own photo: (alpha', behind).
+
+    An automatic matte's soft edge can be wider than the edge the photo shows (a smear of a few pixels past a sharp
+    arm, a feathered outline against a white sky). Over the photo's own background a relit person's change then
+    spreads onto plain background (a dark or bright halo), and where the matte is under the person's true cover
+    the colour behind it takes the person's unrelit colour (a pale line along a shaded outline). On each soft pixel
+    alpha moves toward where its colour lies on the line from the solid background's colour B to the solid person's
+    F beside it (the means of the photo over alpha 0 and alpha 1 within ``_SHOWN_REACH`` x the edge's width), as far
+    as colour can tell: by |F - B|^2 / (|F - B|^2 + ``_SHOWN_TAU`` + ``_SHOWN_SPREAD`` x the two sides' variance,
+    texture and noise), less where the colour lies off that line (a third colour says nothing); the moves are
+    averaged over 3 x 3 soft pixels, and a raise goes only as far as ``behind`` can still be solved in [0, 1] so
+    that alpha' F + (1 - alpha') behind is the photo again (``fg``: the person's own colour, ``own_colours``): the
+    photo's own light still gives the photo back. The matte itself (``Decomposition.mask``, the RGBA output's
+    alpha, a new backdrop's composite) is not changed.
+
+    Args:
+        image: (h, w, 3) float32 RGB in [0, 1], the photo in the crop box.
+        alpha: (h, w) float32 in [0, 1], the matte there.
+        fg: (h, w, 3) float32, the person's own colour there.
+
+    Returns:
+        (h, w) alpha' and (h, w, 3) behind, new float32 arrays; (alpha, None) for a matte without a soft edge.
+    """
+    soft = (alpha > _SOFT) & (alpha < 1 - _SOFT)
+    if not soft.any():
+        return alpha, None
+    r = max(_SHOWN_REACH_MIN, math.ceil(_SHOWN_REACH * soft_edge_width(alpha)))
+    b_sums, f_sums = _side_sums(image, alpha <= _SOFT, r), _side_sums(image, alpha >= 1 - _SOFT, r)
+    ys, xs = np.nonzero(soft & (b_sums[0] > 0.5) & (f_sums[0] > 0.5))  # soft, with both sides within reach
+    (b, b_var), (f, f_var) = _side_at(b_sums, ys, xs), _side_at(f_sums, ys, xs)
+    i = image[ys, xs]
+    d = f - b
+    apart = (d * d).sum(axis=1)
+    t = ((i - b) * d).sum(axis=1) / (apart + 1e-6)
+    off = ((i - b - t[:, None] * d) ** 2).sum(axis=1)
+    spread = b_var + f_var  # texture and noise on either side: colour tells them apart only beyond it
+    w = apart / (apart + _SHOWN_TAU + _SHOWN_SPREAD * spread) * np.exp(-off / (_SHOWN_OFF_LINE * apart + 1e-6))
+    shift = np.zeros(alpha.shape, np.float32)
+    shift[ys, xs] = w * (np.clip(t, 0, 1) - alpha[ys, xs])
+    # each pixel's reading carries its own noise: a 3 x 3 mean of the shifts (on the soft pixels) steadies it
+    size = (2 * _SHOWN_STEADY + 1,) * 2
+    total = cv2.boxFilter(shift, -1, size, normalize=False, borderType=cv2.BORDER_CONSTANT)
+    count = cv2.boxFilter(soft.astype(np.float32), -1, size, normalize=False, borderType=cv2.BORDER_CONSTANT)
+    shown = np.array(alpha, dtype=np.float32)
+    shown[soft] = np.clip(alpha[soft] + total[soft] / np.maximum(count[soft], 1), 0, 1)
+    # raised only as far as a colour behind in [0, 1] still gives the photo back: s F + (1 - s) behind = I needs
+    # s <= I / F where F > I and s <= (1 - I) / (1 - F) where F < I
+    up = soft & (shown > alpha)
+    i, f = image[up], fg[up]
+    reach = np.where(f > i, i / np.maximum(f, 1e-6), np.where(f < i, (1 - i) / np.maximum(1 - f, 1e-6), 1))
+    shown[up] = np.minimum(shown[up], np.maximum(alpha[up], reach.min(axis=1)))
+    behind = np.array(image, dtype=np.float32)
+    mixed = (shown > 0) & (shown < 1)  # every partial pixel, so that the photo comes back to rounding
+    s = shown[mixed][:, None]
+    behind[mixed] = np.clip((image[mixed] - s * fg[mixed]) / (1 - s), 0, 1)
+    return shown, behind
+
+
 def backdrop_of(dec: Decomposition, bg: Background) -> np.ndarray | None:
     """The full-frame backdrop the relit person goes over (the photo itself for the original background:
     ``Composer.compose`` puts the colours behind the person's soft edge into it)."""
@@ -142,6 +226,32 @@ def own_colours(dec: Decomposition, multilevel: bool = False) -> tuple[np.ndarra
     each soft pixel (relight_rt.image.foreground.nearest_colours); for a hard mask both are the photo (one array).
     """
     return colours_of(dec.geometry.crop(dec.image), dec.geometry.crop(dec.mask), dec.photo or multilevel)
+
+
+def photo_colours(dec: Decomposition, automatic: bool) -> dict:
+    """What a photo's Decomposition takes on for compositing (``Factor.derive``'s changes): ``foreground``
+    (``own_colours``), and for the automatic matte (``automatic``) with a soft edge its ``edge`` as the photo
+    shows it (``shown_edge``), ``foreground``'s B then the colour behind that edge. A mask or alpha channel given
+    is the user's word and is kept as it is."""
+    fg, bg = own_colours(dec)
+    if not automatic or bg is fg:
+        return {"foreground": (fg, bg)}
+    geom = dec.geometry
+    shown, behind = shown_edge(np.ascontiguousarray(geom.crop(dec.image)), geom.crop(dec.mask), fg)
+    if behind is None:
+        return {"foreground": (fg, bg)}
+    return {"foreground": (fg, behind), "edge": shown}
+
+
+def shown_mask(dec: Decomposition) -> np.ndarray:
+    """(H, W) float32, new: the matte the relit person goes over their own photo with, ``dec.mask`` with its crop
+    box's soft edge as the photo shows it (``dec.edge``, ``photo_colours``) where the Decomposition has one (the
+    studio's preview composites with it, as ``Composer.compose`` does)."""
+    out = np.array(dec.mask, dtype=np.float32)
+    if dec.edge is not None:
+        y0, y1, x0, x1 = dec.geometry.box
+        out[y0:y1, x0:x1] = dec.edge
+    return out
 
 
 def colours_of(image: np.ndarray, alpha: np.ndarray, multilevel: bool) -> tuple[np.ndarray, np.ndarray]:
@@ -251,8 +361,10 @@ class Composer:
         elif not clean and backdrop is not None:
             fg, bg = self.foreground(dec)
             behind = None if bg is fg else bg
-            if grade:
+            if grade:  # over the matte, as ``own_light`` sums the own colour (the own light: a gain of 1)
                 gain = grade_of_sums(light_sum(colour, alpha), *self.own_light(dec))
+            if dec.edge is not None:  # the automatic matte's edge as the photo shows it (``photo_colours``)
+                alpha = dec.edge
         return over_box(colour, alpha[..., None], geom.box, backdrop, dec.mask, behind, gain)
 
     def with_layers(self, dec: Decomposition, lit: np.ndarray, outputs: tuple, backdrop: np.ndarray | None,

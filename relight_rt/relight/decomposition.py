@@ -68,6 +68,10 @@ class Decomposition:
             on first use (video frames; a group relit person by person, whose people carry their own).
         origin: (y, x) of ``image``'s top-left pixel in the photo it was cut from: a group's person, decomposed
             in a window of the group's photo; (0, 0) for a photo of its own.
+        edge: (h, w) in the crop box: the automatic matte's soft edge as the photo's colours show it
+            (``relight.compose.shown_edge``), which the relit person goes over their own photo with (``foreground``'s
+            B is then the colour behind this edge); None: the mask's own (a mask or alpha channel given, a hard
+            matte, video frames, a group relit person by person).
     """
 
     albedo_chw: np.ndarray
@@ -86,6 +90,7 @@ class Decomposition:
     people: tuple[Decomposition, ...] = ()
     foreground: tuple[np.ndarray, np.ndarray] | None = None
     origin: tuple[int, int] = (0, 0)
+    edge: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         put = lambda name, value: object.__setattr__(self, name, readonly(value))  # noqa: E731
@@ -100,6 +105,8 @@ class Decomposition:
             object.__setattr__(self, "foreground", tuple(readonly(np.asarray(a)) for a in self.foreground))
         object.__setattr__(self, "people", tuple(self.people))
         object.__setattr__(self, "origin", (int(self.origin[0]), int(self.origin[1])))
+        if self.edge is not None:
+            put("edge", np.asarray(self.edge, dtype=np.float32))
 
     def __reduce__(self):  # unpickled through the constructor, so the arrays come back read-only
         return (type(self), tuple(getattr(self, f.name) for f in fields(self)))

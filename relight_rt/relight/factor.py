@@ -334,10 +334,10 @@ class Factor:
         return self.derive(dec, light=np.asarray(light, np.float32))
 
     def derive(self, dec: Decomposition, **changes) -> Decomposition:
-        """``dataclasses.replace(dec, **changes)`` (its light, head, people, foreground or origin); what was computed
-        for ``dec`` that those leave as it was goes along: stage 1's outputs on the device, ``restored`` and the
-        full-resolution guide (unless the foreground changes)."""
-        if not set(changes) <= {"light", "head", "head_box", "people", "foreground", "origin"}:
+        """``dataclasses.replace(dec, **changes)`` (its light, head, people, foreground, edge or origin); what was
+        computed for ``dec`` that those leave as it was goes along: stage 1's outputs on the device, ``restored`` and
+        the full-resolution guide (unless the foreground changes)."""
+        if not set(changes) <= {"light", "head", "head_box", "people", "foreground", "edge", "origin"}:
             raise ValueError(f"derive: {sorted(changes)} change what is computed from them")
         new = replace(dec, **changes)
         old, state = self.memo(dec), self.memo(new)

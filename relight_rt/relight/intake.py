@@ -18,7 +18,7 @@ log = logging.getLogger(__name__)
 
 
 def read_batch(images: Sequence, masks: Sequence, auto: Matter | None, group: bool, allow_full: bool,
-               resolution: int, preprocess: str) -> tuple[list, list, list, list]:
+               resolution: int, preprocess: str) -> tuple[list, list, list, list, list]:
     """Read photos and resolve their masks (relight_rt.person.masks.resolve_mask; ``auto`` the automatic matte, for a
     mask None or "auto") and crop each to the network's square.
 
@@ -26,9 +26,10 @@ def read_batch(images: Sequence, masks: Sequence, auto: Matter | None, group: bo
     ``people.MAX_PEOPLE``; ``allow_full``: a mask may cover the whole image or nothing (video frames).
 
     Returns:
-        (RGB images (H, W, 3) float32, masks (H, W), CropGeometry's, per image its people's masks or None).
+        (RGB images (H, W, 3) float32, masks (H, W), CropGeometry's, per image its people's masks or None, per
+        image whether its mask is the automatic matte (no mask or alpha channel given)).
     """
-    rgbs, ms, geoms, people = [], [], [], []
+    rgbs, ms, geoms, people, automatic = [], [], [], [], []
     for i, (image, mask) in enumerate(zip(images, masks, strict=True)):
         name = str(image) if isinstance(image, (str, os.PathLike)) else f"image {i}" if len(images) > 1 else "image"
         # an array no one can write to (a Decomposition's photo: a group's people) is not copied
@@ -36,7 +37,9 @@ def read_batch(images: Sequence, masks: Sequence, auto: Matter | None, group: bo
         matter = auto if mask is None or isinstance(mask, str) else None
         if matter is not None and group and hasattr(matter, "parts"):
             matter = PartsMatter(matter)  # a group photo: everyone's share of the matte kept (``by_person``)
-        m = resolve_mask(img, mask, matter=matter, allow_empty=allow_full, name=name)
+        used = _Used(matter) if matter is not None else None
+        m = resolve_mask(img, mask, matter=used, allow_empty=allow_full, name=name)
+        automatic.append(used is not None and used.called)
         rgbs.append(np.ascontiguousarray(img[..., :3]) if img.shape[2] == 4 else img)
         ms.append(m)
         found = matter.found if isinstance(matter, PartsMatter) else None
@@ -46,4 +49,15 @@ def read_batch(images: Sequence, masks: Sequence, auto: Matter | None, group: bo
             found = None
         people.append(found if found is not None and len(found) > 1 else None)
         geoms.append(CropGeometry.from_mask(m, resolution, preprocess))
-    return rgbs, ms, geoms, people
+    return rgbs, ms, geoms, people, automatic
+
+
+class _Used:
+    """A matter that remembers whether it was called (a mask or an alpha channel given wins over it)."""
+
+    def __init__(self, matter: Matter) -> None:
+        self.matter, self.called = matter, False
+
+    def __call__(self, rgb: np.ndarray, name: str = "image") -> np.ndarray:
+        self.called = True
+        return self.matter(rgb, name=name)

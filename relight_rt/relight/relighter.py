@@ -38,7 +38,7 @@ from ..light import sh
 from ..light.spec import LightSpec
 from ..person.masks import Matter
 from . import people as per_person
-from .compose import Composer, backdrop_of, own_colours
+from .compose import Composer, backdrop_of, photo_colours
 from .decomposition import Decomposition, ImageLike, Memo, RelightResult, diffuse_batch
 from .face_pass import FacePass, head_crops
 from .factor import Factor
@@ -207,7 +207,7 @@ class Relighter:
             raise RelightError(f"masks: expected one per image ({len(images)}), got {len(masks)}")
         if not images:
             return []
-        decs, people = self._stage1(images, masks, allow_full, faces=self.detail and not allow_full)
+        decs, people, automatic = self._stage1(images, masks, allow_full, faces=self.detail and not allow_full)
         if allow_full:  # video frames skip the work done once per photo (a second pass, the matte's foreground
             return decs  # colours, the light's refit): per frame it would cost more than it shows
         decs = self._photos(decs)
@@ -215,9 +215,9 @@ class Relighter:
             if crops is not None:  # a group photo (several people matted): each person decomposed on their own too
                 decs[i] = self._group(decs[i], crops)
         # a group relit person by person holds no colours of its own: its people carry theirs (found on first use
-        # when it is relit as one)
+        # when it is relit as one); the automatic matte's soft edge as the photo shows it goes with the colours
         return [dec if dec.foreground is not None or dec.people else
-                self._factor.derive(dec, foreground=own_colours(dec)) for dec in decs]
+                self._factor.derive(dec, **photo_colours(dec, auto)) for dec, auto in zip(decs, automatic, strict=True)]
 
     def _photos(self, decs: list[Decomposition]) -> list[Decomposition]:
         """Photos' light refit to the transport the relit photo is divided by, and their faces seen small looked
@@ -249,7 +249,7 @@ class Relighter:
         todo = head_crops(decs)
         if not todo:
             return
-        heads, _ = self._stage1([t[3] for t in todo], [t[4] for t in todo], True, faces=True)
+        heads, _, _ = self._stage1([t[3] for t in todo], [t[4] for t in todo], True, faces=True)
         for (i, dec, box, _, _), head in zip(todo, heads, strict=True):
             # the head pass gives the face's transport; the photo's light is the body's estimate (one light for
             # one photo: the change of shading is measured from it in both passes, so the photo's own light
@@ -259,12 +259,13 @@ class Relighter:
             log.debug("second stage-1 pass on the head at %s", box)
 
     def _stage1(self, images: Sequence[ImageLike], masks: Sequence, allow_full: bool, faces: bool
-                ) -> tuple[list[Decomposition], list]:
+                ) -> tuple[list[Decomposition], list, list]:
         """Stage 1 on a batch: read, resolve masks, crop, run; one Decomposition per image (a photo unless
-        ``allow_full``, its face meshes found with ``faces``), and per image its people's masks or None."""
+        ``allow_full``, its face meshes found with ``faces``), per image its people's masks or None, and per image
+        whether its mask is the automatic matte."""
         matter = self.matter
         group = self.config.matting != "off" and not allow_full  # a group photo: relit person by person
-        rgbs, ms, geoms, people = read_batch(images, masks, matter, group, allow_full, self.resolution,
+        rgbs, ms, geoms, people, automatic = read_batch(images, masks, matter, group, allow_full, self.resolution,
                                              self.preprocess)
         net_imgs = [g.to_network(rgb) for g, rgb in zip(geoms, rgbs, strict=True)]
         net_masks = [g.to_network(m) for g, m in zip(geoms, ms, strict=True)]
@@ -280,7 +281,7 @@ class Relighter:
             if on_device[i] is not None:
                 self._memo(dec)["device"] = on_device[i]
             decs.append(dec)
-        return decs, people
+        return decs, people, automatic
 
     # ------------------------------------------------------------------------------------ lights
 

@@ -54,7 +54,7 @@ SHADOW_CACHE = 8  # the faces' cast shadows (``Studio.shadow``) kept for this ma
 from ...light import exposure as _exposure  # noqa: E402  (the one exposure rule)
 from ...light.exposure import METER_POWER, Highlight, exposure_scale, guarded, mean_luminance, parse_exposure  # noqa: E402
 from ...light.spec import LightSpec  # noqa: E402  (the one light parser)
-from ...relight.compose import grade_of_sums  # noqa: E402  (the one background grade)
+from ...relight.compose import grade_of_sums, shown_mask  # noqa: E402  (the one background grade)
 from ...relight.decomposition import intrinsic_layers  # noqa: E402
 from ...relight.look import SKIN_CHROMA, shaded_skin, skin_chroma  # noqa: E402  (the shaded-skin rule the preview mirrors)
 
@@ -324,7 +324,8 @@ class Studio:
 
     def _pack_layers(self, max_pixels: int) -> dict:
         """Display-resolution layers, quantised: transport as uint16 (per-channel offset and scale),
-        albedo (premultiplied by the mask), mask, background, the skin's chroma ((c + 1) / 2) and weight as uint8;
+        albedo (premultiplied by the mask), mask (over the photo's own background the automatic matte's shown
+        edge, as the render composites), background, the skin's chroma ((c + 1) / 2) and weight as uint8;
         channel-planar, little-endian."""
         dec = self.dec
         h, w = dec.image.shape[:2]
@@ -337,8 +338,16 @@ class Studio:
         # photo as the final result does, not stage 1's network albedo (whose colours are a guess); divided by the
         # shading the final result divides by (bands restored) rather than stage 1's own (a refit own light,
         # relight_rt.relight.strength.refit_light, can leave that one dark where the restored one is not)
-        albedo = _resize(intrinsic_layers(dec, sh.shading(restored, dec.white_light))["albedo"], size)
-        mask = _resize(np.asarray(dec.mask)[..., None], size)
+        albedo = intrinsic_layers(dec, sh.shading(restored, dec.white_light))["albedo"]
+        mask = np.asarray(dec.mask)
+        if self.background == "original" and dec.edge is not None:
+            # the render puts the relit person over their own photo with the soft edge the photo shows (the
+            # automatic matte's: relight_rt.relight.compose.shown_edge); the albedo is premultiplied by that edge
+            shown = shown_mask(dec)
+            albedo = albedo * np.divide(shown, mask, out=np.zeros_like(shown), where=mask > 0)[..., None]
+            mask = shown
+        albedo = _resize(albedo, size)
+        mask = _resize(mask[..., None], size)
         bg = self._background_image()
         bg = np.zeros(size + (3,), np.float32) if bg is None else _resize(bg, size)
         # what the final result's shaded-skin rule reads (relight_rt.relight.look.shaded_skin): the skin's local

@@ -33,6 +33,7 @@ from relight_rt.cli import main
 from relight_rt.engine.limits import header_size
 from relight_rt.image.compositing import Background
 from relight_rt.light.exposure import DISPLAY_GAMMA, METER_POWER
+from relight_rt.relight.compose import shown_mask
 from relight_rt.relight.look import SKIN_CHROMA, skin_chroma
 from relight_rt.relight.strength import restore_bands
 
@@ -629,3 +630,28 @@ def test_route_shadow(client, studio):
     assert out == {"box": [], "meter": 1.0, "depth": ""}
     res = client.post("/api/shadow", json={"light": [1, 2]})
     assert res.status_code == 400 and "27 numbers" in res.json()["error"]
+
+
+def test_preview_composites_with_the_automatic_mattes_shown_edge(tmp_path, models_dir):
+    """Over the photo's own background the render takes the automatic matte's edge as the photo shows it
+    (relight_rt.relight.compose.shown_edge); the preview's mask and albedo follow it, so that the preview does not
+    draw the halo the render no longer has. A new or transparent background keeps the matte."""
+    h, w = 150, 100
+    img = np.empty((h, w, 3), np.float32)
+    img[...] = (0.85, 0.85, 0.8)
+    hard = np.zeros((h, w), np.float32)
+    img[20:140, 30:70], hard[20:140, 30:70] = (0.35, 0.25, 0.2), 1
+    soft = np.clip(cv2.GaussianBlur(hard, (0, 0), 4.0), 0, 1)  # the matte feathered 4 px past a sharp outline
+    path = tmp_path / "someone.png"
+    path.write_bytes(_png_bytes(img))
+    relighter = Relighter(RuntimeConfig(models=str(models_dir), device="cpu"), matter=lambda rgb, name="image": soft)
+    kept = Studio(path, None, "original", relighter, preview_pixels=h * w)
+    clear = Studio(path, None, "transparent", relighter, preview_pixels=h * w)
+    assert kept.dec.edge is not None
+    shown = shown_mask(kept.dec)
+    assert np.abs(shown - soft).max() > 0.2  # the edge the photo shows is not the matte's
+    on, off = (unpack_layers(s.layers_bytes(), s.info()["preview"]) for s in (kept, clear))
+    np.testing.assert_allclose(on["mask"], shown, atol=0.5 / 255 + 1e-6)
+    np.testing.assert_allclose(off["mask"], np.asarray(clear.dec.mask), atol=0.5 / 255 + 1e-6)
+    ratio = np.divide(shown, soft, out=np.zeros_like(shown), where=soft > 0)
+    np.testing.assert_allclose(on["albedo"], np.clip(off["albedo"] * ratio, 0, 1), atol=1.5 / 255)

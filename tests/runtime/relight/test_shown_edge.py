@@ -1,0 +1,136 @@
+"""``relight.compose.shown_edge``: over the photo's own background, a matte softer than the photo's edge gives way to
+the edge the photo's colours show (look24: a relit person's change had spread past a sharp outline as a halo)."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+from _graphs import models_dir
+
+from relight_rt import Relighter, RuntimeConfig, lights
+from relight_rt.image.compositing import Background
+from relight_rt.relight.compose import colours_of, shown_edge
+
+__all__ = ["models_dir"]  # fixture
+
+H, W, EDGE = 64, 96, 48  # the photo's edge: the columns left of EDGE are the person
+
+
+def _feathered(sigma: float) -> np.ndarray:
+    """A matte whose outline lies on the photo's edge, blurred across it by ``sigma`` px."""
+    hard = np.zeros((H, W), np.float32)
+    hard[:, :EDGE] = 1
+    return cv2.GaussianBlur(hard, (0, 0), sigma)
+
+
+def _two_colours(person=(0.25, 0.15, 0.1), background=(0.9, 0.92, 0.95), blur: float = 0.0) -> np.ndarray:
+    img = np.empty((H, W, 3), np.float32)
+    img[:, :EDGE], img[:, EDGE:] = person, background
+    return cv2.GaussianBlur(img, (0, 0), blur) if blur else img
+
+
+def _soft(alpha: np.ndarray) -> np.ndarray:
+    return (alpha > 1 / 255) & (alpha < 254 / 255)
+
+
+def test_a_feathered_matte_over_a_sharp_edge_follows_the_photo():
+    image, alpha = _two_colours(), _feathered(3.0)
+    shown, behind = shown_edge(image, alpha, image)
+    outside = _soft(alpha) & (np.arange(W) >= EDGE + 1)[None, :]
+    inside = _soft(alpha) & (np.arange(W) < EDGE - 1)[None, :]
+    assert alpha[outside].mean() > 0.1 and alpha[inside].mean() < 0.9  # the matte's feather, both sides
+    assert shown[outside].max() < 0.05 and shown[inside].min() > 0.95
+
+
+def test_the_photo_is_given_back_under_its_own_light():
+    rng = np.random.default_rng(3)
+    image = np.clip(_two_colours() + 0.01 * rng.standard_normal((H, W, 3)), 0, 1).astype(np.float32)
+    alpha = _feathered(3.0)
+    fg, _ = colours_of(image, alpha, multilevel=True)  # the person's own colour as a photo's relighting takes it
+    shown, behind = shown_edge(image, alpha, fg)
+    assert np.abs(shown - alpha).max() > 0.2  # the edge did move
+    again = shown[..., None] * fg + (1 - shown[..., None]) * behind
+    # within a level: a pixel the rule leaves at alpha <= 1/255 keeps the photo behind it (as ``consistent`` does)
+    np.testing.assert_allclose(again, image, atol=1 / 255)
+
+
+def test_a_real_blur_keeps_its_matte():
+    """Where the photo's edge is as soft as the matte (defocus), colour agrees with the matte and nothing moves."""
+    alpha = _feathered(3.0)
+    shown, _ = shown_edge(_two_colours(blur=3.0), alpha, _two_colours())
+    soft = _soft(alpha)
+    assert np.abs(shown - alpha)[soft].max() < 0.06
+
+
+@pytest.mark.parametrize("noise", [0.05, 0.1])
+def test_colour_that_cannot_tell_the_sides_apart_moves_nothing_much(noise):
+    """The same texture on both sides (noise about one mean): colour has no word, the matte stays."""
+    rng = np.random.default_rng(7)
+    image = np.clip(0.5 + noise * rng.standard_normal((H, W, 3)), 0, 1).astype(np.float32)
+    alpha = _feathered(3.0)
+    shown, _ = shown_edge(image, alpha, image)
+    soft = _soft(alpha)
+    assert np.abs(shown - alpha)[soft].mean() < 0.02
+    assert np.abs(shown - alpha)[soft].max() < 0.15
+
+
+def test_alike_colours_move_nothing():
+    """A dark coat before a dark doorway: |F - B| too small for colour to say where the edge is."""
+    alpha = _feathered(3.0)
+    image = _two_colours(person=(0.1, 0.1, 0.1), background=(0.12, 0.11, 0.1))
+    shown, _ = shown_edge(image, alpha, image)
+    assert np.abs(shown - alpha).max() < 0.01
+
+
+def test_a_hard_matte_is_left_alone():
+    alpha = np.zeros((H, W), np.float32)
+    alpha[:, :EDGE] = 1
+    image = _two_colours()
+    shown, behind = shown_edge(image, alpha, image)
+    assert shown is alpha and behind is None
+
+
+def _portrait() -> tuple[np.ndarray, np.ndarray]:
+    """A dark rectangle "person" before a plain pale wall with a sharp outline, and a matte feathered 4 px past it."""
+    h, w, box = 150, 100, (20, 140, 30, 70)
+    img = np.empty((h, w, 3), np.float32)
+    img[...] = (0.85, 0.85, 0.8)
+    hard = np.zeros((h, w), np.float32)
+    y0, y1, x0, x1 = box
+    img[y0:y1, x0:x1] = (0.35, 0.25, 0.2)
+    hard[y0:y1, x0:x1] = 1
+    return img, np.clip(cv2.GaussianBlur(hard, (0, 0), 4.0), 0, 1)
+
+
+def test_only_the_automatic_matte_takes_the_shown_edge(models_dir):
+    """Photos matted automatically composite over the edge the photo shows; a given mask (the user's word) is kept,
+    and the wall beside a sharp outline is left as it was by a light that darkens the person."""
+    img, soft = _portrait()
+    relighter = Relighter(RuntimeConfig(models=str(models_dir), device="cpu"), matter=lambda rgb, name="image": soft)
+    auto, given = relighter.decompose(img), relighter.decompose(img, soft)
+    assert auto.edge is not None and given.edge is None
+    np.testing.assert_array_equal(auto.mask, given.mask)  # the matte itself is not changed
+    y0, _, x0, _ = auto.geometry.box  # the edge lies in the crop box
+    row = auto.edge[80 - y0, 60 - x0 : 80 - x0]  # x 60-69 person, 70-79 wall
+    assert row[12:16].max() < 0.01 < 0.05 < soft[80, 72:76].min()  # the wall is wall, where the matte feathers onto it
+    assert (row[:10] >= soft[80, 60:70] - 1e-6).all()  # and the person no less the person
+    light = lights.directional((0.3, 1.0, 0.2), (1, 1, 1), 1.0) + lights.ambient(0.02)
+    wall = np.zeros(img.shape[:2], bool)
+    wall[20:140, 72:80] = True  # the wall beside the outline the matte feathers onto (x 70 is the outline)
+    change = {k: np.abs(np.asarray(relighter.relight(d, light)) - img).max(axis=2)[wall].max()
+              for k, d in (("auto", auto), ("given", given))}
+    assert change["given"] > 0.005  # the feathered matte carries the person's change onto the wall ...
+    assert change["auto"] < 0.3 * change["given"]  # ... which the shown edge leaves (mostly) as the photo has it
+
+
+def test_a_graded_background_under_the_photos_own_light_is_the_photo(models_dir):
+    """The background's grade compares the relit person with their own colour over one matte (``own_light``'s):
+    measured over the shown edge on one side and the matte on the other, the photo's own light had moved the whole
+    background by about a level."""
+    img, soft = _portrait()
+    relighter = Relighter(RuntimeConfig(models=str(models_dir), device="cpu"), matter=lambda rgb, name="image": soft)
+    dec = relighter.decompose(img)
+    assert dec.edge is not None
+    out = np.asarray(relighter.relight(dec, dec, background=Background.original(grade=True)))
+    np.testing.assert_allclose(out, img, atol=0.5 / 255)
