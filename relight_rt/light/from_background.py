@@ -30,10 +30,9 @@ scene left out at a time: eleven chosen by their errors, plus SHAPE_PRIOR, a mea
    is the least-squares fit of the true front/back EV, clipped to ±1 EV (so that a sun's 5 EV does not
    outweigh the calls near the line), on the 100 benchmark maps. scene5 replaced the luminance spread by the
    view's colour share (``colour_share``: the chromaticity's spread over the luminance's; still computed,
-   ``SceneLight.colour_share``); scene24 put the spread back: fitted with one scene or one scene set left out,
-   the colour share's weight swung from 0.3 to 2.7 with the maps it was fitted on, and it called 62 % of the
-   68 places' clear maps right against the spread's 79 %, though 77 % against 67-70 % on the 100 maps
-   (docs/RESULTS.md). An even view (log2 luminance spread < 0.1) shows neither a source nor shade and is
+   ``SceneLight.colour_share``); scene24 put the spread back: the colour share's fitted weight swung from 0.3
+   to 2.7 with the scene set it was fitted on, and held out it called 62 % of the 68 places' clear maps right
+   against the spread's 79 %, though 77 % against 67-70 % on the 100 maps (docs/RESULTS.md). An even view (log2 luminance spread < 0.1) shows neither a source nor shade and is
    read as front-lit. Back-lit:
    a back-side key from 135° (behind the person, 45° off the axis, on the view's brighter side),
    ``KEY_BACK`` × the ambient (``BACK_KEY = "source"`` puts it where the frame's brightest part is instead,
