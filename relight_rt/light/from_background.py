@@ -32,8 +32,8 @@ scene left out at a time: eleven chosen by their errors, plus SHAPE_PRIOR, a mea
    view's colour share (``colour_share``: the chromaticity's spread over the luminance's; still computed,
    ``SceneLight.colour_share``); scene24 put the spread back: the colour share's fitted weight swung from 0.3
    to 2.7 with the scene set it was fitted on, and held out it called 62 % of the 68 places' clear maps right
-   against the spread's 79 %, though 77 % against 67-70 % on the 100 maps (docs/RESULTS.md). An even view (log2 luminance spread < 0.1) shows neither a source nor shade and is
-   read as front-lit. Back-lit:
+   against the spread's 79 %, though 77 % against 67-70 % on the 100 maps (docs/RESULTS.md). An even view
+   (log2 luminance spread < 0.1) shows neither a source nor shade and is read as front-lit. Back-lit:
    a back-side key from 135° (behind the person, 45° off the axis, on the view's brighter side),
    ``KEY_BACK`` × the ambient (``BACK_KEY = "source"`` puts it where the frame's brightest part is instead,
    ``SceneLight.bright``: a sun or window in frame; measured alike, so not the default: docs/RESULTS.md);
