@@ -303,14 +303,25 @@ def map_tile(env: np.ndarray, view: np.ndarray, k: float, label: str) -> np.ndar
 # ------------------------------------------------------------------------------------------------ tuning
 
 
+#: fit_backlight: the truth's front/back EV is clipped to +-this before the least squares (scene24: a sun's 5 EV no
+#: longer outweighs the calls near the line; 1 EV is CLEAR_EV, where front/back is scored)
+BACKLIGHT_CLIP_EV = 1.0
+
+
+def fit_backlight(parts: list, truths: list) -> tuple[float, ...]:
+    """BACKLIGHT: least squares of the truth's front/back EV, clipped to +-BACKLIGHT_CLIP_EV, on the views'
+    ``SceneLight.backlight_features``."""
+    feats = np.array([p.backlight_features() for p in parts])
+    fb = np.clip([front_back(t) for t in truths], -BACKLIGHT_CLIP_EV, BACKLIGHT_CLIP_EV)
+    return tuple(float(v) for v in np.linalg.lstsq(feats, fb, rcond=None)[0])
+
+
 def fit(parts: list, truths: list, geometry=None, objective: str = "mean") -> dict:
     """The fitted numbers of relight_rt.light.from_background from the given maps (background metering), in order:
-    BACKLIGHT by least squares of the truth's front/back EV on [1, top_bottom, colour_share]; then AMBIENT_GAIN,
+    BACKLIGHT by ``fit_backlight`` (on [1, top_bottom, contrast]); then AMBIENT_GAIN,
     KEY_FRONT and KEY_BACK by the least mean |EV error| over GRID (the light is linear in them; ``objective``
     "median": the least median); then COLOUR_SATURATION by the least mean colour error over GRID."""
-    feats = np.array([p.backlight_features() for p in parts])
-    fb = np.array([front_back(t) for t in truths])
-    backlight = tuple(float(v) for v in np.linalg.lstsq(feats, fb, rcond=None)[0])
+    backlight = fit_backlight(parts, truths)
     g, kf, kb = GRID["ambient_gain"], GRID["key_front"], GRID["key_back"]
     errs = []
     for p, t in zip(parts, truths, strict=True):

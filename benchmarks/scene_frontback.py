@@ -1,6 +1,7 @@
 """Front- or back-lit from one view: candidate rules for light.from_background's call, on every map (issue 49).
 
     python benchmarks/scene_frontback.py --envs runs/scene/envs [--out runs/scene/frontback.json]
+    python benchmarks/scene_frontback.py --maps runs/scene/frontback.json --sets shared,blender   # the 68 places
 
 ENVS: ``benchmarks/scene_eval.py --prepare-envs`` (25 scenes x 4 turns: ../shared/hdri, blender-data, npm's
 @pmndrs/assets). For each map, the background photo is scene_eval's (a 60° view, metered to 0.18, 8-bit sRGB), the
@@ -8,13 +9,16 @@ truth its SH light's camera-facing over back irradiance (scene_eval.front_back);
 differ by >= 1 EV. Each rule is scored with its numbers fitted with the map's whole scene left out (loso), and
 fitted on the other scene sets only (cross), per set. Rules without a fitted number score the same everywhere
 ("today" is the shipped BACKLIGHT, fitted on all 100 maps: no figure of it is held out; its rule fitted per fold is
-"lstsq top_bottom+colour_share").
+"lstsq top_bottom+contrast clip 1"). ``--sets`` keeps some scene sets only (shared,blender: the 68 places, fitted
+among themselves as scene_eval --sets fits them); ``--maps`` reads the features of an earlier ``--out`` (seconds).
+scene24's combinations: both statistics in one fit, ``both`` / ``either`` / ``vote`` of the two fitted rules, the
+truth clipped to +-1 EV (``clip``) or only the clear maps fitted on (``clear_only``).
 ``glow``: the mean luminance 5-15 px around the largest compact clipped region (apps.scene_rim's source) over the
 median, in EV: a source in frame lights its surround (a sun's aureole, a lamp's flare), a sunlit facade's edge
 meets shade.
 
 The colour cues (issue 49: a cue the view's luminance does not carry; none fitted but by the rules):
-``colour_share`` (the shipped one: relight_rt.light.from_background, step 4): the chromaticity's spread over
+``colour_share`` (scene5's, shipped until scene24: from_background.colour_share): the chromaticity's spread over
 log2 luminance's: lit from behind the camera a view varies by reflectance (colour), toward the light by
 illumination (sky or window over shaded sides: none). ``sky_ground_blue``: log2 B/R of the top third minus the
 bottom third's: toward the sun the sky whitens and the ground one sees is in blue skylight, away from it the sky
@@ -49,6 +53,7 @@ for p in (REPO, REPO / "benchmarks"):
         sys.path.insert(0, str(p))
 
 from scene_eval import (  # noqa: E402
+    BACKLIGHT_CLIP_EV,
     CLEAR_EV,
     GREY,
     front_back,
@@ -89,6 +94,9 @@ def features(photo: np.ndarray) -> dict[str, float]:
         "score": parts.backlight_score(),
         "colour_share": parts.colour_share,
         "chroma_spread": parts.colour_share * max(parts.contrast, 0.05),
+        "log_colour_share": math.log2(max(parts.colour_share, 1e-3)),
+        "log_chroma": math.log2(max(parts.colour_share * max(parts.contrast, 0.05), 1e-3)),
+        "log_contrast": math.log2(max(parts.contrast, 0.05)),
         "sky_ground_blue": blue_red(srgb8_to_linear(photo[: h // 3])) - blue_red(srgb8_to_linear(photo[-(h // 3) :])),
         **sky_region(photo, lum),
         **shading_cues(lum),
@@ -212,12 +220,29 @@ def either(a, b):
     return lambda train: (lambda fa, fb: lambda f: fa(f) or fb(f))(a(train), b(train))
 
 
-def lstsq_rule(names):
-    """A rule: back-lit where the least-squares fit of the truth's front/back EV on [1, features] is < 0."""
+def both(a, b):
+    """Back-lit only where both rules say so (they disagree: unsure, read as front-lit, the call without a key
+    behind)."""
+    return lambda train: (lambda fa, fb: lambda f: fa(f) and fb(f))(a(train), b(train))
+
+
+def vote(a, b, c):
+    """Where rules a and b agree, their call; where they disagree (unsure), rule c's."""
+    return lambda train: (lambda fa, fb, fc: lambda f: fa(f) if fa(f) == fb(f) else fc(f))(a(train), b(train),
+                                                                                            c(train))  # fmt: skip
+
+
+def lstsq_rule(names, clip=None, clear_only=False):
+    """A rule: back-lit where the least-squares fit of the truth's front/back EV on [1, features] is < 0 (``clip``:
+    the truth clipped to +-clip EV first, so that a sun's 6 EV does not outweigh the calls near 0; ``clear_only``:
+    fitted on the clear maps only)."""
 
     def fit(train):
-        x = np.array([[1.0, *(f[n] for n in names)] for f, _ in train])
-        y = np.array([t for _, t in train])
+        rows = [(f, t) for f, t in train if abs(t) >= CLEAR_EV] if clear_only else train
+        x = np.array([[1.0, *(f[n] for n in names)] for f, _ in rows])
+        y = np.array([t for _, t in rows])
+        if clip is not None:
+            y = np.clip(y, -clip, clip)
         w = np.linalg.lstsq(x, y, rcond=None)[0]
         return lambda f: float(w @ np.array([1.0, *(f[n] for n in names)])) < 0
 
@@ -243,8 +268,9 @@ def threshold_rule(name, sign=1):
 
 RULES = {
     "today (score < 0)": lambda train: lambda f: f["score"] < 0,
-    "lstsq top_bottom+colour_share (today's, fitted)": lstsq_rule(["top_bottom", "colour_share"]),
-    "lstsq top_bottom+contrast (before)": lstsq_rule(["top_bottom", "contrast"]),
+    "lstsq top_bottom+contrast clip 1 (today's, scene24, fitted)": lstsq_rule(["top_bottom", "contrast"], clip=1.0),
+    "lstsq top_bottom+colour_share (scene5's, fitted)": lstsq_rule(["top_bottom", "colour_share"]),
+    "lstsq top_bottom+contrast (before scene5)": lstsq_rule(["top_bottom", "contrast"]),
     "lstsq top_bottom+contrast+colour_share": lstsq_rule(["top_bottom", "contrast", "colour_share"]),
     "threshold colour_share": threshold_rule("colour_share", -1),
     "lstsq top_bottom+chroma_spread": lstsq_rule(["top_bottom", "chroma_spread"]),
@@ -284,6 +310,42 @@ RULES = {
     "lstsq colour_share+ground_gradient+edge_polarity": lstsq_rule(
         ["colour_share", "ground_gradient", "edge_polarity"]
     ),
+    # scene24: one call that holds on the 68 places and on the 100 maps (both statistics, or a vote)
+    "lstsq top_bottom+contrast+log_colour_share": lstsq_rule(["top_bottom", "contrast", "log_colour_share"]),
+    "lstsq top_bottom+log_chroma+log_contrast": lstsq_rule(["top_bottom", "log_chroma", "log_contrast"]),
+    "lstsq top_bottom+log_colour_share": lstsq_rule(["top_bottom", "log_colour_share"]),
+    "back where both (contrast, colour_share) say": both(
+        lstsq_rule(["top_bottom", "contrast"]), lstsq_rule(["top_bottom", "colour_share"])
+    ),
+    "back where either (contrast, colour_share) says": either(
+        lstsq_rule(["top_bottom", "contrast"]), lstsq_rule(["top_bottom", "colour_share"])
+    ),
+    "vote contrast/colour_share, unsure: both together": vote(
+        lstsq_rule(["top_bottom", "contrast"]),
+        lstsq_rule(["top_bottom", "colour_share"]),
+        lstsq_rule(["top_bottom", "contrast", "colour_share"]),
+    ),
+    **{
+        f"lstsq {'+'.join(n)} clip {c}": lstsq_rule(n, clip=c)
+        for c in (1.0, 2.0)
+        for n in (
+            ["top_bottom", "contrast"],
+            ["top_bottom", "colour_share"],
+            ["top_bottom", "contrast", "colour_share"],
+            ["top_bottom", "log_colour_share"],
+            ["top_bottom", "log_chroma", "log_contrast"],
+        )
+    },
+    **{
+        f"lstsq {'+'.join(n)} clear only": lstsq_rule(n, clear_only=True)
+        for n in (
+            ["top_bottom", "contrast"],
+            ["top_bottom", "colour_share"],
+            ["top_bottom", "contrast", "colour_share"],
+            ["top_bottom", "log_colour_share"],
+            ["top_bottom", "log_chroma", "log_contrast"],
+        )
+    },
     "threshold mean_median": threshold_rule("mean_median"),
     "threshold contrast": threshold_rule("contrast"),
     "threshold top_bottom": threshold_rule("top_bottom"),
@@ -340,21 +402,33 @@ def best_line(rows: dict, names=("top_bottom", "colour_share")) -> float:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--envs", type=Path, required=True)
+    ap.add_argument("--envs", type=Path)
+    ap.add_argument("--maps", type=Path, help="read the maps' features and truths from an earlier --out (no --envs)")
     ap.add_argument("--out", type=Path)
     ap.add_argument("--fit", action="store_true", help="print BACKLIGHT fitted on every map")
+    ap.add_argument("--sets", metavar="A,B", help="only these scene sets (shared, blender, npm; default: every map)")
+    ap.add_argument("--rules", metavar="TEXT", help="only the rules whose name contains TEXT")
     args = ap.parse_args(argv)
     rows = {}
-    for path in sorted(args.envs.glob("*.hdr")):
+    if args.maps:
+        rows = {m: ({k: v for k, v in r.items() if k != "truth_ev"}, r["truth_ev"])
+                for m, r in json.loads(args.maps.read_text())["maps"].items()}  # fmt: skip
+    elif args.envs is None:
+        ap.error("give --envs or --maps")
+    for path in sorted(args.envs.glob("*.hdr")) if not args.maps else ():
         env = envmap.load_envmap(path)
         lin = view_linear(env)
         photo = photograph(lin, GREY / max(mean_lum(lin), 1e-9))
         rows[path.stem] = (features(photo), front_back(envmap.project_envmap(env)))
+    if args.sets:
+        rows = {m: r for m, r in rows.items() if scene_set(m) in args.sets.split(",")}
     maps = list(rows)
     loso = lambda m: [n for n in maps if scene_of(n) != scene_of(m)]  # noqa: E731
     cross = lambda m: [n for n in maps if scene_set(n) != scene_set(m)]  # noqa: E731
     report = {}
     for name, rule in RULES.items():
+        if args.rules and args.rules not in name:
+            continue
         a, c = score(rule, rows, loso), score(rule, rows, cross)
         report[name] = {"loso": a, "cross": c}
         print(f"{name:30s} loso all {100 * a['all'][0]:3.0f}% ({a['all'][1]}) shared {100 * a['shared'][0]:3.0f}% "
@@ -370,8 +444,9 @@ def main(argv=None) -> int:
     print(f"the shipped score orders {right} of {len(backs)} opposite clear pairs right (lower on the back-lit view)")
     report["maps"] = {m: {"truth_ev": t, **f} for m, (f, t) in rows.items()}
     if args.fit:
-        x = np.array([[1.0, f["top_bottom"], f["colour_share"]] for f, _ in rows.values()])
-        w = np.linalg.lstsq(x, np.array([t for _, t in rows.values()]), rcond=None)[0]
+        x = np.array([[1.0, f["top_bottom"], f["contrast"]] for f, _ in rows.values()])
+        y = np.clip([t for _, t in rows.values()], -BACKLIGHT_CLIP_EV, BACKLIGHT_CLIP_EV)
+        w = np.linalg.lstsq(x, y, rcond=None)[0]  # as scene_eval.fit_backlight
         print("BACKLIGHT fitted on every map:", tuple(round(float(v), 3) for v in w))
     if args.out:
         args.out.write_text(json.dumps(report, indent=1))

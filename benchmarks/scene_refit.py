@@ -38,9 +38,7 @@ def fit(parts: list, truths: list, geometry, objective: str) -> dict:
     "median" (least median) or "within" (most maps within 1 EV, then least mean)."""
     if objective != "within":
         return se.fit(parts, truths, geometry, objective)
-    feats = np.array([p.backlight_features() for p in parts])
-    fb = np.array([se.front_back(t) for t in truths])
-    backlight = tuple(float(v) for v in np.linalg.lstsq(feats, fb, rcond=None)[0])
+    backlight = se.fit_backlight(parts, truths)
     g, kf, kb = se.GRID["ambient_gain"], se.GRID["key_front"], se.GRID["key_back"]
     errs = []
     for p, t in zip(parts, truths, strict=True):

@@ -86,3 +86,30 @@ def test_scene_sets_and_issue_49s_table(se):
     assert everything.startswith("| all (2 maps, 2 pairs) | 1.00 / 0.30 | 50 % / 100 % | 50 % / 50 % (2) |")
     assert shared.startswith("| ../shared/hdri (1 maps, 1 pairs) | 0.50 / 0.20 | 100 % / 100 % | 100 % / 100 % (1) |")
     assert blender.endswith("| 7.0 / 6.0 | 0 % |")
+
+
+def test_fit_backlight_clips_the_truth_so_one_sun_does_not_move_the_line(se):
+    """scene24: BACKLIGHT is fitted on the truth clipped to +-BACKLIGHT_CLIP_EV. Four views on a line, called
+    right by a line through 0; a fifth view at 0 with a 6-EV truth (a sun the statistics barely see) moves an
+    unclipped fit's line past one of them, the clipped fit's not (by hand: raw w = (-1.2, 0.847), clipped (-0.2,
+    0.588))."""
+
+    class View:
+        def __init__(self, x):
+            self.x = x
+
+        def backlight_features(self):
+            return np.array([1.0, self.x, 0.0])
+
+    xs, evs = [-2.0, -0.5, 0.5, 2.0, 0.0], [-1.5, -1.2, 1.2, 1.5, -6.0]
+    truths = [np.array([[lo], *[[0.0]] * 8]) for lo in evs]  # stand-ins: front_back is monkeypatched below
+    se_front_back = se.front_back
+    try:
+        se.front_back = lambda t: float(t[0, 0])
+        clipped = se.fit_backlight([View(x) for x in xs], truths)
+        raw = np.linalg.lstsq(np.array([[1.0, x, 0.0] for x in xs]), np.array(evs), rcond=None)[0]
+    finally:
+        se.front_back = se_front_back
+    call = lambda w, x: w[0] + w[1] * x < 0  # noqa: E731
+    assert [call(clipped, x) for x in xs] == [True, True, False, False, True]
+    assert call(raw, 0.5) is np.True_  # the sun's view pulled the unclipped line past x = 0.5: a wrong call

@@ -67,3 +67,21 @@ def test_best_line_is_the_in_sample_ceiling(fb):
     assert fb.best_line(rows) == 1.0  # separable: a threshold on top_bottom
     rows["m5"] = ({"top_bottom": 0.0, "colour_share": 0.0}, 1.5)  # the same point as m0, the other answer
     assert fb.best_line(rows) == pytest.approx(5 / 6)
+
+
+def test_both_either_and_the_vote(fb):
+    """scene24's combinations of two rules: back-lit where both say / where either says; the vote takes their call
+    where they agree and a third rule's where they do not."""
+    yes, no = (lambda train: lambda f: True), (lambda train: lambda f: False)
+    f = {}
+    assert fb.both(yes, yes)([])(f) and not fb.both(yes, no)([])(f)
+    assert fb.either(yes, no)([])(f) and not fb.either(no, no)([])(f)
+    assert fb.vote(yes, yes, no)([])(f) and not fb.vote(no, no, yes)([])(f)
+    assert fb.vote(yes, no, yes)([])(f) and not fb.vote(yes, no, no)([])(f)
+
+
+def test_lstsq_rule_clip_keeps_a_sun_from_moving_the_line(fb):
+    train = [({"x": x}, t) for x, t in ((-2.0, -1.5), (-0.5, -1.2), (0.5, 1.2), (2.0, 1.5), (0.0, -6.0))]
+    assert fb.lstsq_rule(["x"], clip=1.0)(train)({"x": 0.5}) is False  # front-lit, as its truth
+    assert fb.lstsq_rule(["x"])(train)({"x": 0.5}) is True  # the unclipped fit calls it back-lit
+    assert fb.lstsq_rule(["x"], clear_only=True)(train)({"x": 0.5}) is True  # clear-only keeps the sun

@@ -89,17 +89,22 @@ def _patches(saturation: float) -> np.ndarray:
     return ((np.where(lin <= 0.0031308, 12.92 * lin, 1.055 * lin ** (1 / 2.4) - 0.055)) * 255 + 0.5).astype(np.uint8)
 
 
-def test_a_view_that_varies_by_colour_is_front_lit_one_that_varies_by_light_back_lit():
-    """Step 4's colour share: the same luminance layout (a bright top over darker patches) reads back-lit when
-    the patches are nearly grey (what varies is light: a sky over shaded things) and front-lit when they are
-    saturated hues (what varies is the surfaces' colour: a lit view). A black-and-white view tells nothing by its
-    colour: it gets GREY_SHARE, and its call rests on top/bottom."""
+def test_the_colour_share_is_read_but_does_not_make_the_call():
+    """The colour share (scene5's front/back statistic) is still read: low where what varies is light (nearly grey
+    patches under a bright top), high where it is the surfaces' colour, GREY_SHARE for a black-and-white view. Since
+    scene24 step 4's call rests on top/bottom and the luminance spread alone (the colour share's fitted weight did
+    not hold across map sets: docs/RESULTS.md), so the two views, alike in luminance, get the same call, and that
+    call follows the score on those two statistics."""
     grey, colourful = scene_light(_patches(0.05)), scene_light(_patches(0.8))
     assert colourful.top_bottom == pytest.approx(grey.top_bottom, abs=0.1)
     assert colourful.contrast == pytest.approx(grey.contrast, abs=0.1)
     assert grey.colour_share < 0.2 < 1 < colourful.colour_share
-    assert grey.key()[1] is True and colourful.key()[1] is False
     assert scene_light(_patches(0.0)).colour_share == bgmod.GREY_SHARE
+    for parts in (grey, colourful):
+        np.testing.assert_allclose(parts.backlight_features(), [1.0, parts.top_bottom, parts.contrast])
+        a, b, c = bgmod.BACKLIGHT
+        assert parts.key()[1] is (a + b * parts.top_bottom + c * parts.contrast < 0)
+    assert grey.key()[1] is colourful.key()[1]
 
 
 def test_the_colour_share_does_not_change_with_white_balance_or_exposure():
