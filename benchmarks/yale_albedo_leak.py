@@ -31,16 +31,11 @@ from pathlib import Path
 import cv2
 import numpy as np
 from _shared import missing, shared_path
+from yale_eval import ellipse, find_file
 
 AZIMUTHS = (50, 70)
 SIGMA = 6.0  # px at 256: the split between a shading's sweep and its detail
 ERODE = 7  # px at 256: off the ellipse's rim
-
-
-def face_ellipse(size: int) -> np.ndarray:
-    """(size, size) bool: yale_eval's face ellipse (centre 0.50, 0.52; semi-axes 0.44, 0.46) of a square photo."""
-    yy, xx = np.mgrid[0:size, 0:size].astype(np.float32) + 0.5
-    return (((xx - 0.50 * size) / (0.44 * size)) ** 2 + ((yy - 0.52 * size) / (0.46 * size)) ** 2) <= 1
 
 
 def leak(albedo_side: np.ndarray, albedo_front: np.ndarray, side: np.ndarray, front: np.ndarray,
@@ -94,16 +89,15 @@ def measure(graphs: dict[str, Graph], yale: Path) -> dict:
     for subject in sorted(p.name for p in yale.iterdir() if p.is_dir()):
         for name, graph in graphs.items():
             s = graph.size
-            ellipse = face_ellipse(s)
-            face = cv2.erode(ellipse.astype(np.uint8), np.ones((2 * ERODE * s // 256 + 1,) * 2, np.uint8)) > 0
-            front = read(yale / subject / f"{subject}_P00A+000E+00.png", s)
+            mask = ellipse((s, s))  # yale_eval's face ellipse of the square the photo is resized to
+            face = cv2.erode(mask.astype(np.uint8), np.ones((2 * ERODE * s // 256 + 1,) * 2, np.uint8)) > 0
+            front = read(find_file(yale, subject, 0), s)
             if front is None:
                 continue
-            mask = ellipse.astype(np.float32)
             a_front = graph.albedo(front, mask)
             for az in AZIMUTHS:
                 for signed in (az, -az):
-                    side = read(yale / subject / f"{subject}_P00A{signed:+04d}E+00.png", s)
+                    side = read(find_file(yale, subject, signed), s)
                     if side is not None:
                         rows[name][az].append(leak(graph.albedo(side, mask), a_front, side, front, face))
     return {name: {str(az): {"photos": len(r), **{k: float(np.mean([x[k] for x in r])) for k in r[0]}}
