@@ -30,6 +30,7 @@ Example (CPU rehearsal; the device call is in docs/GPU.md)::
 from __future__ import annotations
 
 import argparse
+import copy
 import json
 import logging
 import math
@@ -324,8 +325,6 @@ def frozen_teacher(model, weight: float):
     mode and without gradients; None when ``weight`` is 0 (no anchor: nothing copied, nothing run)."""
     if not weight > 0:
         return None
-    import copy
-
     teacher = copy.deepcopy(model).eval()
     teacher.requires_grad_(False)
     return teacher
