@@ -7,12 +7,13 @@ in part (up to ``--fresh-per-step`` samples, while rendering has taken at most `
 time: whichever of rendering and training is faster on the device, neither starves the other), trains
 on random batches of the pool, each sample under a random training light of the bank and flipped at random
 (as export.torch_data does), with the loss of ``train-stage1`` (by default with the shipped stage 1's band and
-direction terms, ``--band-weight 2 --direction-weight 5``) and Adam, the learning rate falling along
-one cosine from ``--lr`` to ``--lr-min`` over the time there is. It starts from the shipped stage 1
-(export.warm_start) unless told otherwise. The last ``--val-people`` people of the bank are held out of
-training (:mod:`export.gpu.validate`): their relit RMSE and loss are measured before the first step and every
-``--val-every`` seconds, and the weights of the lowest ``--val-metric`` are the ones exported (``best.pt``;
-``last.pt`` holds the last).
+direction terms, ``--band-weight 2 --direction-weight 5``; with ``--albedo-anchor W`` also W times the mean
+absolute difference, over the person, between the albedo and that of the frozen warm start on the same batch) and
+Adam, the learning rate falling along one cosine from ``--lr`` to ``--lr-min`` over the time there is. It starts
+from the shipped stage 1 (export.warm_start) unless told otherwise. The last ``--val-people`` people of the bank
+are held out of training (:mod:`export.gpu.validate`): their relit RMSE and loss are measured before the first
+step and every ``--val-every`` seconds, and the weights of the lowest ``--val-metric`` are the ones exported
+(``best.pt``; ``last.pt`` holds the last).
 
 Whatever happens, the run folder ends with ``stage1.onnx`` (the best weights on the held-out people, or the
 last ones without any, exported with the usual checks), ``last.pt`` and ``best.pt`` (weights only: under 16 MiB
@@ -29,6 +30,7 @@ Example (CPU rehearsal; the device call is in docs/GPU.md)::
 from __future__ import annotations
 
 import argparse
+import copy
 import json
 import logging
 import math
@@ -72,6 +74,7 @@ class GpuTrainConfig:
     sf_scale: float = 0.2
     band_weight: float = 2.0  # the shipped stage 1's recipe (models/README.md): without them the bands shrink
     direction_weight: float = 5.0
+    albedo_anchor: float = 0.0  # 0: off (the second lend's objective exactly)
     val_people: int = 4
     val_samples: int = 32
     val_every: float = 30.0
@@ -117,6 +120,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "shipped stage 1's: without it the degree-2 band shrinks)")
     parser.add_argument("--direction-weight", type=float, default=d.direction_weight,
                         help="weight of the degree-1 direction loss (as train-stage1; default %(default)s)")
+    parser.add_argument("--albedo-anchor", type=float, default=d.albedo_anchor,
+                        help="W: add W * mean |albedo - the warm start's albedo| over the person, the warm start "
+                             "frozen and run on the same batch (the second lend's albedo lost on real faces while "
+                             "its transport gained; 0: off, default %(default)s)")
     parser.add_argument("--val-people", type=int, default=d.val_people,
                         help="the bank's last N people are never trained on: the exported weights are those of "
                              "their lowest --val-metric (0: none held out, the last weights exported; default "
@@ -147,7 +154,8 @@ def config_from_args(args: argparse.Namespace) -> GpuTrainConfig:
         render_share=args.render_share,
         dirs=args.dirs, shadow_size=args.shadow_size, framings=args.framings, max_yaw=args.max_yaw, lr=args.lr,
         lr_min=args.lr_min, sf_scale=args.sf_scale, band_weight=args.band_weight,
-        direction_weight=args.direction_weight, val_people=args.val_people, val_samples=args.val_samples,
+        direction_weight=args.direction_weight, albedo_anchor=args.albedo_anchor, val_people=args.val_people,
+        val_samples=args.val_samples,
         val_every=args.val_every, val_metric=args.val_metric, seed=args.seed, device=args.device,
         checkpoint_every=args.checkpoint_every, export_reserve=args.export_reserve, max_steps=args.max_steps,
         log_every=max(1, args.log_every), amp=args.amp,
@@ -189,7 +197,7 @@ def _check(config: GpuTrainConfig) -> None:
         raise RelightError(f"expected --deadline > --export-reserve >= 0, got {config.deadline} and "
                            f"{config.export_reserve}")
     for name in ("lr", "lr_min", "max_yaw", "sf_scale", "checkpoint_every", "export_reserve", "band_weight",
-                 "direction_weight", "val_every"):
+                 "direction_weight", "albedo_anchor", "val_every"):
         if not math.isfinite(getattr(config, name)):
             raise RelightError(f"--{name.replace('_', '-')}: expected a finite number, got {getattr(config, name)}")
     if not (config.checkpoint_every > 0 and config.sf_scale >= 0 and 0 <= config.max_yaw <= 180):
@@ -198,6 +206,11 @@ def _check(config: GpuTrainConfig) -> None:
     if not (config.band_weight >= 0 and config.direction_weight >= 0):
         raise RelightError(f"expected --band-weight >= 0 and --direction-weight >= 0, got {config.band_weight} and "
                            f"{config.direction_weight}")
+    if not config.albedo_anchor >= 0:
+        raise RelightError(f"--albedo-anchor: expected a weight >= 0, got {config.albedo_anchor}")
+    if config.albedo_anchor > 0 and config.init is None:
+        raise RelightError("--albedo-anchor needs a warm start (--init): the albedo is held near the network it "
+                           "starts from")
     if config.val_metric not in ("relit_rmse", "loss"):
         raise RelightError(f"--val-metric: expected relit_rmse or loss, got {config.val_metric!r}")
     if config.val_people < 0 or config.val_samples < 1 or not config.val_every > 0:
@@ -307,6 +320,36 @@ class _Sampler:
         return sample
 
 
+def frozen_teacher(model, weight: float):
+    """The albedo anchor's teacher: a copy of ``model`` as it is now (the warm start, its norms calibrated), in eval
+    mode and without gradients; None when ``weight`` is 0 (no anchor: nothing copied, nothing run)."""
+    if not weight > 0:
+        return None
+    teacher = copy.deepcopy(model).eval()
+    teacher.requires_grad_(False)
+    return teacher
+
+
+def step_terms(model, loss_fn, batch: dict, teacher=None, anchor: float = 0.0) -> dict:
+    """The training loss of one batch: ``loss_fn``'s terms and, with a teacher, ``albedo_anchor`` = ``anchor`` ·
+    mean |Â − Â_teacher| over the person (export.losses.masked_l1; the teacher runs on the same input without
+    gradients), added to ``total``. Without a teacher the terms are ``loss_fn``'s alone, as before the anchor."""
+    import torch
+
+    from export.losses import masked_l1
+    from export.torch_data import render_input
+
+    x = (2.0 * render_input(batch) - 1.0) * batch["mask"]
+    transport, albedo, skin, light = model(x)
+    terms = loss_fn({"transport": transport, "albedo": albedo, "skin": skin, "light": light}, batch)
+    if teacher is not None:
+        with torch.no_grad():
+            kept = teacher(x)[1]
+        terms["albedo_anchor"] = anchor * masked_l1(albedo.float(), kept.float(), batch["mask"].float())
+        terms["total"] = terms["total"] + terms["albedo_anchor"]
+    return terms
+
+
 def _load_bank(root: Path, device):
     from . import bank
     from .render import DeviceSubject
@@ -400,6 +443,7 @@ def run(config: GpuTrainConfig) -> int:
             batches = [draw(config.batch_size) for _ in range(4)]
             warm_start.calibrate_norms(model, ((2.0 * render_input(b) - 1.0) * b["mask"] for b in batches))
             log.info("stage 1 starts from %s", state["init"])
+        teacher = frozen_teacher(model, config.albedo_anchor)  # after the calibration: the warm start's function
         if held_subjects:
             t0 = time.monotonic()
             try:
@@ -438,8 +482,7 @@ def run(config: GpuTrainConfig) -> int:
             batch = draw(config.batch_size)
             optimizer.zero_grad(set_to_none=True)
             with autocast(device, config.amp):
-                transport, albedo, skin, light = model((2.0 * render_input(batch) - 1.0) * batch["mask"])
-                terms = loss_fn({"transport": transport, "albedo": albedo, "skin": skin, "light": light}, batch)
+                terms = step_terms(model, loss_fn, batch, teacher, config.albedo_anchor)
             loss = terms["total"]
             if not torch.isfinite(loss):
                 raise RelightError(f"training diverged: loss {float(loss)} at step {state['step']}")
@@ -453,8 +496,8 @@ def run(config: GpuTrainConfig) -> int:
                 logger.write({"event": "step", "step": state["step"], "elapsed_s": time.monotonic() - start,
                               "lr": optimizer.param_groups[0]["lr"], "total": value,
                               "rendered": sampler.rendered, "render_s": sampler.seconds, "train_s": state["train_s"],
-                              **{k: float(terms[k].detach()) for k in ("transport_bands", "transport_direction")
-                                 if k in terms}})
+                              **{k: float(terms[k].detach()) for k in ("transport_bands", "transport_direction",
+                                                                       "albedo_anchor") if k in terms}})
             if time.monotonic() - last_ckpt >= config.checkpoint_every:
                 save_checkpoint(out / "last.pt", model, step=state["step"], meta=json.dumps({"command": "gpu-train"}))
                 logger.write({"event": "checkpoint", "step": state["step"], "elapsed_s": time.monotonic() - start})
@@ -506,7 +549,8 @@ def _finish(config, model, sampler, state, start, index, device_name, logger) ->
     source = (f"relight_rt gpu-train: {steps} steps on {rendered} samples rendered from "
               f"{len(sampler.subjects)} bank people "
               f"({len(index['subjects']) - len(sampler.subjects)} more held out) on {device_name}, from "
-              f"{state['init'] or 'random weights'}")
+              f"{state['init'] or 'random weights'}"
+              + (f", albedo anchored to it (weight {config.albedo_anchor:g})" if config.albedo_anchor > 0 else ""))
     exported = None
     export_error = None
     if all(torch.isfinite(p).all() for p in model.parameters()):

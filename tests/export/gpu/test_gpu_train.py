@@ -3,6 +3,11 @@
 from __future__ import annotations
 
 import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -74,6 +79,36 @@ def test_it_starts_from_an_onnx_graph(bank_dir, tmp_path):
     assert "init.onnx (ONNX, norm layers unfolded" in summary["init"]
 
 
+def test_an_anchored_run_logs_its_term_and_says_so_in_the_graph(bank_dir, tmp_path):
+    import onnx
+
+    from export.networks import Stage1Net
+    from export.onnx_export import export_onnx
+
+    torch.manual_seed(0)
+    net = Stage1Net(width=4, resolution=64, norm="batch")
+    with torch.no_grad():  # norms away from their defaults, as in a trained graph (the exporter folds them)
+        for m in net.modules():
+            if isinstance(m, torch.nn.BatchNorm2d):
+                m.weight.uniform_(0.5, 1.5)
+                m.bias.uniform_(-0.2, 0.2)
+    init = tmp_path / "init.onnx"
+    export_onnx(net.eval(), init, source="test")
+    runs = {}
+    for weight in ("0", "2"):
+        out = tmp_path / f"run{weight}"
+        assert main(["gpu-train", "--bank", str(bank_dir), "--out", str(out), "--init", str(init), "--max-steps", "2",
+                     *TINY, "--albedo-anchor", weight]) == 0
+        steps = [r for r in read_jsonl(out / "log.jsonl") if r["event"] == "step"]
+        source = {p.key: p.value for p in onnx.load(str(out / "stage1.onnx")).metadata_props}["relight_rt.source"]
+        runs[weight] = steps, source
+    plain, anchored = runs["0"], runs["2"]
+    assert len(anchored[0]) == 2 and all("albedo_anchor" not in r for r in plain[0])
+    # in training mode (dropout, batch statistics) the albedo differs from the frozen start's from the first step
+    assert all(r["albedo_anchor"] > 0 for r in anchored[0])
+    assert anchored[1].endswith(", albedo anchored to it (weight 2)") and "albedo anchored" not in plain[1]
+
+
 def test_rendering_keeps_to_its_share_of_the_time(bank_dir, tmp_path):
     out = tmp_path / "run"
     # rendering the first batch takes far more than 1% of what two tiny steps take: no fresh samples after it
@@ -125,6 +160,9 @@ def test_flipped_batches_shade_as_the_mirror_image():
     (["--val-samples", "0"], "--val-samples"),
     (["--val-every", "nan"], "--val-every"),
     (["--band-weight", "-1"], "--band-weight"),
+    (["--albedo-anchor", "-1"], "--albedo-anchor"),
+    (["--albedo-anchor", "nan"], "--albedo-anchor"),
+    (["--init", "none", "--albedo-anchor", "1"], "needs a warm start"),  # nothing to anchor to
 ])
 def test_bad_settings_get_one_line(bank_dir, tmp_path, capsys, argv, message):
     args = ["gpu-train", "--bank", str(bank_dir), "--out", str(tmp_path / "run"), *TINY, *argv]
@@ -372,3 +410,47 @@ def _source(graph):
     import onnx
 
     return {p.key: p.value for p in onnx.load(str(graph)).metadata_props}["relight_rt.source"]
+
+
+CALL = Path(__file__).resolve().parents[3] / "scripts" / "gpu_call.sh"
+
+
+def test_the_device_call_fits_the_run_tool_and_is_the_one_documented():
+    call = CALL.read_text()
+    assert len(call) <= 2000 and call.count("\n") == 1 and call.endswith("\n")  # run's command: 2,000 characters
+    assert call.strip() in (CALL.parents[1] / "docs" / "GPU.md").read_text()
+
+
+@pytest.mark.skipif(not all(shutil.which(t) for t in ("bash", "timeout", "sed")), reason="needs bash and coreutils")
+def test_the_device_call_trains_twice_at_once_and_leaves_eight_files_at_most(bank_dir, tmp_path):
+    """The call of docs/GPU.md as it is, its settings shrunk through $X as the rehearsal there does: two runs,
+    anchored with weights 2 and 5, each with its graph, and last.pt dropped where a graph exists (the device sends
+    back 8 files)."""
+    from export.networks import Stage1Net
+    from export.onnx_export import export_onnx
+
+    torch.manual_seed(0)
+    net = Stage1Net(width=4, resolution=64, norm="batch")
+    with torch.no_grad():  # norms away from their defaults, as in a trained graph (the exporter folds them)
+        for m in net.modules():
+            if isinstance(m, torch.nn.BatchNorm2d):
+                m.weight.uniform_(0.5, 1.5)
+                m.bias.uniform_(-0.2, 0.2)
+    init = tmp_path / "init.onnx"
+    export_onnx(net.eval(), init, source="test")
+    out = tmp_path / "out"
+    out.mkdir()
+    root = CALL.parents[1]
+    env = {**os.environ, "OUT": str(out), "T": "1", "PYTHONPATH": str(root),
+           "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}",
+           "X": " ".join(["--bank", str(bank_dir), "--init", str(init), "--max-steps", "2", *TINY])}
+    done = subprocess.run(["bash", str(CALL)], cwd=root, env=env, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+    files = sorted(str(p.relative_to(out)) for p in out.rglob("*") if p.is_file())
+    runs = ("anchor2", "anchor5")
+    assert files == [f"{run}/{name}" for run in runs for name in ("log.jsonl", "stage1.onnx", "summary.json")]
+    summaries = {run: json.loads((out / run / "summary.json").read_text()) for run in runs}
+    assert all(s["error"] is None and s["steps"] == 2 for s in summaries.values())
+    assert [(s["config"]["albedo_anchor"], s["config"]["seed"]) for s in summaries.values()] == [("2.0", "0"),
+                                                                                                ("5.0", "1")]
+    assert "anchor2: " in done.stdout and "anchor5: " in done.stdout  # each run's lines named
