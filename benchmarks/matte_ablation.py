@@ -11,9 +11,9 @@ against mask >= 0.5, as ``people_masks_eval.py``) on photos half A (every thresh
 checked) and the clip, each as a change from the rule in place; the photos below the selfie graph; the images that
 move most; and the worst move the wrong way on B and on the clip.
 
-The table in docs/RESULTS.md ("Real photos, broad sets") was made at 65f2d89 on main 34ace64 (clip 0.93254, photos
+The table in docs/RESULTS.md ("Real photos, broad sets") was made at d77a053 on main 34ace64 (clip 0.93254, photos
 0.91399, A 0.92575, B 0.90222), with four more rules the table shows removed since (carried_past, things_behind,
-cut_sure, doubted_parts: ``git show 65f2d89:benchmarks/matte_ablation.py``).
+cut_sure, doubted_parts: ``git show d77a053:benchmarks/matte_ablation.py``).
 
 The graphs' answers are memoised for the whole process (``Model.run`` keyed by the graph and a hash of its input
 arrays): a rule that changes no graph input replays in seconds, one that does pays only its new runs. The baseline
