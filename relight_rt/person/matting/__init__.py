@@ -66,6 +66,8 @@ Modules (one concept each; this package re-exports the public names):
   :func:`shared_matter`.
 - ``_colours``: the person's own colours (what the selfie graph sees joined to the matte, kept by colour).
 - ``_shadow``: the person's own cast shadow on the ground at their feet, taken out of the matte.
+- ``_things_behind``: things out of focus behind the person (parts the pose graph does not see, blurred where the
+  body is sharp, sticking out of the matte: a guitar leaning behind a girl), taken out of the default matte.
 - ``_parts``: a group's people as parts of one matte (a segmentation split by faces, rejoined for the matte,
   each person's share of it).
 - ``_coarse``: the coarse matte at full resolution (working grid + fast guided filter, relight_rt.image.guided_filter).

@@ -195,7 +195,7 @@ def parts_going_on(
     person's region, ``past`` those beyond its cut sides. Returns the 8-connected components' labels (int32, 0 none)
     of ``wide``'s person pixels past the cut that hold a pixel next to one of the person's pixels inside the region
     and whose mean probability under ``wide`` is ``sure`` or more; every other component's label is 0
-    (:func:`continued`)."""
+    (:func:`continued`; relight_rt.person.matting._selfie.carried_past)."""
     seeds = past & cv2.dilate(((before > 0) & own).astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
     mask = (wide > 0) & past
     _, labels = cv2.connectedComponents(mask.astype(np.uint8), connectivity=8)

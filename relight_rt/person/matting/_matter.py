@@ -77,8 +77,9 @@ from ._segmentation import (
     warp_to_grid,
     working_grid,
 )
-from ._selfie import confirmed, face_person, reframed, roi_person, seen_on, uncut, widened
+from ._selfie import carried_past, confirmed, face_person, owning, reframed, roi_person, seen_on, uncut, widened
 from ._shadow import selfie_sure, without_cast_shadow
+from ._things_behind import without_things_behind
 from ._turned import turned_people
 
 PERSON_MODES = ("largest", "all")
@@ -282,6 +283,8 @@ class PersonMatter:
                 found += self._own_and_turned(rgb, found)
                 side = float(max(rgb.shape[:2]))  # the whole photo's canvas spans its longer side
                 found = [blended(p, seen_on(self.roi, rgb, p.region), side) if p.source == "roi" else p for p in found]
+                apart = [f for f in faces if not any(contains(p, f, rgb.shape[:2]) for p in found if p.source != "own")]
+                found += [q for p in rejoin(found) if p.source == "roi" for q in carried_past(self.roi, rgb, p, apart)]
                 found = without_behind(self.roi, rgb, found, faces)  # someone out of focus behind: not theirs
                 self._note_others(found, faces, name)
             return found
@@ -631,8 +634,11 @@ class PersonMatter:
             np.maximum(alpha[ry0:ry1, rx0:rx1], a, out=alpha[ry0:ry1, rx0:rx1])
         if refine and self.edges and people:
             alpha = refine_edges(rgb, alpha)
-            if self.person != "all":  # in everyone's matte a faint person apart is someone
+            if self.person != "all":  # the default matte's steps; everyone's keeps what the graphs see
                 alpha = without_cast_shadow(rgb, alpha, selfie_sure(self.roi, rgb))  # (_shadow)
+                alpha = without_things_behind(  # (_things_behind: the pose graph's view of a selfie-graph person)
+                    rgb, alpha, people, lambda p: self._pose(rgb, p.region).logits, lambda: self.find_faces(rgb)
+                )
         return alpha
 
     def __call__(self, image: np.ndarray, name: str = "image") -> np.ndarray:
@@ -666,8 +672,8 @@ class PersonMatter:
 
     def _matte(self, image: np.ndarray, name: str) -> tuple[np.ndarray, list[Person]]:
         rgb = as_rgb(image, name, copy=False)  # only read from here on
-        # one block for both: the graphs' answers on a region of this very photo hold for the matte too (the selfie
-        # graph's on the matte's region, which the cast-shadow step asks for), and its crops reuse the reductions
+        # one block for both: the graphs' answers on a region of this very photo hold for the matte too (the face
+        # graph's on the whole photo, which the things-behind step asks for again), and its crops reuse the reductions
         with reductions_shared(rgb):
             people = self.people(rgb, name)
             alpha = self.alpha(rgb, people) if people else None
@@ -676,7 +682,9 @@ class PersonMatter:
                 f"no person found in {name} (no body or face the bundled detectors recognise; people shorter than "
                 f"{MIN_PERSON_FRACTION:.0%} of the photo, seen only in part or in deep shadow can be missed)"
             )
-        return alpha, [p for p in people if p.source != "own"]  # the own colours' part is the others' to share
+        # the own colours' part is the others' to share; a part carried past a region's side, its person's
+        carried = [p for p in people if p.source == "own" and p.of is not None]
+        return alpha, [owning(p, [q for q in carried if q.of == p.region]) for p in people if p.source != "own"]
 
 
 _SHARED: dict[tuple[str, str, str], PersonMatter] = {}

@@ -39,6 +39,9 @@ class Person:
     # selfie graph's, kept to the people's own colours (PersonMatter._own_colours: part of them, not a person)
     whole: np.ndarray | None = field(default=None, repr=False, compare=False)  # split from these logits (see
     # relight_rt.person.matting._parts.split_by_faces): the matte is made from the whole, not from the parts
+    of: Region | None = field(default=None, compare=False)  # source "own": the region of the person this part goes
+    # on from (relight_rt.person.matting._selfie.carried_past), whose share of the matte it is; None: everyone's
+
 
 
 
