@@ -12,18 +12,21 @@ checked) and the clip, each as a change from the rule in place; the photos below
 move most; and the worst move the wrong way on B and on the clip.
 
 The table in docs/RESULTS.md ("Real photos, broad sets") was made at d77a053 on main 34ace64 (clip 0.93254, photos
-0.91399, A 0.92575, B 0.90222), with four more rules the table shows removed since (carried_past, things_behind,
-cut_sure, doubted_parts: ``git show d77a053:benchmarks/matte_ablation.py``).
+0.91399, A 0.92575, B 0.90222), with two more rules the table shows removed since (cut_sure, doubted_parts:
+``git show d77a053:benchmarks/matte_ablation.py``); the baseline checked here (:data:`MAIN`) is the matte without them.
 
 The graphs' answers are memoised for the whole process (``Model.run`` keyed by the graph and a hash of its input
 arrays): a rule that changes no graph input replays in seconds, one that does pays only its new runs. The baseline
 (every rule on) is computed first and must reproduce ``people_masks_eval.py --methods ours`` exactly.
 
-The criterion (written before any rule was switched off): a rule is kept when the data it was not chosen on supports
-it, i.e. switching it off lowers half B's or the clip's mean IoU by more than 0.0002, or lowers a photo of B or a
-frame of the clip by more than 0.01; otherwise (its only evidence is half A, or it does nothing) it is a candidate for
-removal. A rule whose purpose IoU does not see (a translucent interior, the relit band in a gap, a composite's hair)
-is judged by its own measure, not removed on IoU alone.
+The criterion, first written before any rule was switched off (a rule stays when switching it off lowers B's or the
+clip's mean by more than 0.0002 or a B photo or clip frame by more than 0.01), restated at review after the numbers
+(docs/RESULTS.md "Real photos, broad sets"): a rule goes when the data it was not chosen on (half B, the clip) gains
+nothing from it (no B photo or clip frame better with it by more than 0.002) or loses by it (B's and the clip's mean
+changes together lower with it by more than 0.0002). Where nothing there moves by more than 0.002 (B and the clip do
+not exercise the rule), a rule that fixes a fault kind issue 48 names on half A (a photo better by more than 0.01)
+stays, "support: A only". A rule whose purpose IoU does not see (a translucent interior, the relit band in a gap, a
+composite's hair) is judged by its own measure, not removed on IoU alone.
 
 Nothing of the data is written except where --save points (keep it under /tmp).
 """
@@ -57,9 +60,7 @@ from relight_rt.person.matting import _matter as PM  # noqa: E402
 from relight_rt.person.matting import _selfie as S  # noqa: E402
 from relight_rt.person.matting._segmentation import as_logits, sigmoid  # noqa: E402
 
-MAIN = {"clip": 0.93254, "photos": 0.91259, "A": 0.92304, "B": 0.90214}  # people_masks_eval.py's (docs/RESULTS.md)
-MOVE = 0.01  # a photo or frame moved this much counts as moved (the criterion's)
-MEAN = 0.0002  # a set's mean moved this much counts as moved
+MAIN = {"clip": 0.93254, "photos": 0.91389, "A": 0.92556, "B": 0.90221}  # people_masks_eval.py's (docs/RESULTS.md)
 
 
 # -- the memo ----------------------------------------------------------------------------------------------------------
@@ -125,6 +126,10 @@ def _vouched_by_presence(self, rgb, person):
 
 # name -> (what switching it off does, [(object, attribute, off value)])
 RULES: dict[str, tuple[str, list[tuple[object, str, object]]]] = {
+    "things_behind": (
+        "_things_behind.without_things_behind -> identity (matte21)",
+        [(PM, "without_things_behind", lambda rgb, alpha, *a, **k: alpha)],
+    ),
     "cut_body_framed": (
         "_cut_body.cut_body: the framed graph's sure pixels left out (CutBody.part, matte22)",
         [(PM, "cut_body", _cut_body_without_framed)],
@@ -133,6 +138,7 @@ RULES: dict[str, tuple[str, list[tuple[object, str, object]]]] = {
         "_cut_body.cut_body -> None: no cut-body part at all (matte18 + matte22)",
         [(PM, "cut_body", lambda *a, **k: None)],
     ),
+    "carried_past": ("_selfie.carried_past -> [] (matte19)", [(PM, "carried_past", lambda *a, **k: [])]),
     "confirmed": (
         "_selfie.confirmed -> the person as framed (matte17, _layout.unconfirmed)",
         [(PM, "confirmed", lambda roi, rgb, person, find_faces: person)],
