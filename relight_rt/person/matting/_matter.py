@@ -18,7 +18,7 @@ import numpy as np
 
 from ...engine.errors import RelightError
 from ...engine.session import Model, load_model
-from ...image.matte_edges import refine_edges
+from ...image.matte_edges import band_width, refine_edges, without_doubted_parts
 from ...image.regions import Region, crop_region, grid_of_region, reductions_shared
 from ..face_detector import Face
 from ._behind import without_behind
@@ -634,7 +634,8 @@ class PersonMatter:
             np.maximum(alpha[ry0:ry1, rx0:rx1], a, out=alpha[ry0:ry1, rx0:rx1])
         if refine and self.edges and people:
             alpha = refine_edges(rgb, alpha)
-            if self.person != "all":  # the default matte's steps; everyone's keeps what the graphs see
+            if self.person != "all":  # in everyone's matte a faint person apart is someone
+                alpha = without_doubted_parts(alpha, band_width(alpha.shape))
                 alpha = without_cast_shadow(rgb, alpha, selfie_sure(self.roi, rgb))  # (_shadow)
                 alpha = without_things_behind(  # (_things_behind: the pose graph's view of a selfie-graph person)
                     rgb, alpha, people, lambda p: self._pose(rgb, p.region).logits, lambda: self.find_faces(rgb)

@@ -169,6 +169,36 @@ def test_a_patch_just_under_half_where_the_frame_cuts_the_body_is_body_unless_it
     assert R.opaque_where_cut(coarse.copy(), 4)[205:225, 65:85].max() < 0.5  # without the photo: left as it was
 
 
+def test_a_doubted_blob_the_border_cuts_beside_the_body_is_not_made_opaque():
+    """A small portrait: the graphs half-saw the blurred garden (0.5-0.7) where the bottom border cuts it, joined to
+    the shoulder's side, and the whole block up to the reach was made opaque. Nothing sure lies above it in its
+    columns: it stays as the graphs left it, while the body's own doubted patch beside it is still filled."""
+    rgb, coarse = _cut_portrait()
+    coarse[185:, :44] = 0.65  # backdrop blue, half-seen, running into the torso's side (columns 40-160)
+    out = R.opaque_where_cut(coarse.copy(), 4, rgb)
+    np.testing.assert_allclose(out[190:, :30], 0.65)  # was 1.0
+    assert out[200:, 100:140].min() == 1.0  # the torso's doubted patch (0.6) still filled
+
+
+def test_a_separate_part_the_graphs_are_nowhere_sure_of_goes_and_a_sure_one_stays():
+    """A small portrait: the selfie graph half-saw blobs of the blurred garden apart from her (0.5-0.7); relit, they
+    changed with her and came along into every composite. A part seen apart and sure (a hand beyond a railing)
+    stays, and so does the largest part however doubted."""
+    h, w = 200, 240
+    truth = np.zeros((h, w), np.float32)
+    truth[40:, 120:200] = 1.0  # the person
+    truth[60:90, 215:235] = 1.0  # a hand seen apart
+    rgb = truth[..., None] * np.array([0.9, 0.2, 0.1], np.float32) + (1 - truth[..., None]) * 0.5
+    coarse = np.clip(cv2.GaussianBlur(truth, (0, 0), 1.5), 0.0, 1.0)
+    coarse[60:120, 20:80] = np.maximum(coarse[60:120, 20:80], 0.65)  # the garden half-seen, in the backdrop's grey
+    out = R.without_doubted_parts(R.refine_edges(rgb, coarse, band=4), 4)
+    assert out[50:130, 10:90].max() == 0.0  # was 0.65 inside: a blob of garden
+    assert out[65:85, 220:230].min() > 0.95 and out[60:, 130:190].min() == 1.0
+    doubted = np.where(coarse > 0.5, 0.6, coarse).astype(np.float32)  # every part doubted: the largest stays
+    out = R.without_doubted_parts(doubted.copy(), 4)
+    assert out[60:, 130:190].min() == 0.6 and out[70:110, 30:70].max() == 0.0
+
+
 def test_bottom_rows_of_a_body_not_at_the_border_are_left_alone():
     rgb, coarse = _cut_portrait()
     flipped = np.ascontiguousarray(coarse[::-1])  # the torso now runs out of the top: no cut at the bottom
