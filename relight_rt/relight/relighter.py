@@ -329,9 +329,7 @@ class Relighter:
         return self._factor.highlight_inputs(dec)
 
     def grade_inputs(self, dec: Decomposition) -> GradeSample:
-        """What the original backdrop's grade (``Background.original(grade=True)``) reads of ``dec`` whatever the
-        light (relight_rt.relight.compose ``Composer.grade_inputs``; the studio's preview grades with it). A group
-        photo's person by person relight sums its people's changes; this reads the group as one person."""
+        """What the backdrop's grade reads of ``dec`` whatever the light (compose ``Composer.grade_inputs``)."""
         return self._composer.grade_inputs(dec)
 
     def cast_shadows(self, dec: Decomposition, light) -> tuple[np.ndarray | None, float]:
