@@ -635,7 +635,8 @@ def unpack_layers(data: bytes, meta: dict) -> dict:
     ns, offset = int(meta["exposure_samples"]), int(meta["exposure_offset"])
     nh, hoffset = int(meta["highlight_samples"]), int(meta["highlight_offset"])
     ng, goffset = int(meta["grade_samples"]), int(meta["grade_offset"])
-    if offset < 29 * n or hoffset != offset + 52 * ns or goffset != hoffset + 60 * nh or len(data) != goffset + 80 * ng:
+    if (min(ns, nh, ng) < 0 or offset < 29 * n or hoffset != offset + 52 * ns or goffset != hoffset + 60 * nh
+            or len(data) != goffset + 80 * ng):
         raise RelightError(f"layers: expected {goffset + 80 * ng} bytes for {h}x{w}, {ns}, {nh} and {ng} samples, "
                            f"got {len(data)}")
     q16 = np.frombuffer(data, "<u2", 9 * n).reshape(9, h, w).astype(np.float32)

@@ -19,6 +19,7 @@ from _graphs import models_dir, person
 import relight_rt
 from relight_rt import Relighter, RelightError, RuntimeConfig, envmap, lights
 from relight_rt.apps.studio.core import (
+    EXPOSURE_SAMPLES,
     MAX_UPLOAD_BYTES,
     ResultStore,
     Studio,
@@ -167,6 +168,12 @@ def test_layers_match_the_decomposition(studio):
     np.testing.assert_allclose(info["own_light"], dec.light)
     with pytest.raises(RelightError, match="bytes"):
         unpack_layers(studio.layers_bytes()[:-1], meta)
+    # the background grade's sample travels whole, and a count that cannot be is refused, not read as "all"
+    assert meta["grade_samples"] > 0
+    for got, want in zip(layers["grade"], studio.relighter.grade_inputs(dec), strict=True):
+        np.testing.assert_array_equal(got, want[:: -(-want.shape[0] // EXPOSURE_SAMPLES)])
+    with pytest.raises(RelightError, match="bytes"):
+        unpack_layers(studio.layers_bytes()[: meta["grade_offset"] - 80], {**meta, "grade_samples": -1})
 
 
 def test_render_is_the_relighters_result(studio, models_dir):
@@ -655,7 +662,6 @@ def test_preview_composites_with_the_automatic_mattes_shown_edge(tmp_path, model
     np.testing.assert_allclose(off["mask"], np.asarray(clear.dec.mask), atol=0.5 / 255 + 1e-6)
     ratio = np.divide(shown, soft, out=np.zeros_like(shown), where=soft > 0)
     np.testing.assert_allclose(on["albedo"], np.clip(off["albedo"] * ratio, 0, 1), atol=1.5 / 255)
-
 
 
 def test_preview_grade_is_the_full_results_on_the_bundled_street_photo():
