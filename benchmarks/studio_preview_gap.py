@@ -11,8 +11,10 @@ deep-shadow fill (Factor.shadow_weight): each ratio that moves to 1 names a part
 (both figures below take ``--without``).
 
 Background grade: on the bundled street photo (a backdrop to grade, the automatic matte), the grade the preview
-draws (Studio.preview_grade, what sh.js backgroundGrade computes) against the full result's (the median ratio of
-the backdrop's values with --grade-background and without), per channel in EV of light (x 2.2).
+draws (Studio.preview_grade, what sh.js backgroundGrade computes on the relighter's grade sample,
+relight_rt.relight.compose ``Composer.grade_inputs``) against the full result's (the median ratio of the backdrop's
+values with --grade-background and without), per channel in EV of light (x 2.2). ``--without head-blend`` moves
+window-left's gap from 0.14 to 0.03 EV: the head pass's blend is what the preview's grade leaves out.
 """
 
 from __future__ import annotations

@@ -115,9 +115,16 @@ class CropGeometry:
 
     def to_network(self, image: np.ndarray) -> np.ndarray:
         """Input frame (H, W[, C]) float32 → network frame (R, R[, C]): crop, zero-pad to a square, resize."""
+        return self.crop_to_network(self.crop(image))
+
+    def crop_to_network(self, crop: np.ndarray) -> np.ndarray:
+        """``to_network`` of what lies in the crop box, given as the box's (h, w[, C]) float32 (no input-frame array
+        made around it)."""
         h, w = self.crop_shape
+        if crop.shape[:2] != (h, w):
+            raise RelightError(f"crop_to_network: expected the crop box's ({h}, {w}), got {crop.shape[:2]}")
         oy, ox = self.offset
-        crop = np.ascontiguousarray(self.crop(image))
+        crop = np.ascontiguousarray(crop)
         r = self.resolution
         interp = cv2.INTER_AREA if (self.side > r and self.mode == "quality") else cv2.INTER_LINEAR
 

@@ -5,15 +5,17 @@ backdrop (``backdrop``)."""
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import cv2
 import numpy as np
 
-from ..image.color import srgb_to_linear
+from ..image.color import REC709, srgb_to_linear
 from ..image.compositing import Background, clean_edge_colour, over_box
 from ..image.foreground import estimate_foreground, nearest_colours
 from ..light.exposure import DISPLAY_GAMMA, knee
 from .decomposition import Decomposition, Memo, RelightResult, intrinsic_layers, readonly
+from .detail import extend_outward
 from .factor import Factor
 from .look import dark_colour, shoulder, steady_chroma
 
@@ -130,6 +132,41 @@ def grade_of_sums(new: np.ndarray, old: np.ndarray, weight: float) -> np.ndarray
     ok = old > 1e-6 * max(weight, 1.0)
     light = np.where(ok, new / np.where(ok, old, 1.0), 1.0)
     return (light ** (1.0 / DISPLAY_GAMMA)).astype(np.float32)
+
+
+class GradeSample(NamedTuple):
+    """What ``background_grade`` reads of a relit person whatever the light, on the network frame's pixels under the
+    matte (``Composer.grade_inputs``; the studio's preview grades with it, ``sampled_grade``). Under a light with RGB
+    shading S = max(0, T·light) and luminance Y(S) a pixel's relit colour is ``lit * S + steady * S / Y(S)``, rolled
+    off past its ``knee`` (relight_rt.relight.look ``shoulder``), as ``Composer.person_colour`` makes it.
+
+    Attributes:
+        lit: (N, 3) float32, the colour per unit of shading that scales with the light.
+        steady: (N, 3) float32, the colour per unit of the light's luminance that stays.
+        transport: (N, 9) float32.
+        weight: (N,) float32, the matte over the pixel (its area mean).
+        knee: (N,) float32, where the shoulder starts (inf: nowhere).
+        own: (N, 3) float32, the person's own colour (``Composer.foreground``'s, the matte's mean over the pixel).
+    """
+
+    lit: np.ndarray
+    steady: np.ndarray
+    transport: np.ndarray
+    weight: np.ndarray
+    knee: np.ndarray
+    own: np.ndarray
+
+
+def sampled_grade(sample: GradeSample, light: np.ndarray) -> np.ndarray:
+    """(3,) float32 ``background_grade`` on a ``GradeSample`` under the (exposed) ``light`` (9, 3): the relit colour
+    and the own colour decoded from sRGB, summed with the matte's weight, G ** (1 / DISPLAY_GAMMA)."""
+    shading = np.maximum(sample.transport @ np.asarray(light, np.float32).reshape(9, 3), 0)
+    y = np.maximum(shading @ REC709.astype(np.float32), 1e-4)[:, None]
+    colour = shoulder(np.maximum(sample.lit * shading + sample.steady * shading / y, 0), sample.knee)
+    w = sample.weight[:, None]
+    new = (srgb_to_linear(np.clip(colour, 0, 1)) * w).sum(axis=0, dtype=np.float64)
+    old = (srgb_to_linear(np.clip(sample.own, 0, 1)) * w).sum(axis=0, dtype=np.float64)
+    return grade_of_sums(new, old, float(sample.weight.sum(dtype=np.float64)))
 
 
 def _side_sums(image: np.ndarray, where: np.ndarray, r: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -335,6 +372,47 @@ class Composer:
         if "own_light" not in state:
             state["own_light"] = own_light_sum(self.foreground(dec)[0], dec.geometry.crop(dec.mask))
         return state["own_light"]
+
+    def grade_inputs(self, dec: Decomposition) -> GradeSample:
+        """What ``compose``'s background grade reads of ``dec`` whatever the light, in the network frame (cached):
+        every pixel the matte reaches there, weighted by it, with the person's own colour F (``foreground``, the
+        colour ``compose`` relights and grades against, averaged under the matte over the pixel; not the network's
+        image, whose edge pixels hold the backdrop behind the person). With detail, F times the relighting factor
+        without stage 2's residual (relight_rt.relight.factor: lit = F albedo / own, steady = F missing / own), the
+        factor's inputs taken from the solid person outward as ``Factor.gain`` takes the factor, and the shoulder
+        at F's own peak (``knee``); without, the network's albedo under the shading (no shoulder)."""
+        state = self.memo(dec)
+        if "grade_inputs" not in state:
+            geom = dec.geometry
+            alpha = geom.crop(dec.mask)[..., None]
+            net = geom.crop_to_network(np.concatenate([self.foreground(dec)[0] * alpha, alpha], axis=2))
+            if self.detail:
+                own = self.factor.own(dec, with_residual=False)
+                y0, y1, x0, x1 = own["window"]
+                net = net[y0:y1, x0:x1]
+                base = own["own"][..., None]
+                maps = np.concatenate([own["albedo"][..., None] / base, own["missing"][..., None] / base,
+                                       own["transport"]], axis=2).astype(np.float32)
+                # as ``Factor.gain`` takes the factor past the solid person: from the inner pixels outward (the
+                # window's own values there are 0, which would leave the edge black)
+                maps = np.concatenate([extend_outward(maps[..., i : i + 4], own["inner"]) for i in range(0, 11, 4)],
+                                      axis=2)
+                scale, stays, transport = maps[..., :1], maps[..., 1:2], maps[..., 2:]
+            else:  # the network's picture, clip(A max(0, T·L), 0, 1) over the matte (``person_colour``)
+                mask = dec.network_mask[..., None]
+                transport = np.asarray(dec.transport, np.float32)
+                scale = np.divide(dec.albedo, mask, out=np.zeros(dec.albedo.shape, np.float32), where=mask > _ALPHA_MIN)
+                stays = None
+            weight = net[..., 3]
+            keep = weight > _ALPHA_MIN
+            w = weight[keep]
+            colour = net[..., :3][keep] / w[:, None]
+            lit = colour * scale[keep] if self.detail else scale[keep]
+            steady = colour * stays[keep] if self.detail else np.zeros_like(lit)
+            peak = knee(colour) if self.detail else np.full(w.shape, np.inf, np.float32)
+            state["grade_inputs"] = GradeSample(*(readonly(np.ascontiguousarray(a, np.float32)) for a in (
+                lit, steady, transport[keep], w, peak, colour)))
+        return state["grade_inputs"]
 
     def compose(
         self, dec: Decomposition, light: np.ndarray, outputs: tuple, backdrop: np.ndarray | None, clean: bool = False,

@@ -38,7 +38,7 @@ from ..light import sh
 from ..light.spec import LightSpec
 from ..person.masks import Matter
 from . import people as per_person
-from .compose import Composer, backdrop_of, photo_colours
+from .compose import Composer, GradeSample, backdrop_of, photo_colours
 from .decomposition import Decomposition, ImageLike, Memo, RelightResult, diffuse_batch
 from .face_pass import FacePass, head_crops
 from .factor import Factor
@@ -327,6 +327,10 @@ class Relighter:
         """What the exposure's highlight guard reads of ``dec`` (relight_rt.relight.factor
         ``Factor.highlight_inputs``; the studio's preview samples it)."""
         return self._factor.highlight_inputs(dec)
+
+    def grade_inputs(self, dec: Decomposition) -> GradeSample:
+        """What the backdrop's grade reads of ``dec`` whatever the light (compose ``Composer.grade_inputs``)."""
+        return self._composer.grade_inputs(dec)
 
     def cast_shadows(self, dec: Decomposition, light) -> tuple[np.ndarray | None, float]:
         """The faces' cast shadows the final result puts under ``light`` (any light ``resolve_light`` takes) and the

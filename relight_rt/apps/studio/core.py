@@ -35,7 +35,7 @@ import numpy as np
 
 from ...engine.errors import RelightError
 from ...engine.limits import header_size, shrink
-from ...image.color import REC709, srgb_to_linear
+from ...image.color import REC709
 from ...image.compositing import Background
 from ...image.io import as_colour, decode_bytes, encode_image, read_image, sibling_mask
 from ...light import envmap, presets, sh
@@ -54,7 +54,7 @@ SHADOW_CACHE = 8  # the faces' cast shadows (``Studio.shadow``) kept for this ma
 from ...light import exposure as _exposure  # noqa: E402  (the one exposure rule)
 from ...light.exposure import METER_POWER, Highlight, exposure_scale, guarded, mean_luminance, parse_exposure  # noqa: E402
 from ...light.spec import LightSpec  # noqa: E402  (the one light parser)
-from ...relight.compose import grade_of_sums, shown_mask  # noqa: E402  (the one background grade)
+from ...relight.compose import GradeSample, sampled_grade, shown_mask  # noqa: E402  (the one background grade)
 from ...relight.decomposition import intrinsic_layers  # noqa: E402
 from ...relight.look import SKIN_CHROMA, shaded_skin, skin_chroma  # noqa: E402  (the shaded-skin rule the preview mirrors)
 
@@ -248,6 +248,18 @@ def _highlight_sample(relighter, dec) -> Highlight:
                      None if knee is None else np.ascontiguousarray(knee[::step], np.float32))
 
 
+def _grade_sample(relighter, dec) -> GradeSample:
+    """What the original backdrop's grade reads (relight_rt.relight.compose ``GradeSample``; the relighter's
+    ``grade_inputs``), every ``step``-th pixel, at most EXPOSURE_SAMPLES. A runtime without it gives no pixels (a
+    grade of 1)."""
+    inputs = getattr(relighter, "grade_inputs", None)
+    if inputs is None:
+        return GradeSample(*(np.zeros(s, np.float32) for s in ((0, 3), (0, 3), (0, 9), (0,), (0,), (0, 3))))
+    sample = inputs(dec)
+    step = max(1, math.ceil(sample.weight.shape[0] / EXPOSURE_SAMPLES))
+    return GradeSample(*(np.ascontiguousarray(a[::step], np.float32) for a in sample))
+
+
 def _display_size(h: int, w: int, max_pixels: int) -> tuple[int, int]:
     s = min(1.0, math.sqrt(max_pixels / (h * w)))
     return max(2, round(h * s)), max(2, round(w * s))
@@ -368,10 +380,14 @@ class Studio:
         # the exposure's highlight guard (relight_rt.light.exposure.highlight_factor) on the pixels the final result
         # reads
         lit_h, steady_h, transport_h, allowed, _ = self._highlight = _highlight_sample(self.relighter, dec)
+        # the original backdrop's grade (relight_rt.relight.compose.background_grade) on the pixels it reads
+        grade = self._grade = _grade_sample(self.relighter, dec)
         head = q16.tobytes() + q8.tobytes()
         offset = -(-len(head) // 4) * 4  # float32 planes start 4-byte aligned
         planes = np.concatenate([transport_s.T, albedo_s.T, mask_s[None]]).astype("<f4")
         guard = np.concatenate([lit_h.T, steady_h.T, transport_h.T]).astype("<f4")
+        graded = np.concatenate([grade.lit.T, grade.steady.T, grade.transport.T, grade.weight[None],
+                                 grade.knee[None], grade.own.T]).astype("<f4")
         return {
             "height": size[0],
             "width": size[1],
@@ -383,6 +399,8 @@ class Studio:
             "exposure_samples": int(mask_s.size),
             "exposure_offset": offset,
             "highlight_samples": int(lit_h.shape[0]),
+            "grade_samples": int(grade.weight.shape[0]),
+            "grade_offset": offset + planes.nbytes + guard.nbytes,
             "highlight_offset": offset + planes.nbytes,
             "highlight_allowed": allowed,
             "highlight_limit": _exposure.HIGHLIGHT_LIMIT,
@@ -393,7 +411,7 @@ class Studio:
             "shoulder_samples": _exposure.SHOULDER_SAMPLES,
             "skin_chroma": SKIN_CHROMA,
             "own_white": np.asarray(dec.white_light, np.float64)[:, 0].tolist(),
-            "data": head + bytes(offset - len(head)) + planes.tobytes() + guard.tobytes(),
+            "data": head + bytes(offset - len(head)) + planes.tobytes() + guard.tobytes() + graded.tobytes(),
         }
 
     def preview_light(self, light, exposure="auto", meter: float = 1.0) -> np.ndarray:
@@ -446,17 +464,10 @@ class Studio:
     def preview_grade(self, shown) -> np.ndarray:
         """(3,) the background's grade the page's preview draws for the light it shows (``preview_light``'s) when
         the background follows the light: the final result's rule (relight_rt.relight.compose
-        ``background_grade``) on the highlight sample, the result's picture without stage 2's residual (relit:
-        lit S + steady S / Y(S); own: lit Y(W) + steady, W the photo's own light, white). What sh.js
-        ``backgroundGrade`` computes."""
-        lit_h, steady_h, transport_h = self._highlight[:3]
-        light = np.asarray(shown, np.float32).reshape(9, 3)
-        shading = np.maximum(transport_h @ light, 0)
-        y = np.maximum(shading @ REC709, 1e-4)[:, None]
-        own = np.maximum(transport_h @ np.asarray(self.dec.white_light, np.float32)[:, 0], 0)[:, None]
-        new = srgb_to_linear(np.clip(lit_h * shading + steady_h * shading / y, 0, 1)).sum(axis=0, dtype=np.float64)
-        old = srgb_to_linear(np.clip(lit_h * own + steady_h, 0, 1)).sum(axis=0, dtype=np.float64)
-        return grade_of_sums(new, old, float(lit_h.shape[0]))
+        ``background_grade``) on the pixels it reads, in the network frame (``sampled_grade`` on the relighter's
+        ``grade_inputs``: the person's own colour under the matte, relit without stage 2's residual and rolled off
+        past its knee, against itself). What sh.js ``backgroundGrade`` computes."""
+        return sampled_grade(self._grade, np.asarray(shown, np.float32).reshape(9, 3))
 
     def photo_png(self) -> bytes:
         """The photo as the pipeline reads it (upright, RGB, full resolution) as PNG: the page's "before"."""
@@ -470,7 +481,9 @@ class Studio:
         byte ``exposure_offset``, the exposure sample (``_exposure_sample``) as float32 planes of
         ``exposure_samples`` values: transport 0…8, albedo R, G, B, mask; then, from byte ``highlight_offset``,
         the highlight guard's sample (``_highlight_sample``) as float32 planes of ``highlight_samples`` values:
-        lit R, G, B, steady R, G, B, transport 0…8."""
+        lit R, G, B, steady R, G, B, transport 0…8; then, from byte ``grade_offset``, the background grade's sample
+        (``_grade_sample``) as float32 planes of ``grade_samples`` values: lit R, G, B, steady R, G, B, transport
+        0…8, weight, knee, own R, G, B."""
         return self._layers["data"]
 
     def info(self) -> dict:
@@ -615,14 +628,17 @@ def unpack_layers(data: bytes, meta: dict) -> dict:
     "transport" (9, h, w), "albedo" (3, h, w) premultiplied, "mask" (h, w), "background" (3, h, w),
     "skin_chroma" (3, h, w) in [-1, 1] and "skin" (h, w) (relight_rt.relight.look.skin_chroma), and
     "exposure": {"transport" (n, 9), "albedo" (n, 3), "mask" (n,)}, the exposure sample, and "highlight":
-    {"lit" (m, 3), "steady" (m, 3), "transport" (m, 9)}, the highlight guard's."""
+    {"lit" (m, 3), "steady" (m, 3), "transport" (m, 9)}, the highlight guard's, and "grade": the background
+    grade's ``GradeSample``."""
     h, w = meta["height"], meta["width"]
     n = h * w
     ns, offset = int(meta["exposure_samples"]), int(meta["exposure_offset"])
     nh, hoffset = int(meta["highlight_samples"]), int(meta["highlight_offset"])
-    if offset < 29 * n or hoffset != offset + 52 * ns or len(data) != hoffset + 60 * nh:
-        raise RelightError(f"layers: expected {hoffset + 60 * nh} bytes for {h}x{w}, {ns} and {nh} samples, got "
-                           f"{len(data)}")
+    ng, goffset = int(meta["grade_samples"]), int(meta["grade_offset"])
+    if (min(ns, nh, ng) < 0 or offset < 29 * n or hoffset != offset + 52 * ns or goffset != hoffset + 60 * nh
+            or len(data) != goffset + 80 * ng):
+        raise RelightError(f"layers: expected {goffset + 80 * ng} bytes for {h}x{w}, {ns}, {nh} and {ng} samples, "
+                           f"got {len(data)}")
     q16 = np.frombuffer(data, "<u2", 9 * n).reshape(9, h, w).astype(np.float32)
     off = np.array(meta["transport_offset"], np.float32)[:, None, None]
     scale = np.array(meta["transport_scale"], np.float32)[:, None, None]
@@ -631,8 +647,11 @@ def unpack_layers(data: bytes, meta: dict) -> dict:
     sample = {"transport": planes[:9].T.copy(), "albedo": planes[9:12].T.copy(), "mask": planes[12].copy()}
     guard = np.frombuffer(data, "<f4", 15 * nh, hoffset).reshape(15, nh).astype(np.float32)
     highlight = {"lit": guard[:3].T.copy(), "steady": guard[3:6].T.copy(), "transport": guard[6:].T.copy()}
+    g = np.frombuffer(data, "<f4", 20 * ng, goffset).reshape(20, ng).astype(np.float32)
+    grade = GradeSample(g[:3].T.copy(), g[3:6].T.copy(), g[6:15].T.copy(), g[15].copy(), g[16].copy(), g[17:].T.copy())
     return {"transport": off + q16 * scale, "albedo": eight[:3], "mask": eight[3], "background": eight[4:7],
-            "skin_chroma": 2 * eight[7:10] - 1, "skin": eight[10], "exposure": sample, "highlight": highlight}
+            "skin_chroma": 2 * eight[7:10] - 1, "skin": eight[10], "exposure": sample, "highlight": highlight,
+            "grade": grade}
 
 
 def shadow_plane(answer: dict, height: int, width: int) -> np.ndarray:

@@ -151,3 +151,15 @@ def test_window_origin_matches_the_whole_frame():
     small = CropGeometry.from_mask(blob(40, 40, (10, 30, 10, 30)), 64)
     with pytest.raises(RelightError, match="origin"):
         small.to_crop(net, origin=(1, 1))
+
+
+def test_crop_to_network_is_to_network_of_the_crop_box():
+    """What lies in the crop box, given as the box's array, goes to the network frame as the whole image does; an
+    array of another size is refused."""
+    rng = np.random.default_rng(4)
+    img = rng.random((120, 90, 3)).astype(np.float32)
+    for mode, size in (("quality", 32), ("reference", 64), ("quality", 200)):  # shrinking, equal-ish, enlarging
+        geom = CropGeometry.from_mask(blob(120, 90, (20, 110, 10, 70)), size, mode=mode)
+        np.testing.assert_array_equal(geom.crop_to_network(geom.crop(img)), geom.to_network(img))
+    with pytest.raises(RelightError, match="crop box"):
+        geom.crop_to_network(img)

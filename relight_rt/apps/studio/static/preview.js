@@ -31,6 +31,11 @@ export function decodeLayers(buffer, meta) {
   const nh = meta.highlight_samples;
   const g = new Float32Array(buffer, meta.highlight_offset, 15 * nh);
   const guard = (i) => g.subarray(i * nh, (i + 1) * nh);
+  // the background grade's sample: float32 planes (lit r, g, b, steady r, g, b, transport 0..8, weight, knee,
+  // own r, g, b)
+  const ng = meta.grade_samples;
+  const gr = new Float32Array(buffer, meta.grade_offset, 20 * ng);
+  const graded = (i) => gr.subarray(i * ng, (i + 1) * ng);
   return {
     width: meta.width,
     height: meta.height,
@@ -51,6 +56,14 @@ export function decodeLayers(buffer, meta) {
       lit: [guard(0), guard(1), guard(2)],
       steady: [guard(3), guard(4), guard(5)],
       transport: [6, 7, 8, 9, 10, 11, 12, 13, 14].map(guard),
+    },
+    grade: {
+      lit: [graded(0), graded(1), graded(2)],
+      steady: [graded(3), graded(4), graded(5)],
+      transport: [6, 7, 8, 9, 10, 11, 12, 13, 14].map(graded),
+      weight: graded(15),
+      knee: graded(16),
+      own: [graded(17), graded(18), graded(19)],
     },
   };
 }

@@ -143,28 +143,35 @@ export function exposureScale(layers, light, target, ev, step, power = 1) {
 }
 
 // The background grade of the final result (relight_rt.relight.compose.background_grade: the person's change in
-// light per channel, relit over own, each decoded from sRGB and summed; the backdrop's values times its
-// 1 / gamma power) on the highlight sample, which is the result's picture without stage 2's residual (see
-// highlightFactor): relit lit · S + steady · S / Y(S), own lit · Y(W) + steady with W the shading of the photo's own
-// light, white (ownWhite: its one column of 9; the own sums are kept on `guard`). Returns the gain per channel on
-// the backdrop's values.
-export function backgroundGrade(guard, light, ownWhite, gamma) {
-  const T = guard.transport, lit = guard.lit, steady = guard.steady;
-  const n = lit[0].length;
-  if (!guard.own) {  // the own light's sums, once per sample
-    guard.own = [0, 0, 0];
+// light per channel, relit over own, each decoded from sRGB and summed with the matte's weight; the backdrop's
+// values times its 1 / gamma power) on its sample (relight_rt.relight.compose.sampled_grade): pixel p relit is
+// lit · S + steady · S / Y(S), its brightest channel rolled off past its knee (the highlight shoulder, as
+// shoulderGain), against its own colour (the own sums are kept on `sample`). Returns the gain per channel on the
+// backdrop's values.
+export function backgroundGrade(sample, light, gamma) {
+  const T = sample.transport, lit = sample.lit, steady = sample.steady, w = sample.weight, q = sample.knee;
+  const n = w.length;
+  if (!sample.ownSum) {  // the own colour's sums and the matte's, once per sample
+    sample.ownSum = [0, 0, 0];
+    sample.weightSum = 0;
     for (let p = 0; p < n; p++) {
-      let w = 0;
-      for (let k = 0; k < 9; k++) w += T[k][p] * ownWhite[k];
-      for (let c = 0; c < 3; c++) guard.own[c] += srgbToLinear(lit[c][p] * Math.max(w, 0) + steady[c][p]);
+      for (let c = 0; c < 3; c++) sample.ownSum[c] += w[p] * srgbToLinear(sample.own[c][p]);
+      sample.weightSum += w[p];
     }
   }
-  const was = guard.own, now = [0, 0, 0], S = [0, 0, 0];
+  const was = sample.ownSum, now = [0, 0, 0], S = [0, 0, 0], v = [0, 0, 0];
   for (let p = 0; p < n; p++) {
     const y = shadingAt(T, p, light, S);
-    for (let c = 0; c < 3; c++) now[c] += srgbToLinear(lit[c][p] * S[c] + (steady[c][p] * S[c]) / y);
+    let peak = -Infinity;
+    for (let c = 0; c < 3; c++) {
+      v[c] = Math.max(lit[c][p] * S[c] + (steady[c][p] * S[c]) / y, 0);
+      peak = Math.max(peak, v[c]);
+    }
+    const k = peak > q[p] ? (q[p] + (1 - q[p]) * -Math.expm1(-(peak - q[p]) / (1 - q[p]))) / peak : 1;
+    for (let c = 0; c < 3; c++) now[c] += w[p] * srgbToLinear(v[c] * k);
   }
-  return now.map((v, c) => (was[c] > 1e-6 * Math.max(n, 1) ? Math.pow(v / was[c], 1 / gamma) : 1));
+  const floor = 1e-6 * Math.max(sample.weightSum, 1);
+  return now.map((v, c) => (was[c] > floor ? Math.pow(v / was[c], 1 / gamma) : 1));
 }
 
 // Pixel p's RGB shading max(0, T·L) into S (3 numbers); returns its luminance, at least 1e-4.

@@ -124,7 +124,7 @@ function previewLight(light) {
 function previewGrade(shown) {
   if (!state.info.original_background || !$("grade-background").checked) return [1, 1, 1];
   const meta = state.info.preview;
-  return sh.backgroundGrade(state.layers.highlight, shown, meta.own_white, meta.display_gamma);
+  return sh.backgroundGrade(state.layers.grade, shown, meta.display_gamma);
 }
 
 // ------------------------------------------------------------------------------------------------ drawing
