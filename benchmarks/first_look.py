@@ -56,6 +56,17 @@ def pick(names: list[str], n: int, seed: int) -> list[str]:
     return sorted(random.Random(seed).sample(sorted(names), min(n, len(names))))
 
 
+def picked_photos(people: Path, n: int, seed: int) -> tuple[Path, list[str], dict[str, str]] | None:
+    """The photos folder of ``people``, ``n`` of its photo names drawn by ``seed`` (``pick``) and every name's half
+    (``people_masks_eval.half_of``); None, said on stderr, when the folder is absent."""
+    folder = people / "photos"
+    if not folder.is_dir():
+        print(missing(folder), file=sys.stderr)
+        return None
+    names = [f.stem for f in folder.glob("*.jpg")]
+    return folder, pick(names, n, seed), half_of(names)
+
+
 def read_rgb(path: Path) -> np.ndarray:
     bgr = cv2.imread(str(path), cv2.IMREAD_COLOR)
     if bgr is None:
@@ -200,13 +211,10 @@ def main(argv=None) -> int:
     p.add_argument("--models", type=Path, default=None)
     p.add_argument("--only", default=None, help="comma-separated photo names (of the pick): these only")
     args = p.parse_args(argv)
-    folder = args.people / "photos"
-    if not folder.is_dir():
-        print(missing(folder), file=sys.stderr)
+    found = picked_photos(args.people, args.n, args.seed)
+    if found is None:
         return 2
-    names = [f.stem for f in folder.glob("*.jpg")]
-    halves = half_of(names)
-    chosen = pick(names, args.n, args.seed)
+    folder, chosen, halves = found
     if args.only:
         chosen = [n for n in chosen if n in set(args.only.split(","))]
     args.out.mkdir(parents=True, exist_ok=True)

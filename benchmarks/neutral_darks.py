@@ -17,7 +17,6 @@ browner reads as its material). Prints the mean over the photos per half and lig
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import cv2
@@ -25,9 +24,8 @@ import numpy as np
 from real_photos import LEFT, RIGHT
 
 # isort: split
-from _shared import missing, shared_path
-from first_look import pick, read_rgb
-from people_masks_eval import half_of
+from _shared import shared_path
+from first_look import picked_photos, read_rgb
 
 import relight_rt
 from relight_rt import RuntimeConfig
@@ -60,15 +58,13 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=48)
     ap.add_argument("--models", type=Path, default=None)
     args = ap.parse_args(argv)
-    folder = args.people / "photos"
-    if not folder.is_dir():
-        print(missing(folder), file=sys.stderr)
+    found = picked_photos(args.people, args.n, args.seed)
+    if found is None:
         return 2
-    names = [f.stem for f in folder.glob("*.jpg")]
-    halves = half_of(names)
+    folder, chosen, halves = found
     relighter = relight_rt.open(RuntimeConfig(models=args.models, device="cpu"))
     table: dict = {}
-    for name in pick(names, args.n, args.seed):
+    for name in chosen:
         rgb = read_rgb(folder / f"{name}.jpg")
         dec = relighter.decompose(rgb)
         L = lab(rgb)

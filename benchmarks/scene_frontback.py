@@ -266,6 +266,15 @@ def threshold_rule(name, sign=1):
     return fit
 
 
+#: the feature sets each rule variant (clipped truth, clear maps only) is fitted on
+_FEATURE_SETS = (
+    ["top_bottom", "contrast"],
+    ["top_bottom", "colour_share"],
+    ["top_bottom", "contrast", "colour_share"],
+    ["top_bottom", "log_colour_share"],
+    ["top_bottom", "log_chroma", "log_contrast"],
+)
+
 RULES = {
     "today (score < 0)": lambda train: lambda f: f["score"] < 0,
     "lstsq top_bottom+contrast clip 1 (today's, scene24, fitted)": lstsq_rule(["top_bottom", "contrast"], clip=1.0),
@@ -328,23 +337,11 @@ RULES = {
     **{
         f"lstsq {'+'.join(n)} clip {c}": lstsq_rule(n, clip=c)
         for c in (1.0, 2.0)
-        for n in (
-            ["top_bottom", "contrast"],
-            ["top_bottom", "colour_share"],
-            ["top_bottom", "contrast", "colour_share"],
-            ["top_bottom", "log_colour_share"],
-            ["top_bottom", "log_chroma", "log_contrast"],
-        )
+        for n in _FEATURE_SETS
     },
     **{
         f"lstsq {'+'.join(n)} clear only": lstsq_rule(n, clear_only=True)
-        for n in (
-            ["top_bottom", "contrast"],
-            ["top_bottom", "colour_share"],
-            ["top_bottom", "contrast", "colour_share"],
-            ["top_bottom", "log_colour_share"],
-            ["top_bottom", "log_chroma", "log_contrast"],
-        )
+        for n in _FEATURE_SETS
     },
     "threshold mean_median": threshold_rule("mean_median"),
     "threshold contrast": threshold_rule("contrast"),

@@ -59,19 +59,25 @@ def test_two_steps_end_with_a_contract_graph_a_checkpoint_and_a_log(bank_dir, tm
     assert events[0] == "start" and events.count("step") == 2 and events[-1] == "end"
 
 
-def test_it_starts_from_an_onnx_graph(bank_dir, tmp_path):
+def tiny_graph(path):
+    """A width-4, 64-px stage-1 ONNX graph at ``path`` with its norms away from their defaults, as in a trained graph
+    (the exporter folds them)."""
     from export.networks import Stage1Net
     from export.onnx_export import export_onnx
 
     torch.manual_seed(0)
     net = Stage1Net(width=4, resolution=64, norm="batch")
-    with torch.no_grad():  # norms away from their defaults, as in a trained graph (the exporter folds them)
+    with torch.no_grad():
         for m in net.modules():
             if isinstance(m, torch.nn.BatchNorm2d):
                 m.weight.uniform_(0.5, 1.5)
                 m.bias.uniform_(-0.2, 0.2)
-    init = tmp_path / "init.onnx"
-    export_onnx(net.eval(), init, source="test")
+    export_onnx(net.eval(), path, source="test")
+    return path
+
+
+def test_it_starts_from_an_onnx_graph(bank_dir, tmp_path):
+    init = tiny_graph(tmp_path / "init.onnx")
     out = tmp_path / "run"
     assert main(["gpu-train", "--bank", str(bank_dir), "--out", str(out), "--init", str(init), "--max-steps", "1",
                  *TINY]) == 0
@@ -82,18 +88,7 @@ def test_it_starts_from_an_onnx_graph(bank_dir, tmp_path):
 def test_an_anchored_run_logs_its_term_and_says_so_in_the_graph(bank_dir, tmp_path):
     import onnx
 
-    from export.networks import Stage1Net
-    from export.onnx_export import export_onnx
-
-    torch.manual_seed(0)
-    net = Stage1Net(width=4, resolution=64, norm="batch")
-    with torch.no_grad():  # norms away from their defaults, as in a trained graph (the exporter folds them)
-        for m in net.modules():
-            if isinstance(m, torch.nn.BatchNorm2d):
-                m.weight.uniform_(0.5, 1.5)
-                m.bias.uniform_(-0.2, 0.2)
-    init = tmp_path / "init.onnx"
-    export_onnx(net.eval(), init, source="test")
+    init = tiny_graph(tmp_path / "init.onnx")
     runs = {}
     for weight in ("0", "2"):
         out = tmp_path / f"run{weight}"
