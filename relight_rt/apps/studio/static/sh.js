@@ -167,11 +167,17 @@ export function backgroundGrade(sample, light, gamma) {
       v[c] = Math.max(lit[c][p] * S[c] + (steady[c][p] * S[c]) / y, 0);
       peak = Math.max(peak, v[c]);
     }
-    const k = peak > q[p] ? (q[p] + (1 - q[p]) * -Math.expm1(-(peak - q[p]) / (1 - q[p]))) / peak : 1;
+    const k = shoulderScale(peak, q[p]);
     for (let c = 0; c < 3; c++) now[c] += w[p] * srgbToLinear(v[c] * k);
   }
   const floor = 1e-6 * Math.max(sample.weightSum, 1);
   return now.map((v, c) => (was[c] > floor ? Math.pow(v / was[c], 1 / gamma) : 1));
+}
+
+// The highlight shoulder's scale on a pixel whose brightest channel is `peak` with its knee `knee`
+// (relight_rt.relight.look.shoulder): 1 up to the knee, past it the peak rolled off toward 1, over the peak.
+function shoulderScale(peak, knee) {
+  return peak > knee ? (knee + (1 - knee) * -Math.expm1(-(peak - knee) / (1 - knee))) / peak : 1;
 }
 
 // Pixel p's RGB shading max(0, T·L) into S (3 numbers); returns its luminance, at least 1e-4.
@@ -261,7 +267,7 @@ export function shoulderGain(guard, light, ownWhite, knee, maxUp, power, tol, sa
         peak = Math.max(peak, v);
         lum += LUMA[c] * v;
       }
-      if (peak > q[p]) lum *= (q[p] + (1 - q[p]) * -Math.expm1(-(peak - q[p]) / (1 - q[p]))) / peak;
+      lum *= shoulderScale(peak, q[p]);
       sum += Math.pow(Math.max(lum, 0), power);
     }
     return sum;
