@@ -50,9 +50,8 @@ sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "benchmarks"))
 
 from matte_translucent import translucent_share  # noqa: E402
-from people_masks_eval import data_root, half_of, iou, items, read_mask, read_rgb, whole_image  # noqa: E402
+from people_masks_eval import data_root, half_of, iou, items, matted, read_mask, read_rgb, whole_image  # noqa: E402
 
-from relight_rt import RelightError  # noqa: E402
 from relight_rt.engine.session import Model  # noqa: E402
 from relight_rt.image import matte_edges as E  # noqa: E402
 from relight_rt.person import matting as M  # noqa: E402
@@ -235,13 +234,7 @@ def scores(matter: Callable, listed: list[tuple[str, Path, Path]], soft: dict | 
     """IoU per image; ``soft`` (optional) collects the share of each mask's interior the matte leaves translucent
     (``matte_translucent.translucent_share``)."""
     out = {}
-    for name, img, mask in listed:
-        rgb = read_rgb(img)
-        gt = read_mask(mask, rgb.shape[:2])
-        try:
-            a = matter(rgb, name)
-        except RelightError:
-            a = np.zeros(gt.shape, np.float32)
+    for name, a, gt in matted(matter, listed):
         out[name] = iou(a >= 0.5, gt)
         if soft is not None:
             soft[name] = translucent_share(a, gt)

@@ -24,9 +24,8 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "benchmarks"))
 
-from people_masks_eval import data_root, half_of, items, read_mask, read_rgb  # noqa: E402
+from people_masks_eval import data_root, half_of, items, matted  # noqa: E402
 
-from relight_rt import RelightError  # noqa: E402
 from relight_rt.image.matte_edges import band_width  # noqa: E402
 from relight_rt.person import matting as M  # noqa: E402
 
@@ -57,13 +56,7 @@ def main(argv: list[str] | None = None) -> int:
         listed = [t for t in listed if halves[t[0]] == args.half]
     matter = M.PersonMatter()
     shares = {}
-    for name, img, mask in listed:
-        rgb = read_rgb(img)
-        gt = read_mask(mask, rgb.shape[:2])
-        try:
-            alpha = matter(rgb, name)
-        except RelightError:
-            alpha = np.zeros(gt.shape, np.float32)
+    for name, alpha, gt in matted(matter, listed):
         shares[name] = translucent_share(alpha, gt)
     v = np.array(list(shares.values()))
     worst = sorted(shares, key=shares.get, reverse=True)[:5]

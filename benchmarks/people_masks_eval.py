@@ -119,6 +119,19 @@ def read_mask(path: Path, shape: tuple[int, int]) -> np.ndarray:
     return m >= 128
 
 
+def matted(matter, listed: list[tuple[str, Path, Path]]):
+    """(name, the matte ``matter(rgb, name)``, the reference mask) for each (name, photo, mask) of ``listed``; a
+    photo the matter refuses (``RelightError``) gets an empty matte."""
+    for name, img, mask in listed:
+        rgb = read_rgb(img)
+        gt = read_mask(mask, rgb.shape[:2])
+        try:
+            alpha = matter(rgb, name)
+        except RelightError:
+            alpha = np.zeros(gt.shape, np.float32)
+        yield name, alpha, gt
+
+
 def iou(pred: np.ndarray, gt: np.ndarray) -> float:
     union = (pred | gt).sum()
     return float((pred & gt).sum() / union) if union else 1.0
