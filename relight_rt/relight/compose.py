@@ -17,7 +17,7 @@ from ..light.exposure import DISPLAY_GAMMA, knee
 from .decomposition import Decomposition, Memo, RelightResult, intrinsic_layers, readonly
 from .detail import extend_outward
 from .factor import Factor
-from .look import dark_colour, shoulder, steady_chroma
+from .look import dark_colour, keep_neutral, neutral_darks, shoulder, steady_chroma
 
 _ALPHA_MIN = np.float32(1e-3)
 _SOFT = 1.0 / 255  # a matte value further than this from 0 and 1 is a soft edge (mixes person and background)
@@ -48,6 +48,22 @@ def consistent(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray, bg: np.ndar
     np.copyto(bg, image, where=(alpha <= _SOFT)[..., None])
     np.copyto(fg, image, where=(alpha >= 1 - _SOFT)[..., None])
     return fg, bg
+
+
+def crop_origin(dec: Decomposition) -> tuple[int, int]:
+    """(y, x) of ``dec``'s crop box's top-left pixel in the photo it was cut from (a group's person: the group's)."""
+    return dec.origin[0] + dec.geometry.box[0], dec.origin[1] + dec.geometry.box[2]
+
+
+def photo_crop(dec: Decomposition) -> np.ndarray:
+    """(h, w, 3) the photo itself in ``dec``'s crop box (not the person's colour estimated at a soft edge: what a
+    colour rule reads there is then the same for a group's person and for the person relit alone)."""
+    return np.ascontiguousarray(dec.geometry.crop(dec.image))
+
+
+def solid_crop(dec: Decomposition) -> np.ndarray:
+    """(h, w) bool: where ``dec``'s matte in its crop box is solid (the photo is the person's own colour there)."""
+    return dec.geometry.crop(dec.mask) >= 1 - _SOFT
 
 
 def soft_edge_width(alpha: np.ndarray) -> float:
@@ -327,8 +343,8 @@ class Composer:
         """(h, w, 3) straight (not premultiplied) colour of the relit person inside the crop box.
 
         ``light`` is the (exposed) new light, ``residual`` and ``relit`` stage 2's outputs under it (3, R, R).
-        ``looks``: (``dark_colour``, ``knee``) of the person's own colour, when another's hold them (a group's
-        person: the group's, relight_rt.relight.people); None: found from ``dec`` once.
+        ``looks``: (``dark_colour``, ``knee``, ``neutral_darks``) of the person's own colour, when another's hold
+        them (a group's person: the group's, relight_rt.relight.people); None: found from ``dec`` once.
         """
         geom = dec.geometry
         if not self.detail:
@@ -347,11 +363,14 @@ class Composer:
                 state["dark"] = tuple(readonly(a) for a in dark_colour(image))
             if "knee" not in state:
                 state["knee"] = readonly(knee(image))
-            looks = state["dark"], state["knee"]
+            if "neutral" not in state:  # read-only already
+                state["neutral"] = neutral_darks(photo_crop(dec), crop_origin(dec), solid_crop(dec))
+            looks = state["dark"], state["knee"], state["neutral"]
         colour = steady_chroma(image, gain, looks[0])
         if fill is not None:
             colour[fill[0]] += fill[1]
         np.maximum(colour, 0, out=colour)
+        colour = keep_neutral(colour, gain, looks[2])  # near-neutral darks: no more colour than the photo and light
         return shoulder(colour, looks[1])
 
     def foreground(self, dec: Decomposition, always: bool = False) -> tuple[np.ndarray, np.ndarray]:

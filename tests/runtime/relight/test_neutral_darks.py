@@ -1,0 +1,117 @@
+"""relight.look ``neutral_darks`` / ``keep_neutral``: a near-neutral dark of the photo brightened by a white light
+keeps the photo's chroma; a real colour and a coloured light's tint are left alone."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+
+from relight_rt.image.color import REC709
+from relight_rt.relight.look import keep_neutral, neutral_darks
+
+
+def patch(rgb, size: int = 24, width: int | None = None) -> np.ndarray:
+    """(size, width or size, 3) of one colour."""
+    return np.broadcast_to(np.asarray(rgb, np.float32), (size, width or size, 3)).copy()
+
+
+def lab(rgb: np.ndarray) -> np.ndarray:
+    """Mean CIE Lab (L*, a*, b*) of an image's centre."""
+    h, w = rgb.shape[:2]
+    return cv2.cvtColor(np.clip(rgb, 0, 1).astype(np.float32), cv2.COLOR_RGB2Lab)[h // 4 : -h // 4, w // 4 : -w // 4] \
+        .reshape(-1, 3).mean(0)
+
+
+def chroma(rgb: np.ndarray) -> float:
+    _, a, b = lab(rgb)
+    return float(np.hypot(a, b))
+
+
+def gain_of(colour, brightness: float, size: int = 24) -> np.ndarray:
+    """A gain of the colour ``colour`` (made luminance 1) that brightens by ``brightness``."""
+    c = np.asarray(colour, np.float32)
+    return patch(brightness * c / float(c @ REC709), size)
+
+
+# dark hair photographed under a bluish shade light: L* ~14, C* ~5, the tint a faint blue
+BLUE_GREY = (0.075, 0.085, 0.11)
+
+
+def test_a_near_grey_dark_brightened_by_a_white_light_keeps_the_photos_chroma():
+    image = patch(BLUE_GREY)
+    before = chroma(image)
+    assert before < 6
+    gain = gain_of((1, 1, 1), 4.0)
+    plain = image * gain
+    assert chroma(plain) > before + 6  # the fault: the faint cast grows with the lightness (blue-grey hair)
+    out = keep_neutral(plain, gain, neutral_darks(image))
+    assert lab(out)[0] == pytest.approx(lab(plain)[0], abs=1.0)  # the brightness is the light's
+    assert chroma(out) < before + 1.5
+    # the photo's hue direction stays
+    _, a0, b0 = lab(image)
+    _, a1, b1 = lab(out)
+    turn = np.degrees(abs(np.angle(np.exp(1j * (np.arctan2(b1, a1) - np.arctan2(b0, a0))))))
+    assert turn < 10
+
+
+def test_a_real_colour_is_left_alone():
+    teal = patch((0.02, 0.22, 0.22))  # a teal shirt: C* ~ 25 at L* ~ 25
+    gain = gain_of((1, 1, 1), 3.0)
+    assert neutral_darks(teal) is None
+    np.testing.assert_array_equal(keep_neutral(teal * gain, gain, neutral_darks(teal)), teal * gain)
+
+
+def test_bright_or_dimmed_pixels_and_the_photos_own_light_are_untouched():
+    grey = patch(BLUE_GREY)
+    dark = neutral_darks(grey)
+    for k in (0.5, 1.0, 1.05):  # dimmed, the photo's own light, barely brighter
+        gain = gain_of((1, 1, 1), k)
+        np.testing.assert_allclose(keep_neutral(grey * gain, gain, dark), grey * gain, rtol=1e-6)
+    light = patch((0.6, 0.62, 0.7))  # a pale, light grey: not dark (L* > 45)
+    assert neutral_darks(light) is None
+
+
+def test_a_coloured_light_still_tints_as_its_colour_says():
+    image = patch(BLUE_GREY)
+    dark = neutral_darks(image)
+    warm = (1.0, 0.55, 0.2)  # campfire-like
+    gain_w, gain_c = gain_of((1, 1, 1), 4.0), gain_of(warm, 4.0)
+    white = keep_neutral(image * gain_w, gain_w, dark)
+    coloured = keep_neutral(image * gain_c, gain_c, dark)
+    # what the light's colour alone does to the white light's answer
+    tint = gain_c / (gain_c @ REC709)[..., None]
+    np.testing.assert_allclose(coloured, white * tint, rtol=1e-4, atol=1e-6)
+    _, a, b = lab(coloured)
+    assert b > 20 and a > 0  # orange, as the light
+
+
+def test_a_partly_dark_image_changes_only_its_near_neutral_darks():
+    image = np.concatenate([patch(BLUE_GREY), patch((0.02, 0.22, 0.22)), patch((0.7, 0.5, 0.4))], axis=1)
+    gain = np.concatenate([gain_of((1, 1, 1), 3.0, 24)] * 3, axis=1)
+    out = keep_neutral(image * gain, gain, neutral_darks(image))
+    # the teal and the skin beyond the weight's smoothing (a reduced pixel's sigma: up to ~12 px past the grey)
+    np.testing.assert_array_equal(out[:, 40:], (image * gain)[:, 40:])
+    assert chroma(out[:, :24]) < chroma(image[:, :24]) + 1.5
+    assert keep_neutral(image, gain, None) is image  # nothing near-neutral: the colour as it came
+
+
+def test_shaded_dark_skin_and_a_dark_colours_shaded_folds_keep_their_colour():
+    """Warm darks (shaded dark skin, brown hair) read as their material when brightened, and a dark fold of a
+    coloured cloth is that cloth (its hue reaches a real colour nearby): neither is made more neutral."""
+    skin = patch((0.16, 0.10, 0.07))  # shaded dark skin: L* ~13, C* ~9, hue ~45 degrees
+    _, a, b = lab(skin)
+    assert np.hypot(a, b) < 12 and a > 0 and b > 0
+    gain = gain_of((1, 1, 1), 3.0)
+    assert neutral_darks(skin) is None
+    # blue jeans: a deep fold (C* ~3, 8 px wide) between the lit front's strips (C* ~32)
+    lit, fold = patch((0.05, 0.08, 0.25), 16, 48), patch((0.03, 0.035, 0.06), 16, 8)
+    jeans = np.concatenate([lit, fold, lit], axis=1)
+    _, a, b = lab(fold)
+    assert np.hypot(a, b) < 8
+    gain = np.broadcast_to(gain_of((1, 1, 1), 3.0, 1)[0, 0], jeans.shape).copy()
+    np.testing.assert_allclose(keep_neutral(jeans * gain, gain, neutral_darks(jeans)), jeans * gain, rtol=1e-6)
+    # the same fold with no blue beside it is a near-neutral dark: it keeps its own chroma
+    grey = patch((0.3, 0.3, 0.3), 16, 48)
+    alone = np.concatenate([grey, fold, grey], axis=1)
+    assert not np.allclose(keep_neutral(alone * gain, gain, neutral_darks(alone)), alone * gain, rtol=1e-3)
