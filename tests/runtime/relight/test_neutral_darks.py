@@ -6,9 +6,14 @@ from __future__ import annotations
 import cv2
 import numpy as np
 import pytest
+from _graphs import OWN_LIGHT, diffuse_models_dir
 
+import relight_rt
+from relight_rt.engine.config import RuntimeConfig
 from relight_rt.image.color import REC709
 from relight_rt.relight.look import keep_neutral, neutral_darks
+
+__all__ = ["diffuse_models_dir"]  # fixture
 
 
 def patch(rgb, size: int = 24, width: int | None = None) -> np.ndarray:
@@ -115,3 +120,28 @@ def test_shaded_dark_skin_and_a_dark_colours_shaded_folds_keep_their_colour():
     grey = patch((0.3, 0.3, 0.3), 16, 48)
     alone = np.concatenate([grey, fold, grey], axis=1)
     assert not np.allclose(keep_neutral(alone * gain, gain, neutral_darks(alone)), alone * gain, rtol=1e-3)
+
+
+def test_through_the_relighter_a_near_grey_stays_grey_a_teal_shirt_teal_and_the_own_light_gives_the_photo_back(
+        diffuse_models_dir):
+    """End to end on the analytic graphs (tests/_graphs.py: the photo's own light gives shading 1, a light k times as
+    bright k x the photo): a person half near-grey dark under a bluish photo light, half a dark teal shirt."""
+    r = relight_rt.open(RuntimeConfig(models=diffuse_models_dir, device="cpu"))
+    image = np.zeros((120, 96, 3), np.float32)
+    image[:, :48], image[:, 48:] = BLUE_GREY, (0.02, 0.22, 0.22)
+    mask = np.zeros((120, 96), np.float32)
+    mask[8:112, 8:88] = 1
+    dec = r.decompose(image, mask)
+    grey, teal = (slice(30, 90), slice(16, 36)), (slice(30, 90), slice(62, 80))
+    # the photo's own light: the photo back, every pixel
+    np.testing.assert_allclose(r.relight(dec, OWN_LIGHT, exposure="physical"), image, atol=1e-5)
+    # a white light 3x as bright: the grey as grey as the photo (3x the photo would be visibly blue), teal 3x
+    out = r.relight(dec, 3 * OWN_LIGHT, exposure="physical")
+    assert chroma(3 * image[grey]) > chroma(image[grey]) + 6
+    assert chroma(out[grey]) < chroma(image[grey]) + 1.5
+    assert lab(out[grey])[0] == pytest.approx(lab(3 * image[grey])[0], abs=1.0)
+    np.testing.assert_allclose(out[teal], 3 * image[teal], atol=1e-5)
+    # a campfire-coloured light as bright: grey hair turns orange, as the light says
+    warm = np.asarray((1.0, 0.55, 0.2), np.float32)
+    _, a, b = lab(r.relight(dec, 3 * OWN_LIGHT * (warm / float(warm @ REC709)), exposure="physical")[grey])
+    assert b > 20 and a > 0
