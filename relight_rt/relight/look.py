@@ -40,8 +40,9 @@ _GREY_SECTORS = 12  # ... its hue: one of this many sectors of a*, b*, or either
 _GREY_HUE_C = 4.0  # ... a pixel below this C* taking its neighbourhood's hue
 _GREY_WARM = (10.0, 100.0)  # ... and a warm hue (Lab hue angle, degrees) is left alone: skin, brown hair, wood ...
 _GREY_WARM_SOFT = 10.0  # ... fully from this many degrees inside those bounds
-_GREY_LIFT = (1.1, 1.5)  # ... relit brighter than the photo by less than the first: untouched, from the second: fully
-_LAB_CHROMA_EXP = np.float32(2.2 / 3)  # C* ~ (chroma relative to luminance) x Y_linear^(1/3), Y_linear ~ y^2.2
+NEUTRAL_LIFT = (1.1, 1.5)  # ... relit brighter than the photo by less than the first: untouched, from the second: fully
+NEUTRAL_CHROMA_EXP = np.float32(2.2 / 3)  # C* ~ (chroma relative to luminance) x Y_linear^(1/3), Y_linear ~ y^2.2
+# (both public: the studio's preview grade applies the rule with them, sh.js neutralStep)
 _TINT_LIT = 0.05  # tint_range: the normals a light gives at least this share of its brightest irradiance
 SKIN_CHROMA = 0.5  # shaded_skin: skin a new light darkens by r keeps its chroma x r**this (a grey dimming: x r)
 _SKIN_SIGMA = 1.5  # ... the skin's colour taken over this many network pixels
@@ -285,14 +286,9 @@ def neutral_darks(image: np.ndarray, origin: tuple[int, int] = (0, 0), solid: np
     index = np.flatnonzero(weight > 1e-3)
     if index.size == 0:
         return None
-    p = np.take(image.reshape(-1, 3), index, axis=0).T  # (3, k)
-    y = _luminance(p)
-    relative = (p - y) / np.maximum(y, 1e-3)
-    size = np.maximum(np.sqrt(np.einsum("ij,ij->j", relative, relative)), 1e-6)
-    index = index * 3 + np.arange(3)[:, None]
+    relative, size, y = neutral_chroma(np.take(image.reshape(-1, 3), index, axis=0).T)  # (3, k)
     return NeutralDarks(*(readonly(np.ascontiguousarray(a)) for a in (
-        index, weight[index[0] // 3].astype(np.float32), relative.astype(np.float32), size.astype(np.float32),
-        np.maximum(y, 1e-6).astype(np.float32))))
+        index * 3 + np.arange(3)[:, None], weight[index].astype(np.float32), relative, size, y)))
 
 
 def keep_neutral(colour: np.ndarray, gain: np.ndarray, neutral: NeutralDarks | None) -> np.ndarray:
@@ -305,10 +301,10 @@ def keep_neutral(colour: np.ndarray, gain: np.ndarray, neutral: NeutralDarks | N
     dark hair came out blue-grey or violet (the first look's p264, p272, p287), though a white light changes
     brightness, not colour. Here Q, the relit colour, is taken without the light's colour t (``gain`` at luminance
     1, per pixel), at its luminance Y'; its chroma relative to Y' keeps the pixel's own direction c (the photo's,
-    ``neutral_darks``) and at most s |c|, s = (Y / Y')^_LAB_CHROMA_EXP capped at 1 (the photo's C* at the new
+    ``neutral_darks``) and at most s |c|, s = (Y / Y')^NEUTRAL_CHROMA_EXP capped at 1 (the photo's C* at the new
     lightness), nor more than Q had (what the dark rules and the fill left):
     Q -> t Y' (1 + c min(s, |Q / t / Y' - 1| / |c|)), blended by the near-neutral weight and by how much brighter
-    Y' is than Y (none below ``_GREY_LIFT[0]`` x, all from ``_GREY_LIFT[1]`` x: the photo's own light still gives
+    Y' is than Y (none below ``NEUTRAL_LIFT[0]`` x, all from ``NEUTRAL_LIFT[1]`` x: the photo's own light still gives
     the photo back). The light's colour stays: campfire tints grey hair orange, a cool window leaves it cool, a
     white lamp as grey as the photo had it. A real colour (C* past ``_GREY_C[1]``: a teal shirt, skin) is left
     alone. ``gain``: (h, w, 3) the factor the colour was relit by; ``neutral``: ``neutral_darks`` of the photo
@@ -316,33 +312,53 @@ def keep_neutral(colour: np.ndarray, gain: np.ndarray, neutral: NeutralDarks | N
     """
     if neutral is None:
         return colour
-    index, n, c, size, y0 = neutral
-    q = np.take(colour.reshape(-1), index)  # (3, k)
+    q = np.take(colour.reshape(-1), neutral.index)  # (3, k)
+    step = neutral_values(q, np.take(gain.reshape(-1), neutral.index), *neutral[1:])
+    if step is None:
+        return colour
+    out = colour.copy()
+    out.reshape(-1)[neutral.index] = step
+    return out
+
+
+def neutral_values(q: np.ndarray, g: np.ndarray, n: np.ndarray, c: np.ndarray, size: np.ndarray, y0: np.ndarray
+                   ) -> np.ndarray | None:
+    """``keep_neutral``'s step on k pixels, channel by channel: the relit colour ``q`` (3, k), the gain ``g`` (3, k)
+    it was relit by (only its colour counts: the light's), and the photo's ``NeutralDarks`` fields there (weight
+    ``n`` (k,), relative chroma ``c`` (3, k), its length ``size`` (k,), luminance ``y0`` (k,)); a new (3, k) float32
+    array (``g`` is used as scratch), or None when the light brightens none of them. The studio's background grade
+    applies it to its sample (relight_rt.relight.compose ``sampled_grade``; sh.js ``neutralStep`` the same)."""
     # only what the light brightens can change (a white light: Y(Q) is Y'; a coloured one, of luminance 1, about it)
     lit = _luminance(q) > y0
     if not lit.any():
-        return colour
-    g = np.take(gain.reshape(-1), index)
+        return None
     g_lum = _luminance(g)
     tint = np.divide(g, g_lum, out=np.ones_like(g), where=(g_lum > 1e-4) & (g > 1e-4))
     white = q / tint  # the relit colour as a white light of the gain's brightness would give it
     y1 = np.maximum(_luminance(white), 1e-6)
     off = np.divide(white, y1, out=white)
     off -= 1
-    keep = np.minimum(np.minimum((y0 / y1) ** _LAB_CHROMA_EXP, 1), np.sqrt(np.einsum("ij,ij->j", off, off)) / size)
-    blend = np.clip((y1 / y0 - _GREY_LIFT[0]) / (_GREY_LIFT[1] - _GREY_LIFT[0]), 0, 1)
+    keep = np.minimum(np.minimum((y0 / y1) ** NEUTRAL_CHROMA_EXP, 1), np.sqrt(np.einsum("ij,ij->j", off, off)) / size)
+    blend = np.clip((y1 / y0 - NEUTRAL_LIFT[0]) / (NEUTRAL_LIFT[1] - NEUTRAL_LIFT[0]), 0, 1)
     blend *= n
     blend *= lit
     blend *= y1
     # Q + blend (t Y' (1 + c keep) - Q), with Q = t Y' (1 + off)
-    step = np.multiply(c, keep, out=g)
+    step = np.multiply(c, keep, out=g if g.dtype == np.float32 and g.flags.writeable else None)
     step -= off
     step *= tint
     step *= blend
     step += q
-    out = colour.copy()
-    out.reshape(-1)[index] = step
-    return out
+    return step
+
+
+def neutral_chroma(colour: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``NeutralDarks``' chroma, its length and luminance of (3, k) colours: (P - Y) / Y (Y floored at 1e-3), its
+    length (at least 1e-6), Y (at least 1e-6), float32."""
+    y = _luminance(colour)
+    relative = (colour - y) / np.maximum(y, 1e-3)
+    size = np.maximum(np.sqrt(np.einsum("ij,ij->j", relative, relative)), 1e-6)
+    return relative.astype(np.float32), size.astype(np.float32), np.maximum(y, 1e-6).astype(np.float32)
 
 
 def _luminance(rgb: np.ndarray) -> np.ndarray:
