@@ -250,7 +250,12 @@ def neutral_darks(image: np.ndarray, origin: tuple[int, int] = (0, 0), solid: np
     oy, ox = origin[0] % _NEUTRAL_STEP, origin[1] % _NEUTRAL_STEP
     grid = cv2.copyMakeBorder(np.clip(image, 0, 1), oy, 0, ox, 0, cv2.BORDER_REPLICATE)
     gh, gw = grid.shape[:2]
-    small = cv2.resize(grid, (max(gw // _NEUTRAL_STEP, 1), max(gh // _NEUTRAL_STEP, 1)), interpolation=cv2.INTER_AREA)
+    sh, sw = max(gh // _NEUTRAL_STEP, 1), max(gw // _NEUTRAL_STEP, 1)
+    # whole blocks only: INTER_AREA to a size that is not a 1 / _NEUTRAL_STEP of the input spreads its blocks over the
+    # photo, a window of another size then reads another grid (the rows and columns past the last block take its
+    # values, the edge padding below)
+    grid = grid[: sh * _NEUTRAL_STEP, : sw * _NEUTRAL_STEP]
+    small = cv2.resize(grid, (sw, sh), interpolation=cv2.INTER_AREA)
     lab = _lab(small)
     ramp = lambda v, lo, hi: np.clip((hi - v) / (hi - lo), 0, 1)  # noqa: E731 - 1 below lo, 0 above hi
     chroma = np.hypot(lab[..., 1], lab[..., 2])

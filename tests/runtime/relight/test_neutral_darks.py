@@ -145,3 +145,29 @@ def test_through_the_relighter_a_near_grey_stays_grey_a_teal_shirt_teal_and_the_
     warm = np.asarray((1.0, 0.55, 0.2), np.float32)
     _, a, b = lab(r.relight(dec, 3 * OWN_LIGHT * (warm / float(warm @ REC709)), exposure="physical")[grey])
     assert b > 20 and a > 0
+
+
+def test_a_window_of_the_photo_reads_the_photos_reduction_grid():
+    """A group's person (a window of the photo at ``origin``, of any size) finds the weights the photo finds there:
+    the reduction averages the photo's own blocks of ``_NEUTRAL_STEP`` pixels, whatever the window's size (an
+    INTER_AREA resize to a size that is not a whole number of blocks spreads them, and moved the weight by up to 0.6
+    on real photos). Compared away from the window's edges, which see less of the neighbourhood."""
+    rng = np.random.default_rng(3)
+    tiles = rng.choice(np.asarray([BLUE_GREY, (0.02, 0.22, 0.22), (0.05, 0.05, 0.07), (0.2, 0.2, 0.22),
+                                   (0.16, 0.10, 0.07)], np.float32), size=(9, 13))
+    image = cv2.resize(tiles, (13 * 23, 9 * 23), interpolation=cv2.INTER_LINEAR)  # 207 x 299: no whole blocks
+    image = np.clip(image + rng.normal(0, 0.004, image.shape).astype(np.float32), 0, 1)
+
+    def weights(img, origin=(0, 0)):
+        found = neutral_darks(img, origin)
+        out = np.zeros(img.shape[0] * img.shape[1], np.float32)
+        out[found.index[0] // 3] = found.weight
+        return out.reshape(img.shape[:2])
+
+    whole = weights(image)
+    assert (whole > 0.9).mean() > 0.1 and (whole < 0.1).mean() > 0.1
+    m = 90  # past the hue's blur, the material's reach and the weight's smoothing, in photo pixels
+    for y0, x0, y1, x1 in ((5, 9, 205, 296), (6, 3, 203, 298), (1, 2, 207, 299)):
+        part = weights(image[y0:y1, x0:x1], (y0, x0))
+        np.testing.assert_allclose(part[m - y0 : y1 - y0 - m, m - x0 : x1 - x0 - m], whole[m:y1 - m, m:x1 - m],
+                                   atol=1e-5)
