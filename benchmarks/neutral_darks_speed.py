@@ -10,6 +10,9 @@ relight of a new Decomposition (three made; what is computed once per Decomposit
 checkout has the rule, also ``keep_neutral`` alone on the colour and gain each light gave it, and ``neutral_darks``
 alone. Run it with another checkout's code (``cd OTHER && PYTHONPATH=$PWD python PATH/TO/neutral_darks_speed.py``)
 to compare, alternately: the script reads only the public API and, where present, the rule's functions.
+``--clip``: instead, the reference clip's frames (../shared/reference/video, each frame its own Decomposition, as a
+video's are): per frame the first relight's wall time and, where the checkout has the rule, ``neutral_darks``'s
+within it (what a video pays for the rule once a frame).
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ from real_photos import LEFT, RIGHT
 from _shared import missing, shared_path
 
 REFERENCE = shared_path("reference", "photo")
+CLIP = shared_path("reference", "video")
 
 
 def best(fn, repeats: int, clock=time.perf_counter) -> float:
@@ -43,7 +47,11 @@ def main() -> None:
     p.add_argument("mask", nargs="?", default=str(REFERENCE / "sample_mask.png"))
     p.add_argument("--repeats", type=int, default=15)
     p.add_argument("--models", default=None)
+    p.add_argument("--clip", action="store_true", help="time the reference clip's frames instead (module docstring)")
     args = p.parse_args()
+    if args.clip:
+        clip(args.models)
+        return
     for path in (Path(args.photo), Path(args.mask)):
         if not path.is_file():
             raise SystemExit(missing(path))
@@ -87,6 +95,43 @@ def main() -> None:
 
         crop = compose.photo_crop(dec), compose.crop_origin(dec), compose.solid_crop(dec)
         print(f"neutral_darks alone (once per Decomposition): best {best(lambda: neutral_darks(*crop), 5):.1f} ms")
+
+
+def clip(models: str | None, count: int = 6) -> None:
+    """``--clip``: the first ``count`` frames of the reference clip decomposed as one batch (as the video job does),
+    each relit once under studio."""
+    import numpy as np
+
+    import relight_rt
+    from relight_rt import RuntimeConfig, lights
+    from relight_rt.image.io import read_image, read_mask
+    from relight_rt.relight import compose
+
+    frames = sorted(p for p in CLIP.glob("frame_*.png") if not p.stem.endswith("_mask"))[:count]
+    if not frames:
+        raise SystemExit(missing(CLIP))
+    r = relight_rt.open(RuntimeConfig(models=models, device="cpu"))
+    images = [read_image(str(f)) for f in frames]
+    masks = [read_mask(str(f.with_name(f.stem + "_mask.png")), images[0].shape[:2]) for f in frames]
+    found = getattr(compose, "neutral_darks", None)
+    spent: list[float] = []
+    if found is not None:  # the rule's once-a-Decomposition step, timed where the composer calls it
+        def timed(*a, **k):
+            t = time.perf_counter()
+            out = found(*a, **k)
+            spent.append(1000 * (time.perf_counter() - t))
+            return out
+        compose.neutral_darks = timed
+    relit = []
+    for dec in r.decompose_batch(images, masks, allow_full=True):
+        t = time.perf_counter()
+        r.relight(dec, lights.preset("studio"))
+        relit.append(1000 * (time.perf_counter() - t))
+    h, w = images[0].shape[:2]
+    line = f"reference clip, {len(frames)} frames of {w}x{h}: first relight a frame {np.round(relit).astype(int)} ms"
+    if spent:
+        line += f", of which neutral_darks {np.round(spent, 1)} ms"
+    print(line)
 
 
 if __name__ == "__main__":
