@@ -311,7 +311,8 @@ def keep_neutral(colour: np.ndarray, gain: np.ndarray, neutral: NeutralDarks | N
     Q -> t Y' (1 + c min(s, |Q / t / Y' - 1| / |c|)), blended by the near-neutral weight and by how much brighter
     Y' is than Y (none below ``NEUTRAL_LIFT[0]`` x, all from ``NEUTRAL_LIFT[1]`` x: the photo's own light still gives
     the photo back). The light's colour stays: campfire tints grey hair orange, a cool window leaves it cool, a
-    white lamp as grey as the photo had it. A real colour (C* past ``_GREY_C[1]``: a teal shirt, skin) is left
+    white lamp as grey as the photo had it, and where ``gain`` has none of a channel (1e-4 or less: a pure cyan
+    lamp) the pixel is left as it came. A real colour (C* past ``_GREY_C[1]``: a teal shirt, skin) is left
     alone. ``gain``: (h, w, 3) the factor the colour was relit by; ``neutral``: ``neutral_darks`` of the photo
     (None: nothing to do). Only the k pixels ``neutral`` names are read and written, channel by channel in float32.
     """
@@ -331,10 +332,14 @@ def neutral_values(q: np.ndarray, g: np.ndarray, n: np.ndarray, c: np.ndarray, s
     """``keep_neutral``'s step on k pixels, channel by channel: the relit colour ``q`` (3, k), the gain ``g`` (3, k)
     it was relit by (only its colour counts: the light's), and the photo's ``NeutralDarks`` fields there (weight
     ``n`` (k,), relative chroma ``c`` (3, k), its length ``size`` (k,), luminance ``y0`` (k,)); a new (3, k) float32
-    array (``g`` is used as scratch), or None when the light brightens none of them. The studio's background grade
+    array (``g`` is used as scratch), or None when the light brightens none of them (a pixel whose gain has a channel
+    at or below 1e-4 is left as it came: a pure-coloured light). The studio's background grade
     applies it to its sample (relight_rt.relight.compose ``sampled_grade``; sh.js ``neutralStep`` the same)."""
     # only what the light brightens can change (a white light: Y(Q) is Y'; a coloured one, of luminance 1, about it)
     lit = _luminance(q) > y0
+    # ... and only under a gain with some of every channel: where a light gives none of one (a pure cyan lamp), the
+    # colour a white light would give is not known there (the tint's fallback of 1 put red into a cyan-lit dark)
+    lit &= (g > 1e-4).all(axis=0)
     if not lit.any():
         return None
     g_lum = _luminance(g)

@@ -91,6 +91,16 @@ def test_a_coloured_light_still_tints_as_its_colour_says():
     assert b > 20 and a > 0  # orange, as the light
 
 
+@pytest.mark.parametrize("colour", [(0.0, 1.0, 1.0), (1.0, 0.0, 0.0), (1.0, 1.0, 0.0)])
+def test_a_light_without_one_channel_is_left_to_give_its_own_colour(colour):
+    """A pure cyan (red, yellow) lamp gives a dark none of one channel: the rule leaves the pixel as the light gives
+    it (before, the missing channel's tint fell back to 1 and a cyan-lit grey dark got a red of 0.2)."""
+    image = patch(BLUE_GREY)
+    gain = patch(8 * np.asarray(colour, np.float32))
+    plain = image * gain
+    np.testing.assert_array_equal(keep_neutral(plain, gain, neutral_darks(image)), plain)
+
+
 def test_a_partly_dark_image_changes_only_its_near_neutral_darks():
     image = np.concatenate([patch(BLUE_GREY), patch((0.02, 0.22, 0.22)), patch((0.7, 0.5, 0.4))], axis=1)
     gain = np.concatenate([gain_of((1, 1, 1), 3.0, 24)] * 3, axis=1)

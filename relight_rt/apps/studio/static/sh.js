@@ -183,6 +183,7 @@ function neutralStep(sample, p, v, S) {
   const r = own[0][p], g = own[1][p], b = own[2][p];
   const yOwn = LUMA[0] * r + LUMA[1] * g + LUMA[2] * b, y0 = Math.max(yOwn, 1e-6);
   if (!(LUMA[0] * v[0] + LUMA[1] * v[1] + LUMA[2] * v[2] > y0)) return;  // only what the light brightens
+  if (!(S[0] > 1e-4 && S[1] > 1e-4 && S[2] > 1e-4)) return;  // ... with some of every channel
   const d = Math.max(yOwn, 1e-3), c0 = (r - yOwn) / d, c1 = (g - yOwn) / d, c2 = (b - yOwn) / d;
   const size = Math.max(Math.sqrt(c0 * c0 + c1 * c1 + c2 * c2), 1e-6);
   const gl = LUMA[0] * S[0] + LUMA[1] * S[1] + LUMA[2] * S[2];
