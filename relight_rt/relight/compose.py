@@ -17,7 +17,16 @@ from ..light.exposure import DISPLAY_GAMMA, knee
 from .decomposition import Decomposition, Memo, RelightResult, intrinsic_layers, readonly
 from .detail import extend_outward
 from .factor import Factor
-from .look import dark_colour, shoulder, steady_chroma
+from .look import (
+    NeutralDarks,
+    dark_colour,
+    keep_neutral,
+    neutral_chroma,
+    neutral_darks,
+    neutral_values,
+    shoulder,
+    steady_chroma,
+)
 
 _ALPHA_MIN = np.float32(1e-3)
 _SOFT = 1.0 / 255  # a matte value further than this from 0 and 1 is a soft edge (mixes person and background)
@@ -48,6 +57,22 @@ def consistent(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray, bg: np.ndar
     np.copyto(bg, image, where=(alpha <= _SOFT)[..., None])
     np.copyto(fg, image, where=(alpha >= 1 - _SOFT)[..., None])
     return fg, bg
+
+
+def crop_origin(dec: Decomposition) -> tuple[int, int]:
+    """(y, x) of ``dec``'s crop box's top-left pixel in the photo it was cut from (a group's person: the group's)."""
+    return dec.origin[0] + dec.geometry.box[0], dec.origin[1] + dec.geometry.box[2]
+
+
+def photo_crop(dec: Decomposition) -> np.ndarray:
+    """(h, w, 3) the photo itself in ``dec``'s crop box (not the person's colour estimated at a soft edge: what a
+    colour rule reads there is then the same for a group's person and for the person relit alone)."""
+    return np.ascontiguousarray(dec.geometry.crop(dec.image))
+
+
+def solid_crop(dec: Decomposition) -> np.ndarray:
+    """(h, w) bool: where ``dec``'s matte in its crop box is solid (the photo is the person's own colour there)."""
+    return dec.geometry.crop(dec.mask) >= 1 - _SOFT
 
 
 def soft_edge_width(alpha: np.ndarray) -> float:
@@ -138,7 +163,8 @@ class GradeSample(NamedTuple):
     """What ``background_grade`` reads of a relit person whatever the light, on the network frame's pixels under the
     matte (``Composer.grade_inputs``; the studio's preview grades with it, ``sampled_grade``). Under a light with RGB
     shading S = max(0, T·light) and luminance Y(S) a pixel's relit colour is ``lit * S + steady * S / Y(S)``, rolled
-    off past its ``knee`` (relight_rt.relight.look ``shoulder``), as ``Composer.person_colour`` makes it.
+    off past its ``knee`` (relight_rt.relight.look ``shoulder``), as ``Composer.person_colour`` makes it, and where
+    the photo is a near-neutral dark (``neutral``) its chroma kept as ``look.keep_neutral`` keeps it before that.
 
     Attributes:
         lit: (N, 3) float32, the colour per unit of shading that scales with the light.
@@ -147,6 +173,8 @@ class GradeSample(NamedTuple):
         weight: (N,) float32, the matte over the pixel (its area mean).
         knee: (N,) float32, where the shoulder starts (inf: nowhere).
         own: (N, 3) float32, the person's own colour (``Composer.foreground``'s, the matte's mean over the pixel).
+        neutral: (N,) float32, the near-neutral darks' weight (``look.neutral_darks``, the matte's mean over the
+            pixel; 0: none).
     """
 
     lit: np.ndarray
@@ -155,6 +183,7 @@ class GradeSample(NamedTuple):
     weight: np.ndarray
     knee: np.ndarray
     own: np.ndarray
+    neutral: np.ndarray
 
 
 def sampled_grade(sample: GradeSample, light: np.ndarray) -> np.ndarray:
@@ -162,7 +191,14 @@ def sampled_grade(sample: GradeSample, light: np.ndarray) -> np.ndarray:
     and the own colour decoded from sRGB, summed with the matte's weight, G ** (1 / DISPLAY_GAMMA)."""
     shading = np.maximum(sample.transport @ np.asarray(light, np.float32).reshape(9, 3), 0)
     y = np.maximum(shading @ REC709.astype(np.float32), 1e-4)[:, None]
-    colour = shoulder(np.maximum(sample.lit * shading + sample.steady * shading / y, 0), sample.knee)
+    colour = np.maximum(sample.lit * shading + sample.steady * shading / y, 0)
+    near = np.flatnonzero(sample.neutral > 0)
+    if near.size:  # the near-neutral darks' chroma, on the own colour's (the photo's where the matte is solid)
+        step = neutral_values(np.ascontiguousarray(colour[near].T), np.ascontiguousarray(shading[near].T),
+                              sample.neutral[near], *neutral_chroma(np.ascontiguousarray(sample.own[near].T)))
+        if step is not None:
+            colour[near] = step.T
+    colour = shoulder(colour, sample.knee)
     w = sample.weight[:, None]
     new = (srgb_to_linear(np.clip(colour, 0, 1)) * w).sum(axis=0, dtype=np.float64)
     old = (srgb_to_linear(np.clip(sample.own, 0, 1)) * w).sum(axis=0, dtype=np.float64)
@@ -327,8 +363,8 @@ class Composer:
         """(h, w, 3) straight (not premultiplied) colour of the relit person inside the crop box.
 
         ``light`` is the (exposed) new light, ``residual`` and ``relit`` stage 2's outputs under it (3, R, R).
-        ``looks``: (``dark_colour``, ``knee``) of the person's own colour, when another's hold them (a group's
-        person: the group's, relight_rt.relight.people); None: found from ``dec`` once.
+        ``looks``: (``dark_colour``, ``knee``, ``neutral_darks``) of the person's own colour, when another's hold
+        them (a group's person: the group's, relight_rt.relight.people); None: found from ``dec`` once.
         """
         geom = dec.geometry
         if not self.detail:
@@ -347,11 +383,12 @@ class Composer:
                 state["dark"] = tuple(readonly(a) for a in dark_colour(image))
             if "knee" not in state:
                 state["knee"] = readonly(knee(image))
-            looks = state["dark"], state["knee"]
+            looks = state["dark"], state["knee"], self.neutral(dec)
         colour = steady_chroma(image, gain, looks[0])
         if fill is not None:
             colour[fill[0]] += fill[1]
         np.maximum(colour, 0, out=colour)
+        colour = keep_neutral(colour, gain, looks[2])  # near-neutral darks: no more colour than the photo and light
         return shoulder(colour, looks[1])
 
     def foreground(self, dec: Decomposition, always: bool = False) -> tuple[np.ndarray, np.ndarray]:
@@ -365,6 +402,13 @@ class Composer:
         if key not in state:
             state[key] = own_colours(dec, always)
         return state[key]
+
+    def neutral(self, dec: Decomposition) -> NeutralDarks | None:
+        """``look.neutral_darks`` of the photo in ``dec``'s crop box on its solid matte, once per Decomposition."""
+        state = self.memo(dec)
+        if "neutral" not in state:  # read-only already
+            state["neutral"] = neutral_darks(photo_crop(dec), crop_origin(dec), solid_crop(dec))
+        return state["neutral"]
 
     def own_light(self, dec: Decomposition) -> tuple[np.ndarray, float]:
         """``own_light_sum`` of ``dec``'s own colour over its matte in the crop box, found once per Decomposition."""
@@ -385,7 +429,11 @@ class Composer:
         if "grade_inputs" not in state:
             geom = dec.geometry
             alpha = geom.crop(dec.mask)[..., None]
-            net = geom.crop_to_network(np.concatenate([self.foreground(dec)[0] * alpha, alpha], axis=2))
+            near = np.zeros(alpha.shape, np.float32)  # the near-neutral darks' weight (``neutral``), with detail
+            neutral = self.neutral(dec) if self.detail else None
+            if neutral is not None:
+                near.reshape(-1)[neutral.index[0] // 3] = neutral.weight
+            net = geom.crop_to_network(np.concatenate([self.foreground(dec)[0] * alpha, alpha, near * alpha], axis=2))
             if self.detail:
                 own = self.factor.own(dec, with_residual=False)
                 y0, y1, x0, x1 = own["window"]
@@ -407,11 +455,12 @@ class Composer:
             keep = weight > _ALPHA_MIN
             w = weight[keep]
             colour = net[..., :3][keep] / w[:, None]
+            near = net[..., 4][keep] / w
             lit = colour * scale[keep] if self.detail else scale[keep]
             steady = colour * stays[keep] if self.detail else np.zeros_like(lit)
             peak = knee(colour) if self.detail else np.full(w.shape, np.inf, np.float32)
             state["grade_inputs"] = GradeSample(*(readonly(np.ascontiguousarray(a, np.float32)) for a in (
-                lit, steady, transport[keep], w, peak, colour)))
+                lit, steady, transport[keep], w, peak, colour, near)))
         return state["grade_inputs"]
 
     def compose(

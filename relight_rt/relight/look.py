@@ -1,7 +1,8 @@
 """The look of a relit photo: how its colours and highlights behave, whatever produced the relighting factor.
 
 The highlight shoulder (``knee``, ``shoulder``), the colour of dark pixels a strong gain brightens
-(``dark_colour``, ``steady_chroma``), the colour range a light can give (``tint_range``), and the chroma shaded
+(``dark_colour``, ``steady_chroma``), the chroma of near-neutral darks a light brightens (``neutral_darks``,
+``keep_neutral``), the colour range a light can give (``tint_range``), and the chroma shaded
 skin keeps (``shaded_skin``, ``skin_chroma``; the studio's preview applies the same rule with ``SKIN_CHROMA``).
 Plain functions of arrays: no model, no state.
 """
@@ -9,6 +10,7 @@ Plain functions of arrays: no model, no state.
 from __future__ import annotations
 
 import threading
+from typing import NamedTuple
 
 import cv2
 import numpy as np
@@ -17,6 +19,7 @@ from ..image.color import REC709, channel_max
 from ..light import sh
 from ..light.exposure import knee as knee  # the public name here (the one definition sits in light.exposure)
 from ..light.exposure import rolled_off
+from .decomposition import readonly
 
 _DARK = np.float32(0.25)  # steady_chroma: a pixel below this luminance, brightened by a gain, takes its dark
 _AMPLIFIED = np.float32(2.0)  # ... neighbours' colour, fully from a gain of 1 + this,
@@ -27,6 +30,19 @@ _NEUTRAL_A = (-4.0, -1.0)  # ... with a green-cyan cast: a* below the first, non
 _NEUTRAL_HUE = (0.4, 0.7)  # ... or a faint one by its direction: -a* / C* above the second, none below the first
 _NEUTRAL_STEP = 4  # ... measured on the photo reduced this many times (a cloth's cast is shared by its pixels)
 _NEUTRAL_PULL = np.float32(2.0)  # ... and pulled toward grey this many times as readily as a dark pixel's colour
+_GREY_L = (35.0, 45.0)  # neutral_darks: a pixel of Lab L* below the first is dark, from the second not ...
+_GREY_C = (8.0, 12.0)  # ... and near-neutral when its chroma C* is below the first, from the second not ...
+_GREY_NOISE = 4.0  # ... the mean of its pixels' own C* less this (JPEG's chroma noise) counting as well ...
+_GREY_VIVID = (0.3, 0.4)  # ... and its pixels' C* / (L* + 16) below the first (none from the second) ...
+_GREY_MATERIAL = (14.0, 20.0)  # ... unless its hue nearby reaches this C* (from the first less, none from the second):
+_GREY_REACH = 6  # ... within this many pixels of the reduced photo (blue jeans' deep fold beside their lit front)
+_GREY_SECTORS = 12  # ... its hue: one of this many sectors of a*, b*, or either beside it
+_GREY_HUE_C = 4.0  # ... a pixel below this C* taking its neighbourhood's hue
+_GREY_WARM = (10.0, 100.0)  # ... and a warm hue (Lab hue angle, degrees) is left alone: skin, brown hair, wood ...
+_GREY_WARM_SOFT = 10.0  # ... fully from this many degrees inside those bounds
+NEUTRAL_LIFT = (1.1, 1.5)  # ... relit brighter than the photo by less than the first: untouched, from the second: fully
+NEUTRAL_CHROMA_EXP = np.float32(2.2 / 3)  # C* ~ (chroma relative to luminance) x Y_linear^(1/3), Y_linear ~ y^2.2
+# (both public: the studio's preview grade applies the rule with them, sh.js neutralStep)
 _TINT_LIT = 0.05  # tint_range: the normals a light gives at least this share of its brightest irradiance
 SKIN_CHROMA = 0.5  # shaded_skin: skin a new light darkens by r keeps its chroma x r**this (a grey dimming: x r)
 _SKIN_SIGMA = 1.5  # ... the skin's colour taken over this many network pixels
@@ -183,6 +199,181 @@ def dark_colour(image: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     colour[near] += b * (1 - colour[near])  # toward grey: luminance 1 per unit of luminance
     darkness[near] = np.maximum(darkness[near], _NEUTRAL_PULL * b[:, 0])
     return y, darkness, colour
+
+
+def material_chroma(hue: np.ndarray, chroma: np.ndarray, reach: float) -> np.ndarray:
+    """(h, w) the highest Lab C* that a pixel's hue (its sector of ``_GREY_SECTORS`` or either beside it) reaches
+    within ``reach`` pixels of it: the colour of the material a dark pixel belongs to (blue jeans' lit front beside
+    their shaded fold, which is dark and so low in C* while blue). ``hue``: (h, w) in degrees; ``chroma``: C*."""
+    r = max(int(round(reach)), 1)
+    sector = np.floor(hue / 360 * _GREY_SECTORS).astype(np.int64) % _GREY_SECTORS
+    disk = np.ones((2 * r + 1, 2 * r + 1), np.uint8)  # a square: OpenCV dilates by it in separable passes
+    most = np.stack([cv2.dilate(np.where(sector == k, chroma, 0).astype(np.float32), disk)
+                     for k in range(_GREY_SECTORS)])
+    most = np.maximum(most, np.maximum(np.roll(most, 1, axis=0), np.roll(most, -1, axis=0)))
+    return np.take_along_axis(most, sector[None], axis=0)[0]
+
+
+class NeutralDarks(NamedTuple):
+    """``neutral_darks`` of a photo: what ``keep_neutral`` reads under each light, for the k near-neutral dark
+    pixels only (read-only arrays, laid out for that per-light step: channel by channel, no per-light conversion)."""
+
+    index: np.ndarray  # (3, k) int64: flat indices of their values in an (h, w, 3) array, row c channel c
+    weight: np.ndarray  # (k,) float32 in (0, 1]: how near-neutral and dark the photo is there
+    chroma: np.ndarray  # (3, k) float32: their chroma relative to luminance, (P - Y) / Y, row c channel c
+    size: np.ndarray  # (k,) float32: its length |(P - Y) / Y| (at least 1e-6)
+    luminance: np.ndarray  # (k,) float32: their luminance Y (Rec. 709, linear; at least 1e-6)
+
+
+def neutral_darks(image: np.ndarray, origin: tuple[int, int] = (0, 0), solid: np.ndarray | None = None
+                  ) -> NeutralDarks | None:
+    """What ``keep_neutral`` needs of a photo (``image``: (h, w, 3) float32 RGB in [0, 1]) whatever the light, on
+    its near-neutral dark pixels only (``NeutralDarks``), or None where no pixel is near-neutral and dark.
+    ``origin``: (y, x) of ``image``'s top-left pixel in the photo (the reduction's grid is the photo's). ``solid``:
+    (h, w) bool, where the photo is the person's own colour (not a soft edge's mix: there the relit colour is
+    another's, the estimated foreground); None: all. Computed once per photo (the runtime keeps it per
+    Decomposition), so that the per-light step is arithmetic on those pixels alone.
+
+    Near-neutral dark: 1 where the photo's CIE Lab L* and C* (on the photo reduced ``_NEUTRAL_STEP`` times, as
+    ``dark_colour``: the cast of a cloth or of hair is shared by its pixels, a pixel's own chroma is JPEG's noise) are
+    below ``_GREY_L[0]`` and ``_GREY_C[0]``, 0 from ``_GREY_L[1]`` or ``_GREY_C[1]`` up, linear between; of a hue
+    that is not warm (``_GREY_WARM``: shaded dark skin is dark and low in C* too, and a warm dark brightened reads as
+    its material, brown hair or skin, where a cool or magenta one reads as a cast: blue-grey, teal, violet); and not
+    where the pixel's hue reaches ``_GREY_MATERIAL`` nearby (``material_chroma``: blue jeans' deep folds are dark
+    and low in C* while the jeans are blue). A near-black pixel (C* below ``_GREY_HUE_C``) takes its
+    neighbourhood's hue. The relative chroma is each pixel's own (the hair's strands and the cloth's weave keep
+    their colours).
+    """
+    image = np.asarray(image, np.float32)
+    h, w = image.shape[:2]
+    # the reduction's grid on the photo's own: a group's person (a window of the photo) reads as they do alone
+    oy, ox = origin[0] % _NEUTRAL_STEP, origin[1] % _NEUTRAL_STEP
+    grid = cv2.copyMakeBorder(np.clip(image, 0, 1), oy, 0, ox, 0, cv2.BORDER_REPLICATE)
+    gh, gw = grid.shape[:2]
+    sh, sw = max(gh // _NEUTRAL_STEP, 1), max(gw // _NEUTRAL_STEP, 1)
+    # whole blocks only: INTER_AREA to a size that is not a 1 / _NEUTRAL_STEP of the input spreads its blocks over the
+    # photo, a window of another size then reads another grid (the rows and columns past the last block take its
+    # values, the edge padding below)
+    grid = grid[: sh * _NEUTRAL_STEP, : sw * _NEUTRAL_STEP]
+    small = cv2.resize(grid, (sw, sh), interpolation=cv2.INTER_AREA)
+    lab = _lab(small)
+    ramp = lambda v, lo, hi: np.clip((hi - v) / (hi - lo), 0, 1)  # noqa: E731 - 1 below lo, 0 above hi
+    chroma = np.hypot(lab[..., 1], lab[..., 2])
+    # near-neutral by its pixels' own chroma too: fine red and blue stripes average to a grey they are not
+    full = _lab(grid)
+    size = small.shape[1::-1]
+    own_c = np.hypot(full[..., 1], full[..., 2])
+    own = cv2.resize(own_c, size, interpolation=cv2.INTER_AREA)
+    # ... and by its chroma for its lightness (C* / (L* + 16) ~ chroma relative to luminance): a dark saturated colour
+    # is low in C* only because it is dark (a red stripe in shade: 0.48; dark hair with a blue cast: 0.15-0.27)
+    vivid = cv2.resize(own_c / (full[..., 0] + 16), size, interpolation=cv2.INTER_AREA)
+    weight = ramp(lab[..., 0], *_GREY_L) * ramp(np.maximum(chroma, own - _GREY_NOISE), *_GREY_C)
+    weight *= ramp(vivid, *_GREY_VIVID)
+    if not weight.any():
+        return None
+    reach = float(_GREY_REACH)  # in pixels, not a share of the photo: a group's person sees it as they do alone
+    # a near-black pixel's own hue is noise: it takes its neighbourhood's (the jeans' deep fold, the jeans' blue)
+    ab = np.ascontiguousarray(lab[..., 1:])
+    ab = np.where((chroma < _GREY_HUE_C)[..., None], cv2.GaussianBlur(ab, (0, 0), reach / 2), ab)
+    hue = np.degrees(np.arctan2(ab[..., 1], ab[..., 0])) % 360
+    warm = np.minimum(np.clip((hue - _GREY_WARM[0]) / _GREY_WARM_SOFT, 0, 1),
+                      np.clip((_GREY_WARM[1] - hue) / _GREY_WARM_SOFT, 0, 1))
+    weight *= (1 - warm) * ramp(material_chroma(hue, chroma, reach), *_GREY_MATERIAL)
+    if not weight.any():
+        return None
+    full = (small.shape[1] * _NEUTRAL_STEP, small.shape[0] * _NEUTRAL_STEP)
+    # smoothed over a reduced pixel: a colour the group's soft edge and the person alone see differently moves less
+    weight = cv2.resize(cv2.GaussianBlur(weight, (0, 0), 1.0), full, interpolation=cv2.INTER_LINEAR)
+    weight = np.pad(weight, ((0, max(gh - full[1], 0)), (0, max(gw - full[0], 0))), mode="edge")[oy : oy + h,
+                                                                                             ox : ox + w].ravel()
+    if solid is not None:
+        weight = weight * solid.ravel()
+    index = np.flatnonzero(weight > 1e-3)
+    if index.size == 0:
+        return None
+    relative, size, y = neutral_chroma(np.take(image.reshape(-1, 3), index, axis=0).T)  # (3, k)
+    return NeutralDarks(*(readonly(np.ascontiguousarray(a)) for a in (
+        index * 3 + np.arange(3)[:, None], weight[index].astype(np.float32), relative, size, y)))
+
+
+def keep_neutral(colour: np.ndarray, gain: np.ndarray, neutral: NeutralDarks | None) -> np.ndarray:
+    """The relit ``colour`` (h, w, 3) with the photo's near-neutral darks no more colourful than the photo shows
+    them, as far as the new light's own colour allows (a new array; ``colour`` itself when there is nothing to do).
+
+    A dark near-grey pixel (dark hair, a black sweater) carries a faint cast: the photo's shade light, a
+    backdrop's spill, JPEG's chroma. A gain that brightens it keeps its chromaticity, and Lab chroma grows with
+    lightness (C* ~ the chroma relative to luminance x Y^(1/3)): under a white side lamp that brightened it 2-4x,
+    dark hair came out blue-grey or violet (the first look's p264, p272, p287), though a white light changes
+    brightness, not colour. Here Q, the relit colour, is taken without the light's colour t (``gain`` at luminance
+    1, per pixel), at its luminance Y'; its chroma relative to Y' keeps the pixel's own direction c (the photo's,
+    ``neutral_darks``) and at most s |c|, s = (Y / Y')^NEUTRAL_CHROMA_EXP capped at 1 (the photo's C* at the new
+    lightness), nor more than Q had (what the dark rules and the fill left):
+    Q -> t Y' (1 + c min(s, |Q / t / Y' - 1| / |c|)), blended by the near-neutral weight and by how much brighter
+    Y' is than Y (none below ``NEUTRAL_LIFT[0]`` x, all from ``NEUTRAL_LIFT[1]`` x: the photo's own light still gives
+    the photo back). The light's colour stays: campfire tints grey hair orange, a cool window leaves it cool, a
+    white lamp as grey as the photo had it, and where ``gain`` has none of a channel (1e-4 or less: a pure cyan
+    lamp) the pixel is left as it came. A real colour (C* past ``_GREY_C[1]``: a teal shirt, skin) is left
+    alone. ``gain``: (h, w, 3) the factor the colour was relit by; ``neutral``: ``neutral_darks`` of the photo
+    (None: nothing to do). Only the k pixels ``neutral`` names are read and written, channel by channel in float32.
+    """
+    if neutral is None:
+        return colour
+    q = np.take(colour.reshape(-1), neutral.index)  # (3, k)
+    step = neutral_values(q, np.take(gain.reshape(-1), neutral.index), *neutral[1:])
+    if step is None:
+        return colour
+    out = colour.copy()
+    out.reshape(-1)[neutral.index] = step
+    return out
+
+
+def neutral_values(q: np.ndarray, g: np.ndarray, n: np.ndarray, c: np.ndarray, size: np.ndarray, y0: np.ndarray
+                   ) -> np.ndarray | None:
+    """``keep_neutral``'s step on k pixels, channel by channel: the relit colour ``q`` (3, k), the gain ``g`` (3, k)
+    it was relit by (only its colour counts: the light's), and the photo's ``NeutralDarks`` fields there (weight
+    ``n`` (k,), relative chroma ``c`` (3, k), its length ``size`` (k,), luminance ``y0`` (k,)); a new (3, k) float32
+    array (``g`` is used as scratch), or None when the light brightens none of them (a pixel whose gain has a channel
+    at or below 1e-4 is left as it came: a pure-coloured light). The studio's background grade
+    applies it to its sample (relight_rt.relight.compose ``sampled_grade``; sh.js ``neutralStep`` the same)."""
+    # only what the light brightens can change (a white light: Y(Q) is Y'; a coloured one, of luminance 1, about it)
+    lit = _luminance(q) > y0
+    # ... and only under a gain with some of every channel: where a light gives none of one (a pure cyan lamp), the
+    # colour a white light would give is not known there (the tint's fallback of 1 put red into a cyan-lit dark)
+    lit &= (g > 1e-4).all(axis=0)
+    if not lit.any():
+        return None
+    g_lum = _luminance(g)
+    tint = np.divide(g, g_lum, out=np.ones_like(g), where=(g_lum > 1e-4) & (g > 1e-4))
+    white = q / tint  # the relit colour as a white light of the gain's brightness would give it
+    y1 = np.maximum(_luminance(white), 1e-6)
+    off = np.divide(white, y1, out=white)
+    off -= 1
+    keep = np.minimum(np.minimum((y0 / y1) ** NEUTRAL_CHROMA_EXP, 1), np.sqrt(np.einsum("ij,ij->j", off, off)) / size)
+    blend = np.clip((y1 / y0 - NEUTRAL_LIFT[0]) / (NEUTRAL_LIFT[1] - NEUTRAL_LIFT[0]), 0, 1)
+    blend *= n
+    blend *= lit
+    blend *= y1
+    # Q + blend (t Y' (1 + c keep) - Q), with Q = t Y' (1 + off)
+    step = np.multiply(c, keep, out=g if g.dtype == np.float32 and g.flags.writeable else None)
+    step -= off
+    step *= tint
+    step *= blend
+    step += q
+    return step
+
+
+def neutral_chroma(colour: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``NeutralDarks``' chroma, its length and luminance of (3, k) colours: (P - Y) / Y (Y floored at 1e-3), its
+    length (at least 1e-6), Y (at least 1e-6), float32."""
+    y = _luminance(colour)
+    relative = (colour - y) / np.maximum(y, 1e-3)
+    size = np.maximum(np.sqrt(np.einsum("ij,ij->j", relative, relative)), 1e-6)
+    return relative.astype(np.float32), size.astype(np.float32), np.maximum(y, 1e-6).astype(np.float32)
+
+
+def _luminance(rgb: np.ndarray) -> np.ndarray:
+    """(k,) Rec. 709 luminance of (3, k) channel rows, elementwise (a BLAS product wakes its threads: ~1 ms)."""
+    return REC709[0] * rgb[0] + REC709[1] * rgb[1] + REC709[2] * rgb[2]
 
 
 def steady_chroma(image: np.ndarray, gain: np.ndarray, dark: tuple | None = None) -> np.ndarray:

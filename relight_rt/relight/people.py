@@ -12,7 +12,7 @@ from ..image.regions import Crop
 from ..light.exposure import knee
 from . import compose
 from .decomposition import Decomposition
-from .look import dark_colour
+from .look import dark_colour, neutral_darks
 
 MAX_PEOPLE = 16  # matting="all": a photo of more people than this is relit as one group (stage 1 once a person)
 _ROWS = 256  # rows of the photo done at a time where a temporary would otherwise be the photo's size
@@ -113,9 +113,9 @@ def by_person_lights(
     lights: np.ndarray, exposures: list, bg: Background,
 ) -> list[np.ndarray]:
     """``by_person`` under each of the (K, 9, 3) ``lights`` with its exposure: person by person, what a person's
-    relit colour needs whatever the light (their own colour's ``dark_colour`` and ``knee``, the full-resolution
-    guide) made once for the K lights and let go before the next person; the K pictures are held together
-    (``lights_at_once`` says how many a photo's size allows)."""
+    relit colour needs whatever the light (their own colour's ``dark_colour``, ``knee`` and ``neutral_darks``, the
+    full-resolution guide) made once for the K lights and let go before the next person; the K pictures are held
+    together (``lights_at_once`` says how many a photo's size allows)."""
     memo, factor = composer.memo, composer.factor
     backdrop = compose.backdrop_of(dec, bg)
     clean = bg.kind != "original"
@@ -153,7 +153,8 @@ def by_person_lights(
         looks = None
         if composer.detail:  # made once per person for the K lights, not kept for every person
             fg = composer.foreground(part)[0]
-            looks = dark_colour(fg), knee(fg)
+            looks = dark_colour(fg), knee(fg), neutral_darks(compose.photo_crop(part), compose.crop_origin(part),
+                                                           compose.solid_crop(part))
         share = part.geometry.crop(part.mask)[..., None]
         for k, (light, exposure) in enumerate(zip(lights, exposures, strict=True)):
             lit = factor.expose(part, light[None], exposure)[0]

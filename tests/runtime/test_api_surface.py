@@ -99,7 +99,7 @@ MODULE_SURFACE = {
     "relight_rt.scene": {"composite", "scene_lighting", "relight_person", "place", "camera_match", "shadows",
                          "shade", "grade", "parse_position"},
     "relight_rt.relight.look": {"SKIN_CHROMA", "skin_chroma", "shaded_skin", "knee", "shoulder", "dark_colour",
-                                "steady_chroma", "tint_range"},
+                                "steady_chroma", "tint_range", "neutral_darks", "keep_neutral", "NeutralDarks"},
     "relight_rt.relight.decomposition": {"Decomposition", "RelightResult", "diffuse_batch", "intrinsic_layers"},
     "relight_rt.engine.session": {"Model", "create_session", "load_model", "find_models", "validate_session"},
     "relight_rt.sh": {"basis", "check_light", "cosine_lobe", "irradiance", "render_sphere", "rotate", "rotate_z",

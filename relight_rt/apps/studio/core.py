@@ -56,7 +56,7 @@ from ...light.exposure import METER_POWER, Highlight, exposure_scale, guarded, m
 from ...light.spec import LightSpec  # noqa: E402  (the one light parser)
 from ...relight.compose import GradeSample, sampled_grade, shown_mask  # noqa: E402  (the one background grade)
 from ...relight.decomposition import intrinsic_layers  # noqa: E402
-from ...relight.look import SKIN_CHROMA, shaded_skin, skin_chroma  # noqa: E402  (the shaded-skin rule the preview mirrors)
+from ...relight.look import NEUTRAL_CHROMA_EXP, NEUTRAL_LIFT, SKIN_CHROMA, shaded_skin, skin_chroma  # noqa: E402  (the shaded-skin rule the preview mirrors)
 
 # (leading bytes, kind, suffix the readers go by)
 _MAGIC = (
@@ -254,7 +254,7 @@ def _grade_sample(relighter, dec) -> GradeSample:
     grade of 1)."""
     inputs = getattr(relighter, "grade_inputs", None)
     if inputs is None:
-        return GradeSample(*(np.zeros(s, np.float32) for s in ((0, 3), (0, 3), (0, 9), (0,), (0,), (0, 3))))
+        return GradeSample(*(np.zeros(s, np.float32) for s in ((0, 3), (0, 3), (0, 9), (0,), (0,), (0, 3), (0,))))
     sample = inputs(dec)
     step = max(1, math.ceil(sample.weight.shape[0] / EXPOSURE_SAMPLES))
     return GradeSample(*(np.ascontiguousarray(a[::step], np.float32) for a in sample))
@@ -387,7 +387,7 @@ class Studio:
         planes = np.concatenate([transport_s.T, albedo_s.T, mask_s[None]]).astype("<f4")
         guard = np.concatenate([lit_h.T, steady_h.T, transport_h.T]).astype("<f4")
         graded = np.concatenate([grade.lit.T, grade.steady.T, grade.transport.T, grade.weight[None],
-                                 grade.knee[None], grade.own.T]).astype("<f4")
+                                 grade.knee[None], grade.own.T, grade.neutral[None]]).astype("<f4")
         return {
             "height": size[0],
             "width": size[1],
@@ -410,6 +410,8 @@ class Studio:
             "shoulder_tol": _exposure.SHOULDER_TOL,
             "shoulder_samples": _exposure.SHOULDER_SAMPLES,
             "skin_chroma": SKIN_CHROMA,
+            "neutral_lift": list(NEUTRAL_LIFT),  # the near-neutral darks' rule in the grade (look.neutral_values)
+            "neutral_chroma_exp": float(NEUTRAL_CHROMA_EXP),
             "own_white": np.asarray(dec.white_light, np.float64)[:, 0].tolist(),
             "data": head + bytes(offset - len(head)) + planes.tobytes() + guard.tobytes() + graded.tobytes(),
         }
@@ -483,7 +485,7 @@ class Studio:
         the highlight guard's sample (``_highlight_sample``) as float32 planes of ``highlight_samples`` values:
         lit R, G, B, steady R, G, B, transport 0…8; then, from byte ``grade_offset``, the background grade's sample
         (``_grade_sample``) as float32 planes of ``grade_samples`` values: lit R, G, B, steady R, G, B, transport
-        0…8, weight, knee, own R, G, B."""
+        0…8, weight, knee, own R, G, B, the near-neutral darks' weight."""
         return self._layers["data"]
 
     def info(self) -> dict:
@@ -636,8 +638,8 @@ def unpack_layers(data: bytes, meta: dict) -> dict:
     nh, hoffset = int(meta["highlight_samples"]), int(meta["highlight_offset"])
     ng, goffset = int(meta["grade_samples"]), int(meta["grade_offset"])
     if (min(ns, nh, ng) < 0 or offset < 29 * n or hoffset != offset + 52 * ns or goffset != hoffset + 60 * nh
-            or len(data) != goffset + 80 * ng):
-        raise RelightError(f"layers: expected {goffset + 80 * ng} bytes for {h}x{w}, {ns}, {nh} and {ng} samples, "
+            or len(data) != goffset + 84 * ng):
+        raise RelightError(f"layers: expected {goffset + 84 * ng} bytes for {h}x{w}, {ns}, {nh} and {ng} samples, "
                            f"got {len(data)}")
     q16 = np.frombuffer(data, "<u2", 9 * n).reshape(9, h, w).astype(np.float32)
     off = np.array(meta["transport_offset"], np.float32)[:, None, None]
@@ -647,8 +649,9 @@ def unpack_layers(data: bytes, meta: dict) -> dict:
     sample = {"transport": planes[:9].T.copy(), "albedo": planes[9:12].T.copy(), "mask": planes[12].copy()}
     guard = np.frombuffer(data, "<f4", 15 * nh, hoffset).reshape(15, nh).astype(np.float32)
     highlight = {"lit": guard[:3].T.copy(), "steady": guard[3:6].T.copy(), "transport": guard[6:].T.copy()}
-    g = np.frombuffer(data, "<f4", 20 * ng, goffset).reshape(20, ng).astype(np.float32)
-    grade = GradeSample(g[:3].T.copy(), g[3:6].T.copy(), g[6:15].T.copy(), g[15].copy(), g[16].copy(), g[17:].T.copy())
+    g = np.frombuffer(data, "<f4", 21 * ng, goffset).reshape(21, ng).astype(np.float32)
+    grade = GradeSample(g[:3].T.copy(), g[3:6].T.copy(), g[6:15].T.copy(), g[15].copy(), g[16].copy(),
+                        g[17:20].T.copy(), g[20].copy())
     return {"transport": off + q16 * scale, "albedo": eight[:3], "mask": eight[3], "background": eight[4:7],
             "skin_chroma": 2 * eight[7:10] - 1, "skin": eight[10], "exposure": sample, "highlight": highlight,
             "grade": grade}

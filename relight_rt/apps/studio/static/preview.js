@@ -32,9 +32,9 @@ export function decodeLayers(buffer, meta) {
   const g = new Float32Array(buffer, meta.highlight_offset, 15 * nh);
   const guard = (i) => g.subarray(i * nh, (i + 1) * nh);
   // the background grade's sample: float32 planes (lit r, g, b, steady r, g, b, transport 0..8, weight, knee,
-  // own r, g, b)
+  // own r, g, b, the near-neutral darks' weight)
   const ng = meta.grade_samples;
-  const gr = new Float32Array(buffer, meta.grade_offset, 20 * ng);
+  const gr = new Float32Array(buffer, meta.grade_offset, 21 * ng);
   const graded = (i) => gr.subarray(i * ng, (i + 1) * ng);
   return {
     width: meta.width,
@@ -64,6 +64,9 @@ export function decodeLayers(buffer, meta) {
       weight: graded(15),
       knee: graded(16),
       own: [graded(17), graded(18), graded(19)],
+      neutral: graded(20),
+      neutralLift: meta.neutral_lift,
+      neutralChromaExp: meta.neutral_chroma_exp,
     },
   };
 }

@@ -145,9 +145,9 @@ export function exposureScale(layers, light, target, ev, step, power = 1) {
 // The background grade of the final result (relight_rt.relight.compose.background_grade: the person's change in
 // light per channel, relit over own, each decoded from sRGB and summed with the matte's weight; the backdrop's
 // values times its 1 / gamma power) on its sample (relight_rt.relight.compose.sampled_grade): pixel p relit is
-// lit · S + steady · S / Y(S), its brightest channel rolled off past its knee (the highlight shoulder, as
-// shoulderGain), against its own colour (the own sums are kept on `sample`). Returns the gain per channel on the
-// backdrop's values.
+// lit · S + steady · S / Y(S), where the photo is a near-neutral dark its chroma kept (neutralStep), its brightest
+// channel rolled off past its knee (the highlight shoulder, as shoulderGain), against its own colour (the own sums
+// are kept on `sample`). Returns the gain per channel on the backdrop's values.
 export function backgroundGrade(sample, light, gamma) {
   const T = sample.transport, lit = sample.lit, steady = sample.steady, w = sample.weight, q = sample.knee;
   const n = w.length;
@@ -163,16 +163,49 @@ export function backgroundGrade(sample, light, gamma) {
   for (let p = 0; p < n; p++) {
     const y = shadingAt(T, p, light, S);
     let peak = -Infinity;
-    for (let c = 0; c < 3; c++) {
-      v[c] = Math.max(lit[c][p] * S[c] + (steady[c][p] * S[c]) / y, 0);
-      peak = Math.max(peak, v[c]);
-    }
+    for (let c = 0; c < 3; c++) v[c] = Math.max(lit[c][p] * S[c] + (steady[c][p] * S[c]) / y, 0);
+    if (sample.neutral && sample.neutral[p] > 0) neutralStep(sample, p, v, S);
+    for (let c = 0; c < 3; c++) peak = Math.max(peak, v[c]);
     const k = shoulderScale(peak, q[p]);
     for (let c = 0; c < 3; c++) now[c] += w[p] * srgbToLinear(v[c] * k);
   }
   const floor = 1e-6 * Math.max(sample.weightSum, 1);
   return now.map((v, c) => (was[c] > floor ? Math.pow(v / was[c], 1 / gamma) : 1));
 }
+
+// The near-neutral darks' rule (relight_rt.relight.look.neutral_values) on sample pixel p, in place on its relit
+// colour v (3 numbers) relit by a gain of the colour of S: where the light brightens it, its colour without the
+// light's, at its luminance Y', keeps the own colour's chroma direction c = (P - Y) / Y and at most its length x
+// (Y / Y')^e (nor more than it has), blended by the pixel's weight and by how much brighter Y' is than Y (none below
+// lift[0] x, all from lift[1] x); the light's colour put back.
+function neutralStep(sample, p, v, S) {
+  const own = sample.own, lift = sample.neutralLift, tint = NEUTRAL_TINT, off = NEUTRAL_OFF;
+  const r = own[0][p], g = own[1][p], b = own[2][p];
+  const yOwn = LUMA[0] * r + LUMA[1] * g + LUMA[2] * b, y0 = Math.max(yOwn, 1e-6);
+  if (!(LUMA[0] * v[0] + LUMA[1] * v[1] + LUMA[2] * v[2] > y0)) return;  // only what the light brightens
+  if (!(S[0] > 1e-4 && S[1] > 1e-4 && S[2] > 1e-4)) return;  // ... with some of every channel
+  const d = Math.max(yOwn, 1e-3), c0 = (r - yOwn) / d, c1 = (g - yOwn) / d, c2 = (b - yOwn) / d;
+  const size = Math.max(Math.sqrt(c0 * c0 + c1 * c1 + c2 * c2), 1e-6);
+  const gl = LUMA[0] * S[0] + LUMA[1] * S[1] + LUMA[2] * S[2];
+  let y1 = 0;
+  for (let i = 0; i < 3; i++) {
+    tint[i] = gl > 1e-4 && S[i] > 1e-4 ? S[i] / gl : 1;
+    off[i] = v[i] / tint[i];  // the relit colour as a white light of the gain's brightness would give it
+    y1 += LUMA[i] * off[i];
+  }
+  y1 = Math.max(y1, 1e-6);
+  let len = 0;
+  for (let i = 0; i < 3; i++) {
+    off[i] = off[i] / y1 - 1;
+    len += off[i] * off[i];
+  }
+  const keep = Math.min(Math.pow(y0 / y1, sample.neutralChromaExp), 1, Math.sqrt(len) / size);
+  const blend = Math.min(Math.max((y1 / y0 - lift[0]) / (lift[1] - lift[0]), 0), 1) * sample.neutral[p] * y1;
+  v[0] += tint[0] * blend * (c0 * keep - off[0]);
+  v[1] += tint[1] * blend * (c1 * keep - off[1]);
+  v[2] += tint[2] * blend * (c2 * keep - off[2]);
+}
+const NEUTRAL_TINT = [1, 1, 1], NEUTRAL_OFF = [0, 0, 0];  // neutralStep's scratch
 
 // The highlight shoulder's scale on a pixel whose brightest channel is `peak` with its knee `knee`
 // (relight_rt.relight.look.shoulder): 1 up to the knee, past it the peak rolled off toward 1, over the peak.
