@@ -200,13 +200,16 @@ def _gradient(image: np.ndarray) -> np.ndarray:
 def _steepened(image: np.ndarray, alpha: np.ndarray, outer: np.ndarray, r: int, b_sums: tuple) -> np.ndarray:
     """(n,) float32: ``alpha`` on the n pixels of ``outer`` (its soft rim's outer half, alpha < 0.5; row-major order)
     steepened about 0.5 where the photo's own edge is sharper than that half: by k = the photo's steepest colour
-    step within ``r`` px (per pixel, over |F - B|, the mean colours of the solid background within ``r``, its
-    ``_side_sums`` ``b_sums``, and of the solid person within about 2 ``r``) over the rim's mean slope (0.5
-    over the half's width: its pixels per outline pixel within ``r``), divided by ``_SHARP_MARGIN`` (a Gaussian
-    feather's mean slope is about half its steepest), within [1, ``_SHARP_MAX``]; the step is taken as far as
-    colour tells the sides apart (the weight of ``shown_edge``'s colour move: alike colours, texture and noise say
-    nothing of the photo's edge). Never above ``alpha``: a matte that lies past the photo's edge is not made more
-    opaque there."""
+    step on the matte's outline within ``r`` px (per pixel, over |F - B|, the mean colours of the solid background
+    within ``r``, its ``_side_sums`` ``b_sums``, and of the solid person within about 2 ``r``) over the rim's mean
+    slope (0.5 over the half's width: its pixels per outline pixel within ``r``), divided by ``_SHARP_MARGIN`` (a
+    Gaussian feather's mean slope is about half its steepest), within [1, ``_SHARP_MAX``]; the step is taken as far
+    as colour tells the sides apart (the weight of ``shown_edge``'s colour move: alike colours, texture and noise say
+    nothing of the photo's edge). The step is read on the pixels either side of the matte's 0.5 contour only: a
+    sharp line elsewhere within reach (a door frame behind a blurred limb, a seam on the person) is not the
+    person's edge, and a matte whose contour lies inside the photo's edge finds no step there and keeps the
+    person's own pixels. Never above ``alpha``: a matte that lies past the photo's edge is not made more opaque
+    there."""
     size = (2 * r + 1,) * 2
     ys, xs = np.nonzero(outer)
     # the tail of a wide rim lies far from the solid person: its side within 2 r, summed at half resolution
@@ -218,9 +221,12 @@ def _steepened(image: np.ndarray, alpha: np.ndarray, outer: np.ndarray, r: int, 
     seen = (b_sums[0][ys, xs] > 0.5) & (f_sums[0][ys // 2, xs // 2] > 0.5)  # both sides within reach
     odds = apart / (_SHOWN_TAU + _SHOWN_SPREAD * (b_var + f_var))  # ``shown_edge``'s colour weight, as odds
     w = seen * odds * odds / (1 + odds * odds)
-    steepest = cv2.dilate(_gradient(image), np.ones(size, np.uint8))[ys, xs]
     inside = (alpha >= 0.5).astype(np.uint8)
-    outline = (cv2.dilate(inside, np.ones((3, 3), np.uint8)) - inside).astype(np.float32)
+    ring = np.ones((3, 3), np.uint8)
+    outline = (cv2.dilate(inside, ring) - inside).astype(np.float32)
+    # the photo's step where the matte puts the edge (either side of its 0.5 contour), not anywhere within reach
+    contour = cv2.dilate(inside, ring) - cv2.erode(inside, ring)
+    steepest = cv2.dilate(_gradient(image) * contour, np.ones(size, np.uint8))[ys, xs]
     box = lambda x: cv2.boxFilter(x, -1, size, normalize=False, borderType=cv2.BORDER_CONSTANT)  # noqa: E731
     half_width = (box(outer.astype(np.float32)) / np.maximum(box(outline), 1))[ys, xs]
     # the photo's slope over the rim's: (steepest / |F - B|) / (0.5 / half width)

@@ -190,6 +190,39 @@ def test_steepening_follows_the_ratio_of_the_photos_edge_to_the_rims():
         assert (a <= alpha + 1e-7).all() and (a >= 0).all()
 
 
+def _without_steepening(image: np.ndarray, alpha: np.ndarray, monkeypatch) -> tuple[np.ndarray, np.ndarray]:
+    """``shown_edge``'s alpha' with the rim rule and with colour alone (``_steepened`` switched off)."""
+    fg, _ = colours_of(image, alpha, multilevel=True)
+    with_rule, _ = shown_edge(image, alpha, fg)
+    with monkeypatch.context() as m:
+        m.setattr(compose, "_steepened", lambda image, alpha, outer, r, b_sums: alpha[outer])
+        colour_only, _ = shown_edge(image, alpha, fg)
+    return with_rule, colour_only
+
+
+@pytest.mark.parametrize("column, colour", [(EDGE + 7, (0.2, 0.2, 0.2)), (EDGE - 6, (0.95, 0.95, 0.95))])
+def test_a_sharp_line_beside_a_blurred_edge_is_not_the_persons_edge(column, colour, monkeypatch):
+    """A defocused or moving limb (the photo's edge as soft as the matte's feather) with a sharp line a few pixels
+    off the outline, a door frame behind it or a seam on the person: the photo's edge at the outline is soft, so
+    the rim stays (the steepest step anywhere within reach had cut the whole outer half)."""
+    image, alpha = _two_colours(blur=3.0), _feathered(3.0)
+    image[:, column] = colour
+    with_rule, colour_only = _without_steepening(image, alpha, monkeypatch)
+    assert np.abs(with_rule - colour_only).max() < 0.05
+
+
+def test_a_matte_inside_a_sharp_edge_keeps_the_persons_own_pixels(monkeypatch):
+    """The matte's 0.5 contour 2 px inside the photo's sharp edge (a matte too tight): the pixels between are the
+    person's, and the rule, which steepens about the matte's contour, does not take them out."""
+    hard = np.zeros((H, W), np.float32)
+    hard[:, : EDGE - 2] = 1
+    alpha = cv2.GaussianBlur(hard, (0, 0), 3.0)
+    with_rule, colour_only = _without_steepening(_two_colours(), alpha, monkeypatch)
+    person = slice(EDGE - 2, EDGE)
+    assert alpha[:, person].min() > 0.15  # the person's own pixels, which the matte holds partly
+    assert (with_rule[:, person] >= colour_only[:, person] - 0.02).all()
+
+
 def test_the_relit_change_stays_off_the_floor_past_a_sharp_edge(models_dir):
     """End to end: the automatic matte's wide rim over the glossy floor; a light that darkens the shoe leaves the
     floor past the sole within a level of the photo (the given mask, the user's word, keeps its rim)."""
