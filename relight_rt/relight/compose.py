@@ -31,6 +31,7 @@ _SHOWN_STEADY = 1  # ... the shifts averaged over the soft pixels within this ma
 _SHOWN_OFF_LINE = 0.1  # ... and it falls as exp(-d^2 / (this x |F - B|^2)), d the colour's distance from the line B..F
 _SHARP_MARGIN = 2.0  # shown_edge: the rim's outer half steepens where the photo's edge is this x steeper than it ...
 _SHARP_MAX = 8.0  # ... by at most this factor
+_SHARP_NEAR = 2 / 3  # ... fully within this x the reach of the matte's 0.5 line, fading out to the reach (1 x)
 
 
 def consistent(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray, bg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -208,8 +209,11 @@ def _steepened(image: np.ndarray, alpha: np.ndarray, outer: np.ndarray, r: int, 
     nothing of the photo's edge). The step is read on the pixels either side of the matte's 0.5 contour only: a
     sharp line elsewhere within reach (a door frame behind a blurred limb, a seam on the person) is not the
     person's edge, and a matte whose contour lies inside the photo's edge finds no step there and keeps the
-    person's own pixels. Never above ``alpha``: a matte that lies past the photo's edge is not made more opaque
-    there."""
+    person's own pixels. The lowering is whole within ``_SHARP_NEAR`` ``r`` of the matte's 0.5 line and fades out
+    linearly to none at ``r`` (``cv2.distanceTransform``): a rim ramps down from that line, and alpha that stays
+    below 0.5 further out is a plateau of a matte already poor there, which a step read within the window's square
+    reach would cut to 0 up to straight, box-shaped borders (shown unrelit). Never above ``alpha``: a matte that
+    lies past the photo's edge is not made more opaque there."""
     size = (2 * r + 1,) * 2
     ys, xs = np.nonzero(outer)
     # the tail of a wide rim lies far from the solid person: its side within 2 r, summed at half resolution
@@ -231,9 +235,14 @@ def _steepened(image: np.ndarray, alpha: np.ndarray, outer: np.ndarray, r: int, 
     half_width = (box(outer.astype(np.float32)) / np.maximum(box(outline), 1))[ys, xs]
     # the photo's slope over the rim's: (steepest / |F - B|) / (0.5 / half width)
     k = np.clip(steepest / np.sqrt(apart + 1e-6) * 2 * np.maximum(half_width, 1) / _SHARP_MARGIN, 1, _SHARP_MAX)
+    # a rim ramps down from its 0.5 line; alpha that stays below 0.5 far from it is a plateau (a matte already poor
+    # there), which the window's square reach would cut with box-shaped borders: the rule fades with the distance
+    y0, x0 = max(ys.min() - r - 1, 0), max(xs.min() - r - 1, 0)
+    far = cv2.distanceTransform(1 - inside[y0 : ys.max() + r + 2, x0 : xs.max() + r + 2], cv2.DIST_L2, 3)
+    near = np.clip((1 - far[ys - y0, xs - x0] / r) / (1 - _SHARP_NEAR), 0, 1)
     k = 1 + w * (k - 1)
     a = alpha[ys, xs]
-    return np.clip(0.5 + k * (a - 0.5), 0, a).astype(np.float32)
+    return (a - near * (a - np.clip(0.5 + k * (a - 0.5), 0, a))).astype(np.float32)
 
 
 def shown_edge(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:

@@ -190,6 +190,26 @@ def test_steepening_follows_the_ratio_of_the_photos_edge_to_the_rims():
         assert (a <= alpha + 1e-7).all() and (a >= 0).all()
 
 
+def test_a_plateau_of_low_alpha_far_from_the_outline_is_left_as_it_was():
+    """A matte that stays at 0.3 for 40 px past a sharp outline instead of ramping down (a matte already poor there,
+    people_masks' p272 and p289): the rule steepens the rim by its 0.5 line and fades out with the distance from it
+    (by the reach r), so the plateau beyond is kept and what it lowers joins it gradually, not with a straight,
+    box-shaped border where the window's square reach ends (edge25r: 0 within r, 0.3 beyond)."""
+    r = 9
+    alpha = _feathered(3.0)
+    rows, plateau = slice(24, 40), slice(EDGE + 2, W - 4)
+    alpha[rows, plateau] = np.maximum(alpha[rows, plateau], 0.3)
+    image = _two_colours()
+    outer = _soft(alpha) & (alpha < 0.5)
+    out = np.array(alpha)
+    out[outer] = compose._steepened(image, alpha, outer, r, compose._side_sums(image, alpha <= 1 / 255, r))
+    assert (out[rows, EDGE + 2] < alpha[rows, EDGE + 2] - 0.2).all()  # the rim by the outline still gives way
+    far = (slice(24, 40), slice(EDGE + r, W - 4))  # r px and more from the 0.5 line (column EDGE - 1)
+    np.testing.assert_allclose(out[far], alpha[far], atol=1e-6)
+    assert np.abs(np.diff(out[rows, EDGE + 2 : W - 4], axis=1)).max() < 0.12  # a ramp, not a step of 0.3
+    assert (out <= alpha + 1e-7).all() and (out >= 0).all()
+
+
 def _without_steepening(image: np.ndarray, alpha: np.ndarray, monkeypatch) -> tuple[np.ndarray, np.ndarray]:
     """``shown_edge``'s alpha' with the rim rule and with colour alone (``_steepened`` switched off)."""
     fg, _ = colours_of(image, alpha, multilevel=True)
