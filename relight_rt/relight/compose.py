@@ -259,7 +259,7 @@ def shown_edge(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray) -> tuple[np
     averaged over 3 x 3 soft pixels. Where colour cannot tell (a pale shoe over its own reflection on a white
     floor: the reflection's colours lie on that line) the photo's sharpness still can: the rim's outer half
     (alpha < 0.5) is lowered by as much as the photo's edge beside it is steeper than the rim (``_steepened``;
-    the reference clip's band beside the person, worst p99 over 12 lights 0.6-9.5 -> 0.0 levels, issue 48). A
+    the reference clip's band beside the person, worst p99 over 12 lights 0.6-9.5 -> 0.0-0.24 levels, issue 48). A
     raise goes only as far as ``behind`` can still be solved in [0, 1] so that alpha' F + (1 - alpha') behind is
     the photo again (``fg``: the person's own colour, ``own_colours``): the photo's own light still gives the
     photo back. The matte itself (``Decomposition.mask``, the RGBA output's
