@@ -30,9 +30,12 @@ mask (../shared/realdata: evaluation only; the given masks keep the matte out of
   percentile and max, the lowest dL*; also with the clip's own masks given. Where it comes from: the band's pixels
   the matte holds opaque (> 0.5, per frame: "opaque_in_band") and the largest change where the matte is 0
   ("max_outside_matte": a fill, texture or cast shadow spreading past the matte; 0 by construction today). On the
-  reference clip the p99 is the matte past the hand outline: the backdrop seen between the arms and the body
+  reference clip the p99 was the matte past the hand outline: the backdrop seen between the arms and the body
   (matte10's backed_logits takes those 3-5 px gaps opaque: 190-208 -> 555-577 opaque band pixels on frames 1-2,
-  p99 up to 15 -> 149 levels), the gap between the ankles and the soft rim below the shoes.
+  p99 up to 15 -> 149 levels), the gap between the ankles and the soft rim below the shoes; since edge25 the shown
+  edge's outer rim is no wider than the photo's edge (relight.compose._steepened): p99 0.0-0.24 (0.0 before
+  edge25f faded the rule out far from the matte's 0.5 line: the rim's last pixels under the shoes), the max is the
+  opaque pixels.
 
 Writes OUT/faults.json and prints the table.
 """

@@ -10,6 +10,7 @@ from _graphs import models_dir
 
 from relight_rt import Relighter, RuntimeConfig, lights
 from relight_rt.image.compositing import Background
+from relight_rt.relight import compose
 from relight_rt.relight.compose import colours_of, shown_edge
 
 __all__ = ["models_dir"]  # fixture
@@ -134,3 +135,124 @@ def test_a_graded_background_under_the_photos_own_light_is_the_photo(models_dir)
     assert dec.edge is not None
     out = np.asarray(relighter.relight(dec, dec, background=Background.original(grade=True)))
     np.testing.assert_allclose(out, img, atol=0.5 / 255)
+
+
+def _shoe_on_a_glossy_floor() -> tuple[np.ndarray, np.ndarray]:
+    """A pale shoe (the columns left of EDGE) with a dark sole line on a white glossy floor whose reflection fades
+    from the shoe's colour over 6 px (colours on the line between floor and shoe: colour alone reads them as a
+    partly covered floor), and a matte whose soft rim runs 8 px either side of the sole (issue 48's clip)."""
+    shoe, floor = np.array((0.9, 0.76, 0.68), np.float32), np.array((0.98, 0.94, 0.92), np.float32)
+    img = np.empty((H, W, 3), np.float32)
+    img[:, :EDGE], img[:, EDGE:] = shoe, floor
+    img[:, EDGE - 1 : EDGE + 1] = (0.3, 0.23, 0.2)  # the sole: the photo's edge, two pixels wide
+    for i, t in enumerate(np.linspace(0.3, 0.0, 6)):
+        img[:, EDGE + 1 + i] = floor + t * (shoe - floor)
+    x = np.arange(W, dtype=np.float32)
+    alpha = np.broadcast_to(np.clip((EDGE + 8 - x) / 16, 0, 1), (H, W)).astype(np.float32)
+    return img, alpha
+
+
+def test_a_wide_rim_past_a_sharp_edge_steepens_where_colour_cannot_tell(monkeypatch):
+    """The reflection's colours lie between the floor's and the shoe's, so colour keeps the matte's rim there; the
+    photo's sharp sole says the rim is 8 x too wide, and its outer half gives way beyond the sole."""
+    image, alpha = _shoe_on_a_glossy_floor()
+    fg, _ = colours_of(image, alpha, multilevel=True)
+    shown, _ = shown_edge(image, alpha, fg)
+    beyond = slice(EDGE + 2, EDGE + 8)  # the floor and its reflection, past the sole
+    assert alpha[:, beyond].min() > 0.05 and shown[:, beyond].max() < 0.01
+    assert (shown[:, :EDGE - 1] >= alpha[:, :EDGE - 1] - 1e-6).all()  # the shoe keeps (at least) its matte
+    monkeypatch.setattr(compose, "_steepened", lambda image, alpha, outer, r, b_sums: alpha[outer])
+    colour_only, _ = shown_edge(image, alpha, fg)
+    assert colour_only[:, beyond].mean() > 0.05  # colour alone leaves the rim on the reflection
+
+
+def test_steepening_follows_the_ratio_of_the_photos_edge_to_the_rims():
+    """A 3-px feather over a photo blurred as much keeps its rim; over a hard step, the rim's outer half goes; with
+    the step only half the rim's slope wider, partly."""
+    alpha = _feathered(3.0)
+    soft = _soft(alpha)
+    outer = soft & (alpha < 0.5)
+    r = 3 * 3
+
+    def steepened(image: np.ndarray) -> np.ndarray:
+        b_sums = compose._side_sums(image, alpha <= 1 / 255, r)
+        out = np.array(alpha)
+        out[outer] = compose._steepened(image, alpha, outer, r, b_sums)
+        return out
+
+    blurred, sharp = steepened(_two_colours(blur=3.0)), steepened(_two_colours())
+    half = steepened(_two_colours(blur=1.5))
+    assert np.abs(blurred - alpha).max() < 0.02
+    assert sharp[:, EDGE + 2 :].max() < 0.01 < alpha[:, EDGE + 2].min()
+    moved = lambda a: (alpha - a)[outer].sum()  # noqa: E731
+    assert 0.1 * moved(sharp) < moved(half) < 0.9 * moved(sharp)
+    for a in (blurred, sharp, half):  # never above the matte, never below 0
+        assert (a <= alpha + 1e-7).all() and (a >= 0).all()
+
+
+def test_a_plateau_of_low_alpha_far_from_the_outline_is_left_as_it_was():
+    """A matte that stays at 0.3 for 40 px past a sharp outline instead of ramping down (a matte already poor there,
+    people_masks' p272 and p289): the rule steepens the rim by its 0.5 line and fades out with the distance from it
+    (by the reach r), so the plateau beyond is kept and what it lowers joins it gradually, not with a straight,
+    box-shaped border where the window's square reach ends (edge25r: 0 within r, 0.3 beyond)."""
+    r = 9
+    alpha = _feathered(3.0)
+    rows, plateau = slice(24, 40), slice(EDGE + 2, W - 4)
+    alpha[rows, plateau] = np.maximum(alpha[rows, plateau], 0.3)
+    image = _two_colours()
+    outer = _soft(alpha) & (alpha < 0.5)
+    out = np.array(alpha)
+    out[outer] = compose._steepened(image, alpha, outer, r, compose._side_sums(image, alpha <= 1 / 255, r))
+    assert (out[rows, EDGE + 2] < alpha[rows, EDGE + 2] - 0.2).all()  # the rim by the outline still gives way
+    far = (slice(24, 40), slice(EDGE + r, W - 4))  # r px and more from the 0.5 line (column EDGE - 1)
+    np.testing.assert_allclose(out[far], alpha[far], atol=1e-6)
+    assert np.abs(np.diff(out[rows, EDGE + 2 : W - 4], axis=1)).max() < 0.12  # a ramp, not a step of 0.3
+    assert (out <= alpha + 1e-7).all() and (out >= 0).all()
+
+
+def _without_steepening(image: np.ndarray, alpha: np.ndarray, monkeypatch) -> tuple[np.ndarray, np.ndarray]:
+    """``shown_edge``'s alpha' with the rim rule and with colour alone (``_steepened`` switched off)."""
+    fg, _ = colours_of(image, alpha, multilevel=True)
+    with_rule, _ = shown_edge(image, alpha, fg)
+    with monkeypatch.context() as m:
+        m.setattr(compose, "_steepened", lambda image, alpha, outer, r, b_sums: alpha[outer])
+        colour_only, _ = shown_edge(image, alpha, fg)
+    return with_rule, colour_only
+
+
+@pytest.mark.parametrize("column, colour", [(EDGE + 7, (0.2, 0.2, 0.2)), (EDGE - 6, (0.95, 0.95, 0.95))])
+def test_a_sharp_line_beside_a_blurred_edge_is_not_the_persons_edge(column, colour, monkeypatch):
+    """A defocused or moving limb (the photo's edge as soft as the matte's feather) with a sharp line a few pixels
+    off the outline, a door frame behind it or a seam on the person: the photo's edge at the outline is soft, so
+    the rim stays (the steepest step anywhere within reach had cut the whole outer half)."""
+    image, alpha = _two_colours(blur=3.0), _feathered(3.0)
+    image[:, column] = colour
+    with_rule, colour_only = _without_steepening(image, alpha, monkeypatch)
+    assert np.abs(with_rule - colour_only).max() < 0.05
+
+
+def test_a_matte_inside_a_sharp_edge_keeps_the_persons_own_pixels(monkeypatch):
+    """The matte's 0.5 contour 2 px inside the photo's sharp edge (a matte too tight): the pixels between are the
+    person's, and the rule, which steepens about the matte's contour, does not take them out."""
+    hard = np.zeros((H, W), np.float32)
+    hard[:, : EDGE - 2] = 1
+    alpha = cv2.GaussianBlur(hard, (0, 0), 3.0)
+    with_rule, colour_only = _without_steepening(_two_colours(), alpha, monkeypatch)
+    person = slice(EDGE - 2, EDGE)
+    assert alpha[:, person].min() > 0.15  # the person's own pixels, which the matte holds partly
+    assert (with_rule[:, person] >= colour_only[:, person] - 0.02).all()
+
+
+def test_the_relit_change_stays_off_the_floor_past_a_sharp_edge(models_dir):
+    """End to end: the automatic matte's wide rim over the glossy floor; a light that darkens the shoe leaves the
+    floor past the sole within a level of the photo (the given mask, the user's word, keeps its rim)."""
+    img, soft = _shoe_on_a_glossy_floor()
+    relighter = Relighter(RuntimeConfig(models=str(models_dir), device="cpu"), matter=lambda rgb, name="image": soft)
+    auto, given = relighter.decompose(img), relighter.decompose(img, soft)
+    light = lights.directional((0.8, 0.3, 0.5), (0.2, 0.4, 1.0), 1.0) + lights.ambient(0.02)
+    floor = np.zeros(img.shape[:2], bool)
+    floor[4:-4, EDGE + 2 : EDGE + 8] = True
+    change = {k: 255 * np.abs(np.asarray(relighter.relight(d, light)) - img).max(axis=2)[floor].max()
+              for k, d in (("auto", auto), ("given", given))}
+    assert change["given"] > 5  # the rim carries the shoe's new light onto the floor ...
+    assert change["auto"] < 1  # ... which the shown edge, steepened by the photo's sharp sole, does not
