@@ -51,3 +51,27 @@ def missing(path: Path) -> str:
 def warn_missing(path: Path, what: str) -> None:
     """One loud line on stderr: ``what`` (the part of the measurement that ``path`` feeds) is left out."""
     print(f"WARNING: {missing(path)}; {what} left out", file=sys.stderr, flush=True)
+
+
+def photo_arguments(parser, repeats: int) -> None:
+    """The reference photo and its mask (positional, defaulting to ../shared/reference/photo), ``--repeats`` and
+    ``--models``: the arguments of the scripts that time one photo's relight."""
+    photo = shared_path("reference", "photo")
+    parser.add_argument("photo", nargs="?", default=str(photo / "sample.jpg"))
+    parser.add_argument("mask", nargs="?", default=str(photo / "sample_mask.png"))
+    parser.add_argument("--repeats", type=int, default=repeats)
+    parser.add_argument("--models", default=None)
+
+
+def opened_photo(args):
+    """(runtime, image, mask) for ``photo_arguments``' ``args``; exits with ``missing`` where a file is absent."""
+    for path in (Path(args.photo), Path(args.mask)):
+        if not path.is_file():
+            raise SystemExit(missing(path))
+    import relight_rt
+    from relight_rt import RuntimeConfig
+    from relight_rt.image.io import read_image, read_mask
+
+    runtime = relight_rt.open(RuntimeConfig(models=args.models, device="cpu"))
+    image = read_image(args.photo)
+    return runtime, image, read_mask(args.mask, image.shape[:2])

@@ -19,14 +19,12 @@ from __future__ import annotations
 
 import argparse
 import time
-from pathlib import Path
 
 from real_photos import LEFT, RIGHT
 
 # isort: split
-from _shared import missing, shared_path
+from _shared import missing, opened_photo, photo_arguments, shared_path
 
-REFERENCE = shared_path("reference", "photo")
 CLIP = shared_path("reference", "video")
 
 
@@ -43,27 +41,17 @@ def best(fn, repeats: int, clock=time.perf_counter) -> float:
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("photo", nargs="?", default=str(REFERENCE / "sample.jpg"))
-    p.add_argument("mask", nargs="?", default=str(REFERENCE / "sample_mask.png"))
-    p.add_argument("--repeats", type=int, default=15)
-    p.add_argument("--models", default=None)
+    photo_arguments(p, repeats=15)
     p.add_argument("--clip", action="store_true", help="time the reference clip's frames instead (module docstring)")
     args = p.parse_args()
     if args.clip:
         clip(args.models)
         return
-    for path in (Path(args.photo), Path(args.mask)):
-        if not path.is_file():
-            raise SystemExit(missing(path))
 
-    import relight_rt
-    from relight_rt import RuntimeConfig, lights
-    from relight_rt.image.io import read_image, read_mask
+    from relight_rt import lights
     from relight_rt.relight import compose
 
-    r = relight_rt.open(RuntimeConfig(models=args.models, device="cpu"))
-    image = read_image(args.photo)
-    mask = read_mask(args.mask, image.shape[:2])
+    r, image, mask = opened_photo(args)
     firsts = []
     for _ in range(3):
         dec = r.decompose(image, mask)

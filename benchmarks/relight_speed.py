@@ -15,11 +15,8 @@ from __future__ import annotations
 import argparse
 import statistics
 import time
-from pathlib import Path
 
-from _shared import missing, shared_path
-
-REFERENCE = shared_path("reference", "photo")
+from _shared import opened_photo, photo_arguments
 
 
 def timed(fn, repeats: int) -> tuple[float, float]:
@@ -34,24 +31,14 @@ def timed(fn, repeats: int) -> tuple[float, float]:
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("photo", nargs="?", default=str(REFERENCE / "sample.jpg"))
-    p.add_argument("mask", nargs="?", default=str(REFERENCE / "sample_mask.png"))
-    p.add_argument("--repeats", type=int, default=7)
-    p.add_argument("--models", default=None)
+    photo_arguments(p, repeats=7)
     args = p.parse_args()
-    for path in (Path(args.photo), Path(args.mask)):
-        if not path.is_file():
-            raise SystemExit(missing(path))
 
     import numpy as np
 
-    import relight_rt
-    from relight_rt import RuntimeConfig, lights
-    from relight_rt.image.io import read_image, read_mask
+    from relight_rt import lights
 
-    r = relight_rt.open(RuntimeConfig(models=args.models, device="cpu"))
-    image = read_image(args.photo)
-    mask = read_mask(args.mask, image.shape[:2])
+    r, image, mask = opened_photo(args)
     dec = r.decompose(image, mask)
     print(f"{args.photo}: {image.shape[1]}x{image.shape[0]}, second pass on the face: "
           f"{dec.head is not None}")
