@@ -83,13 +83,13 @@ def colours_in_group(part: Decomposition, group_mask: np.ndarray) -> tuple[np.nd
 
 
 def with_shown_edge(factor, dec: Decomposition, parts: list[Decomposition]) -> Decomposition:
-    """The group ``dec`` (automatic matte) with its people ``parts`` (their colours from the group's matte,
-    ``colours_in_group``) and the group's soft edge as the photo shows it (``compose.shown_edge`` on the group's
-    matte, once: where two people meet the matte is solid and nothing moves): ``dec.edge``, and each person's colour
-    behind their soft edge then the one behind that edge. The group's own colour there is the people's, weighted by
-    their shares (as ``by_person_lights`` adds them up), so that the photo's own light gives the photo back where
-    two people's soft edges overlap too. ``factor``: the Relighter's (``derive``). A hard matte gives ``dec`` with
-    ``parts`` as they are."""
+    """The group ``dec`` (its matte always the automatic one: ``PartsMatter``) with its people ``parts`` (their
+    colours from the group's matte, ``colours_in_group``) and the group's soft edge as the photo shows it
+    (``compose.shown_edge`` on the group's matte, once: where two people meet the matte is solid and nothing moves):
+    ``dec.edge``, each person's colour behind their soft edge then the one behind that edge. The group's own colour
+    there is the people's, weighted by their shares (as ``by_person_lights`` adds them up), so that the photo's own
+    light gives the photo back where two people's soft edges overlap too. ``factor``: the Relighter's (``derive``).
+    A hard matte gives ``dec`` with ``parts`` as they are."""
     geom = dec.geometry
     y0, y1, x0, x1 = geom.box
     if all(part.foreground[1] is part.foreground[0] for part in parts):  # no soft edge anywhere
