@@ -554,8 +554,9 @@ class Composer:
             behind = None if bg is fg else bg
             if grade:  # over the matte, as ``own_light`` sums the own colour (the own light: a gain of 1)
                 gain = grade_of_sums(light_sum(colour, alpha), *self.own_light(dec))
-            if dec.edge is not None:  # the automatic matte's edge as the photo shows it (``photo_colours``)
-                alpha = dec.edge
+            if dec.edge is not None and dec.foreground is not None:  # the automatic matte's edge as the photo
+                alpha = dec.edge  # shows it, with the colour behind it (``photo_colours``; a group relit as one
+                # finds its colours from its matte: its people carry theirs, relight_rt.relight.people)
         return over_box(colour, alpha[..., None], geom.box, backdrop, dec.mask, behind, gain)
 
     def with_layers(self, dec: Decomposition, lit: np.ndarray, outputs: tuple, backdrop: np.ndarray | None,

@@ -82,6 +82,53 @@ def colours_in_group(part: Decomposition, group_mask: np.ndarray) -> tuple[np.nd
                               part.photo)
 
 
+def with_shown_edge(factor, dec: Decomposition, parts: list[Decomposition]) -> Decomposition:
+    """The group ``dec`` (its matte always the automatic one: ``PartsMatter``) with its people ``parts`` (their
+    colours from the group's matte, ``colours_in_group``) and the group's soft edge as the photo shows it
+    (``compose.shown_edge`` on the group's matte, once: where two people meet the matte is solid and nothing moves):
+    ``dec.edge``, each person's colour behind their soft edge then the one behind that edge. The group's own colour
+    there is the people's, weighted by their shares (as ``by_person_lights`` adds them up), so that the photo's own
+    light gives the photo back where two people's soft edges overlap too. ``factor``: the Relighter's (``derive``).
+    A hard matte gives ``dec`` with ``parts`` as they are."""
+    geom = dec.geometry
+    y0, y1, x0, x1 = geom.box
+    if all(part.foreground[1] is part.foreground[0] for part in parts):  # no soft edge anywhere
+        return factor.derive(dec, people=tuple(parts))
+    image = np.ascontiguousarray(geom.crop(dec.image))
+    fg = np.zeros(image.shape, np.float32)  # the people's own colours weighted by their shares, in the group's box
+    weight = np.zeros(image.shape[:2] + (1,), np.float32)
+    for part in parts:
+        (py0, _, px0, _), (cy0, cy1, cx0, cx1) = _boxes(part, geom.box)
+        if cy1 > cy0 and cx1 > cx0:
+            inner = (slice(cy0 - py0, cy1 - py0), slice(cx0 - px0, cx1 - px0))
+            share = part.geometry.crop(part.mask)[inner][..., None]
+            fg[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0] += share * part.foreground[0][inner]
+            weight[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0] += share
+    fg = np.where(weight > 0, fg / np.maximum(weight, 1e-12), image)  # the photo where no one's share reaches
+    del weight
+    shown, behind = compose.shown_edge(image, geom.crop(dec.mask), fg)
+    del fg
+    if behind is None:  # the group's matte has no soft edge
+        return factor.derive(dec, people=tuple(parts))
+    out = []
+    for part in parts:  # each person's colour behind: the group's in their box, the photo beyond it
+        (py0, py1, px0, px1), (cy0, cy1, cx0, cx1) = _boxes(part, geom.box)
+        theirs = np.array(part.geometry.crop(part.image), dtype=np.float32)
+        if cy1 > cy0 and cx1 > cx0:
+            theirs[cy0 - py0 : cy1 - py0, cx0 - px0 : cx1 - px0] = behind[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0]
+        out.append(factor.derive(part, foreground=(part.foreground[0], theirs)))
+    return factor.derive(dec, people=tuple(out), edge=shown)
+
+
+def _boxes(part: Decomposition, box: tuple[int, int, int, int]) -> tuple[tuple, tuple]:
+    """A group's person's crop box in the photo (y0, y1, x0, x1), and its part within the group's crop ``box``."""
+    oy, ox = part.origin
+    by0, by1, bx0, bx1 = part.geometry.box  # in the part's window
+    py0, py1, px0, px1 = by0 + oy, by1 + oy, bx0 + ox, bx1 + ox
+    y0, y1, x0, x1 = box
+    return (py0, py1, px0, px1), (max(py0, y0), min(py1, y1), max(px0, x0), min(px1, x1))
+
+
 def by_person(
     composer: compose.Composer, network_relit: Callable, dec: Decomposition, parts: tuple[Decomposition, ...],
     light: np.ndarray, exposure, bg: Background,
@@ -121,6 +168,10 @@ def by_person_lights(
     clean = bg.kind != "original"
     y0, y1, x0, x1 = dec.geometry.box
     alpha = dec.geometry.crop(dec.mask)[..., None]
+    cover, scale = alpha, None  # what the backdrop shows through, and the shares' scale to it
+    if backdrop is not None and not clean and dec.edge is not None:  # the group's edge as the photo shows it
+        cover = dec.edge[..., None]  # (``with_shown_edge``): the people's shares scaled to sum to it
+        scale = np.divide(cover, alpha, out=np.ones_like(cover), where=alpha > 0)
     if backdrop is None:  # RGBA, straight colour: the weighted colours summed here, divided by alpha below
         out = np.zeros(dec.geometry.frame + (4,), np.float32)
         region = out[y0:y1, x0:x1, :3]
@@ -128,7 +179,7 @@ def by_person_lights(
         out = np.array(backdrop, np.float32)
         region = out[y0:y1, x0:x1]
         for r in range(0, y1 - y0, _ROWS):  # what shows through the soft edge; the people's colours are added to
-            region[r : r + _ROWS] *= 1 - alpha[r : r + _ROWS]  # it (in bands: 1 - alpha is the photo's size)
+            region[r : r + _ROWS] *= 1 - cover[r : r + _ROWS]  # it (in bands: 1 - alpha is the photo's size)
     graded = backdrop is not None and bg.graded
     people = []
     for part in parts:
@@ -141,7 +192,7 @@ def by_person_lights(
         fg, behind = composer.foreground(part)
         if backdrop is not None and not clean and behind is not fg:  # the colour behind the soft edge shows
             inner = (slice(cy0 - py0, cy1 - py0), slice(cx0 - px0, cx1 - px0))
-            a = dec.mask[cy0:cy1, cx0:cx1, None]
+            a = cover[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0]
             region[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0] = behind[inner] * (1 - a)
         people.append((part, (cy0, cy1, cx0, cx1), (py0, px0)))
     outs = [out] + [out.copy() for _ in range(len(lights) - 1)]  # one picture per light, the backdrop in each
@@ -167,6 +218,8 @@ def by_person_lights(
                 old, weight = composer.own_light(part)  # found once per person, whatever the light
                 sums[k] = [sums[k][0] + compose.light_sum(colour, share), sums[k][1] + old, sums[k][2] + weight]
             colour *= share
+            if scale is not None:
+                colour[cy0 - py0 : cy1 - py0, cx0 - px0 : cx1 - px0] *= scale[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0]
             regions[k][cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0] += colour[cy0 - py0 : cy1 - py0,
                                                                            cx0 - px0 : cx1 - px0]
             del colour, residual, relit
