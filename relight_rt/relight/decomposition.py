@@ -70,8 +70,9 @@ class Decomposition:
             in a window of the group's photo; (0, 0) for a photo of its own.
         edge: (h, w) in the crop box: the automatic matte's soft edge as the photo's colours show it
             (``relight.compose.shown_edge``), which the relit person goes over their own photo with (``foreground``'s
-            B is then the colour behind this edge); None: the mask's own (a mask or alpha channel given, a hard
-            matte, video frames, a group relit person by person).
+            B is then the colour behind this edge; a group relit person by person: its matte's, its people's B the
+            colour behind it, relight_rt.relight.people ``with_shown_edge``); None: the mask's own (a mask or alpha
+            channel given, a hard matte, video frames).
     """
 
     albedo_chw: np.ndarray

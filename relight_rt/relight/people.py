@@ -137,11 +137,13 @@ def by_person(
     own with their share of its matte, in a window of the photo at their ``origin``: their own shape, their face
     seen at their size, their own exposure) gives the person's relit colour; the colours, weighted by the shares
     (which sum to the matte, so where people overlap their changes blend), go over the backdrop with the group's
-    matte. The person's own colour and the colour behind the soft edge are their ``foreground``, taken from the
-    group's matte in their box (``colours_in_group``: where two people meet neither is background).
+    matte (over its own photo: the matte's soft edge as the photo shows it, ``dec.edge``, the shares scaled to sum
+    to it, ``with_shown_edge``). The person's own colour and the colour behind the soft edge are their
+    ``foreground``, taken from the group's matte in their box (``colours_in_group``: where two people meet neither
+    is background).
 
-    Memory (issue 50 bug 1): every array a person holds is their box's or their window's, the group holds none of
-    its own, and the people's weighted colours are added into the output as they come.
+    Memory (issue 50 bug 1): every array a person holds is their box's or their window's, the group holds only its
+    crop box's shown edge, and the people's weighted colours are added into the output as they come.
 
     ``composer``: the Relighter's; ``network_relit``: its stage-2 pass (a decomposition, lights (K, 9, 3), a batch
     size and ``want_layers`` -> (diffuse, residual, relit) per light, as ``Relighter`` runs it).
@@ -183,10 +185,7 @@ def by_person_lights(
     graded = backdrop is not None and bg.graded
     people = []
     for part in parts:
-        oy, ox = part.origin
-        by0, by1, bx0, bx1 = part.geometry.box  # in the part's window
-        py0, py1, px0, px1 = by0 + oy, by1 + oy, bx0 + ox, bx1 + ox  # in the photo
-        cy0, cy1, cx0, cx1 = max(py0, y0), min(py1, y1), max(px0, x0), min(px1, x1)
+        (py0, _, px0, _), (cy0, cy1, cx0, cx1) = _boxes(part, dec.geometry.box)
         if cy1 <= cy0 or cx1 <= cx0:
             continue
         fg, behind = composer.foreground(part)

@@ -95,9 +95,10 @@ def test_the_groups_own_light_gives_the_photo_back(decomposed, background):
     assert 255 * np.abs(out - img).max() < 0.5
 
 
-def test_a_new_backdrop_keeps_the_groups_matte(decomposed):
-    """The shown edge is for the photo's own background: a new backdrop goes under the matte as before."""
+@pytest.mark.parametrize("background", ["transparent", "white"])
+def test_a_new_backdrop_keeps_the_groups_matte(decomposed, background):
+    """The shown edge is for the photo's own background: RGBA and a new backdrop go under the matte as before."""
     rl, img, soft, shown, before = decomposed
     light = lights.preset("studio")
-    np.testing.assert_array_equal(rl.relight(shown, light, background="transparent"),
-                                  rl.relight(before, light, background="transparent"))
+    np.testing.assert_array_equal(rl.relight(shown, light, background=background),
+                                  rl.relight(before, light, background=background))
