@@ -281,10 +281,10 @@ def neutral_darks(image: np.ndarray, origin: tuple[int, int] = (0, 0), solid: np
     weight *= (1 - warm) * ramp(material_chroma(hue, chroma, reach), *_GREY_MATERIAL)
     if not weight.any():
         return None
-    full = (small.shape[1] * _NEUTRAL_STEP, small.shape[0] * _NEUTRAL_STEP)
+    blocks = (small.shape[1] * _NEUTRAL_STEP, small.shape[0] * _NEUTRAL_STEP)  # (w, h) the whole blocks cover
     # smoothed over a reduced pixel: a colour the group's soft edge and the person alone see differently moves less
-    weight = cv2.resize(cv2.GaussianBlur(weight, (0, 0), 1.0), full, interpolation=cv2.INTER_LINEAR)
-    weight = np.pad(weight, ((0, max(gh - full[1], 0)), (0, max(gw - full[0], 0))), mode="edge")[oy : oy + h,
+    weight = cv2.resize(cv2.GaussianBlur(weight, (0, 0), 1.0), blocks, interpolation=cv2.INTER_LINEAR)
+    weight = np.pad(weight, ((0, max(gh - blocks[1], 0)), (0, max(gw - blocks[0], 0))), mode="edge")[oy : oy + h,
                                                                                              ox : ox + w].ravel()
     if solid is not None:
         weight = weight * solid.ravel()
