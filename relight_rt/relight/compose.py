@@ -41,10 +41,6 @@ _SHOWN_OFF_LINE = 0.1  # ... and it falls as exp(-d^2 / (this x |F - B|^2)), d t
 _SHARP_MARGIN = 2.0  # shown_edge: the rim's outer half steepens where the photo's edge is this x steeper than it ...
 _SHARP_MAX = 8.0  # ... by at most this factor
 _SHARP_NEAR = 2 / 3  # ... fully within this x the reach of the matte's 0.5 line, fading out to the reach (1 x)
-_HELD_NOISE = 0.02  # _held: a floor to each side's spread of colour (per channel) ...
-_HELD_SIGMAS = 2.0  # ... alpha lowered to this many standard deviations above where its colour lies
-_HELD_STEP = 1e9  # ... the photo's colour gradient (per px) there below this x |F - B| (1e9: no such gate)
-_HELD_FAR = 0.0  # ... a colour this many standard deviations from each quarter of the person beside it (0: none)
 
 
 def consistent(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray, bg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -285,74 +281,6 @@ def _steepened(image: np.ndarray, alpha: np.ndarray, outer: np.ndarray, r: int, 
     return (a - near * (a - np.clip(0.5 + k * (a - 0.5), 0, a))).astype(np.float32)
 
 
-def _held(image: np.ndarray, alpha: np.ndarray, r: int) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-    """Background the matte holds (inner26's candidate): (ys, xs, alpha') on the soft pixels within ``r`` px of the
-    matte's 0.5 line, either side, whose colour reads as background, or None where there is none. B: the solid
-    background's mean within about 2 ``r``; F: the solid person's between ``r`` and 3 ``r`` inside the 0.5 line
-    (nearer, the solid matte may hold the background itself); t: where the colour lies on the line B..F. A pixel
-    reads as background where t plus ``_HELD_SIGMAS`` of its uncertainty (the sides' spread along that line, with a
-    floor ``_HELD_NOISE``) stays below 0.5, the colour near that line (``shown_edge``'s off-line weight > 0.5), the
-    photo's gradient there below ``_HELD_STEP`` |F - B| (the person's own outline shows a step), its colour beyond
-    ``_HELD_FAR`` standard deviations of each quarter of the person beside it, and it is joined to the outside
-    (alpha < 0.5) through such pixels. There alpha moves down toward that bound by the off-line weight; never up."""
-    inside = (alpha >= 0.5).astype(np.uint8)
-    depth = cv2.distanceTransform(np.pad(inside, 1, constant_values=1), cv2.DIST_L2, 3)[1:-1, 1:-1]
-    out = cv2.distanceTransform(1 - inside, cv2.DIST_L2, 3)
-    zone = (alpha > _SOFT) & (alpha < 1 - _SOFT) & (depth <= r) & (out <= r)
-    if not zone.any():
-        return None
-    half = ((image.shape[1] + 1) // 2, (image.shape[0] + 1) // 2)
-    small = cv2.resize(image, half, interpolation=cv2.INTER_AREA)
-    shrink = lambda m: cv2.resize(m.astype(np.float32), half, interpolation=cv2.INTER_AREA)  # noqa: E731
-    b_sums = _side_sums(small, shrink(alpha <= _SOFT), r)
-    f_mask = shrink((alpha >= 1 - _SOFT) & (depth > r) & (depth <= 3 * r))
-    f_sums = _side_sums(small, f_mask, r)
-    ys, xs = np.nonzero(zone)
-    seen = (b_sums[0][ys // 2, xs // 2] > 0.5) & (f_sums[0][ys // 2, xs // 2] > 0.5)
-    ys, xs = ys[seen], xs[seen]
-    (b, b_var), (f, f_var) = _side_at(b_sums, ys // 2, xs // 2), _side_at(f_sums, ys // 2, xs // 2)
-    i = image[ys, xs]
-    d = f - b
-    apart = (d * d).sum(axis=1)
-    t = ((i - b) * d).sum(axis=1) / (apart + 1e-6)
-    off = ((i - b - t[:, None] * d) ** 2).sum(axis=1)
-    # t's own uncertainty: the sides' spread of colour (texture, noise) along the line between them
-    low = np.clip(t, 0, 1)
-    spread = ((1 - low) ** 2 * b_var + low**2 * f_var) / 3 + _HELD_NOISE**2
-    bound = np.clip(t + _HELD_SIGMAS * np.sqrt(spread / (apart + 1e-6)), 0, 1)
-    w = apart / (apart + _SHOWN_TAU) * np.exp(-off / (_SHOWN_OFF_LINE * apart + 1e-6))
-    said = (bound < 0.5) & (w > 0.5)
-    # no step of the photo on the way out: the person's own outline, even between alike colours, shows one
-    said &= _gradient(image)[ys, xs] <= _HELD_STEP * np.sqrt(apart)
-    # a person of several colours: far from each quarter of the person beside it too (hair as grey as the wall)
-    q = max(r // 2, 1)
-    fq = _side_sums(small, f_mask, q)
-    hh, ww = small.shape[:2]
-    for dy in (-q, q):
-        for dx in (-q, q):
-            qy, qx = np.clip(ys // 2 + dy, 0, hh - 1), np.clip(xs // 2 + dx, 0, ww - 1)
-            mq, vq = _side_at(fq, qy, qx)
-            has = fq[0][qy, qx] > 0.5
-            near_q = ((i - mq) ** 2).sum(axis=1) < _HELD_FAR**2 * 3 * (vq / 3 + _HELD_NOISE**2)
-            said &= ~(has & near_q)
-    if not said.any():
-        return None
-    # joined to the outside through background-coloured pixels, and ending within the reach: background that
-    # runs deeper into the matte is the person's own colour (a white shirt against a white wall)
-    mark = np.zeros(alpha.shape, np.uint8)
-    mark[ys[said], xs[said]] = 1
-    n, labels = cv2.connectedComponents(mark, connectivity=8)
-    keep = np.zeros(n, bool)
-    keep[np.unique(labels[(inside == 0) & (mark > 0)])] = True
-    keep[0] = False
-    held = said & keep[labels[ys, xs]]
-    if not held.any():
-        return None
-    a = alpha[ys[held], xs[held]]
-    lowered = a - w[held] * np.maximum(a - bound[held], 0)
-    return ys[held], xs[held], lowered.astype(np.float32)
-
-
 def shown_edge(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
     """The soft edge as the photo's colours show it, for the relit person over their own photo: (alpha', behind).
 
@@ -406,10 +334,6 @@ def shown_edge(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray) -> tuple[np
     outer = soft & (alpha < 0.5)  # the rim's outer half: no wider than the photo's own edge shows
     if outer.any():
         shown[outer] = np.minimum(shown[outer], _steepened(image, alpha, outer, r, b_sums))
-    held = _held(image, alpha, r)
-    if held is not None:
-        hy, hx, lowered = held
-        shown[hy, hx] = np.minimum(shown[hy, hx], lowered)
     # raised only as far as a colour behind in [0, 1] still gives the photo back: s F + (1 - s) behind = I needs
     # s <= I / F where F > I and s <= (1 - I) / (1 - F) where F < I
     up = soft & (shown > alpha)
