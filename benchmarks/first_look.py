@@ -17,7 +17,10 @@ photos are evaluation only):
   change in EV of the person (alpha > 0.5), the share of the person's pixels clipped (any channel >= 254/255), and
   ``halo``: on the matte's soft pixels outside its outline whose colour is the plain background beside them (the
   photo shows no person there), the share the light changed by more than 10 levels and the mean change: the
-  person's new light spread past the edge the photo shows. The summary prints its median and mean over the photos.
+  person's new light spread past the edge the photo shows; ``inner``: the same on the matte's pixels inside its
+  outline (alpha >= 0.5, within ``INNER`` px of it) whose colour is the plain background's (``inner_plain``): the
+  background the matte holds, changed as the person is (inner26). The summary prints their median and mean over the
+  photos per light, then the mean and median over the photos and lights per half (A, B, both).
 
 It measures nothing a photographer would judge; it puts the pictures where one can look at them.
 """
@@ -49,6 +52,8 @@ FACE_LIGHTS = ("LEFT", "RIGHT", "window-left")
 REACH = 6  # halo: how far (px) the solid person and background are looked for beside a soft pixel
 CLOSE, APART = 0.1, 0.02  # ... plain background: within sqrt(CLOSE) |F - B| of B, where |F - B|^2 >= APART
 STEP = 10 / 255  # ... changed: by more than this
+INNER = 6  # inner halo: the matte's pixels at alpha >= 0.5 within this many px of its 0.5 outline ...
+INNER_REACH = 12  # ... their plain background's colour and the person's, looked for this far (px)
 
 
 def pick(names: list[str], n: int, seed: int) -> list[str]:
@@ -161,6 +166,22 @@ def plain_background(photo: np.ndarray, alpha: np.ndarray, reach: int = REACH) -
     return (alpha > 0) & (alpha < 0.5) & has_b & has_f & (apart >= APART) & (near <= CLOSE * apart)
 
 
+def inner_plain(photo: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """The matte's pixels inside its outline (alpha >= 0.5) within ``INNER`` px of it whose colour is the plain
+    background's: within ``CLOSE`` of the mean solid background (alpha 0) within ``INNER_REACH`` px, measured against
+    how far the person lies from it (``APART``). The person's colour is the mean over the solid matte deeper than
+    ``INNER`` px inside the outline (nearer it is what this looks for: background the matte holds); a thin limb
+    without such a core is not measured. Colour alone: a person's own edge as pale as a pale backdrop counts too
+    (benchmarks/shown_edge_landing.py checks against the service masks)."""
+    inside = (alpha >= 0.5).astype(np.uint8)
+    depth = cv2.distanceTransform(np.pad(inside, 1, constant_values=1), cv2.DIST_L2, 3)[1:-1, 1:-1]
+    b, has_b = side_colour(photo, alpha <= 0, INNER_REACH)
+    f, has_f = side_colour(photo, (alpha >= 1) & (depth > INNER), INNER_REACH)
+    apart = ((f - b) ** 2).sum(axis=2)
+    near = ((photo - b) ** 2).sum(axis=2)
+    return (inside > 0) & (depth <= INNER) & has_b & has_f & (apart >= APART) & (near <= CLOSE * apart)
+
+
 def halo(photo: np.ndarray, alpha: np.ndarray, relit: np.ndarray, plain: np.ndarray) -> dict:
     """The relit picture's change on ``plain`` (``plain_background``'s pixels): a change there is the person's light
     spread past the edge the photo shows (a halo). Share changed by more than ``STEP``, and the mean change, in
@@ -179,7 +200,7 @@ def look_at(relighter, path: Path, out: Path, tile: int) -> dict:
     person = alpha > 0.5
     y_in = float(luminance(rgb)[person].mean()) if person.any() else 0.0
     relit: dict[str, np.ndarray] = {}
-    plain = plain_background(rgb, alpha)
+    plain, inner = plain_background(rgb, alpha), inner_plain(rgb, alpha)
     figures: dict = {}
     for name in LIGHTS:
         light = {"LEFT": LEFT, "RIGHT": RIGHT}.get(name, name)
@@ -189,7 +210,7 @@ def look_at(relighter, path: Path, out: Path, tile: int) -> dict:
             y = float(luminance(img)[person].mean())
             figures[name] = {"ev": float(np.log2(max(y, 1e-8) / max(y_in, 1e-8))),
                              "clipped": float((img[person].max(axis=1) >= 254 / 255).mean()),
-                             "halo": halo(rgb, alpha, img, plain)}
+                             "halo": halo(rgb, alpha, img, plain), "inner": halo(rgb, alpha, img, inner)}
     tiles = [("input", to_bgr8(rgb)), *[(n, to_bgr8(relit[n])) for n in LIGHTS], ("matte", outline(rgb, alpha))]
     cv2.imwrite(str(out / f"{path.stem}_sheet.png"), grid(tiles, min(tile, rgb.shape[0])))
     box = head_box(dec, rgb.shape[:2])
@@ -226,13 +247,21 @@ def main(argv=None) -> int:
         print(f"{name} ({halves[name]}): {time.time() - t0:.0f} s", flush=True)
     (args.out / "look.json").write_text(json.dumps({"seed": args.seed, "n": args.n, "photos": photos}, indent=1))
     count = {h: sum(v["half"] == h for v in photos.values()) for h in "AB"}
-    for name in LIGHTS:
-        rows = [v["lights"][name]["halo"] for v in photos.values() if name in v["lights"]]
-        rows = [r for r in rows if r["pixels"]]
-        if rows:
-            share, mean = [r["share"] for r in rows], [r["mean"] for r in rows]
-            print(f"{name:12s} halo: share changed median {np.median(share):.3f} mean {np.mean(share):.3f}, "
-                  f"change median {np.median(mean):.2f} mean {np.mean(mean):.2f} levels ({len(rows)} photos)")
+    for kind in ("halo", "inner"):
+        for name in LIGHTS:
+            rows = [v["lights"][name][kind] for v in photos.values() if name in v["lights"]]
+            rows = [r for r in rows if r["pixels"]]
+            if rows:
+                share, mean = [r["share"] for r in rows], [r["mean"] for r in rows]
+                print(f"{name:12s} {kind}: share changed median {np.median(share):.3f} mean {np.mean(share):.3f}, "
+                      f"change median {np.median(mean):.2f} mean {np.mean(mean):.2f} levels ({len(rows)} photos)")
+        for half in ("A", "B", "AB"):
+            rows = [r for v in photos.values() if v["half"] in half for n in LIGHTS if n in v["lights"]
+                    for r in [v["lights"][n][kind]] if r["pixels"]]
+            if rows:
+                mean, share = [r["mean"] for r in rows], [r["share"] for r in rows]
+                print(f"{kind} half {half}: change mean {np.mean(mean):.2f} median {np.median(mean):.2f} levels, "
+                      f"share changed mean {np.mean(share):.3f} ({len(rows)} photo-lights)")
     print(f"{len(photos)} photos (A {count['A']}, B {count['B']}), "
           f"{sum(v['face_box'] is not None for v in photos.values())} face crops -> {args.out}")
     return 0
