@@ -179,7 +179,7 @@ export function backgroundGrade(sample, light, gamma) {
     if (sample.neutral && sample.neutral[p] > 0) neutralStep(sample, p, v, S);
     for (let c = 0; c < 3; c++) peak = Math.max(peak, v[c]);
     const s = shoulderScale(peak, q[p]);
-    for (let c = 0; c < 3; c++) now[c] += w[p] * srgbToLinear(v[c] * s);
+    for (let c = 0; c < 3; c++) now[c] += w[p] * srgbTabled(v[c] * s);
   }
   const floor = 1e-6 * Math.max(sample.weightSum, 1);
   return now.map((v, c) => (was[c] > floor ? Math.pow(v / was[c], 1 / gamma) : 1));
@@ -265,6 +265,15 @@ function shadingAt(T, p, light, S) {
 export function srgbToLinear(v) {
   const x = Math.min(Math.max(v, 0), 1);
   return x <= 0.04045 ? x / 12.92 : Math.pow((x + 0.055) / 1.055, 2.4);
+}
+
+// srgbToLinear read from a table of DECODE_STEPS steps, linearly interpolated (within 1e-7 of it): the background
+// grade decodes three values a sample pixel each frame, and Math.pow there took half of its time.
+const DECODE_STEPS = 4096, DECODE = new Float64Array(DECODE_STEPS + 2);
+for (let i = 0; i < DECODE.length; i++) DECODE[i] = srgbToLinear(i / DECODE_STEPS);
+export function srgbTabled(v) {
+  const x = (v > 0 ? (v < 1 ? v : 1) : 0) * DECODE_STEPS, i = x | 0;
+  return DECODE[i] + (x - i) * (DECODE[i + 1] - DECODE[i]);
 }
 
 // The exposure's highlight guard (relight_rt.exposure.highlight_factor): how much "auto" lowers the exposed light
