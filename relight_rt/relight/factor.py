@@ -66,10 +66,11 @@ from ..image.color import REC709, channel_max
 from ..light import exposure as _exposure
 from ..light import sh
 from ..person.face_mesh import mirror, mirror_held
+from . import head_blend
 from .cast_shadow import MeshView, shadow_factor
 from .decomposition import Decomposition, Memo, readonly
 from .detail import extend_outward, guided_upsample, shadow_texture, unpremultiply, window
-from .face_pass import FacePass, feather, feather_at
+from .face_pass import FacePass, feather
 from .fill_edge import crop_part, edge_weight, grid_weight, soften
 from .look import shaded_skin, skin_chroma, tint_range
 from .shadow_rim import rim_lift, skin_gate, spread_mean
@@ -678,61 +679,14 @@ class Factor:
             state["shadow"] = result
         return state["shadow"]
 
-    def head_region(self, dec: Decomposition) -> tuple | None:
-        """Where ``blend_head`` blends the head pass ``dec.head`` into ``dec``: the head pass's crop box within
-        ``dec``'s, (cy0, cy1, cx0, cx1) in the input frame (end exclusive), the head pass's crop box's top-left
-        (y, x) in the input frame, the blend's weight there (``feather`` over ``dec.head_box`` times the matte) and
-        the head pass's skin there (where the two passes' levels are matched); None without a head pass or where
-        its crop box misses ``dec``'s."""
-        head, box = dec.head, dec.head_box
-        if head is None or box is None:
-            return None
-        by0, by1, bx0, bx1 = dec.geometry.box
-        hy0, hy1, hx0, hx1 = head.geometry.box  # in the head square's frame
-        y0, y1, x0, x1 = box[0] + hy0, box[0] + hy1, box[2] + hx0, box[2] + hx1  # input frame
-        cy0, cy1, cx0, cx1 = max(y0, by0), min(y1, by1), max(x0, bx0), min(x1, bx1)
-        if cy1 <= cy0 or cx1 <= cx0:
-            return None
-        h_img, w_img = dec.geometry.frame
-        weight = feather(box[1] - box[0], box[3] - box[2],
-                         (box[0] == 0, box[1] == h_img, box[2] == 0, box[3] == w_img))
-        weight = weight[cy0 - box[0] : cy1 - box[0], cx0 - box[2] : cx1 - box[2]]
-        weight = weight * dec.mask[cy0:cy1, cx0:cx1]
-        skin = head.to_input(head.skin)[cy0 - box[0] : cy1 - box[0], cx0 - box[2] : cx1 - box[2]]
-        return (cy0, cy1, cx0, cx1), (y0, x0), weight, skin
-
     def blend_head(self, dec: Decomposition, gain: np.ndarray, light: np.ndarray, fill: tuple | None = None) -> None:
-        """Blend the head pass's (``dec.head``) change of shading into ``gain`` (the body's, crop frame), in place.
-
-        The head pass sees the face larger, so it gives the shape of the change; its overall level is the
-        body pass's (the two estimate the photo's light separately), matched on the head's skin. ``fill``: the
-        body's deep-shadow fill (``gain_and_fill``); where it adds the change (its weight w), the body's gain holds
-        the photo as it is, and the head's ratio takes only the rest (1 - w): it would count the light a second time.
-        The background's grade is found on the picture this makes; the studio's preview finds it from
-        ``head_grade_inputs`` (relight_rt.relight.compose ``HeadBlend``).
-        """
-        found = self.head_region(dec)
-        if found is None:
-            return
-        (cy0, cy1, cx0, cx1), (y0, x0), weight, skin = found
-        by0, _, bx0, _ = dec.geometry.box
-        head = dec.head
-        head_image = np.ascontiguousarray(head.geometry.crop(head.image))
-        g_head = self.gain(head, light, head_image)[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0]
-        if fill is not None:  # the fill's weight where its part (crop frame) meets the head's region
-            (fy, fx), _, w = fill
-            ry, rx = cy0 - by0, cx0 - bx0  # the head's region in the crop frame starts here
-            ya, yb, xa, xb = max(fy.start, ry), min(fy.stop, cy1 - by0), max(fx.start, rx), min(fx.stop, cx1 - bx0)
-            if yb > ya and xb > xa:
-                weight[ya - ry : yb - ry, xa - rx : xb - rx] *= 1 - np.clip(
-                    w[ya - fy.start : yb - fy.start, xa - fx.start : xb - fx.start], 0, 1)
-        region = gain[cy0 - by0 : cy1 - by0, cx0 - bx0 : cx1 - bx0]
-        skin = skin * weight
-        if skin.sum() < 1:
-            return
-        level = float((region @ REC709 * skin).sum()) / max(float((g_head @ REC709 * skin).sum()),
-                                                                      1e-6)
-        region += weight[..., None] * (level * g_head - region)
+        """Blend the head pass's (``dec.head``) change of shading into ``gain`` (the body's, crop frame), in place
+        (relight_rt.relight.head_blend ``blend_head``); ``fill``: the body's deep-shadow fill (``gain_and_fill``)."""
+        region = head_blend.head_region(dec)
+        if region is not None:
+            head = dec.head
+            g_head = self.gain(head, light, np.ascontiguousarray(head.geometry.crop(head.image)))
+            head_blend.blend_head(dec, gain, g_head, region, fill)
 
     def factor_inputs(self, dec: Decomposition) -> tuple[tuple[int, int, int, int], np.ndarray]:
         """The relighting factor's inputs that do not depend on the light, without stage 2's residual: ``own``'s
@@ -748,40 +702,13 @@ class Factor:
         return own["window"], maps
 
     def head_grade_inputs(self, dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-        """What ``blend_head`` does whatever the light, read at the centres of the pixels of ``dec``'s window of the
-        network frame (``own``'s "window", (r, r')): ``feather``'s weight there (0 outside ``head_region``; the
-        matte's share is the caller's), the head pass's skin there and the head pass's ``factor_inputs`` (r, r',
-        11) there (bilinear). None without a head pass. For a sample of the blended picture
-        (relight_rt.relight.compose ``Composer.grade_inputs``)."""
-        found = self.head_region(dec)
-        if found is None:
+        """What ``blend_head`` does whatever the light, at the centres of the pixels of ``dec``'s window of the
+        network frame (relight_rt.relight.head_blend ``grade_inputs``); None without a head pass."""
+        region = head_blend.head_region(dec)
+        if region is None:
             return None
-        (cy0, cy1, cx0, cx1), _, _, _ = found
-        head, box = dec.head, dec.head_box
-        geom, hgeom = dec.geometry, head.geometry
-        wy0, wy1, wx0, wx1 = self.own(dec, with_residual=False)["window"]
-        # the window's pixel centres in the input frame (network pixel u at (u + 0.5) k - 0.5 - offset + box)
-        (by0, _, bx0, _), (oy, ox), k = geom.box, geom.offset, geom.scale
-        ys = (np.arange(wy0, wy1, dtype=np.float64) + 0.5) * k - 0.5 - oy + by0
-        xs = (np.arange(wx0, wx1, dtype=np.float64) + 0.5) * k - 0.5 - ox + bx0
-        inside = (((ys >= cy0 - 0.5) & (ys < cy1 - 0.5))[:, None] & ((xs >= cx0 - 0.5) & (xs < cx1 - 0.5))[None, :])
-        h_img, w_img = geom.frame
-        ty = (ys - box[0] + 0.5) / (box[1] - box[0])
-        tx = (xs - box[2] + 0.5) / (box[3] - box[2])
-        weight = feather_at(ty[:, None], tx[None, :], (box[0] == 0, box[1] == h_img, box[2] == 0, box[3] == w_img))
-        weight = np.where(inside, weight, 0).astype(np.float32)
-        # ... and in the head pass's network frame, in its window's pixels
-        (hy0, _, hx0, _), (hoy, hox), hk = hgeom.box, hgeom.offset, hgeom.scale
-        (vy0, vy1, vx0, vx1), maps = self.factor_inputs(head)
-        uy = ((ys - box[0] - hy0 + hoy + 0.5) / hk - 0.5 - vy0).astype(np.float32)
-        ux = ((xs - box[2] - hx0 + hox + 0.5) / hk - 0.5 - vx0).astype(np.float32)
-        map_x, map_y = np.broadcast_to(ux[None, :], weight.shape), np.broadcast_to(uy[:, None], weight.shape)
-        read = lambda a: cv2.remap(np.ascontiguousarray(a), np.ascontiguousarray(map_x), np.ascontiguousarray(map_y),  # noqa: E731
-                                   cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-        on_head = np.concatenate([read(maps[..., i : i + 4]).reshape(weight.shape + (-1,)) for i in range(0, 11, 4)],
-                                 axis=2)
-        skin = read(np.asarray(head.skin[vy0:vy1, vx0:vx1], np.float32))
-        return weight, (skin * (weight > 0)).astype(np.float32), on_head.astype(np.float32)
+        window = self.own(dec, with_residual=False)["window"]
+        return head_blend.grade_inputs(dec, region, window, *self.factor_inputs(dec.head))
 
     def expose(self, dec: Decomposition, lights: np.ndarray, exposure) -> np.ndarray:
         """relight_rt.light.exposure.expose with the photo's own mean luminance measured once per Decomposition, the
