@@ -58,7 +58,8 @@ def blend_head(dec: Decomposition, gain: np.ndarray, g_head: np.ndarray, where: 
     (cy0, cy1, cx0, cx1), (y0, x0), weight, skin = where
     by0, _, bx0, _ = dec.geometry.box
     g_head = g_head[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0]
-    if fill is not None:  # the fill's weight where its part (crop frame) meets the head's region
+    if fill is not None:  # the fill's weight where its part (crop frame) meets the head's region (on a copy:
+        weight = weight.copy()  # ``where`` is the caller's)
         (fy, fx), _, w = fill
         ry, rx = cy0 - by0, cx0 - bx0  # the head's region in the crop frame starts here
         ya, yb, xa, xb = max(fy.start, ry), min(fy.stop, cy1 - by0), max(fx.start, rx), min(fx.stop, cx1 - bx0)
