@@ -165,7 +165,8 @@ class HeadBlend(NamedTuple):
     """What the head pass's blend (relight_rt.relight.factor ``Factor.blend_head``) does to a ``GradeSample``'s
     pixels whatever the light: on the pixels under it, the factor is the body's blended toward the head pass's, that
     one scaled to the body's level on the head pass's skin (a light-dependent scalar, ``level``). K pixels of the
-    sample; none (K = 0) without a head pass. ``sampled_grade`` and the studio's sh.js ``backgroundGrade`` apply it.
+    sample; none (K = 0) without a head pass or without its skin on the sample (no level to match). ``sampled_grade``
+    and the studio's sh.js ``backgroundGrade`` apply it.
 
     Attributes:
         index: (K,) int32, the pixels of the ``GradeSample`` under the blend, increasing.
@@ -196,6 +197,8 @@ class HeadBlend(NamedTuple):
         """The blend on every ``step``-th pixel of its ``GradeSample`` (``GradeSample.every``): those of its pixels,
         their indices in the thinned sample."""
         keep = self.index % step == 0
+        if not (self.skin[keep] > 0).any():  # none of its skin kept: no level to match (``head_level``), no blend
+            return HeadBlend.empty()
         return HeadBlend((self.index[keep] // step).astype(np.int32),
                          *(np.ascontiguousarray(a[keep], np.float32) for a in self[1:]))
 
@@ -598,8 +601,9 @@ class Composer:
                 feathered, skin, on_head = (a[keep] for a in head)
                 share = feathered * net[..., 5][keep] / w
                 at = np.flatnonzero(share > 0)
-                blend = HeadBlend(at.astype(np.int32), share[at], (skin * feathered * w)[at], scale[keep][at, 0],
-                                  stays[keep][at, 0], on_head[at, 0], on_head[at, 1], on_head[at, 2:])
+                if (skin[at] > 0).any():  # else no level to match (``head_level``), no blend
+                    blend = HeadBlend(at.astype(np.int32), share[at], (skin * feathered * w)[at], scale[keep][at, 0],
+                                      stays[keep][at, 0], on_head[at, 0], on_head[at, 1], on_head[at, 2:])
             state["grade_inputs"] = GradeSample(*(readonly(np.ascontiguousarray(a, np.float32)) for a in (
                 lit, steady, transport[keep], w, peak, colour, near)), HeadBlend(readonly(blend.index), *(
                     readonly(np.ascontiguousarray(a, np.float32)) for a in blend[1:])))

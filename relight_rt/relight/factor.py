@@ -703,9 +703,10 @@ class Factor:
 
     def head_grade_inputs(self, dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
         """What ``blend_head`` does whatever the light, at the centres of the pixels of ``dec``'s window of the
-        network frame (relight_rt.relight.head_blend ``grade_inputs``); None without a head pass."""
+        network frame (relight_rt.relight.head_blend ``grade_inputs``); None without a head pass or where
+        ``blend_head`` would blend nothing (too little of the head pass's skin under it: ``head_blend.blends``)."""
         region = head_blend.head_region(dec)
-        if region is None:
+        if region is None or not head_blend.blends(region):
             return None
         window = self.own(dec, with_residual=False)["window"]
         return head_blend.grade_inputs(dec, region, window, *self.factor_inputs(dec.head))

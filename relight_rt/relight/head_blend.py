@@ -20,6 +20,8 @@ from ..image.color import REC709
 from .decomposition import Decomposition
 from .face_pass import feather, feather_at
 
+MIN_SKIN = 1.0  # the head pass's skin under the blend's weight, in photo pixels, below which there is no level to match
+
 
 def head_region(dec: Decomposition) -> tuple | None:
     """Where the head pass ``dec.head`` is blended into ``dec``: the head pass's crop box within ``dec``'s, (cy0,
@@ -45,6 +47,14 @@ def head_region(dec: Decomposition) -> tuple | None:
     return (cy0, cy1, cx0, cx1), (y0, x0), weight, skin
 
 
+def blends(where: tuple) -> bool:
+    """Whether ``blend_head`` blends anything over ``head_region``'s answer ``where`` before the fill's share: the
+    head pass's skin under the blend's weight sums to ``MIN_SKIN`` or more (without, there is no level to match and
+    the body's factor stays as it is)."""
+    _, _, weight, skin = where
+    return float((skin * weight).sum()) >= MIN_SKIN
+
+
 def blend_head(dec: Decomposition, gain: np.ndarray, g_head: np.ndarray, where: tuple, fill: tuple | None = None
                ) -> None:
     """Blend the head pass's factor ``g_head`` (the head pass's crop frame, ``Factor.gain`` on it without stage 2's
@@ -68,7 +78,7 @@ def blend_head(dec: Decomposition, gain: np.ndarray, g_head: np.ndarray, where: 
                 w[ya - fy.start : yb - fy.start, xa - fx.start : xb - fx.start], 0, 1)
     region = gain[cy0 - by0 : cy1 - by0, cx0 - bx0 : cx1 - bx0]
     skin = skin * weight
-    if skin.sum() < 1:
+    if skin.sum() < MIN_SKIN:
         return
     level = float((region @ REC709 * skin).sum()) / max(float((g_head @ REC709 * skin).sum()), 1e-6)
     region += weight[..., None] * (level * g_head - region)

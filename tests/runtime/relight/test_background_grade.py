@@ -268,7 +268,8 @@ def test_the_sample_blends_the_head_pass_at_the_bodys_level():
     on the skin (``head_level``): a head pass that sees what the body sees leaves the grade as it was, whatever its
     weights; one that sees the same shape at twice the factor is scaled back to it (level 1/2), the grade again as
     it was; one whose light falls differently moves the grade, by its blend's weight (none at weight 0), and the
-    thinned sample (``GradeSample.every``, what the studio sends) keeps the head pass's pixels that it keeps."""
+    thinned sample (``GradeSample.every``, what the studio sends) keeps the head pass's pixels that it keeps, and
+    none where it keeps none of their skin."""
     rng = np.random.default_rng(3)
     sample = _sample_with_head(rng)
     light = (np.asarray(OWN_LIGHT, np.float32) * np.array([1.3, 1.0, 0.8], np.float32))
@@ -289,3 +290,9 @@ def test_the_sample_blends_the_head_pass_at_the_bodys_level():
     assert thin.weight.shape[0] == -(-sample.weight.shape[0] // 3)
     np.testing.assert_array_equal(thin.head.index, sample.head.index[sample.head.index % 3 == 0] // 3)
     np.testing.assert_array_equal(thin.head.transport, sample.transport[::3][thin.head.index])
+    # thinned past all of its skin, the blend has no level to match (head_level's would be 0): none is sent
+    off_skin = head._replace(skin=np.where(head.index % 3 == 0, 0, head.skin).astype(np.float32))
+    bare = sample._replace(head=off_skin).every(3)
+    assert bare.head.index.size == 0
+    np.testing.assert_array_equal(sampled_grade(bare, light),
+                                  sampled_grade(thin._replace(head=HeadBlend.empty()), light))

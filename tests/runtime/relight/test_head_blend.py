@@ -2,10 +2,16 @@
 
 from __future__ import annotations
 
+import dataclasses
+from pathlib import Path
+
 import numpy as np
 
+import relight_rt
 from relight_rt import Relighter, RuntimeConfig, lights
+from relight_rt.cli.demo import example_path
 from relight_rt.image.color import REC709
+from relight_rt.relight.compose import HeadBlend, sampled_grade
 from relight_rt.relight.face_pass import feather
 
 
@@ -78,3 +84,23 @@ def test_the_head_pass_leaves_the_body_gain_where_the_shadow_fill_adds_the_chang
     np.testing.assert_allclose(blended(0.0), plain, rtol=1e-6, atol=1e-7)  # no fill: the head pass as before
     half = blended(0.5)  # half filled: the head pass takes half its share
     np.testing.assert_allclose(half - body, 0.5 * (plain - body), rtol=1e-4, atol=1e-5)
+
+
+def test_a_head_pass_without_skin_under_its_blend_blends_nothing_in_the_grade_sample_either():
+    """With none of the head pass's skin under its blend there is no level to match: ``blend_head`` leaves the body's
+    factor as it is, and the grade sample carries no blend either (``head_blend.blends``), where before it blended
+    the head pass's factor in at a level of 0 (0 / 1e-6) and took the head box's light out of the preview's grade."""
+    rl = relight_rt.open(RuntimeConfig(models=Path(relight_rt.__file__).resolve().parent / "models", device="cpu"))
+    dec = rl.decompose(example_path())
+    assert dec.head is not None and rl._composer.grade_inputs(dec).head.index.size > 0
+    bare = dataclasses.replace(dec, head=dataclasses.replace(dec.head, skin=np.zeros_like(dec.head.skin)))
+    light = rl._factor.expose(bare, lights.preset("window-left").astype(np.float32), "auto")
+    image, _ = rl._composer.foreground(bare)
+    body = rl._factor.gain(bare, light, image)
+    gain = body.copy()
+    rl._factor.blend_head(bare, gain, light)
+    np.testing.assert_array_equal(gain, body)  # the result: no blend
+    sample = rl._composer.grade_inputs(bare)
+    assert rl._factor.head_grade_inputs(bare) is None and sample.head.index.size == 0
+    np.testing.assert_array_equal(sampled_grade(sample, light),
+                                  sampled_grade(sample._replace(head=HeadBlend.empty()), light))
