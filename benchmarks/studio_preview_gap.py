@@ -13,8 +13,9 @@ deep-shadow fill (Factor.shadow_weight): each ratio that moves to 1 names a part
 Background grade: on the bundled street photo (a backdrop to grade, the automatic matte), the grade the preview
 draws (Studio.preview_grade, what sh.js backgroundGrade computes on the relighter's grade sample,
 relight_rt.relight.compose ``Composer.grade_inputs``) against the full result's (the median ratio of the backdrop's
-values with --grade-background and without), per channel in EV of light (x 2.2). ``--without head-blend`` moves
-window-left's gap from 0.14 to 0.03 EV: the head pass's blend is what the preview's grade leaves out.
+values with --grade-background and without), per channel in EV of light (x 2.2). The preview's grade carries the
+head pass's blend (compose ``HeadBlend``); ``--without head-blend`` takes it out of both (window-left's gap was 0.14
+EV with the blend in the result only, 0.03 with it in neither).
 """
 
 from __future__ import annotations
@@ -59,8 +60,9 @@ def relighter(without: set[str]):
     rl = relight_rt.open(RuntimeConfig(models=BUNDLED, device="cpu"))
     if "head" in without:
         rl.face_pass = False
-    if "head-blend" in without:
+    if "head-blend" in without:  # in the result and in the preview's grade sample
         _factor.Factor.blend_head = lambda self, *args, **kwargs: None
+        _factor.Factor.head_grade_inputs = lambda self, dec: None
     if "fill" in without:
         _factor.Factor.shadow_weight = lambda self, dec: None
     return rl

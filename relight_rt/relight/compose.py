@@ -15,7 +15,6 @@ from ..image.compositing import Background, clean_edge_colour, over_box
 from ..image.foreground import estimate_foreground, nearest_colours
 from ..light.exposure import DISPLAY_GAMMA, knee
 from .decomposition import Decomposition, Memo, RelightResult, intrinsic_layers, readonly
-from .detail import extend_outward
 from .factor import Factor
 from .look import (
     NeutralDarks,
@@ -162,12 +161,55 @@ def grade_of_sums(new: np.ndarray, old: np.ndarray, weight: float) -> np.ndarray
     return (light ** (1.0 / DISPLAY_GAMMA)).astype(np.float32)
 
 
+class HeadBlend(NamedTuple):
+    """What the head pass's blend (relight_rt.relight.factor ``Factor.blend_head``) does to a ``GradeSample``'s
+    pixels whatever the light: on the pixels under it, the factor is the body's blended toward the head pass's, that
+    one scaled to the body's level on the head pass's skin (a light-dependent scalar, ``level``). K pixels of the
+    sample; none (K = 0) without a head pass or without its skin on the sample (no level to match). ``sampled_grade``
+    and the studio's sh.js ``backgroundGrade`` apply it.
+
+    Attributes:
+        index: (K,) int32, the pixels of the ``GradeSample`` under the blend, increasing.
+        weight: (K,) float32 in [0, 1], the blend's weight (its feather times the matte, the matte's mean over the
+            pixel).
+        skin: (K,) float32, the weight the levels are matched with (the head pass's skin x the feather x the matte).
+        body_scale, body_stays: (K,) float32, the body's factor per unit of shading (``Factor.factor_inputs``): its
+            luminance under a light of luminance Y is body_scale x Y + body_stays.
+        scale, stays: (K,) float32, the head pass's the same.
+        transport: (K, 9) float32, the head pass's.
+    """
+
+    index: np.ndarray
+    weight: np.ndarray
+    skin: np.ndarray
+    body_scale: np.ndarray
+    body_stays: np.ndarray
+    scale: np.ndarray
+    stays: np.ndarray
+    transport: np.ndarray
+
+    @classmethod
+    def empty(cls) -> HeadBlend:
+        """No pixel under a head pass's blend."""
+        return cls(np.zeros(0, np.int32), *(np.zeros(s, np.float32) for s in ((0,),) * 6 + ((0, 9),)))
+
+    def every(self, step: int) -> HeadBlend:
+        """The blend on every ``step``-th pixel of its ``GradeSample`` (``GradeSample.every``): those of its pixels,
+        their indices in the thinned sample."""
+        keep = self.index % step == 0
+        if not (self.skin[keep] > 0).any():  # none of its skin kept: no level to match (``head_level``), no blend
+            return HeadBlend.empty()
+        return HeadBlend((self.index[keep] // step).astype(np.int32),
+                         *(np.ascontiguousarray(a[keep], np.float32) for a in self[1:]))
+
+
 class GradeSample(NamedTuple):
     """What ``background_grade`` reads of a relit person whatever the light, on the network frame's pixels under the
     matte (``Composer.grade_inputs``; the studio's preview grades with it, ``sampled_grade``). Under a light with RGB
-    shading S = max(0, T·light) and luminance Y(S) a pixel's relit colour is ``lit * S + steady * S / Y(S)``, rolled
-    off past its ``knee`` (relight_rt.relight.look ``shoulder``), as ``Composer.person_colour`` makes it, and where
-    the photo is a near-neutral dark (``neutral``) its chroma kept as ``look.keep_neutral`` keeps it before that.
+    shading S = max(0, T·light) and luminance Y(S) a pixel's relit colour is ``lit * S + steady * S / Y(S)``, blended
+    toward the head pass's where it has one (``head``), rolled off past its ``knee`` (relight_rt.relight.look
+    ``shoulder``), as ``Composer.person_colour`` makes it, and where the photo is a near-neutral dark (``neutral``)
+    its chroma kept as ``look.keep_neutral`` keeps it before that.
 
     Attributes:
         lit: (N, 3) float32, the colour per unit of shading that scales with the light.
@@ -178,6 +220,7 @@ class GradeSample(NamedTuple):
         own: (N, 3) float32, the person's own colour (``Composer.foreground``'s, the matte's mean over the pixel).
         neutral: (N,) float32, the near-neutral darks' weight (``look.neutral_darks``, the matte's mean over the
             pixel; 0: none).
+        head: ``HeadBlend``, the head pass's blend on K of the N pixels.
     """
 
     lit: np.ndarray
@@ -187,14 +230,46 @@ class GradeSample(NamedTuple):
     knee: np.ndarray
     own: np.ndarray
     neutral: np.ndarray
+    head: HeadBlend
+
+    @classmethod
+    def empty(cls) -> GradeSample:
+        """No pixel (a grade of 1)."""
+        return cls(*(np.zeros(s, np.float32) for s in ((0, 3), (0, 3), (0, 9), (0,), (0,), (0, 3), (0,))),
+                   HeadBlend.empty())
+
+    def every(self, step: int) -> GradeSample:
+        """Every ``step``-th pixel (the studio sends the page at most so many), float32, contiguous."""
+        return GradeSample(*(np.ascontiguousarray(a[::step], np.float32) for a in self[:-1]), self.head.every(step))
+
+
+def head_level(sample: GradeSample, light: np.ndarray) -> tuple[float, np.ndarray]:
+    """``HeadBlend``'s light-dependent part under ``light`` (9, 3): the level the head pass's factor is scaled to
+    (``Factor.blend_head``: the body's factor's luminance over the head pass's, each summed with the skin's weight)
+    and the head pass's relit colour on its K pixels (K, 3) float32, before that scale."""
+    head = sample.head
+    light = np.asarray(light, np.float32).reshape(9, 3)
+    shading = np.maximum(head.transport @ light, 0)
+    y = np.maximum(shading @ REC709.astype(np.float32), 1e-4)
+    colour = sample.own[head.index] * (head.scale[:, None] * shading + head.stays[:, None] * shading / y[:, None])
+    on = np.flatnonzero(head.skin > 0)
+    body_y = np.maximum(np.maximum(sample.transport[head.index[on]] @ light, 0) @ REC709.astype(np.float32), 1e-4)
+    body = float((head.skin[on] * (head.body_scale[on] * body_y + head.body_stays[on])).sum(dtype=np.float64))
+    seen = float((head.skin[on] * (head.scale[on] * y[on] + head.stays[on])).sum(dtype=np.float64))
+    return body / max(seen, 1e-6), colour
 
 
 def sampled_grade(sample: GradeSample, light: np.ndarray) -> np.ndarray:
     """(3,) float32 ``background_grade`` on a ``GradeSample`` under the (exposed) ``light`` (9, 3): the relit colour
-    and the own colour decoded from sRGB, summed with the matte's weight, G ** (1 / DISPLAY_GAMMA)."""
+    (the head pass's blended in, ``head_level``) and the own colour decoded from sRGB, summed with the matte's
+    weight, G ** (1 / DISPLAY_GAMMA)."""
     shading = np.maximum(sample.transport @ np.asarray(light, np.float32).reshape(9, 3), 0)
     y = np.maximum(shading @ REC709.astype(np.float32), 1e-4)[:, None]
     colour = np.maximum(sample.lit * shading + sample.steady * shading / y, 0)
+    if sample.head.index.size:  # the head pass's factor, at the body's level, blended in (``Factor.blend_head``)
+        level, on_head = head_level(sample, light)
+        at = sample.head.index
+        colour[at] += sample.head.weight[:, None] * (np.float32(level) * on_head - colour[at])
     near = np.flatnonzero(sample.neutral > 0)
     if near.size:  # the near-neutral darks' chroma, on the own colour's (the photo's where the matte is solid)
         step = neutral_values(np.ascontiguousarray(colour[near].T), np.ascontiguousarray(shading[near].T),
@@ -441,7 +516,7 @@ class Composer:
         gain, fill = self.factor.gain_and_fill(dec, light, image, residual)  # fill: deep shadow, the change added
         state = self.memo(dec)
         if dec.head is not None:
-            self.factor.blend_head(dec, gain, light, dec.head, dec.head_box, fill)
+            self.factor.blend_head(dec, gain, light, fill)
         if looks is None:
             if "dark" not in state:  # once per photo: what steadying dark pixels' colour needs whatever the light
                 state["dark"] = tuple(readonly(a) for a in dark_colour(image))
@@ -487,8 +562,10 @@ class Composer:
         colour ``compose`` relights and grades against, averaged under the matte over the pixel; not the network's
         image, whose edge pixels hold the backdrop behind the person). With detail, F times the relighting factor
         without stage 2's residual (relight_rt.relight.factor: lit = F albedo / own, steady = F missing / own), the
-        factor's inputs taken from the solid person outward as ``Factor.gain`` takes the factor, and the shoulder
-        at F's own peak (``knee``); without, the network's albedo under the shading (no shoulder)."""
+        factor's inputs taken from the solid person outward as ``Factor.gain`` takes the factor
+        (``Factor.factor_inputs``), the shoulder at F's own peak (``knee``) and the head pass's blend on the pixels
+        under it (``HeadBlend``, ``Factor.head_grade_inputs``); without, the network's albedo under the shading (no
+        shoulder, no head pass)."""
         state = self.memo(dec)
         if "grade_inputs" not in state:
             geom = dec.geometry
@@ -497,19 +574,14 @@ class Composer:
             neutral = self.neutral(dec) if self.detail else None
             if neutral is not None:
                 near.reshape(-1)[neutral.index[0] // 3] = neutral.weight
-            net = geom.crop_to_network(np.concatenate([self.foreground(dec)[0] * alpha, alpha, near * alpha], axis=2))
+            net = geom.crop_to_network(np.concatenate([self.foreground(dec)[0] * alpha, alpha, near * alpha,
+                                                       alpha * alpha], axis=2))
+            head = None
             if self.detail:
-                own = self.factor.own(dec, with_residual=False)
-                y0, y1, x0, x1 = own["window"]
+                (y0, y1, x0, x1), maps = self.factor.factor_inputs(dec)
                 net = net[y0:y1, x0:x1]
-                base = own["own"][..., None]
-                maps = np.concatenate([own["albedo"][..., None] / base, own["missing"][..., None] / base,
-                                       own["transport"]], axis=2).astype(np.float32)
-                # as ``Factor.gain`` takes the factor past the solid person: from the inner pixels outward (the
-                # window's own values there are 0, which would leave the edge black)
-                maps = np.concatenate([extend_outward(maps[..., i : i + 4], own["inner"]) for i in range(0, 11, 4)],
-                                      axis=2)
                 scale, stays, transport = maps[..., :1], maps[..., 1:2], maps[..., 2:]
+                head = self.factor.head_grade_inputs(dec)
             else:  # the network's picture, clip(A max(0, T·L), 0, 1) over the matte (``person_colour``)
                 mask = dec.network_mask[..., None]
                 transport = np.asarray(dec.transport, np.float32)
@@ -523,8 +595,18 @@ class Composer:
             lit = colour * scale[keep] if self.detail else scale[keep]
             steady = colour * stays[keep] if self.detail else np.zeros_like(lit)
             peak = knee(colour) if self.detail else np.full(w.shape, np.inf, np.float32)
+            blend = HeadBlend.empty()
+            if head is not None:  # the blend's weight is its feather x the matte, so the matte's mean of it: the
+                # feather x the mean of the matte squared over the matte's; its skin's, the skin x feather x matte
+                feathered, skin, on_head = (a[keep] for a in head)
+                share = feathered * net[..., 5][keep] / w
+                at = np.flatnonzero(share > 0)
+                if (skin[at] > 0).any():  # else no level to match (``head_level``), no blend
+                    blend = HeadBlend(at.astype(np.int32), share[at], (skin * feathered * w)[at], scale[keep][at, 0],
+                                      stays[keep][at, 0], on_head[at, 0], on_head[at, 1], on_head[at, 2:])
             state["grade_inputs"] = GradeSample(*(readonly(np.ascontiguousarray(a, np.float32)) for a in (
-                lit, steady, transport[keep], w, peak, colour, near)))
+                lit, steady, transport[keep], w, peak, colour, near)), HeadBlend(readonly(blend.index), *(
+                    readonly(np.ascontiguousarray(a, np.float32)) for a in blend[1:])))
         return state["grade_inputs"]
 
     def compose(

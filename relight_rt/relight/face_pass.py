@@ -96,16 +96,25 @@ def feather(h: int, w: int, cut: tuple[bool, bool, bool, bool] = (False, False, 
     ``cut`` (top, bottom, left, right): sides where the box ends at the photo's border keep weight 1 there
     (nothing lies beyond to blend with).
     """
+    ty = (np.arange(h, dtype=np.float32) + 0.5) / h
+    tx = (np.arange(w, dtype=np.float32) + 0.5) / w
+    return feather_at(ty[:, None], tx[None, :], cut)
 
-    def ramp(n: int, cut_start: bool, cut_end: bool) -> np.ndarray:
-        t = (np.arange(n, dtype=np.float32) + 0.5) / n
-        up = np.ones(n, np.float32) if cut_start else np.clip(t / FEATHER, 0, 1)
-        down = np.ones(n, np.float32) if cut_end else np.clip((1 - t) / FEATHER, 0, 1)
+
+def feather_at(ty: np.ndarray, tx: np.ndarray, cut: tuple[bool, bool, bool, bool] = (False, False, False, False)
+               ) -> np.ndarray:
+    """``feather``'s weight at positions inside the box given as fractions of its height ``ty`` and width ``tx``
+    (0 and 1 its sides; arrays that broadcast, pixel i's centre at (i + 0.5) / n): where a point that is not a
+    pixel's centre (a network pixel's, seen from the photo) lies under the head pass's blend (the caller keeps
+    to the box: past a side that is not cut the weight is 0, past a cut one 1)."""
+
+    def ramp(t: np.ndarray, cut_start: bool, cut_end: bool) -> np.ndarray:
+        up = np.ones_like(t) if cut_start else np.clip(t / FEATHER, 0, 1)
+        down = np.ones_like(t) if cut_end else np.clip((1 - t) / FEATHER, 0, 1)
         r = np.minimum(up, down)
         return r * r * (3 - 2 * r)  # smoothstep
 
-    return ramp(h, cut[0], cut[1])[:, None] * ramp(w, cut[2], cut[3])[None, :]
-
+    return ramp(np.asarray(ty, np.float32), cut[0], cut[1]) * ramp(np.asarray(tx, np.float32), cut[2], cut[3])
 
 
 def head_crops(decs: list[Decomposition]) -> list[tuple]:

@@ -66,6 +66,7 @@ from ..image.color import REC709, channel_max
 from ..light import exposure as _exposure
 from ..light import sh
 from ..person.face_mesh import mirror, mirror_held
+from . import head_blend
 from .cast_shadow import MeshView, shadow_factor
 from .decomposition import Decomposition, Memo, readonly
 from .detail import extend_outward, guided_upsample, shadow_texture, unpremultiply, window
@@ -678,42 +679,37 @@ class Factor:
             state["shadow"] = result
         return state["shadow"]
 
-    def blend_head(self, dec: Decomposition, gain: np.ndarray, light: np.ndarray, head: Decomposition,
-                    box: tuple[int, int, int, int], fill: tuple | None = None) -> None:
-        """Blend the head pass's change of shading into ``gain`` (the body's, crop frame), in place.
+    def blend_head(self, dec: Decomposition, gain: np.ndarray, light: np.ndarray, fill: tuple | None = None) -> None:
+        """Blend the head pass's (``dec.head``) change of shading into ``gain`` (the body's, crop frame), in place
+        (relight_rt.relight.head_blend ``blend_head``); ``fill``: the body's deep-shadow fill (``gain_and_fill``)."""
+        region = head_blend.head_region(dec)
+        if region is not None:
+            head = dec.head
+            g_head = self.gain(head, light, np.ascontiguousarray(head.geometry.crop(head.image)))
+            head_blend.blend_head(dec, gain, g_head, region, fill)
 
-        The head pass sees the face larger, so it gives the shape of the change; its overall level is the
-        body pass's (the two estimate the photo's light separately), matched on the head's skin. ``fill``: the
-        body's deep-shadow fill (``gain_and_fill``); where it adds the change (its weight w), the body's gain holds
-        the photo as it is, and the head's ratio takes only the rest (1 - w): it would count the light a second time.
-        """
-        by0, by1, bx0, bx1 = dec.geometry.box
-        hy0, hy1, hx0, hx1 = head.geometry.box  # in the head square's frame
-        y0, y1, x0, x1 = box[0] + hy0, box[0] + hy1, box[2] + hx0, box[2] + hx1  # input frame
-        cy0, cy1, cx0, cx1 = max(y0, by0), min(y1, by1), max(x0, bx0), min(x1, bx1)
-        if cy1 <= cy0 or cx1 <= cx0:
-            return
-        head_image = np.ascontiguousarray(head.geometry.crop(head.image))
-        g_head = self.gain(head, light, head_image)[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0]
-        h_img, w_img = dec.geometry.frame
-        weight = feather(box[1] - box[0], box[3] - box[2],
-                         (box[0] == 0, box[1] == h_img, box[2] == 0, box[3] == w_img))
-        weight = weight[cy0 - box[0] : cy1 - box[0], cx0 - box[2] : cx1 - box[2]]
-        weight = weight * dec.mask[cy0:cy1, cx0:cx1]
-        if fill is not None:  # the fill's weight where its part (crop frame) meets the head's region
-            (fy, fx), _, w = fill
-            ry, rx = cy0 - by0, cx0 - bx0  # the head's region in the crop frame starts here
-            ya, yb, xa, xb = max(fy.start, ry), min(fy.stop, cy1 - by0), max(fx.start, rx), min(fx.stop, cx1 - bx0)
-            if yb > ya and xb > xa:
-                weight[ya - ry : yb - ry, xa - rx : xb - rx] *= 1 - np.clip(
-                    w[ya - fy.start : yb - fy.start, xa - fx.start : xb - fx.start], 0, 1)
-        region = gain[cy0 - by0 : cy1 - by0, cx0 - bx0 : cx1 - bx0]
-        skin = head.to_input(head.skin)[cy0 - box[0] : cy1 - box[0], cx0 - box[2] : cx1 - box[2]] * weight
-        if skin.sum() < 1:
-            return
-        level = float((region @ REC709 * skin).sum()) / max(float((g_head @ REC709 * skin).sum()),
-                                                                      1e-6)
-        region += weight[..., None] * (level * g_head - region)
+    def factor_inputs(self, dec: Decomposition) -> tuple[tuple[int, int, int, int], np.ndarray]:
+        """The relighting factor's inputs that do not depend on the light, without stage 2's residual: ``own``'s
+        "window" and (r, r', 11) float32 on it, albedo / own, missing / own and the transport (9), so that under a
+        light with RGB shading S (luminance Y) the factor is (the first x Y + the second) x S / Y; taken from the
+        inner pixels outward as ``gain`` takes the factor past the solid person (the window's own values there are
+        0, which would leave the edge black)."""
+        own = self.own(dec, with_residual=False)
+        base = own["own"][..., None]
+        maps = np.concatenate([own["albedo"][..., None] / base, own["missing"][..., None] / base, own["transport"]],
+                              axis=2).astype(np.float32)
+        maps = np.concatenate([extend_outward(maps[..., i : i + 4], own["inner"]) for i in range(0, 11, 4)], axis=2)
+        return own["window"], maps
+
+    def head_grade_inputs(self, dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """What ``blend_head`` does whatever the light, at the centres of the pixels of ``dec``'s window of the
+        network frame (relight_rt.relight.head_blend ``grade_inputs``); None without a head pass or where
+        ``blend_head`` would blend nothing (too little of the head pass's skin under it: ``head_blend.blends``)."""
+        region = head_blend.head_region(dec)
+        if region is None or not head_blend.blends(region):
+            return None
+        window = self.own(dec, with_residual=False)["window"]
+        return head_blend.grade_inputs(dec, region, window, *self.factor_inputs(dec.head))
 
     def expose(self, dec: Decomposition, lights: np.ndarray, exposure) -> np.ndarray:
         """relight_rt.light.exposure.expose with the photo's own mean luminance measured once per Decomposition, the

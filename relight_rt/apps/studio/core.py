@@ -54,7 +54,7 @@ SHADOW_CACHE = 8  # the faces' cast shadows (``Studio.shadow``) kept for this ma
 from ...light import exposure as _exposure  # noqa: E402  (the one exposure rule)
 from ...light.exposure import METER_POWER, Highlight, exposure_scale, guarded, mean_luminance, parse_exposure  # noqa: E402
 from ...light.spec import LightSpec  # noqa: E402  (the one light parser)
-from ...relight.compose import GradeSample, sampled_grade, shown_mask  # noqa: E402  (the one background grade)
+from ...relight.compose import GradeSample, HeadBlend, sampled_grade, shown_mask  # noqa: E402  (the one background grade)
 from ...relight.decomposition import intrinsic_layers  # noqa: E402
 from ...relight.look import NEUTRAL_CHROMA_EXP, NEUTRAL_LIFT, SKIN_CHROMA, shaded_skin, skin_chroma  # noqa: E402  (the shaded-skin rule the preview mirrors)
 
@@ -254,10 +254,9 @@ def _grade_sample(relighter, dec) -> GradeSample:
     grade of 1)."""
     inputs = getattr(relighter, "grade_inputs", None)
     if inputs is None:
-        return GradeSample(*(np.zeros(s, np.float32) for s in ((0, 3), (0, 3), (0, 9), (0,), (0,), (0, 3), (0,))))
+        return GradeSample.empty()
     sample = inputs(dec)
-    step = max(1, math.ceil(sample.weight.shape[0] / EXPOSURE_SAMPLES))
-    return GradeSample(*(np.ascontiguousarray(a[::step], np.float32) for a in sample))
+    return sample.every(max(1, math.ceil(sample.weight.shape[0] / EXPOSURE_SAMPLES)))
 
 
 def _display_size(h: int, w: int, max_pixels: int) -> tuple[int, int]:
@@ -388,6 +387,9 @@ class Studio:
         guard = np.concatenate([lit_h.T, steady_h.T, transport_h.T]).astype("<f4")
         graded = np.concatenate([grade.lit.T, grade.steady.T, grade.transport.T, grade.weight[None],
                                  grade.knee[None], grade.own.T, grade.neutral[None]]).astype("<f4")
+        blend = grade.head  # the head pass's blend on some of those pixels: their indices, then float32 planes
+        headed = grade.head.index.astype("<i4").tobytes() + np.concatenate(
+            [np.stack(blend[1:7]), blend.transport.T]).astype("<f4").tobytes()
         return {
             "height": size[0],
             "width": size[1],
@@ -401,6 +403,8 @@ class Studio:
             "highlight_samples": int(lit_h.shape[0]),
             "grade_samples": int(grade.weight.shape[0]),
             "grade_offset": offset + planes.nbytes + guard.nbytes,
+            "grade_head_samples": int(blend.index.shape[0]),
+            "grade_head_offset": offset + planes.nbytes + guard.nbytes + graded.nbytes,
             "highlight_offset": offset + planes.nbytes,
             "highlight_allowed": allowed,
             "highlight_limit": _exposure.HIGHLIGHT_LIMIT,
@@ -413,7 +417,7 @@ class Studio:
             "neutral_lift": list(NEUTRAL_LIFT),  # the near-neutral darks' rule in the grade (look.neutral_values)
             "neutral_chroma_exp": float(NEUTRAL_CHROMA_EXP),
             "own_white": np.asarray(dec.white_light, np.float64)[:, 0].tolist(),
-            "data": head + bytes(offset - len(head)) + planes.tobytes() + guard.tobytes() + graded.tobytes(),
+            "data": head + bytes(offset - len(head)) + planes.tobytes() + guard.tobytes() + graded.tobytes() + headed,
         }
 
     def preview_light(self, light, exposure="auto", meter: float = 1.0) -> np.ndarray:
@@ -485,7 +489,9 @@ class Studio:
         the highlight guard's sample (``_highlight_sample``) as float32 planes of ``highlight_samples`` values:
         lit R, G, B, steady R, G, B, transport 0…8; then, from byte ``grade_offset``, the background grade's sample
         (``_grade_sample``) as float32 planes of ``grade_samples`` values: lit R, G, B, steady R, G, B, transport
-        0…8, weight, knee, own R, G, B, the near-neutral darks' weight."""
+        0…8, weight, knee, own R, G, B, the near-neutral darks' weight; then, from byte ``grade_head_offset``, the
+        head pass's blend on ``grade_head_samples`` of those pixels (relight_rt.relight.compose ``HeadBlend``): their
+        indices as int32, then float32 planes: weight, skin, body scale, body stays, scale, stays, transport 0…8."""
         return self._layers["data"]
 
     def info(self) -> dict:
@@ -637,10 +643,11 @@ def unpack_layers(data: bytes, meta: dict) -> dict:
     ns, offset = int(meta["exposure_samples"]), int(meta["exposure_offset"])
     nh, hoffset = int(meta["highlight_samples"]), int(meta["highlight_offset"])
     ng, goffset = int(meta["grade_samples"]), int(meta["grade_offset"])
-    if (min(ns, nh, ng) < 0 or offset < 29 * n or hoffset != offset + 52 * ns or goffset != hoffset + 60 * nh
-            or len(data) != goffset + 84 * ng):
-        raise RelightError(f"layers: expected {goffset + 84 * ng} bytes for {h}x{w}, {ns}, {nh} and {ng} samples, "
-                           f"got {len(data)}")
+    nb, boffset = int(meta["grade_head_samples"]), int(meta["grade_head_offset"])
+    if (min(ns, nh, ng, nb) < 0 or nb > ng or offset < 29 * n or hoffset != offset + 52 * ns
+            or goffset != hoffset + 60 * nh or boffset != goffset + 84 * ng or len(data) != boffset + 64 * nb):
+        raise RelightError(f"layers: expected {boffset + 64 * nb} bytes for {h}x{w}, {ns}, {nh}, {ng} and {nb} "
+                           f"samples, got {len(data)}")
     q16 = np.frombuffer(data, "<u2", 9 * n).reshape(9, h, w).astype(np.float32)
     off = np.array(meta["transport_offset"], np.float32)[:, None, None]
     scale = np.array(meta["transport_scale"], np.float32)[:, None, None]
@@ -650,8 +657,13 @@ def unpack_layers(data: bytes, meta: dict) -> dict:
     guard = np.frombuffer(data, "<f4", 15 * nh, hoffset).reshape(15, nh).astype(np.float32)
     highlight = {"lit": guard[:3].T.copy(), "steady": guard[3:6].T.copy(), "transport": guard[6:].T.copy()}
     g = np.frombuffer(data, "<f4", 21 * ng, goffset).reshape(21, ng).astype(np.float32)
+    index = np.frombuffer(data, "<i4", nb, boffset).astype(np.int32)
+    if nb and (index.min() < 0 or index.max() >= ng or (np.diff(index) <= 0).any()):
+        raise RelightError(f"layers: the head pass's blend names grade samples outside 0..{ng - 1} or out of order")
+    b = np.frombuffer(data, "<f4", 15 * nb, boffset + 4 * nb).reshape(15, nb).astype(np.float32)
     grade = GradeSample(g[:3].T.copy(), g[3:6].T.copy(), g[6:15].T.copy(), g[15].copy(), g[16].copy(),
-                        g[17:20].T.copy(), g[20].copy())
+                        g[17:20].T.copy(), g[20].copy(), HeadBlend(index, *(b[i].copy() for i in range(6)),
+                                                                   b[6:].T.copy()))
     return {"transport": off + q16 * scale, "albedo": eight[:3], "mask": eight[3], "background": eight[4:7],
             "skin_chroma": 2 * eight[7:10] - 1, "skin": eight[10], "exposure": sample, "highlight": highlight,
             "grade": grade}

@@ -16,7 +16,7 @@ from relight_rt.cli import main
 from relight_rt.engine.config import RuntimeConfig
 from relight_rt.image.color import REC709, linear_to_srgb, srgb_to_linear
 from relight_rt.image.compositing import Background, parse_background
-from relight_rt.relight.compose import background_grade, sampled_grade
+from relight_rt.relight.compose import GradeSample, HeadBlend, background_grade, head_level, sampled_grade
 
 __all__ = ["diffuse_models_dir", "models_dir"]  # fixtures
 
@@ -244,3 +244,55 @@ def test_the_studios_sample_grades_as_the_result(diffuse_models_dir, detail):
         graded = rl.relight(dec, light, exposure="physical", background=GRADED)
         result = (graded[back] / img[back]).mean(0)
         np.testing.assert_allclose(sampled_grade(sample, light), result, rtol=5e-3)
+
+
+def _sample_with_head(rng, n=400, k=150):
+    """A ``GradeSample`` of n pixels with the head pass's blend on k of them (``HeadBlend``), whose head pass sees
+    exactly what the body does (its factor's inputs and transport the body's at those pixels)."""
+    own = rng.uniform(0.05, 0.9, (n, 3)).astype(np.float32)
+    scale = rng.uniform(0.5, 2.0, (n, 1)).astype(np.float32)
+    stays = rng.uniform(0, 0.2, (n, 1)).astype(np.float32)
+    transport = np.zeros((n, 9), np.float32)
+    transport[:, 0] = 2.0
+    transport[:, 1:4] = rng.uniform(-1, 1, (n, 3))
+    sample = GradeSample(own * scale, own * stays, transport, rng.uniform(0.2, 1, n).astype(np.float32),
+                         np.full(n, np.inf, np.float32), own, np.zeros(n, np.float32), HeadBlend.empty())
+    at = np.sort(rng.choice(n, k, replace=False)).astype(np.int32)
+    head = HeadBlend(at, rng.uniform(0.1, 1, k).astype(np.float32), rng.uniform(0, 1, k).astype(np.float32),
+                     scale[at, 0], stays[at, 0], scale[at, 0], stays[at, 0], transport[at])
+    return sample._replace(head=head)
+
+
+def test_the_sample_blends_the_head_pass_at_the_bodys_level():
+    """``sampled_grade`` blends the head pass's factor in as ``Factor.blend_head`` does, scaled to the body's level
+    on the skin (``head_level``): a head pass that sees what the body sees leaves the grade as it was, whatever its
+    weights; one that sees the same shape at twice the factor is scaled back to it (level 1/2), the grade again as
+    it was; one whose light falls differently moves the grade, by its blend's weight (none at weight 0), and the
+    thinned sample (``GradeSample.every``, what the studio sends) keeps the head pass's pixels that it keeps, and
+    none where it keeps none of their skin."""
+    rng = np.random.default_rng(3)
+    sample = _sample_with_head(rng)
+    light = (np.asarray(OWN_LIGHT, np.float32) * np.array([1.3, 1.0, 0.8], np.float32))
+    light[1:4] += 0.3 * rng.standard_normal((3, 3)).astype(np.float32)
+    body = sampled_grade(sample._replace(head=HeadBlend.empty()), light)
+    head = sample.head
+    np.testing.assert_allclose(head_level(sample, light)[0], 1.0, rtol=1e-5)
+    np.testing.assert_allclose(sampled_grade(sample, light), body, rtol=1e-5)
+    twice = head._replace(scale=2 * head.scale, stays=2 * head.stays)
+    np.testing.assert_allclose(head_level(sample._replace(head=twice), light)[0], 0.5, rtol=1e-5)
+    np.testing.assert_allclose(sampled_grade(sample._replace(head=twice), light), body, rtol=1e-5)
+    turned = head._replace(transport=head.transport * np.array([1, -1, 1, -1, 1, 1, 1, 1, 1], np.float32))
+    moved = sampled_grade(sample._replace(head=turned), light)
+    assert np.abs(moved / body - 1).max() > 1e-2
+    still = turned._replace(weight=np.zeros_like(turned.weight))
+    np.testing.assert_allclose(sampled_grade(sample._replace(head=still), light), body, rtol=1e-6)
+    thin = sample.every(3)
+    assert thin.weight.shape[0] == -(-sample.weight.shape[0] // 3)
+    np.testing.assert_array_equal(thin.head.index, sample.head.index[sample.head.index % 3 == 0] // 3)
+    np.testing.assert_array_equal(thin.head.transport, sample.transport[::3][thin.head.index])
+    # thinned past all of its skin, the blend has no level to match (head_level's would be 0): none is sent
+    off_skin = head._replace(skin=np.where(head.index % 3 == 0, 0, head.skin).astype(np.float32))
+    bare = sample._replace(head=off_skin).every(3)
+    assert bare.head.index.size == 0
+    np.testing.assert_array_equal(sampled_grade(bare, light),
+                                  sampled_grade(thin._replace(head=HeadBlend.empty()), light))

@@ -130,32 +130,6 @@ def test_the_photos_own_light_gives_the_photo_back_with_head_pass_and_soft_matte
     assert np.abs(out - dec.image).max() < 0.01
 
 
-def test_the_head_pass_leaves_the_body_gain_where_the_shadow_fill_adds_the_change(reference_dir):
-    """Where the body's deep-shadow fill adds the change (Factor.gain_and_fill: its weight w), the body's gain holds
-    the photo and the head's ratio takes only 1 - w: blended over the fill it would count the light twice."""
-    r = Relighter(RuntimeConfig(device="cpu"))
-    dec = r.decompose(reference_dir / "photo" / "sample.jpg", reference_dir / "photo" / "sample_mask.png")
-    assert dec.head is not None
-    light = lights.directional((0.4, 1, 0.3)) + lights.ambient(0.08)
-    image, _ = r._composer.foreground(dec)
-    body = r._factor.gain(dec, light, image)
-    h, w = body.shape[:2]
-    whole = (slice(0, h), slice(0, w))
-
-    def blended(weight):
-        gain = body.copy()
-        fill = None if weight is None else (whole, np.zeros((h, w, 3), np.float32), np.full((h, w), weight, np.float32))
-        r._factor.blend_head(dec, gain, light, dec.head, dec.head_box, fill)
-        return gain
-
-    plain = blended(None)
-    assert np.abs(plain - body).max() > 0.01  # the head pass changes the head
-    np.testing.assert_array_equal(blended(1.0), body)  # filled everywhere: the body's gain as it was
-    np.testing.assert_allclose(blended(0.0), plain, rtol=1e-6, atol=1e-7)  # no fill: the head pass as before
-    half = blended(0.5)  # half filled: the head pass takes half its share
-    np.testing.assert_allclose(half - body, 0.5 * (plain - body), rtol=1e-4, atol=1e-5)
-
-
 class _DarkShySearch:
     """A face mesh stand-in that finds a face only where the box's mean level is at least ``need`` (a detector
     that misses a face half in deep shadow); it records the mean level of each image it was shown."""

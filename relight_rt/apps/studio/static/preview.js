@@ -36,6 +36,11 @@ export function decodeLayers(buffer, meta) {
   const ng = meta.grade_samples;
   const gr = new Float32Array(buffer, meta.grade_offset, 21 * ng);
   const graded = (i) => gr.subarray(i * ng, (i + 1) * ng);
+  // the head pass's blend on some of those pixels: their indices (int32), then float32 planes (weight, skin, body
+  // scale, body stays, scale, stays, transport 0..8)
+  const nb = meta.grade_head_samples;
+  const hb = new Float32Array(buffer, meta.grade_head_offset + 4 * nb, 15 * nb);
+  const blended = (i) => hb.subarray(i * nb, (i + 1) * nb);
   return {
     width: meta.width,
     height: meta.height,
@@ -65,6 +70,16 @@ export function decodeLayers(buffer, meta) {
       knee: graded(16),
       own: [graded(17), graded(18), graded(19)],
       neutral: graded(20),
+      head: {
+        index: new Int32Array(buffer, meta.grade_head_offset, nb),
+        weight: blended(0),
+        skin: blended(1),
+        bodyScale: blended(2),
+        bodyStays: blended(3),
+        scale: blended(4),
+        stays: blended(5),
+        transport: [6, 7, 8, 9, 10, 11, 12, 13, 14].map(blended),
+      },
       neutralLift: meta.neutral_lift,
       neutralChromaExp: meta.neutral_chroma_exp,
     },

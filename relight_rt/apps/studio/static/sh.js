@@ -145,12 +145,13 @@ export function exposureScale(layers, light, target, ev, step, power = 1) {
 // The background grade of the final result (relight_rt.relight.compose.background_grade: the person's change in
 // light per channel, relit over own, each decoded from sRGB and summed with the matte's weight; the backdrop's
 // values times its 1 / gamma power) on its sample (relight_rt.relight.compose.sampled_grade): pixel p relit is
-// lit · S + steady · S / Y(S), where the photo is a near-neutral dark its chroma kept (neutralStep), its brightest
-// channel rolled off past its knee (the highlight shoulder, as shoulderGain), against its own colour (the own sums
-// are kept on `sample`). Returns the gain per channel on the backdrop's values.
+// lit · S + steady · S / Y(S), blended toward the head pass's where it has one (headLevel), where the photo is a
+// near-neutral dark its chroma kept (neutralStep), its brightest channel rolled off past its knee (the highlight
+// shoulder, as shoulderGain), against its own colour (the own sums are kept on `sample`). Returns the gain per
+// channel on the backdrop's values.
 export function backgroundGrade(sample, light, gamma) {
   const T = sample.transport, lit = sample.lit, steady = sample.steady, w = sample.weight, q = sample.knee;
-  const n = w.length;
+  const n = w.length, head = sample.head, nb = head ? head.index.length : 0;
   if (!sample.ownSum) {  // the own colour's sums and the matte's, once per sample
     sample.ownSum = [0, 0, 0];
     sample.weightSum = 0;
@@ -159,18 +160,55 @@ export function backgroundGrade(sample, light, gamma) {
       sample.weightSum += w[p];
     }
   }
+  const level = nb ? headLevel(sample, light) : 1, kept = sample.headKept;
   const was = sample.ownSum, now = [0, 0, 0], S = [0, 0, 0], v = [0, 0, 0];
-  for (let p = 0; p < n; p++) {
-    const y = shadingAt(T, p, light, S);
+  for (let p = 0, k = 0; p < n; p++) {
     let peak = -Infinity;
-    for (let c = 0; c < 3; c++) v[c] = Math.max(lit[c][p] * S[c] + (steady[c][p] * S[c]) / y, 0);
+    if (k < nb && head.index[k] === p) {  // the head pass's factor at the body's level, blended in (headLevel kept
+      const b = head.weight[k];  // the body's shading and colour here, and the head pass's colour)
+      for (let c = 0; c < 3; c++) {
+        S[c] = kept[9 * k + c];
+        v[c] = kept[9 * k + 3 + c];
+        v[c] += b * (level * kept[9 * k + 6 + c] - v[c]);
+      }
+      k++;
+    } else {
+      const y = shadingAt(T, p, light, S);
+      for (let c = 0; c < 3; c++) v[c] = Math.max(lit[c][p] * S[c] + (steady[c][p] * S[c]) / y, 0);
+    }
     if (sample.neutral && sample.neutral[p] > 0) neutralStep(sample, p, v, S);
     for (let c = 0; c < 3; c++) peak = Math.max(peak, v[c]);
-    const k = shoulderScale(peak, q[p]);
-    for (let c = 0; c < 3; c++) now[c] += w[p] * srgbToLinear(v[c] * k);
+    const s = shoulderScale(peak, q[p]);
+    for (let c = 0; c < 3; c++) now[c] += w[p] * srgbTabled(v[c] * s);
   }
   const floor = 1e-6 * Math.max(sample.weightSum, 1);
   return now.map((v, c) => (was[c] > floor ? Math.pow(v / was[c], 1 / gamma) : 1));
+}
+
+// The head pass's blend on the grade's sample (relight_rt.relight.compose.head_level; Factor.blend_head): on its
+// pixels the body's shading S and colour lit · S + steady · S / Y(S), and the colour under the head pass's factor,
+// own · (scale · S' + stays · S' / Y(S')) with S' its shading, into sample.headKept (9 per pixel); returns the level
+// that factor is scaled to, the body's factor's luminance (bodyScale · Y(S) + bodyStays) over the head pass's
+// (scale · Y(S') + stays), each summed with the skin's weight.
+function headLevel(sample, light) {
+  const head = sample.head, own = sample.own, lit = sample.lit, steady = sample.steady, nb = head.index.length;
+  const out = sample.headKept = sample.headKept ?? new Float64Array(9 * nb);
+  const S = [0, 0, 0], H = [0, 0, 0];
+  let body = 0, seen = 0;
+  for (let k = 0; k < nb; k++) {
+    const p = head.index[k];
+    const y = shadingAt(sample.transport, p, light, S), yHead = shadingAt(head.transport, k, light, H);
+    for (let c = 0; c < 3; c++) {
+      out[9 * k + c] = S[c];
+      out[9 * k + 3 + c] = Math.max(lit[c][p] * S[c] + (steady[c][p] * S[c]) / y, 0);
+      out[9 * k + 6 + c] = own[c][p] * (head.scale[k] * H[c] + (head.stays[k] * H[c]) / yHead);
+    }
+    if (head.skin[k] > 0) {
+      body += head.skin[k] * (head.bodyScale[k] * y + head.bodyStays[k]);
+      seen += head.skin[k] * (head.scale[k] * yHead + head.stays[k]);
+    }
+  }
+  return body / Math.max(seen, 1e-6);
 }
 
 // The near-neutral darks' rule (relight_rt.relight.look.neutral_values) on sample pixel p, in place on its relit
@@ -227,6 +265,15 @@ function shadingAt(T, p, light, S) {
 export function srgbToLinear(v) {
   const x = Math.min(Math.max(v, 0), 1);
   return x <= 0.04045 ? x / 12.92 : Math.pow((x + 0.055) / 1.055, 2.4);
+}
+
+// srgbToLinear read from a table of DECODE_STEPS steps, linearly interpolated (within 1e-7 of it): the background
+// grade decodes three values a sample pixel each frame, and Math.pow there took half of its time.
+const DECODE_STEPS = 4096, DECODE = new Float64Array(DECODE_STEPS + 2);
+for (let i = 0; i < DECODE.length; i++) DECODE[i] = srgbToLinear(i / DECODE_STEPS);
+export function srgbTabled(v) {
+  const x = (v > 0 ? (v < 1 ? v : 1) : 0) * DECODE_STEPS, i = x | 0;
+  return DECODE[i] + (x - i) * (DECODE[i + 1] - DECODE[i]);
 }
 
 // The exposure's highlight guard (relight_rt.exposure.highlight_factor): how much "auto" lowers the exposed light

@@ -34,7 +34,7 @@ from relight_rt.cli import main
 from relight_rt.engine.limits import header_size
 from relight_rt.image.compositing import Background
 from relight_rt.light.exposure import DISPLAY_GAMMA, METER_POWER
-from relight_rt.relight.compose import shown_mask
+from relight_rt.relight.compose import HeadBlend, sampled_grade, shown_mask
 from relight_rt.relight.look import SKIN_CHROMA, skin_chroma
 from relight_rt.relight.strength import restore_bands
 
@@ -170,8 +170,12 @@ def test_layers_match_the_decomposition(studio):
         unpack_layers(studio.layers_bytes()[:-1], meta)
     # the background grade's sample travels whole, and a count that cannot be is refused, not read as "all"
     assert meta["grade_samples"] > 0
-    for got, want in zip(layers["grade"], studio.relighter.grade_inputs(dec), strict=True):
-        np.testing.assert_array_equal(got, want[:: -(-want.shape[0] // EXPOSURE_SAMPLES)])
+    want = studio.relighter.grade_inputs(dec)
+    step = -(-want.weight.shape[0] // EXPOSURE_SAMPLES)
+    for got, full in zip(layers["grade"][:-1], want[:-1], strict=True):
+        np.testing.assert_array_equal(got, full[::step])
+    for got, full in zip(layers["grade"].head, want.head.every(step), strict=True):
+        np.testing.assert_array_equal(got, full)
     with pytest.raises(RelightError, match="bytes"):
         unpack_layers(studio.layers_bytes()[: meta["grade_offset"] - 80], {**meta, "grade_samples": -1})
 
@@ -667,22 +671,39 @@ def test_preview_composites_with_the_automatic_mattes_shown_edge(tmp_path, model
 def test_preview_grade_is_the_full_results_on_the_bundled_street_photo():
     """The preview's background grade (``Studio.preview_grade``, what sh.js backgroundGrade computes) is the full
     result's (relight_rt.relight.compose.background_grade) within 0.1 EV per channel on the bundled models' street
-    photo (benchmarks/studio_preview_gap.py). It reads what the result grades: the person's own colour under the
-    matte, weighted by it, relit with the shoulder. Read from the network's image over its solid pixels, it took the
-    street behind the soft edge for the person, which the rim and side lamps brighten most (0.58 and 0.31 EV),
-    and without the shoulder it missed what night's highlights lose (0.12 EV). Window-left is left out: the head
-    pass's blend the preview does not model is 0.1 EV of it."""
+    photo (benchmarks/studio_preview_gap.py), under every preset that script measures. It reads what the result
+    grades: the person's own colour under the matte, weighted by it, relit with the shoulder, and the head pass's
+    blend. Read from the network's image over its solid pixels, it took the street behind the soft edge for the
+    person, which the rim and side lamps brighten most (0.58 and 0.31 EV), and without the shoulder it missed what
+    night's highlights lose (0.12 EV). The head pass's box holds two thirds of the person's own light here (the
+    face and the white-striped top), and its blend scales the head pass's factor to the body's level on the head
+    pass's skin: 0.79 x under window-left, a grade 0.11 EV lower than the body's factor alone gives; without the
+    blend (``HeadBlend``) the preview missed window-left's by 0.14 EV."""
     models = Path(relight_rt.__file__).resolve().parent / "models"
     studio = Studio(Path(relight_rt.__file__).resolve().parent / "data" / "example_scene.jpg", None, "original",
                     relight_rt.open(RuntimeConfig(models=models, device="cpu")))
+    meta, data = studio.info()["preview"], studio.layers_bytes()
+    sample = unpack_layers(data, meta)["grade"]
+    assert sample.head.index.size > 0.2 * sample.weight.size  # the head pass's box covers much of the person
+    full = studio.relighter.grade_inputs(studio.dec)  # the blend travels whole, on the pixels the page gets
+    for got, want in zip(sample.head, full.head.every(-(-full.weight.shape[0] // EXPOSURE_SAMPLES)), strict=True):
+        np.testing.assert_array_equal(got, want)
+    at, nb = meta["grade_head_offset"], sample.head.index.size  # and pixels it cannot name are refused
+    wrong = data[:at] + np.full(nb, sample.weight.size, "<i4").tobytes() + data[at + 4 * nb :]
+    with pytest.raises(RelightError, match="head pass"):
+        unpack_layers(wrong, meta)
     back = np.asarray(studio.dec.mask) == 0
     rgb = lambda png: cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_COLOR)[..., ::-1].astype(float)  # noqa: E731
-    for name in ("rim", "night", "studio", "campfire"):
+    for name in ("rim", "window-left", "studio", "night", "campfire", "golden-hour"):
         light = lights.preset(name).astype(np.float32)
         _, off = studio.render(light.tolist(), grade_background=False)
         _, on = studio.render(light.tolist(), grade_background=True)
         a, b = rgb(off.png), rgb(on.png)
         keep = back & (a.min(axis=2) > 20) & (a.max(axis=2) < 235)  # clear of rounding and of the clip at white
         result = np.median(b[keep] / a[keep], axis=0)
-        ev = np.log2(studio.preview_grade(studio.preview_light(light.tolist())) / result) * DISPLAY_GAMMA
+        shown = studio.preview_light(light.tolist())
+        ev = np.log2(studio.preview_grade(shown) / result) * DISPLAY_GAMMA
         assert np.abs(ev).max() < 0.1, (name, ev)
+        if name == "window-left":  # the head pass's blend is what brings it within the bar
+            body_only = sampled_grade(sample._replace(head=HeadBlend.empty()), shown)
+            assert np.abs(np.log2(body_only / result) * DISPLAY_GAMMA).max() > 0.1
