@@ -11,7 +11,7 @@ import numpy as np
 from ...image.regions import Crop, grid_of_region
 from ..face_detector import Face
 from ._models import SIZE
-from ._segmentation import LOGIT_CLIP, Person, logits_on_grid, working_grid
+from ._segmentation import LOGIT_CLIP, Grid, Person, logits_on_grid, working_grid
 
 _PART_SOFT = 0.01  # parts: people's shares meet softly over about this x the photo's longer side
 _SHARE_MIN = 0.01  # parts: a person's share below this is none
@@ -94,11 +94,14 @@ def shares(
     # everyone put a little of every person into every other's pixels (issue 50 bug 1: with 16 people each
     # person's part spanned the whole group)
     reached = logits > -LOGIT_CLIP + 1e-3
-    nearest = _nearest_region(people, grid)
+    distance = _region_distance(people, grid)
     while True:
         z, seen = logits[keep], reached[keep]
         weights = np.exp(z - z.max(axis=0, keepdims=True)) * seen
-        weights = np.where(seen.any(axis=0), weights, nearest[keep])
+        # the nearest among the people kept: a cell only a person dropped as hidden reached, nearest to that
+        # person's region (the parts of one split share a region), went to no one and its shares were NaN
+        nearest = np.arange(keep.sum())[:, None, None] == distance[keep].argmin(axis=0)[None]
+        weights = np.where(seen.any(axis=0), weights, nearest)
         weights /= weights.sum(axis=0, keepdims=True)
         pixels = (weights * opaque).sum(axis=(1, 2)) * scale
         if keep.sum() == 1 or (pixels >= _MIN_PART).all():
@@ -127,7 +130,7 @@ def shares(
     return [cv2.resize(wk, (w, h), interpolation=cv2.INTER_LINEAR) for wk in soft]
 
 
-def along_edges(people: list[Person], logits: np.ndarray, rgb: np.ndarray, grid) -> np.ndarray:
+def along_edges(people: list[Person], logits: np.ndarray, rgb: np.ndarray, grid: Grid) -> np.ndarray:
     """``logits`` (N, gh, gw), the people's on ``grid`` (working_grid over ``rgb`` (H, W, 3) float32 RGB in [0, 1]),
     with the parts of each segmentation split by faces (:func:`split_by_faces`: by columns) cut again along the
     photo's own edges: the straight cut between each two faces side by side becomes the cheapest path from top to
@@ -210,9 +213,9 @@ def _cheapest_cut(cost: np.ndarray, boxes: np.ndarray) -> np.ndarray:
     return (path + lo).astype(np.float64)
 
 
-def _nearest_region(people: list[Person], grid) -> np.ndarray:
-    """(N, gh, gw) float32, 1 for the person whose region lies nearest each cell of ``grid`` (working_grid), else 0
-    (ties: the first)."""
+def _region_distance(people: list[Person], grid: Grid) -> np.ndarray:
+    """(N, gh, gw) float32: the distance in image pixels from each cell of ``grid`` (working_grid) to each person's
+    region (0 inside it)."""
     gw, gh, kx, ky, bx, by = grid
     xs = (np.arange(gw) - bx) / kx  # cell centres in pixels
     ys = (np.arange(gh) - by) / ky
@@ -222,7 +225,7 @@ def _nearest_region(people: list[Person], grid) -> np.ndarray:
         dx = np.maximum(np.maximum(x0 - xs, xs - x1), 0)
         dy = np.maximum(np.maximum(y0 - ys, ys - y1), 0)
         dist[k] = np.hypot(dy[:, None], dx[None, :])
-    return (np.arange(len(people))[:, None, None] == dist.argmin(axis=0)[None]).astype(np.float32)
+    return dist
 
 
 def _linear_taps(start: int, stop: int, n_in: int, n_out: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -62,3 +62,20 @@ def test_the_matters_parts_and_crops_give_the_photo_to_the_split(monkeypatch):
     _, crops = matter.part_crops(rgb)
     for ((y0, y1, x0, x1), part), full in zip(crops, whole, strict=True):
         np.testing.assert_allclose(part, full[y0:y1, x0:x1], atol=1e-6)
+
+
+@pytest.mark.parametrize("photo", [False, True])
+def test_a_hidden_first_part_leaves_its_cells_to_the_rest(photo):
+    """The left part of a split holding under _MIN_PART opaque pixels of the matte is dropped (hidden); the cells
+    only it reached go to the nearest person kept. They went to the nearest region's person, the dropped part
+    itself (the parts of a split share one region): no one's, and every share there was NaN."""
+    rgb, parts, _, _ = _touching_pair(130.0, 0.0)
+    alpha = np.zeros((H, W), np.float32)
+    alpha[:, 150:] = 1
+    alpha[:10, 140:150] = 1  # 100 opaque pixels left of the cut: the left person is hidden
+    for crops in (False, True):
+        got = _parts.shares(parts, alpha, rgb if photo else None, crops=crops)
+        assert len(got) == 1
+        (y0, y1, x0, x1), share = got[0] if crops else ((0, H, 0, W), got[0])
+        assert np.isfinite(share).all()
+        assert share[alpha[y0:y1, x0:x1] > 0].min() > 0.99 and not alpha[:, :x0].any() and not alpha[:, x1:].any()
