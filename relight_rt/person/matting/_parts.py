@@ -15,7 +15,7 @@ from ._segmentation import LOGIT_CLIP, Grid, Person, logits_on_grid, working_gri
 
 _PART_SOFT = 0.01  # parts: people's shares meet softly over about this x the photo's longer side
 _SHARE_MIN = 0.01  # parts: a person's share below this is none
-_EDGE_DE = 2.0  # along_edges: a cell on a colour edge of this CIE Lab distance a cell costs half as much to cut
+_EDGE_DE = 2.0  # along_edges: a cell on a colour edge of this CIE Lab distance (dE) per cell costs half as much to cut
 _EDGE_SMOOTH = 1.0  # along_edges: the photo on the working grid is blurred over this many cells (its grain)
 _FACE_CORE = 0.25  # along_edges: in a face's rows a cut keeps this fraction of its width off its centre
 _CUT_STAY = 0.5  # along_edges: a cut one face width off the straight cut costs this a row more
