@@ -69,7 +69,7 @@ Modules (one concept each; this package re-exports the public names):
 - ``_things_behind``: things out of focus behind the person (parts the pose graph does not see, blurred where the
   body is sharp, sticking out of the matte: a guitar leaning behind a girl), taken out of the default matte.
 - ``_parts``: a group's people as parts of one matte (a segmentation split by faces, rejoined for the matte,
-  each person's share of it).
+  each person's share of it, people split by faces meeting along the photo's own edges).
 - ``_coarse``: the coarse matte at full resolution (working grid + fast guided filter, relight_rt.image.guided_filter).
 - ``_video``: :class:`VideoMatter` and :func:`outline_flicker` (flow from relight_rt.image.flow).
 

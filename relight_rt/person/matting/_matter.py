@@ -657,19 +657,21 @@ class PersonMatter:
         Raises:
             RelightError: a bad image, or "no person found in IMAGE".
         """
-        alpha, people = self._matte(image, name)
-        return alpha, [alpha * s for s in shares(people, alpha)] if len(people) > 1 else [alpha]
+        rgb = as_rgb(image, name, copy=False)
+        alpha, people = self._matte(rgb, name)
+        return alpha, [alpha * s for s in shares(people, alpha, rgb)] if len(people) > 1 else [alpha]
 
     def part_crops(self, image: np.ndarray, name: str = "image") -> tuple[np.ndarray, list[Crop]]:
         """:meth:`parts`, each person's share held only where it is not 0: (alpha, [((y0, y1, x0, x1), part)]),
         ``part`` the (y1 - y0, x1 - x0) float32 piece of what :meth:`parts` gives (0 outside its box). A group
         photo of many people then holds about one photo of shares, not one per person (issue 50 bug 1)."""
-        alpha, people = self._matte(image, name)
+        rgb = as_rgb(image, name, copy=False)
+        alpha, people = self._matte(rgb, name)
         h, w = alpha.shape
         if len(people) < 2:
             return alpha, [((0, h, 0, w), alpha)]
         return alpha, [(box, alpha[box[0] : box[1], box[2] : box[3]] * share)
-                       for box, share in shares(people, alpha, crops=True)]  # fmt: skip
+                       for box, share in shares(people, alpha, rgb, crops=True)]  # fmt: skip
 
     def _matte(self, image: np.ndarray, name: str) -> tuple[np.ndarray, list[Person]]:
         rgb = as_rgb(image, name, copy=False)  # only read from here on

@@ -1,6 +1,7 @@
 """A group's people as parts of one matte: a selfie-graph segmentation holding several people split by their
 faces (:func:`split_by_faces`), the parts joined again for the matte (:func:`rejoin`), and each person's share
-of the matte (:func:`shares`: relight_rt.person.matting.PersonMatter.parts and part_crops)."""
+of the matte (:func:`shares`: relight_rt.person.matting.PersonMatter.parts and part_crops), where people split by
+their faces meet along the photo's own edges (:func:`along_edges`)."""
 
 from __future__ import annotations
 
@@ -10,10 +11,16 @@ import numpy as np
 from ...image.regions import Crop, grid_of_region
 from ..face_detector import Face
 from ._models import SIZE
-from ._segmentation import LOGIT_CLIP, Person, logits_on_grid, working_grid
+from ._segmentation import LOGIT_CLIP, Grid, Person, logits_on_grid, working_grid
 
 _PART_SOFT = 0.01  # parts: people's shares meet softly over about this x the photo's longer side
 _SHARE_MIN = 0.01  # parts: a person's share below this is none
+_EDGE_DE = 2.0  # along_edges: a cell on a colour edge of this CIE Lab distance (dE) per cell costs half as much to cut
+_EDGE_SMOOTH = 1.0  # along_edges: the photo on the working grid is blurred over this many cells (its grain)
+_FACE_CORE = 0.25  # along_edges: in a face's rows a cut keeps this fraction of its width off its centre
+_CUT_STAY = 0.5  # along_edges: a cut one face width off the straight cut costs this a row more
+_NO_CUT = 1e9  # along_edges: the cost of a cell a cut may not pass (a face's middle)
+_CUT_SLOPE = 2  # along_edges: a cut moves at most this many columns a row
 _MIN_PART = 256  # parts: a person with fewer opaque pixels of the matte than this (hidden) is not a part of their own
 
 
@@ -33,7 +40,8 @@ def split_by_faces(person: Person, faces: list[Face]) -> list[Person]:
     out = []
     for i in range(len(faces)):
         logits = np.where(owner[None, :] == i, person.logits, np.float32(-LOGIT_CLIP)).astype(np.float32)
-        out.append(Person(person.region, logits, person.presence, person.source, whole=person.logits))
+        out.append(Person(person.region, logits, person.presence, person.source, whole=person.logits, face=faces[i],
+                          split=tuple(faces)))
     return out
 
 
@@ -51,10 +59,16 @@ def faces_side_by_side(faces: list[Face]) -> list[Face]:
 
 
 
-def shares(people: list[Person], alpha: np.ndarray, *, crops: bool = False) -> list[np.ndarray] | list[Crop]:
+def shares(
+    people: list[Person], alpha: np.ndarray, rgb: np.ndarray | None = None, *, crops: bool = False
+) -> list[np.ndarray] | list[Crop]:
     """Each person's share of the matte ``alpha`` (H, W): (H, W) float32 weights summing to 1 everywhere (with
     ``crops``: each as ((y0, y1, x0, x1), its values there), exact where ``alpha`` is not 0 and 0 far from it, in
     the box holding every pixel where it is not 0: alpha x share is the same, and a person's box stays near them).
+
+    With the photo ``rgb`` (H, W, 3) float32 RGB in [0, 1] (PersonMatter.parts and part_crops give it), people split
+    from one segmentation by their faces meet along the photo's own edges (:func:`along_edges`); without it, at the
+    straight cut between their faces.
 
     A pixel goes to the people in proportion to the softmax of their segmentations' logits there (a person
     whose segmentation is surer of it takes it; beyond everyone's segmentation, on a refined hair edge, the
@@ -70,6 +84,8 @@ def shares(people: list[Person], alpha: np.ndarray, *, crops: bool = False) -> l
         return [((0, h, 0, w), np.ones((h, w), np.float32))] if crops else [np.ones((h, w), np.float32)]
     grid = working_grid((0, 0, w, h))
     logits = np.stack([logits_on_grid(p, grid) for p in people])
+    if rgb is not None:
+        logits = along_edges(people, logits, rgb, grid)
     opaque = cv2.resize((alpha >= 0.5).astype(np.float32), (grid[0], grid[1]), interpolation=cv2.INTER_AREA)
     scale = h * w / float(grid[0] * grid[1])
     keep = np.ones(len(people), bool)
@@ -78,11 +94,14 @@ def shares(people: list[Person], alpha: np.ndarray, *, crops: bool = False) -> l
     # everyone put a little of every person into every other's pixels (issue 50 bug 1: with 16 people each
     # person's part spanned the whole group)
     reached = logits > -LOGIT_CLIP + 1e-3
-    nearest = _nearest_region(people, grid)
+    distance = _region_distance(people, grid)
     while True:
         z, seen = logits[keep], reached[keep]
         weights = np.exp(z - z.max(axis=0, keepdims=True)) * seen
-        weights = np.where(seen.any(axis=0), weights, nearest[keep])
+        # the nearest among the people kept: a cell only a person dropped as hidden reached, nearest to that
+        # person's region (the parts of one split share a region), went to no one and its shares were NaN
+        nearest = np.arange(keep.sum())[:, None, None] == distance[keep].argmin(axis=0)[None]
+        weights = np.where(seen.any(axis=0), weights, nearest)
         weights /= weights.sum(axis=0, keepdims=True)
         pixels = (weights * opaque).sum(axis=(1, 2)) * scale
         if keep.sum() == 1 or (pixels >= _MIN_PART).all():
@@ -91,8 +110,8 @@ def shares(people: list[Person], alpha: np.ndarray, *, crops: bool = False) -> l
     # a share too small to see is none (each person's part then stays near them: their crop, not the group's)
     weights[weights < _SHARE_MIN] = 0
     weights /= weights.sum(axis=0, keepdims=True)
-    # softened: people split from one segmentation by columns (split_by_faces) meet at a straight cut, which
-    # a change of light would draw as a seam; blurred shares still sum to 1
+    # softened: people split from one segmentation (split_by_faces, along_edges) meet at a hard cut, which a change
+    # of light would draw as a hard line; blurred shares still sum to 1
     sigma = _PART_SOFT * max(grid[0], grid[1])
     # blurred over the matte only (where no one's segmentation reaches, the background, every person has an equal
     # share: blurred in, 1/N of it spread into everyone's pixels, so with 16 people every person's part spanned
@@ -111,9 +130,92 @@ def shares(people: list[Person], alpha: np.ndarray, *, crops: bool = False) -> l
     return [cv2.resize(wk, (w, h), interpolation=cv2.INTER_LINEAR) for wk in soft]
 
 
-def _nearest_region(people: list[Person], grid) -> np.ndarray:
-    """(N, gh, gw) float32, 1 for the person whose region lies nearest each cell of ``grid`` (working_grid), else 0
-    (ties: the first)."""
+def along_edges(people: list[Person], logits: np.ndarray, rgb: np.ndarray, grid: Grid) -> np.ndarray:
+    """``logits`` (N, gh, gw), the people's on ``grid`` (working_grid over ``rgb`` (H, W, 3) float32 RGB in [0, 1]),
+    with the parts of each segmentation split by faces (:func:`split_by_faces`: by columns) cut again along the
+    photo's own edges: the straight cut between each two faces side by side becomes the cheapest path from top to
+    bottom between them (:func:`_cheapest_cut`), where a cell on a colour edge of the photo costs little to cut
+    through, a cell off the segmentation nothing, and a cell far from the straight cut more. The straight cut ran
+    through people wherever they overlap, which a change of light drew as a seam (two men hugging, the one in front
+    lit, the other dark: a line down the middle of a shirt, p091 of people_masks); along an edge of the photo (a
+    shirt against a dress, an arm against a chest) the change of light meets the photo's own line. Every face of the
+    split is cut from its neighbours, the faces of people matted before too (their parts are not in ``people``:
+    relight_rt.person.matting._layout.as_people)."""
+    groups: dict[int, list[int]] = {}
+    for i, p in enumerate(people):
+        if p.whole is not None and p.face is not None and any(f is p.face for f in p.split):
+            groups.setdefault(id(p.whole), []).append(i)
+    todo = list(groups.values())
+    if not todo:
+        return logits
+    gw, gh, kx, ky, bx, by = grid
+    small = cv2.GaussianBlur(cv2.resize(rgb, (gw, gh), interpolation=cv2.INTER_AREA), (0, 0), _EDGE_SMOOTH)
+    lab = cv2.cvtColor(small.astype(np.float32), cv2.COLOR_RGB2Lab)
+    edge = np.sqrt(sum(cv2.Sobel(lab[..., c], cv2.CV_32F, 1, 0) ** 2 + cv2.Sobel(lab[..., c], cv2.CV_32F, 0, 1) ** 2
+                       for c in range(3))) / 8  # CIE Lab distance (dE) per cell  # fmt: skip
+    crossing = 1 / (1 + (edge / _EDGE_DE) ** 2)  # what cutting through a cell costs: little on an edge
+    out = logits.copy()
+    for idx in todo:
+        first = people[idx[0]]
+        whole = logits_on_grid(Person(first.region, first.whole, first.presence), grid)
+        held = whole > 0
+        faces = sorted(first.split, key=lambda f: f.box[0] + f.box[2])
+        boxes = np.array([(kx * f.box[0] + bx, ky * f.box[1] + by, kx * f.box[2] + bx, ky * f.box[3] + by)
+                          for f in faces])  # fmt: skip
+        cols = np.arange(gw, dtype=np.float64)[None, :]
+        owner = np.zeros((gh, gw), np.intp)
+        for j in range(len(faces) - 1):
+            cut = _cheapest_cut(np.where(held, crossing, 0), boxes[j : j + 2])
+            owner += cols >= cut[:, None]
+        for i in idx:
+            j = next(k for k, f in enumerate(faces) if f is people[i].face)
+            out[i] = np.where(owner == j, whole, np.float32(-LOGIT_CLIP))
+    return out
+
+
+def _cheapest_cut(cost: np.ndarray, boxes: np.ndarray) -> np.ndarray:
+    """(gh,) float64: per row of ``cost`` (gh, gw), the column where the cut between two people side by side lies
+    (cells left of it are the left one's), their faces' boxes ``boxes`` (2, 4) (x0, y0, x1, y1) in grid cells, left
+    one first. The straight cut of :func:`split_by_faces` lies where the two faces' distances in their own widths are
+    equal; the cut here is the path from the top row to the bottom, at most _CUT_SLOPE columns a row, between the
+    two faces' centres and, in the rows of a face, off its middle (_FACE_CORE of its width to each side of its
+    centre), that costs least: each cell its ``cost`` plus _CUT_STAY x (its distance from the straight cut / the
+    faces' mean width)², each sideways column as much again."""
+    (cl, cr), (wl, wr) = (boxes[:, 0] + boxes[:, 2]) / 2, np.maximum(boxes[:, 2] - boxes[:, 0], 1.0)
+    straight = (cl * wr + cr * wl) / (wl + wr)
+    lo, hi = max(int(np.ceil(cl)), 0), min(int(np.floor(cr)) + 1, cost.shape[1])
+    if hi - lo < 2:
+        return np.full(cost.shape[0], np.ceil(straight))
+    xs = np.arange(lo, hi, dtype=np.float64)
+    band = cost[:, lo:hi] + _CUT_STAY * ((xs - straight) / ((wl + wr) / 2)) ** 2
+    rows = np.arange(cost.shape[0])[:, None]
+    for (x0, y0, x1, y1), keep_left in zip(boxes, (True, False), strict=True):
+        c, w = (x0 + x1) / 2, x1 - x0
+        beside = xs[None, :] < c + _FACE_CORE * w if keep_left else xs[None, :] > c - _FACE_CORE * w
+        band = np.where(beside & (rows >= y0) & (rows <= y1), _NO_CUT, band)
+    n = hi - lo
+    total = band[0].copy()
+    came = np.zeros(band.shape, np.intp)
+    moves = np.arange(-_CUT_SLOPE, _CUT_SLOPE + 1)
+    for y in range(1, band.shape[0]):
+        options = np.full((moves.size, n), np.inf)
+        for m, dx in enumerate(moves):  # from column x + dx of the row above
+            src = slice(max(dx, 0), n + min(dx, 0))
+            dst = slice(max(-dx, 0), n - max(dx, 0))
+            options[m, dst] = total[src] + abs(dx) * band[y, dst]
+        best = options.argmin(axis=0)
+        total = options[best, np.arange(n)] + band[y]
+        came[y] = np.arange(n) + moves[best]
+    path = np.empty(band.shape[0], np.intp)
+    path[-1] = int(total.argmin())
+    for y in range(band.shape[0] - 1, 0, -1):
+        path[y - 1] = came[y, path[y]]
+    return (path + lo).astype(np.float64)
+
+
+def _region_distance(people: list[Person], grid: Grid) -> np.ndarray:
+    """(N, gh, gw) float32: the distance in image pixels from each cell of ``grid`` (working_grid) to each person's
+    region (0 inside it)."""
     gw, gh, kx, ky, bx, by = grid
     xs = (np.arange(gw) - bx) / kx  # cell centres in pixels
     ys = (np.arange(gh) - by) / ky
@@ -123,7 +225,7 @@ def _nearest_region(people: list[Person], grid) -> np.ndarray:
         dx = np.maximum(np.maximum(x0 - xs, xs - x1), 0)
         dy = np.maximum(np.maximum(y0 - ys, ys - y1), 0)
         dist[k] = np.hypot(dy[:, None], dx[None, :])
-    return (np.arange(len(people))[:, None, None] == dist.argmin(axis=0)[None]).astype(np.float32)
+    return dist
 
 
 def _linear_taps(start: int, stop: int, n_in: int, n_out: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -41,6 +41,9 @@ class Person:
     # relight_rt.person.matting._parts.split_by_faces): the matte is made from the whole, not from the parts
     of: Region | None = field(default=None, compare=False)  # source "own": the region of the person this part goes
     # on from (relight_rt.person.matting._selfie.carried_past), whose share of the matte it is; None: everyone's
+    face: Face | None = field(default=None, compare=False)  # split from ``whole`` as this face's share, among the
+    split: tuple[Face, ...] = field(default=(), compare=False)  # faces side by side it was split by (split_by_faces),
+    # which relight_rt.person.matting._parts.along_edges cuts again along the photo's edges
 
 
 
