@@ -1,3 +1,2 @@
 """Pixels: the one image intake and its writers, EXIF, sRGB, the guided filter, compositing, foreground colours,
-matte edges, the closed-form matte on a band (colour lines), optical flow, the crop to the network's square, square
-regions, EXR."""
+matte edges, optical flow, the crop to the network's square, square regions, EXR."""

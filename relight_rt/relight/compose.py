@@ -11,7 +11,6 @@ import cv2
 import numpy as np
 
 from ..image.color import REC709, srgb_to_linear
-from ..image.colour_line_matte import held_background
 from ..image.compositing import Background, clean_edge_colour, over_box
 from ..image.foreground import estimate_foreground, nearest_colours
 from ..light.exposure import DISPLAY_GAMMA, knee
@@ -299,10 +298,8 @@ def shown_edge(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray) -> tuple[np
     the reference clip's band beside the person, worst p99 over 12 lights 0.6-9.5 -> 0.0-0.24 levels, issue 48). A
     raise goes only as far as ``behind`` can still be solved in [0, 1] so that alpha' F + (1 - alpha') behind is
     the photo again (``fg``: the person's own colour, ``own_colours``): the photo's own light still gives the
-    photo back. Background the matte holds inside its 0.5 line (the sky between strands of hair, a sliver beside a
-    shoulder: inner26's inner halo) is lowered where the closed-form matte on a band round the outline is sure of
-    it (relight_rt.image.colour_line_matte ``held_background``, hairmat26; a lowering can always be solved for).
-    The matte itself (``Decomposition.mask``, the RGBA output's alpha, a new backdrop's composite) is not changed.
+    photo back. The matte itself (``Decomposition.mask``, the RGBA output's
+    alpha, a new backdrop's composite) is not changed.
 
     Args:
         image: (h, w, 3) float32 RGB in [0, 1], the photo in the crop box.
@@ -343,9 +340,6 @@ def shown_edge(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray) -> tuple[np
     i, f = image[up], fg[up]
     reach = np.where(f > i, i / np.maximum(f, 1e-6), np.where(f < i, (1 - i) / np.maximum(1 - f, 1e-6), 1))
     shown[up] = np.minimum(shown[up], np.maximum(alpha[up], reach.min(axis=1)))
-    # background the matte holds between strands and beside limbs, as the closed-form matte on a band finds it
-    held = held_background(image, alpha)
-    np.copyto(shown, np.minimum(shown, held), where=held < alpha)
     behind = np.array(image, dtype=np.float32)
     mixed = (shown > 0) & (shown < 1)  # every partial pixel, so that the photo comes back to rounding
     s = shown[mixed][:, None]
