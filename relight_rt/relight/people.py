@@ -35,7 +35,51 @@ class PartsMatter:
         else:  # a matter with whole-photo parts only: each cut to where it is not 0
             alpha, parts = self.matter.parts(rgb, name)
             self.found = [cropped(p) for p in parts]
+        self.found = folded(self.found)
         return alpha
+
+
+def folded(crops: list[Crop]) -> list[Crop]:
+    """``crops`` (PartsMatter.found) with each person whose share never reaches half folded into the person whose
+    share overlaps theirs most (the largest where none does): stage 1 takes a person where their mask is >= 0.5, and
+    such a share was refused as an empty mask, failing the whole photo (people_masks p229, split between two
+    people). The shares still sum to the matte; all of them weak: one share, the whole group relit as one."""
+    strong = [c for c in crops if c[1].size and c[1].max() >= 0.5]
+    weak = [c for c in crops if c[1].size and 0 < c[1].max() < 0.5]
+    if not weak:
+        return crops
+    if not strong:
+        merged = weak[0]
+        for crop in weak[1:]:
+            merged = _merged(merged, crop)
+        return [merged]
+    for crop in weak:
+        overlaps = [_overlap(crop, other) for other in strong]
+        best = int(np.argmax(overlaps)) if max(overlaps) > 0 else int(np.argmax([c[1].sum() for c in strong]))
+        strong[best] = _merged(strong[best], crop)
+    return strong
+
+
+def _overlap(a: Crop, b: Crop) -> float:
+    """How much two people's shares overlap: the sum of the smaller of the two where both boxes meet."""
+    (ay0, ay1, ax0, ax1), sa = a
+    (by0, by1, bx0, bx1), sb = b
+    y0, y1, x0, x1 = max(ay0, by0), min(ay1, by1), max(ax0, bx0), min(ax1, bx1)
+    if y1 <= y0 or x1 <= x0:
+        return 0.0
+    return float(np.minimum(sa[y0 - ay0 : y1 - ay0, x0 - ax0 : x1 - ax0],
+                            sb[y0 - by0 : y1 - by0, x0 - bx0 : x1 - bx0]).sum())
+
+
+def _merged(a: Crop, b: Crop) -> Crop:
+    """Two shares as one, in the box holding both."""
+    (ay0, ay1, ax0, ax1), sa = a
+    (by0, by1, bx0, bx1), sb = b
+    y0, y1, x0, x1 = min(ay0, by0), max(ay1, by1), min(ax0, bx0), max(ax1, bx1)
+    out = np.zeros((y1 - y0, x1 - x0), np.float32)
+    out[ay0 - y0 : ay1 - y0, ax0 - x0 : ax1 - x0] += sa
+    out[by0 - y0 : by1 - y0, bx0 - x0 : bx1 - x0] += sb
+    return (y0, y1, x0, x1), out
 
 
 def cropped(a: np.ndarray) -> Crop:
