@@ -5,7 +5,6 @@ one of 30 group photos). It is folded into the person it overlaps most; the shar
 from __future__ import annotations
 
 import numpy as np
-import pytest
 from _graphs import models_dir
 from test_group_shown_edge import _group, _GroupMatter
 
