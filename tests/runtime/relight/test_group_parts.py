@@ -27,12 +27,12 @@ def _whole(crops, shape=(40, 40)) -> np.ndarray:
 
 
 def test_a_faint_share_goes_to_the_person_it_overlaps_most():
-    a, b = _crop((0, 20, 0, 20), 0.6), _crop((10, 40, 10, 40), 0.6)
-    faint = _crop((30, 38, 25, 36), 0.3)  # inside b's box only
+    a, b = _crop((0, 20, 0, 20), 0.6), _crop((10, 40, 10, 40), 0.6)  # b the larger
+    faint = _crop((5, 15, 5, 15), 0.3)  # overlaps a by 100 pixels, b by 25: a's, not the largest's
     out = people.folded([a, faint, b])
     assert len(out) == 2
-    assert out[0] is a  # a untouched
-    assert out[1][0] == (10, 40, 10, 40)
+    assert out[1] is b  # b untouched
+    assert out[0][0] == (0, 20, 0, 20) and out[0][1].max() == np.float32(0.6) + np.float32(0.3)
     np.testing.assert_array_equal(_whole(out), _whole([a, faint, b]))  # the shares still sum to the matte
 
 
