@@ -77,3 +77,5 @@ def test_a_light_reaches_a_person_with_their_deviation(group):
         dark = np.zeros((9, 3), np.float32)
         dark[1] = 0.5  # no degree 0: no strength to scale the deviation by, the light as it is
         np.testing.assert_array_equal(people.reaching(dark, part, dec), dark)
+        dark[0] = -0.2  # a negative degree 0: no deviation either
+        np.testing.assert_array_equal(people.reaching(dark, part, dec), dark)
