@@ -42,3 +42,40 @@ def test_lights_at_once_holds_a_bounded_number_of_pictures():
     assert people.lights_at_once((1000, 1000), 3, 4) == 4
     assert people.lights_at_once((5000, 5000), 3, 4) == 1  # a 25-MP group: one picture at a time
     assert people.lights_at_once((10, 10), 4, 1) == 1
+
+
+def test_the_people_here_are_lit_apart(group):
+    """The two people's own lights differ (the mirror's comes from the other side): what the tests below need."""
+    rl, dec = group
+    own = [p.white_light for p in dec.people]
+    assert own[0][1, 0] * own[1][1, 0] < 0  # their y (image right) coefficients have opposite signs ...
+    assert min(abs(own[0][1, 0]), abs(own[1][1, 0])) > 0.3 * dec.white_light[0, 0]  # ... and are not small
+
+
+@pytest.mark.parametrize("background", ["original", Background.original(grade=True)])
+def test_the_groups_own_light_gives_the_photo_back(group, background):
+    """relight(group, the group's own light): each person under their own (140 levels off when the group's light
+    reached both as it is, each divided by their own)."""
+    rl, dec = group
+    out = np.asarray(rl.relight(dec, dec, background=background))
+    assert 255 * np.abs(out - dec.image).max() < 0.5
+
+
+def test_a_light_reaches_a_person_with_their_deviation(group):
+    rl, dec = group
+    g = dec.white_light
+    for part in dec.people:
+        own = part.white_light
+        np.testing.assert_allclose(people.reaching(g, part, dec), own, atol=1e-6)  # the group's light: their own
+        np.testing.assert_allclose(people.reaching(2 * g, part, dec), 2 * own, atol=1e-6)  # twice as strong
+        lamp = lights.directional((0.3, -1.0, 0.2), (1.0, 0.5, 0.25))  # a coloured light: the deviation in its colour
+        dc = lamp[0] / g[0, 0]
+        np.testing.assert_allclose(people.reaching(lamp, part, dec), lamp + dc * (own - g), atol=1e-6)
+        batch = np.stack([g, lamp])  # (K, 9, 3) as (9, 3) one by one
+        np.testing.assert_allclose(people.reaching(batch, part, dec),
+                                   np.stack([people.reaching(v, part, dec) for v in batch]), atol=1e-6)
+        dark = np.zeros((9, 3), np.float32)
+        dark[1] = 0.5  # no degree 0: no strength to scale the deviation by, the light as it is
+        np.testing.assert_array_equal(people.reaching(dark, part, dec), dark)
+        dark[0] = -0.2  # a negative degree 0: no deviation either
+        np.testing.assert_array_equal(people.reaching(dark, part, dec), dark)

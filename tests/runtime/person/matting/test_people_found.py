@@ -633,12 +633,15 @@ def test_shares_give_a_hidden_person_to_the_rest():
 
 
 def test_group_photo_relit_person_by_person(two_people):
-    """matting="all": each person is decomposed and relit on their own (their own shape and exposure), so each
-    one's pixels are what relighting that person alone gives; the group decomposed as one gave something else (a
-    light from the left lit the left person's left side and the right person's right side darker, as one body)."""
+    """matting="all": each person is decomposed and relit on their own (their own shape, light and exposure), so
+    each one's pixels are what relighting that person alone gives under the light that reaches them (the light asked
+    for with their own light's deviation from the group's, relight_rt.relight.people ``reaching``: the two here are
+    mirror images, lit from opposite sides); the group decomposed as one gave something else (a light from the left
+    lit the left person's left side and the right person's right side darker, as one body)."""
     from dataclasses import replace
 
     from relight_rt import RuntimeConfig, lights
+    from relight_rt.relight import people as people_module
 
     image, truth = two_people
     rl = relight_rt.open(RuntimeConfig(device="cpu", matting="all"))
@@ -664,8 +667,8 @@ def test_group_photo_relit_person_by_person(two_people):
     black = rl.relight(dec, light, background="black")
     assert not black[outside].any() and np.abs(black[dec.mask > 0.999] - group[dec.mask > 0.999]).max() < 1 / 255
     as_one = rl.relight(replace(dec, people=()), light)
-    for mask in parts:
-        alone = rl.relight(image, light, mask=mask)
+    for part, mask in zip(dec.people, parts, strict=True):
+        alone = rl.relight(image, people_module.reaching(light, part, dec), mask=mask)
         own = mask > 0.999
         assert own.sum() > 0.3 * (truth > 0.5).sum() / 2
         # each person's crop is their own (issue 50 bug 1: the shares leaked, every crop was the group's): the
