@@ -85,38 +85,45 @@ def colours_in_group(part: Decomposition, group_mask: np.ndarray) -> tuple[np.nd
 def with_shown_edge(factor, dec: Decomposition, parts: list[Decomposition]) -> Decomposition:
     """The group ``dec`` (its matte always the automatic one: ``PartsMatter``) with its people ``parts`` (their
     colours from the group's matte, ``colours_in_group``) and the group's soft edge as the photo shows it
-    (``compose.shown_edge`` on the group's matte, once: where two people meet the matte is solid and nothing moves):
+    (``compose.shown_edge`` on the group's matte, once, a band of rows at a time: ``compose.shown_edge_bands``, so
+    that no temporary of that rule is the photo's size; where two people meet the matte is solid and nothing moves):
     ``dec.edge``, each person's colour behind their soft edge then the one behind that edge. The group's own colour
     there is the people's, weighted by their shares (as ``by_person_lights`` adds them up), so that the photo's own
     light gives the photo back where two people's soft edges overlap too. ``factor``: the Relighter's (``derive``).
     A hard matte gives ``dec`` with ``parts`` as they are."""
     geom = dec.geometry
     y0, y1, x0, x1 = geom.box
-    if all(part.foreground[1] is part.foreground[0] for part in parts):  # no soft edge anywhere
-        return factor.derive(dec, people=tuple(parts))
-    image = np.ascontiguousarray(geom.crop(dec.image))
-    fg = np.zeros(image.shape, np.float32)  # the people's own colours weighted by their shares, in the group's box
-    weight = np.zeros(image.shape[:2] + (1,), np.float32)
-    for part in parts:
-        (py0, _, px0, _), (cy0, cy1, cx0, cx1) = _boxes(part, geom.box)
-        if cy1 > cy0 and cx1 > cx0:
-            inner = (slice(cy0 - py0, cy1 - py0), slice(cx0 - px0, cx1 - px0))
-            share = part.geometry.crop(part.mask)[inner][..., None]
-            fg[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0] += share * part.foreground[0][inner]
-            weight[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0] += share
-    fg = np.where(weight > 0, fg / np.maximum(weight, 1e-12), image)  # the photo where no one's share reaches
-    del weight
-    shown, behind = compose.shown_edge(image, geom.crop(dec.mask), fg)
-    del fg
-    if behind is None:  # the group's matte has no soft edge
-        return factor.derive(dec, people=tuple(parts))
-    out = []
-    for part in parts:  # each person's colour behind: the group's in their box, the photo beyond it
-        (py0, py1, px0, px1), (cy0, cy1, cx0, cx1) = _boxes(part, geom.box)
-        theirs = np.array(part.geometry.crop(part.image), dtype=np.float32)
-        if cy1 > cy0 and cx1 > cx0:
-            theirs[cy0 - py0 : cy1 - py0, cx0 - px0 : cx1 - px0] = behind[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0]
-        out.append(factor.derive(part, foreground=(part.foreground[0], theirs)))
+    alpha = geom.crop(dec.mask)
+    if all(part.foreground[1] is part.foreground[0] for part in parts) or not compose.has_soft_edge(alpha):
+        return factor.derive(dec, people=tuple(parts))  # no soft edge anywhere
+    image = geom.crop(dec.image)  # a view: the rule runs a band of rows at a time (compose.shown_edge_bands)
+    boxes = [_boxes(part, geom.box) for part in parts]
+
+    def own_colour(a: int, b: int) -> np.ndarray:
+        """The people's own colours weighted by their shares in rows a to b of the group's box; the photo where no
+        one's share reaches."""
+        fg = np.zeros((b - a, x1 - x0, 3), np.float32)
+        weight = np.zeros((b - a, x1 - x0, 1), np.float32)
+        for part, ((py0, _, px0, _), (cy0, cy1, cx0, cx1)) in zip(parts, boxes, strict=True):
+            r0, r1 = max(cy0, y0 + a), min(cy1, y0 + b)
+            if r1 > r0 and cx1 > cx0:
+                inner = (slice(r0 - py0, r1 - py0), slice(cx0 - px0, cx1 - px0))
+                share = part.geometry.crop(part.mask)[inner][..., None]
+                fg[r0 - y0 - a : r1 - y0 - a, cx0 - x0 : cx1 - x0] += share * part.foreground[0][inner]
+                weight[r0 - y0 - a : r1 - y0 - a, cx0 - x0 : cx1 - x0] += share
+        return np.where(weight > 0, fg / np.maximum(weight, 1e-12), image[a:b])
+
+    # each person's colour behind: the group's in their box, the photo beyond it
+    theirs = [np.array(part.geometry.crop(part.image), dtype=np.float32) for part in parts]
+    shown = np.empty(alpha.shape, np.float32)
+    for a, b, edge, behind in compose.shown_edge_bands(image, alpha, own_colour):
+        shown[a:b] = edge
+        for own, ((py0, _, px0, _), (cy0, cy1, cx0, cx1)) in zip(theirs, boxes, strict=True):
+            r0, r1 = max(cy0, y0 + a), min(cy1, y0 + b)
+            if r1 > r0 and cx1 > cx0:
+                own[r0 - py0 : r1 - py0, cx0 - px0 : cx1 - px0] = behind[r0 - y0 - a : r1 - y0 - a,
+                                                                         cx0 - x0 : cx1 - x0]
+    out = [factor.derive(part, foreground=(part.foreground[0], own)) for part, own in zip(parts, theirs, strict=True)]
     return factor.derive(dec, people=tuple(out), edge=shown)
 
 

@@ -256,3 +256,24 @@ def test_the_relit_change_stays_off_the_floor_past_a_sharp_edge(models_dir):
               for k, d in (("auto", auto), ("given", given))}
     assert change["given"] > 5  # the rim carries the shoe's new light onto the floor ...
     assert change["auto"] < 1  # ... which the shown edge, steepened by the photo's sharp sole, does not
+
+
+@pytest.mark.parametrize("pixels", [97 * 6, 97 * 16, 97 * 200])
+def test_bands_give_the_whole_boxs_values(pixels):
+    """A group's box is worked on a band of rows at a time (``shown_edge_bands``): the same alpha' and colour behind
+    as the whole box at once, bit for bit, whatever the band's height (odd sizes: the half-resolution rows)."""
+    rng = np.random.default_rng(5)
+    h, w = 121, 97
+    hard = np.zeros((h, w), np.float32)
+    for cy, cx, rad in ((30, 25, 18), (80, 60, 25), (110, 15, 12)):  # three people, one cut by the box's edge
+        hard[(np.arange(h)[:, None] - cy) ** 2 + (np.arange(w)[None, :] - cx) ** 2 < rad * rad] = 1
+    alpha = cv2.GaussianBlur(hard, (0, 0), 2.5)
+    image = np.where(hard[..., None] > 0, np.float32([0.3, 0.2, 0.1]), np.float32([0.85, 0.9, 0.95]))
+    image = np.clip(image + 0.03 * rng.standard_normal((h, w, 3)), 0, 1).astype(np.float32)
+    fg, _ = colours_of(image, alpha, multilevel=True)
+    shown, behind = shown_edge(image, alpha, fg)
+    assert behind is not None and np.abs(shown - alpha).max() > 0.05  # the rule moved the edge
+    bands = list(compose.shown_edge_bands(image, alpha, lambda a, b: fg[a:b], pixels))
+    assert len(bands) == -(-h // max(2, pixels // w // 2 * 2)) and bands[-1][1] == h
+    np.testing.assert_array_equal(np.concatenate([b[2] for b in bands]), shown)
+    np.testing.assert_array_equal(np.concatenate([b[3] for b in bands]), behind)
