@@ -177,10 +177,9 @@ def by_person_lights(
     clean = bg.kind != "original"
     y0, y1, x0, x1 = dec.geometry.box
     alpha = dec.geometry.crop(dec.mask)[..., None]
-    cover, scale = alpha, None  # what the backdrop shows through, and the shares' scale to it
+    cover, scaled = alpha, False  # what the backdrop shows through; whether the people's shares are scaled to it
     if backdrop is not None and not clean and dec.edge is not None:  # the group's edge as the photo shows it
-        cover = dec.edge[..., None]  # (``with_shown_edge``): the people's shares scaled to sum to it
-        scale = np.divide(cover, alpha, out=np.ones_like(cover), where=alpha > 0)
+        cover, scaled = dec.edge[..., None], True  # (``with_shown_edge``): the shares scaled to sum to it
     if backdrop is None:  # RGBA, straight colour: the weighted colours summed here, divided by alpha below
         out = np.zeros(dec.geometry.frame + (4,), np.float32)
         region = out[y0:y1, x0:x1, :3]
@@ -224,8 +223,10 @@ def by_person_lights(
                 old, weight = composer.own_light(part)  # found once per person, whatever the light
                 sums[k] = [sums[k][0] + compose.light_sum(colour, share), sums[k][1] + old, sums[k][2] + weight]
             colour *= share
-            if scale is not None:
-                colour[cy0 - py0 : cy1 - py0, cx0 - px0 : cx1 - px0] *= scale[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0]
+            if scaled:  # the scale in the person's box only (the group's box: the photo's size)
+                box = (slice(cy0 - y0, cy1 - y0), slice(cx0 - x0, cx1 - x0))
+                colour[cy0 - py0 : cy1 - py0, cx0 - px0 : cx1 - px0] *= np.divide(
+                    cover[box], alpha[box], out=np.ones_like(cover[box]), where=alpha[box] > 0)
             regions[k][cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0] += colour[cy0 - py0 : cy1 - py0,
                                                                            cx0 - px0 : cx1 - px0]
             del colour, residual, relit
