@@ -23,7 +23,6 @@ import types
 import warnings
 from collections.abc import Iterator
 
-
 _TRIM: list = []  # glibc's malloc_trim once looked up ([None] where there is none)
 
 

@@ -41,7 +41,7 @@ _SHOWN_OFF_LINE = 0.1  # ... and it falls as exp(-d^2 / (this x |F - B|^2)), d t
 _SHARP_MARGIN = 2.0  # shown_edge: the rim's outer half steepens where the photo's edge is this x steeper than it ...
 _SHARP_MAX = 8.0  # ... by at most this factor
 _SHARP_NEAR = 2 / 3  # ... fully within this x the reach of the matte's 0.5 line, fading out to the reach (1 x)
-_EDGE_BAND_PIXELS = 1 << 20  # shown_edge_bands: a large crop box's rule done this many pixels (a band of rows) at a time
+_EDGE_BAND_PIXELS = 1 << 20  # shown_edge_bands: a large crop box's rule done about this many pixels at a time
 
 
 def consistent(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray, bg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

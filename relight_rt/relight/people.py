@@ -138,7 +138,7 @@ def _boxes(part: Decomposition, box: tuple[int, int, int, int]) -> tuple[tuple, 
 
 def by_person(
     composer: compose.Composer, network_relit: Callable, dec: Decomposition, parts: tuple[Decomposition, ...],
-    light: np.ndarray, exposure, bg: Background,
+    light: np.ndarray, exposure, bg: Background, keep: bool = True,
 ) -> np.ndarray:
     """A group photo relit person by person: each of ``parts`` (the people of ``dec``, each decomposed on their
     own with their share of its matte, in a window of the photo at their ``origin``: their own shape, their face
@@ -153,9 +153,10 @@ def by_person(
     crop box's shown edge, and the people's weighted colours are added into the output as they come.
 
     ``composer``: the Relighter's; ``network_relit``: its stage-2 pass (a decomposition, lights (K, 9, 3), a batch
-    size and ``want_layers`` -> (diffuse, residual, relit) per light, as ``Relighter`` runs it).
+    size and ``want_layers`` -> (diffuse, residual, relit) per light, as ``Relighter`` runs it); ``keep``: as for
+    ``by_person_lights``.
     """
-    return by_person_lights(composer, network_relit, dec, parts, np.asarray(light)[None], [exposure], bg)[0]
+    return by_person_lights(composer, network_relit, dec, parts, np.asarray(light)[None], [exposure], bg, keep)[0]
 
 
 def lights_at_once(frame: tuple[int, int], channels: int, most: int) -> int:
@@ -166,12 +167,15 @@ def lights_at_once(frame: tuple[int, int], channels: int, most: int) -> int:
 
 def by_person_lights(
     composer: compose.Composer, network_relit: Callable, dec: Decomposition, parts: tuple[Decomposition, ...],
-    lights: np.ndarray, exposures: list, bg: Background,
+    lights: np.ndarray, exposures: list, bg: Background, keep: bool = True,
 ) -> list[np.ndarray]:
     """``by_person`` under each of the (K, 9, 3) ``lights`` with its exposure: person by person, what a person's
     relit colour needs whatever the light (their own colour's ``dark_colour``, ``knee`` and ``neutral_darks``, the
     full-resolution guide) made once for the K lights and let go before the next person; the K pictures are held
-    together (``lights_at_once`` says how many a photo's size allows)."""
+    together (``lights_at_once`` says how many a photo's size allows). ``keep``: the rest of what each person's
+    relight keeps for the next call (their fine texture, shadow fill, own light's reconstruction: the Relighter's
+    memo) is kept; False (a group decomposed for this call alone, relit once): let go after the person too (16
+    people on 25 MP kept ~0.2 GB of it to the end)."""
     memo, factor = composer.memo, composer.factor
     backdrop = compose.backdrop_of(dec, bg)
     clean = bg.kind != "original"
@@ -231,7 +235,11 @@ def by_person_lights(
                                                                            cx0 - px0 : cx1 - px0]
             del colour, residual, relit
         del looks
-        memo(part).pop("gray", None)  # the guide is remade per call, not kept for every person (issue 50 bug 1)
+        for one in (part, part.head):  # the guide is remade per call, never kept for every person (issue 50 bug 1)
+            if one is not None and keep:
+                memo(one).pop("gray", None)
+            elif one is not None:
+                memo(one).clear()
     for k, out in enumerate(outs):
         region = regions[k]
         if backdrop is None:

@@ -220,8 +220,7 @@ class Relighter:
                 self._factor.derive(dec, **photo_colours(dec, auto)) for dec, auto in zip(decs, automatic, strict=True)]
 
     def _photos(self, decs: list[Decomposition]) -> list[Decomposition]:
-        """Photos' light refit to the transport the relit photo is divided by, and their faces seen small looked
-        at again (with detail)."""
+        """With detail: photos' light refit to the transport the relit photo is divided by, faces seen small again."""
         if not self.detail:
             return decs
         decs = [self._factor.refit(dec) for dec in decs]
@@ -401,9 +400,9 @@ class Relighter:
         exposure = _exposure.for_light(exposure, light)  # a preset may ask for its own exposure (night: darker)
         parts = dec.people
         if parts:
-            bg = parse_background(background)
-            light = self.resolve_light(light)
-            out = per_person.by_person(self._composer, self._network.relit, dec, parts, light, exposure, bg)
+            bg, light = parse_background(background), self.resolve_light(light)
+            out = per_person.by_person(self._composer, self._network.relit, dec, parts, light, exposure, bg,
+                                       keep=image is dec)  # a photo decomposed for this call: relit once
             if layers:  # the layers are the group's, decomposed as one
                 return replace(self._relight_with_layers(dec, self._factor.expose(dec, light, exposure), bg), image=out)
             return out
@@ -444,9 +443,10 @@ class Relighter:
         if parts:  # a group: each person's light-independent work done once for several lights
             bg = parse_background(background)
             step = per_person.lights_at_once(dec.geometry.frame, bg.channels, batch_size)
-            for s in range(0, len(resolved), step):
+            for s in range(0, len(resolved), step):  # each person's state kept while lights follow (or dec is yours)
                 yield from per_person.by_person_lights(self._composer, self._network.relit, dec, parts,
-                                                       resolved[s : s + step], exposures[s : s + step], bg)
+                                                       resolved[s : s + step], exposures[s : s + step], bg,
+                                                       keep=image is dec or s + step < len(resolved))
             return
         expose = self._factor.expose
         if all(e == exposures[0] for e in exposures):
