@@ -321,11 +321,6 @@ def edge_reach(alpha: np.ndarray) -> int:
     return max(_SHOWN_REACH_MIN, math.ceil(_SHOWN_REACH * soft_edge_width(alpha)))
 
 
-def has_soft_edge(alpha: np.ndarray) -> bool:
-    """True where the matte ``alpha`` (h, w) has a soft pixel (``shown_edge`` has something to move)."""
-    return bool(((alpha > _SOFT) & (alpha < 1 - _SOFT)).any())
-
-
 def _halves(image: np.ndarray, alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``image`` (h, w, 3) and where ``alpha`` (h, w) is solid, at half resolution (``_steepened``'s far side)."""
     half = ((image.shape[1] + 1) // 2, (image.shape[0] + 1) // 2)
@@ -342,7 +337,7 @@ def shown_edge_bands(image: np.ndarray, alpha: np.ndarray, fg_rows, pixels: int 
 
     Args:
         image: (h, w, 3) float32 in [0, 1], the photo in the crop box (a view is fine).
-        alpha: (h, w) float32 in [0, 1], the matte there, with a soft edge (``has_soft_edge``).
+        alpha: (h, w) float32 in [0, 1], the matte there, with a soft edge (the caller's to know).
         fg_rows: ``fg_rows(a, b)`` -> (b - a, w, 3) float32, the person's own colour in rows a to b of the box.
     """
     h, w = alpha.shape

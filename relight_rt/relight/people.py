@@ -83,19 +83,27 @@ def colours_in_group(part: Decomposition, group_mask: np.ndarray) -> tuple[np.nd
 
 
 def with_shown_edge(factor, dec: Decomposition, parts: list[Decomposition]) -> Decomposition:
-    """The group ``dec`` (its matte always the automatic one: ``PartsMatter``) with its people ``parts`` (their
-    colours from the group's matte, ``colours_in_group``) and the group's soft edge as the photo shows it
+    """The group ``dec`` (its matte always the automatic one: ``PartsMatter``) with its people ``parts``, each with
+    their own colour from the group's matte (``colours_in_group``), and the group's soft edge as the photo shows it
     (``compose.shown_edge`` on the group's matte, once, a band of rows at a time: ``compose.shown_edge_bands``, so
     that no temporary of that rule is the photo's size; where two people meet the matte is solid and nothing moves):
-    ``dec.edge``, each person's colour behind their soft edge then the one behind that edge. The group's own colour
-    there is the people's, weighted by their shares (as ``by_person_lights`` adds them up), so that the photo's own
-    light gives the photo back where two people's soft edges overlap too. ``factor``: the Relighter's (``derive``).
-    A hard matte gives ``dec`` with ``parts`` as they are."""
+    ``dec.edge``, each person's colour behind their soft edge then the one behind that edge (the one
+    ``colours_in_group`` found is let go as soon as it is found). The group's own colour there is the people's,
+    weighted by their shares (as ``by_person_lights`` adds them up), so that the photo's own light gives the photo
+    back where two people's soft edges overlap too. ``factor``: the Relighter's (``derive``). A hard matte gives
+    ``dec`` with ``parts`` and their colours (the photo) as they are."""
     geom = dec.geometry
     y0, y1, x0, x1 = geom.box
     alpha = geom.crop(dec.mask)
-    if all(part.foreground[1] is part.foreground[0] for part in parts) or not compose.has_soft_edge(alpha):
-        return factor.derive(dec, people=tuple(parts))  # no soft edge anywhere
+    own, hard = [], []
+    for part in parts:
+        fg, behind = colours_in_group(part, dec.mask)
+        own.append(fg)
+        hard.append(behind is fg)  # no soft pixel in their box: the photo both
+        del behind
+    if all(hard):  # no soft edge anywhere
+        return factor.derive(dec, people=tuple(factor.derive(part, foreground=(fg, fg))
+                                               for part, fg in zip(parts, own, strict=True)))
     image = geom.crop(dec.image)  # a view: the rule runs a band of rows at a time (compose.shown_edge_bands)
     boxes = [_boxes(part, geom.box) for part in parts]
 
@@ -104,12 +112,12 @@ def with_shown_edge(factor, dec: Decomposition, parts: list[Decomposition]) -> D
         one's share reaches."""
         fg = np.zeros((b - a, x1 - x0, 3), np.float32)
         weight = np.zeros((b - a, x1 - x0, 1), np.float32)
-        for part, ((py0, _, px0, _), (cy0, cy1, cx0, cx1)) in zip(parts, boxes, strict=True):
+        for part, colour, ((py0, _, px0, _), (cy0, cy1, cx0, cx1)) in zip(parts, own, boxes, strict=True):
             r0, r1 = max(cy0, y0 + a), min(cy1, y0 + b)
             if r1 > r0 and cx1 > cx0:
                 inner = (slice(r0 - py0, r1 - py0), slice(cx0 - px0, cx1 - px0))
                 share = part.geometry.crop(part.mask)[inner][..., None]
-                fg[r0 - y0 - a : r1 - y0 - a, cx0 - x0 : cx1 - x0] += share * part.foreground[0][inner]
+                fg[r0 - y0 - a : r1 - y0 - a, cx0 - x0 : cx1 - x0] += share * colour[inner]
                 weight[r0 - y0 - a : r1 - y0 - a, cx0 - x0 : cx1 - x0] += share
         return np.where(weight > 0, fg / np.maximum(weight, 1e-12), image[a:b])
 
@@ -118,12 +126,12 @@ def with_shown_edge(factor, dec: Decomposition, parts: list[Decomposition]) -> D
     shown = np.empty(alpha.shape, np.float32)
     for a, b, edge, behind in compose.shown_edge_bands(image, alpha, own_colour):
         shown[a:b] = edge
-        for own, ((py0, _, px0, _), (cy0, cy1, cx0, cx1)) in zip(theirs, boxes, strict=True):
+        for mine, ((py0, _, px0, _), (cy0, cy1, cx0, cx1)) in zip(theirs, boxes, strict=True):
             r0, r1 = max(cy0, y0 + a), min(cy1, y0 + b)
             if r1 > r0 and cx1 > cx0:
-                own[r0 - py0 : r1 - py0, cx0 - px0 : cx1 - px0] = behind[r0 - y0 - a : r1 - y0 - a,
+                mine[r0 - py0 : r1 - py0, cx0 - px0 : cx1 - px0] = behind[r0 - y0 - a : r1 - y0 - a,
                                                                          cx0 - x0 : cx1 - x0]
-    out = [factor.derive(part, foreground=(part.foreground[0], own)) for part, own in zip(parts, theirs, strict=True)]
+    out = [factor.derive(part, foreground=(fg, behind)) for part, fg, behind in zip(parts, own, theirs, strict=True)]
     return factor.derive(dec, people=tuple(out), edge=shown)
 
 

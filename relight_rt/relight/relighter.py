@@ -231,15 +231,15 @@ class Relighter:
     def _group(self, dec: Decomposition, crops: list) -> Decomposition:
         """A group photo ``dec`` with each of its people (``crops``: their shares of its matte, each in its box,
         relight_rt.relight.people ``PartsMatter``) decomposed on their own, in a window of the photo around them
-        with their share as mask (``people.windows``: views); own colours from the group's matte in their box (where
-        two people meet neither is background), its soft edge as the photo shows it (``people.with_shown_edge``)."""
+        with their share as mask (``people.windows``: views); their own colours from the group's matte in their box
+        (where two people meet neither is background) and its soft edge as the photo shows it
+        (``people.with_shown_edge``)."""
         parts = []
         for image, mask, origin in per_person.windows(dec.image, crops):
             # one person at a time: stage 1 on all of them as one batch grew onnxruntime's arena (which keeps its
             # peak) by the batch's activations, 16 people ~16x one person's
             (part,) = self._photos(self._stage1([image], [mask], False, faces=self.detail)[0])
-            part = self._factor.derive(part, origin=origin)
-            parts.append(self._factor.derive(part, foreground=per_person.colours_in_group(part, dec.mask)))
+            parts.append(self._factor.derive(part, origin=origin))
         return per_person.with_shown_edge(self._factor, dec, parts)
 
     def _look_at_faces(self, decs: list[Decomposition]) -> None:
