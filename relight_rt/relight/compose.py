@@ -5,6 +5,7 @@ backdrop (``backdrop``)."""
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Iterator
 from typing import NamedTuple
 
 import cv2
@@ -328,7 +329,8 @@ def _halves(image: np.ndarray, alpha: np.ndarray) -> tuple[np.ndarray, np.ndarra
     return cv2.resize(image, half, interpolation=cv2.INTER_AREA), solid
 
 
-def shown_edge_bands(image: np.ndarray, alpha: np.ndarray, fg_rows, pixels: int = _EDGE_BAND_PIXELS):
+def shown_edge_bands(image: np.ndarray, alpha: np.ndarray, fg_rows: Callable[[int, int], np.ndarray],
+                     pixels: int = _EDGE_BAND_PIXELS) -> Iterator[tuple[int, int, np.ndarray, np.ndarray]]:
     """``shown_edge`` on a large crop box (a group's: the photo's size) a band of rows at a time: yields
     (y0, y1, alpha'[y0:y1], behind[y0:y1]) for consecutive bands of about ``pixels`` pixels, the same values as
     ``shown_edge`` on the whole box gives there (each band is worked on with the rows the rule reads around it,
