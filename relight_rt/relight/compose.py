@@ -42,6 +42,7 @@ _SHOWN_OFF_LINE = 0.1  # ... and it falls as exp(-d^2 / (this x |F - B|^2)), d t
 _SHARP_MARGIN = 2.0  # shown_edge: the rim's outer half steepens where the photo's edge is this x steeper than it ...
 _SHARP_MAX = 8.0  # ... by at most this factor
 _SHARP_NEAR = 2 / 3  # ... fully within this x the reach of the matte's 0.5 line, fading out to the reach (1 x)
+_CHAMFER_AXIS = 0.955  # cv2.distanceTransform's DIST_L2 3 x 3 step along an axis (its distances run short)
 _EDGE_BAND_PIXELS = 1 << 20  # shown_edge_bands: a large crop box's rule done about this many pixels at a time
 
 
@@ -275,8 +276,11 @@ def _steepened(image: np.ndarray, alpha: np.ndarray, outer: np.ndarray, r: int, 
     k = np.clip(steepest / np.sqrt(apart + 1e-6) * 2 * np.maximum(half_width, 1) / _SHARP_MARGIN, 1, _SHARP_MAX)
     # a rim ramps down from its 0.5 line; alpha that stays below 0.5 far from it is a plateau (a matte already poor
     # there), which the window's square reach would cut with box-shaped borders: the rule fades with the distance
-    y0, x0 = max(ys.min() - r - 1, 0), max(xs.min() - r - 1, 0)
-    far = cv2.distanceTransform(1 - inside[y0 : ys.max() + r + 2, x0 : xs.max() + r + 2], cv2.DIST_L2, 3)
+    # every solid pixel that can be within r of a rim pixel is in the crop, so that the distance does not depend on
+    # it (nor on a band of rows, ``shown_edge_bands``): the 3 x 3 chamfer's step along an axis is 0.955 px
+    pad = math.ceil(r / _CHAMFER_AXIS) + 1
+    y0, x0 = max(ys.min() - pad, 0), max(xs.min() - pad, 0)
+    far = cv2.distanceTransform(1 - inside[y0 : ys.max() + pad + 1, x0 : xs.max() + pad + 1], cv2.DIST_L2, 3)
     near = np.clip((1 - far[ys - y0, xs - x0] / r) / (1 - _SHARP_NEAR), 0, 1)
     k = 1 + w * (k - 1)
     a = alpha[ys, xs]
@@ -335,7 +339,9 @@ def shown_edge_bands(image: np.ndarray, alpha: np.ndarray, fg_rows: Callable[[in
     (y0, y1, alpha'[y0:y1], behind[y0:y1]) for consecutive bands of about ``pixels`` pixels, the same values as
     ``shown_edge`` on the whole box gives there (each band is worked on with the rows the rule reads around it,
     ``2 r + 4``: the far side's sums at half resolution reach 2 r; the reach ``r`` and the half-resolution photo are
-    the whole box's). Whole-box temporaries of that rule were ~12 photo-size arrays (4.9 GB for a 25-MP group).
+    the whole box's), bit for bit but where ``_steepened``'s fade reads a distance that ``cv2.distanceTransform``
+    sums in float over another crop (its last bits). Whole-box temporaries of that rule were ~12 photo-size arrays
+    (4.9 GB for a 25-MP group).
 
     Args:
         image: (h, w, 3) float32 in [0, 1], the photo in the crop box (a view is fine).

@@ -277,3 +277,28 @@ def test_bands_give_the_whole_boxs_values(pixels):
     assert len(bands) == -(-h // max(2, pixels // w // 2 * 2)) and bands[-1][1] == h
     np.testing.assert_array_equal(np.concatenate([b[2] for b in bands]), shown)
     np.testing.assert_array_equal(np.concatenate([b[3] for b in bands]), behind)
+
+
+def test_bands_see_the_solid_pixels_the_whole_box_sees_past_the_reach():
+    """A wide soft person far above sets a reach r > 42 px, where cv2.distanceTransform's 3 x 3 chamfer (0.955 px a
+    step along an axis) puts a hard-edged solid patch r + 2 px left of a poor matte's plateau within r of it: the
+    band of rows holding the plateau crops its distances to as many solid pixels as the whole box does (it cropped
+    at r + 1 px from its own rim, leaving the patch out: 0.0076 apart)."""
+    h, w, yp, xp = 800, 560, 480, 300
+    yy, xx = np.mgrid[:h, :w]
+    hard = ((yy - 120) ** 2 + (xx - 120) ** 2 < 70 ** 2).astype(np.float32)
+    alpha = cv2.GaussianBlur(hard, (0, 0), 14)
+    alpha[yp : yp + 24, xp : xp + 24] = 0.2  # a plateau, no solid pixel of its own
+    r = 59
+    for rows, cols in (((yp - 10, yp + 40), (xp - r - 42, xp - r - 1)),  # the patch, r + 2 px left of the plateau
+                       ((yp - r - 29, yp - r + 2), (xp + r - 1, xp + r + 29))):  # a solid corner in its window
+        alpha[slice(*rows), slice(*cols)] = hard[slice(*rows), slice(*cols)] = 1
+    assert compose.edge_reach(alpha) == r
+    image = np.where(hard[..., None] > 0, np.float32([0.2, 0.15, 0.1]), np.float32([0.9, 0.9, 0.95]))
+    image[(alpha > 0.1) & (alpha < 0.3)] = (0.75, 0.72, 0.74)
+    image = np.clip(image + 0.01 * np.random.default_rng(0).standard_normal((h, w, 3)), 0, 1).astype(np.float32)
+    fg = np.full_like(image, 0.2)
+    shown, _ = shown_edge(image, alpha, fg)
+    assert np.abs(shown - alpha)[yp : yp + 24, xp : xp + 24].max() > 0.005  # the patch's reach steepens the plateau
+    bands = np.concatenate([b[2] for b in compose.shown_edge_bands(image, alpha, lambda a, b: fg[a:b], 60 * w)])
+    np.testing.assert_allclose(bands, shown, rtol=0, atol=1e-6)  # the distances' float sums: to the last bits
