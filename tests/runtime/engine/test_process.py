@@ -10,6 +10,7 @@ import resource
 import numpy as np
 import pytest
 
+from relight_rt.engine import process
 from relight_rt.engine.process import give_back_freed_memory
 
 
@@ -37,3 +38,23 @@ def test_freed_arrays_under_the_mmap_threshold_go_back_to_the_system():
 def test_it_can_be_called_any_time():
     give_back_freed_memory()
     give_back_freed_memory()
+
+
+class _NoTrim:
+    """A C library without ``malloc_trim`` (macOS's, musl's): the attribute lookup fails."""
+
+
+@pytest.mark.parametrize("opened", [_NoTrim, OSError, TypeError])
+def test_without_glibc_it_does_nothing(monkeypatch, opened):
+    """Where ``ctypes.CDLL(None)`` opens a C library without ``malloc_trim`` (AttributeError) or cannot open the process
+    itself (OSError; TypeError: Windows, which takes no None), the call is a no-op, never an error."""
+    def cdll(name):
+        if isinstance(opened, type) and issubclass(opened, Exception):
+            raise opened("no C library here")
+        return opened()
+
+    monkeypatch.setattr(process, "_TRIM", [])
+    monkeypatch.setattr(process.ctypes, "CDLL", cdll)
+    give_back_freed_memory()
+    give_back_freed_memory()
+    assert process._TRIM == [None]
