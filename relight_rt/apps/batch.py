@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from ..engine.errors import RelightError
+from ..engine.process import give_back_freed_memory
 from ..image.io import IMAGE_SUFFIXES, list_images, write_image
 from ..person.masks import find_mask_file
 
@@ -139,4 +140,5 @@ def relight_file(
     """
     mask = mask_for(src, mask_arg, single)
     image = relighter.relight(src, light, mask=mask, background=background, exposure=exposure)
+    give_back_freed_memory()  # what the relight let go, before the encoding's full-size temporaries
     return write_image(target, image, protect=protect)

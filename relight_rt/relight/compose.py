@@ -5,6 +5,7 @@ backdrop (``backdrop``)."""
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Iterator
 from typing import NamedTuple
 
 import cv2
@@ -40,6 +41,8 @@ _SHOWN_OFF_LINE = 0.1  # ... and it falls as exp(-d^2 / (this x |F - B|^2)), d t
 _SHARP_MARGIN = 2.0  # shown_edge: the rim's outer half steepens where the photo's edge is this x steeper than it ...
 _SHARP_MAX = 8.0  # ... by at most this factor
 _SHARP_NEAR = 2 / 3  # ... fully within this x the reach of the matte's 0.5 line, fading out to the reach (1 x)
+_CHAMFER_AXIS = 0.955  # cv2.distanceTransform's DIST_L2 3 x 3 step along an axis (its distances run short)
+_EDGE_BAND_PIXELS = 1 << 20  # shown_edge_bands: a large crop box's rule done about this many pixels at a time
 
 
 def consistent(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray, bg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -309,7 +312,8 @@ def _gradient(image: np.ndarray) -> np.ndarray:
     return cv2.sqrt(cv2.transform(squares, np.full((1, 3), 1 / 64, np.float32)))  # Sobel's weights sum to 8
 
 
-def _steepened(image: np.ndarray, alpha: np.ndarray, outer: np.ndarray, r: int, b_sums: tuple) -> np.ndarray:
+def _steepened(image: np.ndarray, alpha: np.ndarray, outer: np.ndarray, r: int, b_sums: tuple,
+               halves: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """(n,) float32: ``alpha`` on the n pixels of ``outer`` (its soft rim's outer half, alpha < 0.5; row-major order)
     steepened about 0.5 where the photo's own edge is sharper than that half: by k = the photo's steepest colour
     step on the matte's outline within ``r`` px (per pixel, over |F - B|, the mean colours of the solid background
@@ -324,13 +328,12 @@ def _steepened(image: np.ndarray, alpha: np.ndarray, outer: np.ndarray, r: int, 
     linearly to none at ``r`` (``cv2.distanceTransform``): a rim ramps down from that line, and alpha that stays
     below 0.5 further out is a plateau of a matte already poor there, which a step read within the window's square
     reach would cut to 0 up to straight, box-shaped borders (shown unrelit). Never above ``alpha``: a matte that
-    lies past the photo's edge is not made more opaque there."""
+    lies past the photo's edge is not made more opaque there. ``halves``: ``_halves`` of the crop box these rows
+    are cut from, its rows from the first of these (an even row) on (``shown_edge_bands``); None: of these."""
     size = (2 * r + 1,) * 2
     ys, xs = np.nonzero(outer)
     # the tail of a wide rim lies far from the solid person: its side within 2 r, summed at half resolution
-    half = ((image.shape[1] + 1) // 2, (image.shape[0] + 1) // 2)
-    solid = cv2.resize((alpha >= 1 - _SOFT).astype(np.float32), half, interpolation=cv2.INTER_AREA)
-    f_sums = _side_sums(cv2.resize(image, half, interpolation=cv2.INTER_AREA), solid, r)
+    f_sums = _side_sums(*(_halves(image, alpha) if halves is None else halves), r)
     (b, b_var), (f, f_var) = _side_at(b_sums, ys, xs), _side_at(f_sums, ys // 2, xs // 2)
     apart = ((f - b) ** 2).sum(axis=1)
     seen = (b_sums[0][ys, xs] > 0.5) & (f_sums[0][ys // 2, xs // 2] > 0.5)  # both sides within reach
@@ -348,8 +351,11 @@ def _steepened(image: np.ndarray, alpha: np.ndarray, outer: np.ndarray, r: int, 
     k = np.clip(steepest / np.sqrt(apart + 1e-6) * 2 * np.maximum(half_width, 1) / _SHARP_MARGIN, 1, _SHARP_MAX)
     # a rim ramps down from its 0.5 line; alpha that stays below 0.5 far from it is a plateau (a matte already poor
     # there), which the window's square reach would cut with box-shaped borders: the rule fades with the distance
-    y0, x0 = max(ys.min() - r - 1, 0), max(xs.min() - r - 1, 0)
-    far = cv2.distanceTransform(1 - inside[y0 : ys.max() + r + 2, x0 : xs.max() + r + 2], cv2.DIST_L2, 3)
+    # every solid pixel that can be within r of a rim pixel is in the crop, so that the distance does not depend on
+    # it (nor on a band of rows, ``shown_edge_bands``): the 3 x 3 chamfer's step along an axis is 0.955 px
+    pad = math.ceil(r / _CHAMFER_AXIS) + 1
+    y0, x0 = max(ys.min() - pad, 0), max(xs.min() - pad, 0)
+    far = cv2.distanceTransform(1 - inside[y0 : ys.max() + pad + 1, x0 : xs.max() + pad + 1], cv2.DIST_L2, 3)
     near = np.clip((1 - far[ys - y0, xs - x0] / r) / (1 - _SHARP_NEAR), 0, 1)
     k = 1 + w * (k - 1)
     a = alpha[ys, xs]
@@ -387,7 +393,54 @@ def shown_edge(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray) -> tuple[np
     soft = (alpha > _SOFT) & (alpha < 1 - _SOFT)
     if not soft.any():
         return alpha, None
-    r = max(_SHOWN_REACH_MIN, math.ceil(_SHOWN_REACH * soft_edge_width(alpha)))
+    return _shown(image, alpha, fg, soft, edge_reach(alpha), None)
+
+
+def edge_reach(alpha: np.ndarray) -> int:
+    """``shown_edge``'s reach in pixels for the matte ``alpha`` (h, w): ``_SHOWN_REACH`` x its soft edge's width."""
+    return max(_SHOWN_REACH_MIN, math.ceil(_SHOWN_REACH * soft_edge_width(alpha)))
+
+
+def _halves(image: np.ndarray, alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``image`` (h, w, 3) and where ``alpha`` (h, w) is solid, at half resolution (``_steepened``'s far side)."""
+    half = ((image.shape[1] + 1) // 2, (image.shape[0] + 1) // 2)
+    solid = cv2.resize((alpha >= 1 - _SOFT).astype(np.float32), half, interpolation=cv2.INTER_AREA)
+    return cv2.resize(image, half, interpolation=cv2.INTER_AREA), solid
+
+
+def shown_edge_bands(image: np.ndarray, alpha: np.ndarray, fg_rows: Callable[[int, int], np.ndarray],
+                     pixels: int = _EDGE_BAND_PIXELS) -> Iterator[tuple[int, int, np.ndarray, np.ndarray]]:
+    """``shown_edge`` on a large crop box (a group's: the photo's size) a band of rows at a time: yields
+    (y0, y1, alpha'[y0:y1], behind[y0:y1]) for consecutive bands of about ``pixels`` pixels, the same values as
+    ``shown_edge`` on the whole box gives there (each band is worked on with the rows the rule reads around it,
+    ``2 r + 4``: the far side's sums at half resolution reach 2 r; the reach ``r`` and the half-resolution photo are
+    the whole box's), bit for bit but where ``_steepened``'s fade reads a distance that ``cv2.distanceTransform``
+    sums in float over another crop (its last bits). Whole-box temporaries of that rule were ~12 photo-size arrays
+    (4.9 GB for a 25-MP group).
+
+    Args:
+        image: (h, w, 3) float32 in [0, 1], the photo in the crop box (a view is fine).
+        alpha: (h, w) float32 in [0, 1], the matte there, with a soft edge (the caller's to know).
+        fg_rows: ``fg_rows(a, b)`` -> (b - a, w, 3) float32, the person's own colour in rows a to b of the box.
+    """
+    h, w = alpha.shape
+    r = edge_reach(alpha)
+    halves = _halves(image, alpha)
+    margin = 2 * r + 4  # even, as every band's first row: the half-resolution rows line up with the box's
+    rows = max(2, pixels // max(w, 1) // 2 * 2)
+    for y0 in range(0, h, rows):
+        y1 = min(y0 + rows, h)
+        a0, a1 = max(y0 - margin, 0), min(y1 + margin, h)
+        band = np.ascontiguousarray(alpha[a0:a1])
+        soft = (band > _SOFT) & (band < 1 - _SOFT)
+        half = tuple(x[a0 // 2 : (a1 + 1) // 2] for x in halves)
+        shown, behind = _shown(np.ascontiguousarray(image[a0:a1]), band, fg_rows(a0, a1), soft, r, half)
+        yield y0, y1, shown[y0 - a0 : y1 - a0], behind[y0 - a0 : y1 - a0]
+
+
+def _shown(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray, soft: np.ndarray, r: int,
+           halves: tuple[np.ndarray, np.ndarray] | None) -> tuple[np.ndarray, np.ndarray]:
+    """``shown_edge``'s rule with its reach ``r``, the soft pixels ``soft`` and ``_steepened``'s ``halves``."""
     b_sums, f_sums = _side_sums(image, alpha <= _SOFT, r), _side_sums(image, alpha >= 1 - _SOFT, r)
     ys, xs = np.nonzero(soft & (b_sums[0] > 0.5) & (f_sums[0] > 0.5))  # soft, with both sides within reach
     (b, b_var), (f, f_var) = _side_at(b_sums, ys, xs), _side_at(f_sums, ys, xs)
@@ -408,7 +461,9 @@ def shown_edge(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray) -> tuple[np
     shown[soft] = np.clip(alpha[soft] + total[soft] / np.maximum(count[soft], 1), 0, 1)
     outer = soft & (alpha < 0.5)  # the rim's outer half: no wider than the photo's own edge shows
     if outer.any():
-        shown[outer] = np.minimum(shown[outer], _steepened(image, alpha, outer, r, b_sums))
+        rim = _steepened(image, alpha, outer, r, b_sums) if halves is None else \
+            _steepened(image, alpha, outer, r, b_sums, halves)
+        shown[outer] = np.minimum(shown[outer], rim)
     # raised only as far as a colour behind in [0, 1] still gives the photo back: s F + (1 - s) behind = I needs
     # s <= I / F where F > I and s <= (1 - I) / (1 - F) where F < I
     up = soft & (shown > alpha)

@@ -127,40 +127,55 @@ def colours_in_group(part: Decomposition, group_mask: np.ndarray) -> tuple[np.nd
 
 
 def with_shown_edge(factor, dec: Decomposition, parts: list[Decomposition]) -> Decomposition:
-    """The group ``dec`` (its matte always the automatic one: ``PartsMatter``) with its people ``parts`` (their
-    colours from the group's matte, ``colours_in_group``) and the group's soft edge as the photo shows it
-    (``compose.shown_edge`` on the group's matte, once: where two people meet the matte is solid and nothing moves):
-    ``dec.edge``, each person's colour behind their soft edge then the one behind that edge. The group's own colour
-    there is the people's, weighted by their shares (as ``by_person_lights`` adds them up), so that the photo's own
-    light gives the photo back where two people's soft edges overlap too. ``factor``: the Relighter's (``derive``).
-    A hard matte gives ``dec`` with ``parts`` as they are."""
+    """The group ``dec`` (its matte always the automatic one: ``PartsMatter``) with its people ``parts``, each with
+    their own colour from the group's matte (``colours_in_group``), and the group's soft edge as the photo shows it
+    (``compose.shown_edge`` on the group's matte, once, a band of rows at a time: ``compose.shown_edge_bands``, so
+    that no temporary of that rule is the photo's size; where two people meet the matte is solid and nothing moves):
+    ``dec.edge``, each person's colour behind their soft edge then the one behind that edge (the one
+    ``colours_in_group`` found is let go as soon as it is found). The group's own colour there is the people's,
+    weighted by their shares (as ``by_person_lights`` adds them up), so that the photo's own light gives the photo
+    back where two people's soft edges overlap too. ``factor``: the Relighter's (``derive``). A hard matte gives
+    ``dec`` with ``parts`` and their colours (the photo) as they are."""
     geom = dec.geometry
     y0, y1, x0, x1 = geom.box
-    if all(part.foreground[1] is part.foreground[0] for part in parts):  # no soft edge anywhere
-        return factor.derive(dec, people=tuple(parts))
-    image = np.ascontiguousarray(geom.crop(dec.image))
-    fg = np.zeros(image.shape, np.float32)  # the people's own colours weighted by their shares, in the group's box
-    weight = np.zeros(image.shape[:2] + (1,), np.float32)
+    alpha = geom.crop(dec.mask)
+    own, hard = [], []
     for part in parts:
-        (py0, _, px0, _), (cy0, cy1, cx0, cx1) = _boxes(part, geom.box)
-        if cy1 > cy0 and cx1 > cx0:
-            inner = (slice(cy0 - py0, cy1 - py0), slice(cx0 - px0, cx1 - px0))
-            share = part.geometry.crop(part.mask)[inner][..., None]
-            fg[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0] += share * part.foreground[0][inner]
-            weight[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0] += share
-    fg = np.where(weight > 0, fg / np.maximum(weight, 1e-12), image)  # the photo where no one's share reaches
-    del weight
-    shown, behind = compose.shown_edge(image, geom.crop(dec.mask), fg)
-    del fg
-    if behind is None:  # the group's matte has no soft edge
-        return factor.derive(dec, people=tuple(parts))
-    out = []
-    for part in parts:  # each person's colour behind: the group's in their box, the photo beyond it
-        (py0, py1, px0, px1), (cy0, cy1, cx0, cx1) = _boxes(part, geom.box)
-        theirs = np.array(part.geometry.crop(part.image), dtype=np.float32)
-        if cy1 > cy0 and cx1 > cx0:
-            theirs[cy0 - py0 : cy1 - py0, cx0 - px0 : cx1 - px0] = behind[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0]
-        out.append(factor.derive(part, foreground=(part.foreground[0], theirs)))
+        fg, behind = colours_in_group(part, dec.mask)
+        own.append(fg)
+        hard.append(behind is fg)  # no soft pixel in their box: the photo both
+        del behind
+    if all(hard):  # no soft edge anywhere
+        return factor.derive(dec, people=tuple(factor.derive(part, foreground=(fg, fg))
+                                               for part, fg in zip(parts, own, strict=True)))
+    image = geom.crop(dec.image)  # a view: the rule runs a band of rows at a time (compose.shown_edge_bands)
+    boxes = [_boxes(part, geom.box) for part in parts]
+
+    def own_colour(a: int, b: int) -> np.ndarray:
+        """The people's own colours weighted by their shares in rows a to b of the group's box; the photo where no
+        one's share reaches."""
+        fg = np.zeros((b - a, x1 - x0, 3), np.float32)
+        weight = np.zeros((b - a, x1 - x0, 1), np.float32)
+        for part, colour, ((py0, _, px0, _), (cy0, cy1, cx0, cx1)) in zip(parts, own, boxes, strict=True):
+            r0, r1 = max(cy0, y0 + a), min(cy1, y0 + b)
+            if r1 > r0 and cx1 > cx0:
+                inner = (slice(r0 - py0, r1 - py0), slice(cx0 - px0, cx1 - px0))
+                share = part.geometry.crop(part.mask)[inner][..., None]
+                fg[r0 - y0 - a : r1 - y0 - a, cx0 - x0 : cx1 - x0] += share * colour[inner]
+                weight[r0 - y0 - a : r1 - y0 - a, cx0 - x0 : cx1 - x0] += share
+        return np.where(weight > 0, fg / np.maximum(weight, 1e-12), image[a:b])
+
+    # each person's colour behind: the group's in their box, the photo beyond it
+    theirs = [np.array(part.geometry.crop(part.image), dtype=np.float32) for part in parts]
+    shown = np.empty(alpha.shape, np.float32)
+    for a, b, edge, behind in compose.shown_edge_bands(image, alpha, own_colour):
+        shown[a:b] = edge
+        for mine, ((py0, _, px0, _), (cy0, cy1, cx0, cx1)) in zip(theirs, boxes, strict=True):
+            r0, r1 = max(cy0, y0 + a), min(cy1, y0 + b)
+            if r1 > r0 and cx1 > cx0:
+                mine[r0 - py0 : r1 - py0, cx0 - px0 : cx1 - px0] = behind[r0 - y0 - a : r1 - y0 - a,
+                                                                         cx0 - x0 : cx1 - x0]
+    out = [factor.derive(part, foreground=(fg, behind)) for part, fg, behind in zip(parts, own, theirs, strict=True)]
     return factor.derive(dec, people=tuple(out), edge=shown)
 
 
@@ -175,7 +190,7 @@ def _boxes(part: Decomposition, box: tuple[int, int, int, int]) -> tuple[tuple, 
 
 def by_person(
     composer: compose.Composer, network_relit: Callable, dec: Decomposition, parts: tuple[Decomposition, ...],
-    light: np.ndarray, exposure, bg: Background,
+    light: np.ndarray, exposure, bg: Background, keep: bool = True,
 ) -> np.ndarray:
     """A group photo relit person by person: each of ``parts`` (the people of ``dec``, each decomposed on their
     own with their share of its matte, in a window of the photo at their ``origin``: their own shape, their face
@@ -191,9 +206,10 @@ def by_person(
     crop box's shown edge, and the people's weighted colours are added into the output as they come.
 
     ``composer``: the Relighter's; ``network_relit``: its stage-2 pass (a decomposition, lights (K, 9, 3), a batch
-    size and ``want_layers`` -> (diffuse, residual, relit) per light, as ``Relighter`` runs it).
+    size and ``want_layers`` -> (diffuse, residual, relit) per light, as ``Relighter`` runs it); ``keep``: as for
+    ``by_person_lights``.
     """
-    return by_person_lights(composer, network_relit, dec, parts, np.asarray(light)[None], [exposure], bg)[0]
+    return by_person_lights(composer, network_relit, dec, parts, np.asarray(light)[None], [exposure], bg, keep)[0]
 
 
 def reaching(lights: np.ndarray, part: Decomposition, dec: Decomposition) -> np.ndarray:
@@ -225,21 +241,23 @@ def lights_at_once(frame: tuple[int, int], channels: int, most: int) -> int:
 
 def by_person_lights(
     composer: compose.Composer, network_relit: Callable, dec: Decomposition, parts: tuple[Decomposition, ...],
-    lights: np.ndarray, exposures: list, bg: Background,
+    lights: np.ndarray, exposures: list, bg: Background, keep: bool = True,
 ) -> list[np.ndarray]:
     """``by_person`` under each of the (K, 9, 3) ``lights`` with its exposure: person by person, what a person's
     relit colour needs whatever the light (their own colour's ``dark_colour``, ``knee`` and ``neutral_darks``, the
     full-resolution guide) made once for the K lights and let go before the next person; the K pictures are held
-    together (``lights_at_once`` says how many a photo's size allows)."""
+    together (``lights_at_once`` says how many a photo's size allows). ``keep``: the rest of what each person's
+    relight keeps for the next call (their fine texture, shadow fill, own light's reconstruction: the Relighter's
+    memo) is kept; False (a group decomposed for this call alone, relit once): let go after the person too (16
+    people on 25 MP kept ~0.2 GB of it to the end)."""
     memo, factor = composer.memo, composer.factor
     backdrop = compose.backdrop_of(dec, bg)
     clean = bg.kind != "original"
     y0, y1, x0, x1 = dec.geometry.box
     alpha = dec.geometry.crop(dec.mask)[..., None]
-    cover, scale = alpha, None  # what the backdrop shows through, and the shares' scale to it
+    cover, scaled = alpha, False  # what the backdrop shows through; whether the people's shares are scaled to it
     if backdrop is not None and not clean and dec.edge is not None:  # the group's edge as the photo shows it
-        cover = dec.edge[..., None]  # (``with_shown_edge``): the people's shares scaled to sum to it
-        scale = np.divide(cover, alpha, out=np.ones_like(cover), where=alpha > 0)
+        cover, scaled = dec.edge[..., None], True  # (``with_shown_edge``): the shares scaled to sum to it
     if backdrop is None:  # RGBA, straight colour: the weighted colours summed here, divided by alpha below
         out = np.zeros(dec.geometry.frame + (4,), np.float32)
         region = out[y0:y1, x0:x1, :3]
@@ -283,13 +301,19 @@ def by_person_lights(
                 old, weight = composer.own_light(part)  # found once per person, whatever the light
                 sums[k] = [sums[k][0] + compose.light_sum(colour, share), sums[k][1] + old, sums[k][2] + weight]
             colour *= share
-            if scale is not None:
-                colour[cy0 - py0 : cy1 - py0, cx0 - px0 : cx1 - px0] *= scale[cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0]
+            if scaled:  # the scale in the person's box only (the group's box: the photo's size)
+                box = (slice(cy0 - y0, cy1 - y0), slice(cx0 - x0, cx1 - x0))
+                colour[cy0 - py0 : cy1 - py0, cx0 - px0 : cx1 - px0] *= np.divide(
+                    cover[box], alpha[box], out=np.ones_like(cover[box]), where=alpha[box] > 0)
             regions[k][cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0] += colour[cy0 - py0 : cy1 - py0,
                                                                            cx0 - px0 : cx1 - px0]
             del colour, residual, relit
         del looks
-        memo(part).pop("gray", None)  # the guide is remade per call, not kept for every person (issue 50 bug 1)
+        for one in (part, part.head):  # the guide is remade per call, never kept for every person (issue 50 bug 1)
+            if one is not None and keep:
+                memo(one).pop("gray", None)
+            elif one is not None:
+                memo(one).clear()
     for k, out in enumerate(outs):
         region = regions[k]
         if backdrop is None:

@@ -220,8 +220,7 @@ class Relighter:
                 self._factor.derive(dec, **photo_colours(dec, auto)) for dec, auto in zip(decs, automatic, strict=True)]
 
     def _photos(self, decs: list[Decomposition]) -> list[Decomposition]:
-        """Photos' light refit to the transport the relit photo is divided by, and their faces seen small looked
-        at again (with detail)."""
+        """With detail: photos' light refit to the transport the relit photo is divided by, faces seen small again."""
         if not self.detail:
             return decs
         decs = [self._factor.refit(dec) for dec in decs]
@@ -232,15 +231,15 @@ class Relighter:
     def _group(self, dec: Decomposition, crops: list) -> Decomposition:
         """A group photo ``dec`` with each of its people (``crops``: their shares of its matte, each in its box,
         relight_rt.relight.people ``PartsMatter``) decomposed on their own, in a window of the photo around them
-        with their share as mask (``people.windows``: views); own colours from the group's matte in their box (where
-        two people meet neither is background), its soft edge as the photo shows it (``people.with_shown_edge``)."""
+        with their share as mask (``people.windows``: views); their own colours from the group's matte in their box
+        (where two people meet neither is background) and its soft edge as the photo shows it
+        (``people.with_shown_edge``)."""
         parts = []
         for image, mask, origin in per_person.windows(dec.image, crops):
             # one person at a time: stage 1 on all of them as one batch grew onnxruntime's arena (which keeps its
             # peak) by the batch's activations, 16 people ~16x one person's
             (part,) = self._photos(self._stage1([image], [mask], False, faces=self.detail)[0])
-            part = self._factor.derive(part, origin=origin)
-            parts.append(self._factor.derive(part, foreground=per_person.colours_in_group(part, dec.mask)))
+            parts.append(self._factor.derive(part, origin=origin))
         return per_person.with_shown_edge(self._factor, dec, parts)
 
     def _look_at_faces(self, decs: list[Decomposition]) -> None:
@@ -401,9 +400,9 @@ class Relighter:
         exposure = _exposure.for_light(exposure, light)  # a preset may ask for its own exposure (night: darker)
         parts = dec.people
         if parts:
-            bg = parse_background(background)
-            light = self.resolve_light(light)
-            out = per_person.by_person(self._composer, self._network.relit, dec, parts, light, exposure, bg)
+            bg, light = parse_background(background), self.resolve_light(light)
+            out = per_person.by_person(self._composer, self._network.relit, dec, parts, light, exposure, bg,
+                                       keep=image is dec)  # a photo decomposed for this call: relit once
             if layers:  # the layers are the group's, decomposed as one
                 return replace(self._relight_with_layers(dec, self._factor.expose(dec, light, exposure), bg), image=out)
             return out
@@ -444,9 +443,10 @@ class Relighter:
         if parts:  # a group: each person's light-independent work done once for several lights
             bg = parse_background(background)
             step = per_person.lights_at_once(dec.geometry.frame, bg.channels, batch_size)
-            for s in range(0, len(resolved), step):
+            for s in range(0, len(resolved), step):  # each person's state kept while lights follow (or dec is yours)
                 yield from per_person.by_person_lights(self._composer, self._network.relit, dec, parts,
-                                                       resolved[s : s + step], exposures[s : s + step], bg)
+                                                       resolved[s : s + step], exposures[s : s + step], bg,
+                                                       keep=image is dec or s + step < len(resolved))
             return
         expose = self._factor.expose
         if all(e == exposures[0] for e in exposures):

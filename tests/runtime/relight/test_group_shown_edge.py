@@ -58,7 +58,8 @@ def decomposed(models_dir):
                    matter=_GroupMatter(soft, shares))
     shown = rl.decompose(img)
     with pytest.MonkeyPatch.context() as m:
-        m.setattr(people, "with_shown_edge", lambda factor, dec, parts: factor.derive(dec, people=tuple(parts)))
+        m.setattr(people, "with_shown_edge", lambda factor, dec, parts: factor.derive(dec, people=tuple(
+            factor.derive(part, foreground=people.colours_in_group(part, dec.mask)) for part in parts)))
         before = rl.decompose(img)
     return rl, img, soft, shown, before
 

@@ -256,3 +256,49 @@ def test_the_relit_change_stays_off_the_floor_past_a_sharp_edge(models_dir):
               for k, d in (("auto", auto), ("given", given))}
     assert change["given"] > 5  # the rim carries the shoe's new light onto the floor ...
     assert change["auto"] < 1  # ... which the shown edge, steepened by the photo's sharp sole, does not
+
+
+@pytest.mark.parametrize("pixels", [97 * 6, 97 * 16, 97 * 200])
+def test_bands_give_the_whole_boxs_values(pixels):
+    """A group's box is worked on a band of rows at a time (``shown_edge_bands``): the same alpha' and colour behind
+    as the whole box at once, bit for bit, whatever the band's height (odd sizes: the half-resolution rows)."""
+    rng = np.random.default_rng(5)
+    h, w = 121, 97
+    hard = np.zeros((h, w), np.float32)
+    for cy, cx, rad in ((30, 25, 18), (80, 60, 25), (110, 15, 12)):  # three people, one cut by the box's edge
+        hard[(np.arange(h)[:, None] - cy) ** 2 + (np.arange(w)[None, :] - cx) ** 2 < rad * rad] = 1
+    alpha = cv2.GaussianBlur(hard, (0, 0), 2.5)
+    image = np.where(hard[..., None] > 0, np.float32([0.3, 0.2, 0.1]), np.float32([0.85, 0.9, 0.95]))
+    image = np.clip(image + 0.03 * rng.standard_normal((h, w, 3)), 0, 1).astype(np.float32)
+    fg, _ = colours_of(image, alpha, multilevel=True)
+    shown, behind = shown_edge(image, alpha, fg)
+    assert behind is not None and np.abs(shown - alpha).max() > 0.05  # the rule moved the edge
+    bands = list(compose.shown_edge_bands(image, alpha, lambda a, b: fg[a:b], pixels))
+    assert len(bands) == -(-h // max(2, pixels // w // 2 * 2)) and bands[-1][1] == h
+    np.testing.assert_array_equal(np.concatenate([b[2] for b in bands]), shown)
+    np.testing.assert_array_equal(np.concatenate([b[3] for b in bands]), behind)
+
+
+def test_bands_see_the_solid_pixels_the_whole_box_sees_past_the_reach():
+    """A wide soft person far above sets a reach r > 42 px, where cv2.distanceTransform's 3 x 3 chamfer (0.955 px a
+    step along an axis) puts a hard-edged solid patch r + 2 px left of a poor matte's plateau within r of it: the
+    band of rows holding the plateau crops its distances to as many solid pixels as the whole box does (it cropped
+    at r + 1 px from its own rim, leaving the patch out: 0.0076 apart)."""
+    h, w, yp, xp = 800, 560, 480, 300
+    yy, xx = np.mgrid[:h, :w]
+    hard = ((yy - 120) ** 2 + (xx - 120) ** 2 < 70 ** 2).astype(np.float32)
+    alpha = cv2.GaussianBlur(hard, (0, 0), 14)
+    alpha[yp : yp + 24, xp : xp + 24] = 0.2  # a plateau, no solid pixel of its own
+    r = 59
+    for rows, cols in (((yp - 10, yp + 40), (xp - r - 42, xp - r - 1)),  # the patch, r + 2 px left of the plateau
+                       ((yp - r - 29, yp - r + 2), (xp + r - 1, xp + r + 29))):  # a solid corner in its window
+        alpha[slice(*rows), slice(*cols)] = hard[slice(*rows), slice(*cols)] = 1
+    assert compose.edge_reach(alpha) == r
+    image = np.where(hard[..., None] > 0, np.float32([0.2, 0.15, 0.1]), np.float32([0.9, 0.9, 0.95]))
+    image[(alpha > 0.1) & (alpha < 0.3)] = (0.75, 0.72, 0.74)
+    image = np.clip(image + 0.01 * np.random.default_rng(0).standard_normal((h, w, 3)), 0, 1).astype(np.float32)
+    fg = np.full_like(image, 0.2)
+    shown, _ = shown_edge(image, alpha, fg)
+    assert np.abs(shown - alpha)[yp : yp + 24, xp : xp + 24].max() > 0.005  # the patch's reach steepens the plateau
+    bands = np.concatenate([b[2] for b in compose.shown_edge_bands(image, alpha, lambda a, b: fg[a:b], 60 * w)])
+    np.testing.assert_allclose(bands, shown, rtol=0, atol=1e-6)  # the distances' float sums: to the last bits
