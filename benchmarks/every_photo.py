@@ -9,8 +9,8 @@ mask beside it. A photo nobody chose should never be refused once a person is in
 the count per half and the seconds per photo. Nothing of the data is written.
 
 The matte alone is measured by people_masks_eval.py; this is the whole path (matte, people, stage 1, compositing),
-which the matte's figures cannot see: at 4aa5b46, 5 of the 208 photos were refused with "mask is empty" (a group's
-person whose share of the matte never reaches a half, handed to stage 1 as an empty mask).
+which the matte's figures cannot see: before groups26, 5 of the 208 photos were refused with "mask is empty" (a group's
+person whose share of the matte never reaches a half, handed to stage 1 as an empty mask); since, none.
 """
 
 from __future__ import annotations
