@@ -208,15 +208,7 @@ def _shared_group(self, dec, crops):
 def _rows(factor, raw):
     """The rows ``Factor.refit`` fits ``raw`` (a person's stage-1 Decomposition) with: albedo x transport (N, 9) and
     the luminance it is fitted to (N,), weighted by the photo pixels a network pixel holds."""
-    from relight_rt.relight.detail import unpremultiply
-
-    base = factor.restored(raw)
-    y0, y1, x0, x1 = base["window"]
-    inner = base["inner"]
-    albedo, transport = base["albedo"][inner], base["transport"][inner]
-    plain = unpremultiply(np.ascontiguousarray(raw.transport[y0:y1, x0:x1]), base["alpha"])[inner]
-    white = raw.white_light[:, 0]
-    y = base["photo"][inner] - albedo * (plain @ white) + albedo * (transport @ white)
+    albedo, transport, y = factor.refit_inputs(raw)
     w = np.sqrt(raw.geometry.side / raw.geometry.resolution)
     return (transport * albedo[:, None]) * w, y * w
 

@@ -300,6 +300,19 @@ class Factor:
         ``refit_light``), then turned toward what a face mesh's skin shows (``face_refit``); what was prepared for
         ``dec`` that does not depend on its light goes along."""
         base = self.restored(dec)
+        albedo, transport, target = self.refit_inputs(dec)
+        light = refit_light(dec.light, albedo, transport, target)
+        # where a face mesh's shape says what light the skin shows (relight_rt.relight.strength)
+        skin = base["face_skin"]
+        if skin.any():
+            light = face_refit(light, base["transport"][skin], base["photo"][skin], albedo, transport)
+        return self.with_light(dec, light)
+
+    def refit_inputs(self, dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """What ``refit`` fits ``dec``'s light to, on the person's pixels of the network's window: their albedo
+        (N,), the transport the relit photo is divided by (N, 9) and the luminance that light should give (N,):
+        stage 1's own reconstruction through that transport plus what it leaves unexplained of the photo."""
+        base = self.restored(dec)
         y0, y1, x0, x1 = base["window"]
         inner = base["inner"]
         albedo, transport = base["albedo"][inner], base["transport"][inner]
@@ -308,12 +321,7 @@ class Factor:
         white = dec.white_light[:, 0]
         unexplained = base["photo"][inner] - albedo * (plain @ white)
         # ... is what the light's correction explains, through the transport the relit photo is divided by
-        light = refit_light(dec.light, albedo, transport, albedo * (transport @ white) + unexplained)
-        # where a face mesh's shape says what light the skin shows (relight_rt.relight.strength)
-        skin = base["face_skin"]
-        if skin.any():
-            light = face_refit(light, base["transport"][skin], base["photo"][skin], albedo, transport)
-        return self.with_light(dec, light)
+        return albedo, transport, albedo * (transport @ white) + unexplained
 
     def face_light(self, dec: Decomposition, head: Decomposition) -> Decomposition:
         """``dec`` with its light turned by the face its head pass ``head`` sees (relight_rt.relight.strength
