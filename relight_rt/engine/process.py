@@ -8,7 +8,8 @@
   too: the CLI's own messages keep the real stderr. Used by the CLI only (``-v`` turns it off); the library
   never touches process-wide state.
 - :func:`give_back_freed_memory` hands the C allocator's freed pages back to the system between a photo's relight
-  and its encoding (``relight_rt.apps.batch.relight_file``).
+  and its encoding (``relight_rt.apps.batch.relight_file``: the CLI's and Ray's photo jobs, not the ``Relighter``
+  API, which leaves the process's allocator alone).
 """
 
 from __future__ import annotations
