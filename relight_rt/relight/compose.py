@@ -11,7 +11,7 @@ from typing import NamedTuple
 import cv2
 import numpy as np
 
-from ..image.color import REC709, srgb_to_linear
+from ..image.color import REC709, colour_gradient, srgb_to_linear
 from ..image.compositing import Background, clean_edge_colour, over_box
 from ..image.foreground import estimate_foreground, nearest_colours
 from ..light.exposure import DISPLAY_GAMMA, knee
@@ -253,10 +253,10 @@ def head_level(sample: GradeSample, light: np.ndarray) -> tuple[float, np.ndarra
     head = sample.head
     light = np.asarray(light, np.float32).reshape(9, 3)
     shading = np.maximum(head.transport @ light, 0)
-    y = np.maximum(shading @ REC709.astype(np.float32), 1e-4)
+    y = np.maximum(shading @ REC709, 1e-4)
     colour = sample.own[head.index] * (head.scale[:, None] * shading + head.stays[:, None] * shading / y[:, None])
     on = np.flatnonzero(head.skin > 0)
-    body_y = np.maximum(np.maximum(sample.transport[head.index[on]] @ light, 0) @ REC709.astype(np.float32), 1e-4)
+    body_y = np.maximum(np.maximum(sample.transport[head.index[on]] @ light, 0) @ REC709, 1e-4)
     body = float((head.skin[on] * (head.body_scale[on] * body_y + head.body_stays[on])).sum(dtype=np.float64))
     seen = float((head.skin[on] * (head.scale[on] * y[on] + head.stays[on])).sum(dtype=np.float64))
     return body / max(seen, 1e-6), colour
@@ -305,13 +305,6 @@ def _side_at(sums: tuple[np.ndarray, np.ndarray, np.ndarray], ys: np.ndarray, xs
     return mean, np.maximum(squares[ys, xs] / n - mean * mean, 0).sum(axis=1)
 
 
-def _gradient(image: np.ndarray) -> np.ndarray:
-    """(h, w) float32: the norm of (h, w, 3) ``image``'s colour gradient, per pixel (3 x 3 Sobel)."""
-    gx, gy = cv2.Sobel(image, cv2.CV_32F, 1, 0, ksize=3), cv2.Sobel(image, cv2.CV_32F, 0, 1, ksize=3)
-    squares = cv2.add(cv2.multiply(gx, gx), cv2.multiply(gy, gy))
-    return cv2.sqrt(cv2.transform(squares, np.full((1, 3), 1 / 64, np.float32)))  # Sobel's weights sum to 8
-
-
 def _steepened(image: np.ndarray, alpha: np.ndarray, outer: np.ndarray, r: int, b_sums: tuple,
                halves: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """(n,) float32: ``alpha`` on the n pixels of ``outer`` (its soft rim's outer half, alpha < 0.5; row-major order)
@@ -344,7 +337,7 @@ def _steepened(image: np.ndarray, alpha: np.ndarray, outer: np.ndarray, r: int, 
     outline = (cv2.dilate(inside, ring) - inside).astype(np.float32)
     # the photo's step where the matte puts the edge (either side of its 0.5 contour), not anywhere within reach
     contour = cv2.dilate(inside, ring) - cv2.erode(inside, ring)
-    steepest = cv2.dilate(_gradient(image) * contour, np.ones(size, np.uint8))[ys, xs]
+    steepest = cv2.dilate(colour_gradient(image) * contour, np.ones(size, np.uint8))[ys, xs]
     box = lambda x: cv2.boxFilter(x, -1, size, normalize=False, borderType=cv2.BORDER_CONSTANT)  # noqa: E731
     half_width = (box(outer.astype(np.float32)) / np.maximum(box(outline), 1))[ys, xs]
     # the photo's slope over the rim's: (steepest / |F - B|) / (0.5 / half width)

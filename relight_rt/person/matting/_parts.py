@@ -8,6 +8,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from ...image.color import colour_gradient
 from ...image.regions import Crop, grid_of_region
 from ..face_detector import Face
 from ._models import SIZE
@@ -151,8 +152,7 @@ def along_edges(people: list[Person], logits: np.ndarray, rgb: np.ndarray, grid:
     gw, gh, kx, ky, bx, by = grid
     small = cv2.GaussianBlur(cv2.resize(rgb, (gw, gh), interpolation=cv2.INTER_AREA), (0, 0), _EDGE_SMOOTH)
     lab = cv2.cvtColor(small.astype(np.float32), cv2.COLOR_RGB2Lab)
-    edge = np.sqrt(sum(cv2.Sobel(lab[..., c], cv2.CV_32F, 1, 0) ** 2 + cv2.Sobel(lab[..., c], cv2.CV_32F, 0, 1) ** 2
-                       for c in range(3))) / 8  # CIE Lab distance (dE) per cell  # fmt: skip
+    edge = colour_gradient(lab)  # CIE Lab distance (dE) per cell
     crossing = 1 / (1 + (edge / _EDGE_DE) ** 2)  # what cutting through a cell costs: little on an edge
     out = logits.copy()
     for idx in todo:
