@@ -23,7 +23,7 @@ from ...image.regions import Region, crop_region, grid_of_region, reductions_sha
 from ..face_detector import Face
 from ._behind import without_behind
 from ._coarse import region_alpha
-from ._colours import OWN_MIN, candidates, colour_model, nearest, own_part
+from ._colours import OWN_MIN, candidates, colour_model, own_part
 from ._cut_body import cut_body, photo_bottom
 from ._detect import (
     MIN_TILE,
@@ -89,8 +89,6 @@ _AGREE = 0.75  # ... or where the selfie graph's segmentation of its region over
 _NOBODY = 0.05  # person="all": a face under which the pose graph's presence is below this ...
 _SURE_FACE = 0.8  # ... is a person only when the face graph's score is at least this
 _BACKED = 0.1  # a pose-graph person's pixels at this probability or more are theirs where the selfie graph agrees
-_BACKED_LOW = 0.3  # ... but one under this whose colour is the backdrop's (nearer its colours than _BACKED_APART x the
-_BACKED_APART = 0.5  # person's, relight_rt.person.matting._colours) is not lifted (pocket27: tried)
 _SURE_BLOB = 0.9  # person="largest", nobody else found: the selfie graph's blob is a person when this sure of it
 PRESENCE_FAINT = 0.9  # ... for a person the selfie graph hardly sees (faint_places): the pose graph must be sure
 MIN_PERSON_FRACTION = 0.06  # person="all": people whose box is shorter than this x the image's height are left out
@@ -389,19 +387,6 @@ class PersonMatter:
         lift = roi & (person.logits > np.float32(np.log(_BACKED / (1.0 - _BACKED)))) & (person.logits < 1.0)
         if not lift.any():
             return person
-        low = lift & (person.logits < np.float32(np.log(_BACKED_LOW / (1.0 - _BACKED_LOW))))
-        if low.any():
-            h, w = rgb.shape[:2]
-            k, bx, by = grid_of_region(person.region)
-            c = np.arange(lift.shape[0], dtype=np.float64)
-            inside = ((c - by) / k >= 0)[:, None] & ((c - by) / k < h)[:, None] & ((c - bx) / k >= 0)[None, :]
-            inside &= ((c - bx) / k < w)[None, :]
-            mine = person.logits > 0
-            model = colour_model(crop_region(rgb, person.region), inside, mine, mine | lift)
-            if model is not None:
-                lab, own, backdrop = model
-                x = lab[low]
-                lift[low] = ~(nearest(x, backdrop)[0] < _BACKED_APART * nearest(x, own)[0])
         return replace(person, logits=backed_logits(person.logits, lift))
 
     def _largest(self, rgb: np.ndarray) -> tuple[list[Person], list]:
