@@ -1,7 +1,9 @@
 """Held-out renders: where the relit change's contrast is lost, step by step (contrast27).
 
     PYTHONPATH=$PWD python benchmarks/heldout_steps.py ~/.cache/relight_rt_real_photos/heldout/photos_* \
-        [--ablate] [--json OUT.json]      # ~8 min (~15 with --ablate) on the shared 2-core CPU
+        [--ablate] [--only SECTION ...] [--json OUT.json]
+    # model, ladder, swap and bands ~6 min on the shared 2-core CPU; --ablate ~2.5 min more; every section
+    # (--only model ladder swap ladder-true ablate bands) 16 min
 
 The same pairs as ``benchmarks/heldout_change.py measure`` (every ordered pair (i, j) of one person's photos: photo i
 relit under the true light j, "physical" exposure, compared with photo j in the mask; contrast = slope of our
@@ -10,17 +12,23 @@ per-pixel log-luminance change on the truth's, correlation, RMSE), for:
 - ``model``: the SH model's own ceiling and stage 1's raw answer, computed here from the layers (no product step):
   the truth's diffuse image under light j (``NAME__Lj_diffuse.png``: its albedo x true transport . light j, 8 bits),
   and photo i times a shading ratio S_j / S_own (luminance; both floored at 1 % of their medians; clipped to [0, 1] as
-  a picture is) for each of
-  {true, stage 1's} transport x {true, stage 1's} own light; stage 1's transport unpremultiplied in the network frame
-  and its ratio taken to the photo's frame as the runtime's layers are (``CropGeometry.to_input``);
+  a picture is) for each of {true, stage 1's} transport x {true, stage 1's} own light, and for stage 1's transport
+  with the truth's shape or occlusion in it (``mixed_transport``); stage 1's transport unpremultiplied in the network
+  frame and its ratio taken to the photo's frame as the runtime's layers are (``CropGeometry.to_input``);
 - ``ladder``: the runtime's relight path with every later step switched off, then each switched on in turn in the
   order the path applies them, up to the product (``STEPS``); the last row is the product (``measure``'s figures);
 - ``swap``: the product without the head pass (which runs stage 1 again on a crop this script cannot give the true
-  transport of), then with the true transport, the true own light or both put in place of stage 1's (the true light
+  transport of), then with the true transport (whole, or its shape or occlusion alone: ``mixed_transport``), the true
+  own light or both put in place of stage 1's (the true light
   scaled so that stage 1's albedo x transport . light has the photo's mean luminance: the light's level is the
   exposure, not its shape); with a true light the refit of the photo's light is off (it would re-estimate it), so
   the product without refit is given as well;
+- ``ladder-true`` (with ``--only``): the ladder again with the true transport and own light (the refit and the head
+  pass off throughout): which step loses contrast when stage 1's inputs are right;
 - with ``--ablate``: the product with each step switched off alone.
+
+Each table also gives the contrast over the pixels lit in both photos (luminance >= ``LIT``): most of the truth's log
+change lies in the deep shadows, where 8 bits leave the photo mostly noise.
 
 It also prints the band ratios (degree-1 magnitude over degree 0, degree 2 over degree 0, luminance) of the photo's
 own light: stage 1's, the product's (after refit and face refit), and the truth's.
