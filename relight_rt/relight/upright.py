@@ -97,15 +97,17 @@ def upright_quarters(mask: np.ndarray, faces: list[tuple[float, float, float, fl
                      cut_below: float = 0.0) -> int:
     """How many quarters (``np.rot90``) to turn a person's picture so that they stand upright: 0, 1, 2 or 3.
 
-    A body lying or tilted past 45 deg (the matte longer than ``LONG_BODY`` times its width, its long axis nearer
-    the picture's horizontal) is turned so that the end its one face lies at is on top: the face, along the axis, at
-    least ``HEAD_END`` of the way from the matte's centre to its end and ``HEAD_OFF`` face sizes off it. A matte no
-    longer than it is wide (a head and shoulders, a face filling the photo: a sideways selfie, a photo stored without
-    its EXIF turn) is turned so that its one face is on top, seen from the matte's centre when it lies ``HEAD_OFF``
-    face sizes off it, else by the face's own up (chin to forehead; none: 0). Otherwise 0: a
-    standing body, no face (nothing says where the head is), several faces (a group), a matte the photo's bottom edge
-    cuts over at least a face's width (a body that goes on below the frame stands: two people side by side framed
-    from the waist up, a person beside something the matte holds).
+    The head's direction is the one from the matte's centre to its one face, when the face lies ``HEAD_OFF`` face
+    sizes off it, and the person is turned by the quarter that brings that direction nearest the picture's top (none
+    when it is within 45 deg of it). A matte of a body's length (``LONG_BODY`` times its width) whose long axis is
+    nearer the picture's vertical stands, face or not; one lying across the picture is turned only when its face
+    also lies at least ``HEAD_END`` of the way from its centre to its end along that axis (a vaulting runner whose
+    legs stretch out sideways keeps his upright torso: his face lies straight above the matte's centre). A matte no
+    longer than it is wide (a head and shoulders, a face filling the photo: a sideways selfie, a photo stored
+    without its EXIF turn) whose face lies near its centre is turned by the face's own up (chin to forehead; not
+    known: 0). Otherwise 0: no face (nothing says where the head is), several faces (a group), a matte the photo's
+    bottom edge cuts over at least a face's width (a body that goes on below the frame stands: two people side by
+    side framed from the waist up, a person beside something the matte holds).
 
     Args:
         mask: (H, W) float alpha in [0, 1] (the network frame's), not empty.
@@ -116,23 +118,19 @@ def upright_quarters(mask: np.ndarray, faces: list[tuple[float, float, float, fl
     centre, axis, long_ = matte_axis(mask)
     if long_ >= LONG_BODY and abs(axis[1]) >= abs(axis[0]):
         return 0  # standing (or upside down: not told apart here)
-    if len(faces) != 1:
+    if len(faces) != 1 or cut_below >= faces[0][2]:
         return 0
     x, y, size, up_x, up_y = faces[0]
-    if cut_below >= size:
-        return 0
-    if long_ < LONG_BODY:  # the head points away from the shoulders, or where the face's own up says
-        off = np.array([x, y]) - centre
-        head = off if np.hypot(*off) >= HEAD_OFF * size else np.array([up_x, up_y])
-        return int(np.argmax(_UP @ head)) if head.any() else 0
-    along = float(np.dot(np.array([x, y]) - centre, axis))
-    ys, xs = np.nonzero(mask > 0.5)
-    reach = (np.stack([xs, ys], axis=1) - centre) @ axis  # the matte's pixels along the axis
-    end = reach.max() if along > 0 else -reach.min()
-    if abs(along) < HEAD_OFF * size or abs(along) < HEAD_END * end:
-        return 0
-    head = axis * np.sign(along)  # the picture's direction from the body's centre to its head
-    return int(np.argmax(_UP @ head))
+    off = np.array([x, y]) - centre
+    far = np.hypot(*off) >= HEAD_OFF * size
+    if long_ >= LONG_BODY:
+        ys, xs = np.nonzero(mask > 0.5)
+        along = float(off @ axis)
+        reach = (np.stack([xs, ys], axis=1) - centre) @ axis  # the matte's pixels along its axis
+        if not far or abs(along) < HEAD_END * (reach.max() if along > 0 else -reach.min()):
+            return 0
+    head = off if far else np.array([up_x, up_y])
+    return int(np.argmax(_UP @ head)) if head.any() else 0
 
 
 def unturn_point(x: float, y: float, quarters: int, shape: tuple[int, int]) -> tuple[float, float]:

@@ -120,10 +120,17 @@ def test_a_lying_person_is_turned_head_up_and_an_upright_one_is_not():
     assert upright_quarters(lying, [(r / 2 + 50, r / 2, size, *up)]) == 1  # head on the right: turned left
     assert upright_quarters(lying, [(r / 2 - 50, r / 2, size, *up)]) == 3
     assert upright_quarters(lying, [(r / 2 + 50, r / 2, size, *right)]) == 1  # the face's own up does not decide
+    assert upright_quarters(lying, [(r / 2 + 50, r / 2, size, *up)]) == 1
     assert upright_quarters(lying, []) == 0  # no face: nothing says where the head is
     assert upright_quarters(lying, [(r / 2 + 50, r / 2, size, *up), (r / 2 - 50, r / 2, size, *up)]) == 0  # a group
     assert upright_quarters(lying, [(r / 2 + 0.5 * HEAD_OFF * size, r / 2, size, *up)]) == 0  # a face near the middle
     assert upright_quarters(lying, [(r / 2 + 50, r / 2, size, *up)], cut_below=size) == 0  # goes on below the frame
+    assert upright_quarters(lying, [(r / 2 + 40, r / 2 - 30, size, *up)]) == 1  # tilted 53 deg: turned
+    assert upright_quarters(lying, [(r / 2 + 30, r / 2 - 40, size, *up)]) == 0  # tilted 37 deg: kept
+    # a vaulting runner: legs stretched out sideways make the matte long across, the face above its centre
+    vault = np.maximum(lying, _ellipse(r, 40, 12, horizontal=False) * (np.arange(r)[:, None] < r / 2))
+    assert not standing(vault)
+    assert upright_quarters(vault, [(r / 2, r / 2 - 36, size, *up)]) == 0
     standing_ = _ellipse(r, 60, 15, horizontal=False)
     for face in ([(r / 2, r / 2 - 50, size, *up)], [(r / 2, r / 2 + 50, size, *down)], []):
         assert upright_quarters(standing_, face) == 0
