@@ -45,7 +45,6 @@ from .factor import Factor
 from .intake import read_batch
 from .look import prepare_lab
 from .network import Network
-from .upright import STAGE1_IMAGES, UprightTurn, turn_picture, turned_back
 
 __all__ = ["Decomposition", "Relighter", "RelightResult", "compose_step", "diffuse_batch"]
 
@@ -93,8 +92,7 @@ class Relighter:
         self.models_dir = find_models(config.models)
         # a second stage-1 pass on a face seen small (relight_rt.relight.face_pass); photos only, with detail on
         self.face_pass = True
-        # a photo's person lying or tilted: stage 1 run on the crop turned upright (relight_rt.relight.upright)
-        self.upright = True
+        self.upright = True  # a photo's person lying or tilted: stage 1 sees them upright (relight_rt.relight.upright)
         self._session_args = {"device": config.device, "device_id": config.device_id, "providers": providers}
         self.stage1: Model = load_model(self._graph("stage1"), "stage1", warmup=False, **self._session_args)
         warmup = config.warmup
@@ -121,9 +119,8 @@ class Relighter:
         # What this Relighter prepares for a Decomposition (device copies, reconstruction, window), kept
         # here rather than on the (plain-data) Decomposition, and dropped with it; the stages that use it.
         self._memo = Memo()
-        self._network = Network(self.stage1, self.stage2, self._chain, self._memo)
         self._faces = FacePass(self.models_dir)  # face normals (relight_rt.person.face_mesh), loaded on first use
-        self._upright = UprightTurn(self._faces)
+        self._network = Network(self.stage1, self.stage2, self._chain, self._memo, self._faces)
         self._factor = Factor(self._memo, self._faces, config.detail, self._network.own_residual)
         self._composer = Composer(self._memo, self._factor, config.detail)
         if config.detail:
@@ -273,23 +270,12 @@ class Relighter:
         net_imgs = [g.to_network(rgb) for g, rgb in zip(geoms, rgbs, strict=True)]
         net_masks = [g.to_network(m) for g, m in zip(geoms, ms, strict=True)]
         meshes = [self._faces.find(rgb, g.box) if faces else None for g, rgb in zip(geoms, rgbs, strict=True)]
-        # one person of a photo lying or tilted: stage 1 sees their crop turned upright (a group's joint matte: never)
-        turns = [self._upright.quarters(rgbs[i], ms[i], g, net_masks[i], meshes[i])
-                 if self.upright and not allow_full and people[i] is None else 0 for i, g in enumerate(geoms)]
-        out, on_device = self._network.stage1_outputs(*([turn_picture(a, q) for a, q in zip(arrays, turns, strict=True)]
-                                                        for arrays in (net_imgs, net_masks)))
+        alone = [self.upright and not allow_full and p is None for p in people]  # may be seen upright (Network)
+        outs, on_device = self._network.run_stage1(rgbs, ms, geoms, net_imgs, net_masks, meshes, alone)
         decs = []
-        for i, geom in enumerate(geoms):
-            seen = {k: out[k][i] for k in (*STAGE1_IMAGES, "light")}
-            if turns[i]:  # back in the photo's frame; the device keeps the turned outputs: uploaded again on first use
-                seen, on_device[i] = turned_back(seen, turns[i]), None
-                log.debug("stage 1 saw the person turned %d degrees counter-clockwise (upright)", 90 * turns[i])
-            light = seen["light"]
-            if not np.isfinite(light).all():
-                raise RelightError(f"{self.stage1.name}: stage 1 estimated a non-finite light for this image")
-            dec = Decomposition(seen["albedo"], seen["skin"][0], seen["transport"], light, net_masks[i],
-                                net_imgs[i], ms[i], rgbs[i], geom, photo=not allow_full, face_meshes=meshes[i],
-                                upright=turns[i])
+        for i, (geom, seen) in enumerate(zip(geoms, outs, strict=True)):
+            dec = Decomposition(**seen, network_mask=net_masks[i], network_image=net_imgs[i], mask=ms[i], image=rgbs[i],
+                                geometry=geom, photo=not allow_full, face_meshes=meshes[i])
             if on_device[i] is not None:
                 self._memo(dec)["device"] = on_device[i]
             decs.append(dec)
