@@ -10,6 +10,15 @@ turns keep the pixel grid exact, so an upright body sees the very pixels it woul
 
 ``np.rot90(image, q)`` turns the picture q quarters counter-clockwise: the image's right (+y) goes to its top (+z),
 a rotation about +x by q x 90 deg (``quarter_rotation``).
+
+Which way is up (``upright_quarters``, ``UprightTurn``): from the matte's second moments and the person's one face, no
+pose landmarks (the bundled pose graph keeps its segmentation only). Measured (benchmarks/heldout_change.py measure
+--turn 90 / 270, held-out renders turned with their lights): relight RMSE 0.14-0.18 -> 0.08-0.13 per framing (upright:
+0.08-0.12), change contrast 0.29-0.48x -> 0.51-0.78x (upright 0.59-0.81x); no photo turned the wrong way, upright ones
+bit for bit as before (docs/RESULTS.md "Stage 1 and 2 on held-out renders"). Left as they were: a face found only in
+a turned view gets no face mesh (relight_rt.person.face_mesh takes the skull above the face in the picture), a turned
+person no head pass (relight_rt.relight.face_pass ``head_crops``), stage 2 and video frames (a turn decided per frame
+could flip between frames).
 """
 
 from __future__ import annotations
