@@ -133,7 +133,9 @@ def upright_quarters(mask: np.ndarray, faces: list[tuple[float, float, float, fl
     off = np.array([x, y]) - centre
     far = np.hypot(*off) >= HEAD_OFF * size
     if long_ >= LONG_BODY:
-        ys, xs = np.nonzero(mask > 0.5)
+        # the person's pixels as the intake counts them (alpha >= 0.5); a matte all fainter (a half-alpha mask, a
+        # thin one shrunk to the network's square) has none: then every pixel it covers
+        ys, xs = np.nonzero(mask >= 0.5) if (mask >= 0.5).any() else np.nonzero(mask > 0)
         along = float(off @ axis)
         reach = (np.stack([xs, ys], axis=1) - centre) @ axis  # the matte's pixels along its axis
         if not far or abs(along) < HEAD_END * (reach.max() if along > 0 else -reach.min()):

@@ -143,6 +143,17 @@ def test_a_lying_person_is_turned_head_up_and_an_upright_one_is_not():
     assert upright_quarters(round_, [(r / 2, r / 2, size, 0.0, 0.0)]) == 0  # its up not known
 
 
+def test_a_faint_matte_is_turned_as_a_full_one():
+    """A matte with no pixel above one half (a half-alpha mask the intake accepts: alpha >= 0.5) is measured as the
+    same matte at full alpha (it raised numpy's ValueError on the empty pixel set)."""
+    r, size, up = 128, 14.0, (0.0, -1.0)
+    lying = _ellipse(r, 60, 15, horizontal=True)
+    for faint in (0.5 * lying, 0.3 * lying):
+        for x in (r / 2 + 50, r / 2 - 50, r / 2 + 30):
+            face = [(x, r / 2, size, *up)]
+            assert upright_quarters(faint, face) == upright_quarters(lying, face)
+
+
 @pytest.fixture(scope="module")
 def relighter():
     return Relighter(RuntimeConfig(device="cpu"))
