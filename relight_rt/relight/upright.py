@@ -73,6 +73,10 @@ def turned_back(out: dict[str, np.ndarray], quarters: int) -> dict[str, np.ndarr
 LONG_BODY = 1.5  # the matte's long axis over its short one (from its second moments) from which it is a body's length
 HEAD_OFF = 0.75  # ... whose head is at one end: the face this many face sizes off the matte's centre along the axis
 HEAD_END = 0.5  # ... and at least this fraction of the way from the matte's centre to its end on that side
+# ... and no thicker across that axis than a body lying (the spread of its pixels across it, in face sizes): a body on
+# its side or back is at most ~3.5 face sizes across (shoulders, bent knees; a uniform band t wide spreads t / sqrt(12))
+# while a row of people standing is a body's height (~8 face sizes) across. Held-out renders turned: 0.7-1.0.
+THIN_BODY = 1.5
 FOREHEAD, CHIN = 10, 152  # the face mesh's points at the top of the forehead and the chin (MediaPipe's face landmarker)
 SAME_FACE = 0.5  # faces whose centres lie closer than this many face sizes are one face (seen in two turned views)
 _UP = np.array([[0.0, -1.0], [1.0, 0.0], [0.0, 1.0], [-1.0, 0.0]])  # (x, y) picture direction turned to the top by q
@@ -111,7 +115,9 @@ def upright_quarters(mask: np.ndarray, faces: list[tuple[float, float, float, fl
     when it is within 45 deg of it). A matte of a body's length (``LONG_BODY`` times its width) whose long axis is
     nearer the picture's vertical stands, face or not; one lying across the picture is turned only when its face
     also lies at least ``HEAD_END`` of the way from its centre to its end along that axis (a vaulting runner whose
-    legs stretch out sideways keeps his upright torso: his face lies straight above the matte's centre). A matte no
+    legs stretch out sideways keeps his upright torso: his face lies straight above the matte's centre) and it is no
+    thicker across that axis than a body (``THIN_BODY``: a mask given over a row of people standing, of whom one face
+    is found, is a body's height across). A matte no
     longer than it is wide (a head and shoulders, a face filling the photo: a sideways selfie, a photo stored
     without its EXIF turn) whose face lies near its centre is turned by the face's own up (chin to forehead; not
     known: 0). Otherwise 0: no face (nothing says where the head is), several faces (a group), a matte the photo's
@@ -137,8 +143,11 @@ def upright_quarters(mask: np.ndarray, faces: list[tuple[float, float, float, fl
         # thin one shrunk to the network's square) has none: then every pixel it covers
         ys, xs = np.nonzero(mask >= 0.5) if (mask >= 0.5).any() else np.nonzero(mask > 0)
         along = float(off @ axis)
-        reach = (np.stack([xs, ys], axis=1) - centre) @ axis  # the matte's pixels along its axis
+        pixels = np.stack([xs, ys], axis=1) - centre
+        reach = pixels @ axis  # the matte's pixels along its axis
         if not far or abs(along) < HEAD_END * (reach.max() if along > 0 else -reach.min()):
+            return 0
+        if np.std(pixels @ np.array([-axis[1], axis[0]])) > THIN_BODY * size:  # across it: a row of people
             return 0
     head = off if far else np.array([up_x, up_y])
     return int(np.argmax(_UP @ head)) if head.any() else 0

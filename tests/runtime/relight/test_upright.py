@@ -99,10 +99,10 @@ def test_unturn_point_inverts_rot90():
             assert a[int(y), int(x)] == t[r, c]
 
 
-def _ellipse(r: int, long: float, short: float, horizontal: bool) -> np.ndarray:
+def _ellipse(r: int, long: float, short: float, horizontal: bool, dx: float = 0.0) -> np.ndarray:
     yy, xx = np.mgrid[0:r, 0:r].astype(np.float64)
     a, b = (long, short) if horizontal else (short, long)
-    return (((xx - r / 2) / a) ** 2 + ((yy - r / 2) / b) ** 2 <= 1).astype(np.float32)
+    return (((xx - r / 2 - dx) / a) ** 2 + ((yy - r / 2) / b) ** 2 <= 1).astype(np.float32)
 
 
 def test_matte_axis_finds_a_bodys_length_and_direction():
@@ -131,6 +131,10 @@ def test_a_lying_person_is_turned_head_up_and_an_upright_one_is_not():
     vault = np.maximum(lying, _ellipse(r, 40, 12, horizontal=False) * (np.arange(r)[:, None] < r / 2))
     assert not standing(vault)
     assert upright_quarters(vault, [(r / 2, r / 2 - 36, size, *up)]) == 0
+    # a mask given over four people standing in a row (one face found, at one end): a body's height across, kept
+    row = np.maximum.reduce([_ellipse(r, 36, 12, horizontal=False, dx=dx) for dx in (-48, -16, 16, 48)])
+    assert not standing(row) and matte_axis(row)[2] >= LONG_BODY
+    assert upright_quarters(row, [(r / 2 - 48, r / 2 - 30, 9.0, *up)]) == 0
     standing_ = _ellipse(r, 60, 15, horizontal=False)
     for face in ([(r / 2, r / 2 - 50, size, *up)], [(r / 2, r / 2 + 50, size, *down)], []):
         assert upright_quarters(standing_, face) == 0
