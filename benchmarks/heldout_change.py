@@ -3,7 +3,8 @@
     # once (renders; ~1 min per person and framing on the shared 2-core CPU, so ~10 min for --n 2):
     python benchmarks/heldout_change.py make --out runs/h32 --n 2
     # measure (seconds; or through benchmarks/real_photos.py --heldout runs/h32/photos_*):
-    python benchmarks/heldout_change.py measure runs/h32/photos_* [--models DIR] [--json OUT.json]
+    python benchmarks/heldout_change.py measure runs/h32/photos_* [--models DIR] [--json OUT.json] \
+        [--turn 90|180|270] [--upright on|off]
 
 ``make`` writes six environment maps of one white lamp each (a 0.25-rad disc, from the image's left, right,
 upper left, upper right, above, and low in front; irradiance 1 at the facing normal, plus ambient 0.05) to
@@ -20,7 +21,10 @@ as stored, the pipeline's radiance scale; luminance = Rec. 709 weights):
   deviations, also printed): at a correlation of 0.67 a slope of 0.8 needs a change 1.2x as spread as the truth's;
 - RMSE of relit vs truth (RGB, in the mask), for the full runtime path and (its layers, ``layers(...)``)
   for stage 1's diffuse image alone (the quantity of docs/RESULTS.md's framing table, measured through the runtime).
-Per framing (the folder name after its last "_"): means over pairs.
+Per framing (the folder name after its last "_"): means over pairs. ``--turn``: every photo, its mask and its light
+turned by that many degrees counter-clockwise (the light about the view axis), compared with the turned truth: a
+person lying or tilted (the runtime's upright rule, relight_rt.relight.upright, on by default; ``--upright off``: the
+runtime without it).
 
 ``bands``: stage 1 alone (``--stage1`` graph, default the bundled one) on every photo, against the true transport of
 its person (OUT/test_FRAMING/NAME_transport.npz) and the photo's true light, per pixel in the mask: the degree-1
@@ -103,6 +107,18 @@ def _rmse(a: np.ndarray, b: np.ndarray, m: np.ndarray) -> float:
     return float(np.sqrt(((a - b) ** 2)[m].mean()))
 
 
+def turned(photo: tuple, quarters: int) -> tuple:
+    """A held-out photo (image, mask, light) turned ``quarters`` x 90 deg counter-clockwise in the picture
+    (np.rot90), and its light turned with it about the view axis (+x; the picture's right, +y, toward its top, +z:
+    relight_rt.relight.upright ``quarter_rotation``)."""
+    from relight_rt.light import sh
+    from relight_rt.relight.upright import quarter_rotation
+
+    img, mask, light = photo
+    return (np.ascontiguousarray(np.rot90(img, quarters)), np.ascontiguousarray(np.rot90(mask, quarters)),
+            sh.rotate(light, quarter_rotation(quarters)).astype(np.float32))
+
+
 def pair_figures(relighter, src, dst) -> dict:
     (img_i, mask_i, _), (img_j, mask_j, light_j) = src, dst
     m = (mask_i > 0.5) & (mask_j > 0.5)
@@ -119,8 +135,9 @@ def pair_figures(relighter, src, dst) -> dict:
     return out
 
 
-def heldout_figures(relighter, folders: list[Path]) -> dict:
-    """{framing: {"pairs", "slope_mean", "corr_mean", "rmse_mean", ...}} over the folders' photo pairs."""
+def heldout_figures(relighter, folders: list[Path], quarters: int = 0) -> dict:
+    """{framing: {"pairs", "slope_mean", "corr_mean", "rmse_mean", ...}} over the folders' photo pairs, every photo
+    and its light turned ``quarters`` x 90 deg (``turned``; 0: as rendered, upright)."""
     result = {}
     for folder in map(Path, folders):
         names = sorted(p.name[: -len("_photo.png")] for p in folder.glob("*__L*_photo.png"))
@@ -129,7 +146,7 @@ def heldout_figures(relighter, folders: list[Path]) -> dict:
             by_subject.setdefault(n.rpartition("__L")[0], []).append(n)
         rows = []
         for group in by_subject.values():
-            data = {n: _read(folder, n) for n in group}
+            data = {n: turned(_read(folder, n), quarters) for n in group}
             rows += [pair_figures(relighter, data[a], data[b]) for a in group for b in group if a != b]
         framing = folder.name.rsplit("_", 1)[-1]
         summary = {"folder": str(folder), "pairs": len(rows), "subjects": len(by_subject)}
@@ -146,7 +163,10 @@ def measure(args) -> int:
     import relight_rt
     from relight_rt import RuntimeConfig
 
-    figs = heldout_figures(relight_rt.open(RuntimeConfig(models=args.models, device="cpu")), args.folders)
+    relighter = relight_rt.open(RuntimeConfig(models=args.models, device="cpu"))
+    relighter.upright = args.upright == "on"
+    figs = heldout_figures(relighter, args.folders, (args.turn // 90) % 4)
+    print(f"turned {args.turn} deg, upright rule {args.upright}")
     print("| framing | pairs (people) | change contrast vs truth (min) | correlation | spread ratio | relight RMSE | "
           "stage-1 RMSE |")
     print("|---|---|---|---|---|---|---|")
@@ -227,6 +247,10 @@ def main(argv=None) -> int:
     me.add_argument("folders", type=Path, nargs="+")
     me.add_argument("--models", type=Path, default=None)
     me.add_argument("--json", type=Path, default=None)
+    me.add_argument("--turn", type=int, default=0, choices=(0, 90, 180, 270),
+                    help="turn every photo (and its light about the view axis) counter-clockwise by this many degrees")
+    me.add_argument("--upright", choices=("on", "off"), default="on",
+                    help="the runtime's upright rule (relight_rt.relight.upright): on (default) or off")
     bd = sub.add_parser("bands", help="stage 1's transport bands and light against the truth")
     bd.add_argument("folders", type=Path, nargs="+")
     bd.add_argument("--stage1", type=Path, default=None)

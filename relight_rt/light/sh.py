@@ -34,6 +34,7 @@ __all__ = [
     "render_sphere",
     "rotate",
     "rotate_z",
+    "rotation_coefficients",
     "rotation_matrix",
     "shading",
     "shading_chw",
@@ -437,6 +438,21 @@ def rotate(light, R) -> np.ndarray:
     lit = check_lights(light, "light")
     r = _check_rotation(R)
     return _sh_rotation(r) @ lit
+
+
+def rotation_coefficients(R) -> np.ndarray:
+    """The (9, 9) matrix M of an active rotation R on SH coefficients: ``rotate(light, R) == M @ light``.
+
+    M is orthogonal (the basis is orthonormal), so M.T undoes it. A transport row vector T (shading T . L) seen in
+    the rotated frame is ``T @ M`` in the frame before: (T @ M) . L = T . (M @ L).
+
+    Args:
+        R: (3, 3) or (N, 3, 3) proper rotation matrix in the subject frame.
+
+    Returns:
+        (..., 9, 9) float64.
+    """
+    return _sh_rotation(_check_rotation(R))
 
 
 def rotate_z(light, angle) -> np.ndarray:

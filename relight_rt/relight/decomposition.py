@@ -73,6 +73,9 @@ class Decomposition:
             B is then the colour behind this edge; a group relit person by person: its matte's, its people's B the
             colour behind it, relight_rt.relight.people ``with_shown_edge``); None: the mask's own (a mask or alpha
             channel given, a hard matte, video frames).
+        upright: the quarter turns (counter-clockwise, ``np.rot90``) stage 1 saw the crop turned by, a person lying
+            or tilted seen upright (relight_rt.relight.upright); its arrays here are turned back, in the photo's
+            frame. 0: as the photo is.
     """
 
     albedo_chw: np.ndarray
@@ -92,6 +95,7 @@ class Decomposition:
     foreground: tuple[np.ndarray, np.ndarray] | None = None
     origin: tuple[int, int] = (0, 0)
     edge: np.ndarray | None = None
+    upright: int = 0
 
     def __post_init__(self) -> None:
         put = lambda name, value: object.__setattr__(self, name, readonly(value))  # noqa: E731

@@ -120,9 +120,12 @@ def feather_at(ty: np.ndarray, tx: np.ndarray, cut: tuple[bool, bool, bool, bool
 def head_crops(decs: list[Decomposition]) -> list[tuple]:
     """Per decomposition whose face stage 1 saw small (``head_box``): (its index, it, the head's
     box (y0, y1, x0, x1) in the input frame, the photo inside that box (a read-only view: stage 1 reads it without
-    a copy) and the mask there)."""
+    a copy) and the mask there). A person stage 1 saw turned upright (``Decomposition.upright``) gets none: the face
+    is looked for in the upper part of an upright person, and the second pass would see the head sideways."""
     todo = []
     for i, dec in enumerate(decs):
+        if dec.upright:
+            continue
         box = head_box(dec.skin, dec.network_mask, dec.geometry)
         if box is not None:
             y0, y1, x0, x1 = box

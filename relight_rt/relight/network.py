@@ -3,6 +3,7 @@ diffuse images of K lights (on CUDA through the DeviceChain, stage 1's outputs k
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Iterator
 
 import numpy as np
@@ -10,14 +11,22 @@ import numpy as np
 from ..engine.device_chain import DeviceChain
 from ..engine.errors import RelightError
 from ..engine.session import Model, check_finite
+from ..image.crop import CropGeometry
 from .decomposition import Decomposition, Memo, diffuse_batch, readonly
+from .face_pass import FacePass
+from .upright import STAGE1_IMAGES, UprightTurn, turn_picture, turned_back
+
+log = logging.getLogger(__name__)
 
 
 class Network:
-    """A Relighter's sessions run: ``stage1``, ``stage2`` (None: diffuse-only), ``chain`` (CUDA, or None)."""
+    """A Relighter's sessions run: ``stage1``, ``stage2`` (None: diffuse-only), ``chain`` (CUDA, or None); stage 1
+    sees a person lying or tilted upright (``upright``)."""
 
-    def __init__(self, stage1: Model, stage2: Model | None, chain: DeviceChain | None, memo: Memo) -> None:
+    def __init__(self, stage1: Model, stage2: Model | None, chain: DeviceChain | None, memo: Memo,
+                 faces: FacePass) -> None:
         self.stage1, self.stage2, self.chain, self.memo = stage1, stage2, chain, memo
+        self.upright = UprightTurn(faces)  # which way a photo's person stands (the faces it finds: ``faces``)
 
     def stage1_outputs(self, net_imgs: list[np.ndarray], net_masks: list[np.ndarray]) -> tuple[dict, list]:
         """Stage 1 on (R, R, 3) photos and (R, R) masks: its outputs batched, and per image the device copies
@@ -34,6 +43,44 @@ class Network:
             out = self.stage1.run({"image": np.stack(net_imgs).transpose(0, 3, 1, 2),
                                    "mask": np.stack(net_masks)[:, None]})
         return out, on_device
+
+    def run_stage1(self, rgbs: list[np.ndarray], masks: list[np.ndarray], geoms: list[CropGeometry],
+                   net_imgs: list[np.ndarray], net_masks: list[np.ndarray], meshes: list, alone: list[bool]
+                   ) -> tuple[list[dict], list]:
+        """Stage 1 on a batch of photos cropped to the network's square, a person lying or tilted seen turned upright
+        (relight_rt.relight.upright; ``alone[i]``: photo i may be, one person's), the answers in the photos' frames.
+
+        Args:
+            rgbs, masks, geoms: the photos (H, W, 3), their mattes (H, W) and crops.
+            net_imgs, net_masks: the same in the network frame, (R, R, 3) and (R, R).
+            meshes: per photo the face meshes found upright in its crop, or None (not looked for).
+            alone: per photo whether its person may be seen turned (one person of a photo: not a video frame, not a
+                group's joint matte).
+
+        Returns:
+            Per photo the Decomposition's fields stage 1 gives: "albedo_chw" (3, R, R), "skin" (R, R),
+            "transport_chw" (9, R, R), "light" (9, 3) and "upright" (the quarter turns it was seen in); per photo its
+            device copies (CUDA; None for a turned one, whose copies are the turned outputs: uploaded again on first
+            use) or None.
+
+        Raises:
+            RelightError: stage 1 estimated a non-finite light.
+        """
+        turns = [self.upright.quarters(*args[:5]) if args[5] else 0
+                 for args in zip(rgbs, masks, geoms, net_masks, meshes, alone, strict=True)]
+        out, on_device = self.stage1_outputs(*([turn_picture(a, q) for a, q in zip(arrays, turns, strict=True)]
+                                               for arrays in (net_imgs, net_masks)))
+        fields = []
+        for i, q in enumerate(turns):
+            seen = {k: out[k][i] for k in (*STAGE1_IMAGES, "light")}
+            if q:
+                seen, on_device[i] = turned_back(seen, q), None
+                log.debug("stage 1 saw the person turned %d degrees counter-clockwise (upright)", 90 * q)
+            if not np.isfinite(seen["light"]).all():
+                raise RelightError(f"{self.stage1.name}: stage 1 estimated a non-finite light for this image")
+            fields.append({"albedo_chw": seen["albedo"], "skin": seen["skin"][0], "transport_chw": seen["transport"],
+                           "light": seen["light"], "upright": q})
+        return fields, on_device
 
     def relit(
         self, dec: Decomposition, lights: np.ndarray, batch_size: int, want_layers: bool = True

@@ -92,6 +92,7 @@ class Relighter:
         self.models_dir = find_models(config.models)
         # a second stage-1 pass on a face seen small (relight_rt.relight.face_pass); photos only, with detail on
         self.face_pass = True
+        self.upright = True  # a photo's person lying or tilted: stage 1 sees them upright (relight_rt.relight.upright)
         self._session_args = {"device": config.device, "device_id": config.device_id, "providers": providers}
         self.stage1: Model = load_model(self._graph("stage1"), "stage1", warmup=False, **self._session_args)
         warmup = config.warmup
@@ -118,8 +119,8 @@ class Relighter:
         # What this Relighter prepares for a Decomposition (device copies, reconstruction, window), kept
         # here rather than on the (plain-data) Decomposition, and dropped with it; the stages that use it.
         self._memo = Memo()
-        self._network = Network(self.stage1, self.stage2, self._chain, self._memo)
         self._faces = FacePass(self.models_dir)  # face normals (relight_rt.person.face_mesh), loaded on first use
+        self._network = Network(self.stage1, self.stage2, self._chain, self._memo, self._faces)
         self._factor = Factor(self._memo, self._faces, config.detail, self._network.own_residual)
         self._composer = Composer(self._memo, self._factor, config.detail)
         if config.detail:
@@ -268,15 +269,13 @@ class Relighter:
                                              self.preprocess)
         net_imgs = [g.to_network(rgb) for g, rgb in zip(geoms, rgbs, strict=True)]
         net_masks = [g.to_network(m) for g, m in zip(geoms, ms, strict=True)]
-        out, on_device = self._network.stage1_outputs(net_imgs, net_masks)
+        meshes = [self._faces.find(rgb, g.box) if faces else None for g, rgb in zip(geoms, rgbs, strict=True)]
+        alone = [self.upright and not allow_full and p is None for p in people]  # may be seen upright (Network)
+        outs, on_device = self._network.run_stage1(rgbs, ms, geoms, net_imgs, net_masks, meshes, alone)
         decs = []
-        for i, geom in enumerate(geoms):
-            light = out["light"][i]
-            if not np.isfinite(light).all():
-                raise RelightError(f"{self.stage1.name}: stage 1 estimated a non-finite light for this image")
-            dec = Decomposition(out["albedo"][i], out["skin"][i, 0], out["transport"][i], light, net_masks[i],
-                                net_imgs[i], ms[i], rgbs[i], geom, photo=not allow_full,
-                                face_meshes=self._faces.find(rgbs[i], geom.box) if faces else None)
+        for i, (geom, seen) in enumerate(zip(geoms, outs, strict=True)):
+            dec = Decomposition(**seen, network_mask=net_masks[i], network_image=net_imgs[i], mask=ms[i], image=rgbs[i],
+                                geometry=geom, photo=not allow_full, face_meshes=meshes[i])
             if on_device[i] is not None:
                 self._memo(dec)["device"] = on_device[i]
             decs.append(dec)

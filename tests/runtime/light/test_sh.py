@@ -259,6 +259,22 @@ def test_rotate_batches_and_does_not_modify_input():
 def test_rotate_rejects_non_rotations(bad, match):
     with pytest.raises(RelightError, match=match):
         sh.rotate(random_light(), bad)
+    with pytest.raises(RelightError, match=match):
+        sh.rotation_coefficients(bad)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_rotation_coefficients_are_rotate_as_an_orthogonal_matrix(seed):
+    """M = rotation_coefficients(R): rotate(L, R) == M @ L, M.T undoes it, and a row vector T turns by T @ M so that
+    (T @ M) . L == T . rotate(L, R) (a transport seen in the rotated frame, relight_rt.relight.upright)."""
+    r, light = random_rotation(seed), random_light(seed)
+    m = sh.rotation_coefficients(r)
+    assert m.shape == (9, 9)
+    np.testing.assert_allclose(m @ light, sh.rotate(light, r), atol=1e-12)
+    np.testing.assert_allclose(m.T @ m, np.eye(9), atol=1e-12)
+    t = np.random.default_rng(seed).normal(size=9)
+    np.testing.assert_allclose((t @ m) @ light, t @ sh.rotate(light, r), atol=1e-12)
+    assert sh.rotation_coefficients(np.stack([r, r.T])).shape == (2, 9, 9)
 
 
 def test_rotate_z_rejects_bad_input():

@@ -508,6 +508,26 @@ def test_io_binding_chain_matches_numpy_path(tiny_models, diffuse_models_dir, wi
         np.testing.assert_allclose(lb.layers[name], la.layers[name], atol=1e-5)
 
 
+def test_io_binding_chain_relights_a_person_seen_upright_as_numpy_does(models_dir):
+    """A person stage 1 saw turned upright (relight_rt.relight.upright) keeps no device copies of stage 1's outputs
+    (they are the turned picture's): the CUDA chain's logic, run with device "cpu", uploads the turned-back ones and
+    relights as numpy does. Both Relighters are told the person lies (the analytic graphs find no face)."""
+    from relight_rt.engine.device_chain import DeviceChain
+
+    ref = Relighter(RuntimeConfig(models=models_dir, device="cpu"))
+    chained = Relighter(RuntimeConfig(models=models_dir, device="cpu"))
+    chained._network.chain = DeviceChain(chained.stage1, chained.stage2, device="cpu")
+    img, mask = person(120, 200, seed=17, box=(40, 90, 15, 185))  # lying across the picture
+    for r in (ref, chained):
+        r._network.upright.quarters = lambda *args: 1
+    dec_a, dec_b = ref.decompose(img, mask), chained.decompose(img, mask)
+    assert dec_a.upright == dec_b.upright == 1
+    np.testing.assert_allclose(dec_b.albedo_chw, dec_a.albedo_chw, atol=1e-6)
+    lits = np.stack([lights.preset(n) for n in ("studio", "rim", "neon")])
+    np.testing.assert_allclose(chained.relight_many(dec_b, lits, batch_size=2), ref.relight_many(dec_a, lits),
+                               atol=1e-5)
+
+
 @pytest.mark.gpu
 def test_cuda_matches_cpu(tiny_models):
     import onnxruntime as ort
