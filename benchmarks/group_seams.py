@@ -189,11 +189,11 @@ def main(argv: list[str] | None = None) -> int:
         cells = []
         for k in LIGHTS:
             a, b = e[k], e[k + "_auto"]
-            cells.append(f"{_f(a['mean'])}/{_f(b['mean'])} {_f(a['p95'])}/{_f(b['p95'])}".rjust(30))
+            cells.append(f"{figure(a['mean'])}/{figure(b['mean'])} {figure(a['p95'])}/{figure(b['p95'])}".rjust(30))
         print(f"{name:10s} {e['people']:6d} {e['line_px']:6d} " + " ".join(cells) + f" {e['seconds_all']:6.1f}")
     print(f"\n{'photo':10s} " + " ".join(f"{k + ' flat / seam all, auto':>28s}" for k in LIGHTS))
     for name, e in report.items():
-        cells = [f"{_f(e[k].get('flat'), 2)} / {_f(e[k].get('seam'))}, {_f(e[k + '_auto'].get('seam'))}".rjust(28)
+        cells = [f"{figure(e[k].get('flat'), 2)} / {figure(e[k].get('seam'))}, {figure(e[k + '_auto'].get('seam'))}".rjust(28)
                  for k in LIGHTS]
         print(f"{name:10s} " + " ".join(cells))
     for k in LIGHTS:
@@ -212,7 +212,8 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-def _f(v, digits: int = 1) -> str:
+def figure(v, digits: int = 1) -> str:
+    """A figure for the tables, "-" where there is none."""
     return "-" if v is None else f"{v:.{digits}f}"
 
 

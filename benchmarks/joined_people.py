@@ -46,7 +46,7 @@ from real_photos import LEFT, RIGHT, luminance, skin_pixels
 
 # isort: split
 from _shared import shared_path
-from group_seams import line_pairs, seam_figures, tile
+from group_seams import figure, line_pairs, seam_figures, tile
 
 import relight_rt
 from relight_rt import RelightError, RuntimeConfig
@@ -226,8 +226,8 @@ def main(argv: list[str] | None = None) -> int:
             continue
         a, b = r["default"], r["per_person"]
         cells = [(f"{a[k]['faces_right']}/{b[k]['faces_right']} of {a[k]['faces']} "
-                  f"({_f(a[k]['side'])}/{_f(b[k]['side'])})").rjust(22) for k in SIDE]
-        seams = [f"{_f(a[k]['seam'])}/{_f(b[k]['seam'])}".rjust(16) for k in LIGHTS]
+                  f"({figure(a[k]['side'], 2)}/{figure(b[k]['side'], 2)})").rjust(22) for k in SIDE]
+        seams = [f"{figure(a[k]['seam'], 2)}/{figure(b[k]['seam'], 2)}".rjust(16) for k in LIGHTS]
         own = f"{a['own_light_max']:.1f}/{b['own_light_max']:.1f}".rjust(12)
         secs = f"{a['decompose_s'] + a['lights_s']:.1f}/{b['decompose_s'] + b['lights_s']:.1f}".rjust(12)
         print(f"{name:10s} {r['faces']:5d} " + " ".join(cells) + " " + " ".join(seams) + f" {own} {secs}")
@@ -238,10 +238,6 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{name:10s} " + " ".join(f"{one[k]['spread']:.2f}/{each[k]['spread']:.2f}".rjust(28) for k in SIDE))
     (args.out / "joined.json").write_text(json.dumps(report, indent=1))
     return 0
-
-
-def _f(v, digits: int = 2) -> str:
-    return "-" if v is None else f"{v:.{digits}f}"
 
 
 if __name__ == "__main__":
