@@ -290,6 +290,10 @@ def by_person_lights(
             looks = dark_colour(fg), knee(fg), neutral_darks(compose.photo_crop(part), compose.crop_origin(part),
                                                            compose.solid_crop(part))
         share = part.geometry.crop(part.mask)[..., None]
+        to_cover = None  # the shares' scale to the shown edge in the person's box (the group's box: the photo's size)
+        if scaled:
+            box = (slice(cy0 - y0, cy1 - y0), slice(cx0 - x0, cx1 - x0))
+            to_cover = np.divide(cover[box], alpha[box], out=np.ones_like(cover[box]), where=alpha[box] > 0)
         for k, (light, exposure) in enumerate(zip(lights, exposures, strict=True)):
             lit = factor.expose(part, reaching(light, part, dec)[None], exposure)[0]
             _, residual, relit = next(network_relit(part, lit[None], 1, want_layers=composer.detail))
@@ -301,14 +305,12 @@ def by_person_lights(
                 old, weight = composer.own_light(part)  # found once per person, whatever the light
                 sums[k] = [sums[k][0] + compose.light_sum(colour, share), sums[k][1] + old, sums[k][2] + weight]
             colour *= share
-            if scaled:  # the scale in the person's box only (the group's box: the photo's size)
-                box = (slice(cy0 - y0, cy1 - y0), slice(cx0 - x0, cx1 - x0))
-                colour[cy0 - py0 : cy1 - py0, cx0 - px0 : cx1 - px0] *= np.divide(
-                    cover[box], alpha[box], out=np.ones_like(cover[box]), where=alpha[box] > 0)
+            if to_cover is not None:
+                colour[cy0 - py0 : cy1 - py0, cx0 - px0 : cx1 - px0] *= to_cover
             regions[k][cy0 - y0 : cy1 - y0, cx0 - x0 : cx1 - x0] += colour[cy0 - py0 : cy1 - py0,
                                                                            cx0 - px0 : cx1 - px0]
             del colour, residual, relit
-        del looks
+        del looks, to_cover
         for one in (part, part.head):  # the guide is remade per call, never kept for every person (issue 50 bug 1)
             if one is not None and keep:
                 memo(one).pop("gray", None)
