@@ -193,8 +193,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{name:10s} {e['people']:6d} {e['line_px']:6d} " + " ".join(cells) + f" {e['seconds_all']:6.1f}")
     print(f"\n{'photo':10s} " + " ".join(f"{k + ' flat / seam all, auto':>28s}" for k in LIGHTS))
     for name, e in report.items():
-        cells = [f"{figure(e[k].get('flat'), 2)} / {figure(e[k].get('seam'))}, {figure(e[k + '_auto'].get('seam'))}".rjust(28)
-                 for k in LIGHTS]
+        cells = [(f"{figure(e[k].get('flat'), 2)} / {figure(e[k].get('seam'))}, "
+                  f"{figure(e[k + '_auto'].get('seam'))}").rjust(28) for k in LIGHTS]
         print(f"{name:10s} " + " ".join(cells))
     for k in LIGHTS:
         for kind in ("", "_auto"):

@@ -28,6 +28,7 @@ def channel_max(rgb: np.ndarray) -> np.ndarray:
     (relight_rt.relight.look) and the exposure rule's (relight_rt.light.exposure) are this one function."""
     return np.maximum(np.maximum(rgb[..., 0], rgb[..., 1]), rgb[..., 2])
 
+
 def colour_gradient(image: np.ndarray) -> np.ndarray:
     """(h, w) float32: the norm of (h, w, 3) float32 ``image``'s gradient over its three channels, per pixel (3 x 3
     Sobel, divided by its weights' sum 8: a step of d between two pixels reads about d). On Lab values it is a
