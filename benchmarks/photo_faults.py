@@ -17,7 +17,10 @@ mask (../shared/realdata: evaluation only; the given masks keep the matte out of
   as it would, and a teal-graded photo's dark shirt at a* -7 that a brighter light carries past -8.) "teal_neutral":
   the same on the near-black pixels that are neutral as 8-bit values (channels within ``SPREAD`` levels: what JPEG
   and quantisation leave on a grey) rather than by Lab chroma: C* < 8 at L* < 30 also takes in the folds of a dark
-  teal shirt (8, 21, 29 in levels) whose colour a warm light rightly turns green.
+  teal shirt (8, 21, 29 in levels) whose colour a warm light rightly turns green. "teal_untinted": the same on the
+  near-black pixels whose input a* is at least ``UNTINTED_A`` (half the threshold): a pixel at a* -5 to -7.6 (a dark
+  green cast, or the green backdrop mixed into the outline's pixels) keeps its chromaticity when brightened, so its
+  a* grows past -8 with its lightness; this figure counts only the teal a light adds to an untinted pixel.
 - night: the person's mean linear luminance (Rec. 709) relit under ``night`` over the input's, in EV; the README
   says a stop darker (-1 EV). Median and spread over every photo.
 - rim: on faces the bundled face mesh finds (the convex hull of its 468 points; at most the largest face), the
@@ -61,6 +64,7 @@ from relight_rt import Relighter, RuntimeConfig, lights
 from relight_rt.person.face_mesh import FaceMesh
 
 DARK_L, TEAL_A, NEUTRAL_C = 30.0, -8.0, 8.0
+UNTINTED_A = TEAL_A / 2
 SPREAD = 6  # teal_neutral: a near-black pixel whose channels lie within this many 8-bit levels is grey
 BAND = 24
 
@@ -121,6 +125,7 @@ def photo_figures(relighter: Relighter, mesh: FaceMesh, rgb: np.ndarray, mask: n
     levels = np.round(rgb * 255)
     grey = black & (levels.max(axis=2) - levels.min(axis=2) <= SPREAD)
     has_grey = has_black and grey.sum() >= 100
+    untinted = black & (lab_in[..., 1] >= UNTINTED_A)
     face = None if teal_only else face_region(mesh, rgb, person)
     out: dict = {"dark_share": float(dark.sum() / max(person.sum(), 1)),
                  "black_share": float(black.sum() / max(person.sum(), 1)), "face": face is not None, "lights": {}}
@@ -134,6 +139,8 @@ def photo_figures(relighter: Relighter, mesh: FaceMesh, rgb: np.ndarray, mask: n
             row["teal_dark"] = float((lab_out[..., 1][dark] < TEAL_A).mean())
         if has_black:
             row["teal"] = float((lab_out[..., 1][black] < TEAL_A).mean())
+        if has_black and untinted.any():
+            row["teal_untinted"] = float((lab_out[..., 1][untinted] < TEAL_A).mean())
         if has_grey:
             row["teal_neutral"] = float((lab_out[..., 1][grey] < TEAL_A).mean())
         if face is not None:
@@ -175,7 +182,7 @@ def background_figures(relighter: Relighter, rgb: np.ndarray, truth: np.ndarray,
 
 def summarise(photos: dict, clip: dict, names: list[str]) -> dict:
     s: dict = {"teal": {}, "night_ev": None, "rim": None, "background": {}}
-    for key in ("teal", "teal_neutral", "teal_dark"):
+    for key in ("teal", "teal_untinted", "teal_neutral", "teal_dark"):
         s[key] = {}
         for name in names:
             teal = [p["lights"][name][key] for p in photos.values() if key in p["lights"][name]]
