@@ -16,7 +16,7 @@ photos (spec28: p080's soft front light, blacks28: p041); this measures that bia
 NAME_light.npy, as benchmarks/heldout_change.py writes them): the same reading of both lights, its angle and
 elevation. Evaluation only: nothing of the data is written but figures.
 
-``--reading``: which steps' light to print (all by default; every one is computed from one stage-1 pass):
+``--reading``: which steps' light to measure ("own" by default; all of them come from one stage-1 pass per photo):
 "own" ``Decomposition.light``; "raw" stage 1's estimate; "refit" after ``refit_light`` alone (before the face
 mesh's ``face_refit``); and, on the face mesh's skin with the albedo taken as one constant (photos without a
 mesh have none), "mesh" plain least squares of the luminance on the mesh's 9-term transport, "mesh1" on its
@@ -116,23 +116,26 @@ def lamp_fit(transport: np.ndarray, photo: np.ndarray, front: bool = False) -> n
     return best
 
 
-def readings(relighter: Relighter, rgb: np.ndarray, mask: np.ndarray) -> dict[str, np.ndarray | None]:
-    """The photo's light as each step reads it, (9, 3) RGB or (9,) luminance, by ``READINGS`` name (see the module's
-    docstring; the mesh readings None where the photo has fewer than 50 pixels of a face mesh's skin). "own" is
-    ``decompose``'s light for a photo of one person (``Relighter._photos``: the refit, the face's turn, a head pass).
-    Uses the Relighter's private stages: a measurement, not an API."""
+def readings(relighter: Relighter, rgb: np.ndarray, mask: np.ndarray, which: list[str]) -> dict[str, np.ndarray | None]:
+    """The photo's light as each step in ``which`` reads it, (9, 3) RGB or (9,) luminance, by ``READINGS`` name (see
+    the module's docstring; the mesh readings None where the photo has fewer than 50 pixels of a face mesh's skin).
+    "own" is ``decompose``'s light for a photo of one person (``Relighter._photos``: the refit, the face's turn, a
+    head pass). Uses the Relighter's private stages: a measurement, not an API."""
     (dec,), _, _ = relighter._stage1([rgb], [mask], False, faces=relighter.detail)
     factor = relighter._factor
-    out: dict[str, np.ndarray | None] = {"raw": dec.light, "refit": refit_light(dec.light, *factor.refit_inputs(dec))}
-    out["own"] = relighter._photos([dec])[0].light
+    out: dict[str, np.ndarray | None] = {"raw": dec.light}
+    if "refit" in which:
+        out["refit"] = refit_light(dec.light, *factor.refit_inputs(dec))
+    if "own" in which:
+        out["own"] = relighter._photos([dec])[0].light
     base = factor.restored(dec)
     skin = base["face_skin"]
-    t = base["transport"][skin]
-    out["mesh"] = mesh_fit(t, base["photo"][skin]) if skin.sum() >= 50 else None
-    out["mesh1"] = mesh_fit(t, base["photo"][skin], 4) if skin.sum() >= 50 else None
-    out["mesh-lamp"] = lamp_fit(t, base["photo"][skin]) if skin.sum() >= 50 else None
-    out["mesh-lamp-front"] = lamp_fit(t, base["photo"][skin], True) if skin.sum() >= 50 else None
-    out["mesh-lamp-linear"] = lamp_fit(t, srgb_to_linear(base["photo"][skin])) if skin.sum() >= 50 else None
+    t, y = base["transport"][skin], base["photo"][skin]
+    fits = {"mesh": lambda: mesh_fit(t, y), "mesh1": lambda: mesh_fit(t, y, 4), "mesh-lamp": lambda: lamp_fit(t, y),
+            "mesh-lamp-front": lambda: lamp_fit(t, y, True), "mesh-lamp-linear": lambda: lamp_fit(t, srgb_to_linear(y))}
+    for name, fit in fits.items():
+        if name in which:
+            out[name] = fit() if skin.sum() >= 50 else None
     return out
 
 
@@ -172,10 +175,10 @@ def renders(folder: Path, relighter: Relighter, which: list[str], out: Path | No
     for f in photos:
         mask = cv2.imread(str(f.with_name(f.name.replace("_photo.png", "_mask.png"))), cv2.IMREAD_GRAYSCALE)
         truth, _ = light_direction(np.load(f.with_name(f.name.replace("_photo.png", "_light.npy"))))
-        got = readings(relighter, read_rgb(f), mask.astype(np.float32) / 255)
+        got = readings(relighter, read_rgb(f), mask.astype(np.float32) / 255, which)
         rows.append({"render": f.name, "truth": truth.tolist(),
                      "true_elevation": math.degrees(math.asin(float(np.clip(truth[2], -1, 1)))),
-                     **{k: compare(got[k], truth) for k in READINGS}})
+                     **{k: compare(got[k], truth) for k in which}})
     for k in which:
         have = [r for r in rows if r[k] is not None]
         if not have:
@@ -199,8 +202,8 @@ def main(argv=None) -> int:
     p.add_argument("--max-elevation", type=float, default=45.0)
     p.add_argument("--out", type=Path, default=None)
     p.add_argument("--renders", type=Path, default=None, help="held-out renders' folder (photos_*/*_photo.png)")
-    p.add_argument("--reading", default=",".join(READINGS),
-                   help=f"comma-separated readings to print, of {', '.join(READINGS)} (default: all)")
+    p.add_argument("--reading", default="own",
+                   help=f"comma-separated readings to measure, of {', '.join(READINGS)} (default: own)")
     p.add_argument("--subjects", nargs="*", default=None, help="only these Yale subjects (yaleB02 ...)")
     args = p.parse_args(argv)
     which = [w for w in args.reading.split(",") if w]
@@ -222,10 +225,10 @@ def main(argv=None) -> int:
         az, el = float(r["azimuth_deg"]), float(r["elevation_deg"])
         rgb = read_grey(args.yale / r["file"])
         truth = np.array(lamp_direction(az, el))
-        got = readings(relighter, rgb, ellipse(rgb.shape[:2]))
+        got = readings(relighter, rgb, ellipse(rgb.shape[:2]), which)
         rows.append({"subject": r["subject"], "azimuth": az, "elevation": el, "truth": truth.tolist(),
                      "truth_y": float(truth[1]),
-                     **{k: compare(got[k], truth) for k in READINGS}})
+                     **{k: compare(got[k], truth) for k in which}})
     print(f"{len(rows)} photos, lamps within {args.max_elevation:g} deg of the horizon")
     for k in which:
         print(f"reading {k}: |azimuth| | photos | angle (median) | elevation: ours / lamp (medians) | side right | "
