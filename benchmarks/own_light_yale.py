@@ -9,9 +9,10 @@ as benchmarks/yale_eval.py does (grey, the ellipse mask); the photo's light ``De
 estimate, refit so that albedo x shading explains the photo) gives a direction from its degree-1 band (luminance
 weighted; DESIGN.md §3: k = 3, 1, 2 are x, y, z), compared with the lamp's (yale_eval ``lamp_direction``).
 Printed per lamp azimuth band: the median angle between the two, the median elevation of ours against the
-lamp's, the share whose left-right side (the sign of y) is right, and the degree-1 band's length over degree 0
-(how directional the light is read). Two later sessions found the own light read "from above" on soft-lit real
-photos (spec28: p080's soft front light, blacks28: p041); this measures that bias where the truth is known.
+lamp's, the share whose left-right side (the sign of y) is right, and how directional the light is read
+(``sh.dominant_direction``: 0 uniform, 1 one direction). Two later sessions found the own light read "from above"
+on soft-lit real photos (spec28: p080's soft front light, blacks28: p041); this measures that bias
+where the truth is known.
 ``--renders DIR``: the held-out renders instead (DIR/photos_*/NAME_photo.png with NAME_mask.png and the true light
 NAME_light.npy, as benchmarks/heldout_change.py writes them): the same reading of both lights, its angle and
 elevation. Evaluation only: nothing of the data is written but figures.
@@ -22,7 +23,7 @@ mesh's ``face_refit``); and, on the face mesh's skin with the albedo taken as on
 mesh have none), "mesh" plain least squares of the luminance on the mesh's 9-term transport, "mesh1" on its
 degree 0 and 1 only, "mesh-lamp" one point lamp plus ambient (``lamp_fit``), "mesh-lamp-front" the same with the
 lamp within 120 deg of the camera, "mesh-lamp-linear" the lamp fit on the linearised luminance. Results and
-what they say: docs/results_pending.md (light28).
+what they say: docs/RESULTS.md "Faces", "Still wrong" (light28).
 """
 
 from __future__ import annotations
@@ -40,10 +41,11 @@ from _shared import missing, shared_path
 from yale_eval import ellipse, lamp_direction, read_grey
 
 from relight_rt import Relighter, RuntimeConfig, lights
-from relight_rt.image.color import srgb_to_linear
+from relight_rt.image.color import REC709, srgb_to_linear
+from relight_rt.image.io import read_image
+from relight_rt.light import sh
 from relight_rt.relight.strength import refit_light
 
-LUMA = np.array([0.2126, 0.7152, 0.0722])
 BANDS = ((0, 15), (15, 40), (40, 65), (65, 95), (95, 181))
 READINGS = ("own", "raw", "refit", "mesh", "mesh1", "mesh-lamp", "mesh-lamp-front", "mesh-lamp-linear")
 MESH_TRIM = 2.5  # mesh_fit, lamp_fit: skin pixels beyond this many robust deviations are dropped (as face_refit)
@@ -128,6 +130,8 @@ def readings(relighter: Relighter, rgb: np.ndarray, mask: np.ndarray, which: lis
         out["refit"] = refit_light(dec.light, *factor.refit_inputs(dec))
     if "own" in which:
         out["own"] = relighter._photos([dec])[0].light
+    if not any(name.startswith("mesh") for name in which):
+        return out  # the face mesh's restored transport is only the mesh readings'
     base = factor.restored(dec)
     skin = base["face_skin"]
     t, y = base["transport"][skin], base["photo"][skin]
@@ -139,27 +143,18 @@ def readings(relighter: Relighter, rgb: np.ndarray, mask: np.ndarray, which: lis
     return out
 
 
-def light_direction(light: np.ndarray) -> tuple[np.ndarray, float]:
-    """The unit direction of a (9, 3) SH light's degree-1 band (luminance weighted) and its length over degree 0."""
+def light_direction(light: np.ndarray) -> tuple[np.ndarray | None, float]:
+    """A (9, 3) RGB or (9,) SH light's direction and directionality (``sh.dominant_direction`` of its luminance)."""
     y = np.asarray(light, np.float64)
-    y = y @ LUMA if y.ndim == 2 else y
-    d = np.array([y[3], y[1], y[2]])
-    n = float(np.linalg.norm(d))
-    return (d / n if n > 0 else d), n / max(abs(float(y[0])), 1e-9)
-
-
-def read_rgb(path: Path) -> np.ndarray:
-    bgr = cv2.imread(str(path), cv2.IMREAD_COLOR)
-    if bgr is None:
-        raise FileNotFoundError(path)
-    return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB).astype(np.float32) / 255
+    return sh.dominant_direction(y @ REC709 if y.ndim == 2 else y)
 
 
 def compare(light: np.ndarray | None, truth: np.ndarray) -> dict | None:
-    """One reading against a true direction: the angle, our elevation, our y and degree 1 / 0 (None: no reading)."""
-    if light is None:
+    """One reading against a true direction: the angle, our elevation, our y and directionality (None: no reading,
+    or a light without a direction)."""
+    ours, strength = light_direction(light) if light is not None else (None, 0.0)
+    if ours is None:
         return None
-    ours, strength = light_direction(light)
     return {"angle": math.degrees(math.acos(float(np.clip(ours @ truth, -1, 1)))),
             "our_elevation": math.degrees(math.asin(float(np.clip(ours[2], -1, 1)))), "y": float(ours[1]),
             "strength": strength, "direction": ours.tolist()}
@@ -175,7 +170,7 @@ def renders(folder: Path, relighter: Relighter, which: list[str], out: Path | No
     for f in photos:
         mask = cv2.imread(str(f.with_name(f.name.replace("_photo.png", "_mask.png"))), cv2.IMREAD_GRAYSCALE)
         truth, _ = light_direction(np.load(f.with_name(f.name.replace("_photo.png", "_light.npy"))))
-        got = readings(relighter, read_rgb(f), mask.astype(np.float32) / 255, which)
+        got = readings(relighter, read_image(f), mask.astype(np.float32) / 255, which)
         rows.append({"render": f.name, "truth": truth.tolist(),
                      "true_elevation": math.degrees(math.asin(float(np.clip(truth[2], -1, 1)))),
                      **{k: compare(got[k], truth) for k in which}})
@@ -189,7 +184,7 @@ def renders(folder: Path, relighter: Relighter, which: list[str], out: Path | No
         strength = np.median([r[k]["strength"] for r in have])
         print(f"{k}: {len(have)} renders: angle median {np.median([r[k]['angle'] for r in have]):.1f} deg; "
               f"elevation ours / true (medians) {np.median(ours):+.1f} / {np.median(true):+.1f}, ours minus true "
-              f"mean {np.mean(ours) - np.mean(true):+.1f}; degree 1 / 0 {strength:.2f}")
+              f"mean {np.mean(ours) - np.mean(true):+.1f}; directionality {strength:.2f}")
     if out is not None:
         out.write_text(json.dumps(rows, indent=1))
     return 0
@@ -232,7 +227,7 @@ def main(argv=None) -> int:
     print(f"{len(rows)} photos, lamps within {args.max_elevation:g} deg of the horizon")
     for k in which:
         print(f"reading {k}: |azimuth| | photos | angle (median) | elevation: ours / lamp (medians) | side right | "
-              "degree 1 / 0")
+              "directionality")
         for lo, hi in BANDS:
             band = [r for r in rows if lo <= abs(r["azimuth"]) < hi and r[k] is not None]
             if not band:
