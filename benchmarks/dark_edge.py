@@ -27,9 +27,12 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from first_look import picked_photos, read_rgb, side_colour  # noqa: I001 (first_look puts this checkout first)
-from real_photos import LEFT, RIGHT, luminance
+# first_look (through real_photos) puts this checkout and benchmarks/ first on sys.path: relight_rt below is this one
+from first_look import picked_photos, read_rgb, side_colour
+
+# isort: split
 from _shared import shared_path
+from real_photos import LEFT, RIGHT, luminance
 
 import relight_rt
 from relight_rt import RuntimeConfig
@@ -60,7 +63,7 @@ def edge_band(alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def measure(photo: np.ndarray, alpha: np.ndarray, relit: np.ndarray) -> dict:
     band, bg, _ = edge_band(alpha)
     l_in, l_out = lightness(photo), lightness(relit)
-    bg_mean, has_bg = side_colour(l_in[..., None], bg, REACH)
+    bg_mean, has_bg = side_colour(np.repeat(l_in[..., None], 3, axis=2), bg, REACH)
     bg_mean = bg_mean[..., 0]
     where = band & has_bg & (bg_mean > 1.0)
     n = int(where.sum())
