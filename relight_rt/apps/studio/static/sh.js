@@ -368,3 +368,40 @@ export function shoulderGain(guard, light, ownWhite, knee, maxUp, power, tol, sa
   }
   return Math.exp(x1);
 }
+
+// relight_rt.light.scene_floor.with_scene_floor: over the photo's own background a light keeps the photo's light from
+// every side. Its floor (the least degree-2 irradiance of its luminance over `size` directions of sh.sphere_directions'
+// lattice, over its mean over the sphere) is raised to `own` (the photo's, from the server) by blending it with uniform
+// white light at its own mean irradiance; a light already there, or without a positive mean, is returned as it is.
+const SPHERE = new Map();  // size -> the lattice's rows of A_l Y_k(n)
+function sphereRows(size) {
+  if (!SPHERE.has(size)) {
+    const rows = [];
+    for (let i = 0; i < size; i++) {
+      const z = 1 - (2 * (i + 0.5)) / size, r = Math.sqrt(Math.max(0, 1 - z * z));
+      const phi = Math.PI * (1 + Math.sqrt(5)) * (i + 0.5);
+      const y = basis(r * Math.cos(phi), r * Math.sin(phi), z);
+      rows.push(y.map((v, k) => LOBE[BAND[k]] * v));
+    }
+    SPHERE.set(size, rows);
+  }
+  return SPHERE.get(size);
+}
+
+export function withSceneFloor(light, own, size) {
+  const c = new Array(9).fill(0);
+  for (let k = 0; k < 9; k++) for (let ch = 0; ch < 3; ch++) c[k] += LUMA[ch] * light[3 * k + ch];
+  const mean = Math.PI * C0 * c[0];
+  if (!(mean > 1e-9)) return light;
+  let low = Infinity;
+  for (const row of sphereRows(size)) {
+    let e = 0;
+    for (let k = 0; k < 9; k++) e += row[k] * c[k];
+    low = Math.min(low, e);
+  }
+  if (low >= own * mean) return light;
+  const have = low / mean, t = (own - have) / (1 - have);
+  const out = light.map((v) => (1 - t) * v);
+  for (let ch = 0; ch < 3; ch++) out[ch] += t * mean / (Math.PI * C0);
+  return out.map((v) => Math.fround(v));
+}
