@@ -64,7 +64,7 @@ import numpy as np
 
 from ..image.color import REC709, channel_max
 from ..light import exposure as _exposure
-from ..light import scene_floor, sh
+from ..light import sh
 from ..person.face_mesh import mirror, mirror_held
 from . import head_blend
 from .cast_shadow import MeshView, shadow_factor
@@ -719,16 +719,15 @@ class Factor:
         window = self.own(dec, with_residual=False)["window"]
         return head_blend.grade_inputs(dec, region, window, *self.factor_inputs(dec.head))
 
-    def expose(self, dec: Decomposition, lights: np.ndarray, exposure, scene: bool = False) -> np.ndarray:
+    def expose(self, dec: Decomposition, lights: np.ndarray, exposure) -> np.ndarray:
         """relight_rt.light.exposure.expose with the photo's own mean luminance measured once per Decomposition, the
         faces' cast shadows metered (``meter_shadows``), then relight_rt.light.exposure ``guarded``: the highlight
         shoulder's loss given back (``shoulder_gain``) and the highlight guard (``highlight_factor``) on each light,
-        before any EV offset; ``scene``: first the photo's light from every side kept (relight_rt.light.scene_floor)."""
+        before any EV offset."""
         mode = _exposure.parse_exposure(exposure)
         if mode == "physical":
             return np.array(lights, np.float32)
         state = self.memo(dec)
-        lights = scene_floor.with_scene_floor(lights, scene_floor.floor(dec.white_light)) if scene else lights
         if "target" not in state:
             state["target"] = _exposure.mean_luminance(dec.albedo, dec.transport, dec.network_mask, dec.white_light,
                                                        _exposure.METER_POWER)

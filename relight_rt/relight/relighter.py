@@ -397,17 +397,16 @@ class Relighter:
         if isinstance(light, (str, os.PathLike)):
             light = LightSpec.of(light)  # read once by the one rule: its exposure and its light
         exposure = _exposure.for_light(exposure, light)  # a preset may ask for its own exposure (night: darker)
-        parts, bg = dec.people, parse_background(background)
-        scene = bg.kind == "original"  # the person stays in the photo's scene: its light from every side too
+        parts = dec.people
         if parts:
-            light = self.resolve_light(light)
+            bg, light = parse_background(background), self.resolve_light(light)
             out = per_person.by_person(self._composer, self._network.relit, dec, parts, light, exposure, bg,
                                        keep=image is dec)  # a photo decomposed for this call: relit once
             if layers:  # the layers are the group's, decomposed as one
-                return replace(self._relight_with_layers(dec, self._factor.expose(dec, light, exposure, scene), bg),
-                               image=out)
+                return replace(self._relight_with_layers(dec, self._factor.expose(dec, light, exposure), bg), image=out)
             return out
-        lit = self._factor.expose(dec, self.resolve_light(light), exposure, scene=scene)
+        lit = self._factor.expose(dec, self.resolve_light(light), exposure)
+        bg = parse_background(background)
         if layers:
             return self._relight_with_layers(dec, lit, bg)
         outputs = next(self._network.relit(dec, lit[None], 1, want_layers=self.detail))
@@ -448,12 +447,12 @@ class Relighter:
                                                        resolved[s : s + step], exposures[s : s + step], bg,
                                                        keep=image is dec or s + step < len(resolved))
             return
-        bg = parse_background(background)
-        expose, scene = self._factor.expose, bg.kind == "original"  # the photo's scene kept: its light from every side
+        expose = self._factor.expose
         if all(e == exposures[0] for e in exposures):
-            lits = expose(dec, resolved, exposures[0], scene)
+            lits = expose(dec, resolved, exposures[0])
         else:
-            lits = np.stack([expose(dec, one[None], e, scene)[0] for one, e in zip(resolved, exposures, strict=True)])
+            lits = np.stack([expose(dec, one[None], e)[0] for one, e in zip(resolved, exposures, strict=True)])
+        bg = parse_background(background)
         backdrop = backdrop_of(dec, bg)
         for lit, outputs in zip(lits, self._network.relit(dec, lits, batch_size, want_layers=self.detail), strict=True):
             yield self._composer.compose(dec, lit, outputs, backdrop, clean=bg.kind != "original", grade=bg.graded)

@@ -10,8 +10,7 @@ Routes (no route takes a filesystem path; ids are random tokens of the server's 
     GET  /api/photo.png            the photo as the pipeline reads it, full resolution (the page's "before")
     POST /api/render               {"light": 27 numbers, "exposure": ..., "grade_background": bool}
                                    -> {"id", "seconds", "command", ...}
-    POST /api/shadow               {"light": 27 numbers, "exposure": ...} -> the faces' cast shadows the render puts
-                                   under it (its exposure: absent "auto"), for the
+    POST /api/shadow               {"light": 27 numbers} -> the faces' cast shadows the render puts under it, for the
                                    preview: {"box": [y0, y1, x0, x1], "meter", "depth": base64 uint8} (Studio.shadow)
     GET  /api/result/ID.png        a render's PNG at full resolution (?download=1: as an attachment)
     GET  /api/result/ID/light.npy  its light (9, 3) float32 RGB; light.json likewise
@@ -288,8 +287,8 @@ def create_app(studio: Studio, allowed_hosts: list[str] | None = None, budget: B
     async def shadow(request: Request):
         from starlette.concurrency import run_in_threadpool
 
-        body = await _json_object(request, "shadow", '{"light": [27 numbers], "exposure": "auto"}')
-        out = await run_in_threadpool(studio.shadow, body.get("light"), body.get("exposure", "auto"))
+        body = await _json_object(request, "shadow", '{"light": [27 numbers]}')
+        out = await run_in_threadpool(studio.shadow, body.get("light"))
         return {"box": out["box"], "meter": out["meter"], "depth": base64.b64encode(out["depth"]).decode("ascii")}
 
     @app.post("/api/panorama-view")

@@ -38,7 +38,7 @@ from ...engine.limits import header_size, shrink
 from ...image.color import REC709
 from ...image.compositing import Background
 from ...image.io import as_colour, decode_bytes, encode_image, read_image, sibling_mask
-from ...light import envmap, presets, scene_floor, sh
+from ...light import envmap, presets, sh
 from ...relight.strength import restore_bands
 
 log = logging.getLogger(__name__)
@@ -417,10 +417,6 @@ class Studio:
             "neutral_lift": list(NEUTRAL_LIFT),  # the near-neutral darks' rule in the grade (look.neutral_values)
             "neutral_chroma_exp": float(NEUTRAL_CHROMA_EXP),
             "own_white": np.asarray(dec.white_light, np.float64)[:, 0].tolist(),
-            # over the photo's own background each light keeps the photo's light from every side (scene_floor); null:
-            # another background, where the render does not
-            "scene_floor": scene_floor.floor(dec.white_light) if self.background == "original" else None,
-            "sphere_size": scene_floor.SPHERE,
             "data": head + bytes(offset - len(head)) + planes.tobytes() + guard.tobytes() + graded.tobytes() + headed,
         }
 
@@ -436,30 +432,19 @@ class Studio:
             return lit
         if exp == "physical":
             return lit
-        lit = self._in_scene(lit)
         albedo_s, transport_s, mask_s = self._exposure
         target = self._layers["exposure_target"]
         scale = exposure_scale(albedo_s[None], transport_s[None], mask_s[None], lit, target, "auto", METER_POWER)
         exposed = (lit * np.float32(scale)).astype(np.float32) * np.float32(meter)
         return guarded(exposed, exp, self._highlight)
 
-    def _in_scene(self, light: np.ndarray) -> np.ndarray:
-        """``light`` as the render takes it before its exposure: over the photo's own background keeping the photo's
-        light from every side (relight_rt.light.scene_floor); as it is over another background."""
-        own = self._layers["scene_floor"]
-        return light if own is None else scene_floor.with_scene_floor(light, own)
-
-    def shadow(self, light, exposure="auto") -> dict:
+    def shadow(self, light) -> dict:
         """The faces' cast shadows that the final result puts under ``light`` (27 numbers; relight_rt.relight.relighter
-        ``Relighter.cast_shadows``) at ``exposure`` (its light is the one ``preview_light`` exposes: over the photo's
-        own background, not "physical", keeping the photo's light from every side), at the preview's size, for the
-        page to draw: {"box": [y0, y1, x0, x1] (preview pixels; empty: no shadow), "meter": the exposure's lift for
-        them (``preview_light``), "depth": bytes, uint8, 255 x (1 - the factor on the shading) over the box,
-        row-major}. Kept for the last ``SHADOW_CACHE`` lights (the page asks again for a light it comes back to); a
-        runtime without them answers no shadow."""
+        ``Relighter.cast_shadows``), at the preview's size, for the page to draw: {"box": [y0, y1, x0, x1] (preview
+        pixels; empty: no shadow), "meter": the exposure's lift for them (``preview_light``), "depth": bytes, uint8,
+        255 x (1 - the factor on the shading) over the box, row-major}. Kept for the last ``SHADOW_CACHE`` lights
+        (the page asks again for a light it comes back to); a runtime without them answers no shadow."""
         lit = request_light(light)
-        if self.exposure_supported and request_exposure(exposure) != "physical":
-            lit = self._in_scene(lit)
         key = lit.tobytes()
         with self._lock:
             hit = self._shadows.get(key)

@@ -49,17 +49,10 @@ function exposureValue() {
   return e.mode === "physical" ? "physical" : e.mode === "ev" ? e.ev : "auto";
 }
 
-// A light as the render takes it before its exposure: over the photo's own background keeping the photo's light from
-// every side (sh.withSceneFloor with the server's floor; null: another background, taken as it is).
-function inScene(light) {
-  const meta = state.info.preview;
-  return meta.scene_floor == null ? light : sh.withSceneFloor(light, meta.scene_floor, meta.sphere_size);
-}
-
 // The faces' cast shadows the final result puts under `light` (the server's, Studio.shadow), when they are known for
 // that light: {key, plane (the factor on the preview's shading, height x width), meter (the exposure's lift)}.
 function shadowFor(light) {
-  const key = `${exposureValue() === "physical"}:${light.join(",")}`;
+  const key = light.join(",");
   return state.shadow && state.shadow.key === key ? state.shadow : null;
 }
 
@@ -75,11 +68,11 @@ async function fetchShadow() {
   try {
     do {
       state.shadowPending = false;
-      const light = composedLight(), exposure = exposureValue();
-      const key = `${exposure === "physical"}:${light.join(",")}`;
+      const light = composedLight();
+      const key = light.join(",");
       if (state.shadow && state.shadow.key === key) continue;
       const res = await api("/api/shadow", {
-        method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify({ light, exposure }),
+        method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify({ light }),
       });
       const out = await res.json();
       const { width: w, height: h } = state.layers;
@@ -93,7 +86,7 @@ async function fetchShadow() {
         }
       }
       state.shadow = { key, plane, meter: out.meter };
-      if (`${exposureValue() === "physical"}:${composedLight().join(",")}` === key) {
+      if (composedLight().join(",") === key) {
         state.dirty = true;
         requestAnimationFrame(paint);
       }
@@ -107,17 +100,15 @@ async function fetchShadow() {
 }
 
 // The light the preview shows: the server applies the exposure itself when its runtime supports it.
-function previewLight(composed) {
-  if (!state.info.exposure || state.exposure.mode === "physical") return composed;
+function previewLight(light) {
+  if (!state.info.exposure || state.exposure.mode === "physical") return light;
   const ev = state.exposure.mode === "ev" ? state.exposure.ev : 0;
   const meta = state.info.preview;
-  const cast = shadowFor(composed);
-  // over the photo's own background the light keeps the photo's light from every side (Studio._in_scene)
-  const light = inScene(composed);
   const s = sh.exposureScale(state.layers.exposure, light, meta.exposure_target, 0, 1, meta.exposure_power ?? 1);
   // float32 as the server holds the exposed light, the faces' cast shadows metered (when known for this light),
   // then the shoulder's loss given back, the highlight guard (its bound counted from the light as it came), then the
   // EV (relight_rt.light.exposure.guarded)
+  const cast = shadowFor(light);
   const meter = cast ? cast.meter : 1;
   const exposed = sh.scale(sh.scale(light, s).map((v) => Math.fround(v)), meter).map((v) => Math.fround(v));
   const up = sh.shoulderGain(state.layers.highlight, exposed, meta.own_white, meta.shoulder_knee,
