@@ -196,6 +196,26 @@ def test_gpu_check_never_writes_over_the_bank(bank_dir, capsys):
     assert "--reference-dirs" in capsys.readouterr().err
 
 
+def test_gpu_bank_swaps_the_lights_of_a_built_bank_without_building_anyone(bank_dir, tmp_path, capsys):
+    """--lights-only: the people stay byte for byte, lights.npy becomes the new folder's lights."""
+    from export import dataset
+
+    swapped = tmp_path / "bank"
+    shutil.copytree(bank_dir, swapped)
+    make_lights(tmp_path / "new", 6)
+    argv = ["gpu-bank", "--out", str(swapped), "--lights", str(tmp_path / "new"), "--lights-only"]
+    assert main(argv) == 0
+    np.testing.assert_array_equal(np.load(swapped / "lights.npy"), dataset.read_lights(tmp_path / "new"))
+    for person in ("shapes_300000.npz", "shapes_300001.npz"):
+        assert (swapped / person).read_bytes() == (bank_dir / person).read_bytes()
+    index = json.loads((swapped / "bank.json").read_text())
+    assert index["subjects"] == ["shapes_300000", "shapes_300001"] and index["lights"] == "lights.npy"
+    # a folder without a bank is refused in one line, and nothing is written there
+    (tmp_path / "empty").mkdir()
+    assert main([*argv[:2], str(tmp_path / "empty"), *argv[3:]]) == 2
+    assert "bank.json" in capsys.readouterr().err and not any((tmp_path / "empty").iterdir())
+
+
 @pytest.mark.parametrize("argv, message", [
     (["--seed", "-1"], "--seed"),  # a ValueError traceback from numpy's seeding
     (["--out", "FILE"], "a file"),  # a FileExistsError traceback

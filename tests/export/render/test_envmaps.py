@@ -171,7 +171,8 @@ def _direction(light: np.ndarray) -> tuple[float, float]:
 def test_face_height_kinds_light_from_about_the_face_height(kind):
     """The source is drawn at elevation -15..+20 deg; a room and a ceiling lamp pull the whole light's direction up
     a little, never to the sky kinds' 45 deg median."""
-    read = [_direction(project_envmap(envmaps.procedural_envmap(kind, np.random.default_rng(s), 32))) for s in range(24)]
+    maps = [envmaps.procedural_envmap(kind, np.random.default_rng(s), 32) for s in range(24)]
+    read = [_direction(project_envmap(m)) for m in maps]
     el, x = np.array(read).T
     assert el.min() > -20 and el.max() < 40 and -5 < np.median(el) < 20
     if kind == "flash":  # at the camera
