@@ -53,6 +53,15 @@ def test_two_steps_end_with_a_contract_graph_a_checkpoint_and_a_log(bank_dir, tm
                                                                "face"}
     stage = OnnxStage(out / "stage1.onnx", "stage1")
     assert stage.resolution == 64
+    # the bank's lights can be swapped (gpu-bank --lights-only): the summary and the graph name the ones trained on
+    import hashlib
+
+    import onnxruntime as ort
+
+    digest = hashlib.sha256(np.load(bank_dir / "lights.npy").tobytes()).hexdigest()[:12]
+    meta = ort.InferenceSession(str(out / "stage1.onnx"), providers=["CPUExecutionProvider"]).get_modelmeta()
+    assert summary["lights"] == f"4 lights, sha256 {digest}"
+    assert summary["lights"] in meta.custom_metadata_map["relight_rt.source"]
     model, ckpt = load_checkpoint(out / "last.pt")
     assert ckpt["step"] == 2 and model.config["width"] == 4
     events = [r["event"] for r in read_jsonl(out / "log.jsonl")]
