@@ -223,6 +223,9 @@ _KINDS: dict[str, Callable] = {
     "low_lamp": _low_lamp,
 }
 KINDS = tuple(_KINDS)
+# what ``python -m export lights`` draws when no --kinds are named: the kinds every shipped model's lights were drawn
+# from, in the order that makes the same maps for the same seed as before flash and low_lamp were added
+DEFAULT_KINDS = ("sun_sky", "overcast", "softbox", "window", "lamps", "night")
 # kinds whose key light is fixed to the camera: a turn about the vertical that puts it behind the subject would
 # no longer be that light (the ``lights`` command turns these by --camera-turn at most)
 CAMERA_BOUND = frozenset({"flash"})

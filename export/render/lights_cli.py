@@ -47,7 +47,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--rotations", type=int, default=10, help="rotations about the vertical per map (36° steps)")
     parser.add_argument("--height", type=int, default=90, help="map height H (width 2H, divisible by --rotations)")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--kinds", nargs="+", help="procedural kinds to draw from (default: all)")
+    parser.add_argument("--kinds", nargs="+",
+                        help="procedural kinds to draw from, in turn (default: sun_sky overcast softbox window lamps "
+                             "night; flash and low_lamp only when named)")
     parser.add_argument("--hdr", type=Path, help="use the environment maps in this folder instead of procedural ones")
     parser.add_argument("--keep-scale", action="store_true", help="do not rescale --hdr maps")
     parser.add_argument("--target", type=float, nargs=2, default=None, metavar=("LO", "HI"),
@@ -85,7 +87,7 @@ def _maps(config: LightsConfig):
             env = envmaps.resize_envmap(load_envmap(p), config.height)
             yield p.stem, None, env if config.keep_scale else envmaps.normalize_envmap(env, target())
         return
-    kinds = config.kinds or list(envmaps.KINDS)
+    kinds = config.kinds or list(envmaps.DEFAULT_KINDS)
     bad = [k for k in kinds if k not in envmaps.KINDS]
     if bad:
         raise RelightError(f"--kinds {bad}: expected some of {envmaps.KINDS}")

@@ -158,6 +158,14 @@ def test_the_shipped_kinds_draw_the_same_maps(kind):
             envmaps.procedural_envmap(kind, np.random.default_rng(0), 16))
 
 
+def test_the_lights_command_draws_the_shipped_kinds_unless_told(tmp_path):
+    """flash and low_lamp only when named: `export lights` and the quickstart make the same set as before them."""
+    assert envmaps.DEFAULT_KINDS == tuple(SHIPPED_KINDS)
+    assert main(["lights", "--out", str(tmp_path), "--n", "8", "--height", "10", "--rotations", "2"]) == 0
+    kinds = sorted({n.split("_", 1)[1].rsplit("_r", 1)[0] for n in dataset.list_lights(tmp_path)})
+    assert kinds == sorted(SHIPPED_KINDS)
+
+
 def _direction(light: np.ndarray) -> tuple[float, float]:
     """(elevation in degrees, toward-the-camera component x) of a light's luminance by its degree-1 band."""
     from relight_rt.image.color import REC709
