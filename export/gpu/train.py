@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import argparse
 import copy
+import hashlib
 import json
 import logging
 import math
@@ -388,10 +389,12 @@ def run(config: GpuTrainConfig) -> int:
         init = warm_start.load_init(model, config.init)
     out.mkdir(parents=True, exist_ok=True)
     lights = torch.as_tensor(lights_np, device=device)
+    # which training lights: the bank's lights.npy can be swapped (gpu-bank --lights-only); its digest names them
+    lights_id = f"{len(lights_np)} lights, sha256 {hashlib.sha256(lights_np.tobytes()).hexdigest()[:12]}"
     logger = JsonlLog(out / "log.jsonl")
     device_name = torch.cuda.get_device_name(device) if device.type == "cuda" else "cpu"
     logger.write({"event": "start", "device": device_name, "torch": torch.__version__, "subjects": len(subjects),
-                  "val_people": held, "lights": len(lights_np),
+                  "val_people": held, "lights": len(lights_np), "lights_id": lights_id,
                   "config": {k: str(v) for k, v in asdict(config).items()}})
     log.info("gpu-train on %s: %d subjects (%d more held out), %d lights, %d² px, %d directions, depth maps %d²",
              device_name, len(subjects), len(held), len(lights_np), config.resolution, config.dirs, config.shadow_size)
@@ -409,6 +412,7 @@ def run(config: GpuTrainConfig) -> int:
         return pool.batch(idx.to(device), lights[light_idx.to(device)], flips.to(device))
 
     state = {"step": 0, "stopped": "deadline", "losses": [], "train_s": 0.0, "init": init, "error": None,
+             "lights_id": lights_id,
              "val": None, "best": Best(), "val_s": 0.0, "val_error": None}
 
     def validate() -> None:
@@ -548,7 +552,8 @@ def _finish(config, model, sampler, state, start, index, device_name, logger) ->
         steps, rendered = best.step, best.rendered if best.step else 0
     source = (f"relight_rt gpu-train: {steps} steps on {rendered} samples rendered from "
               f"{len(sampler.subjects)} bank people "
-              f"({len(index['subjects']) - len(sampler.subjects)} more held out) on {device_name}, from "
+              f"({len(index['subjects']) - len(sampler.subjects)} more held out) under its {state['lights_id']} "
+              f"on {device_name}, from "
               f"{state['init'] or 'random weights'}"
               + (f", albedo anchored to it (weight {config.albedo_anchor:g})" if config.albedo_anchor > 0 else ""))
     exported = None
@@ -573,6 +578,7 @@ def _finish(config, model, sampler, state, start, index, device_name, logger) ->
         "loss_last": float(np.mean(losses[-k:])) if losses else None,
         "elapsed_s": round(elapsed, 1), "init": state["init"], "onnx": exported["path"] if exported else None,
         "subjects": len(index["subjects"]), "trained_people": len(sampler.subjects), "exported": chosen,
+        "lights": state["lights_id"],
         "val_error": state["val_error"],
         "val": None if state["val"] is None else {**best.summary(), "metric": config.val_metric,
                                                   "people": state["val"].names,

@@ -1,5 +1,6 @@
 """Procedural HDR environment maps (sun and sky, overcast, studio soft boxes, windows, coloured lamps,
-night), their rotation about the vertical axis, scale normalisation and .hdr files.
+night, an on-camera flash, a hard lamp at face height), their rotation about the vertical axis, scale
+normalisation and .hdr files.
 
 Maps are equirectangular (H, 2H, 3) float32 linear RGB radiance in the layout of DESIGN.md §3
 (top row = sky; pixel directions from ``relight_rt.envmap.directions_envmap``). Their SH projection is
@@ -81,7 +82,7 @@ def _add_source(env: np.ndarray, weight: np.ndarray, color: np.ndarray, power: f
 # ------------------------------------------------------------------------------------ the map kinds
 
 
-def _sun_sky(dirs, omega, rng):
+def _sun_sky(dirs, omega, rng, ground_albedo=None):
     z = dirs[..., 2]
     sun_el = math.radians(rng.uniform(5, 75))
     sun = _unit(rng.uniform(0, 2 * math.pi), sun_el)
@@ -95,7 +96,22 @@ def _sun_sky(dirs, omega, rng):
     sky_e = float((env.mean(axis=-1) * omega * np.clip(z, 0, 1)).sum())
     warm = np.array([1.0, 0.75, 0.5]) if sun_el < math.radians(20) else np.array([1.0, 0.95, 0.88])
     _add_source(env, _disc(dirs, sun, math.radians(2.5), math.radians(2.0)), warm, sky_e * rng.uniform(1.5, 6), omega)
+    if ground_albedo is not None:
+        env = _lit_ground(env, dirs, omega, rng, ground_albedo)
     return env
+
+
+def _lit_ground(env, dirs, omega, rng, albedo_range):
+    """The lower half of ``env`` replaced by a flat diffuse ground lit by the upper half: radiance
+    ρ_c · E_c / π, with E_c the irradiance the sky and sun give a horizontal surface and ρ = an albedo drawn in
+    ``albedo_range`` (grass and asphalt ~0.1, dry soil and concrete 0.2-0.35, sand ~0.4) times a pale tint of
+    unit luminance. The bounce from below that a plain dark ground leaves out."""
+    z = dirs[..., 2]
+    up = (omega * np.clip(z, 0.0, 1.0))[..., None]
+    irr = (env * up).sum(axis=(0, 1))  # (3,) irradiance on a horizontal surface from above
+    tint = _hue(rng, (0.0, 0.35))
+    rho = rng.uniform(*albedo_range) * tint / (tint @ REC709)
+    return np.where((z >= 0)[..., None], env, rho * irr / math.pi)
 
 
 def _overcast(dirs, omega, rng):
@@ -168,6 +184,34 @@ def _night(dirs, omega, rng):
     return env
 
 
+def _face_height_light(dirs, omega, rng, spread: float, warmth: tuple[float, float]):
+    """One small hard source (a Gaussian lobe of 2-5°) at about the face's height (elevation −15..+20°) within
+    ``spread`` degrees of +x (toward the camera), of a white in ``warmth`` (:func:`_temperature`), over a dim room's
+    walls and, half the time, a ceiling lamp with a tenth to a third of its power."""
+    env = _room(dirs, rng, rng.uniform(0.02, 0.12))
+    d = _unit(math.radians(rng.uniform(-spread, spread)), math.radians(rng.uniform(-15, 20)))
+    radius = math.radians(rng.uniform(2, 5))
+    _add_source(env, np.exp(-((_angle_to(dirs, d) / radius) ** 2)), _temperature(rng, *warmth), 3.0, omega)
+    if rng.random() < 0.5:
+        lamp = _unit(rng.uniform(0, 2 * math.pi), math.radians(rng.uniform(40, 85)))
+        _add_source(env, np.exp(-((_angle_to(dirs, lamp) / math.radians(10)) ** 2)), _temperature(rng, -1.0, 0.0),
+                    3.0 * rng.uniform(0.1, 0.35), omega)
+    return env
+
+
+def _flash(dirs, omega, rng):
+    """An on-camera flash (a phone's LED, a hot-shoe flash, a ring light): :func:`_face_height_light` within 10°
+    of the camera, daylight white. :data:`CAMERA_BOUND`: the ``lights`` command turns it only a little about the
+    vertical, as a flash stays on the camera wherever the photographer stands."""
+    return _face_height_light(dirs, omega, rng, 10.0, (-0.1, 0.3))
+
+
+def _low_lamp(dirs, omega, rng):
+    """A hard light at face height from anywhere around (a bare bulb or a lamp on a table, an off-camera flash on a
+    stand, the sun through a low window): :func:`_face_height_light` at any azimuth, warm to neutral."""
+    return _face_height_light(dirs, omega, rng, 180.0, (-0.8, 0.2))
+
+
 _KINDS: dict[str, Callable] = {
     "sun_sky": _sun_sky,
     "overcast": _overcast,
@@ -175,8 +219,17 @@ _KINDS: dict[str, Callable] = {
     "window": _window,
     "lamps": _lamps,
     "night": _night,
+    "flash": _flash,
+    "low_lamp": _low_lamp,
 }
 KINDS = tuple(_KINDS)
+# what ``python -m export lights`` draws when no --kinds are named: the kinds every shipped model's lights were drawn
+# from, in the order that makes the same maps for the same seed as before flash and low_lamp were added
+DEFAULT_KINDS = ("sun_sky", "overcast", "softbox", "window", "lamps", "night")
+# kinds whose key light is fixed to the camera: a turn about the vertical that puts it behind the subject would
+# no longer be that light (the ``lights`` command turns these by --camera-turn at most)
+CAMERA_BOUND = frozenset({"flash"})
+GROUND_ALBEDO = (0.1, 0.4)  # the range real ground has (grass, asphalt 0.1; soil, concrete 0.2-0.35; sand 0.4)
 
 
 # ------------------------------------------------------------------------------------ public API
@@ -218,7 +271,8 @@ def white_balance(env: np.ndarray, strength: float) -> np.ndarray:
     return (env * gain).astype(np.float32)
 
 
-def procedural_envmap(kind: str, rng: np.random.Generator, height: int = 64, target: float | None = None) -> np.ndarray:
+def procedural_envmap(kind: str, rng: np.random.Generator, height: int = 64, target: float | None = None, *,
+                      ground_albedo: tuple[float, float] | None = None) -> np.ndarray:
     """Make one procedural environment map.
 
     Args:
@@ -226,15 +280,25 @@ def procedural_envmap(kind: str, rng: np.random.Generator, height: int = 64, tar
         rng: random generator (the only source of randomness).
         height: map height H (width 2H).
         target: brightest irradiance after normalisation; default log-uniform in :data:`TARGET_RANGE`.
+        ground_albedo: "sun_sky" only: (lo, hi) in [0, 1]: the ground is a diffuse surface of an albedo drawn in
+            that range, lit by the sky and sun (e.g. :data:`GROUND_ALBEDO`); None (the default): the dim ground
+            the shipped stage 1 was trained with, and the same map for the same generator as before the option.
 
     Returns:
         (H, 2H, 3) float32 linear RGB radiance, ≥ 0.
     """
     if kind not in _KINDS:
         raise RelightError(f"environment map kind {kind!r}: expected one of {KINDS}")
+    if ground_albedo is not None:
+        lo, hi = ground_albedo
+        if not 0.0 <= lo <= hi <= 1.0:
+            raise RelightError(f"ground albedo: expected 0 <= lo <= hi <= 1, got {ground_albedo}")
     dirs = directions_envmap(height).astype(np.float64)
     omega = solid_angles_envmap(height).astype(np.float64)
-    env = _KINDS[kind](dirs, omega, rng)
+    if kind == "sun_sky":
+        env = _sun_sky(dirs, omega, rng, ground_albedo)
+    else:
+        env = _KINDS[kind](dirs, omega, rng)
     env = env * np.exp(rng.normal(0.0, 0.08, 3))  # a slight overall tint (white balance)
     if target is None:
         target = math.exp(rng.uniform(math.log(TARGET_RANGE[0]), math.log(TARGET_RANGE[1])))

@@ -53,6 +53,15 @@ def test_two_steps_end_with_a_contract_graph_a_checkpoint_and_a_log(bank_dir, tm
                                                                "face"}
     stage = OnnxStage(out / "stage1.onnx", "stage1")
     assert stage.resolution == 64
+    # the bank's lights can be swapped (gpu-bank --lights-only): the summary and the graph name the ones trained on
+    import hashlib
+
+    import onnxruntime as ort
+
+    digest = hashlib.sha256(np.load(bank_dir / "lights.npy").tobytes()).hexdigest()[:12]
+    meta = ort.InferenceSession(str(out / "stage1.onnx"), providers=["CPUExecutionProvider"]).get_modelmeta()
+    assert summary["lights"] == f"4 lights, sha256 {digest}"
+    assert summary["lights"] in meta.custom_metadata_map["relight_rt.source"]
     model, ckpt = load_checkpoint(out / "last.pt")
     assert ckpt["step"] == 2 and model.config["width"] == 4
     events = [r["event"] for r in read_jsonl(out / "log.jsonl")]
@@ -194,6 +203,26 @@ def test_gpu_check_never_writes_over_the_bank(bank_dir, capsys):
     assert (bank_dir / "bank.json").read_bytes() == index
     assert main([*argv[:-2], "--reference-dirs", "0"]) == 2
     assert "--reference-dirs" in capsys.readouterr().err
+
+
+def test_gpu_bank_swaps_the_lights_of_a_built_bank_without_building_anyone(bank_dir, tmp_path, capsys):
+    """--lights-only: the people stay byte for byte, lights.npy becomes the new folder's lights."""
+    from export import dataset
+
+    swapped = tmp_path / "bank"
+    shutil.copytree(bank_dir, swapped)
+    make_lights(tmp_path / "new", 6)
+    argv = ["gpu-bank", "--out", str(swapped), "--lights", str(tmp_path / "new"), "--lights-only"]
+    assert main(argv) == 0
+    np.testing.assert_array_equal(np.load(swapped / "lights.npy"), dataset.read_lights(tmp_path / "new"))
+    for person in ("shapes_300000.npz", "shapes_300001.npz"):
+        assert (swapped / person).read_bytes() == (bank_dir / person).read_bytes()
+    index = json.loads((swapped / "bank.json").read_text())
+    assert index["subjects"] == ["shapes_300000", "shapes_300001"] and index["lights"] == "lights.npy"
+    # a folder without a bank is refused in one line, and nothing is written there
+    (tmp_path / "empty").mkdir()
+    assert main([*argv[:2], str(tmp_path / "empty"), *argv[3:]]) == 2
+    assert "bank.json" in capsys.readouterr().err and not any((tmp_path / "empty").iterdir())
 
 
 @pytest.mark.parametrize("argv, message", [

@@ -132,3 +132,124 @@ def test_lights_command_white_balance(tmp_path):
     np.testing.assert_allclose(project_envmap(environment(balanced, name)), dataset.read_light(balanced, name),
                                rtol=0.03, atol=0.01)
     assert main(["lights", "--out", str(tmp_path / "x"), "--white-balance", "2"]) == 2
+
+
+# The seed-0 map of each kind the shipped stage 1's lights were drawn from (height 16; coefficients 0, 2 and 3 of the
+# green channel of its projection), recorded from this code before the flash, low_lamp and ground_albedo options
+# were added: adding kinds or options must not change them (the shipped lights are reproducible from their command).
+SHIPPED_KINDS = {
+    "sun_sky": [0.744759, 0.85524, -0.0608724],
+    "overcast": [1.25016, 1.0129, 0.142388],
+    "softbox": [0.266958, 0.292515, 0.218931],
+    "window": [0.346952, 0.233341, 0.319594],
+    "lamps": [0.424166, 0.450316, 0.38276],
+    "night": [0.302308, 0.250396, -0.0734354],
+}
+
+
+@pytest.mark.parametrize("kind", sorted(SHIPPED_KINDS))
+def test_the_shipped_kinds_draw_the_same_maps(kind):
+    light = project_envmap(envmaps.procedural_envmap(kind, np.random.default_rng(0), 16))
+    np.testing.assert_allclose(light[[0, 2, 3], 1], SHIPPED_KINDS[kind], rtol=1e-4)
+    # the ground option belongs to sun_sky: every other kind ignores it and draws the same map
+    if kind != "sun_sky":
+        np.testing.assert_array_equal(
+            envmaps.procedural_envmap(kind, np.random.default_rng(0), 16, ground_albedo=(0.1, 0.4)),
+            envmaps.procedural_envmap(kind, np.random.default_rng(0), 16))
+
+
+def test_the_lights_command_draws_the_shipped_kinds_unless_told(tmp_path):
+    """flash and low_lamp only when named: `export lights` and the quickstart make the same set as before them."""
+    assert envmaps.DEFAULT_KINDS == tuple(SHIPPED_KINDS)
+    assert main(["lights", "--out", str(tmp_path), "--n", "8", "--height", "10", "--rotations", "2"]) == 0
+    kinds = sorted({n.split("_", 1)[1].rsplit("_r", 1)[0] for n in dataset.list_lights(tmp_path)})
+    assert kinds == sorted(SHIPPED_KINDS)
+
+
+def _direction(light: np.ndarray) -> tuple[float, float]:
+    """(elevation in degrees, toward-the-camera component x) of a light's luminance by its degree-1 band."""
+    from relight_rt.image.color import REC709
+    from relight_rt.light.sh import dominant_direction
+
+    d, _ = dominant_direction(light @ np.asarray(REC709))
+    return math.degrees(math.asin(d[2])), float(d[0])
+
+
+@pytest.mark.parametrize("kind", ["flash", "low_lamp"])
+def test_face_height_kinds_light_from_about_the_face_height(kind):
+    """The source is drawn at elevation -15..+20 deg; a room and a ceiling lamp pull the whole light's direction up
+    a little, never to the sky kinds' 45 deg median."""
+    maps = [envmaps.procedural_envmap(kind, np.random.default_rng(s), 32) for s in range(24)]
+    read = [_direction(project_envmap(m)) for m in maps]
+    el, x = np.array(read).T
+    assert el.min() > -20 and el.max() < 40 and -5 < np.median(el) < 20
+    if kind == "flash":  # at the camera
+        assert x.min() > 0.7
+    else:  # from anywhere around: in front of and behind the subject
+        assert (x > 0.5).any() and (x < -0.5).any()
+
+
+def test_lit_ground_bounces_the_sky_and_sun_at_its_albedo():
+    """sun_sky with ground_albedo: the ground's luminance is albedo x the horizontal irradiance / pi (the albedo
+    drawn in the range, its tint of unit luminance), so it lowers the light's direction against the dim default."""
+    from relight_rt.image.color import REC709
+    from relight_rt.light.envmap import directions_envmap, solid_angles_envmap
+
+    z = directions_envmap(32)[..., 2]
+    omega = solid_angles_envmap(32)
+    for seed in range(4):
+        env = envmaps.procedural_envmap("sun_sky", np.random.default_rng(seed), 32, ground_albedo=(0.2, 0.3))
+        lum = env @ np.asarray(REC709, np.float32)
+        irradiance = float((lum * omega * np.clip(z, 0, 1)).sum())
+        ground = lum[z < 0]
+        assert np.ptp(ground) < 1e-6 * ground.max()  # one flat diffuse ground
+        # the tint's luminance is 1 before the overall white-balance draw (a few % per channel)
+        assert 0.2 * 0.85 < ground.mean() * math.pi / irradiance < 0.3 * 1.15
+        dim = envmaps.procedural_envmap("sun_sky", np.random.default_rng(seed), 32)
+        assert _direction(project_envmap(env))[0] < _direction(project_envmap(dim))[0]
+    with pytest.raises(RelightError, match="ground albedo"):
+        envmaps.procedural_envmap("sun_sky", np.random.default_rng(0), 16, ground_albedo=(0.5, 0.2))
+
+
+def test_lights_command_keeps_the_flash_at_the_camera(tmp_path):
+    out = tmp_path / "lights"
+    assert main(["lights", "--out", str(out), "--n", "4", "--height", "30", "--rotations", "10",
+                 "--kinds", "flash", "low_lamp", "--camera-turn", "30"]) == 0
+    names = list_environments(out)
+    flash = [n for n in names if "_flash_" in n]
+    lamp = [n for n in names if "_low_lamp_" in n]
+    assert len(flash) == len(lamp) == 20
+    # the flash maps turn through +-30 deg (whole columns: 6 deg at height 30), the low lamps the whole circle
+    import json
+
+    index = json.loads((out / "lights.json").read_text())["lights"]
+    assert [index[n]["columns"] for n in flash[:10]] == [-5, -4, -3, -2, -1, 1, 2, 3, 4, 5]
+    assert all("columns" not in index[n] for n in lamp)
+    assert min(_direction(dataset.read_light(out, n))[1] for n in flash) > 0.5
+    assert min(_direction(dataset.read_light(out, n))[1] for n in lamp) < -0.5
+    # the light file is the SH of the turned map render-photos will use
+    for name in (flash[0], flash[7], lamp[3]):
+        np.testing.assert_allclose(project_envmap(environment(out, name)), dataset.read_light(out, name),
+                                   rtol=0.03, atol=0.01)
+    assert main(["lights", "--out", str(tmp_path / "x"), "--camera-turn", "200"]) == 2
+    assert main(["lights", "--out", str(tmp_path / "x"), "--ground-albedo", "0.4", "0.1"]) == 2
+
+
+def test_direction_figures_of_known_lights():
+    from export.render.lights_cli import direction_figures
+    from relight_rt import lights
+
+    def toward(el_deg, az_deg):
+        el, az = math.radians(el_deg), math.radians(az_deg)
+        return lights.directional([math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el)])
+
+    # 2 frontal at face height, 1 frontal from below, 1 from the side at the horizon, 1 from above, 1 uniform
+    set_ = np.stack([toward(5, 0), toward(-10, 20), toward(-30, 0), toward(0, 90), toward(60, 0),
+                     lights.ambient(1.0)])
+    f = direction_figures(set_)
+    assert f["n"] == 6
+    assert f["frontal_horizon"] == pytest.approx(2 / 6, abs=1e-4)
+    assert f["below_0"] == pytest.approx(2 / 6, abs=1e-4) and f["below_10"] == pytest.approx(4 / 6, abs=1e-4)
+    assert f["elevation_quantiles"]["50"] == pytest.approx(2.5, abs=0.2)  # between 0 and 5 deg
+    with pytest.raises(RelightError, match="expected"):
+        direction_figures(np.zeros((3, 9)))
