@@ -3,6 +3,7 @@
     python benchmarks/yale_eval.py --out runs/yale [--yale ../shared/realdata/yale] [--dpr DPR_REPO | --no-dpr]
         [--cache runs/dpr_cache] [--subjects yaleB02 yaleB05 ...] [--no-mesh-occlusion] [--no-mirror-dark]
         [--no-rim-fill] [--no-penumbra-cap] [--no-rim-shown] [--own-light {today,true,true-direction,...}]
+        [--own-level {meter,refit,dc}] [--own-scale K]
 
 Issue 48's protocol. Every photo is grey (the PNG's one channel as R = G = B), relit with an ellipse mask (the
 face: centre at 0.50, 0.52 of the image, semi-axes 0.44 W and 0.46 H) under a white point lamp in the photo's
@@ -32,9 +33,9 @@ direction (cos e cos a, -cos e sin a, sin e).
 built from Yale's lamp for it (the frontal lamp for the relight pairs, the side lamp for the de-light pairs): "true"
 ``lamp`` itself, "true-direction" the true direction at stage 1's directionality, "true-hardness" stage 1's direction
 at the true directionality, "today-lamp" stage 1's direction and directionality as a lamp plus ambient (the control
-for the lamp's shape); each at the level "auto" meters under today's own light. yale.json records the mode and, per
-pair, the own light's angle off the photo's lamp and its directionality; benchmarks/yale_compare.py sets runs side by
-side. Results: docs/RESULTS.md (oracle29).
+for the lamp's shape); each at today's level as "auto" meters it (``--own-level``: or two other readings of it).
+yale.json records the mode and, per pair, the own light's angle off the photo's lamp and its directionality;
+benchmarks/yale_compare.py sets runs side by side. Results: docs/RESULTS.md (oracle29).
 
 DPR (zhhoper/DPR, benchmarks/dpr_protocol.py: its 512-px grey network on the CPU, the whole photo squashed to
 512 as its demo does, our light converted exactly into its frame, its DC set to the demo lights') is measured
@@ -79,6 +80,7 @@ EPS = 1e-3
 GRID = 48
 AMBIENT = 0.05
 OWN_LIGHTS = ("today", "true", "true-direction", "true-hardness", "today-lamp")  # own_light's modes
+OWN_LEVELS = ("meter", "refit", "dc")  # ... and the levels it keeps today's of
 RELIGHT_AZ = (25, 50, 70)
 DELIGHT_AZ = (50, 70)
 DETAIL_SIGMA = 2.0  # detail_shares: the fine detail is the log luminance less its blur over this many pixels,
@@ -115,20 +117,24 @@ def lamp_mix(direction, directionality: float) -> np.ndarray:
     return out
 
 
-def own_light(relighter: Relighter, dec, mode: str, azimuth_deg: float, elevation_deg: float = 0.0):
+def own_light(relighter: Relighter, dec, mode: str, azimuth_deg: float, elevation_deg: float = 0.0,
+              level: str = "meter", scale: float = 1.0):
     """``dec`` with its own light replaced for a measurement (``--own-light``; ``OWN_LIGHTS``): "today" ``dec``
     itself; else a white lamp plus ambient (``lamp_mix``) whose direction is the photo's true lamp (Yale's
     ``azimuth_deg`` / ``elevation_deg``, "true", "true-direction") or stage 1's (the degree-1 band of ``dec.light``'s
     luminance: "true-hardness", "today-lamp"), and whose directionality is ``lamp``'s, the truth ("true",
     "true-hardness"), or stage 1's own light's ("true-direction", "today-lamp"). "true" is ``lamp(azimuth_deg,
-    elevation_deg)`` itself, rescaled. The level: the person's mean luminance as "auto" meters it under the own
-    light (relight_rt.light.exposure ``mean_luminance``, ``METER_POWER``) is today's, so every new light is exposed
-    to the same scale and only the denominator of the relighting factor changes; the colour is today's (a grey photo:
-    nearly white; the factor reads ``white_light``). The head pass (none at Yale's size) gets the same light. Uses
-    the Relighter's private ``_factor`` (``with_light``, which recomputes all that depends on the light): a
-    measurement, not an API."""
+    elevation_deg)`` itself, rescaled. The level (``OWN_LEVELS``), today's kept: "meter" the person's mean luminance
+    as "auto" meters it under the own light (relight_rt.light.exposure ``mean_luminance``, ``METER_POWER``), so
+    every new light is exposed to the same scale; "refit" the person's mean albedo x shading through the transport
+    the factor divides with (the rule ``face_refit`` sets its light's level by: ``Factor.refit_inputs``); "dc" the
+    degree-0 luminance. The colour is today's (a grey photo: nearly white; the factor reads ``white_light``). Then the
+    light is multiplied by ``scale`` (``--own-scale``; "today" too: how much the level alone moves the figures). The
+    head pass (none at Yale's size) gets the same light. Uses the Relighter's private ``_factor`` (``with_light``, which
+    recomputes all that depends on the light): a measurement, not an API."""
+    factor = relighter._factor
     if mode == "today":
-        return dec
+        return dec if scale == 1 else _with_own_light(factor, dec, dec.light * np.float32(scale))
     today, today_d = sh.dominant_direction(dec.white_light[:, 0])
     true_d = sh.dominant_direction(lamp(azimuth_deg, elevation_deg)[:, 0])[1]
     direction = lamp_direction(azimuth_deg, elevation_deg) if mode in ("true", "true-direction") else today
@@ -137,10 +143,21 @@ def own_light(relighter: Relighter, dec, mode: str, azimuth_deg: float, elevatio
     lum = lamp_mix(direction, true_d if mode in ("true", "true-hardness") else today_d)
     colour = dec.light[0].astype(np.float64) / float(dec.light[0] @ REC709)
     light = (lum[:, None] * colour[None, :]).astype(np.float32)
-    meter = lambda white: exposure_module.mean_luminance(  # noqa: E731  (white: (9,) luminance, as "auto" reads it)
-        dec.albedo, dec.transport, dec.network_mask, np.repeat(white[:, None], 3, axis=1), exposure_module.METER_POWER)
-    light *= np.float32(meter(dec.white_light[:, 0]) / meter(light @ REC709))
-    factor = relighter._factor
+    if level == "meter":
+        meter = lambda white: exposure_module.mean_luminance(  # noqa: E731  (white: (9,) luminance, as "auto" reads)
+            dec.albedo, dec.transport, dec.network_mask, np.repeat(white[:, None], 3, axis=1),
+            exposure_module.METER_POWER)
+    elif level == "refit":
+        albedo, transport, _ = factor.refit_inputs(dec)
+        meter = lambda white: float((albedo * np.maximum(transport @ white, 0)).sum())  # noqa: E731
+    else:  # "dc"
+        meter = lambda white: float(white[0])  # noqa: E731
+    light *= np.float32(scale * meter(dec.white_light[:, 0]) / meter(light @ REC709))
+    return _with_own_light(factor, dec, light)
+
+
+def _with_own_light(factor, dec, light: np.ndarray):
+    """``dec`` and its head pass (if any) with ``light`` as their own (``Factor.with_light``)."""
     new = factor.with_light(dec, light)
     if dec.head is not None:
         new = factor.derive(new, head=factor.with_light(dec.head, light))
@@ -301,9 +318,15 @@ def main(argv=None) -> int:
                         "(relight.factor.CAP_SHADOW_REACH; on by default since faces16)")
     p.add_argument("--own-light", choices=OWN_LIGHTS, default="today",
                    help="a measurement: the photo's own light replaced by an oracle built from Yale's lamp (own_light)")
+    p.add_argument("--own-level", choices=OWN_LEVELS, default="meter",
+                   help="which of today's own light's levels the oracle keeps (own_light; default: meter)")
+    p.add_argument("--own-scale", type=float, default=1.0,
+                   help="the own light (today's or the oracle's) multiplied by this (own_light; default: 1)")
     p.add_argument("--no-rim-shown", action="store_true",
                    help="the fill's rim albedo read in the penumbra too (shadow_rim.RIM_SHOWN; on since faces16)")
     args = p.parse_args(argv)
+    if not (math.isfinite(args.own_scale) and args.own_scale > 0):
+        p.error(f"--own-scale: expected a positive number, got {args.own_scale}")
     if args.no_rim_fill:
         shadow_rim.RIM_RANGE = None
     if args.no_penumbra_cap:
@@ -360,7 +383,8 @@ def main(argv=None) -> int:
         if found is None:
             continue
         frontal, mask, points = found  # points: the real frontal photo's eyes (socket_ratio)
-        dec = own_light(relighter, relighter.decompose(frontal, mask), args.own_light, 0)
+        dec = own_light(relighter, relighter.decompose(frontal, mask), args.own_light, 0, level=args.own_level,
+                        scale=args.own_scale)
         for a in RELIGHT_AZ:
             for az in (-a, a):
                 path = find_file(args.yale, subject, az)
@@ -371,7 +395,8 @@ def main(argv=None) -> int:
                 path = find_file(args.yale, subject, az)
                 if path.is_file():
                     side = read_grey(path)
-                    side_dec = own_light(relighter, relighter.decompose(side, mask), args.own_light, az)
+                    side_dec = own_light(relighter, relighter.decompose(side, mask), args.own_light, az,
+                                         level=args.own_level, scale=args.own_scale)
                     run("delight", subject, az, 0, side, side_dec, frontal, points)
         print(f"{subject}: {len(rows)} pairs, {time.time() - t0:.0f} s", flush=True)
 
@@ -386,8 +411,8 @@ def main(argv=None) -> int:
             sub = [r for r in sel if abs(r[key]) == a]
             summary[task][f"|az| {a}"] = {m: figures(sub, m) for m in ("ours", "dpr")}
     summary["delight"]["sockets"] = sockets([r for r in rows if r["task"] == "delight"])
-    (args.out / "yale.json").write_text(json.dumps({"own_light": args.own_light, "summary": summary, "pairs": rows},
-                                                   indent=1))
+    run_of = {"own_light": args.own_light, "own_level": args.own_level, "own_scale": args.own_scale}
+    (args.out / "yale.json").write_text(json.dumps({**run_of, "summary": summary, "pairs": rows}, indent=1))
     sheet(rows, pictures, args.out / "yale_worst.jpg")
     sheet([r for r in rows if r["task"] == "delight"], pictures, args.out / "yale_worst_delight.jpg")
     fmt = lambda v: "  -  " if v is None else f"{v:5.3f}"  # noqa: E731
