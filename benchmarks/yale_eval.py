@@ -2,14 +2,17 @@
 
     python benchmarks/yale_eval.py --out runs/yale [--yale ../shared/realdata/yale] [--dpr DPR_REPO | --no-dpr]
         [--cache runs/dpr_cache] [--subjects yaleB02 yaleB05 ...] [--no-mesh-occlusion] [--no-mirror-dark]
-        [--no-rim-fill] [--no-penumbra-cap] [--no-rim-shown]
+        [--no-rim-fill] [--no-penumbra-cap] [--no-rim-shown] [--own-light {today,true,true-direction,...}]
+        [--own-level {meter,refit,dc}] [--own-scale K]
 
 Issue 48's protocol. Every photo is grey (the PNG's one channel as R = G = B), relit with an ellipse mask (the
 face: centre at 0.50, 0.52 of the image, semi-axes 0.44 W and 0.46 H) under a white point lamp in the photo's
 lamp direction plus 0.05 ambient (``lamp``), exposure "auto". Compared: the change of log luminance (Rec. 709 of
 linearised sRGB, + 1e-3) from the source photo, ours against the real photo's under the target lamp, both
 reduced to a 48 x 48 grid (area average of the luminance) and taken inside the ellipse; per pair the Pearson
-correlation and the contrast (least-squares slope of ours on the truth's, both centred); medians over pairs. The
+correlation, the contrast (least-squares slope of ours on the truth's, both centred) and the relative error
+("relerr": |ours - truth's| / |truth's|, both centred, = sqrt(s^2 - 2 contrast + 1), s = contrast / corr: what the
+contrast counts as strength when it points the wrong way, it counts as error); medians over pairs. The
 blotches of the sheets, as shares of the face (``detail_shares``, means over pairs): "speckle" where the relit
 photo has more than twice the real photo's fine detail, "flat" where it has less than half. The eye sockets
 (``socket_ratio``, de-light pairs from |azimuth| 70): each eye's luminance (MediaPipe's eye contour on the real
@@ -25,6 +28,14 @@ target lamp has (benchmarks/new_edges.py ``new_edges``: a fill's border inside a
 Lamp directions: Yale's negative azimuth lights the image's right (README of the data; checked there on every
 subject), and DESIGN.md's frame has +y toward the image's right, so azimuth a and elevation e give the
 direction (cos e cos a, -cos e sin a, sin e).
+
+``--own-light`` (a measurement, no product change; ``own_light``): each photo's own light replaced by an oracle
+built from Yale's lamp for it (the frontal lamp for the relight pairs, the side lamp for the de-light pairs): "true"
+``lamp`` itself, "true-direction" the true direction at stage 1's directionality, "true-hardness" stage 1's direction
+at the true directionality, "today-lamp" stage 1's direction and directionality as a lamp plus ambient (the control
+for the lamp's shape); each at today's level as "auto" meters it (``--own-level``: or two other readings of it).
+yale.json records the mode and, per pair, the own light's angle off the photo's lamp and its directionality;
+benchmarks/yale_compare.py sets runs side by side. Results: docs/RESULTS.md (oracle29).
 
 DPR (zhhoper/DPR, benchmarks/dpr_protocol.py: its 512-px grey network on the CPU, the whole photo squashed to
 512 as its demo does, our light converted exactly into its frame, its DC set to the demo lights') is measured
@@ -57,6 +68,9 @@ from _shared import missing, shared_path
 from new_edges import new_edges
 
 from relight_rt import Relighter, RuntimeConfig, lights
+from relight_rt.image.color import REC709
+from relight_rt.light import exposure as exposure_module
+from relight_rt.light import sh
 from relight_rt.person import face_mesh as face_mesh_module
 from relight_rt.person.face_mesh import FaceMesh
 from relight_rt.relight import factor as factor_module
@@ -65,6 +79,8 @@ from relight_rt.relight import shadow_rim
 EPS = 1e-3
 GRID = 48
 AMBIENT = 0.05
+OWN_LIGHTS = ("today", "true", "true-direction", "true-hardness", "today-lamp")  # own_light's modes
+OWN_LEVELS = ("meter", "refit", "dc")  # ... and the levels it keeps today's of
 RELIGHT_AZ = (25, 50, 70)
 DELIGHT_AZ = (50, 70)
 DETAIL_SIGMA = 2.0  # detail_shares: the fine detail is the log luminance less its blur over this many pixels,
@@ -87,6 +103,65 @@ def lamp_direction(azimuth_deg: float, elevation_deg: float) -> tuple[float, flo
 def lamp(azimuth_deg: float, elevation_deg: float = 0.0) -> np.ndarray:
     """(9, 3) a white point lamp from Yale's angles plus 0.05 ambient."""
     return lights.directional(lamp_direction(azimuth_deg, elevation_deg), (1, 1, 1), 1.0) + lights.ambient(AMBIENT)
+
+
+def lamp_mix(direction, directionality: float) -> np.ndarray:
+    """(9,) the luminance of a white point lamp from ``direction`` plus ambient, mixed so that its directionality
+    (``sh.dominant_direction``: |degree 1| / (sqrt 3 x degree 0)) is ``directionality`` (the lamp alone, 1, at most);
+    the lamp's intensity 1. ``lamp``'s 0.05 ambient is the mix of directionality 0.825."""
+    point = lights.directional(direction, (1, 1, 1), 1.0)[:, 0]
+    size = float(np.linalg.norm(point[1:4])) / math.sqrt(3)  # the lamp's degree 1 in directionality's units
+    d = min(max(float(directionality), 1e-3), 1.0)
+    out = point.copy()
+    out[0] += max(size / d - point[0], 0.0)  # the ambient's degree 0 that brings the mix to ``d``
+    return out
+
+
+def own_light(relighter: Relighter, dec, mode: str, azimuth_deg: float, elevation_deg: float = 0.0,
+              level: str = "meter", scale: float = 1.0):
+    """``dec`` with its own light replaced for a measurement (``--own-light``; ``OWN_LIGHTS``): "today" ``dec``
+    itself; else a white lamp plus ambient (``lamp_mix``) whose direction is the photo's true lamp (Yale's
+    ``azimuth_deg`` / ``elevation_deg``, "true", "true-direction") or stage 1's (the degree-1 band of ``dec.light``'s
+    luminance: "true-hardness", "today-lamp"), and whose directionality is ``lamp``'s, the truth ("true",
+    "true-hardness"), or stage 1's own light's ("true-direction", "today-lamp"). "true" is ``lamp(azimuth_deg,
+    elevation_deg)`` itself, rescaled. The level (``OWN_LEVELS``), today's kept: "meter" the person's mean luminance
+    as "auto" meters it under the own light (relight_rt.light.exposure ``mean_luminance``, ``METER_POWER``), so
+    every new light is exposed to the same scale; "refit" the person's mean albedo x shading through the transport
+    the factor divides with (the rule ``face_refit`` sets its light's level by: ``Factor.refit_inputs``); "dc" the
+    degree-0 luminance. The colour is today's (a grey photo: nearly white; the factor reads ``white_light``). Then the
+    light is multiplied by ``scale`` (``--own-scale``; "today" too: how much the level alone moves the figures). The
+    head pass (none at Yale's size) gets the same light. Uses the Relighter's private ``_factor`` (``with_light``, which
+    recomputes all that depends on the light): a measurement, not an API."""
+    factor = relighter._factor
+    if mode == "today":
+        return dec if scale == 1 else _with_own_light(factor, dec, dec.light * np.float32(scale))
+    today, today_d = sh.dominant_direction(dec.white_light[:, 0])
+    true_d = sh.dominant_direction(lamp(azimuth_deg, elevation_deg)[:, 0])[1]
+    direction = lamp_direction(azimuth_deg, elevation_deg) if mode in ("true", "true-direction") else today
+    if direction is None:  # a uniform own light has no direction to keep
+        direction = lamp_direction(azimuth_deg, elevation_deg)
+    lum = lamp_mix(direction, true_d if mode in ("true", "true-hardness") else today_d)
+    colour = dec.light[0].astype(np.float64) / float(dec.light[0] @ REC709)
+    light = (lum[:, None] * colour[None, :]).astype(np.float32)
+    if level == "meter":
+        meter = lambda white: exposure_module.mean_luminance(  # noqa: E731  (white: (9,) luminance, as "auto" reads)
+            dec.albedo, dec.transport, dec.network_mask, np.repeat(white[:, None], 3, axis=1),
+            exposure_module.METER_POWER)
+    elif level == "refit":
+        albedo, transport, _ = factor.refit_inputs(dec)
+        meter = lambda white: float((albedo * np.maximum(transport @ white, 0)).sum())  # noqa: E731
+    else:  # "dc"
+        meter = lambda white: float(white[0])  # noqa: E731
+    light *= np.float32(scale * meter(dec.white_light[:, 0]) / meter(light @ REC709))
+    return _with_own_light(factor, dec, light)
+
+
+def _with_own_light(factor, dec, light: np.ndarray):
+    """``dec`` and its head pass (if any) with ``light`` as their own (``Factor.with_light``)."""
+    new = factor.with_light(dec, light)
+    if dec.head is not None:
+        new = factor.derive(new, head=factor.with_light(dec.head, light))
+    return new
 
 
 def ellipse(shape: tuple[int, int]) -> np.ndarray:
@@ -126,8 +201,11 @@ def compare(source: np.ndarray, relit: np.ndarray, truth: np.ndarray, region: np
     ours = (grid_log_lum(relit) - base)[region]
     real = (grid_log_lum(truth) - base)[region]
     da, db = ours - ours.mean(), real - real.mean()
+    # relerr: |ours - truth's| / |truth's|, both centred, = sqrt(s^2 - 2 contrast + 1), s = contrast / corr: the
+    # contrast counts any part of ours along the truth's change as strength; this counts what misses it too
     return {"corr": float((da * db).sum() / math.sqrt((da * da).sum() * (db * db).sum() + 1e-30)),
-            "contrast": float((da * db).sum() / max((db * db).sum(), 1e-30))}
+            "contrast": float((da * db).sum() / max((db * db).sum(), 1e-30)),
+            "relerr": float(math.sqrt(((da - db) ** 2).sum() / max((db * db).sum(), 1e-30)))}
 
 
 def fine_detail(rgb: np.ndarray) -> np.ndarray:
@@ -191,7 +269,7 @@ def mean(rows: list[dict], method: str, key: str) -> float | None:
 def figures(rows: list[dict], method: str) -> dict:
     """The medians of the correlation and contrast, the means of the detail shares (``detail_shares``) and of the
     new edges' share (``new_edges``)."""
-    return {**{k: median(rows, method, k) for k in ("corr", "contrast")},
+    return {**{k: median(rows, method, k) for k in ("corr", "contrast", "relerr")},
             **{k: mean(rows, method, k) for k in ("speckle", "flat", "edge")}}
 
 
@@ -238,9 +316,17 @@ def main(argv=None) -> int:
     p.add_argument("--no-penumbra-cap", action="store_true",
                    help="the ratio cap only on a face mesh's skin, not in the penumbra around any deep shadow "
                         "(relight.factor.CAP_SHADOW_REACH; on by default since faces16)")
+    p.add_argument("--own-light", choices=OWN_LIGHTS, default="today",
+                   help="a measurement: the photo's own light replaced by an oracle built from Yale's lamp (own_light)")
+    p.add_argument("--own-level", choices=OWN_LEVELS, default="meter",
+                   help="which of today's own light's levels the oracle keeps (own_light; default: meter)")
+    p.add_argument("--own-scale", type=float, default=1.0,
+                   help="the own light (today's or the oracle's) multiplied by this (own_light; default: 1)")
     p.add_argument("--no-rim-shown", action="store_true",
                    help="the fill's rim albedo read in the penumbra too (shadow_rim.RIM_SHOWN; on since faces16)")
     args = p.parse_args(argv)
+    if not (math.isfinite(args.own_scale) and args.own_scale > 0):
+        p.error(f"--own-scale: expected a positive number, got {args.own_scale}")
     if args.no_rim_fill:
         shadow_rim.RIM_RANGE = None
     if args.no_penumbra_cap:
@@ -285,6 +371,10 @@ def main(argv=None) -> int:
             dark_eye, lit_eye = (RIGHT_EYE, LEFT_EYE) if src_az < 0 else (LEFT_EYE, RIGHT_EYE)
             row["sockets"] = {name: socket_ratio(ours, truth, face > 0, eye_region(points, eye, face.shape))
                               for name, eye in (("dark", dark_eye), ("lit", lit_eye))}
+        seen, strength = sh.dominant_direction(dec.white_light[:, 0])  # the own light the change is taken from
+        true = np.array(lamp_direction(src_az, 0.0))
+        angle = None if seen is None else math.degrees(math.acos(float(np.clip(seen @ true, -1, 1))))
+        row["own_light"] = {"angle": angle, "directionality": strength}
         rows.append(row)
         pictures[row["id"]] = (source, ours, theirs, truth)
 
@@ -293,7 +383,8 @@ def main(argv=None) -> int:
         if found is None:
             continue
         frontal, mask, points = found  # points: the real frontal photo's eyes (socket_ratio)
-        dec = relighter.decompose(frontal, mask)
+        dec = own_light(relighter, relighter.decompose(frontal, mask), args.own_light, 0, level=args.own_level,
+                        scale=args.own_scale)
         for a in RELIGHT_AZ:
             for az in (-a, a):
                 path = find_file(args.yale, subject, az)
@@ -304,7 +395,9 @@ def main(argv=None) -> int:
                 path = find_file(args.yale, subject, az)
                 if path.is_file():
                     side = read_grey(path)
-                    run("delight", subject, az, 0, side, relighter.decompose(side, mask), frontal, points)
+                    side_dec = own_light(relighter, relighter.decompose(side, mask), args.own_light, az,
+                                         level=args.own_level, scale=args.own_scale)
+                    run("delight", subject, az, 0, side, side_dec, frontal, points)
         print(f"{subject}: {len(rows)} pairs, {time.time() - t0:.0f} s", flush=True)
 
     summary = {}
@@ -318,11 +411,12 @@ def main(argv=None) -> int:
             sub = [r for r in sel if abs(r[key]) == a]
             summary[task][f"|az| {a}"] = {m: figures(sub, m) for m in ("ours", "dpr")}
     summary["delight"]["sockets"] = sockets([r for r in rows if r["task"] == "delight"])
-    (args.out / "yale.json").write_text(json.dumps({"summary": summary, "pairs": rows}, indent=1))
+    run_of = {"own_light": args.own_light, "own_level": args.own_level, "own_scale": args.own_scale}
+    (args.out / "yale.json").write_text(json.dumps({**run_of, "summary": summary, "pairs": rows}, indent=1))
     sheet(rows, pictures, args.out / "yale_worst.jpg")
     sheet([r for r in rows if r["task"] == "delight"], pictures, args.out / "yale_worst_delight.jpg")
     fmt = lambda v: "  -  " if v is None else f"{v:5.3f}"  # noqa: E731
-    cols = ("corr", "contrast", "speckle", "flat", "edge")
+    cols = ("corr", "contrast", "relerr", "speckle", "flat", "edge")
     print(f"{'':22s} ours {' '.join(f'{c:>8s}' for c in cols)}   DPR {' '.join(f'{c:>8s}' for c in cols)}")
     for task, s in summary.items():
         for label, v in [("all", s), *[(k, s[k]) for k in s if k.startswith("|az|")]]:

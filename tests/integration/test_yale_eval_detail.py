@@ -1,6 +1,8 @@
 """benchmarks/yale_eval.py ``detail_shares``: the sheets' blotches as shares of the face, on synthetic pictures whose
 answer is known (no Yale data needed)."""
 
+import math
+
 import cv2
 import numpy as np
 
@@ -40,3 +42,34 @@ def test_socket_ratio_is_one_when_the_socket_is_as_much_darker_than_the_face_as_
     figures = ye.sockets(rows)
     assert figures["pairs"] == 2 and figures["dark_over_1.5x"] == 1
     assert abs(figures["dark_mean_abs_log"] - np.log(2)) < 1e-6 and figures["lit_mean_abs_log"] == 0
+
+
+def test_relerr_is_the_change_s_relative_error_from_its_correlation_and_contrast(load_benchmark):
+    ye = load_benchmark("yale_eval")
+    rng = np.random.default_rng(1)
+    h, w = 96, 84
+    source = np.full((h, w, 3), 0.4, np.float32)
+    truth = (0.4 * np.exp(0.3 * rng.standard_normal((h, w, 1)))).repeat(3, axis=2).astype(np.float32)
+    region = np.ones((ye.GRID, ye.GRID), bool)
+    same = ye.compare(source, truth, truth, region)
+    assert abs(same["corr"] - 1) < 1e-6 and abs(same["contrast"] - 1) < 1e-6 and same["relerr"] < 1e-6
+    # half the change in log (a weaker light) plus noise: relerr = sqrt(s^2 - 2 contrast + 1), s = contrast / corr
+    noisy = (truth ** 0.5 * 0.4 ** 0.5 * np.exp(0.1 * rng.standard_normal((h, w, 1)))).astype(np.float32)
+    f = ye.compare(source, noisy, truth, region)
+    s = f["contrast"] / f["corr"]
+    assert 0.3 < f["contrast"] < 0.7 and abs(f["relerr"] - math.sqrt(s * s - 2 * f["contrast"] + 1)) < 1e-6
+
+
+def test_lamp_mix_has_the_asked_direction_and_directionality_and_true_is_yale_s_lamp(load_benchmark):
+    ye = load_benchmark("yale_eval")
+    from relight_rt.light import sh
+
+    direction = np.array(ye.lamp_direction(-50, 10))
+    for d in (0.2, 0.57, 0.9):
+        got, strength = sh.dominant_direction(ye.lamp_mix(direction, d))
+        assert abs(strength - d) < 1e-9 and np.allclose(got, direction)
+    lamp = ye.lamp(-50, 10)[:, 0]
+    true_d = sh.dominant_direction(lamp)[1]
+    assert abs(true_d - 0.825) < 0.001  # a point lamp with 0.05 ambient
+    assert np.allclose(ye.lamp_mix(direction, true_d), lamp)
+    assert np.allclose(ye.lamp_mix(direction, 1.0), lamp - ye.lights.ambient(ye.AMBIENT)[:, 0])  # the lamp alone
