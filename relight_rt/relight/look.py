@@ -242,8 +242,9 @@ def neutral_darks(image: np.ndarray, origin: tuple[int, int] = (0, 0), solid: np
     where the pixel's hue reaches ``_GREY_MATERIAL`` nearby (``material_chroma``: blue jeans' deep folds are dark
     and low in C* while the jeans are blue), read on the person's pixels (``solid``) only. A near-black pixel (C*
     below ``_GREY_HUE_C``) takes the hue of the person's near-neutral darks around it (not a backdrop's or the skin's
-    beside it). The relative chroma is each pixel's own (the hair's strands and the cloth's weave keep
-    their colours).
+    beside it). A pixel whose own colour is warm and past ``_GREY_C`` (skin at the edge of dark hair) is left alone
+    whatever its reduced pixel reads. The relative chroma is each pixel's own (the hair's strands and the cloth's
+    weave keep their colours).
     """
     image = np.asarray(image, np.float32)
     h, w = image.shape[:2]
@@ -302,9 +303,22 @@ def neutral_darks(image: np.ndarray, origin: tuple[int, int] = (0, 0), solid: np
     index = np.flatnonzero(weight > 1e-3)
     if index.size == 0:
         return None
-    relative, size, y = neutral_chroma(np.take(image.reshape(-1, 3), index, axis=0).T)  # (3, k)
+    # a pixel that is itself a warm colour (skin at the edge of dark hair, a brown strand) is its material, whatever
+    # the reduced pixel it lies in reads as: from _GREY_C[1] of its own C* up, as a warm reduced pixel is
+    pixels = np.take(image.reshape(-1, 3), index, axis=0)
+    own_lab = _lab(np.clip(pixels, 0, 1)[None])[0]  # one row: cv2 converts row by row
+    vivid = ramp(np.hypot(own_lab[:, 1], own_lab[:, 2]), *_GREY_C) < 1  # the hue of those only (most are grey)
+    own_hue = np.degrees(np.arctan2(own_lab[vivid, 2], own_lab[vivid, 1])) % 360
+    own_warm = np.minimum(np.clip((own_hue - _GREY_WARM[0]) / _GREY_WARM_SOFT, 0, 1),
+                          np.clip((_GREY_WARM[1] - own_hue) / _GREY_WARM_SOFT, 0, 1))
+    keep = weight[index]
+    keep[vivid] *= 1 - own_warm * (1 - ramp(np.hypot(own_lab[vivid, 1], own_lab[vivid, 2]), *_GREY_C))
+    index, pixels, keep = index[keep > 1e-3], pixels[keep > 1e-3], keep[keep > 1e-3]
+    if index.size == 0:
+        return None
+    relative, size, y = neutral_chroma(pixels.T)  # (3, k)
     return NeutralDarks(*(readonly(np.ascontiguousarray(a)) for a in (
-        index * 3 + np.arange(3)[:, None], weight[index].astype(np.float32), relative, size, y)))
+        index * 3 + np.arange(3)[:, None], keep.astype(np.float32), relative, size, y)))
 
 
 def keep_neutral(colour: np.ndarray, gain: np.ndarray, neutral: NeutralDarks | None) -> np.ndarray:

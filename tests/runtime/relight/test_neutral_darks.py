@@ -215,3 +215,17 @@ def test_a_near_black_takes_the_hue_of_the_dark_around_it_not_of_the_skin_beside
     kept = keep_neutral(plain, gain, neutral_darks(image))
     assert chroma(plain[:, 16:]) > chroma(image[:, 16:]) + 2
     assert chroma(kept[:, 16:]) < chroma(plain[:, 16:]) - 1.5
+
+
+def test_a_warm_pixel_within_a_near_neutral_dark_block_keeps_its_colour():
+    """A warm strand of colour (skin at the edge of dark hair: C* past 12) inside a reduced pixel that reads as a
+    near-neutral dark is its own material: left as relit, while the hair around it is kept near-neutral."""
+    image = patch(BLUE_GREY, 32, 32)
+    image[:, 15:16] = (0.22, 0.12, 0.07)  # a 1-px warm line: L* ~17, C* ~17, hue ~50 degrees
+    _, a, b = cv2.cvtColor(image[:1, 15:16], cv2.COLOR_RGB2Lab)[0, 0]
+    assert np.hypot(a, b) > 12 and a > 0 and b > 0
+    gain = gain_of((1, 1, 1), 3.0, 32)
+    plain = image * gain
+    out = keep_neutral(plain, gain, neutral_darks(image))
+    np.testing.assert_allclose(out[:, 15], plain[:, 15], rtol=1e-6)
+    assert chroma(out[:, 20:]) < chroma(plain[:, 20:]) - 1.5
