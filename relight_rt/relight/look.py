@@ -307,12 +307,12 @@ def neutral_darks(image: np.ndarray, origin: tuple[int, int] = (0, 0), solid: np
     # the reduced pixel it lies in reads as: from _GREY_C[1] of its own C* up, as a warm reduced pixel is
     pixels = np.take(image.reshape(-1, 3), index, axis=0)
     own_lab = _lab(np.clip(pixels, 0, 1)[None])[0]  # one row: cv2 converts row by row
-    vivid = ramp(np.hypot(own_lab[:, 1], own_lab[:, 2]), *_GREY_C) < 1  # the hue of those only (most are grey)
-    own_hue = np.degrees(np.arctan2(own_lab[vivid, 2], own_lab[vivid, 1])) % 360
+    coloured = ramp(np.hypot(own_lab[:, 1], own_lab[:, 2]), *_GREY_C) < 1  # the hue of those only (most are grey)
+    own_hue = np.degrees(np.arctan2(own_lab[coloured, 2], own_lab[coloured, 1])) % 360
     own_warm = np.minimum(np.clip((own_hue - _GREY_WARM[0]) / _GREY_WARM_SOFT, 0, 1),
                           np.clip((_GREY_WARM[1] - own_hue) / _GREY_WARM_SOFT, 0, 1))
     keep = weight[index]
-    keep[vivid] *= 1 - own_warm * (1 - ramp(np.hypot(own_lab[vivid, 1], own_lab[vivid, 2]), *_GREY_C))
+    keep[coloured] *= 1 - own_warm * (1 - ramp(np.hypot(own_lab[coloured, 1], own_lab[coloured, 2]), *_GREY_C))
     index, pixels, keep = index[keep > 1e-3], pixels[keep > 1e-3], keep[keep > 1e-3]
     if index.size == 0:
         return None

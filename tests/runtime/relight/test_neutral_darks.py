@@ -192,9 +192,9 @@ def test_a_backdrop_of_the_darks_hue_does_not_vouch_for_it_as_the_persons_materi
     image = np.concatenate([teal, grey], axis=1)
     gain = np.broadcast_to(gain_of((1, 1, 1), 3.0, 1)[0, 0], image.shape).copy()
     plain = image * gain
-    backdrop = np.ones(image.shape[:2], bool)
-    backdrop[:, :24] = False  # the teal is the backdrop: not the person's
-    kept = keep_neutral(plain, gain, neutral_darks(image, solid=backdrop))
+    person = np.ones(image.shape[:2], bool)
+    person[:, :24] = False  # the teal is the backdrop: not the person's
+    kept = keep_neutral(plain, gain, neutral_darks(image, solid=person))
     assert chroma(kept[:, 24:]) < chroma(image[:, 24:]) + 1.5
     assert chroma(plain[:, 24:]) > chroma(image[:, 24:]) + 3  # what it would be left as
     # the teal is the person's own cloth: the grey beside it is its shade
