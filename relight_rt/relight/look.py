@@ -240,9 +240,11 @@ def neutral_darks(image: np.ndarray, origin: tuple[int, int] = (0, 0), solid: np
     that is not warm (``_GREY_WARM``: shaded dark skin is dark and low in C* too, and a warm dark brightened reads as
     its material, brown hair or skin, where a cool or magenta one reads as a cast: blue-grey, teal, violet); and not
     where the pixel's hue reaches ``_GREY_MATERIAL`` nearby (``material_chroma``: blue jeans' deep folds are dark
-    and low in C* while the jeans are blue). A near-black pixel (C* below ``_GREY_HUE_C``) takes its
-    neighbourhood's hue. The relative chroma is each pixel's own (the hair's strands and the cloth's weave keep
-    their colours).
+    and low in C* while the jeans are blue), read on the person's pixels (``solid``) only. A near-black pixel (C*
+    below ``_GREY_HUE_C``) takes the hue of the person's near-neutral darks around it (not a backdrop's or the skin's
+    beside it). A pixel whose own colour is warm and past ``_GREY_C`` (skin at the edge of dark hair) is left alone
+    whatever its reduced pixel reads. The relative chroma is each pixel's own (the hair's strands and the cloth's
+    weave keep their colours).
     """
     image = np.asarray(image, np.float32)
     h, w = image.shape[:2]
@@ -256,6 +258,10 @@ def neutral_darks(image: np.ndarray, origin: tuple[int, int] = (0, 0), solid: np
     # values, the edge padding below)
     grid = grid[: sh * _NEUTRAL_STEP, : sw * _NEUTRAL_STEP]
     small = cv2.resize(grid, (sw, sh), interpolation=cv2.INTER_AREA)
+    # the person's blocks on that grid: what the material and a near-black pixel's hue are read from
+    person = np.ones((sh, sw), np.float32) if solid is None else cv2.resize(
+        cv2.copyMakeBorder(np.asarray(solid, np.float32), oy, 0, ox, 0, cv2.BORDER_REPLICATE)[
+            : sh * _NEUTRAL_STEP, : sw * _NEUTRAL_STEP], (sw, sh), interpolation=cv2.INTER_AREA) >= 0.5
     lab = _lab(small)
     ramp = lambda v, lo, hi: np.clip((hi - v) / (hi - lo), 0, 1)  # noqa: E731 - 1 below lo, 0 above hi
     chroma = np.hypot(lab[..., 1], lab[..., 2])
@@ -272,13 +278,19 @@ def neutral_darks(image: np.ndarray, origin: tuple[int, int] = (0, 0), solid: np
     if not weight.any():
         return None
     reach = float(_GREY_REACH)  # in pixels, not a share of the photo: a group's person sees it as they do alone
-    # a near-black pixel's own hue is noise: it takes its neighbourhood's (the jeans' deep fold, the jeans' blue)
+    # a near-black pixel's own hue is noise: it takes that of the person's near-neutral darks around it (the jeans'
+    # deep fold, the jeans' dark blue), weighted by how near-neutral and dark they are: a plain blur of a*b* is the
+    # saturated neighbours' hue (a teal backdrop's, the skin's beside black hair), not the material's
     ab = np.ascontiguousarray(lab[..., 1:])
-    ab = np.where((chroma < _GREY_HUE_C)[..., None], cv2.GaussianBlur(ab, (0, 0), reach / 2), ab)
+    near = (weight * person).astype(np.float32)
+    total = cv2.GaussianBlur(near, (0, 0), reach / 2)
+    around = cv2.GaussianBlur(ab * near[..., None], (0, 0), reach / 2) / np.maximum(total, 1e-6)[..., None]
+    ab = np.where(((chroma < _GREY_HUE_C) & (total > 1e-3))[..., None], around, ab)
     hue = np.degrees(np.arctan2(ab[..., 1], ab[..., 0])) % 360
     warm = np.minimum(np.clip((hue - _GREY_WARM[0]) / _GREY_WARM_SOFT, 0, 1),
                       np.clip((_GREY_WARM[1] - hue) / _GREY_WARM_SOFT, 0, 1))
-    weight *= (1 - warm) * ramp(material_chroma(hue, chroma, reach), *_GREY_MATERIAL)
+    # the material: the person's own colours nearby only (a backdrop of the hair's cast is not the hair's material)
+    weight *= (1 - warm) * ramp(material_chroma(hue, chroma * person, reach), *_GREY_MATERIAL)
     if not weight.any():
         return None
     blocks = (small.shape[1] * _NEUTRAL_STEP, small.shape[0] * _NEUTRAL_STEP)  # (w, h) the whole blocks cover
@@ -291,9 +303,22 @@ def neutral_darks(image: np.ndarray, origin: tuple[int, int] = (0, 0), solid: np
     index = np.flatnonzero(weight > 1e-3)
     if index.size == 0:
         return None
-    relative, size, y = neutral_chroma(np.take(image.reshape(-1, 3), index, axis=0).T)  # (3, k)
+    # a pixel that is itself a warm colour (skin at the edge of dark hair, a brown strand) is its material, whatever
+    # the reduced pixel it lies in reads as: from _GREY_C[1] of its own C* up, as a warm reduced pixel is
+    pixels = np.take(image.reshape(-1, 3), index, axis=0)
+    own_lab = _lab(np.clip(pixels, 0, 1)[None])[0]  # one row: cv2 converts row by row
+    coloured = ramp(np.hypot(own_lab[:, 1], own_lab[:, 2]), *_GREY_C) < 1  # the hue of those only (most are grey)
+    own_hue = np.degrees(np.arctan2(own_lab[coloured, 2], own_lab[coloured, 1])) % 360
+    own_warm = np.minimum(np.clip((own_hue - _GREY_WARM[0]) / _GREY_WARM_SOFT, 0, 1),
+                          np.clip((_GREY_WARM[1] - own_hue) / _GREY_WARM_SOFT, 0, 1))
+    keep = weight[index]
+    keep[coloured] *= 1 - own_warm * (1 - ramp(np.hypot(own_lab[coloured, 1], own_lab[coloured, 2]), *_GREY_C))
+    index, pixels, keep = index[keep > 1e-3], pixels[keep > 1e-3], keep[keep > 1e-3]
+    if index.size == 0:
+        return None
+    relative, size, y = neutral_chroma(pixels.T)  # (3, k)
     return NeutralDarks(*(readonly(np.ascontiguousarray(a)) for a in (
-        index * 3 + np.arange(3)[:, None], weight[index].astype(np.float32), relative, size, y)))
+        index * 3 + np.arange(3)[:, None], keep.astype(np.float32), relative, size, y)))
 
 
 def keep_neutral(colour: np.ndarray, gain: np.ndarray, neutral: NeutralDarks | None) -> np.ndarray:

@@ -181,3 +181,51 @@ def test_a_window_of_the_photo_reads_the_photos_reduction_grid():
         part = weights(image[y0:y1, x0:x1], (y0, x0))
         np.testing.assert_allclose(part[m - y0 : y1 - y0 - m, m - x0 : x1 - x0 - m], whole[m:y1 - m, m:x1 - m],
                                    atol=1e-5)
+
+
+def test_a_backdrop_of_the_darks_hue_does_not_vouch_for_it_as_the_persons_material():
+    """A dark grey with a faint teal cast beside a teal backdrop is a cast (kept near-neutral): the material a dark
+    belongs to is the person's; beside the person's own teal cloth the same grey is that cloth's shade (left alone)."""
+    grey, teal = patch((0.06, 0.085, 0.085), 32, 16), patch((0.0, 0.35, 0.33), 32, 24)  # C* ~25
+    _, a, b = lab(grey)
+    assert np.hypot(a, b) < 6 and a < 0  # a faint teal cast
+    image = np.concatenate([teal, grey], axis=1)
+    gain = np.broadcast_to(gain_of((1, 1, 1), 3.0, 1)[0, 0], image.shape).copy()
+    plain = image * gain
+    person = np.ones(image.shape[:2], bool)
+    person[:, :24] = False  # the teal is the backdrop: not the person's
+    kept = keep_neutral(plain, gain, neutral_darks(image, solid=person))
+    assert chroma(kept[:, 24:]) < chroma(image[:, 24:]) + 1.5
+    assert chroma(plain[:, 24:]) > chroma(image[:, 24:]) + 3  # what it would be left as
+    # the teal is the person's own cloth: the grey beside it is its shade
+    cloth = keep_neutral(plain, gain, neutral_darks(image, solid=np.ones(image.shape[:2], bool)))
+    np.testing.assert_allclose(cloth, plain, rtol=1e-6)
+
+
+def test_a_near_black_takes_the_hue_of_the_dark_around_it_not_of_the_skin_beside_it():
+    """Near-black hair with a faint blue cast beside warm skin: its hue is the hair's (blue, a cast kept
+    near-neutral), not the skin's (warm, which would read it as brown hair and leave it)."""
+    hair = patch((0.022, 0.025, 0.034), 32, 32)  # L* ~ 9, C* ~ 3: its own hue is noise-level, blue
+    skin = patch((0.7, 0.5, 0.4), 32, 16)
+    _, a, b = lab(hair)
+    assert np.hypot(a, b) < 4 and b < 0
+    image = np.concatenate([skin, hair], axis=1)
+    gain = np.broadcast_to(gain_of((1, 1, 1), 4.0, 1)[0, 0], image.shape).copy()
+    plain = image * gain
+    kept = keep_neutral(plain, gain, neutral_darks(image))
+    assert chroma(plain[:, 16:]) > chroma(image[:, 16:]) + 2
+    assert chroma(kept[:, 16:]) < chroma(plain[:, 16:]) - 1.5
+
+
+def test_a_warm_pixel_within_a_near_neutral_dark_block_keeps_its_colour():
+    """A warm strand of colour (skin at the edge of dark hair: C* past 12) inside a reduced pixel that reads as a
+    near-neutral dark is its own material: left as relit, while the hair around it is kept near-neutral."""
+    image = patch(BLUE_GREY, 32, 32)
+    image[:, 15:16] = (0.22, 0.12, 0.07)  # a 1-px warm line: L* ~17, C* ~17, hue ~50 degrees
+    _, a, b = cv2.cvtColor(image[:1, 15:16], cv2.COLOR_RGB2Lab)[0, 0]
+    assert np.hypot(a, b) > 12 and a > 0 and b > 0
+    gain = gain_of((1, 1, 1), 3.0, 32)
+    plain = image * gain
+    out = keep_neutral(plain, gain, neutral_darks(image))
+    np.testing.assert_allclose(out[:, 15], plain[:, 15], rtol=1e-6)
+    assert chroma(out[:, 20:]) < chroma(plain[:, 20:]) - 1.5
