@@ -77,3 +77,12 @@ def test_names_from_the_run_folders(sv):
     paths = [Path("o/anchor2/stage1.onnx"), Path("o/anchor5/stage1.onnx"), Path("p/anchor5/stage1.onnx"),
              Path("x/soup.onnx")]
     assert sv._names(paths) == ["anchor2", "anchor5", "anchor5_3", "soup"]
+
+
+def test_a_re_export_of_the_same_weights_ties(sv):
+    """A step-0 export reads ~1e-8 off the shipped graph's RMSE: neither worse nor better."""
+    ships, reasons = sv.verdict(SHIPPED, _graph({f: v + 1e-8 * (-1) ** i for i, (f, v)
+                                                 in enumerate(SHIPPED["heldout"].items())}))
+    assert not ships and reasons == ["held-out RMSE better on 0 framings (< 3)"]
+    assert sv.verdict(SHIPPED, _graph({**BETTER3, "knees-up": 0.111 + 4e-5}))[0]
+    assert not sv.verdict(SHIPPED, _graph({**BETTER3, "knees-up": 0.111 + 6e-5}))[0]
