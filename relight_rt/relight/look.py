@@ -225,6 +225,13 @@ class NeutralDarks(NamedTuple):
     luminance: np.ndarray  # (k,) float32: their luminance Y (Rec. 709, linear; at least 1e-6)
 
 
+def _warmth(hue: np.ndarray) -> np.ndarray:
+    """1 where a Lab hue angle (degrees) is warm (``_GREY_WARM``, ``_GREY_WARM_SOFT`` inside its bounds), 0 outside
+    them, linear between."""
+    return np.minimum(np.clip((hue - _GREY_WARM[0]) / _GREY_WARM_SOFT, 0, 1),
+                      np.clip((_GREY_WARM[1] - hue) / _GREY_WARM_SOFT, 0, 1))
+
+
 def neutral_darks(image: np.ndarray, origin: tuple[int, int] = (0, 0), solid: np.ndarray | None = None
                   ) -> NeutralDarks | None:
     """What ``keep_neutral`` needs of a photo (``image``: (h, w, 3) float32 RGB in [0, 1]) whatever the light, on
@@ -287,8 +294,7 @@ def neutral_darks(image: np.ndarray, origin: tuple[int, int] = (0, 0), solid: np
     around = cv2.GaussianBlur(ab * near[..., None], (0, 0), reach / 2) / np.maximum(total, 1e-6)[..., None]
     ab = np.where(((chroma < _GREY_HUE_C) & (total > 1e-3))[..., None], around, ab)
     hue = np.degrees(np.arctan2(ab[..., 1], ab[..., 0])) % 360
-    warm = np.minimum(np.clip((hue - _GREY_WARM[0]) / _GREY_WARM_SOFT, 0, 1),
-                      np.clip((_GREY_WARM[1] - hue) / _GREY_WARM_SOFT, 0, 1))
+    warm = _warmth(hue)
     # the material: the person's own colours nearby only (a backdrop of the hair's cast is not the hair's material)
     weight *= (1 - warm) * ramp(material_chroma(hue, chroma * person, reach), *_GREY_MATERIAL)
     if not weight.any():
@@ -307,12 +313,11 @@ def neutral_darks(image: np.ndarray, origin: tuple[int, int] = (0, 0), solid: np
     # the reduced pixel it lies in reads as: from _GREY_C[1] of its own C* up, as a warm reduced pixel is
     pixels = np.take(image.reshape(-1, 3), index, axis=0)
     own_lab = _lab(np.clip(pixels, 0, 1)[None])[0]  # one row: cv2 converts row by row
-    coloured = ramp(np.hypot(own_lab[:, 1], own_lab[:, 2]), *_GREY_C) < 1  # the hue of those only (most are grey)
-    own_hue = np.degrees(np.arctan2(own_lab[coloured, 2], own_lab[coloured, 1])) % 360
-    own_warm = np.minimum(np.clip((own_hue - _GREY_WARM[0]) / _GREY_WARM_SOFT, 0, 1),
-                          np.clip((_GREY_WARM[1] - own_hue) / _GREY_WARM_SOFT, 0, 1))
+    grey = ramp(np.hypot(own_lab[:, 1], own_lab[:, 2]), *_GREY_C)  # 1: grey by its own C*, 0: a colour
+    coloured = grey < 1  # the hue of those only (most are grey)
+    own_warm = _warmth(np.degrees(np.arctan2(own_lab[coloured, 2], own_lab[coloured, 1])) % 360)
     keep = weight[index]
-    keep[coloured] *= 1 - own_warm * (1 - ramp(np.hypot(own_lab[coloured, 1], own_lab[coloured, 2]), *_GREY_C))
+    keep[coloured] *= 1 - own_warm * (1 - grey[coloured])
     index, pixels, keep = index[keep > 1e-3], pixels[keep > 1e-3], keep[keep > 1e-3]
     if index.size == 0:
         return None
