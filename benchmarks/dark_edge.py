@@ -13,7 +13,7 @@ kept, as ``relight-rt relight`` does by default), relit under white side lamps a
   (alpha <= ``BG_ALPHA``), beside the input's (``decile_in``).
 
 The summary prints, per half (A: tuning, B: checked) and light, the mean of both over the photos. L* is CIE L* of the
-linear luminance (Rec. 709 of linearised sRGB, ``real_photos.luminance``).
+photo (``photo_faults.lab``: OpenCV's sRGB to Lab).
 """
 
 from __future__ import annotations
@@ -32,7 +32,8 @@ from first_look import picked_photos, read_rgb, side_colour
 
 # isort: split
 from _shared import shared_path
-from real_photos import LEFT, RIGHT, luminance
+from photo_faults import lab
+from real_photos import LEFT, RIGHT
 
 import relight_rt
 from relight_rt import RuntimeConfig
@@ -42,13 +43,6 @@ EDGE = 8  # the person's pixels this near the outline (px) ...
 REACH = 12  # ... with solid background within this many px, whose mean L* they are compared with
 BG_ALPHA = 0.02  # the background: the matte at or below this
 FRACTION = 0.4  # dark against bright: relit L* below this share of the adjacent background's, the input's not
-
-
-def lightness(rgb: np.ndarray) -> np.ndarray:
-    """CIE L* (0-100) of an sRGB picture in [0, 1]."""
-    y = luminance(rgb)
-    f = np.where(y > (6 / 29) ** 3, np.cbrt(y), y / (3 * (6 / 29) ** 2) + 4 / 29)
-    return (116 * f - 16).astype(np.float32)
 
 
 def edge_band(alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -62,7 +56,7 @@ def edge_band(alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def measure(photo: np.ndarray, alpha: np.ndarray, relit: np.ndarray) -> dict:
     band, bg, _ = edge_band(alpha)
-    l_in, l_out = lightness(photo), lightness(relit)
+    l_in, l_out = lab(photo)[..., 0], lab(relit)[..., 0]
     bg_mean, has_bg = side_colour(np.repeat(l_in[..., None], 3, axis=2), bg, REACH)
     bg_mean = bg_mean[..., 0]
     where = band & has_bg & (bg_mean > 1.0)

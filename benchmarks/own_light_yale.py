@@ -71,11 +71,8 @@ def mesh_fit(transport: np.ndarray, photo: np.ndarray, bands: int = 9) -> np.nda
 
 def _lamps(count: int = 3000) -> tuple[np.ndarray, np.ndarray]:
     """(count, 9) the luminance of a unit point lamp from each of ``count`` directions spread over the sphere
-    (a Fibonacci lattice), and (9,) unit ambient light's."""
-    i = np.arange(count) + 0.5
-    z = 1 - 2 * i / count
-    phi = math.pi * (1 + math.sqrt(5)) * i
-    d = np.stack([np.sqrt(1 - z * z) * np.cos(phi), np.sqrt(1 - z * z) * np.sin(phi), z], 1)
+    (``sh.sphere_directions``' Fibonacci lattice), and (9,) unit ambient light's."""
+    d = sh.sphere_directions(count)
     return np.stack([lights.directional(v)[:, 0] for v in d]), lights.ambient(1.0)[:, 0]
 
 

@@ -110,10 +110,10 @@ def lamp_mix(direction, directionality: float) -> np.ndarray:
     (``sh.dominant_direction``: |degree 1| / (sqrt 3 x degree 0)) is ``directionality`` (the lamp alone, 1, at most);
     the lamp's intensity 1. ``lamp``'s 0.05 ambient is the mix of directionality 0.825."""
     point = lights.directional(direction, (1, 1, 1), 1.0)[:, 0]
-    size = float(np.linalg.norm(point[1:4])) / math.sqrt(3)  # the lamp's degree 1 in directionality's units
+    alone = sh.dominant_direction(point)[1]  # the lamp's own: degree 1 over degree 0, which ambient raises
     d = min(max(float(directionality), 1e-3), 1.0)
     out = point.copy()
-    out[0] += max(size / d - point[0], 0.0)  # the ambient's degree 0 that brings the mix to ``d``
+    out[0] *= max(alone / d, 1.0)  # the ambient's degree 0 that brings the mix to ``d``
     return out
 
 
