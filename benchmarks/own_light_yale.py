@@ -40,15 +40,15 @@ import numpy as np
 from _shared import missing, shared_path
 from yale_eval import ellipse, lamp_direction, read_grey
 
-from relight_rt import Relighter, RuntimeConfig, lights
+from relight_rt import Relighter, RuntimeConfig
 from relight_rt.image.color import REC709, srgb_to_linear
 from relight_rt.image.io import read_image
 from relight_rt.light import sh
-from relight_rt.relight.strength import refit_light
+from relight_rt.relight.strength import lamp_fit, refit_light
 
 BANDS = ((0, 15), (15, 40), (40, 65), (65, 95), (95, 181))
 READINGS = ("own", "raw", "refit", "mesh", "mesh1", "mesh-lamp", "mesh-lamp-front", "mesh-lamp-linear")
-MESH_TRIM = 2.5  # mesh_fit, lamp_fit: skin pixels beyond this many robust deviations are dropped (as face_refit)
+MESH_TRIM = 2.5  # mesh_fit: skin pixels beyond this many robust deviations are dropped (as face_refit)
 
 
 def mesh_fit(transport: np.ndarray, photo: np.ndarray, bands: int = 9) -> np.ndarray | None:
@@ -69,55 +69,6 @@ def mesh_fit(transport: np.ndarray, photo: np.ndarray, bands: int = 9) -> np.nda
     return None if m is None else np.concatenate([m, np.zeros(9 - bands)])
 
 
-def _lamps(count: int = 3000) -> tuple[np.ndarray, np.ndarray]:
-    """(count, 9) the luminance of a unit point lamp from each of ``count`` directions spread over the sphere
-    (a Fibonacci lattice), and (9,) unit ambient light's."""
-    i = np.arange(count) + 0.5
-    z = 1 - 2 * i / count
-    phi = math.pi * (1 + math.sqrt(5)) * i
-    d = np.stack([np.sqrt(1 - z * z) * np.cos(phi), np.sqrt(1 - z * z) * np.sin(phi), z], 1)
-    return np.stack([lights.directional(v)[:, 0] for v in d]), lights.ambient(1.0)[:, 0]
-
-
-LAMPS = _lamps()
-
-
-def lamp_fit(transport: np.ndarray, photo: np.ndarray, front: bool = False) -> np.ndarray | None:
-    """(9,) a face's light read as one point lamp plus ambient: for each of ``LAMPS``' directions the skin's
-    luminance ~ a x (transport . ambient) + b x (transport . lamp), a, b >= 0 by least squares; the direction with
-    the least residual wins; pixels beyond ``MESH_TRIM`` robust deviations dropped, three rounds. Degree 2 follows
-    from the lamp's direction instead of being free (a frontal face's normals cannot tell degree 1's up from
-    degree 2's xz); None with fewer than 50 skin pixels."""
-    t, y = np.asarray(transport, np.float64), np.asarray(photo, np.float64)
-    lamps, amb = LAMPS
-    if front:  # lamps within 120 deg of the camera only (x > -0.5)
-        lamps = lamps[lamps[:, 3] / np.linalg.norm(lamps[:, 1:4], axis=1) > -0.5]
-    keep = np.ones(y.shape[0], bool)
-    best = None
-    for _ in range(3):
-        if keep.sum() < 50:
-            break
-        tk, yk = t[keep], y[keep]
-        a = tk @ amb  # (n,)
-        b = tk @ lamps.T  # (n, K)
-        aa, ab, bb = a @ a, a @ b, (b * b).sum(0)
-        ay, by = a @ yk, b.T @ yk
-        det = aa * bb - ab * ab
-        ca = np.where(det > 1e-12, (ay * bb - by * ab) / np.maximum(det, 1e-12), 0)
-        cb = np.where(det > 1e-12, (by * aa - ay * ab) / np.maximum(det, 1e-12), 0)
-        # a negative coefficient: the best with it at zero instead
-        only_b = np.maximum(by / np.maximum(bb, 1e-12), 0)
-        ca, cb = np.where(ca < 0, 0, ca), np.where(ca < 0, only_b, cb)
-        ca, cb = np.where(cb < 0, max(ay / aa, 0), ca), np.maximum(cb, 0)
-        err = (yk @ yk) - 2 * (ca * ay + cb * by) + ca * ca * aa + 2 * ca * cb * ab + cb * cb * bb
-        k = int(np.argmin(err))
-        best = ca[k] * amb + cb[k] * lamps[k]
-        r = y - t @ best
-        centre = float(np.median(r[keep]))
-        keep = np.abs(r - centre) < MESH_TRIM * (1.4826 * float(np.median(np.abs(r[keep] - centre))) + 1e-6)
-    return best
-
-
 def readings(relighter: Relighter, rgb: np.ndarray, mask: np.ndarray, which: list[str]) -> dict[str, np.ndarray | None]:
     """The photo's light as each step in ``which`` reads it, (9, 3) RGB or (9,) luminance, by ``READINGS`` name (see
     the module's docstring; the mesh readings None where the photo has fewer than 50 pixels of a face mesh's skin).
@@ -135,12 +86,22 @@ def readings(relighter: Relighter, rgb: np.ndarray, mask: np.ndarray, which: lis
     base = factor.restored(dec)
     skin = base["face_skin"]
     t, y = base["transport"][skin], base["photo"][skin]
-    fits = {"mesh": lambda: mesh_fit(t, y), "mesh1": lambda: mesh_fit(t, y, 4), "mesh-lamp": lambda: lamp_fit(t, y),
-            "mesh-lamp-front": lambda: lamp_fit(t, y, True), "mesh-lamp-linear": lambda: lamp_fit(t, srgb_to_linear(y))}
+    front = lamp_fit(t, y) if skin.sum() >= 50 else None
+    lamp = lambda y, front: getattr(lamp_fit(t, y, front), "light", None)  # noqa: E731
+    fits = {"mesh": lambda: mesh_fit(t, y), "mesh1": lambda: mesh_fit(t, y, 4), "mesh-lamp": lambda: lamp(y, False),
+            "mesh-lamp-front": lambda: getattr(front, "light", None),
+            "mesh-lamp-linear": lambda: lamp(srgb_to_linear(y), False)}
     for name, fit in fits.items():
         if name in which:
             out[name] = fit() if skin.sum() >= 50 else None
+    out["indicator"] = front
     return out
+
+
+def indicator(got: dict) -> dict | None:
+    """The front lamp fit's "one hard lamp" figures (``strength.LampReading``: share, explained, pixels), if any."""
+    r = got.get("indicator")
+    return None if r is None else {"share": r.share, "explained": r.explained, "pixels": r.pixels}
 
 
 def light_direction(light: np.ndarray) -> tuple[np.ndarray | None, float]:
@@ -173,7 +134,7 @@ def renders(folder: Path, relighter: Relighter, which: list[str], out: Path | No
         got = readings(relighter, read_image(f), mask.astype(np.float32) / 255, which)
         rows.append({"render": f.name, "truth": truth.tolist(),
                      "true_elevation": math.degrees(math.asin(float(np.clip(truth[2], -1, 1)))),
-                     **{k: compare(got[k], truth) for k in which}})
+                     "indicator": indicator(got), **{k: compare(got[k], truth) for k in which}})
     for k in which:
         have = [r for r in rows if r[k] is not None]
         if not have:
@@ -222,7 +183,7 @@ def main(argv=None) -> int:
         truth = np.array(lamp_direction(az, el))
         got = readings(relighter, rgb, ellipse(rgb.shape[:2]), which)
         rows.append({"subject": r["subject"], "azimuth": az, "elevation": el, "truth": truth.tolist(),
-                     "truth_y": float(truth[1]),
+                     "truth_y": float(truth[1]), "indicator": indicator(got),
                      **{k: compare(got[k], truth) for k in which}})
     print(f"{len(rows)} photos, lamps within {args.max_elevation:g} deg of the horizon")
     for k in which:

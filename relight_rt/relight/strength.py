@@ -25,11 +25,14 @@ also shrinks the pixels the network got strong); a uniform gain does.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import cv2
 import numpy as np
 
 from ..engine.errors import RelightError
 from ..image.color import REC709
+from ..light.sh import basis, sphere_directions
 from .fill_edge import soften
 
 BAND_GAIN = (1.0, 1.05, 1.15)  # degree 0, 1, 2: what the measured transport and light leave short (module docstring)
@@ -195,6 +198,96 @@ def face_refit(
     fitted *= before / after
     n = int(keep.sum())
     return _luminance_changed(light, (fitted - l0) * (n / (n + FACE_PIXELS)))
+
+
+# ------------------------------------------------------------------------------- one lamp on a face's skin
+
+LAMP_COUNT = 3000  # lamp_fit: the lamp directions tried, a Fibonacci lattice over the sphere (~3.7 deg apart)
+LAMP_FRONT = -0.5  # ... with front=True only those with x above this: within 120 deg of the camera
+LAMP_TRIM = 2.5  # ... skin pixels beyond this many robust deviations from the fit are dropped, three rounds
+
+
+_LAMP_DIRECTIONS = sphere_directions(LAMP_COUNT)
+_LAMPS = basis(_LAMP_DIRECTIONS)  # (LAMP_COUNT, 9): a point lamp's SH from each direction (∝ Y_k), up to one scale
+_AMBIENT = np.eye(9)[0]  # uniform light's SH, up to one scale
+
+
+@dataclass(frozen=True)
+class LampReading:
+    """A face's light read as one point lamp plus ambient (``lamp_fit``).
+
+    Attributes:
+        light: (9,) float64 the fitted luminance light (DESIGN.md §3 order): a x ambient + b x lamp, a, b >= 0.
+        direction: (3,) unit vector toward the lamp in the subject frame.
+        share: the lamp's share of the fitted shading's mean over the kept skin, in [0, 1] (1: no ambient).
+        explained: how much of the skin's luminance variance the lamp and ambient explain, as a share of what
+            nine free SH terms explain on the same pixels, in [0, 1] (1: a lamp explains the face as well).
+        pixels: the skin pixels kept after the trim.
+    """
+
+    light: np.ndarray
+    direction: np.ndarray
+    share: float
+    explained: float
+    pixels: int
+
+
+def lamp_fit(transport: np.ndarray, photo: np.ndarray, front: bool = True) -> LampReading | None:
+    """A face's light read as one point lamp plus ambient, the lamp's direction searched over a fixed lattice.
+
+    The skin is taken as one albedo: its luminance ~ a x (transport . ambient) + b x (transport . lamp), a, b >= 0,
+    by least squares, for each of ``LAMP_COUNT`` lamp directions at once (all from the skin's 9 x 9 normal matrix,
+    so the cost is one pass over the pixels per round); the direction with the least residual wins. Pixels beyond
+    ``LAMP_TRIM`` robust deviations are dropped (eyes, brows, lips), three rounds. Unlike a 9-term fit, degree 2
+    follows from the lamp's direction instead of being free: on a frontal face's normals degree 1's "up" and
+    degree 2's xz look alike, and a free fit cannot tell a lamp's elevation (docs/RESULTS.md, light28).
+
+    Args:
+        transport: (M, 9) the transport of the face's skin pixels (a face mesh's, as the runtime uses it).
+        photo: (M,) the photo's luminance there.
+        front: only lamps within 120 deg of the camera (``LAMP_FRONT``).
+
+    Returns:
+        A ``LampReading``, or None with fewer than 50 skin pixels (or a face of one luminance).
+    """
+    t = np.asarray(transport, np.float64).reshape(-1, 9)
+    y = np.asarray(photo, np.float64).reshape(-1)
+    if t.shape[0] != y.shape[0]:
+        raise RelightError(f"lamp_fit: {t.shape[0]} transport and {y.shape[0]} photo pixels")
+    chosen = _LAMP_DIRECTIONS[:, 0] > (LAMP_FRONT if front else -np.inf)
+    lamps, directions = _LAMPS[chosen], _LAMP_DIRECTIONS[chosen]
+    keep = np.ones(y.shape[0], bool)
+    reading = None
+    for _ in range(3):
+        n = int(keep.sum())
+        if n < _FACE_MIN:
+            break
+        tk, yk = t[keep], y[keep]
+        gram, ty, mean_t = tk.T @ tk, tk.T @ yk, tk.mean(0)
+        amb_g = gram @ _AMBIENT
+        aa, ab, bb = float(_AMBIENT @ amb_g), lamps @ amb_g, np.einsum("kj,jl,kl->k", lamps, gram, lamps)
+        ay, by = float(_AMBIENT @ ty), lamps @ ty
+        det = aa * bb - ab * ab
+        ok = det > 1e-12 * max(aa, 1e-12) * np.maximum(bb, 1e-12)
+        ca = np.where(ok, (ay * bb - by * ab) / np.where(ok, det, 1), 0)
+        cb = np.where(ok, (by * aa - ay * ab) / np.where(ok, det, 1), 0)
+        only_b = np.maximum(by / np.maximum(bb, 1e-12), 0)  # a negative coefficient: the best with it at zero
+        ca, cb = np.where(ca < 0, 0, ca), np.where(ca < 0, only_b, cb)
+        ca, cb = np.where(cb < 0, max(ay / max(aa, 1e-12), 0), ca), np.maximum(cb, 0)
+        err = float(yk @ yk) - 2 * (ca * ay + cb * by) + ca * ca * aa + 2 * ca * cb * ab + cb * cb * bb
+        k = int(np.argmin(err))
+        light = ca[k] * _AMBIENT + cb[k] * lamps[k]
+        total = float(yk @ yk) - n * float(yk.mean()) ** 2  # the luminance's variance about its mean, summed
+        free = float(yk @ yk) - float(ty @ np.linalg.lstsq(gram, ty, rcond=None)[0])  # ... left by nine free terms
+        gain = total - free
+        explained = float(np.clip((total - err[k]) / gain, 0, 1)) if gain > 1e-12 else 0.0
+        lamp_mean, amb_mean = cb[k] * float(lamps[k] @ mean_t), ca[k] * float(_AMBIENT @ mean_t)
+        share = float(np.clip(lamp_mean / (lamp_mean + amb_mean), 0, 1)) if lamp_mean + amb_mean > 1e-12 else 0.0
+        reading = LampReading(light, directions[k], share, explained, n)
+        r = y - t @ light
+        centre = float(np.median(r[keep]))
+        keep = np.abs(r - centre) < LAMP_TRIM * (1.4826 * float(np.median(np.abs(r[keep] - centre))) + 1e-6)
+    return reading
 
 
 # ------------------------------------------------------------------------------- the photo's own shading, kept
