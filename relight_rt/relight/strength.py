@@ -64,6 +64,14 @@ FACE_PRIOR = 0.1  # face_refit: its ridge toward the refit light (scaled to the 
 FACE_TRIM = 2.5  # ... skin pixels further than this many robust deviations from the fit are left out (eyes, brows)
 FACE_PIXELS = 2000  # ... a face of n skin pixels moves the light n / (n + this) of the way to its own fit
 _FACE_MIN = 50  # ... fewer skin pixels than this: no fit
+# face_refit's lamp target, OFF (None): where a face shows one hard lamp (lamp_fit: the lamp's share of the shading >=
+# LAMP_SHARE and a lamp explains >= LAMP_EXPLAINED of what nine free terms do) the target is LAMP_WEIGHT x the lamp fit
+# + the rest the nine-term fit. Measured with 0.5 / 0.7 / 1.0 (chosen on Yale's even subjects): Yale's frontal lamps
+# 78 -> 21 deg off, but Yale's relight contrast 0.7592 -> 0.7470, de-light 0.8868 -> 0.8792; at weight 0.5 the
+# frontal lamps stay 53 deg off (docs/results_pending.md, light29; benchmarks/lamp_target.py runs a benchmark with it)
+LAMP_SHARE: float | None = None
+LAMP_EXPLAINED = 0.7
+LAMP_WEIGHT = 1.0
 
 
 def refit_light(
@@ -148,7 +156,9 @@ def face_refit(
     albedo x shading stays what ``light`` gives (the exposure and the "missing light" rule read that level). A face
     of n kept pixels moves the light n / (n + ``FACE_PIXELS``) of the way: a small face's fit is noisy. On the
     held-out renders the band-1 direction of the photo's light moves closer to the truth (mean cosine 0.963 -> 0.975
-    face, 0.960 -> 0.982 head-and-shoulders, 0.929 -> 0.948 waist-up framings: docs/RESULTS.md).
+    face, 0.960 -> 0.982 head-and-shoulders, 0.929 -> 0.948 waist-up framings: docs/RESULTS.md). Where
+    ``LAMP_SHARE`` is set (off in the product) and the face shows one hard lamp, the target's shape is
+    ``lamp_fit``'s instead (``LAMP_WEIGHT`` of it).
 
     Args:
         light: (9, 3) the photo's light so far (``refit_light``'s).
@@ -190,6 +200,9 @@ def face_refit(
         keep = np.abs(r - centre) < FACE_TRIM * spread
     if m is None or not m[0] > 0 or not l0[0] > 0:
         return light.copy()
+    lamp = lamp_fit(t, y) if LAMP_SHARE is not None else None
+    if lamp is not None and lamp.share >= LAMP_SHARE and lamp.explained >= LAMP_EXPLAINED and lamp.light[0] > 0:
+        m = LAMP_WEIGHT * lamp.light + (1 - LAMP_WEIGHT) * m  # one hard lamp: its shape (``lamp_fit``)
     fitted = m * (l0[0] / m[0])
     before = float((a * np.maximum(tp @ l0, 0)).sum())
     after = float((a * np.maximum(tp @ fitted, 0)).sum())
@@ -263,7 +276,8 @@ def lamp_fit(transport: np.ndarray, photo: np.ndarray, front: bool = True) -> La
         if n < _FACE_MIN:
             break
         tk, yk = t[keep], y[keep]
-        gram, ty, mean_t = tk.T @ tk, tk.T @ yk, tk.mean(0)
+        # (elementwise sums for the vectors: a BLAS dot of a long vector cost 4-40 ms on a loaded 2-core machine)
+        gram, ty, yy, mean_t = tk.T @ tk, (tk * yk[:, None]).sum(0), float((yk * yk).sum()), tk.mean(0)
         amb_g = gram @ _AMBIENT
         aa, ab, bb = float(_AMBIENT @ amb_g), lamps @ amb_g, np.einsum("kj,jl,kl->k", lamps, gram, lamps)
         ay, by = float(_AMBIENT @ ty), lamps @ ty
@@ -274,11 +288,11 @@ def lamp_fit(transport: np.ndarray, photo: np.ndarray, front: bool = True) -> La
         only_b = np.maximum(by / np.maximum(bb, 1e-12), 0)  # a negative coefficient: the best with it at zero
         ca, cb = np.where(ca < 0, 0, ca), np.where(ca < 0, only_b, cb)
         ca, cb = np.where(cb < 0, max(ay / max(aa, 1e-12), 0), ca), np.maximum(cb, 0)
-        err = float(yk @ yk) - 2 * (ca * ay + cb * by) + ca * ca * aa + 2 * ca * cb * ab + cb * cb * bb
+        err = yy - 2 * (ca * ay + cb * by) + ca * ca * aa + 2 * ca * cb * ab + cb * cb * bb
         k = int(np.argmin(err))
         light = ca[k] * _AMBIENT + cb[k] * lamps[k]
-        total = float(yk @ yk) - n * float(yk.mean()) ** 2  # the luminance's variance about its mean, summed
-        free = float(yk @ yk) - float(ty @ np.linalg.lstsq(gram, ty, rcond=None)[0])  # ... left by nine free terms
+        total = yy - n * float(yk.mean()) ** 2  # the luminance's variance about its mean, summed
+        free = yy - float(ty @ np.linalg.lstsq(gram, ty, rcond=None)[0])  # ... left by nine free terms
         gain = total - free
         explained = float(np.clip((total - err[k]) / gain, 0, 1)) if gain > 1e-12 else 0.0
         lamp_mean, amb_mean = cb[k] * float(lamps[k] @ mean_t), ca[k] * float(_AMBIENT @ mean_t)
