@@ -3,6 +3,8 @@
     python benchmarks/own_light_yale.py [--yale ../shared/realdata/yale] [--max-elevation 45] [--out OUT.json]
         [--reading own,raw,refit,mesh,mesh1,mesh-lamp,mesh-lamp-front,mesh-lamp-linear] [--subjects yaleB02 ...]
     python benchmarks/own_light_yale.py --renders ~/.cache/relight_rt_real_photos/heldout   # the same on renders
+    python benchmarks/own_light_yale.py --first-look ../shared/realdata/people_masks    # the first look's faces
+    python benchmarks/lamp_target.py -- benchmarks/own_light_yale.py ...    # with face_refit's lamp target on
 
 Every Yale photo whose lamp lies within ``--max-elevation`` of the horizon (and is not flagged bad) is decomposed
 as benchmarks/yale_eval.py does (grey, the ellipse mask); the photo's light ``Decomposition.light`` (stage 1's
@@ -21,9 +23,13 @@ elevation. Evaluation only: nothing of the data is written but figures.
 "own" ``Decomposition.light``; "raw" stage 1's estimate; "refit" after ``refit_light`` alone (before the face
 mesh's ``face_refit``); and, on the face mesh's skin with the albedo taken as one constant (photos without a
 mesh have none), "mesh" plain least squares of the luminance on the mesh's 9-term transport, "mesh1" on its
-degree 0 and 1 only, "mesh-lamp" one point lamp plus ambient (``lamp_fit``), "mesh-lamp-front" the same with the
-lamp within 120 deg of the camera, "mesh-lamp-linear" the lamp fit on the linearised luminance. Results and
-what they say: docs/RESULTS.md "Faces", "Still wrong" (light28).
+degree 0 and 1 only, "mesh-lamp" one point lamp plus ambient (relight_rt.relight.strength ``lamp_fit``),
+"mesh-lamp-front" the same with the lamp within 120 deg of the camera, "mesh-lamp-linear" the lamp fit on the
+linearised luminance. Results and what they say: docs/RESULTS.md "Faces", "Still wrong" (light28). Every photo
+with a mesh also gets the front lamp fit's "one hard lamp" figures in ``--out``'s rows ("indicator": the lamp's
+share of the fitted shading, how much of what nine free terms explain the lamp explains, the skin pixels kept);
+``--first-look PEOPLE``: those figures and the own light's direction on the first look's 30 photos
+(benchmarks/first_look.py's pick, the public ``decompose``) instead. light29's figures: docs/results_pending.md.
 """
 
 from __future__ import annotations
@@ -151,6 +157,39 @@ def renders(folder: Path, relighter: Relighter, which: list[str], out: Path | No
     return 0
 
 
+def first_look(people: Path, relighter, out: Path | None) -> int:
+    """The first look's photos (benchmarks/first_look.py: 30 by seed 48, the automatic matte, the public
+    ``decompose``): where each face's front lamp fit (``strength.lamp_fit`` on the face mesh's skin, the head pass's
+    where the body pass has none) puts the lamp, its share and explained figures, and the own light's direction."""
+    from first_look import picked_photos, read_rgb
+
+    found = picked_photos(people, 30, 48)
+    if found is None:
+        return 2
+    folder, chosen, halves = found
+    factor, rows = relighter._factor, []
+    for name in chosen:
+        dec = relighter.decompose(read_rgb(folder / f"{name}.jpg"))
+        base = factor.restored(dec)
+        if not base["face_skin"].any() and dec.head is not None:
+            base = factor.restored(dec.head)
+        skin = base["face_skin"]
+        lamp = lamp_fit(base["transport"][skin], base["photo"][skin]) if skin.sum() >= 50 else None
+        own, strength = light_direction(dec.light)
+        row = {"photo": name, "half": halves[name], "indicator": None if lamp is None else
+               {"share": lamp.share, "explained": lamp.explained, "pixels": lamp.pixels,
+                "lamp": lamp.direction.tolist()}, "own": None if own is None else own.tolist(), "strength": strength}
+        rows.append(row)
+        angles = lambda v: "-" if v is None else (  # noqa: E731
+            f"az {math.degrees(math.atan2(v[1], v[0])):+.0f} el {math.degrees(math.asin(np.clip(v[2], -1, 1))):+.0f}")
+        print(f"{name} ({row['half']}): "
+              + ("no face mesh" if lamp is None else f"share {lamp.share:.2f} explained {lamp.explained:.3f} "
+                 f"pixels {lamp.pixels} lamp {angles(lamp.direction)}") + f"; own {angles(own)} ({strength:.2f})")
+    if out is not None:
+        out.write_text(json.dumps(rows, indent=1))
+    return 0
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--yale", type=Path, default=shared_path("realdata", "yale"))
@@ -160,11 +199,17 @@ def main(argv=None) -> int:
     p.add_argument("--renders", type=Path, default=None, help="held-out renders' folder (photos_*/*_photo.png)")
     p.add_argument("--reading", default="own",
                    help=f"comma-separated readings to measure, of {', '.join(READINGS)} (default: own)")
+    p.add_argument("--first-look", type=Path, default=None, metavar="PEOPLE",
+                   help="people_masks folder: the first look's 30 photos instead (benchmarks/first_look.py)")
     p.add_argument("--subjects", nargs="*", default=None, help="only these Yale subjects (yaleB02 ...)")
     args = p.parse_args(argv)
     which = [w for w in args.reading.split(",") if w]
     if not which or set(which) - set(READINGS):
         p.error(f"--reading: expected names among {', '.join(READINGS)}, got {args.reading!r}")
+    if args.first_look is not None:
+        import relight_rt
+
+        return first_look(args.first_look, relight_rt.open(RuntimeConfig(models=args.models, device="cpu")), args.out)
     if args.renders is not None:
         return renders(args.renders.expanduser(), Relighter(RuntimeConfig(models=args.models, device="cpu")), which,
                        args.out)
