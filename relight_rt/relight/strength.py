@@ -71,7 +71,7 @@ _FACE_MIN = 50  # ... fewer skin pixels than this: no fit
 # frontal lamps stay 53 deg off (light29). Re-judged under the relerr guard (light30): share 0.3 chosen on the even
 # subjects puts relight relerr 0.513 -> 0.498 (lower on 50 of 72 pairs), but the odd subjects' median 0.528 -> 0.540
 # (their mean 0.607 -> 0.578): Yale's frontal lamp is read 5 deg toward the image's right, mirrored photos too (the
-# face mesh's transport is not left-right symmetric there), which shrinks the change toward that side; at 0.3 a face
+# face mesh lies lopsided on Yale's tight crops), which shrinks the change toward that side; at 0.3 a face
 # already showing a nine-term light can pass as one lamp (docs/RESULTS.md; benchmarks/lamp_target.py runs it on)
 LAMP_SHARE: float | None = None
 LAMP_EXPLAINED = 0.7
