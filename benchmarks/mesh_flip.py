@@ -1,0 +1,45 @@
+"""Any benchmark with the face mesh's mirror averaging on or off (relight_rt.person.face_mesh ``MESH_FLIP``, off in
+the product), for before/after figures in one checkout.
+
+    python benchmarks/mesh_flip.py --flip on -- SCRIPT [ARGS ...]
+    python benchmarks/mesh_flip.py --flip on -- benchmarks/yale_eval.py --out /tmp/y --no-dpr --yale YALE
+
+``--border`` / ``--passes`` set ``MESH_BORDER`` / ``MESH_PASSES`` too (benchmarks/mesh_mirror.py's variants).
+SCRIPT then runs as ``python SCRIPT ARGS`` would, in this process (another wrapper, benchmarks/lamp_target.py, may
+be SCRIPT). Figures: docs/results_pending.md (face31).
+"""
+
+from __future__ import annotations
+
+import argparse
+import runpy
+import sys
+from pathlib import Path
+
+from relight_rt.person import face_mesh
+
+
+def main(argv=None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if "--" not in argv:
+        print("mesh_flip: expected '-- SCRIPT [ARGS ...]' after the options", file=sys.stderr)
+        return 2
+    cut = argv.index("--")
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--flip", choices=("on", "off"), required=True, help="the mirror averaging on or off")
+    p.add_argument("--border", choices=("zero", "replicate"), default=face_mesh.MESH_BORDER)
+    p.add_argument("--passes", type=int, default=face_mesh.MESH_PASSES)
+    args = p.parse_args(argv[:cut])
+    rest = argv[cut + 1:]
+    if not rest or not Path(rest[0]).is_file():
+        p.error(f"expected a benchmark script after '--', got {rest[:1]}")
+    face_mesh.MESH_FLIP = args.flip == "on"
+    face_mesh.MESH_BORDER, face_mesh.MESH_PASSES = args.border, args.passes
+    sys.argv = rest
+    sys.path.insert(0, str(Path(rest[0]).resolve().parent))
+    runpy.run_path(rest[0], run_name="__main__")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
