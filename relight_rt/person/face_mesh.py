@@ -56,8 +56,9 @@ MESH_PASSES = 1  # landmarker passes per face: the second and later from the box
 # ``FaceMesh.landmarks``; the mirror's landmarks re-indexed by ``MIRROR_FILE``). Off: on Extended Yale B's close-ups
 # the graphs read a face as turned 2.8 deg (median) the same way on a photo and on its mirror image, and with this on
 # not at all (benchmarks/mesh_mirror.py), but Yale's de-light relerr on the odd subjects rose 0.4069 -> 0.4186
-# (relight to +70 deg worse on 12 of 12 subjects, to +25 better on 12 of 12: a lean elsewhere the mesh's had offset;
-# face31, docs/results_pending.md). ``benchmarks/mesh_flip.py`` runs any benchmark with it on or off.
+# (relight to +70 deg worse on 12 of 12 subjects, to +25 better on 12 of 12, the same on Yale mirrored: a lean
+# elsewhere in the chain that the mesh's had offset; face31, docs/results_pending.md). ``benchmarks/mesh_flip.py``
+# runs any benchmark with it on or off.
 MESH_FLIP = False
 MIRROR_FILE = Path(__file__).resolve().parents[1] / "data" / "face_mesh_mirror.txt"  # landmark i's partner on
 # the face's other half (the mid-line's its own): nearest mirrored landmark on the mean of 24 frontal meshes
