@@ -31,6 +31,10 @@ finds, searched in a square three times its box; its mirror in the box mirrored)
 (a DPR repository: $DPR_REPO or the mirror), ``renders`` the held-out renders' faces (photos_face, every light, and
 photos_head-shoulders' first light; their heads are frontal: ``yaw`` against 0 is the error).
 
+``--own-light`` prints, per variant, the lean of the Yale frontals' own light (``Relighter.decompose``'s, after
+face_refit): its band-1 azimuth toward the image's right on the photo and on its mirror image (a left-right
+symmetric chain reads them opposite), and half their sum, the part that does not flip (medians, degrees).
+
 ``--build-map`` writes the symmetry map from the meshes of the Yale frontals and their mirrors (``symmetry_map``)
 and stops. The data is for evaluation only: keep --out out of the repository.
 """
@@ -140,14 +144,9 @@ def nearest(meshes: list[np.ndarray], centre: tuple[float, float]) -> np.ndarray
     return min(meshes, key=lambda m: float(np.hypot(*(m[:, :2].mean(axis=0) - centre))))
 
 
-def both_meshes(mesh: FaceMesh, rgb: np.ndarray, search: tuple[int, int, int, int], variant: str):
-    """(the photo's mesh, the mirror's mesh mapped back (x -> W - x), not re-indexed) for the face searched in
-    ``search`` (y0, y1, x0, x1) and in its mirror; either None where not found."""
-    h, w = rgb.shape[:2]
-    mir = np.ascontiguousarray(rgb[:, ::-1])
-    y0, y1, x0, x1 = search
-    msearch = (y0, y1, w - x1, w - x0)
-    centre = ((x0 + x1) / 2, (y0 + y1) / 2)
+def settings(variant: str) -> tuple[str, int, bool, bool]:
+    """(border, passes, box averaged, flip) of a variant: a name of ``VARIANTS``, "as-is" (the product's), or
+    several joined by "+"."""
     border, passes, avg, flip = "zero", 1, False, False
     for part in variant.split("+"):
         if part == "as-is":
@@ -157,6 +156,18 @@ def both_meshes(mesh: FaceMesh, rgb: np.ndarray, search: tuple[int, int, int, in
         border = b if b != "zero" else border
         passes = max(passes, p)
         avg, flip = avg or a, flip or f
+    return border, passes, avg, flip
+
+
+def both_meshes(mesh: FaceMesh, rgb: np.ndarray, search: tuple[int, int, int, int], variant: str):
+    """(the photo's mesh, the mirror's mesh mapped back (x -> W - x), not re-indexed) for the face searched in
+    ``search`` (y0, y1, x0, x1) and in its mirror; either None where not found."""
+    h, w = rgb.shape[:2]
+    mir = np.ascontiguousarray(rgb[:, ::-1])
+    y0, y1, x0, x1 = search
+    msearch = (y0, y1, w - x1, w - x0)
+    centre = ((x0 + x1) / 2, (y0 + y1) / 2)
+    border, passes, avg, flip = settings(variant)
     saved = fm_module.MESH_BORDER, fm_module.MESH_PASSES, fm_module.MESH_FLIP
     fm_module.MESH_BORDER, fm_module.MESH_PASSES, fm_module.MESH_FLIP = border, passes, flip
     try:
@@ -231,6 +242,40 @@ def photos(sets: list[str], mesh: FaceMesh, yale: Path, people: Path, heldout: P
             yield "renders", f"{f.parent.name[7:]}/{f.name[:-10]}", rgb, (0, rgb.shape[0], 0, rgb.shape[1])
 
 
+def own_light_lean(yale: Path, variants: list[str]) -> None:
+    """Print the Yale frontals' own-light azimuth toward the image's right, photo / mirror / half their sum."""
+    from relight_rt import Relighter, RuntimeConfig
+
+    relighter = Relighter(RuntimeConfig(device="cpu"))
+    for variant in variants:
+        border, passes, avg, flip = settings(variant)
+        if avg:
+            print(f"{variant}: the box averaging is no product setting, the chain cannot run it", file=sys.stderr)
+            continue
+        saved = fm_module.MESH_BORDER, fm_module.MESH_PASSES, fm_module.MESH_FLIP
+        fm_module.MESH_BORDER, fm_module.MESH_PASSES, fm_module.MESH_FLIP = border, passes, flip
+        rows = []
+        try:
+            for s in SUBJECTS:
+                path = ye.find_file(yale, s, 0)
+                if not path.is_file():
+                    continue
+                img = ye.read_grey(path)
+                mask = ye.ellipse(img.shape[:2])
+                az = []
+                for im, m in ((img, mask), (img[:, ::-1], mask[:, ::-1])):
+                    light = relighter.decompose(np.ascontiguousarray(im), np.ascontiguousarray(m)).light
+                    v = np.asarray(light, np.float64)[[3, 1, 2], 1]  # (toward the camera, image right, up), green
+                    az.append(float(np.degrees(np.arcsin(v[1] / np.linalg.norm(v)))))
+                rows.append(az)
+        finally:
+            fm_module.MESH_BORDER, fm_module.MESH_PASSES, fm_module.MESH_FLIP = saved
+        r = np.array(rows)
+        print(f"{variant:24s} own light toward the image's right, photo / mirror / not flipping: "
+              f"{np.median(r[:, 0]):.2f} / {np.median(r[:, 1]):.2f} / {np.median(r.sum(axis=1) / 2):.2f} deg "
+              f"({len(r)} subjects)")
+
+
 def summary(rows: list[dict]) -> dict:
     out = {"faces": len(rows), "found": sum(r.get("found", False) for r in rows)}
     got = [r for r in rows if r.get("found")]
@@ -254,6 +299,7 @@ def main(argv=None) -> int:
     p.add_argument("--out", type=Path, default=None, help="every face's figures (JSON; not the repository)")
     p.add_argument("--build-map", action="store_true", help="write tests/data/face_mesh_mirror.txt and stop")
     p.add_argument("--rows", action="store_true", help="print every face")
+    p.add_argument("--own-light", action="store_true", help="the Yale frontals' own light's lean, then stop")
     args = p.parse_args(argv)
     cv2.setNumThreads(1)
     mesh = FaceMesh(bundled_models_dir())
@@ -269,6 +315,9 @@ def main(argv=None) -> int:
         assert (partner[partner] == np.arange(len(partner))).all()
         np.savetxt(MAP_FILE, partner, fmt="%d")
         print(f"{MAP_FILE}: {len(found)} meshes, {int((partner == np.arange(len(partner))).sum())} on the mid-line")
+        return 0
+    if args.own_light:
+        own_light_lean(args.yale, args.variants.split(","))
         return 0
     partner = read_map()
     assert (partner[partner] == np.arange(len(partner))).all(), "the symmetry map is no involution"
