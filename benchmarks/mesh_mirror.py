@@ -33,7 +33,8 @@ photos_head-shoulders' first light; their heads are frontal: ``yaw`` against 0 i
 
 ``--own-light`` prints, per variant, the lean of the Yale frontals' own light (``Relighter.decompose``'s, after
 face_refit): its band-1 azimuth toward the image's right on the photo and on its mirror image (a left-right
-symmetric chain reads them opposite), and half their sum, the part that does not flip (medians, degrees).
+symmetric chain reads them opposite), and half their sum, the part that does not flip (medians, degrees); variant
+``no-mesh``: the chain with no face mesh found (stage 1's light refit on the whole person).
 
 ``--build-map`` writes the symmetry map from the meshes of the Yale frontals and their mirrors (``symmetry_map``)
 and stops. The data is for evaluation only: keep --out out of the repository.
@@ -242,12 +243,21 @@ def photos(sets: list[str], mesh: FaceMesh, yale: Path, people: Path, heldout: P
             yield "renders", f"{f.parent.name[7:]}/{f.name[:-10]}", rgb, (0, rgb.shape[0], 0, rgb.shape[1])
 
 
-def own_light_lean(yale: Path, variants: list[str]) -> None:
-    """Print the Yale frontals' own-light azimuth toward the image's right, photo / mirror / half their sum."""
+def own_light_lean(yale: Path, variants: list[str], label: str | None = None, relighter=None) -> None:
+    """Print the Yale frontals' own-light azimuth toward the image's right, photo / mirror / half their sum;
+    variant "no-mesh": with no face mesh found (stage 1's light refit on the whole person)."""
     from relight_rt import Relighter, RuntimeConfig
 
-    relighter = Relighter(RuntimeConfig(device="cpu"))
+    relighter = relighter or Relighter(RuntimeConfig(device="cpu"))
     for variant in variants:
+        if variant == "no-mesh":  # the chain without face meshes: stage 1's light, refit on the whole person
+            faces = fm_module.FaceMesh.faces
+            fm_module.FaceMesh.faces = lambda self, rgb, box, lift=1.0: []
+            try:
+                own_light_lean(yale, ["as-is"], label="no-mesh", relighter=relighter)
+            finally:
+                fm_module.FaceMesh.faces = faces
+            continue
         border, passes, avg, flip = settings(variant)
         if avg:
             print(f"{variant}: the box averaging is no product setting, the chain cannot run it", file=sys.stderr)
@@ -271,7 +281,7 @@ def own_light_lean(yale: Path, variants: list[str]) -> None:
         finally:
             fm_module.MESH_BORDER, fm_module.MESH_PASSES, fm_module.MESH_FLIP = saved
         r = np.array(rows)
-        print(f"{variant:24s} own light toward the image's right, photo / mirror / not flipping: "
+        print(f"{label or variant:24s} own light toward the image's right, photo / mirror / not flipping: "
               f"{np.median(r[:, 0]):.2f} / {np.median(r[:, 1]):.2f} / {np.median(r.sum(axis=1) / 2):.2f} deg "
               f"({len(r)} subjects)")
 
