@@ -1,7 +1,9 @@
-"""Any benchmark with the face mesh's mirror averaging on or off (relight_rt.person.face_mesh ``MESH_FLIP``, off in
-the product), for before/after figures in one checkout.
+"""Any benchmark with the face mesh's mirror averaging on or off (relight_rt.person.face_mesh ``MESH_FLIP``) and
+stage 1's (``--stage1``: relight_rt.relight.network ``STAGE1_MIRROR``; default: as the product has it), for
+before/after figures in one checkout.
 
     python benchmarks/mesh_flip.py --flip on -- SCRIPT [ARGS ...]
+    python benchmarks/mesh_flip.py --flip off --stage1 off -- SCRIPT [ARGS ...]  # the product before mirror31
     python benchmarks/mesh_flip.py --flip on -- benchmarks/yale_eval.py --out /tmp/y --no-dpr --yale YALE
 
 ``--border`` / ``--passes`` set ``MESH_BORDER`` / ``MESH_PASSES`` too (benchmarks/mesh_mirror.py's variants).
@@ -17,6 +19,7 @@ import sys
 from pathlib import Path
 
 from relight_rt.person import face_mesh
+from relight_rt.relight import network
 
 
 def main(argv=None) -> int:
@@ -27,6 +30,8 @@ def main(argv=None) -> int:
     cut = argv.index("--")
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--flip", choices=("on", "off"), required=True, help="the mirror averaging on or off")
+    p.add_argument("--stage1", choices=("on", "off"), default="on" if network.STAGE1_MIRROR else "off",
+                   help="stage 1's mirror averaging on or off")
     p.add_argument("--border", choices=("zero", "replicate"), default=face_mesh.MESH_BORDER)
     p.add_argument("--passes", type=int, default=face_mesh.MESH_PASSES)
     args = p.parse_args(argv[:cut])
@@ -34,6 +39,7 @@ def main(argv=None) -> int:
     if not rest or not Path(rest[0]).is_file():
         p.error(f"expected a benchmark script after '--', got {rest[:1]}")
     face_mesh.MESH_FLIP = args.flip == "on"
+    network.STAGE1_MIRROR = args.stage1 == "on"
     face_mesh.MESH_BORDER, face_mesh.MESH_PASSES = args.border, args.passes
     sys.argv = rest
     sys.path.insert(0, str(Path(rest[0]).resolve().parent))

@@ -53,13 +53,12 @@ CLOSE_UP_SCALE = 2.0  # no face in the box's square: look again at a square this
 MESH_BORDER = "zero"  # the landmarker's crop past the photo's edge: "zero" or "replicate" (crop_region's border)
 MESH_PASSES = 1  # landmarker passes per face: the second and later from the box of the mesh before
 # the detector and landmarker shown their crop and its mirror image, the answers averaged (``FaceMesh.boxes``,
-# ``FaceMesh.landmarks``; the mirror's landmarks re-indexed by ``MIRROR_FILE``). Off: on Extended Yale B's close-ups
-# the graphs read a face as turned 2.8 deg (median) the same way on a photo and on its mirror image, and with this on
-# not at all (benchmarks/mesh_mirror.py), but Yale's de-light relerr on the odd subjects rose 0.4069 -> 0.4186
-# (relight to +70 deg worse on 12 of 12 subjects, to +25 better on 12 of 12, the same on Yale mirrored: a lean
-# elsewhere in the chain that the mesh's had offset; face31, docs/results_pending.md). ``benchmarks/mesh_flip.py``
-# runs any benchmark with it on or off.
-MESH_FLIP = False
+# ``FaceMesh.landmarks``; the mirror's landmarks re-indexed by ``MIRROR_FILE``). Without it, on Extended Yale B's
+# close-ups the graphs read a face as turned 2.8 deg (median) the same way on a photo and on its mirror image (face31,
+# benchmarks/mesh_mirror.py); on with stage 1's own mirror averaging (relight_rt.relight.network ``STAGE1_MIRROR``,
+# mirror31: alone it had failed its criterion, stage 1's own lean having been partly offset by the mesh's).
+# ``benchmarks/mesh_flip.py`` runs any benchmark with either on or off.
+MESH_FLIP = True
 MIRROR_FILE = Path(__file__).resolve().parents[1] / "data" / "face_mesh_mirror.txt"  # landmark i's partner on
 # the face's other half (the mid-line's its own): nearest mirrored landmark on the mean of 24 frontal meshes
 # (benchmarks/mesh_mirror.py --build-map)

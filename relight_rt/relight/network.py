@@ -14,9 +14,16 @@ from ..engine.session import Model, check_finite
 from ..image.crop import CropGeometry
 from .decomposition import Decomposition, Memo, diffuse_batch, readonly
 from .face_pass import FacePass
-from .upright import STAGE1_IMAGES, UprightTurn, turn_picture, turned_back
+from .upright import STAGE1_IMAGES, UprightTurn, mirror_averaged, mirror_picture, turn_picture, turned_back
 
 log = logging.getLogger(__name__)
+
+# stage 1 also sees each picture mirrored left-right (in the same batch), its answers mapped back and averaged with
+# the first (relight_rt.relight.upright ``mirror_averaged``): a photo and its mirror image decompose to each other's
+# mirror image. Without it stage 1 read Extended Yale B's frontal lamp 3.5 deg toward the image's right on a photo
+# and on its mirror alike (face31, docs/results_pending.md). Costs a second stage-1 run per picture. On CUDA the
+# averaged answers are uploaded again on first use (the DeviceChain's copies are of one run's).
+STAGE1_MIRROR = True
 
 
 class Network:
@@ -68,11 +75,18 @@ class Network:
         """
         turns = [self.upright.quarters(*args[:5]) if args[5] else 0
                  for args in zip(rgbs, masks, geoms, net_masks, meshes, alone, strict=True)]
-        out, on_device = self.stage1_outputs(*([turn_picture(a, q) for a, q in zip(arrays, turns, strict=True)]
-                                               for arrays in (net_imgs, net_masks)))
+        imgs, msks = ([turn_picture(a, q) for a, q in zip(arrays, turns, strict=True)]
+                      for arrays in (net_imgs, net_masks))
+        n, mirror = len(imgs), STAGE1_MIRROR
+        if mirror:  # each picture (as seen: turned upright) and its mirror image in one batch
+            imgs, msks = imgs + [mirror_picture(a) for a in imgs], msks + [mirror_picture(a) for a in msks]
+        out, on_device = self.stage1_outputs(imgs, msks)
         fields = []
         for i, q in enumerate(turns):
             seen = {k: out[k][i] for k in (*STAGE1_IMAGES, "light")}
+            if mirror:
+                seen = mirror_averaged(seen, {k: out[k][n + i] for k in (*STAGE1_IMAGES, "light")})
+                on_device[i] = None
             if q:
                 seen, on_device[i] = turned_back(seen, q), None
                 log.debug("stage 1 saw the person turned %d degrees counter-clockwise (upright)", 90 * q)
@@ -80,7 +94,7 @@ class Network:
                 raise RelightError(f"{self.stage1.name}: stage 1 estimated a non-finite light for this image")
             fields.append({"albedo_chw": seen["albedo"], "skin": seen["skin"][0], "transport_chw": seen["transport"],
                            "light": seen["light"], "upright": q})
-        return fields, on_device
+        return fields, on_device[:n]
 
     def relit(
         self, dec: Decomposition, lights: np.ndarray, batch_size: int, want_layers: bool = True

@@ -11,7 +11,10 @@ from relight_rt.light import sh
 from relight_rt.relight.upright import (
     HEAD_OFF,
     LONG_BODY,
+    MIRROR_SIGNS,
     matte_axis,
+    mirror_averaged,
+    mirror_picture,
     quarter_coefficients,
     quarter_rotation,
     standing,
@@ -88,6 +91,59 @@ def test_a_spheres_transport_seen_turned_comes_back_as_its_own(q):
     assert np.abs(back["transport"][:, inside] - own[:, inside]).max() < 1e-5
     # and the turned picture's transport is not the picture's own turned (the coefficients had to turn)
     assert np.abs(turn_picture(seen_turned, -q, (1, 2))[:, inside] - own[:, inside]).max() > 0.5
+
+
+def test_a_mirrored_lamps_shading_on_mirrored_normals_is_the_shading_mirrored():
+    """The picture mirrored left-right is the scene mirrored y -> -y: a sphere's normals moved with their pixels and
+    mirrored are the sphere's own again, and a lamp mirrored (``MIRROR_SIGNS`` times its coefficients) shades them as
+    the original lamp shades the picture, mirrored. Each sign is needed: flipping any one breaks it."""
+    normals, inside = _sphere_normals(32)
+    moved = mirror_picture(normals) * np.array([1.0, -1.0, 1.0])  # each pixel's normal, moved and mirrored
+    assert np.allclose(moved[inside], normals[inside], atol=1e-12)
+    rng = np.random.default_rng(7)
+    light = rng.normal(size=(9, 3))
+    transport = _sphere_transport(normals)
+    shading = np.einsum("khw,kc->hwc", transport, light)
+    seen = np.einsum("khw,kc->hwc", _sphere_transport(moved), MIRROR_SIGNS[:, None] * light)
+    assert np.abs(seen - mirror_picture(shading))[inside].max() < 1e-9
+    for k in range(9):  # no sign can be other than it is
+        wrong = MIRROR_SIGNS.copy()
+        wrong[k] = -wrong[k]
+        off = np.einsum("khw,kc->hwc", transport, wrong[:, None] * light)
+        assert np.abs(off - mirror_picture(shading))[inside].max() > 0.05, k
+    # the odd coefficients are those of DESIGN.md's basis odd in y: y, xy, yz
+    assert np.flatnonzero(MIRROR_SIGNS < 0).tolist() == [1, 4, 5]
+
+
+def test_mirror_averaged_answers_of_a_picture_and_its_mirror_are_each_others_mirrored():
+    """Stage 1's answers for a picture (a) and its mirror (b), averaged one way and the other, are each other's
+    mirror image: the images mirrored and the coefficients signed; their shading under mirrored lights is the
+    shading mirrored."""
+    rng = np.random.default_rng(3)
+    r = 16
+
+    def answer():
+        return {"albedo": rng.random((3, r, r), dtype=np.float32), "skin": rng.random((1, r, r), dtype=np.float32),
+                "transport": rng.normal(size=(9, r, r)).astype(np.float32),
+                "light": rng.normal(size=(9, 3)).astype(np.float32)}
+
+    a, b = answer(), answer()
+    one, two = mirror_averaged(a, b), mirror_averaged(b, a)
+    signs = MIRROR_SIGNS.astype(np.float32)
+    for k in ("albedo", "skin"):
+        assert np.allclose(two[k], mirror_picture(one[k], 2), atol=1e-6)
+    assert np.allclose(two["transport"], signs[:, None, None] * mirror_picture(one["transport"], 2), atol=1e-6)
+    assert np.allclose(two["light"], signs[:, None] * one["light"], atol=1e-6)
+    # a picture that is its own mirror image with the answer's mirror image: nothing changes
+    sym = mirror_averaged(a, {**{k: mirror_picture(a[k], 2) for k in ("albedo", "skin")},
+                              "transport": signs[:, None, None] * mirror_picture(a["transport"], 2),
+                              "light": signs[:, None] * a["light"]})
+    for k in sym:
+        assert np.allclose(sym[k], a[k], atol=1e-6), k
+    light = rng.normal(size=(9, 3)).astype(np.float32)
+    s1 = np.einsum("khw,kc->hwc", one["transport"], light)
+    s2 = np.einsum("khw,kc->hwc", two["transport"], signs[:, None] * light)
+    assert np.allclose(s2, mirror_picture(s1), atol=1e-5)
 
 
 def test_unturn_point_inverts_rot90():
@@ -207,3 +263,25 @@ def test_a_photo_lying_on_its_side_is_decomposed_upright(relighter, sample, q):
     m = upright.network_mask > 0.5
     corr = np.corrcoef(turn_picture(own, q)[turn_picture(m, q)][:, 1], seen[turn_picture(m, q)][:, 1])[0, 1]
     assert corr > 0.95
+
+
+def test_a_mirrored_photo_decomposes_to_the_photos_decomposition_mirrored(relighter, sample):
+    """Stage 1 mirror-averaged (network ``STAGE1_MIRROR``): the reference photo mirrored left-right decomposes to its
+    decomposition mirrored, light's coefficients signed (to the crop's rounding; the face mesh and the head pass in
+    between); without it the light's left-right terms differ far more."""
+    from relight_rt.relight import network
+
+    image, mask = sample
+    dec = relighter.decompose(image, mask)
+    mir = relighter.decompose(mirror_picture(image), mirror_picture(mask))
+    signs = MIRROR_SIGNS[:, None]
+    err = np.abs(mir.light - signs * dec.light).max()
+    network.STAGE1_MIRROR = False
+    try:
+        off = relighter.decompose(image, mask)
+        off_mir = relighter.decompose(mirror_picture(image), mirror_picture(mask))
+    finally:
+        network.STAGE1_MIRROR = True
+    off_err = np.abs(off_mir.light - signs * off.light).max()
+    print(f'light mirror error {err:.4f} averaged, {off_err:.4f} without')
+    assert err < 0.5 * off_err, (err, off_err)
