@@ -1,0 +1,142 @@
+"""Does a mirrored photo relight to the mirrored result? relight(mirror(photo)) against mirror(relight(photo)).
+
+    python benchmarks/mirror_equivariance.py [--out DIR] [--dpr DPR_REPO]
+
+The bundled example (relight_rt/data/example.png, its alpha as the mask) and DPR's demo portrait (data/obama.jpg of
+github:zhhoper/DPR, ``--dpr`` as benchmarks/real_photos.py takes it) under ``LEFT`` and ``campfire`` (the mirror
+relit under the light mirrored: y -> -y, relight_rt.relight.upright ``MIRROR_SIGNS``). "given": the photo's mask given
+(DPR's portrait: the automatic matte of the photo, mirrored for the mirror); "auto": both photos with their own
+automatic matte (what the matte adds). Figures: the 99th percentile and the max of the 8-bit |difference| over the
+person (mask >= 0.5; for "auto" the union of the two mattes, one mirrored), and the mean. With ``--out`` each case's
+two results and their difference (x8) are written side by side. Relights with whatever ``relight_rt`` is importable,
+on the CPU; use benchmarks/mesh_flip.py to run it with the mirror averaging off.
+
+Probes of what else is not mirror-symmetric (no product change; mirror31): ``--symmetric-crop`` places the crop box
+the same on a photo and its mirror (``CropGeometry.from_mask`` keeps the reference's margin, 5 px before the mask
+and 4 after, and its padding, the odd pixel after: each shifts a mirror's crop by a pixel; here 5 px after too and
+the square one pixel larger where the padding is odd); ``--stage2-mirror`` runs stage 2 on its input and the
+input's mirror image, the answers mirrored back and averaged.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import dpr_protocol as dprp  # noqa: E402
+from real_photos import LEFT  # noqa: E402
+
+import relight_rt  # noqa: E402
+from relight_rt import RuntimeConfig  # noqa: E402
+from relight_rt.image import crop as crop_module  # noqa: E402
+from relight_rt.relight.upright import MIRROR_SIGNS  # noqa: E402
+
+EXAMPLE = Path(__file__).resolve().parents[1] / "relight_rt" / "data" / "example.png"
+
+
+def to8(a: np.ndarray) -> np.ndarray:
+    return np.rint(np.clip(a, 0, 1) * 255).astype(np.int16)
+
+
+def compare(relighter, rgb, mask, light, name: str) -> tuple[dict, np.ndarray]:
+    """The figures for one photo and light; mask None: the automatic matte on each."""
+    light = np.asarray(relighter.resolve_light(light), np.float64)
+    mlight = MIRROR_SIGNS[:, None] * light
+    flip = np.ascontiguousarray(rgb[:, ::-1])
+    if mask is None:
+        d1, d2 = relighter.decompose(rgb), relighter.decompose(flip)
+        person = (np.asarray(d1.mask) >= 0.5) | (np.asarray(d2.mask)[:, ::-1] >= 0.5)
+    else:
+        d1, d2 = relighter.decompose(rgb, mask), relighter.decompose(flip, np.ascontiguousarray(mask[:, ::-1]))
+        person = mask >= 0.5
+    a = to8(relighter.relight(d1, light.astype(np.float32)))
+    b = to8(relighter.relight(d2, mlight.astype(np.float32)))[:, ::-1]
+    diff = np.abs(a - b).max(axis=2)[person]
+    row = {"case": name, "p99": float(np.percentile(diff, 99)), "max": int(diff.max()), "mean": float(diff.mean()),
+           "light_mirror_err": float(np.abs(d2.light - MIRROR_SIGNS[:, None] * d1.light).max())}
+    sheet = np.concatenate([a, b, np.clip(np.abs(a - b) * 8, 0, 255)], axis=1).astype(np.uint8)
+    return row, sheet
+
+
+def symmetric_from_mask(mask, resolution, mode="quality", margin=crop_module.MARGIN):
+    """``CropGeometry.from_mask`` with the box and the padding placed alike on a photo and its mirror (a probe): the
+    margin on both sides of the mask, and a square one row larger (below) where padding it left-right is odd."""
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    h_img, w_img = mask.shape[:2]
+    y0, y1 = max(int(rows[0]) - margin, 0), min(int(rows[-1]) + 1 + margin, h_img)
+    x0, x1 = max(int(cols[0]) - margin, 0), min(int(cols[-1]) + 1 + margin, w_img)
+    h, w = y1 - y0, x1 - x0
+    side = max(h, w)
+    if h > w:
+        side += (side - w) % 2
+    pad = (side - min(h, w)) // 2
+    if mode == "quality":
+        if h > w:
+            pad = crop_module._toward_cut(pad, side - w, cols[0] == 0, cols[-1] == w_img - 1)
+        else:
+            pad = crop_module._toward_cut(pad, side - h, rows[0] == 0, rows[-1] == h_img - 1)
+    offset = (0, pad) if h > w else (pad, 0)
+    return crop_module.CropGeometry((h_img, w_img), (y0, y1, x0, x1), offset, side, int(resolution), mode)
+
+
+ORIGINAL_FROM_MASK = crop_module.CropGeometry.from_mask
+
+
+class MirroredStage2:
+    """Stage 2 run on its input and its mirror image, the answers mirrored back and averaged (a probe)."""
+
+    def __init__(self, model) -> None:
+        self.model, self.name = model, model.name
+
+    def run(self, feeds):
+        a = self.model.run(feeds)
+        b = self.model.run({k: np.ascontiguousarray(v[..., ::-1]) for k, v in feeds.items()})
+        return {k: (a[k] + b[k][..., ::-1]) * np.float32(0.5) for k in a}
+
+    def __getattr__(self, name):
+        return getattr(self.model, name)
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--out", type=Path, default=None)
+    p.add_argument("--dpr", default=None)
+    p.add_argument("--symmetric-crop", action="store_true", help="probe: the crop placed alike on a mirror")
+    p.add_argument("--stage2-mirror", action="store_true", help="probe: stage 2 mirror-averaged too")
+    args = p.parse_args(argv)
+    if args.symmetric_crop:
+        crop_module.CropGeometry.from_mask = staticmethod(symmetric_from_mask)
+    relighter = relight_rt.open(RuntimeConfig(device="cpu"))
+    if args.stage2_mirror:
+        relighter._network.stage2 = MirroredStage2(relighter._network.stage2)
+    rgba = cv2.imread(str(EXAMPLE), cv2.IMREAD_UNCHANGED)
+    photos = [("example", cv2.cvtColor(rgba[..., :3], cv2.COLOR_BGR2RGB).astype(np.float32) / 255,
+               rgba[..., 3].astype(np.float32) / 255)]
+    repo = dprp.DPRRepo.find(args.dpr)
+    if repo is None:
+        print("no DPR repository (give --dpr): DPR's portrait skipped")
+    else:
+        rgb = repo.image(dprp.DEMO_PHOTO)
+        photos.append(("dpr_obama", rgb, np.asarray(relighter.decompose(rgb).mask, np.float32)))
+    rows = []
+    for name, rgb, mask in photos:
+        for lname, light in (("LEFT", LEFT), ("campfire", "campfire")):
+            for how, m in (("given", mask), ("auto", None)):
+                row, sheet = compare(relighter, rgb, m, light, f"{name} {lname} {how}")
+                rows.append(row)
+                print(f"{row['case']:28s} p99 {row['p99']:5.1f}  max {row['max']:3d}  mean {row['mean']:.3f}  "
+                      f"light mirror err {row['light_mirror_err']:.4f}", flush=True)
+                if args.out is not None:
+                    args.out.mkdir(parents=True, exist_ok=True)
+                    cv2.imwrite(str(args.out / f"{name}_{lname}_{how}.png"), cv2.cvtColor(sheet, cv2.COLOR_RGB2BGR))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
