@@ -11,11 +11,8 @@ person (mask >= 0.5; for "auto" the union of the two mattes, one mirrored), and 
 two results and their difference (x8) are written side by side. Relights with whatever ``relight_rt`` is importable,
 on the CPU; use benchmarks/mesh_flip.py to run it with the mirror averaging off.
 
-Probes of what else is not mirror-symmetric (no product change; mirror31): ``--symmetric-crop`` places the crop box
-the same on a photo and its mirror (``CropGeometry.from_mask`` keeps the reference's margin, 5 px before the mask
-and 4 after, and its padding, the odd pixel after: each shifts a mirror's crop by a pixel; here 5 px after too and
-the square one pixel larger where the padding is odd); ``--stage2-mirror`` runs stage 2 on its input and the
-input's mirror image, the answers mirrored back and averaged.
+Probes of what else is not mirror-symmetric (no product change; mirror31; benchmarks/mesh_flip.py's, which apply
+them to any benchmark): ``--symmetric-crop``, ``--stage2-mirror``.
 """
 
 from __future__ import annotations
@@ -30,11 +27,12 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import dpr_protocol as dprp  # noqa: E402
+from mesh_flip import MirroredStage2, symmetric_from_mask  # noqa: E402
 from real_photos import LEFT  # noqa: E402
 
 import relight_rt  # noqa: E402
 from relight_rt import RuntimeConfig  # noqa: E402
-from relight_rt.image import crop as crop_module  # noqa: E402
+from relight_rt.image.crop import CropGeometry  # noqa: E402
 from relight_rt.relight.upright import MIRROR_SIGNS  # noqa: E402
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "relight_rt" / "data" / "example.png"
@@ -64,45 +62,6 @@ def compare(relighter, rgb, mask, light, name: str) -> tuple[dict, np.ndarray]:
     return row, sheet
 
 
-def symmetric_from_mask(mask, resolution, mode="quality", margin=crop_module.MARGIN):
-    """``CropGeometry.from_mask`` with the box and the padding placed alike on a photo and its mirror (a probe): the
-    margin on both sides of the mask, and a square one row larger (below) where padding it left-right is odd."""
-    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
-    h_img, w_img = mask.shape[:2]
-    y0, y1 = max(int(rows[0]) - margin, 0), min(int(rows[-1]) + 1 + margin, h_img)
-    x0, x1 = max(int(cols[0]) - margin, 0), min(int(cols[-1]) + 1 + margin, w_img)
-    h, w = y1 - y0, x1 - x0
-    side = max(h, w)
-    if h > w:
-        side += (side - w) % 2
-    pad = (side - min(h, w)) // 2
-    if mode == "quality":
-        if h > w:
-            pad = crop_module._toward_cut(pad, side - w, cols[0] == 0, cols[-1] == w_img - 1)
-        else:
-            pad = crop_module._toward_cut(pad, side - h, rows[0] == 0, rows[-1] == h_img - 1)
-    offset = (0, pad) if h > w else (pad, 0)
-    return crop_module.CropGeometry((h_img, w_img), (y0, y1, x0, x1), offset, side, int(resolution), mode)
-
-
-ORIGINAL_FROM_MASK = crop_module.CropGeometry.from_mask
-
-
-class MirroredStage2:
-    """Stage 2 run on its input and its mirror image, the answers mirrored back and averaged (a probe)."""
-
-    def __init__(self, model) -> None:
-        self.model, self.name = model, model.name
-
-    def run(self, feeds):
-        a = self.model.run(feeds)
-        b = self.model.run({k: np.ascontiguousarray(v[..., ::-1]) for k, v in feeds.items()})
-        return {k: (a[k] + b[k][..., ::-1]) * np.float32(0.5) for k in a}
-
-    def __getattr__(self, name):
-        return getattr(self.model, name)
-
-
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--out", type=Path, default=None)
@@ -111,7 +70,7 @@ def main(argv=None) -> int:
     p.add_argument("--stage2-mirror", action="store_true", help="probe: stage 2 mirror-averaged too")
     args = p.parse_args(argv)
     if args.symmetric_crop:
-        crop_module.CropGeometry.from_mask = staticmethod(symmetric_from_mask)
+        CropGeometry.from_mask = staticmethod(symmetric_from_mask)
     relighter = relight_rt.open(RuntimeConfig(device="cpu"))
     if args.stage2_mirror:
         relighter._network.stage2 = MirroredStage2(relighter._network.stage2)
