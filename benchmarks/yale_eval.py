@@ -30,9 +30,10 @@ subject), and DESIGN.md's frame has +y toward the image's right, so azimuth a an
 direction (cos e cos a, -cos e sin a, sin e).
 
 ``--mirror``: Yale mirrored, in memory: every photo flipped left-right and its lamp's azimuth negated (the photo
-read for azimuth a is the one at -a, flipped), pair ids prefixed "mirror:". A chain that does not depend on which
-way a photo faces gives the same figures on both; benchmarks/yale_halves.py pools a plain run with a mirrored one
-("PLAIN/yale.json+MIRROR/yale.json"), a set whose own left-right asymmetry cancels (mirror31).
+read for azimuth a is the one at -a, flipped), pair ids prefixed "mirror:"; its pair to (from) azimuth a is the plain
+pair to (from) -a mirrored. A chain that does not depend on which way a photo faces gives the same figures on both;
+benchmarks/yale_halves.py pools a plain run with a mirrored one ("PLAIN/yale.json+MIRROR/yale.json"), a set whose
+own left-right asymmetry cancels (mirror31).
 
 ``--own-light`` (a measurement, no product change; ``own_light``): each photo's own light replaced by an oracle
 built from Yale's lamp for it (the frontal lamp for the relight pairs, the side lamp for the de-light pairs): "true"
