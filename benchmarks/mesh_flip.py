@@ -7,10 +7,8 @@ before/after figures in one checkout.
     python benchmarks/mesh_flip.py --flip on -- benchmarks/yale_eval.py --out /tmp/y --no-dpr --yale YALE
 
 ``--border`` / ``--passes`` set ``MESH_BORDER`` / ``MESH_PASSES`` too (benchmarks/mesh_mirror.py's variants).
-Probes of what else keeps a chain from being mirror-symmetric (mirror31; not product changes): ``--symmetric-crop``
-places the crop box alike on a photo and its mirror (``CropGeometry.from_mask`` keeps the reference's margin, 5 px
-before the mask and 4 after, and puts an odd padding pixel after: each shifts a mirror's crop by a pixel; here 5 px
-after too, and the square one row larger where padding it left-right is odd); ``--stage2-mirror`` runs stage 2 on
+``--symmetric-crop on|off`` sets relight_rt.image.crop ``SYMMETRIC_CROP`` (the crop box placed alike on a photo and
+its mirror; mirror31's probe, a product switch since mirror32). Probe (not a product change): ``--stage2-mirror`` runs stage 2 on
 its input and the input's mirror image, the answers mirrored back and averaged (``MirroredStage2``, on the CPU).
 SCRIPT then runs as ``python SCRIPT ARGS`` would, in this process (another wrapper, benchmarks/lamp_target.py, may
 be SCRIPT). Figures: docs/results_pending.md (face31).
@@ -28,27 +26,6 @@ import numpy as np
 from relight_rt.image import crop as crop_module
 from relight_rt.person import face_mesh
 from relight_rt.relight import network
-
-
-def symmetric_from_mask(mask, resolution, mode="quality", margin=crop_module.MARGIN):
-    """``CropGeometry.from_mask`` with the box and the padding placed alike on a photo and its mirror (a probe): the
-    margin on both sides of the mask, and a square one row larger (below) where padding it left-right is odd."""
-    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
-    h_img, w_img = mask.shape[:2]
-    y0, y1 = max(int(rows[0]) - margin, 0), min(int(rows[-1]) + 1 + margin, h_img)
-    x0, x1 = max(int(cols[0]) - margin, 0), min(int(cols[-1]) + 1 + margin, w_img)
-    h, w = y1 - y0, x1 - x0
-    side = max(h, w)
-    if h > w:
-        side += (side - w) % 2
-    pad = (side - min(h, w)) // 2
-    if mode == "quality":
-        if h > w:
-            pad = crop_module._toward_cut(pad, side - w, cols[0] == 0, cols[-1] == w_img - 1)
-        else:
-            pad = crop_module._toward_cut(pad, side - h, rows[0] == 0, rows[-1] == h_img - 1)
-    offset = (0, pad) if h > w else (pad, 0)
-    return crop_module.CropGeometry((h_img, w_img), (y0, y1, x0, x1), offset, side, int(resolution), mode)
 
 
 class MirroredStage2:
@@ -76,7 +53,8 @@ def main(argv=None) -> int:
     p.add_argument("--flip", choices=("on", "off"), required=True, help="the mirror averaging on or off")
     p.add_argument("--stage1", choices=("on", "off"), default="on" if network.STAGE1_MIRROR else "off",
                    help="stage 1's mirror averaging on or off")
-    p.add_argument("--symmetric-crop", action="store_true", help="probe: the crop placed alike on a mirror")
+    p.add_argument("--symmetric-crop", choices=("on", "off"), default="on" if crop_module.SYMMETRIC_CROP else "off",
+                   help="the crop placed alike on a mirror (relight_rt.image.crop SYMMETRIC_CROP)")
     p.add_argument("--stage2-mirror", action="store_true", help="probe: stage 2 mirror-averaged too")
     p.add_argument("--border", choices=("zero", "replicate"), default=face_mesh.MESH_BORDER)
     p.add_argument("--passes", type=int, default=face_mesh.MESH_PASSES)
@@ -87,8 +65,7 @@ def main(argv=None) -> int:
     face_mesh.MESH_FLIP = args.flip == "on"
     network.STAGE1_MIRROR = args.stage1 == "on"
     face_mesh.MESH_BORDER, face_mesh.MESH_PASSES = args.border, args.passes
-    if args.symmetric_crop:
-        crop_module.CropGeometry.from_mask = staticmethod(symmetric_from_mask)
+    crop_module.SYMMETRIC_CROP = args.symmetric_crop == "on"
     if args.stage2_mirror:  # every Relighter opened from here on
         from relight_rt.relight import relighter as relighter_module
 
