@@ -8,8 +8,8 @@ before/after figures in one checkout.
 
 ``--border`` / ``--passes`` set ``MESH_BORDER`` / ``MESH_PASSES`` too (benchmarks/mesh_mirror.py's variants).
 ``--symmetric-crop on|off`` sets relight_rt.image.crop ``SYMMETRIC_CROP`` (the crop box placed alike on a photo and
-its mirror; mirror31's probe, a product switch since mirror32). Probe (not a product change): ``--stage2-mirror`` runs stage 2 on
-its input and the input's mirror image, the answers mirrored back and averaged (``MirroredStage2``, on the CPU).
+its mirror) and ``--stage2 on|off`` relight_rt.relight.network ``STAGE2_MIRROR`` (stage 2 mirror-averaged): mirror31's
+probes, product switches since mirror32. Each defaults to the product's setting.
 SCRIPT then runs as ``python SCRIPT ARGS`` would, in this process (another wrapper, benchmarks/lamp_target.py, may
 be SCRIPT). Figures: docs/results_pending.md (face31).
 """
@@ -21,26 +21,9 @@ import runpy
 import sys
 from pathlib import Path
 
-import numpy as np
-
 from relight_rt.image import crop as crop_module
 from relight_rt.person import face_mesh
 from relight_rt.relight import network
-
-
-class MirroredStage2:
-    """Stage 2 run on its input and its mirror image, the answers mirrored back and averaged (a probe)."""
-
-    def __init__(self, model) -> None:
-        self.model, self.name = model, model.name
-
-    def run(self, feeds):
-        a = self.model.run(feeds)
-        b = self.model.run({k: np.ascontiguousarray(v[..., ::-1]) for k, v in feeds.items()})
-        return {k: (a[k] + b[k][..., ::-1]) * np.float32(0.5) for k in a}
-
-    def __getattr__(self, name):
-        return getattr(self.model, name)
 
 
 def main(argv=None) -> int:
@@ -50,12 +33,14 @@ def main(argv=None) -> int:
         return 2
     cut = argv.index("--")
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--flip", choices=("on", "off"), required=True, help="the mirror averaging on or off")
+    p.add_argument("--flip", choices=("on", "off"), default="on" if face_mesh.MESH_FLIP else "off",
+                   help="the face mesh's mirror averaging on or off")
     p.add_argument("--stage1", choices=("on", "off"), default="on" if network.STAGE1_MIRROR else "off",
                    help="stage 1's mirror averaging on or off")
     p.add_argument("--symmetric-crop", choices=("on", "off"), default="on" if crop_module.SYMMETRIC_CROP else "off",
                    help="the crop placed alike on a mirror (relight_rt.image.crop SYMMETRIC_CROP)")
-    p.add_argument("--stage2-mirror", action="store_true", help="probe: stage 2 mirror-averaged too")
+    p.add_argument("--stage2", choices=("on", "off"), default="on" if network.STAGE2_MIRROR else "off",
+                   help="stage 2's mirror averaging on or off (STAGE2_MIRROR)")
     p.add_argument("--border", choices=("zero", "replicate"), default=face_mesh.MESH_BORDER)
     p.add_argument("--passes", type=int, default=face_mesh.MESH_PASSES)
     args = p.parse_args(argv[:cut])
@@ -66,15 +51,7 @@ def main(argv=None) -> int:
     network.STAGE1_MIRROR = args.stage1 == "on"
     face_mesh.MESH_BORDER, face_mesh.MESH_PASSES = args.border, args.passes
     crop_module.SYMMETRIC_CROP = args.symmetric_crop == "on"
-    if args.stage2_mirror:  # every Relighter opened from here on
-        from relight_rt.relight import relighter as relighter_module
-
-        opened = relighter_module.Network.__init__
-
-        def with_mirrored_stage2(self, stage1, stage2, *rest_args):
-            opened(self, stage1, MirroredStage2(stage2) if stage2 is not None else None, *rest_args)
-
-        relighter_module.Network.__init__ = with_mirrored_stage2
+    network.STAGE2_MIRROR = args.stage2 == "on"
     sys.argv = rest
     sys.path.insert(0, str(Path(rest[0]).resolve().parent))
     runpy.run_path(rest[0], run_name="__main__")

@@ -11,8 +11,7 @@ person (mask >= 0.5; for "auto" the union of the two mattes, one mirrored), and 
 two results and their difference (x8) are written side by side. Relights with whatever ``relight_rt`` is importable,
 on the CPU; use benchmarks/mesh_flip.py to run it with the mirror averaging off.
 
-Probes of what else is not mirror-symmetric (no product change; mirror31; benchmarks/mesh_flip.py's, which apply
-them to any benchmark): ``--symmetric-crop``, ``--stage2-mirror``.
+The four mirror-symmetric parts (stage 1, face mesh, crop, stage 2) are switched by benchmarks/mesh_flip.py.
 """
 
 from __future__ import annotations
@@ -27,12 +26,10 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import dpr_protocol as dprp  # noqa: E402
-from mesh_flip import MirroredStage2, symmetric_from_mask  # noqa: E402
 from real_photos import LEFT  # noqa: E402
 
 import relight_rt  # noqa: E402
 from relight_rt import RuntimeConfig  # noqa: E402
-from relight_rt.image.crop import CropGeometry  # noqa: E402
 from relight_rt.relight.upright import MIRROR_SIGNS  # noqa: E402
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "relight_rt" / "data" / "example.png"
@@ -66,14 +63,8 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--out", type=Path, default=None)
     p.add_argument("--dpr", default=None)
-    p.add_argument("--symmetric-crop", action="store_true", help="probe: the crop placed alike on a mirror")
-    p.add_argument("--stage2-mirror", action="store_true", help="probe: stage 2 mirror-averaged too")
     args = p.parse_args(argv)
-    if args.symmetric_crop:
-        CropGeometry.from_mask = staticmethod(symmetric_from_mask)
     relighter = relight_rt.open(RuntimeConfig(device="cpu"))
-    if args.stage2_mirror:
-        relighter._network.stage2 = MirroredStage2(relighter._network.stage2)
     rgba = cv2.imread(str(EXAMPLE), cv2.IMREAD_UNCHANGED)
     photos = [("example", cv2.cvtColor(rgba[..., :3], cv2.COLOR_BGR2RGB).astype(np.float32) / 255,
                rgba[..., 3].astype(np.float32) / 255)]

@@ -29,6 +29,12 @@ log = logging.getLogger(__name__)
 # everywhere. Kept as the first of those three parts. Costs a second stage-1 run per picture (~15 ms on the CPU); on
 # CUDA the averaged answers are uploaded again on first use (the DeviceChain's copies are of one run's).
 STAGE1_MIRROR = False
+# stage 2 also sees each shaded picture mirrored left-right (in the same batch; on CUDA a second run of the chain on
+# the decomposition mirrored), its answers mirrored back and averaged with the first, so a photo and its mirror image
+# relight to each other's result mirrored (with the three parts above; mirror31's probe: DPR's portrait p99 5 -> 1
+# level). Its own switch, not STAGE1_MIRROR's: stage 1 runs once per decomposition, stage 2 once per light, so this
+# one doubles the cost of every relight (stage 2 is most of a relight's network time).
+STAGE2_MIRROR = False
 
 
 class Network:
@@ -121,7 +127,12 @@ class Network:
                     yield d, None, d
                 continue
             n = diffuse.shape[0]
-            out = self.stage2.run({"diffuse": diffuse, "mask": np.broadcast_to(net_mask, (n,) + net_mask.shape[1:])})
+            feeds = {"diffuse": diffuse, "mask": np.broadcast_to(net_mask, (n,) + net_mask.shape[1:])}
+            if STAGE2_MIRROR:  # each shaded picture and its mirror image in one batch
+                feeds = {k: np.concatenate([v, v[..., ::-1]]) for k, v in feeds.items()}
+            out = self.stage2.run(feeds)
+            if STAGE2_MIRROR:
+                out = {k: (v[:n] + v[n:, ..., ::-1]) * np.float32(0.5) for k, v in out.items()}
             for i in range(n):
                 yield diffuse[i], out["residual"][i], out["relit"][i]
 
@@ -138,7 +149,21 @@ class Network:
             if mask_key not in state:
                 shape = (batch.shape[0], 1) + dec.network_mask.shape
                 state[mask_key] = chain.upload(np.broadcast_to(dec.network_mask, shape))
-            for diffuse, residual, relit in chain.relit(state["device"], state[mask_key], batch, want_layers):
+            runs = chain.relit(state["device"], state[mask_key], batch, want_layers)
+            if STAGE2_MIRROR and self.stage2 is not None:  # the decomposition mirrored shades to the shading mirrored
+                if "device-mirror" not in state:
+                    state["device-mirror"] = {
+                        "albedo": chain.upload(np.ascontiguousarray(dec.albedo_chw[None, ..., ::-1])),
+                        "transport": chain.upload(np.ascontiguousarray(dec.transport_chw[None, ..., ::-1]))}
+                mirror_key = ("device-mask-mirror", batch.shape[0])
+                if mirror_key not in state:
+                    shape = (batch.shape[0], 1) + dec.network_mask.shape
+                    state[mirror_key] = chain.upload(np.broadcast_to(dec.network_mask[:, ::-1], shape))
+                mirrored = chain.relit(state["device-mirror"], state[mirror_key], batch, want_layers)
+                runs = [(d, None if r is None else (r + rm[..., ::-1]) * np.float32(0.5),
+                         (x + xm[..., ::-1]) * np.float32(0.5))
+                        for (d, r, x), (_, rm, xm) in zip(runs, mirrored, strict=True)]
+            for diffuse, residual, relit in runs:
                 check_finite({"relit": relit}, self.stage2.name if self.stage2 is not None else "shading")
                 yield diffuse, residual, relit
 
