@@ -23,17 +23,19 @@ log = logging.getLogger(__name__)
 # mirror image, up to the crop (below). Without it stage 1 read Extended Yale B's frontal lamp 3.5 deg toward the
 # image's right on a photo and on its mirror alike (face31). Off: with the face mesh's MESH_FLIP it failed mirror31's
 # criterion (docs/results_pending.md): a mirrored photo still relit up to 38 levels (p99) from the result mirrored,
-# since CropGeometry places a mirror's crop a pixel apart (the reference's 5 px / 4 px margin, its odd padding
-# pixel) and stage 2 is not averaged (both mended as well, a probe: <= 1 level, benchmarks/mirror_equivariance.py),
+# since CropGeometry places a mirror's crop a pixel apart and stage 2 is not averaged (crop.SYMMETRIC_CROP and
+# STAGE2_MIRROR below since mirror32: with all four on, <= 1 level, benchmarks/mirror_equivariance.py; off, mirror32's
+# criterion failed on the suite's behaviour tests),
 # and the held-out renders' face and full framings lost 0.0012 / 0.0008 RMSE; on photos + mirrors pooled Yale gained
-# everywhere. Kept as the first of those three parts. Costs a second stage-1 run per picture (~15 ms on the CPU); on
+# everywhere. Kept as the first of the four parts. Costs a second stage-1 run per picture (~15 ms on the CPU); on
 # CUDA the averaged answers are uploaded again on first use (the DeviceChain's copies are of one run's).
 STAGE1_MIRROR = False
 # stage 2 also sees each shaded picture mirrored left-right (in the same batch; on CUDA a second run of the chain on
 # the decomposition mirrored), its answers mirrored back and averaged with the first, so a photo and its mirror image
-# relight to each other's result mirrored (with the three parts above; mirror31's probe: DPR's portrait p99 5 -> 1
-# level). Its own switch, not STAGE1_MIRROR's: stage 1 runs once per decomposition, stage 2 once per light, so this
-# one doubles the cost of every relight (stage 2 is most of a relight's network time).
+# relight to each other's result mirrored (with STAGE1_MIRROR, face_mesh.MESH_FLIP and crop.SYMMETRIC_CROP; DPR's
+# portrait p99 5 -> 1 level). Its own switch, not STAGE1_MIRROR's: stage 1 runs once per decomposition, stage 2 once
+# per light, so this one is paid on every relight (a second stage-2 run: +5-18 ms on a 2.5 MP relight, mirror32).
+# Off: mirror32's criterion for all four failed on the suite's behaviour tests (docs/results_pending.md).
 STAGE2_MIRROR = False
 
 
