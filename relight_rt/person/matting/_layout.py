@@ -436,7 +436,6 @@ def seen_whole(mine: np.ndarray, seen: np.ndarray) -> bool:
 
 BLEND_IOU = 0.6  # blended: the selfie graph's two answers agree this much (IoU) where they are averaged
 BLEND_TAKE = 0.9  # ... except where the region's answer leaves out what the whole photo's sees this surely: taken
-BLEND_NO = 0.05  # ... and where it takes what the whole photo's answer puts under this: the whole photo's answer
 
 
 def blended(person: Person, seen: np.ndarray, seen_side: float) -> Person:
@@ -485,7 +484,6 @@ def blended(person: Person, seen: np.ndarray, seen_side: float) -> Person:
     take = _touching(~mine & (seen >= BLEND_TAKE), mine)
     mean = _weighted_odds(person, seen, seen_side)
     out = np.where(~mine & (seen > own), np.where(take, as_logits(seen), person.logits), mean)
-    out = np.where(mine & (seen < BLEND_NO), np.minimum(out, as_logits(seen)), out)
     return replace(person, logits=out.astype(np.float32))
 
 
