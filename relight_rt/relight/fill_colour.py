@@ -26,13 +26,14 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from ..image.color import REC709
-
 MATERIAL_STEP = 0.25  # the cells' spacing in log R / G and log B / G of stage 1's albedo (skin 0.35 / -0.2 apart from
 # a pale green shirt's -0.1 / -0.25: two cells)
 MATERIAL_SPAN = 1.5  # ... chromaticities past this are held to it (a saturated cloth: one of the outer cells)
 MATERIAL_FLOOR = 0.02  # ... each albedo channel floored here first (a black albedo reads grey)
 MATERIAL_PRIOR = 1e-3  # ... a cell's colour over the whole person counts as this share of the lit person's luminance
+MATERIAL_KNOWN = 0.01  # ... that colour leaning toward white as if this share of the lit person's luminance were white
+# (a material that only a few pixels show lit, say a matte's edge, is not known over the person)
+_BATCH = 64  # cells blurred in one call (4 channels each: OpenCV's limit is 512)
 
 
 def material_colour(rgb: np.ndarray, luma: np.ndarray, trust: np.ndarray, albedo: np.ndarray,
@@ -53,27 +54,34 @@ def material_colour(rgb: np.ndarray, luma: np.ndarray, trust: np.ndarray, albedo
         return np.ones((h, w, 3), np.float32)
     eps = np.float32(MATERIAL_PRIOR * total / float(weight.sum()))
     lit = np.dstack([rgb * weight[..., None], luma * weight]).astype(np.float32)
-    # the cells are filled and blurred at a quarter of the size where the Gaussian is wide (as relight.shadow_rim's
+    # the cells are filled and blurred at a reduced size (the Gaussian there at least 2 px; as relight.shadow_rim's
     # colour gate does), each pixel's material read at that size too; each pixel reads its cells back at its own
-    step = 4 if sigma >= 8 else 1
+    step = int(min(max(sigma // 2, 1), 4))
     small = cv2.resize(lit, None, fx=1 / step, fy=1 / step, interpolation=cv2.INTER_AREA) if step > 1 else lit
+    known = MATERIAL_KNOWN * float(small[..., 3].sum())
     guide = cv2.resize(albedo, small.shape[1::-1], interpolation=cv2.INTER_AREA) if step > 1 else albedo
     (su, sv), (fu, fv) = _tents(guide), _tents(albedo)
+    cells = [(i, j) for i in sorted(set(su) & set(fu)) for j in sorted(set(sv) & set(fv))]
     # white (the light's colour alone) at the prior's weight, which every lit cell's colour over the person replaces
     acc = np.dstack([np.full((h, w, 3), eps, np.float32), np.full((h, w), eps, np.float32)])
-    for i in sorted(set(su) & set(fu)):
-        for j in sorted(set(sv) & set(fv)):
-            part = small * (su[i] * sv[j])[..., None]
-            seen = float(part[..., 3].sum())
-            if seen <= 1e-6:  # lit nowhere
+    for start in range(0, len(cells), _BATCH):  # the cells' four channels side by side: one blur for a batch
+        batch = cells[start : start + _BATCH]
+        shares = np.dstack([su[i] * sv[j] for i, j in batch])
+        parts = (small[:, :, None, :] * shares[..., None]).reshape(*small.shape[:2], 4 * len(batch))
+        sums = parts.reshape(-1, len(batch), 4).sum(axis=0, dtype=np.float64)
+        around = cv2.GaussianBlur(parts, (0, 0), sigma / step).reshape(*small.shape[:2], len(batch), 4)
+        # each cell's colour over the person (luminance 1), leaning toward white as far as few lit pixels show it
+        prior = (sums[:, :3] + known) / (sums[:, 3:] + known)
+        around[..., :3] += (eps * (prior - 1)).astype(np.float32)
+        around = around.reshape(*small.shape[:2], 4 * len(batch))
+        if step > 1:
+            around = cv2.resize(around, (w, h), interpolation=cv2.INTER_LINEAR)
+        around = around.reshape(h, w, len(batch), 4)
+        for k, (i, j) in enumerate(batch):
+            if sums[k, 3] <= 1e-6:  # lit nowhere: white
                 continue
-            prior = part[..., :3].reshape(-1, 3).sum(axis=0) / seen  # its colour over the person, luminance 1
-            around = cv2.GaussianBlur(part, (0, 0), sigma / step)
-            around[..., :3] += (eps * (prior - 1)).astype(np.float32)
-            if step > 1:
-                around = cv2.resize(around, (w, h), interpolation=cv2.INTER_LINEAR)
             # (cv2's products: numpy's (h, w, 1) x (h, w, 4) broadcast costs several times as much)
-            cv2.add(acc, cv2.multiply(around, cv2.merge([fu[i] * fv[j]] * 4)), dst=acc)
+            cv2.add(acc, cv2.multiply(np.ascontiguousarray(around[:, :, k]), cv2.merge([fu[i] * fv[j]] * 4)), dst=acc)
     return (acc[..., :3] / acc[..., 3:]).astype(np.float32)
 
 
