@@ -33,7 +33,7 @@ MATERIAL_FLOOR = 0.02  # ... each albedo channel floored here first (a black alb
 MATERIAL_PRIOR = 1e-3  # ... a cell's colour over the whole person counts as this share of the lit person's luminance
 MATERIAL_KNOWN = 0.01  # ... that colour leaning toward white as if this share of the lit person's luminance were white
 # (a material that only a few pixels show lit, say a matte's edge, is not known over the person)
-_BATCH = 64  # cells blurred in one call (4 channels each: OpenCV's limit is 512)
+_BATCH = 32  # cells blurred in one call (4 channels each: OpenCV 5 takes at most 128 channels)
 
 
 def material_colour(rgb: np.ndarray, luma: np.ndarray, trust: np.ndarray, albedo: np.ndarray,
@@ -76,12 +76,12 @@ def material_colour(rgb: np.ndarray, luma: np.ndarray, trust: np.ndarray, albedo
         around = around.reshape(*small.shape[:2], 4 * len(batch))
         if step > 1:
             around = cv2.resize(around, (w, h), interpolation=cv2.INTER_LINEAR)
-        around = around.reshape(h, w, len(batch), 4)
+        around = np.ascontiguousarray(around.reshape(h, w, len(batch), 4).transpose(2, 0, 1, 3))  # cell by cell
         for k, (i, j) in enumerate(batch):
             if sums[k, 3] <= 1e-6:  # lit nowhere: white
                 continue
             # (cv2's products: numpy's (h, w, 1) x (h, w, 4) broadcast costs several times as much)
-            cv2.add(acc, cv2.multiply(np.ascontiguousarray(around[:, :, k]), cv2.merge([fu[i] * fv[j]] * 4)), dst=acc)
+            cv2.add(acc, cv2.multiply(around[k], cv2.merge([fu[i] * fv[j]] * 4)), dst=acc)
     return (acc[..., :3] / acc[..., 3:]).astype(np.float32)
 
 

@@ -117,3 +117,16 @@ def test_the_relit_fill_takes_its_own_materials_colour_under_a_white_light(relig
     monkeypatch.setattr(relight_factor, "FILL_BY_MATERIAL", False)  # the plain mean: the green taken
     before = chroma(relit_strips(relighter, (0.01 * albedo, albedo))[near])
     assert before[1] - before[0] > 0.15 + got[1] - got[0], (before, got)
+
+
+def test_many_materials_stay_within_the_lit_colours():
+    """Every cell of the span in use (more than one blur's batch): each pixel's colour is a mean of lit colours."""
+    rng = np.random.default_rng(5)
+    rgb = (0.1 + 0.8 * rng.random((64, 80, 3))).astype(np.float32)
+    albedo = np.exp(rng.uniform(-2, 2, (64, 80, 3))).astype(np.float32) * 0.1
+    trust = (rng.random((64, 80)) > 0.5).astype(np.float32)
+    for sigma in (3.0, 10.0):
+        got = material_colour(rgb, rgb @ REC709, trust, albedo, sigma)
+        lit = (rgb / (rgb @ REC709)[..., None])[trust > 0]
+        assert np.isfinite(got).all()
+        assert (got >= np.minimum(lit.min(axis=0), 1) - 1e-4).all() and (got <= lit.max(axis=0) + 1e-4).all()
