@@ -1,6 +1,6 @@
 """relight_rt.relight.fill_colour: the deep shadow's fill takes the colour of the lit pixels around of its own
-material (stage 1's albedo chromaticity), not of whatever is lit nearby (p257: a black hair shadow above a lit green
-shirt took the shirt's green under ``front``).
+material (stage 1's albedo chromaticity), not of whatever is lit nearby (a real photo's black hair shadow above a lit
+green shirt took the shirt's green under ``front``).
 
 The relighter's tests use the analytic stage 1 (tests/_graphs.py), which reads the photo as its albedo; the
 Decomposition is given the albedo of the scene without its shadow, as in test_shadow_fill.py."""
