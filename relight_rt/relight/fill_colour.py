@@ -36,6 +36,18 @@ MATERIAL_KNOWN = 0.01  # ... that colour leaning toward white as if this share o
 _BATCH = 32  # cells blurred in one call (4 channels each: OpenCV 5 takes at most 128 channels)
 
 
+def lit_colour(rgb: np.ndarray, luma: np.ndarray, trust: np.ndarray, albedo: np.ndarray | None,
+               sigma: float) -> np.ndarray:
+    """``material_colour``, or with ``albedo`` None every material alike (the rule before fill31): the colour at
+    luminance 1 of the trusted pixels around, white where none is near."""
+    if albedo is not None:
+        return material_colour(rgb, luma, trust, albedo, sigma)
+    num = cv2.GaussianBlur(rgb * trust[..., None], (0, 0), sigma)
+    den = cv2.GaussianBlur(luma * trust, (0, 0), sigma)[..., None]
+    # luminance 1 already: luma is the Rec. 709 luminance of rgb, and the blur is linear
+    return np.divide(num, den, out=np.ones_like(num), where=den > 1e-4).astype(np.float32)
+
+
 def material_colour(rgb: np.ndarray, luma: np.ndarray, trust: np.ndarray, albedo: np.ndarray,
                     sigma: float) -> np.ndarray:
     """(r, r', 3) float32: around each pixel, the colour at luminance 1 of the trusted pixels of its own material.
