@@ -130,3 +130,23 @@ def test_many_materials_stay_within_the_lit_colours():
         lit = (rgb / (rgb @ REC709)[..., None])[trust > 0]
         assert np.isfinite(got).all()
         assert (got >= np.minimum(lit.min(axis=0), 1) - 1e-4).all() and (got <= lit.max(axis=0) + 1e-4).all()
+
+
+@pytest.mark.parametrize("sigma", [3.0, 12.0])
+def test_a_material_drifting_across_cells_takes_a_colour_without_a_seam(sigma):
+    """Skin whose albedo chromaticity drifts across two cell boundaries on each axis (log R / G 0.15 -> 0.65, log
+    B / G -0.05 -> -0.45 over the width), lit above and below a shadow band: the shadow's colour follows the lit
+    colour above it column by column, its step between neighbouring columns no larger than the lit colour's own (a
+    pixel read from its nearest cell alone jumps where the drift crosses a cell's edge)."""
+    h, w = 60, 400
+    x = np.linspace(0, 1, w, dtype=np.float32)
+    lit = np.stack([0.3 * np.exp(0.15 + 0.5 * x), np.full_like(x, 0.3), 0.3 * np.exp(-0.05 - 0.4 * x)], axis=-1)
+    albedo = np.broadcast_to(lit, (h, w, 3)).astype(np.float32)
+    rgb, trust = albedo.copy(), np.ones((h, w), np.float32)
+    rgb[26:34] *= 0.01
+    trust[26:34] = 0
+    got = material_colour(rgb, rgb @ REC709, trust, albedo, sigma)[30, 20:-20]
+    want = (lit / (lit @ REC709)[:, None])[20:-20]
+    np.testing.assert_allclose(got, want, atol=0.01)
+    steps, own_steps = np.abs(np.diff(got, axis=0)).max(), np.abs(np.diff(want, axis=0)).max()
+    assert steps < 1.5 * own_steps, (steps, own_steps)
