@@ -2,6 +2,7 @@
 
     python benchmarks/matte_fault_kinds.py                  # ~4 min: the split per half, the photos below the selfie
     python benchmarks/matte_fault_kinds.py --border 0.5 0.9 # ... and what a bottom-border rule would do (offline)
+    python benchmarks/matte_fault_kinds.py --ceiling [--inset 1]   # ... and what following the selfie graph could win
 
 Each photo's errors against its service mask (alpha >= 0.5 against mask >= 0.5, as benchmarks/people_masks_eval.py)
 are split six ways: misses and additions within BAND px of the mask's outline (where the service's outline sits ~1 px
@@ -17,7 +18,13 @@ edge goes to the half mix, the service's outline one pixel outside).
 ``--border T MEAN`` replays, on the mattes already made, the rule "add the parts of the selfie graph's whole-photo
 answer (>= T) outside the matte that touch the bottom border and the matte, where the matte reaches the bottom border,
 when the graph's mean over the part is >= MEAN": clothing the frame cuts that the matte misses (matte12: half A does not
-move, so it cannot choose the rule). Nothing of the data is written.
+move, so it cannot choose the rule).
+
+``--ceiling`` (:func:`selfie_ceiling`, matte30): where ours and the selfie graph disagree, four kinds (within BAND px of
+the mask's outline or away from it; ours takes what the selfie graph leaves, or misses what it has), and per kind and
+half the change of the mean IoU if ours took the selfie graph's answer there: on every photo, on the photos it helps
+only (what a perfect rule following the selfie graph on that kind could win at most), on those it hurts only.
+``--inset PX`` erodes the service masks first (their outline's ~1-px rim). Nothing of the data is written.
 """
 
 from __future__ import annotations
@@ -67,6 +74,23 @@ def split(pred: np.ndarray, gt: np.ndarray) -> dict[str, float]:
     return out
 
 
+SIDES = ("band: ours adds", "band: ours misses", "away: ours adds", "away: ours misses")
+
+
+def selfie_ceiling(pred: np.ndarray, selfie: np.ndarray, gt: np.ndarray) -> dict[str, float]:
+    """Where ``pred`` (ours) and ``selfie`` (the selfie graph's hard mask) disagree, split four ways (SIDES: within
+    BAND px of ``gt``'s outline or away from it; ours takes the pixel and the selfie graph leaves it, or the other way):
+    the IoU ``pred`` would gain (or lose) taking the selfie graph's answer on that kind's pixels alone. A photo's gain
+    on a kind is what a rule following the selfie graph there could win at most on that photo (``--ceiling``)."""
+    g = gt.astype(np.uint8)
+    dist = np.where(gt, cv2.distanceTransform(g, cv2.DIST_L2, 3), cv2.distanceTransform(1 - g, cv2.DIST_L2, 3))
+    band, base, out = dist <= BAND, iou(pred, gt), {}
+    for k, where in zip(SIDES, (band & pred & ~selfie, band & ~pred & selfie, ~band & pred & ~selfie,
+                                ~band & ~pred & selfie), strict=True):  # fmt: skip
+        out[k] = iou(np.where(where, selfie, pred), gt) - base
+    return out
+
+
 def border_rule(pred: np.ndarray, prob: np.ndarray, t: float, mean: float) -> np.ndarray:
     """``pred`` with the parts of ``prob`` >= t outside it that touch the bottom border and ``pred`` (which reaches the
     bottom border), where ``prob``'s mean over the part is >= mean (``--border``)."""
@@ -86,6 +110,8 @@ def border_rule(pred: np.ndarray, prob: np.ndarray, t: float, mean: float) -> np
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--border", nargs=2, type=float, metavar=("T", "MEAN"), help="replay the bottom-border rule")
+    ap.add_argument("--ceiling", action="store_true", help="what following the selfie graph could gain, per kind")
+    ap.add_argument("--inset", type=int, default=0, metavar="PX", help="erode the service masks by PX pixels first")
     args = ap.parse_args(argv)
     root = data_root()
     listed = items(root, "photos")
@@ -95,6 +121,8 @@ def main(argv: list[str] | None = None) -> int:
     for name, img, mask in listed:
         rgb = read_rgb(img)
         gt = read_mask(mask, rgb.shape[:2])
+        if args.inset:
+            gt = cv2.erode(gt.astype(np.uint8), np.ones((2 * args.inset + 1,) * 2, np.uint8)) > 0
         try:
             ours = matter(rgb, name) >= 0.5
         except RelightError:
@@ -108,6 +136,8 @@ def main(argv: list[str] | None = None) -> int:
                 row["unrefined"] = 0.0
         if args.border:
             row["border"] = iou(border_rule(ours, prob, *args.border), gt)
+        if args.ceiling:
+            row["ceiling"] = selfie_ceiling(ours, prob >= 0.5, gt)
         rows[name] = row
     print(f"what each kind of error costs the mean IoU (photos; BAND = {BAND} px)")
     print(f"{'method':7s} half  mean IoU  " + "  ".join(f"{k:>11s}" for k in KINDS))
@@ -126,6 +156,19 @@ def main(argv: list[str] | None = None) -> int:
     print("the others (ours / unrefined / selfie): " + ", ".join(
         f"{n} {halves[n]} {rows[n]['ours']['iou']:.3f}/{rows[n]['unrefined']:.3f}/{rows[n]['selfie']['iou']:.3f}"
         for n in below if n not in outline))  # fmt: skip
+    if args.ceiling:
+        print(
+            "following the selfie graph on one kind of disagreement, change of the mean IoU: all photos / the "
+            "photos it helps only (a perfect rule's ceiling) / those it hurts only; the photos helped by > 0.005"
+        )
+        for k in SIDES:
+            for h in "AB":
+                v = {n: r["ceiling"][k] for n, r in rows.items() if halves[n] == h}
+                d = np.array(list(v.values()))
+                gain, cost = d[d > 0].sum() / d.size, d[d < 0].sum() / d.size
+                best = sorted((n for n in v if v[n] > 0.005), key=lambda n: -v[n])
+                print(f"  {k:18s} {h}  {d.mean():+.5f} / {gain:+.5f} / {cost:+.5f}  {len(best)}: "
+                      + ", ".join(f"{n} {v[n]:+.3f}" for n in best[:8]))  # fmt: skip
     if args.border:
         for h in "AB":
             names = [n for n in rows if halves[n] == h]

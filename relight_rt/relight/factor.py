@@ -71,6 +71,7 @@ from .cast_shadow import MeshView, shadow_factor
 from .decomposition import Decomposition, Memo, readonly
 from .detail import extend_outward, guided_upsample, shadow_texture, unpremultiply, window
 from .face_pass import FacePass, feather
+from .fill_colour import lit_colour
 from .fill_edge import crop_part, edge_weight, grid_weight, soften
 from .look import shaded_skin, skin_chroma, tint_range
 from .shadow_rim import rim_lift, skin_gate, spread_mean
@@ -91,6 +92,7 @@ FILL_SIGMA = 2.5  # ... the shading shown smoothed over this many network pixels
 FILL_EDGE_SIGMA = 1.0  # ... within its reach of a shadow each pixel's own shading (smoothed this much) counts
 FILL_ALBEDO_SPREAD = 0.08  # ... its albedo that of the lit pixels around, over this share of the window's side,
 FILL_ALBEDO_RANGE = 4.0  # ... at most this factor from stage 1's own albedo there
+FILL_BY_MATERIAL = True  # the fill's colour from the lit pixels around of its own material (relight.fill_colour)
 RATIO_CAP = 2.0  # beside a deep shadow the photo's own detail is multiplied at most this much (Factor.handover),
 CAP_SKIN_SPREAD = 0.02  # ... on a face's skin, its edge softened over this share of the window's side,
 # ... elsewhere, as far as stage 1 sees skin, over a Gaussian of this many network px around a deep shadow's core (all
@@ -620,9 +622,9 @@ class Factor:
     def shadow_weight(self, dec: Decomposition) -> tuple[np.ndarray, np.ndarray] | None:
         """Where the photo's own shading is too low for the ratio (cached): (w, chroma) in the person's window, w
         (r, r') in [0, 1] (1: photo / shading is noise) and chroma (r, r', 3) the person's colour there at
-        luminance 1, taken from the reliable pixels around, and on a face mesh's skin (and its openings,
-        ``OPENINGS_AS_SKIN``) times the albedo of the reliable skin around over stage 1's own there (kept within
-        ``FILL_ALBEDO_RANGE``); None where no pixel is that dark, and for a video frame.
+        luminance 1, taken from the reliable pixels around of its own material (relight.fill_colour), and on a
+        face mesh's skin (and its openings, ``OPENINGS_AS_SKIN``) times the albedo of the reliable skin around over
+        stage 1's own there (within ``FILL_ALBEDO_RANGE``); None where no pixel is that dark, and for a video frame.
 
         In a deep shadow stage 1's albedo is a guess: it takes part of a hard cast shadow for dark skin (a nose's
         shadow on a cheek came out at 0.14-0.24 beside 0.6 on Extended Yale B) and ``unshaded_albedo`` lifts all of
@@ -659,10 +661,9 @@ class Factor:
                     rgb = dec.network_image[y0:y1, x0:x1]
                     trust = ((1 - w) * inner * (photo > 0.02)).astype(np.float32)
                     sigma = max(2.0, 0.03 * max(w.shape))
-                    num = cv2.GaussianBlur(rgb * trust[..., None], (0, 0), sigma)
-                    den = cv2.GaussianBlur(photo * trust, (0, 0), sigma)[..., None]
-                    # luminance 1 already: photo is the Rec. 709 luminance of rgb, and the blur is linear
-                    chroma = np.divide(num, den, out=np.ones_like(num), where=den > 1e-4)
+                    # the lit pixels around of the shadow's own material (relight.fill_colour)
+                    albedo_rgb = unpremultiply(np.ascontiguousarray(dec.albedo[y0:y1, x0:x1]), own["alpha"])
+                    chroma = lit_colour(rgb, photo, trust, albedo_rgb if FILL_BY_MATERIAL else None, sigma)
                     skin = own["face_skin"]
                     # off a face mesh's skin, as far as stage 1 sees skin: its rim's albedo (relight.shadow_rim)
                     off = rim_lift(own["albedo"], photo, own["own"], w, trust, self.skin_gate(dec), EXPLAIN_ALBEDO_MIN,

@@ -62,3 +62,14 @@ def test_grow_and_below_sheet_refuse_what_they_cannot_do(load_benchmark):
         pme.main(["--grow", "9"])
     with pytest.raises(SystemExit):
         pme.main(["--methods", "ours", "--below-sheet", "/tmp/x.png"])
+
+
+def test_below_by_half_lists_each_halfs_photos_below_the_selfie_graph_and_those_far_below(load_benchmark):
+    pme = load_benchmark("people_masks_eval")
+    ours = {"a": 0.90, "b": 0.95, "c": 0.80, "d": 0.99}
+    selfie = {"a": 0.95, "b": 0.955, "c": 0.70, "d": 0.99}
+    halves = {"a": "A", "b": "A", "c": "B", "d": "B"}
+    got = pme.below_by_half(ours, selfie, halves)
+    assert got == {"A": (["a", "b"], ["a"]), "B": ([], [])}  # b: below by 0.005, not past 0.01; d: equal, not below
+    assert pme.below_by_half(ours, selfie, halves, by=0.001)["A"] == (["a", "b"], ["a", "b"])
+    assert set(pme.below_by_half({"c": 0.8}, selfie, halves)) == {"B"}  # --half B: only B is reported

@@ -1,0 +1,152 @@
+"""relight_rt.relight.fill_colour: the deep shadow's fill takes the colour of the lit pixels around of its own
+material (stage 1's albedo chromaticity), not of whatever is lit nearby (a real photo's black hair shadow above a lit
+green shirt took the shirt's green under ``front``).
+
+The relighter's tests use the analytic stage 1 (tests/_graphs.py), which reads the photo as its albedo; the
+Decomposition is given the albedo of the scene without its shadow, as in test_shadow_fill.py."""
+
+from dataclasses import replace
+
+import cv2
+import numpy as np
+import pytest
+from _graphs import OWN_LIGHT, models_dir
+
+import relight_rt
+from relight_rt.engine.config import RuntimeConfig
+from relight_rt.image.color import REC709
+from relight_rt.relight import factor as relight_factor
+from relight_rt.relight.fill_colour import material_colour
+
+__all__ = ["models_dir"]  # fixtures
+
+GREEN = np.array([0.25, 0.60, 0.30], np.float32)
+SKIN = np.array([0.62, 0.47, 0.40], np.float32)
+GREY = np.array([0.30, 0.30, 0.30], np.float32)
+
+
+def plain_colour(rgb, trust, sigma):
+    """The rule before fill31: the lit pixels' colour around, every material alike."""
+    luma = rgb @ REC709
+    num = cv2.GaussianBlur(rgb * trust[..., None], (0, 0), sigma)
+    den = cv2.GaussianBlur(luma * trust, (0, 0), sigma)[..., None]
+    return num / np.maximum(den, 1e-6)
+
+
+def strips(*parts: tuple[np.ndarray, np.ndarray, float], width: int = 20, h: int = 40):
+    """(rgb, albedo, trust): vertical strips side by side, each (photo colour, albedo colour, trust)."""
+    rgb = np.concatenate([np.broadcast_to(c, (h, width, 3)) for c, _, _ in parts], axis=1).astype(np.float32)
+    albedo = np.concatenate([np.broadcast_to(a, (h, width, 3)) for _, a, _ in parts], axis=1).astype(np.float32)
+    trust = np.concatenate([np.full((h, width), t, np.float32) for _, _, t in parts], axis=1)
+    return rgb, albedo, trust
+
+
+@pytest.mark.parametrize("sigma", [3.0, 12.0])  # the blur at full size and at a quarter of it
+def test_a_black_shadow_beside_a_lit_green_takes_its_own_materials_grey(sigma):
+    rgb, albedo, trust = strips((GREEN, GREEN, 1), (0.01 * GREY, GREY, 0), (GREY, GREY, 1), width=3 * int(sigma))
+    w = 3 * int(sigma)
+    near = np.s_[:, w : w + 3]  # the shadow's pixels next to the green
+    before = plain_colour(rgb, trust, sigma)[near].mean(axis=(0, 1))
+    assert before[1] > 1.2 * before[0], before  # the plain mean: green there (the fault)
+    colour = material_colour(rgb, rgb @ REC709, trust, albedo, sigma)[near].mean(axis=(0, 1))
+    np.testing.assert_allclose(colour, 1, atol=0.02)  # the lit grey's colour: neutral
+
+
+def test_a_skin_shadow_takes_the_lit_skins_colour_not_the_shirts_beside():
+    rgb, albedo, trust = strips((GREEN, GREEN, 1), (0.01 * SKIN, 0.4 * SKIN, 0), (SKIN, SKIN, 1))
+    colour = material_colour(rgb, rgb @ REC709, trust, albedo, 6.0)[:, 20:40]
+    np.testing.assert_allclose(colour, np.broadcast_to(SKIN / float(SKIN @ REC709), colour.shape), atol=0.02)
+
+
+# at full size; at a quarter of it (the image's border, where the reduced blur's edge differs, left out)
+@pytest.mark.parametrize("sigma, atol", [(3.0, 2e-3), (12.0, 0.01)])
+def test_one_material_gives_the_plain_mean_where_lit_pixels_are_near(sigma, atol):
+    rng = np.random.default_rng(3)
+    rgb = (0.2 + 0.6 * rng.random((90, 100, 3))).astype(np.float32)
+    trust = (rng.random((90, 100)) > 0.4).astype(np.float32)
+    albedo = np.broadcast_to(SKIN, rgb.shape)  # one material (tents in two cells a side: their shares sum to 1)
+    got = material_colour(rgb, rgb @ REC709, trust, albedo, sigma)
+    inside = np.s_[16:-16, 16:-16]
+    np.testing.assert_allclose(got[inside], plain_colour(rgb, trust, sigma)[inside], atol=atol)
+
+
+def test_a_material_lit_nowhere_is_white_and_nothing_lit_gives_white():
+    rgb, albedo, trust = strips((GREEN, GREEN, 1), (0.01 * GREY, GREY, 0), width=12)
+    colour = material_colour(rgb, rgb @ REC709, trust, albedo, 3.0)[:, 18:]
+    np.testing.assert_allclose(colour, 1, atol=0.02)
+    dark = material_colour(rgb, rgb @ REC709, np.zeros_like(trust), albedo, 3.0)
+    np.testing.assert_array_equal(dark, 1)
+
+
+@pytest.fixture(scope="module")
+def relighter(models_dir):
+    return relight_rt.open(RuntimeConfig(models=models_dir, device="cpu"))
+
+
+def relit_strips(relighter, shadowed: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """A person (rows 20-140, x 20-80) lit green on its left (x < 40), a deep shadow of albedo ``shadowed[1]`` in the
+    middle (photo ``shadowed[0]``), lit skin on its right (x >= 60); relit under twice the photo's own light (white)."""
+    h, w = 150, 100
+    mask = np.zeros((h, w), np.float32)
+    mask[20:140, 20:80] = 1
+    photo = np.broadcast_to(SKIN, (h, w, 3)).copy()
+    albedo = photo.copy()
+    photo[:, :40] = albedo[:, :40] = GREEN
+    photo[:, 40:60], albedo[:, 40:60] = shadowed
+    dec = relighter.decompose(photo, mask)
+    dec = replace(dec, albedo_chw=relighter.decompose(albedo, mask).albedo_chw)
+    return relighter.relight(dec, 2 * OWN_LIGHT, exposure="physical")
+
+
+def chroma(pixels: np.ndarray) -> np.ndarray:
+    mean = pixels.reshape(-1, 3).mean(axis=0)
+    return mean / float(mean @ REC709)
+
+
+@pytest.mark.parametrize("material", ["black", "skin"])
+def test_the_relit_fill_takes_its_own_materials_colour_under_a_white_light(relighter, monkeypatch, material):
+    """A black shadow beside the lit green stays grey under a white light (the plain mean made it green); a skin
+    shadow between the green and the lit skin takes the lit skin's colour."""
+    albedo = GREY if material == "black" else 0.5 * SKIN
+    out = relit_strips(relighter, (0.01 * albedo, albedo))
+    near = np.s_[40:120, 43:49]  # the shadow's side next to the green (its first 3 px: the photo's own edge)
+    got = chroma(out[near])
+    assert float(out[near].mean()) > 0.05  # the fill lit it
+    want = np.ones(3) if material == "black" else SKIN / float(SKIN @ REC709)
+    np.testing.assert_allclose(got, want, atol=0.05)
+    monkeypatch.setattr(relight_factor, "FILL_BY_MATERIAL", False)  # the plain mean: the green taken
+    before = chroma(relit_strips(relighter, (0.01 * albedo, albedo))[near])
+    assert before[1] - before[0] > 0.15 + got[1] - got[0], (before, got)
+
+
+def test_many_materials_stay_within_the_lit_colours():
+    """Every cell of the span in use (more than one blur's batch): each pixel's colour is a mean of lit colours."""
+    rng = np.random.default_rng(5)
+    rgb = (0.1 + 0.8 * rng.random((64, 80, 3))).astype(np.float32)
+    albedo = np.exp(rng.uniform(-2, 2, (64, 80, 3))).astype(np.float32) * 0.1
+    trust = (rng.random((64, 80)) > 0.5).astype(np.float32)
+    for sigma in (3.0, 10.0):
+        got = material_colour(rgb, rgb @ REC709, trust, albedo, sigma)
+        lit = (rgb / (rgb @ REC709)[..., None])[trust > 0]
+        assert np.isfinite(got).all()
+        assert (got >= np.minimum(lit.min(axis=0), 1) - 1e-4).all() and (got <= lit.max(axis=0) + 1e-4).all()
+
+
+@pytest.mark.parametrize("sigma", [3.0, 12.0])
+def test_a_material_drifting_across_cells_takes_a_colour_without_a_seam(sigma):
+    """Skin whose albedo chromaticity drifts across two cell boundaries on each axis (log R / G 0.15 -> 0.65, log
+    B / G -0.05 -> -0.45 over the width), lit above and below a shadow band: the shadow's colour follows the lit
+    colour above it column by column, its step between neighbouring columns no larger than the lit colour's own (a
+    pixel read from its nearest cell alone jumps where the drift crosses a cell's edge)."""
+    h, w = 60, 400
+    x = np.linspace(0, 1, w, dtype=np.float32)
+    lit = np.stack([0.3 * np.exp(0.15 + 0.5 * x), np.full_like(x, 0.3), 0.3 * np.exp(-0.05 - 0.4 * x)], axis=-1)
+    albedo = np.broadcast_to(lit, (h, w, 3)).astype(np.float32)
+    rgb, trust = albedo.copy(), np.ones((h, w), np.float32)
+    rgb[26:34] *= 0.01
+    trust[26:34] = 0
+    got = material_colour(rgb, rgb @ REC709, trust, albedo, sigma)[30, 20:-20]
+    want = (lit / (lit @ REC709)[:, None])[20:-20]
+    np.testing.assert_allclose(got, want, atol=0.01)
+    steps, own_steps = np.abs(np.diff(got, axis=0)).max(), np.abs(np.diff(want, axis=0)).max()
+    assert steps < 1.5 * own_steps, (steps, own_steps)
