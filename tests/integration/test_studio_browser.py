@@ -729,6 +729,7 @@ def test_preview_grades_the_background_when_it_follows_the_light(browser, street
     no_rule = layers["grade"]._replace(neutral=np.zeros_like(layers["grade"].neutral))
     no_head = layers["grade"]._replace(head=HeadBlend.empty())
     rule_moves, head_moves = [], []
+    graded_lights = 0
     m = layers["mask"][..., None]
     for name in ("night", "campfire", "rim", "window-left"):
         light = lights.preset(name).astype(np.float32)
@@ -751,7 +752,11 @@ def test_preview_grades_the_background_when_it_follows_the_light(browser, street
         drawn = np.rint(np.clip(drawn, 0, 1) * 255).astype(np.int16)
         diff = np.abs(got - drawn)
         assert diff.max() <= 2 and diff.mean() < 0.2, (diff.max(), diff.mean())
-        assert np.abs(got - plain)[m[..., 0] == 0].mean() > 3  # the backdrop moved
+        if np.abs(grade - 1).max() > 0.05:  # a grade worth drawing (mirror33: rim's is 0.98-1.00 with the
+            # mirror-symmetric chain, 0.94-0.96 before, and moved the backdrop 1.25 levels; night's and campfire's
+            # reach 0.70-1.33 either way): the backdrop moved, so the comparison above is not of two still pictures
+            assert np.abs(got - plain)[m[..., 0] == 0].mean() > 3
+            graded_lights += 1
         _, off = studio.render(light.tolist(), grade_background=False)
         _, on = studio.render(light.tolist(), grade_background=True)
         rgb = lambda png: cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_COLOR)[..., ::-1].astype(float)  # noqa: E731
@@ -759,6 +764,7 @@ def test_preview_grades_the_background_when_it_follows_the_light(browser, street
         back = (np.asarray(studio.dec.mask) == 0) & (a.min(axis=2) > 20) & (a.max(axis=2) < 235)
         result = np.median(b[back] / a[back], axis=0)
         assert np.abs(np.log2(grade / result) * exposure.DISPLAY_GAMMA).max() < 0.1, (name, grade, result)
+    assert graded_lights >= 2, graded_lights
     assert max(rule_moves) > 1e-3, rule_moves
     assert max(head_moves) > 1e-2, head_moves
     page.close()
