@@ -38,7 +38,7 @@ MODES = ("quality", "reference")
 # one row larger (below) so the left and right padding are equal; otherwise a mirror's crop sits a pixel apart (0.55
 # network pixels on the 290 x 508 example), which alone kept a mirrored photo from relighting to the mirrored result
 # once stage 1 and the face mesh are averaged (mirror31). mode="reference" keeps the reference's crop bit for bit.
-SYMMETRIC_CROP = True
+SYMMETRIC_CROP = False
 
 
 def _by_four(fn, a: np.ndarray) -> np.ndarray:

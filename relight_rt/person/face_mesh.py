@@ -59,7 +59,7 @@ MESH_PASSES = 1  # landmarker passes per face: the second and later from the box
 # stage 1's own lean had been partly offset by the mesh's), and with stage 1's mirror averaging
 # (relight_rt.relight.network ``STAGE1_MIRROR``) mirror31's (docs/results_pending.md). ``benchmarks/mesh_flip.py``
 # runs any benchmark with either on or off.
-MESH_FLIP = True
+MESH_FLIP = False
 MIRROR_FILE = Path(__file__).resolve().parents[1] / "data" / "face_mesh_mirror.txt"  # landmark i's partner on
 # the face's other half (the mid-line's its own): nearest mirrored landmark on the mean of 24 frontal meshes
 # (benchmarks/mesh_mirror.py --build-map)

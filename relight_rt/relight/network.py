@@ -29,14 +29,14 @@ log = logging.getLogger(__name__)
 # and the held-out renders' face and full framings lost 0.0012 / 0.0008 RMSE; on photos + mirrors pooled Yale gained
 # everywhere. Kept as the first of the four parts. Costs a second stage-1 run per picture (~15 ms on the CPU); on
 # CUDA the averaged answers are uploaded again on first use (the DeviceChain's copies are of one run's).
-STAGE1_MIRROR = True
+STAGE1_MIRROR = False
 # stage 2 also sees each shaded picture mirrored left-right (in the same batch; on CUDA a second run of the chain on
 # the decomposition mirrored), its answers mirrored back and averaged with the first, so a photo and its mirror image
 # relight to each other's result mirrored (with STAGE1_MIRROR, face_mesh.MESH_FLIP and crop.SYMMETRIC_CROP; DPR's
 # portrait p99 5 -> 1 level). Its own switch, not STAGE1_MIRROR's: stage 1 runs once per decomposition, stage 2 once
 # per light, so this one is paid on every relight (a second stage-2 run: +5-18 ms on a 2.5 MP relight, mirror32).
 # Off: mirror32's criterion for all four failed on the suite's behaviour tests (docs/results_pending.md).
-STAGE2_MIRROR = True
+STAGE2_MIRROR = False
 
 
 class Network:
