@@ -71,7 +71,7 @@ def test_the_fill_begins_and_ends_at_the_photos_own_edge_not_the_networks(religh
     Now the weight is decided per input pixel along the border (relight_rt.relight.fill_edge ``edge_weight``).
     What lands beside the edge depends on where the edge falls on the network's grid, so it is measured with the edge
     at each of seven columns (50-56, the grid's phases): one column alone pinned one phase of one crop (mirror33: the
-    symmetric crop moves the grid by a pixel, and at 55 the leak went 0.024 -> 0.038 while at 51 it went 0.026 ->
+    symmetric crop moves the grid by a pixel, and at 55 the leak went 0.024 -> 0.038 while at 51 it went 0.023 ->
     0.038 and at 53 0.058 -> 0.029; the median over the seven stays 0.023 either way)."""
     img, mask = person()
     fill = relighter._factor.shadow_weight
