@@ -3,8 +3,6 @@
     python benchmarks/own_light_yale.py [--yale ../shared/realdata/yale] [--max-elevation 45] [--out OUT.json]
         [--reading own,raw,refit,mesh,mesh1,mesh-lamp,mesh-lamp-front,mesh-lamp-linear] [--subjects yaleB02 ...]
     python benchmarks/own_light_yale.py --renders ~/.cache/relight_rt_real_photos/heldout   # the same on renders
-    python benchmarks/own_light_yale.py --first-look ../shared/realdata/people_masks    # the first look's faces
-    python benchmarks/lamp_target.py -- benchmarks/own_light_yale.py ...    # with face_refit's lamp target on
 
 Every Yale photo whose lamp lies within ``--max-elevation`` of the horizon (and is not flagged bad) is decomposed
 as benchmarks/yale_eval.py does (grey, the ellipse mask); the photo's light ``Decomposition.light`` (stage 1's
@@ -23,13 +21,9 @@ elevation. Evaluation only: nothing of the data is written but figures.
 "own" ``Decomposition.light``; "raw" stage 1's estimate; "refit" after ``refit_light`` alone (before the face
 mesh's ``face_refit``); and, on the face mesh's skin with the albedo taken as one constant (photos without a
 mesh have none), "mesh" plain least squares of the luminance on the mesh's 9-term transport, "mesh1" on its
-degree 0 and 1 only, "mesh-lamp" one point lamp plus ambient (relight_rt.relight.strength ``lamp_fit``),
-"mesh-lamp-front" the same with the lamp within 120 deg of the camera, "mesh-lamp-linear" the lamp fit on the
-linearised luminance. Results and what they say: docs/RESULTS.md "Faces", "Still wrong" (light28). Every photo
-with a mesh also gets the front lamp fit's "one hard lamp" figures in ``--out``'s rows ("indicator": the lamp's
-share of the fitted shading, how much of what nine free terms explain the lamp explains, the skin pixels kept);
-``--first-look PEOPLE``: those figures and the own light's direction on the first look's 30 photos
-(benchmarks/first_look.py's pick, the public ``decompose``) instead. light29's figures: docs/results_pending.md.
+degree 0 and 1 only, "mesh-lamp" one point lamp plus ambient (``lamp_fit``), "mesh-lamp-front" the same with the
+lamp within 120 deg of the camera, "mesh-lamp-linear" the lamp fit on the linearised luminance. Results and
+what they say: docs/RESULTS.md "Faces", "Still wrong" (light28).
 """
 
 from __future__ import annotations
@@ -46,15 +40,15 @@ import numpy as np
 from _shared import missing, shared_path
 from yale_eval import ellipse, lamp_direction, read_grey
 
-from relight_rt import Relighter, RuntimeConfig
+from relight_rt import Relighter, RuntimeConfig, lights
 from relight_rt.image.color import REC709, srgb_to_linear
 from relight_rt.image.io import read_image
 from relight_rt.light import sh
-from relight_rt.relight.strength import lamp_fit, refit_light
+from relight_rt.relight.strength import refit_light
 
 BANDS = ((0, 15), (15, 40), (40, 65), (65, 95), (95, 181))
 READINGS = ("own", "raw", "refit", "mesh", "mesh1", "mesh-lamp", "mesh-lamp-front", "mesh-lamp-linear")
-MESH_TRIM = 2.5  # mesh_fit: skin pixels beyond this many robust deviations are dropped (as face_refit)
+MESH_TRIM = 2.5  # mesh_fit, lamp_fit: skin pixels beyond this many robust deviations are dropped (as face_refit)
 
 
 def mesh_fit(transport: np.ndarray, photo: np.ndarray, bands: int = 9) -> np.ndarray | None:
@@ -75,6 +69,52 @@ def mesh_fit(transport: np.ndarray, photo: np.ndarray, bands: int = 9) -> np.nda
     return None if m is None else np.concatenate([m, np.zeros(9 - bands)])
 
 
+def _lamps(count: int = 3000) -> tuple[np.ndarray, np.ndarray]:
+    """(count, 9) the luminance of a unit point lamp from each of ``count`` directions spread over the sphere
+    (``sh.sphere_directions``' Fibonacci lattice), and (9,) unit ambient light's."""
+    d = sh.sphere_directions(count)
+    return np.stack([lights.directional(v)[:, 0] for v in d]), lights.ambient(1.0)[:, 0]
+
+
+LAMPS = _lamps()
+
+
+def lamp_fit(transport: np.ndarray, photo: np.ndarray, front: bool = False) -> np.ndarray | None:
+    """(9,) a face's light read as one point lamp plus ambient: for each of ``LAMPS``' directions the skin's
+    luminance ~ a x (transport . ambient) + b x (transport . lamp), a, b >= 0 by least squares; the direction with
+    the least residual wins; pixels beyond ``MESH_TRIM`` robust deviations dropped, three rounds. Degree 2 follows
+    from the lamp's direction instead of being free (a frontal face's normals cannot tell degree 1's up from
+    degree 2's xz); None with fewer than 50 skin pixels."""
+    t, y = np.asarray(transport, np.float64), np.asarray(photo, np.float64)
+    lamps, amb = LAMPS
+    if front:  # lamps within 120 deg of the camera only (x > -0.5)
+        lamps = lamps[lamps[:, 3] / np.linalg.norm(lamps[:, 1:4], axis=1) > -0.5]
+    keep = np.ones(y.shape[0], bool)
+    best = None
+    for _ in range(3):
+        if keep.sum() < 50:
+            break
+        tk, yk = t[keep], y[keep]
+        a = tk @ amb  # (n,)
+        b = tk @ lamps.T  # (n, K)
+        aa, ab, bb = a @ a, a @ b, (b * b).sum(0)
+        ay, by = a @ yk, b.T @ yk
+        det = aa * bb - ab * ab
+        ca = np.where(det > 1e-12, (ay * bb - by * ab) / np.maximum(det, 1e-12), 0)
+        cb = np.where(det > 1e-12, (by * aa - ay * ab) / np.maximum(det, 1e-12), 0)
+        # a negative coefficient: the best with it at zero instead
+        only_b = np.maximum(by / np.maximum(bb, 1e-12), 0)
+        ca, cb = np.where(ca < 0, 0, ca), np.where(ca < 0, only_b, cb)
+        ca, cb = np.where(cb < 0, max(ay / aa, 0), ca), np.maximum(cb, 0)
+        err = (yk @ yk) - 2 * (ca * ay + cb * by) + ca * ca * aa + 2 * ca * cb * ab + cb * cb * bb
+        k = int(np.argmin(err))
+        best = ca[k] * amb + cb[k] * lamps[k]
+        r = y - t @ best
+        centre = float(np.median(r[keep]))
+        keep = np.abs(r - centre) < MESH_TRIM * (1.4826 * float(np.median(np.abs(r[keep] - centre))) + 1e-6)
+    return best
+
+
 def readings(relighter: Relighter, rgb: np.ndarray, mask: np.ndarray, which: list[str]) -> dict[str, np.ndarray | None]:
     """The photo's light as each step in ``which`` reads it, (9, 3) RGB or (9,) luminance, by ``READINGS`` name (see
     the module's docstring; the mesh readings None where the photo has fewer than 50 pixels of a face mesh's skin).
@@ -92,22 +132,12 @@ def readings(relighter: Relighter, rgb: np.ndarray, mask: np.ndarray, which: lis
     base = factor.restored(dec)
     skin = base["face_skin"]
     t, y = base["transport"][skin], base["photo"][skin]
-    front = lamp_fit(t, y) if skin.sum() >= 50 else None
-    lamp = lambda y, front: getattr(lamp_fit(t, y, front), "light", None)  # noqa: E731
-    fits = {"mesh": lambda: mesh_fit(t, y), "mesh1": lambda: mesh_fit(t, y, 4), "mesh-lamp": lambda: lamp(y, False),
-            "mesh-lamp-front": lambda: getattr(front, "light", None),
-            "mesh-lamp-linear": lambda: lamp(srgb_to_linear(y), False)}
+    fits = {"mesh": lambda: mesh_fit(t, y), "mesh1": lambda: mesh_fit(t, y, 4), "mesh-lamp": lambda: lamp_fit(t, y),
+            "mesh-lamp-front": lambda: lamp_fit(t, y, True), "mesh-lamp-linear": lambda: lamp_fit(t, srgb_to_linear(y))}
     for name, fit in fits.items():
         if name in which:
             out[name] = fit() if skin.sum() >= 50 else None
-    out["indicator"] = front
     return out
-
-
-def indicator(got: dict) -> dict | None:
-    """The front lamp fit's "one hard lamp" figures (``strength.LampReading``: share, explained, pixels), if any."""
-    r = got.get("indicator")
-    return None if r is None else {"share": r.share, "explained": r.explained, "pixels": r.pixels}
 
 
 def light_direction(light: np.ndarray) -> tuple[np.ndarray | None, float]:
@@ -140,7 +170,7 @@ def renders(folder: Path, relighter: Relighter, which: list[str], out: Path | No
         got = readings(relighter, read_image(f), mask.astype(np.float32) / 255, which)
         rows.append({"render": f.name, "truth": truth.tolist(),
                      "true_elevation": math.degrees(math.asin(float(np.clip(truth[2], -1, 1)))),
-                     "indicator": indicator(got), **{k: compare(got[k], truth) for k in which}})
+                     **{k: compare(got[k], truth) for k in which}})
     for k in which:
         have = [r for r in rows if r[k] is not None]
         if not have:
@@ -157,39 +187,6 @@ def renders(folder: Path, relighter: Relighter, which: list[str], out: Path | No
     return 0
 
 
-def first_look(people: Path, relighter, out: Path | None) -> int:
-    """The first look's photos (benchmarks/first_look.py: 30 by seed 48, the automatic matte, the public
-    ``decompose``): where each face's front lamp fit (``strength.lamp_fit`` on the face mesh's skin, the head pass's
-    where the body pass has none) puts the lamp, its share and explained figures, and the own light's direction."""
-    from first_look import picked_photos, read_rgb
-
-    found = picked_photos(people, 30, 48)
-    if found is None:
-        return 2
-    folder, chosen, halves = found
-    factor, rows = relighter._factor, []
-    for name in chosen:
-        dec = relighter.decompose(read_rgb(folder / f"{name}.jpg"))
-        base = factor.restored(dec)
-        if not base["face_skin"].any() and dec.head is not None:
-            base = factor.restored(dec.head)
-        skin = base["face_skin"]
-        lamp = lamp_fit(base["transport"][skin], base["photo"][skin]) if skin.sum() >= 50 else None
-        own, strength = light_direction(dec.light)
-        row = {"photo": name, "half": halves[name], "indicator": None if lamp is None else
-               {"share": lamp.share, "explained": lamp.explained, "pixels": lamp.pixels,
-                "lamp": lamp.direction.tolist()}, "own": None if own is None else own.tolist(), "strength": strength}
-        rows.append(row)
-        angles = lambda v: "-" if v is None else (  # noqa: E731
-            f"az {math.degrees(math.atan2(v[1], v[0])):+.0f} el {math.degrees(math.asin(np.clip(v[2], -1, 1))):+.0f}")
-        print(f"{name} ({row['half']}): "
-              + ("no face mesh" if lamp is None else f"share {lamp.share:.2f} explained {lamp.explained:.3f} "
-                 f"pixels {lamp.pixels} lamp {angles(lamp.direction)}") + f"; own {angles(own)} ({strength:.2f})")
-    if out is not None:
-        out.write_text(json.dumps(rows, indent=1))
-    return 0
-
-
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--yale", type=Path, default=shared_path("realdata", "yale"))
@@ -199,17 +196,11 @@ def main(argv=None) -> int:
     p.add_argument("--renders", type=Path, default=None, help="held-out renders' folder (photos_*/*_photo.png)")
     p.add_argument("--reading", default="own",
                    help=f"comma-separated readings to measure, of {', '.join(READINGS)} (default: own)")
-    p.add_argument("--first-look", type=Path, default=None, metavar="PEOPLE",
-                   help="people_masks folder: the first look's 30 photos instead (benchmarks/first_look.py)")
     p.add_argument("--subjects", nargs="*", default=None, help="only these Yale subjects (yaleB02 ...)")
     args = p.parse_args(argv)
     which = [w for w in args.reading.split(",") if w]
     if not which or set(which) - set(READINGS):
         p.error(f"--reading: expected names among {', '.join(READINGS)}, got {args.reading!r}")
-    if args.first_look is not None:
-        import relight_rt
-
-        return first_look(args.first_look, relight_rt.open(RuntimeConfig(models=args.models, device="cpu")), args.out)
     if args.renders is not None:
         return renders(args.renders.expanduser(), Relighter(RuntimeConfig(models=args.models, device="cpu")), which,
                        args.out)
@@ -228,7 +219,7 @@ def main(argv=None) -> int:
         truth = np.array(lamp_direction(az, el))
         got = readings(relighter, rgb, ellipse(rgb.shape[:2]), which)
         rows.append({"subject": r["subject"], "azimuth": az, "elevation": el, "truth": truth.tolist(),
-                     "truth_y": float(truth[1]), "indicator": indicator(got),
+                     "truth_y": float(truth[1]),
                      **{k: compare(got[k], truth) for k in which}})
     print(f"{len(rows)} photos, lamps within {args.max_elevation:g} deg of the horizon")
     for k in which:

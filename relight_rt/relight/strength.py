@@ -25,14 +25,11 @@ also shrinks the pixels the network got strong); a uniform gain does.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import cv2
 import numpy as np
 
 from ..engine.errors import RelightError
 from ..image.color import REC709
-from ..light.sh import basis, sphere_directions
 from .fill_edge import soften
 
 BAND_GAIN = (1.0, 1.05, 1.15)  # degree 0, 1, 2: what the measured transport and light leave short (module docstring)
@@ -64,18 +61,6 @@ FACE_PRIOR = 0.1  # face_refit: its ridge toward the refit light (scaled to the 
 FACE_TRIM = 2.5  # ... skin pixels further than this many robust deviations from the fit are left out (eyes, brows)
 FACE_PIXELS = 2000  # ... a face of n skin pixels moves the light n / (n + this) of the way to its own fit
 _FACE_MIN = 50  # ... fewer skin pixels than this: no fit
-# face_refit's lamp target, OFF (None): where a face shows one hard lamp (lamp_fit: the lamp's share of the shading >=
-# LAMP_SHARE and a lamp explains >= LAMP_EXPLAINED of what nine free terms do) the target is LAMP_WEIGHT x the lamp fit
-# + the rest the nine-term fit. Measured with 0.5 / 0.7 / 1.0 (chosen on Yale's even subjects): Yale's frontal lamps
-# 78 -> 21 deg off, but Yale's relight contrast 0.7592 -> 0.7470, de-light 0.8868 -> 0.8792; at weight 0.5 the
-# frontal lamps stay 53 deg off (light29). Re-judged under the relerr guard (light30): share 0.3 chosen on the even
-# subjects puts relight relerr 0.513 -> 0.498 (lower on 50 of 72 pairs), but the odd subjects' median 0.528 -> 0.540
-# (their mean 0.607 -> 0.578): Yale's frontal lamp is read 5 deg toward the image's right, mirrored photos too (the
-# face mesh lies lopsided on Yale's tight crops), which shrinks the change toward that side; at 0.3 a face
-# already showing a nine-term light can pass as one lamp (docs/RESULTS.md; benchmarks/lamp_target.py runs it on)
-LAMP_SHARE: float | None = None
-LAMP_EXPLAINED = 0.7
-LAMP_WEIGHT = 1.0
 
 
 def refit_light(
@@ -160,9 +145,7 @@ def face_refit(
     albedo x shading stays what ``light`` gives (the exposure and the "missing light" rule read that level). A face
     of n kept pixels moves the light n / (n + ``FACE_PIXELS``) of the way: a small face's fit is noisy. On the
     held-out renders the band-1 direction of the photo's light moves closer to the truth (mean cosine 0.963 -> 0.975
-    face, 0.960 -> 0.982 head-and-shoulders, 0.929 -> 0.948 waist-up framings: docs/RESULTS.md). Where
-    ``LAMP_SHARE`` is set (off in the product) and the face shows one hard lamp, the target's shape is
-    ``lamp_fit``'s instead (``LAMP_WEIGHT`` of it).
+    face, 0.960 -> 0.982 head-and-shoulders, 0.929 -> 0.948 waist-up framings: docs/RESULTS.md).
 
     Args:
         light: (9, 3) the photo's light so far (``refit_light``'s).
@@ -204,9 +187,6 @@ def face_refit(
         keep = np.abs(r - centre) < FACE_TRIM * spread
     if m is None or not m[0] > 0 or not l0[0] > 0:
         return light.copy()
-    lamp = lamp_fit(t, y) if LAMP_SHARE is not None else None
-    if lamp is not None and lamp.share >= LAMP_SHARE and lamp.explained >= LAMP_EXPLAINED and lamp.light[0] > 0:
-        m = LAMP_WEIGHT * lamp.light + (1 - LAMP_WEIGHT) * m  # one hard lamp: its shape (``lamp_fit``)
     fitted = m * (l0[0] / m[0])
     before = float((a * np.maximum(tp @ l0, 0)).sum())
     after = float((a * np.maximum(tp @ fitted, 0)).sum())
@@ -215,97 +195,6 @@ def face_refit(
     fitted *= before / after
     n = int(keep.sum())
     return _luminance_changed(light, (fitted - l0) * (n / (n + FACE_PIXELS)))
-
-
-# ------------------------------------------------------------------------------- one lamp on a face's skin
-
-LAMP_COUNT = 3000  # lamp_fit: the lamp directions tried, a Fibonacci lattice over the sphere (~3.7 deg apart)
-LAMP_FRONT = -0.5  # ... with front=True only those with x above this: within 120 deg of the camera
-LAMP_TRIM = 2.5  # ... skin pixels beyond this many robust deviations from the fit are dropped, three rounds
-
-
-_LAMP_DIRECTIONS = sphere_directions(LAMP_COUNT)
-_LAMPS = basis(_LAMP_DIRECTIONS)  # (LAMP_COUNT, 9): a point lamp's SH from each direction (∝ Y_k), up to one scale
-_AMBIENT = np.eye(9)[0]  # uniform light's SH, up to one scale
-
-
-@dataclass(frozen=True)
-class LampReading:
-    """A face's light read as one point lamp plus ambient (``lamp_fit``).
-
-    Attributes:
-        light: (9,) float64 the fitted luminance light (DESIGN.md §3 order): a x ambient + b x lamp, a, b >= 0.
-        direction: (3,) unit vector toward the lamp in the subject frame.
-        share: the lamp's share of the fitted shading's mean over the kept skin, in [0, 1] (1: no ambient).
-        explained: how much of the skin's luminance variance the lamp and ambient explain, as a share of what
-            nine free SH terms explain on the same pixels, in [0, 1] (1: a lamp explains the face as well).
-        pixels: the skin pixels kept after the trim.
-    """
-
-    light: np.ndarray
-    direction: np.ndarray
-    share: float
-    explained: float
-    pixels: int
-
-
-def lamp_fit(transport: np.ndarray, photo: np.ndarray, front: bool = True) -> LampReading | None:
-    """A face's light read as one point lamp plus ambient, the lamp's direction searched over a fixed lattice.
-
-    The skin is taken as one albedo: its luminance ~ a x (transport . ambient) + b x (transport . lamp), a, b >= 0,
-    by least squares, for each of ``LAMP_COUNT`` lamp directions at once (all from the skin's 9 x 9 normal matrix,
-    so the cost is one pass over the pixels per round); the direction with the least residual wins. Pixels beyond
-    ``LAMP_TRIM`` robust deviations are dropped (eyes, brows, lips), three rounds. Unlike a 9-term fit, degree 2
-    follows from the lamp's direction instead of being free: on a frontal face's normals degree 1's "up" and
-    degree 2's xz look alike, and a free fit cannot tell a lamp's elevation (docs/RESULTS.md, light28).
-
-    Args:
-        transport: (M, 9) the transport of the face's skin pixels (a face mesh's, as the runtime uses it).
-        photo: (M,) the photo's luminance there.
-        front: only lamps within 120 deg of the camera (``LAMP_FRONT``).
-
-    Returns:
-        A ``LampReading``, or None with fewer than 50 skin pixels (or a face of one luminance).
-    """
-    t = np.asarray(transport, np.float64).reshape(-1, 9)
-    y = np.asarray(photo, np.float64).reshape(-1)
-    if t.shape[0] != y.shape[0]:
-        raise RelightError(f"lamp_fit: {t.shape[0]} transport and {y.shape[0]} photo pixels")
-    chosen = _LAMP_DIRECTIONS[:, 0] > (LAMP_FRONT if front else -np.inf)
-    lamps, directions = _LAMPS[chosen], _LAMP_DIRECTIONS[chosen]
-    keep = np.ones(y.shape[0], bool)
-    reading = None
-    for _ in range(3):
-        n = int(keep.sum())
-        if n < _FACE_MIN:
-            break
-        tk, yk = t[keep], y[keep]
-        # (elementwise sums for the vectors: a BLAS dot of a long vector cost 4-40 ms on a loaded 2-core machine)
-        gram, ty, yy, mean_t = tk.T @ tk, (tk * yk[:, None]).sum(0), float((yk * yk).sum()), tk.mean(0)
-        amb_g = gram @ _AMBIENT
-        aa, ab, bb = float(_AMBIENT @ amb_g), lamps @ amb_g, np.einsum("kj,jl,kl->k", lamps, gram, lamps)
-        ay, by = float(_AMBIENT @ ty), lamps @ ty
-        det = aa * bb - ab * ab
-        ok = det > 1e-12 * max(aa, 1e-12) * np.maximum(bb, 1e-12)
-        ca = np.where(ok, (ay * bb - by * ab) / np.where(ok, det, 1), 0)
-        cb = np.where(ok, (by * aa - ay * ab) / np.where(ok, det, 1), 0)
-        only_b = np.maximum(by / np.maximum(bb, 1e-12), 0)  # a negative coefficient: the best with it at zero
-        ca, cb = np.where(ca < 0, 0, ca), np.where(ca < 0, only_b, cb)
-        ca, cb = np.where(cb < 0, max(ay / max(aa, 1e-12), 0), ca), np.maximum(cb, 0)
-        err = yy - 2 * (ca * ay + cb * by) + ca * ca * aa + 2 * ca * cb * ab + cb * cb * bb
-        k = int(np.argmin(err))
-        light = ca[k] * _AMBIENT + cb[k] * lamps[k]
-        total = yy - n * float(yk.mean()) ** 2  # the luminance's variance about its mean, summed
-        free = yy - float(ty @ np.linalg.lstsq(gram, ty, rcond=None)[0])  # ... left by nine free terms
-        gain = total - free
-        explained = float(np.clip((total - err[k]) / gain, 0, 1)) if gain > 1e-12 else 0.0
-        lamp_mean, amb_mean = cb[k] * float(lamps[k] @ mean_t), ca[k] * float(_AMBIENT @ mean_t)
-        share = float(np.clip(lamp_mean / (lamp_mean + amb_mean), 0, 1)) if lamp_mean + amb_mean > 1e-12 else 0.0
-        reading = LampReading(light, directions[k], share, explained, n)
-        r = y - t @ light
-        centre = float(np.median(r[keep]))
-        keep = np.abs(r - centre) < LAMP_TRIM * (1.4826 * float(np.median(np.abs(r[keep] - centre))) + 1e-6)
-    return reading
 
 
 # ------------------------------------------------------------------------------- the photo's own shading, kept
