@@ -130,11 +130,12 @@ def head_change(factor, dec: Decomposition, light: np.ndarray, image: np.ndarray
     """What the head pass's blend does to the relit person's luminance under the (exposed) ``light`` (9, 3): (before,
     after), each (H, W) float32 in the input frame, the luminance of ``image`` (the person's colour in the crop box,
     ``Composer.foreground``) times the body's relighting factor as the result takes it (``factor``: the Relighter's
-    relight_rt.relight.factor ``Factor``; its ``gain_and_fill``, the deep-shadow fill's share included) before and
-    after ``blend_head``, 0 outside the crop box; None where ``blend_head`` blends nothing. The studio's preview
-    draws the person without the head pass and multiplies its shading by after / before, both reduced to its size
-    (relight_rt.apps.studio); the faces' cast shadows are in both (the head pass's in after), so the preview's own
-    cast-shadow layer is the body pass's alone (``Factor.shadow_layer``)."""
+    relight_rt.relight.factor ``Factor``; its ``gain_and_fill`` without stage 2's residual, which the preview leaves
+    out too, the deep-shadow fill's share included) before and after ``blend_head``, 0 outside the crop box; None
+    where ``blend_head`` blends nothing. The studio's preview draws the person without the head pass and multiplies
+    its shading by after / before, both reduced to its size (relight_rt.apps.studio); the faces' cast shadows are in
+    both (the head pass's in after), so the preview's own cast-shadow layer is the body pass's alone
+    (``Factor.shadow_layer``)."""
     where = head_region(dec)
     if where is None or not blends(where):
         return None
