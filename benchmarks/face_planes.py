@@ -56,7 +56,7 @@ def planes(relighter, dec, lights: list[str]) -> dict[str, np.ndarray]:
     shadow = f.fill.shadow_weight(dec)
     out["fill"] = shadow[0] if shadow is not None else np.zeros_like(out["photo"])
     for name in lights:
-        lit = f.expose(dec, relighter.resolve_light({"LEFT": LEFT, "RIGHT": RIGHT}.get(name, name)), "auto")
+        lit = f.meter.expose(dec, relighter.resolve_light({"LEFT": LEFT, "RIGHT": RIGHT}.get(name, name)), "auto")
         out[f"ratio {name}"] = f._change(own, lit, None, f.cast(dec, own, lit))[0]
         mesh = base["transport"]
         out[f"mesh {name}"] = np.maximum(mesh @ (lit @ REC709), 1e-3) / np.maximum(mesh @ white, 1e-3)

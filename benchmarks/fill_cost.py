@@ -57,7 +57,7 @@ def main() -> None:
     factor, composer = r._factor, r._composer
     fill_part = getattr(factor, "fill", factor)  # the fill's own object (split32; the Factor's methods before)
     image, _ = composer.foreground(dec)
-    lights = [factor.expose(dec, r.resolve_light(name), "auto") for name in ("front", "window-left", "studio")]
+    lights = [factor.meter.expose(dec, r.resolve_light(name), "auto") for name in ("front", "window-left", "studio")]
     residuals = [next(r._network.relit(dec, light[None], 1))[1] for light in lights]
     shadow = fill_part.shadow_weight(dec)
     print(f"photo {args.size[0]}x{args.size[1]}, deep shadow found: {shadow is not None}")
