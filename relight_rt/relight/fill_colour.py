@@ -38,8 +38,9 @@ MATERIAL_STEP = 0.25  # the cells' spacing in log R / G and log B / G of stage 1
 MATERIAL_SPAN = 1.5  # ... chromaticities past this are held to it (a saturated cloth: one of the outer cells)
 MATERIAL_FLOOR = 0.02  # ... each albedo channel floored here first (a black albedo reads grey)
 MATERIAL_PRIOR = 1e-3  # ... a cell's colour over the whole person counts as this share of the lit person's luminance
-MATERIAL_MIXED = 0.25  # ... a lit pixel whose chromaticity is this far from a neighbour's votes nothing, half of it
-# fully (a border between materials: a pixel straddling it mixes their albedos, not their photos)
+MATERIAL_MIXED = 0.125  # ... a lit pixel whose chromaticity is this far from a neighbour's (on either axis) votes
+# nothing, half of it fully: a pixel straddling a border mixes the two materials' albedos (not their photos), so it is
+# at least half their distance from a neighbour; materials a cell apart (skin and grey: 0.28) are told apart
 MATERIAL_KNOWN = 0.01  # ... that colour leaning toward white as if this share of the lit person's luminance were white
 # (a material that only a few pixels show lit, say a matte's edge, is not known over the person)
 _BATCH = 32  # cells blurred in one call (4 channels each: OpenCV 5 takes at most 128 channels)
