@@ -122,13 +122,12 @@ def chroma(pixels: np.ndarray) -> np.ndarray:
 
 @pytest.mark.parametrize("top", range(17, 25))
 @pytest.mark.parametrize("material", ["black", "skin"])
-def test_the_relit_fill_takes_its_own_materials_colour_wherever_the_grid_falls(relighter, monkeypatch, material,
-                                                                                top):
+def test_the_relit_fill_takes_its_own_materials_colour_wherever_the_grid_falls(relighter, monkeypatch, material, top):
     """A black shadow beside the lit green stays grey under a white light (the plain mean made it green); a skin
     shadow between the green and the lit skin takes the lit skin's colour. For every top row 17-24 and green edge
     36-44 (benchmarks/fill_colour_layouts.py): a network pixel straddling the shadow's edge, its albedo mostly the
     shadow's but its photo the lit neighbour's, gave the shadow's own material that neighbour's colour at about half
-    of these layouts (black 0.11-0.34 off, skin 0.22-0.42, before fill32)."""
+    of these layouts (up to 0.34 off for black, 0.42 for skin, before fill32)."""
     albedo = GREY if material == "black" else 0.5 * SKIN
     want = np.ones(3) if material == "black" else SKIN / float(SKIN @ REC709)
     for edge in range(36, 45):
