@@ -1,5 +1,5 @@
-"""How long the Relighter's exposure of one light takes (``Factor.expose``: the mean kept, the faces' cast shadows
-metered, the shoulder's loss given back, the highlight guard), on a real photo with the automatic matte.
+"""How long the Relighter's exposure of one light takes (``ExposureMeter.expose``: the mean kept, the faces' cast
+shadows metered, the shoulder's loss given back, the highlight guard), on a real photo with the automatic matte.
 
     python benchmarks/expose_speed.py [PHOTO] [--repeats 40] [--lights studio,window-left,campfire]
 
@@ -37,11 +37,11 @@ def main() -> None:
     dec = relighter.decompose(read_image(args.photo), None)
     for name in args.lights.split(","):
         light = lights.preset(name)
-        relighter._factor.expose(dec, light, "auto")  # noqa: SLF001  (the step itself, warm)
+        relighter._factor.meter.expose(dec, light, "auto")  # noqa: SLF001  (the step itself, warm)
         times = []
         for _ in range(args.repeats):
             t = time.perf_counter()
-            relighter._factor.expose(dec, light, "auto")  # noqa: SLF001
+            relighter._factor.meter.expose(dec, light, "auto")  # noqa: SLF001
             times.append(time.perf_counter() - t)
         print(f"expose, {name}: best {1000 * min(times):.2f} ms, median {1000 * statistics.median(times):.2f} ms")
 

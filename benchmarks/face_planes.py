@@ -13,7 +13,7 @@ mesh's width), one value per network pixel (relight_rt.relight.factor, the perso
   (``Factor.restored``); sh_own: the same after ``explain_photo`` (``Factor.own``: what every ratio divides by);
 - for each light (exposed as "auto" does): ratio, the factor's luminance ratio (``Factor._change``, with the
   mesh's cast shadows); mesh, the ratio of the mesh's transport alone (no ``explain_photo``); fill, the deep
-  shadow's weight (``Factor.shadow_weight``, the same for every light).
+  shadow's weight (``ShadowFill.shadow_weight``, the same for every light).
 
 ``--points`` (input y,x pairs, / between them): Lab L*, a*, b* and hue angle of the input and of the relit photo
 under each light, over 5 x 5 pixels around each.
@@ -53,10 +53,10 @@ def planes(relighter, dec, lights: list[str]) -> dict[str, np.ndarray]:
     out = {"photo": base["photo"], "albedo_s1": base["albedo"], "albedo": own["albedo"],
            "face_skin": base["face_skin"].astype(np.float32), "sh_mesh": base["transport"] @ white,
            "sh_own": own["transport"] @ white}
-    shadow = f.shadow_weight(dec)
+    shadow = f.fill.shadow_weight(dec)
     out["fill"] = shadow[0] if shadow is not None else np.zeros_like(out["photo"])
     for name in lights:
-        lit = f.expose(dec, relighter.resolve_light({"LEFT": LEFT, "RIGHT": RIGHT}.get(name, name)), "auto")
+        lit = f.meter.expose(dec, relighter.resolve_light({"LEFT": LEFT, "RIGHT": RIGHT}.get(name, name)), "auto")
         out[f"ratio {name}"] = f._change(own, lit, None, f.cast(dec, own, lit))[0]
         mesh = base["transport"]
         out[f"mesh {name}"] = np.maximum(mesh @ (lit @ REC709), 1e-3) / np.maximum(mesh @ white, 1e-3)

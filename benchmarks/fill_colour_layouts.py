@@ -30,8 +30,7 @@ sys.path.insert(0, str(HERE.parent / "tests"))
 import relight_rt  # noqa: E402
 from relight_rt.engine.config import RuntimeConfig  # noqa: E402
 from relight_rt.image.color import REC709  # noqa: E402
-from relight_rt.relight import factor as factor_module  # noqa: E402
-from relight_rt.relight import fill_colour  # noqa: E402
+from relight_rt.relight import fill_colour, shadow_fill  # noqa: E402
 
 GREEN = np.array([0.25, 0.60, 0.30], np.float32)
 SKIN = np.array([0.62, 0.47, 0.40], np.float32)
@@ -98,7 +97,7 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     from _graphs import OWN_LIGHT, make_models_dir
 
-    factor_module.FILL_BY_MATERIAL = not args.plain
+    shadow_fill.FILL_BY_MATERIAL = not args.plain
     with tempfile.TemporaryDirectory() as tmp:
         models = make_models_dir(Path(tmp), 64, stage2=True, dvp=True)
         relighter = relight_rt.open(RuntimeConfig(models=models, device="cpu"))

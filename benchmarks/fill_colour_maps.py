@@ -4,13 +4,13 @@ the lit pixels' vote the material rule keeps.
     python benchmarks/fill_colour_maps.py [--only p257,p080] [--save DIR] [--against DIR]
         [--people ../shared/realdata/people_masks]
 
-For each photo of people_masks (given mask, at most 1000 px a side), ``Factor.shadow_weight`` once; over the fill's
-pixels (its weight > 0.5, network frame) the colour map ``lit_colour`` gave: ``roughness``, the 99th percentile of
-the largest step over R, G, B (colour at luminance 1) to the right and lower neighbour, both in the fill (mottling);
-``kept``, the share of the lit vote (trust x luminance) that ``fill_colour._pure`` keeps (1 before fill32). ``--save``
-writes each map (npz) to DIR; ``--against`` compares with maps saved by another checkout: the mean over the fill of
-the largest change over R, G, B, weighted by the fill, per photo, the largest first. Evaluation data only: nothing
-of it goes into the repository.
+For each photo of people_masks (given mask, at most 1000 px a side), relight_rt.relight.shadow_fill
+``ShadowFill.shadow_weight`` once; over the fill's pixels (its weight > 0.5, network frame) the colour map
+``lit_colour`` gave: ``roughness``, the 99th percentile of the largest step over R, G, B (colour at luminance 1) to the
+right and lower neighbour, both in the fill (mottling); ``kept``, the share of the lit vote (trust x luminance) that
+``fill_colour._pure`` keeps (1 before fill32). ``--save`` writes each map (npz) to DIR; ``--against`` compares with maps
+saved by another checkout: the mean over the fill of the largest change over R, G, B, weighted by the fill, per photo,
+the largest first. Evaluation data only: nothing of it goes into the repository.
 """
 
 from __future__ import annotations
@@ -29,8 +29,7 @@ from photo_faults import read_mask, read_rgb  # noqa: E402
 
 import relight_rt  # noqa: E402
 from relight_rt import RuntimeConfig  # noqa: E402
-from relight_rt.relight import factor as factor_module  # noqa: E402
-from relight_rt.relight import fill_colour  # noqa: E402
+from relight_rt.relight import fill_colour, shadow_fill  # noqa: E402
 
 
 def roughness(colour: np.ndarray, fill: np.ndarray) -> float | None:
@@ -53,14 +52,14 @@ def main(argv=None) -> int:
     names = args.only.split(",") if args.only else sorted(f.stem for f in folder.glob("*.jpg"))
     relighter = relight_rt.open(RuntimeConfig(models=args.models, device="cpu"))
     seen: dict = {}
-    inner = factor_module.lit_colour
+    inner = shadow_fill.lit_colour
 
     def spy(rgb, luma, trust, albedo, sigma):
         out = inner(rgb, luma, trust, albedo, sigma)
         seen.update(luma=luma, trust=trust, albedo=albedo, out=out)
         return out
 
-    factor_module.lit_colour = spy
+    shadow_fill.lit_colour = spy
     if args.save:
         args.save.mkdir(parents=True, exist_ok=True)
     rough: dict = {}
@@ -69,7 +68,7 @@ def main(argv=None) -> int:
         rgb = read_rgb(folder / f"{name}.jpg", 1000)
         dec = relighter.decompose(rgb, read_mask(folder / f"{name}_mask.png", rgb.shape[:2]))
         seen.clear()
-        found = relighter._factor.shadow_weight(dec)
+        found = relighter._factor.fill.shadow_weight(dec)
         if found is None or "out" not in seen:
             continue
         w, colour = found[0], seen["out"]

@@ -1,5 +1,6 @@
 """What a large deep shadow's fill costs per light and per Decomposition (relight_rt.relight.factor
-``Factor.gain_and_fill`` and ``Factor.fill_base``), on a synthetic photo made to have one.
+``Factor.gain_and_fill``, and relight_rt.relight.shadow_fill ``ShadowFill.fill_base``), on a synthetic photo made to
+have one.
 
     python benchmarks/fill_cost.py [--size 1936 1296] [--repeats 15] [--models DIR]
 
@@ -54,10 +55,11 @@ def main() -> None:
     dec = r.decompose(photo, mask)
     dec = replace(dec, albedo_chw=r.decompose(true, mask).albedo_chw)
     factor, composer = r._factor, r._composer
+    fill_part = getattr(factor, "fill", factor)  # the fill's own object (split32; the Factor's methods before)
     image, _ = composer.foreground(dec)
-    lights = [factor.expose(dec, r.resolve_light(name), "auto") for name in ("front", "window-left", "studio")]
+    lights = [factor.meter.expose(dec, r.resolve_light(name), "auto") for name in ("front", "window-left", "studio")]
     residuals = [next(r._network.relit(dec, light[None], 1))[1] for light in lights]
-    shadow = factor.shadow_weight(dec)
+    shadow = fill_part.shadow_weight(dec)
     print(f"photo {args.size[0]}x{args.size[1]}, deep shadow found: {shadow is not None}")
     per_light, base = [], []
     for i in range(args.repeats + 1):
@@ -69,12 +71,12 @@ def main() -> None:
     state = factor.memo(dec)
     # fill_base reads the person's colour (faces16: its grey, the full-resolution guide; before faces16 there was none)
     given = None
-    if hasattr(factor, "fill_base"):
-        given = image if "image" in inspect.signature(factor.fill_base).parameters else state["gray"]
+    if hasattr(fill_part, "fill_base"):
+        given = image if "image" in inspect.signature(fill_part.fill_base).parameters else state["gray"]
     for _ in range(args.repeats if given is not None else 0):
         state.pop("fill_base", None)
         t = time.perf_counter()
-        factor.fill_base(dec, given)
+        fill_part.fill_base(dec, given)
         base.append(time.perf_counter() - t)
     if fill is not None:
         ys, xs = fill[0]

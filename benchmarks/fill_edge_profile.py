@@ -44,8 +44,7 @@ sys.path.insert(0, str(HERE.parent / "tests"))
 
 from _shared import missing, shared_path  # noqa: E402
 
-from relight_rt.relight import factor as factor_module  # noqa: E402
-from relight_rt.relight import fill_edge  # noqa: E402
+from relight_rt.relight import fill_edge, shadow_fill  # noqa: E402
 
 BINS = (1, 2, 3, 4, 6, 8)
 
@@ -65,11 +64,11 @@ def weights(relighter, dec, light) -> tuple[tuple, np.ndarray, dict]:
         seen["fill"] = out[1]
         return out
 
-    factor_module.edge_weight, relighter._factor.gain_and_fill = spy_edge, spy_fill
+    shadow_fill.edge_weight, relighter._factor.gain_and_fill = spy_edge, spy_fill
     try:
         relighter.relight(dec, light, exposure="physical")
     finally:
-        factor_module.edge_weight = edge
+        shadow_fill.edge_weight = edge
         del relighter._factor.gain_and_fill
     if seen.get("fill") is None or "luma" not in seen:
         return None, None, seen
@@ -79,8 +78,8 @@ def weights(relighter, dec, light) -> tuple[tuple, np.ndarray, dict]:
 
 def profile(weight: np.ndarray, seen: dict, inside: np.ndarray | None = None) -> dict:
     """{distance bin: (mean weight, pixels)} over the near-black pixels near a shadow's core (module docstring)."""
-    own = fill_edge.fill_share(seen["luma"] / seen["albedo"], seen["level"], factor_module.FILL_LOW,
-                               factor_module.FILL_HIGH)
+    own = fill_edge.fill_share(seen["luma"] / seen["albedo"], seen["level"], shadow_fill.FILL_LOW,
+                               shadow_fill.FILL_HIGH)
     black = own >= 0.95
     if inside is not None:
         black &= inside
@@ -123,11 +122,11 @@ def synthetic() -> None:
         box, weight, seen = weights(relighter, dec, 2 * OWN_LIGHT)
         show("synthetic A (hard edge, textured)", profile(weight, seen))
         filled = relighter.relight(dec, 2 * OWN_LIGHT, exposure="physical")
-        relighter._factor.shadow_weight = lambda *args: None
+        relighter._factor.fill.shadow_weight = lambda *args: None
         try:
             plain = relighter.relight(replace(dec), 2 * OWN_LIGHT, exposure="physical")
         finally:
-            del relighter._factor.shadow_weight
+            del relighter._factor.fill.shadow_weight
         print(f"{'':34s} lit side 0-6 px from the edge: largest change "
               f"{np.abs(filled[40:120, 55:62] - plain[40:120, 55:62]).max():.4f}")
         h, w = 150, 100
@@ -195,8 +194,8 @@ def photos(reference: Path) -> None:
         dec = relighter.decompose(rgb, mask)
         own = relighter._factor.own(dec, with_residual=False)
         share = 0.0
-        if relighter._factor.shadow_weight(dec) is not None:
-            base = relighter._factor.fill_base(dec, relighter._composer.foreground(dec)[0])
+        if relighter._factor.fill.shadow_weight(dec) is not None:
+            base = relighter._factor.fill.fill_base(dec, relighter._composer.foreground(dec)[0])
             off = own["inner"] & ~(own["cap_face"] > 0 if own["cap_face"] is not None else False)
             reach = base["reach"]
             share = 0.0 if reach is None else float((reach[off] > 0.1).mean())

@@ -3,10 +3,10 @@
 Surfaces: the matte's pocket rules (``image.matte_edges`` open_pockets / refine_edges), ``VideoMatter(complete=True)``,
 the graphs' answers kept per region (``image.regions``: Pyramid.answer, reductions_shared, from several threads),
 ``apps.scene_people.find_people``, the face mesh's occlusion and mirror (``person.face_mesh``) and
-``relight.factor.mirror_shadow`` (through the Relighter, with the landmarker's answer bent), the CLI on tiny, strip and
-crowded backgrounds and one-frame clips. A case holds when valid odd input gives a finite result in range and bad input
-one RelightError (CLI: one line, exit 2, no traceback); thread cases hold when every thread's picture equals one
-thread's to the bit.
+``relight.shadow_fill.mirror_shadow`` (through the Relighter, with the landmarker's answer bent), the CLI on tiny,
+strip and crowded backgrounds and one-frame clips. A case holds when valid odd input gives a finite result in range
+and bad input one RelightError (CLI: one line, exit 2, no traceback); thread cases hold when every thread's picture
+equals one thread's to the bit.
 
     PYTHONPATH=$PWD python benchmarks/fuzz_round8.py [--only SURFACE] [--no-cli]
 
@@ -121,7 +121,7 @@ def matte_cases(side: int = 1000) -> None:
 
 def mesh_cases() -> None:
     from relight_rt.person import face_mesh as fm
-    from relight_rt.relight.factor import mirror_shadow
+    from relight_rt.relight.shadow_fill import mirror_shadow
 
     tri = np.loadtxt(REPO / "relight_rt" / "models" / "face_mesh_triangles.txt", dtype=np.int64).reshape(-1, 3)
 

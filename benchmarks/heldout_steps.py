@@ -196,7 +196,7 @@ def light_bands(relighter, folder: Path) -> dict:
 @contextlib.contextmanager
 def switched_off(relighter, steps) -> None:
     """The relighter with ``steps`` (names from ``STEPS``) switched off, restored on exit."""
-    from relight_rt.relight import compose, factor, strength
+    from relight_rt.relight import compose, factor, shadow_fill, strength
 
     undo = []
 
@@ -225,7 +225,7 @@ def switched_off(relighter, steps) -> None:
     if "cast shadows" in steps:
         put(factor.Factor, "cast", lambda self, dec, own, light: None)
     if "deep-shadow fill" in steps:
-        put(factor.Factor, "shadow_weight", lambda self, dec: None)
+        put(shadow_fill.ShadowFill, "shadow_weight", lambda self, dec: None)
     if "head pass" in steps:
         put(relighter, "face_pass", False)
     if "look" in steps:

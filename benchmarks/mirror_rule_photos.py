@@ -1,4 +1,4 @@
-"""Where the mirror rule (``factor.mirror_shadow``, ``MIRROR_DARK``) acts on real photos, and by how much.
+"""Where the mirror rule (``shadow_fill.mirror_shadow``, ``MIRROR_DARK``) acts on real photos, and by how much.
 
     python benchmarks/mirror_rule_photos.py --out runs/mirror_photos [--stride 4] [--max-side 1000]
 
@@ -30,7 +30,7 @@ from _shared import shared_path, warn_missing
 from photo_faults import read_mask, read_rgb
 
 from relight_rt import Relighter, RuntimeConfig
-from relight_rt.relight import factor as factor_module
+from relight_rt.relight import shadow_fill
 
 REPEATS = 5  # mirror_shadow timed this many times per photo, the best kept
 
@@ -63,7 +63,7 @@ def main(argv=None) -> int:
         return 2
     relighter = Relighter(RuntimeConfig(device="cpu"))
     args.out.mkdir(parents=True, exist_ok=True)
-    rule, photos, t0 = factor_module.MIRROR_DARK, {}, time.time()
+    rule, photos, t0 = shadow_fill.MIRROR_DARK, {}, time.time()
     for name, image, mask_file in inputs:
         rgb = read_rgb(image, args.max_side)
         mask = read_mask(mask_file, rgb.shape[:2])
@@ -71,7 +71,7 @@ def main(argv=None) -> int:
             continue
         relit, row = {}, {}
         for on in (True, False):  # each its own Decomposition: what a relight caches depends on the rule
-            factor_module.MIRROR_DARK = rule if on else None
+            shadow_fill.MIRROR_DARK = rule if on else None
             try:
                 dec = relighter.decompose(rgb, mask)
                 relit[on] = [levels(relighter.relight(dec, light)) for light in (LEFT, RIGHT)]
@@ -84,13 +84,13 @@ def main(argv=None) -> int:
                         face = own["face_skin"] | own["face_opening"]
                         for _ in range(REPEATS):
                             t = time.perf_counter()
-                            found = factor_module.mirror_shadow(shading, own["face_opening"], face, own["face_points"])
+                            found = shadow_fill.mirror_shadow(shading, own["face_opening"], face, own["face_points"])
                             t = time.perf_counter() - t
                             best = t if best is None else min(best, t)
                         share = float(found.max())
                     row["share"], row["ms"] = share, None if best is None else round(1e3 * best, 3)
             finally:
-                factor_module.MIRROR_DARK = rule
+                shadow_fill.MIRROR_DARK = rule
         for light, a, b in zip(("LEFT", "RIGHT"), relit[True], relit[False], strict=True):
             d = np.abs(a - b).max(axis=2)
             row[light] = {"max": int(d.max()), "over_2": int((d > 2).sum())}

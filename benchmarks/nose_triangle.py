@@ -11,8 +11,8 @@ nose's wing, ``TRIANGLE``), where the side-lit photo is in hard shadow (its lumi
 ellipse's 90th percentile). The error: log of ours over the real frontal photo's luminance (Rec. 709 of linearised
 sRGB, + 1e-3), less its median over the ellipse (the exposure's level is not the fill's), averaged over the region:
 negative where the triangle stays too dark. Printed per pair, and the mean by |azimuth| and side; with the fill's
-weight there (the share of the change added, not multiplied: ``Factor.shadow_weight``), whether a face mesh was found,
-and the fill's albedo there against the lit cheek's (``lift``: the fill's albedo over stage 1's).
+weight there (the share of the change added, not multiplied: ``ShadowFill.shadow_weight``), whether a face mesh was
+found, and the fill's albedo there against the lit cheek's (``lift``: the fill's albedo over stage 1's).
 
 ``--half even`` / ``odd``: the subjects at even / odd positions of the sorted list (choose on one, check the other).
 ``--out DIR``: a PNG per pair (relit | real frontal | input, 3x, the region outlined) for looking at them at 100 %.
@@ -64,7 +64,7 @@ def triangle_error(relit: np.ndarray, truth: np.ndarray, face: np.ndarray, where
 def internals(relighter: Relighter, dec, where: np.ndarray) -> dict:
     """The fill's weight and albedo lift (its chroma's luminance: the fill's albedo over stage 1's) over ``where``."""
     factor = relighter._factor
-    shadow = factor.shadow_weight(dec)
+    shadow = factor.fill.shadow_weight(dec)
     out = {"mesh": bool(dec.face_meshes)}
     if shadow is None:
         return {**out, "w": 0.0, "lift": 1.0}

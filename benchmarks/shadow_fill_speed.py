@@ -5,9 +5,9 @@
 Decomposes PHOTO once, then relights it under ``--light`` with the fill and with it switched off
 (``shadow_weight`` returning None), interleaved in one process so that a loaded CPU weighs on both alike; prints
 the minimum and the 25th percentile of each. The fill costs nothing where no deep shadow is found, and in
-proportion to the shadow's box where one is. Also the fill's texture (``Factor.texture``, found once per
+proportion to the shadow's box where one is. Also the fill's texture (``ShadowFill.texture``, found once per
 Decomposition over the crop box, then a multiply per light): its first computation timed alone, repeated; and the
-fill's weight and colour (``Factor.shadow_weight``, also once per Decomposition) the same way.
+fill's weight and colour (``ShadowFill.shadow_weight``, also once per Decomposition) the same way.
 """
 
 from __future__ import annotations
@@ -29,8 +29,8 @@ def main() -> None:
 
     r = relight_rt.open(RuntimeConfig(device="cpu"))
     dec = r.decompose(args.photo, args.mask)
-    factor = r._factor
-    real = factor.shadow_weight
+    fill = r._factor.fill  # the deep shadow's fill (relight_rt.relight.shadow_fill)
+    real = fill.shadow_weight
     print(f"deep shadow found: {real(dec) is not None}")
 
     def off(*_):
@@ -38,27 +38,27 @@ def main() -> None:
 
     times: dict[str, list[float]] = {"with fill": [], "without": []}
     for fn in (real, off):  # warm both
-        factor.shadow_weight = fn
+        fill.shadow_weight = fn
         r.relight(dec, args.light)
     for _ in range(args.repeats):
         for name, fn in (("with fill", real), ("without", off)):
-            factor.shadow_weight = fn
+            fill.shadow_weight = fn
             t = time.perf_counter()
             r.relight(dec, args.light)
             times[name].append(time.perf_counter() - t)
-    factor.shadow_weight = real
-    state, gray = factor.memo(dec), factor.memo(dec).get("gray")
+    fill.shadow_weight = real
+    state, gray = fill.memo(dec), fill.memo(dec).get("gray")
     times["texture, once"] = []
     for _ in range(args.repeats if gray is not None else 0):
         state.pop("texture", None)
         t = time.perf_counter()
-        factor.texture(dec, gray)
+        fill.texture(dec, gray)
         times["texture, once"].append(time.perf_counter() - t)
     times["weight, once"] = []  # where the fill goes and its colour (``shadow_weight``), found once per Decomposition
     for _ in range(args.repeats):
         state.pop("shadow", None)
         t = time.perf_counter()
-        factor.shadow_weight(dec)
+        fill.shadow_weight(dec)
         times["weight, once"].append(time.perf_counter() - t)
     for name, ts in times.items():
         if not ts:

@@ -7,7 +7,7 @@ draws (albedo x shading with the shaded-skin gain over the photo, at the page's 
 shaders, as tests/integration/test_studio_browser.py draws it) over the full result's, on the bundled example
 person, per preset given as an array ("auto" exposure, no preset EV). ``--without`` switches off, in the full
 result, the head pass's blend of its shading (Factor.blend_head), the head pass itself (Relighter.face_pass) or the
-deep-shadow fill (Factor.shadow_weight): each ratio that moves to 1 names a part of the gap the preview leaves out
+deep-shadow fill (ShadowFill.shadow_weight): each ratio that moves to 1 names a part of the gap the preview leaves out
 (both figures below take ``--without``).
 
 Background grade: on the bundled street photo (a backdrop to grade, the automatic matte), the grade the preview
@@ -33,6 +33,7 @@ from relight_rt.cli.demo import example_path
 from relight_rt.image.color import REC709
 from relight_rt.light.exposure import DISPLAY_GAMMA
 from relight_rt.relight import factor as _factor
+from relight_rt.relight import shadow_fill as _shadow_fill
 
 BUNDLED = Path(relight_rt.__file__).resolve().parent / "models"
 STREET = Path(relight_rt.__file__).resolve().parent / "data" / "example_scene.jpg"
@@ -64,7 +65,7 @@ def relighter(without: set[str]):
         _factor.Factor.blend_head = lambda self, *args, **kwargs: None
         _factor.Factor.head_grade_inputs = lambda self, dec: None
     if "fill" in without:
-        _factor.Factor.shadow_weight = lambda self, dec: None
+        _shadow_fill.ShadowFill.shadow_weight = lambda self, dec: None
     return rl
 
 

@@ -73,8 +73,7 @@ from relight_rt.light import exposure as exposure_module
 from relight_rt.light import sh
 from relight_rt.person import face_mesh as face_mesh_module
 from relight_rt.person.face_mesh import FaceMesh
-from relight_rt.relight import factor as factor_module
-from relight_rt.relight import shadow_rim
+from relight_rt.relight import shadow_fill, shadow_rim
 
 EPS = 1e-3
 GRID = 48
@@ -309,13 +308,13 @@ def main(argv=None) -> int:
                    help="the face mesh's own occlusion off (face_mesh.MESH_OCCLUSION; on by default since faces12)")
     p.add_argument("--no-mirror-dark", action="store_true",
                    help="a face's opening far darker than its mirror image not taken as shadow "
-                        "(relight.factor.MIRROR_DARK; on by default since faces13)")
+                        "(relight.shadow_fill.MIRROR_DARK; on by default since faces13)")
     p.add_argument("--no-rim-fill", action="store_true",
                    help="the deep shadow's fill off a face mesh keeps stage 1's albedo, not its rim's "
                         "(relight.shadow_rim.RIM_RANGE; on by default since faces15)")
     p.add_argument("--no-penumbra-cap", action="store_true",
                    help="the ratio cap only on a face mesh's skin, not in the penumbra around any deep shadow "
-                        "(relight.factor.CAP_SHADOW_REACH; on by default since faces16)")
+                        "(relight.shadow_fill.CAP_SHADOW_REACH; on by default since faces16)")
     p.add_argument("--own-light", choices=OWN_LIGHTS, default="today",
                    help="a measurement: the photo's own light replaced by an oracle built from Yale's lamp (own_light)")
     p.add_argument("--own-level", choices=OWN_LEVELS, default="meter",
@@ -330,13 +329,13 @@ def main(argv=None) -> int:
     if args.no_rim_fill:
         shadow_rim.RIM_RANGE = None
     if args.no_penumbra_cap:
-        factor_module.CAP_SHADOW_REACH = None
+        shadow_fill.CAP_SHADOW_REACH = None
     if args.no_rim_shown:
         shadow_rim.RIM_SHOWN = None
     if args.no_mesh_occlusion:
         face_mesh_module.MESH_OCCLUSION = False
     if args.no_mirror_dark:
-        factor_module.MIRROR_DARK = None
+        shadow_fill.MIRROR_DARK = None
     if not args.yale.is_dir():
         print(missing(args.yale), file=sys.stderr)
         return 2

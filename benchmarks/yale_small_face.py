@@ -1,4 +1,4 @@
-"""A side-lit Yale face framed small: does ``factor.mirror_shadow`` still act on its dark eye socket?
+"""A side-lit Yale face framed small: does ``shadow_fill.mirror_shadow`` still act on its dark eye socket?
 
     python benchmarks/yale_small_face.py --out runs/yale_small [--framings 1 2 3 4 6] [--subjects yaleB02 ...]
 
@@ -10,7 +10,7 @@ yale_eval's own photo. Relit to the frontal lamp and cut back to the photo's box
 measures (the dark and lit sockets' ``socket_ratio`` against the real frontal photo, their mean |log|; the change's
 correlation and contrast), with the mirror rule on and off (``MIRROR_DARK`` None): the rule acts where the dark
 socket's error moves. Also "share" and "peak": the mean and the largest over the dark socket of the fill weight the
-rule adds (``Factor.shadow_weight`` with the rule less without it, mapped to the input pixels), inside the ellipse.
+rule adds (``ShadowFill.shadow_weight`` with the rule less without it, mapped to the input pixels), inside the ellipse.
 
 Writes OUT/yale_small.json (every pair) and prints a table per framing. The data is for evaluation only: keep OUT out
 of the repository.
@@ -36,7 +36,7 @@ from _shared import missing, shared_path
 
 from relight_rt import Relighter, RuntimeConfig
 from relight_rt.person.face_mesh import FaceMesh
-from relight_rt.relight import factor as factor_module
+from relight_rt.relight import shadow_fill
 
 AZ = 70  # the de-light pairs from this |azimuth| (yale_eval's SOCKET_AZ)
 
@@ -63,9 +63,9 @@ def framed(photo: np.ndarray, framing: float) -> tuple[np.ndarray, np.ndarray, t
 
 
 def fill_weight(relighter: Relighter, dec, shape: tuple[int, int], at: tuple[int, int]) -> np.ndarray:
-    """(h, w) the fill's weight (``Factor.shadow_weight``) over the photo's pixels at ``at`` in the canvas (0 where
+    """(h, w) the fill's weight (``ShadowFill.shadow_weight``) over the photo's pixels at ``at`` in the canvas (0 where
     there is no fill)."""
-    found = relighter._factor.shadow_weight(dec)
+    found = relighter._factor.fill.shadow_weight(dec)
     full = np.zeros(dec.image.shape[:2], np.float32)
     if found is not None:
         y0, _, x0, _ = relighter._factor.restored(dec)["window"]
@@ -90,7 +90,7 @@ def main(argv=None) -> int:
     mesh = FaceMesh(relighter.models_dir)
     args.out.mkdir(parents=True, exist_ok=True)
     rows, t0 = [], time.time()
-    rule = factor_module.MIRROR_DARK
+    rule = shadow_fill.MIRROR_DARK
     for subject in subjects:
         frontal_path = ye.find_file(args.yale, subject, 0)
         if not frontal_path.is_file():
@@ -113,13 +113,13 @@ def main(argv=None) -> int:
                 canvas, mask, (y0, x0) = framed(side, framing)
                 row, weights = {"id": f"{subject}:{az:+d}", "framing": framing}, {}
                 for on in (True, False):  # each its own Decomposition: what a relight caches depends on the rule
-                    factor_module.MIRROR_DARK = rule if on else None
+                    shadow_fill.MIRROR_DARK = rule if on else None
                     try:
                         dec = relighter.decompose(canvas, mask)
                         weights[on] = fill_weight(relighter, dec, (h, w), (y0, x0))
                         relit = relighter.relight(dec, ye.lamp(0))[y0 : y0 + h, x0 : x0 + w]
                     finally:
-                        factor_module.MIRROR_DARK = rule
+                        shadow_fill.MIRROR_DARK = rule
                     row["on" if on else "off"] = {
                         **ye.compare(side, relit, frontal, region),
                         **{name: ye.socket_ratio(relit, frontal, face, eye) for name, eye in eyes.items()}}

@@ -297,7 +297,7 @@ def own_light_knee(lit, steady, transport, white) -> np.ndarray:
     """(N,) float32 each pixel's knee where only ``Highlight``'s picture is at hand: its peak under the photo's own
     light, white (``white`` (9,): ``Decomposition.white_light[:, 0]``), lit * Y(W) + steady with W = max(0, T·white),
     within ``KNEE_RANGE``. Where the picture is the photo times the relighting factor (relight_rt.relight.factor) this
-    is the photo's own peak (:func:`knee` of the photo), which ``Factor.highlight_inputs`` reads directly; the
+    is the photo's own peak (:func:`knee` of the photo), which ``ExposureMeter.highlight_inputs`` reads directly; the
     network's image (``detail=False``) and the studio page's copy of ``shoulder_gain`` rebuild it this way."""
     lit, steady, t = _pixels(lit, steady, transport)
     own = np.maximum(t @ np.asarray(white, np.float32).reshape(9), 0)

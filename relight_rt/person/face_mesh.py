@@ -81,7 +81,7 @@ MIRROR_PAIRS = ((33, 263), (7, 249), (163, 390), (144, 373), (145, 374), (153, 3
 MIRROR_MIDLINE = (1, 4, 6, 168, 10, 152, 0, 17)
 # ``mirror_held``: a value is held to its mirror image's only where the photo is in shadow against its mirror image:
 # its luminance over the mirror's, from the second share down to the first, from none of the lift to all of it
-# (factor.MIRROR_DARK's shares, not fitted again; a face lit from the front keeps its own), that luminance smoothed
+# (shadow_fill.MIRROR_DARK's shares, not fitted again; a face lit from the front keeps its own), that luminance smoothed
 # over this many pixels first (texture is no shadow)
 MIRROR_SHADOW = (0.35, 0.7)
 MIRROR_SHADOW_SIGMA = 1.5

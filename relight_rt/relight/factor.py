@@ -31,19 +31,19 @@ input's own high-frequency detail survives. Colours made brighter than the photo
 smooth shoulder on the brightest channel, all three channels scaled together (a bright lit side keeps its hue and
 its gradation; a per-channel clip would turn it yellow, a hard clip flat). Relighting with the photo's own light
 gives the input back. A face that stage 1 saw small gets a second pass (relight_rt.relight.face_pass). Where the
-photo's own shading is near zero (a side-lit face's black half, levels 0-3) the photo times a factor stays black
-with its speckle amplified; there the change is added instead, stage 1's albedo under the new shading less under the
-photo's own (``Factor.gain_and_fill``; Extended Yale B de-lighting, benchmarks/yale_eval.py: 0.83 / 0.62 ->
-0.87 / 0.70). On a photo with a face mesh, the share of the photo's own shading that stage 1 put into the albedo
-is taken out first (``unshaded_albedo``; de-lighting 0.87 / 0.70 -> 0.88 / 0.78); on its skin the fill takes the
-albedo of the lit skin around, and all of a shadow the transport misses goes with the photo's light (de-lighting
-with the face search's shadow lifts 0.89 / 0.80 -> 0.91 / 0.83); on its skin a light that would multiply the
-photo more than ``RATIO_CAP`` multiplies it that much and adds the rest of the change as the fill (``Factor.handover``:
-the speckle and the seam beside a side-lit face's black half), and so does the skin in the penumbra around a wide deep
-shadow; the fill's weight meets the ratio at the photo's own shadow edge, per input pixel
-(relight_rt.relight.fill_edge). On a face mesh's skin a new light's lamp casts the mesh's own shadows (the nose's,
-the brows'; relight_rt.relight.cast_shadow), where they are darker than the photo's own light's: degree-2 SH cannot
-(Extended Yale B relight 0.859 / 0.6505 -> 0.870 / 0.734).
+photo's own shading is near zero (a side-lit face's black half, levels 0-3) the photo times a factor stays black with
+its speckle amplified; there the change is added instead, stage 1's albedo under the new shading less under the
+photo's own (``Factor.gain_and_fill``, the fill's light-independent part relight_rt.relight.shadow_fill; Extended
+Yale B de-lighting, benchmarks/yale_eval.py: 0.83 / 0.62 -> 0.87 / 0.70). On a photo with a face mesh, the share of
+the photo's own shading that stage 1 put into the albedo is taken out first (``unshaded_albedo``; de-lighting 0.87 /
+0.70 -> 0.88 / 0.78); on its skin the fill takes the albedo of the lit skin around, and all of a shadow the transport
+misses goes with the photo's light (de-lighting with the face search's shadow lifts 0.89 / 0.80 -> 0.91 / 0.83); on
+its skin a light that would multiply the photo more than ``RATIO_CAP`` multiplies it that much and adds the rest of
+the change as the fill (shadow_fill ``handover``: the speckle and the seam beside a side-lit face's black half), and
+so does the skin in the penumbra around a wide deep shadow; the fill's weight meets the ratio at the photo's own
+shadow edge, per input pixel (relight_rt.relight.fill_edge). On a face mesh's skin a new light's lamp casts the
+mesh's own shadows (the nose's, the brows'; relight_rt.relight.cast_shadow), where they are darker than the photo's
+own light's: degree-2 SH cannot (Extended Yale B relight 0.859 / 0.6505 -> 0.870 / 0.734).
 (``cv2.ximgproc.guidedFilter`` at full resolution gives the same kind of result but costs ~0.6 s per 2-megapixel
 crop with a colour guide; this costs ~30 ms.)
 With ``detail=False`` the network's relit image is upsampled as it is.
@@ -54,7 +54,6 @@ warning is logged at load, and ``RelightResult.diffuse_only`` says so.
 
 from __future__ import annotations
 
-import math
 from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import replace
@@ -62,21 +61,19 @@ from dataclasses import replace
 import cv2
 import numpy as np
 
-from ..image.color import REC709, channel_max
-from ..light import exposure as _exposure
+from ..image.color import REC709
 from ..light import sh
-from ..person.face_mesh import mirror, mirror_held
+from ..person.face_mesh import mirror_held
 from . import head_blend
 from .cast_shadow import MeshView, shadow_factor
 from .decomposition import Decomposition, Memo, readonly
-from .detail import extend_outward, guided_upsample, shadow_texture, unpremultiply, window
+from .detail import extend_outward, guided_upsample, unpremultiply, window
+from .exposure_meter import ExposureMeter
 from .face_pass import FacePass, feather
-from .fill_colour import lit_colour
-from .fill_edge import crop_part, edge_weight, grid_weight, soften
+from .fill_edge import crop_part, soften
 from .look import shaded_skin, skin_chroma, tint_range
-from .shadow_rim import rim_lift, skin_gate, spread_mean
+from .shadow_fill import ShadowFill, handover
 from .strength import (
-    EXPLAIN_ALBEDO_MIN,
     explain_photo,
     face_refit,
     refit_light,
@@ -87,32 +84,15 @@ from .unshade import unshaded_albedo
 
 _RATIO_EPS = np.float32(0.01)  # the ratio's denominator is floored here (dark pixels: noise, not light)
 _OWN_FLOOR = np.float32(0.5)  # light the model misses, up to this share of the photo, stays under a new light (own)
-FILL_LOW, FILL_HIGH = 0.1, 0.35  # shown shading / its median: below LOW the deep shadow is filled, above HIGH not
-FILL_SIGMA = 2.5  # ... the shading shown smoothed over this many network pixels first (texture is not a shadow)
-FILL_EDGE_SIGMA = 1.0  # ... within its reach of a shadow each pixel's own shading (smoothed this much) counts
-FILL_ALBEDO_SPREAD = 0.08  # ... its albedo that of the lit pixels around, over this share of the window's side,
-FILL_ALBEDO_RANGE = 4.0  # ... at most this factor from stage 1's own albedo there
-FILL_BY_MATERIAL = True  # the fill's colour from the lit pixels around of its own material (relight.fill_colour)
-RATIO_CAP = 2.0  # beside a deep shadow the photo's own detail is multiplied at most this much (Factor.handover),
-CAP_SKIN_SPREAD = 0.02  # ... on a face's skin, its edge softened over this share of the window's side,
-# ... elsewhere, as far as stage 1 sees skin, over a Gaussian of this many network px around a deep shadow's core (all
-# of it within about that of a wide core's edge; a narrow core's reach is weaker: 0.11 at a 3 x 3 core's centre)
-CAP_SHADOW_REACH: float | None = 5.0
-TEXTURE_SCALES = (1.0, 2.0)  # the fill's texture (Factor.texture): the photo's log detail in this band (input px),
-TEXTURE_BLOCK, TEXTURE_SHARE = 4.0, 0.35  # ... its power over this many px held to this quantile of the lit skin's
+# on a face's skin a light multiplies the photo at most relight_rt.relight.shadow_fill ``RATIO_CAP`` and the fill takes
+# the lit skin's albedo (``own``'s "cap_skin"), its edge softened over this share of the window's side
+CAP_SKIN_SPREAD = 0.02
 # a face's openings (inside the mesh's outline, off its skin: the eyes' sockets) take the skin's ratio cap and fill
-# albedo (``handover``, ``shadow_weight``): on a side-lit face's dark half the socket's grazing light was multiplied
-# into a bright patch (Extended Yale B from 70°, its socket over the face's mean 0.75 against 1.48 without, the real
-# photo's 0.42; de-light correlation / contrast 0.9105 / 0.826 -> 0.9162 / 0.839, speckle 0.127 -> 0.088)
+# albedo (shadow_fill ``handover``, ``ShadowFill.shadow_weight``): on a side-lit face's dark half the socket's grazing
+# light was multiplied into a bright patch (Extended Yale B from 70°, its socket over the face's mean 0.75 against 1.48
+# without, the real photo's 0.42; de-light correlation / contrast 0.9105 / 0.826 -> 0.9162 / 0.839, speckle 0.127 ->
+# 0.088); one far darker than its mirror image is in the fill whole (shadow_fill ``MIRROR_DARK``)
 OPENINGS_AS_SKIN = True
-# ... and an opening far darker under the photo's own light than its mirror image through the face
-# (``face_mesh.mirror``) is in the photo's deep shadow whatever stage 1's albedo says: the fill takes it whole
-# (``mirror_shadow``; Extended Yale B from 70°, faces13). From MIRROR_DARK[1] of the mirror's shading down to
-# MIRROR_DARK[0] the fill's weight there rises from none to all; None: off
-MIRROR_DARK: tuple[float, float] | None = (0.35, 0.7)
-# ... that share softened over this share of the face's size (its mesh's extent), face by face: on Extended Yale B
-# (faces of 290-370 px in a 256-px window) the 0.02 of the window's side faces13 softened it over (faces14)
-MIRROR_SPREAD = 0.015
 # a face in the photo's shadow against its mirror image takes at least the mirror's albedo (face_mesh.mirror_held)
 MIRROR_ALBEDO = True
 CAST_CACHE = 4  # Factor.cast keeps the cast shadows of this many light directions per Decomposition
@@ -125,60 +105,9 @@ def luminance_window(chw: np.ndarray, alpha: np.ndarray, box: tuple[int, int, in
     return np.divide(lum, alpha, out=np.zeros_like(lum), where=alpha > 0.5)
 
 
-def mirror_shadow(shading: np.ndarray, opening: np.ndarray, face: np.ndarray,
-                  points: tuple[np.ndarray, ...]) -> np.ndarray:
-    """(r, r') float32 in [0, 1]: how far each of a face's openings lies in the photo's own shadow by its mirror
-    image through the face (``MIRROR_DARK``; the fill's weight is raised to it, ``Factor.shadow_weight``).
-
-    Args:
-        shading: (r, r') the shading under the photo's own light (the transport the factor divides with).
-        opening, face: (r, r') bool, the faces' openings, and their skin with the openings.
-        points: the face meshes in the window's pixels (``FacePass.window_points``).
-
-    On a side-lit face the socket on the dark side is black in the photo, and stage 1 often reads that black as the
-    socket's albedo: the fill's weight, found from the photo over that albedo, then sees no shadow and the ratio
-    multiplies the black (or the little grazing light there) into the relit socket. A face is near symmetric, so a
-    socket whose shading is far below its mirror image's (the lit socket) is in shadow. (The shading is the
-    transport the factor divides with: the mesh's shape, moved toward the photo by ``explain_photo``, so stage 1's
-    albedo reaches it in part; the mesh-only transport was not measured.) Each face's mirror reads only that face:
-    its own openings, and its own face where the mirror image lands (both inside its mesh's convex hull; a
-    neighbour's sockets are another face's business), nothing where the mirror image lies off it. Each face's
-    share is softened over ``MIRROR_SPREAD`` of its own size (an opening's border is no edge in the photo), so a
-    small face in a large window keeps its share.
-    """
-    lo, hi = MIRROR_DARK
-    h, w = shading.shape
-    out = np.zeros((h, w), np.float32)
-    for pts in points:
-        m = mirror(pts)
-        if np.linalg.det(m[:, :2]) > -0.5:  # no reflection (a mesh collapsed to a line or a point): no mirror to read
-            continue
-        xy = np.asarray(pts, np.float64)[:, :2]
-        sigma = max(MIRROR_SPREAD * float(np.ptp(xy, axis=0).max()), 0.5)
-        hull = np.zeros((h, w), np.uint8)  # this face's own pixels: its mesh's convex hull (4 bits of sub-pixel)
-        cv2.fillConvexPoly(hull, np.round(cv2.convexHull(xy.astype(np.float32)) * 16).astype(np.int32), 1, shift=4)
-        mine = opening & (hull > 0)
-        if not mine.any():
-            continue
-        # where its share can reach once softened: its openings' box and the blur's reach, within the window
-        ys, xs = np.nonzero(mine)
-        reach = int(math.ceil(4 * sigma)) + 1
-        y0, y1 = max(int(ys.min()) - reach, 0), min(int(ys.max()) + reach + 1, h)
-        x0, x1 = max(int(xs.min()) - reach, 0), min(int(xs.max()) + reach + 1, w)
-        at = m.astype(np.float64)  # the mirror from the box's pixels (its origin at (x0, y0)) to the window's
-        at[:, 2] += at[:, :2] @ (x0, y0)
-        there, on_face = (cv2.warpAffine(np.ascontiguousarray(a, np.float32), at, (x1 - x0, y1 - y0),
-                                         flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_CONSTANT)
-                          for a in (shading, face & (hull > 0)))
-        q = np.clip((hi - shading[y0:y1, x0:x1] / np.maximum(there, 1e-6)) / (hi - lo), 0, 1)
-        share = mine[y0:y1, x0:x1] * (there > 1e-4) * q * q * (3 - 2 * q) * on_face
-        # no edge of its own: softened over the face's size (an opening's border crosses a shaded cheek)
-        out[y0:y1, x0:x1] = np.maximum(out[y0:y1, x0:x1], cv2.GaussianBlur(share.astype(np.float32), (0, 0), sigma))
-    return out
-
-
 class Factor:
-    """The relighting factor of a Relighter's decompositions, and the exposure that keeps a relit person's level.
+    """The relighting factor of a Relighter's decompositions; its deep shadow's fill (``fill``) and the exposure that
+    keeps a relit person's level (``meter``) share its memo and what it divides by.
 
     Args:
         memo: where what is computed once per Decomposition is kept (the Relighter's).
@@ -190,6 +119,9 @@ class Factor:
     def __init__(self, memo: Memo, faces: FacePass, detail: bool,
                  own_residual: Callable[[Decomposition], np.ndarray | None]) -> None:
         self.memo, self.faces, self.detail, self.own_residual = memo, faces, detail, own_residual
+        self.fill = ShadowFill(memo, lambda dec: self.own(dec, with_residual=False))  # the deep shadow's fill
+        self.meter = ExposureMeter(memo, detail, lambda dec: self.own(dec, with_residual=False),
+                                   lambda dec, own, light: self.cast(dec, own, light))  # the exposure
 
     def restored(self, dec: Decomposition) -> dict:
         """What the relighting factor needs that does not depend on any light, in the person's window (cached).
@@ -386,10 +318,10 @@ class Factor:
 
     def shadow_layer(self, dec: Decomposition, light: np.ndarray) -> tuple[np.ndarray | None, float]:
         """What the faces' cast shadows under ``light`` take of its shading, in the input frame, and what "auto" lifts
-        the light by for them: (depth, meter), depth (H, W) float32 in [0, 1] (1 - ``cast``: 0 where no shadow falls)
-        or None without one, meter ``meter_shadows``'s factor (1 without a shadow). The head pass's shadows
-        (``blend_head``) are blended in over its feathered box, as its gain is. For the studio's preview, which
-        relights without them (relight_rt.apps.studio): the final result's shading is its shading x (1 - depth).
+        the light by for them: (depth, meter), depth (H, W) float32 in [0, 1] (1 - ``cast``: 0 where no shadow falls) or
+        None without one, meter ``ExposureMeter.meter_shadows``'s factor (1 without a shadow). The head pass's shadows
+        (``blend_head``) are blended in over its feathered box, as its gain is. For the studio's preview, which relights
+        without them (relight_rt.apps.studio): the final result's shading is its shading x (1 - depth).
         """
         light = np.asarray(light, np.float32)
         if not self.detail:
@@ -419,7 +351,7 @@ class Factor:
                 region += weight * (on_head - region)
         meter = 1.0
         if depth is not None:
-            metered = self.meter_shadows(dec, light)
+            metered = self.meter.meter_shadows(dec, light)
             size = float(np.linalg.norm(light))
             meter = float(np.linalg.norm(metered)) / size if size > 1e-12 else 1.0
         return depth, meter
@@ -487,11 +419,11 @@ class Factor:
         gray = state.get("gray")  # the full-resolution guide, kept for every light (read once: a group's person
         if gray is None:  # drops theirs after use, relight_rt.relight.people, maybe in another thread)
             gray = state["gray"] = readonly(cv2.cvtColor(image, cv2.COLOR_RGB2GRAY))
-        shadow = self.shadow_weight(dec) if fill else None
-        base = None if shadow is None else self.fill_base(dec, image)
+        shadow = self.fill.shadow_weight(dec) if fill else None
+        base = None if shadow is None else self.fill.fill_base(dec, image)
         if base is not None:
             chroma = shadow[1]
-            over = self.handover(ratio, base["reach"])
+            over = handover(ratio, base["reach"])
             change = (np.maximum(new, _RATIO_EPS) - own["own"])[..., None] * tint * chroma  # as the ratio: 0 under
             # the photo's own light; a soft edge's own pixels take the solid person's beside (their albedo and colour
             # mix the background in: a bright one lifted the fill into a bright rim where a shadow meets the edge)
@@ -511,182 +443,10 @@ class Factor:
         weight3 = cv2.merge([weight] * 3)
         rest *= weight3
         region += rest
-        texture = self.texture(dec, gray)  # the photo's own fine detail carried into what is added
+        texture = self.fill.texture(dec, gray)  # the photo's own fine detail carried into what is added
         values = np.multiply(part[..., :3], weight3 if texture is None else cv2.merge([weight * texture[box]] * 3))
         return gain, (box, values, weight)
 
-    def fill_base(self, dec: Decomposition, image: np.ndarray) -> dict | None:
-        """What the deep shadow's fill needs at the photo's resolution whatever the light (cached; ``shadow_weight``
-        not None): "reach" (r, r') where ``handover`` may raise the weight (None: nowhere), "where" (r, r') bool the
-        network pixels the fill may cover, "box" and "weight" the crop box's part they map to and the weight there
-        (relight_rt.relight.fill_edge ``edge_weight``: along the shadow's border each input pixel's own shading).
-        ``image``: (h, w, 3) the person's colour in the crop box (``Composer.foreground``), float32 RGB."""
-        state = self.memo(dec)
-        if "fill_base" not in state:
-            own = self.own(dec, with_residual=False)
-            w = self.shadow_weight(dec)[0]
-            reach = None
-            core = w > 0.5
-            if CAP_SHADOW_REACH is not None and core.any():  # the penumbra around a deep shadow's core, as far as
-                # stage 1 sees skin there (relight_rt.relight.shadow_rim ``skin_gate``): on cloth and hair the
-                # added change, smooth in colour, flattened a striped shirt's stripes beside a shadow
-                reach = soften(core, CAP_SHADOW_REACH, own["inner"]) * self.skin_gate(dec)
-                reach = reach if reach.max() > 1e-3 else None  # (no skin near: nothing to map)
-            if own["cap_skin"] is not None:  # a face's skin and openings
-                reach = own["cap_face"] if reach is None else np.maximum(reach, own["cap_face"])
-            where = (w > 1e-3) | (reach > 1e-3) if reach is not None else w > 1e-3
-            y0, _, x0, _ = own["window"]
-            around = np.ones((3, 3), np.uint8)
-            maps = np.dstack([w, cv2.erode(w, around), cv2.dilate(w, around), own["albedo"]])
-            mapped = crop_part(dec.geometry, maps, where, (y0, x0))
-            result = None
-            if mapped is not None:
-                box, part = mapped
-                luma = image[box] @ REC709  # the luminance the weight on the network's grid is measured on
-                weight = edge_weight(part[..., 0], part[..., 1], part[..., 2], luma,
-                                     np.maximum(part[..., 3], EXPLAIN_ALBEDO_MIN), state["shadow_level"],
-                                     FILL_LOW, FILL_HIGH)
-                result = {"reach": None if reach is None else readonly(reach.astype(np.float32)),
-                          "where": readonly(where), "box": box, "weight": readonly(weight)}
-            state["fill_base"] = result
-        return state["fill_base"]
-
-    def texture(self, dec: Decomposition, gray: np.ndarray) -> np.ndarray | None:
-        """(h, w) the photo's own fine detail in the crop box as a factor on the deep shadow's fill (cached;
-        relight_rt.relight.detail ``shadow_texture``), None without a fill.
-
-        The fill adds the change in the person's smoothed colour: on a side-lit face's dark half relit from the
-        front, a fifth of the face came out with under half the real photo's fine detail (Extended Yale B from 70°,
-        benchmarks/yale_eval.py "flat"). The photo's own log detail there, in the band ``TEXTURE_SCALES`` (input
-        pixels) and held to the ``TEXTURE_SHARE`` quantile of the power the lit person shows where the fill adds
-        nothing (on a face mesh's skin, the lit skin's), multiplies the fill, so the added light falls on the pixel's
-        own texture (de-light "flat" 0.158 -> 0.108, "speckle" 0.122 -> 0.127). ``gray``: the photo's grey in the
-        crop box.
-        """
-        state = self.memo(dec)
-        if "texture" not in state:
-            shadow = self.shadow_weight(dec)
-            result = None
-            if shadow is not None:
-                own = self.own(dec, with_residual=False)
-                y0, _, x0, _ = own["window"]
-                lit = shadow[0] < 0.05
-
-                def to_crop(a: np.ndarray) -> np.ndarray:
-                    return dec.geometry.to_crop(a.astype(np.float32), (y0, x0))
-
-                reference = to_crop(own["inner"] & lit) > 0.99
-                skin = None  # a face's skin: held to the lit skin's own texture, its edge as soft as the ratio cap's
-                if own["cap_skin"] is not None:
-                    skin = (to_crop(own["cap_skin"]), to_crop(own["face_skin"] & lit) > 0.99)
-                result = shadow_texture(gray, reference, TEXTURE_SCALES, TEXTURE_BLOCK, TEXTURE_SHARE, skin)
-                result = None if result is None else readonly(result)
-            state["texture"] = result
-        return state["texture"]
-
-    def handover(self, ratio: np.ndarray, reach: np.ndarray | None) -> np.ndarray | None:
-        """(r, r') what the fill's weight is raised to under one light where it ``reach``es (``fill_base``: a face
-        mesh's skin and openings, the penumbra around a deep shadow's core): where the light multiplies the photo by
-        more than ``RATIO_CAP``, the photo there is multiplied at most that much; None where the rule is off.
-
-        Just above the fill's own handover (a side-lit face's lips and nose beside its black half, the photo at levels
-        20-30) a light from the other side multiplies the photo 3-5x, and with it its noise and the part of the shadow
-        stage 1 put into the albedo: a speckled bright patch, and a seam down the nose where the flat fill begins
-        (Extended Yale B from 70°, benchmarks/yale_eval.py). The factor is (1 - w) x ratio + w and the fill adds w x the
-        change, so w = (ratio - cap) / (ratio - 1) where the ratio passes the cap gives the photo x cap plus the rest of
-        the change, added: the same light where the albedo is right, the photo's noise multiplied by the cap only. A
-        light that brightens the photo less than the cap, the photo's own light included, changes nothing. On a
-        face's skin and its openings (``OPENINGS_AS_SKIN``; its edge softened over ``CAP_SKIN_SPREAD`` of the window's
-        side), where the fill carries the lit skin's albedo; elsewhere only around a deep shadow's core (a Gaussian of
-        ``CAP_SHADOW_REACH`` network px: all of it within about that of a wide core's edge, less around a narrow one)
-        and as far as stage 1 sees skin there (relight_rt.relight.shadow_rim ``skin_gate``): in a face's penumbra the
-        transport's shading, smoother than the photo's edge, stays well above the photo's, and the ratio too low by
-        1.5-2x drew a dark line between the fill and the lit side (Extended Yale B's yaleB21 from -50, no face mesh). On
-        cloth and hair the added change, smooth in colour, flattens the photo's own texture: over a whole person a
-        striped shirt's and jeans' (the bundled example under ``studio``, a cap of 2.5: 14 % of its values moved, up to
-        50 levels); beside a shadow, ungated, a shirt's colour stripes lost a third of their contrast 2 px from the edge
-        (tests/runtime/relight/test_fill_edges.py)."""
-        if not RATIO_CAP > 1 or reach is None:  # the rule off, or nowhere to reach
-            return None
-        return (np.clip((ratio - RATIO_CAP) / np.maximum(ratio - 1, 1e-6), 0, 1) * reach).astype(np.float32)
-
-    def skin_gate(self, dec: Decomposition) -> np.ndarray:
-        """(r, r') float32 in [0, 1]: how far stage 1 sees skin around each pixel of the person's window
-        (relight_rt.relight.shadow_rim ``skin_gate`` of ``restored``'s "skin"; cached: the fill's rim and the
-        penumbra's reach both read it)."""
-        state = self.memo(dec)
-        if "skin_gate" not in state:
-            state["skin_gate"] = readonly(skin_gate(self.restored(dec)["skin"]))
-        return state["skin_gate"]
-
-    def shadow_weight(self, dec: Decomposition) -> tuple[np.ndarray, np.ndarray] | None:
-        """Where the photo's own shading is too low for the ratio (cached): (w, chroma) in the person's window, w
-        (r, r') in [0, 1] (1: photo / shading is noise) and chroma (r, r', 3) the person's colour there at
-        luminance 1, taken from the reliable pixels around of its own material (relight.fill_colour), and on a
-        face mesh's skin (and its openings, ``OPENINGS_AS_SKIN``) times the albedo of the reliable skin around over
-        stage 1's own there (within ``FILL_ALBEDO_RANGE``); None where no pixel is that dark, and for a video frame.
-
-        In a deep shadow stage 1's albedo is a guess: it takes part of a hard cast shadow for dark skin (a nose's
-        shadow on a cheek came out at 0.14-0.24 beside 0.6 on Extended Yale B) and ``unshaded_albedo`` lifts all of
-        it by the same law (a shaded cheek 1.3-1.5); the new light on that albedo draws the shadow's hard outline
-        and blotches. Skin is one material, so the lit skin around knows its albedo: on the mesh's skin the fill
-        takes their mean albedo, spread over ``FILL_ALBEDO_SPREAD`` of the window's side (within 4x: at 2x a side-lit
-        Yale face kept a dark patch, faces15), its weight softened past the mesh's outline (``cap_face``). Off it,
-        as far as stage 1 sees skin, the albedo of the fill's own rim (relight_rt.relight.shadow_rim): the pixels around
-        dark hair are often another material (a green shirt's albedo lifted a girl's shaded hair green).
-
-        The shading the photo shows, its luminance over the albedo's (floored at ``EXPLAIN_ALBEDO_MIN``: black cloth
-        shows its shading too) and smoothed over ``FILL_SIGMA`` pixels (a black stripe of a shirt whose albedo stage
-        1 blurred is texture, not shadow), against its median over the person: from ``FILL_HIGH`` of it down to
-        ``FILL_LOW`` the ratio's share goes from all to none (a hard shadow at levels 0-3 of a side-lit face is
-        0.02 of the lit side's); within that smoothing's reach of such a shadow, each pixel's own shading counts too,
-        so that the weight's edge is the photo's (smoothed alone it ended inside the black: a dark line, multiplied),
-        and the weight grows into the near-black pixels beside it (relight_rt.relight.fill_edge ``grid_weight``).
-        """
-        state = self.memo(dec)
-        if not dec.photo:  # a video frame: a weight found frame by frame would flicker where the shadow's edge moves
-            return None
-        if "shadow" not in state:
-            own = self.own(dec, with_residual=False)
-            inner, photo = own["inner"], own["photo"]
-            shown = photo / np.maximum(own["albedo"], EXPLAIN_ALBEDO_MIN)
-            level = state["shadow_level"] = float(np.median(shown[inner])) if inner.any() else 0.0
-            # a shadow is wide, a black stripe the albedo blurred away is not; near one each pixel's own shading places
-            # its edge (relight_rt.relight.fill_edge ``grid_weight``)
-            result = None
-            if level > 0:
-                w = grid_weight(shown, own["solid"], inner, level, FILL_LOW, FILL_HIGH, FILL_SIGMA, FILL_EDGE_SIGMA)
-                if w is not None:
-                    y0, y1, x0, x1 = own["window"]
-                    rgb = dec.network_image[y0:y1, x0:x1]
-                    trust = ((1 - w) * inner * (photo > 0.02)).astype(np.float32)
-                    sigma = max(2.0, 0.03 * max(w.shape))
-                    # the lit pixels around of the shadow's own material (relight.fill_colour)
-                    albedo_rgb = unpremultiply(np.ascontiguousarray(dec.albedo[y0:y1, x0:x1]), own["alpha"])
-                    chroma = lit_colour(rgb, photo, trust, albedo_rgb if FILL_BY_MATERIAL else None, sigma)
-                    skin = own["face_skin"]
-                    # off a face mesh's skin, as far as stage 1 sees skin: its rim's albedo (relight.shadow_rim)
-                    off = rim_lift(own["albedo"], photo, own["own"], w, trust, self.skin_gate(dec), EXPLAIN_ALBEDO_MIN,
-                                   rgb)
-                    off = np.ones_like(w) if off is None else off
-                    if skin.any():  # a face's skin (one material): the albedo of the lit skin around, not stage 1's
-                        albedo, on = own["albedo"], skin.astype(np.float32)
-                        around = spread_mean(albedo, trust * on, FILL_ALBEDO_SPREAD * max(w.shape), albedo)
-                        lift = np.clip(around / np.maximum(albedo, EXPLAIN_ALBEDO_MIN), 1 / FILL_ALBEDO_RANGE,
-                                       FILL_ALBEDO_RANGE)
-                        on_face = skin if own["face_opening"] is None else skin | own["face_opening"]
-                        face = np.where(on_face, 1, own["cap_face"])  # the mesh's outline softened: no edge of its own
-                        chroma *= (off + face * (lift - off))[..., None]
-                        if MIRROR_DARK is not None and own["face_opening"] is not None and own["face_points"]:
-                            # a socket in the photo's shadow by the face's mirror, whatever stage 1's albedo says
-                            shading = own["transport"] @ dec.white_light[:, 0]
-                            w = np.maximum(w, mirror_shadow(shading, own["face_opening"], on_face,
-                                                            own["face_points"]) * inner)
-                    else:
-                        chroma *= off[..., None]
-                    result = (readonly(w.astype(np.float32)), readonly(chroma.astype(np.float32)))
-            state["shadow"] = result
-        return state["shadow"]
 
     def blend_head(self, dec: Decomposition, gain: np.ndarray, light: np.ndarray, fill: tuple | None = None) -> None:
         """Blend the head pass's (``dec.head``) change of shading into ``gain`` (the body's, crop frame), in place
@@ -719,82 +479,3 @@ class Factor:
             return None
         window = self.own(dec, with_residual=False)["window"]
         return head_blend.grade_inputs(dec, region, window, *self.factor_inputs(dec.head))
-
-    def expose(self, dec: Decomposition, lights: np.ndarray, exposure) -> np.ndarray:
-        """relight_rt.light.exposure.expose with the photo's own mean luminance measured once per Decomposition, the
-        faces' cast shadows metered (``meter_shadows``), then relight_rt.light.exposure ``guarded``: the highlight
-        shoulder's loss given back (``shoulder_gain``) and the highlight guard (``highlight_factor``) on each light,
-        before any EV offset."""
-        mode = _exposure.parse_exposure(exposure)
-        if mode == "physical":
-            return np.array(lights, np.float32)
-        state = self.memo(dec)
-        if "target" not in state:
-            state["target"] = _exposure.mean_luminance(dec.albedo, dec.transport, dec.network_mask, dec.white_light,
-                                                       _exposure.METER_POWER)
-        lits = _exposure.expose(dec, lights, "auto", target_luminance=state["target"])
-        if self.detail:  # the faces' cast shadows are part of the light as seen (``cast``)
-            lits = self.meter_shadows(dec, lits)
-        # what the highlight shoulder takes is given back (``shoulder_gain``), then the guard, then any EV
-        return _exposure.guarded(lits, mode, self.highlight_inputs(dec))
-
-    def meter_shadows(self, dec: Decomposition, lights: np.ndarray) -> np.ndarray:
-        """``lights`` (K, 9, 3) or (9, 3), each scaled up by what the faces' cast shadows under it take from the
-        person's mean luminance as seen (the power mean of relight_rt.light.exposure ``METER_POWER`` over the
-        person's pixels in the network frame): "auto" keeps the light as seen, a shadow included (without, the
-        white side lamps' median EV as seen went from -0.18 to -0.20 on 59 photos, benchmarks/photo_faults.py)."""
-        lits = np.asarray(lights, np.float32)
-        own = self.own(dec, with_residual=False)
-        if not own["mesh_views"]:
-            return lits
-        flat = lits.reshape(-1, 9, 3).copy()
-        inner, p = own["inner"], _exposure.METER_POWER
-        weight = own["alpha"][inner]
-        for i, light in enumerate(flat):
-            cast = self.cast(dec, own, light)
-            if cast is None:
-                continue
-            lum = np.maximum(own["albedo"][inner] * (own["transport"][inner] @ (light @ REC709)), 0) ** p
-            shadowed = float((lum * cast[inner] ** p) @ weight)
-            if shadowed > 1e-12:
-                flat[i] *= np.float32((float(lum @ weight) / shadowed) ** (1 / p))
-        return flat.reshape(lits.shape)
-
-    def highlight_inputs(self, dec: Decomposition) -> _exposure.Highlight:
-        """What ``highlight_factor`` and ``shoulder_gain`` read of ``dec`` whatever the light (cached,
-        relight_rt.light.exposure ``Highlight``): the person's pixels (alpha > 0.5, network frame) as the relit
-        picture is made of them, the share past white allowed, and each pixel's knee.
-
-        With detail the picture is the photo times the relighting factor (module docstring; diffuse part): per
-        pixel the photo's colour times albedo / own scales with the light and the photo's colour times missing /
-        own stays, and the highlight shoulder starts at the photo's own peak (``knee``, as ``Composer`` rolls it
-        off); without it, the network's albedo times the shading, its knee that picture's peak under the photo's own
-        light (``own_light_knee``). The share allowed is the photo's own share at white there, at least
-        ``HIGHLIGHT_SHARE``.
-        """
-        state = self.memo(dec)
-        if "highlight" not in state:
-            if self.detail:
-                own = self.own(dec, with_residual=False)
-                y0, y1, x0, x1 = own["window"]
-                inner = own["inner"]
-                photo = dec.network_image[y0:y1, x0:x1][inner]
-                base = own["own"][inner]
-                lit = photo * (own["albedo"][inner] / base)[:, None]
-                steady = photo * (own["missing"][inner] / base)[:, None]
-                transport = own["transport"][inner]
-                peaks = _exposure.knee(photo)
-            else:
-                alpha = dec.network_mask
-                inner = alpha > 0.5
-                photo = dec.network_image[inner]
-                lit = unpremultiply(np.ascontiguousarray(dec.albedo), alpha)[inner]
-                steady = np.zeros_like(lit)
-                transport = unpremultiply(np.ascontiguousarray(dec.transport), alpha)[inner]
-                peaks = _exposure.own_light_knee(lit, steady, transport, dec.white_light[:, 0])
-            at_white = float(np.mean(channel_max(photo) >= 0.99 * _exposure.HIGHLIGHT_LIMIT)) if photo.size else 0.0
-            state["highlight"] = _exposure.Highlight(
-                readonly(lit.astype(np.float32)), readonly(steady.astype(np.float32)),
-                readonly(np.ascontiguousarray(transport, np.float32)), max(at_white, _exposure.HIGHLIGHT_SHARE),
-                readonly(np.asarray(peaks, np.float32)))
-        return state["highlight"]

@@ -1,11 +1,11 @@
 """The deep shadow's colour: that of the lit pixels around of the shadow's own material.
 
-Where the photo's own shading is near zero the relighting factor adds the new light's change instead of multiplying
-the photo (relight_rt.relight.factor ``Factor.shadow_weight``, ``Factor.gain_and_fill``). The change is added in the
-person's colour there at luminance 1, which a black shadow does not show: it is read off the lit (trusted) pixels
-around. A plain mean over the pixels around mixes materials: a girl's dark hair in shade above a lit green shirt took
-the shirt's green (a real photo under ``front``: 0.6 % of its untinted near-black pixels turned teal, 1.2 % of its
-grey ones; none with the fill off).
+Where the photo's own shading is near zero the relighting factor adds the new light's change instead of multiplying the
+photo (relight_rt.relight.shadow_fill ``ShadowFill.shadow_weight``, relight_rt.relight.factor ``Factor.gain_and_fill``).
+The change is added in the person's colour there at luminance 1, which a black shadow does not show: it is read off the
+lit (trusted) pixels around. A plain mean over the pixels around mixes materials: a girl's dark hair in shade above a
+lit green shirt took the shirt's green (a real photo under ``front``: 0.6 % of its untinted near-black pixels turned
+teal, 1.2 % of its grey ones; none with the fill off).
 
 ``material_colour`` weighs each lit pixel around by how like the shadow's own material it is: the chromaticity of stage
 1's albedo (log R / G, log B / G). Stage 1 reads a material from its context, so its albedo's colour in a shadow is

@@ -1,15 +1,16 @@
 """The deep shadow's fill at the photo's own resolution: its edge is the photo's shadow edge, not the network's grid.
 
-Where the photo's own shading is near zero the relighting factor adds the new light's change instead of multiplying
-the photo (relight_rt.relight.factor ``Factor.shadow_weight``, ``Factor.gain_and_fill``). The weight w of that fill is
-found on the network's grid. It used to be blended into the factor there ((1 - w) x ratio + w) before the edge-aware
-upsampling, and the fill itself was mapped on its own. Where the photo is larger than the network's square (one
-network pixel 2-8 input pixels), the last black network pixel then carried the fill and the factor's 1 onto the lit
-side of the photo's own edge, through the guided filter's windows and the linear mapping: up to 0.06 on the lit
-pixel beside a hard shadow, still 0.018 four input pixels away (tests/runtime/relight/test_shadow_fill.py). Now the
-ratio is upsampled as it is (high in a black shadow, lower in its penumbra, 1-2 on the lit side: a slope the guided
-filter's local linear model follows, not the ridge the blend made), the weight is mapped to the crop box and decided
-at the photo's resolution (``edge_weight``), and the two meet per input pixel.
+Where the photo's own shading is near zero the relighting factor adds the new light's change instead of multiplying the
+photo (relight_rt.relight.shadow_fill ``ShadowFill.shadow_weight``, relight_rt.relight.factor ``Factor.gain_and_fill``).
+The weight w of that fill is found on the network's grid. It used to be blended into the factor there
+((1 - w) x ratio + w) before the edge-aware upsampling, and the fill itself was mapped on its own. Where the photo is
+larger than the network's square (one network pixel 2-8 input pixels), the last black network pixel then carried the
+fill and the factor's 1 onto the lit side of the photo's own edge, through the guided filter's windows and the linear
+mapping: up to 0.06 on the lit pixel beside a hard shadow, still 0.018 four input pixels away
+(tests/runtime/relight/test_shadow_fill.py). Now the ratio is upsampled as it is (high in a black shadow, lower in its
+penumbra, 1-2 on the lit side: a slope the guided filter's local linear model follows, not the ridge the blend made),
+the weight is mapped to the crop box and decided at the photo's resolution (``edge_weight``), and the two meet per input
+pixel.
 
 ``edge_weight``: along a shadow's border (where the network's weight steps from one network pixel to the next) each
 input pixel's own shading (its luminance over the albedo, against the same median the network's weight is measured on)
@@ -63,8 +64,8 @@ def soften(area: np.ndarray, sigma: float, inner: np.ndarray | None = None) -> n
 
 def grid_weight(shown: np.ndarray, solid: np.ndarray, inner: np.ndarray, level: float, low: float, high: float,
                 sigma: float, edge_sigma: float) -> np.ndarray | None:
-    """(r, r') float32 in [0, 1]: the fill's weight on the network's grid (relight_rt.relight.factor
-    ``Factor.shadow_weight``), None where no pixel is in a deep shadow (the smoothed weight nowhere past 0.05).
+    """(r, r') float32 in [0, 1]: the fill's weight on the network's grid (relight_rt.relight.shadow_fill
+    ``ShadowFill.shadow_weight``), None where no pixel is in a deep shadow (the smoothed weight nowhere past 0.05).
 
     A shadow is wide, a black stripe the albedo blurred away is not: the shading shown smoothed over ``sigma`` pixels
     (masked to the ``solid`` person: the background, in a soft edge's pixels too, moves no weight) gives the weight

@@ -295,7 +295,7 @@ def by_person_lights(
             box = (slice(cy0 - y0, cy1 - y0), slice(cx0 - x0, cx1 - x0))
             to_cover = np.divide(cover[box], alpha[box], out=np.ones_like(cover[box]), where=alpha[box] > 0)
         for k, (light, exposure) in enumerate(zip(lights, exposures, strict=True)):
-            lit = factor.expose(part, reaching(light, part, dec)[None], exposure)[0]
+            lit = factor.meter.expose(part, reaching(light, part, dec)[None], exposure)[0]
             _, residual, relit = next(network_relit(part, lit[None], 1, want_layers=composer.detail))
             colour = composer.person_colour(part, lit, residual, relit, looks)
             if clean and not composer.detail:

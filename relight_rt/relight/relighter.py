@@ -322,9 +322,9 @@ class Relighter:
     # ------------------------------------------------------------------------------------ relight
 
     def highlight_inputs(self, dec: Decomposition) -> _exposure.Highlight:
-        """What the exposure's highlight guard reads of ``dec`` (relight_rt.relight.factor
-        ``Factor.highlight_inputs``; the studio's preview samples it)."""
-        return self._factor.highlight_inputs(dec)
+        """What the exposure's highlight guard reads of ``dec`` (relight_rt.relight.exposure_meter
+        ``ExposureMeter.highlight_inputs``; the studio's preview samples it)."""
+        return self._factor.meter.highlight_inputs(dec)
 
     def grade_inputs(self, dec: Decomposition) -> GradeSample:
         """What the backdrop's grade reads of ``dec`` whatever the light (compose ``Composer.grade_inputs``)."""
@@ -397,15 +397,15 @@ class Relighter:
         if isinstance(light, (str, os.PathLike)):
             light = LightSpec.of(light)  # read once by the one rule: its exposure and its light
         exposure = _exposure.for_light(exposure, light)  # a preset may ask for its own exposure (night: darker)
-        parts = dec.people
+        parts, expose = dec.people, self._factor.meter.expose
         if parts:
             bg, light = parse_background(background), self.resolve_light(light)
             out = per_person.by_person(self._composer, self._network.relit, dec, parts, light, exposure, bg,
                                        keep=image is dec)  # a photo decomposed for this call: relit once
             if layers:  # the layers are the group's, decomposed as one
-                return replace(self._relight_with_layers(dec, self._factor.expose(dec, light, exposure), bg), image=out)
+                return replace(self._relight_with_layers(dec, expose(dec, light, exposure), bg), image=out)
             return out
-        lit = self._factor.expose(dec, self.resolve_light(light), exposure)
+        lit = expose(dec, self.resolve_light(light), exposure)
         bg = parse_background(background)
         if layers:
             return self._relight_with_layers(dec, lit, bg)
@@ -447,7 +447,7 @@ class Relighter:
                                                        resolved[s : s + step], exposures[s : s + step], bg,
                                                        keep=image is dec or s + step < len(resolved))
             return
-        expose = self._factor.expose
+        expose = self._factor.meter.expose
         if all(e == exposures[0] for e in exposures):
             lits = expose(dec, resolved, exposures[0])
         else:

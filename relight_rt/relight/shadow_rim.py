@@ -1,15 +1,15 @@
 """The deep shadow's fill where no face mesh covers it: its albedo is its rim's, so that it meets the ratio unseen.
 
-Where the photo's own shading is near zero the relighting factor adds the new light's change instead of multiplying
-the photo (relight_rt.relight.factor ``Factor.shadow_weight``, ``Factor.gain_and_fill``); around it the photo is
-multiplied by the ratio. The two agree at the handover only where they see the same albedo: the ratio the photo's
-own, A x photo / own (``own`` the pipeline's luminance under the photo's own light), the fill stage 1's A. Stage 1
-often takes a hard shadow for a dark albedo (on Extended Yale B's side-lit faces the shaded cheek's albedo came out
-at 0.16-0.23 beside 0.55-0.7 lit), so a fill on its albedo stays dark while the ratio just outside lifts the dim
-photo 10-20x: the weight's contour, a threshold's inside a black area where the photo has no edge, becomes a hard
-edge around a dark patch (yaleB21 from -50 degrees, which no face mesh is found for: ``FacePass.find``).
+Where the photo's own shading is near zero the relighting factor adds the new light's change instead of multiplying the
+photo (relight_rt.relight.shadow_fill ``ShadowFill.shadow_weight``, relight_rt.relight.factor ``Factor.gain_and_fill``);
+around it the photo is multiplied by the ratio. The two agree at the handover only where they see the same albedo: the
+ratio the photo's own, A x photo / own (``own`` the pipeline's luminance under the photo's own light), the fill
+stage 1's A. Stage 1 often takes a hard shadow for a dark albedo (on Extended Yale B's side-lit faces the shaded cheek's
+albedo came out at 0.16-0.23 beside 0.55-0.7 lit), so a fill on its albedo stays dark while the ratio just outside lifts
+the dim photo 10-20x: the weight's contour, a threshold's inside a black area where the photo has no edge, becomes a
+hard edge around a dark patch (yaleB21 from -50 degrees, which no face mesh is found for: ``FacePass.find``).
 
-On a face mesh's skin the fill already takes the albedo of the lit skin around (``Factor.shadow_weight``). Elsewhere
+On a face mesh's skin the fill takes the albedo of the lit skin around (``ShadowFill.shadow_weight``). Elsewhere
 ``rim_lift`` gives it the albedo the ratio shows at the fill's own rim (the trusted pixels within ``RIM_REACH``
 network pixels of it), spread inward over ``RIM_SPREAD`` of the window's side: the fill then joins the ratio at its
 border whatever the threshold, and the shadow's interior takes the surface that borders it. The rim is read where
@@ -109,7 +109,7 @@ def rim_lift(albedo: np.ndarray, photo: np.ndarray, own: np.ndarray, weight: np.
     Args:
         albedo: (r, r') stage 1's albedo luminance (what the fill multiplies the change of shading by).
         photo, own: (r, r') the photo's luminance and the pipeline's under the photo's own light (> 0).
-        weight: (r, r') the fill's weight in [0, 1] (``Factor.shadow_weight``'s w).
+        weight: (r, r') the fill's weight in [0, 1] (``ShadowFill.shadow_weight``'s w).
         trust: (r, r') in [0, 1], the pixels whose photo / own is measured (the person's, lit enough, off the fill).
         gate: (r, r') in [0, 1], how far stage 1 sees skin (``skin_gate`` of its skin probability, unpremultiplied).
         floor: the albedo the lift is measured against is floored here (black cloth, hair).

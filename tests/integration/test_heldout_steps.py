@@ -31,11 +31,11 @@ def test_mixed_transport_takes_occlusion_from_one_and_shape_from_the_other(hs):
 
 
 def test_every_step_is_switched_off_and_back(hs):
-    from relight_rt.relight import compose, factor, strength
+    from relight_rt.relight import compose, factor, shadow_fill, strength
 
     watched = [(strength, "BAND_GAIN"), (strength, "EXPLAIN_SHARE"), (strength, "EXPLAIN_SHADOW_SHARE"),
                (factor, "refit_light"), (factor, "face_refit"), (factor, "_OWN_FLOOR"), (factor, "shaded_skin"),
-               (factor.Factor, "cast"), (factor.Factor, "shadow_weight"), (compose, "steady_chroma"),
+               (factor.Factor, "cast"), (shadow_fill.ShadowFill, "shadow_weight"), (compose, "steady_chroma"),
                (compose, "keep_neutral"), (compose, "shoulder")]
     before = [getattr(o, n) for o, n in watched]
     find = object()

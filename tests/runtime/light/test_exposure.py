@@ -320,7 +320,7 @@ def test_guarded_gives_the_shoulders_loss_back_before_the_guard():
 
 
 def test_the_relighters_knee_is_the_photos_own_peak(models_dir):
-    """``Factor.highlight_inputs`` takes each pixel's knee from the photo it has (``knee``, the shoulder's own),
+    """``ExposureMeter.highlight_inputs`` takes each pixel's knee from the photo it has (``knee``, the shoulder's own),
     not rebuilt per light: the picture under the photo's own light is the photo, so the two agree."""
     relighter = Relighter(RuntimeConfig(models=models_dir, device="cpu"))
     img, mask = person(seed=5)
@@ -332,7 +332,7 @@ def test_the_relighters_knee_is_the_photos_own_peak(models_dir):
 
 
 def test_the_relighters_auto_gives_the_shoulders_loss_back(tmp_path, monkeypatch):
-    """The wiring (relight_rt.relight.factor ``Factor.expose``): "auto" lifts the mean-keeping light by
+    """The wiring (relight_rt.relight.exposure_meter ``ExposureMeter.expose``): "auto" lifts the mean-keeping light by
     ``shoulder_gain`` of the photo's own pixels, and the relit person's light as seen (the power mean of luminance **
     METER_POWER over its pixels) comes nearer the photo's than without the lift. The person's halves face the
     image's left and right (``stage1_sides_model``): a lamp from the right doubles one half past its knee."""

@@ -26,6 +26,7 @@ from relight_rt.person.face_mesh import (
     rasterise_normals,
 )
 from relight_rt.relight import factor as factor_module
+from relight_rt.relight.exposure_meter import ExposureMeter
 from relight_rt.relight.factor import Factor
 
 
@@ -203,7 +204,7 @@ def test_the_face_in_a_real_photo_gets_its_mesh_and_the_light_models_it(monkeypa
     refit to the transport, mesh included (relight_rt.relight.strength.refit_light), and the share of the photo's
     shading in the albedo is taken out over the whole person, fitted on the mesh's skin
     (relight_rt.relight.factor.unshaded_albedo), and "auto" exposure meters the face's cast shadow
-    (``Factor.meter_shadows``) and gives back what the highlight shoulder takes of the picture, face included
+    (``ExposureMeter.meter_shadows``) and gives back what the highlight shoulder takes of the picture, face included
     (relight_rt.light.exposure.shoulder_gain): all four move the whole picture a little and are held off here to see
     where the mesh's transport itself acts.)"""
     photo = reference_dir / "photo" / "sample.jpg"
@@ -213,7 +214,7 @@ def test_the_face_in_a_real_photo_gets_its_mesh_and_the_light_models_it(monkeypa
     np.testing.assert_allclose(r.relight(dec, dec), dec.image, atol=2e-3)  # with the refit light
     monkeypatch.setattr(Factor, "refit", lambda self, dec: dec)
     monkeypatch.setattr(factor_module, "unshaded_albedo", lambda albedo, *_: albedo)
-    monkeypatch.setattr(Factor, "meter_shadows", lambda self, dec, lits: lits)  # the face's cast shadow, metered
+    monkeypatch.setattr(ExposureMeter, "meter_shadows", lambda self, dec, lits: lits)  # the face's cast shadow, metered
     monkeypatch.setattr(exposure_module, "shoulder_gain", lambda *args, **kwargs: 1.0)  # the shoulder's loss, metered
     r = relight_rt.open(RuntimeConfig(device="cpu"))
     dec = r.decompose(photo, mask)

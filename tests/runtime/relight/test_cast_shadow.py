@@ -169,25 +169,26 @@ def test_a_lamp_beside_a_real_face_darkens_only_its_skin_on_the_side_away_from_t
 
 def test_auto_exposure_meters_the_cast_shadow_as_part_of_the_light_as_seen(portrait, monkeypatch):
     """"auto" keeps the person's light as seen: a lamp whose shadow darkens the face is scaled up by what the shadow
-    takes (``Factor.meter_shadows``), a light without a lamp (ambient) not at all."""
+    takes (``ExposureMeter.meter_shadows``), a light without a lamp (ambient) not at all."""
+    from relight_rt.relight.exposure_meter import ExposureMeter
     from relight_rt.relight.factor import Factor
 
     r, dec = portrait
     light = (lights.directional(toward(25, 10)) + lights.ambient(0.05)).astype(np.float32)
-    metered = r._factor.meter_shadows(dec, light)
+    metered = r._factor.meter.meter_shadows(dec, light)
     assert 1.0001 < float(metered[0, 0] / light[0, 0]) < 1.2  # the face is a small part of the person here
     np.testing.assert_allclose(metered / metered[0, 0], light / light[0, 0], rtol=1e-6)  # a scale, not a new light
     flat = lights.ambient(0.5).astype(np.float32)
-    np.testing.assert_array_equal(r._factor.meter_shadows(dec, flat), flat)
-    both = r._factor.meter_shadows(dec, np.stack([light, flat]))
+    np.testing.assert_array_equal(r._factor.meter.meter_shadows(dec, flat), flat)
+    both = r._factor.meter.meter_shadows(dec, np.stack([light, flat]))
     np.testing.assert_allclose(both, np.stack([metered, flat]), rtol=1e-6)
-    exposed = r._factor.expose(dec, light, "auto")  # the relighter's exposure goes through the meter
-    monkeypatch.setattr(Factor, "meter_shadows", lambda self, dec, lits: lits)
-    unmetered = r._factor.expose(dec, light, "auto")
+    exposed = r._factor.meter.expose(dec, light, "auto")  # the relighter's exposure goes through the meter
+    monkeypatch.setattr(ExposureMeter, "meter_shadows", lambda self, dec, lits: lits)
+    unmetered = r._factor.meter.expose(dec, light, "auto")
     assert float(exposed[0, 0] / unmetered[0, 0]) == pytest.approx(float(metered[0, 0] / light[0, 0]), rel=1e-5)
     monkeypatch.undo()
     monkeypatch.setattr(Factor, "cast", lambda self, *args: None)
-    np.testing.assert_array_equal(r._factor.meter_shadows(dec, light), light)
+    np.testing.assert_array_equal(r._factor.meter.meter_shadows(dec, light), light)
 
 
 @pytest.mark.parametrize("sampled", [True, False])

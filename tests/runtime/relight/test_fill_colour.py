@@ -15,7 +15,7 @@ from _graphs import OWN_LIGHT, models_dir
 import relight_rt
 from relight_rt.engine.config import RuntimeConfig
 from relight_rt.image.color import REC709
-from relight_rt.relight import factor as relight_factor
+from relight_rt.relight import shadow_fill
 from relight_rt.relight.fill_colour import material_colour
 
 __all__ = ["models_dir"]  # fixtures
@@ -137,7 +137,7 @@ def test_the_relit_fill_takes_its_own_materials_colour_wherever_the_grid_falls(r
         assert float(out[near].mean()) > 0.05, edge  # the fill lit it
         # measured: black 0.000, skin at most 0.017 (before fill32: 0.338 and 0.415)
         np.testing.assert_allclose(got, want, atol=0.03, err_msg=f"edge {edge}")
-    monkeypatch.setattr(relight_factor, "FILL_BY_MATERIAL", False)  # the plain mean: the green taken
+    monkeypatch.setattr(shadow_fill, "FILL_BY_MATERIAL", False)  # the plain mean: the green taken
     before = chroma(relit_strips(relighter, (0.01 * albedo, albedo), top)[np.s_[40:120, 43:49]])
     assert before[1] - before[0] > 0.15 + got[1] - got[0], (before, got)
 

@@ -1,5 +1,5 @@
-"""relight_rt.relight.factor ``Factor.shadow_weight`` and relight_rt.relight.shadow_rim: the deep shadow's fill draws
-no edge the photo does not have (issue 48: "no new edge in the change that the photo does not have").
+"""relight_rt.relight.shadow_fill ``ShadowFill.shadow_weight`` and relight_rt.relight.shadow_rim: the deep shadow's fill
+draws no edge the photo does not have (issue 48: "no new edge in the change that the photo does not have").
 
 A smooth skin-coloured person with a hard black shadow over its left part (the photo's own edge at x = 45). The
 analytic stage 1 (tests/_graphs.py) reads the photo as its albedo; the Decomposition is given the albedo of the
@@ -20,8 +20,7 @@ from _graphs import OWN_LIGHT, models_dir, person
 import relight_rt
 from relight_rt.engine.config import RuntimeConfig
 from relight_rt.image.color import REC709
-from relight_rt.relight import factor as relight_factor
-from relight_rt.relight import shadow_rim
+from relight_rt.relight import shadow_fill, shadow_rim
 from relight_rt.relight import strength as relight_strength
 
 __all__ = ["models_dir"]  # fixtures
@@ -77,7 +76,7 @@ def test_a_light_that_lifts_the_penumbra_past_the_cap_draws_no_dark_line_between
     the penumbra too little: a dark line along the shadow's border (Extended Yale B's yaleB21 from -50, no face mesh:
     0.0121 of its face new edges). Within ``CAP_SHADOW_REACH`` of a deep shadow's core, where stage 1 sees skin (the
     analytic graph's 0.5 everywhere: ``skin_gate`` open), the ratio multiplies the photo at most ``RATIO_CAP`` and the
-    rest is added, as on a face mesh's skin (``Factor.handover``)."""
+    rest is added, as on a face mesh's skin (``shadow_fill.handover``)."""
     photo, _, true, mask = scene()
 
     def line() -> float:  # the penumbra (the photo at 0.3 and 0.7 of the lit side) against the fill and the lit side
@@ -86,7 +85,7 @@ def test_a_light_that_lifts_the_penumbra_past_the_cap_draws_no_dark_line_between
         return float(prof[EDGE_X - 1 : EDGE_X + 1].min() / min(prof[28:34].mean(), prof[EDGE_X + 6 : 80].mean()))
 
     capped = line()
-    monkeypatch.setattr(relight_factor, "CAP_SHADOW_REACH", None)
+    monkeypatch.setattr(shadow_fill, "CAP_SHADOW_REACH", None)
     multiplied = line()
     assert capped > 0.95 and multiplied < 0.9, (capped, multiplied)  # measured 0.99 (0.86 without)
 
@@ -235,7 +234,7 @@ def test_the_background_moves_no_fill_weight(relighter):
         back = bg * (1 - mask[..., None])
         dec = relighter.decompose(photo * mask[..., None] + back, mask)
         dec = replace(dec, albedo_chw=relighter.decompose(true * mask[..., None] + back, mask).albedo_chw)
-        weights.append(relighter._factor.shadow_weight(dec)[0])
+        weights.append(relighter._factor.fill.shadow_weight(dec)[0])
     assert np.abs(weights[1] - weights[0]).max() < 0.01, np.abs(weights[1] - weights[0]).max()  # measured 0
 
 
@@ -270,11 +269,11 @@ def _dim_block(relighter, monkeypatch, photo: np.ndarray, mask: np.ndarray, albe
     """The Decomposition of ``photo`` given ``albedo``'s albedo, with the fill's weight found (its level set), then
     replaced by a 0.45 block of network pixels with no core (rows 24-40, columns 20-30 of the 64-px window)."""
     dec = replace(relighter.decompose(photo, mask), albedo_chw=relighter.decompose(albedo, mask).albedo_chw)
-    factor = relighter._factor
-    w, chroma = factor.shadow_weight(dec)
+    fill = relighter._factor.fill
+    w, chroma = fill.shadow_weight(dec)
     block = np.zeros_like(w)
     block[24:40, 20:30] = 0.45
-    monkeypatch.setattr(factor, "shadow_weight", lambda d: (block, chroma))
+    monkeypatch.setattr(fill, "shadow_weight", lambda d: (block, chroma))
     return dec
 
 
@@ -290,7 +289,7 @@ def test_the_fills_box_ends_where_its_weight_is_nothing(relighter, monkeypatch):
     photo[60:140, 30:90] *= 0.2  # the dim band, wider than the block's 2.3 input px a network px
     dec = _dim_block(relighter, monkeypatch, photo, mask, img)
     image = relighter._composer.foreground(dec)[0]
-    base = relighter._factor.fill_base(dec, image)
+    base = relighter._factor.fill.fill_base(dec, image)
     (ys, xs), weight = base["box"], base["weight"]
     assert ys.start > 0 and xs.start > 0 and ys.stop < image.shape[0] and xs.stop < image.shape[1]  # inside the crop
     assert float(weight.max()) > 0.3  # the block is there
@@ -314,7 +313,7 @@ def test_the_fills_weight_is_the_same_for_any_colour_of_the_same_luminance(relig
         true = np.broadcast_to(colour, (h, w, 3)).astype(np.float32)
         dec = relighter.decompose(true * shade[..., None], mask)
         dec = replace(dec, albedo_chw=relighter.decompose(true, mask).albedo_chw)
-        weights.append(relighter._factor.fill_base(dec, relighter._composer.foreground(dec)[0])["weight"])
+        weights.append(relighter._factor.fill.fill_base(dec, relighter._composer.foreground(dec)[0])["weight"])
     assert weights[0].shape == weights[1].shape
     assert np.abs(weights[0] - weights[1]).max() < 0.01, np.abs(weights[0] - weights[1]).max()
 
@@ -329,7 +328,7 @@ def test_a_shadow_at_a_twentieth_of_the_lit_side_is_filled_up_to_its_edge(religh
     shade = cv2.GaussianBlur(np.where(xx < EDGE_X, 0.05, 1.0).astype(np.float32), (0, 0), 1.0)
     photo = true * shade[..., None]  # the shadow's last dark pixel at EDGE_X - 2 (EDGE_X - 1 blurred to 0.34)
     dec = replace(relighter.decompose(photo, mask), albedo_chw=relighter.decompose(true, mask).albedo_chw)
-    base = relighter._factor.fill_base(dec, relighter._composer.foreground(dec)[0])
+    base = relighter._factor.fill.fill_base(dec, relighter._composer.foreground(dec)[0])
     (ys, xs), weight = base["box"], base["weight"]
     oy, ox = ys.start + dec.geometry.box[0], xs.start + dec.geometry.box[2]  # the box's origin in the photo
     last = weight[40 - oy : 120 - oy, EDGE_X - 4 - ox : EDGE_X - 1 - ox].mean(axis=0)

@@ -42,7 +42,7 @@ def test_the_head_pass_read_for_the_grade_sample_is_the_one_blended(reference_di
     assert np.abs(weight - np.where(inside[ys, xs], ones[ys, xs], 0)).max() < 0.01
     assert (skin >= 0).all() and skin[weight == 0].max() == 0 and skin.max() > 0.5
     for name in ("window-left", "studio"):
-        light = r._factor.expose(dec, lights.preset(name).astype(np.float32), "auto")
+        light = r._factor.meter.expose(dec, lights.preset(name).astype(np.float32), "auto")
         gain = np.full((h, w), np.nan, np.float32)
         gain[crop] = r._factor.gain(head, light, np.ascontiguousarray(head.geometry.crop(head.image))) @ REC709
         shading = np.maximum(np.einsum("hwk,kc->hwc", on_head[..., 2:], light), 0) @ REC709
@@ -94,7 +94,7 @@ def test_a_head_pass_without_skin_under_its_blend_blends_nothing_in_the_grade_sa
     dec = rl.decompose(example_path())
     assert dec.head is not None and rl._composer.grade_inputs(dec).head.index.size > 0
     bare = dataclasses.replace(dec, head=dataclasses.replace(dec.head, skin=np.zeros_like(dec.head.skin)))
-    light = rl._factor.expose(bare, lights.preset("window-left").astype(np.float32), "auto")
+    light = rl._factor.meter.expose(bare, lights.preset("window-left").astype(np.float32), "auto")
     image, _ = rl._composer.foreground(bare)
     body = rl._factor.gain(bare, light, image)
     gain = body.copy()

@@ -16,6 +16,7 @@ import relight_rt
 from relight_rt.engine.config import RuntimeConfig
 from relight_rt.image.color import REC709
 from relight_rt.relight import factor as relight_factor
+from relight_rt.relight import shadow_fill
 from relight_rt.relight import strength as relight_strength
 
 __all__ = ["models_dir"]  # fixtures
@@ -36,11 +37,11 @@ def test_a_hard_shadow_is_filled_and_the_own_light_gives_the_photo_back(relighte
     own = relighter.relight(dec, OWN_LIGHT, exposure="physical")
     np.testing.assert_allclose(own, shadowed, atol=1e-4)  # nothing added under the photo's own light
     filled = relighter.relight(dec, 2 * OWN_LIGHT, exposure="physical")
-    reach = relight_factor.CAP_SHADOW_REACH
-    monkeypatch.setattr(relight_factor, "CAP_SHADOW_REACH", None)
+    reach = shadow_fill.CAP_SHADOW_REACH
+    monkeypatch.setattr(shadow_fill, "CAP_SHADOW_REACH", None)
     uncapped = relighter.relight(replace(dec), 2 * OWN_LIGHT, exposure="physical")
-    monkeypatch.setattr(relight_factor, "CAP_SHADOW_REACH", reach)
-    monkeypatch.setattr(relighter._factor, "shadow_weight", lambda *args: None)
+    monkeypatch.setattr(shadow_fill, "CAP_SHADOW_REACH", reach)
+    monkeypatch.setattr(relighter._factor.fill, "shadow_weight", lambda *args: None)
     multiplied = relighter.relight(dec, 2 * OWN_LIGHT, exposure="physical")
     lit = float((filled[core] @ REC709).mean())
     assert lit > 0.1 and lit > 10 * float((multiplied[core] @ REC709).mean())  # the light reaches the shadow
@@ -68,7 +69,7 @@ def test_the_fill_begins_and_ends_at_the_photos_own_edge_not_the_networks(religh
     inside = (filled[40:120, 49:54] @ REC709).mean(axis=0)  # the black's last five pixels but its edge's own
     # measured 0.325: 0.339 (0.233 at faces16, 0.101 before)
     assert core > 0.3 and inside.min() > 0.6 * core, (core, inside)
-    monkeypatch.setattr(relighter._factor, "shadow_weight", lambda *args: None)
+    monkeypatch.setattr(relighter._factor.fill, "shadow_weight", lambda *args: None)
     multiplied = relighter.relight(replace(dec), 2 * OWN_LIGHT, exposure="physical")
     # measured 0.026: the penumbra's ratio cap, counted from a core that reaches the edge since faces17 (0.021 at
     # faces16); the fill's own 0.0006 (0.060 before faces16)
@@ -87,7 +88,7 @@ def test_the_fill_reaches_a_hard_edge_from_inside_with_no_darker_band(relighter)
     shadowed = img.copy()
     shadowed[20:140, 30:55] *= 0.01  # the photo's own edge between 54 and 55
     dec = replace(relighter.decompose(shadowed, mask), albedo_chw=relighter.decompose(img, mask).albedo_chw)
-    base = relighter._factor.fill_base(dec, relighter._composer.foreground(dec)[0])
+    base = relighter._factor.fill.fill_base(dec, relighter._composer.foreground(dec)[0])
     (ys, xs), weight = base["box"], base["weight"]
     oy, ox = ys.start + dec.geometry.box[0], xs.start + dec.geometry.box[2]  # the box's origin in the photo
     last = weight[40 - oy : 120 - oy, 51 - ox : 55 - ox].mean(axis=0)
@@ -106,11 +107,11 @@ def test_the_fills_weight_does_not_cross_the_photos_shadow_edge(relighter):
     shadowed = img.copy()
     shadowed[20:140, 30:55] *= 0.01
     dec = replace(relighter.decompose(shadowed, mask), albedo_chw=relighter.decompose(img, mask).albedo_chw)
-    w, _ = relighter._factor.shadow_weight(dec)
+    w, _ = relighter._factor.fill.shadow_weight(dec)
     own = relighter._factor.own(dec, with_residual=False)
-    shown = own["photo"] / np.maximum(own["albedo"], relight_factor.EXPLAIN_ALBEDO_MIN)
-    lit = own["inner"] & (shown > relight_factor.FILL_HIGH * np.median(shown[own["inner"]]))  # no part of a shadow
-    shadow = own["inner"] & (shown < relight_factor.FILL_LOW * np.median(shown[own["inner"]]))
+    shown = own["photo"] / np.maximum(own["albedo"], shadow_fill.EXPLAIN_ALBEDO_MIN)
+    lit = own["inner"] & (shown > shadow_fill.FILL_HIGH * np.median(shown[own["inner"]]))  # no part of a shadow
+    shadow = own["inner"] & (shown < shadow_fill.FILL_LOW * np.median(shown[own["inner"]]))
     beside = lit & (cv2.dilate(shadow.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0)
     r = w.shape[0]
     beside[: r // 4] = beside[3 * r // 4 :] = False  # the shadow's side, not its ends at the mask's
@@ -159,8 +160,8 @@ def test_where_a_light_multiplies_a_dim_photo_the_fill_takes_over_and_its_noise_
     """Beside a deep shadow the photo is dim (a penumbra at a third of the lit side, above the fill's own handover)
     and a light that lifts it 4x multiplies its noise 4x: a speckled patch beside the fill's smooth one (Extended
     Yale B's lips and nose lit from 70°). On a face mesh's skin, where the ratio passes ``RATIO_CAP`` the change
-    beyond it is added as the fill (``Factor.handover``): the noise the photo has and the albedo has not is multiplied
-    at most by the cap; the photo's own light still gives the photo back. Off a face's skin only within
+    beyond it is added as the fill (shadow_fill ``handover``): the noise the photo has and the albedo has not is
+    multiplied at most by the cap; the photo's own light still gives the photo back. Off a face's skin only within
     ``CAP_SHADOW_REACH`` of a deep shadow's core and where stage 1 sees skin (test_fill_edges: the penumbra's dark
     line; a shirt's stripes)."""
     img, mask = person(box=(20, 140, 20, 90))
@@ -183,10 +184,10 @@ def test_where_a_light_multiplies_a_dim_photo_the_fill_takes_over_and_its_noise_
                                                                                       exposure="physical")
         return float(diff[core].std() / noise[core].std())
 
-    reach = relight_factor.CAP_SHADOW_REACH
-    monkeypatch.setattr(relight_factor, "CAP_SHADOW_REACH", None)
+    reach = shadow_fill.CAP_SHADOW_REACH
+    monkeypatch.setattr(shadow_fill, "CAP_SHADOW_REACH", None)
     plain = noise_gain(4 * OWN_LIGHT)  # no face mesh and no reach: the photo is multiplied
-    monkeypatch.setattr(relight_factor, "CAP_SHADOW_REACH", reach)
+    monkeypatch.setattr(shadow_fill, "CAP_SHADOW_REACH", reach)
     near = noise_gain(4 * OWN_LIGHT)  # no face mesh: only within reach of the deep shadow's core (6-14 px from it)
     assert near < plain - 0.5, (near, plain)
     factor = relighter._factor
@@ -194,8 +195,8 @@ def test_where_a_light_multiplies_a_dim_photo_the_fill_takes_over_and_its_noise_
     # the analytic stage 1 finds no face: the whole person taken for a face mesh's skin
     monkeypatch.setattr(factor, "restored", lambda dec: {**restored(dec), "face_skin": restored(dec)["inner"]})
     noise_gain(OWN_LIGHT)
-    handed, cap = noise_gain(4 * OWN_LIGHT), relight_factor.RATIO_CAP
-    monkeypatch.setattr(relight_factor, "RATIO_CAP", 1.0)  # the rule off
+    handed, cap = noise_gain(4 * OWN_LIGHT), shadow_fill.RATIO_CAP
+    monkeypatch.setattr(shadow_fill, "RATIO_CAP", 1.0)  # the rule off
     multiplied = noise_gain(4 * OWN_LIGHT)
     # 3.6, 3.8 against 2.25 (the cap: 2; 2.248 before faces15's fill reached the photo's own shadow edge)
     assert plain > 3.0 and multiplied > 3.0 and handed < cap + 0.3
@@ -204,13 +205,13 @@ def test_where_a_light_multiplies_a_dim_photo_the_fill_takes_over_and_its_noise_
 def _band(rgb: np.ndarray) -> np.ndarray:
     """The log luminance's fine detail, in the band the fill takes (``TEXTURE_SCALES``)."""
     y = np.log(rgb @ REC709 + 1e-3).astype(np.float32)
-    fine, coarse = relight_factor.TEXTURE_SCALES
+    fine, coarse = shadow_fill.TEXTURE_SCALES
     return cv2.GaussianBlur(y, (0, 0), fine) - cv2.GaussianBlur(y, (0, 0), coarse)
 
 
 def test_the_fill_carries_the_photos_own_texture_held_to_the_lit_skins(relighter, monkeypatch):
     """The fill adds the change in the person's smoothed colour: a side-lit face's dark half came out flat (Extended
-    Yale B's "flat" share). ``Factor.texture`` multiplies it by the photo's own log detail there
+    Yale B's "flat" share). ``ShadowFill.texture`` multiplies it by the photo's own log detail there
     (relight_rt.relight.detail ``shadow_texture``), held to the amplitude of the lit skin's: a shadow showing the
     skin's texture at 5 % of the light keeps it under a light that fills it; a shadow whose detail is mostly noise,
     many times the lit side's texture, gets no more than the lit side's. Measured in the shadow's middle (x 38-46 of
@@ -234,7 +235,7 @@ def test_the_fill_carries_the_photos_own_texture_held_to_the_lit_skins(relighter
         # smoothed albedo of the lit skin around (test_the_fill_takes_the_albedo_of_the_lit_skin_around...)
         monkeypatch.setattr(factor, "restored", lambda dec: {**restored(dec), "face_skin": restored(dec)["inner"]})
         if not texture:
-            monkeypatch.setattr(factor, "texture", lambda *args: None)
+            monkeypatch.setattr(factor.fill, "texture", lambda *args: None)
         dec = replace(relighter.decompose(photo, mask), albedo_chw=albedo)
         out = relighter.relight(dec, 2 * OWN_LIGHT, exposure="physical")
         monkeypatch.undo()
@@ -321,13 +322,13 @@ def test_a_socket_far_darker_than_its_mirror_is_in_shadow_whatever_stage1s_albed
     stage 1 reads it as the socket's albedo, so the fill's weight (the photo over that albedo) sees little shadow
     and the ratio multiplies that light into a socket at 0.80-0.85 of the face's mean (the real frontal photo:
     0.41-0.43). The mesh's own shading there under the photo's light is far below its mirror image's (the lit
-    socket, ``factor.mirror_shadow``): the fill takes it whole, 0.62-0.71."""
+    socket, ``shadow_fill.mirror_shadow``): the fill takes it whole, 0.62-0.71."""
     ye, relighter, points, shape = _yale_b05(yale_dir)
     for azimuth, eye in (("-070", ye.RIGHT_EYE), ("+070", ye.LEFT_EYE)):  # the dark side's eye (yale_eval's sides)
         side = ye.read_grey(yale_dir / "yaleB05" / f"yaleB05_P00A{azimuth}E+00.png")
         socket = ye.eye_region(points, eye, shape)
         ruled = _socket_over_face(ye, relighter, side, socket)
-        monkeypatch.setattr(relight_factor, "MIRROR_DARK", None)
+        monkeypatch.setattr(shadow_fill, "MIRROR_DARK", None)
         plain = _socket_over_face(ye, relighter, side, socket)
         monkeypatch.undo()
         # measured 0.80 -> 0.68 (-70) and 0.85 -> 0.76 (+70); since faces15 (the fill's albedo within 4x of stage
@@ -349,8 +350,8 @@ def test_the_mirrors_fill_weight_stays_on_the_person(yale_dir, monkeypatch):
     relighter = relight_rt.open(RuntimeConfig(device="cpu"))
     side = yale_eval.read_grey(yale_dir / "yaleB05" / "yaleB05_P00A-070E+00.png")
     dec = relighter.decompose(side, yale_eval.ellipse(side.shape[:2]))
-    monkeypatch.setattr(relight_factor, "mirror_shadow", lambda shading, *args: np.ones_like(shading))
-    w, _ = relighter._factor.shadow_weight(dec)
+    monkeypatch.setattr(shadow_fill, "mirror_shadow", lambda shading, *args: np.ones_like(shading))
+    w, _ = relighter._factor.fill.shadow_weight(dec)
     inner = relighter._factor.restored(dec)["inner"]
     assert (~inner).any() and (w[inner] == 1).all()  # the mirror's answer reached the weight ...
     assert not w[~inner].any()  # ... on the person only
@@ -385,7 +386,7 @@ def test_mirror_shadow_finds_the_opening_whose_mirror_is_lit():
     opening[40:60, 20:40] = opening[40:60, 80:100] = True  # two sockets, each the other's mirror
     opening[80:90, 90:100] = True  # an opening whose mirror lies off the face (a strand of hair over it)
     face[76:94, 16:34] = False
-    out = relight_factor.mirror_shadow(shading, opening, face, (points,))
+    out = shadow_fill.mirror_shadow(shading, opening, face, (points,))
     assert out[45:55, 85:95].min() > 0.95  # the dark socket
     assert 0.3 < out[50, 80] < 0.7 and out[50, 76] < 0.1  # soft at its border
     assert out[40:60, 20:40].max() < 0.01  # the lit one
@@ -405,7 +406,7 @@ def test_mirror_shadow_is_softened_by_the_faces_size_not_the_windows():
         face[10:105, 13:108] = True
         opening = np.zeros_like(face)
         opening[45:54, 30:45] = opening[45:54, 76:91] = True
-        outs.append(relight_factor.mirror_shadow(shading, opening, face, (points,)))
+        outs.append(shadow_fill.mirror_shadow(shading, opening, face, (points,)))
     near, far = outs
     np.testing.assert_allclose(far[:128, :128], near, atol=1e-5)
     assert not far[128:].any() and not far[:, 128:].any()
@@ -426,10 +427,10 @@ def test_each_faces_mirror_reads_only_its_own_openings():
     for c in (60, 180, 300):
         face[10:110, c - 55 : c + 55] = True
         opening[40:60, c - 40 : c - 20] = opening[40:60, c + 20 : c + 40] = True
-    out = relight_factor.mirror_shadow(shading, opening, face, faces)
+    out = shadow_fill.mirror_shadow(shading, opening, face, faces)
     assert out[:, :120].max() < 0.01
     shading[:, 61:120] = 0.04  # its right half deeper still: its own mirror sees that
-    out = relight_factor.mirror_shadow(shading, opening, face, faces)
+    out = shadow_fill.mirror_shadow(shading, opening, face, faces)
     assert out[45:55, 85:95].min() > 0.95 and out[:, :60].max() < 0.01
 
 
@@ -444,7 +445,7 @@ def test_mirror_shadow_reads_no_mirror_of_a_collapsed_mesh():
     face = np.ones((120, 121), bool)
     opening = np.zeros_like(face)
     opening[40:60, 80:100] = True
-    out = relight_factor.mirror_shadow(shading, opening, face, (points,))
+    out = shadow_fill.mirror_shadow(shading, opening, face, (points,))
     assert not out.any()
 
 

@@ -248,9 +248,9 @@ def test_preview_exposure_follows_the_highlight_guard(photo, models_dir, monkeyp
 
     monkeypatch.setattr(exposure, "HIGHLIGHT_LIMIT", 0.6)
     relighter = Relighter(RuntimeConfig(models=models_dir, device="cpu"))
-    own = relighter._factor.highlight_inputs  # what the final result and the preview both read
+    own = relighter._factor.meter.highlight_inputs  # what the final result and the preview both read
     # 5 % past the limit
-    monkeypatch.setattr(relighter._factor, "highlight_inputs", lambda dec: own(dec)._replace(allowed=0.05))
+    monkeypatch.setattr(relighter._factor.meter, "highlight_inputs", lambda dec: own(dec)._replace(allowed=0.05))
     guarded = Studio(photo, None, "original", relighter, preview_pixels=4096, models=models_dir)
     factors = _check_preview_exposure(guarded)
     assert min(factors) < 0.95, factors  # the guard lowered at least one light
@@ -600,7 +600,7 @@ def test_shadow_layer_is_the_final_results_at_the_previews_size(photo, models_di
     want = 1 - cv2.resize(_disc_depth(h, w), (meta["width"], meta["height"]), interpolation=cv2.INTER_AREA)
     np.testing.assert_allclose(plane, want, atol=0.5 / 255 + 1e-6)
     assert answer["meter"] == 1.25 and plane.min() < 0.5
-    # the meter lifts the mean-keeping light before the shoulder's gain and the guard (Factor.expose's order)
+    # the meter lifts the mean-keeping light before the shoulder's gain and the guard (ExposureMeter.expose's order)
     from relight_rt.light.exposure import exposure_scale, guarded
 
     albedo, transport, mask = studio._exposure
