@@ -15,7 +15,7 @@ from _graphs import OWN_LIGHT, models_dir
 import relight_rt
 from relight_rt.engine.config import RuntimeConfig
 from relight_rt.image.color import REC709
-from relight_rt.relight import shadow_fill
+from relight_rt.relight import fill_colour, shadow_fill
 from relight_rt.relight.fill_colour import material_colour
 
 __all__ = ["models_dir"]  # fixtures
@@ -143,15 +143,21 @@ def test_the_relit_fill_takes_its_own_materials_colour_wherever_the_grid_falls(r
 
 
 def test_many_materials_stay_within_the_lit_colours():
-    """Every cell of the span in use (more than one blur's batch): each pixel's colour is a mean of lit colours."""
+    """Every cell of the span in use (more than one blur's batch): each pixel's colour is a mean of lit colours. The
+    materials come in 4 x 4 blocks, so each block's inner pixels are pure and vote (a material per pixel is all
+    border: no vote survives ``_pure`` and the colour is white everywhere, the batches never run)."""
     rng = np.random.default_rng(5)
     rgb = (0.1 + 0.8 * rng.random((64, 80, 3))).astype(np.float32)
-    albedo = np.exp(rng.uniform(-2, 2, (64, 80, 3))).astype(np.float32) * 0.1
+    blocks = np.exp(rng.uniform(-2, 2, (16, 20, 3))).astype(np.float32) * 0.1
+    albedo = np.repeat(np.repeat(blocks, 4, axis=0), 4, axis=1)
     trust = (rng.random((64, 80)) > 0.5).astype(np.float32)
+    uv = np.floor(fill_colour._chroma(albedo)).reshape(-1, 2)
+    assert len(np.unique(uv, axis=0)) > fill_colour._BATCH
     for sigma in (3.0, 10.0):
         got = material_colour(rgb, rgb @ REC709, trust, albedo, sigma)
         lit = (rgb / (rgb @ REC709)[..., None])[trust > 0]
         assert np.isfinite(got).all()
+        assert np.abs(got - 1).max() > 0.1  # the lit colours read, not white alone
         assert (got >= np.minimum(lit.min(axis=0), 1) - 1e-4).all() and (got <= lit.max(axis=0) + 1e-4).all()
 
 
