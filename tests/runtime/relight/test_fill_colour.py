@@ -93,6 +93,21 @@ def test_a_material_lit_nowhere_is_white_and_nothing_lit_gives_white():
     np.testing.assert_array_equal(dark, 1)
 
 
+@pytest.mark.parametrize("sigma", [3.0, 12.0])
+def test_a_material_lit_only_on_a_border_is_white_not_a_neighbours_colour(sigma):
+    """A red lit only as a stripe 1 px wide between lit green and lit skin (every one of its pixels on a border, so
+    no vote of it survives ``_pure``), its own shadow 10 px past the skin: white (the light's colour alone), as a
+    material lit nowhere, never the green's or the skin's colour (measured 0.000). The price of the purity rule: a
+    material seen lit only that thin loses its own colour too (main's rule gave a pale red at sigma 3, 0.32 off white;
+    at sigma 12 white as well, leaning white by ``MATERIAL_KNOWN``)."""
+    red = np.array([0.60, 0.15, 0.12], np.float32)
+    rgb, albedo, trust = (np.concatenate(parts, axis=1) for parts in zip(
+        strips((GREEN, GREEN, 1), width=30), strips((red, red, 1), width=1), strips((SKIN, SKIN, 1), width=10),
+        strips((0.01 * red, red, 0), width=20), strips((SKIN, SKIN, 1), width=30), strict=True))
+    colour = material_colour(rgb, rgb @ REC709, trust, albedo, sigma)[:, 44:58]
+    np.testing.assert_allclose(colour, 1, atol=0.02)
+
+
 @pytest.fixture(scope="module")
 def relighter(models_dir):
     return relight_rt.open(RuntimeConfig(models=models_dir, device="cpu"))
