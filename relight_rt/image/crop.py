@@ -38,7 +38,9 @@ MODES = ("quality", "reference")
 # one row larger (below) so the left and right padding are equal; otherwise a mirror's crop sits a pixel apart (0.55
 # network pixels on the 290 x 508 example), which alone kept a mirrored photo from relighting to the mirrored result
 # once stage 1 and the face mesh are averaged (mirror31). mode="reference" keeps the reference's crop bit for bit.
-SYMMETRIC_CROP = False
+# On since mirror34 with the other three parts of the mirror-symmetric chain (relight_rt.relight.network
+# ``STAGE1_MIRROR``, ``STAGE2_MIRROR``, relight_rt.person.face_mesh ``MESH_FLIP``; docs/results_pending.md).
+SYMMETRIC_CROP = True
 
 
 def _by_four(fn, a: np.ndarray) -> np.ndarray:

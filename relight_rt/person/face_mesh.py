@@ -55,11 +55,12 @@ MESH_PASSES = 1  # landmarker passes per face: the second and later from the box
 # the detector and landmarker shown their crop and its mirror image, the answers averaged (``FaceMesh.boxes``,
 # ``FaceMesh.landmarks``; the mirror's landmarks re-indexed by ``MIRROR_FILE``). Without it, on Extended Yale B's
 # close-ups the graphs read a face as turned 2.8 deg (median) the same way on a photo and on its mirror image (face31,
-# benchmarks/mesh_mirror.py). Off: alone it failed face31's criterion (Yale's odd de-light relerr 0.4069 -> 0.4186:
-# stage 1's own lean had been partly offset by the mesh's), and with stage 1's mirror averaging
-# (relight_rt.relight.network ``STAGE1_MIRROR``) mirror31's (docs/results_pending.md). ``benchmarks/mesh_flip.py``
-# runs any benchmark with either on or off.
-MESH_FLIP = False
+# benchmarks/mesh_mirror.py). Alone it failed face31's criterion (Yale's odd de-light relerr 0.4069 -> 0.4186:
+# stage 1's own lean had been partly offset by the mesh's), and with stage 1's mirror averaging alone mirror31's; on
+# since mirror34 with all four parts of the mirror-symmetric chain (relight_rt.relight.network ``STAGE1_MIRROR``,
+# ``STAGE2_MIRROR``, relight_rt.image.crop ``SYMMETRIC_CROP``), c751cea's criterion met (docs/results_pending.md).
+# ``benchmarks/mesh_flip.py`` runs any benchmark with either on or off.
+MESH_FLIP = True
 MIRROR_FILE = Path(__file__).resolve().parents[1] / "data" / "face_mesh_mirror.txt"  # landmark i's partner on
 # the face's other half (the mid-line's its own): nearest mirrored landmark on the mean of 24 frontal meshes
 # (benchmarks/mesh_mirror.py --build-map)

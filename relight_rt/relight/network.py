@@ -21,22 +21,22 @@ log = logging.getLogger(__name__)
 # stage 1 also sees each picture mirrored left-right (in the same batch), its answers mapped back and averaged with
 # the first (relight_rt.relight.upright ``mirror_averaged``): a photo and its mirror image decompose to each other's
 # mirror image, up to the crop (below). Without it stage 1 read Extended Yale B's frontal lamp 3.5 deg toward the
-# image's right on a photo and on its mirror alike (face31). Off: with the face mesh's MESH_FLIP it failed mirror31's
-# criterion (docs/results_pending.md): a mirrored photo still relit up to 38 levels (p99) from the result mirrored,
-# since CropGeometry places a mirror's crop a pixel apart and stage 2 is not averaged (crop.SYMMETRIC_CROP and
-# STAGE2_MIRROR below since mirror32: with all four on, <= 1 level, benchmarks/mirror_equivariance.py; off, mirror32's
-# criterion failed on the suite's behaviour tests),
-# and the held-out renders' face and full framings lost 0.0012 / 0.0008 RMSE; on photos + mirrors pooled Yale gained
-# everywhere. Kept as the first of the four parts. Costs a second stage-1 run per picture (~15 ms on the CPU); on
-# CUDA the averaged answers are uploaded again on first use (the DeviceChain's copies are of one run's).
-STAGE1_MIRROR = False
+# image's right on a photo and on its mirror alike (face31). With the face mesh's MESH_FLIP alone it failed mirror31's
+# criterion: a mirrored photo still relit up to 38 levels (p99) from the result mirrored, since CropGeometry placed a
+# mirror's crop a pixel apart and stage 2 was not averaged. With crop.SYMMETRIC_CROP and STAGE2_MIRROR (below) too,
+# within 1 level (benchmarks/mirror_equivariance.py). On since mirror34, the four parts together: c751cea's criterion
+# met (Yale photos + mirrors pooled relight relerr 0.519 -> 0.499, de-light 0.401 -> 0.389; held-out renders' RMSE
+# within 0.0005 of before on every framing, three of five better; docs/results_pending.md). Costs a second stage-1
+# run per picture (~15 ms on the CPU); on CUDA the averaged answers are uploaded again on first use (the
+# DeviceChain's copies are of one run's).
+STAGE1_MIRROR = True
 # stage 2 also sees each shaded picture mirrored left-right (in the same batch; on CUDA a second run of the chain on
 # the decomposition mirrored), its answers mirrored back and averaged with the first, so a photo and its mirror image
 # relight to each other's result mirrored (with STAGE1_MIRROR, face_mesh.MESH_FLIP and crop.SYMMETRIC_CROP; DPR's
 # portrait p99 5 -> 1 level). Its own switch, not STAGE1_MIRROR's: stage 1 runs once per decomposition, stage 2 once
 # per light, so this one is paid on every relight (a second stage-2 run: +5-18 ms on a 2.5 MP relight, mirror32).
-# Off: mirror32's criterion for all four failed on the suite's behaviour tests (docs/results_pending.md).
-STAGE2_MIRROR = False
+# On since mirror34 with the other three (docs/results_pending.md).
+STAGE2_MIRROR = True
 
 
 class Network:
