@@ -345,8 +345,8 @@ def test_preview_and_final_result_have_one_brightness(browser, server, studio, n
     ``Studio.shadow``), agrees with the rendered result's. Before the preview drew the head pass's change it was
     left out, and its share of the gap grew as the key went behind: rim 1.032, and 1.066 with the mirror-symmetric
     chain (mirror33). What remains is what the preview still leaves out (the deep-shadow fill, the light the model
-    misses, full resolution), the preview darker under every light: preview / result 0.970-0.999 with the chain
-    as shipped before, 0.963-0.985 with the mirror-symmetric one (benchmarks/studio_preview_gap.py, mirror34)."""
+    misses, full resolution), the preview darker under every light: preview / result 0.970-0.999 with the four
+    mirror switches off, 0.964-0.986 with them on (shipped since mirror34; benchmarks/studio_preview_gap.py)."""
     page = open_page(browser, server)
     page.evaluate(
         "L => { const s = studio.state; s.lamp.on = false; s.ambient = 0; s.exposure.mode = 'auto';"
