@@ -442,11 +442,11 @@ def test_a_close_up_face_and_its_mirror_image_get_mirrored_meshes(symmetric, mon
     """face31: on Extended Yale B's tight crops the mesh read the face as turned 2.8 deg (median) the same way on
     the photo and on its mirror image (the detector and the landmarker are not left-right symmetric: a bias of
     ours, not the face's), and the photo's and the mirror's meshes, mapped back, were 1.8 % of the face's width
-    apart. With ``MESH_FLIP`` FaceMesh shows both graphs their crop and its mirror image and averages (off in the
-    product: Yale's odd subjects' de-light relerr rose). Here a close-up face (the example's, enlarged) and the same
-    face made left-right symmetric (the mean of it and its mirror image: its mesh must be its own mirror): 0.8 % and
-    1.1 % of the width apart without the averaging, with it 0.006 % and 0.2 % (the close-up look reduces the photo
-    by 2 from its left edge, so an odd width is not exactly mirrored)."""
+    apart. With ``MESH_FLIP`` FaceMesh shows both graphs their crop and its mirror image and averages (alone it failed
+    face31's criterion; on since mirror34 with the rest of the mirror-symmetric chain). Here a close-up face (the
+    example's, enlarged) and the same face made left-right symmetric (the mean of it and its mirror image: its mesh
+    must be its own mirror): 0.8 % and 1.1 % of the width apart without the averaging, with it 0.006 % and 0.2 % (the
+    close-up look reduces the photo by 2 from its left edge, so an odd width is not exactly mirrored)."""
     from relight_rt.person import face_mesh as fm
 
     face = _close_up_face()

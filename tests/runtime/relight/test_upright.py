@@ -268,10 +268,10 @@ def test_a_photo_lying_on_its_side_is_decomposed_upright(relighter, sample, q):
 
 
 def test_a_mirrored_photo_decomposes_to_the_photos_decomposition_mirrored(relighter, sample, monkeypatch):
-    """Stage 1 mirror-averaged (network ``STAGE1_MIRROR``, off in the product): the reference photo mirrored
-    left-right decomposes to its decomposition mirrored, the light's coefficients signed (to the crop's placement,
-    a pixel apart on a mirror, and the face mesh and head pass in between); without it the light's left-right terms
-    differ ten times as much (0.157 against 0.013)."""
+    """Stage 1 mirror-averaged (network ``STAGE1_MIRROR``, on since mirror34 with the other three mirror-symmetric
+    parts): the reference photo mirrored left-right decomposes to its decomposition mirrored, the light's
+    coefficients signed (to the face mesh and head pass in between); without it the light's left-right terms differ
+    ten times as much (0.157 against 0.013, measured with the other three parts off: the crop a pixel apart)."""
     from relight_rt.relight import network
 
     image, mask = sample
