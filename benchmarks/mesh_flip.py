@@ -6,7 +6,6 @@ before/after figures in one checkout.
     python benchmarks/mesh_flip.py --flip off --stage1 off -- SCRIPT [ARGS ...]  # the product before mirror31
     python benchmarks/mesh_flip.py --flip on -- benchmarks/yale_eval.py --out /tmp/y --no-dpr --yale YALE
 
-``--border`` / ``--passes`` set ``MESH_BORDER`` / ``MESH_PASSES`` too (benchmarks/mesh_mirror.py's variants).
 ``--symmetric-crop on|off`` sets relight_rt.image.crop ``SYMMETRIC_CROP`` (the crop box placed alike on a photo and
 its mirror) and ``--stage2 on|off`` relight_rt.relight.network ``STAGE2_MIRROR`` (stage 2 mirror-averaged): mirror31's
 probes, product switches since mirror32. Each defaults to the product's setting.
@@ -41,15 +40,12 @@ def main(argv=None) -> int:
                    help="the crop placed alike on a mirror (relight_rt.image.crop SYMMETRIC_CROP)")
     p.add_argument("--stage2", choices=("on", "off"), default="on" if network.STAGE2_MIRROR else "off",
                    help="stage 2's mirror averaging on or off (STAGE2_MIRROR)")
-    p.add_argument("--border", choices=("zero", "replicate"), default=face_mesh.MESH_BORDER)
-    p.add_argument("--passes", type=int, default=face_mesh.MESH_PASSES)
     args = p.parse_args(argv[:cut])
     rest = argv[cut + 1:]
     if not rest or not Path(rest[0]).is_file():
         p.error(f"expected a benchmark script after '--', got {rest[:1]}")
     face_mesh.MESH_FLIP = args.flip == "on"
     network.STAGE1_MIRROR = args.stage1 == "on"
-    face_mesh.MESH_BORDER, face_mesh.MESH_PASSES = args.border, args.passes
     crop_module.SYMMETRIC_CROP = args.symmetric_crop == "on"
     network.STAGE2_MIRROR = args.stage2 == "on"
     sys.argv = rest

@@ -1,6 +1,6 @@
 """Does the face mesh lean one way? A label-free measure: each face's mesh on the photo and on its mirror image.
 
-    python benchmarks/mesh_mirror.py [--variants as-is,box-avg,replicate,refine] [--sets yale,side,look,dpr,renders]
+    python benchmarks/mesh_mirror.py [--variants as-is,box-avg,flip] [--sets yale,side,look,dpr,renders]
                                      [--out FILE.json] [--build-map]
 
 A landmarker without a bias of its own gives, on a photo mirrored left-right, the mirror of the photo's mesh: the
@@ -19,11 +19,11 @@ the first. What it does not flip with the photo is ours, not the face's. Per fac
 
 Variants (the causes, one at a time; light30's record, docs/results_pending.md): ``as-is`` (the product's
 FaceMesh.faces as configured); ``box-avg`` (the landmarker run from the detector's box of the photo and of the mirror
-mapped back, averaged: a box that is left-right symmetric by construction); ``replicate`` (the landmarker's crop
-past the photo's edge its edge pixels, not zeros); ``refine`` (a second landmarker pass from the box of the first
-mesh, as MediaPipe's tracking derives its next ROI); ``flip`` (the detector and the landmarker each shown its crop
-and the crop's mirror image, the answers averaged: FaceMesh's ``MESH_FLIP``); ``zero`` (zeros past the edge, one
-pass, no flip: the product before face31); and ``+``-joined mixtures.
+mapped back, averaged: a box that is left-right symmetric by construction); ``flip`` (the detector and the
+landmarker each shown its crop and the crop's mirror image, the answers averaged: FaceMesh's ``MESH_FLIP``);
+``zero`` (no flip: the product before mirror34); and ``+``-joined mixtures. face31 also tried the landmarker's crop
+padded with its edge pixels and a second landmarker pass from the first mesh's box (docs/results_pending.md; both
+removed from the product unused, at mirror34's review).
 
 Sets: ``yale`` Extended Yale B's frontal photos (P00A+000E+00, 12 subjects), ``side`` its photos lit from azimuth
 +-25 (elevation 0), ``look`` the faces of benchmarks/first_look.py's 30 photos (each face the whole-photo detector
@@ -70,12 +70,10 @@ MAP_FILE = fm_module.MIRROR_FILE
 SUBJECTS = ("yaleB02", "yaleB05", "yaleB08", "yaleB11", "yaleB15", "yaleB18", "yaleB21", "yaleB24", "yaleB27",
             "yaleB30", "yaleB33", "yaleB36")
 SEARCH = 3.0  # a first-look face is searched in a square this many times its detector box
-VARIANTS = {  # name -> (border, passes, box averaged, flip)
-    "zero": ("zero", 1, False, False),
-    "box-avg": ("zero", 1, True, False),
-    "replicate": ("replicate", 1, False, False),
-    "refine": ("zero", 2, False, False),
-    "flip": ("zero", 1, False, True),
+VARIANTS = {  # name -> (box averaged, flip)
+    "zero": (False, False),
+    "box-avg": (True, False),
+    "flip": (False, True),
 }
 
 
@@ -122,17 +120,6 @@ def _kabsch(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
     return u @ np.diag([1.0, 1.0, d]) @ vt
 
 
-def track(mesh: FaceMesh, rgb: np.ndarray, roi: Region, passes: int) -> np.ndarray | None:
-    """FaceMesh.faces' landmarker passes from ``roi``."""
-    pts = mesh.landmarks(rgb, roi)
-    for _ in range(passes - 1):
-        if pts is None:
-            break
-        (x0, y0), (x1, y1) = pts[:, :2].min(axis=0), pts[:, :2].max(axis=0)
-        pts = mesh.landmarks(rgb, Region.around(x0, y0, x1, y1, scale=ROI_SCALE))
-    return pts
-
-
 def mirrored_box(box, w: int):
     """An (x0, y0, x1, y1) box mirrored in a photo ``w`` wide."""
     x0, y0, x1, y1 = box
@@ -145,19 +132,17 @@ def nearest(meshes: list[np.ndarray], centre: tuple[float, float]) -> np.ndarray
     return min(meshes, key=lambda m: float(np.hypot(*(m[:, :2].mean(axis=0) - centre))))
 
 
-def settings(variant: str) -> tuple[str, int, bool, bool]:
-    """(border, passes, box averaged, flip) of a variant: a name of ``VARIANTS``, "as-is" (the product's), or
-    several joined by "+"."""
-    border, passes, avg, flip = "zero", 1, False, False
+def settings(variant: str) -> tuple[bool, bool]:
+    """(box averaged, flip) of a variant: a name of ``VARIANTS``, "as-is" (the product's), or several joined by
+    "+"."""
+    avg, flip = False, False
     for part in variant.split("+"):
         if part == "as-is":
-            border, passes, flip = fm_module.MESH_BORDER, fm_module.MESH_PASSES, fm_module.MESH_FLIP
+            flip = fm_module.MESH_FLIP
             continue
-        b, p, a, f = VARIANTS[part]
-        border = b if b != "zero" else border
-        passes = max(passes, p)
+        a, f = VARIANTS[part]
         avg, flip = avg or a, flip or f
-    return border, passes, avg, flip
+    return avg, flip
 
 
 def both_meshes(mesh: FaceMesh, rgb: np.ndarray, search: tuple[int, int, int, int], variant: str):
@@ -168,22 +153,21 @@ def both_meshes(mesh: FaceMesh, rgb: np.ndarray, search: tuple[int, int, int, in
     y0, y1, x0, x1 = search
     msearch = (y0, y1, w - x1, w - x0)
     centre = ((x0 + x1) / 2, (y0 + y1) / 2)
-    border, passes, avg, flip = settings(variant)
-    saved = fm_module.MESH_BORDER, fm_module.MESH_PASSES, fm_module.MESH_FLIP
-    fm_module.MESH_BORDER, fm_module.MESH_PASSES, fm_module.MESH_FLIP = border, passes, flip
+    avg, flip = settings(variant)
+    saved, fm_module.MESH_FLIP = fm_module.MESH_FLIP, flip
     try:
         if avg:
             ba, bb = mesh.boxes(rgb, search), mesh.boxes(mir, msearch)
             if not ba or not bb:
                 return None, None
             box = (np.array(ba[0]) + np.array(mirrored_box(bb[0], w))) / 2
-            a = track(mesh, rgb, Region.around(*box, scale=ROI_SCALE), passes)
-            b = track(mesh, mir, Region.around(*mirrored_box(box, w), scale=ROI_SCALE), passes)
+            a = mesh.landmarks(rgb, Region.around(*box, scale=ROI_SCALE))
+            b = mesh.landmarks(mir, Region.around(*mirrored_box(box, w), scale=ROI_SCALE))
         else:
             a = nearest(mesh.faces(rgb, search), centre)
             b = nearest(mesh.faces(mir, msearch), (w - centre[0], centre[1]))
     finally:
-        fm_module.MESH_BORDER, fm_module.MESH_PASSES, fm_module.MESH_FLIP = saved
+        fm_module.MESH_FLIP = saved
     if b is not None:
         b = b.copy()
         b[:, 0] = w - b[:, 0]
@@ -258,12 +242,11 @@ def own_light_lean(yale: Path, variants: list[str], label: str | None = None, re
             finally:
                 fm_module.FaceMesh.faces = faces
             continue
-        border, passes, avg, flip = settings(variant)
+        avg, flip = settings(variant)
         if avg:
             print(f"{variant}: the box averaging is no product setting, the chain cannot run it", file=sys.stderr)
             continue
-        saved = fm_module.MESH_BORDER, fm_module.MESH_PASSES, fm_module.MESH_FLIP
-        fm_module.MESH_BORDER, fm_module.MESH_PASSES, fm_module.MESH_FLIP = border, passes, flip
+        saved, fm_module.MESH_FLIP = fm_module.MESH_FLIP, flip
         rows = []
         try:
             for s in SUBJECTS:
@@ -279,7 +262,7 @@ def own_light_lean(yale: Path, variants: list[str], label: str | None = None, re
                     az.append(float(np.degrees(np.arcsin(v[1] / np.linalg.norm(v)))))
                 rows.append(az)
         finally:
-            fm_module.MESH_BORDER, fm_module.MESH_PASSES, fm_module.MESH_FLIP = saved
+            fm_module.MESH_FLIP = saved
         r = np.array(rows)
         print(f"{label or variant:24s} own light toward the image's right, photo / mirror / not flipping: "
               f"{np.median(r[:, 0]):.2f} / {np.median(r[:, 1]):.2f} / {np.median(r.sum(axis=1) / 2):.2f} deg "
@@ -300,8 +283,8 @@ def summary(rows: list[dict]) -> dict:
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--variants", default="as-is", help="comma-separated: as-is, zero, box-avg, replicate, refine, "
-                   "or +-joined mixtures")
+    p.add_argument("--variants", default="as-is", help="comma-separated: as-is, zero, box-avg, flip, or +-joined "
+                   "mixtures")
     p.add_argument("--sets", default="yale,side,look,dpr,renders")
     p.add_argument("--yale", type=Path, default=shared_path("realdata", "yale"))
     p.add_argument("--people", type=Path, default=shared_path("realdata", "people_masks"))

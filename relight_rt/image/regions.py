@@ -75,19 +75,15 @@ def warp_matrix(src: tuple[float, float, float], dst: tuple[float, float, float]
     return np.array([[r, 0.0, bxs - r * bxd], [0.0, r, bys - r * byd]], np.float64)
 
 
-BORDERS = ("zero", "replicate")  # what a crop shows past the image's edge: nothing, or the edge's own pixels
-
-
-def crop_region(rgb: np.ndarray, region: Region, size: int = SIZE, border: str = "zero") -> np.ndarray:
-    """The square ``region`` of ``rgb`` resampled to (size, size, 3), zero outside the image, or (``border``
-    "replicate") the image's nearest edge pixel there.
+def crop_region(rgb: np.ndarray, region: Region, size: int = SIZE) -> np.ndarray:
+    """The square ``region`` of ``rgb`` resampled to (size, size, 3), zero outside the image.
 
     Large regions are first reduced by block means to about twice the canvas resolution (:class:`Pyramid`;
     shared by all crops of one photo inside :func:`reductions_shared`); the final
     resampling is one exact affine warp, so :func:`grid_of_region` describes the result exactly. The
     result is read-only when it comes from the shared crops.
     """
-    return pyramid_of(rgb).crop(region, size, border)
+    return pyramid_of(rgb).crop(region, size)
 
 
 class Pyramid:
@@ -133,14 +129,12 @@ class Pyramid:
             self._levels[n] = _blocks(self.level(n // 2), 2, _all_blocks(self.rgb.shape, n))
         return self._levels[n]
 
-    def crop(self, region: Region, size: int = SIZE, border: str = "zero") -> np.ndarray:
+    def crop(self, region: Region, size: int = SIZE) -> np.ndarray:
         """:func:`crop_region` of the image."""
-        if border not in BORDERS:
-            raise RelightError(f"crop: border must be one of {BORDERS}, got {border!r}")
-        key = (region, int(size), border)
+        key = (region, int(size))
         if key in self._crops:
             return self._crops[key]
-        out = self._crop(region, size, border)
+        out = self._crop(region, size)
         if self.memo:  # the last few only: a region is cropped again right after (pose pass, portrait check)
             out.flags.writeable = False
             self._crops[key] = out
@@ -148,7 +142,7 @@ class Pyramid:
                 del self._crops[next(iter(self._crops))]
         return out
 
-    def _crop(self, region: Region, size: int, border: str = "zero") -> np.ndarray:
+    def _crop(self, region: Region, size: int) -> np.ndarray:
         h, w = self.rgb.shape[:2]
         k, bx, by = grid_of_region(region, size)
         x0, y0, x1, y1 = region.box()
@@ -163,18 +157,13 @@ class Pyramid:
                 sub = self.level(n)[by0:by1, bx0:bx1]
             else:
                 sub = _reduced(self.rgb, n, (bx0, by0, bx1, by1))
-            if border == "replicate":  # a block cut by the image's edge: the mean of its pixels inside, not zeros
-                cx = np.clip(w - n * np.arange(bx0, bx1), 1, n) / n
-                cy = np.clip(h - n * np.arange(by0, by1), 1, n) / n
-                sub = sub / np.outer(cy, cx).reshape(cy.size, cx.size, *([1] * (sub.ndim - 2))).astype(sub.dtype)
             m = warp_matrix((1.0 / n, -0.5 - bx0, -0.5 - by0), (k, bx, by))  # sub index = X / n - 0.5 - b0
         else:
             sub = self.rgb[iy0:iy1, ix0:ix1]
             m = warp_matrix((1.0, -0.5 - ix0, -0.5 - iy0), (k, bx, by))  # sub index = X - i0 - 0.5
         return cv2.warpAffine(
             np.ascontiguousarray(sub), m, (size, size), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
-            borderMode=cv2.BORDER_REPLICATE if border == "replicate" else cv2.BORDER_CONSTANT,
-            borderValue=(0.0, 0.0, 0.0),
+            borderMode=cv2.BORDER_CONSTANT, borderValue=(0.0, 0.0, 0.0),
         )  # fmt: skip
 
 

@@ -50,8 +50,6 @@ MESH_REACH = 3.0  # ... and its mesh at most this many of its crop's sides acros
 # spans 0.60-0.77 of it: 185 meshes on Yale and people photos; one blown up 1000x had the cast shadow's lamp map ask
 # for 309 GB, one Inf point failed in OpenCV: fuzz8)
 CLOSE_UP_SCALE = 2.0  # no face in the box's square: look again at a square this many times as large (FaceMesh.faces)
-MESH_BORDER = "zero"  # the landmarker's crop past the photo's edge: "zero" or "replicate" (crop_region's border)
-MESH_PASSES = 1  # landmarker passes per face: the second and later from the box of the mesh before
 # the detector and landmarker shown their crop and its mirror image, the answers averaged (``FaceMesh.boxes``,
 # ``FaceMesh.landmarks``; the mirror's landmarks re-indexed by ``MIRROR_FILE``). Without it, on Extended Yale B's
 # close-ups the graphs read a face as turned 2.8 deg (median) the same way on a photo and on its mirror image (face31,
@@ -590,11 +588,6 @@ class FaceMesh:
         meshes = []
         for found in self.boxes(rgb, box, lift):
             pts = self.landmarks(rgb, Region.around(*found, scale=ROI_SCALE), lift)
-            for _ in range(MESH_PASSES - 1):  # again from the box the mesh gives (MediaPipe's tracking ROI)
-                if pts is None:
-                    break
-                (mx0, my0), (mx1, my1) = pts[:, :2].min(axis=0), pts[:, :2].max(axis=0)
-                pts = self.landmarks(rgb, Region.around(mx0, my0, mx1, my1, scale=ROI_SCALE), lift)
             if pts is not None:
                 meshes.append(pts)
         return meshes
@@ -626,9 +619,9 @@ class FaceMesh:
         return found
 
     def landmarks(self, rgb: np.ndarray, roi: Region, lift: float = 1.0) -> np.ndarray | None:
-        """The landmarker's mesh on the square ``roi`` of ``rgb`` ((468, 3) x, y, z in input pixels), shown it past
-        the photo's edge as ``MESH_BORDER`` says; None where its face flag or the mesh's extent says no face."""
-        crop = _lifted(crop_region(rgb, roi, MESH_SIZE, border=MESH_BORDER), lift)
+        """The landmarker's mesh on the square ``roi`` of ``rgb`` ((468, 3) x, y, z in input pixels; zeros past
+        the photo's edge); None where its face flag or the mesh's extent says no face."""
+        crop = _lifted(crop_region(rgb, roi, MESH_SIZE), lift)
         _check_finite(crop)
         lm, flag = self.mesh.run(["landmarks", "face_flag"], {"image": crop.transpose(2, 0, 1)[None]})
         pts = lm.reshape(N_POINTS, 3).astype(np.float64)

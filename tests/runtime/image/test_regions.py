@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from relight_rt import RelightError
-from relight_rt.image.regions import Region, crop_region, grid_of_region, pyramid_of, reductions_shared
+from relight_rt.image.regions import Region, crop_region, pyramid_of, reductions_shared
 
 
 class _Graph:
@@ -58,28 +58,3 @@ def test_a_region_without_a_finite_centre_and_side_is_one_clear_error(values):
     img = np.ones((4, 500, 3), np.float32)
     assert not crop_region(img, Region(-1e9, 5.0, 10.0)).any()
     assert crop_region(img, Region(250.0, 2.0, 1e-6)).shape == (256, 256, 3)
-
-
-@pytest.mark.parametrize("side", [40.0, 300.0])  # warped directly, and from a reduction by 2
-def test_a_replicated_border_shows_the_edge_pixels_past_the_image_and_the_same_inside(side):
-    """face31: the face landmarker's crop of a face that fills the photo reaches past its edge; with border
-    "replicate" (MediaPipe's ImageToTensor default) it shows the nearest edge pixel there, not zeros, and inside
-    the image the same as the zero border. A block cut by the image's edge in a reduction is its pixels' mean."""
-    rng = np.random.default_rng(3)
-    img = np.full((61, 77, 3), 0.5, np.float32)
-    img[:, :20] = 0.9  # left edge bright, the rest grey, a little texture well inside
-    img[20:40, 30:50] = rng.uniform(0.2, 0.8, (20, 20, 3))
-    region = Region(10.0, 30.0, side)  # centred near the left edge: reaches past it
-    zero, rep = crop_region(img, region, 64), crop_region(img, region, 64, border="replicate")
-    k = grid_of_region(region, 64)[0]
-    u = np.arange(64)
-    x = (u + 0.5) / k + region.box()[0]  # each canvas column's centre in image coordinates
-    outside = x < -1.0
-    inside = (x > 1.0) & (x < 18.0)
-    assert outside.any() and inside.any()
-    assert np.abs(zero[:, outside]).max() == 0
-    rows = slice(28, 36) if side < 100 else slice(30, 34)
-    np.testing.assert_allclose(rep[rows][:, outside], 0.9, atol=1e-5)
-    np.testing.assert_allclose(rep[rows][:, inside], zero[rows][:, inside], atol=1e-5)
-    with pytest.raises(RelightError, match="border"):
-        crop_region(img, region, 64, border="reflect")
