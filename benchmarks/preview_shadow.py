@@ -7,8 +7,10 @@ relight_rt.relight.cast_shadow); the preview the page draws from its layers (alb
 relight_rt.apps.studio) had none. Per photo and light (the white side lamps ``LEFT`` and ``RIGHT`` of
 benchmarks/real_photos.py), the preview is drawn as the page draws it (``relight_rt.apps.studio.core.preview_picture``,
 the light ``Studio.preview_light``) without and with the server's shadow layer (``Studio.shadow``), and the final result
-(``Studio.render``) is reduced to the preview's size. Figures, CIE L* of both: mean |dL*| over the shadow's pixels
-(depth >= 0.1), its signed mean (> 0: the preview brighter) and mean |dL*| over the whole person (mask > 0.5). Photos:
+(``Studio.render``) is reduced to the preview's size. The server's plane also carries the head pass's change
+(since mirror34); the shadow's pixels are the cast shadows' alone. Figures, CIE L* of both: mean |dL*| over the
+shadow's pixels (depth >= 0.1), its signed mean (> 0: the preview brighter) and mean |dL*| over the whole person
+(mask > 0.5). Photos:
 the reference photo with its mask (../shared/reference) and a frontal Extended Yale B face with an ellipse mask
 (benchmarks/yale_eval.py; evaluation only, nothing is written but the figures). Writes OUT/preview_shadow.json and
 prints the table.
@@ -56,7 +58,8 @@ def figures(studio: Studio, light: np.ndarray) -> dict:
     _, rec = studio.render(light.tolist())
     final = cv2.imdecode(np.frombuffer(rec.png, np.uint8), cv2.IMREAD_COLOR)[..., ::-1].astype(np.float32) / 255
     final = cv2.resize(final, (w, h), interpolation=cv2.INTER_AREA)
-    shade, person = (plane <= 1 - DEEP) & (m > 0.5), m > 0.5
+    cast = shadow_plane({**answer, "head_box": []}, h, w)  # the cast shadows alone (without the head pass's change)
+    shade, person = (cast <= 1 - DEEP) & (m > 0.5), m > 0.5
     out = {"shadow_pixels": int(shade.sum()), "meter": answer["meter"], "shadow_seconds": seconds,
            "layer_bytes": len(answer["depth"])}
     for name, pic in (("without", before), ("with", after)):

@@ -3,12 +3,15 @@
     PYTHONPATH=$PWD python benchmarks/studio_preview_gap.py [--without head-blend,head,fill]
 
 Brightness: the person's mean luminance (Rec. 709 of the values, weighted by the mask) in the preview the page
-draws (albedo x shading with the shaded-skin gain over the photo, at the page's size; the Python mirror of the
-shaders, as tests/integration/test_studio_browser.py draws it) over the full result's, on the bundled example
-person, per preset given as an array ("auto" exposure, no preset EV). ``--without`` switches off, in the full
-result, the head pass's blend of its shading (Factor.blend_head), the head pass itself (Relighter.face_pass) or the
-deep-shadow fill (ShadowFill.shadow_weight): each ratio that moves to 1 names a part of the gap the preview leaves out
-(both figures below take ``--without``).
+draws once the light has settled (albedo x shading with the shaded-skin gain over the photo, at the page's size,
+the shading times the server's plane for that light: the body's cast shadows and the head pass's change,
+``Studio.shadow``; the Python mirror of the shaders, relight_rt.apps.studio.core ``preview_picture``, as
+tests/integration/test_studio_browser.py draws it) over the full result's, on the bundled example person, per preset
+given as an array ("auto" exposure, no preset EV); beside it, the same without the server's plane (the preview
+while a light is being dragged). ``--without`` switches off, in the full result, the head pass's blend of its
+shading (Factor.blend_head), the head pass itself (Relighter.face_pass) or the deep-shadow fill
+(ShadowFill.shadow_weight): each ratio that moves to 1 names a part of the gap the preview leaves out (both figures
+below take ``--without``).
 
 Background grade: on the bundled street photo (a backdrop to grade, the automatic matte), the grade the preview
 draws (Studio.preview_grade, what sh.js backgroundGrade computes on the relighter's grade sample,
@@ -28,7 +31,7 @@ import numpy as np
 
 import relight_rt
 from relight_rt import RuntimeConfig, lights
-from relight_rt.apps.studio.core import Studio, unpack_layers
+from relight_rt.apps.studio.core import Studio, preview_picture, shadow_plane, unpack_layers
 from relight_rt.cli.demo import example_path
 from relight_rt.image.color import REC709
 from relight_rt.light.exposure import DISPLAY_GAMMA
@@ -38,18 +41,6 @@ from relight_rt.relight import shadow_fill as _shadow_fill
 BUNDLED = Path(relight_rt.__file__).resolve().parent / "models"
 STREET = Path(relight_rt.__file__).resolve().parent / "data" / "example_scene.jpg"
 PRESETS = ("rim", "window-left", "studio", "night", "campfire", "golden-hour")
-
-
-def preview_person(layers: dict, meta: dict, light: np.ndarray) -> np.ndarray:
-    """What the page draws for the person (premultiplied): albedo x max(0, T.L) x the shaded-skin gain."""
-    t = layers["transport"].transpose(1, 2, 0)
-    lit = np.maximum(np.einsum("hwk,kc->hwc", t, light.astype(np.float32)), 0)
-    own = t @ np.array(meta["own_white"], np.float32)
-    r = (lit @ REC709.astype(np.float32)) / np.maximum(own, 1e-3)
-    boost = np.clip(r, 1e-4, 1.0)[..., None] ** (meta["skin_chroma"] - 1.0) - 1.0
-    chroma, w = layers["skin_chroma"].transpose(1, 2, 0), layers["skin"][..., None]
-    gain = 1 + w * (np.clip(1 + boost * chroma, 0.25, 4.0) - 1)
-    return np.clip(layers["albedo"].transpose(1, 2, 0) * lit * gain, 0, 1)
 
 
 def decoded(png: bytes) -> np.ndarray:
@@ -74,15 +65,20 @@ def brightness(without: set[str]) -> None:
     meta = studio.info()["preview"]
     layers = unpack_layers(studio.layers_bytes(), meta)
     m = layers["mask"]
-    print(f"preview / result, person's mean luminance, bundled example, without: {sorted(without) or 'nothing'}")
+    print(f"preview / result, person's mean luminance, bundled example, without: {sorted(without) or 'nothing'};"
+          " settled (the server's plane drawn), dragged (not yet)")
+    back = layers["background"].transpose(1, 2, 0) * (1 - m[..., None])
     for name in PRESETS:
         light = lights.preset(name).astype(np.float32)
-        shown = studio.preview_light(light)
-        preview = layers["background"].transpose(1, 2, 0) * (1 - m[..., None]) + preview_person(layers, meta, shown)
+        answer = studio.shadow(light.ravel().tolist())
+        plane = shadow_plane(answer, meta["height"], meta["width"])
+        settled = back + preview_picture(layers, meta, studio.preview_light(light, meter=answer["meter"]), plane)
+        dragged = back + preview_picture(layers, meta, studio.preview_light(light))
         _, rec = studio.render(light.tolist())
         final = cv2.resize(decoded(rec.png), (meta["width"], meta["height"]), interpolation=cv2.INTER_AREA)
-        have, want = float((preview @ REC709 * m).sum()), float((final @ REC709 * m).sum())
-        print(f"  {name:12s} {have / want:.3f}")
+        want = float((final @ REC709 * m).sum())
+        ratios = [float((p @ REC709 * m).sum()) / want for p in (settled, dragged)]
+        print(f"  {name:12s} {ratios[0]:.3f} {ratios[1]:.3f}")
 
 
 def grade(without: set[str]) -> None:

@@ -3,7 +3,7 @@
     python benchmarks/yale_eval.py --out runs/yale [--yale ../shared/realdata/yale] [--dpr DPR_REPO | --no-dpr]
         [--cache runs/dpr_cache] [--subjects yaleB02 yaleB05 ...] [--no-mesh-occlusion] [--no-mirror-dark]
         [--no-rim-fill] [--no-penumbra-cap] [--no-rim-shown] [--own-light {today,true,true-direction,...}]
-        [--own-level {meter,refit,dc}] [--own-scale K]
+        [--own-level {meter,refit,dc}] [--own-scale K] [--mirror]
 
 Issue 48's protocol. Every photo is grey (the PNG's one channel as R = G = B), relit with an ellipse mask (the
 face: centre at 0.50, 0.52 of the image, semi-axes 0.44 W and 0.46 H) under a white point lamp in the photo's
@@ -28,6 +28,12 @@ target lamp has (benchmarks/new_edges.py ``new_edges``: a fill's border inside a
 Lamp directions: Yale's negative azimuth lights the image's right (README of the data; checked there on every
 subject), and DESIGN.md's frame has +y toward the image's right, so azimuth a and elevation e give the
 direction (cos e cos a, -cos e sin a, sin e).
+
+``--mirror``: Yale mirrored, in memory: every photo flipped left-right and its lamp's azimuth negated (the photo
+read for azimuth a is the one at -a, flipped), pair ids prefixed "mirror:"; its pair to (from) azimuth a is the plain
+pair to (from) -a mirrored. A chain that does not depend on which way a photo faces gives the same figures on both;
+benchmarks/yale_halves.py pools a plain run with a mirrored one ("PLAIN/yale.json+MIRROR/yale.json"), a set whose
+own left-right asymmetry cancels (mirror31).
 
 ``--own-light`` (a measurement, no product change; ``own_light``): each photo's own light replaced by an oracle
 built from Yale's lamp for it (the frontal lamp for the relight pairs, the side lamp for the de-light pairs): "true"
@@ -170,10 +176,15 @@ def ellipse(shape: tuple[int, int]) -> np.ndarray:
     return ((((xx - 0.50 * w) / (0.44 * w)) ** 2 + ((yy - 0.52 * h) / (0.46 * h)) ** 2) <= 1).astype(np.float32)
 
 
+MIRROR = False  # --mirror: the set mirrored (``find_file`` takes the photo at the negated azimuth, ``read_grey`` flips)
+
+
 def read_grey(path: Path) -> np.ndarray:
     g = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
     if g is None:
         raise FileNotFoundError(path)
+    if MIRROR:
+        g = np.ascontiguousarray(g[:, ::-1])
     return np.repeat((g.astype(np.float32) / 255)[..., None], 3, axis=2)
 
 
@@ -252,6 +263,8 @@ def sockets(rows: list[dict]) -> dict | None:
 
 
 def find_file(yale: Path, subject: str, az: int, el: int = 0) -> Path:
+    """The photo of ``subject`` lit from azimuth ``az`` (``MIRROR``: the one from -az, which ``read_grey`` flips)."""
+    az = -az if MIRROR and az else az
     return yale / subject / f"{subject}_P00A{az:+04d}E{el:+03d}.png"
 
 
@@ -323,7 +336,11 @@ def main(argv=None) -> int:
                    help="the own light (today's or the oracle's) multiplied by this (own_light; default: 1)")
     p.add_argument("--no-rim-shown", action="store_true",
                    help="the fill's rim albedo read in the penumbra too (shadow_rim.RIM_SHOWN; on since faces16)")
+    p.add_argument("--mirror", action="store_true",
+                   help="every photo flipped left-right and its azimuth negated (ids prefixed 'mirror:')")
     args = p.parse_args(argv)
+    global MIRROR
+    MIRROR = args.mirror
     if not (math.isfinite(args.own_scale) and args.own_scale > 0):
         p.error(f"--own-scale: expected a positive number, got {args.own_scale}")
     if args.no_rim_fill:
@@ -357,7 +374,8 @@ def main(argv=None) -> int:
         region = cv2.resize(face, (GRID, GRID), interpolation=cv2.INTER_AREA) > 0.99
         light = lamp(dst_az)
         ours = relighter.relight(dec, light)
-        row = {"id": f"{task}:{subject}:{src_az:+d}->{dst_az:+d}", "task": task, "subject": subject,
+        row = {"id": f"{'mirror:' if MIRROR else ''}{task}:{subject}:{src_az:+d}->{dst_az:+d}", "task": task,
+               "subject": subject,
                "source_az": src_az, "target_az": dst_az,
                "ours": {**compare(source, ours, truth, region), **detail_shares(ours, truth, face),
                         "edge": new_edges(source, ours, face, truth)}}
@@ -410,7 +428,8 @@ def main(argv=None) -> int:
             sub = [r for r in sel if abs(r[key]) == a]
             summary[task][f"|az| {a}"] = {m: figures(sub, m) for m in ("ours", "dpr")}
     summary["delight"]["sockets"] = sockets([r for r in rows if r["task"] == "delight"])
-    run_of = {"own_light": args.own_light, "own_level": args.own_level, "own_scale": args.own_scale}
+    run_of = {"mirror": args.mirror, "own_light": args.own_light, "own_level": args.own_level,
+              "own_scale": args.own_scale}
     (args.out / "yale.json").write_text(json.dumps({**run_of, "summary": summary, "pairs": rows}, indent=1))
     sheet(rows, pictures, args.out / "yale_worst.jpg")
     sheet([r for r in rows if r["task"] == "delight"], pictures, args.out / "yale_worst_delight.jpg")

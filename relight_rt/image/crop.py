@@ -5,6 +5,8 @@ Forward (the reference's preprocessing, DESIGN.md §4):
 1. Box: rows and columns where ``mask > 0`` (any non-zero value, as the reference), widened by a
    5 px margin and clipped to the image. As in the reference, the end of the box is the last mask
    pixel + 5 taken as an exclusive slice end, so the margin is 5 px before and 4 px after the mask.
+   With ``SYMMETRIC_CROP`` (``mode="quality"`` only) the margin is 5 px on both sides, and a square padded on
+   odd left-right padding is made one row larger, so that a photo's mirror image is cropped to the mirrored box.
 2. Square: the crop (h, w) is zero-padded on its short side to a square of side S = max(h, w),
    ``(S - min(h, w)) // 2`` pixels before it and the rest after it. In ``mode="quality"`` a person cut
    by the photo's border (the mask touches it: a portrait, a half body) keeps that cut on the square's
@@ -31,6 +33,14 @@ from ..engine.errors import RelightError
 
 MARGIN = 5
 MODES = ("quality", "reference")
+# mode="quality" places the box and the square alike on a photo and its mirror image: the margin on both sides of
+# the mask (the reference's exclusive end leaves 4 px after it) and, where padding the crop left-right is odd, a square
+# one row larger (below) so the left and right padding are equal; otherwise a mirror's crop sits a pixel apart (0.55
+# network pixels on the 290 x 508 example), which alone kept a mirrored photo from relighting to the mirrored result
+# once stage 1 and the face mesh are averaged (mirror31). mode="reference" keeps the reference's crop bit for bit.
+# On since mirror34 with the other three parts of the mirror-symmetric chain (relight_rt.relight.network
+# ``STAGE1_MIRROR``, ``STAGE2_MIRROR``, relight_rt.person.face_mesh ``MESH_FLIP``; docs/results_pending.md).
+SYMMETRIC_CROP = True
 
 
 def _by_four(fn, a: np.ndarray) -> np.ndarray:
@@ -81,12 +91,16 @@ class CropGeometry:
         if rows.size == 0:
             raise RelightError("mask is empty; expected the person in white")
         h_img, w_img = mask.shape[:2]
-        y0, y1 = max(int(rows[0]) - margin, 0), min(int(rows[-1]) + margin, h_img)
-        x0, x1 = max(int(cols[0]) - margin, 0), min(int(cols[-1]) + margin, w_img)
+        symmetric = SYMMETRIC_CROP and mode == "quality"
+        end = int(symmetric)  # the box's exclusive end one past the margin (symmetric) or on it (the reference)
+        y0, y1 = max(int(rows[0]) - margin, 0), min(int(rows[-1]) + end + margin, h_img)
+        x0, x1 = max(int(cols[0]) - margin, 0), min(int(cols[-1]) + end + margin, w_img)
         # with margin 0 the exclusive end would drop the last mask row/column; keep it inside the box
         y1, x1 = max(y1, int(rows[-1]) + 1), max(x1, int(cols[-1]) + 1)
         h, w = y1 - y0, x1 - x0
         side = max(h, w)
+        if symmetric and h > w:
+            side += (side - w) % 2  # equal padding left and right: the odd pixel goes to the rows (below)
         pad = (side - min(h, w)) // 2
         if mode == "quality":
             # a cut by the photo's border stays on the square's border (module docstring, step 2)

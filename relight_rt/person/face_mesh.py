@@ -50,6 +50,18 @@ MESH_REACH = 3.0  # ... and its mesh at most this many of its crop's sides acros
 # spans 0.60-0.77 of it: 185 meshes on Yale and people photos; one blown up 1000x had the cast shadow's lamp map ask
 # for 309 GB, one Inf point failed in OpenCV: fuzz8)
 CLOSE_UP_SCALE = 2.0  # no face in the box's square: look again at a square this many times as large (FaceMesh.faces)
+# the detector and landmarker shown their crop and its mirror image, the answers averaged (``FaceMesh.boxes``,
+# ``FaceMesh.landmarks``; the mirror's landmarks re-indexed by ``MIRROR_FILE``). Without it, on Extended Yale B's
+# close-ups the graphs read a face as turned 2.8 deg (median) the same way on a photo and on its mirror image (face31,
+# benchmarks/mesh_mirror.py). Alone it failed face31's criterion (Yale's odd de-light relerr 0.4069 -> 0.4186:
+# stage 1's own lean had been partly offset by the mesh's), and with stage 1's mirror averaging alone mirror31's; on
+# since mirror34 with all four parts of the mirror-symmetric chain (relight_rt.relight.network ``STAGE1_MIRROR``,
+# ``STAGE2_MIRROR``, relight_rt.image.crop ``SYMMETRIC_CROP``), c751cea's criterion met (docs/results_pending.md).
+# ``benchmarks/mesh_flip.py`` runs any benchmark with either on or off.
+MESH_FLIP = True
+MIRROR_FILE = Path(__file__).resolve().parents[1] / "data" / "face_mesh_mirror.txt"  # landmark i's partner on
+# the face's other half (the mid-line's its own): nearest mirrored landmark on the mean of 24 frontal meshes
+# (benchmarks/mesh_mirror.py --build-map)
 SMOOTH = 0.055  # normals smoothed over this fraction of the face's size (0.04: a hard nose edge, a dark blob)
 HOLE_SPREAD = 0.05  # the eyes' and mouth's normals: spread in from this fraction of the face's size around
 FEATHER = 0.25  # the face transport fades in over this fraction of the face's size inside the mesh's border
@@ -496,6 +508,22 @@ def head_normals(points: np.ndarray, shape: tuple[int, int]) -> tuple[np.ndarray
     return normals, _smooth_step(t * (1 - below)).astype(np.float32)
 
 
+def read_partners(path: Path = MIRROR_FILE) -> np.ndarray | None:
+    """``MIRROR_FILE``: (468,) int64, landmark i's partner on the face's other half (an involution; the mid-line's
+    landmarks their own); None, logged, where the file is absent or no such map (the meshes are then not
+    averaged with their mirror's)."""
+    try:
+        partner = np.loadtxt(path, dtype=np.int64, ndmin=1)
+    except (OSError, ValueError) as exc:
+        log.warning("%s: no face mesh symmetry (%s); meshes not averaged with their mirror's", path, exc)
+        return None
+    if partner.shape != (N_POINTS,) or partner.min() < 0 or partner.max() >= N_POINTS or \
+            (partner[partner] != np.arange(N_POINTS)).any():
+        log.warning("%s: expected %d partner indices, each its partner's partner; meshes not averaged", path, N_POINTS)
+        return None
+    return partner
+
+
 def _lifted(crop: np.ndarray, power: float) -> np.ndarray:
     """``crop`` (values in [0, 1]) raised to ``power`` as float32, a new array; ``crop`` itself for 1."""
     return crop if power == 1 else np.power(np.clip(crop, 0, 1), np.float32(power), dtype=np.float32)
@@ -512,6 +540,7 @@ class FaceMesh:
 
     def __init__(self, folder: Path, device: str = "cpu"):
         self.detector = self.mesh = self.triangles = None
+        self.partner = read_partners()
         files = [folder / f for f in (DETECTOR_FILE, MESH_FILE, TRIANGLES_FILE)]
         if not all(f.is_file() for f in files):
             return
@@ -556,37 +585,64 @@ class FaceMesh:
                                f"shape {rgb.shape}")  # fmt: skip
         if not (isinstance(lift, numbers.Real) and math.isfinite(lift) and lift > 0):
             raise RelightError(f"face search: lift must be a finite power > 0, got {lift!r}")
+        meshes = []
+        for found in self.boxes(rgb, box, lift):
+            pts = self.landmarks(rgb, Region.around(*found, scale=ROI_SCALE), lift)
+            if pts is not None:
+                meshes.append(pts)
+        return meshes
+
+    def boxes(self, rgb: np.ndarray, box: tuple[int, int, int, int], lift: float = 1.0) -> list[list[float]]:
+        """The detector's face boxes [x0, y0, x1, y1] (input pixels, best first) inside ``box`` (y0, y1, x0, x1):
+        the box's square first, else one ``CLOSE_UP_SCALE`` times as large (``faces``); ``rgb`` and ``lift`` as
+        ``faces`` takes them, checked there."""
         y0, y1, x0, x1 = box
+        found: list[list[float]] = []
         for scale in (1.0, CLOSE_UP_SCALE):
             region = Region.around(x0, y0, x1, y1, scale=scale)
             look = _lifted(crop_region(rgb, region, FACE_SIZE), lift)
             _check_finite(look)
             out = self.detector.run({"image": look.transpose(2, 0, 1)[None]})
+            seen = decode(out["boxes"][0], out["scores"][0])
+            if MESH_FLIP:  # the mirror's boxes mapped back join the photo's in the weighted merge
+                out = self.detector.run({"image": np.ascontiguousarray(look[:, ::-1].transpose(2, 0, 1)[None])})
+                seen += [(b[[2, 1, 0, 3]] * (-1, 1, -1, 1) + (1, 0, 1, 0), score)
+                         for b, score in decode(out["boxes"][0], out["scores"][0])]
             rx0, ry0, _, _ = region.box()
             found = [(np.array([rx0, ry0, rx0, ry0]) + fbox * region.side).tolist()
-                     for fbox, _score in weighted_nms(decode(out["boxes"][0], out["scores"][0]))]
+                     for fbox, _score in weighted_nms(seen)]
             # the wider look keeps only faces centred in the box (not a neighbour's beside it)
             if scale > 1:
                 found = [f for f in found if x0 <= (f[0] + f[2]) / 2 < x1 and y0 <= (f[1] + f[3]) / 2 < y1]
             if found:
                 break
-        meshes = []
-        for fx0, fy0, fx1, fy1 in found:
-            roi = Region.around(fx0, fy0, fx1, fy1, scale=ROI_SCALE)
-            crop = _lifted(crop_region(rgb, roi, MESH_SIZE), lift)
-            _check_finite(crop)
-            lm, flag = self.mesh.run(["landmarks", "face_flag"], {"image": crop.transpose(2, 0, 1)[None]})
-            if 1.0 / (1.0 + math.exp(-float(flag.reshape(-1)[0]))) < MIN_FLAG:
-                continue
-            pts = lm.reshape(N_POINTS, 3).astype(np.float64)
-            k = roi.side / MESH_SIZE  # the canvas pixel (u, v) has its centre at roi's corner + (u + 0.5) k
-            bx, by, _, _ = roi.box()
-            pts[:, 0] = bx + pts[:, 0] * k
-            pts[:, 1] = by + pts[:, 1] * k
-            pts[:, 2] *= k
-            across = float(np.ptp(pts, axis=0).max()) / roi.side
-            if not (np.isfinite(pts).all() and across <= MESH_REACH):  # no face's shape: every map drawn from it
-                log.debug("face mesh dropped: not finite, or %.3g crop sides across", across)  # is sized by it
-                continue
-            meshes.append(pts)
-        return meshes
+        return found
+
+    def landmarks(self, rgb: np.ndarray, roi: Region, lift: float = 1.0) -> np.ndarray | None:
+        """The landmarker's mesh on the square ``roi`` of ``rgb`` ((468, 3) x, y, z in input pixels; zeros past
+        the photo's edge); None where its face flag or the mesh's extent says no face."""
+        crop = _lifted(crop_region(rgb, roi, MESH_SIZE), lift)
+        _check_finite(crop)
+        lm, flag = self.mesh.run(["landmarks", "face_flag"], {"image": crop.transpose(2, 0, 1)[None]})
+        pts = lm.reshape(N_POINTS, 3).astype(np.float64)
+        prob = 1.0 / (1.0 + math.exp(-float(flag.reshape(-1)[0])))
+        if MESH_FLIP and self.partner is not None:  # the mirror's mesh mapped back, each landmark its partner's
+            lm, flag = self.mesh.run(["landmarks", "face_flag"],
+                                     {"image": np.ascontiguousarray(crop[:, ::-1].transpose(2, 0, 1)[None])})
+            other = lm.reshape(N_POINTS, 3).astype(np.float64)[self.partner]
+            other[:, 0] = MESH_SIZE - other[:, 0]
+            with np.errstate(invalid="ignore", over="ignore"):  # a graph's Inf: dropped below, as without it
+                pts = (pts + other) / 2
+            prob = (prob + 1.0 / (1.0 + math.exp(-float(flag.reshape(-1)[0])))) / 2
+        if prob < MIN_FLAG:
+            return None
+        k = roi.side / MESH_SIZE  # the landmarks are in the canvas's continuous coordinates (0 .. MESH_SIZE)
+        bx, by, _, _ = roi.box()
+        pts[:, 0] = bx + pts[:, 0] * k
+        pts[:, 1] = by + pts[:, 1] * k
+        pts[:, 2] *= k
+        across = float(np.ptp(pts, axis=0).max()) / roi.side
+        if not (np.isfinite(pts).all() and across <= MESH_REACH):  # no face's shape: every map drawn from it
+            log.debug("face mesh dropped: not finite, or %.3g crop sides across", across)  # is sized by it
+            return None
+        return pts

@@ -15,6 +15,7 @@ from ..image.color import REC709, colour_gradient, srgb_to_linear
 from ..image.compositing import Background, clean_edge_colour, over_box
 from ..image.foreground import estimate_foreground, nearest_colours
 from ..light.exposure import DISPLAY_GAMMA, knee
+from . import head_blend
 from .decomposition import Decomposition, Memo, RelightResult, intrinsic_layers, readonly
 from .factor import Factor
 from .look import (
@@ -596,6 +597,14 @@ class Composer:
         if "neutral" not in state:  # read-only already
             state["neutral"] = neutral_darks(photo_crop(dec), crop_origin(dec), solid_crop(dec))
         return state["neutral"]
+
+    def head_change(self, dec: Decomposition, light: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """What the head pass's blend does to the relit person's luminance under the exposed ``light`` (9, 3): (before,
+        after) (H, W) float32, input frame (relight_rt.relight.head_blend ``head_change``, on ``foreground``'s
+        colour); None without detail, a head pass or a blend."""
+        if not self.detail or dec.head is None:
+            return None
+        return head_blend.head_change(self.factor, dec, np.asarray(light, np.float32), self.foreground(dec)[0])
 
     def own_light(self, dec: Decomposition) -> tuple[np.ndarray, float]:
         """``own_light_sum`` of ``dec``'s own colour over its matte in the crop box, found once per Decomposition."""

@@ -69,7 +69,7 @@ from .cast_shadow import MeshView, shadow_factor
 from .decomposition import Decomposition, Memo, readonly
 from .detail import extend_outward, guided_upsample, unpremultiply, window
 from .exposure_meter import ExposureMeter
-from .face_pass import FacePass, feather
+from .face_pass import FacePass
 from .fill_edge import crop_part, soften
 from .look import shaded_skin, skin_chroma, tint_range
 from .shadow_fill import ShadowFill, handover
@@ -317,38 +317,24 @@ class Factor:
         return cast
 
     def shadow_layer(self, dec: Decomposition, light: np.ndarray) -> tuple[np.ndarray | None, float]:
-        """What the faces' cast shadows under ``light`` take of its shading, in the input frame, and what "auto" lifts
-        the light by for them: (depth, meter), depth (H, W) float32 in [0, 1] (1 - ``cast``: 0 where no shadow falls) or
-        None without one, meter ``ExposureMeter.meter_shadows``'s factor (1 without a shadow). The head pass's shadows
-        (``blend_head``) are blended in over its feathered box, as its gain is. For the studio's preview, which relights
-        without them (relight_rt.apps.studio): the final result's shading is its shading x (1 - depth).
+        """What the body pass's cast shadows under ``light`` take of its shading, in the input frame, and what "auto"
+        lifts the light by for them: (depth, meter), depth (H, W) float32 in [0, 1] (1 - ``cast``: 0 where no shadow
+        falls) or None without one, meter ``ExposureMeter.meter_shadows``'s factor (1 without a shadow). For the
+        studio's preview, which relights without them (relight_rt.apps.studio): the final result's shading is its
+        shading x (1 - depth) and, over the head pass's box, its change (the head pass's shadows in it: head_blend
+        ``head_change``).
         """
         light = np.asarray(light, np.float32)
         if not self.detail:
             return None, 1.0
-
-        def depth_of(d: Decomposition) -> np.ndarray | None:
-            own = self.own(d, with_residual=False)
-            cast = self.cast(d, own, light)
-            if cast is None:
-                return None
+        own = self.own(dec, with_residual=False)
+        cast = self.cast(dec, own, light)
+        depth = None
+        if cast is not None:
             y0, y1, x0, x1 = own["window"]
-            full = np.zeros(d.network_mask.shape, np.float32)
+            full = np.zeros(dec.network_mask.shape, np.float32)
             full[y0:y1, x0:x1] = 1 - cast
-            return np.clip(d.to_input(full), 0, 1)
-
-        depth = depth_of(dec)
-        head = dec.head
-        if head is not None and dec.head_box is not None:
-            on_head = depth_of(head)
-            if on_head is not None:
-                y0, y1, x0, x1 = dec.head_box
-                h_img, w_img = dec.geometry.frame
-                weight = feather(y1 - y0, x1 - x0, (y0 == 0, y1 == h_img, x0 == 0, x1 == w_img))
-                weight = weight * dec.mask[y0:y1, x0:x1]
-                depth = np.zeros(dec.geometry.frame, np.float32) if depth is None else depth  # depth_of's own
-                region = depth[y0:y1, x0:x1]
-                region += weight * (on_head - region)
+            depth = np.clip(dec.to_input(full), 0, 1)
         meter = 1.0
         if depth is not None:
             metered = self.meter.meter_shadows(dec, light)

@@ -1,7 +1,8 @@
 """The head pass's blend: the factor of a face stage 1 saw small (relight_rt.relight.face_pass), looked at again,
 blended into the body's relighting factor (relight_rt.relight.factor ``Factor.blend_head``), and what of it a sample
 of the relit person reads whatever the light (``grade_inputs``: the studio's background grade,
-relight_rt.relight.compose ``HeadBlend``).
+relight_rt.relight.compose ``HeadBlend``) or the relit person's luminance under one light (``head_change``: the
+studio's preview).
 
 Over the head pass's crop box the body's factor g is moved toward the head pass's h by the blend's weight w
 (``face_pass.feather`` over the head's box times the matte): g + w (level h - g). The head pass gives the shape of
@@ -122,3 +123,26 @@ def grade_inputs(dec: Decomposition, where: tuple, window: tuple[int, int, int, 
     on_head = np.concatenate([read(head_maps[..., i : i + 4]) for i in range(0, head_maps.shape[2], 4)], axis=2)
     skin = read(np.asarray(head.skin[vy0:vy1, vx0:vx1], np.float32))[..., 0]
     return weight, (skin * (weight > 0)).astype(np.float32), on_head.astype(np.float32)
+
+
+def head_change(factor, dec: Decomposition, light: np.ndarray, image: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray] | None:
+    """What the head pass's blend does to the relit person's luminance under the (exposed) ``light`` (9, 3): (before,
+    after), each (H, W) float32 in the input frame, the luminance of ``image`` (the person's colour in the crop box,
+    ``Composer.foreground``) times the body's relighting factor as the result takes it (``factor``: the Relighter's
+    relight_rt.relight.factor ``Factor``; its ``gain_and_fill`` without stage 2's residual, which the preview leaves
+    out too, the deep-shadow fill's share included) before and after ``blend_head``, 0 outside the crop box; None
+    where ``blend_head`` blends nothing. The studio's preview draws the person without the head pass and multiplies
+    its shading by after / before, both reduced to its size (relight_rt.apps.studio); the faces' cast shadows are in
+    both (the head pass's in after), so the preview's own cast-shadow layer is the body pass's alone
+    (``Factor.shadow_layer``)."""
+    where = head_region(dec)
+    if where is None or not blends(where):
+        return None
+    gain, fill = factor.gain_and_fill(dec, light, image)
+    (by0, by1, bx0, bx1), frame = dec.geometry.box, dec.geometry.frame
+    before, after = np.zeros(frame, np.float32), np.zeros(frame, np.float32)
+    before[by0:by1, bx0:bx1] = (image * gain) @ REC709
+    factor.blend_head(dec, gain, light, fill)
+    after[by0:by1, bx0:bx1] = (image * gain) @ REC709
+    return before, after

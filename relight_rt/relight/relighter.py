@@ -6,10 +6,9 @@ Pipeline (DESIGN.md §1, §4, §5)::
     new light L' ─► diffuse D = clip(albedo ⊙ max(0, T·L'), 0, 1) ─► stage 2 ─► relit (network frame)
     relit ─► back to the input's size and position ─► composited over the background
 
-The Relighter orders the stages and holds the ONNX sessions; the stages live in relight_rt.relight: the
-Decomposition (``decomposition``), the face pass (``faces``), the relighting factor with full-resolution detail
-and the exposure (``factor``), the look's tone and colour rules (``look``), the person put back over a backdrop
-(``compose``) and a group relit person by person (``people``).
+The Relighter orders the stages and holds the ONNX sessions; the stages live in relight_rt.relight: the Decomposition
+(``decomposition``), the face pass (``faces``), the relighting factor with full-resolution detail and the exposure
+(``factor``), the look (``look``), the person over a backdrop (``compose``) and a group person by person (``people``).
 
 Without ``stage2.onnx`` the output is the diffuse image only: ``Relighter.diffuse_only`` is True, a
 warning is logged at load, and ``RelightResult.diffuse_only`` says so.
@@ -116,8 +115,7 @@ class Relighter:
         self._chain = None  # CUDA: stage 1 → shading → stage 2 without host round trips
         if self.stage1.on_cuda and (self.stage2 is None or self.stage2.on_cuda):
             self._chain = DeviceChain(self.stage1, self.stage2, "cuda", config.device_id)
-        # What this Relighter prepares for a Decomposition (device copies, reconstruction, window), kept
-        # here rather than on the (plain-data) Decomposition, and dropped with it; the stages that use it.
+        # what it prepares for a Decomposition (device copies, window), beside the (plain-data) Decomposition, not on it
         self._memo = Memo()
         self._faces = FacePass(self.models_dir)  # face normals (relight_rt.person.face_mesh), loaded on first use
         self._network = Network(self.stage1, self.stage2, self._chain, self._memo, self._faces)
@@ -291,10 +289,9 @@ class Relighter:
         """Any accepted light argument → (9, 3) RGB SH light: the one place where a light is resolved.
 
         Accepted: an array (9, 3); a ``Decomposition`` (its estimated light, taken as white as the photo's own
-        light is: "light me like that photo");
-        a :class:`relight_rt.light.spec.LightSpec`; a string or path, read by the one rule of
-        relight_rt.light.spec (light file, environment map, photo of a person, or preset name). A photo's light
-        is estimated by this Relighter's stage 1; every other source needs no model (``LightSpec.resolve``).
+        light is: "light me like that photo"); a :class:`relight_rt.light.spec.LightSpec`; a string or path, read
+        by the one rule of relight_rt.light.spec (light file, environment map, photo of a person, or preset name):
+        a photo's light is estimated by this Relighter's stage 1, any other needs no model (``LightSpec.resolve``).
 
         Args:
             light: as above.
@@ -331,11 +328,15 @@ class Relighter:
         return self._composer.grade_inputs(dec)
 
     def cast_shadows(self, dec: Decomposition, light) -> tuple[np.ndarray | None, float]:
-        """The faces' cast shadows the final result puts under ``light`` (any light ``resolve_light`` takes) and the
-        exposure's lift for them (relight_rt.relight.factor ``Factor.shadow_layer``): (depth (H, W) float32 in [0, 1]
-        in the input frame, 1 - the factor on the shading, or None without a face mesh's shadow; meter). The studio's
-        preview draws them (relight_rt.apps.studio)."""
+        """The body pass's cast shadows the final result puts under ``light`` (any light ``resolve_light`` takes) and
+        the exposure's lift for them (``Factor.shadow_layer``): (depth (H, W) float32 in [0, 1], input frame, 1 - the
+        factor on the shading, or None without one; meter). The studio's preview draws them (relight_rt.apps.studio)."""
         return self._factor.shadow_layer(dec, self.resolve_light(light))
+
+    def head_change(self, dec: Decomposition, light) -> tuple[np.ndarray, np.ndarray] | None:
+        """The head pass's change of the relit person's luminance under ``light`` exposed "auto", for the studio's
+        preview (compose ``Composer.head_change``; None: no head pass blended)."""
+        return self._composer.head_change(dec, self._factor.meter.expose(dec, self.resolve_light(light), "auto"))
 
     def _prepare(self, image, mask) -> Decomposition:
         if isinstance(image, Decomposition):

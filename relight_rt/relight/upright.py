@@ -68,6 +68,36 @@ def turned_back(out: dict[str, np.ndarray], quarters: int) -> dict[str, np.ndarr
     return back
 
 
+# the picture mirrored left-right is the scene mirrored y -> -y (the picture's right is +y, DESIGN.md §3): the
+# coefficients odd in y (k = 1: y, 4: xy, 5: yz) change sign, the others keep it; a light L seen in the mirror is
+# MIRROR_SIGNS * L and a transport T(p) is MIRROR_SIGNS * T(mirrored p), so their shading is the original's mirrored
+MIRROR_SIGNS = np.array([1.0, -1.0, 1.0, 1.0, -1.0, -1.0, 1.0, 1.0, 1.0])
+
+
+def mirror_picture(a: np.ndarray, axis: int = 1) -> np.ndarray:
+    """``a`` mirrored left-right (its columns, ``axis``, reversed), a new contiguous array."""
+    return np.ascontiguousarray(np.flip(a, axis))
+
+
+def mirror_averaged(out: dict[str, np.ndarray], mirrored: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Stage 1's answers for a picture averaged with its answers for the picture mirrored left-right, mapped back.
+
+    Args:
+        out, mirrored: "albedo" (3, R, R), "skin" (1, R, R), "transport" (9, R, R) channel-first and "light" (9, 3):
+            stage 1's outputs for the picture and for its mirror image.
+
+    Returns:
+        The same keys, float32: the mean of ``out`` and ``mirrored`` mapped back (images mirrored, the transport's
+        and the light's coefficients times ``MIRROR_SIGNS``). A picture and its mirror image get each other's answer
+        mirrored: the result does not depend on which way the picture faces.
+    """
+    signs = MIRROR_SIGNS.astype(np.float32)
+    back = {k: mirror_picture(mirrored[k], 2) for k in STAGE1_IMAGES}
+    back["transport"] = back["transport"] * signs[:, None, None]
+    back["light"] = np.asarray(mirrored["light"], np.float32) * signs[:, None]
+    return {k: ((np.asarray(out[k], np.float32) + back[k]) * np.float32(0.5)).astype(np.float32) for k in back}
+
+
 # ------------------------------------------------------------------------------------------ which way is up
 
 LONG_BODY = 1.5  # the matte's long axis over its short one (from its second moments) from which it is a body's length

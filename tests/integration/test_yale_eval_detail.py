@@ -73,3 +73,46 @@ def test_lamp_mix_has_the_asked_direction_and_directionality_and_true_is_yale_s_
     assert abs(true_d - 0.825) < 0.001  # a point lamp with 0.05 ambient
     assert np.allclose(ye.lamp_mix(direction, true_d), lamp)
     assert np.allclose(ye.lamp_mix(direction, 1.0), lamp - ye.lights.ambient(ye.AMBIENT)[:, 0])  # the lamp alone
+
+
+def test_the_mirrored_set_reads_the_photo_from_the_other_side_flipped(load_benchmark, tmp_path, monkeypatch):
+    """yale_eval ``--mirror``: the photo for azimuth a is the one lit from -a (Yale's negative azimuth lights the
+    image's right), flipped left-right, so its lit side is again the side azimuth a names; the frontal one stays."""
+    ye = load_benchmark("yale_eval")
+    (tmp_path / "yaleB01").mkdir()
+    lit_right = np.zeros((6, 8), np.uint8)
+    lit_right[:, 4:] = 200  # lit from azimuth -50: the image's right bright
+    cv2.imwrite(str(tmp_path / "yaleB01" / "yaleB01_P00A-050E+00.png"), lit_right)
+    monkeypatch.setattr(ye, "MIRROR", False)
+    plain = ye.read_grey(ye.find_file(tmp_path, "yaleB01", -50))
+    assert plain[:, 4:].mean() > 0.7 and plain[:, :4].max() == 0
+    monkeypatch.setattr(ye, "MIRROR", True)
+    assert ye.find_file(tmp_path, "yaleB01", 50).name == "yaleB01_P00A-050E+00.png"
+    assert ye.find_file(tmp_path, "yaleB01", 0).name == "yaleB01_P00A+000E+00.png"
+    mirrored = ye.read_grey(ye.find_file(tmp_path, "yaleB01", 50))  # azimuth +50 lights the image's left
+    assert mirrored[:, :4].mean() > 0.7 and mirrored[:, 4:].max() == 0
+
+
+def test_yale_halves_pools_a_plain_and_a_mirrored_run(load_benchmark, tmp_path):
+    import json
+
+    yh = load_benchmark("yale_halves")
+
+    def run(name, prefix, relerr):
+        rows = [{"id": f"{prefix}relight:yaleB02:+0->{a:+d}", "task": "relight", "subject": "yaleB02",
+                 "ours": {"corr": 0.9, "contrast": 0.8, "relerr": relerr}} for a in (-25, 25)]
+        path = tmp_path / name / "yale.json"
+        path.parent.mkdir()
+        path.write_text(json.dumps({"pairs": rows}))
+        return path
+
+    plain, mirrored = run("plain", "", 0.4), run("mirrored", "mirror:", 0.6)
+    pooled = yh.load(type(plain)(f"{plain}+{mirrored}"))
+    assert len(pooled) == 4
+    assert yh.medians(pooled, "relight", "all")["relerr"] == 0.5
+    try:
+        yh.load(type(plain)(f"{plain}+{plain}"))
+    except ValueError:
+        pass
+    else:
+        raise AssertionError("a run pooled with itself must be refused")

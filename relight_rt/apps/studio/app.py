@@ -11,7 +11,8 @@ Routes (no route takes a filesystem path; ids are random tokens of the server's 
     POST /api/render               {"light": 27 numbers, "exposure": ..., "grade_background": bool}
                                    -> {"id", "seconds", "command", ...}
     POST /api/shadow               {"light": 27 numbers} -> the faces' cast shadows the render puts under it, for the
-                                   preview: {"box": [y0, y1, x0, x1], "meter", "depth": base64 uint8} (Studio.shadow)
+                                   preview: {"box": [y0, y1, x0, x1], "meter", "depth": base64 uint8, "head_box",
+                                   "head": base64 float32, the head pass's change} (Studio.shadow)
     GET  /api/result/ID.png        a render's PNG at full resolution (?download=1: as an attachment)
     GET  /api/result/ID/light.npy  its light (9, 3) float32 RGB; light.json likewise
     POST /api/envmap               raw body: an .hdr / PNG / JPEG equirectangular map -> {"light"}
@@ -289,7 +290,8 @@ def create_app(studio: Studio, allowed_hosts: list[str] | None = None, budget: B
 
         body = await _json_object(request, "shadow", '{"light": [27 numbers]}')
         out = await run_in_threadpool(studio.shadow, body.get("light"))
-        return {"box": out["box"], "meter": out["meter"], "depth": base64.b64encode(out["depth"]).decode("ascii")}
+        return {"box": out["box"], "meter": out["meter"], "depth": base64.b64encode(out["depth"]).decode("ascii"),
+                "head_box": out["head_box"], "head": base64.b64encode(out["head"]).decode("ascii")}
 
     @app.post("/api/panorama-view")
     async def panorama_view(request: Request):

@@ -264,6 +264,16 @@ def _display_size(h: int, w: int, max_pixels: int) -> tuple[int, int]:
     return max(2, round(h * s)), max(2, round(w * s))
 
 
+def _box_of(where: np.ndarray) -> list[int]:
+    """[y0, y1, x0, x1] the box of ``where``'s True pixels (ends exclusive); [] without one."""
+    ys, xs = np.nonzero(where)
+    return [int(ys.min()), int(ys.max()) + 1, int(xs.min()), int(xs.max()) + 1] if ys.size else []
+
+
+def _slices(box: list[int]) -> tuple[slice, slice]:
+    return slice(box[0], box[1]), slice(box[2], box[3])
+
+
 def _resize(a: np.ndarray, size: tuple[int, int]) -> np.ndarray:
     h, w = size
     if a.shape[:2] == (h, w):
@@ -439,11 +449,15 @@ class Studio:
         return guarded(exposed, exp, self._highlight)
 
     def shadow(self, light) -> dict:
-        """The faces' cast shadows that the final result puts under ``light`` (27 numbers; relight_rt.relight.relighter
-        ``Relighter.cast_shadows``), at the preview's size, for the page to draw: {"box": [y0, y1, x0, x1] (preview
-        pixels; empty: no shadow), "meter": the exposure's lift for them (``preview_light``), "depth": bytes, uint8,
-        255 x (1 - the factor on the shading) over the box, row-major}. Kept for the last ``SHADOW_CACHE`` lights
-        (the page asks again for a light it comes back to); a runtime without them answers no shadow."""
+        """What the final result does under ``light`` (27 numbers) that the preview's layers leave out, at the
+        preview's size, for the page to draw: the body pass's cast shadows (relight_rt.relight.relighter
+        ``Relighter.cast_shadows``) and the head pass's change (``Relighter.head_change``). {"box": [y0, y1, x0, x1]
+        (preview pixels; empty: no shadow), "meter": the exposure's lift for them (``preview_light``), "depth": bytes,
+        uint8, 255 x (1 - the factor on the shading) over the box, row-major, "head_box": the same for the head
+        pass's change (empty: none), "head": bytes, float32 little-endian, the factor it puts on the shading there
+        (the relit person's luminance with the head pass over without, each reduced to the preview's pixels)}. Kept
+        for the last ``SHADOW_CACHE`` lights (the page asks again for a light it comes back to); a runtime without
+        them answers none."""
         lit = request_light(light)
         key = lit.tobytes()
         with self._lock:
@@ -453,15 +467,21 @@ class Studio:
                 return hit
             find = getattr(self.relighter, "cast_shadows", None)
             depth, meter = find(self.dec, lit) if find is not None else (None, 1.0)
-            hit = {"box": [], "meter": float(meter), "depth": b""}
+            hit = {"box": [], "meter": float(meter), "depth": b"", "head_box": [], "head": b""}
+            size = (self._layers["height"], self._layers["width"])
             if depth is not None:
-                size = (self._layers["height"], self._layers["width"])
                 q = np.rint(np.clip(_resize(depth[..., None], size)[..., 0], 0, 1) * 255).astype(np.uint8)
-                ys, xs = np.nonzero(q)
-                if ys.size:
-                    y0, y1, x0, x1 = int(ys.min()), int(ys.max()) + 1, int(xs.min()), int(xs.max()) + 1
-                    hit = {"box": [y0, y1, x0, x1], "meter": float(meter),
-                           "depth": np.ascontiguousarray(q[y0:y1, x0:x1]).tobytes()}
+                box = _box_of(q != 0)
+                if box:
+                    hit["box"], hit["depth"] = box, np.ascontiguousarray(q[_slices(box)]).tobytes()
+            change = getattr(self.relighter, "head_change", None)
+            levels = change(self.dec, lit) if change is not None else None
+            if levels is not None:  # the ratio of the two luminances each summed over a preview pixel
+                before, after = (_resize(a[..., None], size)[..., 0] for a in levels)
+                ratio = np.divide(np.maximum(after, 0), before, out=np.ones(size, np.float32), where=before > 1e-4)
+                box = _box_of(np.abs(ratio - 1) > 1e-4)
+                if box:
+                    hit["head_box"], hit["head"] = box, np.ascontiguousarray(ratio[_slices(box)], "<f4").tobytes()
             self._shadows[key] = hit
             while len(self._shadows) > SHADOW_CACHE:
                 self._shadows.popitem(last=False)
@@ -671,12 +691,15 @@ def unpack_layers(data: bytes, meta: dict) -> dict:
 
 def shadow_plane(answer: dict, height: int, width: int) -> np.ndarray:
     """(height, width) float32 the factor ``Studio.shadow``'s ``answer`` puts on the preview's shading (1 outside
-    its box): what the page draws with."""
+    its boxes): 1 - the cast shadows' depth times the head pass's change; what the page draws with."""
     plane = np.ones((height, width), np.float32)
     if answer["box"]:
         y0, y1, x0, x1 = answer["box"]
         depth = np.frombuffer(answer["depth"], np.uint8).reshape(y1 - y0, x1 - x0).astype(np.float32) / 255
         plane[y0:y1, x0:x1] = 1 - depth
+    if answer.get("head_box"):
+        y0, y1, x0, x1 = answer["head_box"]
+        plane[y0:y1, x0:x1] *= np.frombuffer(answer["head"], "<f4").reshape(y1 - y0, x1 - x0)
     return plane
 
 

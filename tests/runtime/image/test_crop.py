@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from relight_rt import RelightError
+from relight_rt.image import crop as crop_module
 from relight_rt.image.crop import CropGeometry
 
 
@@ -55,12 +56,42 @@ def test_reference_mode_matches_the_reference_path_exactly(shape, box):
     np.testing.assert_array_equal(geom.to_network(mask), want_m)
 
 
-def test_margin_is_5_before_and_4_after_like_the_reference():
-    geom = CropGeometry.from_mask(blob(100, 100, (40, 60, 30, 50)), 64)
+def test_margin_is_5_before_and_4_after_like_the_reference(monkeypatch):
+    geom = CropGeometry.from_mask(blob(100, 100, (40, 60, 30, 50)), 64, mode="reference")
     assert geom.box == (35, 64, 25, 54)  # last mask row 59 → exclusive end 64
+    monkeypatch.setattr(crop_module, "SYMMETRIC_CROP", False)
+    assert CropGeometry.from_mask(blob(100, 100, (40, 60, 30, 50)), 64).box == (35, 64, 25, 54)
+    monkeypatch.setattr(crop_module, "SYMMETRIC_CROP", True)  # quality: 5 px on both sides
+    assert CropGeometry.from_mask(blob(100, 100, (40, 60, 30, 50)), 64).box == (35, 65, 25, 55)
+    assert CropGeometry.from_mask(blob(100, 100, (40, 60, 30, 50)), 64, mode="reference").box == (35, 64, 25, 54)
 
 
-def test_padding_is_centred_on_the_short_side():
+@pytest.mark.parametrize("shape", [(200, 120), (201, 97), (90, 300), (64, 64), (120, 77)])
+@pytest.mark.parametrize("symmetric", [False, True])
+def test_a_mirrored_mask_is_cropped_to_the_mirrored_square(shape, symmetric, monkeypatch):
+    """SYMMETRIC_CROP: a photo's mirror image reaches the network as the photo's square mirrored, to float rounding
+    (the margin alike on both sides, left-right padding equal); the reference's crop sits a pixel apart on some."""
+    monkeypatch.setattr(crop_module, "SYMMETRIC_CROP", symmetric)
+    rng = np.random.default_rng(shape[0] * shape[1])
+    exact = []
+    for _ in range(12):
+        h, w = shape
+        y0, x0 = int(rng.integers(0, h // 3)), int(rng.integers(0, w // 3))
+        box = (y0, int(rng.integers(y0 + 5, h + 1)), x0, int(rng.integers(x0 + 5, w + 1)))
+        img = rng.random(shape + (3,)).astype(np.float32)
+        mask = blob(h, w, box)
+        geom = CropGeometry.from_mask(mask, 64)
+        mir = CropGeometry.from_mask(mask[:, ::-1], 64)
+        same = np.abs(mir.to_network(img[:, ::-1]) - geom.to_network(img)[:, ::-1]).max() < 1e-5
+        exact.append(same)
+    if symmetric:
+        assert all(exact)
+    else:
+        assert not all(exact) or shape == (64, 64)
+
+
+def test_padding_is_centred_on_the_short_side(monkeypatch):
+    monkeypatch.setattr(crop_module, "SYMMETRIC_CROP", False)
     tall = CropGeometry.from_mask(blob(300, 300, (10, 210, 100, 150)), 64)  # crop 209 x 59
     assert tall.crop_shape == (209, 59) and tall.side == 209 and tall.offset == (0, 75)
     wide = CropGeometry.from_mask(blob(300, 300, (100, 150, 10, 210)), 64)

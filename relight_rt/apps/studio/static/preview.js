@@ -98,7 +98,7 @@ uniform sampler2D t1;  // T4..T7
 uniform sampler2D t2;  // T8, albedo r, g, b (premultiplied)
 uniform sampler2D t3;  // background r, g, b, mask
 uniform sampler2D t4;  // skin chroma r, g, b (in [-1, 1]), skin weight
-uniform sampler2D t5;  // the faces' cast shadows: the factor on the shading (1: none; setShadow)
+uniform sampler2D t5;  // the faces' cast shadows x the head pass's change: the factor on the shading (1: none; setShadow)
 uniform vec3 L[9];
 uniform float W[9];  // the photo's own light, white (one column)
 uniform float G;  // the shaded-skin exponent

@@ -49,8 +49,9 @@ function exposureValue() {
   return e.mode === "physical" ? "physical" : e.mode === "ev" ? e.ev : "auto";
 }
 
-// The faces' cast shadows the final result puts under `light` (the server's, Studio.shadow), when they are known for
-// that light: {key, plane (the factor on the preview's shading, height x width), meter (the exposure's lift)}.
+// The faces' cast shadows the final result puts under `light` and its head pass's change (the server's, Studio.shadow),
+// when they are known for that light: {key, plane (the factor on the preview's shading, height x width), meter (the
+// exposure's lift)}.
 function shadowFor(light) {
   const key = light.join(",");
   return state.shadow && state.shadow.key === key ? state.shadow : null;
@@ -83,6 +84,16 @@ async function fetchShadow() {
         plane = new Float32Array(w * h).fill(1);
         for (let y = y0; y < y1; y++) {
           for (let x = x0; x < x1; x++) plane[y * w + x] = 1 - depth[(y - y0) * bw + (x - x0)] / 255;
+        }
+      }
+      // the head pass's change of the person's luminance (float32 little-endian over its box), on the same plane
+      if (out.head_box && out.head_box.length === 4) {
+        const [y0, y1, x0, x1] = out.head_box, bw = x1 - x0;
+        const bytes = Uint8Array.from(atob(out.head), (c) => c.charCodeAt(0));
+        const change = new DataView(bytes.buffer);
+        plane = plane ?? new Float32Array(w * h).fill(1);
+        for (let y = y0; y < y1; y++) {
+          for (let x = x0; x < x1; x++) plane[y * w + x] *= change.getFloat32(4 * ((y - y0) * bw + (x - x0)), true);
         }
       }
       state.shadow = { key, plane, meter: out.meter };

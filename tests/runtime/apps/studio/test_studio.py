@@ -588,7 +588,7 @@ def test_shadow_layer_is_the_final_results_at_the_previews_size(photo, models_di
     plain = Studio(photo, None, "original", relighter, preview_pixels=4096, models=models_dir)
     light = lights.preset("window-left").astype(np.float32)
     none = plain.shadow(light.tolist())
-    assert none == {"box": [], "meter": 1.0, "depth": b""}  # the test models have no face mesh
+    assert none == {"box": [], "meter": 1.0, "depth": b"", "head_box": [], "head": b""}  # no face mesh, no head
     calls = []
     h, w = plain.dec.image.shape[:2]
     monkeypatch.setattr(relighter, "cast_shadows", lambda dec, lit: calls.append(lit) or (_disc_depth(h, w), 1.25))
@@ -635,10 +635,43 @@ def test_preview_picture_darkens_only_where_the_shadow_falls(studio):
 REC709_ = np.array([0.2126, 0.7152, 0.0722], np.float32)
 
 
+def test_the_head_pass_change_is_drawn_as_the_ratio_of_the_reduced_luminances(photo, models_dir, monkeypatch):
+    """``Studio.shadow``'s head pass's change (``Relighter.head_change``: the relit person's luminance before and
+    after the head pass's blend, here two planes the test sets): both reduced to the preview's pixels, then divided
+    (1 where no luminance is left), cut to the box where it is not 1, float32; ``shadow_plane`` puts it on the cast
+    shadows' factor, both where they overlap."""
+    from relight_rt.apps.studio import core
+
+    relighter = relight_rt.open(RuntimeConfig(models=models_dir, device="cpu"))
+    probe = Studio(photo, None, "original", relighter, preview_pixels=4096, models=models_dir)
+    h, w = probe.dec.image.shape[:2]
+    before = np.zeros((h, w), np.float32)
+    before[: h // 2] = 0.4  # the crop box: the upper half
+    after = before.copy()
+    disc = _disc_depth(h, w, 1.0) > 0
+    after[disc] *= 0.5  # the head pass darkens a disc by half ...
+    after[: h // 10, : w // 10] = 0.0  # ... and one corner to black
+    monkeypatch.setattr(relighter, "cast_shadows", lambda dec, lit: (_disc_depth(h, w, 0.6), 1.0))
+    monkeypatch.setattr(relighter, "head_change", lambda dec, lit: (before, after))
+    studio = Studio(photo, None, "original", relighter, preview_pixels=4096, models=models_dir)
+    meta = studio.info()["preview"]
+    size = (meta["width"], meta["height"])
+    answer = studio.shadow(lights.preset("rim").ravel().tolist())
+    assert answer["head_box"] and len(answer["head"]) == 4 * np.prod(np.diff(answer["head_box"])[::2])
+    small_before, small_after = (cv2.resize(a, size, interpolation=cv2.INTER_AREA) for a in (before, after))
+    change = np.where(small_before > 1e-4, small_after / np.maximum(small_before, 1e-4), 1)
+    cast = 1 - cv2.resize(_disc_depth(h, w, 0.6), size, interpolation=cv2.INTER_AREA)
+    plane = core.shadow_plane(answer, meta["height"], meta["width"])
+    np.testing.assert_allclose(plane, cast * change, atol=0.5 / 255 + 1e-5)
+    centre = plane[int(0.4 * meta["height"]), meta["width"] // 2]
+    assert centre == pytest.approx(0.4 * 0.5, abs=0.01) and plane[-1, -1] == 1  # below the crop box: 1
+    assert plane[1, 1] == 0  # the black corner
+
+
 def test_route_shadow(client, studio):
     light = lights.preset("window-left").astype(np.float32)
     out = client.post("/api/shadow", json={"light": light.tolist()}).json()
-    assert out == {"box": [], "meter": 1.0, "depth": ""}
+    assert out == {"box": [], "meter": 1.0, "depth": "", "head_box": [], "head": ""}
     res = client.post("/api/shadow", json={"light": [1, 2]})
     assert res.status_code == 400 and "27 numbers" in res.json()["error"]
 
