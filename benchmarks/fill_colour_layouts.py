@@ -37,19 +37,27 @@ SKIN = np.array([0.62, 0.47, 0.40], np.float32)
 GREY = np.array([0.30, 0.30, 0.30], np.float32)
 
 
-def chroma_error(relighter, own_light, top: int, edge: int, material: str) -> float:
-    """The shadow's chroma error beside the green in the layout (``top``, ``edge``) (module docstring)."""
-    shade = GREY if material == "black" else 0.5 * SKIN
+def relit_strips(relighter, shadowed: tuple[np.ndarray, np.ndarray], own_light: np.ndarray, top: int = 20,
+                 edge: int = 40) -> np.ndarray:
+    """The scene (module docstring; tests/runtime/relight/test_fill_colour.py relights the same): a person (rows
+    ``top``-139, x 20-79) lit green on its left (x < ``edge``), a deep shadow of albedo ``shadowed[1]`` 20 px wide
+    (photo ``shadowed[0]``), lit skin on its right; relit under twice ``own_light`` (white)."""
     h, w = 150, 100
     mask = np.zeros((h, w), np.float32)
     mask[top:140, 20:80] = 1
     photo = np.broadcast_to(SKIN, (h, w, 3)).copy()
     albedo = photo.copy()
     photo[:, :edge] = albedo[:, :edge] = GREEN
-    photo[:, edge : edge + 20], albedo[:, edge : edge + 20] = 0.01 * shade, shade
+    photo[:, edge : edge + 20], albedo[:, edge : edge + 20] = shadowed
     dec = relighter.decompose(photo, mask)
     dec = replace(dec, albedo_chw=relighter.decompose(albedo, mask).albedo_chw)
-    out = relighter.relight(dec, 2 * own_light, exposure="physical")
+    return relighter.relight(dec, 2 * own_light, exposure="physical")
+
+
+def chroma_error(relighter, own_light, top: int, edge: int, material: str) -> float:
+    """The shadow's chroma error beside the green in the layout (``top``, ``edge``) (module docstring)."""
+    shade = GREY if material == "black" else 0.5 * SKIN
+    out = relit_strips(relighter, (0.01 * shade, shade), own_light, top, edge)
     mean = out[40:120, edge + 3 : edge + 9].reshape(-1, 3).mean(axis=0)
     want = np.ones(3) if material == "black" else SKIN / float(SKIN @ REC709)
     return float(np.abs(mean / float(mean @ REC709) - want).max())

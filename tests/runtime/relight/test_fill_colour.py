@@ -5,7 +5,6 @@ green shirt took the shirt's green under ``front``).
 The relighter's tests use the analytic stage 1 (tests/_graphs.py), which reads the photo as its albedo; the
 Decomposition is given the albedo of the scene without its shadow, as in test_shadow_fill.py."""
 
-from dataclasses import replace
 
 import cv2
 import numpy as np
@@ -113,21 +112,14 @@ def relighter(models_dir):
     return relight_rt.open(RuntimeConfig(models=models_dir, device="cpu"))
 
 
-def relit_strips(relighter, shadowed: tuple[np.ndarray, np.ndarray], top: int = 20, edge: int = 40) -> np.ndarray:
-    """A person (rows ``top``-139, x 20-79) lit green on its left (x < ``edge``), a deep shadow of albedo
-    ``shadowed[1]`` 20 px wide (photo ``shadowed[0]``), lit skin on its right; relit under twice the photo's own light
-    (white). The top row sets the crop's size, so the network grid's scale and phase; the edge, where the green's
-    border falls on that grid."""
-    h, w = 150, 100
-    mask = np.zeros((h, w), np.float32)
-    mask[top:140, 20:80] = 1
-    photo = np.broadcast_to(SKIN, (h, w, 3)).copy()
-    albedo = photo.copy()
-    photo[:, :edge] = albedo[:, :edge] = GREEN
-    photo[:, edge : edge + 20], albedo[:, edge : edge + 20] = shadowed
-    dec = relighter.decompose(photo, mask)
-    dec = replace(dec, albedo_chw=relighter.decompose(albedo, mask).albedo_chw)
-    return relighter.relight(dec, 2 * OWN_LIGHT, exposure="physical")
+@pytest.fixture(scope="module")
+def relit_strips(load_benchmark):
+    """benchmarks/fill_colour_layouts.py's scene: a person (rows ``top``-139, x 20-79) lit green on its left
+    (x < ``edge``), a deep shadow of albedo ``shadowed[1]`` 20 px wide (photo ``shadowed[0]``), lit skin on its right;
+    relit under twice the photo's own light (white). The top row sets the crop's size, so the network grid's scale and
+    phase; the edge, where the green's border falls on that grid."""
+    scene = load_benchmark("fill_colour_layouts").relit_strips
+    return lambda relighter, shadowed, top=20, edge=40: scene(relighter, shadowed, OWN_LIGHT, top, edge)
 
 
 def chroma(pixels: np.ndarray) -> np.ndarray:
@@ -137,7 +129,8 @@ def chroma(pixels: np.ndarray) -> np.ndarray:
 
 @pytest.mark.parametrize("top", range(17, 25))
 @pytest.mark.parametrize("material", ["black", "skin"])
-def test_the_relit_fill_takes_its_own_materials_colour_wherever_the_grid_falls(relighter, monkeypatch, material, top):
+def test_the_relit_fill_takes_its_own_materials_colour_wherever_the_grid_falls(relighter, relit_strips, monkeypatch,
+                                                                               material, top):
     """A black shadow beside the lit green stays grey under a white light (the plain mean made it green); a skin
     shadow between the green and the lit skin takes the lit skin's colour. For every top row 17-24 and green edge
     36-44 (benchmarks/fill_colour_layouts.py): a network pixel straddling the shadow's edge, its albedo mostly the
