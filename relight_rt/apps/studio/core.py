@@ -455,7 +455,8 @@ class Studio:
         (preview pixels; empty: no shadow), "meter": the exposure's lift for them (``preview_light``), "depth": bytes,
         uint8, 255 x (1 - the factor on the shading) over the box, row-major, "head_box": the same for the head
         pass's change (empty: none), "head": bytes, float32 little-endian, the factor it puts on the shading there
-        (the relit person's luminance with the head pass over without, each reduced to the preview's pixels)}. Kept
+        (``_head_factor``: the relit person's luminance with the head pass against without, each reduced to the
+        preview's pixels, carried into the preview's own luminance)}. Kept
         for the last ``SHADOW_CACHE`` lights (the page asks again for a light it comes back to); a runtime without
         them answers none."""
         lit = request_light(light)
@@ -476,16 +477,39 @@ class Studio:
                     hit["box"], hit["depth"] = box, np.ascontiguousarray(q[_slices(box)]).tobytes()
             change = getattr(self.relighter, "head_change", None)
             levels = change(self.dec, lit) if change is not None else None
-            if levels is not None:  # the ratio of the two luminances each summed over a preview pixel
+            if levels is not None:  # the two luminances each reduced to a preview pixel
                 before, after = (_resize(a[..., None], size)[..., 0] for a in levels)
-                ratio = np.divide(np.maximum(after, 0), before, out=np.ones(size, np.float32), where=before > 1e-4)
-                box = _box_of(np.abs(ratio - 1) > 1e-4)
+                box = _box_of(np.abs(after - before) > 1e-4)
                 if box:
-                    hit["head_box"], hit["head"] = box, np.ascontiguousarray(ratio[_slices(box)], "<f4").tobytes()
+                    cast = shadow_plane(hit, *size)[_slices(box)] if hit["box"] else None
+                    ratio = self._head_factor(lit, float(meter), box, before[_slices(box)], after[_slices(box)], cast)
+                    inner = _box_of(np.abs(ratio - 1) > 1e-4)
+                    if inner:
+                        box = [box[0] + inner[0], box[0] + inner[1], box[2] + inner[2], box[2] + inner[3]]
+                        hit["head_box"] = box
+                        hit["head"] = np.ascontiguousarray(ratio[_slices(inner)], "<f4").tobytes()
             self._shadows[key] = hit
             while len(self._shadows) > SHADOW_CACHE:
                 self._shadows.popitem(last=False)
         return hit
+
+    def _head_factor(self, light: np.ndarray, meter: float, box: list[int], before: np.ndarray, after: np.ndarray,
+                     cast: np.ndarray | None) -> np.ndarray:
+        """The factor on the preview's shading over ``box`` (preview pixels) that stands for the head pass's change
+        of the person's luminance from ``before`` to ``after`` (``shadow``; ``cast``: the body's cast-shadow factor
+        there, None: none). Of the two ways to carry the change into the preview, its ratio after / before and its
+        difference added to the preview's own luminance there (under ``preview_light``, "auto"), the one that
+        changes the preview less: where the preview is already brighter than the result's "before" (the preview
+        leaves out stage 2's residual and the head pass's own colour), the ratio alone would amplify that
+        disagreement (bright specks on dark cloth); where it is darker, the difference alone would. 1 where the
+        preview draws nothing."""
+        sl = _slices(box)
+        layers = _layers_in_box(self._layers, sl)
+        shown = preview_picture(layers, self._layers, self.preview_light(light, "auto", meter), cast) @ REC709
+        ratio = np.divide(np.maximum(after, 0), before, out=np.ones_like(before), where=before > 1e-4)
+        added = np.maximum(shown + layers["mask"] * (after - before), 0)  # premultiplied, as the preview is
+        added = np.divide(added, shown, out=np.ones_like(shown), where=shown > 1e-4)
+        return np.where(np.abs(added - 1) < np.abs(ratio - 1), added, ratio).astype(np.float32)
 
     def preview_grade(self, shown) -> np.ndarray:
         """(3,) the background's grade the page's preview draws for the light it shows (``preview_light``'s) when
@@ -687,6 +711,21 @@ def unpack_layers(data: bytes, meta: dict) -> dict:
     return {"transport": off + q16 * scale, "albedo": eight[:3], "mask": eight[3], "background": eight[4:7],
             "skin_chroma": 2 * eight[7:10] - 1, "skin": eight[10], "exposure": sample, "highlight": highlight,
             "grade": grade}
+
+
+def _layers_in_box(meta: dict, box: tuple[slice, slice]) -> dict:
+    """The page's layers (``unpack_layers``' "transport", "albedo", "mask", "skin_chroma", "skin") over ``box``
+    (preview pixels) read from the packed ``meta`` (``Studio._pack_layers``) alone: what ``preview_picture`` needs
+    there, the same quantised values the page draws with."""
+    h, w, data = meta["height"], meta["width"], meta["data"]
+    n = h * w
+    q16 = np.frombuffer(data, "<u2", 9 * n).reshape(9, h, w)[(slice(None), *box)].astype(np.float32)
+    off = np.array(meta["transport_offset"], np.float32)[:, None, None]
+    scale = np.array(meta["transport_scale"], np.float32)[:, None, None]
+    eight = np.frombuffer(data, np.uint8, 11 * n, 18 * n).reshape(11, h, w)[(slice(None), *box)].astype(np.float32)
+    eight /= 255
+    return {"transport": off + q16 * scale, "albedo": eight[:3], "mask": eight[3], "skin_chroma": 2 * eight[7:10] - 1,
+            "skin": eight[10]}
 
 
 def shadow_plane(answer: dict, height: int, width: int) -> np.ndarray:
