@@ -270,6 +270,17 @@ def _box_of(where: np.ndarray) -> list[int]:
     return [int(ys.min()), int(ys.max()) + 1, int(xs.min()), int(xs.max()) + 1] if ys.size else []
 
 
+def _changed_box(a: np.ndarray, b: np.ndarray, within: tuple[int, int, int, int]) -> list[int]:
+    """[y0, y1, x0, x1] the box of the pixels where ``a`` and ``b`` differ, looked for ``within`` that box alone
+    (they agree outside it); [] where they agree."""
+    y0, y1, x0, x1 = (int(v) for v in within)
+    differ = a[y0:y1, x0:x1] != b[y0:y1, x0:x1]
+    rows, cols = np.flatnonzero(differ.any(axis=1)), np.flatnonzero(differ.any(axis=0))
+    if not rows.size:
+        return []
+    return [y0 + int(rows[0]), y0 + int(rows[-1]) + 1, x0 + int(cols[0]), x0 + int(cols[-1]) + 1]
+
+
 def _slices(box: list[int]) -> tuple[slice, slice]:
     return slice(box[0], box[1]), slice(box[2], box[3])
 
@@ -477,12 +488,12 @@ class Studio:
                     hit["box"], hit["depth"] = box, np.ascontiguousarray(q[_slices(box)]).tobytes()
             change = getattr(self.relighter, "head_change", None)
             levels = change(self.dec, lit) if change is not None else None
-            if levels is not None:  # the two luminances each reduced to a preview pixel
-                before, after = (_resize(a[..., None], size)[..., 0] for a in levels)
-                box = _box_of(np.abs(after - before) > 1e-4)
+            changed = _changed_box(*levels, self.dec.geometry.box) if levels is not None else []
+            if changed:  # the two luminances each reduced to a preview pixel, where the head pass changes them
+                box, (before, after) = _area_reduce(levels, size, changed)
                 if box:
                     cast = shadow_plane(hit, *size)[_slices(box)] if hit["box"] else None
-                    ratio = self._head_factor(lit, float(meter), box, before[_slices(box)], after[_slices(box)], cast)
+                    ratio = self._head_factor(lit, float(meter), box, before, after, cast)
                     inner = _box_of(np.abs(ratio - 1) > 1e-4)
                     if inner:
                         box = [box[0] + inner[0], box[0] + inner[1], box[2] + inner[2], box[2] + inner[3]]
@@ -711,6 +722,28 @@ def unpack_layers(data: bytes, meta: dict) -> dict:
     return {"transport": off + q16 * scale, "albedo": eight[:3], "mask": eight[3], "background": eight[4:7],
             "skin_chroma": 2 * eight[7:10] - 1, "skin": eight[10], "exposure": sample, "highlight": highlight,
             "grade": grade}
+
+
+def _area_weights(n_in: int, n_out: int, lo: int, hi: int) -> tuple[slice, np.ndarray]:
+    """Output pixels lo..hi-1 of ``n_in`` pixels reduced to ``n_out`` (<= n_in) by area (cv2.INTER_AREA's rule):
+    the input pixels they read and (hi - lo, those) float32 weights, each row the overlaps of one output pixel's
+    span with the input pixels, summing to 1."""
+    s = n_in / n_out
+    j0, j1 = int(math.floor(lo * s)), min(n_in, int(math.ceil(hi * s)))
+    i = np.arange(lo, hi, dtype=np.float64)[:, None]
+    j = np.arange(j0, j1, dtype=np.float64)[None]
+    return slice(j0, j1), (np.clip(np.minimum(j + 1, (i + 1) * s) - np.maximum(j, i * s), 0, None) / s).astype(np.float32)
+
+
+def _area_reduce(planes, size: tuple[int, int], box: list[int]) -> tuple[list[int], list[np.ndarray]]:
+    """(H, W) ``planes`` reduced by area to ``size`` (at most (H, W)) over the output pixels that read the input
+    ``box`` alone: that output box and each plane there (what a whole-frame cv2.INTER_AREA resize gives there,
+    at a cost that follows the box, not the frame)."""
+    (h, w), (hi, wi) = size, planes[0].shape
+    out = [int(box[0] * h // hi), min(h, -(-box[1] * h // hi)), int(box[2] * w // wi), min(w, -(-box[3] * w // wi))]
+    rows, wy = _area_weights(hi, h, out[0], out[1])
+    cols, wx = _area_weights(wi, w, out[2], out[3])
+    return out, [wy @ np.asarray(p, np.float32)[rows, cols] @ wx.T for p in planes]
 
 
 def _layers_in_box(meta: dict, box: tuple[slice, slice]) -> dict:
