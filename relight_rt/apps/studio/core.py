@@ -508,19 +508,19 @@ class Studio:
                      cast: np.ndarray | None) -> np.ndarray:
         """The factor on the preview's shading over ``box`` (preview pixels) that stands for the head pass's change
         of the person's luminance from ``before`` to ``after`` (``shadow``; ``cast``: the body's cast-shadow factor
-        there, None: none). Of the two ways to carry the change into the preview, its ratio after / before and its
-        difference added to the preview's own luminance there (under ``preview_light``, "auto"), the one that
-        changes the preview less: where the preview is already brighter than the result's "before" (the preview
-        leaves out stage 2's residual and the head pass's own colour), the ratio alone would amplify that
-        disagreement (bright specks on dark cloth); where it is darker, the difference alone would. 1 where the
-        preview draws nothing."""
+        there, None: none): the ratio after / before, where it brightens never more than the gain that adds the
+        head pass's difference after - before to the preview's own luminance there (under ``preview_light``,
+        "auto"). Where the preview is already brighter than the result's "before" (it leaves out stage 2's residual
+        and the head pass's own colour), the ratio alone would amplify that disagreement (bright specks on dark
+        cloth); a darkening ratio shrinks it and stays (the difference would take a preview darker than "before"
+        to black). ``ratio`` 1 where no luminance is left; no gain where the preview draws nothing."""
         sl = _slices(box)
         layers = _layers_in_box(self._layers, sl)
         shown = preview_picture(layers, self._layers, self.preview_light(light, "auto", meter), cast) @ REC709
         ratio = np.divide(np.maximum(after, 0), before, out=np.ones_like(before), where=before > 1e-4)
-        added = np.maximum(shown + layers["mask"] * (after - before), 0)  # premultiplied, as the preview is
-        added = np.divide(added, shown, out=np.ones_like(shown), where=shown > 1e-4)
-        return np.where(np.abs(added - 1) < np.abs(ratio - 1), added, ratio).astype(np.float32)
+        added = shown + layers["mask"] * (after - before)  # premultiplied, as the preview is
+        gain = np.divide(added, shown, out=np.ones_like(shown), where=shown > 1e-4)
+        return np.minimum(ratio, np.maximum(gain, 1)).astype(np.float32)
 
     def preview_grade(self, shown) -> np.ndarray:
         """(3,) the background's grade the page's preview draws for the light it shows (``preview_light``'s) when
