@@ -683,8 +683,10 @@ def test_the_head_pass_change_is_drawn_as_its_ratio_capped_by_its_difference(pho
         before = np.where(inside, 0.4, 0).astype(np.float32)
         after = before.copy()
         after[_disc_depth(*inside.shape, 1.0) > 0] *= 0.5  # the head pass darkens a disc by half ...
-        y0, _, x0, _ = box
-        after[y0 : y0 + 20, x0 : x0 + 20] = 0.0  # ... and one corner of the crop box to black
+        y0, y1, x0, x1 = box
+        after[y0 : y0 + 20, x0 : x0 + 20] = 0.0  # ... one corner of the crop box to black ...
+        low = slice(y1 - (y1 - y0) // 4, y1)
+        before[low, x0:x1], after[low, x0:x1] = 0.02, 0.06  # ... and triples its dark lower quarter
         return before, after
 
     studio, before, after = _head_studio(photo, models_dir, monkeypatch, change)
@@ -697,6 +699,8 @@ def test_the_head_pass_change_is_drawn_as_its_ratio_capped_by_its_difference(pho
     darker = np.abs(ratio - 0.5) < 1e-3
     assert darker.sum() > 20 and np.abs(plane[darker] / cast[darker] - 0.5).max() < 1e-3  # darkening: the ratio
     assert (plane[ratio == 0] == 0).sum() > 20  # the black corner
+    capped = (np.abs(ratio - 3) < 1e-3) & (gain < 2.5) & (mask > 0.99)  # the preview brighter than "before"
+    assert capped.sum() > 20 and np.abs(plane[capped] / cast[capped] - gain[capped]).max() < 1e-3  # not 3
     assert plane[-1, -1] == 1  # below the crop box: 1
 
 
