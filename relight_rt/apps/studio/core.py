@@ -515,7 +515,7 @@ class Studio:
         cloth); a darkening ratio shrinks it and stays (the difference would take a preview darker than "before"
         to black). ``ratio`` 1 where no luminance is left; no gain where the preview draws nothing."""
         sl = _slices(box)
-        layers = _layers_in_box(self._layers, sl)
+        layers = _layers_in_box(self._layers["data"], self._layers, sl)
         shown = preview_picture(layers, self._layers, self.preview_light(light, "auto", meter), cast) @ REC709
         ratio = np.divide(np.maximum(after, 0), before, out=np.ones_like(before), where=before > 1e-4)
         added = shown + layers["mask"] * (after - before)  # premultiplied, as the preview is
@@ -703,10 +703,6 @@ def unpack_layers(data: bytes, meta: dict) -> dict:
             or goffset != hoffset + 60 * nh or boffset != goffset + 84 * ng or len(data) != boffset + 64 * nb):
         raise RelightError(f"layers: expected {boffset + 64 * nb} bytes for {h}x{w}, {ns}, {nh}, {ng} and {nb} "
                            f"samples, got {len(data)}")
-    q16 = np.frombuffer(data, "<u2", 9 * n).reshape(9, h, w).astype(np.float32)
-    off = np.array(meta["transport_offset"], np.float32)[:, None, None]
-    scale = np.array(meta["transport_scale"], np.float32)[:, None, None]
-    eight = np.frombuffer(data, np.uint8, 11 * n, 18 * n).reshape(11, h, w).astype(np.float32) / 255
     planes = np.frombuffer(data, "<f4", 13 * ns, offset).reshape(13, ns).astype(np.float32)
     sample = {"transport": planes[:9].T.copy(), "albedo": planes[9:12].T.copy(), "mask": planes[12].copy()}
     guard = np.frombuffer(data, "<f4", 15 * nh, hoffset).reshape(15, nh).astype(np.float32)
@@ -719,8 +715,7 @@ def unpack_layers(data: bytes, meta: dict) -> dict:
     grade = GradeSample(g[:3].T.copy(), g[3:6].T.copy(), g[6:15].T.copy(), g[15].copy(), g[16].copy(),
                         g[17:20].T.copy(), g[20].copy(), HeadBlend(index, *(b[i].copy() for i in range(6)),
                                                                    b[6:].T.copy()))
-    return {"transport": off + q16 * scale, "albedo": eight[:3], "mask": eight[3], "background": eight[4:7],
-            "skin_chroma": 2 * eight[7:10] - 1, "skin": eight[10], "exposure": sample, "highlight": highlight,
+    return {**_layers_in_box(data, meta, (slice(None), slice(None))), "exposure": sample, "highlight": highlight,
             "grade": grade}
 
 
@@ -746,19 +741,19 @@ def _area_reduce(planes, size: tuple[int, int], box: list[int]) -> tuple[list[in
     return out, [wy @ np.asarray(p, np.float32)[rows, cols] @ wx.T for p in planes]
 
 
-def _layers_in_box(meta: dict, box: tuple[slice, slice]) -> dict:
-    """The page's layers (``unpack_layers``' "transport", "albedo", "mask", "skin_chroma", "skin") over ``box``
-    (preview pixels) read from the packed ``meta`` (``Studio._pack_layers``) alone: what ``preview_picture`` needs
-    there, the same quantised values the page draws with."""
-    h, w, data = meta["height"], meta["width"], meta["data"]
+def _layers_in_box(data: bytes, meta: dict, box: tuple[slice, slice]) -> dict:
+    """The page's pixel layers (``unpack_layers``' "transport", "albedo", "mask", "background", "skin_chroma",
+    "skin") over ``box`` (preview pixels) of the packed ``data`` (``Studio.layers_bytes``, its length checked by the
+    caller): the same quantised values the page draws with, decoded there alone."""
+    h, w = meta["height"], meta["width"]
     n = h * w
     q16 = np.frombuffer(data, "<u2", 9 * n).reshape(9, h, w)[(slice(None), *box)].astype(np.float32)
     off = np.array(meta["transport_offset"], np.float32)[:, None, None]
     scale = np.array(meta["transport_scale"], np.float32)[:, None, None]
     eight = np.frombuffer(data, np.uint8, 11 * n, 18 * n).reshape(11, h, w)[(slice(None), *box)].astype(np.float32)
     eight /= 255
-    return {"transport": off + q16 * scale, "albedo": eight[:3], "mask": eight[3], "skin_chroma": 2 * eight[7:10] - 1,
-            "skin": eight[10]}
+    return {"transport": off + q16 * scale, "albedo": eight[:3], "mask": eight[3], "background": eight[4:7],
+            "skin_chroma": 2 * eight[7:10] - 1, "skin": eight[10]}
 
 
 def shadow_plane(answer: dict, height: int, width: int) -> np.ndarray:
