@@ -727,7 +727,8 @@ def _area_weights(n_in: int, n_out: int, lo: int, hi: int) -> tuple[slice, np.nd
     j0, j1 = int(math.floor(lo * s)), min(n_in, int(math.ceil(hi * s)))
     i = np.arange(lo, hi, dtype=np.float64)[:, None]
     j = np.arange(j0, j1, dtype=np.float64)[None]
-    return slice(j0, j1), (np.clip(np.minimum(j + 1, (i + 1) * s) - np.maximum(j, i * s), 0, None) / s).astype(np.float32)
+    overlap = np.clip(np.minimum(j + 1, (i + 1) * s) - np.maximum(j, i * s), 0, None)
+    return slice(j0, j1), (overlap / s).astype(np.float32)
 
 
 def _area_reduce(planes, size: tuple[int, int], box: list[int]) -> tuple[list[int], list[np.ndarray]]:
