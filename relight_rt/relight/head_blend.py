@@ -133,7 +133,8 @@ def head_change(factor, dec: Decomposition, light: np.ndarray, image: np.ndarray
     relight_rt.relight.factor ``Factor``; its ``gain_and_fill`` without stage 2's residual, which the preview leaves
     out too, the deep-shadow fill's share included) before and after ``blend_head``, 0 outside the crop box; None
     where ``blend_head`` blends nothing. The studio's preview draws the person without the head pass and multiplies
-    its shading by after / before, both reduced to its size (relight_rt.apps.studio); the faces' cast shadows are in
+    its shading by a factor that carries the change from before to after, both reduced to its size, into its own
+    luminance (relight_rt.apps.studio ``Studio._head_factor``); the faces' cast shadows are in
     both (the head pass's in after), so the preview's own cast-shadow layer is the body pass's alone
     (``Factor.shadow_layer``)."""
     where = head_region(dec)

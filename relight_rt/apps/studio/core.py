@@ -270,6 +270,17 @@ def _box_of(where: np.ndarray) -> list[int]:
     return [int(ys.min()), int(ys.max()) + 1, int(xs.min()), int(xs.max()) + 1] if ys.size else []
 
 
+def _changed_box(a: np.ndarray, b: np.ndarray, within: tuple[int, int, int, int]) -> list[int]:
+    """[y0, y1, x0, x1] the box of the pixels where ``a`` and ``b`` differ, looked for ``within`` that box alone
+    (they agree outside it); [] where they agree."""
+    y0, y1, x0, x1 = (int(v) for v in within)
+    differ = a[y0:y1, x0:x1] != b[y0:y1, x0:x1]
+    rows, cols = np.flatnonzero(differ.any(axis=1)), np.flatnonzero(differ.any(axis=0))
+    if not rows.size:
+        return []
+    return [y0 + int(rows[0]), y0 + int(rows[-1]) + 1, x0 + int(cols[0]), x0 + int(cols[-1]) + 1]
+
+
 def _slices(box: list[int]) -> tuple[slice, slice]:
     return slice(box[0], box[1]), slice(box[2], box[3])
 
@@ -455,7 +466,8 @@ class Studio:
         (preview pixels; empty: no shadow), "meter": the exposure's lift for them (``preview_light``), "depth": bytes,
         uint8, 255 x (1 - the factor on the shading) over the box, row-major, "head_box": the same for the head
         pass's change (empty: none), "head": bytes, float32 little-endian, the factor it puts on the shading there
-        (the relit person's luminance with the head pass over without, each reduced to the preview's pixels)}. Kept
+        (``_head_factor``: the relit person's luminance with the head pass against without, each reduced to the
+        preview's pixels, carried into the preview's own luminance)}. Kept
         for the last ``SHADOW_CACHE`` lights (the page asks again for a light it comes back to); a runtime without
         them answers none."""
         lit = request_light(light)
@@ -476,16 +488,39 @@ class Studio:
                     hit["box"], hit["depth"] = box, np.ascontiguousarray(q[_slices(box)]).tobytes()
             change = getattr(self.relighter, "head_change", None)
             levels = change(self.dec, lit) if change is not None else None
-            if levels is not None:  # the ratio of the two luminances each summed over a preview pixel
-                before, after = (_resize(a[..., None], size)[..., 0] for a in levels)
-                ratio = np.divide(np.maximum(after, 0), before, out=np.ones(size, np.float32), where=before > 1e-4)
-                box = _box_of(np.abs(ratio - 1) > 1e-4)
+            changed = _changed_box(*levels, self.dec.geometry.box) if levels is not None else []
+            if changed:  # the two luminances each reduced to a preview pixel, where the head pass changes them
+                box, (before, after) = _area_reduce(levels, size, changed)
                 if box:
-                    hit["head_box"], hit["head"] = box, np.ascontiguousarray(ratio[_slices(box)], "<f4").tobytes()
+                    cast = shadow_plane(hit, *size)[_slices(box)] if hit["box"] else None
+                    ratio = self._head_factor(lit, float(meter), box, before, after, cast)
+                    inner = _box_of(np.abs(ratio - 1) > 1e-4)
+                    if inner:
+                        box = [box[0] + inner[0], box[0] + inner[1], box[2] + inner[2], box[2] + inner[3]]
+                        hit["head_box"] = box
+                        hit["head"] = np.ascontiguousarray(ratio[_slices(inner)], "<f4").tobytes()
             self._shadows[key] = hit
             while len(self._shadows) > SHADOW_CACHE:
                 self._shadows.popitem(last=False)
         return hit
+
+    def _head_factor(self, light: np.ndarray, meter: float, box: list[int], before: np.ndarray, after: np.ndarray,
+                     cast: np.ndarray | None) -> np.ndarray:
+        """The factor on the preview's shading over ``box`` (preview pixels) that stands for the head pass's change
+        of the person's luminance from ``before`` to ``after`` (``shadow``; ``cast``: the body's cast-shadow factor
+        there, None: none): the ratio after / before, where it brightens never more than the gain that adds the
+        head pass's difference after - before to the preview's own luminance there (under ``preview_light``,
+        "auto"). Where the preview is already brighter than the result's "before" (it leaves out stage 2's residual
+        and the head pass's own colour), the ratio alone would amplify that disagreement (bright specks on dark
+        cloth); a darkening ratio shrinks it and stays (the difference would take a preview darker than "before"
+        to black). ``ratio`` 1 where no luminance is left; no gain where the preview draws nothing."""
+        sl = _slices(box)
+        layers = _layers_in_box(self._layers["data"], self._layers, sl)
+        shown = preview_picture(layers, self._layers, self.preview_light(light, "auto", meter), cast) @ REC709
+        ratio = np.divide(np.maximum(after, 0), before, out=np.ones_like(before), where=before > 1e-4)
+        added = shown + layers["mask"] * (after - before)  # premultiplied, as the preview is
+        gain = np.divide(added, shown, out=np.ones_like(shown), where=shown > 1e-4)
+        return np.minimum(ratio, np.maximum(gain, 1)).astype(np.float32)
 
     def preview_grade(self, shown) -> np.ndarray:
         """(3,) the background's grade the page's preview draws for the light it shows (``preview_light``'s) when
@@ -668,10 +703,6 @@ def unpack_layers(data: bytes, meta: dict) -> dict:
             or goffset != hoffset + 60 * nh or boffset != goffset + 84 * ng or len(data) != boffset + 64 * nb):
         raise RelightError(f"layers: expected {boffset + 64 * nb} bytes for {h}x{w}, {ns}, {nh}, {ng} and {nb} "
                            f"samples, got {len(data)}")
-    q16 = np.frombuffer(data, "<u2", 9 * n).reshape(9, h, w).astype(np.float32)
-    off = np.array(meta["transport_offset"], np.float32)[:, None, None]
-    scale = np.array(meta["transport_scale"], np.float32)[:, None, None]
-    eight = np.frombuffer(data, np.uint8, 11 * n, 18 * n).reshape(11, h, w).astype(np.float32) / 255
     planes = np.frombuffer(data, "<f4", 13 * ns, offset).reshape(13, ns).astype(np.float32)
     sample = {"transport": planes[:9].T.copy(), "albedo": planes[9:12].T.copy(), "mask": planes[12].copy()}
     guard = np.frombuffer(data, "<f4", 15 * nh, hoffset).reshape(15, nh).astype(np.float32)
@@ -684,9 +715,46 @@ def unpack_layers(data: bytes, meta: dict) -> dict:
     grade = GradeSample(g[:3].T.copy(), g[3:6].T.copy(), g[6:15].T.copy(), g[15].copy(), g[16].copy(),
                         g[17:20].T.copy(), g[20].copy(), HeadBlend(index, *(b[i].copy() for i in range(6)),
                                                                    b[6:].T.copy()))
-    return {"transport": off + q16 * scale, "albedo": eight[:3], "mask": eight[3], "background": eight[4:7],
-            "skin_chroma": 2 * eight[7:10] - 1, "skin": eight[10], "exposure": sample, "highlight": highlight,
+    return {**_layers_in_box(data, meta, (slice(None), slice(None))), "exposure": sample, "highlight": highlight,
             "grade": grade}
+
+
+def _area_weights(n_in: int, n_out: int, lo: int, hi: int) -> tuple[slice, np.ndarray]:
+    """Output pixels lo..hi-1 of ``n_in`` pixels reduced to ``n_out`` (<= n_in) by area (cv2.INTER_AREA's rule):
+    the input pixels they read and (hi - lo, those) float32 weights, each row the overlaps of one output pixel's
+    span with the input pixels, summing to 1."""
+    s = n_in / n_out
+    j0, j1 = int(math.floor(lo * s)), min(n_in, int(math.ceil(hi * s)))
+    i = np.arange(lo, hi, dtype=np.float64)[:, None]
+    j = np.arange(j0, j1, dtype=np.float64)[None]
+    overlap = np.clip(np.minimum(j + 1, (i + 1) * s) - np.maximum(j, i * s), 0, None)
+    return slice(j0, j1), (overlap / s).astype(np.float32)
+
+
+def _area_reduce(planes, size: tuple[int, int], box: list[int]) -> tuple[list[int], list[np.ndarray]]:
+    """(H, W) ``planes`` reduced by area to ``size`` (at most (H, W)) over the output pixels that read the input
+    ``box`` alone: that output box and each plane there (what a whole-frame cv2.INTER_AREA resize gives there,
+    at a cost that follows the box, not the frame)."""
+    (h, w), (hi, wi) = size, planes[0].shape
+    out = [int(box[0] * h // hi), min(h, -(-box[1] * h // hi)), int(box[2] * w // wi), min(w, -(-box[3] * w // wi))]
+    rows, wy = _area_weights(hi, h, out[0], out[1])
+    cols, wx = _area_weights(wi, w, out[2], out[3])
+    return out, [wy @ np.asarray(p, np.float32)[rows, cols] @ wx.T for p in planes]
+
+
+def _layers_in_box(data: bytes, meta: dict, box: tuple[slice, slice]) -> dict:
+    """The page's pixel layers (``unpack_layers``' "transport", "albedo", "mask", "background", "skin_chroma",
+    "skin") over ``box`` (preview pixels) of the packed ``data`` (``Studio.layers_bytes``, its length checked by the
+    caller): the same quantised values the page draws with, decoded there alone."""
+    h, w = meta["height"], meta["width"]
+    n = h * w
+    q16 = np.frombuffer(data, "<u2", 9 * n).reshape(9, h, w)[(slice(None), *box)].astype(np.float32)
+    off = np.array(meta["transport_offset"], np.float32)[:, None, None]
+    scale = np.array(meta["transport_scale"], np.float32)[:, None, None]
+    eight = np.frombuffer(data, np.uint8, 11 * n, 18 * n).reshape(11, h, w)[(slice(None), *box)].astype(np.float32)
+    eight /= 255
+    return {"transport": off + q16 * scale, "albedo": eight[:3], "mask": eight[3], "background": eight[4:7],
+            "skin_chroma": 2 * eight[7:10] - 1, "skin": eight[10]}
 
 
 def shadow_plane(answer: dict, height: int, width: int) -> np.ndarray:

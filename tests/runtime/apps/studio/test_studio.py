@@ -635,37 +635,94 @@ def test_preview_picture_darkens_only_where_the_shadow_falls(studio):
 REC709_ = np.array([0.2126, 0.7152, 0.0722], np.float32)
 
 
-def test_the_head_pass_change_is_drawn_as_the_ratio_of_the_reduced_luminances(photo, models_dir, monkeypatch):
-    """``Studio.shadow``'s head pass's change (``Relighter.head_change``: the relit person's luminance before and
-    after the head pass's blend, here two planes the test sets): both reduced to the preview's pixels, then divided
-    (1 where no luminance is left), cut to the box where it is not 1, float32; ``shadow_plane`` puts it on the cast
-    shadows' factor, both where they overlap."""
-    from relight_rt.apps.studio import core
-
+def _head_studio(photo, models_dir, monkeypatch, change):
+    """A Studio whose relighter reports a disc of cast shadow (depth 0.6, meter 1) and the head pass's (before,
+    after) that ``change`` builds from the frame's crop box (the relit person's luminance, 0 outside it)."""
     relighter = relight_rt.open(RuntimeConfig(models=models_dir, device="cpu"))
     probe = Studio(photo, None, "original", relighter, preview_pixels=4096, models=models_dir)
     h, w = probe.dec.image.shape[:2]
-    before = np.zeros((h, w), np.float32)
-    before[: h // 2] = 0.4  # the crop box: the upper half
-    after = before.copy()
-    disc = _disc_depth(h, w, 1.0) > 0
-    after[disc] *= 0.5  # the head pass darkens a disc by half ...
-    after[: h // 10, : w // 10] = 0.0  # ... and one corner to black
+    y0, y1, x0, x1 = probe.dec.geometry.box
+    inside = np.zeros((h, w), bool)
+    inside[y0:y1, x0:x1] = True
+    before, after = change(inside, (y0, y1, x0, x1))
     monkeypatch.setattr(relighter, "cast_shadows", lambda dec, lit: (_disc_depth(h, w, 0.6), 1.0))
     monkeypatch.setattr(relighter, "head_change", lambda dec, lit: (before, after))
-    studio = Studio(photo, None, "original", relighter, preview_pixels=4096, models=models_dir)
+    return Studio(photo, None, "original", relighter, preview_pixels=4096, models=models_dir), before, after
+
+
+def _drawn_change(studio, before, after, light):
+    """What the page should draw for the head pass's change, found from the page's own layers (``unpack_layers``,
+    the whole preview): the preview's luminance with the cast shadows (premultiplied), ``before`` and ``after``
+    reduced by area, their ratio, the gain that adds their difference to that luminance, and the cast shadows'
+    factor (uint8)."""
+    from relight_rt.apps.studio import core
+
     meta = studio.info()["preview"]
     size = (meta["width"], meta["height"])
-    answer = studio.shadow(lights.preset("rim").ravel().tolist())
-    assert answer["head_box"] and len(answer["head"]) == 4 * np.prod(np.diff(answer["head_box"])[::2])
     small_before, small_after = (cv2.resize(a, size, interpolation=cv2.INTER_AREA) for a in (before, after))
-    change = np.where(small_before > 1e-4, small_after / np.maximum(small_before, 1e-4), 1)
-    cast = 1 - cv2.resize(_disc_depth(h, w, 0.6), size, interpolation=cv2.INTER_AREA)
+    depth = cv2.resize(_disc_depth(*before.shape, 0.6), size, interpolation=cv2.INTER_AREA)
+    cast = 1 - np.rint(np.clip(depth, 0, 1) * 255) / 255  # as the page gets it: uint8
+    layers = unpack_layers(studio.layers_bytes(), meta)
+    shown = core.preview_picture(layers, meta, studio.preview_light(light), cast) @ REC709_
+    ratio = np.where(small_before > 1e-4, np.maximum(small_after, 0) / np.maximum(small_before, 1e-4), 1)
+    added = shown + layers["mask"] * (small_after - small_before)
+    gain = np.where(shown > 1e-4, added / np.maximum(shown, 1e-4), 1)
+    return meta, shown, layers["mask"], ratio, gain, cast
+
+
+def test_the_head_pass_change_is_drawn_as_its_ratio_capped_by_its_difference(photo, models_dir, monkeypatch):
+    """``Studio.shadow``'s head pass's change (``Relighter.head_change``: the relit person's luminance before and
+    after the head pass's blend, here two planes the test sets): both reduced to the preview's pixels by area, then
+    carried into the preview as a factor on its shading: their ratio (1 where no luminance is left), where it
+    brightens no more than the gain that adds their difference to the preview's own luminance (the page's drawing
+    under the light, with the cast shadows; no gain where the preview draws nothing); cut to the box where it is
+    not 1, float32. ``shadow_plane`` puts it on the cast shadows' factor, both where they overlap."""
+    from relight_rt.apps.studio import core
+
+    def change(inside, box):
+        before = np.where(inside, 0.4, 0).astype(np.float32)
+        after = before.copy()
+        after[_disc_depth(*inside.shape, 1.0) > 0] *= 0.5  # the head pass darkens a disc by half ...
+        y0, y1, x0, x1 = box
+        after[y0 : y0 + 20, x0 : x0 + 20] = 0.0  # ... one corner of the crop box to black ...
+        low = slice(y1 - (y1 - y0) // 4, y1)
+        before[low, x0:x1], after[low, x0:x1] = 0.02, 0.06  # ... and triples its dark lower quarter
+        return before, after
+
+    studio, before, after = _head_studio(photo, models_dir, monkeypatch, change)
+    light = lights.preset("rim").astype(np.float32)
+    answer = studio.shadow(light.ravel().tolist())
+    assert answer["head_box"] and len(answer["head"]) == 4 * np.prod(np.diff(answer["head_box"])[::2])
+    meta, shown, mask, ratio, gain, cast = _drawn_change(studio, before, after, light)
     plane = core.shadow_plane(answer, meta["height"], meta["width"])
-    np.testing.assert_allclose(plane, cast * change, atol=0.5 / 255 + 1e-5)
-    centre = plane[int(0.4 * meta["height"]), meta["width"] // 2]
-    assert centre == pytest.approx(0.4 * 0.5, abs=0.01) and plane[-1, -1] == 1  # below the crop box: 1
-    assert plane[1, 1] == 0  # the black corner
+    np.testing.assert_allclose(plane, cast * np.minimum(ratio, np.maximum(gain, 1)), atol=1e-4)
+    darker = np.abs(ratio - 0.5) < 1e-3
+    assert darker.sum() > 20 and np.abs(plane[darker] / cast[darker] - 0.5).max() < 1e-3  # darkening: the ratio
+    assert (plane[ratio == 0] == 0).sum() > 20  # the black corner
+    capped = (np.abs(ratio - 3) < 1e-3) & (gain < 2.5) & (mask > 0.99)  # the preview brighter than "before"
+    assert capped.sum() > 20 and np.abs(plane[capped] / cast[capped] - gain[capped]).max() < 1e-3  # not 3
+    assert plane[-1, -1] == 1  # below the crop box: 1
+
+
+def test_the_head_pass_change_does_not_amplify_a_brighter_preview(photo, models_dir, monkeypatch):
+    """Where the result without the head pass is far darker than the preview (dark cloth, the preview's own
+    approximations), the head pass's ratio would multiply the preview's light: the preview instead gains the
+    luminance the head pass adds, not that ratio."""
+    from relight_rt.apps.studio import core
+
+    def change(inside, box):
+        before = np.where(inside, 0.01, 0).astype(np.float32)
+        return before, np.where(inside, 0.05, 0).astype(np.float32)  # five times as bright, 0.04 more
+
+    studio, before, after = _head_studio(photo, models_dir, monkeypatch, change)
+    light = lights.preset("campfire").astype(np.float32)
+    answer = studio.shadow(light.ravel().tolist())
+    meta, shown, mask, ratio, gain, cast = _drawn_change(studio, before, after, light)
+    head = core.shadow_plane(answer, meta["height"], meta["width"]) / cast
+    solid = (mask > 0.99) & (shown > 0.05) & (shown < 0.8)
+    assert solid.sum() > 50 and np.abs(ratio[solid] - 5).max() < 1e-3
+    assert head[solid].max() < 2  # the ratio (5) would have amplified the preview's own light
+    np.testing.assert_allclose(shown[solid] * head[solid], shown[solid] + 0.04, atol=1e-3)  # the luminance added
 
 
 def test_route_shadow(client, studio):
