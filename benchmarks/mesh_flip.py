@@ -9,7 +9,7 @@ before/after figures in one checkout.
 ``--symmetric-crop on|off`` sets relight_rt.image.crop ``SYMMETRIC_CROP`` (the crop box placed alike on a photo and
 its mirror) and ``--stage2 on|off`` relight_rt.relight.network ``STAGE2_MIRROR`` (stage 2 mirror-averaged): mirror31's
 probes, product switches since mirror32. Each defaults to the product's setting.
-SCRIPT then runs as ``python SCRIPT ARGS`` would, in this process. Figures: docs/results_pending.md (face31,
+SCRIPT then runs as ``python SCRIPT ARGS`` would, in this process. Figures: docs/RESULTS.md (face31,
 mirror31-34).
 """
 

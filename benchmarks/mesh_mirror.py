@@ -17,12 +17,12 @@ the first. What it does not flip with the photo is ours, not the face's. Per fac
   ``yaw_bias`` half the photo's yaw minus the mirror's mapped back (the part that does not flip);
 - on Yale, ``over_left`` / ``over_right``: how far (px) the mesh reaches past the frame's left and right edges.
 
-Variants (the causes, one at a time; light30's record, docs/results_pending.md): ``as-is`` (the product's
+Variants (the causes, one at a time; light30's and face31's records, docs/RESULTS.md): ``as-is`` (the product's
 FaceMesh.faces as configured); ``box-avg`` (the landmarker run from the detector's box of the photo and of the mirror
 mapped back, averaged: a box that is left-right symmetric by construction); ``flip`` (the detector and the
 landmarker each shown its crop and the crop's mirror image, the answers averaged: FaceMesh's ``MESH_FLIP``);
 ``zero`` (no flip: the product before mirror34); and ``+``-joined mixtures. face31 also tried the landmarker's crop
-padded with its edge pixels and a second landmarker pass from the first mesh's box (docs/results_pending.md; both
+padded with its edge pixels and a second landmarker pass from the first mesh's box (docs/RESULTS.md; both
 removed from the product unused, at mirror34's review).
 
 Sets: ``yale`` Extended Yale B's frontal photos (P00A+000E+00, 12 subjects), ``side`` its photos lit from azimuth

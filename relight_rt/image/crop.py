@@ -39,7 +39,8 @@ MODES = ("quality", "reference")
 # network pixels on the 290 x 508 example), which alone kept a mirrored photo from relighting to the mirrored result
 # once stage 1 and the face mesh are averaged (mirror31). mode="reference" keeps the reference's crop bit for bit.
 # On since mirror34 with the other three parts of the mirror-symmetric chain (relight_rt.relight.network
-# ``STAGE1_MIRROR``, ``STAGE2_MIRROR``, relight_rt.person.face_mesh ``MESH_FLIP``; docs/results_pending.md).
+# ``STAGE1_MIRROR``, ``STAGE2_MIRROR``, relight_rt.person.face_mesh ``MESH_FLIP``; docs/RESULTS.md: "Shipped: the
+# mirror-symmetric chain").
 SYMMETRIC_CROP = True
 
 

@@ -56,7 +56,8 @@ CLOSE_UP_SCALE = 2.0  # no face in the box's square: look again at a square this
 # benchmarks/mesh_mirror.py). Alone it failed face31's criterion (Yale's odd de-light relerr 0.4069 -> 0.4186:
 # stage 1's own lean had been partly offset by the mesh's), and with stage 1's mirror averaging alone mirror31's; on
 # since mirror34 with all four parts of the mirror-symmetric chain (relight_rt.relight.network ``STAGE1_MIRROR``,
-# ``STAGE2_MIRROR``, relight_rt.image.crop ``SYMMETRIC_CROP``), c751cea's criterion met (docs/results_pending.md).
+# ``STAGE2_MIRROR``, relight_rt.image.crop ``SYMMETRIC_CROP``), c751cea's criterion met (docs/RESULTS.md: "Shipped:
+# the mirror-symmetric chain").
 # ``benchmarks/mesh_flip.py`` runs any benchmark with either on or off.
 MESH_FLIP = True
 MIRROR_FILE = Path(__file__).resolve().parents[1] / "data" / "face_mesh_mirror.txt"  # landmark i's partner on

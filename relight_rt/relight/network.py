@@ -26,7 +26,7 @@ log = logging.getLogger(__name__)
 # mirror's crop a pixel apart and stage 2 was not averaged. With crop.SYMMETRIC_CROP and STAGE2_MIRROR (below) too,
 # within 1 level (benchmarks/mirror_equivariance.py). On since mirror34, the four parts together: c751cea's criterion
 # met (Yale photos + mirrors pooled relight relerr 0.519 -> 0.499, de-light 0.401 -> 0.389; held-out renders' RMSE
-# within 0.0005 of before on every framing, three of five better; docs/results_pending.md). Costs a second stage-1
+# within 0.0005 of before on every framing, three of five better; docs/RESULTS.md). Costs a second stage-1
 # run per picture (~15 ms on the CPU); on CUDA the averaged answers are uploaded again on first use (the
 # DeviceChain's copies are of one run's).
 STAGE1_MIRROR = True
@@ -35,7 +35,7 @@ STAGE1_MIRROR = True
 # relight to each other's result mirrored (with STAGE1_MIRROR, face_mesh.MESH_FLIP and crop.SYMMETRIC_CROP; DPR's
 # portrait p99 5 -> 1 level). Its own switch, not STAGE1_MIRROR's: stage 1 runs once per decomposition, stage 2 once
 # per light, so this one is paid on every relight (a second stage-2 run: +5-18 ms on a 2.5 MP relight, mirror32).
-# On since mirror34 with the other three (docs/results_pending.md).
+# On since mirror34 with the other three (docs/RESULTS.md).
 STAGE2_MIRROR = True
 
 
