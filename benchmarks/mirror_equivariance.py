@@ -4,7 +4,7 @@
 
 The bundled example (relight_rt/data/example.png, its alpha as the mask) and DPR's demo portrait (data/obama.jpg of
 github:zhhoper/DPR, ``--dpr`` as benchmarks/real_photos.py takes it) under ``LEFT`` and ``campfire`` (the mirror
-relit under the light mirrored: y -> -y, relight_rt.relight.upright ``MIRROR_SIGNS``). "given": the photo's mask given
+relit under the light mirrored: y -> -y, relight_rt.light.sh ``MIRROR_SIGNS``). "given": the photo's mask given
 (DPR's portrait: the automatic matte of the photo, mirrored for the mirror); "auto": both photos with their own
 automatic matte (what the matte adds). Figures: the 99th percentile and the max of the 8-bit |difference| over the
 person (mask >= 0.5; for "auto" the union of the two mattes, one mirrored), and the mean. With ``--out`` each case's
@@ -30,7 +30,7 @@ from real_photos import LEFT  # noqa: E402
 
 import relight_rt  # noqa: E402
 from relight_rt import RuntimeConfig  # noqa: E402
-from relight_rt.relight.upright import MIRROR_SIGNS  # noqa: E402
+from relight_rt.light.sh import MIRROR_SIGNS  # noqa: E402
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "relight_rt" / "data" / "example.png"
 

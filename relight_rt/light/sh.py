@@ -61,6 +61,13 @@ NORM = (_C0, _C1, _C1, _C1, _C2, _C2, _C20, _C2, _C22)
 _BAND1_AXES = (1, 2, 0)
 
 
+# a picture mirrored left-right is the scene mirrored y -> -y (the picture's right is +y, DESIGN.md §3): the
+# coefficients odd in y (k = 1: y, 4: xy, 5: yz) change sign, the others keep it; a light L seen in the mirror is
+# MIRROR_SIGNS * L and a transport T(p) is MIRROR_SIGNS * T(mirrored p), so their shading is the original's mirrored
+# (relight_rt.relight.upright ``mirror_averaged``: the mirror-symmetric chain)
+MIRROR_SIGNS = np.array([1.0, -1.0, 1.0, 1.0, -1.0, -1.0, 1.0, 1.0, 1.0])
+
+
 def _band2_forms() -> np.ndarray:
     """(5, 3, 3) symmetric traceless Q_m with Y_{4+m}(ω) = ωᵀ Q_m ω on the unit sphere."""
     q = np.zeros((5, 3, 3))

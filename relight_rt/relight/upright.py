@@ -68,10 +68,7 @@ def turned_back(out: dict[str, np.ndarray], quarters: int) -> dict[str, np.ndarr
     return back
 
 
-# the picture mirrored left-right is the scene mirrored y -> -y (the picture's right is +y, DESIGN.md §3): the
-# coefficients odd in y (k = 1: y, 4: xy, 5: yz) change sign, the others keep it; a light L seen in the mirror is
-# MIRROR_SIGNS * L and a transport T(p) is MIRROR_SIGNS * T(mirrored p), so their shading is the original's mirrored
-MIRROR_SIGNS = np.array([1.0, -1.0, 1.0, 1.0, -1.0, -1.0, 1.0, 1.0, 1.0])
+MIRROR_SIGNS = sh.MIRROR_SIGNS  # a picture mirrored left-right: the coefficients odd in y change sign
 
 
 def mirror_picture(a: np.ndarray, axis: int = 1) -> np.ndarray:

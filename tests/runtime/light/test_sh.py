@@ -396,3 +396,10 @@ def test_sphere_directions_are_unit_and_cover_the_sphere_evenly():
     np.testing.assert_allclose(d.mean(axis=0), 0.0, atol=2e-3)  # no side favoured
     # the mean of Y_k over the sphere is 0 for k > 0: sums over these directions integrate the basis
     np.testing.assert_allclose(sh.basis(d)[:, 1:].mean(axis=0), 0.0, atol=5e-3)
+
+
+def test_mirror_signs_are_the_basis_seen_in_a_mirror():
+    """A direction mirrored y -> -y (a picture mirrored left-right) has the basis times ``MIRROR_SIGNS``."""
+    dirs = random_dirs(64)
+    mirrored = dirs * np.array([1.0, -1.0, 1.0])
+    np.testing.assert_allclose(sh.basis(mirrored), sh.basis(dirs) * sh.MIRROR_SIGNS, atol=1e-12)
