@@ -9,9 +9,11 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parents[2]
-DOCS = [REPO / "README.md", *sorted((REPO / "docs").glob("*.md"))]
+DOCS = [REPO / "README.md", *sorted((REPO / "docs").glob("*.md")), REPO / "models" / "README.md"]
 LINK = re.compile(r"\]\(([^()\s]*)\)")  # [text](target); targets here hold no spaces or brackets
 FENCE = re.compile(r"^\s*```")
+# a script or test a reader is told to run, named as a path from the repository root (in prose or a command)
+RUNNABLE = re.compile(r"(?<![\w/.])((?:benchmarks|scripts|tests)/[\w./-]+\.(?:py|sh))")
 
 
 def _prose(text: str) -> str:
@@ -74,3 +76,11 @@ def test_every_link_resolves(doc):
 def test_code_fences_are_closed(doc):
     fences = sum(1 for line in doc.read_text(encoding="utf-8").splitlines() if FENCE.match(line))
     assert fences % 2 == 0, f"{doc.name} has an odd number of ``` fences"
+
+
+@pytest.mark.parametrize("doc", DOCS, ids=lambda p: p.relative_to(REPO).as_posix())
+def test_every_named_script_exists(doc):
+    """A command or a sentence naming ``benchmarks/``, ``scripts/`` or ``tests/`` file must name one that exists: tests
+    move into folders and benchmarks are renamed, and a plain-text path is not a link the check above would catch."""
+    missing = sorted({path for path in RUNNABLE.findall(doc.read_text(encoding="utf-8")) if not (REPO / path).exists()})
+    assert not missing, f"{doc.name} names missing files: {', '.join(missing)}"
