@@ -370,18 +370,18 @@ def test_the_mirrors_fill_weight_stays_on_the_person(yale_dir, monkeypatch):
 
 
 def _symmetric_mesh(centre: float, top: float, half: float, height: float, seed: int = 1) -> np.ndarray:
-    """(468, 3) mesh points whose ``MIRROR_PAIRS`` mirror each other about x = ``centre`` and whose mid-line lies on
-    it: a face ``2 half`` wide and ``height`` tall from y = ``top`` (the other points at its centre)."""
-    from relight_rt.person.face_mesh import MIRROR_MIDLINE, MIRROR_PAIRS
+    """(468, 3) mesh points whose pairs of the symmetry map (face_mesh ``read_partners``) mirror each other about x =
+    ``centre`` and whose mid-line lies on it: a face ``2 half`` wide and ``height`` tall from y = ``top``."""
+    from relight_rt.person.face_mesh import read_partners
 
+    partner = read_partners()
+    assert partner is not None
+    first, own = partner > np.arange(468), partner == np.arange(468)
     points = np.zeros((468, 3))
-    points[:, :2] = centre, top + height / 2
-    a, b = np.array(MIRROR_PAIRS).T
-    left = np.random.default_rng(seed).uniform([centre - half, top], [centre, top + height], (len(a), 2))
-    points[a, :2] = left
-    points[b, :2] = np.stack([2 * centre - left[:, 0], left[:, 1]], axis=1)
-    points[list(MIRROR_MIDLINE), :2] = np.stack([np.full(len(MIRROR_MIDLINE), centre),
-                                                  np.linspace(top, top + height, len(MIRROR_MIDLINE))], axis=1)
+    left = np.random.default_rng(seed).uniform([centre - half, top], [centre, top + height], (468, 2))
+    points[first, :2] = left[first]
+    points[partner[first], :2] = np.stack([2 * centre - left[first, 0], left[first, 1]], axis=1)
+    points[own, 0], points[own, 1] = centre, np.linspace(top, top + height, int(own.sum()))
     return points
 
 
