@@ -401,8 +401,8 @@ def _fit_partners() -> np.ndarray | None:
 def mirror_held(values: np.ndarray, points: np.ndarray, weight: np.ndarray | None = None,
                 photo: np.ndarray | None = None) -> np.ndarray:
     """(h, w) float32: ``values`` (h, w) held to at least their mirror image's through the face (``mirror``), where
-    that image lands in the window; as they are where it does not, or where the mesh gives no mirror (collapsed, or
-    fewer than the landmarker's ``N_POINTS``).
+    that image lands in the window; as they are where it does not, or where ``mirror`` gives none (no symmetry map, a
+    mesh of other than the landmarker's ``N_POINTS``, or one collapsed to a line).
 
     Args:
         values: (h, w) float, the map to hold (relight_rt.relight.factor ``MIRROR_ALBEDO``: the albedo luminance).
