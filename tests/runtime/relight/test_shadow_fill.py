@@ -461,6 +461,23 @@ def test_mirror_shadow_reads_no_mirror_of_a_collapsed_mesh():
     assert not out.any()
 
 
+def test_mirror_shadow_reads_no_mirror_without_the_symmetry_map(monkeypatch):
+    """Without the mesh's symmetry file (face_mesh ``mirror`` None since mesh37) a dark socket whose mirror is lit
+    is not called shadow: the face is skipped, not read through a guessed mirror."""
+    from relight_rt.person import face_mesh
+
+    points = _symmetric_mesh(60.0, 10.0, 55.0, 100.0)
+    shading = np.ones((120, 121), np.float32)
+    shading[:, 61:] = 0.2
+    face = np.zeros((120, 121), bool)
+    face[10:110, 5:116] = True
+    opening = np.zeros_like(face)
+    opening[40:60, 20:40] = opening[40:60, 80:100] = True
+    assert shadow_fill.mirror_shadow(shading, opening, face, (points,))[45:55, 85:95].min() > 0.95  # with the map
+    monkeypatch.setattr(face_mesh, "_fit_partners", lambda: None)
+    assert not shadow_fill.mirror_shadow(shading, opening, face, (points,)).any()
+
+
 def test_a_cheek_in_the_noses_shadow_takes_its_mirror_images_albedo(yale_dir, monkeypatch):
     """Subject 02 lit from +50° (its left cheek, the image's right, in the nose's hard shadow), de-lit to the frontal
     lamp: stage 1 took part of the shadow for a dark albedo (0.78 of the lit skin's there), and the cheek came out
