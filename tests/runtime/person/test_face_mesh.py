@@ -464,6 +464,21 @@ def test_the_meshs_symmetry_map_is_an_involution_that_keeps_the_known_pairs():
     assert 10 <= int((partner == np.arange(N_POINTS)).sum()) <= 40  # a mid-line, not a map that keeps most points
 
 
+def test_the_symmetry_map_ships_with_the_package():
+    """Without the symmetry file an install averages no mesh with its mirror's and, since mesh37, fits no ``mirror``
+    (the cheek rule and the fill's dark sockets off): pyproject's package-data must carry it into the wheel."""
+    import fnmatch
+    from pathlib import Path
+
+    from relight_rt.person.face_mesh import MIRROR_FILE
+
+    tomllib = pytest.importorskip("tomllib")  # Python 3.11 on
+    root = Path(__file__).resolve().parents[3]
+    data = tomllib.loads((root / "pyproject.toml").read_text())["tool"]["setuptools"]["package-data"]["relight_rt"]
+    inside = MIRROR_FILE.relative_to(root / "relight_rt").as_posix()
+    assert MIRROR_FILE.is_file() and any(fnmatch.fnmatch(inside, pattern) for pattern in data), (inside, data)
+
+
 def test_a_symmetry_file_that_is_no_involution_is_not_used(tmp_path, caplog):
     from relight_rt.person.face_mesh import N_POINTS
 
