@@ -130,9 +130,11 @@ def mesh_cases() -> None:
         ang, rad = np.linspace(0, 2 * np.pi, 468, endpoint=False), np.sqrt(np.linspace(0.01, 1, 468))
         p[:, 0], p[:, 1] = cx + s * rad * np.cos(ang * 37), cy + s * 1.2 * rad * np.sin(ang * 37)
         p[:, 2] = -s * np.sqrt(np.maximum(0, 1 - rad**2))
-        a, b = np.array(fm.MIRROR_PAIRS).T
+        partner = fm.read_partners()
+        a = np.flatnonzero(partner > np.arange(len(partner)))
+        b = partner[a]
         p[b, 0], p[b, 1], p[b, 2] = 2 * cx - p[a, 0], p[a, 1], p[a, 2]
-        p[list(fm.MIRROR_MIDLINE), 0] = cx
+        p[partner == np.arange(len(partner)), 0] = cx
         return p
 
     meshes = {

@@ -23,6 +23,7 @@ is not rotated): a face tilted far from upright gives a poor mesh, which the lan
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 import numbers
@@ -86,12 +87,6 @@ OCCLUSION_DIRECTIONS = 128  # directions of the sphere the transport is summed o
 OCCLUSION_SOFT = math.radians(10)  # a direction fades from seen to hidden over this angle below the horizon
 OCCLUSION_SMOOTH = SMOOTH  # the loss smoothed over this fraction of the face's size, as the normals are
 OCCLUSION_GRID = 96  # ... so it is found on a grid where the face is at most this many pixels (4x faster at 200)
-# the mesh's left/right correspondence (``mirror``): MediaPipe's two eye contours point for point (the image's left
-# eye first: outer corner, lower lid, inner corner, upper lid) and points on its mid-line (nose tip and bridge,
-# forehead, chin, lips)
-MIRROR_PAIRS = ((33, 263), (7, 249), (163, 390), (144, 373), (145, 374), (153, 380), (154, 381), (155, 382),
-                (133, 362), (173, 398), (157, 384), (158, 385), (159, 386), (160, 387), (161, 388), (246, 466))
-MIRROR_MIDLINE = (1, 4, 6, 168, 10, 152, 0, 17)
 # ``mirror_held``: a value is held to its mirror image's only where the photo is in shadow against its mirror image:
 # its luminance over the mirror's, from the second share down to the first, from none of the lift to all of it
 # (shadow_fill.MIRROR_DARK's shares, not fitted again; a face lit from the front keeps its own), that luminance smoothed
@@ -103,9 +98,11 @@ MIRROR_SHADOW_SIGMA = 1.5
 # 2 % under 0.4), while a far darker one is another material over one half (a fringe of hair over a brow, an iris
 # looking sideways onto the other eye's white, a mole), not the same skin (faces23r: a fringe lifted by 40 levels)
 MIRROR_OWN_SHARE = (0.3, 0.5)
-# ... and only as far as the mirror lands on the face: where it misses the cheeks' landmark pairs (not in its fit) by
-# more than the first share of the face's size, less, to none past the second (a head turned 30-45 degrees: 0.18-0.30;
-# Extended Yale B's faces: at most 0.047; faces23r)
+# ... and only as far as the mirror lands on the face: where it misses the cheeks' landmark pairs (left out of its fit)
+# by more than the first share of the face's size, less, to none past the second (faces23r, the mirror then fitted to
+# the eyes' contours: a head turned 30-45 degrees 0.18-0.30, Extended Yale B's faces at most 0.047; fitted to the whole
+# symmetry map since mesh37: Yale's frontal and +-25 deg faces at most 0.018, the first look's 25 faces median 0.020,
+# max 0.165; benchmarks/mirror_fit.py)
 MIRROR_CHEEK_PAIRS = ((50, 280), (205, 425), (187, 411))
 MIRROR_MISS = (0.1, 0.2)
 
@@ -373,27 +370,39 @@ def _mesh_occlusion(points: np.ndarray, triangles: np.ndarray, normals: np.ndarr
     return cv2.resize(loss, (w, h), interpolation=cv2.INTER_LINEAR)
 
 
-def mirror(points: np.ndarray) -> np.ndarray:
+def mirror(points: np.ndarray) -> np.ndarray | None:
     """The face's mirror in the image plane: a (2, 3) affine map taking a pixel (x, y, 1) to where the same place of
-    the face's other half lies, fitted by least squares to ``MIRROR_PAIRS`` (each point to its partner, both ways)
-    and ``MIRROR_MIDLINE`` (each point to itself). An affine map, not a plane's reflection: a face turned a little
-    is foreshortened unequally, which the fit's shear and scale take up around the eyes.
+    the face's other half lies, fitted by least squares to every landmark of ``points`` ((468, >= 2) pixels) mapped
+    onto its partner (``MIRROR_FILE``: the mid-line's onto themselves), the cheeks' ``MIRROR_CHEEK_PAIRS`` left out
+    (``mirror_held`` checks the fit on them). An affine map, not a plane's reflection: a face turned a little is
+    foreshortened unequally, which the fit's shear and scale take up. None where there is no symmetry map (the file
+    absent or broken: logged once) or ``points`` is not the landmarker's mesh.
     """
-    p = np.asarray(points, np.float64)[:, :2]
-    a, b = np.array(MIRROR_PAIRS).T
-    mid = np.array(MIRROR_MIDLINE)
-    src = np.concatenate([p[a], p[b], p[mid]])
-    dst = np.concatenate([p[b], p[a], p[mid]])
+    partner = _fit_partners()
+    p = np.asarray(points, np.float64)
+    if partner is None or p.ndim != 2 or len(p) != N_POINTS or p.shape[1] < 2:
+        return None
+    keep = np.setdiff1d(np.arange(N_POINTS), np.array(MIRROR_CHEEK_PAIRS).ravel())
+    src = p[keep, :2]
     design = np.concatenate([src, np.ones((len(src), 1))], axis=1)
-    fit, *_ = np.linalg.lstsq(design, dst, rcond=None)
+    fit, *_ = np.linalg.lstsq(design, p[partner[keep], :2], rcond=None)
     return fit.T.astype(np.float32)
+
+
+@functools.cache
+def _fit_partners() -> np.ndarray | None:
+    """``read_partners()`` once, read-only (``mirror`` is called per face and per decomposition)."""
+    partner = read_partners()
+    if partner is not None:
+        partner.setflags(write=False)
+    return partner
 
 
 def mirror_held(values: np.ndarray, points: np.ndarray, weight: np.ndarray | None = None,
                 photo: np.ndarray | None = None) -> np.ndarray:
     """(h, w) float32: ``values`` (h, w) held to at least their mirror image's through the face (``mirror``), where
-    that image lands in the window; as they are where it does not, or where the mesh gives no mirror (collapsed, or
-    fewer than the landmarker's ``N_POINTS``).
+    that image lands in the window; as they are where it does not, or where ``mirror`` gives none (no symmetry map, a
+    mesh of other than the landmarker's ``N_POINTS``, or one collapsed to a line).
 
     Args:
         values: (h, w) float, the map to hold (relight_rt.relight.factor ``MIRROR_ALBEDO``: the albedo luminance).
@@ -412,10 +421,8 @@ def mirror_held(values: np.ndarray, points: np.ndarray, weight: np.ndarray | Non
     a face whose mirror misses its cheeks (``MIRROR_MISS``: a turned head) is held less, or not at all.
     """
     v = np.ascontiguousarray(values, np.float32)
-    if len(points) < N_POINTS:  # not the landmarker's mesh: no left / right correspondence
-        return v.copy()
     m = mirror(points)
-    if np.linalg.det(m[:, :2]) > -0.5:  # no reflection (a mesh collapsed to a line or a point)
+    if m is None or np.linalg.det(m[:, :2]) > -0.5:  # no reflection (a mesh collapsed to a line or a point)
         return v.copy()
     p = np.asarray(points, np.float64)[:, :2]
     a, b = np.array(MIRROR_CHEEK_PAIRS).T

@@ -80,8 +80,8 @@ def mirror_shadow(shading: np.ndarray, opening: np.ndarray, face: np.ndarray,
     out = np.zeros((h, w), np.float32)
     for pts in points:
         m = mirror(pts)
-        if np.linalg.det(m[:, :2]) > -0.5:  # no reflection (a mesh collapsed to a line or a point): no mirror to read
-            continue
+        if m is None or np.linalg.det(m[:, :2]) > -0.5:  # no symmetry map, or no reflection (a mesh collapsed to a
+            continue  # line or a point): no mirror to read
         xy = np.asarray(pts, np.float64)[:, :2]
         sigma = max(MIRROR_SPREAD * float(np.ptp(xy, axis=0).max()), 0.5)
         hull = np.zeros((h, w), np.uint8)  # this face's own pixels: its mesh's convex hull (4 bits of sub-pixel)

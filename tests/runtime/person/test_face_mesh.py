@@ -15,8 +15,6 @@ from relight_rt.light import exposure as exposure_module
 from relight_rt.person.face_mesh import (
     HEAD_STRENGTH,
     MIRROR_CHEEK_PAIRS,
-    MIRROR_MIDLINE,
-    MIRROR_PAIRS,
     FaceMesh,
     face_transport,
     head_normals,
@@ -24,6 +22,7 @@ from relight_rt.person.face_mesh import (
     mirror,
     mirror_held,
     rasterise_normals,
+    read_partners,
 )
 from relight_rt.relight import factor as factor_module
 from relight_rt.relight.exposure_meter import ExposureMeter
@@ -270,38 +269,93 @@ def test_a_portraits_light_is_turned_by_its_face_and_still_gives_the_photo_back(
     assert toward(dec.light) > 0.5 * toward(plain.light)
 
 
-def test_the_faces_mirror_takes_each_eye_to_the_other_and_keeps_the_mid_line():
-    """``mirror``: on a face symmetric about x = 60 (turned a little: foreshortened by 0.8 on its right) the fit is
-    that reflection; the image's left eye's contour lands on the right eye's."""
-    rng = np.random.default_rng(3)
+# MediaPipe's two eye contours point for point (the image's left eye first: outer corner, lower lid, inner corner,
+# upper lid) and points on its mid-line (nose tip and bridge, forehead, chin, lips): the pairs ``mirror`` was fitted
+# to before mesh37, known from the mesh's topology (not from the symmetry file they check)
+EYE_PAIRS = ((33, 263), (7, 249), (163, 390), (144, 373), (145, 374), (153, 380), (154, 381), (155, 382),
+             (133, 362), (173, 398), (157, 384), (158, 385), (159, 386), (160, 387), (161, 388), (246, 466))
+MIDLINE = (1, 4, 6, 168, 10, 152, 0, 17)
+
+
+def _mirrored_face(left: np.ndarray, cx: float, mid_y: np.ndarray) -> np.ndarray:
+    """(468, 3): every landmark pair of the symmetry map (``read_partners``) symmetric about x = ``cx``, the first of
+    each pair at its row of ``left`` ((468, 2) x, y; x <= cx), its partner mirrored; the mid-line's landmarks on x =
+    ``cx`` at their ``mid_y``'s rows."""
+    partner = read_partners()
+    assert partner is not None
+    first = partner > np.arange(len(partner))
     points = np.zeros((468, 3))
-    a, b = np.array(MIRROR_PAIRS).T
-    left = rng.uniform([10, 20], [50, 80], (len(a), 2))
-    points[a, :2] = left
-    points[b, :2] = np.stack([60 + (60 - left[:, 0]), left[:, 1]], axis=1)
-    points[list(MIRROR_MIDLINE), :2] = np.stack([np.full(len(MIRROR_MIDLINE), 60.0),
-                                                  rng.uniform(10, 90, len(MIRROR_MIDLINE))], axis=1)
+    points[first, :2] = left[first]
+    points[partner[first], :2] = np.stack([2 * cx - left[first, 0], left[first, 1]], axis=1)
+    own = partner == np.arange(len(partner))
+    points[own, 0], points[own, 1] = cx, mid_y[own]
+    return points
+
+
+def test_the_faces_mirror_takes_each_landmark_to_its_partner():
+    """``mirror``: on a face symmetric about x = 60 (every landmark and its partner of the symmetry map) the fit is
+    that reflection; turned a little (foreshortened by 0.8 on its right) an affine fit, not an exact mirror, that
+    still takes the image's left eye's contour near the right eye's."""
+    rng = np.random.default_rng(3)
+    points = _mirrored_face(rng.uniform([10, 20], [50, 80], (468, 2)), 60.0, rng.uniform(10, 90, 468))
     m = mirror(points)
     np.testing.assert_allclose(m, [[-1, 0, 120], [0, 1, 0]], atol=1e-4)
-    squeezed = points.copy()  # the face's right half foreshortened: an affine fit, not an exact mirror
-    squeezed[b, 0] = 60 + 0.8 * (squeezed[b, 0] - 60)
+    a, b = np.array(EYE_PAIRS).T
+    np.testing.assert_allclose(points[a, :2] @ m[:, :2].T + m[:, 2], points[b, :2], atol=1e-3)
+    squeezed = points.copy()  # the face's right half foreshortened
+    right = squeezed[:, 0] > 60
+    squeezed[right, 0] = 60 + 0.8 * (squeezed[right, 0] - 60)
     m = mirror(squeezed)
     moved = squeezed[a, :2] @ m[:, :2].T + m[:, 2]
     assert np.abs(moved - squeezed[b, :2]).max() < 0.15 * np.ptp(squeezed[:, 0])
     assert np.linalg.det(m[:, :2]) < 0  # a reflection
 
 
+def test_the_faces_mirror_is_fitted_to_the_whole_map_but_the_cheeks():
+    """The fit reads every pair of the symmetry map: a face symmetric about a tilted axis gives that reflection
+    however its eyes lie (the eyes moved alone move it by little: 32 of 468 points); the cheeks' pairs, which
+    ``mirror_held`` checks the fit on, do not move it at all. No map, or a mesh of other than 468 points: no mirror."""
+    rng = np.random.default_rng(7)
+    points = _mirrored_face(rng.uniform([10, 20], [50, 80], (468, 2)), 60.0, rng.uniform(10, 90, 468))
+    turn = np.radians(20)  # the face tilted in the image by 20 degrees about (60, 50)
+    rot = np.array([[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]])
+    tilted = points.copy()
+    tilted[:, :2] = (points[:, :2] - (60, 50)) @ rot.T + (60, 50)
+    m = mirror(tilted)
+    partner = read_partners()
+    np.testing.assert_allclose(tilted[:, :2] @ m[:, :2].T + m[:, 2], tilted[partner, :2], atol=1e-3)
+    eyes = tilted.copy()  # the eyes' 32 points moved by 3 px (sd): the mirror of the face moves under 0.5 px
+    eyes[np.array(EYE_PAIRS).ravel(), :2] += rng.normal(0, 3, (32, 2))  # (0.29; the eye-list fit: 3.2)
+    moved = mirror(eyes)
+    shift = tilted[:, :2] @ (moved[:, :2] - m[:, :2]).T + (moved[:, 2] - m[:, 2])
+    assert np.abs(shift).max() < 0.5, np.abs(shift).max()
+    cheeks = tilted.copy()
+    cheeks[np.array(MIRROR_CHEEK_PAIRS).ravel(), :2] += rng.normal(0, 20, (6, 2))
+    np.testing.assert_array_equal(mirror(cheeks), m)
+    assert mirror(tilted[:400]) is None
+
+
+def test_no_symmetry_map_gives_no_mirror_and_holds_nothing(monkeypatch):
+    """Without the symmetry file (``read_partners`` None) ``mirror`` has nothing to fit: None, and ``mirror_held``
+    returns its values as they are."""
+    from relight_rt.person import face_mesh as fm
+
+    rng = np.random.default_rng(3)
+    points = _mirrored_face(rng.uniform([10, 20], [50, 80], (468, 2)), 60.0, rng.uniform(10, 90, 468))
+    monkeypatch.setattr(fm, "_fit_partners", lambda: None)
+    assert mirror(points) is None
+    albedo = np.full((100, 120), 0.6, np.float32)
+    albedo[40:60, 70:85] = 0.3
+    photo = np.full(albedo.shape, 0.6, np.float32)
+    photo[36:64, 66:89] = 0.05
+    np.testing.assert_array_equal(mirror_held(albedo, points, photo=photo), albedo)
+
+
 def _symmetric_points(cx: float = 60.0) -> np.ndarray:
-    """(468, 3) a face's mirror points symmetric about x = ``cx`` (the rest at the centre)."""
+    """(468, 3) a face's landmarks, each pair of the symmetry map mirrored about x = ``cx`` (x 20-100, y 20-80), the
+    mid-line on it (y 10-90)."""
     rng = np.random.default_rng(5)
-    points = np.full((468, 3), [cx, 50.0, 0.0])
-    a, b = np.array(MIRROR_PAIRS).T
-    left = rng.uniform([20, 20], [50, 80], (len(a), 2))
-    points[a, :2] = left
-    points[b, :2] = np.stack([2 * cx - left[:, 0], left[:, 1]], axis=1)
-    points[list(MIRROR_MIDLINE), :2] = np.stack([np.full(len(MIRROR_MIDLINE), cx),
-                                                  rng.uniform(10, 90, len(MIRROR_MIDLINE))], axis=1)
-    return points
+    return _mirrored_face(rng.uniform([20, 20], [50, 80], (468, 2)), cx, rng.uniform(10, 90, 468))
 
 
 def test_a_value_darkened_by_a_shadow_on_one_half_of_the_face_is_held_to_its_mirror_images():
@@ -398,20 +452,35 @@ def _mirrored_back(points: np.ndarray, width: int, partner: np.ndarray) -> np.nd
 def test_the_meshs_symmetry_map_is_an_involution_that_keeps_the_known_pairs():
     """relight_rt/data/face_mesh_mirror.txt (benchmarks/mesh_mirror.py --build-map: the nearest mirrored landmark
     on the mean of 24 frontal meshes, paired both ways): each landmark's partner's partner is itself, and it
-    agrees with the hand-picked pairs (the eyes' contours, the cheeks) and the mid-line that ``mirror`` uses."""
-    from relight_rt.person.face_mesh import N_POINTS, read_partners
+    agrees with the hand-picked pairs (the eyes' contours, the cheeks ``mirror_held`` checks) and the mid-line."""
+    from relight_rt.person.face_mesh import N_POINTS
 
     partner = read_partners()
     assert partner is not None and partner.shape == (N_POINTS,)
     np.testing.assert_array_equal(partner[partner], np.arange(N_POINTS))
-    for a, b in (*MIRROR_PAIRS, *MIRROR_CHEEK_PAIRS):
+    for a, b in (*EYE_PAIRS, *MIRROR_CHEEK_PAIRS):
         assert partner[a] == b
-    assert all(partner[i] == i for i in MIRROR_MIDLINE)
+    assert all(partner[i] == i for i in MIDLINE)
     assert 10 <= int((partner == np.arange(N_POINTS)).sum()) <= 40  # a mid-line, not a map that keeps most points
 
 
+def test_the_symmetry_map_ships_with_the_package():
+    """Without the symmetry file an install averages no mesh with its mirror's and, since mesh37, fits no ``mirror``
+    (the cheek rule and the fill's dark sockets off): pyproject's package-data must carry it into the wheel."""
+    import fnmatch
+    from pathlib import Path
+
+    from relight_rt.person.face_mesh import MIRROR_FILE
+
+    tomllib = pytest.importorskip("tomllib")  # Python 3.11 on
+    root = Path(__file__).resolve().parents[3]
+    data = tomllib.loads((root / "pyproject.toml").read_text())["tool"]["setuptools"]["package-data"]["relight_rt"]
+    inside = MIRROR_FILE.relative_to(root / "relight_rt").as_posix()
+    assert MIRROR_FILE.is_file() and any(fnmatch.fnmatch(inside, pattern) for pattern in data), (inside, data)
+
+
 def test_a_symmetry_file_that_is_no_involution_is_not_used(tmp_path, caplog):
-    from relight_rt.person.face_mesh import N_POINTS, read_partners
+    from relight_rt.person.face_mesh import N_POINTS
 
     bad = np.arange(N_POINTS)
     bad[0], bad[1] = 1, 2  # 0 -> 1 -> 2: no involution

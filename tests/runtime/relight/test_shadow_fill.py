@@ -370,18 +370,18 @@ def test_the_mirrors_fill_weight_stays_on_the_person(yale_dir, monkeypatch):
 
 
 def _symmetric_mesh(centre: float, top: float, half: float, height: float, seed: int = 1) -> np.ndarray:
-    """(468, 3) mesh points whose ``MIRROR_PAIRS`` mirror each other about x = ``centre`` and whose mid-line lies on
-    it: a face ``2 half`` wide and ``height`` tall from y = ``top`` (the other points at its centre)."""
-    from relight_rt.person.face_mesh import MIRROR_MIDLINE, MIRROR_PAIRS
+    """(468, 3) mesh points whose pairs of the symmetry map (face_mesh ``read_partners``) mirror each other about x =
+    ``centre`` and whose mid-line lies on it: a face ``2 half`` wide and ``height`` tall from y = ``top``."""
+    from relight_rt.person.face_mesh import read_partners
 
+    partner = read_partners()
+    assert partner is not None
+    first, own = partner > np.arange(468), partner == np.arange(468)
     points = np.zeros((468, 3))
-    points[:, :2] = centre, top + height / 2
-    a, b = np.array(MIRROR_PAIRS).T
-    left = np.random.default_rng(seed).uniform([centre - half, top], [centre, top + height], (len(a), 2))
-    points[a, :2] = left
-    points[b, :2] = np.stack([2 * centre - left[:, 0], left[:, 1]], axis=1)
-    points[list(MIRROR_MIDLINE), :2] = np.stack([np.full(len(MIRROR_MIDLINE), centre),
-                                                  np.linspace(top, top + height, len(MIRROR_MIDLINE))], axis=1)
+    left = np.random.default_rng(seed).uniform([centre - half, top], [centre, top + height], (468, 2))
+    points[first, :2] = left[first]
+    points[partner[first], :2] = np.stack([2 * centre - left[first, 0], left[first, 1]], axis=1)
+    points[own, 0], points[own, 1] = centre, np.linspace(top, top + height, int(own.sum()))
     return points
 
 
@@ -459,6 +459,23 @@ def test_mirror_shadow_reads_no_mirror_of_a_collapsed_mesh():
     opening[40:60, 80:100] = True
     out = shadow_fill.mirror_shadow(shading, opening, face, (points,))
     assert not out.any()
+
+
+def test_mirror_shadow_reads_no_mirror_without_the_symmetry_map(monkeypatch):
+    """Without the mesh's symmetry file (face_mesh ``mirror`` None since mesh37) a dark socket whose mirror is lit
+    is not called shadow: the face is skipped, not read through a guessed mirror."""
+    from relight_rt.person import face_mesh
+
+    points = _symmetric_mesh(60.0, 10.0, 55.0, 100.0)
+    shading = np.ones((120, 121), np.float32)
+    shading[:, 61:] = 0.2
+    face = np.zeros((120, 121), bool)
+    face[10:110, 5:116] = True
+    opening = np.zeros_like(face)
+    opening[40:60, 20:40] = opening[40:60, 80:100] = True
+    assert shadow_fill.mirror_shadow(shading, opening, face, (points,))[45:55, 85:95].min() > 0.95  # with the map
+    monkeypatch.setattr(face_mesh, "_fit_partners", lambda: None)
+    assert not shadow_fill.mirror_shadow(shading, opening, face, (points,)).any()
 
 
 def test_a_cheek_in_the_noses_shadow_takes_its_mirror_images_albedo(yale_dir, monkeypatch):
