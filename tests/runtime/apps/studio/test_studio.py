@@ -617,7 +617,6 @@ def test_shadow_layer_is_the_final_results_at_the_previews_size(photo, models_di
 
 
 def test_preview_picture_darkens_only_where_the_shadow_falls(studio):
-
     meta = studio.info()["preview"]
     layers = unpack_layers(studio.layers_bytes(), meta)
     light = studio.preview_light(lights.preset("front"))
@@ -652,7 +651,6 @@ def _drawn_change(studio, before, after, light):
     the whole preview): the preview's luminance with the cast shadows (premultiplied), ``before`` and ``after``
     reduced by area, their ratio, the gain that adds their difference to that luminance, and the cast shadows'
     factor (uint8)."""
-
     meta = studio.info()["preview"]
     size = (meta["width"], meta["height"])
     small_before, small_after = (cv2.resize(a, size, interpolation=cv2.INTER_AREA) for a in (before, after))
@@ -673,7 +671,6 @@ def test_the_head_pass_change_is_drawn_as_its_ratio_capped_by_its_difference(pho
     brightens no more than the gain that adds their difference to the preview's own luminance (the page's drawing
     under the light, with the cast shadows; no gain where the preview draws nothing); cut to the box where it is
     not 1, float32. ``shadow_plane`` puts it on the cast shadows' factor, both where they overlap."""
-
     def change(inside, box):
         before = np.where(inside, 0.4, 0).astype(np.float32)
         after = before.copy()
@@ -703,7 +700,6 @@ def test_the_head_pass_change_does_not_amplify_a_brighter_preview(photo, models_
     """Where the result without the head pass is far darker than the preview (dark cloth, the preview's own
     approximations), the head pass's ratio would multiply the preview's light: the preview instead gains the
     luminance the head pass adds, not that ratio."""
-
     def change(inside, box):
         before = np.where(inside, 0.01, 0).astype(np.float32)
         return before, np.where(inside, 0.05, 0).astype(np.float32)  # five times as bright, 0.04 more
