@@ -32,7 +32,7 @@ class Lighting:
     """
 
     def __init__(self, network: Network, factor: Factor, composer: Composer, detail: bool) -> None:
-        self._network, self._factor, self._composer, self.detail = network, factor, composer, detail
+        self._network, self._factor, self._composer, self._detail = network, factor, composer, detail
 
     def one(self, dec: Decomposition, light, exposure, background, resolve: Callable[[object], np.ndarray],
             layers: bool, keep: bool) -> np.ndarray | RelightResult:
@@ -55,7 +55,7 @@ class Lighting:
         bg = parse_background(background)
         if layers:
             return self._with_layers(dec, lit, bg)
-        outputs = next(self._network.relit(dec, lit[None], 1, want_layers=self.detail))
+        outputs = next(self._network.relit(dec, lit[None], 1, want_layers=self._detail))
         return self._composer.compose(dec, lit, outputs, backdrop_of(dec, bg), clean=bg.kind != "original",
                                       grade=bg.graded)
 
@@ -84,5 +84,6 @@ class Lighting:
             lits = np.stack([expose(dec, one[None], e)[0] for one, e in zip(resolved, exposures, strict=True)])
         bg = parse_background(background)
         backdrop = backdrop_of(dec, bg)
-        for lit, outputs in zip(lits, self._network.relit(dec, lits, batch_size, want_layers=self.detail), strict=True):
+        relit = self._network.relit(dec, lits, batch_size, want_layers=self._detail)
+        for lit, outputs in zip(lits, relit, strict=True):
             yield self._composer.compose(dec, lit, outputs, backdrop, clean=bg.kind != "original", grade=bg.graded)

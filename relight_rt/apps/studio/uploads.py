@@ -95,7 +95,7 @@ def envmap_upload_light(data: bytes) -> np.ndarray:
 def background_upload_light(data: bytes, key_light=None) -> np.ndarray:
     """(9, 3) float32 light of an uploaded background photo (relight_rt.light.from_background, 60° field of view),
     shrunk to UPLOAD_WORK_PIXELS as decoded; ``key_light`` "AZ,EL" (degrees) or a pair steers its key light
-    (scene_light.parse_key_light)."""
+    (relight_rt.light.from_background ``parse_key_light``)."""
     from ...light.from_background import light_from_background, parse_key_light
 
     key = parse_key_light(key_light)  # checked before the upload is decoded
