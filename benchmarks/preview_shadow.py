@@ -5,7 +5,7 @@
 The final result darkens the face mesh's cast shadows under a new light's lamp (the nose's, the brows';
 relight_rt.relight.cast_shadow); the preview the page draws from its layers (albedo x max(0, T.L),
 relight_rt.apps.studio) had none. Per photo and light (the white side lamps ``LEFT`` and ``RIGHT`` of
-benchmarks/real_photos.py), the preview is drawn as the page draws it (``relight_rt.apps.studio.core.preview_picture``,
+benchmarks/real_photos.py), the preview is drawn as the page draws it (``apps.studio.preview.preview_picture``,
 the light ``Studio.preview_light``) without and with the server's shadow layer (``Studio.shadow``), and the final result
 (``Studio.render``) is reduced to the preview's size. The server's plane also carries the head pass's change
 (since mirror34); the shadow's pixels are the cast shadows' alone. Figures, CIE L* of both: mean |dL*| over the
@@ -34,7 +34,8 @@ from real_photos import LEFT, RIGHT
 from _shared import shared_path, warn_missing
 
 from relight_rt import Relighter, RuntimeConfig
-from relight_rt.apps.studio.core import Studio, preview_picture, shadow_plane, unpack_layers
+from relight_rt.apps.studio.core import Studio
+from relight_rt.apps.studio.preview import preview_picture, shadow_plane, unpack_layers
 
 DEEP = 0.1  # a shadow pixel: the final result's shading there at most 0.9 of the light's
 

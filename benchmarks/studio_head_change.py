@@ -23,7 +23,8 @@ import numpy as np
 
 import relight_rt
 from relight_rt import RuntimeConfig, lights
-from relight_rt.apps.studio.core import Studio, preview_picture, shadow_plane, unpack_layers
+from relight_rt.apps.studio.core import Studio
+from relight_rt.apps.studio.preview import preview_picture, shadow_plane, unpack_layers
 from relight_rt.cli.demo import example_path
 from relight_rt.image.color import REC709
 

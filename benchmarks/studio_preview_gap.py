@@ -5,7 +5,7 @@
 Brightness: the person's mean luminance (Rec. 709 of the values, weighted by the mask) in the preview the page
 draws once the light has settled (albedo x shading with the shaded-skin gain over the photo, at the page's size,
 the shading times the server's plane for that light: the body's cast shadows and the head pass's change,
-``Studio.shadow``; the Python mirror of the shaders, relight_rt.apps.studio.core ``preview_picture``, as
+``Studio.shadow``; the Python mirror of the shaders, relight_rt.apps.studio.preview ``preview_picture``, as
 tests/integration/test_studio_browser.py draws it) over the full result's, on the bundled example person, per preset
 given as an array ("auto" exposure, no preset EV); beside it, the same without the server's plane (the preview
 while a light is being dragged). ``--without`` switches off, in the full result, the head pass's blend of its
@@ -31,7 +31,8 @@ import numpy as np
 
 import relight_rt
 from relight_rt import RuntimeConfig, lights
-from relight_rt.apps.studio.core import Studio, preview_picture, shadow_plane, unpack_layers
+from relight_rt.apps.studio.core import Studio
+from relight_rt.apps.studio.preview import preview_picture, shadow_plane, unpack_layers
 from relight_rt.cli.demo import example_path
 from relight_rt.image.color import REC709
 from relight_rt.light.exposure import DISPLAY_GAMMA

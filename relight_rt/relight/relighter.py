@@ -6,9 +6,11 @@ Pipeline (DESIGN.md §1, §4, §5)::
     new light L' ─► diffuse D = clip(albedo ⊙ max(0, T·L'), 0, 1) ─► stage 2 ─► relit (network frame)
     relit ─► back to the input's size and position ─► composited over the background
 
-The Relighter orders the stages and holds the ONNX sessions; the stages live in relight_rt.relight: the Decomposition
-(``decomposition``), the face pass (``faces``), the relighting factor with full-resolution detail and the exposure
-(``factor``), the look (``look``), the person over a backdrop (``compose``) and a group person by person (``people``).
+The Relighter orders the stages and holds the ONNX sessions; the stages live in relight_rt.relight: its graphs
+loaded (``graphs``), the Decomposition (``decomposition``), the face pass (``face_pass``), the relighting factor with
+full-resolution detail and the exposure (``factor``), the look (``look``), the person over a backdrop (``compose``), a
+group person by person (``people``), a light argument resolved (``light_args``) and a Decomposition relit under one
+light or K (``lighting``).
 
 Without ``stage2.onnx`` the output is the diffuse image only: ``Relighter.diffuse_only`` is True, a
 warning is logged at load, and ``RelightResult.diffuse_only`` says so.
@@ -19,8 +21,6 @@ from __future__ import annotations
 import logging
 import os
 from collections.abc import Iterator, Sequence
-from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 
@@ -31,31 +31,23 @@ from ..engine.errors import RelightError
 from ..engine.session import Model, find_models, load_model
 from ..image.compositing import Background, parse_background
 from ..image.crop import CropGeometry
-from ..image.io import sibling_mask
 from ..light import exposure as _exposure
-from ..light import sh
-from ..light.spec import LightSpec
 from ..person.masks import Matter
+from . import light_args
 from . import people as per_person
-from .compose import Composer, GradeSample, backdrop_of, photo_colours
+from .compose import Composer, GradeSample, photo_colours
 from .decomposition import Decomposition, ImageLike, Memo, RelightResult, diffuse_batch
 from .face_pass import FacePass, head_crops
 from .factor import Factor
+from .graphs import load_stages
 from .intake import read_batch
+from .lighting import Lighting
 from .look import prepare_lab
 from .network import Network
 
 __all__ = ["Decomposition", "Relighter", "RelightResult", "compose_step", "diffuse_batch"]
 
 log = logging.getLogger(__name__)
-
-
-def _float32_light(light, name: str) -> np.ndarray:
-    """A checked (9, 3) light in float32, the dtype it is used in (too large or non-finite there: RelightError)."""
-    arr = sh.check_light(light, name).astype(np.float32)
-    if not np.isfinite(arr).all():
-        raise RelightError(f"{name}: SH light overflows float32 (|value| must be <= {sh.MAX_COEFF:g})")
-    return arr
 
 
 class Relighter:
@@ -93,23 +85,7 @@ class Relighter:
         self.face_pass = True
         self.upright = True  # a photo's person lying or tilted: stage 1 sees them upright (relight_rt.relight.upright)
         self._session_args = {"device": config.device, "device_id": config.device_id, "providers": providers}
-        self.stage1: Model = load_model(self._graph("stage1"), "stage1", warmup=False, **self._session_args)
-        warmup = config.warmup
-        if warmup is None:
-            warmup = self.stage1.on_cuda
-        if warmup:
-            self.stage1.warm_up()
-        self.stage2: Model | None = None
-        stage2_path = self._graph("stage2")
-        if stage2_path.is_file():
-            self.stage2 = load_model(stage2_path, "stage2", warmup=warmup, **self._session_args)
-            res2 = self.stage2.config.resolution
-            if res2 not in (0, self.resolution):
-                raise RelightError(
-                    f"{stage2_path}: resolution {res2} does not match stage 1's {self.resolution} (or 0 for any size)"
-                )
-        else:
-            log.warning("%s has no stage2.onnx: results are diffuse-only (no residual/specular)", self.models_dir)
+        self.stage1, self.stage2 = load_stages(self.models_dir, config, self._session_args)
         self._dvp: Model | None = None
         self.matter = matter  # the automatic matte of photos without a mask (None: they need one)
         self._chain = None  # CUDA: stage 1 → shading → stage 2 without host round trips
@@ -121,6 +97,7 @@ class Relighter:
         self._network = Network(self.stage1, self.stage2, self._chain, self._memo, self._faces)
         self._factor = Factor(self._memo, self._faces, config.detail, self._network.own_residual)
         self._composer = Composer(self._memo, self._factor, config.detail)
+        self._lighting = Lighting(self._network, self._factor, self._composer, config.detail)
         if config.detail:
             prepare_lab()  # OpenCV's Lab tables, which every relight with detail uses, built beside the first stages
         CropGeometry.from_mask(np.ones((1, 1), np.float32), self.resolution, config.preprocess)  # checks the mode
@@ -140,17 +117,6 @@ class Relighter:
     def detail(self) -> bool:
         """``self.config.detail``."""
         return self.config.detail
-
-    def _graph(self, kind: str) -> Path:
-        """The file of ``kind`` in this Relighter's precision, falling back to fp32 (logged) when absent."""
-        fp32 = self.models_dir / kind_spec(kind).filename
-        if self.precision == "fp32":
-            return fp32
-        path = fp32.with_name(f"{fp32.stem}_{self.precision}{fp32.suffix}")
-        if path.is_file() or not fp32.is_file():
-            return path
-        log.warning("%s: no %s, running %s in fp32", self.models_dir, path.name, kind)
-        return fp32
 
     @property
     def resolution(self) -> int:
@@ -281,10 +247,6 @@ class Relighter:
 
     # ------------------------------------------------------------------------------------ lights
 
-    def _estimate_light(self, photo: Path, mask: str | None) -> np.ndarray:
-        dec = self.decompose(photo, mask if mask is not None else sibling_mask(photo))
-        return np.array(dec.white_light, np.float32)
-
     def resolve_light(self, light, dtype=np.float32) -> np.ndarray:
         """Any accepted light argument → (9, 3) RGB SH light: the one place where a light is resolved.
 
@@ -298,23 +260,7 @@ class Relighter:
             dtype: float32 (default: the dtype the pipeline uses; a light too large for it is refused) or float64
                 (a light schedule's keys, turned and interpolated before use).
         """
-        if isinstance(light, Decomposition):
-            return np.array(light.white_light, dtype=dtype)
-        if np.dtype(dtype) not in (np.float32, np.float64):
-            raise RelightError(f"dtype: expected float32 or float64, got {dtype!r}")
-        lit = LightSpec.of(light).resolve(self._estimate_light, dtype=np.float64)
-        return _float32_light(lit, "light") if np.dtype(dtype) == np.float32 else sh.check_light(lit, "light")
-
-    def _resolve_lights(self, values) -> np.ndarray:
-        """A (K, 9, 3) array, or a list of anything ``resolve_light`` accepts → (K, 9, 3) float32, K >= 1."""
-        if isinstance(values, np.ndarray):
-            if values.ndim != 3 or values.shape[1:] != (9, 3):
-                raise RelightError(f"lights: expected (K, 9, 3) SH lights, got {values.shape} {values.dtype}")
-        elif not isinstance(values, (list, tuple)):
-            raise RelightError(f"lights: expected a (K, 9, 3) array or a list of lights, got {type(values).__name__}")
-        if len(values) == 0:
-            raise RelightError("lights: expected at least one light, got none")
-        return np.stack([self.resolve_light(v) for v in values])
+        return light_args.resolve_light(light, self.decompose, dtype)
 
     # ------------------------------------------------------------------------------------ relight
 
@@ -395,29 +341,7 @@ class Relighter:
 
     def _relight(self, image, light, mask, background, exposure, layers: bool) -> np.ndarray | RelightResult:
         dec = self._prepare(image, mask)
-        if isinstance(light, (str, os.PathLike)):
-            light = LightSpec.of(light)  # read once by the one rule: its exposure and its light
-        exposure = _exposure.for_light(exposure, light)  # a preset may ask for its own exposure (night: darker)
-        parts, expose = dec.people, self._factor.meter.expose
-        if parts:
-            bg, light = parse_background(background), self.resolve_light(light)
-            out = per_person.by_person(self._composer, self._network.relit, dec, parts, light, exposure, bg,
-                                       keep=image is dec)  # a photo decomposed for this call: relit once
-            if layers:  # the layers are the group's, decomposed as one
-                return replace(self._relight_with_layers(dec, expose(dec, light, exposure), bg), image=out)
-            return out
-        lit = expose(dec, self.resolve_light(light), exposure)
-        bg = parse_background(background)
-        if layers:
-            return self._relight_with_layers(dec, lit, bg)
-        outputs = next(self._network.relit(dec, lit[None], 1, want_layers=self.detail))
-        return self._composer.compose(dec, lit, outputs, backdrop_of(dec, bg), clean=bg.kind != "original",
-                                      grade=bg.graded)
-
-    def _relight_with_layers(self, dec: Decomposition, lit: np.ndarray, bg: Background) -> RelightResult:
-        """The picture under the exposed light ``lit`` and the input-frame layers that made it."""
-        outputs = next(self._network.relit(dec, lit[None], 1, want_layers=True))
-        return self._composer.with_layers(dec, lit, outputs, backdrop_of(dec, bg), bg.kind != "original", bg.graded)
+        return self._lighting.one(dec, light, exposure, background, self.resolve_light, layers, keep=image is dec)
 
     def iter_relight(
         self,
@@ -433,30 +357,8 @@ class Relighter:
         if not isinstance(batch_size, int) or batch_size < 1:
             raise RelightError(f"batch_size: expected a whole number >= 1, got {batch_size!r}")
         dec = self._prepare(image, mask)
-        if isinstance(lights, (list, tuple)):  # strings read once by the one rule: their exposure and their light
-            lights = [LightSpec.of(v) if isinstance(v, (str, os.PathLike)) else v for v in lights]
-        resolved = self._resolve_lights(lights)
-        # each light's exposure: a preset may ask for its own (``exposure.for_light``: night a stop darker)
-        exposures = [_exposure.for_light(exposure, v) for v in lights] if isinstance(lights, list) else \
-            [_exposure.parse_exposure(exposure)] * len(resolved)
-        parts = dec.people
-        if parts:  # a group: each person's light-independent work done once for several lights
-            bg = parse_background(background)
-            step = per_person.lights_at_once(dec.geometry.frame, bg.channels, batch_size)
-            for s in range(0, len(resolved), step):  # each person's state kept while lights follow (or dec is yours)
-                yield from per_person.by_person_lights(self._composer, self._network.relit, dec, parts,
-                                                       resolved[s : s + step], exposures[s : s + step], bg,
-                                                       keep=image is dec or s + step < len(resolved))
-            return
-        expose = self._factor.meter.expose
-        if all(e == exposures[0] for e in exposures):
-            lits = expose(dec, resolved, exposures[0])
-        else:
-            lits = np.stack([expose(dec, one[None], e)[0] for one, e in zip(resolved, exposures, strict=True)])
-        bg = parse_background(background)
-        backdrop = backdrop_of(dec, bg)
-        for lit, outputs in zip(lits, self._network.relit(dec, lits, batch_size, want_layers=self.detail), strict=True):
-            yield self._composer.compose(dec, lit, outputs, backdrop, clean=bg.kind != "original", grade=bg.graded)
+        resolved, exposures = light_args.lights_with_exposures(lights, exposure, self.resolve_light)
+        yield from self._lighting.each(dec, resolved, exposures, background, batch_size, keep=image is dec)
 
     def relight_many(
         self,
@@ -483,7 +385,8 @@ class Relighter:
         """
         dec = self._prepare(image, mask)
         # a list is resolved light by light in iter_relight (a photo's light once); an array is checked here
-        count = len(lights) if isinstance(lights, (list, tuple)) else len(self._resolve_lights(lights))
+        count = len(lights) if isinstance(lights, (list, tuple)) else \
+            len(light_args.resolve_lights(lights, self.resolve_light))
         bg = parse_background(background)
         out = np.empty((count,) + dec.geometry.frame + (bg.channels,), np.float32)
         results = self.iter_relight(dec, lights, background=bg, batch_size=batch_size, exposure=exposure)

@@ -27,7 +27,8 @@ pytest.importorskip("playwright.sync_api")
 
 import relight_rt  # noqa: E402
 from relight_rt import RuntimeConfig, lightfile, lights, sh  # noqa: E402
-from relight_rt.apps.studio.core import Studio, preview_picture, shadow_plane, unpack_layers  # noqa: E402
+from relight_rt.apps.studio.core import Studio  # noqa: E402
+from relight_rt.apps.studio.preview import preview_picture, shadow_plane, unpack_layers  # noqa: E402
 from relight_rt.cli.demo import example_path  # noqa: E402
 from relight_rt.light import exposure  # noqa: E402
 from relight_rt.light.exposure import exposure_scale  # noqa: E402

@@ -51,7 +51,8 @@ from starlette.middleware.trustedhost import TrustedHostMiddleware
 from starlette.requests import ClientDisconnect
 
 from ...engine.errors import RelightError
-from .core import MAX_UPLOAD_BYTES, Studio, light_json, light_npy
+from .core import Studio, light_json, light_npy
+from .uploads import MAX_UPLOAD_BYTES
 
 log = logging.getLogger(__name__)
 
@@ -335,7 +336,7 @@ def create_app(studio: Studio, allowed_hosts: list[str] | None = None, budget: B
 
     async def _upload(request: Request, name: str, work) -> dict:
         """An upload: its content type, a slot, its bytes within the budget, then ``work(bytes)`` in a thread
-        (the decode happens there, after the size in the header was checked: core.check_upload)."""
+        (the decode happens there, after the size in the header was checked: uploads.check_upload)."""
         from starlette.concurrency import run_in_threadpool
 
         _require_type(request, UPLOAD, name)

@@ -5,12 +5,10 @@ module packs at display resolution (albedo, transport, mask, background); the se
 pipeline (stage 2 and full-resolution detail) on request. Renders are kept in a bounded store whose
 entries expire, so an export fetches exactly the picture that was shown.
 
-Security: nothing here takes a filesystem path from a request. Uploads arrive as bytes, are limited in
-size, typed by their first bytes (never by a client's file name or content type), sized from their
-header by the runtime's one header parser (relight_rt.engine.limits.header_size: a size it cannot read, or more
-than MAX_UPLOAD_PIXELS, is refused before any decoder runs) and, where a reader needs a file, written to
-a temporary file whose name this module chooses, removed right after. What the web layer guards (origin,
-content types, concurrent uploads, bytes held) is in relight_rt.apps.studio.app.
+Security: nothing here takes a filesystem path from a request. Uploads arrive as bytes and are checked, decoded
+and turned into lights by relight_rt.apps.studio.uploads; the page's preview maths (the packed layers unpacked, the
+cast shadows' plane, the person drawn) is relight_rt.apps.studio.preview. What the web layer guards (origin, content
+types, concurrent uploads, bytes held) is in relight_rt.apps.studio.app.
 """
 
 from __future__ import annotations
@@ -22,7 +20,6 @@ import logging
 import math
 import secrets
 import shlex
-import tempfile
 import threading
 import time
 from collections import OrderedDict
@@ -34,86 +31,24 @@ import cv2
 import numpy as np
 
 from ...engine.errors import RelightError
-from ...engine.limits import header_size, shrink
 from ...image.color import REC709
 from ...image.compositing import Background
-from ...image.io import as_colour, decode_bytes, encode_image, read_image, sibling_mask
-from ...light import envmap, presets, sh
+from ...image.io import encode_image, read_image, sibling_mask
+from ...light import exposure as _exposure  # the one exposure rule
+from ...light import presets, sh
+from ...light.exposure import METER_POWER, Highlight, exposure_scale, guarded, mean_luminance, parse_exposure
+from ...light.spec import LightSpec  # the one light parser
+from ...relight.compose import GradeSample, sampled_grade, shown_mask  # the one background grade
+from ...relight.decomposition import intrinsic_layers
+from ...relight.look import NEUTRAL_CHROMA_EXP, NEUTRAL_LIFT, SKIN_CHROMA, skin_chroma  # the shaded-skin rule
 from ...relight.strength import restore_bands
+from .preview import area_reduce, layers_in_box, preview_picture, shadow_plane
+from .uploads import MAX_UPLOAD_BYTES, background_upload_light, decode_upload, envmap_upload_light
 
 log = logging.getLogger(__name__)
 
-MAX_UPLOAD_BYTES = 32 << 20  # an env map or a photo; bigger uploads are refused before decoding
-MAX_UPLOAD_PIXELS = 40_000_000  # decoded size limit (a small file can hold a huge image)
-# what an upload is shrunk to right after decoding, before any float copy: each becomes 27 numbers (an env map's
-# degree-2 SH, a background's or a person's light from stage 1), and at full size a 40-MP one cost ~60 bytes a
-# pixel, four at once past 4 GB (issue 50 bug 6); decoded, a pixel costs 3-12 bytes
-UPLOAD_WORK_PIXELS = 2_000_000
 EXPOSURE_SAMPLES = 1 << 15  # network-frame pixels of the person that the page's exposure rule reads (at most)
 SHADOW_CACHE = 8  # the faces' cast shadows (``Studio.shadow``) kept for this many lights, the latest ones
-from ...light import exposure as _exposure  # noqa: E402  (the one exposure rule)
-from ...light.exposure import METER_POWER, Highlight, exposure_scale, guarded, mean_luminance, parse_exposure  # noqa: E402
-from ...light.spec import LightSpec  # noqa: E402  (the one light parser)
-from ...relight.compose import GradeSample, HeadBlend, sampled_grade, shown_mask  # noqa: E402  (the one background grade)
-from ...relight.decomposition import intrinsic_layers  # noqa: E402
-from ...relight.look import NEUTRAL_CHROMA_EXP, NEUTRAL_LIFT, SKIN_CHROMA, shaded_skin, skin_chroma  # noqa: E402  (the shaded-skin rule the preview mirrors)
-
-# (leading bytes, kind, suffix the readers go by)
-_MAGIC = (
-    (b"\x89PNG\r\n\x1a\n", "png", ".png"),
-    (b"\xff\xd8\xff", "jpeg", ".jpg"),
-    (b"#?RADIANCE", "hdr", ".hdr"),
-    (b"#?RGBE", "hdr", ".hdr"),
-    (b"RIFF", "webp", ".webp"),  # checked further below: RIFF....WEBP
-    (b"BM", "bmp", ".bmp"),
-)
-
-
-def sniff(data: bytes) -> tuple[str, str] | None:
-    """(kind, suffix) of an upload from its first bytes, or None for anything else."""
-    for magic, kind, suffix in _MAGIC:
-        if data.startswith(magic):
-            if kind == "webp" and data[8:12] != b"WEBP":
-                return None
-            return kind, suffix
-    return None
-
-
-def check_upload(data: bytes, name: str, allowed: tuple[str, ...], limit: int = MAX_UPLOAD_BYTES) -> str:
-    """Check an upload's size and type (by content); returns the file suffix for its kind.
-
-    Raises:
-        RelightError: empty, larger than ``limit``, not one of ``allowed`` kinds, a header whose image size
-            cannot be read (relight_rt.engine.limits.header_size) or an image of more than MAX_UPLOAD_PIXELS.
-    """
-    if not data:
-        raise RelightError(f"{name}: the upload is empty")
-    if len(data) > limit:
-        raise RelightError(f"{name}: the upload is {len(data) / 2**20:.1f} MiB, the limit is {limit / 2**20:.0f} MiB")
-    found = sniff(data)
-    if found is None or found[0] not in allowed:
-        what = "an unknown type" if found is None else f"a {found[0]} file"
-        raise RelightError(f"{name}: expected {' or '.join(a.upper() for a in allowed)} (by content), got {what}")
-    # the size from the header, read by the runtime's one parser, before any decoder allocates the image
-    size = header_size(data, name)
-    if size is None:
-        raise RelightError(f"{name}: cannot read the image size from its {found[0].upper()} header (damaged or "
-                           "truncated file)")  # fmt: skip
-    if size[0] * size[1] > MAX_UPLOAD_PIXELS:
-        raise RelightError(f"{name}: the image is {size[0]}x{size[1]}, more than {MAX_UPLOAD_PIXELS} pixels")
-    return found[1]
-
-
-def decode_upload(data: bytes, name: str, max_pixels: int = UPLOAD_WORK_PIXELS) -> np.ndarray:
-    """An uploaded PNG/JPEG/WebP/BMP as float32 RGB(A) in [0, 1] (alpha kept), checked by content, shrunk to at
-    most ``max_pixels`` (relight_rt.engine.limits ``shrink``) as decoded, before the float conversion."""
-    check_upload(data, name, ("png", "jpeg", "webp", "bmp"))
-    img = decode_bytes(np.frombuffer(data, np.uint8))  # turned as its EXIF orientation says
-    if img is None:
-        raise RelightError(f"{name}: cannot decode the image (corrupt file)")
-    img = shrink(img, max_pixels)
-    # (its size was checked from the header by check_upload) OpenCV's BGR(A) as RGB(A), gray as colour
-    return read_image(as_colour(img, bgr=True), name)  # checks channels, depth, size; a new float32 array
 
 
 class ResultStore:
@@ -490,7 +425,7 @@ class Studio:
             levels = change(self.dec, lit) if change is not None else None
             changed = _changed_box(*levels, self.dec.geometry.box) if levels is not None else []
             if changed:  # the two luminances each reduced to a preview pixel, where the head pass changes them
-                box, (before, after) = _area_reduce(levels, size, changed)
+                box, (before, after) = area_reduce(levels, size, changed)
                 if box:
                     cast = shadow_plane(hit, *size)[_slices(box)] if hit["box"] else None
                     ratio = self._head_factor(lit, float(meter), box, before, after, cast)
@@ -515,7 +450,7 @@ class Studio:
         cloth); a darkening ratio shrinks it and stays (the difference would take a preview darker than "before"
         to black). ``ratio`` 1 where no luminance is left; no gain where the preview draws nothing."""
         sl = _slices(box)
-        layers = _layers_in_box(self._layers["data"], self._layers, sl)
+        layers = layers_in_box(self._layers["data"], self._layers, sl)
         shown = preview_picture(layers, self._layers, self.preview_light(light, "auto", meter), cast) @ REC709
         ratio = np.divide(np.maximum(after, 0), before, out=np.ones_like(before), where=before > 1e-4)
         added = shown + layers["mask"] * (after - before)  # premultiplied, as the preview is
@@ -661,126 +596,3 @@ class Studio:
     def background_light(self, data: bytes, key_light=None) -> np.ndarray:
         """(9, 3) float32 light of an uploaded background photo (:func:`background_upload_light`)."""
         return background_upload_light(data, key_light)
-
-
-def envmap_upload_light(data: bytes) -> np.ndarray:
-    """(9, 3) float32 light of an uploaded equirectangular map (.hdr, or an sRGB PNG/JPEG, linearised), shrunk
-    to UPLOAD_WORK_PIXELS as decoded (envmap.load_envmap's ``max_pixels``)."""
-    suffix = check_upload(data, "environment map", ("hdr", "png", "jpeg"))
-    with tempfile.TemporaryDirectory(prefix="relight-studio-") as folder:
-        path = Path(folder) / f"upload{suffix}"  # our name; the client's is never used
-        path.write_bytes(data)
-        env = envmap.load_envmap(path, max_pixels=UPLOAD_WORK_PIXELS)  # its size was checked from the header above
-    return envmap.project_envmap(env).astype(np.float32)
-
-
-def background_upload_light(data: bytes, key_light=None) -> np.ndarray:
-    """(9, 3) float32 light of an uploaded background photo (relight_rt.light.from_background, 60° field of view),
-    shrunk to UPLOAD_WORK_PIXELS as decoded; ``key_light`` "AZ,EL" (degrees) or a pair steers its key light
-    (scene_light.parse_key_light)."""
-    from ...light.from_background import light_from_background, parse_key_light
-
-    key = parse_key_light(key_light)  # checked before the upload is decoded
-    image = decode_upload(data, "background")
-    light, _ = light_from_background(np.ascontiguousarray(image[..., :3]), key_light=key)
-    return np.asarray(light, dtype=np.float32)
-
-
-def unpack_layers(data: bytes, meta: dict) -> dict:
-    """The inverse of ``Studio.layers_bytes`` (what the page's decodeLayers does): float32 planes
-    "transport" (9, h, w), "albedo" (3, h, w) premultiplied, "mask" (h, w), "background" (3, h, w),
-    "skin_chroma" (3, h, w) in [-1, 1] and "skin" (h, w) (relight_rt.relight.look.skin_chroma), and
-    "exposure": {"transport" (n, 9), "albedo" (n, 3), "mask" (n,)}, the exposure sample, and "highlight":
-    {"lit" (m, 3), "steady" (m, 3), "transport" (m, 9)}, the highlight guard's, and "grade": the background
-    grade's ``GradeSample``."""
-    h, w = meta["height"], meta["width"]
-    n = h * w
-    ns, offset = int(meta["exposure_samples"]), int(meta["exposure_offset"])
-    nh, hoffset = int(meta["highlight_samples"]), int(meta["highlight_offset"])
-    ng, goffset = int(meta["grade_samples"]), int(meta["grade_offset"])
-    nb, boffset = int(meta["grade_head_samples"]), int(meta["grade_head_offset"])
-    if (min(ns, nh, ng, nb) < 0 or nb > ng or offset < 29 * n or hoffset != offset + 52 * ns
-            or goffset != hoffset + 60 * nh or boffset != goffset + 84 * ng or len(data) != boffset + 64 * nb):
-        raise RelightError(f"layers: expected {boffset + 64 * nb} bytes for {h}x{w}, {ns}, {nh}, {ng} and {nb} "
-                           f"samples, got {len(data)}")
-    planes = np.frombuffer(data, "<f4", 13 * ns, offset).reshape(13, ns).astype(np.float32)
-    sample = {"transport": planes[:9].T.copy(), "albedo": planes[9:12].T.copy(), "mask": planes[12].copy()}
-    guard = np.frombuffer(data, "<f4", 15 * nh, hoffset).reshape(15, nh).astype(np.float32)
-    highlight = {"lit": guard[:3].T.copy(), "steady": guard[3:6].T.copy(), "transport": guard[6:].T.copy()}
-    g = np.frombuffer(data, "<f4", 21 * ng, goffset).reshape(21, ng).astype(np.float32)
-    index = np.frombuffer(data, "<i4", nb, boffset).astype(np.int32)
-    if nb and (index.min() < 0 or index.max() >= ng or (np.diff(index) <= 0).any()):
-        raise RelightError(f"layers: the head pass's blend names grade samples outside 0..{ng - 1} or out of order")
-    b = np.frombuffer(data, "<f4", 15 * nb, boffset + 4 * nb).reshape(15, nb).astype(np.float32)
-    grade = GradeSample(g[:3].T.copy(), g[3:6].T.copy(), g[6:15].T.copy(), g[15].copy(), g[16].copy(),
-                        g[17:20].T.copy(), g[20].copy(), HeadBlend(index, *(b[i].copy() for i in range(6)),
-                                                                   b[6:].T.copy()))
-    return {**_layers_in_box(data, meta, (slice(None), slice(None))), "exposure": sample, "highlight": highlight,
-            "grade": grade}
-
-
-def _area_weights(n_in: int, n_out: int, lo: int, hi: int) -> tuple[slice, np.ndarray]:
-    """Output pixels lo..hi-1 of ``n_in`` pixels reduced to ``n_out`` (<= n_in) by area (cv2.INTER_AREA's rule):
-    the input pixels they read and (hi - lo, those) float32 weights, each row the overlaps of one output pixel's
-    span with the input pixels, summing to 1."""
-    s = n_in / n_out
-    j0, j1 = int(math.floor(lo * s)), min(n_in, int(math.ceil(hi * s)))
-    i = np.arange(lo, hi, dtype=np.float64)[:, None]
-    j = np.arange(j0, j1, dtype=np.float64)[None]
-    overlap = np.clip(np.minimum(j + 1, (i + 1) * s) - np.maximum(j, i * s), 0, None)
-    return slice(j0, j1), (overlap / s).astype(np.float32)
-
-
-def _area_reduce(planes, size: tuple[int, int], box: list[int]) -> tuple[list[int], list[np.ndarray]]:
-    """(H, W) ``planes`` reduced by area to ``size`` (at most (H, W)) over the output pixels that read the input
-    ``box`` alone: that output box and each plane there (what a whole-frame cv2.INTER_AREA resize gives there,
-    at a cost that follows the box, not the frame)."""
-    (h, w), (hi, wi) = size, planes[0].shape
-    out = [int(box[0] * h // hi), min(h, -(-box[1] * h // hi)), int(box[2] * w // wi), min(w, -(-box[3] * w // wi))]
-    rows, wy = _area_weights(hi, h, out[0], out[1])
-    cols, wx = _area_weights(wi, w, out[2], out[3])
-    return out, [wy @ np.asarray(p, np.float32)[rows, cols] @ wx.T for p in planes]
-
-
-def _layers_in_box(data: bytes, meta: dict, box: tuple[slice, slice]) -> dict:
-    """The page's pixel layers (``unpack_layers``' "transport", "albedo", "mask", "background", "skin_chroma",
-    "skin") over ``box`` (preview pixels) of the packed ``data`` (``Studio.layers_bytes``, its length checked by the
-    caller): the same quantised values the page draws with, decoded there alone."""
-    h, w = meta["height"], meta["width"]
-    n = h * w
-    q16 = np.frombuffer(data, "<u2", 9 * n).reshape(9, h, w)[(slice(None), *box)].astype(np.float32)
-    off = np.array(meta["transport_offset"], np.float32)[:, None, None]
-    scale = np.array(meta["transport_scale"], np.float32)[:, None, None]
-    eight = np.frombuffer(data, np.uint8, 11 * n, 18 * n).reshape(11, h, w)[(slice(None), *box)].astype(np.float32)
-    eight /= 255
-    return {"transport": off + q16 * scale, "albedo": eight[:3], "mask": eight[3], "background": eight[4:7],
-            "skin_chroma": 2 * eight[7:10] - 1, "skin": eight[10]}
-
-
-def shadow_plane(answer: dict, height: int, width: int) -> np.ndarray:
-    """(height, width) float32 the factor ``Studio.shadow``'s ``answer`` puts on the preview's shading (1 outside
-    its boxes): 1 - the cast shadows' depth times the head pass's change; what the page draws with."""
-    plane = np.ones((height, width), np.float32)
-    if answer["box"]:
-        y0, y1, x0, x1 = answer["box"]
-        depth = np.frombuffer(answer["depth"], np.uint8).reshape(y1 - y0, x1 - x0).astype(np.float32) / 255
-        plane[y0:y1, x0:x1] = 1 - depth
-    if answer.get("head_box"):
-        y0, y1, x0, x1 = answer["head_box"]
-        plane[y0:y1, x0:x1] *= np.frombuffer(answer["head"], "<f4").reshape(y1 - y0, x1 - x0)
-    return plane
-
-
-def preview_picture(layers: dict, meta: dict, light: np.ndarray, shadow: np.ndarray | None = None) -> np.ndarray:
-    """(h, w, 3) float32 the person as the page draws it (premultiplied, over nothing) under the shown light (9, 3):
-    albedo x max(0, T.L) x ``shadow`` (``shadow_plane``; None: none) x the shaded-skin gain of the final result
-    (relight_rt.relight.look.shaded_skin on the layers' skin chroma and weight), clipped to [0, 1]. ``layers``:
-    ``unpack_layers``'; the page's WebGL and Canvas renderers compute the same (tests/integration)."""
-    t = layers["transport"].transpose(1, 2, 0)
-    lit = sh.shading(t, np.asarray(light, np.float32))
-    if shadow is not None:
-        lit = lit * shadow[..., None]
-    own = t @ np.array(meta["own_white"], np.float32)
-    factor = shaded_skin(lit, (lit @ REC709) / np.maximum(own, 1e-3), layers["skin_chroma"].transpose(1, 2, 0),
-                         layers["skin"])  # fmt: skip
-    return np.clip(layers["albedo"].transpose(1, 2, 0) * factor, 0, 1).astype(np.float32)

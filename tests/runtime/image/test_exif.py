@@ -112,7 +112,7 @@ def test_grayscale_and_alpha_files_are_turned_too(tmp_path):
 
 
 def test_masks_backgrounds_uploads_and_the_mask_command_are_turned(tmp_path):
-    from relight_rt.apps.studio.core import decode_upload
+    from relight_rt.apps.studio.uploads import decode_upload
     from relight_rt.cli.mask import read_photo
     from relight_rt.light.from_background import read_background
 

@@ -195,7 +195,7 @@ def test_layers(relighter):
 
 
 def test_diffuse_only_without_stage2(diffuse_models_dir, caplog):
-    with caplog.at_level(logging.WARNING, logger="relight_rt.relight.relighter"):
+    with caplog.at_level(logging.WARNING, logger="relight_rt.relight.graphs"):
         r = Relighter(RuntimeConfig(models=diffuse_models_dir, device="cpu"))
     assert r.diffuse_only and "diffuse-only" in caplog.text
     img, mask = person(seed=7)

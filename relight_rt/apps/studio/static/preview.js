@@ -1,12 +1,13 @@
 // The live preview: diffuse = clip(albedo ⊙ max(0, T·L) ⊙ k, 0, 1) per pixel, composited over the
 // background (albedo and the result are premultiplied by the mask): out = bg · g · (1 − mask) + diffuse, g the
 // background's grade per channel (1 unless it follows the light: sh.backgroundGrade).
-// k is the final result's shaded-skin gain (relight_rt.relighter._shaded_skin): where the skin weight w says
+// k is the final result's shaded-skin gain (relight_rt.relight.look.shaded_skin): where the skin weight w says
 // skin and the light darkens it by r = Y(max(0, T·L)) / (T·W) (W the photo's own light, white), each channel
 // takes 1 + w · (clamp(1 + (r^(g − 1) − 1) · c, 1/4, 4) − 1), c the skin's chroma (P − Y) / P; elsewhere 1.
 // WebGL 2 (a fragment shader, float textures) where available, otherwise Canvas 2D in JavaScript.
 
-// Decode the server's layer binary (relight_rt.studio.core.Studio.layers_bytes) into float planes.
+// Decode the server's layer binary (relight_rt.apps.studio.core Studio.layers_bytes) into float planes; the Python
+// mirror is relight_rt.apps.studio.preview.unpack_layers.
 export function decodeLayers(buffer, meta) {
   const n = meta.width * meta.height;
   const q16 = new Uint16Array(buffer, 0, 9 * n);

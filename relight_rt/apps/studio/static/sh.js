@@ -1,5 +1,5 @@
-// Spherical-harmonics lights for the studio page: the same numbers as relight_rt/sh.py and
-// relight_rt/lights.py (DESIGN.md §3), checked against them by tests/runtime/studio/test_studio.py.
+// Spherical-harmonics lights for the studio page: the same numbers as relight_rt/light/sh.py and
+// relight_rt/light/presets.py (DESIGN.md §3), checked against them by tests/runtime/apps/studio/test_studio.py.
 //
 // Frame: +x from the subject toward the camera, +y toward the image's right, +z up.
 // Basis: real, orthonormal, degree 2, order 1, y, z, x, xy, yz, 3z²−1, xz, x²−y² (times constants).
@@ -116,10 +116,10 @@ export function directionToWidget(d, rhoMax) {
   return [(rho * y) / t, (rho * z) / t];
 }
 
-// The exposure rule of the final result (DESIGN.md §3, relight_rt.exposure.exposure_scale): the scalar s for
+// The exposure rule of the final result (DESIGN.md §3, relight_rt.light.exposure.exposure_scale): the scalar s for
 // which the light s · L gives the person the mask-weighted power mean of the Rec. 709 luminance Y of
 // albedo ⊙ max(0, T·L), (mean Y^power)^(1/power), target · 2^ev (power 2.2: the light as seen of encoded values,
-// relight_rt.exposure.METER_POWER; 1: the plain mean). layers: the exposure sample of the layers (decodeLayers:
+// relight_rt.light.exposure.METER_POWER; 1: the plain mean). layers: the exposure sample of the layers (decodeLayers:
 // {transport: 9 Float32Array planes, albedo: 3 planes (the network's, masked), mask}); every `step`-th pixel is
 // used (the page uses step 1).
 export function exposureScale(layers, light, target, ev, step, power = 1) {
@@ -261,7 +261,7 @@ function shadingAt(T, p, light, S) {
   return Math.max(LUMA[0] * S[0] + LUMA[1] * S[1] + LUMA[2] * S[2], 1e-4);
 }
 
-// sRGB's decoding curve (relight_rt.color.srgb_to_linear) of a value clipped to [0, 1].
+// sRGB's decoding curve (relight_rt.image.color.srgb_to_linear) of a value clipped to [0, 1].
 export function srgbToLinear(v) {
   const x = Math.min(Math.max(v, 0), 1);
   return x <= 0.04045 ? x / 12.92 : Math.pow((x + 0.055) / 1.055, 2.4);
@@ -276,7 +276,7 @@ export function srgbTabled(v) {
   return DECODE[i] + (x - i) * (DECODE[i + 1] - DECODE[i]);
 }
 
-// The exposure's highlight guard (relight_rt.exposure.highlight_factor): how much "auto" lowers the exposed light
+// The exposure's highlight guard (relight_rt.light.exposure.highlight_factor): how much "auto" lowers the exposed light
 // so that at most `allowed` of the person goes past `limit` (white), by at most the factor `maxDown`. guard: the
 // highlight sample of the layers (decodeLayers: {lit: 3 planes, steady: 3 planes, transport: 9 planes}); pixel p
 // under s · light is s · lit · S + steady · S / Y(S) (S its RGB shading, Y the luminance), past white from the

@@ -127,7 +127,8 @@ function previewLight(light) {
   const lifted = sh.scale(exposed, up).map((v) => Math.fround(v));
   const guard = sh.highlightFactor(state.layers.highlight, lifted, meta.highlight_limit, meta.highlight_allowed,
     meta.highlight_max_down / up);
-  // an EV acts on the light as seen: 2 ** (EV / display_gamma) on the encoded values (relight_rt.exposure.ev_gain)
+  // an EV acts on the light as seen: 2 ** (EV / display_gamma) on the encoded values
+  // (relight_rt.light.exposure.ev_gain)
   return sh.scale(light, s * meter * up * guard * Math.pow(2, ev / meta.display_gamma));
 }
 

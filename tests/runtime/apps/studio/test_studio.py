@@ -20,16 +20,14 @@ import relight_rt
 from relight_rt import Relighter, RelightError, RuntimeConfig, envmap, lights
 from relight_rt.apps.studio.core import (
     EXPOSURE_SAMPLES,
-    MAX_UPLOAD_BYTES,
     ResultStore,
     Studio,
-    check_upload,
     light_json,
     request_exposure,
     request_light,
-    sniff,
-    unpack_layers,
 )
+from relight_rt.apps.studio.preview import preview_picture, shadow_plane, unpack_layers
+from relight_rt.apps.studio.uploads import MAX_UPLOAD_BYTES, check_upload, sniff
 from relight_rt.cli import main
 from relight_rt.engine.limits import header_size
 from relight_rt.image.compositing import Background
@@ -596,7 +594,7 @@ def test_shadow_layer_is_the_final_results_at_the_previews_size(photo, models_di
     meta = studio.info()["preview"]
     answer = studio.shadow(light.tolist())
     assert studio.shadow(light.tolist()) is answer and len(calls) == 1  # kept
-    plane = core.shadow_plane(answer, meta["height"], meta["width"])
+    plane = shadow_plane(answer, meta["height"], meta["width"])
     want = 1 - cv2.resize(_disc_depth(h, w), (meta["width"], meta["height"]), interpolation=cv2.INTER_AREA)
     np.testing.assert_allclose(plane, want, atol=0.5 / 255 + 1e-6)
     assert answer["meter"] == 1.25 and plane.min() < 0.5
@@ -619,8 +617,6 @@ def test_shadow_layer_is_the_final_results_at_the_previews_size(photo, models_di
 
 
 def test_preview_picture_darkens_only_where_the_shadow_falls(studio):
-    from relight_rt.apps.studio.core import preview_picture
-
     meta = studio.info()["preview"]
     layers = unpack_layers(studio.layers_bytes(), meta)
     light = studio.preview_light(lights.preset("front"))
@@ -655,15 +651,13 @@ def _drawn_change(studio, before, after, light):
     the whole preview): the preview's luminance with the cast shadows (premultiplied), ``before`` and ``after``
     reduced by area, their ratio, the gain that adds their difference to that luminance, and the cast shadows'
     factor (uint8)."""
-    from relight_rt.apps.studio import core
-
     meta = studio.info()["preview"]
     size = (meta["width"], meta["height"])
     small_before, small_after = (cv2.resize(a, size, interpolation=cv2.INTER_AREA) for a in (before, after))
     depth = cv2.resize(_disc_depth(*before.shape, 0.6), size, interpolation=cv2.INTER_AREA)
     cast = 1 - np.rint(np.clip(depth, 0, 1) * 255) / 255  # as the page gets it: uint8
     layers = unpack_layers(studio.layers_bytes(), meta)
-    shown = core.preview_picture(layers, meta, studio.preview_light(light), cast) @ REC709_
+    shown = preview_picture(layers, meta, studio.preview_light(light), cast) @ REC709_
     ratio = np.where(small_before > 1e-4, np.maximum(small_after, 0) / np.maximum(small_before, 1e-4), 1)
     added = shown + layers["mask"] * (small_after - small_before)
     gain = np.where(shown > 1e-4, added / np.maximum(shown, 1e-4), 1)
@@ -677,8 +671,6 @@ def test_the_head_pass_change_is_drawn_as_its_ratio_capped_by_its_difference(pho
     brightens no more than the gain that adds their difference to the preview's own luminance (the page's drawing
     under the light, with the cast shadows; no gain where the preview draws nothing); cut to the box where it is
     not 1, float32. ``shadow_plane`` puts it on the cast shadows' factor, both where they overlap."""
-    from relight_rt.apps.studio import core
-
     def change(inside, box):
         before = np.where(inside, 0.4, 0).astype(np.float32)
         after = before.copy()
@@ -694,7 +686,7 @@ def test_the_head_pass_change_is_drawn_as_its_ratio_capped_by_its_difference(pho
     answer = studio.shadow(light.ravel().tolist())
     assert answer["head_box"] and len(answer["head"]) == 4 * np.prod(np.diff(answer["head_box"])[::2])
     meta, shown, mask, ratio, gain, cast = _drawn_change(studio, before, after, light)
-    plane = core.shadow_plane(answer, meta["height"], meta["width"])
+    plane = shadow_plane(answer, meta["height"], meta["width"])
     np.testing.assert_allclose(plane, cast * np.minimum(ratio, np.maximum(gain, 1)), atol=1e-4)
     darker = np.abs(ratio - 0.5) < 1e-3
     assert darker.sum() > 20 and np.abs(plane[darker] / cast[darker] - 0.5).max() < 1e-3  # darkening: the ratio
@@ -708,8 +700,6 @@ def test_the_head_pass_change_does_not_amplify_a_brighter_preview(photo, models_
     """Where the result without the head pass is far darker than the preview (dark cloth, the preview's own
     approximations), the head pass's ratio would multiply the preview's light: the preview instead gains the
     luminance the head pass adds, not that ratio."""
-    from relight_rt.apps.studio import core
-
     def change(inside, box):
         before = np.where(inside, 0.01, 0).astype(np.float32)
         return before, np.where(inside, 0.05, 0).astype(np.float32)  # five times as bright, 0.04 more
@@ -718,7 +708,7 @@ def test_the_head_pass_change_does_not_amplify_a_brighter_preview(photo, models_
     light = lights.preset("campfire").astype(np.float32)
     answer = studio.shadow(light.ravel().tolist())
     meta, shown, mask, ratio, gain, cast = _drawn_change(studio, before, after, light)
-    head = core.shadow_plane(answer, meta["height"], meta["width"]) / cast
+    head = shadow_plane(answer, meta["height"], meta["width"]) / cast
     solid = (mask > 0.99) & (shown > 0.05) & (shown < 0.8)
     assert solid.sum() > 50 and np.abs(ratio[solid] - 5).max() < 1e-3
     assert head[solid].max() < 2  # the ratio (5) would have amplified the preview's own light

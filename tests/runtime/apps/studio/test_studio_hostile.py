@@ -27,7 +27,8 @@ import pytest
 from _graphs import models_dir, person
 
 from relight_rt import Relighter, RelightError, RuntimeConfig
-from relight_rt.apps.studio.core import MAX_UPLOAD_PIXELS, Studio, check_upload, decode_upload
+from relight_rt.apps.studio.core import Studio
+from relight_rt.apps.studio.uploads import MAX_UPLOAD_PIXELS, check_upload, decode_upload
 
 __all__ = ["models_dir"]  # fixture
 REPO = Path(__file__).resolve().parents[4]
@@ -424,7 +425,8 @@ def test_slow_uploads_lose_their_slots_at_the_deadline(studio, tmp_path):
 _UPLOAD_MEMORY = """
 import struct, zlib
 import numpy as np
-from relight_rt.apps.studio.core import UPLOAD_WORK_PIXELS, background_upload_light, decode_upload, envmap_upload_light
+from relight_rt.apps.studio.uploads import (UPLOAD_WORK_PIXELS, background_upload_light, decode_upload,
+                                            envmap_upload_light)
 
 def png(w, h, ch, depth=8):  # a flat grey PNG: ~70 KB that decode to w * h pixels
     co = zlib.compressobj(9)
