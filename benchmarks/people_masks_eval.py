@@ -36,6 +36,10 @@ outline runs through the middle of the blurred edge, +1 when it takes one pixel 
 ``--mirrored``: every image and its mask mirrored left-right first. The graphs alone score alike either way; a matte
 whose rules were chosen on the photos as they come can score lower on their mirrors (matte37: photos A 0.92575 ->
 0.89689, B 0.90222 -> 0.87693), a measure of how far its figures are fitted to these very photos.
+``--graphs-mirrored`` (:func:`graphs_mirrored`): every graph run on the mirror image of its crop, its answer mirrored
+back: with ``--mirrored`` the graphs see the photos as they come while the code around them sees the mirrors, so the
+figures measure the code's own left-right asymmetry (equal to the photos' as they come where the code is mirror-blind);
+alone, the graphs see the mirrors and the code the photos (matte38).
 Nothing of the data is written except where --sheet and
 --save point (keep them under /tmp: the data may not enter the repository).
 """
@@ -43,9 +47,11 @@ Nothing of the data is written except where --sheet and
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import cv2
@@ -58,7 +64,9 @@ from _shared import missing, shared_dir, shared_path  # noqa: E402
 
 from relight_rt import RelightError  # noqa: E402
 from relight_rt.image.regions import Region, crop_region, grid_of_region  # noqa: E402
+from relight_rt.engine.session import Model  # noqa: E402
 from relight_rt.person import matting as M  # noqa: E402
+from relight_rt.person.matting import _detect as D  # noqa: E402
 from relight_rt.person.matting._segmentation import sigmoid  # noqa: E402
 
 METHODS = ("ours", "all", "selfie", "pose", "video", "video-complete", "ours-unrefined", "ours-no-edges")
@@ -164,6 +172,33 @@ def whole_image(model, rgb: np.ndarray, output: str, logits: bool) -> np.ndarray
     m = np.array([[k, 0.0, bx], [0.0, k, by]], np.float64)
     return cv2.warpAffine(prob.astype(np.float32), m, (w, h), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
                           borderMode=cv2.BORDER_CONSTANT, borderValue=0.0)  # fmt: skip
+
+
+@contextlib.contextmanager
+def graphs_mirrored() -> Iterator[None]:
+    """Inside the block, the matte's three graphs (``Model.run`` of matte_pose, matte_roi, matte_face) see the mirror
+    image of each crop they are given: the pose and selfie graphs' maps come back mirrored, the face graph's boxes
+    (decoded in canvas fractions) mirrored back (x -> 1 - x). The code around the graphs is untouched."""
+    run, decode = Model.run, D.decode
+    names = ("matte_pose", "matte_roi", "matte_face")
+
+    def mirrored_run(self: Model, feeds):
+        name = Path(self.name).stem  # (a graph's name is its file's path)
+        if name not in names:
+            return run(self, feeds)
+        out = run(self, {k: np.ascontiguousarray(v[..., ::-1]) for k, v in feeds.items()})
+        if name == "matte_face":
+            return out
+        return {k: np.ascontiguousarray(v[..., ::-1]) if v.ndim == 4 else v for k, v in out.items()}
+
+    def mirrored_decode(*args, **kwargs):
+        return [(np.array([1.0 - b[2], b[1], 1.0 - b[0], b[3]]), score) for b, score in decode(*args, **kwargs)]
+
+    Model.run, D.decode = mirrored_run, mirrored_decode
+    try:
+        yield
+    finally:
+        Model.run, D.decode = run, decode
 
 
 def run_methods(
@@ -340,6 +375,11 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument("--mirrored", action="store_true", help="every image and its mask mirrored left-right first")
     ap.add_argument(
+        "--graphs-mirrored", action="store_true",
+        help="every graph run on its crop's mirror image, its answer mirrored back (with --mirrored: the graphs see "
+        "the photos as they come, the code the mirrors)",
+    )  # fmt: skip
+    ap.add_argument(
         "--outline",
         action="store_true",
         help="where the masks' and the methods' outlines cut the photo's edges (outline_offset)",
@@ -371,7 +411,9 @@ def main(argv: list[str] | None = None) -> int:
     root = data_root()
     sets = ("clip", "photos") if args.set == "both" else (args.set,)
     keep: dict | None = {} if args.sheet or args.below_sheet or args.outline else None
-    results = {s: run_methods(root, s, methods, keep, args.half, args.inset, args.grow, args.mirrored) for s in sets}
+    with graphs_mirrored() if args.graphs_mirrored else contextlib.nullcontext():
+        results = {s: run_methods(root, s, methods, keep, args.half, args.inset, args.grow, args.mirrored)
+                   for s in sets}  # fmt: skip
 
     print("set      half  method   n    mean IoU  IoU<0.8")
     for s in sets:
