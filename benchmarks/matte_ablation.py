@@ -50,7 +50,8 @@ sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "benchmarks"))
 
 from matte_translucent import translucent_share  # noqa: E402
-from people_masks_eval import data_root, half_of, iou, items, matted, read_mask, read_rgb, whole_image  # noqa: E402
+import people_masks_eval as PME  # noqa: E402
+from people_masks_eval import data_root, half_of, iou, items, matted, whole_image  # noqa: E402
 
 from relight_rt.engine.session import Model  # noqa: E402
 from relight_rt.image import matte_edges as E  # noqa: E402
@@ -261,7 +262,16 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--list", action="store_true", help="list the rules and exit")
     ap.add_argument("--save", type=Path, help="write every IoU per rule as JSON here (under /tmp)")
     ap.add_argument("--no-check", action="store_true", help="do not stop when the baseline differs from main's")
+    ap.add_argument(
+        "--mirrored", action="store_true",
+        help="every image and its mask mirrored left-right first (people_masks_eval.py --mirrored; no baseline check)",
+    )  # fmt: skip
     args = ap.parse_args(argv)
+    if args.mirrored:  # (matted and the selfie column read them through these two)
+        rgb_of, mask_of = PME.read_rgb, PME.read_mask
+        PME.read_rgb = lambda path: np.ascontiguousarray(rgb_of(path)[:, ::-1])
+        PME.read_mask = lambda path, shape: np.ascontiguousarray(mask_of(path, shape)[:, ::-1])
+        args.no_check = True
     if args.list:
         for k, (what, _) in RULES.items():
             print(f"{k:18s} {what}")
@@ -276,8 +286,8 @@ def main(argv: list[str] | None = None) -> int:
     memoise_graphs()
     matter = M.PersonMatter(person="largest")
     t = time.perf_counter()
-    selfie = {n: iou(whole_image(matter.roi, read_rgb(p), "segmentation", logits=False) >= 0.5,
-                     read_mask(m, read_rgb(p).shape[:2])) for n, p, m in photos}  # fmt: skip
+    selfie = {n: iou(whole_image(matter.roi, PME.read_rgb(p), "segmentation", logits=False) >= 0.5,
+                     PME.read_mask(m, PME.read_rgb(p).shape[:2])) for n, p, m in photos}  # fmt: skip
     soft0: dict[str, float] = {}
     base = {"photos": scores(matter, photos, soft0), "clip": scores(matter, clip, soft0)}
     got = means(base["photos"], base["clip"], halves)
