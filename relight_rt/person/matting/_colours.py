@@ -27,7 +27,7 @@ import numpy as np
 OWN_SURE = 0.7  # the selfie graph's probability over a pixel that may be the person's own colour
 OWN_RATIO = 0.4  # ... nearer to the person's colours than this x its distance to the background's
 OWN_CENTRES = 6  # k-means centres per side
-OWN_SAMPLES = 1500  # pixels sampled per side for the centres (on a grid symmetric left-right: :func:`sampled`)
+OWN_SAMPLES = 1500  # pixels sampled per side for the centres (every n-th: the same answer each call)
 OWN_MIN = 0.01  # candidates, or a part kept, of fewer than this x the matte's pixels are its rim: not looked at
 OWN_RING = 0.1  # the background ring reaches this x the person's extent past them (canvas pixels, at least 2)
 _ITERATIONS = 6
@@ -36,16 +36,12 @@ Colours = tuple[np.ndarray, np.ndarray, np.ndarray]  # a canvas's L*a*b*, the pe
 
 
 def centres(samples: np.ndarray, k: int = OWN_CENTRES) -> np.ndarray:
-    """(k', 3) k-means centres of (N, 3) float32 ``samples`` (k' = min(k, N)), deterministic and blind to the
-    samples' order: they are sorted by colour (lightness, then a*, then b*) and every n-th of them kept (at most about
-    OWN_SAMPLES); started from those at evenly spaced ranks, _ITERATIONS Lloyd steps. The same pixels in another order
-    give the same centres (every n-th pixel in row order, before, took other pixels on a canvas's mirror image:
-    matte37, p209's own-colours part 586 canvas pixels against 2497 on its mirror). Hand it :func:`sampled` pixels of
-    a canvas: the sort costs ~0.5 ms on OWN_SAMPLES of them, ~20 ms on a whole canvas's."""
-    x = np.asarray(samples, np.float32)
-    x = x[np.lexsort((x[:, 2], x[:, 1], x[:, 0]))][:: max(1, len(x) // OWN_SAMPLES)]
+    """(k', 3) k-means centres of (N, 3) float32 ``samples`` (k' = min(k, N)), deterministic: started from the
+    samples at evenly spaced ranks of their first channel (lightness), _ITERATIONS Lloyd steps."""
+    x = samples[:: max(1, len(samples) // OWN_SAMPLES)].astype(np.float32)
     k = min(k, len(x))
-    c = x[((np.arange(k) + 0.5) * len(x) / k).astype(int)].copy()
+    order = np.argsort(x[:, 0], kind="stable")
+    c = x[order[((np.arange(k) + 0.5) * len(x) / k).astype(int)]].copy()
     for _ in range(_ITERATIONS):
         label = nearest(x, c)[1]
         for i in range(k):
@@ -53,25 +49,6 @@ def centres(samples: np.ndarray, k: int = OWN_CENTRES) -> np.ndarray:
             if len(mine):
                 c[i] = mine.mean(0)
     return c
-
-
-def sampled(lab: np.ndarray, mask: np.ndarray) -> np.ndarray:
-    """About OWN_SAMPLES (at least) of the (S, S, 3) canvas ``lab``'s pixels under ``mask`` (all when there are fewer
-    than twice that), on a grid symmetric about the canvas's middle column: every r-th row and every c-th column
-    counted from the nearer side (r c <= the mask's pixels / OWN_SAMPLES). A canvas and its mirror image give the
-    same pixels (in another order, which :func:`centres` does not see). Where the grid misses the mask (a thin one),
-    all its pixels."""
-    n = int(np.count_nonzero(mask))
-    ratio = n / OWN_SAMPLES
-    if ratio < 2.0:
-        return lab[mask]
-    c = max(1, int(np.sqrt(ratio)))
-    r = max(1, int(ratio // c))
-    w = mask.shape[1]
-    cols = np.minimum(np.arange(w), w - 1 - np.arange(w)) % c == 0
-    rows = np.arange(mask.shape[0]) % r == 0
-    out = lab[mask & rows[:, None] & cols[None, :]]
-    return out if len(out) >= OWN_SAMPLES // 4 else lab[mask]
 
 
 def nearest(x: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -110,7 +87,7 @@ def colour_model(canvas: np.ndarray, inside: np.ndarray, mine: np.ndarray, aroun
     if interior.sum() < 20 or ring.sum() < 20:
         return None
     lab = cv2.cvtColor(np.ascontiguousarray(canvas, dtype=np.float32), cv2.COLOR_RGB2Lab)  # L 0-100
-    return lab, centres(sampled(lab, interior)), centres(sampled(lab, ring))
+    return lab, centres(lab[interior]), centres(lab[ring])
 
 
 def backdrop_less(model: Colours, inside: np.ndarray, mine: np.ndarray, around: np.ndarray,
@@ -120,7 +97,7 @@ def backdrop_less(model: Colours, inside: np.ndarray, mine: np.ndarray, around: 
     holds under 20 pixels."""
     lab, person, _ = model
     ring = backdrop_ring(inside, mine, around) & ~apart
-    return (lab, person, centres(sampled(lab, ring))) if ring.sum() >= 20 else None
+    return (lab, person, centres(lab[ring])) if ring.sum() >= 20 else None
 
 
 def candidates(inside: np.ndarray, mine: np.ndarray, seen: np.ndarray, framed: np.ndarray) -> np.ndarray:
