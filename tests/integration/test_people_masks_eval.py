@@ -73,3 +73,35 @@ def test_below_by_half_lists_each_halfs_photos_below_the_selfie_graph_and_those_
     assert got == {"A": (["a", "b"], ["a"]), "B": ([], [])}  # b: below by 0.005, not past 0.01; d: equal, not below
     assert pme.below_by_half(ours, selfie, halves, by=0.001)["A"] == (["a", "b"], ["a", "b"])
     assert set(pme.below_by_half({"c": 0.8}, selfie, halves)) == {"B"}  # --half B: only B is reported
+
+
+def test_graphs_mirrored_shows_each_graph_its_crops_mirror_and_mirrors_its_answer_back(load_benchmark):
+    from pathlib import Path
+
+    from relight_rt.engine.session import Model
+    from relight_rt.person import matting as M
+
+    pme = load_benchmark("people_masks_eval")
+    matter = M.PersonMatter()
+    x = np.random.default_rng(38).random((1, 3, 256, 256)).astype(np.float32)
+    roi = matter.roi.run({"image": np.ascontiguousarray(x[..., ::-1])})["segmentation"]
+    pose = matter.pose.run({"image": np.ascontiguousarray(x[..., ::-1])})
+    run = Model.run
+    with pme.graphs_mirrored():
+        assert np.array_equal(matter.roi.run({"image": x})["segmentation"], roi[..., ::-1])
+        seen = matter.pose.run({"image": x})
+        assert np.array_equal(seen["segmentation"], pose["segmentation"][..., ::-1])
+        assert np.array_equal(seen["presence"], pose["presence"])
+    assert Model.run is run  # (restored)
+    # the face graph: the faces found on the example's mirror, its boxes mirrored back, are the example's
+    example = Path(M.__file__).resolve().parents[2] / "data" / "example.png"
+    rgb = cv2.cvtColor(cv2.imread(str(example)), cv2.COLOR_BGR2RGB).astype(np.float32) / 255
+    w = rgb.shape[1]
+    faces = matter.find_faces(rgb)
+    assert faces
+    with pme.graphs_mirrored():
+        seen = matter.find_faces(np.ascontiguousarray(rgb[:, ::-1]))
+    assert len(seen) == len(faces)
+    for f, g in zip(faces, seen, strict=True):
+        assert np.allclose([w - g.box[2], g.box[1], w - g.box[0], g.box[3]], f.box, atol=1e-3)
+        assert abs(f.score - g.score) < 1e-6
