@@ -70,8 +70,6 @@ Modules (one concept each; this package re-exports the public names):
   body is sharp, sticking out of the matte: a guitar leaning behind a girl), taken out of the default matte.
 - ``_parts``: a group's people as parts of one matte (a segmentation split by faces, rejoined for the matte,
   each person's share of it, people split by faces meeting along the photo's own edges).
-- ``_mirror``: the matte of a photo joined with its mirror image's (``_matter.MATTE_MIRROR``, off: measured below its
-  bars on people_masks), so that a photo and its mirror are matted alike.
 - ``_coarse``: the coarse matte at full resolution (working grid + fast guided filter, relight_rt.image.guided_filter).
 - ``_video``: :class:`VideoMatter` and :func:`outline_flicker` (flow from relight_rt.image.flow).
 

@@ -59,7 +59,6 @@ from ._layout import (
     within_photo,
     without_straddlers,
 )
-from ._mirror import mirror_joined
 from ._models import FACE_FILE, POSE_FILE, ROI_FILE, as_rgb, find_matting_models
 from ._parts import Crop, rejoin, shares
 from ._segmentation import (
@@ -104,10 +103,6 @@ _PORTRAIT_REACH = 0.3  # a pose-graph person ending this close to the bottom (x 
 _PORTRAIT_FACE = 0.3  # ... and holding a face this x its width wide
 _TRACE = 0.1  # person="largest", nobody else found: the pose graph's presence over a blob the whole photo vouches for
 _JOINED_FACE = 0.75  # person="largest": a face outside the matte at least this sure, joined to it, is someone with them
-# a photo and its mirror image matted alike: the mirror matted too and the two joined (_mirror.mirror_joined; twice the
-# matte's time). Off: measured on people_masks it cost 0.002 mean IoU on each half of the photos and took the clip
-# below its 0.93 bar (matte37; docs/results_pending.md)
-MATTE_MIRROR = False
 
 log = logging.getLogger(__name__)
 
@@ -678,20 +673,13 @@ class PersonMatter:
         return alpha, [(box, alpha[box[0] : box[1], box[2] : box[3]] * share)
                        for box, share in shares(people, alpha, rgb, crops=True)]  # fmt: skip
 
-    def _one_side(self, rgb: np.ndarray, name: str) -> tuple[np.ndarray | None, list[Person]]:
-        """The people of ``rgb`` and their matte (None when nobody is found)."""
+    def _matte(self, image: np.ndarray, name: str) -> tuple[np.ndarray, list[Person]]:
+        rgb = as_rgb(image, name, copy=False)  # only read from here on
         # one block for both: the graphs' answers on a region of this very photo hold for the matte too (the face
         # graph's on the whole photo, which the things-behind step asks for again), and its crops reuse the reductions
         with reductions_shared(rgb):
             people = self.people(rgb, name)
             alpha = self.alpha(rgb, people) if people else None
-        return (alpha if alpha is not None and (alpha >= 0.5).any() else None), people
-
-    def _matte(self, image: np.ndarray, name: str) -> tuple[np.ndarray, list[Person]]:
-        rgb = as_rgb(image, name, copy=False)  # only read from here on
-        alpha, people = self._one_side(rgb, name)
-        if alpha is not None and MATTE_MIRROR:
-            alpha = mirror_joined(lambda flip: self._one_side(flip, f"{name} (mirrored)")[0], rgb, alpha)
         if alpha is None or not (alpha >= 0.5).any():
             raise RelightError(
                 f"no person found in {name} (no body or face the bundled detectors recognise; people shorter than "
