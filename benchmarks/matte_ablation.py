@@ -3,6 +3,7 @@
     python benchmarks/matte_ablation.py                       # every rule, both sets, ~20-40 min on 2 cores
     python benchmarks/matte_ablation.py --rules turned,peers  # some rules
     python benchmarks/matte_ablation.py --list                # the rules and what switching each off does
+    python benchmarks/matte_ablation.py --mirrored            # on every image and its mask mirrored left-right
 
 Each rule of the default matte (``PersonMatter()``, person="largest") is switched off inside this process only, by
 replacing its function with its identity (or its "off" path: the step before the rule came) or its constant with a
@@ -49,8 +50,8 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "benchmarks"))
 
-from matte_translucent import translucent_share  # noqa: E402
 import people_masks_eval as PME  # noqa: E402
+from matte_translucent import translucent_share  # noqa: E402
 from people_masks_eval import data_root, half_of, iou, items, matted, whole_image  # noqa: E402
 
 from relight_rt.engine.session import Model  # noqa: E402
@@ -267,11 +268,6 @@ def main(argv: list[str] | None = None) -> int:
         help="every image and its mask mirrored left-right first (people_masks_eval.py --mirrored; no baseline check)",
     )  # fmt: skip
     args = ap.parse_args(argv)
-    if args.mirrored:  # (matted and the selfie column read them through these two)
-        rgb_of, mask_of = PME.read_rgb, PME.read_mask
-        PME.read_rgb = lambda path: np.ascontiguousarray(rgb_of(path)[:, ::-1])
-        PME.read_mask = lambda path, shape: np.ascontiguousarray(mask_of(path, shape)[:, ::-1])
-        args.no_check = True
     if args.list:
         for k, (what, _) in RULES.items():
             print(f"{k:18s} {what}")
@@ -280,6 +276,14 @@ def main(argv: list[str] | None = None) -> int:
     unknown = [r for r in rules if r not in RULES]
     if unknown:
         ap.error(f"--rules: unknown {unknown}; known: {', '.join(RULES)}")
+    # (the sets and the selfie column read every image and mask through people_masks_eval's readers)
+    with PME.images_mirrored() if args.mirrored else contextlib.nullcontext():
+        return ablate(rules, args.save, check=not (args.no_check or args.mirrored))
+
+
+def ablate(rules: list[str], save: Path | None, check: bool) -> int:
+    """Every rule of ``rules`` switched off in turn on both sets; ``save``: the IoUs as JSON; ``check``: stop when
+    the baseline differs from main's (``MAIN``)."""
     root = data_root()
     photos, clip = items(root, "photos"), items(root, "clip")
     halves = half_of([n for n, _, _ in photos])
@@ -293,7 +297,7 @@ def main(argv: list[str] | None = None) -> int:
     got = means(base["photos"], base["clip"], halves)
     print(f"baseline ({time.perf_counter() - t:.0f} s, {_STATS['runs']} graph runs): "
           + ", ".join(f"{k} {v:.5f}" for k, v in got.items()), flush=True)  # fmt: skip
-    if any(abs(got[k] - MAIN[k]) >= 5e-6 for k in MAIN) and not args.no_check:
+    if check and any(abs(got[k] - MAIN[k]) >= 5e-6 for k in MAIN):
         print(f"the baseline differs from main's {MAIN}: no ablation trusted", file=sys.stderr)
         return 1
     tr0 = "/".join(f"{100 * v:.2f}" for v in translucent(soft0, halves))
@@ -324,10 +328,10 @@ def main(argv: list[str] | None = None) -> int:
         )
         print(f"{rule:18s} {d['A']:+8.5f} {d['B']:+8.5f} {d['clip']:+8.5f} {below:5d}  {worst_b:+.3f} / {worst_c:+.3f}"
               f"  {tag}  [{time.perf_counter() - t:.0f} s, {_STATS['runs'] - runs} new runs]", flush=True)  # fmt: skip
-        if args.save:
-            args.save.write_text(json.dumps(saved))
-    if args.save:
-        args.save.write_text(json.dumps(saved))
+        if save:
+            save.write_text(json.dumps(saved))
+    if save:
+        save.write_text(json.dumps(saved))
     return 0
 
 

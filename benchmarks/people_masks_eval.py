@@ -63,8 +63,8 @@ sys.path.insert(0, str(REPO))
 from _shared import missing, shared_dir, shared_path  # noqa: E402
 
 from relight_rt import RelightError  # noqa: E402
-from relight_rt.image.regions import Region, crop_region, grid_of_region  # noqa: E402
 from relight_rt.engine.session import Model  # noqa: E402
+from relight_rt.image.regions import Region, crop_region, grid_of_region  # noqa: E402
 from relight_rt.person import matting as M  # noqa: E402
 from relight_rt.person.matting import _detect as D  # noqa: E402
 from relight_rt.person.matting._segmentation import sigmoid  # noqa: E402
@@ -175,6 +175,26 @@ def whole_image(model, rgb: np.ndarray, output: str, logits: bool) -> np.ndarray
 
 
 @contextlib.contextmanager
+def images_mirrored() -> Iterator[None]:
+    """Inside the block every image and mask this module reads (:func:`read_rgb`, :func:`read_mask`; so
+    :func:`run_methods`, :func:`matted` and benchmarks/matte_ablation.py's sets) comes mirrored left-right."""
+    global read_rgb, read_mask
+    rgb_of, mask_of = read_rgb, read_mask
+
+    def rgb_mirrored(path: Path) -> np.ndarray:
+        return np.ascontiguousarray(rgb_of(path)[:, ::-1])
+
+    def mask_mirrored(path: Path, shape: tuple[int, int]) -> np.ndarray:
+        return np.ascontiguousarray(mask_of(path, shape)[:, ::-1])
+
+    read_rgb, read_mask = rgb_mirrored, mask_mirrored
+    try:
+        yield
+    finally:
+        read_rgb, read_mask = rgb_of, mask_of
+
+
+@contextlib.contextmanager
 def graphs_mirrored() -> Iterator[None]:
     """Inside the block, the matte's three graphs (``Model.run`` of matte_pose, matte_roi, matte_face) see the mirror
     image of each crop they are given: the pose and selfie graphs' maps come back mirrored, the face graph's boxes
@@ -203,14 +223,14 @@ def graphs_mirrored() -> Iterator[None]:
 
 def run_methods(
     root: Path, which: str, methods: list[str], keep: dict | None, half: str | None = None, inset: int = 0,
-    grow: int = 0, mirrored: bool = False,
+    grow: int = 0,
 ) -> dict[str, dict[str, float]]:  # fmt: skip
     """IoU per method per image; ``keep`` (optional) collects the predicted masks by (method, name); ``inset``: the
     photos' service masks are eroded by this many pixels first (their outline runs ~1 px past the edge's half mix,
     ``--outline``; the clip's hand masks sit on it and are never eroded); ``grow``: the hard mattes of the ``ours``
     methods are dilated by this many pixels (3x3 square steps) on both sets: what moving the outline past the half
-    mix, to the service's convention, would give and cost (a measurement, not a setting of the matte); ``mirrored``:
-    every image and its mask mirrored left-right first."""
+    mix, to the service's convention, would give and cost (a measurement, not a setting of the matte). Under
+    :func:`images_mirrored` every image and its mask come mirrored left-right."""
     largest = M.PersonMatter(person="largest")
     everyone = M.PersonMatter(person="all") if "all" in methods else None
     variants = {m: M.PersonMatter(refine=m != "ours-unrefined", edges=False) for m in methods if m.startswith("ours-")}
@@ -225,8 +245,6 @@ def run_methods(
     for name, img, mask in listed:
         rgb = read_rgb(img)
         gt = read_mask(mask, rgb.shape[:2])
-        if mirrored:
-            rgb, gt = np.ascontiguousarray(rgb[:, ::-1]), np.ascontiguousarray(gt[:, ::-1])
         if inset and which == "photos":
             gt = cv2.erode(gt.astype(np.uint8), np.ones((2 * inset + 1, 2 * inset + 1), np.uint8)) > 0
         for m in methods:
@@ -392,6 +410,8 @@ def main(argv: list[str] | None = None) -> int:
         help="only time the default matte on this photo (default: the reference photo)",
     )
     args = ap.parse_args(argv)
+    if args.speed and (args.mirrored or args.graphs_mirrored):
+        ap.error("--speed: not with --mirrored or --graphs-mirrored (it times the matte as it ships)")
     if args.speed:
         if not args.speed.is_file():
             raise SystemExit(missing(args.speed))
@@ -411,9 +431,11 @@ def main(argv: list[str] | None = None) -> int:
     root = data_root()
     sets = ("clip", "photos") if args.set == "both" else (args.set,)
     keep: dict | None = {} if args.sheet or args.below_sheet or args.outline else None
-    with graphs_mirrored() if args.graphs_mirrored else contextlib.nullcontext():
-        results = {s: run_methods(root, s, methods, keep, args.half, args.inset, args.grow, args.mirrored)
-                   for s in sets}  # fmt: skip
+    with (
+        images_mirrored() if args.mirrored else contextlib.nullcontext(),
+        graphs_mirrored() if args.graphs_mirrored else contextlib.nullcontext(),
+    ):
+        results = {s: run_methods(root, s, methods, keep, args.half, args.inset, args.grow) for s in sets}
 
     print("set      half  method   n    mean IoU  IoU<0.8")
     for s in sets:
