@@ -3,6 +3,7 @@
     python benchmarks/matte_ablation.py                       # every rule, both sets, ~20-40 min on 2 cores
     python benchmarks/matte_ablation.py --rules turned,peers  # some rules
     python benchmarks/matte_ablation.py --list                # the rules and what switching each off does
+    python benchmarks/matte_ablation.py --mirrored            # on every image and its mask mirrored left-right
 
 Each rule of the default matte (``PersonMatter()``, person="largest") is switched off inside this process only, by
 replacing its function with its identity (or its "off" path: the step before the rule came) or its constant with a
@@ -49,8 +50,9 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "benchmarks"))
 
+import people_masks_eval as PME  # noqa: E402
 from matte_translucent import translucent_share  # noqa: E402
-from people_masks_eval import data_root, half_of, iou, items, matted, read_mask, read_rgb, whole_image  # noqa: E402
+from people_masks_eval import data_root, half_of, iou, items, matted, whole_image  # noqa: E402
 
 from relight_rt.engine.session import Model  # noqa: E402
 from relight_rt.image import matte_edges as E  # noqa: E402
@@ -261,6 +263,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--list", action="store_true", help="list the rules and exit")
     ap.add_argument("--save", type=Path, help="write every IoU per rule as JSON here (under /tmp)")
     ap.add_argument("--no-check", action="store_true", help="do not stop when the baseline differs from main's")
+    ap.add_argument(
+        "--mirrored", action="store_true",
+        help="every image and its mask mirrored left-right first (people_masks_eval.py --mirrored; no baseline check)",
+    )  # fmt: skip
     args = ap.parse_args(argv)
     if args.list:
         for k, (what, _) in RULES.items():
@@ -270,20 +276,28 @@ def main(argv: list[str] | None = None) -> int:
     unknown = [r for r in rules if r not in RULES]
     if unknown:
         ap.error(f"--rules: unknown {unknown}; known: {', '.join(RULES)}")
+    # (the sets and the selfie column read every image and mask through people_masks_eval's readers)
+    with PME.images_mirrored() if args.mirrored else contextlib.nullcontext():
+        return ablate(rules, args.save, check=not (args.no_check or args.mirrored))
+
+
+def ablate(rules: list[str], save: Path | None, check: bool) -> int:
+    """Every rule of ``rules`` switched off in turn on both sets; ``save``: the IoUs as JSON; ``check``: stop when
+    the baseline differs from main's (``MAIN``)."""
     root = data_root()
     photos, clip = items(root, "photos"), items(root, "clip")
     halves = half_of([n for n, _, _ in photos])
     memoise_graphs()
     matter = M.PersonMatter(person="largest")
     t = time.perf_counter()
-    selfie = {n: iou(whole_image(matter.roi, read_rgb(p), "segmentation", logits=False) >= 0.5,
-                     read_mask(m, read_rgb(p).shape[:2])) for n, p, m in photos}  # fmt: skip
+    selfie = {n: iou(whole_image(matter.roi, PME.read_rgb(p), "segmentation", logits=False) >= 0.5,
+                     PME.read_mask(m, PME.read_rgb(p).shape[:2])) for n, p, m in photos}  # fmt: skip
     soft0: dict[str, float] = {}
     base = {"photos": scores(matter, photos, soft0), "clip": scores(matter, clip, soft0)}
     got = means(base["photos"], base["clip"], halves)
     print(f"baseline ({time.perf_counter() - t:.0f} s, {_STATS['runs']} graph runs): "
           + ", ".join(f"{k} {v:.5f}" for k, v in got.items()), flush=True)  # fmt: skip
-    if any(abs(got[k] - MAIN[k]) >= 5e-6 for k in MAIN) and not args.no_check:
+    if check and any(abs(got[k] - MAIN[k]) >= 5e-6 for k in MAIN):
         print(f"the baseline differs from main's {MAIN}: no ablation trusted", file=sys.stderr)
         return 1
     tr0 = "/".join(f"{100 * v:.2f}" for v in translucent(soft0, halves))
@@ -314,10 +328,10 @@ def main(argv: list[str] | None = None) -> int:
         )
         print(f"{rule:18s} {d['A']:+8.5f} {d['B']:+8.5f} {d['clip']:+8.5f} {below:5d}  {worst_b:+.3f} / {worst_c:+.3f}"
               f"  {tag}  [{time.perf_counter() - t:.0f} s, {_STATS['runs'] - runs} new runs]", flush=True)  # fmt: skip
-        if args.save:
-            args.save.write_text(json.dumps(saved))
-    if args.save:
-        args.save.write_text(json.dumps(saved))
+        if save:
+            save.write_text(json.dumps(saved))
+    if save:
+        save.write_text(json.dumps(saved))
     return 0
 
 

@@ -49,3 +49,27 @@ def test_the_memo_runs_a_graph_once_per_input_and_hands_out_copies(load_benchmar
     other.run({"image": image})  # another graph, the same input: its own run
     model.run({"image": image + 1.0})  # another input: run
     assert calls == ["a", "b", "a"]
+
+
+def test_mirrored_runs_the_ablation_on_mirrored_images_without_the_baseline_check(
+    load_benchmark, monkeypatch, tmp_path
+):
+    import cv2
+
+    ab = load_benchmark("matte_ablation")
+    photo = np.zeros((8, 12, 3), np.uint8)
+    photo[:, :4] = 255
+    cv2.imwrite(str(tmp_path / "x.png"), photo)
+    seen = []
+
+    def ablate(rules, save, check):
+        seen.append((rules, check, ab.PME.read_rgb(tmp_path / "x.png")))
+        return 0
+
+    monkeypatch.setattr(ab, "ablate", ablate)
+    assert ab.main(["--mirrored", "--rules", "turned"]) == 0
+    assert ab.main(["--rules", "turned"]) == 0
+    (rules, check, mirrored), (_, check_asis, asis) = seen
+    assert rules == ["turned"] and not check and check_asis
+    assert mirrored[:, -4:].min() == 1.0 and mirrored[:, :-4].max() == 0.0
+    np.testing.assert_array_equal(asis, mirrored[:, ::-1])  # and the readers are put back after the run

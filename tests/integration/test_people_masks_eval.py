@@ -73,3 +73,99 @@ def test_below_by_half_lists_each_halfs_photos_below_the_selfie_graph_and_those_
     assert got == {"A": (["a", "b"], ["a"]), "B": ([], [])}  # b: below by 0.005, not past 0.01; d: equal, not below
     assert pme.below_by_half(ours, selfie, halves, by=0.001)["A"] == (["a", "b"], ["a", "b"])
     assert set(pme.below_by_half({"c": 0.8}, selfie, halves)) == {"B"}  # --half B: only B is reported
+
+
+def test_graphs_mirrored_shows_each_graph_its_crops_mirror_and_mirrors_its_answer_back(load_benchmark):
+    from pathlib import Path
+
+    from relight_rt.engine.session import Model
+    from relight_rt.person import matting as M
+
+    pme = load_benchmark("people_masks_eval")
+    matter = M.PersonMatter()
+    x = np.random.default_rng(38).random((1, 3, 256, 256)).astype(np.float32)
+    roi = matter.roi.run({"image": np.ascontiguousarray(x[..., ::-1])})["segmentation"]
+    pose = matter.pose.run({"image": np.ascontiguousarray(x[..., ::-1])})
+    run = Model.run
+    with pme.graphs_mirrored():
+        assert np.array_equal(matter.roi.run({"image": x})["segmentation"], roi[..., ::-1])
+        seen = matter.pose.run({"image": x})
+        assert np.array_equal(seen["segmentation"], pose["segmentation"][..., ::-1])
+        assert np.array_equal(seen["presence"], pose["presence"])
+    assert Model.run is run  # (restored)
+    # the face graph: the faces found on the example's mirror, its boxes mirrored back, are the example's
+    example = Path(M.__file__).resolve().parents[2] / "data" / "example.png"
+    rgb = cv2.cvtColor(cv2.imread(str(example)), cv2.COLOR_BGR2RGB).astype(np.float32) / 255
+    w = rgb.shape[1]
+    faces = matter.find_faces(rgb)
+    assert faces
+    with pme.graphs_mirrored():
+        seen = matter.find_faces(np.ascontiguousarray(rgb[:, ::-1]))
+    assert len(seen) == len(faces)
+    for f, g in zip(faces, seen, strict=True):
+        assert np.allclose([w - g.box[2], g.box[1], w - g.box[0], g.box[3]], f.box, atol=1e-3)
+        assert abs(f.score - g.score) < 1e-6
+
+
+def asymmetric_pair(folder):
+    """photos/x.jpg: bright on its left third, dark elsewhere; x_mask.png: that left third."""
+    (folder / "photos").mkdir(parents=True)
+    photo = np.full((60, 90, 3), 20, np.uint8)
+    photo[:, :30] = 230
+    cv2.imwrite(str(folder / "photos" / "x.jpg"), photo)
+    cv2.imwrite(str(folder / "photos" / "x_mask.png"), (photo[..., 0] > 128).astype(np.uint8) * 255)
+    return folder / "photos" / "x.jpg", folder / "photos" / "x_mask.png"
+
+
+def test_images_mirrored_mirrors_every_image_and_mask_read_and_puts_the_readers_back(load_benchmark, tmp_path):
+    pme = load_benchmark("people_masks_eval")
+    img, mask = asymmetric_pair(tmp_path)
+    rgb, gt = pme.read_rgb(img), pme.read_mask(mask, (60, 90))
+    assert gt[:, :30].all() and not gt[:, 30:].any()
+    with pme.images_mirrored():
+        np.testing.assert_array_equal(pme.read_rgb(img), rgb[:, ::-1])
+        np.testing.assert_array_equal(pme.read_mask(mask, (60, 90)), gt[:, ::-1])
+    np.testing.assert_array_equal(pme.read_rgb(img), rgb)
+    np.testing.assert_array_equal(pme.read_mask(mask, (60, 90)), gt)
+
+
+class _Fake:
+    """A stand-in for PersonMatter: ``kind`` "bright" mattes the bright pixels (mirrors with the photo), "left" always
+    the photo's left third (does not)."""
+
+    kind = "bright"
+
+    def __init__(self, **kwargs):
+        self.roi = self.pose = None
+
+    def __call__(self, rgb, name=""):
+        if self.kind == "bright":
+            return (rgb.mean(axis=2) > 0.5).astype(np.float32)
+        alpha = np.zeros(rgb.shape[:2], np.float32)
+        alpha[:, : rgb.shape[1] // 3] = 1.0
+        return alpha
+
+
+@pytest.mark.parametrize("kind", ["bright", "left"])
+def test_run_methods_under_images_mirrored_scores_the_mirrors_against_their_mirrored_masks(
+    load_benchmark, tmp_path, monkeypatch, kind
+):
+    pme = load_benchmark("people_masks_eval")
+    asymmetric_pair(tmp_path)
+    monkeypatch.setattr(pme.M, "PersonMatter", _Fake)
+    monkeypatch.setattr(_Fake, "kind", kind)
+    asis = pme.run_methods(tmp_path, "photos", ["ours"], None)["ours"]["x"]
+    with pme.images_mirrored():
+        mirrored = pme.run_methods(tmp_path, "photos", ["ours"], None)["ours"]["x"]
+    assert asis == 1.0
+    # a matte that mirrors with the photo scores alike; one fixed to a side of the frame loses the mirrored person
+    assert mirrored == (1.0 if kind == "bright" else 0.0)
+
+
+def test_mirrored_refuses_the_options_that_read_the_photos_as_they_come(load_benchmark):
+    pme = load_benchmark("people_masks_eval")
+    for extra in (["--sheet", "/tmp/x.png"], ["--outline"], ["--speed"]):
+        with pytest.raises(SystemExit):
+            pme.main(["--mirrored", *extra])
+    with pytest.raises(SystemExit):
+        pme.main(["--graphs-mirrored", "--speed"])
