@@ -108,6 +108,9 @@ _JOINED_FACE = 0.75  # person="largest": a face outside the matte at least this 
 # matte's time). Off: measured on people_masks it cost 0.002 mean IoU on each half of the photos and took the clip
 # below its 0.93 bar (matte37; docs/results_pending.md)
 MATTE_MIRROR = False
+# a blob's answer that does not hang on where the pose graph's re-centring wandered (matte39; docs/results_pending.md):
+START_PORTRAIT = True  # the portrait check (:meth:`PersonMatter._portrait_region`) on the region first given too
+WALKED_LAST = True  # a person reached from nobody, holding no face, tried after the other candidates (_walked)
 
 log = logging.getLogger(__name__)
 
@@ -202,9 +205,10 @@ class PersonMatter:
         whose presence stays low while the segmentation runs into the image border is tried once more,
         reaching past that border (:func:`past_border`). ``passes``: at most this many runs (default
         ``max_passes``; 1: the region as given, not re-centred)."""
-        person = None
+        person = first = None
         for _ in range(self.max_passes if passes is None else passes):
             person = self._pose(rgb, region)
+            first = person if first is None else first
             if person.presence < give_up:
                 break
             box = person_box(person, rgb.shape[:2])
@@ -219,9 +223,14 @@ class PersonMatter:
             if wider is not None:
                 retry = self._pose(rgb, Region.around(*wider))
                 person = retry if retry.presence > person.presence else person
-        if person is None:
+        if person is None or first is None:
             return person
+        person = replace(person, start=first.presence)
         region = self._portrait_region(rgb, person)
+        if region is None and START_PORTRAIT and first is not person:
+            # the re-centring walked off the region first given (onto a child in front, a head and shoulders) and no
+            # longer reaches the bottom: the portrait check looks at that first region too (_portrait_region)
+            region = self._portrait_region(rgb, first)
         if region is None:
             return person
         roi = roi_person(self.roi, rgb, region, person.presence)
@@ -399,8 +408,12 @@ class PersonMatter:
         looked for in (:meth:`_peers` reads them again)."""
         h, w = rgb.shape[:2]
         found = self.find_people(rgb)  # the selfie graph over the photo and its tiles: once, for every use below
+        walked = None  # a person the re-centring reached from nobody, holding no face: taken when no other is found
         for _, box in found:
             p = self._person_at(rgb, box, None)
+            if p is not None and WALKED_LAST and walked is None and self._walked(rgb, p):
+                walked = p
+                continue
             if p is not None:
                 return [p], found
         faces = self.find_faces(rgb)  # no body found: a face is the second way in
@@ -408,6 +421,8 @@ class PersonMatter:
             p = self._person_at(rgb, face.body_box((h, w)), face)
             if p is not None:
                 return [p], found
+        if walked is not None:
+            return [self._larger_than_walked(rgb, walked)], found
         # a frame that is mostly one face (a crop through the forehead or the eyes): the face graph finds it
         # zoomed out only, and the pose graph sees no body in it
         for face in find_close_faces(self.face, rgb):
@@ -430,6 +445,27 @@ class PersonMatter:
             if p.presence >= _TRACE and seen_whole(p.logits > 0, seen_on(self.roi, rgb, p.region) > 0.5):
                 return [p], found
         return [], found
+
+    def _walked(self, rgb: np.ndarray, person: Person) -> bool:
+        """Whether ``person`` (a blob's, person="largest") was reached by re-centring from a region where the pose
+        graph saw nobody (its first pass's presence below _GIVE_UP) and holds no face of the face graph's on the whole
+        photo: the walk may have settled on anything person-like near the blob (a shop sign beside a woman the selfie
+        graph joined to her blob: presence 0.007 on the blob, 0.907 on the sign), so the other candidates (the other
+        blobs, the faces) come first."""
+        if person.start is None or person.start >= _GIVE_UP or person.presence <= person.start:
+            return False
+        return not any(contains(person, f, rgb.shape[:2]) for f in self.find_faces(rgb))
+
+    def _larger_than_walked(self, rgb: np.ndarray, walked: Person) -> Person:
+        """The largest person that person="all" finds (:meth:`_everyone`, which does not re-centre from a region
+        where the pose graph sees nobody, and tries a blob holding nobody strip by strip) when their box is larger
+        than ``walked``'s (:meth:`_walked`), else ``walked``."""
+        shape = rgb.shape[:2]
+        size = box_area(person_box(walked, shape))
+        best = max(self._everyone(rgb), key=lambda p: box_area(person_box(p, shape) or (0, 0, 0, 0)), default=None)
+        if best is None or box_area(person_box(best, shape) or (0, 0, 0, 0)) <= size:
+            return walked
+        return best if best.whole is None else replace(best, whole=None)
 
     def _peers(self, rgb: np.ndarray, main: Person, blobs: list, faces: list[Face]) -> list[Person]:
         """The people who stand with the largest person ``main`` (person="largest"): a group posing together is the
