@@ -110,9 +110,16 @@ _JOINED_FACE = 0.75  # person="largest": a face outside the matte at least this 
 MATTE_MIRROR = False
 # a blob's answer that does not hang on where the pose graph's re-centring wandered (matte39; docs/results_pending.md):
 START_PORTRAIT = True  # the portrait check (:meth:`PersonMatter._portrait_region`) on the region first given too
+_WALKED_PART = 0.7  # ... where the re-centred person's box is less than this x the first region's person's
 WALKED_LAST = True  # a person reached from nobody, holding no face, tried after the other candidates (_walked)
 
 log = logging.getLogger(__name__)
+
+
+def _part_of(person: Person, first: Person, shape: tuple[int, int]) -> bool:
+    """Whether ``person``'s box is less than _WALKED_PART x the area of ``first``'s (both the pose graph's)."""
+    box, start = person_box(person, shape), person_box(first, shape)
+    return box is not None and start is not None and box_area(box) < _WALKED_PART * box_area(start)
 
 
 class PersonMatter:
@@ -227,9 +234,10 @@ class PersonMatter:
             return person
         person = replace(person, start=first.presence)
         region = self._portrait_region(rgb, person)
-        if region is None and START_PORTRAIT and first is not person:
-            # the re-centring walked off the region first given (onto a child in front, a head and shoulders) and no
-            # longer reaches the bottom: the portrait check looks at that first region too (_portrait_region)
+        if region is None and START_PORTRAIT and first is not person and _part_of(person, first, rgb.shape[:2]):
+            # the re-centring walked off the region first given onto a part of what the pose graph saw there (a child
+            # in front, a head and shoulders) and no longer reaches the bottom: the portrait check looks at that
+            # first region too (_portrait_region)
             region = self._portrait_region(rgb, first)
         if region is None:
             return person
@@ -254,12 +262,22 @@ class PersonMatter:
         box = person_box(person, rgb.shape[:2])
         if box is None or box[3] < h * (1.0 - _PORTRAIT_REACH):
             return None
+        if self._big_face_in(rgb, person):
+            return within_photo(Region.around(box[0], box[1], box[2], float(h)), rgb.shape[:2])
+        return None
+
+    def _big_face_in(self, rgb: np.ndarray, person: Person) -> bool:
+        """Whether a face (the face graph's on the whole photo) at least _PORTRAIT_FACE x the width of ``person``'s
+        box wide has its middle inside that box: a portrait's face (:meth:`_portrait_region`)."""
+        box = person_box(person, rgb.shape[:2])
+        if box is None:
+            return False
         for f in self.find_faces(rgb):
             cx, cy = (f.box[0] + f.box[2]) / 2, (f.box[1] + f.box[3]) / 2
             inside = box[0] <= cx <= box[2] and box[1] <= cy <= box[3]
             if inside and f.box[2] - f.box[0] >= _PORTRAIT_FACE * (box[2] - box[0]):
-                return within_photo(Region.around(box[0], box[1], box[2], float(h)), rgb.shape[:2])
-        return None
+                return True
+        return False
 
     def people(self, rgb: np.ndarray, name: str = "image") -> list[Person]:
         """Segmented people (the largest for person="largest", everyone for "all"); empty when nobody is found.

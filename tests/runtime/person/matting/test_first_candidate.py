@@ -13,17 +13,20 @@ from relight_rt.person.matting._segmentation import Person
 
 
 class _BrightPose:
-    """A stand-in for the pose graph: segments the canvas's bright pixels; unsure (0.4) on the first region it is
-    shown, sure (1.0) after (as on the mirrored p193: 0.494 on the whole, then sure on the child in front)."""
+    """A stand-in for the pose graph: on the first region it is shown, unsure (0.4) and seeing the whole lit body
+    (canvas above ``first_bar``); after, sure (1.0) and seeing only the brightest part (above 0.8): as on the mirrored
+    p193, 0.494 on the whole, then sure on the child in front."""
 
-    def __init__(self):
+    def __init__(self, first_bar: float):
         self.runs = 0
+        self.first_bar = first_bar
 
     def run(self, feeds):
         canvas = feeds["image"][0].transpose(1, 2, 0)
-        seg = np.where(canvas.mean(2) > 0.6, 5.0, -5.0).astype(np.float32)
+        bar = self.first_bar if self.runs == 0 else 0.8
+        seg = np.where(canvas.mean(2) > bar, 5.0, -5.0).astype(np.float32)
+        presence = 0.4 if self.runs == 0 else 1.0
         self.runs += 1
-        presence = 0.4 if self.runs == 1 else 1.0
         return {"segmentation": seg[None, None], "presence": np.array([[presence]], np.float32)}
 
 
@@ -37,12 +40,17 @@ def _square(region: M.Region, box: tuple[int, int, int, int], presence: float, s
     return Person(region, logits, presence, start=start)
 
 
-@pytest.mark.parametrize("rule", [True, False])
-def test_portrait_check_looks_at_the_region_first_given(monkeypatch, rule):
+@pytest.mark.parametrize(("rule", "first_bar", "checked_first"), [
+    (True, 0.4, True),  # re-centred onto a part of what the first region showed: that region is checked too
+    (False, 0.4, False),  # without the rule only the settled person is looked at
+    (True, 0.8, False),  # the first region showed the same square: nothing walked off, no check
+])  # fmt: skip
+def test_portrait_check_looks_at_the_region_first_given(monkeypatch, rule, first_bar, checked_first):
     rgb = np.full((400, 400, 3), 0.2, np.float32)
-    rgb[40:120, 160:240] = 1.0  # something bright high up, which the re-centring settles on
+    rgb[40:, 120:280] = 0.5  # a body going on past the bottom ...
+    rgb[40:120, 160:240] = 1.0  # ... and a bright part high up, which the re-centring settles on
     matter = M.PersonMatter()
-    matter.pose = _BrightPose()
+    matter.pose = _BrightPose(first_bar)
     checked = []
 
     def selfie(roi, rgb_, region, presence):  # the selfie graph's answer on the region checked: a portrait
@@ -54,14 +62,16 @@ def test_portrait_check_looks_at_the_region_first_given(monkeypatch, rule):
     monkeypatch.setattr(_matter, "reframed", lambda roi, rgb_, p: p)
     monkeypatch.setattr(_matter, "confirmed", lambda roi, rgb_, p, find: p)
     monkeypatch.setattr(_matter, "START_PORTRAIT", rule)
-    first = M.Region(200.0, 230.0, 460.0)  # reaches past the bottom (y 0-460 on a 400-px photo)
+    monkeypatch.setattr(matter, "find_faces", lambda rgb_, every=False: [])
+    first = M.Region(120.0, 250.0, 500.0)  # off the body's middle, past the bottom (y 0-500 on a 400-px photo)
     found = matter.segment(rgb, first)
     assert matter.pose.runs >= 2  # re-centred from the first region
-    if rule:  # the settled person ends far above the bottom; the first region is checked and is a portrait
+    if checked_first:  # the settled person ends far above the bottom; the first region is checked and is a portrait
         assert found.source == "roi" and len(checked) == 1 and checked[0].box()[3] >= 400  # (within the photo)
-    else:  # only the settled person is looked at: no check, the bright square alone
+    else:  # no check: the bright square alone
         assert found.source == "pose" and not checked and found.region.box()[3] < 400
         assert found.start == pytest.approx(0.4)  # the first region's presence, kept
+
 
 @pytest.mark.parametrize(("start", "other", "expected"), [
     (0.005, (100, 60, 300, 380), "other"),  # reached from nobody: the larger person the others find is taken
