@@ -239,9 +239,10 @@ class PersonMatter:
                 person = retry if retry.presence > person.presence else person
         if person is None or first is None:
             return person
+        moved = first is not person  # re-centred (asked before ``replace`` makes ``person`` a new object)
         person = replace(person, start=first.presence)
         region = self._portrait_region(rgb, person)
-        if region is None and START_PORTRAIT and first is not person and _part_of(person, first, rgb.shape[:2]):
+        if region is None and START_PORTRAIT and moved and _part_of(person, first, rgb.shape[:2]):
             # the re-centring walked off the region first given onto a part of what the pose graph saw there (a child
             # in front, a head and shoulders) and no longer reaches the bottom: the portrait check looks at that
             # first region too (_portrait_region)
@@ -433,19 +434,19 @@ class PersonMatter:
         looked for in (:meth:`_peers` reads them again)."""
         h, w = rgb.shape[:2]
         found = self.find_people(rgb)  # the selfie graph over the photo and its tiles: once, for every use below
-        walked = None  # a person the re-centring reached from nobody, holding no face: taken when no other is found
+        walked = None  # a person the re-centring reached from nobody, holding no face: kept unless a larger is found
         for _, box in found:
             p = self._person_at(rgb, box, None)
             if p is not None and WALKED_LAST and walked is None and self._walked(rgb, p):
                 walked = p
                 continue
             if p is not None:
-                return [p], found
+                return [self._over_walked(rgb, walked, p)], found
         faces = self.find_faces(rgb)  # no body found: a face is the second way in
         for face in sorted(faces, key=lambda f: -box_area(f.body_box((h, w)))):
             p = self._person_at(rgb, face.body_box((h, w)), face)
             if p is not None:
-                return [p], found
+                return [self._over_walked(rgb, walked, p)], found
         if walked is not None:
             return [self._larger_than_walked(rgb, walked)], found
         # a frame that is mostly one face (a crop through the forehead or the eyes): the face graph finds it
@@ -481,12 +482,23 @@ class PersonMatter:
             return False
         return not any(contains(person, f, rgb.shape[:2]) for f in self.find_faces(rgb))
 
+    @staticmethod
+    def _over_walked(rgb: np.ndarray, walked: Person | None, other: Person) -> Person:
+        """``other`` (a later blob's or a face's person) unless a set-aside ``walked`` person (:meth:`_walked`) is at
+        least as large (box area): being reached from nobody with no face is no evidence against a person seen from
+        behind, so a smaller passer-by does not displace them (the choice before matte39's rule)."""
+        if walked is None:
+            return other
+        shape = rgb.shape[:2]
+        size = box_area(person_box(walked, shape) or (0, 0, 0, 0))
+        return other if box_area(person_box(other, shape) or (0, 0, 0, 0)) > size else walked
+
     def _larger_than_walked(self, rgb: np.ndarray, walked: Person) -> Person:
         """The largest person that person="all" finds (:meth:`_everyone`, which does not re-centre from a region
         where the pose graph sees nobody, and tries a blob holding nobody strip by strip) when their box is larger
         than ``walked``'s (:meth:`_walked`), else ``walked``."""
         shape = rgb.shape[:2]
-        size = box_area(person_box(walked, shape))
+        size = box_area(person_box(walked, shape) or (0, 0, 0, 0))
         best = max(self._everyone(rgb), key=lambda p: box_area(person_box(p, shape) or (0, 0, 0, 0)), default=None)
         if best is None or box_area(person_box(best, shape) or (0, 0, 0, 0)) <= size:
             return walked

@@ -94,3 +94,21 @@ def test_person_reached_from_nobody_gives_way_to_a_larger_one(monkeypatch, start
     assert found[0] is (larger if expected == "other" else walked)
     monkeypatch.setattr(_matter, "WALKED_LAST", False)
     assert matter._largest(rgb)[0][0] is walked  # without the rule the first candidate is taken
+
+
+@pytest.mark.parametrize(("other", "expected"), [
+    ((200, 200, 230, 240), "walked"),  # a small passer-by in another blob: the set-aside person (a back view) kept
+    ((100, 60, 300, 380), "other"),  # a larger person in another blob: taken
+])  # fmt: skip
+def test_a_later_blob_displaces_a_person_reached_from_nobody_only_when_larger(monkeypatch, other, expected):
+    rgb = np.full((400, 400, 3), 0.2, np.float32)
+    matter = M.PersonMatter()
+    region = M.Region(200.0, 200.0, 400.0)
+    walked = _square(region, (150, 100, 260, 330), 0.9, 0.005)  # someone seen from behind: no face, low first presence
+    later = _square(region, other, 0.998)
+    blobs = [(60000.0, (100.0, 80.0, 300.0, 340.0)), (2000.0, (190.0, 190.0, 240.0, 250.0))]
+    monkeypatch.setattr(matter, "find_people", lambda rgb_, **k: blobs)
+    monkeypatch.setattr(matter, "_person_at", lambda rgb_, box, face, *a, **k: walked if box == blobs[0][1] else later)
+    monkeypatch.setattr(matter, "find_faces", lambda rgb_, every=False: [])
+    found, _ = matter._largest(rgb)
+    assert found[0] is (later if expected == "other" else walked)
