@@ -44,6 +44,8 @@ class Person:
     face: Face | None = field(default=None, compare=False)  # split from ``whole`` as this face's share, among the
     split: tuple[Face, ...] = field(default=(), compare=False)  # faces side by side it was split by (split_by_faces),
     # which relight_rt.person.matting._parts.along_edges cuts again along the photo's edges
+    start: float | None = field(default=None, compare=False)  # the pose graph's presence on the region first given
+    # (PersonMatter.segment's first pass, before re-centring); None: not re-centred by segment
 
 
 
