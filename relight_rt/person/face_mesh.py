@@ -105,6 +105,7 @@ MIRROR_OWN_SHARE = (0.3, 0.5)
 # max 0.165; benchmarks/mirror_fit.py)
 MIRROR_CHEEK_PAIRS = ((50, 280), (205, 425), (187, 411))
 MIRROR_MISS = (0.1, 0.2)
+_FIT_POINTS = np.setdiff1d(np.arange(N_POINTS), np.array(MIRROR_CHEEK_PAIRS).ravel())  # ``mirror``'s fit
 
 def lobe_transport(normals: np.ndarray) -> np.ndarray:
     """(..., 9) float32 unoccluded transport A_l * Y_k(n) of unit normals (..., 3) in the subject frame (§3)."""
@@ -382,10 +383,9 @@ def mirror(points: np.ndarray) -> np.ndarray | None:
     p = np.asarray(points, np.float64)
     if partner is None or p.ndim != 2 or len(p) != N_POINTS or p.shape[1] < 2:
         return None
-    keep = np.setdiff1d(np.arange(N_POINTS), np.array(MIRROR_CHEEK_PAIRS).ravel())
-    src = p[keep, :2]
+    src = p[_FIT_POINTS, :2]
     design = np.concatenate([src, np.ones((len(src), 1))], axis=1)
-    fit, *_ = np.linalg.lstsq(design, p[partner[keep], :2], rcond=None)
+    fit, *_ = np.linalg.lstsq(design, p[partner[_FIT_POINTS], :2], rcond=None)
     return fit.T.astype(np.float32)
 
 

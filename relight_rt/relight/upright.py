@@ -68,9 +68,6 @@ def turned_back(out: dict[str, np.ndarray], quarters: int) -> dict[str, np.ndarr
     return back
 
 
-MIRROR_SIGNS = sh.MIRROR_SIGNS  # a picture mirrored left-right: the coefficients odd in y change sign
-
-
 def mirror_picture(a: np.ndarray, axis: int = 1) -> np.ndarray:
     """``a`` mirrored left-right (its columns, ``axis``, reversed), a new contiguous array."""
     return np.ascontiguousarray(np.flip(a, axis))
@@ -85,10 +82,10 @@ def mirror_averaged(out: dict[str, np.ndarray], mirrored: dict[str, np.ndarray])
 
     Returns:
         The same keys, float32: the mean of ``out`` and ``mirrored`` mapped back (images mirrored, the transport's
-        and the light's coefficients times ``MIRROR_SIGNS``). A picture and its mirror image get each other's answer
-        mirrored: the result does not depend on which way the picture faces.
+        and the light's coefficients times relight_rt.light.sh ``MIRROR_SIGNS``). A picture and its mirror image get
+        each other's answer mirrored: the result does not depend on which way the picture faces.
     """
-    signs = MIRROR_SIGNS.astype(np.float32)
+    signs = sh.MIRROR_SIGNS.astype(np.float32)
     back = {k: mirror_picture(mirrored[k], 2) for k in STAGE1_IMAGES}
     back["transport"] = back["transport"] * signs[:, None, None]
     back["light"] = np.asarray(mirrored["light"], np.float32) * signs[:, None]

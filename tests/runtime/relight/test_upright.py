@@ -10,10 +10,10 @@ import pytest
 from relight_rt import Relighter, RuntimeConfig
 from relight_rt.image.io import read_image, read_mask
 from relight_rt.light import sh
+from relight_rt.light.sh import MIRROR_SIGNS
 from relight_rt.relight.upright import (
     HEAD_OFF,
     LONG_BODY,
-    MIRROR_SIGNS,
     matte_axis,
     mirror_averaged,
     mirror_picture,
