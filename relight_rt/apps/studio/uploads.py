@@ -48,9 +48,13 @@ def check_upload(data: bytes, name: str, allowed: tuple[str, ...], limit: int = 
     """Check an upload's size and type (by content); returns the file suffix for its kind.
 
     Raises:
-        RelightError: empty, larger than ``limit``, not one of ``allowed`` kinds, a header whose image size
-            cannot be read (relight_rt.engine.limits.header_size) or an image of more than MAX_UPLOAD_PIXELS.
+        RelightError: not bytes (a path is never opened), empty, larger than ``limit``, not one of ``allowed``
+            kinds, a header whose image size cannot be read (relight_rt.engine.limits.header_size) or an image of
+            more than MAX_UPLOAD_PIXELS.
     """
+    if not isinstance(data, (bytes, bytearray)):
+        raise RelightError(f"{name}: expected the upload's bytes, got {type(data).__name__} (a path is never "
+                           "opened)")  # fmt: skip
     if not data:
         raise RelightError(f"{name}: the upload is empty")
     if len(data) > limit:
