@@ -92,7 +92,10 @@ def envmap_upload_light(data: bytes) -> np.ndarray:
     with tempfile.TemporaryDirectory(prefix="relight-studio-") as folder:
         path = Path(folder) / f"upload{suffix}"  # our name; the client's is never used
         path.write_bytes(data)
-        env = envmap.load_envmap(path, max_pixels=UPLOAD_WORK_PIXELS)  # its size was checked from the header above
+        try:  # its size was checked from the header above
+            env = envmap.load_envmap(path, max_pixels=UPLOAD_WORK_PIXELS)
+        except RelightError as exc:  # told of the upload, not of the server's temporary file
+            raise RelightError(str(exc).replace(str(path), "environment map")) from None
     return envmap.project_envmap(env).astype(np.float32)
 
 
