@@ -169,8 +169,9 @@ def test_envmap_upload_is_read_under_our_name_and_removed(own_temp, monkeypatch)
     assert path.parent.parent == own_temp and kwargs == {"max_pixels": uploads.UPLOAD_WORK_PIXELS}
     assert not path.parent.exists()  # the folder went with the file
     corrupt = _encoded(".hdr", np.ones((16, 32, 3), np.float32))
-    with pytest.raises(RelightError, match="cannot decode environment map"):
+    with pytest.raises(RelightError, match="^environment map: cannot decode environment map") as refused:
         envmap_upload_light(corrupt[: len(corrupt) // 3])
+    assert "relight-studio-" not in str(refused.value) and str(own_temp) not in str(refused.value)  # no server path
     assert not any(own_temp.iterdir())  # removed on failure too
 
 
