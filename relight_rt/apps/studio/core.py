@@ -472,8 +472,9 @@ class Studio:
         return self._photo_png
 
     def layers_bytes(self) -> bytes:
-        """The binary the page reads: 9 planes of uint16 transport, then 7 planes of uint8 (albedo R, G, B
-        premultiplied by the mask, mask, background R, G, B), each plane height x width, row-major; then, from
+        """The binary the page reads: 9 planes of uint16 transport, then 11 planes of uint8 (albedo R, G, B
+        premultiplied by the mask, mask, background R, G, B, the skin's chroma R, G, B as (c + 1) / 2, the skin
+        weight), each plane height x width, row-major; then, from
         byte ``exposure_offset``, the exposure sample (``_exposure_sample``) as float32 planes of
         ``exposure_samples`` values: transport 0…8, albedo R, G, B, mask; then, from byte ``highlight_offset``,
         the highlight guard's sample (``_highlight_sample``) as float32 planes of ``highlight_samples`` values:

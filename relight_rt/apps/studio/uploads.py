@@ -48,9 +48,13 @@ def check_upload(data: bytes, name: str, allowed: tuple[str, ...], limit: int = 
     """Check an upload's size and type (by content); returns the file suffix for its kind.
 
     Raises:
-        RelightError: empty, larger than ``limit``, not one of ``allowed`` kinds, a header whose image size
-            cannot be read (relight_rt.engine.limits.header_size) or an image of more than MAX_UPLOAD_PIXELS.
+        RelightError: not bytes (a path is never opened), empty, larger than ``limit``, not one of ``allowed``
+            kinds, a header whose image size cannot be read (relight_rt.engine.limits.header_size) or an image of
+            more than MAX_UPLOAD_PIXELS.
     """
+    if not isinstance(data, (bytes, bytearray)):
+        raise RelightError(f"{name}: expected the upload's bytes, got {type(data).__name__} (a path is never "
+                           "opened)")  # fmt: skip
     if not data:
         raise RelightError(f"{name}: the upload is empty")
     if len(data) > limit:
@@ -88,7 +92,10 @@ def envmap_upload_light(data: bytes) -> np.ndarray:
     with tempfile.TemporaryDirectory(prefix="relight-studio-") as folder:
         path = Path(folder) / f"upload{suffix}"  # our name; the client's is never used
         path.write_bytes(data)
-        env = envmap.load_envmap(path, max_pixels=UPLOAD_WORK_PIXELS)  # its size was checked from the header above
+        try:  # its size was checked from the header above
+            env = envmap.load_envmap(path, max_pixels=UPLOAD_WORK_PIXELS)
+        except RelightError as exc:  # told of the upload, not of the server's temporary file
+            raise RelightError(str(exc).replace(str(path), "environment map")) from None
     return envmap.project_envmap(env).astype(np.float32)
 
 
