@@ -29,6 +29,7 @@ import cv2
 import numpy as np
 
 from ..engine.errors import RelightError
+from ..engine.limits import header_size
 from ..image.io import IMAGE_SUFFIXES
 from . import envmap, presets, sh
 from .files import load_light
@@ -194,12 +195,18 @@ class LightSpec:
 
 
 def _is_equirectangular(path: Path) -> bool:
+    """Width twice the height (within a pixel), read from the header where it is parsed (exact at any size), else
+    from a 1/8 decode (which may round each side: a small photo near 2:1 can pass for a panorama there)."""
+    size = header_size(path, f"light {path}")
+    if size is not None:
+        w, h = size
+        return abs(w - 2 * h) <= 1
     data = np.fromfile(path, dtype=np.uint8)
     img = cv2.imdecode(data, cv2.IMREAD_REDUCED_GRAYSCALE_8) if data.size else None
     if img is None:
         raise RelightError(f"light: cannot decode {path} as an image")
     h, w = img.shape[:2]
-    return abs(w - 2 * h) <= 1  # the 1/8 reduction may round each side
+    return abs(w - 2 * h) <= 1
 
 
 def parse_light(text: str | os.PathLike, *, allow_paths: bool = True) -> LightSpec:
