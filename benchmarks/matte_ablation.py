@@ -57,6 +57,11 @@ from people_masks_eval import data_root, half_of, iou, items, matted, whole_imag
 from relight_rt.engine.session import Model  # noqa: E402
 from relight_rt.image import matte_edges as E  # noqa: E402
 from relight_rt.person import matting as M  # noqa: E402
+from relight_rt.person.matting import _candidate as C  # noqa: E402
+from relight_rt.person.matting import _company as CO  # noqa: E402
+from relight_rt.person.matting import _completion as CP  # noqa: E402
+from relight_rt.person.matting import _everyone as EV  # noqa: E402
+from relight_rt.person.matting import _largest as LG  # noqa: E402
 from relight_rt.person.matting import _layout as L  # noqa: E402
 from relight_rt.person.matting import _matter as PM  # noqa: E402
 from relight_rt.person.matting import _selfie as S  # noqa: E402
@@ -117,16 +122,18 @@ def _plain_mean(person, seen, seen_side):
     return as_logits((sigmoid(person.logits) + seen) / 2).astype(np.float32)
 
 
-def _cut_body_without_framed(inside, mine, cand, framed, bottom, _orig=PM.cut_body):
+def _cut_body_without_framed(inside, mine, cand, framed, bottom, _orig=CP.cut_body):
     """``_cut_body.cut_body`` before matte22: the own colours' candidates only, nothing the framed graph alone sees."""
     return _orig(inside, mine, cand, np.zeros_like(framed), bottom)
 
 
 def _vouched_by_presence(self, rgb, person):
-    return person.presence >= PM.PRESENCE_MIN
+    return person.presence >= C.PRESENCE_MIN
 
 
-# name -> (what switching it off does, [(object, attribute, off value)])
+# name -> (what switching it off does, [(object, attribute, off value)]): each attribute where the code reads it (a
+# function is patched in the module that calls it: PM the conductor, C a candidate's person, LG the largest's search,
+# EV everyone's, CO the company, CP the completion)
 RULES: dict[str, tuple[str, list[tuple[object, str, object]]]] = {
     "things_behind": (
         "_things_behind.without_things_behind -> identity (matte21)",
@@ -134,16 +141,16 @@ RULES: dict[str, tuple[str, list[tuple[object, str, object]]]] = {
     ),
     "cut_body_framed": (
         "_cut_body.cut_body: the framed graph's sure pixels left out (CutBody.part, matte22)",
-        [(PM, "cut_body", _cut_body_without_framed)],
+        [(CP, "cut_body", _cut_body_without_framed)],
     ),
     "cut_part": (
         "_cut_body.cut_body -> None: no cut-body part at all (matte18 + matte22)",
-        [(PM, "cut_body", lambda *a, **k: None)],
+        [(CP, "cut_body", lambda *a, **k: None)],
     ),
     "carried_past": ("_selfie.carried_past -> [] (matte19)", [(PM, "carried_past", lambda *a, **k: [])]),
     "confirmed": (
         "_selfie.confirmed -> the person as framed (matte17, _layout.unconfirmed)",
-        [(PM, "confirmed", lambda roi, rgb, person, find_faces: person)],
+        [(C, "confirmed", lambda roi, rgb, person, find_faces: person)],
     ),
     "without_behind": (
         "_behind.without_behind -> identity (matte16)",
@@ -165,9 +172,9 @@ RULES: dict[str, tuple[str, list[tuple[object, str, object]]]] = {
         "_shadow.without_cast_shadow -> identity (matte11)",
         [(PM, "without_cast_shadow", lambda rgb, alpha, sure=None: alpha)],
     ),
-    "turned": ("_turned.turned_people -> [] (matte9)", [(PM, "turned_people", lambda *a, **k: [])]),
-    "own_colours": ("_colours.own_part -> None (the cut-body part stays)", [(PM, "own_part", lambda *a, **k: None)]),
-    "seen_whole": ("_layout.seen_whole -> False", [(PM, "seen_whole", lambda *a, **k: False)]),
+    "turned": ("_turned.turned_people -> [] (matte9)", [(CP, "turned_people", lambda *a, **k: [])]),
+    "own_colours": ("_colours.own_part -> None (the cut-body part stays)", [(CP, "own_part", lambda *a, **k: None)]),
+    "seen_whole": ("_layout.seen_whole -> False", [(LG, "seen_whole", lambda *a, **k: False)]),
     "unconfirmed_cut": (
         "_layout.unconfirmed_cut -> the first answer (matte14)",
         [(S, "unconfirmed_cut", lambda wide, first, cut: first)],
@@ -176,15 +183,15 @@ RULES: dict[str, tuple[str, list[tuple[object, str, object]]]] = {
         "matte_edges._rim_like_backdrop -> False (_RIM_MATCH, matte13)",
         [(E, "_rim_like_backdrop", lambda *a, **k: False)],
     ),
-    "peers": ("PersonMatter._peers -> []", [(PM.PersonMatter, "_peers", lambda self, *a, **k: [])]),
+    "peers": ("_company.peers -> []", [(PM, "peers", lambda *a, **k: [])]),
     "box_beside": (
         "_layout.box_beside -> None (the peers' search on the person's own rows)",
-        [(PM, "box_beside", lambda *a, **k: None)],
+        [(EV, "box_beside", lambda *a, **k: None)],
     ),
-    "joined": ("PersonMatter._joined -> []", [(PM.PersonMatter, "_joined", lambda self, *a, **k: [])]),
+    "joined": ("_company.joined -> []", [(PM, "joined", lambda *a, **k: [])]),
     "people_whole": (
         "_layout.people_whole -> None (two sure faces: both whole)",
-        [(PM, "people_whole", lambda *a, **k: None)],
+        [(CO, "people_whole", lambda *a, **k: None)],
     ),
     "widened": (
         "_selfie.widened -> identity (continued and unconfirmed_cut with it)",
@@ -195,8 +202,8 @@ RULES: dict[str, tuple[str, list[tuple[object, str, object]]]] = {
         [(PM.PersonMatter, "vouched", _vouched_by_presence)],
     ),
     "backed": (
-        "PersonMatter._backed -> identity (backed_logits)",
-        [(PM.PersonMatter, "_backed", lambda self, rgb, person: person)],
+        "_completion.backed -> identity (backed_logits)",
+        [(PM, "backed", lambda roi, rgb, person: person)],
     ),
     "backed_gap": ("_layout.BACKED_GAP -> 2 (no gap left in doubt, gaps12)", [(L, "BACKED_GAP", 2.0)]),
     "backed_sure": ("_layout.BACKED_SURE -> -inf (any valley a gap, before matte14)", [(L, "BACKED_SURE", -np.inf)]),

@@ -3,13 +3,13 @@
     python benchmarks/own_colours_speed.py p150 p259 p126 p093     # photos by name
 
 The default matte (PersonMatter(), person="largest") is run once per photo with each piece of its own colours' step
-(PersonMatter._own_colours) watched: the arguments of the calls that step made (its last run on the photo) are caught,
-and then each of those calls is timed again as made (process time, mean of --repeat calls), so that only the pieces
-the step ran are timed, on what it ran them on: ``candidates``, ``photo_bottom`` and ``cut_body`` (the bottom
-border's candidates and the parts of them that lie where a cut body goes on), ``colour_model`` (the k-means: made only
-where a part can be kept), ``own_part``, ``CutBody.part`` (its second backdrop included) and ``backdrop_less`` alone
-(that second backdrop, made once a part holds up), and the whole step (``_own_colours``, the framed graph's run
-included). Nothing of the data is written.
+(relight_rt.person.matting._completion.own_colours) watched: the arguments of the calls that step made (its last run
+on the photo) are caught, and then each of those calls is timed again as made (process time, mean of --repeat calls),
+so that only the pieces the step ran are timed, on what it ran them on: ``candidates``, ``photo_bottom`` and
+``cut_body`` (the bottom border's candidates and the parts of them that lie where a cut body goes on),
+``colour_model`` (the k-means: made only where a part can be kept), ``own_part``, ``CutBody.part`` (its second
+backdrop included) and ``backdrop_less`` alone (that second backdrop, made once a part holds up), and the whole step
+(``own_colours``, the framed graph's run included). Nothing of the data is written.
 """
 
 from __future__ import annotations
@@ -28,15 +28,15 @@ sys.path.insert(0, str(REPO / "benchmarks"))
 from people_masks_eval import data_root, read_rgb  # noqa: E402
 
 from relight_rt.person import matting as M  # noqa: E402
-from relight_rt.person.matting import _cut_body, _matter  # noqa: E402
+from relight_rt.person.matting import _completion, _cut_body  # noqa: E402
 
 WATCHED = [  # (owner, name): the step's pieces, where the step looks them up
-    (_matter.PersonMatter, "_own_colours"),
-    (_matter, "candidates"),
-    (_matter, "photo_bottom"),
-    (_matter, "cut_body"),
-    (_matter, "colour_model"),
-    (_matter, "own_part"),
+    (_completion, "own_colours"),
+    (_completion, "candidates"),
+    (_completion, "photo_bottom"),
+    (_completion, "cut_body"),
+    (_completion, "colour_model"),
+    (_completion, "own_part"),
     (_cut_body.CutBody, "part"),
     (_cut_body, "backdrop_less"),
 ]
@@ -49,10 +49,10 @@ def watched(calls: dict[str, tuple[Callable[..., object], tuple]]) -> Iterator[N
     saved = [(owner, name, owner.__dict__[name]) for owner, name in WATCHED]
 
     def watch(owner: object, name: str, f: Callable[..., object]) -> Callable[..., object]:
-        label = f"{owner.__name__}.{name}" if isinstance(owner, type) and name != "_own_colours" else name
+        label = f"{owner.__name__}.{name}" if isinstance(owner, type) and name != "own_colours" else name
 
         def call(*args):
-            if name == "_own_colours":
+            if name == "own_colours":
                 calls.clear()
             calls[label] = (f, args)
             return f(*args)
@@ -90,8 +90,8 @@ def main(argv: list[str] | None = None) -> int:
         if not calls:
             print(f"{name}: no own colours' step")
             continue
-        times = {k: per_call(f, a, args.repeat) for k, (f, a) in calls.items() if k != "_own_colours"}
-        f, a = calls["_own_colours"]
+        times = {k: per_call(f, a, args.repeat) for k, (f, a) in calls.items() if k != "own_colours"}
+        f, a = calls["own_colours"]
         times["whole step"] = per_call(f, a, max(1, args.repeat // 4))
         print(f"{name}: " + ", ".join(f"{k} {v:.2f} ms" for k, v in times.items()))
     return 0

@@ -62,8 +62,15 @@ Modules (one concept each; this package re-exports the public names):
   working grid that carries it back over the photo (the square regions themselves, :class:`Region` and
   :func:`crop_region`, are relight_rt.image.regions', re-exported here).
 - ``_detect``: where people are (selfie-graph blobs over tiles, faces, a wide blob's strips, faint places).
-- ``_matter``: :class:`PersonMatter` (segmentation, choosing the people, the full-resolution alpha) and
-  :func:`shared_matter`.
+- ``_matter``: :class:`PersonMatter`, the conductor (it holds the graphs and orders the stages below: who is
+  found, what is added to them, the full-resolution alpha) and :func:`shared_matter`.
+- ``_candidate``: one candidate's person (the pose graph re-centred until it settles, the portrait check, whether a
+  person is there: presence, a face, or the selfie graph agreeing).
+- ``_largest``: the largest person's search (person="largest"; a person reached from nobody set aside).
+- ``_everyone``: everyone's search (person="all"; also asked by the two below).
+- ``_company``: the people with the largest person (peers as tall and seen whole, someone joined with a face).
+- ``_completion``: what is added to a person found (half-seen pixels both graphs see, their own colours, limbs seen
+  only turned).
 - ``_colours``: the person's own colours (what the selfie graph sees joined to the matte, kept by colour).
 - ``_shadow``: the person's own cast shadow on the ground at their feet, taken out of the matte.
 - ``_things_behind``: things out of focus behind the person (parts the pose graph does not see, blurred where the
@@ -86,7 +93,8 @@ from ...image.foreground import estimate_foreground as estimate_foreground  # re
 from ...image.matte_edges import refine_edges as refine_edges  # re-exported: the edge refinement photos get
 from ...image.regions import Region, crop_region
 from ._coarse import region_alpha
-from ._matter import GUIDES, MIN_PERSON_FRACTION, PERSON_MODES, PersonMatter, shared_matter
+from ._everyone import MIN_PERSON_FRACTION
+from ._matter import GUIDES, PERSON_MODES, PersonMatter, shared_matter
 from ._models import FACE_FILE, MIN_SIDE, POSE_FILE, ROI_FILE, SIZE, as_rgb, find_matting_models
 from ._segmentation import Person, person_box
 from ._video import VideoMatter, outline_flicker

@@ -7,7 +7,7 @@ leg, the shadow is the ground's. On one square region's canvas (the person's), t
 interior and of a ring of background around them are each summarised by a few k-means centres (CIELAB); a pixel the
 selfie graph sees (>= OWN_SURE) outside the matte, joined to it, is the person's where its colour lies nearer to
 the person's nearest centre than OWN_RATIO x its distance to the background's nearest centre (and what is kept
-stays joined to the matte). Measured in relight_rt.person.matting._matter.PersonMatter._own_colours.
+stays joined to the matte). Measured in relight_rt.person.matting._completion.own_colours.
 
 A candidate must also be seen (>= 0.5) by the graph framed on the people's own region: on the whole photo the graph,
 seeing the person small, takes in the dark post or wall block the feet stand on, the very colour of black trousers,

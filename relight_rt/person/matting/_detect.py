@@ -29,7 +29,7 @@ Box = tuple[float, float, float, float]
 def roi_prob(roi: Model, rgb: np.ndarray, region: Region) -> np.ndarray:
     """The selfie graph's (256, 256) person probability over ``region`` (read-only). Inside
     :func:`reductions_shared` a region's answer is kept for the block (the portrait check and the pose-graph
-    person's backing, :meth:`PersonMatter._backed`, ask for the same region): :meth:`Pyramid.answer`."""
+    person's backing, _completion.backed, ask for the same region): :meth:`Pyramid.answer`."""
 
     def ask() -> np.ndarray:
         prob = roi.run({"image": crop_region(rgb, region).transpose(2, 0, 1)[None]})["segmentation"][0, 0]
@@ -53,7 +53,7 @@ class Around(NamedTuple):
 
 
 def around_people(roi: Model, rgb: np.ndarray, people: list[Person]) -> Around | None:
-    """Where the searches for a part beside ``people`` start (``PersonMatter._own_colours``, ``_turned``): the
+    """Where the searches for a part beside ``people`` start (``_completion.own_colours``, ``_turned``): the
     region around their boxes, and on its canvas the selfie graph's answer on the whole photo, where the canvas lies
     inside the photo, and the people's own pixels (:class:`Around`); None when no one has a box."""
     h, w = rgb.shape[:2]

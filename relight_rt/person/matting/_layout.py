@@ -1,5 +1,6 @@
 """Where the matter's people stand: boxes against the image's border and each other, a person less another, who
-straddles two, who stands beside (the geometric rules of relight_rt.person.matting._matter's choices)."""
+straddles two, who stands beside (the geometric rules of the person matter's choices:
+relight_rt.person.matting._candidate, ._largest, ._everyone, ._company)."""
 
 from __future__ import annotations
 

@@ -36,7 +36,7 @@ class Person:
     logits: np.ndarray  # (256, 256) float32 person logits in the region's canvas
     presence: float
     source: str = "pose"  # which graph's segmentation: "pose" (bodies) or "roi" (head-and-shoulders); "own": the
-    # selfie graph's, kept to the people's own colours (PersonMatter._own_colours: part of them, not a person)
+    # selfie graph's, kept to the people's own colours (_completion.own_colours: part of them, not a person)
     whole: np.ndarray | None = field(default=None, repr=False, compare=False)  # split from these logits (see
     # relight_rt.person.matting._parts.split_by_faces): the matte is made from the whole, not from the parts
     of: Region | None = field(default=None, compare=False)  # source "own": the region of the person this part goes

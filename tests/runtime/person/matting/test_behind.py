@@ -143,11 +143,11 @@ def test_the_default_matte_leaves_out_the_person_behind_and_everyones_keeps_them
         matter = M.PersonMatter(refine=False, person=person)
         matter.roi, matter.face = _Bright(), None
         monkeypatch.setattr(matter, "find_faces", lambda rgb_, every=False: [SUBJECT_FACE, face])
-        monkeypatch.setattr(matter, "_largest", lambda rgb_: ([both], []))
-        monkeypatch.setattr(matter, "_everyone", lambda rgb_, tall=0.0: [both])
-        monkeypatch.setattr(matter, "_peers", lambda *a: [])
-        monkeypatch.setattr(matter, "_joined", lambda *a: [])
-        monkeypatch.setattr(matter, "_own_and_turned", lambda *a: [])
+        monkeypatch.setattr(_matter, "largest", lambda matter_, rgb_: ([both], []))
+        monkeypatch.setattr(_matter, "everyone", lambda matter_, rgb_, tall=0.0: [both])
+        monkeypatch.setattr(_matter, "peers", lambda *a: [])
+        monkeypatch.setattr(_matter, "joined", lambda *a: [])
+        monkeypatch.setattr(_matter, "own_and_turned", lambda *a: [])
         alpha = matter.alpha(rgb, matter.people(rgb))
         assert iou(alpha, subject if person == "largest" else subject | other) > 0.95
     assert asked == [2]

@@ -13,7 +13,7 @@ from test_people_found import _Bright, head_and_shoulders
 from relight_rt import RelightError
 from relight_rt.person import matting as M
 from relight_rt.person.face_detector import Face
-from relight_rt.person.matting import _colours, _layout, _matter, _segmentation, _selfie
+from relight_rt.person.matting import _candidate, _colours, _company, _completion, _layout, _segmentation, _selfie
 
 
 class _Unsure:
@@ -55,7 +55,7 @@ def test_the_selfie_graph_vouches_for_a_body_the_presence_flag_misses():
     matter = M.PersonMatter(refine=False)
     matter.roi, matter.pose, matter.face = _Bright(), _Unsure(), None
     person = matter.segment(rgb, M.Region.around(120.0, 80.0, 280.0, 200.0))
-    assert person.presence < _matter.PRESENCE_MIN
+    assert person.presence < _candidate.PRESENCE_MIN
     assert matter.vouched(rgb, person)
     assert iou(matter(rgb), body) > 0.95  # was "no person found"
     matter.roi = _Left()  # the selfie graph sees another shape there: no one vouches
@@ -129,10 +129,10 @@ def test_a_portrait_region_is_looked_for_only_near_the_bottom():
     matter = M.PersonMatter(refine=False)
     matter.find_faces = lambda rgb, every=False: [Face((80.0, 60.0, 220.0, 160.0), 0.9)]
     person = M.Person(M.Region(150.0, 140.0, 240.0), np.full((256, 256), 10.0, np.float32), 0.9)
-    region = matter._portrait_region(rgb, person)  # ends at row 260 of 360: near the bottom
+    region = _candidate.portrait_region(rgb, person, matter.find_faces)  # ends at row 260 of 360: near the bottom
     assert region is not None and region.box()[3] >= 360
     high = M.Person(M.Region(150.0, 60.0, 100.0), np.full((256, 256), 10.0, np.float32), 0.9)  # ends at row 110
-    assert matter._portrait_region(rgb, high) is None
+    assert _candidate.portrait_region(rgb, high, matter.find_faces) is None
 
 
 class _Nobody:
@@ -153,7 +153,7 @@ def test_a_face_with_no_body_under_it_needs_a_sure_score_when_asked(score, sure,
     matter = M.PersonMatter(refine=False)
     matter.roi, matter.pose, matter.face = _Bright(), _Nobody(), None
     face = Face((170.0, 100.0, 230.0, 160.0), score)
-    p = matter._person_at(rgb, face.body_box(rgb.shape[:2]), face, sure_face=sure)
+    p = _candidate.person_at(matter, rgb, face.body_box(rgb.shape[:2]), face, sure_face=sure)
     assert (p is not None) == kept
 
 
@@ -185,7 +185,8 @@ def test_what_the_pose_graph_half_sees_is_the_persons_where_the_selfie_graph_agr
     rgb[torso] = 1.0
     matter = M.PersonMatter(refine=False)
     matter.roi, matter.pose, matter.face = selfie(), _DimLegs(), None
-    person = matter._backed(rgb, matter.segment(rgb, M.Region.around(150.0, 30.0, 250.0, 260.0), passes=1))
+    seen = matter.segment(rgb, M.Region.around(150.0, 30.0, 250.0, 260.0), passes=1)
+    person = _completion.backed(matter.roi, rgb, seen)
     alpha = matter.alpha(rgb, [person])
     assert (alpha[torso] >= 0.5).mean() > 0.95
     below = trousers & (yy > 175)
@@ -209,7 +210,8 @@ def test_a_body_both_graphs_see_is_opaque_inside_and_soft_only_at_its_outline():
     rgb = np.repeat(body[..., None], 3, 2)
     matter = M.PersonMatter(refine=False)
     matter.roi, matter.pose, matter.face = _Seen(), _HalfSeen(), None
-    person = matter._backed(rgb, matter.segment(rgb, M.Region.around(120.0, 80.0, 280.0, 200.0), passes=1))
+    seen = matter.segment(rgb, M.Region.around(120.0, 80.0, 280.0, 200.0), passes=1)
+    person = _completion.backed(matter.roi, rgb, seen)
     alpha = matter.alpha(rgb, [person])
     yy, xx = np.mgrid[0:300, 0:400] + 0.5
     inside = (((xx - 200) / 70) ** 2 + ((yy - 140) / 50) ** 2) < 1  # 10 px (3 canvas px) in from the outline
@@ -246,8 +248,8 @@ def test_a_blob_needs_the_pose_graphs_flag_when_vouching_is_off():
     matter = M.PersonMatter(refine=False)
     matter.roi, matter.pose, matter.face = _Bright(), _Unsure(), None
     box = (120.0, 80.0, 280.0, 200.0)
-    assert matter._person_at(rgb, box, None) is not None
-    assert matter._person_at(rgb, box, None, vouch=False) is None
+    assert _candidate.person_at(matter, rgb, box, None) is not None
+    assert _candidate.person_at(matter, rgb, box, None, vouch=False) is None
 
 
 def test_the_part_of_a_segmentation_outside_another_person():
@@ -311,7 +313,7 @@ def test_someone_joined_to_the_person_with_a_face_of_their_own_is_taken(gap, sco
     main = matted(rgb, left)
     cx = 250.0 + gap if where == "right" else 130.0
     face = Face((cx - 20.0, 70.0, cx + 20.0, 110.0), score)
-    extra = matter._joined(rgb, [main], [face])
+    extra = _company.joined(matter.roi, rgb, [main], [face])
     assert len(extra) == int(joined)
     alpha = matter.alpha(rgb, [main, *extra])
     assert iou(alpha, left | right if joined else left) > 0.95
@@ -334,7 +336,7 @@ def test_a_second_person_the_matte_holds_in_part_is_completed(held, faces, whole
     matter.roi, matter.face = _Bright(), None
     main = matted(rgb, left | part)
     found = [Face((110.0, 50.0, 150.0, 90.0), 0.9), Face((210.0, 70.0, 250.0, 110.0), 0.9)][:faces]
-    alpha = matter.alpha(rgb, [main, *matter._joined(rgb, [main], found)])
+    alpha = matter.alpha(rgb, [main, *_company.joined(matter.roi, rgb, [main], found)])
     assert iou(alpha, left | right if whole else left | part) > 0.95
 
 
@@ -443,7 +445,7 @@ def test_a_part_the_selfie_graph_sees_in_the_persons_own_colours_is_theirs(ratio
     matter = M.PersonMatter(refine=False)
     matter.roi, matter.face = _NotGround(), None
     found = matted(rgb, parts["shirt"] | parts["leg1"])
-    extra = matter._own_colours(rgb, [found])
+    extra = _completion.own_colours(matter.roi, rgb, [found])
     alpha = matter.alpha(rgb, [found, *extra])
     leg2 = (alpha[parts["leg2"]] >= 0.5).mean()
     assert (alpha[parts["shadow"]] >= 0.5).mean() < 0.1
@@ -643,9 +645,9 @@ def test_portrait_region_is_no_wider_than_the_photo():
     matter = M.PersonMatter(refine=False)
     logits = np.zeros((256, 256), np.float32)
     wide = M.Person(M.Region(320.0, 260.0, 800.0), logits, 0.99, "pose")  # reaches past the bottom
-    assert matter._portrait_region(rgb, wide) == M.Region(320.0, 240.0, 640.0)
+    assert _candidate.portrait_region(rgb, wide, matter.find_faces) == M.Region(320.0, 240.0, 640.0)
     close = M.Person(M.Region(300.0, 300.0, 500.0), logits, 0.99, "pose")
-    assert matter._portrait_region(rgb, close) == close.region
+    assert _candidate.portrait_region(rgb, close, matter.find_faces) == close.region
     assert _layout.within_photo(M.Region(100.0, 50.0, 700.0), (480, 640)) == M.Region(320.0, 240.0, 640.0)
 
 

@@ -129,7 +129,7 @@ OWN_FACE = Face((125.0, 60.0, 215.0, 160.0), 0.9)
 def test_a_passer_by_joined_at_the_shoulder_is_never_taken(monkeypatch, faces):
     """The whole photo's answer holds a passer-by joined to the shoulder past the cut, sure (0.95): a part holding the
     middle of a face the person does not hold is someone else, left out whole (person="largest": others only whole,
-    and only when seen whole, PersonMatter._peers); the person's own face is no reason to leave anything out."""
+    and only when seen whole, _company.peers); the person's own face is no reason to leave anything out."""
     monkeypatch.setattr(_selfie, "roi_prob", graph(0.95, more=passer_by, person=short_portrait))
     yy, xx = np.mgrid[0:H, 0:W] + 0.5
     rgb = np.zeros((H, W, 3), np.float32)
@@ -165,10 +165,10 @@ def matter_of(monkeypatch):
 
     def make(found: list, faces: list) -> M.PersonMatter:
         matter = M.PersonMatter(refine=False)
-        monkeypatch.setattr(matter, "_largest", lambda rgb: (list(found), []))
+        monkeypatch.setattr(_matter, "largest", lambda matter_, rgb: (list(found), []))
         monkeypatch.setattr(matter, "find_faces", lambda rgb, every=False: list(faces))
-        for name in ("_peers", "_joined", "_own_and_turned"):
-            monkeypatch.setattr(matter, name, lambda *a: [])
+        for name in ("peers", "joined", "own_and_turned"):
+            monkeypatch.setattr(_matter, name, lambda *a: [])
         monkeypatch.setattr(_matter, "widened", lambda roi, rgb, p: p)
         monkeypatch.setattr(_matter, "uncut", lambda roi, rgb, p: (p, None))
         monkeypatch.setattr(_matter, "blended", lambda p, seen, side: p)

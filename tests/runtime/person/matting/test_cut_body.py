@@ -9,7 +9,7 @@ import pytest
 from test_broad_set_rules import matted
 
 from relight_rt.person import matting as M
-from relight_rt.person.matting import _colours, _cut_body, _detect, _layout, _matter
+from relight_rt.person.matting import _colours, _completion, _cut_body, _detect, _layout
 from relight_rt.person.matting._detect import around_people, roi_prob
 from relight_rt.person.matting._segmentation import canvas_points
 
@@ -55,7 +55,7 @@ def run_own(rgb: np.ndarray, matte: np.ndarray | list[np.ndarray]) -> np.ndarray
     matter = M.PersonMatter(refine=False)
     matter.roi, matter.face = _NotWall(), None
     found = [matted(rgb, m) for m in (matte if isinstance(matte, list) else [matte])]
-    return matter.alpha(rgb, [*found, *matter._own_colours(rgb, found)])
+    return matter.alpha(rgb, [*found, *_completion.own_colours(matter.roi, rgb, found)])
 
 
 def inset(mask: np.ndarray, px: int) -> np.ndarray:
@@ -120,7 +120,7 @@ def graph_maps(monkeypatch, whole: np.ndarray, framed: np.ndarray) -> None:
         return np.where((xs >= 0) & (xs < w) & (ys >= 0) & (ys < h), at, 0.0).astype(np.float32)
 
     monkeypatch.setattr(_detect, "roi_prob", answer)
-    monkeypatch.setattr(_matter, "roi_prob", answer)
+    monkeypatch.setattr(_completion, "roi_prob", answer)
 
 
 def own_alpha(rgb: np.ndarray, matte: np.ndarray) -> np.ndarray:
@@ -128,7 +128,7 @@ def own_alpha(rgb: np.ndarray, matte: np.ndarray) -> np.ndarray:
     matter = M.PersonMatter(refine=False)
     matter.face = None
     found = [matted(rgb, matte)]
-    return matter.alpha(rgb, [*found, *matter._own_colours(rgb, found)])
+    return matter.alpha(rgb, [*found, *_completion.own_colours(matter.roi, rgb, found)])
 
 
 FOLD = 0.3  # the lit creases of a dark trouser leg at the hip: a shade the person's matted parts lack
@@ -279,7 +279,7 @@ def test_under_the_feet_of_a_standing_person_the_framed_answer_alone_takes_nothi
     matter = M.PersonMatter(refine=False)
     matter.face = None
     found = [matted(rgb, m) for m in people]
-    alpha = matter.alpha(rgb, [*found, *matter._own_colours(rgb, found)])
+    alpha = matter.alpha(rgb, [*found, *_completion.own_colours(matter.roi, rgb, found)])
     assert (alpha[ground] >= 0.5).mean() < 0.05
     assert (alpha[np.any(people, axis=0)] >= 0.5).mean() > 0.95
 
@@ -386,7 +386,7 @@ def test_the_colours_are_looked_at_only_where_a_part_can_be_kept(scene, runs, mo
         rgb[thing] = CHAIR
         seen = inset(matte, 2)  # (the graph's outline inside the matte: no rim of candidates round it)
         graph_maps(monkeypatch, np.where(thing, 0.3, seen), np.where(thing, 0.95, seen))
-    matter._own_colours(rgb, [matted(rgb, matte)])
+    _completion.own_colours(matter.roi, rgb, [matted(rgb, matte)])
     assert len(count) == runs
 
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from relight_rt.person import matting as M
-from relight_rt.person.matting import _matter
+from relight_rt.person.matting import _candidate, _largest
 from relight_rt.person.matting._segmentation import Person
 
 
@@ -57,11 +57,11 @@ def test_portrait_check_looks_at_the_region_first_given(monkeypatch, rule, first
         checked.append(region)
         return Person(region, np.full((256, 256), 5.0, np.float32), presence, "roi")
 
-    monkeypatch.setattr(_matter, "roi_person", selfie)
-    monkeypatch.setattr(_matter, "is_portrait", lambda roi, shape: True)
-    monkeypatch.setattr(_matter, "reframed", lambda roi, rgb_, p: p)
-    monkeypatch.setattr(_matter, "confirmed", lambda roi, rgb_, p, find: p)
-    monkeypatch.setattr(_matter, "START_PORTRAIT", rule)
+    monkeypatch.setattr(_candidate, "roi_person", selfie)
+    monkeypatch.setattr(_candidate, "is_portrait", lambda roi, shape: True)
+    monkeypatch.setattr(_candidate, "reframed", lambda roi, rgb_, p: p)
+    monkeypatch.setattr(_candidate, "confirmed", lambda roi, rgb_, p, find: p)
+    monkeypatch.setattr(_candidate, "START_PORTRAIT", rule)
     monkeypatch.setattr(matter, "find_faces", lambda rgb_, every=False: [])
     first = M.Region(120.0, 250.0, 500.0)  # off the body's middle, past the bottom (y 0-500 on a 400-px photo)
     found = matter.segment(rgb, first)
@@ -85,15 +85,15 @@ def test_person_reached_from_nobody_gives_way_to_a_larger_one(monkeypatch, start
     walked = _square(region, (300, 120, 360, 180), 0.907, start)  # a sign beside her (p170 mirrored)
     larger = _square(region, other, 0.998)
     monkeypatch.setattr(matter, "find_people", lambda rgb_, **k: [(60000.0, (40.0, 20.0, 380.0, 390.0))])
-    monkeypatch.setattr(matter, "_person_at", lambda rgb_, box, face, *a, **k: walked if face is None else None)
+    monkeypatch.setattr(_largest, "person_at", lambda m, rgb_, box, face, *a, **k: walked if face is None else None)
     monkeypatch.setattr(matter, "find_faces", lambda rgb_, every=False: [])
-    monkeypatch.setattr(matter, "_everyone", lambda rgb_, tall=0.0: [larger])
+    monkeypatch.setattr(_largest, "everyone", lambda m, rgb_, tall=0.0: [larger])
     matter.face = None  # no close faces either
-    found, blobs = matter._largest(rgb)
+    found, blobs = _largest.largest(matter, rgb)
     assert len(found) == 1 and len(blobs) == 1
     assert found[0] is (larger if expected == "other" else walked)
-    monkeypatch.setattr(_matter, "WALKED_LAST", False)
-    assert matter._largest(rgb)[0][0] is walked  # without the rule the first candidate is taken
+    monkeypatch.setattr(_largest, "WALKED_LAST", False)
+    assert _largest.largest(matter, rgb)[0][0] is walked  # without the rule the first candidate is taken
 
 
 @pytest.mark.parametrize(("other", "expected"), [
@@ -108,7 +108,7 @@ def test_a_later_blob_displaces_a_person_reached_from_nobody_only_when_larger(mo
     later = _square(region, other, 0.998)
     blobs = [(60000.0, (100.0, 80.0, 300.0, 340.0)), (2000.0, (190.0, 190.0, 240.0, 250.0))]
     monkeypatch.setattr(matter, "find_people", lambda rgb_, **k: blobs)
-    monkeypatch.setattr(matter, "_person_at", lambda rgb_, box, face, *a, **k: walked if box == blobs[0][1] else later)
+    monkeypatch.setattr(_largest, "person_at", lambda m, rgb_, box, *a, **k: walked if box == blobs[0][1] else later)
     monkeypatch.setattr(matter, "find_faces", lambda rgb_, every=False: [])
-    found, _ = matter._largest(rgb)
+    found, _ = _largest.largest(matter, rgb)
     assert found[0] is (later if expected == "other" else walked)

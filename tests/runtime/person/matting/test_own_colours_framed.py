@@ -1,4 +1,4 @@
-"""The person's own colours (PersonMatter._own_colours, relight_rt.person.matting._colours) taken only where the selfie
+"""The person's own colours (_completion.own_colours, relight_rt.person.matting._colours) taken only where the selfie
 graph sees them framed on the people too (issue 48: the parkour clip's dark wall block under the runner's feet)."""
 
 from __future__ import annotations
@@ -8,6 +8,7 @@ import pytest
 from test_broad_set_rules import matted, runner
 
 from relight_rt.person import matting as M
+from relight_rt.person.matting._completion import own_colours
 
 BLOCK = 0.06  # the wall block's grey: near the trousers' black (0.03)
 
@@ -46,7 +47,7 @@ def test_own_colours_are_taken_where_the_graph_framed_on_the_people_sees_them_to
     matter = M.PersonMatter(refine=False)
     matter.roi, matter.face = graph(), None
     found = matted(rgb, parts["shirt"] | parts["leg1"])
-    extra = matter._own_colours(rgb, [found])
+    extra = own_colours(matter.roi, rgb, [found])
     alpha = matter.alpha(rgb, [found, *extra])
     assert (alpha[parts["leg2"]] >= 0.5).mean() > 0.9
     assert ((alpha[block] >= 0.5).mean() > 0.9) == taken

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from relight_rt.person import matting as M
-from relight_rt.person.matting import _layout
+from relight_rt.person.matting import _completion, _layout
 
 H, W = 700, 700
 GAP = slice(247, 250)  # the gap's columns: 3 px, about one canvas pixel of the region below
@@ -51,7 +51,7 @@ class _Canvas:
 def matted(rgb: np.ndarray) -> np.ndarray:
     matter = M.PersonMatter()
     matter.roi, matter.pose, matter.face = _Canvas(False), _Canvas(True), None
-    person = matter._backed(rgb, matter._pose(rgb, REGION))
+    person = _completion.backed(matter.roi, rgb, matter._pose(rgb, REGION))
     return matter.alpha(rgb, [person])
 
 
@@ -91,15 +91,15 @@ def video_matted(rgb: np.ndarray, pockets: bool, monkeypatch) -> np.ndarray:
     """The first frame of ``VideoMatter(complete=True)`` on ``rgb`` (the person found in REGION; the completion's
     own-colour and turned parts left out: the stand-ins answer one fixed canvas), with or without the pocket
     decision."""
-    from relight_rt.person.matting import _matter, _video
+    from relight_rt.person.matting import _video
 
     matter = M.PersonMatter()
     matter.roi, matter.pose, matter.face = _Canvas(False), _Canvas(True), None
     monkeypatch.setattr(matter, "find_people", lambda rgb: [(1.0, (150.0, 100.0, 270.0, 500.0))])
     monkeypatch.setattr(matter, "segment", lambda rgb, region, **kw: matter._pose(rgb, REGION))
     monkeypatch.setattr(matter, "vouched", lambda rgb, person: True)
-    monkeypatch.setattr(matter, "_own_colours", lambda *args: [])
-    monkeypatch.setattr(_matter, "turned_people", lambda *args: [])
+    monkeypatch.setattr(_completion, "own_colours", lambda *args: [])
+    monkeypatch.setattr(_completion, "turned_people", lambda *args: [])
     if not pockets:
         monkeypatch.setattr(_video, "open_pockets", lambda rgb, alpha: alpha)
     return M.VideoMatter(matter, smoothing=0.0, complete=True)(rgb)

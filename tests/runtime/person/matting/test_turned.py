@@ -142,10 +142,10 @@ def test_the_video_matters_completion_takes_a_limb_seen_only_turned(turned, monk
     """``PersonMatter.completed`` (what ``VideoMatter(complete=True)`` adds to the person it follows) runs the turned
     views as the photo matte does (matte13): the parkour clip's frames 19 and 50, whose back leg only the turned
     views see, were 0.67 / 0.78 in video against 0.94 / 0.96 per frame. Without them the stretched leg is lost."""
-    from relight_rt.person.matting import _matter
+    from relight_rt.person.matting import _completion
 
     if not turned:
-        monkeypatch.setattr(_matter, "turned_people", lambda *args, **kw: [])
+        monkeypatch.setattr(_completion, "turned_people", lambda *args, **kw: [])
     rgb, parts = lying()
     body = parts["shirt"] | parts["hips"]
     matter = M.PersonMatter(refine=False)
