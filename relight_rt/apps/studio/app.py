@@ -45,6 +45,7 @@ from pathlib import Path
 
 import numpy as np
 from fastapi import FastAPI, Request
+from fastapi.exceptions import RequestValidationError
 from fastapi.responses import FileResponse, JSONResponse, Response
 from fastapi.staticfiles import StaticFiles
 from starlette.middleware.trustedhost import TrustedHostMiddleware
@@ -231,6 +232,15 @@ def create_app(studio: Studio, allowed_hosts: list[str] | None = None, budget: B
     @app.exception_handler(RelightError)
     async def _bad_input(request: Request, exc: RelightError):
         return JSONResponse({"error": str(exc)}, status_code=400)
+
+    @app.exception_handler(RequestValidationError)
+    async def _bad_parameter(request: Request, exc: RequestValidationError):
+        """A query parameter FastAPI could not read (``?download=abc``): 400 with one line, as every bad input,
+        not FastAPI's 422 with a list of details."""
+        first = next(iter(exc.errors()), {})
+        where = ".".join(str(k) for k in first.get("loc", ())[1:]) or "request"
+        text = " ".join(str(first.get("msg", "not readable")).split())
+        return JSONResponse({"error": f"{where}: {text}"}, status_code=400)
 
     @app.exception_handler(HTTPRefusal)
     async def _refused(request: Request, exc: HTTPRefusal):

@@ -192,6 +192,16 @@ def test_absurd_numbers_and_nesting_are_400(client, body, match):
     assert res.status_code == 400 and match in res.json()["error"], (res.status_code, res.text[:300])
 
 
+def test_an_unreadable_query_parameter_is_400_with_one_line(client):
+    """fuzz9: ?download=abc got FastAPI's 422 with a list of details, not the one line every bad input gets."""
+    rid = client.post("/api/render", json={"light": LIGHT}, headers={"origin": OWN}).json()["id"]
+    for value in ("abc", "1e999", "1.5"):
+        res = client.get(f"/api/result/{rid}.png?download={value}")
+        error = res.json()["error"]
+        assert res.status_code == 400 and error.startswith("download: ") and "\n" not in error, res.text
+    assert client.get(f"/api/result/{rid}.png?download=1").status_code == 200
+
+
 # ------------------------------------------------------------------------------------------------ budget
 
 
