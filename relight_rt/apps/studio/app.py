@@ -53,7 +53,7 @@ from starlette.requests import ClientDisconnect
 
 from ...engine.errors import RelightError
 from .core import Studio, light_json, light_npy
-from .uploads import MAX_UPLOAD_BYTES
+from .uploads import MAX_UPLOAD_BYTES, one_large_at_a_time
 
 log = logging.getLogger(__name__)
 
@@ -346,12 +346,13 @@ def create_app(studio: Studio, allowed_hosts: list[str] | None = None, budget: B
 
     async def _upload(request: Request, name: str, work) -> dict:
         """An upload: its content type, a slot, its bytes within the budget, then ``work(bytes)`` in a thread
-        (the decode happens there, after the size in the header was checked: uploads.check_upload)."""
+        (the decode happens there, after the size in the header was checked: uploads.check_upload), one at a time
+        for large ones (uploads.one_large_at_a_time)."""
         from starlette.concurrency import run_in_threadpool
 
         _require_type(request, UPLOAD, name)
         async with budget.upload(name), budget.body(request, name, MAX_UPLOAD_BYTES) as data:
-            light = await run_in_threadpool(work, data)
+            light = await run_in_threadpool(one_large_at_a_time, work, data, name)
         return {"light": light.tolist()}
 
     @app.post("/api/envmap")
