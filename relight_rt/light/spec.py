@@ -232,7 +232,10 @@ def parse_light(text: str | os.PathLike, *, allow_paths: bool = True) -> LightSp
     Raises:
         RelightError: an unknown preset (the message lists the known ones), a missing file, a path refused.
     """
-    s = os.fspath(text)
+    try:
+        s = os.fspath(text)
+    except TypeError:  # an object whose __fspath__ gives neither str nor bytes
+        s = None
     if not isinstance(s, str) or not s:
         raise RelightError(f"light: expected a preset name or a file, got {text!r}")
     looks_like_path = bool(Path(s).suffix) or "/" in s or os.sep in s or (os.altsep or "/") in s
