@@ -94,8 +94,8 @@ def load_light(path, bgr: bool = False, layout: str | None = None) -> np.ndarray
                 raise RelightError(f'{p}: bgr=True but the file says "order": "rgb"')
             swap = order == "bgr"
             if not _json_numbers(doc["sh"]):  # numpy reads "0.5" and true as numbers, and overflows on 10**400
-                raise RelightError(f'{p}: "sh" must hold numbers only (no strings, true/false or null), each within '
-                                   "a float's range")  # fmt: skip
+                raise RelightError(f'{p}: cannot read light file ("sh" must hold numbers only: no strings, '
+                                   "true/false or null, each within a float's range)")  # fmt: skip
             raw = np.array(doc["sh"], dtype=np.float64)
     except RelightError:
         raise
