@@ -10,8 +10,9 @@ Groups:
   (inotify on the canary folder), never connect to a URL (a listener), write nothing outside its temp folder and
   listen on 127.0.0.1 only.
 - mirror: the mirror-symmetric chain and the upright turn on odd shapes and masks (Relighter.decompose + relight,
-  bundled models): one RelightError or a finite picture in [0, 1] of the input's size; a photo and its mirror under
-  the mirrored light relight as mirrors (p99 over the person, 8-bit).
+  bundled models; also the reference preprocessing, ``layers`` and ``decompose_batch`` on the odd shapes): one
+  RelightError or a finite picture in [0, 1] of the input's size; a photo and its mirror under the mirrored light
+  relight as mirrors (p99 over the person, 8-bit); 4 threads on one Decomposition give one thread's picture.
 - lights: every light form through Relighter.resolve_light / relight / relight_many / iter_relight and LightSpec,
   light files of every suffix with lying contents, tiny / 2:1 / odd images as lights; each == one to the bit.
 - ray: bad arguments to relight_rt.apps.ray_jobs (relight_folder, relight_videos, read_manifest) with the Ray
@@ -29,6 +30,7 @@ import argparse
 import collections
 import contextlib
 import ctypes
+import gc
 import json
 import os
 import resource
@@ -784,6 +786,35 @@ def mirror_cases() -> None:
         fi, fm = np.ascontiguousarray(img[:, ::-1]), np.ascontiguousarray(m[:, ::-1])
         b = to8(r.relight(r.decompose(fi, fm), (MIRROR_SIGNS[:, None] * light).astype(np.float32)))[:, ::-1]
         return float(np.percentile(np.abs(a - b).max(axis=2)[m >= 0.5], 99))
+
+    # the reference's preprocessing (its crop and resize) and the layers, on the odd shapes that run
+    ref = relight_rt.open(RuntimeConfig(device="cpu", preprocess="reference"))
+    odd = ("odd width 287, odd height 507", "odd 101x57", "extreme tall 2000x29", "head at the very top (1 row)",
+           "face at the left edge", "lying (turned 90)", "lying at the edge", "mask one column", "3x2")  # fmt: skip
+    for name in odd:
+        img, m, expect = photos[name]
+        case(
+            "mirror",
+            f"reference preprocess {name}",
+            lambda img=img, m=m, ref=ref: ref.relight(img, left, mask=m),
+            expect,
+        )
+
+        def layers(img=img, m=m):
+            out = r.layers(img, "campfire", mask=m)
+            return [out.image, *(v for k, v in out.layers.items() if k in ("albedo", "relit", "mask"))]
+
+        case("mirror", f"layers {name}", layers, expect)
+
+        def batch(img=img, m=m):
+            flip = np.ascontiguousarray(img[:, ::-1])
+            fm = None if m is None else np.ascontiguousarray(m[:, ::-1])
+            return [r.relight(d, "rim") for d in r.decompose_batch([img, flip], [m, fm])]
+
+        case("mirror", f"decompose_batch {name}", batch, expect)
+
+    del ref  # its sessions and caches: the round's own peak stays that of one case, not of every Relighter kept
+    gc.collect()
 
     # where benchmarks/mirror_equivariance.py measures it (the bundled example, its mask, LEFT and campfire): p99 <= 1
     sys.path.insert(0, str(REPO / "benchmarks"))
