@@ -35,6 +35,7 @@ import contextlib
 import hashlib
 import json
 import logging
+import math
 import os
 import socket
 import sys
@@ -193,9 +194,13 @@ def check_resources(gpus, cpus, what: str) -> None:
         if name == "GPUs" and value is None:
             continue
         number = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
-        if not number or not np.isfinite(value) or (value < least if least is not None else value <= 0):
+        try:
+            finite = number and math.isfinite(value)
+        except OverflowError:  # an integer of 400 digits (np.isfinite raised TypeError)
+            finite = False
+        if not finite or (value < least if least is not None else value <= 0):
             rule = ">= 0" if least is not None else "> 0"
-            raise RelightError(f"Ray resources: {name} per {what}: expected a finite number {rule}, got {value!r}")
+            raise RelightError(f"Ray resources: {name} per {what}: expected a finite number {rule}, got {value!r:.40}")
 
 
 def _resources(ray, gpus: float | None, cpus: float, device: str = "auto") -> tuple[float, float, dict]:
@@ -533,7 +538,7 @@ def _resolve_light(light, models) -> np.ndarray:
     from ..light import sh
 
     if isinstance(light, np.ndarray) or (isinstance(light, (list, tuple)) and len(light) == 9):
-        return sh.check_light(np.asarray(light), "light").astype(np.float32)
+        return sh.check_light(light, "light").astype(np.float32)  # the list itself: np.asarray reads True as 1.0
     from ..builder import open as open_relighter
     from ..engine.config import RuntimeConfig
 

@@ -280,6 +280,7 @@ def test_manifest_is_checked_against_every_file_read(models_dir, tmp_path, monke
         ({"cpus_per_actor": float("inf")}, "CPUs per actor"),
         ({"cpus_per_actor": "1"}, "CPUs per actor"),
         ({"cpus_per_actor": 0}, "CPUs per actor"),
+        ({"cpus_per_actor": 10**400}, "CPUs per actor"),  # np.isfinite's TypeError (fuzz9 review)
         ({"gpus_per_actor": float("nan")}, "GPUs per actor"),
         ({"gpus_per_actor": -1}, "GPUs per actor"),
         ({"mask": "no_such_masks"}, "--mask no_such_masks: not found"),
@@ -302,6 +303,17 @@ def test_bad_arguments_are_refused_before_ray_starts(tmp_path, monkeypatch, kwar
         distributed.relight_folder("in", "out", np.full((9, 3), 0.3, np.float32), **kwargs)
     with pytest.raises(RelightError, match="inputs: expected"):
         distributed.relight_folder(None, "out", np.full((9, 3), 0.3, np.float32))
+
+
+def test_a_light_list_holding_true_is_refused_before_ray_starts(monkeypatch):
+    """fuzz9 review: np.asarray read [True, 0.5, 0.5] as numbers before sh.check_light saw the list."""
+
+    def no_ray(*args, **kw):
+        raise AssertionError("Ray started: the light should have been refused first")
+
+    monkeypatch.setattr(distributed, "ray_session", no_ray)
+    with pytest.raises(RelightError, match="true/false"):
+        distributed.relight_folder("in", "out", [[True, 0.5, 0.5]] + [[0.0] * 3] * 8)
 
 
 def test_bad_clips_and_resources_are_refused_before_ray_starts(tmp_path, monkeypatch):
