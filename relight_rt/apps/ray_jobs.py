@@ -35,6 +35,7 @@ import contextlib
 import hashlib
 import json
 import logging
+import math
 import os
 import socket
 import sys
@@ -186,6 +187,22 @@ def ray_session(address: str | None) -> Iterator:
             _stop_reaper(reaper, clean)
 
 
+def check_resources(gpus, cpus, what: str) -> None:
+    """Refuse, before any cluster starts, GPUs (None: chosen by the cluster) and CPUs per ``what`` that are not
+    finite numbers with GPUs >= 0 and CPUs > 0 (NaN passed the cluster's own check; "1" or Inf failed in Ray)."""
+    for name, value, least in (("GPUs", gpus, 0.0), ("CPUs", cpus, None)):
+        if name == "GPUs" and value is None:
+            continue
+        number = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+        try:
+            finite = number and math.isfinite(value)
+        except OverflowError:  # an integer of 400 digits (np.isfinite raised TypeError)
+            finite = False
+        if not finite or (value < least if least is not None else value <= 0):
+            rule = ">= 0" if least is not None else "> 0"
+            raise RelightError(f"Ray resources: {name} per {what}: expected a finite number {rule}, got {value!r:.40}")
+
+
 def _resources(ray, gpus: float | None, cpus: float, device: str = "auto") -> tuple[float, float, dict]:
     """(GPUs, CPUs) per worker and the cluster's resources; by default one GPU per worker when the
     cluster has GPUs and the device is not "cpu"."""
@@ -223,7 +240,7 @@ def read_manifest(path: str | os.PathLike) -> list[dict]:
         for line in f:
             try:
                 row = json.loads(line)
-            except json.JSONDecodeError:
+            except (ValueError, RecursionError):  # not JSON, an integer of 5000 digits, "[" x 100000
                 continue
             if isinstance(row, dict):
                 rows.append(row)
@@ -449,7 +466,18 @@ def relight_folder(
     import_ray()  # missing: say so before anything is written
     if isinstance(inputs, (str, os.PathLike)):
         inputs = [inputs]
+    if not isinstance(inputs, Iterable) or isinstance(inputs, (bytes, dict)):
+        raise RelightError(f"inputs: expected image files and folders, got {type(inputs).__name__}")
     inputs = [str(i) for i in inputs]
+    # what each actor would refuse photo by photo, refused here before a cluster starts (fuzz9)
+    from ..light.exposure import parse_exposure
+
+    parse_exposure(exposure)
+    check_resources(gpus_per_actor, cpus_per_actor, "actor")
+    if config is not None and not isinstance(config, RuntimeConfig):
+        raise RelightError(f"config: expected a RuntimeConfig, got {type(config).__name__}")
+    if mask is not None and str(mask) != "auto" and not Path(mask).exists():
+        raise RelightError(f"--mask {mask}: not found (a mask file, a folder of NAME_mask.png, or auto)")
     if not isinstance(batch_size, int) or batch_size < 1:
         raise RelightError(f"batch size: expected a whole number >= 1, got {batch_size!r}")
     if actors is not None and (not isinstance(actors, int) or actors < 1):
@@ -510,7 +538,7 @@ def _resolve_light(light, models) -> np.ndarray:
     from ..light import sh
 
     if isinstance(light, np.ndarray) or (isinstance(light, (list, tuple)) and len(light) == 9):
-        return sh.check_light(np.asarray(light), "light").astype(np.float32)
+        return sh.check_light(light, "light").astype(np.float32)  # the list itself: np.asarray reads True as 1.0
     from ..builder import open as open_relighter
     from ..engine.config import RuntimeConfig
 
@@ -634,7 +662,14 @@ def relight_videos(
         A Report: this run's manifest rows and the failures, in clip order.
     """
     import_ray()
+    if not isinstance(clips, Iterable) or isinstance(clips, (str, bytes, dict)):
+        raise RelightError(f"clips: expected a list of relight_clip's settings, got {type(clips).__name__}")
     clips, failures = list(clips), list(failures)
+    for c in clips:
+        if not isinstance(c, dict) or not {"src", "lights"} <= c.keys() or not (c.get("output") or c.get("frames_out")):
+            raise RelightError(f"clips: expected relight_clip's settings (src, lights, output or frames_out), got "
+                               f"{str(c)[:120]}")  # fmt: skip
+    check_resources(gpus_per_task, cpus_per_task, "task")
     shared = {k: v for k, v in (clips[0] if clips else {}).items() if k not in _PER_CLIP}
     job = job_key(**shared)  # the settings that shape every clip's output (the paths are per clip)
     report = Report(Path(manifest), len(clips) + len(failures), failures=failures)

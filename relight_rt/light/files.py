@@ -20,6 +20,16 @@ _LAYOUTS = (None, "27-kc", "3x9")
 _JSON_MAX_BYTES = 1 << 20
 
 
+def _json_numbers(value) -> bool:
+    """Whether a parsed JSON value (nested lists, at most as deep as the parser allowed) holds numbers only: ints
+    and floats (not bools), each within a float's range."""
+    if isinstance(value, list):
+        return all(_json_numbers(v) for v in value)
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return False
+    return not isinstance(value, int) or abs(value) < 2**1023
+
+
 def _shape_light(arr: np.ndarray, layout, p: Path) -> np.ndarray:
     if layout not in _LAYOUTS:
         raise RelightError(f"layout: expected None, '27-kc' or '3x9', got {layout!r}")
@@ -83,6 +93,9 @@ def load_light(path, bgr: bool = False, layout: str | None = None) -> np.ndarray
             if bgr and order == "rgb":
                 raise RelightError(f'{p}: bgr=True but the file says "order": "rgb"')
             swap = order == "bgr"
+            if not _json_numbers(doc["sh"]):  # numpy reads "0.5" and true as numbers, and overflows on 10**400
+                raise RelightError(f'{p}: cannot read light file ("sh" must hold numbers only: no strings, '
+                                   "true/false or null, each within a float's range)")  # fmt: skip
             raw = np.array(doc["sh"], dtype=np.float64)
     except RelightError:
         raise

@@ -147,6 +147,13 @@ def describe_array(arr: np.ndarray) -> str:
     return f"{arr.shape} {arr.dtype}"
 
 
+def _holds_bool(values) -> bool:
+    """Whether nested lists / tuples (no deeper than numpy read them) hold a bool anywhere."""
+    if isinstance(values, (list, tuple)):
+        return any(_holds_bool(v) for v in values)
+    return isinstance(values, (bool, np.bool_))
+
+
 def check_lights(light, name: str = "light") -> np.ndarray:
     """Validate a light or a stack of lights (..., 9, 3) (shape, numbers, NaN/Inf, ``MAX_COEFF``).
 
@@ -160,7 +167,12 @@ def check_lights(light, name: str = "light") -> np.ndarray:
         arr = np.array(light, dtype=np.float64, copy=True)
     except (TypeError, ValueError) as exc:
         raise RelightError(f"{name}: expected an SH light of shape (9, 3), got an unreadable value ({exc})") from None
+    except OverflowError:  # a Python integer of 400 digits in a list
+        raise RelightError(f"{name}: expected an SH light of shape (9, 3), got an integer too large for a float") \
+            from None
     src = np.asarray(light)
+    if isinstance(light, (list, tuple)) and _holds_bool(light):  # numpy reads [True, 0.5, 0] as numbers
+        raise RelightError(f"{name}: expected numbers in the SH light, got true/false")
     if src.dtype.kind not in "fiu":
         raise RelightError(f"{name}: expected a numeric SH light of shape (9, 3), got {describe_array(src)}")
     if arr.ndim < 2 or arr.shape[-2:] != (N_COEFFS, 3):

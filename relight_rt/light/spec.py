@@ -52,6 +52,17 @@ def _numbers_only(values) -> bool:
     return isinstance(values, numbers.Real) and not isinstance(values, (bool, np.bool_))
 
 
+def _angle(value) -> float:
+    """A rotation in degrees as a finite float; RelightError for anything else (None, "x", an array, 10**400)."""
+    try:
+        angle = float(value)
+    except (TypeError, ValueError, OverflowError):
+        raise RelightError(f"rotate: expected an angle in degrees, got {str(value)[:80]!r}") from None
+    if not math.isfinite(angle):
+        raise RelightError(f"rotate: expected a finite angle in degrees, got {value!r}")
+    return angle
+
+
 @dataclass(frozen=True, eq=False)
 class LightSpec:
     """A light and where it comes from.
@@ -80,10 +91,11 @@ class LightSpec:
             raise RelightError(f"light {self.source}: expected a name or path, got {type(self.value).__name__}")
         else:
             object.__setattr__(self, "value", os.fspath(self.value))
-        rotate = float(self.rotate)
-        if not math.isfinite(rotate):
-            raise RelightError(f"rotate: expected a finite angle in degrees, got {self.rotate!r}")
-        object.__setattr__(self, "rotate", rotate)
+        object.__setattr__(self, "rotate", _angle(self.rotate))
+        if self.mask is not None:
+            if not isinstance(self.mask, (str, os.PathLike)):
+                raise RelightError(f"light mask: expected a path, got {type(self.mask).__name__}")
+            object.__setattr__(self, "mask", os.fspath(self.mask))
         if self.bgr and self.source != "file":
             raise RelightError("bgr: only an SH light file (.npy/.json) has a colour order to choose")
 
@@ -107,7 +119,7 @@ class LightSpec:
     @classmethod
     def photo(cls, path: str | os.PathLike, *, mask: str | os.PathLike | None = None, rotate: float = 0.0) -> LightSpec:
         """The light of another photo of a person, estimated by stage 1 ("light me like that photo")."""
-        return cls("photo", path, rotate=rotate, mask=None if mask is None else os.fspath(mask))
+        return cls("photo", path, rotate=rotate, mask=mask)
 
     @classmethod
     def from_array(cls, light, rotate: float = 0.0) -> LightSpec:
@@ -146,7 +158,7 @@ class LightSpec:
 
     def rotated(self, degrees: float) -> LightSpec:
         """The same light turned a further ``degrees`` about the vertical axis."""
-        return replace(self, rotate=self.rotate + float(degrees))
+        return replace(self, rotate=self.rotate + _angle(degrees))
 
     @property
     def reads_files(self) -> bool:
@@ -220,7 +232,10 @@ def parse_light(text: str | os.PathLike, *, allow_paths: bool = True) -> LightSp
     Raises:
         RelightError: an unknown preset (the message lists the known ones), a missing file, a path refused.
     """
-    s = os.fspath(text)
+    try:
+        s = os.fspath(text)
+    except TypeError:  # an object whose __fspath__ gives neither str nor bytes
+        s = None
     if not isinstance(s, str) or not s:
         raise RelightError(f"light: expected a preset name or a file, got {text!r}")
     looks_like_path = bool(Path(s).suffix) or "/" in s or os.sep in s or (os.altsep or "/") in s
@@ -230,7 +245,11 @@ def parse_light(text: str | os.PathLike, *, allow_paths: bool = True) -> LightSp
             raise RelightError(f"light {s!r}: only preset names are accepted here ({known}); files cannot be named")
         return LightSpec.preset(s)
     path = Path(s)
-    if path.is_file():
+    try:
+        is_file = path.is_file()
+    except OSError:  # a name longer than the system allows: no file, so a preset name (or a missing path) below
+        is_file = False
+    if is_file:
         suffix = path.suffix.lower()
         if suffix in SH_FILE_SUFFIXES:
             return LightSpec.file(path)

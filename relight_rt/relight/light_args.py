@@ -30,7 +30,11 @@ def float32_light(light, name: str) -> np.ndarray:
 def resolve_light(light, decompose: Decompose, dtype=np.float32) -> np.ndarray:
     """``Relighter.resolve_light`` (which documents what is accepted), with the photo of a person's light estimated
     by ``decompose`` (that Relighter's stage 1, as "light me like that photo": its light taken as white)."""
-    if np.dtype(dtype) not in (np.float32, np.float64):
+    try:
+        known = np.dtype(dtype) in (np.float32, np.float64)
+    except TypeError:  # a name numpy does not know ("nonsense")
+        known = False
+    if not known:
         raise RelightError(f"dtype: expected float32 or float64, got {dtype!r}")
     if isinstance(light, Decomposition):
         return np.array(light.white_light, dtype=dtype)

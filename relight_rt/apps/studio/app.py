@@ -45,6 +45,7 @@ from pathlib import Path
 
 import numpy as np
 from fastapi import FastAPI, Request
+from fastapi.exceptions import RequestValidationError
 from fastapi.responses import FileResponse, JSONResponse, Response
 from fastapi.staticfiles import StaticFiles
 from starlette.middleware.trustedhost import TrustedHostMiddleware
@@ -52,7 +53,7 @@ from starlette.requests import ClientDisconnect
 
 from ...engine.errors import RelightError
 from .core import Studio, light_json, light_npy
-from .uploads import MAX_UPLOAD_BYTES
+from .uploads import MAX_UPLOAD_BYTES, one_large_at_a_time
 
 log = logging.getLogger(__name__)
 
@@ -232,6 +233,15 @@ def create_app(studio: Studio, allowed_hosts: list[str] | None = None, budget: B
     async def _bad_input(request: Request, exc: RelightError):
         return JSONResponse({"error": str(exc)}, status_code=400)
 
+    @app.exception_handler(RequestValidationError)
+    async def _bad_parameter(request: Request, exc: RequestValidationError):
+        """A query parameter FastAPI could not read (``?download=abc``): 400 with one line, as every bad input,
+        not FastAPI's 422 with a list of details."""
+        first = next(iter(exc.errors()), {})
+        where = ".".join(str(k) for k in first.get("loc", ())[1:]) or "request"
+        text = " ".join(str(first.get("msg", "not readable")).split())
+        return JSONResponse({"error": f"{where}: {text}"}, status_code=400)
+
     @app.exception_handler(HTTPRefusal)
     async def _refused(request: Request, exc: HTTPRefusal):
         headers = {"Retry-After": "5"} if exc.status == 503 else None
@@ -336,12 +346,13 @@ def create_app(studio: Studio, allowed_hosts: list[str] | None = None, budget: B
 
     async def _upload(request: Request, name: str, work) -> dict:
         """An upload: its content type, a slot, its bytes within the budget, then ``work(bytes)`` in a thread
-        (the decode happens there, after the size in the header was checked: uploads.check_upload)."""
+        (the decode happens there, after the size in the header was checked: uploads.check_upload), one at a time
+        for large ones (uploads.one_large_at_a_time)."""
         from starlette.concurrency import run_in_threadpool
 
         _require_type(request, UPLOAD, name)
         async with budget.upload(name), budget.body(request, name, MAX_UPLOAD_BYTES) as data:
-            light = await run_in_threadpool(work, data)
+            light = await run_in_threadpool(one_large_at_a_time, work, data, name)
         return {"light": light.tolist()}
 
     @app.post("/api/envmap")

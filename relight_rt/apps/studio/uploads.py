@@ -7,6 +7,8 @@ needs a file, written to a temporary file whose name this module chooses, remove
 from __future__ import annotations
 
 import tempfile
+import threading
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +24,10 @@ MAX_UPLOAD_PIXELS = 40_000_000  # decoded size limit (a small file can hold a hu
 # degree-2 SH, a background's or a person's light from stage 1), and at full size a 40-MP one cost ~60 bytes a
 # pixel, four at once past 4 GB (issue 50 bug 6); decoded, a pixel costs 3-12 bytes
 UPLOAD_WORK_PIXELS = 2_000_000
+# the work on uploads larger than UPLOAD_WORK_PIXELS runs one at a time (``one_large_at_a_time``): decoded and shrunk, a
+# 40-MP map still peaks at ~10 bytes a pixel (OpenCV's decode holds two copies: ~640 MB for a 16-bit RGBA photo), and
+# the server's four upload slots at once took it from 0.3 to 1.6 GB (fuzz9)
+_LARGE_WORK = threading.BoundedSemaphore(1)
 
 # (leading bytes, kind, suffix the readers go by)
 _MAGIC = (
@@ -71,6 +77,20 @@ def check_upload(data: bytes, name: str, allowed: tuple[str, ...], limit: int = 
     if size[0] * size[1] > MAX_UPLOAD_PIXELS:
         raise RelightError(f"{name}: the image is {size[0]}x{size[1]}, more than {MAX_UPLOAD_PIXELS} pixels")
     return found[1]
+
+
+def one_large_at_a_time(work: Callable[[bytes], object], data: bytes, name: str):
+    """``work(data)``, the whole of an upload's work (decode, shrink, the light found in it), waiting for any other
+    upload's when the header says ``data`` is larger than UPLOAD_WORK_PIXELS (or cannot say: ``work`` refuses it);
+    smaller uploads run side by side. The studio runs every upload through it (relight_rt.apps.studio.app)."""
+    try:
+        size = header_size(data, name) if isinstance(data, (bytes, bytearray)) else None
+    except RelightError:  # a header the parser refuses: ``work`` refuses it again, with the same message
+        size = None
+    if size is not None and size[0] * size[1] <= UPLOAD_WORK_PIXELS:
+        return work(data)
+    with _LARGE_WORK:
+        return work(data)
 
 
 def decode_upload(data: bytes, name: str, max_pixels: int = UPLOAD_WORK_PIXELS) -> np.ndarray:

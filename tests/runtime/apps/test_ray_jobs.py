@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from _graphs import OWN_LIGHT, models_dir, person
 
-from relight_rt import cli
+from relight_rt import RelightError, cli
 from relight_rt.apps import ray_jobs as distributed
 
 ray = pytest.importorskip("ray")
@@ -269,3 +269,79 @@ def test_manifest_is_checked_against_every_file_read(models_dir, tmp_path, monke
         lines = capsys.readouterr().err.strip().splitlines()
         assert code == 2 and len(lines) == 1 and "refusing to overwrite the input" in lines[0], (argv, lines)
         assert Path(manifest).read_bytes() == before, manifest
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"exposure": "bogus"}, "exposure"),
+        ({"exposure": float("nan")}, "exposure"),
+        ({"cpus_per_actor": float("nan")}, "CPUs per actor"),
+        ({"cpus_per_actor": float("inf")}, "CPUs per actor"),
+        ({"cpus_per_actor": "1"}, "CPUs per actor"),
+        ({"cpus_per_actor": 0}, "CPUs per actor"),
+        ({"cpus_per_actor": 10**400}, "CPUs per actor"),  # np.isfinite's TypeError (fuzz9 review)
+        ({"gpus_per_actor": float("nan")}, "GPUs per actor"),
+        ({"gpus_per_actor": -1}, "GPUs per actor"),
+        ({"mask": "no_such_masks"}, "--mask no_such_masks: not found"),
+        ({"config": {"device": "cpu"}}, "config: expected a RuntimeConfig"),
+    ],
+)
+def test_bad_arguments_are_refused_before_ray_starts(tmp_path, monkeypatch, kwargs, match):
+    """fuzz9: these reached the Ray session (a cluster started, then every photo failed the same way, or Ray raised
+    ValueError / TypeError of its own); now one RelightError before it."""
+
+    def no_ray(*args, **kw):
+        raise AssertionError("Ray started: the argument should have been refused first")
+
+    monkeypatch.setattr(distributed, "ray_session", no_ray)
+    monkeypatch.chdir(tmp_path)
+    img, mask = person(150, 100)
+    (tmp_path / "in").mkdir()
+    _write(tmp_path / "in" / "p.png", img)
+    with pytest.raises(RelightError, match=match):
+        distributed.relight_folder("in", "out", np.full((9, 3), 0.3, np.float32), **kwargs)
+    with pytest.raises(RelightError, match="inputs: expected"):
+        distributed.relight_folder(None, "out", np.full((9, 3), 0.3, np.float32))
+
+
+def test_a_light_list_holding_true_is_refused_before_ray_starts(monkeypatch):
+    """fuzz9 review: np.asarray read [True, 0.5, 0.5] as numbers before sh.check_light saw the list."""
+
+    def no_ray(*args, **kw):
+        raise AssertionError("Ray started: the light should have been refused first")
+
+    monkeypatch.setattr(distributed, "ray_session", no_ray)
+    with pytest.raises(RelightError, match="true/false"):
+        distributed.relight_folder("in", "out", [[True, 0.5, 0.5]] + [[0.0] * 3] * 8)
+
+
+def test_bad_clips_and_resources_are_refused_before_ray_starts(tmp_path, monkeypatch):
+    def no_ray(*args, **kw):
+        raise AssertionError("Ray started: the argument should have been refused first")
+
+    monkeypatch.setattr(distributed, "ray_session", no_ray)
+    clip = {"src": str(tmp_path / "c.mp4"), "lights": np.full((9, 3), 0.3, np.float32),
+            "output": str(tmp_path / "o.mp4")}  # fmt: skip
+    manifest = tmp_path / "m.jsonl"
+    for clips, kwargs, match in [
+        ([clip], {"cpus_per_task": float("nan")}, "CPUs per task"),
+        ([clip], {"gpus_per_task": -1}, "GPUs per task"),
+        ([{"src": "x"}], {}, "clips: expected relight_clip's settings"),
+        (["x.mp4"], {}, "clips: expected relight_clip's settings"),
+        (None, {}, "clips: expected a list"),
+    ]:
+        with pytest.raises(RelightError, match=match):
+            distributed.relight_videos(clips, manifest, **kwargs)
+
+
+def test_manifest_lines_that_do_not_parse_are_left_out(tmp_path):
+    """fuzz9: a line of 100000 "[" raised RecursionError and an integer of 5000 digits ValueError (not
+    JSONDecodeError) in read_manifest and done_outputs."""
+    manifest = tmp_path / "m.jsonl"
+    out = tmp_path / "o.png"
+    out.write_bytes(b"x")
+    good = json.dumps({"output": str(out), "status": "ok", "job": "j"})
+    manifest.write_text("[" * 100000 + "\n" + '{"n": ' + "9" * 5000 + "}\n" + good + "\n")
+    assert distributed.read_manifest(manifest) == [json.loads(good)]
+    assert distributed.done_outputs(manifest, "j") == {str(out.resolve())}

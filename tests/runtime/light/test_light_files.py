@@ -78,6 +78,10 @@ def test_load_light_bad_files(tmp_path):
         "ragged.json": lambda p: p.write_text(json.dumps({"sh": [[1, 2, 3], [1]]})),
         "order.json": lambda p: p.write_text(json.dumps({"sh": np.zeros((9, 3)).tolist(), "order": "xyz"})),
         "inf.json": lambda p: p.write_text(json.dumps({"sh": [[1e999, 0, 0]] * 9})),
+        # fuzz9: an OverflowError from numpy, and strings / true read as numbers
+        "bigint.json": lambda p: p.write_text('{"sh": [[' + "9" * 400 + ", 0, 0]" + ", [0, 0, 0]" * 8 + "]}"),
+        "strings.json": lambda p: p.write_text(json.dumps({"sh": [["0.5", "0.5", "0.5"]] * 9})),
+        "bools.json": lambda p: p.write_text(json.dumps({"sh": [[True, 0.5, 0.5]] * 9})),
     }
     for name, write in cases.items():
         path = tmp_path / name

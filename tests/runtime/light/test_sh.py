@@ -126,6 +126,19 @@ def test_check_light_rejects(bad, match):
         sh.check_light(bad, name="my_light")
 
 
+@pytest.mark.parametrize(
+    ("bad", "match"),
+    [
+        ([[10**400, 0, 0]] + [[0.0] * 3] * 8, "too large for a float"),  # OverflowError in numpy (fuzz9)
+        ([[True, 0.5, 0.5]] + [[0.0] * 3] * 8, "true/false"),  # read as 1.0 beside floats (fuzz9)
+        ((((0.1, 0.1, False),) * 9), "true/false"),
+    ],
+)
+def test_check_light_refuses_what_numpy_reads_oddly(bad, match):
+    with pytest.raises(RelightError, match=match):
+        sh.check_light(bad)
+
+
 def test_check_light_names_input():
     with pytest.raises(RelightError, match="^new_light:"):
         sh.check_light(np.zeros(3), name="new_light")

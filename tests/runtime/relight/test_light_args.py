@@ -124,6 +124,19 @@ def test_resolve_light_refuses_a_dtype_it_does_not_run_in(light):
         resolve_light(light, Decompose(RIM), dtype=np.int32)
     with pytest.raises(RelightError, match="dtype: expected float32 or float64"):
         resolve_light(decomposition(RIM), Decompose(RIM), dtype=np.float16)
+    with pytest.raises(RelightError, match="dtype: expected float32 or float64"):  # TypeError in numpy (fuzz9)
+        resolve_light(light, Decompose(RIM), dtype="nonsense")
+
+
+def test_a_path_object_whose_fspath_is_no_text_is_refused():
+    """fuzz9: os.fspath raised TypeError for an object whose __fspath__ returns an int."""
+
+    class Odd:
+        def __fspath__(self):
+            return 3
+
+    with pytest.raises(RelightError, match="expected a preset name or a file"):
+        resolve_light(Odd(), Decompose(RIM))
 
 
 @pytest.mark.parametrize(("light", "match"), [

@@ -192,6 +192,33 @@ def test_absurd_numbers_and_nesting_are_400(client, body, match):
     assert res.status_code == 400 and match in res.json()["error"], (res.status_code, res.text[:300])
 
 
+def test_an_unreadable_query_parameter_is_400_with_one_line(client):
+    """fuzz9: ?download=abc got FastAPI's 422 with a list of details, not the one line every bad input gets."""
+    rid = client.post("/api/render", json={"light": LIGHT}, headers={"origin": OWN}).json()["id"]
+    for value in ("abc", "1e999", "1.5"):
+        res = client.get(f"/api/result/{rid}.png?download={value}")
+        error = res.json()["error"]
+        assert res.status_code == 400 and error.startswith("download: ") and "\n" not in error, res.text
+    assert client.get(f"/api/result/{rid}.png?download=1").status_code == 200
+
+
+def test_every_upload_is_worked_on_through_the_large_upload_rule(client, monkeypatch):
+    """fuzz9: the server's uploads go through uploads.one_large_at_a_time (large ones one at a time)."""
+    from relight_rt.apps.studio import app
+
+    seen = []
+
+    def recorded(work, data, name):
+        seen.append(name)
+        return work(data)
+
+    monkeypatch.setattr(app, "one_large_at_a_time", recorded)
+    env = cv2.imencode(".png", np.full((16, 32, 3), 128, np.uint8))[1].tobytes()
+    for route in ("/api/envmap", "/api/background-light", "/api/photo-light"):
+        client.post(route, content=env, headers=RAW)
+    assert seen == ["environment map", "background", "photo"]
+
+
 # ------------------------------------------------------------------------------------------------ budget
 
 

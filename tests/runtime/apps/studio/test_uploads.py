@@ -203,3 +203,50 @@ def test_background_key_light_is_checked_before_the_upload():
         background_upload_light(b"", key_light="north")  # not "the upload is empty": the key light first
     with pytest.raises(RelightError, match=r"key light: expected .*elevation in \[-90, 90\]"):
         background_upload_light(b"", key_light=(0, 95))
+
+
+def _flat_png(width: int, height: int) -> bytes:
+    return _encoded(".png", np.full((height, width, 3), 128, np.uint8))
+
+
+def test_large_uploads_are_worked_on_one_at_a_time(monkeypatch):
+    """fuzz9: four 40-MP uploads at once (the server's four slots) took the studio from 0.3 to 1.6 GB, each decode
+    ~310-640 MB; the work on those over UPLOAD_WORK_PIXELS now runs one after another, on smaller ones side by side."""
+    import threading
+    import time
+
+    from relight_rt.apps.studio.uploads import one_large_at_a_time
+
+    state = {"now": 0, "most": 0, "started": 0}
+    lock = threading.Lock()
+
+    def work(data: bytes) -> int:
+        with lock:
+            state["now"] += 1
+            state["most"] = max(state["most"], state["now"])
+        end = time.monotonic() + 10  # a bound on the wait, not a timing assertion
+        while state["started"] < 3 and time.monotonic() < end:
+            time.sleep(0.01)
+        time.sleep(0.2)  # every thread has called: those not held back arrive while this one works
+        with lock:
+            state["now"] -= 1
+        return len(data)
+
+    def started(data: bytes) -> None:
+        with lock:
+            state["started"] += 1
+        assert one_large_at_a_time(work, data, "upload") == len(data)
+
+    def most_at_once(data: bytes) -> int:
+        state["most"] = state["started"] = 0
+        threads = [threading.Thread(target=started, args=(data,)) for _ in range(3)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+        return state["most"]
+
+    monkeypatch.setattr(uploads, "UPLOAD_WORK_PIXELS", 64 * 32)  # "large" at a test's size
+    assert most_at_once(_flat_png(128, 64)) == 1
+    assert most_at_once(b"\x89PNG\r\n\x1a\n garbage") == 1  # no size to read: as a large one
+    assert most_at_once(_flat_png(64, 32)) > 1
