@@ -473,9 +473,10 @@ class ClipLights:
     """How a clip is lit, as given; :meth:`schedule` resolves it once the clip is open (an interpolation needs
     its frame count, the light of a photo the models).
 
-    Exactly one of: ``spec`` (one light, turning at ``rotate_per_second`` revolutions per second when given),
-    ``per_frame`` (an (N, 9, 3) RGB .npy, one light per frame) or ``keys`` (two or more key lights: LightSpecs,
-    light files, environment maps or preset names, interpolated over the whole clip).
+    Exactly one of: ``spec`` (one light: a LightSpec, or any light ``LightSpec.of`` takes, turning at
+    ``rotate_per_second`` revolutions per second when given), ``per_frame`` (an (N, 9, 3) RGB .npy, one light per
+    frame) or ``keys`` (two or more key lights: LightSpecs, light files, environment maps or preset names,
+    interpolated over the whole clip).
     """
 
     spec: LightSpec | None = None
@@ -492,6 +493,8 @@ class ClipLights:
         if self.keys and len(self.keys) < 2:
             raise RelightError("--interpolate: expected at least two key lights")
         object.__setattr__(self, "keys", tuple(self.keys))
+        if self.spec is not None:  # any light argument (a (9, 3) array, a preset name, a path) as its LightSpec
+            object.__setattr__(self, "spec", LightSpec.of(self.spec))
         if self.per_frame is not None:
             object.__setattr__(self, "per_frame", os.fspath(self.per_frame))
 

@@ -85,7 +85,9 @@ def serve(studio, host: str = "127.0.0.1", port: int = 8000, open_browser: bool 
         sock = server.servers[0].sockets[0].getsockname() if server.servers else (host, port)
         shown = f"[{sock[0]}]" if ":" in str(sock[0]) else sock[0]
         url = f"http://{shown}:{sock[1]}/"
-        print(f"relight-rt studio: {studio.photo.name} at {url}  (Ctrl+C stops)", flush=True)
+        # the name's control characters escaped (a CR/LF in a file name would split the line a caller reads)
+        name = "".join(c if c.isprintable() else repr(c)[1:-1] for c in studio.photo.name)
+        print(f"relight-rt studio: {name} at {url}  (Ctrl+C stops)", flush=True)
         if open_browser:
             webbrowser.open(url)
 

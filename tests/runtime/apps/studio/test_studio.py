@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import io
 import json
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -439,6 +440,24 @@ def test_cli_serves_and_prints_its_url(photo, models_dir):
         url = line.split(" at ", 1)[1].split()[0]
         with urllib.request.urlopen(url + "api/info", timeout=10) as res:
             assert json.load(res)["photo"] == "someone.png"
+    finally:
+        proc.terminate()
+        proc.wait(10)
+        proc.stdout.close()
+        proc.stderr.close()
+
+
+def test_cli_start_line_escapes_a_name_holding_a_line_break(photo, models_dir, tmp_path):
+    """A CR/LF in the photo's file name split the start line a caller reads for the URL (fuzz9)."""
+    pytest.importorskip("fastapi")
+    pytest.importorskip("uvicorn")
+    odd = tmp_path / "two\nlines\r.png"
+    shutil.copyfile(photo, odd)
+    cmd = [sys.executable, "-m", "relight_rt", "studio", str(odd), "--port", "0", "--models", str(models_dir)]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO)
+    try:
+        line = proc.stdout.readline()
+        assert line.startswith("relight-rt studio: two\\nlines\\r.png at http://127.0.0.1:"), (line, proc.stderr.read())
     finally:
         proc.terminate()
         proc.wait(10)
