@@ -326,6 +326,31 @@ def neutral_darks(image: np.ndarray, origin: tuple[int, int] = (0, 0), solid: np
         index * 3 + np.arange(3)[:, None], keep.astype(np.float32), relative, size, y)))
 
 
+def with_material(neutral: NeutralDarks | None, image: np.ndarray, material: np.ndarray | None,
+                  ) -> NeutralDarks | None:
+    """``neutral`` (``neutral_darks`` of ``image``, (h, w, 3) float32 RGB in [0, 1]) with the pixels of a near-neutral
+    dark ``material`` ((h, w) weights in [0, 1]; None: none) counted whatever their hue, each at the larger of the two
+    weights: a black beard (relight_rt.relight.dark_beard) is a near-black material even where its faint cast is warm,
+    which ``neutral_darks`` leaves alone as brown hair or skin (p024's beard brightened 2-3x went brown, C* 6 -> 10)."""
+    if material is None:
+        return neutral
+    weight = np.asarray(material, np.float32).ravel()
+    index = np.flatnonzero(weight > 1e-3)
+    if index.size == 0:
+        return neutral
+    if neutral is not None:  # the union: neutral_darks' own pixels at the larger weight
+        own = neutral.index[0] // 3
+        merged = np.zeros(weight.shape, np.float32)
+        merged[own] = neutral.weight
+        np.maximum(merged, weight, out=merged)
+        index = np.union1d(index, own)
+        weight = merged
+    pixels = np.take(np.asarray(image, np.float32).reshape(-1, 3), index, axis=0)
+    relative, size, y = neutral_chroma(pixels.T)
+    return NeutralDarks(*(readonly(np.ascontiguousarray(a)) for a in (
+        index * 3 + np.arange(3)[:, None], weight[index].astype(np.float32), relative, size, y)))
+
+
 def keep_neutral(colour: np.ndarray, gain: np.ndarray, neutral: NeutralDarks | None) -> np.ndarray:
     """The relit ``colour`` (h, w, 3) with the photo's near-neutral darks no more colourful than the photo shows
     them, as far as the new light's own colour allows (a new array; ``colour`` itself when there is nothing to do).
