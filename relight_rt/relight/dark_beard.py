@@ -36,6 +36,7 @@ BEARD_SOFT = 0.06  # ... its edge soft over this share of the face's height
 BEARD_MIRROR = (0.05, 0.25)  # around the mirror image: a Gaussian of this share of the face's height, this share dark
 BEARD_MIRROR_L, BEARD_MIRROR_C = (40.0, 50.0), (12.0, 18.0)  # ... dark there: the beard's lit half is lighter
 BEARD_AROUND = 0.12  # the lit surroundings: a Gaussian of this share of the face's height
+BEARD_AROUND_C = (8.0, 12.0)  # ... their mean C*: below the first grey (the rule off), above the second coloured
 NOSE, CHIN, TOP = 2, 152, 10  # landmarks: below the nose's base, the chin's lowest, the forehead's highest
 JAW = (132, 58, 172, 136, 150, 149, 176, 148, 152, 377, 400, 378, 379, 365, 397, 288, 361)  # the jaw's contour
 
@@ -135,7 +136,11 @@ def beard_weight(rgb: np.ndarray, albedo: np.ndarray, transport: np.ndarray, whi
     detail = np.abs(log - _mean(log, dark, BEARD_DETAIL[0]))
     detail = _mean(detail, dark, max(BEARD_DETAIL[1] * height, BEARD_DETAIL[0]))
     hair = 1 - _ramp(detail, *BEARD_TEXTURE)
-    d = (candidate * _ramp(q, *BEARD_SHADING) * hair * ok).astype(np.float32)
+    # near neutral against coloured surroundings: in a grey photo (Extended Yale B) every pixel is neutral, and a
+    # side-lit face's shaded jaw met every other cue (de-light correlation 0.9240 -> 0.9168)
+    chroma = np.hypot(lab[..., 1], lab[..., 2])
+    coloured = 1 - _ramp(_mean(chroma, lit, sigma), *BEARD_AROUND_C)
+    d = (candidate * _ramp(q, *BEARD_SHADING) * hair * coloured * ok).astype(np.float32)
     return (d, around, around @ white) if d.max() > 1e-3 else None
 
 

@@ -36,10 +36,10 @@ def _face() -> np.ndarray:
     return points
 
 
-def _photo(patches: list[tuple[slice, slice, bool]], seed: int = 0) -> np.ndarray:
-    """(H, W, 3) skin with near-black patches (rows, cols, textured: grey 0.06 with +-0.04 noise, else flat 0.06)."""
+def _photo(patches: list[tuple[slice, slice, bool]], seed: int = 0, skin: np.ndarray = SKIN) -> np.ndarray:
+    """(H, W, 3) ``skin`` with near-black patches (rows, cols, textured: grey 0.06 with +-0.04 noise, else flat)."""
     rng = np.random.default_rng(seed)
-    rgb = np.broadcast_to(SKIN, (H, W, 3)).copy()
+    rgb = np.broadcast_to(skin, (H, W, 3)).copy()
     for rows, cols, textured in patches:
         shape = rgb[rows, cols, 0].shape
         grey = 0.06 + (rng.uniform(-0.04, 0.04, shape) if textured else 0)
@@ -85,18 +85,21 @@ def test_a_textured_near_black_beard_on_both_halves_is_taken_as_a_dark_material(
     assert albedo[100:110, 50:70].max() < 0.15  # a dark material, not skin in a shade
 
 
-@pytest.mark.parametrize("case", ["flat", "one half", "beside the jaw", "off"])
+@pytest.mark.parametrize("case", ["flat", "one half", "beside the jaw", "grey photo", "small face", "off"])
 def test_what_is_not_a_beard_is_left_alone(case, monkeypatch):
     """A shade on smooth skin (no fine detail: the held-out renders' shaded chins), a near-black patch on one half
-    only (a shadow darkens one side), a textured one beside the jaw (hair), and any with the rule off (``BEARD``):
-    no weight, and ``dark_material`` returns its inputs."""
+    only (a shadow darkens one side), a textured one beside the jaw (hair), the beard of a grey photo (every pixel
+    is neutral there: Extended Yale B's shaded jaws), of a face under ``BEARD_MIN_FACE`` and any with the rule off
+    (``BEARD``): no weight, and ``dark_material`` returns its inputs."""
     patches = {"flat": [(slice(92, 118), slice(38, 83), False)],
                "one half": [(slice(92, 118), slice(30, 55), True)],
                "beside the jaw": [(slice(60, 110), slice(103, 118), True)],
-               "off": [(slice(92, 118), slice(38, 83), True)]}[case]
+               "off": [(slice(92, 118), slice(38, 83), True)]}.get(case, [(slice(92, 118), slice(38, 83), True)])
     if case == "off":
         monkeypatch.setattr(dark_beard, "BEARD", False)
-    args = _inputs(_photo(patches))
+    if case == "small face":
+        monkeypatch.setattr(dark_beard, "BEARD_MIN_FACE", 101)  # the face is 100 px tall
+    args = _inputs(_photo(patches, skin=np.full(3, 0.6, np.float32) if case == "grey photo" else SKIN))
     found = beard_weight(*args)
     assert found is None or found[0].max() < 0.05
     if found is None:
