@@ -21,7 +21,7 @@ import numpy as np
 
 from ..image.color import REC709
 from ..person.face_mesh import mirror
-from .look import _lab
+from .look import to_lab
 
 BEARD = True  # the rule on; False: off
 BEARD_L = (25.0, 35.0)  # photo's L* below the first: near black; above the second: not
@@ -110,7 +110,7 @@ def beard_weight(rgb: np.ndarray, albedo: np.ndarray, transport: np.ndarray, whi
     if not region.max() > 1e-3:
         return None
     # read on the photo smoothed a little: a beard's colour is shared by its pixels, a pixel's own chroma is noise
-    lab = _lab(cv2.GaussianBlur(np.clip(rgb, 0, 1).astype(np.float32), (0, 0), BEARD_SMOOTH))
+    lab = to_lab(cv2.GaussianBlur(np.clip(rgb, 0, 1).astype(np.float32), (0, 0), BEARD_SMOOTH))
     dark = _ramp(lab[..., 0], *BEARD_L) * _ramp(np.hypot(lab[..., 1], lab[..., 2]), *BEARD_C)
     dark = (dark * solid).astype(np.float32)
     height = max(float(np.hypot(*(np.asarray(p)[TOP, :2] - np.asarray(p)[CHIN, :2]))) for p in points)
