@@ -84,6 +84,12 @@ def figures(rgb: np.ndarray, relit: np.ndarray, beard: np.ndarray, skin: np.ndar
     return out
 
 
+def _half(f: dict, side: str) -> str:
+    lift = f["lift" + side[2:]]
+    return (f"{f[side][0]:+.1f} -> {f[side][1]:+.1f} (lift beard / skin / near {lift[0]:.2f} / {lift[1]:.2f} / "
+            f"{lift[2]:.2f})")
+
+
 def crops(rgb: np.ndarray, pictures: list[tuple[str, np.ndarray]], box, beard: np.ndarray) -> tuple:
     y0, y1, x0, x1 = box
     head = row([("input", to_bgr8(rgb[y0:y1, x0:x1]))] + [(n, to_bgr8(p[y0:y1, x0:x1])) for n, p in pictures], None)
@@ -124,15 +130,15 @@ def main(argv=None) -> int:
         if not beard.any() or not skin.any():
             print(f"{name}: no beard or no lit skin found (meshes: {len(meshes(dec))})")
             continue
-        result[name] = {k: {m: figures(rgb, relit[m][k], beard, skin, half, near) for m in ("off", "on")} for k in LIGHTS}
+        result[name] = {k: {m: figures(rgb, relit[m][k], beard, skin, half, near) for m in ("off", "on")}
+                        for k in LIGHTS}
         for k in LIGHTS:
             for m in ("off", "on"):
                 f = result[name][k][m]
                 print(f"{name} {k:11s} {m:3s}: {f['pixels']} px, C* {f['C_in']:.1f} -> {f['C_relit']:.1f} "
                       f"(up > 3: {f['C_up3_share']:.3f}), a*b* ({f['ab_in'][0]:+.1f}, {f['ab_in'][1]:+.1f}) -> "
                       f"({f['ab_relit'][0]:+.1f}, {f['ab_relit'][1]:+.1f}), L* - skin per half "
-                      + ", ".join(f"{f[s][0]:+.1f} -> {f[s][1]:+.1f} (lift beard / skin / near {f['lift' + s[2:]][0]:.2f} / "
-                                 f"{f['lift' + s[2:]][1]:.2f} / {f['lift' + s[2:]][2]:.2f})" for s in ("dL_neg", "dL_pos") if s in f))
+                      + ", ".join(_half(f, s) for s in ("dL_neg", "dL_pos") if s in f))
             box = head_box(dec, rgb.shape[:2])
             if args.out is not None and box is not None:
                 head, zoom = crops(rgb, [("off", relit["off"][k]), ("on", relit["on"][k])], box, beard)
