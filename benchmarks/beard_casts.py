@@ -11,6 +11,13 @@ C* and mean a*, b* (input -> relit), its share whose C* rose by more than 3, and
 median L* (input -> relit; higher than the input's: lifted more than the skin). With ``--out``: per photo and light
 the head box (input | off | on) at 100 % and its beard box at 3x, for looking at (keep it out of the repository:
 the photos are evaluation only).
+
+With ``--all``: every photo of the folder instead (the broad check: does the rule act where it should not?). Each is
+relit off and on as above; the rule acts on a photo where its weight (``dark_material``'s d, read through a wrapper of
+``relight_rt.relight.factor.dark_material``) exceeds 0.2 on any pixel. Per light: the largest change on vs off (8-bit
+levels, any channel), where it lies (``beard``: near black in the beard's region; ``chin``: the rest of the region,
+the skin under the chin and the neck; ``head``: the head box outside the region, hair; ``else``) and per place the
+pixels changed by more than 3 levels. ``--out`` keeps the head box (input | off | on) of each photo it acts on.
 """
 
 from __future__ import annotations
@@ -33,6 +40,7 @@ from first_look import head_box, meshes, read_rgb, row, to_bgr8
 import relight_rt
 from relight_rt import RuntimeConfig
 from relight_rt.relight import dark_beard
+from relight_rt.relight import factor as factor_module
 
 LIGHTS = {"LEFT": LEFT, "RIGHT": RIGHT, "window-left": "window-left"}
 
@@ -100,6 +108,74 @@ def crops(rgb: np.ndarray, pictures: list[tuple[str, np.ndarray]], box, beard: n
     return head, row(zoom, None)
 
 
+PLACES = ("beard", "chin", "head", "else")
+
+
+def places(rgb: np.ndarray, dec) -> np.ndarray:
+    """(H, W) int8 index into PLACES of each pixel of the photo (``--all``, module docstring)."""
+    h, w = rgb.shape[:2]
+    region = np.zeros((h, w), np.float32)
+    for pts in meshes(dec):
+        region = np.maximum(region, dark_beard.beard_region(pts, (h, w)))
+    out = np.full((h, w), 3, np.int8)
+    box = head_box(dec, (h, w))
+    if box is not None:
+        out[box[0] : box[1], box[2] : box[3]] = 2
+    out[region > 0.5] = 1
+    out[(region > 0.5) & (lab(rgb)[..., 0] < 35)] = 0
+    return out
+
+
+def broad(relighter, folder: Path, out: Path | None) -> dict:
+    """``--all`` (module docstring): per photo the rule's largest weight and, per light, where on vs off differ."""
+    weights: list[float] = []
+    inner = factor_module.dark_material
+
+    def recording(*args, **kwargs):
+        found = inner(*args, **kwargs)
+        weights.append(0.0 if found[2] is None else float(found[2].max()))
+        return found
+
+    factor_module.dark_material = recording
+    switch, result = dark_beard.BEARD, {}
+    try:
+        for path in sorted(folder.glob("*.jpg")):
+            rgb = read_rgb(path)
+            relit, decs, weight = {}, {}, 0.0
+            for mode in ("off", "on"):
+                dark_beard.BEARD = mode == "on"
+                weights.clear()
+                dec = decs[mode] = relighter.decompose(rgb)
+                relit[mode] = {k: np.asarray(relighter.relight(dec, v), np.float32) for k, v in LIGHTS.items()}
+                weight = max(weights, default=0.0) if mode == "on" else weight
+            where = places(rgb, decs["on"])
+            f = {"weight": weight, "faces": len(meshes(decs["on"]))}
+            for k in LIGHTS:
+                diff = np.abs(relit["on"][k] - relit["off"][k]).max(axis=2) * 255
+                y, x = np.unravel_index(int(np.argmax(diff)), diff.shape)
+                f[k] = {"max": float(diff[y, x]), "at": PLACES[where[y, x]],
+                        "over3": {p: int(((diff > 3) & (where == i)).sum()) for i, p in enumerate(PLACES)}}
+            result[path.stem] = f
+            acts = weight > 0.2
+            print(f"{path.stem}: weight {weight:.2f} faces {f['faces']}" + "".join(
+                f", {k} max {f[k]['max']:.1f} ({f[k]['at']}) >3: "
+                + "/".join(str(f[k]["over3"][p]) for p in PLACES) for k in LIGHTS), flush=True)
+            box = head_box(decs["on"], rgb.shape[:2])
+            if out is not None and acts and box is not None:
+                y0, y1, x0, x1 = box
+                for k in LIGHTS:
+                    cv2.imwrite(str(out / f"{path.stem}_{k}_head.png"), row(
+                        [("input", to_bgr8(rgb[y0:y1, x0:x1]))]
+                        + [(m, to_bgr8(relit[m][k][y0:y1, x0:x1])) for m in ("off", "on")], None))
+    finally:
+        factor_module.dark_material, dark_beard.BEARD = inner, switch
+    acting = [n for n, f in result.items() if f["weight"] > 0.2]
+    changed = [n for n, f in result.items() if any(f[k]["max"] > 0 for k in LIGHTS)]
+    print(f"{len(result)} photos: the rule acts (weight > 0.2) on {len(acting)}: {','.join(acting)}; "
+          f"any change on vs off on {len(changed)}")
+    return result
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--people", type=Path, default=shared_path("realdata", "people_masks"))
@@ -107,6 +183,7 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=Path, default=None)
     ap.add_argument("--models", type=Path, default=None)
     ap.add_argument("--json", type=Path, default=None)
+    ap.add_argument("--all", action="store_true", help="every photo: where the rule acts (module docstring)")
     args = ap.parse_args(argv)
     folder = args.people / "photos"
     if not folder.is_dir():
@@ -115,6 +192,11 @@ def main(argv=None) -> int:
     if args.out is not None:
         args.out.mkdir(parents=True, exist_ok=True)
     relighter = relight_rt.open(RuntimeConfig(models=args.models, device="cpu"))
+    if args.all:
+        result = broad(relighter, folder, args.out)
+        if args.json is not None:
+            args.json.write_text(json.dumps(result, indent=1))
+        return 0
     switch = dark_beard.BEARD
     result = {}
     for name in args.only.split(","):

@@ -130,3 +130,19 @@ def test_a_warm_near_black_material_keeps_its_chroma_under_a_brightening_light()
     np.testing.assert_allclose(look.keep_neutral(rgb * gain, gain, merged)[:, 32:],
                                look.keep_neutral(rgb * gain, gain, own)[:, 32:], atol=1e-6)
     assert look.with_material(own, rgb, None) is own and look.with_material(own, rgb, material * 0) is own
+
+
+def test_the_beard_takes_its_lit_surroundings_transport_not_its_own():
+    """Stage 1 reading the beard as a shadow (its transport half its surroundings'): over the beard ``dark_material``
+    hands back the surroundings' transport, and the albedo that with it gives the photo back (were its own transport
+    kept, a new light would still lift it as a shadow)."""
+    rgb = _photo([(slice(92, 118), slice(38, 83), True)])
+    rgb_, albedo, transport, white, solid, points = _inputs(rgb)
+    transport[92:118, 38:83] *= 0.5
+    new_albedo, new_transport, weight = dark_material(rgb, albedo, transport, white, solid, points)
+    assert weight is not None and weight[100:110, 50:70].min() > 0.9
+    np.testing.assert_allclose(new_transport[100:110, 50:70], transport[20, 60][None, None].repeat(10, 0).repeat(20, 1),
+                               rtol=0.05, atol=1e-3)
+    photo = rgb @ look.REC709
+    np.testing.assert_allclose((new_albedo * (new_transport @ white))[100:110, 50:70], photo[100:110, 50:70], rtol=1e-3)
+    assert transport[100, 60, 0] == np.float32(np.pi * 0.282095 * 0.5)  # the input itself untouched
