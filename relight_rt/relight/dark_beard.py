@@ -9,7 +9,10 @@ sees no shadow there and a light changes it as it changes its surroundings.
 
 The same cues fit shadowed brown hair (held-out renders: face RMSE 0.0786 -> 0.0838 with the rule anywhere), and
 nothing in colour tells them apart; where they lie does. So the rule acts only in the beard's place from the face mesh
-(``beard_region``): below the nose, within the jaw's width, down past the chin onto the neck, its edge soft.
+(``beard_region``): below the nose, within the jaw's width, down past the chin onto the neck, its edge soft. Long
+dark hair hanging beside the jaw lies there too (beard40's broad check: about 20 of the 47 photos it acted on), but on
+one side: a beard is one piece around the chin and mouth, so only pieces that reach across the chin's midline are
+kept (``one_piece``, beard41).
 
 The module's constants are read when the functions run: benchmarks and tests set them here.
 """
@@ -37,6 +40,8 @@ BEARD_MIRROR = (0.05, 0.25)  # around the mirror image: a Gaussian of this share
 BEARD_MIRROR_L, BEARD_MIRROR_C = (40.0, 50.0), (12.0, 18.0)  # ... dark there: the beard's lit half is lighter
 BEARD_AROUND = 0.12  # the lit surroundings: a Gaussian of this share of the face's height
 BEARD_AROUND_C = (8.0, 12.0)  # ... their mean C*: below the first grey (the rule off), above the second coloured
+BEARD_ACROSS = (0.1, 0.03)  # one piece across the chin's midline: pixels of weight above the first, joined over ...
+# ... this share of the face's height; None: no such gate (beard40)
 NOSE, CHIN, TOP = 2, 152, 10  # landmarks: below the nose's base, the chin's lowest, the forehead's highest
 JAW = (132, 58, 172, 136, 150, 149, 176, 148, 152, 377, 400, 378, 379, 365, 397, 288, 361)  # the jaw's contour
 
@@ -92,6 +97,37 @@ def beard_region(points: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
         return _ramp(-x, -lo - soft / 2, -lo + soft / 2) * _ramp(x, hi - soft / 2, hi + soft / 2)
 
     return (inside(down, 0.0, bottom) * inside(across, float(jaw.min()), float(jaw.max()))).astype(np.float32)
+
+
+def one_piece(d: np.ndarray, points: tuple[np.ndarray, ...], height: float) -> np.ndarray:
+    """``d`` (r, r') float32 in [0, 1] kept only on its pieces that reach across a face's midline (the line through
+    the nose's base and the chin, inside that face's ``beard_region``), zero elsewhere: a beard is one piece around
+    the chin and mouth, long dark hair hangs beside the jaw on one side (beard40's main false positive). A piece: the
+    pixels whose weight exceeds ``BEARD_ACROSS[0]``, joined over ``BEARD_ACROSS[1]`` of the face's height (a beard is
+    patchy); a kept piece keeps the weaker weight within that reach of it, so its edge stays soft."""
+    reach = max(int(round(BEARD_ACROSS[1] * height)), 1)
+    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * reach + 1, 2 * reach + 1))
+    strong = cv2.morphologyEx((d > BEARD_ACROSS[0]).astype(np.uint8), cv2.MORPH_CLOSE, kernel)
+    count, labels = cv2.connectedComponents(strong, connectivity=8)
+    if count < 2:
+        return np.zeros_like(d)
+    keep = np.zeros(count, bool)
+    h, w = d.shape
+    ys, xs = np.mgrid[0:h, 0:w].astype(np.float64)
+    for pts in points:
+        p = np.asarray(pts, np.float64)[:, :2]
+        down = p[CHIN] - p[NOSE]
+        side = np.sign((xs - p[NOSE, 0]) * down[1] - (ys - p[NOSE, 1]) * down[0])  # -1 / +1: the face's halves
+        inside = beard_region(pts, (h, w)) > 0
+        halves = []
+        for sign in (-1, 1):
+            seen = np.zeros(count, bool)
+            seen[np.unique(labels[inside & (side == sign)])] = True
+            halves.append(seen)
+        keep |= halves[0] & halves[1]
+    keep[0] = False
+    kept = cv2.dilate(keep[labels].astype(np.uint8), kernel)
+    return (d * kept).astype(np.float32)
 
 
 def beard_weight(rgb: np.ndarray, albedo: np.ndarray, transport: np.ndarray, white: np.ndarray, solid: np.ndarray,
@@ -155,6 +191,8 @@ def beard_weight(rgb: np.ndarray, albedo: np.ndarray, transport: np.ndarray, whi
     chroma = np.hypot(lab[..., 1], lab[..., 2])
     coloured = 1 - _ramp(_mean(chroma, lit, sigma), *BEARD_AROUND_C)
     d = (candidate * _ramp(q, *BEARD_SHADING) * hair * coloured * ok).astype(np.float32)
+    if BEARD_ACROSS is not None:
+        d = one_piece(d, points, height)
     return (d, around, around @ white) if d.max() > 1e-3 else None
 
 

@@ -107,6 +107,23 @@ def test_what_is_not_a_beard_is_left_alone(case, monkeypatch):
         assert weight is None and albedo is args[1] and transport is args[2]
 
 
+def test_hair_beside_the_jaw_on_each_side_apart_is_not_taken_a_beard_joining_them_is(monkeypatch):
+    """Long dark hair hanging beside the jaw inside the region, one strand on each side (each the other's mirror, so
+    the both-halves cue holds; beard40 took them): no piece reaches across the chin's midline, no weight. Joined by
+    a beard over the chin they are one piece, and all of it is taken."""
+    strands = [(slice(80, 118), slice(30, 45), True), (slice(80, 118), slice(76, 91), True)]
+    args = _inputs(_photo(strands))
+    monkeypatch.setattr(dark_beard, "BEARD_ACROSS", None)  # beard40: the gate off
+    ungated = beard_weight(*args)
+    assert ungated is not None and ungated[0][95:110, 33:42].min() > 0.9 and ungated[0][95:110, 79:88].min() > 0.9
+    monkeypatch.undo()
+    found = beard_weight(*args)
+    assert found is None or found[0].max() < 0.05
+    args = _inputs(_photo(strands + [(slice(100, 118), slice(45, 76), True)]))
+    d = beard_weight(*args)[0]
+    assert d[95:110, 33:42].min() > 0.9 and d[95:110, 79:88].min() > 0.9 and d[104:114, 50:70].min() > 0.9
+
+
 def test_a_warm_near_black_material_keeps_its_chroma_under_a_brightening_light():
     """``look.with_material``: a near-black pixel with a warm cast (a* +5, b* +2: ``neutral_darks`` leaves it alone,
     brown hair) brightened 3x grows in C*; counted as a material (a beard) it keeps the photo's C*, and the union
