@@ -1,6 +1,7 @@
 """Black beards under a new light: do they stay black and neutral? (beard40, issue 48's colour casts)
 
     python benchmarks/beard_casts.py [--only p024,p264] [--out /tmp/beards] [--people ../shared/realdata/people_masks]
+    python benchmarks/beard_casts.py --all [--half A|B] [--out DIR] [--json J]
 
 Each photo is relit as the first look relights it (benchmarks/first_look.py: the public API, the automatic matte)
 under LEFT, RIGHT and window-left, with relight_rt.relight.dark_beard's rule off and on (``BEARD``; a fresh
@@ -18,6 +19,9 @@ relit off and on as above; the rule acts on a photo where its weight (``dark_mat
 levels, any channel), where it lies (``beard``: near black in the beard's region; ``chin``: the rest of the region,
 the skin under the chin and the neck; ``head``: the head box outside the region, hair; ``else``) and per place the
 pixels changed by more than 3 levels. ``--out`` keeps the head box (input | off | on) of each photo it acts on.
+Each photo is relit a third time with the rule on but ``dark_beard.BEARD_ACROSS`` off (``ungated``: beard40 as
+reviewed) where that rule acts at all: per light the largest change on vs ungated, and the head box gains that
+column. ``--half A|B``: the photos of even / odd index in sorted order only (beard41 chose its gate on A).
 """
 
 from __future__ import annotations
@@ -126,7 +130,7 @@ def places(rgb: np.ndarray, dec) -> np.ndarray:
     return out
 
 
-def broad(relighter, folder: Path, out: Path | None) -> dict:
+def broad(relighter, folder: Path, out: Path | None, half: str | None = None) -> dict:
     """``--all`` (module docstring): per photo the rule's largest weight and, per light, where on vs off differ."""
     weights: list[float] = []
     inner = factor_module.dark_material
@@ -137,42 +141,52 @@ def broad(relighter, folder: Path, out: Path | None) -> dict:
         return found
 
     factor_module.dark_material = recording
-    switch, result = dark_beard.BEARD, {}
+    switch, gate, result = dark_beard.BEARD, dark_beard.BEARD_ACROSS, {}
+    paths = sorted(folder.glob("*.jpg"))
+    paths = paths if half is None else paths[0::2] if half == "A" else paths[1::2]
     try:
-        for path in sorted(folder.glob("*.jpg")):
+        for path in paths:
             rgb = read_rgb(path)
-            relit, decs, weight = {}, {}, 0.0
-            for mode in ("off", "on"):
-                dark_beard.BEARD = mode == "on"
+            relit, decs, weight = {}, {}, {}
+            for mode in ("off", "ungated", "on"):
+                dark_beard.BEARD, dark_beard.BEARD_ACROSS = mode != "off", None if mode == "ungated" else gate
+                if mode == "on" and weight["ungated"] == 0:  # the gate only takes away: nothing to take
+                    relit[mode], decs[mode], weight[mode] = relit["ungated"], decs["ungated"], 0.0
+                    continue
                 weights.clear()
                 dec = decs[mode] = relighter.decompose(rgb)
                 relit[mode] = {k: np.asarray(relighter.relight(dec, v), np.float32) for k, v in LIGHTS.items()}
-                weight = max(weights, default=0.0) if mode == "on" else weight
+                weight[mode] = max(weights, default=0.0)
             where = places(rgb, decs["on"])
-            f = {"weight": weight, "faces": len(meshes(decs["on"]))}
+            f = {"weight": weight["on"], "weight_ungated": weight["ungated"], "faces": len(meshes(decs["on"]))}
             for k in LIGHTS:
                 diff = np.abs(relit["on"][k] - relit["off"][k]).max(axis=2) * 255
                 y, x = np.unravel_index(int(np.argmax(diff)), diff.shape)
                 f[k] = {"max": float(diff[y, x]), "at": PLACES[where[y, x]],
-                        "over3": {p: int(((diff > 3) & (where == i)).sum()) for i, p in enumerate(PLACES)}}
+                        "over3": {p: int(((diff > 3) & (where == i)).sum()) for i, p in enumerate(PLACES)},
+                        "max_vs_ungated": float(np.abs(relit["on"][k] - relit["ungated"][k]).max() * 255)}
             result[path.stem] = f
-            acts = weight > 0.2
-            print(f"{path.stem}: weight {weight:.2f} faces {f['faces']}" + "".join(
-                f", {k} max {f[k]['max']:.1f} ({f[k]['at']}) >3: "
-                + "/".join(str(f[k]["over3"][p]) for p in PLACES) for k in LIGHTS), flush=True)
+            acts = max(weight["on"], weight["ungated"]) > 0.2
+            print(f"{path.stem}: weight {weight['on']:.2f} (ungated {weight['ungated']:.2f}) faces {f['faces']}"
+                  + "".join(f", {k} max {f[k]['max']:.1f} ({f[k]['at']}) >3: "
+                            + "/".join(str(f[k]["over3"][p]) for p in PLACES)
+                            + f" vs ungated {f[k]['max_vs_ungated']:.1f}" for k in LIGHTS), flush=True)
             box = head_box(decs["on"], rgb.shape[:2])
             if out is not None and acts and box is not None:
                 y0, y1, x0, x1 = box
                 for k in LIGHTS:
                     cv2.imwrite(str(out / f"{path.stem}_{k}_head.png"), row(
                         [("input", to_bgr8(rgb[y0:y1, x0:x1]))]
-                        + [(m, to_bgr8(relit[m][k][y0:y1, x0:x1])) for m in ("off", "on")], None))
+                        + [(m, to_bgr8(relit[m][k][y0:y1, x0:x1])) for m in ("off", "ungated", "on")], None))
     finally:
-        factor_module.dark_material, dark_beard.BEARD = inner, switch
+        factor_module.dark_material, dark_beard.BEARD, dark_beard.BEARD_ACROSS = inner, switch, gate
     acting = [n for n, f in result.items() if f["weight"] > 0.2]
+    ungated = [n for n, f in result.items() if f["weight_ungated"] > 0.2]
     changed = [n for n, f in result.items() if any(f[k]["max"] > 0 for k in LIGHTS)]
+    moved = [n for n, f in result.items() if any(f[k]["max_vs_ungated"] > 3 for k in LIGHTS)]
     print(f"{len(result)} photos: the rule acts (weight > 0.2) on {len(acting)}: {','.join(acting)}; "
-          f"any change on vs off on {len(changed)}")
+          f"any change on vs off on {len(changed)}; ungated it acts on {len(ungated)}: {','.join(ungated)}; "
+          f"on vs ungated over 3 levels on {len(moved)}: {','.join(moved)}")
     return result
 
 
@@ -184,6 +198,7 @@ def main(argv=None) -> int:
     ap.add_argument("--models", type=Path, default=None)
     ap.add_argument("--json", type=Path, default=None)
     ap.add_argument("--all", action="store_true", help="every photo: where the rule acts (module docstring)")
+    ap.add_argument("--half", choices=("A", "B"), default=None, help="with --all: even / odd index in sorted order")
     args = ap.parse_args(argv)
     folder = args.people / "photos"
     if not folder.is_dir():
@@ -193,7 +208,7 @@ def main(argv=None) -> int:
         args.out.mkdir(parents=True, exist_ok=True)
     relighter = relight_rt.open(RuntimeConfig(models=args.models, device="cpu"))
     if args.all:
-        result = broad(relighter, folder, args.out)
+        result = broad(relighter, folder, args.out, args.half)
         if args.json is not None:
             args.json.write_text(json.dumps(result, indent=1))
         return 0
