@@ -27,6 +27,7 @@ from .look import (
     neutral_values,
     shoulder,
     steady_chroma,
+    with_material,
 )
 
 _ALPHA_MIN = np.float32(1e-3)
@@ -595,7 +596,10 @@ class Composer:
         """``look.neutral_darks`` of the photo in ``dec``'s crop box on its solid matte, once per Decomposition."""
         state = self.memo(dec)
         if "neutral" not in state:  # read-only already
-            state["neutral"] = neutral_darks(photo_crop(dec), crop_origin(dec), solid_crop(dec))
+            photo = photo_crop(dec)  # a black beard counts whatever its cast (relight_rt.relight.dark_beard)
+            beard = self.factor.beard(dec) if self.detail else None
+            state["neutral"] = with_material(neutral_darks(photo, crop_origin(dec), solid_crop(dec)), photo,
+                                             None if beard is None else beard * solid_crop(dec))
         return state["neutral"]
 
     def head_change(self, dec: Decomposition, light: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:

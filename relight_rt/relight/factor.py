@@ -66,6 +66,7 @@ from ..light import sh
 from ..person.face_mesh import mirror_held
 from . import head_blend
 from .cast_shadow import MeshView, shadow_factor
+from .dark_beard import dark_material
 from .decomposition import Decomposition, Memo, readonly
 from .detail import extend_outward, guided_upsample, unpremultiply, window
 from .exposure_meter import ExposureMeter
@@ -187,7 +188,12 @@ class Factor:
                     keep = soften(base["face_skin"], CAP_SKIN_SPREAD * max(albedo.shape), base["inner"])
                     for pts in base["face_points"]:  # each face by its own mirror, on its own skin
                         albedo = mirror_held(albedo, pts, keep, base["photo"])
-                base = {**base, "albedo": readonly(albedo)}
+                # a black beard is a dark material, not shaded skin (relight_rt.relight.dark_beard)
+                y0, y1, x0, x1 = base["window"]
+                albedo, transport, beard = dark_material(dec.network_image[y0:y1, x0:x1], albedo, base["transport"],
+                                                         white, base["solid"], base["face_points"])
+                base = {**base, "albedo": readonly(albedo), "transport": readonly(transport),
+                        "beard": None if beard is None else readonly(beard)}
             # the shading the photo shows and stage 1 misses, kept along the photo's own light
             # (relight_rt.relight.strength); on a face's skin, where the photo shows less, all of it (a shadow)
             skin = base["face_skin"]
@@ -288,6 +294,15 @@ class Factor:
             if key in old:
                 state[key] = old[key]
         return new
+
+    def beard(self, dec: Decomposition) -> np.ndarray | None:
+        """(h, w) float32 in [0, 1] in the crop box: how far each pixel is a black beard (relight_rt.relight.dark_beard,
+        ``own``'s "beard"), None where there is none (and for a video frame)."""
+        own = self.own(dec, with_residual=False)
+        if own.get("beard") is None:
+            return None
+        y0, _, x0, _ = own["window"]
+        return np.clip(dec.geometry.to_crop(own["beard"], (y0, x0)), 0, 1)
 
     def cast(self, dec: Decomposition, own: dict, light: np.ndarray) -> np.ndarray | None:
         """(r, r') what the faces' cast shadows under ``light`` leave of its shading in the person's window

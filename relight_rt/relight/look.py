@@ -71,8 +71,9 @@ def prepare_lab() -> None:
             _LAB_TABLES.start()
 
 
-def _lab(image: np.ndarray) -> np.ndarray:
-    """cv2's RGB -> Lab, after the tables ``prepare_lab`` may be building (one builder at a time)."""
+def to_lab(image: np.ndarray) -> np.ndarray:
+    """cv2's RGB -> Lab of (h, w, 3) float32 RGB in [0, 1] (L* 0-100), after the tables ``prepare_lab`` may be
+    building (one builder at a time)."""
     tables = _LAB_TABLES
     if tables is not None:
         tables.join()
@@ -182,7 +183,7 @@ def dark_colour(image: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     h, w = y.shape
     small = cv2.resize(np.clip(image, 0, 1), (max(w // _NEUTRAL_STEP, 1), max(h // _NEUTRAL_STEP, 1)),
                        interpolation=cv2.INTER_AREA)
-    lab = _lab(small)
+    lab = to_lab(small)
     ramp = lambda v, lo, hi: np.clip((hi - v) / (hi - lo), 0, 1)  # noqa: E731 - 1 below lo, 0 above hi
     chroma = np.hypot(lab[..., 1], lab[..., 2])
     black = ramp(lab[..., 0], *_NEUTRAL_L) * ramp(chroma, *_NEUTRAL_C)
@@ -269,11 +270,11 @@ def neutral_darks(image: np.ndarray, origin: tuple[int, int] = (0, 0), solid: np
     person = np.ones((sh, sw), np.float32) if solid is None else cv2.resize(
         cv2.copyMakeBorder(np.asarray(solid, np.float32), oy, 0, ox, 0, cv2.BORDER_REPLICATE)[
             : sh * _NEUTRAL_STEP, : sw * _NEUTRAL_STEP], (sw, sh), interpolation=cv2.INTER_AREA) >= 0.5
-    lab = _lab(small)
+    lab = to_lab(small)
     ramp = lambda v, lo, hi: np.clip((hi - v) / (hi - lo), 0, 1)  # noqa: E731 - 1 below lo, 0 above hi
     chroma = np.hypot(lab[..., 1], lab[..., 2])
     # near-neutral by its pixels' own chroma too: fine red and blue stripes average to a grey they are not
-    full = _lab(grid)
+    full = to_lab(grid)
     size = small.shape[1::-1]
     own_c = np.hypot(full[..., 1], full[..., 2])
     own = cv2.resize(own_c, size, interpolation=cv2.INTER_AREA)
@@ -312,7 +313,7 @@ def neutral_darks(image: np.ndarray, origin: tuple[int, int] = (0, 0), solid: np
     # a pixel that is itself a warm colour (skin at the edge of dark hair, a brown strand) is its material, whatever
     # the reduced pixel it lies in reads as: from _GREY_C[1] of its own C* up, as a warm reduced pixel is
     pixels = np.take(image.reshape(-1, 3), index, axis=0)
-    own_lab = _lab(np.clip(pixels, 0, 1)[None])[0]  # one row: cv2 converts row by row
+    own_lab = to_lab(np.clip(pixels, 0, 1)[None])[0]  # one row: cv2 converts row by row
     grey = ramp(np.hypot(own_lab[:, 1], own_lab[:, 2]), *_GREY_C)  # 1: grey by its own C*, 0: a colour
     coloured = grey < 1  # the hue of those only (most are grey)
     own_warm = _warmth(np.degrees(np.arctan2(own_lab[coloured, 2], own_lab[coloured, 1])) % 360)
@@ -324,6 +325,31 @@ def neutral_darks(image: np.ndarray, origin: tuple[int, int] = (0, 0), solid: np
     relative, size, y = neutral_chroma(pixels.T)  # (3, k)
     return NeutralDarks(*(readonly(np.ascontiguousarray(a)) for a in (
         index * 3 + np.arange(3)[:, None], keep.astype(np.float32), relative, size, y)))
+
+
+def with_material(neutral: NeutralDarks | None, image: np.ndarray, material: np.ndarray | None,
+                  ) -> NeutralDarks | None:
+    """``neutral`` (``neutral_darks`` of ``image``, (h, w, 3) float32 RGB in [0, 1]) with the pixels of a near-neutral
+    dark ``material`` ((h, w) weights in [0, 1]; None: none) counted whatever their hue, each at the larger of the two
+    weights: a black beard (relight_rt.relight.dark_beard) is a near-black material even where its faint cast is warm,
+    which ``neutral_darks`` leaves alone as brown hair or skin (p024's beard brightened 2-3x went brown, C* 6 -> 10)."""
+    if material is None:
+        return neutral
+    weight = np.asarray(material, np.float32).ravel()
+    index = np.flatnonzero(weight > 1e-3)
+    if index.size == 0:
+        return neutral
+    if neutral is not None:  # the union: neutral_darks' own pixels at the larger weight
+        own = neutral.index[0] // 3
+        merged = np.zeros(weight.shape, np.float32)
+        merged[own] = neutral.weight
+        np.maximum(merged, weight, out=merged)
+        index = np.union1d(index, own)
+        weight = merged
+    pixels = np.take(np.asarray(image, np.float32).reshape(-1, 3), index, axis=0)
+    relative, size, y = neutral_chroma(pixels.T)
+    return NeutralDarks(*(readonly(np.ascontiguousarray(a)) for a in (
+        index * 3 + np.arange(3)[:, None], weight[index].astype(np.float32), relative, size, y)))
 
 
 def keep_neutral(colour: np.ndarray, gain: np.ndarray, neutral: NeutralDarks | None) -> np.ndarray:
