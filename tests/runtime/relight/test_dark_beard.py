@@ -6,9 +6,12 @@ from __future__ import annotations
 import cv2
 import numpy as np
 import pytest
+from _graphs import diffuse_models_dir
 
 from relight_rt.relight import dark_beard, look
 from relight_rt.relight.dark_beard import CHIN, JAW, NOSE, TOP, beard_region, beard_weight, dark_material
+
+__all__ = ["diffuse_models_dir"]  # fixture
 
 H, W, CX = 160, 121, 60.0
 SKIN = np.array([0.75, 0.55, 0.45], np.float32)
@@ -163,3 +166,35 @@ def test_the_beard_takes_its_lit_surroundings_transport_not_its_own():
     photo = rgb @ look.REC709
     np.testing.assert_allclose((new_albedo * (new_transport @ white))[100:110, 50:70], photo[100:110, 50:70], rtol=1e-3)
     assert transport[100, 60, 0] == np.float32(np.pi * 0.282095 * 0.5)  # the input itself untouched
+
+
+def test_the_relighter_keeps_a_beards_chroma_where_the_factor_finds_one(diffuse_models_dir, monkeypatch):
+    """The wiring: ``Composer.neutral`` hands ``Factor.beard``'s weight to ``look.with_material``, so a warm
+    near-black the factor calls a beard keeps the photo's C* through ``Relighter.relight``; without one it is
+    brightened into brown as any warm colour (analytic graphs: a light k times the photo's own brightens k times)."""
+    from _graphs import OWN_LIGHT
+
+    import relight_rt
+    from relight_rt.engine.config import RuntimeConfig
+    from relight_rt.relight import compose, factor
+
+    image = np.zeros((96, 80, 3), np.float32)
+    image[:] = (0.1, 0.06, 0.05)  # L* ~5, a* +4, b* +3: the warm near-black neutral_darks leaves alone
+    mask = np.zeros((96, 80), np.float32)
+    mask[8:88, 8:72] = 1
+    part = (slice(30, 66), slice(24, 56))
+
+    def chroma(rgb: np.ndarray) -> float:
+        lab = cv2.cvtColor(np.clip(rgb, 0, 1).astype(np.float32), cv2.COLOR_RGB2Lab).reshape(-1, 3)
+        return float(np.hypot(lab[:, 1], lab[:, 2]).mean())
+
+    def relit(beard: bool) -> np.ndarray:
+        whole = (lambda self, dec: np.ones(compose.photo_crop(dec).shape[:2], np.float32)) if beard else \
+            (lambda self, dec: None)
+        monkeypatch.setattr(factor.Factor, "beard", whole)
+        r = relight_rt.open(RuntimeConfig(models=diffuse_models_dir, device="cpu"))
+        return r.relight(r.decompose(image, mask), 3 * OWN_LIGHT, exposure="physical")[part]
+
+    before = chroma(image[part])
+    assert chroma(relit(beard=False)) > before + 6
+    assert chroma(relit(beard=True)) < before + 3
