@@ -9,7 +9,9 @@ main checkout or a clone (/work/main -> /work/shared), ``REPO.parent.parent`` on
 from __future__ import annotations
 
 import os
+import statistics
 import sys
+import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
@@ -75,3 +77,14 @@ def opened_photo(args):
     runtime = relight_rt.open(RuntimeConfig(models=args.models, device="cpu"))
     image = read_image(args.photo)
     return runtime, image, read_mask(args.mask, image.shape[:2])
+
+
+def timed(fn, repeats: int) -> tuple[float, float]:
+    """Best and median milliseconds of ``repeats`` calls of ``fn`` after one call to warm it."""
+    fn()
+    times = []
+    for _ in range(repeats):
+        t = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t)
+    return 1000 * min(times), 1000 * statistics.median(times)

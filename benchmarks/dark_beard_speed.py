@@ -16,17 +16,7 @@ import argparse
 import statistics
 import time
 
-from _shared import opened_photo, photo_arguments
-
-
-def timed(fn, repeats: int) -> tuple[float, float]:
-    fn()
-    times = []
-    for _ in range(repeats):
-        t = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t)
-    return 1000 * min(times), 1000 * statistics.median(times)
+from _shared import opened_photo, photo_arguments, timed
 
 
 def main() -> None:
