@@ -165,22 +165,16 @@ class Factor:
                                  "face_opening": readonly(opening & (alpha > 0.5))}
         return state["restored"]
 
-    def own(self, dec: Decomposition, with_residual: bool = True) -> dict:
-        """What every relight of ``dec`` divides by, in the person's window of the network frame (cached).
-
-        ``restored``'s entries, "transport" moved along the photo's own light toward the shading the photo shows
-        (relight_rt.relight.strength ``explain_photo``), and "own" (r, r') the luminance of the pipeline's image under
-        the photo's own light taken as white (diffuse plus stage 2's residual) plus "missing" (r, r'), what that falls
-        short of ``_OWN_FLOOR`` x the photo's luminance (light the model misses; ``gain`` adds it to every new light
-        too), floored at the ratio's floor.
-        """
+    def materials(self, dec: Decomposition) -> dict:
+        """``restored`` with a photo's albedo and transport read as materials (cached; ``own`` and its diffuse twin
+        share it): the photo's own shading that stage 1 put into a face's albedo taken out, a face's albedo held by
+        its mirror, a black beard taken as a dark material ("beard": its (h, w) weight, or None). A video frame's
+        entries are ``restored``'s (a fit frame by frame would flicker)."""
         state = self.memo(dec)
-        key = "own" if with_residual else "own_diffuse"
-        if key not in state:
+        if "materials" not in state:
             base = self.restored(dec)
-            white = dec.white_light[:, 0]
-            if dec.photo:  # the photo's own shading that stage 1 put into a face's albedo taken out (not per frame:
-                # a fit frame by frame would flicker)
+            if dec.photo:
+                white = dec.white_light[:, 0]
                 shading = base["transport"] @ white
                 albedo = unshaded_albedo(base["albedo"], shading, base["face_skin"], base["inner"])
                 if MIRROR_ALBEDO and base["face_points"] and base["face_skin"].any():  # stage 1 took part of a shadow
@@ -194,6 +188,23 @@ class Factor:
                                                          white, base["solid"], base["face_points"])
                 base = {**base, "albedo": readonly(albedo), "transport": readonly(transport),
                         "beard": None if beard is None else readonly(beard)}
+            state["materials"] = base
+        return state["materials"]
+
+    def own(self, dec: Decomposition, with_residual: bool = True) -> dict:
+        """What every relight of ``dec`` divides by, in the person's window of the network frame (cached).
+
+        ``restored``'s entries, "transport" moved along the photo's own light toward the shading the photo shows
+        (relight_rt.relight.strength ``explain_photo``), and "own" (r, r') the luminance of the pipeline's image under
+        the photo's own light taken as white (diffuse plus stage 2's residual) plus "missing" (r, r'), what that falls
+        short of ``_OWN_FLOOR`` x the photo's luminance (light the model misses; ``gain`` adds it to every new light
+        too), floored at the ratio's floor.
+        """
+        state = self.memo(dec)
+        key = "own" if with_residual else "own_diffuse"
+        if key not in state:
+            base = self.materials(dec)
+            white = dec.white_light[:, 0]
             # the shading the photo shows and stage 1 misses, kept along the photo's own light
             # (relight_rt.relight.strength); on a face's skin, where the photo shows less, all of it (a shadow)
             skin = base["face_skin"]
