@@ -19,10 +19,10 @@ Printed: each set's median and max per fit.
 
 ``--relight OUT``: what the fit changes in a relit photo. benchmarks/mirror_rule_photos.py's photos (the reference
 photo and every ``--stride``-th people_masks photo with its given mask, reduced to ``--max-side``) relit under
-``LEFT`` and ``RIGHT`` with the product's fit and with the hand fit (``mirror`` swapped in face_mesh and shadow_fill,
-each its own Decomposition): per photo the largest change in 8-bit levels (max over channels) and the pixels over 2
-levels; OUT/NAME_LIGHT.png (hand | full | change x8, around the largest change, 3x) for the worst three. The data is
-for evaluation only: keep OUT out of the repository.
+``LEFT`` and ``RIGHT`` with the product's fit and with the hand fit (``face_mesh.mirror`` swapped, which every
+reader reaches through ``face_mesh.reflection``; each its own Decomposition): per photo the largest change in 8-bit
+levels (max over channels) and the pixels over 2 levels; OUT/NAME_LIGHT.png (hand | full | change x8, around the
+largest change, 3x) for the worst three. The data is for evaluation only: keep OUT out of the repository.
 """
 
 from __future__ import annotations
@@ -43,7 +43,6 @@ from photo_faults import read_mask, read_rgb
 
 from relight_rt.engine.session import bundled_models_dir
 from relight_rt.person import face_mesh as fm
-from relight_rt.relight import shadow_fill
 
 # the fit before mesh37: MediaPipe's two eye contours point for point (the image's left eye first: outer corner,
 # lower lid, inner corner, upper lid) and points on the mid-line (nose tip and bridge, forehead, chin, lips)
@@ -98,12 +97,12 @@ def relit_change(out: Path, stride: int, max_side: int, people: Path, reference:
             continue
         relit = {}
         for fit in ("hand", "full"):
-            fm.mirror = shadow_fill.mirror = hand_mirror if fit == "hand" else full
+            fm.mirror = hand_mirror if fit == "hand" else full  # face_mesh.reflection reads it there
             try:
                 dec = relighter.decompose(rgb, mask)
                 relit[fit] = [levels(relighter.relight(dec, light)) for light in (real_photos.LEFT, real_photos.RIGHT)]
             finally:
-                fm.mirror = shadow_fill.mirror = full
+                fm.mirror = full
         for light, a, b in zip(("LEFT", "RIGHT"), relit["hand"], relit["full"], strict=True):
             d = np.abs(a - b).max(axis=2)
             rows.append((int(d.max()), int((d > 2).sum()), name, light))

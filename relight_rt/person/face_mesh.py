@@ -389,6 +389,13 @@ def mirror(points: np.ndarray) -> np.ndarray | None:
     return fit.T.astype(np.float32)
 
 
+def reflection(points: np.ndarray) -> np.ndarray | None:
+    """``mirror(points)`` where it is a reflection (its linear part's determinant below -0.5), else None: no
+    symmetry map, or a mesh collapsed to a line or a point, has no other half to read."""
+    m = mirror(points)
+    return m if m is not None and np.linalg.det(m[:, :2]) < -0.5 else None
+
+
 @functools.cache
 def _fit_partners() -> np.ndarray | None:
     """``read_partners()`` once, read-only (``mirror`` is called per face and per decomposition)."""
@@ -421,8 +428,8 @@ def mirror_held(values: np.ndarray, points: np.ndarray, weight: np.ndarray | Non
     a face whose mirror misses its cheeks (``MIRROR_MISS``: a turned head) is held less, or not at all.
     """
     v = np.ascontiguousarray(values, np.float32)
-    m = mirror(points)
-    if m is None or np.linalg.det(m[:, :2]) > -0.5:  # no reflection (a mesh collapsed to a line or a point)
+    m = reflection(points)
+    if m is None:
         return v.copy()
     p = np.asarray(points, np.float64)[:, :2]
     a, b = np.array(MIRROR_CHEEK_PAIRS).T

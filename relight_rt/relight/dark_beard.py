@@ -23,7 +23,7 @@ import cv2
 import numpy as np
 
 from ..image.color import REC709
-from ..person.face_mesh import mirror
+from ..person.face_mesh import reflection
 from .look import to_lab
 
 BEARD = True  # the rule on; False: off
@@ -44,6 +44,12 @@ BEARD_ACROSS = (0.1, 0.03)  # one piece across the chin's midline: pixels of wei
 # ... this share of the face's height; None: no such gate (beard40)
 NOSE, CHIN, TOP = 2, 152, 10  # landmarks: below the nose's base, the chin's lowest, the forehead's highest
 JAW = (132, 58, 172, 136, 150, 149, 176, 148, 152, 377, 400, 378, 379, 365, 397, 288, 361)  # the jaw's contour
+
+
+def _height(points: np.ndarray) -> float:
+    """A face's height in pixels: its forehead's highest landmark to its chin's lowest."""
+    p = np.asarray(points, np.float64)
+    return float(np.hypot(*(p[TOP, :2] - p[CHIN, :2])))
 
 
 def _ramp(x: np.ndarray, lo: float, hi: float) -> np.ndarray:
@@ -80,7 +86,7 @@ def beard_region(points: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     width, each edge a smooth step over ``BEARD_SOFT`` of the face's height (half inside, half outside)."""
     p = np.asarray(points, np.float64)[:, :2]
     up = p[TOP] - p[CHIN]
-    height = float(np.hypot(*up))
+    height = _height(p)
     h, w = shape
     if height < 1e-3:
         return np.zeros(shape, np.float32)
@@ -99,12 +105,14 @@ def beard_region(points: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     return (inside(down, 0.0, bottom) * inside(across, float(jaw.min()), float(jaw.max()))).astype(np.float32)
 
 
-def one_piece(d: np.ndarray, points: tuple[np.ndarray, ...], height: float) -> np.ndarray:
+def one_piece(d: np.ndarray, points: tuple[np.ndarray, ...], height: float,
+              regions: tuple[np.ndarray, ...] | None = None) -> np.ndarray:
     """``d`` (r, r') float32 in [0, 1] kept only on its pieces that reach across a face's midline (the line through
     the nose's base and the chin, inside that face's ``beard_region``), zero elsewhere: a beard is one piece around
     the chin and mouth, long dark hair hangs beside the jaw on one side (beard40's main false positive). A piece: the
     pixels whose weight exceeds ``BEARD_ACROSS[0]``, joined over ``BEARD_ACROSS[1]`` of the face's height (a beard is
-    patchy); a kept piece keeps the weaker weight within that reach of it, so its edge stays soft."""
+    patchy); a kept piece keeps the weaker weight within that reach of it, so its edge stays soft. ``regions``: each
+    face's ``beard_region`` on ``d``'s grid, when the caller has them."""
     reach = max(int(round(BEARD_ACROSS[1] * height)), 1)
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * reach + 1, 2 * reach + 1))
     strong = cv2.morphologyEx((d > BEARD_ACROSS[0]).astype(np.uint8), cv2.MORPH_CLOSE, kernel)
@@ -114,11 +122,13 @@ def one_piece(d: np.ndarray, points: tuple[np.ndarray, ...], height: float) -> n
     keep = np.zeros(count, bool)
     h, w = d.shape
     ys, xs = np.mgrid[0:h, 0:w].astype(np.float64)
-    for pts in points:
+    if regions is None:
+        regions = tuple(beard_region(pts, (h, w)) for pts in points)
+    for pts, region in zip(points, regions, strict=True):
         p = np.asarray(pts, np.float64)[:, :2]
         down = p[CHIN] - p[NOSE]
         side = np.sign((xs - p[NOSE, 0]) * down[1] - (ys - p[NOSE, 1]) * down[0])  # -1 / +1: the face's halves
-        inside = beard_region(pts, (h, w)) > 0
+        inside = region > 0
         halves = []
         for sign in (-1, 1):
             seen = np.zeros(count, bool)
@@ -135,32 +145,30 @@ def beard_weight(rgb: np.ndarray, albedo: np.ndarray, transport: np.ndarray, whi
     """(d, around, shading): d (r, r') float32 in [0, 1], how far each pixel is a black beard (module docstring),
     around (r, r', 9) the transport of the lit pixels about it and shading (r, r') theirs under ``white``; None where
     the rule is off (``BEARD``) or finds nothing. Arguments as ``dark_material``'s."""
-    points = tuple(p for p in points if np.hypot(*(np.asarray(p)[TOP, :2] - np.asarray(p)[CHIN, :2])) >= BEARD_MIN_FACE)
+    points = tuple(p for p in points if _height(p) >= BEARD_MIN_FACE)
     if not BEARD or not points or not solid.any():
         return None
     shape = albedo.shape
-    region = np.zeros(shape, np.float32)
-    for pts in points:
-        region = np.maximum(region, beard_region(pts, shape))
-    region *= solid
+    regions = tuple(beard_region(pts, shape) for pts in points)
+    region = np.maximum.reduce(regions) * solid
     if not region.max() > 1e-3:
         return None
     # read on the photo smoothed a little: a beard's colour is shared by its pixels, a pixel's own chroma is noise
     lab = to_lab(cv2.GaussianBlur(np.clip(rgb, 0, 1).astype(np.float32), (0, 0), BEARD_SMOOTH))
     dark = _ramp(lab[..., 0], *BEARD_L) * _ramp(np.hypot(lab[..., 1], lab[..., 2]), *BEARD_C)
     dark = (dark * solid).astype(np.float32)
-    height = max(float(np.hypot(*(np.asarray(p)[TOP, :2] - np.asarray(p)[CHIN, :2]))) for p in points)
+    height = max(_height(p) for p in points)
     # dark on both halves of the face (a shadow darkens one): around its mirror image at least ``BEARD_MIRROR[1]`` of
     # the pixels near black (a beard is patchy; its mirror pixel by pixel missed half of p024's)
     darkish = _ramp(lab[..., 0], *BEARD_MIRROR_L) * _ramp(np.hypot(lab[..., 1], lab[..., 2]), *BEARD_MIRROR_C)
     near = cv2.GaussianBlur((darkish * solid).astype(np.float32), (0, 0), max(BEARD_MIRROR[0] * height, 0.5))
     both = dark
-    for pts in points:
-        m = mirror(pts)
-        if m is not None and np.linalg.det(m[:, :2]) < -0.5:
+    for pts, face_region in zip(points, regions, strict=True):
+        m = reflection(pts)
+        if m is not None:
             there = cv2.warpAffine(near, m.astype(np.float64), shape[::-1],
                                    flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_CONSTANT)
-            both = np.where(beard_region(pts, shape) > 0, dark * np.clip(there / BEARD_MIRROR[1], 0, 1), both)
+            both = np.where(face_region > 0, dark * np.clip(there / BEARD_MIRROR[1], 0, 1), both)
     candidate = both * region
     if not candidate.max() > 1e-3:
         return None
@@ -192,7 +200,7 @@ def beard_weight(rgb: np.ndarray, albedo: np.ndarray, transport: np.ndarray, whi
     coloured = 1 - _ramp(_mean(chroma, lit, sigma), *BEARD_AROUND_C)
     d = (candidate * _ramp(q, *BEARD_SHADING) * hair * coloured * ok).astype(np.float32)
     if BEARD_ACROSS is not None:
-        d = one_piece(d, points, height)
+        d = one_piece(d, points, height, regions)
     return (d, around, around @ white) if d.max() > 1e-3 else None
 
 
@@ -222,7 +230,7 @@ def dark_material(rgb: np.ndarray, albedo: np.ndarray, transport: np.ndarray, wh
     box = []
     for pts in points:
         p = np.asarray(pts)
-        height = float(np.hypot(*(p[TOP, :2] - p[CHIN, :2])))
+        height = _height(p)
         reach = 3 * max(BEARD_AROUND * height, 1.0) + BEARD_SOFT * height
         below = p[CHIN, :2] + BEARD_BELOW * (p[CHIN, :2] - p[TOP, :2])  # the region's reach under the chin
         corners = np.vstack([p[list(JAW), :2], p[NOSE, :2], below, below + p[JAW[0], :2] - p[CHIN, :2],

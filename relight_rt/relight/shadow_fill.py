@@ -22,7 +22,7 @@ import cv2
 import numpy as np
 
 from ..image.color import REC709
-from ..person.face_mesh import mirror
+from ..person.face_mesh import reflection
 from .decomposition import Decomposition, Memo, readonly
 from .detail import shadow_texture, unpremultiply
 from .fill_colour import lit_colour
@@ -79,9 +79,9 @@ def mirror_shadow(shading: np.ndarray, opening: np.ndarray, face: np.ndarray,
     h, w = shading.shape
     out = np.zeros((h, w), np.float32)
     for pts in points:
-        m = mirror(pts)
-        if m is None or np.linalg.det(m[:, :2]) > -0.5:  # no symmetry map, or no reflection (a mesh collapsed to a
-            continue  # line or a point): no mirror to read
+        m = reflection(pts)
+        if m is None:  # no mirror to read
+            continue
         xy = np.asarray(pts, np.float64)[:, :2]
         sigma = max(MIRROR_SPREAD * float(np.ptp(xy, axis=0).max()), 0.5)
         hull = np.zeros((h, w), np.uint8)  # this face's own pixels: its mesh's convex hull (4 bits of sub-pixel)
