@@ -82,6 +82,13 @@ def solid_crop(dec: Decomposition) -> np.ndarray:
     return dec.geometry.crop(dec.mask) >= 1 - _SOFT
 
 
+def person_neutral(dec: Decomposition, beard: np.ndarray | None) -> NeutralDarks | None:
+    """``look.neutral_darks`` of the photo in ``dec``'s crop box on its solid matte, a black beard's pixels counted
+    whatever their cast (``look.with_material``; ``beard``: ``Factor.beard``'s (h, w) weight, or None)."""
+    photo, solid = photo_crop(dec), solid_crop(dec)
+    return with_material(neutral_darks(photo, crop_origin(dec), solid), photo, None if beard is None else beard * solid)
+
+
 def soft_edge_width(alpha: np.ndarray) -> float:
     """Mean width in pixels of a matte's soft edge: its soft pixels over the length of its outline."""
     soft = int(np.count_nonzero((alpha > _SOFT) & (alpha < 1 - _SOFT)))
@@ -593,13 +600,10 @@ class Composer:
         return state[key]
 
     def neutral(self, dec: Decomposition) -> NeutralDarks | None:
-        """``look.neutral_darks`` of the photo in ``dec``'s crop box on its solid matte, once per Decomposition."""
+        """``person_neutral`` of ``dec`` (its beard from ``Factor.beard`` with detail), once per Decomposition."""
         state = self.memo(dec)
         if "neutral" not in state:  # read-only already
-            photo = photo_crop(dec)  # a black beard counts whatever its cast (relight_rt.relight.dark_beard)
-            beard = self.factor.beard(dec) if self.detail else None
-            state["neutral"] = with_material(neutral_darks(photo, crop_origin(dec), solid_crop(dec)), photo,
-                                             None if beard is None else beard * solid_crop(dec))
+            state["neutral"] = person_neutral(dec, self.factor.beard(dec) if self.detail else None)
         return state["neutral"]
 
     def head_change(self, dec: Decomposition, light: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:

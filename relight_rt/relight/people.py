@@ -12,7 +12,7 @@ from ..image.regions import Crop
 from ..light.exposure import knee
 from . import compose
 from .decomposition import Decomposition
-from .look import dark_colour, neutral_darks, with_material
+from .look import dark_colour
 
 MAX_PEOPLE = 16  # matting="all": a photo of more people than this is relit as one group (stage 1 once a person)
 _ROWS = 256  # rows of the photo done at a time where a temporary would otherwise be the photo's size
@@ -287,10 +287,7 @@ def by_person_lights(
         looks = None
         if composer.detail:  # made once per person for the K lights, not kept for every person
             fg = composer.foreground(part)[0]
-            photo, solid, beard = compose.photo_crop(part), compose.solid_crop(part), factor.beard(part)
-            neutral = with_material(neutral_darks(photo, compose.crop_origin(part), solid), photo,
-                                    None if beard is None else beard * solid)  # a beard's chroma, as alone
-            looks = dark_colour(fg), knee(fg), neutral
+            looks = dark_colour(fg), knee(fg), compose.person_neutral(part, factor.beard(part))  # as one alone
         share = part.geometry.crop(part.mask)[..., None]
         to_cover = None  # the shares' scale to the shown edge in the person's box (the group's box: the photo's size)
         if scaled:
