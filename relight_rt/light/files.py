@@ -12,22 +12,12 @@ from pathlib import Path
 import numpy as np
 
 from ..engine.errors import RelightError
-from .sh import N_COEFFS, check_light, check_magnitude
+from .sh import N_COEFFS, check_light, check_magnitude, numbers_only
 
 __all__ = ["load_light", "save_light"]
 
 _LAYOUTS = (None, "27-kc", "3x9")
 _JSON_MAX_BYTES = 1 << 20
-
-
-def _json_numbers(value) -> bool:
-    """Whether a parsed JSON value (nested lists, at most as deep as the parser allowed) holds numbers only: ints
-    and floats (not bools), each within a float's range."""
-    if isinstance(value, list):
-        return all(_json_numbers(v) for v in value)
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        return False
-    return not isinstance(value, int) or abs(value) < 2**1023
 
 
 def _shape_light(arr: np.ndarray, layout, p: Path) -> np.ndarray:
@@ -93,15 +83,15 @@ def load_light(path, bgr: bool = False, layout: str | None = None) -> np.ndarray
             if bgr and order == "rgb":
                 raise RelightError(f'{p}: bgr=True but the file says "order": "rgb"')
             swap = order == "bgr"
-            if not _json_numbers(doc["sh"]):  # numpy reads "0.5" and true as numbers, and overflows on 10**400
+            if not numbers_only(doc["sh"]):  # numpy reads "0.5" and true as numbers
                 raise RelightError(f'{p}: cannot read light file ("sh" must hold numbers only: no strings, '
-                                   "true/false or null, each within a float's range)")  # fmt: skip
-            raw = np.array(doc["sh"], dtype=np.float64)
+                                   "true/false or null)")  # fmt: skip
+            raw = np.array(doc["sh"], dtype=np.float64)  # OverflowError below: an integer of 400 digits
     except RelightError:
         raise
     except RecursionError:
         raise RelightError(f"{p}: cannot read light file (JSON nested too deeply)") from None
-    except (OSError, EOFError, ValueError, TypeError, UnicodeDecodeError) as exc:
+    except (OSError, EOFError, ValueError, TypeError, OverflowError, UnicodeDecodeError) as exc:
         raise RelightError(f"{p}: cannot read light file ({exc})") from None
     if raw.dtype.kind not in "fiu":
         raise RelightError(f"{p}: expected a numeric SH light, got dtype {raw.dtype}")

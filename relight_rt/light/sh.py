@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import logging
 import math
+import numbers
 
 import numpy as np
 
@@ -147,11 +148,19 @@ def describe_array(arr: np.ndarray) -> str:
     return f"{arr.shape} {arr.dtype}"
 
 
-def _holds_bool(values) -> bool:
-    """Whether nested lists / tuples (no deeper than numpy read them) hold a bool anywhere."""
+def numbers_only(values) -> bool:
+    """Whether ``values`` (nested lists / tuples, arrays, scalars, parsed JSON) holds real numbers only: no bools,
+    strings or None, which numpy would read as numbers or refuse later (``[True, 0.5]`` reads as 1.0). An array, or
+    anything numpy turns into one, counts by its dtype."""
     if isinstance(values, (list, tuple)):
-        return any(_holds_bool(v) for v in values)
-    return isinstance(values, (bool, np.bool_))
+        return all(numbers_only(v) for v in values)
+    if isinstance(values, (bool, np.bool_)):
+        return False
+    if isinstance(values, numbers.Real):
+        return True
+    if isinstance(values, np.ndarray) or hasattr(values, "__array__"):
+        return np.asarray(values).dtype.kind in "iuf"
+    return False
 
 
 def check_lights(light, name: str = "light") -> np.ndarray:
@@ -171,10 +180,10 @@ def check_lights(light, name: str = "light") -> np.ndarray:
         raise RelightError(f"{name}: expected an SH light of shape (9, 3), got an integer too large for a float") \
             from None
     src = np.asarray(light)
-    if isinstance(light, (list, tuple)) and _holds_bool(light):  # numpy reads [True, 0.5, 0] as numbers
-        raise RelightError(f"{name}: expected numbers in the SH light, got true/false")
     if src.dtype.kind not in "fiu":
         raise RelightError(f"{name}: expected a numeric SH light of shape (9, 3), got {describe_array(src)}")
+    if isinstance(light, (list, tuple)) and not numbers_only(light):  # numpy reads [True, 0.5, 0] as numbers
+        raise RelightError(f"{name}: expected numbers in the SH light, got true/false")
     if arr.ndim < 2 or arr.shape[-2:] != (N_COEFFS, 3):
         raise RelightError(f"{name}: expected an SH light of shape (9, 3) (or (N, 9, 3)), got {describe_array(src)}")
     if not np.all(np.isfinite(arr)):

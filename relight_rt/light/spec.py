@@ -19,7 +19,6 @@ One rule for a light given as a single string (``parse_light`` with paths allowe
 from __future__ import annotations
 
 import math
-import numbers
 import os
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -41,15 +40,6 @@ MAX_NUMBER = 1e4  # the largest |coefficient| of a light given as numbers (Light
 
 # estimate(photo_path, mask_path_or_None) -> (9, 3) light: how a photo's light is found (the Relighter's stage 1)
 Estimator = Callable[[Path, "str | None"], np.ndarray]
-
-
-def _numbers_only(values) -> bool:
-    """Whether ``values`` (nested lists/tuples or an array) holds real numbers only: no bools, strings or None."""
-    if isinstance(values, np.ndarray):
-        return values.dtype.kind in "iuf"
-    if isinstance(values, (list, tuple)):
-        return all(_numbers_only(v) for v in values)
-    return isinstance(values, numbers.Real) and not isinstance(values, (bool, np.bool_))
 
 
 def _angle(value) -> float:
@@ -135,7 +125,7 @@ class LightSpec:
             RelightError: not 27 numbers, not finite, or too large.
         """
         try:
-            if not _numbers_only(values):  # true/false or "0.5" would pass as numbers through numpy
+            if not sh.numbers_only(values):  # true/false or "0.5" would pass as numbers through numpy
                 raise TypeError
             arr = np.array(values, dtype=np.float64)
         except (TypeError, ValueError, OverflowError, RecursionError):  # OverflowError: an integer of 400 digits
