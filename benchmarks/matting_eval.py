@@ -34,7 +34,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from _shared import missing, shared_dir, shared_path  # noqa: E402
+from _shared import missing, shared_dir, shared_path, timed  # noqa: E402
 
 from relight_rt.person import matting as M  # noqa: E402
 
@@ -144,14 +144,9 @@ def _median_ms(fn, repeat: int) -> float:
 
 
 def _times_ms(fn, repeat: int) -> tuple[float, float]:
-    """(median, best) milliseconds of ``repeat`` calls after one warm-up call."""
-    fn()
-    times = []
-    for _ in range(repeat):
-        t = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t)
-    return 1000 * float(np.median(times)), 1000 * float(np.min(times))
+    """(median, best) milliseconds of ``repeat`` calls after one warm-up call (``_shared.timed``)."""
+    best, median = timed(fn, repeat)
+    return median, best
 
 
 def frames_720p(ref: Path) -> list[np.ndarray]:
