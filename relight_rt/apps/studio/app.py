@@ -13,7 +13,7 @@ Routes (no route takes a filesystem path; ids are random tokens of the server's 
     POST /api/shadow               {"light": 27 numbers} -> the faces' cast shadows the render puts under it, for the
                                    preview: {"box": [y0, y1, x0, x1], "meter", "depth": base64 uint8, "head_box",
                                    "head": base64 float32, the head pass's change} (Studio.shadow)
-    GET  /api/result/ID.png        a render's PNG at full resolution (?download=1: as an attachment)
+    GET  /api/result/ID.png        a render's PNG at full resolution (?download=1 or true: as an attachment)
     GET  /api/result/ID/light.npy  its light (9, 3) float32 RGB; light.json likewise
     POST /api/envmap               raw body: an .hdr / PNG / JPEG equirectangular map -> {"light"}
     POST /api/photo-light          raw body: a PNG/WebP photo of a person with alpha -> {"light"}
@@ -325,22 +325,22 @@ def create_app(studio: Studio, allowed_hosts: list[str] | None = None, budget: B
             raise RelightError(f"result {rid}: unknown or expired; relight again")
         return rec
 
-    def _attachment(download: int, filename: str) -> dict:
+    def _attachment(download: bool, filename: str) -> dict:
         return {"Content-Disposition": content_disposition(filename)} if download else {}
 
     @app.get("/api/result/{rid}.png")
-    def result_png(rid: str, download: int = 0):
+    def result_png(rid: str, download: bool = False):
         rec = _render(rid)
         headers = _attachment(download, f"{studio.photo.stem}_relit.png")
         return Response(rec.png, media_type="image/png", headers=headers)
 
     @app.get("/api/result/{rid}/light.npy")
-    def result_npy(rid: str, download: int = 0):
+    def result_npy(rid: str, download: bool = False):
         headers = _attachment(download, f"{studio.photo.stem}_light.npy")
         return Response(light_npy(_render(rid).light), media_type="application/octet-stream", headers=headers)
 
     @app.get("/api/result/{rid}/light.json")
-    def result_json(rid: str, download: int = 0):
+    def result_json(rid: str, download: bool = False):
         headers = _attachment(download, f"{studio.photo.stem}_light.json")
         return Response(light_json(_render(rid).light), media_type="application/json", headers=headers)
 

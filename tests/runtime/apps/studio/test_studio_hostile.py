@@ -202,6 +202,15 @@ def test_an_unreadable_query_parameter_is_400_with_one_line(client):
     assert client.get(f"/api/result/{rid}.png?download=1").status_code == 200
 
 
+@pytest.mark.parametrize("value, attached", [("1", True), ("true", True), ("yes", True), ("0", False), ("false", False)])
+def test_download_reads_as_a_yes_or_no(client, value, attached):
+    """?download=true was a 400 while the parameter was an int: any usual yes or no is read as one."""
+    rid = client.post("/api/render", json={"light": LIGHT}, headers={"origin": OWN}).json()["id"]
+    res = client.get(f"/api/result/{rid}.png?download={value}")
+    assert res.status_code == 200, res.text
+    assert ("attachment" in res.headers.get("content-disposition", "")) is attached
+
+
 def test_every_upload_is_worked_on_through_the_large_upload_rule(client, monkeypatch):
     """fuzz9: the server's uploads go through uploads.one_large_at_a_time (large ones one at a time)."""
     from relight_rt.apps.studio import app
