@@ -202,7 +202,9 @@ def test_an_unreadable_query_parameter_is_400_with_one_line(client):
     assert client.get(f"/api/result/{rid}.png?download=1").status_code == 200
 
 
-@pytest.mark.parametrize("value, attached", [("1", True), ("true", True), ("yes", True), ("0", False), ("false", False)])
+@pytest.mark.parametrize(
+    "value, attached", [("1", True), ("true", True), ("yes", True), ("0", False), ("false", False)]
+)
 def test_download_reads_as_a_yes_or_no(client, value, attached):
     """?download=true was a 400 while the parameter was an int: any usual yes or no is read as one."""
     rid = client.post("/api/render", json={"light": LIGHT}, headers={"origin": OWN}).json()["id"]
