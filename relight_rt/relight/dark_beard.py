@@ -14,6 +14,11 @@ dark hair hanging beside the jaw lies there too (beard40's broad check: about 20
 one side: a beard is one piece around the chin and mouth, so only pieces that reach across the chin's midline are
 kept (``one_piece``, beard41).
 
+Both cues (dark on both halves, one piece across the midline) read the face's two halves, and a turned face shows one:
+its midline lies near the jaw's far edge and the region's far side is the neck or the hair behind it. There a shadow
+on the neck under a lit 3/4 jaw (p092) or hair under the chin (p085) met every cue, and nothing in the photo told
+them from a beard; so the rule acts only on faces turned less than ``BEARD_TURN`` (``turn``, beard42).
+
 The module's constants are read when the functions run: benchmarks and tests set them here.
 """
 
@@ -42,6 +47,8 @@ BEARD_AROUND = 0.12  # the lit surroundings: a Gaussian of this share of the fac
 BEARD_AROUND_C = (8.0, 12.0)  # ... their mean C*: below the first grey (the rule off), above the second coloured
 BEARD_ACROSS = (0.1, 0.03)  # one piece across the chin's midline: pixels of weight above the first, joined over ...
 # ... this share of the face's height; None: no such gate (beard40)
+BEARD_TURN = (0.3, 0.45)  # a face's turn (``turn``): below the first the rule acts, above the second not; None: no
+# such gate (beard41). Chosen on half A between its bettered photos' at most 0.13 and the rest's from 0.46 (p092 0.51)
 NOSE, CHIN, TOP = 2, 152, 10  # landmarks: below the nose's base, the chin's lowest, the forehead's highest
 JAW = (132, 58, 172, 136, 150, 149, 176, 148, 152, 377, 400, 378, 379, 365, 397, 288, 361)  # the jaw's contour
 
@@ -77,6 +84,21 @@ def _mean(values: np.ndarray, weight: np.ndarray, sigma: float) -> np.ndarray:
     den = _blur(weight, sigma)
     num = _blur(values * weight, sigma)
     return np.divide(num, den, out=np.zeros_like(num), where=den > 1e-4)
+
+
+def turn(points: np.ndarray) -> float:
+    """How far the face of ``points`` ((468, >= 2) landmarks) is turned from the camera, in [0, inf): the nose's base
+    off the middle of the jaw's contour, across the face (its own frame, as ``beard_region``), in halves of the
+    contour's width; 0 frontal, 1 the nose's base over the jaw's far end (a profile). On the 26 people_masks photos
+    the rule acted on (beard41): the 9 it bettered 0.03-0.24, its 2 false beards p092 0.51 and p085 1.05."""
+    p = np.asarray(points, np.float64)[:, :2]
+    height = _height(p)
+    if height < 1e-3:
+        return float("inf")
+    up = (p[TOP] - p[CHIN]) / height
+    jaw = (p[list(JAW)] - p[NOSE]) @ np.array([-up[1], up[0]])
+    width = float(jaw.max() - jaw.min())
+    return abs(float(jaw.max() + jaw.min())) / width if width > 1e-3 else float("inf")
 
 
 def beard_region(points: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
@@ -145,11 +167,14 @@ def beard_weight(rgb: np.ndarray, albedo: np.ndarray, transport: np.ndarray, whi
     """(d, around, shading): d (r, r') float32 in [0, 1], how far each pixel is a black beard (module docstring),
     around (r, r', 9) the transport of the lit pixels about it and shading (r, r') theirs under ``white``; None where
     the rule is off (``BEARD``) or finds nothing. Arguments as ``dark_material``'s."""
-    points = tuple(p for p in points if _height(p) >= BEARD_MIN_FACE)
-    if not BEARD or not points or not solid.any():
+    # each face's share: 1 facing the camera, fading to 0 (the face left out) as it turns to ``BEARD_TURN[1]``
+    facing = [(p, 1.0 if BEARD_TURN is None else float(_ramp(np.float64(turn(p)), *BEARD_TURN))) for p in points]
+    facing = [(p, f) for p, f in facing if f > 0 and _height(p) >= BEARD_MIN_FACE]
+    if not BEARD or not facing or not solid.any():
         return None
+    points = tuple(p for p, _ in facing)
     shape = albedo.shape
-    regions = tuple(beard_region(pts, shape) for pts in points)
+    regions = tuple(beard_region(pts, shape) * np.float32(f) for pts, f in facing)
     region = np.maximum.reduce(regions) * solid
     if not region.max() > 1e-3:
         return None

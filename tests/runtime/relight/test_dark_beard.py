@@ -9,7 +9,7 @@ import pytest
 from _graphs import diffuse_models_dir
 
 from relight_rt.relight import dark_beard, look
-from relight_rt.relight.dark_beard import CHIN, JAW, NOSE, TOP, beard_region, beard_weight, dark_material
+from relight_rt.relight.dark_beard import CHIN, JAW, NOSE, TOP, beard_region, beard_weight, dark_material, turn
 
 __all__ = ["diffuse_models_dir"]  # fixture
 
@@ -36,6 +36,15 @@ def _face() -> np.ndarray:
     for k, i in enumerate(half):
         x, y = CX - 35 + 33 * k / max(len(half) - 1, 1), 75 + 33 * k / max(len(half) - 1, 1)
         points[i, :2], points[partner[i], :2] = (x, y), (2 * CX - x, y)
+    return points
+
+
+def _turned(far: float) -> np.ndarray:
+    """``_face`` turned: its far half (x > 60) foreshortened to ``far`` of its width about the midline, as a face
+    turned to its side shows it; the nose's base, chin and forehead stay on the midline."""
+    points = _face()
+    right = points[:, 0] > CX
+    points[right, 0] = CX + far * (points[right, 0] - CX)
     return points
 
 
@@ -125,6 +134,41 @@ def test_hair_beside_the_jaw_on_each_side_apart_is_not_taken_a_beard_joining_the
     args = _inputs(_photo(strands + [(slice(100, 118), slice(45, 76), True)]))
     d = beard_weight(*args)[0]
     assert d[95:110, 33:42].min() > 0.9 and d[95:110, 79:88].min() > 0.9 and d[104:114, 50:70].min() > 0.9
+
+
+@pytest.mark.parametrize("far", [1.0, 0.8, 0.6, 0.3, 0.0])
+def test_a_faces_turn_is_the_nose_off_the_jaws_middle_in_halves_of_its_width(far):
+    """``turn``: 0 on the symmetric face, (1 - far) / (1 + far) with its far half foreshortened to ``far`` (the jaw
+    from 35 px on the near side to 35 far px on the far one), 1 in profile; the same turned either way and after
+    any rotation and scale in the picture."""
+    points = _turned(far)
+    assert turn(points) == pytest.approx((1 - far) / (1 + far), abs=1e-9)
+    flipped = points.copy()
+    flipped[:, 0] = 2 * CX - flipped[:, 0]
+    assert turn(flipped) == pytest.approx(turn(points), abs=1e-9)
+    angle = np.deg2rad(30)
+    rot = 1.7 * np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+    moved = points.copy()
+    moved[:, :2] = points[:, :2] @ rot.T + (40, -7)
+    assert turn(moved) == pytest.approx(turn(points), abs=1e-9)
+
+
+def test_the_beard_of_a_turned_face_is_left_alone(monkeypatch):
+    """A face turned past ``BEARD_TURN`` (its far half foreshortened to 0.3: turn 0.54; p092 0.51, p085 1.05) shows one
+    half: a textured near-black patch across its chin meets the other cues (taken with the gate off) but gets no
+    weight; turned less than ``BEARD_TURN[0]`` (0.8: turn 0.11, the bettered photos' 0.03-0.24) all of it."""
+    beard = [(slice(92, 118), slice(38, 70), True)]
+    rgb, albedo, transport, white, solid, _ = _inputs(_photo(beard))
+    args = (rgb, albedo, transport, white, solid, (_turned(0.3),))
+    monkeypatch.setattr(dark_beard, "BEARD_TURN", None)
+    ungated = beard_weight(*args)
+    assert ungated is not None and ungated[0][100:112, 42:66].min() > 0.9
+    monkeypatch.undo()
+    assert beard_weight(*args) is None
+    albedo_out, transport_out, weight = dark_material(*args)
+    assert weight is None and albedo_out is albedo and transport_out is transport
+    d = beard_weight(rgb, albedo, transport, white, solid, (_turned(0.8),))[0]
+    assert d[100:112, 48:66].min() > 0.9  # (the patch whose mirror image lies on the patch)
 
 
 def test_a_warm_near_black_material_keeps_its_chroma_under_a_brightening_light():
