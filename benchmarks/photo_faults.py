@@ -7,9 +7,9 @@
 Relights with whatever ``relight_rt`` is importable (run from a checkout with PYTHONPATH=.), on the CPU, under
 every preset (by name, so a preset's own exposure applies, as the CLI does) and two white side lamps (``LEFT``,
 ``RIGHT`` of benchmarks/real_photos.py). Photos: the reference photo and the reference clip's frames with their
-masks (../shared/reference), and every ``--stride``-th photo of ``people_masks/photos`` with its service-made
-mask (from the ``--offset``-th; ../shared/realdata: evaluation only; the given masks keep the matte out of these figures), reduced to
-``--max-side`` pixels. Lab is CIE Lab (D65) of the float RGB; "person" = mask > 0.5.
+masks (../shared/reference), and every ``--stride``-th photo of ``people_masks/photos`` from the ``--offset``-th
+with its service-made mask (../shared/realdata: evaluation only; the given masks keep the matte out of these
+figures), reduced to ``--max-side`` pixels. Lab is CIE Lab (D65) of the float RGB; "person" = mask > 0.5.
 
 - teal: on photos whose person has near-black clothing (at least 2 % of the person, 400 pixels, with input L* < 30
   and chroma C* < 8: neutral), the share of those pixels that a light gives a* < -8 (issue 48: none in the input,
@@ -272,7 +272,8 @@ def main(argv=None) -> int:
             f = ref / "video" / f"frame_{i:03d}.png"
             if f.is_file():
                 inputs.append((f"frame_{i:03d}", f, f.with_name(f"frame_{i:03d}_mask.png")))
-        people = sorted((args.people / "photos").glob("*.jpg"))[args.offset :: args.stride] if args.people.is_dir() else []
+        people = sorted((args.people / "photos").glob("*.jpg")) if args.people.is_dir() else []
+        people = people[args.offset :: args.stride]
         inputs += [(f.stem, f, f.with_name(f"{f.stem}_mask.png")) for f in people]
         for name, image, maskf in inputs:
             rgb = read_rgb(image, args.max_side)
