@@ -229,3 +229,38 @@ def test_a_warm_pixel_within_a_near_neutral_dark_block_keeps_its_colour():
     out = keep_neutral(plain, gain, neutral_darks(image))
     np.testing.assert_allclose(out[:, 15], plain[:, 15], rtol=1e-6)
     assert chroma(out[:, 20:]) < chroma(plain[:, 20:]) - 1.5
+
+
+def test_a_near_neutral_dark_on_the_persons_outline_keeps_its_chroma_whatever_its_block_reads():
+    """A near-black cloth with a faint teal cast against a green backdrop, its outline inside a reduced block: the
+    block reads the cloth mixed with the leaves (coloured: not near-neutral), but the outline's pixels are held by
+    their own colour as the cloth inside is (teal42: the outline's teal, p104, p224); a block farther in, read as
+    before, is left as it was."""
+    cloth, leaves = patch((0.05, 0.07, 0.07), 32, 18), patch((0.15, 0.45, 0.1), 32, 22)  # the outline at x = 22
+    image = np.concatenate([leaves, cloth], axis=1)
+    person = np.zeros(image.shape[:2], bool)
+    person[:, 22:] = True
+    gain = np.broadcast_to(gain_of((1, 1, 1), 4.0, 1)[0, 0], image.shape).copy()
+    plain = image * gain
+    kept = keep_neutral(plain, gain, neutral_darks(image, solid=person))
+    edge = slice(22, 26)  # the outline's 4 px: in the block 20-23 with the backdrop, and the block beside it
+    assert chroma(plain[:, edge]) > chroma(image[:, edge]) + 3  # what it would be left as
+    assert chroma(kept[:, edge]) < chroma(image[:, edge]) + 1.5
+    assert chroma(kept[:, edge]) == pytest.approx(chroma(kept[:, 36:40]), abs=0.1)  # as the cloth inside
+    np.testing.assert_allclose(kept[:, :22], plain[:, :22])  # the backdrop is not the person's: untouched
+    # without a matte (solid None) there is no outline: the block's reading alone, as before
+    alone = keep_neutral(plain, gain, neutral_darks(image))
+    assert chroma(alone[:, edge]) > chroma(kept[:, edge]) + 1
+
+
+def test_a_warm_or_coloured_pixel_on_the_outline_is_left_as_relit():
+    """The outline rule takes near-neutral darks only: dark skin (warm) and a dark saturated colour on the outline
+    keep the light's colour growth."""
+    skin, blue = patch((0.16, 0.09, 0.06), 32, 12), patch((0.02, 0.03, 0.16), 32, 12)  # warm L* ~13; C* ~30
+    backdrop = patch((0.8, 0.8, 0.8), 32, 8)
+    image = np.concatenate([backdrop, skin, blue, backdrop], axis=1)
+    person = np.zeros(image.shape[:2], bool)
+    person[:, 8:32] = True
+    gain = np.broadcast_to(gain_of((1, 1, 1), 3.0, 1)[0, 0], image.shape).copy()
+    plain = image * gain
+    np.testing.assert_allclose(keep_neutral(plain, gain, neutral_darks(image, solid=person)), plain, rtol=1e-6)
