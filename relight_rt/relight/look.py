@@ -296,7 +296,8 @@ def _block_weight(image: np.ndarray, origin: tuple[int, int], solid: np.ndarray 
 def _outline_darks(image: np.ndarray, solid: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     """(index, weight): the flat indices of ``image``'s (h, w, 3) pixels on the matte's outline (``solid`` (h, w) bool,
     within ``_GREY_EDGE`` px of a pixel that is not solid; not at the photo's border) that are near-neutral and dark by
-    their own Lab colour (``_GREY_L``, ``_GREY_C``, ``_GREY_VIVID``, not warm), and that weight in (0, 1]; None: none.
+    their own Lab colour (``_GREY_L``, ``_GREY_C``, ``_GREY_VIVID``, not warm, C* of ``_GREY_HUE_C`` or more: a hue of
+    their own), and that weight in (0, 1]; None: none.
 
     A block across the outline reads the person mixed with the backdrop, and the outline's own pixels mix it in too
     (the matte's edge, the lens, JPEG's half-resolution chroma): the block's reading (bright, coloured, a material)
@@ -313,6 +314,10 @@ def _outline_darks(image: np.ndarray, solid: np.ndarray) -> tuple[np.ndarray, np
     chroma = np.hypot(lab[:, 1], lab[:, 2])
     weight = ramp(lab[:, 0], *_GREY_L) * ramp(chroma, *_GREY_C) * ramp(chroma / (lab[:, 0] + 16), *_GREY_VIVID)
     weight *= 1 - _warmth(np.degrees(np.arctan2(lab[:, 2], lab[:, 1])) % 360)
+    # ... and only where the pixel has a hue of its own (C* from _GREY_HUE_C / 2, fully from _GREY_HUE_C): a
+    # near-black pixel's hue is noise, its material the block's (the bundled example's brown trousers, black at
+    # their outline, went grey-blue there held by their own noise; the block rule reads them as brown)
+    weight *= np.clip(2 * chroma / _GREY_HUE_C - 1, 0, 1)
     keep = weight > 1e-3
     return (band[keep], weight[keep].astype(np.float32)) if keep.any() else None
 
