@@ -21,7 +21,8 @@ put in the first class it fits:
 - ``kept``: fully held to the photo's chroma at its new lightness and the light's colour, and teal still: the
   photo's own cast (input a* < -4: a tinted dark keeps its C*, and its a* passes -8 once the light's tint adds).
 
-Prints the classes' shares per PHOTO:LIGHT with the input a* split (tinted: a* < -4) and the light's own a* (a grey
+Also counts the teal pixels on the matte's outline (within ``look._GREY_EDGE`` px of a pixel that is not solid). Prints
+the classes' shares per PHOTO:LIGHT with the input a* split (tinted: a* < -4) and the light's own a* (a grey
 surface at L* 30 under the pixel's tint) and writes, with ``--out``, a sheet per PHOTO:LIGHT at 100 % around the
 teal pixels: photo | relit | classes (light cyan, edge yellow, gate red, weight magenta, lift blue, kept green).
 """
@@ -176,7 +177,12 @@ def diagnose(relighter, rgb: np.ndarray, mask: np.ndarray, light) -> dict:
                        "gates_median": {k: round(float(np.median(g[k][cy[inside], cx[inside]])), 3)
                                         for k in ("L", "C", "vivid", "warm", "material", "hue")} if inside.any()
                        else None}
+    # on the matte's outline (within look._GREY_EDGE px of a pixel that is not solid): the block mixes the backdrop
+    band = np.zeros(rgb.shape[:2], bool)
+    disk = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * look._GREY_EDGE + 1,) * 2)
+    band[y0:y1, x0:x1] = solid & (cv2.erode(solid.astype(np.uint8), disk) == 0)
     return {"black": int(black.sum()), "teal": int(teal.sum()), "share": float(teal.sum() / max(black.sum(), 1)),
+            "outline": int((teal & band).sum()),
             "untinted": int((teal & (lab_in[..., 1] >= UNTINTED_A)).sum()),
             "untinted_of": int((black & (lab_in[..., 1] >= UNTINTED_A)).sum()), "classes": rows,
             "_sheet": (rgb, relit, ys, xs, cls)}
@@ -234,7 +240,7 @@ def main(argv=None) -> int:
         del r["_sheet"]
         report[case] = r
         print(f"{case}: teal {r['teal']} of {r['black']} ({100 * r['share']:.2f} %), untinted {r['untinted']} of "
-              f"{r['untinted_of']}", flush=True)
+              f"{r['untinted_of']}, on the outline {r['outline']}", flush=True)
         for c, row in r["classes"].items():
             print(f"   {c:14s} {row['pixels']:6d} px (tinted {row['tinted']:5d}) input a* {row['input_a_median']:6.1f}"
                   f"  light a* {row['light_a_median']}  lift {row['lift_median']}  weight {row['weight_median']}"
