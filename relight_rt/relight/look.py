@@ -42,6 +42,8 @@ _GREY_WARM = (10.0, 100.0)  # ... and a warm hue (Lab hue angle, degrees) is lef
 _GREY_WARM_SOFT = 10.0  # ... fully from this many degrees inside those bounds
 _GREY_EDGE = 4  # ... and within this many pixels of the matte's outline, by the pixel's own colour alone (the
 # outline's pixels mix the backdrop in: its teal on half A, p104 / p138 / p224, lay within 5 px of the outline)
+_GREY_HUE_L = (4.0, 8.0)  # ... there a hue of its own from this L* (none below the first): below 8 lies sRGB's and
+# L*'s linear toe, where one 8-bit level moves a* by ~1 and JPEG's chroma by several (half A: p186's black outline)
 NEUTRAL_LIFT = (1.1, 1.5)  # ... relit brighter than the photo by less than the first: untouched, from the second: fully
 NEUTRAL_CHROMA_EXP = np.float32(2.2 / 3)  # C* ~ (chroma relative to luminance) x Y_linear^(1/3), Y_linear ~ y^2.2
 # (both public: the studio's preview grade applies the rule with them, sh.js neutralStep)
@@ -296,8 +298,8 @@ def _block_weight(image: np.ndarray, origin: tuple[int, int], solid: np.ndarray 
 def _outline_darks(image: np.ndarray, solid: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     """(index, weight): the flat indices of ``image``'s (h, w, 3) pixels on the matte's outline (``solid`` (h, w) bool,
     within ``_GREY_EDGE`` px of a pixel that is not solid; not at the photo's border) that are near-neutral and dark by
-    their own Lab colour (``_GREY_L``, ``_GREY_C``, ``_GREY_VIVID``, not warm, C* of ``_GREY_HUE_C`` or more: a hue of
-    their own), and that weight in (0, 1]; None: none.
+    their own Lab colour (``_GREY_L``, ``_GREY_C``, ``_GREY_VIVID``, not warm, C* of ``_GREY_HUE_C`` or more at L* of
+    ``_GREY_HUE_L[1]`` or more: a hue of their own), and that weight in (0, 1]; None: none.
 
     A block across the outline reads the person mixed with the backdrop, and the outline's own pixels mix it in too
     (the matte's edge, the lens, JPEG's half-resolution chroma): the block's reading (bright, coloured, a material)
@@ -314,10 +316,12 @@ def _outline_darks(image: np.ndarray, solid: np.ndarray) -> tuple[np.ndarray, np
     chroma = np.hypot(lab[:, 1], lab[:, 2])
     weight = ramp(lab[:, 0], *_GREY_L) * ramp(chroma, *_GREY_C) * ramp(chroma / (lab[:, 0] + 16), *_GREY_VIVID)
     weight *= 1 - _warmth(np.degrees(np.arctan2(lab[:, 2], lab[:, 1])) % 360)
-    # ... and only where the pixel has a hue of its own (C* from _GREY_HUE_C / 2, fully from _GREY_HUE_C): a
-    # near-black pixel's hue is noise, its material the block's (the bundled example's brown trousers, black at
-    # their outline, went grey-blue there held by their own noise; the block rule reads them as brown)
+    # ... and only where the pixel has a hue of its own (C* from _GREY_HUE_C / 2, fully from _GREY_HUE_C; L* from
+    # _GREY_HUE_L[0], fully from _GREY_HUE_L[1]): a near-black pixel's hue is noise, its material the block's (the
+    # bundled example's brown trousers, black at their outline, went grey-blue there held by their own noise; p186's
+    # black (0, 13, 7) at L* 2.8, C* 4.7, green-grey under RIGHT where the block's reading gives it the beige around)
     weight *= np.clip(2 * chroma / _GREY_HUE_C - 1, 0, 1)
+    weight *= np.clip((lab[:, 0] - _GREY_HUE_L[0]) / (_GREY_HUE_L[1] - _GREY_HUE_L[0]), 0, 1)
     keep = weight > 1e-3
     return (band[keep], weight[keep].astype(np.float32)) if keep.any() else None
 

@@ -236,7 +236,7 @@ def test_a_near_neutral_dark_on_the_persons_outline_keeps_its_chroma_whatever_it
     block reads the cloth mixed with the leaves (coloured: not near-neutral), but the outline's pixels are held by
     their own colour as the cloth inside is (teal42: the outline's teal, p104, p224); a block farther in, read as
     before, is left as it was."""
-    cloth, leaves = patch((0.03, 0.08, 0.08), 32, 18), patch((0.15, 0.45, 0.1), 32, 22)  # C* ~4.4; outline x = 22
+    cloth, leaves = patch((0.07, 0.13, 0.13), 32, 18), patch((0.15, 0.45, 0.1), 32, 22)  # L* 11, C* 6.8; x = 22
     image = np.concatenate([leaves, cloth], axis=1)
     person = np.zeros(image.shape[:2], bool)
     person[:, 22:] = True
@@ -249,11 +249,14 @@ def test_a_near_neutral_dark_on_the_persons_outline_keeps_its_chroma_whatever_it
     assert chroma(kept[:, edge]) < chroma(plain[:, edge]) - 3
     np.testing.assert_allclose(kept[:, :22], plain[:, :22])  # the backdrop is not the person's: untouched
     # a near-black outline whose hue is noise (C* ~1.8) is left to its block's reading (its material's)
-    black = np.concatenate([leaves, patch((0.05, 0.07, 0.07), 32, 18)], axis=1)
-    held = neutral_darks(black, solid=person)
-    weight = np.zeros(black.shape[0] * black.shape[1], np.float32)
-    weight[held.index[0] // 3] = held.weight
-    assert weight.reshape(black.shape[:2])[:, 22].max() < 0.5  # the mixed block's reading (0.35), not held
+    # ... and so is a black one whose C* is JPEG's at the linear toe (half A's p186: (0, 13, 7), L* 2.8, C* 4.7)
+    for dark in ((0.05, 0.07, 0.07), (0.0, 13 / 255, 7 / 255)):
+        black = np.concatenate([leaves, patch(dark, 32, 18)], axis=1)
+        held = neutral_darks(black, solid=person)
+        weight = np.zeros(black.shape[0] * black.shape[1], np.float32)
+        if held is not None:
+            weight[held.index[0] // 3] = held.weight
+        assert weight.reshape(black.shape[:2])[:, 22].max() < 0.5  # the mixed block's reading (0.35), not held
     # without a matte (solid None) there is no outline: the block's reading alone, as before
     alone = keep_neutral(plain, gain, neutral_darks(image))
     assert chroma(alone[:, edge]) > chroma(kept[:, edge]) + 1
