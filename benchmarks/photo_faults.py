@@ -1,14 +1,15 @@
 """Issue 48's faults of relit real photos, each as a figure over whole sets (not one photo at a time).
 
     python benchmarks/photo_faults.py --out runs/faults [--people ../shared/realdata/people_masks]
-        [--reference ../shared/reference] [--stride 3] [--max-side 1000] [--teal-only] [--lights campfire,front]
+        [--reference ../shared/reference] [--stride 3] [--offset 0] [--max-side 1000] [--teal-only]
+        [--lights campfire,front]
 
 Relights with whatever ``relight_rt`` is importable (run from a checkout with PYTHONPATH=.), on the CPU, under
 every preset (by name, so a preset's own exposure applies, as the CLI does) and two white side lamps (``LEFT``,
 ``RIGHT`` of benchmarks/real_photos.py). Photos: the reference photo and the reference clip's frames with their
-masks (../shared/reference), and every ``--stride``-th photo of ``people_masks/photos`` with its service-made
-mask (../shared/realdata: evaluation only; the given masks keep the matte out of these figures), reduced to
-``--max-side`` pixels. Lab is CIE Lab (D65) of the float RGB; "person" = mask > 0.5.
+masks (../shared/reference), and every ``--stride``-th photo of ``people_masks/photos`` from the ``--offset``-th
+with its service-made mask (../shared/realdata: evaluation only; the given masks keep the matte out of these
+figures), reduced to ``--max-side`` pixels. Lab is CIE Lab (D65) of the float RGB; "person" = mask > 0.5.
 
 - teal: on photos whose person has near-black clothing (at least 2 % of the person, 400 pixels, with input L* < 30
   and chroma C* < 8: neutral), the share of those pixels that a light gives a* < -8 (issue 48: none in the input,
@@ -233,6 +234,8 @@ def main(argv=None) -> int:
     p.add_argument("--reference", type=Path, default=shared_path("reference"))
     p.add_argument("--models", type=Path, default=None)
     p.add_argument("--stride", type=int, default=3)
+    p.add_argument("--offset", type=int, default=0, help="the first people_masks photo's index in sorted order: "
+                   "with --stride 4, 0 takes half A's (even) photos only, 1 half B's (odd)")
     p.add_argument("--max-side", type=int, default=1000)
     p.add_argument("--frames", type=int, default=6)
     p.add_argument("--skip-photos", action="store_true")
@@ -269,7 +272,8 @@ def main(argv=None) -> int:
             f = ref / "video" / f"frame_{i:03d}.png"
             if f.is_file():
                 inputs.append((f"frame_{i:03d}", f, f.with_name(f"frame_{i:03d}_mask.png")))
-        people = sorted((args.people / "photos").glob("*.jpg"))[:: args.stride] if args.people.is_dir() else []
+        people = sorted((args.people / "photos").glob("*.jpg")) if args.people.is_dir() else []
+        people = people[args.offset :: args.stride]
         inputs += [(f.stem, f, f.with_name(f"{f.stem}_mask.png")) for f in people]
         for name, image, maskf in inputs:
             rgb = read_rgb(image, args.max_side)

@@ -40,6 +40,10 @@ _GREY_SECTORS = 12  # ... its hue: one of this many sectors of a*, b*, or either
 _GREY_HUE_C = 4.0  # ... a pixel below this C* taking its neighbourhood's hue
 _GREY_WARM = (10.0, 100.0)  # ... and a warm hue (Lab hue angle, degrees) is left alone: skin, brown hair, wood ...
 _GREY_WARM_SOFT = 10.0  # ... fully from this many degrees inside those bounds
+_GREY_EDGE = 4  # ... and within this many pixels of the matte's outline, by the pixel's own colour alone (the
+# outline's pixels mix the backdrop in: its teal on half A, p104 / p138 / p224, lay within 5 px of the outline)
+_GREY_HUE_L = (4.0, 8.0)  # ... there a hue of its own from this L* (none below the first): below 8 lies sRGB's and
+# L*'s linear toe, where one 8-bit level moves a* by ~1 and JPEG's chroma by several (half A: p186's black outline)
 NEUTRAL_LIFT = (1.1, 1.5)  # ... relit brighter than the photo by less than the first: untouched, from the second: fully
 NEUTRAL_CHROMA_EXP = np.float32(2.2 / 3)  # C* ~ (chroma relative to luminance) x Y_linear^(1/3), Y_linear ~ y^2.2
 # (both public: the studio's preview grade applies the rule with them, sh.js neutralStep)
@@ -233,28 +237,9 @@ def _warmth(hue: np.ndarray) -> np.ndarray:
                       np.clip((_GREY_WARM[1] - hue) / _GREY_WARM_SOFT, 0, 1))
 
 
-def neutral_darks(image: np.ndarray, origin: tuple[int, int] = (0, 0), solid: np.ndarray | None = None
-                  ) -> NeutralDarks | None:
-    """What ``keep_neutral`` needs of a photo (``image``: (h, w, 3) float32 RGB in [0, 1]) whatever the light, on
-    its near-neutral dark pixels only (``NeutralDarks``), or None where no pixel is near-neutral and dark.
-    ``origin``: (y, x) of ``image``'s top-left pixel in the photo (the reduction's grid is the photo's). ``solid``:
-    (h, w) bool, where the photo is the person's own colour (not a soft edge's mix: there the relit colour is
-    another's, the estimated foreground); None: all. Computed once per photo (the runtime keeps it per
-    Decomposition), so that the per-light step is arithmetic on those pixels alone.
-
-    Near-neutral dark: 1 where the photo's CIE Lab L* and C* (on the photo reduced ``_NEUTRAL_STEP`` times, as
-    ``dark_colour``: the cast of a cloth or of hair is shared by its pixels, a pixel's own chroma is JPEG's noise) are
-    below ``_GREY_L[0]`` and ``_GREY_C[0]``, 0 from ``_GREY_L[1]`` or ``_GREY_C[1]`` up, linear between; of a hue
-    that is not warm (``_GREY_WARM``: shaded dark skin is dark and low in C* too, and a warm dark brightened reads as
-    its material, brown hair or skin, where a cool or magenta one reads as a cast: blue-grey, teal, violet); and not
-    where the pixel's hue reaches ``_GREY_MATERIAL`` nearby (``material_chroma``: blue jeans' deep folds are dark
-    and low in C* while the jeans are blue), read on the person's pixels (``solid``) only. A near-black pixel (C*
-    below ``_GREY_HUE_C``) takes the hue of the person's near-neutral darks around it (not a backdrop's or the skin's
-    beside it). A pixel whose own colour is warm and past ``_GREY_C`` (skin at the edge of dark hair) is left alone
-    whatever its reduced pixel reads. The relative chroma is each pixel's own (the hair's strands and the cloth's
-    weave keep their colours).
-    """
-    image = np.asarray(image, np.float32)
+def _block_weight(image: np.ndarray, origin: tuple[int, int], solid: np.ndarray | None) -> np.ndarray | None:
+    """``neutral_darks``' weight read on the photo's reduced blocks (its docstring): (h * w,) float32 per pixel of
+    ``image`` (h, w, 3) in [0, 1], 0 off ``solid``; None where no block is near-neutral and dark."""
     h, w = image.shape[:2]
     # the reduction's grid on the photo's own: a group's person (a window of the photo) reads as they do alone
     oy, ox = origin[0] % _NEUTRAL_STEP, origin[1] % _NEUTRAL_STEP
@@ -307,6 +292,72 @@ def neutral_darks(image: np.ndarray, origin: tuple[int, int] = (0, 0), solid: np
                                                                                              ox : ox + w].ravel()
     if solid is not None:
         weight = weight * solid.ravel()
+    return weight
+
+
+def _outline_darks(image: np.ndarray, solid: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """(index, weight): the flat indices of ``image``'s (h, w, 3) pixels on the matte's outline (``solid`` (h, w) bool,
+    within ``_GREY_EDGE`` px of a pixel that is not solid; not at the photo's border) that are near-neutral and dark by
+    their own Lab colour (``_GREY_L``, ``_GREY_C``, ``_GREY_VIVID``, not warm, C* of ``_GREY_HUE_C`` or more at L* of
+    ``_GREY_HUE_L[1]`` or more: a hue of their own), and that weight in (0, 1]; None: none.
+
+    A block across the outline reads the person mixed with the backdrop, and the outline's own pixels mix it in too
+    (the matte's edge, the lens, JPEG's half-resolution chroma): the block's reading (bright, coloured, a material)
+    left dark hair before green leaves or a dark shirt before grey pavement half held or not at all, and the light
+    brightened the backdrop's cast with them (teal on half A's worst photos, p104's hair under rim, p224's shirt
+    under window-left). A near-neutral dark pixel there keeps its own chroma whatever its block reads."""
+    mask = np.asarray(solid, np.uint8)
+    disk = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * _GREY_EDGE + 1,) * 2)
+    band = np.flatnonzero(mask.ravel() > cv2.erode(mask, disk).ravel())  # the erosion ignores the photo's border
+    if band.size == 0:
+        return None
+    lab = to_lab(np.clip(np.take(image.reshape(-1, 3), band, axis=0), 0, 1)[None])[0]
+    ramp = lambda v, lo, hi: np.clip((hi - v) / (hi - lo), 0, 1)  # noqa: E731 - 1 below lo, 0 above hi
+    chroma = np.hypot(lab[:, 1], lab[:, 2])
+    weight = ramp(lab[:, 0], *_GREY_L) * ramp(chroma, *_GREY_C) * ramp(chroma / (lab[:, 0] + 16), *_GREY_VIVID)
+    weight *= 1 - _warmth(np.degrees(np.arctan2(lab[:, 2], lab[:, 1])) % 360)
+    # ... and only where the pixel has a hue of its own (C* from _GREY_HUE_C / 2, fully from _GREY_HUE_C; L* from
+    # _GREY_HUE_L[0], fully from _GREY_HUE_L[1]): a near-black pixel's hue is noise, its material the block's (the
+    # bundled example's brown trousers, black at their outline, went grey-blue there held by their own noise; p186's
+    # black (0, 13, 7) at L* 2.8, C* 4.7, green-grey under RIGHT where the block's reading gives it the beige around)
+    weight *= np.clip(2 * chroma / _GREY_HUE_C - 1, 0, 1)
+    weight *= np.clip((lab[:, 0] - _GREY_HUE_L[0]) / (_GREY_HUE_L[1] - _GREY_HUE_L[0]), 0, 1)
+    keep = weight > 1e-3
+    return (band[keep], weight[keep].astype(np.float32)) if keep.any() else None
+
+
+def neutral_darks(image: np.ndarray, origin: tuple[int, int] = (0, 0), solid: np.ndarray | None = None
+                  ) -> NeutralDarks | None:
+    """What ``keep_neutral`` needs of a photo (``image``: (h, w, 3) float32 RGB in [0, 1]) whatever the light, on
+    its near-neutral dark pixels only (``NeutralDarks``), or None where no pixel is near-neutral and dark.
+    ``origin``: (y, x) of ``image``'s top-left pixel in the photo (the reduction's grid is the photo's). ``solid``:
+    (h, w) bool, where the photo is the person's own colour (not a soft edge's mix: there the relit colour is
+    another's, the estimated foreground); None: all. Computed once per photo (the runtime keeps it per
+    Decomposition), so that the per-light step is arithmetic on those pixels alone.
+
+    Near-neutral dark: 1 where the photo's CIE Lab L* and C* (on the photo reduced ``_NEUTRAL_STEP`` times, as
+    ``dark_colour``: the cast of a cloth or of hair is shared by its pixels, a pixel's own chroma is JPEG's noise) are
+    below ``_GREY_L[0]`` and ``_GREY_C[0]``, 0 from ``_GREY_L[1]`` or ``_GREY_C[1]`` up, linear between; of a hue
+    that is not warm (``_GREY_WARM``: shaded dark skin is dark and low in C* too, and a warm dark brightened reads as
+    its material, brown hair or skin, where a cool or magenta one reads as a cast: blue-grey, teal, violet); and not
+    where the pixel's hue reaches ``_GREY_MATERIAL`` nearby (``material_chroma``: blue jeans' deep folds are dark
+    and low in C* while the jeans are blue), read on the person's pixels (``solid``) only. A near-black pixel (C*
+    below ``_GREY_HUE_C``) takes the hue of the person's near-neutral darks around it (not a backdrop's or the skin's
+    beside it). A pixel whose own colour is warm and past ``_GREY_C`` (skin at the edge of dark hair) is left alone
+    whatever its reduced pixel reads. On the matte's outline (within ``_GREY_EDGE`` px of a pixel that is not
+    ``solid``) a pixel near-neutral and dark by its own colour counts at least by that (``_outline_darks``): its block
+    mixes the backdrop in. The relative chroma is each pixel's own (the hair's strands and the cloth's weave keep their
+    colours).
+    """
+    image = np.asarray(image, np.float32)
+    weight = _block_weight(image, origin, solid)
+    outline = None if solid is None else _outline_darks(image, solid)
+    if outline is not None:
+        weight = np.zeros(image.shape[0] * image.shape[1], np.float32) if weight is None else weight
+        weight[outline[0]] = np.maximum(weight[outline[0]], outline[1])
+    if weight is None:
+        return None
+    ramp = lambda v, lo, hi: np.clip((hi - v) / (hi - lo), 0, 1)  # noqa: E731 - 1 below lo, 0 above hi
     index = np.flatnonzero(weight > 1e-3)
     if index.size == 0:
         return None

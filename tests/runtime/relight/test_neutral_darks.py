@@ -229,3 +229,47 @@ def test_a_warm_pixel_within_a_near_neutral_dark_block_keeps_its_colour():
     out = keep_neutral(plain, gain, neutral_darks(image))
     np.testing.assert_allclose(out[:, 15], plain[:, 15], rtol=1e-6)
     assert chroma(out[:, 20:]) < chroma(plain[:, 20:]) - 1.5
+
+
+def test_a_near_neutral_dark_on_the_persons_outline_keeps_its_chroma_whatever_its_block_reads():
+    """A near-black cloth with a faint teal cast against a green backdrop, its outline inside a reduced block: the
+    block reads the cloth mixed with the leaves (coloured: not near-neutral), but the outline's pixels are held by
+    their own colour as the cloth inside is (teal42: the outline's teal, p104, p224); a block farther in, read as
+    before, is left as it was."""
+    cloth, leaves = patch((0.07, 0.13, 0.13), 32, 18), patch((0.15, 0.45, 0.1), 32, 22)  # L* 11, C* 6.8; x = 22
+    image = np.concatenate([leaves, cloth], axis=1)
+    person = np.zeros(image.shape[:2], bool)
+    person[:, 22:] = True
+    gain = np.broadcast_to(gain_of((1, 1, 1), 4.0, 1)[0, 0], image.shape).copy()
+    plain = image * gain
+    kept = keep_neutral(plain, gain, neutral_darks(image, solid=person))
+    edge = slice(22, 26)  # the outline's 4 px: in the block 20-23 with the backdrop, and the block beside it
+    assert chroma(plain[:, edge]) > chroma(image[:, edge]) + 3  # what it would be left as
+    assert chroma(kept[:, edge]) == pytest.approx(chroma(kept[:, 36:40]), abs=0.1)  # as the cloth inside
+    assert chroma(kept[:, edge]) < chroma(plain[:, edge]) - 3
+    np.testing.assert_allclose(kept[:, :22], plain[:, :22])  # the backdrop is not the person's: untouched
+    # a near-black outline whose hue is noise (C* ~1.8) is left to its block's reading (its material's)
+    # ... and so is a black one whose C* is JPEG's at the linear toe (half A's p186: (0, 13, 7), L* 2.8, C* 4.7)
+    for dark in ((0.05, 0.07, 0.07), (0.0, 13 / 255, 7 / 255)):
+        black = np.concatenate([leaves, patch(dark, 32, 18)], axis=1)
+        held = neutral_darks(black, solid=person)
+        weight = np.zeros(black.shape[0] * black.shape[1], np.float32)
+        if held is not None:
+            weight[held.index[0] // 3] = held.weight
+        assert weight.reshape(black.shape[:2])[:, 22].max() < 0.5  # the mixed block's reading (0.35), not held
+    # without a matte (solid None) there is no outline: the block's reading alone, as before
+    alone = keep_neutral(plain, gain, neutral_darks(image))
+    assert chroma(alone[:, edge]) > chroma(kept[:, edge]) + 1
+
+
+def test_a_warm_or_coloured_pixel_on_the_outline_is_left_as_relit():
+    """The outline rule takes near-neutral darks only: dark skin (warm) and a dark saturated colour on the outline
+    keep the light's colour growth."""
+    skin, blue = patch((0.16, 0.09, 0.06), 32, 12), patch((0.02, 0.03, 0.16), 32, 12)  # warm L* ~13; C* ~30
+    backdrop = patch((0.8, 0.8, 0.8), 32, 8)
+    image = np.concatenate([backdrop, skin, blue, backdrop], axis=1)
+    person = np.zeros(image.shape[:2], bool)
+    person[:, 8:32] = True
+    gain = np.broadcast_to(gain_of((1, 1, 1), 3.0, 1)[0, 0], image.shape).copy()
+    plain = image * gain
+    np.testing.assert_allclose(keep_neutral(plain, gain, neutral_darks(image, solid=person)), plain, rtol=1e-6)
