@@ -83,6 +83,7 @@ export function decodeLayers(buffer, meta) {
       },
       neutralLift: meta.neutral_lift,
       neutralChromaExp: meta.neutral_chroma_exp,
+      neutralToe: meta.neutral_toe,
     },
   };
 }
