@@ -83,7 +83,9 @@ def gates(image: np.ndarray, origin: tuple[int, int], solid: np.ndarray) -> dict
     around = cv2.GaussianBlur(ab * near[..., None], (0, 0), reach / 2) / np.maximum(total, 1e-6)[..., None]
     ab = np.where(((chroma < look._GREY_HUE_C) & (total > 1e-3))[..., None], around, ab)
     hue = np.degrees(np.arctan2(ab[..., 1], ab[..., 0])) % 360
-    g["warm"] = 1 - look._warmth(hue) * np.clip(2 * np.hypot(ab[..., 0], ab[..., 1]) / look._GREY_HUE_C - 1, 0, 1)
+    own_hue = np.hypot(ab[..., 0], ab[..., 1]) / (lab_s[..., 0] + 16)
+    lo, hi = look._GREY_HUE_OWN
+    g["warm"] = 1 - look._warmth(hue) * np.clip((own_hue - lo) / (hi - lo), 0, 1)
     g["material"] = ramp(look.material_chroma(hue, chroma * person, reach), *_GREY_MATERIAL)
     g["hue"] = hue
     g["reduced_C"] = chroma

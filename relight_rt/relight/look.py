@@ -39,7 +39,9 @@ _GREY_REACH = 6  # ... within this many pixels of the reduced photo (blue jeans'
 _GREY_SECTORS = 12  # ... its hue: one of this many sectors of a*, b*, or either beside it
 _GREY_HUE_C = 4.0  # ... a pixel below this C* taking its neighbourhood's hue
 _GREY_WARM = (10.0, 100.0)  # ... and a warm hue (Lab hue angle, degrees) is left alone: skin, brown hair, wood ...
-_GREY_WARM_SOFT = 10.0  # ... fully from this many degrees inside those bounds
+_GREY_WARM_SOFT = 10.0  # ... fully from this many degrees inside those bounds, and only with a hue of its own:
+_GREY_HUE_OWN = (0.05, 0.1)  # ... its (a*, b*)'s length over L* + 16 (as ``_GREY_VIVID``) from the first, fully
+# from the second (half A: p041's black sweater 0.05, the hue of its 8 bits; the bundled example's shaded skin 0.18)
 _GREY_EDGE = 4  # ... and within this many pixels of the matte's outline, by the pixel's own colour alone (the
 # outline's pixels mix the backdrop in: its teal on half A, p104 / p138 / p224, lay within 5 px of the outline)
 NEUTRAL_TOE = (4.0, 8.0)  # ... there a hue of its own from this L* (none below the first): below 8 lies sRGB's and
@@ -290,10 +292,10 @@ def _block_weight(image: np.ndarray, origin: tuple[int, int], solid: np.ndarray 
     around = cv2.GaussianBlur(ab * near[..., None], (0, 0), reach / 2) / np.maximum(total, 1e-6)[..., None]
     ab = np.where(((chroma < _GREY_HUE_C) & (total > 1e-3))[..., None], around, ab)
     hue = np.degrees(np.arctan2(ab[..., 1], ab[..., 0])) % 360
-    # warm only with a hue of its own (that chroma from _GREY_HUE_C / 2, fully from _GREY_HUE_C, as on the outline):
-    # p041's black sweater, L* 2.4, (a*, b*) (0, 0.9) and its neighbours alike, was "warm", left out, and the ratio
-    # and the fill lifted it grey-brown under RIGHT
-    warm = _warmth(hue) * np.clip(2 * np.hypot(ab[..., 0], ab[..., 1]) / _GREY_HUE_C - 1, 0, 1)
+    # warm only with a hue of its own (``_GREY_HUE_OWN``): p041's black sweater, L* 2.4, (a*, b*) (0, 0.9) and its
+    # neighbours alike (0.05), was "warm", left out, and the ratio and the fill lifted it grey-brown under RIGHT
+    own_hue = np.hypot(ab[..., 0], ab[..., 1]) / (lab[..., 0] + 16)
+    warm = _warmth(hue) * np.clip((own_hue - _GREY_HUE_OWN[0]) / (_GREY_HUE_OWN[1] - _GREY_HUE_OWN[0]), 0, 1)
     # the material: the person's own colours nearby only (a backdrop of the hair's cast is not the hair's material)
     weight *= (1 - warm) * ramp(material_chroma(hue, chroma * person, reach), *_GREY_MATERIAL)
     if not weight.any():
@@ -352,7 +354,9 @@ def neutral_darks(image: np.ndarray, origin: tuple[int, int] = (0, 0), solid: np
     ``dark_colour``: the cast of a cloth or of hair is shared by its pixels, a pixel's own chroma is JPEG's noise) are
     below ``_GREY_L[0]`` and ``_GREY_C[0]``, 0 from ``_GREY_L[1]`` or ``_GREY_C[1]`` up, linear between; of a hue
     that is not warm (``_GREY_WARM``: shaded dark skin is dark and low in C* too, and a warm dark brightened reads as
-    its material, brown hair or skin, where a cool or magenta one reads as a cast: blue-grey, teal, violet); and not
+    its material, brown hair or skin, where a cool or magenta one reads as a cast: blue-grey, teal, violet), or
+    too faint to be a hue (``_GREY_HUE_OWN``: a black cloth's 8 bits); its pixels' vividness counted outside sRGB's
+    toe only (``_toe``); and not
     where the pixel's hue reaches ``_GREY_MATERIAL`` nearby (``material_chroma``: blue jeans' deep folds are dark
     and low in C* while the jeans are blue), read on the person's pixels (``solid``) only. A near-black pixel (C*
     below ``_GREY_HUE_C``) takes the hue of the person's near-neutral darks around it (not a backdrop's or the skin's

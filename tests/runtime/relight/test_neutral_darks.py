@@ -278,13 +278,14 @@ def test_a_warm_or_coloured_pixel_on_the_outline_is_left_as_relit():
 def test_a_near_black_without_a_hue_of_its_own_is_near_neutral_whatever_its_faint_cast():
     """p041's black sweater (L* ~2, (a*, b*) ~ (0, 0.9)): a hue that faint is noise, not a warm material; it counts as
     a near-neutral dark (it was left out as warm, and a lamp lifted it grey-brown). A warm near-black with a hue of
-    its own (C* 5) is still left alone."""
+    its own (C* 5 at L* 5; the bundled example's shaded dark skin, C* 3.8 at L* 5) is still left alone."""
     black = patch((6 / 255, 5 / 255, 3 / 255), 32)
     _, a, b = lab(black)
     assert np.hypot(a, b) < 1.5 and 10 < np.degrees(np.arctan2(b, a)) % 360 < 100  # faint, and warm by its hue
     dark = neutral_darks(black)
     assert dark is not None and dark.weight.min() > 0.99
     assert neutral_darks(patch((0.1, 0.06, 0.05), 32)) is None  # L* 5, a* +4, b* +3
+    assert neutral_darks(patch((0.075, 0.05, 0.04), 32)) is None  # L* ~4, C* ~3.5: dark skin in shade
 
 
 def test_a_near_black_in_srgbs_toe_keeps_no_chroma_of_its_own():
