@@ -72,7 +72,7 @@ def gates(image: np.ndarray, origin: tuple[int, int], solid: np.ndarray) -> dict
     full = look.to_lab(grid)
     own_c = np.hypot(full[..., 1], full[..., 2])
     own = cv2.resize(own_c, (sw, sh), interpolation=cv2.INTER_AREA)
-    vivid = cv2.resize(own_c / (full[..., 0] + 16) * look._toe(full[..., 0]), (sw, sh), interpolation=cv2.INTER_AREA)
+    vivid = cv2.resize(own_c / (full[..., 0] + 16), (sw, sh), interpolation=cv2.INTER_AREA)
     g = {"L": ramp(lab_s[..., 0], *_GREY_L), "C": ramp(np.maximum(chroma, own - _GREY_NOISE), *_GREY_C),
          "vivid": ramp(vivid, *_GREY_VIVID)}
     weight = g["L"] * g["C"] * g["vivid"]
@@ -83,9 +83,7 @@ def gates(image: np.ndarray, origin: tuple[int, int], solid: np.ndarray) -> dict
     around = cv2.GaussianBlur(ab * near[..., None], (0, 0), reach / 2) / np.maximum(total, 1e-6)[..., None]
     ab = np.where(((chroma < look._GREY_HUE_C) & (total > 1e-3))[..., None], around, ab)
     hue = np.degrees(np.arctan2(ab[..., 1], ab[..., 0])) % 360
-    own_hue = np.hypot(ab[..., 0], ab[..., 1]) / (lab_s[..., 0] + 16)
-    lo, hi = look._GREY_HUE_OWN
-    g["warm"] = 1 - look._warmth(hue) * np.clip((own_hue - lo) / (hi - lo), 0, 1)
+    g["warm"] = 1 - look._warmth(hue)
     g["material"] = ramp(look.material_chroma(hue, chroma * person, reach), *_GREY_MATERIAL)
     g["hue"] = hue
     g["reduced_C"] = chroma

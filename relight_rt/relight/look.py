@@ -39,14 +39,11 @@ _GREY_REACH = 6  # ... within this many pixels of the reduced photo (blue jeans'
 _GREY_SECTORS = 12  # ... its hue: one of this many sectors of a*, b*, or either beside it
 _GREY_HUE_C = 4.0  # ... a pixel below this C* taking its neighbourhood's hue
 _GREY_WARM = (10.0, 100.0)  # ... and a warm hue (Lab hue angle, degrees) is left alone: skin, brown hair, wood ...
-_GREY_WARM_SOFT = 10.0  # ... fully from this many degrees inside those bounds, and only with a hue of its own:
-_GREY_HUE_OWN = (0.05, 0.1)  # ... its (a*, b*)'s length over L* + 16 (as ``_GREY_VIVID``) from the first, fully
-# from the second (half A: p041's black sweater 0.05, the hue of its 8 bits; the bundled example's shaded skin 0.18)
+_GREY_WARM_SOFT = 10.0  # ... fully from this many degrees inside those bounds
 _GREY_EDGE = 4  # ... and within this many pixels of the matte's outline, by the pixel's own colour alone (the
 # outline's pixels mix the backdrop in: its teal on half A, p104 / p138 / p224, lay within 5 px of the outline)
-NEUTRAL_TOE = (4.0, 8.0)  # ... there a hue of its own from this L* (none below the first): below 8 lies sRGB's and
-# L*'s linear toe, where one 8-bit level moves a* by ~1 and JPEG's chroma by several (half A: p186's black outline);
-# everywhere, a colour's hue, vividness and kept chroma (``_toe``: public, the studio's preview grade applies it)
+_GREY_HUE_L = (4.0, 8.0)  # ... there a hue of its own from this L* (none below the first): below 8 lies sRGB's and
+# L*'s linear toe, where one 8-bit level moves a* by ~1 and JPEG's chroma by several (half A: p186's black outline)
 NEUTRAL_LIFT = (1.1, 1.5)  # ... relit brighter than the photo by less than the first: untouched, from the second: fully
 NEUTRAL_CHROMA_EXP = np.float32(2.2 / 3)  # C* ~ (chroma relative to luminance) x Y_linear^(1/3), Y_linear ~ y^2.2
 # (both public: the studio's preview grade applies the rule with them, sh.js neutralStep)
@@ -240,13 +237,6 @@ def _warmth(hue: np.ndarray) -> np.ndarray:
                       np.clip((_GREY_WARM[1] - hue) / _GREY_WARM_SOFT, 0, 1))
 
 
-def _toe(lightness: np.ndarray) -> np.ndarray:
-    """How far a colour of Lab ``lightness`` (L*, any shape) has a hue and a chroma of its own, in [0, 1]: none below
-    ``NEUTRAL_TOE[0]``, all from ``NEUTRAL_TOE[1]``, linear between (sRGB's and L*'s linear toe: one 8-bit level
-    moves a* there by ~1, JPEG's chroma by several)."""
-    return np.clip((lightness - NEUTRAL_TOE[0]) / (NEUTRAL_TOE[1] - NEUTRAL_TOE[0]), 0, 1)
-
-
 def _block_weight(image: np.ndarray, origin: tuple[int, int], solid: np.ndarray | None) -> np.ndarray | None:
     """``neutral_darks``' weight read on the photo's reduced blocks (its docstring): (h * w,) float32 per pixel of
     ``image`` (h, w, 3) in [0, 1], 0 off ``solid``; None where no block is near-neutral and dark."""
@@ -274,10 +264,8 @@ def _block_weight(image: np.ndarray, origin: tuple[int, int], solid: np.ndarray 
     own_c = np.hypot(full[..., 1], full[..., 2])
     own = cv2.resize(own_c, size, interpolation=cv2.INTER_AREA)
     # ... and by its chroma for its lightness (C* / (L* + 16) ~ chroma relative to luminance): a dark saturated colour
-    # is low in C* only because it is dark (a red stripe in shade: 0.48; dark hair with a blue cast: 0.15-0.27); a
-    # pixel in sRGB's toe (``_toe``) has none of its own: p287's black cheek shadow (L* 1, C* 6 of JPEG's chroma: 0.37)
-    # was read as a violet material, left out, and the deep-shadow fill lifted it violet under RIGHT
-    vivid = cv2.resize(own_c / (full[..., 0] + 16) * _toe(full[..., 0]), size, interpolation=cv2.INTER_AREA)
+    # is low in C* only because it is dark (a red stripe in shade: 0.48; dark hair with a blue cast: 0.15-0.27)
+    vivid = cv2.resize(own_c / (full[..., 0] + 16), size, interpolation=cv2.INTER_AREA)
     weight = ramp(lab[..., 0], *_GREY_L) * ramp(np.maximum(chroma, own - _GREY_NOISE), *_GREY_C)
     weight *= ramp(vivid, *_GREY_VIVID)
     if not weight.any():
@@ -292,10 +280,7 @@ def _block_weight(image: np.ndarray, origin: tuple[int, int], solid: np.ndarray 
     around = cv2.GaussianBlur(ab * near[..., None], (0, 0), reach / 2) / np.maximum(total, 1e-6)[..., None]
     ab = np.where(((chroma < _GREY_HUE_C) & (total > 1e-3))[..., None], around, ab)
     hue = np.degrees(np.arctan2(ab[..., 1], ab[..., 0])) % 360
-    # warm only with a hue of its own (``_GREY_HUE_OWN``): p041's black sweater, L* 2.4, (a*, b*) (0, 0.9) and its
-    # neighbours alike (0.05), was "warm", left out, and the ratio and the fill lifted it grey-brown under RIGHT
-    own_hue = np.hypot(ab[..., 0], ab[..., 1]) / (lab[..., 0] + 16)
-    warm = _warmth(hue) * np.clip((own_hue - _GREY_HUE_OWN[0]) / (_GREY_HUE_OWN[1] - _GREY_HUE_OWN[0]), 0, 1)
+    warm = _warmth(hue)
     # the material: the person's own colours nearby only (a backdrop of the hair's cast is not the hair's material)
     weight *= (1 - warm) * ramp(material_chroma(hue, chroma * person, reach), *_GREY_MATERIAL)
     if not weight.any():
@@ -314,7 +299,7 @@ def _outline_darks(image: np.ndarray, solid: np.ndarray) -> tuple[np.ndarray, np
     """(index, weight): the flat indices of ``image``'s (h, w, 3) pixels on the matte's outline (``solid`` (h, w) bool,
     within ``_GREY_EDGE`` px of a pixel that is not solid; not at the photo's border) that are near-neutral and dark by
     their own Lab colour (``_GREY_L``, ``_GREY_C``, ``_GREY_VIVID``, not warm, C* of ``_GREY_HUE_C`` or more at L* of
-    ``NEUTRAL_TOE[1]`` or more: a hue of their own), and that weight in (0, 1]; None: none.
+    ``_GREY_HUE_L[1]`` or more: a hue of their own), and that weight in (0, 1]; None: none.
 
     A block across the outline reads the person mixed with the backdrop, and the outline's own pixels mix it in too
     (the matte's edge, the lens, JPEG's half-resolution chroma): the block's reading (bright, coloured, a material)
@@ -332,11 +317,11 @@ def _outline_darks(image: np.ndarray, solid: np.ndarray) -> tuple[np.ndarray, np
     weight = ramp(lab[:, 0], *_GREY_L) * ramp(chroma, *_GREY_C) * ramp(chroma / (lab[:, 0] + 16), *_GREY_VIVID)
     weight *= 1 - _warmth(np.degrees(np.arctan2(lab[:, 2], lab[:, 1])) % 360)
     # ... and only where the pixel has a hue of its own (C* from _GREY_HUE_C / 2, fully from _GREY_HUE_C; L* from
-    # NEUTRAL_TOE[0], fully from NEUTRAL_TOE[1]): a near-black pixel's hue is noise, its material the block's (the
+    # _GREY_HUE_L[0], fully from _GREY_HUE_L[1]): a near-black pixel's hue is noise, its material the block's (the
     # bundled example's brown trousers, black at their outline, went grey-blue there held by their own noise; p186's
     # black (0, 13, 7) at L* 2.8, C* 4.7, green-grey under RIGHT where the block's reading gives it the beige around)
     weight *= np.clip(2 * chroma / _GREY_HUE_C - 1, 0, 1)
-    weight *= _toe(lab[:, 0])
+    weight *= np.clip((lab[:, 0] - _GREY_HUE_L[0]) / (_GREY_HUE_L[1] - _GREY_HUE_L[0]), 0, 1)
     keep = weight > 1e-3
     return (band[keep], weight[keep].astype(np.float32)) if keep.any() else None
 
@@ -354,9 +339,7 @@ def neutral_darks(image: np.ndarray, origin: tuple[int, int] = (0, 0), solid: np
     ``dark_colour``: the cast of a cloth or of hair is shared by its pixels, a pixel's own chroma is JPEG's noise) are
     below ``_GREY_L[0]`` and ``_GREY_C[0]``, 0 from ``_GREY_L[1]`` or ``_GREY_C[1]`` up, linear between; of a hue
     that is not warm (``_GREY_WARM``: shaded dark skin is dark and low in C* too, and a warm dark brightened reads as
-    its material, brown hair or skin, where a cool or magenta one reads as a cast: blue-grey, teal, violet), or
-    too faint to be a hue (``_GREY_HUE_OWN``: a black cloth's 8 bits); its pixels' vividness counted outside sRGB's
-    toe only (``_toe``); and not
+    its material, brown hair or skin, where a cool or magenta one reads as a cast: blue-grey, teal, violet); and not
     where the pixel's hue reaches ``_GREY_MATERIAL`` nearby (``material_chroma``: blue jeans' deep folds are dark
     and low in C* while the jeans are blue), read on the person's pixels (``solid``) only. A near-black pixel (C*
     below ``_GREY_HUE_C``) takes the hue of the person's near-neutral darks around it (not a backdrop's or the skin's
@@ -487,25 +470,12 @@ def neutral_values(q: np.ndarray, g: np.ndarray, n: np.ndarray, c: np.ndarray, s
 
 
 def neutral_chroma(colour: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``NeutralDarks``' chroma, its length and luminance of (3, k) colours (sRGB in [0, 1]): (P - Y) / Y (Y floored
-    at 1e-3) times ``_toe`` of the colour's L*, its length (at least 1e-6), Y (at least 1e-6), float32.
-
-    In sRGB's toe a pixel's chroma is its 8 bits' and JPEG's, not the material's: relative to a luminance of a few
-    levels it is huge (p287's black cheek shadow, levels (0, 2, 15): |(P - Y) / Y| 5), so ``keep_neutral``'s cap on
-    it held nothing, and the deep-shadow fill lifted that shadow violet (C* 15 at L* 12 under RIGHT)."""
+    """``NeutralDarks``' chroma, its length and luminance of (3, k) colours: (P - Y) / Y (Y floored at 1e-3), its
+    length (at least 1e-6), Y (at least 1e-6), float32."""
     y = _luminance(colour)
     relative = (colour - y) / np.maximum(y, 1e-3)
-    relative *= _toe(_lightness(colour))
     size = np.maximum(np.sqrt(np.einsum("ij,ij->j", relative, relative)), 1e-6)
     return relative.astype(np.float32), size.astype(np.float32), np.maximum(y, 1e-6).astype(np.float32)
-
-
-def _lightness(rgb: np.ndarray) -> np.ndarray:
-    """(k,) CIE L* (0-100, D65 white) of (3, k) sRGB channel rows in [0, 1] (as OpenCV's Lab of float RGB)."""
-    c = np.clip(rgb, 0, 1)
-    linear = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
-    y = _luminance(linear)
-    return np.where(y > 216 / 24389, 116 * np.cbrt(y) - 16, y * 24389 / 27)
 
 
 def _luminance(rgb: np.ndarray) -> np.ndarray:

@@ -40,13 +40,7 @@ from ...light.exposure import METER_POWER, Highlight, exposure_scale, guarded, m
 from ...light.spec import LightSpec  # the one light parser
 from ...relight.compose import GradeSample, sampled_grade, shown_mask  # the one background grade
 from ...relight.decomposition import intrinsic_layers
-from ...relight.look import (  # the shaded-skin rule
-    NEUTRAL_CHROMA_EXP,
-    NEUTRAL_LIFT,
-    NEUTRAL_TOE,
-    SKIN_CHROMA,
-    skin_chroma,
-)
+from ...relight.look import NEUTRAL_CHROMA_EXP, NEUTRAL_LIFT, SKIN_CHROMA, skin_chroma  # the shaded-skin rule
 from ...relight.strength import restore_bands
 from .preview import area_reduce, layers_in_box, preview_picture, shadow_plane
 from .uploads import MAX_UPLOAD_BYTES, background_upload_light, decode_upload, envmap_upload_light
@@ -378,7 +372,6 @@ class Studio:
             "skin_chroma": SKIN_CHROMA,
             "neutral_lift": list(NEUTRAL_LIFT),  # the near-neutral darks' rule in the grade (look.neutral_values)
             "neutral_chroma_exp": float(NEUTRAL_CHROMA_EXP),
-            "neutral_toe": list(NEUTRAL_TOE),  # ... the own colour's chroma none in sRGB's toe (look.neutral_chroma)
             "own_white": np.asarray(dec.white_light, np.float64)[:, 0].tolist(),
             "data": head + bytes(offset - len(head)) + planes.tobytes() + guard.tobytes() + graded.tobytes() + headed,
         }

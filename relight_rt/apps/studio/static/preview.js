@@ -83,7 +83,6 @@ export function decodeLayers(buffer, meta) {
       },
       neutralLift: meta.neutral_lift,
       neutralChromaExp: meta.neutral_chroma_exp,
-      neutralToe: meta.neutral_toe,
     },
   };
 }

@@ -213,22 +213,16 @@ function headLevel(sample, light) {
 
 // The near-neutral darks' rule (relight_rt.relight.look.neutral_values) on sample pixel p, in place on its relit
 // colour v (3 numbers) relit by a gain of the colour of S: where the light brightens it, its colour without the
-// light's, at its luminance Y', keeps the own colour's chroma direction c = (P - Y) / Y (none in sRGB's toe) and at
-// most its length x (Y / Y')^e (nor more than it has), blended by the pixel's weight and by how much brighter Y' is
-// than Y (none below lift[0] x, all from lift[1] x); the light's colour put back.
+// light's, at its luminance Y', keeps the own colour's chroma direction c = (P - Y) / Y and at most its length x
+// (Y / Y')^e (nor more than it has), blended by the pixel's weight and by how much brighter Y' is than Y (none below
+// lift[0] x, all from lift[1] x); the light's colour put back.
 function neutralStep(sample, p, v, S) {
   const own = sample.own, lift = sample.neutralLift, tint = NEUTRAL_TINT, off = NEUTRAL_OFF;
   const r = own[0][p], g = own[1][p], b = own[2][p];
   const yOwn = LUMA[0] * r + LUMA[1] * g + LUMA[2] * b, y0 = Math.max(yOwn, 1e-6);
   if (!(LUMA[0] * v[0] + LUMA[1] * v[1] + LUMA[2] * v[2] > y0)) return;  // only what the light brightens
   if (!(S[0] > 1e-4 && S[1] > 1e-4 && S[2] > 1e-4)) return;  // ... with some of every channel
-  // in sRGB's toe the own colour's chroma is its 8 bits' and JPEG's: none below toe[0] of L*, all from toe[1]
-  // (look.neutral_chroma)
-  const toe = sample.neutralToe;
-  const yLin = LUMA[0] * srgbToLinear(r) + LUMA[1] * srgbToLinear(g) + LUMA[2] * srgbToLinear(b);
-  const lightness = yLin > 216 / 24389 ? 116 * Math.cbrt(yLin) - 16 : yLin * 24389 / 27;
-  const t = Math.min(Math.max((lightness - toe[0]) / (toe[1] - toe[0]), 0), 1) / Math.max(yOwn, 1e-3);
-  const c0 = (r - yOwn) * t, c1 = (g - yOwn) * t, c2 = (b - yOwn) * t;
+  const d = Math.max(yOwn, 1e-3), c0 = (r - yOwn) / d, c1 = (g - yOwn) / d, c2 = (b - yOwn) / d;
   const size = Math.max(Math.sqrt(c0 * c0 + c1 * c1 + c2 * c2), 1e-6);
   const gl = LUMA[0] * S[0] + LUMA[1] * S[1] + LUMA[2] * S[2];
   let y1 = 0;
