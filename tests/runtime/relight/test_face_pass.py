@@ -10,7 +10,16 @@ import pytest
 import relight_rt
 from relight_rt import Relighter, RuntimeConfig, lights
 from relight_rt.image.crop import CropGeometry
-from relight_rt.relight.face_pass import MIN_HEAD_INPUT, SHADOW_LIFTS, SMALL_FACE, FacePass, feather, head_box
+from relight_rt.relight.decomposition import Decomposition
+from relight_rt.relight.face_pass import (
+    MIN_HEAD_INPUT,
+    SHADOW_LIFTS,
+    SMALL_FACE,
+    FacePass,
+    feather,
+    head_box,
+    seen_head_box,
+)
 
 
 def _person(r: int, face: int, face_y: int, face_x: int):
@@ -87,6 +96,73 @@ def test_no_head_pass_on_a_temple_beside_a_large_face_lower_down():
     skin[20:120, 30:80] = 1  # the face: 50 x 100 network pixels, centre at 0.55 of the person's height
     skin[24:32, 86:94] = 1  # a patch of temple beyond the hair
     assert head_box(skin, mask, geom) is None
+
+
+def _seen(views: list[np.ndarray], mask: np.ndarray) -> Decomposition:
+    """A Decomposition of a standing person (a 1000 x 600 photo, its matte left-right symmetric) whose stage 1 gave
+    the skin maps ``views`` (the picture's, the mirror's mapped back); the rest zeros."""
+    r = mask.shape[0]
+    photo_mask = np.zeros((1000, 600), np.float32)
+    photo_mask[40:960, 100:500] = 1
+    skin = np.mean(views, axis=0)
+    return Decomposition(albedo_chw=np.zeros((3, r, r)), skin=skin, transport_chw=np.zeros((9, r, r)),
+                         light=np.zeros((9, 3)), network_mask=mask, network_image=np.zeros((r, r, 3)),
+                         mask=photo_mask, image=np.zeros((1000, 600, 3)),
+                         geometry=CropGeometry.from_mask(photo_mask, r), skin_views=np.stack(views))
+
+
+def test_the_head_is_looked_for_on_each_skin_map_not_on_their_mean():
+    """p272's kind: a small face whose skin map joins its neck on neither map alone, but on their mean (0.45 and 0.7
+    on each: 0.575 on the mean), which is then too tall for a small face; each map alone finds it."""
+    r = 128
+    face, mask = _person(r, face=12, face_y=26, face_x=58)
+    bridge, neck = np.zeros_like(face), np.zeros_like(face)
+    bridge[38:41, 58:70] = 1
+    neck[41:56, 60:68] = 1
+    a = face + 0.45 * bridge + 0.7 * neck
+    b = face + 0.7 * bridge + 0.45 * neck
+    assert 15 + 15 > SMALL_FACE * r  # face, bridge and neck joined: seen large
+    assert head_box((a + b) / 2, mask, _seen([a, b], mask).geometry) is None
+    dec = _seen([a, b], mask)
+    box = seen_head_box(dec)
+    assert box is not None
+    assert box == seen_head_box(_seen([b, a], mask))  # whichever map is the photo's
+    single = head_box(a, mask, dec.geometry)
+    assert abs((box[2] + box[3]) / 2 - (single[2] + single[3]) / 2) < 1  # the face's column, not moved
+
+
+def test_a_face_one_map_misses_keeps_its_head_pass():
+    """p238's kind: the mirror's map misses a small face (zeros): the photo's map alone gives its box."""
+    r = 128
+    face, mask = _person(r, face=12, face_y=26, face_x=58)
+    dec = _seen([face, np.zeros_like(face)], mask)
+    assert seen_head_box(dec) == head_box(face, mask, dec.geometry)
+    assert seen_head_box(_seen([np.zeros_like(face)] * 2, mask)) is None
+
+
+def test_the_head_box_of_a_photo_and_of_its_mirror_image_are_mirrored():
+    """Two maps a little apart (their boxes overlapping): the mean box; the mirror image's maps are the photo's
+    mirrored and swapped, and its box is the photo's mirrored, within the pixel ``head_box`` itself is off by (it
+    rounds a box around a pixel's centre, and a mirror's centre W - 1 - c rounds the other way: one map alone)."""
+    r = 128
+    a, mask = _person(r, face=12, face_y=26, face_x=40)
+    b, _ = _person(r, face=12, face_y=27, face_x=42)
+    box = seen_head_box(_seen([a, b], mask))
+    y0, y1, x0, x1 = box
+    mirrored = seen_head_box(_seen([b[:, ::-1], a[:, ::-1]], mask[:, ::-1]))
+    assert mirrored[:2] == (y0, y1) and np.abs(np.subtract(mirrored[2:], (600 - x1, 600 - x0))).max() <= 1
+    ya, yb = head_box(a, mask, _seen([a], mask).geometry), head_box(b, mask, _seen([b], mask).geometry)
+    assert min(ya[0], yb[0]) <= y0 <= max(ya[0], yb[0]) and min(ya[3], yb[3]) <= x1 <= max(ya[3], yb[3])
+
+
+def test_two_maps_finding_different_faces_take_the_larger_blob_or_none():
+    r = 128
+    small, mask = _person(r, face=10, face_y=26, face_x=34)
+    large, _ = _person(r, face=12, face_y=26, face_x=80)
+    dec = _seen([small, large], mask)
+    assert seen_head_box(dec) == head_box(large, mask, dec.geometry)
+    other, _ = _person(r, face=10, face_y=26, face_x=80)
+    assert seen_head_box(_seen([small, other], mask)) is None  # equal blobs apart: neither is the head
 
 
 def test_feather_fades_to_zero_at_open_sides_and_keeps_cut_sides():
