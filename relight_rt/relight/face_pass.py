@@ -33,6 +33,7 @@ MIN_HEAD_INPUT = 64  # the head square must hold at least this many input pixels
 UPPER_PART = 0.45  # the face's centre lies in this upper fraction of the person's height
 FACE_ASPECT = 2.5  # a face's skin blob is at most this many times as tall as wide or as wide as tall (an arm is not)
 FEATHER = 0.3  # the head pass fades out over this fraction of the head square at each side
+SEEN_LARGE = "seen large"  # _small_face: a face seen well enough, no head pass whatever the other map finds
 SAME_HEAD = 0.5  # seen_head_box: two maps' boxes overlapping by this much (intersection over union) are one head
 SHADOW_LIFTS = (0.5, 0.35)  # FacePass.find: no face found, it looks again with the shadows lifted (these powers)
 
@@ -50,7 +51,7 @@ def head_box(skin: np.ndarray, network_mask: np.ndarray, geometry: CropGeometry)
         too few pixels there for a second pass to see more.
     """
     found = _small_face(skin, network_mask, geometry)
-    return None if found is None else found[0]
+    return found[0] if isinstance(found, tuple) else None
 
 
 def seen_head_box(dec: Decomposition) -> tuple[int, int, int, int] | None:
@@ -59,14 +60,19 @@ def seen_head_box(dec: Decomposition) -> tuple[int, int, int, int] | None:
 
     The search takes a threshold (skin > 0.5 blobs, ``SMALL_FACE``, ``MIN_HEAD_INPUT``), and on the mean of two maps
     that disagree its answer is on neither (mesh42): on p272 the mean joined a small dark face's blob to its neck
-    (35 x 58 network px against 36 x 42 and 35 x 50 on each map), over ``SMALL_FACE``, and the head pass was dropped;
-    on p238 the mirror's map missed a back-lit face (13 x 8 against 26 x 26) and the mean's blob made a square under
-    ``MIN_HEAD_INPUT``. So: one map finds a small face, its box; both, their mean box (the start rounded down, the
-    end up: a photo's mirror gets the box mirrored) where they overlap by ``SAME_HEAD`` or more, else the larger
-    blob's (equal blobs apart: none); neither, none.
+    (35 x 58 network px against 36 x 42 and 35 x 50 on each map), over ``SMALL_FACE``, and the head pass was
+    dropped; on p238 the mirror's map missed a back-lit face (13 x 8 against 26 x 26) and the mean's blob made a
+    square under ``MIN_HEAD_INPUT``. So: a map that sees the face large, none (a second look on the other's smaller
+    blob, a face half hidden by a hand or a turned one, drew grey patches on p080's and p273's noses under rim);
+    else one map finds a small face, its box; both, their mean box (the start rounded down, the end up: a photo's
+    mirror gets the box mirrored) where they overlap by ``SAME_HEAD`` or more, else the larger blob's (equal blobs
+    apart: none); neither, none.
     """
     views = dec.skin_views if dec.skin_views is not None else dec.skin[None]
-    found = [f for f in (_small_face(v, dec.network_mask, dec.geometry) for v in views) if f is not None]
+    answers = [_small_face(v, dec.network_mask, dec.geometry) for v in views]
+    if SEEN_LARGE in answers:
+        return None
+    found = [f for f in answers if isinstance(f, tuple)]
     if len(found) < 2:
         return found[0][0] if found else None
     (a, area_a), (b, area_b) = found
@@ -87,8 +93,9 @@ def _overlap(a: tuple[int, int, int, int], b: tuple[int, int, int, int]) -> floa
 
 
 def _small_face(skin: np.ndarray, network_mask: np.ndarray, geometry: CropGeometry
-                ) -> tuple[tuple[int, int, int, int], int] | None:
-    """``head_box``'s box and its face blob's area (network pixels), or None."""
+                ) -> tuple[tuple[int, int, int, int], int] | str | None:
+    """``head_box``'s box and its face blob's area (network pixels); ``SEEN_LARGE`` where a face is seen well enough
+    (no second look needed); None where no small face is found or the photo has too few pixels there."""
     inner = network_mask > 0.5
     rows = np.flatnonzero(inner.any(axis=1))
     if rows.size == 0:
@@ -104,14 +111,16 @@ def _small_face(skin: np.ndarray, network_mask: np.ndarray, geometry: CropGeomet
             # a large skin blob from the upper part down: a face seen well whose centre lies lower (a portrait
             # framed from the chest up); a small blob beside it is a temple or an ear, not a small face (DPR's
             # portrait got a second pass on a 96-px square of its temple, and a red patch there under neon)
-            return None
+            return SEEN_LARGE
         compact = max(bw, bh) <= FACE_ASPECT * min(bw, bh)  # the reference clip's raised forearm (13 x 86) outweighed
         if compact and centres[i][1] <= top + UPPER_PART * height and area > best_area:  # its face (25 x 35) by 2 %
             best, best_area = i, area
     if best is None:
         return None
     face = max(int(stats[best, cv2.CC_STAT_WIDTH]), int(stats[best, cv2.CC_STAT_HEIGHT]))
-    if face < MIN_FACE_PX or face > SMALL_FACE * r:
+    if face > SMALL_FACE * r:
+        return SEEN_LARGE
+    if face < MIN_FACE_PX:
         return None
     # network pixel u is at square pixel (u + 0.5) S/R - 0.5; the square's origin is the crop box minus offset
     k = geometry.scale

@@ -155,6 +155,18 @@ def test_the_head_box_of_a_photo_and_of_its_mirror_image_are_mirrored():
     assert min(ya[0], yb[0]) <= y0 <= max(ya[0], yb[0]) and min(ya[3], yb[3]) <= x1 <= max(ya[3], yb[3])
 
 
+def test_a_face_one_map_sees_large_gets_no_head_pass():
+    """p080's kind: one map sees the face large (a hand over its mouth splits the other's blob into a small one):
+    the face is seen well enough, whichever map is the photo's."""
+    r = 128
+    big = int(SMALL_FACE * r) + 4
+    large, mask = _person(r, face=big, face_y=24, face_x=64 - big // 2)
+    small, _ = _person(r, face=12, face_y=26, face_x=58)
+    assert head_box(small, mask, _seen([small], mask).geometry) is not None
+    assert seen_head_box(_seen([large, small], mask)) is None
+    assert seen_head_box(_seen([small, large], mask)) is None
+
+
 def test_two_maps_finding_different_faces_take_the_larger_blob_or_none():
     r = 128
     small, mask = _person(r, face=10, face_y=26, face_x=34)
