@@ -64,15 +64,20 @@ def seen_head_box(dec: Decomposition) -> tuple[int, int, int, int] | None:
     dropped; on p238 the mirror's map missed a back-lit face (13 x 8 against 26 x 26) and the mean's blob made a
     square under ``MIN_HEAD_INPUT``. So: a map that sees the face large, none (a second look on the other's smaller
     blob, a face half hidden by a hand or a turned one, drew grey patches on p080's and p273's noses under rim);
-    else one map finds a small face, its box; both, their mean box (the start rounded down, the end up: a photo's
-    mirror gets the box mirrored) where they overlap by ``SAME_HEAD`` or more, else the larger blob's (equal blobs
-    apart: none); neither, none.
+    else the mean map's box where it finds a small face on one of theirs (overlapping by ``SAME_HEAD``: the two
+    maps' mean still says where); else one map finds a small face, its box; both, their mean box (the start rounded
+    down, the end up: a photo's mirror gets the box mirrored) where they overlap by ``SAME_HEAD`` or more, else the
+    larger blob's (equal blobs apart: none); neither, none.
     """
-    views = dec.skin_views if dec.skin_views is not None else dec.skin[None]
-    answers = [_small_face(v, dec.network_mask, dec.geometry) for v in views]
+    if dec.skin_views is None:
+        return head_box(dec.skin, dec.network_mask, dec.geometry)
+    answers = [_small_face(v, dec.network_mask, dec.geometry) for v in dec.skin_views]
     if SEEN_LARGE in answers:
         return None
     found = [f for f in answers if isinstance(f, tuple)]
+    mean = head_box(dec.skin, dec.network_mask, dec.geometry)
+    if mean is not None and any(_overlap(mean, f[0]) >= SAME_HEAD for f in found):
+        return mean  # the maps agree with their mean: its box (the held-out renders' full framing: RMSE as before)
     if len(found) < 2:
         return found[0][0] if found else None
     (a, area_a), (b, area_b) = found

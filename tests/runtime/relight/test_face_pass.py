@@ -141,7 +141,7 @@ def test_a_face_one_map_misses_keeps_its_head_pass():
 
 
 def test_the_head_box_of_a_photo_and_of_its_mirror_image_are_mirrored():
-    """Two maps a little apart (their boxes overlapping): the mean box; the mirror image's maps are the photo's
+    """Two maps a little apart (their boxes overlapping): the mean map's box; the mirror image's maps are the photo's
     mirrored and swapped, and its box is the photo's mirrored, within the pixel ``head_box`` itself is off by (it
     rounds a box around a pixel's centre, and a mirror's centre W - 1 - c rounds the other way: one map alone)."""
     r = 128
@@ -151,8 +151,21 @@ def test_the_head_box_of_a_photo_and_of_its_mirror_image_are_mirrored():
     y0, y1, x0, x1 = box
     mirrored = seen_head_box(_seen([b[:, ::-1], a[:, ::-1]], mask[:, ::-1]))
     assert mirrored[:2] == (y0, y1) and np.abs(np.subtract(mirrored[2:], (600 - x1, 600 - x0))).max() <= 1
-    ya, yb = head_box(a, mask, _seen([a], mask).geometry), head_box(b, mask, _seen([b], mask).geometry)
-    assert min(ya[0], yb[0]) <= y0 <= max(ya[0], yb[0]) and min(ya[3], yb[3]) <= x1 <= max(ya[3], yb[3])
+    assert box == head_box((a + b) / 2, mask, _seen([a], mask).geometry)
+
+
+def test_where_the_mean_map_finds_no_small_face_the_two_boxes_are_averaged():
+    """Two maps whose mean finds no face (their blobs apart by a few pixels, each 0.9: the mean 0.45 off their
+    overlap, too small a blob): the mean of the two maps' boxes, the start rounded down and the end up."""
+    r = 128
+    a, mask = _person(r, face=12, face_y=26, face_x=40)
+    b, _ = _person(r, face=12, face_y=26, face_x=49)
+    a, b = 0.9 * a, 0.9 * b
+    geom = _seen([a], mask).geometry
+    assert head_box((a + b) / 2, mask, geom) is None
+    ya, yb = head_box(a, mask, geom), head_box(b, mask, geom)
+    box = seen_head_box(_seen([a, b], mask))
+    assert box == ((ya[0] + yb[0]) // 2, -((-ya[1] - yb[1]) // 2), (ya[2] + yb[2]) // 2, -((-ya[3] - yb[3]) // 2))
 
 
 def test_a_face_one_map_sees_large_gets_no_head_pass():
