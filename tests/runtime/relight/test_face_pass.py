@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import cv2
 import numpy as np
 import pytest
 
@@ -287,3 +288,26 @@ def test_the_face_mesh_shows_its_graphs_the_lifted_crops_not_a_lifted_photo(monk
     assert mesh.faces(photo, (10, 70, 10, 70), lift=0.5) == []
     assert shown[0] == pytest.approx(0.25 ** 0.5, rel=1e-4)  # the first look lies inside the photo
     assert (photo == np.float32(0.25)).all()
+
+
+def test_stage1_keeps_both_skin_maps_whose_mean_is_the_skin():
+    """The head pass's search reads the skin map stage 1 gave on the picture and on its mirror (mapped back): their
+    mean is the Decomposition's skin, the mirror's is the picture's own mirror image's answer, and both travel with
+    it (pickled, the head pass is decided alike)."""
+    import pickle
+
+    from relight_rt.relight import network
+
+    rgba = cv2.imread(str(Path(relight_rt.__file__).parent / "data" / "example.png"), cv2.IMREAD_UNCHANGED)
+    rgb = cv2.cvtColor(rgba[..., :3], cv2.COLOR_BGR2RGB).astype(np.float32) / 255
+    mask = rgba[..., 3].astype(np.float32) / 255
+    r = relight_rt.open(RuntimeConfig(device="cpu"))
+    dec = r.decompose(rgb, mask)
+    views = dec.skin_views
+    assert network.STAGE1_MIRROR and views.shape == (2,) + dec.skin.shape and not views.flags.writeable
+    np.testing.assert_allclose(views.mean(axis=0), dec.skin, atol=1e-6)
+    mirrored = r.decompose(np.ascontiguousarray(rgb[:, ::-1]), np.ascontiguousarray(mask[:, ::-1]))
+    np.testing.assert_allclose(mirrored.skin_views[0][:, ::-1], views[1], atol=1e-4)  # the mirror's own answer
+    back = pickle.loads(pickle.dumps(dec))
+    np.testing.assert_array_equal(back.skin_views, views)
+    assert seen_head_box(back) == seen_head_box(dec)
