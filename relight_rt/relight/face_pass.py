@@ -138,10 +138,8 @@ def _small_face(skin: np.ndarray, network_mask: np.ndarray, geometry: CropGeomet
     if side < MIN_HEAD_INPUT:
         return None
     h, w = geometry.frame
-    # the box's edges in pixel-edge coordinates (pixel i spans [i, i + 1)), rounded: a mirror image's centre
-    # w - 1 - cx_in gives the box mirrored to the pixel (rounding cx_in -/+ side / 2 put it a pixel apart, mesh42)
-    y0, x0 = max(int(round(cy_in + 0.5 - side / 2)), 0), max(int(round(cx_in + 0.5 - side / 2)), 0)
-    y1, x1 = min(int(round(cy_in + 0.5 + side / 2)), h), min(int(round(cx_in + 0.5 + side / 2)), w)
+    y0, x0 = max(int(round(cy_in - side / 2)), 0), max(int(round(cx_in - side / 2)), 0)
+    y1, x1 = min(int(round(cy_in + side / 2)), h), min(int(round(cx_in + side / 2)), w)
     if y1 - y0 < MIN_HEAD_INPUT or x1 - x0 < MIN_HEAD_INPUT:
         return None
     return (y0, y1, x0, x1), best_area

@@ -143,14 +143,15 @@ def test_a_face_one_map_misses_keeps_its_head_pass():
 
 def test_the_head_box_of_a_photo_and_of_its_mirror_image_are_mirrored():
     """Two maps a little apart (their boxes overlapping): the mean map's box; the mirror image's maps are the photo's
-    mirrored and swapped, and its box is the photo's mirrored to the pixel."""
+    mirrored and swapped, and its box is the photo's mirrored, within the pixel ``head_box`` itself is off by (it
+    rounds a box around a pixel's centre, and a mirror's centre W - 1 - c rounds the other way: one map alone)."""
     r = 128
     a, mask = _person(r, face=12, face_y=26, face_x=40)
     b, _ = _person(r, face=12, face_y=27, face_x=42)
     box = seen_head_box(_seen([a, b], mask))
     y0, y1, x0, x1 = box
     mirrored = seen_head_box(_seen([b[:, ::-1], a[:, ::-1]], mask[:, ::-1]))
-    assert mirrored == (y0, y1, 600 - x1, 600 - x0)
+    assert mirrored[:2] == (y0, y1) and np.abs(np.subtract(mirrored[2:], (600 - x1, 600 - x0))).max() <= 1
     assert box == head_box((a + b) / 2, mask, _seen([a], mask).geometry)
 
 
