@@ -76,6 +76,10 @@ class Decomposition:
         upright: the quarter turns (counter-clockwise, ``np.rot90``) stage 1 saw the crop turned by, a person lying
             or tilted seen upright (relight_rt.relight.upright); its arrays here are turned back, in the photo's
             frame. 0: as the photo is.
+        skin_views: (2, R, R) stage 1's skin map on the picture and on its mirror image mapped back (their mean is
+            ``skin``; relight_rt.relight.network ``STAGE1_MIRROR``), for the head pass's search, which takes its
+            threshold on each (relight_rt.relight.face_pass ``seen_head_box``); None: stage 1 looked once, or at the
+            person turned upright (who gets no head pass).
     """
 
     albedo_chw: np.ndarray
@@ -96,6 +100,7 @@ class Decomposition:
     origin: tuple[int, int] = (0, 0)
     edge: np.ndarray | None = None
     upright: int = 0
+    skin_views: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         put = lambda name, value: object.__setattr__(self, name, readonly(value))  # noqa: E731
@@ -112,6 +117,8 @@ class Decomposition:
         object.__setattr__(self, "origin", (int(self.origin[0]), int(self.origin[1])))
         if self.edge is not None:
             put("edge", np.asarray(self.edge, dtype=np.float32))
+        if self.skin_views is not None:
+            put("skin_views", np.ascontiguousarray(self.skin_views, dtype=np.float32))
 
     def __reduce__(self):  # unpickled through the constructor, so the arrays come back read-only
         return (type(self), tuple(getattr(self, f.name) for f in fields(self)))

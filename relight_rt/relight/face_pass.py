@@ -1,13 +1,13 @@
 """The face pass: what the Relighter does for a face beyond stage 1's one look at the whole person.
 
-A second look at a face that stage 1 saw small (``head_box``, ``head_crops``, ``feather``). Stage 1 sees the whole
-person in one R x R square, so in a full-body photo the face is 10-20 network pixels tall and its transport is a
-blur: a new light barely changes the face and a light from below paints blotches where the blur is wrong. When the
-face is small, the Relighter runs stage 1 a second time on a square around the head (the bundled stage 1 is
-trained on head-and-shoulders and face framings too) and takes the change of shading on the head from that pass,
-blended into the body's over a feathered border. The face is found from stage 1's own skin map: the largest skin
-blob in the upper part of the person. No extra model is needed; when no such blob exists (a person seen from
-behind, a face hidden), nothing changes.
+A second look at a face that stage 1 saw small (``head_box``, ``seen_head_box``, ``head_crops``, ``feather``). Stage 1
+sees the whole person in one R x R square, so in a full-body photo the face is 10-20 network pixels tall and its
+transport is a blur: a new light barely changes the face and a light from below paints blotches where the blur is wrong.
+When the face is small, the Relighter runs stage 1 a second time on a square around the head (the bundled stage 1 is
+trained on head-and-shoulders and face framings too) and takes the change of shading on the head from that pass, blended
+into the body's over a feathered border. The face is found from stage 1's own skin map: the largest skin blob in the
+upper part of the person. No extra model is needed; when no such blob exists (a person seen from behind, a face hidden),
+nothing changes.
 
 A face the detector finds gets the normals of its mesh blended into the transport (``FacePass``;
 relight_rt.person.face_mesh).
@@ -33,6 +33,8 @@ MIN_HEAD_INPUT = 64  # the head square must hold at least this many input pixels
 UPPER_PART = 0.45  # the face's centre lies in this upper fraction of the person's height
 FACE_ASPECT = 2.5  # a face's skin blob is at most this many times as tall as wide or as wide as tall (an arm is not)
 FEATHER = 0.3  # the head pass fades out over this fraction of the head square at each side
+SEEN_LARGE = "seen large"  # _small_face: a face seen well enough, no head pass whatever the other map finds
+SAME_HEAD = 0.5  # seen_head_box: two maps' boxes overlapping by this much (intersection over union) are one head
 SHADOW_LIFTS = (0.5, 0.35)  # FacePass.find: no face found, it looks again with the shadows lifted (these powers)
 
 
@@ -48,6 +50,57 @@ def head_box(skin: np.ndarray, network_mask: np.ndarray, geometry: CropGeometry)
         None when no face is found, when it is already large in the network square, or when the photo has
         too few pixels there for a second pass to see more.
     """
+    found = _small_face(skin, network_mask, geometry)
+    return found[0] if isinstance(found, tuple) else None
+
+
+def seen_head_box(dec: Decomposition) -> tuple[int, int, int, int] | None:
+    """``head_box`` of ``dec``, looked for on each of stage 1's skin maps (``dec.skin_views``: the picture's and its
+    mirror's, mapped back) and the answers combined alike whichever is which; on ``dec.skin`` without them.
+
+    The search takes a threshold (skin > 0.5 blobs, ``SMALL_FACE``, ``MIN_HEAD_INPUT``), and on the mean of two maps
+    that disagree its answer is on neither (mesh42): on p272 the mean joined a small dark face's blob to its neck
+    (35 x 58 network px against 36 x 42 and 35 x 50 on each map), over ``SMALL_FACE``, and the head pass was
+    dropped; on p238 the mirror's map missed a back-lit face (13 x 8 against 26 x 26) and the mean's blob made a
+    square under ``MIN_HEAD_INPUT``. So: a map that sees the face large, none (a second look on the other's smaller
+    blob, a face half hidden by a hand or a turned one, drew grey patches on p080's and p273's noses under rim);
+    else the mean map's box where it finds a small face on one of theirs (overlapping by ``SAME_HEAD``: the two
+    maps' mean still says where); else one map finds a small face, its box; both, their mean box (the start rounded
+    down, the end up: a photo's mirror gets the box mirrored) where they overlap by ``SAME_HEAD`` or more, else the
+    larger blob's (equal blobs apart: none); neither, none.
+    """
+    if dec.skin_views is None:
+        return head_box(dec.skin, dec.network_mask, dec.geometry)
+    answers = [_small_face(v, dec.network_mask, dec.geometry) for v in dec.skin_views]
+    if SEEN_LARGE in answers:
+        return None
+    found = [f for f in answers if isinstance(f, tuple)]
+    mean = head_box(dec.skin, dec.network_mask, dec.geometry)
+    if mean is not None and any(_overlap(mean, f[0]) >= SAME_HEAD for f in found):
+        return mean  # the maps agree with their mean: its box (the held-out renders' full framing: RMSE as before)
+    if len(found) < 2:
+        return found[0][0] if found else None
+    (a, area_a), (b, area_b) = found
+    if _overlap(a, b) >= SAME_HEAD:
+        start, end = (lambda i: (a[i] + b[i]) // 2), (lambda i: -((-a[i] - b[i]) // 2))  # noqa: E731
+        return start(0), end(1), start(2), end(3)
+    if area_a == area_b:
+        return None
+    return a if area_a > area_b else b
+
+
+def _overlap(a: tuple[int, int, int, int], b: tuple[int, int, int, int]) -> float:
+    """Intersection over union of two boxes (y0, y1, x0, x1, end exclusive)."""
+    h = max(0, min(a[1], b[1]) - max(a[0], b[0]))
+    w = max(0, min(a[3], b[3]) - max(a[2], b[2]))
+    union = (a[1] - a[0]) * (a[3] - a[2]) + (b[1] - b[0]) * (b[3] - b[2]) - h * w
+    return h * w / union if union > 0 else 0.0
+
+
+def _small_face(skin: np.ndarray, network_mask: np.ndarray, geometry: CropGeometry
+                ) -> tuple[tuple[int, int, int, int], int] | str | None:
+    """``head_box``'s box and its face blob's area (network pixels); ``SEEN_LARGE`` where a face is seen well enough
+    (no second look needed); None where no small face is found or the photo has too few pixels there."""
     inner = network_mask > 0.5
     rows = np.flatnonzero(inner.any(axis=1))
     if rows.size == 0:
@@ -63,14 +116,16 @@ def head_box(skin: np.ndarray, network_mask: np.ndarray, geometry: CropGeometry)
             # a large skin blob from the upper part down: a face seen well whose centre lies lower (a portrait
             # framed from the chest up); a small blob beside it is a temple or an ear, not a small face (DPR's
             # portrait got a second pass on a 96-px square of its temple, and a red patch there under neon)
-            return None
+            return SEEN_LARGE
         compact = max(bw, bh) <= FACE_ASPECT * min(bw, bh)  # the reference clip's raised forearm (13 x 86) outweighed
         if compact and centres[i][1] <= top + UPPER_PART * height and area > best_area:  # its face (25 x 35) by 2 %
             best, best_area = i, area
     if best is None:
         return None
     face = max(int(stats[best, cv2.CC_STAT_WIDTH]), int(stats[best, cv2.CC_STAT_HEIGHT]))
-    if face < MIN_FACE_PX or face > SMALL_FACE * r:
+    if face > SMALL_FACE * r:
+        return SEEN_LARGE
+    if face < MIN_FACE_PX:
         return None
     # network pixel u is at square pixel (u + 0.5) S/R - 0.5; the square's origin is the crop box minus offset
     k = geometry.scale
@@ -87,7 +142,7 @@ def head_box(skin: np.ndarray, network_mask: np.ndarray, geometry: CropGeometry)
     y1, x1 = min(int(round(cy_in + side / 2)), h), min(int(round(cx_in + side / 2)), w)
     if y1 - y0 < MIN_HEAD_INPUT or x1 - x0 < MIN_HEAD_INPUT:
         return None
-    return y0, y1, x0, x1
+    return (y0, y1, x0, x1), best_area
 
 
 def feather(h: int, w: int, cut: tuple[bool, bool, bool, bool] = (False, False, False, False)) -> np.ndarray:
@@ -118,7 +173,7 @@ def feather_at(ty: np.ndarray, tx: np.ndarray, cut: tuple[bool, bool, bool, bool
 
 
 def head_crops(decs: list[Decomposition]) -> list[tuple]:
-    """Per decomposition whose face stage 1 saw small (``head_box``): (its index, it, the head's
+    """Per decomposition whose face stage 1 saw small (``seen_head_box``): (its index, it, the head's
     box (y0, y1, x0, x1) in the input frame, the photo inside that box (a read-only view: stage 1 reads it without
     a copy) and the mask there). A person stage 1 saw turned upright (``Decomposition.upright``) gets none: the face
     is looked for in the upper part of an upright person, and the second pass would see the head sideways."""
@@ -126,7 +181,7 @@ def head_crops(decs: list[Decomposition]) -> list[tuple]:
     for i, dec in enumerate(decs):
         if dec.upright:
             continue
-        box = head_box(dec.skin, dec.network_mask, dec.geometry)
+        box = seen_head_box(dec)
         if box is not None:
             y0, y1, x0, x1 = box
             todo.append((i, dec, box, dec.image[y0:y1, x0:x1],

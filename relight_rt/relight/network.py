@@ -79,7 +79,8 @@ class Network:
 
         Returns:
             Per photo the Decomposition's fields stage 1 gives: "albedo_chw" (3, R, R), "skin" (R, R),
-            "transport_chw" (9, R, R), "light" (9, 3) and "upright" (the quarter turns it was seen in); per photo its
+            "transport_chw" (9, R, R), "light" (9, 3), "upright" (the quarter turns it was seen in) and "skin_views"
+            ((2, R, R) the skin on the picture and on its mirror, mapped back; None unmirrored or turned); per photo its
             device copies (CUDA; None for a turned one, whose copies are the turned outputs: uploaded again on first
             use) or None.
 
@@ -97,16 +98,20 @@ class Network:
         fields = []
         for i, q in enumerate(turns):
             seen = {k: out[k][i] for k in (*STAGE1_IMAGES, "light")}
+            views = None
             if mirror:
-                seen = mirror_averaged(seen, {k: out[k][n + i] for k in (*STAGE1_IMAGES, "light")})
+                other = {k: out[k][n + i] for k in (*STAGE1_IMAGES, "light")}
+                # both skin maps kept: the head pass's search thresholds each, not their mean (face_pass)
+                views = np.concatenate([seen["skin"], mirror_picture(other["skin"], 2)])
+                seen = mirror_averaged(seen, other)
                 on_device[i] = None
             if q:
-                seen, on_device[i] = turned_back(seen, q), None
+                seen, on_device[i], views = turned_back(seen, q), None, None  # a turned person gets no head pass
                 log.debug("stage 1 saw the person turned %d degrees counter-clockwise (upright)", 90 * q)
             if not np.isfinite(seen["light"]).all():
                 raise RelightError(f"{self.stage1.name}: stage 1 estimated a non-finite light for this image")
             fields.append({"albedo_chw": seen["albedo"], "skin": seen["skin"][0], "transport_chw": seen["transport"],
-                           "light": seen["light"], "upright": q})
+                           "light": seen["light"], "upright": q, "skin_views": views})
         return fields, on_device[:n]
 
     def relit(

@@ -4,13 +4,23 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import cv2
 import numpy as np
 import pytest
 
 import relight_rt
 from relight_rt import Relighter, RuntimeConfig, lights
 from relight_rt.image.crop import CropGeometry
-from relight_rt.relight.face_pass import MIN_HEAD_INPUT, SHADOW_LIFTS, SMALL_FACE, FacePass, feather, head_box
+from relight_rt.relight.decomposition import Decomposition
+from relight_rt.relight.face_pass import (
+    MIN_HEAD_INPUT,
+    SHADOW_LIFTS,
+    SMALL_FACE,
+    FacePass,
+    feather,
+    head_box,
+    seen_head_box,
+)
 
 
 def _person(r: int, face: int, face_y: int, face_x: int):
@@ -87,6 +97,98 @@ def test_no_head_pass_on_a_temple_beside_a_large_face_lower_down():
     skin[20:120, 30:80] = 1  # the face: 50 x 100 network pixels, centre at 0.55 of the person's height
     skin[24:32, 86:94] = 1  # a patch of temple beyond the hair
     assert head_box(skin, mask, geom) is None
+
+
+def _seen(views: list[np.ndarray], mask: np.ndarray) -> Decomposition:
+    """A Decomposition of a standing person (a 1000 x 600 photo, its matte left-right symmetric) whose stage 1 gave
+    the skin maps ``views`` (the picture's, the mirror's mapped back); the rest zeros."""
+    r = mask.shape[0]
+    photo_mask = np.zeros((1000, 600), np.float32)
+    photo_mask[40:960, 100:500] = 1
+    skin = np.mean(views, axis=0)
+    return Decomposition(albedo_chw=np.zeros((3, r, r)), skin=skin, transport_chw=np.zeros((9, r, r)),
+                         light=np.zeros((9, 3)), network_mask=mask, network_image=np.zeros((r, r, 3)),
+                         mask=photo_mask, image=np.zeros((1000, 600, 3)),
+                         geometry=CropGeometry.from_mask(photo_mask, r), skin_views=np.stack(views))
+
+
+def test_the_head_is_looked_for_on_each_skin_map_not_on_their_mean():
+    """p272's kind: a small face whose skin map joins its neck on neither map alone, but on their mean (0.45 and 0.7
+    on each: 0.575 on the mean), which is then too tall for a small face; each map alone finds it."""
+    r = 128
+    face, mask = _person(r, face=12, face_y=26, face_x=58)
+    bridge, neck = np.zeros_like(face), np.zeros_like(face)
+    bridge[38:41, 58:70] = 1
+    neck[41:56, 60:68] = 1
+    a = face + 0.45 * bridge + 0.7 * neck
+    b = face + 0.7 * bridge + 0.45 * neck
+    assert 15 + 15 > SMALL_FACE * r  # face, bridge and neck joined: seen large
+    assert head_box((a + b) / 2, mask, _seen([a, b], mask).geometry) is None
+    dec = _seen([a, b], mask)
+    box = seen_head_box(dec)
+    assert box is not None
+    assert box == seen_head_box(_seen([b, a], mask))  # whichever map is the photo's
+    single = head_box(a, mask, dec.geometry)
+    assert abs((box[2] + box[3]) / 2 - (single[2] + single[3]) / 2) < 1  # the face's column, not moved
+
+
+def test_a_face_one_map_misses_keeps_its_head_pass():
+    """p238's kind: the mirror's map misses a small face (zeros): the photo's map alone gives its box."""
+    r = 128
+    face, mask = _person(r, face=12, face_y=26, face_x=58)
+    dec = _seen([face, np.zeros_like(face)], mask)
+    assert seen_head_box(dec) == head_box(face, mask, dec.geometry)
+    assert seen_head_box(_seen([np.zeros_like(face)] * 2, mask)) is None
+
+
+def test_the_head_box_of_a_photo_and_of_its_mirror_image_are_mirrored():
+    """Two maps a little apart (their boxes overlapping): the mean map's box; the mirror image's maps are the photo's
+    mirrored and swapped, and its box is the photo's mirrored, within the pixel ``head_box`` itself is off by (it
+    rounds a box around a pixel's centre, and a mirror's centre W - 1 - c rounds the other way: one map alone)."""
+    r = 128
+    a, mask = _person(r, face=12, face_y=26, face_x=40)
+    b, _ = _person(r, face=12, face_y=27, face_x=42)
+    box = seen_head_box(_seen([a, b], mask))
+    y0, y1, x0, x1 = box
+    mirrored = seen_head_box(_seen([b[:, ::-1], a[:, ::-1]], mask[:, ::-1]))
+    assert mirrored[:2] == (y0, y1) and np.abs(np.subtract(mirrored[2:], (600 - x1, 600 - x0))).max() <= 1
+    assert box == head_box((a + b) / 2, mask, _seen([a], mask).geometry)
+
+
+def test_where_the_mean_map_finds_no_small_face_the_two_boxes_are_averaged():
+    """Two maps whose mean finds no face (their blobs apart by a few pixels, each 0.9: the mean 0.45 off their
+    overlap, too small a blob): the mean of the two maps' boxes, the start rounded down and the end up."""
+    r = 128
+    a, mask = _person(r, face=12, face_y=26, face_x=40)
+    b, _ = _person(r, face=12, face_y=26, face_x=49)
+    a, b = 0.9 * a, 0.9 * b
+    geom = _seen([a], mask).geometry
+    assert head_box((a + b) / 2, mask, geom) is None
+    ya, yb = head_box(a, mask, geom), head_box(b, mask, geom)
+    box = seen_head_box(_seen([a, b], mask))
+    assert box == ((ya[0] + yb[0]) // 2, -((-ya[1] - yb[1]) // 2), (ya[2] + yb[2]) // 2, -((-ya[3] - yb[3]) // 2))
+
+
+def test_a_face_one_map_sees_large_gets_no_head_pass():
+    """p080's kind: one map sees the face large (a hand over its mouth splits the other's blob into a small one):
+    the face is seen well enough, whichever map is the photo's."""
+    r = 128
+    big = int(SMALL_FACE * r) + 4
+    large, mask = _person(r, face=big, face_y=24, face_x=64 - big // 2)
+    small, _ = _person(r, face=12, face_y=26, face_x=58)
+    assert head_box(small, mask, _seen([small], mask).geometry) is not None
+    assert seen_head_box(_seen([large, small], mask)) is None
+    assert seen_head_box(_seen([small, large], mask)) is None
+
+
+def test_two_maps_finding_different_faces_take_the_larger_blob_or_none():
+    r = 128
+    small, mask = _person(r, face=10, face_y=26, face_x=34)
+    large, _ = _person(r, face=12, face_y=26, face_x=80)
+    dec = _seen([small, large], mask)
+    assert seen_head_box(dec) == head_box(large, mask, dec.geometry)
+    other, _ = _person(r, face=10, face_y=26, face_x=80)
+    assert seen_head_box(_seen([small, other], mask)) is None  # equal blobs apart: neither is the head
 
 
 def test_feather_fades_to_zero_at_open_sides_and_keeps_cut_sides():
@@ -186,3 +288,26 @@ def test_the_face_mesh_shows_its_graphs_the_lifted_crops_not_a_lifted_photo(monk
     assert mesh.faces(photo, (10, 70, 10, 70), lift=0.5) == []
     assert shown[0] == pytest.approx(0.25 ** 0.5, rel=1e-4)  # the first look lies inside the photo
     assert (photo == np.float32(0.25)).all()
+
+
+def test_stage1_keeps_both_skin_maps_whose_mean_is_the_skin():
+    """The head pass's search reads the skin map stage 1 gave on the picture and on its mirror (mapped back): their
+    mean is the Decomposition's skin, the mirror's is the picture's own mirror image's answer, and both travel with
+    it (pickled, the head pass is decided alike)."""
+    import pickle
+
+    from relight_rt.relight import network
+
+    rgba = cv2.imread(str(Path(relight_rt.__file__).parent / "data" / "example.png"), cv2.IMREAD_UNCHANGED)
+    rgb = cv2.cvtColor(rgba[..., :3], cv2.COLOR_BGR2RGB).astype(np.float32) / 255
+    mask = rgba[..., 3].astype(np.float32) / 255
+    r = relight_rt.open(RuntimeConfig(device="cpu"))
+    dec = r.decompose(rgb, mask)
+    views = dec.skin_views
+    assert network.STAGE1_MIRROR and views.shape == (2,) + dec.skin.shape and not views.flags.writeable
+    np.testing.assert_allclose(views.mean(axis=0), dec.skin, atol=1e-6)
+    mirrored = r.decompose(np.ascontiguousarray(rgb[:, ::-1]), np.ascontiguousarray(mask[:, ::-1]))
+    np.testing.assert_allclose(mirrored.skin_views[0][:, ::-1], views[1], atol=1e-4)  # the mirror's own answer
+    back = pickle.loads(pickle.dumps(dec))
+    np.testing.assert_array_equal(back.skin_views, views)
+    assert seen_head_box(back) == seen_head_box(dec)
