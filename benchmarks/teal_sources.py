@@ -45,7 +45,7 @@ import relight_rt
 from relight_rt import RuntimeConfig
 from relight_rt.image.color import REC709
 from relight_rt.relight import compose, look
-from relight_rt.relight.look import _GREY_C, _GREY_L, _GREY_MATERIAL, _GREY_NOISE, _GREY_VIVID, NEUTRAL_LIFT
+from relight_rt.relight.look import NEUTRAL_LIFT
 
 CLASSES = ("light", "edge", "gate:L", "gate:C", "gate:vivid", "gate:warm", "gate:material", "gate:own_warm",
            "weight", "lift", "kept")
@@ -54,46 +54,12 @@ COLOURS = {"light": (0, 255, 255), "edge": (255, 255, 0), "weight": (255, 0, 255
 
 
 def gates(image: np.ndarray, origin: tuple[int, int], solid: np.ndarray) -> dict[str, np.ndarray]:
-    """``neutral_darks``' gates on ``image`` (the crop box's photo), each (h, w) in [0, 1] at the photo's pixels (the
-    reduced grid's values, nearest): the same arithmetic as look.neutral_darks, kept apart."""
-    ramp = lambda v, lo, hi: np.clip((hi - v) / (hi - lo), 0, 1)  # noqa: E731
-    step = look._NEUTRAL_STEP
-    h, w = image.shape[:2]
-    oy, ox = origin[0] % step, origin[1] % step
-    grid = cv2.copyMakeBorder(np.clip(image, 0, 1), oy, 0, ox, 0, cv2.BORDER_REPLICATE)
-    gh, gw = grid.shape[:2]
-    sh, sw = max(gh // step, 1), max(gw // step, 1)
-    grid = grid[: sh * step, : sw * step]
-    small = cv2.resize(grid, (sw, sh), interpolation=cv2.INTER_AREA)
-    person = cv2.resize(cv2.copyMakeBorder(solid.astype(np.float32), oy, 0, ox, 0, cv2.BORDER_REPLICATE)[
-        : sh * step, : sw * step], (sw, sh), interpolation=cv2.INTER_AREA) >= 0.5
-    lab_s = look.to_lab(small)
-    chroma = np.hypot(lab_s[..., 1], lab_s[..., 2])
-    full = look.to_lab(grid)
-    own_c = np.hypot(full[..., 1], full[..., 2])
-    own = cv2.resize(own_c, (sw, sh), interpolation=cv2.INTER_AREA)
-    vivid = cv2.resize(own_c / (full[..., 0] + 16), (sw, sh), interpolation=cv2.INTER_AREA)
-    g = {"L": ramp(lab_s[..., 0], *_GREY_L), "C": ramp(np.maximum(chroma, own - _GREY_NOISE), *_GREY_C),
-         "vivid": ramp(vivid, *_GREY_VIVID)}
-    weight = g["L"] * g["C"] * g["vivid"]
-    reach = float(look._GREY_REACH)
-    ab = np.ascontiguousarray(lab_s[..., 1:])
-    near = (weight * person).astype(np.float32)
-    total = cv2.GaussianBlur(near, (0, 0), reach / 2)
-    around = cv2.GaussianBlur(ab * near[..., None], (0, 0), reach / 2) / np.maximum(total, 1e-6)[..., None]
-    ab = np.where(((chroma < look._GREY_HUE_C) & (total > 1e-3))[..., None], around, ab)
-    hue = np.degrees(np.arctan2(ab[..., 1], ab[..., 0])) % 360
-    g["warm"] = 1 - look._warmth(hue)
-    g["material"] = ramp(look.material_chroma(hue, chroma * person, reach), *_GREY_MATERIAL)
-    g["hue"] = hue
-    g["reduced_C"] = chroma
-    g["reduced_L"] = lab_s[..., 0]
-    out = {}
-    for k, v in g.items():
-        big = np.repeat(np.repeat(v, step, 0), step, 1)
-        big = np.pad(big, ((0, max(gh - big.shape[0], 0)), (0, max(gw - big.shape[1], 0))), mode="edge")
-        out[k] = big[oy : oy + h, ox : ox + w]
-    return out
+    """``neutral_darks``' gates on ``image`` (the crop box's photo), each (h, w) at the photo's pixels (the reduced
+    grid's values, nearest): look.block_gates' own, under this script's names."""
+    names = {"L": "L", "C": "C", "vivid": "vivid", "warm": "warm", "material": "material", "hue": "hue",
+             "reduced_C": "C*", "reduced_L": "L*"}
+    g = look.block_gates(image, origin, solid)
+    return {k: look.at_pixels(g[v], image.shape[:2], origin) for k, v in names.items()}
 
 
 def diagnose(relighter, rgb: np.ndarray, mask: np.ndarray, light) -> dict:

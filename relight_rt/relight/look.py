@@ -237,9 +237,13 @@ def _warmth(hue: np.ndarray) -> np.ndarray:
                       np.clip((_GREY_WARM[1] - hue) / _GREY_WARM_SOFT, 0, 1))
 
 
-def _block_weight(image: np.ndarray, origin: tuple[int, int], solid: np.ndarray | None) -> np.ndarray | None:
-    """``neutral_darks``' weight read on the photo's reduced blocks (its docstring): (h * w,) float32 per pixel of
-    ``image`` (h, w, 3) in [0, 1], 0 off ``solid``; None where no block is near-neutral and dark."""
+def block_gates(image: np.ndarray, origin: tuple[int, int], solid: np.ndarray | None) -> dict[str, np.ndarray]:
+    """``neutral_darks``' gates on the photo's reduced blocks (its docstring), for ``image`` (h, w, 3) float32 RGB in
+    [0, 1] at ``origin`` (y, x) in the photo, ``solid`` (h, w) bool or None (all): a dict of (sh, sw) float32 arrays
+    on the grid of ``_NEUTRAL_STEP``-pixel blocks, each in [0, 1] and 1 where the block passes: "L", "C", "vivid",
+    "warm" (1 - its warmth), "material"; and the readings "L*", "C*" and "hue" (degrees, the hue a near-black block
+    takes from its neighbours). The weight is their product (``_block_weight``); ``at_pixels`` puts any of them back
+    on ``image``'s pixels. benchmarks/teal_sources.py reads them to say which gate let a pixel through."""
     h, w = image.shape[:2]
     # the reduction's grid on the photo's own: a group's person (a window of the photo) reads as they do alone
     oy, ox = origin[0] % _NEUTRAL_STEP, origin[1] % _NEUTRAL_STEP
@@ -266,10 +270,9 @@ def _block_weight(image: np.ndarray, origin: tuple[int, int], solid: np.ndarray 
     # ... and by its chroma for its lightness (C* / (L* + 16) ~ chroma relative to luminance): a dark saturated colour
     # is low in C* only because it is dark (a red stripe in shade: 0.48; dark hair with a blue cast: 0.15-0.27)
     vivid = cv2.resize(own_c / (full[..., 0] + 16), size, interpolation=cv2.INTER_AREA)
-    weight = ramp(lab[..., 0], *_GREY_L) * ramp(np.maximum(chroma, own - _GREY_NOISE), *_GREY_C)
-    weight *= ramp(vivid, *_GREY_VIVID)
-    if not weight.any():
-        return None
+    gates = {"L": ramp(lab[..., 0], *_GREY_L), "C": ramp(np.maximum(chroma, own - _GREY_NOISE), *_GREY_C),
+             "vivid": ramp(vivid, *_GREY_VIVID), "L*": lab[..., 0], "C*": chroma}
+    weight = gates["L"] * gates["C"] * gates["vivid"]
     reach = float(_GREY_REACH)  # in pixels, not a share of the photo: a group's person sees it as they do alone
     # a near-black pixel's own hue is noise: it takes that of the person's near-neutral darks around it (the jeans'
     # deep fold, the jeans' dark blue), weighted by how near-neutral and dark they are: a plain blur of a*b* is the
@@ -280,16 +283,41 @@ def _block_weight(image: np.ndarray, origin: tuple[int, int], solid: np.ndarray 
     around = cv2.GaussianBlur(ab * near[..., None], (0, 0), reach / 2) / np.maximum(total, 1e-6)[..., None]
     ab = np.where(((chroma < _GREY_HUE_C) & (total > 1e-3))[..., None], around, ab)
     hue = np.degrees(np.arctan2(ab[..., 1], ab[..., 0])) % 360
-    warm = _warmth(hue)
+    gates["hue"] = hue
+    gates["warm"] = 1 - _warmth(hue)
     # the material: the person's own colours nearby only (a backdrop of the hair's cast is not the hair's material)
-    weight *= (1 - warm) * ramp(material_chroma(hue, chroma * person, reach), *_GREY_MATERIAL)
+    gates["material"] = ramp(material_chroma(hue, chroma * person, reach), *_GREY_MATERIAL)
+    return gates
+
+
+def at_pixels(block: np.ndarray, shape: tuple[int, int], origin: tuple[int, int], smooth: bool = False) -> np.ndarray:
+    """A (sh, sw) reading of ``block_gates`` on the (h, w) pixels of ``shape`` at ``origin`` (y, x): each block's
+    value over its pixels (nearest), or ``smooth``: blurred over a reduced pixel and interpolated, as the weight is
+    (a colour the group's soft edge and the person alone see differently moves less). Past the last whole block the
+    edge's value."""
+    h, w = shape
+    oy, ox = origin[0] % _NEUTRAL_STEP, origin[1] % _NEUTRAL_STEP
+    gh, gw = h + oy, w + ox
+    blocks = (block.shape[1] * _NEUTRAL_STEP, block.shape[0] * _NEUTRAL_STEP)  # (w, h) the whole blocks cover
+    if smooth:
+        big = cv2.resize(cv2.GaussianBlur(block, (0, 0), 1.0), blocks, interpolation=cv2.INTER_LINEAR)
+    else:
+        big = np.repeat(np.repeat(block, _NEUTRAL_STEP, 0), _NEUTRAL_STEP, 1)
+    big = np.pad(big, ((0, max(gh - blocks[1], 0)), (0, max(gw - blocks[0], 0))), mode="edge")
+    return big[oy : oy + h, ox : ox + w]
+
+
+def _block_weight(image: np.ndarray, origin: tuple[int, int], solid: np.ndarray | None) -> np.ndarray | None:
+    """``neutral_darks``' weight read on the photo's reduced blocks (its docstring, ``block_gates``): (h * w,) float32
+    per pixel of ``image`` (h, w, 3) in [0, 1], 0 off ``solid``; None where no block is near-neutral and dark."""
+    gates = block_gates(image, origin, solid)
+    weight = gates["L"] * gates["C"] * gates["vivid"]
     if not weight.any():
         return None
-    blocks = (small.shape[1] * _NEUTRAL_STEP, small.shape[0] * _NEUTRAL_STEP)  # (w, h) the whole blocks cover
-    # smoothed over a reduced pixel: a colour the group's soft edge and the person alone see differently moves less
-    weight = cv2.resize(cv2.GaussianBlur(weight, (0, 0), 1.0), blocks, interpolation=cv2.INTER_LINEAR)
-    weight = np.pad(weight, ((0, max(gh - blocks[1], 0)), (0, max(gw - blocks[0], 0))), mode="edge")[oy : oy + h,
-                                                                                             ox : ox + w].ravel()
+    weight *= gates["warm"] * gates["material"]
+    if not weight.any():
+        return None
+    weight = at_pixels(weight, image.shape[:2], origin, smooth=True).ravel()
     if solid is not None:
         weight = weight * solid.ravel()
     return weight
