@@ -156,6 +156,11 @@ def shoulder(colour: np.ndarray, knee: np.ndarray) -> np.ndarray:
     return colour
 
 
+def _falling(v: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """1 at and below ``lo``, 0 at and above ``hi``, linear between (``v``'s shape)."""
+    return np.clip((hi - v) / (hi - lo), 0, 1)
+
+
 def dark_colour(image: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """What ``steady_chroma`` needs of a photo whatever the light: its luminance (h, w), how far a gain may pull its
     colour (h, w: its darkness 1 - Y / _DARK clipped to [0, 1], or ``_NEUTRAL_PULL`` x its near-blackness where
@@ -188,13 +193,12 @@ def dark_colour(image: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     small = cv2.resize(np.clip(image, 0, 1), (max(w // _NEUTRAL_STEP, 1), max(h // _NEUTRAL_STEP, 1)),
                        interpolation=cv2.INTER_AREA)
     lab = to_lab(small)
-    ramp = lambda v, lo, hi: np.clip((hi - v) / (hi - lo), 0, 1)  # noqa: E731 - 1 below lo, 0 above hi
     chroma = np.hypot(lab[..., 1], lab[..., 2])
-    black = ramp(lab[..., 0], *_NEUTRAL_L) * ramp(chroma, *_NEUTRAL_C)
+    black = _falling(lab[..., 0], *_NEUTRAL_L) * _falling(chroma, *_NEUTRAL_C)
     # a green-cyan cast only: what a brightening light turns teal; a faint one by its direction (a* small because C*
     # is: grey cloth at levels (22, 24, 22), a* -1.3, went past a* -8 under a side lamp's 4-5x)
     hue = -lab[..., 1] / np.maximum(chroma, 1e-3)
-    black *= np.maximum(ramp(lab[..., 1], *_NEUTRAL_A), ramp(-hue, -_NEUTRAL_HUE[1], -_NEUTRAL_HUE[0]))
+    black *= np.maximum(_falling(lab[..., 1], *_NEUTRAL_A), _falling(-hue, -_NEUTRAL_HUE[1], -_NEUTRAL_HUE[0]))
     darkness = np.clip(1 - y / _DARK, 0, 1)
     if not black.any():  # most photos: nothing near-black with a cast
         return y, darkness, colour
@@ -260,7 +264,6 @@ def block_gates(image: np.ndarray, origin: tuple[int, int], solid: np.ndarray | 
         cv2.copyMakeBorder(np.asarray(solid, np.float32), oy, 0, ox, 0, cv2.BORDER_REPLICATE)[
             : sh * _NEUTRAL_STEP, : sw * _NEUTRAL_STEP], (sw, sh), interpolation=cv2.INTER_AREA) >= 0.5
     lab = to_lab(small)
-    ramp = lambda v, lo, hi: np.clip((hi - v) / (hi - lo), 0, 1)  # noqa: E731 - 1 below lo, 0 above hi
     chroma = np.hypot(lab[..., 1], lab[..., 2])
     # near-neutral by its pixels' own chroma too: fine red and blue stripes average to a grey they are not
     full = to_lab(grid)
@@ -270,8 +273,8 @@ def block_gates(image: np.ndarray, origin: tuple[int, int], solid: np.ndarray | 
     # ... and by its chroma for its lightness (C* / (L* + 16) ~ chroma relative to luminance): a dark saturated colour
     # is low in C* only because it is dark (a red stripe in shade: 0.48; dark hair with a blue cast: 0.15-0.27)
     vivid = cv2.resize(own_c / (full[..., 0] + 16), size, interpolation=cv2.INTER_AREA)
-    gates = {"L": ramp(lab[..., 0], *_GREY_L), "C": ramp(np.maximum(chroma, own - _GREY_NOISE), *_GREY_C),
-             "vivid": ramp(vivid, *_GREY_VIVID), "L*": lab[..., 0], "C*": chroma}
+    gates = {"L": _falling(lab[..., 0], *_GREY_L), "C": _falling(np.maximum(chroma, own - _GREY_NOISE), *_GREY_C),
+             "vivid": _falling(vivid, *_GREY_VIVID), "L*": lab[..., 0], "C*": chroma}
     weight = gates["L"] * gates["C"] * gates["vivid"]
     reach = float(_GREY_REACH)  # in pixels, not a share of the photo: a group's person sees it as they do alone
     # a near-black pixel's own hue is noise: it takes that of the person's near-neutral darks around it (the jeans'
@@ -286,7 +289,7 @@ def block_gates(image: np.ndarray, origin: tuple[int, int], solid: np.ndarray | 
     gates["hue"] = hue
     gates["warm"] = 1 - _warmth(hue)
     # the material: the person's own colours nearby only (a backdrop of the hair's cast is not the hair's material)
-    gates["material"] = ramp(material_chroma(hue, chroma * person, reach), *_GREY_MATERIAL)
+    gates["material"] = _falling(material_chroma(hue, chroma * person, reach), *_GREY_MATERIAL)
     return gates
 
 
@@ -340,9 +343,9 @@ def _outline_darks(image: np.ndarray, solid: np.ndarray) -> tuple[np.ndarray, np
     if band.size == 0:
         return None
     lab = to_lab(np.clip(np.take(image.reshape(-1, 3), band, axis=0), 0, 1)[None])[0]
-    ramp = lambda v, lo, hi: np.clip((hi - v) / (hi - lo), 0, 1)  # noqa: E731 - 1 below lo, 0 above hi
     chroma = np.hypot(lab[:, 1], lab[:, 2])
-    weight = ramp(lab[:, 0], *_GREY_L) * ramp(chroma, *_GREY_C) * ramp(chroma / (lab[:, 0] + 16), *_GREY_VIVID)
+    weight = _falling(lab[:, 0], *_GREY_L) * _falling(chroma, *_GREY_C)
+    weight *= _falling(chroma / (lab[:, 0] + 16), *_GREY_VIVID)
     weight *= 1 - _warmth(np.degrees(np.arctan2(lab[:, 2], lab[:, 1])) % 360)
     # ... and only where the pixel has a hue of its own (C* from _GREY_HUE_C / 2, fully from _GREY_HUE_C; L* from
     # _GREY_HUE_L[0], fully from _GREY_HUE_L[1]): a near-black pixel's hue is noise, its material the block's (the
@@ -385,7 +388,6 @@ def neutral_darks(image: np.ndarray, origin: tuple[int, int] = (0, 0), solid: np
         weight[outline[0]] = np.maximum(weight[outline[0]], outline[1])
     if weight is None:
         return None
-    ramp = lambda v, lo, hi: np.clip((hi - v) / (hi - lo), 0, 1)  # noqa: E731 - 1 below lo, 0 above hi
     index = np.flatnonzero(weight > 1e-3)
     if index.size == 0:
         return None
@@ -393,7 +395,7 @@ def neutral_darks(image: np.ndarray, origin: tuple[int, int] = (0, 0), solid: np
     # the reduced pixel it lies in reads as: from _GREY_C[1] of its own C* up, as a warm reduced pixel is
     pixels = np.take(image.reshape(-1, 3), index, axis=0)
     own_lab = to_lab(np.clip(pixels, 0, 1)[None])[0]  # one row: cv2 converts row by row
-    grey = ramp(np.hypot(own_lab[:, 1], own_lab[:, 2]), *_GREY_C)  # 1: grey by its own C*, 0: a colour
+    grey = _falling(np.hypot(own_lab[:, 1], own_lab[:, 2]), *_GREY_C)  # 1: grey by its own C*, 0: a colour
     coloured = grey < 1  # the hue of those only (most are grey)
     own_warm = _warmth(np.degrees(np.arctan2(own_lab[coloured, 2], own_lab[coloured, 1])) % 360)
     keep = weight[index]
@@ -401,9 +403,7 @@ def neutral_darks(image: np.ndarray, origin: tuple[int, int] = (0, 0), solid: np
     index, pixels, keep = index[keep > 1e-3], pixels[keep > 1e-3], keep[keep > 1e-3]
     if index.size == 0:
         return None
-    relative, size, y = neutral_chroma(pixels.T)  # (3, k)
-    return NeutralDarks(*(readonly(np.ascontiguousarray(a)) for a in (
-        index * 3 + np.arange(3)[:, None], keep.astype(np.float32), relative, size, y)))
+    return _packed(index, keep, pixels)
 
 
 def with_material(neutral: NeutralDarks | None, image: np.ndarray, material: np.ndarray | None,
@@ -425,10 +425,14 @@ def with_material(neutral: NeutralDarks | None, image: np.ndarray, material: np.
         np.maximum(merged, weight, out=merged)
         index = np.union1d(index, own)
         weight = merged
-    pixels = np.take(np.asarray(image, np.float32).reshape(-1, 3), index, axis=0)
-    relative, size, y = neutral_chroma(pixels.T)
+    return _packed(index, weight[index], np.take(np.asarray(image, np.float32).reshape(-1, 3), index, axis=0))
+
+
+def _packed(index: np.ndarray, weight: np.ndarray, pixels: np.ndarray) -> NeutralDarks:
+    """The ``NeutralDarks`` of the photo's flat pixel indices ``index`` (k,), their weights (k,) and colours (k, 3)."""
+    relative, size, y = neutral_chroma(pixels.T)  # (3, k)
     return NeutralDarks(*(readonly(np.ascontiguousarray(a)) for a in (
-        index * 3 + np.arange(3)[:, None], weight[index].astype(np.float32), relative, size, y)))
+        index * 3 + np.arange(3)[:, None], weight.astype(np.float32), relative, size, y)))
 
 
 def keep_neutral(colour: np.ndarray, gain: np.ndarray, neutral: NeutralDarks | None) -> np.ndarray:
