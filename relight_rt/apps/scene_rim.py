@@ -56,6 +56,7 @@ import math
 import cv2
 import numpy as np
 
+from ..image.blur import wide_blur
 from ..image.color import REC709
 from ..light import envmap
 
@@ -307,17 +308,6 @@ def halo_colour(source, halo) -> np.ndarray:
     if saturation(around) <= saturation(src) or not lum > 0:
         return src
     return around * (float(src @ REC709) / lum)
-
-
-def wide_blur(img: np.ndarray, sigma: float) -> np.ndarray:
-    """A Gaussian blur of ``sigma`` pixels (reflected border); from ``sigma`` >= 4 on a half-size copy (area
-    halving, the rest of the blur there, resized back up): the same to ~1e-3 of its range, a quarter of the work."""
-    if sigma < 4 or min(img.shape[:2]) < 16:
-        return cv2.GaussianBlur(img, (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
-    h, w = img.shape[:2]
-    small = cv2.resize(img, ((w + 1) // 2, (h + 1) // 2), interpolation=cv2.INTER_AREA)
-    small = cv2.GaussianBlur(small, (0, 0), math.sqrt((sigma / 2) ** 2 - 0.25), borderType=cv2.BORDER_REFLECT)
-    return cv2.resize(small, (w, h), interpolation=cv2.INTER_LINEAR)
 
 
 def fibre_share(alpha: np.ndarray) -> np.ndarray:

@@ -27,6 +27,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from ..image.blur import wide_blur
 from ..image.color import REC709
 from ..person.face_mesh import reflection
 from .look import to_lab
@@ -65,24 +66,10 @@ def _ramp(x: np.ndarray, lo: float, hi: float) -> np.ndarray:
     return q * q * (3 - 2 * q)
 
 
-def _blur(a: np.ndarray, sigma: float) -> np.ndarray:
-    """``a`` (h, w[, c]) float32 blurred by a Gaussian of ``sigma`` px; a wide one (``sigma`` >= 4) on a grid half as
-    fine, then resized back (a quarter of the work; what it blurs is smooth at that scale)."""
-    a = np.ascontiguousarray(a, np.float32)
-    h, w = a.shape[:2]
-    if sigma < 4 or min(h, w) < 8:
-        return cv2.GaussianBlur(a, (0, 0), sigma).reshape(a.shape)
-    if a.ndim == 3 and a.shape[2] > 4:  # cv2.resize takes at most 4 channels
-        return np.concatenate([_blur(a[..., i : i + 4], sigma) for i in range(0, a.shape[2], 4)], axis=2)
-    small = cv2.resize(a, ((w + 1) // 2, (h + 1) // 2), interpolation=cv2.INTER_AREA)
-    small = cv2.GaussianBlur(small, (0, 0), sigma / 2)
-    return cv2.resize(small, (w, h), interpolation=cv2.INTER_LINEAR).reshape(a.shape)
-
-
 def _mean(values: np.ndarray, weight: np.ndarray, sigma: float) -> np.ndarray:
     """(h, w) float32: the ``weight``-weighted mean of ``values`` over a Gaussian of ``sigma`` px (0: no weight)."""
-    den = _blur(weight, sigma)
-    num = _blur(values * weight, sigma)
+    den = wide_blur(weight, sigma)
+    num = wide_blur(values * weight, sigma)
     return np.divide(num, den, out=np.zeros_like(num), where=den > 1e-4)
 
 
@@ -205,11 +192,11 @@ def beard_weight(rgb: np.ndarray, albedo: np.ndarray, transport: np.ndarray, whi
     # shadow under the jaw is not what lights the beard: counted alike, p024's beard took the neck's transport and a
     # side lamp's ratio there was 2.5 against the cheek's 1.2; by the shading 1.57, by its square 1.33)
     lit = ((1 - dark) * solid * (shading > 1e-3) * np.clip(implied, 0, 2) ** 2).astype(np.float32)
-    den = _blur(lit, sigma)
+    den = wide_blur(lit, sigma)
     ok = den > 1e-3
-    around = _blur(transport * lit[..., None], sigma)
+    around = wide_blur(transport * lit[..., None], sigma)
     around = np.divide(around, den[..., None], out=np.asarray(transport, np.float32).copy(), where=ok[..., None])
-    lit_implied = _blur(implied * lit, sigma)
+    lit_implied = wide_blur(implied * lit, sigma)
     q = np.divide(implied * den, lit_implied, out=np.ones_like(implied), where=ok & (lit_implied > 1e-3 * den))
     # and hair, not skin: the fine detail among its near-black pixels (the log photo less their mean over
     # ``BEARD_DETAIL[0]`` px, its size averaged over ``BEARD_DETAIL[1]`` of the face's height; the edge to the skin
