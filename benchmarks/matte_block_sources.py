@@ -2,7 +2,7 @@
 evaluation only.
 
     python benchmarks/matte_block_sources.py --only p186,p209,p255,p273 --out /tmp/blocks   # per photo, ~30 s
-    python benchmarks/matte_block_sources.py --backed      # what _completion.backed lifts, over the photos, ~2 min
+    python benchmarks/matte_block_sources.py --backed [--dump /tmp/pieces.json]   # what backed lifts, ~2 min
     python benchmarks/matte_block_sources.py --portraits   # what a portrait holds and the pose graph leaves, ~2 min
     python benchmarks/matte_block_sources.py --straight [--save-mattes /tmp/mattes]   # outlines' straight runs, ~2 min
 
@@ -34,6 +34,7 @@ except where --out points (keep it under /tmp).
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
 
@@ -61,6 +62,7 @@ MIN_AREA = (0, 500, 2000)  # ... and the pieces' least size in photo pixels
 RING = 7  # ... the ring round a piece: this wide a square window (canvas pixels)
 POSE_LEAVES = 0.1  # --portraits: the pose graph leaves a pixel below this
 PART_MIN = 0.03  # ... parts at least this share of the matte are listed
+DUMP_POINTS = 300  # --backed --dump: at most this many of a piece's pixels written
 
 
 def _whole(matter: M.PersonMatter, rgb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -129,8 +131,9 @@ def per_photo(matter: M.PersonMatter, names: list[str], out: Path | None) -> Non
             cv2.imwrite(str(out / f"{name}_graphs.png"), grid)
 
 
-def backed_pieces(matter: M.PersonMatter) -> None:
-    """--backed (module docstring)."""
+def backed_pieces(matter: M.PersonMatter, dump: Path | None = None) -> None:
+    """--backed (module docstring); ``dump``: every piece as JSON there, with its region's box and up to DUMP_POINTS of
+    its pixels' photo coordinates (for benchmarks/skeleton_reach.py --pieces)."""
     root = PME.data_root()
     listed = PME.items(root, "photos")
     halves = PME.half_of([n for n, _, _ in listed])
@@ -189,8 +192,14 @@ def backed_pieces(matter: M.PersonMatter) -> None:
                             body=float(np.linalg.norm(col - body)),
                         )
                     )
+                    if dump is not None:
+                        pick = np.linspace(0, m.sum() - 1, min(int(m.sum()), DUMP_POINTS)).astype(int)
+                        rows[-1].update(region=[float(v) for v in person.region.box()],
+                                        xs=xs[m][pick].tolist(), ys=ys[m][pick].tolist())  # fmt: skip
     finally:
         PM.backed = backed
+    if dump is not None:
+        dump.write_text(json.dumps([{k: (None if v == np.inf else v) for k, v in r.items()} for r in rows]))
     for hv in "AB":
         s = [r for r in rows if r["half"] == hv]
         person = sum(r["area"] * r["held"] for r in s)
@@ -287,6 +296,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--only", default="", help="comma list of photo names (people_masks/photos): per-photo figures")
     ap.add_argument("--out", type=Path, help="with --only: a sheet per photo here (under /tmp)")
     ap.add_argument("--backed", action="store_true", help="what _completion.backed lifts, over the photos")
+    ap.add_argument("--dump", type=Path, help="with --backed: the pieces as JSON here (under /tmp)")
     ap.add_argument("--portraits", action="store_true", help="what a portrait holds and the pose graph leaves")
     ap.add_argument("--straight", action="store_true", help="the longest straight run of each matte's outline")
     ap.add_argument("--save-mattes", type=Path, help="with --straight: each matte as uint8 .npy here (under /tmp)")
@@ -298,7 +308,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.only:
         per_photo(matter, [n for n in args.only.split(",") if n], args.out)
     if args.backed:
-        backed_pieces(matter)
+        backed_pieces(matter, args.dump)
     if args.portraits:
         portrait_parts(matter)
     if args.straight:
