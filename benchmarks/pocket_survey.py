@@ -26,6 +26,12 @@ backdrop's colours (k-means centres of the sure background within 4 r + half the
 their distance to the person's colours round it (centres of the sure interior within 2 r of it), is opened; the alpha
 it would take is landed on the masks: background (outside the mask grown 1 px), person (inside it shrunk 2 px).
 
+``--doubted`` (glow43, written before its figures): the matte's pixels (alpha >= 0.5) the pose graph alone holds (the
+selfie graph on the person's region under ``DOUBTED``, the pose graph at least ``POSE_HELD``: p204's bag's handle loop,
+selfie 0.19, pose 0.95), in a part of at least r^2 px whose rim lies at least ``ENCLOSED_BY`` (``--enclosed-by``) in
+the matte, opened where their colour is the backdrop's (``backdrop_coloured``'s test), the whole part only where at
+least ``--doubted-share`` of it is (0: pixel by pixel); landed as ``--candidate``, with the images it acts on.
+
 Nothing of the data is written except where ``--json`` points (keep it under /tmp). About 4.5 min for both sets.
 """
 
@@ -58,6 +64,10 @@ DOUBT = 0.97  # --candidate: the coarse matte under this ...
 ENCLOSED = 0.7  # ... a part whose rim lies at least this share in the interior ...
 RATIO = 0.5  # ... a pixel nearer the backdrop's colours than this x its distance to the person's ...
 BACKDROP_SHARE = 0.5  # ... over at least this share of the part
+DOUBTED = 0.3  # --doubted: the matte's pixels the selfie graph on the person's region holds under this ...
+POSE_HELD = 0.5  # ... and the pose graph at least this (the pose graph alone holds them) ...
+ENCLOSED_BY = 0.5  # ... in a part whose rim lies at least this share in the matte (alpha >= 0.5: a bay or pocket) ...
+DOUBTED_SHARE = 0.0  # ... opened where at least this share of the part is backdrop-coloured (0: pixel by pixel)
 _RING = np.ones((3, 3), np.uint8)
 
 
@@ -177,6 +187,48 @@ def candidate(rgb: np.ndarray, mask: np.ndarray, m: dict[str, np.ndarray]) -> di
     return out
 
 
+def doubted(rgb: np.ndarray, mask: np.ndarray, m: dict[str, np.ndarray], enclosed_by: float = ENCLOSED_BY,
+            share: float = DOUBTED_SHARE) -> dict[str, float]:
+    """glow43's candidate (module docstring, ``--doubted``): the matte's pixels (alpha >= 0.5) the pose graph alone
+    holds (``selfie`` < ``DOUBTED``, ``pose`` >= ``POSE_HELD``), in a part of at least r^2 px whose rim lies at least
+    ``enclosed_by`` in the matte, opened where their colour is the backdrop's (``backdrop_coloured``'s test: within
+    _GAP_MATCH of the mean sure background within _GAP_REACH x r, 2x that where none), and only where at least
+    ``share`` of the part is; the alpha it would take, landed on the mask."""
+    alpha = m["alpha"]
+    r = E.band_width(alpha.shape)
+    held = (alpha >= 0.5) & (m["selfie"] < DOUBTED) & (m["pose"] >= POSE_HELD)
+    background = cv2.dilate(mask.astype(np.uint8), _RING) == 0
+    person = cv2.erode(mask.astype(np.uint8), _RING, iterations=2) > 0
+    out = {"background": 0.0, "person": 0.0, "parts": 0}
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(held.astype(np.uint8), connectivity=8)
+    outside = cv2.distanceTransform((alpha < 0.5).astype(np.uint8), cv2.DIST_L2, 3)
+    sure_bg = (alpha <= 1 - E._SURE) & (outside > r)
+    for i in range(1, n):
+        x, y, w, h, area = (int(v) for v in stats[i])
+        if area < r * r:
+            continue
+        comp = labels == i
+        rim = cv2.dilate(comp.astype(np.uint8), _RING).astype(bool) & ~comp
+        if (alpha[rim] >= 0.5).mean() < enclosed_by:
+            continue
+        for reach in (E._GAP_REACH * r, 2 * E._GAP_REACH * r):
+            zone = cv2.dilate(comp.astype(np.uint8), cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * reach + 1,) * 2))
+            sure = zone.astype(bool) & sure_bg
+            if sure.any():
+                break
+        if not sure.any():
+            continue
+        opened = np.zeros(comp.shape, bool)
+        opened[comp] = E._backdrop_coloured(rgb[comp], rgb[sure].mean(0))
+        if opened[comp].mean() < share:
+            continue
+        if opened.any():
+            out["parts"] += 1
+            out["background"] += float(alpha[opened & background].sum())
+            out["person"] += float(alpha[opened & person].sum())
+    return out
+
+
 def summary(rows: list[dict], label: str) -> None:
     """Per kind: how many regions, their pixels and held alpha, the share they hold of first_look's inner pixels (of
     the images with a held region), the graphs' median means over them, how many open_pockets' search reaches, the
@@ -205,6 +257,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--only", default=None, help="comma-separated image names: these only, every region listed")
     ap.add_argument("--list", type=int, default=15, help="list this many of the largest pockets and bays")
     ap.add_argument("--candidate", action="store_true", help="land the dropped colour rule for pockets on the masks")
+    ap.add_argument("--doubted", action="store_true", help="land glow43's candidate (the pose graph alone holding "
+                    "backdrop-coloured pixels in a bay) on the masks")
+    ap.add_argument("--enclosed-by", type=float, default=ENCLOSED_BY, help="--doubted: ENCLOSED_BY")
+    ap.add_argument("--doubted-share", type=float, default=DOUBTED_SHARE, help="--doubted: DOUBTED_SHARE")
     ap.add_argument("--json", type=Path, help="write every region's row here (keep it under /tmp)")
     args = ap.parse_args(argv)
     root = data_root()
@@ -213,6 +269,7 @@ def main(argv: list[str] | None = None) -> int:
     only = set(args.only.split(",")) if args.only else None
     rows: list[dict] = []
     landed: dict[str, dict[str, float]] = {}
+    acted: dict[str, list] = {}
     t0 = time.time()
     for which in ("clip", "photos") if args.set == "both" else (args.set,):
         for name, img, mask_path in items(root, which):
@@ -229,6 +286,13 @@ def main(argv: list[str] | None = None) -> int:
                 c = candidate(rgb, mask, m)
                 total = landed.setdefault(group, {"background": 0.0, "person": 0.0, "parts": 0, "images": 0})
                 total.update({k: total[k] + c[k] for k in c}, images=total["images"] + (c["parts"] > 0))
+            if args.doubted:
+                c = doubted(rgb, mask, m, args.enclosed_by, args.doubted_share)
+                total = landed.setdefault("doubted " + group, {"background": 0.0, "person": 0.0, "parts": 0,
+                                                               "images": 0})
+                total.update({k: total[k] + c[k] for k in c}, images=total["images"] + (c["parts"] > 0))
+                if c["parts"]:
+                    acted.setdefault(group, []).append(f"{name} ({c['background']:.0f} / {c['person']:.0f})")
     print(f"{len({r['image'] for r in rows})} images with held regions, {time.time() - t0:.0f} s", file=sys.stderr)
     for group in ("A", "B", "clip"):
         part = [r for r in rows if r["group"] == group]
@@ -244,6 +308,8 @@ def main(argv: list[str] | None = None) -> int:
         share = c["background"] / max(c["background"] + c["person"], 1e-9)
         print(f"candidate rule, {group}: {c['parts']} parts in {c['images']} images would open {c['background']:.0f} "
               f"px of alpha on background, {c['person']:.0f} on the person ({share:.0%} background)")
+    for group, names in acted.items():
+        print(f"doubted, {group}: acts on {len(names)} images (alpha on background / person): {', '.join(names)}")
     if args.json:
         args.json.write_text(json.dumps(rows, indent=1))
     return 0

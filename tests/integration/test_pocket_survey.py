@@ -75,3 +75,24 @@ def test_the_candidate_rule_opens_the_backdrop_pocket_and_keeps_the_shirts_fold(
     assert survey.candidate(rgb, mask, maps(matte, 1.0))["parts"] == 0
     rgb, mask, matte = figure(fold=True)
     assert survey.candidate(rgb, mask, maps(matte, 0.9))["parts"] == 0
+
+
+def pose_alone(matte: np.ndarray, selfie: float) -> dict[str, np.ndarray]:
+    """The graphs' stand-ins where the pose graph holds the pocket (0.95) and the selfie graph at ``selfie``."""
+    m = maps(matte, 0.95)
+    m["selfie"] = m["selfie"].copy()
+    m["selfie"][POCKET] = selfie
+    return m
+
+
+def test_the_doubted_candidate_opens_backdrop_the_pose_graph_alone_holds_and_keeps_the_shirts_fold(survey):
+    rgb, mask, matte = figure(fold=False)
+    opened = survey.doubted(rgb, mask, pose_alone(matte, 0.1))
+    assert opened["parts"] == 1
+    assert opened["background"] > 0.8 * 96 * 14 and opened["person"] == 0.0
+    # the selfie graph holding it too: not a candidate, whatever its colour
+    assert survey.doubted(rgb, mask, pose_alone(matte, 0.9))["parts"] == 0
+    # the shirt's own fold (not the backdrop's colour) stays, pixel by pixel or whole
+    rgb, mask, matte = figure(fold=True)
+    assert survey.doubted(rgb, mask, pose_alone(matte, 0.1))["parts"] == 0
+    assert survey.doubted(rgb, mask, pose_alone(matte, 0.1), share=0.8)["parts"] == 0
