@@ -18,6 +18,7 @@ from ..light.exposure import DISPLAY_GAMMA, knee
 from . import head_blend
 from .decomposition import Decomposition, Memo, RelightResult, intrinsic_layers, readonly
 from .factor import Factor
+from .kept_rim import KeptRim, kept_rim, with_kept_rim
 from .look import (
     NeutralDarks,
     dark_colour,
@@ -614,6 +615,16 @@ class Composer:
             return None
         return head_blend.head_change(self.factor, dec, np.asarray(light, np.float32), self.foreground(dec)[0])
 
+    def kept_rim(self, dec: Decomposition) -> KeptRim | None:
+        """``kept_rim.kept_rim`` of ``dec``'s background, matte and own colour in its crop box (``foreground``),
+        once per Decomposition."""
+        state = self.memo(dec)
+        if "kept_rim" not in state:
+            fg, behind = self.foreground(dec)  # the colour behind a soft edge is the background's, not the person's
+            rim = kept_rim(behind, dec.geometry.crop(dec.mask), fg)
+            state["kept_rim"] = None if rim is None else KeptRim(*(readonly(a) for a in rim))
+        return state["kept_rim"]
+
     def own_light(self, dec: Decomposition) -> tuple[np.ndarray, float]:
         """``own_light_sum`` of ``dec``'s own colour over its matte in the crop box, found once per Decomposition."""
         state = self.memo(dec)
@@ -704,6 +715,8 @@ class Composer:
             if dec.edge is not None and dec.foreground is not None:  # the automatic matte's edge as the photo
                 alpha = dec.edge  # shows it, with the colour behind it (``photo_colours``; a group relit as one
                 # finds its colours from its matte: its people carry theirs, relight_rt.relight.people)
+            if dec.photo:  # the kept background's light through the person's edge, which a new lamp leaves
+                colour = with_kept_rim(colour, self.kept_rim(dec), gain)  # (relight_rt.relight.kept_rim)
         return over_box(colour, alpha[..., None], geom.box, backdrop, dec.mask, behind, gain)
 
     def with_layers(self, dec: Decomposition, lit: np.ndarray, outputs: tuple, backdrop: np.ndarray | None,

@@ -1,0 +1,128 @@
+"""The kept background's light on the person's edge: a rim the new light does not take away.
+
+With the photo's own background kept (``relight-rt relight``'s default), the scene behind the person is still
+there, and some of the light that reaches the camera from the person's outline is that scene's: fine fibres at
+the edge (hair, fuzz, a thin fabric's edge) scatter forward the light of the background just behind them, and a
+smooth opaque edge shows at most a thin grazing line of it. That part of the photo's edge pixel is not lit by the
+photo's lamp, so a new lamp should not take it away: without it the side a new lamp misses goes near black with a
+hard edge against a bright background, and the person looks pasted (``benchmarks/dark_edge.py``, issue 48).
+
+The rule (``kept_rim`` once per photo, ``with_kept_rim`` per light): each outline pixel's rim is the background
+beside it (the photo's mean over the solid background within the rim's reach, linear light: its local colour and
+level, not a clipped sun) times ``KEPT_SCATTER``, times the outline's band (``relight_rt.apps.scene_rim.key_rim``'s:
+where the matte says fibres, ``fibre_share``, the full reach, ``REACH`` of the person's height, falling inward;
+a smooth edge only within ``GRAZE_WIDTH`` of it), and never more than the photo's own pixel holds (its luminance
+at most the person's own colour's there: the rim is a share of the photo, not a light added to it). It is part of
+the photo, so it is kept as it was while the rest of the pixel follows the new light: a relit pixel whose
+luminance the light moved by g (relit over own, linear) is the rim plus g times the rest, so ``rim · (1 − g)``
+is added where g < 1. Under the photo's own light (g = 1) the photo comes back; where the new light brightens the
+edge the rim is left to scale with it (as before this rule); a dark background (Yale's backdrop, a night street)
+gives no rim. The composite applies it over the photo's own background only: a new backdrop has its own rim rules
+(``relight_rt.apps.scene``), the RGBA output none.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import cv2
+import numpy as np
+
+from ..apps.scene_rim import GRAZE_WIDTH, body, fibre_share, wide_blur
+from ..image.color import REC709, linear_to_srgb, srgb_to_linear
+from ..light.exposure import DISPLAY_GAMMA
+
+__all__ = ["KEPT_SCATTER", "REACH", "KeptRim", "kept_rim", "with_kept_rim"]
+
+KEPT_SCATTER = 0.3  #: the share of the background's light beside the outline that its fibres send on to the camera
+REACH = 0.02  #: the rim's reach inside the outline (Gaussian sigma), share of the person's height
+# Both chosen on half A of the first look's photos (``benchmarks/dark_edge.py``, LEFT / RIGHT / campfire / rim, dark
+# edge 0.139 without the rule): the scene app's ``SCATTER`` 0.1 and ``RIM_RADIUS`` 0.01 gave 0.123 (-12 %); scatter
+# 0.3 / 0.4 / 0.6 at reach 0.01: 0.101 / 0.094 / 0.084; at reach 0.02, 0.1 / 0.2 / 0.3: 0.118 / 0.101 / 0.088 (-37 %).
+# The first look's photos are 200-1200 px tall: 0.02 is a rim 4-24 px deep, the band where a lamp's miss read black.
+_LEAST = 1.0 / 1024  # a rim pixel whose rim luminance (linear) is below this is left out (under half an 8-bit level)
+
+
+class KeptRim(NamedTuple):
+    """What ``with_kept_rim`` adds to a relit person whatever the light, on the n pixels of a crop box it reaches.
+
+    Attributes:
+        index: (n,) int64, the pixels' flat indices in the crop box (row-major), increasing.
+        rim: (n, 3) float32, the rim's linear RGB radiance there (the photo's units: sRGB decoded).
+        own: (n,) float32, the person's own colour's luminance there (linear, Rec. 709), > 0.
+    """
+
+    index: np.ndarray
+    rim: np.ndarray
+    own: np.ndarray
+
+
+def kept_rim(behind: np.ndarray, alpha: np.ndarray, fg: np.ndarray) -> KeptRim | None:
+    """The rim the photo's own background puts on the person's outline (module docstring).
+
+    Args:
+        behind: (h, w, 3) float32 sRGB in [0, 1], the photo's background in the person's crop box: the photo where
+            the matte is 0, the colour behind a soft edge on its soft pixels (``compose.own_colours``' B), so that
+            the person's own colour at a soft edge is not taken for background.
+        alpha: (h, w) float32 in [0, 1], the person's matte there (its softness says where the outline is fibres).
+        fg: (h, w, 3) float32 sRGB in [0, 1], the person's own colour there (the composite's foreground).
+
+    Returns:
+        A ``KeptRim``, or None where there is none (no outline, no background beside it, a black background).
+    """
+    a0 = np.clip(np.asarray(alpha, np.float32), 0, 1)
+    rows = np.flatnonzero((a0 >= 0.5).any(axis=1))
+    if rows.size == 0:
+        return None
+    radius = max(0.5, REACH * float(rows[-1] + 1 - rows[0]))
+    a = body(a0, radius)
+    outside = 1 - a
+    reach = wide_blur(outside, radius)  # the share of the background within the rim's reach
+    a = np.minimum(a, a0)  # a filled hole shows what is behind the person: no rim on it
+    edge = (a > 0) & (reach > 1e-3)
+    if not edge.any():
+        return None
+    light = srgb_to_linear(np.clip(np.asarray(behind, np.float32), 0, 1))
+    # the background beside each pixel: its light summed over the reach, over the reach's share (its local mean)
+    beside = wide_blur(light * outside[..., None], radius)[edge] / reach[edge][:, None]
+    f = np.clip(fibre_share(a0)[edge], 0, 1)
+    thin = cv2.GaussianBlur(outside, (0, 0), max(0.5, GRAZE_WIDTH * radius), borderType=cv2.BORDER_REFLECT)[edge]
+    ae = a[edge]
+    band = f * np.minimum(2 * ae * reach[edge], 1) + (1 - f) * np.minimum(2 * ae * thin, 1)
+    rim = (np.float32(KEPT_SCATTER) * band)[:, None] * beside
+    own = srgb_to_linear(np.clip(np.asarray(fg, np.float32)[edge], 0, 1)) @ REC709
+    y = rim @ REC709
+    rim *= np.minimum(1, own / np.maximum(y, 1e-12))[:, None]  # no more than the photo's own pixel holds
+    keep = np.minimum(y, own) >= _LEAST
+    if not keep.any():
+        return None
+    index = np.flatnonzero(edge)[keep]
+    return KeptRim(index, np.ascontiguousarray(rim[keep], np.float32), own[keep].astype(np.float32))
+
+
+def with_kept_rim(colour: np.ndarray, kept: KeptRim | None, grade: np.ndarray | None = None) -> np.ndarray:
+    """``colour`` with the kept rim: on ``kept``'s pixels, where the new light leaves the pixel's luminance g (its
+    linear luminance over the own colour's) below the background's (1, or its ``grade``), the rim's part of the
+    photo that the light took with it added back: rim · (G − g) per channel, G the background's linear gain.
+
+    Args:
+        colour: (h, w, 3) float32 sRGB, the relit person's straight colour in the crop box (not modified).
+        kept: ``kept_rim`` of the same crop box, or None (``colour`` returned as it is).
+        grade: (3,) the background's gain on its sRGB values (``Background.grade``), or None.
+
+    Returns:
+        (h, w, 3) float32, a new array (or ``colour`` itself when ``kept`` is None).
+    """
+    if kept is None:
+        return colour
+    out = np.array(colour, dtype=np.float32)
+    flat = out.reshape(-1, 3)
+    relit = srgb_to_linear(np.clip(flat[kept.index], 0, 1))
+    g = (relit @ REC709) / kept.own
+    gain = np.ones(3, np.float32) if grade is None else np.asarray(grade, np.float32) ** np.float32(DISPLAY_GAMMA)
+    lost = np.maximum(gain[None, :] - g[:, None], 0)
+    at = np.flatnonzero(lost.max(axis=1) > 0)
+    if at.size:
+        flat[kept.index[at]] = np.clip(linear_to_srgb(relit[at] + kept.rim[at] * lost[at]), 0, 1)
+    return out
+
