@@ -28,19 +28,38 @@ from typing import NamedTuple
 import cv2
 import numpy as np
 
-from ..apps.scene_rim import GRAZE_WIDTH, body, fibre_share, wide_blur
+from ..apps.scene_rim import GRAZE_WIDTH, fibre_share, wide_blur
 from ..image.color import REC709, linear_to_srgb, srgb_to_linear
 from ..light.exposure import DISPLAY_GAMMA
 
 __all__ = ["KEPT_SCATTER", "REACH", "KeptRim", "kept_rim", "with_kept_rim"]
 
-KEPT_SCATTER = 0.3  #: the share of the background's light beside the outline that its fibres send on to the camera
-REACH = 0.02  #: the rim's reach inside the outline (Gaussian sigma), share of the person's height
-# Both chosen on half A of the first look's photos (``benchmarks/dark_edge.py``, LEFT / RIGHT / campfire / rim, dark
-# edge 0.139 without the rule): the scene app's ``SCATTER`` 0.1 and ``RIM_RADIUS`` 0.01 gave 0.123 (-12 %); scatter
-# 0.3 / 0.4 / 0.6 at reach 0.01: 0.101 / 0.094 / 0.084; at reach 0.02, 0.1 / 0.2 / 0.3: 0.118 / 0.101 / 0.088 (-37 %).
-# The first look's photos are 200-1200 px tall: 0.02 is a rim 4-24 px deep, the band where a lamp's miss read black.
-_LEAST = 1.0 / 1024  # a rim pixel whose rim luminance (linear) is below this is left out (under half an 8-bit level)
+KEPT_SCATTER = 0.6  #: the share of the background's light beside the outline that its fibres send on to the camera
+REACH = 0.01  #: the rim's reach inside the outline (Gaussian sigma), share of the person's height (the scene app's
+# ``RIM_RADIUS``). Both chosen on half A of the first look's photos (``benchmarks/dark_edge.py``, LEFT / RIGHT /
+# campfire / rim; dark edge 0.139 without the rule): the scene app's ``SCATTER`` 0.1 gave 0.123 (-12 %); 0.3 / 0.4 /
+# 0.6: 0.101 / 0.094 / 0.086 (-38 %; half B 0.174 -> 0.096). A reach of 0.02 with 0.3 did as well (0.090) but laid a
+# band twice as wide, read at 100 % as a veil of the background's colour over dark hair (p286 under RIGHT, campfire).
+# The photo's own pixel bounds the rim whatever the share (``kept_rim``): 0.6 is where the photo allows most of it.
+_LEAST = 0.5 / 255 / 12.92  # a pixel whose rim luminance (linear) is below this is left out: half an 8-bit level
+# on black, where sRGB is steepest
+_LEVELS = 4096  # sRGB is decoded through a table of this many levels (12 bits: 20 ms -> 3 ms on a 2.5-MP crop box)
+_DECODE = srgb_to_linear(np.linspace(0, 1, _LEVELS, dtype=np.float32))
+_DECODE.flags.writeable = False
+_ENCODE = linear_to_srgb(np.linspace(0, 1, _LEVELS, dtype=np.float32) ** 2)  # indexed by sqrt(linear): steps of
+_ENCODE.flags.writeable = False  # at most 2e-4 in sRGB (sRGB is smooth in the root of light)
+
+
+def _decoded(values: np.ndarray) -> np.ndarray:
+    """sRGB ``values`` (any shape, float) decoded to linear light through ``_DECODE`` (clipped to [0, 1] first)."""
+    at = np.clip(values, 0, 1) * np.float32(_LEVELS - 1) + np.float32(0.5)
+    return np.take(_DECODE, at.astype(np.int32))
+
+
+def _encoded(light: np.ndarray) -> np.ndarray:
+    """Linear ``light`` (any shape, float) encoded to sRGB through ``_ENCODE`` (clipped to [0, 1] first)."""
+    at = np.sqrt(np.clip(light, 0, 1)) * np.float32(_LEVELS - 1) + np.float32(0.5)
+    return np.take(_ENCODE, at.astype(np.int32))
 
 
 class KeptRim(NamedTuple):
@@ -75,14 +94,15 @@ def kept_rim(behind: np.ndarray, alpha: np.ndarray, fg: np.ndarray) -> KeptRim |
     if rows.size == 0:
         return None
     radius = max(0.5, REACH * float(rows[-1] + 1 - rows[0]))
-    a = body(a0, radius)
+    # unlike the scene app's key rim (``scene_rim.body``) the matte's holes and crumbs are kept: a hole shows the
+    # background, whose light reaches the hole's edge too, and a crumb's rim is bounded by the photo's own pixel
+    a = a0
     outside = 1 - a
     reach = wide_blur(outside, radius)  # the share of the background within the rim's reach
-    a = np.minimum(a, a0)  # a filled hole shows what is behind the person: no rim on it
     edge = (a > 0) & (reach > 1e-3)
     if not edge.any():
         return None
-    light = srgb_to_linear(np.clip(np.asarray(behind, np.float32), 0, 1))
+    light = _decoded(np.asarray(behind, np.float32))
     # the background beside each pixel: its light summed over the reach, over the reach's share (its local mean)
     beside = wide_blur(light * outside[..., None], radius)[edge] / reach[edge][:, None]
     f = np.clip(fibre_share(a0)[edge], 0, 1)
@@ -90,7 +110,7 @@ def kept_rim(behind: np.ndarray, alpha: np.ndarray, fg: np.ndarray) -> KeptRim |
     ae = a[edge]
     band = f * np.minimum(2 * ae * reach[edge], 1) + (1 - f) * np.minimum(2 * ae * thin, 1)
     rim = (np.float32(KEPT_SCATTER) * band)[:, None] * beside
-    own = srgb_to_linear(np.clip(np.asarray(fg, np.float32)[edge], 0, 1)) @ REC709
+    own = _decoded(np.asarray(fg, np.float32)[edge]) @ REC709
     y = rim @ REC709
     rim *= np.minimum(1, own / np.maximum(y, 1e-12))[:, None]  # no more than the photo's own pixel holds
     keep = np.minimum(y, own) >= _LEAST
@@ -117,12 +137,12 @@ def with_kept_rim(colour: np.ndarray, kept: KeptRim | None, grade: np.ndarray | 
         return colour
     out = np.array(colour, dtype=np.float32)
     flat = out.reshape(-1, 3)
-    relit = srgb_to_linear(np.clip(flat[kept.index], 0, 1))
+    relit = _decoded(flat[kept.index])
     g = (relit @ REC709) / kept.own
     gain = np.ones(3, np.float32) if grade is None else np.asarray(grade, np.float32) ** np.float32(DISPLAY_GAMMA)
     lost = np.maximum(gain[None, :] - g[:, None], 0)
     at = np.flatnonzero(lost.max(axis=1) > 0)
     if at.size:
-        flat[kept.index[at]] = np.clip(linear_to_srgb(relit[at] + kept.rim[at] * lost[at]), 0, 1)
+        flat[kept.index[at]] = _encoded(relit[at] + kept.rim[at] * lost[at])
     return out
 
