@@ -615,13 +615,13 @@ class Composer:
             return None
         return head_blend.head_change(self.factor, dec, np.asarray(light, np.float32), self.foreground(dec)[0])
 
-    def kept_rim(self, dec: Decomposition) -> KeptRim | None:
+    def kept_rim(self, dec: Decomposition, cover: np.ndarray | None = None) -> KeptRim | None:
         """``kept_rim.kept_rim`` of ``dec``'s background, matte and own colour in its crop box (``foreground``),
-        once per Decomposition."""
+        once per Decomposition; ``cover``: everyone's matte there (a group's person: the group's), None: ``dec``'s."""
         state = self.memo(dec)
         if "kept_rim" not in state:
             fg, behind = self.foreground(dec)  # the colour behind a soft edge is the background's, not the person's
-            rim = kept_rim(behind, dec.geometry.crop(dec.mask), fg)
+            rim = kept_rim(behind, dec.geometry.crop(dec.mask), fg, cover)
             state["kept_rim"] = None if rim is None else KeptRim(*(readonly(a) for a in rim))
         return state["kept_rim"]
 

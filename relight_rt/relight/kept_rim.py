@@ -76,7 +76,8 @@ class KeptRim(NamedTuple):
     own: np.ndarray
 
 
-def kept_rim(behind: np.ndarray, alpha: np.ndarray, fg: np.ndarray) -> KeptRim | None:
+def kept_rim(behind: np.ndarray, alpha: np.ndarray, fg: np.ndarray, cover: np.ndarray | None = None
+             ) -> KeptRim | None:
     """The rim the photo's own background puts on the person's outline (module docstring).
 
     Args:
@@ -85,6 +86,8 @@ def kept_rim(behind: np.ndarray, alpha: np.ndarray, fg: np.ndarray) -> KeptRim |
             the person's own colour at a soft edge is not taken for background.
         alpha: (h, w) float32 in [0, 1], the person's matte there (its softness says where the outline is fibres).
         fg: (h, w, 3) float32 sRGB in [0, 1], the person's own colour there (the composite's foreground).
+        cover: (h, w) float32 in [0, 1], the matte of everyone in the photo there (a group's person: the group's
+            matte, so that a neighbour is not taken for background and their meeting is no outline); None: ``alpha``.
 
     Returns:
         A ``KeptRim``, or None where there is none (no outline, no background beside it, a black background).
@@ -96,18 +99,18 @@ def kept_rim(behind: np.ndarray, alpha: np.ndarray, fg: np.ndarray) -> KeptRim |
     radius = max(0.5, REACH * float(rows[-1] + 1 - rows[0]))
     # unlike the scene app's key rim (``scene_rim.body``) the matte's holes and crumbs are kept: a hole shows the
     # background, whose light reaches the hole's edge too, and a crumb's rim is bounded by the photo's own pixel
-    a = a0
-    outside = 1 - a
+    c = a0 if cover is None else np.clip(np.asarray(cover, np.float32), 0, 1)
+    outside = 1 - c
     reach = wide_blur(outside, radius)  # the share of the background within the rim's reach
-    edge = (a > 0) & (reach > 1e-3)
+    edge = (a0 > 0) & (reach > 1e-3)
     if not edge.any():
         return None
     light = _decoded(np.asarray(behind, np.float32))
     # the background beside each pixel: its light summed over the reach, over the reach's share (its local mean)
     beside = wide_blur(light * outside[..., None], radius)[edge] / reach[edge][:, None]
-    f = np.clip(fibre_share(a0)[edge], 0, 1)
+    f = np.clip(fibre_share(c)[edge], 0, 1)
     thin = cv2.GaussianBlur(outside, (0, 0), max(0.5, GRAZE_WIDTH * radius), borderType=cv2.BORDER_REFLECT)[edge]
-    ae = a[edge]
+    ae = a0[edge]
     band = f * np.minimum(2 * ae * reach[edge], 1) + (1 - f) * np.minimum(2 * ae * thin, 1)
     rim = (np.float32(KEPT_SCATTER) * band)[:, None] * beside
     own = _decoded(np.asarray(fg, np.float32)[edge]) @ REC709

@@ -12,6 +12,7 @@ from ..image.regions import Crop
 from ..light.exposure import knee
 from . import compose
 from .decomposition import Decomposition
+from .kept_rim import with_kept_rim
 from .look import dark_colour
 
 MAX_PEOPLE = 16  # matting="all": a photo of more people than this is relit as one group (stage 1 once a person)
@@ -297,6 +298,11 @@ def by_person_lights(
             lit = factor.meter.expose(part, reaching(light, part, dec)[None], exposure)[0]
             _, residual, relit = next(network_relit(part, lit[None], 1, want_layers=composer.detail))
             colour = composer.person_colour(part, lit, residual, relit, looks)
+            if backdrop is not None and not clean and part.photo:  # the kept background's light on their edge,
+                # its background what no one covers (relight_rt.relight.kept_rim; the grade, known once everyone is
+                # relit, not followed)
+                colour = with_kept_rim(colour, composer.kept_rim(part, dec.mask[py0 : py0 + colour.shape[0],
+                                                                                px0 : px0 + colour.shape[1]]))
             if clean and not composer.detail:
                 colour = clean_edge_colour(colour, np.ascontiguousarray(part.geometry.crop(part.image)),
                                            composer.foreground(part, always=True)[0], share[..., 0])

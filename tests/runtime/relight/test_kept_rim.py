@@ -130,3 +130,18 @@ def test_only_the_photos_own_background_keeps_a_rim(models_dir, background, monk
     far = _depth(soft) > 12  # deep inside the person, and the background away from it, unchanged
     np.testing.assert_array_equal(on[far], off[far])
     np.testing.assert_array_equal(on[soft <= 0], off[soft <= 0])
+
+
+def test_where_two_people_meet_there_is_no_rim():
+    """A group's person: the background is what no one covers (``cover``), so the side a neighbour touches gets no
+    rim, the side against the wall does."""
+    img = _photo()
+    hard_a, hard_b = np.zeros((H, W), np.float32), np.zeros((H, W), np.float32)
+    hard_a[10:110, 20:50], hard_b[10:110, 50:80] = 1, 1
+    group = np.clip(cv2.GaussianBlur(hard_a + hard_b, (0, 0), 3.0), 0, 1)
+    near_a, near_b = (cv2.GaussianBlur(h, (0, 0), 3.0) for h in (hard_a, hard_b))
+    share = group * near_a / np.maximum(near_a + near_b, 1e-6)
+    alone, among = kept_rim(_behind(), share, img), kept_rim(_behind(), share, img, cover=group)
+    middle = lambda rim: rim.index[(rim.index // W > 30) & (rim.index // W < 90)] % W  # noqa: E731  (columns)
+    assert (middle(alone) > 44).any()  # taken alone, the neighbour's side would be outline
+    assert not (middle(among) > 44).any() and (middle(among) < 26).any()  # among the group, only the wall's side
