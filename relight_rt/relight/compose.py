@@ -617,11 +617,14 @@ class Composer:
 
     def kept_rim(self, dec: Decomposition, cover: np.ndarray | None = None) -> KeptRim | None:
         """``kept_rim.kept_rim`` of ``dec``'s background, matte and own colour in its crop box (``foreground``),
-        once per Decomposition; ``cover``: everyone's matte there (a group's person: the group's), None: ``dec``'s."""
+        once per Decomposition. The matte is the one ``compose`` lays the person over their photo with (the automatic
+        matte's edge as the photo shows it, ``dec.edge``, where there is one); ``cover``: everyone's matte there, the
+        same way (a group's person: the group's, ``shown_mask``), None: the person's."""
         state = self.memo(dec)
         if "kept_rim" not in state:
             fg, behind = self.foreground(dec)  # the colour behind a soft edge is the background's, not the person's
-            rim = kept_rim(behind, dec.geometry.crop(dec.mask), fg, cover)
+            alpha = dec.edge if dec.edge is not None and dec.foreground is not None else dec.geometry.crop(dec.mask)
+            rim = kept_rim(behind, alpha, fg, cover)
             state["kept_rim"] = None if rim is None else KeptRim(*(readonly(a) for a in rim))
         return state["kept_rim"]
 

@@ -268,6 +268,8 @@ def by_person_lights(
         for r in range(0, y1 - y0, _ROWS):  # what shows through the soft edge; the people's colours are added to
             region[r : r + _ROWS] *= 1 - cover[r : r + _ROWS]  # it (in bands: 1 - alpha is the photo's size)
     graded = backdrop is not None and bg.graded
+    # the group's matte as the photo shows it (``with_shown_edge``): the kept rim's background is what it leaves
+    shown = compose.shown_mask(dec) if backdrop is not None and not clean else None
     people = []
     for part in parts:
         (py0, _, px0, _), (cy0, cy1, cx0, cx1) = _boxes(part, dec.geometry.box)
@@ -301,8 +303,8 @@ def by_person_lights(
             if backdrop is not None and not clean and part.photo:  # the kept background's light on their edge,
                 # its background what no one covers (relight_rt.relight.kept_rim; the grade, known once everyone is
                 # relit, not followed)
-                colour = with_kept_rim(colour, composer.kept_rim(part, dec.mask[py0 : py0 + colour.shape[0],
-                                                                                px0 : px0 + colour.shape[1]]))
+                colour = with_kept_rim(colour, composer.kept_rim(part, shown[py0 : py0 + colour.shape[0],
+                                                                            px0 : px0 + colour.shape[1]]))
             if clean and not composer.detail:
                 colour = clean_edge_colour(colour, np.ascontiguousarray(part.geometry.crop(part.image)),
                                            composer.foreground(part, always=True)[0], share[..., 0])
