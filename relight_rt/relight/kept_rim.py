@@ -37,10 +37,11 @@ __all__ = ["KEPT_SCATTER", "REACH", "KeptRim", "kept_rim", "with_kept_rim"]
 KEPT_SCATTER = 0.6  #: the share of the background's light beside the outline that its fibres send on to the camera
 REACH = 0.01  #: the rim's reach inside the outline (Gaussian sigma), share of the person's height (the scene app's
 # ``RIM_RADIUS``). Both chosen on half A of the first look's photos (``benchmarks/dark_edge.py``, LEFT / RIGHT /
-# campfire / rim; dark edge 0.139 without the rule): the scene app's ``SCATTER`` 0.1 gave 0.123 (-12 %); 0.3 / 0.4 /
-# 0.6: 0.101 / 0.094 / 0.086 (-38 %; half B 0.174 -> 0.096). A reach of 0.02 with 0.3 did as well (0.090) but laid a
-# band twice as wide, read at 100 % as a veil of the background's colour over dark hair (p286 under RIGHT, campfire).
-# The photo's own pixel bounds the rim whatever the share (``kept_rim``): 0.6 is where the photo allows most of it.
+# campfire / rim; dark edge 0.139 without the rule), on the rule's first form (the matte's holes filled, ``body``):
+# the scene app's ``SCATTER`` 0.1 gave 0.123 (-12 %); 0.3 / 0.4 / 0.6: 0.101 / 0.094 / 0.086. A reach of 0.02 with
+# 0.3 did as well (0.090) but laid a band twice as wide, read at 100 % as a veil of the background's colour over dark
+# hair (p286 under RIGHT, campfire). As shipped: A 0.074 (-46 %), half B 0.174 -> 0.085 (-51 %). The photo's own
+# pixel bounds the rim whatever the share (``kept_rim``): 0.6 is where the photo allows most of it.
 _LEAST = 0.5 / 255 / 12.92  # a pixel whose rim luminance (linear) is below this is left out: half an 8-bit level
 # on black, where sRGB is steepest
 _LEVELS = 4096  # sRGB is decoded through a table of this many levels (12 bits: 20 ms -> 3 ms on a 2.5-MP crop box)
