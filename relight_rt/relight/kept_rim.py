@@ -30,7 +30,6 @@ import numpy as np
 
 from ..apps.scene_rim import GRAZE_WIDTH, fibre_share, wide_blur
 from ..image.color import REC709, linear_to_srgb, srgb_to_linear
-from ..light.exposure import DISPLAY_GAMMA
 
 __all__ = ["KEPT_SCATTER", "REACH", "KeptRim", "kept_rim", "with_kept_rim"]
 
@@ -124,15 +123,15 @@ def kept_rim(behind: np.ndarray, alpha: np.ndarray, fg: np.ndarray, cover: np.nd
     return KeptRim(index, np.ascontiguousarray(rim[keep], np.float32), own[keep].astype(np.float32))
 
 
-def with_kept_rim(colour: np.ndarray, kept: KeptRim | None, grade: np.ndarray | None = None) -> np.ndarray:
+def with_kept_rim(colour: np.ndarray, kept: KeptRim | None) -> np.ndarray:
     """``colour`` with the kept rim: on ``kept``'s pixels, where the new light leaves the pixel's luminance g (its
-    linear luminance over the own colour's) below the background's (1, or its ``grade``), the rim's part of the
-    photo that the light took with it added back: rim · (G − g) per channel, G the background's linear gain.
+    linear luminance over the own colour's) below 1, the rim's part of the photo that the light took with it added
+    back: rim · (1 − g) per channel. The background's grade (``Background.grade``) is not followed: it moves the
+    backdrop only, the person's pixels are the same with and without it.
 
     Args:
         colour: (h, w, 3) float32 sRGB, the relit person's straight colour in the crop box (not modified).
         kept: ``kept_rim`` of the same crop box, or None (``colour`` returned as it is).
-        grade: (3,) the background's gain on its sRGB values (``Background.grade``), or None.
 
     Returns:
         (h, w, 3) float32, a new array (or ``colour`` itself when ``kept`` is None).
@@ -142,11 +141,10 @@ def with_kept_rim(colour: np.ndarray, kept: KeptRim | None, grade: np.ndarray | 
     out = np.array(colour, dtype=np.float32)
     flat = out.reshape(-1, 3)
     relit = _decoded(flat[kept.index])
-    g = (relit @ REC709) / kept.own
-    gain = np.ones(3, np.float32) if grade is None else np.asarray(grade, np.float32) ** np.float32(DISPLAY_GAMMA)
-    lost = np.maximum(gain[None, :] - g[:, None], 0)
-    at = np.flatnonzero(lost.max(axis=1) > 0)
+    lost = 1 - (relit @ REC709) / kept.own
+    # written only where it adds at least ``_LEAST`` (half an 8-bit level on black): a light that leaves the edge as
+    # it was (the photo's own, to rounding) leaves its pixels as they were, not re-encoded through the table
+    at = np.flatnonzero(lost * (kept.rim @ REC709) >= _LEAST)
     if at.size:
-        flat[kept.index[at]] = _encoded(relit[at] + kept.rim[at] * lost[at])
+        flat[kept.index[at]] = _encoded(relit[at] + kept.rim[at] * lost[at, None])
     return out
-

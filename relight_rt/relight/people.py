@@ -301,8 +301,7 @@ def by_person_lights(
             _, residual, relit = next(network_relit(part, lit[None], 1, want_layers=composer.detail))
             colour = composer.person_colour(part, lit, residual, relit, looks)
             if backdrop is not None and not clean and part.photo:  # the kept background's light on their edge,
-                # its background what no one covers (relight_rt.relight.kept_rim; the grade, known once everyone is
-                # relit, not followed)
+                # its background what no one covers (relight_rt.relight.kept_rim)
                 colour = with_kept_rim(colour, composer.kept_rim(part, shown[py0 : py0 + colour.shape[0],
                                                                             px0 : px0 + colour.shape[1]]))
             if clean and not composer.detail:

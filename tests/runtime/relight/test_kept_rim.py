@@ -96,13 +96,6 @@ def test_a_darkened_edge_keeps_the_rim_and_stays_below_the_photo():
     np.testing.assert_array_equal(out.reshape(-1, 3)[untouched], dark.reshape(-1, 3)[untouched])
 
 
-def test_a_graded_background_moves_the_rim_with_it():
-    img = _photo()
-    rim = kept_rim(_behind(), _person(3.0), img)
-    plain, graded = with_kept_rim(img * 0.05, rim), with_kept_rim(img * 0.05, rim, np.full(3, 0.5, np.float32))
-    assert (graded.reshape(-1, 3)[rim.index].sum(axis=1) < plain.reshape(-1, 3)[rim.index].sum(axis=1)).any()
-
-
 def test_kept_rim_is_a_named_tuple_of_arrays():
     rim = kept_rim(_behind(), _person(3.0), _photo())
     assert isinstance(rim, KeptRim)
