@@ -28,8 +28,8 @@ from typing import NamedTuple
 import cv2
 import numpy as np
 
-from ..apps.scene_rim import GRAZE_WIDTH, fibre_share, wide_blur
 from ..image.color import REC709, linear_to_srgb, srgb_to_linear
+from ..image.fibres import GRAZE_WIDTH, fibre_share, wide_blur
 
 __all__ = ["KEPT_SCATTER", "REACH", "KeptRim", "kept_rim", "with_kept_rim"]
 
