@@ -17,8 +17,13 @@ the photo, so it is kept as it was while the rest of the pixel follows the new l
 luminance the light moved by g (relit over own, linear) is the rim plus g times the rest, so ``rim · (1 − g)``
 is added where g < 1. Under the photo's own light (g = 1) the photo comes back; where the new light brightens the
 edge the rim is left to scale with it (as before this rule); a dark background (Yale's backdrop, a night street)
-gives no rim. The composite applies it over the photo's own background only: a new backdrop has its own rim rules
-(``relight_rt.apps.scene``), the RGBA output none.
+gives no rim. The composite applies it over the photo's own background with the automatic matte only (a group's
+too, its background what no one covers): a mask or alpha given is the user's word, kept as it is (as the shown edge,
+``compose.shown_edge``), a new backdrop has its own rim rules (``relight_rt.apps.scene``), the RGBA output none.
+
+The matte's softness is a weak word on fibres (``image.fibres.fibre_share``; the scene app says as much): along a
+smooth cheek whose automatic matte is soft it lays a band of the background's colour 10-15 px wide (p071 under a side
+lamp, issue 48's first look); the photo's own edge should decide.
 """
 
 from __future__ import annotations

@@ -300,7 +300,7 @@ def by_person_lights(
             lit = factor.meter.expose(part, reaching(light, part, dec)[None], exposure)[0]
             _, residual, relit = next(network_relit(part, lit[None], 1, want_layers=composer.detail))
             colour = composer.person_colour(part, lit, residual, relit, looks)
-            if backdrop is not None and not clean and part.photo:  # the kept background's light on their edge,
+            if scaled and part.photo:  # the kept background's light on their edge (the automatic matte's),
                 # its background what no one covers (relight_rt.relight.kept_rim)
                 colour = with_kept_rim(colour, composer.kept_rim(part, shown[py0 : py0 + colour.shape[0],
                                                                             px0 : px0 + colour.shape[1]]))

@@ -113,7 +113,7 @@ def test_only_the_photos_own_background_keeps_a_rim(models_dir, background, monk
     light = lights.directional((0.3, 1.0, 0.2), (1, 1, 1), 1.0) + lights.ambient(0.01)
     on = np.asarray(relighter.relight(dec, light, background=background))
     monkeypatch.setattr(kr, "KEPT_SCATTER", 0.0)
-    relighter._memo(dec).pop("kept_rim", None)
+    relighter._memo(dec).clear()
     off = np.asarray(relighter.relight(dec, light, background=background))
     if background != "original":
         np.testing.assert_array_equal(on, off)
@@ -138,3 +138,15 @@ def test_where_two_people_meet_there_is_no_rim():
     middle = lambda rim: rim.index[(rim.index // W > 30) & (rim.index // W < 90)] % W  # noqa: E731  (columns)
     assert (middle(alone) > 44).any()  # taken alone, the neighbour's side would be outline
     assert not (middle(among) > 44).any() and (middle(among) < 26).any()  # among the group, only the wall's side
+
+
+def test_a_given_mask_is_kept_as_it_is(models_dir, monkeypatch):
+    """A mask or alpha given is the user's word (as for the shown edge): no rim over the photo's own background."""
+    img, soft = _photo(), _person(3.0)
+    relighter = Relighter(RuntimeConfig(models=str(models_dir), device="cpu"), matter=lambda rgb, name="image": soft)
+    dec = relighter.decompose(img, soft)
+    light = lights.directional((0.3, 1.0, 0.2), (1, 1, 1), 1.0) + lights.ambient(0.01)
+    on = np.asarray(relighter.relight(dec, light))
+    monkeypatch.setattr(kr, "KEPT_SCATTER", 0.0)
+    relighter._memo(dec).clear()
+    np.testing.assert_array_equal(on, np.asarray(relighter.relight(dec, light)))
