@@ -34,7 +34,7 @@ import cv2
 import numpy as np
 
 from ..image.color import REC709, linear_to_srgb, srgb_to_linear
-from ..image.fibres import GRAZE_WIDTH, fibre_share, wide_blur
+from ..image.fibres import FIBRE_RATIO, GRAZE_WIDTH, HARD_PX, WIDTH_REACH, fibre_share, wide_blur
 
 __all__ = ["KEPT_SCATTER", "REACH", "KeptRim", "kept_rim", "with_kept_rim"]
 
@@ -46,6 +46,8 @@ REACH = 0.01  #: the rim's reach inside the outline (Gaussian sigma), share of t
 # 0.3 did as well (0.090) but laid a band twice as wide, read at 100 % as a veil of the background's colour over dark
 # hair (p286 under RIGHT, campfire). As shipped: A 0.074 (-46 %), half B 0.174 -> 0.085 (-51 %). The photo's own
 # pixel bounds the rim whatever the share (``kept_rim``): 0.6 is where the photo allows most of it.
+_ACROSS = 4  # the photo's edge is read across the matte's 0.5 line this many pixels either side
+_SURE = 0.02  # |F - B|^2 (sRGB) at which the photo's word on its edge counts half (``compose._SHOWN_TAU``)
 _LEAST = 0.5 / 255 / 12.92  # a pixel whose rim luminance (linear) is below this is left out: half an 8-bit level
 # on black, where sRGB is steepest
 _LEVELS = 4096  # sRGB is decoded through a table of this many levels (12 bits: 20 ms -> 3 ms on a 2.5-MP crop box)
@@ -81,8 +83,8 @@ class KeptRim(NamedTuple):
     own: np.ndarray
 
 
-def kept_rim(behind: np.ndarray, alpha: np.ndarray, fg: np.ndarray, cover: np.ndarray | None = None
-             ) -> KeptRim | None:
+def kept_rim(behind: np.ndarray, alpha: np.ndarray, fg: np.ndarray, cover: np.ndarray | None = None,
+             image: np.ndarray | None = None) -> KeptRim | None:
     """The rim the photo's own background puts on the person's outline (module docstring).
 
     Args:
@@ -116,7 +118,14 @@ def kept_rim(behind: np.ndarray, alpha: np.ndarray, fg: np.ndarray, cover: np.nd
     f = np.clip(fibre_share(c)[edge], 0, 1)
     thin = cv2.GaussianBlur(outside, (0, 0), max(0.5, GRAZE_WIDTH * radius), borderType=cv2.BORDER_REFLECT)[edge]
     ae = a0[edge]
-    band = f * np.minimum(2 * ae * reach[edge], 1) + (1 - f) * np.minimum(2 * ae * thin, 1)
+    graze = np.minimum(2 * ae * thin, 1)
+    if image is not None:  # where the photo's own edge is sharp: no fibres, and the grazing line on its pixel only
+        smooth = _smooth_share(image, c)[edge]
+        inside = (c >= 0.5).astype(np.uint8)
+        ring = np.ones((3, 3), np.uint8)
+        graze *= 1 - smooth * (1 - (cv2.dilate(inside, ring) - cv2.erode(inside, ring))[edge])
+        f *= 1 - smooth
+    band = f * np.minimum(2 * ae * reach[edge], 1) + (1 - f) * graze
     rim = (np.float32(KEPT_SCATTER) * band)[:, None] * beside
     own = _decoded(np.asarray(fg, np.float32)[edge]) @ REC709
     y = rim @ REC709
@@ -126,6 +135,54 @@ def kept_rim(behind: np.ndarray, alpha: np.ndarray, fg: np.ndarray, cover: np.nd
         return None
     index = np.flatnonzero(edge)[keep]
     return KeptRim(index, np.ascontiguousarray(rim[keep], np.float32), own[keep].astype(np.float32))
+
+
+def _smooth_share(image: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """(h, w) float32 in [0, 1]: how sure the photo's own edge is that the outline near each pixel is smooth (a
+    cheek, an arm or cloth against the background), whatever the matte's softness there says.
+
+    The photo is read across the matte's 0.5 line (its pixels beside one below 0.5), ``_ACROSS`` px either side
+    along the matte's normal (bilinear): its edge's width is the step from one end to the other over the steepest
+    one-pixel step between (a sharp edge ~1-2 px; strands over a background a gradual, ragged change). Widths up to
+    ``fibres.HARD_PX`` are smooth, from ``FIBRE_RATIO`` times it fibres, linear between (``fibre_share``'s scale
+    for the matte); the word counts as far as the two ends' colours tell the sides apart (|step|^2 over
+    |step|^2 + ``_SURE``: alike colours, a rim of them is not seen either). Averaged along the outline over
+    ``fibres.WIDTH_REACH`` of the person's height, as ``fibre_share`` averages the matte's width; 0 far from it.
+    Why: an automatic matte is soft along some smooth edges (p071's cheek and jaw), where ``fibre_share`` alone
+    laid a 10-15 px band of the background's colour under a side lamp (issue 48's first look).
+
+    Args:
+        image: (h, w, 3) float32 sRGB in [0, 1], the photo in the crop box.
+        c: (h, w) float32 in [0, 1], the matte whose outline is read.
+    """
+    inside = (c >= 0.5).astype(np.uint8)
+    line = inside - cv2.erode(inside, np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], np.uint8),
+                              borderType=cv2.BORDER_REPLICATE)  # fmt: skip
+    ys, xs = np.nonzero(line)
+    out = np.zeros(c.shape, np.float32)
+    if ys.size == 0:
+        return out
+    h, w = c.shape
+    at = lambda y, x: c[np.clip(y, 0, h - 1), np.clip(x, 0, w - 1)]  # noqa: E731
+    gy, gx = at(ys + 2, xs) - at(ys - 2, xs), at(ys, xs + 2) - at(ys, xs - 2)  # the matte's normal, inward
+    norm = np.hypot(gx, gy) + np.float32(1e-6)
+    span = np.arange(-_ACROSS, _ACROSS + 1, dtype=np.float32)
+    my = (ys[:, None] + (gy / norm)[:, None] * span).astype(np.float32)
+    mx = (xs[:, None] + (gx / norm)[:, None] * span).astype(np.float32)
+    across = cv2.remap(np.asarray(image, np.float32), mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
+    apart = np.sqrt(((across[:, -1] - across[:, 0]) ** 2).sum(axis=1))
+    steepest = np.sqrt((np.diff(across, axis=1) ** 2).sum(axis=2)).max(axis=1)
+    width = apart / np.maximum(steepest, 1e-6)
+    fibres = np.clip((width / HARD_PX - 1) / (FIBRE_RATIO - 1), 0, 1)
+    sure = apart * apart / (apart * apart + np.float32(_SURE))
+    sums = np.zeros(c.shape + (2,), np.float32)
+    sums[ys, xs, 0] = 1
+    sums[ys, xs, 1] = sure * (1 - fibres)
+    rows = np.flatnonzero(inside.any(1))
+    sums = wide_blur(sums, max(2.0, WIDTH_REACH * float(rows[-1] + 1 - rows[0])))
+    near = sums[..., 0] > 1e-3 * float(sums[..., 0].max())
+    out[near] = np.clip(sums[..., 1][near] / sums[..., 0][near], 0, 1)
+    return out
 
 
 def with_kept_rim(colour: np.ndarray, kept: KeptRim | None) -> np.ndarray:
