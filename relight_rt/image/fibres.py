@@ -36,7 +36,7 @@ def wide_blur(img: np.ndarray, sigma: float) -> np.ndarray:
     return cv2.resize(small, (w, h), interpolation=cv2.INTER_LINEAR)
 
 
-def fibre_share(alpha: np.ndarray) -> np.ndarray:
+def fibre_share(alpha: np.ndarray, pixel: float = 1.0) -> np.ndarray:
     """How much of the outline near each pixel is fibres (1: hair, fuzz, a thin fabric's edge) rather than a smooth
     opaque edge (0), read from the matte: a back light glows through fine translucent strands and only grazes smooth
     cloth, and strands are what makes a matte's alpha go from 0 to 1 over a wide band.
@@ -49,6 +49,8 @@ def fibre_share(alpha: np.ndarray) -> np.ndarray:
 
     Args:
         alpha: (h, w) float matte in [0, 1] at its photo's resolution (or as seen in a frame).
+        pixel: the size of one of ``alpha``'s pixels in the photo's (2: a half-size copy; ``HARD_PX`` is the
+            photo's pixels).
 
     Returns:
         (h, w) float32 in [0, 1]; 0 far from the outline and everywhere when the matte has none.
@@ -67,6 +69,6 @@ def fibre_share(alpha: np.ndarray) -> np.ndarray:
     near = along > 1e-3 * float(along.max())
     width = np.zeros(a.shape, np.float32)
     width[near] = wide_blur(frac, sigma)[near] / along[near]
-    hard = max(HARD_PX, float(np.percentile(width[line > 0], 25)))
+    hard = max(HARD_PX / pixel, float(np.percentile(width[line > 0], 25)))
     out[near] = np.clip((width[near] / hard - 1) / (FIBRE_RATIO - 1), 0, 1)
     return out

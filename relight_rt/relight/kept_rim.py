@@ -22,12 +22,15 @@ too, its background what no one covers): a mask or alpha given is the user's wor
 ``compose.shown_edge``), a new backdrop has its own rim rules (``relight_rt.apps.scene``), the RGBA output none.
 
 The matte's softness is a weak word on fibres (``image.fibres.fibre_share``; the scene app says as much): along a
-smooth cheek whose automatic matte is soft it lays a band of the background's colour 10-15 px wide (p071 under a side
-lamp, issue 48's first look); the photo's own edge should decide.
+smooth cheek whose automatic matte is soft it laid a band of the background's colour 10-15 px wide (p071 under a
+side lamp, issue 48's first look). So the photo's own edge has the last word (``_smooth_share``): where it is a
+sharp step across the matte's outline, the outline is smooth whatever the matte says, and takes at most the grazing
+line on the outline's own pixels.
 """
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import cv2
@@ -46,6 +49,8 @@ REACH = 0.01  #: the rim's reach inside the outline (Gaussian sigma), share of t
 # 0.3 did as well (0.090) but laid a band twice as wide, read at 100 % as a veil of the background's colour over dark
 # hair (p286 under RIGHT, campfire). As shipped: A 0.074 (-46 %), half B 0.174 -> 0.085 (-51 %). The photo's own
 # pixel bounds the rim whatever the share (``kept_rim``): 0.6 is where the photo allows most of it.
+_SMALL_FROM = 4.0  # from this reach (px) on the rim's wide reads are on a half-size copy (``fibres.wide_blur``'s
+# rule): on the reference photo (reach 10 px) the rim's sum 8 % lower, its pixels the same to 3 %
 _ACROSS = 4  # the photo's edge is read across the matte's 0.5 line this many pixels either side
 _SURE = 0.02  # |F - B|^2 (sRGB) at which the photo's word on its edge counts half (``compose._SHOWN_TAU``)
 _LEAST = 0.5 / 255 / 12.92  # a pixel whose rim luminance (linear) is below this is left out: half an 8-bit level
@@ -95,6 +100,8 @@ def kept_rim(behind: np.ndarray, alpha: np.ndarray, fg: np.ndarray, cover: np.nd
         fg: (h, w, 3) float32 sRGB in [0, 1], the person's own colour there (the composite's foreground).
         cover: (h, w) float32 in [0, 1], the matte of everyone in the photo there (a group's person: the group's
             matte, so that a neighbour is not taken for background and their meeting is no outline); None: ``alpha``.
+        image: (h, w, 3) float32 sRGB in [0, 1], the photo there: its own edge's sharpness across the outline says
+            fibres or smooth (``_smooth_share``); None: the matte's softness alone.
 
     Returns:
         A ``KeptRim``, or None where there is none (no outline, no background beside it, a black background).
@@ -108,38 +115,56 @@ def kept_rim(behind: np.ndarray, alpha: np.ndarray, fg: np.ndarray, cover: np.nd
     # background, whose light reaches the hole's edge too, and a crumb's rim is bounded by the photo's own pixel
     c = a0 if cover is None else np.clip(np.asarray(cover, np.float32), 0, 1)
     outside = 1 - c
-    reach = wide_blur(outside, radius)  # the share of the background within the rim's reach
-    edge = (a0 > 0) & (reach > 1e-3)
-    if not edge.any():
+    # the wide reads on a copy k times smaller (area shrinking; k = 2 once the reach is ``_SMALL_FROM`` px), read
+    # back on the band's pixels (bilinear): the rim's reach and the matte's width vary over several pixels; the
+    # photo's edge and the matte's own value are read at full size
+    h, w = c.shape
+    k = 2 if radius >= _SMALL_FROM else 1
+    grid = ((w + k - 1) // k, (h + k - 1) // k)
+    shrink = (lambda x: x) if k == 1 else (lambda x: cv2.resize(x, grid, interpolation=cv2.INTER_AREA))  # noqa: E731
+    scaled = lambda s: math.sqrt(max((s / k) ** 2 - (k * k - 1) / 12, 0.0625))  # a Gaussian's sigma there  # noqa: E731
+    o2 = shrink(outside)
+    # the background's light: its colour's mean over each small pixel's background share, decoded there (a quarter
+    # of the table's reads at k = 2; the mean's error at a 2 x 2 block's colour steps is the reach's to blur)
+    weighted = cv2.multiply(np.asarray(behind, np.float32), cv2.merge([outside] * 3))
+    light2 = _decoded(shrink(weighted) / np.maximum(o2, 1e-6)[..., None]) * o2[..., None]
+    reach2 = wide_blur(o2, scaled(radius))  # the share of the background within the rim's reach
+    near2 = (reach2 > 1e-3).astype(np.uint8)
+    if not near2.any():
         return None
-    light = _decoded(np.asarray(behind, np.float32))
-    # the background beside each pixel: its light summed over the reach, over the reach's share (its local mean)
-    beside = wide_blur(light * outside[..., None], radius)[edge] / reach[edge][:, None]
-    f = np.clip(fibre_share(c)[edge], 0, 1)
-    thin = cv2.GaussianBlur(outside, (0, 0), max(0.5, GRAZE_WIDTH * radius), borderType=cv2.BORDER_REFLECT)[edge]
-    ae = a0[edge]
+    edge = (a0 > 0) & ((near2 if k == 1 else cv2.resize(near2, (w, h), interpolation=cv2.INTER_NEAREST)) > 0)
+    ys, xs = np.nonzero(edge)
+    if ys.size == 0:
+        return None
+    inside = (c >= 0.5).astype(np.uint8)
+    smooth2 = np.zeros(o2.shape, np.float32) if image is None else _smooth_share(image, c, inside, k)
+    fields = np.dstack([reach2, fibre_share(shrink(c), float(k)), smooth2,
+                        wide_blur(o2, scaled(max(0.5, GRAZE_WIDTH * radius)))])
+    reach, f, smooth, thin = np.clip(_at_small(fields, ys, xs, k), 0, 1).T
+    beside = _at_small(wide_blur(light2, scaled(radius)), ys, xs, k) / np.maximum(reach, 1e-3)[:, None]
+    ae = a0[ys, xs]
     graze = np.minimum(2 * ae * thin, 1)
     if image is not None:  # where the photo's own edge is sharp: no fibres, and the grazing line on its pixel only
-        smooth = _smooth_share(image, c)[edge]
-        inside = (c >= 0.5).astype(np.uint8)
         ring = np.ones((3, 3), np.uint8)
-        graze *= 1 - smooth * (1 - (cv2.dilate(inside, ring) - cv2.erode(inside, ring))[edge])
+        graze *= 1 - smooth * (1 - (cv2.dilate(inside, ring) - cv2.erode(inside, ring))[ys, xs])
         f *= 1 - smooth
-    band = f * np.minimum(2 * ae * reach[edge], 1) + (1 - f) * graze
+    band = f * np.minimum(2 * ae * reach, 1) + (1 - f) * graze
     rim = (np.float32(KEPT_SCATTER) * band)[:, None] * beside
-    own = _decoded(np.asarray(fg, np.float32)[edge]) @ REC709
     y = rim @ REC709
+    seen = np.flatnonzero(y >= _LEAST)  # the rest adds less than half a level whatever the photo's pixel
+    ys, xs, rim, y = ys[seen], xs[seen], rim[seen], y[seen]
+    own = _decoded(np.asarray(fg, np.float32)[ys, xs]) @ REC709
     rim *= np.minimum(1, own / np.maximum(y, 1e-12))[:, None]  # no more than the photo's own pixel holds
-    keep = np.minimum(y, own) >= _LEAST
+    keep = own >= _LEAST
     if not keep.any():
         return None
-    index = np.flatnonzero(edge)[keep]
+    index = (ys * w + xs)[keep]
     return KeptRim(index, np.ascontiguousarray(rim[keep], np.float32), own[keep].astype(np.float32))
 
 
-def _smooth_share(image: np.ndarray, c: np.ndarray) -> np.ndarray:
-    """(h, w) float32 in [0, 1]: how sure the photo's own edge is that the outline near each pixel is smooth (a
-    cheek, an arm or cloth against the background), whatever the matte's softness there says.
+def _smooth_share(image: np.ndarray, c: np.ndarray, inside: np.ndarray, k: int) -> np.ndarray:
+    """(h', w') float32 in [0, 1], on a grid k times smaller: how sure the photo's own edge is that the outline near
+    each pixel is smooth (a cheek, an arm or cloth against the background), whatever the matte's softness says.
 
     The photo is read across the matte's 0.5 line (its pixels beside one below 0.5), ``_ACROSS`` px either side
     along the matte's normal (bilinear): its edge's width is the step from one end to the other over the steepest
@@ -154,12 +179,18 @@ def _smooth_share(image: np.ndarray, c: np.ndarray) -> np.ndarray:
     Args:
         image: (h, w, 3) float32 sRGB in [0, 1], the photo in the crop box.
         c: (h, w) float32 in [0, 1], the matte whose outline is read.
+        inside: (h, w) uint8, ``c`` >= 0.5.
+        k: the grid's pixel in ``c``'s (1 or 2): (h', w') = ((h + k - 1) // k, (w + k - 1) // k).
+
+    Returns:
+        (h', w') float32 in [0, 1].
     """
-    inside = (c >= 0.5).astype(np.uint8)
     line = inside - cv2.erode(inside, np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], np.uint8),
                               borderType=cv2.BORDER_REPLICATE)  # fmt: skip
     ys, xs = np.nonzero(line)
-    out = np.zeros(c.shape, np.float32)
+    h, w = c.shape
+    half = ((h + k - 1) // k, (w + k - 1) // k)
+    out = np.zeros(half, np.float32)
     if ys.size == 0:
         return out
     h, w = c.shape
@@ -175,14 +206,29 @@ def _smooth_share(image: np.ndarray, c: np.ndarray) -> np.ndarray:
     width = apart / np.maximum(steepest, 1e-6)
     fibres = np.clip((width / HARD_PX - 1) / (FIBRE_RATIO - 1), 0, 1)
     sure = apart * apart / (apart * apart + np.float32(_SURE))
-    sums = np.zeros(c.shape + (2,), np.float32)
-    sums[ys, xs, 0] = 1
-    sums[ys, xs, 1] = sure * (1 - fibres)
+    cell = (ys // k) * half[1] + xs // k  # the line's pixels and their word, summed on the small grid
+    size = half[0] * half[1]
+    sums = np.dstack([np.bincount(cell, minlength=size).reshape(half),
+                      np.bincount(cell, sure * (1 - fibres), minlength=size).reshape(half)]).astype(np.float32)
     rows = np.flatnonzero(inside.any(1))
-    sums = wide_blur(sums, max(2.0, WIDTH_REACH * float(rows[-1] + 1 - rows[0])))
+    sums = wide_blur(sums, max(1.0, WIDTH_REACH * float(rows[-1] + 1 - rows[0]) / k))
     near = sums[..., 0] > 1e-3 * float(sums[..., 0].max())
     out[near] = np.clip(sums[..., 1][near] / sums[..., 0][near], 0, 1)
     return out
+
+
+def _at_small(field: np.ndarray, ys: np.ndarray, xs: np.ndarray, k: int) -> np.ndarray:
+    """(n, c) float32: ``field`` (h', w', c) on a grid ``k`` times smaller (area shrinking) read at the full-size
+    pixels (ys, xs), bilinear (a small pixel's centre is at k y + (k - 1) / 2); k = 1: the pixels themselves."""
+    if k == 1:
+        return field[ys, xs].reshape(ys.size, -1)
+    n = ys.size
+    cols = 1024  # remap's maps are at most 32767 long a side: the points laid out in rows of this many
+    pad = -n % cols
+    my = np.pad((ys.astype(np.float32) + 0.5) / k - 0.5, (0, pad)).reshape(-1, cols)
+    mx = np.pad((xs.astype(np.float32) + 0.5) / k - 0.5, (0, pad)).reshape(-1, cols)
+    out = cv2.remap(field, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    return out.reshape(n + pad, -1)[:n]
 
 
 def with_kept_rim(colour: np.ndarray, kept: KeptRim | None) -> np.ndarray:
