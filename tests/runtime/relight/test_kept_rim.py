@@ -63,6 +63,24 @@ def test_fibres_take_the_rim_deeper_than_a_binary_edge():
     assert depth["soft"][left].max() > 3.0  # the strands' glow reaches further in
 
 
+def test_the_photos_sharp_edge_overrules_a_soft_mattes_fibres():
+    """A soft matte along an edge the photo shows sharp (a cheek against a wall, issue 48's p071) takes only the thin
+    grazing line when the photo is given; where the photo's own edge is as soft as the matte, the strands' depth."""
+    soft, hard = _person(3.0), _person(0)
+    soft[:, 50:] = hard[:, 50:]  # as above: the left side is the matte's soft one
+    sharp = _photo()
+    blurred = cv2.GaussianBlur(sharp, (0, 0), 3.0)  # the photo's transition as wide as the matte's
+    depth = _depth(soft).reshape(-1)
+    deep = {}  # the rim's luminance more than 2 px inside the soft side's outline
+    for name, img in (("matte alone", None), ("sharp", sharp), ("blurred", blurred)):
+        rim = kept_rim(_behind(), soft, sharp, image=img)
+        at = ((rim.index % W) < 50) & (depth[rim.index] > 2)
+        deep[name] = float((rim.rim[at] @ REC709).sum())
+    assert deep["matte alone"] > 0
+    assert deep["sharp"] < 0.2 * deep["matte alone"]  # a thin line (and what the matte's own softness lets through)
+    assert deep["blurred"] == pytest.approx(deep["matte alone"], rel=0.05)
+
+
 def test_the_rim_has_the_backgrounds_colour_and_no_more_than_the_photo_holds():
     img = _photo(background=(0.2, 0.4, 0.95))
     rim = kept_rim(_behind((0.2, 0.4, 0.95)), _person(3.0), img)
