@@ -47,8 +47,10 @@ REACH = 0.01  #: the rim's reach inside the outline (Gaussian sigma), share of t
 # campfire / rim; dark edge 0.139 without the rule), on the rule's first form (the matte's holes filled, ``body``):
 # the scene app's ``SCATTER`` 0.1 gave 0.123 (-12 %); 0.3 / 0.4 / 0.6: 0.101 / 0.094 / 0.086. A reach of 0.02 with
 # 0.3 did as well (0.090) but laid a band twice as wide, read at 100 % as a veil of the background's colour over dark
-# hair (p286 under RIGHT, campfire). As shipped: A 0.074 (-46 %), half B 0.174 -> 0.085 (-51 %). The photo's own
-# pixel bounds the rim whatever the share (``kept_rim``): 0.6 is where the photo allows most of it.
+# hair (p286 under RIGHT, campfire). With the matte's softness alone: A 0.074 (-46 %), half B 0.174 -> 0.085 (-51 %);
+# as shipped, the photo's sharp edges smooth (``_smooth_share``) and the wide reads at half size: A 0.092 (-34 %),
+# B 0.111 (-36 %). The photo's own pixel bounds the rim whatever the share (``kept_rim``): 0.6 is where the photo
+# allows most of it.
 _SMALL_FROM = 4.0  # from this reach (px) on the rim's wide reads are on a half-size copy (``fibres.wide_blur``'s
 # rule): on the reference photo (reach 10 px) the rim's sum 8 % lower, its pixels the same to 3 %
 _ACROSS = 4  # the photo's edge is read across the matte's 0.5 line this many pixels either side
