@@ -18,6 +18,7 @@ from ..light.exposure import DISPLAY_GAMMA, knee
 from . import head_blend
 from .decomposition import Decomposition, Memo, RelightResult, intrinsic_layers, readonly
 from .factor import Factor
+from .kept_rim import KeptRim, kept_rim, with_kept_rim
 from .look import (
     NeutralDarks,
     dark_colour,
@@ -614,6 +615,20 @@ class Composer:
             return None
         return head_blend.head_change(self.factor, dec, np.asarray(light, np.float32), self.foreground(dec)[0])
 
+    def kept_rim(self, dec: Decomposition, cover: np.ndarray | None = None) -> KeptRim | None:
+        """``kept_rim.kept_rim`` of ``dec``'s background, matte and own colour in its crop box (``foreground``),
+        once per Decomposition. The matte is the one ``compose`` lays the person over their photo with (the automatic
+        matte's edge as the photo shows it, ``dec.edge``, where there is one); ``cover``: everyone's matte there, the
+        same way (a group's person: the group's, ``shown_mask``), None: the person's."""
+        state = self.memo(dec)
+        key = ("kept_rim", cover is None)  # a group's person relit alone has no group round them
+        if key not in state:
+            fg, behind = self.foreground(dec)  # the colour behind a soft edge is the background's, not the person's
+            alpha = dec.edge if dec.edge is not None and dec.foreground is not None else dec.geometry.crop(dec.mask)
+            rim = kept_rim(behind, alpha, fg, cover, np.ascontiguousarray(dec.geometry.crop(dec.image)))
+            state[key] = None if rim is None else KeptRim(*(readonly(a) for a in rim))
+        return state[key]
+
     def own_light(self, dec: Decomposition) -> tuple[np.ndarray, float]:
         """``own_light_sum`` of ``dec``'s own colour over its matte in the crop box, found once per Decomposition."""
         state = self.memo(dec)
@@ -704,6 +719,9 @@ class Composer:
             if dec.edge is not None and dec.foreground is not None:  # the automatic matte's edge as the photo
                 alpha = dec.edge  # shows it, with the colour behind it (``photo_colours``; a group relit as one
                 # finds its colours from its matte: its people carry theirs, relight_rt.relight.people)
+                if dec.photo:  # the kept background's light through the person's edge, which a new lamp leaves
+                    colour = with_kept_rim(colour, self.kept_rim(dec))  # (relight_rt.relight.kept_rim); a mask or
+                    # alpha given is the user's word, kept as it is (as the shown edge is)
         return over_box(colour, alpha[..., None], geom.box, backdrop, dec.mask, behind, gain)
 
     def with_layers(self, dec: Decomposition, lit: np.ndarray, outputs: tuple, backdrop: np.ndarray | None,

@@ -1,0 +1,261 @@
+"""The kept background's light on the person's edge: a rim the new light does not take away.
+
+With the photo's own background kept (``relight-rt relight``'s default), the scene behind the person is still
+there, and some of the light that reaches the camera from the person's outline is that scene's: fine fibres at
+the edge (hair, fuzz, a thin fabric's edge) scatter forward the light of the background just behind them, and a
+smooth opaque edge shows at most a thin grazing line of it. That part of the photo's edge pixel is not lit by the
+photo's lamp, so a new lamp should not take it away: without it the side a new lamp misses goes near black with a
+hard edge against a bright background, and the person looks pasted (``benchmarks/dark_edge.py``, issue 48).
+
+The rule (``kept_rim`` once per photo, ``with_kept_rim`` per light): each outline pixel's rim is the background
+beside it (the photo's mean over the solid background within the rim's reach, linear light: its local colour and
+level, not a clipped sun) times ``KEPT_SCATTER``, times the outline's band (``relight_rt.apps.scene_rim.key_rim``'s:
+where the matte says fibres, ``fibre_share``, the full reach, ``REACH`` of the person's height, falling inward;
+a smooth edge only within ``GRAZE_WIDTH`` of it), and never more than the photo's own pixel holds (its luminance
+at most the person's own colour's there: the rim is a share of the photo, not a light added to it). It is part of
+the photo, so it is kept as it was while the rest of the pixel follows the new light: a relit pixel whose
+luminance the light moved by g (relit over own, linear) is the rim plus g times the rest, so ``rim · (1 − g)``
+is added where g < 1. Under the photo's own light (g = 1) the photo comes back; where the new light brightens the
+edge the rim is left to scale with it (as before this rule); a dark background (Yale's backdrop, a night street)
+gives no rim. The composite applies it over the photo's own background with the automatic matte only (a group's
+too, its background what no one covers): a mask or alpha given is the user's word, kept as it is (as the shown edge,
+``compose.shown_edge``), a new backdrop has its own rim rules (``relight_rt.apps.scene``), the RGBA output none.
+
+The matte's softness is a weak word on fibres (``image.fibres.fibre_share``; the scene app says as much): along a
+smooth cheek whose automatic matte is soft it laid a band of the background's colour 10-15 px wide (p071 under a
+side lamp, issue 48's first look). So the photo's own edge has the last word (``_smooth_share``): where it is a
+sharp step across the matte's outline, the outline is smooth whatever the matte says, and takes at most the grazing
+line on the outline's own pixels.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import cv2
+import numpy as np
+
+from ..image.blur import wide_blur
+from ..image.color import REC709, linear_to_srgb, srgb_to_linear
+from ..image.fibres import FIBRE_RATIO, GRAZE_WIDTH, HARD_PX, WIDTH_REACH, fibre_share
+
+__all__ = ["KEPT_SCATTER", "REACH", "KeptRim", "kept_rim", "with_kept_rim"]
+
+KEPT_SCATTER = 0.6  #: the share of the background's light beside the outline that its fibres send on to the camera
+REACH = 0.01  #: the rim's reach inside the outline (Gaussian sigma), share of the person's height (the scene app's
+# ``RIM_RADIUS``). Both chosen on half A of the first look's photos (``benchmarks/dark_edge.py``, LEFT / RIGHT /
+# campfire / rim; dark edge 0.139 without the rule), on the rule's first form (the matte's holes filled, ``body``):
+# the scene app's ``SCATTER`` 0.1 gave 0.123 (-12 %); 0.3 / 0.4 / 0.6: 0.101 / 0.094 / 0.086. A reach of 0.02 with
+# 0.3 did as well (0.090) but laid a band twice as wide, read at 100 % as a veil of the background's colour over dark
+# hair (p286 under RIGHT, campfire). With the matte's softness alone: A 0.074 (-46 %), half B 0.174 -> 0.085 (-51 %);
+# as shipped, the photo's sharp edges smooth (``_smooth_share``) and the wide reads at half size: A 0.092 (-34 %),
+# B 0.111 (-36 %). The photo's own pixel bounds the rim whatever the share (``kept_rim``): 0.6 is where the photo
+# allows most of it.
+_SMALL_FROM = 4.0  # from this reach (px) on the rim's wide reads are on a half-size copy (``blur.wide_blur``'s
+# rule): on the reference photo (reach 10 px) the rim's sum 8 % lower, its pixels the same to 3 %
+_ACROSS = 4  # the photo's edge is read across the matte's 0.5 line this many pixels either side
+_SURE = 0.02  # |F - B|^2 (sRGB) at which the photo's word on its edge counts half (``compose._SHOWN_TAU``)
+_LEAST = 0.5 / 255 / 12.92  # a pixel whose rim luminance (linear) is below this is left out: half an 8-bit level
+# on black, where sRGB is steepest
+_LEVELS = 4096  # sRGB is decoded through a table of this many levels (12 bits: 20 ms -> 3 ms on a 2.5-MP crop box)
+_DECODE = srgb_to_linear(np.linspace(0, 1, _LEVELS, dtype=np.float32))
+_DECODE.flags.writeable = False
+_ENCODE = linear_to_srgb(np.linspace(0, 1, _LEVELS, dtype=np.float32) ** 2)  # indexed by sqrt(linear): steps of
+_ENCODE.flags.writeable = False  # at most 2e-4 in sRGB (sRGB is smooth in the root of light)
+
+
+def _decoded(values: np.ndarray) -> np.ndarray:
+    """sRGB ``values`` (any shape, float) decoded to linear light through ``_DECODE`` (clipped to [0, 1] first)."""
+    at = np.clip(values, 0, 1) * np.float32(_LEVELS - 1) + np.float32(0.5)
+    return np.take(_DECODE, at.astype(np.int32))
+
+
+def _encoded(light: np.ndarray) -> np.ndarray:
+    """Linear ``light`` (any shape, float) encoded to sRGB through ``_ENCODE`` (clipped to [0, 1] first)."""
+    at = np.sqrt(np.clip(light, 0, 1)) * np.float32(_LEVELS - 1) + np.float32(0.5)
+    return np.take(_ENCODE, at.astype(np.int32))
+
+
+class KeptRim(NamedTuple):
+    """What ``with_kept_rim`` adds to a relit person whatever the light, on the n pixels of a crop box it reaches.
+
+    Attributes:
+        index: (n,) int64, the pixels' flat indices in the crop box (row-major), increasing.
+        rim: (n, 3) float32, the rim's linear RGB radiance there (the photo's units: sRGB decoded).
+        own: (n,) float32, the person's own colour's luminance there (linear, Rec. 709), > 0.
+    """
+
+    index: np.ndarray
+    rim: np.ndarray
+    own: np.ndarray
+
+
+def kept_rim(behind: np.ndarray, alpha: np.ndarray, fg: np.ndarray, cover: np.ndarray | None = None,
+             image: np.ndarray | None = None) -> KeptRim | None:
+    """The rim the photo's own background puts on the person's outline (module docstring).
+
+    Args:
+        behind: (h, w, 3) float32 sRGB in [0, 1], the photo's background in the person's crop box: the photo where
+            the matte is 0, the colour behind a soft edge on its soft pixels (``compose.own_colours``' B), so that
+            the person's own colour at a soft edge is not taken for background.
+        alpha: (h, w) float32 in [0, 1], the person's matte there (its softness says where the outline is fibres).
+        fg: (h, w, 3) float32 sRGB in [0, 1], the person's own colour there (the composite's foreground).
+        cover: (h, w) float32 in [0, 1], the matte of everyone in the photo there (a group's person: the group's
+            matte, so that a neighbour is not taken for background and their meeting is no outline); None: ``alpha``.
+        image: (h, w, 3) float32 sRGB in [0, 1], the photo there: its own edge's sharpness across the outline says
+            fibres or smooth (``_smooth_share``); None: the matte's softness alone.
+
+    Returns:
+        A ``KeptRim``, or None where there is none (no outline, no background beside it, a black background).
+    """
+    a0 = np.clip(np.asarray(alpha, np.float32), 0, 1)
+    rows = np.flatnonzero((a0 >= 0.5).any(axis=1))
+    if rows.size == 0:
+        return None
+    radius = max(0.5, REACH * float(rows[-1] + 1 - rows[0]))
+    # unlike the scene app's key rim (``scene_rim.body``) the matte's holes and crumbs are kept: a hole shows the
+    # background, whose light reaches the hole's edge too, and a crumb's rim is bounded by the photo's own pixel
+    c = a0 if cover is None else np.clip(np.asarray(cover, np.float32), 0, 1)
+    outside = 1 - c
+    # the wide reads on a copy k times smaller (area shrinking; k = 2 once the reach is ``_SMALL_FROM`` px), read
+    # back on the band's pixels (bilinear): the rim's reach and the matte's width vary over several pixels; the
+    # photo's edge and the matte's own value are read at full size
+    h, w = c.shape
+    k = 2 if radius >= _SMALL_FROM else 1
+    grid = ((w + k - 1) // k, (h + k - 1) // k)
+    shrink = (lambda x: x) if k == 1 else (lambda x: cv2.resize(x, grid, interpolation=cv2.INTER_AREA))  # noqa: E731
+    scaled = lambda s: math.sqrt(max((s / k) ** 2 - (k * k - 1) / 12, 0.0625))  # a Gaussian's sigma there  # noqa: E731
+    o2 = shrink(outside)
+    # the background's light: its colour's mean over each small pixel's background share, decoded there (a quarter
+    # of the table's reads at k = 2; the mean's error at a 2 x 2 block's colour steps is the reach's to blur)
+    weighted = cv2.multiply(np.asarray(behind, np.float32), cv2.merge([outside] * 3))
+    light2 = _decoded(shrink(weighted) / np.maximum(o2, 1e-6)[..., None]) * o2[..., None]
+    reach2 = wide_blur(o2, scaled(radius))  # the share of the background within the rim's reach
+    near2 = (reach2 > 1e-3).astype(np.uint8)
+    if not near2.any():
+        return None
+    edge = (a0 > 0) & ((near2 if k == 1 else cv2.resize(near2, (w, h), interpolation=cv2.INTER_NEAREST)) > 0)
+    ys, xs = np.nonzero(edge)
+    if ys.size == 0:
+        return None
+    inside = (c >= 0.5).astype(np.uint8)
+    smooth2 = np.zeros(o2.shape, np.float32) if image is None else _smooth_share(image, c, inside, k)
+    fields = np.dstack([reach2, fibre_share(shrink(c), float(k)), smooth2,
+                        wide_blur(o2, scaled(max(0.5, GRAZE_WIDTH * radius)))])
+    reach, f, smooth, thin = np.clip(_at_small(fields, ys, xs, k), 0, 1).T
+    beside = _at_small(wide_blur(light2, scaled(radius)), ys, xs, k) / np.maximum(reach, 1e-3)[:, None]
+    ae = a0[ys, xs]
+    graze = np.minimum(2 * ae * thin, 1)
+    if image is not None:  # where the photo's own edge is sharp: no fibres, and the grazing line on its pixel only
+        ring = np.ones((3, 3), np.uint8)
+        graze *= 1 - smooth * (1 - (cv2.dilate(inside, ring) - cv2.erode(inside, ring))[ys, xs])
+        f *= 1 - smooth
+    band = f * np.minimum(2 * ae * reach, 1) + (1 - f) * graze
+    rim = (np.float32(KEPT_SCATTER) * band)[:, None] * beside
+    y = rim @ REC709
+    seen = np.flatnonzero(y >= _LEAST)  # the rest adds less than half a level whatever the photo's pixel
+    ys, xs, rim, y = ys[seen], xs[seen], rim[seen], y[seen]
+    own = _decoded(np.asarray(fg, np.float32)[ys, xs]) @ REC709
+    rim *= np.minimum(1, own / np.maximum(y, 1e-12))[:, None]  # no more than the photo's own pixel holds
+    keep = own >= _LEAST
+    if not keep.any():
+        return None
+    index = (ys * w + xs)[keep]
+    return KeptRim(index, np.ascontiguousarray(rim[keep], np.float32), own[keep].astype(np.float32))
+
+
+def _smooth_share(image: np.ndarray, c: np.ndarray, inside: np.ndarray, k: int) -> np.ndarray:
+    """(h', w') float32 in [0, 1], on a grid k times smaller: how sure the photo's own edge is that the outline near
+    each pixel is smooth (a cheek, an arm or cloth against the background), whatever the matte's softness says.
+
+    The photo is read across the matte's 0.5 line (its pixels beside one below 0.5), ``_ACROSS`` px either side
+    along the matte's normal (bilinear): its edge's width is the step from one end to the other over the steepest
+    one-pixel step between (a sharp edge ~1-2 px; strands over a background a gradual, ragged change). Widths up to
+    ``fibres.HARD_PX`` are smooth, from ``FIBRE_RATIO`` times it fibres, linear between (``fibre_share``'s scale
+    for the matte); the word counts as far as the two ends' colours tell the sides apart (|step|^2 over
+    |step|^2 + ``_SURE``: alike colours, a rim of them is not seen either). Averaged along the outline over
+    ``fibres.WIDTH_REACH`` of the person's height, as ``fibre_share`` averages the matte's width; 0 far from it.
+    Why: an automatic matte is soft along some smooth edges (p071's cheek and jaw), where ``fibre_share`` alone
+    laid a 10-15 px band of the background's colour under a side lamp (issue 48's first look).
+
+    Args:
+        image: (h, w, 3) float32 sRGB in [0, 1], the photo in the crop box.
+        c: (h, w) float32 in [0, 1], the matte whose outline is read.
+        inside: (h, w) uint8, ``c`` >= 0.5.
+        k: the grid's pixel in ``c``'s (1 or 2): (h', w') = ((h + k - 1) // k, (w + k - 1) // k).
+
+    Returns:
+        (h', w') float32 in [0, 1].
+    """
+    line = inside - cv2.erode(inside, np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], np.uint8),
+                              borderType=cv2.BORDER_REPLICATE)  # fmt: skip
+    ys, xs = np.nonzero(line)
+    h, w = c.shape
+    half = ((h + k - 1) // k, (w + k - 1) // k)
+    out = np.zeros(half, np.float32)
+    if ys.size == 0:
+        return out
+    h, w = c.shape
+    at = lambda y, x: c[np.clip(y, 0, h - 1), np.clip(x, 0, w - 1)]  # noqa: E731
+    gy, gx = at(ys + 2, xs) - at(ys - 2, xs), at(ys, xs + 2) - at(ys, xs - 2)  # the matte's normal, inward
+    norm = np.hypot(gx, gy) + np.float32(1e-6)
+    span = np.arange(-_ACROSS, _ACROSS + 1, dtype=np.float32)
+    my = (ys[:, None] + (gy / norm)[:, None] * span).astype(np.float32)
+    mx = (xs[:, None] + (gx / norm)[:, None] * span).astype(np.float32)
+    across = cv2.remap(np.asarray(image, np.float32), mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
+    apart = np.sqrt(((across[:, -1] - across[:, 0]) ** 2).sum(axis=1))
+    steepest = np.sqrt((np.diff(across, axis=1) ** 2).sum(axis=2)).max(axis=1)
+    width = apart / np.maximum(steepest, 1e-6)
+    fibres = np.clip((width / HARD_PX - 1) / (FIBRE_RATIO - 1), 0, 1)
+    sure = apart * apart / (apart * apart + np.float32(_SURE))
+    cell = (ys // k) * half[1] + xs // k  # the line's pixels and their word, summed on the small grid
+    size = half[0] * half[1]
+    sums = np.dstack([np.bincount(cell, minlength=size).reshape(half),
+                      np.bincount(cell, sure * (1 - fibres), minlength=size).reshape(half)]).astype(np.float32)
+    rows = np.flatnonzero(inside.any(1))
+    sums = wide_blur(sums, max(1.0, WIDTH_REACH * float(rows[-1] + 1 - rows[0]) / k))
+    near = sums[..., 0] > 1e-3 * float(sums[..., 0].max())
+    out[near] = np.clip(sums[..., 1][near] / sums[..., 0][near], 0, 1)
+    return out
+
+
+def _at_small(field: np.ndarray, ys: np.ndarray, xs: np.ndarray, k: int) -> np.ndarray:
+    """(n, c) float32: ``field`` (h', w', c) on a grid ``k`` times smaller (area shrinking) read at the full-size
+    pixels (ys, xs), bilinear (a small pixel's centre is at k y + (k - 1) / 2); k = 1: the pixels themselves."""
+    if k == 1:
+        return field[ys, xs].reshape(ys.size, -1)
+    n = ys.size
+    cols = 1024  # remap's maps are at most 32767 long a side: the points laid out in rows of this many
+    pad = -n % cols
+    my = np.pad((ys.astype(np.float32) + 0.5) / k - 0.5, (0, pad)).reshape(-1, cols)
+    mx = np.pad((xs.astype(np.float32) + 0.5) / k - 0.5, (0, pad)).reshape(-1, cols)
+    out = cv2.remap(field, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    return out.reshape(n + pad, -1)[:n]
+
+
+def with_kept_rim(colour: np.ndarray, kept: KeptRim | None) -> np.ndarray:
+    """``colour`` with the kept rim: on ``kept``'s pixels, where the new light leaves the pixel's luminance g (its
+    linear luminance over the own colour's) below 1, the rim's part of the photo that the light took with it added
+    back: rim · (1 − g) per channel. The background's grade (``Background.grade``) is not followed: it moves the
+    backdrop only, the person's pixels are the same with and without it.
+
+    Args:
+        colour: (h, w, 3) float32 sRGB, the relit person's straight colour in the crop box (not modified).
+        kept: ``kept_rim`` of the same crop box, or None (``colour`` returned as it is).
+
+    Returns:
+        (h, w, 3) float32, a new array (or ``colour`` itself when ``kept`` is None).
+    """
+    if kept is None:
+        return colour
+    out = np.array(colour, dtype=np.float32)
+    flat = out.reshape(-1, 3)
+    relit = _decoded(flat[kept.index])
+    lost = 1 - (relit @ REC709) / kept.own
+    # written only where it adds at least ``_LEAST`` (half an 8-bit level on black): a light that leaves the edge as
+    # it was (the photo's own, to rounding) leaves its pixels as they were, not re-encoded through the table
+    at = np.flatnonzero(lost * (kept.rim @ REC709) >= _LEAST)
+    if at.size:
+        flat[kept.index[at]] = _encoded(relit[at] + kept.rim[at] * lost[at, None])
+    return out
