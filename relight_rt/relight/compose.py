@@ -18,7 +18,7 @@ from ..light.exposure import DISPLAY_GAMMA, knee
 from . import head_blend
 from .decomposition import Decomposition, Memo, RelightResult, intrinsic_layers, readonly
 from .factor import Factor
-from .kept_rim import KeptRim, kept_rim, with_kept_rim
+from .kept_rim import KeptRim, SkinMap, kept_rim, skin_share, with_kept_rim
 from .look import (
     NeutralDarks,
     dark_colour,
@@ -541,6 +541,21 @@ def colours_of(image: np.ndarray, alpha: np.ndarray, multilevel: bool) -> tuple[
     return readonly(fg), readonly(bg)
 
 
+def skin_map(dec: Decomposition) -> SkinMap:
+    """Where ``dec``'s person is skin, for its crop box (``kept_rim.SkinMap``): stage 1's skin map
+    (``kept_rim.skin_share``), and each face mesh's outline filled as skin (a face the mesh found is skin to its
+    edge, where stage 1's map at its resolution may blur into the background)."""
+    geom = dec.geometry
+    k = geom.resolution / geom.side
+    (oy, ox), (y0, _, x0, _) = geom.offset, geom.box
+    share = skin_share(dec.skin, dec.network_mask)
+    to_net = np.array([[k, 0.0, (ox + 0.5) * k - 0.5], [0.0, k, (oy + 0.5) * k - 0.5]])
+    for mesh in dec.face_meshes or ():
+        xy = (np.asarray(mesh)[:, :2] - (x0, y0)) @ to_net[:, :2].T + to_net[:, 2]
+        cv2.fillConvexPoly(share, cv2.convexHull(np.round(xy * 16).astype(np.int32)), 1.0, cv2.LINE_AA, 4)
+    return SkinMap(readonly(share), to_net)
+
+
 class Composer:
     """A Relighter's relit person, at full resolution and put over a backdrop.
 
@@ -625,7 +640,7 @@ class Composer:
         if key not in state:
             fg, behind = self.foreground(dec)  # the colour behind a soft edge is the background's, not the person's
             alpha = dec.edge if dec.edge is not None and dec.foreground is not None else dec.geometry.crop(dec.mask)
-            rim = kept_rim(behind, alpha, fg, cover, np.ascontiguousarray(dec.geometry.crop(dec.image)))
+            rim = kept_rim(behind, alpha, fg, cover, np.ascontiguousarray(dec.geometry.crop(dec.image)), skin_map(dec))
             state[key] = None if rim is None else KeptRim(*(readonly(a) for a in rim))
         return state[key]
 

@@ -25,7 +25,10 @@ The matte's softness is a weak word on fibres (``image.fibres.fibre_share``; the
 smooth cheek whose automatic matte is soft it laid a band of the background's colour 10-15 px wide (p071 under a
 side lamp, issue 48's first look). So the photo's own edge has the last word (``_smooth_share``): where it is a
 sharp step across the matte's outline, the outline is smooth whatever the matte says, and takes at most the grazing
-line on the outline's own pixels.
+line on the outline's own pixels. And skin is never fibres (``SkinMap``): a rim of the background's colour over a
+cheek, a jaw or an arm reads as a fringe, whatever the matte and the photo's edge say (p071's jaw under LEFT kept a
+3-5 px olive edge where its photo's edge is soft); skin takes none (its grazing line on the outline's own pixels
+read as a pale stroke drawn round the jaw).
 """
 
 from __future__ import annotations
@@ -39,8 +42,9 @@ import numpy as np
 from ..image.blur import wide_blur
 from ..image.color import REC709, linear_to_srgb, srgb_to_linear
 from ..image.fibres import FIBRE_RATIO, GRAZE_WIDTH, HARD_PX, WIDTH_REACH, fibre_share
+from .detail import extend_outward, unpremultiply
 
-__all__ = ["KEPT_SCATTER", "REACH", "KeptRim", "kept_rim", "with_kept_rim"]
+__all__ = ["KEPT_SCATTER", "REACH", "KeptRim", "SkinMap", "kept_rim", "with_kept_rim"]
 
 KEPT_SCATTER = 0.6  #: the share of the background's light beside the outline that its fibres send on to the camera
 REACH = 0.01  #: the rim's reach inside the outline (Gaussian sigma), share of the person's height (the scene app's
@@ -54,6 +58,10 @@ REACH = 0.01  #: the rim's reach inside the outline (Gaussian sigma), share of t
 # allows most of it.
 _SMALL_FROM = 4.0  # from this reach (px) on the rim's wide reads are on a half-size copy (``blur.wide_blur``'s
 # rule): on the reference photo (reach 10 px) the rim's sum 8 % lower, its pixels the same to 3 %
+SKIN_FROM, SKIN_SURE = 0.55, 0.75  # stage 1's skin probability (straight, not times the matte) where a pixel starts
+# to be skin and where it surely is (linear between): chosen on half A of the first look's photos, where the rim's
+# pixels over hair and cloth read 0.1-0.5 and over faces and arms 0.6-0.9 (p071's cheek and jaw 0.7-0.9, its hair
+# 0.3-0.45)
 _ACROSS = 4  # the photo's edge is read across the matte's 0.5 line this many pixels either side
 _SURE = 0.02  # |F - B|^2 (sRGB) at which the photo's word on its edge counts half (``compose._SHOWN_TAU``)
 _LEAST = 0.5 / 255 / 12.92  # a pixel whose rim luminance (linear) is below this is left out: half an 8-bit level
@@ -77,6 +85,37 @@ def _encoded(light: np.ndarray) -> np.ndarray:
     return np.take(_ENCODE, at.astype(np.int32))
 
 
+class SkinMap(NamedTuple):
+    """Where the person is skin, as stage 1 sees it, for the crop box's pixels: read on the rim's pixels only.
+
+    Attributes:
+        share: (r, r) float32 in [0, 1], how surely each network pixel is skin (``skin_share``), straight (not
+            times the matte), extended past the outline.
+        to_net: (2, 3) float64, the affine map from a crop-box pixel (x, y) to ``share``'s (x, y).
+    """
+
+    share: np.ndarray
+    to_net: np.ndarray
+
+    def at(self, ys: np.ndarray, xs: np.ndarray) -> np.ndarray:
+        """(n,) float32 in [0, 1]: ``share`` at the crop box's pixels (ys, xs), bilinear."""
+        m = self.to_net
+        x = (m[0, 0] * xs + m[0, 1] * ys + m[0, 2]).astype(np.float32)
+        y = (m[1, 0] * xs + m[1, 1] * ys + m[1, 2]).astype(np.float32)
+        return _remap_points(self.share, x, y)[:, 0]
+
+
+def skin_share(skin: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """(r, r) float32 in [0, 1]: how surely each pixel is skin, from stage 1's skin map ``skin`` (r, r, times the
+    matte) and its matte ``alpha`` (r, r) in the network frame: the straight probability where alpha > 0.5, spread
+    past the outline from the pixels inside it (``detail.extend_outward``, as ``intrinsic_layers`` upsamples it), then
+    0 below ``SKIN_FROM`` and 1 from ``SKIN_SURE``. Times the matte the map falls to ~0.5 on the outline whatever
+    the person is there, so that a cheek's edge read as not skin (edge42's try)."""
+    inner = alpha > 0.5
+    straight = extend_outward(unpremultiply(np.asarray(skin, np.float32)[..., None], alpha), inner)[..., 0]
+    return np.clip((straight - SKIN_FROM) / (SKIN_SURE - SKIN_FROM), 0, 1).astype(np.float32)
+
+
 class KeptRim(NamedTuple):
     """What ``with_kept_rim`` adds to a relit person whatever the light, on the n pixels of a crop box it reaches.
 
@@ -92,7 +131,7 @@ class KeptRim(NamedTuple):
 
 
 def kept_rim(behind: np.ndarray, alpha: np.ndarray, fg: np.ndarray, cover: np.ndarray | None = None,
-             image: np.ndarray | None = None) -> KeptRim | None:
+             image: np.ndarray | None = None, skin: SkinMap | None = None) -> KeptRim | None:
     """The rim the photo's own background puts on the person's outline (module docstring).
 
     Args:
@@ -105,6 +144,8 @@ def kept_rim(behind: np.ndarray, alpha: np.ndarray, fg: np.ndarray, cover: np.nd
             matte, so that a neighbour is not taken for background and their meeting is no outline); None: ``alpha``.
         image: (h, w, 3) float32 sRGB in [0, 1], the photo there: its own edge's sharpness across the outline says
             fibres or smooth (``_smooth_share``); None: the matte's softness alone.
+        skin: where the person is skin (``SkinMap``): no rim there; None: no skin map (the photo's edge and the
+            matte decide).
 
     Returns:
         A ``KeptRim``, or None where there is none (no outline, no background beside it, a black background).
@@ -152,6 +193,9 @@ def kept_rim(behind: np.ndarray, alpha: np.ndarray, fg: np.ndarray, cover: np.nd
         graze *= 1 - smooth * (1 - (cv2.dilate(inside, ring) - cv2.erode(inside, ring))[ys, xs])
         f *= 1 - smooth
     band = f * np.minimum(2 * ae * reach, 1) + (1 - f) * graze
+    if skin is not None:  # skin is smooth and opaque: no rim of the background's colour on it, not even the grazing
+        # line (on the outline's own pixels it read at 400 % as a pale, stair-stepped stroke along p071's jaw)
+        band *= 1 - skin.at(ys, xs)
     rim = (np.float32(KEPT_SCATTER) * band)[:, None] * beside
     y = rim @ REC709
     seen = np.flatnonzero(y >= _LEAST)  # the rest adds less than half a level whatever the photo's pixel
@@ -225,12 +269,17 @@ def _at_small(field: np.ndarray, ys: np.ndarray, xs: np.ndarray, k: int) -> np.n
     pixels (ys, xs), bilinear (a small pixel's centre is at k y + (k - 1) / 2); k = 1: the pixels themselves."""
     if k == 1:
         return field[ys, xs].reshape(ys.size, -1)
-    n = ys.size
+    return _remap_points(field, (xs.astype(np.float32) + 0.5) / k - 0.5, (ys.astype(np.float32) + 0.5) / k - 0.5)
+
+
+def _remap_points(field: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """(n, c) float32: ``field`` (h, w[, c]) read bilinear at the n points (x, y) (float32, its pixels; the border
+    repeated)."""
+    n = x.size
     cols = 1024  # remap's maps are at most 32767 long a side: the points laid out in rows of this many
     pad = -n % cols
-    my = np.pad((ys.astype(np.float32) + 0.5) / k - 0.5, (0, pad)).reshape(-1, cols)
-    mx = np.pad((xs.astype(np.float32) + 0.5) / k - 0.5, (0, pad)).reshape(-1, cols)
-    out = cv2.remap(field, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    out = cv2.remap(field, np.pad(x, (0, pad)).reshape(-1, cols), np.pad(y, (0, pad)).reshape(-1, cols),
+                    cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)  # fmt: skip
     return out.reshape(n + pad, -1)[:n]
 
 
