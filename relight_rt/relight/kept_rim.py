@@ -46,7 +46,7 @@ from .detail import extend_outward, unpremultiply
 
 __all__ = ["KEPT_SCATTER", "REACH", "KeptRim", "SkinMap", "kept_rim", "with_kept_rim"]
 
-KEPT_SCATTER = 0.6  #: the share of the background's light beside the outline that its fibres send on to the camera
+KEPT_SCATTER = 0.7  #: the share of the background's light beside the outline that its fibres send on to the camera
 REACH = 0.01  #: the rim's reach inside the outline (Gaussian sigma), share of the person's height (the scene app's
 # ``RIM_RADIUS``). Both chosen on half A of the first look's photos (``benchmarks/dark_edge.py``, LEFT / RIGHT /
 # campfire / rim; dark edge 0.139 without the rule), on the rule's first form (the matte's holes filled, ``body``):
@@ -55,7 +55,9 @@ REACH = 0.01  #: the rim's reach inside the outline (Gaussian sigma), share of t
 # hair (p286 under RIGHT, campfire). With the matte's softness alone: A 0.074 (-46 %), half B 0.174 -> 0.085 (-51 %);
 # as shipped, the photo's sharp edges smooth (``_smooth_share``) and the wide reads at half size: A 0.092 (-34 %),
 # B 0.111 (-36 %). The photo's own pixel bounds the rim whatever the share (``kept_rim``): 0.6 is where the photo
-# allows most of it.
+# allows most of it. With skin taking no rim (``SkinMap``) 0.6 gave A 0.0958 (-30.9 % of main's 0.1385 today), B
+# 0.1169 (-32.9 % of 0.1742); 0.7: A 0.0923 (-33.4 %), B 0.1130 (-35.1 %); 0.75: A 0.0908 (a denser veil over
+# p286's dark hair). 0.7 kept.
 _SMALL_FROM = 4.0  # from this reach (px) on the rim's wide reads are on a half-size copy (``blur.wide_blur``'s
 # rule): on the reference photo (reach 10 px) the rim's sum 8 % lower, its pixels the same to 3 %
 SKIN_FROM, SKIN_SURE = 0.55, 0.75  # stage 1's skin probability (straight, not times the matte) where a pixel starts

@@ -11,7 +11,7 @@ from _graphs import models_dir
 from relight_rt import Relighter, RuntimeConfig, lights
 from relight_rt.image.color import REC709, srgb_to_linear
 from relight_rt.relight import kept_rim as kr
-from relight_rt.relight.kept_rim import KeptRim, kept_rim, with_kept_rim
+from relight_rt.relight.kept_rim import KeptRim, SkinMap, kept_rim, skin_share, with_kept_rim
 
 __all__ = ["models_dir"]  # fixture
 
@@ -79,6 +79,42 @@ def test_the_photos_sharp_edge_overrules_a_soft_mattes_fibres():
     assert deep["matte alone"] > 0
     assert deep["sharp"] < 0.2 * deep["matte alone"]  # a thin line (and what the matte's own softness lets through)
     assert deep["blurred"] == pytest.approx(deep["matte alone"], rel=0.05)
+
+
+def _skin(share: float, left_only: bool = False) -> SkinMap:
+    """A skin map over the crop box at half its resolution (a network frame smaller than the photo): ``share``
+    everywhere (or on the box's left half only)."""
+    net = np.zeros((H // 2, W // 2), np.float32)
+    net[:, : (W // 4 if left_only else W // 2)] = share
+    k = 0.5
+    return SkinMap(net, np.array([[k, 0.0, 0.5 * k - 0.5], [0.0, k, 0.5 * k - 0.5]]))
+
+
+def test_skin_takes_no_rim_whatever_the_matte_and_the_photo_say():
+    """Skin is smooth and opaque: a soft matte over a soft photo edge (strands by both words) takes no rim where the
+    skin map says skin, and the full rim beside it where it does not (issue 48: p071's olive fringe on the jaw)."""
+    soft = _person(3.0)
+    img = cv2.GaussianBlur(_photo(), (0, 0), 3.0)
+    none = kept_rim(_behind(), soft, _photo(), image=img)
+    half = kept_rim(_behind(), soft, _photo(), image=img, skin=_skin(1.0, left_only=True))
+    x = lambda r: r.index % W  # noqa: E731
+    lum = lambda r, left: float((r.rim[x(r) < 45 if left else x(r) >= 55] @ REC709).sum())  # noqa: E731  (the
+    # skin map's own edge, bilinear, lies between)
+    assert lum(none, True) > 0 and lum(none, False) > 0
+    assert lum(half, True) == 0  # the skin side: nothing (not even the grazing line)
+    np.testing.assert_allclose(lum(half, False), lum(none, False), rtol=1e-5)
+    assert kept_rim(_behind(), soft, _photo(), image=img, skin=_skin(1.0)) is None
+
+
+def test_skin_share_is_the_straight_probability_ramped():
+    """The network's skin map is times the matte: read straight (over the matte) it is the person's own, so a cheek
+    whose map falls to 0.4 at a soft outline (0.8 x alpha 0.5) is skin there; below ``SKIN_FROM`` nothing."""
+    alpha = np.zeros((40, 40), np.float32)
+    alpha[:, :20] = 1
+    alpha[:, 20] = 0.6
+    for p, want in ((0.8, 1.0), (0.3, 0.0), ((kr.SKIN_FROM + kr.SKIN_SURE) / 2, 0.5)):
+        share = skin_share(alpha * p, alpha)
+        np.testing.assert_allclose(share[:, :21], want, atol=1e-5)
 
 
 def test_the_rim_has_the_backgrounds_colour_and_no_more_than_the_photo_holds():
