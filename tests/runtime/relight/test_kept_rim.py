@@ -3,6 +3,8 @@ when a new lamp misses that side (issue 48: the edge had gone black against a br
 
 from __future__ import annotations
 
+import dataclasses
+
 import cv2
 import numpy as np
 import pytest
@@ -10,6 +12,7 @@ from _graphs import models_dir
 
 from relight_rt import Relighter, RuntimeConfig, lights
 from relight_rt.image.color import REC709, srgb_to_linear
+from relight_rt.relight import compose
 from relight_rt.relight import kept_rim as kr
 from relight_rt.relight.kept_rim import KeptRim, SkinMap, kept_rim, skin_share, with_kept_rim
 
@@ -177,6 +180,34 @@ def test_only_the_photos_own_background_keeps_a_rim(models_dir, background, monk
     far = _depth(soft) > 12  # deep inside the person, and the background away from it, unchanged
     np.testing.assert_array_equal(on[far], off[far])
     np.testing.assert_array_equal(on[soft <= 0], off[soft <= 0])
+
+
+def test_a_person_all_skin_keeps_no_rim_end_to_end(models_dir, monkeypatch):
+    """The composite reads the person's skin (``compose.skin_map``): where stage 1 calls everything skin the rule
+    adds nothing, and a face mesh's hull is skin whatever stage 1's map says."""
+    img, soft = _photo(), _person(3.0)
+    relighter = Relighter(RuntimeConfig(models=str(models_dir), device="cpu"), matter=lambda rgb, name="image": soft)
+    dec = relighter.decompose(img)
+    light = lights.directional((0.3, 1.0, 0.2), (1, 1, 1), 1.0) + lights.ambient(0.01)
+    monkeypatch.setattr(kr, "KEPT_SCATTER", 0.0)
+    off = np.asarray(relighter.relight(dec, light))
+    monkeypatch.setattr(kr, "KEPT_SCATTER", 0.7)
+    monkeypatch.setattr(kr, "SKIN_FROM", 2.0)
+    monkeypatch.setattr(kr, "SKIN_SURE", 3.0)  # no probability is skin
+    relighter._memo(dec).clear()
+    assert np.asarray(relighter.relight(dec, light)).sum() > off.sum()
+    monkeypatch.setattr(kr, "SKIN_FROM", -2.0)
+    monkeypatch.setattr(kr, "SKIN_SURE", -1.0)  # every probability is sure skin
+    relighter._memo(dec).clear()
+    np.testing.assert_array_equal(np.asarray(relighter.relight(dec, light)), off)
+    monkeypatch.setattr(kr, "SKIN_FROM", 2.0)
+    monkeypatch.setattr(kr, "SKIN_SURE", 3.0)  # the face mesh's hull alone
+    y0, _, x0, _ = dec.geometry.box
+    face = np.array([[40.0, 30.0, 0.0], [60.0, 30.0, 0.0], [60.0, 60.0, 0.0], [40.0, 60.0, 0.0]])
+    skin = compose.skin_map(dataclasses.replace(dec, face_meshes=(face,)))
+    ys, xs = np.mgrid[32:58, 42:58]
+    np.testing.assert_allclose(skin.at(ys.ravel() - y0, xs.ravel() - x0), 1.0, atol=1e-3)
+    assert skin.at(np.array([100 - y0]), np.array([35 - x0]))[0] == 0
 
 
 def test_where_two_people_meet_there_is_no_rim():
