@@ -160,10 +160,10 @@ def kept_rim(behind: np.ndarray, alpha: np.ndarray, fg: np.ndarray, cover: np.nd
     Returns:
         A ``KeptRim``, or None where there is none (no outline, no background beside it, a black background).
     """
-    a0 = np.asarray(alpha, np.float32)
+    a0 = np.ascontiguousarray(alpha, np.float32)
     # unlike the scene app's key rim (``scene_rim.body``) the matte's holes and crumbs are kept: a hole shows the
     # background, whose light reaches the hole's edge too, and a crumb's rim is bounded by the photo's own pixel
-    c = a0 if cover is None else np.asarray(cover, np.float32)
+    c = a0 if cover is None else np.ascontiguousarray(cover, np.float32)
     inside = (c >= 0.5).view(np.uint8)
     rows = np.flatnonzero(inside.any(axis=1))
     if rows.size == 0:
