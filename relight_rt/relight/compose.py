@@ -640,7 +640,7 @@ class Composer:
         if key not in state:
             fg, behind = self.foreground(dec)  # the colour behind a soft edge is the background's, not the person's
             alpha = dec.edge if dec.edge is not None and dec.foreground is not None else dec.geometry.crop(dec.mask)
-            rim = kept_rim(behind, alpha, fg, cover, np.ascontiguousarray(dec.geometry.crop(dec.image)), skin_map(dec))
+            rim = kept_rim(behind, alpha, fg, cover, dec.geometry.crop(dec.image), skin_map(dec))  # read at points
             state[key] = None if rim is None else KeptRim(*(readonly(a) for a in rim))
         return state[key]
 

@@ -73,18 +73,22 @@ _DECODE = srgb_to_linear(np.linspace(0, 1, _LEVELS, dtype=np.float32))
 _DECODE.flags.writeable = False
 _ENCODE = linear_to_srgb(np.linspace(0, 1, _LEVELS, dtype=np.float32) ** 2)  # indexed by sqrt(linear): steps of
 _ENCODE.flags.writeable = False  # at most 2e-4 in sRGB (sRGB is smooth in the root of light)
+_PIXEL = np.dtype((np.void, 12))  # an RGB float32 pixel as one item (``with_kept_rim``'s gather and put)
 
 
 def _decoded(values: np.ndarray) -> np.ndarray:
     """sRGB ``values`` (any shape, float) decoded to linear light through ``_DECODE`` (clipped to [0, 1] first)."""
-    at = np.clip(values, 0, 1) * np.float32(_LEVELS - 1) + np.float32(0.5)
-    return np.take(_DECODE, at.astype(np.int32))
+    at = np.multiply(values, np.float32(_LEVELS - 1), dtype=np.float32)
+    at += np.float32(0.5)  # the table's index clipped to its ends (``take``'s clip): as clipping the values first
+    return np.take(_DECODE, at.astype(np.int32), mode="clip")
 
 
 def _encoded(light: np.ndarray) -> np.ndarray:
     """Linear ``light`` (any shape, float) encoded to sRGB through ``_ENCODE`` (clipped to [0, 1] first)."""
-    at = np.sqrt(np.clip(light, 0, 1)) * np.float32(_LEVELS - 1) + np.float32(0.5)
-    return np.take(_ENCODE, at.astype(np.int32))
+    at = np.sqrt(np.maximum(light, 0, dtype=np.float32))
+    at *= np.float32(_LEVELS - 1)
+    at += np.float32(0.5)
+    return np.take(_ENCODE, at.astype(np.int32), mode="clip")
 
 
 class SkinMap(NamedTuple):
@@ -182,7 +186,9 @@ def kept_rim(behind: np.ndarray, alpha: np.ndarray, fg: np.ndarray, cover: np.nd
     # the background's light: its colour's mean over each small pixel's background share, decoded there (a quarter
     # of the table's reads at k = 2; the mean's error at a 2 x 2 block's colour steps is the reach's to blur)
     weighted = cv2.multiply(np.asarray(behind, np.float32), cv2.merge([1 - c] * 3))
-    light2 = _decoded(shrink(weighted) / np.maximum(o2, 1e-6)[..., None]) * o2[..., None]
+    o23 = np.repeat(o2[..., None], 3, axis=2)  # numpy's broadcasting over three channels is slow
+    light2 = _decoded(shrink(weighted) / np.maximum(o23, np.float32(1e-6)))
+    light2 *= o23
     reach2 = wide_blur(o2, scaled(radius))  # the share of the background within the rim's reach
     if not (reach2 > 1e-3).any():
         return None
@@ -204,9 +210,9 @@ def kept_rim(behind: np.ndarray, alpha: np.ndarray, fg: np.ndarray, cover: np.nd
     if index.size == 0:
         return None
     ys, xs = np.divmod(index, w)
-    fields = np.dstack([reach2, f2, smooth2, thin2])
-    reach, f, smooth, thin = np.clip(_at_small(fields, ys, xs, k), 0, 1).T
-    beside = _at_small(light_blur, ys, xs, k) / np.maximum(reach, 1e-3)[:, None]
+    fields, light_at = _at_small([cv2.merge([reach2, f2, smooth2, thin2]), light_blur], ys, xs, k)
+    reach, f, smooth, thin = np.clip(fields, 0, 1).T
+    beside = light_at / np.maximum(reach, 1e-3)[:, None]
     ae = np.minimum(a0.reshape(-1).take(index), 1)
     graze = np.minimum(2 * ae * thin, 1)
     if image is not None:  # where the photo's own edge is sharp: no fibres, and the grazing line on its pixel only
@@ -220,13 +226,13 @@ def kept_rim(behind: np.ndarray, alpha: np.ndarray, fg: np.ndarray, cover: np.nd
     rim = (np.float32(KEPT_SCATTER) * band)[:, None] * beside
     y = rim @ REC709
     seen = np.flatnonzero(y >= _LEAST)  # the rest adds less than half a level whatever the photo's pixel
-    index, rim, y = index[seen], rim[seen], y[seen]
-    own = _decoded(np.asarray(fg, np.float32).reshape(-1, 3).take(index, axis=0)) @ REC709
+    index, rim, y = index.take(seen), _rows(rim, seen), y.take(seen)
+    own = _decoded(_rows(np.asarray(fg, np.float32).reshape(-1, 3), index)) @ REC709
     rim *= np.minimum(1, own / np.maximum(y, 1e-12))[:, None]  # no more than the photo's own pixel holds
-    keep = own >= _LEAST
-    if not keep.any():
+    keep = np.flatnonzero(own >= _LEAST)
+    if keep.size == 0:
         return None
-    return KeptRim(index[keep], np.ascontiguousarray(rim[keep], np.float32), own[keep].astype(np.float32))
+    return KeptRim(index.take(keep), _rows(rim, keep), own.take(keep).astype(np.float32))
 
 
 def _smooth_share(image: np.ndarray, c: np.ndarray, inside: np.ndarray, k: int) -> np.ndarray:
@@ -268,7 +274,7 @@ def _smooth_share(image: np.ndarray, c: np.ndarray, inside: np.ndarray, k: int) 
     mx = (xs[:, None] + (gx / norm)[:, None] * span).astype(np.float32)
     across = cv2.remap(np.asarray(image, np.float32), mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
     apart = np.sqrt(((across[:, -1] - across[:, 0]) ** 2).sum(axis=1))
-    steepest = np.sqrt((np.diff(across, axis=1) ** 2).sum(axis=2)).max(axis=1)
+    steepest = np.sqrt((np.diff(across, axis=1) ** 2).sum(axis=2).max(axis=1))
     width = apart / np.maximum(steepest, 1e-6)
     fibres = np.clip((width / HARD_PX - 1) / (FIBRE_RATIO - 1), 0, 1)
     sure = apart * apart / (apart * apart + np.float32(_SURE))
@@ -283,23 +289,32 @@ def _smooth_share(image: np.ndarray, c: np.ndarray, inside: np.ndarray, k: int) 
     return out
 
 
-def _at_small(field: np.ndarray, ys: np.ndarray, xs: np.ndarray, k: int) -> np.ndarray:
-    """(n, c) float32: ``field`` (h', w', c) on a grid ``k`` times smaller (area shrinking) read at the full-size
-    pixels (ys, xs), bilinear (a small pixel's centre is at k y + (k - 1) / 2); k = 1: the pixels themselves."""
+def _at_small(fields: list[np.ndarray], ys: np.ndarray, xs: np.ndarray, k: int) -> list[np.ndarray]:
+    """(n, c) float32 for each of ``fields`` (h', w'[, c], c <= 4) on a grid ``k`` times smaller (area shrinking)
+    read at the full-size pixels (ys, xs), bilinear (a small pixel's centre is at k y + (k - 1) / 2; the points' maps
+    made once for all); k = 1: the pixels themselves."""
     if k == 1:
-        return field[ys, xs].reshape(ys.size, -1)
-    return _remap_points(field, (xs.astype(np.float32) + 0.5) / k - 0.5, (ys.astype(np.float32) + 0.5) / k - 0.5)
+        return [field[ys, xs].reshape(ys.size, -1) for field in fields]
+    return _remap_points(fields, (xs.astype(np.float32) + 0.5) / k - 0.5, (ys.astype(np.float32) + 0.5) / k - 0.5)
 
 
-def _remap_points(field: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """(n, c) float32: ``field`` (h, w[, c]) read bilinear at the n points (x, y) (float32, its pixels; the border
-    repeated)."""
+def _remap_points(fields: np.ndarray | list[np.ndarray], x: np.ndarray, y: np.ndarray) -> np.ndarray | list:
+    """(n, c) float32: ``fields`` (h, w[, c], c <= 4: more channels take OpenCV's other path, whose weights differ
+    in their last bits) read bilinear at the n points (x, y) (float32, its pixels; the border repeated); a list of
+    fields: a list of their reads, the maps made once."""
     n = x.size
     cols = 1024  # remap's maps are at most 32767 long a side: the points laid out in rows of this many
     pad = -n % cols
-    out = cv2.remap(field, np.pad(x, (0, pad)).reshape(-1, cols), np.pad(y, (0, pad)).reshape(-1, cols),
-                    cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)  # fmt: skip
-    return out.reshape(n + pad, -1)[:n]
+    mx, my = np.pad(x, (0, pad)).reshape(-1, cols), np.pad(y, (0, pad)).reshape(-1, cols)
+    read = lambda f: cv2.remap(f, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE  # noqa: E731
+                               ).reshape(n + pad, -1)[:n]
+    return [read(f) for f in fields] if isinstance(fields, list) else read(fields)
+
+
+def _rows(a: np.ndarray, index: np.ndarray) -> np.ndarray:
+    """(n, 3) float32: the rows ``index`` (n,) of ``a`` (m, 3) float32, a pixel's three channels taken as one item
+    (numpy's row gather goes a channel at a time: a third of the time on the rim's ~10^5 pixels)."""
+    return np.ascontiguousarray(a, np.float32).view(_PIXEL)[:, 0].take(index).view(np.float32).reshape(-1, 3)
 
 
 def with_kept_rim(colour: np.ndarray, kept: KeptRim | None) -> np.ndarray:
@@ -318,12 +333,17 @@ def with_kept_rim(colour: np.ndarray, kept: KeptRim | None) -> np.ndarray:
     if kept is None:
         return colour
     out = np.array(colour, dtype=np.float32)
-    flat = out.reshape(-1, 3)
-    relit = _decoded(flat[kept.index])
+    pixels = out.reshape(-1, 3).view(_PIXEL)[:, 0]  # a pixel's three channels as one item: one gather, one put
+    relit = _decoded(_rows(out.reshape(-1, 3), kept.index))
     lost = 1 - (relit @ REC709) / kept.own
     # written only where it adds at least ``_LEAST`` (half an 8-bit level on black): a light that leaves the edge as
     # it was (the photo's own, to rounding) leaves its pixels as they were, not re-encoded through the table
     at = np.flatnonzero(lost * (kept.rim @ REC709) >= _LEAST)
-    if at.size:
-        flat[kept.index[at]] = _encoded(relit[at] + kept.rim[at] * lost[at, None])
+    if at.size == kept.index.size:  # all of them (a light that darkens the whole edge): no gathers
+        index, rim = kept.index, kept.rim
+    elif at.size:
+        index, rim, relit, lost = kept.index.take(at), _rows(kept.rim, at), _rows(relit, at), lost.take(at)
+    else:
+        return out
+    np.put(pixels, index, np.ascontiguousarray(_encoded(relit + rim * lost[:, None]), np.float32).view(_PIXEL)[:, 0])
     return out
