@@ -735,8 +735,9 @@ class Composer:
                 alpha = dec.edge  # shows it, with the colour behind it (``photo_colours``; a group relit as one
                 # finds its colours from its matte: its people carry theirs, relight_rt.relight.people)
                 if dec.photo:  # the kept background's light through the person's edge, which a new lamp leaves
-                    colour = with_kept_rim(colour, self.kept_rim(dec))  # (relight_rt.relight.kept_rim); a mask or
-                    # alpha given is the user's word, kept as it is (as the shown edge is)
+                    colour = with_kept_rim(colour, self.kept_rim(dec), copy=False)  # (relight_rt.relight.kept_rim)
+                    # on the relit colour, its own; a mask or alpha given is the user's word, kept as it is (as the
+                    # shown edge is)
         return over_box(colour, alpha[..., None], geom.box, backdrop, dec.mask, behind, gain)
 
     def with_layers(self, dec: Decomposition, lit: np.ndarray, outputs: tuple, backdrop: np.ndarray | None,

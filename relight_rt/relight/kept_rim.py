@@ -320,7 +320,7 @@ def _rows(a: np.ndarray, index: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(a, np.float32).view(_PIXEL)[:, 0].take(index).view(np.float32).reshape(-1, 3)
 
 
-def with_kept_rim(colour: np.ndarray, kept: KeptRim | None) -> np.ndarray:
+def with_kept_rim(colour: np.ndarray, kept: KeptRim | None, copy: bool = True) -> np.ndarray:
     """``colour`` with the kept rim: on ``kept``'s pixels, where the new light leaves the pixel's luminance g (its
     linear luminance over the own colour's) below 1, the rim's part of the photo that the light took with it added
     back: rim · (1 − g) per channel. The background's grade (``Background.grade``) is not followed: it moves the
@@ -329,13 +329,16 @@ def with_kept_rim(colour: np.ndarray, kept: KeptRim | None) -> np.ndarray:
     Args:
         colour: (h, w, 3) float32 sRGB, the relit person's straight colour in the crop box (not modified).
         kept: ``kept_rim`` of the same crop box, or None (``colour`` returned as it is).
+        copy: False: written into ``colour`` where it is a writeable row-major float32 array (a caller's own: the
+            composite's relit person; a copy of a 2.5-MP photo's crop box is ~0.8 ms of the light's ~4 ms).
 
     Returns:
-        (h, w, 3) float32, a new array (or ``colour`` itself when ``kept`` is None).
+        (h, w, 3) float32, a new array (``colour`` itself when ``kept`` is None, or written into with ``copy`` False).
     """
     if kept is None:
         return colour
-    out = np.array(colour, dtype=np.float32)
+    own = not copy and colour.dtype == np.float32 and colour.flags.c_contiguous and colour.flags.writeable
+    out = colour if own else np.array(colour, dtype=np.float32)
     pixels = out.reshape(-1, 3).view(_PIXEL)[:, 0]  # a pixel's three channels as one item: one gather, one put
     relit = _decoded(_rows(out.reshape(-1, 3), kept.index))
     lost = 1 - (relit @ REC709) / kept.own

@@ -303,7 +303,7 @@ def by_person_lights(
             if scaled and part.photo:  # the kept background's light on their edge (the automatic matte's),
                 # its background what no one covers (relight_rt.relight.kept_rim)
                 colour = with_kept_rim(colour, composer.kept_rim(part, shown[py0 : py0 + colour.shape[0],
-                                                                            px0 : px0 + colour.shape[1]]))
+                                                                            px0 : px0 + colour.shape[1]]), copy=False)
             if clean and not composer.detail:
                 colour = clean_edge_colour(colour, np.ascontiguousarray(part.geometry.crop(part.image)),
                                            composer.foreground(part, always=True)[0], share[..., 0])

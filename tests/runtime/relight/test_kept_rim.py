@@ -153,6 +153,21 @@ def test_a_darkened_edge_keeps_the_rim_and_stays_below_the_photo():
     np.testing.assert_array_equal(out.reshape(-1, 3)[untouched], dark.reshape(-1, 3)[untouched])
 
 
+def test_written_in_place_only_into_a_callers_own_float32_array():
+    img = _photo()
+    rim = kept_rim(_behind(), _person(3.0), img)
+    dark = np.ascontiguousarray(img * 0.05, np.float32)
+    want = with_kept_rim(dark, rim)
+    mine = dark.copy()
+    assert with_kept_rim(mine, rim, copy=False) is mine
+    np.testing.assert_array_equal(mine, want)
+    frozen = dark.copy()
+    frozen.flags.writeable = False  # not the caller's to write: a new array, the input as it was
+    out = with_kept_rim(frozen, rim, copy=False)
+    assert out is not frozen and (frozen == dark).all()
+    np.testing.assert_array_equal(out, want)
+
+
 def test_kept_rim_is_a_named_tuple_of_arrays():
     rim = kept_rim(_behind(), _person(3.0), _photo())
     assert isinstance(rim, KeptRim)
