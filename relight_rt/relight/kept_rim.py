@@ -77,14 +77,16 @@ _PIXEL = np.dtype((np.void, 12))  # an RGB float32 pixel as one item (``with_kep
 
 
 def _decoded(values: np.ndarray) -> np.ndarray:
-    """sRGB ``values`` (any shape, float) decoded to linear light through ``_DECODE`` (clipped to [0, 1] first)."""
+    """sRGB ``values`` (any shape, float, finite and within +-5e5: the index's int32 cast) decoded to linear light
+    through ``_DECODE`` (as clipped to [0, 1] first)."""
     at = np.multiply(values, np.float32(_LEVELS - 1), dtype=np.float32)
     at += np.float32(0.5)  # the table's index clipped to its ends (``take``'s clip): as clipping the values first
     return np.take(_DECODE, at.astype(np.int32), mode="clip")
 
 
 def _encoded(light: np.ndarray) -> np.ndarray:
-    """Linear ``light`` (any shape, float) encoded to sRGB through ``_ENCODE`` (clipped to [0, 1] first)."""
+    """Linear ``light`` (any shape, float, finite and below 2e5: the index's int32 cast) encoded to sRGB through
+    ``_ENCODE`` (as clipped to [0, 1] first)."""
     at = np.sqrt(np.maximum(light, 0, dtype=np.float32))
     at *= np.float32(_LEVELS - 1)
     at += np.float32(0.5)
