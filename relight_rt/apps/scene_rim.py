@@ -58,6 +58,7 @@ import numpy as np
 
 from ..image.blur import wide_blur
 from ..image.color import REC709
+from ..image.fibres import FIBRE_RATIO, GRAZE_WIDTH, HARD_PX, WIDTH_REACH, fibre_share
 from ..light import envmap
 
 __all__ = ["FIBRE_DEG", "FIBRE_RATIO", "GRAZE_WIDTH", "HALO_LEVEL", "HARD_PX", "LOBE_DEG", "PHOTO_MAX_AREA", "RIM_MAX",
@@ -72,13 +73,7 @@ PHOTO_MAX_AREA = 0.03  #: a photo's clipped region counts as a source when at mo
 RIM_PHOTO = 0.25  #: a photo's source: the rim's luminance (linear, the plate's units) for a source straight behind
 FIBRE_DEG = 20.0  #: how far the outline's fibres stray from it (hair, fuzz): the rim's spread round the outline
 # (chosen, not fitted: nothing here measures it, the renders have no fibres)
-HARD_PX = 2.0  #: a matte's edge whose alpha goes from 0 to 1 within this many of its photo's pixels is hard, whatever
-# the matte (anti-aliasing, a lens's softness)
-FIBRE_RATIO = 2.0  #: an edge this many times as wide as the matte's own hard edges (their lower quartile) is strands:
-# the full rim (chosen: a wider transition than the matte gives a smooth outline is what fibres add)
-GRAZE_WIDTH = 0.25  #: a hard edge's grazing line: its reach, this share of the rim's (chosen: a pixel or so)
 HALO_LEVEL = 160  #: a clipped source's halo: the pixels round it whose brightest channel is at least this (8-bit sRGB)
-_WIDTH_REACH = 0.02  # an edge's width is read over this share of the person's height along the outline
 _MIN_PIXELS = 2  # a photo's clipped region of fewer pixels is noise
 _CLIP_LEVEL = 250
 _SOURCE_HEIGHT = 128  # a panorama's source is found on a copy at most this many rows high (area-averaged: its
@@ -310,42 +305,6 @@ def halo_colour(source, halo) -> np.ndarray:
     return around * (float(src @ REC709) / lum)
 
 
-def fibre_share(alpha: np.ndarray) -> np.ndarray:
-    """How much of the outline near each pixel is fibres (1: hair, fuzz, a thin fabric's edge) rather than a smooth
-    opaque edge (0), read from the matte: a back light glows through fine translucent strands and only grazes smooth
-    cloth, and strands are what makes a matte's alpha go from 0 to 1 over a wide band.
-
-    The edge's width w: the pixels of fractional alpha (0.02-0.98) per pixel of outline (alpha >= 1/2 beside one
-    below), both averaged along the outline over ``_WIDTH_REACH`` of the person's height. A matte has hard edges of
-    its own width (a binary mask none, an automatic one its grid's smear): the lower quartile of w over the outline,
-    at least ``HARD_PX``. The share is 0 up to that width and 1 from ``FIBRE_RATIO`` times it on, linear between: a
-    binary mask has no fibres anywhere, a soft one fibres where it is softer than its own hard edges.
-
-    Args:
-        alpha: (h, w) float matte in [0, 1] at its photo's resolution (or as seen in a frame).
-
-    Returns:
-        (h, w) float32 in [0, 1]; 0 far from the outline and everywhere when the matte has none.
-    """
-    a = np.clip(np.asarray(alpha, np.float32), 0, 1)
-    inside = (a >= 0.5).astype(np.uint8)
-    line = inside - cv2.erode(inside, np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], np.uint8),
-                              borderType=cv2.BORDER_REPLICATE)  # fmt: skip
-    rows = np.flatnonzero(inside.any(1))
-    out = np.zeros(a.shape, np.float32)
-    if not line.any():
-        return out
-    sigma = max(2.0, _WIDTH_REACH * float(rows[-1] + 1 - rows[0]))
-    frac = ((a > 0.02) & (a < 0.98)).astype(np.float32)
-    along = wide_blur(line.astype(np.float32), sigma)
-    near = along > 1e-3 * float(along.max())
-    width = np.zeros(a.shape, np.float32)
-    width[near] = wide_blur(frac, sigma)[near] / along[near]
-    hard = max(HARD_PX, float(np.percentile(width[line > 0], 25)))
-    out[near] = np.clip((width[near] / hard - 1) / (FIBRE_RATIO - 1), 0, 1)
-    return out
-
-
 def fibre_patch(alpha: np.ndarray, placed) -> np.ndarray:
     """``fibre_share`` of the person's matte ``alpha`` (their photo's resolution) as placed in the frame: cut to
     their box (``scene_place.box``) and resized to ``placed``'s (a ``scene_place.Placement``) height and width,
@@ -358,7 +317,7 @@ def fibre_patch(alpha: np.ndarray, placed) -> np.ndarray:
 
     a = np.asarray(alpha, np.float32)
     y0, y1, x0, x1 = box(a)
-    m = max(1, int(math.ceil(6 * _WIDTH_REACH * (y1 - y0))))  # the outline's neighbours, for its averages
+    m = max(1, int(math.ceil(6 * WIDTH_REACH * (y1 - y0))))  # the outline's neighbours, for its averages
     cy0, cx0 = max(0, y0 - m), max(0, x0 - m)
     share = fibre_share(a[cy0 : y1 + m, cx0 : x1 + m])[y0 - cy0 : y1 - cy0, x0 - cx0 : x1 - cx0]
     small = placed.height < share.shape[0]

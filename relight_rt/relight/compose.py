@@ -18,6 +18,7 @@ from ..light.exposure import DISPLAY_GAMMA, knee
 from . import head_blend
 from .decomposition import Decomposition, Memo, RelightResult, intrinsic_layers, readonly
 from .factor import Factor
+from .kept_rim import KeptRim, SkinMap, kept_rim, skin_share, with_kept_rim
 from .look import (
     NeutralDarks,
     dark_colour,
@@ -540,6 +541,21 @@ def colours_of(image: np.ndarray, alpha: np.ndarray, multilevel: bool) -> tuple[
     return readonly(fg), readonly(bg)
 
 
+def skin_map(dec: Decomposition) -> SkinMap:
+    """Where ``dec``'s person is skin, for its crop box (``kept_rim.SkinMap``): stage 1's skin map
+    (``kept_rim.skin_share``), and each face mesh's outline filled as skin (a face the mesh found is skin to its
+    edge, where stage 1's map at its resolution may blur into the background)."""
+    geom = dec.geometry
+    k = geom.resolution / geom.side
+    (oy, ox), (y0, _, x0, _) = geom.offset, geom.box
+    share = skin_share(dec.skin, dec.network_mask)
+    to_net = np.array([[k, 0.0, (ox + 0.5) * k - 0.5], [0.0, k, (oy + 0.5) * k - 0.5]])
+    for mesh in dec.face_meshes or ():
+        xy = (np.asarray(mesh)[:, :2] - (x0, y0)) @ to_net[:, :2].T + to_net[:, 2]
+        cv2.fillConvexPoly(share, cv2.convexHull(np.round(xy * 16).astype(np.int32)), 1.0, cv2.LINE_AA, 4)
+    return SkinMap(readonly(share), to_net)
+
+
 class Composer:
     """A Relighter's relit person, at full resolution and put over a backdrop.
 
@@ -613,6 +629,20 @@ class Composer:
         if not self.detail or dec.head is None:
             return None
         return head_blend.head_change(self.factor, dec, np.asarray(light, np.float32), self.foreground(dec)[0])
+
+    def kept_rim(self, dec: Decomposition, cover: np.ndarray | None = None) -> KeptRim | None:
+        """``kept_rim.kept_rim`` of ``dec``'s background, matte and own colour in its crop box (``foreground``),
+        once per Decomposition. The matte is the one ``compose`` lays the person over their photo with (the automatic
+        matte's edge as the photo shows it, ``dec.edge``, where there is one); ``cover``: everyone's matte there, the
+        same way (a group's person: the group's, ``shown_mask``), None: the person's."""
+        state = self.memo(dec)
+        key = ("kept_rim", cover is None)  # a group's person relit alone has no group round them
+        if key not in state:
+            fg, behind = self.foreground(dec)  # the colour behind a soft edge is the background's, not the person's
+            alpha = dec.edge if dec.edge is not None and dec.foreground is not None else dec.geometry.crop(dec.mask)
+            rim = kept_rim(behind, alpha, fg, cover, dec.geometry.crop(dec.image), skin_map(dec))  # read at points
+            state[key] = None if rim is None else KeptRim(*(readonly(a) for a in rim))
+        return state[key]
 
     def own_light(self, dec: Decomposition) -> tuple[np.ndarray, float]:
         """``own_light_sum`` of ``dec``'s own colour over its matte in the crop box, found once per Decomposition."""
@@ -704,6 +734,10 @@ class Composer:
             if dec.edge is not None and dec.foreground is not None:  # the automatic matte's edge as the photo
                 alpha = dec.edge  # shows it, with the colour behind it (``photo_colours``; a group relit as one
                 # finds its colours from its matte: its people carry theirs, relight_rt.relight.people)
+                if dec.photo:  # the kept background's light through the person's edge, which a new lamp leaves
+                    colour = with_kept_rim(colour, self.kept_rim(dec), copy=False)  # (relight_rt.relight.kept_rim)
+                    # on the relit colour, its own; a mask or alpha given is the user's word, kept as it is (as the
+                    # shown edge is)
         return over_box(colour, alpha[..., None], geom.box, backdrop, dec.mask, behind, gain)
 
     def with_layers(self, dec: Decomposition, lit: np.ndarray, outputs: tuple, backdrop: np.ndarray | None,

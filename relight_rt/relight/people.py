@@ -12,6 +12,7 @@ from ..image.regions import Crop
 from ..light.exposure import knee
 from . import compose
 from .decomposition import Decomposition
+from .kept_rim import with_kept_rim
 from .look import dark_colour
 
 MAX_PEOPLE = 16  # matting="all": a photo of more people than this is relit as one group (stage 1 once a person)
@@ -267,6 +268,8 @@ def by_person_lights(
         for r in range(0, y1 - y0, _ROWS):  # what shows through the soft edge; the people's colours are added to
             region[r : r + _ROWS] *= 1 - cover[r : r + _ROWS]  # it (in bands: 1 - alpha is the photo's size)
     graded = backdrop is not None and bg.graded
+    # the group's matte as the photo shows it (``with_shown_edge``): the kept rim's background is what it leaves
+    shown = compose.shown_mask(dec) if backdrop is not None and not clean else None
     people = []
     for part in parts:
         (py0, _, px0, _), (cy0, cy1, cx0, cx1) = _boxes(part, dec.geometry.box)
@@ -297,6 +300,10 @@ def by_person_lights(
             lit = factor.meter.expose(part, reaching(light, part, dec)[None], exposure)[0]
             _, residual, relit = next(network_relit(part, lit[None], 1, want_layers=composer.detail))
             colour = composer.person_colour(part, lit, residual, relit, looks)
+            if scaled and part.photo:  # the kept background's light on their edge (the automatic matte's),
+                # its background what no one covers (relight_rt.relight.kept_rim)
+                colour = with_kept_rim(colour, composer.kept_rim(part, shown[py0 : py0 + colour.shape[0],
+                                                                            px0 : px0 + colour.shape[1]]), copy=False)
             if clean and not composer.detail:
                 colour = clean_edge_colour(colour, np.ascontiguousarray(part.geometry.crop(part.image)),
                                            composer.foreground(part, always=True)[0], share[..., 0])
