@@ -4,6 +4,9 @@
 // k is the final result's shaded-skin gain (relight_rt.relight.look.shaded_skin): where the skin weight w says
 // skin and the light darkens it by r = Y(max(0, T·L)) / (T·W) (W the photo's own light, white), each channel
 // takes 1 + w · (clamp(1 + (r^(g − 1) − 1) · c, 1/4, 4) − 1), c the skin's chroma (P − Y) / P; elsewhere 1.
+// On the kept background's rim (the automatic matte's outline over the photo's own background; relight_rt.relight
+// .kept_rim) the straight colour takes rim · (1 − g) in linear light where its luminance over the own colour's, g, is
+// below 1, as the final result does (rimPixels).
 // WebGL 2 (a fragment shader, float textures) where available, otherwise Canvas 2D in JavaScript.
 
 // Decode the server's layer binary (relight_rt.apps.studio.core Studio.layers_bytes) into float planes; the Python
@@ -42,6 +45,10 @@ export function decodeLayers(buffer, meta) {
   const nb = meta.grade_head_samples;
   const hb = new Float32Array(buffer, meta.grade_head_offset + 4 * nb, 15 * nb);
   const blended = (i) => hb.subarray(i * nb, (i + 1) * nb);
+  // the kept background's rim: its preview pixels (int32), then float32 planes (linear r, g, b)
+  const nr = meta.rim_samples ?? 0;
+  const rimOffset = meta.rim_offset ?? meta.grade_head_offset + 64 * nb;
+  const rf = new Float32Array(buffer, rimOffset + 4 * nr, 3 * nr);
   return {
     width: meta.width,
     height: meta.height,
@@ -84,7 +91,42 @@ export function decodeLayers(buffer, meta) {
       neutralLift: meta.neutral_lift,
       neutralChromaExp: meta.neutral_chroma_exp,
     },
+    rim: {
+      index: new Int32Array(buffer, rimOffset, nr),
+      rim: [0, 1, 2].map((i) => rf.subarray(i * nr, (i + 1) * nr)),
+    },
   };
+}
+
+// sRGB (one channel, in [0, 1]) to linear light and back (relight_rt.image.color).
+const decode = (v) => (v <= 0.04045 ? v / 12.92 : Math.pow((v + 0.055) / 1.055, 2.4));
+const RIM_LEAST = 0.5 / 255 / 12.92;  // a rim pixel whose own luminance is below this takes none (kept_rim._LEAST)
+const LEVELS = 4096;  // the Canvas renderer's tables (the render's: relight_rt.relight.kept_rim)
+const DECODE = Float32Array.from({ length: LEVELS }, (_, i) => decode(i / (LEVELS - 1)));
+const ENCODE = Float32Array.from({ length: LEVELS }, (_, i) => {
+  const x = (i / (LEVELS - 1)) ** 2;  // indexed by sqrt(linear)
+  return x <= 0.0031308 ? 12.92 * x : 1.055 * Math.pow(x, 1 / 2.4) - 0.055;
+});
+
+// The kept background's rim as the page draws it (the Python mirror: preview.with_rim): per rim pixel its flat
+// index, and rim r, g, b (linear), the own colour's linear luminance (the straight albedo under the photo's own light,
+// white, clipped as drawn; 0: the pixel takes none), the mask.
+export function rimPixels(layers) {
+  const { index, rim } = layers.rim;
+  const { transport: T, albedo: A, mask: M, ownWhite: W } = layers;
+  const data = new Float32Array(5 * index.length);
+  for (let j = 0, u = 0; j < index.length; j++, u += 5) {
+    const p = index[j], m = M[p];
+    let own = 0;
+    for (let k = 0; k < 9; k++) own += T[k][p] * W[k];
+    own = Math.max(own, 0);
+    const y = m > 0 ? 0.2126 * decode(Math.min(1, Math.min(1, A[0][p] * own) / m))
+      + 0.7152 * decode(Math.min(1, Math.min(1, A[1][p] * own) / m))
+      + 0.0722 * decode(Math.min(1, Math.min(1, A[2][p] * own) / m)) : 0;
+    data[u] = rim[0][j]; data[u + 1] = rim[1][j]; data[u + 2] = rim[2][j];
+    data[u + 3] = y >= RIM_LEAST ? y : 0; data[u + 4] = m;
+  }
+  return { index, data };
 }
 
 const VERTEX = `#version 300 es
@@ -100,6 +142,7 @@ uniform sampler2D t2;  // T8, albedo r, g, b (premultiplied)
 uniform sampler2D t3;  // background r, g, b, mask
 uniform sampler2D t4;  // skin chroma r, g, b (in [-1, 1]), skin weight
 uniform sampler2D t5;  // the faces' cast shadows x the head pass's change: the factor on the shading (1: none; setShadow)
+uniform sampler2D t6;  // the kept background's rim: linear r, g, b, the own colour's linear luminance (0: none)
 uniform vec3 L[9];
 uniform float W[9];  // the photo's own light, white (one column)
 uniform float G;  // the shaded-skin exponent
@@ -120,6 +163,16 @@ void main() {
   float boost = pow(clamp(r, 1e-4, 1.0), G - 1.0) - 1.0;
   vec3 gain = 1.0 + e.a * (clamp(1.0 + boost * e.rgb, 0.25, 4.0) - 1.0);
   vec3 diffuse = clamp(c.yzw * lit * gain, 0.0, 1.0);
+  vec4 k = texelFetch(t6, p, 0);
+  if (k.a > 0.0 && d.a > 0.0) {  // the kept rim where the light darkens the edge: rim (1 - g) added in linear light
+    vec3 v = min(diffuse / d.a, 1.0);
+    vec3 lin = mix(v / 12.92, pow((v + 0.055) / 1.055, vec3(2.4)), step(0.04045, v));
+    float g = dot(lin, vec3(0.2126, 0.7152, 0.0722)) / k.a;
+    if (g < 1.0) {
+      vec3 x = clamp(lin + k.rgb * (1.0 - g), 0.0, 1.0);
+      diffuse = mix(12.92 * x, 1.055 * pow(x, vec3(1.0 / 2.4)) - 0.055, step(0.0031308, x)) * d.a;
+    }
+  }
   vec3 bg = min(d.rgb * grade, 1.0);
   if (checker) {
     bool odd = ((p.x / 12) + (p.y / 12)) % 2 == 1;
@@ -189,7 +242,13 @@ class WebGLPreview {
     gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
     gl.texImage2D(gl.TEXTURE_2D, 0, gl.R32F, w, h, 0, gl.RED, gl.FLOAT, new Float32Array(n).fill(1));
     this.shadow = null;
-    for (let i = 0; i < 6; i++) gl.uniform1i(gl.getUniformLocation(prog, `t${i}`), i);
+    // the kept rim: r, g, b, own luminance on its pixels, 0 elsewhere
+    const rim = rimPixels(layers), rimPlane = new Float32Array(4 * n);
+    for (let j = 0, u = 0; j < rim.index.length; j++, u += 5) {
+      rimPlane.set(rim.data.subarray(u, u + 4), 4 * rim.index[j]);
+    }
+    floatTexture(6, rimPlane);
+    for (let i = 0; i < 7; i++) gl.uniform1i(gl.getUniformLocation(prog, `t${i}`), i);
     gl.uniform1fv(gl.getUniformLocation(prog, "W"), new Float32Array(layers.ownWhite));
     gl.uniform1f(gl.getUniformLocation(prog, "G"), layers.skinExponent);
     gl.uniform1i(gl.getUniformLocation(prog, "height"), h);
@@ -258,6 +317,10 @@ class CanvasPreview {
       skin[u] = C[0][p]; skin[u + 1] = C[1][p]; skin[u + 2] = C[2][p]; skin[u + 3] = S[p]; skin[u + 4] = own;
     }
     this.skin = skin;
+    this.rim = rimPixels(layers);
+    this.skinWeight = S;
+    this.skinChroma = C;
+    this.ownShade = W;
     this.exponent = layers.skinExponent;
     this.shadow = null;
   }
@@ -316,6 +379,46 @@ class CanvasPreview {
       const r = Math.min(255, back[v] + 255 * Math.min(1, f[o + 9] * sr * kr)) | 0;
       const g = Math.min(255, back[v + 1] + 255 * Math.min(1, f[o + 10] * sg * kg)) | 0;
       const b = Math.min(255, back[v + 2] + 255 * Math.min(1, f[o + 11] * sb * kb)) | 0;
+      px[p] = 0xff000000 | (b << 16) | (g << 8) | r;
+    }
+    // the kept rim where the light darkens the edge: the pixel drawn again, rim (1 - g) added in linear light
+    const ri = this.rim.index, rd = this.rim.data, S = this.skinWeight, C = this.skinChroma, W = this.ownShade;
+    const top = LEVELS - 1;
+    for (let j = 0, u = 0; j < ri.length; j++, u += 5) {
+      const own = rd[u + 3];
+      if (own === 0) continue;
+      const p = ri[j], o = 16 * p, v = 3 * p, m = rd[u + 4];
+      const q0 = f[o], q1 = f[o + 1], q2 = f[o + 2], q3 = f[o + 3], q4 = f[o + 4], q5 = f[o + 5], q6 = f[o + 6];
+      const q7 = f[o + 7], q8 = f[o + 8];
+      let sr = q0 * l0 + q1 * l3 + q2 * l6 + q3 * l9 + q4 * l12 + q5 * l15 + q6 * l18 + q7 * l21 + q8 * l24;
+      let sg = q0 * l1 + q1 * l4 + q2 * l7 + q3 * l10 + q4 * l13 + q5 * l16 + q6 * l19 + q7 * l22 + q8 * l25;
+      let sb = q0 * l2 + q1 * l5 + q2 * l8 + q3 * l11 + q4 * l14 + q5 * l17 + q6 * l20 + q7 * l23 + q8 * l26;
+      const c = cast ? cast[p] : 1;
+      sr = sr > 0 ? sr * c : 0; sg = sg > 0 ? sg * c : 0; sb = sb > 0 ? sb * c : 0;
+      let kr = 1, kg = 1, kb = 1;
+      const w = S[p];
+      if (w > 0) {  // the shaded-skin gain, as above
+        let ow = 0;
+        for (let k = 0; k < 9; k++) ow += f[o + k] * W[k];
+        const ratio = (0.2126 * sr + 0.7152 * sg + 0.0722 * sb) / Math.max(ow, 1e-3);
+        if (ratio < 1) {
+          const boost = Math.pow(Math.max(ratio, 1e-4), g1) - 1;
+          kr = 1 + w * (Math.min(4, Math.max(0.25, 1 + boost * C[0][p])) - 1);
+          kg = 1 + w * (Math.min(4, Math.max(0.25, 1 + boost * C[1][p])) - 1);
+          kb = 1 + w * (Math.min(4, Math.max(0.25, 1 + boost * C[2][p])) - 1);
+        }
+      }
+      const lr = DECODE[(Math.min(1, Math.min(1, f[o + 9] * sr * kr) / m) * top + 0.5) | 0];
+      const lg = DECODE[(Math.min(1, Math.min(1, f[o + 10] * sg * kg) / m) * top + 0.5) | 0];
+      const lb = DECODE[(Math.min(1, Math.min(1, f[o + 11] * sb * kb) / m) * top + 0.5) | 0];
+      const lost = 1 - (0.2126 * lr + 0.7152 * lg + 0.0722 * lb) / own;
+      if (lost <= 0) continue;
+      const er = ENCODE[(Math.sqrt(Math.min(1, lr + rd[u] * lost)) * top + 0.5) | 0];
+      const eg = ENCODE[(Math.sqrt(Math.min(1, lg + rd[u + 1] * lost)) * top + 0.5) | 0];
+      const eb = ENCODE[(Math.sqrt(Math.min(1, lb + rd[u + 2] * lost)) * top + 0.5) | 0];
+      const r = Math.min(255, back[v] + 255 * m * er) | 0;
+      const g = Math.min(255, back[v + 1] + 255 * m * eg) | 0;
+      const b = Math.min(255, back[v + 2] + 255 * m * eb) | 0;
       px[p] = 0xff000000 | (b << 16) | (g << 8) | r;
     }
     this.ctx.putImageData(this.image, 0, 0);
