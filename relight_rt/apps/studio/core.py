@@ -216,7 +216,10 @@ def _rim_sample(relighter, dec, edge: np.ndarray, size: tuple[int, int]) -> tupl
     for c in range(3):
         planes[c][ys, xs] = kept.rim[:, c] * alpha
     planes[3][y0:y1, x0:x1] = edge[y0:y1, x0:x1]
-    (oy0, oy1, ox0, ox1), reduced = area_reduce(planes, size, [y0, y1, x0, x1])
+    if size == edge.shape:  # a preview at the photo's size: the box itself (area_reduce's weights the identity)
+        (oy0, ox0), reduced = (y0, x0), [p[y0:y1, x0:x1] for p in planes]
+    else:
+        (oy0, _, ox0, _), reduced = area_reduce(planes, size, [y0, y1, x0, x1])
     m = reduced[3]
     rim = np.stack(reduced[:3], axis=-1) / np.maximum(m, 1e-6)[..., None]
     at = (m > 0.5 / 255) & (rim @ REC709 >= _LEAST)  # the mask the page reads is 8-bit: none below half a level
