@@ -40,7 +40,7 @@ from ...light.exposure import METER_POWER, Highlight, exposure_scale, guarded, m
 from ...light.spec import LightSpec  # the one light parser
 from ...relight.compose import GradeSample, sampled_grade, shown_mask  # the one background grade
 from ...relight.decomposition import intrinsic_layers
-from ...relight.kept_rim import _LEAST
+from ...relight.kept_rim import LEAST
 from ...relight.look import NEUTRAL_CHROMA_EXP, NEUTRAL_LIFT, SKIN_CHROMA, skin_chroma  # the shaded-skin rule
 from ...relight.strength import restore_bands
 from .preview import area_reduce, layers_in_box, preview_picture, shadow_plane
@@ -202,7 +202,7 @@ def _rim_sample(relighter, dec, edge: np.ndarray, size: tuple[int, int]) -> tupl
     shown edge ``edge`` (H, W) reduced by area as the preview's mask is and over that mask, so that the page adds it
     to the straight colour it draws, as ``with_kept_rim`` does to the render's, before the mask premultiplies it. No
     pixels where the relighter applies none (a mask or alpha given, a runtime without the rule) or a pixel holds less
-    than half an 8-bit level of it on black (``kept_rim._LEAST``)."""
+    than half an 8-bit level of it on black (``kept_rim.LEAST``)."""
     none = np.zeros(0, np.int32), np.zeros((0, 3), np.float32)
     find = getattr(relighter, "kept_rim", None)
     kept = find(dec) if find is not None else None
@@ -222,7 +222,7 @@ def _rim_sample(relighter, dec, edge: np.ndarray, size: tuple[int, int]) -> tupl
         (oy0, _, ox0, _), reduced = area_reduce(planes, size, [y0, y1, x0, x1])
     m = reduced[3]
     rim = np.stack(reduced[:3], axis=-1) / np.maximum(m, 1e-6)[..., None]
-    at = (m > 0.5 / 255) & (rim @ REC709 >= _LEAST)  # the mask the page reads is 8-bit: none below half a level
+    at = (m > 0.5 / 255) & (rim @ REC709 >= LEAST)  # the mask the page reads is 8-bit: none below half a level
     yy, xx = np.nonzero(at)
     index = ((yy + oy0) * size[1] + xx + ox0).astype(np.int32)
     return index, np.ascontiguousarray(rim[at], np.float32)

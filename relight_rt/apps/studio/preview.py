@@ -13,7 +13,7 @@ from ...engine.errors import RelightError
 from ...image.color import REC709, linear_to_srgb, srgb_to_linear
 from ...light import sh
 from ...relight.compose import GradeSample, HeadBlend
-from ...relight.kept_rim import _LEAST as RIM_LEAST  # half an 8-bit level on black (linear)
+from ...relight.kept_rim import LEAST as RIM_LEAST  # half an 8-bit level on black (linear)
 from ...relight.look import shaded_skin
 
 

@@ -100,7 +100,7 @@ export function decodeLayers(buffer, meta) {
 
 // sRGB (one channel, in [0, 1]) to linear light and back (relight_rt.image.color).
 const decode = (v) => (v <= 0.04045 ? v / 12.92 : Math.pow((v + 0.055) / 1.055, 2.4));
-const RIM_LEAST = 0.5 / 255 / 12.92;  // a rim pixel whose own luminance is below this takes none (kept_rim._LEAST)
+const RIM_LEAST = 0.5 / 255 / 12.92;  // a rim pixel whose own luminance is below this takes none (kept_rim.LEAST)
 const LEVELS = 4096;  // the Canvas renderer's tables (the render's: relight_rt.relight.kept_rim)
 const DECODE = Float32Array.from({ length: LEVELS }, (_, i) => decode(i / (LEVELS - 1)));
 const ENCODE = Float32Array.from({ length: LEVELS }, (_, i) => {
