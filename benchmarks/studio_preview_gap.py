@@ -20,6 +20,9 @@ relight_rt.relight.compose ``Composer.grade_inputs``) against the full result's 
 values with --grade-background and without), per channel in EV of light (x 2.2). The preview's grade carries the
 head pass's blend (compose ``HeadBlend``); ``--without head-blend`` takes it out of both (window-left's gap was 0.14
 EV with the blend in the result only, 0.03 with it in neither).
+
+``--band``: the kept background's rim (relight_rt.relight.kept_rim) on the person's outline, preview against result
+with the rim and without it, on the reference photo and people_masks photos (``band``; issue 48, studio43).
 """
 
 from __future__ import annotations
