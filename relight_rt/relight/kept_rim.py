@@ -44,7 +44,7 @@ from ..image.color import REC709, linear_to_srgb, srgb_to_linear
 from ..image.fibres import FIBRE_RATIO, GRAZE_WIDTH, HARD_PX, WIDTH_REACH, fibre_share
 from .detail import extend_outward, unpremultiply
 
-__all__ = ["KEPT_SCATTER", "REACH", "KeptRim", "SkinMap", "kept_rim", "with_kept_rim"]
+__all__ = ["KEPT_SCATTER", "LEAST", "REACH", "KeptRim", "SkinMap", "kept_rim", "with_kept_rim"]
 
 KEPT_SCATTER = 0.7  #: the share of the background's light beside the outline that its fibres send on to the camera
 REACH = 0.01  #: the rim's reach inside the outline (Gaussian sigma), share of the person's height (the scene app's
@@ -66,7 +66,7 @@ SKIN_FROM, SKIN_SURE = 0.55, 0.75  # stage 1's skin probability (straight, not t
 # 0.3-0.45)
 _ACROSS = 4  # the photo's edge is read across the matte's 0.5 line this many pixels either side
 _SURE = 0.02  # |F - B|^2 (sRGB) at which the photo's word on its edge counts half (``compose._SHOWN_TAU``)
-_LEAST = 0.5 / 255 / 12.92  # a pixel whose rim luminance (linear) is below this is left out: half an 8-bit level
+LEAST = 0.5 / 255 / 12.92  # a pixel whose rim luminance (linear) is below this is left out: half an 8-bit level
 # on black, where sRGB is steepest
 _LEVELS = 4096  # sRGB is decoded through a table of this many levels (12 bits: 20 ms -> 3 ms on a 2.5-MP crop box)
 _DECODE = srgb_to_linear(np.linspace(0, 1, _LEVELS, dtype=np.float32))
@@ -206,7 +206,7 @@ def kept_rim(behind: np.ndarray, alpha: np.ndarray, fg: np.ndarray, cover: np.nd
     skin2 = 0 if skin is None else least(skin.on_grid(k, o2.shape))
     bound = (most(f2) * (1 - least(smooth2)) * np.minimum(2 * most(reach2), 1) + np.minimum(2 * most(thin2), 1))
     bound *= np.float32(KEPT_SCATTER) * (1 - skin2) * most((light_blur @ REC709) / np.maximum(reach2, 1e-3))
-    near2 = (bound >= _LEAST).view(np.uint8)
+    near2 = (bound >= LEAST).view(np.uint8)
     edge = (a0 > 0) & ((near2 if k == 1 else cv2.resize(near2, (w, h), interpolation=cv2.INTER_NEAREST)) > 0)
     index = np.flatnonzero(edge)
     if index.size == 0:
@@ -227,11 +227,11 @@ def kept_rim(behind: np.ndarray, alpha: np.ndarray, fg: np.ndarray, cover: np.nd
         band *= 1 - skin.at(ys, xs)
     rim = (np.float32(KEPT_SCATTER) * band)[:, None] * beside
     y = rim @ REC709
-    seen = np.flatnonzero(y >= _LEAST)  # the rest adds less than half a level whatever the photo's pixel
+    seen = np.flatnonzero(y >= LEAST)  # the rest adds less than half a level whatever the photo's pixel
     index, rim, y = index.take(seen), _rows(rim, seen), y.take(seen)
     own = _decoded(_rows(np.asarray(fg, np.float32).reshape(-1, 3), index)) @ REC709
     rim *= np.minimum(1, own / np.maximum(y, 1e-12))[:, None]  # no more than the photo's own pixel holds
-    keep = np.flatnonzero(own >= _LEAST)
+    keep = np.flatnonzero(own >= LEAST)
     if keep.size == 0:
         return None
     return KeptRim(index.take(keep), _rows(rim, keep), own.take(keep).astype(np.float32))
@@ -344,9 +344,9 @@ def with_kept_rim(colour: np.ndarray, kept: KeptRim | None, copy: bool = True) -
     pixels = out.reshape(-1, 3).view(_PIXEL)[:, 0]  # a pixel's three channels as one item: one gather, one put
     relit = _decoded(_rows(out.reshape(-1, 3), kept.index))
     lost = 1 - (relit @ REC709) / kept.own
-    # written only where it adds at least ``_LEAST`` (half an 8-bit level on black): a light that leaves the edge as
+    # written only where it adds at least ``LEAST`` (half an 8-bit level on black): a light that leaves the edge as
     # it was (the photo's own, to rounding) leaves its pixels as they were, not re-encoded through the table
-    at = np.flatnonzero(lost * (kept.rim @ REC709) >= _LEAST)
+    at = np.flatnonzero(lost * (kept.rim @ REC709) >= LEAST)
     if at.size == kept.index.size:  # all of them (a light that darkens the whole edge): no gathers
         index, rim = kept.index, kept.rim
     elif at.size:

@@ -41,6 +41,7 @@ from .face_pass import FacePass, head_crops
 from .factor import Factor
 from .graphs import load_stages
 from .intake import read_batch
+from .kept_rim import KeptRim
 from .lighting import Lighting
 from .look import prepare_lab
 from .network import Network
@@ -272,6 +273,14 @@ class Relighter:
     def grade_inputs(self, dec: Decomposition) -> GradeSample:
         """What the backdrop's grade reads of ``dec`` whatever the light (compose ``Composer.grade_inputs``)."""
         return self._composer.grade_inputs(dec)
+
+    def kept_rim(self, dec: Decomposition) -> KeptRim | None:
+        """The kept background's rim on ``dec``'s outline where ``relight`` over the photo's own background puts it
+        (compose ``Composer.kept_rim``: the automatic matte's shown edge of a photo; None where none is applied: a
+        mask or alpha given, a group relit as one, a video frame). The studio's preview draws it."""
+        if not (dec.photo and dec.edge is not None and dec.foreground is not None):
+            return None
+        return self._composer.kept_rim(dec)
 
     def cast_shadows(self, dec: Decomposition, light) -> tuple[np.ndarray | None, float]:
         """The body pass's cast shadows the final result puts under ``light`` (any light ``resolve_light`` takes) and

@@ -28,7 +28,7 @@ pytest.importorskip("playwright.sync_api")
 import relight_rt  # noqa: E402
 from relight_rt import RuntimeConfig, lightfile, lights, sh  # noqa: E402
 from relight_rt.apps.studio.core import Studio  # noqa: E402
-from relight_rt.apps.studio.preview import preview_picture, shadow_plane, unpack_layers  # noqa: E402
+from relight_rt.apps.studio.preview import preview_picture, shadow_plane, unpack_layers, with_rim  # noqa: E402
 from relight_rt.cli.demo import example_path  # noqa: E402
 from relight_rt.light import exposure  # noqa: E402
 from relight_rt.light.exposure import exposure_scale  # noqa: E402
@@ -241,7 +241,8 @@ def test_preview_is_the_diffuse_image(browser, server, studio, renderer):
         plain = np.clip(layers["albedo"].transpose(1, 2, 0) * lit, 0, 1)
         moved = float(np.abs(diffuse - plain).max())  # the example person: dark skin, the gain moves it 3 levels
         assert moved > 2 / 255 if gained else moved < 0.5 / 255
-        want = layers["background"].transpose(1, 2, 0) * (1 - layers["mask"][..., None]) + diffuse
+        rimmed = with_rim(diffuse.astype(np.float32), layers, meta)  # the kept rim, where the light darkens it
+        want = layers["background"].transpose(1, 2, 0) * (1 - layers["mask"][..., None]) + rimmed
         want = np.rint(np.clip(want, 0, 1) * 255).astype(np.int16)
         diff = np.abs(got - want)
         assert got.shape == want.shape
@@ -738,7 +739,9 @@ def test_preview_grades_the_background_when_it_follows_the_light(browser, street
     chroma as the result does (sh.js neutralStep, relight_rt.relight.look.neutral_values): without that step the
     grade would be off by more than ten times the tolerance. Part of it lies under the head pass's blend, and the
     page blends as the result does (sh.js headLevel, relight_rt.relight.compose.head_level): without it the grade
-    would be off by more than a hundred times the tolerance."""
+    would be off by more than a hundred times the tolerance. The person's outline takes the kept background's rim
+    (relight_rt.relight.kept_rim) as the Python mirror draws it (``with_rim``: 46 levels at most under these
+    lights; the bundled example's dark backdrop gives it none)."""
     studio, url = street
     page = open_renderer(browser, url, renderer)
     meta = studio.info()["preview"]
@@ -747,7 +750,7 @@ def test_preview_grades_the_background_when_it_follows_the_light(browser, street
     assert meta["grade_head_samples"] > 1000
     no_rule = layers["grade"]._replace(neutral=np.zeros_like(layers["grade"].neutral))
     no_head = layers["grade"]._replace(head=HeadBlend.empty())
-    rule_moves, head_moves = [], []
+    rule_moves, head_moves, rim_moves = [], [], []
     graded_lights = 0
     m = layers["mask"][..., None]
     for name in ("night", "campfire", "rim", "window-left"):
@@ -766,7 +769,9 @@ def test_preview_grades_the_background_when_it_follows_the_light(browser, street
         rule_moves.append(np.abs(sampled_grade(no_rule, shown) / want - 1).max())
         head_moves.append(np.abs(sampled_grade(no_head, shown) / want - 1).max())
         got = canvas_rgb(page).astype(np.int16)
-        person = preview_diffuse(layers, meta, shown)
+        bare = preview_diffuse(layers, meta, shown).astype(np.float32)
+        person = with_rim(bare, layers, meta)  # the kept rim: the page draws it, as the render adds it
+        rim_moves.append(float(np.abs(person - bare).max()))
         drawn = np.clip(layers["background"].transpose(1, 2, 0) * grade, 0, 1) * (1 - m) + person
         drawn = np.rint(np.clip(drawn, 0, 1) * 255).astype(np.int16)
         diff = np.abs(got - drawn)
@@ -786,4 +791,5 @@ def test_preview_grades_the_background_when_it_follows_the_light(browser, street
     assert graded_lights >= 2, graded_lights
     assert max(rule_moves) > 1e-3, rule_moves
     assert max(head_moves) > 1e-2, head_moves
+    assert max(rim_moves) > 10 / 255, rim_moves  # the comparison above holds the kept rim (the street's backdrop)
     page.close()

@@ -40,6 +40,7 @@ from ...light.exposure import METER_POWER, Highlight, exposure_scale, guarded, m
 from ...light.spec import LightSpec  # the one light parser
 from ...relight.compose import GradeSample, sampled_grade, shown_mask  # the one background grade
 from ...relight.decomposition import intrinsic_layers
+from ...relight.kept_rim import LEAST
 from ...relight.look import NEUTRAL_CHROMA_EXP, NEUTRAL_LIFT, SKIN_CHROMA, skin_chroma  # the shaded-skin rule
 from ...relight.strength import restore_bands
 from .preview import area_reduce, layers_in_box, preview_picture, shadow_plane
@@ -194,6 +195,39 @@ def _grade_sample(relighter, dec) -> GradeSample:
     return sample.every(max(1, math.ceil(sample.weight.shape[0] / EXPOSURE_SAMPLES)))
 
 
+def _rim_sample(relighter, dec, edge: np.ndarray, size: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """The kept background's rim the final result puts on the person's outline (relight_rt.relight.kept_rim; the
+    relighter's ``kept_rim``, once per Decomposition), in the preview's frame and size: the pixels it reaches
+    (flat indices, int32, increasing) and its straight linear RGB radiance there (n, 3) float32, the rim times the
+    shown edge ``edge`` (H, W) reduced by area as the preview's mask is and over that mask, so that the page adds it
+    to the straight colour it draws, as ``with_kept_rim`` does to the render's, before the mask premultiplies it. No
+    pixels where the relighter applies none (a mask or alpha given, a runtime without the rule) or a pixel holds less
+    than half an 8-bit level of it on black (``kept_rim.LEAST``)."""
+    none = np.zeros(0, np.int32), np.zeros((0, 3), np.float32)
+    find = getattr(relighter, "kept_rim", None)
+    kept = find(dec) if find is not None else None
+    if kept is None:
+        return none
+    y0, y1, x0, x1 = (int(v) for v in dec.geometry.box)
+    planes = [np.zeros(edge.shape, np.float32) for _ in range(4)]  # zero pages outside the box are never touched
+    ys, xs = np.divmod(kept.index, x1 - x0)
+    ys, xs = ys + y0, xs + x0
+    alpha = edge[ys, xs]
+    for c in range(3):
+        planes[c][ys, xs] = kept.rim[:, c] * alpha
+    planes[3][y0:y1, x0:x1] = edge[y0:y1, x0:x1]
+    if size == edge.shape:  # a preview at the photo's size: the box itself (area_reduce's weights the identity)
+        (oy0, ox0), reduced = (y0, x0), [p[y0:y1, x0:x1] for p in planes]
+    else:
+        (oy0, _, ox0, _), reduced = area_reduce(planes, size, [y0, y1, x0, x1])
+    m = reduced[3]
+    rim = np.stack(reduced[:3], axis=-1) / np.maximum(m, 1e-6)[..., None]
+    at = (m > 0.5 / 255) & (rim @ REC709 >= LEAST)  # the mask the page reads is 8-bit: none below half a level
+    yy, xx = np.nonzero(at)
+    index = ((yy + oy0) * size[1] + xx + ox0).astype(np.int32)
+    return index, np.ascontiguousarray(rim[at], np.float32)
+
+
 def _display_size(h: int, w: int, max_pixels: int) -> tuple[int, int]:
     s = min(1.0, math.sqrt(max_pixels / (h * w)))
     return max(2, round(h * s)), max(2, round(w * s))
@@ -307,12 +341,15 @@ class Studio:
         # relight_rt.relight.strength.refit_light, can leave that one dark where the restored one is not)
         albedo = intrinsic_layers(dec, sh.shading(restored, dec.white_light))["albedo"]
         mask = np.asarray(dec.mask)
+        rim_index, rim = np.zeros(0, np.int32), np.zeros((0, 3), np.float32)
         if self.background == "original" and dec.edge is not None:
             # the render puts the relit person over their own photo with the soft edge the photo shows (the
             # automatic matte's: relight_rt.relight.compose.shown_edge); the albedo is premultiplied by that edge
             shown = shown_mask(dec)
             albedo = albedo * np.divide(shown, mask, out=np.zeros_like(shown), where=mask > 0)[..., None]
             mask = shown
+            # the kept background's rim on that edge, which the render adds where the new light darkens it
+            rim_index, rim = _rim_sample(self.relighter, dec, shown, size)
         albedo = _resize(albedo, size)
         mask = _resize(mask[..., None], size)
         bg = self._background_image()
@@ -373,7 +410,10 @@ class Studio:
             "neutral_lift": list(NEUTRAL_LIFT),  # the near-neutral darks' rule in the grade (look.neutral_values)
             "neutral_chroma_exp": float(NEUTRAL_CHROMA_EXP),
             "own_white": np.asarray(dec.white_light, np.float64)[:, 0].tolist(),
-            "data": head + bytes(offset - len(head)) + planes.tobytes() + guard.tobytes() + graded.tobytes() + headed,
+            "rim_samples": int(rim_index.size),
+            "rim_offset": offset + planes.nbytes + guard.nbytes + graded.nbytes + len(headed),
+            "data": head + bytes(offset - len(head)) + planes.tobytes() + guard.tobytes() + graded.tobytes() + headed
+            + rim_index.astype("<i4").tobytes() + rim.T.astype("<f4").tobytes(),
         }
 
     def preview_light(self, light, exposure="auto", meter: float = 1.0) -> np.ndarray:
@@ -482,7 +522,9 @@ class Studio:
         (``_grade_sample``) as float32 planes of ``grade_samples`` values: lit R, G, B, steady R, G, B, transport
         0…8, weight, knee, own R, G, B, the near-neutral darks' weight; then, from byte ``grade_head_offset``, the
         head pass's blend on ``grade_head_samples`` of those pixels (relight_rt.relight.compose ``HeadBlend``): their
-        indices as int32, then float32 planes: weight, skin, body scale, body stays, scale, stays, transport 0…8."""
+        indices as int32, then float32 planes: weight, skin, body scale, body stays, scale, stays, transport 0…8;
+        then, from byte ``rim_offset``, the kept background's rim (``_rim_sample``) on ``rim_samples`` preview
+        pixels: their flat indices as int32, then float32 planes: its linear R, G, B."""
         return self._layers["data"]
 
     def info(self) -> dict:

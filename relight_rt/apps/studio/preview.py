@@ -10,9 +10,10 @@ import math
 import numpy as np
 
 from ...engine.errors import RelightError
-from ...image.color import REC709
+from ...image.color import REC709, linear_to_srgb, srgb_to_linear
 from ...light import sh
 from ...relight.compose import GradeSample, HeadBlend
+from ...relight.kept_rim import LEAST as RIM_LEAST  # half an 8-bit level on black (linear)
 from ...relight.look import shaded_skin
 
 
@@ -21,17 +22,20 @@ def unpack_layers(data: bytes, meta: dict) -> dict:
     "transport" (9, h, w), "albedo" (3, h, w) premultiplied, "mask" (h, w), "background" (3, h, w),
     "skin_chroma" (3, h, w) in [-1, 1] and "skin" (h, w) (relight_rt.relight.look.skin_chroma), and
     "exposure": {"transport" (n, 9), "albedo" (n, 3), "mask" (n,)}, the exposure sample, and "highlight":
-    {"lit" (m, 3), "steady" (m, 3), "transport" (m, 9)}, the highlight guard's, and "grade": the background
-    grade's ``GradeSample``."""
+    {"lit" (m, 3), "steady" (m, 3), "transport" (m, 9)}, the highlight guard's, "grade": the background
+    grade's ``GradeSample``, and "rim": {"index" (k,) int32 flat preview pixels, "rim" (k, 3) linear RGB}, the kept
+    background's rim (``with_rim``)."""
     h, w = meta["height"], meta["width"]
     n = h * w
     ns, offset = int(meta["exposure_samples"]), int(meta["exposure_offset"])
     nh, hoffset = int(meta["highlight_samples"]), int(meta["highlight_offset"])
     ng, goffset = int(meta["grade_samples"]), int(meta["grade_offset"])
     nb, boffset = int(meta["grade_head_samples"]), int(meta["grade_head_offset"])
-    if (min(ns, nh, ng, nb) < 0 or nb > ng or offset < 29 * n or hoffset != offset + 52 * ns
-            or goffset != hoffset + 60 * nh or boffset != goffset + 84 * ng or len(data) != boffset + 64 * nb):
-        raise RelightError(f"layers: expected {boffset + 64 * nb} bytes for {h}x{w}, {ns}, {nh}, {ng} and {nb} "
+    nr, roffset = int(meta.get("rim_samples", 0)), int(meta.get("rim_offset", boffset + 64 * nb))
+    if (min(ns, nh, ng, nb, nr) < 0 or nb > ng or nr > n or offset < 29 * n or hoffset != offset + 52 * ns
+            or goffset != hoffset + 60 * nh or boffset != goffset + 84 * ng or roffset != boffset + 64 * nb
+            or len(data) != roffset + 16 * nr):
+        raise RelightError(f"layers: expected {roffset + 16 * nr} bytes for {h}x{w}, {ns}, {nh}, {ng}, {nb} and {nr} "
                            f"samples, got {len(data)}")
     planes = np.frombuffer(data, "<f4", 13 * ns, offset).reshape(13, ns).astype(np.float32)
     sample = {"transport": planes[:9].T.copy(), "albedo": planes[9:12].T.copy(), "mask": planes[12].copy()}
@@ -42,11 +46,15 @@ def unpack_layers(data: bytes, meta: dict) -> dict:
     if nb and (index.min() < 0 or index.max() >= ng or (np.diff(index) <= 0).any()):
         raise RelightError(f"layers: the head pass's blend names grade samples outside 0..{ng - 1} or out of order")
     b = np.frombuffer(data, "<f4", 15 * nb, boffset + 4 * nb).reshape(15, nb).astype(np.float32)
+    rim_index = np.frombuffer(data, "<i4", nr, roffset).astype(np.int32)
+    if nr and (rim_index.min() < 0 or rim_index.max() >= n or (np.diff(rim_index) <= 0).any()):
+        raise RelightError(f"layers: the kept rim names pixels outside 0..{n - 1} or out of order")
+    rim = np.frombuffer(data, "<f4", 3 * nr, roffset + 4 * nr).reshape(3, nr).T.astype(np.float32)
     grade = GradeSample(g[:3].T.copy(), g[3:6].T.copy(), g[6:15].T.copy(), g[15].copy(), g[16].copy(),
                         g[17:20].T.copy(), g[20].copy(), HeadBlend(index, *(b[i].copy() for i in range(6)),
                                                                    b[6:].T.copy()))
     return {**layers_in_box(data, meta, (slice(None), slice(None))), "exposure": sample, "highlight": highlight,
-            "grade": grade}
+            "grade": grade, "rim": {"index": rim_index, "rim": rim}}
 
 
 def _area_weights(n_in: int, n_out: int, lo: int, hi: int) -> tuple[slice, np.ndarray]:
@@ -113,4 +121,41 @@ def preview_picture(layers: dict, meta: dict, light: np.ndarray, shadow: np.ndar
     own = t @ np.array(meta["own_white"], np.float32)
     factor = shaded_skin(lit, (lit @ REC709) / np.maximum(own, 1e-3), layers["skin_chroma"].transpose(1, 2, 0),
                          layers["skin"])  # fmt: skip
-    return np.clip(layers["albedo"].transpose(1, 2, 0) * factor, 0, 1).astype(np.float32)
+    out = np.clip(layers["albedo"].transpose(1, 2, 0) * factor, 0, 1).astype(np.float32)
+    return with_rim(out, layers, meta) if "rim" in layers else out
+
+
+def with_rim(person: np.ndarray, layers: dict, meta: dict) -> np.ndarray:
+    """(h, w, 3) float32: the preview's ``person`` (premultiplied by the layers' mask, sRGB in [0, 1], not modified)
+    with the kept background's rim where the light darkens it, as the final result adds it
+    (relight_rt.relight.kept_rim ``with_kept_rim``): on the rim's pixels (``layers["rim"]``, ``unpack_layers``'),
+    the straight colour decoded to linear light, g its luminance over the own colour's (the albedo under the photo's
+    own light, white: the preview's own picture, so that the own light gives it back), rim x (1 - g) added where
+    g < 1, encoded and premultiplied again. Pixels whose own luminance is below half an 8-bit level on black take
+    none (as the render's). What preview.js draws (both renderers)."""
+    index, rim = layers["rim"]["index"], layers["rim"]["rim"]
+    if index.size == 0:
+        return person
+    m = layers["mask"].reshape(-1)[index]
+    flat = person.reshape(-1, 3)
+    lin = srgb_to_linear(np.clip(flat[index] / np.maximum(m, 1e-6)[:, None], 0, 1))
+    own = rim_own(layers, meta)
+    g = (lin @ REC709) / np.maximum(own, 1e-12)
+    at = (own >= RIM_LEAST) & (g < 1) & (m > 0)
+    lost = np.where(at, 1 - g, 0).astype(np.float32)
+    shown = np.clip(linear_to_srgb(np.clip(lin + rim * lost[:, None], 0, 1)), 0, 1) * m[:, None]
+    out = person.copy()
+    out.reshape(-1, 3)[index[at]] = shown[at]
+    return out
+
+
+def rim_own(layers: dict, meta: dict) -> np.ndarray:
+    """(k,) float32: the own colour's linear luminance on the kept rim's pixels as the preview draws it under the
+    photo's own light (white): the straight albedo x T.W, clipped as the page clips, decoded."""
+    index = layers["rim"]["index"]
+    m = layers["mask"].reshape(-1)[index]
+    t = layers["transport"].reshape(9, -1)[:, index].T
+    own = t @ np.array(meta["own_white"], np.float32)
+    albedo = layers["albedo"].reshape(3, -1)[:, index].T
+    straight = np.clip(albedo * np.maximum(own, 0)[:, None], 0, 1) / np.maximum(m, 1e-6)[:, None]
+    return (srgb_to_linear(np.clip(straight, 0, 1)) @ REC709).astype(np.float32)

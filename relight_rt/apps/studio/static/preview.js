@@ -4,6 +4,9 @@
 // k is the final result's shaded-skin gain (relight_rt.relight.look.shaded_skin): where the skin weight w says
 // skin and the light darkens it by r = Y(max(0, T·L)) / (T·W) (W the photo's own light, white), each channel
 // takes 1 + w · (clamp(1 + (r^(g − 1) − 1) · c, 1/4, 4) − 1), c the skin's chroma (P − Y) / P; elsewhere 1.
+// On the kept background's rim (the automatic matte's outline over the photo's own background:
+// relight_rt.relight.kept_rim) the straight colour takes rim · (1 − g) in linear light where g, its luminance over
+// the own colour's, is below 1, as the final result does (rimPixels; drawn again over its pixels alone).
 // WebGL 2 (a fragment shader, float textures) where available, otherwise Canvas 2D in JavaScript.
 
 // Decode the server's layer binary (relight_rt.apps.studio.core Studio.layers_bytes) into float planes; the Python
@@ -42,6 +45,10 @@ export function decodeLayers(buffer, meta) {
   const nb = meta.grade_head_samples;
   const hb = new Float32Array(buffer, meta.grade_head_offset + 4 * nb, 15 * nb);
   const blended = (i) => hb.subarray(i * nb, (i + 1) * nb);
+  // the kept background's rim: its preview pixels (int32), then float32 planes (linear r, g, b)
+  const nr = meta.rim_samples ?? 0;
+  const rimOffset = meta.rim_offset ?? meta.grade_head_offset + 64 * nb;
+  const rf = new Float32Array(buffer, rimOffset + 4 * nr, 3 * nr);
   return {
     width: meta.width,
     height: meta.height,
@@ -84,14 +91,58 @@ export function decodeLayers(buffer, meta) {
       neutralLift: meta.neutral_lift,
       neutralChromaExp: meta.neutral_chroma_exp,
     },
+    rim: {
+      index: new Int32Array(buffer, rimOffset, nr),
+      rim: [0, 1, 2].map((i) => rf.subarray(i * nr, (i + 1) * nr)),
+    },
   };
+}
+
+// sRGB (one channel, in [0, 1]) to linear light and back (relight_rt.image.color).
+const decode = (v) => (v <= 0.04045 ? v / 12.92 : Math.pow((v + 0.055) / 1.055, 2.4));
+const RIM_LEAST = 0.5 / 255 / 12.92;  // a rim pixel whose own luminance is below this takes none (kept_rim.LEAST)
+const LEVELS = 4096;  // the Canvas renderer's tables (the render's: relight_rt.relight.kept_rim)
+const DECODE = Float32Array.from({ length: LEVELS }, (_, i) => decode(i / (LEVELS - 1)));
+const ENCODE = Float32Array.from({ length: LEVELS }, (_, i) => {
+  const x = (i / (LEVELS - 1)) ** 2;  // indexed by sqrt(linear)
+  return x <= 0.0031308 ? 12.92 * x : 1.055 * Math.pow(x, 1 / 2.4) - 0.055;
+});
+
+// The kept background's rim as the page draws it (the Python mirror: preview.with_rim): per rim pixel its flat
+// index, and rim r, g, b (linear), the own colour's linear luminance (the straight albedo under the photo's own light,
+// white, clipped as drawn; 0: the pixel takes none), the mask.
+export function rimPixels(layers) {
+  const { index, rim } = layers.rim;
+  const { transport: T, albedo: A, mask: M, ownWhite: W } = layers;
+  const data = new Float32Array(5 * index.length);
+  for (let j = 0, u = 0; j < index.length; j++, u += 5) {
+    const p = index[j], m = M[p];
+    let own = 0;
+    for (let k = 0; k < 9; k++) own += T[k][p] * W[k];
+    own = Math.max(own, 0);
+    const y = m > 0 ? 0.2126 * decode(Math.min(1, Math.min(1, A[0][p] * own) / m))
+      + 0.7152 * decode(Math.min(1, Math.min(1, A[1][p] * own) / m))
+      + 0.0722 * decode(Math.min(1, Math.min(1, A[2][p] * own) / m)) : 0;
+    data[u] = rim[0][j]; data[u + 1] = rim[1][j]; data[u + 2] = rim[2][j];
+    data[u + 3] = y >= RIM_LEAST ? y : 0; data[u + 4] = m;
+  }
+  return { index, data };
 }
 
 const VERTEX = `#version 300 es
 in vec2 pos;
 void main() { gl_Position = vec4(pos, 0.0, 1.0); }`;
 
-const FRAGMENT = `#version 300 es
+// The kept rim's pass: one point per rim pixel (its centre in clip space), its rim and own luminance passed on.
+const RIM_VERTEX = `#version 300 es
+in vec2 pos;
+in vec4 rim;  // linear r, g, b, the own colour's linear luminance
+flat out vec4 kept;
+void main() { gl_Position = vec4(pos, 0.0, 1.0); gl_PointSize = 1.0; kept = rim; }`;
+
+// The picture; with RIM (the rim's pass, drawn over its pixels alone) the kept rim added where the light darkens
+// the edge: rim (1 - g) in linear light, g the straight colour's linear luminance over the own colour's.
+const fragment = (rim) => `#version 300 es
 precision highp float;
 precision highp sampler2D;
 uniform sampler2D t0;  // T0..T3
@@ -106,6 +157,7 @@ uniform float G;  // the shaded-skin exponent
 uniform int height;
 uniform bool checker;
 uniform vec3 grade;  // the background's gain per channel
+${rim ? "flat in vec4 kept;" : ""}
 out vec4 colour;
 void main() {
   ivec2 p = ivec2(int(gl_FragCoord.x), height - 1 - int(gl_FragCoord.y));
@@ -120,6 +172,12 @@ void main() {
   float boost = pow(clamp(r, 1e-4, 1.0), G - 1.0) - 1.0;
   vec3 gain = 1.0 + e.a * (clamp(1.0 + boost * e.rgb, 0.25, 4.0) - 1.0);
   vec3 diffuse = clamp(c.yzw * lit * gain, 0.0, 1.0);
+${rim ? `  vec3 v = min(diffuse / d.a, 1.0);
+  vec3 lin = mix(v / 12.92, pow((v + 0.055) / 1.055, vec3(2.4)), step(0.04045, v));
+  float g = dot(lin, vec3(0.2126, 0.7152, 0.0722)) / kept.a;
+  if (g >= 1.0) discard;  // the light does not darken it: the first pass's pixel stays
+  vec3 x = clamp(lin + kept.rgb * (1.0 - g), 0.0, 1.0);
+  diffuse = mix(12.92 * x, 1.055 * pow(x, vec3(1.0 / 2.4)) - 0.055, step(0.0031308, x)) * d.a;` : ""}
   vec3 bg = min(d.rgb * grade, 1.0);
   if (checker) {
     bool odd = ((p.x / 12) + (p.y / 12)) % 2 == 1;
@@ -144,13 +202,18 @@ class WebGLPreview {
     this.canvas = canvas;
     this.gl = gl;
     this.layers = layers;
-    const prog = gl.createProgram();
-    gl.attachShader(prog, compile(gl, gl.VERTEX_SHADER, VERTEX));
-    gl.attachShader(prog, compile(gl, gl.FRAGMENT_SHADER, FRAGMENT));
-    gl.linkProgram(prog);
-    if (!gl.getProgramParameter(prog, gl.LINK_STATUS)) throw new Error(gl.getProgramInfoLog(prog));
-    gl.useProgram(prog);
+    const link = (vertex, frag) => {
+      const prog = gl.createProgram();
+      gl.attachShader(prog, compile(gl, gl.VERTEX_SHADER, vertex));
+      gl.attachShader(prog, compile(gl, gl.FRAGMENT_SHADER, frag));
+      gl.linkProgram(prog);
+      if (!gl.getProgramParameter(prog, gl.LINK_STATUS)) throw new Error(gl.getProgramInfoLog(prog));
+      return prog;
+    };
+    const prog = link(VERTEX, fragment(false));
     this.prog = prog;
+    this.picture = gl.createVertexArray();
+    gl.bindVertexArray(this.picture);
     const buf = gl.createBuffer();
     gl.bindBuffer(gl.ARRAY_BUFFER, buf);
     gl.bufferData(gl.ARRAY_BUFFER, new Float32Array([-1, -1, 3, -1, -1, 3]), gl.STATIC_DRAW);
@@ -189,13 +252,43 @@ class WebGLPreview {
     gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
     gl.texImage2D(gl.TEXTURE_2D, 0, gl.R32F, w, h, 0, gl.RED, gl.FLOAT, new Float32Array(n).fill(1));
     this.shadow = null;
-    for (let i = 0; i < 6; i++) gl.uniform1i(gl.getUniformLocation(prog, `t${i}`), i);
-    gl.uniform1fv(gl.getUniformLocation(prog, "W"), new Float32Array(layers.ownWhite));
-    gl.uniform1f(gl.getUniformLocation(prog, "G"), layers.skinExponent);
-    gl.uniform1i(gl.getUniformLocation(prog, "height"), h);
-    gl.uniform1i(gl.getUniformLocation(prog, "checker"), checker ? 1 : 0);
-    this.lightLoc = gl.getUniformLocation(prog, "L");
-    this.gradeLoc = gl.getUniformLocation(prog, "grade");
+    // the kept rim: a second pass over its pixels alone (points), so that the picture's pass costs what it did
+    const rim = rimPixels(layers), points = new Float32Array(6 * rim.index.length);
+    let np = 0;
+    for (let j = 0, u = 0; j < rim.index.length; j++, u += 5) {
+      if (rim.data[u + 3] === 0) continue;  // its own colour too dark: no rim
+      const p = rim.index[j], x = p % w, y = (p / w) | 0;
+      points.set([(2 * x + 1) / w - 1, 1 - (2 * y + 1) / h], 6 * np);
+      points.set(rim.data.subarray(u, u + 4), 6 * np + 2);
+      np++;
+    }
+    this.rimPoints = np;
+    this.programs = [prog];
+    if (np) {
+      const rimProg = link(RIM_VERTEX, fragment(true));
+      this.rimVertices = gl.createVertexArray();
+      gl.bindVertexArray(this.rimVertices);
+      gl.bindBuffer(gl.ARRAY_BUFFER, gl.createBuffer());
+      gl.bufferData(gl.ARRAY_BUFFER, points.subarray(0, 6 * np), gl.STATIC_DRAW);
+      const at = gl.getAttribLocation(rimProg, "pos"), kept = gl.getAttribLocation(rimProg, "rim");
+      gl.enableVertexAttribArray(at);
+      gl.vertexAttribPointer(at, 2, gl.FLOAT, false, 24, 0);
+      gl.enableVertexAttribArray(kept);
+      gl.vertexAttribPointer(kept, 4, gl.FLOAT, false, 24, 8);
+      this.programs.push(rimProg);
+    }
+    this.lightLocs = [];
+    this.gradeLocs = [];
+    for (const one of this.programs) {
+      gl.useProgram(one);
+      for (let i = 0; i < 6; i++) gl.uniform1i(gl.getUniformLocation(one, `t${i}`), i);
+      gl.uniform1fv(gl.getUniformLocation(one, "W"), new Float32Array(layers.ownWhite));
+      gl.uniform1f(gl.getUniformLocation(one, "G"), layers.skinExponent);
+      gl.uniform1i(gl.getUniformLocation(one, "height"), h);
+      gl.uniform1i(gl.getUniformLocation(one, "checker"), checker ? 1 : 0);
+      this.lightLocs.push(gl.getUniformLocation(one, "L"));
+      this.gradeLocs.push(gl.getUniformLocation(one, "grade"));
+    }
     gl.viewport(0, 0, w, h);
   }
 
@@ -210,10 +303,15 @@ class WebGLPreview {
   }
 
   draw(light, grade = [1, 1, 1]) {
-    const gl = this.gl;
-    gl.uniform3fv(this.lightLoc, new Float32Array(light));
-    gl.uniform3fv(this.gradeLoc, new Float32Array(grade));
-    gl.drawArrays(gl.TRIANGLES, 0, 3);
+    const gl = this.gl, L = new Float32Array(light), g = new Float32Array(grade);
+    for (let i = 0; i < this.programs.length; i++) {  // the picture, then the kept rim's pixels over it
+      gl.useProgram(this.programs[i]);
+      gl.uniform3fv(this.lightLocs[i], L);
+      gl.uniform3fv(this.gradeLocs[i], g);
+      gl.bindVertexArray(i ? this.rimVertices : this.picture);
+      if (i) gl.drawArrays(gl.POINTS, 0, this.rimPoints);
+      else gl.drawArrays(gl.TRIANGLES, 0, 3);
+    }
   }
 
   finish() {  // wait until the frame is really drawn (benchmarks)
@@ -258,6 +356,22 @@ class CanvasPreview {
       skin[u] = C[0][p]; skin[u + 1] = C[1][p]; skin[u + 2] = C[2][p]; skin[u + 3] = S[p]; skin[u + 4] = own;
     }
     this.skin = skin;
+    // the kept rim's pixels that can take it (own colour not too dark), contiguous: their index, then per pixel
+    // T0..T8, the straight albedo r, g, b, rim r, g, b, own luminance, mask, skin weight, chroma r, g, b, and the
+    // shading under the photo's own light (white)
+    const rim = rimPixels(layers), at = [], rimData = [];
+    for (let j = 0, u = 0; j < rim.index.length; j++, u += 5) {
+      const p = rim.index[j], m = rim.data[u + 4];
+      if (rim.data[u + 3] === 0) continue;
+      let own = 0;
+      for (let k = 0; k < 9; k++) own += T[k][p] * W[k];
+      at.push(p);
+      rimData.push(T[0][p], T[1][p], T[2][p], T[3][p], T[4][p], T[5][p], T[6][p], T[7][p], T[8][p],
+        A[0][p] / m, A[1][p] / m, A[2][p] / m, rim.data[u], rim.data[u + 1], rim.data[u + 2], rim.data[u + 3], m,
+        S[p], C[0][p], C[1][p], C[2][p], own);
+    }
+    this.rimIndex = Int32Array.from(at);
+    this.rimData = Float32Array.from(rimData);
     this.exponent = layers.skinExponent;
     this.shadow = null;
   }
@@ -316,6 +430,42 @@ class CanvasPreview {
       const r = Math.min(255, back[v] + 255 * Math.min(1, f[o + 9] * sr * kr)) | 0;
       const g = Math.min(255, back[v + 1] + 255 * Math.min(1, f[o + 10] * sg * kg)) | 0;
       const b = Math.min(255, back[v + 2] + 255 * Math.min(1, f[o + 11] * sb * kb)) | 0;
+      px[p] = 0xff000000 | (b << 16) | (g << 8) | r;
+    }
+    // the kept rim where the light darkens the edge: the pixel drawn again, rim (1 - g) added in linear light
+    const ri = this.rimIndex, rd = this.rimData, top = LEVELS - 1;
+    for (let j = 0, u = 0; j < ri.length; j++, u += 22) {
+      const q0 = rd[u], q1 = rd[u + 1], q2 = rd[u + 2], q3 = rd[u + 3], q4 = rd[u + 4], q5 = rd[u + 5];
+      const q6 = rd[u + 6], q7 = rd[u + 7], q8 = rd[u + 8], p = ri[j];
+      let sr = q0 * l0 + q1 * l3 + q2 * l6 + q3 * l9 + q4 * l12 + q5 * l15 + q6 * l18 + q7 * l21 + q8 * l24;
+      let sg = q0 * l1 + q1 * l4 + q2 * l7 + q3 * l10 + q4 * l13 + q5 * l16 + q6 * l19 + q7 * l22 + q8 * l25;
+      let sb = q0 * l2 + q1 * l5 + q2 * l8 + q3 * l11 + q4 * l14 + q5 * l17 + q6 * l20 + q7 * l23 + q8 * l26;
+      const c = cast ? cast[p] : 1, ow = rd[u + 21];
+      sr = sr > 0 ? sr * c : 0; sg = sg > 0 ? sg * c : 0; sb = sb > 0 ? sb * c : 0;
+      if (sr >= ow && sg >= ow && sb >= ow) continue;  // lit at least as the own light lights it: g >= 1
+      let kr = 1, kg = 1, kb = 1;
+      const w = rd[u + 17];
+      if (w > 0) {  // the shaded-skin gain, as above
+        const ratio = (0.2126 * sr + 0.7152 * sg + 0.0722 * sb) / Math.max(ow, 1e-3);
+        if (ratio < 1) {
+          const boost = Math.pow(Math.max(ratio, 1e-4), g1) - 1;
+          kr = 1 + w * (Math.min(4, Math.max(0.25, 1 + boost * rd[u + 18])) - 1);
+          kg = 1 + w * (Math.min(4, Math.max(0.25, 1 + boost * rd[u + 19])) - 1);
+          kb = 1 + w * (Math.min(4, Math.max(0.25, 1 + boost * rd[u + 20])) - 1);
+        }
+      }
+      const lr = DECODE[(Math.min(1, rd[u + 9] * sr * kr) * top + 0.5) | 0];
+      const lg = DECODE[(Math.min(1, rd[u + 10] * sg * kg) * top + 0.5) | 0];
+      const lb = DECODE[(Math.min(1, rd[u + 11] * sb * kb) * top + 0.5) | 0];
+      const lost = 1 - (0.2126 * lr + 0.7152 * lg + 0.0722 * lb) / rd[u + 15];
+      if (lost <= 0) continue;
+      const m = 255 * rd[u + 16], v = 3 * p;
+      const er = ENCODE[(Math.sqrt(Math.min(1, lr + rd[u + 12] * lost)) * top + 0.5) | 0];
+      const eg = ENCODE[(Math.sqrt(Math.min(1, lg + rd[u + 13] * lost)) * top + 0.5) | 0];
+      const eb = ENCODE[(Math.sqrt(Math.min(1, lb + rd[u + 14] * lost)) * top + 0.5) | 0];
+      const r = Math.min(255, back[v] + m * er) | 0;
+      const g = Math.min(255, back[v + 1] + m * eg) | 0;
+      const b = Math.min(255, back[v + 2] + m * eb) | 0;
       px[p] = 0xff000000 | (b << 16) | (g << 8) | r;
     }
     this.ctx.putImageData(this.image, 0, 0);

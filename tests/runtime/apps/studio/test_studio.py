@@ -806,3 +806,54 @@ def test_preview_grade_is_the_full_results_on_the_bundled_street_photo():
         if name == "window-left":  # the head pass's blend is what brings it within the bar
             body_only = sampled_grade(sample._replace(head=HeadBlend.empty()), shown)
             assert np.abs(np.log2(body_only / result) * DISPLAY_GAMMA).max() > 0.1
+
+
+def _fibred_photo(tmp_path) -> tuple[Path, np.ndarray]:
+    """A dark 'person' before a bright background whose automatic matte and photo both fray into strands along its
+    sides (fibres: the kept rim's whole reach), as a PNG without alpha, and that matte."""
+    h, w = 150, 100
+    rng = np.random.default_rng(11)
+    hard = np.zeros((h, w), np.float32)
+    hard[20:140, 30:70] = 1
+    strands = (rng.random((h, 1)) < 0.5).astype(np.float32) * np.linspace(1, 0, 12, dtype=np.float32)[None]
+    hard[20:140, 70:82] = np.maximum(hard[20:140, 70:82], strands[20:140])
+    hard[20:140, 18:30] = np.maximum(hard[20:140, 18:30], strands[20:140, ::-1])
+    soft = np.clip(cv2.GaussianBlur(hard, (0, 0), 1.5), 0, 1)
+    img = soft[..., None] * np.float32([0.3, 0.22, 0.18]) + (1 - soft[..., None]) * np.float32([0.9, 0.88, 0.8])
+    path = tmp_path / "someone.png"
+    path.write_bytes(_png_bytes(img))
+    return path, soft
+
+
+def test_preview_gets_the_kept_rim_where_the_render_applies_it(tmp_path, models_dir):
+    """The kept background's rim (relight_rt.relight.kept_rim) reaches the preview over the photo's own background
+    with the automatic matte: at the photo's size, its pixels and straight colour are the relighter's (those of
+    at least half a level); at a smaller preview, its premultiplied sum is the area-reduced one. A new or transparent
+    background, or a given mask, has none (the render applies none there)."""
+    path, soft = _fibred_photo(tmp_path)
+    relighter = Relighter(RuntimeConfig(models=str(models_dir), device="cpu"), matter=lambda rgb, name="image": soft)
+    h, w = soft.shape
+    kept = Studio(path, None, "original", relighter, preview_pixels=h * w)
+    rim = relighter.kept_rim(kept.dec)
+    assert rim is not None and rim.index.size > 50
+    got = unpack_layers(kept.layers_bytes(), kept.info()["preview"])["rim"]
+    y0, _, x0, x1 = kept.dec.geometry.box
+    ys, xs = np.divmod(rim.index, x1 - x0)
+    flat = (ys + y0) * w + xs + x0
+    assert got["index"].size > 0.8 * rim.index.size and np.isin(got["index"], flat).all()
+    np.testing.assert_allclose(got["rim"], rim.rim[np.searchsorted(flat, got["index"])], rtol=1e-4, atol=1e-6)
+    small = Studio(path, None, "original", relighter, preview_pixels=h * w // 2)
+    meta = small.info()["preview"]
+    part = unpack_layers(small.layers_bytes(), meta)
+    m = part["mask"].reshape(-1)[part["rim"]["index"]]
+    alpha = shown_mask(kept.dec).reshape(-1)[flat]
+    scale = meta["height"] * meta["width"] / (h * w)
+    np.testing.assert_allclose((part["rim"]["rim"] * m[:, None]).sum(0), (rim.rim * alpha[:, None]).sum(0) * scale,
+                               rtol=0.05)
+    for other in (Studio(path, None, "transparent", relighter, preview_pixels=h * w),
+                  Studio(path, None, tmp_path / "someone.png", relighter, preview_pixels=h * w)):
+        assert other.info()["preview"]["rim_samples"] == 0
+    mask = tmp_path / "mask.png"
+    mask.write_bytes(_png_bytes(np.repeat(soft[..., None], 3, axis=2)))
+    given = Studio(path, mask, "original", relighter, preview_pixels=h * w)
+    assert relighter.kept_rim(given.dec) is None and given.info()["preview"]["rim_samples"] == 0

@@ -21,16 +21,17 @@ from relight_rt.apps.studio.preview import (
     shadow_plane,
     unpack_layers,
 )
+from relight_rt.image.color import REC709, linear_to_srgb, srgb_to_linear
 from relight_rt.relight.look import SKIN_CHROMA
 
 H, W = 5, 4
 NS, NH, NG, NB = 6, 3, 4, 2  # samples: exposure, highlight guard, grade, the head pass's blend
 
 
-def pack(rng: np.random.Generator, index=(1, 3), **counts) -> tuple[bytes, dict, dict]:
+def pack(rng: np.random.Generator, index=(1, 3), rim=(2, 7, 19), **counts) -> tuple[bytes, dict, dict]:
     """Random layers packed as ``Studio.layers_bytes`` packs them (9 uint16 planes of transport, 11 uint8 planes,
-    padding to ``exposure_offset``, then the float32 samples and the head blend's int32 indices) → (data, meta, the
-    values packed)."""
+    padding to ``exposure_offset``, then the float32 samples, the head blend's int32 indices and planes, the kept
+    rim's int32 pixels and planes) → (data, meta, the values packed)."""
     n = H * W
     ns, nh, ng = counts.get("ns", NS), counts.get("nh", NH), counts.get("ng", NG)
     v = {
@@ -41,17 +42,18 @@ def pack(rng: np.random.Generator, index=(1, 3), **counts) -> tuple[bytes, dict,
         "grade": rng.normal(size=(21, ng)).astype("<f4"), "index": np.asarray(index, "<i4"),
     }
     v["blend"] = rng.normal(size=(15, len(index))).astype("<f4")
+    v["rim_index"], v["rim"] = np.asarray(rim, "<i4"), rng.random((3, len(rim))).astype("<f4")
     head = v["q16"].tobytes() + v["q8"].tobytes()
     offset = 29 * n + 3  # the page's float planes start after some padding
     hoffset = offset + 52 * ns
     goffset = hoffset + 60 * nh
     boffset = goffset + 84 * ng
     data = (head + bytes(offset - len(head)) + v["exposure"].tobytes() + v["guard"].tobytes() + v["grade"].tobytes()
-            + v["index"].tobytes() + v["blend"].tobytes())
+            + v["index"].tobytes() + v["blend"].tobytes() + v["rim_index"].tobytes() + v["rim"].tobytes())
     meta = {"height": H, "width": W, "transport_offset": v["off"].tolist(), "transport_scale": v["scale"].tolist(),
             "exposure_samples": ns, "exposure_offset": offset, "highlight_samples": nh, "highlight_offset": hoffset,
             "grade_samples": ng, "grade_offset": goffset, "grade_head_samples": len(index),
-            "grade_head_offset": boffset}
+            "grade_head_offset": boffset, "rim_samples": len(rim), "rim_offset": boffset + 64 * len(index)}
     return data, meta, v
 
 
@@ -82,6 +84,17 @@ def test_unpack_layers_reads_back_every_plane_and_sample():
     np.testing.assert_array_equal(grade.head.transport, v["blend"][6:].T)
     assert all(a.dtype == np.float32 for a in (got["transport"], got["albedo"], grade.lit, grade.head.weight))
     assert grade.head.index.dtype == np.int32
+    np.testing.assert_array_equal(got["rim"]["index"], [2, 7, 19])
+    np.testing.assert_array_equal(got["rim"]["rim"], v["rim"].T)
+    assert got["rim"]["index"].dtype == np.int32 and got["rim"]["rim"].dtype == np.float32
+
+
+def test_unpack_layers_before_the_rim_reads_none():
+    """A layout without the kept rim's keys (a server from before it) reads as no rim pixels."""
+    data, meta, _ = pack(np.random.default_rng(10), rim=())
+    old = {k: v for k, v in meta.items() if not k.startswith("rim_")}
+    got = unpack_layers(data, old)
+    assert got["rim"]["index"].size == 0 and got["rim"]["rim"].shape == (0, 3)
 
 
 def test_unpack_layers_without_head_blend_or_samples():
@@ -102,6 +115,11 @@ def test_unpack_layers_refuses_inconsistent_layouts():
     for wrong in ((3, 1), (2, 2), (-1, 2)):
         with pytest.raises(RelightError, match=r"head pass's blend names grade samples outside 0\.\.3 or out of order"):
             unpack_layers(*pack(np.random.default_rng(4), index=wrong)[:2])
+    for wrong in ((3, 1), (2, 2), (-1, 2), (0, H * W)):
+        with pytest.raises(RelightError, match=r"the kept rim names pixels outside 0\.\.19 or out of order"):
+            unpack_layers(*pack(np.random.default_rng(4), rim=wrong)[:2])
+    with pytest.raises(RelightError, match="layers: expected"):  # the rim's pixels not where the layout says
+        unpack_layers(data, {**meta, "rim_offset": meta["rim_offset"] + 4})
 
 
 def test_layers_in_box_is_the_whole_frame_cut_to_the_box():
@@ -220,3 +238,61 @@ def test_preview_picture_refuses_a_bad_light():
         preview_picture(layers, meta, np.ones((9, 4), np.float32))
     with pytest.raises(RelightError, match="NaN"):
         preview_picture(layers, meta, np.full((9, 3), np.nan, np.float32))
+
+
+def _rim_layers(rng):
+    """Layers of 3 x 4 pixels, none skin, with a mask, an own light (white, constant: its shading 1 everywhere) and
+    a kept rim on four pixels, and that own light (9, 3)."""
+    layers = _layers(rng)
+    layers["transport"] = np.zeros((9, 3, 4), np.float32)
+    layers["transport"][0] = 1
+    layers["transport"][1] = np.where(np.add.outer(np.arange(3), np.arange(4)) % 2, 0.4, -0.4)  # a light with a
+    # side (Y_1) darkens some pixels and brightens others
+    mask = np.array([[1, 0.5, 0.25, 0], [1, 1, 0.6, 0.1], [1, 0.8, 0.4, 0]], np.float32)
+    layers["albedo"] = (rng.uniform(0.1, 0.6, (3, 3, 4)) * mask).astype(np.float32)  # premultiplied
+    layers["mask"] = mask
+    layers["rim"] = {"index": np.array([1, 2, 6, 9], np.int32),
+                     "rim": rng.uniform(0.02, 0.2, (4, 3)).astype(np.float32)}
+    own = np.zeros((9, 3), np.float32)
+    own[0] = 1
+    return layers, own
+
+
+def test_preview_rim_adds_what_the_light_took_of_it_in_linear_light():
+    """On the rim's pixels, where the light leaves the straight colour's linear luminance at g x the own colour's
+    (g < 1), rim x (1 - g) is added in linear light, then premultiplied again (relight_rt.relight.kept_rim
+    ``with_kept_rim``); where it brightens (g >= 1), and off the rim, the picture is the one without it."""
+    layers, own = _rim_layers(np.random.default_rng(11))
+    meta = {"own_white": own[:, 0].tolist()}
+    bare = {k: v for k, v in layers.items() if k != "rim"}
+    light = own.copy()
+    light[1] = 0.8
+    got, plain = preview_picture(layers, meta, light), preview_picture(bare, meta, light)
+    m = layers["mask"].reshape(-1)
+    straight = lambda a: np.clip(a.reshape(-1, 3) / np.maximum(m, 1e-6)[:, None], 0, 1)  # noqa: E731
+    own_colour = straight(np.clip(layers["albedo"].transpose(1, 2, 0), 0, 1))
+    want = plain.reshape(-1, 3).copy()
+    darker = 0
+    for j, p in enumerate(layers["rim"]["index"]):
+        g = (srgb_to_linear(straight(plain)[p]) @ REC709) / (srgb_to_linear(own_colour[p]) @ REC709)
+        if g < 1:
+            darker += 1
+            lin = srgb_to_linear(straight(plain)[p]) + layers["rim"]["rim"][j] * (1 - g)
+            want[p] = linear_to_srgb(np.clip(lin, 0, 1)) * m[p]
+    assert 0 < darker < 4  # both cases seen
+    np.testing.assert_allclose(got.reshape(-1, 3), want, rtol=1e-5, atol=1e-6)
+    off = np.setdiff1d(np.arange(m.size), layers["rim"]["index"])
+    np.testing.assert_array_equal(got.reshape(-1, 3)[off], plain.reshape(-1, 3)[off])
+    assert (got.reshape(-1, 3) >= plain.reshape(-1, 3) - 1e-7).all()
+
+
+def test_preview_rim_under_the_own_light_changes_nothing():
+    """g = 1 under the photo's own light: the photo comes back, rim or not."""
+    layers, own = _rim_layers(np.random.default_rng(12))
+    meta = {"own_white": own[:, 0].tolist()}
+    bare = {k: v for k, v in layers.items() if k != "rim"}
+    np.testing.assert_array_equal(preview_picture(layers, meta, own), preview_picture(bare, meta, own))
+    dark = preview_picture(layers, meta, 0.2 * own)  # a light that darkens every pixel: each rim pixel lifted
+    lifted = dark.reshape(-1, 3)[layers["rim"]["index"]] - preview_picture(bare, meta, 0.2 * own).reshape(-1, 3)[
+        layers["rim"]["index"]]
+    assert (lifted[layers["mask"].reshape(-1)[layers["rim"]["index"]] > 0] > 1e-3).all()
