@@ -665,7 +665,13 @@ def test_group_photo_relit_person_by_person(two_people):
     outside = dec.mask == 0
     np.testing.assert_array_equal(group[outside], image[outside])
     black = rl.relight(dec, light, background="black")
-    assert not black[outside].any() and np.abs(black[dec.mask > 0.999] - group[dec.mask > 0.999]).max() < 1 / 255
+    assert not black[outside].any()
+    # over the photo's own background the outline keeps the background's rim (relight_rt.relight.kept_rim), which
+    # only adds light and reaches ~20 px in here (measured 19.4); deeper in, the person is the same on any background
+    solid, inside = dec.mask > 0.999, cv2.distanceTransform((dec.mask > 0).astype(np.uint8), cv2.DIST_L2, 3)
+    assert (group[solid] - black[solid]).min() > -1 / 255 and (group[solid] - black[solid]).max() > 0.05
+    deep = solid & (inside > 24)
+    assert np.abs(black[deep] - group[deep]).max() < 1 / 255
     as_one = rl.relight(replace(dec, people=()), light)
     for part, mask in zip(dec.people, parts, strict=True):
         alone = rl.relight(image, people_module.reaching(light, part, dec), mask=mask)
@@ -677,7 +683,7 @@ def test_group_photo_relit_person_by_person(two_people):
         # weight, 10.1 at faces16: one pixel 1.4 px inside the outline), 99.9th percentile 3.7 / 255, 0.83 % over
         # 1 / 255, along the outline (4.1, 0.73, under 0.5 % while the matte's rim was soft there; the refinement
         # now ends it where colour says plain background: issue 48's background band)
-        for picture in (group, rgba[..., :3]):
+        for picture in (black, rgba[..., :3]):  # the group without the kept rim (a given mask takes none)
             d = np.abs(picture[own] - alone[own])
             assert d.max() < 12 / 255 and np.percentile(d, 99.9) < 5 / 255 and (d > 1 / 255).mean() < 0.01
         assert np.abs(as_one[own] - alone[own]).mean() > 4 / 255  # measured 12.7 and 10.6 / 255: not each alone
