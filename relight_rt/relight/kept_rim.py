@@ -308,25 +308,28 @@ def _photo_edge(image: np.ndarray, c: np.ndarray, inside: np.ndarray, c2: np.nda
     cell = (ys // k) * half[1] + xs // k  # the line's pixels and their word, summed on the small grid
     size = half[0] * half[1]
     wide = np.minimum(width, 2 * _ACROSS)  # the read's span bounds what it can tell
-    sums = np.dstack([np.bincount(cell, minlength=size).reshape(half),
-                      np.bincount(cell, sure * (1 - fibres), minlength=size).reshape(half),
-                      np.bincount(cell, sure, minlength=size).reshape(half),
-                      np.bincount(cell, sure * wide, minlength=size).reshape(half)]).astype(np.float32)
+    sums = np.empty(half + (4,), np.float32)  # the line's pixels, their word, the word, the word times the width
+    for j, weights in enumerate((None, sure * (1 - fibres), sure, sure * wide)):
+        sums[..., j] = np.bincount(cell, weights, minlength=size).reshape(half)
     rows = np.flatnonzero(inside.any(1))
     sums = wide_blur(sums, max(1.0, WIDTH_REACH * float(rows[-1] + 1 - rows[0]) / k))
-    near = sums[..., 0] > 1e-3 * float(sums[..., 0].max())
-    out[near] = np.clip(sums[..., 1][near] / sums[..., 0][near], 0, 1)
+    count, smooth, said, widths = (sums[..., j] for j in range(4))
+    floor = np.float32(1e-3 * float(count.max()))
+    near = count > floor
+    out[near] = np.clip(smooth[near] / count[near], 0, 1)
     # how deep the rim may go: within the photo's own edge's width where it shows a step (sure), the reach where not
-    told = np.zeros(half, np.float32)
-    told[near] = np.clip(sums[..., 2][near] / sums[..., 0][near], 0, 1)
-    edge = np.full(half, 2 * _ACROSS, np.float32)
-    said = sums[..., 2] > 1e-6
-    edge[said] = sums[..., 3][said] / sums[..., 2][said]
+    # (whole-grid arithmetic, no masks)
+    told = np.minimum(said / np.maximum(count, floor), 1)
+    edge = widths / np.maximum(said, np.float32(1e-6))  # ~0 where nothing is told (told ~0 there)
     depth = cv2.distanceTransform((c2 >= 0.5).view(np.uint8), cv2.DIST_L2, 3)  # from the outline, in c2's pixels
     depth = np.maximum(k * (depth - 0.5), 0)  # in the photo's, from the 0.5 line (about half a pixel outside)
-    lo, hi = DEEP[0] * edge, DEEP[1] * edge + 1
-    deep = np.clip((hi - depth) / (hi - lo), 0, 1)
-    return out, 1 - told * (1 - deep)
+    deep = (DEEP[1] * edge + 1) - depth  # whole up to DEEP[0] widths, none from DEEP[1] widths plus a pixel
+    deep /= (DEEP[1] - DEEP[0]) * edge + 1
+    np.clip(deep, 0, 1, out=deep)
+    deep -= 1
+    deep *= told
+    deep += 1  # 1 - told (1 - deep): as far as the photo's word counts
+    return out, deep
 
 
 def _at_small(fields: list[np.ndarray], ys: np.ndarray, xs: np.ndarray, k: int) -> list[np.ndarray]:
