@@ -23,9 +23,12 @@ too, its background what no one covers): a mask or alpha given is the user's wor
 
 The matte's softness is a weak word on fibres (``image.fibres.fibre_share``; the scene app says as much): along a
 smooth cheek whose automatic matte is soft it laid a band of the background's colour 10-15 px wide (p071 under a
-side lamp, issue 48's first look). So the photo's own edge has the last word (``_smooth_share``): where it is a
+side lamp, issue 48's first look). So the photo's own edge has the last word (``_photo_edge``): where it is a
 sharp step across the matte's outline, the outline is smooth whatever the matte says, and takes at most the grazing
-line on the outline's own pixels. And skin is never fibres (``SkinMap``): a rim of the background's colour over a
+line on the outline's own pixels; and the rim goes no deeper inside than the photo's own transition from background
+to person (a couple of its widths): between an edge half sure it is smooth and a soft matte, a bright sky's rim went
+the matte's whole reach into dark hair whose own edge is crisp, a smooth grey veil 15-20 px wide (p071, p138 under
+RIGHT, issue 48's look43). And skin is never fibres (``SkinMap``): a rim of the background's colour over a
 cheek, a jaw or an arm reads as a fringe, whatever the matte and the photo's edge say (p071's jaw under LEFT kept a
 3-5 px olive edge where its photo's edge is soft); skin takes none (its grazing line on the outline's own pixels
 read as a pale stroke drawn round the jaw).
@@ -53,7 +56,7 @@ REACH = 0.01  #: the rim's reach inside the outline (Gaussian sigma), share of t
 # the scene app's ``SCATTER`` 0.1 gave 0.123 (-12 %); 0.3 / 0.4 / 0.6: 0.101 / 0.094 / 0.086. A reach of 0.02 with
 # 0.3 did as well (0.090) but laid a band twice as wide, read at 100 % as a veil of the background's colour over dark
 # hair (p286 under RIGHT, campfire). With the matte's softness alone: A 0.074 (-46 %), half B 0.174 -> 0.085 (-51 %);
-# as shipped, the photo's sharp edges smooth (``_smooth_share``) and the wide reads at half size: A 0.092 (-34 %),
+# as shipped, the photo's sharp edges smooth (``_photo_edge``) and the wide reads at half size: A 0.092 (-34 %),
 # B 0.111 (-36 %). The photo's own pixel bounds the rim whatever the share (``kept_rim``): 0.6 is where the photo
 # allows most of it. With skin taking no rim (``SkinMap``) 0.6 gave A 0.0958 (-30.9 % of main's 0.1385 today), B
 # 0.1169 (-32.9 % of 0.1742); 0.7: A 0.0923 (-33.4 %), B 0.1130 (-35.1 %); 0.75: A 0.0908 (a denser veil over
@@ -65,6 +68,10 @@ SKIN_FROM, SKIN_SURE = 0.55, 0.75  # stage 1's skin probability (straight, not t
 # pixels over hair and cloth read 0.1-0.5 and over faces and arms 0.6-0.9 (p071's cheek and jaw 0.7-0.9, its hair
 # 0.3-0.45)
 _ACROSS = 4  # the photo's edge is read across the matte's 0.5 line this many pixels either side
+DEEP = (1.0, 2.0)  # the rim whole up to this many of the photo's own edge widths inside the outline, none from the
+# second (plus a pixel; ``_photo_edge``). Chosen on half A's dark edge (``benchmarks/dark_edge.py``): (1, 2) A 0.0960,
+# (0.5, 1.5) A 0.0988, with no difference seen at 300 % on p071's hair (half B) between them; main without the bound
+# A 0.0923
 _SURE = 0.02  # |F - B|^2 (sRGB) at which the photo's word on its edge counts half (``compose._SHOWN_TAU``)
 LEAST = 0.5 / 255 / 12.92  # a pixel whose rim luminance (linear) is below this is left out: half an 8-bit level
 # on black, where sRGB is steepest
@@ -159,7 +166,7 @@ def kept_rim(behind: np.ndarray, alpha: np.ndarray, fg: np.ndarray, cover: np.nd
         cover: (h, w) float32 in [0, 1], the matte of everyone in the photo there (a group's person: the group's
             matte, so that a neighbour is not taken for background and their meeting is no outline); None: ``alpha``.
         image: (h, w, 3) float32 sRGB in [0, 1], the photo there: its own edge's sharpness across the outline says
-            fibres or smooth (``_smooth_share``); None: the matte's softness alone.
+            fibres or smooth (``_photo_edge``); None: the matte's softness alone.
         skin: where the person is skin (``SkinMap``): no rim there; None: no skin map (the photo's edge and the
             matte decide).
 
@@ -195,14 +202,17 @@ def kept_rim(behind: np.ndarray, alpha: np.ndarray, fg: np.ndarray, cover: np.nd
     if not (reach2 > 1e-3).any():
         return None
     f2 = fibre_share(c2, float(k))
-    smooth2 = np.zeros(o2.shape, np.float32) if image is None else _smooth_share(image, c, inside, k)
+    smooth2 = np.zeros(o2.shape, np.float32)
+    light_blur = wide_blur(light2, scaled(radius))
+    if image is not None:  # the photo's own edge: how sure it is smooth, and how deep inside it goes
+        smooth2, deep2 = _photo_edge(image, c, inside, c2, k)
+        light_blur *= deep2[..., None]  # the rim's light (and with it its band's pixels) no deeper than that
     thin2 = wide_blur(o2, scaled(max(0.5, GRAZE_WIDTH * radius)))
     # the band's pixels: where a bound of the rim (its fields' largest over each small pixel's 3 x 3, the skin's and
     # the photo's word their least, the matte 1) adds half a level on black, the matte above 0 (a bound: the pixels
     # it leaves out take none below; on the reference photo ~40 % of those within the reach)
     most = lambda x: cv2.dilate(x, np.ones((3, 3), np.uint8))  # noqa: E731
     least = lambda x: cv2.erode(x, np.ones((3, 3), np.uint8))  # noqa: E731
-    light_blur = wide_blur(light2, scaled(radius))
     skin2 = 0 if skin is None else least(skin.on_grid(k, o2.shape))
     bound = (most(f2) * (1 - least(smooth2)) * np.minimum(2 * most(reach2), 1) + np.minimum(2 * most(thin2), 1))
     bound *= np.float32(KEPT_SCATTER) * (1 - skin2) * most((light_blur @ REC709) / np.maximum(reach2, 1e-3))
@@ -237,37 +247,49 @@ def kept_rim(behind: np.ndarray, alpha: np.ndarray, fg: np.ndarray, cover: np.nd
     return KeptRim(index.take(keep), _rows(rim, keep), own.take(keep).astype(np.float32))
 
 
-def _smooth_share(image: np.ndarray, c: np.ndarray, inside: np.ndarray, k: int) -> np.ndarray:
-    """(h', w') float32 in [0, 1], on a grid k times smaller: how sure the photo's own edge is that the outline near
-    each pixel is smooth (a cheek, an arm or cloth against the background), whatever the matte's softness says.
+def _photo_edge(image: np.ndarray, c: np.ndarray, inside: np.ndarray, c2: np.ndarray, k: int
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """What the photo's own edge says of the rim, on ``c2``'s grid (k times smaller than ``c``'s): how sure it is
+    that the outline near each pixel is smooth, and how much of the rim it lets as deep inside as each pixel is.
 
     The photo is read across the matte's 0.5 line (its pixels beside one below 0.5), ``_ACROSS`` px either side
     along the matte's normal (bilinear): its edge's width is the step from one end to the other over the steepest
-    one-pixel step between (a sharp edge ~1-2 px; strands over a background a gradual, ragged change). Widths up to
-    ``fibres.HARD_PX`` are smooth, from ``FIBRE_RATIO`` times it fibres, linear between (``fibre_share``'s scale
-    for the matte); the word counts as far as the two ends' colours tell the sides apart (|step|^2 over
-    |step|^2 + ``_SURE``: alike colours, a rim of them is not seen either). Averaged along the outline over
-    ``fibres.WIDTH_REACH`` of the person's height, as ``fibre_share`` averages the matte's width; 0 far from it.
-    Why: an automatic matte is soft along some smooth edges (p071's cheek and jaw), where ``fibre_share`` alone
-    laid a 10-15 px band of the background's colour under a side lamp (issue 48's first look).
+    one-pixel step between (a sharp edge ~1-2 px; strands over a background a gradual, ragged change).
+
+    - Smooth: widths up to ``fibres.HARD_PX`` are smooth (a cheek, an arm or cloth against the background), from
+      ``FIBRE_RATIO`` times it fibres, linear between (``fibre_share``'s scale for the matte); the word counts as far
+      as the two ends' colours tell the sides apart (|step|^2 over |step|^2 + ``_SURE``: alike colours, a rim of
+      them is not seen either). Why: an automatic matte is soft along some smooth edges (p071's cheek and jaw),
+      where ``fibre_share`` alone laid a 10-15 px band of the background's colour under a side lamp.
+    - Deep: the rim is whole up to ``DEEP[0]`` of the photo's edge widths inside the outline (the distance from
+      the matte's 0.5 line), none from ``DEEP[1]`` of them plus a pixel, linear between; as far as the word counts
+      (a step the photo does not show bounds nothing: the reach alone). Why: the scene's light that fibres send on is
+      in the photo's own transition from background to person and no deeper; between an edge half sure it is smooth
+      and a soft matte the rim went the matte's whole reach, a smooth veil of the sky's light 15-20 px into dark hair
+      whose own edge is 2-4 px (p071, p138 under RIGHT / LEFT / campfire, issue 48's look43). The width read is at
+      most the read's span, 2 ``_ACROSS``.
+
+    Both averaged along the outline over ``fibres.WIDTH_REACH`` of the person's height, as ``fibre_share``
+    averages the matte's width (the width weighted by the word).
 
     Args:
         image: (h, w, 3) float32 sRGB in [0, 1], the photo in the crop box.
         c: (h, w) float32 in [0, 1], the matte whose outline is read.
         inside: (h, w) uint8, ``c`` >= 0.5.
+        c2: (h', w') float32 in [0, 1], ``c`` on a grid ``k`` times smaller (area shrinking).
         k: the grid's pixel in ``c``'s (1 or 2): (h', w') = ((h + k - 1) // k, (w + k - 1) // k).
 
     Returns:
-        (h', w') float32 in [0, 1].
+        (smooth, deep): (h', w') float32 in [0, 1] each; smooth 0 and deep 1 far from the outline.
     """
     line = inside - cv2.erode(inside, np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], np.uint8),
                               borderType=cv2.BORDER_REPLICATE)  # fmt: skip
     h, w = c.shape
-    half = ((h + k - 1) // k, (w + k - 1) // k)
+    half = c2.shape
     out = np.zeros(half, np.float32)
     points = cv2.findNonZero(line)  # (x, y) in row-major order (a third of ``np.flatnonzero``'s time); None: none
     if points is None:
-        return out
+        return out, np.ones(half, np.float32)
     xs, ys = points.reshape(-1, 2).T.astype(np.int64)
     at = lambda y, x: c[np.clip(y, 0, h - 1), np.clip(x, 0, w - 1)]  # noqa: E731
     gy, gx = at(ys + 2, xs) - at(ys - 2, xs), at(ys, xs + 2) - at(ys, xs - 2)  # the matte's normal, inward
@@ -285,13 +307,29 @@ def _smooth_share(image: np.ndarray, c: np.ndarray, inside: np.ndarray, k: int) 
     sure = apart * apart / (apart * apart + np.float32(_SURE))
     cell = (ys // k) * half[1] + xs // k  # the line's pixels and their word, summed on the small grid
     size = half[0] * half[1]
-    sums = np.dstack([np.bincount(cell, minlength=size).reshape(half),
-                      np.bincount(cell, sure * (1 - fibres), minlength=size).reshape(half)]).astype(np.float32)
+    wide = np.minimum(width, 2 * _ACROSS)  # the read's span bounds what it can tell
+    sums = np.empty(half + (4,), np.float32)  # the line's pixels, their word, the word, the word times the width
+    for j, weights in enumerate((None, sure * (1 - fibres), sure, sure * wide)):
+        sums[..., j] = np.bincount(cell, weights, minlength=size).reshape(half)
     rows = np.flatnonzero(inside.any(1))
     sums = wide_blur(sums, max(1.0, WIDTH_REACH * float(rows[-1] + 1 - rows[0]) / k))
-    near = sums[..., 0] > 1e-3 * float(sums[..., 0].max())
-    out[near] = np.clip(sums[..., 1][near] / sums[..., 0][near], 0, 1)
-    return out
+    count, smooth, said, widths = (sums[..., j] for j in range(4))
+    floor = np.float32(1e-3 * float(count.max()))
+    near = count > floor
+    out[near] = np.clip(smooth[near] / count[near], 0, 1)
+    # how deep the rim may go: within the photo's own edge's width where it shows a step (sure), the reach where not
+    # (whole-grid arithmetic, no masks)
+    told = np.minimum(said / np.maximum(count, floor), 1)
+    edge = widths / np.maximum(said, np.float32(1e-6))  # ~0 where nothing is told (told ~0 there)
+    depth = cv2.distanceTransform((c2 >= 0.5).view(np.uint8), cv2.DIST_L2, 3)  # from the outline, in c2's pixels
+    depth = np.maximum(k * (depth - 0.5), 0)  # in the photo's, from the 0.5 line (about half a pixel outside)
+    deep = (DEEP[1] * edge + 1) - depth  # whole up to DEEP[0] widths, none from DEEP[1] widths plus a pixel
+    deep /= (DEEP[1] - DEEP[0]) * edge + 1
+    np.clip(deep, 0, 1, out=deep)
+    deep -= 1
+    deep *= told
+    deep += 1  # 1 - told (1 - deep): as far as the photo's word counts
+    return out, deep
 
 
 def _at_small(fields: list[np.ndarray], ys: np.ndarray, xs: np.ndarray, k: int) -> list[np.ndarray]:

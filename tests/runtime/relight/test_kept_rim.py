@@ -84,6 +84,32 @@ def test_the_photos_sharp_edge_overrules_a_soft_mattes_fibres():
     assert deep["blurred"] == pytest.approx(deep["matte alone"], rel=0.05)
 
 
+def test_the_rim_goes_no_deeper_than_the_photos_own_edge():
+    """Dark hair against a bright sky (issue 48's p071 under RIGHT): a soft matte, a tall person (the rim's reach
+    ~8 px) and a photo whose own step is ~2.5 px wide: the rim stays within the photo's transition instead of a
+    smooth veil of the sky's light ~15-20 px into the hair; where the photo's edge is as soft as the wide read
+    sees, the rim goes as deep as the reach."""
+    h, w = 900, 240
+    hard = np.zeros((h, w), np.float32)
+    hard[50:850, 60:180] = 1
+    soft = np.clip(cv2.GaussianBlur(hard, (0, 0), 4.0), 0, 1)
+    soft[:, 120:] = hard[:, 120:]  # the left side soft (fibres against the box's hard right side)
+    sky = np.empty((h, w, 3), np.float32)
+    sky[:] = (0.95, 0.95, 0.9)
+    sky[50:850, 60:180] = (0.12, 0.1, 0.09)
+    behind = np.broadcast_to(np.float32([0.95, 0.95, 0.9]), (h, w, 3)).copy()
+    inside = (soft >= 0.5).astype(np.uint8)
+    depth = cv2.distanceTransform(np.pad(inside, 1), cv2.DIST_L2, 3)[1:-1, 1:-1].reshape(-1)
+    deep = {}  # the rim's luminance more than 8 px inside the soft side's outline
+    for name, sigma in (("crisp", 1.0), ("soft", 6.0)):
+        img = cv2.GaussianBlur(sky, (0, 0), sigma)
+        rim = kept_rim(behind, soft, img, image=img)
+        at = ((rim.index % w) < 120) & (depth[rim.index] > 8)
+        deep[name] = float((rim.rim[at] @ REC709).sum())
+    assert deep["soft"] > 0
+    assert deep["crisp"] < 0.05 * deep["soft"]
+
+
 def _skin(share: float, left_only: bool = False) -> SkinMap:
     """A skin map over the crop box at half its resolution (a network frame smaller than the photo): ``share``
     everywhere (or on the box's left half only)."""
