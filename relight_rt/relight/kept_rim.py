@@ -70,8 +70,8 @@ SKIN_FROM, SKIN_SURE = 0.55, 0.75  # stage 1's skin probability (straight, not t
 _ACROSS = 4  # the photo's edge is read across the matte's 0.5 line this many pixels either side
 DEEP = (1.0, 2.0)  # the rim whole up to this many of the photo's own edge widths inside the outline, none from the
 # second (plus a pixel; ``_photo_edge``). Chosen on half A's dark edge (``benchmarks/dark_edge.py``): (1, 2) A 0.0960,
-# (0.5, 1.5) A 0.0988, with no difference seen at 300 % on p071's hair (half B) between them; main without the bound
-# A 0.0923
+# (0.5, 1.5) A 0.0988, with no difference seen at 300 % on p071's hair (half B) between them; without the bound
+# (edge43) A 0.0923, but a 15-20 px smoky veil over dark hair against a bright sky (p071, p138; veil43)
 _SURE = 0.02  # |F - B|^2 (sRGB) at which the photo's word on its edge counts half (``compose._SHOWN_TAU``)
 LEAST = 0.5 / 255 / 12.92  # a pixel whose rim luminance (linear) is below this is left out: half an 8-bit level
 # on black, where sRGB is steepest
