@@ -149,6 +149,15 @@ class CropGeometry:
 
         return _by_four(square_and_resize, crop)
 
+    def net_affine(self, origin: tuple[int, int] = (0, 0), start: tuple[int, int] = (0, 0)) -> np.ndarray:
+        """(2, 3) float64: the affine map from a crop-box pixel (x, y), counted from ``start`` (y, x) in the box, to
+        the network frame's (x, y), counted from ``origin`` (y, x) (a window of it): where ``to_network`` puts that
+        pixel (the padded square resized as ``cv2.resize`` maps pixel centres). ``cv2.warpAffine`` with
+        ``WARP_INVERSE_MAP`` reads a network map onto the box with it (``to_crop``)."""
+        (oy, ox), k = self.offset, self.resolution / self.side
+        return np.array([[k, 0.0, (ox + start[1] + 0.5) * k - 0.5 - origin[1]],
+                         [0.0, k, (oy + start[0] + 0.5) * k - 0.5 - origin[0]]])
+
     def to_crop(self, net: np.ndarray, origin: tuple[int, int] = (0, 0)) -> np.ndarray:
         """Network frame (R, R[, C]) → the crop box (h, w[, C]) in input pixels (new float32 array).
 
@@ -165,8 +174,7 @@ class CropGeometry:
             return net[oy : oy + h, ox : ox + w].copy()
         if s > r:
             # enlarging: sample only the crop box (no S x S intermediate); the same mapping as cv2.resize
-            k = r / s
-            m = np.array([[k, 0.0, (ox + 0.5) * k - 0.5 - origin[1]], [0.0, k, (oy + 0.5) * k - 0.5 - origin[0]]])
+            m = self.net_affine(origin)
             flags = cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP
             return _by_four(lambda a: cv2.warpAffine(a, m, (w, h), flags=flags, borderMode=cv2.BORDER_REPLICATE), net)
         return _by_four(lambda a: cv2.resize(a, (s, s), interpolation=cv2.INTER_AREA)[oy : oy + h, ox : ox + w], net)

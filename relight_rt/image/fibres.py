@@ -15,7 +15,7 @@ import numpy as np
 
 from .blur import wide_blur
 
-__all__ = ["FIBRE_RATIO", "GRAZE_WIDTH", "HARD_PX", "WIDTH_REACH", "fibre_share"]
+__all__ = ["FIBRE_RATIO", "GRAZE_WIDTH", "HARD_PX", "WIDTH_REACH", "fibre_share", "outline"]
 
 HARD_PX = 2.0  #: a matte's edge whose alpha goes from 0 to 1 within this many of its photo's pixels is hard, whatever
 # the matte (anti-aliasing, a lens's softness)
@@ -23,6 +23,15 @@ FIBRE_RATIO = 2.0  #: an edge this many times as wide as the matte's own hard ed
 # the full rim (chosen: a wider transition than the matte gives a smooth outline is what fibres add)
 GRAZE_WIDTH = 0.25  #: a hard edge's grazing line: its reach, this share of the rim's (chosen: a pixel or so)
 WIDTH_REACH = 0.02  #: an edge's width is read over this share of the person's height along the outline
+
+
+_CROSS = np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], np.uint8)
+
+
+def outline(inside: np.ndarray) -> np.ndarray:
+    """(h, w) uint8 in {0, 1}: the matte's 0.5 line, the pixels of ``inside`` ((h, w) uint8 in {0, 1}, alpha >= 1/2)
+    beside one outside it (4-neighbours; the image's border is not an outside)."""
+    return inside - cv2.erode(inside, _CROSS, borderType=cv2.BORDER_REPLICATE)
 
 
 def fibre_share(alpha: np.ndarray, pixel: float = 1.0) -> np.ndarray:
@@ -46,8 +55,7 @@ def fibre_share(alpha: np.ndarray, pixel: float = 1.0) -> np.ndarray:
     """
     a = np.clip(np.asarray(alpha, np.float32), 0, 1)
     inside = (a >= 0.5).astype(np.uint8)
-    line = inside - cv2.erode(inside, np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], np.uint8),
-                              borderType=cv2.BORDER_REPLICATE)  # fmt: skip
+    line = outline(inside)
     rows = np.flatnonzero(inside.any(1))
     out = np.zeros(a.shape, np.float32)
     if not line.any():

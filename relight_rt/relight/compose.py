@@ -546,10 +546,9 @@ def skin_map(dec: Decomposition) -> SkinMap:
     (``kept_rim.skin_share``), and each face mesh's outline filled as skin (a face the mesh found is skin to its
     edge, where stage 1's map at its resolution may blur into the background)."""
     geom = dec.geometry
-    k = geom.resolution / geom.side
-    (oy, ox), (y0, _, x0, _) = geom.offset, geom.box
+    y0, _, x0, _ = geom.box
     share = skin_share(dec.skin, dec.network_mask)
-    to_net = np.array([[k, 0.0, (ox + 0.5) * k - 0.5], [0.0, k, (oy + 0.5) * k - 0.5]])
+    to_net = geom.net_affine()
     for mesh in dec.face_meshes or ():
         xy = (np.asarray(mesh)[:, :2] - (x0, y0)) @ to_net[:, :2].T + to_net[:, 2]
         cv2.fillConvexPoly(share, cv2.convexHull(np.round(xy * 16).astype(np.int32)), 1.0, cv2.LINE_AA, 4)
@@ -644,6 +643,14 @@ class Composer:
             state[key] = None if rim is None else KeptRim(*(readonly(a) for a in rim))
         return state[key]
 
+    def shown_rim(self, dec: Decomposition) -> KeptRim | None:
+        """``kept_rim`` where ``compose`` puts it over the photo's own background: a photo's automatic matte with its
+        edge as the photo shows it (``dec.edge``); None elsewhere (a mask or alpha given is the user's word, kept as
+        it is, as the shown edge is; a video frame)."""
+        if not (dec.photo and dec.edge is not None and dec.foreground is not None):
+            return None
+        return self.kept_rim(dec)
+
     def own_light(self, dec: Decomposition) -> tuple[np.ndarray, float]:
         """``own_light_sum`` of ``dec``'s own colour over its matte in the crop box, found once per Decomposition."""
         state = self.memo(dec)
@@ -734,10 +741,8 @@ class Composer:
             if dec.edge is not None and dec.foreground is not None:  # the automatic matte's edge as the photo
                 alpha = dec.edge  # shows it, with the colour behind it (``photo_colours``; a group relit as one
                 # finds its colours from its matte: its people carry theirs, relight_rt.relight.people)
-                if dec.photo:  # the kept background's light through the person's edge, which a new lamp leaves
-                    colour = with_kept_rim(colour, self.kept_rim(dec), copy=False)  # (relight_rt.relight.kept_rim)
-                    # on the relit colour, its own; a mask or alpha given is the user's word, kept as it is (as the
-                    # shown edge is)
+                # the kept background's light through the person's edge, which a new lamp leaves, on the relit
+                colour = with_kept_rim(colour, self.shown_rim(dec), copy=False)  # colour, its own
         return over_box(colour, alpha[..., None], geom.box, backdrop, dec.mask, behind, gain)
 
     def with_layers(self, dec: Decomposition, lit: np.ndarray, outputs: tuple, backdrop: np.ndarray | None,

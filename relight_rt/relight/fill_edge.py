@@ -123,8 +123,7 @@ def crop_part(geom: CropGeometry, maps: np.ndarray, where: np.ndarray, origin: t
     cx0, cx1 = span(int(xs.min()), int(xs.max()), origin[1], ox, wd)
     if cy1 <= cy0 or cx1 <= cx0:
         return None
-    m = np.array([[k, 0.0, (ox + cx0 + 0.5) * k - 0.5 - origin[1]],
-                  [0.0, k, (oy + cy0 + 0.5) * k - 0.5 - origin[0]]])
+    m = geom.net_affine(origin, (cy0, cx0))
     maps = np.ascontiguousarray(maps, np.float32)
     size = (cx1 - cx0, cy1 - cy0)
     parts = [cv2.warpAffine(np.ascontiguousarray(maps[..., i : i + 4]), m, size,  # OpenCV: <= 4 channels a call

@@ -44,7 +44,7 @@ import numpy as np
 
 from ..image.blur import wide_blur
 from ..image.color import REC709, linear_to_srgb, srgb_to_linear
-from ..image.fibres import FIBRE_RATIO, GRAZE_WIDTH, HARD_PX, WIDTH_REACH, fibre_share
+from ..image.fibres import FIBRE_RATIO, GRAZE_WIDTH, HARD_PX, WIDTH_REACH, fibre_share, outline
 from .detail import extend_outward, unpremultiply
 
 __all__ = ["KEPT_SCATTER", "LEAST", "REACH", "KeptRim", "SkinMap", "kept_rim", "with_kept_rim"]
@@ -181,7 +181,8 @@ def kept_rim(behind: np.ndarray, alpha: np.ndarray, fg: np.ndarray, cover: np.nd
     rows = np.flatnonzero(inside.any(axis=1))
     if rows.size == 0:
         return None
-    radius = max(0.5, REACH * float(rows[-1] + 1 - rows[0]))
+    height = float(rows[-1] + 1 - rows[0])  # the person's, in rows
+    radius = max(0.5, REACH * height)
     # the wide reads on a copy k times smaller (area shrinking; k = 2 once the reach is ``_SMALL_FROM`` px), read
     # back on the band's pixels (bilinear): the rim's reach and the matte's width vary over several pixels; the
     # photo's edge and the matte's own value are read at full size
@@ -205,7 +206,7 @@ def kept_rim(behind: np.ndarray, alpha: np.ndarray, fg: np.ndarray, cover: np.nd
     smooth2 = np.zeros(o2.shape, np.float32)
     light_blur = wide_blur(light2, scaled(radius))
     if image is not None:  # the photo's own edge: how sure it is smooth, and how deep inside it goes
-        smooth2, deep2 = _photo_edge(image, c, inside, c2, k)
+        smooth2, deep2 = _photo_edge(image, c, inside, c2, k, height)
         light_blur *= deep2[..., None]  # the rim's light (and with it its band's pixels) no deeper than that
     thin2 = wide_blur(o2, scaled(max(0.5, GRAZE_WIDTH * radius)))
     # the band's pixels: where a bound of the rim (its fields' largest over each small pixel's 3 x 3, the skin's and
@@ -247,7 +248,7 @@ def kept_rim(behind: np.ndarray, alpha: np.ndarray, fg: np.ndarray, cover: np.nd
     return KeptRim(index.take(keep), _rows(rim, keep), own.take(keep).astype(np.float32))
 
 
-def _photo_edge(image: np.ndarray, c: np.ndarray, inside: np.ndarray, c2: np.ndarray, k: int
+def _photo_edge(image: np.ndarray, c: np.ndarray, inside: np.ndarray, c2: np.ndarray, k: int, height: float
                 ) -> tuple[np.ndarray, np.ndarray]:
     """What the photo's own edge says of the rim, on ``c2``'s grid (k times smaller than ``c``'s): how sure it is
     that the outline near each pixel is smooth, and how much of the rim it lets as deep inside as each pixel is.
@@ -278,12 +279,12 @@ def _photo_edge(image: np.ndarray, c: np.ndarray, inside: np.ndarray, c2: np.nda
         inside: (h, w) uint8, ``c`` >= 0.5.
         c2: (h', w') float32 in [0, 1], ``c`` on a grid ``k`` times smaller (area shrinking).
         k: the grid's pixel in ``c``'s (1 or 2): (h', w') = ((h + k - 1) // k, (w + k - 1) // k).
+        height: the person's height in ``c``'s rows (``inside``'s first to last row).
 
     Returns:
         (smooth, deep): (h', w') float32 in [0, 1] each; smooth 0 and deep 1 far from the outline.
     """
-    line = inside - cv2.erode(inside, np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], np.uint8),
-                              borderType=cv2.BORDER_REPLICATE)  # fmt: skip
+    line = outline(inside)
     h, w = c.shape
     half = c2.shape
     out = np.zeros(half, np.float32)
@@ -311,8 +312,7 @@ def _photo_edge(image: np.ndarray, c: np.ndarray, inside: np.ndarray, c2: np.nda
     sums = np.empty(half + (4,), np.float32)  # the line's pixels, their word, the word, the word times the width
     for j, weights in enumerate((None, sure * (1 - fibres), sure, sure * wide)):
         sums[..., j] = np.bincount(cell, weights, minlength=size).reshape(half)
-    rows = np.flatnonzero(inside.any(1))
-    sums = wide_blur(sums, max(1.0, WIDTH_REACH * float(rows[-1] + 1 - rows[0]) / k))
+    sums = wide_blur(sums, max(1.0, WIDTH_REACH * height / k))
     count, smooth, said, widths = (sums[..., j] for j in range(4))
     floor = np.float32(1e-3 * float(count.max()))
     near = count > floor

@@ -276,11 +276,9 @@ class Relighter:
 
     def kept_rim(self, dec: Decomposition) -> KeptRim | None:
         """The kept background's rim on ``dec``'s outline where ``relight`` over the photo's own background puts it
-        (compose ``Composer.kept_rim``: the automatic matte's shown edge of a photo; None where none is applied: a
+        (compose ``Composer.shown_rim``: the automatic matte's shown edge of a photo; None where none is applied: a
         mask or alpha given, a group relit as one, a video frame). The studio's preview draws it."""
-        if not (dec.photo and dec.edge is not None and dec.foreground is not None):
-            return None
-        return self._composer.kept_rim(dec)
+        return self._composer.shown_rim(dec)
 
     def cast_shadows(self, dec: Decomposition, light) -> tuple[np.ndarray | None, float]:
         """The body pass's cast shadows the final result puts under ``light`` (any light ``resolve_light`` takes) and
