@@ -149,6 +149,22 @@ def regions(rgb: np.ndarray, mask: np.ndarray, m: dict[str, np.ndarray]) -> list
     return rows
 
 
+class _Landing:
+    """Where a candidate's opened alpha lands on the service's ``mask`` (bool (h, w)): on background (beyond a ring
+    round the mask) or on the person (two rings inside it); ``out`` sums it and counts the parts."""
+
+    def __init__(self, mask: np.ndarray) -> None:
+        self.background = cv2.dilate(mask.astype(np.uint8), _RING) == 0
+        self.person = cv2.erode(mask.astype(np.uint8), _RING, iterations=2) > 0
+        self.out = {"background": 0.0, "person": 0.0, "parts": 0}
+
+    def add(self, alpha: np.ndarray, opened: np.ndarray) -> None:
+        """One part opened where ``opened`` (bool) is, taking its ``alpha``."""
+        self.out["parts"] += 1
+        self.out["background"] += float(alpha[opened & self.background].sum())
+        self.out["person"] += float(alpha[opened & self.person].sum())
+
+
 def candidate(rgb: np.ndarray, mask: np.ndarray, m: dict[str, np.ndarray]) -> dict[str, float]:
     """The dropped colour rule for pockets (module docstring): the alpha it would take, landed on the mask."""
     alpha, coarse = m["alpha"], m["coarse"]
@@ -156,11 +172,9 @@ def candidate(rgb: np.ndarray, mask: np.ndarray, m: dict[str, np.ndarray]) -> di
     inside = (alpha >= 0.5).astype(np.uint8)
     deep = E._deep_inside(inside, r)
     n, labels, stats, _ = cv2.connectedComponentsWithStats((deep & (coarse < DOUBT)).astype(np.uint8), connectivity=8)
-    background = cv2.dilate(mask.astype(np.uint8), _RING) == 0
-    person = cv2.erode(mask.astype(np.uint8), _RING, iterations=2) > 0
-    out = {"background": 0.0, "person": 0.0, "parts": 0}
+    land = _Landing(mask)
     if n <= 1:
-        return out
+        return land.out
     lab = cv2.cvtColor(rgb, cv2.COLOR_RGB2Lab)
     outside = cv2.distanceTransform(1 - inside, cv2.DIST_L2, 3)
     for i in range(1, n):
@@ -181,10 +195,8 @@ def candidate(rgb: np.ndarray, mask: np.ndarray, m: dict[str, np.ndarray]) -> di
         px = lab[comp]
         nearer = nearest(px, centres(lab[back]))[0] < RATIO * nearest(px, centres(lab[own]))[0]
         if nearer.mean() >= BACKDROP_SHARE:
-            out["parts"] += 1
-            out["background"] += float(alpha[comp & background].sum())
-            out["person"] += float(alpha[comp & person].sum())
-    return out
+            land.add(alpha, comp)
+    return land.out
 
 
 def doubted(rgb: np.ndarray, mask: np.ndarray, m: dict[str, np.ndarray], enclosed_by: float = ENCLOSED_BY,
@@ -197,9 +209,7 @@ def doubted(rgb: np.ndarray, mask: np.ndarray, m: dict[str, np.ndarray], enclose
     alpha = m["alpha"]
     r = E.band_width(alpha.shape)
     held = (alpha >= 0.5) & (m["selfie"] < DOUBTED) & (m["pose"] >= POSE_HELD)
-    background = cv2.dilate(mask.astype(np.uint8), _RING) == 0
-    person = cv2.erode(mask.astype(np.uint8), _RING, iterations=2) > 0
-    out = {"background": 0.0, "person": 0.0, "parts": 0}
+    land = _Landing(mask)
     n, labels, stats, _ = cv2.connectedComponentsWithStats(held.astype(np.uint8), connectivity=8)
     outside = cv2.distanceTransform((alpha < 0.5).astype(np.uint8), cv2.DIST_L2, 3)
     sure_bg = (alpha <= 1 - E._SURE) & (outside > r)
@@ -223,10 +233,8 @@ def doubted(rgb: np.ndarray, mask: np.ndarray, m: dict[str, np.ndarray], enclose
         if opened[comp].mean() < share:
             continue
         if opened.any():
-            out["parts"] += 1
-            out["background"] += float(alpha[opened & background].sum())
-            out["person"] += float(alpha[opened & person].sum())
-    return out
+            land.add(alpha, opened)
+    return land.out
 
 
 def summary(rows: list[dict], label: str) -> None:
