@@ -149,6 +149,17 @@ def regions(rgb: np.ndarray, mask: np.ndarray, m: dict[str, np.ndarray]) -> list
     return rows
 
 
+def _parts(n: int, labels: np.ndarray, stats: np.ndarray, r: int):
+    """The connected parts 1..n-1 (``cv2.connectedComponentsWithStats``' ``labels``, ``stats``) of at least r^2 px:
+    each as (its pixels (bool), the ring just round it (bool), its box's (width, height))."""
+    for i in range(1, n):
+        _, _, w, h, area = (int(v) for v in stats[i])
+        if area < r * r:
+            continue
+        comp = labels == i
+        yield comp, cv2.dilate(comp.astype(np.uint8), _RING).astype(bool) & ~comp, (w, h)
+
+
 class _Landing:
     """Where a candidate's opened alpha lands on the service's ``mask`` (bool (h, w)): on background (beyond a ring
     round the mask) or on the person (two rings inside it); ``out`` sums it and counts the parts."""
@@ -177,12 +188,7 @@ def candidate(rgb: np.ndarray, mask: np.ndarray, m: dict[str, np.ndarray]) -> di
         return land.out
     lab = cv2.cvtColor(rgb, cv2.COLOR_RGB2Lab)
     outside = cv2.distanceTransform(1 - inside, cv2.DIST_L2, 3)
-    for i in range(1, n):
-        x, y, w, h, area = (int(v) for v in stats[i])
-        if area < r * r:
-            continue
-        comp = labels == i
-        rim = cv2.dilate(comp.astype(np.uint8), _RING).astype(bool) & ~comp
+    for comp, rim, (w, h) in _parts(n, labels, stats, r):
         if deep[rim].mean() < ENCLOSED:
             continue
         far = int(4 * r + max(w, h) / 2)
@@ -213,12 +219,7 @@ def doubted(rgb: np.ndarray, mask: np.ndarray, m: dict[str, np.ndarray], enclose
     n, labels, stats, _ = cv2.connectedComponentsWithStats(held.astype(np.uint8), connectivity=8)
     outside = cv2.distanceTransform((alpha < 0.5).astype(np.uint8), cv2.DIST_L2, 3)
     sure_bg = (alpha <= 1 - E._SURE) & (outside > r)
-    for i in range(1, n):
-        x, y, w, h, area = (int(v) for v in stats[i])
-        if area < r * r:
-            continue
-        comp = labels == i
-        rim = cv2.dilate(comp.astype(np.uint8), _RING).astype(bool) & ~comp
+    for comp, rim, _ in _parts(n, labels, stats, r):
         if (alpha[rim] >= 0.5).mean() < enclosed_by:
             continue
         for reach in (E._GAP_REACH * r, 2 * E._GAP_REACH * r):
