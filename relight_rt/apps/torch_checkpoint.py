@@ -3,7 +3,8 @@
 A restricted unpickler that resolves only the globals a plain state_dict of tensors needs (the records are
 plain objects: nothing from the file runs), an opcode scan of ``data.pkl`` before the unpickler sees it
 (:func:`scan_pickle`), and storages read only after every record is known, their declared sizes bounded
-(:func:`read_checkpoint`). The reference_import module docstring says what is accepted and why.
+(:func:`read_checkpoint`). The relight_rt.apps.reference_checkpoints module docstring says what is accepted and
+why.
 """
 
 from __future__ import annotations
