@@ -278,7 +278,7 @@ SHADE_BLOCK = 1 << 19
 def shading_chw(transport_chw, lights, albedo_chw=None) -> np.ndarray:
     """``shading`` on channel-first arrays for K lights at once; with ``albedo_chw``, the diffuse images.
 
-    The same formula, max(0, T·L_k), as one (3K, 9) × (9, n) product per block of pixels: each block's
+    The same formula, max(0, T·L_k), as a (3, 9) × (9, n) product per light and block of pixels: each block's
     product, ReLU (and albedo product and clip) run while it is in cache (one pass over memory instead of
     four), and BLAS stays on one thread for such small products (its threads only add start-up and
     contention for a 9-deep inner dimension).
@@ -319,7 +319,11 @@ def shading_chw(transport_chw, lights, albedo_chw=None) -> np.ndarray:
     step = max(256, SHADE_BLOCK // (27 * k))
     for s in range(0, n, step):
         e = min(s + step, n)
-        block = _relu_product(coeffs, transport[:, s:e]).reshape(k, 3, e - s)
+        # light by light: BLAS sums a (3K, 9) product's rows in an order that depends on K (OpenBLAS 0.3.31: up to
+        # 2e-6 apart), and a light must shade alike alone and among others (relight_many = relight, bit for bit)
+        block = np.empty((k, 3, e - s), np.float32)
+        for j in range(k):
+            block[j] = _relu_product(coeffs[3 * j : 3 * j + 3], transport[:, s:e])
         if albedo is None:
             out[:, :, s:e] = block
         else:
