@@ -135,6 +135,31 @@ def test_a_portrait_region_is_looked_for_only_near_the_bottom():
     assert _candidate.portrait_region(rgb, high, matter.find_faces) is None
 
 
+@pytest.mark.parametrize("anywhere", [True, False])
+def test_a_portrait_whose_pose_person_ends_high_is_checked_last(monkeypatch, anywhere):
+    """The pose graph sees only the top of the head, its person ending over a third of the height above the bottom
+    (on one photo's mirror image: 0.33, the chest cut off); the portrait check is asked last wherever the person
+    ends when it holds a large face (gate44: PORTRAIT_ANYWHERE), and the selfie graph gives the chest too."""
+    monkeypatch.setattr(_candidate, "PORTRAIT_ANYWHERE", anywhere)
+    person = head_and_shoulders()
+    rgb = np.repeat(person[..., None], 3, 2)
+    top = (person > 0) & (np.arange(person.shape[0])[:, None] < 200)
+    rgb[top, 1:] = 0.0  # red down to row 200 of 360: the pose graph's person ends 0.44 of the height up
+    matter = M.PersonMatter(refine=False)
+    matter.roi, matter.pose = _AnyColour(), _HeadOnly()
+    matter.find_faces = lambda rgb, every=False: [Face((80.0, 60.0, 220.0, 160.0), 0.9)]
+    found = matter.segment(rgb, M.Region.around(20.0, 10.0, 280.0, 200.0))
+    alpha = matter.alpha(rgb, [found])
+    if anywhere:
+        assert found.source == "roi"
+        assert iou(alpha, person) > 0.95
+    else:  # the bar near the bottom alone: no check, the chest left out
+        assert found.source == "pose"
+        assert (alpha[250:] >= 0.5).sum() == 0
+    matter.find_faces = lambda rgb, every=False: [Face((140.0, 60.0, 160.0, 80.0), 0.9)]  # a small face: no check
+    assert matter.segment(rgb, M.Region.around(20.0, 10.0, 280.0, 200.0)).source == "pose"
+
+
 class _Nobody:
     """A stand-in for the pose graph that sees nobody."""
 
