@@ -19,7 +19,7 @@ from relight_rt.apps.scene_people import (
 )
 from relight_rt.apps.scene_place import CAMERA_M, PERSON_M, place
 from relight_rt.person.face_detector import FACE_SIZE, GRID
-from relight_rt.person.matting import PersonMatter, Region
+from relight_rt.person.matting import PersonMatter, Region, _detect
 
 __all__ = ["diffuse_models_dir"]  # fixtures
 
@@ -142,10 +142,11 @@ def test_the_face_graph_runs_once_per_background_not_once_per_blob():
     boxes = [(100, 60, 140, 220), (300, 100, 360, 299.5), (10, 200, 120, 260)]
     matter = FacedMatter(boxes)
     found = find_people(photo, matter)
-    assert matter.face.runs == 1  # three blobs, each checking for a portrait, one photo: one run (its answer kept)
+    ways = 2 if _detect.FACE_BOTH_WAYS else 1  # the whole photo: as it comes and mirrored
+    assert matter.face.runs == ways  # three blobs, each checking for a portrait, one photo: one run (its answer kept)
     assert found == find_people(photo, FakeMatter(boxes))  # the same people
     find_people(photo, matter)
-    assert matter.face.runs == 2  # a new call, a new photo: asked again
+    assert matter.face.runs == 2 * ways  # a new call, a new photo: asked again
 
 
 def test_find_people_looks_on_a_small_copy():

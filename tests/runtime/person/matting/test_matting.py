@@ -15,6 +15,8 @@ from relight_rt.engine.session import bundled_models_dir, load_model
 from relight_rt.image import regions as _square
 from relight_rt.image.io import read_image
 from relight_rt.person import matting as M
+from relight_rt.person.face_detector import FACE_SIZE, GRID
+from relight_rt.person.matting import _detect
 
 REPO = Path(__file__).resolve().parents[4]
 EXAMPLE = REPO / "relight_rt" / "data" / "example.png"  # a rendered person; its alpha channel is the true mask
@@ -208,23 +210,61 @@ def test_the_face_graph_answers_once_per_window_inside_reductions_shared(matter)
     head = cv2.resize(head_crop(read_image(EXAMPLE))[0], None, fx=2.0, fy=2.0)
     photo = np.full((600, 800, 3), 0.4, np.float32)
     photo[: head.shape[0], 100 : 100 + head.shape[1]] = head  # a face seen whole
+    ways = 2 if _detect.FACE_BOTH_WAYS else 1  # the whole photo is asked as it comes and mirrored
     counted = copy.copy(matter)  # (the module's matter is left as it is)
     counted.face = CountedGraph(matter.face)
     alone = counted.find_faces(photo)
-    assert alone and counted.find_faces(photo) == alone and counted.face.runs == 2  # outside: asked every time
+    assert alone and counted.find_faces(photo) == alone and counted.face.runs == 2 * ways  # outside: every time
     every = counted.find_faces(photo, every=True)
-    windows = counted.face.runs - 2  # the whole photo and its tiles
-    assert windows > 2
+    windows = counted.face.runs - 2 * ways  # the whole photo and its tiles
+    assert windows > ways + 1
     counted.face.runs = 0
     with _square.reductions_shared(photo):
         assert counted.find_faces(photo) == alone and counted.find_faces(photo) == alone  # the same answer ...
-        assert counted.face.runs == 1  # ... from one run
+        assert counted.face.runs == ways  # ... from one run each way
         assert counted.find_faces(photo, every=True) == every  # the whole photo's window is among the tiles'
         assert counted.face.runs == windows
         counted.find_faces(photo, every=True)
         assert counted.face.runs == windows
     counted.find_faces(photo)
-    assert counted.face.runs == windows + 1  # nothing kept after the block
+    assert counted.face.runs == windows + ways  # nothing kept after the block
+
+
+class _LeftFace:
+    """A stand-in for the face graph: one face, sure, at the canvas's left quarter, and only where that quarter is
+    brighter than the right one (MediaPipe's graph scores a face and its mirror image apart)."""
+
+    def run(self, feeds):
+        canvas = feeds["image"][0]
+        side = canvas.shape[-1]
+        scores = np.full((1, GRID, GRID), -20.0, np.float32)
+        if canvas[:, :, : side // 4].mean() > canvas[:, :, -side // 4 :].mean():
+            i, j = GRID // 2, GRID // 8  # the anchor at x 0.135, y 0.51 of the canvas
+            scores[0, i, j] = 10.0
+            return {"boxes": self._boxes(i, j), "scores": scores}
+        return {"boxes": np.zeros((1, 16, GRID, GRID), np.float32), "scores": scores}
+
+    @staticmethod
+    def _boxes(i, j):
+        out = np.zeros((1, 16, GRID, GRID), np.float32)
+        out[0, 2:4, i, j] = 0.2 * FACE_SIZE  # 0.2 of the canvas wide and tall, on the anchor
+        return out
+
+
+@pytest.mark.parametrize("both", [True, False])
+def test_a_face_the_graph_sees_only_mirrored_is_found_in_its_place(monkeypatch, both):
+    """The whole photo is asked both ways (faceflip44): a face the graph scores under its threshold as the photo
+    comes and over it mirrored is found, at its own place in the photo (not the mirror's)."""
+    monkeypatch.setattr(_detect, "FACE_BOTH_WAYS", both)
+    photo = np.full((400, 400, 3), 0.2, np.float32)
+    photo[:, 300:] = 0.9  # bright on the right: the stand-in sees its face only in the mirror image
+    faces = _detect.find_faces(_LeftFace(), photo)
+    if not both:
+        assert faces == []
+        return
+    assert len(faces) == 1
+    x0, y0, x1, y1 = faces[0].box
+    assert 300 < (x0 + x1) / 2 < 360 and abs((x1 - x0) - 80) < 2  # the right quarter: 1 - 0.135 of the width
 
 
 def test_blocks_average_and_treat_the_image_as_zero_past_its_edge():
