@@ -645,9 +645,12 @@ class Composer:
 
     def shown_rim(self, dec: Decomposition) -> KeptRim | None:
         """``kept_rim`` where ``compose`` puts it over the photo's own background: a photo's automatic matte with its
-        edge as the photo shows it (``dec.edge``); None elsewhere (a mask or alpha given is the user's word, kept as
-        it is, as the shown edge is; a video frame)."""
-        if not (dec.photo and dec.edge is not None and dec.foreground is not None):
+        edge as the photo shows it (``dec.edge``), a video frame's automatic matte (``dec.automatic``: the frame's
+        matte as it is, the colours behind its soft edge those beside it, ``foreground``); None elsewhere (a mask or
+        alpha given is the user's word, kept as it is, as the shown edge is)."""
+        if dec.photo and not (dec.edge is not None and dec.foreground is not None):
+            return None
+        if not dec.photo and not dec.automatic:
             return None
         return self.kept_rim(dec)
 
@@ -741,8 +744,9 @@ class Composer:
             if dec.edge is not None and dec.foreground is not None:  # the automatic matte's edge as the photo
                 alpha = dec.edge  # shows it, with the colour behind it (``photo_colours``; a group relit as one
                 # finds its colours from its matte: its people carry theirs, relight_rt.relight.people)
-                # the kept background's light through the person's edge, which a new lamp leaves, on the relit
-                colour = with_kept_rim(colour, self.shown_rim(dec), copy=False)  # colour, its own
+            # the kept background's light through the person's edge, which a new lamp leaves (the automatic matte's,
+            # a photo's or a video frame's: ``shown_rim``), on the relit colour, its own
+            colour = with_kept_rim(colour, self.shown_rim(dec), copy=False)
         return over_box(colour, alpha[..., None], geom.box, backdrop, dec.mask, behind, gain)
 
     def with_layers(self, dec: Decomposition, lit: np.ndarray, outputs: tuple, backdrop: np.ndarray | None,

@@ -240,7 +240,7 @@ class Relighter:
         decs = []
         for i, (geom, seen) in enumerate(zip(geoms, outs, strict=True)):
             dec = Decomposition(**seen, network_mask=net_masks[i], network_image=net_imgs[i], mask=ms[i], image=rgbs[i],
-                                geometry=geom, photo=not allow_full, face_meshes=meshes[i])
+                                geometry=geom, photo=not allow_full, face_meshes=meshes[i], automatic=automatic[i])
             if on_device[i] is not None:
                 self._memo(dec)["device"] = on_device[i]
             decs.append(dec)
@@ -276,8 +276,8 @@ class Relighter:
 
     def kept_rim(self, dec: Decomposition) -> KeptRim | None:
         """The kept background's rim on ``dec``'s outline where ``relight`` over the photo's own background puts it
-        (compose ``Composer.shown_rim``: the automatic matte's shown edge of a photo; None where none is applied: a
-        mask or alpha given, a group relit as one, a video frame). The studio's preview draws it."""
+        (compose ``Composer.shown_rim``: the automatic matte's shown edge of a photo, a video frame's automatic matte;
+        None where none is applied: a mask or alpha given, a group relit as one). The studio's preview draws it."""
         return self._composer.shown_rim(dec)
 
     def cast_shadows(self, dec: Decomposition, light) -> tuple[np.ndarray | None, float]:
