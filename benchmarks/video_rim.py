@@ -9,7 +9,8 @@ Clips (read in place): ``realdata/people_masks/clip`` (854x480) and ``reference/
 automatic matte (``VideoMatter``, as ``relight-rt video`` makes it for frames without a mask) is found once; then the
 clip is relit as ``relight-rt video`` does by default (the stabiliser at 0.8, exposure auto for the light, the original
 background, batches of 4) twice: with the rim (the frames marked automatic, this checkout's path) and without (the
-same mattes handed over as given masks: no rim, main's path for every frame). Per clip and light:
+same mattes handed over as given masks: no rim, main's path for every frame). The rim on video frames is shipped off
+(``relight.compose.FRAME_RIM``: its cost); this script switches it on. Per clip and light:
 
 - ``dark``: ``benchmarks/dark_edge.py``'s ``measure`` per frame (the frame, its matte, the relit frame), the share of
   the edge band turned dark against the background beside it, mean over the frames;
@@ -193,7 +194,9 @@ def main(argv=None) -> int:
         given(relighter, args.given, args.lights.split(","))
         return 0
     from relight_rt.builder import video_matter
+    from relight_rt.relight import compose
 
+    compose.FRAME_RIM = True  # shipped off (its cost): the rim arm switches it on, the other marks no frame automatic
     if args.speed:
         speed(relighter, video_matter(config), args.rounds)
         return 0

@@ -82,8 +82,8 @@ class Decomposition:
             person turned upright (who gets no head pass).
         automatic: the mask is the automatic matte (intake's matter for a photo, ``person.matting.VideoMatter`` for a
             video frame, ``RelighterEngine``), not a mask or alpha channel given: over its own background the relit
-            person keeps the background's rim on its outline (relight_rt.relight.compose ``Composer.shown_rim``). A
-            given mask is the user's word and takes none.
+            person keeps the background's rim on its outline (relight_rt.relight.compose ``Composer.shown_rim``; a
+            frame only with ``compose.FRAME_RIM``). A given mask is the user's word and takes none.
     """
 
     albedo_chw: np.ndarray

@@ -198,9 +198,8 @@ class RelighterEngine:
 
     def decompose(self, images: Sequence[np.ndarray], masks: Sequence[np.ndarray],
                   automatic: Sequence[bool] | None = None) -> list[FrameLayers]:
-        decs = self.relighter.decompose_batch(images, masks, allow_full=True)
-        if automatic is not None:  # the automatic matte's frames keep the background's rim over their own background
-            decs = [replace(d, automatic=True) if auto else d for d, auto in zip(decs, automatic, strict=True)]
+        # the automatic matte's frames may keep the background's rim over their own background (compose FRAME_RIM)
+        decs = self.relighter.decompose_batch(images, masks, allow_full=True, automatic=automatic)
         return [FrameLayers(d.network_image, d.network_mask, np.array(d.albedo), np.array(d.transport),
                             np.array(d.light), d) for d in decs]
 

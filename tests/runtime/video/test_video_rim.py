@@ -9,6 +9,7 @@ import pytest
 from _graphs import models_dir
 
 from relight_rt import Relighter, RuntimeConfig, lights
+from relight_rt.relight import compose
 from relight_rt.relight import kept_rim as kr
 from relight_rt.video.frames import FrameSource
 from relight_rt.video.job import LightSchedule, RelighterEngine, relight_frames
@@ -20,9 +21,9 @@ H, W = 120, 100
 LIGHT = lights.directional((0.3, 1.0, 0.2), (1, 1, 1), 1.0) + lights.ambient(0.01)
 
 
-def _clip(folder, n: int = 3) -> np.ndarray:
+def _clip(folder, n: int = 3) -> None:
     """``n`` frames of a person (a box, its edge blurred 3 px) before a bright background, each with its 8-bit mask
-    beside it (``STEM_mask.png``); returns the mask (H, W) float32 as written."""
+    beside it (``STEM_mask.png``)."""
     hard = np.zeros((H, W), np.float32)
     hard[10:110, 30:70] = 1
     soft = np.round(np.clip(cv2.GaussianBlur(hard, (0, 0), 3.0), 0, 1) * 255).astype(np.uint8)
@@ -34,7 +35,6 @@ def _clip(folder, n: int = 3) -> np.ndarray:
         img[50 + t, 40:60] = (80, 90, 110)  # the frames differ a little
         cv2.imwrite(str(folder / f"f{t:02d}.png"), img)
         cv2.imwrite(str(folder / f"f{t:02d}_mask.png"), soft)
-    return soft.astype(np.float32) / 255
 
 
 def _relit(source, relighter) -> list[np.ndarray]:
@@ -44,8 +44,11 @@ def _relit(source, relighter) -> list[np.ndarray]:
 
 
 @pytest.fixture
-def clip(tmp_path, models_dir):
-    soft = _clip(tmp_path / "clip")
+def clip(tmp_path, models_dir, monkeypatch):
+    """The clip, its automatic matte and a Relighter, with the frames' rim switched on (``compose.FRAME_RIM``)."""
+    monkeypatch.setattr(compose, "FRAME_RIM", True)
+    _clip(tmp_path / "clip")
+    soft = next(iter(FrameSource(tmp_path / "clip"))).mask  # the masks as the source reads them
     matter = lambda rgb, name="image": soft  # noqa: E731  (the automatic matte: the same values as the masks)
     return tmp_path / "clip", matter, Relighter(RuntimeConfig(models=str(models_dir), device="cpu"))
 
@@ -86,3 +89,12 @@ def test_a_frames_decomposition_says_whether_its_matte_is_automatic(clip):
     assert relighter.kept_rim(on.state) is not None and relighter.kept_rim(off.state) is None
     plain = engine.decompose([frames[0].image], [frames[0].mask])[0].state  # no word: a given mask
     assert not plain.automatic and relighter.kept_rim(plain) is None
+
+
+def test_switched_off_a_frame_keeps_no_rim(clip, monkeypatch):
+    """``compose.FRAME_RIM`` off (shipped so: its cost): the automatic matte's frames relight as given masks do."""
+    folder, matter, relighter = clip
+    monkeypatch.setattr(compose, "FRAME_RIM", False)
+    auto = _relit(FrameSource(folder, "auto", matter=matter), relighter)
+    for a, g in zip(auto, _relit(FrameSource(folder), relighter), strict=True):
+        np.testing.assert_array_equal(a, g)
