@@ -46,6 +46,11 @@ _SHARP_MAX = 8.0  # ... by at most this factor
 _SHARP_NEAR = 2 / 3  # ... fully within this x the reach of the matte's 0.5 line, fading out to the reach (1 x)
 _CHAMFER_AXIS = 0.955  # cv2.distanceTransform's DIST_L2 3 x 3 step along an axis (its distances run short)
 _EDGE_BAND_PIXELS = 1 << 20  # shown_edge_bands: a large crop box's rule done about this many pixels at a time
+FRAME_RIM = True  # a video frame's automatic matte keeps the background's rim (``Composer.shown_rim``): on the
+# people_masks clip and the reference video (benchmarks/video_rim.py, LEFT / RIGHT / campfire) it lowers the dark edge
+# by 26.6 / 26.9 % with the outline's flicker within +0.07 level, for ~20-26 ms a 720x940 frame's relighting (+11-12 %,
+# paired median; the whole `relight-rt video` 0.17 -> 0.19 s a frame): over videorim44's own +10 % criterion, switched
+# on by the lead's call (docs/RESULTS.md, video). False: frames relight as with a given mask
 
 
 def consistent(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray, bg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -645,9 +650,13 @@ class Composer:
 
     def shown_rim(self, dec: Decomposition) -> KeptRim | None:
         """``kept_rim`` where ``compose`` puts it over the photo's own background: a photo's automatic matte with its
-        edge as the photo shows it (``dec.edge``); None elsewhere (a mask or alpha given is the user's word, kept as
-        it is, as the shown edge is; a video frame)."""
-        if not (dec.photo and dec.edge is not None and dec.foreground is not None):
+        edge as the photo shows it (``dec.edge``), a video frame's automatic matte with ``FRAME_RIM`` on
+        (``dec.automatic``: the frame's matte as it is, the colours behind its soft edge those beside it,
+        ``foreground``); None elsewhere (a mask or alpha given is the user's word, kept as it is, as the shown edge
+        is)."""
+        if dec.photo and not (dec.edge is not None and dec.foreground is not None):
+            return None
+        if not dec.photo and not (FRAME_RIM and dec.automatic):
             return None
         return self.kept_rim(dec)
 
@@ -741,8 +750,9 @@ class Composer:
             if dec.edge is not None and dec.foreground is not None:  # the automatic matte's edge as the photo
                 alpha = dec.edge  # shows it, with the colour behind it (``photo_colours``; a group relit as one
                 # finds its colours from its matte: its people carry theirs, relight_rt.relight.people)
-                # the kept background's light through the person's edge, which a new lamp leaves, on the relit
-                colour = with_kept_rim(colour, self.shown_rim(dec), copy=False)  # colour, its own
+            # the kept background's light through the person's edge, which a new lamp leaves (the automatic matte's,
+            # a photo's or a video frame's: ``shown_rim``), on the relit colour, its own
+            colour = with_kept_rim(colour, self.shown_rim(dec), copy=False)
         return over_box(colour, alpha[..., None], geom.box, backdrop, dec.mask, behind, gain)
 
     def with_layers(self, dec: Decomposition, lit: np.ndarray, outputs: tuple, backdrop: np.ndarray | None,

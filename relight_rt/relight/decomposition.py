@@ -80,6 +80,10 @@ class Decomposition:
             ``skin``; relight_rt.relight.network ``STAGE1_MIRROR``), for the head pass's search, which takes its
             threshold on each (relight_rt.relight.face_pass ``seen_head_box``); None: stage 1 looked once, or at the
             person turned upright (who gets no head pass).
+        automatic: the mask is the automatic matte (intake's matter for a photo, ``person.matting.VideoMatter`` for a
+            video frame, ``RelighterEngine``), not a mask or alpha channel given: over its own background the relit
+            person keeps the background's rim on its outline (relight_rt.relight.compose ``Composer.shown_rim``; a
+            frame only with ``compose.FRAME_RIM``). A given mask is the user's word and takes none.
     """
 
     albedo_chw: np.ndarray
@@ -101,6 +105,7 @@ class Decomposition:
     edge: np.ndarray | None = None
     upright: int = 0
     skin_views: np.ndarray | None = None
+    automatic: bool = False
 
     def __post_init__(self) -> None:
         put = lambda name, value: object.__setattr__(self, name, readonly(value))  # noqa: E731

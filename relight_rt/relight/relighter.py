@@ -155,7 +155,7 @@ class Relighter:
 
     def decompose_batch(
         self, images: Sequence[ImageLike], masks: Sequence[ImageLike | None] | None = None, *,
-        allow_full: bool = False,
+        allow_full: bool = False, automatic: Sequence[bool] | None = None,
     ) -> list[Decomposition]:
         """Run stage 1 on several photos in one batch (video frames, folders).
 
@@ -163,6 +163,8 @@ class Relighter:
             images: photos as for ``decompose`` (any sizes).
             masks: one per image (None entries: alpha, else the automatic matte); None: all None.
             allow_full: accept a mask that covers the whole image (a video frame filled by the person).
+            automatic: per image, its mask (an array) is the automatic matte all the same (a video frame's
+                ``VideoMatter``: ``Decomposition.automatic``); None: only where intake's matter made it.
 
         Returns:
             One Decomposition per image, in order.
@@ -173,7 +175,8 @@ class Relighter:
             raise RelightError(f"masks: expected one per image ({len(images)}), got {len(masks)}")
         if not images:
             return []
-        decs, people, automatic = self._stage1(images, masks, allow_full, faces=self.detail and not allow_full)
+        decs, people, automatic = self._stage1(images, masks, allow_full, faces=self.detail and not allow_full,
+                                               automatic=automatic)
         if allow_full:  # video frames skip the work done once per photo (a second pass, the matte's foreground
             return decs  # colours, the light's refit): per frame it would cost more than it shows
         decs = self._photos(decs)
@@ -223,15 +226,16 @@ class Relighter:
             decs[i] = self._factor.derive(dec, head=self._factor.with_light(head, dec.light), head_box=box)
             log.debug("second stage-1 pass on the head at %s", box)
 
-    def _stage1(self, images: Sequence[ImageLike], masks: Sequence, allow_full: bool, faces: bool
-                ) -> tuple[list[Decomposition], list, list]:
+    def _stage1(self, images: Sequence[ImageLike], masks: Sequence, allow_full: bool, faces: bool,
+                automatic: Sequence[bool] | None = None) -> tuple[list[Decomposition], list, list]:
         """Stage 1 on a batch: read, resolve masks, crop, run; one Decomposition per image (a photo unless
         ``allow_full``, its face meshes found with ``faces``), per image its people's masks or None, and per image
-        whether its mask is the automatic matte."""
+        whether its mask is the automatic matte (intake's matter made it, or ``automatic`` says so)."""
         matter = self.matter
         group = self.config.matting != "off" and not allow_full  # a group photo: relit person by person
-        rgbs, ms, geoms, people, automatic = read_batch(images, masks, matter, group, allow_full, self.resolution,
-                                             self.preprocess)
+        rgbs, ms, geoms, people, found = read_batch(images, masks, matter, group, allow_full, self.resolution,
+                                                    self.preprocess)
+        automatic = found if automatic is None else [a or bool(b) for a, b in zip(found, automatic, strict=True)]
         net_imgs = [g.to_network(rgb) for g, rgb in zip(geoms, rgbs, strict=True)]
         net_masks = [g.to_network(m) for g, m in zip(geoms, ms, strict=True)]
         meshes = [self._faces.find(rgb, g.box) if faces else None for g, rgb in zip(geoms, rgbs, strict=True)]
@@ -240,7 +244,7 @@ class Relighter:
         decs = []
         for i, (geom, seen) in enumerate(zip(geoms, outs, strict=True)):
             dec = Decomposition(**seen, network_mask=net_masks[i], network_image=net_imgs[i], mask=ms[i], image=rgbs[i],
-                                geometry=geom, photo=not allow_full, face_meshes=meshes[i])
+                                geometry=geom, photo=not allow_full, face_meshes=meshes[i], automatic=automatic[i])
             if on_device[i] is not None:
                 self._memo(dec)["device"] = on_device[i]
             decs.append(dec)
@@ -276,8 +280,9 @@ class Relighter:
 
     def kept_rim(self, dec: Decomposition) -> KeptRim | None:
         """The kept background's rim on ``dec``'s outline where ``relight`` over the photo's own background puts it
-        (compose ``Composer.shown_rim``: the automatic matte's shown edge of a photo; None where none is applied: a
-        mask or alpha given, a group relit as one, a video frame). The studio's preview draws it."""
+        (compose ``Composer.shown_rim``: the automatic matte's shown edge of a photo, a video frame's automatic matte
+        with ``compose.FRAME_RIM``; None where none is applied: a mask or alpha given, a group relit as one). The
+        studio's preview draws it."""
         return self._composer.shown_rim(dec)
 
     def cast_shadows(self, dec: Decomposition, light) -> tuple[np.ndarray | None, float]:

@@ -224,12 +224,14 @@ def _decoded_frames(path: Path, name: str, on_bad: Callable[[str, int], None] | 
 
 @dataclass(frozen=True)
 class Frame:
-    """One input frame: ``index`` from 0, ``name`` (file stem or frame_NNNNNN), RGB, mask."""
+    """One input frame: ``index`` from 0, ``name`` (file stem or frame_NNNNNN), RGB, mask, and whether the mask is
+    the automatic matte (``FrameSource``'s matter; False: a mask or alpha channel given, the user's word)."""
 
     index: int
     name: str
     image: np.ndarray  # (H, W, 3) float32 RGB [0, 1]
     mask: np.ndarray  # (H, W) float32 [0, 1]
+    automatic: bool = False
 
 
 def _image_files(folder: Path) -> list[Path]:
@@ -377,8 +379,10 @@ class FrameSource:
                     self._bad(f"{where}: frame is {rgba.shape[1]}x{rgba.shape[0]}, the first frame is "
                               f"{shape[1]}x{shape[0]} (W x H)")
                     continue
+                automatic = False
                 if self.auto_masks:
                     mask = self._matte(rgba, frame_path or f"{self.path} frame {index}", shape)
+                    automatic = True
                 elif mask_frames is not None:
                     mpos, mrgb = next(mask_frames, (None, None))
                     while mrgb is not None and mpos < index:  # the masks of frames left out
@@ -395,11 +399,12 @@ class FrameSource:
                         mask = read_mask(rgba[..., 3], shape, f"{where} alpha", allow_empty=True)
                     elif self.matter is not None:
                         mask = self._matte(rgba, frame_path or f"{self.path} frame {index}", shape)
+                        automatic = True
                     else:
                         where = frame_path or f"{self.path} frame {index}"
                         raise RelightError(f"{where}: no mask found (expected a STEM_mask file, a --masks folder "
                                            f"or an RGBA frame)")
-                yield Frame(index, name, np.ascontiguousarray(rgba[..., :3]), mask)
+                yield Frame(index, name, np.ascontiguousarray(rgba[..., :3]), mask, automatic)
         finally:
             if mask_frames is not None:
                 mask_frames.close()

@@ -161,14 +161,15 @@ class FrameLayers:
 class Engine(Protocol):
     """What the pipeline needs from a relighting runtime (see :class:`RelighterEngine`).
 
-    ``decompose`` gets a batch of full frames (H, W, 3) and masks (H, W) and returns FrameLayers
-    per frame. ``render`` puts a frame's (stabilised) albedo/transport back into its FrameLayers,
-    applies ``light`` (9, 3) and returns the full output frame (H, W, 3|4) RGB[A] [0, 1], composited over
-    ``background`` (a relight_rt.image.compositing.Background). ``to_input`` maps a working-frame layer to the
-    input frame.
+    ``decompose`` gets a batch of full frames (H, W, 3) and masks (H, W), and per frame whether its mask is the
+    automatic matte (``Frame.automatic``; None: none is), and returns FrameLayers per frame. ``render`` puts a
+    frame's (stabilised) albedo/transport back into its FrameLayers, applies ``light`` (9, 3) and returns the full
+    output frame (H, W, 3|4) RGB[A] [0, 1], composited over ``background`` (a relight_rt.image.compositing.Background).
+    ``to_input`` maps a working-frame layer to the input frame.
     """
 
-    def decompose(self, images: Sequence[np.ndarray], masks: Sequence[np.ndarray]) -> list[FrameLayers]: ...
+    def decompose(self, images: Sequence[np.ndarray], masks: Sequence[np.ndarray],
+                  automatic: Sequence[bool] | None = None) -> list[FrameLayers]: ...
 
     def render(self, layers: FrameLayers, albedo: np.ndarray, transport: np.ndarray, own_light: np.ndarray | None,
                light: np.ndarray, background: Background) -> np.ndarray: ...
@@ -195,8 +196,10 @@ class RelighterEngine:
         self.relighter = relighter
         self.exposure = parse_exposure(exposure)
 
-    def decompose(self, images: Sequence[np.ndarray], masks: Sequence[np.ndarray]) -> list[FrameLayers]:
-        decs = self.relighter.decompose_batch(images, masks, allow_full=True)
+    def decompose(self, images: Sequence[np.ndarray], masks: Sequence[np.ndarray],
+                  automatic: Sequence[bool] | None = None) -> list[FrameLayers]:
+        # the automatic matte's frames may keep the background's rim over their own background (compose FRAME_RIM)
+        decs = self.relighter.decompose_batch(images, masks, allow_full=True, automatic=automatic)
         return [FrameLayers(d.network_image, d.network_mask, np.array(d.albedo), np.array(d.transport),
                             np.array(d.light), d) for d in decs]
 
@@ -390,7 +393,8 @@ def relight_frames(source: Iterator[Frame] | FrameSource, lights: LightSchedule,
             for i, out in zip(people, relit, strict=True):
                 outs[i] = composite(out, batch[i].image, batch[i].mask, backdrop_for(batch[i]), premultiplied=True)
         elif people:
-            layers = engine.decompose([batch[i].image for i in people], [batch[i].mask for i in people])
+            layers = engine.decompose([batch[i].image for i in people], [batch[i].mask for i in people],
+                                      [batch[i].automatic for i in people])
             for i, lay in zip(people, layers, strict=True):
                 albedo, transport, own = lay.albedo, lay.transport, lay.light
                 if stabilizer is not None:

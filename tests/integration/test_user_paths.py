@@ -320,7 +320,7 @@ class _RecordingEngine:
         self.own_lights = list(own_lights)
         self.rendered: list = []
 
-    def decompose(self, images, masks):
+    def decompose(self, images, masks, automatic=None):
         return [
             FrameLayers(img, m, img.copy(), np.ones((*img.shape[:2], 9), np.float32), self.own_lights.pop(0))
             for img, m in zip(images, masks, strict=True)

@@ -37,7 +37,7 @@ class FakeEngine:
         self.noise = noise
         self.batches: list[int] = []
 
-    def decompose(self, images, masks):
+    def decompose(self, images, masks, automatic=None):
         self.batches.append(len(images))
         out = []
         for img, mask in zip(images, masks, strict=True):
