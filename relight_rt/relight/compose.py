@@ -51,6 +51,9 @@ FRAME_RIM = True  # a video frame's automatic matte keeps the background's rim (
 # by 26.6 / 26.9 % with the outline's flicker within +0.07 level, for ~20-26 ms a 720x940 frame's relighting (+11-12 %,
 # paired median; the whole `relight-rt video` 0.17 -> 0.19 s a frame): over videorim44's own +10 % criterion, switched
 # on by the lead's call (docs/RESULTS.md, video). False: frames relight as with a given mask
+FRAME_EDGE = True  # a video frame's automatic matte goes over its own background with its soft edge as the frame
+# shows it (``shown_edge`` at ``decompose_batch(allow_full=True)``, on the frame's nearest colours: ``photo_colours``),
+# as a photo's does (videoedge44: docs/RESULTS.md, video). False: the frame's matte as it is
 
 
 def consistent(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray, bg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -507,7 +510,8 @@ def photo_colours(dec: Decomposition, automatic: bool) -> dict:
     """What a photo's Decomposition takes on for compositing (``Factor.derive``'s changes): ``foreground``
     (``own_colours``), and for the automatic matte (``automatic``) with a soft edge its ``edge`` as the photo
     shows it (``shown_edge``), ``foreground``'s B then the colour behind that edge. A mask or alpha channel given
-    is the user's word and is kept as it is."""
+    is the user's word and is kept as it is. A video frame's colours are the solid ones beside its soft edge
+    (``own_colours``; ``FRAME_EDGE``)."""
     fg, bg = own_colours(dec)
     if not automatic or bg is fg:
         return {"foreground": (fg, bg)}
@@ -611,7 +615,7 @@ class Composer:
         """``dec.foreground`` (a photo's), or ``own_colours`` found once (a video frame's; multilevel with
         ``always``: that estimate costs about as much as the frame's relighting). Each kind is kept on its own, so
         that what was relit before cannot change a result."""
-        if dec.foreground is not None:
+        if dec.foreground is not None and (dec.photo or not always):  # a frame's (FRAME_EDGE) are the solid colours
             return dec.foreground
         state = self.memo(dec)
         key = ("foreground", bool(always))
