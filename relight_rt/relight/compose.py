@@ -407,6 +407,34 @@ def shown_edge(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray) -> tuple[np
     return _shown(image, alpha, fg, soft, edge_reach(alpha), None)
 
 
+def shown_edge_near(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+    """``shown_edge``'s values (arguments and returns the same), the rule worked on the box round the soft pixels
+    only, with the rows and columns it reads round them (``2 r + 4``, from even ones: the far side's half-resolution
+    pixels line up, as in ``shown_edge_bands``); outside that box alpha' is alpha and behind solved from it where
+    alpha is partial (a matte's faint tail, under ``_SOFT``). A video frame's person leaves most of the frame plain
+    (the reference clip: the box about 40 % of a 720x940 frame)."""
+    soft = (alpha > _SOFT) & (alpha < 1 - _SOFT)
+    if not soft.any():
+        return alpha, None
+    r = edge_reach(alpha)
+    rows, cols = np.flatnonzero(soft.any(axis=1)), np.flatnonzero(soft.any(axis=0))
+    margin = 2 * r + 4
+    y0, x0 = max(rows[0] - margin, 0) // 2 * 2, max(cols[0] - margin, 0) // 2 * 2
+    y1, x1 = min(rows[-1] + 1 + margin, alpha.shape[0]), min(cols[-1] + 1 + margin, alpha.shape[1])
+    half = tuple(np.ascontiguousarray(x[y0 // 2 : (y1 + 1) // 2, x0 // 2 : (x1 + 1) // 2])
+                 for x in _halves(image, alpha))
+    near, behind_near = _shown(np.ascontiguousarray(image[y0:y1, x0:x1]), np.ascontiguousarray(alpha[y0:y1, x0:x1]),
+                               fg[y0:y1, x0:x1], soft[y0:y1, x0:x1], r, half)
+    shown = np.array(alpha, dtype=np.float32)
+    # outside the box ``_shown``'s colour behind with alpha' = alpha, the same float32 arithmetic on whole arrays
+    s = shown[..., None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        solved = np.clip((image - s * fg) / (1 - s), 0, 1)
+    behind = np.where(((alpha > 0) & (alpha < 1))[..., None], solved, image).astype(np.float32, copy=False)
+    shown[y0:y1, x0:x1], behind[y0:y1, x0:x1] = near, behind_near
+    return shown, behind
+
+
 def edge_reach(alpha: np.ndarray) -> int:
     """``shown_edge``'s reach in pixels for the matte ``alpha`` (h, w): ``_SHOWN_REACH`` x its soft edge's width."""
     return max(_SHOWN_REACH_MIN, math.ceil(_SHOWN_REACH * soft_edge_width(alpha)))
@@ -516,7 +544,8 @@ def photo_colours(dec: Decomposition, automatic: bool) -> dict:
     if not automatic or bg is fg:
         return {"foreground": (fg, bg)}
     geom = dec.geometry
-    shown, behind = shown_edge(np.ascontiguousarray(geom.crop(dec.image)), geom.crop(dec.mask), fg)
+    edge = shown_edge if dec.photo else shown_edge_near  # a frame's: its cost every frame
+    shown, behind = edge(np.ascontiguousarray(geom.crop(dec.image)), geom.crop(dec.mask), fg)
     if behind is None:
         return {"foreground": (fg, bg)}
     return {"foreground": (fg, behind), "edge": shown}
