@@ -52,8 +52,11 @@ FRAME_RIM = True  # a video frame's automatic matte keeps the background's rim (
 # paired median; the whole `relight-rt video` 0.17 -> 0.19 s a frame): over videorim44's own +10 % criterion, switched
 # on by the lead's call (docs/RESULTS.md, video). False: frames relight as with a given mask
 FRAME_EDGE = True  # a video frame's automatic matte goes over its own background with its soft edge as the frame
-# shows it (``shown_edge`` at ``decompose_batch(allow_full=True)``, on the frame's nearest colours: ``photo_colours``),
-# as a photo's does (videoedge44: docs/RESULTS.md, video). False: the frame's matte as it is
+# shows it (``shown_edge_near`` at ``decompose_batch(allow_full=True)``, on the frame's nearest colours:
+# ``photo_colours``), as a photo's does: the reference clip's band beside the person 1.2-3.3 -> 0.09-0.33 levels mean
+# (benchmarks/video_band.py), the outline's flicker lower on both clips (video_rim.py), for ~38 ms of a 720x940
+# frame's shown edge (+37-39 % of its relighting, paired median: over videoedge44's own +10 %). False: the frame's
+# matte as it is
 
 
 def consistent(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray, bg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
