@@ -97,3 +97,23 @@ def test_only_the_automatic_mattes_frames_carry_an_edge(clip, monkeypatch):
     assert (on.state.edge < alpha - 0.1).any()  # the outer half lowered: the frame shows a sharp edge
     monkeypatch.setattr(compose, "FRAME_EDGE", False)
     assert engine.decompose([frames[0].image], [frames[0].mask], [True])[0].state.edge is None
+
+
+def test_the_rule_near_the_soft_pixels_gives_the_whole_crops_values():
+    """``shown_edge_near`` (a frame's) works on the box round the soft pixels; a faint tail (under ``_SOFT``) over
+    the whole crop keeps its colour behind solved as ``shown_edge`` solves it."""
+    rng = np.random.default_rng(4)
+    h, w = 160, 130
+    hard = np.zeros((h, w), np.float32)
+    hard[40:120, 50:90] = 1
+    alpha = np.clip(cv2.GaussianBlur(hard, (0, 0), 3.0), 0, 1)
+    alpha = np.where(alpha < compose._SOFT, rng.uniform(0, compose._SOFT, (h, w)), alpha).astype(np.float32)
+    image = np.empty((h, w, 3), np.float32)
+    image[:] = (0.9, 0.85, 0.6)
+    image[hard > 0] = (0.4, 0.35, 0.3)
+    image = np.clip(image + rng.normal(0, 0.01, image.shape), 0, 1).astype(np.float32)
+    fg = np.where(alpha[..., None] > 0.5, image, (0.4, 0.35, 0.3)).astype(np.float32)
+    full, near = compose.shown_edge(image, alpha, fg), compose.shown_edge_near(image, alpha, fg)
+    assert (full[0] != alpha).any()
+    for a, b in zip(full, near, strict=True):
+        np.testing.assert_array_equal(a, b)
