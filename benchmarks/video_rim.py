@@ -2,7 +2,8 @@
 
     PYTHONPATH=$PWD python benchmarks/video_rim.py [--clips clip,reference] [--lights LEFT,RIGHT,campfire]
         [--frames N] [--save DIR] [--out F.json]
-    PYTHONPATH=$PWD python benchmarks/video_rim.py --speed [--rounds 3]
+    PYTHONPATH=$PWD python benchmarks/video_rim.py --speed [--rounds 3] [--edge-arms]
+    PYTHONPATH=$PWD python benchmarks/video_rim.py --edge off|on ...   (compose.FRAME_EDGE for the run; default on)
     PYTHONPATH=$PWD python benchmarks/video_rim.py --given F.json [--code /work/main]
 
 Clips (read in place): ``realdata/people_masks/clip`` (854x480) and ``reference/video`` (720x940). Each frame's
@@ -20,8 +21,10 @@ same mattes handed over as given masks: no rim, main's path for every frame). Th
 
 ``--speed``: the relighting part of a frame (decompose, stabiliser, render under LEFT) on the reference's frames with
 their automatic mattes, rim on and off alternated batch by batch (order swapped each batch, one stabiliser per arm):
-median of the paired ratios on / off. ``--given F.json``: the SHA-256 of every relit frame of both clips with their
-given (hand) masks under the three lights, through ``relight_frames`` with the frames as ``FrameSource`` reads them;
+median of the paired ratios on / off; ``--edge-arms``: the arms are the frames' shown edge on / off instead
+(``relight.compose.FRAME_EDGE``, videoedge44), the rim on in both. ``--given F.json``: the SHA-256 of every relit
+frame of both clips with their given (hand) masks under the three lights, through ``relight_frames`` with the frames
+as ``FrameSource`` reads them;
 ``--code DIR`` imports relight_rt from DIR (another checkout, e.g. main) so that the two files can be compared.
 """
 
@@ -127,7 +130,8 @@ def figures(frames: list, relighter, name: str, automatic: bool, save: Path | No
             "flicker_p95": float(np.percentile(steps, 95)), "dark_frames": dark, "steps": steps}
 
 
-def speed(relighter, matter, rounds: int) -> None:
+def speed(relighter, matter, rounds: int, edge_arms: bool = False) -> None:
+    from relight_rt.relight import compose
     from relight_rt.video.stabilize import Stabilizer
 
     frames = matted_frames(shared_path(*CLIPS["reference"]), matter, None)
@@ -142,8 +146,10 @@ def speed(relighter, matter, rounds: int) -> None:
             masks = [m for *_, m in batch]
             took = {}
             for arm in ((True, False) if (b // 4 + r) % 2 == 0 else (False, True)):
+                if edge_arms:
+                    compose.FRAME_EDGE = arm
                 t0 = time.perf_counter()
-                for lay in engine.decompose(imgs, masks, [arm] * len(imgs)):
+                for lay in engine.decompose(imgs, masks, [arm or edge_arms] * len(imgs)):
                     albedo, transport = stab[arm].update(lay.image, lay.mask, lay.albedo, lay.transport)
                     own = stab[arm].smooth_light(lay.light)
                     engine.render(lay, albedo, transport, own, light, relight_rt.Background.original())
@@ -152,7 +158,8 @@ def speed(relighter, matter, rounds: int) -> None:
             if r or b:  # the first batch warms both up
                 ratios.append(took[True] / took[False])
     q = np.percentile(ratios, [25, 50, 75])
-    print(f"relighting a 720x940 frame, rim on / off: median {np.median(times[True]) * 1e3:.1f} / "
+    what = "shown edge" if edge_arms else "rim"
+    print(f"relighting a 720x940 frame, {what} on / off: median {np.median(times[True]) * 1e3:.1f} / "
           f"{np.median(times[False]) * 1e3:.1f} ms; paired ratio median {q[1]:.3f} ({q[0]:.3f}-{q[2]:.3f}), "
           f"{len(ratios)} pairs")
 
@@ -184,6 +191,8 @@ def main(argv=None) -> int:
     p.add_argument("--out", type=Path, default=None, help="a JSON file for the per-frame figures")
     p.add_argument("--speed", action="store_true")
     p.add_argument("--rounds", type=int, default=3)
+    p.add_argument("--edge-arms", action="store_true", help="--speed: the shown edge on / off, the rim on in both")
+    p.add_argument("--edge", choices=("on", "off"), default="on", help="compose.FRAME_EDGE for the run")
     p.add_argument("--given", type=Path, default=None, help="write the given-mask frames' digests to this JSON")
     p.add_argument("--code", type=Path, default=None, help="import relight_rt from this checkout (read first)")
     args = p.parse_args(argv)
@@ -197,8 +206,10 @@ def main(argv=None) -> int:
     from relight_rt.relight import compose
 
     compose.FRAME_RIM = True  # (the shipped setting) the rim arm; the other marks no frame automatic
+    if hasattr(compose, "FRAME_EDGE"):  # (absent before videoedge44: --code of an older checkout)
+        compose.FRAME_EDGE = args.edge == "on"
     if args.speed:
-        speed(relighter, video_matter(config), args.rounds)
+        speed(relighter, video_matter(config), args.rounds, args.edge_arms)
         return 0
     if args.save:
         args.save.mkdir(parents=True, exist_ok=True)

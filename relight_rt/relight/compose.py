@@ -46,11 +46,9 @@ _SHARP_MAX = 8.0  # ... by at most this factor
 _SHARP_NEAR = 2 / 3  # ... fully within this x the reach of the matte's 0.5 line, fading out to the reach (1 x)
 _CHAMFER_AXIS = 0.955  # cv2.distanceTransform's DIST_L2 3 x 3 step along an axis (its distances run short)
 _EDGE_BAND_PIXELS = 1 << 20  # shown_edge_bands: a large crop box's rule done about this many pixels at a time
-FRAME_RIM = True  # a video frame's automatic matte keeps the background's rim (``Composer.shown_rim``): on the
-# people_masks clip and the reference video (benchmarks/video_rim.py, LEFT / RIGHT / campfire) it lowers the dark edge
-# by 26.6 / 26.9 % with the outline's flicker within +0.07 level, for ~20-26 ms a 720x940 frame's relighting (+11-12 %,
-# paired median; the whole `relight-rt video` 0.17 -> 0.19 s a frame): over videorim44's own +10 % criterion, switched
-# on by the lead's call (docs/RESULTS.md, video). False: frames relight as with a given mask
+# video frames with the automatic matte (``Decomposition.automatic``), as photos (RESULTS, video: figures, costs):
+FRAME_RIM = True  # ... keep the background's rim (``Composer.shown_rim``; videorim44)
+FRAME_EDGE = True  # ... go over their own background with the edge the frame shows (``shown_edge_near``; videoedge44)
 
 
 def consistent(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray, bg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -404,6 +402,33 @@ def shown_edge(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray) -> tuple[np
     return _shown(image, alpha, fg, soft, edge_reach(alpha), None)
 
 
+def shown_edge_near(image: np.ndarray, alpha: np.ndarray, fg: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+    """``shown_edge``'s values (arguments and returns the same), the rule worked on the box round the soft pixels
+    only, with the rows and columns it reads round them (``2 r + 4``, from even ones: the far side's half-resolution
+    pixels line up, as in ``shown_edge_bands``); outside that box alpha' is alpha and behind solved from it where
+    alpha is partial (a matte's faint tail, under ``_SOFT``). A video frame's person leaves most of the frame plain
+    (the reference clip: the box about 40 % of a 720x940 frame)."""
+    soft = (alpha > _SOFT) & (alpha < 1 - _SOFT)
+    if not soft.any():
+        return alpha, None
+    r = edge_reach(alpha)
+    rows, cols = np.flatnonzero(soft.any(axis=1)), np.flatnonzero(soft.any(axis=0))
+    margin = 2 * r + 4
+    y0, x0 = max(rows[0] - margin, 0) // 2 * 2, max(cols[0] - margin, 0) // 2 * 2
+    y1, x1 = min(rows[-1] + 1 + margin, alpha.shape[0]), min(cols[-1] + 1 + margin, alpha.shape[1])
+    half = tuple(np.ascontiguousarray(x[y0 // 2 : (y1 + 1) // 2, x0 // 2 : (x1 + 1) // 2])
+                 for x in _halves(image, alpha))
+    near, behind_near = _shown(np.ascontiguousarray(image[y0:y1, x0:x1]), np.ascontiguousarray(alpha[y0:y1, x0:x1]),
+                               fg[y0:y1, x0:x1], soft[y0:y1, x0:x1], r, half)
+    shown = np.array(alpha, dtype=np.float32)
+    # outside the box ``_shown``'s colour behind with alpha' = alpha, the same float32 arithmetic on whole arrays
+    with np.errstate(divide="ignore", invalid="ignore"):
+        solved = np.clip((image - shown[..., None] * fg) / (1 - shown[..., None]), 0, 1)
+    behind = np.where(((alpha > 0) & (alpha < 1))[..., None], solved, image).astype(np.float32, copy=False)
+    shown[y0:y1, x0:x1], behind[y0:y1, x0:x1] = near, behind_near
+    return shown, behind
+
+
 def edge_reach(alpha: np.ndarray) -> int:
     """``shown_edge``'s reach in pixels for the matte ``alpha`` (h, w): ``_SHOWN_REACH`` x its soft edge's width."""
     return max(_SHOWN_REACH_MIN, math.ceil(_SHOWN_REACH * soft_edge_width(alpha)))
@@ -507,12 +532,14 @@ def photo_colours(dec: Decomposition, automatic: bool) -> dict:
     """What a photo's Decomposition takes on for compositing (``Factor.derive``'s changes): ``foreground``
     (``own_colours``), and for the automatic matte (``automatic``) with a soft edge its ``edge`` as the photo
     shows it (``shown_edge``), ``foreground``'s B then the colour behind that edge. A mask or alpha channel given
-    is the user's word and is kept as it is."""
+    is the user's word and is kept as it is. A video frame's colours are the solid ones beside its soft edge
+    (``own_colours``; ``FRAME_EDGE``)."""
     fg, bg = own_colours(dec)
     if not automatic or bg is fg:
         return {"foreground": (fg, bg)}
     geom = dec.geometry
-    shown, behind = shown_edge(np.ascontiguousarray(geom.crop(dec.image)), geom.crop(dec.mask), fg)
+    edge = shown_edge if dec.photo else shown_edge_near  # a frame's: its cost every frame
+    shown, behind = edge(np.ascontiguousarray(geom.crop(dec.image)), geom.crop(dec.mask), fg)
     if behind is None:
         return {"foreground": (fg, bg)}
     return {"foreground": (fg, behind), "edge": shown}
@@ -611,7 +638,7 @@ class Composer:
         """``dec.foreground`` (a photo's), or ``own_colours`` found once (a video frame's; multilevel with
         ``always``: that estimate costs about as much as the frame's relighting). Each kind is kept on its own, so
         that what was relit before cannot change a result."""
-        if dec.foreground is not None:
+        if dec.foreground is not None and (dec.photo or not always):  # a frame's (FRAME_EDGE) are the solid colours
             return dec.foreground
         state = self.memo(dec)
         key = ("foreground", bool(always))

@@ -33,7 +33,7 @@ from ..image.compositing import Background, parse_background
 from ..image.crop import CropGeometry
 from ..light import exposure as _exposure
 from ..person.masks import Matter
-from . import light_args
+from . import compose, light_args
 from . import people as per_person
 from .compose import Composer, GradeSample, photo_colours
 from .decomposition import Decomposition, ImageLike, Memo, RelightResult, diffuse_batch
@@ -177,8 +177,11 @@ class Relighter:
             return []
         decs, people, automatic = self._stage1(images, masks, allow_full, faces=self.detail and not allow_full,
                                                automatic=automatic)
-        if allow_full:  # video frames skip the work done once per photo (a second pass, the matte's foreground
-            return decs  # colours, the light's refit): per frame it would cost more than it shows
+        if allow_full:  # video frames skip the work done once per photo (a second pass, the matte's multilevel
+            # foreground colours, the light's refit): per frame it would cost more than it shows; the automatic
+            # matte's soft edge as the frame shows it (compose FRAME_EDGE) goes with the frame's own colours
+            return [self._factor.derive(dec, **photo_colours(dec, True)) if compose.FRAME_EDGE and auto else dec
+                    for dec, auto in zip(decs, automatic, strict=True)]
         decs = self._photos(decs)
         for i, crops in enumerate(people):
             if crops is not None:  # a group photo (several people matted): each person decomposed on their own too

@@ -66,6 +66,7 @@ def test_the_automatic_mattes_frames_keep_the_rim_given_masks_none(clip, monkeyp
     """Over the frame's own background a lamp from the side lightens the dark side's outline against the bright
     background with the automatic matte, and only on the outline; the same mask given relights as without the rule."""
     folder, matter, relighter = clip
+    monkeypatch.setattr(compose, "FRAME_EDGE", False)  # the rim alone (the shown edge: test_video_edge.py)
     auto = _relit(FrameSource(folder, "auto", matter=matter), relighter)
     given = _relit(FrameSource(folder), relighter)
     monkeypatch.setattr(kr, "KEPT_SCATTER", 0.0)
@@ -92,9 +93,11 @@ def test_a_frames_decomposition_says_whether_its_matte_is_automatic(clip):
 
 
 def test_switched_off_a_frame_keeps_no_rim(clip, monkeypatch):
-    """``compose.FRAME_RIM`` off: the automatic matte's frames relight as given masks do."""
+    """``compose.FRAME_RIM`` off (and the shown edge, ``FRAME_EDGE``, test_video_edge.py): the automatic matte's
+    frames relight as given masks do."""
     folder, matter, relighter = clip
     monkeypatch.setattr(compose, "FRAME_RIM", False)
+    monkeypatch.setattr(compose, "FRAME_EDGE", False)
     auto = _relit(FrameSource(folder, "auto", matter=matter), relighter)
     for a, g in zip(auto, _relit(FrameSource(folder), relighter), strict=True):
         np.testing.assert_array_equal(a, g)
