@@ -7,6 +7,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 import pytest
+from _box_clip import box_clip
 from _graphs import models_dir
 
 from relight_rt import Relighter, RuntimeConfig, lights
@@ -17,28 +18,7 @@ from relight_rt.video.stabilize import Stabilizer
 
 __all__ = ["models_dir"]  # fixture
 
-H, W = 120, 100
 LIGHT = lights.directional((0.3, 1.0, 0.2), (1, 1, 1), 1.0) + lights.ambient(0.01)
-
-
-def _clip(folder, n: int = 3) -> np.ndarray:
-    """``n`` frames of a person (a box with a sharp edge) before a bright background, each with a mask wider than the
-    box (its edge blurred 3 px outward: alpha ~0.5 two pixels past the box) beside it (``STEM_mask.png``); returns
-    the box (H, W) bool."""
-    box = np.zeros((H, W), bool)
-    box[10:110, 30:70] = True
-    wide = np.zeros((H, W), np.float32)
-    wide[8:112, 28:72] = 1
-    soft = np.round(np.clip(cv2.GaussianBlur(wide, (0, 0), 3.0), 0, 1) * 255).astype(np.uint8)
-    folder.mkdir()
-    for t in range(n):
-        img = np.empty((H, W, 3), np.uint8)
-        img[:] = (150, 215, 230)  # BGR: a bright background
-        img[box] = (90, 100, 128)
-        img[50 + t, 40:60] = (80, 90, 110)  # the frames differ a little
-        cv2.imwrite(str(folder / f"f{t:02d}.png"), img)
-        cv2.imwrite(str(folder / f"f{t:02d}_mask.png"), soft)
-    return box
 
 
 def _relit(source, relighter) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -52,7 +32,7 @@ def _relit(source, relighter) -> list[tuple[np.ndarray, np.ndarray]]:
 def clip(tmp_path, models_dir, monkeypatch):
     """The clip, the box, its automatic matte (the masks' values) and a Relighter (the frames' rim on)."""
     monkeypatch.setattr(compose, "FRAME_RIM", True)
-    box = _clip(tmp_path / "clip")
+    box = box_clip(tmp_path / "clip", grow=2)
     soft = next(iter(FrameSource(tmp_path / "clip"))).mask
     matter = lambda rgb, name="image": soft  # noqa: E731
     return tmp_path / "clip", box, matter, Relighter(RuntimeConfig(models=str(models_dir), device="cpu"))

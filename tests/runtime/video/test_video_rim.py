@@ -6,6 +6,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 import pytest
+from _box_clip import box_clip
 from _graphs import models_dir
 
 from relight_rt import Relighter, RuntimeConfig, lights
@@ -17,24 +18,7 @@ from relight_rt.video.stabilize import Stabilizer
 
 __all__ = ["models_dir"]  # fixture
 
-H, W = 120, 100
 LIGHT = lights.directional((0.3, 1.0, 0.2), (1, 1, 1), 1.0) + lights.ambient(0.01)
-
-
-def _clip(folder, n: int = 3) -> None:
-    """``n`` frames of a person (a box, its edge blurred 3 px) before a bright background, each with its 8-bit mask
-    beside it (``STEM_mask.png``)."""
-    hard = np.zeros((H, W), np.float32)
-    hard[10:110, 30:70] = 1
-    soft = np.round(np.clip(cv2.GaussianBlur(hard, (0, 0), 3.0), 0, 1) * 255).astype(np.uint8)
-    folder.mkdir()
-    for t in range(n):
-        img = np.empty((H, W, 3), np.uint8)
-        img[:] = (150, 215, 230)  # BGR: a bright background
-        img[10:110, 30:70] = (90, 100, 128)
-        img[50 + t, 40:60] = (80, 90, 110)  # the frames differ a little
-        cv2.imwrite(str(folder / f"f{t:02d}.png"), img)
-        cv2.imwrite(str(folder / f"f{t:02d}_mask.png"), soft)
 
 
 def _relit(source, relighter) -> list[np.ndarray]:
@@ -47,7 +31,7 @@ def _relit(source, relighter) -> list[np.ndarray]:
 def clip(tmp_path, models_dir, monkeypatch):
     """The clip, its automatic matte and a Relighter, with the frames' rim switched on (``compose.FRAME_RIM``)."""
     monkeypatch.setattr(compose, "FRAME_RIM", True)
-    _clip(tmp_path / "clip")
+    box_clip(tmp_path / "clip")
     soft = next(iter(FrameSource(tmp_path / "clip"))).mask  # the masks as the source reads them
     matter = lambda rgb, name="image": soft  # noqa: E731  (the automatic matte: the same values as the masks)
     return tmp_path / "clip", matter, Relighter(RuntimeConfig(models=str(models_dir), device="cpu"))
